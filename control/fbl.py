@@ -1,0 +1,153 @@
+"""Dynamic feedback linearisation for trajectory tracking of a unicycle (seed report 003, III).
+
+Output y = (x, y). Differentiating twice gives
+
+    [xddot, yddot]^T = R(theta) [xi_dot, xi * omega]^T,     xi = v  (the compensator state),
+
+so with the virtual input  w = yddot_d - Kp (y - y_d) - Kd (ydot - ydot_d)  and
+
+    xi_dot = cos(theta) w1 + sin(theta) w2,   omega = (-sin(theta) w1 + cos(theta) w2) / xi,
+
+the output error obeys  e'' + Kd e' + Kp e = 0. ydot is xi (cos theta, sin theta), from the
+compensator, not from a velocity measurement. xi is integrated at the control rate; the command
+holds xi at the midpoint of the coming period (xi + xi_dot dt / 2), the zero-order-hold
+equivalent of the ramp xi follows in continuous time.
+
+Where xi approaches 0 the law is singular: the division uses xi clamped away from zero by
+``xi_min`` (keeping its sign), and the commands are saturated to the robot's limits, so no
+command is ever non-finite.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from planning.errors import ConfigError
+from planning.robot import RobotSpec
+from planning.trajectory import Trajectory
+
+
+@dataclass(frozen=True)
+class FBLGains:
+    """Gains of the dynamic feedback-linearisation tracker.
+
+    Attributes:
+        kp: Position error gain Kp [1/s^2].
+        kd: Velocity error gain Kd [1/s].
+        xi_min: Smallest |xi| used in the division [m/s] (singularity guard).
+    """
+
+    kp: float = 9.0
+    kd: float = 6.0
+    xi_min: float = 0.02
+
+    def __post_init__(self) -> None:
+        for name in ("kp", "kd", "xi_min"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ConfigError(f"FBLGains.{name} must be a finite number, got {value!r}")
+            if value <= 0:
+                raise ConfigError(f"FBLGains.{name} must be > 0, got {value!r} (the error dynamics need Kp, Kd > 0)")
+            object.__setattr__(self, name, float(value))
+
+    @classmethod
+    def parse(cls, text: str) -> FBLGains:
+        """Parse ``"KP,KD"`` (as given to ``--gains``).
+
+        Raises:
+            ConfigError: Not two comma-separated positive numbers.
+        """
+        parts = [p.strip() for p in text.split(",")]
+        if len(parts) != 2:
+            raise ConfigError(f"gains must be 'KP,KD' (two positive numbers, e.g. 9,6), got {text!r}")
+        try:
+            kp, kd = float(parts[0]), float(parts[1])
+        except ValueError as exc:
+            raise ConfigError(f"gains must be 'KP,KD' (two positive numbers, e.g. 9,6), got {text!r}") from exc
+        return cls(kp=kp, kd=kd)
+
+
+def fbl_law(
+    gains: FBLGains,
+    x: float,
+    y: float,
+    theta: float,
+    xi: float,
+    ref: tuple[float, float, float, float, float, float],
+) -> tuple[float, float]:
+    """The continuous-time law: (xi_dot, omega) for a state and a reference.
+
+    Args:
+        gains: Kp, Kd, xi_min.
+        x: Position [m].
+        y: Position [m].
+        theta: Heading [rad].
+        xi: Compensator state (speed) [m/s].
+        ref: (x_d, y_d, xdot_d, ydot_d, xddot_d, yddot_d).
+
+    Returns:
+        (xi_dot [m/s^2], omega [rad/s]), before saturation.
+    """
+    xd, yd, dxd, dyd, ddxd, ddyd = ref
+    c, s = math.cos(theta), math.sin(theta)
+    w1 = ddxd - gains.kp * (x - xd) - gains.kd * (xi * c - dxd)
+    w2 = ddyd - gains.kp * (y - yd) - gains.kd * (xi * s - dyd)
+    xi_dot = c * w1 + s * w2
+    guard = xi if abs(xi) >= gains.xi_min else math.copysign(gains.xi_min, xi if xi != 0.0 else 1.0)
+    omega = (-s * w1 + c * w2) / guard
+    return xi_dot, omega
+
+
+class DynamicFBL:
+    """Dynamic feedback-linearisation tracker with explicit state xi.
+
+    Args:
+        robot: Limits (max_speed, max_yaw_rate) the commands are saturated to.
+        gains: Kp, Kd, xi_min.
+    """
+
+    name = "fbl"
+
+    def __init__(self, robot: RobotSpec, gains: FBLGains | None = None, **_: object) -> None:
+        self.robot = robot
+        self.gains = gains if gains is not None else FBLGains()
+        self.xi = 0.0
+        self._traj: Trajectory | None = None
+        self._dt = 0.02
+        self._t0 = 0.0
+        self._cache: list[list[float]] = []
+
+    def reset(self, trajectory: Trajectory, dt: float) -> None:
+        """Start tracking: xi starts at the reference speed; the reference is pre-sampled at the
+        control instants."""
+        self._traj = trajectory
+        self._dt = float(dt)
+        self._t0 = float(trajectory.t[0])
+        n = math.ceil(trajectory.duration / dt) + 2
+        table = trajectory.sample_many(self._t0 + dt * np.arange(n))
+        self._cache = table[:, [0, 1, 7, 8, 9, 10]].tolist()
+        self.xi = float(trajectory.vel[0, 0])
+
+    def _reference(self, t: float) -> tuple[float, float, float, float, float, float]:
+        k = round((t - self._t0) / self._dt)
+        if 0 <= k < len(self._cache) and abs(self._t0 + k * self._dt - t) < 1e-9:
+            r = self._cache[k]
+        else:
+            assert self._traj is not None
+            r = self._traj.sample_many(np.array([t]))[0, [0, 1, 7, 8, 9, 10]].tolist()
+        return r[0], r[1], r[2], r[3], r[4], r[5]
+
+    def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
+        """Body command for the period starting at ``t``; advances xi by one period."""
+        if self._traj is None:
+            raise RuntimeError("DynamicFBL.command called before reset")
+        vmax, wmax = self.robot.max_speed, self.robot.max_yaw_rate
+        xi_dot, omega = fbl_law(self.gains, x, y, theta, self.xi, self._reference(t))
+        dt = self._dt
+        v = min(max(self.xi + 0.5 * xi_dot * dt, -vmax), vmax)
+        self.xi = min(max(self.xi + xi_dot * dt, -vmax), vmax)
+        omega = min(max(omega, -wmax), wmax)
+        return v, omega
