@@ -88,7 +88,7 @@ def _add_prism(
         [np.column_stack([poly, np.zeros(len(poly))]), np.column_stack([poly, np.full(len(poly), height)])]
     )
     spec.add_mesh(name=f"{name}_mesh", uservert=verts.reshape(-1).tolist())
-    spec.worldbody.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"{name}_mesh", rgba=list(rgba))
+    body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"{name}_mesh", rgba=list(rgba))
 
 
 def build_model(
@@ -113,18 +113,26 @@ def build_model(
     """
     spec = mujoco.MjSpec.from_file(str(robot.scene))
     names: list[str] = []
+    holder = spec.worldbody.add_body(name="obstacles")
+    # One contact sensor counts robot-obstacle contacts in sensordata, so the physics loop needs no
+    # Python scan of the contact list unless something is touching. intprm = [data, reduce, num]:
+    # data bit 0 = "found", no reduction, one slot.
+    spec.add_sensor(
+        name="obstacle_contact", type=mujoco.mjtSensor.mjSENS_CONTACT, objtype=mujoco.mjtObj.mjOBJ_XBODY,
+        objname="base", reftype=mujoco.mjtObj.mjOBJ_BODY, refname="obstacles", intprm=[1, 0, 1],
+    )  # fmt: skip
     if world is not None:
         h = obstacle_height
         for i, obs in enumerate(world.obstacles):
             name = f"obstacle_{i}"
             if isinstance(obs, Circle):
-                spec.worldbody.add_geom(
+                holder.add_geom(
                     name=name, type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[obs.radius, h / 2, 0],
                     pos=[obs.center[0], obs.center[1], h / 2], rgba=list(OBSTACLE_RGBA),
                 )  # fmt: skip
                 names.append(name)
             elif isinstance(obs, Box):
-                spec.worldbody.add_geom(
+                holder.add_geom(
                     name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=[obs.size[0] / 2, obs.size[1] / 2, h / 2],
                     pos=[obs.center[0], obs.center[1], h / 2], quat=_quat_yaw(obs.angle), rgba=list(OBSTACLE_RGBA),
                 )  # fmt: skip
@@ -137,12 +145,12 @@ def build_model(
                 local = np.column_stack([a * scale * np.cos(ang), b * scale * np.sin(ang)])
                 c, s = np.cos(obs.angle), np.sin(obs.angle)
                 poly = local @ np.array([[c, s], [-s, c]]) + np.asarray(obs.center)
-                _add_prism(spec, name, poly, h, OBSTACLE_RGBA)
+                _add_prism(spec, holder, name, poly, h, OBSTACLE_RGBA)
                 names.append(name)
             elif isinstance(obs, Polygon):
                 for k, tri in enumerate(triangulate(obs.array)):
                     piece = f"{name}_{k}"
-                    _add_prism(spec, piece, tri, h, OBSTACLE_RGBA)
+                    _add_prism(spec, holder, piece, tri, h, OBSTACLE_RGBA)
                     names.append(piece)
         xmin, xmax, ymin, ymax = world.bounds
         t, wh = wall_thickness, wall_height
@@ -154,7 +162,7 @@ def build_model(
             "wall_north": ([cx, ymax + t / 2], [(xmax - xmin) / 2 + t, t / 2]),
         }
         for wname, (pos, half) in walls.items():
-            spec.worldbody.add_geom(
+            holder.add_geom(
                 name=wname, type=mujoco.mjtGeom.mjGEOM_BOX, size=[half[0], half[1], wh / 2],
                 pos=[pos[0], pos[1], wh / 2], rgba=list(WALL_RGBA),
             )  # fmt: skip

@@ -73,6 +73,7 @@ class Simulator:
         self._quat_adr = int(m.sensor_adr[m.sensor("base_quat").id])
         self._wl_adr = int(m.sensor_adr[m.sensor("wheel_left_vel").id])
         self._wr_adr = int(m.sensor_adr[m.sensor("wheel_right_vel").id])
+        self._contact_adr = int(m.sensor_adr[m.sensor("obstacle_contact").id])
         self._act_l = m.actuator("wheel_left_motor").id
         self._act_r = m.actuator("wheel_right_motor").id
         self._is_obstacle = np.zeros(m.ngeom, dtype=bool)
@@ -151,49 +152,68 @@ class Simulator:
         drv = drive or DiffDrive.from_robot(self.robot)
         tracker.reset(trajectory, dt_ctrl)
 
-        t_log = np.empty(n_log)
-        pose = np.empty((n_log, 3))
+        nsens = m.nsensordata
+        sens = np.empty((n_log, nsens))
         qpos = np.empty((n_log, m.nq))
-        cmd = np.zeros((n_log, 2))
-        wcmd = np.zeros((n_log, 2))
-        wspd = np.empty((n_log, 2))
+        times = np.empty(n_log)
+        cmd = np.zeros((n_ctrl + 1, 2))
+        wcmd = np.zeros((n_ctrl + 1, 2))
         contacts: list[Contact] = []
         touching: set[int] = set()
         t0 = float(trajectory.t[0])
         ctrl = d.ctrl
         sdata = d.sensordata
-        wl, wr = self._wl_adr, self._wr_adr
+        dqpos = d.qpos
+        act_l, act_r = self._act_l, self._act_r
+        contact_adr = self._contact_adr
         names = self.built.obstacle_names
+        read_pose = self.read_pose
+        command = tracker.command
+        wheel_speeds = drv.wheel_speeds
+        step = mujoco.mj_step
+        isfinite = math.isfinite
 
-        def record(i: int, v: float, w: float, left: float, right: float) -> None:
-            t_log[i] = t0 + d.time
-            pose[i] = self.read_pose(d)
-            qpos[i] = d.qpos
-            cmd[i] = (v, w)
-            wcmd[i] = (left, right)
-            wspd[i] = (sdata[wl], sdata[wr])
+        def contact_check() -> None:
             now = set(self._touching(d))
             for g in sorted(now - touching):
                 contacts.append(Contact(float(t0 + d.time), names.get(g, str(g))))
             touching.clear()
             touching.update(now)
 
-        record(0, 0.0, 0.0, 0.0, 0.0)
+        sens[0] = sdata
+        qpos[0] = dqpos
+        times[0] = d.time
         i = 1
         for k in range(n_ctrl):
-            x, y, th = self.read_pose(d)
-            v, w = tracker.command(t0 + k * dt_ctrl, x, y, th)
-            if not (math.isfinite(v) and math.isfinite(w)):
+            x, y, th = read_pose(d)
+            v, w = command(t0 + k * dt_ctrl, x, y, th)
+            if not (isfinite(v) and isfinite(w)):
                 raise SimulationError(
                     f"tracker {tracker.name!r} returned a non-finite command ({v}, {w}) at t={d.time:.3f} s"
                 )
-            left, right = drv.wheel_speeds(v, w)
-            ctrl[self._act_l] = left
-            ctrl[self._act_r] = right
+            left, right = wheel_speeds(v, w)
+            ctrl[act_l] = left
+            ctrl[act_r] = right
+            cmd[k + 1] = (v, w)
+            wcmd[k + 1] = (left, right)
             for _ in range(chunks):
-                mujoco.mj_step(m, d, nstep=k_log)
-                record(i, v, w, left, right)
+                step(m, d, nstep=k_log)
+                sens[i] = sdata
+                qpos[i] = dqpos
+                times[i] = d.time
                 i += 1
+                if sdata[contact_adr] > 0.0 or touching:
+                    contact_check()
+        t_log = t0 + times
+        ps, qs = self._pos_adr, self._quat_adr
+        q = sens[:, qs : qs + 4]
+        yaw = np.arctan2(2.0 * (q[:, 0] * q[:, 3] + q[:, 1] * q[:, 2]), 1.0 - 2.0 * (q[:, 2] ** 2 + q[:, 3] ** 2))
+        pose = np.column_stack([sens[:, ps], sens[:, ps + 1], yaw])
+        # command in force during each log sample: the one set at the start of its control period
+        owner = np.concatenate([[0], np.repeat(np.arange(1, n_ctrl + 1), chunks)])
+        cmd = cmd[owner]
+        wcmd = wcmd[owner]
+        wspd = sens[:, [self._wl_adr, self._wr_adr]]
         pose[:, 2] = np.unwrap(pose[:, 2])
         ref = trajectory.sample_many(t_log)[:, :3]
         warnings = tuple(

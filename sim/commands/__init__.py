@@ -1,0 +1,1 @@
+"""nhsim subcommands, one module each (see sim/cli.py)."""

@@ -1,0 +1,60 @@
+"""Writing outputs safely: to a temporary name beside the target, renamed when complete.
+
+An existing file is never replaced unless ``overwrite`` is true; an interrupted write leaves no
+partial file under the final name.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from planning.errors import OutputExistsError
+
+
+def check_writable(path: Path, *, overwrite: bool) -> None:
+    """Raise :class:`OutputExistsError` if ``path`` exists and overwriting was not asked for."""
+    if path.exists() and not overwrite:
+        raise OutputExistsError(f"{path} exists already; pass --overwrite to replace it, or choose another path")
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | Path, *, overwrite: bool = False) -> Iterator[Path]:
+    """Yield a temporary path in the target's directory; rename it onto ``path`` on success.
+
+    On any exception (including KeyboardInterrupt) the temporary file is removed and ``path`` is
+    untouched.
+    """
+    target = Path(path)
+    check_writable(target, overwrite=overwrite)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=f".part{target.suffix}", dir=target.parent)
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        yield tmp
+        check_writable(target, overwrite=overwrite)
+        os.replace(tmp, target)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def write_json(path: str | Path, data: Any, *, overwrite: bool = False) -> Path:
+    """Write JSON atomically (indent 2, sorted keys)."""
+    with atomic_path(path, overwrite=overwrite) as tmp:
+        tmp.write_text(json.dumps(data, indent=2, sort_keys=True, default=_default) + "\n", encoding="utf-8")
+    return Path(path)
+
+
+def _default(obj: Any) -> Any:
+    if hasattr(obj, "tolist"):
+        return obj.tolist()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"cannot serialise {type(obj).__name__}")
