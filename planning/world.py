@@ -88,7 +88,7 @@ class Ellipse:
             g0, g1 = y0[gen], y1[gen]
             lo = -e1 * e1 + e1 * g1
             hi = -e1 * e1 + np.sqrt(e0 * e0 * g0 * g0 + e1 * e1 * g1 * g1)
-            for _ in range(80):
+            for _ in range(60):
                 mid = 0.5 * (lo + hi)
                 f = (e0 * g0 / (mid + e0 * e0)) ** 2 + (e1 * g1 / (mid + e1 * e1)) ** 2 - 1.0
                 lo = np.where(f > 0, mid, lo)

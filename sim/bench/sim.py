@@ -40,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
     simulator = Simulator(robot, scenario.world)
     cfg = SimConfig(control_rate=args.control_rate)
     k = simulator.steps_per_control(cfg.control_rate)
-    n_steps = int(round(traj.duration / simulator.model.opt.timestep / k)) * k
+    n_steps = round(traj.duration / simulator.model.opt.timestep / k) * k
 
     log = simulator.run(traj, make_tracker("fbl", robot), cfg)
     chunks = (len(log) - 1) // (n_steps // k)
