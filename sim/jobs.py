@@ -69,7 +69,7 @@ class JobResult:
             "versions": versions(),
         }  # fmt: skip
         for label, m in self.metrics.items():
-            run = m.as_dict()
+            run: dict[str, Any] = dict(m.as_dict())
             run["tracker"] = RUNS[label]
             run["warning_messages"] = list(self.logs[label].warnings)
             run["contacts"] = [{"t": c.t, "obstacle": c.obstacle} for c in self.logs[label].contacts]

@@ -82,7 +82,12 @@ def _quat_yaw(theta: float) -> list[float]:
 
 
 def _add_prism(
-    spec: mujoco.MjSpec, name: str, poly: NDArray[np.float64], height: float, rgba: tuple[float, ...]
+    spec: mujoco.MjSpec,
+    body: mujoco.MjsBody,
+    name: str,
+    poly: NDArray[np.float64],
+    height: float,
+    rgba: tuple[float, ...],
 ) -> None:
     verts = np.vstack(
         [np.column_stack([poly, np.zeros(len(poly))]), np.column_stack([poly, np.full(len(poly), height)])]

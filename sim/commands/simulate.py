@@ -73,13 +73,17 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 def format_table(record: dict[str, Any]) -> str:
     """The metrics table printed by ``simulate``."""
     rows = [label for label in ("closed_loop", "open_loop") if label in record]
-    head = f"{'run':<12} {'final pos [m]':>14} {'final head [rad]':>17} {'rms pos [m]':>12} {'max pos [m]':>12} {'collisions':>10} {'warnings':>8}"
+    head = (
+        f"{'run':<12} {'final pos [m]':>14} {'final head [rad]':>17} {'rms pos [m]':>12} {'max pos [m]':>12} "
+        f"{'collisions':>10} {'warnings':>8}"
+    )
     lines = [head, "-" * len(head)]
     for label in rows:
         r = record[label]
         lines.append(
             f"{label:<12} {r['final_position_error_m']:>14.4f} {r['final_heading_error_rad']:>17.4f} "
-            f"{r['rms_position_error_m']:>12.4f} {r['max_position_error_m']:>12.4f} {r['collisions']:>10d} {r['warnings']:>8d}"
+            f"{r['rms_position_error_m']:>12.4f} {r['max_position_error_m']:>12.4f} "
+            f"{r['collisions']:>10d} {r['warnings']:>8d}"
         )
     return "\n".join(lines)
 
@@ -103,8 +107,11 @@ def run(args: argparse.Namespace) -> int:
     )  # fmt: skip
     record = result.record()
     if not args.quiet:
-        print(f"scenario {result.scenario.name} | robot {result.robot.name} | {result.source} | "
-              f"{result.trajectory.duration:.1f} s | control {config.control_rate:g} Hz | gains Kp={gains.kp:g} Kd={gains.kd:g}")  # fmt: skip
+        print(
+            f"scenario {result.scenario.name} | robot {result.robot.name} | {result.source} | "
+            f"{result.trajectory.duration:.1f} s | control {config.control_rate:g} Hz | "
+            f"gains Kp={gains.kp:g} Kd={gains.kd:g}"
+        )
     print(format_table(record))
     if args.json is not None:
         record["files"] = {"json": str(args.json)}
