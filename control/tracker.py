@@ -32,6 +32,7 @@ class Tracker(Protocol):
 TRACKERS: dict[str, str] = {
     "fbl": "control.fbl:DynamicFBL",
     "open-loop": "control.open_loop:OpenLoop",
+    "segmented": "control.segmented:SegmentedTracker",
 }
 
 

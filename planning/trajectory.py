@@ -11,6 +11,9 @@ from planning.geometry import Pose2D, wrap_angle
 
 FloatArray = NDArray[np.float64]
 
+#: Kinds of trajectory segment: drive forwards, drive backwards, turn in place, stand still.
+SEGMENT_KINDS = ("forward", "reverse", "rotate", "hold")
+
 
 @dataclass(frozen=True)
 class TrajectorySample:
@@ -54,6 +57,10 @@ class Trajectory:
         vel: (N, 2) inputs [v, omega] [m/s, rad/s]; v < 0 drives backwards.
         acc: (N, 2) input derivatives [dv/dt, domega/dt] [m/s^2, rad/s^2].
         name: Free-form label (reference or planner name).
+        segments: Optional (N,) index of the segment each sample belongs to (non-decreasing), for
+            trackers that switch law between drives, cusps and turns in place.
+        segment_kinds: Kind of each segment, one of ``SEGMENT_KINDS`` ("forward", "reverse",
+            "rotate", "hold"); required with ``segments``.
     """
 
     t: FloatArray
@@ -61,6 +68,8 @@ class Trajectory:
     vel: FloatArray
     acc: FloatArray
     name: str = "trajectory"
+    segments: NDArray[np.int64] | None = None
+    segment_kinds: tuple[str, ...] = ()
     _cache: dict[str, FloatArray] = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -81,6 +90,22 @@ class Trajectory:
         object.__setattr__(self, "acc", _as_2d("acc", self.acc, n, 2))
         for arr in (self.t, self.pose, self.vel, self.acc):
             arr.setflags(write=False)
+        if self.segments is not None:
+            seg = np.asarray(self.segments)
+            if seg.shape != (n,) or not np.issubdtype(seg.dtype, np.integer):
+                raise ValueError(f"Trajectory.segments must be an integer array of shape ({n},), got {seg.shape}")
+            kinds = tuple(self.segment_kinds)
+            if np.any(np.diff(seg) < 0) or seg.min() < 0 or seg.max() >= len(kinds):
+                raise ValueError(
+                    f"Trajectory.segments must be non-decreasing indices into segment_kinds ({len(kinds)} kinds)"
+                )
+            bad = [k for k in kinds if k not in SEGMENT_KINDS]
+            if bad:
+                raise ValueError(f"Trajectory.segment_kinds: unknown kind(s) {bad}; choose from {SEGMENT_KINDS}")
+            seg = seg.astype(np.int64)
+            seg.setflags(write=False)
+            object.__setattr__(self, "segments", seg)
+            object.__setattr__(self, "segment_kinds", kinds)
 
     # ------------------------------------------------------------------ construction
     @classmethod

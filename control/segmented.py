@@ -1,0 +1,166 @@
+"""A tracker for planned paths: feedback linearisation per drive, heading control for turns in place.
+
+Dynamic feedback linearisation (control/fbl.py) divides by its compensator state xi = v, so it is
+singular where the reference stops: at every cusp, at every turn in place, at the start and at the
+goal. A planned trajectory (planning/to_trajectory.py) is labelled with segments ("forward",
+"reverse", "rotate", "hold"), and this tracker switches law per segment:
+
+* **Drives.** On entering a drive, xi is re-initialised to the reference speed, with the drive's
+  sign (so the singularity guard and the law act in the drive's direction even from rest), and it is
+  kept on that side of zero for the whole drive: a drive never reverses by itself. The law is the
+  seed's FBL (``fbl_law``). Where |xi| is below ``xi_blend`` (starting and stopping), omega is blended
+  towards a heading controller ``omega_ref + k_heading * wrap(theta_ref - theta)`` in proportion to
+  |xi| / xi_blend, because there the FBL's lateral correction divided by a vanishing xi would ask for
+  turning the robot cannot use.
+* **Turns in place and stand-stills.** omega = omega_ref + k_heading * wrap(theta_ref - theta); a
+  small v = k_along * (along-heading position error) holds the spot.
+* **After the end** the same regulation holds the final pose, so the heading reaches the goal too.
+
+Every command is clamped to the robot's |v| and |omega| limits and is finite (a non-finite
+intermediate becomes a stop).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from control.fbl import FBLGains, fbl_law
+from planning.robot import RobotSpec
+from planning.trajectory import Trajectory
+
+
+def infer_segments(trajectory: Trajectory, eps: float = 1e-4) -> tuple[np.ndarray, tuple[str, ...]]:
+    """Segment labels for a trajectory that carries none: by the sign of v; turns where v ~ 0.
+
+    Args:
+        trajectory: The reference.
+        eps: Speeds (and yaw rates) below this count as zero.
+
+    Returns:
+        ``(segments (N,), kinds)`` as :class:`Trajectory` stores them.
+    """
+    v, w = trajectory.vel[:, 0], trajectory.vel[:, 1]
+    kind = np.where(v > eps, "forward", np.where(v < -eps, "reverse", np.where(np.abs(w) > eps, "rotate", "")))
+    labels = kind.tolist()
+    nxt = ""
+    for i in range(len(labels) - 1, -1, -1):  # stand-stills join the next segment (else the previous)
+        labels[i] = labels[i] or nxt
+        nxt = labels[i]
+    for i in range(len(labels)):
+        labels[i] = labels[i] or (labels[i - 1] if i else "forward")
+    seg = np.zeros(len(labels), dtype=np.int64)
+    kinds = [labels[0]]
+    for i in range(1, len(labels)):
+        if labels[i] != labels[i - 1]:
+            kinds.append(labels[i])
+        seg[i] = len(kinds) - 1
+    return seg, tuple(kinds)
+
+
+class SegmentedTracker:
+    """Per-segment tracker (see the module doc).
+
+    Args:
+        robot: Limits (max_speed, max_yaw_rate).
+        gains: FBL gains (Kp, Kd, xi_min).
+        heading_gain: k_heading [1/s].
+        along_gain: k_along [1/s].
+        xi_blend: Speed below which omega blends to heading control [m/s].
+        hold_speed: |v| bound while holding a spot [m/s].
+    """
+
+    name = "segmented"
+
+    def __init__(
+        self,
+        robot: RobotSpec,
+        gains: FBLGains | None = None,
+        *,
+        heading_gain: float = 3.0,
+        along_gain: float = 2.0,
+        xi_blend: float = 0.04,
+        hold_speed: float = 0.05,
+        **_: object,
+    ) -> None:
+        self.robot = robot
+        self.gains = gains if gains is not None else FBLGains()
+        self.heading_gain = float(heading_gain)
+        self.along_gain = float(along_gain)
+        self.xi_blend = float(xi_blend)
+        self.hold_speed = float(hold_speed)
+        self.xi = 0.0
+        self.segment = -1
+        self._table = np.zeros((0, 11))
+        self._seg = np.zeros(0, dtype=np.int64)
+        self._kinds: tuple[str, ...] = ()
+        self._final = np.zeros(3)
+        self._dt = 0.02
+        self._t0 = 0.0
+        self._traj: Trajectory | None = None
+
+    def reset(self, trajectory: Trajectory, dt: float) -> None:
+        """Start tracking: pre-sample the reference and its segment at every control instant."""
+        self._traj = trajectory
+        self._dt = float(dt)
+        self._t0 = float(trajectory.t[0])
+        if trajectory.segments is not None:
+            seg, kinds = trajectory.segments, trajectory.segment_kinds
+        else:
+            seg, kinds = infer_segments(trajectory)
+        n = math.ceil(trajectory.duration / dt) + 1
+        times = self._t0 + dt * np.arange(n)
+        self._table = trajectory.sample_many(times)
+        # the segment in force at a control instant: that of the last sample at or before it
+        idx = np.clip(np.searchsorted(trajectory.t, times + 1e-9, side="right") - 1, 0, trajectory.t.size - 1)
+        self._seg = np.asarray(seg)[idx]
+        self._kinds = tuple(kinds)
+        self._final = trajectory.pose[-1].copy()
+        self.segment = -1
+        self.xi = 0.0
+
+    def _regulate(self, x: float, y: float, theta: float, ref: np.ndarray, omega_ref: float) -> tuple[float, float]:
+        """Hold a spot and turn to a heading: (v, omega) before clamping."""
+        c, s = math.cos(theta), math.sin(theta)
+        along = (ref[0] - x) * c + (ref[1] - y) * s
+        v = min(max(self.along_gain * along, -self.hold_speed), self.hold_speed)
+        err = math.remainder(ref[2] - theta, 2.0 * math.pi)
+        return v, omega_ref + self.heading_gain * err
+
+    def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
+        """Body command for the period starting at ``t``."""
+        if self._traj is None:
+            raise RuntimeError("SegmentedTracker.command called before reset")
+        vmax, wmax = self.robot.max_speed, self.robot.max_yaw_rate
+        k = round((t - self._t0) / self._dt)
+        if k >= self._table.shape[0]:
+            v, w = self._regulate(x, y, theta, self._final, 0.0)
+            self.xi = 0.0
+        else:
+            row = self._table[max(k, 0)]
+            seg = int(self._seg[max(k, 0)])
+            kind = self._kinds[seg]
+            if kind in ("forward", "reverse"):
+                sgn = 1.0 if kind == "forward" else -1.0
+                if seg != self.segment:
+                    self.xi = sgn * max(abs(float(row[3])) if row[3] * sgn > 0 else 0.0, 1e-6)
+                ref = (row[0], row[1], row[7], row[8], row[9], row[10])
+                xi_dot, w_fbl = fbl_law(self.gains, x, y, theta, self.xi, ref)
+                dt = self._dt
+                v = self.xi + 0.5 * xi_dot * dt
+                self.xi = sgn * min(max(sgn * (self.xi + xi_dot * dt), 1e-6), vmax)
+                alpha = min(abs(self.xi) / self.xi_blend, 1.0)
+                if alpha < 1.0:
+                    err = math.remainder(row[2] - theta, 2.0 * math.pi)
+                    w = alpha * w_fbl + (1.0 - alpha) * (row[4] + self.heading_gain * err)
+                else:
+                    w = w_fbl
+                v = sgn * max(sgn * v, 0.0)
+            else:
+                v, w = self._regulate(x, y, theta, row, float(row[4]) if kind == "rotate" else 0.0)
+                self.xi = 0.0
+            self.segment = seg
+        if not (math.isfinite(v) and math.isfinite(w)):
+            v, w = 0.0, 0.0
+        return min(max(v, -vmax), vmax), min(max(w, -wmax), wmax)
