@@ -85,3 +85,22 @@ def test_same_seed_same_run_bitwise() -> None:
         return np.array(out)
 
     assert run().tobytes() == run().tobytes()
+
+
+@pytest.mark.parametrize("scenario", __import__("planning.scenario").scenario.builtin_scenarios())
+def test_every_builtin_world_composes_and_steps_without_warning(scenario: str) -> None:
+    from planning.scenario import load_scenario
+    from sim.model import build_model, set_pose
+
+    sc = load_scenario(scenario)
+    for robot in sc.robots:
+        built = build_model(load_robot(robot), sc.world)
+        m = built.model
+        d = mujoco.MjData(m)
+        set_pose(m, d, sc.start)
+        rng = np.random.default_rng(1)
+        for _ in range(50):
+            d.ctrl[:] = rng.uniform(m.actuator_ctrlrange[:, 0], m.actuator_ctrlrange[:, 1])
+            mujoco.mj_step(m, d, nstep=10)
+        assert sum(_warnings(d)) == 0, f"{scenario}/{robot}"
+        assert len(built.obstacle_geoms) >= len(sc.world.obstacles) + 4  # obstacles (split polygons) + walls
