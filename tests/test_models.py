@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 
 from planning.robot import MODELS_DIR, load_robot
+from planning.scenario import builtin_scenarios, load_scenario
+from sim.model import build_model, set_pose
 
 SCENES = sorted((MODELS_DIR / "robots").glob("*_scene.xml"))
 
@@ -87,11 +89,8 @@ def test_same_seed_same_run_bitwise() -> None:
     assert run().tobytes() == run().tobytes()
 
 
-@pytest.mark.parametrize("scenario", __import__("planning.scenario").scenario.builtin_scenarios())
+@pytest.mark.parametrize("scenario", builtin_scenarios())
 def test_every_builtin_world_composes_and_steps_without_warning(scenario: str) -> None:
-    from planning.scenario import load_scenario
-    from sim.model import build_model, set_pose
-
     sc = load_scenario(scenario)
     for robot in sc.robots:
         built = build_model(load_robot(robot), sc.world)
