@@ -73,3 +73,24 @@ def test_control_rate_must_divide_the_physics_rate() -> None:
 def test_seed_rate_of_10_hz_still_tracks() -> None:
     res = simulate_reference("open", reference="circle", trackers=("closed_loop",), config=SimConfig(control_rate=10))
     assert res.metrics["closed_loop"].final_position_error_m < 0.05
+
+
+def test_a_mujoco_warning_fails_the_run_loudly_and_keeps_the_log() -> None:
+    import mujoco
+
+    from planning.errors import SimulationError
+
+    robot = load_robot("turtlebot3")
+    sim = Simulator(robot)
+    m = sim.model  # make the wheel servos absurdly stiff under explicit Euler: physics blows up
+    m.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    m.actuator_gainprm[:, 0] = 1e7
+    m.actuator_biasprm[:, 2] = -1e7
+    m.actuator_forcerange[:] = [-1e9, 1e9]
+    traj = make_reference("line", robot, Pose2D(0, 0, 0))
+    with pytest.raises(SimulationError, match="mjWARN_BADQACC") as err:
+        sim.run(traj, make_tracker("fbl", robot))
+    log = err.value.log  # type: ignore[attr-defined]
+    assert log.warnings and len(log) > 1
+    relaxed = sim.run(traj, make_tracker("fbl", robot), SimConfig(strict=False))
+    assert relaxed.warnings
