@@ -15,7 +15,7 @@ import importlib
 import sys
 from collections.abc import Sequence
 
-from planning.errors import NhsimError
+from planning.errors import NhsimError, SimulationError
 
 #: Subcommand name -> module path.
 COMMANDS: dict[str, str] = {
@@ -53,6 +53,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         mod = importlib.import_module(args._module)
         return int(mod.run(args))
+    except SimulationError as exc:
+        print(f"nhsim {args.command}: simulation failed: {exc}", file=sys.stderr)
+        return 1
     except NhsimError as exc:
         print(f"nhsim {args.command}: error: {exc}", file=sys.stderr)
         return 2
