@@ -144,27 +144,26 @@ def split_path(
     else:
         sgn = np.ones(d.shape[0])
 
-    # group moving steps into drives
+    # group moving steps into drives; a stop inside a drive (a planner's turn in place at a polyline
+    # vertex) is smoothed over unless the corner, or the turn made while stopped, is sharp
     drives: list[tuple[int, int, int]] = []  # (first pose, last pose, direction)
-    cur: list[int] | None = None
+    cur: list[int] | None = None  # [first step, direction, last moving step]
     for i in range(d.shape[0]):
         if not moving[i]:
-            if cur is not None:
-                drives.append((cur[0], i, cur[1]))
-                cur = None
             continue
         if cur is not None:
             prev = cur[2]
             cosang = float(d[prev] @ d[i]) / (step[prev] * step[i])
-            if sgn[i] != cur[1] or cosang < np.cos(corner_angle):
-                drives.append((cur[0], i, cur[1]))
+            turned = abs(float(th[i] - th[prev + 1])) if consistent else 0.0
+            if sgn[i] != cur[1] or cosang < np.cos(corner_angle) or turned > corner_angle:
+                drives.append((cur[0], prev + 1, cur[1]))
                 cur = None
         if cur is None:
             cur = [i, int(sgn[i]), i]
         else:
             cur[2] = i
     if cur is not None:
-        drives.append((cur[0], d.shape[0], cur[1]))
+        drives.append((cur[0], cur[2] + 1, cur[1]))
 
     segs: list[PathSegment] = []
     heading = float(th[0]) if start_heading is None else float(start_heading)

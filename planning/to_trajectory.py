@@ -309,14 +309,10 @@ def _from_timed(
     return TrajectoryResult(status, body, reason, stats)
 
 
-def to_trajectory(plan: PlanResult | ArrayLike, robot: RobotSpec, world: World, **options: Any) -> Trajectory:
-    """The trajectory of a plan, or an error saying why there is none.
-
-    Args:
-        plan: A successful plan or an (N, 3) path.
-        robot: The robot.
-        world: The world.
-        **options: As :func:`make_trajectory`.
+def checked_trajectory(
+    plan: PlanResult | ArrayLike, robot: RobotSpec, world: World, **options: Any
+) -> TrajectoryResult:
+    """:func:`make_trajectory`, raising when there is no usable trajectory.
 
     Raises:
         TrajectoryError: The plan failed, or no collision-free trajectory was found.
@@ -329,4 +325,21 @@ def to_trajectory(plan: PlanResult | ArrayLike, robot: RobotSpec, world: World, 
     res = make_trajectory(plan, robot, world, **options)
     if not res.success or res.trajectory is None:
         raise TrajectoryError(res.reason)
-    return res.trajectory
+    return res
+
+
+def to_trajectory(plan: PlanResult | ArrayLike, robot: RobotSpec, world: World, **options: Any) -> Trajectory:
+    """The trajectory of a plan (the one entry point every planner's output goes through).
+
+    Args:
+        plan: A successful plan or an (N, 3) path.
+        robot: The robot.
+        world: The world.
+        **options: As :func:`make_trajectory`.
+
+    Raises:
+        TrajectoryError: The plan failed, or no collision-free trajectory was found.
+    """
+    traj = checked_trajectory(plan, robot, world, **options).trajectory
+    assert traj is not None
+    return traj

@@ -12,10 +12,12 @@ from typing import Any
 
 from control.fbl import FBLGains
 from control.tracker import make_tracker
-from planning.errors import ScenarioError
+from planning.errors import ConfigError, ScenarioError
+from planning.plan import PLANNERS, PlanProblem, PlanResult, make_planner
 from planning.references import make_reference
 from planning.robot import RobotSpec, load_robot
 from planning.scenario import Scenario, load_scenario
+from planning.to_trajectory import checked_trajectory
 from planning.trajectory import Trajectory
 from sim.metrics import TrackingMetrics, compute_metrics
 from sim.runlog import RunLog
@@ -40,6 +42,7 @@ class JobResult:
         config: The simulation settings.
         seed: The seed.
         extra: Further record fields (plan statistics, files written, ...).
+        trackers: Run label -> tracker name actually used.
     """
 
     scenario: Scenario
@@ -52,6 +55,7 @@ class JobResult:
     config: SimConfig
     seed: int
     extra: dict[str, Any] = field(default_factory=dict)
+    trackers: dict[str, str] = field(default_factory=lambda: dict(RUNS))
 
     def record(self) -> dict[str, Any]:
         """The JSON run record."""
@@ -62,7 +66,7 @@ class JobResult:
             "source": self.source,
             "trajectory": {"name": self.trajectory.name, "duration_s": self.trajectory.duration,
                            "length_m": self.trajectory.path_length()},
-            "tracker": "fbl" if "closed_loop" in self.logs else "open-loop",
+            "tracker": self.trackers["closed_loop" if "closed_loop" in self.logs else "open_loop"],
             "gains": {"kp": self.gains.kp, "kd": self.gains.kd, "xi_min": self.gains.xi_min},
             "control_rate_hz": self.config.control_rate,
             "seed": self.seed,
@@ -70,7 +74,7 @@ class JobResult:
         }  # fmt: skip
         for label, m in self.metrics.items():
             run: dict[str, Any] = dict(m.as_dict())
-            run["tracker"] = RUNS[label]
+            run["tracker"] = self.trackers[label]
             run["warning_messages"] = list(self.logs[label].warnings)
             run["contacts"] = [{"t": c.t, "obstacle": c.obstacle} for c in self.logs[label].contacts]
             rec[label] = run
@@ -100,6 +104,7 @@ def run_tracking(
     config: SimConfig | None = None,
     seed: int = 0,
     simulator: Simulator | None = None,
+    tracker_names: dict[str, str] | None = None,
 ) -> JobResult:
     """Track a trajectory closed loop and/or open loop in physics and measure both.
 
@@ -113,18 +118,21 @@ def run_tracking(
         config: Simulation settings.
         seed: Seed, recorded (and used by perturbations).
         simulator: A simulator to reuse (built from scenario and robot if None).
+        tracker_names: Run label -> tracker name (default ``RUNS``).
     """
     gains = gains or FBLGains()
     config = config or SimConfig()
     simulator = simulator or Simulator(robot, scenario.world)
     logs: dict[str, RunLog] = {}
     metrics: dict[str, TrackingMetrics] = {}
+    names = {**RUNS, **(tracker_names or {})}
     for label in trackers:
-        tracker = make_tracker(RUNS[label], robot, gains=gains)
+        tracker = make_tracker(names[label], robot, gains=gains)
         log = simulator.run(trajectory, tracker, config, start=scenario.start, meta={"seed": seed})
         logs[label] = log
         metrics[label] = compute_metrics(log, trajectory, max_speed=robot.max_speed, max_yaw_rate=robot.max_yaw_rate)
-    return JobResult(scenario, robot, trajectory, source, logs, metrics, gains, config, seed)
+    return JobResult(scenario, robot, trajectory, source, logs, metrics, gains, config, seed,
+                     trackers={k: names[k] for k in trackers})  # fmt: skip
 
 
 def simulate_reference(
@@ -164,3 +172,103 @@ def simulate_reference(
         )
     return run_tracking(sc, spec, traj, source=f"reference:{reference}", trackers=trackers, gains=gains,
                         config=config, seed=seed)  # fmt: skip
+
+
+# ------------------------------------------------------------------------------------------ plans
+#: Run label -> tracker name for planned trajectories (cusps and turns in place need the segmented one).
+PLAN_RUNS = {"closed_loop": "segmented", "open_loop": "open-loop"}
+
+#: Planners that solve any scenario (they avoid obstacles); they apply to every scenario with a goal.
+GENERAL_PLANNERS = ("rrt", "birrt", "rrt-star", "c-rrt-star", "optim")
+#: Planners that ignore obstacles; they apply to scenarios without obstacles.
+OBSTACLE_FREE_PLANNERS = ("sinusoidal",)
+
+#: Time added after a planned trajectory for the final pose regulation [s].
+PLAN_HOLD_S = 2.0
+
+
+def applicable_planners(scenario: Scenario) -> list[str]:
+    """The registered planners that apply to a scenario (the rule ``simulate --all`` uses).
+
+    A planner applies when the scenario names it (its ``planner`` field), when it is a general,
+    obstacle-avoiding planner (``GENERAL_PLANNERS``), or when it ignores obstacles
+    (``OBSTACLE_FREE_PLANNERS``) and the scenario has none. A scenario whose goal is its start
+    (same position and heading, e.g. ``open``, the arena for analytic references) has nothing to
+    plan and gets no planner.
+    """
+    if scenario.start.distance_to(scenario.goal) < 1e-9 and scenario.start.heading_error_to(scenario.goal) < 1e-9:
+        return []
+    names = []
+    for name in sorted(PLANNERS):
+        if (
+            name == scenario.planner
+            or name in GENERAL_PLANNERS
+            or (name in OBSTACLE_FREE_PLANNERS and not scenario.world.obstacles)
+        ):
+            names.append(name)
+    return names
+
+
+def simulate_plan(
+    scenario: str | Scenario,
+    *,
+    robot: str | None = None,
+    planner: str | None = None,
+    seed: int = 0,
+    gains: FBLGains | None = None,
+    config: SimConfig | None = None,
+    time_limit: float = 30.0,
+    planner_options: dict[str, Any] | None = None,
+    trackers: tuple[str, ...] = ("closed_loop", "open_loop"),
+    plan: PlanResult | None = None,
+    smoothing: dict[str, Any] | None = None,
+) -> JobResult:
+    """Plan a scenario, smooth and time the plan, and track it closed loop and open loop.
+
+    Args:
+        scenario: Built-in name, path of a scenario file, or a Scenario.
+        robot: Robot name overriding the scenario's.
+        planner: Registered planner name (default: the scenario's ``planner``).
+        seed: Planner seed (recorded).
+        gains: FBL gains.
+        config: Simulation settings (default: 50 Hz with ``PLAN_HOLD_S`` of final regulation).
+        time_limit: Planning budget [s].
+        planner_options: Keyword options for the planner factory.
+        trackers: Run labels to run.
+        plan: A ready plan to use instead of planning (its ``planner`` names the source).
+        smoothing: Keyword options for :func:`planning.to_trajectory.make_trajectory`.
+
+    Returns:
+        The job; ``source`` is "planner:<name>", ``extra["plan"]`` holds the plan's status and
+        statistics and ``extra["smoothing"]`` the smoothing's.
+
+    Raises:
+        ConfigError: No planner given and the scenario names none; unknown planner.
+        TrajectoryError: The plan failed or could not be made into a collision-free trajectory.
+    """
+    sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+    if robot is not None:
+        sc = sc.with_robot(robot)
+    spec = load_robot(sc.robot)
+    if plan is None:
+        name = planner or sc.planner
+        if name is None:
+            raise ConfigError(
+                f"scenario {sc.name!r} names no planner; choose one with --planner "
+                f"({', '.join(sorted(PLANNERS)) or 'none registered'})"
+            )
+        problem = PlanProblem.from_scenario(sc, robot=spec, seed=seed, time_limit=time_limit)
+        plan = make_planner(name, **(planner_options or {})).plan(problem)
+    plan_rec: dict[str, Any] = {
+        "planner": plan.planner, "status": plan.status.value, "reason": plan.reason,
+        "time_s": plan.stats.get("time_s"), "iterations": plan.stats.get("iterations"), "length_m": plan.length(),
+    }  # fmt: skip
+    res = checked_trajectory(plan, spec, sc.world, goal=sc.goal, **(smoothing or {}))
+    traj = res.trajectory
+    assert traj is not None
+    config = config or SimConfig(hold=PLAN_HOLD_S)
+    job = run_tracking(sc, spec, traj, source=f"planner:{plan.planner}", trackers=trackers, gains=gains,
+                       config=config, seed=seed, tracker_names=PLAN_RUNS)  # fmt: skip
+    job.extra["plan"] = plan_rec
+    job.extra["smoothing"] = {k: v for k, v in res.stats.items() if isinstance(v, (int, float, str, bool))}
+    return job

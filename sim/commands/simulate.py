@@ -20,8 +20,15 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         description=(
             "Run the robot in MuJoCo physics along a reference trajectory, once with the dynamic "
             "feedback-linearisation tracker (closed loop) and once replaying the reference inputs "
-            "(open loop), and print each run's errors. With no arguments: TurtleBot3, figure-eight, "
-            "in the 'open' scenario.\n\n"
+            "(open loop), and print each run's errors. With no arguments: seed 003's job, a C-RRT* "
+            "plan through the 'edumip_map' scenario, smoothed and tracked (when the c-rrt-star planner "
+            "and that scenario are installed; otherwise TurtleBot3, figure-eight, in the 'open' "
+            "scenario).\n\n"
+            "--planner P plans the scenario with P, smooths the path (piecewise polynomial, speed "
+            "profile, cusps and turns in place) and tracks it with the segmented tracker. --all runs "
+            "every built-in scenario with every applicable planner (the scenario's own planner, every "
+            "obstacle-avoiding planner, and obstacle-free planners where there are no obstacles) for "
+            "every robot the scenario lists, and prints one row each.\n\n"
             "JSON record (--json): per run ('closed_loop', 'open_loop') final_position_error_m, "
             "final_heading_error_rad, rms_position_error_m, max_position_error_m, collisions, warnings, "
             "saturation_fraction; plus scenario, robot, source, tracker, gains, control_rate_hz, seed "
@@ -46,9 +53,12 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument(
         "--reference",
         choices=["figure8", "circle", "line"],
-        default="figure8",
+        default=None,
         help="analytic reference placed at the scenario's start pose (default: figure8)",
     )
+    p.add_argument("--planner", default=None, metavar="P", help="plan the scenario with planner P and track the plan")
+    p.add_argument("--all", action="store_true", help="every built-in scenario x applicable planner x robot")
+    p.add_argument("--time-limit", type=float, default=30.0, metavar="S", help="planning budget (default: 30 s)")
     p.add_argument(
         "--tracker",
         choices=sorted(TRACKER_CHOICES),
@@ -101,10 +111,26 @@ def run(args: argparse.Namespace) -> int:
     config = SimConfig(control_rate=args.control_rate)
     if args.json is not None:
         check_writable(args.json, overwrite=args.overwrite)
-    result = simulate_reference(
-        args.scenario, robot=args.robot, reference=args.reference, trackers=TRACKER_CHOICES[args.tracker],
-        gains=gains, config=config, seed=args.seed,
-    )  # fmt: skip
+    if args.all:
+        return _run_all(args, gains)
+    planner, scenario = args.planner, args.scenario
+    if planner is None and args.reference is None and scenario == "open" and _default_plan_available():
+        scenario, planner = DEFAULT_PLAN
+    if planner is not None:
+        if args.reference is not None:
+            raise ConfigError("--reference and --planner exclude each other: track an analytic curve or a plan")
+        from sim.jobs import PLAN_HOLD_S, simulate_plan
+
+        result = simulate_plan(
+            scenario, robot=args.robot, planner=planner, seed=args.seed, gains=gains,
+            config=SimConfig(control_rate=args.control_rate, hold=PLAN_HOLD_S), time_limit=args.time_limit,
+            trackers=TRACKER_CHOICES[args.tracker],
+        )  # fmt: skip
+    else:
+        result = simulate_reference(
+            scenario, robot=args.robot, reference=args.reference or "figure8", trackers=TRACKER_CHOICES[args.tracker],
+            gains=gains, config=config, seed=args.seed,
+        )  # fmt: skip
     record = result.record()
     if not args.quiet:
         print(
@@ -123,3 +149,37 @@ def run(args: argparse.Namespace) -> int:
         print("closed-loop run touched an obstacle", file=sys.stderr)
         clean = False
     return 0 if clean else 1
+
+
+#: The no-argument default once its planner is installed: seed 003's plan through its map.
+DEFAULT_PLAN = ("edumip_map", "c-rrt-star")
+
+
+def _default_plan_available() -> bool:
+    from planning.plan import PLANNERS
+    from planning.scenario import builtin_scenarios
+
+    return DEFAULT_PLAN[1] in PLANNERS and DEFAULT_PLAN[0] in builtin_scenarios()
+
+
+def _run_all(args: argparse.Namespace, gains: Any) -> int:
+    """``simulate --all``: the matrix table, and its rows as JSON with --json."""
+    from sim.matrix import format_matrix_row, matrix_cases, matrix_header, run_matrix
+    from sim.outputs import write_json
+
+    cases = matrix_cases()
+    if args.robot is not None:
+        cases = [c for c in cases if c[1] == args.robot]
+    if args.planner is not None:
+        cases = [c for c in cases if c[2] == args.planner]
+    print(matrix_header(), flush=True)
+    rows = run_matrix(cases, progress=lambda row: print(format_matrix_row(row), flush=True), seed=args.seed,
+                      gains=gains, control_rate=args.control_rate, time_limit=args.time_limit)  # fmt: skip
+    failed = sum(not r["success"] for r in rows)
+    if not args.quiet:
+        print(f"{len(rows) - failed}/{len(rows)} cases met every closed-loop target")
+    if args.json is not None:
+        write_json(args.json, {"rows": rows}, overwrite=args.overwrite)
+        if not args.quiet:
+            print(f"wrote {args.json}")
+    return 0 if failed == 0 else 1

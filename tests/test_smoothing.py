@@ -1,0 +1,211 @@
+"""Smoothing: the constrained fit, path splitting, and the trajectory of hand-made paths, checked
+against the definitions (finite differences, an independent footprint test)."""
+
+import numpy as np
+import pytest
+
+from planning.collision import CollisionChecker
+from planning.geometry import Pose2D
+from planning.plan import PlanResult, PlanStatus
+from planning.robot import load_robot
+from planning.smoothing import SmoothStatus, fit_piecewise, smooth_drive, split_path
+from planning.to_trajectory import make_trajectory
+from planning.world import Circle, World
+
+TB3 = load_robot("turtlebot3")
+OPEN = World((-3.0, 3.0, -3.0, 3.0), ())
+
+
+def polyline(points: list[list[float]]) -> np.ndarray:
+    """Poses along a polyline, heading along each edge (the last repeats)."""
+    p = np.array(points, dtype=float)
+    d = np.diff(p, axis=0)
+    th = np.arctan2(d[:, 1], d[:, 0])
+    return np.column_stack([p, np.append(th, th[-1])])
+
+
+def test_fit_recovers_a_quintic_exactly_and_meets_every_constraint() -> None:
+    u = np.linspace(0.0, 1.0, 41)
+    cx, cy = [0.1, 1.0, 0.0, 0.3, -0.2, 0.05], [0.0, 0.2, 0.5, -0.1, 0.0, 0.01]
+    pts = np.column_stack([np.polyval(cx[::-1], u), np.polyval(cy[::-1], u)])
+    d1 = lambda c, x: np.polyval(np.polyder(c[::-1]), x)
+    poly = fit_piecewise(pts, np.linspace(0, 1, 4), param=u, end_curvature_zero=False, penalty=0.0,
+                         start_tangent=[d1(cx, 0.0), d1(cy, 0.0)], end_tangent=[d1(cx, 1.0), d1(cy, 1.0)])  # fmt: skip
+    assert np.abs(poly(u) - pts).max() < 1e-9
+
+
+@pytest.mark.parametrize("penalty", [1e-6, 1e-3])
+def test_fit_is_c2_at_breaks_by_finite_differences(penalty: float) -> None:
+    rng = np.random.default_rng(3)
+    u = np.linspace(0.0, 2.0, 120)
+    pts = np.column_stack([u, np.sign(np.sin(3 * u)) * 0.1]) + rng.normal(0, 0.01, (120, 2))
+    breaks = np.linspace(0.0, 2.0, 7)
+    poly = fit_piecewise(pts, breaks, param=u, start_tangent=[1, 0], end_tangent=[1, 0], penalty=penalty)
+    h = 1e-4
+    for b in breaks[1:-1]:
+        left = poly(np.array([b - 2 * h, b - h, b]))
+        right = poly(np.array([b, b + h, b + 2 * h]))
+        assert np.allclose(left[2], right[0], atol=1e-12)  # C0
+        d_left = (3 * left[2] - 4 * left[1] + left[0]) / (2 * h)  # one-sided second-order differences
+        d_right = (-3 * right[0] + 4 * right[1] - right[2]) / (2 * h)
+        assert np.allclose(d_left, d_right, atol=1e-5)  # C1
+        g = 1e-5  # second differences: O(g) truncation, O(1e-16 / g^2) rounding
+        fl, fr = poly(np.array([b - 2 * g, b - g, b])), poly(np.array([b, b + g, b + 2 * g]))
+        dd_left = (fl[2] - 2 * fl[1] + fl[0]) / g**2
+        dd_right = (fr[2] - 2 * fr[1] + fr[0]) / g**2
+        scale = max(1.0, float(np.abs(dd_left).max()))
+        assert np.allclose(dd_left, dd_right, atol=0.01 * scale)  # C2 (first-order differences)
+    # fix points and end derivatives
+    assert np.allclose(poly(np.array([0.0, 2.0])), pts[[0, -1]], atol=1e-10)
+    assert np.allclose(poly(np.array([0.0, 2.0]), 1), [[1, 0], [1, 0]], atol=1e-9)
+    assert np.allclose(poly(np.array([0.0, 2.0]), 2), 0.0, atol=1e-8)
+
+
+def test_split_finds_cusps_rotations_and_sharp_corners() -> None:
+    fwd = np.column_stack([np.linspace(0, 1, 11), np.zeros(11), np.zeros(11)])
+    back = np.column_stack([np.linspace(1, 0.5, 6)[1:], np.zeros(5), np.zeros(5)])
+    segs = split_path(np.vstack([fwd, back]))
+    assert [(s.kind, s.direction) for s in segs] == [("drive", 1), ("drive", -1)]
+    tip = np.array([[0, 0, 0], [0.5, 0, 0], [0.5, 0, 1.0], [0.5, 0, 2.0], [0.5, 0, 3.0]])
+    segs = split_path(tip)
+    assert [s.kind for s in segs] == ["drive", "rotate"]
+    assert segs[1].headings[1] - segs[1].headings[0] == pytest.approx(3.0)
+    # a geometric path (arbitrary headings) is driven forwards; a 135 degree corner is stop-turn-go
+    geo = np.array([[0, 0, 2.0], [1, 0, -1.0], [0.3, 0.7, 0.4]])
+    segs = split_path(geo, goal_heading=0.0)
+    assert [s.kind for s in segs] == ["rotate", "drive", "rotate", "drive", "rotate"]
+    assert all(s.direction == 1 for s in segs if s.kind == "drive")
+    assert segs[2].headings[1] - segs[2].headings[0] == pytest.approx(0.75 * np.pi)
+
+
+def footprint_clearance(poses: np.ndarray, circles: list[tuple[float, float, float]]) -> float:
+    """Independent clearance: distance from each circle's centre to the footprint polygon, minus r."""
+    best = np.inf
+    fp = TB3.footprint
+    for x, y, th in poses:
+        c, s = np.cos(th), np.sin(th)
+        poly = np.column_stack([x + c * fp[:, 0] - s * fp[:, 1], y + s * fp[:, 0] + c * fp[:, 1]])
+        a, b = poly, np.roll(poly, -1, axis=0)
+        for cx, cy, r in circles:
+            q = np.array([cx, cy])
+            t = np.clip(np.einsum("ij,ij->i", q - a, b - a) / np.einsum("ij,ij->i", b - a, b - a), 0, 1)
+            dist = np.min(np.hypot(*(a + t[:, None] * (b - a) - q).T))
+            cross = (b[:, 0] - a[:, 0]) * (q[1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (q[0] - a[:, 0])
+            inside = np.all(cross >= 0) or np.all(cross <= 0)
+            best = min(best, -dist - r if inside else dist - r)
+    return best
+
+
+def check_definitions(traj, robot) -> None:  # type: ignore[no-untyped-def]
+    """Continuity and limits of a planned trajectory, from finite differences of its samples."""
+    t, xy, th = traj.t, traj.pose[:, :2], traj.pose[:, 2]
+    v, w = traj.vel[:, 0], traj.vel[:, 1]
+    dt = np.diff(t)
+    step = np.hypot(*np.diff(xy, axis=0).T)
+    assert np.all(step <= robot.max_speed * dt * 1.001 + 1e-9)  # position continuous, speed bound
+    assert np.all(np.abs(np.diff(th)) <= robot.max_yaw_rate * dt * 1.001 + 1e-9)  # heading (tangent) continuous
+    assert np.all(np.abs(v) <= robot.max_speed + 1e-12) and np.all(np.abs(w) <= robot.max_yaw_rate + 1e-12)
+    wheel = (np.abs(v) + 0.5 * robot.track_width * np.abs(w)) / robot.wheel_radius
+    assert np.all(wheel <= robot.max_wheel_speed + 1e-9)
+    assert np.all(np.abs(np.diff(v)) <= robot.max_accel * dt * 1.01 + 1e-9)
+    for k, kind in enumerate(traj.segment_kinds):
+        idx = np.flatnonzero(traj.segments == k)
+        if kind in ("forward", "reverse"):
+            assert np.all(np.sign(v[idx][np.abs(v[idx]) > 1e-9]) == (1 if kind == "forward" else -1))
+            assert abs(v[idx[0]]) < 1e-9 and abs(v[idx[-1]]) < 1e-9  # rest at every cusp and end
+            # tangent from positions (central differences) agrees with the heading
+            p = xy[idx]
+            mid = slice(1, -1)
+            dp = (p[2:] - p[:-2]) / (t[idx][2:] - t[idx][:-2])[:, None]
+            moving = np.hypot(*dp.T) > 0.02
+            sgn = 1 if kind == "forward" else -1
+            ang = np.arctan2(sgn * dp[:, 1], sgn * dp[:, 0])
+            err = np.angle(np.exp(1j * (ang - th[idx][mid])))
+            assert np.abs(err[moving]).max() < 0.02
+            # curvature from positions (independent) is continuous and matches omega / v
+            ddp = (p[2:] - 2 * p[1:-1] + p[:-2]) / (np.diff(t[idx])[:-1] ** 2)[:, None]
+            sp = np.hypot(*dp.T)
+            kap = (dp[:, 0] * ddp[:, 1] - dp[:, 1] * ddp[:, 0]) / np.maximum(sp, 1e-9) ** 3
+            ref = w[idx][mid] / np.where(np.abs(v[idx][mid]) > 1e-9, np.abs(v[idx][mid]), 1.0)
+            fast = sp > 0.05
+            assert np.abs(kap[fast] - ref[fast]).max() < 0.05 * max(1.0, np.abs(ref[fast]).max())
+            assert np.abs(np.diff(kap[fast])).max() < 0.5  # no curvature jump at ~mm spacing
+        else:
+            assert np.allclose(xy[idx], xy[idx[0]])  # turns in place and holds stay on the spot
+
+
+PATHS = {
+    "corner": polyline([[0, 0], [1, 0], [1.3, 0.8], [2, 1.0]]),
+    "vertical": polyline([[0, -1], [0, 0], [0, 1]]),
+    "loop": np.column_stack([0.5 * np.sin(s := np.linspace(0, 2 * np.pi, 80)), 0.5 - 0.5 * np.cos(s), s]),
+    "cusp": np.vstack(
+        [
+            np.column_stack([np.linspace(0, 1, 21), np.zeros(21), np.zeros(21)]),
+            np.column_stack([1 - 0.5 * np.sin(a := np.linspace(0, np.pi / 2, 21)[1:]), 0.5 - 0.5 * np.cos(a), -a]),
+        ]
+    ),
+    "turn_in_place": np.array([[0, 0, 0], [0.6, 0, 0], [0.6, 0, 1.5], [0.6, 0, 3.1], [0.0, 0.0, 3.1]]),
+}
+
+
+@pytest.mark.parametrize("name", sorted(PATHS))
+@pytest.mark.parametrize("robot", ["turtlebot3", "edumip"])
+def test_hand_made_paths_become_continuous_trajectories_within_limits(name: str, robot: str) -> None:
+    spec = load_robot(robot)
+    path = PATHS[name]
+    res = make_trajectory(path, spec, OPEN, goal=Pose2D(path[-1, 0], path[-1, 1], path[-1, 2] + 0.4))
+    assert res.success, res.reason
+    traj = res.trajectory
+    check_definitions(traj, spec)
+    assert np.allclose(traj.pose[0, :2], path[0, :2]) and np.allclose(traj.pose[-1, :2], path[-1, :2])
+    assert (
+        traj.pose[-1, 2] == pytest.approx(np.unwrap(path[:, 2])[-1] + 0.4, abs=1e-6)
+        or abs(np.angle(np.exp(1j * (traj.pose[-1, 2] - path[-1, 2] - 0.4)))) < 1e-6
+    )
+    if name == "cusp":
+        assert res.stats["cusps"] == 1 and {"forward", "reverse"} <= set(traj.segment_kinds)
+    if name == "turn_in_place":
+        assert "rotate" in traj.segment_kinds
+
+
+def test_a_fit_that_would_clip_an_obstacle_is_refined_until_clear() -> None:
+    # a bump over a disc: a stiff, coarse first fit flattens the bump into the disc
+    circle = (1.2, 0.03, 0.04)
+    world = World((-3, 3, -3, 3), (Circle(circle[:2], circle[2]),))
+    path = polyline([[0, 0], [1, 0], [1.1, 0.3], [1.3, 0.3], [1.4, 0], [2.4, 0]])
+    seg = split_path(path)[0]
+    checker = CollisionChecker(world, TB3)
+    first = smooth_drive(seg, checker, piece_length=2.0, penalty=1e-1, max_deviation=1.0, max_attempts=1)
+    assert first.status is SmoothStatus.COLLISION
+    assert footprint_clearance(first.curve.poses(np.linspace(0, first.curve.length, 200)), [circle]) < 0
+    res = smooth_drive(seg, checker, piece_length=2.0, penalty=1e-1, max_deviation=1.0, clearance=0.005)
+    assert res.success and res.attempts > 1 and res.pieces > first.pieces
+    poses = res.curve.poses(np.linspace(0, res.curve.length, 600))
+    assert footprint_clearance(poses, [circle]) > 0.0
+
+
+def test_a_path_through_an_obstacle_is_a_failure_status() -> None:
+    world = World((-3, 3, -3, 3), (Circle((0.5, 0.0), 0.1),))
+    res = make_trajectory(polyline([[0, 0], [1, 0]]), TB3, world)
+    assert res.status == "collision" and "clearance" in res.reason
+
+
+def test_timed_plans_are_kept_as_they_are_or_slowed_uniformly() -> None:
+    t = np.linspace(0.0, 4.0, 401)
+    v = 0.1 * np.sin(np.pi * t / 4.0) ** 2
+    w = 0.2 * np.sin(np.pi * t / 4.0) ** 2
+    th = np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * np.diff(t))])
+    vx, vy = v * np.cos(th), v * np.sin(th)
+    x = np.concatenate([[0.0], np.cumsum(0.5 * (vx[1:] + vx[:-1]) * np.diff(t))])
+    y = np.concatenate([[0.0], np.cumsum(0.5 * (vy[1:] + vy[:-1]) * np.diff(t))])
+    path = np.column_stack([x, y, th])
+    plan = PlanResult(PlanStatus.SUCCESS, "test", path=path, times=t, controls=np.column_stack([v, w]))
+    res = make_trajectory(plan, TB3, OPEN, dwell=0.0)
+    assert res.success and res.stats["time_scale"] == 1.0
+    n = t.size
+    assert np.array_equal(res.trajectory.pose[:n], path) and np.array_equal(res.trajectory.t[:n], t)
+    fast = PlanResult(PlanStatus.SUCCESS, "test", path=path, times=t / 4.0, controls=np.column_stack([4 * v, 4 * w]))
+    res = make_trajectory(fast, TB3, OPEN, dwell=0.0)
+    c = res.stats["time_scale"]
+    assert c > 1.0 and np.allclose(res.trajectory.t[:n], t / 4.0 * c)
+    assert np.abs(res.trajectory.vel[:n, 0]).max() <= 0.85 * TB3.max_speed + 1e-12
