@@ -1,0 +1,85 @@
+"""Plan -> smooth -> track in MuJoCo physics, closed loop and open loop.
+
+The fast default uses hand-made plans (a stop-turn-go polyline with a cusp, a turn in place) on
+built-in scenarios, one run at 10 Hz, and one registered planner if any; the whole matrix of
+built-in scenario x applicable planner x robot is marked slow.
+"""
+
+import numpy as np
+import pytest
+
+from planning.plan import PLANNERS, PlanResult, PlanStatus
+from planning.scenario import load_scenario
+from sim.jobs import applicable_planners, simulate_plan
+from sim.matrix import TARGETS, matrix_cases, run_case
+from sim.simulator import SimConfig
+
+
+def assert_targets(job, pos: float = 0.02) -> None:  # type: ignore[no-untyped-def]
+    cl = job.metrics["closed_loop"]
+    assert cl.final_position_error_m <= pos
+    assert cl.final_heading_error_rad <= TARGETS["final_heading_error_rad"]
+    assert cl.rms_position_error_m <= TARGETS["rms_position_error_m"]
+    assert cl.collisions == 0 and cl.warnings == 0
+    goal = job.scenario.goal
+    end = job.logs["closed_loop"].pose[-1]
+    assert np.hypot(end[0] - goal.x, end[1] - goal.y) <= pos
+    assert abs(np.angle(np.exp(1j * (end[2] - goal.theta)))) <= TARGETS["final_heading_error_rad"]
+
+
+def test_parallel_park_by_hand_with_a_cusp_in_physics() -> None:
+    sc = load_scenario("parallel_park")  # (1.0, 0.8, 0) -> (1.0, 0.5, 0)
+    path = np.array([[1.0, 0.8, 0.0], [1.3, 0.8, 0.0], [1.3, 0.8, -0.9], [1.0, 0.5, -0.9], [1.0, 0.5, 0.0]])
+    plan = PlanResult(PlanStatus.SUCCESS, "by-hand", path=path)
+    for robot in ("turtlebot3", "edumip"):
+        job = simulate_plan(sc, robot=robot, plan=plan)
+        assert job.source == "planner:by-hand" and job.extra["smoothing"]["drives"] == 2
+        assert job.trackers["closed_loop"] == "segmented"
+        assert_targets(job)
+        assert job.metrics["open_loop"].final_position_error_m > job.metrics["closed_loop"].final_position_error_m
+
+
+def test_turn_in_place_in_physics_at_10_hz() -> None:
+    sc = load_scenario("turn_in_place")
+    plan = PlanResult(PlanStatus.SUCCESS, "by-hand", path=np.array([[0.8, 0.8, 0.0], [0.8, 0.8, np.pi]]))
+    job = simulate_plan(sc, robot="edumip", plan=plan, config=SimConfig(control_rate=10.0, hold=2.0))
+    assert job.extra["smoothing"]["rotations"] == 1
+    assert_targets(job, pos=0.05)
+
+
+def test_a_polyline_among_obstacles_at_10_hz_reaches_the_goal_within_5_cm() -> None:
+    sc = load_scenario("nav_map1")  # (0.25, 0.25) -> (1.25, 1.25) around three discs
+    pts = np.array([[0.25, 0.25], [1.0, 0.25], [1.25, 0.5], [1.25, 1.25]])
+    d = np.diff(pts, axis=0)
+    th = np.append(np.arctan2(d[:, 1], d[:, 0]), 0.0)
+    plan = PlanResult(PlanStatus.SUCCESS, "by-hand", path=np.column_stack([pts, th]))
+    job = simulate_plan(sc, robot="turtlebot3", plan=plan, config=SimConfig(control_rate=10.0, hold=2.0))
+    assert_targets(job, pos=0.05)
+
+
+def test_applicable_planners_rule() -> None:
+    assert applicable_planners(load_scenario("open")) == []  # start == goal: nothing to plan
+    for name in ("nav_map1", "turn_in_place"):
+        sc = load_scenario(name)
+        got = applicable_planners(sc)
+        assert all(p in PLANNERS for p in got)
+        if sc.planner in PLANNERS:
+            assert sc.planner in got
+        assert ("sinusoidal" in got) == ("sinusoidal" in PLANNERS and not sc.world.obstacles)
+
+
+FAST = [c for c in matrix_cases() if c[2] in ("c-rrt-star", "rrt-star", "optim")][:1]
+
+
+@pytest.mark.skipif(not FAST, reason="no planner registered yet")
+@pytest.mark.parametrize("case", FAST)
+def test_one_registered_planner_end_to_end(case: tuple[str, str, str]) -> None:
+    row = run_case(*case)
+    assert row["success"], row
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", matrix_cases(), ids=lambda c: "-".join(c))
+def test_every_scenario_planner_and_robot(case: tuple[str, str, str]) -> None:
+    row = run_case(*case)
+    assert row["success"], row
