@@ -15,10 +15,9 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle as CirclePatch
-from matplotlib.patches import Patch
 from matplotlib.patches import Ellipse as EllipsePatch
+from matplotlib.patches import Patch, Rectangle
 from matplotlib.patches import Polygon as PolygonPatch
-from matplotlib.patches import Rectangle
 
 from planning.plan import PlanProblem, PlanResult
 from planning.world import Box, Circle, Ellipse, Polygon, World
