@@ -80,7 +80,7 @@ def densify_path(path: NDArray[np.float64], radius: float, spacing: float = PATH
     th = np.unwrap(path[:, 2])
     q = np.column_stack([path[:, :2], th])
     step = np.hypot(*np.diff(q[:, :2], axis=0).T) + radius * np.abs(np.diff(th))
-    n = np.maximum(1, np.ceil(step / spacing * (1.0 + 1e-12)).astype(int))
+    n = np.maximum(1, np.ceil(step / spacing - 1e-9).astype(int))  # 1e-9: rounding of an exact split
     if np.all(n == 1):
         return path
     idx = np.repeat(np.arange(len(n)), n)
