@@ -149,7 +149,8 @@ class _Search:
     def __init__(self, cfg: CRRTStarConfig, problem: PlanProblem, clearance: float) -> None:
         self.cfg, self.problem, self.required = cfg, problem, clearance
         robot = problem.robot
-        self.checker = CollisionChecker(problem.world, robot, shape="disc", clearance=clearance - robot.radius)
+        self.radius = robot.radius
+        self.checker = CollisionChecker(problem.world, robot, shape="disc", clearance=clearance - self.radius)
         self.rng = np.random.default_rng(problem.seed)
         cap = 1024
         self.xy = np.zeros((cap, 2))
@@ -200,7 +201,7 @@ class _Search:
         frac = (np.arange(seg.size) - starts[seg]) / n[seg]
         pts = a[seg] + frac[:, None] * (b[seg] - a[seg])
         poses = np.column_stack([pts, np.zeros(len(pts))])
-        centre = self.checker.clearance_of(poses) + self.problem.robot.radius
+        centre = self.checker.clearance_of(poses) + self.radius
         d = np.minimum.reduceat(centre, starts)
         free = d - 0.5 * length / n > self.required
         return free, d
@@ -326,7 +327,9 @@ class _Search:
             "waypoints": pts.tolist(),
             "distance_to_goal_m": float(np.hypot(*(pts[-1] - self.problem.goal.xy))),
         }
-        return PlanResult(status, CRRTStar.name, path=path, reason=reason, stats=stats, tree=tree)
+        return PlanResult(
+            status, CRRTStar.name, path=path, reason=reason, stats=stats, tree=tree, directions=np.ones(len(path))
+        )
 
     # -- Algorithm 1 ----------------------------------------------------------------------------
     def run(self) -> PlanResult:

@@ -236,3 +236,9 @@ def test_bad_options():
     problem = PlanProblem.from_scenario(load_scenario("edumip_map"))
     with pytest.raises(ConfigError, match="radius"):
         CRRTStar(center_clearance=0.01).plan(problem)
+
+
+def test_directions_forward_only(results):
+    _, res = results[0]
+    assert res.directions is not None and res.directions.shape == (res.path.shape[0],)
+    assert np.all(res.directions == 1.0)
