@@ -281,7 +281,8 @@ class _Search:
         p = self.problem
         heading = [p.start.theta]
         for a, b in itertools.pairwise(pts):
-            heading.append(float(np.arctan2(b[1] - a[1], b[0] - a[0])))
+            moved = b[0] != a[0] or b[1] != a[1]
+            heading.append(float(np.arctan2(b[1] - a[1], b[0] - a[0])) if moved else heading[-1])
         if final_heading is not None:
             heading.append(final_heading)
         th = np.unwrap(np.array(heading))

@@ -242,3 +242,13 @@ def test_directions_forward_only(results):
     _, res = results[0]
     assert res.directions is not None and res.directions.shape == (res.path.shape[0],)
     assert np.all(res.directions == 1.0)
+
+
+def test_goal_at_start_turns_in_place(scenario):
+    start = Pose2D(0.0, 0.0, 0.0)
+    problem = PlanProblem(scenario.world, load_robot("edumip"), start, Pose2D(0.0, 0.0, 1.0))
+    res = CRRTStar().plan(problem)
+    assert res.status is PlanStatus.SUCCESS
+    assert np.all(res.path[:, :2] == 0.0)
+    assert res.path[0, 2] == 0.0 and res.path[-1, 2] == pytest.approx(1.0)
+    assert np.all(np.diff(res.path[:, 2]) > 0)  # one monotone turn, no detour
