@@ -136,7 +136,9 @@ class Planner(Protocol):
 
 
 #: Planner name -> "module:factory". The factory takes keyword-only options and returns a Planner.
-PLANNERS: dict[str, str] = {}
+PLANNERS: dict[str, str] = {
+    "c-rrt-star": "planning.crrt_star:CRRTStar",
+}
 
 
 def register_planner(name: str, target: str) -> None:

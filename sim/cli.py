@@ -21,6 +21,8 @@ from planning.errors import NhsimError, SimulationError
 COMMANDS: dict[str, str] = {
     "simulate": "sim.commands.simulate",
     "bench": "sim.commands.bench",
+    "scenarios": "sim.commands.scenarios",
+    "plan": "sim.commands.plan",
 }
 
 
