@@ -47,6 +47,10 @@ class TrajectoryError(NhsimError):
     """A plan could not be turned into a collision-free trajectory within the limits."""
 
 
+class PlanFailedError(TrajectoryError):
+    """The plan itself failed (its status is not success), or a timed plan itself collides."""
+
+
 @dataclass(frozen=True)
 class TrajectoryResult:
     """Outcome of :func:`make_trajectory`.
@@ -318,12 +322,14 @@ def checked_trajectory(
         TrajectoryError: The plan failed, or no collision-free trajectory was found.
     """
     if isinstance(plan, PlanResult) and not plan.success:
-        raise TrajectoryError(
+        raise PlanFailedError(
             f"planner {plan.planner!r} ended with status {plan.status.value}: {plan.reason or 'no reason given'}; "
             f"a failed plan has no trajectory (try another seed, a longer --time-limit, or another planner)"
         )
     res = make_trajectory(plan, robot, world, **options)
     if not res.success or res.trajectory is None:
+        if res.stats.get("timed_input"):  # a timed plan is not re-fitted: its own collision is the planner's
+            raise PlanFailedError(res.reason)
         raise TrajectoryError(res.reason)
     return res
 

@@ -12,6 +12,7 @@ from typing import Any
 from control.fbl import FBLGains
 from planning.errors import NhsimError
 from planning.scenario import builtin_scenarios, load_scenario
+from planning.to_trajectory import PlanFailedError
 from sim.jobs import applicable_planners, simulate_plan
 from sim.simulator import SimConfig
 
@@ -46,8 +47,11 @@ def run_case(
         cfg = SimConfig(control_rate=control_rate, hold=2.0)
         job = simulate_plan(scenario, robot=robot, planner=planner, seed=seed, gains=gains, config=cfg,
                             time_limit=time_limit)  # fmt: skip
+    except PlanFailedError as exc:
+        row.update({"success": False, "stage": "plan", "reason": str(exc)})
+        return row
     except NhsimError as exc:
-        row.update({"success": False, "reason": str(exc)})
+        row.update({"success": False, "stage": "trajectory", "reason": str(exc)})
         return row
     rec = job.record()
     cl, ol = rec.get("closed_loop", {}), rec.get("open_loop", {})
@@ -57,7 +61,7 @@ def run_case(
         and cl.get("warnings", 1) == 0
     )
     row.update({
-        "success": bool(ok), "reason": "" if ok else "closed loop missed a target (see the errors)",
+        "success": bool(ok), "stage": "track", "reason": "" if ok else "closed loop missed a target (see the errors)",
         "plan_time_s": rec["plan"].get("time_s"), "plan_length_m": rec["plan"].get("length_m"),
         "duration_s": rec["trajectory"]["duration_s"], "smoothing": rec["smoothing"],
         "closed_loop": cl, "open_loop": ol,
