@@ -339,16 +339,16 @@ def fit_piecewise(
 
     # constraints A p = b (the same A for x and y, one right-hand side each)
     a_data: list[FloatArray] = []
-    a_r: list[FloatArray] = []
-    a_c: list[FloatArray] = []
+    a_r: list[NDArray[np.int64]] = []
+    a_c: list[NDArray[np.int64]] = []
     b_rows: list[FloatArray] = []
 
     def add(terms: list[tuple[int, float, int, float]], value: ArrayLike) -> None:
         row = len(b_rows)
         for piece, t, der, sign in terms:
             a_data.append(sign * _basis(np.array([t]), k, der)[0] / h[piece] ** der)
-            a_r.append(np.full(nc, row))
-            a_c.append(piece * nc + np.arange(nc))
+            a_r.append(np.full(nc, row, dtype=np.int64))
+            a_c.append(piece * nc + np.arange(nc, dtype=np.int64))
         b_rows.append(np.asarray(value, dtype=float))
 
     add([(0, 0.0, 0, 1.0)], pts[0])

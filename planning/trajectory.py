@@ -99,9 +99,9 @@ class Trajectory:
                 raise ValueError(
                     f"Trajectory.segments must be non-decreasing indices into segment_kinds ({len(kinds)} kinds)"
                 )
-            bad = [k for k in kinds if k not in SEGMENT_KINDS]
-            if bad:
-                raise ValueError(f"Trajectory.segment_kinds: unknown kind(s) {bad}; choose from {SEGMENT_KINDS}")
+            unknown = [name for name in kinds if name not in SEGMENT_KINDS]
+            if unknown:
+                raise ValueError(f"Trajectory.segment_kinds: unknown kind(s) {unknown}; choose from {SEGMENT_KINDS}")
             seg = seg.astype(np.int64)
             seg.setflags(write=False)
             object.__setattr__(self, "segments", seg)
