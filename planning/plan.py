@@ -136,7 +136,11 @@ class Planner(Protocol):
 
 
 #: Planner name -> "module:factory". The factory takes keyword-only options and returns a Planner.
-PLANNERS: dict[str, str] = {}
+PLANNERS: dict[str, str] = {
+    "rrt": "planning.rrt:RRT",
+    "birrt": "planning.rrt:BiRRT",
+    "rrt-star": "planning.rrt_star:RRTStar",
+}
 
 
 def register_planner(name: str, target: str) -> None:
