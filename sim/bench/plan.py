@@ -151,7 +151,7 @@ def run(args: argparse.Namespace) -> int:
             rows["ok_om"].append(float(ok))
             rs = rstar.plan(p)
             rows["l_us"].append(float(rs.stats.get("cost_m", np.nan)))
-            ok2, _, length = ompl_run.solve("RRTstar", seed, args.budget, False)
+            _, _, length = ompl_run.solve("RRTstar", seed, args.budget, False)
             rows["l_om"].append(length)
         t_ratio = np.median(rows["t_us"]) / np.median(rows["t_om"])
         l_ratio = np.nanmedian(rows["l_us"]) / np.nanmedian(rows["l_om"])
@@ -163,9 +163,8 @@ def run(args: argparse.Namespace) -> int:
             f"{name:<16}{'TTFS ms birrt/RRTConnect':<26}{1e3 * np.median(rows['t_us']):>12.2f}"
             f"{1e3 * np.median(rows['t_om']):>12.2f}{t_ratio:>9.2f}  <= {TTFS_TARGET}{'  MISSED' if miss_t else ''}"
         )
-        print(
-            f"{'':<16}{'success birrt/RRTConnect':<26}{s_us:>12.2f}{s_om:>12.2f}{'':>9}  equal{'  MISSED' if miss_s else ''}"
-        )
+        flag = "  MISSED" if miss_s else ""
+        print(f"{'':<16}{'success birrt/RRTConnect':<26}{s_us:>12.2f}{s_om:>12.2f}{'':>9}  equal{flag}")
         print(
             f"{'':<16}{'length m rrt-star/RRT*':<26}{np.nanmedian(rows['l_us']):>12.3f}"
             f"{np.nanmedian(rows['l_om']):>12.3f}{l_ratio:>9.3f}  <= {LENGTH_TARGET}{'  MISSED' if miss_l else ''}"
