@@ -140,6 +140,7 @@ PLANNERS: dict[str, str] = {
     "rrt": "planning.rrt:RRT",
     "birrt": "planning.rrt:BiRRT",
     "rrt-star": "planning.rrt_star:RRTStar",
+    "c-rrt-star": "planning.crrt_star:CRRTStar",
 }
 
 

@@ -1,6 +1,6 @@
 """Analytic reference trajectories with exact derivatives: line, circle, figure-eight.
 
-Each is placed at a start pose, starts and ends at rest with smooth (cosine) speed ramps, and is
+Each is placed at a start pose, starts and ends at rest with smooth (quintic, jerk-continuous) speed ramps, and is
 sized and timed from the robot's limits so that speed, yaw rate and acceleration stay within
 ``margin`` times the limits.
 """
@@ -24,30 +24,36 @@ Curve = Callable[[FloatArray], tuple[FloatArray, FloatArray, FloatArray]]
 def _phase_profile(
     rate: float, total: float, ramp: float, dt: float
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Phase s(t) from 0 to ``total`` with rate ramping 0 -> rate -> 0 by half-cosines.
+    """Phase s(t) from 0 to ``total`` with rate ramping 0 -> rate -> 0 along a quintic smoothstep.
+
+    The ramp sdot = rate * (10u^3 - 15u^4 + 6u^5), u = t / ramp, starts and ends with zero
+    acceleration and zero jerk, so the reference acceleration the tracker feeds forward is C1.
 
     Returns:
         t, s, sdot, sddot, each (N,).
     """
-    cruise = max(total - rate * ramp, 0.0) / rate  # a ramp of length T covers rate*T/2 of phase
+    cruise = max(total - rate * ramp, 0.0) / rate  # each ramp covers rate * ramp / 2 of phase
     duration = 2.0 * ramp + cruise
     n = int(np.ceil(duration / dt)) + 1
     t = np.linspace(0.0, duration, n)
+
+    def up(u: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        s_ = rate * ramp * (2.5 * u**4 - 3.0 * u**5 + u**6)
+        sd = rate * (10 * u**3 - 15 * u**4 + 6 * u**5)
+        sdd = rate / ramp * (30 * u**2 - 60 * u**3 + 30 * u**4)
+        return s_, sd, sdd
+
+    s = 0.5 * rate * ramp + rate * (t - ramp)
     sdot = np.full(n, rate)
     sddot = np.zeros(n)
-    up = t < ramp
-    down = t > ramp + cruise
-    sdot[up] = 0.5 * rate * (1 - np.cos(np.pi * t[up] / ramp))
-    sddot[up] = 0.5 * rate * np.pi / ramp * np.sin(np.pi * t[up] / ramp)
-    td = t - ramp - cruise
-    sdot[down] = 0.5 * rate * (1 + np.cos(np.pi * td[down] / ramp))
-    sddot[down] = -0.5 * rate * np.pi / ramp * np.sin(np.pi * td[down] / ramp)
-    # exact integral of sdot
-    s = 0.5 * rate * ramp + rate * (t - ramp)
-    s[up] = 0.5 * rate * (t[up] - ramp / np.pi * np.sin(np.pi * t[up] / ramp))
-    s[down] = (
-        0.5 * rate * ramp + rate * cruise + 0.5 * rate * (td[down] + ramp / np.pi * np.sin(np.pi * td[down] / ramp))
-    )
+    rising = t < ramp
+    falling = t > ramp + cruise
+    s[rising], sdot[rising], sddot[rising] = up(t[rising] / ramp)
+    # the falling ramp mirrors the rising one in time
+    s_m, sd_m, sdd_m = up((duration - t[falling]) / ramp)
+    s[falling] = rate * ramp + rate * cruise - s_m
+    sdot[falling] = sd_m
+    sddot[falling] = -sdd_m
     return t, s, sdot, sddot
 
 
@@ -67,8 +73,8 @@ def _build(
     wheel = margin * robot.max_wheel_speed * robot.wheel_radius / np.max(g + kappa * g * robot.track_width / 2)
     bounds.append(wheel)
     rate = float(min(bounds))
-    # ramp long enough for the tangential acceleration limit: peak sddot = rate*pi/(2*ramp)
-    ramp = max(1.0, rate * np.pi / 2.0 * g.max() / (margin * robot.max_accel))
+    # ramp long enough for the tangential acceleration limit: peak sddot = 1.875 rate / ramp
+    ramp = max(1.0, 1.875 * rate * g.max() / (margin * robot.max_accel))
     t, s, sd, sdd = _phase_profile(rate, total, ramp, dt)
     p, dp, ddp = curve(s)
     xy = p

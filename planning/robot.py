@@ -206,9 +206,16 @@ def load_robot(name: str) -> RobotSpec:
             points.append(_geom_outline(g, defaults, off))
     allpts = np.vstack(points)
     hull = allpts[ConvexHull(allpts).vertices]
-    mass = sum(float(g.get("mass", 0) or 0) for g in root.iter("geom")) + sum(
-        float(i.get("mass", 0)) for i in root.iter("inertial")
-    )
+    mass = 0.0
+    for body in root.iter("body"):
+        inertial = body.find("inertial")
+        if inertial is not None:  # an explicit inertial replaces the geoms' masses, as in MuJoCo
+            mass += float(inertial.get("mass", 0))
+            continue
+        for g in body.findall("geom"):
+            gattrs = dict(defaults.get(g.get("class", ""), {}))
+            gattrs.update(g.attrib)
+            mass += float(gattrs.get("mass", 0) or 0)
     stem = path.stem
     inv = {v: k for k, v in ROBOT_FILES.items()}
     return RobotSpec(

@@ -18,6 +18,7 @@ import numpy as np
 
 from planning.errors import ScenarioError
 from planning.geometry import Pose2D
+from planning.maps import load_map_table
 from planning.robot import MODELS_DIR, ROBOT_FILES
 from planning.world import Box, Circle, Ellipse, Obstacle, Polygon, World
 
@@ -36,7 +37,7 @@ _OBSTACLE_KEYS: dict[str, tuple[set[str], set[str]]] = {
 }
 
 #: Hooks that turn a ``[world.map]`` table into obstacles: fn(table, scenario_dir, where) -> obstacles.
-MAP_LOADERS: dict[str, Callable[[Mapping[str, Any], Path, str], list[Obstacle]]] = {}
+MAP_LOADERS: dict[str, Callable[[Mapping[str, Any], Path, str], list[Obstacle]]] = {"image": load_map_table}
 
 
 @dataclass(frozen=True)

@@ -15,12 +15,14 @@ import importlib
 import sys
 from collections.abc import Sequence
 
-from planning.errors import NhsimError
+from planning.errors import NhsimError, SimulationError
 
 #: Subcommand name -> module path.
 COMMANDS: dict[str, str] = {
     "simulate": "sim.commands.simulate",
     "bench": "sim.commands.bench",
+    "scenarios": "sim.commands.scenarios",
+    "plan": "sim.commands.plan",
 }
 
 
@@ -53,6 +55,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         mod = importlib.import_module(args._module)
         return int(mod.run(args))
+    except SimulationError as exc:
+        print(f"nhsim {args.command}: simulation failed: {exc}", file=sys.stderr)
+        return 1
     except NhsimError as exc:
         print(f"nhsim {args.command}: error: {exc}", file=sys.stderr)
         return 2

@@ -25,7 +25,8 @@ class RunLog:
 
     Attributes:
         t: (N,) times [s].
-        pose: (N, 3) measured pose [x, y, theta] from the pose sensors (theta unwrapped).
+        pose: (N, 3) true pose [x, y, theta] of the base at each time (theta unwrapped); the tracker
+            itself sees the pose sensors.
         qpos: (N, nq) full generalised positions, for replay and rendering.
         ref_pose: (N, 3) reference pose at the same times.
         command: (N, 2) body command [v, omega] in force [m/s, rad/s].

@@ -73,6 +73,8 @@ class Simulator:
         self._quat_adr = int(m.sensor_adr[m.sensor("base_quat").id])
         self._wl_adr = int(m.sensor_adr[m.sensor("wheel_left_vel").id])
         self._wr_adr = int(m.sensor_adr[m.sensor("wheel_right_vel").id])
+        self._root_qadr = int(m.jnt_qposadr[m.joint("root").id])
+        self._wheel_dofs = [int(m.jnt_dofadr[m.joint(n).id]) for n in ("wheel_left_joint", "wheel_right_joint")]
         self._contact_adr = int(m.sensor_adr[m.sensor("obstacle_contact").id])
         self._act_l = m.actuator("wheel_left_motor").id
         self._act_r = m.actuator("wheel_right_motor").id
@@ -152,8 +154,7 @@ class Simulator:
         drv = drive or DiffDrive.from_robot(self.robot)
         tracker.reset(trajectory, dt_ctrl)
 
-        nsens = m.nsensordata
-        sens = np.empty((n_log, nsens))
+        qvel = np.empty((n_log, m.nv))
         qpos = np.empty((n_log, m.nq))
         times = np.empty(n_log)
         cmd = np.zeros((n_ctrl + 1, 2))
@@ -164,6 +165,7 @@ class Simulator:
         ctrl = d.ctrl
         sdata = d.sensordata
         dqpos = d.qpos
+        dqvel = d.qvel
         act_l, act_r = self._act_l, self._act_r
         contact_adr = self._contact_adr
         names = self.built.obstacle_names
@@ -180,7 +182,7 @@ class Simulator:
             touching.clear()
             touching.update(now)
 
-        sens[0] = sdata
+        qvel[0] = dqvel
         qpos[0] = dqpos
         times[0] = d.time
         i = 1
@@ -198,22 +200,23 @@ class Simulator:
             wcmd[k + 1] = (left, right)
             for _ in range(chunks):
                 step(m, d, nstep=k_log)
-                sens[i] = sdata
+                qvel[i] = dqvel
                 qpos[i] = dqpos
                 times[i] = d.time
                 i += 1
                 if sdata[contact_adr] > 0.0 or touching:
                     contact_check()
         t_log = t0 + times
-        ps, qs = self._pos_adr, self._quat_adr
-        q = sens[:, qs : qs + 4]
+        # The log records the true state at the logged time (qpos after the step); the tracker saw
+        # the pose sensors, which MuJoCo evaluates at the start of the last step (2 ms earlier).
+        q = qpos[:, self._root_qadr + 3 : self._root_qadr + 7]
         yaw = np.arctan2(2.0 * (q[:, 0] * q[:, 3] + q[:, 1] * q[:, 2]), 1.0 - 2.0 * (q[:, 2] ** 2 + q[:, 3] ** 2))
-        pose = np.column_stack([sens[:, ps], sens[:, ps + 1], yaw])
+        pose = np.column_stack([qpos[:, self._root_qadr], qpos[:, self._root_qadr + 1], yaw])
         # command in force during each log sample: the one set at the start of its control period
         owner = np.concatenate([[0], np.repeat(np.arange(1, n_ctrl + 1), chunks)])
         cmd = cmd[owner]
         wcmd = wcmd[owner]
-        wspd = sens[:, [self._wl_adr, self._wr_adr]]
+        wspd = qvel[:, self._wheel_dofs]
         pose[:, 2] = np.unwrap(pose[:, 2])
         ref = trajectory.sample_many(t_log)[:, :3]
         warnings = tuple(

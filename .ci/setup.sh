@@ -1,0 +1,57 @@
+# Shared set-up for ./nhsim and ./run-tests (sourced, not run): everything the project needs on a
+# fresh Debian machine with Python >= 3.11 — Debian's libosmesa6 for headless rendering, a virtual
+# environment in .venv, and the project installed into it. Idempotent and quick when done already.
+
+nhsim_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+nhsim_python="${PYTHON:-python3}"
+
+nhsim_say() { [ -n "${NHSIM_QUIET_SETUP:-}" ] || echo "setup: $*" >&2; }
+
+nhsim_apt_install() {
+    local sudo=""
+    if [ "$(id -u)" != 0 ]; then
+        if command -v sudo >/dev/null 2>&1; then sudo="sudo"; else
+            echo "setup: need root to 'apt-get install $*'; install it, then rerun" >&2
+            return 1
+        fi
+    fi
+    nhsim_say "apt-get install $*"
+    $sudo apt-get update -qq >/dev/null && $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "$@" >/dev/null
+}
+
+nhsim_setup() {
+    if ! command -v "$nhsim_python" >/dev/null 2>&1; then
+        echo "setup: $nhsim_python not found; install Python >= 3.11 (Debian: apt-get install python3 python3-venv)" >&2
+        return 1
+    fi
+    if ! "$nhsim_python" -c 'import sys; sys.exit(sys.version_info < (3, 11))'; then
+        echo "setup: nhsim needs Python >= 3.11, $nhsim_python is $("$nhsim_python" -V 2>&1); set PYTHON=..." >&2
+        return 1
+    fi
+    # Headless rendering uses OSMesa (Debian's libosmesa6) where there is no display.
+    if command -v ldconfig >/dev/null 2>&1 && ! ldconfig -p 2>/dev/null | grep -q libOSMesa; then
+        if command -v apt-get >/dev/null 2>&1; then
+            nhsim_apt_install libosmesa6 || echo "setup: continuing without libosmesa6 (videos will be skipped)" >&2
+        else
+            echo "setup: no libOSMesa found; install OSMesa for headless rendering" >&2
+        fi
+    fi
+    if [ ! -x "$nhsim_root/.venv/bin/python" ]; then
+        nhsim_say "creating .venv"
+        if ! "$nhsim_python" -m venv "$nhsim_root/.venv" 2>/dev/null; then
+            rm -rf "$nhsim_root/.venv"
+            local ver
+            ver="$("$nhsim_python" -c 'import sys; print(f"{sys.version_info[0]}.{sys.version_info[1]}")')"
+            nhsim_apt_install "python${ver}-venv" || nhsim_apt_install python3-venv
+            "$nhsim_python" -m venv "$nhsim_root/.venv"
+        fi
+    fi
+    local stamp="$nhsim_root/.venv/.nhsim-installed" want
+    want="$(cat "$nhsim_root/pyproject.toml" | sha256sum | cut -d' ' -f1)"
+    if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
+        nhsim_say "installing nhsim and its dependencies into .venv (first run takes a few minutes)"
+        "$nhsim_root/.venv/bin/python" -m pip install -q --upgrade pip >/dev/null
+        "$nhsim_root/.venv/bin/python" -m pip install -q -e "$nhsim_root[dev]"
+        echo "$want" > "$stamp"
+    fi
+}

@@ -1,0 +1,67 @@
+"""The `nhsim` command line, run as a user would (a subprocess)."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def nhsim(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "sim", *args], cwd=cwd, capture_output=True, text=True, timeout=600)
+
+
+def test_simulate_writes_the_documented_record(tmp_path: Path) -> None:
+    out = tmp_path / "run.json"
+    r = nhsim("simulate", "--reference", "circle", "--robot", "edumip", "--json", str(out))
+    assert r.returncode == 0, r.stderr
+    assert "closed_loop" in r.stdout and "open_loop" in r.stdout
+    rec = json.loads(out.read_text())
+    for label in ("closed_loop", "open_loop"):
+        for key in (
+            "final_position_error_m",
+            "final_heading_error_rad",
+            "rms_position_error_m",
+            "max_position_error_m",
+            "collisions",
+            "warnings",
+        ):
+            assert key in rec[label]
+    assert rec["robot"] == "edumip" and rec["seed"] == 0 and rec["gains"]["kp"] > 0
+    assert rec["versions"]["mujoco"].startswith("3.")
+    assert rec["closed_loop"]["rms_position_error_m"] < 0.01
+
+
+def test_json_is_never_silently_overwritten(tmp_path: Path) -> None:
+    out = tmp_path / "run.json"
+    out.write_text("keep me")
+    r = nhsim("simulate", "--reference", "line", "--json", str(out))
+    assert r.returncode == 2 and "--overwrite" in r.stderr
+    assert out.read_text() == "keep me"
+
+
+def test_bad_gains_and_scenarios_are_clear_errors(tmp_path: Path) -> None:
+    r = nhsim("simulate", "--gains", "1,-2")
+    assert r.returncode == 2 and "kd" in r.stderr
+    r = nhsim("simulate", "--gains", "fast")
+    assert r.returncode == 2 and "KP,KD" in r.stderr
+    r = nhsim("simulate", "--scenario", "no-such-scenario")
+    assert r.returncode == 2 and "unknown scenario" in r.stderr
+    bad = tmp_path / "bad.toml"
+    bad.write_text(
+        'robot = "turtlebot3"\n[world]\nbounds = [0, 1, 0, 1]\n[start]\npose = [5, 5, 0]\n[goal]\npose=[0.5,0.5,0]\n'
+    )
+    r = nhsim("simulate", "--scenario", str(bad))
+    assert r.returncode == 2 and "start.pose" in r.stderr and str(bad) in r.stderr
+
+
+def test_help_documents_the_options() -> None:
+    r = nhsim("simulate", "--help")
+    for opt in ("--scenario", "--robot", "--reference", "--tracker", "--gains", "--control-rate", "--seed", "--json"):
+        assert opt in r.stdout
+
+
+def test_bench_sim_prints_a_ratio() -> None:
+    r = nhsim("bench", "sim", "--reference", "line", "--repeats", "1")
+    assert "ratio" in r.stdout and r.returncode in (0, 1)

@@ -1,0 +1,134 @@
+"""``nhsim plan`` and ``nhsim scenarios``: outputs, JSON schema, path spacing, no overwrite, bad input."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from planning.collision import CollisionChecker
+from planning.plan import PLANNERS
+from planning.robot import load_robot
+from planning.scenario import builtin_scenarios, load_scenario
+from sim.cli import COMMANDS, build_parser, main
+from sim.commands.plan import densify_path, path_spacing
+
+KEYS = {
+    "status", "planner", "time_s", "iterations", "length_m", "min_clearance_m", "path", "reason", "seed",
+    "scenario", "robot", "time_limit_s", "goal_position_error_m", "goal_heading_error_rad", "path_spacing_m", "stats",
+}  # fmt: skip
+
+
+def test_registered():
+    assert COMMANDS["plan"] == "sim.commands.plan"
+    assert COMMANDS["scenarios"] == "sim.commands.scenarios"
+
+
+def test_help_lists_every_registered_planner(capsys):
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["plan", "--help"])
+    out = capsys.readouterr().out
+    for name in PLANNERS:
+        assert name in out
+
+
+def test_plan_json_and_plot(tmp_path, capsys):
+    js, png = tmp_path / "out" / "plan.json", tmp_path / "plan.png"
+    argv = ["plan", "--scenario", "edumip_map", "--planner", "c-rrt-star", "--seed", "2", "--json", str(js),
+            "--plot", str(png)]  # fmt: skip
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    for word in ("status", "success", "time", "iterations", "path length", "min clearance"):
+        assert word in out
+    rec = json.loads(js.read_text())
+    assert set(rec) == KEYS
+    assert rec["status"] == "success" and rec["planner"] == "c-rrt-star" and rec["seed"] == 2
+    assert rec["scenario"] == "edumip_map" and rec["robot"] == "edumip" and rec["reason"] == ""
+    assert isinstance(rec["iterations"], int) and rec["time_s"] > 0
+    path = np.asarray(rec["path"])
+    assert path.ndim == 2 and path.shape[1] == 3
+    sc = load_scenario("edumip_map")
+    robot = load_robot("edumip")
+    np.testing.assert_allclose(path[0], sc.start.as_array())
+    assert np.hypot(*(path[-1, :2] - sc.goal.xy)) <= sc.position_tolerance
+    assert rec["goal_position_error_m"] <= sc.position_tolerance
+    assert rec["goal_heading_error_rad"] <= sc.heading_tolerance
+    step = np.hypot(*np.diff(path[:, :2], axis=0).T)
+    assert step.max() <= 0.02 + 1e-12
+    assert (step + robot.radius * np.abs(np.diff(path[:, 2]))).max() <= 0.02 + 1e-12
+    assert rec["path_spacing_m"] <= 0.02 + 1e-12
+    assert rec["length_m"] == pytest.approx(step.sum(), abs=1e-9)
+    clearance = CollisionChecker(sc.world, robot, shape="footprint").clearance_of(path)
+    assert rec["min_clearance_m"] == pytest.approx(clearance.min(), abs=1e-12)
+    assert rec["min_clearance_m"] >= 0.40 - robot.radius  # C-RRT*'s axle-centre clearance minus the body
+    with Image.open(png) as im:
+        assert im.format == "PNG" and im.size[0] > 300
+
+
+def test_no_overwrite_without_flag(tmp_path, capsys):
+    js = tmp_path / "plan.json"
+    js.write_text("keep me")
+    argv = ["plan", "--scenario", "edumip_map", "--planner", "c-rrt-star", "--json", str(js), "--quiet"]
+    assert main(argv) == 2
+    assert "--overwrite" in capsys.readouterr().err
+    assert js.read_text() == "keep me"
+    assert main([*argv, "--overwrite"]) == 0
+    assert json.loads(js.read_text())["status"] == "success"
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary left behind
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--scenario", "edumip_map", "--planner", "nope"], "c-rrt-star"),
+        (["--scenario", "no_such_scenario", "--planner", "c-rrt-star"], "unknown scenario"),
+        (["--scenario", "edumip_map", "--planner", "c-rrt-star", "--time-limit", "0"], "--time-limit"),
+        (["--scenario", "open"], "--planner"),
+    ],
+)
+def test_bad_input(argv, message, capsys):
+    assert main(["plan", *argv]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_bad_robot_is_a_usage_error():
+    with pytest.raises(SystemExit) as info:
+        main(["plan", "--scenario", "edumip_map", "--robot", "r2d2"])
+    assert info.value.code == 2
+
+
+def test_failed_plan_exits_1_with_reason(tmp_path, capsys):
+    scen = tmp_path / "tight.toml"
+    scen.write_text(
+        'robot = "edumip"\n[world]\nbounds = [0.0, 4.0, 0.0, 4.0]\n'
+        '[[world.obstacles]]\ntype = "box"\ncenter = [2.0, 2.0]\nsize = [1.0, 1.0]\n'
+        "[start]\npose = [2.0, 2.8, 0.0]\n[goal]\npose = [0.6, 0.6, 0.0]\n"
+    )
+    js = tmp_path / "p.json"
+    assert main(["plan", "--scenario", str(scen), "--planner", "c-rrt-star", "--json", str(js), "--quiet"]) == 1
+    rec = json.loads(js.read_text())
+    assert rec["status"] == "invalid_start" and "0.400 m" in rec["reason"]
+    assert rec["path"] == [] and rec["min_clearance_m"] is None
+    assert "invalid_start" in capsys.readouterr().out
+
+
+def test_densify_path():
+    path = np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.1, 0.0, np.pi / 2], [0.1, 0.05, np.pi / 2]])
+    out = densify_path(path, radius=0.1)
+    assert path_spacing(out, 0.1) <= 0.02 + 1e-12
+    for row in path:  # the given states are kept
+        assert np.min(np.abs(out - row).sum(axis=1)) < 1e-12
+    assert path_spacing(path, 0.1) == pytest.approx(0.1 * np.pi / 2)
+    dense = densify_path(out, radius=0.1)
+    assert dense is out  # already dense: unchanged
+
+
+def test_scenarios_command_lists_every_builtin(capsys):
+    assert main(["scenarios"]) == 0
+    out = capsys.readouterr().out
+    for name in builtin_scenarios():
+        sc = load_scenario(name)
+        line = next(ln for ln in out.splitlines() if ln.startswith(name + " "))
+        assert sc.robot in line and str(len(sc.world.obstacles)) in line

@@ -1,0 +1,254 @@
+"""C-RRT* (seed 003) on the EduMIP map: goal reached, clearance kept, cost decomposition, determinism."""
+
+from __future__ import annotations
+
+import itertools
+import time
+
+import numpy as np
+import pytest
+
+from planning.crrt_star import CRRTStar, CRRTStarConfig, _Search
+from planning.errors import ConfigError
+from planning.geometry import Pose2D, wrap_angle
+from planning.plan import PLANNERS, PlanProblem, PlanStatus, make_planner
+from planning.robot import load_robot
+from planning.scenario import load_scenario
+from planning.world import Box, World
+
+SEEDS = range(6)
+CLEARANCE = 0.40  # seed 003: no obstacle within 40 cm of the EduMIP's axle centre
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return load_scenario("edumip_map")
+
+
+@pytest.fixture(scope="module")
+def results(scenario):
+    out = {}
+    for seed in SEEDS:
+        problem = PlanProblem.from_scenario(scenario, seed=seed, time_limit=60.0)
+        out[seed] = (problem, CRRTStar().plan(problem))
+    return out
+
+
+def dense_segment_min(world: World, a: np.ndarray, b: np.ndarray, step: float = 0.0005) -> float:
+    """Smallest signed distance along segment a-b, sampled every ``step`` metres (independent check)."""
+    n = max(2, int(np.ceil(np.hypot(*(b - a)) / step)) + 1)
+    s = np.linspace(0.0, 1.0, n)[:, None]
+    return float(np.min(world.signed_distance(a + s * (b - a))))
+
+
+def test_registered():
+    assert PLANNERS["c-rrt-star"] == "planning.crrt_star:CRRTStar"
+    assert isinstance(make_planner("c-rrt-star"), CRRTStar)
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_path_from_start_to_goal(results, seed):
+    problem, res = results[seed]
+    assert res.status is PlanStatus.SUCCESS, res.reason
+    np.testing.assert_array_equal(res.path[0], problem.start.as_array())
+    end = res.path[-1]
+    assert np.hypot(end[0] - problem.goal.x, end[1] - problem.goal.y) <= problem.position_tolerance
+    assert abs(wrap_angle(end[2] - problem.goal.theta)) <= problem.heading_tolerance
+    # dense: no robot point moves more than 2 cm between consecutive poses
+    r = problem.robot.radius
+    step = np.hypot(*np.diff(res.path[:, :2], axis=0).T) + r * np.abs(np.diff(res.path[:, 2]))
+    assert step.max() <= 0.02 + 1e-12
+    # theta follows the segments: wherever the robot moves, it moves along its heading
+    d = np.diff(res.path[:, :2], axis=0)
+    moving = np.hypot(*d.T) > 1e-9
+    along = np.arctan2(d[moving, 1], d[moving, 0])
+    assert np.max(np.abs(wrap_angle(along - res.path[:-1][moving, 2]))) < 1e-9
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_clearance_kept_along_every_segment(results, seed):
+    problem, res = results[seed]
+    pts = np.asarray(res.stats["waypoints"])
+    for a, b in itertools.pairwise(pts):
+        assert dense_segment_min(problem.world, a, b) >= CLEARANCE
+    assert np.min(problem.world.signed_distance(res.path[:, :2])) >= CLEARANCE
+    assert res.stats["center_clearance_m"] == CLEARANCE
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_cost_decomposition(results, seed):
+    problem, res = results[seed]
+    cfg = CRRTStarConfig()
+    pts = np.asarray(res.stats["waypoints"])
+    d_planner = np.asarray(res.stats["edge_clearances_m"])
+    lengths = np.hypot(*np.diff(pts, axis=0).T)
+    # the reported cost is exactly the sum of the seed's edge costs along the returned path
+    own = np.sum(lengths + cfg.rho * np.exp(-cfg.sigma * d_planner**2))
+    assert res.stats["cost"] == pytest.approx(own, rel=0, abs=1e-9)
+    # independent clearances: the planner samples every <= 2 cm, so its d is within 1 cm above the truth
+    d_true = np.array([dense_segment_min(problem.world, a, b) for a, b in itertools.pairwise(pts)])
+    assert np.all(d_planner >= d_true - 1e-12)
+    assert np.all(d_planner <= d_true + 0.01 + 0.0005)
+    lipschitz = cfg.rho * np.sqrt(2.0 * cfg.sigma) * np.exp(-0.5)  # max |d/dd rho exp(-sigma d^2)|
+    independent = np.sum(lengths + cfg.rho * np.exp(-cfg.sigma * d_true**2))
+    assert abs(res.stats["cost"] - independent) <= lipschitz * 0.0105 * len(lengths)
+    assert res.length() == pytest.approx(np.sum(lengths), abs=1e-9)
+    assert res.stats["polyline_length_m"] == pytest.approx(np.sum(lengths), abs=1e-9)
+
+
+def test_tree_costs_consistent_after_rewiring(scenario):
+    """Every node's cost equals its parent's plus the edge cost, after all rewires."""
+    problem = PlanProblem.from_scenario(scenario, seed=3)
+    search = _Search(CRRTStarConfig(stop_at_goal=False, max_iterations=1500), problem, CLEARANCE)
+    res = search.run()
+    assert res.status is PlanStatus.SUCCESS
+    assert search.rewires > 0
+    n = search.n
+    child = np.arange(1, n)
+    par = search.parent[child]
+    assert np.all(par >= 0) and search.parent[0] == -1
+    expect = search.cost[par] + search.edge_cost(search.edge_len[child], search.edge_d[child])
+    np.testing.assert_allclose(search.cost[child], expect, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(
+        search.edge_len[child], np.hypot(*(search.xy[child] - search.xy[par]).T), rtol=0, atol=1e-12
+    )
+
+
+def test_refinement_never_costs_more(scenario):
+    """Sampling past the first solution (same seed, same stream) only lowers the goal's cost."""
+    problem = PlanProblem.from_scenario(scenario, seed=1)
+    first = CRRTStar().plan(problem)
+    refined = CRRTStar(stop_at_goal=False, max_iterations=2000).plan(problem)
+    assert refined.status is PlanStatus.SUCCESS
+    assert refined.stats["cost"] <= first.stats["cost"] + 1e-12
+    assert refined.stats["cost"] < first.stats["cost"]
+
+
+def test_bitwise_deterministic(scenario):
+    problem = PlanProblem.from_scenario(scenario, seed=7)
+    a, b = CRRTStar().plan(problem), CRRTStar().plan(problem)
+    assert a.path.tobytes() == b.path.tobytes()
+    assert a.tree is not None and b.tree is not None
+    assert a.tree.nodes.tobytes() == b.tree.nodes.tobytes()
+    assert np.array_equal(a.tree.parents, b.tree.parents)
+    other = CRRTStar().plan(PlanProblem.from_scenario(scenario, seed=8))
+    assert other.path.shape != a.path.shape or not np.array_equal(other.path, a.path)
+
+
+def _enclosed_goal_problem(**kw) -> PlanProblem:
+    # the goal sits in a closed square room of boxes: free itself, unreachable
+    walls = (
+        Box((4.0, 3.0), (2.2, 0.2)),
+        Box((4.0, 5.0), (2.2, 0.2)),
+        Box((3.0, 4.0), (0.2, 2.2)),
+        Box((5.0, 4.0), (0.2, 2.2)),
+    )
+    world = World((0.0, 6.0, 0.0, 6.0), walls)
+    return PlanProblem(world, load_robot("edumip"), Pose2D(1.0, 1.0, 0.0), Pose2D(4.0, 4.0, 0.0), **kw)
+
+
+def test_unreachable_goal_times_out_on_iterations():
+    problem = _enclosed_goal_problem(time_limit=60.0)
+    t0 = time.perf_counter()
+    res = CRRTStar(max_iterations=1500).plan(problem)
+    assert time.perf_counter() - t0 < 30.0
+    assert res.status is PlanStatus.TIMEOUT
+    assert "1500 iterations" in res.reason
+    assert res.stats["iterations"] == 1500
+    np.testing.assert_array_equal(res.path[0], problem.start.as_array())
+    assert res.path.shape[0] > 1  # the best partial path: toward the node nearest the goal
+    assert res.stats["distance_to_goal_m"] > 0.5
+    assert np.min(problem.world.signed_distance(res.path[:, :2])) >= CLEARANCE
+
+
+def test_unreachable_goal_times_out_on_time():
+    problem = _enclosed_goal_problem(time_limit=0.3)
+    t0 = time.perf_counter()
+    res = CRRTStar(max_iterations=10**9).plan(problem)
+    assert time.perf_counter() - t0 < 0.3 + 1.0
+    assert res.status is PlanStatus.TIMEOUT
+    assert "time limit" in res.reason
+
+
+def test_invalid_start_and_goal(scenario):
+    robot = load_robot("edumip")
+    box = Box((2.0, 2.0), (1.0, 1.0))
+    world = World((0.0, 5.0, 0.0, 5.0), (box,))
+    bad = Pose2D(2.0, 2.85, 0.0)  # 0.35 m from the box: free for the body, inside the 40 cm clearance
+    good = Pose2D(0.6, 0.6, 0.0)
+    res = CRRTStar().plan(PlanProblem(world, robot, bad, good))
+    assert res.status is PlanStatus.INVALID_START and "0.350 m" in res.reason and "0.400 m" in res.reason
+    res = CRRTStar().plan(PlanProblem(world, robot, good, bad))
+    assert res.status is PlanStatus.INVALID_GOAL and "goal" in res.reason
+    # the same pose is fine with a smaller clearance
+    res = CRRTStar(center_clearance=0.3).plan(PlanProblem(world, robot, good, bad))
+    assert res.status is PlanStatus.SUCCESS
+
+
+def test_segment_check_is_exact_near_a_corner():
+    robot = load_robot("edumip")
+    world = World((-5.0, 5.0, -5.0, 5.0), (Box((0.0, 0.0), (1.0, 1.0)),))
+    problem = PlanProblem(world, robot, Pose2D(-3.0, 0.0, 0.0), Pose2D(3.0, 0.0, 0.0))
+    search = _Search(CRRTStarConfig(), problem, CLEARANCE)
+    # horizontal segments above the box's top face y = 0.5, at true clearance 0.39 and 0.42 m
+    a = np.array([[-1.3, 0.89], [-1.3, 0.92]])
+    b = np.array([[1.3, 0.89], [1.3, 0.92]])
+    free, d = search.segments(a, b)
+    assert free.tolist() == [False, True]
+    np.testing.assert_allclose(d, [0.39, 0.42], atol=1e-12)
+    # diagonal past the corner (0.5, 0.5): true minimum 0.395 lies between samples; rejected
+    c = np.array([0.5, 0.5]) + 0.395 * np.array([-1.0, 1.0]) / np.sqrt(2.0)
+    direction = np.array([1.0, 1.0]) / np.sqrt(2.0)
+    free, _ = search.segments(c - 0.3 * direction + 0.0001, (c + 0.3 * direction)[None, :])
+    assert not free[0]
+
+
+def test_biased_sampler_quadrants(scenario):
+    problem = PlanProblem.from_scenario(scenario, seed=0)
+    xmin, xmax, ymin, ymax = problem.world.bounds
+    search = _Search(CRRTStarConfig(gamma=1.0), problem, CLEARANCE)
+    prev = np.array([1.0, 2.0])  # goal (5, 5) is up and right
+    s = np.array([search.sample_biased(prev) for _ in range(2000)])
+    assert np.all((s[:, 0] >= 1.0) & (s[:, 0] <= xmax) & (s[:, 1] >= 2.0) & (s[:, 1] <= ymax))
+    assert np.all((s[:, 2] >= 0.0) & (s[:, 2] <= np.pi / 2))
+    prev = np.array([5.3, 5.2])  # goal down and left of prev
+    s = np.array([search.sample_biased(prev) for _ in range(2000)])
+    assert np.all((s[:, 0] >= xmin) & (s[:, 0] <= 5.3) & (s[:, 1] >= ymin) & (s[:, 1] <= 5.2))
+    assert np.all((s[:, 2] >= np.pi) & (s[:, 2] <= 1.5 * np.pi))
+    # gamma 0.5: about half the samples biased (binomial, 5 sigma)
+    search = _Search(CRRTStarConfig(gamma=0.5), problem, CLEARANCE)
+    for _ in range(4000):
+        search.sample_biased(np.array([1.0, 1.0]))
+    assert abs(search.biased - 2000) < 5 * np.sqrt(4000 * 0.25)
+    # gamma 0: uniform over the bounds, never biased
+    search = _Search(CRRTStarConfig(gamma=0.0), problem, CLEARANCE)
+    s = np.array([search.sample_biased(np.array([1.0, 1.0])) for _ in range(4000)])
+    assert search.biased == 0 and s[:, 0].min() < 0.0 and s[:, 1].min() < 0.0
+
+
+def test_bad_options():
+    with pytest.raises(ConfigError, match="gamma"):
+        CRRTStarConfig(gamma=1.5)
+    with pytest.raises(ConfigError, match="max_step"):
+        CRRTStar(max_step=0.0)
+    with pytest.raises(ConfigError, match="unknown option"):
+        make_planner("c-rrt-star", step=0.1)
+    problem = PlanProblem.from_scenario(load_scenario("edumip_map"))
+    with pytest.raises(ConfigError, match="radius"):
+        CRRTStar(center_clearance=0.01).plan(problem)
+
+
+def test_directions_forward_only(results):
+    _, res = results[0]
+    assert res.directions is not None and res.directions.shape == (res.path.shape[0],)
+    assert np.all(res.directions == 1.0)
+
+
+def test_goal_at_start_turns_in_place(scenario):
+    start = Pose2D(0.0, 0.0, 0.0)
+    problem = PlanProblem(scenario.world, load_robot("edumip"), start, Pose2D(0.0, 0.0, 1.0))
+    res = CRRTStar().plan(problem)
+    assert res.status is PlanStatus.SUCCESS
+    assert np.all(res.path[:, :2] == 0.0)
+    assert res.path[0, 2] == 0.0 and res.path[-1, 2] == pytest.approx(1.0)
+    assert np.all(np.diff(res.path[:, 2]) > 0)  # one monotone turn, no detour

@@ -1,0 +1,169 @@
+"""Map images to obstacles: the shipped EduMIP map, placement, thresholds, polygons, errors."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from planning.errors import ScenarioError
+from planning.maps import (
+    EDUMIP_MAP_OBSTACLES,
+    edumip_map_image,
+    load_image_obstacles,
+    load_map_table,
+    obstacles_from_mask,
+    read_grey,
+)
+from planning.robot import MODELS_DIR
+from planning.scenario import MAP_LOADERS, load_scenario_file
+from planning.world import Box, Polygon, polygon_area
+
+MAP_PNG = MODELS_DIR / "maps" / "edumip_map.png"
+PX = 0.01
+
+
+def test_shipped_png_is_the_generator_output():
+    img = np.asarray(Image.open(MAP_PNG))
+    assert img.shape == (500, 500) and img.dtype == np.uint8
+    np.testing.assert_array_equal(img, edumip_map_image())
+
+
+def test_edumip_map_boxes_match_drawn_rectangles():
+    obstacles = load_image_obstacles(MAP_PNG, PX, (0.0, 0.0), 0.5, "box")
+    assert len(obstacles) == 4
+    assert all(isinstance(o, Box) and o.angle == 0.0 for o in obstacles)
+    found = sorted((o.bounding_box() for o in obstacles), key=lambda b: (b[0], -b[2]))
+    drawn = sorted(EDUMIP_MAP_OBSTACLES.values(), key=lambda b: (b[0], -b[2]))
+    for (x0, x1, y0, y1), (a0, a1, b0, b1) in zip(found, drawn, strict=True):
+        assert max(abs(x0 - a0), abs(x1 - a1), abs(y0 - b0), abs(y1 - b1)) <= PX + 1e-9
+    # the seed's numbering: O1 leftmost, O2..O4 on the right from top to bottom
+    o = EDUMIP_MAP_OBSTACLES
+    assert o["O1"][1] < min(o[k][0] for k in ("O2", "O3", "O4"))
+    assert o["O2"][2] > o["O3"][3] and o["O3"][2] > o["O4"][3]
+
+
+def test_placement_origin_and_y_up(tmp_path):
+    img = np.full((3, 4), 255, dtype=np.uint8)
+    img[0, 0] = 0  # top-left pixel
+    img[2, 3] = 0  # bottom-right pixel
+    path = tmp_path / "m.png"
+    Image.fromarray(img).save(path)
+    obs = load_image_obstacles(path, 0.5, (10.0, -2.0))
+    boxes = sorted(o.bounding_box() for o in obs)
+    assert boxes[0] == pytest.approx((10.0, 10.5, -1.0, -0.5))  # top-left: the top row, highest y
+    assert boxes[1] == pytest.approx((11.5, 12.0, -2.0, -1.5))  # bottom-right: at the origin's y
+
+
+def test_threshold_and_transparency(tmp_path):
+    rgba = np.zeros((4, 4, 4), dtype=np.uint8)
+    rgba[..., :3] = 255
+    rgba[..., 3] = 255
+    rgba[0, 0, :3] = 102  # grey 0.4
+    rgba[3, 3, :3] = 0
+    rgba[3, 3, 3] = 0  # fully transparent black counts as white
+    path = tmp_path / "m.png"
+    Image.fromarray(rgba, mode="RGBA").save(path)
+    assert read_grey(path)[3, 3] == 1.0
+    assert len(load_image_obstacles(path, 1.0, threshold=0.5)) == 1
+    assert len(load_image_obstacles(path, 1.0, threshold=0.3)) == 0
+
+
+def test_four_connectivity_and_jpeg(tmp_path):
+    mask = np.zeros((5, 5), dtype=bool)
+    mask[1, 1] = mask[2, 2] = True  # touching only diagonally: two regions
+    assert len(obstacles_from_mask(mask, 1.0)) == 2
+    # JPEG: compression blurs edges; boxes still within one pixel of the drawn ones
+    img = edumip_map_image()
+    path = tmp_path / "map.jpg"
+    Image.fromarray(img).save(path, quality=85)
+    obs = load_image_obstacles(path, PX)
+    assert len(obs) == 4
+    found = sorted(o.bounding_box() for o in obs)
+    drawn = sorted(EDUMIP_MAP_OBSTACLES.values())
+    assert np.max(np.abs(np.array(found) - np.array(drawn))) <= PX + 1e-9
+
+
+def test_polygon_outline_is_exact():
+    # an L shape with a hole: the outline follows pixel edges, the hole is filled
+    mask = np.zeros((8, 9), dtype=bool)
+    mask[1:7, 1:4] = True
+    mask[5:7, 1:8] = True
+    mask[3, 2] = False  # hole
+    (poly,) = obstacles_from_mask(mask, 0.1, (1.0, 2.0), "polygon")
+    assert isinstance(poly, Polygon)
+    assert len(poly.array) == 6
+    filled = mask.copy()
+    filled[3, 2] = True
+    assert abs(polygon_area(poly.array)) == pytest.approx(filled.sum() * 0.01, abs=1e-12)
+    # every pixel centre is inside exactly when its pixel belongs to the (filled) region
+    rows, cols = np.indices(mask.shape)
+    centres = np.column_stack([1.0 + (cols.ravel() + 0.5) * 0.1, 2.0 + (mask.shape[0] - rows.ravel() - 0.5) * 0.1])
+    inside = poly.signed_distance(centres) < 0
+    np.testing.assert_array_equal(inside, filled.ravel())
+    # box mode gives the bounding rectangle of the same region
+    (box,) = obstacles_from_mask(mask, 0.1, (1.0, 2.0), "box")
+    assert box.bounding_box() == pytest.approx(poly.bounding_box(), abs=1e-12)
+
+
+def test_polygon_mode_on_shipped_map_equals_boxes():
+    boxes = load_image_obstacles(MAP_PNG, PX, shape="box")
+    polys = load_image_obstacles(MAP_PNG, PX, shape="polygon")
+    pts = np.random.default_rng(0).uniform(-0.5, 5.5, size=(2000, 2))
+    for b, p in zip(boxes, polys, strict=True):
+        assert len(p.array) == 4
+        np.testing.assert_allclose(p.signed_distance(pts), b.signed_distance(pts), atol=1e-9)
+
+
+def _scenario(tmp_path: Path, map_table: str) -> Path:
+    text = f"""
+name = "m"
+robot = "edumip"
+[world]
+bounds = [-1.0, 6.0, -1.0, 6.0]
+[world.map]
+{map_table}
+[start]
+pose = [0.0, 0.0, 0.0]
+[goal]
+pose = [5.0, 5.0, 0.0]
+"""
+    sub = tmp_path / "scen"
+    sub.mkdir(exist_ok=True)
+    path = sub / "m.toml"
+    path.write_text(text)
+    return path
+
+
+def test_scenario_map_table(tmp_path):
+    assert MAP_LOADERS["image"] is load_map_table
+    Image.fromarray(edumip_map_image()).save(tmp_path / "map.png")
+    sc = load_scenario_file(_scenario(tmp_path, 'image = "../map.png"\nresolution = 0.01\nshape = "polygon"'))
+    assert len(sc.world.obstacles) == 4 and all(isinstance(o, Polygon) for o in sc.world.obstacles)
+    sc = load_scenario_file(_scenario(tmp_path, 'image = "../map.png"\nresolution = 0.01\norigin = [-1.0, -0.5]'))
+    assert max(o.bounding_box()[1] for o in sc.world.obstacles) == pytest.approx(-1.0 + 4.4)
+    assert max(o.bounding_box()[3] for o in sc.world.obstacles) == pytest.approx(-0.5 + 4.5)
+
+
+@pytest.mark.parametrize(
+    ("table", "message"),
+    [
+        ('image = "../nope.png"\nresolution = 0.01', "does not exist"),
+        ('image = "../bad.png"\nresolution = 0.01', "not a readable PNG/JPEG"),
+        ('image = "../map.png"\nresolution = -0.01', "world.map.resolution"),
+        ('image = "../map.png"\nresolution = 0.01\nthreshold = 2.0', "world.map.threshold"),
+        ('image = "../map.png"\nresolution = 0.01\norigin = [1.0]', "world.map.origin"),
+        ('image = "../map.png"\nresolution = 0.01\nshape = "circle"', "world.map.shape"),
+        ('image = "../map.png"\nresolution = 0.01\nscale = 2', "unknown key"),
+        ('image = "../map.png"', "world.map.resolution"),
+        ("image = 3\nresolution = 0.01", "world.map.image"),
+    ],
+)
+def test_map_table_errors(tmp_path, table, message):
+    Image.fromarray(edumip_map_image()).save(tmp_path / "map.png")
+    (tmp_path / "bad.png").write_text("not an image")
+    with pytest.raises(ScenarioError, match=message) as info:
+        load_scenario_file(_scenario(tmp_path, table))
+    assert "m.toml" in str(info.value)

@@ -1,0 +1,51 @@
+"""The kinematic spec read from the MJCF agrees with what MuJoCo compiles from the same file."""
+
+import mujoco
+import numpy as np
+import pytest
+
+from planning.errors import ModelError
+from planning.robot import ROBOT_FILES, load_robot
+
+
+@pytest.mark.parametrize("name", sorted(ROBOT_FILES))
+def test_spec_matches_the_compiled_model(name: str) -> None:
+    spec = load_robot(name)
+    m = mujoco.MjModel.from_xml_path(str(spec.scene))
+    assert spec.wheel_radius == pytest.approx(m.geom_size[m.geom("wheel_left_geom").id][0])
+    yl = m.body_pos[m.body("wheel_left").id][1]
+    yr = m.body_pos[m.body("wheel_right").id][1]
+    assert spec.track_width == pytest.approx(yl - yr)
+    assert spec.max_wheel_speed == pytest.approx(m.actuator_ctrlrange[m.actuator("wheel_left_motor").id][1])
+    assert spec.mass == pytest.approx(float(np.sum(m.body_mass)), rel=1e-6)
+    # the footprint covers every geom's horizontal extent (checked with MuJoCo's own AABBs)
+    data = mujoco.MjData(m)
+    mujoco.mj_forward(m, data)
+    base = m.body("base").id
+    for g in range(m.ngeom):
+        if m.geom_bodyid[g] == 0:
+            continue
+        r = m.geom_rbound[g]
+        centre = data.geom_xpos[g][:2] - data.xpos[base][:2]
+        assert np.hypot(*centre) - spec.radius <= r + 1e-9
+    # the robot can reach its planning limits with its motors
+    assert spec.max_speed <= spec.max_wheel_speed * spec.wheel_radius + 1e-9
+
+
+def test_seed_limits_are_in_the_models() -> None:
+    tb3, mip = load_robot("turtlebot3"), load_robot("edumip")
+    assert (tb3.max_speed, tb3.max_yaw_rate, tb3.wheel_radius, tb3.track_width) == (0.22, 2.84, 0.033, 0.16)
+    assert (mip.max_speed, mip.max_yaw_rate) == (0.8, 0.5)
+
+
+def test_unknown_robot_names_the_choices() -> None:
+    with pytest.raises(ModelError, match="edumip, turtlebot3"):
+        load_robot("roomba")
+
+
+def test_model_missing_a_limit_is_reported(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    text = load_robot("edumip").mjcf.read_text().replace('name="nhsim_max_linear_speed"', 'name="other"')
+    bad = tmp_path / "bad.xml"
+    bad.write_text(text)
+    with pytest.raises(ModelError, match="nhsim_max_linear_speed"):
+        load_robot(str(bad))

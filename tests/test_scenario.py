@@ -1,0 +1,100 @@
+"""Scenario files: the format, and a clear error for every kind of bad input."""
+
+from pathlib import Path
+
+import pytest
+
+from planning.errors import ScenarioError
+from planning.scenario import builtin_scenarios, load_scenario
+from planning.world import Box, Circle, Ellipse, Polygon
+
+GOOD = """
+name = "farm"
+robot = "turtlebot3"
+[world]
+bounds = [-3.0, 3.0, -3.0, 3.0]
+[[world.obstacles]]
+type = "circle"
+center = [1.0, 0.5]
+radius = 0.3
+[[world.obstacles]]
+type = "ellipse"
+center = [-1.0, 1.0]
+radii = [0.5, 0.25]
+angle = 0.3
+[[world.obstacles]]
+type = "box"
+center = [0.0, -1.5]
+size = [1.0, 0.4]
+angle = 0.0
+[[world.obstacles]]
+type = "polygon"
+vertices = [[0.0, 0.0], [1.0, 0.0], [0.5, 1.0]]
+[start]
+pose = [-2.5, -2.5, 0.0]
+[goal]
+pose = [2.5, 2.5, 1.57]
+position_tolerance = 0.05
+heading_tolerance = 0.1
+"""
+
+
+def _write(tmp_path: Path, text: str) -> Path:
+    p = tmp_path / "s.toml"
+    p.write_text(text)
+    return p
+
+
+def test_the_documented_example_loads(tmp_path: Path) -> None:
+    sc = load_scenario(_write(tmp_path, GOOD))
+    assert sc.name == "farm" and sc.robot == "turtlebot3"
+    kinds = [type(o) for o in sc.world.obstacles]
+    assert kinds == [Circle, Ellipse, Box, Polygon]
+    assert sc.goal.theta == pytest.approx(1.57) and sc.position_tolerance == 0.05
+    assert sc.source is not None
+
+
+def test_name_defaults_to_the_file_stem(tmp_path: Path) -> None:
+    sc = load_scenario(_write(tmp_path, GOOD.replace('name = "farm"\n', "")))
+    assert sc.name == "s"
+
+
+@pytest.mark.parametrize(
+    ("edit", "match"),
+    [
+        (('robot = "turtlebot3"', 'robot = "roomba"'), r"field 'robot': expected one of edumip, turtlebot3"),
+        (("[start]", "colour = 1\n[start]"), r"unknown key\(s\) 'colour'"),
+        (("pose = [-2.5, -2.5, 0.0]", "pose = [-2.5, -2.5]"), r"'start.pose': expected a list of 3 finite numbers"),
+        (("pose = [-2.5, -2.5, 0.0]", "pose = [-9.0, 0.0, 0.0]"), r"'start.pose': expected a position inside"),
+        (("pose = [-2.5, -2.5, 0.0]", "pose = [1.0, 0.5, 0.0]"), r"inside world.obstacles\[0\] \(circle\)"),
+        (('type = "circle"', 'type = "star"'), r"'world.obstacles\[0\].type': expected one of"),
+        (("radius = 0.3", "radius = -0.3"), r"'world.obstacles\[0\].radius': expected a number > 0"),
+        (("radius = 0.3", 'radius = "big"'), r"expected a finite number"),
+        (("bounds = [-3.0, 3.0, -3.0, 3.0]", "bounds = [3.0, -3.0, -3.0, 3.0]"), "xmin < xmax"),
+        (("position_tolerance = 0.05", "position_tolerance = 0"), "expected a number > 0"),
+        (("[goal]\npose = [2.5, 2.5, 1.57]", "[goal]"), r"missing field\(s\) 'goal.pose'"),
+        (("radius = 0.3", "radius = 0.3\nfoo = 2"), r"unknown key\(s\) 'foo' in \[world.obstacles\[0\]\]"),
+    ],
+)
+def test_bad_files_fail_with_file_field_and_expectation(tmp_path: Path, edit: tuple[str, str], match: str) -> None:
+    path = _write(tmp_path, GOOD.replace(*edit, 1))
+    with pytest.raises(ScenarioError, match=match) as err:
+        load_scenario(path)
+    assert str(path) in str(err.value)
+
+
+def test_invalid_toml_and_missing_files(tmp_path: Path) -> None:
+    with pytest.raises(ScenarioError, match="not valid TOML"):
+        load_scenario(_write(tmp_path, "name = "))
+    with pytest.raises(ScenarioError, match="does not exist"):
+        load_scenario(tmp_path / "nope.toml")
+    with pytest.raises(ScenarioError, match=r"unknown scenario 'nope'.*open"):
+        load_scenario("nope")
+
+
+def test_builtin_scenarios_load() -> None:
+    names = builtin_scenarios()
+    assert "open" in names
+    for name in names:
+        sc = load_scenario(name)
+        assert sc.name == name

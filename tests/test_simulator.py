@@ -1,0 +1,96 @@
+"""Closed loop against open loop in MuJoCo physics, determinism, collisions and rates."""
+
+import numpy as np
+import pytest
+
+from control.fbl import FBLGains
+from control.tracker import make_tracker
+from planning.errors import ConfigError
+from planning.geometry import Pose2D
+from planning.references import make_reference
+from planning.robot import load_robot
+from planning.world import Box, World
+from sim.jobs import simulate_reference
+from sim.simulator import SimConfig, Simulator
+
+
+@pytest.mark.parametrize("robot", ["turtlebot3", "edumip"])
+@pytest.mark.parametrize("reference", ["figure8", "circle"])
+def test_closed_loop_tracks_to_the_centimetre_and_beats_open_loop(robot: str, reference: str) -> None:
+    res = simulate_reference("open", robot=robot, reference=reference)
+    closed, opened = res.metrics["closed_loop"], res.metrics["open_loop"]
+    assert closed.rms_position_error_m <= 0.01
+    assert closed.final_position_error_m <= 0.01
+    assert opened.final_position_error_m >= 5 * closed.final_position_error_m
+    for m in (closed, opened):
+        assert m.warnings == 0 and m.collisions == 0
+    # the log's pose comes from the sensors and agrees with the free joint
+    log = res.logs["closed_loop"]
+    np.testing.assert_allclose(log.pose[:, :2], log.qpos[:, :2], atol=1e-9)
+
+
+def test_same_seed_same_run_bitwise() -> None:
+    a = simulate_reference("open", reference="circle", seed=3)
+    b = simulate_reference("open", reference="circle", seed=3)
+    for label in ("closed_loop", "open_loop"):
+        assert a.logs[label].identical_to(b.logs[label])
+
+
+def test_commands_respect_limits_and_log_shapes() -> None:
+    robot = load_robot("turtlebot3")
+    sim = Simulator(robot)
+    traj = make_reference("figure8", robot, Pose2D(0, 0, 0))
+    log = sim.run(traj, make_tracker("fbl", robot, gains=FBLGains(kp=30, kd=3)), SimConfig(control_rate=25))
+    assert np.all(np.abs(log.command[:, 0]) <= robot.max_speed + 1e-12)
+    assert np.all(np.abs(log.command[:, 1]) <= robot.max_yaw_rate + 1e-12)
+    assert np.all(np.abs(log.wheel_command) <= robot.max_wheel_speed + 1e-12)
+    n = len(log)
+    assert log.qpos.shape == (n, sim.model.nq) and log.ref_pose.shape == (n, 3)
+    assert np.all(np.diff(log.t) > 0)
+    assert log.t[-1] == pytest.approx(traj.t[-1], abs=0.04 + 1e-9)
+
+
+def test_driving_into_a_wall_is_reported_as_a_collision() -> None:
+    robot = load_robot("turtlebot3")
+    world = World((-2, 2, -2, 2), (Box((1.0, 0.0), (0.2, 1.0)),))
+    sim = Simulator(robot, world)
+    traj = make_reference("line", robot, Pose2D(0, 0, 0), length=1.8)
+    log = sim.run(traj, make_tracker("open-loop", robot))
+    assert log.contacts and log.contacts[0].obstacle == "obstacle_0"
+    assert 0 < log.contacts[0].t < traj.duration
+
+
+def test_control_rate_must_divide_the_physics_rate() -> None:
+    robot = load_robot("turtlebot3")
+    sim = Simulator(robot)
+    traj = make_reference("line", robot, Pose2D(0, 0, 0))
+    with pytest.raises(ConfigError, match="whole number"):
+        sim.run(traj, make_tracker("fbl", robot), SimConfig(control_rate=33))
+    with pytest.raises(ConfigError, match="positive"):
+        SimConfig(control_rate=-1)
+
+
+def test_seed_rate_of_10_hz_still_tracks() -> None:
+    res = simulate_reference("open", reference="circle", trackers=("closed_loop",), config=SimConfig(control_rate=10))
+    assert res.metrics["closed_loop"].final_position_error_m < 0.05
+
+
+def test_a_mujoco_warning_fails_the_run_loudly_and_keeps_the_log() -> None:
+    import mujoco
+
+    from planning.errors import SimulationError
+
+    robot = load_robot("turtlebot3")
+    sim = Simulator(robot)
+    m = sim.model  # make the wheel servos absurdly stiff under explicit Euler: physics blows up
+    m.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    m.actuator_gainprm[:, 0] = 1e7
+    m.actuator_biasprm[:, 2] = -1e7
+    m.actuator_forcerange[:] = [-1e9, 1e9]
+    traj = make_reference("line", robot, Pose2D(0, 0, 0))
+    with pytest.raises(SimulationError, match="mjWARN_BADQACC") as err:
+        sim.run(traj, make_tracker("fbl", robot))
+    log = err.value.log  # type: ignore[attr-defined]
+    assert log.warnings and len(log) > 1
+    relaxed = sim.run(traj, make_tracker("fbl", robot), SimConfig(strict=False))
+    assert relaxed.warnings

@@ -1,0 +1,110 @@
+"""Signed distances checked against a slow reference: distance to a densely sampled boundary."""
+
+import numpy as np
+import pytest
+from scipy.optimize import minimize_scalar
+
+from planning.world import Box, Circle, Ellipse, Polygon, World, polygon_area
+
+
+def _boundary(obs: object, n: int = 20000) -> np.ndarray:
+    s = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    if isinstance(obs, Circle):
+        return np.asarray(obs.center) + obs.radius * np.column_stack([np.cos(s), np.sin(s)])
+    if isinstance(obs, Ellipse):
+        a, b = obs.radii
+        c, sn = np.cos(obs.angle), np.sin(obs.angle)
+        loc = np.column_stack([a * np.cos(s), b * np.sin(s)])
+        return loc @ np.array([[c, sn], [-sn, c]]) + np.asarray(obs.center)
+    verts = obs.corners() if isinstance(obs, Box) else obs.array
+    pts = []
+    for a, b in zip(verts, np.roll(verts, -1, axis=0), strict=True):
+        u = np.linspace(0, 1, n // len(verts), endpoint=False)[:, None]
+        pts.append(a + u * (b - a))
+    return np.vstack(pts)
+
+
+def _inside(obs: object, p: np.ndarray) -> np.ndarray:
+    if isinstance(obs, Circle):
+        return np.hypot(*(p - obs.center).T) < obs.radius
+    if isinstance(obs, Ellipse):
+        c, s = np.cos(obs.angle), np.sin(obs.angle)
+        d = p - obs.center
+        lx, ly = c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]
+        return (lx / obs.radii[0]) ** 2 + (ly / obs.radii[1]) ** 2 < 1
+    from matplotlib.path import Path
+
+    verts = obs.corners() if isinstance(obs, Box) else obs.array
+    return Path(verts).contains_points(p)
+
+
+OBSTACLES = [
+    Circle((0.3, -0.2), 0.7),
+    Ellipse((0.1, 0.2), (1.2, 0.4), 0.7),
+    Ellipse((0.0, 0.0), (0.3, 0.9), -0.4),
+    Box((0.2, 0.1), (1.0, 0.4), 0.5),
+    Polygon(((0, 0), (2, 0), (2, 2), (1, 0.6), (0, 2))),  # non-convex
+]
+
+
+@pytest.mark.parametrize("obs", OBSTACLES, ids=lambda o: o.kind)
+def test_signed_distance_matches_dense_boundary_reference(obs: object) -> None:
+    rng = np.random.default_rng(3)
+    pts = rng.uniform(-2.5, 2.5, size=(400, 2))
+    sd = obs.signed_distance(pts)  # type: ignore[attr-defined]
+    bnd = _boundary(obs)
+    ref = np.min(np.hypot(pts[:, None, 0] - bnd[None, :, 0], pts[:, None, 1] - bnd[None, :, 1]), axis=1)
+    ref = np.where(_inside(obs, pts), -ref, ref)
+    spacing = np.max(np.hypot(*np.diff(bnd, axis=0).T))
+    np.testing.assert_allclose(sd, ref, atol=spacing)  # the reference is off by at most the sample spacing
+
+
+def test_ellipse_distance_is_exact_against_a_1d_minimisation() -> None:
+    e = Ellipse((0.5, -0.3), (1.5, 0.5), 0.3)
+    rng = np.random.default_rng(4)
+    pts = rng.uniform(-3, 3, size=(50, 2))
+    sd = e.signed_distance(pts)
+    for p, d in zip(pts, sd, strict=True):
+        rot = np.array([[np.cos(e.angle), np.sin(e.angle)], [-np.sin(e.angle), np.cos(e.angle)]])
+
+        def dist(u: float, p: np.ndarray = p, rot: np.ndarray = rot) -> float:
+            q = np.array([1.5 * np.cos(u), 0.5 * np.sin(u)]) @ rot + e.center
+            return float(np.hypot(*(q - p)))
+
+        grid = np.linspace(0, 2 * np.pi, 721)
+        u0 = grid[np.argmin([dist(u) for u in grid])]
+        best = minimize_scalar(dist, bounds=(u0 - 0.01, u0 + 0.01), method="bounded", options={"xatol": 1e-12}).fun
+        assert abs(abs(d) - best) < 1e-7
+
+
+def test_world_walls_and_minimum() -> None:
+    w = World((-1, 1, -2, 2), (Circle((0, 0), 0.5),))
+    np.testing.assert_allclose(w.wall_distance([[0.9, 0.0], [0, -1.5]]), [0.1, 0.5])
+    np.testing.assert_allclose(w.signed_distance([[0.9, 0.0]]), [0.1])
+    np.testing.assert_allclose(w.signed_distance([[0.0, 0.0]]), [-0.5])
+    assert w.is_free([[0.0, 1.0]], clearance=0.3).tolist() == [True]
+    assert w.is_free([[0.0, 0.7]], clearance=0.3).tolist() == [False]
+    assert w.min_feature() == pytest.approx(1.0)
+    assert World((0, 1, 0, 1)).obstacle_distance([[0.5, 0.5]])[0] == np.inf
+
+
+@pytest.mark.parametrize(
+    ("ctor", "match"),
+    [
+        (lambda: Circle((0, 0), 0.0), "radius"),
+        (lambda: Ellipse((0, 0), (1, -1)), "radii"),
+        (lambda: Box((0, 0), (0, 1)), "size"),
+        (lambda: Polygon(((0, 0), (1, 1))), "at least 3"),
+        (lambda: Polygon(((0, 0), (1, 1), (2, 2))), "zero area"),
+        (lambda: World((1, 0, 0, 1)), "xmin < xmax"),
+    ],
+)
+def test_bad_shapes_are_rejected(ctor: object, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        ctor()  # type: ignore[operator]
+
+
+def test_polygon_orientation_is_normalised() -> None:
+    cw = Polygon(((0, 0), (0, 1), (1, 1), (1, 0)))
+    assert polygon_area(cw.array) > 0
+    assert cw.signed_distance([[0.5, 0.5]])[0] == pytest.approx(-0.5)
