@@ -155,7 +155,7 @@ def _scenarios():
     out = []
     for name in builtin_scenarios():
         s = load_scenario(name)
-        if np.hypot(s.start.x - s.goal.x, s.start.y - s.goal.y) > s.position_tolerance and s.robot == "turtlebot3":
+        if np.hypot(s.start.x - s.goal.x, s.start.y - s.goal.y) > s.position_tolerance:
             out.append(name)
     return out
 
@@ -168,6 +168,6 @@ def test_builtin_scenarios(scenario, name, opts):
         prob = PlanProblem.from_scenario(load_scenario(scenario), seed=seed, time_limit=30.0)
         res = make_planner(name, max_iterations=3000, **opts).plan(prob)
         if res.status is PlanStatus.SUCCESS:
-            _check_path(res, prob, None if name == "rrt" else RHO)
+            _check_path(res, prob, None if name == "rrt" else default_turning_radius(prob.robot))
         else:
             assert res.status is PlanStatus.TIMEOUT and res.reason
