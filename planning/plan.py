@@ -137,6 +137,9 @@ class Planner(Protocol):
 
 #: Planner name -> "module:factory". The factory takes keyword-only options and returns a Planner.
 PLANNERS: dict[str, str] = {
+    "rrt": "planning.rrt:RRT",
+    "birrt": "planning.rrt:BiRRT",
+    "rrt-star": "planning.rrt_star:RRTStar",
     "c-rrt-star": "planning.crrt_star:CRRTStar",
 }
 

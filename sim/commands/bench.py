@@ -13,6 +13,7 @@ from typing import Any
 #: Benchmark name -> (module, one-line help).
 BENCHMARKS: dict[str, tuple[str, str]] = {
     "sim": ("sim.bench.sim", "closed-loop physics steps/s against a bare mj_step loop, and real-time factor"),
+    "plan": ("sim.bench.plan", "birrt / rrt-star against OMPL's RRTConnect / RRT* on the same problems and checker"),
 }
 
 

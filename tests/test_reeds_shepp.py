@@ -1,0 +1,89 @@
+"""Reeds–Shepp curves: endpoints, integration of the controls, symmetry, known optima, OMPL."""
+
+import numpy as np
+import pytest
+
+from planning.dubins import dubins_length
+from planning.kinematics import rollout, unicycle_rhs
+from planning.reeds_shepp import reeds_shepp_length, reeds_shepp_path
+
+RNG = np.random.default_rng(7)
+N = 400
+A = np.column_stack([RNG.uniform(-4, 4, (N, 2)), RNG.uniform(-np.pi, np.pi, N)])
+B = np.column_stack([RNG.uniform(-4, 4, (N, 2)), RNG.uniform(-np.pi, np.pi, N)])
+
+
+def _wrap(a):
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+@pytest.mark.parametrize("i", range(0, N, 50))
+def test_controls_integrate_to_goal_and_length(i):
+    rho = 0.6
+    w = reeds_shepp_path(A[i], B[i], rho)
+    dur, u = w.controls(speed=1.0)
+    x = A[i].copy()
+    travelled = 0.0
+    for d, uk in zip(dur, u, strict=True):
+        n = max(1, int(np.ceil(d / 1e-3)))
+        x = rollout(unicycle_rhs, x, np.repeat(uk[None, :], n, axis=0), d / n)[-1]
+        travelled += abs(uk[0]) * d
+    assert np.allclose(x[:2], B[i, :2], atol=1e-9)
+    assert abs(_wrap(x[2] - B[i, 2])) < 1e-9
+    assert travelled == pytest.approx(reeds_shepp_length(A[i], B[i], rho)[0], abs=1e-12)
+
+
+def test_samples_start_end_and_spacing():
+    w = reeds_shepp_path(A[0], B[0], 0.5)
+    poses, dirs = w.sample(0.01)
+    assert np.allclose(poses[0], A[0])
+    assert np.allclose(poses[-1, :2], B[0, :2], atol=1e-9) and abs(_wrap(poses[-1, 2] - B[0, 2])) < 1e-9
+    assert np.all(np.hypot(*np.diff(poses[:, :2], axis=0).T) <= 0.01 + 1e-12)
+    assert set(np.unique(dirs)) <= {-1.0, 1.0}
+
+
+def test_never_longer_than_dubins_and_symmetric():
+    rs = reeds_shepp_length(A, B, 0.7)
+    assert np.all(rs <= dubins_length(A, B, 0.7) + 1e-9)
+    # reversing a path in time joins b to a with the same length
+    assert np.allclose(rs, reeds_shepp_length(B, A, 0.7), atol=1e-9)
+    # invariance under a rigid motion of both poses
+    c, s = np.cos(0.8), np.sin(0.8)
+    R = np.array([[c, -s], [s, c]])
+    A2 = np.column_stack([A[:, :2] @ R.T + [1.0, -2.0], A[:, 2] + 0.8])
+    B2 = np.column_stack([B[:, :2] @ R.T + [1.0, -2.0], B[:, 2] + 0.8])
+    assert np.allclose(rs, reeds_shepp_length(A2, B2, 0.7), atol=1e-9)
+    # scaling: length scales with the radius when the poses scale too
+    assert np.allclose(2 * rs, reeds_shepp_length(A * [2, 2, 1], B * [2, 2, 1], 1.4), atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("goal", "expected"),
+    [
+        ((3.0, 0.0, 0.0), 3.0),  # straight ahead
+        ((-2.0, 0.0, 0.0), 2.0),  # straight back
+        ((0.0, 2.0, np.pi), np.pi),  # half circle left
+        ((0.0, 0.0, 0.0), 0.0),
+    ],
+)
+def test_known_values(goal, expected):
+    assert reeds_shepp_length([0.0, 0.0, 0.0], goal, 1.0)[0] == pytest.approx(expected, abs=1e-9)
+
+
+def test_matches_ompl():
+    ob = pytest.importorskip("ompl.base")
+    sp = ob.ReedsSheppStateSpace(0.7)
+    s0, s1 = sp.allocState(), sp.allocState()
+    ref = []
+    for a, b in zip(A, B, strict=True):
+        s0.setX(a[0]), s0.setY(a[1]), s0.setYaw(a[2])
+        s1.setX(b[0]), s1.setY(b[1]), s1.setYaw(b[2])
+        ref.append(sp.distance(s0, s1))
+    assert np.allclose(reeds_shepp_length(A, B, 0.7), ref, atol=1e-9)
+
+
+def test_bad_input():
+    with pytest.raises(ValueError, match="turning radius"):
+        reeds_shepp_length([0, 0, 0], [1, 1, 0], 0.0)
+    with pytest.raises(ValueError, match="shape"):
+        reeds_shepp_length([0, 0], [1, 1, 0], 1.0)

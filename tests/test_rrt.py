@@ -1,0 +1,173 @@
+"""RRT, BiRRT and RRT*: valid paths checked independently, determinism, budgets, known failures."""
+
+import itertools
+
+import numpy as np
+import pytest
+
+from planning.geometry import Pose2D
+from planning.plan import PlanProblem, PlanStatus, make_planner
+from planning.reeds_shepp import reeds_shepp_length
+from planning.robot import load_robot
+from planning.scenario import builtin_scenarios, load_scenario
+from planning.steering import default_turning_radius
+from planning.world import Box, Circle, World
+
+ROBOT = load_robot("turtlebot3")
+RHO = default_turning_radius(ROBOT)
+DISC = World((0.0, 6.0, 0.0, 6.0), (Circle((3.0, 3.0), 1.2),))
+
+
+def _problem(seed=0, world=DISC, start=(0.6, 0.6, 0.0), goal=(5.4, 5.4, 0.0), **kw):
+    return PlanProblem(world, ROBOT, Pose2D(*start), Pose2D(*goal), seed=seed, time_limit=kw.pop("time_limit", 20.0))
+
+
+def _independent_free(world, robot, path):
+    """Footprint boundary every 2 mm, path resampled every 5 mm, against World.signed_distance."""
+    fp = robot.footprint
+    pts = []
+    for a, b in zip(fp, np.roll(fp, -1, axis=0), strict=True):
+        n = max(1, int(np.ceil(np.hypot(*(b - a)) / 0.002)))
+        pts.append(a + np.arange(n)[:, None] / n * (b - a))
+    body = np.vstack(pts)
+    seg = np.hypot(*np.diff(path[:, :2], axis=0).T) + robot.radius * np.abs(np.diff(np.unwrap(path[:, 2])))
+    k = np.maximum(1, np.ceil(seg / 0.005).astype(int))
+    idx = np.repeat(np.arange(len(k)), k)
+    frac = np.concatenate([np.arange(m) / m for m in k])
+    q = np.column_stack([path[:, :2], np.unwrap(path[:, 2])])
+    dense = np.vstack([q[idx] + frac[:, None] * (q[idx + 1] - q[idx]), q[-1:]])
+    c, s = np.cos(dense[:, 2])[:, None], np.sin(dense[:, 2])[:, None]
+    wx = dense[:, :1] + c * body[:, 0] - s * body[:, 1]
+    wy = dense[:, 1:2] + s * body[:, 0] + c * body[:, 1]
+    return bool(np.all(world.signed_distance(np.column_stack([wx.ravel(), wy.ravel()])) > 0))
+
+
+def _check_path(res, prob, curve_rho=None):
+    assert res.status is PlanStatus.SUCCESS, res.reason
+    p = res.path
+    assert np.allclose(p[0], prob.start.as_array())
+    g = prob.goal.as_array()
+    assert np.hypot(*(p[-1, :2] - g[:2])) <= prob.position_tolerance
+    assert abs((p[-1, 2] - g[2] + np.pi) % (2 * np.pi) - np.pi) <= prob.heading_tolerance
+    ds = np.hypot(*np.diff(p[:, :2], axis=0).T)
+    assert ds.max() <= 0.02 + 1e-9
+    assert res.directions is not None and res.directions.shape == (p.shape[0],)
+    assert _independent_free(prob.world, prob.robot, p)
+    # kinematic feasibility: each step moves along the heading in the stated direction, no sideways jumps
+    d = np.diff(p[:, :2], axis=0)
+    th = p[:-1, 2] + 0.5 * np.diff(np.unwrap(p[:, 2]))
+    along = d[:, 0] * np.cos(th) + d[:, 1] * np.sin(th)
+    side = -d[:, 0] * np.sin(th) + d[:, 1] * np.cos(th)
+    moving = ds > 1e-9
+    assert np.all(np.abs(side[moving]) <= 1e-3 * ds[moving] + 1e-9)
+    assert np.all(np.sign(along[moving]) == res.directions[1:][moving])
+    if curve_rho is not None:  # curvature bound of exact curves
+        dth = np.abs(np.diff(np.unwrap(p[:, 2])))
+        # on an arc of radius r >= rho the chord is 2 r sin(dth / 2) >= 2 rho sin(dth / 2)
+        assert np.all(2 * curve_rho * np.sin(dth[moving] / 2) <= ds[moving] * (1 + 1e-6) + 1e-9)
+
+
+@pytest.mark.parametrize(
+    ("name", "opts", "rho"),
+    [
+        ("rrt", {}, None),
+        ("birrt", {}, None),
+        ("birrt", {"steering": "reeds_shepp"}, RHO),
+        ("birrt", {"steering": "dubins"}, RHO),
+        ("rrt-star", {"max_iterations": 300}, RHO),
+        ("rrt", {"steering": "diffdrive"}, None),
+    ],
+)
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_paths_valid(name, opts, rho, seed):
+    prob = _problem(seed)
+    res = make_planner(name, **opts).plan(prob)
+    _check_path(res, prob, rho)
+
+
+def test_dubins_birrt_joins_forward_without_u_turn():
+    # The join must be a forward Dubins curve from the start tree to the goal tree.
+    for seed in range(8):
+        prob = _problem(seed)
+        res = make_planner("birrt", steering="dubins").plan(prob)
+        _check_path(res, prob, RHO)
+        assert np.all(res.directions == 1.0)
+
+
+def test_rrt_star_edges_exact_after_rewiring_and_cost_monotone():
+    prob = _problem(4)
+    res = make_planner("rrt-star", max_iterations=600).plan(prob)
+    _check_path(res, prob, RHO)
+    tree = res.tree
+    nodes, parents = tree.nodes, tree.parents
+    for k, edge in enumerate(tree.edges):  # edge k belongs to node k + 1
+        child, par = nodes[k + 1], nodes[parents[k + 1]]
+        assert np.allclose(edge[0], par[:2], atol=1e-9) and np.allclose(edge[-1], child[:2], atol=1e-9)
+        seg = np.hypot(*np.diff(edge, axis=0).T).sum()
+        assert seg <= reeds_shepp_length(par, child, RHO)[0] + 1e-9  # chord sum of the exact curve
+    costs = [c for _, _, c in res.stats["cost_history"]]
+    assert all(b <= a for a, b in itertools.pairwise(costs))
+    assert res.stats["cost_m"] == pytest.approx(res.length(), rel=2e-3)
+
+
+def test_rrt_star_shorter_than_rrt():
+    star = [make_planner("rrt-star", max_iterations=400).plan(_problem(s)).length() for s in range(5)]
+    rrt = [make_planner("rrt").plan(_problem(s)).length() for s in range(5)]
+    assert np.median(star) < np.median(rrt)
+
+
+@pytest.mark.parametrize(("name", "opts"), [("rrt", {}), ("birrt", {}), ("rrt-star", {"max_iterations": 200})])
+def test_same_seed_same_plan(name, opts):
+    a = make_planner(name, **opts).plan(_problem(5))
+    b = make_planner(name, **opts).plan(_problem(5))
+    assert np.array_equal(a.path, b.path) and np.array_equal(a.directions, b.directions)
+
+
+def test_invalid_start_and_goal():
+    r = make_planner("rrt").plan(_problem(start=(3.0, 3.0, 0.0)))
+    assert r.status is PlanStatus.INVALID_START and "start" in r.reason
+    r = make_planner("birrt").plan(_problem(goal=(0.05, 3.0, 0.0)))
+    assert r.status is PlanStatus.INVALID_GOAL and "goal" in r.reason
+
+
+@pytest.mark.parametrize(("name", "opts"), [("rrt", {}), ("birrt", {}), ("rrt-star", {})])
+def test_unreachable_goal_ends_in_timeout(name, opts):
+    walls = (Box((4.5, 3.0), (0.1, 6.0)),)  # the goal side is sealed off
+    world = World((0.0, 6.0, 0.0, 6.0), walls)
+    prob = _problem(world=world, goal=(5.4, 3.0, 0.0))
+    res = make_planner(name, max_iterations=400, time_limit=10.0, **opts).plan(prob)
+    assert res.status is PlanStatus.TIMEOUT
+    assert "budget" in res.reason and res.path.shape[1] == 3
+    res = make_planner(name, max_iterations=10**9, time_limit=0.3, **opts).plan(prob)
+    assert res.status is PlanStatus.TIMEOUT and res.stats["time_s"] < 1.5
+
+
+def test_bad_options():
+    from planning.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="unknown option"):
+        make_planner("rrt", speed=3)
+    with pytest.raises(ConfigError, match="steering"):
+        make_planner("rrt", steering="magic").plan(_problem())
+
+
+def _scenarios():
+    out = []
+    for name in builtin_scenarios():
+        s = load_scenario(name)
+        if np.hypot(s.start.x - s.goal.x, s.start.y - s.goal.y) > s.position_tolerance:
+            out.append(name)
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scenario", _scenarios())
+@pytest.mark.parametrize(("name", "opts"), [("rrt", {}), ("birrt", {"steering": "reeds_shepp"}), ("rrt-star", {})])
+def test_builtin_scenarios(scenario, name, opts):
+    for seed in range(5):
+        prob = PlanProblem.from_scenario(load_scenario(scenario), seed=seed, time_limit=30.0)
+        res = make_planner(name, max_iterations=3000, **opts).plan(prob)
+        if res.status is PlanStatus.SUCCESS:
+            _check_path(res, prob, None if name == "rrt" else default_turning_radius(prob.robot))
+        else:
+            assert res.status is PlanStatus.TIMEOUT and res.reason
