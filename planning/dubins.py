@@ -136,7 +136,7 @@ def dubins_batch(q0: ArrayLike, q1: ArrayLike, rho: float) -> tuple[FloatArray, 
     and (N, 3) segment lengths in turning radii (all >= 0)."""
     _check_rho(rho)
     a, b = _pairs(q0, q1)
-    return _batch(a, b, float(rho))  # type: ignore[no-any-return]
+    return _batch(a, b, float(rho))  # type: ignore[no-any-return,return-value]
 
 
 def dubins_path(q0: ArrayLike, q1: ArrayLike, rho: float) -> Word:
@@ -149,5 +149,5 @@ def dubins_path(q0: ArrayLike, q1: ArrayLike, rho: float) -> Word:
     """
     _, types, segs = dubins_batch(q0, q1, rho)
     if types[0] < 0:
-        raise ValueError(f"no Dubins path between {q0} and {q1} (non-finite input?)")
+        raise ValueError(f"no Dubins path between {q0!r} and {q1!r} (non-finite input?)")
     return make_word(np.asarray(q0, dtype=float).reshape(3), DUBINS_WORDS[types[0]], segs[0], rho)

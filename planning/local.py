@@ -78,7 +78,7 @@ class LocalPlanner:
         if not rho > 0:
             raise ConfigError(f"turning_radius must be > 0 m, got {rho}")
         self.rho = rho
-        kind = "dubins" if self.steering == "dubins" else "reeds_shepp"
+        kind: Literal["dubins", "reeds_shepp"] = "dubins" if self.steering == "dubins" else "reeds_shepp"
         self.curves = CurveSteering(kind, rho)
         # Robot points move at most step * (1 + R / rho) between curve samples.
         self.sample_step = min(SAMPLE_STEP, self.checker.resolution / (1.0 + self.robot.radius / rho))

@@ -68,7 +68,7 @@ def _lpsplp(x: float, y: float, phi: float) -> tuple[bool, float, float, float]:
     if t >= -_ZERO:
         v = _mod2pi(phi - t)
         if v >= -_ZERO:
-            return True, t, u, v
+            return True, float(t), float(u), float(v)
     return False, 0.0, 0.0, 0.0
 
 
@@ -81,7 +81,7 @@ def _lpsprp(x: float, y: float, phi: float) -> tuple[bool, float, float, float]:
         theta = np.arctan2(2.0, u)
         t = _mod2pi(t1 + theta)
         v = _mod2pi(t - phi)
-        return t >= -_ZERO and v >= -_ZERO, t, u, v
+        return bool(t >= -_ZERO and v >= -_ZERO), float(t), float(u), float(v)
     return False, 0.0, 0.0, 0.0
 
 
@@ -94,7 +94,7 @@ def _lprml(x: float, y: float, phi: float) -> tuple[bool, float, float, float]: 
         u = -2.0 * np.arcsin(0.25 * u1)
         t = _mod2pi(theta + 0.5 * u + _PI)
         v = _mod2pi(phi - t + u)
-        return t >= -_ZERO and u <= _ZERO, t, u, v
+        return bool(t >= -_ZERO and u <= _ZERO), float(t), float(u), float(v)
     return False, 0.0, 0.0, 0.0
 
 
@@ -106,7 +106,7 @@ def _lprupluml(x: float, y: float, phi: float) -> tuple[bool, float, float, floa
     if rho <= 1.0:
         u = np.arccos(rho)
         t, v = _tau_omega(u, -u, xi, eta, phi)
-        return t >= -_ZERO and v <= _ZERO, t, u, v
+        return bool(t >= -_ZERO and v <= _ZERO), float(t), float(u), float(v)
     return False, 0.0, 0.0, 0.0
 
 
@@ -119,7 +119,7 @@ def _lprumlump(x: float, y: float, phi: float) -> tuple[bool, float, float, floa
         u = -np.arccos(rho)
         if u >= -_HALF_PI:
             t, v = _tau_omega(u, u, xi, eta, phi)
-            return t >= -_ZERO and v >= -_ZERO, t, u, v
+            return bool(t >= -_ZERO and v >= -_ZERO), float(t), float(u), float(v)
     return False, 0.0, 0.0, 0.0
 
 
@@ -133,7 +133,7 @@ def _lprmsmlm(x: float, y: float, phi: float) -> tuple[bool, float, float, float
         u = 2.0 - r
         t = _mod2pi(theta + np.arctan2(r, -2.0))
         v = _mod2pi(phi - _HALF_PI - t)
-        return t >= -_ZERO and u <= _ZERO and v <= _ZERO, t, u, v
+        return bool(t >= -_ZERO and u <= _ZERO and v <= _ZERO), float(t), float(u), float(v)
     return False, 0.0, 0.0, 0.0
 
 
@@ -146,7 +146,7 @@ def _lprmsmrm(x: float, y: float, phi: float) -> tuple[bool, float, float, float
         t = theta
         u = 2.0 - rho
         v = _mod2pi(t + _HALF_PI - phi)
-        return t >= -_ZERO and u <= _ZERO and v <= _ZERO, t, u, v
+        return bool(t >= -_ZERO and u <= _ZERO and v <= _ZERO), float(t), float(u), float(v)
     return False, 0.0, 0.0, 0.0
 
 
@@ -160,7 +160,7 @@ def _lprmslmrp(x: float, y: float, phi: float) -> tuple[bool, float, float, floa
         if u <= _ZERO:
             t = _mod2pi(np.arctan2((4.0 - u) * xi - 2.0 * eta, -2.0 * xi + (u - 4.0) * eta))
             v = _mod2pi(t - phi)
-            return t >= -_ZERO and v >= -_ZERO, t, u, v
+            return bool(t >= -_ZERO and v >= -_ZERO), float(t), float(u), float(v)
     return False, 0.0, 0.0, 0.0
 
 
@@ -314,7 +314,7 @@ def reeds_shepp_batch(q0: ArrayLike, q1: ArrayLike, rho: float) -> tuple[FloatAr
     and (N, 5) signed segment lengths in turning radii."""
     _check_rho(rho)
     a, b = _pairs(q0, q1)
-    return _batch(a, b, float(rho))  # type: ignore[no-any-return]
+    return _batch(a, b, float(rho))  # type: ignore[no-any-return,return-value]
 
 
 def reeds_shepp_path(q0: ArrayLike, q1: ArrayLike, rho: float) -> Word:
@@ -327,5 +327,5 @@ def reeds_shepp_path(q0: ArrayLike, q1: ArrayLike, rho: float) -> Word:
     """
     _, types, segs = reeds_shepp_batch(q0, q1, rho)
     if types[0] < 0:  # cannot happen for finite input; guard against NaN poses
-        raise ValueError(f"no Reeds–Shepp path between {q0} and {q1} (non-finite input?)")
+        raise ValueError(f"no Reeds–Shepp path between {q0!r} and {q1!r} (non-finite input?)")
     return make_word(np.asarray(q0, dtype=float).reshape(3), RS_WORDS[types[0]], segs[0], rho)

@@ -16,6 +16,7 @@ with the unicycle primitives.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -102,7 +103,7 @@ class _TreePlanner:
         poses: FloatArray,
         dirs: FloatArray,
         reason: str,
-        stats: dict[str, object],
+        stats: Mapping[str, object],
         tree: object,
     ) -> PlanResult:
         length = float(np.sum(np.hypot(np.diff(poses[:, 0]), np.diff(poses[:, 1])))) if poses.shape[0] > 1 else 0.0

@@ -135,6 +135,7 @@ def run(args: argparse.Namespace) -> int:
     for prob in problems:
         checker = make_checker(prob, "footprint", 0.0)  # builds the distance grid (not timed)
         local = LocalPlanner(args.space, prob.robot, checker)
+        assert local.rho is not None, "curve steering always has a turning radius"
         ompl_run = _Ompl(prob, args.space, checker, float(local.rho), local.sample_step)
         birrt = make_planner("birrt", steering=args.space, max_iterations=10**7, time_limit=args.ttfs_limit)
         rstar = make_planner("rrt-star", steering=args.space, max_iterations=10**8, time_limit=args.budget)
@@ -156,7 +157,7 @@ def run(args: argparse.Namespace) -> int:
         t_ratio = np.median(rows["t_us"]) / np.median(rows["t_om"])
         l_ratio = np.nanmedian(rows["l_us"]) / np.nanmedian(rows["l_om"])
         s_us, s_om = np.mean(rows["ok_us"]), np.mean(rows["ok_om"])
-        miss_t, miss_l, miss_s = t_ratio > TTFS_TARGET, not l_ratio <= LENGTH_TARGET, s_us < s_om
+        miss_t, miss_l, miss_s = bool(t_ratio > TTFS_TARGET), not l_ratio <= LENGTH_TARGET, bool(s_us < s_om)
         missed |= miss_t or miss_l or miss_s
         name = prob.name
         print(
