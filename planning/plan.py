@@ -136,7 +136,10 @@ class Planner(Protocol):
 
 
 #: Planner name -> "module:factory". The factory takes keyword-only options and returns a Planner.
-PLANNERS: dict[str, str] = {}
+PLANNERS: dict[str, str] = {
+    "sinusoidal": "planning.sinusoidal:Sinusoidal",
+    "optim": "planning.optim:Optim",
+}
 
 
 def register_planner(name: str, target: str) -> None:
