@@ -44,8 +44,8 @@ from planning.world import Box, Circle, Ellipse, Obstacle, Polygon
 
 FloatArray = NDArray[np.float64]
 
-DEFAULT_N = 100
-DEFAULT_DT = 0.1
+DEFAULT_N = 50
+DEFAULT_DT = 0.2
 _BUILTIN_INITS = ("auto", "straight", "grid")
 _SUCCESS = {"Solve_Succeeded", "Solved_To_Acceptable_Level"}
 _TIMEOUT = {"Maximum_CpuTime_Exceeded", "Maximum_Iterations_Exceeded", "Maximum_WallTime_Exceeded"}

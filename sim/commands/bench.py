@@ -13,6 +13,7 @@ from typing import Any
 #: Benchmark name -> (module, one-line help).
 BENCHMARKS: dict[str, tuple[str, str]] = {
     "sim": ("sim.bench.sim", "closed-loop physics steps/s against a bare mj_step loop, and real-time factor"),
+    "optim": ("sim.bench.optim", "optim planner: seed N=1000, dt=0.01 against the default (time, final error, length)"),
 }
 
 
