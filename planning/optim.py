@@ -94,6 +94,21 @@ class _Nlp:
 _CACHE: dict[tuple[Any, ...], _Nlp] = {}
 
 
+@dataclass(frozen=True)
+class OptimSolution:
+    """A plan with the optimiser's own variables.
+
+    Attributes:
+        result: The plan (dense rollout of the inputs from the start).
+        nodes: (N+1, 4) node states [x, y, theta, phi] as IPOPT left them (None if it never ran).
+        inputs: (N, 2) inputs [u1, u2] held over each interval (None if IPOPT never ran).
+    """
+
+    result: PlanResult
+    nodes: FloatArray | None = None
+    inputs: FloatArray | None = None
+
+
 def _build(key: tuple[Any, ...]) -> _Nlp:
     ca = _casadi()
     n, n_circ, n_ell, poly_k, w_steer, w_smooth, max_iter, verbose, time_limit = key
@@ -126,12 +141,12 @@ def _build(key: tuple[Any, ...]) -> _Nlp:
     opti.subject_to(opti.bounded(-p_limits[1], u[1, :], p_limits[1]))
     opti.subject_to(opti.bounded(-p_limits[3], u[0, :] * ca.tan(x[3, :-1]) / p_l, p_limits[3]))
 
-    p_circles = opti.parameter(3, n_circ) if n_circ else None
+    p_circles: Any = opti.parameter(3, n_circ) if n_circ else None
     for j in range(n_circ):
         c = p_circles[:, j]
         opti.subject_to((px - c[0]) ** 2 + (py - c[1]) ** 2 >= (c[2] + p_clear) ** 2)
     psi: list[Any] = []
-    p_ellipses = opti.parameter(5, n_ell) if n_ell else None
+    p_ellipses: Any = opti.parameter(5, n_ell) if n_ell else None
     for j in range(n_ell):
         e = p_ellipses[:, j]
         ps = opti.variable(1, n + 1)
@@ -271,6 +286,10 @@ class Optim:
     # -- solving -------------------------------------------------------------------------------
     def plan(self, problem: PlanProblem) -> PlanResult:
         """Solve the NLP for ``problem``; every failure is a status with IPOPT's reason."""
+        return self.solve(problem).result
+
+    def solve(self, problem: PlanProblem) -> OptimSolution:
+        """Like :meth:`plan`, also returning IPOPT's node states and inputs."""
         t0 = time.perf_counter()
         robot, world = problem.robot, problem.world
         clear = robot.radius + self.margin
@@ -280,11 +299,11 @@ class Optim:
         ):
             dist = float(world.signed_distance(pose.xy)[0])
             if dist < robot.radius:
-                return PlanResult(
+                return OptimSolution(PlanResult(
                     status, self.name, stats={"time_s": time.perf_counter() - t0},
                     reason=f"the robot's disc (radius {robot.radius:.3f} m) at the {label} is {dist:.3f} m from "
                     "the nearest obstacle or wall; move the pose into free space",
-                )  # fmt: skip
+                ))  # fmt: skip
         circles = [o for o in world.obstacles if isinstance(o, Circle)]
         ellipses = [o for o in world.obstacles if isinstance(o, Ellipse)]
         polys = [polygon_vertices(o) for o in world.obstacles if isinstance(o, (Box, Polygon))]
@@ -334,10 +353,10 @@ class Optim:
             xv = np.asarray(opti.debug.value(nlp.x)).T
             uv = np.asarray(opti.debug.value(nlp.u)).T.reshape(self.N, 2)
         except RuntimeError as exc:
-            return PlanResult(
+            return OptimSolution(PlanResult(
                 PlanStatus.FAILED, self.name, reason=f"IPOPT stopped with an error: {exc}",
                 stats={"time_s": time.perf_counter() - t0, "init": init_source},
-            )  # fmt: skip
+            ))  # fmt: skip
         solve_s = time.perf_counter() - t_solve
         return_status = str(ipopt_stats.get("return_status", "unknown"))
         stats: dict[str, Any] = {
@@ -351,7 +370,7 @@ class Optim:
             "dt": self.dt,
             "init": init_source,
         }
-        return self._result(problem, xv, uv, return_status, stats)
+        return OptimSolution(self._result(problem, xv, uv, return_status, stats), xv, uv)
 
     def _result(
         self, problem: PlanProblem, xv: FloatArray, uv: FloatArray, return_status: str, stats: dict[str, Any]
@@ -381,7 +400,13 @@ class Optim:
         )
         if world.obstacles:
             stats["min_clearance"] = float(np.min(world.obstacle_distance(path[:, :2])) - robot.radius)
-        kw = {"path": path, "times": times, "controls": controls, "directions": direction, "states": states}
+        kw: dict[str, Any] = {
+            "path": path,
+            "times": times,
+            "controls": controls,
+            "directions": direction,
+            "states": states,
+        }
         reason = f"IPOPT: {return_status}"
         if return_status in _SUCCESS:
             if pos_err > problem.position_tolerance or head_err > problem.heading_tolerance:

@@ -43,6 +43,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -420,7 +421,7 @@ class Sinusoidal:
         end = x[-1]
         pos_err = float(np.hypot(end[0] - problem.goal.x, end[1] - problem.goal.y))
         head_err = abs(float(wrap_angle(end[2] - problem.goal.theta)))
-        stats = {
+        stats: dict[str, Any] = {
             "time_s": time.perf_counter() - t0,
             "duration_s": float(t[-1]),
             "pieces": len(models),
@@ -433,7 +434,13 @@ class Sinusoidal:
             "max_u2": float(np.max(np.abs(uu[:, 1]))),
             "max_phi": float(np.max(np.abs(x[:, 3]))),
         }
-        kw = {"path": x[:, :3].copy(), "times": t, "controls": controls, "directions": direction, "states": x}
+        kw: dict[str, Any] = {
+            "path": x[:, :3].copy(),
+            "times": t,
+            "controls": controls,
+            "directions": direction,
+            "states": x,
+        }
         if pos_err > problem.position_tolerance or head_err > problem.heading_tolerance:
             return PlanResult(
                 PlanStatus.FAILED, self.name, reason=f"final state misses the goal by {pos_err:.3g} m, "
