@@ -7,7 +7,8 @@ The horizon ``T = N dt`` is fixed; the decision variables are the states ``X`` (
 - Start and goal: equality constraints on the whole state (steering angle 0 at both ends); the goal
   heading is taken on the branch nearest the start heading (or the warm start's final heading).
 - Bounds: ``|u1| <= max_speed``, ``|u2| <= u2max``, ``|phi| <= phimax``, yaw rate
-  ``|u1 tan(phi) / l| <= max_yaw_rate``, and the robot's disc (radius + ``margin``) inside the walls.
+  ``|u1 tan(phi) / l| <= max_yaw_rate`` at both ends of each interval (hence all along it), and
+  the robot's disc (radius + ``margin``) inside the walls.
 - Obstacles, all smooth and exact for the robot's disc of radius ``r`` (robot radius + ``margin``):
   circles as ``|p - c|^2 >= (R + r)^2``; ellipses, boxes and convex polygons by a separating line
   per node and obstacle with direction ``n = (cos psi, sin psi)`` (``psi`` an extra decision
@@ -139,7 +140,9 @@ def _build(key: tuple[Any, ...]) -> _Nlp:
     opti.subject_to(opti.bounded(-p_limits[2], x[3, :], p_limits[2]))
     opti.subject_to(opti.bounded(-p_limits[0], u[0, :], p_limits[0]))
     opti.subject_to(opti.bounded(-p_limits[1], u[1, :], p_limits[1]))
+    # phi is linear in time within an interval and tan is monotone, so |u1 tan(phi) / l| peaks at an end.
     opti.subject_to(opti.bounded(-p_limits[3], u[0, :] * ca.tan(x[3, :-1]) / p_l, p_limits[3]))
+    opti.subject_to(opti.bounded(-p_limits[3], u[0, :] * ca.tan(x[3, 1:]) / p_l, p_limits[3]))
 
     p_circles: Any = opti.parameter(3, n_circ) if n_circ else None
     for j in range(n_circ):

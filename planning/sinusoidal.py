@@ -29,7 +29,8 @@ Inside a piece the four chained states are steered in turn:
    ``z4`` lands within ``tolerance``.
 
 The amplitudes are bounded by ``u1max`` (``|a1| <= u1max``, and the executed ``u1 = v1 / cos``
-checked along the step) and ``u2max`` (``|a2| <= u2max``) and by ``phimax`` (steering amplitude);
+checked along the step), ``u2max`` (``|a2| <= u2max``), ``phimax`` (steering amplitude) and the
+robot's yaw-rate limit (``|u1 tan(phi) / l|``);
 when a step cannot meet them its period is lengthened. The chained states are integrated by
 Simpson quadrature on a fine grid (every state is an explicit integral of known time functions).
 
@@ -204,6 +205,7 @@ class Sinusoidal:
         self.l = 0.1
         self.u1max = u1max if u1max is not None else 0.22
         self.phimax = phimax if phimax is not None else 0.6
+        self.wmax = math.inf  # the differential drive's yaw-rate limit omega = u1 tan(phi) / l [rad/s]
 
     # -- steps ---------------------------------------------------------------------------------
     def _grid(self, period: float) -> FloatArray:
@@ -227,6 +229,8 @@ class Sinusoidal:
         u1 = m.speed(v1, z[:, 2])
         if np.max(np.abs(u1)) > self.u1max * (1 + 1e-9) or np.max(np.abs(v2)) > self.u2max * (1 + 1e-9):
             raise _StepFailed("input bound")
+        if np.max(np.abs(u1 * np.tan(z[:, 1]))) / self.l > self.wmax * (1 + 1e-9):
+            raise _StepFailed("yaw-rate bound")
         if np.max(np.abs(z[:, 1])) > self.phimax * (1 + 1e-9):
             raise _StepFailed("steering bound")
         sl = slice(None, None, _SUB)
@@ -368,6 +372,7 @@ class Sinusoidal:
         self.l = robot.wheelbase
         self.u1max = self.u1max_opt if self.u1max_opt is not None else robot.max_speed
         self.phimax = self.phimax_opt if self.phimax_opt is not None else robot.max_steering
+        self.wmax = robot.max_yaw_rate
         s0, s1 = problem.start, problem.goal
         headings = heading_waypoints(s0.theta, s1.theta)
         n_pieces = len(headings) - 1
@@ -467,8 +472,13 @@ class Sinusoidal:
                             f"{x[j, 1]:.3f})")  # fmt: skip
         if stats["max_phi"] > self.phimax * (1 + 1e-9):
             problems.append(f"|phi| reaches {stats['max_phi']:.3f} > phimax {self.phimax:.3f}")
-        if stats["max_u1"] > self.u1max * (1 + 1e-9) or stats["max_u2"] > self.u2max * (1 + 1e-9):
-            problems.append(f"inputs reach |u1| {stats['max_u1']:.3f}, |u2| {stats['max_u2']:.3f}")
+        max_w = float(np.max(np.abs(controls[:, 1])))
+        if (
+            stats["max_u1"] > self.u1max * (1 + 1e-9)
+            or stats["max_u2"] > self.u2max * (1 + 1e-9)
+            or max_w > self.wmax * (1 + 1e-9)
+        ):
+            problems.append(f"inputs reach |u1| {stats['max_u1']:.3f}, |u2| {stats['max_u2']:.3f}, |omega| {max_w:.3f}")
         if problems:
             return PlanResult(PlanStatus.BOUNDS_VIOLATED, self.name, reason="; ".join(problems), stats=stats, **kw)
         return PlanResult(PlanStatus.SUCCESS, self.name, stats=stats, **kw)

@@ -57,6 +57,16 @@ def test_solution_satisfies_dynamics_bounds_and_clearance(name: str) -> None:
     assert res.stats["final_position_error"] < 1e-4
 
 
+def test_yaw_rate_limit_holds_between_nodes() -> None:
+    """EduMIP: 0.8 m/s but 0.5 rad/s; the differential drive's omega stays within it all along."""
+    robot = load_robot("edumip")
+    problem = PlanProblem.from_scenario(load_scenario("parallel_park"), robot=robot)
+    res = Optim().plan(problem)
+    assert res.success, res.reason
+    assert res.controls is not None
+    assert np.max(np.abs(res.controls[:, 1])) <= robot.max_yaw_rate + 1e-6
+
+
 def test_seed_resolution_and_default_reach_the_same_goal() -> None:
     problem = PlanProblem.from_scenario(load_scenario("parallel_park"))
     fine = Optim(N=1000, dt=0.01).plan(problem)

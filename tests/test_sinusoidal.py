@@ -98,10 +98,11 @@ def _integrate_controls(result) -> np.ndarray:  # type: ignore[no-untyped-def]
     return sol.y.T
 
 
+@pytest.mark.parametrize("robot_name", ["turtlebot3", "edumip"])
 @pytest.mark.parametrize("name", MANOEUVRES)
-def test_manoeuvre_lands_within_goal_tolerance(name: str) -> None:
+def test_manoeuvre_lands_within_goal_tolerance(name: str, robot_name: str) -> None:
     sc = load_scenario(name)
-    problem = PlanProblem.from_scenario(sc)
+    problem = PlanProblem.from_scenario(sc, robot=load_robot(robot_name))
     res = make_planner("sinusoidal").plan(problem)
     assert res.status in (PlanStatus.SUCCESS, PlanStatus.BOUNDS_VIOLATED), res.reason
     if res.status is PlanStatus.BOUNDS_VIOLATED:
@@ -116,6 +117,7 @@ def test_manoeuvre_lands_within_goal_tolerance(name: str) -> None:
     robot = problem.robot
     assert np.max(np.abs(res.controls[:, 0])) <= robot.max_speed * (1 + 1e-9)
     assert np.max(np.abs(res.states[:, 3])) <= robot.max_steering * (1 + 1e-9)
+    assert np.max(np.abs(res.controls[:, 1])) <= robot.max_yaw_rate * (1 + 1e-9)
     # omega is the bicycle's u1 tan(phi) / l
     np.testing.assert_allclose(res.controls[:, 1], res.controls[:, 0] * np.tan(res.states[:, 3]) / robot.wheelbase)
 
