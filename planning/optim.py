@@ -39,7 +39,7 @@ from scipy.spatial import ConvexHull
 from planning.errors import ConfigError, DependencyError
 from planning.geometry import wrap_angle
 from planning.gridpath import grid_path
-from planning.kinematics import bicycle_rhs, bicycle_to_unicycle, rollout
+from planning.kinematics import bicycle_to_unicycle
 from planning.plan import PLANNERS, PlanProblem, PlanResult, PlanStatus, make_planner
 from planning.world import Box, Circle, Ellipse, Obstacle, Polygon
 
@@ -69,6 +69,46 @@ def polygon_vertices(obstacle: Obstacle) -> FloatArray:
         v = obstacle.array
         return np.asarray(v[ConvexHull(v).vertices], dtype=float)
     raise TypeError(f"{obstacle.kind} has no vertices")
+
+
+def bicycle_rollout(state0: FloatArray, inputs: FloatArray, dt: float, wheelbase: float) -> FloatArray:
+    """Classical RK4 of the bicycle under piecewise-constant inputs, one step per input (scalar, fast).
+
+    Same method as :func:`planning.kinematics.rollout` with :func:`planning.kinematics.bicycle_rhs`,
+    written with scalar math for speed on long input sequences.
+
+    Args:
+        state0: (4,) [x, y, theta, phi].
+        inputs: (K, 2) [u1, u2], each held for ``dt``.
+        dt: Step [s].
+        wheelbase: l [m].
+
+    Returns:
+        (K + 1, 4) states.
+    """
+    cos, sin, tan = math.cos, math.sin, math.tan
+    out = np.empty((inputs.shape[0] + 1, 4))
+    x, y, th, ph = (float(v) for v in state0)
+    out[0] = (x, y, th, ph)
+    h2, h6, il = 0.5 * dt, dt / 6.0, 1.0 / wheelbase
+    for k, (u1, u2) in enumerate(inputs.tolist()):
+        w1 = u1 * tan(ph) * il
+        a1, b1 = u1 * cos(th), u1 * sin(th)
+        th2, ph2 = th + h2 * w1, ph + h2 * u2
+        w2 = u1 * tan(ph2) * il
+        a2, b2 = u1 * cos(th2), u1 * sin(th2)
+        th3 = th + h2 * w2
+        w3 = u1 * tan(ph2) * il  # phi at the midpoint is the same for k2 and k3
+        a3, b3 = u1 * cos(th3), u1 * sin(th3)
+        th4, ph4 = th + dt * w3, ph + dt * u2
+        w4 = u1 * tan(ph4) * il
+        a4, b4 = u1 * cos(th4), u1 * sin(th4)
+        x += h6 * (a1 + 2 * a2 + 2 * a3 + a4)
+        y += h6 * (b1 + 2 * b2 + 2 * b3 + b4)
+        th += h6 * (w1 + 2 * w2 + 2 * w3 + w4)
+        ph = ph4
+        out[k + 1] = (x, y, th, ph)
+    return out
 
 
 @dataclass
@@ -382,7 +422,7 @@ class Optim:
         sub = max(1, math.ceil(self.dt / 0.01 - 1e-9))
         h = self.dt / sub
         u_dense = np.repeat(uv, sub, axis=0)
-        states = rollout(lambda s, u: bicycle_rhs(s, u, robot.wheelbase), xv[0], u_dense, h)
+        states = bicycle_rollout(xv[0], u_dense, h, robot.wheelbase)
         times = np.arange(states.shape[0]) * h
         u_full = np.vstack([u_dense, u_dense[-1:]])
         controls = bicycle_to_unicycle(states, u_full, robot.wheelbase)
@@ -391,7 +431,7 @@ class Optim:
         end = states[-1]
         pos_err = float(np.hypot(end[0] - problem.goal.x, end[1] - problem.goal.y))
         head_err = abs(float(wrap_angle(end[2] - problem.goal.theta)))
-        defect = xv[1:] - rollout(lambda s, u: bicycle_rhs(s, u, robot.wheelbase), xv[0], uv, self.dt)[1:]
+        defect = xv[1:] - bicycle_rollout(xv[0], uv, self.dt, robot.wheelbase)[1:]
         stats.update(
             final_position_error=pos_err,
             final_heading_error=head_err,

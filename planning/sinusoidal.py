@@ -327,7 +327,10 @@ class Sinusoidal:
                     return float(a1 * simpson(m.g(z0[2] + a1 * big_a) * sw, x=t)) - d
 
                 grid = np.linspace(0.0, amax, 33)[1:]
-                vals = np.array([h(a) for a in grid])
+                alpha = z0[2] + grid[:, None] * big_a[None, :]
+                if np.max(np.abs(alpha)) >= 1.0:
+                    continue
+                vals = grid * simpson(m.g(alpha) * sw[None, :], x=t, axis=1) - d
                 prev_a, prev_v = 0.0, -d
                 root = None
                 for a, val in zip(grid, vals, strict=True):

@@ -145,3 +145,14 @@ def test_init_from_another_planner() -> None:
     res = Optim(init="sinusoidal").plan(problem)
     assert res.success and res.stats["init"] == "sinusoidal"
     assert math.isclose(res.times[-1], DEFAULT_N * DEFAULT_DT)  # type: ignore[index]
+
+
+def test_fast_rollout_equals_generic_rk4() -> None:
+    from planning.kinematics import rollout
+    from planning.optim import bicycle_rollout
+
+    rng = np.random.default_rng(3)
+    u = np.column_stack([rng.uniform(-0.2, 0.2, 40), rng.uniform(-2, 2, 40)])
+    x0 = np.array([0.1, -0.2, 0.7, 0.1])
+    ref = rollout(lambda s, uu: bicycle_rhs(s, uu, 0.1), x0, u, 0.05)
+    np.testing.assert_allclose(bicycle_rollout(x0, u, 0.05, 0.1), ref, rtol=0, atol=1e-13)
