@@ -222,7 +222,9 @@ class Optim:
 
     Args:
         N: Number of intervals.
-        dt: Interval length [s]; the horizon is ``N * dt``.
+        dt: Interval length [s]; the horizon is ``N * dt``. Default (None): ``DEFAULT_DT``, lengthened
+            when the warm start's path needs more than ``N * DEFAULT_DT - 1 s`` at full speed, to
+            ``(length / max_speed + 1 s) / N``; give ``dt`` to fix the horizon.
         init: Warm start: "auto" ("grid" with obstacles, else "sinusoidal"), "straight" (line from
             start to goal), "grid" (shortest free polyline on a grid, :mod:`planning.gridpath`) or the
             name of a registered planner whose path is resampled onto the nodes by arc length
@@ -242,7 +244,7 @@ class Optim:
         self,
         *,
         N: int = DEFAULT_N,
-        dt: float = DEFAULT_DT,
+        dt: float | None = None,
         init: str = "auto",
         init_options: dict[str, Any] | None = None,
         u2max: float = 2.0,
@@ -254,7 +256,7 @@ class Optim:
     ) -> None:
         if isinstance(N, bool) or not isinstance(N, (int, np.integer)) or N < 2:
             raise ConfigError(f"optim: N must be an integer >= 2, got {N!r}")
-        for label, val in (("dt", dt), ("u2max", u2max)):
+        for label, val in (("dt", DEFAULT_DT if dt is None else dt), ("u2max", u2max)):
             if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
                 raise ConfigError(f"optim: {label} must be a number > 0, got {val!r}")
         for label, val in (("margin", margin), ("w_steer", w_steer), ("w_smooth", w_smooth)):
@@ -268,7 +270,8 @@ class Optim:
         if init == self.name:
             raise ConfigError("optim: init='optim' would warm start from itself; choose 'straight' or another planner")
         self.N = int(N)
-        self.dt = float(dt)
+        self.dt_opt = None if dt is None else float(dt)
+        self.dt = DEFAULT_DT if dt is None else float(dt)
         self.init = init
         self.init_options = dict(init_options or {})
         self.u2max = float(u2max)
@@ -321,6 +324,9 @@ class Optim:
         xs[-1, 2] = xs[-1, 2] + float(wrap_angle(problem.goal.theta - xs[-1, 2]))
         x0 = np.column_stack([xs, np.zeros(n + 1)])
         d = np.diff(xs[:, :2], axis=0)
+        if self.dt_opt is None:  # lengthen the horizon for a long way round
+            need = float(np.sum(np.hypot(d[:, 0], d[:, 1]))) / problem.robot.max_speed + 1.0
+            self.dt = max(DEFAULT_DT, need / n)
         u1 = (d[:, 0] * np.cos(xs[:-1, 2]) + d[:, 1] * np.sin(xs[:-1, 2])) / self.dt
         lim = problem.robot.max_speed
         u0 = np.column_stack([np.clip(u1, -lim, lim), np.zeros(n)])
@@ -359,6 +365,7 @@ class Optim:
             _CACHE[key] = _build(key)
         nlp = _CACHE[key]
         t_build = time.perf_counter() - t0
+        self.dt = DEFAULT_DT if self.dt_opt is None else self.dt_opt
         try:
             x_init, u_init, init_source = self._initial_guess(problem)
         except ConfigError as exc:

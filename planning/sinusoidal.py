@@ -35,8 +35,8 @@ when a step cannot meet them its period is lengthened. The chained states are in
 Simpson quadrature on a fine grid (every state is an explicit integral of known time functions).
 
 Obstacles are not this planner's business: the path is checked against them and a path that
-collides ends as ``INFEASIBLE``. State bounds (the robot's centre inside the world, ``|phi| <=
-phimax``) and input bounds are checked and a violation is reported as ``BOUNDS_VIOLATED``.
+collides ends as ``INFEASIBLE``. State bounds (the robot's disc inside the world's walls, ``|phi|
+<= phimax``) and input bounds are checked and a violation is reported as ``BOUNDS_VIOLATED``.
 """
 
 from __future__ import annotations
@@ -467,12 +467,13 @@ class Sinusoidal:
                     "planner instead",
                 )  # fmt: skip
         problems = []
-        xmin, xmax, ymin, ymax = world.bounds
-        out = (x[:, 0] < xmin) | (x[:, 0] > xmax) | (x[:, 1] < ymin) | (x[:, 1] > ymax)
+        wall = world.wall_distance(x[:, :2])
+        stats["min_wall_clearance"] = float(np.min(wall) - r)
+        out = wall < r
         if np.any(out):
             j = int(np.argmax(out))
-            problems.append(f"the robot's centre leaves the world bounds at t = {t[j]:.2f} s ({x[j, 0]:.3f}, "
-                            f"{x[j, 1]:.3f})")  # fmt: skip
+            problems.append(f"the robot's disc (radius {r:.3f} m) leaves the world bounds at t = {t[j]:.2f} s "
+                            f"(centre {x[j, 0]:.3f}, {x[j, 1]:.3f})")  # fmt: skip
         if stats["max_phi"] > self.phimax * (1 + 1e-9):
             problems.append(f"|phi| reaches {stats['max_phi']:.3f} > phimax {self.phimax:.3f}")
         max_w = float(np.max(np.abs(controls[:, 1])))
