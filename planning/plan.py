@@ -141,6 +141,8 @@ PLANNERS: dict[str, str] = {
     "birrt": "planning.rrt:BiRRT",
     "rrt-star": "planning.rrt_star:RRTStar",
     "c-rrt-star": "planning.crrt_star:CRRTStar",
+    "sinusoidal": "planning.sinusoidal:Sinusoidal",
+    "optim": "planning.optim:Optim",
 }
 
 

@@ -14,6 +14,7 @@ from typing import Any
 BENCHMARKS: dict[str, tuple[str, str]] = {
     "sim": ("sim.bench.sim", "closed-loop physics steps/s against a bare mj_step loop, and real-time factor"),
     "plan": ("sim.bench.plan", "birrt / rrt-star against OMPL's RRTConnect / RRT* on the same problems and checker"),
+    "optim": ("sim.bench.optim", "optim planner: seed N=1000, dt=0.01 against the default (time, final error, length)"),
 }
 
 

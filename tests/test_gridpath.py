@@ -1,0 +1,38 @@
+"""Grid shortest path used as a warm start: straight when free, clear and near-shortest otherwise."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from planning.gridpath import grid_path
+from planning.world import Box, Circle, World
+
+
+def test_free_world_gives_the_straight_segment() -> None:
+    world = World((0.0, 2.0, 0.0, 2.0))
+    path = grid_path(world, np.array([0.3, 0.4]), np.array([1.7, 1.5]), 0.1)
+    assert path is not None
+    np.testing.assert_allclose(path, [[0.3, 0.4], [1.7, 1.5]])
+
+
+def test_route_around_a_disc_is_clear_and_near_the_tangent_length() -> None:
+    world = World((0.0, 2.0, 0.0, 2.0), (Circle((1.0, 1.0), 0.3),))
+    clear = 0.1
+    path = grid_path(world, np.array([0.2, 1.0]), np.array([1.8, 1.0]), clear, resolution=0.01)
+    assert path is not None
+    dense = np.vstack([a + np.linspace(0, 1, 200)[:, None] * (b - a) for a, b in itertools.pairwise(path)])
+    assert np.min(world.signed_distance(dense)) > clear
+    # Exact shortest length: two tangents of length sqrt(0.8^2 - 0.4^2) and an arc of radius 0.4.
+    rr, dd = 0.4, 0.8
+    tangent = np.sqrt(dd**2 - rr**2)
+    arc = rr * (np.pi - 2 * np.arccos(rr / dd))
+    exact = 2 * tangent + arc
+    length = float(np.sum(np.hypot(*np.diff(path, axis=0).T)))
+    assert exact <= length <= exact * 1.03
+
+
+def test_blocked_world_returns_none() -> None:
+    world = World((0.0, 2.0, 0.0, 1.0), (Box((1.0, 0.5), (0.1, 1.0)),))
+    assert grid_path(world, np.array([0.3, 0.5]), np.array([1.7, 0.5]), 0.1) is None

@@ -1,0 +1,158 @@
+"""Trajectory optimisation: dynamics defect, bounds, obstacle clearance, resolution, failure statuses."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from planning.errors import ConfigError
+from planning.geometry import Pose2D, wrap_angle
+from planning.kinematics import bicycle_rhs
+from planning.optim import DEFAULT_DT, DEFAULT_N, Optim, polygon_vertices
+from planning.plan import PlanProblem, PlanStatus, make_planner
+from planning.robot import load_robot
+from planning.scenario import load_scenario
+from planning.world import Box, Circle, Ellipse, Polygon, World
+
+
+def _exact_step(state: np.ndarray, u: np.ndarray, dt: float, wheelbase: float) -> np.ndarray:
+    sol = solve_ivp(
+        lambda _t, s: bicycle_rhs(s, u, wheelbase), (0.0, dt), state, rtol=1e-11, atol=1e-13, method="DOP853"
+    )
+    return sol.y[:, -1]
+
+
+@pytest.mark.parametrize("name", ["parallel_park", "nav_map2", "three_point_turn"])
+def test_solution_satisfies_dynamics_bounds_and_clearance(name: str) -> None:
+    problem = PlanProblem.from_scenario(load_scenario(name))
+    robot, world = problem.robot, problem.world
+    planner = Optim()
+    sol = planner.solve(problem)
+    res = sol.result
+    assert res.status is PlanStatus.SUCCESS, res.reason
+    x, u = sol.nodes, sol.inputs
+    assert x is not None and u is not None and x.shape == (DEFAULT_N + 1, 4) and u.shape == (DEFAULT_N, 2)
+    # Dynamics: each node follows from the previous under the held input (adaptive integrator; the
+    # NLP's single RK4 step per interval is accurate to ~1e-6 m at this dt).
+    defect = np.array([x[k + 1] - _exact_step(x[k], u[k], DEFAULT_DT, robot.wheelbase) for k in range(DEFAULT_N)])
+    assert np.max(np.abs(defect)) < 1e-5
+    # Ends
+    np.testing.assert_allclose(x[0], [problem.start.x, problem.start.y, problem.start.theta, 0.0], atol=1e-7)
+    np.testing.assert_allclose(x[-1, :2], [problem.goal.x, problem.goal.y], atol=1e-7)
+    assert abs(wrap_angle(x[-1, 2] - problem.goal.theta)) < 1e-7 and abs(x[-1, 3]) < 1e-7
+    # Bounds (IPOPT's constraint tolerance 1e-8)
+    tol = 1e-7
+    assert np.max(np.abs(u[:, 0])) <= robot.max_speed + tol
+    assert np.max(np.abs(u[:, 1])) <= planner.u2max + tol
+    assert np.max(np.abs(x[:, 3])) <= robot.max_steering + tol
+    assert np.max(np.abs(u[:, 0] * np.tan(x[:-1, 3]) / robot.wheelbase)) <= robot.max_yaw_rate + tol
+    # Clearance: the robot's disc stays off every obstacle and wall along the dense rollout,
+    # and the nodes keep the requested margin (exact signed distances of planning.world).
+    assert np.min(world.signed_distance(x[:, :2])) >= robot.radius + planner.margin - 1e-6
+    assert np.min(world.signed_distance(res.path[:, :2])) >= robot.radius
+    # The dense rollout (independent RK4 at 0.01 s) ends on the goal.
+    assert res.stats["final_position_error"] < 1e-4
+
+
+def test_yaw_rate_limit_holds_between_nodes() -> None:
+    """EduMIP: 0.8 m/s but 0.5 rad/s; the differential drive's omega stays within it all along."""
+    robot = load_robot("edumip")
+    problem = PlanProblem.from_scenario(load_scenario("parallel_park"), robot=robot)
+    res = Optim().plan(problem)
+    assert res.success, res.reason
+    assert res.controls is not None
+    assert np.max(np.abs(res.controls[:, 1])) <= robot.max_yaw_rate + 1e-6
+
+
+def test_seed_resolution_and_default_reach_the_same_goal() -> None:
+    problem = PlanProblem.from_scenario(load_scenario("parallel_park"))
+    fine = Optim(N=1000, dt=0.01).plan(problem)
+    coarse = Optim().plan(problem)
+    assert fine.success and coarse.success, (fine.reason, coarse.reason)
+    goal = np.array([problem.goal.x, problem.goal.y])
+    for r in (fine, coarse):
+        assert np.hypot(*(r.path[-1, :2] - goal)) < 1e-3
+        assert abs(wrap_angle(r.path[-1, 2] - problem.goal.theta)) < 1e-3
+    assert coarse.length() == pytest.approx(fine.length(), rel=0.05)
+
+
+def test_goal_inside_an_obstacle_ends_in_a_status() -> None:
+    robot = load_robot("turtlebot3")
+    world = World((0.0, 2.0, 0.0, 2.0), (Circle((1.5, 1.5), 0.2),))
+    res = Optim().plan(PlanProblem(world, robot, Pose2D(0.3, 0.3, 0.0), Pose2D(1.5, 1.5, 0.0)))
+    assert res.status is PlanStatus.INVALID_GOAL and "goal" in res.reason
+
+
+def test_unreachable_goal_reports_ipopt_status() -> None:
+    """Goal 1.2 m away, horizon 2 s at 0.22 m/s: the constraints cannot hold; IPOPT says so."""
+    robot = load_robot("turtlebot3")
+    world = World((0.0, 2.0, 0.0, 1.0))
+    res = Optim(N=20, dt=0.1, init="straight").plan(PlanProblem(world, robot, Pose2D(0.3, 0.5, 0), Pose2D(1.5, 0.5, 0)))
+    assert res.status in (PlanStatus.INFEASIBLE, PlanStatus.FAILED, PlanStatus.TIMEOUT)
+    assert res.reason.startswith("IPOPT: ") and res.stats["ipopt_status"] in res.reason
+    assert res.stats["ipopt_status"] not in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+
+
+def test_nlp_is_built_once_and_reused() -> None:
+    problem = PlanProblem.from_scenario(load_scenario("simple_motion"))
+    planner = Optim(N=37, dt=10.0 / 37)  # a shape no other test uses
+    first = planner.plan(problem)
+    second = planner.plan(problem)
+    assert first.success and second.success
+    assert first.stats["nlp_cached"] is False and second.stats["nlp_cached"] is True
+    assert np.array_equal(first.path, second.path)  # same problem, same warm start, same answer
+    moved = PlanProblem.from_scenario(load_scenario("parallel_park"))
+    assert planner.plan(moved).stats["nlp_cached"] is True  # new start/goal are parameters
+
+
+def test_polygon_vertices_convex_hull() -> None:
+    box = Box((1.0, 2.0), (0.4, 0.2), 0.3)
+    np.testing.assert_allclose(polygon_vertices(box), box.corners())
+    arrow = Polygon(((0, 0), (2, 0), (1, 0.5), (2, 1), (0, 1)))  # non-convex: the notch is filled
+    hull = polygon_vertices(arrow)
+    assert hull.shape == (4, 2) and not np.any(np.all(np.isclose(hull, [1.0, 0.5]), axis=1))
+    with pytest.raises(TypeError):
+        polygon_vertices(Ellipse((0, 0), (1, 0.5)))
+
+
+def test_ellipse_clearance_is_exact_and_active() -> None:
+    """Passing over an ellipse that blocks the straight line, the robot keeps exactly r + margin
+    (measured by the exact ellipse distance) where the constraint is active."""
+    robot = load_robot("turtlebot3")
+    ell = Ellipse((1.0, 0.3), (0.3, 0.08), 0.2)
+    world = World((0.0, 2.0, 0.0, 1.0), (ell,))
+    planner = Optim(init="grid")
+    sol = planner.solve(PlanProblem(world, robot, Pose2D(0.3, 0.3, 0.0), Pose2D(1.7, 0.3, 0.0)))
+    assert sol.result.success, sol.result.reason
+    assert sol.nodes is not None
+    d_nodes = ell.signed_distance(sol.nodes[:, :2])
+    assert np.min(d_nodes) == pytest.approx(robot.radius + planner.margin, abs=1e-6)
+    assert np.min(ell.signed_distance(sol.result.path[:, :2])) >= robot.radius
+
+
+def test_init_from_unregistered_planner_is_a_config_error() -> None:
+    with pytest.raises(ConfigError, match="rrt-star"):
+        make_planner("optim", init="rrt-star")
+    with pytest.raises(ConfigError):
+        Optim(N=1)
+
+
+def test_init_from_another_planner() -> None:
+    problem = PlanProblem.from_scenario(load_scenario("turn_in_place"))
+    res = Optim(init="sinusoidal").plan(problem)
+    assert res.success and res.stats["init"] == "sinusoidal"
+    assert math.isclose(res.times[-1], DEFAULT_N * DEFAULT_DT)  # type: ignore[index]
+
+
+def test_fast_rollout_equals_generic_rk4() -> None:
+    from planning.kinematics import rollout
+    from planning.optim import bicycle_rollout
+
+    rng = np.random.default_rng(3)
+    u = np.column_stack([rng.uniform(-0.2, 0.2, 40), rng.uniform(-2, 2, 40)])
+    x0 = np.array([0.1, -0.2, 0.7, 0.1])
+    ref = rollout(lambda s, uu: bicycle_rhs(s, uu, 0.1), x0, u, 0.05)
+    np.testing.assert_allclose(bicycle_rollout(x0, u, 0.05, 0.1), ref, rtol=0, atol=1e-13)

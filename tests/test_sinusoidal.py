@@ -1,0 +1,164 @@
+"""Sinusoidal steering: the Murray-Sastry step formula, landing, hand-off, bounds and obstacles."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from planning.errors import ConfigError
+from planning.geometry import Pose2D, wrap_angle
+from planning.plan import PlanProblem, PlanStatus, make_planner
+from planning.robot import load_robot
+from planning.scenario import load_scenario
+from planning.sinusoidal import ChainedModel, Sinusoidal, heading_waypoints, model_for
+from planning.world import Circle, World
+
+MANOEUVRES = ["simple_motion", "parallel_park", "three_point_turn", "turn_in_place"]
+
+
+def test_chained_form_step_matches_closed_form() -> None:
+    """x4 change over one period of u1 = a1 sin wt, u2 = a2 cos 2wt on the canonical chained form.
+
+    Integrals: x2 = x20 + a2/(2w) sin 2wt; x3 = x30 + x20 a1 (1 - cos wt)/w
+    + a1 a2/(2w) (sin wt/(2w) - sin 3wt/(6w)); over T = 2 pi/w, int x3 u1 dt keeps only
+    a1^2 a2/(2w) * 1/(2w) * int sin^2 wt dt = a1^2 a2/(4 w^2) * pi/w, so dx4 = pi a1^2 a2 / (4 w^3).
+    """
+    a1, a2, w = 0.7, 1.3, 2.0
+    x0 = np.array([0.3, -0.2, 0.15, 0.4])  # x20, x30 nonzero: they must not contribute
+
+    def rhs(t: float, x: np.ndarray) -> np.ndarray:
+        u1, u2 = a1 * math.sin(w * t), a2 * math.cos(2 * w * t)
+        return np.array([u1, u2, x[1] * u1, x[2] * u1])
+
+    sol = solve_ivp(rhs, (0.0, 2 * math.pi / w), x0, rtol=1e-12, atol=1e-14, method="DOP853")
+    closed = math.pi * a1**2 * a2 / (4 * w**3)
+    assert sol.y[3, -1] - x0[3] == pytest.approx(closed, rel=1e-9)
+    np.testing.assert_allclose(sol.y[:3, -1], x0[:3], atol=1e-10)  # x1, x2, x3 return
+
+
+def _bicycle_dz4(model: ChainedModel, theta0: float, period: float, a1: float, a2: float, wheelbase: float) -> float:
+    """Fourth chained state's change from integrating the bicycle itself (u1 = v1 / cos theta)."""
+    w = 2 * math.pi / period
+
+    def rhs(t: float, s: np.ndarray) -> np.ndarray:
+        v1 = a1 * math.sin(w * t)
+        c = math.sin(s[2]) if model.alternate else math.cos(s[2])
+        u1 = v1 / c
+        return np.array(
+            [u1 * math.cos(s[2]), u1 * math.sin(s[2]), u1 * math.tan(s[3]) / wheelbase, a2 * math.cos(2 * w * t)]
+        )
+
+    s0 = np.array([0.0, 0.0, theta0, 0.0])
+    sol = solve_ivp(rhs, (0.0, period), s0, rtol=1e-12, atol=1e-13, method="DOP853")
+    z0, z1 = model.to_chained(s0), model.to_chained(sol.y[:, -1])
+    np.testing.assert_allclose(z1[:3], z0[:3], atol=1e-8)  # z1, phi, alpha return
+    return float(z1[3] - z0[3])
+
+
+@pytest.mark.parametrize(("center", "theta0"), [(0.0, 0.3), (math.pi / 2, 1.2), (math.pi, -2.8), (-math.pi / 2, -1.0)])
+def test_planner_step_quadrature_matches_bicycle_integration(center: float, theta0: float) -> None:
+    planner = Sinusoidal()
+    planner.l = 0.1
+    m = model_for(center)
+    z0 = m.to_chained(np.array([0.0, 0.0, theta0, 0.0]))
+    ref = _bicycle_dz4(m, theta0, 4.0, 0.12, 0.9, 0.1)
+    assert planner.dz4(m, z0, 4.0, 0.12, 0.9) == pytest.approx(ref, rel=1e-7, abs=1e-10)
+
+
+def test_small_amplitude_step_tends_to_chained_form() -> None:
+    """With tan(phi) ~ phi and alpha/sqrt(1-alpha^2) ~ alpha the step is pi a1^2 a2 / (4 l w^3)."""
+    planner = Sinusoidal()
+    planner.l = 0.1
+    period, a1, a2 = 4.0, 0.002, 0.01
+    w = 2 * math.pi / period
+    got = planner.dz4(model_for(0.0), np.zeros(4), period, a1, a2)
+    assert got == pytest.approx(math.pi * a1**2 * a2 / (4 * 0.1 * w**3), rel=1e-4)
+
+
+def test_heading_waypoints_cut_at_handoffs() -> None:
+    np.testing.assert_allclose(heading_waypoints(0.0, 0.5), [0.0, 0.5])
+    np.testing.assert_allclose(heading_waypoints(0.0, 1.4), [0.0, math.pi / 4, 1.4])
+    np.testing.assert_allclose(heading_waypoints(0.0, math.pi), [0.0, -math.pi / 4, -3 * math.pi / 4, -math.pi])
+    np.testing.assert_allclose(heading_waypoints(3.0, -3.0), [3.0, 2 * math.pi - 3.0])  # across +-pi, one region
+    assert [model_for(a).name for a in (0.1, 1.0, 3.0, -1.2)] == ["standard", "alternate", "standard", "alternate"]
+
+
+def _integrate_controls(result) -> np.ndarray:  # type: ignore[no-untyped-def]
+    """Integrate the unicycle with the plan's (v, omega), linearly interpolated, by an adaptive RK."""
+    t, u = result.times, result.controls
+
+    def rhs(tt: float, s: np.ndarray) -> np.ndarray:
+        v, om = np.interp(tt, t, u[:, 0]), np.interp(tt, t, u[:, 1])
+        return np.array([v * math.cos(s[2]), v * math.sin(s[2]), om])
+
+    sol = solve_ivp(rhs, (t[0], t[-1]), result.path[0], rtol=1e-9, atol=1e-11, max_step=0.01, t_eval=t)
+    return sol.y.T
+
+
+@pytest.mark.parametrize("robot_name", ["turtlebot3", "edumip"])
+@pytest.mark.parametrize("name", MANOEUVRES)
+def test_manoeuvre_lands_within_goal_tolerance(name: str, robot_name: str) -> None:
+    sc = load_scenario(name)
+    problem = PlanProblem.from_scenario(sc, robot=load_robot(robot_name))
+    res = make_planner("sinusoidal").plan(problem)
+    assert res.status in (PlanStatus.SUCCESS, PlanStatus.BOUNDS_VIOLATED), res.reason
+    if res.status is PlanStatus.BOUNDS_VIOLATED:
+        assert "bounds" in res.reason or "phi" in res.reason or "inputs" in res.reason
+    assert res.times is not None and res.controls is not None and res.states is not None
+    assert res.states.shape == (res.path.shape[0], 4)
+    traj = _integrate_controls(res)
+    assert np.hypot(traj[-1, 0] - sc.goal.x, traj[-1, 1] - sc.goal.y) < sc.position_tolerance
+    assert abs(wrap_angle(traj[-1, 2] - sc.goal.theta)) < sc.heading_tolerance
+    # The integrated motion follows the planned path closely all along (5 mm).
+    assert np.max(np.hypot(traj[:, 0] - res.path[:, 0], traj[:, 1] - res.path[:, 1])) < 5e-3
+    robot = problem.robot
+    assert np.max(np.abs(res.controls[:, 0])) <= robot.max_speed * (1 + 1e-9)
+    assert np.max(np.abs(res.states[:, 3])) <= robot.max_steering * (1 + 1e-9)
+    assert np.max(np.abs(res.controls[:, 1])) <= robot.max_yaw_rate * (1 + 1e-9)
+    # omega is the bicycle's u1 tan(phi) / l
+    np.testing.assert_allclose(res.controls[:, 1], res.controls[:, 0] * np.tan(res.states[:, 3]) / robot.wheelbase)
+
+
+def test_crossing_ninety_degrees_uses_the_handoff() -> None:
+    robot = load_robot("turtlebot3")
+    world = World((-2.0, 2.0, -2.0, 2.0))
+    res = Sinusoidal().plan(PlanProblem(world, robot, Pose2D(0, 0, 0.0), Pose2D(0.2, 0.3, math.radians(100))))
+    assert res.success, res.reason
+    assert res.stats["handoffs"] == 1 and res.stats["models"] == "standard>alternate"
+    assert abs(wrap_angle(res.path[-1, 2] - math.radians(100))) < 1e-6
+    turn = Sinusoidal().plan(PlanProblem.from_scenario(load_scenario("turn_in_place")))
+    assert turn.stats["handoffs"] == 2 and turn.stats["models"] == "standard>alternate>standard"
+
+
+def test_bounds_violation_is_reported() -> None:
+    sc = load_scenario("parallel_park")
+    tight = World((0.9, 1.1, 0.3, 1.0))
+    res = Sinusoidal().plan(PlanProblem(tight, load_robot("turtlebot3"), sc.start, sc.goal))
+    assert res.status is PlanStatus.BOUNDS_VIOLATED
+    assert "world bounds" in res.reason
+    assert res.path.shape[0] > 1  # the path is attached for inspection
+
+
+def test_obstacle_in_the_way_is_infeasible_and_one_aside_is_not() -> None:
+    robot = load_robot("turtlebot3")
+    start, goal = Pose2D(0.3, 0.5, 0.0), Pose2D(1.5, 0.5, 0.0)
+    blocked = World((0.0, 2.0, 0.0, 1.0), (Circle((0.9, 0.5), 0.1),))
+    res = Sinusoidal().plan(PlanProblem(blocked, robot, start, goal))
+    assert res.status is PlanStatus.INFEASIBLE and "obstacle" in res.reason
+    aside = World((0.0, 2.0, 0.0, 1.0), (Circle((0.9, 0.9), 0.05),))
+    assert Sinusoidal().plan(PlanProblem(aside, robot, start, goal)).success
+
+
+def test_same_problem_same_plan() -> None:
+    problem = PlanProblem.from_scenario(load_scenario("simple_motion"))
+    a, b = Sinusoidal().plan(problem), Sinusoidal().plan(problem)
+    assert np.array_equal(a.path, b.path) and np.array_equal(a.controls, b.controls)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("bad", [{"u2max": 0.0}, {"u1max": -1.0}, {"phimax": 2.0}, {"max_heading_offset": 2.0}])
+def test_bad_options_raise_config_error(bad: dict[str, float]) -> None:
+    with pytest.raises(ConfigError):
+        make_planner("sinusoidal", **bad)
