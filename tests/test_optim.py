@@ -134,10 +134,17 @@ def test_ellipse_clearance_is_exact_and_active() -> None:
 
 
 def test_init_from_unregistered_planner_is_a_config_error() -> None:
-    with pytest.raises(ConfigError, match="rrt-star"):
-        make_planner("optim", init="rrt-star")
+    with pytest.raises(ConfigError, match="no-such-planner"):
+        make_planner("optim", init="no-such-planner")
     with pytest.raises(ConfigError):
         Optim(N=1)
+
+
+def test_init_from_a_sampling_planner_path() -> None:
+    problem = PlanProblem.from_scenario(load_scenario("nav_map1"), time_limit=10.0)
+    res = Optim(init="rrt-star").plan(problem)
+    assert res.success, res.reason
+    assert res.stats["init"] == "rrt-star"
 
 
 def test_init_from_another_planner() -> None:
