@@ -23,6 +23,7 @@ COMMANDS: dict[str, str] = {
     "bench": "sim.commands.bench",
     "scenarios": "sim.commands.scenarios",
     "plan": "sim.commands.plan",
+    "tune": "sim.commands.tune",
 }
 
 

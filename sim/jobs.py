@@ -20,6 +20,7 @@ from planning.scenario import Scenario, load_scenario
 from planning.to_trajectory import checked_trajectory
 from planning.trajectory import Trajectory
 from sim.metrics import TrackingMetrics, compute_metrics
+from sim.perturb import Perturbation
 from sim.runlog import RunLog
 from sim.simulator import SimConfig, Simulator
 
@@ -105,6 +106,7 @@ def run_tracking(
     seed: int = 0,
     simulator: Simulator | None = None,
     tracker_names: dict[str, str] | None = None,
+    perturbation: Perturbation | None = None,
 ) -> JobResult:
     """Track a trajectory closed loop and/or open loop in physics and measure both.
 
@@ -119,6 +121,7 @@ def run_tracking(
         seed: Seed, recorded (and used by perturbations).
         simulator: A simulator to reuse (built from scenario and robot if None).
         tracker_names: Run label -> tracker name (default ``RUNS``).
+        perturbation: Physics and loop perturbation applied to every run (see :mod:`sim.perturb`).
     """
     gains = gains or FBLGains()
     config = config or SimConfig()
@@ -128,11 +131,15 @@ def run_tracking(
     names = {**RUNS, **(tracker_names or {})}
     for label in trackers:
         tracker = make_tracker(names[label], robot, gains=gains)
-        log = simulator.run(trajectory, tracker, config, start=scenario.start, meta={"seed": seed})
+        log = simulator.run(trajectory, tracker, config, start=scenario.start, meta={"seed": seed},
+                             perturbation=perturbation)  # fmt: skip
         logs[label] = log
         metrics[label] = compute_metrics(log, trajectory, max_speed=robot.max_speed, max_yaw_rate=robot.max_yaw_rate)
-    return JobResult(scenario, robot, trajectory, source, logs, metrics, gains, config, seed,
-                     trackers={k: names[k] for k in trackers})  # fmt: skip
+    job = JobResult(scenario, robot, trajectory, source, logs, metrics, gains, config, seed,
+                    trackers={k: names[k] for k in trackers})  # fmt: skip
+    if perturbation is not None and not perturbation.is_nominal:
+        job.extra["perturbation"] = perturbation.as_dict()
+    return job
 
 
 def simulate_reference(
@@ -144,6 +151,7 @@ def simulate_reference(
     gains: FBLGains | None = None,
     config: SimConfig | None = None,
     seed: int = 0,
+    perturbation: Perturbation | None = None,
 ) -> JobResult:
     """Track an analytic reference placed at a scenario's start pose.
 
@@ -155,6 +163,7 @@ def simulate_reference(
         gains: FBL gains.
         config: Simulation settings.
         seed: Seed.
+        perturbation: Physics and loop perturbation (see :mod:`sim.perturb`).
     """
     sc = load_scenario(scenario)
     if robot is not None:
@@ -171,7 +180,7 @@ def simulate_reference(
             f"for it (e.g. --scenario open) or plan a path with --planner"
         )
     return run_tracking(sc, spec, traj, source=f"reference:{reference}", trackers=trackers, gains=gains,
-                        config=config, seed=seed)  # fmt: skip
+                        config=config, seed=seed, perturbation=perturbation)  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------------ plans
@@ -222,6 +231,7 @@ def simulate_plan(
     trackers: tuple[str, ...] = ("closed_loop", "open_loop"),
     plan: PlanResult | None = None,
     smoothing: dict[str, Any] | None = None,
+    perturbation: Perturbation | None = None,
 ) -> JobResult:
     """Plan a scenario, smooth and time the plan, and track it closed loop and open loop.
 
@@ -237,6 +247,7 @@ def simulate_plan(
         trackers: Run labels to run.
         plan: A ready plan to use instead of planning (its ``planner`` names the source).
         smoothing: Keyword options for :func:`planning.to_trajectory.make_trajectory`.
+        perturbation: Physics and loop perturbation of the runs (see :mod:`sim.perturb`).
 
     Returns:
         The job; ``source`` is "planner:<name>", ``extra["plan"]`` holds the plan's status and
@@ -268,7 +279,7 @@ def simulate_plan(
     assert traj is not None
     config = config or SimConfig(hold=PLAN_HOLD_S)
     job = run_tracking(sc, spec, traj, source=f"planner:{plan.planner}", trackers=trackers, gains=gains,
-                       config=config, seed=seed, tracker_names=PLAN_RUNS)  # fmt: skip
+                       config=config, seed=seed, tracker_names=PLAN_RUNS, perturbation=perturbation)  # fmt: skip
     job.extra["plan"] = plan_rec
     job.extra["smoothing"] = {k: v for k, v in res.stats.items() if isinstance(v, (int, float, str, bool))}
     return job

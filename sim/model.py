@@ -199,3 +199,35 @@ def set_pose(model: mujoco.MjModel, data: mujoco.MjData, pose: Pose2D) -> None:
     data.qpos[adr + 3 : adr + 7] = _quat_yaw(pose.theta)
     data.qvel[:] = 0.0
     mujoco.mj_forward(model, data)
+
+
+def scale_wheels(model: mujoco.MjModel, factor: float) -> None:
+    """Scale the radius of the wheel geoms of a compiled model in place (a wheel-radius error).
+
+    The collision tyres (``wheel_*_geom``) and the visual tyres (``wheel_*_tyre``) get radius
+    ``factor * r``; their bounding radii and boxes follow, and the base body's rest height grows by
+    the change in radius so :func:`set_pose` still puts the tyres on the floor. Call
+    ``mujoco.mj_setConst`` afterwards.
+
+    Args:
+        model: The compiled model (modified).
+        factor: New radius over the model's radius (> 0).
+    """
+    old = None
+    for side in ("left", "right"):
+        for suffix in ("geom", "tyre"):
+            try:
+                g = model.geom(f"wheel_{side}_{suffix}").id
+            except KeyError:
+                continue
+            r = float(model.geom_size[g, 0])
+            if suffix == "geom":
+                old = r
+            model.geom_size[g, 0] = r * factor
+            half = float(model.geom_size[g, 1])
+            model.geom_rbound[g] = float(np.hypot(r * factor, half))
+            model.geom_aabb[g, 3:6] = [r * factor, r * factor, half]
+    if old is None:
+        raise ValueError("the model has no wheel_left_geom / wheel_right_geom to scale")
+    base = model.body("base").id
+    model.body_pos[base, 2] += old * (factor - 1.0)

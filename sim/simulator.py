@@ -23,6 +23,7 @@ from planning.robot import RobotSpec
 from planning.trajectory import Trajectory
 from planning.world import World
 from sim.model import BuiltModel, build_model, set_pose
+from sim.perturb import Perturbation
 from sim.runlog import Contact, RunLog
 
 WARNING_NAMES = {int(v): k for k, v in mujoco.mjtWarning.__members__.items() if k != "mjNWARNING"}
@@ -123,6 +124,7 @@ class Simulator:
         start: Pose2D | None = None,
         drive: DiffDrive | None = None,
         meta: dict[str, Any] | None = None,
+        perturbation: Perturbation | None = None,
     ) -> RunLog:
         """Track a trajectory with a tracker in physics.
 
@@ -133,6 +135,8 @@ class Simulator:
             start: Initial pose; defaults to the trajectory's first pose.
             drive: The drive mapping the controller believes; defaults to the robot's.
             meta: Extra fields for the log's ``meta``.
+            perturbation: Friction, mass, wheel radius, pose noise and latency changes (see
+                :mod:`sim.perturb`); None or nominal runs the model as built.
 
         Returns:
             The log.
@@ -141,15 +145,21 @@ class Simulator:
             SimulationError: MuJoCo warned (with ``config.strict``); the message lists the warnings.
         """
         cfg = config or SimConfig()
-        m = self.model
+        pert = perturbation if perturbation is not None and not perturbation.is_nominal else None
+        m = pert.apply_to_model(self.model) if pert is not None and pert.changes_model else self.model
         d = mujoco.MjData(m)
         set_pose(m, d, start or trajectory.start_pose)
         k_ctrl = self.steps_per_control(cfg.control_rate)
-        chunks = next(c for c in range(1, k_ctrl + 1) if k_ctrl % c == 0 and k_ctrl // c <= 10)
+        delay = pert.latency_steps(m.opt.timestep) if pert is not None else 0
+        # log chunks: at most 10 physics steps each, and (with latency) ending where commands arrive
+        chunks = next(
+            c for c in range(1, k_ctrl + 1) if k_ctrl % c == 0 and k_ctrl // c <= 10 and delay % (k_ctrl // c) == 0
+        )
         k_log = k_ctrl // chunks
         dt_ctrl = k_ctrl * m.opt.timestep
         horizon = trajectory.duration + cfg.hold
         n_ctrl = math.ceil(horizon / dt_ctrl - 1e-9)
+        noise = pert.sensor_noise(n_ctrl) if pert is not None else None
         n_log = n_ctrl * chunks + 1
         drv = drive or DiffDrive.from_robot(self.robot)
         tracker.reset(trajectory, dt_ctrl)
@@ -188,17 +198,24 @@ class Simulator:
         i = 1
         for k in range(n_ctrl):
             x, y, th = read_pose(d)
+            if noise is not None:
+                x, y, th = x + noise[k, 0], y + noise[k, 1], th + noise[k, 2]
             v, w = command(t0 + k * dt_ctrl, x, y, th)
             if not (isfinite(v) and isfinite(w)):
                 raise SimulationError(
                     f"tracker {tracker.name!r} returned a non-finite command ({v}, {w}) at t={d.time:.3f} s"
                 )
             left, right = wheel_speeds(v, w)
-            ctrl[act_l] = left
-            ctrl[act_r] = right
             cmd[k + 1] = (v, w)
             wcmd[k + 1] = (left, right)
-            for _ in range(chunks):
+            if not delay:
+                ctrl[act_l] = left
+                ctrl[act_r] = right
+            for j in range(chunks):
+                if delay:  # the command computed at the last control instant <= now - latency
+                    src = max((k * k_ctrl + j * k_log - delay) // k_ctrl + 1, 0)
+                    ctrl[act_l] = wcmd[src, 0]
+                    ctrl[act_r] = wcmd[src, 1]
                 step(m, d, nstep=k_log)
                 qvel[i] = dqvel
                 qpos[i] = dqpos
@@ -215,7 +232,11 @@ class Simulator:
         # command in force during each log sample: the one set at the start of its control period
         owner = np.concatenate([[0], np.repeat(np.arange(1, n_ctrl + 1), chunks)])
         cmd = cmd[owner]
-        wcmd = wcmd[owner]
+        if delay:  # wheel command actually applied during each log interval
+            arrived = (np.arange(n_log - 1) * k_log - delay) // k_ctrl + 1
+            wcmd = wcmd[np.concatenate([[0], np.maximum(arrived, 0)])]
+        else:
+            wcmd = wcmd[owner]
         wspd = qvel[:, self._wheel_dofs]
         pose[:, 2] = np.unwrap(pose[:, 2])
         ref = trajectory.sample_many(t_log)[:, :3]
@@ -231,6 +252,8 @@ class Simulator:
             "timestep_s": float(m.opt.timestep),
             "trajectory": trajectory.name,
         }
+        if pert is not None:
+            info["perturbation"] = pert.as_dict()
         info.update(meta or {})
         log = RunLog(t_log, pose, qpos, ref, cmd, wcmd, wspd, tuple(contacts), warnings, info)
         if warnings and cfg.strict:

@@ -65,7 +65,19 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         default="both",
         help="fbl (closed loop), open-loop, or both (default: both)",
     )
-    p.add_argument("--gains", default=None, metavar="KP,KD", help="feedback gains Kp,Kd, both > 0 (default: 9,6)")
+    p.add_argument(
+        "--gains",
+        default=None,
+        metavar="KP,KD|FILE",
+        help="feedback gains Kp,Kd (both > 0), or a gains file written by 'nhsim tune' (default: 9,6)",
+    )
+    p.add_argument(
+        "--perturb",
+        default=None,
+        metavar="KEY=VALUE,...",
+        help="perturb physics and loop: friction, mass, radius (scales), noise [m], heading_noise [rad], "
+        "latency [s], e.g. friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02 (noise seeded by --seed)",
+    )
     p.add_argument(
         "--control-rate",
         type=float,
@@ -101,11 +113,14 @@ def format_table(record: dict[str, Any]) -> str:
 def run(args: argparse.Namespace) -> int:
     """Execute ``simulate``."""
     from control.fbl import FBLGains
+    from control.gains import resolve_gains
     from sim.jobs import simulate_reference
+    from sim.perturb import Perturbation
     from sim.outputs import check_writable, write_json
     from sim.simulator import SimConfig
 
-    gains = FBLGains.parse(args.gains) if args.gains else FBLGains()
+    gains = resolve_gains(args.gains) if args.gains else FBLGains()
+    perturbation = Perturbation.parse(args.perturb, seed=args.seed) if args.perturb else None
     if args.control_rate <= 0:
         raise ConfigError(f"--control-rate must be > 0 Hz, got {args.control_rate}")
     config = SimConfig(control_rate=args.control_rate)
@@ -124,19 +139,19 @@ def run(args: argparse.Namespace) -> int:
         result = simulate_plan(
             scenario, robot=args.robot, planner=planner, seed=args.seed, gains=gains,
             config=SimConfig(control_rate=args.control_rate, hold=PLAN_HOLD_S), time_limit=args.time_limit,
-            trackers=TRACKER_CHOICES[args.tracker],
+            trackers=TRACKER_CHOICES[args.tracker], perturbation=perturbation,
         )  # fmt: skip
     else:
         result = simulate_reference(
             scenario, robot=args.robot, reference=args.reference or "figure8", trackers=TRACKER_CHOICES[args.tracker],
-            gains=gains, config=config, seed=args.seed,
+            gains=gains, config=config, seed=args.seed, perturbation=perturbation,
         )  # fmt: skip
     record = result.record()
     if not args.quiet:
         print(
             f"scenario {result.scenario.name} | robot {result.robot.name} | {result.source} | "
             f"{result.trajectory.duration:.1f} s | control {config.control_rate:g} Hz | "
-            f"gains Kp={gains.kp:g} Kd={gains.kd:g}"
+            f"gains Kp={gains.kp:g} Kd={gains.kd:g}" + (f" | perturbed {perturbation.label()}" if perturbation else "")
         )
     print(format_table(record))
     if args.json is not None:

@@ -1,0 +1,165 @@
+"""Gains files: FBL tracker gains with their provenance, as TOML.
+
+A gains file holds one gain set and where it came from::
+
+    # nhsim FBL tracker gains
+    [gains]
+    kp = 14.2        # position error gain Kp [1/s^2]
+    kd = 7.9         # velocity error gain Kd [1/s]
+    xi_min = 0.02    # singularity guard |xi| >= xi_min [m/s]
+
+    [provenance]     # optional: how the gains were found
+    study = "fbl-open-figure8"
+    objective = 0.00123
+    scenarios = ["open:figure8", "open:circle"]
+
+``[gains]`` is required with ``kp`` and ``kd``; ``xi_min`` defaults to the tracker's default.
+``[provenance]`` is free-form (strings, numbers, booleans, lists and tables of those) but its
+``study`` must be a string, ``objective`` a finite number and ``scenarios`` a list of strings.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from control.fbl import FBLGains
+from planning.errors import ConfigError
+
+GAIN_KEYS = ("kp", "kd", "xi_min")
+
+
+@dataclass(frozen=True)
+class GainsFile:
+    """A gain set and its provenance.
+
+    Attributes:
+        gains: The FBL gains.
+        provenance: Study name, objective value, scenarios and whatever else the writer recorded.
+    """
+
+    gains: FBLGains
+    provenance: dict[str, Any] = field(default_factory=dict)
+
+
+def parse_gains_toml(text: str, *, where: str = "gains file") -> GainsFile:
+    """Parse the TOML text of a gains file.
+
+    Args:
+        text: The file's content.
+        where: Name used in error messages (the path).
+
+    Raises:
+        ConfigError: Not TOML, no ``[gains]`` table, a missing, unknown, non-numeric, negative or
+            zero gain, or a malformed provenance field.
+    """
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{where}: not valid TOML ({exc}); a gains file has a [gains] table with kp, kd") from exc
+    unknown = set(data) - {"gains", "provenance"}
+    if unknown:
+        raise ConfigError(f"{where}: unknown table(s) {', '.join(sorted(unknown))}; allowed: [gains], [provenance]")
+    table = data.get("gains")
+    if not isinstance(table, dict):
+        raise ConfigError(f"{where}: missing [gains] table; write e.g. '[gains]' then 'kp = 9.0' and 'kd = 6.0'")
+    bad_keys = set(table) - set(GAIN_KEYS)
+    if bad_keys:
+        raise ConfigError(f"{where}: unknown gain(s) {', '.join(sorted(bad_keys))}; allowed: {', '.join(GAIN_KEYS)}")
+    values: dict[str, float] = {}
+    for key in GAIN_KEYS:
+        if key not in table:
+            if key == "xi_min":
+                continue
+            raise ConfigError(f"{where}: [gains] has no {key}; add '{key} = <positive number>'")
+        value = table[key]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ConfigError(f"{where}: [gains] {key} must be a finite number, got {value!r}")
+        if value <= 0:
+            raise ConfigError(f"{where}: [gains] {key} must be > 0, got {value!r} (the error dynamics need it)")
+        values[key] = float(value)
+    prov = data.get("provenance", {})
+    if not isinstance(prov, dict):
+        raise ConfigError(f"{where}: provenance must be a table ([provenance]), got {type(prov).__name__}")
+    if "study" in prov and not isinstance(prov["study"], str):
+        raise ConfigError(f"{where}: [provenance] study must be a string, got {prov['study']!r}")
+    if "objective" in prov:
+        obj = prov["objective"]
+        if isinstance(obj, bool) or not isinstance(obj, (int, float)) or not math.isfinite(obj):
+            raise ConfigError(f"{where}: [provenance] objective must be a finite number, got {obj!r}")
+    if "scenarios" in prov:
+        sc = prov["scenarios"]
+        if not (isinstance(sc, list) and all(isinstance(s, str) for s in sc)):
+            raise ConfigError(f"{where}: [provenance] scenarios must be a list of strings, got {sc!r}")
+    return GainsFile(FBLGains(**values), dict(prov))
+
+
+def load_gains_file(path: str | Path) -> GainsFile:
+    """Read a gains file.
+
+    Raises:
+        ConfigError: The file cannot be read or is malformed (see :func:`parse_gains_toml`).
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"cannot read gains file {p}: {exc.strerror or exc}") from exc
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"gains file {p} is not UTF-8 text (a TOML file with a [gains] table)") from exc
+    return parse_gains_toml(text, where=str(p))
+
+
+def resolve_gains(text: str) -> FBLGains:
+    """Gains from a ``--gains`` argument: ``"KP,KD"`` or the path of a gains file.
+
+    Raises:
+        ConfigError: Neither two positive numbers nor a readable, valid gains file.
+    """
+    p = Path(text)
+    if p.suffix == ".toml" or p.exists():
+        return load_gains_file(p).gains
+    if "," not in text:
+        raise ConfigError(f"--gains {text!r}: neither 'KP,KD' (e.g. 9,6) nor an existing gains file (.toml)")
+    return FBLGains.parse(text)
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            raise ConfigError(f"cannot write a non-finite number {value!r} to a gains file")
+        return repr(value)
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items()) + " }"
+    raise ConfigError(f"cannot write a {type(value).__name__} to a gains file")
+
+
+def _toml_key(key: str) -> str:
+    return key if key.replace("_", "").replace("-", "").isalnum() else _toml_value(key)
+
+
+def dump_gains_toml(gains_file: GainsFile) -> str:
+    """TOML text of a gains file; :func:`parse_gains_toml` reads it back exactly (floats by repr)."""
+    g = gains_file.gains
+    lines = [
+        "# nhsim FBL tracker gains (read by: nhsim simulate --gains FILE)",
+        "[gains]",
+        f"kp = {g.kp!r}  # position error gain [1/s^2]",
+        f"kd = {g.kd!r}  # velocity error gain [1/s]",
+        f"xi_min = {g.xi_min!r}  # singularity guard [m/s]",
+    ]
+    if gains_file.provenance:
+        lines += ["", "[provenance]"]
+        lines += [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in gains_file.provenance.items()]
+    return "\n".join(lines) + "\n"
