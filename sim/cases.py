@@ -181,8 +181,9 @@ def prepare(case: Case) -> PreparedCase:
         clearance = sc.world.signed_distance(traj.pose[:, :2])
         if float(clearance.min()) <= spec.radius:
             raise ScenarioError(
-                f"case {case.label}: reference {case.reference!r} at the start of scenario {sc.name!r} hits an "
-                f"obstacle or wall; use a scenario with room for it (e.g. open:{case.reference}) or a planner"
+                f"case {case.label}: reference {case.reference!r} at the start of scenario {sc.name!r} comes within "
+                f"{spec.radius:.3f} m (the robot's radius) of an obstacle or wall; use a scenario with room around "
+                f"its start pose or a planner"
             )
     else:
         simulate_plan = planning_available()

@@ -24,6 +24,7 @@ COMMANDS: dict[str, str] = {
     "scenarios": "sim.commands.scenarios",
     "plan": "sim.commands.plan",
     "tune": "sim.commands.tune",
+    "regress": "sim.commands.regress",
 }
 
 

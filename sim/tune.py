@@ -123,9 +123,8 @@ class Evaluator:
                     continue
                 failed = m.collisions > 0 or m.warnings > 0
                 failures += int(failed)
-                cost = (
-                    m.rms_position_error_m + m.final_position_error_m + self.saturation_weight * m.saturation_fraction
-                )
+                sat_cost = self.saturation_weight * m.saturation_fraction
+                cost = m.rms_position_error_m + m.final_position_error_m + sat_cost
                 costs.append(cost + (FAILURE_COST if failed else 0.0))
                 rms.append(m.rms_position_error_m)
                 final.append(m.final_position_error_m)
@@ -303,8 +302,8 @@ def run_worker(spec: TuneSpec, n_trials: int, worker: int = 0, callbacks: Sequen
     evaluator = spec.evaluator()
     before = len(study.trials)
     if n_trials > 0:
-        study.optimize(objective_fn(evaluator), n_trials=n_trials,
-                       callbacks=[MaxTrialsCallback(spec.trials, states=(TrialState.COMPLETE,)), *callbacks])  # fmt: skip
+        stop = MaxTrialsCallback(spec.trials, states=(TrialState.COMPLETE,))
+        study.optimize(objective_fn(evaluator), n_trials=n_trials, callbacks=[stop, *callbacks])
     return len(study.trials) - before
 
 

@@ -76,7 +76,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         default=None,
         metavar="KEY=VALUE,...",
         help="perturb physics and loop: friction, mass, radius (scales), noise [m], heading_noise [rad], "
-        "latency [s], e.g. friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02 (noise seeded by --seed)",
+        "latency [s], e.g. friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02 (noise uses --seed)",
     )
     p.add_argument(
         "--control-rate",
@@ -115,8 +115,8 @@ def run(args: argparse.Namespace) -> int:
     from control.fbl import FBLGains
     from control.gains import resolve_gains
     from sim.jobs import simulate_reference
-    from sim.perturb import Perturbation
     from sim.outputs import check_writable, write_json
+    from sim.perturb import Perturbation
     from sim.simulator import SimConfig
 
     gains = resolve_gains(args.gains) if args.gains else FBLGains()

@@ -205,15 +205,22 @@ def run(args: argparse.Namespace) -> int:
     from sim.outputs import atomic_path, check_writable
     from sim.perturb import PerturbationRange
     from sim.tune import (
-        TuneSpec, completed, default_trial, ensure_default_trial, gains_of, load_study, run_worker,
+        TuneSpec,
+        completed,
+        default_trial,
+        ensure_default_trial,
+        gains_of,
+        load_study,
+        run_worker,
         split_trials,
-    )  # fmt: skip
+    )
 
     tokens = [t.strip() for t in args.scenarios.split(",") if t.strip()]
     if not tokens:
         raise ConfigError("--scenarios is empty; give cases such as open:figure8,open:circle")
-    for name, value, low in (("--trials", args.trials, 1), ("--jobs", args.jobs, 1), ("--robust-runs", args.robust_runs, 1),
-                             ("--eval-runs", args.eval_runs, 0)):  # fmt: skip
+    counts = {"--trials": (args.trials, 1), "--jobs": (args.jobs, 1), "--robust-runs": (args.robust_runs, 1),
+              "--eval-runs": (args.eval_runs, 0)}  # fmt: skip
+    for name, (value, low) in counts.items():
         if value < low:
             raise ConfigError(f"{name} must be >= {low}, got {value}")
     if args.control_rate <= 0:
@@ -281,15 +288,13 @@ def run(args: argparse.Namespace) -> int:
         comparison = {"runs": res_tuned.runs, "seed": args.seed + 7919, "default": res_default.as_dict(),
                       "tuned": res_tuned.as_dict()}  # fmt: skip
         print(f"held-out perturbed runs: {res_tuned.runs} ({args.eval_runs} per case, seed {args.seed + 7919})")
-        print(
-            f"{'gains':<8} {'objective [m]':>14} {'rms [m]':>10} {'final [m]':>10} {'saturation':>11} {'failures':>9}"
-        )
+        print(f"{'gains':<8} {'objective [m]':>14} {'rms [m]':>10} {'final [m]':>10} {'saturation':>11} {'failed':>7}")
         for label, r in (("default", res_default), ("tuned", res_tuned)):
-            print(
-                f"{label:<8} {r.objective:>14.6f} {r.rms_m:>10.6f} {r.final_m:>10.6f} {r.saturation:>11.4f} {r.failures:>9d}"
-            )
-        print(f"tuned / default: objective {res_tuned.objective / res_default.objective:.3f}, "
-              f"rms {res_tuned.rms_m / res_default.rms_m:.3f}, final {res_tuned.final_m / res_default.final_m:.3f}")  # fmt: skip
+            print(f"{label:<8} {r.objective:>14.6f} {r.rms_m:>10.6f} {r.final_m:>10.6f} {r.saturation:>11.4f} "
+                  f"{r.failures:>7d}")  # fmt: skip
+        d, t = res_default, res_tuned
+        print(f"tuned / default: objective {t.objective / d.objective:.3f}, rms {t.rms_m / d.rms_m:.3f}, "
+              f"final {t.final_m / d.final_m:.3f}")  # fmt: skip
 
     provenance: dict[str, Any] = {
         "study": study_name, "storage": storage, "objective": float(best.value), "trial": best.number,

@@ -1,0 +1,79 @@
+"""Gains files: round trip, clear errors, and ``nhsim simulate --gains FILE``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from control.fbl import FBLGains
+from control.gains import GainsFile, dump_gains_toml, load_gains_file, parse_gains_toml, resolve_gains
+from planning.errors import ConfigError
+from sim.cli import main
+
+
+def test_round_trip_is_exact() -> None:
+    g = FBLGains(kp=12.345678901234567, kd=0.1 + 0.2, xi_min=0.0123)
+    prov = {"study": "s", "objective": 1.0 / 3.0, "scenarios": ["open:figure8", "open:circle"], "trials": 7,
+            "robust": True, "held_out": {"runs": 4, "tuned": {"rms_m": 0.5}}}  # fmt: skip
+    back = parse_gains_toml(dump_gains_toml(GainsFile(g, prov)))
+    assert back.gains == g  # floats written by repr: bit-exact
+    assert back.provenance == prov
+
+
+def test_xi_min_defaults_and_kp_kd_required() -> None:
+    assert parse_gains_toml("[gains]\nkp = 4\nkd = 3\n").gains == FBLGains(kp=4.0, kd=3.0)
+    with pytest.raises(ConfigError, match="no kd"):
+        parse_gains_toml("[gains]\nkp = 4\n")
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("[gains\nkp = 1", "not valid TOML"),
+        ("kp = 1\nkd = 2\n", "unknown table|missing \\[gains\\]"),
+        ("[gains]\nkp = -1\nkd = 2\n", "kp must be > 0"),
+        ("[gains]\nkp = 1\nkd = 0\n", "kd must be > 0"),
+        ("[gains]\nkp = 'x'\nkd = 2\n", "kp must be a finite number"),
+        ("[gains]\nkp = nan\nkd = 2\n", "kp must be a finite number"),
+        ("[gains]\nkp = 1\nkd = 2\nki = 3\n", "unknown gain"),
+        ("[gains]\nkp = 1\nkd = 2\n[provenance]\nobjective = 'low'\n", "objective must be a finite number"),
+        ("[gains]\nkp = 1\nkd = 2\n[provenance]\nscenarios = 'open'\n", "scenarios must be a list"),
+    ],
+)
+def test_malformed_files_raise_clear_errors(text: str, match: str) -> None:
+    with pytest.raises(ConfigError, match=match):
+        parse_gains_toml(text, where="g.toml")
+
+
+def test_resolve_accepts_pair_or_file(tmp_path: Path) -> None:
+    assert resolve_gains("9,6") == FBLGains(9.0, 6.0)
+    f = tmp_path / "g.toml"
+    f.write_text(dump_gains_toml(GainsFile(FBLGains(3.0, 2.5, 0.05))))
+    assert resolve_gains(str(f)) == FBLGains(3.0, 2.5, 0.05)
+    assert load_gains_file(f).provenance == {}
+    with pytest.raises(ConfigError, match="cannot read gains file"):
+        resolve_gains(str(tmp_path / "missing.toml"))
+    with pytest.raises(ConfigError, match="neither 'KP,KD'"):
+        resolve_gains("nine")
+
+
+def test_simulate_reads_gains_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    f = tmp_path / "g.toml"
+    f.write_text(dump_gains_toml(GainsFile(FBLGains(4.0, 3.0))))
+    args = ["simulate", "--reference", "line", "--tracker", "fbl", "--quiet"]
+    assert main([*args, "--gains", str(f), "--json", str(tmp_path / "a.json")]) == 0
+    assert main([*args, "--gains", "4,3", "--json", str(tmp_path / "b.json")]) == 0
+    a, b = (tmp_path / "a.json").read_text(), (tmp_path / "b.json").read_text()
+    assert a.replace("a.json", "b.json") == b  # the file's gains gave the same run as the same pair
+    assert '"kp": 4.0' in a
+
+
+def test_simulate_rejects_malformed_gains_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    f = tmp_path / "bad.toml"
+    f.write_text("[gains]\nkp = 9\n")
+    out = tmp_path / "run.json"
+    assert main(["simulate", "--gains", str(f), "--json", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "bad.toml" in err and "no kd" in err
+    assert not out.exists()

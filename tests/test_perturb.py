@@ -1,0 +1,120 @@
+"""Perturbations: model edits, pose noise and latency, each against an exact or analytic answer."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from control.tracker import make_tracker
+from planning.errors import ConfigError
+from planning.references import make_reference
+from planning.robot import load_robot
+from planning.scenario import load_scenario
+from sim.perturb import Perturbation, PerturbationRange
+from sim.simulator import SimConfig, Simulator
+
+
+@pytest.fixture(scope="module")
+def setup() -> tuple[Simulator, object, object]:
+    robot = load_robot("turtlebot3")
+    sc = load_scenario("open")
+    traj = make_reference("line", robot, sc.start, length=1.0)
+    return Simulator(robot, sc.world), traj, robot
+
+
+def _run(setup, tracker: str = "open-loop", pert: Perturbation | None = None, rate: float = 50.0):  # type: ignore[no-untyped-def]
+    sim, traj, robot = setup
+    return sim.run(traj, make_tracker(tracker, robot), SimConfig(control_rate=rate), perturbation=pert)
+
+
+def test_nominal_perturbation_is_the_unperturbed_run(setup) -> None:  # type: ignore[no-untyped-def]
+    base = _run(setup, "fbl")
+    assert _run(setup, "fbl", Perturbation()).identical_to(base)
+    assert _run(setup, "fbl", Perturbation(seed=9)).identical_to(base)  # a seed alone changes nothing
+
+
+def test_model_edits_are_exact_and_leave_the_nominal_model_alone(setup) -> None:  # type: ignore[no-untyped-def]
+    sim = setup[0]
+    m0 = sim.model
+    base, wheel = m0.body("base").id, m0.geom("wheel_left_geom").id
+    friction0, mass0, size0 = m0.geom_friction.copy(), m0.body_mass.copy(), m0.geom_size.copy()
+    m = Perturbation(friction=0.6, mass=1.3, radius=1.02).apply_to_model(m0)
+    np.testing.assert_array_equal(m.geom_friction[:, 0], friction0[:, 0] * 0.6)
+    np.testing.assert_array_equal(m.geom_friction[:, 1:], friction0[:, 1:])
+    assert m.body_mass[base] == mass0[base] * 1.3
+    assert m.body_subtreemass[base] == pytest.approx(m0.body_subtreemass[base] + 0.3 * mass0[base], rel=1e-12)
+    assert m.geom_size[wheel, 0] == size0[wheel, 0] * 1.02
+    assert m.body_pos[base, 2] == pytest.approx(m0.body_pos[base, 2] + 0.02 * size0[wheel, 0], abs=1e-15)
+    np.testing.assert_array_equal(m0.geom_friction, friction0)  # the simulator's model is untouched
+    np.testing.assert_array_equal(m0.body_mass, mass0)
+    np.testing.assert_array_equal(m0.geom_size, size0)
+
+
+def test_wheel_radius_error_scales_open_loop_distance(setup) -> None:  # type: ignore[no-untyped-def]
+    # The drive still believes the nominal radius, so each wheel turn covers f times the distance.
+    start = setup[1].pose[0, :2]
+    d0 = np.linalg.norm(_run(setup).pose[-1, :2] - start)
+    for f in (0.97, 1.03):
+        d = np.linalg.norm(_run(setup, pert=Perturbation(radius=f)).pose[-1, :2] - start)
+        assert d / d0 == pytest.approx(f, rel=2e-3)
+
+
+@pytest.mark.parametrize(("latency", "rate"), [(0.02, 50.0), (0.01, 50.0), (0.006, 100.0)])
+def test_latency_delays_the_open_loop_run(setup, latency: float, rate: float) -> None:  # type: ignore[no-untyped-def]
+    # Open loop ignores the pose, so a latency L only delays the wheel commands: the run is the nominal
+    # one shifted by L (the robot rests on zero commands meanwhile), and so is the applied command.
+    base = _run(setup, rate=rate)
+    late = _run(setup, pert=Perturbation(latency=latency), rate=rate)
+    t_late = late.t - late.t[0]
+    checked = 0
+    for i in range(1, len(base)):
+        t = base.t[i] - base.t[0] + latency
+        j = int(np.argmin(np.abs(t_late - t)))
+        if abs(t_late[j] - t) > 1e-9:
+            continue
+        np.testing.assert_allclose(late.pose[j, :2], base.pose[i, :2], atol=2e-5)
+        np.testing.assert_array_equal(late.wheel_command[j], base.wheel_command[i])  # in force up to t
+        checked += 1
+    assert checked == sum(base.t[i] - base.t[0] + latency <= t_late[-1] + 1e-9 for i in range(1, len(base)))
+    assert checked > 0.9 * len(base)
+    n_rest = round(latency / (late.t[1] - late.t[0]))
+    np.testing.assert_array_equal(late.wheel_command[: n_rest + 1], 0.0)
+    assert late.meta["perturbation"]["latency"] == latency
+
+
+def test_noise_is_seeded_and_has_the_stated_spread(setup) -> None:  # type: ignore[no-untyped-def]
+    p = Perturbation(noise=0.004, heading_noise=0.02, seed=11)
+    z = p.sensor_noise(40000)
+    assert z is not None
+    # standard error of a sample std is sigma / sqrt(2n) ~ 0.35 %; allow 5 of them
+    np.testing.assert_allclose(z.std(axis=0), [0.004, 0.004, 0.02], rtol=0.02)
+    np.testing.assert_allclose(z.mean(axis=0), 0.0, atol=5 * 0.02 / np.sqrt(40000))
+    a = _run(setup, "fbl", p)
+    assert _run(setup, "fbl", p).identical_to(a)
+    assert not _run(setup, "fbl", Perturbation(noise=0.004, heading_noise=0.02, seed=12)).identical_to(a)
+    assert not a.identical_to(_run(setup, "fbl"))
+    assert Perturbation().sensor_noise(5) is None
+
+
+def test_parse_and_validation() -> None:
+    p = Perturbation.parse("friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02", seed=4)
+    assert p == Perturbation(0.6, 1.3, 1.02, 0.005, 0.0, 0.02, seed=4)
+    assert p.label() == "friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02"
+    for bad, match in [("grip=2", "expected comma-separated"), ("mass=heavy", "must be a number"),
+                       ("mass=1,mass=2", "given twice"), ("radius=2", "outside"), ("noise=-1", "outside"),
+                       ("latency", "expected comma-separated")]:  # fmt: skip
+        with pytest.raises(ConfigError, match=match):
+            Perturbation.parse(bad)
+    with pytest.raises(ConfigError, match="seed"):
+        Perturbation(seed=-1)
+
+
+def test_range_sampling_is_seeded_and_within_bounds() -> None:
+    r = PerturbationRange.parse("friction=0.5:0.7,latency=0.01")
+    assert r.friction == (0.5, 0.7) and r.latency == (0.01, 0.01) and r.mass == PerturbationRange().mass
+    a, b = r.sample(50, seed=3), r.sample(50, seed=3)
+    assert a == b and a != r.sample(50, seed=4)
+    assert all(0.5 <= p.friction <= 0.7 and p.latency == 0.01 for p in a)
+    assert len({p.seed for p in a}) == 50
+    with pytest.raises(ConfigError, match=r"lo 0.7 > hi 0.5"):
+        PerturbationRange.parse("friction=0.7:0.5")
