@@ -205,9 +205,11 @@ def scale_wheels(model: mujoco.MjModel, factor: float) -> None:
     """Scale the radius of the wheel geoms of a compiled model in place (a wheel-radius error).
 
     The collision tyres (``wheel_*_geom``) and the visual tyres (``wheel_*_tyre``) get radius
-    ``factor * r``; their bounding radii and boxes follow, and the base body's rest height grows by
-    the change in radius so :func:`set_pose` still puts the tyres on the floor. Call
-    ``mujoco.mj_setConst`` afterwards.
+    ``factor * r``; their bounding radii and boxes follow. The axle rises by the change in radius
+    (the base body's rest height, so :func:`set_pose` still puts the tyres on the floor), and the
+    base body's own geoms (chassis, caster or skids) move down by as much in the body frame, so
+    they keep their height above the floor: only the rolling radius changes, not how the weight
+    is shared between wheels and caster. Call ``mujoco.mj_setConst`` afterwards.
 
     Args:
         model: The compiled model (modified).
@@ -230,4 +232,6 @@ def scale_wheels(model: mujoco.MjModel, factor: float) -> None:
     if old is None:
         raise ValueError("the model has no wheel_left_geom / wheel_right_geom to scale")
     base = model.body("base").id
-    model.body_pos[base, 2] += old * (factor - 1.0)
+    rise = old * (factor - 1.0)
+    model.body_pos[base, 2] += rise
+    model.geom_pos[model.geom_bodyid == base, 2] -= rise

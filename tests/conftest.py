@@ -1,15 +1,13 @@
-<<<<<<< HEAD
-"""Shared fixtures. Importing ``sim`` first lets it choose MuJoCo's GL backend before mujoco loads."""
+"""Shared fixtures. Importing ``sim`` first lets it choose MuJoCo's GL backend before mujoco loads.
 
-from __future__ import annotations
-
-import sim  # noqa: F401  (sets MUJOCO_GL before anything imports mujoco)
-=======
-"""Shared pytest options: slow tests run only with ``-m slow`` or ``--all-cases``."""
+Tests marked ``slow`` run only with ``-m slow`` or ``--all-cases``.
+"""
 
 from __future__ import annotations
 
 import pytest
+
+import sim  # noqa: F401  (sets MUJOCO_GL before anything imports mujoco)
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -23,4 +21,3 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     for item in items:
         if "slow" in item.keywords:
             item.add_marker(skip)
->>>>>>> e204695 (nhsim regress: declared suite, baselines, determinism guard; perturbation and gains tests)

@@ -45,6 +45,8 @@ def test_model_edits_are_exact_and_leave_the_nominal_model_alone(setup) -> None:
     assert m.body_subtreemass[base] == pytest.approx(m0.body_subtreemass[base] + 0.3 * mass0[base], rel=1e-12)
     assert m.geom_size[wheel, 0] == size0[wheel, 0] * 1.02
     assert m.body_pos[base, 2] == pytest.approx(m0.body_pos[base, 2] + 0.02 * size0[wheel, 0], abs=1e-15)
+    caster = m0.geom("caster").id  # the caster keeps its height above the floor
+    assert m.body_pos[base, 2] + m.geom_pos[caster, 2] == pytest.approx(m0.body_pos[base, 2] + m0.geom_pos[caster, 2])
     np.testing.assert_array_equal(m0.geom_friction, friction0)  # the simulator's model is untouched
     np.testing.assert_array_equal(m0.body_mass, mass0)
     np.testing.assert_array_equal(m0.geom_size, size0)
