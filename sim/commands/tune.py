@@ -167,6 +167,15 @@ def _run_parallel(spec: Any, shares: list[int], study: Any, progress: _Progress)
                           "trials, rerun the command to resume")  # fmt: skip
 
 
+def _save_figure(plt: Any, ax: Any, path: Path, overwrite: bool) -> None:
+    from sim.outputs import atomic_path
+
+    fig = ax.get_figure(root=True)
+    with atomic_path(path, overwrite=overwrite) as tmp:
+        fig.savefig(tmp, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+
+
 def _save_plots(study: Any, history: Path, importance: Path, overwrite: bool) -> tuple[list[str], list[str]]:
     """Write both plots; returns the paths written and notes on plots that could not be drawn."""
     import matplotlib
@@ -176,24 +185,21 @@ def _save_plots(study: Any, history: Path, importance: Path, overwrite: bool) ->
     from optuna.importance import PedAnovaImportanceEvaluator
     from optuna.visualization.matplotlib import plot_optimization_history, plot_param_importances
 
-    from sim.outputs import atomic_path
-
     notes: list[str] = []
     written = [str(history)]
     ax = plot_optimization_history(study)
     ax.set_ylabel("objective [m]")
     ax.set_yscale("log")
-    with atomic_path(history, overwrite=overwrite) as tmp:
-        ax.figure.savefig(tmp, dpi=120, bbox_inches="tight")
-    plt.close(ax.figure)
+    _save_figure(plt, ax, history, overwrite)
     try:
-        ax = plot_param_importances(study, evaluator=PedAnovaImportanceEvaluator())
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", UserWarning)
+            ax = plot_param_importances(study, evaluator=PedAnovaImportanceEvaluator())
+        notes += [f"importance plot: {w.message}" for w in caught if issubclass(w.category, UserWarning)]
     except Exception as exc:  # too few or identical trials
         notes.append(f"no importance plot: {exc}")
     else:
-        with atomic_path(importance, overwrite=overwrite) as tmp:
-            ax.figure.savefig(tmp, dpi=120, bbox_inches="tight")
-        plt.close(ax.figure)
+        _save_figure(plt, ax, importance, overwrite)
         written.append(str(importance))
     return written, notes
 

@@ -1,0 +1,157 @@
+"""The physics regression suite: one test per declared case, and the checks of the checker.
+
+Fast cases run by default; the whole suite with ``-m slow`` or ``--all-cases``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+import sim.regress as regress
+from sim.cases import Case
+from sim.cli import main
+from sim.regress import SUITE_PATH, Tolerance, check_case, compare, load_suite
+
+SUITE = load_suite(SUITE_PATH)
+
+
+@pytest.mark.parametrize(
+    "case", [pytest.param(c, id=c.name, marks=() if c.fast else pytest.mark.slow) for c in SUITE.cases]
+)
+def test_case_matches_baseline(case: Case) -> None:
+    outcome = check_case(case, regress.BASELINE_DIR, SUITE.tolerances)
+    assert outcome.ok, outcome.message
+
+
+def test_suite_has_a_fast_subset_and_every_baseline() -> None:
+    fast = SUITE.select()
+    assert 2 <= len(fast) < len(SUITE.cases)
+    missing = [c.name for c in SUITE.cases if not regress.baseline_path(c).exists()]
+    assert not missing, f"no baseline for {missing}: run nhsim regress --update --case NAME"
+
+
+PLANTED = '{ name = "planted", scenario = "open", robot = "turtlebot3", reference = "circle", tracker = "fbl", seed = 0'
+
+
+def _suite(tmp_path: Path, extra: str = "") -> Path:
+    path = tmp_path / "suite.toml"
+    path.write_text(f"cases = [\n  {PLANTED}{extra}, fast = true }},\n]\n")
+    return path
+
+
+@pytest.mark.parametrize("planted", [', gains = "0.5,0.5"', ', perturb = "radius=1.03"'])
+def test_planted_regression_fails_naming_case_and_metric(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], planted: str
+) -> None:
+    base_dir = tmp_path / "baselines"
+    args = ["regress", "--baselines", str(base_dir)]
+    assert main([*args, "--suite", str(_suite(tmp_path)), "--update"]) == 0
+    recorded = (base_dir / "planted.json").read_text()
+    assert main([*args, "--suite", str(_suite(tmp_path))]) == 0  # unchanged: passes bit for bit
+    capsys.readouterr()
+
+    assert main([*args, "--suite", str(_suite(tmp_path, planted))]) == 1  # a wrong gain / a wrong model
+    out, err = capsys.readouterr()
+    assert "planted" in err and "rms_position_error_m regressed" in err
+    assert "planted" in out and "rms_position_error_m" in out  # the table of what moved
+    assert (base_dir / "planted.json").read_text() == recorded  # never rewritten unless asked
+
+    assert main([*args, "--suite", str(_suite(tmp_path, planted)), "--update"]) == 0
+    out = capsys.readouterr().out
+    assert "updated" in out and "rms_position_error_m" in out  # what changed
+    assert main([*args, "--suite", str(_suite(tmp_path, planted))]) == 0
+
+
+def test_other_environment_compares_with_tolerances(tmp_path: Path) -> None:
+    base_dir = tmp_path / "baselines"
+    assert main(["regress", "--suite", str(_suite(tmp_path)), "--baselines", str(base_dir), "--update"]) == 0
+    path = base_dir / "planted.json"
+    doc = json.loads(path.read_text())
+    doc["environment"]["platform"] = "Elsewhere-arm64"
+    rms = doc["metrics"]["rms_position_error_m"]
+    case = load_suite(tmp_path / "suite.toml").cases[0]
+    tol = regress.DEFAULT_TOLERANCES["rms_position_error_m"]
+    for shift, ok in ((-0.5 * tol.allowed(rms), True), (-2.0 * tol.allowed(rms), False), (0.01, True)):
+        doc["metrics"]["rms_position_error_m"] = rms + shift  # now - baseline = -shift
+        path.write_text(json.dumps(doc))
+        outcome = check_case(case, base_dir)
+        assert not outcome.exact
+        assert outcome.ok is ok, outcome.message
+        if not ok:
+            assert "rms_position_error_m regressed" in outcome.message and "with tolerances" in outcome.message
+
+
+def test_compare_rules() -> None:
+    tol = {"rms_position_error_m": Tolerance(0.1, 0.0), "duration_s": Tolerance(0.5, 0.0)}
+    base = {k: 1.0 for k in regress.DIRECTIONS}
+    assert compare("c", dict(base), base, tol, exact=True) == []
+    better = dict(base, rms_position_error_m=0.5)
+    [c] = compare("c", better, base, tol, exact=True)
+    assert (c.status, c.failed) == ("improved", True)  # bit for bit: any change fails
+    [c] = compare("c", better, base, tol, exact=False)
+    assert (c.status, c.failed) == ("within", False)  # elsewhere: better is fine
+    [c] = compare("c", dict(base, rms_position_error_m=1.05), base, tol, exact=False)
+    assert not c.failed
+    [c] = compare("c", dict(base, rms_position_error_m=1.2), base, tol, exact=False)
+    assert (c.status, c.allowed) == ("regressed", 0.1)
+    [c] = compare("c", dict(base, duration_s=0.2), base, tol, exact=False)
+    assert c.status == "changed"  # duration: any move beyond tolerance, either way
+
+
+def test_nondeterminism_fails_loudly(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    case = load_suite(_suite(tmp_path)).cases[0]
+    real_prepare = regress.prepare
+    calls = []
+
+    def drifting(c: Case):  # type: ignore[no-untyped-def]
+        calls.append(c)
+        # the second run meets a 1e-9 m/s^2 different gain: a hidden state leaking between runs
+        return real_prepare(c if len(calls) == 1 else Case(**{**c.__dict__, "gains": regress.FBLGains(9.0 + 1e-9)}))
+
+    monkeypatch.setattr(regress, "prepare", drifting)
+    outcome = check_case(case, tmp_path)
+    assert outcome.status == "nondeterministic"
+    assert "planted" in outcome.message and "not deterministic" in outcome.message and "pose" in outcome.message
+
+
+def test_planned_case_is_skipped_until_planning_exists(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    path = tmp_path / "suite.toml"
+    path.write_text(
+        'cases = [{ scenario = "open", robot = "turtlebot3", planner = "rrt", tracker = "fbl", seed = 1, '
+        "control_rate = 50, fast = true }]\n"
+    )
+    [case] = load_suite(path).cases
+    assert case.name == "open-turtlebot3-plan-rrt-fbl-s1"
+    monkeypatch.setattr(regress, "planning_available", lambda: None)
+    outcome = check_case(case, tmp_path)
+    assert outcome.status == "skipped" and "simulate_plan" in outcome.message
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("cases = []\n", "non-empty 'cases'"),
+        ('cases = [{ robot = "edumip", reference = "line" }]\n', "has no scenario"),
+        ('cases = [{ scenario = "open", reference = "line", colour = 1 }]\n', "unknown case field"),
+        ('cases = [{ scenario = "open", reference = "spiral" }]\n', "unknown reference"),
+        (
+            'cases = [{ scenario = "open", reference = "line" }, { scenario = "open", reference = "line" }]\n',
+            "duplicate",
+        ),
+        ('cases = [{ scenario = "open", reference = "line" }]\n[tolerances]\nspeed = { abs = 1 }\n', "not a metric"),
+    ],
+)
+def test_bad_suite_files(tmp_path: Path, text: str, match: str) -> None:
+    path = tmp_path / "suite.toml"
+    path.write_text(text)
+    with pytest.raises(regress.ConfigError, match=match):
+        load_suite(path)
+
+
+def test_unknown_scenario_case_is_an_error_naming_it(tmp_path: Path) -> None:
+    case = Case("nowhere", reference="line", name="lost")
+    outcome = check_case(case, tmp_path)
+    assert outcome.status == "error" and "lost" in outcome.message and "nowhere" in outcome.message
