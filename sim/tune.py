@@ -121,11 +121,11 @@ class Evaluator:
                     failures += 1
                     costs.append(FAILURE_COST)
                     continue
-                failed = m.collisions > 0 or m.warnings > 0
-                failures += int(failed)
                 sat_cost = self.saturation_weight * m.saturation_fraction
                 cost = m.rms_position_error_m + m.final_position_error_m + sat_cost
-                costs.append(cost + (FAILURE_COST if failed else 0.0))
+                failed = m.collisions > 0 or m.warnings > 0 or not math.isfinite(cost)
+                failures += int(failed)
+                costs.append((cost if math.isfinite(cost) else 0.0) + (FAILURE_COST if failed else 0.0))
                 rms.append(m.rms_position_error_m)
                 final.append(m.final_position_error_m)
                 sat.append(m.saturation_fraction)

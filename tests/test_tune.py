@@ -15,9 +15,10 @@ import pytest
 
 from control.fbl import FBLGains
 from control.gains import load_gains_file
-from sim.cases import Case
+from sim.cases import Case, prepare
 from sim.cli import main
 from sim.commands.tune import default_study_name
+from sim.perturb import PerturbationRange
 from sim.tune import Evaluator, split_trials
 
 CASE = "open:line"  # the cheapest reference: 12 s simulated, ~0.1 s a run
@@ -149,3 +150,17 @@ def test_helpers() -> None:
     assert default_study_name(["open:figure8", "open:circle"], None, True) == "fbl-open-figure8_open-circle-robust"
     long = default_study_name([f"open:figure8-{i}" for i in range(20)], "edumip", False)
     assert len(long) <= 60 and long == default_study_name([f"open:figure8-{i}" for i in range(20)], "edumip", False)
+
+
+def test_objective_is_the_stated_formula() -> None:
+    case = Case.parse(CASE)
+    gains = FBLGains(3.0, 2.0)
+    _, m = prepare(case).run(gains)
+    ev = Evaluator([case], saturation_weight=0.5).evaluate(gains)
+    assert ev.objective == m.rms_position_error_m + m.final_position_error_m + 0.5 * m.saturation_fraction
+    assert (ev.runs, ev.failures, ev.rms_m) == (1, 0, m.rms_position_error_m)
+    perts = PerturbationRange().sample(2, seed=1)
+    robust = Evaluator([case, Case.parse("open:circle")], perts).evaluate(gains)
+    assert robust.runs == 4  # every case meets every perturbation
+    _, m2 = prepare(case).run(gains, perts[1])
+    assert m2 != m  # the perturbation reached the physics

@@ -242,7 +242,7 @@ def run(args: argparse.Namespace) -> int:
     for path in (out, history, importance):
         check_writable(path, overwrite=args.overwrite)
 
-    perts = tuple(prange.sample(args.robust_runs * len(cases), args.seed)) if args.robust else ()
+    perts = tuple(prange.sample(args.robust_runs, args.seed)) if args.robust else ()  # each case meets all
     spec = TuneSpec(
         cases, perts, storage, study_name, args.trials, args.sampler, args.seed, args.saturation_weight,
         extra_settings={"robust": args.robust, "control_rate": args.control_rate, "robot": args.robot},
@@ -287,7 +287,7 @@ def run(args: argparse.Namespace) -> int:
 
     comparison: dict[str, Any] = {}
     if args.eval_runs:
-        held_out = prange.sample(args.eval_runs * len(cases), args.seed + 7919)
+        held_out = prange.sample(args.eval_runs, args.seed + 7919)  # every case meets each of them
         ev = evaluator.with_perturbations(held_out)
         res_default = ev.evaluate(gains_of_default())
         res_tuned = ev.evaluate(tuned)
