@@ -29,9 +29,6 @@ from sim.perturb import Perturbation
 from sim.runlog import RunLog
 from sim.simulator import SimConfig, Simulator
 
-#: Tracker name -> run label used by :mod:`sim.jobs`.
-TRACKER_LABELS = {"fbl": "closed_loop", "open-loop": "open_loop"}
-
 
 @dataclass(frozen=True)
 class Case:
@@ -127,6 +124,7 @@ class PreparedCase:
         trajectory: The reference the tracker follows.
         simulator: The compiled simulator.
         extra: Plan statistics and the like.
+        hold: Time simulated after the trajectory ends [s] (final regulation of planned cases).
     """
 
     case: Case
@@ -135,6 +133,7 @@ class PreparedCase:
     trajectory: Trajectory
     simulator: Simulator
     extra: dict[str, Any] = field(default_factory=dict)
+    hold: float = 0.0
 
     def run(
         self, gains: FBLGains | None = None, perturbation: Perturbation | None = None
@@ -149,7 +148,7 @@ class PreparedCase:
         tracker = make_tracker(c.tracker, self.robot, gains=gains or c.gains or FBLGains())
         pert = perturbation if perturbation is not None else c.perturbation
         log = self.simulator.run(
-            self.trajectory, tracker, SimConfig(control_rate=c.control_rate, strict=False),
+            self.trajectory, tracker, SimConfig(control_rate=c.control_rate, hold=self.hold, strict=False),
             start=self.scenario.start, meta={"seed": c.seed, "case": c.name}, perturbation=pert,
         )  # fmt: skip
         m = compute_metrics(log, self.trajectory, max_speed=self.robot.max_speed, max_yaw_rate=self.robot.max_yaw_rate)
@@ -192,12 +191,15 @@ def prepare(case: Case) -> PreparedCase:
                 f"case {case.label}: planned cases need sim.jobs.simulate_plan, which this build does not have "
                 f"yet; use a reference case such as {case.scenario}:figure8 or open:figure8"
             )
+        # plan and time the trajectory only (no runs); the case's tracker runs it below
         result = simulate_plan(
-            case.scenario, robot=case.robot, planner=case.planner or None, seed=case.seed,
-            trackers=(TRACKER_LABELS[case.tracker],), config=SimConfig(control_rate=case.control_rate),
+            sc, planner=case.planner or None, seed=case.seed, trackers=(),
+            config=SimConfig(control_rate=case.control_rate),
         )  # fmt: skip
         traj = result.trajectory
-        extra = {"plan": dict(getattr(result, "extra", {}) or {})}
+        extra = dict(getattr(result, "extra", {}) or {})
+        hold = float(getattr(importlib.import_module("sim.jobs"), "PLAN_HOLD_S", 0.0))
+        return PreparedCase(case, sc, spec, traj, Simulator(spec, sc.world), extra, hold=hold)
     return PreparedCase(case, sc, spec, traj, Simulator(spec, sc.world), extra)
 
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 import importlib
 import json
 import math
+import time
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -321,9 +322,28 @@ def default_trial(study: Any) -> Any | None:
     return None
 
 
-def worker_process(spec: TuneSpec, n_trials: int, worker: int) -> None:
-    """Entry point of a worker process (``--jobs``): its own storage connection and sampler."""
-    run_worker(spec, n_trials, worker)
+def worker_process(spec: TuneSpec, n_trials: int, worker: int, retries: int = 5) -> None:
+    """Entry point of a worker process (``--jobs``): its own storage connection and sampler.
+
+    A storage error (SQLite refuses one of two concurrent writers outright rather than wait) is
+    retried up to ``retries`` times with the trials this worker has not finished yet.
+    """
+    import sqlalchemy.exc
+    from optuna.exceptions import StorageInternalError
+
+    finished = [0]
+
+    def count(study: Any, trial: Any) -> None:
+        finished[0] += 1
+
+    for attempt in range(retries + 1):
+        try:
+            run_worker(spec, n_trials - finished[0], worker, callbacks=[count])
+            return
+        except (StorageInternalError, sqlalchemy.exc.OperationalError):
+            if attempt == retries:
+                raise
+            time.sleep(0.5 * (attempt + 1))
 
 
 def split_trials(remaining: int, jobs: int) -> list[int]:
