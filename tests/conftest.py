@@ -1,6 +1,7 @@
 """Shared fixtures. Importing ``sim`` first lets it choose MuJoCo's GL backend before mujoco loads.
 
-Tests marked ``slow`` run only with ``-m slow`` or ``--all-cases``.
+Tests marked ``slow`` are deselected by default (``-m "not slow"`` in pyproject); run them with
+``-m slow``, or everything with ``--all-cases``.
 """
 
 from __future__ import annotations
@@ -11,13 +12,9 @@ import sim  # noqa: F401  (sets MUJOCO_GL before anything imports mujoco)
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
-    parser.addoption("--all-cases", action="store_true", default=False, help="also run tests marked slow")
+    parser.addoption("--all-cases", action="store_true", default=False, help="run every test, slow ones too")
 
 
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    if config.getoption("--all-cases") or "slow" in (config.getoption("-m") or ""):
-        return
-    skip = pytest.mark.skip(reason="slow: run with -m slow or --all-cases")
-    for item in items:
-        if "slow" in item.keywords:
-            item.add_marker(skip)
+def pytest_configure(config: pytest.Config) -> None:
+    if config.getoption("--all-cases"):
+        config.option.markexpr = ""
