@@ -548,8 +548,8 @@ class Replay:
             font = ImageFont.load_default()
         lines = self._overlay_lines(0, worst=True)
         probe = ImageDraw.Draw(Image.new("RGB", (8, 8)))
-        widths = [probe.textbbox((0, 0), text, font=font)[2] for text, _ in lines]
-        line_h = probe.textbbox((0, 0), "Ag", font=font)[3] + 3
+        widths = [int(probe.textbbox((0, 0), text, font=font)[2]) for text, _ in lines]
+        line_h = int(probe.textbbox((0, 0), "Ag", font=font)[3]) + 3
         pad = 6
         box_w = min(self.settings.width, max(widths) + 2 * pad)
         box_h = min(self.settings.height, line_h * len(lines) + 2 * pad)

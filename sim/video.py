@@ -151,7 +151,7 @@ class VideoWriter:
                 return
             try:
                 if self._error is None:
-                    stdin.write(memoryview(frame).cast("B"))
+                    stdin.write(frame.data.cast("B"))
                     self.frames_written += 1
             except (BrokenPipeError, OSError, ValueError) as exc:
                 self._error = exc
