@@ -53,6 +53,9 @@ GHOST_ALPHA = 0.35
 #: Run label -> (overlay name, trail colour).
 RUN_STYLE = {"closed_loop": ("closed loop", CLOSED_RGBA), "open_loop": ("open loop (ghost)", OPEN_RGBA)}
 
+#: Overlay text refreshes per second of video (the time readout then steps by 0.1 s).
+OVERLAY_RATE = 10.0
+
 #: Corner indices (of the 8 sign combinations, x slowest) of the 6 faces of a box.
 _BOX_FACES = np.array([[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]])
 
@@ -519,8 +522,8 @@ class Replay:
             width = w + 1 if ti == 0 else max(1, w - 1)  # the ghost's trail on top, thinner
             for line in _polylines(*proj.pixels(pts)):
                 draw.line(line, fill=_rgb255(tr.rgba), width=width)
-        self._draw_overlay(k, draw)
         frame[:] = np.asarray(img)
+        self._draw_overlay(k, frame)
         if keep is not None:  # the solid robot hides the lines under it
             ys, xs, mask, saved = keep
             frame[ys, xs][mask] = saved[mask]
@@ -575,11 +578,21 @@ class Replay:
             lines.append((f"{name}: error {err:6.3f} m", (color[0], color[1], color[2])))
         return lines
 
-    def _draw_overlay(self, k: int, draw: ImageDraw.ImageDraw) -> None:
+    def _draw_overlay(self, k: int, frame: Frame) -> None:
+        """Copy the overlay box into the frame; its text is redrawn every ``1 / OVERLAY_RATE`` s of video."""
         bw, bh = self._box
-        draw.rectangle((0, 0, bw - 1, bh - 1), fill=(28, 30, 34))
-        for i, (text, color) in enumerate(self._overlay_lines(k)):
-            draw.text((self._pad, self._pad + i * self._line_h), text, fill=color, font=self._font)
+        step = max(1, round(self.settings.fps / OVERLAY_RATE))
+        key = k - k % step
+        if self._overlay_key != key:
+            img = Image.new("RGB", (bw, bh), (28, 30, 34))
+            draw = ImageDraw.Draw(img)
+            for i, (text, color) in enumerate(self._overlay_lines(key)):
+                draw.text((self._pad, self._pad + i * self._line_h), text, fill=color, font=self._font)
+            self._overlay_box, self._overlay_key = np.asarray(img), key
+        frame[:bh, :bw] = self._overlay_box
+
+    _overlay_key: int = -1
+    _overlay_box: Frame
 
     # ---- frames ---------------------------------------------------------------------------------
     def render_frame(self, renderer: SceneRenderer, k: int, out: Frame | None = None) -> Frame:

@@ -84,7 +84,7 @@ class VideoWriter:
         *,
         overwrite: bool = False,
         crf: int = 23,
-        preset: str = "veryfast",
+        preset: str = "superfast",
         threads: int = 1,
         depth: int = 6,
     ) -> None:
