@@ -14,7 +14,7 @@ def nhsim(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
 
 def test_simulate_writes_the_documented_record(tmp_path: Path) -> None:
     out = tmp_path / "run.json"
-    r = nhsim("simulate", "--reference", "circle", "--robot", "edumip", "--json", str(out))
+    r = nhsim("simulate", "--reference", "circle", "--robot", "edumip", "--json", str(out), "--no-video", "--no-plots")
     assert r.returncode == 0, r.stderr
     assert "closed_loop" in r.stdout and "open_loop" in r.stdout
     rec = json.loads(out.read_text())

@@ -15,6 +15,7 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
     "sim": ("sim.bench.sim", "closed-loop physics steps/s against a bare mj_step loop, and real-time factor"),
     "plan": ("sim.bench.plan", "birrt / rrt-star against OMPL's RRTConnect / RRT* on the same problems and checker"),
     "optim": ("sim.bench.optim", "optim planner: seed N=1000, dt=0.01 against the default (time, final error, length)"),
+    "render": ("sim.bench.render", "video pipeline frames/s (replay, draw, encode) against a bare Renderer loop"),
 }
 
 

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from planning.errors import ConfigError
+from sim.outputs_job import add_output_arguments
 
 TRACKER_CHOICES = {"fbl": ("closed_loop",), "open-loop": ("open_loop",), "both": ("closed_loop", "open_loop")}
 
@@ -33,6 +34,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
             "final_heading_error_rad, rms_position_error_m, max_position_error_m, collisions, warnings, "
             "saturation_fraction; plus scenario, robot, source, tracker, gains, control_rate_hz, seed "
             "and package versions.\n\n"
+            "Outputs: renders/<scenario>-<reference>.mp4 (both runs: closed loop solid, open loop as a "
+            "ghost), PNG plots and a JSON record beside it; an existing file is never replaced without "
+            "--overwrite (the command stops with an error before running anything).\n\n"
             "Exit status: 0 when every run is clean (no MuJoCo warning, no collision in closed loop), "
             "1 otherwise, 2 on bad input."
         ),
@@ -86,9 +90,16 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="tracker rate; must divide the 500 Hz physics rate (default: 50)",
     )
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed for every random choice (default: 0)")
-    p.add_argument("--json", type=Path, default=None, metavar="PATH", help="write the run record as JSON")
+    p.add_argument(
+        "--json",
+        type=Path,
+        default=None,
+        metavar="PATH",
+        help="run record (default: beside the video, renders/<scenario>-<reference>.json)",
+    )
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
-    p.add_argument("--quiet", action="store_true", help="print only the results table")
+    p.add_argument("--quiet", action="store_true", help="print only the results table; no progress bars")
+    add_output_arguments(p)
     return p  # fmt: skip
 
 
@@ -112,10 +123,14 @@ def format_table(record: dict[str, Any]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Execute ``simulate``."""
+    from sim import gl
+
+    gl.configure(args.gl)  # before anything imports mujoco
     from control.fbl import FBLGains
     from control.gains import resolve_gains
+    from planning.scenario import load_scenario
     from sim.jobs import simulate_reference
-    from sim.outputs import check_writable, write_json
+    from sim.outputs_job import plan_outputs, write_outputs
     from sim.perturb import Perturbation
     from sim.simulator import SimConfig
 
@@ -124,16 +139,19 @@ def run(args: argparse.Namespace) -> int:
     if args.control_rate <= 0:
         raise ConfigError(f"--control-rate must be > 0 Hz, got {args.control_rate}")
     config = SimConfig(control_rate=args.control_rate)
-    if args.json is not None:
-        check_writable(args.json, overwrite=args.overwrite)
     if args.all:
+        if args.json is not None:
+            from sim.outputs import check_writable
+
+            check_writable(args.json, overwrite=args.overwrite)
         return _run_all(args, gains)
     planner, scenario = args.planner, args.scenario
     if planner is None and args.reference is None and scenario == "open" and _default_plan_available():
         scenario, planner = DEFAULT_PLAN
+    if planner is not None and args.reference is not None:
+        raise ConfigError("--reference and --planner exclude each other: track an analytic curve or a plan")
+    outputs = plan_outputs(args, scenario=load_scenario(scenario).name, source=planner or args.reference or "figure8")
     if planner is not None:
-        if args.reference is not None:
-            raise ConfigError("--reference and --planner exclude each other: track an analytic curve or a plan")
         from sim.jobs import PLAN_HOLD_S, simulate_plan
 
         result = simulate_plan(
@@ -154,11 +172,9 @@ def run(args: argparse.Namespace) -> int:
             f"gains Kp={gains.kp:g} Kd={gains.kd:g}" + (f" | perturbed {perturbation.label()}" if perturbation else "")
         )
     print(format_table(record))
-    if args.json is not None:
-        record["files"] = {"json": str(args.json)}
-        write_json(args.json, record, overwrite=args.overwrite)
+    for path in write_outputs(result, outputs, record).values():
         if not args.quiet:
-            print(f"wrote {args.json}")
+            print(f"wrote {path}")
     clean = all(record[k]["warnings"] == 0 for k in TRACKER_CHOICES["both"] if k in record)
     if "closed_loop" in record and record["closed_loop"]["collisions"] > 0:
         print("closed-loop run touched an obstacle", file=sys.stderr)

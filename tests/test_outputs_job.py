@@ -1,0 +1,111 @@
+"""`nhsim simulate` outputs: MP4 + plots + JSON by default, nothing clobbered, options honoured."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import imageio_ffmpeg
+import numpy as np
+import pytest
+
+from sim.cli import main
+from tests.render_helpers import require_gl
+
+FAST = ["simulate", "--reference", "line", "--fps", "5", "--size", "160x120", "--quiet"]
+
+
+def snapshot(folder: Path) -> dict[str, tuple[bytes, int]]:
+    return {p.name: (p.read_bytes(), p.stat().st_mtime_ns) for p in sorted(folder.iterdir())}
+
+
+def decode(path: Path) -> tuple[dict, np.ndarray]:
+    gen = imageio_ffmpeg.read_frames(str(path))
+    meta = next(gen)
+    w, h = meta["size"]
+    return meta, np.stack([np.frombuffer(b, np.uint8).reshape(h, w, 3) for b in gen])
+
+
+def robot_pixel(record: dict, which: str) -> np.ndarray:
+    """Image position of the closed-loop robot at the first or last frame (overview camera)."""
+    from planning.robot import load_robot
+    from planning.scenario import load_scenario
+    from sim.jobs import simulate_reference
+    from sim.render import Projection, RenderSettings, Replay, SceneRenderer
+    from sim.simulator import Simulator
+
+    job = simulate_reference("open", reference="line")
+    model = Simulator(load_robot("turtlebot3"), load_scenario("open").world).model
+    replay = Replay(model, job.trajectory, job.logs, RenderSettings(width=160, height=120, fps=5.0))
+    k = 0 if which == "first" else replay.n_frames - 1
+    with SceneRenderer(model, 160, 120, max_geom=replay.required_geoms) as r:
+        replay.render_frame(r, k)
+        tr = replay.tracks[0]
+        px, _ = Projection.from_scene(r.scene, 160, 120).pixels(np.array([[*tr.xy[tr.idx[k]], 0.1]]))
+    return px[0]
+
+
+def test_default_outputs_then_no_clobber(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    require_gl()
+    monkeypatch.chdir(tmp_path)
+    assert main(FAST) == 0
+    renders = tmp_path / "renders"
+    names = sorted(p.name for p in renders.iterdir())
+    stem = "open-line"
+    assert names == sorted(
+        [f"{stem}.mp4", f"{stem}.json"] + [f"{stem}-{n}.png" for n in ("world", "errors", "commands")]
+    )
+    record = json.loads((renders / f"{stem}.json").read_text())
+    assert sorted(Path(p).name for p in record["files"].values()) == names  # names every file written
+    # the video: decodes, H.264 yuv420p, one frame per 1/fps of simulated time, right size, not blank
+    meta, frames = decode(renders / f"{stem}.mp4")
+    assert meta["codec"] == "h264" and meta["pix_fmt"].startswith("yuv420p")
+    duration = record["closed_loop"]["duration_s"]
+    assert frames.shape == (round(duration * 5), 120, 160, 3)
+    assert record["video"]["frames"] == frames.shape[0]
+    assert frames.std() > 5.0
+    # the closed-loop robot moved: its pixels at the start differ between first and last frame, and so
+    # do those where it ends
+    p0, p1 = robot_pixel(record, "first"), robot_pixel(record, "last")
+    assert np.hypot(*(p1 - p0)) > 15.0
+    for p in (p0, p1):
+        x, y = round(float(p[0])), round(float(p[1]))
+        a = frames[0, y - 3 : y + 4, x - 3 : x + 4].astype(float)
+        b = frames[-1, y - 3 : y + 4, x - 3 : x + 4].astype(float)
+        assert np.abs(a - b).mean() > 20.0
+    # second run, same outputs, no --overwrite: an error, and nothing on disk changes
+    before = snapshot(renders)
+    assert main(FAST) == 2
+    assert snapshot(renders) == before
+    # with --overwrite it replaces them
+    assert main([*FAST, "--overwrite"]) == 0
+
+
+def test_custom_paths_and_switches(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    # no video, no plots: only the record, no OpenGL needed
+    assert main([*FAST, "--no-video", "--no-plots"]) == 0
+    assert sorted(p.name for p in (tmp_path / "renders").iterdir()) == ["open-line.json"]
+    record = json.loads((tmp_path / "renders" / "open-line.json").read_text())
+    assert record["files"] == {"json": "renders/open-line.json"}
+    # --json moves the record; plots keep their default place
+    assert main([*FAST, "--no-video", "--json", str(tmp_path / "rec.json")]) == 0
+    assert (tmp_path / "rec.json").exists()
+
+
+def test_bad_options_fail_before_running(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert main([*FAST, "--video", "out.avi"]) == 2
+    assert main([*FAST, "--size", "161x120"]) == 2
+    assert main([*FAST, "--size", "big"]) == 2
+    assert main([*FAST, "--no-video", "--video", "x.mp4"]) == 2
+    assert not (tmp_path / "renders").exists()
+
+
+def test_video_path_moves_every_output(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    require_gl()
+    monkeypatch.chdir(tmp_path)
+    assert main([*FAST, "--video", "out/run.mp4", "--fps", "2"]) == 0
+    names = sorted(p.name for p in (tmp_path / "out").iterdir())
+    assert names == ["run-commands.png", "run-errors.png", "run-world.png", "run.json", "run.mp4"]
+    assert not (tmp_path / "renders").exists()

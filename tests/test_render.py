@@ -1,0 +1,208 @@
+"""Replay rendering: frame timing, projection, ghost, one renderer per process, GL errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from planning.errors import ConfigError, DependencyError
+from sim import gl
+from sim.render import (
+    GHOST_ALPHA,
+    ListSink,
+    Projection,
+    RenderSettings,
+    Replay,
+    SceneRenderer,
+    decimate_path,
+    frame_times,
+    nearest_samples,
+    parse_size,
+    render_frames,
+)
+from tests.render_helpers import require_gl, short_job
+
+# ---- pure numerics ------------------------------------------------------------------------------
+
+
+def test_frame_times_follow_simulation_time() -> None:
+    t = frame_times(0.0, 20.0, 30.0)
+    assert t.size == 600  # a 20 s run at 30 frames/s
+    np.testing.assert_allclose(np.diff(t), 1 / 30, rtol=0, atol=1e-12)
+    assert t[0] == 0.0
+    assert frame_times(2.5, 2.5, 30.0).size == 1
+    assert frame_times(1.0, 4.3, 10.0).size == 33
+
+
+def test_nearest_samples_matches_brute_force() -> None:
+    rng = np.random.default_rng(0)
+    t = np.cumsum(rng.uniform(0.01, 0.05, 200))
+    q = rng.uniform(t[0] - 1, t[-1] + 1, 500)
+    brute = np.abs(q[:, None] - t[None, :]).argmin(axis=1)
+    got = nearest_samples(t, q)
+    # ties may go either way: compare the distances, exactly
+    np.testing.assert_array_equal(np.abs(t[got] - q), np.abs(t[brute] - q))
+
+
+def test_decimate_path_spacing_and_ends() -> None:
+    s = np.linspace(0, 2 * np.pi, 3000)
+    xy = np.column_stack([np.cos(s), np.sin(s)])
+    keep = decimate_path(xy, 0.05)
+    assert keep[0] == 0 and keep[-1] == len(xy) - 1
+    gaps = np.hypot(*np.diff(xy[keep], axis=0).T)
+    assert np.all(gaps[:-1] >= 0.05)
+    assert np.all(gaps <= 0.05 + 2 * np.hypot(*(xy[1] - xy[0])))  # never skips more than needed
+    assert abs(len(keep) - 2 * np.pi / 0.05) < 3
+
+
+def test_parse_size_and_settings() -> None:
+    assert parse_size("640x480") == (640, 480)
+    assert parse_size("320X240") == (320, 240)
+    for bad in ("640", "640x", "axb", "1x2x3"):
+        with pytest.raises(ConfigError, match="WIDTHxHEIGHT"):
+            parse_size(bad)
+    with pytest.raises(ConfigError, match="even"):
+        RenderSettings(width=641)
+    with pytest.raises(ConfigError, match="fps"):
+        RenderSettings(fps=0.0)
+    with pytest.raises(ConfigError, match="camera"):
+        RenderSettings(camera="drone")
+    with pytest.raises(ConfigError, match="quality"):
+        RenderSettings(quality="ultra")
+
+
+# ---- GL backend choice --------------------------------------------------------------------------
+
+
+def test_configure_rejects_unknown_backend() -> None:
+    with pytest.raises(ConfigError, match="osmesa, egl, glfw"):
+        gl.configure("vulkan")
+
+
+def test_missing_library_names_the_package(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(gl.ctypes.util, "find_library", lambda name: None)
+    with pytest.raises(DependencyError, match="apt-get install libosmesa6"):
+        gl.configure("osmesa")
+    with pytest.raises(DependencyError, match="apt-get install libegl1"):
+        gl.configure("egl")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.setattr(gl.sys, "platform", "linux")
+    assert gl.default_backend() == gl.DISABLED
+
+
+def test_no_backend_is_one_clear_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    import mujoco
+
+    monkeypatch.setattr(gl, "current_backend", lambda: gl.DISABLED)
+    m = mujoco.MjModel.from_xml_string("<mujoco><worldbody/></mujoco>")
+    with pytest.raises(DependencyError, match="apt-get install libosmesa6") as err:
+        SceneRenderer(m, 16, 16)
+    assert "--no-video" in str(err.value)
+
+
+def test_context_failure_becomes_dependency_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    import mujoco
+
+    def broken(*a: object, **k: object) -> None:
+        raise mujoco.FatalError("an OpenGL platform library has not been loaded")
+
+    monkeypatch.setattr(mujoco, "Renderer", broken)
+    m = mujoco.MjModel.from_xml_string("<mujoco><worldbody/></mujoco>")
+    with pytest.raises(DependencyError, match="libosmesa6"):
+        SceneRenderer(m, 16, 16)
+    assert SceneRenderer._open == 0
+
+
+# ---- rendering (needs GL) -----------------------------------------------------------------------
+
+
+def test_one_renderer_per_process() -> None:
+    require_gl()
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_string("<mujoco><worldbody/></mujoco>")
+    with SceneRenderer(m, 32, 32):
+        with pytest.raises(RuntimeError, match="one renderer per process"):
+            SceneRenderer(m, 32, 32)
+    r = SceneRenderer(m, 32, 32)  # closed explicitly, a new one may open
+    r.close()
+    r.close()
+
+
+def test_projection_matches_rendered_markers() -> None:
+    """Projected centres of small spheres agree with the centroid of their pixels within 1.5 px."""
+    require_gl()
+    import mujoco
+
+    xml = """<mujoco><visual><global offwidth="320" offheight="240"/></visual><worldbody>
+      <light pos="0 0 3" dir="0 0 -1"/><geom type="plane" size="3 3 .1" rgba=".5 .5 .5 1"/>
+      <geom type="sphere" size=".03" pos="0.5 0.3 0.03" rgba="1 0 0 1"/>
+      <geom type="sphere" size=".03" pos="-0.4 -0.2 0.03" rgba="0 1 0 1"/></worldbody></mujoco>"""
+    m = mujoco.MjModel.from_xml_string(xml)
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    pts = np.array([[0.5, 0.3, 0.03], [-0.4, -0.2, 0.03]])
+    with SceneRenderer(m, 320, 240) as r:
+        for lookat, dist, az, el in [((0, 0, 0), 2.0, 90.0, -90.0), ((0.1, 0.0, 0.0), 2.0, 40.0, -60.0)]:
+            cam = mujoco.MjvCamera()
+            cam.type = mujoco.mjtCamera.mjCAMERA_FREE
+            cam.lookat[:], cam.distance, cam.azimuth, cam.elevation = lookat, dist, az, el
+            r.renderer.update_scene(d, camera=cam)
+            img = r.render()
+            px, ok = Projection.from_scene(r.scene, 320, 240).pixels(pts)
+            assert ok.all()
+            for i, chan in enumerate((0, 1)):
+                other = 1 - chan
+                sel = (img[..., chan] > 120) & (img[..., other] < 60) & (img[..., 2] < 60)
+                centroid = np.argwhere(sel).mean(axis=0)[::-1]
+                assert np.hypot(*(centroid - px[i])) < 1.5
+
+
+def test_replay_frames_and_ghost() -> None:
+    require_gl()
+    job = short_job()
+    from sim.simulator import Simulator
+
+    model = Simulator(job.robot, job.scenario.world).model
+    settings = RenderSettings(width=160, height=120, fps=10.0)
+    replay = Replay(model, job.trajectory, job.logs, settings)
+    duration = job.logs["closed_loop"].t[-1] - job.logs["closed_loop"].t[0]
+    assert replay.n_frames == round(duration * 10.0)
+    sink = ListSink(160, 120)
+    with SceneRenderer(model, 160, 120, max_geom=replay.required_geoms) as r:
+        assert render_frames(replay, r, sink) == replay.n_frames
+        # the ghost: one translucent copy of each dynamic robot geom after the model's own
+        scene = r.scene
+        alphas = np.array([scene.geoms[i].rgba[3] for i in range(scene.ngeom)])
+        n_ghost = int(np.sum(np.isclose(alphas, GHOST_ALPHA)))
+        assert n_ghost > 0 and np.all(np.isclose(alphas[-n_ghost:], GHOST_ALPHA))
+        # frame k shows the log sample nearest to t0 + k/fps
+        k = replay.n_frames // 2
+        tr = replay.tracks[0]
+        t_log = job.logs["closed_loop"].t
+        assert abs(t_log[tr.idx[k]] - replay.times[k]) <= 0.5 * (t_log[1] - t_log[0]) + 1e-12
+        # redrawing a frame gives the same pixels (deterministic replay)
+        again = replay.render_frame(r, replay.n_frames - 1)
+    frames = np.stack(sink.frames)
+    assert frames.shape == (replay.n_frames, 120, 160, 3)
+    assert frames.std() > 5.0
+    np.testing.assert_array_equal(again, frames[-1])
+
+
+def test_chase_camera_keeps_robot_near_centre() -> None:
+    require_gl()
+    job = short_job()
+    from sim.simulator import Simulator
+
+    model = Simulator(job.robot, job.scenario.world).model
+    settings = RenderSettings(width=160, height=120, fps=5.0, camera="chase")
+    replay = Replay(model, job.trajectory, job.logs, settings)
+    with SceneRenderer(model, 160, 120, max_geom=replay.required_geoms) as r:
+        for k in (0, replay.n_frames - 1):
+            replay.render_frame(r, k)
+            proj = Projection.from_scene(r.scene, 160, 120)
+            tr = replay.tracks[0]
+            px, ok = proj.pixels(np.array([[*tr.xy[tr.idx[k]], 0.05]]))
+            assert ok.all()
+            assert abs(px[0, 0] - 80) < 40 and abs(px[0, 1] - 60) < 45
