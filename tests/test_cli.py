@@ -8,8 +8,21 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def nhsim(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "sim", *args], cwd=cwd, capture_output=True, text=True, timeout=600)
+def nhsim(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
+    """Run the CLI in a scratch directory (default outputs go to its renders/, never the repository's)."""
+    import os
+    import tempfile
+
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    with tempfile.TemporaryDirectory() as scratch:
+        return subprocess.run(
+            [sys.executable, "-m", "sim", *args],
+            cwd=cwd or scratch,
+            capture_output=True,
+            text=True,
+            timeout=600,
+            env=env,
+        )
 
 
 def test_simulate_writes_the_documented_record(tmp_path: Path) -> None:

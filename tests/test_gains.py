@@ -61,7 +61,7 @@ def test_resolve_accepts_pair_or_file(tmp_path: Path) -> None:
 def test_simulate_reads_gains_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     f = tmp_path / "g.toml"
     f.write_text(dump_gains_toml(GainsFile(FBLGains(4.0, 3.0))))
-    args = ["simulate", "--reference", "line", "--tracker", "fbl", "--quiet"]
+    args = ["simulate", "--reference", "line", "--tracker", "fbl", "--quiet", "--no-video", "--no-plots"]
     assert main([*args, "--gains", str(f), "--json", str(tmp_path / "a.json")]) == 0
     assert main([*args, "--gains", "4,3", "--json", str(tmp_path / "b.json")]) == 0
     a, b = (tmp_path / "a.json").read_text(), (tmp_path / "b.json").read_text()
