@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import signal
+import sqlite3
 import subprocess
 import sys
 import time
@@ -34,6 +36,18 @@ def _args(tmp_path: Path, trials: int, *extra: str) -> list[str]:
 def _completed(tmp_path: Path) -> list[optuna.trial.FrozenTrial]:
     study = optuna.load_study(study_name="t", storage=f"sqlite:///{tmp_path}/study.db")
     return study.get_trials(states=(optuna.trial.TrialState.COMPLETE,))
+
+
+def _completed_so_far(tmp_path: Path) -> int:
+    """Completed trials, read without touching the schema: polling must never race the tuner creating it."""
+    db = tmp_path / "study.db"
+    if not db.exists():
+        return 0
+    try:
+        with contextlib.closing(sqlite3.connect(f"file:{db}?mode=ro", uri=True, timeout=1.0)) as con:
+            return int(con.execute("SELECT COUNT(*) FROM trials WHERE state = 'COMPLETE'").fetchone()[0])
+    except sqlite3.OperationalError:
+        return 0  # schema not created yet, or the database is locked for a moment
 
 
 def test_tuning_is_no_worse_than_the_defaults(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -70,12 +84,8 @@ def test_killed_study_resumes_with_every_trial_once(tmp_path: Path) -> None:
         while True:
             assert proc.poll() is None, f"tune ended before it was killed: {proc.stderr.read().decode()}"  # type: ignore[union-attr]
             assert time.monotonic() < deadline, "no trial completed in 120 s"
-            if (tmp_path / "study.db").exists():
-                try:
-                    if len(_completed(tmp_path)) >= 3:
-                        break
-                except (KeyError, optuna.exceptions.StorageInternalError):
-                    pass  # study not created yet
+            if _completed_so_far(tmp_path) >= 3:
+                break
             time.sleep(0.05)
     finally:
         os.kill(proc.pid, signal.SIGKILL)
