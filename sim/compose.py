@@ -103,6 +103,102 @@ def _overlap(a: Rect, b: Rect) -> bool:
     return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
 
+class RobotPass:
+    """Draws one robot's dynamic geoms through a rectangle of the image, into a small viewport.
+
+    The frustum is narrowed to the rectangle and the viewport shrunk to its size, so MuJoCo clears
+    and rasterises only those pixels (the same pixel centres as the full view).
+
+    Args:
+        model: The model to draw (the replay's ``ghost_model``: geoms inside others left out).
+        renderer: The open renderer.
+        flags: Render flags to copy (the sky is turned off: nothing but the robot is drawn).
+        maxgeom: Scene capacity.
+    """
+
+    def __init__(self, model: mujoco.MjModel, renderer: SceneRenderer, flags: NDArray[np.uint8], maxgeom: int) -> None:
+        self.model = model
+        self.renderer = renderer
+        self.opt = mujoco.MjvOption()
+        self.pert = mujoco.MjvPerturb()
+        self.scene = mujoco.MjvScene(model, maxgeom=maxgeom)
+        self.scene.flags[:] = flags
+        self.scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
+        self._frustum: list[tuple[float, float, float, float]] = []
+
+    def view(self, data: mujoco.MjData, camera: mujoco.MjvCamera) -> Projection:
+        """Take the camera and lights of a frame (no geoms); returns the full view's projection."""
+        mujoco.mjv_updateScene(self.model, data, self.opt, self.pert, camera, 0, self.scene)
+        w, h = self.renderer.width, self.renderer.height
+        self._frustum = [(float(c.frustum_center), 0.5 * float(c.frustum_top - c.frustum_bottom) * w / h,
+                          float(c.frustum_bottom), float(c.frustum_top)) for c in self.scene.camera]  # fmt: skip
+        return Projection.from_scene(self.scene, w, h)
+
+    def rect(
+        self, proj: Projection, data: mujoco.MjData, geoms: NDArray[np.int64], corners: NDArray[np.float64]
+    ) -> Rect | None:
+        """Pixel rectangle holding the projected bounding boxes of ``geoms``, or None when off screen.
+
+        Args:
+            proj: The view.
+            data: The robot's state.
+            geoms: (G,) geom ids.
+            corners: (G, 8, 3) bounding-box corners of each geom in its own frame [m].
+        """
+        xc = data.geom_xpos[geoms][:, None, :] + np.einsum("gij,gkj->gki", data.geom_xmat[geoms].reshape(-1, 3, 3),
+                                                           corners)  # fmt: skip
+        px, ok = proj.pixels(xc.reshape(-1, 3))
+        w, h = self.renderer.width, self.renderer.height
+        if not ok.all():
+            return (0, 0, w, h)
+        x0 = max(0, int(np.floor(px[:, 0].min())) - RECT_MARGIN)
+        y0 = max(0, int(np.floor(px[:, 1].min())) - RECT_MARGIN)
+        x1 = min(w, int(np.ceil(px[:, 0].max())) + RECT_MARGIN + 1)
+        y1 = min(h, int(np.ceil(px[:, 1].max())) + RECT_MARGIN + 1)
+        return (x0, y0, x1, y1) if x1 > x0 and y1 > y0 else None
+
+    def draw(self, data: mujoco.MjData, rect: Rect, ghost: bool) -> tuple[Frame, NDArray[np.float32]]:
+        """Draw the robot of ``data`` (opaque; in the ghost's colour with ``ghost``) as seen through
+        ``rect`` (after :meth:`view`) and read back its colour and depth, row 0 at the top."""
+        scn = self.scene
+        scn.ngeom = 0
+        mujoco.mjv_addGeoms(self.model, data, self.opt, self.pert, mujoco.mjtCatBit.mjCAT_DYNAMIC, scn)
+        if ghost:
+            color = (*OPEN_RGBA[:3], 1.0)
+            for i in range(scn.ngeom):
+                scn.geoms[i].rgba = color
+        x0, y0, x1, y1 = rect
+        w, h = self.renderer.width, self.renderer.height
+        for eye, (center, half_w, bottom, top) in zip(scn.camera, self._frustum, strict=True):
+            du = 2.0 * half_w / w
+            dv = (top - bottom) / h
+            eye.frustum_center = center - half_w + 0.5 * (x0 + x1) * du
+            eye.frustum_top = top - y0 * dv
+            eye.frustum_bottom = top - y1 * dv
+        self.renderer.draw(scn, (x1 - x0, y1 - y0))
+        rgb = np.empty((y1 - y0, x1 - x0, 3), np.uint8)
+        depth = np.empty((y1 - y0, x1 - x0), np.float32)
+        self.renderer.read((0, h - (y1 - y0), x1 - x0, h), rgb, depth)  # the viewport's corner
+        return rgb, depth
+
+
+def blend_ghost(out: Frame, rect: Rect, rgb: Frame, depth: NDArray[np.float32], behind: NDArray[np.float32]) -> None:
+    """Blend a ghost pass over ``out`` where it is at least as near as ``behind``.
+
+    Args:
+        out: (H, W, 3) image, changed in place.
+        rect: The pass's rectangle (x0, y0, x1, y1).
+        rgb: (h, w, 3) the ghost drawn opaque.
+        depth: (h, w) its depth (reversed: larger is nearer, 0 where nothing was drawn).
+        behind: (h, w) depth of what is already in ``out`` there.
+    """
+    x0, y0, x1, y1 = rect
+    near = (depth >= behind) & (depth > 0.0)  # ties to the ghost, drawn last in MuJoCo too
+    dst = out[y0:y1, x0:x1]
+    mixed = LAYER_ALPHA * rgb[near].astype(np.float32) + (1.0 - LAYER_ALPHA) * dst[near]
+    dst[near] = np.rint(mixed).astype(np.uint8)
+
+
 class FixedViewCompositor:
     """Draws a replay's frames for a camera that does not move (see the module docstring).
 
@@ -143,11 +239,8 @@ class FixedViewCompositor:
         for line in _polylines(*self.proj.pixels(replay.ref3)):
             draw.line(line, fill=_rgb255(REFERENCE_RGBA), width=replay.line_width)
         self._base: Frame = np.asarray(base).copy()
-        # robots alone from here on: no sky behind them, no geom hidden inside another
-        self._scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
-        self._frustum = [(float(c.frustum_center), 0.5 * float(c.frustum_top - c.frustum_bottom) * w / h,
-                          float(c.frustum_bottom), float(c.frustum_top)) for c in self._scene.camera]  # fmt: skip
-        self._draw_model = replay.ghost_model  # geoms inside others left out, for both robots
+        # robots alone from here on, drawn through small rectangles
+        self.passes = RobotPass(replay.ghost_model, renderer, flags, replay.required_geoms)
         self._trail_px = [self.proj.pixels(t3)[0] for t3 in replay.trail3]
         self._reset_trails()
 
@@ -177,52 +270,14 @@ class FixedViewCompositor:
 
     # ---- robots ---------------------------------------------------------------------------------
     def _rect(self, data: mujoco.MjData) -> Rect | None:
-        """Pixel rectangle holding a robot's projected bounding boxes, or None when off screen."""
-        r = self.replay
-        g = r.robot_geoms
-        corners = data.geom_xpos[g][:, None, :] + np.einsum("gij,gkj->gki", data.geom_xmat[g].reshape(-1, 3, 3),
-                                                               r.robot_corners)  # fmt: skip
-        px, ok = self.proj.pixels(corners.reshape(-1, 3))
-        w, h = self.renderer.width, self.renderer.height
-        if not ok.all():
-            return (0, 0, w, h)
-        x0 = max(0, int(np.floor(px[:, 0].min())) - RECT_MARGIN)
-        y0 = max(0, int(np.floor(px[:, 1].min())) - RECT_MARGIN)
-        x1 = min(w, int(np.ceil(px[:, 0].max())) + RECT_MARGIN + 1)
-        y1 = min(h, int(np.ceil(px[:, 1].max())) + RECT_MARGIN + 1)
-        return (x0, y0, x1, y1) if x1 > x0 and y1 > y0 else None
+        return self.passes.rect(self.proj, data, self.replay.robot_geoms, self.replay.robot_corners)
 
     def _pass(self, data: mujoco.MjData, rect: Rect, ghost: bool) -> tuple[Frame, NDArray[np.float32]]:
-        """Draw one robot's dynamic geoms as seen through ``rect`` of the image and read that back.
-
-        The frustum is narrowed to the rectangle and the viewport shrunk to its size, so MuJoCo
-        clears and rasterises only those pixels (the same pixel centres as the full view).
-        """
-        scn = self._scene
-        scn.ngeom = 0
-        mujoco.mjv_addGeoms(self._draw_model, data, self._opt, self._pert, mujoco.mjtCatBit.mjCAT_DYNAMIC, scn)
-        if ghost:
-            color = (*OPEN_RGBA[:3], 1.0)
-            for i in range(scn.ngeom):
-                scn.geoms[i].rgba = color
-        x0, y0, x1, y1 = rect
-        for eye, (center, half_w, bottom, top) in zip(scn.camera, self._frustum, strict=True):
-            du = 2.0 * half_w / self.renderer.width
-            dv = (top - bottom) / self.renderer.height
-            eye.frustum_center = center - half_w + 0.5 * (x0 + x1) * du
-            eye.frustum_top = top - y0 * dv
-            eye.frustum_bottom = top - y1 * dv
-        self.renderer.draw(scn, (x1 - x0, y1 - y0))
-        rgb = np.empty((y1 - y0, x1 - x0, 3), np.uint8)
-        depth = np.empty((y1 - y0, x1 - x0), np.float32)
-        h = self.renderer.height
-        self.renderer.read((0, h - (y1 - y0), x1 - x0, h), rgb, depth)  # the viewport's corner
-        return rgb, depth
+        return self.passes.draw(data, rect, ghost)
 
     def _robots(self, out: Frame) -> None:
         r = self.replay
-        # lights and eye positions of this frame (no geoms)
-        mujoco.mjv_updateScene(self._draw_model, r.datas[0], self._opt, self._pert, r.camera, 0, self._scene)
+        self.passes.view(r.datas[0], r.camera)  # lights and eyes of this frame
         solid = self._rect(r.datas[0])
         ghost = self._rect(r.datas[1]) if len(r.datas) > 1 else None
         solid_depth = None
@@ -238,10 +293,7 @@ class FixedViewCompositor:
             behind = self.depth[y0:y1, x0:x1]
             if solid is not None and solid_depth is not None and _overlap(solid, ghost):
                 behind = self._depth_with_solid(ghost, solid, solid_depth)
-            near = (depth >= behind) & (depth > 0.0)  # ties to the ghost, drawn last in MuJoCo too
-            dst = out[y0:y1, x0:x1]
-            mixed = LAYER_ALPHA * rgb[near].astype(np.float32) + (1.0 - LAYER_ALPHA) * dst[near]
-            dst[near] = np.rint(mixed).astype(np.uint8)
+            blend_ghost(out, ghost, rgb, depth, behind)
 
     def _depth_with_solid(self, ghost: Rect, solid: Rect, solid_depth: NDArray[np.float32]) -> NDArray[np.float32]:
         """Static depth under the ghost's rectangle with the solid robot's nearer pixels in it."""
