@@ -16,6 +16,10 @@ Drawing:
   robot stands;
 - a small text overlay (time, each run's current position error).
 
+With a camera that stays put (the overview) and no shadows or reflections (the fast look), the
+world is drawn once per video and only the robots each frame, composited by depth
+(:mod:`sim.compose`); the chase camera and the high look draw the whole scene every frame.
+
 The process holds one OpenGL renderer at a time (:class:`SceneRenderer`), closed explicitly.
 """
 
