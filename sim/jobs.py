@@ -6,6 +6,7 @@ The library returns data; only the CLI prints and writes files.
 from __future__ import annotations
 
 import platform
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from importlib import metadata
 from typing import Any
@@ -26,6 +27,11 @@ from sim.simulator import SimConfig, Simulator
 
 #: Run label -> tracker name.
 RUNS = {"closed_loop": "fbl", "open_loop": "open-loop"}
+
+#: A job's progress: (stage, done, total). Stages: "plan" with seconds of the planning budget
+#: (0 when planning starts, total when it returns), and each run label ("closed_loop", ...) with
+#: control periods of physics (see :meth:`sim.simulator.Simulator.run`).
+Progress = Callable[[str, float, float], Any]
 
 
 @dataclass
@@ -107,6 +113,7 @@ def run_tracking(
     simulator: Simulator | None = None,
     tracker_names: dict[str, str] | None = None,
     perturbation: Perturbation | None = None,
+    progress: Progress | None = None,
 ) -> JobResult:
     """Track a trajectory closed loop and/or open loop in physics and measure both.
 
@@ -122,6 +129,7 @@ def run_tracking(
         simulator: A simulator to reuse (built from scenario and robot if None).
         tracker_names: Run label -> tracker name (default ``RUNS``).
         perturbation: Physics and loop perturbation applied to every run (see :mod:`sim.perturb`).
+        progress: Told how each run advances (see :data:`Progress`); None for silence.
     """
     gains = gains or FBLGains()
     config = config or SimConfig()
@@ -131,8 +139,9 @@ def run_tracking(
     names = {**RUNS, **(tracker_names or {})}
     for label in trackers:
         tracker = make_tracker(names[label], robot, gains=gains)
+        step = None if progress is None else (lambda done, total, _l=label: progress(_l, done, total))
         log = simulator.run(trajectory, tracker, config, start=scenario.start, meta={"seed": seed},
-                             perturbation=perturbation)  # fmt: skip
+                            perturbation=perturbation, progress=step)  # fmt: skip
         logs[label] = log
         metrics[label] = compute_metrics(log, trajectory, max_speed=robot.max_speed, max_yaw_rate=robot.max_yaw_rate)
     job = JobResult(scenario, robot, trajectory, source, logs, metrics, gains, config, seed,
@@ -152,6 +161,7 @@ def simulate_reference(
     config: SimConfig | None = None,
     seed: int = 0,
     perturbation: Perturbation | None = None,
+    progress: Progress | None = None,
 ) -> JobResult:
     """Track an analytic reference placed at a scenario's start pose.
 
@@ -164,6 +174,7 @@ def simulate_reference(
         config: Simulation settings.
         seed: Seed.
         perturbation: Physics and loop perturbation (see :mod:`sim.perturb`).
+        progress: Told how the runs advance (see :data:`Progress`).
     """
     sc = load_scenario(scenario)
     if robot is not None:
@@ -180,7 +191,7 @@ def simulate_reference(
             f"for it (e.g. --scenario open) or plan a path with --planner"
         )
     return run_tracking(sc, spec, traj, source=f"reference:{reference}", trackers=trackers, gains=gains,
-                        config=config, seed=seed, perturbation=perturbation)  # fmt: skip
+                        config=config, seed=seed, perturbation=perturbation, progress=progress)  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------------ plans
@@ -232,6 +243,7 @@ def simulate_plan(
     plan: PlanResult | None = None,
     smoothing: dict[str, Any] | None = None,
     perturbation: Perturbation | None = None,
+    progress: Progress | None = None,
 ) -> JobResult:
     """Plan a scenario, smooth and time the plan, and track it closed loop and open loop.
 
@@ -248,6 +260,7 @@ def simulate_plan(
         plan: A ready plan to use instead of planning (its ``planner`` names the source).
         smoothing: Keyword options for :func:`planning.to_trajectory.make_trajectory`.
         perturbation: Physics and loop perturbation of the runs (see :mod:`sim.perturb`).
+        progress: Told when planning starts and ends and how the runs advance (see :data:`Progress`).
 
     Returns:
         The job; ``source`` is "planner:<name>", ``extra["plan"]`` holds the plan's status and
@@ -269,7 +282,14 @@ def simulate_plan(
                 f"({', '.join(sorted(PLANNERS)) or 'none registered'})"
             )
         problem = PlanProblem.from_scenario(sc, robot=spec, seed=seed, time_limit=time_limit)
-        plan = make_planner(name, **(planner_options or {})).plan(problem)
+        solver = make_planner(name, **(planner_options or {}))
+        if progress is not None:
+            progress("plan", 0.0, time_limit)
+        try:
+            plan = solver.plan(problem)
+        finally:
+            if progress is not None:
+                progress("plan", time_limit, time_limit)
     plan_rec: dict[str, Any] = {
         "planner": plan.planner, "status": plan.status.value, "reason": plan.reason,
         "time_s": plan.stats.get("time_s"), "iterations": plan.stats.get("iterations"), "length_m": plan.length(),
@@ -279,7 +299,8 @@ def simulate_plan(
     assert traj is not None
     config = config or SimConfig(hold=PLAN_HOLD_S)
     job = run_tracking(sc, spec, traj, source=f"planner:{plan.planner}", trackers=trackers, gains=gains,
-                       config=config, seed=seed, tracker_names=PLAN_RUNS, perturbation=perturbation)  # fmt: skip
+                       config=config, seed=seed, tracker_names=PLAN_RUNS, perturbation=perturbation,
+                       progress=progress)  # fmt: skip
     job.extra["plan"] = plan_rec
     job.extra["smoothing"] = {k: v for k, v in res.stats.items() if isinstance(v, (int, float, str, bool))}
     return job

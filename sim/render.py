@@ -16,6 +16,10 @@ Drawing:
   robot stands;
 - a small text overlay (time, each run's current position error).
 
+With a camera that stays put (the overview) and no shadows or reflections (the fast look), the
+world is drawn once per video and only the robots each frame, composited by depth
+(:mod:`sim.compose`); the chase camera and the high look draw the whole scene every frame.
+
 The process holds one OpenGL renderer at a time (:class:`SceneRenderer`), closed explicitly.
 """
 
@@ -207,6 +211,35 @@ class SceneRenderer:
         """Draw the scene into ``out`` ((height, width, 3) uint8) or a new array."""
         return self.renderer.render(out=out)
 
+    def draw(self, scene: mujoco.MjvScene, size: tuple[int, int] | None = None) -> None:
+        """Draw ``scene`` (any scene of this model) into the off-screen buffer; read it with :meth:`read`.
+
+        Args:
+            scene: The scene.
+            size: (width, height) [px] of the viewport, at the buffer's bottom-left corner (the
+                frustum fills it); None for the whole image.
+        """
+        r = self.renderer
+        if r._gl_context:
+            r._gl_context.make_current()
+        viewport = r._rect if size is None else mujoco.MjrRect(0, 0, size[0], size[1])
+        mujoco.mjr_render(viewport, scene, r._mjr_context)
+
+    def read(self, rect: tuple[int, int, int, int], rgb: Frame | None, depth: NDArray[np.float32] | None) -> None:
+        """Read a rectangle of the last :meth:`draw` into contiguous arrays, row 0 at the top.
+
+        Args:
+            rect: (x0, y0, x1, y1) [px] in image coordinates (y down), end exclusive.
+            rgb: (y1 - y0, x1 - x0, 3) uint8 colour, or None.
+            depth: (y1 - y0, x1 - x0) float32 depth (0 far, 1 near), or None.
+        """
+        x0, y0, x1, y1 = rect
+        viewport = mujoco.MjrRect(x0, self.height - y1, x1 - x0, y1 - y0)  # OpenGL: origin bottom left
+        mujoco.mjr_readPixels(rgb, depth, viewport, self.renderer._mjr_context)
+        for a in (rgb, depth):
+            if a is not None:
+                a[:] = a[::-1].copy()
+
     def close(self) -> None:
         """Free the OpenGL context (idempotent)."""
         if not self._closed:
@@ -390,17 +423,25 @@ class Replay:
             d.qpos[:] = tr.qpos[0]
             mujoco.mj_forward(m, d)
         self._robot_extent = self._robot_size(self.datas[0])
-        self._robot_geoms, self._corners = self._robot_boxes()
+        self.robot_geoms, self.robot_corners = self._robot_boxes()
+        from sim.compose import enclosed_geoms
+
+        #: The model with the robot's geoms that lie inside others left out (alpha 0), for the ghost
+        #: (drawn translucent, a collision tyre inside the visual one would show through).
+        self.ghost_model = copy.deepcopy(m)
+        self.ghost_model.geom_rgba[enclosed_geoms(m, self.robot_geoms), 3] = 0.0
         self.option = mujoco.MjvOption()
         self.perturb = mujoco.MjvPerturb()
         ref_xy = trajectory.pose[:, :2]
         ref = ref_xy[decimate_path(ref_xy, spacing)]
-        self._ref3 = np.column_stack([ref, np.zeros(len(ref))])
-        self._trail3 = [np.column_stack([tr.xy, np.zeros(len(tr.xy))]) for tr in self.tracks]
-        self._line_w = max(2, round(settings.height / 200))
+        self.ref3 = np.column_stack([ref, np.zeros(len(ref))])
+        self.trail3 = [np.column_stack([tr.xy, np.zeros(len(tr.xy))]) for tr in self.tracks]
+        self.line_width = max(2, round(settings.height / 200))
         self.camera = mujoco.MjvCamera()
         self.camera.type = mujoco.mjtCamera.mjCAMERA_FREE
         self._cam_params = self._camera_path(logs, lo, hi)
+        #: The camera stays put: frames are composited from a cached world (:mod:`sim.compose`).
+        self.fixed_camera = bool(np.all(self._cam_params == self._cam_params[0]))
         self._last_cam: FloatArray | None = None
         self._ref_lines: list[list[float]] = []
         self.required_geoms = int(2 * m.ngeom + 64)
@@ -481,7 +522,8 @@ class Replay:
         return out
 
     # ---- scene ----------------------------------------------------------------------------------
-    def _update(self, r: SceneRenderer, k: int) -> None:
+    def pose_frame(self, k: int) -> None:
+        """Put each run's ``MjData`` at its log sample of frame ``k`` (kinematics) and the camera on it."""
         m = self.model
         for d, tr in zip(self.datas, self.tracks, strict=True):
             d.qpos[:] = tr.qpos[tr.idx[k]]
@@ -493,11 +535,16 @@ class Replay:
         cam.distance = dist
         cam.azimuth = az
         cam.elevation = el
+
+    def _update(self, r: SceneRenderer, k: int) -> None:
+        self.pose_frame(k)
+        cam = self.camera
         scene = r.scene
         r.renderer.update_scene(self.datas[0], camera=cam, scene_option=self.option)
         n_model = scene.ngeom
         if len(self.datas) > 1:  # the ghost: dynamic geoms of the second run, translucent
-            mujoco.mjv_addGeoms(m, self.datas[1], self.option, self.perturb, mujoco.mjtCatBit.mjCAT_DYNAMIC, scene)
+            mujoco.mjv_addGeoms(self.ghost_model, self.datas[1], self.option, self.perturb,
+                                mujoco.mjtCatBit.mjCAT_DYNAMIC, scene)  # fmt: skip
             ghost = (*OPEN_RGBA[:3], GHOST_ALPHA)
             for i in range(n_model, scene.ngeom):
                 scene.geoms[i].rgba = ghost
@@ -507,23 +554,23 @@ class Replay:
         proj = Projection.from_scene(r.scene, self.settings.width, self.settings.height)
         cam = self._cam_params[k]
         if self._last_cam is None or not np.array_equal(cam, self._last_cam):
-            self._ref_lines = _polylines(*proj.pixels(self._ref3))
+            self._ref_lines = _polylines(*proj.pixels(self.ref3))
             self._last_cam = cam
         keep = self._robot_mask(proj, frame)
         img = Image.fromarray(frame)
         draw = ImageDraw.Draw(img)
-        w = self._line_w
+        w = self.line_width
         for line in self._ref_lines:
             draw.line(line, fill=_rgb255(REFERENCE_RGBA), width=w)
         for ti, tr in enumerate(self.tracks):
             j = int(tr.idx[k])
             upto = int(np.searchsorted(tr.trail_keep, j, side="right"))
-            pts = np.vstack([self._trail3[ti][tr.trail_keep[:upto]], self._trail3[ti][j : j + 1]])
+            pts = np.vstack([self.trail3[ti][tr.trail_keep[:upto]], self.trail3[ti][j : j + 1]])
             width = w + 1 if ti == 0 else max(1, w - 1)  # the ghost's trail on top, thinner
             for line in _polylines(*proj.pixels(pts)):
                 draw.line(line, fill=_rgb255(tr.rgba), width=width)
         frame[:] = np.asarray(img)
-        self._draw_overlay(k, frame)
+        self.draw_overlay(k, frame)
         if keep is not None:  # the solid robot hides the lines under it
             ys, xs, mask, saved = keep
             frame[ys, xs][mask] = saved[mask]
@@ -531,9 +578,9 @@ class Replay:
     def _robot_mask(self, proj: Projection, frame: Frame) -> tuple[slice, slice, NDArray[np.bool_], Frame] | None:
         """The solid robot's silhouette (union of its geoms' projected bounding boxes) and its pixels."""
         d = self.datas[0]
-        g = self._robot_geoms
+        g = self.robot_geoms
         corners = d.geom_xpos[g][:, None, :] + np.einsum(
-            "gij,gkj->gki", d.geom_xmat[g].reshape(-1, 3, 3), self._corners
+            "gij,gkj->gki", d.geom_xmat[g].reshape(-1, 3, 3), self.robot_corners
         )
         px, ok = proj.pixels(corners.reshape(-1, 3))
         if not ok.all():
@@ -578,7 +625,7 @@ class Replay:
             lines.append((f"{name}: error {err:6.3f} m", (color[0], color[1], color[2])))
         return lines
 
-    def _draw_overlay(self, k: int, frame: Frame) -> None:
+    def draw_overlay(self, k: int, frame: Frame) -> None:
         """Copy the overlay box into the frame; its text is redrawn every ``1 / OVERLAY_RATE`` s of video."""
         bw, bh = self._box
         step = max(1, round(self.settings.fps / OVERLAY_RATE))
@@ -595,6 +642,13 @@ class Replay:
     _overlay_box: Frame
 
     # ---- frames ---------------------------------------------------------------------------------
+    def composited(self, renderer: SceneRenderer) -> bool:
+        """Whether frames are composited from a world drawn once (:mod:`sim.compose`): with a camera
+        that stays put and a renderer without shadows or reflections (robots change no other pixel)."""
+        flags = renderer.scene.flags
+        lit = flags[mujoco.mjtRndFlag.mjRND_SHADOW] or flags[mujoco.mjtRndFlag.mjRND_REFLECTION]
+        return self.fixed_camera and not lit
+
     def render_frame(self, renderer: SceneRenderer, k: int, out: Frame | None = None) -> Frame:
         """Draw frame ``k``.
 
@@ -615,10 +669,20 @@ class Replay:
             raise ConfigError(
                 f"the renderer holds {renderer.scene.maxgeom} geoms, the replay needs {self.required_geoms}"
             )
+        if self.composited(renderer):
+            if self._compositor is None or self._compositor.renderer is not renderer:
+                from sim.compose import FixedViewCompositor
+
+                self._compositor = FixedViewCompositor(self, renderer)
+            if out is None:
+                out = np.empty((self.settings.height, self.settings.width, 3), dtype=np.uint8)
+            return self._compositor.frame(k, out)
         self._update(renderer, k)
         frame = renderer.render(out=out)
         self._decorate(renderer, k, frame)
         return frame
+
+    _compositor: Any = None
 
 
 class FrameSink(Protocol):

@@ -9,6 +9,7 @@ control period, not once per physics step. The log is written every ``log_steps`
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -25,6 +26,9 @@ from planning.world import World
 from sim.model import BuiltModel, build_model, set_pose
 from sim.perturb import Perturbation
 from sim.runlog import Contact, RunLog
+
+#: Progress reports during a run (besides the first and the last), see :meth:`Simulator.run`.
+PROGRESS_UPDATES = 100
 
 WARNING_NAMES = {int(v): k for k, v in mujoco.mjtWarning.__members__.items() if k != "mjNWARNING"}
 
@@ -125,6 +129,7 @@ class Simulator:
         drive: DiffDrive | None = None,
         meta: dict[str, Any] | None = None,
         perturbation: Perturbation | None = None,
+        progress: Callable[[int, int], Any] | None = None,
     ) -> RunLog:
         """Track a trajectory with a tracker in physics.
 
@@ -137,6 +142,9 @@ class Simulator:
             meta: Extra fields for the log's ``meta``.
             perturbation: Friction, mass, wheel radius, pose noise and latency changes (see
                 :mod:`sim.perturb`); None or nominal runs the model as built.
+            progress: Called with (control periods done, total) when the run starts, about
+                at most :data:`PROGRESS_UPDATES` times during it, and with (total, total) at the end
+                (e.g. to drive a progress bar); None costs nothing.
 
         Returns:
             The log.
@@ -196,7 +204,12 @@ class Simulator:
         qpos[0] = dqpos
         times[0] = d.time
         i = 1
+        every = max(1, -(-n_ctrl // PROGRESS_UPDATES))
+        if progress is not None:
+            progress(0, n_ctrl)
         for k in range(n_ctrl):
+            if progress is not None and k and k % every == 0:
+                progress(k, n_ctrl)
             x, y, th = read_pose(d)
             if noise is not None:
                 x, y, th = x + noise[k, 0], y + noise[k, 1], th + noise[k, 2]
@@ -223,6 +236,8 @@ class Simulator:
                 i += 1
                 if sdata[contact_adr] > 0.0 or touching:
                     contact_check()
+        if progress is not None:
+            progress(n_ctrl, n_ctrl)
         t_log = t0 + times
         # The log records the true state at the logged time (qpos after the step); the tracker saw
         # the pose sensors, which MuJoCo evaluates at the start of the last step (2 ms earlier).

@@ -39,7 +39,8 @@ def robot_pixel(record: dict, which: str) -> np.ndarray:
     replay = Replay(model, job.trajectory, job.logs, RenderSettings(width=160, height=120, fps=5.0))
     k = 0 if which == "first" else replay.n_frames - 1
     with SceneRenderer(model, 160, 120, max_geom=replay.required_geoms) as r:
-        replay.render_frame(r, k)
+        replay.render_frame(r, k)  # poses the runs and the camera of frame k
+        r.renderer.update_scene(replay.datas[0], camera=replay.camera)
         tr = replay.tracks[0]
         px, _ = Projection.from_scene(r.scene, 160, 120).pixels(np.array([[*tr.xy[tr.idx[k]], 0.1]]))
     return px[0]

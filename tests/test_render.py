@@ -172,11 +172,7 @@ def test_replay_frames_and_ghost() -> None:
     sink = ListSink(160, 120)
     with SceneRenderer(model, 160, 120, max_geom=replay.required_geoms) as r:
         assert render_frames(replay, r, sink) == replay.n_frames
-        # the ghost: one translucent copy of each dynamic robot geom after the model's own
-        scene = r.scene
-        alphas = np.array([scene.geoms[i].rgba[3] for i in range(scene.ngeom)])
-        n_ghost = int(np.sum(np.isclose(alphas, GHOST_ALPHA)))
-        assert n_ghost > 0 and np.all(np.isclose(alphas[-n_ghost:], GHOST_ALPHA))
+        assert replay.composited(r)  # the overview camera in the fast look: see test_compose
         # frame k shows the log sample nearest to t0 + k/fps
         k = replay.n_frames // 2
         tr = replay.tracks[0]
@@ -199,8 +195,16 @@ def test_chase_camera_keeps_robot_near_centre() -> None:
     settings = RenderSettings(width=160, height=120, fps=5.0, camera="chase")
     replay = Replay(model, job.trajectory, job.logs, settings)
     with SceneRenderer(model, 160, 120, max_geom=replay.required_geoms) as r:
+        assert not replay.composited(r)  # a moving camera: the whole scene every frame
         for k in (0, replay.n_frames - 1):
             replay.render_frame(r, k)
+            # the ghost: a translucent copy of each visible robot geom, after the model's own; the
+            # collision tyres inside the visual ones are left out
+            scene = r.scene
+            alphas = np.array([scene.geoms[i].rgba[3] for i in range(scene.ngeom)])
+            n_ghost = int(np.sum(np.isclose(alphas, GHOST_ALPHA)))
+            assert n_ghost == len(replay.robot_geoms) - 2
+            assert np.all(np.isclose(alphas[-n_ghost:], GHOST_ALPHA))
             proj = Projection.from_scene(r.scene, 160, 120)
             tr = replay.tracks[0]
             px, ok = proj.pixels(np.array([[*tr.xy[tr.idx[k]], 0.05]]))

@@ -125,8 +125,12 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         print(f"scenario {scenario.name} | robot {robot.name} | planner {name} | seed {args.seed} | "
               f"time limit {args.time_limit:g} s")  # fmt: skip
+    from sim.outputs_job import show_progress
+    from sim.progress import TimedBar
+
     t0 = time.perf_counter()
-    result = planner.plan(problem)
+    with TimedBar("planning", args.time_limit, enabled=show_progress(args)):
+        result = planner.plan(problem)
     wall = time.perf_counter() - t0
     path = densify_path(np.asarray(result.path, dtype=float).reshape(-1, 3), robot.radius)
     min_clear = None

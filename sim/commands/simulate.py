@@ -151,19 +151,23 @@ def run(args: argparse.Namespace) -> int:
     if planner is not None and args.reference is not None:
         raise ConfigError("--reference and --planner exclude each other: track an analytic curve or a plan")
     outputs = plan_outputs(args, scenario=load_scenario(scenario).name, source=planner or args.reference or "figure8")
-    if planner is not None:
-        from sim.jobs import PLAN_HOLD_S, simulate_plan
+    from sim.progress import JobBars
 
-        result = simulate_plan(
-            scenario, robot=args.robot, planner=planner, seed=args.seed, gains=gains,
-            config=SimConfig(control_rate=args.control_rate, hold=PLAN_HOLD_S), time_limit=args.time_limit,
-            trackers=TRACKER_CHOICES[args.tracker], perturbation=perturbation,
-        )  # fmt: skip
-    else:
-        result = simulate_reference(
-            scenario, robot=args.robot, reference=args.reference or "figure8", trackers=TRACKER_CHOICES[args.tracker],
-            gains=gains, config=config, seed=args.seed, perturbation=perturbation,
-        )  # fmt: skip
+    with JobBars(outputs.progress) as bars:
+        if planner is not None:
+            from sim.jobs import PLAN_HOLD_S, simulate_plan
+
+            result = simulate_plan(
+                scenario, robot=args.robot, planner=planner, seed=args.seed, gains=gains,
+                config=SimConfig(control_rate=args.control_rate, hold=PLAN_HOLD_S), time_limit=args.time_limit,
+                trackers=TRACKER_CHOICES[args.tracker], perturbation=perturbation, progress=bars,
+            )  # fmt: skip
+        else:
+            result = simulate_reference(
+                scenario, robot=args.robot, reference=args.reference or "figure8",
+                trackers=TRACKER_CHOICES[args.tracker], gains=gains, config=config, seed=args.seed,
+                perturbation=perturbation, progress=bars,
+            )  # fmt: skip
     record = result.record()
     if not args.quiet:
         print(

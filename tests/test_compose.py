@@ -1,0 +1,131 @@
+"""Fixed-view compositing against MuJoCo's full render of the same frame; trails; hidden geoms."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+from PIL import Image, ImageDraw
+
+import sim.compose as compose
+from sim.compose import FixedViewCompositor, draw_polyline, enclosed_geoms
+from sim.render import RenderSettings, Replay, SceneRenderer
+from tests.render_helpers import require_gl, short_job
+
+W, H = 320, 240
+
+
+def _replay(camera: str = "overview") -> tuple[mujoco.MjModel, Replay]:
+    from sim.simulator import Simulator
+
+    job = short_job()
+    model = Simulator(job.robot, job.scenario.world).model
+    return model, Replay(model, job.trajectory, job.logs, RenderSettings(width=W, height=H, fps=10.0, camera=camera))
+
+
+def test_draw_polyline_in_a_crop_equals_drawing_on_the_whole_image() -> None:
+    rng = np.random.default_rng(3)
+    img = rng.integers(0, 255, (60, 80, 3), dtype=np.uint8)
+    for width in (1, 3, 4):
+        pts = rng.uniform(-5, 85, (5, 2))  # partly outside the image
+        got = img.copy()
+        draw_polyline(got, pts, (10, 200, 30), width)
+        ref = Image.fromarray(img)
+        ImageDraw.Draw(ref).line(pts.ravel().tolist(), fill=(10, 200, 30), width=width)
+        changed = np.any(np.asarray(ref) != img, axis=2)
+        assert changed.sum() > 20
+        # identical but for pixels where PIL rounds a coordinate shifted by the crop differently
+        assert np.count_nonzero(np.any(got != np.asarray(ref), axis=2)) <= 0.02 * changed.sum()
+    one = img.copy()
+    draw_polyline(one, np.array([[5.0, 5.0]]), (0, 0, 0), 3)  # a single point draws nothing
+    np.testing.assert_array_equal(one, img)
+
+
+def test_enclosed_geoms_are_the_collision_tyres() -> None:
+    _, replay = _replay()
+    m = replay.model
+    hidden = enclosed_geoms(m, replay.robot_geoms)
+    assert sorted(m.geom(int(g)).name for g in hidden) == ["wheel_left_geom", "wheel_right_geom"]
+    xml = """<mujoco><worldbody><body><freejoint/>
+      <geom name="a" type="box" size=".1 .1 .1"/><geom name="b" type="box" size=".05 .1 .1"/>
+      <geom name="c" type="box" size=".05 .1 .1" pos=".01 0 0"/><geom name="d" type="sphere" size=".2"/>
+      </body></worldbody></mujoco>"""
+    m2 = mujoco.MjModel.from_xml_string(xml)
+    ids = np.arange(m2.ngeom)
+    # b sits inside a (same frame, smaller); c is shifted; a box inside a sphere is not checked
+    assert [m2.geom(int(g)).name for g in enclosed_geoms(m2, ids)] == ["b"]
+
+
+def test_composited_frames_match_the_full_render(monkeypatch: pytest.MonkeyPatch) -> None:
+    """World and solid robot: MuJoCo's own pixels (within 2 levels); ghost: close to MuJoCo's blend."""
+    require_gl()
+    model, replay = _replay()
+    monkeypatch.setattr(compose, "draw_polyline", lambda *a, **k: None)  # no trails
+    monkeypatch.setattr(replay, "draw_overlay", lambda k, frame: None)
+    with SceneRenderer(model, W, H, max_geom=replay.required_geoms) as r:
+        comp = FixedViewCompositor(replay, r)
+        # the floor layer without the reference path: MuJoCo's static pass with the sky
+        scn = comp._scene
+        scn.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = True
+        mujoco.mjv_updateScene(model, replay.datas[0], comp._opt, comp._pert, replay.camera,
+                               mujoco.mjtCatBit.mjCAT_STATIC, scn)  # fmt: skip
+        r.draw(scn)
+        r.read((0, 0, W, H), comp._base, np.empty((H, W), np.float32))
+        scn.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
+        comp._reset_trails()
+        for k in (0, replay.n_frames // 2, replay.n_frames - 1):
+            got = comp.frame(k, np.empty((H, W, 3), np.uint8)).astype(int)
+            replay._update(r, k)  # the full scene: world, robot, translucent ghost
+            ref = r.render().astype(int)
+            ghost_rect = comp._rect(replay.datas[1])
+            assert ghost_rect is not None
+            _, gdepth = comp._pass(replay.datas[1], ghost_rect, ghost=True)
+            ghost = np.zeros((H, W), bool)
+            x0, y0, x1, y1 = ghost_rect
+            ghost[y0:y1, x0:x1] = gdepth > 0
+            diff = np.abs(got - ref).max(axis=2)
+            robot = np.zeros((H, W), bool)
+            sx0, sy0, sx1, sy1 = comp._rect(replay.datas[0]) or (0, 0, 0, 0)
+            robot[sy0:sy1, sx0:sx1] = True
+            assert np.count_nonzero(robot & ~ghost) > 100  # the solid robot is in the comparison
+            assert np.count_nonzero(diff[~ghost] > 2) <= 3, k
+            assert ghost.sum() > 50 and diff[ghost].mean() < 25.0, k
+
+
+def test_frames_do_not_depend_on_the_order_they_are_drawn_in() -> None:
+    require_gl()
+    model, replay = _replay()
+    n = replay.n_frames
+    with SceneRenderer(model, W, H, max_geom=replay.required_geoms) as r:
+        in_order = [replay.render_frame(r, k).copy() for k in range(n)]
+        again = replay.render_frame(r, n // 2)  # backwards: the trails are redrawn from the start
+        np.testing.assert_array_equal(again, in_order[n // 2])
+        np.testing.assert_array_equal(replay.render_frame(r, n - 1), in_order[-1])
+    # the trails: the logged path behind the robot in the last frame is in a trail colour (the ghost's
+    # thinner trail lies on the closed-loop one where the runs agree), and not in the first frame
+    comp = replay._compositor
+    tr = replay.tracks[0]
+    px = comp.proj.pixels(replay.trail3[0][tr.trail_keep[: len(tr.trail_keep) // 2]])[0][len(tr.trail_keep) // 8 :]
+    colours = np.array([[round(255 * c) for c in t.rgba[:3]] for t in replay.tracks])
+
+    def on_trail(frame: np.ndarray) -> float:
+        pix = frame.astype(int)[np.rint(px[:, 1]).astype(int), np.rint(px[:, 0]).astype(int)]
+        return float(np.mean(np.abs(pix[:, None, :] - colours[None]).max(axis=2).min(axis=1) <= 2))
+
+    assert len(px) > 10
+    assert on_trail(in_order[-1]) > 0.8
+    assert on_trail(in_order[0]) < 0.2
+
+
+def test_moving_camera_or_shadows_use_the_full_render() -> None:
+    require_gl()
+    model, replay = _replay("chase")
+    with SceneRenderer(model, W, H, max_geom=replay.required_geoms) as r:
+        assert not replay.fixed_camera and not replay.composited(r)
+        with pytest.raises(ValueError, match="camera that stays put"):
+            FixedViewCompositor(replay, r)
+    model, replay = _replay()
+    with SceneRenderer(model, W, H, quality="high", max_geom=replay.required_geoms) as r:
+        assert replay.fixed_camera and not replay.composited(r)
+        with pytest.raises(ValueError, match="shadows or reflections"):
+            FixedViewCompositor(replay, r)
