@@ -233,7 +233,8 @@ def simulate_plan(
         gains: FBL gains.
         config: Simulation settings (default: 50 Hz with ``PLAN_HOLD_S`` of final regulation).
         time_limit: Planning budget [s].
-        planner_options: Keyword options for the planner factory.
+        planner_options: Keyword options for the planner factory, over the scenario's own
+            ``[planners.<name>]`` options for it.
         trackers: Run labels to run.
         plan: A ready plan to use instead of planning (its ``planner`` names the source).
         smoothing: Keyword options for :func:`planning.to_trajectory.make_trajectory`.
@@ -258,7 +259,7 @@ def simulate_plan(
                 f"({', '.join(sorted(PLANNERS)) or 'none registered'})"
             )
         problem = PlanProblem.from_scenario(sc, robot=spec, seed=seed, time_limit=time_limit)
-        plan = make_planner(name, **(planner_options or {})).plan(problem)
+        plan = make_planner(name, **{**sc.options_for(name), **(planner_options or {})}).plan(problem)
     plan_rec: dict[str, Any] = {
         "planner": plan.planner, "status": plan.status.value, "reason": plan.reason,
         "time_s": plan.stats.get("time_s"), "iterations": plan.stats.get("iterations"), "length_m": plan.length(),
