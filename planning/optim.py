@@ -111,6 +111,19 @@ def bicycle_rollout(state0: FloatArray, inputs: FloatArray, dt: float, wheelbase
     return out
 
 
+def dense_clearance(problem: PlanProblem, path: FloatArray) -> float:
+    """Smallest clearance of the robot's disc along a dense path [m] (negative: overlap).
+
+    Args:
+        problem: The world and robot.
+        path: (M, 2+) positions along the motion [m].
+
+    Returns:
+        min over the path of the signed distance to obstacles and walls minus the robot's radius.
+    """
+    return float(np.min(problem.world.signed_distance(np.asarray(path)[:, :2])) - problem.robot.radius)
+
+
 @dataclass
 class _Nlp:
     """A built Opti problem and its handles."""
@@ -235,6 +248,8 @@ class Optim:
         w_steer: Weight of u2^2 in the cost.
         w_smooth: Weight of the u1 increments in the cost.
         max_iter: IPOPT iteration limit.
+        max_resolves: Re-solves with a larger margin when the dense rollout cuts an obstacle
+            between nodes (see :meth:`solve`).
         verbose: Let IPOPT print.
     """
 
@@ -252,6 +267,7 @@ class Optim:
         w_steer: float = 0.01,
         w_smooth: float = 0.01,
         max_iter: int = 3000,
+        max_resolves: int = 3,
         verbose: bool = False,
     ) -> None:
         if isinstance(N, bool) or not isinstance(N, (int, np.integer)) or N < 2:
@@ -279,6 +295,9 @@ class Optim:
         self.w_steer = float(w_steer)
         self.w_smooth = float(w_smooth)
         self.max_iter = int(max_iter)
+        if isinstance(max_resolves, bool) or not isinstance(max_resolves, (int, np.integer)) or max_resolves < 0:
+            raise ConfigError(f"optim: max_resolves must be an integer >= 0, got {max_resolves!r}")
+        self.max_resolves = int(max_resolves)
         self.verbose = bool(verbose)
 
     # -- warm start ----------------------------------------------------------------------------
@@ -338,10 +357,40 @@ class Optim:
         return self.solve(problem).result
 
     def solve(self, problem: PlanProblem) -> OptimSolution:
-        """Like :meth:`plan`, also returning IPOPT's node states and inputs."""
+        """Like :meth:`plan`, also returning IPOPT's node states and inputs.
+
+        The constraints hold at the nodes; between them the robot moves up to ``max_speed * dt``
+        (16 cm for the EduMIP at the default dt) and a chord past a corner or a disc can come
+        closer than the nodes. So the dense rollout's disc clearance is measured, and while it is
+        negative the NLP is solved again with the margin raised by the shortfall plus ``5 mm``
+        (``max_resolves`` times at most); a rollout that still cuts an obstacle is a failure.
+        """
         t0 = time.perf_counter()
+        extra = 0.0
+        sol = self._solve_with_margin(problem, self.margin, t0)
+        for attempt in range(self.max_resolves + 1):
+            res = sol.result
+            if not res.success:
+                return sol
+            gap = dense_clearance(problem, res.path)
+            res.stats.update(dense_disc_clearance=gap, margin_used=self.margin + extra, resolves=attempt)
+            if gap >= 0.0:
+                return sol
+            if attempt == self.max_resolves:
+                break
+            extra += -gap + 0.005
+            sol = self._solve_with_margin(problem, self.margin + extra, t0)
+        stats = dict(res.stats, time_s=time.perf_counter() - t0)
+        kw = {k: getattr(res, k) for k in ("path", "times", "controls", "directions", "states")}
+        return OptimSolution(PlanResult(
+            PlanStatus.FAILED, self.name, stats=stats, **kw,
+            reason=f"the robot's disc comes within {gap:.4f} m of an obstacle or wall between nodes even with the "
+            f"margin raised to {self.margin + extra:.3f} m; use more nodes (N) or a shorter dt",
+        ), sol.nodes, sol.inputs)  # fmt: skip
+
+    def _solve_with_margin(self, problem: PlanProblem, margin: float, t0: float) -> OptimSolution:
         robot, world = problem.robot, problem.world
-        clear = robot.radius + self.margin
+        clear = robot.radius + margin
         for label, pose, status in (
             ("start", problem.start, PlanStatus.INVALID_START),
             ("goal", problem.goal, PlanStatus.INVALID_GOAL),

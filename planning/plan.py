@@ -98,7 +98,8 @@ class PlanResult:
         tree: The search tree, for planners that grow one.
         times: (N,) time stamps when the planner timed the path itself (optim, sinusoidal).
         controls: (N, 2) [v, omega] at ``times`` when the planner timed the path.
-        directions: (N,) +1 forwards / -1 backwards along ``path``, when the planner knows.
+        directions: (N,) +1 forwards / -1 backwards of the motion arriving at each pose of ``path``
+            (directions[0] repeats the first step's), when the planner knows.
         states: (N, n) full planner states (e.g. bicycle [x, y, theta, phi]) when richer than poses.
     """
 

@@ -2,12 +2,15 @@
 
 Format version 1 (see README.md): top-level ``name``, ``robot``, ``description``, ``version``;
 tables ``[world]`` (``bounds``, ``[[world.obstacles]]``), ``[start]`` (``pose``) and ``[goal]``
-(``pose``, ``position_tolerance``, ``heading_tolerance``). Every problem is reported before anything
-runs, naming the file, the field and what is expected.
+(``pose``, ``position_tolerance``, ``heading_tolerance``); optional ``[planners.<name>]`` tables of
+keyword options for a registered planner in this scenario (e.g. ``[planners.birrt]`` with
+``steering = "reeds_shepp"``), checked against that planner's options when the file is read. Every
+problem is reported before anything runs, naming the file, the field and what is expected.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import tomllib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -26,7 +29,7 @@ SCENARIOS_DIR = MODELS_DIR / "scenarios"
 DEFAULT_POSITION_TOLERANCE = 0.05
 DEFAULT_HEADING_TOLERANCE = 0.1
 
-_TOP_KEYS = {"name", "robot", "description", "version", "world", "start", "goal", "planner", "robots"}
+_TOP_KEYS = {"name", "robot", "description", "version", "world", "start", "goal", "planner", "robots", "planners"}
 _WORLD_KEYS = {"bounds", "obstacles", "map"}
 _OBSTACLE_KEYS: dict[str, tuple[set[str], set[str]]] = {
     # type: (required, optional)
@@ -55,6 +58,8 @@ class Scenario:
         description: Free text.
         planner: The planner this scenario is meant for by default, if any.
         robots: Robots the scenario suits (defaults to ``(robot,)``).
+        planner_options: Planner name -> keyword options for that planner in this scenario (the
+            ``[planners.<name>]`` tables).
         source: The file it was loaded from, if any.
     """
 
@@ -68,6 +73,7 @@ class Scenario:
     description: str = ""
     planner: str | None = None
     robots: tuple[str, ...] = ()
+    planner_options: Mapping[str, Mapping[str, Any]] = field(default_factory=dict, hash=False)
     source: Path | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
@@ -78,10 +84,11 @@ class Scenario:
         """The same scenario for another robot."""
         if robot not in ROBOT_FILES:
             raise ScenarioError(f"unknown robot {robot!r}: choose one of {', '.join(sorted(ROBOT_FILES))}")
-        return Scenario(
-            self.name, robot, self.world, self.start, self.goal, self.position_tolerance,
-            self.heading_tolerance, self.description, self.planner, self.robots, self.source,
-        )  # fmt: skip
+        return dataclasses.replace(self, robot=robot)
+
+    def options_for(self, planner: str) -> dict[str, Any]:
+        """Keyword options this scenario gives ``planner`` (a copy; empty if none)."""
+        return dict(self.planner_options.get(planner, {}))
 
 
 class _Reader:
@@ -159,6 +166,29 @@ def _obstacle(r: _Reader, table: Mapping[str, Any], ctx: str) -> Obstacle:
         raise r.fail(f"{ctx}vertices", f"a simple polygon ({exc})", verts) from exc
 
 
+def _planner_options(r: _Reader, table: Any) -> dict[str, dict[str, Any]]:
+    """Validate ``[planners.<name>]`` tables: known planner names, options the planner accepts."""
+    from planning.errors import ConfigError
+    from planning.plan import PLANNERS, make_planner  # planning.plan imports this module
+
+    if not isinstance(table, Mapping):
+        raise r.fail("planners", "a table of [planners.<name>] tables of keyword options", table)
+    out: dict[str, dict[str, Any]] = {}
+    for name, opts in table.items():
+        if name not in PLANNERS:
+            raise r.fail(f"planners.{name}", f"a registered planner name ({', '.join(sorted(PLANNERS))})", name)
+        if not isinstance(opts, Mapping):
+            raise r.fail(f"planners.{name}", "a table of keyword options", opts)
+        try:
+            make_planner(name, **opts)
+        except (ConfigError, ValueError, TypeError) as exc:
+            raise ScenarioError(
+                f"{r.where}: field 'planners.{name}': options rejected by planner {name!r}: {exc}"
+            ) from exc
+        out[name] = dict(opts)
+    return out
+
+
 def _pose(r: _Reader, table: Mapping[str, Any], ctx: str) -> Pose2D:
     return Pose2D(*r.vector(table, "pose", ctx, 3))
 
@@ -198,6 +228,7 @@ def parse_scenario(data: Mapping[str, Any], *, where: str, default_name: str, ba
     planner = data.get("planner")
     if planner is not None and not isinstance(planner, str):
         raise r.fail("planner", "a planner name", planner)
+    planner_options = _planner_options(r, data["planners"]) if "planners" in data else {}
 
     world_t = data["world"]
     r.keys(world_t, "world.", {"bounds"}, _WORLD_KEYS)
@@ -247,6 +278,7 @@ def parse_scenario(data: Mapping[str, Any], *, where: str, default_name: str, ba
     return Scenario(
         name=name, robot=robot, world=world, start=start, goal=goal, position_tolerance=ptol,
         heading_tolerance=htol, description=description, planner=planner, robots=tuple(robots),
+        planner_options=planner_options,
     )  # fmt: skip
 
 
@@ -262,10 +294,7 @@ def load_scenario_file(path: str | Path) -> Scenario:
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{p}: not valid TOML: {exc}") from exc
     sc = parse_scenario(data, where=str(p), default_name=p.stem, base_dir=p.parent)
-    return Scenario(
-        sc.name, sc.robot, sc.world, sc.start, sc.goal, sc.position_tolerance, sc.heading_tolerance,
-        sc.description, sc.planner, sc.robots, p,
-    )  # fmt: skip
+    return dataclasses.replace(sc, source=p)
 
 
 def builtin_scenarios() -> list[str]:

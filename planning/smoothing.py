@@ -107,7 +107,9 @@ def split_path(
 
     Args:
         path: (N, 3) poses [x, y, theta] along the motion.
-        directions: (N,) +1/-1 per pose (the step from pose i to i+1 uses directions[i]), optional.
+        directions: (N,) +1/-1 per pose: the direction of the motion *arriving* at each pose (the
+            step from pose i to i+1 uses directions[i + 1]; directions[0] is ignored), as
+            :class:`planning.plan.PlanResult` and the curve samplers give them. Optional.
         start_heading: Heading the robot starts with [rad]; default the path's first heading.
         goal_heading: Heading it must end with [rad]; default the last drive's heading (geometric
             paths) or the path's last heading.
@@ -136,7 +138,7 @@ def split_path(
         dirs = np.sign(np.asarray(directions, dtype=float).reshape(-1))
         if dirs.size != p.shape[0]:
             raise ValueError(f"directions must have one entry per pose ({p.shape[0]}), got {dirs.size}")
-        sgn = np.where(dirs[:-1] == 0, 1.0, dirs[:-1])
+        sgn = np.where(dirs[1:] == 0, 1.0, dirs[1:])
     elif consistent:
         hd = 0.5 * (th[:-1] + th[1:])
         dot = d[:, 0] * np.cos(hd) + d[:, 1] * np.sin(hd)
@@ -209,6 +211,53 @@ def split_path(
         hint = None
     rotate_to(goal, end_xy, hint)
     return segs
+
+
+def remove_loops(
+    path: ArrayLike,
+    directions: ArrayLike | None = None,
+    *,
+    tolerance: float = 1e-6,
+) -> tuple[FloatArray, FloatArray | None]:
+    """Cut every stretch of a path that returns to a pose it already had (a loop in x, y, theta).
+
+    A motion-primitive tree can drive a primitive and then its exact reverse, or wander back to a
+    pose it passed before; the stretch between the two visits achieves nothing. Keeping the poses
+    before the first visit and after the last one leaves a path made only of the input's own
+    poses and steps (each kept step joins the same two poses as an input step, up to
+    ``tolerance``), so it is exactly as feasible and collision-free as the input, and only shorter.
+    Visits are matched greedily: from each kept pose the walk jumps to just after the *last*
+    revisit of that pose.
+
+    Args:
+        path: (N, 3) poses [x, y, theta].
+        directions: (N,) directions of the motion arriving at each pose (optional); cut alongside.
+        tolerance: Poses whose x, y [m] and wrapped theta [rad] all agree after rounding to this
+            grid count as the same pose.
+
+    Returns:
+        ``(path (M, 3), directions (M,) or None)`` with M <= N.
+    """
+    p = np.asarray(path, dtype=float)
+    if p.ndim != 2 or p.shape[1] < 3:
+        raise ValueError(f"path must be an (N, 3) array of poses, got shape {p.shape}")
+    if not tolerance > 0:
+        raise ValueError(f"tolerance must be > 0, got {tolerance}")
+    keys = np.round(np.column_stack([p[:, 0], p[:, 1], wrap_angle(p[:, 2])]) / tolerance).astype(np.int64)
+    last: dict[tuple[int, int, int], int] = {}
+    for i, k in enumerate(map(tuple, keys.tolist())):
+        last[k] = i  # type: ignore[index]
+    keep = []
+    i = 0
+    while i < p.shape[0]:
+        keep.append(i)
+        i = last[tuple(keys[i].tolist())] + 1  # type: ignore[index]
+    idx = np.asarray(keep)
+    dirs = None if directions is None else np.asarray(directions, dtype=float).reshape(-1)
+    if dirs is not None and dirs.size != p.shape[0]:
+        raise ValueError(f"directions must have one entry per pose ({p.shape[0]}), got {dirs.size}")
+    # the step into a kept pose is the input's step into it, so its arriving direction is unchanged
+    return p[idx], None if dirs is None else dirs[idx]
 
 
 # ---------------------------------------------------------------------------------------- the fit

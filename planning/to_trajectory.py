@@ -2,7 +2,8 @@
 
 Two kinds of plan arrive:
 
-* **Untimed paths** (the sampling planners; any (N, 3) array of poses): split at cusps, sharp
+* **Untimed paths** (the sampling planners; any (N, 3) array of poses): stretches that return to
+  a pose already visited are cut (:func:`planning.smoothing.remove_loops`), then split at cusps, sharp
   corners and turns in place (:func:`planning.smoothing.split_path`); each drive is fitted by the
   constrained piecewise polynomial and refined until it is collision-free with the robot's footprint
   (:func:`planning.smoothing.smooth_drive`), timed by the curvature-limited speed profile
@@ -35,7 +36,7 @@ from planning.errors import NhsimError
 from planning.geometry import Pose2D, wrap_angle
 from planning.plan import PlanResult
 from planning.robot import RobotSpec
-from planning.smoothing import smooth_drive, split_path
+from planning.smoothing import remove_loops, smooth_drive, split_path
 from planning.speed_profile import Limits, TimedSamples, hold, time_drive, time_rotation
 from planning.trajectory import Trajectory
 from planning.world import World
@@ -198,6 +199,9 @@ def _from_path(
     label: str,
     stats: dict[str, Any],
 ) -> TrajectoryResult:
+    n_in = path.shape[0]
+    path, dirs = remove_loops(path, dirs)
+    stats["loop_poses_removed"] = n_in - path.shape[0]
     segs = split_path(path, dirs, goal_heading=goal_heading, corner_angle=corner_angle)
     pieces: list[tuple[str, TimedSamples]] = []
     status, reason = "success", ""

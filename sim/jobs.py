@@ -255,7 +255,8 @@ def simulate_plan(
         gains: FBL gains.
         config: Simulation settings (default: 50 Hz with ``PLAN_HOLD_S`` of final regulation).
         time_limit: Planning budget [s].
-        planner_options: Keyword options for the planner factory.
+        planner_options: Keyword options for the planner factory, over the scenario's own
+            ``[planners.<name>]`` options for it.
         trackers: Run labels to run.
         plan: A ready plan to use instead of planning (its ``planner`` names the source).
         smoothing: Keyword options for :func:`planning.to_trajectory.make_trajectory`.
@@ -282,7 +283,7 @@ def simulate_plan(
                 f"({', '.join(sorted(PLANNERS)) or 'none registered'})"
             )
         problem = PlanProblem.from_scenario(sc, robot=spec, seed=seed, time_limit=time_limit)
-        solver = make_planner(name, **(planner_options or {}))
+        solver = make_planner(name, **{**sc.options_for(name), **(planner_options or {})})
         if progress is not None:
             progress("plan", 0.0, time_limit)
         try:

@@ -2,6 +2,14 @@
 
 The rule for which planners apply is :func:`sim.jobs.applicable_planners`; robots are the ones a
 scenario lists (``robots``). The library returns the rows; ``nhsim simulate --all`` prints them.
+
+Every row has an ``outcome``: "ok" (every closed-loop target met), "FAIL", or "n/a". A case is
+"n/a" only when the planner rejects the start or goal by a precondition of its own
+(``INVALID_START`` / ``INVALID_GOAL``, e.g. C-RRT*'s 0.40 m centre clearance for the EduMIP, seed
+003's rule) while that pose is free for the robot's footprint: the planner does not apply to the
+scenario. Such rows are reported apart and not counted. Every other planner status (a timeout,
+``BOUNDS_VIOLATED``, ``INFEASIBLE``, a colliding timed plan), a smoothing failure or a missed target
+is a failure of that case.
 """
 
 from __future__ import annotations
@@ -10,8 +18,11 @@ from collections.abc import Callable
 from typing import Any
 
 from control.fbl import FBLGains
+from planning.collision import CollisionChecker
 from planning.errors import NhsimError
-from planning.scenario import builtin_scenarios, load_scenario
+from planning.plan import PlanProblem, PlanResult, PlanStatus, make_planner
+from planning.robot import load_robot
+from planning.scenario import Scenario, builtin_scenarios, load_scenario
 from planning.to_trajectory import PlanFailedError
 from sim.jobs import applicable_planners, simulate_plan
 from sim.simulator import SimConfig
@@ -31,6 +42,27 @@ def matrix_cases(scenarios: list[str] | None = None) -> list[tuple[str, str, str
     return cases
 
 
+def precondition_not_met(scenario: Scenario, plan: PlanResult) -> str | None:
+    """Why a planner does not apply to a scenario, or None if it does (see the module doc).
+
+    Args:
+        scenario: The scenario, with the robot in use.
+        plan: The planner's result on it.
+
+    Returns:
+        The planner's own reason when it rejected a start or goal that the robot's footprint fits;
+        None for every other result (including a start or goal that collides for the robot itself,
+        which is the scenario's fault and stays a failure).
+    """
+    which = {PlanStatus.INVALID_START: scenario.start, PlanStatus.INVALID_GOAL: scenario.goal}.get(plan.status)
+    if which is None:
+        return None
+    checker = CollisionChecker(scenario.world, load_robot(scenario.robot), shape="footprint")
+    if float(checker.clearance_of(which.as_array()[None, :])[0]) <= 0.0:
+        return None
+    return f"{plan.status.value} by the planner's own clearance rule: {plan.reason}"
+
+
 def run_case(
     scenario: str,
     robot: str,
@@ -40,18 +72,33 @@ def run_case(
     gains: FBLGains | None = None,
     control_rate: float = 50.0,
     time_limit: float = 30.0,
+    planner_options: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """Plan, smooth and track one case; a failure is a row with ``success`` False and a reason."""
+    """Plan, smooth and track one case; a failure is a row with ``success`` False and a reason.
+
+    The planner gets the scenario's own options for it (``[planners.<name>]``), overridden by
+    ``planner_options``. ``outcome`` is
+    "ok", "FAIL" or "n/a" (see the module doc); ``stage`` says where a case ended ("precondition",
+    "plan", "trajectory" or "track").
+    """
     row: dict[str, Any] = {"scenario": scenario, "robot": robot, "planner": planner, "seed": seed}
     try:
+        sc = load_scenario(scenario).with_robot(robot)
+        problem = PlanProblem.from_scenario(sc, robot=load_robot(robot), seed=seed, time_limit=time_limit)
+        plan = make_planner(planner, **{**sc.options_for(planner), **(planner_options or {})}).plan(problem)
+        row["plan_status"] = plan.status.value
+        na = precondition_not_met(sc, plan)
+        if na is not None:
+            row.update({"success": False, "outcome": "n/a", "stage": "precondition", "reason": na,
+                        "plan_time_s": plan.stats.get("time_s")})  # fmt: skip
+            return row
         cfg = SimConfig(control_rate=control_rate, hold=2.0)
-        job = simulate_plan(scenario, robot=robot, planner=planner, seed=seed, gains=gains, config=cfg,
-                            time_limit=time_limit)  # fmt: skip
+        job = simulate_plan(sc, plan=plan, seed=seed, gains=gains, config=cfg)
     except PlanFailedError as exc:
-        row.update({"success": False, "stage": "plan", "reason": str(exc)})
+        row.update({"success": False, "outcome": "FAIL", "stage": "plan", "reason": str(exc)})
         return row
     except NhsimError as exc:
-        row.update({"success": False, "stage": "trajectory", "reason": str(exc)})
+        row.update({"success": False, "outcome": "FAIL", "stage": "trajectory", "reason": str(exc)})
         return row
     rec = job.record()
     cl, ol = rec.get("closed_loop", {}), rec.get("open_loop", {})
@@ -61,7 +108,8 @@ def run_case(
         and cl.get("warnings", 1) == 0
     )
     row.update({
-        "success": bool(ok), "stage": "track", "reason": "" if ok else "closed loop missed a target (see the errors)",
+        "success": bool(ok), "outcome": "ok" if ok else "FAIL", "stage": "track",
+        "reason": "" if ok else "closed loop missed a target (see the errors)",
         "plan_time_s": rec["plan"].get("time_s"), "plan_length_m": rec["plan"].get("length_m"),
         "duration_s": rec["trajectory"]["duration_s"], "smoothing": rec["smoothing"],
         "closed_loop": cl, "open_loop": ol,
@@ -89,7 +137,7 @@ def format_matrix_row(row: dict[str, Any]) -> str:
     """One line of the ``--all`` table."""
     head = f"{row['scenario']:<17} {row['robot']:<10} {row['planner']:<11}"
     if "closed_loop" not in row:
-        return f"{head} {'FAIL':>4}  {row['reason'][:90]}"
+        return f"{head} {row.get('outcome', 'FAIL'):>4}  {row['reason'][:90]}"
     cl, ol = row["closed_loop"], row["open_loop"]
     pt = row["plan_time_s"]
     return (
@@ -108,3 +156,37 @@ def matrix_header() -> str:
         f"{'rms pos':>8} {'coll':>4} {'warn':>4} | {'OL fin':>9} {'OL rms':>8} {'coll':>4}"
     )
     return head + "\n" + "-" * len(head)
+
+
+def matrix_summary(rows: list[dict[str, Any]]) -> list[str]:
+    """Closing lines of the ``--all`` table: the count over applicable cases, every failure with its
+    stage, and the cases that do not apply with their reasons."""
+    na = [r for r in rows if r.get("outcome") == "n/a"]
+    applicable = [r for r in rows if r.get("outcome") != "n/a"]
+    ok = sum(bool(r["success"]) for r in applicable)
+    lines = [f"{ok}/{len(applicable)} applicable cases met every closed-loop target ({len(na)} not applicable)"]
+    for r in applicable:
+        if not r["success"]:
+            status = f" [{r['plan_status']}]" if r.get("stage") == "plan" and "plan_status" in r else ""
+            lines.append(f"  FAIL {r['scenario']}/{r['robot']}/{r['planner']} at {r['stage']}{status}: {r['reason']}")
+    for r in na:
+        lines.append(f"  n/a  {r['scenario']}/{r['robot']}/{r['planner']}: {r['reason']}")
+    return lines
+
+
+def matrix_record(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The JSON record of a matrix run: applicable rows, not-applicable rows apart, and counts."""
+    na = [r for r in rows if r.get("outcome") == "n/a"]
+    applicable = [r for r in rows if r.get("outcome") != "n/a"]
+    return {
+        "rows": applicable,
+        "not_applicable": na,
+        "summary": {"cases": len(applicable), "passed": sum(bool(r["success"]) for r in applicable),
+                    "failed": sum(not r["success"] for r in applicable), "not_applicable": len(na),
+                    "targets": TARGETS},
+    }  # fmt: skip
+
+
+def matrix_passed(rows: list[dict[str, Any]]) -> bool:
+    """Whether every applicable case met every target."""
+    return all(r["success"] for r in rows if r.get("outcome") != "n/a")

@@ -98,3 +98,39 @@ def test_builtin_scenarios_load() -> None:
     for name in names:
         sc = load_scenario(name)
         assert sc.name == name
+
+
+def test_planner_options_tables_are_read_and_reach_the_planner(tmp_path: Path) -> None:
+    from planning.plan import make_planner
+
+    text = GOOD + '[planners.birrt]\nsteering = "reeds_shepp"\ngoal_bias = 0.1\n[planners.optim]\nN = 30\n'
+    sc = load_scenario(_write(tmp_path, text))
+    assert sc.options_for("birrt") == {"steering": "reeds_shepp", "goal_bias": 0.1}
+    assert sc.options_for("optim") == {"N": 30}
+    assert sc.options_for("rrt") == {}
+    assert sc.with_robot("edumip").options_for("birrt") == {"steering": "reeds_shepp", "goal_bias": 0.1}
+    planner = make_planner("birrt", **sc.options_for("birrt"))
+    assert planner.config.steering == "reeds_shepp" and planner.config.goal_bias == 0.1  # type: ignore[attr-defined]
+    assert load_scenario("nav_map1").options_for("birrt") == {"steering": "reeds_shepp"}
+
+
+@pytest.mark.parametrize(
+    ("table", "match"),
+    [
+        (
+            "[planners.birrt]\nwarp = 9\n",
+            r"'planners.birrt': options rejected"
+            r" by planner 'birrt': unknown option\(s\) warp",
+        ),
+        ("[planners.teleport]\nx = 1\n", r"'planners.teleport': expected a registered planner name"),
+        ("[planners.birrt]\ngoal_bias = 2.0\n", r"'planners.birrt'.*goal_bias must be in \[0, 1\]"),
+        ("planners = 3\n", r"field 'planners': expected a table"),
+        ("[planners]\nbirrt = 3\n", r"'planners.birrt': expected a table of keyword options"),
+    ],
+)
+def test_bad_planner_options_name_the_field(tmp_path: Path, table: str, match: str) -> None:
+    text = (table + GOOD) if table.startswith("planners =") else (GOOD + table)
+    path = _write(tmp_path, text)
+    with pytest.raises(ScenarioError, match=match) as err:
+        load_scenario(path)
+    assert str(path) in str(err.value)

@@ -41,8 +41,21 @@ def test_farm_is_seed_001():
     assert kinds == {Circle, Ellipse}
     assert len(sc.world.obstacles) == 13
     np.testing.assert_allclose(sc.start.as_array(), [-1.0, -1.0, np.pi / 4])
-    np.testing.assert_allclose(sc.goal.as_array(), [2.5, 2.0, 0.0])
+    # the seed's goal (2.5, 2) is 0.10 m from tree7, inside the TurtleBot3's disc: moved back along y = 2
+    np.testing.assert_allclose(sc.goal.as_array(), [2.15, 2.0, 0.0])
     assert (sc.position_tolerance, sc.heading_tolerance) == (0.02, 0.1)
+    tree7 = [o for o in sc.world.obstacles if isinstance(o, Circle) and o.center == (2.7, 2.0)]
+    assert len(tree7) == 1 and np.hypot(2.7 - 2.15, 0.0) - tree7[0].radius == pytest.approx(0.45)
+    # every obstacle and wall at least 0.25 m away (an independent distance: circles and ellipse samples)
+    g = np.array([2.15, 2.0])
+    for o in sc.world.obstacles:
+        if isinstance(o, Circle):
+            assert np.hypot(*(g - np.array(o.center))) - o.radius >= 0.25
+        else:
+            t = np.linspace(0, 2 * np.pi, 2000)
+            pts = np.array(o.center) + np.column_stack([o.radii[0] * np.cos(t), o.radii[1] * np.sin(t)])
+            assert np.hypot(*(pts - g).T).min() >= 0.25
+    assert min(g[0] + 3, 3 - g[0], g[1] + 3, 3 - g[1]) >= 0.25
 
 
 def test_parking_goal_is_an_empty_bay_between_parked_cars():

@@ -1,14 +1,17 @@
 """Smoothing: the constrained fit, path splitting, and the trajectory of hand-made paths, checked
 against the definitions (finite differences, an independent footprint test)."""
 
+import itertools
+
 import numpy as np
 import pytest
 
 from planning.collision import CollisionChecker
 from planning.geometry import Pose2D
-from planning.plan import PlanResult, PlanStatus
+from planning.plan import PlanProblem, PlanResult, PlanStatus, make_planner
 from planning.robot import load_robot
-from planning.smoothing import SmoothStatus, fit_piecewise, smooth_drive, split_path
+from planning.scenario import load_scenario
+from planning.smoothing import SmoothStatus, fit_piecewise, remove_loops, smooth_drive, split_path
 from planning.to_trajectory import make_trajectory
 from planning.world import Circle, World
 
@@ -209,3 +212,82 @@ def test_timed_plans_are_kept_as_they_are_or_slowed_uniformly() -> None:
     c = res.stats["time_scale"]
     assert c > 1.0 and np.allclose(res.trajectory.t[:n], t / 4.0 * c)
     assert np.abs(res.trajectory.vel[:n, 0]).max() <= 0.85 * TB3.max_speed + 1e-12
+
+
+def test_split_reads_directions_as_arriving_at_each_pose() -> None:
+    """A forward arc, a cusp, a reverse arc: directions[i] is the motion that *reaches* pose i (as
+    the planners and the curve samplers give it), so the cusp pose ends the forward drive."""
+    a = np.linspace(0.0, 0.5, 11)
+    fwd = np.column_stack([0.2 * np.sin(a), 0.2 * (1 - np.cos(a)), a])  # left arc, radius 0.2, forwards
+    b = np.linspace(0.5, 1.0, 11)[1:]  # backwards on a right arc: heading keeps rising
+    c0 = fwd[-1, :2] + 0.2 * np.array([np.sin(0.5), -np.cos(0.5)])  # centre of the right-hand circle
+    back = np.column_stack([c0[0] - 0.2 * np.sin(b), c0[1] + 0.2 * np.cos(b), b])
+    path = np.vstack([fwd, back])
+    dirs = np.concatenate([np.ones(11), -np.ones(10)])
+    segs = split_path(path, dirs)
+    assert [(s.kind, s.direction, s.points.shape[0]) for s in segs] == [("drive", 1, 11), ("drive", -1, 11)]
+    np.testing.assert_allclose(segs[0].points[-1], segs[1].points[0])
+    np.testing.assert_allclose([segs[0].headings[1], segs[1].headings[0]], [0.5, 0.5])
+
+
+def test_remove_loops_cuts_retraced_stretches_and_keeps_only_input_steps() -> None:
+    out = np.column_stack([np.linspace(0, 0.6, 7), np.zeros(7), np.zeros(7)])
+    back = out[-2::-1][:4]  # drive back over the same poses to x = 0.2
+    fwd = np.column_stack([np.linspace(0.3, 1.0, 8), 0.01 * np.arange(1, 9), np.zeros(8)])
+    path = np.vstack([out, back, fwd])
+    dirs = np.concatenate([np.ones(7), -np.ones(4), np.ones(8)])
+    cut, cdirs = remove_loops(path, dirs)
+    # the first visit of (0.2, 0) jumps past its last one (the end of the back-up)
+    np.testing.assert_array_equal(cut, np.vstack([out[:3], fwd]))
+    np.testing.assert_array_equal(cdirs, np.ones(11))
+    # every kept step joins the same two poses as some input step (the cut is made of input motion)
+    for p, q in itertools.pairwise(cut):
+        assert np.any(np.all(np.isclose(path[:-1], p), axis=1) & np.all(np.isclose(path[1:], q), axis=1))
+    loop_free = PATHS["corner"]
+    again, none = remove_loops(loop_free)
+    np.testing.assert_array_equal(again, loop_free)
+    assert none is None
+
+
+def footprint_world_clearance(traj, robot, world) -> float:  # type: ignore[no-untyped-def]
+    """Independent footprint test: footprint edges at every sample, 40 points each, against the
+    world's exact signed distances (obstacles and walls)."""
+    corners = robot.footprint_at(traj.pose)
+    nxt = np.roll(corners, -1, axis=1)
+    t = np.linspace(0.0, 1.0, 40)[None, None, :, None]
+    pts = (corners[:, :, None, :] * (1 - t) + nxt[:, :, None, :] * t).reshape(-1, 2)
+    return float(np.min(world.signed_distance(pts)))
+
+
+SAMPLING_CASES = [
+    # (scenario, robot, planner, options): paths that used to fail with "deviation after 5 refinements"
+    ("parallel_park", "turtlebot3", "rrt-star", {"max_iterations": 1500}),  # Reeds-Shepp curves with cusps
+    ("nav_map1", "turtlebot3", "rrt", {}),  # bicycle primitives, an exact curve to the goal
+    ("edumip_map", "edumip", "birrt", {}),  # unicycle primitives driven forwards and straight back
+]
+
+
+@pytest.mark.parametrize(("scenario", "robot", "planner", "options"), SAMPLING_CASES, ids=lambda c: str(c))
+def test_sampling_planner_paths_smooth_collision_free_and_continuous(
+    scenario: str, robot: str, planner: str, options: dict
+) -> None:
+    sc = load_scenario(scenario).with_robot(robot)
+    spec = load_robot(robot)
+    plan = make_planner(planner, **options).plan(PlanProblem.from_scenario(sc, robot=spec, seed=0, time_limit=20))
+    assert plan.success, plan.reason
+    res = make_trajectory(plan, spec, sc.world, goal=sc.goal)
+    assert res.success, res.reason
+    traj = res.trajectory
+    check_definitions(traj, spec)
+    assert footprint_world_clearance(traj, spec, sc.world) > 0.0
+    if planner == "birrt":  # seed 001's connect step drives primitives and straight back: cut, not tracked
+        assert res.stats["loop_poses_removed"] > 0.5 * plan.path.shape[0]
+    # the drives keep the planner's travel directions: cusps in the plan are cusps in the trajectory
+    d = np.asarray(plan.directions)
+    assert res.stats["cusps"] <= int(np.sum(d[1:] != d[:-1]))
+    kinds = [k for k in traj.segment_kinds if k in ("forward", "reverse")]
+    assert res.stats["cusps"] == sum(a != b for a, b in itertools.pairwise(kinds))
+    # starts at the start, ends on the goal pose
+    np.testing.assert_allclose(traj.pose[0, :2], sc.start.xy.reshape(-1), atol=1e-9)
+    assert np.hypot(traj.pose[-1, 0] - sc.goal.x, traj.pose[-1, 1] - sc.goal.y) <= sc.position_tolerance
+    assert abs(np.angle(np.exp(1j * (traj.pose[-1, 2] - sc.goal.theta)))) < 1e-6

@@ -119,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
     name = args.planner or scenario.planner
     if name is None:
         raise ConfigError(f"scenario {scenario.name!r} names no default planner: pass --planner")
-    planner = make_planner(name)
+    planner = make_planner(name, **scenario.options_for(name))
     robot = load_robot(scenario.robot)
     problem = PlanProblem.from_scenario(scenario, robot=robot, seed=args.seed, time_limit=args.time_limit)
     if not args.quiet:

@@ -199,7 +199,15 @@ def _default_plan_available() -> bool:
 
 def _run_all(args: argparse.Namespace, gains: Any) -> int:
     """``simulate --all``: the matrix table, and its rows as JSON with --json."""
-    from sim.matrix import format_matrix_row, matrix_cases, matrix_header, run_matrix
+    from sim.matrix import (
+        format_matrix_row,
+        matrix_cases,
+        matrix_header,
+        matrix_passed,
+        matrix_record,
+        matrix_summary,
+        run_matrix,
+    )
     from sim.outputs import write_json
 
     cases = matrix_cases()
@@ -210,11 +218,10 @@ def _run_all(args: argparse.Namespace, gains: Any) -> int:
     print(matrix_header(), flush=True)
     rows = run_matrix(cases, progress=lambda row: print(format_matrix_row(row), flush=True), seed=args.seed,
                       gains=gains, control_rate=args.control_rate, time_limit=args.time_limit)  # fmt: skip
-    failed = sum(not r["success"] for r in rows)
     if not args.quiet:
-        print(f"{len(rows) - failed}/{len(rows)} cases met every closed-loop target")
+        print("\n".join(matrix_summary(rows)))
     if args.json is not None:
-        write_json(args.json, {"rows": rows}, overwrite=args.overwrite)
+        write_json(args.json, matrix_record(rows), overwrite=args.overwrite)
         if not args.quiet:
             print(f"wrote {args.json}")
-    return 0 if failed == 0 else 1
+    return 0 if matrix_passed(rows) else 1
