@@ -218,8 +218,7 @@ def _run_all(args: argparse.Namespace, gains: Any) -> int:
     print(matrix_header(), flush=True)
     rows = run_matrix(cases, progress=lambda row: print(format_matrix_row(row), flush=True), seed=args.seed,
                       gains=gains, control_rate=args.control_rate, time_limit=args.time_limit)  # fmt: skip
-    if not args.quiet:
-        print("\n".join(matrix_summary(rows)))
+    print("\n".join(matrix_summary(rows)))  # part of the results: printed with --quiet too
     if args.json is not None:
         write_json(args.json, matrix_record(rows), overwrite=args.overwrite)
         if not args.quiet:
