@@ -25,6 +25,8 @@ ROBOTS_DIR = MODELS_DIR / "robots"
 
 #: Robot names accepted everywhere, mapped to their MJCF file stems.
 ROBOT_FILES: dict[str, str] = {"turtlebot3": "turtlebot3_burger", "edumip": "edumip"}
+#: MJCF actuator elements that drive a wheel at a commanded speed (their ``ctrlrange`` is in rad/s).
+WHEEL_SERVOS = ("velocity", "intvelocity")
 
 
 @dataclass(frozen=True)
@@ -191,9 +193,9 @@ def load_robot(name: str) -> RobotSpec:
     yl = _floats(bodies["wheel_left"].get("pos"), 3, "wheel_left pos")[1]
     yr = _floats(bodies["wheel_right"].get("pos"), 3, "wheel_right pos")[1]
     track = float(abs(yl - yr))
-    motors = [a for a in root.iter("velocity")]
+    motors = [a for kind in WHEEL_SERVOS for a in root.iter(kind)]
     if not motors:
-        raise ModelError(f"{path}: no <velocity> actuators")
+        raise ModelError(f"{path}: no wheel servos (<{'> or <'.join(WHEEL_SERVOS)}> actuators)")
     max_wheel = float(np.min([np.max(np.abs(_floats(a.get("ctrlrange"), 2, "ctrlrange"))) for a in motors]))
 
     points = []
