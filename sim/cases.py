@@ -2,9 +2,9 @@
 tuner and the regression suite name them.
 
 A case tracks either an analytic reference placed at the scenario's start pose
-(``reference = "figure8"``) or a plan of the scenario (``planner = "rrt"``). Planned cases run
-through ``sim.jobs.simulate_plan(scenario, robot=, planner=, seed=, ...)``; where that function is
-not available, :func:`planning_available` says so and the case cannot run.
+(``reference = "figure8"``) or a plan of the scenario (``planner = "rrt"``). A planned case plans,
+smooths and times the scenario once through :func:`sim.jobs.simulate_plan`, and every run of the case
+tracks that trajectory.
 
 On the command line (``nhsim tune --scenarios``) a case is ``SCENARIO:REFERENCE`` (e.g.
 ``open:figure8``), ``SCENARIO:PLANNER`` or a bare ``SCENARIO`` (planned with the default planner).
@@ -12,8 +12,6 @@ On the command line (``nhsim tune --scenarios``) a case is ``SCENARIO:REFERENCE`
 
 from __future__ import annotations
 
-import importlib
-from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -24,6 +22,7 @@ from planning.references import REFERENCES, make_reference
 from planning.robot import ROBOT_FILES, RobotSpec, load_robot
 from planning.scenario import Scenario, load_scenario
 from planning.trajectory import Trajectory
+from sim.jobs import PLAN_HOLD_S, simulate_plan
 from sim.metrics import TrackingMetrics, compute_metrics
 from sim.perturb import Perturbation
 from sim.runlog import RunLog
@@ -106,13 +105,6 @@ class Case:
         return cls(scenario, planner=second, **fields_)
 
 
-def planning_available() -> Callable[..., Any] | None:
-    """``sim.jobs.simulate_plan`` if this build has it, else None."""
-    jobs = importlib.import_module("sim.jobs")
-    fn = getattr(jobs, "simulate_plan", None)
-    return fn if callable(fn) else None
-
-
 @dataclass
 class PreparedCase:
     """A case with its scenario, robot, reference and simulator built once, to run many times.
@@ -185,20 +177,14 @@ def prepare(case: Case) -> PreparedCase:
                 f"its start pose or a planner"
             )
     else:
-        simulate_plan = planning_available()
-        if simulate_plan is None:
-            raise ConfigError(
-                f"case {case.label}: planned cases need sim.jobs.simulate_plan, which this build does not have "
-                f"yet; use a reference case such as {case.scenario}:figure8 or open:figure8"
-            )
         # plan and time the trajectory only (no runs); the case's tracker runs it below
         result = simulate_plan(
             sc, planner=case.planner or None, seed=case.seed, trackers=(),
             config=SimConfig(control_rate=case.control_rate),
         )  # fmt: skip
         traj = result.trajectory
-        extra = dict(getattr(result, "extra", {}) or {})
-        hold = float(getattr(importlib.import_module("sim.jobs"), "PLAN_HOLD_S", 0.0))
+        extra = dict(result.extra)
+        hold = PLAN_HOLD_S
         return PreparedCase(case, sc, spec, traj, Simulator(spec, sc.world), extra, hold=hold)
     return PreparedCase(case, sc, spec, traj, Simulator(spec, sc.world), extra)
 

@@ -15,7 +15,7 @@ numpy versions, operating system and machine):
   ``abs + rel * |baseline|`` (error metrics, collisions, warnings, saturation: higher is worse;
   duration: any change beyond the tolerance).
 
-Planned cases need ``sim.jobs.simulate_plan``; without it they are skipped with the reason.
+A planned case plans, smooths and times its scenario through :func:`sim.jobs.simulate_plan`.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from typing import Any
 
 from control.fbl import FBLGains
 from planning.errors import ConfigError, NhsimError, SimulationError
-from sim.cases import Case, planning_available, prepare
+from sim.cases import Case, prepare
 from sim.metrics import TrackingMetrics
 from sim.perturb import Perturbation
 
@@ -252,7 +252,7 @@ class Outcome:
 
     Attributes:
         case: The case.
-        status: "pass", "fail", "missing" (no baseline), "skipped", "error" or "nondeterministic".
+        status: "pass", "fail", "missing" (no baseline), "error" or "nondeterministic".
         message: Why (for everything but a clean pass).
         metrics: The metrics measured (empty when not run).
         changes: Metrics that moved against the baseline.
@@ -268,8 +268,8 @@ class Outcome:
 
     @property
     def ok(self) -> bool:
-        """Pass or skipped."""
-        return self.status in ("pass", "skipped")
+        """Passed."""
+        return self.status == "pass"
 
 
 def baseline_path(case: Case, baseline_dir: Path = BASELINE_DIR) -> Path:
@@ -299,8 +299,6 @@ def check_case(
 ) -> Outcome:
     """Run a case (twice, for determinism) and compare it with its baseline."""
     tolerances = tolerances if tolerances is not None else DEFAULT_TOLERANCES
-    if case.planner is not None and planning_available() is None:
-        return Outcome(case, "skipped", "planned case: sim.jobs.simulate_plan is not available in this build yet")
     try:
         metrics = run_case(case).as_dict()
     except NondeterminismError as exc:

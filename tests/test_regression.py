@@ -117,19 +117,6 @@ def test_nondeterminism_fails_loudly(tmp_path: Path, monkeypatch: pytest.MonkeyP
     assert "planted" in outcome.message and "not deterministic" in outcome.message and "pose" in outcome.message
 
 
-def test_planned_case_is_skipped_until_planning_exists(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    path = tmp_path / "suite.toml"
-    path.write_text(
-        'cases = [{ scenario = "open", robot = "turtlebot3", planner = "rrt", tracker = "fbl", seed = 1, '
-        "control_rate = 50, fast = true }]\n"
-    )
-    [case] = load_suite(path).cases
-    assert case.name == "open-turtlebot3-plan-rrt-fbl-s1"
-    monkeypatch.setattr(regress, "planning_available", lambda: None)
-    outcome = check_case(case, tmp_path)
-    assert outcome.status == "skipped" and "simulate_plan" in outcome.message
-
-
 @pytest.mark.parametrize(
     ("text", "match"),
     [
