@@ -483,6 +483,60 @@ class SmoothCurve:
         return np.column_stack([xy, th])
 
 
+@dataclass(frozen=True)
+class SampledCurve:
+    """A drive given by a timed plan's own dense poses, kept as they are and resampled by arc length.
+
+    Position, heading and curvature (``dtheta/ds``) are interpolated linearly between the samples; the
+    plans that give them (``optim``, ``sinusoidal``) roll their kinematics out every 10 ms, a few
+    millimetres apart, so the curve is the planner's own to far below a millimetre. Same interface as
+    :class:`SmoothCurve` for :func:`planning.speed_profile.time_drive`.
+
+    Attributes:
+        direction: +1 forwards, -1 backwards.
+        s_table: (M,) arc length at the samples [m], from 0, strictly increasing.
+        xy: (M, 2) positions [m].
+        heading: (M,) robot heading, unwrapped [rad].
+        kappa: (M,) signed curvature dtheta/ds [1/m].
+    """
+
+    direction: int
+    s_table: FloatArray = field(repr=False)
+    xy: FloatArray = field(repr=False)
+    heading: FloatArray = field(repr=False)
+    kappa: FloatArray = field(repr=False)
+
+    @classmethod
+    def from_poses(cls, poses: ArrayLike, direction: int) -> SampledCurve:
+        """The curve through (M, 3) poses [x, y, theta] driven in ``direction`` (repeated points dropped).
+
+        Raises:
+            ValueError: Fewer than two distinct positions.
+        """
+        q = np.asarray(poses, dtype=float)
+        step = np.hypot(np.diff(q[:, 0]), np.diff(q[:, 1]))
+        keep = np.concatenate([[True], step > 1e-9])
+        q, step = q[keep], step[step > 1e-9]
+        if q.shape[0] < 2:
+            raise ValueError("a sampled curve needs two distinct positions")
+        s = np.concatenate([[0.0], np.cumsum(step)])
+        th = np.unwrap(q[:, 2])
+        return cls(int(direction), s, q[:, :2].copy(), th, np.gradient(th, s))
+
+    @property
+    def length(self) -> float:
+        """Arc length [m]."""
+        return float(self.s_table[-1])
+
+    def geometry(self, s: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Position, unit tangent (along increasing s) and signed curvature at arc lengths s (clamped)."""
+        sq = np.clip(np.asarray(s, dtype=float), 0.0, self.length)
+        xy = np.column_stack([np.interp(sq, self.s_table, self.xy[:, 0]), np.interp(sq, self.s_table, self.xy[:, 1])])
+        th = np.interp(sq, self.s_table, self.heading)
+        tangent = self.direction * np.column_stack([np.cos(th), np.sin(th)])
+        return xy, tangent, np.interp(sq, self.s_table, self.kappa)
+
+
 def _densify(points: FloatArray, spacing: float) -> FloatArray:
     """Points along a polyline no more than ``spacing`` apart, keeping the vertices."""
     out = [points[:1]]

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.robot import RobotSpec
-from planning.smoothing import SmoothCurve
+from planning.smoothing import SampledCurve, SmoothCurve
 
 FloatArray = NDArray[np.float64]
 
@@ -127,11 +127,13 @@ class TimedSamples:
     acc: FloatArray
 
 
-def time_drive(curve: SmoothCurve, limits: Limits, *, dt: float = 0.01, ds: float = 0.005) -> TimedSamples:
-    """Time a smoothed drive from rest to rest within the limits.
+def time_drive(
+    curve: SmoothCurve | SampledCurve, limits: Limits, *, dt: float = 0.01, ds: float = 0.005
+) -> TimedSamples:
+    """Time a drive from rest to rest within the limits.
 
     Args:
-        curve: The drive.
+        curve: The drive (a fitted curve, or a timed plan's own samples).
         limits: The limits.
         dt: Output sample period [s].
         ds: Arc-length grid of the speed profile [m].

@@ -11,10 +11,14 @@ Two kinds of plan arrive:
   Every drive starts and ends at rest, so the speed is zero at each cusp and the direction flips
   there; a short stand-still (``dwell``) separates the segments.
 * **Timed plans** (``optim``, ``sinusoidal``: ``PlanResult.times`` and ``controls``): already smooth
-  and dynamically consistent, so they are not re-fitted (a fit could only lose accuracy). Their
-  samples are kept as they are; if they exceed the robot's limits (with ``margin``) time is
-  stretched uniformly (t' = c t, v' = v / c, omega' = omega / c) until they do not. They are
-  checked for collision all the same and split at cusps by the sign of v.
+  in space and dynamically consistent, so their paths are not re-fitted (a fit could only lose
+  accuracy). A plan whose speed is smooth too, from rest to rest, keeps its samples and time stamps;
+  if it exceeds the robot's limits (with ``margin``) time is stretched uniformly (t' = c t,
+  v' = v / c, omega' = omega / c) until it does not. A plan that starts or ends moving, or whose
+  speed changes faster than the robot can follow (``optim`` holds each input over an interval, so its
+  speed steps at every node), keeps its path and is re-timed: split at cusps by the sign of v, each
+  drive timed from rest to rest by the speed profile with its own samples as the curve
+  (:class:`planning.smoothing.SampledCurve`). Either way they are checked for collision.
 
 Both end with a turn in place to the goal heading when the path's last heading differs from it,
 and a final stand-still. The result labels every sample with its segment (``Trajectory.segments``)
@@ -36,7 +40,7 @@ from planning.errors import NhsimError
 from planning.geometry import Pose2D, wrap_angle
 from planning.plan import PlanResult
 from planning.robot import RobotSpec
-from planning.smoothing import remove_loops, smooth_drive, split_path
+from planning.smoothing import SampledCurve, remove_loops, smooth_drive, split_path
 from planning.speed_profile import Limits, TimedSamples, hold, time_drive, time_rotation
 from planning.trajectory import Trajectory
 from planning.world import World
@@ -243,6 +247,31 @@ def _from_path(
     return TrajectoryResult(status, traj, reason, stats)
 
 
+def _retimed_pieces(
+    path: FloatArray, kinds: list[str], limits: Limits, dwell: float, dt: float
+) -> list[tuple[str, TimedSamples]]:
+    """A timed plan's path, re-timed: each drive of one direction from rest to rest by the speed profile
+    (its own samples as the curve), each turn in place by the yaw-rate profile, stand-stills between."""
+    pieces: list[tuple[str, TimedSamples]] = []
+    start = 0
+    for i in range(1, len(kinds) + 1):
+        if i < len(kinds) and kinds[i] == kinds[start]:
+            continue
+        kind, sl = kinds[start], slice(start, min(i + 1, len(kinds)))  # through the next piece's first pose
+        start = i
+        if kind == "rotate":
+            smp = time_rotation(path[sl][0, :2], path[sl][0, 2], path[sl][-1, 2], limits, dt=dt)
+        else:
+            try:
+                smp = time_drive(SampledCurve.from_poses(path[sl], 1 if kind == "forward" else -1), limits, dt=dt)
+            except ValueError:  # stands still: nothing to drive
+                continue
+        if pieces and dwell > 0:
+            pieces.append(("hold", hold(pieces[-1][1].pose[-1], dwell, dt=dt)))
+        pieces.append((kind, smp))
+    return pieces
+
+
 def _from_timed(
     plan: PlanResult,
     path: FloatArray,
@@ -267,21 +296,38 @@ def _from_timed(
     v, w = u[:, 0], u[:, 1]
     dv, dw = np.gradient(v, t), np.gradient(w, t)
     wheel = np.abs(v) + 0.5 * limits.track_width * np.abs(w)
-    scale = max(1.0, float(np.max(np.abs(v))) / limits.max_speed, float(np.max(np.abs(w))) / limits.max_yaw_rate,
-                float(np.max(wheel)) / limits.max_wheel_linear,
-                float(np.sqrt(np.max(np.abs(dv)) / limits.max_accel)),
-                float(np.sqrt(np.max(np.abs(dw)) / limits.max_yaw_accel)))  # fmt: skip
-    t, v, w, dv, dw = t * scale, v / scale, w / scale, dv / scale**2, dw / scale**2
+    speed_scale = max(
+        1.0,
+        float(np.max(np.abs(v))) / limits.max_speed,
+        float(np.max(np.abs(w))) / limits.max_yaw_rate,
+        float(np.max(wheel)) / limits.max_wheel_linear,
+    )
+    accel_scale = max(float(np.sqrt(np.max(np.abs(dv)) / limits.max_accel)),
+                      float(np.sqrt(np.max(np.abs(dw)) / limits.max_yaw_accel)))  # fmt: skip
     clear = float(checker.clearance_of(checker.densify(path)).min())
     kinds = _timed_kinds(v, w)
-    pieces: list[tuple[str, TimedSamples]] = []
-    start = 0
-    for i in range(1, len(kinds) + 1):
-        if i == len(kinds) or kinds[i] != kinds[start]:
-            sl = slice(start, i)
-            pieces.append((kinds[start], TimedSamples(t[sl] - t[start], path[sl], np.column_stack([v[sl], w[sl]]),
-                                                      np.column_stack([dv[sl], dw[sl]]))))  # fmt: skip
-            start = i
+    # A plan that starts or ends moving, or whose speed changes faster than the robot can follow
+    # (inputs held over intervals step at every node), keeps its path but is re-timed from rest to rest
+    # by the speed profile; a smooth one keeps its samples, slowed uniformly if it exceeds a limit.
+    retime = max(abs(float(v[0])), abs(float(v[-1]))) > 1e-3 or accel_scale > speed_scale
+    pieces = _retimed_pieces(path, kinds, limits, dwell, dt) if retime else []
+    scale: float | None = None
+    if pieces:
+        body = _concat(pieces, dt, label)
+    else:  # keep the planner's own samples and time stamps, slowed uniformly by ``scale``
+        retime = False
+        scale = max(speed_scale, accel_scale)
+        t, v, w, dv, dw = t * scale, v / scale, w / scale, dv / scale**2, dw / scale**2
+        start = 0
+        for i in range(1, len(kinds) + 1):
+            if i == len(kinds) or kinds[i] != kinds[start]:
+                sl = slice(start, i)
+                pieces.append((kinds[start], TimedSamples(t[sl] - t[start], path[sl], np.column_stack([v[sl], w[sl]]),
+                                                          np.column_stack([dv[sl], dw[sl]]))))  # fmt: skip
+                start = i
+        seg = np.concatenate([np.full(smp.t.size, k, dtype=np.int64) for k, (_, smp) in enumerate(pieces)])
+        body = Trajectory(t, path, np.column_stack([v, w]), np.column_stack([dv, dw]), name=label, segments=seg,
+                          segment_kinds=tuple(k for k, _ in pieces))  # fmt: skip
     end_pose = path[-1].copy()
     tail: list[tuple[str, TimedSamples]] = []
     if goal_heading is not None and abs(wrap_angle(goal_heading - end_pose[2])) > 1e-3:
@@ -292,10 +338,6 @@ def _from_timed(
         end_pose[2] = th1
     if dwell > 0:
         tail.append(("hold", hold(end_pose, dwell, dt=dt)))
-    # the timed pieces keep the planner's own (scaled) time stamps
-    seg = np.concatenate([np.full(smp.t.size, k, dtype=np.int64) for k, (_, smp) in enumerate(pieces)])
-    body = Trajectory(t, path, np.column_stack([v, w]), np.column_stack([dv, dw]), name=label, segments=seg,
-                      segment_kinds=tuple(k for k, _ in pieces))  # fmt: skip
     if tail:
         rest = _concat(tail, dt, label)
         off = body.t[-1] + dt
@@ -309,7 +351,7 @@ def _from_timed(
     reason = "" if status == "success" else f"the timed plan comes within {clear:.4f} m of an obstacle or wall"
     signs = np.sign(v[np.abs(v) > 1e-4])
     stats.update({
-        "segments": len(body.segment_kinds), "time_scale": scale, "min_clearance_m": clear,
+        "segments": len(body.segment_kinds), "time_scale": scale, "retimed": retime, "min_clearance_m": clear,
         "cusps": int(np.sum(signs[1:] != signs[:-1])), "duration_s": body.duration, "length_m": body.path_length(),
         "rotations": int(sum(k == "rotate" for k in body.segment_kinds)), "pieces": 0, "refinements": 0,
         "max_deviation_m": 0.0,

@@ -214,6 +214,50 @@ def test_timed_plans_are_kept_as_they_are_or_slowed_uniformly() -> None:
     assert np.abs(res.trajectory.vel[:n, 0]).max() <= 0.85 * TB3.max_speed + 1e-12
 
 
+def _unicycle_samples(t: np.ndarray, v: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Poses of a unicycle under piecewise-constant (v, w) held over each sample step (exact arcs)."""
+    pose = np.zeros((t.size, 3))
+    for k in range(t.size - 1):
+        h, (x, y, th) = t[k + 1] - t[k], pose[k]
+        vk, wk = v[k], w[k]
+        if abs(wk) < 1e-12:
+            pose[k + 1] = (x + vk * h * np.cos(th), y + vk * h * np.sin(th), th)
+        else:
+            th1 = th + wk * h
+            pose[k + 1] = (x + vk / wk * (np.sin(th1) - np.sin(th)), y - vk / wk * (np.cos(th1) - np.cos(th)), th1)
+    return pose
+
+
+def test_a_timed_plan_with_speed_steps_keeps_its_path_and_is_retimed() -> None:
+    """Inputs held over 0.2 s intervals, moving from the first sample and reversing halfway (the way
+    'optim' gives them): the trajectory follows the same path, starts and ends at rest, stops at the
+    cusp, and keeps speed and acceleration within the limits, with a continuous speed."""
+    t = np.arange(0.0, 6.0 + 1e-9, 0.01)
+    knot = np.minimum((t / 0.2).astype(int), 29)
+    v_knots = np.where(np.arange(30) < 15, 0.12, -0.1) * (1.0 + 0.3 * np.sin(np.arange(30)))
+    w_knots = 0.4 * np.cos(0.5 * np.arange(30))
+    v, w = v_knots[knot], w_knots[knot]
+    path = _unicycle_samples(t, v, w)
+    plan = PlanResult(PlanStatus.SUCCESS, "test", path=path, times=t, controls=np.column_stack([v, w]))
+    res = make_trajectory(plan, TB3, OPEN, dwell=0.0)
+    assert res.success and res.stats["retimed"] and res.stats["cusps"] == 1
+    traj = res.trajectory
+    # every trajectory position lies on the plan's path (its polyline, sampled every 10 ms)
+    dense = np.vstack([np.linspace(a, b, 20, endpoint=False) for a, b in itertools.pairwise(path[:, :2])])
+    gap = np.array([np.hypot(*(dense - p).T).min() for p in traj.pose[::5, :2]])
+    assert gap.max() < 1e-3
+    assert np.allclose(traj.pose[-1, :2], path[-1, :2], atol=1e-9)
+    vel, acc = traj.vel[:, 0], traj.acc[:, 0]
+    assert vel[0] == 0.0 and vel[-1] == 0.0
+    limit = 0.85 * TB3.max_speed
+    assert np.abs(vel).max() <= limit + 1e-9 and np.abs(acc).max() <= 0.85 * TB3.max_accel + 1e-9
+    assert np.abs(np.diff(vel)).max() <= 0.85 * TB3.max_accel * np.diff(traj.t).max() + 1e-9  # no steps
+    flips = np.flatnonzero(np.sign(vel[:-1]) * np.sign(vel[1:]) < 0)
+    assert flips.size == 0  # the direction changes only through a stop
+    moving = vel[np.abs(vel) > 1e-6]
+    assert moving[0] > 0 and moving[-1] < 0  # forwards first, then backwards, as planned
+
+
 def test_split_reads_directions_as_arriving_at_each_pose() -> None:
     """A forward arc, a cusp, a reverse arc: directions[i] is the motion that *reaches* pose i (as
     the planners and the curve samplers give it), so the cusp pose ends the forward drive."""
