@@ -8,7 +8,9 @@ tracker, seed, control_rate; optional name, gains "KP,KD", perturb "key=value,..
 Each case is run twice in one process; the two logs must be bitwise identical
 (:meth:`RunLog.identical_to`) or the case fails as non-deterministic. Its metrics are compared
 with ``tests/baselines/<case>.json``, which records the metrics and the environment (mujoco and
-numpy versions, operating system and machine):
+numpy versions, operating system and machine, and the CPU: vendor, family and model, and the SIMD
+extensions numpy dispatches to -- floating-point results differ in their last bits between, say, an
+AVX-512 and an AVX2 machine running the same wheels):
 
 - same environment: every metric must be bit-for-bit equal (any change fails, better or worse);
 - another environment: a metric fails when it is worse than the baseline by more than
@@ -25,6 +27,7 @@ import json
 import math
 import platform
 import tomllib
+import zlib
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
@@ -154,15 +157,46 @@ def load_suite(path: str | Path = SUITE_PATH) -> Suite:
     return Suite(cases, tolerances, p)
 
 
+def cpu() -> str:
+    """The CPU as far as floating-point results depend on it: vendor, family, model, numpy's SIMD set.
+
+    Read from ``/proc/cpuinfo`` where there is one (Linux), else from :func:`platform.processor`.
+    """
+    ident = platform.processor() or platform.machine()
+    try:
+        info: dict[str, str] = {}
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            key, _, value = line.partition(":")
+            if not line.strip():
+                break  # the first processor is enough
+            info.setdefault(key.strip(), value.strip())
+        if "vendor_id" in info:
+            ident = f"{info['vendor_id']} family {info.get('cpu family', '?')} model {info.get('model', '?')}"
+    except OSError:
+        pass
+    try:
+        import numpy as np
+
+        features = np._core._multiarray_umath.__cpu_features__  # type: ignore[attr-defined]
+        simd = sorted(k for k, on in features.items() if on)
+        widest = next((k for k in ("AVX512F", "AVX2", "AVX", "SVE", "ASIMD", "NEON") if k in simd), None)
+        ident += f"; {len(simd)} SIMD features" + (f" up to {widest}" if widest else "")
+        ident += f" ({zlib.crc32(' '.join(simd).encode()):08x})"
+    except (AttributeError, ImportError):
+        pass
+    return ident
+
+
 def environment() -> dict[str, str]:
-    """What bit-for-bit reproducibility depends on: mujoco and numpy versions, OS and machine."""
+    """What bit-for-bit reproducibility depends on: mujoco and numpy versions, OS, machine and CPU."""
     return {"mujoco": metadata.version("mujoco"), "numpy": metadata.version("numpy"),
-            "platform": f"{platform.system()}-{platform.machine()}", "python": platform.python_version()}  # fmt: skip
+            "platform": f"{platform.system()}-{platform.machine()}", "cpu": cpu(),
+            "python": platform.python_version()}  # fmt: skip
 
 
 def same_environment(a: dict[str, str], b: dict[str, str]) -> bool:
-    """True when bit-for-bit equality can be expected (same mujoco, numpy, platform)."""
-    return all(a.get(k) == b.get(k) for k in ("mujoco", "numpy", "platform"))
+    """True when bit-for-bit equality can be expected (same mujoco, numpy, platform and CPU)."""
+    return all(a.get(k) == b.get(k) for k in ("mujoco", "numpy", "platform", "cpu"))
 
 
 def case_record(case: Case) -> dict[str, Any]:

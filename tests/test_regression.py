@@ -65,12 +65,17 @@ def test_planted_regression_fails_naming_case_and_metric(
     assert main([*args, "--suite", str(_suite(tmp_path, planted))]) == 0
 
 
-def test_other_environment_compares_with_tolerances(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    ("key", "elsewhere"),
+    [("platform", "Elsewhere-arm64"), ("cpu", "GenuineIntel family 6 model 143; 40 SIMD features up to AVX512")],
+)
+def test_other_environment_compares_with_tolerances(tmp_path: Path, key: str, elsewhere: str) -> None:
     base_dir = tmp_path / "baselines"
     assert main(["regress", "--suite", str(_suite(tmp_path)), "--baselines", str(base_dir), "--update"]) == 0
     path = base_dir / "planted.json"
     doc = json.loads(path.read_text())
-    doc["environment"]["platform"] = "Elsewhere-arm64"
+    assert check_case(load_suite(tmp_path / "suite.toml").cases[0], base_dir).exact  # same machine: bit for bit
+    doc["environment"][key] = elsewhere  # another machine, or the same wheels on another CPU
     rms = doc["metrics"]["rms_position_error_m"]
     case = load_suite(tmp_path / "suite.toml").cases[0]
     tol = regress.DEFAULT_TOLERANCES["rms_position_error_m"]
