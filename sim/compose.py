@@ -76,7 +76,7 @@ def enclosed_geoms(model: mujoco.MjModel, ids: NDArray[np.int64]) -> NDArray[np.
     """Geoms of ``ids`` that lie inside another geom of ``ids`` and can never be seen.
 
     A geom is enclosed when another geom of the same body has the same primitive type, the same
-    frame and sizes at least as large (a 3 mm collision tyre inside the 18 mm visual one).
+    frame and sizes at least as large (a 1 mm collision tyre inside the 18 mm visual one).
     """
     primitives = {int(t) for t in (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_CAPSULE,
                                    mujoco.mjtGeom.mjGEOM_ELLIPSOID, mujoco.mjtGeom.mjGEOM_CYLINDER,

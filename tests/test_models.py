@@ -83,12 +83,17 @@ def test_rolls_without_slip(name: str, wl: float, wr: float) -> None:
 
 
 @pytest.mark.parametrize("name", ["turtlebot3", "edumip"])
-def test_commanded_wheel_speeds_give_the_body_speed(name: str) -> None:
-    """Straight ahead, the commanded wheel speeds give the body speed r w within 2 %: the servo lags by
-    its load (the joint damping) over kv, and the wheels do not slip."""
-    spec, body_vel, _, speeds, _ = _steady_run(name, 4.0, 4.0)
-    assert body_vel.mean(axis=0)[0] == pytest.approx(spec.wheel_radius * 4.0, rel=0.02)
-    assert speeds.mean() == pytest.approx(4.0, rel=0.02)
+@pytest.mark.parametrize(("wl", "wr"), [(4.0, 4.0), (-3.0, 3.0), (2.0, 5.0), (-4.0, -2.5)])
+def test_commanded_wheel_speeds_give_the_body_speed_and_yaw_rate(name: str, wl: float, wr: float) -> None:
+    """The commanded wheel speeds give the body speed r (wl + wr) / 2 and the yaw rate
+    r (wr - wl) / track within 2 % (of the rim speed where the value is zero): the servo lags by its
+    load (joint damping, tyre scrub in turns) over kv, and the wheels do not slip."""
+    spec, body_vel, rates, _, _ = _steady_run(name, wl, wr)
+    v_cmd = spec.wheel_radius * (wl + wr) / 2
+    w_cmd = spec.wheel_radius * (wr - wl) / spec.track_width
+    rim = spec.wheel_radius * max(abs(wl), abs(wr))
+    assert body_vel.mean(axis=0)[0] == pytest.approx(v_cmd, abs=0.02 * (abs(v_cmd) if v_cmd else rim))
+    assert np.mean(rates) == pytest.approx(w_cmd, abs=0.02 * (abs(w_cmd) if w_cmd else rim / spec.track_width))
 
 
 def test_dm_control_builds_a_physics_with_the_pinned_mujoco() -> None:
