@@ -23,6 +23,7 @@ A planned case plans, smooths and times its scenario through :func:`sim.jobs.sim
 from __future__ import annotations
 
 import fnmatch
+import functools
 import json
 import math
 import platform
@@ -157,6 +158,7 @@ def load_suite(path: str | Path = SUITE_PATH) -> Suite:
     return Suite(cases, tolerances, p)
 
 
+@functools.cache
 def cpu() -> str:
     """The CPU as far as floating-point results depend on it: vendor, family, model, numpy's SIMD set.
 

@@ -61,8 +61,23 @@ def _steady_run(name: str, wl: float, wr: float) -> tuple[Any, np.ndarray, np.nd
     return spec, np.array(body_vel), np.array(rates), np.array(speeds), d
 
 
+#: Wheel speeds [left, right] in rad/s: straight, pivot, arc, reversing arc.
+DRIVES = [(4.0, 4.0), (-3.0, 3.0), (2.0, 5.0), (-4.0, -2.5)]
+
+
+def _assert_unicycle(spec: Any, body_vel: np.ndarray, rates: np.ndarray, wl: float, wr: float) -> None:
+    """Mean forward speed r (wl + wr) / 2 and yaw rate r (wr - wl) / track for wheel speeds wl, wr, each
+    within 2 % (where the value is zero, 2 % of the rim speed r max(|wl|, |wr|), or of rim / track)."""
+    v = spec.wheel_radius * (wl + wr) / 2
+    w = spec.wheel_radius * (wr - wl) / spec.track_width
+    rim = spec.wheel_radius * max(abs(wl), abs(wr))
+    assert body_vel.mean(axis=0)[0] == pytest.approx(v, abs=0.02 * (abs(v) if abs(v) > 1e-3 else rim))
+    rim_rate = rim / spec.track_width
+    assert np.mean(rates) == pytest.approx(w, abs=0.02 * (abs(w) if abs(w) > 1e-3 else rim_rate))
+
+
 @pytest.mark.parametrize("name", ["turtlebot3", "edumip"])
-@pytest.mark.parametrize(("wl", "wr"), [(4.0, 4.0), (-3.0, 3.0), (2.0, 5.0), (-4.0, -2.5)])
+@pytest.mark.parametrize(("wl", "wr"), DRIVES)
 def test_rolls_without_slip(name: str, wl: float, wr: float) -> None:
     """The axle centre moves as a unicycle driven by the wheels' speeds: body-frame velocity
     (r (wl + wr) / 2, 0) and yaw rate r (wr - wl) / track, each within 2 % (where the value is zero,
@@ -71,29 +86,18 @@ def test_rolls_without_slip(name: str, wl: float, wr: float) -> None:
     they lag the command is the servo's business (next test)."""
     spec, body_vel, rates, speeds, _ = _steady_run(name, wl, wr)
     wl_m, wr_m = speeds.mean(axis=0)
-    v_expected = spec.wheel_radius * (wl_m + wr_m) / 2
-    w_expected = spec.wheel_radius * (wr_m - wl_m) / spec.track_width
-    rim = spec.wheel_radius * max(abs(wl_m), abs(wr_m))
-    forward, lateral = body_vel.mean(axis=0)
-    assert forward == pytest.approx(v_expected, abs=0.02 * (abs(v_expected) if abs(v_expected) > 1e-3 else rim))
-    assert abs(lateral) <= 0.02 * rim
-    rim_rate = rim / spec.track_width
-    tol_rate = 0.02 * (abs(w_expected) if abs(w_expected) > 1e-3 else rim_rate)
-    assert np.mean(rates) == pytest.approx(w_expected, abs=tol_rate)
+    _assert_unicycle(spec, body_vel, rates, wl_m, wr_m)
+    assert abs(body_vel.mean(axis=0)[1]) <= 0.02 * spec.wheel_radius * max(abs(wl_m), abs(wr_m))  # lateral
 
 
 @pytest.mark.parametrize("name", ["turtlebot3", "edumip"])
-@pytest.mark.parametrize(("wl", "wr"), [(4.0, 4.0), (-3.0, 3.0), (2.0, 5.0), (-4.0, -2.5)])
+@pytest.mark.parametrize(("wl", "wr"), DRIVES)
 def test_commanded_wheel_speeds_give_the_body_speed_and_yaw_rate(name: str, wl: float, wr: float) -> None:
     """The commanded wheel speeds give the body speed r (wl + wr) / 2 and the yaw rate
     r (wr - wl) / track within 2 % (of the rim speed where the value is zero): the servo lags by its
     load (joint damping, tyre scrub in turns) over kv, and the wheels do not slip."""
     spec, body_vel, rates, _, _ = _steady_run(name, wl, wr)
-    v_cmd = spec.wheel_radius * (wl + wr) / 2
-    w_cmd = spec.wheel_radius * (wr - wl) / spec.track_width
-    rim = spec.wheel_radius * max(abs(wl), abs(wr))
-    assert body_vel.mean(axis=0)[0] == pytest.approx(v_cmd, abs=0.02 * (abs(v_cmd) if v_cmd else rim))
-    assert np.mean(rates) == pytest.approx(w_cmd, abs=0.02 * (abs(w_cmd) if w_cmd else rim / spec.track_width))
+    _assert_unicycle(spec, body_vel, rates, wl, wr)
 
 
 def test_dm_control_builds_a_physics_with_the_pinned_mujoco() -> None:

@@ -74,10 +74,10 @@ def test_other_environment_compares_with_tolerances(tmp_path: Path, key: str, el
     assert main(["regress", "--suite", str(_suite(tmp_path)), "--baselines", str(base_dir), "--update"]) == 0
     path = base_dir / "planted.json"
     doc = json.loads(path.read_text())
-    assert check_case(load_suite(tmp_path / "suite.toml").cases[0], base_dir).exact  # same machine: bit for bit
+    case = load_suite(tmp_path / "suite.toml").cases[0]
+    assert check_case(case, base_dir).exact  # same machine: bit for bit
     doc["environment"][key] = elsewhere  # another machine, or the same wheels on another CPU
     rms = doc["metrics"]["rms_position_error_m"]
-    case = load_suite(tmp_path / "suite.toml").cases[0]
     tol = regress.DEFAULT_TOLERANCES["rms_position_error_m"]
     for shift, ok in ((-0.5 * tol.allowed(rms), True), (-2.0 * tol.allowed(rms), False), (0.01, True)):
         doc["metrics"]["rms_position_error_m"] = rms + shift  # now - baseline = -shift
