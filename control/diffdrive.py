@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from planning.robot import RobotSpec
+from planning.core.robot import RobotSpec
 
 
 @dataclass(frozen=True)

@@ -25,9 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
-from planning.robot import RobotSpec
-from planning.trajectory import Trajectory
+from planning.trajectory.trajectory import Trajectory
 
 
 @dataclass(frozen=True)

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from planning.robot import RobotSpec
-from planning.trajectory import Trajectory
+from planning.core.robot import RobotSpec
+from planning.trajectory.trajectory import Trajectory
 
 
 class OpenLoop:

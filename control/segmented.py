@@ -27,8 +27,8 @@ import math
 import numpy as np
 
 from control.fbl import FBLGains, fbl_law
-from planning.robot import RobotSpec
-from planning.trajectory import Trajectory
+from planning.core.robot import RobotSpec
+from planning.trajectory.trajectory import Trajectory
 
 
 def infer_segments(trajectory: Trajectory, eps: float = 1e-4) -> tuple[np.ndarray, tuple[str, ...]]:

@@ -6,16 +6,16 @@ import functools
 
 import pytest
 
-from planning.geometry import Pose2D
-from planning.references import make_reference
-from planning.robot import load_robot
+from planning.core.geometry import Pose2D
+from planning.core.robot import load_robot
 from planning.scenario import load_scenario
+from planning.trajectory.references import make_reference
 
 
 @functools.cache
 def short_job():  # type: ignore[no-untyped-def]
     """A 0.4 m line (about 3.3 s) tracked closed and open loop in the 'open' scenario."""
-    from sim.jobs import run_tracking
+    from sim.pipeline.simulate import run_tracking
 
     sc = load_scenario("open")
     robot = load_robot(sc.robot)
@@ -25,7 +25,7 @@ def short_job():  # type: ignore[no-untyped-def]
 
 def require_gl() -> None:
     """Skip (with the reason, naming what to install) only where no OpenGL context can be created."""
-    from sim.render import probe_renderer
+    from sim.viz.replay import probe_renderer
 
     reason = probe_renderer()
     if reason is not None:

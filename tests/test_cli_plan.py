@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from planning.collision import CollisionChecker
-from planning.plan import PLANNERS
-from planning.robot import load_robot
+from planning.collision.exact import CollisionChecker
+from planning.core.robot import load_robot
+from planning.planners.base import PLANNERS
 from planning.scenario import builtin_scenarios, load_scenario
-from sim.cli import COMMANDS, build_parser, main
-from sim.commands.plan import densify_path, path_spacing
+from sim.cli.main import COMMANDS, build_parser, main
+from sim.cli.plan import densify_path, path_spacing
 
 KEYS = {
     "status", "planner", "time_s", "iterations", "length_m", "min_clearance_m", "path", "reason", "seed",
@@ -22,8 +22,8 @@ KEYS = {
 
 
 def test_registered():
-    assert COMMANDS["plan"] == "sim.commands.plan"
-    assert COMMANDS["scenarios"] == "sim.commands.scenarios"
+    assert COMMANDS["plan"] == "sim.cli.plan"
+    assert COMMANDS["scenarios"] == "sim.cli.scenarios"
 
 
 def test_help_lists_every_registered_planner(capsys):

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from planning.collision import CollisionChecker
-from planning.collision_grid import FastChecker
-from planning.robot import load_robot
-from planning.world import Box, Circle, Ellipse, Polygon, World
+from planning.collision.exact import CollisionChecker
+from planning.collision.grid import FastChecker
+from planning.core.robot import load_robot
+from planning.core.world import Box, Circle, Ellipse, Polygon, World
 
 WORLD = World(
     (-2.0, 2.0, -2.0, 2.0),

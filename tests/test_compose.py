@@ -7,16 +7,16 @@ import numpy as np
 import pytest
 from PIL import Image, ImageDraw
 
-import sim.compose as compose
-from sim.compose import FixedViewCompositor, draw_polyline, enclosed_geoms
-from sim.render import RenderSettings, Replay, SceneRenderer
+import sim.viz.compose as compose
+from sim.viz.compose import FixedViewCompositor, draw_polyline, enclosed_geoms
+from sim.viz.replay import RenderSettings, Replay, SceneRenderer
 from tests.render_helpers import require_gl, short_job
 
 W, H = 320, 240
 
 
 def _replay(camera: str = "overview") -> tuple[mujoco.MjModel, Replay]:
-    from sim.simulator import Simulator
+    from sim.physics.simulator import Simulator
 
     job = short_job()
     model = Simulator(job.robot, job.scenario.world).model

@@ -8,13 +8,13 @@ import time
 import numpy as np
 import pytest
 
-from planning.crrt_star import CRRTStar, CRRTStarConfig, _Search
+from planning.core.geometry import Pose2D, wrap_angle
+from planning.core.robot import load_robot
+from planning.core.world import Box, World
 from planning.errors import ConfigError
-from planning.geometry import Pose2D, wrap_angle
-from planning.plan import PLANNERS, PlanProblem, PlanStatus, make_planner
-from planning.robot import load_robot
+from planning.planners.base import PLANNERS, PlanProblem, PlanStatus, make_planner
+from planning.planners.sampling.crrt_star import CRRTStar, CRRTStarConfig, _Search
 from planning.scenario import load_scenario
-from planning.world import Box, World
 
 SEEDS = range(6)
 CLEARANCE = 0.40  # seed 003: no obstacle within 40 cm of the EduMIP's axle centre
@@ -42,7 +42,7 @@ def dense_segment_min(world: World, a: np.ndarray, b: np.ndarray, step: float = 
 
 
 def test_registered():
-    assert PLANNERS["c-rrt-star"] == "planning.crrt_star:CRRTStar"
+    assert PLANNERS["c-rrt-star"] == "planning.planners.sampling.crrt_star:CRRTStar"
     assert isinstance(make_planner("c-rrt-star"), CRRTStar)
 
 

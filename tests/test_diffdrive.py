@@ -3,9 +3,9 @@ import pytest
 
 from control.diffdrive import DiffDrive
 from control.open_loop import OpenLoop
-from planning.geometry import Pose2D
-from planning.references import circle
-from planning.robot import load_robot
+from planning.core.geometry import Pose2D
+from planning.core.robot import load_robot
+from planning.trajectory.references import circle
 
 
 def test_wheel_speeds_are_scaled_keeping_curvature() -> None:

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from planning.dubins import dubins_length, dubins_path
-from planning.kinematics import rollout, unicycle_rhs
+from planning.core.kinematics import rollout, unicycle_rhs
+from planning.curves.dubins import dubins_length, dubins_path
 
 RNG = np.random.default_rng(3)
 N = 400

@@ -8,11 +8,11 @@ built-in scenario x applicable planner x robot is marked slow.
 import numpy as np
 import pytest
 
-from planning.plan import PLANNERS, PlanResult, PlanStatus
+from planning.planners.base import PLANNERS, PlanResult, PlanStatus
 from planning.scenario import load_scenario
-from sim.jobs import applicable_planners, simulate_plan
-from sim.matrix import TARGETS, matrix_cases, matrix_passed, matrix_record, matrix_summary, run_case
-from sim.simulator import SimConfig
+from sim.physics.simulator import SimConfig
+from sim.pipeline.simulate import applicable_planners, simulate_plan
+from sim.pipeline.sweep import TARGETS, matrix_cases, matrix_passed, matrix_record, matrix_summary, run_case
 
 
 def assert_targets(job, pos: float = 0.02) -> None:  # type: ignore[no-untyped-def]
@@ -115,8 +115,8 @@ def test_every_scenario_planner_and_robot(case: tuple[str, str, str]) -> None:
 def test_a_start_the_robot_itself_does_not_fit_is_no_excuse() -> None:
     import dataclasses
 
-    from planning.geometry import Pose2D
-    from sim.matrix import precondition_not_met
+    from planning.core.geometry import Pose2D
+    from sim.pipeline.sweep import precondition_not_met
 
     sc = load_scenario("simple_motion").with_robot("edumip")
     rejected = PlanResult(PlanStatus.INVALID_START, "c-rrt-star", reason="start too close")

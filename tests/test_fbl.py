@@ -7,11 +7,11 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from control.fbl import DynamicFBL, FBLGains, fbl_law
+from planning.core.geometry import Pose2D
+from planning.core.kinematics import rk4_step, unicycle_rhs
+from planning.core.robot import load_robot
 from planning.errors import ConfigError
-from planning.geometry import Pose2D
-from planning.kinematics import rk4_step, unicycle_rhs
-from planning.references import circle, figure8
-from planning.robot import load_robot
+from planning.trajectory.references import circle, figure8
 
 
 def _analytic_error(e0: float, de0: float, kp: float, kd: float, t: np.ndarray) -> np.ndarray:

@@ -9,7 +9,7 @@ import pytest
 from control.fbl import FBLGains
 from control.gains import GainsFile, dump_gains_toml, load_gains_file, parse_gains_toml, resolve_gains
 from planning.errors import ConfigError
-from sim.cli import main
+from sim.cli.main import main
 
 
 def test_round_trip_is_exact() -> None:

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from planning.geometry import Pose2D, wrap_angle
+from planning.core.geometry import Pose2D, wrap_angle
 
 
 def test_wrap_angle_range_and_identity() -> None:

@@ -6,8 +6,8 @@ import itertools
 
 import numpy as np
 
-from planning.gridpath import grid_path
-from planning.world import Box, Circle, World
+from planning.core.world import Box, Circle, World
+from planning.planners.gridpath import grid_path
 
 
 def test_free_world_gives_the_straight_segment() -> None:

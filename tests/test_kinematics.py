@@ -1,7 +1,7 @@
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from planning.kinematics import (
+from planning.core.kinematics import (
     bicycle_rhs,
     bicycle_to_unicycle,
     body_twist,

@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from planning.errors import ScenarioError
-from planning.maps import (
+from planning.core.maps import (
     EDUMIP_MAP_OBSTACLES,
     edumip_map_image,
     load_image_obstacles,
@@ -17,9 +16,10 @@ from planning.maps import (
     obstacles_from_mask,
     read_grey,
 )
-from planning.robot import MODELS_DIR
+from planning.core.robot import MODELS_DIR
+from planning.core.world import Box, Polygon, polygon_area
+from planning.errors import ScenarioError
 from planning.scenario import MAP_LOADERS, load_scenario_file
-from planning.world import Box, Polygon, polygon_area
 
 MAP_PNG = MODELS_DIR / "maps" / "edumip_map.png"
 PX = 0.01

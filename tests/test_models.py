@@ -7,10 +7,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from planning.robot import MODELS_DIR, load_robot
+from planning.core.robot import MODELS_DIR, load_robot
 from planning.scenario import builtin_scenarios, load_scenario
-from sim.model import build_model, set_pose
-from sim.runlog import RunLog
+from sim.physics.model import build_model, set_pose
+from sim.physics.runlog import RunLog
 
 SCENES = sorted((MODELS_DIR / "robots").glob("*_scene.xml"))
 
@@ -174,7 +174,7 @@ def test_the_default_job_runs_without_wheel_chatter() -> None:
     """The EduMIP on seed 003's map, closed and open loop: the wheels follow their commands smoothly,
     including the stop at the end (with kv = 0.5 the body rocked on its skids with the wheels chattering
     at +-2 rad/s around a zero command, 37 % of the closed-loop samples)."""
-    from sim.jobs import simulate_plan
+    from sim.pipeline.simulate import simulate_plan
 
     job = simulate_plan(load_scenario("edumip_map"), planner="c-rrt-star", seed=0)
     for name, log in job.logs.items():

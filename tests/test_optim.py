@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from planning.core.geometry import Pose2D, wrap_angle
+from planning.core.kinematics import bicycle_rhs
+from planning.core.robot import load_robot
+from planning.core.world import Box, Circle, Ellipse, Polygon, World
 from planning.errors import ConfigError
-from planning.geometry import Pose2D, wrap_angle
-from planning.kinematics import bicycle_rhs
-from planning.optim import DEFAULT_DT, DEFAULT_N, Optim, polygon_vertices
-from planning.plan import PlanProblem, PlanStatus, make_planner
-from planning.robot import load_robot
+from planning.planners.base import PlanProblem, PlanStatus, make_planner
+from planning.planners.optim import DEFAULT_DT, DEFAULT_N, Optim, polygon_vertices
 from planning.scenario import load_scenario
-from planning.world import Box, Circle, Ellipse, Polygon, World
 
 
 def _exact_step(state: np.ndarray, u: np.ndarray, dt: float, wheelbase: float) -> np.ndarray:
@@ -50,7 +50,7 @@ def test_solution_satisfies_dynamics_bounds_and_clearance(name: str) -> None:
     assert np.max(np.abs(x[:, 3])) <= robot.max_steering + tol
     assert np.max(np.abs(u[:, 0] * np.tan(x[:-1, 3]) / robot.wheelbase)) <= robot.max_yaw_rate + tol
     # Clearance: the robot's disc stays off every obstacle and wall along the dense rollout,
-    # and the nodes keep the requested margin (exact signed distances of planning.world).
+    # and the nodes keep the requested margin (exact signed distances of planning.core.world).
     assert np.min(world.signed_distance(x[:, :2])) >= robot.radius + planner.margin - 1e-6
     assert np.min(world.signed_distance(res.path[:, :2])) >= robot.radius
     # The dense rollout (independent RK4 at 0.01 s) ends on the goal.
@@ -155,8 +155,8 @@ def test_init_from_another_planner() -> None:
 
 
 def test_fast_rollout_equals_generic_rk4() -> None:
-    from planning.kinematics import rollout
-    from planning.optim import bicycle_rollout
+    from planning.core.kinematics import rollout
+    from planning.planners.optim import bicycle_rollout
 
     rng = np.random.default_rng(3)
     u = np.column_stack([rng.uniform(-0.2, 0.2, 40), rng.uniform(-2, 2, 40)])

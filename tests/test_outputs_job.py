@@ -9,7 +9,7 @@ import imageio_ffmpeg
 import numpy as np
 import pytest
 
-from sim.cli import main
+from sim.cli.main import main
 from tests.render_helpers import require_gl
 
 FAST = ["simulate", "--reference", "line", "--fps", "5", "--size", "160x120", "--quiet"]
@@ -28,11 +28,11 @@ def decode(path: Path) -> tuple[dict, np.ndarray]:
 
 def robot_pixel(record: dict, which: str) -> np.ndarray:
     """Image position of the closed-loop robot at the first or last frame (overview camera)."""
-    from planning.robot import load_robot
+    from planning.core.robot import load_robot
     from planning.scenario import load_scenario
-    from sim.jobs import simulate_reference
-    from sim.render import Projection, RenderSettings, Replay, SceneRenderer
-    from sim.simulator import Simulator
+    from sim.physics.simulator import Simulator
+    from sim.pipeline.simulate import simulate_reference
+    from sim.viz.replay import Projection, RenderSettings, Replay, SceneRenderer
 
     job = simulate_reference("open", reference="line")
     model = Simulator(load_robot("turtlebot3"), load_scenario("open").world).model

@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from control.tracker import make_tracker
+from control.base import make_tracker
+from planning.core.robot import load_robot
 from planning.errors import ConfigError
-from planning.references import make_reference
-from planning.robot import load_robot
 from planning.scenario import load_scenario
-from sim.perturb import Perturbation, PerturbationRange
-from sim.simulator import SimConfig, Simulator
+from planning.trajectory.references import make_reference
+from sim.physics.perturb import Perturbation, PerturbationRange
+from sim.physics.simulator import SimConfig, Simulator
 
 
 @pytest.fixture(scope="module")

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from planning.core.world import Box, Circle, Ellipse, Polygon, World
 from planning.errors import OutputExistsError
-from planning.world import Box, Circle, Ellipse, Polygon, World
-from sim.plots import PLOTS, commands_figure, errors_figure, job_figures, save_figure, world_figure
+from sim.viz.plots.run import PLOTS, commands_figure, errors_figure, job_figures, save_figure, world_figure
 from tests.render_helpers import short_job
 
 

@@ -8,9 +8,9 @@ import matplotlib.pyplot as plt
 import pytest
 
 from planning.errors import OutputExistsError
-from planning.plan import PlanProblem, make_planner
+from planning.planners.base import PlanProblem, make_planner
 from planning.scenario import load_scenario
-from sim.plots_plan import plan_figure, write_plan_figure
+from sim.viz.plots.plan import plan_figure, write_plan_figure
 
 
 def test_plan_figure_and_png(tmp_path: Path) -> None:

@@ -10,13 +10,13 @@ from typing import Any, ClassVar
 import numpy as np
 import pytest
 
-import sim.progress as progress
-from planning.geometry import Pose2D
-from planning.references import make_reference
-from planning.robot import load_robot
+import sim.cli.progress as progress
+from planning.core.geometry import Pose2D
+from planning.core.robot import load_robot
 from planning.scenario import load_scenario
-from sim.outputs_job import show_progress
-from sim.progress import JobBars, TimedBar
+from planning.trajectory.references import make_reference
+from sim.cli.job_outputs import show_progress
+from sim.cli.progress import JobBars, TimedBar
 
 
 class FakeBar:
@@ -49,8 +49,8 @@ def fake_tqdm(monkeypatch: pytest.MonkeyPatch) -> list[FakeBar]:
 
 
 def test_simulator_reports_progress_and_runs_the_same_without() -> None:
-    from control.tracker import make_tracker
-    from sim.simulator import PROGRESS_UPDATES, SimConfig, Simulator
+    from control.base import make_tracker
+    from sim.physics.simulator import PROGRESS_UPDATES, SimConfig, Simulator
 
     sc = load_scenario("open")
     robot = load_robot(sc.robot)
@@ -70,7 +70,7 @@ def test_simulator_reports_progress_and_runs_the_same_without() -> None:
 
 
 def test_jobs_report_each_run_and_planning() -> None:
-    from sim.jobs import run_tracking, simulate_plan
+    from sim.pipeline.simulate import run_tracking, simulate_plan
 
     sc = load_scenario("open")
     robot = load_robot(sc.robot)

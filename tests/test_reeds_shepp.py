@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from planning.dubins import dubins_length
-from planning.kinematics import rollout, unicycle_rhs
-from planning.reeds_shepp import reeds_shepp_length, reeds_shepp_path
+from planning.core.kinematics import rollout, unicycle_rhs
+from planning.curves.dubins import dubins_length
+from planning.curves.reeds_shepp import reeds_shepp_length, reeds_shepp_path
 
 RNG = np.random.default_rng(7)
 N = 400

@@ -1,10 +1,10 @@
 import numpy as np
 import pytest
 
+from planning.core.geometry import Pose2D
+from planning.core.robot import load_robot
 from planning.errors import ConfigError
-from planning.geometry import Pose2D
-from planning.references import REFERENCES, make_reference
-from planning.robot import load_robot
+from planning.trajectory.references import REFERENCES, make_reference
 
 
 @pytest.mark.parametrize("robot_name", ["turtlebot3", "edumip"])

@@ -10,10 +10,10 @@ from pathlib import Path
 
 import pytest
 
-import sim.regress as regress
-from sim.cases import Case
-from sim.cli import main
-from sim.regress import SUITE_PATH, Tolerance, check_case, compare, load_suite
+import sim.tools.regress as regress
+from sim.cli.main import main
+from sim.pipeline.case import Case
+from sim.tools.regress import SUITE_PATH, Tolerance, check_case, compare, load_suite
 
 SUITE = load_suite(SUITE_PATH)
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from planning.errors import ConfigError, DependencyError
-from sim import gl
-from sim.render import (
+from sim.viz import gl
+from sim.viz.replay import (
     GHOST_ALPHA,
     ListSink,
     Projection,
@@ -162,7 +162,7 @@ def test_projection_matches_rendered_markers() -> None:
 def test_replay_frames_and_ghost() -> None:
     require_gl()
     job = short_job()
-    from sim.simulator import Simulator
+    from sim.physics.simulator import Simulator
 
     model = Simulator(job.robot, job.scenario.world).model
     settings = RenderSettings(width=160, height=120, fps=10.0)
@@ -189,7 +189,7 @@ def test_replay_frames_and_ghost() -> None:
 def test_chase_camera_keeps_robot_near_centre() -> None:
     require_gl()
     job = short_job()
-    from sim.simulator import Simulator
+    from sim.physics.simulator import Simulator
 
     model = Simulator(job.robot, job.scenario.world).model
     settings = RenderSettings(width=160, height=120, fps=5.0, camera="chase")

@@ -4,8 +4,8 @@ import mujoco
 import numpy as np
 import pytest
 
+from planning.core.robot import ROBOT_FILES, load_robot
 from planning.errors import ModelError
-from planning.robot import ROBOT_FILES, load_robot
 
 
 @pytest.mark.parametrize("name", sorted(ROBOT_FILES))

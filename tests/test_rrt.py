@@ -5,13 +5,13 @@ import itertools
 import numpy as np
 import pytest
 
-from planning.geometry import Pose2D
-from planning.plan import PlanProblem, PlanStatus, make_planner
-from planning.reeds_shepp import reeds_shepp_length
-from planning.robot import load_robot
+from planning.core.geometry import Pose2D
+from planning.core.robot import load_robot
+from planning.core.world import Box, Circle, World
+from planning.curves.reeds_shepp import reeds_shepp_length
+from planning.planners.base import PlanProblem, PlanStatus, make_planner
+from planning.planners.sampling.steering import default_turning_radius
 from planning.scenario import builtin_scenarios, load_scenario
-from planning.steering import default_turning_radius
-from planning.world import Box, Circle, World
 
 ROBOT = load_robot("turtlebot3")
 RHO = default_turning_radius(ROBOT)

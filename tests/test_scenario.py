@@ -4,9 +4,9 @@ from pathlib import Path
 
 import pytest
 
+from planning.core.world import Box, Circle, Ellipse, Polygon
 from planning.errors import ScenarioError
 from planning.scenario import builtin_scenarios, load_scenario
-from planning.world import Box, Circle, Ellipse, Polygon
 
 GOOD = """
 name = "farm"
@@ -101,7 +101,7 @@ def test_builtin_scenarios_load() -> None:
 
 
 def test_planner_options_tables_are_read_and_reach_the_planner(tmp_path: Path) -> None:
-    from planning.plan import make_planner
+    from planning.planners.base import make_planner
 
     text = GOOD + '[planners.birrt]\nsteering = "reeds_shepp"\ngoal_bias = 0.1\n[planners.optim]\nN = 30\n'
     sc = load_scenario(_write(tmp_path, text))

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planning.collision import CollisionChecker
-from planning.plan import PlanProblem
-from planning.robot import load_robot
+from planning.collision.exact import CollisionChecker
+from planning.core.robot import load_robot
+from planning.core.world import Box, Circle, Ellipse
+from planning.planners.base import PlanProblem
 from planning.scenario import builtin_scenarios, load_scenario
-from planning.world import Box, Circle, Ellipse
 
 NAMES = builtin_scenarios()
 

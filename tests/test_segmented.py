@@ -6,13 +6,13 @@ import math
 import numpy as np
 import pytest
 
+from control.base import make_tracker
 from control.segmented import SegmentedTracker, infer_segments
-from control.tracker import make_tracker
-from planning.geometry import Pose2D
-from planning.robot import load_robot
-from planning.to_trajectory import to_trajectory
-from planning.trajectory import Trajectory
-from planning.world import World
+from planning.core.geometry import Pose2D
+from planning.core.robot import load_robot
+from planning.core.world import World
+from planning.trajectory.from_plan import to_trajectory
+from planning.trajectory.trajectory import Trajectory
 
 OPEN = World((-3.0, 3.0, -3.0, 3.0), ())
 CUSP_TURN = np.vstack([

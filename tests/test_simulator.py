@@ -3,15 +3,15 @@
 import numpy as np
 import pytest
 
+from control.base import make_tracker
 from control.fbl import FBLGains
-from control.tracker import make_tracker
+from planning.core.geometry import Pose2D
+from planning.core.robot import load_robot
+from planning.core.world import Box, World
 from planning.errors import ConfigError
-from planning.geometry import Pose2D
-from planning.references import make_reference
-from planning.robot import load_robot
-from planning.world import Box, World
-from sim.jobs import simulate_reference
-from sim.simulator import SimConfig, Simulator
+from planning.trajectory.references import make_reference
+from sim.physics.simulator import SimConfig, Simulator
+from sim.pipeline.simulate import simulate_reference
 
 
 @pytest.mark.parametrize("robot", ["turtlebot3", "edumip"])

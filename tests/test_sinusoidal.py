@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from planning.core.geometry import Pose2D, wrap_angle
+from planning.core.robot import load_robot
+from planning.core.world import Circle, World
 from planning.errors import ConfigError
-from planning.geometry import Pose2D, wrap_angle
-from planning.plan import PlanProblem, PlanStatus, make_planner
-from planning.robot import load_robot
+from planning.planners.base import PlanProblem, PlanStatus, make_planner
+from planning.planners.sinusoidal import ChainedModel, Sinusoidal, heading_waypoints, model_for
 from planning.scenario import load_scenario
-from planning.sinusoidal import ChainedModel, Sinusoidal, heading_waypoints, model_for
-from planning.world import Circle, World
 
 MANOEUVRES = ["simple_motion", "parallel_park", "three_point_turn", "turn_in_place"]
 

@@ -6,14 +6,14 @@ import itertools
 import numpy as np
 import pytest
 
-from planning.collision import CollisionChecker
-from planning.geometry import Pose2D
-from planning.plan import PlanProblem, PlanResult, PlanStatus, make_planner
-from planning.robot import load_robot
+from planning.collision.exact import CollisionChecker
+from planning.core.geometry import Pose2D
+from planning.core.robot import load_robot
+from planning.core.world import Circle, World
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus, make_planner
 from planning.scenario import load_scenario
-from planning.smoothing import SmoothStatus, fit_piecewise, remove_loops, smooth_drive, split_path
-from planning.to_trajectory import make_trajectory
-from planning.world import Circle, World
+from planning.trajectory.from_plan import make_trajectory
+from planning.trajectory.smoothing import SmoothStatus, fit_piecewise, remove_loops, smooth_drive, split_path
 
 TB3 = load_robot("turtlebot3")
 OPEN = World((-3.0, 3.0, -3.0, 3.0), ())

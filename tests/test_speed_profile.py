@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from planning.robot import load_robot
-from planning.smoothing import PathSegment, SmoothCurve, fit_piecewise, smooth_drive
-from planning.speed_profile import Limits, forward_backward, speed_limit, time_drive, time_rotation
+from planning.core.robot import load_robot
+from planning.trajectory.smoothing import PathSegment, SmoothCurve, fit_piecewise, smooth_drive
+from planning.trajectory.speed_profile import Limits, forward_backward, speed_limit, time_drive, time_rotation
 
 TB3 = load_robot("turtlebot3")
 EDU = load_robot("edumip")

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from planning.kinematics import bicycle_rhs, rollout
-from planning.robot import load_robot
-from planning.steering import (
+from planning.core.kinematics import bicycle_rhs, rollout
+from planning.core.robot import load_robot
+from planning.planners.sampling.steering import (
     CurveSteering,
     bicycle_primitives,
     default_turning_radius,

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from planning.trajectory import Trajectory
+from planning.trajectory.trajectory import Trajectory
 
 
 def _circle(n: int = 2001, radius: float = 2.0, w: float = 0.3) -> Trajectory:

@@ -17,11 +17,11 @@ import pytest
 
 from control.fbl import FBLGains
 from control.gains import load_gains_file
-from sim.cases import Case, prepare
-from sim.cli import main
-from sim.commands.tune import default_study_name
-from sim.perturb import PerturbationRange
-from sim.tune import Evaluator, split_trials
+from sim.cli.main import main
+from sim.cli.tune import default_study_name
+from sim.physics.perturb import PerturbationRange
+from sim.pipeline.case import Case, prepare
+from sim.tools.tune import Evaluator, split_trials
 
 CASE = "open:line"  # the cheapest reference: 12 s simulated, ~0.1 s a run
 

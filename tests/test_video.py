@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from planning.errors import ConfigError, OutputExistsError
-from sim.video import VideoWriter, ffmpeg_command
+from sim.viz.video import VideoWriter, ffmpeg_command
 
 
 def synthetic(k: int, w: int = 96, h: int = 64) -> np.ndarray:

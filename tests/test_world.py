@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
-from planning.world import Box, Circle, Ellipse, Polygon, World, polygon_area
+from planning.core.world import Box, Circle, Ellipse, Polygon, World, polygon_area
 
 
 def _boundary(obs: object, n: int = 20000) -> np.ndarray:

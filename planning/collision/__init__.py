@@ -1,0 +1,1 @@
+"""Collision checking: the exact footprint checker and its compiled grid front end."""

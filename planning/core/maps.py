@@ -1,0 +1,293 @@
+"""Worlds from map images: dark connected regions of a PNG/JPEG become obstacles.
+
+A map image is read as grey levels in [0, 1] (0 black, 1 white; transparent pixels count as
+white). A pixel is an obstacle pixel when its grey level is below ``threshold``. Obstacle pixels are
+grouped into 4-connected regions (``scipy.ndimage.label``) and each region becomes
+
+* ``"box"``: its axis-aligned bounding rectangle (as seed 003 outlines detected obstacles with red
+  dashed boxes), or
+* ``"polygon"``: the exact outline of its pixels (a rectilinear polygon along pixel edges; holes
+  inside a region are filled).
+
+Placement: the image's bottom-left corner sits at ``origin`` [m] and each pixel is a square of
+side ``resolution`` [m/px]; image rows run downwards, world y upwards, so pixel (row i, column j)
+of an H-row image covers x in [ox + j r, ox + (j + 1) r] and y in [oy + (H - 1 - i) r,
+oy + (H - i) r].
+
+A scenario names its map in an optional ``[world.map]`` table::
+
+    [world.map]
+    image = "../maps/edumip_map.png"   # relative to the scenario file
+    resolution = 0.01                  # [m/px]
+    origin = [0.0, 0.0]                # world position of the bottom-left corner [m] (default)
+    threshold = 0.5                    # grey level below which a pixel is an obstacle (default)
+    shape = "box"                      # "box" (default) or "polygon"
+
+The shipped ``models/maps/edumip_map.png`` is :func:`edumip_map_image` written as an 8-bit
+greyscale PNG; regenerate it with
+``python -c "from planning.core.maps import edumip_map_image as m; from PIL import Image;
+Image.fromarray(m()).save('models/maps/edumip_map.png')"``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from planning.core.world import Box, Obstacle, Polygon
+from planning.errors import ScenarioError
+
+FloatArray = NDArray[np.float64]
+MapShape = Literal["box", "polygon"]
+
+_MAP_REQUIRED = {"image", "resolution"}
+_MAP_OPTIONAL = {"origin", "threshold", "shape"}
+
+#: Seed 003's map: 5 x 5 m at 1 cm per pixel (500 x 500 px), four obstacles. O1 is the leftmost;
+#: O2, O3, O4 lie on the right from top to bottom. Rectangles as (x0, x1, y0, y1) in metres within
+#: the map (origin at its bottom-left corner); every edge lies on a pixel edge.
+EDUMIP_MAP_SIZE_PX = 500
+EDUMIP_MAP_RESOLUTION = 0.01
+EDUMIP_MAP_OBSTACLES: dict[str, tuple[float, float, float, float]] = {
+    "O1": (0.90, 1.60, 1.20, 4.00),
+    "O2": (3.00, 4.20, 4.00, 4.50),
+    "O3": (2.70, 3.60, 2.20, 3.00),
+    "O4": (3.10, 4.40, 0.50, 1.20),
+}
+
+
+def edumip_map_image() -> NDArray[np.uint8]:
+    """The EduMIP map (seed 003) as an 8-bit greyscale image: black obstacles on white.
+
+    Returns:
+        (500, 500) uint8 array, row 0 at the top (image convention).
+    """
+    n = EDUMIP_MAP_SIZE_PX
+    img = np.full((n, n), 255, dtype=np.uint8)
+    for x0, x1, y0, y1 in EDUMIP_MAP_OBSTACLES.values():
+        j0, j1 = round(x0 / EDUMIP_MAP_RESOLUTION), round(x1 / EDUMIP_MAP_RESOLUTION)
+        i0, i1 = n - round(y1 / EDUMIP_MAP_RESOLUTION), n - round(y0 / EDUMIP_MAP_RESOLUTION)
+        img[i0:i1, j0:j1] = 0
+    return img
+
+
+def read_grey(path: str | Path) -> FloatArray:
+    """Read an image file as grey levels.
+
+    Args:
+        path: PNG or JPEG file (any mode Pillow reads; alpha is composited over white).
+
+    Returns:
+        (H, W) grey levels in [0, 1], row 0 at the top.
+
+    Raises:
+        ScenarioError: The file is missing or is not a readable image.
+    """
+    from PIL import Image, UnidentifiedImageError
+
+    p = Path(path)
+    if not p.is_file():
+        raise ScenarioError(f"map image {p} does not exist; check the path (relative to the scenario file)")
+    try:
+        with Image.open(p) as im:
+            im.load()
+            if im.mode in ("RGBA", "LA", "PA") or (im.mode == "P" and "transparency" in im.info):
+                rgba = im.convert("RGBA")
+                white = Image.new("RGBA", rgba.size, (255, 255, 255, 255))
+                im2 = Image.alpha_composite(white, rgba)
+            else:
+                im2 = im
+            grey = np.asarray(im2.convert("L"), dtype=float) / 255.0
+    except (UnidentifiedImageError, OSError, ValueError) as exc:
+        raise ScenarioError(f"map image {p} is not a readable PNG/JPEG image: {exc}") from exc
+    if grey.ndim != 2 or grey.size == 0:
+        raise ScenarioError(f"map image {p} has no pixels")
+    return grey
+
+
+def _outline(region: NDArray[np.bool_]) -> FloatArray:
+    """Outer outline of one 4-connected pixel region as polygon vertices in pixel-corner units.
+
+    Corners are (column, row_from_bottom) of pixel corners; the region is hole-filled first. The
+    boundary edges between region and non-region pixels are oriented with the region on their
+    left and chained; at a corner touched twice the chain turns left (keeping the loop simple). The
+    longest loop is the outer outline; collinear vertices are dropped.
+    """
+    filled = ndimage.binary_fill_holes(region)
+    h, _ = filled.shape
+    pad = np.pad(filled, 1)
+    edges: dict[tuple[int, int], list[tuple[int, int]]] = {}
+    rows, cols = np.nonzero(filled & ~ndimage.binary_erosion(filled))  # pixels with an open side
+    for i, j in zip(rows.tolist(), cols.tolist(), strict=True):
+        y0, y1, x0, x1 = h - 1 - i, h - i, j, j + 1  # pixel corners in (x right, y up)
+        pi, pj = i + 1, j + 1
+        if not pad[pi + 1, pj]:  # below: edge going +x
+            edges.setdefault((x0, y0), []).append((x1, y0))
+        if not pad[pi, pj + 1]:  # right: edge going +y
+            edges.setdefault((x1, y0), []).append((x1, y1))
+        if not pad[pi - 1, pj]:  # above: edge going -x
+            edges.setdefault((x1, y1), []).append((x0, y1))
+        if not pad[pi, pj - 1]:  # left: edge going -y
+            edges.setdefault((x0, y1), []).append((x0, y0))
+    loops: list[list[tuple[int, int]]] = []
+    while edges:
+        start = min(edges)
+        loop = [start]
+        prev_dir = (1, 0)
+        cur = start
+        while True:
+            outs = edges[cur]
+            if len(outs) == 1:
+                nxt = outs.pop()
+            else:  # turn left relative to the incoming direction
+                outs.sort(key=lambda q: -(prev_dir[0] * (q[1] - cur[1]) - prev_dir[1] * (q[0] - cur[0])))
+                nxt = outs.pop(0)
+            if not outs:
+                del edges[cur]
+            prev_dir = (nxt[0] - cur[0], nxt[1] - cur[1])
+            cur = nxt
+            if cur == start:
+                break
+            loop.append(cur)
+        loops.append(loop)
+    pts = np.array(max(loops, key=len), dtype=float)
+    before, after = np.roll(pts, 1, axis=0), np.roll(pts, -1, axis=0)
+    cross = (pts[:, 0] - before[:, 0]) * (after[:, 1] - pts[:, 1]) - (pts[:, 1] - before[:, 1]) * (
+        after[:, 0] - pts[:, 0]
+    )
+    return pts[cross != 0]
+
+
+def obstacles_from_mask(
+    mask: NDArray[np.bool_],
+    resolution: float,
+    origin: tuple[float, float] = (0.0, 0.0),
+    shape: MapShape = "box",
+) -> list[Obstacle]:
+    """Obstacles from a boolean occupancy image.
+
+    Args:
+        mask: (H, W) True where a pixel is an obstacle, row 0 at the top.
+        resolution: Pixel side [m/px], > 0.
+        origin: World position of the image's bottom-left corner [m].
+        shape: "box" (axis-aligned bounding rectangle per region) or "polygon" (exact outline).
+
+    Returns:
+        One obstacle per 4-connected region, ordered by the region's label (row-major scan order).
+    """
+    if not resolution > 0:
+        raise ValueError(f"resolution must be > 0 m/px, got {resolution}")
+    if shape not in ("box", "polygon"):
+        raise ValueError(f"shape must be 'box' or 'polygon', got {shape!r}")
+    labels, count = ndimage.label(mask)
+    h = mask.shape[0]
+    ox, oy = float(origin[0]), float(origin[1])
+    out: list[Obstacle] = []
+    for k, sl in enumerate(ndimage.find_objects(labels), start=1):
+        if sl is None:
+            continue
+        rs, cs = sl
+        if shape == "box":
+            x0, x1 = ox + cs.start * resolution, ox + cs.stop * resolution
+            y0, y1 = oy + (h - rs.stop) * resolution, oy + (h - rs.start) * resolution
+            out.append(Box((0.5 * (x0 + x1), 0.5 * (y0 + y1)), (x1 - x0, y1 - y0)))
+        else:
+            local = labels[sl] == k
+            verts = _outline(local)
+            # local corners -> world: column offset cs.start, rows counted from the bottom of the slice
+            wx = ox + (verts[:, 0] + cs.start) * resolution
+            wy = oy + (verts[:, 1] + (h - rs.stop)) * resolution
+            out.append(Polygon(tuple((float(a), float(b)) for a, b in zip(wx, wy, strict=True))))
+    assert len(out) == count
+    return out
+
+
+def load_image_obstacles(
+    path: str | Path,
+    resolution: float,
+    origin: tuple[float, float] = (0.0, 0.0),
+    threshold: float = 0.5,
+    shape: MapShape = "box",
+) -> list[Obstacle]:
+    """Obstacles from a map image file.
+
+    Args:
+        path: PNG or JPEG file.
+        resolution: Pixel side [m/px].
+        origin: World position of the image's bottom-left corner [m].
+        threshold: Grey level in (0, 1] below which a pixel is an obstacle.
+        shape: "box" or "polygon".
+
+    Returns:
+        One obstacle per dark 4-connected region.
+    """
+    if not 0.0 < threshold <= 1.0:
+        raise ValueError(f"threshold must be in (0, 1], got {threshold}")
+    return obstacles_from_mask(read_grey(path) < threshold, resolution, origin, shape)
+
+
+def load_map_table(table: Mapping[str, Any], base_dir: Path, where: str) -> list[Obstacle]:
+    """The ``[world.map]`` loader registered as ``MAP_LOADERS["image"]``.
+
+    Args:
+        table: The parsed ``[world.map]`` table.
+        base_dir: Directory of the scenario file; ``image`` is resolved against it.
+        where: How to name the scenario in errors.
+
+    Returns:
+        The map's obstacles.
+
+    Raises:
+        ScenarioError: Unknown or missing keys, bad values, a missing or unreadable image.
+    """
+
+    def fail(key: str, expected: str, got: Any) -> ScenarioError:
+        return ScenarioError(f"{where}: field 'world.map.{key}': expected {expected}, got {got!r}")
+
+    if not isinstance(table, Mapping):
+        raise ScenarioError(f"{where}: field 'world.map': expected a table ([world.map]), got {table!r}")
+    unknown = set(table) - _MAP_REQUIRED - _MAP_OPTIONAL
+    if unknown:
+        raise ScenarioError(
+            f"{where}: unknown key(s) {', '.join(sorted(repr(k) for k in unknown))} in [world.map]; "
+            f"allowed: {', '.join(sorted(_MAP_REQUIRED | _MAP_OPTIONAL))}"
+        )
+    missing = _MAP_REQUIRED - set(table)
+    if missing:
+        raise ScenarioError(f"{where}: missing field(s) {', '.join(sorted('world.map.' + k for k in missing))}")
+
+    def number(key: str, default: float | None = None) -> float:
+        val = table.get(key, default)
+        if isinstance(val, bool) or not isinstance(val, (int, float)) or not np.isfinite(val):
+            raise fail(key, "a finite number", val)
+        return float(val)
+
+    image = table["image"]
+    if not isinstance(image, str) or not image:
+        raise fail("image", "a path to a PNG/JPEG file (relative to the scenario file)", image)
+    resolution = number("resolution")
+    if resolution <= 0:
+        raise fail("resolution", "a pixel size > 0 [m/px]", resolution)
+    threshold = number("threshold", 0.5)
+    if not 0.0 < threshold <= 1.0:
+        raise fail("threshold", "a grey level in (0, 1] (0 black, 1 white)", threshold)
+    origin = table.get("origin", [0.0, 0.0])
+    if (
+        not isinstance(origin, list)
+        or len(origin) != 2
+        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in origin)
+    ):
+        raise fail("origin", "[x, y] of the image's bottom-left corner [m]", origin)
+    shape = table.get("shape", "box")
+    if shape not in ("box", "polygon"):
+        raise fail("shape", "'box' or 'polygon'", shape)
+    path = Path(image) if Path(image).is_absolute() else base_dir / image
+    try:
+        return load_image_obstacles(path, resolution, (float(origin[0]), float(origin[1])), threshold, shape)
+    except ScenarioError as exc:
+        raise ScenarioError(f"{where}: field 'world.map.image': {exc}") from exc

@@ -1,0 +1,238 @@
+"""Kinematic robot specifications, read from the robots' MJCF files.
+
+The planner and the physics must never disagree, so every number the planners and trackers use
+(wheel radius, track width, footprint, speed and rate limits) is read from the same MJCF file
+MuJoCo loads: geometry from the geoms and bodies, motor limits from the actuators, and the
+planning limits from ``<custom><numeric name="nhsim_..."/>`` entries.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import ConvexHull
+
+from planning.errors import ModelError
+
+FloatArray = NDArray[np.float64]
+
+MODELS_DIR = Path(__file__).resolve().parents[2] / "models"
+ROBOTS_DIR = MODELS_DIR / "robots"
+
+#: Robot names accepted everywhere, mapped to their MJCF file stems.
+ROBOT_FILES: dict[str, str] = {"turtlebot3": "turtlebot3_burger", "edumip": "edumip"}
+#: MJCF actuator elements that drive a wheel at a commanded speed (their ``ctrlrange`` is in rad/s).
+WHEEL_SERVOS = ("velocity", "intvelocity")
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """What planners and trackers know about a differential-drive robot.
+
+    Attributes:
+        name: Registry name ("turtlebot3", "edumip").
+        mjcf: Path of the robot's MJCF file.
+        scene: Path of the scene file (floor and light) that includes it.
+        wheel_radius: r [m].
+        track_width: Distance between the wheels' contact lines [m].
+        max_speed: |v| limit [m/s].
+        max_yaw_rate: |omega| limit [rad/s].
+        max_accel: |dv/dt| limit [m/s^2].
+        max_yaw_accel: |domega/dt| limit [rad/s^2].
+        max_wheel_speed: Actuator ctrlrange bound [rad/s].
+        wheelbase: Virtual wheelbase l of the bicycle model [m].
+        max_steering: Virtual steering-angle bound |phi| [rad].
+        footprint: (K, 2) convex footprint in the base frame, counter-clockwise [m].
+        mass: Total mass [kg].
+    """
+
+    name: str
+    mjcf: Path
+    scene: Path
+    wheel_radius: float
+    track_width: float
+    max_speed: float
+    max_yaw_rate: float
+    max_accel: float
+    max_yaw_accel: float
+    max_wheel_speed: float
+    wheelbase: float
+    max_steering: float
+    footprint: FloatArray = field(repr=False)
+    mass: float = 0.0
+
+    @property
+    def radius(self) -> float:
+        """Radius of the smallest disc about the base origin that holds the footprint [m]."""
+        return float(np.max(np.hypot(self.footprint[:, 0], self.footprint[:, 1])))
+
+    def footprint_at(self, poses: FloatArray) -> FloatArray:
+        """Footprint polygons placed at poses.
+
+        Args:
+            poses: (M, 3) poses [x, y, theta].
+
+        Returns:
+            (M, K, 2) world-frame vertices [m].
+        """
+        p = np.atleast_2d(np.asarray(poses, dtype=float))
+        c, s = np.cos(p[:, 2])[:, None], np.sin(p[:, 2])[:, None]
+        fx, fy = self.footprint[None, :, 0], self.footprint[None, :, 1]
+        return np.stack([p[:, :1] + c * fx - s * fy, p[:, 1:2] + s * fx + c * fy], axis=-1)
+
+
+def _floats(text: str | None, n: int | None = None, what: str = "") -> FloatArray:
+    if text is None:
+        raise ModelError(f"missing attribute {what}")
+    vals = np.array([float(x) for x in text.split()])
+    if n is not None and vals.size != n:
+        raise ModelError(f"{what} needs {n} numbers, got {text!r}")
+    return vals
+
+
+def _euler_matrix(euler: FloatArray) -> FloatArray:
+    """Rotation matrix for MuJoCo's default 'xyz' intrinsic Euler sequence."""
+    a, b, c = euler
+    rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+    ry = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
+    rz = np.array([[np.cos(c), -np.sin(c), 0], [np.sin(c), np.cos(c), 0], [0, 0, 1]])
+    return rx @ ry @ rz
+
+
+def _geom_outline(geom: ET.Element, defaults: dict[str, dict[str, str]], offset: FloatArray) -> FloatArray:
+    """Points whose planar convex hull covers the geom's x-y projection."""
+    attrs = dict(defaults.get(geom.get("class", ""), {}))
+    attrs.update(geom.attrib)
+    gtype = attrs.get("type", "sphere")
+    size = _floats(attrs.get("size", "0"), what="geom size")
+    pos = _floats(attrs.get("pos", "0 0 0"), 3, "geom pos") + offset
+    rot = _euler_matrix(_floats(attrs["euler"], 3, "euler")) if "euler" in attrs else np.eye(3)
+    if gtype == "sphere":
+        ang = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+        return pos[:2] + size[0] * np.column_stack([np.cos(ang), np.sin(ang)])
+    if gtype == "box":
+        local = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * size[:3]
+    elif gtype == "cylinder":
+        ang = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+        ring = np.column_stack([size[0] * np.cos(ang), size[0] * np.sin(ang)])
+        local = np.vstack([np.column_stack([ring, np.full(24, h)]) for h in (-size[1], size[1])])
+    else:
+        raise ModelError(f"footprint: geom type {gtype!r} is not supported (use box, cylinder or sphere)")
+    return (local @ rot.T + pos)[:, :2]
+
+
+def _collect_defaults(root: ET.Element) -> dict[str, dict[str, str]]:
+    out: dict[str, dict[str, str]] = {}
+
+    def walk(node: ET.Element, inherited: dict[str, str]) -> None:
+        for child in node.findall("default"):
+            attrs = dict(inherited)
+            g = child.find("geom")
+            if g is not None:
+                attrs.update(g.attrib)
+            cls = child.get("class")
+            if cls:
+                out[cls] = attrs
+            walk(child, attrs)
+
+    for d in root.findall("default"):
+        walk(d, {})
+    return out
+
+
+def robot_path(name: str) -> Path:
+    """The MJCF path of a robot given its registry name, or a path to an MJCF file."""
+    if name in ROBOT_FILES:
+        return ROBOTS_DIR / f"{ROBOT_FILES[name]}.xml"
+    path = Path(name)
+    if path.suffix == ".xml" and path.exists():
+        return path
+    raise ModelError(f"unknown robot {name!r}: choose one of {', '.join(sorted(ROBOT_FILES))} or give an MJCF path")
+
+
+def load_robot(name: str) -> RobotSpec:
+    """Read a robot's kinematic specification from its MJCF file.
+
+    Args:
+        name: "turtlebot3", "edumip", or a path to an MJCF file with the same element names.
+
+    Returns:
+        The spec.
+
+    Raises:
+        ModelError: The file is missing or lacks a required element (named in the message).
+    """
+    path = robot_path(name)
+    try:
+        root = ET.parse(path).getroot()
+    except (OSError, ET.ParseError) as exc:
+        raise ModelError(f"cannot read robot model {path}: {exc}") from exc
+    numerics = {n.get("name"): n.get("data") for n in root.iter("numeric")}
+
+    def numeric(key: str) -> float:
+        full = f"nhsim_{key}"
+        if full not in numerics:
+            raise ModelError(f"{path}: <custom><numeric name={full!r}> is missing")
+        return float(_floats(numerics[full], 1, full)[0])
+
+    bodies = {b.get("name"): b for b in root.iter("body")}
+    for required in ("base", "wheel_left", "wheel_right"):
+        if required not in bodies:
+            raise ModelError(f"{path}: body {required!r} is missing")
+    defaults = _collect_defaults(root)
+    left_geom = next((g for g in root.iter("geom") if g.get("name") == "wheel_left_geom"), None)
+    if left_geom is None:
+        raise ModelError(f"{path}: geom 'wheel_left_geom' is missing")
+    wattrs = dict(defaults.get(left_geom.get("class", ""), {}))
+    wattrs.update(left_geom.attrib)
+    wheel_radius = float(_floats(wattrs.get("size"), what="wheel size")[0])
+    yl = _floats(bodies["wheel_left"].get("pos"), 3, "wheel_left pos")[1]
+    yr = _floats(bodies["wheel_right"].get("pos"), 3, "wheel_right pos")[1]
+    track = float(abs(yl - yr))
+    motors = [a for kind in WHEEL_SERVOS for a in root.iter(kind)]
+    if not motors:
+        raise ModelError(f"{path}: no wheel servos (<{'> or <'.join(WHEEL_SERVOS)}> actuators)")
+    max_wheel = float(np.min([np.max(np.abs(_floats(a.get("ctrlrange"), 2, "ctrlrange"))) for a in motors]))
+
+    points = []
+    base = bodies["base"]
+    for g in base.findall("geom"):
+        points.append(_geom_outline(g, defaults, np.zeros(3)))
+    for wheel in ("wheel_left", "wheel_right"):
+        off = _floats(bodies[wheel].get("pos"), 3, f"{wheel} pos")
+        for g in bodies[wheel].findall("geom"):
+            points.append(_geom_outline(g, defaults, off))
+    allpts = np.vstack(points)
+    hull = allpts[ConvexHull(allpts).vertices]
+    mass = 0.0
+    for body in root.iter("body"):
+        inertial = body.find("inertial")
+        if inertial is not None:  # an explicit inertial replaces the geoms' masses, as in MuJoCo
+            mass += float(inertial.get("mass", 0))
+            continue
+        for g in body.findall("geom"):
+            gattrs = dict(defaults.get(g.get("class", ""), {}))
+            gattrs.update(g.attrib)
+            mass += float(gattrs.get("mass", 0) or 0)
+    stem = path.stem
+    inv = {v: k for k, v in ROBOT_FILES.items()}
+    return RobotSpec(
+        name=inv.get(stem, stem),
+        mjcf=path,
+        scene=path.with_name(f"{stem}_scene.xml"),
+        wheel_radius=wheel_radius,
+        track_width=track,
+        max_speed=numeric("max_linear_speed"),
+        max_yaw_rate=numeric("max_angular_speed"),
+        max_accel=numeric("max_linear_accel"),
+        max_yaw_accel=numeric("max_angular_accel"),
+        max_wheel_speed=max_wheel,
+        wheelbase=numeric("wheelbase"),
+        max_steering=numeric("max_steering_angle"),
+        footprint=hull,
+        mass=mass,
+    )

@@ -1,0 +1,1 @@
+"""Exact steering curves: Dubins and Reeds–Shepp words, compiled with numba."""

@@ -1,0 +1,1 @@
+"""Planners: the interface and registry, the sampling planners, sinusoidal steering, optimisation."""

@@ -1,0 +1,531 @@
+"""Trajectory optimisation of the kinematic bicycle with CasADi's Opti and IPOPT.
+
+The horizon ``T = N dt`` is fixed; the decision variables are the states ``X`` (4, N+1)
+``[x, y, theta, phi]`` at the nodes and the inputs ``U`` (2, N) ``[u1, u2]`` held over each interval.
+
+- Dynamics: multiple shooting, one classical RK4 step per interval: ``X[:, k+1] = RK4(X[:, k], U[:, k], dt)``.
+- Start and goal: equality constraints on the whole state (steering angle 0 at both ends); the goal
+  heading is taken on the branch nearest the start heading (or the warm start's final heading).
+- Bounds: ``|u1| <= max_speed``, ``|u2| <= u2max``, ``|phi| <= phimax``, yaw rate
+  ``|u1 tan(phi) / l| <= max_yaw_rate`` at both ends of each interval (hence all along it), and
+  the robot's disc (radius + ``margin``) inside the walls.
+- Obstacles, all smooth and exact for the robot's disc of radius ``r`` (robot radius + ``margin``):
+  circles as ``|p - c|^2 >= (R + r)^2``; ellipses, boxes and convex polygons by a separating line
+  per node and obstacle with direction ``n = (cos psi, sin psi)`` (``psi`` an extra decision
+  variable): ``n . (p - c) - h(n) >= r`` where ``h`` is the obstacle's support function about ``c``
+  (ellipse: ``sqrt(a^2 (n.e1)^2 + b^2 (n.e2)^2)``; polygon: one constraint ``n . (p - v_i) >= r``
+  per vertex). Since ``max_n`` of the left side is the distance from ``p`` to a convex set, the
+  constraint is exactly ``distance >= r``. A non-convex polygon is replaced by its convex hull
+  (conservative). Constraints hold at the nodes; ``margin`` covers the chord between nodes.
+- Cost: ``sum(u1^2 + w_steer u2^2) dt + w_smooth sum(du1^2) / dt``: at fixed horizon the effort in
+  ``u1`` is least for the shortest path driven at even speed, so it is also a length cost.
+
+The NLP is built once per shape (N, obstacle kinds and vertex counts) and cached; start, goal,
+dt, bounds and obstacle data are parameters, so repeated solves only set values and warm starts.
+CasADi expands the graph to SX (``expand=True``) before IPOPT runs.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import ConvexHull
+
+from planning.core.geometry import wrap_angle
+from planning.core.kinematics import bicycle_to_unicycle
+from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon
+from planning.errors import ConfigError, DependencyError
+from planning.planners.base import PLANNERS, PlanProblem, PlanResult, PlanStatus, make_planner
+from planning.planners.gridpath import grid_path
+
+FloatArray = NDArray[np.float64]
+
+DEFAULT_N = 50
+DEFAULT_DT = 0.2
+_BUILTIN_INITS = ("auto", "straight", "grid")
+_SUCCESS = {"Solve_Succeeded", "Solved_To_Acceptable_Level"}
+_TIMEOUT = {"Maximum_CpuTime_Exceeded", "Maximum_Iterations_Exceeded", "Maximum_WallTime_Exceeded"}
+_INFEASIBLE = {"Infeasible_Problem_Detected"}
+
+
+def _casadi() -> Any:
+    try:
+        import casadi
+    except ImportError as exc:  # pragma: no cover - casadi is a hard dependency
+        raise DependencyError("the 'optim' planner needs CasADi: pip install 'casadi>=3.6'") from exc
+    return casadi
+
+
+def polygon_vertices(obstacle: Obstacle) -> FloatArray:
+    """Counter-clockwise vertices (K, 2) of a box or of a polygon's convex hull [m]."""
+    if isinstance(obstacle, Box):
+        return np.asarray(obstacle.corners(), dtype=float)
+    if isinstance(obstacle, Polygon):
+        v = obstacle.array
+        return np.asarray(v[ConvexHull(v).vertices], dtype=float)
+    raise TypeError(f"{obstacle.kind} has no vertices")
+
+
+def bicycle_rollout(state0: FloatArray, inputs: FloatArray, dt: float, wheelbase: float) -> FloatArray:
+    """Classical RK4 of the bicycle under piecewise-constant inputs, one step per input (scalar, fast).
+
+    Same method as :func:`planning.core.kinematics.rollout` with :func:`planning.core.kinematics.bicycle_rhs`,
+    written with scalar math for speed on long input sequences.
+
+    Args:
+        state0: (4,) [x, y, theta, phi].
+        inputs: (K, 2) [u1, u2], each held for ``dt``.
+        dt: Step [s].
+        wheelbase: l [m].
+
+    Returns:
+        (K + 1, 4) states.
+    """
+    cos, sin, tan = math.cos, math.sin, math.tan
+    out = np.empty((inputs.shape[0] + 1, 4))
+    x, y, th, ph = (float(v) for v in state0)
+    out[0] = (x, y, th, ph)
+    h2, h6, il = 0.5 * dt, dt / 6.0, 1.0 / wheelbase
+    for k, (u1, u2) in enumerate(inputs.tolist()):
+        w1 = u1 * tan(ph) * il
+        a1, b1 = u1 * cos(th), u1 * sin(th)
+        th2, ph2 = th + h2 * w1, ph + h2 * u2
+        w2 = u1 * tan(ph2) * il
+        a2, b2 = u1 * cos(th2), u1 * sin(th2)
+        th3 = th + h2 * w2
+        w3 = u1 * tan(ph2) * il  # phi at the midpoint is the same for k2 and k3
+        a3, b3 = u1 * cos(th3), u1 * sin(th3)
+        th4, ph4 = th + dt * w3, ph + dt * u2
+        w4 = u1 * tan(ph4) * il
+        a4, b4 = u1 * cos(th4), u1 * sin(th4)
+        x += h6 * (a1 + 2 * a2 + 2 * a3 + a4)
+        y += h6 * (b1 + 2 * b2 + 2 * b3 + b4)
+        th += h6 * (w1 + 2 * w2 + 2 * w3 + w4)
+        ph = ph4
+        out[k + 1] = (x, y, th, ph)
+    return out
+
+
+def dense_clearance(problem: PlanProblem, path: FloatArray) -> float:
+    """Smallest clearance of the robot's disc along a dense path [m] (negative: overlap).
+
+    Args:
+        problem: The world and robot.
+        path: (M, 2+) positions along the motion [m].
+
+    Returns:
+        min over the path of the signed distance to obstacles and walls minus the robot's radius.
+    """
+    return float(np.min(problem.world.signed_distance(np.asarray(path)[:, :2])) - problem.robot.radius)
+
+
+@dataclass
+class _Nlp:
+    """A built Opti problem and its handles."""
+
+    opti: Any
+    x: Any
+    u: Any
+    psi: list[Any]
+    p_start: Any
+    p_goal: Any
+    p_dt: Any
+    p_bounds: Any
+    p_limits: Any
+    p_wheelbase: Any
+    p_clear: Any
+    p_circles: Any
+    p_ellipses: Any
+    p_polys: list[Any]
+    verbose: bool
+
+
+_CACHE: dict[tuple[Any, ...], _Nlp] = {}
+
+
+@dataclass(frozen=True)
+class OptimSolution:
+    """A plan with the optimiser's own variables.
+
+    Attributes:
+        result: The plan (dense rollout of the inputs from the start).
+        nodes: (N+1, 4) node states [x, y, theta, phi] as IPOPT left them (None if it never ran).
+        inputs: (N, 2) inputs [u1, u2] held over each interval (None if IPOPT never ran).
+    """
+
+    result: PlanResult
+    nodes: FloatArray | None = None
+    inputs: FloatArray | None = None
+
+
+def _build(key: tuple[Any, ...]) -> _Nlp:
+    ca = _casadi()
+    n, n_circ, n_ell, poly_k, w_steer, w_smooth, max_iter, verbose, time_limit = key
+    opti = ca.Opti()
+    x = opti.variable(4, n + 1)
+    u = opti.variable(2, n)
+    p_start, p_goal = opti.parameter(4), opti.parameter(4)
+    p_dt, p_l, p_clear = opti.parameter(), opti.parameter(), opti.parameter()
+    p_bounds, p_limits = opti.parameter(4), opti.parameter(4)
+
+    s, a, h, lb = ca.SX.sym("s", 4), ca.SX.sym("a", 2), ca.SX.sym("h"), ca.SX.sym("l")
+
+    def f(st: Any) -> Any:
+        return ca.vertcat(a[0] * ca.cos(st[2]), a[0] * ca.sin(st[2]), a[0] * ca.tan(st[3]) / lb, a[1])
+
+    k1 = f(s)
+    k2 = f(s + h / 2 * k1)
+    k3 = f(s + h / 2 * k2)
+    k4 = f(s + h * k3)
+    rk4 = ca.Function("rk4", [s, a, h, lb], [s + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
+    step = rk4.map(n)
+    opti.subject_to(x[:, 1:] == step(x[:, :-1], u, p_dt, p_l))
+    opti.subject_to(x[:, 0] == p_start)
+    opti.subject_to(x[:, n] == p_goal)
+    px, py = x[0, :], x[1, :]
+    opti.subject_to(opti.bounded(p_bounds[0], px, p_bounds[1]))
+    opti.subject_to(opti.bounded(p_bounds[2], py, p_bounds[3]))
+    opti.subject_to(opti.bounded(-p_limits[2], x[3, :], p_limits[2]))
+    opti.subject_to(opti.bounded(-p_limits[0], u[0, :], p_limits[0]))
+    opti.subject_to(opti.bounded(-p_limits[1], u[1, :], p_limits[1]))
+    # phi is linear in time within an interval and tan is monotone, so |u1 tan(phi) / l| peaks at an end.
+    opti.subject_to(opti.bounded(-p_limits[3], u[0, :] * ca.tan(x[3, :-1]) / p_l, p_limits[3]))
+    opti.subject_to(opti.bounded(-p_limits[3], u[0, :] * ca.tan(x[3, 1:]) / p_l, p_limits[3]))
+
+    p_circles: Any = opti.parameter(3, n_circ) if n_circ else None
+    for j in range(n_circ):
+        c = p_circles[:, j]
+        opti.subject_to((px - c[0]) ** 2 + (py - c[1]) ** 2 >= (c[2] + p_clear) ** 2)
+    psi: list[Any] = []
+    p_ellipses: Any = opti.parameter(5, n_ell) if n_ell else None
+    for j in range(n_ell):
+        e = p_ellipses[:, j]
+        ps = opti.variable(1, n + 1)
+        psi.append(ps)
+        support = ca.sqrt((e[2] * ca.cos(ps - e[4])) ** 2 + (e[3] * ca.sin(ps - e[4])) ** 2)
+        opti.subject_to(ca.cos(ps) * (px - e[0]) + ca.sin(ps) * (py - e[1]) - support >= p_clear)
+    p_polys = []
+    for kv in poly_k:
+        vp = opti.parameter(2, kv)
+        p_polys.append(vp)
+        ps = opti.variable(1, n + 1)
+        psi.append(ps)
+        for i in range(kv):
+            opti.subject_to(ca.cos(ps) * (px - vp[0, i]) + ca.sin(ps) * (py - vp[1, i]) >= p_clear)
+
+    du = u[0, 1:] - u[0, :-1]
+    opti.minimize(p_dt * (ca.sumsqr(u[0, :]) + w_steer * ca.sumsqr(u[1, :])) + w_smooth * ca.sumsqr(du) / p_dt)
+    ipopt = {
+        "print_level": 5 if verbose else 0, "sb": "yes", "max_iter": max_iter, "tol": 1e-8, "max_cpu_time": time_limit,
+    }  # fmt: skip
+    opti.solver("ipopt", {"expand": True, "print_time": bool(verbose), "error_on_fail": False}, ipopt)
+    return _Nlp(
+        opti, x, u, psi, p_start, p_goal, p_dt, p_bounds, p_limits, p_l, p_clear, p_circles, p_ellipses, p_polys,
+        verbose,
+    )  # fmt: skip
+
+
+class Optim:
+    """Bicycle-model trajectory optimisation (CasADi Opti + IPOPT).
+
+    Args:
+        N: Number of intervals.
+        dt: Interval length [s]; the horizon is ``N * dt``. Default (None): ``DEFAULT_DT``, lengthened
+            when the warm start's path needs more than ``N * DEFAULT_DT - 1 s`` at full speed and
+            full turn rate, to ``(length / max_speed + turning / max_yaw_rate + 1 s) / N`` (turning:
+            the total heading change along the warm start); give ``dt`` to fix the horizon. A
+            horizon too short for the turns (the EduMIP turns at 0.5 rad/s) leaves IPOPT pressing
+            on the yaw-rate bound: parking lot, EduMIP took 260 iterations and 26 s, now 68 and 5 s.
+        init: Warm start: "auto" ("grid" with obstacles, else "sinusoidal"), "straight" (line from
+            start to goal), "grid" (shortest free polyline on a grid, :mod:`planning.planners.gridpath`) or the
+            name of a registered planner whose path is resampled onto the nodes by arc length
+            (e.g. "rrt-star", "sinusoidal").
+        init_options: Options for the warm-start planner.
+        u2max: Steering-rate bound [rad/s].
+        margin: Clearance added to the robot's radius [m].
+        w_steer: Weight of u2^2 in the cost.
+        w_smooth: Weight of the u1 increments in the cost.
+        max_iter: IPOPT iteration limit.
+        max_resolves: Re-solves with a larger margin when the dense rollout cuts an obstacle
+            between nodes (see :meth:`solve`).
+        verbose: Let IPOPT print.
+    """
+
+    name = "optim"
+
+    def __init__(
+        self,
+        *,
+        N: int = DEFAULT_N,
+        dt: float | None = None,
+        init: str = "auto",
+        init_options: dict[str, Any] | None = None,
+        u2max: float = 2.0,
+        margin: float = 0.01,
+        w_steer: float = 0.01,
+        w_smooth: float = 0.01,
+        max_iter: int = 3000,
+        max_resolves: int = 3,
+        verbose: bool = False,
+    ) -> None:
+        if isinstance(N, bool) or not isinstance(N, (int, np.integer)) or N < 2:
+            raise ConfigError(f"optim: N must be an integer >= 2, got {N!r}")
+        for label, val in (("dt", DEFAULT_DT if dt is None else dt), ("u2max", u2max)):
+            if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
+                raise ConfigError(f"optim: {label} must be a number > 0, got {val!r}")
+        for label, val in (("margin", margin), ("w_steer", w_steer), ("w_smooth", w_smooth)):
+            if not (isinstance(val, (int, float)) and math.isfinite(val) and val >= 0):
+                raise ConfigError(f"optim: {label} must be a number >= 0, got {val!r}")
+        if init not in _BUILTIN_INITS and init not in PLANNERS:
+            raise ConfigError(
+                f"optim: init {init!r} is neither one of {', '.join(_BUILTIN_INITS)} nor a registered planner "
+                f"({', '.join(sorted(PLANNERS)) or 'none'}); use init='auto' or register the planner"
+            )
+        if init == self.name:
+            raise ConfigError("optim: init='optim' would warm start from itself; choose 'straight' or another planner")
+        self.N = int(N)
+        self.dt_opt = None if dt is None else float(dt)
+        self.dt = DEFAULT_DT if dt is None else float(dt)
+        self.init = init
+        self.init_options = dict(init_options or {})
+        self.u2max = float(u2max)
+        self.margin = float(margin)
+        self.w_steer = float(w_steer)
+        self.w_smooth = float(w_smooth)
+        self.max_iter = int(max_iter)
+        if isinstance(max_resolves, bool) or not isinstance(max_resolves, (int, np.integer)) or max_resolves < 0:
+            raise ConfigError(f"optim: max_resolves must be an integer >= 0, got {max_resolves!r}")
+        self.max_resolves = int(max_resolves)
+        self.verbose = bool(verbose)
+
+    # -- warm start ----------------------------------------------------------------------------
+    def _initial_guess(self, problem: PlanProblem) -> tuple[FloatArray, FloatArray, str]:
+        """Node states (N+1, 4) and inputs (N, 2) to start IPOPT from, and where they came from."""
+        n = self.N
+        s = problem.start.as_array()
+        init = self.init
+        if init == "auto":
+            init = "grid" if problem.world.obstacles else "sinusoidal"
+        source = init
+        path: FloatArray | None = None
+        if init == "grid":
+            clear = problem.robot.radius + self.margin + 0.01
+            poly = grid_path(problem.world, problem.start.xy, problem.goal.xy, clear)
+            if poly is not None and poly.shape[0] >= 2:
+                heading = np.arctan2(np.diff(poly[:, 1]), np.diff(poly[:, 0]))
+                heading = np.unwrap(np.concatenate([[s[2]], heading]))
+                path = np.column_stack([poly, heading])
+            else:
+                source = "straight (no free route on the grid)"
+        elif init != "straight":
+            res = make_planner(init, **self.init_options).plan(problem)
+            if res.path.shape[0] >= 2 and res.status in (PlanStatus.SUCCESS, PlanStatus.BOUNDS_VIOLATED):
+                path = res.path
+            else:
+                source = f"straight (init planner {init!r} ended {res.status.value})"
+        tau = np.linspace(0.0, 1.0, n + 1)
+        if path is None:
+            g = np.array([problem.goal.x, problem.goal.y, s[2] + float(wrap_angle(problem.goal.theta - s[2]))])
+            xs = s[None, :] + tau[:, None] * (g - s)[None, :]
+        else:
+            seg = np.hypot(np.diff(path[:, 0]), np.diff(path[:, 1]))
+            arc = np.concatenate([[0.0], np.cumsum(seg)])
+            if arc[-1] <= 1e-9:
+                arc = np.linspace(0.0, 1.0, path.shape[0])
+            q = tau * arc[-1]
+            theta = np.unwrap(path[:, 2])
+            xs = np.column_stack(
+                [np.interp(q, arc, path[:, 0]), np.interp(q, arc, path[:, 1]), np.interp(q, arc, theta)]
+            )
+        # The goal heading on the branch nearest the guess's final heading.
+        xs[-1, 2] = xs[-1, 2] + float(wrap_angle(problem.goal.theta - xs[-1, 2]))
+        x0 = np.column_stack([xs, np.zeros(n + 1)])
+        d = np.diff(xs[:, :2], axis=0)
+        if self.dt_opt is None:  # lengthen the horizon for a long way round or a lot of turning
+            turn = float(np.sum(np.abs(np.diff(xs[:, 2]))))
+            need = (
+                float(np.sum(np.hypot(d[:, 0], d[:, 1]))) / problem.robot.max_speed
+                + turn / problem.robot.max_yaw_rate
+                + 1.0
+            )
+            self.dt = max(DEFAULT_DT, need / n)
+        u1 = (d[:, 0] * np.cos(xs[:-1, 2]) + d[:, 1] * np.sin(xs[:-1, 2])) / self.dt
+        lim = problem.robot.max_speed
+        u0 = np.column_stack([np.clip(u1, -lim, lim), np.zeros(n)])
+        return x0, u0, source
+
+    # -- solving -------------------------------------------------------------------------------
+    def plan(self, problem: PlanProblem) -> PlanResult:
+        """Solve the NLP for ``problem``; every failure is a status with IPOPT's reason."""
+        return self.solve(problem).result
+
+    def solve(self, problem: PlanProblem) -> OptimSolution:
+        """Like :meth:`plan`, also returning IPOPT's node states and inputs.
+
+        The constraints hold at the nodes; between them the robot moves up to ``max_speed * dt``
+        (16 cm for the EduMIP at the default dt) and a chord past a corner or a disc can come
+        closer than the nodes. So the dense rollout's disc clearance is measured, and while it is
+        negative the NLP is solved again with the margin raised by the shortfall plus ``5 mm``
+        (``max_resolves`` times at most); a rollout that still cuts an obstacle is a failure.
+        """
+        t0 = time.perf_counter()
+        extra = 0.0
+        sol = self._solve_with_margin(problem, self.margin, t0)
+        for attempt in range(self.max_resolves + 1):
+            res = sol.result
+            if not res.success:
+                return sol
+            gap = dense_clearance(problem, res.path)
+            res.stats.update(dense_disc_clearance=gap, margin_used=self.margin + extra, resolves=attempt)
+            if gap >= 0.0:
+                return sol
+            if attempt == self.max_resolves:
+                break
+            extra += -gap + 0.005
+            sol = self._solve_with_margin(problem, self.margin + extra, t0)
+        stats = dict(res.stats, time_s=time.perf_counter() - t0)
+        kw = {k: getattr(res, k) for k in ("path", "times", "controls", "directions", "states")}
+        return OptimSolution(PlanResult(
+            PlanStatus.FAILED, self.name, stats=stats, **kw,
+            reason=f"the robot's disc comes within {gap:.4f} m of an obstacle or wall between nodes even with the "
+            f"margin raised to {self.margin + extra:.3f} m; use more nodes (N) or a shorter dt",
+        ), sol.nodes, sol.inputs)  # fmt: skip
+
+    def _solve_with_margin(self, problem: PlanProblem, margin: float, t0: float) -> OptimSolution:
+        robot, world = problem.robot, problem.world
+        clear = robot.radius + margin
+        for label, pose, status in (
+            ("start", problem.start, PlanStatus.INVALID_START),
+            ("goal", problem.goal, PlanStatus.INVALID_GOAL),
+        ):
+            dist = float(world.signed_distance(pose.xy)[0])
+            if dist < robot.radius:
+                return OptimSolution(PlanResult(
+                    status, self.name, stats={"time_s": time.perf_counter() - t0},
+                    reason=f"the robot's disc (radius {robot.radius:.3f} m) at the {label} is {dist:.3f} m from "
+                    "the nearest obstacle or wall; move the pose into free space",
+                ))  # fmt: skip
+        circles = [o for o in world.obstacles if isinstance(o, Circle)]
+        ellipses = [o for o in world.obstacles if isinstance(o, Ellipse)]
+        polys = [polygon_vertices(o) for o in world.obstacles if isinstance(o, (Box, Polygon))]
+        key = (
+            self.N, len(circles), len(ellipses), tuple(p.shape[0] for p in polys), self.w_steer, self.w_smooth,
+            self.max_iter, self.verbose, float(problem.time_limit),
+        )  # fmt: skip
+        cached = key in _CACHE
+        if not cached:
+            _CACHE[key] = _build(key)
+        nlp = _CACHE[key]
+        t_build = time.perf_counter() - t0
+        self.dt = DEFAULT_DT if self.dt_opt is None else self.dt_opt
+        try:
+            x_init, u_init, init_source = self._initial_guess(problem)
+        except ConfigError as exc:
+            raise ConfigError(f"optim: warm start from {self.init!r} failed: {exc}") from exc
+        opti = nlp.opti
+        opti.set_value(nlp.p_start, [problem.start.x, problem.start.y, problem.start.theta, 0.0])
+        opti.set_value(nlp.p_goal, [problem.goal.x, problem.goal.y, x_init[-1, 2], 0.0])
+        opti.set_value(nlp.p_dt, self.dt)
+        opti.set_value(nlp.p_wheelbase, robot.wheelbase)
+        opti.set_value(nlp.p_clear, clear)
+        xmin, xmax, ymin, ymax = world.bounds
+        opti.set_value(nlp.p_bounds, [xmin + clear, xmax - clear, ymin + clear, ymax - clear])
+        opti.set_value(nlp.p_limits, [robot.max_speed, self.u2max, robot.max_steering, robot.max_yaw_rate])
+        if circles:
+            opti.set_value(nlp.p_circles, np.array([[c.center[0], c.center[1], c.radius] for c in circles]).T)
+        if ellipses:
+            opti.set_value(
+                nlp.p_ellipses,
+                np.array([[e.center[0], e.center[1], e.radii[0], e.radii[1], e.angle] for e in ellipses]).T,
+            )
+        for vp, verts in zip(nlp.p_polys, polys, strict=True):
+            opti.set_value(vp, verts.T)
+        opti.set_initial(nlp.x, x_init.T)
+        opti.set_initial(nlp.u, u_init.T)
+        centres = [np.asarray(e.center) for e in ellipses] + [v.mean(axis=0) for v in polys]
+        for ps, c in zip(nlp.psi, centres, strict=True):
+            opti.set_initial(ps, np.arctan2(x_init[:, 1] - c[1], x_init[:, 0] - c[0])[None, :])
+        t_solve = time.perf_counter()
+        try:
+            opti.solve_limited()
+        except RuntimeError:
+            pass  # a failed solve raises; its status and last iterate are read below
+        try:
+            ipopt_stats = opti.stats()
+            xv = np.asarray(opti.debug.value(nlp.x)).T
+            uv = np.asarray(opti.debug.value(nlp.u)).T.reshape(self.N, 2)
+        except RuntimeError as exc:
+            return OptimSolution(PlanResult(
+                PlanStatus.FAILED, self.name, reason=f"IPOPT stopped with an error: {exc}",
+                stats={"time_s": time.perf_counter() - t0, "init": init_source},
+            ))  # fmt: skip
+        solve_s = time.perf_counter() - t_solve
+        return_status = str(ipopt_stats.get("return_status", "unknown"))
+        stats: dict[str, Any] = {
+            "time_s": time.perf_counter() - t0,
+            "solve_time_s": solve_s,
+            "build_time_s": t_build if not cached else 0.0,
+            "nlp_cached": cached,
+            "ipopt_status": return_status,
+            "iterations": int(ipopt_stats.get("iter_count", -1)),
+            "N": self.N,
+            "dt": self.dt,
+            "init": init_source,
+        }
+        return OptimSolution(self._result(problem, xv, uv, return_status, stats), xv, uv)
+
+    def _result(
+        self, problem: PlanProblem, xv: FloatArray, uv: FloatArray, return_status: str, stats: dict[str, Any]
+    ) -> PlanResult:
+        robot, world = problem.robot, problem.world
+        sub = max(1, math.ceil(self.dt / 0.01 - 1e-9))
+        h = self.dt / sub
+        u_dense = np.repeat(uv, sub, axis=0)
+        states = bicycle_rollout(xv[0], u_dense, h, robot.wheelbase)
+        times = np.arange(states.shape[0]) * h
+        u_full = np.vstack([u_dense, u_dense[-1:]])
+        controls = bicycle_to_unicycle(states, u_full, robot.wheelbase)
+        direction = np.where(u_full[:, 0] < 0, -1.0, 1.0)
+        path = states[:, :3].copy()
+        end = states[-1]
+        pos_err = float(np.hypot(end[0] - problem.goal.x, end[1] - problem.goal.y))
+        head_err = abs(float(wrap_angle(end[2] - problem.goal.theta)))
+        defect = xv[1:] - bicycle_rollout(xv[0], uv, self.dt, robot.wheelbase)[1:]
+        stats.update(
+            final_position_error=pos_err,
+            final_heading_error=head_err,
+            final_state_error=float(np.linalg.norm(end - np.array([problem.goal.x, problem.goal.y, xv[-1, 2], 0.0]))),
+            length=float(np.sum(np.hypot(np.diff(path[:, 0]), np.diff(path[:, 1])))),
+            max_abs_u1=float(np.max(np.abs(uv[:, 0]))),
+            max_abs_phi=float(np.max(np.abs(xv[:, 3]))),
+            rollout_drift=float(np.max(np.abs(defect[:, :2]))) if defect.size else 0.0,
+        )
+        if world.obstacles:
+            stats["min_clearance"] = float(np.min(world.obstacle_distance(path[:, :2])) - robot.radius)
+        kw: dict[str, Any] = {
+            "path": path,
+            "times": times,
+            "controls": controls,
+            "directions": direction,
+            "states": states,
+        }
+        reason = f"IPOPT: {return_status}"
+        if return_status in _SUCCESS:
+            if pos_err > problem.position_tolerance or head_err > problem.heading_tolerance:
+                return PlanResult(PlanStatus.FAILED, self.name, reason=f"{reason}, but the rollout misses the goal "
+                                  f"by {pos_err:.3g} m, {head_err:.3g} rad; reduce dt", stats=stats, **kw)  # fmt: skip
+            return PlanResult(PlanStatus.SUCCESS, self.name, reason="", stats=stats, **kw)
+        if return_status in _INFEASIBLE:
+            status = PlanStatus.INFEASIBLE
+            reason += " (the constraints cannot all hold: a longer horizon N*dt, a reachable goal or more room helps)"
+        elif return_status in _TIMEOUT:
+            status = PlanStatus.TIMEOUT
+            reason += " (raise max_iter or the time limit, or warm start from another planner with init=...)"
+        else:
+            status = PlanStatus.FAILED
+        return PlanResult(status, self.name, reason=reason, stats=stats, **kw)

@@ -1,0 +1,1 @@
+"""Random-tree planners (RRT, bidirectional RRT, RRT*, C-RRT*) and their steering."""

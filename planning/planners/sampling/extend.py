@@ -1,0 +1,183 @@
+"""One interface over every steering method the tree planners use (primitives and exact curves).
+
+``extend(q_from, q_to, backwards)`` returns a collision-free motion that starts at ``q_from`` and
+heads for ``q_to`` (forward trees), or, with ``backwards=True``, a motion that *ends* at ``q_from``
+and starts as near ``q_to`` as possible (trees grown from the goal). Exact curves are always
+computed from the start side to the goal side, so a backwards extension steers from the target to
+the tree node and keeps the suffix: the asymmetric Dubins distance is never used the wrong way
+round.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from planning.collision.grid import FastChecker
+from planning.core.robot import RobotSpec
+from planning.curves.words import Word
+from planning.errors import ConfigError
+from planning.planners.sampling.steering import (
+    SAMPLE_STEP,
+    CurveSteering,
+    bicycle_primitives,
+    default_turning_radius,
+    diffdrive_metric,
+    diffdrive_steer,
+    se2_metric,
+    unicycle_primitives,
+)
+
+FloatArray = NDArray[np.float64]
+Steering = Literal["bicycle", "unicycle", "diffdrive", "reeds_shepp", "dubins"]
+STEERINGS: tuple[str, ...] = ("bicycle", "unicycle", "diffdrive", "reeds_shepp", "dubins")
+Motion = tuple[FloatArray, FloatArray, FloatArray]  # (q_new (3,), poses (K, 3), directions (K,))
+
+
+def _arc_prefix(poses: FloatArray, length: float) -> int:
+    """Index of the last sample whose chord-summed distance from the first is <= length."""
+    cum = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(poses[:, 0]), np.diff(poses[:, 1])))])
+    return int(np.searchsorted(cum, length, side="right") - 1)
+
+
+@dataclass
+class LocalPlanner:
+    """Steering plus collision checking for one planning run.
+
+    Args:
+        steering: "bicycle" (seed 000), "unicycle" (seed 001), "diffdrive" (seed 002),
+            "reeds_shepp" or "dubins".
+        robot: The robot.
+        checker: Collision checker.
+        rho: Turning radius of the exact curves [m] (default: the virtual bicycle's).
+        step_range: Longest exact-curve extension [m].
+        n_speeds: Bicycle primitive speeds.
+        primitive_duration: Bicycle primitive / diff-drive drive duration [s].
+    """
+
+    steering: str
+    robot: RobotSpec
+    checker: FastChecker
+    rho: float | None = None
+    step_range: float = 1.0
+    n_speeds: int = 20
+    primitive_duration: float = 1.0
+    curves: CurveSteering = field(init=False)
+    sample_step: float = field(init=False)
+    _dense: list[FloatArray] = field(init=False, default_factory=list)
+    _dirs: FloatArray = field(init=False)
+    _ends: FloatArray = field(init=False)
+
+    def __post_init__(self) -> None:
+        if self.steering not in STEERINGS:
+            raise ConfigError(f"unknown steering {self.steering!r}: choose one of {', '.join(STEERINGS)}")
+        rho = self.rho if self.rho is not None else default_turning_radius(self.robot)
+        if not rho > 0:
+            raise ConfigError(f"turning_radius must be > 0 m, got {rho}")
+        self.rho = rho
+        kind: Literal["dubins", "reeds_shepp"] = "dubins" if self.steering == "dubins" else "reeds_shepp"
+        self.curves = CurveSteering(kind, rho)
+        # Robot points move at most step * (1 + R / rho) between curve samples.
+        self.sample_step = min(SAMPLE_STEP, self.checker.resolution / (1.0 + self.robot.radius / rho))
+        if self.steering in ("bicycle", "unicycle"):
+            prims = (
+                bicycle_primitives(self.robot, n_speeds=self.n_speeds, duration=self.primitive_duration)
+                if self.steering == "bicycle"
+                else unicycle_primitives()
+            )
+            self._dense = [self.checker.densify(p) for p in prims.poses]
+            self._dirs = prims.directions
+            self._ends = prims.poses[:, -1]
+
+    @property
+    def exact(self) -> bool:
+        """Whether extensions reach their target exactly when it is near enough."""
+        return self.steering in ("reeds_shepp", "dubins")
+
+    def metric(self, nodes: FloatArray, q: FloatArray) -> FloatArray:
+        """Nearest-node distance for this steering (seed 002's for diffdrive, seed 000's otherwise)."""
+        return diffdrive_metric(nodes, q) if self.steering == "diffdrive" else se2_metric(nodes, q)
+
+    def word_motion(self, word: Word) -> tuple[FloatArray, FloatArray]:
+        """Dense samples (K, 3) and directions (K,) of a curve at the checking step."""
+        return word.sample(self.sample_step)
+
+    def connect(self, q_a: FloatArray, q_b: FloatArray) -> tuple[FloatArray, FloatArray] | None:
+        """The exact curve from ``q_a`` (start side) to ``q_b`` (goal side) if collision-free."""
+        poses, dirs = self.word_motion(self.curves.curve(q_a, q_b))
+        poses[-1] = q_b  # land exactly (the sampler's end is within 1e-9 m of q_b)
+        return (poses, dirs) if self.checker.path_free(poses) else None
+
+    def extend(self, q_from: FloatArray, q_to: FloatArray, backwards: bool = False) -> Motion | None:
+        """A collision-free motion from ``q_from`` toward ``q_to`` (see the module doc), or None."""
+        if self.exact:
+            return self._extend_curve(q_from, q_to, backwards)
+        if self.steering == "diffdrive":
+            if backwards:
+                raise ConfigError("diffdrive steering grows forward trees only: use it with 'rrt' or 'rrt-star'")
+            poses = diffdrive_steer(q_from, q_to, self.robot, duration=self.primitive_duration)
+            dense = self.checker.densify(poses)
+            if not self.checker.path_free(dense):
+                return None
+            v_sign = 1.0 if np.dot(poses[-1, :2] - poses[0, :2], [np.cos(q_from[2]), np.sin(q_from[2])]) >= 0 else -1.0
+            return dense[-1].copy(), dense, np.full(dense.shape[0], v_sign)
+        return self._extend_primitive(q_from, q_to, backwards)
+
+    def _extend_primitive(self, q_from: FloatArray, q_to: FloatArray, backwards: bool) -> Motion | None:
+        c, s = np.cos(q_from[2]), np.sin(q_from[2])
+        ends = np.empty_like(self._ends)
+        if backwards:
+            # Primitive p placed at S = q_from (+) E_p^-1 ends exactly at q_from; S is the new node.
+            e = self._ends
+            eth = -e[:, 2]
+            ce, se = np.cos(eth), np.sin(eth)
+            bx, by = -(ce * e[:, 0] - se * e[:, 1]), -(se * e[:, 0] + ce * e[:, 1])
+            ends[:, 0] = q_from[0] + c * bx - s * by
+            ends[:, 1] = q_from[1] + s * bx + c * by
+            ends[:, 2] = q_from[2] + eth
+        else:
+            ends[:, 0] = q_from[0] + c * self._ends[:, 0] - s * self._ends[:, 1]
+            ends[:, 1] = q_from[1] + s * self._ends[:, 0] + c * self._ends[:, 1]
+            ends[:, 2] = q_from[2] + self._ends[:, 2]
+        for p in np.argsort(self.metric(ends, q_to), kind="stable"):
+            body = self._dense[p]
+            if backwards:
+                poses = _place(body, ends[p])
+                poses[-1] = q_from
+            else:
+                poses = _place(body, q_from)
+            d = self._dirs[p]
+            if self.checker.path_free(poses):
+                q_new = poses[0].copy() if backwards else poses[-1].copy()
+                return q_new, poses, np.full(poses.shape[0], d)
+        return None
+
+    def _extend_curve(self, q_from: FloatArray, q_to: FloatArray, backwards: bool) -> Motion | None:
+        word = self.curves.curve(q_to, q_from) if backwards else self.curves.curve(q_from, q_to)
+        poses, dirs = self.word_motion(word)
+        if backwards:
+            poses[-1] = q_from
+            k = poses.shape[0] - 1 - _arc_prefix(poses[::-1], self.step_range)
+            poses, dirs = poses[k:], dirs[k:]
+            if k == 0:
+                poses[0] = q_to
+        else:
+            poses[-1] = q_to
+            k = _arc_prefix(poses, self.step_range)
+            poses, dirs = poses[: k + 1], dirs[: k + 1]
+        if poses.shape[0] < 2 or not self.checker.path_free(poses):
+            return None
+        q_new = poses[0].copy() if backwards else poses[-1].copy()
+        return q_new, poses, dirs
+
+
+def _place(body: FloatArray, pose: FloatArray) -> FloatArray:
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    out = np.empty_like(body)
+    out[:, 0] = pose[0] + c * body[:, 0] - s * body[:, 1]
+    out[:, 1] = pose[1] + s * body[:, 0] + c * body[:, 1]
+    out[:, 2] = pose[2] + body[:, 2]
+    return out

@@ -1,0 +1,186 @@
+"""Shared machinery of the random-tree planners: growable trees, setup checks, results.
+
+A :class:`Tree` keeps its nodes in preallocated arrays (doubled when full) so nearest-neighbour
+queries are one vectorised pass over all nodes. Each node stores the dense motion of its edge:
+for a tree grown from the start, from the parent to the node; for a tree grown backwards from
+the goal, from the node to the parent (always in the direction the robot drives).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from planning.collision.exact import CollisionChecker, Shape
+from planning.collision.grid import FastChecker
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
+
+FloatArray = NDArray[np.float64]
+Metric = Callable[[FloatArray, FloatArray], FloatArray]
+
+
+class Tree:
+    """A search tree with array storage.
+
+    Args:
+        root: (3,) root pose.
+        backwards: True for a tree grown from the goal (edges stored node -> parent).
+        capacity: Initial node capacity (grows by doubling).
+    """
+
+    def __init__(self, root: FloatArray, *, backwards: bool = False, capacity: int = 1024) -> None:
+        self.backwards = backwards
+        self.nodes = np.empty((capacity, 3))
+        self.parents = np.full(capacity, -1, dtype=np.int64)
+        self.costs = np.zeros(capacity)
+        self.edges: list[tuple[FloatArray, FloatArray]] = [(np.asarray(root, float)[None, :], np.ones(1))]
+        self.children: list[list[int]] = [[]]
+        self.nodes[0] = root
+        self.n = 1
+
+    def add(self, q: FloatArray, parent: int, poses: FloatArray, dirs: FloatArray, cost: float = 0.0) -> int:
+        """Append a node with its edge motion (K, 3) and directions (K,); returns its index."""
+        if self.n == self.nodes.shape[0]:
+            cap = 2 * self.n
+            self.nodes = np.concatenate([self.nodes, np.empty((self.n, 3))])
+            self.parents = np.concatenate([self.parents, np.full(cap - self.n, -1, dtype=np.int64)])
+            self.costs = np.concatenate([self.costs, np.zeros(cap - self.n)])
+        i = self.n
+        self.nodes[i] = q
+        self.parents[i] = parent
+        self.costs[i] = cost
+        self.edges.append((poses, dirs))
+        self.children.append([])
+        self.children[parent].append(i)
+        self.n += 1
+        return i
+
+    def nearest(self, q: FloatArray, metric: Metric) -> int:
+        """Index of the node nearest to ``q`` under ``metric``."""
+        return int(np.argmin(metric(self.nodes[: self.n], q)))
+
+    def reparent(self, i: int, parent: int, poses: FloatArray, dirs: FloatArray, cost: float) -> None:
+        """Give node ``i`` a new parent and edge; shifts the cost of all its descendants."""
+        self.children[int(self.parents[i])].remove(i)
+        self.children[parent].append(i)
+        self.parents[i] = parent
+        self.edges[i] = (poses, dirs)
+        delta = cost - self.costs[i]
+        stack = [i]
+        while stack:
+            k = stack.pop()
+            self.costs[k] += delta
+            stack.extend(self.children[k])
+
+    def branch(self, i: int) -> tuple[FloatArray, FloatArray]:
+        """Dense motion between the root and node ``i`` in driving order: root -> i for a forward
+        tree, i -> root for a backwards tree. Returns (K, 3) poses and (K,) directions."""
+        first = i
+        chain = []
+        while i > 0:
+            chain.append(i)
+            i = int(self.parents[i])
+        if not self.backwards:
+            chain.reverse()
+            first = 0
+        if not chain:
+            return self.nodes[first][None, :].copy(), np.ones(1)
+        poses = [self.nodes[first][None, :]]
+        dirs = [self.edges[chain[0]][1][:1]]
+        for k in chain:
+            p, d = self.edges[k]
+            poses.append(p[1:])
+            dirs.append(d[1:])
+        return np.vstack(poses), np.concatenate(dirs)
+
+    def plan_tree(self, offset: int = 0) -> PlanTree:
+        """This tree as a :class:`PlanTree` for plotting (edge curves as (k, 2) arrays)."""
+        par = self.parents[: self.n].copy()
+        par[par >= 0] += offset
+        return PlanTree(self.nodes[: self.n].copy(), par, tuple(e[0][:, :2] for e in self.edges[1:]))
+
+
+def merge_trees(a: Tree, b: Tree) -> PlanTree:
+    """Two trees drawn as one :class:`PlanTree` (roots keep parent -1)."""
+    ta, tb = a.plan_tree(), b.plan_tree(offset=a.n)
+    return PlanTree(np.vstack([ta.nodes, tb.nodes]), np.concatenate([ta.parents, tb.parents]), ta.edges + tb.edges)
+
+
+@dataclass
+class Budget:
+    """Iteration and wall-clock budget of one planning run."""
+
+    max_iterations: int
+    time_limit: float
+    t0: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.max_iterations < 1:
+            raise ValueError(f"max_iterations must be >= 1, got {self.max_iterations}")
+        if not self.time_limit > 0:
+            raise ValueError(f"time_limit must be > 0 s, got {self.time_limit}")
+        self.t0 = time.perf_counter()
+
+    def elapsed(self) -> float:
+        """Seconds since the budget started."""
+        return time.perf_counter() - self.t0
+
+    def spent(self, iteration: int) -> bool:
+        """Whether iteration ``iteration`` (0-based) may not run."""
+        return iteration >= self.max_iterations or (iteration % 16 == 0 and self.elapsed() > self.time_limit)
+
+    def why(self, iteration: int) -> str:
+        """Which budget ended the run."""
+        if iteration >= self.max_iterations:
+            return f"iteration budget of {self.max_iterations} spent"
+        return f"time budget of {self.time_limit:g} s spent after {iteration} iterations"
+
+
+def make_checker(problem: PlanProblem, shape: Shape, clearance: float) -> FastChecker:
+    """The shared collision checker for a problem, with its fast exact front end."""
+    return FastChecker(CollisionChecker(problem.world, problem.robot, shape=shape, clearance=clearance))
+
+
+def check_endpoints(problem: PlanProblem, checker: FastChecker, planner: str) -> PlanResult | None:
+    """An INVALID_START / INVALID_GOAL result if the start or goal pose collides, else None."""
+    for which, pose, status in (
+        ("start", problem.start, PlanStatus.INVALID_START),
+        ("goal", problem.goal, PlanStatus.INVALID_GOAL),
+    ):
+        q = pose.as_array()
+        if not checker.poses_free(q[None, :])[0]:
+            clr = float(checker.clearance_of(q[None, :])[0])
+            return PlanResult(
+                status, planner,
+                reason=f"{which} pose ({q[0]:.3f}, {q[1]:.3f}, {q[2]:.3f}) is in collision or closer than the "
+                f"required clearance {checker.checker.clearance:g} m (clearance {clr:.3f} m, "
+                f"{checker.checker.shape} model): move the {which} or lower the clearance",
+            )  # fmt: skip
+    return None
+
+
+def sample_pose(rng: np.random.Generator, bounds: tuple[float, float, float, float]) -> FloatArray:
+    """A uniform pose in the bounds with a uniform heading in [-pi, pi)."""
+    u = rng.random(3)
+    return np.array(
+        [bounds[0] + u[0] * (bounds[1] - bounds[0]), bounds[2] + u[1] * (bounds[3] - bounds[2]), np.pi * (2 * u[2] - 1)]
+    )
+
+
+def in_goal(q: FloatArray, problem: PlanProblem) -> bool:
+    """Whether pose ``q`` lies inside the problem's goal tolerance."""
+    g = problem.goal.as_array()
+    dth = (q[2] - g[2] + np.pi) % (2 * np.pi) - np.pi
+    return bool(
+        np.hypot(q[0] - g[0], q[1] - g[1]) <= problem.position_tolerance and abs(dth) <= problem.heading_tolerance
+    )
+
+
+def goal_gap(nodes: FloatArray, problem: PlanProblem) -> FloatArray:
+    """(N,) position distance of nodes to the goal [m]."""
+    g = problem.goal.as_array()
+    return np.hypot(nodes[:, 0] - g[0], nodes[:, 1] - g[1])  # type: ignore[no-any-return]

@@ -1,0 +1,488 @@
+"""Sinusoidal steering of the kinematic bicycle in chained form (Murray and Sastry, 1993).
+
+The bicycle ``(x, y, theta, phi)`` with inputs ``u1`` (speed) and ``u2`` (steering rate) is written
+in chained coordinates ``z = (z1, phi, alpha, z4)`` with virtual inputs ``(v1, v2)``:
+
+standard model (headings near 0 or pi)::
+
+    z1 = x, alpha = sin(theta), z4 = y, v1 = cos(theta) u1, v2 = u2
+    z1' = v1, phi' = v2, alpha' = tan(phi) / l v1, z4' = alpha / (s sqrt(1 - alpha^2)) v1
+
+alternate model (headings near +-pi/2, x and y exchanged)::
+
+    z1 = y, alpha = cos(theta), z4 = x, v1 = sin(theta) u1, v2 = u2
+    z1' = v1, phi' = v2, alpha' = -tan(phi) / l v1, z4' = alpha / (s sqrt(1 - alpha^2)) v1
+
+with ``s = sign(cos theta)`` (standard) or ``sign(sin theta)`` (alternate) constant inside a region.
+The heading circle is cut into four regions at the hand-off headings +-45 deg and +-135 deg; a
+manoeuvre whose heading change crosses a hand-off is planned in pieces, one per region, each piece
+ending on the hand-off heading, so no piece comes near its model's singularity (|alpha| = 1).
+
+Inside a piece the four chained states are steered in turn:
+
+1. ``z1``: ``v1 = (dz1 / T)(1 - cos wt)``, ``v2 = 0``;
+2. ``phi``: ``v1 = 0``, ``v2 = (dphi / T)(1 - cos wt)``;
+3. ``alpha``: ``v1 = a1 sin wt``, ``v2 = a2 cos wt``; ``z1`` and ``phi`` return, and
+   ``dalpha = a1 * int_0^T f(phi(t)) sin wt dt`` is linear in ``a1``, solved in closed form;
+4. ``z4``: ``v1 = a1 sin wt``, ``v2 = a2 cos 2wt``; ``z1``, ``phi`` and ``alpha`` return (``f`` is
+   odd), ``dz4(a1)`` is nonlinear and ``a1`` is found by a bracketing root finder (Brent) until
+   ``z4`` lands within ``tolerance``.
+
+The amplitudes are bounded by ``u1max`` (``|a1| <= u1max``, and the executed ``u1 = v1 / cos``
+checked along the step), ``u2max`` (``|a2| <= u2max``), ``phimax`` (steering amplitude) and the
+robot's yaw-rate limit (``|u1 tan(phi) / l|``);
+when a step cannot meet them its period is lengthened. The chained states are integrated by
+Simpson quadrature on a fine grid (every state is an explicit integral of known time functions).
+
+Obstacles are not this planner's business: the path is checked against them and a path that
+collides ends as ``INFEASIBLE``. State bounds (the robot's disc inside the world's walls, ``|phi|
+<= phimax``) and input bounds are checked and a violation is reported as ``BOUNDS_VIOLATED``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.integrate import cumulative_simpson, simpson
+from scipy.optimize import brentq
+
+from planning.core.geometry import wrap_angle
+from planning.errors import ConfigError
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus
+
+FloatArray = NDArray[np.float64]
+
+#: Hand-off headings between the standard and the alternate model [rad].
+HANDOFFS = (-3 * math.pi / 4, -math.pi / 4, math.pi / 4, 3 * math.pi / 4)
+_SUB = 8  # fine quadrature points per output interval
+
+
+@dataclass(frozen=True)
+class ChainedModel:
+    """One chart of the chained form, valid for headings within 90 deg of ``center``.
+
+    Attributes:
+        center: Region centre heading: 0 or pi (standard), pi/2 or -pi/2 (alternate) [rad].
+    """
+
+    center: float
+
+    @property
+    def alternate(self) -> bool:
+        """Whether x and y are exchanged (alpha = cos theta)."""
+        return abs(math.cos(self.center)) < 0.5
+
+    @property
+    def name(self) -> str:
+        """ "standard" or "alternate"."""
+        return "alternate" if self.alternate else "standard"
+
+    @property
+    def s(self) -> float:
+        """Sign of cos(theta) (standard) or sin(theta) (alternate) in the region."""
+        return float(np.sign(math.sin(self.center) if self.alternate else math.cos(self.center)))
+
+    @property
+    def sigma(self) -> float:
+        """Sign in alpha' = sigma tan(phi) / l v1."""
+        return -1.0 if self.alternate else 1.0
+
+    def to_chained(self, state: FloatArray) -> FloatArray:
+        """Bicycle states (..., 4) [x, y, theta, phi] -> chained (..., 4) [z1, phi, alpha, z4]."""
+        x, y, th, phi = (state[..., i] for i in range(4))
+        if self.alternate:
+            return np.stack([y, phi, np.cos(th), x], axis=-1)
+        return np.stack([x, phi, np.sin(th), y], axis=-1)
+
+    def from_chained(self, z: FloatArray) -> FloatArray:
+        """Chained (..., 4) -> bicycle states (..., 4); theta in (-pi, pi]."""
+        z1, phi, alpha, z4 = (z[..., i] for i in range(4))
+        c = self.s * np.sqrt(np.clip(1.0 - alpha * alpha, 0.0, None))
+        if self.alternate:
+            return np.stack([z4, z1, np.arctan2(c, alpha), phi], axis=-1)
+        return np.stack([z1, z4, np.arctan2(alpha, c), phi], axis=-1)
+
+    def g(self, alpha: FloatArray) -> FloatArray:
+        """z4' / v1 = alpha / (s sqrt(1 - alpha^2))."""
+        return alpha / (self.s * np.sqrt(1.0 - alpha * alpha))
+
+    def speed(self, v1: FloatArray, alpha: FloatArray) -> FloatArray:
+        """The bicycle speed u1 = v1 / (s sqrt(1 - alpha^2)) [m/s]."""
+        return v1 / (self.s * np.sqrt(1.0 - alpha * alpha))
+
+
+def model_for(theta: float) -> ChainedModel:
+    """The chart whose hand-off region [c - 45 deg, c + 45 deg] contains ``theta``."""
+    c = round(float(wrap_angle(theta)) / (math.pi / 2)) * (math.pi / 2)
+    return ChainedModel(float(wrap_angle(c)) if abs(abs(c) - math.pi) > 1e-9 else math.pi)
+
+
+def heading_waypoints(theta0: float, theta1: float) -> list[float]:
+    """Headings from ``theta0`` to ``theta1`` (the shorter way) with every hand-off crossed in between.
+
+    Returns:
+        Unwrapped headings [rad], first ``theta0``, last ``theta0 + wrap(theta1 - theta0)``.
+    """
+    delta = float(wrap_angle(theta1 - theta0))
+    end = theta0 + delta
+    lo, hi = sorted((theta0, end))
+    k0 = math.ceil((lo - math.pi / 4) / (math.pi / 2) + 1e-12)
+    k1 = math.floor((hi - math.pi / 4) / (math.pi / 2) - 1e-12)
+    cuts = [math.pi / 4 + k * math.pi / 2 for k in range(k0, k1 + 1)]
+    cuts = [c for c in cuts if lo + 1e-9 < c < hi - 1e-9]
+    if delta < 0:
+        cuts.reverse()
+    return [theta0, *cuts, end]
+
+
+@dataclass
+class _Segment:
+    t: FloatArray  # (M,) local time from 0 [s]
+    z: FloatArray  # (M, 4) chained states
+    v: FloatArray  # (M, 2) virtual inputs
+    model: ChainedModel
+    step: str
+
+
+class _StepFailed(Exception):
+    pass
+
+
+class Sinusoidal:
+    """Sinusoidal steering planner for the bicycle model.
+
+    Args:
+        u1max: Bound on |u1| [m/s] (default: the robot's max speed).
+        u2max: Bound on |u2|, the steering rate [rad/s].
+        phimax: Bound on |phi| [rad] (default: the robot's max steering angle).
+        tolerance: Landing tolerance of the root search on the fourth state [m].
+        dt: Output sample spacing [s].
+        min_period: Shortest step duration [s].
+        max_period: Longest step duration tried before giving up [s].
+        max_heading_offset: Largest heading excursion from a piece's model centre [rad] (< pi/2).
+    """
+
+    name = "sinusoidal"
+
+    def __init__(
+        self,
+        *,
+        u1max: float | None = None,
+        u2max: float = 2.0,
+        phimax: float | None = None,
+        tolerance: float = 1e-6,
+        dt: float = 0.01,
+        min_period: float = 2.0,
+        max_period: float = 120.0,
+        max_heading_offset: float = math.radians(80.0),
+    ) -> None:
+        for label, val in (("u2max", u2max), ("tolerance", tolerance), ("dt", dt), ("min_period", min_period)):
+            if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
+                raise ConfigError(f"sinusoidal: {label} must be a number > 0, got {val!r}")
+        for label, opt in (("u1max", u1max), ("phimax", phimax)):
+            if opt is not None and not (math.isfinite(opt) and opt > 0):
+                raise ConfigError(f"sinusoidal: {label} must be > 0 (or omitted for the robot's limit), got {opt!r}")
+        if phimax is not None and phimax >= math.pi / 2:
+            raise ConfigError(f"sinusoidal: phimax must be < pi/2, got {phimax}")
+        if not 0 < max_heading_offset < math.pi / 2:
+            raise ConfigError(f"sinusoidal: max_heading_offset must lie in (0, pi/2), got {max_heading_offset}")
+        if max_period < min_period:
+            raise ConfigError(f"sinusoidal: max_period ({max_period}) must be >= min_period ({min_period})")
+        self.u1max_opt = u1max
+        self.u2max = float(u2max)
+        self.phimax_opt = phimax
+        self.tolerance = float(tolerance)
+        self.dt = float(dt)
+        self.min_period = float(min_period)
+        self.max_period = float(max_period)
+        self.alpha_lim = math.sin(max_heading_offset)
+        # Set per problem by plan(): wheelbase [m] and the effective bounds.
+        self.l = 0.1
+        self.u1max = u1max if u1max is not None else 0.22
+        self.phimax = phimax if phimax is not None else 0.6
+        self.wmax = math.inf  # the differential drive's yaw-rate limit omega = u1 tan(phi) / l [rad/s]
+
+    # -- steps ---------------------------------------------------------------------------------
+    def _grid(self, period: float) -> FloatArray:
+        n = max(2, math.ceil(period / self.dt - 1e-9))
+        return np.linspace(0.0, period, n * _SUB + 1)
+
+    def _integrate(self, m: ChainedModel, z0: FloatArray, t: FloatArray, v1: FloatArray, phi: FloatArray) -> FloatArray:
+        """Chained states along ``t`` for given v1(t) and phi(t) (fine grid, Simpson quadrature)."""
+        z = np.empty((t.size, 4))
+        z[:, 0] = z0[0] + cumulative_simpson(v1, x=t, initial=0.0)
+        z[:, 1] = phi
+        z[:, 2] = z0[2] + cumulative_simpson(m.sigma * np.tan(phi) / self.l * v1, x=t, initial=0.0)
+        if np.max(np.abs(z[:, 2])) >= self.alpha_lim + 1e-12:
+            raise _StepFailed("heading leaves the model's region")
+        z[:, 3] = z0[3] + cumulative_simpson(m.g(z[:, 2]) * v1, x=t, initial=0.0)
+        return z
+
+    def _accept(
+        self, m: ChainedModel, t: FloatArray, z: FloatArray, v1: FloatArray, v2: FloatArray, step: str
+    ) -> _Segment:
+        u1 = m.speed(v1, z[:, 2])
+        if np.max(np.abs(u1)) > self.u1max * (1 + 1e-9) or np.max(np.abs(v2)) > self.u2max * (1 + 1e-9):
+            raise _StepFailed("input bound")
+        if np.max(np.abs(u1 * np.tan(z[:, 1]))) / self.l > self.wmax * (1 + 1e-9):
+            raise _StepFailed("yaw-rate bound")
+        if np.max(np.abs(z[:, 1])) > self.phimax * (1 + 1e-9):
+            raise _StepFailed("steering bound")
+        sl = slice(None, None, _SUB)
+        return _Segment(t[sl], z[sl], np.column_stack([v1, v2])[sl], m, step)
+
+    def _steer_z1(self, m: ChainedModel, z0: FloatArray, target: float) -> _Segment:
+        d = target - z0[0]
+        c = math.sqrt(max(1.0 - z0[2] ** 2, 1e-12))
+        period = max(self.min_period, 2.0 * abs(d) / (0.98 * self.u1max * c))
+        while period <= self.max_period:
+            t = self._grid(period)
+            w = 2 * math.pi / period
+            v1 = d / period * (1.0 - np.cos(w * t))
+            try:
+                z = self._integrate(m, z0, t, v1, np.full_like(t, z0[1]))
+                return self._accept(m, t, z, v1, np.zeros_like(t), "z1")
+            except _StepFailed:
+                period *= 1.25
+        raise _StepFailed(f"cannot steer {'y' if m.alternate else 'x'} by {d:.3g} m within u1max")
+
+    def _steer_phi(self, m: ChainedModel, z0: FloatArray, target: float) -> _Segment:
+        d = target - z0[1]
+        period = max(self.min_period, 2.0 * abs(d) / (0.98 * self.u2max))
+        t = self._grid(period)
+        w = 2 * math.pi / period
+        v2 = d / period * (1.0 - np.cos(w * t))
+        phi = z0[1] + d / period * (t - np.sin(w * t) / w)
+        z = self._integrate(m, z0, t, np.zeros_like(t), phi)
+        return self._accept(m, t, z, np.zeros_like(t), v2, "phi")
+
+    def _phi_amp(self, phi0: float) -> float:
+        return 0.95 * (self.phimax - abs(phi0))
+
+    def _steer_alpha(self, m: ChainedModel, z0: FloatArray, target: float) -> _Segment:
+        d = target - z0[2]
+        period = self.min_period
+        while period <= self.max_period:
+            w = 2 * math.pi / period
+            amp = min(self.u2max / w, self._phi_amp(z0[1]))
+            t = self._grid(period)
+            phi = z0[1] + amp * np.sin(w * t)
+            gain = simpson(m.sigma * np.tan(phi) / self.l * np.sin(w * t), x=t)  # dalpha per unit a1
+            a1 = d / gain
+            if abs(a1) <= self.u1max:
+                v1 = a1 * np.sin(w * t)
+                try:
+                    z = self._integrate(m, z0, t, v1, phi)
+                    return self._accept(m, t, z, v1, amp * w * np.cos(w * t), "alpha")
+                except _StepFailed:
+                    pass
+            period *= 1.25
+        raise _StepFailed(f"cannot steer alpha by {d:.3g} within u1max, u2max and phimax")
+
+    def dz4(self, m: ChainedModel, z0: FloatArray, period: float, a1: float, a2: float) -> float:
+        """Change of the fourth chained state over one z4 step (v1 = a1 sin wt, v2 = a2 cos 2wt).
+
+        Args:
+            m: The chart.
+            z0: (4,) chained state at the step's start.
+            period: Step duration T = 2 pi / w [s].
+            a1: Amplitude of v1 [m/s].
+            a2: Amplitude of v2 [rad/s].
+
+        Returns:
+            z4(T) - z4(0) [m].
+        """
+        t = self._grid(period)
+        w = 2 * math.pi / period
+        phi = z0[1] + a2 / (2 * w) * np.sin(2 * w * t)
+        big_a = cumulative_simpson(m.sigma * np.tan(phi) / self.l * np.sin(w * t), x=t, initial=0.0)
+        return float(a1 * simpson(m.g(z0[2] + a1 * big_a) * np.sin(w * t), x=t))
+
+    def _steer_z4(self, m: ChainedModel, z0: FloatArray, target: float) -> _Segment:
+        d = target - z0[3]
+        period = self.min_period
+        while period <= self.max_period:
+            w = 2 * math.pi / period
+            t = self._grid(period)
+            sw = np.sin(w * t)
+            amp = min(self.u2max / (2 * w), self._phi_amp(z0[1]))
+            for sign in (1.0, -1.0):
+                phi = z0[1] + sign * amp * np.sin(2 * w * t)
+                big_a = cumulative_simpson(m.sigma * np.tan(phi) / self.l * sw, x=t, initial=0.0)
+                # |alpha0 + a1 A(t)| <= alpha_lim bounds a1 (a1 > 0).
+                with np.errstate(divide="ignore"):
+                    lim = np.where(
+                        big_a > 1e-15,
+                        (self.alpha_lim - z0[2]) / big_a,
+                        np.where(big_a < -1e-15, (self.alpha_lim + z0[2]) / -big_a, np.inf),
+                    )
+                amax = min(self.u1max, 0.999 * float(np.min(lim)))
+
+                def h(a1: float, big_a: FloatArray = big_a, sw: FloatArray = sw, t: FloatArray = t) -> float:
+                    return float(a1 * simpson(m.g(z0[2] + a1 * big_a) * sw, x=t)) - d
+
+                grid = np.linspace(0.0, amax, 33)[1:]
+                alpha = z0[2] + grid[:, None] * big_a[None, :]
+                if np.max(np.abs(alpha)) >= 1.0:
+                    continue
+                vals = grid * simpson(m.g(alpha) * sw[None, :], x=t, axis=1) - d
+                prev_a, prev_v = 0.0, -d
+                root = None
+                for a, val in zip(grid, vals, strict=True):
+                    if np.sign(val) != np.sign(prev_v) or val == 0.0:
+                        root = brentq(h, prev_a, a, xtol=1e-15, rtol=4 * np.finfo(float).eps, maxiter=200)
+                        break
+                    prev_a, prev_v = a, val
+                if root is None or abs(h(root)) > self.tolerance:
+                    continue
+                v1 = root * sw
+                try:
+                    z = self._integrate(m, z0, t, v1, phi)
+                    return self._accept(m, t, z, v1, sign * amp * 2 * w * np.cos(2 * w * t), "z4")
+                except _StepFailed:
+                    continue
+            period *= 1.25
+        raise _StepFailed(f"cannot steer {'x' if m.alternate else 'y'} by {d:.3g} m within u1max, u2max and phimax")
+
+    def steer_piece(self, state0: FloatArray, state1: FloatArray, m: ChainedModel) -> list[_Segment]:
+        """Steer the bicycle from ``state0`` to ``state1`` (both (4,)) in one chart.
+
+        Returns:
+            The non-trivial steps (z1, phi, alpha, z4 in that order).
+        """
+        goal = m.to_chained(state1)
+        z = m.to_chained(state0)
+        segs: list[_Segment] = []
+        eps = (1e-12, 1e-12, 1e-12, self.tolerance * 1e-3)
+        for idx, fn in enumerate((self._steer_z1, self._steer_phi, self._steer_alpha, self._steer_z4)):
+            if abs(goal[idx] - z[idx]) <= eps[idx]:
+                continue
+            seg = fn(m, z, float(goal[idx]))
+            segs.append(seg)
+            z = seg.z[-1].copy()
+        return segs
+
+    # -- planning ------------------------------------------------------------------------------
+    def plan(self, problem: PlanProblem) -> PlanResult:
+        """Plan from ``problem.start`` to ``problem.goal`` (steering angle 0 at both ends)."""
+        t_start = time.perf_counter()
+        robot = problem.robot
+        self.l = robot.wheelbase
+        self.u1max = self.u1max_opt if self.u1max_opt is not None else robot.max_speed
+        self.phimax = self.phimax_opt if self.phimax_opt is not None else robot.max_steering
+        self.wmax = robot.max_yaw_rate
+        s0, s1 = problem.start, problem.goal
+        headings = heading_waypoints(s0.theta, s1.theta)
+        n_pieces = len(headings) - 1
+        waypoints = [
+            np.array([s0.x + (s1.x - s0.x) * k / n_pieces, s0.y + (s1.y - s0.y) * k / n_pieces, headings[k], 0.0])
+            for k in range(n_pieces + 1)
+        ]
+        models = [model_for(0.5 * (headings[k] + headings[k + 1])) for k in range(n_pieces)]
+        segs: list[_Segment] = []
+        state = waypoints[0]
+        try:
+            for k, m in enumerate(models):
+                piece = self.steer_piece(state, waypoints[k + 1], m)
+                segs.extend(piece)
+                if piece:
+                    state = m.from_chained(piece[-1].z[-1])
+        except _StepFailed as exc:
+            return PlanResult(
+                PlanStatus.INFEASIBLE, self.name, reason=f"sinusoidal steering failed: {exc}; raise u1max/u2max "
+                "or max_period", stats={"time_s": time.perf_counter() - t_start},
+            )  # fmt: skip
+        return self._result(problem, segs, models, t_start)
+
+    def _result(self, problem: PlanProblem, segs: list[_Segment], models: list[ChainedModel], t0: float) -> PlanResult:
+        if not segs:
+            pose = problem.start.as_array()[None, :]
+            return PlanResult(
+                PlanStatus.SUCCESS, self.name, path=pose, times=np.zeros(1), controls=np.zeros((1, 2)),
+                directions=np.ones(1), states=np.hstack([pose, np.zeros((1, 1))]),
+                stats={"time_s": time.perf_counter() - t0, "pieces": len(models), "handoffs": len(models) - 1},
+            )  # fmt: skip
+        times, states, u = [], [], []
+        offset = 0.0
+        for i, sg in enumerate(segs):
+            sl = slice(1, None) if i else slice(None)
+            st = sg.model.from_chained(sg.z)
+            times.append(sg.t[sl] + offset)
+            states.append(st[sl])
+            u.append(np.column_stack([sg.model.speed(sg.v[:, 0], sg.z[:, 2]), sg.v[:, 1]])[sl])
+            offset += float(sg.t[-1])
+        t = np.concatenate(times)
+        x = np.concatenate(states)
+        x[:, 2] = np.unwrap(x[:, 2])
+        x[:, 2] += problem.start.theta - x[0, 2]
+        uu = np.concatenate(u)
+        controls = np.column_stack([uu[:, 0], uu[:, 0] * np.tan(x[:, 3]) / self.l])
+        direction = np.sign(uu[:, 0])
+        for i in range(direction.size):
+            if direction[i] == 0:
+                direction[i] = direction[i - 1] if i else 1.0
+        end = x[-1]
+        pos_err = float(np.hypot(end[0] - problem.goal.x, end[1] - problem.goal.y))
+        head_err = abs(float(wrap_angle(end[2] - problem.goal.theta)))
+        stats: dict[str, Any] = {
+            "time_s": time.perf_counter() - t0,
+            "duration_s": float(t[-1]),
+            "pieces": len(models),
+            "handoffs": len(models) - 1,
+            "models": ">".join(m.name for m in models),
+            "steps": len(segs),
+            "final_position_error": pos_err,
+            "final_heading_error": head_err,
+            "max_u1": float(np.max(np.abs(uu[:, 0]))),
+            "max_u2": float(np.max(np.abs(uu[:, 1]))),
+            "max_phi": float(np.max(np.abs(x[:, 3]))),
+        }
+        kw: dict[str, Any] = {
+            "path": x[:, :3].copy(),
+            "times": t,
+            "controls": controls,
+            "directions": direction,
+            "states": x,
+        }
+        if pos_err > problem.position_tolerance or head_err > problem.heading_tolerance:
+            return PlanResult(
+                PlanStatus.FAILED, self.name, reason=f"final state misses the goal by {pos_err:.3g} m, "
+                f"{head_err:.3g} rad", stats=stats, **kw,
+            )  # fmt: skip
+        world, r = problem.world, problem.robot.radius
+        if world.obstacles:
+            d = world.obstacle_distance(x[:, :2])
+            i = int(np.argmin(d))
+            stats["min_clearance"] = float(d[i] - r)
+            if d[i] < r:
+                return PlanResult(
+                    PlanStatus.INFEASIBLE, self.name, stats=stats, **kw,
+                    reason=f"sinusoidal steering does not avoid obstacles and its path hits one at t = {t[i]:.2f} s "
+                    f"({d[i] - r:.3f} m clearance for the robot's radius {r:.3f} m); plan with 'optim' or an RRT "
+                    "planner instead",
+                )  # fmt: skip
+        problems = []
+        wall = world.wall_distance(x[:, :2])
+        stats["min_wall_clearance"] = float(np.min(wall) - r)
+        out = wall < r
+        if np.any(out):
+            j = int(np.argmax(out))
+            problems.append(f"the robot's disc (radius {r:.3f} m) leaves the world bounds at t = {t[j]:.2f} s "
+                            f"(centre {x[j, 0]:.3f}, {x[j, 1]:.3f})")  # fmt: skip
+        if stats["max_phi"] > self.phimax * (1 + 1e-9):
+            problems.append(f"|phi| reaches {stats['max_phi']:.3f} > phimax {self.phimax:.3f}")
+        max_w = float(np.max(np.abs(controls[:, 1])))
+        if (
+            stats["max_u1"] > self.u1max * (1 + 1e-9)
+            or stats["max_u2"] > self.u2max * (1 + 1e-9)
+            or max_w > self.wmax * (1 + 1e-9)
+        ):
+            problems.append(f"inputs reach |u1| {stats['max_u1']:.3f}, |u2| {stats['max_u2']:.3f}, |omega| {max_w:.3f}")
+        if problems:
+            return PlanResult(PlanStatus.BOUNDS_VIOLATED, self.name, reason="; ".join(problems), stats=stats, **kw)
+        return PlanResult(PlanStatus.SUCCESS, self.name, stats=stats, **kw)

@@ -1,0 +1,397 @@
+"""One way from any plan to a trackable trajectory: smoothing, speed profile, cusps and turns in place.
+
+Two kinds of plan arrive:
+
+* **Untimed paths** (the sampling planners; any (N, 3) array of poses): stretches that return to
+  a pose already visited are cut (:func:`planning.trajectory.smoothing.remove_loops`), then split at cusps, sharp
+  corners and turns in place (:func:`planning.trajectory.smoothing.split_path`); each drive is fitted by the
+  constrained piecewise polynomial and refined until it is collision-free with the robot's footprint
+  (:func:`planning.trajectory.smoothing.smooth_drive`), timed by the curvature-limited speed profile
+  (:func:`planning.trajectory.speed_profile.time_drive`); turns in place get a trapezoidal yaw-rate profile.
+  Every drive starts and ends at rest, so the speed is zero at each cusp and the direction flips
+  there; a short stand-still (``dwell``) separates the segments.
+* **Timed plans** (``optim``, ``sinusoidal``: ``PlanResult.times`` and ``controls``): already smooth
+  in space and dynamically consistent, so their paths are not re-fitted (a fit could only lose
+  accuracy). A plan whose speed is smooth too, from rest to rest, keeps its samples and time stamps;
+  if it exceeds the robot's limits (with ``margin``) time is stretched uniformly (t' = c t,
+  v' = v / c, omega' = omega / c) until it does not. A plan that starts or ends moving, or whose
+  speed changes faster than the robot can follow (``optim`` holds each input over an interval, so its
+  speed steps at every node), keeps its path and is re-timed: split at cusps by the sign of v, each
+  drive timed from rest to rest by the speed profile with its own samples as the curve
+  (:class:`planning.trajectory.smoothing.SampledCurve`). Either way they are checked for collision.
+
+Both end with a turn in place to the goal heading when the path's last heading differs from it,
+and a final stand-still. The result labels every sample with its segment (``Trajectory.segments``)
+for :class:`control.segmented.SegmentedTracker`.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from planning.collision.exact import CollisionChecker
+from planning.core.geometry import Pose2D, wrap_angle
+from planning.core.robot import RobotSpec
+from planning.core.world import World
+from planning.errors import NhsimError
+from planning.planners.base import PlanResult
+from planning.trajectory.smoothing import SampledCurve, remove_loops, smooth_drive, split_path
+from planning.trajectory.speed_profile import Limits, TimedSamples, hold, time_drive, time_rotation
+from planning.trajectory.trajectory import Trajectory
+
+FloatArray = NDArray[np.float64]
+
+
+class TrajectoryError(NhsimError):
+    """A plan could not be turned into a collision-free trajectory within the limits."""
+
+
+class PlanFailedError(TrajectoryError):
+    """The plan itself failed (its status is not success), or a timed plan itself collides."""
+
+
+@dataclass(frozen=True)
+class TrajectoryResult:
+    """Outcome of :func:`make_trajectory`.
+
+    Attributes:
+        status: "success", "collision" (no refinement kept the footprint clear), "deviation" (the fit
+            strayed from the path) or "invalid" (the plan holds no usable path).
+        trajectory: The trajectory (also on collision, for inspection), or None.
+        reason: What went wrong, and what to try.
+        stats: Segments, cusps, rotations, pieces, refinements, clearance, deviation, time scale, ...
+    """
+
+    status: str
+    trajectory: Trajectory | None
+    reason: str = ""
+    stats: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def success(self) -> bool:
+        """Whether the trajectory is usable."""
+        return self.status == "success"
+
+
+def _concat(pieces: list[tuple[str, TimedSamples]], dt: float, name: str) -> Trajectory:
+    ts, poses, vels, accs, segs, kinds = [], [], [], [], [], []
+    t0 = 0.0
+    for k, (kind, smp) in enumerate(pieces):
+        ts.append(smp.t + t0)
+        poses.append(smp.pose)
+        vels.append(smp.vel)
+        accs.append(smp.acc)
+        segs.append(np.full(smp.t.size, k, dtype=np.int64))
+        kinds.append(kind)
+        t0 = float(ts[-1][-1]) + dt
+    pose = np.vstack(poses)
+    pose[:, 2] = np.unwrap(pose[:, 2])
+    return Trajectory(np.concatenate(ts), pose, np.vstack(vels), np.vstack(accs), name=name,
+                      segments=np.concatenate(segs), segment_kinds=tuple(kinds))  # fmt: skip
+
+
+def _timed_kinds(v: FloatArray, w: FloatArray, eps: float = 1e-4) -> list[str]:
+    """Per-sample kind of a timed plan: sign of v; rotations where v ~ 0 and omega != 0."""
+    kind = np.where(v > eps, "forward", np.where(v < -eps, "reverse", ""))
+    rot = (np.abs(v) <= eps) & (np.abs(w) > eps)
+    kind = np.where(rot, "rotate", kind)
+    # stand-still samples join the next (else the previous) moving segment
+    out = kind.tolist()
+    nxt = ""
+    for i in range(len(out) - 1, -1, -1):
+        if out[i]:
+            nxt = out[i]
+        else:
+            out[i] = nxt
+    prev = "forward"
+    for i in range(len(out)):
+        if out[i]:
+            prev = out[i]
+        else:
+            out[i] = prev
+    return out
+
+
+def make_trajectory(
+    plan: PlanResult | ArrayLike,
+    robot: RobotSpec,
+    world: World,
+    *,
+    goal: Pose2D | None = None,
+    directions: ArrayLike | None = None,
+    margin: float = 0.85,
+    dwell: float = 0.3,
+    dt: float = 0.01,
+    clearance: float | None = None,
+    corner_angle: float = 0.5 * np.pi,
+    snap_tolerance: float = 0.05,
+    max_deviation: float = 0.05,
+    name: str | None = None,
+) -> TrajectoryResult:
+    """Turn a plan (or a bare path) into a timed, segment-labelled trajectory.
+
+    Args:
+        plan: A successful :class:`PlanResult`, or an (N, 3) path of poses [x, y, theta].
+        robot: The robot (limits, footprint).
+        world: The world the path must stay clear in.
+        goal: The goal pose: the path is snapped to its position when within ``snap_tolerance`` and
+            the trajectory ends with its heading. None: end where and as the path ends.
+        directions: (N,) +1/-1 travel direction per pose (else ``plan.directions`` or inferred).
+        margin: Share of every robot limit the reference may use (the rest is left to feedback).
+        dwell: Stand-still between segments [s].
+        dt: Sample period of the trajectory [s].
+        clearance: Footprint clearance the smoothed path must keep [m]; default
+            min(1 cm, half the input path's own clearance).
+        corner_angle: Corners sharper than this become stop-turn-go [rad].
+        snap_tolerance: Largest distance from the path's end to ``goal`` that is closed [m].
+        max_deviation: Largest distance from the smoothed path to the input path [m].
+        name: Trajectory name (default "plan:<planner>" or "path").
+
+    Returns:
+        The result, with a status; only "success" is safe to track.
+    """
+    t_start = time.perf_counter()
+    limits = Limits.from_robot(robot, margin)
+    checker = CollisionChecker(world, robot, shape="footprint")
+    if isinstance(plan, PlanResult):
+        path = np.asarray(plan.path, dtype=float)
+        dirs = directions if directions is not None else plan.directions
+        label = name or f"plan:{plan.planner}"
+        timed = plan.times is not None and plan.controls is not None
+    else:
+        path = np.asarray(plan, dtype=float)
+        dirs = directions
+        label = name or "path"
+        timed = False
+    if path.ndim != 2 or path.shape[0] < 1 or path.shape[1] < 3 or not np.all(np.isfinite(path[:, :3])):
+        return TrajectoryResult("invalid", None, f"the plan holds no usable (N, 3) path (shape {path.shape})")
+    path = path[:, :3].copy()
+    goal_heading = goal.theta if goal is not None else None
+    if goal is not None and np.hypot(path[-1, 0] - goal.x, path[-1, 1] - goal.y) <= snap_tolerance:
+        path[-1, :2] = (goal.x, goal.y)
+    path_clear = float(checker.clearance_of(checker.densify(path)).min())
+    need = clearance if clearance is not None else max(0.0, min(0.01, 0.5 * path_clear))
+    stats: dict[str, Any] = {"input_points": int(path.shape[0]), "input_min_clearance_m": path_clear,
+                             "required_clearance_m": need, "timed_input": bool(timed)}  # fmt: skip
+    if timed:
+        assert isinstance(plan, PlanResult)
+        result = _from_timed(plan, path, limits, checker, need, goal_heading, dwell, dt, label, stats)
+    else:
+        result = _from_path(path, dirs, limits, checker, need, goal_heading, dwell, dt, corner_angle,
+                            max_deviation, label, stats)  # fmt: skip
+    result.stats["smoothing_time_s"] = time.perf_counter() - t_start
+    return result
+
+
+def _from_path(
+    path: FloatArray,
+    dirs: ArrayLike | None,
+    limits: Limits,
+    checker: CollisionChecker,
+    need: float,
+    goal_heading: float | None,
+    dwell: float,
+    dt: float,
+    corner_angle: float,
+    max_deviation: float,
+    label: str,
+    stats: dict[str, Any],
+) -> TrajectoryResult:
+    n_in = path.shape[0]
+    path, dirs = remove_loops(path, dirs)
+    stats["loop_poses_removed"] = n_in - path.shape[0]
+    segs = split_path(path, dirs, goal_heading=goal_heading, corner_angle=corner_angle)
+    pieces: list[tuple[str, TimedSamples]] = []
+    status, reason = "success", ""
+    n_pieces, attempts, devs, clears = 0, 0, [0.0], [np.inf]
+    for seg in segs:
+        if pieces and dwell > 0:
+            pieces.append(("hold", hold(pieces[-1][1].pose[-1], dwell, dt=dt)))
+        if seg.kind == "rotate":
+            pieces.append(("rotate", time_rotation(seg.points[0], seg.headings[0], seg.headings[1], limits, dt=dt)))
+            continue
+        res = smooth_drive(seg, checker, clearance=need, max_deviation=max_deviation)
+        n_pieces += res.pieces
+        attempts = max(attempts, res.attempts)
+        devs.append(res.max_deviation)
+        clears.append(res.min_clearance)
+        if not res.success and status == "success":
+            status = res.status.value
+            at = seg.points[0]
+            reason = (
+                f"the drive from ({at[0]:.2f}, {at[1]:.2f}) could not be smoothed: {res.status.value} after "
+                f"{res.attempts} refinements (clearance {res.min_clearance:.4f} m, needed > {need:.4f} m; "
+                f"deviation {res.max_deviation:.4f} m, allowed {max_deviation:.4f} m); plan with more clearance "
+                f"or allow a larger deviation"
+            )
+        pieces.append(("forward" if seg.direction > 0 else "reverse", time_drive(res.curve, limits, dt=dt)))
+    if not pieces:  # already at the goal
+        pieces.append(("hold", hold(path[-1], max(dwell, dt), dt=dt)))
+    elif dwell > 0:
+        pieces.append(("hold", hold(pieces[-1][1].pose[-1], dwell, dt=dt)))
+    traj = _concat(pieces, dt, label)
+    kinds = [s.kind for s in segs]
+    dirs_k = [s.direction for s in segs if s.kind == "drive"]
+    stats.update({
+        "segments": len(segs), "drives": kinds.count("drive"), "rotations": kinds.count("rotate"),
+        "cusps": int(sum(a != b for a, b in itertools.pairwise(dirs_k))),
+        "pieces": n_pieces, "refinements": attempts, "max_deviation_m": float(max(devs)),
+        "min_clearance_m": float(min(clears)), "duration_s": traj.duration, "length_m": traj.path_length(),
+    })  # fmt: skip
+    return TrajectoryResult(status, traj, reason, stats)
+
+
+def _retimed_pieces(
+    path: FloatArray, kinds: list[str], limits: Limits, dwell: float, dt: float
+) -> list[tuple[str, TimedSamples]]:
+    """A timed plan's path, re-timed: each drive of one direction from rest to rest by the speed profile
+    (its own samples as the curve), each turn in place by the yaw-rate profile, stand-stills between."""
+    pieces: list[tuple[str, TimedSamples]] = []
+    start = 0
+    for i in range(1, len(kinds) + 1):
+        if i < len(kinds) and kinds[i] == kinds[start]:
+            continue
+        kind, sl = kinds[start], slice(start, min(i + 1, len(kinds)))  # through the next piece's first pose
+        start = i
+        if kind == "rotate":
+            smp = time_rotation(path[sl][0, :2], path[sl][0, 2], path[sl][-1, 2], limits, dt=dt)
+        else:
+            try:
+                smp = time_drive(SampledCurve.from_poses(path[sl], 1 if kind == "forward" else -1), limits, dt=dt)
+            except ValueError:  # stands still: nothing to drive
+                continue
+        if pieces and dwell > 0:
+            pieces.append(("hold", hold(pieces[-1][1].pose[-1], dwell, dt=dt)))
+        pieces.append((kind, smp))
+    return pieces
+
+
+def _from_timed(
+    plan: PlanResult,
+    path: FloatArray,
+    limits: Limits,
+    checker: CollisionChecker,
+    need: float,
+    goal_heading: float | None,
+    dwell: float,
+    dt: float,
+    label: str,
+    stats: dict[str, Any],
+) -> TrajectoryResult:
+    assert plan.times is not None and plan.controls is not None
+    t = np.asarray(plan.times, dtype=float).reshape(-1)
+    u = np.asarray(plan.controls, dtype=float)
+    n = min(t.size, u.shape[0], path.shape[0])
+    if n < 2 or t.size != path.shape[0]:
+        return TrajectoryResult("invalid", None, f"timed plan has {t.size} times for {path.shape[0]} poses")
+    t, u, path = t[:n] - t[0], u[:n, :2], path[:n]
+    keep = np.concatenate([[True], np.diff(t) > 1e-9])
+    t, u, path = t[keep], u[keep], path[keep]
+    v, w = u[:, 0], u[:, 1]
+    dv, dw = np.gradient(v, t), np.gradient(w, t)
+    wheel = np.abs(v) + 0.5 * limits.track_width * np.abs(w)
+    speed_scale = max(
+        1.0,
+        float(np.max(np.abs(v))) / limits.max_speed,
+        float(np.max(np.abs(w))) / limits.max_yaw_rate,
+        float(np.max(wheel)) / limits.max_wheel_linear,
+    )
+    accel_scale = max(float(np.sqrt(np.max(np.abs(dv)) / limits.max_accel)),
+                      float(np.sqrt(np.max(np.abs(dw)) / limits.max_yaw_accel)))  # fmt: skip
+    clear = float(checker.clearance_of(checker.densify(path)).min())
+    kinds = _timed_kinds(v, w)
+    # A plan that starts or ends moving, or whose speed changes faster than the robot can follow
+    # (inputs held over intervals step at every node), keeps its path but is re-timed from rest to rest
+    # by the speed profile; a smooth one keeps its samples, slowed uniformly if it exceeds a limit.
+    retime = max(abs(float(v[0])), abs(float(v[-1]))) > 1e-3 or accel_scale > speed_scale
+    pieces = _retimed_pieces(path, kinds, limits, dwell, dt) if retime else []
+    scale: float | None = None
+    if pieces:
+        body = _concat(pieces, dt, label)
+    else:  # keep the planner's own samples and time stamps, slowed uniformly by ``scale``
+        retime = False
+        scale = max(speed_scale, accel_scale)
+        t, v, w, dv, dw = t * scale, v / scale, w / scale, dv / scale**2, dw / scale**2
+        start = 0
+        for i in range(1, len(kinds) + 1):
+            if i == len(kinds) or kinds[i] != kinds[start]:
+                sl = slice(start, i)
+                pieces.append((kinds[start], TimedSamples(t[sl] - t[start], path[sl], np.column_stack([v[sl], w[sl]]),
+                                                          np.column_stack([dv[sl], dw[sl]]))))  # fmt: skip
+                start = i
+        seg = np.concatenate([np.full(smp.t.size, k, dtype=np.int64) for k, (_, smp) in enumerate(pieces)])
+        body = Trajectory(t, path, np.column_stack([v, w]), np.column_stack([dv, dw]), name=label, segments=seg,
+                          segment_kinds=tuple(k for k, _ in pieces))  # fmt: skip
+    end_pose = path[-1].copy()
+    tail: list[tuple[str, TimedSamples]] = []
+    if goal_heading is not None and abs(wrap_angle(goal_heading - end_pose[2])) > 1e-3:
+        if dwell > 0:
+            tail.append(("hold", hold(end_pose, dwell, dt=dt)))
+        th1 = end_pose[2] + wrap_angle(goal_heading - end_pose[2])
+        tail.append(("rotate", time_rotation(end_pose[:2], end_pose[2], th1, limits, dt=dt)))
+        end_pose[2] = th1
+    if dwell > 0:
+        tail.append(("hold", hold(end_pose, dwell, dt=dt)))
+    if tail:
+        rest = _concat(tail, dt, label)
+        off = body.t[-1] + dt
+        body = Trajectory(
+            np.concatenate([body.t, rest.t + off]), np.vstack([body.pose, rest.pose]),
+            np.vstack([body.vel, rest.vel]), np.vstack([body.acc, rest.acc]), name=label,
+            segments=np.concatenate([body.segments, rest.segments + len(pieces)]),  # type: ignore[operator]
+            segment_kinds=body.segment_kinds + rest.segment_kinds,
+        )  # fmt: skip
+    status = "success" if clear > 0.0 else "collision"
+    reason = "" if status == "success" else f"the timed plan comes within {clear:.4f} m of an obstacle or wall"
+    signs = np.sign(v[np.abs(v) > 1e-4])
+    stats.update({
+        "segments": len(body.segment_kinds), "time_scale": scale, "retimed": retime, "min_clearance_m": clear,
+        "cusps": int(np.sum(signs[1:] != signs[:-1])), "duration_s": body.duration, "length_m": body.path_length(),
+        "rotations": int(sum(k == "rotate" for k in body.segment_kinds)), "pieces": 0, "refinements": 0,
+        "max_deviation_m": 0.0,
+    })  # fmt: skip
+    return TrajectoryResult(status, body, reason, stats)
+
+
+def checked_trajectory(
+    plan: PlanResult | ArrayLike, robot: RobotSpec, world: World, **options: Any
+) -> TrajectoryResult:
+    """:func:`make_trajectory`, raising when there is no usable trajectory.
+
+    Raises:
+        TrajectoryError: The plan failed, or no collision-free trajectory was found.
+    """
+    if isinstance(plan, PlanResult) and not plan.success:
+        raise PlanFailedError(
+            f"planner {plan.planner!r} ended with status {plan.status.value}: {plan.reason or 'no reason given'}; "
+            f"a failed plan has no trajectory (try another seed, a longer --time-limit, or another planner)"
+        )
+    res = make_trajectory(plan, robot, world, **options)
+    if not res.success or res.trajectory is None:
+        if res.stats.get("timed_input"):  # a timed plan is not re-fitted: its own collision is the planner's
+            raise PlanFailedError(res.reason)
+        raise TrajectoryError(res.reason)
+    return res
+
+
+def to_trajectory(plan: PlanResult | ArrayLike, robot: RobotSpec, world: World, **options: Any) -> Trajectory:
+    """The trajectory of a plan (the one entry point every planner's output goes through).
+
+    Args:
+        plan: A successful plan or an (N, 3) path.
+        robot: The robot.
+        world: The world.
+        **options: As :func:`make_trajectory`.
+
+    Raises:
+        TrajectoryError: The plan failed, or no collision-free trajectory was found.
+    """
+    traj = checked_trajectory(plan, robot, world, **options).trajectory
+    assert traj is not None
+    return traj

@@ -1,0 +1,218 @@
+"""Curvature-limited speed profiles and the timed samples of drives and turns in place.
+
+Seed report 003 (II-B) assigns each point of the smoothed path the speed
+``v = min(sqrt(a_max / kappa), v_max)``. Here the same bound is joined by the other limits a
+differential drive has, all scaled by ``margin`` so that the feedback keeps some authority:
+
+* yaw rate: ``|omega| = v |kappa| <= omega_max``;
+* wheel speed: ``v (1 + b |kappa| / 2) <= r * wheel_max`` (b track width, r wheel radius);
+* yaw acceleration from curvature change: ``v^2 |dkappa/ds| <= alpha_max``;
+
+then a forward pass (``v_{i+1}^2 <= v_i^2 + 2 a_max ds``) and a backward pass (the same, braking)
+make the speed reachable with bounded acceleration, starting and ending at rest. Between two
+grid points the acceleration is constant, so time stamps follow exactly
+(``dt = 2 ds / (v_i + v_{i+1})``), and the drive is resampled at a uniform time step with
+``s(t)`` from the constant-acceleration formula. Heading comes from the path tangent.
+
+A turn in place gets a trapezoidal (or triangular) yaw-rate profile within ``omega_max`` and
+``alpha_max``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from planning.core.robot import RobotSpec
+from planning.trajectory.smoothing import SampledCurve, SmoothCurve
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Limits:
+    """The limits a timed path must respect.
+
+    Attributes:
+        max_speed: |v| [m/s].
+        max_yaw_rate: |omega| [rad/s].
+        max_accel: |dv/dt| and lateral acceleration v^2 |kappa| [m/s^2].
+        max_yaw_accel: |domega/dt| [rad/s^2].
+        max_wheel_linear: Wheel rim speed limit r * wheel_max [m/s].
+        track_width: b [m].
+    """
+
+    max_speed: float
+    max_yaw_rate: float
+    max_accel: float
+    max_yaw_accel: float
+    max_wheel_linear: float
+    track_width: float
+
+    @classmethod
+    def from_robot(cls, robot: RobotSpec, margin: float = 0.85) -> Limits:
+        """The robot's limits scaled by ``margin`` (0 < margin <= 1)."""
+        if not 0.0 < margin <= 1.0:
+            raise ValueError(f"margin must be in (0, 1], got {margin}")
+        return cls(
+            max_speed=margin * robot.max_speed,
+            max_yaw_rate=margin * robot.max_yaw_rate,
+            max_accel=margin * robot.max_accel,
+            max_yaw_accel=margin * robot.max_yaw_accel,
+            max_wheel_linear=margin * robot.max_wheel_speed * robot.wheel_radius,
+            track_width=robot.track_width,
+        )
+
+
+def speed_limit(kappa: FloatArray, dkappa: FloatArray, limits: Limits) -> FloatArray:
+    """Pointwise speed bound from curvature (seed 003's formula and the drive's limits).
+
+    Args:
+        kappa: (M,) curvature [1/m].
+        dkappa: (M,) its derivative along the path [1/m^2].
+        limits: The limits.
+
+    Returns:
+        (M,) speed bound [m/s], > 0.
+    """
+    k = np.abs(kappa)
+    with np.errstate(divide="ignore"):
+        v = np.minimum(limits.max_speed, np.sqrt(limits.max_accel / k))
+        v = np.minimum(v, limits.max_yaw_rate / k)
+        v = np.minimum(v, np.sqrt(limits.max_yaw_accel / np.abs(dkappa)))
+    v = np.minimum(v, limits.max_wheel_linear / (1.0 + 0.5 * limits.track_width * k))
+    return v
+
+
+def forward_backward(ds: FloatArray, vmax: FloatArray, accel: float, v0: float = 0.0, v1: float = 0.0) -> FloatArray:
+    """Speeds within a pointwise bound reachable with |acceleration| <= accel.
+
+    Args:
+        ds: (M-1,) arc-length steps [m].
+        vmax: (M,) pointwise bound [m/s].
+        accel: Acceleration limit [m/s^2].
+        v0: Speed at the start [m/s].
+        v1: Speed at the end [m/s].
+
+    Returns:
+        (M,) speeds: the largest profile below ``vmax`` with v[0] <= v0, v[-1] <= v1 and
+        |v_{i+1}^2 - v_i^2| <= 2 accel ds_i.
+    """
+    v = np.asarray(vmax, dtype=float).copy()
+    v[0] = min(v[0], v0)
+    v[-1] = min(v[-1], v1)
+    for i in range(ds.size):
+        v[i + 1] = min(v[i + 1], np.sqrt(v[i] ** 2 + 2.0 * accel * ds[i]))
+    for i in range(ds.size - 1, -1, -1):
+        v[i] = min(v[i], np.sqrt(v[i + 1] ** 2 + 2.0 * accel * ds[i]))
+    return v
+
+
+@dataclass(frozen=True)
+class TimedSamples:
+    """Uniformly timed samples of one segment.
+
+    Attributes:
+        t: (N,) times from 0 [s].
+        pose: (N, 3) poses [m, m, rad].
+        vel: (N, 2) [v, omega] [m/s, rad/s].
+        acc: (N, 2) [dv/dt, domega/dt] [m/s^2, rad/s^2].
+    """
+
+    t: FloatArray
+    pose: FloatArray
+    vel: FloatArray
+    acc: FloatArray
+
+
+def time_drive(
+    curve: SmoothCurve | SampledCurve, limits: Limits, *, dt: float = 0.01, ds: float = 0.005
+) -> TimedSamples:
+    """Time a drive from rest to rest within the limits.
+
+    Args:
+        curve: The drive (a fitted curve, or a timed plan's own samples).
+        limits: The limits.
+        dt: Output sample period [s].
+        ds: Arc-length grid of the speed profile [m].
+
+    Returns:
+        The samples; the last one is exactly at the end of the drive, at rest.
+    """
+    n = max(int(np.ceil(curve.length / ds)), 2)
+    s = np.linspace(0.0, curve.length, n + 1)
+    _, _, kappa = curve.geometry(s)
+    dkappa = np.gradient(kappa, s)
+    step = np.diff(s)
+    v = forward_backward(step, speed_limit(kappa, dkappa, limits), limits.max_accel)
+    seg_t = 2.0 * step / np.maximum(v[:-1] + v[1:], 1e-12)
+    tg = np.concatenate([[0.0], np.cumsum(seg_t)])
+    a = (v[1:] ** 2 - v[:-1] ** 2) / (2.0 * step)
+    m = max(int(np.ceil(tg[-1] / dt)), 1)
+    t = np.linspace(0.0, tg[-1], m + 1)
+    i = np.clip(np.searchsorted(tg, t, side="right") - 1, 0, step.size - 1)
+    tau = t - tg[i]
+    sq = np.minimum(s[i] + v[i] * tau + 0.5 * a[i] * tau**2, curve.length)
+    sdot = np.maximum(v[i] + a[i] * tau, 0.0)
+    sddot = a[i]
+    sq[-1], sdot[-1] = curve.length, 0.0
+    sdot[0] = 0.0
+    xy, tan, kap = curve.geometry(sq)
+    dkap = np.interp(sq, s, dkappa)
+    sgn = curve.direction
+    th = np.unwrap(np.arctan2(sgn * tan[:, 1], sgn * tan[:, 0]))
+    vel = np.column_stack([sgn * sdot, kap * sdot])
+    acc = np.column_stack([sgn * sddot, dkap * sdot**2 + kap * sddot])
+    return TimedSamples(t, np.column_stack([xy, th]), vel, acc)
+
+
+def time_rotation(xy: FloatArray, theta0: float, theta1: float, limits: Limits, *, dt: float = 0.01) -> TimedSamples:
+    """Time a turn in place from rest to rest with a trapezoidal yaw-rate profile.
+
+    Args:
+        xy: (2,) the spot [m].
+        theta0: Start heading [rad].
+        theta1: End heading (unwrapped: theta1 - theta0 is the signed turn) [rad].
+        limits: The limits (max_yaw_rate, max_yaw_accel).
+        dt: Sample period [s].
+
+    Returns:
+        The samples.
+    """
+    turn = float(theta1 - theta0)
+    dist = abs(turn)
+    sgn = 1.0 if turn >= 0 else -1.0
+    wmax, amax = limits.max_yaw_rate, limits.max_yaw_accel
+    if dist >= wmax**2 / amax:  # trapezoid
+        tr = wmax / amax
+        tc = (dist - wmax**2 / amax) / wmax
+        peak = wmax
+    else:  # triangle
+        tr = np.sqrt(dist / amax)
+        tc = 0.0
+        peak = amax * tr
+    total = 2.0 * tr + tc
+    m = max(int(np.ceil(total / dt)), 2)
+    t = np.linspace(0.0, total, m + 1)
+    w = np.where(t < tr, amax * t, np.where(t <= tr + tc, peak, np.maximum(amax * (total - t), 0.0)))
+    alpha = np.where(t < tr, amax, np.where(t <= tr + tc, 0.0, -amax))
+    ang = np.where(
+        t < tr,
+        0.5 * amax * t**2,
+        np.where(t <= tr + tc, 0.5 * amax * tr**2 + peak * (t - tr), dist - 0.5 * amax * (total - t) ** 2),
+    )
+    ang[-1], w[-1], w[0] = dist, 0.0, 0.0
+    pose = np.column_stack([np.full(t.size, xy[0]), np.full(t.size, xy[1]), theta0 + sgn * ang])
+    vel = np.column_stack([np.zeros(t.size), sgn * w])
+    acc = np.column_stack([np.zeros(t.size), sgn * alpha])
+    return TimedSamples(t, pose, vel, acc)
+
+
+def hold(pose: FloatArray, duration: float, *, dt: float = 0.01) -> TimedSamples:
+    """Standing still at ``pose`` for ``duration`` seconds (a pause at a cusp or before a turn)."""
+    m = max(int(np.ceil(duration / dt)), 1)
+    t = np.linspace(0.0, duration, m + 1)
+    return TimedSamples(t, np.tile(np.asarray(pose, dtype=float), (t.size, 1)), np.zeros((t.size, 2)),
+                        np.zeros((t.size, 2)))  # fmt: skip

@@ -1,0 +1,230 @@
+"""Time-parametrised reference trajectories for a planar nonholonomic robot."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from planning.core.geometry import Pose2D, wrap_angle
+
+FloatArray = NDArray[np.float64]
+
+#: Kinds of trajectory segment: drive forwards, drive backwards, turn in place, stand still.
+SEGMENT_KINDS = ("forward", "reverse", "rotate", "hold")
+
+
+@dataclass(frozen=True)
+class TrajectorySample:
+    """The reference at one instant.
+
+    Attributes:
+        t: Time [s].
+        pose: (3,) reference pose [x, y, theta] [m, m, rad].
+        vel: (2,) reference inputs [v, omega] [m/s, rad/s].
+        acc: (2,) their derivatives [dv/dt, domega/dt] [m/s^2, rad/s^2].
+        flat_vel: (2,) output velocity [dx/dt, dy/dt] [m/s].
+        flat_acc: (2,) output acceleration [d2x/dt2, d2y/dt2] [m/s^2].
+    """
+
+    t: float
+    pose: FloatArray
+    vel: FloatArray
+    acc: FloatArray
+    flat_vel: FloatArray
+    flat_acc: FloatArray
+
+
+def _as_2d(name: str, value: ArrayLike, n: int, cols: int) -> FloatArray:
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != (n, cols):
+        raise ValueError(f"Trajectory.{name} must have shape ({n}, {cols}), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"Trajectory.{name} contains non-finite values")
+    return arr
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A reference trajectory sampled at N instants.
+
+    The heading column is stored unwrapped (continuous), so interpolation never jumps by 2*pi.
+
+    Attributes:
+        t: (N,) strictly increasing times [s].
+        pose: (N, 3) poses [x, y, theta] [m, m, rad].
+        vel: (N, 2) inputs [v, omega] [m/s, rad/s]; v < 0 drives backwards.
+        acc: (N, 2) input derivatives [dv/dt, domega/dt] [m/s^2, rad/s^2].
+        name: Free-form label (reference or planner name).
+        segments: Optional (N,) index of the segment each sample belongs to (non-decreasing), for
+            trackers that switch law between drives, cusps and turns in place.
+        segment_kinds: Kind of each segment, one of ``SEGMENT_KINDS`` ("forward", "reverse",
+            "rotate", "hold"); required with ``segments``.
+    """
+
+    t: FloatArray
+    pose: FloatArray
+    vel: FloatArray
+    acc: FloatArray
+    name: str = "trajectory"
+    segments: NDArray[np.int64] | None = None
+    segment_kinds: tuple[str, ...] = ()
+    _cache: dict[str, FloatArray] = field(default_factory=dict, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        t = np.asarray(self.t, dtype=float)
+        if t.ndim != 1 or t.size < 2:
+            raise ValueError(f"Trajectory.t must be a 1-D array of at least 2 times, got shape {t.shape}")
+        if not np.all(np.isfinite(t)):
+            raise ValueError("Trajectory.t contains non-finite values")
+        if np.any(np.diff(t) <= 0.0):
+            bad = int(np.argmax(np.diff(t) <= 0.0))
+            raise ValueError(f"Trajectory.t must be strictly increasing; t[{bad + 1}] <= t[{bad}]")
+        n = t.size
+        pose = _as_2d("pose", self.pose, n, 3).copy()
+        pose[:, 2] = np.unwrap(pose[:, 2])
+        object.__setattr__(self, "t", t)
+        object.__setattr__(self, "pose", pose)
+        object.__setattr__(self, "vel", _as_2d("vel", self.vel, n, 2))
+        object.__setattr__(self, "acc", _as_2d("acc", self.acc, n, 2))
+        for arr in (self.t, self.pose, self.vel, self.acc):
+            arr.setflags(write=False)
+        if self.segments is not None:
+            seg = np.asarray(self.segments)
+            if seg.shape != (n,) or not np.issubdtype(seg.dtype, np.integer):
+                raise ValueError(f"Trajectory.segments must be an integer array of shape ({n},), got {seg.shape}")
+            kinds = tuple(self.segment_kinds)
+            if np.any(np.diff(seg) < 0) or seg.min() < 0 or seg.max() >= len(kinds):
+                raise ValueError(
+                    f"Trajectory.segments must be non-decreasing indices into segment_kinds ({len(kinds)} kinds)"
+                )
+            unknown = [name for name in kinds if name not in SEGMENT_KINDS]
+            if unknown:
+                raise ValueError(f"Trajectory.segment_kinds: unknown kind(s) {unknown}; choose from {SEGMENT_KINDS}")
+            seg = seg.astype(np.int64)
+            seg.setflags(write=False)
+            object.__setattr__(self, "segments", seg)
+            object.__setattr__(self, "segment_kinds", kinds)
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_flat(
+        cls,
+        t: ArrayLike,
+        xy: ArrayLike,
+        dxy: ArrayLike,
+        ddxy: ArrayLike,
+        *,
+        direction: ArrayLike | float = 1.0,
+        name: str = "trajectory",
+    ) -> Trajectory:
+        """Build a trajectory from the flat outputs (x, y) and their time derivatives.
+
+        Heading follows the velocity (or its opposite where ``direction`` is -1). Where the
+        speed vanishes the heading is held from the nearest moving sample.
+
+        Args:
+            t: (N,) times [s].
+            xy: (N, 2) positions [m].
+            dxy: (N, 2) velocities [m/s].
+            ddxy: (N, 2) accelerations [m/s^2].
+            direction: +1 forwards, -1 backwards; scalar or (N,).
+            name: Label.
+
+        Returns:
+            The trajectory with v, omega and their derivatives from the exact flat relations.
+        """
+        t = np.asarray(t, dtype=float)
+        xy = np.asarray(xy, dtype=float)
+        dxy = np.asarray(dxy, dtype=float)
+        ddxy = np.asarray(ddxy, dtype=float)
+        sgn = np.broadcast_to(np.sign(np.asarray(direction, dtype=float)), t.shape).copy()
+        sgn[sgn == 0] = 1.0
+        speed = np.hypot(dxy[:, 0], dxy[:, 1])
+        moving = speed > 1e-9
+        theta = np.arctan2(sgn * dxy[:, 1], sgn * dxy[:, 0])
+        if not np.all(moving):
+            if np.any(moving):
+                idx = np.arange(t.size)
+                mi = idx[moving]
+                nearest = mi[np.clip(np.searchsorted(mi, idx), 0, mi.size - 1)]
+                theta = np.where(moving, theta, theta[nearest])
+            else:
+                theta = np.zeros_like(t)
+        v = sgn * speed
+        cross = dxy[:, 0] * ddxy[:, 1] - dxy[:, 1] * ddxy[:, 0]
+        dot = dxy[:, 0] * ddxy[:, 0] + dxy[:, 1] * ddxy[:, 1]
+        safe = np.where(moving, speed, 1.0)
+        omega = np.where(moving, cross / safe**2, 0.0)
+        dv = np.where(moving, sgn * dot / safe, 0.0)
+        domega = np.gradient(omega, t)
+        pose = np.column_stack([xy, theta])
+        return cls(t, pose, np.column_stack([v, omega]), np.column_stack([dv, domega]), name=name)
+
+    # ------------------------------------------------------------------ queries
+    @property
+    def duration(self) -> float:
+        """Length of the time span [s]."""
+        return float(self.t[-1] - self.t[0])
+
+    @property
+    def start_pose(self) -> Pose2D:
+        """Pose at the first sample."""
+        return Pose2D(float(self.pose[0, 0]), float(self.pose[0, 1]), wrap_angle(float(self.pose[0, 2])))
+
+    @property
+    def final_pose(self) -> Pose2D:
+        """Pose at the last sample."""
+        return Pose2D(float(self.pose[-1, 0]), float(self.pose[-1, 1]), wrap_angle(float(self.pose[-1, 2])))
+
+    def flat_derivatives(self) -> tuple[FloatArray, FloatArray]:
+        """Velocity and acceleration of the output (x, y) at every sample.
+
+        Returns:
+            ``(dxy, ddxy)``, each (N, 2): [dx/dt, dy/dt] [m/s] and [d2x/dt2, d2y/dt2] [m/s^2],
+            from xdot = v cos(theta), xddot = vdot cos(theta) - v omega sin(theta) (and alike for y).
+        """
+        if "dxy" not in self._cache:
+            c, s = np.cos(self.pose[:, 2]), np.sin(self.pose[:, 2])
+            v, w = self.vel[:, 0], self.vel[:, 1]
+            dv = self.acc[:, 0]
+            dxy = np.column_stack([v * c, v * s])
+            ddxy = np.column_stack([dv * c - v * w * s, dv * s + v * w * c])
+            self._cache["dxy"], self._cache["ddxy"] = dxy, ddxy
+        return self._cache["dxy"], self._cache["ddxy"]
+
+    def _table(self) -> FloatArray:
+        if "table" not in self._cache:
+            dxy, ddxy = self.flat_derivatives()
+            self._cache["table"] = np.column_stack([self.pose, self.vel, self.acc, dxy, ddxy])
+        return self._cache["table"]
+
+    def sample_many(self, times: ArrayLike) -> FloatArray:
+        """Interpolate the reference at many times at once.
+
+        Times outside the span are clamped to the end samples.
+
+        Args:
+            times: (M,) query times [s].
+
+        Returns:
+            (M, 11) array: x, y, theta, v, omega, dv, domega, dx, dy, ddx, ddy.
+        """
+        tq = np.clip(np.asarray(times, dtype=float), self.t[0], self.t[-1])
+        table = self._table()
+        idx = np.clip(np.searchsorted(self.t, tq, side="right") - 1, 0, self.t.size - 2)
+        t0, t1 = self.t[idx], self.t[idx + 1]
+        a = ((tq - t0) / (t1 - t0))[:, None]
+        return (1.0 - a) * table[idx] + a * table[idx + 1]
+
+    def sample(self, t: float) -> TrajectorySample:
+        """Interpolate the reference at one time (clamped to the span)."""
+        row = self.sample_many(np.array([t]))[0]
+        return TrajectorySample(
+            t=float(t), pose=row[0:3], vel=row[3:5], acc=row[5:7], flat_vel=row[7:9], flat_acc=row[9:11]
+        )
+
+    def path_length(self) -> float:
+        """Length of the x-y path [m]."""
+        return float(np.sum(np.hypot(np.diff(self.pose[:, 0]), np.diff(self.pose[:, 1]))))

@@ -1,1 +1,0 @@
-"""Benchmarks behind ``nhsim bench`` (see sim/commands/bench.py)."""

@@ -1,0 +1,210 @@
+"""Files a simulate job leaves behind: the MP4, the PNG plots and the JSON run record.
+
+Default names, for scenario ``S`` tracked along reference (or planner) ``R``::
+
+    renders/S-R.mp4            video (H.264, yuv420p)
+    renders/S-R-world.png      world, reference, open-loop and closed-loop paths
+    renders/S-R-errors.png     position and heading error against time
+    renders/S-R-commands.png   v, omega and wheel speeds against their limits
+    renders/S-R.json           run record; its "files" names every file written
+
+``--video PATH`` moves all of them beside ``PATH`` (named after its stem); ``--json PATH`` moves the
+record. Existing files are never replaced without ``--overwrite``: every target is checked before
+any physics runs, and the command stops with an error naming the file (no numbered names).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from planning.errors import ConfigError
+
+DEFAULT_DIR = Path("renders")
+
+
+def add_output_arguments(p: argparse.ArgumentParser) -> None:
+    """Add the video, plot and GL options to a command's parser (no mujoco import)."""
+    g = p.add_argument_group(
+        "outputs",
+        "By default the video, plots and run record go to renders/<scenario>-<planner or reference>.* . "
+        "An existing file is never replaced unless --overwrite is given: the command checks every target "
+        "first and stops with an error (exit 2) before running anything.",
+    )
+    g.add_argument(
+        "--video",
+        type=Path,
+        default=None,
+        metavar="PATH",
+        help="MP4 to write (default: renders/<scenario>-<reference>.mp4); plots and record go beside it",
+    )
+    g.add_argument("--no-video", action="store_true", help="skip the video (no OpenGL needed)")
+    g.add_argument(
+        "--plots", action=argparse.BooleanOptionalAction, default=True, help="write the PNG plots (default: on)"
+    )
+    g.add_argument("--fps", type=float, default=30.0, metavar="N", help="video frames per second (default: 30)")
+    g.add_argument("--size", default="640x480", metavar="WxH", help="video size in pixels, even (default: 640x480)")
+    g.add_argument(
+        "--camera",
+        choices=["overview", "chase"],
+        default="overview",
+        help="top-down overview of both runs, or a chase camera (default: overview)",
+    )
+    g.add_argument(
+        "--quality",
+        choices=["fast", "high"],
+        default="fast",
+        help="fast: no shadows or reflections; high: shadows and reflections (about 4x slower)",
+    )
+    g.add_argument("--gl", choices=["osmesa", "egl", "glfw"], default=None,
+                   help="OpenGL backend (default: MUJOCO_GL, else osmesa without a display, else egl)")  # fmt: skip
+
+
+@dataclass(frozen=True)
+class OutputPlan:
+    """Where a job's outputs go, decided and checked before anything runs.
+
+    Attributes:
+        stem: ``<scenario>-<planner or reference>``.
+        video: MP4 path, or None.
+        plots: Plot name -> PNG path (empty with --no-plots).
+        json: Run record path.
+        settings: Render settings (None without video).
+        overwrite: Replace existing files.
+        progress: Show progress bars.
+    """
+
+    stem: str
+    video: Path | None
+    plots: dict[str, Path]
+    json: Path
+    settings: Any
+    overwrite: bool
+    progress: bool
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def targets(self) -> list[Path]:
+        """Every file the job will write."""
+        return [p for p in [self.video, *self.plots.values(), self.json] if p is not None]
+
+
+def show_progress(args: argparse.Namespace) -> bool:
+    """Progress bars only on a terminal and without --quiet (silent in CI logs)."""
+    return not getattr(args, "quiet", False) and sys.stdout.isatty() and sys.stderr.isatty()
+
+
+def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str) -> OutputPlan:
+    """Decide every output path and check that none exists (unless --overwrite), before any work.
+
+    Call after :func:`sim.viz.gl.configure`: with a video it opens and closes a tiny OpenGL context so
+    a missing GL library fails now, not after the physics.
+
+    Args:
+        args: Parsed options (see :func:`add_output_arguments`; also ``json``, ``overwrite``).
+        scenario: Scenario name.
+        source: Planner or reference name.
+
+    Raises:
+        ConfigError: Bad --size, --fps or --video name, or two outputs with the same path.
+        OutputExistsError: A target exists and --overwrite was not given.
+        DependencyError: A video was asked for and no OpenGL backend can load.
+    """
+    from sim.outputs import check_writable
+    from sim.viz.plots.run import PLOTS
+    from sim.viz.replay import RenderSettings, parse_size
+
+    stem = f"{scenario}-{source}"
+    video: Path | None = None
+    settings = None
+    if not args.no_video:
+        w, h = parse_size(args.size)
+        settings = RenderSettings(width=w, height=h, fps=args.fps, camera=args.camera, quality=args.quality)
+        video = args.video if args.video is not None else DEFAULT_DIR / f"{stem}.mp4"
+        if video.suffix.lower() != ".mp4":
+            raise ConfigError(f"--video must name an .mp4 file, got {video}")
+    elif args.video is not None:
+        raise ConfigError("--video and --no-video contradict each other; drop one")
+    base_dir, base = (args.video.parent, args.video.stem) if args.video is not None else (DEFAULT_DIR, stem)
+    plots = {name: base_dir / f"{base}-{name}.png" for name in PLOTS} if args.plots else {}
+    json_path = args.json if args.json is not None else base_dir / f"{base}.json"
+    plan = OutputPlan(stem, video, plots, json_path, settings, args.overwrite, show_progress(args))
+    targets = plan.targets()
+    if len({p.resolve() for p in targets}) != len(targets):
+        raise ConfigError(f"two outputs share a path: {', '.join(map(str, targets))}; choose distinct names")
+    for path in targets:
+        check_writable(path, overwrite=args.overwrite)
+    if video is not None:
+        from planning.errors import DependencyError
+        from sim.viz.replay import probe_renderer
+
+        reason = probe_renderer()
+        if reason is not None:
+            raise DependencyError(reason)
+    return plan
+
+
+def render_job_video(result: Any, plan: OutputPlan) -> dict[str, Any]:
+    """Replay a job's logs into ``plan.video``; returns facts for the record (frames, seconds, ...)."""
+    from sim.physics.simulator import Simulator
+    from sim.viz import gl
+    from sim.viz.replay import Replay, SceneRenderer, render_frames
+    from sim.viz.video import VideoWriter
+
+    assert plan.video is not None and plan.settings is not None
+    s = plan.settings
+    model = Simulator(result.robot, result.scenario.world).model
+    replay = Replay(model, result.trajectory, result.logs, s)
+    bar = _progress_bar(replay.n_frames, f"render {plan.video.name}", plan.progress)
+    t0 = time.perf_counter()
+    try:
+        with SceneRenderer(model, s.width, s.height, quality=s.quality, max_geom=replay.required_geoms) as renderer:
+            with VideoWriter(plan.video, s.width, s.height, s.fps, overwrite=plan.overwrite) as writer:
+                n = render_frames(replay, renderer, writer, progress=bar.update if bar is not None else None)
+    finally:
+        if bar is not None:
+            bar.close()
+    seconds = time.perf_counter() - t0
+    return {"frames": n, "fps": s.fps, "size": [s.width, s.height], "camera": s.camera, "quality": s.quality,
+            "gl_backend": gl.current_backend(), "render_seconds": round(seconds, 3)}  # fmt: skip
+
+
+def _progress_bar(total: int, desc: str, enabled: bool) -> Any:
+    if not enabled:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, unit="frame", leave=False, dynamic_ncols=True)
+
+
+def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict[str, str]:
+    """Write the video, the plots and the JSON record of a job (each atomically).
+
+    Args:
+        result: The :class:`sim.pipeline.simulate.JobResult`.
+        plan: From :func:`plan_outputs`.
+        record: The run record; gains "files" (every file written) and "video" (render facts).
+
+    Returns:
+        Output kind ("video", "plot_world", ..., "json") -> path written.
+    """
+    from sim.outputs import write_json
+    from sim.viz.plots.run import job_figures, save_figure
+
+    files: dict[str, str] = {}
+    if plan.video is not None:
+        record["video"] = render_job_video(result, plan)
+        files["video"] = str(plan.video)
+    if plan.plots:
+        title = f"{result.scenario.name} | {result.robot.name} | {result.source}"
+        figs = job_figures(result.scenario.world, result.robot, result.trajectory, result.logs, title=title)
+        for name, path in plan.plots.items():
+            save_figure(figs[name], path, overwrite=plan.overwrite)
+            files[f"plot_{name}"] = str(path)
+    files["json"] = str(plan.json)
+    record["files"] = dict(files)
+    write_json(plan.json, record, overwrite=plan.overwrite)
+    return files

@@ -1,0 +1,72 @@
+"""The ``nhsim`` command line.
+
+Each subcommand lives in its own module under ``sim/cli/`` with two functions:
+``add_parser(subparsers) -> argparse.ArgumentParser`` and ``run(args) -> int``. The table below is
+the whole registry; the CLI, the help text and the tests enumerate it.
+
+Modules are imported only when their command runs (so ``--gl`` is applied before MuJoCo loads),
+except for building the parsers, which must not import mujoco at module level.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+from planning.errors import NhsimError, SimulationError
+
+#: Subcommand name -> module path.
+COMMANDS: dict[str, str] = {
+    "simulate": "sim.cli.simulate",
+    "bench": "sim.cli.bench",
+    "scenarios": "sim.cli.scenarios",
+    "plan": "sim.cli.plan",
+    "tune": "sim.cli.tune",
+    "regress": "sim.cli.regress",
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The top-level parser with every registered subcommand."""
+    parser = argparse.ArgumentParser(
+        prog="nhsim",
+        description="Plan, track and simulate nonholonomic wheeled robots (TurtleBot3, EduMIP) in MuJoCo.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, module in COMMANDS.items():
+        mod = importlib.import_module(module)
+        p = mod.add_parser(sub)
+        p.set_defaults(_module=module)
+        assert p.prog.endswith(name)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``nhsim`` console script; returns the process exit code.
+
+    Exit codes: 0 success, 1 a run failed its checks (or a benchmark missed its target),
+    2 bad input (usage or a clear error message), 130 interrupted.
+    """
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "command", None):
+        parser.print_help()
+        return 2
+    try:
+        mod = importlib.import_module(args._module)
+        return int(mod.run(args))
+    except SimulationError as exc:
+        print(f"nhsim {args.command}: simulation failed: {exc}", file=sys.stderr)
+        return 1
+    except NhsimError as exc:
+        print(f"nhsim {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"nhsim {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,178 @@
+"""``nhsim plan``: plan a scenario with a registered planner; print, and optionally write JSON and a plot."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from planning.errors import ConfigError
+
+#: Largest motion between consecutive path states in the JSON record [m].
+PATH_SPACING = 0.02
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Register the ``plan`` subcommand."""
+    from planning.core.robot import ROBOT_FILES
+    from planning.planners.base import PLANNERS
+
+    planners = ", ".join(sorted(PLANNERS)) or "(none registered)"
+    p: argparse.ArgumentParser = sub.add_parser(
+        "plan",
+        help="plan a path through a scenario and report status, time, length and clearance",
+        description=(
+            "Plan from the scenario's start to its goal with one of the registered planners and print "
+            "status, planning time, iterations, path length and minimum clearance (the smallest distance "
+            "between the robot's footprint and any obstacle or wall along the path, a lower bound within "
+            "2.5 mm).\n\n"
+            f"Planners: {planners}.\n\n"
+            "JSON record (--json): status, planner, reason, scenario, robot, seed, time_limit_s, time_s, "
+            "iterations, length_m, min_clearance_m, goal_position_error_m, goal_heading_error_rad, "
+            f"path_spacing_m, path (a list of [x, y, theta] states at most {PATH_SPACING * 100:g} cm apart "
+            "along the motion, counting a turn in place as the robot's radius times the angle), stats.\n\n"
+            "Exit status: 0 when the plan succeeded, 1 when the planner ended in another status "
+            "(outputs are still written), 2 on bad input."
+        ),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--scenario", required=True, metavar="NAME|PATH",
+                   help="built-in scenario name (see 'nhsim scenarios') or path to a scenario .toml")  # fmt: skip
+    p.add_argument("--planner", default=None, metavar="P",
+                   help=f"planner: {planners} (default: the scenario's planner)")  # fmt: skip
+    p.add_argument("--robot", choices=sorted(ROBOT_FILES), default=None,
+                   help="robot, overriding the scenario's (default: the scenario's robot)")  # fmt: skip
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="random seed; same seed, same plan (default: 0)")
+    p.add_argument(
+        "--time-limit",
+        type=float,
+        default=30.0,
+        metavar="S",
+        help="wall-clock budget in seconds; when spent the planner returns TIMEOUT (default: 30)",
+    )
+    p.add_argument("--json", type=Path, default=None, metavar="PATH", help="write the plan record as JSON")
+    p.add_argument("--plot", type=Path, default=None, metavar="PATH", help="write a PNG of world, tree and path")
+    p.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    p.add_argument("--quiet", action="store_true", help="print only the results")
+    return p
+
+
+def densify_path(path: NDArray[np.float64], radius: float, spacing: float = PATH_SPACING) -> NDArray[np.float64]:
+    """Insert linearly interpolated states so consecutive ones are at most ``spacing`` apart.
+
+    The motion between two states counts ``|dxy| + radius * |dtheta|`` (a bound on how far any point of
+    the robot moves); states already closer are kept unchanged.
+
+    Args:
+        path: (N, 3) states [x, y, theta].
+        radius: Robot radius [m].
+        spacing: Largest allowed motion [m].
+
+    Returns:
+        (N', 3) states, N' >= N, containing the given ones.
+    """
+    if path.shape[0] < 2:
+        return path
+    th = np.unwrap(path[:, 2])
+    q = np.column_stack([path[:, :2], th])
+    step = np.hypot(*np.diff(q[:, :2], axis=0).T) + radius * np.abs(np.diff(th))
+    n = np.maximum(1, np.ceil(step / spacing - 1e-9).astype(int))  # 1e-9: rounding of an exact split
+    if np.all(n == 1):
+        return path
+    idx = np.repeat(np.arange(len(n)), n)
+    frac = np.concatenate([np.arange(k) / k for k in n])
+    out = q[idx] + frac[:, None] * (q[idx + 1] - q[idx])
+    return np.vstack([out, q[-1:]])
+
+
+def path_spacing(path: NDArray[np.float64], radius: float) -> float:
+    """Largest ``|dxy| + radius * |dtheta|`` between consecutive states [m] (0 for fewer than two)."""
+    if path.shape[0] < 2:
+        return 0.0
+    th = np.unwrap(path[:, 2])
+    return float(np.max(np.hypot(*np.diff(path[:, :2], axis=0).T) + radius * np.abs(np.diff(th))))
+
+
+def run(args: argparse.Namespace) -> int:
+    """Execute ``plan``."""
+    from planning.collision.exact import CollisionChecker
+    from planning.core.geometry import wrap_angle
+    from planning.core.robot import load_robot
+    from planning.planners.base import PlanProblem, PlanStatus, make_planner
+    from planning.scenario import load_scenario
+    from sim.outputs import check_writable, write_json
+
+    if not args.time_limit > 0:
+        raise ConfigError(f"--time-limit must be > 0 s, got {args.time_limit}")
+    for out in (args.json, args.plot):
+        if out is not None:
+            check_writable(out, overwrite=args.overwrite)
+    if args.json is not None and args.plot is not None and args.json.resolve() == args.plot.resolve():
+        raise ConfigError("--json and --plot name the same file; give two different paths")
+    scenario = load_scenario(args.scenario)
+    if args.robot is not None:
+        scenario = scenario.with_robot(args.robot)
+    name = args.planner or scenario.planner
+    if name is None:
+        raise ConfigError(f"scenario {scenario.name!r} names no default planner: pass --planner")
+    planner = make_planner(name, **scenario.options_for(name))
+    robot = load_robot(scenario.robot)
+    problem = PlanProblem.from_scenario(scenario, robot=robot, seed=args.seed, time_limit=args.time_limit)
+    if not args.quiet:
+        print(f"scenario {scenario.name} | robot {robot.name} | planner {name} | seed {args.seed} | "
+              f"time limit {args.time_limit:g} s")  # fmt: skip
+    from sim.cli.job_outputs import show_progress
+    from sim.cli.progress import TimedBar
+
+    t0 = time.perf_counter()
+    with TimedBar("planning", args.time_limit, enabled=show_progress(args)):
+        result = planner.plan(problem)
+    wall = time.perf_counter() - t0
+    path = densify_path(np.asarray(result.path, dtype=float).reshape(-1, 3), robot.radius)
+    min_clear = None
+    goal_pos = goal_head = None
+    if path.shape[0] > 0:
+        checker = CollisionChecker(problem.world, robot, shape="footprint")
+        min_clear = float(np.min(checker.clearance_of(path)))
+        goal_pos = float(np.hypot(path[-1, 0] - problem.goal.x, path[-1, 1] - problem.goal.y))
+        goal_head = abs(float(wrap_angle(path[-1, 2] - problem.goal.theta)))
+    length = float(np.sum(np.hypot(*np.diff(path[:, :2], axis=0).T))) if path.shape[0] > 1 else 0.0
+    iterations = result.stats.get("iterations")
+    time_s = float(result.stats.get("time_s", wall))
+    lines = [
+        f"status          {result.status.value}",
+        f"time            {time_s:.3f} s",
+        f"iterations      {iterations if iterations is not None else '-'}",
+        f"path length     {length:.3f} m",
+        f"min clearance   {'-' if min_clear is None else f'{min_clear:.3f} m'}",
+    ]
+    if result.reason:
+        lines.append(f"reason          {result.reason}")
+    print("\n".join(lines))
+    if args.json is not None:
+        record = {
+            "status": result.status.value, "planner": name, "reason": result.reason,
+            "scenario": scenario.name, "robot": robot.name, "seed": args.seed, "time_limit_s": args.time_limit,
+            "time_s": time_s, "iterations": iterations, "length_m": length, "min_clearance_m": min_clear,
+            "goal_position_error_m": goal_pos, "goal_heading_error_rad": goal_head,
+            "path_spacing_m": path_spacing(path, robot.radius), "path": path.tolist(),
+            "stats": {k: v for k, v in result.stats.items() if _jsonable(v)},
+        }  # fmt: skip
+        write_json(args.json, record, overwrite=args.overwrite)
+        if not args.quiet:
+            print(f"wrote {args.json}")
+    if args.plot is not None:
+        from sim.viz.plots.tree import plan_figure, save_plan_figure
+
+        save_plan_figure(plan_figure(problem, result), args.plot, overwrite=args.overwrite)
+        if not args.quiet:
+            print(f"wrote {args.plot}")
+    return 0 if result.status is PlanStatus.SUCCESS else 1
+
+
+def _jsonable(value: Any) -> bool:
+    return isinstance(value, (int, float, str, bool, list, dict, type(None))) or hasattr(value, "tolist")

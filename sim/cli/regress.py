@@ -1,0 +1,135 @@
+"""``nhsim regress``: run the physics regression suite against its baselines."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+DESCRIPTION = """\
+Run the declared regression suite (tests/regression_suite.toml: scenarios x robots x references or
+planners x trackers, seeded) and compare each case's metrics with its baseline in tests/baselines/.
+Each case runs twice in one process and must be bitwise identical (determinism guard).
+
+Against a baseline recorded with the same mujoco, numpy and platform every metric must be equal bit
+for bit; against one recorded elsewhere a metric may get worse by at most its tolerance
+(abs + rel * |baseline|, from the suite's [tolerances]). A table lists every metric that moved.
+
+By default the fast subset runs; --all runs every case, --case PATTERN the matching ones.
+--update rewrites the baselines of the cases run (only when asked) and prints what changed.
+
+Adding a case is one line in the suite's 'cases' array, e.g.
+  { scenario = "open", robot = "edumip", reference = "circle", tracker = "fbl", seed = 0, control_rate = 50 },
+  { scenario = "maze", robot = "turtlebot3", planner = "rrt", tracker = "fbl", seed = 1, control_rate = 50 },
+then: nhsim regress --update --case <its name>.
+
+Exit status: 0 every case passed (or --update wrote baselines), 1 a case regressed,
+has no baseline, failed or is not deterministic, 2 bad input."""
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Register the ``regress`` subcommand."""
+    p: argparse.ArgumentParser = sub.add_parser(
+        "regress", help="run the physics regression suite against its baselines",
+        description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )  # fmt: skip
+    p.add_argument("--update", action="store_true", help="rewrite the baselines of the cases run; print what changed")
+    p.add_argument("--all", action="store_true", help="run every case (default: the fast subset)")
+    p.add_argument(
+        "--case",
+        action="append",
+        default=None,
+        metavar="PATTERN",
+        help="run cases whose name matches PATTERN (shell wildcards; repeatable, or comma-separated)",
+    )
+    p.add_argument(
+        "--suite", type=Path, default=None, metavar="TOML", help="suite file (default: tests/regression_suite.toml)"
+    )
+    p.add_argument(
+        "--baselines", type=Path, default=None, metavar="DIR", help="baseline directory (default: tests/baselines)"
+    )
+    p.add_argument("--list", action="store_true", help="list the selected cases and exit")
+    return p  # fmt: skip
+
+
+def format_changes(changes: list[Any]) -> str:
+    """The table of metrics that moved."""
+    head = f"{'case':<40} {'metric':<24} {'baseline':>13} {'now':>13} {'delta':>11} {'allowed':>9}  status"
+    lines = [head, "-" * len(head)]
+    for c in changes:
+        lines.append(f"{c.case:<40} {c.metric:<24} {c.baseline:>13.6g} {c.value:>13.6g} "
+                     f"{c.value - c.baseline:>+11.3g} {c.allowed:>9.3g}  {c.status}")  # fmt: skip
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Execute ``regress``."""
+    from sim.outputs import write_json
+    from sim.tools.regress import (
+        BASELINE_DIR,
+        SUITE_PATH,
+        baseline_document,
+        baseline_path,
+        check_case,
+        environment,
+        load_suite,
+        read_baseline,
+    )
+
+    suite = load_suite(args.suite or SUITE_PATH)
+    baselines: Path = args.baselines or BASELINE_DIR
+    patterns = [p.strip() for arg in (args.case or []) for p in arg.split(",") if p.strip()]
+    cases = suite.select(patterns, all_cases=args.all)
+    if args.list:
+        for c in cases:
+            print(f"{c.name}{'  (fast)' if c.fast else ''}")
+        return 0
+    tty = sys.stderr.isatty()
+    outcomes = []
+    for i, case in enumerate(cases):
+        if tty:
+            print(f"\r[{i + 1}/{len(cases)}] {case.name:<60}", end="", file=sys.stderr, flush=True)
+        outcomes.append(check_case(case, baselines, suite.tolerances))
+    if tty:
+        print("\r" + " " * 72 + "\r", end="", file=sys.stderr)
+
+    moved = [c for o in outcomes for c in o.changes]
+    print(format_changes(moved) if moved else "no metric moved")
+    print()
+    for o in outcomes:
+        mode = "" if o.status not in ("pass", "fail") else (" (bit for bit)" if o.exact else " (tolerances)")
+        print(f"{o.status.upper():<16} {o.case.name}{mode}")
+
+    if args.update:
+        written = 0
+        for o in outcomes:
+            if not o.metrics:
+                continue
+            path = baseline_path(o.case, baselines)
+            old = read_baseline(path)
+            doc = baseline_document(o.case, o.metrics)
+            if old == doc:
+                continue
+            write_json(path, doc, overwrite=True)
+            written += 1
+            if old is None:
+                print(f"new baseline {path}")
+            else:
+                what = [f"{k} {old['metrics'].get(k)!r} -> {v!r}" for k, v in o.metrics.items()
+                        if old["metrics"].get(k) != v]  # fmt: skip
+                if old.get("environment") != environment():
+                    what.append(f"environment {old.get('environment')} -> {environment()}")
+                if old.get("case") != doc["case"]:
+                    what.append("case fields")
+                print(f"updated {path}: " + ("; ".join(what) or "no change"))
+        print(f"{written} baseline(s) written, {len(outcomes) - written} unchanged or not run")
+        bad = [o for o in outcomes if o.status in ("error", "nondeterministic")]
+        return 1 if bad else 0
+
+    failed = [o for o in outcomes if not o.ok]
+    passed = sum(o.status == "pass" for o in outcomes)
+    print(f"\n{passed} passed, {len(failed)} failed of {len(outcomes)} case(s)")
+    for o in failed:
+        print(f"nhsim regress: {o.status}: {o.message}", file=sys.stderr)
+    return 1 if failed else 0

@@ -1,0 +1,327 @@
+"""``nhsim tune``: tune the FBL tracker's gains with Optuna over a set of cases."""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import re
+import sys
+import time
+import warnings
+from pathlib import Path
+from typing import Any
+
+from planning.errors import ConfigError
+
+DESCRIPTION = """\
+Tune the feedback-linearisation tracker's gains (Kp, Kd, xi_min) with Optuna (TPE by default) over
+a set of cases. Objective (lower is better), averaged over cases (and, with --robust, over seeded
+perturbations): RMS position error + final position error + W * saturation fraction [m], plus 1 m
+for a run that collides, makes MuJoCo warn or fails.
+
+Cases (--scenarios, comma-separated): SCENARIO:REFERENCE tracks an analytic reference at the
+scenario's start (e.g. open:figure8, open:circle, open:line); SCENARIO:PLANNER or a bare SCENARIO
+tracks a plan (needs the planners).
+
+The study is kept in an SQLAlchemy storage (default sqlite:///renders/tune-<study>.db). Rerunning
+the same command resumes it: completed trials count toward --trials and are never repeated. Any
+SQLAlchemy URL works (e.g. postgresql://user:pass@host/db), so workers on several machines can run
+the same command against one study; --jobs runs local worker processes. The default gains are
+always the study's first trial.
+
+At the end: the best gains are written to a gains file (for 'nhsim simulate --gains FILE'), plots
+of the optimisation history and the parameter importance are saved, and the tuned and the default
+gains are compared over --eval-runs perturbed runs per case drawn with a held-out seed.
+
+Exit status: 0 done, 2 bad input (nothing written), 130 interrupted (the study keeps every
+completed trial; rerun the command to resume)."""
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Register the ``tune`` subcommand."""
+    p: argparse.ArgumentParser = sub.add_parser(
+        "tune", help="tune tracker gains with Optuna (resumable study, gains file, plots)",
+        description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )  # fmt: skip
+    p.add_argument(
+        "--scenarios", required=True, metavar="CASE,...", help="cases to tune on, e.g. open:figure8,open:circle"
+    )
+    p.add_argument(
+        "--trials", type=int, default=30, metavar="N", help="completed trials wanted in the study (default: 30)"
+    )
+    p.add_argument("--jobs", type=int, default=1, metavar="J", help="local worker processes (default: 1)")
+    p.add_argument(
+        "--storage",
+        default=None,
+        metavar="URL",
+        help="SQLAlchemy URL of the study storage (default: sqlite:///renders/tune-<study>.db)",
+    )
+    p.add_argument("--study", default=None, metavar="NAME", help="study name (default: derived from the cases)")
+    p.add_argument("--sampler", choices=["tpe", "random"], default="tpe", help="Optuna sampler (default: tpe)")
+    p.add_argument("--robot", choices=["turtlebot3", "edumip"], default=None, help="robot (default: each scenario's)")
+    p.add_argument("--control-rate", type=float, default=50.0, metavar="HZ", help="tracker rate (default: 50)")
+    p.add_argument("--robust", action="store_true", help="evaluate every trial over seeded perturbations")
+    p.add_argument(
+        "--robust-runs", type=int, default=4, metavar="K", help="perturbations per case with --robust (default: 4)"
+    )
+    p.add_argument(
+        "--perturb-range",
+        default=None,
+        metavar="KEY=LO:HI,...",
+        help="perturbation ranges for --robust and the final comparison, e.g. friction=0.5:1.5,latency=0:0.04 "
+        "(keys: friction, mass, radius, noise, heading_noise, latency; unspecified keys keep their defaults)",
+    )
+    p.add_argument(
+        "--eval-runs",
+        type=int,
+        default=8,
+        metavar="M",
+        help="held-out perturbed runs per case comparing tuned and default gains at the end (default: 8; 0 skips)",
+    )
+    p.add_argument(
+        "--saturation-weight",
+        type=float,
+        default=0.05,
+        metavar="W",
+        help="cost of a saturated command, per unit saturation fraction [m] (default: 0.05)",
+    )
+    p.add_argument(
+        "--seed", type=int, default=0, metavar="N", help="seed of the sampler and perturbations (default: 0)"
+    )
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="gains file to write (default: renders/tune-<study>.toml)",
+    )
+    p.add_argument(
+        "--plots",
+        type=Path,
+        default=Path("renders"),
+        metavar="DIR",
+        help="directory of the plots tune-<study>-history.png, -importance.png (default: renders)",
+    )
+    p.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    p.add_argument("--quiet", action="store_true", help="no progress display")
+    return p  # fmt: skip
+
+
+def default_study_name(tokens: list[str], robot: str | None, robust: bool) -> str:
+    """A study name derived from the cases (the same command gives the same name)."""
+    base = "fbl-" + "_".join(tokens) + (f"-{robot}" if robot else "") + ("-robust" if robust else "")
+    name = re.sub(r"[^A-Za-z0-9_.-]+", "-", base)
+    if len(name) > 60:
+        name = name[:50] + "-" + hashlib.sha1(name.encode()).hexdigest()[:8]
+    return name
+
+
+class _Progress:
+    """A tqdm bar on a terminal, nothing otherwise."""
+
+    def __init__(self, total: int, initial: int, enabled: bool) -> None:
+        self.bar = None
+        if enabled:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, initial=initial, desc="trials", unit="trial", file=sys.stderr)
+
+    def set(self, done: int, best: float | None) -> None:
+        if self.bar is not None:
+            self.bar.n = done
+            if best is not None:
+                self.bar.set_postfix_str(f"best {best:.5f} m", refresh=False)
+            self.bar.refresh()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _best_value(study: Any) -> float | None:
+    from sim.tools.tune import completed
+
+    values = [t.value for t in completed(study)]
+    return min(values) if values else None
+
+
+def _run_parallel(spec: Any, shares: list[int], study: Any, progress: _Progress) -> None:
+    import multiprocessing as mp
+
+    from sim.tools.tune import completed, worker_process
+
+    ctx = mp.get_context("spawn")
+    procs = [ctx.Process(target=worker_process, args=(spec, n, i + 1)) for i, n in enumerate(shares)]
+    for proc in procs:
+        proc.start()
+    try:
+        while any(proc.is_alive() for proc in procs):
+            time.sleep(0.5)
+            progress.set(len(completed(study)), _best_value(study))
+    finally:
+        for proc in procs:
+            proc.join()
+    bad = [proc.exitcode for proc in procs if proc.exitcode != 0]
+    if bad:
+        raise ConfigError(f"{len(bad)} tuning worker(s) failed (exit codes {bad}); the study keeps its completed "
+                          "trials, rerun the command to resume")  # fmt: skip
+
+
+def _save_figure(plt: Any, ax: Any, path: Path, overwrite: bool) -> None:
+    from sim.outputs import atomic_path
+
+    fig = ax.get_figure(root=True)
+    with atomic_path(path, overwrite=overwrite) as tmp:
+        fig.savefig(tmp, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+
+
+def _save_plots(study: Any, history: Path, importance: Path, overwrite: bool) -> tuple[list[str], list[str]]:
+    """Write both plots; returns the paths written and notes on plots that could not be drawn."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from optuna.importance import PedAnovaImportanceEvaluator
+    from optuna.visualization.matplotlib import plot_optimization_history, plot_param_importances
+
+    notes: list[str] = []
+    written = [str(history)]
+    ax = plot_optimization_history(study)
+    ax.set_ylabel("objective [m]")
+    ax.set_yscale("log")
+    _save_figure(plt, ax, history, overwrite)
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", UserWarning)
+            ax = plot_param_importances(study, evaluator=PedAnovaImportanceEvaluator())
+        notes += [f"importance plot: {w.message}" for w in caught if issubclass(w.category, UserWarning)]
+    except Exception as exc:  # too few or identical trials
+        notes.append(f"no importance plot: {exc}")
+    else:
+        _save_figure(plt, ax, importance, overwrite)
+        written.append(str(importance))
+    return written, notes
+
+
+def run(args: argparse.Namespace) -> int:
+    """Execute ``tune``."""
+    from control.gains import GainsFile, dump_gains_toml
+    from sim.outputs import atomic_path, check_writable
+    from sim.physics.perturb import PerturbationRange
+    from sim.pipeline.case import Case
+    from sim.tools.tune import (
+        TuneSpec,
+        completed,
+        default_trial,
+        ensure_default_trial,
+        gains_of,
+        load_study,
+        run_worker,
+        split_trials,
+    )
+
+    tokens = [t.strip() for t in args.scenarios.split(",") if t.strip()]
+    if not tokens:
+        raise ConfigError("--scenarios is empty; give cases such as open:figure8,open:circle")
+    counts = {"--trials": (args.trials, 1), "--jobs": (args.jobs, 1), "--robust-runs": (args.robust_runs, 1),
+              "--eval-runs": (args.eval_runs, 0)}  # fmt: skip
+    for name, (value, low) in counts.items():
+        if value < low:
+            raise ConfigError(f"{name} must be >= {low}, got {value}")
+    if args.control_rate <= 0:
+        raise ConfigError(f"--control-rate must be > 0 Hz, got {args.control_rate}")
+    cases = tuple(Case.parse(t, robot=args.robot, seed=args.seed, control_rate=args.control_rate) for t in tokens)
+    prange = PerturbationRange.parse(args.perturb_range) if args.perturb_range else PerturbationRange()
+    study_name = args.study or default_study_name(tokens, args.robot, args.robust)
+    default_storage = args.storage is None
+    storage = args.storage or f"sqlite:///renders/tune-{study_name}.db"
+    out = args.out or Path("renders") / f"tune-{study_name}.toml"
+    history = args.plots / f"tune-{study_name}-history.png"
+    importance = args.plots / f"tune-{study_name}-importance.png"
+    for path in (out, history, importance):
+        check_writable(path, overwrite=args.overwrite)
+
+    perts = tuple(prange.sample(args.robust_runs, args.seed)) if args.robust else ()  # each case meets all
+    spec = TuneSpec(
+        cases, perts, storage, study_name, args.trials, args.sampler, args.seed, args.saturation_weight,
+        extra_settings={"robust": args.robust, "control_rate": args.control_rate, "robot": args.robot},
+    )  # fmt: skip
+    # Cases are built (and checked) before anything is written.
+    spec.evaluator().prepared()
+    if default_storage:
+        Path("renders").mkdir(exist_ok=True)
+    import optuna
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
+    study = load_study(spec, create=True)
+    done = len(completed(study))
+    remaining = max(args.trials - done, 0)
+    if remaining:
+        ensure_default_trial(study)
+    show = not args.quiet and sys.stderr.isatty()
+    if not args.quiet:
+        print(f"study {study_name} in {storage}: {done} of {args.trials} trials complete, running {remaining}"
+              f"{f' on {args.jobs} workers' if args.jobs > 1 and remaining > 1 else ''}", file=sys.stderr)  # fmt: skip
+    progress = _Progress(args.trials, done, show)
+    shares = split_trials(remaining, args.jobs)
+    try:
+        if len(shares) == 1:
+            run_worker(spec, shares[0], 0, callbacks=[lambda s, t: progress.set(len(completed(s)), _best_value(s))])
+        elif shares:
+            _run_parallel(spec, shares, study, progress)
+    finally:
+        progress.close()
+
+    trials = completed(study)
+    best = min(trials, key=lambda t: (t.value, t.number))
+    tuned = gains_of(best)
+    dtrial = default_trial(study)
+    evaluator = spec.evaluator()
+    default_obj = dtrial.value if dtrial is not None else evaluator.evaluate(gains_of_default()).objective
+    print(f"study {study_name}: {len(trials)} completed trials ({storage})")
+    print(f"best trial #{best.number}: kp={tuned.kp:.4g} kd={tuned.kd:.4g} xi_min={tuned.xi_min:.4g} "
+          f"objective {best.value:.6f} m; default gains objective {default_obj:.6f} m "
+          f"(ratio {best.value / default_obj:.3f})")  # fmt: skip
+
+    comparison: dict[str, Any] = {}
+    if args.eval_runs:
+        held_out = prange.sample(args.eval_runs, args.seed + 7919)  # every case meets each of them
+        ev = evaluator.with_perturbations(held_out)
+        res_default = ev.evaluate(gains_of_default())
+        res_tuned = ev.evaluate(tuned)
+        comparison = {"runs": res_tuned.runs, "seed": args.seed + 7919, "default": res_default.as_dict(),
+                      "tuned": res_tuned.as_dict()}  # fmt: skip
+        print(f"held-out perturbed runs: {res_tuned.runs} ({args.eval_runs} per case, seed {args.seed + 7919})")
+        print(f"{'gains':<8} {'objective [m]':>14} {'rms [m]':>10} {'final [m]':>10} {'saturation':>11} {'failed':>7}")
+        for label, r in (("default", res_default), ("tuned", res_tuned)):
+            print(f"{label:<8} {r.objective:>14.6f} {r.rms_m:>10.6f} {r.final_m:>10.6f} {r.saturation:>11.4f} "
+                  f"{r.failures:>7d}")  # fmt: skip
+        d, t = res_default, res_tuned
+        print(f"tuned / default: objective {t.objective / d.objective:.3f}, rms {t.rms_m / d.rms_m:.3f}, "
+              f"final {t.final_m / d.final_m:.3f}")  # fmt: skip
+
+    provenance: dict[str, Any] = {
+        "study": study_name, "storage": storage, "objective": float(best.value), "trial": best.number,
+        "default_objective": float(default_obj), "scenarios": tokens, "robot": args.robot or "scenario default",
+        "trials": len(trials), "sampler": args.sampler, "seed": args.seed, "robust": args.robust,
+        "saturation_weight": args.saturation_weight, "control_rate_hz": args.control_rate,
+    }  # fmt: skip
+    if comparison:
+        provenance["held_out"] = comparison
+    with atomic_path(out, overwrite=args.overwrite) as tmp:
+        tmp.write_text(dump_gains_toml(GainsFile(tuned, provenance)), encoding="utf-8")
+    plots, notes = _save_plots(study, history, importance, args.overwrite)
+    written = [str(out), *plots]
+    for note in notes:
+        print(note, file=sys.stderr)
+    print("wrote " + ", ".join(written))
+    return 0
+
+
+def gains_of_default() -> Any:
+    """The tracker's default gains."""
+    from control.fbl import FBLGains
+
+    return FBLGains()

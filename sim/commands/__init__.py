@@ -1,1 +1,0 @@
-"""nhsim subcommands, one module each (see sim/cli.py)."""

@@ -1,0 +1,1 @@
+"""MuJoCo physics: model composition, the simulator, run logs, perturbations and metrics."""

@@ -1,0 +1,81 @@
+"""Tracking metrics of a run against its reference."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from planning.core.geometry import wrap_angle
+from planning.trajectory.trajectory import Trajectory
+from sim.physics.runlog import RunLog
+
+
+@dataclass(frozen=True)
+class TrackingMetrics:
+    """How well a run followed its reference.
+
+    Attributes:
+        final_position_error_m: |p - p_ref| at the end of the run [m].
+        final_heading_error_rad: |wrap(theta - theta_ref)| at the end [rad].
+        rms_position_error_m: RMS of |p - p_ref| over the log [m].
+        max_position_error_m: Max of |p - p_ref| over the log [m].
+        final_goal_error_m: |p - p_final| at the end, against the trajectory's last pose [m].
+        collisions: Number of robot-obstacle contact spells.
+        warnings: Number of MuJoCo warnings.
+        saturation_fraction: Share of control periods where a command sat on a limit.
+        duration_s: Simulated time [s].
+    """
+
+    final_position_error_m: float
+    final_heading_error_rad: float
+    rms_position_error_m: float
+    max_position_error_m: float
+    final_goal_error_m: float
+    collisions: int
+    warnings: int
+    saturation_fraction: float
+    duration_s: float
+
+    def as_dict(self) -> dict[str, float | int]:
+        """Plain-dict view for JSON."""
+        return asdict(self)
+
+
+def position_errors(log: RunLog) -> np.ndarray:
+    """(N,) distance between the measured and the reference position at each log time [m]."""
+    d = log.pose[:, :2] - log.ref_pose[:, :2]
+    return np.hypot(d[:, 0], d[:, 1])
+
+
+def heading_errors(log: RunLog) -> np.ndarray:
+    """(N,) wrapped heading error at each log time [rad]."""
+    return np.asarray(wrap_angle(log.pose[:, 2] - log.ref_pose[:, 2]))
+
+
+def compute_metrics(log: RunLog, trajectory: Trajectory, *, max_speed: float, max_yaw_rate: float) -> TrackingMetrics:
+    """Metrics of a run.
+
+    Args:
+        log: The run.
+        trajectory: Its reference.
+        max_speed: |v| limit, for the saturation share [m/s].
+        max_yaw_rate: |omega| limit [rad/s].
+    """
+    err = position_errors(log)
+    herr = heading_errors(log)
+    final = trajectory.final_pose
+    sat = (np.abs(log.command[:, 0]) >= max_speed * (1 - 1e-9)) | (
+        np.abs(log.command[:, 1]) >= max_yaw_rate * (1 - 1e-9)
+    )
+    return TrackingMetrics(
+        final_position_error_m=float(err[-1]),
+        final_heading_error_rad=float(abs(herr[-1])),
+        rms_position_error_m=float(np.sqrt(np.mean(err**2))),
+        max_position_error_m=float(err.max()),
+        final_goal_error_m=float(np.hypot(log.pose[-1, 0] - final.x, log.pose[-1, 1] - final.y)),
+        collisions=len(log.contacts),
+        warnings=len(log.warnings),
+        saturation_fraction=float(np.mean(sat)),
+        duration_s=float(log.t[-1] - log.t[0]),
+    )

@@ -1,0 +1,237 @@
+"""Compose the MuJoCo model of a robot in a world: the robot's scene plus obstacles and walls.
+
+Obstacles become static geoms of height ``obstacle_height``: circles are cylinders, boxes are
+boxes, ellipses are prisms over a 96-gon that circumscribes the ellipse (MuJoCo's ellipsoid would
+shrink with height), and polygons are prisms over the triangles of an ear-clipping triangulation
+(MuJoCo collides with the convex hull of each mesh, so each piece must be convex).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from planning.core.geometry import Pose2D
+from planning.core.robot import RobotSpec
+from planning.core.world import Box, Circle, Ellipse, Polygon, World
+
+OBSTACLE_RGBA = (0.72, 0.36, 0.28, 1.0)
+WALL_RGBA = (0.55, 0.58, 0.62, 1.0)
+
+
+@dataclass(frozen=True)
+class BuiltModel:
+    """A compiled model and the indices the simulator needs.
+
+    Attributes:
+        model: The compiled MjModel.
+        obstacle_geoms: Geom ids of obstacles and walls.
+        robot_geoms: Geom ids of the robot (base subtree).
+        obstacle_names: Name per obstacle geom id (obstacle_<i> or wall_<side>).
+    """
+
+    model: mujoco.MjModel
+    obstacle_geoms: NDArray[np.int64]
+    robot_geoms: NDArray[np.int64]
+    obstacle_names: dict[int, str]
+
+
+def triangulate(vertices: NDArray[np.float64]) -> list[NDArray[np.float64]]:
+    """Ear-clipping triangulation of a simple counter-clockwise polygon.
+
+    Args:
+        vertices: (K, 2) polygon, counter-clockwise.
+
+    Returns:
+        K - 2 triangles, each (3, 2).
+    """
+    idx = list(range(len(vertices)))
+    v = vertices
+    tris: list[NDArray[np.float64]] = []
+
+    def cross(o: int, a: int, b: int) -> float:
+        return float((v[a, 0] - v[o, 0]) * (v[b, 1] - v[o, 1]) - (v[a, 1] - v[o, 1]) * (v[b, 0] - v[o, 0]))
+
+    def inside(p: int, a: int, b: int, c: int) -> bool:
+        return cross(a, b, p) >= 0 and cross(b, c, p) >= 0 and cross(c, a, p) >= 0
+
+    guard = 0
+    while len(idx) > 3 and guard < 10000:
+        guard += 1
+        for k in range(len(idx)):
+            a, b, c = idx[k - 1], idx[k], idx[(k + 1) % len(idx)]
+            if cross(a, b, c) <= 1e-12:
+                continue
+            if any(inside(p, a, b, c) for p in idx if p not in (a, b, c)):
+                continue
+            tris.append(v[[a, b, c]])
+            idx.pop(k)
+            break
+        else:
+            break
+    if len(idx) == 3:
+        tris.append(v[idx])
+    return tris
+
+
+def _quat_yaw(theta: float) -> list[float]:
+    return [float(np.cos(theta / 2)), 0.0, 0.0, float(np.sin(theta / 2))]
+
+
+def _add_prism(
+    spec: mujoco.MjSpec,
+    body: mujoco.MjsBody,
+    name: str,
+    poly: NDArray[np.float64],
+    height: float,
+    rgba: tuple[float, ...],
+) -> None:
+    verts = np.vstack(
+        [np.column_stack([poly, np.zeros(len(poly))]), np.column_stack([poly, np.full(len(poly), height)])]
+    )
+    spec.add_mesh(name=f"{name}_mesh", uservert=verts.reshape(-1).tolist())
+    body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"{name}_mesh", rgba=list(rgba))
+
+
+def build_model(
+    robot: RobotSpec,
+    world: World | None = None,
+    *,
+    obstacle_height: float = 0.3,
+    wall_height: float = 0.15,
+    wall_thickness: float = 0.05,
+) -> BuiltModel:
+    """Compile the robot's scene with the world's obstacles and walls.
+
+    Args:
+        robot: The robot (its scene file is loaded).
+        world: Bounds and obstacles; None for the bare scene.
+        obstacle_height: Height of obstacle geoms [m].
+        wall_height: Height of the boundary walls [m].
+        wall_thickness: Thickness of the walls, placed outside the bounds [m].
+
+    Returns:
+        The compiled model and its geom indices.
+    """
+    spec = mujoco.MjSpec.from_file(str(robot.scene))
+    names: list[str] = []
+    holder = spec.worldbody.add_body(name="obstacles")
+    # One contact sensor counts robot-obstacle contacts in sensordata, so the physics loop needs no
+    # Python scan of the contact list unless something is touching. intprm = [data, reduce, num]:
+    # data bit 0 = "found", no reduction, one slot.
+    spec.add_sensor(
+        name="obstacle_contact", type=mujoco.mjtSensor.mjSENS_CONTACT, objtype=mujoco.mjtObj.mjOBJ_XBODY,
+        objname="base", reftype=mujoco.mjtObj.mjOBJ_BODY, refname="obstacles", intprm=[1, 0, 1],
+    )  # fmt: skip
+    if world is not None:
+        h = obstacle_height
+        for i, obs in enumerate(world.obstacles):
+            name = f"obstacle_{i}"
+            if isinstance(obs, Circle):
+                holder.add_geom(
+                    name=name, type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[obs.radius, h / 2, 0],
+                    pos=[obs.center[0], obs.center[1], h / 2], rgba=list(OBSTACLE_RGBA),
+                )  # fmt: skip
+                names.append(name)
+            elif isinstance(obs, Box):
+                holder.add_geom(
+                    name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=[obs.size[0] / 2, obs.size[1] / 2, h / 2],
+                    pos=[obs.center[0], obs.center[1], h / 2], quat=_quat_yaw(obs.angle), rgba=list(OBSTACLE_RGBA),
+                )  # fmt: skip
+                names.append(name)
+            elif isinstance(obs, Ellipse):
+                n = 96
+                ang = np.linspace(0, 2 * np.pi, n, endpoint=False)
+                scale = 1.0 / np.cos(np.pi / n)  # circumscribe: the prism contains the ellipse
+                a, b = obs.radii
+                local = np.column_stack([a * scale * np.cos(ang), b * scale * np.sin(ang)])
+                c, s = np.cos(obs.angle), np.sin(obs.angle)
+                poly = local @ np.array([[c, s], [-s, c]]) + np.asarray(obs.center)
+                _add_prism(spec, holder, name, poly, h, OBSTACLE_RGBA)
+                names.append(name)
+            elif isinstance(obs, Polygon):
+                for k, tri in enumerate(triangulate(obs.array)):
+                    piece = f"{name}_{k}"
+                    _add_prism(spec, holder, piece, tri, h, OBSTACLE_RGBA)
+                    names.append(piece)
+        xmin, xmax, ymin, ymax = world.bounds
+        t, wh = wall_thickness, wall_height
+        cx, cy = (xmin + xmax) / 2, (ymin + ymax) / 2
+        walls = {
+            "wall_west": ([xmin - t / 2, cy], [t / 2, (ymax - ymin) / 2 + t]),
+            "wall_east": ([xmax + t / 2, cy], [t / 2, (ymax - ymin) / 2 + t]),
+            "wall_south": ([cx, ymin - t / 2], [(xmax - xmin) / 2 + t, t / 2]),
+            "wall_north": ([cx, ymax + t / 2], [(xmax - xmin) / 2 + t, t / 2]),
+        }
+        for wname, (pos, half) in walls.items():
+            holder.add_geom(
+                name=wname, type=mujoco.mjtGeom.mjGEOM_BOX, size=[half[0], half[1], wh / 2],
+                pos=[pos[0], pos[1], wh / 2], rgba=list(WALL_RGBA),
+            )  # fmt: skip
+            names.append(wname)
+        span = max(xmax - xmin, ymax - ymin)
+        spec.stat.extent = float(span)
+        spec.stat.center = [cx, cy, 0.0]
+    model = spec.compile()
+    obstacle_ids = np.array([model.geom(n).id for n in names], dtype=np.int64)
+    base = model.body("base").id
+    robot_bodies = {b for b in range(model.nbody) if b == base or _has_ancestor(model, b, base)}
+    robot_ids = np.array([g for g in range(model.ngeom) if model.geom_bodyid[g] in robot_bodies], dtype=np.int64)
+    return BuiltModel(model, obstacle_ids, robot_ids, {int(i): n for i, n in zip(obstacle_ids, names, strict=True)})
+
+
+def _has_ancestor(model: mujoco.MjModel, body: int, ancestor: int) -> bool:
+    while body > 0:
+        body = int(model.body_parentid[body])
+        if body == ancestor:
+            return True
+    return False
+
+
+def set_pose(model: mujoco.MjModel, data: mujoco.MjData, pose: Pose2D) -> None:
+    """Place the robot's free joint at a planar pose (at its model height), at rest."""
+    adr = model.jnt_qposadr[model.joint("root").id]
+    data.qpos[adr : adr + 2] = [pose.x, pose.y]
+    data.qpos[adr + 2] = model.body_pos[model.body("base").id][2]
+    data.qpos[adr + 3 : adr + 7] = _quat_yaw(pose.theta)
+    data.qvel[:] = 0.0
+    mujoco.mj_forward(model, data)
+
+
+def scale_wheels(model: mujoco.MjModel, factor: float) -> None:
+    """Scale the radius of the wheel geoms of a compiled model in place (a wheel-radius error).
+
+    The collision tyres (``wheel_*_geom``) and the visual tyres (``wheel_*_tyre``) get radius
+    ``factor * r``; their bounding radii and boxes follow. The axle rises by the change in radius
+    (the base body's rest height, so :func:`set_pose` still puts the tyres on the floor), and the
+    base body's own geoms (chassis, caster or skids) move down by as much in the body frame, so
+    they keep their height above the floor: only the rolling radius changes, not how the weight
+    is shared between wheels and caster. Call ``mujoco.mj_setConst`` afterwards.
+
+    Args:
+        model: The compiled model (modified).
+        factor: New radius over the model's radius (> 0).
+    """
+    old = None
+    for side in ("left", "right"):
+        for suffix in ("geom", "tyre"):
+            try:
+                g = model.geom(f"wheel_{side}_{suffix}").id
+            except KeyError:
+                continue
+            r = float(model.geom_size[g, 0])
+            if suffix == "geom":
+                old = r
+            model.geom_size[g, 0] = r * factor
+            half = float(model.geom_size[g, 1])
+            model.geom_rbound[g] = float(np.hypot(r * factor, half))
+            model.geom_aabb[g, 3:6] = [r * factor, r * factor, half]
+    if old is None:
+        raise ValueError("the model has no wheel_left_geom / wheel_right_geom to scale")
+    base = model.body("base").id
+    rise = old * (factor - 1.0)
+    model.body_pos[base, 2] += rise
+    model.geom_pos[model.geom_bodyid == base, 2] -= rise

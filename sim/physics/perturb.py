@@ -1,0 +1,222 @@
+"""Perturbations: the physics is not the model the tracker was tuned on.
+
+A :class:`Perturbation` changes one run:
+
+- ``friction``: scale of the sliding friction of every geom (the tyres govern the rolling
+  contact, having priority over the floor), e.g. 0.6 for a slippery floor.
+- ``mass``: scale of the base body's mass and inertia (payload), e.g. 1.3.
+- ``radius``: physics wheel radius over the nominal one. The tracker and its drive mapping
+  (:class:`control.diffdrive.DiffDrive`) keep believing the nominal radius, so a wheel speed meant
+  for speed v gives ``radius * v``.
+- ``noise`` / ``heading_noise``: standard deviation of zero-mean Gaussian noise added to the pose
+  the tracker sees [m] / [rad]; the log keeps the true pose. Drawn from
+  ``np.random.default_rng(seed)`` before the run, so the same seed gives the same run, bit for bit.
+- ``latency``: delay [s] between the pose measurement and the wheels receiving the command it
+  produced, rounded to whole physics steps (2 ms); commands not yet arrived leave the previous
+  one in force (zero wheel speed at the start).
+
+Command-line syntax (``nhsim simulate --perturb``): comma-separated ``key=value`` with keys
+friction, mass, radius, noise, heading_noise, latency, e.g.
+``friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02``. Ranges (``nhsim tune
+--perturb-range``) use ``key=lo:hi``, e.g. ``friction=0.5:1.5,latency=0:0.04``.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import asdict, dataclass, fields
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from planning.errors import ConfigError
+from sim.physics.model import scale_wheels
+
+#: Field -> (lowest allowed, highest allowed, nominal, unit) for validation and help.
+LIMITS: dict[str, tuple[float, float, float, str]] = {
+    "friction": (0.05, 10.0, 1.0, "x"),
+    "mass": (0.1, 10.0, 1.0, "x"),
+    "radius": (0.5, 1.5, 1.0, "x"),
+    "noise": (0.0, 0.5, 0.0, "m"),
+    "heading_noise": (0.0, 1.0, 0.0, "rad"),
+    "latency": (0.0, 1.0, 0.0, "s"),
+}
+
+
+def _check(name: str, value: object) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ConfigError(f"perturbation {name} must be a finite number, got {value!r}")
+    lo, hi, _, unit = LIMITS[name]
+    if not lo <= value <= hi:
+        raise ConfigError(f"perturbation {name}={value!r} is outside [{lo:g}, {hi:g}] ({unit})")
+    return float(value)
+
+
+def _parse_pairs(text: str, what: str) -> dict[str, str]:
+    out: dict[str, str] = {}
+    for part in text.split(","):
+        part = part.strip()
+        if not part:
+            continue
+        key, sep, value = part.partition("=")
+        key = key.strip()
+        if not sep or key not in LIMITS:
+            raise ConfigError(
+                f"{what} {text!r}: expected comma-separated key=value with keys {', '.join(LIMITS)} "
+                f"(e.g. friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02), got {part!r}"
+            )
+        if key in out:
+            raise ConfigError(f"{what} {text!r}: {key} given twice")
+        out[key] = value.strip()
+    return out
+
+
+def _number(text: str, key: str, what: str) -> float:
+    try:
+        return float(text)
+    except ValueError as exc:
+        raise ConfigError(f"{what}: {key} must be a number, got {text!r}") from exc
+
+
+@dataclass(frozen=True)
+class Perturbation:
+    """A change of the physics and of the loop for one run (see the module docstring).
+
+    Attributes:
+        friction: Sliding friction scale [-].
+        mass: Base mass and inertia scale [-].
+        radius: Physics wheel radius over nominal [-].
+        noise: Pose-sensor position noise standard deviation [m].
+        heading_noise: Pose-sensor heading noise standard deviation [rad].
+        latency: Control latency [s].
+        seed: Seed of the sensor noise.
+    """
+
+    friction: float = 1.0
+    mass: float = 1.0
+    radius: float = 1.0
+    noise: float = 0.0
+    heading_noise: float = 0.0
+    latency: float = 0.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in LIMITS:
+            object.__setattr__(self, name, _check(name, getattr(self, name)))
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            raise ConfigError(f"perturbation seed must be an integer >= 0, got {self.seed!r}")
+        object.__setattr__(self, "seed", int(self.seed))
+
+    @classmethod
+    def parse(cls, text: str, *, seed: int = 0) -> Perturbation:
+        """Parse ``key=value,...`` (see the module docstring); keys left out stay nominal.
+
+        Raises:
+            ConfigError: Unknown key, repeated key, non-numeric or out-of-range value.
+        """
+        pairs = _parse_pairs(text, "--perturb")
+        return cls(**{k: _number(v, k, f"--perturb {text!r}") for k, v in pairs.items()}, seed=seed)
+
+    @property
+    def is_nominal(self) -> bool:
+        """True when nothing is changed (the run is the unperturbed one)."""
+        return all(getattr(self, n) == LIMITS[n][2] for n in LIMITS)
+
+    @property
+    def changes_model(self) -> bool:
+        """True when the compiled model must be modified (friction, mass or radius)."""
+        return (self.friction, self.mass, self.radius) != (1.0, 1.0, 1.0)
+
+    def as_dict(self) -> dict[str, float | int]:
+        """Plain-dict view for records."""
+        return asdict(self)
+
+    def label(self) -> str:
+        """The ``key=value`` text of the non-nominal fields ("nominal" if none)."""
+        parts = [f"{n}={getattr(self, n):g}" for n in LIMITS if getattr(self, n) != LIMITS[n][2]]
+        return ",".join(parts) or "nominal"
+
+    def apply_to_model(self, model: mujoco.MjModel) -> mujoco.MjModel:
+        """A perturbed copy of a compiled model (friction, base mass, wheel radius); the input is
+        not touched."""
+        m = copy.deepcopy(model)
+        if self.friction != 1.0:
+            m.geom_friction[:, 0] *= self.friction
+        if self.mass != 1.0:
+            base = m.body("base").id
+            m.body_mass[base] *= self.mass
+            m.body_inertia[base] *= self.mass
+        if self.radius != 1.0:
+            scale_wheels(m, self.radius)
+        d = mujoco.MjData(m)
+        mujoco.mj_setConst(m, d)
+        return m
+
+    def latency_steps(self, timestep: float) -> int:
+        """Latency in whole physics steps of ``timestep`` [s] (rounded to the nearest)."""
+        return round(self.latency / timestep)
+
+    def sensor_noise(self, n: int) -> NDArray[np.float64] | None:
+        """(n, 3) noise [dx, dy, dtheta] for ``n`` control periods, or None without noise."""
+        if self.noise == 0.0 and self.heading_noise == 0.0:
+            return None
+        rng = np.random.default_rng(self.seed)
+        z = rng.standard_normal((n, 3))
+        return z * np.array([self.noise, self.noise, self.heading_noise])
+
+
+@dataclass(frozen=True)
+class PerturbationRange:
+    """Ranges ``(lo, hi)`` to draw perturbations from, uniformly and independently per field.
+
+    The defaults describe a plausible lab robot: floors from slippery to grippy, a payload of up
+    to half the base mass, a 3 % tyre wear or inflation error, a few mm of pose noise and up to
+    two control periods (at 50 Hz) of latency.
+    """
+
+    friction: tuple[float, float] = (0.5, 1.5)
+    mass: tuple[float, float] = (0.8, 1.5)
+    radius: tuple[float, float] = (0.97, 1.03)
+    noise: tuple[float, float] = (0.0, 0.005)
+    heading_noise: tuple[float, float] = (0.0, 0.02)
+    latency: tuple[float, float] = (0.0, 0.04)
+
+    def __post_init__(self) -> None:
+        for name in LIMITS:
+            pair = getattr(self, name)
+            if not (isinstance(pair, (tuple, list)) and len(pair) == 2):
+                raise ConfigError(f"perturbation range {name} must be (lo, hi), got {pair!r}")
+            lo, hi = _check(name, pair[0]), _check(name, pair[1])
+            if lo > hi:
+                raise ConfigError(f"perturbation range {name}: lo {lo:g} > hi {hi:g}; write {name}={hi:g}:{lo:g}")
+            object.__setattr__(self, name, (lo, hi))
+
+    @classmethod
+    def parse(cls, text: str) -> PerturbationRange:
+        """Parse ``key=lo:hi,...`` (or ``key=value`` for a fixed value); keys left out keep their
+        default range.
+
+        Raises:
+            ConfigError: Unknown key, malformed or out-of-range bounds.
+        """
+        what = f"--perturb-range {text!r}"
+        out: dict[str, tuple[float, float]] = {}
+        for key, value in _parse_pairs(text, "--perturb-range").items():
+            lo_s, sep, hi_s = value.partition(":")
+            lo = _number(lo_s, key, what)
+            out[key] = (lo, _number(hi_s, key, what) if sep else lo)
+        return cls(**out)
+
+    def sample(self, n: int, seed: int) -> list[Perturbation]:
+        """``n`` perturbations drawn from ``np.random.default_rng(seed)``; each gets its own noise
+        seed from the same generator. Same seed, same list."""
+        if n < 0:
+            raise ConfigError(f"number of perturbations must be >= 0, got {n}")
+        rng = np.random.default_rng(seed)
+        out = []
+        for _ in range(n):
+            values = {f.name: float(rng.uniform(*getattr(self, f.name))) for f in fields(self)}
+            out.append(Perturbation(**values, seed=int(rng.integers(2**31))))
+        return out

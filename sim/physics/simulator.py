@@ -1,0 +1,278 @@
+"""The physics loop: a tracker drives the wheel joints of a robot in MuJoCo, and everything is logged.
+
+Physics steps at the model's timestep (2 ms); the tracker is called at the control rate and physics
+advances with ``mj_step(m, d, nstep=k)`` in between, so the Python controller costs once per
+control period, not once per physics step. The log is written every ``log_steps`` physics steps
+(at least at the control rate, at most every 20 ms).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from control.base import Tracker
+from control.diffdrive import DiffDrive
+from planning.core.geometry import Pose2D
+from planning.core.robot import RobotSpec
+from planning.core.world import World
+from planning.errors import ConfigError, SimulationError
+from planning.trajectory.trajectory import Trajectory
+from sim.physics.model import BuiltModel, build_model, set_pose
+from sim.physics.perturb import Perturbation
+from sim.physics.runlog import Contact, RunLog
+
+#: Progress reports during a run (besides the first and the last), see :meth:`Simulator.run`.
+PROGRESS_UPDATES = 100
+
+WARNING_NAMES = {int(v): k for k, v in mujoco.mjtWarning.__members__.items() if k != "mjNWARNING"}
+
+
+def yaw_from_quat(w: float, x: float, y: float, z: float) -> float:
+    """Heading [rad] of a unit quaternion (rotation about z of the body x-axis)."""
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """Settings of a run.
+
+    Attributes:
+        control_rate: Tracker calls per second [Hz]; the control period must be a whole number of
+            physics steps.
+        hold: Extra time simulated after the trajectory ends [s] (the reference holds its end).
+        strict: Raise :class:`SimulationError` when MuJoCo warns (the log is attached).
+    """
+
+    control_rate: float = 50.0
+    hold: float = 0.0
+    strict: bool = True
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.control_rate) and self.control_rate > 0):
+            raise ConfigError(f"control rate must be a positive number of Hz, got {self.control_rate}")
+        if not (math.isfinite(self.hold) and self.hold >= 0):
+            raise ConfigError(f"hold must be >= 0 s, got {self.hold}")
+
+
+class Simulator:
+    """A robot in a world, ready to run trajectories.
+
+    Args:
+        robot: The robot spec (its MJCF scene is compiled).
+        world: Obstacles and walls to add; None for an empty floor.
+    """
+
+    def __init__(self, robot: RobotSpec, world: World | None = None) -> None:
+        self.robot = robot
+        self.world = world
+        self.built: BuiltModel = build_model(robot, world)
+        self.model = self.built.model
+        m = self.model
+        self._pos_adr = int(m.sensor_adr[m.sensor("base_pos").id])
+        self._quat_adr = int(m.sensor_adr[m.sensor("base_quat").id])
+        self._wl_adr = int(m.sensor_adr[m.sensor("wheel_left_vel").id])
+        self._wr_adr = int(m.sensor_adr[m.sensor("wheel_right_vel").id])
+        self._root_qadr = int(m.jnt_qposadr[m.joint("root").id])
+        self._wheel_dofs = [int(m.jnt_dofadr[m.joint(n).id]) for n in ("wheel_left_joint", "wheel_right_joint")]
+        self._contact_adr = int(m.sensor_adr[m.sensor("obstacle_contact").id])
+        self._act_l = m.actuator("wheel_left_motor").id
+        self._act_r = m.actuator("wheel_right_motor").id
+        self._is_obstacle = np.zeros(m.ngeom, dtype=bool)
+        self._is_obstacle[self.built.obstacle_geoms] = True
+        self._is_robot = np.zeros(m.ngeom, dtype=bool)
+        self._is_robot[self.built.robot_geoms] = True
+
+    def steps_per_control(self, control_rate: float) -> int:
+        """Physics steps per control period; raises if the period is not a whole number of steps."""
+        ratio = 1.0 / (control_rate * self.model.opt.timestep)
+        k = round(ratio)
+        if k < 1 or abs(ratio - k) > 1e-6:
+            raise ConfigError(
+                f"control rate {control_rate} Hz is not a whole number of {self.model.opt.timestep * 1e3:g} ms "
+                f"physics steps; choose a rate that divides {1.0 / self.model.opt.timestep:g} Hz (e.g. 10, 25, 50, 100)"
+            )
+        return k
+
+    def read_pose(self, data: mujoco.MjData) -> tuple[float, float, float]:
+        """Pose (x, y, theta) from the position and orientation sensors."""
+        s = data.sensordata
+        p, q = self._pos_adr, self._quat_adr
+        return (
+            float(s[p]),
+            float(s[p + 1]),
+            yaw_from_quat(float(s[q]), float(s[q + 1]), float(s[q + 2]), float(s[q + 3])),
+        )
+
+    def _touching(self, data: mujoco.MjData) -> list[int]:
+        n = data.ncon
+        if n == 0:
+            return []
+        g = data.contact.geom[:n]
+        a, b = g[:, 0], g[:, 1]
+        hit_a = self._is_obstacle[a] & self._is_robot[b]
+        hit_b = self._is_obstacle[b] & self._is_robot[a]
+        return sorted(set(a[hit_a].tolist()) | set(b[hit_b].tolist()))
+
+    def run(
+        self,
+        trajectory: Trajectory,
+        tracker: Tracker,
+        config: SimConfig | None = None,
+        *,
+        start: Pose2D | None = None,
+        drive: DiffDrive | None = None,
+        meta: dict[str, Any] | None = None,
+        perturbation: Perturbation | None = None,
+        progress: Callable[[int, int], Any] | None = None,
+    ) -> RunLog:
+        """Track a trajectory with a tracker in physics.
+
+        Args:
+            trajectory: The reference.
+            tracker: The tracker (reset here).
+            config: Rates and options.
+            start: Initial pose; defaults to the trajectory's first pose.
+            drive: The drive mapping the controller believes; defaults to the robot's.
+            meta: Extra fields for the log's ``meta``.
+            perturbation: Friction, mass, wheel radius, pose noise and latency changes (see
+                :mod:`sim.physics.perturb`); None or nominal runs the model as built.
+            progress: Called with (control periods done, total) when the run starts, about
+                at most :data:`PROGRESS_UPDATES` times during it, and with (total, total) at the end
+                (e.g. to drive a progress bar); None costs nothing.
+
+        Returns:
+            The log.
+
+        Raises:
+            SimulationError: MuJoCo warned (with ``config.strict``); the message lists the warnings.
+        """
+        cfg = config or SimConfig()
+        pert = perturbation if perturbation is not None and not perturbation.is_nominal else None
+        m = pert.apply_to_model(self.model) if pert is not None and pert.changes_model else self.model
+        d = mujoco.MjData(m)
+        set_pose(m, d, start or trajectory.start_pose)
+        k_ctrl = self.steps_per_control(cfg.control_rate)
+        delay = pert.latency_steps(m.opt.timestep) if pert is not None else 0
+        # log chunks: at most 10 physics steps each, and (with latency) ending where commands arrive
+        chunks = next(
+            c for c in range(1, k_ctrl + 1) if k_ctrl % c == 0 and k_ctrl // c <= 10 and delay % (k_ctrl // c) == 0
+        )
+        k_log = k_ctrl // chunks
+        dt_ctrl = k_ctrl * m.opt.timestep
+        horizon = trajectory.duration + cfg.hold
+        n_ctrl = math.ceil(horizon / dt_ctrl - 1e-9)
+        noise = pert.sensor_noise(n_ctrl) if pert is not None else None
+        n_log = n_ctrl * chunks + 1
+        drv = drive or DiffDrive.from_robot(self.robot)
+        tracker.reset(trajectory, dt_ctrl)
+
+        qvel = np.empty((n_log, m.nv))
+        qpos = np.empty((n_log, m.nq))
+        times = np.empty(n_log)
+        cmd = np.zeros((n_ctrl + 1, 2))
+        wcmd = np.zeros((n_ctrl + 1, 2))
+        contacts: list[Contact] = []
+        touching: set[int] = set()
+        t0 = float(trajectory.t[0])
+        ctrl = d.ctrl
+        sdata = d.sensordata
+        dqpos = d.qpos
+        dqvel = d.qvel
+        act_l, act_r = self._act_l, self._act_r
+        contact_adr = self._contact_adr
+        names = self.built.obstacle_names
+        read_pose = self.read_pose
+        command = tracker.command
+        wheel_speeds = drv.wheel_speeds
+        step = mujoco.mj_step
+        isfinite = math.isfinite
+
+        def contact_check() -> None:
+            now = set(self._touching(d))
+            for g in sorted(now - touching):
+                contacts.append(Contact(float(t0 + d.time), names.get(g, str(g))))
+            touching.clear()
+            touching.update(now)
+
+        qvel[0] = dqvel
+        qpos[0] = dqpos
+        times[0] = d.time
+        i = 1
+        every = max(1, -(-n_ctrl // PROGRESS_UPDATES))
+        if progress is not None:
+            progress(0, n_ctrl)
+        for k in range(n_ctrl):
+            if progress is not None and k and k % every == 0:
+                progress(k, n_ctrl)
+            x, y, th = read_pose(d)
+            if noise is not None:
+                x, y, th = x + noise[k, 0], y + noise[k, 1], th + noise[k, 2]
+            v, w = command(t0 + k * dt_ctrl, x, y, th)
+            if not (isfinite(v) and isfinite(w)):
+                raise SimulationError(
+                    f"tracker {tracker.name!r} returned a non-finite command ({v}, {w}) at t={d.time:.3f} s"
+                )
+            left, right = wheel_speeds(v, w)
+            cmd[k + 1] = (v, w)
+            wcmd[k + 1] = (left, right)
+            if not delay:
+                ctrl[act_l] = left
+                ctrl[act_r] = right
+            for j in range(chunks):
+                if delay:  # the command computed at the last control instant <= now - latency
+                    src = max((k * k_ctrl + j * k_log - delay) // k_ctrl + 1, 0)
+                    ctrl[act_l] = wcmd[src, 0]
+                    ctrl[act_r] = wcmd[src, 1]
+                step(m, d, nstep=k_log)
+                qvel[i] = dqvel
+                qpos[i] = dqpos
+                times[i] = d.time
+                i += 1
+                if sdata[contact_adr] > 0.0 or touching:
+                    contact_check()
+        if progress is not None:
+            progress(n_ctrl, n_ctrl)
+        t_log = t0 + times
+        # The log records the true state at the logged time (qpos after the step); the tracker saw
+        # the pose sensors, which MuJoCo evaluates at the start of the last step (2 ms earlier).
+        q = qpos[:, self._root_qadr + 3 : self._root_qadr + 7]
+        yaw = np.arctan2(2.0 * (q[:, 0] * q[:, 3] + q[:, 1] * q[:, 2]), 1.0 - 2.0 * (q[:, 2] ** 2 + q[:, 3] ** 2))
+        pose = np.column_stack([qpos[:, self._root_qadr], qpos[:, self._root_qadr + 1], yaw])
+        # command in force during each log sample: the one set at the start of its control period
+        owner = np.concatenate([[0], np.repeat(np.arange(1, n_ctrl + 1), chunks)])
+        cmd = cmd[owner]
+        if delay:  # wheel command actually applied during each log interval
+            arrived = (np.arange(n_log - 1) * k_log - delay) // k_ctrl + 1
+            wcmd = wcmd[np.concatenate([[0], np.maximum(arrived, 0)])]
+        else:
+            wcmd = wcmd[owner]
+        wspd = qvel[:, self._wheel_dofs]
+        pose[:, 2] = np.unwrap(pose[:, 2])
+        ref = trajectory.sample_many(t_log)[:, :3]
+        warnings = tuple(
+            f"{WARNING_NAMES.get(j, str(j))} x{d.warning[j].number} (last at step info {d.warning[j].lastinfo})"
+            for j in range(len(d.warning))
+            if d.warning[j].number > 0
+        )
+        info = {
+            "robot": self.robot.name,
+            "tracker": tracker.name,
+            "control_rate_hz": cfg.control_rate,
+            "timestep_s": float(m.opt.timestep),
+            "trajectory": trajectory.name,
+        }
+        if pert is not None:
+            info["perturbation"] = pert.as_dict()
+        info.update(meta or {})
+        log = RunLog(t_log, pose, qpos, ref, cmd, wcmd, wspd, tuple(contacts), warnings, info)
+        if warnings and cfg.strict:
+            err = SimulationError(f"MuJoCo warned during the run: {'; '.join(warnings)}")
+            err.log = log  # type: ignore[attr-defined]
+            raise err
+        return log

@@ -1,0 +1,1 @@
+"""The plan -> trajectory -> track pipeline: cases, simulate jobs, the sweep over every case."""

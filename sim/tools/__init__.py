@@ -1,0 +1,1 @@
+"""Tools built on the pipeline: gain tuning, the regression suite, benchmarks."""

@@ -1,0 +1,1 @@
+"""Benchmarks behind ``nhsim bench`` (see sim/cli/bench.py)."""

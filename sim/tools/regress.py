@@ -1,0 +1,363 @@
+"""Physics-level regression suite: declared cases, recorded baselines, compared metrics.
+
+The suite (``tests/regression_suite.toml``) lists cases, one line each, in a ``cases`` array of
+inline tables with the fields of :class:`sim.pipeline.case.Case` (scenario, robot, reference or planner,
+tracker, seed, control_rate; optional name, gains "KP,KD", perturb "key=value,...", fast), and a
+``[tolerances]`` table ``metric = { abs = A, rel = R }``.
+
+Each case is run twice in one process; the two logs must be bitwise identical
+(:meth:`RunLog.identical_to`) or the case fails as non-deterministic. Its metrics are compared
+with ``tests/baselines/<case>.json``, which records the metrics and the environment (mujoco and
+numpy versions, operating system and machine, and the CPU: vendor, family and model, and the SIMD
+extensions numpy dispatches to -- floating-point results differ in their last bits between, say, an
+AVX-512 and an AVX2 machine running the same wheels):
+
+- same environment: every metric must be bit-for-bit equal (any change fails, better or worse);
+- another environment: a metric fails when it is worse than the baseline by more than
+  ``abs + rel * |baseline|`` (error metrics, collisions, warnings, saturation: higher is worse;
+  duration: any change beyond the tolerance).
+
+A planned case plans, smooths and times its scenario through :func:`sim.pipeline.simulate.simulate_plan`.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import functools
+import json
+import math
+import platform
+import tomllib
+import zlib
+from dataclasses import dataclass, field
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+from control.fbl import FBLGains
+from planning.errors import ConfigError, NhsimError, SimulationError
+from sim.physics.metrics import TrackingMetrics
+from sim.physics.perturb import Perturbation
+from sim.pipeline.case import Case, prepare
+
+TESTS_DIR = Path(__file__).resolve().parents[2] / "tests"
+SUITE_PATH = TESTS_DIR / "regression_suite.toml"
+BASELINE_DIR = TESTS_DIR / "baselines"
+
+#: Metric -> "lower" (higher is worse) or "equal" (any change is a change).
+DIRECTIONS: dict[str, str] = {
+    "final_position_error_m": "lower", "final_heading_error_rad": "lower", "rms_position_error_m": "lower",
+    "max_position_error_m": "lower", "final_goal_error_m": "lower", "collisions": "lower", "warnings": "lower",
+    "saturation_fraction": "lower", "duration_s": "equal",
+}  # fmt: skip
+CASE_KEYS = {"scenario", "robot", "reference", "planner", "tracker", "seed", "control_rate", "name", "gains",
+             "perturb", "fast"}  # fmt: skip
+
+
+class NondeterminismError(SimulationError):
+    """Two runs of the same case in one process differ."""
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """Allowed move of a metric across environments: ``abs + rel * |baseline|``."""
+
+    abs: float = 0.0
+    rel: float = 0.0
+
+    def allowed(self, baseline: float) -> float:
+        """The allowed move from ``baseline``."""
+        return self.abs + self.rel * abs(baseline)
+
+
+#: Tolerances of metrics the suite file leaves out.
+DEFAULT_TOLERANCES: dict[str, Tolerance] = {
+    "final_position_error_m": Tolerance(1e-3, 0.1), "final_heading_error_rad": Tolerance(5e-3, 0.1),
+    "rms_position_error_m": Tolerance(5e-4, 0.1), "max_position_error_m": Tolerance(1e-3, 0.1),
+    "final_goal_error_m": Tolerance(1e-3, 0.1), "collisions": Tolerance(0, 0), "warnings": Tolerance(0, 0),
+    "saturation_fraction": Tolerance(0.01, 0.1), "duration_s": Tolerance(1e-9, 0),
+}  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Suite:
+    """The declared cases and tolerances."""
+
+    cases: tuple[Case, ...]
+    tolerances: dict[str, Tolerance]
+    source: Path | None = None
+
+    def select(self, patterns: list[str] | None = None, *, all_cases: bool = False) -> list[Case]:
+        """Cases to run: those matching any ``patterns`` (fnmatch on names), else all with
+        ``all_cases``, else the fast subset.
+
+        Raises:
+            ConfigError: A pattern matches no case.
+        """
+        if patterns:
+            out = [c for c in self.cases if any(fnmatch.fnmatchcase(c.name, p) for p in patterns)]
+            if not out:
+                names = ", ".join(c.name for c in self.cases)
+                raise ConfigError(f"--case {','.join(patterns)} matches no case; the suite has: {names}")
+            return out
+        return list(self.cases) if all_cases else [c for c in self.cases if c.fast]
+
+
+def _case_from_table(entry: Any, where: str) -> Case:
+    if not isinstance(entry, dict):
+        raise ConfigError(f"{where}: a case must be an inline table {{ scenario = ..., ... }}, got {entry!r}")
+    unknown = set(entry) - CASE_KEYS
+    if unknown:
+        raise ConfigError(f"{where}: unknown case field(s) {', '.join(sorted(unknown))}; allowed: {sorted(CASE_KEYS)}")
+    if "scenario" not in entry:
+        raise ConfigError(f"{where}: case {entry!r} has no scenario")
+    fields_ = dict(entry)
+    if "gains" in fields_:
+        fields_["gains"] = FBLGains.parse(str(fields_["gains"]))
+    if "perturb" in fields_:
+        fields_["perturbation"] = Perturbation.parse(str(fields_.pop("perturb")), seed=int(fields_.get("seed", 0)))
+    if "control_rate" in fields_:
+        fields_["control_rate"] = float(fields_["control_rate"])
+    try:
+        return Case(**fields_)
+    except TypeError as exc:
+        raise ConfigError(f"{where}: bad case {entry!r}: {exc}") from exc
+
+
+def load_suite(path: str | Path = SUITE_PATH) -> Suite:
+    """Read a suite file.
+
+    Raises:
+        ConfigError: Unreadable or malformed file, a bad case, duplicate case names.
+    """
+    p = Path(path)
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise ConfigError(f"cannot read regression suite {p}: {exc.strerror or exc}") from exc
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{p}: not valid TOML: {exc}") from exc
+    entries = data.get("cases")
+    if not isinstance(entries, list) or not entries:
+        raise ConfigError(f"{p}: needs a non-empty 'cases' array of inline tables (before any [table])")
+    cases = tuple(_case_from_table(e, f"{p} case {i + 1}") for i, e in enumerate(entries))
+    names = [c.name for c in cases]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ConfigError(f"{p}: duplicate case name(s) {', '.join(dup)}; give each a distinct name = '...'")
+    tolerances = dict(DEFAULT_TOLERANCES)
+    for metric, spec in data.get("tolerances", {}).items():
+        if metric not in DIRECTIONS:
+            raise ConfigError(f"{p}: [tolerances] {metric!r} is not a metric; choose from {', '.join(DIRECTIONS)}")
+        if not (isinstance(spec, dict) and set(spec) <= {"abs", "rel"}):
+            raise ConfigError(f"{p}: [tolerances] {metric} must be {{ abs = A, rel = R }}, got {spec!r}")
+        tol = Tolerance(float(spec.get("abs", 0.0)), float(spec.get("rel", 0.0)))
+        if tol.abs < 0 or tol.rel < 0 or not (math.isfinite(tol.abs) and math.isfinite(tol.rel)):
+            raise ConfigError(f"{p}: [tolerances] {metric} must be finite and >= 0, got {spec!r}")
+        tolerances[metric] = tol
+    return Suite(cases, tolerances, p)
+
+
+@functools.cache
+def cpu() -> str:
+    """The CPU as far as floating-point results depend on it: vendor, family, model, numpy's SIMD set.
+
+    Read from ``/proc/cpuinfo`` where there is one (Linux), else from :func:`platform.processor`.
+    """
+    ident = platform.processor() or platform.machine()
+    try:
+        info: dict[str, str] = {}
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            key, _, value = line.partition(":")
+            if not line.strip():
+                break  # the first processor is enough
+            info.setdefault(key.strip(), value.strip())
+        if "vendor_id" in info:
+            ident = f"{info['vendor_id']} family {info.get('cpu family', '?')} model {info.get('model', '?')}"
+    except OSError:
+        pass
+    try:
+        import numpy as np
+
+        features = np._core._multiarray_umath.__cpu_features__  # type: ignore[attr-defined]
+        simd = sorted(k for k, on in features.items() if on)
+        widest = next((k for k in ("AVX512F", "AVX2", "AVX", "SVE", "ASIMD", "NEON") if k in simd), None)
+        ident += f"; {len(simd)} SIMD features" + (f" up to {widest}" if widest else "")
+        ident += f" ({zlib.crc32(' '.join(simd).encode()):08x})"
+    except (AttributeError, ImportError):
+        pass
+    return ident
+
+
+def environment() -> dict[str, str]:
+    """What bit-for-bit reproducibility depends on: mujoco and numpy versions, OS, machine and CPU."""
+    return {"mujoco": metadata.version("mujoco"), "numpy": metadata.version("numpy"),
+            "platform": f"{platform.system()}-{platform.machine()}", "cpu": cpu(),
+            "python": platform.python_version()}  # fmt: skip
+
+
+def same_environment(a: dict[str, str], b: dict[str, str]) -> bool:
+    """True when bit-for-bit equality can be expected (same mujoco, numpy, platform and CPU)."""
+    return all(a.get(k) == b.get(k) for k in ("mujoco", "numpy", "platform", "cpu"))
+
+
+def case_record(case: Case) -> dict[str, Any]:
+    """The case's fields as recorded in its baseline."""
+    return {
+        "name": case.name, "scenario": case.scenario, "robot": case.robot, "reference": case.reference,
+        "planner": case.planner, "tracker": case.tracker, "seed": case.seed, "control_rate": case.control_rate,
+        "gains": None if case.gains is None else [case.gains.kp, case.gains.kd],
+        "perturb": None if case.perturbation is None else case.perturbation.label(),
+    }  # fmt: skip
+
+
+def run_case(case: Case) -> TrackingMetrics:
+    """Run a case twice from scratch and return its metrics.
+
+    Raises:
+        NondeterminismError: The two runs' logs are not bitwise identical.
+    """
+    log1, m1 = prepare(case).run()
+    log2, m2 = prepare(case).run()
+    if not log1.identical_to(log2) or m1 != m2:
+        a, b = log1.arrays(), log2.arrays()
+        differ = [k for k in a if a[k].shape != b[k].shape or a[k].tobytes() != b[k].tobytes()]
+        raise NondeterminismError(
+            f"case {case.name}: two runs in one process differ (series {', '.join(differ) or 'contacts/warnings'}); "
+            f"the simulation is not deterministic -- look for unseeded randomness or state shared between runs"
+        )
+    return m1
+
+
+@dataclass(frozen=True)
+class Change:
+    """One metric that moved.
+
+    Attributes:
+        case: Case name.
+        metric: Metric name.
+        baseline: Baseline value.
+        value: New value.
+        allowed: Allowed move (0 in the same environment).
+        status: "regressed", "improved", "changed" (failures) or "within" (moved inside tolerance).
+    """
+
+    case: str
+    metric: str
+    baseline: float
+    value: float
+    allowed: float
+    status: str
+
+    @property
+    def failed(self) -> bool:
+        """Whether this change fails the case."""
+        return self.status != "within"
+
+
+def compare(
+    case: str, metrics: dict[str, float], baseline: dict[str, float], tolerances: dict[str, Tolerance], *, exact: bool
+) -> list[Change]:
+    """Metrics that differ from the baseline (see the module docstring for the rules)."""
+    out = []
+    for metric, direction in DIRECTIONS.items():
+        new, old = metrics.get(metric), baseline.get(metric)
+        if new is None or old is None:
+            out.append(Change(case, metric, float("nan") if old is None else old,
+                              float("nan") if new is None else new, 0.0, "changed"))  # fmt: skip
+            continue
+        if new == old:
+            continue
+        delta = new - old
+        if exact:
+            allowed = 0.0
+            status = "changed" if direction == "equal" else ("regressed" if delta > 0 else "improved")
+        else:
+            allowed = tolerances.get(metric, Tolerance()).allowed(old)
+            if direction == "equal":
+                status = "changed" if abs(delta) > allowed else "within"
+            else:
+                status = "regressed" if delta > allowed else "within"
+        out.append(Change(case, metric, float(old), float(new), allowed, status))
+    return out
+
+
+@dataclass
+class Outcome:
+    """The result of one case.
+
+    Attributes:
+        case: The case.
+        status: "pass", "fail", "missing" (no baseline), "error" or "nondeterministic".
+        message: Why (for everything but a clean pass).
+        metrics: The metrics measured (empty when not run).
+        changes: Metrics that moved against the baseline.
+        exact: Compared bit for bit (same environment).
+    """
+
+    case: Case
+    status: str
+    message: str = ""
+    metrics: dict[str, Any] = field(default_factory=dict)
+    changes: list[Change] = field(default_factory=list)
+    exact: bool = True
+
+    @property
+    def ok(self) -> bool:
+        """Passed."""
+        return self.status == "pass"
+
+
+def baseline_path(case: Case, baseline_dir: Path = BASELINE_DIR) -> Path:
+    """Where a case's baseline lives."""
+    return Path(baseline_dir) / f"{case.name}.json"
+
+
+def read_baseline(path: Path) -> dict[str, Any] | None:
+    """A baseline file's content, or None if there is none.
+
+    Raises:
+        ConfigError: The file is not a baseline (bad JSON, no metrics).
+    """
+    if not path.exists():
+        return None
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ConfigError(f"baseline {path} is unreadable ({exc}); rewrite it with nhsim regress --update") from exc
+    if not isinstance(data, dict) or not isinstance(data.get("metrics"), dict):
+        raise ConfigError(f"baseline {path} has no metrics; rewrite it with nhsim regress --update")
+    return data
+
+
+def check_case(
+    case: Case, baseline_dir: Path = BASELINE_DIR, tolerances: dict[str, Tolerance] | None = None
+) -> Outcome:
+    """Run a case (twice, for determinism) and compare it with its baseline."""
+    tolerances = tolerances if tolerances is not None else DEFAULT_TOLERANCES
+    try:
+        metrics = run_case(case).as_dict()
+    except NondeterminismError as exc:
+        return Outcome(case, "nondeterministic", str(exc))
+    except NhsimError as exc:
+        msg = str(exc) if case.name in str(exc) else f"case {case.name}: {exc}"
+        return Outcome(case, "error", msg)
+    path = baseline_path(case, baseline_dir)
+    base = read_baseline(path)
+    if base is None:
+        return Outcome(case, "missing", f"case {case.name}: no baseline {path}; record it with "
+                       f"nhsim regress --update --case {case.name}", metrics)  # fmt: skip
+    exact = same_environment(base.get("environment", {}), environment())
+    changes = compare(case.name, metrics, base["metrics"], tolerances, exact=exact)
+    failed = [c for c in changes if c.failed]
+    if failed:
+        what = ", ".join(f"{c.metric} {c.status} ({c.baseline:.6g} -> {c.value:.6g})" for c in failed)
+        mode = "bit for bit" if exact else "with tolerances"
+        hint = "; if intended, record it with nhsim regress --update --case " + case.name
+        return Outcome(case, "fail", f"case {case.name}: {what} [{mode}]{hint}", metrics, changes, exact)
+    return Outcome(case, "pass", "", metrics, changes, exact)
+
+
+def baseline_document(case: Case, metrics: dict[str, Any]) -> dict[str, Any]:
+    """The JSON content of a baseline."""
+    return {"case": case_record(case), "metrics": metrics, "environment": environment()}

@@ -1,0 +1,1 @@
+"""Drawing: the GL backend, replay of run logs into frames, compositing, video and plots."""

@@ -1,0 +1,1 @@
+"""Report plots of runs and plans (matplotlib, Agg)."""

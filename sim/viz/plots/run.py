@@ -1,0 +1,167 @@
+"""Report plots of a simulate job (matplotlib, Agg backend): figures in, PNG files out.
+
+Three figures:
+
+- ``world``: the arena, its obstacles, the reference path and the open-loop and closed-loop paths;
+- ``errors``: position and heading error of each run against time;
+- ``commands``: commanded v, omega and wheel speeds of each run against the robot's limits.
+
+Figures are built without pyplot on the Agg canvas (no display, no global state). The figure
+builders return :class:`matplotlib.figure.Figure` objects and never touch the disk;
+:func:`save_figure` writes one atomically (used by the CLI).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.patches import Circle as CirclePatch
+from matplotlib.patches import Ellipse as EllipsePatch
+from matplotlib.patches import Polygon as PolygonPatch
+from matplotlib.patches import Rectangle
+
+from planning.core.robot import RobotSpec
+from planning.core.world import Box, Circle, Ellipse, Polygon, World
+from planning.trajectory.trajectory import Trajectory
+from sim.outputs import atomic_path
+from sim.physics.metrics import heading_errors, position_errors
+from sim.physics.runlog import RunLog
+
+#: Run label -> (legend name, colour, line style); colours match the video.
+STYLE = {
+    "closed_loop": ("closed loop", "#1a59f2", "-"),
+    "open_loop": ("open loop", "#ff8019", "--"),
+}
+REFERENCE_COLOR = "#1a8c40"
+
+#: Plot name -> file suffix, in the order they are written.
+PLOTS = ("world", "errors", "commands")
+
+
+def _style(label: str) -> tuple[str, str, str]:
+    return STYLE.get(label, (label, "#555555", ":"))
+
+
+def world_figure(world: World, trajectory: Trajectory, logs: Mapping[str, RunLog], *, title: str = "") -> Figure:
+    """The arena with obstacles, the reference path and each run's path (top view, equal axes).
+
+    Args:
+        world: Bounds and obstacles.
+        trajectory: The reference.
+        logs: Run label -> log.
+        title: Figure title.
+    """
+    fig = Figure(figsize=(7.0, 6.4), dpi=110)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    xmin, xmax, ymin, ymax = world.bounds
+    ax.add_patch(Rectangle((xmin, ymin), xmax - xmin, ymax - ymin, fill=False, ec="0.35", lw=1.5))
+    for obs in world.obstacles:
+        kw = {"fc": "#b85c47", "ec": "#6b2f22", "alpha": 0.85}
+        if isinstance(obs, Circle):
+            ax.add_patch(CirclePatch(obs.center, obs.radius, **kw))
+        elif isinstance(obs, Ellipse):
+            ax.add_patch(
+                EllipsePatch(obs.center, 2 * obs.radii[0], 2 * obs.radii[1], angle=np.degrees(obs.angle), **kw)
+            )
+        elif isinstance(obs, Box):
+            c, s = np.cos(obs.angle), np.sin(obs.angle)
+            hx, hy = obs.size[0] / 2, obs.size[1] / 2
+            corners = np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]]) @ np.array([[c, s], [-s, c]])
+            ax.add_patch(PolygonPatch(corners + np.asarray(obs.center), closed=True, **kw))
+        elif isinstance(obs, Polygon):
+            ax.add_patch(PolygonPatch(obs.array, closed=True, **kw))
+    ref = trajectory.pose
+    ax.plot(ref[:, 0], ref[:, 1], color=REFERENCE_COLOR, lw=2.2, label="reference")
+    for label, log in logs.items():
+        name, color, ls = _style(label)
+        ax.plot(log.pose[:, 0], log.pose[:, 1], color=color, ls=ls, lw=1.4, label=name)
+    ax.plot(*ref[0, :2], "o", color="k", ms=6, label="start")
+    ax.plot(*ref[-1, :2], "*", color="k", ms=10, label="end of reference")
+    # frame the paths, with the arena when it is not much larger
+    pts = np.vstack([ref[:, :2]] + [log.pose[:, :2] for log in logs.values()])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    pad = 0.1 * max(float((hi - lo).max()), 0.5)
+    ax.set_xlim(max(xmin - 0.1, lo[0] - pad), min(xmax + 0.1, hi[0] + pad))
+    ax.set_ylim(max(ymin - 0.1, lo[1] - pad), min(ymax + 0.1, hi[1] + pad))
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title(title or "paths")
+    fig.tight_layout()
+    return fig
+
+
+def errors_figure(logs: Mapping[str, RunLog], *, title: str = "") -> Figure:
+    """Position error [m] and wrapped heading error [rad] of each run against time [s]."""
+    fig = Figure(figsize=(8.0, 5.6), dpi=110)
+    FigureCanvasAgg(fig)
+    ax_p, ax_h = fig.subplots(2, 1, sharex=True)
+    for label, log in logs.items():
+        name, color, ls = _style(label)
+        ax_p.plot(log.t, position_errors(log), color=color, ls=ls, label=name)
+        ax_h.plot(log.t, heading_errors(log), color=color, ls=ls, label=name)
+    ax_p.set_ylabel("position error [m]")
+    ax_h.set_ylabel("heading error [rad]")
+    ax_h.set_xlabel("time [s]")
+    for ax in (ax_p, ax_h):
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="best", fontsize=8)
+    ax_p.set_title(title or "tracking errors")
+    fig.tight_layout()
+    return fig
+
+
+def commands_figure(logs: Mapping[str, RunLog], robot: RobotSpec, *, title: str = "") -> Figure:
+    """Commanded v [m/s], omega [rad/s] and wheel speeds [rad/s] of each run against their limits.
+
+    Wheel speeds show the command (solid or dashed per run) and the measured speed (thin).
+    """
+    fig = Figure(figsize=(8.0, 8.0), dpi=110)
+    FigureCanvasAgg(fig)
+    ax_v, ax_w, ax_wh = fig.subplots(3, 1, sharex=True)
+    for label, log in logs.items():
+        name, color, ls = _style(label)
+        ax_v.step(log.t, log.command[:, 0], where="post", color=color, ls=ls, label=name)
+        ax_w.step(log.t, log.command[:, 1], where="post", color=color, ls=ls, label=name)
+        ax_wh.step(log.t, log.wheel_command[:, 0], where="post", color=color, ls=ls, label=f"{name} left cmd")
+        ax_wh.step(log.t, log.wheel_command[:, 1], where="post", color=color, ls=ls, alpha=0.55,
+                   label=f"{name} right cmd")  # fmt: skip
+        ax_wh.plot(log.t, log.wheel_speed[:, 0], color=color, lw=0.6, alpha=0.8)
+        ax_wh.plot(log.t, log.wheel_speed[:, 1], color=color, lw=0.6, alpha=0.5)
+    limits = ((ax_v, robot.max_speed, "v [m/s]"), (ax_w, robot.max_yaw_rate, "ω [rad/s]"),
+              (ax_wh, robot.max_wheel_speed, "wheel speed [rad/s]"))  # fmt: skip
+    for ax, lim, ylabel in limits:
+        ax.axhline(lim, color="#c0392b", lw=1.0, ls=":", label="limit")
+        ax.axhline(-lim, color="#c0392b", lw=1.0, ls=":")
+        ax.set_ylabel(ylabel)
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="best", fontsize=7)
+    ax_wh.set_xlabel("time [s]")
+    ax_v.set_title(title or "commands against limits")
+    fig.tight_layout()
+    return fig
+
+
+def job_figures(
+    world: World, robot: RobotSpec, trajectory: Trajectory, logs: Mapping[str, RunLog], *, title: str = ""
+) -> dict[str, Figure]:
+    """Every report figure of a job, by name (see :data:`PLOTS`)."""
+    return {
+        "world": world_figure(world, trajectory, logs, title=title),
+        "errors": errors_figure(logs, title=title),
+        "commands": commands_figure(logs, robot, title=title),
+    }
+
+
+def save_figure(fig: Figure, path: str | Path, *, overwrite: bool = False) -> Path:
+    """Write a figure as PNG atomically (never replacing a file unless ``overwrite``)."""
+    with atomic_path(path, overwrite=overwrite) as tmp:
+        fig.savefig(tmp, format="png")
+    return Path(path)

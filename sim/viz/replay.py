@@ -1,0 +1,736 @@
+"""Replay logged runs as video frames: world, reference path, closed-loop robot, open-loop ghost.
+
+Physics runs first and is logged; this module replays the logs afterwards at the video frame rate.
+Frame ``k`` shows simulation time ``t_start + k / fps`` and each robot at its log sample nearest to
+that time, so a 20 s run at 30 frames/s has 600 frames whatever the log rate.
+
+Drawing:
+
+- MuJoCo draws the Simulator's compiled model (floor, obstacles, walls) and the primary robot
+  (closed loop, or the only run) from one ``MjData``, and the open-loop robot as a translucent ghost
+  from a second ``MjData`` (``mjv_addGeoms`` of the dynamic geoms only, recoloured): the ghost is
+  never simulated against anything, only drawn;
+- the reference path and a trail behind each robot are lines on the floor, projected through the
+  scene's camera and drawn into the image with PIL (as ``mjGEOM_LINE`` geoms, the few hundred
+  segments a smooth path needs cost more than the whole scene under OSMesa), hidden where the solid
+  robot stands;
+- a small text overlay (time, each run's current position error).
+
+With a camera that stays put (the overview) and no shadows or reflections (the fast look), the
+world is drawn once per video and only the robots each frame, composited by depth
+(:mod:`sim.viz.compose`); the chase camera and the high look draw the whole scene every frame.
+
+The process holds one OpenGL renderer at a time (:class:`SceneRenderer`), closed explicitly.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar, Protocol
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+from PIL import Image, ImageDraw, ImageFont
+
+from planning.errors import ConfigError, DependencyError
+from planning.trajectory.trajectory import Trajectory
+from sim.physics.metrics import position_errors
+from sim.physics.runlog import RunLog
+from sim.viz import gl
+
+FloatArray = NDArray[np.float64]
+Frame = NDArray[np.uint8]
+
+CAMERAS = ("overview", "chase")
+QUALITIES = ("fast", "high")
+
+#: Colours (RGBA in [0, 1]).
+REFERENCE_RGBA = (0.10, 0.55, 0.25, 1.0)
+CLOSED_RGBA = (0.10, 0.35, 0.95, 1.0)
+OPEN_RGBA = (1.00, 0.50, 0.10, 1.0)
+GHOST_ALPHA = 0.35
+
+#: Run label -> (overlay name, trail colour).
+RUN_STYLE = {"closed_loop": ("closed loop", CLOSED_RGBA), "open_loop": ("open loop (ghost)", OPEN_RGBA)}
+
+#: Overlay text refreshes per second of video (the time readout then steps by 0.1 s).
+OVERLAY_RATE = 10.0
+
+#: Corner indices (of the 8 sign combinations, x slowest) of the 6 faces of a box.
+_BOX_FACES = np.array([[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]])
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    """How a video looks.
+
+    Attributes:
+        width: Frame width [px], even (H.264 with yuv420p needs even sizes).
+        height: Frame height [px], even.
+        fps: Frames per second of video (and of simulation time shown) [1/s].
+        camera: "overview" (top-down, fixed, frames every run and the reference) or "chase".
+        quality: "fast" (no shadows, reflections or multisampling) or "high" (shadows, reflections
+            and the model's multisampling, about 4x slower under OSMesa).
+    """
+
+    width: int = 640
+    height: int = 480
+    fps: float = 30.0
+    camera: str = "overview"
+    quality: str = "fast"
+
+    def __post_init__(self) -> None:
+        for name, v in (("width", self.width), ("height", self.height)):
+            if not (isinstance(v, int) and 16 <= v <= 4096 and v % 2 == 0):
+                raise ConfigError(f"video {name} must be an even number of pixels in [16, 4096], got {v!r}")
+        if not (math.isfinite(self.fps) and 1.0 <= self.fps <= 240.0):
+            raise ConfigError(f"--fps must be between 1 and 240 frames/s, got {self.fps}")
+        if self.camera not in CAMERAS:
+            raise ConfigError(f"unknown camera {self.camera!r}: choose one of {', '.join(CAMERAS)}")
+        if self.quality not in QUALITIES:
+            raise ConfigError(f"unknown quality {self.quality!r}: choose one of {', '.join(QUALITIES)}")
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    """Parse ``"WxH"`` (e.g. ``"640x480"``) into (width, height) [px].
+
+    Raises:
+        ConfigError: Not two positive integers separated by ``x``.
+    """
+    parts = text.lower().replace("×", "x").split("x")
+    try:
+        w, h = (int(p) for p in parts)
+    except ValueError:
+        raise ConfigError(f"--size must look like WIDTHxHEIGHT (e.g. 640x480), got {text!r}") from None
+    return w, h
+
+
+def frame_times(t_start: float, t_end: float, fps: float) -> FloatArray:
+    """Simulation times shown by the frames of a video of ``[t_start, t_end]``.
+
+    Frame ``k`` shows ``t_start + k / fps`` and is on screen for ``1 / fps``, so the video lasts
+    as long as the run: ``round((t_end - t_start) * fps)`` frames (at least one).
+
+    Returns:
+        (n,) times [s].
+    """
+    n = max(1, round((t_end - t_start) * fps))
+    return t_start + np.arange(n) / fps
+
+
+def nearest_samples(t: FloatArray, times: FloatArray) -> NDArray[np.int64]:
+    """Index of the sample of ``t`` (increasing, (N,)) nearest to each of ``times`` ((M,)), clamped."""
+    j = np.clip(np.searchsorted(t, times), 1, len(t) - 1)
+    left_closer = (times - t[j - 1]) <= (t[j] - times)
+    return np.where(left_closer, j - 1, j).astype(np.int64) if len(t) > 1 else np.zeros(len(times), np.int64)
+
+
+def decimate_path(xy: FloatArray, spacing: float) -> NDArray[np.int64]:
+    """Indices of the points of a polyline kept so consecutive kept points are >= ``spacing`` apart.
+
+    The first point is always kept (and the last, for a path of two or more points).
+
+    Args:
+        xy: (N, 2) points [m].
+        spacing: Minimum distance between kept points [m].
+    """
+    keep = [0]
+    last = xy[0]
+    for i in range(1, len(xy)):
+        if math.hypot(xy[i, 0] - last[0], xy[i, 1] - last[1]) >= spacing:
+            keep.append(i)
+            last = xy[i]
+    if len(xy) > 1 and keep[-1] != len(xy) - 1:
+        keep.append(len(xy) - 1)
+    return np.asarray(keep, dtype=np.int64)
+
+
+class SceneRenderer:
+    """The process's one OpenGL renderer (a :class:`mujoco.Renderer`), closed explicitly.
+
+    Args:
+        model: The model to draw (its off-screen buffer is enlarged on a copy if too small).
+        width: Image width [px].
+        height: Image height [px].
+        quality: "fast" (no shadows, reflections or multisampling) or "high" (shadows,
+            reflections and the model's multisampling).
+        max_geom: Capacity of the scene (model geoms plus decorations).
+
+    Raises:
+        DependencyError: No OpenGL context can be created; the message says what to install.
+        RuntimeError: Another renderer is open in this process.
+    """
+
+    _open: ClassVar[int] = 0
+
+    def __init__(
+        self, model: mujoco.MjModel, width: int, height: int, *, quality: str = "fast", max_geom: int = 10000
+    ) -> None:
+        if SceneRenderer._open:
+            raise RuntimeError("one renderer per process: close the open SceneRenderer before opening another")
+        if quality not in QUALITIES:
+            raise ConfigError(f"unknown quality {quality!r}: choose one of {', '.join(QUALITIES)}")
+        backend = gl.current_backend()
+        if backend == gl.DISABLED:
+            raise DependencyError(gl.unavailable_message(backend))
+        high = quality == "high"
+        model = copy.deepcopy(model)  # the caller's model is left as it is
+        model.vis.global_.offwidth = max(width, model.vis.global_.offwidth)
+        model.vis.global_.offheight = max(height, model.vis.global_.offheight)
+        if high:
+            # with shadows MuJoCo adds each light in its own pass: the scenes' headlight + sun,
+            # balanced for the plain look, saturate the floor to white; dim them
+            model.vis.headlight.diffuse[:] = 0.35 * model.vis.headlight.diffuse
+            model.light_diffuse[:] = 0.6 * model.light_diffuse
+        else:
+            # multisampling doubles the cost of a frame under OSMesa; the fast look goes without
+            model.vis.quality.offsamples = 0
+        self.model = model
+        try:
+            self.renderer = mujoco.Renderer(model, height=height, width=width, max_geom=max_geom)
+        except Exception as exc:  # the GL libraries raise many types: ImportError, OSError, FatalError ...
+            raise DependencyError(gl.unavailable_message(backend, exc)) from exc
+        SceneRenderer._open += 1
+        self._closed = False
+        flags = self.renderer.scene.flags
+        flags[mujoco.mjtRndFlag.mjRND_SHADOW] = high
+        flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = high
+        self.width = width
+        self.height = height
+
+    @property
+    def scene(self) -> mujoco.MjvScene:
+        """The scene drawn by :meth:`render`."""
+        return self.renderer.scene
+
+    def render(self, out: Frame | None = None) -> Frame:
+        """Draw the scene into ``out`` ((height, width, 3) uint8) or a new array."""
+        return self.renderer.render(out=out)
+
+    def draw(self, scene: mujoco.MjvScene, size: tuple[int, int] | None = None) -> None:
+        """Draw ``scene`` (any scene of this model) into the off-screen buffer; read it with :meth:`read`.
+
+        Args:
+            scene: The scene.
+            size: (width, height) [px] of the viewport, at the buffer's bottom-left corner (the
+                frustum fills it); None for the whole image.
+        """
+        r = self.renderer
+        if r._gl_context:
+            r._gl_context.make_current()
+        viewport = r._rect if size is None else mujoco.MjrRect(0, 0, size[0], size[1])
+        mujoco.mjr_render(viewport, scene, r._mjr_context)
+
+    def read(self, rect: tuple[int, int, int, int], rgb: Frame | None, depth: NDArray[np.float32] | None) -> None:
+        """Read a rectangle of the last :meth:`draw` into contiguous arrays, row 0 at the top.
+
+        Args:
+            rect: (x0, y0, x1, y1) [px] in image coordinates (y down), end exclusive.
+            rgb: (y1 - y0, x1 - x0, 3) uint8 colour, or None.
+            depth: (y1 - y0, x1 - x0) float32 depth (0 far, 1 near), or None.
+        """
+        x0, y0, x1, y1 = rect
+        viewport = mujoco.MjrRect(x0, self.height - y1, x1 - x0, y1 - y0)  # OpenGL: origin bottom left
+        mujoco.mjr_readPixels(rgb, depth, viewport, self.renderer._mjr_context)
+        for a in (rgb, depth):
+            if a is not None:
+                a[:] = a[::-1].copy()
+
+    def close(self) -> None:
+        """Free the OpenGL context (idempotent)."""
+        if not self._closed:
+            self.renderer.close()
+            self._closed = True
+            SceneRenderer._open -= 1
+
+    def __enter__(self) -> SceneRenderer:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def probe_renderer() -> str | None:
+    """None when an OpenGL context can be created here, else the reason (with what to install)."""
+    m = mujoco.MjModel.from_xml_string('<mujoco><worldbody><geom type="plane" size="1 1 .1"/></worldbody></mujoco>')
+    try:
+        with SceneRenderer(m, 16, 16):
+            return None
+    except DependencyError as exc:
+        return str(exc)
+
+
+@dataclass(frozen=True)
+class _Track:
+    label: str
+    idx: NDArray[np.int64]  # log sample per frame
+    qpos: FloatArray
+    xy: FloatArray  # (N, 2) log positions
+    err: FloatArray  # (N,) position error
+    trail_keep: NDArray[np.int64]  # decimated log indices
+    rgba: tuple[float, ...]
+
+
+def _rgb255(rgba: tuple[float, ...]) -> tuple[int, int, int]:
+    return (round(255 * rgba[0]), round(255 * rgba[1]), round(255 * rgba[2]))
+
+
+@dataclass(frozen=True)
+class Projection:
+    """Pinhole projection of the scene's camera after ``mjv_updateScene`` (as ``mjr_render`` draws it).
+
+    Attributes:
+        pos: (3,) camera position [m].
+        right: (3,) unit right vector.
+        up: (3,) unit up vector.
+        forward: (3,) unit viewing direction.
+        near: Near-plane distance [m].
+        left_edge: Frustum left edge at the near plane [m].
+        half_width: Frustum half width at the near plane [m].
+        bottom: Frustum bottom at the near plane [m].
+        top: Frustum top at the near plane [m].
+        width: Image width [px].
+        height: Image height [px].
+    """
+
+    pos: FloatArray
+    right: FloatArray
+    up: FloatArray
+    forward: FloatArray
+    near: float
+    left_edge: float
+    half_width: float
+    bottom: float
+    top: float
+    width: int
+    height: int
+
+    @staticmethod
+    def from_scene(scene: mujoco.MjvScene, width: int, height: int) -> Projection:
+        """The projection ``mjr_render`` uses on a ``width`` x ``height`` viewport (mono: the average
+        of the scene's two eye cameras, which sit half the inter-pupillary distance either side)."""
+        cam = scene.camera[0]
+        pos = 0.5 * (np.array(cam.pos, dtype=float) + np.array(scene.camera[1].pos, dtype=float))
+        fwd = np.array(cam.forward, dtype=float)
+        up = np.array(cam.up, dtype=float)
+        right = np.cross(fwd, up)
+        bottom, top = float(cam.frustum_bottom), float(cam.frustum_top)
+        half_w = 0.5 * (top - bottom) * width / height  # mjr_render fits the frustum width to the viewport
+        center = float(cam.frustum_center)
+        return Projection(pos, right, up, fwd, float(cam.frustum_near),
+                          center - half_w, half_w, bottom, top, width, height)  # fmt: skip
+
+    def pixels(self, points: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
+        """Image coordinates of world points.
+
+        Args:
+            points: (M, 3) world points [m].
+
+        Returns:
+            (M, 2) [column, row] in pixels (row 0 at the top) and (M,) whether each point is in
+            front of the near plane.
+        """
+        rel = points - self.pos
+        z = rel @ self.forward
+        ok = z > self.near
+        zs = np.where(ok, z, 1.0)
+        u = self.near * (rel @ self.right) / zs
+        v = self.near * (rel @ self.up) / zs
+        col = (u - self.left_edge) / (2.0 * self.half_width) * self.width
+        row = (self.top - v) / (self.top - self.bottom) * self.height
+        return np.column_stack([col, row]), ok
+
+    def scale(self, point: FloatArray) -> float:
+        """Pixels per metre at a world point (3,) (for sizes seen face on)."""
+        z = float((point - self.pos) @ self.forward)
+        return self.near / max(z, 1e-9) * self.height / (self.top - self.bottom)
+
+
+def _polylines(px: FloatArray, ok: NDArray[np.bool_]) -> list[list[float]]:
+    """Split projected points into runs in front of the camera, each as a flat [x0, y0, x1, y1, ...]."""
+    if ok.all():
+        return [px.ravel().tolist()]
+    runs: list[list[float]] = []
+    idx = np.flatnonzero(ok)
+    if idx.size == 0:
+        return runs
+    breaks = np.flatnonzero(np.diff(idx) > 1) + 1
+    for seg in np.split(idx, breaks):
+        if seg.size > 1:
+            runs.append(px[seg].ravel().tolist())
+    return runs
+
+
+class Replay:
+    """Draws the frames of a video of logged runs.
+
+    The world, obstacles and robots are drawn by MuJoCo; the reference path and the trails are
+    lines on the floor drawn into the image through the camera's projection (hundreds of line geoms
+    would cost more than the whole scene), hidden where the solid robot stands; the overlay is
+    drawn last.
+
+    Args:
+        model: The runs' model (the Simulator's compiled model).
+        trajectory: The reference (drawn on the floor).
+        logs: Run label ("closed_loop", "open_loop") -> log; closed loop is drawn solid, open loop
+            as a ghost; a single run is drawn solid.
+        settings: Size, frame rate, camera, quality.
+
+    Attributes:
+        times: (n,) simulation time of each frame [s].
+        required_geoms: Scene capacity needed (the model twice, for the ghost); open the
+            :class:`SceneRenderer` with at least this ``max_geom``.
+    """
+
+    def __init__(
+        self, model: mujoco.MjModel, trajectory: Trajectory, logs: Mapping[str, RunLog], settings: RenderSettings
+    ) -> None:
+        if not logs:
+            raise ConfigError("nothing to render: no run logs were given")
+        self.model = model
+        self.settings = settings
+        m = model
+        for label, log in logs.items():
+            if log.qpos.shape[1] != m.nq:
+                raise ConfigError(f"log {label!r} has qpos of width {log.qpos.shape[1]} but the model has nq={m.nq}")
+        labels = [k for k in ("closed_loop", "open_loop") if k in logs] + [
+            k for k in logs if k not in ("closed_loop", "open_loop")
+        ]
+        t0 = min(float(logs[k].t[0]) for k in labels)
+        t1 = max(float(logs[k].t[-1]) for k in labels)
+        self.times = frame_times(t0, t1, settings.fps)
+
+        # framing: everything any run or the reference visits
+        pts = np.vstack([trajectory.pose[:, :2]] + [logs[k].pose[:, :2] for k in labels])
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        self._span = float(max(hi[0] - lo[0], hi[1] - lo[1], 0.5))
+        spacing = self._span / 400.0
+        self.tracks: list[_Track] = []
+        for k in labels[:2]:
+            log = logs[k]
+            xy = log.pose[:, :2]
+            rgba = RUN_STYLE.get(k, (k, CLOSED_RGBA))[1]
+            self.tracks.append(
+                _Track(k, nearest_samples(log.t, self.times), log.qpos, xy, position_errors(log),
+                       decimate_path(xy, spacing), rgba)
+            )  # fmt: skip
+        self.datas = [mujoco.MjData(m) for _ in self.tracks]
+        for d, tr in zip(self.datas, self.tracks, strict=True):
+            d.qpos[:] = tr.qpos[0]
+            mujoco.mj_forward(m, d)
+        self._robot_extent = self._robot_size(self.datas[0])
+        self.robot_geoms, self.robot_corners = self._robot_boxes()
+        from sim.viz.compose import enclosed_geoms
+
+        #: The model with the robot's geoms that lie inside others left out (alpha 0), for the ghost
+        #: (drawn translucent, a collision tyre inside the visual one would show through).
+        self.ghost_model = copy.deepcopy(m)
+        self.ghost_model.geom_rgba[enclosed_geoms(m, self.robot_geoms), 3] = 0.0
+        self.option = mujoco.MjvOption()
+        self.perturb = mujoco.MjvPerturb()
+        ref_xy = trajectory.pose[:, :2]
+        ref = ref_xy[decimate_path(ref_xy, spacing)]
+        self.ref3 = np.column_stack([ref, np.zeros(len(ref))])
+        self.trail3 = [np.column_stack([tr.xy, np.zeros(len(tr.xy))]) for tr in self.tracks]
+        self.line_width = max(2, round(settings.height / 200))
+        self.camera = mujoco.MjvCamera()
+        self.camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+        self._cam_params = self._camera_path(logs, lo, hi)
+        #: The camera stays put: frames are composited from a cached world (:mod:`sim.viz.compose`).
+        self.fixed_camera = bool(np.all(self._cam_params == self._cam_params[0]))
+        self._last_cam: FloatArray | None = None
+        self._ref_lines: list[list[float]] = []
+        self.required_geoms = int(2 * m.ngeom + 64)
+        self._font, self._box = self._overlay_setup()
+
+    @property
+    def n_frames(self) -> int:
+        """Number of frames."""
+        return int(self.times.size)
+
+    def _robot_size(self, d: mujoco.MjData) -> tuple[float, float]:
+        """(footprint radius, height) of the robot's geoms around its root body [m]."""
+        m = self.model
+        base = self._base_body()
+        rootpos = d.xpos[base]
+        rad, top = 0.05, 0.1
+        for g in range(m.ngeom):
+            if not self._in_subtree(int(m.geom_bodyid[g]), base):
+                continue
+            r = float(m.geom_rbound[g])
+            rad = max(rad, float(np.hypot(*(d.geom_xpos[g, :2] - rootpos[:2]))) + r)
+            top = max(top, float(d.geom_xpos[g, 2]) + r)
+        return rad, top
+
+    def _robot_boxes(self) -> tuple[NDArray[np.int64], FloatArray]:
+        """Visible geoms of the robot and the 8 corners of each one's bounding box in its frame."""
+        m = self.model
+        base = self._base_body()
+        ids = [g for g in range(m.ngeom) if self._in_subtree(int(m.geom_bodyid[g]), base) and m.geom_group[g] < 3
+               and m.geom_rgba[g, 3] > 0]  # fmt: skip
+        aabb = m.geom_aabb[ids].reshape(-1, 2, 3)  # center, half sizes
+        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+        corners = aabb[:, None, 0, :] + signs[None] * aabb[:, None, 1, :]
+        return np.asarray(ids, dtype=np.int64), corners
+
+    def _base_body(self) -> int:
+        m = self.model
+        b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "base")
+        if b < 0:  # the first body with a free joint
+            b = next((int(m.jnt_bodyid[j]) for j in range(m.njnt) if m.jnt_type[j] == 0), 1)
+        return int(b)
+
+    def _in_subtree(self, body: int, root: int) -> bool:
+        while body > 0 and body != root:
+            body = int(self.model.body_parentid[body])
+        return body == root
+
+    # ---- camera ---------------------------------------------------------------------------------
+    def _camera_path(self, logs: Mapping[str, RunLog], lo: FloatArray, hi: FloatArray) -> FloatArray:
+        """(n, 6) per frame: lookat x, y, z, distance, azimuth, elevation."""
+        n = self.n_frames
+        m = self.model
+        aspect = self.settings.width / self.settings.height
+        tan_half = math.tan(math.radians(m.vis.global_.fovy) / 2.0)
+        out = np.empty((n, 6))
+        if self.settings.camera == "overview":
+            margin = 0.06 * self._span + 2.0 * self._robot_extent[0]
+            half_w = (hi[0] - lo[0]) / 2 + margin
+            half_h = (hi[1] - lo[1]) / 2 + margin
+            dist = max(half_h / tan_half, half_w / (tan_half * aspect)) + self._robot_extent[1]
+            c = (lo + hi) / 2
+            out[:] = (c[0], c[1], 0.0, dist, 90.0, -90.0)
+            return out
+        # chase: behind the primary robot, smoothed; pulled back so the ghost stays in view
+        main = self.tracks[0]
+        p = main.xy[main.idx]
+        th = logs[main.label].pose[main.idx, 2]
+        other = self.tracks[1].xy[self.tracks[1].idx] if len(self.tracks) > 1 else p
+        # exponential smoothing per frame: position 0.15 s, heading 0.3 s, separation 0.5 s
+        alpha = 1.0 - np.exp(-1.0 / (self.settings.fps * np.array([0.15, 0.15, 0.3, 0.5])))
+        state = np.array([p[0, 0], p[0, 1], th[0], 0.0])
+        for k in range(n):
+            sep = float(np.hypot(*(other[k] - p[k])))
+            target = np.array([(p[k, 0] + other[k, 0]) / 2, (p[k, 1] + other[k, 1]) / 2, th[k], sep])
+            state = target if k == 0 else state + alpha * (target - state)
+            dist = max(6.0 * self._robot_extent[0], (state[3] / 2 + 3.0 * self._robot_extent[0]) / tan_half)
+            out[k] = (state[0], state[1], 0.5 * self._robot_extent[1], dist, math.degrees(state[2]), -30.0)
+        return out
+
+    # ---- scene ----------------------------------------------------------------------------------
+    def pose_frame(self, k: int) -> None:
+        """Put each run's ``MjData`` at its log sample of frame ``k`` (kinematics) and the camera on it."""
+        m = self.model
+        for d, tr in zip(self.datas, self.tracks, strict=True):
+            d.qpos[:] = tr.qpos[tr.idx[k]]
+            mujoco.mj_kinematics(m, d)
+            mujoco.mj_camlight(m, d)
+        cam = self.camera
+        lx, ly, lz, dist, az, el = self._cam_params[k]
+        cam.lookat[:] = (lx, ly, lz)
+        cam.distance = dist
+        cam.azimuth = az
+        cam.elevation = el
+
+    def _update(self, r: SceneRenderer, k: int) -> None:
+        self.pose_frame(k)
+        cam = self.camera
+        scene = r.scene
+        r.renderer.update_scene(self.datas[0], camera=cam, scene_option=self.option)
+        n_model = scene.ngeom
+        if len(self.datas) > 1:  # the ghost: dynamic geoms of the second run, translucent
+            mujoco.mjv_addGeoms(self.ghost_model, self.datas[1], self.option, self.perturb,
+                                mujoco.mjtCatBit.mjCAT_DYNAMIC, scene)  # fmt: skip
+            ghost = (*OPEN_RGBA[:3], GHOST_ALPHA)
+            for i in range(n_model, scene.ngeom):
+                scene.geoms[i].rgba = ghost
+
+    # ---- lines and overlay ----------------------------------------------------------------------
+    def _decorate(self, r: SceneRenderer, k: int, frame: Frame) -> None:
+        proj = Projection.from_scene(r.scene, self.settings.width, self.settings.height)
+        cam = self._cam_params[k]
+        if self._last_cam is None or not np.array_equal(cam, self._last_cam):
+            self._ref_lines = _polylines(*proj.pixels(self.ref3))
+            self._last_cam = cam
+        keep = self._robot_mask(proj, frame)
+        img = Image.fromarray(frame)
+        draw = ImageDraw.Draw(img)
+        w = self.line_width
+        for line in self._ref_lines:
+            draw.line(line, fill=_rgb255(REFERENCE_RGBA), width=w)
+        for ti, tr in enumerate(self.tracks):
+            j = int(tr.idx[k])
+            upto = int(np.searchsorted(tr.trail_keep, j, side="right"))
+            pts = np.vstack([self.trail3[ti][tr.trail_keep[:upto]], self.trail3[ti][j : j + 1]])
+            width = w + 1 if ti == 0 else max(1, w - 1)  # the ghost's trail on top, thinner
+            for line in _polylines(*proj.pixels(pts)):
+                draw.line(line, fill=_rgb255(tr.rgba), width=width)
+        frame[:] = np.asarray(img)
+        self.draw_overlay(k, frame)
+        if keep is not None:  # the solid robot hides the lines under it
+            ys, xs, mask, saved = keep
+            frame[ys, xs][mask] = saved[mask]
+
+    def _robot_mask(self, proj: Projection, frame: Frame) -> tuple[slice, slice, NDArray[np.bool_], Frame] | None:
+        """The solid robot's silhouette (union of its geoms' projected bounding boxes) and its pixels."""
+        d = self.datas[0]
+        g = self.robot_geoms
+        corners = d.geom_xpos[g][:, None, :] + np.einsum(
+            "gij,gkj->gki", d.geom_xmat[g].reshape(-1, 3, 3), self.robot_corners
+        )
+        px, ok = proj.pixels(corners.reshape(-1, 3))
+        if not ok.all():
+            return None
+        h, w = frame.shape[:2]
+        x0, y0 = np.floor(px.min(axis=0)).astype(int) - 1
+        x1, y1 = np.ceil(px.max(axis=0)).astype(int) + 2
+        x0, y0, x1, y1 = max(0, x0), max(0, y0), min(w, x1), min(h, y1)
+        if x1 <= x0 or y1 <= y0:
+            return None
+        mask_img = Image.new("L", (x1 - x0, y1 - y0), 0)
+        draw = ImageDraw.Draw(mask_img)
+        quads = (px.reshape(len(g), 8, 2) - (x0, y0))[:, _BOX_FACES]  # (G, 6, 4, 2)
+        for quad in quads.reshape(-1, 4, 2).tolist():
+            draw.polygon([tuple(q) for q in quad], fill=255)
+        mask = np.asarray(mask_img) > 0
+        return slice(y0, y1), slice(x0, x1), mask, frame[y0:y1, x0:x1].copy()
+
+    def _overlay_setup(self) -> tuple[Any, tuple[int, int]]:
+        size = max(10, round(self.settings.height / 30))
+        try:
+            font: Any = ImageFont.load_default(size=size)
+        except TypeError:  # Pillow without FreeType
+            font = ImageFont.load_default()
+        lines = self._overlay_lines(0, worst=True)
+        probe = ImageDraw.Draw(Image.new("RGB", (8, 8)))
+        widths = [int(probe.textbbox((0, 0), text, font=font)[2]) for text, _ in lines]
+        line_h = int(probe.textbbox((0, 0), "Ag", font=font)[3]) + 3
+        pad = 6
+        box_w = min(self.settings.width, max(widths) + 2 * pad)
+        box_h = min(self.settings.height, line_h * len(lines) + 2 * pad)
+        self._line_h, self._pad = line_h, pad
+        return font, (box_w, box_h)
+
+    def _overlay_lines(self, k: int, *, worst: bool = False) -> list[tuple[str, tuple[int, int, int]]]:
+        t = 9999.99 if worst else float(self.times[k] - self.times[0])
+        lines = [(f"t = {t:7.2f} s", (255, 255, 255))]
+        for tr in self.tracks:
+            name, rgba = RUN_STYLE.get(tr.label, (tr.label, CLOSED_RGBA))
+            err = 99.999 if worst else float(tr.err[tr.idx[k]])
+            color = tuple(int(min(255, 80 + 175 * c)) for c in rgba[:3])
+            lines.append((f"{name}: error {err:6.3f} m", (color[0], color[1], color[2])))
+        return lines
+
+    def draw_overlay(self, k: int, frame: Frame) -> None:
+        """Copy the overlay box into the frame; its text is redrawn every ``1 / OVERLAY_RATE`` s of video."""
+        bw, bh = self._box
+        step = max(1, round(self.settings.fps / OVERLAY_RATE))
+        key = k - k % step
+        if self._overlay_key != key:
+            img = Image.new("RGB", (bw, bh), (28, 30, 34))
+            draw = ImageDraw.Draw(img)
+            for i, (text, color) in enumerate(self._overlay_lines(key)):
+                draw.text((self._pad, self._pad + i * self._line_h), text, fill=color, font=self._font)
+            self._overlay_box, self._overlay_key = np.asarray(img), key
+        frame[:bh, :bw] = self._overlay_box
+
+    _overlay_key: int = -1
+    _overlay_box: Frame
+
+    # ---- frames ---------------------------------------------------------------------------------
+    def composited(self, renderer: SceneRenderer) -> bool:
+        """Whether frames are composited from a world drawn once (:mod:`sim.viz.compose`): with a camera
+        that stays put and a renderer without shadows or reflections (robots change no other pixel)."""
+        flags = renderer.scene.flags
+        lit = flags[mujoco.mjtRndFlag.mjRND_SHADOW] or flags[mujoco.mjtRndFlag.mjRND_REFLECTION]
+        return self.fixed_camera and not lit
+
+    def render_frame(self, renderer: SceneRenderer, k: int, out: Frame | None = None) -> Frame:
+        """Draw frame ``k``.
+
+        Args:
+            renderer: The open renderer, made for this replay's model and size with
+                ``max_geom >= required_geoms``.
+            k: Frame index in [0, n_frames).
+            out: (height, width, 3) uint8 buffer to draw into, or None for a new one.
+
+        Returns:
+            The frame.
+        """
+        if not 0 <= k < self.n_frames:
+            raise IndexError(f"frame {k} out of range [0, {self.n_frames})")
+        if (renderer.width, renderer.height) != (self.settings.width, self.settings.height):
+            raise ConfigError("the renderer's size differs from the render settings")
+        if renderer.scene.maxgeom < self.required_geoms:
+            raise ConfigError(
+                f"the renderer holds {renderer.scene.maxgeom} geoms, the replay needs {self.required_geoms}"
+            )
+        if self.composited(renderer):
+            if self._compositor is None or self._compositor.renderer is not renderer:
+                from sim.viz.compose import FixedViewCompositor
+
+                self._compositor = FixedViewCompositor(self, renderer)
+            if out is None:
+                out = np.empty((self.settings.height, self.settings.width, 3), dtype=np.uint8)
+            return self._compositor.frame(k, out)
+        self._update(renderer, k)
+        frame = renderer.render(out=out)
+        self._decorate(renderer, k, frame)
+        return frame
+
+    _compositor: Any = None
+
+
+class FrameSink(Protocol):
+    """Where frames go: a buffer to draw into, then hand it over (see :class:`sim.viz.video.VideoWriter`)."""
+
+    def frame_buffer(self) -> Frame:
+        """A (height, width, 3) uint8 buffer to draw the next frame into."""
+        ...
+
+    def submit(self, frame: Frame) -> None:
+        """Take a drawn frame (the buffer from :meth:`frame_buffer`)."""
+        ...
+
+
+def render_frames(
+    replay: Replay, renderer: SceneRenderer, sink: FrameSink, progress: Callable[[int], Any] | None = None
+) -> int:
+    """Draw every frame of a replay into a sink, in order.
+
+    Args:
+        replay: The replay.
+        renderer: The open renderer (see :meth:`Replay.render_frame`).
+        sink: Receives each frame as soon as it is drawn (an encoder runs alongside).
+        progress: Called with 1 after each frame (e.g. ``tqdm.update``).
+
+    Returns:
+        Number of frames drawn.
+    """
+    for k in range(replay.n_frames):
+        buf = sink.frame_buffer()
+        replay.render_frame(renderer, k, buf)
+        sink.submit(buf)
+        if progress is not None:
+            progress(1)
+    return replay.n_frames
+
+
+class ListSink:
+    """A :class:`FrameSink` that keeps copies of the frames in memory (for tests and notebooks)."""
+
+    def __init__(self, width: int, height: int) -> None:
+        self.frames: list[Frame] = []
+        self._shape = (height, width, 3)
+
+    def frame_buffer(self) -> Frame:
+        """A new buffer."""
+        return np.empty(self._shape, dtype=np.uint8)
+
+    def submit(self, frame: Frame) -> None:
+        """Keep the frame."""
+        self.frames.append(frame)
