@@ -28,35 +28,8 @@ import numpy as np
 
 from control.fbl import FBLGains, fbl_law
 from planning.core.robot import RobotSpec
+from planning.trajectory.segments import infer_segments
 from planning.trajectory.trajectory import Trajectory
-
-
-def infer_segments(trajectory: Trajectory, eps: float = 1e-4) -> tuple[np.ndarray, tuple[str, ...]]:
-    """Segment labels for a trajectory that carries none: by the sign of v; turns where v ~ 0.
-
-    Args:
-        trajectory: The reference.
-        eps: Speeds (and yaw rates) below this count as zero.
-
-    Returns:
-        ``(segments (N,), kinds)`` as :class:`Trajectory` stores them.
-    """
-    v, w = trajectory.vel[:, 0], trajectory.vel[:, 1]
-    kind = np.where(v > eps, "forward", np.where(v < -eps, "reverse", np.where(np.abs(w) > eps, "rotate", "")))
-    labels = kind.tolist()
-    nxt = ""
-    for i in range(len(labels) - 1, -1, -1):  # stand-stills join the next segment (else the previous)
-        labels[i] = labels[i] or nxt
-        nxt = labels[i]
-    for i in range(len(labels)):
-        labels[i] = labels[i] or (labels[i - 1] if i else "forward")
-    seg = np.zeros(len(labels), dtype=np.int64)
-    kinds = [labels[0]]
-    for i in range(1, len(labels)):
-        if labels[i] != labels[i - 1]:
-            kinds.append(labels[i])
-        seg[i] = len(kinds) - 1
-    return seg, tuple(kinds)
 
 
 class SegmentedTracker:
@@ -108,7 +81,8 @@ class SegmentedTracker:
         if trajectory.segments is not None:
             seg, kinds = trajectory.segments, trajectory.segment_kinds
         else:
-            seg, kinds = infer_segments(trajectory)
+            inferred = infer_segments(trajectory.vel[:, 0], trajectory.vel[:, 1])
+            seg, kinds = inferred.index, inferred.kinds
         n = math.ceil(trajectory.duration / dt) + 1
         times = self._t0 + dt * np.arange(n)
         self._table = trajectory.sample_many(times)

@@ -1,4 +1,4 @@
-"""The segmented tracker: segment inference, bounded finite commands, and closed-loop kinematic runs
+"""The segmented tracker: bounded finite commands, and closed-loop kinematic runs
 (an independent fine-step RK4 unicycle) through cusps and turns in place at 50 Hz and 10 Hz."""
 
 import math
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from control.base import make_tracker
-from control.segmented import SegmentedTracker, infer_segments
+from control.segmented import SegmentedTracker
 from planning.core.geometry import Pose2D
 from planning.core.robot import load_robot
 from planning.core.world import World
@@ -45,14 +45,6 @@ def simulate(tracker: SegmentedTracker, traj: Trajectory, rate: float, start: Po
             x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
         out.append(x.copy())
     return np.array(out)
-
-
-def test_segments_are_inferred_from_the_sign_of_v() -> None:
-    t = np.linspace(0, 5, 6)
-    vel = np.array([[0, 0], [0.1, 0], [0, 0], [-0.1, 0], [0, 0.3], [0, 0]], dtype=float)
-    traj = Trajectory(t, np.zeros((6, 3)), vel, np.zeros((6, 2)))
-    seg, kinds = infer_segments(traj)
-    assert kinds == ("forward", "reverse", "rotate") and seg.tolist() == [0, 0, 1, 1, 2, 2]
 
 
 def test_registered_and_commands_stay_finite_and_bounded_for_any_pose() -> None:

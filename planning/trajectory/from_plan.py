@@ -41,6 +41,7 @@ from planning.core.robot import RobotSpec
 from planning.core.world import World
 from planning.errors import NhsimError
 from planning.planners.base import PlanResult
+from planning.trajectory.segments import infer_segments
 from planning.trajectory.smoothing import SampledCurve, remove_loops, smooth_drive, split_path
 from planning.trajectory.speed_profile import Limits, TimedSamples, hold, time_drive, time_rotation
 from planning.trajectory.trajectory import Trajectory
@@ -94,28 +95,6 @@ def _concat(pieces: list[tuple[str, TimedSamples]], dt: float, name: str) -> Tra
     pose[:, 2] = np.unwrap(pose[:, 2])
     return Trajectory(np.concatenate(ts), pose, np.vstack(vels), np.vstack(accs), name=name,
                       segments=np.concatenate(segs), segment_kinds=tuple(kinds))  # fmt: skip
-
-
-def _timed_kinds(v: FloatArray, w: FloatArray, eps: float = 1e-4) -> list[str]:
-    """Per-sample kind of a timed plan: sign of v; rotations where v ~ 0 and omega != 0."""
-    kind = np.where(v > eps, "forward", np.where(v < -eps, "reverse", ""))
-    rot = (np.abs(v) <= eps) & (np.abs(w) > eps)
-    kind = np.where(rot, "rotate", kind)
-    # stand-still samples join the next (else the previous) moving segment
-    out = kind.tolist()
-    nxt = ""
-    for i in range(len(out) - 1, -1, -1):
-        if out[i]:
-            nxt = out[i]
-        else:
-            out[i] = nxt
-    prev = "forward"
-    for i in range(len(out)):
-        if out[i]:
-            prev = out[i]
-        else:
-            out[i] = prev
-    return out
 
 
 def make_trajectory(
@@ -305,7 +284,7 @@ def _from_timed(
     accel_scale = max(float(np.sqrt(np.max(np.abs(dv)) / limits.max_accel)),
                       float(np.sqrt(np.max(np.abs(dw)) / limits.max_yaw_accel)))  # fmt: skip
     clear = float(checker.clearance_of(checker.densify(path)).min())
-    kinds = _timed_kinds(v, w)
+    kinds = list(infer_segments(v, w).labels)
     # A plan that starts or ends moving, or whose speed changes faster than the robot can follow
     # (inputs held over intervals step at every node), keeps its path but is re-timed from rest to rest
     # by the speed profile; a smooth one keeps its samples, slowed uniformly if it exceeds a limit.
