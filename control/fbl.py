@@ -27,7 +27,23 @@ import numpy as np
 
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
-from planning.trajectory.trajectory import Trajectory
+from planning.trajectory.trajectory import Trajectory, TrajectorySamples
+
+#: The reference the law takes: (x_d, y_d, xdot_d, ydot_d, xddot_d, yddot_d) [m, m/s, m/s^2].
+FlatReference = tuple[float, float, float, float, float, float]
+
+
+def flat_references(samples: TrajectorySamples) -> list[FlatReference]:
+    """The law's reference at each sampled instant, as Python floats (cheap to read per call).
+
+    Args:
+        samples: The reference at M instants.
+
+    Returns:
+        M tuples (x_d, y_d, xdot_d, ydot_d, xddot_d, yddot_d).
+    """
+    columns = (samples.x, samples.y, samples.dx, samples.dy, samples.ddx, samples.ddy)
+    return list(zip(*(c.tolist() for c in columns), strict=True))
 
 
 @dataclass(frozen=True)
@@ -76,7 +92,7 @@ def fbl_law(
     y: float,
     theta: float,
     xi: float,
-    ref: tuple[float, float, float, float, float, float],
+    ref: FlatReference,
 ) -> tuple[float, float]:
     """The continuous-time law: (xi_dot, omega) for a state and a reference.
 
@@ -118,7 +134,7 @@ class DynamicFBL:
         self._traj: Trajectory | None = None
         self._dt = 0.02
         self._t0 = 0.0
-        self._cache: list[list[float]] = []
+        self._cache: list[FlatReference] = []
 
     def reset(self, trajectory: Trajectory, dt: float) -> None:
         """Start tracking: xi starts at the reference speed; the reference is pre-sampled at the
@@ -127,18 +143,16 @@ class DynamicFBL:
         self._dt = float(dt)
         self._t0 = float(trajectory.t[0])
         n = math.ceil(trajectory.duration / dt) + 2
-        table = trajectory.sample_many(self._t0 + dt * np.arange(n))
-        self._cache = table[:, [0, 1, 7, 8, 9, 10]].tolist()
+        self._cache = flat_references(trajectory.sample_many(self._t0 + dt * np.arange(n)))
         self.xi = float(trajectory.vel[0, 0])
 
-    def _reference(self, t: float) -> tuple[float, float, float, float, float, float]:
+    def _reference(self, t: float) -> FlatReference:
+        """The law's reference at ``t``: from the table at a control instant, else interpolated."""
         k = round((t - self._t0) / self._dt)
         if 0 <= k < len(self._cache) and abs(self._t0 + k * self._dt - t) < 1e-9:
-            r = self._cache[k]
-        else:
-            assert self._traj is not None
-            r = self._traj.sample_many(np.array([t]))[0, [0, 1, 7, 8, 9, 10]].tolist()
-        return r[0], r[1], r[2], r[3], r[4], r[5]
+            return self._cache[k]
+        assert self._traj is not None
+        return flat_references(self._traj.sample_many(np.array([t])))[0]
 
     def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
         """Body command for the period starting at ``t``; advances xi by one period."""

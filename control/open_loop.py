@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from planning.core.robot import RobotSpec
@@ -21,15 +23,27 @@ class OpenLoop:
         self.robot = robot
         self._traj: Trajectory | None = None
         self._dt = 0.02
+        self._t0 = 0.0
+        self._starts: list[float] = []
+        self._commands: list[tuple[float, float]] = []
 
     def reset(self, trajectory: Trajectory, dt: float) -> None:
-        """Start playing ``trajectory`` with control period ``dt`` [s]."""
+        """Start playing ``trajectory`` with control period ``dt`` [s]; the commands of the control
+        periods starting at t0 + k dt are sampled here, once."""
         self._traj = trajectory
         self._dt = float(dt)
+        self._t0 = float(trajectory.t[0])
+        starts = self._t0 + self._dt * np.arange(math.ceil(trajectory.duration / dt) + 2)
+        s = trajectory.sample_many(starts + 0.5 * self._dt)
+        self._starts = starts.tolist()
+        self._commands = list(zip(s.v.tolist(), s.omega.tolist(), strict=True))
 
     def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
         """Reference (v, omega) for the period starting at ``t``; the pose is ignored."""
         if self._traj is None:
             raise RuntimeError("OpenLoop.command called before reset")
-        row = self._traj.sample_many(np.array([t + 0.5 * self._dt]))[0]
-        return float(row[3]), float(row[4])
+        k = round((t - self._t0) / self._dt)
+        if 0 <= k < len(self._starts) and self._starts[k] == t:  # a control instant: sampled at reset
+            return self._commands[k]
+        s = self._traj.sample_many(np.array([t + 0.5 * self._dt]))
+        return float(s.v[0]), float(s.omega[0])

@@ -23,13 +23,26 @@ intermediate becomes a stop).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
-from control.fbl import FBLGains, fbl_law
+from control.fbl import FBLGains, FlatReference, fbl_law, flat_references
 from planning.core.robot import RobotSpec
 from planning.trajectory.segments import infer_segments
 from planning.trajectory.trajectory import Trajectory
+
+
+class _Instant(NamedTuple):
+    """The reference at one control instant, as Python floats."""
+
+    x: float
+    y: float
+    theta: float
+    v: float
+    omega: float
+    flat: FlatReference
+    segment: int
 
 
 class SegmentedTracker:
@@ -65,10 +78,9 @@ class SegmentedTracker:
         self.hold_speed = float(hold_speed)
         self.xi = 0.0
         self.segment = -1
-        self._table = np.zeros((0, 11))
-        self._seg = np.zeros(0, dtype=np.int64)
+        self._instants: list[_Instant] = []
         self._kinds: tuple[str, ...] = ()
-        self._final = np.zeros(3)
+        self._final = (0.0, 0.0, 0.0)
         self._dt = 0.02
         self._t0 = 0.0
         self._traj: Trajectory | None = None
@@ -85,56 +97,61 @@ class SegmentedTracker:
             seg, kinds = inferred.index, inferred.kinds
         n = math.ceil(trajectory.duration / dt) + 1
         times = self._t0 + dt * np.arange(n)
-        self._table = trajectory.sample_many(times)
+        s = trajectory.sample_many(times)
         # the segment in force at a control instant: that of the last sample at or before it
         idx = np.clip(np.searchsorted(trajectory.t, times + 1e-9, side="right") - 1, 0, trajectory.t.size - 1)
-        self._seg = np.asarray(seg)[idx]
+        columns = (s.x.tolist(), s.y.tolist(), s.theta.tolist(), s.v.tolist(), s.omega.tolist())
+        self._instants = [_Instant(*row) for row in zip(*columns, flat_references(s), seg[idx].tolist(), strict=True)]
         self._kinds = tuple(kinds)
-        self._final = trajectory.pose[-1].copy()
+        self._final = (float(trajectory.pose[-1, 0]), float(trajectory.pose[-1, 1]), float(trajectory.pose[-1, 2]))
         self.segment = -1
         self.xi = 0.0
 
-    def _regulate(self, x: float, y: float, theta: float, ref: np.ndarray, omega_ref: float) -> tuple[float, float]:
-        """Hold a spot and turn to a heading: (v, omega) before clamping."""
+    def _regulate(
+        self, x: float, y: float, theta: float, spot: tuple[float, float, float], omega_ref: float
+    ) -> tuple[float, float]:
+        """Hold ``spot`` (x, y) and turn to its heading: (v, omega) before clamping."""
         c, s = math.cos(theta), math.sin(theta)
-        along = (ref[0] - x) * c + (ref[1] - y) * s
+        along = (spot[0] - x) * c + (spot[1] - y) * s
         v = min(max(self.along_gain * along, -self.hold_speed), self.hold_speed)
-        err = math.remainder(ref[2] - theta, 2.0 * math.pi)
+        err = math.remainder(spot[2] - theta, 2.0 * math.pi)
         return v, omega_ref + self.heading_gain * err
+
+    def _drive(self, x: float, y: float, theta: float, ref: _Instant, sgn: float) -> tuple[float, float]:
+        """FBL along a drive of direction ``sgn`` (+1 forwards, -1 backwards): (v, omega) before clamping;
+        advances xi by one period, keeping it on the drive's side of zero."""
+        if ref.segment != self.segment:
+            self.xi = sgn * max(abs(ref.v) if ref.v * sgn > 0 else 0.0, 1e-6)
+        xi_dot, w_fbl = fbl_law(self.gains, x, y, theta, self.xi, ref.flat)
+        dt = self._dt
+        v = self.xi + 0.5 * xi_dot * dt
+        self.xi = sgn * min(max(sgn * (self.xi + xi_dot * dt), 1e-6), self.robot.max_speed)
+        alpha = min(abs(self.xi) / self.xi_blend, 1.0)
+        if alpha < 1.0:
+            err = math.remainder(ref.theta - theta, 2.0 * math.pi)
+            w = alpha * w_fbl + (1.0 - alpha) * (ref.omega + self.heading_gain * err)
+        else:
+            w = w_fbl
+        return sgn * max(sgn * v, 0.0), w
 
     def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
         """Body command for the period starting at ``t``."""
         if self._traj is None:
             raise RuntimeError("SegmentedTracker.command called before reset")
-        vmax, wmax = self.robot.max_speed, self.robot.max_yaw_rate
         k = round((t - self._t0) / self._dt)
-        if k >= self._table.shape[0]:
+        if k >= len(self._instants):
             v, w = self._regulate(x, y, theta, self._final, 0.0)
             self.xi = 0.0
         else:
-            row = self._table[max(k, 0)]
-            seg = int(self._seg[max(k, 0)])
-            kind = self._kinds[seg]
+            ref = self._instants[max(k, 0)]
+            kind = self._kinds[ref.segment]
             if kind in ("forward", "reverse"):
-                sgn = 1.0 if kind == "forward" else -1.0
-                if seg != self.segment:
-                    self.xi = sgn * max(abs(float(row[3])) if row[3] * sgn > 0 else 0.0, 1e-6)
-                ref = (row[0], row[1], row[7], row[8], row[9], row[10])
-                xi_dot, w_fbl = fbl_law(self.gains, x, y, theta, self.xi, ref)
-                dt = self._dt
-                v = self.xi + 0.5 * xi_dot * dt
-                self.xi = sgn * min(max(sgn * (self.xi + xi_dot * dt), 1e-6), vmax)
-                alpha = min(abs(self.xi) / self.xi_blend, 1.0)
-                if alpha < 1.0:
-                    err = math.remainder(row[2] - theta, 2.0 * math.pi)
-                    w = alpha * w_fbl + (1.0 - alpha) * (row[4] + self.heading_gain * err)
-                else:
-                    w = w_fbl
-                v = sgn * max(sgn * v, 0.0)
+                v, w = self._drive(x, y, theta, ref, 1.0 if kind == "forward" else -1.0)
             else:
-                v, w = self._regulate(x, y, theta, row, float(row[4]) if kind == "rotate" else 0.0)
+                v, w = self._regulate(x, y, theta, (ref.x, ref.y, ref.theta), ref.omega if kind == "rotate" else 0.0)
                 self.xi = 0.0
-            self.segment = seg
+            self.segment = ref.segment
         if not (math.isfinite(v) and math.isfinite(w)):
             v, w = 0.0, 0.0
+        vmax, wmax = self.robot.max_speed, self.robot.max_yaw_rate
         return min(max(v, -vmax), vmax), min(max(w, -wmax), wmax)

@@ -32,8 +32,8 @@ def test_error_follows_the_promised_linear_dynamics(gains: FBLGains) -> None:
     _dxy, _ddxy = ref.flat_derivatives()
 
     def reference(t: float) -> tuple[float, ...]:
-        row = ref.sample_many(np.array([t]))[0]
-        return (row[0], row[1], row[7], row[8], row[9], row[10])
+        s = ref.sample(t)
+        return (*s.pose[:2], *s.flat_vel, *s.flat_acc)
 
     # start mid-circle (cruising, so xi stays far from the guarded singularity), off the reference
     # and with a speed and heading the reference does not have
@@ -53,7 +53,7 @@ def test_error_follows_the_promised_linear_dynamics(gains: FBLGains) -> None:
         e0 = x0[axis] - r0[axis]
         de0 = x0[3] * (math.cos(x0[2]) if axis == 0 else math.sin(x0[2])) - r0[2 + axis]
         expected = _analytic_error(e0, de0, gains.kp, gains.kd, t_eval - t0)
-        measured = sol.y[axis] - ref.sample_many(t_eval)[:, axis]
+        measured = sol.y[axis] - ref.sample_many(t_eval).pose[:, axis]
         # the reference is interpolated linearly from samples 0.5 ms apart: error budget ~1e-6 m
         np.testing.assert_allclose(measured, expected, atol=2e-6)
 

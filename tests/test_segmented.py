@@ -74,5 +74,5 @@ def test_cusps_and_turns_in_place_are_tracked_to_the_goal(name: str, rate: float
     assert math.hypot(final[0] - goal.x, final[1] - goal.y) < tol
     assert abs(math.remainder(final[2] - goal.theta, 2 * math.pi)) < 0.05
     ref = traj.sample_many(traj.t[0] + np.arange(states.shape[0]) / rate)
-    err = np.hypot(states[:, 0] - ref[:, 0], states[:, 1] - ref[:, 1])
+    err = np.hypot(states[:, 0] - ref.x, states[:, 1] - ref.y)
     assert np.sqrt(np.mean(err**2)) < max(tol, 0.01)

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from planning.trajectory.trajectory import Trajectory
+from planning.trajectory.trajectory import SAMPLE_FIELDS, Trajectory
 
 
 def _circle(n: int = 2001, radius: float = 2.0, w: float = 0.3) -> Trajectory:
@@ -44,7 +44,55 @@ def test_sampling_interpolates_and_clamps() -> None:
     np.testing.assert_allclose(s.pose, 0.5 * (tr.pose[0] + tr.pose[1]))
     np.testing.assert_allclose(tr.sample(-5).pose, tr.pose[0])
     np.testing.assert_allclose(tr.sample(50).pose, tr.pose[-1])
-    assert tr.sample_many(np.array([0.0, 1.0, 2.0])).shape == (3, 11)
+
+
+def test_sample_many_names_every_quantity() -> None:
+    t = np.array([0.0, 1.0, 2.0, 4.0])
+    pose = np.array([[0.0, 0.0, 0.0], [1.0, 0.5, 0.2], [2.0, 1.5, 0.6], [2.5, 2.0, 1.0]])
+    vel = np.array([[0.0, 0.1], [1.0, 0.3], [0.8, -0.2], [0.0, 0.0]])
+    acc = np.array([[1.0, 0.2], [0.4, 0.1], [-0.6, -0.3], [-0.4, 0.1]])
+    tr = Trajectory(t, pose, vel, acc)
+    c, sn, v, w, dv = np.cos(pose[:, 2]), np.sin(pose[:, 2]), vel[:, 0], vel[:, 1], acc[:, 0]
+    dxy = np.column_stack([v * c, v * sn])  # the flat outputs' derivatives of a unicycle
+    ddxy = np.column_stack([dv * c - v * w * sn, dv * sn + v * w * c])
+    # at the samples, halfway between two and a quarter of the way, and clamped outside the span
+    times = np.array([1.0, 1.5, 2.5, -1.0, 9.0])
+    k0, k1, a = np.array([1, 1, 2, 0, 3]), np.array([1, 2, 3, 0, 3]), np.array([0.0, 0.5, 0.25, 0.0, 0.0])
+    s = tr.sample_many(times)
+    assert len(s) == 5 and np.array_equal(s.t, times)
+    expected = {
+        "x": pose[:, 0],
+        "y": pose[:, 1],
+        "theta": pose[:, 2],
+        "v": vel[:, 0],
+        "omega": vel[:, 1],
+        "dv": acc[:, 0],
+        "domega": acc[:, 1],
+        "dx": dxy[:, 0],
+        "dy": dxy[:, 1],
+        "ddx": ddxy[:, 0],
+        "ddy": ddxy[:, 1],
+    }
+    assert tuple(expected) == SAMPLE_FIELDS
+    for name, col in expected.items():
+        np.testing.assert_allclose(getattr(s, name), (1 - a) * col[k0] + a * col[k1], rtol=0, atol=1e-12, err_msg=name)
+        with pytest.raises(ValueError):
+            getattr(s, name)[0] = 0.0  # read-only
+    np.testing.assert_array_equal(s.pose, np.column_stack([s.x, s.y, s.theta]))
+    np.testing.assert_array_equal(s.vel, np.column_stack([s.v, s.omega]))
+    np.testing.assert_array_equal(s.flat_acc, np.column_stack([s.ddx, s.ddy]))
+    one = tr.sample(2.5)
+    assert one.t == 2.5
+    for got, want in [
+        (one.pose, s.pose[2]),
+        (one.vel, s.vel[2]),
+        (one.acc, [s.dv[2], s.domega[2]]),
+        (one.flat_vel, s.flat_vel[2]),
+        (one.flat_acc, s.flat_acc[2]),
+    ]:
+        np.testing.assert_array_equal(got, want)
+    with pytest.raises(ValueError, match="1-D"):
+        tr.sample_many(1.0)
 
 
 @pytest.mark.parametrize(

@@ -36,6 +36,79 @@ class TrajectorySample:
     flat_acc: FloatArray
 
 
+#: The quantities a trajectory is sampled at, in the order of ``Trajectory``'s interpolation table.
+SAMPLE_FIELDS = ("x", "y", "theta", "v", "omega", "dv", "domega", "dx", "dy", "ddx", "ddy")
+
+
+@dataclass(frozen=True)
+class TrajectorySamples:
+    """The reference at M instants (:meth:`Trajectory.sample_many`), one (M,) array per quantity.
+
+    The arrays are read-only rows of one table, so building this costs no copy.
+
+    Attributes:
+        t: (M,) query times [s] (as asked; the reference is clamped to the trajectory's span).
+        x: (M,) position x [m].
+        y: (M,) position y [m].
+        theta: (M,) heading [rad], unwrapped.
+        v: (M,) speed [m/s].
+        omega: (M,) yaw rate [rad/s].
+        dv: (M,) dv/dt [m/s^2].
+        domega: (M,) domega/dt [rad/s^2].
+        dx: (M,) flat-output velocity dx/dt [m/s].
+        dy: (M,) flat-output velocity dy/dt [m/s].
+        ddx: (M,) flat-output acceleration d2x/dt2 [m/s^2].
+        ddy: (M,) flat-output acceleration d2y/dt2 [m/s^2].
+    """
+
+    t: FloatArray
+    x: FloatArray
+    y: FloatArray
+    theta: FloatArray
+    v: FloatArray
+    omega: FloatArray
+    dv: FloatArray
+    domega: FloatArray
+    dx: FloatArray
+    dy: FloatArray
+    ddx: FloatArray
+    ddy: FloatArray
+
+    def __len__(self) -> int:
+        return int(self.t.size)
+
+    @property
+    def pose(self) -> FloatArray:
+        """(M, 3) poses [x, y, theta] [m, m, rad]."""
+        return np.column_stack([self.x, self.y, self.theta])
+
+    @property
+    def vel(self) -> FloatArray:
+        """(M, 2) inputs [v, omega] [m/s, rad/s]."""
+        return np.column_stack([self.v, self.omega])
+
+    @property
+    def flat_vel(self) -> FloatArray:
+        """(M, 2) output velocities [dx/dt, dy/dt] [m/s]."""
+        return np.column_stack([self.dx, self.dy])
+
+    @property
+    def flat_acc(self) -> FloatArray:
+        """(M, 2) output accelerations [d2x/dt2, d2y/dt2] [m/s^2]."""
+        return np.column_stack([self.ddx, self.ddy])
+
+    def at(self, k: int) -> TrajectorySample:
+        """The k-th instant as a :class:`TrajectorySample`."""
+        return TrajectorySample(
+            t=float(self.t[k]),
+            pose=np.array([self.x[k], self.y[k], self.theta[k]]),
+            vel=np.array([self.v[k], self.omega[k]]),
+            acc=np.array([self.dv[k], self.domega[k]]),
+            flat_vel=np.array([self.dx[k], self.dy[k]]),
+            flat_acc=np.array([self.ddx[k], self.ddy[k]]),
+        )
+
+
 def _as_2d(name: str, value: ArrayLike, n: int, cols: int) -> FloatArray:
     arr = np.asarray(value, dtype=float)
     if arr.shape != (n, cols):
@@ -195,13 +268,16 @@ class Trajectory:
         return self._cache["dxy"], self._cache["ddxy"]
 
     def _table(self) -> FloatArray:
+        """(11, N) table of the ``SAMPLE_FIELDS`` at every sample, one contiguous row per quantity."""
         if "table" not in self._cache:
             dxy, ddxy = self.flat_derivatives()
-            self._cache["table"] = np.column_stack([self.pose, self.vel, self.acc, dxy, ddxy])
+            table = np.ascontiguousarray(np.column_stack([self.pose, self.vel, self.acc, dxy, ddxy]).T)
+            table.setflags(write=False)
+            self._cache["table"] = table
         return self._cache["table"]
 
-    def sample_many(self, times: ArrayLike) -> FloatArray:
-        """Interpolate the reference at many times at once.
+    def sample_many(self, times: ArrayLike) -> TrajectorySamples:
+        """Interpolate the reference linearly at many times at once.
 
         Times outside the span are clamped to the end samples.
 
@@ -209,21 +285,27 @@ class Trajectory:
             times: (M,) query times [s].
 
         Returns:
-            (M, 11) array: x, y, theta, v, omega, dv, domega, dx, dy, ddx, ddy.
+            The reference at the M times, one (M,) array per quantity.
+
+        Raises:
+            ValueError: ``times`` is not 1-D.
         """
-        tq = np.clip(np.asarray(times, dtype=float), self.t[0], self.t[-1])
+        tq_asked = np.array(times, dtype=float)
+        if tq_asked.ndim != 1:
+            raise ValueError(f"Trajectory.sample_many: times must be a 1-D array (M,), got shape {tq_asked.shape}")
+        tq_asked.setflags(write=False)
+        tq = np.clip(tq_asked, self.t[0], self.t[-1])
         table = self._table()
         idx = np.clip(np.searchsorted(self.t, tq, side="right") - 1, 0, self.t.size - 2)
         t0, t1 = self.t[idx], self.t[idx + 1]
-        a = ((tq - t0) / (t1 - t0))[:, None]
-        return (1.0 - a) * table[idx] + a * table[idx + 1]
+        a = (tq - t0) / (t1 - t0)
+        rows = (1.0 - a) * table.take(idx, axis=1) + a * table.take(idx + 1, axis=1)
+        rows.setflags(write=False)
+        return TrajectorySamples(tq_asked, *rows)
 
     def sample(self, t: float) -> TrajectorySample:
         """Interpolate the reference at one time (clamped to the span)."""
-        row = self.sample_many(np.array([t]))[0]
-        return TrajectorySample(
-            t=float(t), pose=row[0:3], vel=row[3:5], acc=row[5:7], flat_vel=row[7:9], flat_acc=row[9:11]
-        )
+        return self.sample_many(np.array([t])).at(0)
 
     def path_length(self) -> float:
         """Length of the x-y path [m]."""

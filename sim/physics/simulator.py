@@ -254,7 +254,7 @@ class Simulator:
             wcmd = wcmd[owner]
         wspd = qvel[:, self._wheel_dofs]
         pose[:, 2] = np.unwrap(pose[:, 2])
-        ref = trajectory.sample_many(t_log)[:, :3]
+        ref = trajectory.sample_many(t_log).pose
         warnings = tuple(
             f"{WARNING_NAMES.get(j, str(j))} x{d.warning[j].number} (last at step info {d.warning[j].lastinfo})"
             for j in range(len(d.warning))
