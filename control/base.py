@@ -1,20 +1,26 @@
-"""The tracker interface and the registry of trackers by name."""
+"""The tracker interface, the registry of trackers by name, and checks for their option dataclasses."""
 
 from __future__ import annotations
 
 import importlib
-from typing import Any, Protocol
+import inspect
+import math
+from collections.abc import Callable
+from typing import Any, Protocol, TypeVar
 
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
 from planning.trajectory.trajectory import Trajectory
+
+T = TypeVar("T")
 
 
 class Tracker(Protocol):
     """A feedback (or feed-forward) law with explicit state.
 
     The simulator calls ``reset`` once, then ``command`` at the control rate with the measured
-    pose, and holds the returned (v, omega) until the next call.
+    pose, and holds the returned (v, omega) until the next call. A tracker is built as
+    ``factory(robot, **options)`` with keyword-only options (see :func:`make_tracker`).
     """
 
     name: str
@@ -28,7 +34,7 @@ class Tracker(Protocol):
         ...
 
 
-#: Tracker name -> "module:factory"; the factory is called as factory(robot, gains=...).
+#: Tracker name -> "module:factory"; the factory is called as factory(robot, **keyword-only options).
 TRACKERS: dict[str, str] = {
     "fbl": "control.fbl:DynamicFBL",
     "open-loop": "control.open_loop:OpenLoop",
@@ -36,14 +42,85 @@ TRACKERS: dict[str, str] = {
 }
 
 
-def make_tracker(name: str, robot: RobotSpec, **options: Any) -> Tracker:
-    """Instantiate a registered tracker for a robot.
+def register_tracker(name: str, target: str) -> None:
+    """Register a tracker factory by import path, e.g. ``"control.fbl:DynamicFBL"``."""
+    TRACKERS[name] = target
+
+
+def _factory(name: str) -> Callable[..., Tracker]:
+    if name not in TRACKERS:
+        raise ConfigError(f"unknown tracker {name!r}: choose one of {', '.join(sorted(TRACKERS))}")
+    module_name, attr = TRACKERS[name].split(":")
+    return getattr(importlib.import_module(module_name), attr)  # type: ignore[no-any-return]
+
+
+def tracker_options(name: str) -> tuple[str, ...]:
+    """The keyword options a registered tracker takes (besides the robot), in signature order.
 
     Raises:
         ConfigError: Unknown name (lists the valid ones).
     """
-    if name not in TRACKERS:
-        raise ConfigError(f"unknown tracker {name!r}: choose one of {', '.join(sorted(TRACKERS))}")
-    module_name, attr = TRACKERS[name].split(":")
-    factory = getattr(importlib.import_module(module_name), attr)
-    return factory(robot, **options)  # type: ignore[no-any-return]
+    params = inspect.signature(_factory(name)).parameters.values()
+    return tuple(p.name for p in params if p.kind is inspect.Parameter.KEYWORD_ONLY)
+
+
+def make_tracker(name: str, robot: RobotSpec, **options: Any) -> Tracker:
+    """Instantiate a registered tracker for a robot.
+
+    Args:
+        name: A key of :data:`TRACKERS`.
+        robot: The robot whose limits the commands respect.
+        **options: The tracker's keyword options (see :func:`tracker_options`).
+
+    Raises:
+        ConfigError: Unknown name (lists the valid ones), an option the tracker does not take (names
+            it and lists the valid ones) or a bad option value.
+    """
+    factory = _factory(name)
+    valid = tracker_options(name)
+    unknown = [key for key in options if key not in valid]
+    if unknown:
+        raise ConfigError(
+            f"tracker {name!r}: unknown option(s) {', '.join(map(repr, unknown))}; "
+            f"valid options: {', '.join(valid) or '(none)'}"
+        )
+    return factory(robot, **options)
+
+
+def option_value(tracker: str, option: str, value: T | None, default: T) -> T:
+    """A tracker option checked to be of its default's type; None gives the default.
+
+    Raises:
+        ConfigError: ``value`` is neither None nor of the default's type.
+    """
+    if value is None:
+        return default
+    kind = type(default)
+    if not isinstance(value, kind):
+        raise ConfigError(
+            f"tracker {tracker!r}: option {option} must be an instance of {kind.__name__} (e.g. {default!r}), "
+            f"or None for that default; got {type(value).__name__}"
+        )
+    return value
+
+
+def check_positive_fields(obj: object, names: tuple[str, ...], why: str) -> None:
+    """Check that the named fields of a frozen dataclass are finite numbers > 0; store them as floats.
+
+    Args:
+        obj: The dataclass instance (from its ``__post_init__``).
+        names: The fields to check.
+        why: What needs them positive, appended to the message.
+
+    Raises:
+        ConfigError: A field is not a number (a bool is not), not finite, or not > 0; the message
+            names it, e.g. ``FBLGains.kp``.
+    """
+    for name in names:
+        value = getattr(obj, name)
+        where = f"{type(obj).__name__}.{name}"
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ConfigError(f"{where} must be a finite number, got {value!r}")
+        if value <= 0:
+            raise ConfigError(f"{where} must be > 0, got {value!r} ({why})")
+        object.__setattr__(obj, name, float(value))

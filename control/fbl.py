@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from control.base import check_positive_fields, option_value
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
 from planning.trajectory.trajectory import Trajectory, TrajectorySamples
@@ -61,13 +62,7 @@ class FBLGains:
     xi_min: float = 0.02
 
     def __post_init__(self) -> None:
-        for name in ("kp", "kd", "xi_min"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise ConfigError(f"FBLGains.{name} must be a finite number, got {value!r}")
-            if value <= 0:
-                raise ConfigError(f"FBLGains.{name} must be > 0, got {value!r} (the error dynamics need Kp, Kd > 0)")
-            object.__setattr__(self, name, float(value))
+        check_positive_fields(self, ("kp", "kd", "xi_min"), "the error dynamics need Kp, Kd > 0")
 
     @classmethod
     def parse(cls, text: str) -> FBLGains:
@@ -118,18 +113,27 @@ def fbl_law(
 
 
 class DynamicFBL:
-    """Dynamic feedback-linearisation tracker with explicit state xi.
+    """Dynamic feedback-linearisation tracker with explicit state xi (see the module doc).
+
+    Source: seed report 003 (EduMIP planning and tracking), section III: the compensator xi = v and
+    the virtual input w = yddot_d - Kp e - Kd edot; the law and its singularity at xi = 0 as in
+    G. Oriolo, A. De Luca, M. Vendittelli, "WMR control via dynamic feedback linearization: design,
+    implementation, and experimental validation", IEEE Trans. Control Systems Technology 10(6),
+    835-852, 2002.
 
     Args:
         robot: Limits (max_speed, max_yaw_rate) the commands are saturated to.
-        gains: Kp, Kd, xi_min.
+        gains: Kp, Kd, xi_min; None for ``FBLGains()``.
+
+    Raises:
+        ConfigError: ``gains`` is not an :class:`FBLGains`.
     """
 
     name = "fbl"
 
-    def __init__(self, robot: RobotSpec, gains: FBLGains | None = None, **_: object) -> None:
+    def __init__(self, robot: RobotSpec, *, gains: FBLGains | None = None) -> None:
         self.robot = robot
-        self.gains = gains if gains is not None else FBLGains()
+        self.gains = option_value(self.name, "gains", gains, FBLGains())
         self.xi = 0.0
         self._traj: Trajectory | None = None
         self._dt = 0.02

@@ -11,15 +11,21 @@ from planning.trajectory.trajectory import Trajectory
 
 
 class OpenLoop:
-    """Feed-forward player.
+    """Feed-forward player: the baseline that shows what feedback removes.
 
     Each command is the reference input averaged over the coming control period (sampled at its
     midpoint), which is the best a zero-order hold can do without feedback.
+
+    Source: seed report 000 (TurtleBot nonholonomic control), its simulation results: plans executed
+    open loop drift from the desired poses because nothing corrects the error. Takes no options.
+
+    Args:
+        robot: The robot (kept for the interface; the reference is played as it is).
     """
 
     name = "open-loop"
 
-    def __init__(self, robot: RobotSpec, **_: object) -> None:
+    def __init__(self, robot: RobotSpec) -> None:
         self.robot = robot
         self._traj: Trajectory | None = None
         self._dt = 0.02

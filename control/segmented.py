@@ -2,8 +2,9 @@
 
 Dynamic feedback linearisation (control/fbl.py) divides by its compensator state xi = v, so it is
 singular where the reference stops: at every cusp, at every turn in place, at the start and at the
-goal. A planned trajectory (planning/to_trajectory.py) is labelled with segments ("forward",
-"reverse", "rotate", "hold"), and this tracker switches law per segment:
+goal. A planned trajectory (planning/trajectory/from_plan.py) is labelled with segments ("forward",
+"reverse", "rotate", "hold"; a trajectory without labels gets them from the sign of v, by
+:func:`planning.trajectory.segments.infer_segments`), and this tracker switches law per segment:
 
 * **Drives.** On entering a drive, xi is re-initialised to the reference speed, with the drive's
   sign (so the singularity guard and the law act in the drive's direction even from rest), and it is
@@ -23,10 +24,12 @@ intermediate becomes a stop).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
+from control.base import check_positive_fields, option_value
 from control.fbl import FBLGains, FlatReference, fbl_law, flat_references
 from planning.core.robot import RobotSpec
 from planning.trajectory.segments import infer_segments
@@ -45,37 +48,53 @@ class _Instant(NamedTuple):
     segment: int
 
 
+@dataclass(frozen=True)
+class SegmentedParams:
+    """Parameters of the segmented tracker besides its FBL gains; all finite and > 0.
+
+    Attributes:
+        heading_gain: k_heading of the heading controller [1/s].
+        along_gain: k_along of the spot-holding speed [1/s].
+        xi_blend: Speed below which omega blends from FBL to heading control [m/s].
+        hold_speed: |v| bound while holding a spot [m/s].
+    """
+
+    heading_gain: float = 3.0
+    along_gain: float = 2.0
+    xi_blend: float = 0.04
+    hold_speed: float = 0.05
+
+    def __post_init__(self) -> None:
+        why = "xi_blend divides, and the gains and the hold speed must pull towards the reference"
+        check_positive_fields(self, ("heading_gain", "along_gain", "xi_blend", "hold_speed"), why)
+
+
 class SegmentedTracker:
     """Per-segment tracker (see the module doc).
 
+    Source: the drives use the dynamic feedback linearisation of seed report 003, section III
+    (:class:`control.fbl.DynamicFBL`), whose singularity at v = 0 (G. Oriolo, A. De Luca,
+    M. Vendittelli, IEEE Trans. Control Systems Technology 10(6), 2002) is why cusps and turns in
+    place switch law; the switching, the low-speed blend and the heading regulation are this
+    project's design (README, "control/segmented.py").
+
     Args:
         robot: Limits (max_speed, max_yaw_rate).
-        gains: FBL gains (Kp, Kd, xi_min).
-        heading_gain: k_heading [1/s].
-        along_gain: k_along [1/s].
-        xi_blend: Speed below which omega blends to heading control [m/s].
-        hold_speed: |v| bound while holding a spot [m/s].
+        gains: FBL gains (Kp, Kd, xi_min); None for ``FBLGains()``.
+        params: Heading, along-track and blending parameters; None for ``SegmentedParams()``.
+
+    Raises:
+        ConfigError: ``gains`` is not an :class:`FBLGains` or ``params`` not a :class:`SegmentedParams`.
     """
 
     name = "segmented"
 
     def __init__(
-        self,
-        robot: RobotSpec,
-        gains: FBLGains | None = None,
-        *,
-        heading_gain: float = 3.0,
-        along_gain: float = 2.0,
-        xi_blend: float = 0.04,
-        hold_speed: float = 0.05,
-        **_: object,
+        self, robot: RobotSpec, *, gains: FBLGains | None = None, params: SegmentedParams | None = None
     ) -> None:
         self.robot = robot
-        self.gains = gains if gains is not None else FBLGains()
-        self.heading_gain = float(heading_gain)
-        self.along_gain = float(along_gain)
-        self.xi_blend = float(xi_blend)
-        self.hold_speed = float(hold_speed)
+        self.gains = option_value(self.name, "gains", gains, FBLGains())
+        self.params = option_value(self.name, "params", params, SegmentedParams())
         self.xi = 0.0
         self.segment = -1
         self._instants: list[_Instant] = []
@@ -113,9 +132,9 @@ class SegmentedTracker:
         """Hold ``spot`` (x, y) and turn to its heading: (v, omega) before clamping."""
         c, s = math.cos(theta), math.sin(theta)
         along = (spot[0] - x) * c + (spot[1] - y) * s
-        v = min(max(self.along_gain * along, -self.hold_speed), self.hold_speed)
+        v = min(max(self.params.along_gain * along, -self.params.hold_speed), self.params.hold_speed)
         err = math.remainder(spot[2] - theta, 2.0 * math.pi)
-        return v, omega_ref + self.heading_gain * err
+        return v, omega_ref + self.params.heading_gain * err
 
     def _drive(self, x: float, y: float, theta: float, ref: _Instant, sgn: float) -> tuple[float, float]:
         """FBL along a drive of direction ``sgn`` (+1 forwards, -1 backwards): (v, omega) before clamping;
@@ -126,10 +145,10 @@ class SegmentedTracker:
         dt = self._dt
         v = self.xi + 0.5 * xi_dot * dt
         self.xi = sgn * min(max(sgn * (self.xi + xi_dot * dt), 1e-6), self.robot.max_speed)
-        alpha = min(abs(self.xi) / self.xi_blend, 1.0)
+        alpha = min(abs(self.xi) / self.params.xi_blend, 1.0)
         if alpha < 1.0:
             err = math.remainder(ref.theta - theta, 2.0 * math.pi)
-            w = alpha * w_fbl + (1.0 - alpha) * (ref.omega + self.heading_gain * err)
+            w = alpha * w_fbl + (1.0 - alpha) * (ref.omega + self.params.heading_gain * err)
         else:
             w = w_fbl
         return sgn * max(sgn * v, 0.0), w

@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from control.base import TRACKERS, make_tracker
+from control.base import TRACKERS, make_tracker, tracker_options
 from control.fbl import FBLGains
 from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot
 from planning.errors import ConfigError, ScenarioError
@@ -137,7 +137,8 @@ class PreparedCase:
             perturbation: Perturbation overriding the case's.
         """
         c = self.case
-        tracker = make_tracker(c.tracker, self.robot, gains=gains or c.gains or FBLGains())
+        options = {"gains": gains or c.gains or FBLGains()} if "gains" in tracker_options(c.tracker) else {}
+        tracker = make_tracker(c.tracker, self.robot, **options)
         pert = perturbation if perturbation is not None else c.perturbation
         log = self.simulator.run(
             self.trajectory, tracker, SimConfig(control_rate=c.control_rate, hold=self.hold, strict=False),

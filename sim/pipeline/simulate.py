@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from importlib import metadata
 from typing import Any
 
-from control.base import make_tracker
+from control.base import make_tracker, tracker_options
 from control.fbl import FBLGains
 from planning.core.robot import RobotSpec, load_robot
 from planning.errors import ConfigError, ScenarioError
@@ -138,7 +138,8 @@ def run_tracking(
     metrics: dict[str, TrackingMetrics] = {}
     names = {**RUNS, **(tracker_names or {})}
     for label in trackers:
-        tracker = make_tracker(names[label], robot, gains=gains)
+        options = {"gains": gains} if "gains" in tracker_options(names[label]) else {}
+        tracker = make_tracker(names[label], robot, **options)
         step = None if progress is None else (lambda done, total, _l=label: progress(_l, done, total))
         log = simulator.run(trajectory, tracker, config, start=scenario.start, meta={"seed": seed},
                             perturbation=perturbation, progress=step)  # fmt: skip
