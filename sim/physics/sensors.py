@@ -227,6 +227,11 @@ def _whole(ratio: float) -> int | None:
 STREAMS = ("encoder_phase", "gyro_bias", "gyro_white", "gyro_walk", "accel_bias", "accel_white", "fix")
 
 
+def _short(rate: float) -> bool:
+    """True when ``f"{rate:g}"`` reads back as ``rate`` (a rate worth suggesting)."""
+    return float(f"{rate:g}") == rate
+
+
 def _positive(value: float, what: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
         raise ConfigError(f"{what} must be a positive number, got {value!r}")
@@ -303,10 +308,12 @@ class SensorModel:
             )
         every = _whole(ctrl / rate)
         if every is None:
-            lo, hi = ctrl / math.ceil(ctrl / rate), ctrl / math.floor(ctrl / rate)
+            ratio = ctrl / rate
+            lower = next(ctrl / m for m in range(math.ceil(ratio), 10**6) if _short(ctrl / m))
+            higher = next(ctrl / m for m in range(math.floor(ratio), 0, -1) if _short(ctrl / m))
             raise ConfigError(
-                f"sensor fix_rate={rate:g} Hz: its period is {ctrl / rate:.4g} control periods at {ctrl:g} Hz, not a "
-                f"whole number; choose a rate that divides the control rate, e.g. --sensors fix_rate={lo:g} or {hi:g}"
+                f"sensor fix_rate={rate:g} Hz: its period is {ratio:.4g} control periods at {ctrl:g} Hz, not a whole "
+                f"number; choose a rate that divides the control rate, e.g. --sensors fix_rate={lower:g} or {higher:g}"
             )
         return every
 
