@@ -24,7 +24,6 @@ friction, mass, radius, noise, heading_noise, latency, e.g.
 from __future__ import annotations
 
 import copy
-import math
 from dataclasses import asdict, dataclass, fields
 
 import mujoco
@@ -32,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.errors import ConfigError
+from sim.physics.keyvalue import check_number, parse_number, parse_pairs
 from sim.physics.model import scale_wheels
 
 #: Field -> (lowest allowed, highest allowed, nominal, unit) for validation and help.
@@ -43,41 +43,13 @@ LIMITS: dict[str, tuple[float, float, float, str]] = {
     "heading_noise": (0.0, 1.0, 0.0, "rad"),
     "latency": (0.0, 1.0, 0.0, "s"),
 }
+#: A valid ``--perturb`` text, quoted when a part is malformed.
+EXAMPLE = "friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02"
 
 
 def _check(name: str, value: object) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ConfigError(f"perturbation {name} must be a finite number, got {value!r}")
     lo, hi, _, unit = LIMITS[name]
-    if not lo <= value <= hi:
-        raise ConfigError(f"perturbation {name}={value!r} is outside [{lo:g}, {hi:g}] ({unit})")
-    return float(value)
-
-
-def _parse_pairs(text: str, what: str) -> dict[str, str]:
-    out: dict[str, str] = {}
-    for part in text.split(","):
-        part = part.strip()
-        if not part:
-            continue
-        key, sep, value = part.partition("=")
-        key = key.strip()
-        if not sep or key not in LIMITS:
-            raise ConfigError(
-                f"{what} {text!r}: expected comma-separated key=value with keys {', '.join(LIMITS)} "
-                f"(e.g. friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02), got {part!r}"
-            )
-        if key in out:
-            raise ConfigError(f"{what} {text!r}: {key} given twice")
-        out[key] = value.strip()
-    return out
-
-
-def _number(text: str, key: str, what: str) -> float:
-    try:
-        return float(text)
-    except ValueError as exc:
-        raise ConfigError(f"{what}: {key} must be a number, got {text!r}") from exc
+    return check_number(value, name, "perturbation", (lo, hi), unit)
 
 
 @dataclass(frozen=True)
@@ -116,8 +88,8 @@ class Perturbation:
         Raises:
             ConfigError: Unknown key, repeated key, non-numeric or out-of-range value.
         """
-        pairs = _parse_pairs(text, "--perturb")
-        return cls(**{k: _number(v, k, f"--perturb {text!r}") for k, v in pairs.items()}, seed=seed)
+        pairs = parse_pairs(text, "--perturb", LIMITS, EXAMPLE)
+        return cls(**{k: parse_number(v, k, f"--perturb {text!r}") for k, v in pairs.items()}, seed=seed)
 
     @property
     def is_nominal(self) -> bool:
@@ -203,10 +175,10 @@ class PerturbationRange:
         """
         what = f"--perturb-range {text!r}"
         out: dict[str, tuple[float, float]] = {}
-        for key, value in _parse_pairs(text, "--perturb-range").items():
+        for key, value in parse_pairs(text, "--perturb-range", LIMITS, EXAMPLE).items():
             lo_s, sep, hi_s = value.partition(":")
-            lo = _number(lo_s, key, what)
-            out[key] = (lo, _number(hi_s, key, what) if sep else lo)
+            lo = parse_number(lo_s, key, what)
+            out[key] = (lo, parse_number(hi_s, key, what) if sep else lo)
         return cls(**out)
 
     def sample(self, n: int, seed: int) -> list[Perturbation]:

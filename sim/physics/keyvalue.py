@@ -1,0 +1,79 @@
+"""Parsing and checking of ``key=value,...`` option strings (``--perturb``, ``--sensors``).
+
+The command-line options that change a run's physics or sensors take comma-separated
+``key=value`` pairs; these helpers split such a string, read its numbers and check them against
+a range, raising :class:`~planning.errors.ConfigError` with a message that names the option, the
+bad key or value and what is expected.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+
+from planning.errors import ConfigError
+
+
+def parse_pairs(text: str, what: str, keys: Iterable[str], example: str) -> dict[str, str]:
+    """Split ``key=value,...`` into a dict of stripped strings (empty parts are skipped).
+
+    Args:
+        text: The option's text, e.g. ``"friction=0.6,mass=1.3"``.
+        what: The option's name for messages, e.g. ``"--perturb"``.
+        keys: The keys allowed.
+        example: A valid text, quoted in the message when a part is malformed.
+
+    Returns:
+        Key -> value text, in the order given.
+
+    Raises:
+        ConfigError: A part without ``=``, an unknown key or a key given twice.
+    """
+    allowed = list(keys)
+    out: dict[str, str] = {}
+    for part in text.split(","):
+        part = part.strip()
+        if not part:
+            continue
+        key, sep, value = part.partition("=")
+        key = key.strip()
+        if not sep or key not in allowed:
+            raise ConfigError(
+                f"{what} {text!r}: expected comma-separated key=value with keys {', '.join(allowed)} "
+                f"(e.g. {example}), got {part!r}"
+            )
+        if key in out:
+            raise ConfigError(f"{what} {text!r}: {key} given twice")
+        out[key] = value.strip()
+    return out
+
+
+def parse_number(text: str, key: str, what: str) -> float:
+    """``float(text)``, or a :class:`ConfigError` naming ``key`` and the option ``what``."""
+    try:
+        return float(text)
+    except ValueError as exc:
+        raise ConfigError(f"{what}: {key} must be a number, got {text!r}") from exc
+
+
+def check_number(value: object, name: str, what: str, bounds: tuple[float, float], unit: str, fix: str = "") -> float:
+    """A finite number within ``bounds`` (inclusive), as a float.
+
+    Args:
+        value: The value to check (bools are refused).
+        name: The field's name for messages.
+        what: What the field belongs to, e.g. ``"perturbation"``.
+        bounds: (lowest, highest) allowed.
+        unit: The field's unit, quoted in the message.
+        fix: How to put it right, appended to the message after ``"; "`` when given.
+
+    Raises:
+        ConfigError: Not a finite number, or outside ``bounds``.
+    """
+    tail = f"; {fix}" if fix else ""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ConfigError(f"{what} {name} must be a finite number, got {value!r}{tail}")
+    lo, hi = bounds
+    if not lo <= value <= hi:
+        raise ConfigError(f"{what} {name}={value!r} is outside [{lo:g}, {hi:g}] ({unit}){tail}")
+    return float(value)

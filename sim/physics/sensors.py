@@ -1,0 +1,395 @@
+"""Sensor models: wheel encoders, a yaw gyroscope, an accelerometer and a pose source, with noise.
+
+MuJoCo reports true values (its ``noise=`` attribute is metadata only), so the errors a real
+robot's sensors make are drawn here, from a seeded numpy generator, once for a whole run: the same
+seed gives the same readings bit for bit.
+
+A :class:`SensorProfile` holds one robot's numbers, read from ``models/sensors/<robot>.toml``
+(each number cited there) and overridable by a TOML table (a scenario's or a file's
+``[sensors]``) and by a ``key=value,...`` string (``nhsim simulate --sensors``), e.g.
+``--sensors gyro_noise_density=0,fix_rate=10,fix_latency=0.05``.
+
+A :class:`SensorModel` turns true values into readings, one control period ``k`` at a time:
+
+- Encoders count ``floor(theta * cpr / (2 pi) + phase)`` for a wheel angle ``theta`` [rad], with a
+  per-wheel phase drawn uniformly in [0, 1) counts (where the wheel sat in its count at start-up).
+- The gyroscope reads ``omega + b_k + n_k`` [rad/s]. ``n_k`` is white with standard deviation
+  ``gyro_noise_density * sqrt(control_rate / 2)``: datasheets quote a one-sided density (the
+  MPU-9250's 0.01 deg/s/sqrt(Hz) times the square root of its 92 Hz filter bandwidth is its table's
+  0.1 deg/s total RMS noise), and the reading stands for the mean rate over the control period
+  (what the estimator integrates into heading), whose variance is the one-sided density squared
+  times the Nyquist band ``control_rate / 2``. The bias starts at ``b_0 ~ N(0, gyro_bias_std^2)``
+  and walks: ``b_{k+1} = b_k + gyro_bias_walk * sqrt(T) * N(0, 1)`` with ``T`` the control period,
+  so its variance grows by ``gyro_bias_walk^2`` per second.
+- The accelerometer reads the true 3-vector (specific force in the IMU frame [m/s^2]) plus a bias
+  constant over the run, ``N(0, accel_bias_std^2)`` per axis, and white noise of standard deviation
+  ``accel_noise_density * sqrt(control_rate / 2)``.
+- Pose fixes (x, y, theta) are measured every ``control_rate / fix_rate`` control periods,
+  starting at period 0 (that ratio must be a whole number, within 1e-6, and at least 1), with
+  Gaussian noise of ``fix_position_std`` per axis and ``fix_heading_std`` [rad]; ``fix_rate = 0``
+  means no pose source. A fix measured at period ``k`` is delivered at period ``k + d`` with
+  ``d = ceil(fix_latency * control_rate)``: the estimator runs once per control period, so a fix
+  that arrives between two periods is first used at the next one (a latency within 1e-6 periods of
+  a whole number counts as that number). A fix delivered at period ``k`` is available to that
+  period's estimate.
+
+Each noise has its own stream spawned from ``np.random.SeedSequence(seed)``, so a longer run's
+noise begins with a shorter run's.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from planning.core.robot import MODELS_DIR
+from planning.errors import ConfigError
+from sim.physics.keyvalue import check_number, parse_number, parse_pairs
+
+SENSORS_DIR = MODELS_DIR / "sensors"
+
+#: Field -> (lowest allowed, highest allowed, unit, a typical value quoted in messages).
+LIMITS: dict[str, tuple[float, float, str, str]] = {
+    "encoder_cpr": (1.0, 1e7, "counts per wheel revolution", "4096"),
+    "gyro_noise_density": (0.0, 0.1, "rad/s/sqrt(Hz)", "2.6e-4"),
+    "gyro_bias_walk": (0.0, 0.1, "rad/s^2/sqrt(Hz)", "4e-5"),
+    "gyro_bias_std": (0.0, 1.0, "rad/s", "6e-4"),
+    "accel_noise_density": (0.0, 1.0, "m/s^2/sqrt(Hz)", "2.3e-3"),
+    "accel_bias_std": (0.0, 5.0, "m/s^2", "0.02"),
+    "fix_rate": (0.0, 1000.0, "Hz, 0 for no pose source", "5"),
+    "fix_position_std": (0.0, 1.0, "m", "0.02"),
+    "fix_heading_std": (0.0, math.pi, "rad", "0.02"),
+    "fix_latency": (0.0, 5.0, "s", "0.12"),
+}
+
+#: A valid ``--sensors`` text, quoted when a part is malformed.
+EXAMPLE = "gyro_noise_density=0,fix_rate=10,fix_latency=0.05"
+
+#: Relative tolerance for "a whole number of control periods" (fix period, latency).
+WHOLE_TOL = 1e-6
+
+
+def _check_field(name: str, value: object) -> float:
+    lo, hi, unit, typical = LIMITS[name]
+    fix = f"give a number in [{lo:g}, {hi:g}], e.g. --sensors {name}={typical}"
+    return check_number(value, name, "sensor", (lo, hi), unit, fix)
+
+
+def _check_keys(table: Mapping[str, object], what: str) -> None:
+    unknown = [k for k in table if k not in LIMITS]
+    if unknown:
+        raise ConfigError(
+            f"{what}: unknown key {unknown[0]!r}; the sensor keys are {', '.join(LIMITS)} "
+            f"(see {SENSORS_DIR}/<robot>.toml)"
+        )
+
+
+@dataclass(frozen=True)
+class SensorProfile:
+    """One robot's sensor numbers (see the module docstring for what each does).
+
+    Attributes:
+        encoder_cpr: Encoder counts per wheel revolution [-] (need not be whole: a motor encoder
+            behind a 35.577:1 gearbox gives 2134.62).
+        gyro_noise_density: Gyroscope white noise, one-sided density [rad/s/sqrt(Hz)].
+        gyro_bias_walk: Gyroscope bias random walk [rad/s^2/sqrt(Hz)].
+        gyro_bias_std: Standard deviation of the gyroscope bias at start [rad/s].
+        accel_noise_density: Accelerometer white noise, one-sided density [m/s^2/sqrt(Hz)].
+        accel_bias_std: Standard deviation of the accelerometer bias, per axis [m/s^2].
+        fix_rate: Pose fixes per second [Hz]; 0 for none.
+        fix_position_std: Fix position noise per axis [m].
+        fix_heading_std: Fix heading noise [rad].
+        fix_latency: Delay from a fix's measurement to its delivery [s].
+    """
+
+    encoder_cpr: float
+    gyro_noise_density: float
+    gyro_bias_walk: float
+    gyro_bias_std: float
+    accel_noise_density: float
+    accel_bias_std: float
+    fix_rate: float
+    fix_position_std: float
+    fix_heading_std: float
+    fix_latency: float
+
+    def __post_init__(self) -> None:
+        for name in LIMITS:
+            object.__setattr__(self, name, _check_field(name, getattr(self, name)))
+
+    @classmethod
+    def from_table(cls, table: Mapping[str, object], what: str) -> SensorProfile:
+        """A profile from a complete table (a profile file's ``[sensors]``).
+
+        Args:
+            table: Every key of :data:`LIMITS` with its number.
+            what: Where the table comes from, for messages (e.g. the file's path).
+
+        Raises:
+            ConfigError: An unknown or missing key, or a bad value.
+        """
+        _check_keys(table, what)
+        missing = [k for k in LIMITS if k not in table]
+        if missing:
+            raise ConfigError(f"{what}: [sensors] lacks {', '.join(missing)}; give every key of {', '.join(LIMITS)}")
+        values: dict[str, Any] = {k: table[k] for k in LIMITS}
+        return cls(**values)
+
+    def override(self, table: Mapping[str, object], what: str = "[sensors]") -> SensorProfile:
+        """This profile with the keys of ``table`` replaced (a scenario's or a file's ``[sensors]``).
+
+        Raises:
+            ConfigError: An unknown key or a bad value.
+        """
+        _check_keys(table, what)
+        values: dict[str, Any] = {**self.as_dict(), **table}
+        return SensorProfile(**values)
+
+    def parse(self, text: str) -> SensorProfile:
+        """This profile with ``key=value,...`` (``--sensors``) applied; keys left out are kept.
+
+        Raises:
+            ConfigError: Unknown or repeated key, non-numeric or out-of-range value.
+        """
+        pairs = parse_pairs(text, "--sensors", LIMITS, EXAMPLE)
+        return self.override({k: parse_number(v, k, f"--sensors {text!r}") for k, v in pairs.items()}, "--sensors")
+
+    def as_dict(self) -> dict[str, float]:
+        """Plain-dict view for records."""
+        return asdict(self)
+
+
+def sensor_profile_path(robot: str) -> Path:
+    """The profile file of a robot, ``models/sensors/<robot>.toml``.
+
+    Raises:
+        ConfigError: No profile for that robot (the message lists those there are).
+    """
+    path = SENSORS_DIR / f"{robot}.toml"
+    if not path.is_file():
+        known = ", ".join(sorted(p.stem for p in SENSORS_DIR.glob("*.toml")))
+        raise ConfigError(f"no sensor profile for robot {robot!r}: choose one of {known} or add {path}")
+    return path
+
+
+def read_sensor_table(path: Path) -> dict[str, Any]:
+    """The ``[sensors]`` table of a TOML file.
+
+    Raises:
+        ConfigError: The file cannot be read or parsed, or has no ``[sensors]`` table.
+    """
+    try:
+        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise ConfigError(f"cannot read sensor settings from {path}: {exc}") from exc
+    table = data.get("sensors")
+    if not isinstance(table, dict):
+        raise ConfigError(f"{path} has no [sensors] table; add one with keys such as {EXAMPLE.replace(',', ', ')}")
+    return table
+
+
+def load_sensor_profile(
+    robot: str, *, table: Mapping[str, object] | None = None, text: str | None = None
+) -> SensorProfile:
+    """A robot's sensor profile with its overrides applied: first ``table``, then ``text``.
+
+    Args:
+        robot: Registry name ("turtlebot3", "edumip").
+        table: A ``[sensors]`` table (a scenario's, or :func:`read_sensor_table` of a file).
+        text: ``key=value,...`` from ``--sensors``; it wins over ``table``.
+
+    Raises:
+        ConfigError: No profile for the robot, or a bad key or value anywhere.
+    """
+    path = sensor_profile_path(robot)
+    profile = SensorProfile.from_table(read_sensor_table(path), str(path))
+    if table:
+        profile = profile.override(table)
+    if text:
+        profile = profile.parse(text)
+    return profile
+
+
+def _whole(ratio: float) -> int | None:
+    """``ratio`` as an int if it is one within :data:`WHOLE_TOL` (relative), else None."""
+    k = round(ratio)
+    return k if abs(ratio - k) <= WHOLE_TOL * max(1.0, abs(ratio)) else None
+
+
+#: The noise streams, in the order they are spawned from ``np.random.SeedSequence(seed)``.
+STREAMS = ("encoder_phase", "gyro_bias", "gyro_white", "gyro_walk", "accel_bias", "accel_white", "fix")
+
+
+def _short(rate: float) -> bool:
+    """True when ``f"{rate:g}"`` reads back as ``rate`` (a rate worth suggesting)."""
+    return float(f"{rate:g}") == rate
+
+
+def _positive(value: float, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+        raise ConfigError(f"{what} must be a positive number, got {value!r}")
+    return float(value)
+
+
+def _count(value: int, what: str, least: int, fix: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
+        raise ConfigError(f"{what} must be an integer >= {least}, got {value!r}; {fix}")
+    return int(value)
+
+
+def _readonly(a: NDArray[Any]) -> NDArray[Any]:
+    a.setflags(write=False)
+    return a
+
+
+class SensorModel:
+    """The readings of one run's sensors, all noise drawn at construction (see the module docstring).
+
+    Args:
+        profile: The sensor numbers.
+        control_rate: Control periods per second [Hz]; readings are per control period.
+        timestep: Physics time step [s]; the control period must be a whole number of steps.
+        n_periods: Control periods in the run (``k = 0 .. n_periods - 1``).
+        seed: Seed of the noise (an integer >= 0).
+
+    Attributes:
+        steps_per_control: Physics steps per control period.
+        fix_every: Control periods between fixes (0 without a pose source).
+        fix_latency_periods: Control periods from a fix's measurement to its delivery.
+        gyro_white_std: Standard deviation of the gyroscope's white noise per reading [rad/s].
+        accel_white_std: Standard deviation of the accelerometer's white noise per reading [m/s^2].
+        encoder_phase: (2,) left and right encoder phase at start [counts], in [0, 1).
+        gyro_bias: (n_periods,) gyroscope bias per period [rad/s].
+        gyro_white: (n_periods,) gyroscope white noise per period [rad/s].
+        accel_bias: (3,) accelerometer bias [m/s^2].
+        accel_white: (n_periods, 3) accelerometer white noise per period [m/s^2].
+        fix_periods: (M,) periods at which fixes are measured.
+        fix_delivery_periods: (M,) periods at which they are delivered (may be past the run).
+        fix_noise: (M, 3) noise [dx, dy, dtheta] of each fix [m, m, rad].
+    """
+
+    def __init__(
+        self, profile: SensorProfile, *, control_rate: float, timestep: float, n_periods: int, seed: int
+    ) -> None:
+        self.profile = profile
+        self.control_rate = _positive(control_rate, "control rate [Hz]")
+        self.timestep = _positive(timestep, "physics timestep [s]")
+        self.n_periods = _count(n_periods, "number of control periods", 1, "a run has at least one")
+        self.seed = _count(seed, "sensor noise seed", 0, "pass a whole number such as seed=0")
+        steps = _whole(1.0 / (self.control_rate * self.timestep))
+        if not steps:
+            raise ConfigError(
+                f"control rate {self.control_rate:g} Hz is not a whole number of {self.timestep * 1e3:g} ms physics "
+                f"steps; choose a rate that divides {1.0 / self.timestep:g} Hz (e.g. 10, 25, 50, 100)"
+            )
+        self.steps_per_control = steps
+        self.fix_every = self._fix_every()
+        periods = self.profile.fix_latency * self.control_rate
+        self.fix_latency_periods = _whole(periods) or math.ceil(periods)
+        self.gyro_white_std = profile.gyro_noise_density * math.sqrt(self.control_rate / 2.0)
+        self.accel_white_std = profile.accel_noise_density * math.sqrt(self.control_rate / 2.0)
+        self._draw()
+
+    def _fix_every(self) -> int:
+        rate, ctrl = self.profile.fix_rate, self.control_rate
+        if rate == 0.0:
+            return 0
+        if rate > ctrl * (1.0 + WHOLE_TOL):
+            raise ConfigError(
+                f"sensor fix_rate={rate:g} Hz is above the control rate {ctrl:g} Hz: a fix is taken at most once "
+                f"per control period; lower it (e.g. --sensors fix_rate={ctrl:g}) or raise the control rate"
+            )
+        every = _whole(ctrl / rate)
+        if every is None:
+            ratio = ctrl / rate
+            lower = next(ctrl / m for m in range(math.ceil(ratio), 10**6) if _short(ctrl / m))
+            higher = next(ctrl / m for m in range(math.floor(ratio), 0, -1) if _short(ctrl / m))
+            raise ConfigError(
+                f"sensor fix_rate={rate:g} Hz: its period is {ratio:.4g} control periods at {ctrl:g} Hz, not a whole "
+                f"number; choose a rate that divides the control rate, e.g. --sensors fix_rate={lower:g} or {higher:g}"
+            )
+        return every
+
+    def _draw(self) -> None:
+        p, n = self.profile, self.n_periods
+        children = np.random.SeedSequence(self.seed).spawn(len(STREAMS))
+        rng = {name: np.random.default_rng(child) for name, child in zip(STREAMS, children, strict=True)}
+        self.encoder_phase = _readonly(rng["encoder_phase"].random(2))
+        walk = rng["gyro_walk"].standard_normal(n) * (p.gyro_bias_walk * math.sqrt(1.0 / self.control_rate))
+        b0 = float(rng["gyro_bias"].standard_normal()) * p.gyro_bias_std
+        self.gyro_bias = _readonly(b0 + np.concatenate(([0.0], np.cumsum(walk[: n - 1]))))
+        self.gyro_white = _readonly(rng["gyro_white"].standard_normal(n) * self.gyro_white_std)
+        self.accel_bias = _readonly(rng["accel_bias"].standard_normal(3) * p.accel_bias_std)
+        self.accel_white = _readonly(rng["accel_white"].standard_normal((n, 3)) * self.accel_white_std)
+        every = self.fix_every
+        self.fix_periods = _readonly(np.arange(0, n, every, dtype=np.int64) if every else np.zeros(0, np.int64))
+        self.fix_delivery_periods = _readonly(self.fix_periods + self.fix_latency_periods)
+        scale = np.array([p.fix_position_std, p.fix_position_std, p.fix_heading_std])
+        self.fix_noise = _readonly(rng["fix"].standard_normal((len(self.fix_periods), 3)) * scale)
+        self._gyro_error = (self.gyro_bias + self.gyro_white).tolist()
+        self._accel_error = _readonly(self.accel_bias + self.accel_white)
+        self._counts_per_turn = p.encoder_cpr / (2.0 * math.pi)
+
+    def _period(self, k: int) -> int:
+        if not 0 <= k < self.n_periods:
+            raise IndexError(f"control period {k} is outside the run's 0 .. {self.n_periods - 1}")
+        return k
+
+    def encoder_counts(self, left: float, right: float) -> tuple[int, int]:
+        """Encoder counts for true wheel angles [rad]: ``floor(theta * cpr / (2 pi) + phase)``."""
+        c, ph = self._counts_per_turn, self.encoder_phase
+        return math.floor(left * c + ph[0]), math.floor(right * c + ph[1])
+
+    def gyro_z(self, k: int, rate: float) -> float:
+        """Gyroscope reading at period ``k`` for a true yaw rate [rad/s]: ``rate + (b_k + n_k)``."""
+        return rate + self._gyro_error[self._period(k)]
+
+    def accel(self, k: int, specific_force: NDArray[np.float64]) -> NDArray[np.float64]:
+        """(3,) accelerometer reading at period ``k`` for a true (3,) specific force [m/s^2]."""
+        return np.asarray(specific_force, dtype=float) + self._accel_error[self._period(k)]
+
+    def is_fix_period(self, k: int) -> bool:
+        """True when a fix is measured at period ``k``."""
+        return self.fix_every > 0 and self._period(k) % self.fix_every == 0
+
+    def fix(self, k: int, pose: tuple[float, float, float]) -> tuple[float, float, float]:
+        """The noisy fix of the true pose (x, y, theta) [m, m, rad] measured at period ``k``.
+
+        The heading is wrapped to [-pi, pi].
+
+        Raises:
+            ValueError: No fix is measured at ``k``.
+        """
+        if not self.is_fix_period(k):
+            raise ValueError(f"no fix is measured at control period {k} (fixes every {self.fix_every} periods)")
+        dx, dy, dth = self.fix_noise[k // self.fix_every]
+        return pose[0] + float(dx), pose[1] + float(dy), math.remainder(pose[2] + float(dth), 2.0 * math.pi)
+
+    def fix_arriving(self, k: int) -> int | None:
+        """The period whose fix is delivered at period ``k``, or None (at most one fix arrives)."""
+        j = self._period(k) - self.fix_latency_periods
+        return j if j >= 0 and self.fix_every > 0 and j % self.fix_every == 0 else None
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain-dict view for records: the profile, the run's settings and the derived numbers."""
+        return {
+            "profile": self.profile.as_dict(),
+            "control_rate_hz": self.control_rate,
+            "timestep_s": self.timestep,
+            "n_periods": self.n_periods,
+            "seed": self.seed,
+            "steps_per_control": self.steps_per_control,
+            "fix_every_periods": self.fix_every,
+            "fix_latency_periods": self.fix_latency_periods,
+            "fix_latency_effective_s": self.fix_latency_periods / self.control_rate,
+            "gyro_white_std": self.gyro_white_std,
+            "accel_white_std": self.accel_white_std,
+            "encoder_phase": self.encoder_phase.tolist(),
+        }

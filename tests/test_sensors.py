@@ -1,0 +1,299 @@
+"""Sensor models: profiles and their overrides, quantisation, noise statistics, fix schedule, seeds.
+
+Statistical checks draw long runs and compare with the profile's numbers within a stated number of
+standard errors of the estimate, so a wrong scale (a missing factor of two, sqrt(rate) for
+sqrt(rate / 2)) fails them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.typing import NDArray
+
+from planning.errors import ConfigError
+from sim.physics.sensors import (
+    LIMITS,
+    SensorModel,
+    SensorProfile,
+    load_sensor_profile,
+    read_sensor_table,
+    sensor_profile_path,
+)
+
+TB3 = load_sensor_profile("turtlebot3")
+QUIET = replace(TB3, gyro_noise_density=0.0, gyro_bias_walk=0.0, gyro_bias_std=0.0)
+
+
+def _model(profile: SensorProfile = TB3, *, rate: float = 50.0, n: int = 100, seed: int = 7) -> SensorModel:
+    return SensorModel(profile, control_rate=rate, timestep=0.002, n_periods=n, seed=seed)
+
+
+# --- profiles ---------------------------------------------------------------------------------
+
+
+def test_profiles_hold_the_cited_encoder_resolutions() -> None:
+    assert TB3.encoder_cpr == 4096.0  # XL430-W250: 4096 pulses per output-shaft turn
+    assert load_sensor_profile("edumip").encoder_cpr == pytest.approx(60 * 35.577, abs=1e-9)  # ENCODER_RES x GEARBOX
+    for robot in ("turtlebot3", "edumip"):
+        table = read_sensor_table(sensor_profile_path(robot))
+        assert sorted(table) == sorted(LIMITS)  # every field given, none extra
+
+
+def test_overrides_apply_table_then_text_and_keep_the_rest() -> None:
+    p = load_sensor_profile("turtlebot3", table={"fix_rate": 10, "fix_latency": 0.2}, text="fix_latency=0.05")
+    assert (p.fix_rate, p.fix_latency) == (10.0, 0.05)  # the text wins over the table
+    assert replace(p, fix_rate=TB3.fix_rate, fix_latency=TB3.fix_latency) == TB3
+    assert TB3.parse("") == TB3 and TB3.override({}) == TB3
+    assert TB3.parse("gyro_noise_density=0,fix_rate=10,fix_latency=0.05").gyro_noise_density == 0.0
+    assert TB3.as_dict()["encoder_cpr"] == 4096.0
+
+
+def test_a_file_sensors_table_overrides(tmp_path: Path) -> None:
+    f = tmp_path / "s.toml"
+    f.write_text("[sensors]\nfix_position_std = 0.001\n", encoding="utf-8")
+    assert load_sensor_profile("edumip", table=read_sensor_table(f)).fix_position_std == 0.001
+    f.write_text("[other]\nx = 1\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match=r"no \[sensors\] table"):
+        read_sensor_table(f)
+    f.write_text("[sensors\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match="cannot read"):
+        read_sensor_table(f)
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("gyro=1", r"expected comma-separated key=value with keys encoder_cpr, .*fix_latency"),
+        ("fix_rate", "expected comma-separated"),
+        ("fix_rate=fast", "fix_rate must be a number, got 'fast'"),
+        ("fix_rate=1,fix_rate=2", "fix_rate given twice"),
+        ("gyro_noise_density=-0.1", r"gyro_noise_density=-0.1 is outside \[0, 0.1\].*--sensors gyro_noise_density="),
+        ("accel_bias_std=nan", r"accel_bias_std must be a finite number.*--sensors accel_bias_std="),
+        ("encoder_cpr=0", r"encoder_cpr=0.0 is outside \[1, 1e\+07\]"),
+    ],
+)
+def test_bad_sensor_text_names_the_field_and_the_fix(text: str, match: str) -> None:
+    with pytest.raises(ConfigError, match=match):
+        TB3.parse(text)
+
+
+def test_bad_tables_and_robots_are_refused() -> None:
+    with pytest.raises(ConfigError, match=r"unknown key 'gyro'.*the sensor keys are encoder_cpr"):
+        TB3.override({"gyro": 1.0})
+    with pytest.raises(ConfigError, match=r"fix_rate must be a finite number, got 'fast'; give a number in"):
+        TB3.override({"fix_rate": "fast"})
+    with pytest.raises(ConfigError, match="fix_rate must be a finite number, got True"):
+        TB3.override({"fix_rate": True})
+    with pytest.raises(ConfigError, match=r"lacks fix_latency; give every key"):
+        SensorProfile.from_table({k: v for k, v in TB3.as_dict().items() if k != "fix_latency"}, "t.toml")
+    with pytest.raises(ConfigError, match=r"no sensor profile for robot 'r2d2': choose one of edumip, turtlebot3"):
+        load_sensor_profile("r2d2")
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"profile": replace(TB3, fix_rate=100.0)}, r"fix_rate=100 Hz is above the control rate 50 Hz.*fix_rate=50"),
+        ({"profile": replace(TB3, fix_rate=7.0)}, r"fix_rate=7 Hz: its period is 7.143 control .*fix_rate=6.25 or 10$"),
+        ({"rate": 30.0}, r"control rate 30 Hz is not a whole number of 2 ms physics steps"),
+        ({"rate": -5.0}, "control rate .* must be a positive number"),
+        ({"n": 0}, "number of control periods must be an integer >= 1"),
+        ({"seed": -1}, r"sensor noise seed must be an integer >= 0, got -1; pass a whole number"),
+        ({"seed": 1.5}, "sensor noise seed must be an integer"),
+    ],
+)
+def test_bad_run_settings_are_refused(kwargs: dict[str, object], match: str) -> None:
+    with pytest.raises(ConfigError, match=match):
+        _model(**kwargs)  # type: ignore[arg-type]
+
+
+# --- encoders ---------------------------------------------------------------------------------
+
+
+def test_encoder_quantisation_is_floor_of_counts_plus_phase() -> None:
+    m = _model()
+    n = TB3.encoder_cpr
+    checked = 0
+    for side in (0, 1):
+        phase = float(m.encoder_phase[side])
+        assert 0.0 <= phase < 1.0
+        for c in (-5000, -1, 0, 1, 4095, 4096, 123456):
+            for f in (0.1, 0.3, 0.6, 0.9):
+                if abs((f + phase) - round(f + phase)) < 1e-6:
+                    continue  # too close to a count boundary for a float angle
+                theta = 2.0 * math.pi * (c + f) / n
+                angles = (theta, 0.0) if side == 0 else (0.0, theta)
+                assert m.encoder_counts(*angles)[side] == c + math.floor(f + phase)
+                checked += 1
+    assert checked >= 50
+
+
+def test_encoder_error_is_within_one_count_and_a_non_integer_resolution_accumulates() -> None:
+    m = _model(load_sensor_profile("edumip"))
+    c = m.profile.encoder_cpr / (2.0 * math.pi)
+    rng = np.random.default_rng(0)
+    for theta in rng.uniform(-500.0, 500.0, 200):
+        counts = m.encoder_counts(float(theta), float(-theta))
+        residual = np.array([theta * c, -theta * c]) + m.encoder_phase - counts
+        assert np.all((residual >= 0.0) & (residual < 1.0))
+    assert m.encoder_phase[0] > 1e-6
+    assert m.encoder_counts(100 * 2.0 * math.pi, 0.0)[0] == 213462  # 100 turns x 2134.62 counts
+
+
+# --- inertial noise -----------------------------------------------------------------------------
+
+
+def _allan(x: NDArray[np.float64], m: int, batches: int = 20) -> tuple[float, float]:
+    """Non-overlapping Allan variance at cluster size m and its standard error.
+
+    Neighbouring differences share a cluster and are correlated, so the standard error is taken
+    from the spread of the means of ``batches`` consecutive batches of squared differences.
+    """
+    means = x[: len(x) // m * m].reshape(-1, m).mean(axis=1)
+    half_sq = 0.5 * np.diff(means) ** 2
+    batch_means = np.array([b.mean() for b in np.array_split(half_sq, batches)])
+    return float(half_sq.mean()), float(batch_means.std(ddof=1) / math.sqrt(batches))
+
+
+def test_white_noise_std_is_density_times_sqrt_half_the_rate() -> None:
+    n, rate = 200_000, 50.0
+    m = _model(replace(TB3, gyro_bias_walk=0.0, gyro_bias_std=0.0), rate=rate, n=n)
+    expected_g = TB3.gyro_noise_density * math.sqrt(rate / 2.0)
+    expected_a = TB3.accel_noise_density * math.sqrt(rate / 2.0)
+    assert m.gyro_white_std == expected_g and m.accel_white_std == expected_a
+    # the sample std of N normals has relative standard error 1/sqrt(2N); allow 4 of them
+    assert np.std(m.gyro_white) == pytest.approx(expected_g, rel=4 / math.sqrt(2 * n))
+    assert np.std(m.accel_white, axis=0) == pytest.approx([expected_a] * 3, rel=4 / math.sqrt(2 * n))
+    assert abs(np.mean(m.gyro_white)) < 4 * expected_g / math.sqrt(n)
+    assert np.all(m.gyro_bias == 0.0)
+    readings = np.array([m.gyro_z(k, 0.25) for k in range(1000)])
+    assert np.array_equal(readings, 0.25 + (m.gyro_bias[:1000] + m.gyro_white[:1000]))
+
+
+def test_bias_variance_grows_linearly_with_time_over_many_seeds() -> None:
+    profile = replace(QUIET, gyro_bias_walk=TB3.gyro_bias_walk)
+    rate, seeds, lags = 50.0, 2000, (1, 10, 100, 1000)
+    walks = np.array([_model(profile, rate=rate, n=1001, seed=s).gyro_bias for s in range(seeds)])
+    assert np.all(walks[:, 0] == 0.0)  # no initial bias in this profile
+    for lag in lags:
+        expected = TB3.gyro_bias_walk**2 * lag / rate  # K^2 t
+        # a sample variance of N normals has relative standard error sqrt(2/N); allow 4 of them
+        assert np.var(walks[:, lag]) == pytest.approx(expected, rel=4 * math.sqrt(2 / seeds))
+    start = np.array([_model(replace(QUIET, gyro_bias_std=1e-3), n=2, seed=s).gyro_bias[0] for s in range(seeds)])
+    assert np.std(start) == pytest.approx(1e-3, rel=4 / math.sqrt(2 * seeds))
+
+
+def test_allan_variance_of_the_gyro_matches_white_noise_plus_bias_walk() -> None:
+    rate, n = 50.0, 400_000
+    m = _model(replace(TB3, gyro_bias_std=0.0), rate=rate, n=n, seed=3)
+    err = m.gyro_bias + m.gyro_white
+    q = TB3.gyro_bias_walk**2 / rate  # variance of one bias step
+    for cluster in (1, 10, 100, 1000, 4000):
+        # white: sigma^2 / m = d^2 / (2 tau); discrete random walk: q (2 m^2 + 1) / (6 m)
+        expected = m.gyro_white_std**2 / cluster + q * (2 * cluster**2 + 1) / (6 * cluster)
+        avar, se = _allan(err, cluster)
+        assert abs(avar - expected) < 5 * se, (cluster, avar, expected, se)
+    # the two regimes are both visible: white dominates at 1 period, the walk at 4000
+    assert m.gyro_white_std**2 > 100 * q and q * 8000 / 6 > 3 * m.gyro_white_std**2 / 4000
+
+
+def test_accel_reading_is_truth_plus_constant_bias_plus_white() -> None:
+    m = _model(n=10)
+    f = np.array([0.1, -0.2, 9.81])
+    for k in range(10):
+        assert np.array_equal(m.accel(k, f), f + (m.accel_bias + m.accel_white[k]))
+    biases = np.array([_model(n=1, seed=s).accel_bias for s in range(3000)])
+    assert np.std(biases, axis=0) == pytest.approx([TB3.accel_bias_std] * 3, rel=4 / math.sqrt(2 * 3000))
+
+
+# --- fixes --------------------------------------------------------------------------------------
+
+
+def test_fix_schedule_and_latency_on_hand_computed_cases() -> None:
+    m = _model(n=45)  # 50 Hz control, 5 Hz fixes, 0.12 s latency
+    assert (m.fix_every, m.fix_latency_periods, m.steps_per_control) == (10, 6, 10)
+    assert m.fix_periods.tolist() == [0, 10, 20, 30, 40]
+    assert m.fix_delivery_periods.tolist() == [6, 16, 26, 36, 46]
+    arriving = {k: m.fix_arriving(k) for k in range(45) if m.fix_arriving(k) is not None}
+    assert arriving == {6: 0, 16: 10, 26: 20, 36: 30}
+    assert [k for k in range(45) if m.is_fix_period(k)] == [0, 10, 20, 30, 40]
+    cases = [  # (control rate, fix rate, latency, fix every, latency periods)
+        (50.0, 5.0, 0.13, 10, 7),  # 6.5 periods: first used at the 7th
+        (50.0, 10.0, 0.1, 5, 5),  # 0.1 x 50 = 5.000000000000001 counts as 5
+        (100.0, 10.0, 0.0, 10, 0),  # delivered in the period it is measured
+        (25.0, 25.0, 0.001, 1, 1),
+        (100.0, 5.0, 0.125, 20, 13),
+    ]
+    for rate, fix_rate, latency, every, periods in cases:
+        mm = _model(replace(TB3, fix_rate=fix_rate, fix_latency=latency), rate=rate, n=50)
+        assert (mm.fix_every, mm.fix_latency_periods) == (every, periods), (rate, fix_rate, latency)
+        assert mm.as_dict()["fix_latency_effective_s"] == periods / rate
+
+
+def test_fix_adds_the_drawn_noise_and_wraps_the_heading() -> None:
+    m = _model(n=45)
+    for i, k in enumerate(m.fix_periods.tolist()):
+        dx, dy, dth = m.fix_noise[i]
+        assert m.fix(k, (1.0, 2.0, 0.5)) == (1.0 + dx, 2.0 + dy, math.remainder(0.5 + dth, 2 * math.pi))
+    noise = m.fix_noise[:, 2]
+    k = int(m.fix_periods[int(np.argmax(noise))])  # a fix with positive heading noise
+    assert max(noise) > 0
+    assert m.fix(k, (0.0, 0.0, math.pi - 1e-9))[2] < 0.0  # wrapped past pi
+    with pytest.raises(ValueError, match="no fix is measured at control period 3"):
+        m.fix(3, (0.0, 0.0, 0.0))
+    big = _model(n=100_000, seed=11)
+    stds = np.std(big.fix_noise, axis=0)
+    n_fix = len(big.fix_noise)
+    assert stds == pytest.approx([0.02, 0.02, 0.02], rel=4 / math.sqrt(2 * n_fix))
+
+
+def test_no_pose_source_gives_no_fixes() -> None:
+    m = _model(replace(TB3, fix_rate=0.0), n=30)
+    assert m.fix_every == 0 and len(m.fix_periods) == 0 and m.fix_noise.shape == (0, 3)
+    assert not any(m.is_fix_period(k) for k in range(30))
+    assert all(m.fix_arriving(k) is None for k in range(30))
+    with pytest.raises(ValueError):
+        m.fix(0, (0.0, 0.0, 0.0))
+
+
+def test_periods_outside_the_run_are_refused() -> None:
+    m = _model(n=10)
+    for call in (lambda: m.gyro_z(10, 0.0), lambda: m.gyro_z(-1, 0.0), lambda: m.accel(10, np.zeros(3))):
+        with pytest.raises(IndexError, match=r"outside the run's 0 \.\. 9"):
+            call()
+
+
+# --- seeds and records ----------------------------------------------------------------------------
+
+ARRAYS = ("encoder_phase", "gyro_bias", "gyro_white", "accel_bias", "accel_white", "fix_noise")
+
+
+def test_same_seed_same_draws_bitwise_other_seed_other_draws() -> None:
+    profile = replace(TB3, gyro_bias_std=1e-3)
+    a, b, c = _model(profile, n=500, seed=5), _model(profile, n=500, seed=5), _model(profile, n=500, seed=6)
+    for name in ARRAYS:
+        assert getattr(a, name).tobytes() == getattr(b, name).tobytes(), name
+        assert not np.any(getattr(a, name) == getattr(c, name)), name
+    assert a.as_dict() == b.as_dict() != c.as_dict()
+
+
+def test_a_longer_run_begins_with_a_shorter_runs_noise() -> None:
+    short, long = _model(n=100, seed=4), _model(n=1000, seed=4)
+    for name in ARRAYS:
+        s = getattr(short, name)
+        assert np.array_equal(getattr(long, name)[: len(s)], s), name
+
+
+def test_drawn_arrays_are_read_only_and_the_record_is_json() -> None:
+    m = _model()
+    with pytest.raises(ValueError):
+        m.gyro_white[0] = 1.0
+    record = json.loads(json.dumps(m.as_dict()))
+    assert record["profile"] == TB3.as_dict()
+    assert (record["seed"], record["fix_every_periods"], record["n_periods"]) == (7, 10, 100)
