@@ -193,7 +193,8 @@ def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict
         Output kind ("video", "plot_world", ..., "json") -> path written.
     """
     from sim.outputs import write_json
-    from sim.viz.plots.run import job_figures, save_figure
+    from sim.viz.plots.draw import save_figure
+    from sim.viz.plots.run import job_figures
 
     files: dict[str, str] = {}
     if plan.video is not None:
