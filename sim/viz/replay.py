@@ -20,7 +20,9 @@ With a camera that stays put (the overview) and no shadows or reflections (the f
 world is drawn once per video and only the robots each frame, composited by depth
 (:mod:`sim.viz.compose`); the chase camera and the high look draw the whole scene every frame.
 
-The process holds one OpenGL renderer at a time (:class:`SceneRenderer`), closed explicitly.
+The process holds one OpenGL renderer at a time (:class:`sim.viz.renderer.SceneRenderer`), closed
+explicitly. Modules import one way: this one imports :mod:`sim.viz.compose`, and both import
+:mod:`sim.viz.scene` (colours, tracks, projection) and :mod:`sim.viz.renderer`.
 """
 
 from __future__ import annotations

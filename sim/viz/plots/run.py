@@ -110,13 +110,16 @@ def commands_figure(logs: Mapping[str, RunLog], robot: RobotSpec, *, title: str 
         name, color, ls = _style(label)
         ax_v.step(log.t, log.command[:, 0], where="post", color=color, ls=ls, label=name)
         ax_w.step(log.t, log.command[:, 1], where="post", color=color, ls=ls, label=name)
-        ax_wh.step(log.t, log.wheel_command[:, 0], where="post", color=color, ls=ls, label=f"{name} left cmd")
-        ax_wh.step(log.t, log.wheel_command[:, 1], where="post", color=color, ls=ls, alpha=0.55,
-                   label=f"{name} right cmd")  # fmt: skip
+        wheel = {"where": "post", "color": color, "ls": ls}
+        ax_wh.step(log.t, log.wheel_command[:, 0], label=f"{name} left cmd", **wheel)
+        ax_wh.step(log.t, log.wheel_command[:, 1], alpha=0.55, label=f"{name} right cmd", **wheel)
         ax_wh.plot(log.t, log.wheel_speed[:, 0], color=color, lw=0.6, alpha=0.8)
         ax_wh.plot(log.t, log.wheel_speed[:, 1], color=color, lw=0.6, alpha=0.5)
-    limits = ((ax_v, robot.max_speed, "v [m/s]"), (ax_w, robot.max_yaw_rate, "ω [rad/s]"),
-              (ax_wh, robot.max_wheel_speed, "wheel speed [rad/s]"))  # fmt: skip
+    limits = (
+        (ax_v, robot.max_speed, "v [m/s]"),
+        (ax_w, robot.max_yaw_rate, "ω [rad/s]"),
+        (ax_wh, robot.max_wheel_speed, "wheel speed [rad/s]"),
+    )
     for ax, lim, ylabel in limits:
         ax.axhline(lim, color="#c0392b", lw=1.0, ls=":", label="limit")
         ax.axhline(-lim, color="#c0392b", lw=1.0, ls=":")
