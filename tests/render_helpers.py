@@ -25,7 +25,7 @@ def short_job():  # type: ignore[no-untyped-def]
 
 def require_gl() -> None:
     """Skip (with the reason, naming what to install) only where no OpenGL context can be created."""
-    from sim.viz.replay import probe_renderer
+    from sim.viz.renderer import probe_renderer
 
     reason = probe_renderer()
     if reason is not None:

@@ -8,8 +8,10 @@ import pytest
 from PIL import Image, ImageDraw
 
 import sim.viz.compose as compose
-from sim.viz.compose import FixedViewCompositor, draw_polyline, enclosed_geoms
-from sim.viz.replay import RenderSettings, Replay, SceneRenderer
+from sim.viz.compose import FixedViewCompositor, draw_polyline
+from sim.viz.renderer import SceneRenderer
+from sim.viz.replay import RenderSettings, Replay
+from sim.viz.scene import enclosed_geoms
 from tests.render_helpers import require_gl, short_job
 
 W, H = 320, 240
@@ -67,8 +69,8 @@ def test_composited_frames_match_the_full_render(monkeypatch: pytest.MonkeyPatch
         # the floor layer without the reference path: MuJoCo's static pass with the sky
         scn = comp._scene
         scn.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = True
-        mujoco.mjv_updateScene(model, replay.datas[0], comp._opt, comp._pert, replay.camera,
-                               mujoco.mjtCatBit.mjCAT_STATIC, scn)  # fmt: skip
+        static = mujoco.mjtCatBit.mjCAT_STATIC
+        mujoco.mjv_updateScene(model, replay.datas[0], comp._opt, comp._pert, replay.camera, static, scn)
         r.draw(scn)
         r.read((0, 0, W, H), comp._base, np.empty((H, W), np.float32))
         scn.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False

@@ -32,7 +32,9 @@ def robot_pixel(record: dict, which: str) -> np.ndarray:
     from planning.scenario import load_scenario
     from sim.physics.simulator import Simulator
     from sim.pipeline.simulate import simulate_reference
-    from sim.viz.replay import Projection, RenderSettings, Replay, SceneRenderer
+    from sim.viz.renderer import SceneRenderer
+    from sim.viz.replay import RenderSettings, Replay
+    from sim.viz.scene import Projection
 
     job = simulate_reference("open", reference="line")
     model = Simulator(load_robot("turtlebot3"), load_scenario("open").world).model

@@ -10,7 +10,8 @@ from PIL import Image
 
 from planning.core.world import Box, Circle, Ellipse, Polygon, World
 from planning.errors import OutputExistsError
-from sim.viz.plots.run import PLOTS, commands_figure, errors_figure, job_figures, save_figure, world_figure
+from sim.viz.plots.draw import save_figure
+from sim.viz.plots.run import PLOTS, commands_figure, errors_figure, job_figures, world_figure
 from tests.render_helpers import short_job
 
 

@@ -139,7 +139,7 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str) -> Out
         check_writable(path, overwrite=args.overwrite)
     if video is not None:
         from planning.errors import DependencyError
-        from sim.viz.replay import probe_renderer
+        from sim.viz.renderer import probe_renderer
 
         reason = probe_renderer()
         if reason is not None:
@@ -150,8 +150,8 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str) -> Out
 def render_job_video(result: Any, plan: OutputPlan) -> dict[str, Any]:
     """Replay a job's logs into ``plan.video``; returns facts for the record (frames, seconds, ...)."""
     from sim.physics.simulator import Simulator
-    from sim.viz import gl
-    from sim.viz.replay import Replay, SceneRenderer, render_frames
+    from sim.viz.renderer import SceneRenderer
+    from sim.viz.replay import Replay, render_frames
     from sim.viz.video import VideoWriter
 
     assert plan.video is not None and plan.settings is not None
@@ -164,12 +164,13 @@ def render_job_video(result: Any, plan: OutputPlan) -> dict[str, Any]:
         with SceneRenderer(model, s.width, s.height, quality=s.quality, max_geom=replay.required_geoms) as renderer:
             with VideoWriter(plan.video, s.width, s.height, s.fps, overwrite=plan.overwrite) as writer:
                 n = render_frames(replay, renderer, writer, progress=bar.update if bar is not None else None)
+            backend = renderer.backend
     finally:
         if bar is not None:
             bar.close()
     seconds = time.perf_counter() - t0
     return {"frames": n, "fps": s.fps, "size": [s.width, s.height], "camera": s.camera, "quality": s.quality,
-            "gl_backend": gl.current_backend(), "render_seconds": round(seconds, 3)}  # fmt: skip
+            "gl_backend": backend, "render_seconds": round(seconds, 3)}  # fmt: skip
 
 
 def _progress_bar(total: int, desc: str, enabled: bool) -> Any:
@@ -192,7 +193,8 @@ def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict
         Output kind ("video", "plot_world", ..., "json") -> path written.
     """
     from sim.outputs import write_json
-    from sim.viz.plots.run import job_figures, save_figure
+    from sim.viz.plots.draw import save_figure
+    from sim.viz.plots.run import job_figures
 
     files: dict[str, str] = {}
     if plan.video is not None:

@@ -4,8 +4,9 @@ Each subcommand lives in its own module under ``sim/cli/`` with two functions:
 ``add_parser(subparsers) -> argparse.ArgumentParser`` and ``run(args) -> int``. The table below is
 the whole registry; the CLI, the help text and the tests enumerate it.
 
-Modules are imported only when their command runs (so ``--gl`` is applied before MuJoCo loads),
-except for building the parsers, which must not import mujoco at module level.
+Modules are imported only when their command runs, except for building the parsers, which must not
+import mujoco at module level: :func:`main` chooses MuJoCo's GL backend first
+(:func:`sim.viz.gl.configure` with the command's ``--gl``, else ``MUJOCO_GL`` or the default).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import sys
 from collections.abc import Sequence
 
 from planning.errors import NhsimError, SimulationError
+from sim.viz import gl
 
 #: Subcommand name -> module path.
 COMMANDS: dict[str, str] = {
@@ -55,6 +57,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
+        gl.configure(getattr(args, "gl", None))  # before the command imports mujoco
         mod = importlib.import_module(args._module)
         return int(mod.run(args))
     except SimulationError as exc:

@@ -166,9 +166,10 @@ def run(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"wrote {args.json}")
     if args.plot is not None:
-        from sim.viz.plots.tree import plan_figure, save_plan_figure
+        from sim.viz.plots.draw import save_figure
+        from sim.viz.plots.plan import plan_figure
 
-        save_plan_figure(plan_figure(problem, result), args.plot, overwrite=args.overwrite)
+        save_figure(plan_figure(problem, result), args.plot, overwrite=args.overwrite)
         if not args.quiet:
             print(f"wrote {args.plot}")
     return 0 if result.status is PlanStatus.SUCCESS else 1

@@ -10,7 +10,7 @@ reflections) a robot changes no pixel outside its own silhouette. So the world i
 2. **robot pass** (each frame): MuJoCo draws only the robots' dynamic geoms, the ghost opaque in its
    colour, and only the rectangles their bounding boxes project to are read back, colour and depth.
    A robot pixel replaces the floor-layer pixel where it is nearer than the static depth; a ghost
-   pixel is blended over it with alpha :data:`sim.viz.replay.GHOST_ALPHA`. Where the two rectangles
+   pixel is blended over it with alpha :data:`sim.viz.scene.GHOST_ALPHA`. Where the two rectangles
    overlap the robots are drawn in two passes so the ghost can be told from the solid robot.
 3. the unfinished segment of each trail and the text overlay.
 
@@ -24,17 +24,27 @@ frame's pixels do not depend on which frames were drawn before it.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
 from PIL import Image, ImageDraw
 
-from sim.viz.replay import GHOST_ALPHA, OPEN_RGBA, REFERENCE_RGBA, Frame, Projection, _polylines, _rgb255
-
-if TYPE_CHECKING:
-    from sim.viz.replay import Replay, SceneRenderer
+from sim.viz.renderer import SceneRenderer
+from sim.viz.scene import (
+    GHOST_ALPHA,
+    OPEN_RGBA,
+    REFERENCE_RGBA,
+    FloatArray,
+    Frame,
+    Projection,
+    Track,
+    geom_box_corners,
+    polylines,
+    rgb255,
+    trail_width,
+)
 
 Rect = tuple[int, int, int, int]  # x0, y0, x1, y1 [px], image coordinates, end exclusive
 
@@ -42,9 +52,49 @@ Rect = tuple[int, int, int, int]  # x0, y0, x1, y1 [px], image coordinates, end 
 RECT_MARGIN = 2
 
 #: Opacity of the ghost's one composited layer: MuJoCo blends the back and the front faces of each
-#: translucent part, each with :data:`sim.viz.replay.GHOST_ALPHA`, so a part over the floor shows
+#: translucent part, each with :data:`sim.viz.scene.GHOST_ALPHA`, so a part over the floor shows
 #: ``1 - (1 - GHOST_ALPHA) ** 2`` of its colour.
 LAYER_ALPHA = 1.0 - (1.0 - GHOST_ALPHA) ** 2
+
+
+class ComposedReplay(Protocol):
+    """What the compositor reads from a replay (:class:`sim.viz.replay.Replay` is one).
+
+    Attributes:
+        model: The runs' model.
+        ghost_model: The model with the robot's enclosed geoms left out (drawn for every robot pass).
+        datas: One ``MjData`` per track, posed by :meth:`pose_frame`.
+        tracks: The runs, primary first.
+        camera: The camera, the same in every frame.
+        fixed_camera: Whether the camera stays put (required).
+        ref3: (M, 3) decimated reference path on the floor [m].
+        trail3: Per track, (N, 3) logged path on the floor [m].
+        line_width: Width of the reference line [px].
+        required_geoms: Scene capacity.
+        robot_geoms: (G,) visible geoms of the robot.
+        robot_corners: (G, 8, 3) their bounding-box corners in their own frames [m].
+    """
+
+    model: mujoco.MjModel
+    ghost_model: mujoco.MjModel
+    datas: list[mujoco.MjData]
+    tracks: list[Track]
+    camera: mujoco.MjvCamera
+    fixed_camera: bool
+    ref3: FloatArray
+    trail3: list[FloatArray]
+    line_width: int
+    required_geoms: int
+    robot_geoms: NDArray[np.int64]
+    robot_corners: FloatArray
+
+    def pose_frame(self, k: int) -> None:
+        """Pose every run and the camera at frame ``k``."""
+        ...
+
+    def draw_overlay(self, k: int, frame: Frame) -> None:
+        """Draw frame ``k``'s text overlay into ``frame``."""
+        ...
 
 
 def draw_polyline(img: Frame, pts: NDArray[np.float64], rgb: tuple[int, int, int], width: int) -> None:
@@ -70,33 +120,6 @@ def draw_polyline(img: Frame, pts: NDArray[np.float64], rgb: tuple[int, int, int
     pil = Image.fromarray(sub)
     ImageDraw.Draw(pil).line((pts - (x0, y0)).ravel().tolist(), fill=rgb, width=width)
     sub[...] = np.asarray(pil)
-
-
-def enclosed_geoms(model: mujoco.MjModel, ids: NDArray[np.int64]) -> NDArray[np.int64]:
-    """Geoms of ``ids`` that lie inside another geom of ``ids`` and can never be seen.
-
-    A geom is enclosed when another geom of the same body has the same primitive type, the same
-    frame and sizes at least as large (a 1 mm collision tyre inside the 18 mm visual one).
-    """
-    primitives = {int(t) for t in (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_CAPSULE,
-                                   mujoco.mjtGeom.mjGEOM_ELLIPSOID, mujoco.mjtGeom.mjGEOM_CYLINDER,
-                                   mujoco.mjtGeom.mjGEOM_BOX)}  # fmt: skip
-    hidden = []
-    for a in ids:
-        for b in ids:
-            if a == b or model.geom_bodyid[a] != model.geom_bodyid[b] or model.geom_type[a] != model.geom_type[b]:
-                continue
-            if int(model.geom_type[a]) not in primitives or model.geom_rgba[b, 3] < 1.0:
-                continue
-            same_frame = np.allclose(model.geom_pos[a], model.geom_pos[b]) and np.allclose(
-                model.geom_quat[a], model.geom_quat[b]
-            )
-            sa, sb = model.geom_size[a], model.geom_size[b]
-            larger = bool(np.all(sb >= sa) and np.any(sb > sa))
-            if same_frame and larger:
-                hidden.append(int(a))
-                break
-    return np.asarray(hidden, dtype=np.int64)
 
 
 def _overlap(a: Rect, b: Rect) -> bool:
@@ -130,13 +153,13 @@ class RobotPass:
         """Take the camera and lights of a frame (no geoms); returns the full view's projection."""
         mujoco.mjv_updateScene(self.model, data, self.opt, self.pert, camera, 0, self.scene)
         w, h = self.renderer.width, self.renderer.height
-        self._frustum = [(float(c.frustum_center), 0.5 * float(c.frustum_top - c.frustum_bottom) * w / h,
-                          float(c.frustum_bottom), float(c.frustum_top)) for c in self.scene.camera]  # fmt: skip
+        self._frustum = []
+        for c in self.scene.camera:
+            half_w = 0.5 * float(c.frustum_top - c.frustum_bottom) * w / h
+            self._frustum.append((float(c.frustum_center), half_w, float(c.frustum_bottom), float(c.frustum_top)))
         return Projection.from_scene(self.scene, w, h)
 
-    def rect(
-        self, proj: Projection, data: mujoco.MjData, geoms: NDArray[np.int64], corners: NDArray[np.float64]
-    ) -> Rect | None:
+    def rect(self, proj: Projection, data: mujoco.MjData, geoms: NDArray[np.int64], corners: FloatArray) -> Rect | None:
         """Pixel rectangle holding the projected bounding boxes of ``geoms``, or None when off screen.
 
         Args:
@@ -145,9 +168,7 @@ class RobotPass:
             geoms: (G,) geom ids.
             corners: (G, 8, 3) bounding-box corners of each geom in its own frame [m].
         """
-        xc = data.geom_xpos[geoms][:, None, :] + np.einsum("gij,gkj->gki", data.geom_xmat[geoms].reshape(-1, 3, 3),
-                                                           corners)  # fmt: skip
-        px, ok = proj.pixels(xc.reshape(-1, 3))
+        px, ok = proj.pixels(geom_box_corners(data, geoms, corners).reshape(-1, 3))
         w, h = self.renderer.width, self.renderer.height
         if not ok.all():
             return (0, 0, w, h)
@@ -210,7 +231,7 @@ class FixedViewCompositor:
         ValueError: The camera moves, or the renderer draws shadows or reflections.
     """
 
-    def __init__(self, replay: Replay, renderer: SceneRenderer) -> None:
+    def __init__(self, replay: ComposedReplay, renderer: SceneRenderer) -> None:
         if not replay.fixed_camera:
             raise ValueError("the compositor needs a camera that stays put (the overview camera)")
         flags = renderer.scene.flags
@@ -226,8 +247,8 @@ class FixedViewCompositor:
         self._scene.flags[:] = flags
         replay.pose_frame(0)
         # static pass: the world, read back whole, colour and depth
-        mujoco.mjv_updateScene(m, replay.datas[0], self._opt, self._pert, replay.camera,
-                               mujoco.mjtCatBit.mjCAT_STATIC, self._scene)  # fmt: skip
+        static = mujoco.mjtCatBit.mjCAT_STATIC
+        mujoco.mjv_updateScene(m, replay.datas[0], self._opt, self._pert, replay.camera, static, self._scene)
         self.proj = Projection.from_scene(self._scene, w, h)
         rgb = np.empty((h, w, 3), np.uint8)
         depth = np.empty((h, w), np.float32)
@@ -236,8 +257,8 @@ class FixedViewCompositor:
         self.depth = depth
         base = Image.fromarray(rgb)
         draw = ImageDraw.Draw(base)
-        for line in _polylines(*self.proj.pixels(replay.ref3)):
-            draw.line(line, fill=_rgb255(REFERENCE_RGBA), width=replay.line_width)
+        for line in polylines(*self.proj.pixels(replay.ref3)):
+            draw.line(line, fill=rgb255(REFERENCE_RGBA), width=replay.line_width)
         self._base: Frame = np.asarray(base).copy()
         # robots alone from here on, drawn through small rectangles
         self.passes = RobotPass(replay.ghost_model, renderer, flags, replay.required_geoms)
@@ -250,10 +271,6 @@ class FixedViewCompositor:
         self._drawn = [0] * len(self.replay.tracks)  # kept trail points joined on the layer, per track
         self._trail_k = -1  # last frame whose trail segments are on the layer
 
-    def _trail_width(self, ti: int) -> int:
-        w = self.replay.line_width
-        return w + 1 if ti == 0 else max(1, w - 1)  # the ghost's trail thinner
-
     def _advance_trails(self, k: int) -> None:
         """Put the trail segments completed by frame ``k`` on the layer, frame by frame."""
         if k < self._trail_k:
@@ -264,7 +281,7 @@ class FixedViewCompositor:
                 done = self._drawn[ti]
                 if upto > done:
                     pts = self._trail_px[ti][tr.trail_keep[max(done - 1, 0) : upto]]
-                    draw_polyline(self.layer, pts, _rgb255(tr.rgba), self._trail_width(ti))
+                    draw_polyline(self.layer, pts, rgb255(tr.rgba), trail_width(ti, self.replay.line_width))
                     self._drawn[ti] = upto
         self._trail_k = max(self._trail_k, k)
 
@@ -318,7 +335,7 @@ class FixedViewCompositor:
             upto = int(np.searchsorted(tr.trail_keep, j, side="right"))
             if upto and tr.trail_keep[upto - 1] != j:
                 pts = self._trail_px[ti][[int(tr.trail_keep[upto - 1]), j]]
-                draw_polyline(out, pts, _rgb255(tr.rgba), self._trail_width(ti))
+                draw_polyline(out, pts, rgb255(tr.rgba), trail_width(ti, self.replay.line_width))
         self._robots(out)
         r.draw_overlay(k, out)
         return out

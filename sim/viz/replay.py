@@ -20,7 +20,9 @@ With a camera that stays put (the overview) and no shadows or reflections (the f
 world is drawn once per video and only the robots each frame, composited by depth
 (:mod:`sim.viz.compose`); the chase camera and the high look draw the whole scene every frame.
 
-The process holds one OpenGL renderer at a time (:class:`SceneRenderer`), closed explicitly.
+The process holds one OpenGL renderer at a time (:class:`sim.viz.renderer.SceneRenderer`), closed
+explicitly. Modules import one way: this one imports :mod:`sim.viz.compose`, and both import
+:mod:`sim.viz.scene` (colours, tracks, projection) and :mod:`sim.viz.renderer`.
 """
 
 from __future__ import annotations
@@ -29,33 +31,37 @@ import copy
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any, ClassVar, Protocol
+from typing import Any, Protocol
 
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
 from PIL import Image, ImageDraw, ImageFont
 
-from planning.errors import ConfigError, DependencyError
+from planning.errors import ConfigError
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.metrics import position_errors
 from sim.physics.runlog import RunLog
-from sim.viz import gl
-
-FloatArray = NDArray[np.float64]
-Frame = NDArray[np.uint8]
+from sim.viz.compose import FixedViewCompositor
+from sim.viz.renderer import QUALITIES, SceneRenderer
+from sim.viz.scene import (
+    CLOSED_RGBA,
+    GHOST_ALPHA,
+    OPEN_RGBA,
+    REFERENCE_RGBA,
+    RUN_STYLE,
+    FloatArray,
+    Frame,
+    Projection,
+    Track,
+    enclosed_geoms,
+    geom_box_corners,
+    polylines,
+    rgb255,
+    trail_width,
+)
 
 CAMERAS = ("overview", "chase")
-QUALITIES = ("fast", "high")
-
-#: Colours (RGBA in [0, 1]).
-REFERENCE_RGBA = (0.10, 0.55, 0.25, 1.0)
-CLOSED_RGBA = (0.10, 0.35, 0.95, 1.0)
-OPEN_RGBA = (1.00, 0.50, 0.10, 1.0)
-GHOST_ALPHA = 0.35
-
-#: Run label -> (overlay name, trail colour).
-RUN_STYLE = {"closed_loop": ("closed loop", CLOSED_RGBA), "open_loop": ("open loop (ghost)", OPEN_RGBA)}
 
 #: Overlay text refreshes per second of video (the time readout then steps by 0.1 s).
 OVERLAY_RATE = 10.0
@@ -149,222 +155,6 @@ def decimate_path(xy: FloatArray, spacing: float) -> NDArray[np.int64]:
     return np.asarray(keep, dtype=np.int64)
 
 
-class SceneRenderer:
-    """The process's one OpenGL renderer (a :class:`mujoco.Renderer`), closed explicitly.
-
-    Args:
-        model: The model to draw (its off-screen buffer is enlarged on a copy if too small).
-        width: Image width [px].
-        height: Image height [px].
-        quality: "fast" (no shadows, reflections or multisampling) or "high" (shadows,
-            reflections and the model's multisampling).
-        max_geom: Capacity of the scene (model geoms plus decorations).
-
-    Raises:
-        DependencyError: No OpenGL context can be created; the message says what to install.
-        RuntimeError: Another renderer is open in this process.
-    """
-
-    _open: ClassVar[int] = 0
-
-    def __init__(
-        self, model: mujoco.MjModel, width: int, height: int, *, quality: str = "fast", max_geom: int = 10000
-    ) -> None:
-        if SceneRenderer._open:
-            raise RuntimeError("one renderer per process: close the open SceneRenderer before opening another")
-        if quality not in QUALITIES:
-            raise ConfigError(f"unknown quality {quality!r}: choose one of {', '.join(QUALITIES)}")
-        backend = gl.current_backend()
-        if backend == gl.DISABLED:
-            raise DependencyError(gl.unavailable_message(backend))
-        high = quality == "high"
-        model = copy.deepcopy(model)  # the caller's model is left as it is
-        model.vis.global_.offwidth = max(width, model.vis.global_.offwidth)
-        model.vis.global_.offheight = max(height, model.vis.global_.offheight)
-        if high:
-            # with shadows MuJoCo adds each light in its own pass: the scenes' headlight + sun,
-            # balanced for the plain look, saturate the floor to white; dim them
-            model.vis.headlight.diffuse[:] = 0.35 * model.vis.headlight.diffuse
-            model.light_diffuse[:] = 0.6 * model.light_diffuse
-        else:
-            # multisampling doubles the cost of a frame under OSMesa; the fast look goes without
-            model.vis.quality.offsamples = 0
-        self.model = model
-        try:
-            self.renderer = mujoco.Renderer(model, height=height, width=width, max_geom=max_geom)
-        except Exception as exc:  # the GL libraries raise many types: ImportError, OSError, FatalError ...
-            raise DependencyError(gl.unavailable_message(backend, exc)) from exc
-        SceneRenderer._open += 1
-        self._closed = False
-        flags = self.renderer.scene.flags
-        flags[mujoco.mjtRndFlag.mjRND_SHADOW] = high
-        flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = high
-        self.width = width
-        self.height = height
-
-    @property
-    def scene(self) -> mujoco.MjvScene:
-        """The scene drawn by :meth:`render`."""
-        return self.renderer.scene
-
-    def render(self, out: Frame | None = None) -> Frame:
-        """Draw the scene into ``out`` ((height, width, 3) uint8) or a new array."""
-        return self.renderer.render(out=out)
-
-    def draw(self, scene: mujoco.MjvScene, size: tuple[int, int] | None = None) -> None:
-        """Draw ``scene`` (any scene of this model) into the off-screen buffer; read it with :meth:`read`.
-
-        Args:
-            scene: The scene.
-            size: (width, height) [px] of the viewport, at the buffer's bottom-left corner (the
-                frustum fills it); None for the whole image.
-        """
-        r = self.renderer
-        if r._gl_context:
-            r._gl_context.make_current()
-        viewport = r._rect if size is None else mujoco.MjrRect(0, 0, size[0], size[1])
-        mujoco.mjr_render(viewport, scene, r._mjr_context)
-
-    def read(self, rect: tuple[int, int, int, int], rgb: Frame | None, depth: NDArray[np.float32] | None) -> None:
-        """Read a rectangle of the last :meth:`draw` into contiguous arrays, row 0 at the top.
-
-        Args:
-            rect: (x0, y0, x1, y1) [px] in image coordinates (y down), end exclusive.
-            rgb: (y1 - y0, x1 - x0, 3) uint8 colour, or None.
-            depth: (y1 - y0, x1 - x0) float32 depth (0 far, 1 near), or None.
-        """
-        x0, y0, x1, y1 = rect
-        viewport = mujoco.MjrRect(x0, self.height - y1, x1 - x0, y1 - y0)  # OpenGL: origin bottom left
-        mujoco.mjr_readPixels(rgb, depth, viewport, self.renderer._mjr_context)
-        for a in (rgb, depth):
-            if a is not None:
-                a[:] = a[::-1].copy()
-
-    def close(self) -> None:
-        """Free the OpenGL context (idempotent)."""
-        if not self._closed:
-            self.renderer.close()
-            self._closed = True
-            SceneRenderer._open -= 1
-
-    def __enter__(self) -> SceneRenderer:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-
-def probe_renderer() -> str | None:
-    """None when an OpenGL context can be created here, else the reason (with what to install)."""
-    m = mujoco.MjModel.from_xml_string('<mujoco><worldbody><geom type="plane" size="1 1 .1"/></worldbody></mujoco>')
-    try:
-        with SceneRenderer(m, 16, 16):
-            return None
-    except DependencyError as exc:
-        return str(exc)
-
-
-@dataclass(frozen=True)
-class _Track:
-    label: str
-    idx: NDArray[np.int64]  # log sample per frame
-    qpos: FloatArray
-    xy: FloatArray  # (N, 2) log positions
-    err: FloatArray  # (N,) position error
-    trail_keep: NDArray[np.int64]  # decimated log indices
-    rgba: tuple[float, ...]
-
-
-def _rgb255(rgba: tuple[float, ...]) -> tuple[int, int, int]:
-    return (round(255 * rgba[0]), round(255 * rgba[1]), round(255 * rgba[2]))
-
-
-@dataclass(frozen=True)
-class Projection:
-    """Pinhole projection of the scene's camera after ``mjv_updateScene`` (as ``mjr_render`` draws it).
-
-    Attributes:
-        pos: (3,) camera position [m].
-        right: (3,) unit right vector.
-        up: (3,) unit up vector.
-        forward: (3,) unit viewing direction.
-        near: Near-plane distance [m].
-        left_edge: Frustum left edge at the near plane [m].
-        half_width: Frustum half width at the near plane [m].
-        bottom: Frustum bottom at the near plane [m].
-        top: Frustum top at the near plane [m].
-        width: Image width [px].
-        height: Image height [px].
-    """
-
-    pos: FloatArray
-    right: FloatArray
-    up: FloatArray
-    forward: FloatArray
-    near: float
-    left_edge: float
-    half_width: float
-    bottom: float
-    top: float
-    width: int
-    height: int
-
-    @staticmethod
-    def from_scene(scene: mujoco.MjvScene, width: int, height: int) -> Projection:
-        """The projection ``mjr_render`` uses on a ``width`` x ``height`` viewport (mono: the average
-        of the scene's two eye cameras, which sit half the inter-pupillary distance either side)."""
-        cam = scene.camera[0]
-        pos = 0.5 * (np.array(cam.pos, dtype=float) + np.array(scene.camera[1].pos, dtype=float))
-        fwd = np.array(cam.forward, dtype=float)
-        up = np.array(cam.up, dtype=float)
-        right = np.cross(fwd, up)
-        bottom, top = float(cam.frustum_bottom), float(cam.frustum_top)
-        half_w = 0.5 * (top - bottom) * width / height  # mjr_render fits the frustum width to the viewport
-        center = float(cam.frustum_center)
-        return Projection(pos, right, up, fwd, float(cam.frustum_near),
-                          center - half_w, half_w, bottom, top, width, height)  # fmt: skip
-
-    def pixels(self, points: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
-        """Image coordinates of world points.
-
-        Args:
-            points: (M, 3) world points [m].
-
-        Returns:
-            (M, 2) [column, row] in pixels (row 0 at the top) and (M,) whether each point is in
-            front of the near plane.
-        """
-        rel = points - self.pos
-        z = rel @ self.forward
-        ok = z > self.near
-        zs = np.where(ok, z, 1.0)
-        u = self.near * (rel @ self.right) / zs
-        v = self.near * (rel @ self.up) / zs
-        col = (u - self.left_edge) / (2.0 * self.half_width) * self.width
-        row = (self.top - v) / (self.top - self.bottom) * self.height
-        return np.column_stack([col, row]), ok
-
-    def scale(self, point: FloatArray) -> float:
-        """Pixels per metre at a world point (3,) (for sizes seen face on)."""
-        z = float((point - self.pos) @ self.forward)
-        return self.near / max(z, 1e-9) * self.height / (self.top - self.bottom)
-
-
-def _polylines(px: FloatArray, ok: NDArray[np.bool_]) -> list[list[float]]:
-    """Split projected points into runs in front of the camera, each as a flat [x0, y0, x1, y1, ...]."""
-    if ok.all():
-        return [px.ravel().tolist()]
-    runs: list[list[float]] = []
-    idx = np.flatnonzero(ok)
-    if idx.size == 0:
-        return runs
-    breaks = np.flatnonzero(np.diff(idx) > 1) + 1
-    for seg in np.split(idx, breaks):
-        if seg.size > 1:
-            runs.append(px[seg].ravel().tolist())
-    return runs
-
-
 class Replay:
     """Draws the frames of a video of logged runs.
 
@@ -409,23 +199,13 @@ class Replay:
         lo, hi = pts.min(axis=0), pts.max(axis=0)
         self._span = float(max(hi[0] - lo[0], hi[1] - lo[1], 0.5))
         spacing = self._span / 400.0
-        self.tracks: list[_Track] = []
-        for k in labels[:2]:
-            log = logs[k]
-            xy = log.pose[:, :2]
-            rgba = RUN_STYLE.get(k, (k, CLOSED_RGBA))[1]
-            self.tracks.append(
-                _Track(k, nearest_samples(log.t, self.times), log.qpos, xy, position_errors(log),
-                       decimate_path(xy, spacing), rgba)
-            )  # fmt: skip
+        self.tracks = [self._track(k, logs[k], spacing) for k in labels[:2]]
         self.datas = [mujoco.MjData(m) for _ in self.tracks]
         for d, tr in zip(self.datas, self.tracks, strict=True):
             d.qpos[:] = tr.qpos[0]
             mujoco.mj_forward(m, d)
         self._robot_extent = self._robot_size(self.datas[0])
         self.robot_geoms, self.robot_corners = self._robot_boxes()
-        from sim.viz.compose import enclosed_geoms
-
         #: The model with the robot's geoms that lie inside others left out (alpha 0), for the ghost
         #: (drawn translucent, a collision tyre inside the visual one would show through).
         self.ghost_model = copy.deepcopy(m)
@@ -446,6 +226,19 @@ class Replay:
         self._ref_lines: list[list[float]] = []
         self.required_geoms = int(2 * m.ngeom + 64)
         self._font, self._box = self._overlay_setup()
+
+    def _track(self, label: str, log: RunLog, spacing: float) -> Track:
+        """A run's log as the frames show it; its trail keeps points ``spacing`` [m] apart."""
+        xy = log.pose[:, :2]
+        return Track(
+            label=label,
+            idx=nearest_samples(log.t, self.times),
+            qpos=log.qpos,
+            xy=xy,
+            err=position_errors(log),
+            trail_keep=decimate_path(xy, spacing),
+            rgba=RUN_STYLE.get(label, (label, CLOSED_RGBA))[1],
+        )
 
     @property
     def n_frames(self) -> int:
@@ -470,8 +263,8 @@ class Replay:
         """Visible geoms of the robot and the 8 corners of each one's bounding box in its frame."""
         m = self.model
         base = self._base_body()
-        ids = [g for g in range(m.ngeom) if self._in_subtree(int(m.geom_bodyid[g]), base) and m.geom_group[g] < 3
-               and m.geom_rgba[g, 3] > 0]  # fmt: skip
+        in_robot = [g for g in range(m.ngeom) if self._in_subtree(int(m.geom_bodyid[g]), base)]
+        ids = [g for g in in_robot if m.geom_group[g] < 3 and m.geom_rgba[g, 3] > 0]
         aabb = m.geom_aabb[ids].reshape(-1, 2, 3)  # center, half sizes
         signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
         corners = aabb[:, None, 0, :] + signs[None] * aabb[:, None, 1, :]
@@ -543,8 +336,8 @@ class Replay:
         r.renderer.update_scene(self.datas[0], camera=cam, scene_option=self.option)
         n_model = scene.ngeom
         if len(self.datas) > 1:  # the ghost: dynamic geoms of the second run, translucent
-            mujoco.mjv_addGeoms(self.ghost_model, self.datas[1], self.option, self.perturb,
-                                mujoco.mjtCatBit.mjCAT_DYNAMIC, scene)  # fmt: skip
+            dynamic = mujoco.mjtCatBit.mjCAT_DYNAMIC
+            mujoco.mjv_addGeoms(self.ghost_model, self.datas[1], self.option, self.perturb, dynamic, scene)
             ghost = (*OPEN_RGBA[:3], GHOST_ALPHA)
             for i in range(n_model, scene.ngeom):
                 scene.geoms[i].rgba = ghost
@@ -554,21 +347,20 @@ class Replay:
         proj = Projection.from_scene(r.scene, self.settings.width, self.settings.height)
         cam = self._cam_params[k]
         if self._last_cam is None or not np.array_equal(cam, self._last_cam):
-            self._ref_lines = _polylines(*proj.pixels(self.ref3))
+            self._ref_lines = polylines(*proj.pixels(self.ref3))
             self._last_cam = cam
         keep = self._robot_mask(proj, frame)
         img = Image.fromarray(frame)
         draw = ImageDraw.Draw(img)
         w = self.line_width
         for line in self._ref_lines:
-            draw.line(line, fill=_rgb255(REFERENCE_RGBA), width=w)
+            draw.line(line, fill=rgb255(REFERENCE_RGBA), width=w)
         for ti, tr in enumerate(self.tracks):
             j = int(tr.idx[k])
             upto = int(np.searchsorted(tr.trail_keep, j, side="right"))
             pts = np.vstack([self.trail3[ti][tr.trail_keep[:upto]], self.trail3[ti][j : j + 1]])
-            width = w + 1 if ti == 0 else max(1, w - 1)  # the ghost's trail on top, thinner
-            for line in _polylines(*proj.pixels(pts)):
-                draw.line(line, fill=_rgb255(tr.rgba), width=width)
+            for line in polylines(*proj.pixels(pts)):
+                draw.line(line, fill=rgb255(tr.rgba), width=trail_width(ti, w))
         frame[:] = np.asarray(img)
         self.draw_overlay(k, frame)
         if keep is not None:  # the solid robot hides the lines under it
@@ -577,12 +369,8 @@ class Replay:
 
     def _robot_mask(self, proj: Projection, frame: Frame) -> tuple[slice, slice, NDArray[np.bool_], Frame] | None:
         """The solid robot's silhouette (union of its geoms' projected bounding boxes) and its pixels."""
-        d = self.datas[0]
         g = self.robot_geoms
-        corners = d.geom_xpos[g][:, None, :] + np.einsum(
-            "gij,gkj->gki", d.geom_xmat[g].reshape(-1, 3, 3), self.robot_corners
-        )
-        px, ok = proj.pixels(corners.reshape(-1, 3))
+        px, ok = proj.pixels(geom_box_corners(self.datas[0], g, self.robot_corners).reshape(-1, 3))
         if not ok.all():
             return None
         h, w = frame.shape[:2]
@@ -671,8 +459,6 @@ class Replay:
             )
         if self.composited(renderer):
             if self._compositor is None or self._compositor.renderer is not renderer:
-                from sim.viz.compose import FixedViewCompositor
-
                 self._compositor = FixedViewCompositor(self, renderer)
             if out is None:
                 out = np.empty((self.settings.height, self.settings.width, 3), dtype=np.uint8)
@@ -682,7 +468,7 @@ class Replay:
         self._decorate(renderer, k, frame)
         return frame
 
-    _compositor: Any = None
+    _compositor: FixedViewCompositor | None = None
 
 
 class FrameSink(Protocol):

@@ -46,12 +46,11 @@ def ffmpeg_command(
     exe: str, path: Path, width: int, height: int, fps: float, *, crf: int, preset: str, threads: int
 ) -> list[str]:
     """The ffmpeg command line that reads raw RGB frames on stdin and writes a browser-playable MP4."""
-    return [
-        exe, "-hide_banner", "-loglevel", "error", "-nostdin", "-y",
-        "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{width}x{height}", "-r", f"{fps:g}", "-i", "pipe:0",
-        "-an", "-c:v", "libx264", "-preset", preset, "-crf", str(crf), "-pix_fmt", "yuv420p",
-        "-threads", str(threads), "-movflags", "+faststart", "-f", "mp4", str(path),
-    ]  # fmt: skip
+    quiet = ["-hide_banner", "-loglevel", "error", "-nostdin", "-y"]
+    source = ["-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{width}x{height}", "-r", f"{fps:g}", "-i", "pipe:0"]
+    h264 = ["-an", "-c:v", "libx264", "-preset", preset, "-crf", str(crf), "-pix_fmt", "yuv420p"]
+    mp4 = ["-threads", str(threads), "-movflags", "+faststart", "-f", "mp4", str(path)]
+    return [exe, *quiet, *source, *h264, *mp4]
 
 
 class VideoWriter:
@@ -114,8 +113,8 @@ class VideoWriter:
     def __enter__(self) -> VideoWriter:
         exe = ffmpeg_exe()
         tmp = self._stack.enter_context(atomic_path(self.path, overwrite=self.overwrite))
-        cmd = ffmpeg_command(exe, tmp, self.width, self.height, self.fps, crf=self._crf, preset=self._preset,
-                             threads=self._threads)  # fmt: skip
+        size = (self.width, self.height)
+        cmd = ffmpeg_command(exe, tmp, *size, self.fps, crf=self._crf, preset=self._preset, threads=self._threads)
         try:
             self._proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
         except OSError as exc:

@@ -8,28 +8,23 @@ Three figures:
 
 Figures are built without pyplot on the Agg canvas (no display, no global state). The figure
 builders return :class:`matplotlib.figure.Figure` objects and never touch the disk;
-:func:`save_figure` writes one atomically (used by the CLI).
+:func:`sim.viz.plots.draw.save_figure` writes one atomically (used by the CLI).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from pathlib import Path
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-from matplotlib.patches import Circle as CirclePatch
-from matplotlib.patches import Ellipse as EllipsePatch
-from matplotlib.patches import Polygon as PolygonPatch
-from matplotlib.patches import Rectangle
 
 from planning.core.robot import RobotSpec
-from planning.core.world import Box, Circle, Ellipse, Polygon, World
+from planning.core.world import World
 from planning.trajectory.trajectory import Trajectory
-from sim.outputs import atomic_path
 from sim.physics.metrics import heading_errors, position_errors
 from sim.physics.runlog import RunLog
+from sim.viz.plots.draw import RUN_WORLD, draw_world
 
 #: Run label -> (legend name, colour, line style); colours match the video.
 STYLE = {
@@ -58,23 +53,7 @@ def world_figure(world: World, trajectory: Trajectory, logs: Mapping[str, RunLog
     fig = Figure(figsize=(7.0, 6.4), dpi=110)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
-    xmin, xmax, ymin, ymax = world.bounds
-    ax.add_patch(Rectangle((xmin, ymin), xmax - xmin, ymax - ymin, fill=False, ec="0.35", lw=1.5))
-    for obs in world.obstacles:
-        kw = {"fc": "#b85c47", "ec": "#6b2f22", "alpha": 0.85}
-        if isinstance(obs, Circle):
-            ax.add_patch(CirclePatch(obs.center, obs.radius, **kw))
-        elif isinstance(obs, Ellipse):
-            ax.add_patch(
-                EllipsePatch(obs.center, 2 * obs.radii[0], 2 * obs.radii[1], angle=np.degrees(obs.angle), **kw)
-            )
-        elif isinstance(obs, Box):
-            c, s = np.cos(obs.angle), np.sin(obs.angle)
-            hx, hy = obs.size[0] / 2, obs.size[1] / 2
-            corners = np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]]) @ np.array([[c, s], [-s, c]])
-            ax.add_patch(PolygonPatch(corners + np.asarray(obs.center), closed=True, **kw))
-        elif isinstance(obs, Polygon):
-            ax.add_patch(PolygonPatch(obs.array, closed=True, **kw))
+    draw_world(ax, world, RUN_WORLD)
     ref = trajectory.pose
     ax.plot(ref[:, 0], ref[:, 1], color=REFERENCE_COLOR, lw=2.2, label="reference")
     for label, log in logs.items():
@@ -86,6 +65,7 @@ def world_figure(world: World, trajectory: Trajectory, logs: Mapping[str, RunLog
     pts = np.vstack([ref[:, :2]] + [log.pose[:, :2] for log in logs.values()])
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     pad = 0.1 * max(float((hi - lo).max()), 0.5)
+    xmin, xmax, ymin, ymax = world.bounds
     ax.set_xlim(max(xmin - 0.1, lo[0] - pad), min(xmax + 0.1, hi[0] + pad))
     ax.set_ylim(max(ymin - 0.1, lo[1] - pad), min(ymax + 0.1, hi[1] + pad))
     ax.set_aspect("equal")
@@ -130,13 +110,16 @@ def commands_figure(logs: Mapping[str, RunLog], robot: RobotSpec, *, title: str 
         name, color, ls = _style(label)
         ax_v.step(log.t, log.command[:, 0], where="post", color=color, ls=ls, label=name)
         ax_w.step(log.t, log.command[:, 1], where="post", color=color, ls=ls, label=name)
-        ax_wh.step(log.t, log.wheel_command[:, 0], where="post", color=color, ls=ls, label=f"{name} left cmd")
-        ax_wh.step(log.t, log.wheel_command[:, 1], where="post", color=color, ls=ls, alpha=0.55,
-                   label=f"{name} right cmd")  # fmt: skip
+        wheel = {"where": "post", "color": color, "ls": ls}
+        ax_wh.step(log.t, log.wheel_command[:, 0], label=f"{name} left cmd", **wheel)
+        ax_wh.step(log.t, log.wheel_command[:, 1], alpha=0.55, label=f"{name} right cmd", **wheel)
         ax_wh.plot(log.t, log.wheel_speed[:, 0], color=color, lw=0.6, alpha=0.8)
         ax_wh.plot(log.t, log.wheel_speed[:, 1], color=color, lw=0.6, alpha=0.5)
-    limits = ((ax_v, robot.max_speed, "v [m/s]"), (ax_w, robot.max_yaw_rate, "ω [rad/s]"),
-              (ax_wh, robot.max_wheel_speed, "wheel speed [rad/s]"))  # fmt: skip
+    limits = (
+        (ax_v, robot.max_speed, "v [m/s]"),
+        (ax_w, robot.max_yaw_rate, "ω [rad/s]"),
+        (ax_wh, robot.max_wheel_speed, "wheel speed [rad/s]"),
+    )
     for ax, lim, ylabel in limits:
         ax.axhline(lim, color="#c0392b", lw=1.0, ls=":", label="limit")
         ax.axhline(-lim, color="#c0392b", lw=1.0, ls=":")
@@ -158,10 +141,3 @@ def job_figures(
         "errors": errors_figure(logs, title=title),
         "commands": commands_figure(logs, robot, title=title),
     }
-
-
-def save_figure(fig: Figure, path: str | Path, *, overwrite: bool = False) -> Path:
-    """Write a figure as PNG atomically (never replacing a file unless ``overwrite``)."""
-    with atomic_path(path, overwrite=overwrite) as tmp:
-        fig.savefig(tmp, format="png")
-    return Path(path)

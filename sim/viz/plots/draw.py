@@ -1,0 +1,84 @@
+"""Pieces every report plot shares: the arena with its obstacles, and the one PNG writer.
+
+Figures are built with matplotlib's object API on the Agg canvas (no display, no pyplot state).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.patches import Circle as CirclePatch
+from matplotlib.patches import Ellipse as EllipsePatch
+from matplotlib.patches import Patch, Rectangle
+from matplotlib.patches import Polygon as PolygonPatch
+
+from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon, World
+from sim.outputs import atomic_path
+
+
+@dataclass(frozen=True)
+class WorldStyle:
+    """How :func:`draw_world` draws an arena.
+
+    Attributes:
+        obstacle: Keyword arguments of every obstacle's patch (colours, line width, zorder).
+        frame: Keyword arguments of the unfilled rectangle of the bounds (the walls).
+        frame_on_top: Add the frame after the obstacles (drawn over them where they cross it).
+    """
+
+    obstacle: Mapping[str, Any]
+    frame: Mapping[str, Any]
+    frame_on_top: bool = True
+
+
+#: Plan figures: grey obstacles, the walls as a black frame over them.
+PLAN_WORLD = WorldStyle(
+    obstacle={"facecolor": "0.55", "edgecolor": "0.25", "linewidth": 0.8, "zorder": 1},
+    frame={"edgecolor": "black", "linewidth": 2.0, "zorder": 1},
+)
+
+#: A job's world figure: brick-red obstacles over a grey frame.
+RUN_WORLD = WorldStyle(
+    obstacle={"facecolor": "#b85c47", "edgecolor": "#6b2f22", "alpha": 0.85},
+    frame={"edgecolor": "0.35", "linewidth": 1.5},
+    frame_on_top=False,
+)
+
+
+def obstacle_patch(obstacle: Obstacle, **style: Any) -> Patch:
+    """A matplotlib patch of an obstacle's exact outline (in metres), with patch keyword ``style``."""
+    if isinstance(obstacle, Circle):
+        return CirclePatch(obstacle.center, obstacle.radius, **style)
+    if isinstance(obstacle, Ellipse):
+        a, b = obstacle.radii
+        return EllipsePatch(obstacle.center, 2 * a, 2 * b, angle=np.degrees(obstacle.angle), **style)
+    if isinstance(obstacle, Box):
+        return PolygonPatch(obstacle.corners(), closed=True, **style)
+    if isinstance(obstacle, Polygon):
+        return PolygonPatch(obstacle.array, closed=True, **style)
+    raise TypeError(f"cannot draw obstacle {obstacle!r}")  # pragma: no cover - every kind is drawn above
+
+
+def draw_world(ax: Axes, world: World, style: WorldStyle = PLAN_WORLD) -> None:
+    """Draw an arena's walls (its bounds) and obstacles on ``ax`` (top view, metres)."""
+    xmin, xmax, ymin, ymax = world.bounds
+    frame = Rectangle((xmin, ymin), xmax - xmin, ymax - ymin, fill=False, **style.frame)
+    if not style.frame_on_top:
+        ax.add_patch(frame)
+    for obstacle in world.obstacles:
+        ax.add_patch(obstacle_patch(obstacle, **style.obstacle))
+    if style.frame_on_top:
+        ax.add_patch(frame)
+
+
+def save_figure(fig: Figure, path: str | Path, *, overwrite: bool = False) -> Path:
+    """Write a figure as PNG atomically (never replacing a file unless ``overwrite``)."""
+    with atomic_path(path, overwrite=overwrite) as tmp:
+        fig.savefig(tmp, format="png")
+    return Path(path)
