@@ -1,4 +1,24 @@
 """Control layer of nhsim: trackers, drive mappings and gain sets.
 
-Pure numerics; knows trajectories and kinematics (``planning``), never MuJoCo.
+Pure numerics; knows trajectories and kinematics (``planning``), never MuJoCo. The public names are
+re-exported here, so ``from control import make_tracker, FBLGains`` is all a user needs::
+
+    tracker = make_tracker("fbl", robot, gains=FBLGains(kp=9.0, kd=6.0))
+    tracker.reset(trajectory, dt=0.02)
+    v, omega = tracker.command(t, x, y, theta)
 """
+
+from control.base import TRACKERS as TRACKERS
+from control.base import Tracker as Tracker
+from control.base import make_tracker as make_tracker
+from control.base import register_tracker as register_tracker
+from control.base import tracker_options as tracker_options
+from control.diffdrive import DiffDrive as DiffDrive
+from control.fbl import DynamicFBL as DynamicFBL
+from control.fbl import FBLGains as FBLGains
+from control.gains import GainsFile as GainsFile
+from control.gains import load_gains_file as load_gains_file
+from control.gains import resolve_gains as resolve_gains
+from control.open_loop import OpenLoop as OpenLoop
+from control.segmented import SegmentedParams as SegmentedParams
+from control.segmented import SegmentedTracker as SegmentedTracker
