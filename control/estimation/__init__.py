@@ -1,0 +1,12 @@
+"""State estimation: the inverse of the sensor models (wheel odometry, gyro, delayed pose fixes).
+
+Pure numerics; the simulator feeds :class:`PoseEstimator` its sensor readings each control
+period and hands the estimate, not the true pose, to the tracker.
+"""
+
+from control.estimation.odometry import arc_jacobians as arc_jacobians
+from control.estimation.odometry import arc_step as arc_step
+from control.estimation.odometry import counts_to_radians as counts_to_radians
+from control.estimation.odometry import integrate_arcs as integrate_arcs
+from control.estimation.odometry import integrate_wheels as integrate_wheels
+from control.estimation.odometry import wheel_to_body as wheel_to_body
