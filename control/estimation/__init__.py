@@ -4,6 +4,10 @@ Pure numerics; the simulator feeds :class:`PoseEstimator` its sensor readings ea
 period and hands the estimate, not the true pose, to the tracker.
 """
 
+from control.estimation.consistency import chi2_interval as chi2_interval
+from control.estimation.consistency import chi2_upper as chi2_upper
+from control.estimation.consistency import nees as nees
+from control.estimation.consistency import pose_error as pose_error
 from control.estimation.odometry import arc_jacobians as arc_jacobians
 from control.estimation.odometry import arc_step as arc_step
 from control.estimation.odometry import counts_to_radians as counts_to_radians
