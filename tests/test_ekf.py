@@ -1,0 +1,396 @@
+"""The pose EKF: odometry without noise, Jacobians, consistency (NEES over a Monte Carlo), delayed fixes, divergence."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from control.estimation import (
+    STATE_NAMES,
+    EstimatorConfig,
+    EstimatorDivergedError,
+    EstimatorInputError,
+    PoseEstimator,
+    chi2_interval,
+    integrate_wheels,
+    nees,
+    pose_error,
+)
+from planning.core.robot import load_robot
+from planning.errors import ConfigError, NhsimError, SimulationError
+from tests.estimation_helpers import DT, RADIUS, TRACK, Scenario, Synthetic, draw, run, wheel_rates
+
+CONFIG = EstimatorConfig()
+RUNS = 50
+SCENARIO = Scenario(CONFIG, duration=20.0, fix_period=0.2, latency=0.1)
+
+
+@pytest.fixture(scope="module")
+def draws() -> list[Synthetic]:
+    return [draw(SCENARIO, seed) for seed in range(RUNS)]
+
+
+def monte_carlo(config: EstimatorConfig, draws: list[Synthetic], fuse: bool) -> dict[str, np.ndarray]:
+    """Errors (S, K+1, 3), NEES (S, K+1), the final gyro-bias error (S,) and its std (S,)."""
+    errs, nees_all, bias_err, bias_std = [], [], [], []
+    for d in draws:
+        est = PoseEstimator(config, RADIUS, TRACK)
+        poses, covs = run(est, d, fuse=fuse)
+        e = pose_error(poses, d.truth)
+        errs.append(e)
+        nees_all.append(nees(e, covs))
+        bias_err.append(est.gyro_bias - d.bias[-1])
+        bias_std.append(math.sqrt(est.cov_full[3, 3]))
+    return {
+        "err": np.array(errs),
+        "nees": np.array(nees_all),
+        "bias_err": np.array(bias_err),
+        "bias_std": np.array(bias_std),
+    }
+
+
+@pytest.fixture(scope="module")
+def nominal(draws: list[Synthetic]) -> dict[bool, dict[str, np.ndarray]]:
+    return {fuse: monte_carlo(CONFIG, draws, fuse) for fuse in (True, False)}
+
+
+def anees_verdict(nees_runs: np.ndarray) -> tuple[float, float]:
+    """Time-averaged ANEES after the first second, and the share of 0.5 s samples inside the 95 % bounds."""
+    lo, hi = chi2_interval(3, runs=nees_runs.shape[0])
+    anees = nees_runs.mean(axis=0)[50::25]
+    return float(anees.mean()), float(np.mean((anees > lo) & (anees < hi)))
+
+
+# --- configuration and calls ---------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "match"),
+    [
+        ("wheel_noise", -0.1, "wheel_noise must be >= 0"),
+        ("gyro_noise_density", math.nan, "gyro_noise_density must be a finite number"),
+        ("track_width_std", math.inf, "track_width_std must be a finite number"),
+        ("fix_std_xy", 0.0, "fix_std_xy must be > 0"),
+        ("counts_per_rev", -4096.0, "counts_per_rev must be > 0"),
+        ("heading", "compass", "heading must be one of gyro, encoders"),
+        ("history_steps", 1, "history_steps must be an integer >= 2"),
+        ("max_outliers", True, "max_outliers must be an integer"),
+        ("gate_prob", 1.0, "gate_prob must be a probability"),
+        ("reject_outliers", "yes", "reject_outliers must be True or False"),
+    ],
+)
+def test_bad_config_raises_naming_the_field(field: str, value: object, match: str) -> None:
+    with pytest.raises(ConfigError, match=match):
+        EstimatorConfig(**{field: value})  # type: ignore[arg-type]
+
+
+def test_scaled_process_noise_scales_only_process_noise() -> None:
+    small = CONFIG.scaled_process_noise(0.1)
+    assert small.gyro_bias_walk == pytest.approx(0.1 * CONFIG.gyro_bias_walk)
+    assert small.wheel_radius_rel_std == pytest.approx(0.1 * CONFIG.wheel_radius_rel_std)
+    assert small.fix_std_xy == CONFIG.fix_std_xy
+    with pytest.raises(ConfigError, match="factor"):
+        CONFIG.scaled_process_noise(-1.0)
+
+
+def test_bad_calls_raise() -> None:
+    est = PoseEstimator(CONFIG, RADIUS, TRACK)
+    with pytest.raises(EstimatorInputError, match="reset"):
+        est.predict(0.02, 0.1, 0.1, 0.0)
+    with pytest.raises(EstimatorInputError, match="reset"):
+        est.correct(0.0, (0.0, 0.0, 0.0))
+    with pytest.raises(EstimatorInputError, match="cov0"):
+        est.reset(0.0, (0.0, 0.0, 0.0), np.eye(2))
+    est.reset(0.0, (0.0, 0.0, 0.0))
+    est.predict(0.02, 0.1, 0.1, 0.0)
+    with pytest.raises(EstimatorInputError, match="increase"):
+        est.predict(0.02, 0.1, 0.1, 0.0)
+    with pytest.raises(EstimatorInputError, match="non-finite"):
+        est.predict(0.04, math.nan, 0.1, 0.0)
+    with pytest.raises(EstimatorInputError, match="gyro_z"):
+        est.predict(0.04, 0.1, 0.1)
+    with pytest.raises(EstimatorInputError, match="after the last predict"):
+        est.correct(0.05, (0.0, 0.0, 0.0))
+    with pytest.raises(EstimatorInputError, match="three numbers"):
+        est.correct(0.02, (0.0, 0.0))
+    with pytest.raises(EstimatorInputError, match="fix noise"):
+        est.correct(0.02, (0.0, 0.0, 0.0), std_xy=-1.0)
+    with pytest.raises(ConfigError, match="EstimatorConfig"):
+        PoseEstimator({"heading": "gyro"}, RADIUS, TRACK)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="track width"):
+        PoseEstimator(CONFIG, RADIUS, 0.0)
+    assert issubclass(EstimatorInputError, NhsimError)
+
+
+def test_for_robot_takes_the_nominal_geometry() -> None:
+    spec = load_robot("edumip")
+    est = PoseEstimator.for_robot(spec)
+    assert (est.nominal_radius, est.nominal_track) == (spec.wheel_radius, spec.track_width)
+    est.reset(0.0, (0.0, 0.0, 0.0))
+    assert est.calibration == pytest.approx((spec.wheel_radius, spec.wheel_radius, spec.track_width))
+    assert len(STATE_NAMES) == est.state.size
+
+
+# --- prediction ----------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("heading", ["gyro", "encoders"])
+def test_noise_free_prediction_is_the_odometry(heading: str) -> None:
+    t = np.arange(400) * DT
+    wl, wr = wheel_rates(t)
+    dl, dr = wl * DT, wr * DT
+    gyro = RADIUS * (wr - wl) / TRACK  # what a perfect gyro reads for constant wheel speeds
+    est = PoseEstimator(EstimatorConfig(heading=heading), RADIUS, TRACK)
+    pose0 = (0.2, 0.1, 3.0)
+    est.reset(0.0, pose0)
+    for i in range(t.size):
+        est.predict((i + 1) * DT, dl[i], dr[i], gyro[i])
+    want = integrate_wheels(pose0, dl, dr, RADIUS, TRACK)[-1]
+    np.testing.assert_allclose(pose_error(est.pose, want), 0.0, atol=1e-11)
+
+
+@pytest.mark.parametrize("heading", ["gyro", "encoders"])
+def test_propagation_jacobians_match_finite_differences(heading: str) -> None:
+    """F (state) and Q (noise through the input Jacobian) against central differences of the mean."""
+    est = PoseEstimator(EstimatorConfig(heading=heading), RADIUS, TRACK)
+    x0 = np.array([0.3, -0.2, 2.9, 0.01, 0.004, -0.003, 0.02])
+    u = np.array([0.35, 0.5, 0.7])  # dl, dr [rad], gyro [rad/s]
+
+    def mean(x: np.ndarray, uu: np.ndarray) -> np.ndarray:
+        xx = x.copy()
+        est._propagate(xx, np.zeros((7, 7)), uu[0], uu[1], uu[2], DT, 1.0, 0.0)
+        return xx
+
+    p = np.zeros((7, 7))
+    x = x0.copy()
+    est._propagate(x, p, u[0], u[1], u[2], DT, 1.0, 0.0)
+    f, q = est._F.copy(), est._Q.copy()
+    eps = 1e-6
+
+    def diff(k: int, of_input: bool) -> np.ndarray:
+        d = np.zeros(3 if of_input else 7)
+        d[k] = eps
+        hi = mean(x0, u + d) if of_input else mean(x0 + d, u)
+        lo = mean(x0, u - d) if of_input else mean(x0 - d, u)
+        return (hi - lo) / (2 * eps)  # theta stays near 2.9: no wrap
+
+    np.testing.assert_allclose(f, np.stack([diff(k, False) for k in range(7)], axis=1), atol=1e-8)
+    g = np.stack([diff(k, True) for k in range(3)], axis=1)
+    cfg = est.config
+    quant = (2 * math.pi / cfg.counts_per_rev) ** 2 / 6
+    var_u = [cfg.wheel_noise**2 * abs(u[0]) + quant, cfg.wheel_noise**2 * abs(u[1]) + quant]
+    var_u.append(cfg.gyro_noise_density**2 / DT if heading == "gyro" else 0.0)
+    want = g @ np.diag(var_u) @ g.T
+    ds = RADIUS * ((1 + x0[4]) * (u[0] + u[1]) + x0[5] * (u[1] - u[0])) / 2
+    want[:2, :2] += np.eye(2) * cfg.position_noise**2 * abs(ds)
+    want[3, 3] = cfg.gyro_bias_walk**2 * DT if heading == "gyro" else 0.0
+    np.testing.assert_allclose(q[:4, :4], want[:4, :4], rtol=1e-6, atol=1e-16)
+
+
+# --- accuracy and consistency over a Monte Carlo -------------------------------------------------
+
+
+def test_fixes_bring_the_error_well_below_dead_reckoning(nominal: dict[bool, dict[str, np.ndarray]]) -> None:
+    rmse = {
+        fuse: float(np.sqrt(np.mean(np.sum(nominal[fuse]["err"][:, :, :2] ** 2, axis=-1)))) for fuse in (True, False)
+    }
+    final = {
+        fuse: float(np.sqrt(np.mean(np.sum(nominal[fuse]["err"][:, -1, :2] ** 2, axis=-1)))) for fuse in (True, False)
+    }
+    assert rmse[True] < 0.4 * rmse[False]
+    assert final[True] < 0.25 * final[False]
+    assert rmse[True] < 0.5 * CONFIG.fix_std_xy  # better than the fixes themselves
+
+
+@pytest.mark.parametrize("fuse", [True, False], ids=["fused", "dead-reckoning"])
+def test_nees_over_the_monte_carlo_lies_in_the_chi_square_bounds(
+    nominal: dict[bool, dict[str, np.ndarray]], fuse: bool
+) -> None:
+    lo, hi = chi2_interval(3, runs=RUNS)
+    mean, inside = anees_verdict(nominal[fuse]["nees"])
+    assert lo < mean < hi
+    assert inside >= 0.85  # 95 % expected of a consistent filter; the samples are correlated in time
+
+
+@pytest.mark.parametrize("fuse", [True, False], ids=["fused", "dead-reckoning"])
+def test_nees_test_fails_when_the_process_noise_is_ten_times_too_small(draws: list[Synthetic], fuse: bool) -> None:
+    hi = chi2_interval(3, runs=RUNS)[1]
+    mean, inside = anees_verdict(monte_carlo(CONFIG.scaled_process_noise(1 / math.sqrt(10)), draws, fuse)["nees"])
+    assert mean > hi
+    assert inside < 0.5
+
+
+def test_gyro_bias_estimate_is_consistent_and_learned(nominal: dict[bool, dict[str, np.ndarray]]) -> None:
+    lo, hi = chi2_interval(1, runs=RUNS)
+    fused = nominal[True]
+    assert lo < np.mean((fused["bias_err"] / fused["bias_std"]) ** 2) < hi
+    assert np.all(fused["bias_std"] < 0.3 * CONFIG.gyro_bias_std)  # the heading fixes observe the bias
+    np.testing.assert_allclose(nominal[False]["bias_std"], CONFIG.gyro_bias_std, rtol=0.01)  # nothing does without
+
+
+def test_encoder_heading_with_fixes_is_consistent(draws: list[Synthetic]) -> None:
+    lo, hi = chi2_interval(3, runs=RUNS)
+    mean, inside = anees_verdict(monte_carlo(replace(CONFIG, heading="encoders"), draws, True)["nees"])
+    assert lo < mean < hi
+    assert inside >= 0.85
+
+
+# --- delayed fixes -------------------------------------------------------------------------------
+
+
+def drive(est: PoseEstimator, data: Synthetic, start: int, stop: int) -> None:
+    """Feed the readings of ticks start+1 .. stop."""
+    for i in range(start + 1, stop + 1):
+        est.predict(float(data.t[i]), float(data.d_left[i - 1]), float(data.d_right[i - 1]), float(data.gyro[i - 1]))
+
+
+def fresh(data: Synthetic, config: EstimatorConfig = CONFIG) -> PoseEstimator:
+    est = PoseEstimator(config, RADIUS, TRACK)
+    est.reset(0.0, data.pose0, data.cov0)
+    return est
+
+
+def assert_same_state(a: PoseEstimator, b: PoseEstimator, tol: float) -> None:
+    np.testing.assert_allclose(a.state, b.state, rtol=0, atol=tol)
+    np.testing.assert_allclose(a.cov_full, b.cov_full, rtol=0, atol=tol * 1e-3)
+
+
+def test_a_delayed_fix_rewinds_to_what_in_order_processing_gives(draws: list[Synthetic]) -> None:
+    d = draws[0]
+    z = d.truth[40] + (0.03, -0.02, 0.01)
+    in_order, delayed = fresh(d), fresh(d)
+    drive(in_order, d, 0, 40)
+    assert in_order.correct(float(d.t[40]), z)
+    drive(in_order, d, 40, 50)
+    drive(delayed, d, 0, 50)
+    assert delayed.correct(float(d.t[40]), z)  # 10 periods (200 ms) late
+    assert_same_state(in_order, delayed, 1e-13)
+    np.testing.assert_array_equal(in_order.nis_history, delayed.nis_history)
+
+
+def test_a_fix_between_ticks_splits_the_period() -> None:
+    """Fused at t_k + 0.3 dt after the fact equals driving to t_meas, fusing, and driving on.
+
+    Without quantisation noise (an encoder of 1e12 counts) the split period's noise is the sum of
+    its parts either way, so the two agree to rounding.
+    """
+    cfg = replace(CONFIG, counts_per_rev=1e12)
+    d = draw(replace(SCENARIO, config=cfg, duration=2.0), 5)
+    z, t_meas, frac = d.truth[20] + (0.02, 0.01, -0.02), float(d.t[20] + 0.3 * DT), 0.3
+    manual, delayed = fresh(d, cfg), fresh(d, cfg)
+    drive(manual, d, 0, 20)
+    manual.predict(t_meas, frac * d.d_left[20], frac * d.d_right[20], float(d.gyro[20]))
+    manual.correct(t_meas, z)
+    manual.predict(float(d.t[21]), (1 - frac) * d.d_left[20], (1 - frac) * d.d_right[20], float(d.gyro[20]))
+    drive(manual, d, 21, 30)
+    drive(delayed, d, 0, 30)
+    delayed.correct(t_meas, z)
+    assert_same_state(manual, delayed, 1e-12)
+
+
+@pytest.mark.parametrize("latency", [0.06, 0.18])
+def test_latency_changes_nothing_once_the_fixes_are_in(latency: float) -> None:
+    """The same draw delivered without latency and with it: the same end state and NIS sequence."""
+    now = draw(replace(SCENARIO, latency=0.0, duration=6.0), 7)
+    late = draw(replace(SCENARIO, latency=latency, duration=6.0), 7)
+    assert [f[0] for f in now.fixes][:25] == [f[0] for f in late.fixes][:25]
+    assert [f[1] for f in now.fixes] != [f[1] for f in late.fixes]
+    a, b = fresh(now), fresh(late)
+    run(a, now)
+    run(b, late)
+    n = len(late.fixes)  # the last fixes of the zero-latency run arrive in time, the late run's not
+    done = [f for f in now.fixes if f[0] <= late.fixes[-1][0]]
+    assert len(done) == n
+    np.testing.assert_allclose(a.nis_history[:n], b.nis_history, rtol=1e-9, atol=1e-12)
+    a_end = fresh(now)
+    run(a_end, replace(now, fixes=done))
+    assert_same_state(a_end, b, 1e-10)
+
+
+def test_out_of_order_fixes_equal_in_order(draws: list[Synthetic]) -> None:
+    d = draws[1]
+    z1, z2 = d.truth[30] + (0.01, 0.02, 0.0), d.truth[35] + (-0.02, 0.0, 0.01)
+    a, b = fresh(d), fresh(d)
+    drive(a, d, 0, 45)
+    drive(b, d, 0, 45)
+    a.correct(float(d.t[30]), z1)
+    a.correct(float(d.t[35]), z2)
+    b.correct(float(d.t[35]), z2)
+    b.correct(float(d.t[30]), z1)  # measured earlier, arrives later
+    assert_same_state(a, b, 1e-12)
+
+
+def test_a_fix_older_than_the_history_is_dropped(draws: list[Synthetic]) -> None:
+    d = draws[2]
+    est = fresh(d, replace(CONFIG, history_steps=10))
+    drive(est, d, 0, 30)
+    assert est.history_start == pytest.approx(d.t[20])
+    before = est.state
+    assert not est.correct(float(d.t[15]), d.truth[15])
+    assert est.fixes_stale == 1
+    np.testing.assert_array_equal(est.state, before)
+    assert est.correct(float(d.t[20]), d.truth[20])
+
+
+def test_heading_innovation_wraps() -> None:
+    est = PoseEstimator(CONFIG, RADIUS, TRACK)
+    est.reset(0.0, (0.0, 0.0, math.pi - 0.01), np.diag([1e-4, 1e-4, 1e-4]))
+    est.predict(0.02, 0.0, 0.0, 0.0)
+    assert est.correct(0.02, (0.0, 0.0, -math.pi + 0.01))  # 0.02 rad away, not 2 pi - 0.02
+    assert est.nis_history[-1, 1] < 1.0
+    assert abs(abs(est.pose[2]) - math.pi) < 0.01
+
+
+# --- outliers and divergence ---------------------------------------------------------------------
+
+
+def test_outliers_are_rejected_then_divergence_raises(draws: list[Synthetic]) -> None:
+    d = draws[3]
+    cfg = replace(CONFIG, max_outliers=3)
+    est, dead = fresh(d, cfg), fresh(d, cfg)
+    drive(dead, d, 0, 60)
+    kidnapped = (1.0, 0.0, 0.0)  # the localiser puts the robot a metre away
+    for k, tick in enumerate((20, 40)):
+        drive(est, d, tick - 20, tick)
+        assert not est.correct(float(d.t[tick]), d.truth[tick] + kidnapped)
+        assert est.fixes_rejected == k + 1
+    drive(est, d, 40, 60)
+    np.testing.assert_allclose(est.state, dead.state, atol=1e-15)  # rejected fixes changed nothing
+    with pytest.raises(EstimatorDivergedError, match=r"diverged at t=1\.200 s: 3 consecutive fixes") as info:
+        est.correct(float(d.t[60]), d.truth[60] + kidnapped)
+    assert info.value.reason == "innovation"
+    assert info.value.t == pytest.approx(1.2)
+    assert isinstance(info.value, SimulationError)
+
+
+def test_a_good_fix_resets_the_outlier_count(draws: list[Synthetic]) -> None:
+    d = draws[3]
+    est = fresh(d, replace(CONFIG, max_outliers=2))
+    for tick, offset in ((10, 1.0), (20, 0.0), (30, 1.0), (40, 0.0)):
+        drive(est, d, tick - 10, tick)
+        est.correct(float(d.t[tick]), d.truth[tick] + (offset, 0.0, 0.0))
+    assert est.fixes_rejected == 2
+
+
+def test_without_rejection_an_outlier_is_applied(draws: list[Synthetic]) -> None:
+    d = draws[3]
+    est = fresh(d, replace(CONFIG, reject_outliers=False))
+    drive(est, d, 0, 20)
+    pose, cov = np.array(est.pose), est.cov
+    z = d.truth[20] + (1.0, 0.0, 0.0)
+    assert est.correct(float(d.t[20]), z)
+    assert est.nis_history[-1, 1] > est.nis_gate
+    gain = cov @ np.linalg.inv(cov + np.diag([CONFIG.fix_std_xy**2] * 2 + [CONFIG.fix_std_theta**2]))
+    np.testing.assert_allclose(est.pose, pose + gain @ (z - pose), rtol=1e-9)  # the Kalman update, textbook form
+    assert est.pose[0] - pose[0] > 0.1
+
+
+def test_a_non_finite_state_raises_divergence() -> None:
+    est = PoseEstimator(CONFIG, RADIUS, TRACK)
+    est.reset(0.0, (0.0, 0.0, 0.0), np.eye(3))
+    with np.errstate(over="ignore"), pytest.raises(EstimatorDivergedError, match=r"at t=0\.020 s.*non-finite") as info:
+        est.predict(0.02, 1e300, -1e300, 0.0)  # finite readings, infinite covariance
+    assert info.value.reason == "non-finite"
