@@ -9,6 +9,7 @@ from typing import Any
 
 from planning.errors import ConfigError
 from sim.cli.job_outputs import add_output_arguments
+from sim.pipeline.runs import RunKind
 
 DESCRIPTION = (
     "Run the robot in MuJoCo physics along a reference trajectory, once with the dynamic "
@@ -22,7 +23,7 @@ DESCRIPTION = (
     "every built-in scenario with every applicable planner (the scenario's own planner, every "
     "obstacle-avoiding planner, and obstacle-free planners where there are no obstacles) for "
     "every robot the scenario lists, and prints one row each.\n\n"
-    "JSON record (--json): per run ('closed_loop', 'open_loop') final_position_error_m, "
+    f"JSON record (--json): per run ({', '.join(repr(str(kind)) for kind in RunKind)}) final_position_error_m, "
     "final_heading_error_rad, rms_position_error_m, max_position_error_m, collisions, warnings, "
     "saturation_fraction; plus scenario, robot, source, tracker, gains, control_rate_hz, seed "
     "and package versions.\n\n"
@@ -37,7 +38,7 @@ DESCRIPTION = (
 def run_choices() -> dict[str, tuple[Any, ...]]:
     """``--tracker`` choice -> the run kinds it makes: the closed loop (named by the reference's
     feedback tracker), the open loop (named by its tracker), or both."""
-    from sim.pipeline.runs import REFERENCE_TRACKER, RunKind
+    from sim.pipeline.runs import REFERENCE_TRACKER
 
     return {
         REFERENCE_TRACKER: (RunKind.CLOSED_LOOP,),
@@ -134,8 +135,6 @@ def _add_run_arguments(p: argparse.ArgumentParser) -> None:
 
 def format_table(record: dict[str, Any]) -> str:
     """The metrics table printed by ``simulate``: one row per run in the record."""
-    from sim.pipeline.runs import RunKind
-
     head = (
         f"{'run':<12} {'final pos [m]':>14} {'final head [rad]':>17} {'rms pos [m]':>12} {'max pos [m]':>12} "
         f"{'collisions':>10} {'warnings':>8}"
@@ -179,7 +178,6 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
     from sim.cli.job_outputs import plan_outputs, write_outputs
     from sim.cli.progress import JobBars
     from sim.pipeline.case import Case, PlanOptions
-    from sim.pipeline.runs import RunKind
     from sim.pipeline.simulate import simulate
 
     planner, scenario = args.planner, args.scenario
