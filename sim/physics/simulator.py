@@ -166,7 +166,7 @@ class Simulator:
         noise = pert.sensor_noise(schedule.n_ctrl) if pert is not None else None
         tracker.reset(trajectory, schedule.dt_ctrl)
         recorder = Recorder(self, m, d, schedule, float(trajectory.t[0]))
-        self._control_loop(d, schedule, recorder, tracker, drive or DiffDrive.from_robot(self.robot), noise, progress)
+        self._control_loop(recorder, tracker, drive or DiffDrive.from_robot(self.robot), noise, progress)
         info: dict[str, Any] = {
             "robot": self.robot.name,
             "tracker": tracker.name,
@@ -186,24 +186,18 @@ class Simulator:
 
     def _control_loop(
         self,
-        d: mujoco.MjData,
-        schedule: Schedule,
         recorder: Recorder,
         tracker: Tracker,
         drive: DiffDrive,
         noise: NDArray[np.float64] | None,
         progress: Callable[[int, int], Any] | None,
     ) -> None:
-        """Run the schedule: the tracker once per control period, physics in ``nstep`` chunks between
-        log samples, the wheel commands applied as they arrive (after the latency, if any)."""
-        m = recorder.model
-        k_ctrl, k_log, chunks, delay, n_ctrl = (
-            schedule.k_ctrl,
-            schedule.k_log,
-            schedule.chunks,
-            schedule.delay,
-            schedule.n_ctrl,
-        )
+        """Run the recorder's schedule: the tracker once per control period, physics in ``nstep`` chunks
+        between log samples, the wheel commands applied as they arrive (after the latency, if any).
+        Python runs per control period and per log sample, never per physics step."""
+        m, d, schedule = recorder.model, recorder.data, recorder.schedule
+        k_ctrl, k_log, delay = schedule.k_ctrl, schedule.k_log, schedule.delay
+        chunks, n_ctrl = schedule.chunks, schedule.n_ctrl
         t0, dt_ctrl = recorder.t0, schedule.dt_ctrl
         cmd, wcmd = recorder.command, recorder.wheel_command
         ctrl, sdata = d.ctrl, d.sensordata
