@@ -35,7 +35,7 @@ DESCRIPTION = (
 )
 
 
-def run_choices() -> dict[str, tuple[Any, ...]]:
+def run_choices() -> dict[str, tuple[RunKind, ...]]:
     """``--tracker`` choice -> the run kinds it makes: the closed loop (named by the reference's
     feedback tracker), the open loop (named by its tracker), or both."""
     from sim.pipeline.runs import REFERENCE_TRACKER

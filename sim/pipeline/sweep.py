@@ -169,7 +169,7 @@ def sweep_case(case: Case) -> SweepRow:
         na = precondition_not_met(sc, plan)
         if na is not None:
             return SweepRow(case, Outcome.NA, Stage.PRECONDITION, na, status, plan.stats.get("time_s"))
-        job = simulate(replace(case, planning=replace(case.planning, plan=plan)))
+        job = simulate(replace(case, scenario=sc, planning=replace(case.planning, plan=plan)))
     except PlanFailedError as exc:
         return SweepRow(case, Outcome.FAIL, Stage.PLAN, str(exc), status)
     except NhsimError as exc:
