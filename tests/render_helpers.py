@@ -15,12 +15,13 @@ from planning.trajectory.references import make_reference
 @functools.cache
 def short_job():  # type: ignore[no-untyped-def]
     """A 0.4 m line (about 3.3 s) tracked closed and open loop in the 'open' scenario."""
-    from sim.pipeline.simulate import run_tracking
+    from sim.pipeline.case import Case, PreparedTrajectory
+    from sim.pipeline.simulate import track
 
     sc = load_scenario("open")
     robot = load_robot(sc.robot)
     traj = make_reference("line", robot, Pose2D(0.0, 0.0, 0.0), length=0.4)
-    return run_tracking(sc, robot, traj, source="reference:line")
+    return track(PreparedTrajectory(Case("open", reference="line"), sc, robot, traj, "reference:line"))
 
 
 def require_gl() -> None:

@@ -10,9 +10,10 @@ import pytest
 
 from planning.planners.base import PLANNERS, PlanResult, PlanStatus
 from planning.scenario import load_scenario
-from sim.physics.simulator import SimConfig
+from sim.cli.sweep_table import format_row, summary
+from sim.pipeline.case import Case, PlanOptions
 from sim.pipeline.simulate import applicable_planners, simulate_plan
-from sim.pipeline.sweep import TARGETS, matrix_cases, matrix_passed, matrix_record, matrix_summary, run_case
+from sim.pipeline.sweep import TARGETS, Outcome, Stage, sweep_case, sweep_cases, sweep_passed, sweep_record
 
 
 def assert_targets(job, pos: float = 0.02) -> None:  # type: ignore[no-untyped-def]
@@ -32,7 +33,7 @@ def test_parallel_park_by_hand_with_a_cusp_in_physics() -> None:
     path = np.array([[1.0, 0.8, 0.0], [1.3, 0.8, 0.0], [1.3, 0.8, -0.9], [1.0, 0.5, -0.9], [1.0, 0.5, 0.0]])
     plan = PlanResult(PlanStatus.SUCCESS, "by-hand", path=path)
     for robot in ("turtlebot3", "edumip"):
-        job = simulate_plan(sc, robot=robot, plan=plan)
+        job = simulate_plan(sc, robot=robot, planning=PlanOptions(plan=plan))
         assert job.source == "planner:by-hand" and job.extra["smoothing"]["drives"] == 2
         assert job.trackers["closed_loop"] == "segmented"
         assert_targets(job)
@@ -42,7 +43,7 @@ def test_parallel_park_by_hand_with_a_cusp_in_physics() -> None:
 def test_turn_in_place_in_physics_at_10_hz() -> None:
     sc = load_scenario("turn_in_place")
     plan = PlanResult(PlanStatus.SUCCESS, "by-hand", path=np.array([[0.8, 0.8, 0.0], [0.8, 0.8, np.pi]]))
-    job = simulate_plan(sc, robot="edumip", plan=plan, config=SimConfig(control_rate=10.0, hold=2.0))
+    job = simulate_plan(sc, robot="edumip", planning=PlanOptions(plan=plan), control_rate=10.0)
     assert job.extra["smoothing"]["rotations"] == 1
     assert_targets(job, pos=0.05)
 
@@ -53,7 +54,7 @@ def test_a_polyline_among_obstacles_at_10_hz_reaches_the_goal_within_5_cm() -> N
     d = np.diff(pts, axis=0)
     th = np.append(np.arctan2(d[:, 1], d[:, 0]), 0.0)
     plan = PlanResult(PlanStatus.SUCCESS, "by-hand", path=np.column_stack([pts, th]))
-    job = simulate_plan(sc, robot="turtlebot3", plan=plan, config=SimConfig(control_rate=10.0, hold=2.0))
+    job = simulate_plan(sc, robot="turtlebot3", planning=PlanOptions(plan=plan), control_rate=10.0)
     assert_targets(job, pos=0.05)
 
 
@@ -68,48 +69,54 @@ def test_applicable_planners_rule() -> None:
         assert ("sinusoidal" in got) == ("sinusoidal" in PLANNERS and not sc.world.obstacles)
 
 
-FAST = [c for c in matrix_cases() if c[2] in ("c-rrt-star", "rrt-star", "optim")][:1]
+FAST = [c for c in sweep_cases() if c.planner in ("c-rrt-star", "rrt-star", "optim")][:1]
 
 
 @pytest.mark.skipif(not FAST, reason="no planner registered yet")
-@pytest.mark.parametrize("case", FAST)
-def test_one_registered_planner_end_to_end(case: tuple[str, str, str]) -> None:
-    row = run_case(*case)
-    assert row["stage"] == "track" and row["success"], row
+@pytest.mark.parametrize("case", FAST, ids=lambda c: c.name)
+def test_one_registered_planner_end_to_end(case: Case) -> None:
+    row = sweep_case(case)
+    assert row.stage is Stage.TRACK and row.success, row.record()
+    line = format_row(row)
+    assert line.split()[:4] == [case.scenario_name, case.robot, case.planner, "ok"]
 
 
 def test_a_planner_precondition_is_not_applicable_but_a_planner_failure_is_a_failure() -> None:
     # C-RRT* keeps the EduMIP's axle centre 0.40 m from walls (seed 003); simple_motion starts
     # 0.40 m from two walls, which the EduMIP's footprint clears easily: the planner does not apply.
-    na = run_case("simple_motion", "edumip", "c-rrt-star")
-    assert na["outcome"] == "n/a" and na["stage"] == "precondition" and not na["success"]
-    assert na["plan_status"] == "invalid_start" and "0.40" in na["reason"]
+    na = sweep_case(Case("simple_motion", robot="edumip", planner="c-rrt-star"))
+    assert na.outcome is Outcome.NA and na.stage is Stage.PRECONDITION and not na.success
+    assert na.plan_status == "invalid_start" and "0.40" in na.reason
     # a planner that ends with another status on an applicable case is a failure, never hidden (the
     # virtual bicycle's default bounds swing sinusoidal steering out of the corridor)
-    fail = run_case("three_point_turn", "turtlebot3", "sinusoidal", planner_options={"phimax": 0.6, "u2max": 2.0})
-    assert fail["outcome"] == "FAIL" and fail["stage"] == "plan" and fail["plan_status"] == "bounds_violated"
+    options = PlanOptions(planner_options={"phimax": 0.6, "u2max": 2.0})
+    fail = sweep_case(Case("three_point_turn", robot="turtlebot3", planner="sinusoidal", planning=options))
+    assert fail.outcome is Outcome.FAIL and fail.stage is Stage.PLAN and fail.plan_status == "bounds_violated"
     rows = [na, fail]
-    rec = matrix_record(rows)
-    assert rec["rows"] == [fail] and rec["not_applicable"] == [na]
+    rec = sweep_record(rows)
+    assert rec["rows"] == [fail.record()] and rec["not_applicable"] == [na.record()]
     assert rec["summary"] == {"cases": 1, "passed": 0, "failed": 1, "not_applicable": 1, "targets": TARGETS}
-    lines = matrix_summary(rows)
+    keys = {"scenario", "robot", "planner", "seed", "success", "outcome", "stage", "reason", "plan_status"}
+    assert set(na.record()) == keys | {"plan_time_s"} and set(fail.record()) == keys
+    assert na.record()["outcome"] == "n/a" and fail.record()["outcome"] == "FAIL"
+    lines = summary(rows)
     assert lines[0].startswith("0/1 applicable cases") and "(1 not applicable)" in lines[0]
     assert any(ln.startswith("  FAIL three_point_turn") and "[bounds_violated]" in ln for ln in lines)
     assert any(ln.startswith("  n/a  simple_motion/edumip/c-rrt-star") for ln in lines)
-    assert not matrix_passed(rows) and matrix_passed([na])
+    assert not sweep_passed(rows) and sweep_passed([na])
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("case", matrix_cases(), ids=lambda c: "-".join(c))
-def test_every_scenario_planner_and_robot(case: tuple[str, str, str]) -> None:
-    row = run_case(*case, time_limit=10.0)
-    if row["outcome"] == "n/a":  # the planner's own start/goal rule on a pose the robot fits: not applicable
-        pytest.skip(row["reason"])
-    assert row["success"], row
-    cl = row["closed_loop"]
+@pytest.mark.parametrize("case", sweep_cases(planning=PlanOptions(time_limit=10.0)), ids=lambda c: c.name)
+def test_every_scenario_planner_and_robot(case: Case) -> None:
+    row = sweep_case(case)
+    if row.outcome is Outcome.NA:  # the planner's own start/goal rule on a pose the robot fits: not applicable
+        pytest.skip(row.reason)
+    assert row.success, row.record()
+    cl = row.record()["closed_loop"]
     for key, bound in TARGETS.items():
-        assert cl[key] <= bound, (key, row)
-    assert cl["collisions"] == 0 and cl["warnings"] == 0, row
+        assert cl[key] <= bound, (key, row.record())
+    assert cl["collisions"] == 0 and cl["warnings"] == 0, row.record()
 
 
 def test_a_start_the_robot_itself_does_not_fit_is_no_excuse() -> None:

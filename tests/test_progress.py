@@ -70,20 +70,28 @@ def test_simulator_reports_progress_and_runs_the_same_without() -> None:
 
 
 def test_jobs_report_each_run_and_planning() -> None:
-    from sim.pipeline.simulate import run_tracking, simulate_plan
+    from sim.pipeline.case import Case, PlanOptions, PreparedTrajectory
+    from sim.pipeline.runs import RunKind
+    from sim.pipeline.simulate import simulate_plan, track
 
     sc = load_scenario("open")
     robot = load_robot(sc.robot)
     traj = make_reference("line", robot, Pose2D(0.0, 0.0, 0.0), length=0.3)
     seen: list[tuple[str, float, float]] = []
-    run_tracking(sc, robot, traj, source="reference:line", progress=lambda *r: seen.append(r))
+    prepared = PreparedTrajectory(Case("open", reference="line"), sc, robot, traj, "reference:line")
+    track(prepared, progress=lambda *r: seen.append(r))
     for label in ("closed_loop", "open_loop"):
         mine = [r for r in seen if r[0] == label]
         assert mine[0][1] == 0 and mine[-1][1] == mine[-1][2] > 0
     # planning: one report when it starts (0 of the budget), one when it returns (the whole budget)
     seen.clear()
-    simulate_plan("simple_motion", planner="sinusoidal", time_limit=7.0, trackers=("open_loop",),
-                  progress=lambda *r: seen.append(r))  # fmt: skip
+    simulate_plan(
+        "simple_motion",
+        planner="sinusoidal",
+        planning=PlanOptions(time_limit=7.0),
+        runs=(RunKind.OPEN_LOOP,),
+        progress=lambda *r: seen.append(r),
+    )
     plan = [r for r in seen if r[0] == "plan"]
     assert plan == [("plan", 0.0, 7.0), ("plan", 7.0, 7.0)]
     assert seen.index(plan[-1]) < next(i for i, r in enumerate(seen) if r[0] == "open_loop")

@@ -5,6 +5,7 @@ Fast cases run by default; the whole suite with ``-m slow`` or ``--all-cases``.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -13,8 +14,11 @@ import pytest
 import sim.tools.regress as regress
 from sim.cli.main import main
 from sim.pipeline.case import Case
-from sim.tools.regress import SUITE_PATH, Tolerance, check_case, compare, load_suite
+from sim.tools.regress import Tolerance, check_case, compare, load_suite
 
+#: The repository's suite and baselines (the command line's defaults).
+SUITE_PATH = Path(__file__).parent / "regression_suite.toml"
+BASELINE_DIR = Path(__file__).parent / "baselines"
 SUITE = load_suite(SUITE_PATH)
 
 
@@ -22,14 +26,14 @@ SUITE = load_suite(SUITE_PATH)
     "case", [pytest.param(c, id=c.name, marks=() if c.fast else pytest.mark.slow) for c in SUITE.cases]
 )
 def test_case_matches_baseline(case: Case) -> None:
-    outcome = check_case(case, regress.BASELINE_DIR, SUITE.tolerances)
+    outcome = check_case(case, BASELINE_DIR, SUITE.tolerances)
     assert outcome.ok, outcome.message
 
 
 def test_suite_has_a_fast_subset_and_every_baseline() -> None:
     fast = SUITE.select()
     assert 2 <= len(fast) < len(SUITE.cases)
-    missing = [c.name for c in SUITE.cases if not regress.baseline_path(c).exists()]
+    missing = [c.name for c in SUITE.cases if not regress.baseline_path(c, BASELINE_DIR).exists()]
     assert not missing, f"no baseline for {missing}: run nhsim regress --update --case NAME"
 
 
@@ -108,15 +112,15 @@ def test_compare_rules() -> None:
 
 def test_nondeterminism_fails_loudly(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     case = load_suite(_suite(tmp_path)).cases[0]
-    real_prepare = regress.prepare
+    real_prepare = regress.prepare_case
     calls = []
 
     def drifting(c: Case):  # type: ignore[no-untyped-def]
         calls.append(c)
         # the second run meets a 1e-9 m/s^2 different gain: a hidden state leaking between runs
-        return real_prepare(c if len(calls) == 1 else Case(**{**c.__dict__, "gains": regress.FBLGains(9.0 + 1e-9)}))
+        return real_prepare(c if len(calls) == 1 else dataclasses.replace(c, gains=regress.FBLGains(9.0 + 1e-9)))
 
-    monkeypatch.setattr(regress, "prepare", drifting)
+    monkeypatch.setattr(regress, "prepare_case", drifting)
     outcome = check_case(case, tmp_path)
     assert outcome.status == "nondeterministic"
     assert "planted" in outcome.message and "not deterministic" in outcome.message and "pose" in outcome.message

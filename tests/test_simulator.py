@@ -11,6 +11,7 @@ from planning.core.world import Box, World
 from planning.errors import ConfigError
 from planning.trajectory.references import make_reference
 from sim.physics.simulator import SimConfig, Simulator
+from sim.pipeline.runs import RunKind
 from sim.pipeline.simulate import simulate_reference
 
 
@@ -71,7 +72,7 @@ def test_control_rate_must_divide_the_physics_rate() -> None:
 
 
 def test_seed_rate_of_10_hz_still_tracks() -> None:
-    res = simulate_reference("open", reference="circle", trackers=("closed_loop",), config=SimConfig(control_rate=10))
+    res = simulate_reference("open", reference="circle", runs=(RunKind.CLOSED_LOOP,), control_rate=10.0)
     assert res.metrics["closed_loop"].final_position_error_m < 0.05
 
 

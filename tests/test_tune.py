@@ -20,7 +20,8 @@ from control.gains import load_gains_file
 from sim.cli.main import main
 from sim.cli.tune import default_study_name
 from sim.physics.perturb import PerturbationRange
-from sim.pipeline.case import Case, prepare
+from sim.pipeline.case import Case
+from sim.pipeline.simulate import prepare_case
 from sim.tools.tune import Evaluator, split_trials
 
 CASE = "open:line"  # the cheapest reference: 12 s simulated, ~0.1 s a run
@@ -165,12 +166,12 @@ def test_helpers() -> None:
 def test_objective_is_the_stated_formula() -> None:
     case = Case.parse(CASE)
     gains = FBLGains(3.0, 2.0)
-    _, m = prepare(case).run(gains)
+    m = prepare_case(case).run(gains).metrics
     ev = Evaluator([case], saturation_weight=0.5).evaluate(gains)
     assert ev.objective == m.rms_position_error_m + m.final_position_error_m + 0.5 * m.saturation_fraction
     assert (ev.runs, ev.failures, ev.rms_m) == (1, 0, m.rms_position_error_m)
     perts = PerturbationRange().sample(2, seed=1)
     robust = Evaluator([case, Case.parse("open:circle")], perts).evaluate(gains)
     assert robust.runs == 4  # every case meets every perturbation
-    _, m2 = prepare(case).run(gains, perts[1])
+    m2 = prepare_case(case).run(gains, perts[1]).metrics
     assert m2 != m  # the perturbation reached the physics

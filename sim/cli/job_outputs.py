@@ -60,8 +60,12 @@ def add_output_arguments(p: argparse.ArgumentParser) -> None:
         default="fast",
         help="fast: no shadows or reflections; high: shadows and reflections (about 4x slower)",
     )
-    g.add_argument("--gl", choices=["osmesa", "egl", "glfw"], default=None,
-                   help="OpenGL backend (default: MUJOCO_GL, else osmesa without a display, else egl)")  # fmt: skip
+    g.add_argument(
+        "--gl",
+        choices=["osmesa", "egl", "glfw"],
+        default=None,
+        help="OpenGL backend (default: MUJOCO_GL, else osmesa without a display, else egl)",
+    )
 
 
 @dataclass(frozen=True)
@@ -169,8 +173,15 @@ def render_job_video(result: Any, plan: OutputPlan) -> dict[str, Any]:
         if bar is not None:
             bar.close()
     seconds = time.perf_counter() - t0
-    return {"frames": n, "fps": s.fps, "size": [s.width, s.height], "camera": s.camera, "quality": s.quality,
-            "gl_backend": backend, "render_seconds": round(seconds, 3)}  # fmt: skip
+    return {
+        "frames": n,
+        "fps": s.fps,
+        "size": [s.width, s.height],
+        "camera": s.camera,
+        "quality": s.quality,
+        "gl_backend": backend,
+        "render_seconds": round(seconds, 3),
+    }
 
 
 def _progress_bar(total: int, desc: str, enabled: bool) -> Any:

@@ -40,12 +40,21 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--scenario", required=True, metavar="NAME|PATH",
-                   help="built-in scenario name (see 'nhsim scenarios') or path to a scenario .toml")  # fmt: skip
-    p.add_argument("--planner", default=None, metavar="P",
-                   help=f"planner: {planners} (default: the scenario's planner)")  # fmt: skip
-    p.add_argument("--robot", choices=sorted(ROBOT_FILES), default=None,
-                   help="robot, overriding the scenario's (default: the scenario's robot)")  # fmt: skip
+    p.add_argument(
+        "--scenario",
+        required=True,
+        metavar="NAME|PATH",
+        help="built-in scenario name (see 'nhsim scenarios') or path to a scenario .toml",
+    )
+    p.add_argument(
+        "--planner", default=None, metavar="P", help=f"planner: {planners} (default: the scenario's planner)"
+    )
+    p.add_argument(
+        "--robot",
+        choices=sorted(ROBOT_FILES),
+        default=None,
+        help="robot, overriding the scenario's (default: the scenario's robot)",
+    )
     p.add_argument("--seed", type=int, default=0, metavar="N", help="random seed; same seed, same plan (default: 0)")
     p.add_argument(
         "--time-limit",
@@ -99,8 +108,6 @@ def path_spacing(path: NDArray[np.float64], radius: float) -> float:
 
 def run(args: argparse.Namespace) -> int:
     """Execute ``plan``."""
-    from planning.collision.exact import CollisionChecker
-    from planning.core.geometry import wrap_angle
     from planning.core.robot import load_robot
     from planning.planners.base import PlanProblem, PlanStatus, make_planner
     from planning.scenario import load_scenario
@@ -123,31 +130,23 @@ def run(args: argparse.Namespace) -> int:
     robot = load_robot(scenario.robot)
     problem = PlanProblem.from_scenario(scenario, robot=robot, seed=args.seed, time_limit=args.time_limit)
     if not args.quiet:
-        print(f"scenario {scenario.name} | robot {robot.name} | planner {name} | seed {args.seed} | "
-              f"time limit {args.time_limit:g} s")  # fmt: skip
+        print(
+            f"scenario {scenario.name} | robot {robot.name} | planner {name} | seed {args.seed} | "
+            f"time limit {args.time_limit:g} s"
+        )
     from sim.cli.job_outputs import show_progress
     from sim.cli.progress import TimedBar
 
     t0 = time.perf_counter()
     with TimedBar("planning", args.time_limit, enabled=show_progress(args)):
         result = planner.plan(problem)
-    wall = time.perf_counter() - t0
-    path = densify_path(np.asarray(result.path, dtype=float).reshape(-1, 3), robot.radius)
-    min_clear = None
-    goal_pos = goal_head = None
-    if path.shape[0] > 0:
-        checker = CollisionChecker(problem.world, robot, shape="footprint")
-        min_clear = float(np.min(checker.clearance_of(path)))
-        goal_pos = float(np.hypot(path[-1, 0] - problem.goal.x, path[-1, 1] - problem.goal.y))
-        goal_head = abs(float(wrap_angle(path[-1, 2] - problem.goal.theta)))
-    length = float(np.sum(np.hypot(*np.diff(path[:, :2], axis=0).T))) if path.shape[0] > 1 else 0.0
-    iterations = result.stats.get("iterations")
-    time_s = float(result.stats.get("time_s", wall))
+    facts = plan_facts(problem, result, time.perf_counter() - t0)
+    min_clear, iterations = facts["min_clearance_m"], facts["iterations"]
     lines = [
         f"status          {result.status.value}",
-        f"time            {time_s:.3f} s",
+        f"time            {facts['time_s']:.3f} s",
         f"iterations      {iterations if iterations is not None else '-'}",
-        f"path length     {length:.3f} m",
+        f"path length     {facts['length_m']:.3f} m",
         f"min clearance   {'-' if min_clear is None else f'{min_clear:.3f} m'}",
     ]
     if result.reason:
@@ -155,13 +154,16 @@ def run(args: argparse.Namespace) -> int:
     print("\n".join(lines))
     if args.json is not None:
         record = {
-            "status": result.status.value, "planner": name, "reason": result.reason,
-            "scenario": scenario.name, "robot": robot.name, "seed": args.seed, "time_limit_s": args.time_limit,
-            "time_s": time_s, "iterations": iterations, "length_m": length, "min_clearance_m": min_clear,
-            "goal_position_error_m": goal_pos, "goal_heading_error_rad": goal_head,
-            "path_spacing_m": path_spacing(path, robot.radius), "path": path.tolist(),
+            "status": result.status.value,
+            "planner": name,
+            "reason": result.reason,
+            "scenario": scenario.name,
+            "robot": robot.name,
+            "seed": args.seed,
+            "time_limit_s": args.time_limit,
+            **facts,
             "stats": {k: v for k, v in result.stats.items() if _jsonable(v)},
-        }  # fmt: skip
+        }
         write_json(args.json, record, overwrite=args.overwrite)
         if not args.quiet:
             print(f"wrote {args.json}")
@@ -173,6 +175,41 @@ def run(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"wrote {args.plot}")
     return 0 if result.status is PlanStatus.SUCCESS else 1
+
+
+def plan_facts(problem: Any, result: Any, wall: float) -> dict[str, Any]:
+    """What the record says of a plan: time, iterations, length, clearance, goal errors, the path.
+
+    Args:
+        problem: The PlanProblem.
+        result: The planner's PlanResult.
+        wall: Wall time of the planner's call [s] (when its stats have no ``time_s``).
+
+    Returns:
+        time_s, iterations, length_m, min_clearance_m, goal_position_error_m,
+        goal_heading_error_rad (None without a path), path_spacing_m and path (densified states).
+    """
+    from planning.collision.exact import CollisionChecker
+    from planning.core.geometry import wrap_angle
+
+    robot = problem.robot
+    path = densify_path(np.asarray(result.path, dtype=float).reshape(-1, 3), robot.radius)
+    min_clear = goal_pos = goal_head = None
+    if path.shape[0] > 0:
+        checker = CollisionChecker(problem.world, robot, shape="footprint")
+        min_clear = float(np.min(checker.clearance_of(path)))
+        goal_pos = float(np.hypot(path[-1, 0] - problem.goal.x, path[-1, 1] - problem.goal.y))
+        goal_head = abs(float(wrap_angle(path[-1, 2] - problem.goal.theta)))
+    return {
+        "time_s": float(result.stats.get("time_s", wall)),
+        "iterations": result.stats.get("iterations"),
+        "length_m": float(np.sum(np.hypot(*np.diff(path[:, :2], axis=0).T))) if path.shape[0] > 1 else 0.0,
+        "min_clearance_m": min_clear,
+        "goal_position_error_m": goal_pos,
+        "goal_heading_error_rad": goal_head,
+        "path_spacing_m": path_spacing(path, robot.radius),
+        "path": path.tolist(),
+    }
 
 
 def _jsonable(value: Any) -> bool:

@@ -1,6 +1,6 @@
 """Progress bars of the CLI (tqdm, on stderr): shown on a terminal, never with ``--quiet``.
 
-The library only reports progress through callbacks (:data:`sim.pipeline.simulate.Progress`,
+The library only reports progress through callbacks (:data:`sim.pipeline.runs.Progress`,
 ``Simulator.run(progress=...)``, ``render_frames(progress=...)``); this module turns those reports
 into bars. A bar appears only once its stage has run for :data:`DELAY_S` seconds, so short stages
 leave the terminal as it was, and every bar is removed when its stage ends.
@@ -12,11 +12,13 @@ import threading
 import time
 from typing import Any
 
+from sim.pipeline.runs import RunKind
+
 #: Seconds a stage runs before its bar appears.
 DELAY_S = 1.0
 
 #: Stage label -> bar title.
-TITLES = {"plan": "planning", "closed_loop": "physics, closed loop", "open_loop": "physics, open loop"}
+TITLES = {"plan": "planning", **{str(kind): kind.caption for kind in RunKind}}
 
 
 def _tqdm(**kwargs: Any) -> Any:
@@ -48,8 +50,8 @@ class TimedBar:
         """Show the bar (after :data:`DELAY_S`) and start the timer thread."""
         if not self.enabled or self._thread is not None:
             return self
-        self._bar = _tqdm(total=round(self.budget, 1), desc=self.desc, unit="s",
-                          bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} s budget")  # fmt: skip
+        bar_format = "{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} s budget"
+        self._bar = _tqdm(total=round(self.budget, 1), desc=self.desc, unit="s", bar_format=bar_format)
         t0 = time.perf_counter()
 
         def tick() -> None:
@@ -79,7 +81,7 @@ class TimedBar:
 
 
 class JobBars:
-    """A :data:`sim.pipeline.simulate.Progress` callback that draws one bar per stage of a job.
+    """A :data:`sim.pipeline.runs.Progress` callback that draws one bar per stage of a job.
 
     ``"plan"`` gets a :class:`TimedBar` over the planning budget (started by the report of 0 s,
     stopped by the report of the whole budget); each run label gets a bar over its control
@@ -94,7 +96,7 @@ class JobBars:
         self._bars: dict[str, Any] = {}
 
     def __call__(self, stage: str, done: float, total: float) -> None:
-        """Take one report (see :data:`sim.pipeline.simulate.Progress`)."""
+        """Take one report (see :data:`sim.pipeline.runs.Progress`)."""
         if not self.enabled:
             return
         title = TITLES.get(stage, stage)

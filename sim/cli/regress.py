@@ -7,6 +7,11 @@ import sys
 from pathlib import Path
 from typing import Any
 
+#: The repository's suite and baselines, the defaults of --suite and --baselines.
+REPO_TESTS = Path(__file__).resolve().parents[2] / "tests"
+SUITE_PATH = REPO_TESTS / "regression_suite.toml"
+BASELINE_DIR = REPO_TESTS / "baselines"
+
 DESCRIPTION = """\
 Run the declared regression suite (tests/regression_suite.toml: scenarios x robots x references or
 planners x trackers, seeded) and compare each case's metrics with its baseline in tests/baselines/.
@@ -31,9 +36,11 @@ has no baseline, failed or is not deterministic, 2 bad input."""
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Register the ``regress`` subcommand."""
     p: argparse.ArgumentParser = sub.add_parser(
-        "regress", help="run the physics regression suite against its baselines",
-        description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter,
-    )  # fmt: skip
+        "regress",
+        help="run the physics regression suite against its baselines",
+        description=DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--update", action="store_true", help="rewrite the baselines of the cases run; print what changed")
     p.add_argument("--all", action="store_true", help="run every case (default: the fast subset)")
     p.add_argument(
@@ -50,7 +57,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "--baselines", type=Path, default=None, metavar="DIR", help="baseline directory (default: tests/baselines)"
     )
     p.add_argument("--list", action="store_true", help="list the selected cases and exit")
-    return p  # fmt: skip
+    return p
 
 
 def format_changes(changes: list[Any]) -> str:
@@ -58,24 +65,17 @@ def format_changes(changes: list[Any]) -> str:
     head = f"{'case':<40} {'metric':<24} {'baseline':>13} {'now':>13} {'delta':>11} {'allowed':>9}  status"
     lines = [head, "-" * len(head)]
     for c in changes:
-        lines.append(f"{c.case:<40} {c.metric:<24} {c.baseline:>13.6g} {c.value:>13.6g} "
-                     f"{c.value - c.baseline:>+11.3g} {c.allowed:>9.3g}  {c.status}")  # fmt: skip
+        delta = c.value - c.baseline
+        lines.append(
+            f"{c.case:<40} {c.metric:<24} {c.baseline:>13.6g} {c.value:>13.6g} {delta:>+11.3g} {c.allowed:>9.3g}  "
+            f"{c.status}"
+        )
     return "\n".join(lines)
 
 
 def run(args: argparse.Namespace) -> int:
     """Execute ``regress``."""
-    from sim.outputs import write_json
-    from sim.tools.regress import (
-        BASELINE_DIR,
-        SUITE_PATH,
-        baseline_document,
-        baseline_path,
-        check_case,
-        environment,
-        load_suite,
-        read_baseline,
-    )
+    from sim.tools.regress import Status, check_case, load_suite
 
     suite = load_suite(args.suite or SUITE_PATH)
     baselines: Path = args.baselines or BASELINE_DIR
@@ -98,38 +98,48 @@ def run(args: argparse.Namespace) -> int:
     print(format_changes(moved) if moved else "no metric moved")
     print()
     for o in outcomes:
-        mode = "" if o.status not in ("pass", "fail") else (" (bit for bit)" if o.exact else " (tolerances)")
+        compared = o.status in (Status.PASS, Status.FAIL)
+        mode = "" if not compared else (" (bit for bit)" if o.exact else " (tolerances)")
         print(f"{o.status.upper():<16} {o.case.name}{mode}")
 
     if args.update:
-        written = 0
-        for o in outcomes:
-            if not o.metrics:
-                continue
-            path = baseline_path(o.case, baselines)
-            old = read_baseline(path)
-            doc = baseline_document(o.case, o.metrics)
-            if old == doc:
-                continue
-            write_json(path, doc, overwrite=True)
-            written += 1
-            if old is None:
-                print(f"new baseline {path}")
-            else:
-                what = [f"{k} {old['metrics'].get(k)!r} -> {v!r}" for k, v in o.metrics.items()
-                        if old["metrics"].get(k) != v]  # fmt: skip
-                if old.get("environment") != environment():
-                    what.append(f"environment {old.get('environment')} -> {environment()}")
-                if old.get("case") != doc["case"]:
-                    what.append("case fields")
-                print(f"updated {path}: " + ("; ".join(what) or "no change"))
+        written = update_baselines(outcomes, baselines)
         print(f"{written} baseline(s) written, {len(outcomes) - written} unchanged or not run")
-        bad = [o for o in outcomes if o.status in ("error", "nondeterministic")]
+        bad = [o for o in outcomes if o.status in (Status.ERROR, Status.NONDETERMINISTIC)]
         return 1 if bad else 0
 
     failed = [o for o in outcomes if not o.ok]
-    passed = sum(o.status == "pass" for o in outcomes)
+    passed = sum(o.ok for o in outcomes)
     print(f"\n{passed} passed, {len(failed)} failed of {len(outcomes)} case(s)")
     for o in failed:
         print(f"nhsim regress: {o.status}: {o.message}", file=sys.stderr)
     return 1 if failed else 0
+
+
+def update_baselines(outcomes: list[Any], baselines: Path) -> int:
+    """Rewrite the baselines of the cases measured whose document changed, printing what changed;
+    returns how many were written."""
+    from sim.outputs import write_json
+    from sim.tools.regress import baseline_document, baseline_path, environment, read_baseline
+
+    written = 0
+    for o in outcomes:
+        if not o.metrics:
+            continue
+        path = baseline_path(o.case, baselines)
+        old = read_baseline(path)
+        doc = baseline_document(o.case, dict(o.metrics))
+        if old == doc:
+            continue
+        write_json(path, doc, overwrite=True)
+        written += 1
+        if old is None:
+            print(f"new baseline {path}")
+            continue
+        what = [f"{k} {old['metrics'].get(k)!r} -> {v!r}" for k, v in o.metrics.items() if old["metrics"].get(k) != v]
+        if old.get("environment") != environment():
+            what.append(f"environment {old.get('environment')} -> {environment()}")
+        if old.get("case") != doc["case"]:
+            what.append("case fields")
+        print(f"updated {path}: " + ("; ".join(what) or "no change"))
+    return written

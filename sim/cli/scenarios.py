@@ -33,10 +33,16 @@ def scenario_rows() -> list[dict[str, Any]]:
             rows.append({"name": name, "error": str(exc)})
             continue
         robots = [sc.robot, *[r for r in sc.robots if r != sc.robot]]
-        rows.append({
-            "name": sc.name, "robots": robots, "bounds": list(sc.world.bounds),
-            "obstacles": len(sc.world.obstacles), "planner": sc.planner or "-", "description": sc.description,
-        })  # fmt: skip
+        rows.append(
+            {
+                "name": sc.name,
+                "robots": robots,
+                "bounds": list(sc.world.bounds),
+                "obstacles": len(sc.world.obstacles),
+                "planner": sc.planner or "-",
+                "description": sc.description,
+            }
+        )
     return rows
 
 
@@ -53,6 +59,8 @@ def run(args: argparse.Namespace) -> int:
             print(f"{r['name']:<16} error: {r['error']}")
             continue
         bounds = "[" + ", ".join(f"{b:g}" for b in r["bounds"]) + "]"
-        print(f"{r['name']:<16} {', '.join(r['robots']):<22} {bounds:<26} {r['obstacles']:>9}  "
-              f"{r['planner']:<12} {r['description']}")  # fmt: skip
+        print(
+            f"{r['name']:<16} {', '.join(r['robots']):<22} {bounds:<26} {r['obstacles']:>9}  "
+            f"{r['planner']:<12} {r['description']}"
+        )
     return 1 if failed else 0

@@ -9,8 +9,42 @@ from typing import Any
 
 from planning.errors import ConfigError
 from sim.cli.job_outputs import add_output_arguments
+from sim.pipeline.runs import RunKind
 
-TRACKER_CHOICES = {"fbl": ("closed_loop",), "open-loop": ("open_loop",), "both": ("closed_loop", "open_loop")}
+DESCRIPTION = (
+    "Run the robot in MuJoCo physics along a reference trajectory, once with the dynamic "
+    "feedback-linearisation tracker (closed loop) and once replaying the reference inputs "
+    "(open loop), and print each run's errors. With no arguments: seed 003's job, a C-RRT* "
+    "plan through the 'edumip_map' scenario, smoothed and tracked (when the c-rrt-star planner "
+    "and that scenario are installed; otherwise TurtleBot3, figure-eight, in the 'open' "
+    "scenario).\n\n"
+    "--planner P plans the scenario with P, smooths the path (piecewise polynomial, speed "
+    "profile, cusps and turns in place) and tracks it with the segmented tracker. --all runs "
+    "every built-in scenario with every applicable planner (the scenario's own planner, every "
+    "obstacle-avoiding planner, and obstacle-free planners where there are no obstacles) for "
+    "every robot the scenario lists, and prints one row each.\n\n"
+    f"JSON record (--json): per run ({', '.join(repr(str(kind)) for kind in RunKind)}) final_position_error_m, "
+    "final_heading_error_rad, rms_position_error_m, max_position_error_m, collisions, warnings, "
+    "saturation_fraction; plus scenario, robot, source, tracker, gains, control_rate_hz, seed "
+    "and package versions.\n\n"
+    "Outputs: renders/<scenario>-<reference>.mp4 (both runs: closed loop solid, open loop as a "
+    "ghost), PNG plots and a JSON record beside it; an existing file is never replaced without "
+    "--overwrite (the command stops with an error before running anything).\n\n"
+    "Exit status: 0 when every run is clean (no MuJoCo warning, no collision in closed loop), "
+    "1 otherwise, 2 on bad input."
+)
+
+
+def run_choices() -> dict[str, tuple[RunKind, ...]]:
+    """``--tracker`` choice -> the run kinds it makes: the closed loop (named by the reference's
+    feedback tracker), the open loop (named by its tracker), or both."""
+    from sim.pipeline.runs import REFERENCE_TRACKER
+
+    return {
+        REFERENCE_TRACKER: (RunKind.CLOSED_LOOP,),
+        RunKind.OPEN_LOOP.tracker: (RunKind.OPEN_LOOP,),
+        "both": (RunKind.CLOSED_LOOP, RunKind.OPEN_LOOP),
+    }
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
@@ -18,30 +52,21 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p: argparse.ArgumentParser = sub.add_parser(
         "simulate",
         help="track a reference closed loop and open loop in MuJoCo and report the errors",
-        description=(
-            "Run the robot in MuJoCo physics along a reference trajectory, once with the dynamic "
-            "feedback-linearisation tracker (closed loop) and once replaying the reference inputs "
-            "(open loop), and print each run's errors. With no arguments: seed 003's job, a C-RRT* "
-            "plan through the 'edumip_map' scenario, smoothed and tracked (when the c-rrt-star planner "
-            "and that scenario are installed; otherwise TurtleBot3, figure-eight, in the 'open' "
-            "scenario).\n\n"
-            "--planner P plans the scenario with P, smooths the path (piecewise polynomial, speed "
-            "profile, cusps and turns in place) and tracks it with the segmented tracker. --all runs "
-            "every built-in scenario with every applicable planner (the scenario's own planner, every "
-            "obstacle-avoiding planner, and obstacle-free planners where there are no obstacles) for "
-            "every robot the scenario lists, and prints one row each.\n\n"
-            "JSON record (--json): per run ('closed_loop', 'open_loop') final_position_error_m, "
-            "final_heading_error_rad, rms_position_error_m, max_position_error_m, collisions, warnings, "
-            "saturation_fraction; plus scenario, robot, source, tracker, gains, control_rate_hz, seed "
-            "and package versions.\n\n"
-            "Outputs: renders/<scenario>-<reference>.mp4 (both runs: closed loop solid, open loop as a "
-            "ghost), PNG plots and a JSON record beside it; an existing file is never replaced without "
-            "--overwrite (the command stops with an error before running anything).\n\n"
-            "Exit status: 0 when every run is clean (no MuJoCo warning, no collision in closed loop), "
-            "1 otherwise, 2 on bad input."
-        ),
+        description=DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
+    _add_job_arguments(p)
+    _add_run_arguments(p)
+    add_output_arguments(p)
+    return p
+
+
+def _add_job_arguments(p: argparse.ArgumentParser) -> None:
+    """What to run: scenario, robot, reference or planner, the sweep."""
+    from planning.core.robot import ROBOT_FILES
+    from planning.planners.base import PLANNERS
+    from planning.trajectory.references import REFERENCES
+
     p.add_argument(
         "--scenario",
         default="open",
@@ -50,22 +75,29 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--robot",
-        choices=["turtlebot3", "edumip"],
+        choices=list(ROBOT_FILES),
         default=None,
         help="robot, overriding the scenario's (default: the scenario's robot)",
     )
     p.add_argument(
         "--reference",
-        choices=["figure8", "circle", "line"],
+        choices=list(REFERENCES),
         default=None,
         help="analytic reference placed at the scenario's start pose (default: figure8)",
     )
-    p.add_argument("--planner", default=None, metavar="P", help="plan the scenario with planner P and track the plan")
+    planners = ", ".join(sorted(PLANNERS)) or "none registered"
+    p.add_argument(
+        "--planner", default=None, metavar="P", help=f"plan the scenario with planner P ({planners}) and track the plan"
+    )
     p.add_argument("--all", action="store_true", help="every built-in scenario x applicable planner x robot")
     p.add_argument("--time-limit", type=float, default=30.0, metavar="S", help="planning budget (default: 30 s)")
+
+
+def _add_run_arguments(p: argparse.ArgumentParser) -> None:
+    """How to run it: runs, gains, perturbation, rate, seed, record, verbosity."""
     p.add_argument(
         "--tracker",
-        choices=sorted(TRACKER_CHOICES),
+        choices=sorted(run_choices()),
         default="both",
         help="fbl (closed loop), open-loop, or both (default: both)",
     )
@@ -99,22 +131,21 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     p.add_argument("--quiet", action="store_true", help="print only the results table; no progress bars")
-    add_output_arguments(p)
-    return p  # fmt: skip
 
 
 def format_table(record: dict[str, Any]) -> str:
-    """The metrics table printed by ``simulate``."""
-    rows = [label for label in ("closed_loop", "open_loop") if label in record]
+    """The metrics table printed by ``simulate``: one row per run in the record."""
     head = (
         f"{'run':<12} {'final pos [m]':>14} {'final head [rad]':>17} {'rms pos [m]':>12} {'max pos [m]':>12} "
         f"{'collisions':>10} {'warnings':>8}"
     )
     lines = [head, "-" * len(head)]
-    for label in rows:
-        r = record[label]
+    for kind in RunKind:
+        if kind not in record:
+            continue
+        r = record[kind]
         lines.append(
-            f"{label:<12} {r['final_position_error_m']:>14.4f} {r['final_heading_error_rad']:>17.4f} "
+            f"{kind:<12} {r['final_position_error_m']:>14.4f} {r['final_heading_error_rad']:>17.4f} "
             f"{r['rms_position_error_m']:>12.4f} {r['max_position_error_m']:>12.4f} "
             f"{r['collisions']:>10d} {r['warnings']:>8d}"
         )
@@ -128,59 +159,60 @@ def run(args: argparse.Namespace) -> int:
     gl.configure(args.gl)  # before anything imports mujoco
     from control.fbl import FBLGains
     from control.gains import resolve_gains
-    from planning.scenario import load_scenario
-    from sim.cli.job_outputs import plan_outputs, write_outputs
     from sim.physics.perturb import Perturbation
-    from sim.physics.simulator import SimConfig
-    from sim.pipeline.simulate import simulate_reference
 
     gains = resolve_gains(args.gains) if args.gains else FBLGains()
     perturbation = Perturbation.parse(args.perturb, seed=args.seed) if args.perturb else None
     if args.control_rate <= 0:
         raise ConfigError(f"--control-rate must be > 0 Hz, got {args.control_rate}")
-    config = SimConfig(control_rate=args.control_rate)
     if args.all:
-        if args.json is not None:
-            from sim.outputs import check_writable
+        from sim.cli.sweep_table import run_all
 
-            check_writable(args.json, overwrite=args.overwrite)
-        return _run_all(args, gains)
+        return run_all(args, gains)
+    return _run_job(args, gains, perturbation)
+
+
+def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
+    """One job: outputs planned, the case prepared and tracked, the table printed, the files written."""
+    from planning.scenario import load_scenario
+    from sim.cli.job_outputs import plan_outputs, write_outputs
+    from sim.cli.progress import JobBars
+    from sim.pipeline.case import Case, PlanOptions
+    from sim.pipeline.simulate import simulate
+
     planner, scenario = args.planner, args.scenario
     if planner is None and args.reference is None and scenario == "open" and _default_plan_available():
         scenario, planner = DEFAULT_PLAN
     if planner is not None and args.reference is not None:
         raise ConfigError("--reference and --planner exclude each other: track an analytic curve or a plan")
+    source = {"planner": planner} if planner is not None else {"reference": args.reference or "figure8"}
+    case = Case(
+        scenario,
+        robot=args.robot,
+        seed=args.seed,
+        control_rate=args.control_rate,
+        gains=gains,
+        perturbation=perturbation,
+        planning=PlanOptions(time_limit=args.time_limit),
+        **source,
+    )
     outputs = plan_outputs(args, scenario=load_scenario(scenario).name, source=planner or args.reference or "figure8")
-    from sim.cli.progress import JobBars
-
     with JobBars(outputs.progress) as bars:
-        if planner is not None:
-            from sim.pipeline.simulate import PLAN_HOLD_S, simulate_plan
-
-            result = simulate_plan(
-                scenario, robot=args.robot, planner=planner, seed=args.seed, gains=gains,
-                config=SimConfig(control_rate=args.control_rate, hold=PLAN_HOLD_S), time_limit=args.time_limit,
-                trackers=TRACKER_CHOICES[args.tracker], perturbation=perturbation, progress=bars,
-            )  # fmt: skip
-        else:
-            result = simulate_reference(
-                scenario, robot=args.robot, reference=args.reference or "figure8",
-                trackers=TRACKER_CHOICES[args.tracker], gains=gains, config=config, seed=args.seed,
-                perturbation=perturbation, progress=bars,
-            )  # fmt: skip
+        result = simulate(case, run_choices()[args.tracker], progress=bars)
     record = result.record()
     if not args.quiet:
         print(
             f"scenario {result.scenario.name} | robot {result.robot.name} | {result.source} | "
-            f"{result.trajectory.duration:.1f} s | control {config.control_rate:g} Hz | "
+            f"{result.trajectory.duration:.1f} s | control {args.control_rate:g} Hz | "
             f"gains Kp={gains.kp:g} Kd={gains.kd:g}" + (f" | perturbed {perturbation.label()}" if perturbation else "")
         )
     print(format_table(record))
     for path in write_outputs(result, outputs, record).values():
         if not args.quiet:
             print(f"wrote {path}")
-    clean = all(record[k]["warnings"] == 0 for k in TRACKER_CHOICES["both"] if k in record)
-    if "closed_loop" in record and record["closed_loop"]["collisions"] > 0:
+    clean = all(run.metrics.warnings == 0 for run in result.runs.values())
+    closed = result.runs.get(RunKind.CLOSED_LOOP)
+    if closed is not None and closed.metrics.collisions > 0:
         print("closed-loop run touched an obstacle", file=sys.stderr)
         clean = False
     return 0 if clean else 1
@@ -195,32 +227,3 @@ def _default_plan_available() -> bool:
     from planning.scenario import builtin_scenarios
 
     return DEFAULT_PLAN[1] in PLANNERS and DEFAULT_PLAN[0] in builtin_scenarios()
-
-
-def _run_all(args: argparse.Namespace, gains: Any) -> int:
-    """``simulate --all``: the matrix table, and its rows as JSON with --json."""
-    from sim.outputs import write_json
-    from sim.pipeline.sweep import (
-        format_matrix_row,
-        matrix_cases,
-        matrix_header,
-        matrix_passed,
-        matrix_record,
-        matrix_summary,
-        run_matrix,
-    )
-
-    cases = matrix_cases()
-    if args.robot is not None:
-        cases = [c for c in cases if c[1] == args.robot]
-    if args.planner is not None:
-        cases = [c for c in cases if c[2] == args.planner]
-    print(matrix_header(), flush=True)
-    rows = run_matrix(cases, progress=lambda row: print(format_matrix_row(row), flush=True), seed=args.seed,
-                      gains=gains, control_rate=args.control_rate, time_limit=args.time_limit)  # fmt: skip
-    print("\n".join(matrix_summary(rows)))  # part of the results: printed with --quiet too
-    if args.json is not None:
-        write_json(args.json, matrix_record(rows), overwrite=args.overwrite)
-        if not args.quiet:
-            print(f"wrote {args.json}")
-    return 0 if matrix_passed(rows) else 1

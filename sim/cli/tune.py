@@ -8,6 +8,7 @@ import re
 import sys
 import time
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -39,10 +40,15 @@ completed trial; rerun the command to resume)."""
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Register the ``tune`` subcommand."""
+    from planning.core.robot import ROBOT_FILES
+    from sim.tools.tune import SAMPLERS
+
     p: argparse.ArgumentParser = sub.add_parser(
-        "tune", help="tune tracker gains with Optuna (resumable study, gains file, plots)",
-        description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter,
-    )  # fmt: skip
+        "tune",
+        help="tune tracker gains with Optuna (resumable study, gains file, plots)",
+        description=DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument(
         "--scenarios", required=True, metavar="CASE,...", help="cases to tune on, e.g. open:figure8,open:circle"
     )
@@ -57,8 +63,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="SQLAlchemy URL of the study storage (default: sqlite:///renders/tune-<study>.db)",
     )
     p.add_argument("--study", default=None, metavar="NAME", help="study name (default: derived from the cases)")
-    p.add_argument("--sampler", choices=["tpe", "random"], default="tpe", help="Optuna sampler (default: tpe)")
-    p.add_argument("--robot", choices=["turtlebot3", "edumip"], default=None, help="robot (default: each scenario's)")
+    p.add_argument("--sampler", choices=list(SAMPLERS), default="tpe", help="Optuna sampler (default: tpe)")
+    p.add_argument("--robot", choices=list(ROBOT_FILES), default=None, help="robot (default: each scenario's)")
     p.add_argument("--control-rate", type=float, default=50.0, metavar="HZ", help="tracker rate (default: 50)")
     p.add_argument("--robust", action="store_true", help="evaluate every trial over seeded perturbations")
     p.add_argument(
@@ -104,7 +110,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     p.add_argument("--quiet", action="store_true", help="no progress display")
-    return p  # fmt: skip
+    return p
 
 
 def default_study_name(tokens: list[str], robot: str | None, robust: bool) -> str:
@@ -163,8 +169,10 @@ def _run_parallel(spec: Any, shares: list[int], study: Any, progress: _Progress)
             proc.join()
     bad = [proc.exitcode for proc in procs if proc.exitcode != 0]
     if bad:
-        raise ConfigError(f"{len(bad)} tuning worker(s) failed (exit codes {bad}); the study keeps its completed "
-                          "trials, rerun the command to resume")  # fmt: skip
+        raise ConfigError(
+            f"{len(bad)} tuning worker(s) failed (exit codes {bad}); the study keeps its completed trials, rerun "
+            "the command to resume"
+        )
 
 
 def _save_figure(plt: Any, ax: Any, path: Path, overwrite: bool) -> None:
@@ -204,54 +212,102 @@ def _save_plots(study: Any, history: Path, importance: Path, overwrite: bool) ->
     return written, notes
 
 
-def run(args: argparse.Namespace) -> int:
-    """Execute ``tune``."""
-    from control.gains import GainsFile, dump_gains_toml
-    from sim.outputs import atomic_path, check_writable
-    from sim.physics.perturb import PerturbationRange
-    from sim.pipeline.case import Case
-    from sim.tools.tune import (
-        TuneSpec,
-        completed,
-        default_trial,
-        ensure_default_trial,
-        gains_of,
-        load_study,
-        run_worker,
-        split_trials,
-    )
+@dataclass(frozen=True)
+class TuneFiles:
+    """Where a tuning run keeps its study and writes its outputs.
 
-    tokens = [t.strip() for t in args.scenarios.split(",") if t.strip()]
-    if not tokens:
-        raise ConfigError("--scenarios is empty; give cases such as open:figure8,open:circle")
-    counts = {"--trials": (args.trials, 1), "--jobs": (args.jobs, 1), "--robust-runs": (args.robust_runs, 1),
-              "--eval-runs": (args.eval_runs, 0)}  # fmt: skip
+    Attributes:
+        study: Study name.
+        storage: SQLAlchemy URL of the study.
+        gains: Gains file to write.
+        history: Optimisation history plot.
+        importance: Parameter importance plot.
+    """
+
+    study: str
+    storage: str
+    gains: Path
+    history: Path
+    importance: Path
+
+
+def tune_files(args: argparse.Namespace, tokens: list[str]) -> TuneFiles:
+    """Decide the study name, its storage and the output files, and check none would be replaced.
+
+    Raises:
+        OutputExistsError: An output exists and --overwrite was not given.
+    """
+    from sim.outputs import check_writable
+
+    study = args.study or default_study_name(tokens, args.robot, args.robust)
+    files = TuneFiles(
+        study,
+        args.storage or f"sqlite:///renders/tune-{study}.db",
+        args.out or Path("renders") / f"tune-{study}.toml",
+        args.plots / f"tune-{study}-history.png",
+        args.plots / f"tune-{study}-importance.png",
+    )
+    for path in (files.gains, files.history, files.importance):
+        check_writable(path, overwrite=args.overwrite)
+    return files
+
+
+def _check_counts(args: argparse.Namespace) -> None:
+    counts = {
+        "--trials": (args.trials, 1),
+        "--jobs": (args.jobs, 1),
+        "--robust-runs": (args.robust_runs, 1),
+        "--eval-runs": (args.eval_runs, 0),
+    }
     for name, (value, low) in counts.items():
         if value < low:
             raise ConfigError(f"{name} must be >= {low}, got {value}")
     if args.control_rate <= 0:
         raise ConfigError(f"--control-rate must be > 0 Hz, got {args.control_rate}")
-    cases = tuple(Case.parse(t, robot=args.robot, seed=args.seed, control_rate=args.control_rate) for t in tokens)
-    prange = PerturbationRange.parse(args.perturb_range) if args.perturb_range else PerturbationRange()
-    study_name = args.study or default_study_name(tokens, args.robot, args.robust)
-    default_storage = args.storage is None
-    storage = args.storage or f"sqlite:///renders/tune-{study_name}.db"
-    out = args.out or Path("renders") / f"tune-{study_name}.toml"
-    history = args.plots / f"tune-{study_name}-history.png"
-    importance = args.plots / f"tune-{study_name}-importance.png"
-    for path in (out, history, importance):
-        check_writable(path, overwrite=args.overwrite)
 
+
+def run(args: argparse.Namespace) -> int:
+    """Execute ``tune``."""
+    from sim.physics.perturb import PerturbationRange
+    from sim.pipeline.case import Case
+    from sim.tools.tune import TuneSpec
+
+    tokens = [t.strip() for t in args.scenarios.split(",") if t.strip()]
+    if not tokens:
+        raise ConfigError("--scenarios is empty; give cases such as open:figure8,open:circle")
+    _check_counts(args)
+    fields_ = {"robot": args.robot, "seed": args.seed, "control_rate": args.control_rate, "tracker": "fbl"}
+    cases = tuple(Case.parse(t, **fields_) for t in tokens)
+    prange = PerturbationRange.parse(args.perturb_range) if args.perturb_range else PerturbationRange()
+    files = tune_files(args, tokens)
     perts = tuple(prange.sample(args.robust_runs, args.seed)) if args.robust else ()  # each case meets all
     spec = TuneSpec(
-        cases, perts, storage, study_name, args.trials, args.sampler, args.seed, args.saturation_weight,
+        cases,
+        perts,
+        files.storage,
+        files.study,
+        args.trials,
+        args.sampler,
+        args.seed,
+        args.saturation_weight,
         extra_settings={"robust": args.robust, "control_rate": args.control_rate, "robot": args.robot},
-    )  # fmt: skip
-    # Cases are built (and checked) before anything is written.
-    spec.evaluator().prepared()
-    if default_storage:
+    )
+    evaluator = spec.evaluator()
+    evaluator.prepared()  # cases are built (and checked) before anything is written
+    if args.storage is None:
         Path("renders").mkdir(exist_ok=True)
+    study = _optimise(args, spec)
+    best, default_obj = _report_best(study, spec, evaluator)
+    comparison = _held_out(args, evaluator, prange, best)
+    _write_outputs(args, files, study, tokens, best, default_obj, comparison)
+    return 0
+
+
+def _optimise(args: argparse.Namespace, spec: Any) -> Any:
+    """Open (or create) the study and run the trials it still lacks, on one or more workers."""
     import optuna
+
+    from sim.tools.tune import completed, ensure_default_trial, load_study, run_worker, split_trials
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
@@ -260,11 +316,14 @@ def run(args: argparse.Namespace) -> int:
     remaining = max(args.trials - done, 0)
     if remaining:
         ensure_default_trial(study)
-    show = not args.quiet and sys.stderr.isatty()
     if not args.quiet:
-        print(f"study {study_name} in {storage}: {done} of {args.trials} trials complete, running {remaining}"
-              f"{f' on {args.jobs} workers' if args.jobs > 1 and remaining > 1 else ''}", file=sys.stderr)  # fmt: skip
-    progress = _Progress(args.trials, done, show)
+        workers = f" on {args.jobs} workers" if args.jobs > 1 and remaining > 1 else ""
+        print(
+            f"study {spec.study} in {spec.storage}: {done} of {args.trials} trials complete, running {remaining}"
+            f"{workers}",
+            file=sys.stderr,
+        )
+    progress = _Progress(args.trials, done, not args.quiet and sys.stderr.isatty())
     shares = split_trials(remaining, args.jobs)
     try:
         if len(shares) == 1:
@@ -273,55 +332,87 @@ def run(args: argparse.Namespace) -> int:
             _run_parallel(spec, shares, study, progress)
     finally:
         progress.close()
+    return study
+
+
+def _report_best(study: Any, spec: Any, evaluator: Any) -> tuple[Any, float]:
+    """Print the best trial against the default gains; returns it and the defaults' objective."""
+    from control.fbl import FBLGains
+    from sim.tools.tune import completed, default_trial, gains_of
 
     trials = completed(study)
     best = min(trials, key=lambda t: (t.value, t.number))
     tuned = gains_of(best)
     dtrial = default_trial(study)
-    evaluator = spec.evaluator()
-    default_obj = dtrial.value if dtrial is not None else evaluator.evaluate(gains_of_default()).objective
-    print(f"study {study_name}: {len(trials)} completed trials ({storage})")
-    print(f"best trial #{best.number}: kp={tuned.kp:.4g} kd={tuned.kd:.4g} xi_min={tuned.xi_min:.4g} "
-          f"objective {best.value:.6f} m; default gains objective {default_obj:.6f} m "
-          f"(ratio {best.value / default_obj:.3f})")  # fmt: skip
+    default_obj = dtrial.value if dtrial is not None else evaluator.evaluate(FBLGains()).objective
+    print(f"study {spec.study}: {len(trials)} completed trials ({spec.storage})")
+    print(
+        f"best trial #{best.number}: kp={tuned.kp:.4g} kd={tuned.kd:.4g} xi_min={tuned.xi_min:.4g} "
+        f"objective {best.value:.6f} m; default gains objective {default_obj:.6f} m "
+        f"(ratio {best.value / default_obj:.3f})"
+    )
+    return best, float(default_obj)
 
-    comparison: dict[str, Any] = {}
-    if args.eval_runs:
-        held_out = prange.sample(args.eval_runs, args.seed + 7919)  # every case meets each of them
-        ev = evaluator.with_perturbations(held_out)
-        res_default = ev.evaluate(gains_of_default())
-        res_tuned = ev.evaluate(tuned)
-        comparison = {"runs": res_tuned.runs, "seed": args.seed + 7919, "default": res_default.as_dict(),
-                      "tuned": res_tuned.as_dict()}  # fmt: skip
-        print(f"held-out perturbed runs: {res_tuned.runs} ({args.eval_runs} per case, seed {args.seed + 7919})")
-        print(f"{'gains':<8} {'objective [m]':>14} {'rms [m]':>10} {'final [m]':>10} {'saturation':>11} {'failed':>7}")
-        for label, r in (("default", res_default), ("tuned", res_tuned)):
-            print(f"{label:<8} {r.objective:>14.6f} {r.rms_m:>10.6f} {r.final_m:>10.6f} {r.saturation:>11.4f} "
-                  f"{r.failures:>7d}")  # fmt: skip
-        d, t = res_default, res_tuned
-        print(f"tuned / default: objective {t.objective / d.objective:.3f}, rms {t.rms_m / d.rms_m:.3f}, "
-              f"final {t.final_m / d.final_m:.3f}")  # fmt: skip
+
+def _held_out(args: argparse.Namespace, evaluator: Any, prange: Any, best: Any) -> dict[str, Any]:
+    """Compare tuned and default gains over held-out perturbed runs (--eval-runs); print the table."""
+    from control.fbl import FBLGains
+    from sim.tools.tune import gains_of
+
+    if not args.eval_runs:
+        return {}
+    seed = args.seed + 7919
+    held_out = prange.sample(args.eval_runs, seed)  # every case meets each of them
+    ev = evaluator.with_perturbations(held_out)
+    d, t = ev.evaluate(FBLGains()), ev.evaluate(gains_of(best))
+    print(f"held-out perturbed runs: {t.runs} ({args.eval_runs} per case, seed {seed})")
+    print(f"{'gains':<8} {'objective [m]':>14} {'rms [m]':>10} {'final [m]':>10} {'saturation':>11} {'failed':>7}")
+    for label, r in (("default", d), ("tuned", t)):
+        print(
+            f"{label:<8} {r.objective:>14.6f} {r.rms_m:>10.6f} {r.final_m:>10.6f} {r.saturation:>11.4f} "
+            f"{r.failures:>7d}"
+        )
+    print(
+        f"tuned / default: objective {t.objective / d.objective:.3f}, rms {t.rms_m / d.rms_m:.3f}, "
+        f"final {t.final_m / d.final_m:.3f}"
+    )
+    return {"runs": t.runs, "seed": seed, "default": d.as_dict(), "tuned": t.as_dict()}
+
+
+def _write_outputs(
+    args: argparse.Namespace,
+    files: TuneFiles,
+    study: Any,
+    tokens: list[str],
+    best: Any,
+    default_obj: float,
+    comparison: dict[str, Any],
+) -> None:
+    """Write the gains file with its provenance and the plots; print what was written."""
+    from control.gains import GainsFile, dump_gains_toml
+    from sim.outputs import atomic_path
+    from sim.tools.tune import completed, gains_of
 
     provenance: dict[str, Any] = {
-        "study": study_name, "storage": storage, "objective": float(best.value), "trial": best.number,
-        "default_objective": float(default_obj), "scenarios": tokens, "robot": args.robot or "scenario default",
-        "trials": len(trials), "sampler": args.sampler, "seed": args.seed, "robust": args.robust,
-        "saturation_weight": args.saturation_weight, "control_rate_hz": args.control_rate,
-    }  # fmt: skip
+        "study": files.study,
+        "storage": files.storage,
+        "objective": float(best.value),
+        "trial": best.number,
+        "default_objective": default_obj,
+        "scenarios": tokens,
+        "robot": args.robot or "scenario default",
+        "trials": len(completed(study)),
+        "sampler": args.sampler,
+        "seed": args.seed,
+        "robust": args.robust,
+        "saturation_weight": args.saturation_weight,
+        "control_rate_hz": args.control_rate,
+    }
     if comparison:
         provenance["held_out"] = comparison
-    with atomic_path(out, overwrite=args.overwrite) as tmp:
-        tmp.write_text(dump_gains_toml(GainsFile(tuned, provenance)), encoding="utf-8")
-    plots, notes = _save_plots(study, history, importance, args.overwrite)
-    written = [str(out), *plots]
+    with atomic_path(files.gains, overwrite=args.overwrite) as tmp:
+        tmp.write_text(dump_gains_toml(GainsFile(gains_of(best), provenance)), encoding="utf-8")
+    plots, notes = _save_plots(study, files.history, files.importance, args.overwrite)
     for note in notes:
         print(note, file=sys.stderr)
-    print("wrote " + ", ".join(written))
-    return 0
-
-
-def gains_of_default() -> Any:
-    """The tracker's default gains."""
-    from control.fbl import FBLGains
-
-    return FBLGains()
+    print("wrote " + ", ".join([str(files.gains), *plots]))

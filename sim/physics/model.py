@@ -117,70 +117,98 @@ def build_model(
         The compiled model and its geom indices.
     """
     spec = mujoco.MjSpec.from_file(str(robot.scene))
-    names: list[str] = []
     holder = spec.worldbody.add_body(name="obstacles")
     # One contact sensor counts robot-obstacle contacts in sensordata, so the physics loop needs no
     # Python scan of the contact list unless something is touching. intprm = [data, reduce, num]:
     # data bit 0 = "found", no reduction, one slot.
     spec.add_sensor(
-        name="obstacle_contact", type=mujoco.mjtSensor.mjSENS_CONTACT, objtype=mujoco.mjtObj.mjOBJ_XBODY,
-        objname="base", reftype=mujoco.mjtObj.mjOBJ_BODY, refname="obstacles", intprm=[1, 0, 1],
-    )  # fmt: skip
+        name="obstacle_contact",
+        type=mujoco.mjtSensor.mjSENS_CONTACT,
+        objtype=mujoco.mjtObj.mjOBJ_XBODY,
+        objname="base",
+        reftype=mujoco.mjtObj.mjOBJ_BODY,
+        refname="obstacles",
+        intprm=[1, 0, 1],
+    )
+    names: list[str] = []
     if world is not None:
-        h = obstacle_height
-        for i, obs in enumerate(world.obstacles):
-            name = f"obstacle_{i}"
-            if isinstance(obs, Circle):
-                holder.add_geom(
-                    name=name, type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[obs.radius, h / 2, 0],
-                    pos=[obs.center[0], obs.center[1], h / 2], rgba=list(OBSTACLE_RGBA),
-                )  # fmt: skip
-                names.append(name)
-            elif isinstance(obs, Box):
-                holder.add_geom(
-                    name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=[obs.size[0] / 2, obs.size[1] / 2, h / 2],
-                    pos=[obs.center[0], obs.center[1], h / 2], quat=_quat_yaw(obs.angle), rgba=list(OBSTACLE_RGBA),
-                )  # fmt: skip
-                names.append(name)
-            elif isinstance(obs, Ellipse):
-                n = 96
-                ang = np.linspace(0, 2 * np.pi, n, endpoint=False)
-                scale = 1.0 / np.cos(np.pi / n)  # circumscribe: the prism contains the ellipse
-                a, b = obs.radii
-                local = np.column_stack([a * scale * np.cos(ang), b * scale * np.sin(ang)])
-                c, s = np.cos(obs.angle), np.sin(obs.angle)
-                poly = local @ np.array([[c, s], [-s, c]]) + np.asarray(obs.center)
-                _add_prism(spec, holder, name, poly, h, OBSTACLE_RGBA)
-                names.append(name)
-            elif isinstance(obs, Polygon):
-                for k, tri in enumerate(triangulate(obs.array)):
-                    piece = f"{name}_{k}"
-                    _add_prism(spec, holder, piece, tri, h, OBSTACLE_RGBA)
-                    names.append(piece)
+        names += _add_obstacles(spec, holder, world, obstacle_height)
+        names += _add_walls(holder, world, wall_height, wall_thickness)
         xmin, xmax, ymin, ymax = world.bounds
-        t, wh = wall_thickness, wall_height
-        cx, cy = (xmin + xmax) / 2, (ymin + ymax) / 2
-        walls = {
-            "wall_west": ([xmin - t / 2, cy], [t / 2, (ymax - ymin) / 2 + t]),
-            "wall_east": ([xmax + t / 2, cy], [t / 2, (ymax - ymin) / 2 + t]),
-            "wall_south": ([cx, ymin - t / 2], [(xmax - xmin) / 2 + t, t / 2]),
-            "wall_north": ([cx, ymax + t / 2], [(xmax - xmin) / 2 + t, t / 2]),
-        }
-        for wname, (pos, half) in walls.items():
-            holder.add_geom(
-                name=wname, type=mujoco.mjtGeom.mjGEOM_BOX, size=[half[0], half[1], wh / 2],
-                pos=[pos[0], pos[1], wh / 2], rgba=list(WALL_RGBA),
-            )  # fmt: skip
-            names.append(wname)
-        span = max(xmax - xmin, ymax - ymin)
-        spec.stat.extent = float(span)
-        spec.stat.center = [cx, cy, 0.0]
+        spec.stat.extent = float(max(xmax - xmin, ymax - ymin))
+        spec.stat.center = [(xmin + xmax) / 2, (ymin + ymax) / 2, 0.0]
     model = spec.compile()
     obstacle_ids = np.array([model.geom(n).id for n in names], dtype=np.int64)
     base = model.body("base").id
     robot_bodies = {b for b in range(model.nbody) if b == base or _has_ancestor(model, b, base)}
     robot_ids = np.array([g for g in range(model.ngeom) if model.geom_bodyid[g] in robot_bodies], dtype=np.int64)
     return BuiltModel(model, obstacle_ids, robot_ids, {int(i): n for i, n in zip(obstacle_ids, names, strict=True)})
+
+
+def _add_obstacles(spec: mujoco.MjSpec, holder: mujoco.MjsBody, world: World, height: float) -> list[str]:
+    """Add the world's obstacles as static geoms of ``height`` [m]; returns their geom names in order."""
+    names: list[str] = []
+    h = height
+    for i, obs in enumerate(world.obstacles):
+        name = f"obstacle_{i}"
+        if isinstance(obs, Circle):
+            holder.add_geom(
+                name=name,
+                type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                size=[obs.radius, h / 2, 0],
+                pos=[obs.center[0], obs.center[1], h / 2],
+                rgba=list(OBSTACLE_RGBA),
+            )
+            names.append(name)
+        elif isinstance(obs, Box):
+            holder.add_geom(
+                name=name,
+                type=mujoco.mjtGeom.mjGEOM_BOX,
+                size=[obs.size[0] / 2, obs.size[1] / 2, h / 2],
+                pos=[obs.center[0], obs.center[1], h / 2],
+                quat=_quat_yaw(obs.angle),
+                rgba=list(OBSTACLE_RGBA),
+            )
+            names.append(name)
+        elif isinstance(obs, Ellipse):
+            n = 96
+            ang = np.linspace(0, 2 * np.pi, n, endpoint=False)
+            scale = 1.0 / np.cos(np.pi / n)  # circumscribe: the prism contains the ellipse
+            a, b = obs.radii
+            local = np.column_stack([a * scale * np.cos(ang), b * scale * np.sin(ang)])
+            c, s = np.cos(obs.angle), np.sin(obs.angle)
+            poly = local @ np.array([[c, s], [-s, c]]) + np.asarray(obs.center)
+            _add_prism(spec, holder, name, poly, h, OBSTACLE_RGBA)
+            names.append(name)
+        elif isinstance(obs, Polygon):
+            for k, tri in enumerate(triangulate(obs.array)):
+                piece = f"{name}_{k}"
+                _add_prism(spec, holder, piece, tri, h, OBSTACLE_RGBA)
+                names.append(piece)
+    return names
+
+
+def _add_walls(holder: mujoco.MjsBody, world: World, height: float, thickness: float) -> list[str]:
+    """Add four boundary walls of ``height`` and ``thickness`` [m] just outside the world's bounds;
+    returns their geom names."""
+    xmin, xmax, ymin, ymax = world.bounds
+    t = thickness
+    cx, cy = (xmin + xmax) / 2, (ymin + ymax) / 2
+    walls = {
+        "wall_west": ([xmin - t / 2, cy], [t / 2, (ymax - ymin) / 2 + t]),
+        "wall_east": ([xmax + t / 2, cy], [t / 2, (ymax - ymin) / 2 + t]),
+        "wall_south": ([cx, ymin - t / 2], [(xmax - xmin) / 2 + t, t / 2]),
+        "wall_north": ([cx, ymax + t / 2], [(xmax - xmin) / 2 + t, t / 2]),
+    }
+    for name, (pos, half) in walls.items():
+        holder.add_geom(
+            name=name,
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            size=[half[0], half[1], height / 2],
+            pos=[pos[0], pos[1], height / 2],
+            rgba=list(WALL_RGBA),
+        )
+    return list(walls)
 
 
 def _has_ancestor(model: mujoco.MjModel, body: int, ancestor: int) -> bool:

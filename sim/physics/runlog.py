@@ -8,7 +8,20 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.errors import SimulationError
+
 FloatArray = NDArray[np.float64]
+
+#: Series -> columns (None: a (N,) series; 0: any number, e.g. nq).
+WIDTHS: dict[str, int | None] = {
+    "t": None,
+    "pose": 3,
+    "qpos": 0,
+    "ref_pose": 3,
+    "command": 2,
+    "wheel_command": 2,
+    "wheel_speed": 2,
+}
 
 
 @dataclass(frozen=True)
@@ -23,8 +36,12 @@ class Contact:
 class RunLog:
     """What one run did, sampled at the log rate (at least the control rate).
 
+    Checks itself on construction: every series has N rows (``t`` is (N,), N >= 1) and the stated
+    columns (ValueError naming the series otherwise), and every value is finite (SimulationError:
+    the run diverged).
+
     Attributes:
-        t: (N,) times [s].
+        t: (N,) times [s] (increasing, except where MuJoCo reset an unstable run and its clock).
         pose: (N, 3) true pose [x, y, theta] of the base at each time (theta unwrapped); the tracker
             itself sees the pose sensors.
         qpos: (N, nq) full generalised positions, for replay and rendering.
@@ -48,15 +65,29 @@ class RunLog:
     warnings: tuple[str, ...] = ()
     meta: dict[str, Any] = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        if self.t.ndim != 1 or self.t.size < 1:
+            raise ValueError(f"RunLog.t must be (N,) with N >= 1 samples, got shape {self.t.shape}")
+        n = self.t.size
+        for name, a in self.arrays().items():
+            width = WIDTHS[name]
+            want = (n,) if width is None else (n, width or (a.shape[1] if a.ndim == 2 else -1))
+            if a.shape != want:
+                expected = "(N,)" if width is None else f"(N, {width or 'nq'})"
+                raise ValueError(f"RunLog.{name} must be {expected} with N = {n} (the length of t), got {a.shape}")
+            finite = np.isfinite(a).reshape(n, -1).all(axis=1)
+            if not finite.all():
+                k = int(np.argmin(finite))
+                raise SimulationError(
+                    f"RunLog.{name} is not finite at sample {k} (t = {self.t[k]:g} s): the run diverged"
+                )
+
     def __len__(self) -> int:
         return int(self.t.size)
 
     def arrays(self) -> dict[str, FloatArray]:
         """The numeric series by name (for comparisons and saving)."""
-        return {
-            "t": self.t, "pose": self.pose, "qpos": self.qpos, "ref_pose": self.ref_pose,
-            "command": self.command, "wheel_command": self.wheel_command, "wheel_speed": self.wheel_speed,
-        }  # fmt: skip
+        return {name: getattr(self, name) for name in WIDTHS}
 
     def identical_to(self, other: RunLog) -> bool:
         """Bitwise equality of every series, the contacts and the warnings."""

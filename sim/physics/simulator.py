@@ -15,6 +15,7 @@ from typing import Any
 
 import mujoco
 import numpy as np
+from numpy.typing import NDArray
 
 from control.base import Tracker
 from control.diffdrive import DiffDrive
@@ -78,8 +79,8 @@ class Simulator:
         self._quat_adr = int(m.sensor_adr[m.sensor("base_quat").id])
         self._wl_adr = int(m.sensor_adr[m.sensor("wheel_left_vel").id])
         self._wr_adr = int(m.sensor_adr[m.sensor("wheel_right_vel").id])
-        self._root_qadr = int(m.jnt_qposadr[m.joint("root").id])
-        self._wheel_dofs = [int(m.jnt_dofadr[m.joint(n).id]) for n in ("wheel_left_joint", "wheel_right_joint")]
+        self.root_qpos_adr = int(m.jnt_qposadr[m.joint("root").id])
+        self.wheel_dofs = [int(m.jnt_dofadr[m.joint(n).id]) for n in ("wheel_left_joint", "wheel_right_joint")]
         self._contact_adr = int(m.sensor_adr[m.sensor("obstacle_contact").id])
         self._act_l = m.actuator("wheel_left_motor").id
         self._act_r = m.actuator("wheel_right_motor").id
@@ -109,7 +110,8 @@ class Simulator:
             yaw_from_quat(float(s[q]), float(s[q + 1]), float(s[q + 2]), float(s[q + 3])),
         )
 
-    def _touching(self, data: mujoco.MjData) -> list[int]:
+    def touching(self, data: mujoco.MjData) -> list[int]:
+        """Obstacle geom ids the robot touches now (sorted)."""
         n = data.ncon
         if n == 0:
             return []
@@ -157,53 +159,51 @@ class Simulator:
         m = pert.apply_to_model(self.model) if pert is not None and pert.changes_model else self.model
         d = mujoco.MjData(m)
         set_pose(m, d, start or trajectory.start_pose)
-        k_ctrl = self.steps_per_control(cfg.control_rate)
         delay = pert.latency_steps(m.opt.timestep) if pert is not None else 0
-        # log chunks: at most 10 physics steps each, and (with latency) ending where commands arrive
-        chunks = next(
-            c for c in range(1, k_ctrl + 1) if k_ctrl % c == 0 and k_ctrl // c <= 10 and delay % (k_ctrl // c) == 0
+        schedule = Schedule.make(
+            self.steps_per_control(cfg.control_rate), float(m.opt.timestep), trajectory.duration + cfg.hold, delay
         )
-        k_log = k_ctrl // chunks
-        dt_ctrl = k_ctrl * m.opt.timestep
-        horizon = trajectory.duration + cfg.hold
-        n_ctrl = math.ceil(horizon / dt_ctrl - 1e-9)
-        noise = pert.sensor_noise(n_ctrl) if pert is not None else None
-        n_log = n_ctrl * chunks + 1
-        drv = drive or DiffDrive.from_robot(self.robot)
-        tracker.reset(trajectory, dt_ctrl)
+        noise = pert.sensor_noise(schedule.n_ctrl) if pert is not None else None
+        tracker.reset(trajectory, schedule.dt_ctrl)
+        recorder = Recorder(self, m, d, schedule, float(trajectory.t[0]))
+        self._control_loop(recorder, tracker, drive or DiffDrive.from_robot(self.robot), noise, progress)
+        info: dict[str, Any] = {
+            "robot": self.robot.name,
+            "tracker": tracker.name,
+            "control_rate_hz": cfg.control_rate,
+            "timestep_s": float(m.opt.timestep),
+            "trajectory": trajectory.name,
+        }
+        if pert is not None:
+            info["perturbation"] = pert.as_dict()
+        info.update(meta or {})
+        log = recorder.to_log(trajectory, info)
+        if log.warnings and cfg.strict:
+            err = SimulationError(f"MuJoCo warned during the run: {'; '.join(log.warnings)}")
+            err.log = log  # type: ignore[attr-defined]
+            raise err
+        return log
 
-        qvel = np.empty((n_log, m.nv))
-        qpos = np.empty((n_log, m.nq))
-        times = np.empty(n_log)
-        cmd = np.zeros((n_ctrl + 1, 2))
-        wcmd = np.zeros((n_ctrl + 1, 2))
-        contacts: list[Contact] = []
-        touching: set[int] = set()
-        t0 = float(trajectory.t[0])
-        ctrl = d.ctrl
-        sdata = d.sensordata
-        dqpos = d.qpos
-        dqvel = d.qvel
-        act_l, act_r = self._act_l, self._act_r
-        contact_adr = self._contact_adr
-        names = self.built.obstacle_names
-        read_pose = self.read_pose
-        command = tracker.command
-        wheel_speeds = drv.wheel_speeds
-        step = mujoco.mj_step
-        isfinite = math.isfinite
-
-        def contact_check() -> None:
-            now = set(self._touching(d))
-            for g in sorted(now - touching):
-                contacts.append(Contact(float(t0 + d.time), names.get(g, str(g))))
-            touching.clear()
-            touching.update(now)
-
-        qvel[0] = dqvel
-        qpos[0] = dqpos
-        times[0] = d.time
-        i = 1
+    def _control_loop(
+        self,
+        recorder: Recorder,
+        tracker: Tracker,
+        drive: DiffDrive,
+        noise: NDArray[np.float64] | None,
+        progress: Callable[[int, int], Any] | None,
+    ) -> None:
+        """Run the recorder's schedule: the tracker once per control period, physics in ``nstep`` chunks
+        between log samples, the wheel commands applied as they arrive (after the latency, if any).
+        Python runs per control period and per log sample, never per physics step."""
+        m, d, schedule = recorder.model, recorder.data, recorder.schedule
+        k_ctrl, k_log, delay = schedule.k_ctrl, schedule.k_log, schedule.delay
+        chunks, n_ctrl = schedule.chunks, schedule.n_ctrl
+        t0, dt_ctrl = recorder.t0, schedule.dt_ctrl
+        cmd, wcmd = recorder.command, recorder.wheel_command
+        ctrl, sdata = d.ctrl, d.sensordata
+        act_l, act_r, contact_adr = self._act_l, self._act_r, self._contact_adr
+        read_pose, command, wheel_speeds = self.read_pose, tracker.command, drive.wheel_speeds
+        sample, step, isfinite = recorder.sample, mujoco.mj_step, math.isfinite
         every = max(1, -(-n_ctrl // PROGRESS_UPDATES))
         if progress is not None:
             progress(0, n_ctrl)
@@ -230,49 +230,129 @@ class Simulator:
                     ctrl[act_l] = wcmd[src, 0]
                     ctrl[act_r] = wcmd[src, 1]
                 step(m, d, nstep=k_log)
-                qvel[i] = dqvel
-                qpos[i] = dqpos
-                times[i] = d.time
-                i += 1
-                if sdata[contact_adr] > 0.0 or touching:
-                    contact_check()
+                sample(sdata[contact_adr] > 0.0)
         if progress is not None:
             progress(n_ctrl, n_ctrl)
-        t_log = t0 + times
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """When a run calls its tracker and samples its log.
+
+    Attributes:
+        k_ctrl: Physics steps per control period.
+        chunks: Log samples per control period (at most 10 physics steps each, and with latency
+            ending where commands arrive).
+        k_log: Physics steps per log sample.
+        n_ctrl: Control periods of the run.
+        delay: Latency in physics steps.
+        dt_ctrl: Control period [s].
+    """
+
+    k_ctrl: int
+    chunks: int
+    k_log: int
+    n_ctrl: int
+    delay: int
+    dt_ctrl: float
+
+    @classmethod
+    def make(cls, k_ctrl: int, timestep: float, horizon: float, delay: int = 0) -> Schedule:
+        """The schedule of a run of ``horizon`` seconds [s] at ``k_ctrl`` steps of ``timestep`` [s]
+        per control period, with ``delay`` physics steps of latency."""
+        chunks = next(
+            c for c in range(1, k_ctrl + 1) if k_ctrl % c == 0 and k_ctrl // c <= 10 and delay % (k_ctrl // c) == 0
+        )
+        dt_ctrl = k_ctrl * timestep
+        n_ctrl = math.ceil(horizon / dt_ctrl - 1e-9)
+        return cls(k_ctrl, chunks, k_ctrl // chunks, n_ctrl, delay, dt_ctrl)
+
+    @property
+    def n_log(self) -> int:
+        """Log samples of the run (the start, then ``chunks`` per control period)."""
+        return self.n_ctrl * self.chunks + 1
+
+    def command_rows(self) -> NDArray[np.int64]:
+        """(n_log,) row of the command table in force during each log sample: the one set at the
+        start of its control period (row 0: none yet)."""
+        return np.concatenate([[0], np.repeat(np.arange(1, self.n_ctrl + 1), self.chunks)])
+
+    def wheel_command_rows(self) -> NDArray[np.int64]:
+        """(n_log,) row of the wheel command table actually applied during each log interval."""
+        if not self.delay:
+            return self.command_rows()
+        arrived = (np.arange(self.n_log - 1) * self.k_log - self.delay) // self.k_ctrl + 1
+        return np.concatenate([[0], np.maximum(arrived, 0)])
+
+
+class Recorder:
+    """The buffers of one run, filled by the control loop and turned into its :class:`RunLog`.
+
+    Args:
+        simulator: The simulator (sensor and joint addresses, obstacle geoms).
+        model: The model the run steps (perturbed or not).
+        data: The run's data, at the start pose (sampled here as the first log row).
+        schedule: The run's schedule.
+        t0: Trajectory time of the start [s].
+    """
+
+    def __init__(
+        self, simulator: Simulator, model: mujoco.MjModel, data: mujoco.MjData, schedule: Schedule, t0: float
+    ) -> None:
+        self.simulator, self.model, self.data, self.schedule, self.t0 = simulator, model, data, schedule, t0
+        n_log = schedule.n_log
+        self.qvel = np.empty((n_log, model.nv))
+        self.qpos = np.empty((n_log, model.nq))
+        self.times = np.empty(n_log)
+        self.command = np.zeros((schedule.n_ctrl + 1, 2))
+        self.wheel_command = np.zeros((schedule.n_ctrl + 1, 2))
+        self.contacts: list[Contact] = []
+        self._touching: set[int] = set()
+        self._qpos, self._qvel = data.qpos, data.qvel
+        self._i = 0
+        self.sample(False)
+
+    def sample(self, contact_sensed: bool) -> None:
+        """Log the state now; look for new robot-obstacle contacts when the contact sensor fired or
+        one was touching."""
+        i = self._i
+        self.qvel[i] = self._qvel
+        self.qpos[i] = self._qpos
+        self.times[i] = self.data.time
+        self._i = i + 1
+        if contact_sensed or self._touching:
+            self._contact_check()
+
+    def _contact_check(self) -> None:
+        d = self.data
+        now = set(self.simulator.touching(d))
+        names = self.simulator.built.obstacle_names
+        for g in sorted(now - self._touching):
+            self.contacts.append(Contact(float(self.t0 + d.time), names.get(g, str(g))))
+        self._touching = now
+
+    def warnings(self) -> tuple[str, ...]:
+        """MuJoCo's warnings of the run, one line per kind."""
+        w = self.data.warning
+        return tuple(
+            f"{WARNING_NAMES.get(j, str(j))} x{w[j].number} (last at step info {w[j].lastinfo})"
+            for j in range(len(w))
+            if w[j].number > 0
+        )
+
+    def to_log(self, trajectory: Trajectory, meta: dict[str, Any]) -> RunLog:
+        """The run's log: true poses at the logged times, the commands in force, the reference."""
+        sim, qpos = self.simulator, self.qpos
+        t_log = self.t0 + self.times
         # The log records the true state at the logged time (qpos after the step); the tracker saw
         # the pose sensors, which MuJoCo evaluates at the start of the last step (2 ms earlier).
-        q = qpos[:, self._root_qadr + 3 : self._root_qadr + 7]
+        r = sim.root_qpos_adr
+        q = qpos[:, r + 3 : r + 7]
         yaw = np.arctan2(2.0 * (q[:, 0] * q[:, 3] + q[:, 1] * q[:, 2]), 1.0 - 2.0 * (q[:, 2] ** 2 + q[:, 3] ** 2))
-        pose = np.column_stack([qpos[:, self._root_qadr], qpos[:, self._root_qadr + 1], yaw])
-        # command in force during each log sample: the one set at the start of its control period
-        owner = np.concatenate([[0], np.repeat(np.arange(1, n_ctrl + 1), chunks)])
-        cmd = cmd[owner]
-        if delay:  # wheel command actually applied during each log interval
-            arrived = (np.arange(n_log - 1) * k_log - delay) // k_ctrl + 1
-            wcmd = wcmd[np.concatenate([[0], np.maximum(arrived, 0)])]
-        else:
-            wcmd = wcmd[owner]
-        wspd = qvel[:, self._wheel_dofs]
+        pose = np.column_stack([qpos[:, r], qpos[:, r + 1], yaw])
         pose[:, 2] = np.unwrap(pose[:, 2])
+        cmd = self.command[self.schedule.command_rows()]
+        wcmd = self.wheel_command[self.schedule.wheel_command_rows()]
+        wspd = self.qvel[:, sim.wheel_dofs]
         ref = trajectory.sample_many(t_log).pose
-        warnings = tuple(
-            f"{WARNING_NAMES.get(j, str(j))} x{d.warning[j].number} (last at step info {d.warning[j].lastinfo})"
-            for j in range(len(d.warning))
-            if d.warning[j].number > 0
-        )
-        info = {
-            "robot": self.robot.name,
-            "tracker": tracker.name,
-            "control_rate_hz": cfg.control_rate,
-            "timestep_s": float(m.opt.timestep),
-            "trajectory": trajectory.name,
-        }
-        if pert is not None:
-            info["perturbation"] = pert.as_dict()
-        info.update(meta or {})
-        log = RunLog(t_log, pose, qpos, ref, cmd, wcmd, wspd, tuple(contacts), warnings, info)
-        if warnings and cfg.strict:
-            err = SimulationError(f"MuJoCo warned during the run: {'; '.join(warnings)}")
-            err.log = log  # type: ignore[attr-defined]
-            raise err
-        return log
+        return RunLog(t_log, pose, qpos, ref, cmd, wcmd, wspd, tuple(self.contacts), self.warnings(), meta)

@@ -1,10 +1,13 @@
-"""Cases: one seeded closed-loop run (scenario × robot × reference or planner × tracker), as the
-tuner and the regression suite name them.
+"""Cases and the plan -> trajectory stage: what to run, and the trajectory a case's runs follow.
+
+A :class:`Case` is one seeded job: scenario × robot × reference or planner × tracker, with its gains,
+control rate and perturbation. ``nhsim simulate`` (one job and the ``--all`` sweep), the tuner and the
+regression suite all describe their work as cases.
 
 A case tracks either an analytic reference placed at the scenario's start pose
-(``reference = "figure8"``) or a plan of the scenario (``planner = "rrt"``). A planned case plans,
-smooths and times the scenario once through :func:`sim.pipeline.simulate.simulate_plan`, and every run of the case
-tracks that trajectory.
+(``reference = "figure8"``) or a plan of the scenario (``planner = "rrt"``).
+:func:`prepare_trajectory` makes the trajectory once (a planned case plans, smooths and times the
+scenario); :func:`sim.pipeline.simulate.track` runs it.
 
 On the command line (``nhsim tune --scenarios``) a case is ``SCENARIO:REFERENCE`` (e.g.
 ``open:figure8``), ``SCENARIO:PLANNER`` or a bare ``SCENARIO`` (planned with the default planner).
@@ -12,52 +15,73 @@ On the command line (``nhsim tune --scenarios``) a case is ``SCENARIO:REFERENCE`
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
-from control.base import TRACKERS, make_tracker, tracker_options
+from control.base import TRACKERS
 from control.fbl import FBLGains
 from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot
 from planning.errors import ConfigError, ScenarioError
+from planning.planners.base import PLANNERS, PlanProblem, PlanResult, make_planner
 from planning.scenario import Scenario, load_scenario
+from planning.trajectory.from_plan import checked_trajectory
 from planning.trajectory.references import REFERENCES, make_reference
 from planning.trajectory.trajectory import Trajectory
-from sim.physics.metrics import TrackingMetrics, compute_metrics
 from sim.physics.perturb import Perturbation
-from sim.physics.runlog import RunLog
-from sim.physics.simulator import SimConfig, Simulator
-from sim.pipeline.simulate import PLAN_HOLD_S, simulate_plan
+from sim.pipeline.runs import PLAN_HOLD_S, PLAN_TRACKER, REFERENCE_TRACKER, Progress, RunKind
+
+
+@dataclass(frozen=True)
+class PlanOptions:
+    """How a planned case gets its plan.
+
+    Attributes:
+        time_limit: Planning budget [s].
+        planner_options: Keyword options for the planner factory, over the scenario's own
+            ``[planners.<name>]`` options for it.
+        smoothing: Keyword options for :func:`planning.trajectory.from_plan.make_trajectory`.
+        plan: A ready plan to use instead of planning (its ``planner`` names the source).
+    """
+
+    time_limit: float = 30.0
+    planner_options: Mapping[str, Any] = field(default_factory=dict)
+    smoothing: Mapping[str, Any] = field(default_factory=dict)
+    plan: PlanResult | None = None
 
 
 @dataclass(frozen=True)
 class Case:
-    """One seeded run.
+    """One seeded job.
 
     Attributes:
-        scenario: Built-in scenario name or path.
+        scenario: Built-in scenario name, path of a scenario file, or a loaded Scenario.
         robot: Robot name; None for the scenario's robot.
         reference: Analytic reference name (exclusive with ``planner``).
-        planner: Planner name (exclusive with ``reference``); "" for the default planner.
-        tracker: Tracker name (a key of ``TRACKERS``).
-        seed: Seed of the run (planner and noise).
+        planner: Planner name (exclusive with ``reference``); "" for the scenario's planner.
+        tracker: Feedback tracker (a key of ``TRACKERS``); None for the source's default
+            (``REFERENCE_TRACKER`` for a reference, ``PLAN_TRACKER`` for a plan).
+        seed: Seed of the job (planner and noise).
         control_rate: Tracker rate [Hz].
         gains: FBL gains; None for the defaults.
         perturbation: Physics perturbation; None for the nominal model.
         name: Case name; derived from the fields when empty.
         fast: In the default (fast) subset of a regression suite.
+        planning: Planning budget and options of a planned case.
     """
 
-    scenario: str
+    scenario: str | Scenario
     robot: str | None = None
     reference: str | None = None
     planner: str | None = None
-    tracker: str = "fbl"
+    tracker: str | None = None
     seed: int = 0
     control_rate: float = 50.0
     gains: FBLGains | None = None
     perturbation: Perturbation | None = None
     name: str = ""
     fast: bool = False
+    planning: PlanOptions = field(default_factory=PlanOptions)
 
     def __post_init__(self) -> None:
         if (self.reference is None) == (self.planner is None):
@@ -66,7 +90,7 @@ class Case:
             raise ConfigError(
                 f"case {self.label}: unknown reference {self.reference!r}; choose {', '.join(REFERENCES)}"
             )
-        if self.tracker not in TRACKERS:
+        if self.tracker is not None and self.tracker not in TRACKERS:
             raise ConfigError(f"case {self.label}: unknown tracker {self.tracker!r}; choose {', '.join(TRACKERS)}")
         if self.robot is not None and self.robot not in ROBOT_FILES:
             raise ConfigError(f"case {self.label}: unknown robot {self.robot!r}; choose {', '.join(ROBOT_FILES)}")
@@ -75,20 +99,41 @@ class Case:
 
     def _derived_name(self) -> str:
         what = self.reference if self.reference is not None else f"plan-{self.planner or 'default'}"
-        parts = [self.scenario, self.robot or "default", what, self.tracker, f"s{self.seed}"]
+        parts = [self.scenario_name, self.robot or "default", what, self.feedback_tracker, f"s{self.seed}"]
         if self.control_rate != 50.0:
             parts.append(f"{self.control_rate:g}hz")
         return "-".join(parts)
 
     @property
+    def scenario_name(self) -> str:
+        """The scenario's name (or path, as given)."""
+        return self.scenario.name if isinstance(self.scenario, Scenario) else self.scenario
+
+    @property
     def label(self) -> str:
         """Name if set, else the fields in short."""
-        return self.name or f"{self.scenario}:{self.reference or self.planner}"
+        return self.name or f"{self.scenario_name}:{self.reference or self.planner}"
 
     @property
     def token(self) -> str:
         """``SCENARIO:REFERENCE`` / ``SCENARIO:PLANNER`` form."""
-        return f"{self.scenario}:{self.reference if self.reference is not None else self.planner}"
+        return f"{self.scenario_name}:{self.reference if self.reference is not None else self.planner}"
+
+    @property
+    def feedback_tracker(self) -> str:
+        """The tracker of the closed-loop run: ``tracker``, else the source's default."""
+        if self.tracker is not None:
+            return self.tracker
+        return REFERENCE_TRACKER if self.reference is not None else PLAN_TRACKER
+
+    @property
+    def kind(self) -> RunKind:
+        """The kind of the case's single run (tuning, regression): the one its tracker belongs to."""
+        return RunKind.of_tracker(self.feedback_tracker)
+
+    def tracker_for(self, kind: RunKind) -> str:
+        """The tracker a run of ``kind`` uses in this case."""
+        return kind.tracker or self.feedback_tracker
 
     @classmethod
     def parse(cls, token: str, **fields_: Any) -> Case:
@@ -105,47 +150,28 @@ class Case:
         return cls(scenario, planner=second, **fields_)
 
 
-@dataclass
-class PreparedCase:
-    """A case with its scenario, robot, reference and simulator built once, to run many times.
+@dataclass(frozen=True)
+class PreparedTrajectory:
+    """A case with its scenario, robot and the trajectory its runs follow.
 
     Attributes:
         case: The case.
-        scenario: The loaded scenario (with the case's robot).
+        scenario: The scenario (with the case's robot).
         robot: The robot spec.
-        trajectory: The reference the tracker follows.
-        simulator: The compiled simulator.
-        extra: Plan statistics and the like.
+        trajectory: The reference the trackers follow.
+        source: "reference:<name>" or "planner:<name>".
         hold: Time simulated after the trajectory ends [s] (final regulation of planned cases).
+        extra: Record fields of the stage: a plan's ``plan`` status and statistics and its
+            ``smoothing`` statistics; empty for a reference.
     """
 
     case: Case
     scenario: Scenario
     robot: RobotSpec
     trajectory: Trajectory
-    simulator: Simulator
-    extra: dict[str, Any] = field(default_factory=dict)
+    source: str
     hold: float = 0.0
-
-    def run(
-        self, gains: FBLGains | None = None, perturbation: Perturbation | None = None
-    ) -> tuple[RunLog, TrackingMetrics]:
-        """Run the case once (strict off: MuJoCo warnings are counted in the metrics).
-
-        Args:
-            gains: Gains overriding the case's.
-            perturbation: Perturbation overriding the case's.
-        """
-        c = self.case
-        options = {"gains": gains or c.gains or FBLGains()} if "gains" in tracker_options(c.tracker) else {}
-        tracker = make_tracker(c.tracker, self.robot, **options)
-        pert = perturbation if perturbation is not None else c.perturbation
-        log = self.simulator.run(
-            self.trajectory, tracker, SimConfig(control_rate=c.control_rate, hold=self.hold, strict=False),
-            start=self.scenario.start, meta={"seed": c.seed, "case": c.name}, perturbation=pert,
-        )  # fmt: skip
-        m = compute_metrics(log, self.trajectory, max_speed=self.robot.max_speed, max_yaw_rate=self.robot.max_yaw_rate)
-        return log, m
+    extra: Mapping[str, Any] = field(default_factory=dict)
 
 
 def load_case_scenario(case: Case) -> Scenario:
@@ -154,42 +180,92 @@ def load_case_scenario(case: Case) -> Scenario:
     Raises:
         ScenarioError: Unknown scenario (the message lists the built-in ones) or a bad file.
     """
-    sc = load_scenario(case.scenario)
+    sc = case.scenario if isinstance(case.scenario, Scenario) else load_scenario(case.scenario)
     return sc.with_robot(case.robot) if case.robot is not None else sc
 
 
-def prepare(case: Case) -> PreparedCase:
-    """Build what a case needs (scenario, robot, reference or plan, simulator).
+def check_reference_fits(name: str, trajectory: Trajectory, scenario: Scenario, robot: RobotSpec) -> None:
+    """Raise unless an analytic reference keeps the robot's radius clear of every obstacle and wall.
+
+    Raises:
+        ScenarioError: The reference comes within the robot's radius of an obstacle or wall.
+    """
+    clearance = scenario.world.signed_distance(trajectory.pose[:, :2])
+    if float(clearance.min()) <= robot.radius:
+        k = int(clearance.argmin())
+        raise ScenarioError(
+            f"reference {name!r} placed at the start of scenario {scenario.name!r} comes within "
+            f"{max(float(clearance[k]), 0.0):.3f} m of an obstacle or wall at ({trajectory.pose[k, 0]:.2f}, "
+            f"{trajectory.pose[k, 1]:.2f}) but the {robot.name} needs {robot.radius:.3f} m; use a scenario with room "
+            f"for it (e.g. --scenario open) or plan a path with --planner"
+        )
+
+
+def plan_case(case: Case, scenario: Scenario, robot: RobotSpec, *, progress: Progress | None = None) -> PlanResult:
+    """The case's plan: its ready plan, or its planner's result on the scenario.
+
+    Args:
+        case: A planned case.
+        scenario: Its scenario (with the robot).
+        robot: Its robot.
+        progress: Told when planning starts and ends (stage "plan", seconds of the budget).
+
+    Raises:
+        ConfigError: No planner given and the scenario names none; unknown planner.
+    """
+    if case.planning.plan is not None:
+        return case.planning.plan
+    name = case.planner or scenario.planner
+    if name is None:
+        raise ConfigError(
+            f"scenario {scenario.name!r} names no planner; choose one with --planner "
+            f"({', '.join(sorted(PLANNERS)) or 'none registered'})"
+        )
+    limit = case.planning.time_limit
+    problem = PlanProblem.from_scenario(scenario, robot=robot, seed=case.seed, time_limit=limit)
+    solver = make_planner(name, **{**scenario.options_for(name), **case.planning.planner_options})
+    if progress is not None:
+        progress("plan", 0.0, limit)
+    try:
+        return solver.plan(problem)
+    finally:
+        if progress is not None:
+            progress("plan", limit, limit)
+
+
+def prepare_trajectory(case: Case, *, progress: Progress | None = None) -> PreparedTrajectory:
+    """Make the trajectory a case's runs follow: its reference at the start pose, or its plan
+    smoothed and timed (with ``PLAN_HOLD_S`` of final regulation after it).
 
     Raises:
         ScenarioError: Unknown scenario, or a reference that does not fit in the scenario.
-        ConfigError: A planned case where this build has no ``sim.pipeline.simulate.simulate_plan``.
+        ConfigError: A planned case with no planner, or an unknown one.
+        TrajectoryError: The plan failed or could not be made into a collision-free trajectory.
     """
     sc = load_case_scenario(case)
     spec = load_robot(sc.robot)
-    extra: dict[str, Any] = {}
     if case.reference is not None:
         traj = make_reference(case.reference, spec, sc.start)
-        clearance = sc.world.signed_distance(traj.pose[:, :2])
-        if float(clearance.min()) <= spec.radius:
-            raise ScenarioError(
-                f"case {case.label}: reference {case.reference!r} at the start of scenario {sc.name!r} comes within "
-                f"{spec.radius:.3f} m (the robot's radius) of an obstacle or wall; use a scenario with room around "
-                f"its start pose or a planner"
-            )
-    else:
-        # plan and time the trajectory only (no runs); the case's tracker runs it below
-        result = simulate_plan(
-            sc, planner=case.planner or None, seed=case.seed, trackers=(),
-            config=SimConfig(control_rate=case.control_rate),
-        )  # fmt: skip
-        traj = result.trajectory
-        extra = dict(result.extra)
-        hold = PLAN_HOLD_S
-        return PreparedCase(case, sc, spec, traj, Simulator(spec, sc.world), extra, hold=hold)
-    return PreparedCase(case, sc, spec, traj, Simulator(spec, sc.world), extra)
-
-
-def with_fields(case: Case, **changes: Any) -> Case:
-    """A copy of a case with fields changed (the name is kept unless given)."""
-    return replace(case, **changes)
+        check_reference_fits(case.reference, traj, sc, spec)
+        return PreparedTrajectory(case, sc, spec, traj, f"reference:{case.reference}")
+    plan = plan_case(case, sc, spec, progress=progress)
+    plan_rec: dict[str, Any] = {
+        "planner": plan.planner,
+        "status": plan.status.value,
+        "reason": plan.reason,
+        "time_s": plan.stats.get("time_s"),
+        "iterations": plan.stats.get("iterations"),
+        "length_m": plan.length(),
+    }
+    res = checked_trajectory(plan, spec, sc.world, goal=sc.goal, **case.planning.smoothing)
+    assert res.trajectory is not None
+    smoothing = {k: v for k, v in res.stats.items() if isinstance(v, (int, float, str, bool))}
+    return PreparedTrajectory(
+        case,
+        sc,
+        spec,
+        res.trajectory,
+        f"planner:{plan.planner}",
+        PLAN_HOLD_S,
+        {"plan": plan_rec, "smoothing": smoothing},
+    )

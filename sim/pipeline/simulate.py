@@ -1,90 +1,150 @@
-"""The main job: a scenario and a reference, tracked closed loop and open loop, measured.
+"""The track stage: a case's trajectory tracked in physics by each run kind, measured.
 
-The library returns data; only the CLI prints and writes files.
+:func:`track` runs a prepared trajectory (see :func:`sim.pipeline.case.prepare_trajectory`) for a
+set of :class:`~sim.pipeline.runs.RunKind`; :func:`simulate` is both stages for one case, and
+:func:`simulate_reference` / :func:`simulate_plan` build the case from a scenario and a reference or
+a planner. The library returns data; only the CLI prints and writes files.
 """
 
 from __future__ import annotations
 
 import platform
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, replace
 from importlib import metadata
 from typing import Any
 
 from control.base import make_tracker, tracker_options
 from control.fbl import FBLGains
-from planning.core.robot import RobotSpec, load_robot
-from planning.errors import ConfigError, ScenarioError
-from planning.planners.base import PLANNERS, PlanProblem, PlanResult, make_planner
-from planning.scenario import Scenario, load_scenario
-from planning.trajectory.from_plan import checked_trajectory
-from planning.trajectory.references import make_reference
+from planning.core.robot import RobotSpec
+from planning.errors import ConfigError
+from planning.planners.base import PLANNERS
+from planning.scenario import Scenario
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.metrics import TrackingMetrics, compute_metrics
 from sim.physics.perturb import Perturbation
 from sim.physics.runlog import RunLog
 from sim.physics.simulator import SimConfig, Simulator
-
-#: Run label -> tracker name.
-RUNS = {"closed_loop": "fbl", "open_loop": "open-loop"}
-
-#: A job's progress: (stage, done, total). Stages: "plan" with seconds of the planning budget
-#: (0 when planning starts, total when it returns), and each run label ("closed_loop", ...) with
-#: control periods of physics (see :meth:`sim.physics.simulator.Simulator.run`).
-Progress = Callable[[str, float, float], Any]
+from sim.pipeline.case import Case, PreparedTrajectory, prepare_trajectory
+from sim.pipeline.runs import ALL_RUNS, Progress, RunKind
 
 
-@dataclass
-class JobResult:
-    """Everything one simulate job produced.
+@dataclass(frozen=True)
+class Run:
+    """One run of a job.
 
     Attributes:
-        scenario: The scenario (with the robot in use).
-        robot: The robot spec.
-        trajectory: The reference that was tracked.
-        source: "reference:<name>" or "planner:<name>".
-        logs: Run label ("closed_loop", "open_loop") -> log.
-        metrics: Run label -> metrics.
-        gains: The tracker gains.
-        config: The simulation settings.
-        seed: The seed.
-        extra: Further record fields (plan statistics, files written, ...).
-        trackers: Run label -> tracker name actually used.
+        kind: The run kind.
+        tracker: Tracker name used.
+        log: What the engine did.
+        metrics: How well it followed the trajectory.
     """
 
-    scenario: Scenario
-    robot: RobotSpec
-    trajectory: Trajectory
-    source: str
-    logs: dict[str, RunLog]
-    metrics: dict[str, TrackingMetrics]
-    gains: FBLGains
+    kind: RunKind
+    tracker: str
+    log: RunLog
+    metrics: TrackingMetrics
+
+
+@dataclass(frozen=True)
+class JobResult:
+    """Everything one job produced.
+
+    Attributes:
+        prepared: The case and its trajectory.
+        runs: Run kind -> run, in the order run.
+        config: The simulation settings of the runs.
+    """
+
+    prepared: PreparedTrajectory
+    runs: Mapping[RunKind, Run]
     config: SimConfig
-    seed: int
-    extra: dict[str, Any] = field(default_factory=dict)
-    trackers: dict[str, str] = field(default_factory=lambda: dict(RUNS))
+
+    @property
+    def case(self) -> Case:
+        """The case."""
+        return self.prepared.case
+
+    @property
+    def scenario(self) -> Scenario:
+        """The scenario (with the robot in use)."""
+        return self.prepared.scenario
+
+    @property
+    def robot(self) -> RobotSpec:
+        """The robot spec."""
+        return self.prepared.robot
+
+    @property
+    def trajectory(self) -> Trajectory:
+        """The reference that was tracked."""
+        return self.prepared.trajectory
+
+    @property
+    def source(self) -> str:
+        """ "reference:<name>" or "planner:<name>"."""
+        return self.prepared.source
+
+    @property
+    def seed(self) -> int:
+        """The seed."""
+        return self.case.seed
+
+    @property
+    def gains(self) -> FBLGains:
+        """The tracker gains."""
+        return self.case.gains or FBLGains()
+
+    @property
+    def logs(self) -> dict[str, RunLog]:
+        """Run kind -> log (the keys are :class:`RunKind` members, which are strings)."""
+        return {kind: run.log for kind, run in self.runs.items()}
+
+    @property
+    def metrics(self) -> dict[str, TrackingMetrics]:
+        """Run kind -> metrics."""
+        return {kind: run.metrics for kind, run in self.runs.items()}
+
+    @property
+    def trackers(self) -> dict[str, str]:
+        """Run kind -> tracker name used."""
+        return {kind: run.tracker for kind, run in self.runs.items()}
+
+    @property
+    def extra(self) -> dict[str, Any]:
+        """Further record fields: the plan's and the smoothing's statistics, the perturbation."""
+        extra = dict(self.prepared.extra)
+        pert = self.case.perturbation
+        if pert is not None and not pert.is_nominal:
+            extra["perturbation"] = pert.as_dict()
+        return extra
 
     def record(self) -> dict[str, Any]:
         """The JSON run record."""
+        main = self.runs.get(RunKind.CLOSED_LOOP) or next(iter(self.runs.values()))
+        gains = self.gains
         rec: dict[str, Any] = {
             "scenario": self.scenario.name,
             "scenario_file": str(self.scenario.source) if self.scenario.source else None,
             "robot": self.robot.name,
             "source": self.source,
-            "trajectory": {"name": self.trajectory.name, "duration_s": self.trajectory.duration,
-                           "length_m": self.trajectory.path_length()},
-            "tracker": self.trackers["closed_loop" if "closed_loop" in self.logs else "open_loop"],
-            "gains": {"kp": self.gains.kp, "kd": self.gains.kd, "xi_min": self.gains.xi_min},
+            "trajectory": {
+                "name": self.trajectory.name,
+                "duration_s": self.trajectory.duration,
+                "length_m": self.trajectory.path_length(),
+            },
+            "tracker": main.tracker,
+            "gains": {"kp": gains.kp, "kd": gains.kd, "xi_min": gains.xi_min},
             "control_rate_hz": self.config.control_rate,
             "seed": self.seed,
             "versions": versions(),
-        }  # fmt: skip
-        for label, m in self.metrics.items():
-            run: dict[str, Any] = dict(m.as_dict())
-            run["tracker"] = self.trackers[label]
-            run["warning_messages"] = list(self.logs[label].warnings)
-            run["contacts"] = [{"t": c.t, "obstacle": c.obstacle} for c in self.logs[label].contacts]
-            rec[label] = run
+        }
+        for kind, run in self.runs.items():
+            entry: dict[str, Any] = dict(run.metrics.as_dict())
+            entry["tracker"] = run.tracker
+            entry["warning_messages"] = list(run.log.warnings)
+            entry["contacts"] = [{"t": c.t, "obstacle": c.obstacle} for c in run.log.contacts]
+            rec[str(kind)] = entry
         rec.update(self.extra)
         return rec
 
@@ -100,112 +160,170 @@ def versions() -> dict[str, str]:
     return out
 
 
-def run_tracking(
-    scenario: Scenario,
-    robot: RobotSpec,
-    trajectory: Trajectory,
+def track(
+    prepared: PreparedTrajectory,
+    runs: Iterable[RunKind] = ALL_RUNS,
     *,
-    source: str,
-    trackers: tuple[str, ...] = ("closed_loop", "open_loop"),
-    gains: FBLGains | None = None,
-    config: SimConfig | None = None,
-    seed: int = 0,
+    strict: bool = True,
     simulator: Simulator | None = None,
-    tracker_names: dict[str, str] | None = None,
-    perturbation: Perturbation | None = None,
     progress: Progress | None = None,
 ) -> JobResult:
-    """Track a trajectory closed loop and/or open loop in physics and measure both.
+    """Track a prepared trajectory in physics once per run kind, with the case's gains, control
+    rate, seed and perturbation, and measure each run.
 
     Args:
-        scenario: The world.
-        robot: The robot.
-        trajectory: The reference.
-        source: Where the reference came from, for the record.
-        trackers: Run labels to run ("closed_loop", "open_loop").
-        gains: FBL gains (defaults if None).
-        config: Simulation settings.
-        seed: Seed, recorded (and used by perturbations).
-        simulator: A simulator to reuse (built from scenario and robot if None).
-        tracker_names: Run label -> tracker name (default ``RUNS``).
-        perturbation: Physics and loop perturbation applied to every run (see :mod:`sim.physics.perturb`).
-        progress: Told how each run advances (see :data:`Progress`); None for silence.
+        prepared: The case and its trajectory.
+        runs: Run kinds to run, in order.
+        strict: Raise when MuJoCo warns; False counts the warnings in the metrics.
+        simulator: A simulator of the case's robot and world to reuse (built if None).
+        progress: Told how each run advances (see :data:`sim.pipeline.runs.Progress`); None for silence.
+
+    Raises:
+        SimulationError: MuJoCo warned (with ``strict``) or a tracker returned a non-finite command.
     """
-    gains = gains or FBLGains()
-    config = config or SimConfig()
-    simulator = simulator or Simulator(robot, scenario.world)
-    logs: dict[str, RunLog] = {}
-    metrics: dict[str, TrackingMetrics] = {}
-    names = {**RUNS, **(tracker_names or {})}
-    for label in trackers:
-        options = {"gains": gains} if "gains" in tracker_options(names[label]) else {}
-        tracker = make_tracker(names[label], robot, **options)
-        step = None if progress is None else (lambda done, total, _l=label: progress(_l, done, total))
-        log = simulator.run(trajectory, tracker, config, start=scenario.start, meta={"seed": seed},
-                            perturbation=perturbation, progress=step)  # fmt: skip
-        logs[label] = log
-        metrics[label] = compute_metrics(log, trajectory, max_speed=robot.max_speed, max_yaw_rate=robot.max_yaw_rate)
-    job = JobResult(scenario, robot, trajectory, source, logs, metrics, gains, config, seed,
-                    trackers={k: names[k] for k in trackers})  # fmt: skip
-    if perturbation is not None and not perturbation.is_nominal:
-        job.extra["perturbation"] = perturbation.as_dict()
-    return job
+    case, robot = prepared.case, prepared.robot
+    gains = case.gains or FBLGains()
+    config = SimConfig(control_rate=case.control_rate, hold=prepared.hold, strict=strict)
+    simulator = simulator or Simulator(robot, prepared.scenario.world)
+    done: dict[RunKind, Run] = {}
+    for kind in runs:
+        name = case.tracker_for(kind)
+        step = None if progress is None else (lambda d, total, _k=kind: progress(_k, d, total))
+        log = simulator.run(
+            prepared.trajectory,
+            make_tracker(name, robot, **({"gains": gains} if "gains" in tracker_options(name) else {})),
+            config,
+            start=prepared.scenario.start,
+            meta={"seed": case.seed, "case": case.name},
+            perturbation=case.perturbation,
+            progress=step,
+        )
+        metrics = compute_metrics(log, prepared.trajectory, max_speed=robot.max_speed, max_yaw_rate=robot.max_yaw_rate)
+        done[kind] = Run(kind, name, log, metrics)
+    return JobResult(prepared, done, config)
+
+
+def simulate(case: Case, runs: Iterable[RunKind] = ALL_RUNS, *, progress: Progress | None = None) -> JobResult:
+    """Prepare a case's trajectory and track it (see :func:`track`; MuJoCo warnings raise).
+
+    Raises:
+        NhsimError: From :func:`sim.pipeline.case.prepare_trajectory` and :func:`track`.
+    """
+    return track(prepare_trajectory(case, progress=progress), runs, progress=progress)
+
+
+def _case(scenario: str | Scenario, fields_: dict[str, Any], **source: Any) -> Case:
+    try:
+        return Case(scenario, **source, **fields_)
+    except TypeError as exc:
+        raise ConfigError(f"{exc}; the fields of a case are those of sim.pipeline.case.Case") from exc
 
 
 def simulate_reference(
-    scenario: str = "open",
+    scenario: str | Scenario = "open",
     *,
-    robot: str | None = None,
     reference: str = "figure8",
-    trackers: tuple[str, ...] = ("closed_loop", "open_loop"),
-    gains: FBLGains | None = None,
-    config: SimConfig | None = None,
-    seed: int = 0,
-    perturbation: Perturbation | None = None,
+    runs: Iterable[RunKind] = ALL_RUNS,
     progress: Progress | None = None,
+    **fields_: Any,
 ) -> JobResult:
-    """Track an analytic reference placed at a scenario's start pose.
+    """Track an analytic reference placed at a scenario's start pose, once per run kind.
 
     Args:
-        scenario: Built-in name or path of a scenario file.
-        robot: Robot name overriding the scenario's.
-        reference: "figure8", "circle" or "line".
-        trackers: Run labels to run.
-        gains: FBL gains.
-        config: Simulation settings.
-        seed: Seed.
-        perturbation: Physics and loop perturbation (see :mod:`sim.physics.perturb`).
-        progress: Told how the runs advance (see :data:`Progress`).
+        scenario: Built-in name, path of a scenario file, or a Scenario.
+        reference: A key of ``planning.trajectory.references.REFERENCES``.
+        runs: Run kinds to run.
+        progress: Told how the runs advance (see :data:`sim.pipeline.runs.Progress`).
+        **fields_: Further :class:`~sim.pipeline.case.Case` fields (robot, seed, gains,
+            control_rate, perturbation, tracker).
+
+    Raises:
+        ScenarioError: The reference does not fit in the scenario.
     """
-    sc = load_scenario(scenario)
-    if robot is not None:
-        sc = sc.with_robot(robot)
-    spec = load_robot(sc.robot)
-    traj = make_reference(reference, spec, sc.start)
-    clearance = sc.world.signed_distance(traj.pose[:, :2])
-    if float(clearance.min()) <= spec.radius:
-        k = int(clearance.argmin())
-        raise ScenarioError(
-            f"reference {reference!r} placed at the start of scenario {sc.name!r} comes within "
-            f"{max(float(clearance[k]), 0.0):.3f} m of an obstacle or wall at ({traj.pose[k, 0]:.2f}, "
-            f"{traj.pose[k, 1]:.2f}) but the {spec.name} needs {spec.radius:.3f} m; use a scenario with room "
-            f"for it (e.g. --scenario open) or plan a path with --planner"
-        )
-    return run_tracking(sc, spec, traj, source=f"reference:{reference}", trackers=trackers, gains=gains,
-                        config=config, seed=seed, perturbation=perturbation, progress=progress)  # fmt: skip
+    return simulate(_case(scenario, fields_, reference=reference), runs, progress=progress)
+
+
+def simulate_plan(
+    scenario: str | Scenario,
+    *,
+    planner: str | None = None,
+    runs: Iterable[RunKind] = ALL_RUNS,
+    progress: Progress | None = None,
+    **fields_: Any,
+) -> JobResult:
+    """Plan a scenario, smooth and time the plan, and track it once per run kind.
+
+    Args:
+        scenario: Built-in name, path of a scenario file, or a Scenario.
+        planner: Registered planner name (default: the scenario's ``planner``).
+        runs: Run kinds to run.
+        progress: Told when planning starts and ends and how the runs advance.
+        **fields_: Further :class:`~sim.pipeline.case.Case` fields (robot, seed, gains,
+            control_rate, perturbation, tracker, and ``planning``: a
+            :class:`~sim.pipeline.case.PlanOptions` with the budget, planner and smoothing options
+            or a ready plan).
+
+    Returns:
+        The job; ``source`` is "planner:<name>", ``extra["plan"]`` holds the plan's status and
+        statistics and ``extra["smoothing"]`` the smoothing's.
+
+    Raises:
+        ConfigError: No planner given and the scenario names none; unknown planner.
+        TrajectoryError: The plan failed or could not be made into a collision-free trajectory.
+    """
+    return simulate(_case(scenario, fields_, planner=planner or ""), runs, progress=progress)
+
+
+@dataclass(frozen=True)
+class PreparedCase:
+    """A case's trajectory and compiled simulator, built once to run many times (tuning).
+
+    Attributes:
+        trajectory: The case and its trajectory.
+        simulator: The compiled simulator of its robot and world.
+    """
+
+    trajectory: PreparedTrajectory
+    simulator: Simulator
+
+    @property
+    def case(self) -> Case:
+        """The case."""
+        return self.trajectory.case
+
+    def run(self, gains: FBLGains | None = None, perturbation: Perturbation | None = None) -> Run:
+        """The case's single run (its tracker's kind), strict off: MuJoCo warnings are counted.
+
+        Args:
+            gains: Gains overriding the case's.
+            perturbation: Perturbation overriding the case's.
+        """
+        case = self.case
+        if gains is not None or perturbation is not None:
+            case = replace(
+                case,
+                gains=gains or case.gains,
+                perturbation=perturbation if perturbation is not None else case.perturbation,
+            )
+        job = track(replace(self.trajectory, case=case), (case.kind,), strict=False, simulator=self.simulator)
+        return job.runs[case.kind]
+
+
+def prepare_case(case: Case) -> PreparedCase:
+    """Prepare a case's trajectory and compile its simulator.
+
+    Raises:
+        NhsimError: From :func:`sim.pipeline.case.prepare_trajectory`.
+    """
+    prepared = prepare_trajectory(case)
+    return PreparedCase(prepared, Simulator(prepared.robot, prepared.scenario.world))
 
 
 # ------------------------------------------------------------------------------------------ plans
-#: Run label -> tracker name for planned trajectories (cusps and turns in place need the segmented one).
-PLAN_RUNS = {"closed_loop": "segmented", "open_loop": "open-loop"}
-
 #: Planners that solve any scenario (they avoid obstacles); they apply to every scenario with a goal.
 GENERAL_PLANNERS = ("rrt", "birrt", "rrt-star", "c-rrt-star", "optim")
 #: Planners that ignore obstacles; they apply to scenarios without obstacles.
 OBSTACLE_FREE_PLANNERS = ("sinusoidal",)
-
-#: Time added after a planned trajectory for the final pose regulation [s].
-PLAN_HOLD_S = 2.0
 
 
 def applicable_planners(scenario: Scenario) -> list[str]:
@@ -228,81 +346,3 @@ def applicable_planners(scenario: Scenario) -> list[str]:
         ):
             names.append(name)
     return names
-
-
-def simulate_plan(
-    scenario: str | Scenario,
-    *,
-    robot: str | None = None,
-    planner: str | None = None,
-    seed: int = 0,
-    gains: FBLGains | None = None,
-    config: SimConfig | None = None,
-    time_limit: float = 30.0,
-    planner_options: dict[str, Any] | None = None,
-    trackers: tuple[str, ...] = ("closed_loop", "open_loop"),
-    plan: PlanResult | None = None,
-    smoothing: dict[str, Any] | None = None,
-    perturbation: Perturbation | None = None,
-    progress: Progress | None = None,
-) -> JobResult:
-    """Plan a scenario, smooth and time the plan, and track it closed loop and open loop.
-
-    Args:
-        scenario: Built-in name, path of a scenario file, or a Scenario.
-        robot: Robot name overriding the scenario's.
-        planner: Registered planner name (default: the scenario's ``planner``).
-        seed: Planner seed (recorded).
-        gains: FBL gains.
-        config: Simulation settings (default: 50 Hz with ``PLAN_HOLD_S`` of final regulation).
-        time_limit: Planning budget [s].
-        planner_options: Keyword options for the planner factory, over the scenario's own
-            ``[planners.<name>]`` options for it.
-        trackers: Run labels to run.
-        plan: A ready plan to use instead of planning (its ``planner`` names the source).
-        smoothing: Keyword options for :func:`planning.trajectory.from_plan.make_trajectory`.
-        perturbation: Physics and loop perturbation of the runs (see :mod:`sim.physics.perturb`).
-        progress: Told when planning starts and ends and how the runs advance (see :data:`Progress`).
-
-    Returns:
-        The job; ``source`` is "planner:<name>", ``extra["plan"]`` holds the plan's status and
-        statistics and ``extra["smoothing"]`` the smoothing's.
-
-    Raises:
-        ConfigError: No planner given and the scenario names none; unknown planner.
-        TrajectoryError: The plan failed or could not be made into a collision-free trajectory.
-    """
-    sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
-    if robot is not None:
-        sc = sc.with_robot(robot)
-    spec = load_robot(sc.robot)
-    if plan is None:
-        name = planner or sc.planner
-        if name is None:
-            raise ConfigError(
-                f"scenario {sc.name!r} names no planner; choose one with --planner "
-                f"({', '.join(sorted(PLANNERS)) or 'none registered'})"
-            )
-        problem = PlanProblem.from_scenario(sc, robot=spec, seed=seed, time_limit=time_limit)
-        solver = make_planner(name, **{**sc.options_for(name), **(planner_options or {})})
-        if progress is not None:
-            progress("plan", 0.0, time_limit)
-        try:
-            plan = solver.plan(problem)
-        finally:
-            if progress is not None:
-                progress("plan", time_limit, time_limit)
-    plan_rec: dict[str, Any] = {
-        "planner": plan.planner, "status": plan.status.value, "reason": plan.reason,
-        "time_s": plan.stats.get("time_s"), "iterations": plan.stats.get("iterations"), "length_m": plan.length(),
-    }  # fmt: skip
-    res = checked_trajectory(plan, spec, sc.world, goal=sc.goal, **(smoothing or {}))
-    traj = res.trajectory
-    assert traj is not None
-    config = config or SimConfig(hold=PLAN_HOLD_S)
-    job = run_tracking(sc, spec, traj, source=f"planner:{plan.planner}", trackers=trackers, gains=gains,
-                       config=config, seed=seed, tracker_names=PLAN_RUNS, perturbation=perturbation,
-                       progress=progress)  # fmt: skip
-    job.extra["plan"] = plan_rec
-    job.extra["smoothing"] = {k: v for k, v in res.stats.items() if isinstance(v, (int, float, str, bool))}
-    return job

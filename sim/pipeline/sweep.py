@@ -3,8 +3,8 @@
 The rule for which planners apply is :func:`sim.pipeline.simulate.applicable_planners`; robots are the ones a
 scenario lists (``robots``). The library returns the rows; ``nhsim simulate --all`` prints them.
 
-Every row has an ``outcome``: "ok" (every closed-loop target met), "FAIL", or "n/a". A case is
-"n/a" only when the planner rejects the start or goal by a precondition of its own
+Every row has an :class:`Outcome`: OK (every closed-loop target met), FAIL, or NA (not applicable).
+A case is NA only when the planner rejects the start or goal by a precondition of its own
 (``INVALID_START`` / ``INVALID_GOAL``, e.g. C-RRT*'s 0.40 m centre clearance for the EduMIP, seed
 003's rule) while that pose is free for the robot's footprint: the planner does not apply to the
 scenario. Such rows are reported apart and not counted. Every other planner status (a timeout,
@@ -14,31 +14,117 @@ is a failure of that case.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
+from enum import StrEnum
 from typing import Any
 
-from control.fbl import FBLGains
 from planning.collision.exact import CollisionChecker
 from planning.core.robot import load_robot
 from planning.errors import NhsimError
-from planning.planners.base import PlanProblem, PlanResult, PlanStatus, make_planner
+from planning.planners.base import PlanResult, PlanStatus
 from planning.scenario import Scenario, builtin_scenarios, load_scenario
 from planning.trajectory.from_plan import PlanFailedError
-from sim.physics.simulator import SimConfig
-from sim.pipeline.simulate import applicable_planners, simulate_plan
+from sim.physics.metrics import TrackingMetrics
+from sim.pipeline.case import Case, load_case_scenario, plan_case
+from sim.pipeline.runs import RunKind
+from sim.pipeline.simulate import applicable_planners, simulate
 
 #: What a closed-loop run must reach to count as a success in the table.
 TARGETS = {"final_position_error_m": 0.02, "final_heading_error_rad": 0.05, "rms_position_error_m": 0.02}
 
 
-def matrix_cases(scenarios: list[str] | None = None) -> list[tuple[str, str, str]]:
-    """(scenario, robot, planner) triples to run, in a stable order."""
+class Outcome(StrEnum):
+    """How a sweep case ended (the value is what the table and the record show)."""
+
+    OK = "ok"
+    FAIL = "FAIL"
+    NA = "n/a"
+
+
+class Stage(StrEnum):
+    """Where a sweep case ended."""
+
+    PRECONDITION = "precondition"
+    PLAN = "plan"
+    TRAJECTORY = "trajectory"
+    TRACK = "track"
+
+
+@dataclass(frozen=True)
+class SweepRow:
+    """One case of the sweep.
+
+    Attributes:
+        case: The case.
+        outcome: OK, FAIL or NA (see the module doc).
+        stage: Where the case ended.
+        reason: Why it failed or does not apply ("" for OK).
+        plan_status: The planner's status (None when no plan was made).
+        plan_time_s: Planning time [s] (precondition and track stages).
+        plan_length_m: Length of the plan [m] (track stage).
+        duration_s: Duration of the timed trajectory [s] (track stage).
+        smoothing: Smoothing statistics (track stage).
+        runs: Run kind -> its record entry (metrics, tracker, warnings, contacts; track stage).
+    """
+
+    case: Case
+    outcome: Outcome
+    stage: Stage
+    reason: str = ""
+    plan_status: str | None = None
+    plan_time_s: float | None = None
+    plan_length_m: float | None = None
+    duration_s: float | None = None
+    smoothing: Mapping[str, Any] = field(default_factory=dict)
+    runs: Mapping[RunKind, Mapping[str, Any]] = field(default_factory=dict)
+
+    @property
+    def success(self) -> bool:
+        """Every closed-loop target met."""
+        return self.outcome is Outcome.OK
+
+    @property
+    def robot(self) -> str:
+        """The robot's name."""
+        return self.case.robot or "default"
+
+    def record(self) -> dict[str, Any]:
+        """The row as JSON: the case, the outcome, and what each stage reached."""
+        rec: dict[str, Any] = {
+            "scenario": self.case.scenario_name,
+            "robot": self.robot,
+            "planner": self.case.planner,
+            "seed": self.case.seed,
+            "success": self.success,
+            "outcome": self.outcome.value,
+            "stage": self.stage.value,
+            "reason": self.reason,
+        }
+        if self.plan_status is not None:
+            rec["plan_status"] = self.plan_status
+        if self.stage in (Stage.PRECONDITION, Stage.TRACK):
+            rec["plan_time_s"] = self.plan_time_s
+        if self.stage is Stage.TRACK:
+            rec.update(plan_length_m=self.plan_length_m, duration_s=self.duration_s, smoothing=dict(self.smoothing))
+            rec.update({str(kind): dict(self.runs.get(kind, {})) for kind in RunKind})
+        return rec
+
+
+def sweep_cases(scenarios: list[str] | None = None, **fields_: Any) -> list[Case]:
+    """The cases of the sweep, in a stable order: every scenario (default: the built-in ones) ×
+    the robots it lists × its applicable planners.
+
+    Args:
+        scenarios: Scenario names.
+        **fields_: Further case fields (seed, gains, control_rate, planning).
+    """
     cases = []
     for name in scenarios if scenarios is not None else builtin_scenarios():
         sc = load_scenario(name)
         for robot in sc.robots:
             for planner in applicable_planners(sc):
-                cases.append((sc.name, robot, planner))
+                cases.append(Case(sc.name, robot=robot, planner=planner, **fields_))
     return cases
 
 
@@ -63,130 +149,75 @@ def precondition_not_met(scenario: Scenario, plan: PlanResult) -> str | None:
     return f"{plan.status.value} by the planner's own clearance rule: {plan.reason}"
 
 
-def run_case(
-    scenario: str,
-    robot: str,
-    planner: str,
-    *,
-    seed: int = 0,
-    gains: FBLGains | None = None,
-    control_rate: float = 50.0,
-    time_limit: float = 30.0,
-    planner_options: dict[str, Any] | None = None,
-) -> dict[str, Any]:
-    """Plan, smooth and track one case; a failure is a row with ``success`` False and a reason.
+def met_targets(metrics: TrackingMetrics) -> bool:
+    """Whether a closed-loop run met every target of the table, without contact or warning."""
+    values = metrics.as_dict()
+    return all(values[k] <= v for k, v in TARGETS.items()) and metrics.collisions == 0 and metrics.warnings == 0
 
-    The planner gets the scenario's own options for it (``[planners.<name>]``), overridden by
-    ``planner_options``. ``outcome`` is
-    "ok", "FAIL" or "n/a" (see the module doc); ``stage`` says where a case ended ("precondition",
-    "plan", "trajectory" or "track").
+
+def sweep_case(case: Case) -> SweepRow:
+    """Plan, smooth and track one planned case; a failure is a row with its stage and reason.
+
+    The planner gets the scenario's own options for it (``[planners.<name>]``), overridden by the
+    case's ``planning.planner_options``.
     """
-    row: dict[str, Any] = {"scenario": scenario, "robot": robot, "planner": planner, "seed": seed}
+    status: str | None = None
     try:
-        sc = load_scenario(scenario).with_robot(robot)
-        problem = PlanProblem.from_scenario(sc, robot=load_robot(robot), seed=seed, time_limit=time_limit)
-        plan = make_planner(planner, **{**sc.options_for(planner), **(planner_options or {})}).plan(problem)
-        row["plan_status"] = plan.status.value
+        sc = load_case_scenario(case)
+        plan = plan_case(case, sc, load_robot(sc.robot))
+        status = plan.status.value
         na = precondition_not_met(sc, plan)
         if na is not None:
-            row.update({"success": False, "outcome": "n/a", "stage": "precondition", "reason": na,
-                        "plan_time_s": plan.stats.get("time_s")})  # fmt: skip
-            return row
-        cfg = SimConfig(control_rate=control_rate, hold=2.0)
-        job = simulate_plan(sc, plan=plan, seed=seed, gains=gains, config=cfg)
+            return SweepRow(case, Outcome.NA, Stage.PRECONDITION, na, status, plan.stats.get("time_s"))
+        job = simulate(replace(case, scenario=sc, planning=replace(case.planning, plan=plan)))
     except PlanFailedError as exc:
-        row.update({"success": False, "outcome": "FAIL", "stage": "plan", "reason": str(exc)})
-        return row
+        return SweepRow(case, Outcome.FAIL, Stage.PLAN, str(exc), status)
     except NhsimError as exc:
-        row.update({"success": False, "outcome": "FAIL", "stage": "trajectory", "reason": str(exc)})
-        return row
+        return SweepRow(case, Outcome.FAIL, Stage.TRAJECTORY, str(exc), status)
     rec = job.record()
-    cl, ol = rec.get("closed_loop", {}), rec.get("open_loop", {})
-    ok = (
-        all(cl.get(k, float("inf")) <= v for k, v in TARGETS.items())
-        and cl.get("collisions", 1) == 0
-        and cl.get("warnings", 1) == 0
+    ok = RunKind.CLOSED_LOOP in job.runs and met_targets(job.runs[RunKind.CLOSED_LOOP].metrics)
+    return SweepRow(
+        case,
+        Outcome.OK if ok else Outcome.FAIL,
+        Stage.TRACK,
+        "" if ok else "closed loop missed a target (see the errors)",
+        status,
+        rec["plan"].get("time_s"),
+        rec["plan"].get("length_m"),
+        rec["trajectory"]["duration_s"],
+        rec["smoothing"],
+        {kind: rec[kind] for kind in job.runs},
     )
-    row.update({
-        "success": bool(ok), "outcome": "ok" if ok else "FAIL", "stage": "track",
-        "reason": "" if ok else "closed loop missed a target (see the errors)",
-        "plan_time_s": rec["plan"].get("time_s"), "plan_length_m": rec["plan"].get("length_m"),
-        "duration_s": rec["trajectory"]["duration_s"], "smoothing": rec["smoothing"],
-        "closed_loop": cl, "open_loop": ol,
-    })  # fmt: skip
-    return row
 
 
-def run_matrix(
-    cases: list[tuple[str, str, str]],
-    *,
-    progress: Callable[[dict[str, Any]], None] | None = None,
-    **options: Any,
-) -> list[dict[str, Any]]:
-    """Run every case (see :func:`run_case` for ``options``), calling ``progress`` after each."""
+def run_sweep(cases: list[Case], *, progress: Callable[[SweepRow], None] | None = None) -> list[SweepRow]:
+    """Run every case (see :func:`sweep_case`), calling ``progress`` with each row as it is done."""
     rows = []
-    for scenario, robot, planner in cases:
-        row = run_case(scenario, robot, planner, **options)
+    for case in cases:
+        row = sweep_case(case)
         rows.append(row)
         if progress is not None:
             progress(row)
     return rows
 
 
-def format_matrix_row(row: dict[str, Any]) -> str:
-    """One line of the ``--all`` table."""
-    head = f"{row['scenario']:<17} {row['robot']:<10} {row['planner']:<11}"
-    if "closed_loop" not in row:
-        return f"{head} {row.get('outcome', 'FAIL'):>4}  {row['reason'][:90]}"
-    cl, ol = row["closed_loop"], row["open_loop"]
-    pt = row["plan_time_s"]
-    return (
-        f"{head} {'ok' if row['success'] else 'FAIL':>4} {pt if pt is not None else float('nan'):>8.2f} "
-        f"{cl['final_position_error_m']:>9.4f} {cl['final_heading_error_rad']:>9.4f} "
-        f"{cl['rms_position_error_m']:>8.4f} "
-        f"{cl['collisions']:>4d} {cl['warnings']:>4d} | {ol.get('final_position_error_m', float('nan')):>9.4f} "
-        f"{ol.get('rms_position_error_m', float('nan')):>8.4f} {ol.get('collisions', 0):>4d}"
-    )
-
-
-def matrix_header() -> str:
-    """Column titles of the ``--all`` table (closed loop | open loop)."""
-    head = (
-        f"{'scenario':<17} {'robot':<10} {'planner':<11} {'ok':>4} {'plan [s]':>8} {'fin pos':>9} {'fin head':>9} "
-        f"{'rms pos':>8} {'coll':>4} {'warn':>4} | {'OL fin':>9} {'OL rms':>8} {'coll':>4}"
-    )
-    return head + "\n" + "-" * len(head)
-
-
-def matrix_summary(rows: list[dict[str, Any]]) -> list[str]:
-    """Closing lines of the ``--all`` table: the count over applicable cases, every failure with its
-    stage, and the cases that do not apply with their reasons."""
-    na = [r for r in rows if r.get("outcome") == "n/a"]
-    applicable = [r for r in rows if r.get("outcome") != "n/a"]
-    ok = sum(bool(r["success"]) for r in applicable)
-    lines = [f"{ok}/{len(applicable)} applicable cases met every closed-loop target ({len(na)} not applicable)"]
-    for r in applicable:
-        if not r["success"]:
-            status = f" [{r['plan_status']}]" if r.get("stage") == "plan" and "plan_status" in r else ""
-            lines.append(f"  FAIL {r['scenario']}/{r['robot']}/{r['planner']} at {r['stage']}{status}: {r['reason']}")
-    for r in na:
-        lines.append(f"  n/a  {r['scenario']}/{r['robot']}/{r['planner']}: {r['reason']}")
-    return lines
-
-
-def matrix_record(rows: list[dict[str, Any]]) -> dict[str, Any]:
-    """The JSON record of a matrix run: applicable rows, not-applicable rows apart, and counts."""
-    na = [r for r in rows if r.get("outcome") == "n/a"]
-    applicable = [r for r in rows if r.get("outcome") != "n/a"]
+def sweep_record(rows: list[SweepRow]) -> dict[str, Any]:
+    """The JSON record of a sweep: applicable rows, not-applicable rows apart, and counts."""
+    na = [r for r in rows if r.outcome is Outcome.NA]
+    applicable = [r for r in rows if r.outcome is not Outcome.NA]
     return {
-        "rows": applicable,
-        "not_applicable": na,
-        "summary": {"cases": len(applicable), "passed": sum(bool(r["success"]) for r in applicable),
-                    "failed": sum(not r["success"] for r in applicable), "not_applicable": len(na),
-                    "targets": TARGETS},
-    }  # fmt: skip
+        "rows": [r.record() for r in applicable],
+        "not_applicable": [r.record() for r in na],
+        "summary": {
+            "cases": len(applicable),
+            "passed": sum(r.success for r in applicable),
+            "failed": sum(not r.success for r in applicable),
+            "not_applicable": len(na),
+            "targets": TARGETS,
+        },
+    }
 
 
-def matrix_passed(rows: list[dict[str, Any]]) -> bool:
+def sweep_passed(rows: list[SweepRow]) -> bool:
     """Whether every applicable case met every target."""
-    return all(r["success"] for r in rows if r.get("outcome") != "n/a")
+    return all(r.success for r in rows if r.outcome is not Outcome.NA)

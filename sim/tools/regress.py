@@ -1,13 +1,13 @@
 """Physics-level regression suite: declared cases, recorded baselines, compared metrics.
 
-The suite (``tests/regression_suite.toml``) lists cases, one line each, in a ``cases`` array of
+A suite file (the repository's is ``tests/regression_suite.toml``) lists cases, one line each, in a ``cases`` array of
 inline tables with the fields of :class:`sim.pipeline.case.Case` (scenario, robot, reference or planner,
 tracker, seed, control_rate; optional name, gains "KP,KD", perturb "key=value,...", fast), and a
 ``[tolerances]`` table ``metric = { abs = A, rel = R }``.
 
 Each case is run twice in one process; the two logs must be bitwise identical
 (:meth:`RunLog.identical_to`) or the case fails as non-deterministic. Its metrics are compared
-with ``tests/baselines/<case>.json``, which records the metrics and the environment (mujoco and
+with ``<baseline dir>/<case>.json``, which records the metrics and the environment (mujoco and
 numpy versions, operating system and machine, and the CPU: vendor, family and model, and the SIMD
 extensions numpy dispatches to -- floating-point results differ in their last bits between, say, an
 AVX-512 and an AVX2 machine running the same wheels):
@@ -17,7 +17,8 @@ AVX-512 and an AVX2 machine running the same wheels):
   ``abs + rel * |baseline|`` (error metrics, collisions, warnings, saturation: higher is worse;
   duration: any change beyond the tolerance).
 
-A planned case plans, smooths and times its scenario through :func:`sim.pipeline.simulate.simulate_plan`.
+A planned case plans, smooths and times its scenario through :func:`sim.pipeline.case.prepare_trajectory`.
+The suite file and the baseline directory are arguments: the command line passes the repository's.
 """
 
 from __future__ import annotations
@@ -29,7 +30,9 @@ import math
 import platform
 import tomllib
 import zlib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from enum import StrEnum
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -38,20 +41,35 @@ from control.fbl import FBLGains
 from planning.errors import ConfigError, NhsimError, SimulationError
 from sim.physics.metrics import TrackingMetrics
 from sim.physics.perturb import Perturbation
-from sim.pipeline.case import Case, prepare
-
-TESTS_DIR = Path(__file__).resolve().parents[2] / "tests"
-SUITE_PATH = TESTS_DIR / "regression_suite.toml"
-BASELINE_DIR = TESTS_DIR / "baselines"
+from sim.pipeline.case import Case
+from sim.pipeline.simulate import prepare_case
 
 #: Metric -> "lower" (higher is worse) or "equal" (any change is a change).
 DIRECTIONS: dict[str, str] = {
-    "final_position_error_m": "lower", "final_heading_error_rad": "lower", "rms_position_error_m": "lower",
-    "max_position_error_m": "lower", "final_goal_error_m": "lower", "collisions": "lower", "warnings": "lower",
-    "saturation_fraction": "lower", "duration_s": "equal",
-}  # fmt: skip
-CASE_KEYS = {"scenario", "robot", "reference", "planner", "tracker", "seed", "control_rate", "name", "gains",
-             "perturb", "fast"}  # fmt: skip
+    "final_position_error_m": "lower",
+    "final_heading_error_rad": "lower",
+    "rms_position_error_m": "lower",
+    "max_position_error_m": "lower",
+    "final_goal_error_m": "lower",
+    "collisions": "lower",
+    "warnings": "lower",
+    "saturation_fraction": "lower",
+    "duration_s": "equal",
+}
+#: Fields a suite's case table may have.
+CASE_KEYS = {
+    "scenario",
+    "robot",
+    "reference",
+    "planner",
+    "tracker",
+    "seed",
+    "control_rate",
+    "name",
+    "gains",
+    "perturb",
+    "fast",
+}
 
 
 class NondeterminismError(SimulationError):
@@ -72,11 +90,16 @@ class Tolerance:
 
 #: Tolerances of metrics the suite file leaves out.
 DEFAULT_TOLERANCES: dict[str, Tolerance] = {
-    "final_position_error_m": Tolerance(1e-3, 0.1), "final_heading_error_rad": Tolerance(5e-3, 0.1),
-    "rms_position_error_m": Tolerance(5e-4, 0.1), "max_position_error_m": Tolerance(1e-3, 0.1),
-    "final_goal_error_m": Tolerance(1e-3, 0.1), "collisions": Tolerance(0, 0), "warnings": Tolerance(0, 0),
-    "saturation_fraction": Tolerance(0.01, 0.1), "duration_s": Tolerance(1e-9, 0),
-}  # fmt: skip
+    "final_position_error_m": Tolerance(1e-3, 0.1),
+    "final_heading_error_rad": Tolerance(5e-3, 0.1),
+    "rms_position_error_m": Tolerance(5e-4, 0.1),
+    "max_position_error_m": Tolerance(1e-3, 0.1),
+    "final_goal_error_m": Tolerance(1e-3, 0.1),
+    "collisions": Tolerance(0, 0),
+    "warnings": Tolerance(0, 0),
+    "saturation_fraction": Tolerance(0.01, 0.1),
+    "duration_s": Tolerance(1e-9, 0),
+}
 
 
 @dataclass(frozen=True)
@@ -124,8 +147,11 @@ def _case_from_table(entry: Any, where: str) -> Case:
         raise ConfigError(f"{where}: bad case {entry!r}: {exc}") from exc
 
 
-def load_suite(path: str | Path = SUITE_PATH) -> Suite:
+def load_suite(path: str | Path) -> Suite:
     """Read a suite file.
+
+    Args:
+        path: The suite's TOML file.
 
     Raises:
         ConfigError: Unreadable or malformed file, a bad case, duplicate case names.
@@ -191,9 +217,13 @@ def cpu() -> str:
 
 def environment() -> dict[str, str]:
     """What bit-for-bit reproducibility depends on: mujoco and numpy versions, OS, machine and CPU."""
-    return {"mujoco": metadata.version("mujoco"), "numpy": metadata.version("numpy"),
-            "platform": f"{platform.system()}-{platform.machine()}", "cpu": cpu(),
-            "python": platform.python_version()}  # fmt: skip
+    return {
+        "mujoco": metadata.version("mujoco"),
+        "numpy": metadata.version("numpy"),
+        "platform": f"{platform.system()}-{platform.machine()}",
+        "cpu": cpu(),
+        "python": platform.python_version(),
+    }
 
 
 def same_environment(a: dict[str, str], b: dict[str, str]) -> bool:
@@ -204,22 +234,29 @@ def same_environment(a: dict[str, str], b: dict[str, str]) -> bool:
 def case_record(case: Case) -> dict[str, Any]:
     """The case's fields as recorded in its baseline."""
     return {
-        "name": case.name, "scenario": case.scenario, "robot": case.robot, "reference": case.reference,
-        "planner": case.planner, "tracker": case.tracker, "seed": case.seed, "control_rate": case.control_rate,
+        "name": case.name,
+        "scenario": case.scenario_name,
+        "robot": case.robot,
+        "reference": case.reference,
+        "planner": case.planner,
+        "tracker": case.tracker,
+        "seed": case.seed,
+        "control_rate": case.control_rate,
         "gains": None if case.gains is None else [case.gains.kp, case.gains.kd],
         "perturb": None if case.perturbation is None else case.perturbation.label(),
-    }  # fmt: skip
+    }
 
 
-def run_case(case: Case) -> TrackingMetrics:
-    """Run a case twice from scratch and return its metrics.
+def measure_case(case: Case) -> TrackingMetrics:
+    """Prepare and run a case twice from scratch and return its metrics.
 
     Raises:
         NondeterminismError: The two runs' logs are not bitwise identical.
     """
-    log1, m1 = prepare(case).run()
-    log2, m2 = prepare(case).run()
-    if not log1.identical_to(log2) or m1 != m2:
+    run1 = prepare_case(case).run()
+    run2 = prepare_case(case).run()
+    log1, log2, m1 = run1.log, run2.log, run1.metrics
+    if not log1.identical_to(log2) or m1 != run2.metrics:
         a, b = log1.arrays(), log2.arrays()
         differ = [k for k in a if a[k].shape != b[k].shape or a[k].tobytes() != b[k].tobytes()]
         raise NondeterminismError(
@@ -263,8 +300,8 @@ def compare(
     for metric, direction in DIRECTIONS.items():
         new, old = metrics.get(metric), baseline.get(metric)
         if new is None or old is None:
-            out.append(Change(case, metric, float("nan") if old is None else old,
-                              float("nan") if new is None else new, 0.0, "changed"))  # fmt: skip
+            nan = float("nan")
+            out.append(Change(case, metric, nan if old is None else old, nan if new is None else new, 0.0, "changed"))
             continue
         if new == old:
             continue
@@ -282,13 +319,23 @@ def compare(
     return out
 
 
-@dataclass
-class Outcome:
-    """The result of one case.
+class Status(StrEnum):
+    """How a case's check ended."""
+
+    PASS = "pass"
+    FAIL = "fail"
+    MISSING = "missing"  # no baseline
+    ERROR = "error"
+    NONDETERMINISTIC = "nondeterministic"
+
+
+@dataclass(frozen=True)
+class CheckResult:
+    """The result of checking one case against its baseline.
 
     Attributes:
         case: The case.
-        status: "pass", "fail", "missing" (no baseline), "error" or "nondeterministic".
+        status: How the check ended.
         message: Why (for everything but a clean pass).
         metrics: The metrics measured (empty when not run).
         changes: Metrics that moved against the baseline.
@@ -296,19 +343,19 @@ class Outcome:
     """
 
     case: Case
-    status: str
+    status: Status
     message: str = ""
-    metrics: dict[str, Any] = field(default_factory=dict)
-    changes: list[Change] = field(default_factory=list)
+    metrics: Mapping[str, Any] = field(default_factory=dict)
+    changes: tuple[Change, ...] = ()
     exact: bool = True
 
     @property
     def ok(self) -> bool:
         """Passed."""
-        return self.status == "pass"
+        return self.status is Status.PASS
 
 
-def baseline_path(case: Case, baseline_dir: Path = BASELINE_DIR) -> Path:
+def baseline_path(case: Case, baseline_dir: Path) -> Path:
     """Where a case's baseline lives."""
     return Path(baseline_dir) / f"{case.name}.json"
 
@@ -330,32 +377,37 @@ def read_baseline(path: Path) -> dict[str, Any] | None:
     return data
 
 
-def check_case(
-    case: Case, baseline_dir: Path = BASELINE_DIR, tolerances: dict[str, Tolerance] | None = None
-) -> Outcome:
-    """Run a case (twice, for determinism) and compare it with its baseline."""
+def check_case(case: Case, baseline_dir: Path, tolerances: dict[str, Tolerance] | None = None) -> CheckResult:
+    """Run a case (twice, for determinism) and compare it with its baseline.
+
+    Args:
+        case: The case.
+        baseline_dir: Directory of the baselines (``<case name>.json``).
+        tolerances: Metric -> tolerance against a baseline of another environment (default:
+            ``DEFAULT_TOLERANCES``).
+    """
     tolerances = tolerances if tolerances is not None else DEFAULT_TOLERANCES
     try:
-        metrics = run_case(case).as_dict()
+        metrics = measure_case(case).as_dict()
     except NondeterminismError as exc:
-        return Outcome(case, "nondeterministic", str(exc))
+        return CheckResult(case, Status.NONDETERMINISTIC, str(exc))
     except NhsimError as exc:
         msg = str(exc) if case.name in str(exc) else f"case {case.name}: {exc}"
-        return Outcome(case, "error", msg)
+        return CheckResult(case, Status.ERROR, msg)
     path = baseline_path(case, baseline_dir)
     base = read_baseline(path)
     if base is None:
-        return Outcome(case, "missing", f"case {case.name}: no baseline {path}; record it with "
-                       f"nhsim regress --update --case {case.name}", metrics)  # fmt: skip
+        hint = f"record it with nhsim regress --update --case {case.name}"
+        return CheckResult(case, Status.MISSING, f"case {case.name}: no baseline {path}; {hint}", metrics)
     exact = same_environment(base.get("environment", {}), environment())
-    changes = compare(case.name, metrics, base["metrics"], tolerances, exact=exact)
+    changes = tuple(compare(case.name, metrics, base["metrics"], tolerances, exact=exact))
     failed = [c for c in changes if c.failed]
     if failed:
         what = ", ".join(f"{c.metric} {c.status} ({c.baseline:.6g} -> {c.value:.6g})" for c in failed)
         mode = "bit for bit" if exact else "with tolerances"
         hint = "; if intended, record it with nhsim regress --update --case " + case.name
-        return Outcome(case, "fail", f"case {case.name}: {what} [{mode}]{hint}", metrics, changes, exact)
-    return Outcome(case, "pass", "", metrics, changes, exact)
+        return CheckResult(case, Status.FAIL, f"case {case.name}: {what} [{mode}]{hint}", metrics, changes, exact)
+    return CheckResult(case, Status.PASS, "", metrics, changes, exact)
 
 
 def baseline_document(case: Case, metrics: dict[str, Any]) -> dict[str, Any]:

@@ -26,15 +26,18 @@ import math
 import time
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import asdict, dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from control.fbl import FBLGains
 from planning.errors import ConfigError, NhsimError
-from sim.physics.perturb import Perturbation
-from sim.pipeline.case import Case, PreparedCase, prepare
+
+if TYPE_CHECKING:  # the command line reads SAMPLERS while building its parser, before mujoco may load
+    from sim.physics.perturb import Perturbation
+    from sim.pipeline.case import Case
+    from sim.pipeline.simulate import PreparedCase
 
 #: Name -> (low, high) of each tuned parameter, sampled log-uniformly.
 SEARCH_SPACE: dict[str, tuple[float, float]] = {"kp": (0.5, 100.0), "kd": (0.5, 40.0), "xi_min": (0.002, 0.2)}
@@ -69,8 +72,7 @@ class Evaluation:
 
     def as_dict(self) -> dict[str, float | int]:
         """Plain-dict view."""
-        return {"objective": self.objective, "rms_m": self.rms_m, "final_m": self.final_m,
-                "saturation": self.saturation, "failures": self.failures, "runs": self.runs}  # fmt: skip
+        return asdict(self)
 
 
 class Evaluator:
@@ -102,7 +104,9 @@ class Evaluator:
     def prepared(self) -> list[PreparedCase]:
         """The prepared cases (raises the cases' errors on first use)."""
         if self._prepared is None:
-            self._prepared = [prepare(c) for c in self.cases]
+            from sim.pipeline.simulate import prepare_case
+
+            self._prepared = [prepare_case(c) for c in self.cases]
         return self._prepared
 
     def with_perturbations(self, perturbations: Sequence[Perturbation]) -> Evaluator:
@@ -117,7 +121,7 @@ class Evaluator:
         for pc in self.prepared():
             for pert in self.perturbations:
                 try:
-                    _, m = pc.run(gains, pert)
+                    m = pc.run(gains, pert).metrics
                 except NhsimError:
                     failures += 1
                     costs.append(FAILURE_COST)
@@ -130,11 +134,11 @@ class Evaluator:
                 rms.append(m.rms_position_error_m)
                 final.append(m.final_position_error_m)
                 sat.append(m.saturation_fraction)
-        nan = float("nan")
-        return Evaluation(
-            float(np.mean(costs)), float(np.mean(rms)) if rms else nan, float(np.mean(final)) if final else nan,
-            float(np.mean(sat)) if sat else nan, failures, len(costs),
-        )  # fmt: skip
+        return Evaluation(float(np.mean(costs)), _mean(rms), _mean(final), _mean(sat), failures, len(costs))
+
+
+def _mean(values: list[float]) -> float:
+    return float(np.mean(values)) if values else float("nan")
 
 
 @dataclass(frozen=True)

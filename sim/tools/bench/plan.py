@@ -12,8 +12,8 @@ OMPL's, success rates equal. The one-off distance-grid build of each world is do
 
 from __future__ import annotations
 
-import argparse
 import time
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -22,19 +22,9 @@ TTFS_TARGET = 3.0
 LENGTH_TARGET = 1.05
 
 
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    """Options of the benchmark."""
-    p.add_argument("--seeds", type=int, default=20, help="seeds per scenario (default: 20)")
-    p.add_argument(
-        "--scenarios", nargs="*", default=None, help="scenario names (default: all with start != goal, and disc10)"
-    )
-    p.add_argument("--space", choices=["reeds_shepp", "dubins"], default="reeds_shepp")
-    p.add_argument("--budget", type=float, default=1.0, metavar="S", help="RRT* time budget [s] (default: 1)")
-    p.add_argument("--ttfs-limit", type=float, default=10.0, metavar="S", help="time limit for first solutions")
-    p.add_argument("--quick", action="store_true", help="5 seeds, disc10 only, 0.5 s budget")
-
-
-def _problems(names: list[str] | None) -> list[Any]:
+def problems(names: list[str] | None) -> list[Any]:
+    """The problems of the race: ``names`` (scenario names or "disc10"), or by default disc10 and every
+    built-in scenario whose start differs from its goal."""
     from planning.core.geometry import Pose2D
     from planning.core.robot import load_robot
     from planning.core.world import Circle, World
@@ -42,9 +32,12 @@ def _problems(names: list[str] | None) -> list[Any]:
     from planning.scenario import builtin_scenarios, load_scenario
 
     disc10 = PlanProblem(
-        World((0.0, 10.0, 0.0, 10.0), (Circle((5.0, 5.0), 2.0),)), load_robot("turtlebot3"),
-        Pose2D(1.0, 1.0, 0.0), Pose2D(9.0, 9.0, 0.0), name="disc10",
-    )  # fmt: skip
+        World((0.0, 10.0, 0.0, 10.0), (Circle((5.0, 5.0), 2.0),)),
+        load_robot("turtlebot3"),
+        Pose2D(1.0, 1.0, 0.0),
+        Pose2D(9.0, 9.0, 0.0),
+        name="disc10",
+    )
     if names is None:
         out = [disc10]
         for sc in builtin_scenarios():
@@ -113,63 +106,83 @@ class _Ompl:
         return ok, dt, float(length)
 
 
-def run(args: argparse.Namespace) -> int:
-    """Measure and print; exit 1 when a target is missed."""
+@dataclass(frozen=True)
+class PlanBench:
+    """Our planners against OMPL's on one problem over many seeds.
+
+    Attributes:
+        problem: Problem name.
+        ttfs_ours: Times to first solution of birrt [s], one per seed.
+        ttfs_ompl: Times to first solution of OMPL's RRTConnect [s].
+        solved_ours: 1.0 where birrt succeeded, else 0.0.
+        solved_ompl: 1.0 where RRTConnect found an exact solution.
+        length_ours: Path lengths of rrt-star after the budget [m] (nan: none).
+        length_ompl: Path lengths of OMPL's RRT* after the budget [m] (nan: none).
+    """
+
+    problem: str
+    ttfs_ours: tuple[float, ...]
+    ttfs_ompl: tuple[float, ...]
+    solved_ours: tuple[float, ...]
+    solved_ompl: tuple[float, ...]
+    length_ours: tuple[float, ...]
+    length_ompl: tuple[float, ...]
+
+    @property
+    def ttfs_ratio(self) -> float:
+        """Median TTFS, ours over OMPL's."""
+        return float(np.median(self.ttfs_ours) / np.median(self.ttfs_ompl))
+
+    @property
+    def length_ratio(self) -> float:
+        """Median length (of the paths found), ours over OMPL's."""
+        return float(np.nanmedian(self.length_ours) / np.nanmedian(self.length_ompl))
+
+    @property
+    def missed(self) -> dict[str, bool]:
+        """Target -> missed: "ttfs", "length", "success" (ours below OMPL's rate)."""
+        return {
+            "ttfs": bool(self.ttfs_ratio > TTFS_TARGET),
+            "length": not self.length_ratio <= LENGTH_TARGET,
+            "success": bool(np.mean(self.solved_ours) < np.mean(self.solved_ompl)),
+        }
+
+
+def ompl_available() -> bool:
+    """Whether OMPL's Python bindings import."""
+    try:
+        import ompl  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def measure(problem: Any, space: str, seeds: int, budget: float, ttfs_limit: float) -> PlanBench:
+    """Race birrt against RRTConnect (first solution within ``ttfs_limit`` [s]) and rrt-star against
+    RRT* (length after ``budget`` [s]) on one problem for ``seeds`` seeds, on the same checker."""
     from planning.planners.base import PlanStatus, make_planner
     from planning.planners.sampling.extend import LocalPlanner
     from planning.planners.sampling.tree import make_checker
 
-    if args.quick:
-        args.seeds, args.scenarios, args.budget = 5, args.scenarios or ["disc10"], 0.5
-    try:
-        import ompl  # noqa: F401
-    except ImportError:
-        print("OMPL is not installed: install the bench extra (pip install -e '.[bench]' or pip install ompl); "
-              "skipping the OMPL race. Our planners' numbers alone prove nothing, so this run fails.")  # fmt: skip
-        return 1
-    problems = _problems(args.scenarios)
-    missed = False
-    print(f"space {args.space}, {args.seeds} seeds per scenario, RRT* budget {args.budget:g} s")
-    header = f"{'scenario':<16}{'pair':<26}{'ours':>12}{'OMPL':>12}{'ratio':>9}  target"
-    print(header)
-    for prob in problems:
-        checker = make_checker(prob, "footprint", 0.0)  # builds the distance grid (not timed)
-        local = LocalPlanner(args.space, prob.robot, checker)
-        assert local.rho is not None, "curve steering always has a turning radius"
-        ompl_run = _Ompl(prob, args.space, checker, float(local.rho), local.sample_step)
-        birrt = make_planner("birrt", steering=args.space, max_iterations=10**7, time_limit=args.ttfs_limit)
-        rstar = make_planner("rrt-star", steering=args.space, max_iterations=10**8, time_limit=args.budget)
-        birrt.plan(prob)  # warm-up (compiled kernels loaded)
-        rows: dict[str, list[float]] = {k: [] for k in ("t_us", "t_om", "ok_us", "ok_om", "l_us", "l_om")}
-        for seed in range(args.seeds):
-            p = type(prob)(**{**prob.__dict__, "seed": seed})
-            t0 = time.perf_counter()
-            r = birrt.plan(p)
-            rows["t_us"].append(time.perf_counter() - t0)
-            rows["ok_us"].append(float(r.status is PlanStatus.SUCCESS))
-            ok, dt, _ = ompl_run.solve("RRTConnect", seed, args.ttfs_limit, True)
-            rows["t_om"].append(dt)
-            rows["ok_om"].append(float(ok))
-            rs = rstar.plan(p)
-            rows["l_us"].append(float(rs.stats.get("cost_m", np.nan)))
-            _, _, length = ompl_run.solve("RRTstar", seed, args.budget, False)
-            rows["l_om"].append(length)
-        t_ratio = np.median(rows["t_us"]) / np.median(rows["t_om"])
-        l_ratio = np.nanmedian(rows["l_us"]) / np.nanmedian(rows["l_om"])
-        s_us, s_om = np.mean(rows["ok_us"]), np.mean(rows["ok_om"])
-        miss_t, miss_l, miss_s = bool(t_ratio > TTFS_TARGET), not l_ratio <= LENGTH_TARGET, bool(s_us < s_om)
-        missed |= miss_t or miss_l or miss_s
-        name = prob.name
-        print(
-            f"{name:<16}{'TTFS ms birrt/RRTConnect':<26}{1e3 * np.median(rows['t_us']):>12.2f}"
-            f"{1e3 * np.median(rows['t_om']):>12.2f}{t_ratio:>9.2f}  <= {TTFS_TARGET}{'  MISSED' if miss_t else ''}"
-        )
-        flag = "  MISSED" if miss_s else ""
-        print(f"{'':<16}{'success birrt/RRTConnect':<26}{s_us:>12.2f}{s_om:>12.2f}{'':>9}  equal{flag}")
-        print(
-            f"{'':<16}{'length m rrt-star/RRT*':<26}{np.nanmedian(rows['l_us']):>12.3f}"
-            f"{np.nanmedian(rows['l_om']):>12.3f}{l_ratio:>9.3f}  <= {LENGTH_TARGET}{'  MISSED' if miss_l else ''}"
-        )
-        print(f"{'':<16}{'RRT* success (ours/OMPL)':<26}{np.mean(np.isfinite(rows['l_us'])):>12.2f}"
-              f"{np.mean(np.isfinite(rows['l_om'])):>12.2f}")  # fmt: skip
-    return 1 if missed else 0
+    checker = make_checker(problem, "footprint", 0.0)  # builds the distance grid (not timed)
+    local = LocalPlanner(space, problem.robot, checker)
+    assert local.rho is not None, "curve steering always has a turning radius"
+    ompl_run = _Ompl(problem, space, checker, float(local.rho), local.sample_step)
+    birrt = make_planner("birrt", steering=space, max_iterations=10**7, time_limit=ttfs_limit)
+    rstar = make_planner("rrt-star", steering=space, max_iterations=10**8, time_limit=budget)
+    birrt.plan(problem)  # warm-up (compiled kernels loaded)
+    rows: dict[str, list[float]] = {k: [] for k in ("t_us", "t_om", "ok_us", "ok_om", "l_us", "l_om")}
+    for seed in range(seeds):
+        p = type(problem)(**{**problem.__dict__, "seed": seed})
+        t0 = time.perf_counter()
+        r = birrt.plan(p)
+        rows["t_us"].append(time.perf_counter() - t0)
+        rows["ok_us"].append(float(r.status is PlanStatus.SUCCESS))
+        ok, dt, _ = ompl_run.solve("RRTConnect", seed, ttfs_limit, True)
+        rows["t_om"].append(dt)
+        rows["ok_om"].append(float(ok))
+        rs = rstar.plan(p)
+        rows["l_us"].append(float(rs.stats.get("cost_m", np.nan)))
+        _, _, length = ompl_run.solve("RRTstar", seed, budget, False)
+        rows["l_om"].append(length)
+    return PlanBench(problem.name, *(tuple(rows[k]) for k in ("t_us", "t_om", "ok_us", "ok_om", "l_us", "l_om")))

@@ -1,4 +1,4 @@
-"""``nhsim bench render``: the whole video pipeline against a bare ``mujoco.Renderer`` loop.
+"""The whole video pipeline against a bare ``mujoco.Renderer`` loop (``nhsim bench render``).
 
 Both loops draw the same model (the default scenario's world and robot) at the same size, with the
 same camera and render flags, for the same number of frames, in one process with the one renderer:
@@ -18,56 +18,93 @@ other processes hits both alike. Targets: ratio >= 0.9, and >= 30 frames/s for t
 
 from __future__ import annotations
 
-import argparse
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 TARGET_RATIO = 0.9
 TARGET_FPS = 30.0
 
 
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    """Options of the benchmark."""
-    p.add_argument("--size", default="640x480", metavar="WxH", help="frame size (default: 640x480)")
-    p.add_argument("--quality", choices=["fast", "high"], default="fast", help="render look (default: fast)")
-    p.add_argument("--camera", choices=["overview", "chase"], default="overview", help="camera (default: overview)")
-    p.add_argument("--frames", type=int, default=300, metavar="N", help="frames per loop (default: 300)")
-    p.add_argument("--repeats", type=int, default=3, metavar="N", help="alternating rounds, best counts (default: 3)")
-    p.add_argument("--gl", choices=["osmesa", "egl", "glfw"], default=None, help="OpenGL backend")
+@dataclass(frozen=True)
+class RenderBench:
+    """One measurement.
+
+    Attributes:
+        width: Frame width [px].
+        height: Frame height [px].
+        quality: Render look.
+        camera: Camera.
+        frames: Frames per loop.
+        repeats: Alternating rounds (the best of each loop counts).
+        bare_s: Best wall time of the bare loop [s].
+        pipeline_s: Best wall time of the pipeline [s].
+        composited: The pipeline drew the world once and composited the robots.
+    """
+
+    width: int
+    height: int
+    quality: str
+    camera: str
+    frames: int
+    repeats: int
+    bare_s: float
+    pipeline_s: float
+    composited: bool
+
+    @property
+    def bare_fps(self) -> float:
+        """Frames per second of the bare loop."""
+        return self.frames / self.bare_s
+
+    @property
+    def pipeline_fps(self) -> float:
+        """Frames per second of the pipeline."""
+        return self.frames / self.pipeline_s
+
+    @property
+    def ratio(self) -> float:
+        """Pipeline over bare frame rate."""
+        return self.pipeline_fps / self.bare_fps
+
+    @property
+    def passed(self) -> bool:
+        """The ratio meets its target, and the frame rate too at 640x480 in the fast look."""
+        fps_ok = self.pipeline_fps >= TARGET_FPS or (self.width, self.height, self.quality) != (640, 480, "fast")
+        return self.ratio >= TARGET_RATIO and fps_ok
 
 
-def run(args: argparse.Namespace) -> int:
-    """Measure and print; exit 1 when a target is missed."""
-    from sim.viz import gl
+def measure(size: str, camera: str, quality: str, frames: int, repeats: int) -> RenderBench:
+    """Time both loops on the default reference job's logs (call after :func:`sim.viz.gl.configure`).
 
-    backend = gl.configure(args.gl)
+    Raises:
+        ConfigError: ``frames`` < 10, ``repeats`` < 1, or a bad size.
+    """
     import mujoco
     import numpy as np
 
     from planning.errors import ConfigError
     from sim.physics.simulator import Simulator
+    from sim.pipeline.runs import RunKind
     from sim.pipeline.simulate import simulate_reference
     from sim.viz.replay import RenderSettings, Replay, SceneRenderer, parse_size
-    from sim.viz.video import VideoWriter
 
-    if args.frames < 10 or args.repeats < 1:
+    if frames < 10 or repeats < 1:
         raise ConfigError("--frames must be >= 10 and --repeats >= 1")
-    w, h = parse_size(args.size)
-    settings = RenderSettings(width=w, height=h, camera=args.camera, quality=args.quality)
+    w, h = parse_size(size)
+    settings = RenderSettings(width=w, height=h, camera=camera, quality=quality)
     job = simulate_reference("open")
     model = Simulator(job.robot, job.scenario.world).model
     replay = Replay(model, job.trajectory, job.logs, settings)
-    n = min(args.frames, replay.n_frames)
-    tmpdir = Path(tempfile.mkdtemp(prefix="nhsim-bench-"))
-
-    with SceneRenderer(model, w, h, quality=args.quality, max_geom=replay.required_geoms) as renderer:
+    n = min(frames, replay.n_frames)
+    with SceneRenderer(model, w, h, quality=quality, max_geom=replay.required_geoms) as renderer:
         data = mujoco.MjData(model)
-        data.qpos[:] = job.logs["closed_loop"].qpos[0]
+        data.qpos[:] = job.logs[RunKind.CLOSED_LOOP].qpos[0]
         mujoco.mj_forward(model, data)
         replay.render_frame(renderer, 0)  # sets the camera of frame 0; warms the context up
         camera = replay.camera
-
         frame = np.empty((h, w, 3), dtype=np.uint8)
 
         def bare() -> float:
@@ -77,33 +114,29 @@ def run(args: argparse.Namespace) -> int:
                 renderer.renderer.render(out=frame)
             return time.perf_counter() - t0
 
-        def pipeline() -> float:
-            out = tmpdir / "bench.mp4"
-            t0 = time.perf_counter()
-            # a new replay each round: its set-up (framing, trails, the fixed view's world layer) counts
-            rp = Replay(model, job.trajectory, job.logs, settings)
-            with VideoWriter(out, w, h, settings.fps, overwrite=True) as writer:
-                for k in range(n):
-                    buf = writer.frame_buffer()
-                    rp.render_frame(renderer, k, buf)
-                    writer.submit(buf)
-            dt = time.perf_counter() - t0
-            out.unlink()
-            return dt
-
         t_bare, t_pipe = [], []
-        for _ in range(args.repeats):
+        for _ in range(repeats):
             t_bare.append(bare())
-            t_pipe.append(pipeline())
+            t_pipe.append(_pipeline(model, job, settings, renderer, n))
+        composited = bool(replay.composited(renderer))
+    return RenderBench(w, h, quality, camera, n, repeats, min(t_bare), min(t_pipe), composited)
+
+
+def _pipeline(model: Any, job: Any, settings: Any, renderer: Any, n: int) -> float:
+    """Wall time of a new replay (its set-up counts) drawing and encoding ``n`` frames to a deleted MP4."""
+    from sim.viz.replay import Replay
+    from sim.viz.video import VideoWriter
+
+    tmpdir = Path(tempfile.mkdtemp(prefix="nhsim-bench-"))
+    out = tmpdir / "bench.mp4"
+    t0 = time.perf_counter()
+    rp = Replay(model, job.trajectory, job.logs, settings)
+    with VideoWriter(out, settings.width, settings.height, settings.fps, overwrite=True) as writer:
+        for k in range(n):
+            buf = writer.frame_buffer()
+            rp.render_frame(renderer, k, buf)
+            writer.submit(buf)
+    dt = time.perf_counter() - t0
+    out.unlink()
     tmpdir.rmdir()
-    fps_bare = n / min(t_bare)
-    fps_pipe = n / min(t_pipe)
-    ratio = fps_pipe / fps_bare
-    print(f"{w}x{h}, {args.quality} look, {args.camera} camera, GL {backend}, {n} frames, best of {args.repeats}")
-    print(f"bare Renderer loop       {fps_bare:>8.1f} frames/s   (update_scene + render)")
-    how = "world drawn once, robots composited" if replay.composited(renderer) else "full scene every frame"
-    print(f"video pipeline           {fps_pipe:>8.1f} frames/s   (replay, ghost, lines, overlay, H.264; {how})")
-    print(f"ratio                    {ratio:>8.3f}            (target >= {TARGET_RATIO})")
-    fps_ok = fps_pipe >= TARGET_FPS or (w, h, args.quality) != (640, 480, "fast")
-    print(f"pipeline frame rate      {fps_pipe:>8.1f} frames/s   (target >= {TARGET_FPS:g} at 640x480, fast look)")
-    return 0 if ratio >= TARGET_RATIO and fps_ok else 1
+    return dt

@@ -1,4 +1,4 @@
-"""``nhsim bench sim``: closed-loop physics throughput against a bare ``mj_step`` loop.
+"""Closed-loop physics throughput against a bare ``mj_step`` loop (``nhsim bench sim``).
 
 Both loops step the same compiled model from the same start for the same number of physics
 steps with the same wheel commands: the baseline replays the closed loop's logged wheel commands
@@ -9,22 +9,71 @@ mapping, logging, contact checks). Target: ratio >= 0.8.
 
 from __future__ import annotations
 
-import argparse
 import time
+from dataclasses import dataclass
 
 TARGET_RATIO = 0.8
 
 
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    """Options of the benchmark."""
-    p.add_argument("--robot", choices=["turtlebot3", "edumip"], default="turtlebot3")
-    p.add_argument("--reference", choices=["figure8", "circle", "line"], default="figure8")
-    p.add_argument("--control-rate", type=float, default=50.0, metavar="HZ")
-    p.add_argument("--repeats", type=int, default=3, help="best of N for each loop (default: 3)")
+@dataclass(frozen=True)
+class SimBench:
+    """One measurement.
+
+    Attributes:
+        robot: Robot name.
+        reference: Reference name.
+        control_rate: Tracker rate [Hz].
+        repeats: Timed runs of each loop (the best counts).
+        n_steps: Physics steps of each loop.
+        duration_s: Simulated time of the closed loop [s].
+        bare_s: Best wall time of the bare loop [s].
+        closed_s: Best wall time of the closed loop [s].
+    """
+
+    robot: str
+    reference: str
+    control_rate: float
+    repeats: int
+    n_steps: int
+    duration_s: float
+    bare_s: float
+    closed_s: float
+
+    @property
+    def bare_steps_per_s(self) -> float:
+        """Physics steps per second of the bare loop."""
+        return self.n_steps / self.bare_s
+
+    @property
+    def closed_steps_per_s(self) -> float:
+        """Physics steps per second of the closed loop."""
+        return self.n_steps / self.closed_s
+
+    @property
+    def ratio(self) -> float:
+        """Closed-loop over bare throughput."""
+        return self.closed_steps_per_s / self.bare_steps_per_s
+
+    @property
+    def real_time_factor(self) -> float:
+        """Simulated seconds per wall-clock second of the closed loop."""
+        return self.duration_s / self.closed_s
+
+    @property
+    def passed(self) -> bool:
+        """The ratio meets ``TARGET_RATIO``."""
+        return self.ratio >= TARGET_RATIO
 
 
-def run(args: argparse.Namespace) -> int:
-    """Measure and print; exit 1 when the ratio misses the target."""
+def measure(
+    robot: str = "turtlebot3", reference: str = "figure8", control_rate: float = 50.0, repeats: int = 3
+) -> SimBench:
+    """Time both loops (best of ``repeats``) on a reference at the 'open' scenario's start.
+
+    Raises:
+        ConfigError: Unknown robot or reference, or a control rate that is not a whole number of
+            physics steps.
+    """
     import mujoco
 
     from control.base import make_tracker
@@ -35,14 +84,14 @@ def run(args: argparse.Namespace) -> int:
     from sim.physics.simulator import SimConfig, Simulator
 
     scenario = load_scenario("open")
-    robot = load_robot(args.robot)
-    traj = make_reference(args.reference, robot, scenario.start)
-    simulator = Simulator(robot, scenario.world)
-    cfg = SimConfig(control_rate=args.control_rate)
+    spec = load_robot(robot)
+    traj = make_reference(reference, spec, scenario.start)
+    simulator = Simulator(spec, scenario.world)
+    cfg = SimConfig(control_rate=control_rate)
     k = simulator.steps_per_control(cfg.control_rate)
     n_steps = round(traj.duration / simulator.model.opt.timestep / k) * k
 
-    log = simulator.run(traj, make_tracker("fbl", robot), cfg)
+    log = simulator.run(traj, make_tracker("fbl", spec), cfg)
     chunks = (len(log) - 1) // (n_steps // k)
     wheel_cmds = [tuple(row) for row in log.wheel_command[1::chunks]]
     act_l = simulator.model.actuator("wheel_left_motor").id
@@ -62,21 +111,11 @@ def run(args: argparse.Namespace) -> int:
         return time.perf_counter() - t0
 
     def closed() -> float:
-        tracker = make_tracker("fbl", robot)
+        tracker = make_tracker("fbl", spec)
         t0 = time.perf_counter()
         simulator.run(traj, tracker, cfg)
         return time.perf_counter() - t0
 
-    t_bare = min(bare() for _ in range(args.repeats))
-    t_closed = min(closed() for _ in range(args.repeats))
-    sps_bare = n_steps / t_bare
-    sps_closed = n_steps / t_closed
-    ratio = sps_closed / sps_bare
-    rtf = traj.duration / t_closed
-    print(f"robot {robot.name}, reference {args.reference}, {n_steps} physics steps "
-          f"({traj.duration:.1f} s simulated), control {cfg.control_rate:g} Hz, best of {args.repeats}")  # fmt: skip
-    print(f"bare mj_step loop    {sps_bare:>12,.0f} steps/s")
-    print(f"closed-loop run      {sps_closed:>12,.0f} steps/s")
-    print(f"ratio                {ratio:>12.3f}   (target >= {TARGET_RATIO})")
-    print(f"real-time factor     {rtf:>12.1f}x  (simulated seconds per wall-clock second, closed loop)")
-    return 0 if ratio >= TARGET_RATIO else 1
+    t_bare = min(bare() for _ in range(repeats))
+    t_closed = min(closed() for _ in range(repeats))
+    return SimBench(spec.name, reference, cfg.control_rate, repeats, n_steps, traj.duration, t_bare, t_closed)

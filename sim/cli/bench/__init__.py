@@ -1,7 +1,8 @@
 """``nhsim bench``: benchmarks printed as ratios against a baseline run in the same command.
 
-Each benchmark is a module under ``sim/tools/bench/`` registered in ``BENCHMARKS`` with
-``add_arguments(parser)`` and ``run(args) -> int``.
+Each benchmark measures in a module under ``sim/tools/bench/`` (returning its numbers) and has a
+command module here, registered in ``BENCHMARKS``, with ``add_arguments(parser)`` and
+``run(args) -> int`` (which prints the numbers as ratios against the target).
 """
 
 from __future__ import annotations
@@ -12,26 +13,27 @@ from typing import Any
 
 #: Benchmark name -> (module, one-line help).
 BENCHMARKS: dict[str, tuple[str, str]] = {
-    "sim": ("sim.tools.bench.sim", "closed-loop physics steps/s against a bare mj_step loop, and real-time factor"),
+    "sim": ("sim.cli.bench.sim", "closed-loop physics steps/s against a bare mj_step loop, and real-time factor"),
     "plan": (
-        "sim.tools.bench.plan",
+        "sim.cli.bench.plan",
         "birrt / rrt-star against OMPL's RRTConnect / RRT* on the same problems and checker",
     ),
     "optim": (
-        "sim.tools.bench.optim",
+        "sim.cli.bench.optim",
         "optim planner: seed N=1000, dt=0.01 against the default (time, final error, length)",
     ),
-    "render": ("sim.tools.bench.render", "video pipeline frames/s (replay, draw, encode) against a bare Renderer loop"),
+    "render": ("sim.cli.bench.render", "video pipeline frames/s (replay, draw, encode) against a bare Renderer loop"),
 }
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Register the ``bench`` subcommand and its benchmarks."""
     p: argparse.ArgumentParser = sub.add_parser(
-        "bench", help="run a benchmark (ratios against a baseline measured in the same command)",
+        "bench",
+        help="run a benchmark (ratios against a baseline measured in the same command)",
         description="Benchmarks print ratios against a baseline measured in the same command and exit 1 "
         "when a target is missed.",
-    )  # fmt: skip
+    )
     bsub = p.add_subparsers(dest="benchmark", metavar="BENCHMARK", required=True)
     for name, (module, help_text) in BENCHMARKS.items():
         bp = bsub.add_parser(name, help=help_text, description=help_text)

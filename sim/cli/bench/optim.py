@@ -1,0 +1,56 @@
+"""``nhsim bench optim``: the optim planner at the seed's resolution against its default (see
+:mod:`sim.tools.bench.optim`)."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """Options of the benchmark."""
+    p.add_argument("--repeats", type=int, default=5, help="timed solves per setting; medians (default: 5)")
+    p.add_argument(
+        "--scenarios",
+        nargs="+",
+        default=["parallel_park", "nav_map1"],
+        metavar="NAME",
+        help="scenarios to solve (default: parallel_park nav_map1)",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Measure and print; exit 1 when a target is missed."""
+    from planning.errors import ConfigError
+    from planning.planners.optim import DEFAULT_DT, DEFAULT_N
+    from sim.tools.bench import optim as bench
+
+    if args.repeats < 1:
+        raise ConfigError(f"--repeats must be >= 1, got {args.repeats}")
+    print(
+        f"optim: seed N={bench.SEED_N}, dt={bench.SEED_DT} against default N={DEFAULT_N}, dt={DEFAULT_DT}; "
+        f"median of {args.repeats} solves after one warm-up"
+    )
+    ok = True
+    nan = float("nan")
+    for name in args.scenarios:
+        r = bench.measure(name, args.repeats)
+        print(f"\n{name}")
+        print(
+            f"  {'setting':<8} {'status':<10} {'median s':>9} {'iters':>6} {'final pos err m':>16} "
+            f"{'final head err rad':>19} {'length m':>9}"
+        )
+        for label, solve in (("seed", r.seed), ("default", r.default)):
+            res = solve.result
+            print(
+                f"  {label:<8} {res.status.value:<10} {solve.median_s:>9.4f} {res.stats.get('iterations', -1):>6} "
+                f"{res.stats.get('final_position_error', nan):>16.2e} "
+                f"{res.stats.get('final_heading_error', nan):>19.2e} {res.length():>9.4f}"
+            )
+        print(
+            f"  speed-up {r.speedup:.1f}x (target >= {bench.TARGET_SPEEDUP:g}x); default final position error "
+            f"{r.final_error_m * 1e3:.3g} mm (target <= {bench.TARGET_FINAL_ERROR * 1e3:g} mm); length differs by "
+            f"{100 * r.length_rel:.2f} % (target <= {100 * bench.TARGET_LENGTH_REL:g} %)"
+        )
+        ok &= r.passed
+    print(f"\n{'all targets met' if ok else 'a target was missed'}")
+    return 0 if ok else 1

@@ -1,0 +1,33 @@
+"""``nhsim bench sim``: closed-loop physics steps/s against a bare ``mj_step`` loop (see
+:mod:`sim.tools.bench.sim`)."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """Options of the benchmark."""
+    from planning.core.robot import ROBOT_FILES
+    from planning.trajectory.references import REFERENCES
+
+    p.add_argument("--robot", choices=list(ROBOT_FILES), default="turtlebot3")
+    p.add_argument("--reference", choices=list(REFERENCES), default="figure8")
+    p.add_argument("--control-rate", type=float, default=50.0, metavar="HZ")
+    p.add_argument("--repeats", type=int, default=3, help="best of N for each loop (default: 3)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Measure and print; exit 1 when the ratio misses the target."""
+    from sim.tools.bench.sim import TARGET_RATIO, measure
+
+    r = measure(args.robot, args.reference, args.control_rate, args.repeats)
+    print(
+        f"robot {r.robot}, reference {r.reference}, {r.n_steps} physics steps ({r.duration_s:.1f} s simulated), "
+        f"control {r.control_rate:g} Hz, best of {r.repeats}"
+    )
+    print(f"bare mj_step loop    {r.bare_steps_per_s:>12,.0f} steps/s")
+    print(f"closed-loop run      {r.closed_steps_per_s:>12,.0f} steps/s")
+    print(f"ratio                {r.ratio:>12.3f}   (target >= {TARGET_RATIO})")
+    print(f"real-time factor     {r.real_time_factor:>12.1f}x  (simulated seconds per wall-clock second, closed loop)")
+    return 0 if r.passed else 1

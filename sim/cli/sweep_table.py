@@ -1,0 +1,80 @@
+"""``nhsim simulate --all``: the sweep's table, its closing summary and its JSON record."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from sim.pipeline.runs import RunKind
+from sim.pipeline.sweep import Outcome, Stage, SweepRow
+
+NAN = float("nan")
+
+
+def header() -> str:
+    """Column titles of the table (closed loop | open loop) and the rule under them."""
+    head = (
+        f"{'scenario':<17} {'robot':<10} {'planner':<11} {'ok':>4} {'plan [s]':>8} {'fin pos':>9} {'fin head':>9} "
+        f"{'rms pos':>8} {'coll':>4} {'warn':>4} | {'OL fin':>9} {'OL rms':>8} {'coll':>4}"
+    )
+    return head + "\n" + "-" * len(head)
+
+
+def format_row(row: SweepRow) -> str:
+    """One line of the table."""
+    head = f"{row.case.scenario_name:<17} {row.robot:<10} {row.case.planner:<11}"
+    if row.stage is not Stage.TRACK:
+        return f"{head} {row.outcome:>4}  {row.reason[:90]}"
+    cl, ol = row.runs.get(RunKind.CLOSED_LOOP, {}), row.runs.get(RunKind.OPEN_LOOP, {})
+    pt = row.plan_time_s if row.plan_time_s is not None else NAN
+    return (
+        f"{head} {row.outcome:>4} {pt:>8.2f} "
+        f"{cl['final_position_error_m']:>9.4f} {cl['final_heading_error_rad']:>9.4f} "
+        f"{cl['rms_position_error_m']:>8.4f} "
+        f"{cl['collisions']:>4d} {cl['warnings']:>4d} | {ol.get('final_position_error_m', NAN):>9.4f} "
+        f"{ol.get('rms_position_error_m', NAN):>8.4f} {ol.get('collisions', 0):>4d}"
+    )
+
+
+def summary(rows: list[SweepRow]) -> list[str]:
+    """Closing lines: the count over applicable cases, every failure with its stage, and the cases
+    that do not apply with their reasons."""
+    na = [r for r in rows if r.outcome is Outcome.NA]
+    applicable = [r for r in rows if r.outcome is not Outcome.NA]
+    ok = sum(r.success for r in applicable)
+    lines = [f"{ok}/{len(applicable)} applicable cases met every closed-loop target ({len(na)} not applicable)"]
+    for r in applicable:
+        if not r.success:
+            status = f" [{r.plan_status}]" if r.stage is Stage.PLAN and r.plan_status is not None else ""
+            lines.append(f"  FAIL {_where(r)} at {r.stage}{status}: {r.reason}")
+    for r in na:
+        lines.append(f"  n/a  {_where(r)}: {r.reason}")
+    return lines
+
+
+def _where(row: SweepRow) -> str:
+    return f"{row.case.scenario_name}/{row.robot}/{row.case.planner}"
+
+
+def run_all(args: argparse.Namespace, gains: Any) -> int:
+    """Run the sweep: print the table as rows come, the summary, and write the record with --json."""
+    from sim.outputs import check_writable, write_json
+    from sim.pipeline.case import PlanOptions
+    from sim.pipeline.sweep import run_sweep, sweep_cases, sweep_passed, sweep_record
+
+    if args.json is not None:
+        check_writable(args.json, overwrite=args.overwrite)
+    planning = PlanOptions(time_limit=args.time_limit)
+    cases = sweep_cases(seed=args.seed, gains=gains, control_rate=args.control_rate, planning=planning)
+    if args.robot is not None:
+        cases = [c for c in cases if c.robot == args.robot]
+    if args.planner is not None:
+        cases = [c for c in cases if c.planner == args.planner]
+    print(header(), flush=True)
+    rows = run_sweep(cases, progress=lambda row: print(format_row(row), flush=True))
+    print("\n".join(summary(rows)))  # part of the results: printed with --quiet too
+    if args.json is not None:
+        write_json(args.json, sweep_record(rows), overwrite=args.overwrite)
+        if not args.quiet:
+            print(f"wrote {args.json}")
+    return 0 if sweep_passed(rows) else 1

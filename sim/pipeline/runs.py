@@ -1,0 +1,60 @@
+"""Run kinds and the constants every stage of the pipeline shares.
+
+A job tracks one trajectory in several runs; :class:`RunKind` names them. Its value labels the run
+in records, logs, plots and progress reports (``"closed_loop"``, ``"open_loop"``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from enum import StrEnum
+from typing import Any
+
+#: Feedback tracker of a case that names none: analytic references are smooth (dynamic feedback
+#: linearisation), plans have cusps and turns in place (the segmented tracker).
+REFERENCE_TRACKER = "fbl"
+PLAN_TRACKER = "segmented"
+
+#: Time simulated after a planned trajectory ends, for the final pose regulation [s].
+PLAN_HOLD_S = 2.0
+
+#: A job's progress: (stage, done, total). Stages: ``"plan"`` with seconds of the planning budget
+#: (0 when planning starts, total when it returns), and each run kind with control periods of
+#: physics (see :meth:`sim.physics.simulator.Simulator.run`).
+Progress = Callable[[str, float, float], Any]
+
+
+class RunKind(StrEnum):
+    """How a run drives the robot along the trajectory.
+
+    Each member is one line: its label, the tracker it always uses ("" for the case's feedback
+    tracker, see :meth:`sim.pipeline.case.Case.tracker_for`) and the caption of its progress bar.
+    Adding a kind is adding a line.
+
+    Attributes:
+        tracker: Tracker the kind always uses, or "" for the case's feedback tracker.
+        caption: Progress bar title.
+    """
+
+    tracker: str
+    caption: str
+
+    def __new__(cls, label: str, tracker: str = "", caption: str = "") -> RunKind:
+        member = str.__new__(cls, label)
+        member._value_ = label
+        member.tracker = tracker
+        member.caption = caption
+        return member
+
+    #             label          tracker      progress bar caption
+    CLOSED_LOOP = "closed_loop", "",          "physics, closed loop"  # fmt: skip
+    OPEN_LOOP   = "open_loop",   "open-loop", "physics, open loop"  # fmt: skip
+
+    @classmethod
+    def of_tracker(cls, tracker: str) -> RunKind:
+        """The kind a tracker's single run belongs to: the kind that always uses it, else closed loop."""
+        return next((kind for kind in cls if kind.tracker == tracker), cls.CLOSED_LOOP)
+
+
+#: The runs of a job unless told otherwise: every kind.
+ALL_RUNS: tuple[RunKind, ...] = tuple(RunKind)

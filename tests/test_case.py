@@ -1,0 +1,58 @@
+"""Cases: validation, names, the tracker of each run kind, and the plan -> trajectory stage."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from planning.errors import ConfigError, ScenarioError
+from sim.cli.progress import TITLES
+from sim.pipeline.case import Case, prepare_trajectory
+from sim.pipeline.runs import PLAN_TRACKER, REFERENCE_TRACKER, RunKind
+
+
+def test_a_case_names_itself_as_the_suite_baselines_do() -> None:
+    assert Case("open", robot="turtlebot3", reference="figure8", tracker="fbl").name == "open-turtlebot3-figure8-fbl-s0"
+    planned = Case("farm", robot="turtlebot3", planner="birrt", tracker="segmented", control_rate=100.0)
+    assert planned.name == "farm-turtlebot3-plan-birrt-segmented-s0-100hz"
+    assert Case("open", reference="line").name == f"open-default-line-{REFERENCE_TRACKER}-s0"
+    assert Case.parse("maze").name == f"maze-default-plan-default-{PLAN_TRACKER}-s0"
+
+
+def test_each_run_kind_gets_its_tracker() -> None:
+    ref, plan = Case("open", reference="circle"), Case("maze", planner="rrt")
+    assert ref.tracker_for(RunKind.CLOSED_LOOP) == "fbl" and plan.tracker_for(RunKind.CLOSED_LOOP) == "segmented"
+    assert ref.tracker_for(RunKind.OPEN_LOOP) == plan.tracker_for(RunKind.OPEN_LOOP) == "open-loop"
+    assert Case("open", reference="line", tracker="fbl").kind is RunKind.CLOSED_LOOP
+    assert Case("open", reference="line", tracker="open-loop").kind is RunKind.OPEN_LOOP
+    assert {str(k) for k in RunKind} <= set(TITLES)  # every kind has its progress bar
+
+
+@pytest.mark.parametrize(
+    ("fields", "match"),
+    [
+        ({"reference": "line", "planner": "rrt"}, "exactly one of reference or planner"),
+        ({}, "exactly one of reference or planner"),
+        ({"reference": "spiral"}, "unknown reference 'spiral'"),
+        ({"reference": "line", "tracker": "pid"}, "unknown tracker 'pid'"),
+        ({"reference": "line", "robot": "roomba"}, "unknown robot 'roomba'"),
+    ],
+)
+def test_bad_cases_are_refused_naming_the_field(fields: dict[str, str], match: str) -> None:
+    with pytest.raises(ConfigError, match=match):
+        Case("open", **fields)  # type: ignore[arg-type]
+
+
+def test_a_case_is_frozen() -> None:
+    case = Case("open", reference="line")
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        case.seed = 3  # type: ignore[misc]
+
+
+def test_a_reference_gets_no_hold_and_a_reference_that_does_not_fit_is_refused() -> None:
+    prepared = prepare_trajectory(Case("open", reference="line"))
+    assert prepared.hold == 0.0 and prepared.source == "reference:line" and not prepared.extra
+    assert prepared.trajectory.start_pose == prepared.scenario.start
+    with pytest.raises(ScenarioError, match=r"comes within .* of an obstacle or wall"):
+        prepare_trajectory(Case("edumip_map", reference="figure8"))
