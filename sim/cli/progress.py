@@ -18,7 +18,7 @@ from sim.pipeline.runs import RunKind
 DELAY_S = 1.0
 
 #: Stage label -> bar title.
-TITLES = {"plan": "planning", **{str(kind): kind.caption for kind in RunKind}}
+TITLES = {"plan": "planning", **{str(kind): f"physics, {kind.caption}" for kind in RunKind}}
 
 
 def _tqdm(**kwargs: Any) -> Any:

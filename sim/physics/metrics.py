@@ -2,13 +2,50 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import numpy as np
 
 from planning.core.geometry import wrap_angle
 from planning.trajectory.trajectory import Trajectory
-from sim.physics.runlog import RunLog
+from sim.physics.runlog import EstimationLog, RunLog
+
+
+@dataclass(frozen=True)
+class EstimationMetrics:
+    """How well a run's estimator knew where the robot was (against the true pose).
+
+    Attributes:
+        source: "fused" (encoders, gyro and fixes) or "odometry" (dead reckoning).
+        position_rmse_m: RMS of the estimate's position error over the control instants [m].
+        heading_rmse_rad: RMS of its wrapped heading error [rad].
+        final_position_error_m: Position error of the last estimate [m].
+        nees_in_bound_fraction: Share of fix deliveries whose NEES lies inside the two-sided 95 %
+            chi-square interval (about 0.95 for a consistent estimator; NaN without fixes).
+        fixes_used: Fixes the estimator applied.
+    """
+
+    source: str
+    position_rmse_m: float
+    heading_rmse_rad: float
+    final_position_error_m: float
+    nees_in_bound_fraction: float
+    fixes_used: int
+
+    @classmethod
+    def of(cls, log: EstimationLog) -> EstimationMetrics:
+        """The metrics of an estimation log."""
+        pe, he = log.position_errors(), log.heading_errors()
+        return cls(
+            source=log.source,
+            position_rmse_m=float(np.sqrt(np.mean(pe**2))),
+            heading_rmse_rad=float(np.sqrt(np.mean(he**2))),
+            final_position_error_m=float(pe[-1]),
+            nees_in_bound_fraction=log.nees_in_bound_fraction(),
+            fixes_used=int(np.count_nonzero(log.fix_applied)),
+        )
 
 
 @dataclass(frozen=True)
@@ -25,6 +62,10 @@ class TrackingMetrics:
         warnings: Number of MuJoCo warnings.
         saturation_fraction: Share of control periods where a command sat on a limit.
         duration_s: Simulated time [s].
+        wheel_contact_loss_fraction: Share of the logged physics steps with a drive wheel off the
+            floor.
+        status: "ok", or why the run ended early (the estimator diverged).
+        estimation: The estimator's accuracy and consistency (None when the tracker saw the truth).
     """
 
     final_position_error_m: float
@@ -36,10 +77,19 @@ class TrackingMetrics:
     warnings: int
     saturation_fraction: float
     duration_s: float
+    wheel_contact_loss_fraction: float = 0.0
+    status: str = "ok"
+    estimation: EstimationMetrics | None = None
 
-    def as_dict(self) -> dict[str, float | int]:
-        """Plain-dict view for JSON."""
-        return asdict(self)
+    def as_dict(self) -> dict[str, Any]:
+        """Plain-dict view for JSON (``estimation`` a nested dict, NaN as None)."""
+        out = asdict(self)
+        if out["estimation"] is None:
+            del out["estimation"]
+        else:
+            est = out["estimation"]
+            out["estimation"] = {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in est.items()}
+        return out
 
 
 def position_errors(log: RunLog) -> np.ndarray:
@@ -78,4 +128,7 @@ def compute_metrics(log: RunLog, trajectory: Trajectory, *, max_speed: float, ma
         warnings=len(log.warnings),
         saturation_fraction=float(np.mean(sat)),
         duration_s=float(log.t[-1] - log.t[0]),
+        wheel_contact_loss_fraction=log.wheel_contact_loss_fraction,
+        status=log.status,
+        estimation=EstimationMetrics.of(log.estimation) if log.estimation is not None else None,
     )

@@ -33,6 +33,64 @@ class Contact:
 
 
 @dataclass(frozen=True)
+class EstimationLog:
+    """What a run's estimator believed, per control period, against the truth.
+
+    Attributes:
+        source: "fused" (encoders, gyro and fixes) or "odometry" (no fixes).
+        t: (K,) control instants [s].
+        truth: (K, 3) true pose [x, y, theta] at each instant (theta wrapped).
+        estimate: (K, 3) the estimate the tracker saw.
+        variance: (K, 3) the estimate's variances [m^2, m^2, rad^2].
+        fix_t: (M,) measurement times of the localisation fixes [s].
+        fix: (M, 3) the fixes (noisy poses).
+        fix_applied: (M,) whether the estimator used each fix (False: not yet arrived, an outlier,
+            or dead reckoning, which uses none).
+        nees_t: (J,) times at which fixes were delivered [s].
+        nees: (J,) normalised estimation error squared of the pose after each delivery.
+        nees_bounds: Two-sided 95 % chi-square interval of the NEES (3 degrees of freedom).
+        status: "ok", or why the estimator stopped (the run ended there).
+    """
+
+    source: str
+    t: FloatArray
+    truth: FloatArray
+    estimate: FloatArray
+    variance: FloatArray
+    fix_t: FloatArray
+    fix: FloatArray
+    fix_applied: NDArray[np.bool_]
+    nees_t: FloatArray
+    nees: FloatArray
+    nees_bounds: tuple[float, float]
+    status: str = "ok"
+
+    def __post_init__(self) -> None:
+        k, m = self.t.shape[0], self.fix_t.shape[0]
+        shapes = {"truth": (k, 3), "estimate": (k, 3), "variance": (k, 3), "fix": (m, 3), "fix_applied": (m,),
+                  "nees": self.nees_t.shape}  # fmt: skip
+        for name, want in shapes.items():
+            if getattr(self, name).shape != want:
+                raise ValueError(f"EstimationLog.{name} must have shape {want}, got {getattr(self, name).shape}")
+
+    def position_errors(self) -> FloatArray:
+        """(K,) distance between the estimate and the truth [m]."""
+        d = self.estimate[:, :2] - self.truth[:, :2]
+        return np.hypot(d[:, 0], d[:, 1])
+
+    def heading_errors(self) -> FloatArray:
+        """(K,) wrapped heading error of the estimate [rad]."""
+        return np.asarray(np.remainder(self.estimate[:, 2] - self.truth[:, 2] + np.pi, 2 * np.pi) - np.pi)
+
+    def nees_in_bound_fraction(self) -> float:
+        """Share of fix deliveries whose NEES lies inside the 95 % chi-square interval (NaN: none)."""
+        if self.nees.size == 0:
+            return float("nan")
+        lo, hi = self.nees_bounds
+        return float(np.mean((self.nees >= lo) & (self.nees <= hi)))
+
+
+@dataclass(frozen=True)
 class RunLog:
     """What one run did, sampled at the log rate (at least the control rate).
 
@@ -52,6 +110,10 @@ class RunLog:
         contacts: Robot-obstacle contacts (first sample of each touching spell).
         warnings: MuJoCo warnings raised during the run (empty on a clean run).
         meta: Robot, tracker, gains, rates, seed, trajectory name.
+        estimation: What the estimator believed (None when the tracker saw the true pose).
+        wheel_off_floor: (N,) whether a drive wheel was off the floor at each sample (None: the
+            model has no wheel contact sensors).
+        status: "ok", or why the run ended early (e.g. the estimator diverged).
     """
 
     t: FloatArray
@@ -64,6 +126,9 @@ class RunLog:
     contacts: tuple[Contact, ...] = ()
     warnings: tuple[str, ...] = ()
     meta: dict[str, Any] = field(default_factory=dict)
+    estimation: EstimationLog | None = None
+    wheel_off_floor: NDArray[np.bool_] | None = None
+    status: str = "ok"
 
     def __post_init__(self) -> None:
         if self.t.ndim != 1 or self.t.size < 1:
@@ -82,8 +147,16 @@ class RunLog:
                     f"RunLog.{name} is not finite at sample {k} (t = {self.t[k]:g} s): the run diverged"
                 )
 
+        if self.wheel_off_floor is not None and self.wheel_off_floor.shape != (n,):
+            raise ValueError(f"RunLog.wheel_off_floor must be (N,) with N = {n}, got {self.wheel_off_floor.shape}")
+
     def __len__(self) -> int:
         return int(self.t.size)
+
+    @property
+    def wheel_contact_loss_fraction(self) -> float:
+        """Share of the logged physics steps with a drive wheel off the floor (0 without sensors)."""
+        return 0.0 if self.wheel_off_floor is None else float(np.mean(self.wheel_off_floor))
 
     def arrays(self) -> dict[str, FloatArray]:
         """The numeric series by name (for comparisons and saving)."""
@@ -92,8 +165,14 @@ class RunLog:
     def identical_to(self, other: RunLog) -> bool:
         """Bitwise equality of every series, the contacts and the warnings."""
         a, b = self.arrays(), other.arrays()
+        for log, arrays in ((self, a), (other, b)):
+            if log.estimation is not None:
+                e = log.estimation
+                arrays.update(est_estimate=e.estimate, est_variance=e.variance, est_fix=e.fix, est_nees=e.nees)
         return (
-            all(a[k].shape == b[k].shape and a[k].tobytes() == b[k].tobytes() for k in a)
+            a.keys() == b.keys()
+            and all(a[k].shape == b[k].shape and a[k].tobytes() == b[k].tobytes() for k in a)
             and self.contacts == other.contacts
             and self.warnings == other.warnings
+            and self.status == other.status
         )

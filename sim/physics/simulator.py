@@ -19,17 +19,22 @@ from numpy.typing import NDArray
 
 from control.base import Tracker
 from control.diffdrive import DiffDrive
+from control.estimation import EstimatorDivergedError
 from planning.core.geometry import Pose2D
 from planning.core.robot import RobotSpec
 from planning.core.world import World
 from planning.errors import ConfigError, SimulationError
 from planning.trajectory.trajectory import Trajectory
+from sim.physics.asbuilt import AsBuilt
 from sim.physics.model import BuiltModel, build_model, set_pose
 from sim.physics.perturb import Perturbation
 from sim.physics.runlog import Contact, RunLog
+from sim.physics.sensing import PoseSource, Sensing, SensingSetup
 
 #: Progress reports during a run (besides the first and the last), see :meth:`Simulator.run`.
 PROGRESS_UPDATES = 100
+
+SENSOR = mujoco.mjtObj.mjOBJ_SENSOR
 
 WARNING_NAMES = {int(v): k for k, v in mujoco.mjtWarning.__members__.items() if k != "mjNWARNING"}
 
@@ -65,15 +70,19 @@ class Simulator:
     """A robot in a world, ready to run trajectories.
 
     Args:
-        robot: The robot spec (its MJCF scene is compiled).
+        robot: The robot spec as drawn (its MJCF scene is compiled); trackers and estimators know
+            only this robot.
         world: Obstacles and walls to add; None for an empty floor.
+        build: The robot as built (wheel radii, track, friction, mass, centre of mass; see
+            :mod:`sim.physics.asbuilt`); None or nominal simulates the drawing.
     """
 
-    def __init__(self, robot: RobotSpec, world: World | None = None) -> None:
+    def __init__(self, robot: RobotSpec, world: World | None = None, build: AsBuilt | None = None) -> None:
         self.robot = robot
         self.world = world
+        self.build = build if build is not None else AsBuilt.nominal()
         self.built: BuiltModel = build_model(robot, world)
-        self.model = self.built.model
+        self.model = self.built.model if self.build.is_nominal else self.build.apply_to_model(self.built.model)
         m = self.model
         self._pos_adr = int(m.sensor_adr[m.sensor("base_pos").id])
         self._quat_adr = int(m.sensor_adr[m.sensor("base_quat").id])
@@ -132,6 +141,8 @@ class Simulator:
         meta: dict[str, Any] | None = None,
         perturbation: Perturbation | None = None,
         progress: Callable[[int, int], Any] | None = None,
+        source: PoseSource = PoseSource.TRUTH,
+        sensing: SensingSetup | None = None,
     ) -> RunLog:
         """Track a trajectory with a tracker in physics.
 
@@ -147,9 +158,13 @@ class Simulator:
             progress: Called with (control periods done, total) when the run starts, about
                 at most :data:`PROGRESS_UPDATES` times during it, and with (total, total) at the end
                 (e.g. to drive a progress bar); None costs nothing.
+            source: Where the tracker's pose comes from: the fused estimate, dead reckoning or the
+                truth (see :mod:`sim.physics.sensing`).
+            sensing: The sensors and the estimator (default: the robot's sensor profile, seed 0);
+                unused when ``source`` is the truth.
 
         Returns:
-            The log.
+            The log; a run whose estimator diverged ends there, with its ``status`` saying why.
 
         Raises:
             SimulationError: MuJoCo warned (with ``config.strict``); the message lists the warnings.
@@ -166,7 +181,12 @@ class Simulator:
         noise = pert.sensor_noise(schedule.n_ctrl) if pert is not None else None
         tracker.reset(trajectory, schedule.dt_ctrl)
         recorder = Recorder(self, m, d, schedule, float(trajectory.t[0]))
-        self._control_loop(recorder, tracker, drive or DiffDrive.from_robot(self.robot), noise, progress)
+        sensed = None
+        if PoseSource(source) is not PoseSource.TRUTH:
+            setup = sensing if sensing is not None else SensingSetup.for_robot(self.robot.name)
+            sensed = Sensing(m, self.robot, PoseSource(source), setup, n_periods=schedule.n_ctrl,
+                             control_rate=cfg.control_rate, t0=recorder.t0)  # fmt: skip
+        self._control_loop(recorder, tracker, drive or DiffDrive.from_robot(self.robot), noise, progress, sensed)
         info: dict[str, Any] = {
             "robot": self.robot.name,
             "tracker": tracker.name,
@@ -177,7 +197,7 @@ class Simulator:
         if pert is not None:
             info["perturbation"] = pert.as_dict()
         info.update(meta or {})
-        log = recorder.to_log(trajectory, info)
+        log = recorder.to_log(trajectory, info, sensed)
         if log.warnings and cfg.strict:
             err = SimulationError(f"MuJoCo warned during the run: {'; '.join(log.warnings)}")
             err.log = log  # type: ignore[attr-defined]
@@ -191,6 +211,7 @@ class Simulator:
         drive: DiffDrive,
         noise: NDArray[np.float64] | None,
         progress: Callable[[int, int], Any] | None,
+        sensing: Sensing | None = None,
     ) -> None:
         """Run the recorder's schedule: the tracker once per control period, physics in ``nstep`` chunks
         between log samples, the wheel commands applied as they arrive (after the latency, if any).
@@ -211,6 +232,12 @@ class Simulator:
             if progress is not None and k and k % every == 0:
                 progress(k, n_ctrl)
             x, y, th = read_pose(d)
+            if sensing is not None:
+                try:
+                    x, y, th = sensing.observe(k, d, (x, y, th))
+                except EstimatorDivergedError as exc:
+                    sensing.diverged(exc)
+                    break
             if noise is not None:
                 x, y, th = x + noise[k, 0], y + noise[k, 1], th + noise[k, 2]
             v, w = command(t0 + k * dt_ctrl, x, y, th)
@@ -309,6 +336,9 @@ class Recorder:
         self.contacts: list[Contact] = []
         self._touching: set[int] = set()
         self._qpos, self._qvel = data.qpos, data.qvel
+        touch = [n for n in ("wheel_left_touch", "wheel_right_touch") if mujoco.mj_name2id(model, SENSOR, n) >= 0]
+        self._touch = [int(model.sensor_adr[model.sensor(n).id]) for n in touch] if len(touch) == 2 else None
+        self.off_floor = np.zeros(n_log, dtype=bool)
         self._i = 0
         self.sample(False)
 
@@ -319,6 +349,9 @@ class Recorder:
         self.qvel[i] = self._qvel
         self.qpos[i] = self._qpos
         self.times[i] = self.data.time
+        if self._touch is not None:
+            s = self.data.sensordata
+            self.off_floor[i] = s[self._touch[0]] <= 0.0 or s[self._touch[1]] <= 0.0
         self._i = i + 1
         if contact_sensed or self._touching:
             self._contact_check()
@@ -340,10 +373,12 @@ class Recorder:
             if w[j].number > 0
         )
 
-    def to_log(self, trajectory: Trajectory, meta: dict[str, Any]) -> RunLog:
-        """The run's log: true poses at the logged times, the commands in force, the reference."""
-        sim, qpos = self.simulator, self.qpos
-        t_log = self.t0 + self.times
+    def to_log(self, trajectory: Trajectory, meta: dict[str, Any], sensing: Sensing | None = None) -> RunLog:
+        """The run's log: true poses at the logged times, the commands in force, the reference, and
+        what the estimator believed (a run that ended early is cut where it ended)."""
+        sim, n = self.simulator, self._i
+        qpos = self.qpos[:n]
+        t_log = self.t0 + self.times[:n]
         # The log records the true state at the logged time (qpos after the step); the tracker saw
         # the pose sensors, which MuJoCo evaluates at the start of the last step (2 ms earlier).
         r = sim.root_qpos_adr
@@ -351,8 +386,14 @@ class Recorder:
         yaw = np.arctan2(2.0 * (q[:, 0] * q[:, 3] + q[:, 1] * q[:, 2]), 1.0 - 2.0 * (q[:, 2] ** 2 + q[:, 3] ** 2))
         pose = np.column_stack([qpos[:, r], qpos[:, r + 1], yaw])
         pose[:, 2] = np.unwrap(pose[:, 2])
-        cmd = self.command[self.schedule.command_rows()]
-        wcmd = self.wheel_command[self.schedule.wheel_command_rows()]
-        wspd = self.qvel[:, sim.wheel_dofs]
+        cmd = self.command[self.schedule.command_rows()[:n]]
+        wcmd = self.wheel_command[self.schedule.wheel_command_rows()[:n]]
+        wspd = self.qvel[:n, sim.wheel_dofs]
         ref = trajectory.sample_many(t_log).pose
-        return RunLog(t_log, pose, qpos, ref, cmd, wcmd, wspd, tuple(self.contacts), self.warnings(), meta)
+        estimation = sensing.to_log() if sensing is not None else None
+        status = sensing.status if sensing is not None else "ok"
+        return RunLog(
+            t_log, pose, qpos, ref, cmd, wcmd, wspd, tuple(self.contacts), self.warnings(), meta,
+            estimation=estimation, wheel_off_floor=self.off_floor[:n] if self._touch is not None else None,
+            status=status,
+        )  # fmt: skip

@@ -28,7 +28,10 @@ from planning.scenario import Scenario, load_scenario
 from planning.trajectory.from_plan import checked_trajectory
 from planning.trajectory.references import REFERENCES, make_reference
 from planning.trajectory.trajectory import Trajectory
+from sim.physics.asbuilt import DEFAULT_BUILD_SEED, AsBuilt, check_build_seed
 from sim.physics.perturb import Perturbation
+from sim.physics.sensing import SensingSetup
+from sim.physics.sensors import load_sensor_profile
 from sim.pipeline.runs import PLAN_HOLD_S, PLAN_TRACKER, REFERENCE_TRACKER, Progress, RunKind
 
 
@@ -61,13 +64,17 @@ class Case:
         planner: Planner name (exclusive with ``reference``); "" for the scenario's planner.
         tracker: Feedback tracker (a key of ``TRACKERS``); None for the source's default
             (``REFERENCE_TRACKER`` for a reference, ``PLAN_TRACKER`` for a plan).
-        seed: Seed of the job (planner and noise).
+        seed: Seed of the job (planner and sensor noise).
         control_rate: Tracker rate [Hz].
         gains: FBL gains; None for the defaults.
         perturbation: Physics perturbation; None for the nominal model.
         name: Case name; derived from the fields when empty.
         fast: In the default (fast) subset of a regression suite.
         planning: Planning budget and options of a planned case.
+        build_seed: Seed of the robot's as-built draw (wheel radii, track, friction, mass, centre of
+            mass within their tolerances, :mod:`sim.physics.asbuilt`); None for the robot as drawn.
+        sensors: ``key=value,...`` overrides of the robot's sensor profile (over the scenario's
+            ``[sensors]`` table), e.g. ``fix_rate=10,fix_position_std=0.01``; "" for none.
     """
 
     scenario: str | Scenario
@@ -82,8 +89,12 @@ class Case:
     name: str = ""
     fast: bool = False
     planning: PlanOptions = field(default_factory=PlanOptions)
+    build_seed: int | None = DEFAULT_BUILD_SEED
+    sensors: str = ""
 
     def __post_init__(self) -> None:
+        if self.build_seed is not None:
+            check_build_seed(self.build_seed)
         if (self.reference is None) == (self.planner is None):
             raise ConfigError(f"case {self.label}: give exactly one of reference or planner")
         if self.reference is not None and self.reference not in REFERENCES:
@@ -130,6 +141,21 @@ class Case:
     def kind(self) -> RunKind:
         """The kind of the case's single run (tuning, regression): the one its tracker belongs to."""
         return RunKind.of_tracker(self.feedback_tracker)
+
+    def as_built(self, robot: str) -> AsBuilt:
+        """The robot as built for this case (nominal without a build seed)."""
+        return AsBuilt.nominal() if self.build_seed is None else AsBuilt.draw(robot, self.build_seed)
+
+    def sensing(self, scenario: Scenario) -> SensingSetup:
+        """The sensors of the case's runs: the robot's profile, the scenario's ``[sensors]`` table and
+        the case's overrides, with the case's seed for every noise draw.
+
+        Raises:
+            ConfigError: An unknown sensor key or a bad value (naming the field and the fix).
+        """
+        table = dict(getattr(scenario, "sensors", None) or {})
+        profile = load_sensor_profile(scenario.robot, table=table or None, text=self.sensors or None)
+        return SensingSetup(profile, self.seed)
 
     def tracker_for(self, kind: RunKind) -> str:
         """The tracker a run of ``kind`` uses in this case."""

@@ -10,6 +10,8 @@ from collections.abc import Callable
 from enum import StrEnum
 from typing import Any
 
+from sim.physics.sensing import PoseSource
+
 #: Feedback tracker of a case that names none: analytic references are smooth (dynamic feedback
 #: linearisation), plans have cusps and turns in place (the segmented tracker).
 REFERENCE_TRACKER = "fbl"
@@ -28,27 +30,34 @@ class RunKind(StrEnum):
     """How a run drives the robot along the trajectory.
 
     Each member is one line: its label, the tracker it always uses ("" for the case's feedback
-    tracker, see :meth:`sim.pipeline.case.Case.tracker_for`) and the caption of its progress bar.
-    Adding a kind is adding a line.
+    tracker, see :meth:`sim.pipeline.case.Case.tracker_for`), where that tracker's pose comes from
+    (:class:`sim.physics.sensing.PoseSource`) and the caption of its progress bar. Adding a kind is
+    adding a line.
 
     Attributes:
         tracker: Tracker the kind always uses, or "" for the case's feedback tracker.
+        source: The pose the tracker is fed: the fused estimate (encoders, gyro and localisation
+            fixes), dead reckoning (encoders and gyro), or the true pose.
         caption: Progress bar title.
     """
 
     tracker: str
+    source: PoseSource
     caption: str
 
-    def __new__(cls, label: str, tracker: str = "", caption: str = "") -> RunKind:
+    def __new__(cls, label: str, tracker: str, source: PoseSource, caption: str) -> RunKind:
         member = str.__new__(cls, label)
         member._value_ = label
         member.tracker = tracker
+        member.source = source
         member.caption = caption
         return member
 
-    #             label          tracker      progress bar caption
-    CLOSED_LOOP = "closed_loop", "",          "physics, closed loop"  # fmt: skip
-    OPEN_LOOP   = "open_loop",   "open-loop", "physics, open loop"  # fmt: skip
+    #                      label                   tracker      pose source          bar caption
+    CLOSED_LOOP          = "closed_loop",          "",          PoseSource.FUSED,    "closed loop"  # fmt: skip
+    CLOSED_LOOP_ODOMETRY = "closed_loop_odometry", "",          PoseSource.ODOMETRY, "odometry loop"  # fmt: skip
+    OPEN_LOOP            = "open_loop",            "open-loop", PoseSource.TRUTH,    "open loop"  # fmt: skip
+    CLOSED_LOOP_TRUTH    = "closed_loop_truth",    "",          PoseSource.TRUTH,    "truth loop"  # fmt: skip
 
     @classmethod
     def of_tracker(cls, tracker: str) -> RunKind:
@@ -56,5 +65,9 @@ class RunKind(StrEnum):
         return next((kind for kind in cls if kind.tracker == tracker), cls.CLOSED_LOOP)
 
 
-#: The runs of a job unless told otherwise: every kind.
+#: Every kind of run there is.
 ALL_RUNS: tuple[RunKind, ...] = tuple(RunKind)
+
+#: The runs of a job unless told otherwise: the real robot's loop (fused estimate), dead reckoning
+#: and open loop; feedback on the true pose only on request.
+DEFAULT_RUNS: tuple[RunKind, ...] = (RunKind.CLOSED_LOOP, RunKind.CLOSED_LOOP_ODOMETRY, RunKind.OPEN_LOOP)

@@ -26,7 +26,7 @@ from sim.physics.perturb import Perturbation
 from sim.physics.runlog import RunLog
 from sim.physics.simulator import SimConfig, Simulator
 from sim.pipeline.case import Case, PreparedTrajectory, prepare_trajectory
-from sim.pipeline.runs import ALL_RUNS, Progress, RunKind
+from sim.pipeline.runs import DEFAULT_RUNS, Progress, RunKind
 
 
 @dataclass(frozen=True)
@@ -137,6 +137,9 @@ class JobResult:
             "gains": {"kp": gains.kp, "kd": gains.kd, "xi_min": gains.xi_min},
             "control_rate_hz": self.config.control_rate,
             "seed": self.seed,
+            "build_seed": self.case.build_seed,
+            "as_built": self.case.as_built(self.robot.name).as_dict(),
+            "sensors": self.case.sensing(self.scenario).profile.as_dict(),
             "versions": versions(),
         }
         for kind, run in self.runs.items():
@@ -162,7 +165,7 @@ def versions() -> dict[str, str]:
 
 def track(
     prepared: PreparedTrajectory,
-    runs: Iterable[RunKind] = ALL_RUNS,
+    runs: Iterable[RunKind] = DEFAULT_RUNS,
     *,
     strict: bool = True,
     simulator: Simulator | None = None,
@@ -184,7 +187,8 @@ def track(
     case, robot = prepared.case, prepared.robot
     gains = case.gains or FBLGains()
     config = SimConfig(control_rate=case.control_rate, hold=prepared.hold, strict=strict)
-    simulator = simulator or Simulator(robot, prepared.scenario.world)
+    simulator = simulator or Simulator(robot, prepared.scenario.world, case.as_built(robot.name))
+    sensing = case.sensing(prepared.scenario)
     done: dict[RunKind, Run] = {}
     for kind in runs:
         name = case.tracker_for(kind)
@@ -197,13 +201,15 @@ def track(
             meta={"seed": case.seed, "case": case.name},
             perturbation=case.perturbation,
             progress=step,
+            source=kind.source,
+            sensing=sensing,
         )
         metrics = compute_metrics(log, prepared.trajectory, max_speed=robot.max_speed, max_yaw_rate=robot.max_yaw_rate)
         done[kind] = Run(kind, name, log, metrics)
     return JobResult(prepared, done, config)
 
 
-def simulate(case: Case, runs: Iterable[RunKind] = ALL_RUNS, *, progress: Progress | None = None) -> JobResult:
+def simulate(case: Case, runs: Iterable[RunKind] = DEFAULT_RUNS, *, progress: Progress | None = None) -> JobResult:
     """Prepare a case's trajectory and track it (see :func:`track`; MuJoCo warnings raise).
 
     Raises:
@@ -223,7 +229,7 @@ def simulate_reference(
     scenario: str | Scenario = "open",
     *,
     reference: str = "figure8",
-    runs: Iterable[RunKind] = ALL_RUNS,
+    runs: Iterable[RunKind] = DEFAULT_RUNS,
     progress: Progress | None = None,
     **fields_: Any,
 ) -> JobResult:
@@ -247,7 +253,7 @@ def simulate_plan(
     scenario: str | Scenario,
     *,
     planner: str | None = None,
-    runs: Iterable[RunKind] = ALL_RUNS,
+    runs: Iterable[RunKind] = DEFAULT_RUNS,
     progress: Progress | None = None,
     **fields_: Any,
 ) -> JobResult:
@@ -316,7 +322,9 @@ def prepare_case(case: Case) -> PreparedCase:
         NhsimError: From :func:`sim.pipeline.case.prepare_trajectory`.
     """
     prepared = prepare_trajectory(case)
-    return PreparedCase(prepared, Simulator(prepared.robot, prepared.scenario.world))
+    return PreparedCase(
+        prepared, Simulator(prepared.robot, prepared.scenario.world, case.as_built(prepared.robot.name))
+    )
 
 
 # ------------------------------------------------------------------------------------------ plans

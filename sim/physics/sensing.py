@@ -1,0 +1,215 @@
+"""What a run's tracker sees: the robot's own sensors, through an estimator, or the truth.
+
+Each control period the simulator hands :class:`Sensing` the true state (MuJoCo's sensors); it turns
+it into what the real robot would measure (:class:`sim.physics.sensors.SensorModel`: quantised
+wheel encoders, a gyro with white noise and a wandering bias, pose fixes from a localiser, noisy and
+late) and feeds those to an EKF (:class:`control.estimation.PoseEstimator`) that knows only the
+robot as drawn. The tracker then gets, by :class:`PoseSource`:
+
+- ``fused``: the EKF's estimate from encoders, gyro and fixes (the real robot's closed loop);
+- ``odometry``: dead reckoning, the same EKF without fixes (feedback cannot remove what it cannot
+  sense);
+- ``truth``: MuJoCo's true pose, for comparison (and for the open-loop player, which ignores it).
+
+The gyro reads the true *mean* yaw rate over the period (the heading change over the period
+divided by its length, as an IMU's delta-angle output does) plus its bias and white noise. The
+estimate, its variances and the consistency of each fix (NEES against the truth at the fix's
+delivery) are kept for the run's :class:`sim.physics.runlog.EstimationLog`.
+
+Everything is drawn from the run's noise seed, so the same seed gives the same run, bit for bit,
+and every run kind of a job sees the same noise.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from enum import StrEnum
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from control.estimation import EstimatorConfig, EstimatorDivergedError, PoseEstimator, chi2_interval
+from planning.core.robot import RobotSpec
+from sim.physics.asbuilt import TOLERANCES
+from sim.physics.runlog import EstimationLog
+from sim.physics.sensors import SensorModel, SensorProfile, load_sensor_profile
+
+FloatArray = NDArray[np.float64]
+TWO_PI = 2.0 * math.pi
+
+
+class PoseSource(StrEnum):
+    """Where the tracker's pose comes from."""
+
+    FUSED = "fused"
+    ODOMETRY = "odometry"
+    TRUTH = "truth"
+
+
+@dataclass(frozen=True)
+class SensingSetup:
+    """The sensors and the estimator of a job's runs.
+
+    Attributes:
+        profile: The sensors' numbers (noise, rates, latency).
+        seed: Seed of every noise draw (an integer >= 0); every run of a job uses the same one.
+        estimator: The EKF's noise model; None derives it from the profile and the robot's build
+            tolerances (:func:`estimator_config`).
+    """
+
+    profile: SensorProfile
+    seed: int = 0
+    estimator: EstimatorConfig | None = field(default=None)
+
+    @classmethod
+    def for_robot(cls, robot: str, seed: int = 0, *, text: str | None = None) -> SensingSetup:
+        """The robot's own sensor profile (``models/sensors/<robot>.toml``), optionally overridden."""
+        return cls(load_sensor_profile(robot, text=text), seed)
+
+    def estimator_config(self, robot: RobotSpec) -> EstimatorConfig:
+        """The EKF's configuration for a robot (the explicit one, or derived from the profile)."""
+        return self.estimator if self.estimator is not None else estimator_config(self.profile, robot.name)
+
+
+def estimator_config(profile: SensorProfile, robot: str) -> EstimatorConfig:
+    """An EKF configuration matched to the sensors and to the spread of the robot's builds.
+
+    The estimator knows the noise of its sensors (the profile) and the tolerances the robot is
+    built to (:data:`sim.physics.asbuilt.TOLERANCES`), never the draw itself.
+    """
+    cfg = EstimatorConfig(
+        counts_per_rev=float(profile.encoder_cpr),
+        gyro_noise_density=max(profile.gyro_noise_density, 1e-9),
+        gyro_bias_walk=max(profile.gyro_bias_walk, 1e-12),
+        gyro_bias_std=max(profile.gyro_bias_std, 1e-9),
+        fix_std_xy=max(profile.fix_position_std, 1e-6),
+        fix_std_theta=max(profile.fix_heading_std, 1e-6),
+    )
+    tol = TOLERANCES.get(robot)
+    if tol is not None:
+        cfg = replace(cfg, wheel_radius_rel_std=max(tol.radius, 1e-6), track_width_std=max(tol.track, 1e-6))
+    return cfg
+
+
+class Sensing:
+    """One run's sensors and estimator, called once per control period by the simulator.
+
+    Args:
+        model: The run's compiled model (named sensors ``base_pos``, ``base_quat``, and the encoders
+            ``wheel_left_pos`` / ``wheel_right_pos``).
+        robot: The robot as drawn (the estimator's geometry).
+        source: Where the tracker's pose comes from.
+        setup: Sensors and estimator.
+        n_periods: Control periods of the run (readings are taken at periods 0 .. n_periods).
+        control_rate: Control periods per second [Hz].
+        t0: Time of period 0 [s].
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        robot: RobotSpec,
+        source: PoseSource,
+        setup: SensingSetup,
+        *,
+        n_periods: int,
+        control_rate: float,
+        t0: float,
+    ) -> None:
+        self.source = PoseSource(source)
+        self.sensors = SensorModel(
+            setup.profile, control_rate=control_rate, timestep=float(model.opt.timestep), n_periods=n_periods + 1,
+            seed=setup.seed,
+        )  # fmt: skip
+        self.dt = 1.0 / control_rate
+        self.t0 = t0
+        adr = model.sensor_adr
+        self._enc = (int(adr[model.sensor("wheel_left_pos").id]), int(adr[model.sensor("wheel_right_pos").id]))
+        self._rad_per_count = TWO_PI / setup.profile.encoder_cpr
+        self.estimator: PoseEstimator | None = None
+        if self.source is not PoseSource.TRUTH:
+            self.estimator = PoseEstimator.for_robot(robot, setup.estimator_config(robot))
+        n = n_periods + 1
+        self.truth = np.full((n, 3), np.nan)
+        self.estimate = np.full((n, 3), np.nan)
+        self.variance = np.full((n, 3), np.nan)
+        self.nees: list[tuple[int, float]] = []  # (period, NEES) at each fix delivery
+        self.fixes: dict[int, tuple[float, float, float]] = {}
+        self.applied: list[int] = []  # periods whose fix the estimator accepted
+        self.status = "ok"
+        self._counts = (0, 0)
+        self._yaw = 0.0
+        self._k = -1
+
+    def observe(self, k: int, data: mujoco.MjData, truth: tuple[float, float, float]) -> tuple[float, float, float]:
+        """The pose the tracker sees at control period ``k`` (``truth`` is MuJoCo's pose then).
+
+        Raises:
+            EstimatorDivergedError: The estimator diverged (the simulator ends the run on it).
+        """
+        self._k = k
+        self.truth[k] = truth
+        est = self.estimator
+        if est is None:
+            return truth
+        s = data.sensordata
+        counts = self.sensors.encoder_counts(float(s[self._enc[0]]), float(s[self._enc[1]]))
+        if k == 0:
+            est.reset(self.t0, truth)
+        else:
+            rate = math.remainder(truth[2] - self._yaw, TWO_PI) / self.dt
+            q = self._rad_per_count
+            est.predict(
+                self.t0 + k * self.dt, (counts[0] - self._counts[0]) * q, (counts[1] - self._counts[1]) * q,
+                self.sensors.gyro_z(k, rate),
+            )  # fmt: skip
+        self._counts, self._yaw = counts, truth[2]
+        self._handle_fixes(k, truth)
+        pose = est.pose
+        self.estimate[k] = pose
+        cov = est.cov
+        self.variance[k] = (cov[0, 0], cov[1, 1], cov[2, 2])
+        return pose
+
+    def _handle_fixes(self, k: int, truth: tuple[float, float, float]) -> None:
+        sensors, est = self.sensors, self.estimator
+        assert est is not None
+        if sensors.is_fix_period(k):
+            self.fixes[k] = sensors.fix(k, truth)
+        j = sensors.fix_arriving(k)
+        if j is None:
+            return
+        if self.source is PoseSource.FUSED and est.correct(self.t0 + j * self.dt, self.fixes[j]):
+            self.applied.append(j)
+        err = np.array(est.pose) - np.asarray(truth)
+        err[2] = math.remainder(err[2], TWO_PI)
+        self.nees.append((k, float(err @ np.linalg.solve(est.cov, err))))
+
+    def diverged(self, error: EstimatorDivergedError) -> None:
+        """Record that the estimator diverged at the current period (the run ends there)."""
+        self.status = f"estimator diverged at t={error.t:.3f} s ({error.reason}): {error}"
+
+    def to_log(self) -> EstimationLog | None:
+        """The run's estimation record (None when the tracker saw the truth)."""
+        if self.estimator is None:
+            return None
+        n = self._k + 1
+        periods = np.array([k for k in sorted(self.fixes) if k < n], dtype=np.int64)
+        nees = np.array([v for _, v in self.nees])
+        lo, hi = chi2_interval(3)
+        return EstimationLog(
+            source=str(self.source),
+            t=np.asarray(self.t0 + self.dt * np.arange(n), dtype=float),
+            truth=self.truth[:n].copy(),
+            estimate=self.estimate[:n].copy(),
+            variance=self.variance[:n].copy(),
+            fix_t=np.asarray(self.t0 + self.dt * periods, dtype=float),
+            fix=np.array([self.fixes[k] for k in periods]).reshape(-1, 3),
+            fix_applied=np.isin(periods, self.applied),
+            nees_t=self.t0 + self.dt * np.array([k for k, _ in self.nees], dtype=float),
+            nees=nees,
+            nees_bounds=(float(lo), float(hi)),
+            status=self.status,
+        )
