@@ -36,15 +36,67 @@ DESCRIPTION = (
 
 
 def run_choices() -> dict[str, tuple[RunKind, ...]]:
-    """``--tracker`` choice -> the run kinds it makes: the closed loop (named by the reference's
-    feedback tracker), the open loop (named by its tracker), or both."""
-    from sim.pipeline.runs import REFERENCE_TRACKER
+    """``--tracker`` choice -> the run kinds it makes: the closed loop on the fused estimate (named
+    by the reference's feedback tracker), the open loop (named by its tracker), or both: the default
+    runs (fused closed loop, dead-reckoning closed loop, open loop)."""
+    from sim.pipeline.runs import DEFAULT_RUNS, REFERENCE_TRACKER
 
     return {
         REFERENCE_TRACKER: (RunKind.CLOSED_LOOP,),
         RunKind.OPEN_LOOP.tracker: (RunKind.OPEN_LOOP,),
-        "both": (RunKind.CLOSED_LOOP, RunKind.OPEN_LOOP),
+        "both": DEFAULT_RUNS,
     }
+
+
+def parse_runs(text: str) -> tuple[RunKind, ...]:
+    """``--runs`` (comma-separated run kinds, e.g. ``closed_loop,closed_loop_truth``) as run kinds.
+
+    Raises:
+        ConfigError: An unknown or repeated run kind (the message lists the valid ones).
+    """
+    kinds: list[RunKind] = []
+    by_label = {str(k): k for k in RunKind}
+    for part in (p.strip() for p in text.split(",")):
+        if part not in by_label:
+            raise ConfigError(f"--runs {text!r}: unknown run {part!r}; choose from {', '.join(by_label)}")
+        if by_label[part] in kinds:
+            raise ConfigError(f"--runs {text!r}: {part} given twice")
+        kinds.append(by_label[part])
+    return tuple(kinds)
+
+
+def parse_build(build: str, build_seed: int | None) -> int | None:
+    """The case's build seed from ``--build as-built|nominal`` and ``--build-seed N``.
+
+    Raises:
+        ConfigError: ``--build nominal`` with a ``--build-seed``.
+    """
+    from sim.physics.asbuilt import DEFAULT_BUILD_SEED, check_build_seed
+
+    if build == "nominal":
+        if build_seed is not None:
+            raise ConfigError(
+                "--build nominal simulates the robot as drawn: drop --build-seed, or use --build as-built"
+            )
+        return None
+    return DEFAULT_BUILD_SEED if build_seed is None else check_build_seed(build_seed)
+
+
+def sensor_overrides(text: str | None) -> str:
+    """``--sensors``: ``key=value,...`` as given, or a TOML file's ``[sensors]`` table as that text.
+
+    Raises:
+        ConfigError: An unreadable file or a file without a ``[sensors]`` table.
+    """
+    if not text:
+        return ""
+    path = Path(text)
+    if "=" in text or not (path.suffix == ".toml" or path.exists()):
+        return text
+    from sim.physics.sensors import read_sensor_table
+
+    table = read_sensor_table(path)
+    return ",".join(f"{k}={v}" for k, v in table.items())
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
@@ -99,7 +151,30 @@ def _add_run_arguments(p: argparse.ArgumentParser) -> None:
         "--tracker",
         choices=sorted(run_choices()),
         default="both",
-        help="fbl (closed loop), open-loop, or both (default: both)",
+        help="fbl (closed loop on the fused estimate), open-loop, or both: the default runs, closed loop on the fused "
+        "estimate, closed loop on dead reckoning and open loop (default: both)",
+    )
+    p.add_argument(
+        "--runs",
+        default=None,
+        metavar="KIND,...",
+        help=f"the runs, overriding --tracker: any of {', '.join(str(k) for k in RunKind)} "
+        "(closed_loop_truth feeds the tracker the true pose, for comparison)",
+    )
+    p.add_argument(
+        "--build",
+        choices=["as-built", "nominal"],
+        default="as-built",
+        help="as-built: wheel radii, track, tyre friction, mass and centre of mass drawn within their tolerances from "
+        "--build-seed (the tracker and estimator know only the drawing); nominal: the robot as drawn",
+    )
+    p.add_argument("--build-seed", type=int, default=None, metavar="N", help="seed of the as-built draw (default: 1)")
+    p.add_argument(
+        "--sensors",
+        default=None,
+        metavar="KEY=VALUE,...|FILE",
+        help="override the robot's sensor profile (models/sensors/<robot>.toml), e.g. fix_rate=10,fix_latency=0.05, "
+        "or a TOML file with a [sensors] table",
     )
     p.add_argument(
         "--gains",
@@ -133,20 +208,47 @@ def _add_run_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="print only the results table; no progress bars")
 
 
+def _build_line(record: dict[str, Any]) -> str:
+    b = record.get("as_built") or {}
+    if record.get("build_seed") is None:
+        return "built as drawn (--build nominal)"
+    return (
+        f"as built (seed {record['build_seed']}): wheels {b['left_radius_scale']:.4f}/{b['right_radius_scale']:.4f} "
+        f"x r, track {b['track_change'] * 1e3:+.1f} mm"
+    )
+
+
+def _sensor_line(record: dict[str, Any]) -> str:
+    s = record.get("sensors") or {}
+    if not s.get("fix_rate"):
+        return f"encoders {s.get('encoder_cpr', 0):g}/rev, no localisation fixes"
+    return (
+        f"encoders {s['encoder_cpr']:g}/rev, fixes {s['fix_rate']:g} Hz +-{s['fix_position_std'] * 1e3:g} mm "
+        f"+-{s['fix_heading_std']:g} rad, {s['fix_latency'] * 1e3:g} ms late"
+    )
+
+
 def format_table(record: dict[str, Any]) -> str:
-    """The metrics table printed by ``simulate``: one row per run in the record."""
+    """The metrics table printed by ``simulate``: one row per run in the record (estimation columns
+    for runs fed by an estimator: its RMS position error and the share of fixes with a NEES inside
+    the 95 % interval)."""
     head = (
-        f"{'run':<12} {'final pos [m]':>14} {'final head [rad]':>17} {'rms pos [m]':>12} {'max pos [m]':>12} "
-        f"{'collisions':>10} {'warnings':>8}"
+        f"{'run':<21} {'final pos [m]':>13} {'final head [rad]':>16} {'rms pos [m]':>11} {'max pos [m]':>11} "
+        f"{'est rms [m]':>11} {'NEES ok':>7} {'collisions':>10} {'warnings':>8}"
     )
     lines = [head, "-" * len(head)]
     for kind in RunKind:
         if kind not in record:
             continue
         r = record[kind]
+        est = r.get("estimation")
+        nees = est.get("nees_in_bound_fraction") if est else None
+        est_rms = f"{est['position_rmse_m']:.4f}" if est else "-"
+        nees_ok = f"{nees:.0%}" if nees is not None else "-"
         lines.append(
-            f"{kind:<12} {r['final_position_error_m']:>14.4f} {r['final_heading_error_rad']:>17.4f} "
-            f"{r['rms_position_error_m']:>12.4f} {r['max_position_error_m']:>12.4f} "
+            f"{kind:<21} {r['final_position_error_m']:>13.4f} {r['final_heading_error_rad']:>16.4f} "
+            f"{r['rms_position_error_m']:>11.4f} {r['max_position_error_m']:>11.4f} "
+            f"{est_rms:>11} {nees_ok:>7} "
             f"{r['collisions']:>10d} {r['warnings']:>8d}"
         )
     return "\n".join(lines)
@@ -194,11 +296,14 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
         gains=gains,
         perturbation=perturbation,
         planning=PlanOptions(time_limit=args.time_limit),
+        build_seed=parse_build(args.build, args.build_seed),
+        sensors=sensor_overrides(args.sensors),
         **source,
     )
+    runs = parse_runs(args.runs) if args.runs else run_choices()[args.tracker]
     outputs = plan_outputs(args, scenario=load_scenario(scenario).name, source=planner or args.reference or "figure8")
     with JobBars(outputs.progress) as bars:
-        result = simulate(case, run_choices()[args.tracker], progress=bars)
+        result = simulate(case, runs, progress=bars)
     record = result.record()
     if not args.quiet:
         print(
@@ -206,11 +311,16 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
             f"{result.trajectory.duration:.1f} s | control {args.control_rate:g} Hz | "
             f"gains Kp={gains.kp:g} Kd={gains.kd:g}" + (f" | perturbed {perturbation.label()}" if perturbation else "")
         )
+        print(f"{_build_line(record)} | {_sensor_line(record)}")
     print(format_table(record))
     for path in write_outputs(result, outputs, record).values():
         if not args.quiet:
             print(f"wrote {path}")
     clean = all(run.metrics.warnings == 0 for run in result.runs.values())
+    for kind, run_ in result.runs.items():
+        if run_.metrics.status != "ok":
+            print(f"{kind}: {run_.metrics.status}", file=sys.stderr)
+            clean = False
     closed = result.runs.get(RunKind.CLOSED_LOOP)
     if closed is not None and closed.metrics.collisions > 0:
         print("closed-loop run touched an obstacle", file=sys.stderr)

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from enum import StrEnum
 
 import mujoco
 import numpy as np
@@ -35,17 +34,10 @@ from planning.core.robot import RobotSpec
 from sim.physics.asbuilt import TOLERANCES
 from sim.physics.runlog import EstimationLog
 from sim.physics.sensors import SensorModel, SensorProfile, load_sensor_profile
+from sim.physics.sources import PoseSource
 
 FloatArray = NDArray[np.float64]
 TWO_PI = 2.0 * math.pi
-
-
-class PoseSource(StrEnum):
-    """Where the tracker's pose comes from."""
-
-    FUSED = "fused"
-    ODOMETRY = "odometry"
-    TRUTH = "truth"
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,8 @@ from sim.physics.asbuilt import AsBuilt
 from sim.physics.model import BuiltModel, build_model, set_pose
 from sim.physics.perturb import Perturbation
 from sim.physics.runlog import Contact, RunLog
-from sim.physics.sensing import PoseSource, Sensing, SensingSetup
+from sim.physics.sensing import Sensing, SensingSetup
+from sim.physics.sources import PoseSource
 
 #: Progress reports during a run (besides the first and the last), see :meth:`Simulator.run`.
 PROGRESS_UPDATES = 100

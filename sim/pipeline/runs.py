@@ -10,7 +10,7 @@ from collections.abc import Callable
 from enum import StrEnum
 from typing import Any
 
-from sim.physics.sensing import PoseSource
+from sim.physics.sources import PoseSource
 
 #: Feedback tracker of a case that names none: analytic references are smooth (dynamic feedback
 #: linearisation), plans have cusps and turns in place (the segmented tracker).
