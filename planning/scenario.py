@@ -23,7 +23,7 @@ from planning.core.geometry import Pose2D
 from planning.core.maps import load_map_table
 from planning.core.robot import MODELS_DIR, ROBOT_FILES
 from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon, World
-from planning.errors import ScenarioError
+from planning.errors import ConfigError, ScenarioError
 
 SCENARIOS_DIR = MODELS_DIR / "scenarios"
 DEFAULT_POSITION_TOLERANCE = 0.05
@@ -168,8 +168,7 @@ def _obstacle(r: _Reader, table: Mapping[str, Any], ctx: str) -> Obstacle:
 
 def _planner_options(r: _Reader, table: Any) -> dict[str, dict[str, Any]]:
     """Validate ``[planners.<name>]`` tables: known planner names, options the planner accepts."""
-    from planning.errors import ConfigError
-    from planning.planners.base import PLANNERS, make_planner  # planning.planners.base imports this module
+    from planning.planners.registry import PLANNERS, make_planner  # imported here: it loads on first use
 
     if not isinstance(table, Mapping):
         raise r.fail("planners", "a table of [planners.<name>] tables of keyword options", table)

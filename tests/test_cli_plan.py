@@ -10,7 +10,7 @@ from PIL import Image
 
 from planning.collision.exact import CollisionChecker
 from planning.core.robot import load_robot
-from planning.planners.base import PLANNERS
+from planning.planners.registry import PLANNERS
 from planning.scenario import builtin_scenarios, load_scenario
 from sim.cli.main import COMMANDS, build_parser, main
 from sim.cli.plan import densify_path, path_spacing

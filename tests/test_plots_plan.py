@@ -8,7 +8,8 @@ import matplotlib.pyplot as plt
 import pytest
 
 from planning.errors import OutputExistsError
-from planning.planners.base import PlanProblem, make_planner
+from planning.planners.base import PlanProblem
+from planning.planners.registry import make_planner
 from planning.scenario import load_scenario
 from sim.viz.plots.plan import plan_figure, write_plan_figure
 

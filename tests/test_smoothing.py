@@ -10,7 +10,8 @@ from planning.collision.exact import CollisionChecker
 from planning.core.geometry import Pose2D
 from planning.core.robot import load_robot
 from planning.core.world import Circle, World
-from planning.planners.base import PlanProblem, PlanResult, PlanStatus, make_planner
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus
+from planning.planners.registry import make_planner
 from planning.scenario import load_scenario
 from planning.trajectory.from_plan import make_trajectory
 from planning.trajectory.smoothing import SmoothStatus, fit_piecewise, remove_loops, smooth_drive, split_path

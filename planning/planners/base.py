@@ -1,8 +1,7 @@
-"""The planner interface: problems, results, statuses, and the registry of planners by name."""
+"""The planner interface: problems, results and statuses (the registry by name is :mod:`planning.planners.registry`)."""
 
 from __future__ import annotations
 
-import importlib
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any, Protocol
@@ -13,8 +12,6 @@ from numpy.typing import NDArray
 from planning.core.geometry import Pose2D
 from planning.core.robot import RobotSpec, load_robot
 from planning.core.world import World
-from planning.errors import ConfigError
-from planning.scenario import Scenario
 
 FloatArray = NDArray[np.float64]
 
@@ -29,6 +26,45 @@ class PlanStatus(StrEnum):
     INVALID_START = "invalid_start"
     INVALID_GOAL = "invalid_goal"
     FAILED = "failed"  # a numerical failure (reason says which)
+
+
+class ScenarioLike(Protocol):
+    """What :meth:`PlanProblem.from_scenario` reads from a scenario (:class:`planning.scenario.Scenario`)."""
+
+    @property
+    def name(self) -> str:
+        """Scenario name."""
+        ...
+
+    @property
+    def robot(self) -> str:
+        """Robot registry name."""
+        ...
+
+    @property
+    def world(self) -> World:
+        """Bounds and obstacles."""
+        ...
+
+    @property
+    def start(self) -> Pose2D:
+        """Start pose."""
+        ...
+
+    @property
+    def goal(self) -> Pose2D:
+        """Goal pose."""
+        ...
+
+    @property
+    def position_tolerance(self) -> float:
+        """Goal region radius [m]."""
+        ...
+
+    @property
+    def heading_tolerance(self) -> float:
+        """Goal heading tolerance [rad]."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -59,7 +95,7 @@ class PlanProblem:
 
     @classmethod
     def from_scenario(
-        cls, scenario: Scenario, *, robot: RobotSpec | None = None, seed: int = 0, time_limit: float = 30.0
+        cls, scenario: ScenarioLike, *, robot: RobotSpec | None = None, seed: int = 0, time_limit: float = 30.0
     ) -> PlanProblem:
         """The planning problem a scenario poses."""
         return cls(
@@ -134,35 +170,3 @@ class Planner(Protocol):
     def plan(self, problem: PlanProblem) -> PlanResult:
         """Plan; never raises for an unsolvable problem, returns a status instead."""
         ...
-
-
-#: Planner name -> "module:factory". The factory takes keyword-only options and returns a Planner.
-PLANNERS: dict[str, str] = {
-    "rrt": "planning.planners.sampling.rrt:RRT",
-    "birrt": "planning.planners.sampling.rrt:BiRRT",
-    "rrt-star": "planning.planners.sampling.rrt_star:RRTStar",
-    "c-rrt-star": "planning.planners.sampling.crrt_star:CRRTStar",
-    "sinusoidal": "planning.planners.sinusoidal:Sinusoidal",
-    "optim": "planning.planners.optim:Optim",
-}
-
-
-def register_planner(name: str, target: str) -> None:
-    """Register a planner factory by import path, e.g. ``"planning.planners.sampling.rrt:RRT"``."""
-    PLANNERS[name] = target
-
-
-def make_planner(name: str, **options: Any) -> Planner:
-    """Instantiate a registered planner.
-
-    Raises:
-        ConfigError: Unknown name (the message lists the valid ones) or bad options.
-    """
-    if name not in PLANNERS:
-        raise ConfigError(f"unknown planner {name!r}: choose one of {', '.join(sorted(PLANNERS)) or '(none)'}")
-    module_name, attr = PLANNERS[name].split(":")
-    factory = getattr(importlib.import_module(module_name), attr)
-    try:
-        return factory(**options)  # type: ignore[no-any-return]
-    except TypeError as exc:
-        raise ConfigError(f"planner {name!r}: {exc}") from exc

@@ -40,8 +40,9 @@ from planning.core.geometry import wrap_angle
 from planning.core.kinematics import bicycle_to_unicycle
 from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon
 from planning.errors import ConfigError, DependencyError
-from planning.planners.base import PLANNERS, PlanProblem, PlanResult, PlanStatus, make_planner
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus
 from planning.planners.gridpath import grid_path
+from planning.planners.registry import PLANNERS, make_planner
 
 FloatArray = NDArray[np.float64]
 

@@ -19,7 +19,7 @@ PATH_SPACING = 0.02
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Register the ``plan`` subcommand."""
     from planning.core.robot import ROBOT_FILES
-    from planning.planners.base import PLANNERS
+    from planning.planners.registry import PLANNERS
 
     planners = ", ".join(sorted(PLANNERS)) or "(none registered)"
     p: argparse.ArgumentParser = sub.add_parser(
@@ -102,7 +102,8 @@ def run(args: argparse.Namespace) -> int:
     from planning.collision.exact import CollisionChecker
     from planning.core.geometry import wrap_angle
     from planning.core.robot import load_robot
-    from planning.planners.base import PlanProblem, PlanStatus, make_planner
+    from planning.planners.base import PlanProblem, PlanStatus
+    from planning.planners.registry import make_planner
     from planning.scenario import load_scenario
     from sim.outputs import check_writable, write_json
 

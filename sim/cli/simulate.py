@@ -191,7 +191,7 @@ DEFAULT_PLAN = ("edumip_map", "c-rrt-star")
 
 
 def _default_plan_available() -> bool:
-    from planning.planners.base import PLANNERS
+    from planning.planners.registry import PLANNERS
     from planning.scenario import builtin_scenarios
 
     return DEFAULT_PLAN[1] in PLANNERS and DEFAULT_PLAN[0] in builtin_scenarios()

@@ -21,7 +21,8 @@ from control.fbl import FBLGains
 from planning.collision.exact import CollisionChecker
 from planning.core.robot import load_robot
 from planning.errors import NhsimError
-from planning.planners.base import PlanProblem, PlanResult, PlanStatus, make_planner
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus
+from planning.planners.registry import make_planner
 from planning.scenario import Scenario, builtin_scenarios, load_scenario
 from planning.trajectory.from_plan import PlanFailedError
 from sim.physics.simulator import SimConfig

@@ -17,13 +17,14 @@ with the unicycle primitives.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus
+from planning.planners.registry import config_from_options
 from planning.planners.sampling.extend import LocalPlanner
 from planning.planners.sampling.tree import (
     Budget,
@@ -79,20 +80,12 @@ class TreeConfig:
             raise ConfigError(f"shape must be 'footprint' or 'disc', got {self.shape!r}")
 
 
-def _config(cls: type[TreeConfig], options: dict[str, object]) -> TreeConfig:
-    names = {f.name for f in fields(cls)}
-    bad = sorted(set(options) - names)
-    if bad:
-        raise ConfigError(f"unknown option(s) {', '.join(bad)}: valid options are {', '.join(sorted(names))}")
-    return cls(**options)  # type: ignore[arg-type]
-
-
 class _TreePlanner:
     name = "tree"
     config_class: type[TreeConfig] = TreeConfig
 
     def __init__(self, **options: object) -> None:
-        self.config = _config(self.config_class, options)
+        self.config = config_from_options(self.config_class, options)
 
     def _setup(self, problem: PlanProblem) -> tuple[LocalPlanner, Budget, PlanResult | None]:
         cfg = self.config

@@ -115,7 +115,8 @@ class _Ompl:
 
 def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when a target is missed."""
-    from planning.planners.base import PlanStatus, make_planner
+    from planning.planners.base import PlanStatus
+    from planning.planners.registry import make_planner
     from planning.planners.sampling.extend import LocalPlanner
     from planning.planners.sampling.tree import make_checker
 
