@@ -121,6 +121,17 @@ class PlanTree:
     edges: tuple[FloatArray, ...] = ()
 
 
+def _float_array(name: str, value: object, shape: tuple[int | None, ...]) -> FloatArray:
+    """``value`` as a finite float array of ``shape`` (None: any size), else ValueError naming the field."""
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim != len(shape) or any(want not in (None, got) for got, want in zip(arr.shape, shape, strict=False)):
+        expected = ", ".join("any" if want is None else str(want) for want in shape)
+        raise ValueError(f"PlanResult.{name} must have shape ({expected}) (one row per path pose), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"PlanResult.{name} holds non-finite values")
+    return arr
+
+
 @dataclass(frozen=True)
 class PlanResult:
     """The outcome of a planning attempt; failure is a status with a reason, never ``None``.
@@ -128,7 +139,8 @@ class PlanResult:
     Attributes:
         status: How it ended.
         planner: Planner name.
-        path: (N, 3) poses [x, y, theta] densely along the motion (or empty (0, 3)).
+        path: (N, 3) finite poses [x, y, theta] densely along the motion (or empty (0, 3); never
+            empty on success).
         reason: Human-readable explanation for any status but success.
         stats: Numbers worth reporting (time_s, iterations, nodes, ...).
         tree: The search tree, for planners that grow one.
@@ -137,6 +149,10 @@ class PlanResult:
         directions: (N,) +1 forwards / -1 backwards of the motion arriving at each pose of ``path``
             (directions[0] repeats the first step's), when the planner knows.
         states: (N, n) full planner states (e.g. bicycle [x, y, theta, phi]) when richer than poses.
+
+    Raises:
+        ValueError: A status that is not a :class:`PlanStatus`, an array of the wrong shape or with
+            non-finite values, a success without a path, or ``times`` without ``controls``.
     """
 
     status: PlanStatus
@@ -149,6 +165,23 @@ class PlanResult:
     controls: FloatArray | None = None
     directions: FloatArray | None = None
     states: FloatArray | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.status, PlanStatus):
+            raise ValueError(f"PlanResult.status must be a PlanStatus, got {self.status!r}")
+        path = _float_array("path", self.path, (None, 3))
+        n = path.shape[0]
+        if self.status is PlanStatus.SUCCESS and n == 0:
+            raise ValueError("PlanResult.path is empty but the status is success: a successful plan has a path")
+        object.__setattr__(self, "path", path)
+        if (self.times is None) != (self.controls is None):
+            raise ValueError("PlanResult.times and PlanResult.controls come together: give both or neither")
+        for name, shape in (("times", (n,)), ("controls", (n, 2)), ("directions", (n,)), ("states", (n, None))):
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, _float_array(name, value, shape))
+        if self.directions is not None and not np.all(np.abs(self.directions) == 1.0):
+            raise ValueError("PlanResult.directions must hold +1 (forwards) or -1 (backwards) per pose")
 
     @property
     def success(self) -> bool:

@@ -30,6 +30,7 @@ from __future__ import annotations
 import itertools
 import time
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
@@ -56,27 +57,39 @@ class PlanFailedError(TrajectoryError):
     """The plan itself failed (its status is not success), or a timed plan itself collides."""
 
 
+class TrajectoryStatus(StrEnum):
+    """How turning a plan into a trajectory ended. Only ``SUCCESS`` is safe to track."""
+
+    SUCCESS = "success"
+    COLLISION = "collision"  # no refinement kept the footprint clear (or a timed plan collides)
+    DEVIATION = "deviation"  # the fit strayed from the path
+    INVALID = "invalid"  # the plan holds no usable path
+
+
 @dataclass(frozen=True)
 class TrajectoryResult:
     """Outcome of :func:`make_trajectory`.
 
     Attributes:
-        status: "success", "collision" (no refinement kept the footprint clear), "deviation" (the fit
-            strayed from the path) or "invalid" (the plan holds no usable path).
+        status: How it ended (see :class:`TrajectoryStatus`).
         trajectory: The trajectory (also on collision, for inspection), or None.
         reason: What went wrong, and what to try.
         stats: Segments, cusps, rotations, pieces, refinements, clearance, deviation, time scale, ...
     """
 
-    status: str
+    status: TrajectoryStatus
     trajectory: Trajectory | None
     reason: str = ""
     stats: dict[str, Any] = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        if not isinstance(self.status, TrajectoryStatus):
+            raise ValueError(f"TrajectoryResult.status must be a TrajectoryStatus, got {self.status!r}")
+
     @property
     def success(self) -> bool:
         """Whether the trajectory is usable."""
-        return self.status == "success"
+        return self.status is TrajectoryStatus.SUCCESS
 
 
 def _concat(pieces: list[tuple[str, TimedSamples]], dt: float, name: str) -> Trajectory:
@@ -154,7 +167,7 @@ def make_trajectory(
         name: Trajectory name (default "plan:<planner>" or "path").
 
     Returns:
-        The result, with a status; only "success" is safe to track.
+        The result, with a status; only ``TrajectoryStatus.SUCCESS`` is safe to track.
     """
     t_start = time.perf_counter()
     limits = Limits.from_robot(robot, margin)
@@ -170,7 +183,9 @@ def make_trajectory(
         label = name or "path"
         timed = False
     if path.ndim != 2 or path.shape[0] < 1 or path.shape[1] < 3 or not np.all(np.isfinite(path[:, :3])):
-        return TrajectoryResult("invalid", None, f"the plan holds no usable (N, 3) path (shape {path.shape})")
+        return TrajectoryResult(
+            TrajectoryStatus.INVALID, None, f"the plan holds no usable (N, 3) path (shape {path.shape})"
+        )
     path = path[:, :3].copy()
     goal_heading = goal.theta if goal is not None else None
     if goal is not None and np.hypot(path[-1, 0] - goal.x, path[-1, 1] - goal.y) <= snap_tolerance:
@@ -208,7 +223,7 @@ def _from_path(
     stats["loop_poses_removed"] = n_in - path.shape[0]
     segs = split_path(path, dirs, goal_heading=goal_heading, corner_angle=corner_angle)
     pieces: list[tuple[str, TimedSamples]] = []
-    status, reason = "success", ""
+    status, reason = TrajectoryStatus.SUCCESS, ""
     n_pieces, attempts, devs, clears = 0, 0, [0.0], [np.inf]
     for seg in segs:
         if pieces and dwell > 0:
@@ -221,8 +236,8 @@ def _from_path(
         attempts = max(attempts, res.attempts)
         devs.append(res.max_deviation)
         clears.append(res.min_clearance)
-        if not res.success and status == "success":
-            status = res.status.value
+        if not res.success and status is TrajectoryStatus.SUCCESS:
+            status = TrajectoryStatus(res.status.value)
             at = seg.points[0]
             reason = (
                 f"the drive from ({at[0]:.2f}, {at[1]:.2f}) could not be smoothed: {res.status.value} after "
@@ -289,7 +304,9 @@ def _from_timed(
     u = np.asarray(plan.controls, dtype=float)
     n = min(t.size, u.shape[0], path.shape[0])
     if n < 2 or t.size != path.shape[0]:
-        return TrajectoryResult("invalid", None, f"timed plan has {t.size} times for {path.shape[0]} poses")
+        return TrajectoryResult(
+            TrajectoryStatus.INVALID, None, f"timed plan has {t.size} times for {path.shape[0]} poses"
+        )
     t, u, path = t[:n] - t[0], u[:n, :2], path[:n]
     keep = np.concatenate([[True], np.diff(t) > 1e-9])
     t, u, path = t[keep], u[keep], path[keep]
@@ -347,8 +364,8 @@ def _from_timed(
             segments=np.concatenate([body.segments, rest.segments + len(pieces)]),  # type: ignore[operator]
             segment_kinds=body.segment_kinds + rest.segment_kinds,
         )  # fmt: skip
-    status = "success" if clear > 0.0 else "collision"
-    reason = "" if status == "success" else f"the timed plan comes within {clear:.4f} m of an obstacle or wall"
+    status = TrajectoryStatus.SUCCESS if clear > 0.0 else TrajectoryStatus.COLLISION
+    reason = "" if clear > 0.0 else f"the timed plan comes within {clear:.4f} m of an obstacle or wall"
     signs = np.sign(v[np.abs(v) > 1e-4])
     stats.update({
         "segments": len(body.segment_kinds), "time_scale": scale, "retimed": retime, "min_clearance_m": clear,
