@@ -9,7 +9,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.core.geometry import Pose2D
+from planning.core.geometry import Pose2D, path_length
 from planning.core.robot import RobotSpec, load_robot
 from planning.core.world import World
 
@@ -189,10 +189,8 @@ class PlanResult:
         return self.status is PlanStatus.SUCCESS
 
     def length(self) -> float:
-        """Length of the x-y path [m]."""
-        if self.path.shape[0] < 2:
-            return 0.0
-        return float(np.sum(np.hypot(np.diff(self.path[:, 0]), np.diff(self.path[:, 1]))))
+        """Length of the x-y path [m] (:func:`planning.core.geometry.path_length`; turns in place add nothing)."""
+        return path_length(self.path)
 
 
 class Planner(Protocol):

@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import ConvexHull
 
-from planning.core.geometry import wrap_angle
+from planning.core.geometry import cumulative_length, path_length, wrap_angle
 from planning.core.kinematics import bicycle_to_unicycle
 from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon
 from planning.errors import ConfigError, DependencyError
@@ -334,8 +334,7 @@ class Optim:
             g = np.array([problem.goal.x, problem.goal.y, s[2] + float(wrap_angle(problem.goal.theta - s[2]))])
             xs = s[None, :] + tau[:, None] * (g - s)[None, :]
         else:
-            seg = np.hypot(np.diff(path[:, 0]), np.diff(path[:, 1]))
-            arc = np.concatenate([[0.0], np.cumsum(seg)])
+            arc = cumulative_length(path)
             if arc[-1] <= 1e-9:
                 arc = np.linspace(0.0, 1.0, path.shape[0])
             q = tau * arc[-1]
@@ -501,7 +500,7 @@ class Optim:
             final_position_error=pos_err,
             final_heading_error=head_err,
             final_state_error=float(np.linalg.norm(end - np.array([problem.goal.x, problem.goal.y, xv[-1, 2], 0.0]))),
-            length=float(np.sum(np.hypot(np.diff(path[:, 0]), np.diff(path[:, 1])))),
+            length=path_length(path),
             max_abs_u1=float(np.max(np.abs(uv[:, 0]))),
             max_abs_phi=float(np.max(np.abs(xv[:, 3]))),
             rollout_drift=float(np.max(np.abs(defect[:, :2]))) if defect.size else 0.0,

@@ -41,7 +41,7 @@ import scipy.sparse.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from planning.collision.exact import CollisionChecker
-from planning.core.geometry import wrap_angle
+from planning.core.geometry import cumulative_length, path_steps, wrap_angle
 
 FloatArray = NDArray[np.float64]
 SegmentKind = Literal["drive", "rotate"]
@@ -352,7 +352,7 @@ def fit_piecewise(
     if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] < 2:
         raise ValueError(f"points must be an (n, 2) array with n >= 2, got shape {pts.shape}")
     if param is None:
-        u = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))])
+        u = cumulative_length(pts)
     else:
         u = np.asarray(param, dtype=float).reshape(-1)
     br = np.asarray(breaks, dtype=float).reshape(-1)
@@ -514,7 +514,7 @@ class SampledCurve:
             ValueError: Fewer than two distinct positions.
         """
         q = np.asarray(poses, dtype=float)
-        step = np.hypot(np.diff(q[:, 0]), np.diff(q[:, 1]))
+        step = path_steps(q)
         keep = np.concatenate([[True], step > 1e-9])
         q, step = q[keep], step[step > 1e-9]
         if q.shape[0] < 2:
@@ -622,7 +622,7 @@ def smooth_drive(
     if pts.shape[0] < 2:
         raise ValueError("a drive segment needs two distinct points")
     dense = _densify(pts, 0.01)
-    u = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(dense, axis=0).T))])
+    u = cumulative_length(dense)
     length = float(u[-1])
     sgn = segment.direction
     h0, h1 = segment.headings

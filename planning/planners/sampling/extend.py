@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.collision.grid import FastChecker
+from planning.core.geometry import cumulative_length
 from planning.core.robot import RobotSpec
 from planning.curves.words import Word
 from planning.errors import ConfigError
@@ -39,8 +40,7 @@ Motion = tuple[FloatArray, FloatArray, FloatArray]  # (q_new (3,), poses (K, 3),
 
 def _arc_prefix(poses: FloatArray, length: float) -> int:
     """Index of the last sample whose chord-summed distance from the first is <= length."""
-    cum = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(poses[:, 0]), np.diff(poses[:, 1])))])
-    return int(np.searchsorted(cum, length, side="right") - 1)
+    return int(np.searchsorted(cumulative_length(poses), length, side="right") - 1)
 
 
 @dataclass

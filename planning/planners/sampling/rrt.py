@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.geometry import path_length
 from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus
 from planning.planners.registry import config_from_options
@@ -108,8 +109,7 @@ class _TreePlanner:
         stats: Mapping[str, object],
         tree: object,
     ) -> PlanResult:
-        length = float(np.sum(np.hypot(np.diff(poses[:, 0]), np.diff(poses[:, 1])))) if poses.shape[0] > 1 else 0.0
-        stats = {**stats, "length_m": length}
+        stats = {**stats, "length_m": path_length(poses)}
         return PlanResult(status, self.name, path=poses, reason=reason, stats=stats, tree=tree, directions=dirs)  # type: ignore[arg-type]
 
 
