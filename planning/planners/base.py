@@ -11,6 +11,7 @@ from numpy.typing import NDArray
 
 from planning.core.geometry import Pose2D, path_length
 from planning.core.robot import RobotSpec, load_robot
+from planning.core.scenario import Scenario
 from planning.core.world import World
 
 FloatArray = NDArray[np.float64]
@@ -26,45 +27,6 @@ class PlanStatus(StrEnum):
     INVALID_START = "invalid_start"
     INVALID_GOAL = "invalid_goal"
     FAILED = "failed"  # a numerical failure (reason says which)
-
-
-class ScenarioLike(Protocol):
-    """What :meth:`PlanProblem.from_scenario` reads from a scenario (:class:`planning.scenario.Scenario`)."""
-
-    @property
-    def name(self) -> str:
-        """Scenario name."""
-        ...
-
-    @property
-    def robot(self) -> str:
-        """Robot registry name."""
-        ...
-
-    @property
-    def world(self) -> World:
-        """Bounds and obstacles."""
-        ...
-
-    @property
-    def start(self) -> Pose2D:
-        """Start pose."""
-        ...
-
-    @property
-    def goal(self) -> Pose2D:
-        """Goal pose."""
-        ...
-
-    @property
-    def position_tolerance(self) -> float:
-        """Goal region radius [m]."""
-        ...
-
-    @property
-    def heading_tolerance(self) -> float:
-        """Goal heading tolerance [rad]."""
-        ...
 
 
 @dataclass(frozen=True)
@@ -95,7 +57,7 @@ class PlanProblem:
 
     @classmethod
     def from_scenario(
-        cls, scenario: ScenarioLike, *, robot: RobotSpec | None = None, seed: int = 0, time_limit: float = 30.0
+        cls, scenario: Scenario, *, robot: RobotSpec | None = None, seed: int = 0, time_limit: float = 30.0
     ) -> PlanProblem:
         """The planning problem a scenario poses."""
         return cls(
@@ -124,11 +86,13 @@ class PlanTree:
 def _float_array(name: str, value: object, shape: tuple[int | None, ...]) -> FloatArray:
     """``value`` as a finite float array of ``shape`` (None: any size), else ValueError naming the field."""
     arr = np.asarray(value, dtype=float)
-    if arr.ndim != len(shape) or any(want not in (None, got) for got, want in zip(arr.shape, shape, strict=False)):
-        expected = ", ".join("any" if want is None else str(want) for want in shape)
-        raise ValueError(f"PlanResult.{name} must have shape ({expected}) (one row per path pose), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"PlanResult.{name} holds non-finite values")
+    fits = arr.ndim == len(shape) and all(want in (None, got) for got, want in zip(arr.shape, shape, strict=False))
+    expected = ", ".join("any" if want is None else str(want) for want in shape)
+    problem = "" if fits else f"must have shape ({expected}) (one row per path pose), got {arr.shape}"
+    if fits and not np.all(np.isfinite(arr)):
+        problem = "holds non-finite values"
+    if problem:
+        raise ValueError(f"PlanResult.{name} {problem}")
     return arr
 
 
