@@ -28,6 +28,7 @@ from planning.planners.sampling.steering import (
     default_turning_radius,
     diffdrive_metric,
     diffdrive_steer,
+    place,
     se2_metric,
     unicycle_primitives,
 )
@@ -145,10 +146,10 @@ class LocalPlanner:
         for p in np.argsort(self.metric(ends, q_to), kind="stable"):
             body = self._dense[p]
             if backwards:
-                poses = _place(body, ends[p])
+                poses = place(body, ends[p])
                 poses[-1] = q_from
             else:
-                poses = _place(body, q_from)
+                poses = place(body, q_from)
             d = self._dirs[p]
             if self.checker.path_free(poses):
                 q_new = poses[0].copy() if backwards else poses[-1].copy()
@@ -172,12 +173,3 @@ class LocalPlanner:
             return None
         q_new = poses[0].copy() if backwards else poses[-1].copy()
         return q_new, poses, dirs
-
-
-def _place(body: FloatArray, pose: FloatArray) -> FloatArray:
-    c, s = np.cos(pose[2]), np.sin(pose[2])
-    out = np.empty_like(body)
-    out[:, 0] = pose[0] + c * body[:, 0] - s * body[:, 1]
-    out[:, 1] = pose[1] + s * body[:, 0] + c * body[:, 1]
-    out[:, 2] = pose[2] + body[:, 2]
-    return out
