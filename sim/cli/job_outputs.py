@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -152,36 +151,26 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str) -> Out
 
 
 def render_job_video(result: Any, plan: OutputPlan) -> dict[str, Any]:
-    """Replay a job's logs into ``plan.video``; returns facts for the record (frames, seconds, ...)."""
-    from sim.physics.simulator import Simulator
-    from sim.viz.renderer import SceneRenderer
-    from sim.viz.replay import Replay, render_frames
-    from sim.viz.video import VideoWriter
+    """Replay a job's logs into ``plan.video`` with a progress bar; returns facts for the record."""
+    from sim.viz.job_video import write_video
+    from sim.viz.replay import frame_times
 
     assert plan.video is not None and plan.settings is not None
-    s = plan.settings
-    model = Simulator(result.robot, result.scenario.world).model
-    replay = Replay(model, result.trajectory, result.logs, s)
-    bar = _progress_bar(replay.n_frames, f"render {plan.video.name}", plan.progress)
-    t0 = time.perf_counter()
+    logs = result.logs.values()
+    t0, t1 = min(float(log.t[0]) for log in logs), max(float(log.t[-1]) for log in logs)
+    frames = frame_times(t0, t1, plan.settings.fps).size
+    bar = _progress_bar(frames, f"render {plan.video.name}", plan.progress)
     try:
-        with SceneRenderer(model, s.width, s.height, quality=s.quality, max_geom=replay.required_geoms) as renderer:
-            with VideoWriter(plan.video, s.width, s.height, s.fps, overwrite=plan.overwrite) as writer:
-                n = render_frames(replay, renderer, writer, progress=bar.update if bar is not None else None)
-            backend = renderer.backend
+        return write_video(
+            result,
+            plan.video,
+            plan.settings,
+            overwrite=plan.overwrite,
+            progress=bar.update if bar is not None else None,
+        )
     finally:
         if bar is not None:
             bar.close()
-    seconds = time.perf_counter() - t0
-    return {
-        "frames": n,
-        "fps": s.fps,
-        "size": [s.width, s.height],
-        "camera": s.camera,
-        "quality": s.quality,
-        "gl_backend": backend,
-        "render_seconds": round(seconds, 3),
-    }
 
 
 def _progress_bar(total: int, desc: str, enabled: bool) -> Any:

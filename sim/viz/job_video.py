@@ -1,0 +1,85 @@
+"""A job's runs as one MP4: the library's way to write a video (the command line adds a progress bar).
+
+``write_video(job, "renders/run.mp4")`` replays every run of a job (its logs, drawn from its robot
+in its world) through :class:`sim.viz.replay.Replay` into an H.264 MP4, written atomically.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any, Protocol
+
+import mujoco
+
+from planning.core.robot import RobotSpec
+from planning.scenario import Scenario
+from planning.trajectory.trajectory import Trajectory
+from sim.physics.runlog import RunLog
+from sim.viz.renderer import SceneRenderer
+from sim.viz.replay import RenderSettings, Replay, render_frames
+from sim.viz.video import VideoWriter
+
+
+class RecordedJob(Protocol):
+    """What a video needs of a job (:class:`sim.pipeline.simulate.JobResult` has it)."""
+
+    @property
+    def robot(self) -> RobotSpec: ...
+
+    @property
+    def scenario(self) -> Scenario: ...
+
+    @property
+    def trajectory(self) -> Trajectory: ...
+
+    @property
+    def logs(self) -> Mapping[str, RunLog]: ...
+
+
+def write_video(
+    job: RecordedJob,
+    path: str | Path,
+    settings: RenderSettings | None = None,
+    *,
+    model: mujoco.MjModel | None = None,
+    overwrite: bool = False,
+    progress: Callable[[int], Any] | None = None,
+) -> dict[str, Any]:
+    """Render a job's runs into an MP4 (the main run solid, the others as ghosts).
+
+    Args:
+        job: The job (robot, scenario, trajectory and logs).
+        path: The MP4 to write; an existing file is replaced only with ``overwrite``.
+        settings: Size, frame rate, camera and look (default: 640x480, 30 frames/s, overview, fast).
+        model: The model to draw (default: the robot in the scenario's world as drawn).
+        overwrite: Replace an existing file.
+        progress: Called with the number of frames done since the last call.
+
+    Returns:
+        Facts for the run record: frames, fps, size, camera, quality, GL backend, seconds taken.
+
+    Raises:
+        DependencyError: No OpenGL backend can draw here (the message says what to install).
+        FileExistsError: ``path`` exists and ``overwrite`` is false.
+    """
+    from sim.physics.simulator import Simulator
+
+    s = settings or RenderSettings()
+    model = model if model is not None else Simulator(job.robot, job.scenario.world).model
+    replay = Replay(model, job.trajectory, dict(job.logs), s)
+    t0 = time.perf_counter()
+    with SceneRenderer(model, s.width, s.height, quality=s.quality, max_geom=replay.required_geoms) as renderer:
+        with VideoWriter(Path(path), s.width, s.height, s.fps, overwrite=overwrite) as writer:
+            n = render_frames(replay, renderer, writer, progress=progress)
+        backend = renderer.backend
+    return {
+        "frames": n,
+        "fps": s.fps,
+        "size": [s.width, s.height],
+        "camera": s.camera,
+        "quality": s.quality,
+        "gl_backend": backend,
+        "render_seconds": round(time.perf_counter() - t0, 3),
+    }
