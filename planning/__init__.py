@@ -1,4 +1,40 @@
 """Planning layer of nhsim: geometry, worlds, kinematics, planners and trajectories.
 
-Pure numerics; nothing here imports MuJoCo or the control layer.
+Pure numerics; nothing here imports MuJoCo or the control layer. The public names are re-exported
+here (rooms: ``core``, ``collision``, ``curves``, ``planners``, ``trajectory``)::
+
+    from planning import load_scenario, make_planner, PlanProblem, to_trajectory
+
+    scenario = load_scenario("edumip_map")
+    problem = PlanProblem.from_scenario(scenario, seed=0, time_limit=10.0)
+    result = make_planner("c-rrt-star").plan(problem)          # a PlanResult with a PlanStatus
+    trajectory = to_trajectory(result, problem.robot, scenario.world)
 """
+
+from planning.core.geometry import Pose2D as Pose2D
+from planning.core.geometry import densify_path as densify_path
+from planning.core.geometry import path_length as path_length
+from planning.core.geometry import wrap_angle as wrap_angle
+from planning.core.robot import RobotSpec as RobotSpec
+from planning.core.robot import load_robot as load_robot
+from planning.core.world import Box as Box
+from planning.core.world import Circle as Circle
+from planning.core.world import Ellipse as Ellipse
+from planning.core.world import Polygon as Polygon
+from planning.core.world import World as World
+from planning.errors import ConfigError as ConfigError
+from planning.errors import NhsimError as NhsimError
+from planning.planners.base import PlanProblem as PlanProblem
+from planning.planners.base import PlanResult as PlanResult
+from planning.planners.base import PlanStatus as PlanStatus
+from planning.planners.registry import PLANNERS as PLANNERS
+from planning.planners.registry import make_planner as make_planner
+from planning.planners.registry import register_planner as register_planner
+from planning.scenario import Scenario as Scenario
+from planning.scenario import builtin_scenarios as builtin_scenarios
+from planning.scenario import load_scenario as load_scenario
+from planning.trajectory.from_plan import to_trajectory as to_trajectory
+from planning.trajectory.references import REFERENCES as REFERENCES
+from planning.trajectory.references import make_reference as make_reference
+from planning.trajectory.trajectory import Trajectory as Trajectory
+from planning.trajectory.trajectory import TrajectorySamples as TrajectorySamples

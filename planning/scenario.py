@@ -13,7 +13,6 @@ from __future__ import annotations
 import dataclasses
 import tomllib
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -22,12 +21,12 @@ import numpy as np
 from planning.core.geometry import Pose2D
 from planning.core.maps import load_map_table
 from planning.core.robot import MODELS_DIR, ROBOT_FILES
+from planning.core.scenario import DEFAULT_HEADING_TOLERANCE, DEFAULT_POSITION_TOLERANCE, Scenario
+from planning.core.tables import TableReader
 from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon, World
-from planning.errors import ScenarioError
+from planning.errors import ConfigError, ScenarioError
 
 SCENARIOS_DIR = MODELS_DIR / "scenarios"
-DEFAULT_POSITION_TOLERANCE = 0.05
-DEFAULT_HEADING_TOLERANCE = 0.1
 
 _TOP_KEYS = {"name", "robot", "description", "version", "world", "start", "goal", "planner", "robots", "planners"}
 _WORLD_KEYS = {"bounds", "obstacles", "map"}
@@ -43,98 +42,7 @@ _OBSTACLE_KEYS: dict[str, tuple[set[str], set[str]]] = {
 MAP_LOADERS: dict[str, Callable[[Mapping[str, Any], Path, str], list[Obstacle]]] = {"image": load_map_table}
 
 
-@dataclass(frozen=True)
-class Scenario:
-    """A planning and tracking problem.
-
-    Attributes:
-        name: Scenario name.
-        robot: Robot registry name.
-        world: Bounds and obstacles.
-        start: Start pose.
-        goal: Goal pose.
-        position_tolerance: Goal region radius [m].
-        heading_tolerance: Goal heading tolerance [rad].
-        description: Free text.
-        planner: The planner this scenario is meant for by default, if any.
-        robots: Robots the scenario suits (defaults to ``(robot,)``).
-        planner_options: Planner name -> keyword options for that planner in this scenario (the
-            ``[planners.<name>]`` tables).
-        source: The file it was loaded from, if any.
-    """
-
-    name: str
-    robot: str
-    world: World
-    start: Pose2D
-    goal: Pose2D
-    position_tolerance: float = DEFAULT_POSITION_TOLERANCE
-    heading_tolerance: float = DEFAULT_HEADING_TOLERANCE
-    description: str = ""
-    planner: str | None = None
-    robots: tuple[str, ...] = ()
-    planner_options: Mapping[str, Mapping[str, Any]] = field(default_factory=dict, hash=False)
-    source: Path | None = field(default=None, compare=False)
-
-    def __post_init__(self) -> None:
-        if not self.robots:
-            object.__setattr__(self, "robots", (self.robot,))
-
-    def with_robot(self, robot: str) -> Scenario:
-        """The same scenario for another robot."""
-        if robot not in ROBOT_FILES:
-            raise ScenarioError(f"unknown robot {robot!r}: choose one of {', '.join(sorted(ROBOT_FILES))}")
-        return dataclasses.replace(self, robot=robot)
-
-    def options_for(self, planner: str) -> dict[str, Any]:
-        """Keyword options this scenario gives ``planner`` (a copy; empty if none)."""
-        return dict(self.planner_options.get(planner, {}))
-
-
-class _Reader:
-    """Typed access to a TOML table that names the file and field in every error."""
-
-    def __init__(self, where: str) -> None:
-        self.where = where
-
-    def fail(self, field_name: str, expected: str, got: Any = None) -> ScenarioError:
-        got_txt = "" if got is None else f", got {got!r}"
-        return ScenarioError(f"{self.where}: field '{field_name}': expected {expected}{got_txt}")
-
-    def number(self, table: Mapping[str, Any], key: str, ctx: str, *, positive: bool = False) -> float:
-        val = table[key]
-        if isinstance(val, bool) or not isinstance(val, (int, float)) or not np.isfinite(val):
-            raise self.fail(f"{ctx}{key}", "a finite number", val)
-        if positive and val <= 0:
-            raise self.fail(f"{ctx}{key}", "a number > 0", val)
-        return float(val)
-
-    def vector(self, table: Mapping[str, Any], key: str, ctx: str, n: int) -> tuple[float, ...]:
-        val = table[key]
-        if (
-            not isinstance(val, list)
-            or len(val) != n
-            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in val)
-            or not all(np.isfinite(v) for v in val)
-        ):
-            raise self.fail(f"{ctx}{key}", f"a list of {n} finite numbers", val)
-        return tuple(float(v) for v in val)
-
-    def keys(self, table: Mapping[str, Any], ctx: str, required: set[str], optional: set[str]) -> None:
-        if not isinstance(table, Mapping):
-            raise self.fail(ctx.rstrip("."), "a table", table)
-        unknown = set(table) - required - optional
-        if unknown:
-            raise ScenarioError(
-                f"{self.where}: unknown key(s) {', '.join(sorted(repr(k) for k in unknown))} in "
-                f"[{ctx.rstrip('.') or 'top level'}]; allowed: {', '.join(sorted(required | optional))}"
-            )
-        missing = required - set(table)
-        if missing:
-            raise ScenarioError(f"{self.where}: missing field(s) {', '.join(sorted(repr(ctx + k) for k in missing))}")
-
-
-def _obstacle(r: _Reader, table: Mapping[str, Any], ctx: str) -> Obstacle:
+def _obstacle(r: TableReader, table: Mapping[str, Any], ctx: str) -> Obstacle:
     if not isinstance(table, Mapping) or "type" not in table:
         raise r.fail(f"{ctx}type", f"one of {', '.join(_OBSTACLE_KEYS)}")
     kind = table["type"]
@@ -166,10 +74,9 @@ def _obstacle(r: _Reader, table: Mapping[str, Any], ctx: str) -> Obstacle:
         raise r.fail(f"{ctx}vertices", f"a simple polygon ({exc})", verts) from exc
 
 
-def _planner_options(r: _Reader, table: Any) -> dict[str, dict[str, Any]]:
+def _planner_options(r: TableReader, table: Any) -> dict[str, dict[str, Any]]:
     """Validate ``[planners.<name>]`` tables: known planner names, options the planner accepts."""
-    from planning.errors import ConfigError
-    from planning.planners.base import PLANNERS, make_planner  # planning.planners.base imports this module
+    from planning.planners.registry import PLANNERS, make_planner  # imported here: it loads on first use
 
     if not isinstance(table, Mapping):
         raise r.fail("planners", "a table of [planners.<name>] tables of keyword options", table)
@@ -189,7 +96,7 @@ def _planner_options(r: _Reader, table: Any) -> dict[str, dict[str, Any]]:
     return out
 
 
-def _pose(r: _Reader, table: Mapping[str, Any], ctx: str) -> Pose2D:
+def _pose(r: TableReader, table: Mapping[str, Any], ctx: str) -> Pose2D:
     return Pose2D(*r.vector(table, "pose", ctx, 3))
 
 
@@ -208,8 +115,23 @@ def parse_scenario(data: Mapping[str, Any], *, where: str, default_name: str, ba
     Raises:
         ScenarioError: Naming the file, the field and what is expected.
     """
-    r = _Reader(where)
+    r = TableReader(where)
     r.keys(data, "", {"world", "start", "goal"}, _TOP_KEYS)
+    header = _header(r, data, default_name)
+    world = _world(r, data["world"], base_dir)
+    start_t, goal_t = data["start"], data["goal"]
+    r.keys(start_t, "start.", {"pose"}, set())
+    r.keys(goal_t, "goal.", {"pose"}, {"position_tolerance", "heading_tolerance"})
+    start, goal = _pose(r, start_t, "start."), _pose(r, goal_t, "goal.")
+    ptol = r.number(goal_t, "position_tolerance", "goal.", positive=True, default=DEFAULT_POSITION_TOLERANCE)
+    htol = r.number(goal_t, "heading_tolerance", "goal.", positive=True, default=DEFAULT_HEADING_TOLERANCE)
+    for label, pose in (("start", start), ("goal", goal)):
+        _check_free(r, world, label, pose)
+    return Scenario(world=world, start=start, goal=goal, position_tolerance=ptol, heading_tolerance=htol, **header)
+
+
+def _header(r: TableReader, data: Mapping[str, Any], default_name: str) -> dict[str, Any]:
+    """The top-level fields: name, robot, robots, description, version, planner and planner options."""
     name = data.get("name", default_name)
     if not isinstance(name, str) or not name:
         raise r.fail("name", "a non-empty string", name)
@@ -222,64 +144,51 @@ def parse_scenario(data: Mapping[str, Any], *, where: str, default_name: str, ba
     description = data.get("description", "")
     if not isinstance(description, str):
         raise r.fail("description", "a string", description)
-    version = data.get("version", 1)
-    if version != 1:
-        raise r.fail("version", "1 (the only format version this nhsim reads)", version)
+    if data.get("version", 1) != 1:
+        raise r.fail("version", "1 (the only format version this nhsim reads)", data["version"])
     planner = data.get("planner")
     if planner is not None and not isinstance(planner, str):
         raise r.fail("planner", "a planner name", planner)
     planner_options = _planner_options(r, data["planners"]) if "planners" in data else {}
+    return {
+        "name": name,
+        "robot": robot,
+        "robots": tuple(robots),
+        "description": description,
+        "planner": planner,
+        "planner_options": planner_options,
+    }
 
-    world_t = data["world"]
-    r.keys(world_t, "world.", {"bounds"}, _WORLD_KEYS)
-    xmin, xmax, ymin, ymax = r.vector(world_t, "bounds", "world.", 4)
+
+def _world(r: TableReader, table: Any, base_dir: Path) -> World:
+    """The ``[world]`` table: bounds, obstacles and the obstacles of a ``[world.map]``."""
+    r.keys(table, "world.", {"bounds"}, _WORLD_KEYS)
+    xmin, xmax, ymin, ymax = r.vector(table, "bounds", "world.", 4)
     if not (xmin < xmax and ymin < ymax):
-        raise r.fail("world.bounds", "[xmin, xmax, ymin, ymax] with xmin < xmax and ymin < ymax", world_t["bounds"])
-    obstacles: list[Obstacle] = []
-    obs_list = world_t.get("obstacles", [])
+        raise r.fail("world.bounds", "[xmin, xmax, ymin, ymax] with xmin < xmax and ymin < ymax", table["bounds"])
+    obs_list = table.get("obstacles", [])
     if not isinstance(obs_list, list):
         raise r.fail("world.obstacles", "an array of tables ([[world.obstacles]])", obs_list)
-    for i, ot in enumerate(obs_list):
-        obstacles.append(_obstacle(r, ot, f"world.obstacles[{i}]."))
-    if "map" in world_t:
+    obstacles = [_obstacle(r, ot, f"world.obstacles[{i}].") for i, ot in enumerate(obs_list)]
+    if "map" in table:
         loader = MAP_LOADERS.get("image")
         if loader is None:
             raise r.fail("world.map", "no map loader is available in this installation")
-        obstacles.extend(loader(world_t["map"], base_dir, where))
-    world = World((xmin, xmax, ymin, ymax), tuple(obstacles))
+        obstacles.extend(loader(table["map"], base_dir, r.where))
+    return World((xmin, xmax, ymin, ymax), tuple(obstacles))
 
-    start_t, goal_t = data["start"], data["goal"]
-    r.keys(start_t, "start.", {"pose"}, set())
-    r.keys(goal_t, "goal.", {"pose"}, {"position_tolerance", "heading_tolerance"})
-    start = _pose(r, start_t, "start.")
-    goal = _pose(r, goal_t, "goal.")
-    ptol = (
-        r.number(goal_t, "position_tolerance", "goal.", positive=True)
-        if "position_tolerance" in goal_t
-        else DEFAULT_POSITION_TOLERANCE
-    )
-    htol = (
-        r.number(goal_t, "heading_tolerance", "goal.", positive=True)
-        if "heading_tolerance" in goal_t
-        else DEFAULT_HEADING_TOLERANCE
-    )
-    for label, pose in (("start", start), ("goal", goal)):
-        if not (xmin < pose.x < xmax and ymin < pose.y < ymax):
-            raise r.fail(
-                f"{label}.pose", f"a position inside the world bounds {list(world.bounds)}", list(pose.as_array())
-            )
-        d = float(world.obstacle_distance(pose.xy)[0])
-        if d <= 0:
-            idx = int(np.argmin([o.signed_distance(pose.xy)[0] for o in world.obstacles]))
-            raise ScenarioError(
-                f"{where}: field '{label}.pose': {list(pose.as_array())} lies inside "
-                f"world.obstacles[{idx}] ({world.obstacles[idx].kind}); move it into free space"
-            )
-    return Scenario(
-        name=name, robot=robot, world=world, start=start, goal=goal, position_tolerance=ptol,
-        heading_tolerance=htol, description=description, planner=planner, robots=tuple(robots),
-        planner_options=planner_options,
-    )  # fmt: skip
+
+def _check_free(r: TableReader, world: World, label: str, pose: Pose2D) -> None:
+    """The start or goal lies inside the bounds and outside every obstacle."""
+    xmin, xmax, ymin, ymax = world.bounds
+    if not (xmin < pose.x < xmax and ymin < pose.y < ymax):
+        raise r.fail(f"{label}.pose", f"a position inside the world bounds {list(world.bounds)}", list(pose.as_array()))
+    if float(world.obstacle_distance(pose.xy)[0]) <= 0:
+        idx = int(np.argmin([o.signed_distance(pose.xy)[0] for o in world.obstacles]))
+        raise ScenarioError(
+            f"{r.where}: field '{label}.pose': {list(pose.as_array())} lies inside "
+            f"world.obstacles[{idx}] ({world.obstacles[idx].kind}); move it into free space"
+        )
 
 
 def load_scenario_file(path: str | Path) -> Scenario:

@@ -1,6 +1,76 @@
-"""Simulation layer of nhsim: MuJoCo models, the physics loop, metrics, rendering and the CLI.
+"""Simulation layer of nhsim: MuJoCo models, the physics loop, the pipeline, drawing and the CLI.
 
-Importing this package has no side effect. MuJoCo reads its OpenGL backend (``MUJOCO_GL``) when it is
-first imported; choose it with :func:`sim.viz.gl.configure` before importing :mod:`sim.physics`
-(the CLI does), or leave it to the renderer's headless default (see :mod:`sim.viz.gl`).
+The public names are re-exported here (rooms: ``physics``, ``pipeline``, ``viz``, ``tools``, ``cli``)::
+
+    from sim import simulate_plan, write_video
+
+    job = simulate_plan("edumip_map", planner="c-rrt-star", seed=0)
+    print(job.metrics["closed_loop"].final_position_error_m)
+    write_video(job, "renders/edumip_map.mp4")
+
+Importing this package configures and loads nothing (each name loads on first use). MuJoCo reads
+its OpenGL backend (``MUJOCO_GL``) when it is first imported; the renderer draws headless (OSMesa,
+else EGL) whatever was chosen then, unless a backend was named that cannot draw here (see
+:mod:`sim.viz.gl`; the CLI calls
+:func:`sim.viz.gl.configure` with ``--gl``).
 """
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from sim.physics.metrics import TrackingMetrics as TrackingMetrics
+    from sim.physics.metrics import compute_metrics as compute_metrics
+    from sim.physics.perturb import Perturbation as Perturbation
+    from sim.physics.runlog import RunLog as RunLog
+    from sim.physics.simulator import SimConfig as SimConfig
+    from sim.physics.simulator import Simulator as Simulator
+    from sim.pipeline.case import Case as Case
+    from sim.pipeline.case import PlanOptions as PlanOptions
+    from sim.pipeline.case import prepare_trajectory as prepare_trajectory
+    from sim.pipeline.runs import RunKind as RunKind
+    from sim.pipeline.simulate import JobResult as JobResult
+    from sim.pipeline.simulate import simulate as simulate
+    from sim.pipeline.simulate import simulate_plan as simulate_plan
+    from sim.pipeline.simulate import simulate_reference as simulate_reference
+    from sim.pipeline.simulate import track as track
+    from sim.viz.job_video import write_video as write_video
+    from sim.viz.replay import RenderSettings as RenderSettings
+
+#: Public name -> the module that defines it. Loaded on first use, so that ``import sim`` (and the
+#: command line, which must choose MuJoCo's GL backend before MuJoCo loads) imports no MuJoCo.
+_EXPORTS = {
+    "TrackingMetrics": "sim.physics.metrics",
+    "compute_metrics": "sim.physics.metrics",
+    "Perturbation": "sim.physics.perturb",
+    "RunLog": "sim.physics.runlog",
+    "SimConfig": "sim.physics.simulator",
+    "Simulator": "sim.physics.simulator",
+    "Case": "sim.pipeline.case",
+    "PlanOptions": "sim.pipeline.case",
+    "prepare_trajectory": "sim.pipeline.case",
+    "RunKind": "sim.pipeline.runs",
+    "JobResult": "sim.pipeline.simulate",
+    "simulate": "sim.pipeline.simulate",
+    "simulate_plan": "sim.pipeline.simulate",
+    "simulate_reference": "sim.pipeline.simulate",
+    "track": "sim.pipeline.simulate",
+    "write_video": "sim.viz.job_video",
+    "RenderSettings": "sim.viz.replay",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'sim' has no attribute {name!r}; its public names are {', '.join(__all__)}")
+    value = getattr(importlib.import_module(_EXPORTS[name]), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))

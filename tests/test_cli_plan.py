@@ -10,10 +10,10 @@ from PIL import Image
 
 from planning.collision.exact import CollisionChecker
 from planning.core.robot import load_robot
-from planning.planners.base import PLANNERS
+from planning.planners.registry import PLANNERS
 from planning.scenario import builtin_scenarios, load_scenario
 from sim.cli.main import COMMANDS, build_parser, main
-from sim.cli.plan import densify_path, path_spacing
+from sim.cli.plan import path_spacing, record_path
 
 KEYS = {
     "status", "planner", "time_s", "iterations", "length_m", "min_clearance_m", "path", "reason", "seed",
@@ -114,15 +114,17 @@ def test_failed_plan_exits_1_with_reason(tmp_path, capsys):
     assert "invalid_start" in capsys.readouterr().out
 
 
-def test_densify_path():
+def test_record_path():
     path = np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.1, 0.0, np.pi / 2], [0.1, 0.05, np.pi / 2]])
-    out = densify_path(path, radius=0.1)
+    out = record_path(path, radius=0.1)
     assert path_spacing(out, 0.1) <= 0.02 + 1e-12
+    assert out.shape[0] == 1 + 5 + 8 + 3  # 0.1 m in 5 steps, 0.1 * pi/2 = 0.157 m in 8, 0.05 m in 3
     for row in path:  # the given states are kept
         assert np.min(np.abs(out - row).sum(axis=1)) < 1e-12
     assert path_spacing(path, 0.1) == pytest.approx(0.1 * np.pi / 2)
-    dense = densify_path(out, radius=0.1)
-    assert dense is out  # already dense: unchanged
+    assert path_spacing(path[:1], 0.1) == 0.0
+    dense = record_path(out, radius=0.1)
+    assert dense is out  # already dense (5 steps of exactly 2 cm stay 5): unchanged
 
 
 def test_scenarios_command_lists_every_builtin(capsys):

@@ -12,7 +12,8 @@ from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import load_robot
 from planning.core.world import Box, World
 from planning.errors import ConfigError
-from planning.planners.base import PLANNERS, PlanProblem, PlanStatus, make_planner
+from planning.planners.base import PlanProblem, PlanStatus
+from planning.planners.registry import PLANNERS, make_planner
 from planning.planners.sampling.crrt_star import CRRTStar, CRRTStarConfig, _Search
 from planning.scenario import load_scenario
 

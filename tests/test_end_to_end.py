@@ -8,7 +8,8 @@ built-in scenario x applicable planner x robot is marked slow.
 import numpy as np
 import pytest
 
-from planning.planners.base import PLANNERS, PlanResult, PlanStatus
+from planning.planners.base import PlanResult, PlanStatus
+from planning.planners.registry import PLANNERS
 from planning.scenario import load_scenario
 from sim.cli.sweep_table import format_row, summary
 from sim.pipeline.case import Case, PlanOptions

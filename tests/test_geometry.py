@@ -1,7 +1,14 @@
 import numpy as np
 import pytest
 
-from planning.core.geometry import Pose2D, wrap_angle
+from planning.core.geometry import (
+    Pose2D,
+    cumulative_length,
+    densify_path,
+    path_length,
+    path_steps,
+    wrap_angle,
+)
 
 
 def test_wrap_angle_range_and_identity() -> None:
@@ -23,3 +30,51 @@ def test_pose_validation_and_helpers() -> None:
         Pose2D(float("nan"), 0, 0)
     with pytest.raises(ValueError, match="3 numbers"):
         Pose2D.from_array([1, 2])
+
+
+# a 3-4-5 leg, a quarter turn in place, then 1 m back along -y
+PATH = np.array([[0.0, 0.0, 0.0], [3.0, 4.0, 0.0], [3.0, 4.0, np.pi / 2], [3.0, 3.0, np.pi / 2]])
+
+
+def test_path_length_counts_turns_only_with_a_radius() -> None:
+    assert path_length(PATH) == 6.0
+    assert path_length(PATH[:, :2]) == 6.0
+    assert path_length(PATH, radius=0.2) == pytest.approx(6.0 + 0.2 * np.pi / 2, abs=1e-15)
+    np.testing.assert_array_equal(path_steps(PATH), [5.0, 0.0, 1.0])
+    np.testing.assert_array_equal(cumulative_length(PATH), [0.0, 5.0, 5.0, 6.0])
+    assert path_length(PATH[:1]) == 0.0 and path_length(np.zeros((0, 3))) == 0.0
+    assert cumulative_length(PATH[:1]).tolist() == [0.0]
+
+
+def test_turns_are_counted_on_unwrapped_headings() -> None:
+    across = np.array([[0.0, 0.0, np.pi - 0.1], [0.0, 0.0, -np.pi + 0.1]])  # 0.2 rad across the cut
+    assert path_length(across, radius=1.0) == pytest.approx(0.2, abs=1e-12)
+    with pytest.raises(ValueError, match="needs \\(N, 3\\) poses"):
+        path_steps(PATH[:, :2], radius=0.1)
+
+
+def test_densify_path_bounds_every_step_and_keeps_the_poses() -> None:
+    out = densify_path(PATH, 0.3, radius=0.2)
+    steps = path_steps(out, radius=0.2)
+    assert steps.max() <= 0.3 + 1e-12
+    # ceil(5 / 0.3) = 17, ceil(0.2 pi/2 / 0.3) = 2, ceil(1 / 0.3) = 4 equal parts, plus the last pose
+    assert out.shape == (17 + 2 + 4 + 1, 3)
+    for row in PATH:
+        assert np.min(np.abs(out - row).sum(axis=1)) < 1e-12
+    np.testing.assert_allclose(steps[:17], 5.0 / 17, rtol=1e-12)
+    assert out[0].tolist() == PATH[0].tolist() and out[-1].tolist() == PATH[-1].tolist()
+    assert densify_path(PATH, 0.3).shape[0] == 17 + 1 + 4 + 1  # without a radius the turn is one step
+
+
+def test_densify_path_slack_and_short_paths() -> None:
+    line = np.array([[0.0, 0.0, 0.0], [3 * 0.1, 0.0, 0.0]])
+    assert 3 * 0.1 / 0.1 > 3.0  # rounding makes an exact split look longer
+    assert densify_path(line, 0.1).shape[0] == 5
+    assert densify_path(line, 0.1, slack=1e-9).shape[0] == 4
+    one = np.array([[1.0, 2.0, 3.0]])
+    assert densify_path(one, 0.1) is one
+    wrapped = np.array([[0.0, 0.0, np.pi - 0.1], [0.0, 0.0, -np.pi + 0.1]])
+    out = densify_path(wrapped, 0.06, radius=1.0)  # 0.2 rad across the cut: 4 parts, not 2 pi - 0.2
+    assert out.shape[0] == 5 and np.all(np.diff(out[:, 2]) > 0)
+    with pytest.raises(ValueError, match="spacing must be > 0"):
+        densify_path(line, 0.0)

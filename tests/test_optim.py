@@ -13,8 +13,9 @@ from planning.core.kinematics import bicycle_rhs
 from planning.core.robot import load_robot
 from planning.core.world import Box, Circle, Ellipse, Polygon, World
 from planning.errors import ConfigError
-from planning.planners.base import PlanProblem, PlanStatus, make_planner
+from planning.planners.base import PlanProblem, PlanStatus
 from planning.planners.optim import DEFAULT_DT, DEFAULT_N, Optim, polygon_vertices
+from planning.planners.registry import make_planner
 from planning.scenario import load_scenario
 
 

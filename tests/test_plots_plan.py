@@ -16,7 +16,8 @@ from matplotlib.patches import Rectangle
 
 from planning.core.world import Box, Circle, Ellipse, Polygon, World
 from planning.errors import OutputExistsError
-from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree, make_planner
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
+from planning.planners.registry import make_planner
 from planning.scenario import load_scenario
 from sim.viz.plots.draw import PLAN_WORLD, RUN_WORLD, WorldStyle, draw_world, save_figure
 from sim.viz.plots.plan import plan_figure

@@ -3,33 +3,21 @@
 import numpy as np
 import pytest
 
-from planning.core.kinematics import rollout, unicycle_rhs
 from planning.curves.dubins import dubins_length
 from planning.curves.reeds_shepp import reeds_shepp_length, reeds_shepp_path
+from tests.curve_helpers import drive, ompl_distances, pose_pairs, wrap
 
-RNG = np.random.default_rng(7)
 N = 400
-A = np.column_stack([RNG.uniform(-4, 4, (N, 2)), RNG.uniform(-np.pi, np.pi, N)])
-B = np.column_stack([RNG.uniform(-4, 4, (N, 2)), RNG.uniform(-np.pi, np.pi, N)])
-
-
-def _wrap(a):
-    return (a + np.pi) % (2 * np.pi) - np.pi
+A, B = pose_pairs(7, N)
 
 
 @pytest.mark.parametrize("i", range(0, N, 50))
 def test_controls_integrate_to_goal_and_length(i):
     rho = 0.6
     w = reeds_shepp_path(A[i], B[i], rho)
-    dur, u = w.controls(speed=1.0)
-    x = A[i].copy()
-    travelled = 0.0
-    for d, uk in zip(dur, u, strict=True):
-        n = max(1, int(np.ceil(d / 1e-3)))
-        x = rollout(unicycle_rhs, x, np.repeat(uk[None, :], n, axis=0), d / n)[-1]
-        travelled += abs(uk[0]) * d
+    x, travelled = drive(A[i], w, speed=1.0, dt=1e-3)
     assert np.allclose(x[:2], B[i, :2], atol=1e-9)
-    assert abs(_wrap(x[2] - B[i, 2])) < 1e-9
+    assert abs(wrap(x[2] - B[i, 2])) < 1e-9
     assert travelled == pytest.approx(reeds_shepp_length(A[i], B[i], rho)[0], abs=1e-12)
 
 
@@ -37,7 +25,7 @@ def test_samples_start_end_and_spacing():
     w = reeds_shepp_path(A[0], B[0], 0.5)
     poses, dirs = w.sample(0.01)
     assert np.allclose(poses[0], A[0])
-    assert np.allclose(poses[-1, :2], B[0, :2], atol=1e-9) and abs(_wrap(poses[-1, 2] - B[0, 2])) < 1e-9
+    assert np.allclose(poses[-1, :2], B[0, :2], atol=1e-9) and abs(wrap(poses[-1, 2] - B[0, 2])) < 1e-9
     assert np.all(np.hypot(*np.diff(poses[:, :2], axis=0).T) <= 0.01 + 1e-12)
     assert set(np.unique(dirs)) <= {-1.0, 1.0}
 
@@ -71,14 +59,7 @@ def test_known_values(goal, expected):
 
 
 def test_matches_ompl():
-    ob = pytest.importorskip("ompl.base")
-    sp = ob.ReedsSheppStateSpace(0.7)
-    s0, s1 = sp.allocState(), sp.allocState()
-    ref = []
-    for a, b in zip(A, B, strict=True):
-        s0.setX(a[0]), s0.setY(a[1]), s0.setYaw(a[2])
-        s1.setX(b[0]), s1.setY(b[1]), s1.setYaw(b[2])
-        ref.append(sp.distance(s0, s1))
+    ref = ompl_distances("ReedsSheppStateSpace", 0.7, A, B)
     assert np.allclose(reeds_shepp_length(A, B, 0.7), ref, atol=1e-9)
 
 

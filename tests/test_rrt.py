@@ -9,7 +9,8 @@ from planning.core.geometry import Pose2D
 from planning.core.robot import load_robot
 from planning.core.world import Box, Circle, World
 from planning.curves.reeds_shepp import reeds_shepp_length
-from planning.planners.base import PlanProblem, PlanStatus, make_planner
+from planning.planners.base import PlanProblem, PlanStatus
+from planning.planners.registry import make_planner
 from planning.planners.sampling.steering import default_turning_radius
 from planning.scenario import builtin_scenarios, load_scenario
 

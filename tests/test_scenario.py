@@ -101,7 +101,7 @@ def test_builtin_scenarios_load() -> None:
 
 
 def test_planner_options_tables_are_read_and_reach_the_planner(tmp_path: Path) -> None:
-    from planning.planners.base import make_planner
+    from planning.planners.registry import make_planner
 
     text = GOOD + '[planners.birrt]\nsteering = "reeds_shepp"\ngoal_bias = 0.1\n[planners.optim]\nN = 30\n'
     sc = load_scenario(_write(tmp_path, text))

@@ -11,7 +11,8 @@ import pytest
 from planning.core.geometry import Pose2D
 from planning.core.robot import load_robot
 from planning.core.world import World
-from planning.planners.base import PlanProblem, make_planner
+from planning.planners.base import PlanProblem
+from planning.planners.registry import make_planner
 from planning.scenario import load_scenario
 from planning.trajectory.from_plan import to_trajectory
 from planning.trajectory.references import REFERENCES, make_reference

@@ -12,7 +12,8 @@ from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import load_robot
 from planning.core.world import Circle, World
 from planning.errors import ConfigError
-from planning.planners.base import PlanProblem, PlanStatus, make_planner
+from planning.planners.base import PlanProblem, PlanStatus
+from planning.planners.registry import make_planner
 from planning.planners.sinusoidal import ChainedModel, Sinusoidal, heading_waypoints, model_for
 from planning.scenario import load_scenario
 

@@ -10,9 +10,10 @@ from planning.collision.exact import CollisionChecker
 from planning.core.geometry import Pose2D
 from planning.core.robot import load_robot
 from planning.core.world import Circle, World
-from planning.planners.base import PlanProblem, PlanResult, PlanStatus, make_planner
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus
+from planning.planners.registry import make_planner
 from planning.scenario import load_scenario
-from planning.trajectory.from_plan import make_trajectory
+from planning.trajectory.from_plan import TrajectoryResult, TrajectoryStatus, make_trajectory
 from planning.trajectory.smoothing import SmoothStatus, fit_piecewise, remove_loops, smooth_drive, split_path
 
 TB3 = load_robot("turtlebot3")
@@ -190,7 +191,9 @@ def test_a_fit_that_would_clip_an_obstacle_is_refined_until_clear() -> None:
 def test_a_path_through_an_obstacle_is_a_failure_status() -> None:
     world = World((-3, 3, -3, 3), (Circle((0.5, 0.0), 0.1),))
     res = make_trajectory(polyline([[0, 0], [1, 0]]), TB3, world)
-    assert res.status == "collision" and "clearance" in res.reason
+    assert res.status is TrajectoryStatus.COLLISION and "clearance" in res.reason and not res.success
+    with pytest.raises(ValueError, match="must be a TrajectoryStatus"):
+        TrajectoryResult("success", None)  # type: ignore[arg-type]
 
 
 def test_timed_plans_are_kept_as_they_are_or_slowed_uniformly() -> None:

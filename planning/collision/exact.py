@@ -25,6 +25,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planning.core.geometry import densify_path
 from planning.core.robot import RobotSpec
 from planning.core.world import Box, Circle, Ellipse, Polygon, World
 
@@ -147,8 +148,9 @@ class CollisionChecker:
     def densify(self, poses: ArrayLike) -> FloatArray:
         """Insert poses so that no robot point moves more than ``resolution`` between samples.
 
-        Positions and (unwrapped) headings are interpolated linearly between the given samples,
-        which must themselves follow the motion (e.g. the states of a motion primitive).
+        :func:`planning.core.geometry.densify_path` with the robot's radius (a turn counts radius
+        times the angle): positions and unwrapped headings are interpolated linearly between the
+        given samples, which must themselves follow the motion (e.g. the states of a primitive).
 
         Args:
             poses: (K, 3) consecutive poses along a motion.
@@ -156,17 +158,7 @@ class CollisionChecker:
         Returns:
             (K', 3) poses, K' >= K, starting and ending with the given ones.
         """
-        p = np.atleast_2d(np.asarray(poses, dtype=float))
-        if p.shape[0] < 2:
-            return p
-        th = np.unwrap(p[:, 2])
-        step = np.hypot(np.diff(p[:, 0]), np.diff(p[:, 1])) + self.robot.radius * np.abs(np.diff(th))
-        n = np.maximum(1, np.ceil(step / self.resolution).astype(int))
-        idx = np.repeat(np.arange(len(n)), n)
-        frac = np.concatenate([np.arange(k) / k for k in n])
-        q = np.column_stack([p[:, 0], p[:, 1], th])
-        out = q[idx] + frac[:, None] * (q[idx + 1] - q[idx])
-        return np.vstack([out, q[-1:]])
+        return densify_path(poses, self.resolution, radius=self.robot.radius)
 
     def motion_free(self, poses: ArrayLike) -> bool:
         """Whether a whole motion (consecutive poses, densified here) is collision-free."""

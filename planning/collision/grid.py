@@ -163,10 +163,10 @@ class FastChecker:
         if not c.walls:  # the grid assumes walls; without them every pose is left undecided
             return np.full(p.shape[0], -1, dtype=np.int8)
         x0, _, y0, _ = c.world.bounds
+        r, fp, disc = c.robot.radius, c.robot.footprint, c.shape == "disc"
         return _classify(  # type: ignore[no-any-return]
-            p, self._grid, x0, y0, self._h, c._boundary, c.robot.footprint, c._anchors,
-            c.robot.radius, c.clearance, c.tolerance, c.shape == "disc", stop,
-        )  # fmt: skip
+            p, self._grid, x0, y0, self._h, c._boundary, fp, c._anchors, r, c.clearance, c.tolerance, disc, stop
+        )
 
     def poses_free(self, poses: ArrayLike) -> BoolArray:
         """(M,) whether each (M, 3) pose keeps the clearance from everything (exact verdict)."""

@@ -82,3 +82,106 @@ class Pose2D:
     def heading_error_to(self, other: Pose2D) -> float:
         """Absolute wrapped heading difference [rad]."""
         return abs(wrap_angle(self.theta - other.theta))
+
+
+# ---------------------------------------------------------------------------------------- paths
+# A path is an (N, 3) array of poses [x, y, theta] along a motion. How far the robot moves between
+# two consecutive poses is the distance its base origin travels, |dxy| [m]; where a turn must count
+# too (a turn in place moves the robot's body although the origin stays put) a caller gives the
+# robot's radius R and the step becomes |dxy| + R |dtheta| (headings unwrapped first), a bound on
+# how far any point of the robot moves. A path's length is the sum of its steps.
+
+
+def _steps(path: FloatArray, theta: FloatArray | None, radius: float) -> FloatArray:
+    step = np.hypot(np.diff(path[:, 0]), np.diff(path[:, 1]))
+    if radius and theta is not None:
+        step = step + radius * np.abs(np.diff(theta))
+    return step  # type: ignore[no-any-return]
+
+
+def _as_path(path: ArrayLike) -> FloatArray:
+    p = np.atleast_2d(np.asarray(path, dtype=float))
+    if p.ndim != 2 or p.shape[1] < 2:
+        raise ValueError(f"a path must be an (N, 2) or (N, 3) array of positions or poses, got shape {p.shape}")
+    return p
+
+
+def path_steps(path: ArrayLike, radius: float = 0.0) -> FloatArray:
+    """How far the robot moves between consecutive poses (see the note above) [m].
+
+    Args:
+        path: (N, 2) positions or (N, 3) poses [x, y, theta].
+        radius: R [m]: a heading change dtheta adds R |dtheta| (headings unwrapped; needs poses).
+            0 counts the base origin's travel only.
+
+    Returns:
+        (N - 1,) steps [m] (empty for fewer than two poses).
+    """
+    p = _as_path(path)
+    if radius and p.shape[1] < 3:
+        raise ValueError(f"counting turns (radius {radius}) needs (N, 3) poses with headings, got shape {p.shape}")
+    return _steps(p, np.unwrap(p[:, 2]) if radius else None, radius)
+
+
+def path_length(path: ArrayLike, radius: float = 0.0) -> float:
+    """Length of a path: the sum of its :func:`path_steps` [m].
+
+    With the default ``radius = 0`` it is the length of the x-y polyline (a turn in place adds
+    nothing); with the robot's radius a heading change adds radius * |angle|.
+
+    Args:
+        path: (N, 2) positions or (N, 3) poses [x, y, theta].
+        radius: R [m] (see :func:`path_steps`).
+
+    Returns:
+        The length [m]; 0 for fewer than two poses.
+    """
+    p = _as_path(path)
+    if p.shape[0] < 2:
+        return 0.0
+    return float(np.sum(path_steps(p, radius)))
+
+
+def cumulative_length(path: ArrayLike) -> FloatArray:
+    """Distance travelled by the base origin from the first pose to each pose [m].
+
+    Args:
+        path: (N, 2) positions or (N, 3) poses.
+
+    Returns:
+        (N,) running sums of the x-y steps, starting at 0.
+    """
+    return np.concatenate([[0.0], np.cumsum(path_steps(path))])
+
+
+def densify_path(path: ArrayLike, spacing: float, *, radius: float = 0.0, slack: float = 0.0) -> FloatArray:
+    """Insert poses so that no step (:func:`path_steps` with ``radius``) exceeds ``spacing``.
+
+    Each step is cut into ``ceil(step / spacing - slack)`` equal parts (at least one), positions and
+    unwrapped headings interpolated linearly, so the poses must themselves follow the motion (the
+    states of a motion primitive, a planner's path).
+
+    Args:
+        path: (N, 3) poses [x, y, theta].
+        spacing: Largest step allowed [m], > 0.
+        radius: R [m]: a heading change counts R |dtheta| (the robot's radius bounds how far any
+            point of it moves); 0 counts the base origin's travel only.
+        slack: A step longer than k spacings by less than ``slack * spacing`` is cut into k parts,
+            not k + 1 (rounding of a step that is an exact multiple); 0: none.
+
+    Returns:
+        (N', 3) poses, N' >= N, starting and ending with the given ones, headings unwrapped; a path
+        of fewer than two poses comes back as it is.
+    """
+    if not spacing > 0:
+        raise ValueError(f"spacing must be > 0 m, got {spacing}")
+    p = _as_path(path)
+    if p.shape[0] < 2:
+        return p
+    th = np.unwrap(p[:, 2])
+    n = np.maximum(1, np.ceil(_steps(p, th, radius) / spacing - slack).astype(int))
+    idx = np.repeat(np.arange(len(n)), n)
+    frac = np.concatenate([np.arange(k) / k for k in n])
+    q = np.column_stack([p[:, 0], p[:, 1], th])
+    out = q[idx] + frac[:, None] * (q[idx + 1] - q[idx])
+    return np.vstack([out, q[-1:]])

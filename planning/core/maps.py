@@ -39,6 +39,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from planning.core.tables import TableReader
 from planning.core.world import Box, Obstacle, Polygon
 from planning.errors import ScenarioError
 
@@ -246,48 +247,23 @@ def load_map_table(table: Mapping[str, Any], base_dir: Path, where: str) -> list
         ScenarioError: Unknown or missing keys, bad values, a missing or unreadable image.
     """
 
-    def fail(key: str, expected: str, got: Any) -> ScenarioError:
-        return ScenarioError(f"{where}: field 'world.map.{key}': expected {expected}, got {got!r}")
-
-    if not isinstance(table, Mapping):
-        raise ScenarioError(f"{where}: field 'world.map': expected a table ([world.map]), got {table!r}")
-    unknown = set(table) - _MAP_REQUIRED - _MAP_OPTIONAL
-    if unknown:
-        raise ScenarioError(
-            f"{where}: unknown key(s) {', '.join(sorted(repr(k) for k in unknown))} in [world.map]; "
-            f"allowed: {', '.join(sorted(_MAP_REQUIRED | _MAP_OPTIONAL))}"
-        )
-    missing = _MAP_REQUIRED - set(table)
-    if missing:
-        raise ScenarioError(f"{where}: missing field(s) {', '.join(sorted('world.map.' + k for k in missing))}")
-
-    def number(key: str, default: float | None = None) -> float:
-        val = table.get(key, default)
-        if isinstance(val, bool) or not isinstance(val, (int, float)) or not np.isfinite(val):
-            raise fail(key, "a finite number", val)
-        return float(val)
-
+    r, ctx = TableReader(where), "world.map."
+    r.keys(table, ctx, _MAP_REQUIRED, _MAP_OPTIONAL)
     image = table["image"]
     if not isinstance(image, str) or not image:
-        raise fail("image", "a path to a PNG/JPEG file (relative to the scenario file)", image)
-    resolution = number("resolution")
-    if resolution <= 0:
-        raise fail("resolution", "a pixel size > 0 [m/px]", resolution)
-    threshold = number("threshold", 0.5)
+        raise r.fail(f"{ctx}image", "a path to a PNG/JPEG file (relative to the scenario file)", image)
+    resolution = r.number(table, "resolution", ctx, positive=True, expected="a pixel size > 0 [m/px]")
+    threshold = r.number(table, "threshold", ctx, default=0.5)
     if not 0.0 < threshold <= 1.0:
-        raise fail("threshold", "a grey level in (0, 1] (0 black, 1 white)", threshold)
-    origin = table.get("origin", [0.0, 0.0])
-    if (
-        not isinstance(origin, list)
-        or len(origin) != 2
-        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in origin)
-    ):
-        raise fail("origin", "[x, y] of the image's bottom-left corner [m]", origin)
+        raise r.fail(f"{ctx}threshold", "a grey level in (0, 1] (0 black, 1 white)", threshold)
+    origin: tuple[float, ...] = (0.0, 0.0)
+    if "origin" in table:
+        origin = r.vector(table, "origin", ctx, 2, expected="[x, y] of the image's bottom-left corner [m]")
     shape = table.get("shape", "box")
     if shape not in ("box", "polygon"):
-        raise fail("shape", "'box' or 'polygon'", shape)
+        raise r.fail(f"{ctx}shape", "'box' or 'polygon'", shape)
     path = Path(image) if Path(image).is_absolute() else base_dir / image
     try:
-        return load_image_obstacles(path, resolution, (float(origin[0]), float(origin[1])), threshold, shape)
+        return load_image_obstacles(path, resolution, (origin[0], origin[1]), threshold, shape)
     except ScenarioError as exc:
         raise ScenarioError(f"{where}: field 'world.map.image': {exc}") from exc

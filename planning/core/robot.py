@@ -103,10 +103,16 @@ def _euler_matrix(euler: FloatArray) -> FloatArray:
     return rx @ ry @ rz
 
 
-def _geom_outline(geom: ET.Element, defaults: dict[str, dict[str, str]], offset: FloatArray) -> FloatArray:
-    """Points whose planar convex hull covers the geom's x-y projection."""
+def _geom_attrs(geom: ET.Element, defaults: dict[str, dict[str, str]]) -> dict[str, str]:
+    """A geom's attributes over those of its default class."""
     attrs = dict(defaults.get(geom.get("class", ""), {}))
     attrs.update(geom.attrib)
+    return attrs
+
+
+def _geom_outline(geom: ET.Element, defaults: dict[str, dict[str, str]], offset: FloatArray) -> FloatArray:
+    """Points whose planar convex hull covers the geom's x-y projection."""
+    attrs = _geom_attrs(geom, defaults)
     gtype = attrs.get("type", "sphere")
     size = _floats(attrs.get("size", "0"), what="geom size")
     pos = _floats(attrs.get("pos", "0 0 0"), 3, "geom pos") + offset
@@ -184,30 +190,8 @@ def load_robot(name: str) -> RobotSpec:
         if required not in bodies:
             raise ModelError(f"{path}: body {required!r} is missing")
     defaults = _collect_defaults(root)
-    left_geom = next((g for g in root.iter("geom") if g.get("name") == "wheel_left_geom"), None)
-    if left_geom is None:
-        raise ModelError(f"{path}: geom 'wheel_left_geom' is missing")
-    wattrs = dict(defaults.get(left_geom.get("class", ""), {}))
-    wattrs.update(left_geom.attrib)
-    wheel_radius = float(_floats(wattrs.get("size"), what="wheel size")[0])
-    yl = _floats(bodies["wheel_left"].get("pos"), 3, "wheel_left pos")[1]
-    yr = _floats(bodies["wheel_right"].get("pos"), 3, "wheel_right pos")[1]
-    track = float(abs(yl - yr))
-    motors = [a for kind in WHEEL_SERVOS for a in root.iter(kind)]
-    if not motors:
-        raise ModelError(f"{path}: no wheel servos (<{'> or <'.join(WHEEL_SERVOS)}> actuators)")
-    max_wheel = float(np.min([np.max(np.abs(_floats(a.get("ctrlrange"), 2, "ctrlrange"))) for a in motors]))
-
-    points = []
-    base = bodies["base"]
-    for g in base.findall("geom"):
-        points.append(_geom_outline(g, defaults, np.zeros(3)))
-    for wheel in ("wheel_left", "wheel_right"):
-        off = _floats(bodies[wheel].get("pos"), 3, f"{wheel} pos")
-        for g in bodies[wheel].findall("geom"):
-            points.append(_geom_outline(g, defaults, off))
-    allpts = np.vstack(points)
-    hull = allpts[ConvexHull(allpts).vertices]
+    wheel_radius, track, max_wheel = _wheels(path, root, bodies, defaults)
+    hull = _footprint(bodies, defaults)
     mass = 0.0
     for body in root.iter("body"):
         inertial = body.find("inertial")
@@ -215,9 +199,7 @@ def load_robot(name: str) -> RobotSpec:
             mass += float(inertial.get("mass", 0))
             continue
         for g in body.findall("geom"):
-            gattrs = dict(defaults.get(g.get("class", ""), {}))
-            gattrs.update(g.attrib)
-            mass += float(gattrs.get("mass", 0) or 0)
+            mass += float(_geom_attrs(g, defaults).get("mass", 0) or 0)
     stem = path.stem
     inv = {v: k for k, v in ROBOT_FILES.items()}
     return RobotSpec(
@@ -236,3 +218,30 @@ def load_robot(name: str) -> RobotSpec:
         footprint=hull,
         mass=mass,
     )
+
+
+def _wheels(
+    path: Path, root: ET.Element, bodies: dict[str | None, ET.Element], defaults: dict[str, dict[str, str]]
+) -> tuple[float, float, float]:
+    """Wheel radius [m], track width [m] and the wheel servos' speed bound [rad/s] of a robot model."""
+    left_geom = next((g for g in root.iter("geom") if g.get("name") == "wheel_left_geom"), None)
+    if left_geom is None:
+        raise ModelError(f"{path}: geom 'wheel_left_geom' is missing")
+    wheel_radius = float(_floats(_geom_attrs(left_geom, defaults).get("size"), what="wheel size")[0])
+    yl = _floats(bodies["wheel_left"].get("pos"), 3, "wheel_left pos")[1]
+    yr = _floats(bodies["wheel_right"].get("pos"), 3, "wheel_right pos")[1]
+    motors = [a for kind in WHEEL_SERVOS for a in root.iter(kind)]
+    if not motors:
+        raise ModelError(f"{path}: no wheel servos (<{'> or <'.join(WHEEL_SERVOS)}> actuators)")
+    max_wheel = float(np.min([np.max(np.abs(_floats(a.get("ctrlrange"), 2, "ctrlrange"))) for a in motors]))
+    return wheel_radius, float(abs(yl - yr)), max_wheel
+
+
+def _footprint(bodies: dict[str | None, ET.Element], defaults: dict[str, dict[str, str]]) -> FloatArray:
+    """(K, 2) convex hull of the x-y projections of the base's and the wheels' geoms, counter-clockwise [m]."""
+    points = [_geom_outline(g, defaults, np.zeros(3)) for g in bodies["base"].findall("geom")]
+    for wheel in ("wheel_left", "wheel_right"):
+        off = _floats(bodies[wheel].get("pos"), 3, f"{wheel} pos")
+        points.extend(_geom_outline(g, defaults, off) for g in bodies[wheel].findall("geom"))
+    allpts = np.vstack(points)
+    return allpts[ConvexHull(allpts).vertices]  # type: ignore[no-any-return]

@@ -31,6 +31,25 @@ def _to_local(p: FloatArray, center: FloatArray, angle: float) -> FloatArray:
     return np.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]], axis=-1)
 
 
+class _Folded:
+    """An ellipse or a box: a shape symmetric about both axes of a frame at ``center`` turned by ``angle``,
+    with two extents > 0 in the field named by ``extents_field``."""
+
+    center: tuple[float, float]
+    angle: float
+    kind: ClassVar[str]
+    extents_field: ClassVar[str]
+
+    def __post_init__(self) -> None:
+        extents = getattr(self, self.extents_field)
+        if not (extents[0] > 0 and extents[1] > 0):
+            raise ValueError(f"{self.kind} {self.extents_field} must be > 0, got {extents}")
+
+    def _folded(self, points: ArrayLike) -> FloatArray:
+        """(M, 2) points in the shape's frame, folded into its first quadrant (absolute coordinates)."""
+        return np.abs(_to_local(_points(points), np.asarray(self.center), self.angle))
+
+
 @dataclass(frozen=True)
 class Circle:
     """A disc obstacle. center (2,) [m], radius [m]."""
@@ -60,22 +79,18 @@ class Circle:
 
 
 @dataclass(frozen=True)
-class Ellipse:
+class Ellipse(_Folded):
     """An ellipse. center (2,) [m], radii (a, b) semi-axes [m], angle of the a-axis [rad]."""
 
     center: tuple[float, float]
     radii: tuple[float, float]
     angle: float = 0.0
     kind: ClassVar[str] = "ellipse"
-
-    def __post_init__(self) -> None:
-        if not (self.radii[0] > 0 and self.radii[1] > 0):
-            raise ValueError(f"ellipse radii must be > 0, got {self.radii}")
+    extents_field: ClassVar[str] = "radii"
 
     def signed_distance(self, points: ArrayLike) -> FloatArray:
         """Signed distance of (M, 2) points [m] (exact; Eberly's closest-point bisection)."""
-        p = _points(points)
-        q = np.abs(_to_local(p, np.asarray(self.center), self.angle))
+        q = self._folded(points)
         a, b = self.radii
         if a >= b:
             y0, y1, e0, e1 = q[..., 0], q[..., 1], a, b
@@ -126,21 +141,18 @@ class Ellipse:
 
 
 @dataclass(frozen=True)
-class Box:
+class Box(_Folded):
     """An oriented rectangle. center (2,) [m], size (full extents) [m], angle [rad]."""
 
     center: tuple[float, float]
     size: tuple[float, float]
     angle: float = 0.0
     kind: ClassVar[str] = "box"
-
-    def __post_init__(self) -> None:
-        if not (self.size[0] > 0 and self.size[1] > 0):
-            raise ValueError(f"box size must be > 0, got {self.size}")
+    extents_field: ClassVar[str] = "size"
 
     def signed_distance(self, points: ArrayLike) -> FloatArray:
         """Signed distance of (M, 2) points [m]."""
-        q = np.abs(_to_local(_points(points), np.asarray(self.center), self.angle))
+        q = self._folded(points)
         d = q - 0.5 * np.asarray(self.size)
         outside = np.hypot(np.maximum(d[..., 0], 0.0), np.maximum(d[..., 1], 0.0))
         inside = np.minimum(np.maximum(d[..., 0], d[..., 1]), 0.0)

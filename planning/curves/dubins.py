@@ -12,14 +12,12 @@ from __future__ import annotations
 
 import numba as nb
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-from planning.curves.reeds_shepp import _check_rho, _mod2pi, _pairs, _to_local
-from planning.curves.words import Word, make_word, word_endpoint
+from planning.curves.common import CurveFamily, local_goal, verifies
 
 FloatArray = NDArray[np.float64]
 
-_TOL = 1e-6
 DUBINS_WORDS = np.array(
     [[1, 0, 1], [-1, 0, -1], [1, 0, -1], [-1, 0, 1], [-1, 1, -1], [1, -1, 1]], dtype=np.int64
 )  # LSL, RSR, LSR, RSL, RLR, LRL
@@ -79,75 +77,29 @@ def _word(k: int, d: float, a: float, b: float) -> tuple[bool, float, float, flo
 
 
 @nb.njit(cache=True)
-def _solve_local(x: float, y: float, phi: float, out: FloatArray) -> int:
-    d = np.sqrt(x * x + y * y)
-    th = np.arctan2(y, x) if d > 0 else 0.0
-    a = _m2pi(-th)
-    b = _m2pi(phi - th)
-    best = np.inf
-    best_k = -1
-    segs = np.zeros(3)
-    for k in range(6):
-        ok, t, p, q = _word(k, d, a, b)
-        if not ok or t + p + q >= best:
-            continue
-        segs[0], segs[1], segs[2] = t, p, q
-        ex, ey, eth = word_endpoint(DUBINS_WORDS[k], segs)
-        if abs(ex - x) < _TOL and abs(ey - y) < _TOL and abs(_mod2pi(eth - phi)) < _TOL:
-            best = t + p + q
-            best_k = k
-            out[:] = segs
-    return best_k
-
-
-@nb.njit(cache=True)
-def _batch(q0: FloatArray, q1: FloatArray, rho: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+def _solve(q0: FloatArray, q1: FloatArray, rho: float) -> tuple[FloatArray, NDArray[np.int64], FloatArray]:
+    """Shortest verified Dubins words between pose pairs (the :data:`planning.curves.common.Solver` contract)."""
     n = max(q0.shape[0], q1.shape[0])
-    lengths = np.empty(n)
-    types = np.empty(n, dtype=np.int64)
-    segs = np.zeros((n, 3))
+    lengths, types, segs = np.full(n, np.inf), np.full(n, -1, dtype=np.int64), np.zeros((n, 3))
+    cand = np.zeros(3)
     for i in range(n):
-        a = q0[0] if q0.shape[0] == 1 else q0[i]
-        b = q1[0] if q1.shape[0] == 1 else q1[i]
-        x, y, phi = _to_local(a, b, rho)
-        types[i] = _solve_local(x, y, phi, segs[i])
-        lengths[i] = (segs[i, 0] + segs[i, 1] + segs[i, 2]) * rho if types[i] >= 0 else np.inf
+        x, y, phi = local_goal(q0, q1, i, rho)
+        d = np.sqrt(x * x + y * y)
+        th = np.arctan2(y, x) if d > 0 else 0.0
+        a = _m2pi(-th)
+        b = _m2pi(phi - th)
+        best = np.inf
+        for k in range(6):
+            ok, t, p, q = _word(k, d, a, b)
+            if not ok or t + p + q >= best:
+                continue
+            cand[0], cand[1], cand[2] = t, p, q
+            if verifies(DUBINS_WORDS[k], cand, x, y, phi):
+                best, types[i], segs[i] = t + p + q, k, cand
+        lengths[i] = best * rho  # inf if no candidate verified
     return lengths, types, segs
 
 
-def dubins_length(q0: ArrayLike, q1: ArrayLike, rho: float) -> FloatArray:
-    """Lengths of the shortest forward-only paths from ``q0`` to ``q1``.
-
-    Args:
-        q0: (N, 3) or (3,) start poses [x, y, theta].
-        q1: (N, 3) or (3,) end poses (either side may be a single pose, broadcast).
-        rho: Turning radius [m].
-
-    Returns:
-        (N,) lengths [m].
-    """
-    _check_rho(rho)
-    a, b = _pairs(q0, q1)
-    return _batch(a, b, float(rho))[0]  # type: ignore[no-any-return]
-
-
-def dubins_batch(q0: ArrayLike, q1: ArrayLike, rho: float) -> tuple[FloatArray, NDArray[np.int64], FloatArray]:
-    """Shortest words for many pairs: lengths (N,) [m], word indices (N,) into ``DUBINS_WORDS``,
-    and (N, 3) segment lengths in turning radii (all >= 0)."""
-    _check_rho(rho)
-    a, b = _pairs(q0, q1)
-    return _batch(a, b, float(rho))  # type: ignore[no-any-return,return-value]
-
-
-def dubins_path(q0: ArrayLike, q1: ArrayLike, rho: float) -> Word:
-    """The shortest Dubins path from ``q0`` to ``q1`` as a :class:`Word`.
-
-    Args:
-        q0: (3,) start pose [x, y, theta].
-        q1: (3,) end pose.
-        rho: Turning radius [m].
-    """
-    _, types, segs = dubins_batch(q0, q1, rho)
-    if types[0] < 0:
-        raise ValueError(f"no Dubins path between {q0!r} and {q1!r} (non-finite input?)")
-    return make_word(np.asarray(q0, dtype=float).reshape(3), DUBINS_WORDS[types[0]], segs[0], rho)
+DUBINS = CurveFamily("Dubins", DUBINS_WORDS, _solve)
+# Lengths (N,) [m]; (lengths, indices into DUBINS_WORDS, (N, 3) segments >= 0); one Word (see CurveFamily).
+dubins_length, dubins_batch, dubins_path = DUBINS.lengths, DUBINS.batch, DUBINS.path

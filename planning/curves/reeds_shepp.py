@@ -11,16 +11,15 @@ from __future__ import annotations
 
 import numba as nb
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-from planning.curves.words import Word, make_word, word_endpoint
+from planning.curves.common import CurveFamily, local_goal, mod2pi, verifies
 
 FloatArray = NDArray[np.float64]
 
 _PI = np.pi
 _HALF_PI = 0.5 * np.pi
 _ZERO = 10 * np.finfo(float).eps
-_TOL = 1e-6
 
 # Word kappas (+1 L, 0 S, -1 R); unused trailing segments have length 0.
 _L, _S, _R = 1, 0, -1
@@ -37,131 +36,113 @@ RS_WORDS = np.array(
 
 
 @nb.njit(cache=True, inline="always")
-def _mod2pi(a: float) -> float:
-    v = np.fmod(a, 2 * np.pi)
-    if v < -np.pi:
-        v += 2 * np.pi
-    elif v > np.pi:
-        v -= 2 * np.pi
-    return v
-
-
-@nb.njit(cache=True, inline="always")
 def _polar(x: float, y: float) -> tuple[float, float]:
     return np.sqrt(x * x + y * y), np.arctan2(y, x)
 
 
 @nb.njit(cache=True, inline="always")
 def _tau_omega(u: float, v: float, xi: float, eta: float, phi: float) -> tuple[float, float]:
-    delta = _mod2pi(u - v)
+    delta = mod2pi(u - v)
     a = np.sin(u) - np.sin(delta)
     b = np.cos(u) - np.cos(delta) - 1.0
     t1 = np.arctan2(eta * a - xi * b, xi * a + eta * b)
     t2 = 2.0 * (np.cos(delta) - np.cos(v) - np.cos(u)) + 3.0
-    tau = _mod2pi(t1 + _PI) if t2 < 0 else _mod2pi(t1)
-    return tau, _mod2pi(tau - u + v - phi)
+    tau = mod2pi(t1 + _PI) if t2 < 0 else mod2pi(t1)
+    return tau, mod2pi(tau - u + v - phi)
+
+
+# The formulas take the goal (x, y, phi) through the centre (xi, eta) of its turning circle: the left
+# circle (x - sin phi, y - 1 + cos phi) for 8.1, 8.3 and 8.9, the right one (x + sin phi,
+# y - 1 - cos phi) for the others. Each returns (found, t, u, v).
+_NONE = (False, 0.0, 0.0, 0.0)
+
+
+@nb.njit(cache=True, inline="always")
+def _found(ok: bool | np.bool_, t: float, u: float, v: float) -> tuple[bool, float, float, float]:
+    return bool(ok), float(t), float(u), float(v)
 
 
 @nb.njit(cache=True)
-def _lpsplp(x: float, y: float, phi: float) -> tuple[bool, float, float, float]:  # 8.1
-    u, t = _polar(x - np.sin(phi), y - 1.0 + np.cos(phi))
+def _lpsplp(xi: float, eta: float, phi: float) -> tuple[bool, float, float, float]:  # 8.1, left circle
+    u, t = _polar(xi, eta)
     if t >= -_ZERO:
-        v = _mod2pi(phi - t)
+        v = mod2pi(phi - t)
         if v >= -_ZERO:
-            return True, float(t), float(u), float(v)
-    return False, 0.0, 0.0, 0.0
+            return _found(True, t, u, v)
+    return _NONE
 
 
 @nb.njit(cache=True)
-def _lpsprp(x: float, y: float, phi: float) -> tuple[bool, float, float, float]:  # 8.2
-    u1, t1 = _polar(x + np.sin(phi), y - 1.0 - np.cos(phi))
+def _lpsprp(xi: float, eta: float, phi: float) -> tuple[bool, float, float, float]:  # 8.2, right circle
+    u1, t1 = _polar(xi, eta)
     u1 = u1 * u1
     if u1 >= 4.0:
         u = np.sqrt(u1 - 4.0)
-        theta = np.arctan2(2.0, u)
-        t = _mod2pi(t1 + theta)
-        v = _mod2pi(t - phi)
-        return bool(t >= -_ZERO and v >= -_ZERO), float(t), float(u), float(v)
-    return False, 0.0, 0.0, 0.0
+        t = mod2pi(t1 + np.arctan2(2.0, u))
+        v = mod2pi(t - phi)
+        return _found(t >= -_ZERO and v >= -_ZERO, t, u, v)
+    return _NONE
 
 
 @nb.njit(cache=True)
-def _lprml(x: float, y: float, phi: float) -> tuple[bool, float, float, float]:  # 8.3
-    xi = x - np.sin(phi)
-    eta = y - 1.0 + np.cos(phi)
+def _lprml(xi: float, eta: float, phi: float) -> tuple[bool, float, float, float]:  # 8.3, left circle
     u1, theta = _polar(xi, eta)
     if u1 <= 4.0:
         u = -2.0 * np.arcsin(0.25 * u1)
-        t = _mod2pi(theta + 0.5 * u + _PI)
-        v = _mod2pi(phi - t + u)
-        return bool(t >= -_ZERO and u <= _ZERO), float(t), float(u), float(v)
-    return False, 0.0, 0.0, 0.0
+        t = mod2pi(theta + 0.5 * u + _PI)
+        return _found(t >= -_ZERO and u <= _ZERO, t, u, mod2pi(phi - t + u))
+    return _NONE
 
 
 @nb.njit(cache=True)
-def _lprupluml(x: float, y: float, phi: float) -> tuple[bool, float, float, float]:  # 8.7
-    xi = x + np.sin(phi)
-    eta = y - 1.0 - np.cos(phi)
+def _lprupluml(xi: float, eta: float, phi: float) -> tuple[bool, float, float, float]:  # 8.7, right circle
     rho = 0.25 * (2.0 + np.sqrt(xi * xi + eta * eta))
     if rho <= 1.0:
         u = np.arccos(rho)
         t, v = _tau_omega(u, -u, xi, eta, phi)
-        return bool(t >= -_ZERO and v <= _ZERO), float(t), float(u), float(v)
-    return False, 0.0, 0.0, 0.0
+        return _found(t >= -_ZERO and v <= _ZERO, t, u, v)
+    return _NONE
 
 
 @nb.njit(cache=True)
-def _lprumlump(x: float, y: float, phi: float) -> tuple[bool, float, float, float]:  # 8.8
-    xi = x + np.sin(phi)
-    eta = y - 1.0 - np.cos(phi)
+def _lprumlump(xi: float, eta: float, phi: float) -> tuple[bool, float, float, float]:  # 8.8, right circle
     rho = (20.0 - xi * xi - eta * eta) / 16.0
-    if 0.0 <= rho <= 1.0:
-        u = -np.arccos(rho)
-        if u >= -_HALF_PI:
-            t, v = _tau_omega(u, u, xi, eta, phi)
-            return bool(t >= -_ZERO and v >= -_ZERO), float(t), float(u), float(v)
-    return False, 0.0, 0.0, 0.0
+    u = -np.arccos(rho) if 0.0 <= rho <= 1.0 else -np.inf
+    if u >= -_HALF_PI:
+        t, v = _tau_omega(u, u, xi, eta, phi)
+        return _found(t >= -_ZERO and v >= -_ZERO, t, u, v)
+    return _NONE
 
 
 @nb.njit(cache=True)
-def _lprmsmlm(x: float, y: float, phi: float) -> tuple[bool, float, float, float]:  # 8.9
-    xi = x - np.sin(phi)
-    eta = y - 1.0 + np.cos(phi)
+def _lprmsmlm(xi: float, eta: float, phi: float) -> tuple[bool, float, float, float]:  # 8.9, left circle
     rho, theta = _polar(xi, eta)
     if rho >= 2.0:
         r = np.sqrt(rho * rho - 4.0)
-        u = 2.0 - r
-        t = _mod2pi(theta + np.arctan2(r, -2.0))
-        v = _mod2pi(phi - _HALF_PI - t)
-        return bool(t >= -_ZERO and u <= _ZERO and v <= _ZERO), float(t), float(u), float(v)
-    return False, 0.0, 0.0, 0.0
+        t = mod2pi(theta + np.arctan2(r, -2.0))
+        u, v = 2.0 - r, mod2pi(phi - _HALF_PI - t)
+        return _found(t >= -_ZERO and u <= _ZERO and v <= _ZERO, t, u, v)
+    return _NONE
 
 
 @nb.njit(cache=True)
-def _lprmsmrm(x: float, y: float, phi: float) -> tuple[bool, float, float, float]:  # 8.10
-    xi = x + np.sin(phi)
-    eta = y - 1.0 - np.cos(phi)
-    rho, theta = _polar(-eta, xi)
+def _lprmsmrm(xi: float, eta: float, phi: float) -> tuple[bool, float, float, float]:  # 8.10, right circle
+    rho, t = _polar(-eta, xi)
     if rho >= 2.0:
-        t = theta
-        u = 2.0 - rho
-        v = _mod2pi(t + _HALF_PI - phi)
-        return bool(t >= -_ZERO and u <= _ZERO and v <= _ZERO), float(t), float(u), float(v)
-    return False, 0.0, 0.0, 0.0
+        u, v = 2.0 - rho, mod2pi(t + _HALF_PI - phi)
+        return _found(t >= -_ZERO and u <= _ZERO and v <= _ZERO, t, u, v)
+    return _NONE
 
 
 @nb.njit(cache=True)
-def _lprmslmrp(x: float, y: float, phi: float) -> tuple[bool, float, float, float]:  # 8.11
-    xi = x + np.sin(phi)
-    eta = y - 1.0 - np.cos(phi)
+def _lprmslmrp(xi: float, eta: float, phi: float) -> tuple[bool, float, float, float]:  # 8.11, right circle
     rho, _theta = _polar(xi, eta)
-    if rho >= 2.0:
-        u = 4.0 - np.sqrt(rho * rho - 4.0)
-        if u <= _ZERO:
-            t = _mod2pi(np.arctan2((4.0 - u) * xi - 2.0 * eta, -2.0 * xi + (u - 4.0) * eta))
-            v = _mod2pi(t - phi)
-            return bool(t >= -_ZERO and v >= -_ZERO), float(t), float(u), float(v)
-    return False, 0.0, 0.0, 0.0
+    u = 4.0 - np.sqrt(rho * rho - 4.0) if rho >= 2.0 else np.inf
+    if u <= _ZERO:
+        t = mod2pi(np.arctan2((4.0 - u) * xi - 2.0 * eta, -2.0 * xi + (u - 4.0) * eta))
+        v = mod2pi(t - phi)
+        return _found(t >= -_ZERO and v >= -_ZERO, t, u, v)
+    return _NONE
 
 
 # Candidate families: (formula, backwards, layout, word index of the unreflected word).
@@ -182,21 +163,25 @@ _FAMILIES = np.array(
 
 @nb.njit(cache=True)
 def _formula(f: int, x: float, y: float, phi: float) -> tuple[bool, float, float, float]:
+    if f in (0, 2, 5):  # the left turning circle
+        xi, eta = x - np.sin(phi), y - 1.0 + np.cos(phi)
+    else:
+        xi, eta = x + np.sin(phi), y - 1.0 - np.cos(phi)
     if f == 0:
-        return _lpsplp(x, y, phi)
+        return _lpsplp(xi, eta, phi)
     if f == 1:
-        return _lpsprp(x, y, phi)
+        return _lpsprp(xi, eta, phi)
     if f == 2:
-        return _lprml(x, y, phi)
+        return _lprml(xi, eta, phi)
     if f == 3:
-        return _lprupluml(x, y, phi)
+        return _lprupluml(xi, eta, phi)
     if f == 4:
-        return _lprumlump(x, y, phi)
+        return _lprumlump(xi, eta, phi)
     if f == 5:
-        return _lprmsmlm(x, y, phi)
+        return _lprmsmlm(xi, eta, phi)
     if f == 6:
-        return _lprmsmrm(x, y, phi)
-    return _lprmslmrp(x, y, phi)
+        return _lprmsmrm(xi, eta, phi)
+    return _lprmslmrp(xi, eta, phi)
 
 
 @nb.njit(cache=True)
@@ -219,113 +204,43 @@ def _layout(k: int, t: float, u: float, v: float, segs: FloatArray) -> None:
 
 
 @nb.njit(cache=True)
-def _solve_local(x: float, y: float, phi: float, out_segs: FloatArray) -> int:
-    """Shortest verified word from the origin to (x, y, phi) (unit turning radius).
+def _solve(q0: FloatArray, q1: FloatArray, rho: float) -> tuple[FloatArray, NDArray[np.int64], FloatArray]:
+    """Shortest verified words between pose pairs (the :data:`planning.curves.common.Solver` contract).
 
-    Writes the five signed segment lengths into ``out_segs`` and returns the word index into
-    ``RS_WORDS``, or -1 if no candidate verifies (only for non-finite input).
+    Every one of the 48 candidates (11 families, each time-flipped and reflected) that is shorter
+    than the best so far is integrated to its end pose and must land on the goal.
     """
-    best = np.inf
-    best_type = -1
-    segs = np.zeros(5)
-    xb = x * np.cos(phi) + y * np.sin(phi)
-    yb = x * np.sin(phi) - y * np.cos(phi)
-    for i in range(_FAMILIES.shape[0]):
-        f, back, lay, base = _FAMILIES[i, 0], _FAMILIES[i, 1], _FAMILIES[i, 2], _FAMILIES[i, 3]
-        px, py = (xb, yb) if back else (x, y)
-        for sym in range(4):
-            sx = -1.0 if sym & 1 else 1.0  # time flip: drive the word backwards
-            sy = -1.0 if sym & 2 else 1.0  # reflection: swap left and right
-            ok, t, u, v = _formula(f, sx * px, sy * py, sx * sy * phi)
-            if not ok:
-                continue
-            _layout(lay, t, u, v, segs)
-            length = 0.0
-            for k in range(5):
-                segs[k] *= sx
-                length += abs(segs[k])
-            if length >= best:
-                continue
-            wtype = base + (1 if sy < 0 else 0)
-            ex, ey, eth = word_endpoint(RS_WORDS[wtype], segs)
-            if abs(ex - x) < _TOL and abs(ey - y) < _TOL and abs(_mod2pi(eth - phi)) < _TOL:
-                best = length
-                best_type = wtype
-                out_segs[:] = segs
-    return best_type
-
-
-@nb.njit(cache=True)
-def _to_local(q0: FloatArray, q1: FloatArray, rho: float) -> tuple[float, float, float]:
-    dx = (q1[0] - q0[0]) / rho
-    dy = (q1[1] - q0[1]) / rho
-    c, s = np.cos(q0[2]), np.sin(q0[2])
-    return c * dx + s * dy, -s * dx + c * dy, q1[2] - q0[2]
-
-
-@nb.njit(cache=True)
-def _batch(q0: FloatArray, q1: FloatArray, rho: float) -> tuple[FloatArray, FloatArray, FloatArray]:
     n = max(q0.shape[0], q1.shape[0])
-    lengths = np.empty(n)
-    types = np.empty(n, dtype=np.int64)
-    segs = np.zeros((n, 5))
+    lengths, types, out_segs = np.full(n, np.inf), np.full(n, -1, dtype=np.int64), np.zeros((n, 5))
+    segs = np.zeros(5)
     for i in range(n):
-        a = q0[0] if q0.shape[0] == 1 else q0[i]
-        b = q1[0] if q1.shape[0] == 1 else q1[i]
-        x, y, phi = _to_local(a, b, rho)
-        types[i] = _solve_local(x, y, phi, segs[i])
-        lengths[i] = np.sum(np.abs(segs[i])) * rho if types[i] >= 0 else np.inf
-    return lengths, types, segs
+        x, y, phi = local_goal(q0, q1, i, rho)
+        best = np.inf
+        xb = x * np.cos(phi) + y * np.sin(phi)
+        yb = x * np.sin(phi) - y * np.cos(phi)
+        for f in range(_FAMILIES.shape[0]):
+            formula, back, lay, base = _FAMILIES[f, 0], _FAMILIES[f, 1], _FAMILIES[f, 2], _FAMILIES[f, 3]
+            px, py = (xb, yb) if back else (x, y)
+            for sym in range(4):
+                sx = -1.0 if sym & 1 else 1.0  # time flip: drive the word backwards
+                sy = -1.0 if sym & 2 else 1.0  # reflection: swap left and right
+                ok, t, u, v = _formula(formula, sx * px, sy * py, sx * sy * phi)
+                if not ok:
+                    continue
+                _layout(lay, t, u, v, segs)
+                length = 0.0
+                for k in range(5):
+                    segs[k] *= sx
+                    length += abs(segs[k])
+                if length >= best:
+                    continue
+                wtype = base + (1 if sy < 0 else 0)
+                if verifies(RS_WORDS[wtype], segs, x, y, phi):
+                    best, types[i], out_segs[i] = length, wtype, segs
+        lengths[i] = best * rho  # inf if no candidate verified
+    return lengths, types, out_segs
 
 
-def _pairs(q0: ArrayLike, q1: ArrayLike) -> tuple[FloatArray, FloatArray]:
-    a = np.atleast_2d(np.asarray(q0, dtype=float))
-    b = np.atleast_2d(np.asarray(q1, dtype=float))
-    if a.shape[-1] != 3 or b.shape[-1] != 3:
-        raise ValueError(f"poses must have shape (N, 3) or (3,), got {a.shape} and {b.shape}")
-    if a.shape[0] != b.shape[0] and 1 not in (a.shape[0], b.shape[0]):
-        raise ValueError(f"pose counts must match or one be 1, got {a.shape[0]} and {b.shape[0]}")
-    return np.ascontiguousarray(a), np.ascontiguousarray(b)
-
-
-def _check_rho(rho: float) -> None:
-    if not rho > 0:
-        raise ValueError(f"turning radius must be > 0, got {rho}")
-
-
-def reeds_shepp_length(q0: ArrayLike, q1: ArrayLike, rho: float) -> FloatArray:
-    """Lengths of the shortest Reeds–Shepp paths between pose pairs.
-
-    Args:
-        q0: (N, 3) or (3,) start poses [x, y, theta].
-        q1: (N, 3) or (3,) end poses (either side may be a single pose, broadcast).
-        rho: Turning radius [m].
-
-    Returns:
-        (N,) lengths [m].
-    """
-    _check_rho(rho)
-    a, b = _pairs(q0, q1)
-    return _batch(a, b, float(rho))[0]  # type: ignore[no-any-return]
-
-
-def reeds_shepp_batch(q0: ArrayLike, q1: ArrayLike, rho: float) -> tuple[FloatArray, NDArray[np.int64], FloatArray]:
-    """Shortest words for many pose pairs: lengths (N,) [m], word indices (N,) into ``RS_WORDS``,
-    and (N, 5) signed segment lengths in turning radii."""
-    _check_rho(rho)
-    a, b = _pairs(q0, q1)
-    return _batch(a, b, float(rho))  # type: ignore[no-any-return,return-value]
-
-
-def reeds_shepp_path(q0: ArrayLike, q1: ArrayLike, rho: float) -> Word:
-    """The shortest Reeds–Shepp path from ``q0`` to ``q1`` as a :class:`Word`.
-
-    Args:
-        q0: (3,) start pose [x, y, theta].
-        q1: (3,) end pose.
-        rho: Turning radius [m].
-    """
-    _, types, segs = reeds_shepp_batch(q0, q1, rho)
-    if types[0] < 0:  # cannot happen for finite input; guard against NaN poses
-        raise ValueError(f"no Reeds–Shepp path between {q0!r} and {q1!r} (non-finite input?)")
-    return make_word(np.asarray(q0, dtype=float).reshape(3), RS_WORDS[types[0]], segs[0], rho)
+REEDS_SHEPP = CurveFamily("Reeds–Shepp", RS_WORDS, _solve)
+# Lengths (N,) [m]; (lengths, indices into RS_WORDS, (N, 5) signed segments); one Word (see CurveFamily).
+reeds_shepp_length, reeds_shepp_batch, reeds_shepp_path = REEDS_SHEPP.lengths, REEDS_SHEPP.batch, REEDS_SHEPP.path

@@ -1,8 +1,7 @@
-"""The planner interface: problems, results, statuses, and the registry of planners by name."""
+"""The planner interface: problems, results and statuses (the registry by name is :mod:`planning.planners.registry`)."""
 
 from __future__ import annotations
 
-import importlib
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any, Protocol
@@ -10,11 +9,10 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.core.geometry import Pose2D
+from planning.core.geometry import Pose2D, path_length
 from planning.core.robot import RobotSpec, load_robot
+from planning.core.scenario import Scenario
 from planning.core.world import World
-from planning.errors import ConfigError
-from planning.scenario import Scenario
 
 FloatArray = NDArray[np.float64]
 
@@ -85,6 +83,19 @@ class PlanTree:
     edges: tuple[FloatArray, ...] = ()
 
 
+def _float_array(name: str, value: object, shape: tuple[int | None, ...]) -> FloatArray:
+    """``value`` as a finite float array of ``shape`` (None: any size), else ValueError naming the field."""
+    arr = np.asarray(value, dtype=float)
+    fits = arr.ndim == len(shape) and all(want in (None, got) for got, want in zip(arr.shape, shape, strict=False))
+    expected = ", ".join("any" if want is None else str(want) for want in shape)
+    problem = "" if fits else f"must have shape ({expected}) (one row per path pose), got {arr.shape}"
+    if fits and not np.all(np.isfinite(arr)):
+        problem = "holds non-finite values"
+    if problem:
+        raise ValueError(f"PlanResult.{name} {problem}")
+    return arr
+
+
 @dataclass(frozen=True)
 class PlanResult:
     """The outcome of a planning attempt; failure is a status with a reason, never ``None``.
@@ -92,7 +103,8 @@ class PlanResult:
     Attributes:
         status: How it ended.
         planner: Planner name.
-        path: (N, 3) poses [x, y, theta] densely along the motion (or empty (0, 3)).
+        path: (N, 3) finite poses [x, y, theta] densely along the motion (or empty (0, 3); never
+            empty on success).
         reason: Human-readable explanation for any status but success.
         stats: Numbers worth reporting (time_s, iterations, nodes, ...).
         tree: The search tree, for planners that grow one.
@@ -101,6 +113,10 @@ class PlanResult:
         directions: (N,) +1 forwards / -1 backwards of the motion arriving at each pose of ``path``
             (directions[0] repeats the first step's), when the planner knows.
         states: (N, n) full planner states (e.g. bicycle [x, y, theta, phi]) when richer than poses.
+
+    Raises:
+        ValueError: A status that is not a :class:`PlanStatus`, an array of the wrong shape or with
+            non-finite values, a success without a path, or ``times`` without ``controls``.
     """
 
     status: PlanStatus
@@ -114,16 +130,31 @@ class PlanResult:
     directions: FloatArray | None = None
     states: FloatArray | None = None
 
+    def __post_init__(self) -> None:
+        if not isinstance(self.status, PlanStatus):
+            raise ValueError(f"PlanResult.status must be a PlanStatus, got {self.status!r}")
+        path = _float_array("path", self.path, (None, 3))
+        n = path.shape[0]
+        if self.status is PlanStatus.SUCCESS and n == 0:
+            raise ValueError("PlanResult.path is empty but the status is success: a successful plan has a path")
+        object.__setattr__(self, "path", path)
+        if (self.times is None) != (self.controls is None):
+            raise ValueError("PlanResult.times and PlanResult.controls come together: give both or neither")
+        for name, shape in (("times", (n,)), ("controls", (n, 2)), ("directions", (n,)), ("states", (n, None))):
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, _float_array(name, value, shape))
+        if self.directions is not None and not np.all(np.abs(self.directions) == 1.0):
+            raise ValueError("PlanResult.directions must hold +1 (forwards) or -1 (backwards) per pose")
+
     @property
     def success(self) -> bool:
         """Whether the path reaches the goal."""
         return self.status is PlanStatus.SUCCESS
 
     def length(self) -> float:
-        """Length of the x-y path [m]."""
-        if self.path.shape[0] < 2:
-            return 0.0
-        return float(np.sum(np.hypot(np.diff(self.path[:, 0]), np.diff(self.path[:, 1]))))
+        """Length of the x-y path [m] (:func:`planning.core.geometry.path_length`; turns in place add nothing)."""
+        return path_length(self.path)
 
 
 class Planner(Protocol):
@@ -134,35 +165,3 @@ class Planner(Protocol):
     def plan(self, problem: PlanProblem) -> PlanResult:
         """Plan; never raises for an unsolvable problem, returns a status instead."""
         ...
-
-
-#: Planner name -> "module:factory". The factory takes keyword-only options and returns a Planner.
-PLANNERS: dict[str, str] = {
-    "rrt": "planning.planners.sampling.rrt:RRT",
-    "birrt": "planning.planners.sampling.rrt:BiRRT",
-    "rrt-star": "planning.planners.sampling.rrt_star:RRTStar",
-    "c-rrt-star": "planning.planners.sampling.crrt_star:CRRTStar",
-    "sinusoidal": "planning.planners.sinusoidal:Sinusoidal",
-    "optim": "planning.planners.optim:Optim",
-}
-
-
-def register_planner(name: str, target: str) -> None:
-    """Register a planner factory by import path, e.g. ``"planning.planners.sampling.rrt:RRT"``."""
-    PLANNERS[name] = target
-
-
-def make_planner(name: str, **options: Any) -> Planner:
-    """Instantiate a registered planner.
-
-    Raises:
-        ConfigError: Unknown name (the message lists the valid ones) or bad options.
-    """
-    if name not in PLANNERS:
-        raise ConfigError(f"unknown planner {name!r}: choose one of {', '.join(sorted(PLANNERS)) or '(none)'}")
-    module_name, attr = PLANNERS[name].split(":")
-    factory = getattr(importlib.import_module(module_name), attr)
-    try:
-        return factory(**options)  # type: ignore[no-any-return]
-    except TypeError as exc:
-        raise ConfigError(f"planner {name!r}: {exc}") from exc

@@ -27,6 +27,7 @@ CasADi expands the graph to SX (``expand=True``) before IPOPT runs.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -36,12 +37,13 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import ConvexHull
 
-from planning.core.geometry import wrap_angle
+from planning.core.geometry import cumulative_length, path_length, wrap_angle
 from planning.core.kinematics import bicycle_to_unicycle
 from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon
 from planning.errors import ConfigError, DependencyError
-from planning.planners.base import PLANNERS, PlanProblem, PlanResult, PlanStatus, make_planner
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus
 from planning.planners.gridpath import grid_path
+from planning.planners.registry import PLANNERS, make_planner
 
 FloatArray = NDArray[np.float64]
 
@@ -125,13 +127,29 @@ def dense_clearance(problem: PlanProblem, path: FloatArray) -> float:
 
 
 @dataclass
+class _Obstacles:
+    """The obstacle parameters of a built NLP and the separating-line angles it adds as variables.
+
+    Attributes:
+        circles: (3, n) parameter [cx, cy, R] per circle, or None without circles.
+        ellipses: (5, n) parameter [cx, cy, a, b, angle] per ellipse, or None without ellipses.
+        polys: One (2, k) vertex parameter per convex polygon.
+        psi: One (1, N+1) angle variable per ellipse, then per polygon.
+    """
+
+    circles: Any
+    ellipses: Any
+    polys: list[Any]
+    psi: list[Any]
+
+
+@dataclass
 class _Nlp:
-    """A built Opti problem and its handles."""
+    """A built Opti problem and its handles (states x, inputs u, and the parameters set per solve)."""
 
     opti: Any
     x: Any
     u: Any
-    psi: list[Any]
     p_start: Any
     p_goal: Any
     p_dt: Any
@@ -139,13 +157,35 @@ class _Nlp:
     p_limits: Any
     p_wheelbase: Any
     p_clear: Any
-    p_circles: Any
-    p_ellipses: Any
-    p_polys: list[Any]
+    obstacles: _Obstacles
     verbose: bool
 
 
 _CACHE: dict[tuple[Any, ...], _Nlp] = {}
+
+
+@dataclass(frozen=True)
+class _ObstacleData:
+    """A world's obstacles as the NLP takes them: circles, ellipses, and boxes and polygons as convex
+    vertex arrays (K, 2) [m]."""
+
+    circles: list[Circle]
+    ellipses: list[Ellipse]
+    polys: list[FloatArray]
+
+    @classmethod
+    def of(cls, problem: PlanProblem) -> _ObstacleData:
+        obs = problem.world.obstacles
+        return cls(
+            [o for o in obs if isinstance(o, Circle)],
+            [o for o in obs if isinstance(o, Ellipse)],
+            [polygon_vertices(o) for o in obs if isinstance(o, (Box, Polygon))],
+        )
+
+    @property
+    def counts(self) -> tuple[int, int, tuple[int, ...]]:
+        """What the NLP's shape depends on: circle and ellipse counts, the polygons' vertex counts."""
+        return len(self.circles), len(self.ellipses), tuple(v.shape[0] for v in self.polys)
 
 
 @dataclass(frozen=True)
@@ -163,16 +203,8 @@ class OptimSolution:
     inputs: FloatArray | None = None
 
 
-def _build(key: tuple[Any, ...]) -> _Nlp:
-    ca = _casadi()
-    n, n_circ, n_ell, poly_k, w_steer, w_smooth, max_iter, verbose, time_limit = key
-    opti = ca.Opti()
-    x = opti.variable(4, n + 1)
-    u = opti.variable(2, n)
-    p_start, p_goal = opti.parameter(4), opti.parameter(4)
-    p_dt, p_l, p_clear = opti.parameter(), opti.parameter(), opti.parameter()
-    p_bounds, p_limits = opti.parameter(4), opti.parameter(4)
-
+def _rk4_map(ca: Any, n: int) -> Any:
+    """One classical RK4 step of the bicycle (state, input, step, wheelbase) mapped over ``n`` intervals."""
     s, a, h, lb = ca.SX.sym("s", 4), ca.SX.sym("a", 2), ca.SX.sym("h"), ca.SX.sym("l")
 
     def f(st: Any) -> Any:
@@ -182,21 +214,15 @@ def _build(key: tuple[Any, ...]) -> _Nlp:
     k2 = f(s + h / 2 * k1)
     k3 = f(s + h / 2 * k2)
     k4 = f(s + h * k3)
-    rk4 = ca.Function("rk4", [s, a, h, lb], [s + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
-    step = rk4.map(n)
-    opti.subject_to(x[:, 1:] == step(x[:, :-1], u, p_dt, p_l))
-    opti.subject_to(x[:, 0] == p_start)
-    opti.subject_to(x[:, n] == p_goal)
-    px, py = x[0, :], x[1, :]
-    opti.subject_to(opti.bounded(p_bounds[0], px, p_bounds[1]))
-    opti.subject_to(opti.bounded(p_bounds[2], py, p_bounds[3]))
-    opti.subject_to(opti.bounded(-p_limits[2], x[3, :], p_limits[2]))
-    opti.subject_to(opti.bounded(-p_limits[0], u[0, :], p_limits[0]))
-    opti.subject_to(opti.bounded(-p_limits[1], u[1, :], p_limits[1]))
-    # phi is linear in time within an interval and tan is monotone, so |u1 tan(phi) / l| peaks at an end.
-    opti.subject_to(opti.bounded(-p_limits[3], u[0, :] * ca.tan(x[3, :-1]) / p_l, p_limits[3]))
-    opti.subject_to(opti.bounded(-p_limits[3], u[0, :] * ca.tan(x[3, 1:]) / p_l, p_limits[3]))
+    return ca.Function("rk4", [s, a, h, lb], [s + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)]).map(n)
 
+
+def _obstacle_constraints(
+    ca: Any, opti: Any, x: Any, p_clear: Any, n_circ: int, n_ell: int, poly_k: tuple[int, ...]
+) -> _Obstacles:
+    """Keep the robot's disc (radius ``p_clear``) off every obstacle at every node (see the module doc)."""
+    n1 = x.shape[1]
+    px, py = x[0, :], x[1, :]
     p_circles: Any = opti.parameter(3, n_circ) if n_circ else None
     for j in range(n_circ):
         c = p_circles[:, j]
@@ -205,7 +231,7 @@ def _build(key: tuple[Any, ...]) -> _Nlp:
     p_ellipses: Any = opti.parameter(5, n_ell) if n_ell else None
     for j in range(n_ell):
         e = p_ellipses[:, j]
-        ps = opti.variable(1, n + 1)
+        ps = opti.variable(1, n1)
         psi.append(ps)
         support = ca.sqrt((e[2] * ca.cos(ps - e[4])) ** 2 + (e[3] * ca.sin(ps - e[4])) ** 2)
         opti.subject_to(ca.cos(ps) * (px - e[0]) + ca.sin(ps) * (py - e[1]) - support >= p_clear)
@@ -213,21 +239,40 @@ def _build(key: tuple[Any, ...]) -> _Nlp:
     for kv in poly_k:
         vp = opti.parameter(2, kv)
         p_polys.append(vp)
-        ps = opti.variable(1, n + 1)
+        ps = opti.variable(1, n1)
         psi.append(ps)
         for i in range(kv):
             opti.subject_to(ca.cos(ps) * (px - vp[0, i]) + ca.sin(ps) * (py - vp[1, i]) >= p_clear)
+    return _Obstacles(p_circles, p_ellipses, p_polys, psi)
 
+
+def _build(key: tuple[Any, ...]) -> _Nlp:
+    ca = _casadi()
+    n, n_circ, n_ell, poly_k, w_steer, w_smooth, max_iter, verbose, time_limit = key
+    opti = ca.Opti()
+    x = opti.variable(4, n + 1)
+    u = opti.variable(2, n)
+    p_start, p_goal = opti.parameter(4), opti.parameter(4)
+    p_dt, p_l, p_clear = opti.parameter(), opti.parameter(), opti.parameter()
+    p_bounds, p_limits = opti.parameter(4), opti.parameter(4)
+    opti.subject_to(x[:, 1:] == _rk4_map(ca, n)(x[:, :-1], u, p_dt, p_l))
+    opti.subject_to(x[:, 0] == p_start)
+    opti.subject_to(x[:, n] == p_goal)
+    opti.subject_to(opti.bounded(p_bounds[0], x[0, :], p_bounds[1]))
+    opti.subject_to(opti.bounded(p_bounds[2], x[1, :], p_bounds[3]))
+    opti.subject_to(opti.bounded(-p_limits[2], x[3, :], p_limits[2]))
+    opti.subject_to(opti.bounded(-p_limits[0], u[0, :], p_limits[0]))
+    opti.subject_to(opti.bounded(-p_limits[1], u[1, :], p_limits[1]))
+    # phi is linear in time within an interval and tan is monotone, so |u1 tan(phi) / l| peaks at an end.
+    opti.subject_to(opti.bounded(-p_limits[3], u[0, :] * ca.tan(x[3, :-1]) / p_l, p_limits[3]))
+    opti.subject_to(opti.bounded(-p_limits[3], u[0, :] * ca.tan(x[3, 1:]) / p_l, p_limits[3]))
+    obstacles = _obstacle_constraints(ca, opti, x, p_clear, n_circ, n_ell, poly_k)
     du = u[0, 1:] - u[0, :-1]
     opti.minimize(p_dt * (ca.sumsqr(u[0, :]) + w_steer * ca.sumsqr(u[1, :])) + w_smooth * ca.sumsqr(du) / p_dt)
-    ipopt = {
-        "print_level": 5 if verbose else 0, "sb": "yes", "max_iter": max_iter, "tol": 1e-8, "max_cpu_time": time_limit,
-    }  # fmt: skip
+    ipopt = {"print_level": 5 if verbose else 0, "sb": "yes", "max_iter": max_iter, "tol": 1e-8}
+    ipopt["max_cpu_time"] = time_limit
     opti.solver("ipopt", {"expand": True, "print_time": bool(verbose), "error_on_fail": False}, ipopt)
-    return _Nlp(
-        opti, x, u, psi, p_start, p_goal, p_dt, p_bounds, p_limits, p_l, p_clear, p_circles, p_ellipses, p_polys,
-        verbose,
-    )  # fmt: skip
+    return _Nlp(opti, x, u, p_start, p_goal, p_dt, p_bounds, p_limits, p_l, p_clear, obstacles, verbose)
 
 
 class Optim:
@@ -333,8 +378,7 @@ class Optim:
             g = np.array([problem.goal.x, problem.goal.y, s[2] + float(wrap_angle(problem.goal.theta - s[2]))])
             xs = s[None, :] + tau[:, None] * (g - s)[None, :]
         else:
-            seg = np.hypot(np.diff(path[:, 0]), np.diff(path[:, 1]))
-            arc = np.concatenate([[0.0], np.cumsum(seg)])
+            arc = cumulative_length(path)
             if arc[-1] <= 1e-9:
                 arc = np.linspace(0.0, 1.0, path.shape[0])
             q = tau * arc[-1]
@@ -388,35 +432,33 @@ class Optim:
                 break
             extra += -gap + 0.005
             sol = self._solve_with_margin(problem, self.margin + extra, t0)
+        reason = (
+            f"the robot's disc comes within {gap:.4f} m of an obstacle or wall between nodes even with the "
+            f"margin raised to {self.margin + extra:.3f} m; use more nodes (N) or a shorter dt"
+        )
         stats = dict(res.stats, time_s=time.perf_counter() - t0)
-        kw = {k: getattr(res, k) for k in ("path", "times", "controls", "directions", "states")}
-        return OptimSolution(PlanResult(
-            PlanStatus.FAILED, self.name, stats=stats, **kw,
-            reason=f"the robot's disc comes within {gap:.4f} m of an obstacle or wall between nodes even with the "
-            f"margin raised to {self.margin + extra:.3f} m; use more nodes (N) or a shorter dt",
-        ), sol.nodes, sol.inputs)  # fmt: skip
+        failed = dataclasses.replace(res, status=PlanStatus.FAILED, reason=reason, stats=stats)
+        return OptimSolution(failed, sol.nodes, sol.inputs)
+
+    def _failure(self, status: PlanStatus, reason: str, stats: dict[str, Any]) -> OptimSolution:
+        return OptimSolution(PlanResult(status, self.name, reason=reason, stats=stats))
 
     def _solve_with_margin(self, problem: PlanProblem, margin: float, t0: float) -> OptimSolution:
         robot, world = problem.robot, problem.world
-        clear = robot.radius + margin
         for label, pose, status in (
             ("start", problem.start, PlanStatus.INVALID_START),
             ("goal", problem.goal, PlanStatus.INVALID_GOAL),
         ):
             dist = float(world.signed_distance(pose.xy)[0])
             if dist < robot.radius:
-                return OptimSolution(PlanResult(
-                    status, self.name, stats={"time_s": time.perf_counter() - t0},
-                    reason=f"the robot's disc (radius {robot.radius:.3f} m) at the {label} is {dist:.3f} m from "
-                    "the nearest obstacle or wall; move the pose into free space",
-                ))  # fmt: skip
-        circles = [o for o in world.obstacles if isinstance(o, Circle)]
-        ellipses = [o for o in world.obstacles if isinstance(o, Ellipse)]
-        polys = [polygon_vertices(o) for o in world.obstacles if isinstance(o, (Box, Polygon))]
-        key = (
-            self.N, len(circles), len(ellipses), tuple(p.shape[0] for p in polys), self.w_steer, self.w_smooth,
-            self.max_iter, self.verbose, float(problem.time_limit),
-        )  # fmt: skip
+                reason = (
+                    f"the robot's disc (radius {robot.radius:.3f} m) at the {label} is {dist:.3f} m from "
+                    "the nearest obstacle or wall; move the pose into free space"
+                )
+                return self._failure(status, reason, {"time_s": time.perf_counter() - t0})
+        obstacles = _ObstacleData.of(problem)
+        limit = float(problem.time_limit)
+        key = (self.N, *obstacles.counts, self.w_steer, self.w_smooth, self.max_iter, self.verbose, limit)
         cached = key in _CACHE
         if not cached:
             _CACHE[key] = _build(key)
@@ -427,43 +469,20 @@ class Optim:
             x_init, u_init, init_source = self._initial_guess(problem)
         except ConfigError as exc:
             raise ConfigError(f"optim: warm start from {self.init!r} failed: {exc}") from exc
-        opti = nlp.opti
-        opti.set_value(nlp.p_start, [problem.start.x, problem.start.y, problem.start.theta, 0.0])
-        opti.set_value(nlp.p_goal, [problem.goal.x, problem.goal.y, x_init[-1, 2], 0.0])
-        opti.set_value(nlp.p_dt, self.dt)
-        opti.set_value(nlp.p_wheelbase, robot.wheelbase)
-        opti.set_value(nlp.p_clear, clear)
-        xmin, xmax, ymin, ymax = world.bounds
-        opti.set_value(nlp.p_bounds, [xmin + clear, xmax - clear, ymin + clear, ymax - clear])
-        opti.set_value(nlp.p_limits, [robot.max_speed, self.u2max, robot.max_steering, robot.max_yaw_rate])
-        if circles:
-            opti.set_value(nlp.p_circles, np.array([[c.center[0], c.center[1], c.radius] for c in circles]).T)
-        if ellipses:
-            opti.set_value(
-                nlp.p_ellipses,
-                np.array([[e.center[0], e.center[1], e.radii[0], e.radii[1], e.angle] for e in ellipses]).T,
-            )
-        for vp, verts in zip(nlp.p_polys, polys, strict=True):
-            opti.set_value(vp, verts.T)
-        opti.set_initial(nlp.x, x_init.T)
-        opti.set_initial(nlp.u, u_init.T)
-        centres = [np.asarray(e.center) for e in ellipses] + [v.mean(axis=0) for v in polys]
-        for ps, c in zip(nlp.psi, centres, strict=True):
-            opti.set_initial(ps, np.arctan2(x_init[:, 1] - c[1], x_init[:, 0] - c[0])[None, :])
+        self._set_values(nlp, problem, robot.radius + margin, obstacles, x_init[-1, 2])
+        self._warm_start(nlp, x_init, u_init, obstacles)
         t_solve = time.perf_counter()
         try:
-            opti.solve_limited()
+            nlp.opti.solve_limited()
         except RuntimeError:
             pass  # a failed solve raises; its status and last iterate are read below
         try:
-            ipopt_stats = opti.stats()
-            xv = np.asarray(opti.debug.value(nlp.x)).T
-            uv = np.asarray(opti.debug.value(nlp.u)).T.reshape(self.N, 2)
+            ipopt_stats = nlp.opti.stats()
+            xv = np.asarray(nlp.opti.debug.value(nlp.x)).T
+            uv = np.asarray(nlp.opti.debug.value(nlp.u)).T.reshape(self.N, 2)
         except RuntimeError as exc:
-            return OptimSolution(PlanResult(
-                PlanStatus.FAILED, self.name, reason=f"IPOPT stopped with an error: {exc}",
-                stats={"time_s": time.perf_counter() - t0, "init": init_source},
-            ))  # fmt: skip
+            why = f"IPOPT stopped with an error: {exc}"
+            return self._failure(PlanStatus.FAILED, why, {"time_s": time.perf_counter() - t0, "init": init_source})
         solve_s = time.perf_counter() - t_solve
         return_status = str(ipopt_stats.get("return_status", "unknown"))
         stats: dict[str, Any] = {
@@ -478,6 +497,39 @@ class Optim:
             "init": init_source,
         }
         return OptimSolution(self._result(problem, xv, uv, return_status, stats), xv, uv)
+
+    def _set_values(
+        self, nlp: _Nlp, problem: PlanProblem, clear: float, obstacles: _ObstacleData, goal_heading: float
+    ) -> None:
+        """The problem's numbers into the NLP's parameters (``clear``: disc radius plus margin [m];
+        ``goal_heading``: the goal's heading on the warm start's branch [rad])."""
+        opti, robot = nlp.opti, problem.robot
+        opti.set_value(nlp.p_start, [problem.start.x, problem.start.y, problem.start.theta, 0.0])
+        opti.set_value(nlp.p_goal, [problem.goal.x, problem.goal.y, goal_heading, 0.0])
+        opti.set_value(nlp.p_dt, self.dt)
+        opti.set_value(nlp.p_wheelbase, robot.wheelbase)
+        opti.set_value(nlp.p_clear, clear)
+        xmin, xmax, ymin, ymax = problem.world.bounds
+        opti.set_value(nlp.p_bounds, [xmin + clear, xmax - clear, ymin + clear, ymax - clear])
+        opti.set_value(nlp.p_limits, [robot.max_speed, self.u2max, robot.max_steering, robot.max_yaw_rate])
+        if obstacles.circles:
+            circles = [[c.center[0], c.center[1], c.radius] for c in obstacles.circles]
+            opti.set_value(nlp.obstacles.circles, np.array(circles).T)
+        if obstacles.ellipses:
+            ellipses = [[e.center[0], e.center[1], e.radii[0], e.radii[1], e.angle] for e in obstacles.ellipses]
+            opti.set_value(nlp.obstacles.ellipses, np.array(ellipses).T)
+        for vp, verts in zip(nlp.obstacles.polys, obstacles.polys, strict=True):
+            opti.set_value(vp, verts.T)
+
+    def _warm_start(self, nlp: _Nlp, x_init: FloatArray, u_init: FloatArray, obstacles: _ObstacleData) -> None:
+        """Initial values: the guess's nodes (N+1, 4) and inputs (N, 2), and each separating line facing
+        the guess from its obstacle's centre."""
+        opti = nlp.opti
+        opti.set_initial(nlp.x, x_init.T)
+        opti.set_initial(nlp.u, u_init.T)
+        centres = [np.asarray(e.center) for e in obstacles.ellipses] + [v.mean(axis=0) for v in obstacles.polys]
+        for ps, c in zip(nlp.obstacles.psi, centres, strict=True):
+            opti.set_initial(ps, np.arctan2(x_init[:, 1] - c[1], x_init[:, 0] - c[0])[None, :])
 
     def _result(
         self, problem: PlanProblem, xv: FloatArray, uv: FloatArray, return_status: str, stats: dict[str, Any]
@@ -500,7 +552,7 @@ class Optim:
             final_position_error=pos_err,
             final_heading_error=head_err,
             final_state_error=float(np.linalg.norm(end - np.array([problem.goal.x, problem.goal.y, xv[-1, 2], 0.0]))),
-            length=float(np.sum(np.hypot(np.diff(path[:, 0]), np.diff(path[:, 1])))),
+            length=path_length(path),
             max_abs_u1=float(np.max(np.abs(uv[:, 0]))),
             max_abs_phi=float(np.max(np.abs(xv[:, 3]))),
             rollout_drift=float(np.max(np.abs(defect[:, :2]))) if defect.size else 0.0,
@@ -517,8 +569,8 @@ class Optim:
         reason = f"IPOPT: {return_status}"
         if return_status in _SUCCESS:
             if pos_err > problem.position_tolerance or head_err > problem.heading_tolerance:
-                return PlanResult(PlanStatus.FAILED, self.name, reason=f"{reason}, but the rollout misses the goal "
-                                  f"by {pos_err:.3g} m, {head_err:.3g} rad; reduce dt", stats=stats, **kw)  # fmt: skip
+                why = f"{reason}, but the rollout misses the goal by {pos_err:.3g} m, {head_err:.3g} rad; reduce dt"
+                return PlanResult(PlanStatus.FAILED, self.name, reason=why, stats=stats, **kw)
             return PlanResult(PlanStatus.SUCCESS, self.name, reason="", stats=stats, **kw)
         if return_status in _INFEASIBLE:
             status = PlanStatus.INFEASIBLE

@@ -394,19 +394,53 @@ class Sinusoidal:
                     state = m.from_chained(piece[-1].z[-1])
         except _StepFailed as exc:
             return PlanResult(
-                PlanStatus.INFEASIBLE, self.name, reason=f"sinusoidal steering failed: {exc}; raise u1max/u2max "
-                "or max_period", stats={"time_s": time.perf_counter() - t_start},
-            )  # fmt: skip
+                PlanStatus.INFEASIBLE,
+                self.name,
+                reason=f"sinusoidal steering failed: {exc}; raise u1max/u2max or max_period",
+                stats={"time_s": time.perf_counter() - t_start},
+            )
         return self._result(problem, segs, models, t_start)
 
     def _result(self, problem: PlanProblem, segs: list[_Segment], models: list[ChainedModel], t0: float) -> PlanResult:
         if not segs:
             pose = problem.start.as_array()[None, :]
-            return PlanResult(
-                PlanStatus.SUCCESS, self.name, path=pose, times=np.zeros(1), controls=np.zeros((1, 2)),
-                directions=np.ones(1), states=np.hstack([pose, np.zeros((1, 1))]),
-                stats={"time_s": time.perf_counter() - t0, "pieces": len(models), "handoffs": len(models) - 1},
-            )  # fmt: skip
+            still: dict[str, Any] = {"times": np.zeros(1), "controls": np.zeros((1, 2)), "directions": np.ones(1)}
+            info = {"time_s": time.perf_counter() - t0, "pieces": len(models), "handoffs": len(models) - 1}
+            states = np.hstack([pose, np.zeros((1, 1))])
+            return PlanResult(PlanStatus.SUCCESS, self.name, path=pose, stats=info, states=states, **still)
+        t, x, uu = self._assemble(problem, segs)
+        controls = np.column_stack([uu[:, 0], uu[:, 0] * np.tan(x[:, 3]) / self.l])
+        direction = np.sign(uu[:, 0])
+        for i in range(direction.size):
+            if direction[i] == 0:
+                direction[i] = direction[i - 1] if i else 1.0
+        end = x[-1]
+        stats: dict[str, Any] = {
+            "time_s": time.perf_counter() - t0,
+            "duration_s": float(t[-1]),
+            "pieces": len(models),
+            "handoffs": len(models) - 1,
+            "models": ">".join(m.name for m in models),
+            "steps": len(segs),
+            "final_position_error": float(np.hypot(end[0] - problem.goal.x, end[1] - problem.goal.y)),
+            "final_heading_error": abs(float(wrap_angle(end[2] - problem.goal.theta))),
+            "max_u1": float(np.max(np.abs(uu[:, 0]))),
+            "max_u2": float(np.max(np.abs(uu[:, 1]))),
+            "max_phi": float(np.max(np.abs(x[:, 3]))),
+        }
+        status, reason = self._verdict(problem, t, x, controls, stats)
+        arrays: dict[str, Any] = {
+            "path": x[:, :3].copy(),
+            "times": t,
+            "controls": controls,
+            "directions": direction,
+            "states": x,
+        }
+        return PlanResult(status, self.name, reason=reason, stats=stats, **arrays)
+
+    def _assemble(self, problem: PlanProblem, segs: list[_Segment]) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """The steps joined: times (M,) [s], bicycle states (M, 4) with the heading unwrapped from the
+        start's, and inputs (M, 2) [u1, u2]."""
         times, states, u = [], [], []
         offset = 0.0
         for i, sg in enumerate(segs):
@@ -416,73 +450,43 @@ class Sinusoidal:
             states.append(st[sl])
             u.append(np.column_stack([sg.model.speed(sg.v[:, 0], sg.z[:, 2]), sg.v[:, 1]])[sl])
             offset += float(sg.t[-1])
-        t = np.concatenate(times)
         x = np.concatenate(states)
         x[:, 2] = np.unwrap(x[:, 2])
         x[:, 2] += problem.start.theta - x[0, 2]
-        uu = np.concatenate(u)
-        controls = np.column_stack([uu[:, 0], uu[:, 0] * np.tan(x[:, 3]) / self.l])
-        direction = np.sign(uu[:, 0])
-        for i in range(direction.size):
-            if direction[i] == 0:
-                direction[i] = direction[i - 1] if i else 1.0
-        end = x[-1]
-        pos_err = float(np.hypot(end[0] - problem.goal.x, end[1] - problem.goal.y))
-        head_err = abs(float(wrap_angle(end[2] - problem.goal.theta)))
-        stats: dict[str, Any] = {
-            "time_s": time.perf_counter() - t0,
-            "duration_s": float(t[-1]),
-            "pieces": len(models),
-            "handoffs": len(models) - 1,
-            "models": ">".join(m.name for m in models),
-            "steps": len(segs),
-            "final_position_error": pos_err,
-            "final_heading_error": head_err,
-            "max_u1": float(np.max(np.abs(uu[:, 0]))),
-            "max_u2": float(np.max(np.abs(uu[:, 1]))),
-            "max_phi": float(np.max(np.abs(x[:, 3]))),
-        }
-        kw: dict[str, Any] = {
-            "path": x[:, :3].copy(),
-            "times": t,
-            "controls": controls,
-            "directions": direction,
-            "states": x,
-        }
+        return np.concatenate(times), x, np.concatenate(u)
+
+    def _verdict(
+        self, problem: PlanProblem, t: FloatArray, x: FloatArray, controls: FloatArray, stats: dict[str, Any]
+    ) -> tuple[PlanStatus, str]:
+        """How the joined path ends: missing the goal, hitting an obstacle, leaving a bound, or success
+        (adds the clearances to ``stats`` as far as it gets)."""
+        pos_err, head_err = stats["final_position_error"], stats["final_heading_error"]
         if pos_err > problem.position_tolerance or head_err > problem.heading_tolerance:
-            return PlanResult(
-                PlanStatus.FAILED, self.name, reason=f"final state misses the goal by {pos_err:.3g} m, "
-                f"{head_err:.3g} rad", stats=stats, **kw,
-            )  # fmt: skip
+            return PlanStatus.FAILED, f"final state misses the goal by {pos_err:.3g} m, {head_err:.3g} rad"
         world, r = problem.world, problem.robot.radius
         if world.obstacles:
             d = world.obstacle_distance(x[:, :2])
             i = int(np.argmin(d))
             stats["min_clearance"] = float(d[i] - r)
             if d[i] < r:
-                return PlanResult(
-                    PlanStatus.INFEASIBLE, self.name, stats=stats, **kw,
-                    reason=f"sinusoidal steering does not avoid obstacles and its path hits one at t = {t[i]:.2f} s "
+                return PlanStatus.INFEASIBLE, (
+                    f"sinusoidal steering does not avoid obstacles and its path hits one at t = {t[i]:.2f} s "
                     f"({d[i] - r:.3f} m clearance for the robot's radius {r:.3f} m); plan with 'optim' or an RRT "
-                    "planner instead",
-                )  # fmt: skip
+                    "planner instead"
+                )
         problems = []
         wall = world.wall_distance(x[:, :2])
         stats["min_wall_clearance"] = float(np.min(wall) - r)
-        out = wall < r
-        if np.any(out):
-            j = int(np.argmax(out))
-            problems.append(f"the robot's disc (radius {r:.3f} m) leaves the world bounds at t = {t[j]:.2f} s "
-                            f"(centre {x[j, 0]:.3f}, {x[j, 1]:.3f})")  # fmt: skip
+        if np.any(wall < r):
+            j = int(np.argmax(wall < r))
+            problems.append(
+                f"the robot's disc (radius {r:.3f} m) leaves the world bounds at t = {t[j]:.2f} s "
+                f"(centre {x[j, 0]:.3f}, {x[j, 1]:.3f})"
+            )
         if stats["max_phi"] > self.phimax * (1 + 1e-9):
             problems.append(f"|phi| reaches {stats['max_phi']:.3f} > phimax {self.phimax:.3f}")
         max_w = float(np.max(np.abs(controls[:, 1])))
-        if (
-            stats["max_u1"] > self.u1max * (1 + 1e-9)
-            or stats["max_u2"] > self.u2max * (1 + 1e-9)
-            or max_w > self.wmax * (1 + 1e-9)
-        ):
+        over = (stats["max_u1"], self.u1max), (stats["max_u2"], self.u2max), (max_w, self.wmax)
+        if any(value > bound * (1 + 1e-9) for value, bound in over):
             problems.append(f"inputs reach |u1| {stats['max_u1']:.3f}, |u2| {stats['max_u2']:.3f}, |omega| {max_w:.3f}")
-        if problems:
-            return PlanResult(PlanStatus.BOUNDS_VIOLATED, self.name, reason="; ".join(problems), stats=stats, **kw)
-        return PlanResult(PlanStatus.SUCCESS, self.name, stats=stats, **kw)
+        return (PlanStatus.BOUNDS_VIOLATED, "; ".join(problems)) if problems else (PlanStatus.SUCCESS, "")

@@ -30,6 +30,7 @@ from __future__ import annotations
 import itertools
 import time
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
@@ -42,7 +43,14 @@ from planning.core.world import World
 from planning.errors import NhsimError
 from planning.planners.base import PlanResult
 from planning.trajectory.segments import infer_segments
-from planning.trajectory.smoothing import SampledCurve, remove_loops, smooth_drive, split_path
+from planning.trajectory.smoothing import (
+    PathSegment,
+    SampledCurve,
+    SmoothResult,
+    remove_loops,
+    smooth_drive,
+    split_path,
+)
 from planning.trajectory.speed_profile import Limits, TimedSamples, hold, time_drive, time_rotation
 from planning.trajectory.trajectory import Trajectory
 
@@ -57,27 +65,39 @@ class PlanFailedError(TrajectoryError):
     """The plan itself failed (its status is not success), or a timed plan itself collides."""
 
 
+class TrajectoryStatus(StrEnum):
+    """How turning a plan into a trajectory ended. Only ``SUCCESS`` is safe to track."""
+
+    SUCCESS = "success"
+    COLLISION = "collision"  # no refinement kept the footprint clear (or a timed plan collides)
+    DEVIATION = "deviation"  # the fit strayed from the path
+    INVALID = "invalid"  # the plan holds no usable path
+
+
 @dataclass(frozen=True)
 class TrajectoryResult:
     """Outcome of :func:`make_trajectory`.
 
     Attributes:
-        status: "success", "collision" (no refinement kept the footprint clear), "deviation" (the fit
-            strayed from the path) or "invalid" (the plan holds no usable path).
+        status: How it ended (see :class:`TrajectoryStatus`).
         trajectory: The trajectory (also on collision, for inspection), or None.
         reason: What went wrong, and what to try.
         stats: Segments, cusps, rotations, pieces, refinements, clearance, deviation, time scale, ...
     """
 
-    status: str
+    status: TrajectoryStatus
     trajectory: Trajectory | None
     reason: str = ""
     stats: dict[str, Any] = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        if not isinstance(self.status, TrajectoryStatus):
+            raise ValueError(f"TrajectoryResult.status must be a TrajectoryStatus, got {self.status!r}")
+
     @property
     def success(self) -> bool:
         """Whether the trajectory is usable."""
-        return self.status == "success"
+        return self.status is TrajectoryStatus.SUCCESS
 
 
 def _concat(pieces: list[tuple[str, TimedSamples]], dt: float, name: str) -> Trajectory:
@@ -93,8 +113,15 @@ def _concat(pieces: list[tuple[str, TimedSamples]], dt: float, name: str) -> Tra
         t0 = float(ts[-1][-1]) + dt
     pose = np.vstack(poses)
     pose[:, 2] = np.unwrap(pose[:, 2])
-    return Trajectory(np.concatenate(ts), pose, np.vstack(vels), np.vstack(accs), name=name,
-                      segments=np.concatenate(segs), segment_kinds=tuple(kinds))  # fmt: skip
+    return Trajectory(
+        np.concatenate(ts),
+        pose,
+        np.vstack(vels),
+        np.vstack(accs),
+        name=name,
+        segments=np.concatenate(segs),
+        segment_kinds=tuple(kinds),
+    )
 
 
 def make_trajectory(
@@ -133,10 +160,9 @@ def make_trajectory(
         name: Trajectory name (default "plan:<planner>" or "path").
 
     Returns:
-        The result, with a status; only "success" is safe to track.
+        The result, with a status; only ``TrajectoryStatus.SUCCESS`` is safe to track.
     """
     t_start = time.perf_counter()
-    limits = Limits.from_robot(robot, margin)
     checker = CollisionChecker(world, robot, shape="footprint")
     if isinstance(plan, PlanResult):
         path = np.asarray(plan.path, dtype=float)
@@ -145,135 +171,164 @@ def make_trajectory(
         timed = plan.times is not None and plan.controls is not None
     else:
         path = np.asarray(plan, dtype=float)
-        dirs = directions
-        label = name or "path"
-        timed = False
+        dirs, label, timed = directions, name or "path", False
     if path.ndim != 2 or path.shape[0] < 1 or path.shape[1] < 3 or not np.all(np.isfinite(path[:, :3])):
-        return TrajectoryResult("invalid", None, f"the plan holds no usable (N, 3) path (shape {path.shape})")
+        reason = f"the plan holds no usable (N, 3) path (shape {path.shape})"
+        return TrajectoryResult(TrajectoryStatus.INVALID, None, reason)
     path = path[:, :3].copy()
-    goal_heading = goal.theta if goal is not None else None
     if goal is not None and np.hypot(path[-1, 0] - goal.x, path[-1, 1] - goal.y) <= snap_tolerance:
         path[-1, :2] = (goal.x, goal.y)
     path_clear = float(checker.clearance_of(checker.densify(path)).min())
     need = clearance if clearance is not None else max(0.0, min(0.01, 0.5 * path_clear))
-    stats: dict[str, Any] = {"input_points": int(path.shape[0]), "input_min_clearance_m": path_clear,
-                             "required_clearance_m": need, "timed_input": bool(timed)}  # fmt: skip
+    stats: dict[str, Any] = {
+        "input_points": int(path.shape[0]),
+        "input_min_clearance_m": path_clear,
+        "required_clearance_m": need,
+        "timed_input": bool(timed),
+    }
+    goal_heading = goal.theta if goal is not None else None
+    build = _Build(Limits.from_robot(robot, margin), checker, need, goal_heading, dwell, dt, label, stats)
     if timed:
         assert isinstance(plan, PlanResult)
-        result = _from_timed(plan, path, limits, checker, need, goal_heading, dwell, dt, label, stats)
+        result = _from_timed(plan, path, build)
     else:
-        result = _from_path(path, dirs, limits, checker, need, goal_heading, dwell, dt, corner_angle,
-                            max_deviation, label, stats)  # fmt: skip
+        result = _from_path(path, dirs, build, corner_angle, max_deviation)
     result.stats["smoothing_time_s"] = time.perf_counter() - t_start
     return result
 
 
+Piece = tuple[str, TimedSamples]
+
+
+@dataclass(frozen=True)
+class _Build:
+    """What every step of one :func:`make_trajectory` call shares.
+
+    Attributes:
+        limits: The robot's limits with the margin applied.
+        checker: Footprint collision checker of the robot in the world.
+        need: Footprint clearance the trajectory must keep [m].
+        goal_heading: Heading to end with [rad]; None: as the path ends.
+        dwell: Stand-still between segments [s].
+        dt: Sample period [s].
+        label: Trajectory name.
+        stats: The result's statistics, filled in as the build goes.
+    """
+
+    limits: Limits
+    checker: CollisionChecker
+    need: float
+    goal_heading: float | None
+    dwell: float
+    dt: float
+    label: str
+    stats: dict[str, Any]
+
+    def pause(self, pieces: list[Piece]) -> None:
+        """Append a stand-still of ``dwell`` at the end of the last piece (if any, and a dwell is asked)."""
+        if pieces and self.dwell > 0:
+            pieces.append(("hold", hold(pieces[-1][1].pose[-1], self.dwell, dt=self.dt)))
+
+
 def _from_path(
-    path: FloatArray,
-    dirs: ArrayLike | None,
-    limits: Limits,
-    checker: CollisionChecker,
-    need: float,
-    goal_heading: float | None,
-    dwell: float,
-    dt: float,
-    corner_angle: float,
-    max_deviation: float,
-    label: str,
-    stats: dict[str, Any],
+    path: FloatArray, dirs: ArrayLike | None, build: _Build, corner_angle: float, max_deviation: float
 ) -> TrajectoryResult:
+    """An untimed path: loops cut, split at cusps, corners and turns, each drive smoothed and timed."""
     n_in = path.shape[0]
     path, dirs = remove_loops(path, dirs)
-    stats["loop_poses_removed"] = n_in - path.shape[0]
-    segs = split_path(path, dirs, goal_heading=goal_heading, corner_angle=corner_angle)
-    pieces: list[tuple[str, TimedSamples]] = []
-    status, reason = "success", ""
+    build.stats["loop_poses_removed"] = n_in - path.shape[0]
+    segs = split_path(path, dirs, goal_heading=build.goal_heading, corner_angle=corner_angle)
+    limits, dt = build.limits, build.dt
+    pieces: list[Piece] = []
+    status, reason = TrajectoryStatus.SUCCESS, ""
     n_pieces, attempts, devs, clears = 0, 0, [0.0], [np.inf]
     for seg in segs:
-        if pieces and dwell > 0:
-            pieces.append(("hold", hold(pieces[-1][1].pose[-1], dwell, dt=dt)))
+        build.pause(pieces)
         if seg.kind == "rotate":
             pieces.append(("rotate", time_rotation(seg.points[0], seg.headings[0], seg.headings[1], limits, dt=dt)))
             continue
-        res = smooth_drive(seg, checker, clearance=need, max_deviation=max_deviation)
+        res = smooth_drive(seg, build.checker, clearance=build.need, max_deviation=max_deviation)
         n_pieces += res.pieces
         attempts = max(attempts, res.attempts)
         devs.append(res.max_deviation)
         clears.append(res.min_clearance)
-        if not res.success and status == "success":
-            status = res.status.value
-            at = seg.points[0]
-            reason = (
-                f"the drive from ({at[0]:.2f}, {at[1]:.2f}) could not be smoothed: {res.status.value} after "
-                f"{res.attempts} refinements (clearance {res.min_clearance:.4f} m, needed > {need:.4f} m; "
-                f"deviation {res.max_deviation:.4f} m, allowed {max_deviation:.4f} m); plan with more clearance "
-                f"or allow a larger deviation"
-            )
+        if not res.success and status is TrajectoryStatus.SUCCESS:
+            status, reason = TrajectoryStatus(res.status.value), _smoothing_failure(seg, res, build, max_deviation)
         pieces.append(("forward" if seg.direction > 0 else "reverse", time_drive(res.curve, limits, dt=dt)))
     if not pieces:  # already at the goal
-        pieces.append(("hold", hold(path[-1], max(dwell, dt), dt=dt)))
-    elif dwell > 0:
-        pieces.append(("hold", hold(pieces[-1][1].pose[-1], dwell, dt=dt)))
-    traj = _concat(pieces, dt, label)
+        pieces.append(("hold", hold(path[-1], max(build.dwell, dt), dt=dt)))
+    else:
+        build.pause(pieces)
+    traj = _concat(pieces, dt, build.label)
     kinds = [s.kind for s in segs]
     dirs_k = [s.direction for s in segs if s.kind == "drive"]
-    stats.update({
-        "segments": len(segs), "drives": kinds.count("drive"), "rotations": kinds.count("rotate"),
-        "cusps": int(sum(a != b for a, b in itertools.pairwise(dirs_k))),
-        "pieces": n_pieces, "refinements": attempts, "max_deviation_m": float(max(devs)),
-        "min_clearance_m": float(min(clears)), "duration_s": traj.duration, "length_m": traj.path_length(),
-    })  # fmt: skip
-    return TrajectoryResult(status, traj, reason, stats)
+    build.stats.update(
+        {
+            "segments": len(segs),
+            "drives": kinds.count("drive"),
+            "rotations": kinds.count("rotate"),
+            "cusps": int(sum(a != b for a, b in itertools.pairwise(dirs_k))),
+            "pieces": n_pieces,
+            "refinements": attempts,
+            "max_deviation_m": float(max(devs)),
+            "min_clearance_m": float(min(clears)),
+            "duration_s": traj.duration,
+            "length_m": traj.path_length(),
+        }
+    )
+    return TrajectoryResult(status, traj, reason, build.stats)
 
 
-def _retimed_pieces(
-    path: FloatArray, kinds: list[str], limits: Limits, dwell: float, dt: float
-) -> list[tuple[str, TimedSamples]]:
+def _smoothing_failure(seg: PathSegment, res: SmoothResult, build: _Build, max_deviation: float) -> str:
+    at = seg.points[0]
+    return (
+        f"the drive from ({at[0]:.2f}, {at[1]:.2f}) could not be smoothed: {res.status.value} after "
+        f"{res.attempts} refinements (clearance {res.min_clearance:.4f} m, needed > {build.need:.4f} m; "
+        f"deviation {res.max_deviation:.4f} m, allowed {max_deviation:.4f} m); plan with more clearance "
+        f"or allow a larger deviation"
+    )
+
+
+def _runs(kinds: list[str]) -> list[tuple[str, int, int]]:
+    """Maximal runs of equal kinds as (kind, first index, last index + 1)."""
+    out, start = [], 0
+    for kind, group in itertools.groupby(kinds):
+        stop = start + len(list(group))
+        out.append((kind, start, stop))
+        start = stop
+    return out
+
+
+def _retimed_pieces(path: FloatArray, kinds: list[str], build: _Build) -> list[Piece]:
     """A timed plan's path, re-timed: each drive of one direction from rest to rest by the speed profile
     (its own samples as the curve), each turn in place by the yaw-rate profile, stand-stills between."""
-    pieces: list[tuple[str, TimedSamples]] = []
-    start = 0
-    for i in range(1, len(kinds) + 1):
-        if i < len(kinds) and kinds[i] == kinds[start]:
-            continue
-        kind, sl = kinds[start], slice(start, min(i + 1, len(kinds)))  # through the next piece's first pose
-        start = i
+    pieces: list[Piece] = []
+    for kind, start, stop in _runs(kinds):
+        sl = slice(start, min(stop + 1, len(kinds)))  # through the next piece's first pose
         if kind == "rotate":
-            smp = time_rotation(path[sl][0, :2], path[sl][0, 2], path[sl][-1, 2], limits, dt=dt)
+            smp = time_rotation(path[sl][0, :2], path[sl][0, 2], path[sl][-1, 2], build.limits, dt=build.dt)
         else:
             try:
-                smp = time_drive(SampledCurve.from_poses(path[sl], 1 if kind == "forward" else -1), limits, dt=dt)
+                curve = SampledCurve.from_poses(path[sl], 1 if kind == "forward" else -1)
+                smp = time_drive(curve, build.limits, dt=build.dt)
             except ValueError:  # stands still: nothing to drive
                 continue
-        if pieces and dwell > 0:
-            pieces.append(("hold", hold(pieces[-1][1].pose[-1], dwell, dt=dt)))
+        build.pause(pieces)
         pieces.append((kind, smp))
     return pieces
 
 
-def _from_timed(
-    plan: PlanResult,
-    path: FloatArray,
-    limits: Limits,
-    checker: CollisionChecker,
-    need: float,
-    goal_heading: float | None,
-    dwell: float,
-    dt: float,
-    label: str,
-    stats: dict[str, Any],
-) -> TrajectoryResult:
-    assert plan.times is not None and plan.controls is not None
-    t = np.asarray(plan.times, dtype=float).reshape(-1)
-    u = np.asarray(plan.controls, dtype=float)
-    n = min(t.size, u.shape[0], path.shape[0])
-    if n < 2 or t.size != path.shape[0]:
-        return TrajectoryResult("invalid", None, f"timed plan has {t.size} times for {path.shape[0]} poses")
-    t, u, path = t[:n] - t[0], u[:n, :2], path[:n]
-    keep = np.concatenate([[True], np.diff(t) > 1e-9])
-    t, u, path = t[keep], u[keep], path[keep]
-    v, w = u[:, 0], u[:, 1]
-    dv, dw = np.gradient(v, t), np.gradient(w, t)
+def _kept_samples(
+    t: FloatArray, path: FloatArray, vel: FloatArray, acc: FloatArray, kinds: list[str], label: str
+) -> Trajectory:
+    """A timed plan's own samples (t (N,), path (N, 3), vel and acc (N, 2)), one segment per run of kinds."""
+    runs = _runs(kinds)
+    seg = np.concatenate([np.full(stop - start, k, dtype=np.int64) for k, (_, start, stop) in enumerate(runs)])
+    return Trajectory(t, path, vel, acc, name=label, segments=seg, segment_kinds=tuple(kind for kind, _, _ in runs))
+
+
+def _time_scales(v: FloatArray, w: FloatArray, dv: FloatArray, dw: FloatArray, limits: Limits) -> tuple[float, float]:
+    """How much slower a timed plan must run to respect the speed limits, and the acceleration limits."""
     wheel = np.abs(v) + 0.5 * limits.track_width * np.abs(w)
     speed_scale = max(
         1.0,
@@ -281,61 +336,85 @@ def _from_timed(
         float(np.max(np.abs(w))) / limits.max_yaw_rate,
         float(np.max(wheel)) / limits.max_wheel_linear,
     )
-    accel_scale = max(float(np.sqrt(np.max(np.abs(dv)) / limits.max_accel)),
-                      float(np.sqrt(np.max(np.abs(dw)) / limits.max_yaw_accel)))  # fmt: skip
-    clear = float(checker.clearance_of(checker.densify(path)).min())
+    accel_scale = max(
+        float(np.sqrt(np.max(np.abs(dv)) / limits.max_accel)), float(np.sqrt(np.max(np.abs(dw)) / limits.max_yaw_accel))
+    )
+    return speed_scale, accel_scale
+
+
+def _end_at_goal(body: Trajectory, end: FloatArray, build: _Build) -> Trajectory:
+    """``body`` followed by a turn in place at the plan's ``end`` pose (3,) to the goal heading (when it
+    differs) and a final stand-still."""
+    end_pose = end.copy()
+    tail: list[Piece] = []
+    if build.goal_heading is not None and abs(wrap_angle(build.goal_heading - end_pose[2])) > 1e-3:
+        if build.dwell > 0:
+            tail.append(("hold", hold(end_pose, build.dwell, dt=build.dt)))
+        th1 = end_pose[2] + wrap_angle(build.goal_heading - end_pose[2])
+        tail.append(("rotate", time_rotation(end_pose[:2], end_pose[2], th1, build.limits, dt=build.dt)))
+        end_pose[2] = th1
+    if build.dwell > 0:
+        tail.append(("hold", hold(end_pose, build.dwell, dt=build.dt)))
+    if not tail:
+        return body
+    rest = _concat(tail, build.dt, build.label)
+    assert body.segments is not None and rest.segments is not None
+    return Trajectory(
+        np.concatenate([body.t, rest.t + (body.t[-1] + build.dt)]),
+        np.vstack([body.pose, rest.pose]),
+        np.vstack([body.vel, rest.vel]),
+        np.vstack([body.acc, rest.acc]),
+        name=build.label,
+        segments=np.concatenate([body.segments, rest.segments + len(body.segment_kinds)]),
+        segment_kinds=body.segment_kinds + rest.segment_kinds,
+    )
+
+
+def _from_timed(plan: PlanResult, path: FloatArray, build: _Build) -> TrajectoryResult:
+    """A timed plan: its path kept, its samples kept (slowed uniformly) or re-timed from rest to rest."""
+    assert plan.times is not None and plan.controls is not None
+    t = np.asarray(plan.times, dtype=float).reshape(-1)
+    if t.size < 2:
+        return TrajectoryResult(TrajectoryStatus.INVALID, None, f"timed plan has {t.size} times for {t.size} poses")
+    keep = np.concatenate([[True], np.diff(t - t[0]) > 1e-9])
+    t, u, path = (t - t[0])[keep], np.asarray(plan.controls, dtype=float)[keep], path[keep]
+    v, w = u[:, 0], u[:, 1]
+    dv, dw = np.gradient(v, t), np.gradient(w, t)
+    speed_scale, accel_scale = _time_scales(v, w, dv, dw, build.limits)
+    clear = float(build.checker.clearance_of(build.checker.densify(path)).min())
     kinds = list(infer_segments(v, w).labels)
     # A plan that starts or ends moving, or whose speed changes faster than the robot can follow
     # (inputs held over intervals step at every node), keeps its path but is re-timed from rest to rest
     # by the speed profile; a smooth one keeps its samples, slowed uniformly if it exceeds a limit.
     retime = max(abs(float(v[0])), abs(float(v[-1]))) > 1e-3 or accel_scale > speed_scale
-    pieces = _retimed_pieces(path, kinds, limits, dwell, dt) if retime else []
+    pieces = _retimed_pieces(path, kinds, build) if retime else []
     scale: float | None = None
     if pieces:
-        body = _concat(pieces, dt, label)
+        body = _concat(pieces, build.dt, build.label)
     else:  # keep the planner's own samples and time stamps, slowed uniformly by ``scale``
-        retime = False
-        scale = max(speed_scale, accel_scale)
+        retime, scale = False, max(speed_scale, accel_scale)
         t, v, w, dv, dw = t * scale, v / scale, w / scale, dv / scale**2, dw / scale**2
-        start = 0
-        for i in range(1, len(kinds) + 1):
-            if i == len(kinds) or kinds[i] != kinds[start]:
-                sl = slice(start, i)
-                pieces.append((kinds[start], TimedSamples(t[sl] - t[start], path[sl], np.column_stack([v[sl], w[sl]]),
-                                                          np.column_stack([dv[sl], dw[sl]]))))  # fmt: skip
-                start = i
-        seg = np.concatenate([np.full(smp.t.size, k, dtype=np.int64) for k, (_, smp) in enumerate(pieces)])
-        body = Trajectory(t, path, np.column_stack([v, w]), np.column_stack([dv, dw]), name=label, segments=seg,
-                          segment_kinds=tuple(k for k, _ in pieces))  # fmt: skip
-    end_pose = path[-1].copy()
-    tail: list[tuple[str, TimedSamples]] = []
-    if goal_heading is not None and abs(wrap_angle(goal_heading - end_pose[2])) > 1e-3:
-        if dwell > 0:
-            tail.append(("hold", hold(end_pose, dwell, dt=dt)))
-        th1 = end_pose[2] + wrap_angle(goal_heading - end_pose[2])
-        tail.append(("rotate", time_rotation(end_pose[:2], end_pose[2], th1, limits, dt=dt)))
-        end_pose[2] = th1
-    if dwell > 0:
-        tail.append(("hold", hold(end_pose, dwell, dt=dt)))
-    if tail:
-        rest = _concat(tail, dt, label)
-        off = body.t[-1] + dt
-        body = Trajectory(
-            np.concatenate([body.t, rest.t + off]), np.vstack([body.pose, rest.pose]),
-            np.vstack([body.vel, rest.vel]), np.vstack([body.acc, rest.acc]), name=label,
-            segments=np.concatenate([body.segments, rest.segments + len(pieces)]),  # type: ignore[operator]
-            segment_kinds=body.segment_kinds + rest.segment_kinds,
-        )  # fmt: skip
-    status = "success" if clear > 0.0 else "collision"
-    reason = "" if status == "success" else f"the timed plan comes within {clear:.4f} m of an obstacle or wall"
+        body = _kept_samples(t, path, np.column_stack([v, w]), np.column_stack([dv, dw]), kinds, build.label)
+    body = _end_at_goal(body, path[-1], build)
+    status = TrajectoryStatus.SUCCESS if clear > 0.0 else TrajectoryStatus.COLLISION
+    reason = "" if clear > 0.0 else f"the timed plan comes within {clear:.4f} m of an obstacle or wall"
     signs = np.sign(v[np.abs(v) > 1e-4])
-    stats.update({
-        "segments": len(body.segment_kinds), "time_scale": scale, "retimed": retime, "min_clearance_m": clear,
-        "cusps": int(np.sum(signs[1:] != signs[:-1])), "duration_s": body.duration, "length_m": body.path_length(),
-        "rotations": int(sum(k == "rotate" for k in body.segment_kinds)), "pieces": 0, "refinements": 0,
-        "max_deviation_m": 0.0,
-    })  # fmt: skip
-    return TrajectoryResult(status, body, reason, stats)
+    build.stats.update(
+        {
+            "segments": len(body.segment_kinds),
+            "time_scale": scale,
+            "retimed": retime,
+            "min_clearance_m": clear,
+            "cusps": int(np.sum(signs[1:] != signs[:-1])),
+            "duration_s": body.duration,
+            "length_m": body.path_length(),
+            "rotations": int(sum(k == "rotate" for k in body.segment_kinds)),
+            "pieces": 0,
+            "refinements": 0,
+            "max_deviation_m": 0.0,
+        }
+    )
+    return TrajectoryResult(status, body, reason, build.stats)
 
 
 def checked_trajectory(

@@ -86,6 +86,14 @@ def _build(
     return Trajectory.from_flat(t, xy @ rot.T + start.xy, dxy @ rot.T, ddxy @ rot.T, name=name)
 
 
+def _positive(what: str, value: float | None, default: float) -> float:
+    """``value`` (or ``default`` when None) as a float, which must be > 0 (ConfigError naming ``what``)."""
+    out = float(value if value is not None else default)
+    if out <= 0:
+        raise ConfigError(f"{what} must be > 0, got {out}")
+    return out
+
+
 def line(
     robot: RobotSpec, start: Pose2D, *, length: float | None = None, margin: float = 0.8, dt: float = 0.002
 ) -> Trajectory:
@@ -98,9 +106,7 @@ def line(
         margin: Fraction of each limit to use.
         dt: Sample spacing [s].
     """
-    length = float(length if length is not None else min(3.0, 10.0 * robot.max_speed))
-    if length <= 0:
-        raise ConfigError(f"line length must be > 0, got {length}")
+    length = _positive("line length", length, min(3.0, 10.0 * robot.max_speed))
 
     def curve(s: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         z = np.zeros_like(s)
@@ -128,9 +134,7 @@ def circle(
         margin: Fraction of each limit to use.
         dt: Sample spacing [s].
     """
-    radius = float(radius if radius is not None else min(1.0, max(0.5, robot.max_speed / robot.max_yaw_rate)))
-    if radius <= 0:
-        raise ConfigError(f"circle radius must be > 0, got {radius}")
+    radius = _positive("circle radius", radius, min(1.0, max(0.5, robot.max_speed / robot.max_yaw_rate)))
 
     def curve(s: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         p = radius * np.column_stack([np.sin(s), 1.0 - np.cos(s)])
@@ -162,9 +166,7 @@ def figure8(
         margin: Fraction of each limit to use.
         dt: Sample spacing [s].
     """
-    a = float(size if size is not None else np.clip(2.0 * robot.max_speed / robot.max_yaw_rate, 0.6, 2.0))
-    if a <= 0:
-        raise ConfigError(f"figure-eight size must be > 0, got {a}")
+    a = _positive("figure-eight size", size, float(np.clip(2.0 * robot.max_speed / robot.max_yaw_rate, 0.6, 2.0)))
     c, s_ = np.cos(-np.pi / 4), np.sin(-np.pi / 4)
     rot = np.array([[c, -s_], [s_, c]])  # the lemniscate leaves the origin at 45 degrees
 

@@ -41,7 +41,7 @@ import scipy.sparse.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from planning.collision.exact import CollisionChecker
-from planning.core.geometry import wrap_angle
+from planning.core.geometry import cumulative_length, path_steps, wrap_angle
 
 FloatArray = NDArray[np.float64]
 SegmentKind = Literal["drive", "rotate"]
@@ -124,93 +124,138 @@ def split_path(
     Raises:
         ValueError: Bad shapes or a path with fewer than 1 pose.
     """
-    p = np.asarray(path, dtype=float)
-    if p.ndim != 2 or p.shape[1] < 3 or p.shape[0] < 1:
-        raise ValueError(f"path must be an (N, 3) array of poses with N >= 1, got shape {p.shape}")
-    if not np.all(np.isfinite(p[:, :3])):
-        raise ValueError("path contains non-finite values")
-    xy, th = p[:, :2], np.unwrap(p[:, 2])
-    d = np.diff(xy, axis=0)
-    step = np.hypot(d[:, 0], d[:, 1])
-    moving = step > min_step
-    consistent = _heading_consistent(d, th[:-1], moving)
-    if directions is not None:
-        dirs = np.sign(np.asarray(directions, dtype=float).reshape(-1))
-        if dirs.size != p.shape[0]:
-            raise ValueError(f"directions must have one entry per pose ({p.shape[0]}), got {dirs.size}")
-        sgn = np.where(dirs[1:] == 0, 1.0, dirs[1:])
-    elif consistent:
-        hd = 0.5 * (th[:-1] + th[1:])
-        dot = d[:, 0] * np.cos(hd) + d[:, 1] * np.sin(hd)
-        sgn = np.where(dot < 0, -1.0, 1.0)
-    else:
-        sgn = np.ones(d.shape[0])
-
-    # group moving steps into drives; a stop inside a drive (a planner's turn in place at a polyline
-    # vertex) is smoothed over unless the corner, or the turn made while stopped, is sharp
-    drives: list[tuple[int, int, int]] = []  # (first pose, last pose, direction)
-    cur: list[int] | None = None  # [first step, direction, last moving step]
-    for i in range(d.shape[0]):
-        if not moving[i]:
-            continue
-        if cur is not None:
-            prev = cur[2]
-            cosang = float(d[prev] @ d[i]) / (step[prev] * step[i])
-            turned = abs(float(th[i] - th[prev + 1])) if consistent else 0.0
-            if sgn[i] != cur[1] or cosang < np.cos(corner_angle) or turned > corner_angle:
-                drives.append((cur[0], prev + 1, cur[1]))
-                cur = None
-        if cur is None:
-            cur = [i, int(sgn[i]), i]
-        else:
-            cur[2] = i
-    if cur is not None:
-        drives.append((cur[0], cur[2] + 1, cur[1]))
-
-    segs: list[PathSegment] = []
-    heading = float(th[0]) if start_heading is None else float(start_heading)
-
-    def rotate_to(target: float, at: FloatArray, hint: float | None = None) -> None:
-        nonlocal heading
-        turn = wrap_angle(target - heading) if hint is None else hint
-        if abs(turn) > heading_eps:
-            segs.append(PathSegment("rotate", 1 if turn > 0 else -1, at.reshape(1, 2),
-                                    np.array([heading, heading + turn])))  # fmt: skip
-        heading = heading + turn
-
+    steps = _Steps.of(path, min_step)
+    th = steps.th
+    drives = steps.drives(steps.signs(directions), corner_angle)
+    out = _Segments(float(th[0]) if start_heading is None else float(start_heading), heading_eps)
     last_pose = 0
     for a, b, sgn_k in drives:
-        pts = xy[a : b + 1]
-        dd = d[a:b]
-        if consistent:
-            h0, h1 = float(th[a]), float(th[b])
+        out.add_drive(steps, a, b, sgn_k, last_pose)
+        last_pose = b
+    if goal_heading is None:
+        goal = float(th[-1]) if (steps.consistent or not drives) else out.heading
+    else:
+        goal = float(goal_heading)
+    end_xy = steps.xy[-1] if not drives else out.segs[-1].points[-1]
+    hint = float(th[-1] - th[last_pose]) if (steps.consistent and last_pose < th.size - 1) else None
+    if hint is not None and abs(wrap_angle(goal - out.heading - hint)) > 1e-6:
+        hint = None
+    out.rotate_to(goal, end_xy, hint)
+    return out.segs
+
+
+@dataclass(frozen=True)
+class _Steps:
+    """The steps of a path: positions, unwrapped headings, step vectors and lengths, which steps move.
+
+    Attributes:
+        xy: (N, 2) positions [m].
+        th: (N,) unwrapped headings [rad].
+        d: (N - 1, 2) steps [m].
+        step: (N - 1,) their lengths [m].
+        moving: (N - 1,) whether each step is longer than the stand-still threshold.
+        min_step: That threshold [m].
+        consistent: Whether the headings follow the motion (see :func:`_heading_consistent`).
+    """
+
+    xy: FloatArray
+    th: FloatArray
+    d: FloatArray
+    step: FloatArray
+    moving: NDArray[np.bool_]
+    min_step: float
+    consistent: bool
+
+    @classmethod
+    def of(cls, path: ArrayLike, min_step: float) -> _Steps:
+        """The steps of (N, 3) poses; ValueError for a bad shape or non-finite values."""
+        p = np.asarray(path, dtype=float)
+        if p.ndim != 2 or p.shape[1] < 3 or p.shape[0] < 1:
+            raise ValueError(f"path must be an (N, 3) array of poses with N >= 1, got shape {p.shape}")
+        if not np.all(np.isfinite(p[:, :3])):
+            raise ValueError("path contains non-finite values")
+        xy, th = p[:, :2], np.unwrap(p[:, 2])
+        d = np.diff(xy, axis=0)
+        step = np.hypot(d[:, 0], d[:, 1])
+        moving = step > min_step
+        return cls(xy, th, d, step, moving, min_step, _heading_consistent(d, th[:-1], moving))
+
+    def signs(self, directions: ArrayLike | None) -> FloatArray:
+        """(N - 1,) +1/-1 sign of travel of each step (see :func:`split_path`)."""
+        if directions is not None:
+            dirs = np.sign(np.asarray(directions, dtype=float).reshape(-1))
+            if dirs.size != self.th.size:
+                raise ValueError(f"directions must have one entry per pose ({self.th.size}), got {dirs.size}")
+            return np.where(dirs[1:] == 0, 1.0, dirs[1:])
+        if self.consistent:
+            hd = 0.5 * (self.th[:-1] + self.th[1:])
+            dot = self.d[:, 0] * np.cos(hd) + self.d[:, 1] * np.sin(hd)
+            return np.where(dot < 0, -1.0, 1.0)
+        return np.ones(self.d.shape[0])
+
+    def drives(self, sgn: FloatArray, corner_angle: float) -> list[tuple[int, int, int]]:
+        """Moving steps grouped into drives: (first pose, last pose, direction) each.
+
+        A stop inside a drive (a planner's turn in place at a polyline vertex) is smoothed over
+        unless the corner, or the turn made while stopped, is sharper than ``corner_angle``.
+        """
+        d, step, th = self.d, self.step, self.th
+        drives: list[tuple[int, int, int]] = []
+        cur: list[int] | None = None  # [first step, direction, last moving step]
+        for i in np.flatnonzero(self.moving).tolist():
+            if cur is not None:
+                prev = cur[2]
+                cosang = float(d[prev] @ d[i]) / (step[prev] * step[i])
+                turned = abs(float(th[i] - th[prev + 1])) if self.consistent else 0.0
+                if sgn[i] != cur[1] or cosang < np.cos(corner_angle) or turned > corner_angle:
+                    drives.append((cur[0], prev + 1, cur[1]))
+                    cur = None
+            if cur is None:
+                cur = [i, int(sgn[i]), i]
+            else:
+                cur[2] = i
+        if cur is not None:
+            drives.append((cur[0], cur[2] + 1, cur[1]))
+        return drives
+
+
+class _Segments:
+    """The segments of a path as they are found, and the heading the robot has at the end of them."""
+
+    def __init__(self, heading: float, heading_eps: float) -> None:
+        self.heading = heading
+        self.heading_eps = heading_eps
+        self.segs: list[PathSegment] = []
+
+    def rotate_to(self, target: float, at: FloatArray, hint: float | None = None) -> None:
+        """Turn in place at ``at`` to ``target`` (by ``hint``, the signed turn, when given) [rad]."""
+        turn = wrap_angle(target - self.heading) if hint is None else hint
+        if abs(turn) > self.heading_eps:
+            rot = PathSegment(
+                "rotate", 1 if turn > 0 else -1, at.reshape(1, 2), np.array([self.heading, self.heading + turn])
+            )
+            self.segs.append(rot)
+        self.heading = self.heading + turn
+
+    def add_drive(self, steps: _Steps, a: int, b: int, sgn_k: int, last_pose: int) -> None:
+        """The drive over poses a..b in direction ``sgn_k``, after a turn in place to its start heading."""
+        th, pts, dd = steps.th, steps.xy[a : b + 1], steps.d[a:b]
+        if steps.consistent:
+            h0 = float(th[a])
             # a stationary stretch before this drive with its own heading change is a turn in place
             hint = float(th[a] - th[last_pose]) if a > last_pose else None
-            rotate_to(h0, pts[0], hint if hint is not None and abs(wrap_angle(h0 - heading - hint)) < 1e-6 else None)
+            ok = hint is not None and abs(wrap_angle(h0 - self.heading - hint)) < 1e-6
+            self.rotate_to(h0, pts[0], hint if ok else None)
         else:
-            k0, k1 = dd[0], dd[-1]
-            h0 = float(np.arctan2(sgn_k * k0[1], sgn_k * k0[0]))
-            h1 = float(np.arctan2(sgn_k * k1[1], sgn_k * k1[0]))
-            rotate_to(h0, pts[0])
-        h0 = heading
-        if consistent:
+            self.rotate_to(float(np.arctan2(sgn_k * dd[0][1], sgn_k * dd[0][0])), pts[0])
+        h0 = self.heading
+        if steps.consistent:
             h1 = h0 + float(th[b] - th[a])
         else:  # total turning of the travel direction, so loops keep their full winding
             ang = np.arctan2(sgn_k * dd[:, 1], sgn_k * dd[:, 0])
-            h1 = h0 + float(np.sum(wrap_angle(np.diff(ang[step[a:b] > min_step]))))
-        segs.append(PathSegment("drive", int(sgn_k), pts.copy(), np.array([h0, h1])))
-        heading = h1
-        last_pose = b
-    if goal_heading is None:
-        goal = float(th[-1]) if (consistent or not drives) else heading
-    else:
-        goal = float(goal_heading)
-    end_xy = xy[-1] if not drives else segs[-1].points[-1]
-    hint = float(th[-1] - th[last_pose]) if (consistent and last_pose < p.shape[0] - 1) else None
-    if hint is not None and abs(wrap_angle(goal - heading - hint)) > 1e-6:
-        hint = None
-    rotate_to(goal, end_xy, hint)
-    return segs
+            h1 = h0 + float(np.sum(wrap_angle(np.diff(ang[steps.step[a:b] > steps.min_step]))))
+        self.segs.append(PathSegment("drive", int(sgn_k), pts.copy(), np.array([h0, h1])))
+        self.heading = h1
 
 
 def remove_loops(
@@ -352,26 +397,44 @@ def fit_piecewise(
     if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] < 2:
         raise ValueError(f"points must be an (n, 2) array with n >= 2, got shape {pts.shape}")
     if param is None:
-        u = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))])
+        u = cumulative_length(pts)
     else:
         u = np.asarray(param, dtype=float).reshape(-1)
     br = np.asarray(breaks, dtype=float).reshape(-1)
     if br.size < 2 or np.any(np.diff(br) <= 0):
         raise ValueError("breaks must be strictly increasing with at least 2 entries")
-    k, m = degree, br.size - 1
-    nc = k + 1
+    m = br.size - 1
+    bsp, y = _data_rows(pts, u, br, degree, penalty)
+    tangents = (start_tangent, end_tangent)
+    a_mat, b_mat = _constraint_rows(pts, br, degree, tangents, end_curvature_zero, continuity)
+    # KKT system of min |B p - y|^2 s.t. A p = b: [[B^T B, A^T], [A, 0]] [p; mu] = [B^T y; b]
+    kkt = scipy.sparse.block_array([[bsp.T @ bsp, a_mat.T], [a_mat, None]], format="csc")
+    kkt_rhs = np.vstack([bsp.T @ y, b_mat])
+    n_coef = m * (degree + 1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", scipy.sparse.linalg.MatrixRankWarning)
+        p = np.asarray(scipy.sparse.linalg.spsolve(kkt, kkt_rhs))[:n_coef]
+    if not np.all(np.isfinite(p)):  # redundant constraints: fall back to the least-squares solution
+        p = np.linalg.lstsq(kkt.toarray(), kkt_rhs, rcond=None)[0][:n_coef]
+    return PiecewisePolynomial(br, p.reshape(m, degree + 1, 2))
+
+
+def _data_rows(
+    pts: FloatArray, u: FloatArray, br: FloatArray, k: int, penalty: float
+) -> tuple[scipy.sparse.csr_array, FloatArray]:
+    """The least-squares rows B (sparse) and right-hand sides y (rows, 2) of :func:`fit_piecewise`: one
+    row per point (each touches the k+1 coefficients of its piece), then the third-derivative
+    penalty by 3-point Gauss-Legendre quadrature on each piece."""
+    m, nc = br.size - 1, k + 1
     h = np.diff(br)
     j = np.clip(np.searchsorted(br, u, side="right") - 1, 0, m - 1)
     tau = (u - br[j]) / h[j]
-
-    # data rows (sparse: each point touches the k+1 coefficients of its piece)
     cols = (j[:, None] * nc + np.arange(nc)[None, :]).ravel()
     rws = np.repeat(np.arange(u.size), nc)
     data = [_basis(tau, k, 0).ravel()]
     r_idx, c_idx = [rws], [cols]
     rhs = [pts]
     nrow = u.size
-    # third-derivative penalty by 3-point Gauss-Legendre quadrature on each piece
     if penalty > 0 and k >= 3:
         gx, gw = np.polynomial.legendre.leggauss(3)
         b3 = _basis(0.5 * (gx + 1.0), k, 3)  # (3, nc)
@@ -384,9 +447,20 @@ def fit_piecewise(
     bsp = scipy.sparse.csr_array(
         (np.concatenate(data), (np.concatenate(r_idx), np.concatenate(c_idx))), shape=(nrow, m * nc)
     )
-    y = np.vstack(rhs)
+    return bsp, np.vstack(rhs)
 
-    # constraints A p = b (the same A for x and y, one right-hand side each)
+
+def _constraint_rows(
+    pts: FloatArray,
+    br: FloatArray,
+    k: int,
+    tangents: tuple[ArrayLike | None, ArrayLike | None],
+    end_curvature_zero: bool,
+    continuity: int,
+) -> tuple[scipy.sparse.csr_array, FloatArray]:
+    """The constraints A p = b of :func:`fit_piecewise` (the same A for x and y, one column of b each)."""
+    m, nc = br.size - 1, k + 1
+    h = np.diff(br)
     a_data: list[FloatArray] = []
     a_r: list[NDArray[np.int64]] = []
     a_c: list[NDArray[np.int64]] = []
@@ -402,10 +476,10 @@ def fit_piecewise(
 
     add([(0, 0.0, 0, 1.0)], pts[0])
     add([(m - 1, 1.0, 0, 1.0)], pts[-1])
-    if start_tangent is not None:
-        add([(0, 0.0, 1, 1.0)], start_tangent)
-    if end_tangent is not None:
-        add([(m - 1, 1.0, 1, 1.0)], end_tangent)
+    if tangents[0] is not None:
+        add([(0, 0.0, 1, 1.0)], tangents[0])
+    if tangents[1] is not None:
+        add([(m - 1, 1.0, 1, 1.0)], tangents[1])
     if end_curvature_zero:
         add([(0, 0.0, 2, 1.0)], np.zeros(2))
         add([(m - 1, 1.0, 2, 1.0)], np.zeros(2))
@@ -415,17 +489,7 @@ def fit_piecewise(
     a_mat = scipy.sparse.csr_array(
         (np.concatenate(a_data), (np.concatenate(a_r), np.concatenate(a_c))), shape=(len(b_rows), m * nc)
     )
-    b_mat = np.vstack(b_rows)
-    # KKT system of min |B p - y|^2 s.t. A p = b: [[B^T B, A^T], [A, 0]] [p; mu] = [B^T y; b]
-    kkt = scipy.sparse.block_array([[bsp.T @ bsp, a_mat.T], [a_mat, None]], format="csc")
-    kkt_rhs = np.vstack([bsp.T @ y, b_mat])
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", scipy.sparse.linalg.MatrixRankWarning)
-        p = np.asarray(scipy.sparse.linalg.spsolve(kkt, kkt_rhs))[: m * nc]
-    if not np.all(np.isfinite(p)):  # redundant constraints: fall back to the least-squares solution
-        p = np.linalg.lstsq(kkt.toarray(), kkt_rhs, rcond=None)[0][: m * nc]
-    coeffs = p.reshape(m, nc, 2)
-    return PiecewisePolynomial(br, coeffs)
+    return a_mat, np.vstack(b_rows)
 
 
 # ---------------------------------------------------------------------------------------- curves
@@ -514,7 +578,7 @@ class SampledCurve:
             ValueError: Fewer than two distinct positions.
         """
         q = np.asarray(poses, dtype=float)
-        step = np.hypot(np.diff(q[:, 0]), np.diff(q[:, 1]))
+        step = path_steps(q)
         keep = np.concatenate([[True], step > 1e-9])
         q, step = q[keep], step[step > 1e-9]
         if q.shape[0] < 2:
@@ -622,7 +686,7 @@ def smooth_drive(
     if pts.shape[0] < 2:
         raise ValueError("a drive segment needs two distinct points")
     dense = _densify(pts, 0.01)
-    u = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(dense, axis=0).T))])
+    u = cumulative_length(dense)
     length = float(u[-1])
     sgn = segment.direction
     h0, h1 = segment.headings
@@ -643,8 +707,11 @@ def smooth_drive(
         ok_shape = dev <= max_deviation and float(sp.min()) > 0.3
         clear = float(checker.clearance_of(checker.densify(poses)).min()) if checker is not None else np.inf
         ok_clear = clear > clearance
-        status = SmoothStatus.SUCCESS if (ok_shape and ok_clear) else (
-            SmoothStatus.COLLISION if ok_shape else SmoothStatus.DEVIATION)  # fmt: skip
+        status = (
+            SmoothStatus.SUCCESS
+            if (ok_shape and ok_clear)
+            else (SmoothStatus.COLLISION if ok_shape else SmoothStatus.DEVIATION)
+        )
         result = SmoothResult(status, curve, m, attempt + 1, dev, clear)
         if status is SmoothStatus.SUCCESS:
             break

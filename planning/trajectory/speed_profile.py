@@ -214,5 +214,6 @@ def hold(pose: FloatArray, duration: float, *, dt: float = 0.01) -> TimedSamples
     """Standing still at ``pose`` for ``duration`` seconds (a pause at a cusp or before a turn)."""
     m = max(int(np.ceil(duration / dt)), 1)
     t = np.linspace(0.0, duration, m + 1)
-    return TimedSamples(t, np.tile(np.asarray(pose, dtype=float), (t.size, 1)), np.zeros((t.size, 2)),
-                        np.zeros((t.size, 2)))  # fmt: skip
+    return TimedSamples(
+        t, np.tile(np.asarray(pose, dtype=float), (t.size, 1)), np.zeros((t.size, 2)), np.zeros((t.size, 2))
+    )

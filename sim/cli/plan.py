@@ -19,7 +19,7 @@ PATH_SPACING = 0.02
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Register the ``plan`` subcommand."""
     from planning.core.robot import ROBOT_FILES
-    from planning.planners.base import PLANNERS
+    from planning.planners.registry import PLANNERS
 
     planners = ", ".join(sorted(PLANNERS)) or "(none registered)"
     p: argparse.ArgumentParser = sub.add_parser(
@@ -70,46 +70,37 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     return p
 
 
-def densify_path(path: NDArray[np.float64], radius: float, spacing: float = PATH_SPACING) -> NDArray[np.float64]:
-    """Insert linearly interpolated states so consecutive ones are at most ``spacing`` apart.
+def record_path(path: NDArray[np.float64], radius: float) -> NDArray[np.float64]:
+    """The path written to the JSON record: states at most ``PATH_SPACING`` apart.
 
-    The motion between two states counts ``|dxy| + radius * |dtheta|`` (a bound on how far any point of
-    the robot moves); states already closer are kept unchanged.
+    Steps count ``|dxy| + radius * |dtheta|`` (:func:`planning.core.geometry.densify_path`); a path
+    already that dense is returned as the planner gave it.
 
     Args:
         path: (N, 3) states [x, y, theta].
         radius: Robot radius [m].
-        spacing: Largest allowed motion [m].
 
     Returns:
         (N', 3) states, N' >= N, containing the given ones.
     """
-    if path.shape[0] < 2:
-        return path
-    th = np.unwrap(path[:, 2])
-    q = np.column_stack([path[:, :2], th])
-    step = np.hypot(*np.diff(q[:, :2], axis=0).T) + radius * np.abs(np.diff(th))
-    n = np.maximum(1, np.ceil(step / spacing - 1e-9).astype(int))  # 1e-9: rounding of an exact split
-    if np.all(n == 1):
-        return path
-    idx = np.repeat(np.arange(len(n)), n)
-    frac = np.concatenate([np.arange(k) / k for k in n])
-    out = q[idx] + frac[:, None] * (q[idx + 1] - q[idx])
-    return np.vstack([out, q[-1:]])
+    from planning.core.geometry import densify_path
+
+    dense = densify_path(path, PATH_SPACING, radius=radius, slack=1e-9)  # slack: rounding of an exact split
+    return path if dense.shape[0] == path.shape[0] else dense
 
 
 def path_spacing(path: NDArray[np.float64], radius: float) -> float:
     """Largest ``|dxy| + radius * |dtheta|`` between consecutive states [m] (0 for fewer than two)."""
-    if path.shape[0] < 2:
-        return 0.0
-    th = np.unwrap(path[:, 2])
-    return float(np.max(np.hypot(*np.diff(path[:, :2], axis=0).T) + radius * np.abs(np.diff(th))))
+    from planning.core.geometry import path_steps
+
+    return float(np.max(path_steps(path, radius))) if path.shape[0] >= 2 else 0.0
 
 
 def run(args: argparse.Namespace) -> int:
     """Execute ``plan``."""
     from planning.core.robot import load_robot
-    from planning.planners.base import PlanProblem, PlanStatus, make_planner
+    from planning.planners.base import PlanProblem, PlanStatus
+    from planning.planners.registry import make_planner
     from planning.scenario import load_scenario
     from sim.outputs import check_writable, write_json
 
@@ -190,10 +181,10 @@ def plan_facts(problem: Any, result: Any, wall: float) -> dict[str, Any]:
         goal_heading_error_rad (None without a path), path_spacing_m and path (densified states).
     """
     from planning.collision.exact import CollisionChecker
-    from planning.core.geometry import wrap_angle
+    from planning.core.geometry import path_length, wrap_angle
 
     robot = problem.robot
-    path = densify_path(np.asarray(result.path, dtype=float).reshape(-1, 3), robot.radius)
+    path = record_path(np.asarray(result.path, dtype=float).reshape(-1, 3), robot.radius)
     min_clear = goal_pos = goal_head = None
     if path.shape[0] > 0:
         checker = CollisionChecker(problem.world, robot, shape="footprint")
@@ -203,7 +194,7 @@ def plan_facts(problem: Any, result: Any, wall: float) -> dict[str, Any]:
     return {
         "time_s": float(result.stats.get("time_s", wall)),
         "iterations": result.stats.get("iterations"),
-        "length_m": float(np.sum(np.hypot(*np.diff(path[:, :2], axis=0).T))) if path.shape[0] > 1 else 0.0,
+        "length_m": path_length(path),
         "min_clearance_m": min_clear,
         "goal_position_error_m": goal_pos,
         "goal_heading_error_rad": goal_head,

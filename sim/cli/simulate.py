@@ -116,7 +116,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 def _add_job_arguments(p: argparse.ArgumentParser) -> None:
     """What to run: scenario, robot, reference or planner, the sweep."""
     from planning.core.robot import ROBOT_FILES
-    from planning.planners.base import PLANNERS
+    from planning.planners.registry import PLANNERS
     from planning.trajectory.references import REFERENCES
 
     p.add_argument(
@@ -333,7 +333,7 @@ DEFAULT_PLAN = ("edumip_map", "c-rrt-star")
 
 
 def _default_plan_available() -> bool:
-    from planning.planners.base import PLANNERS
+    from planning.planners.registry import PLANNERS
     from planning.scenario import builtin_scenarios
 
     return DEFAULT_PLAN[1] in PLANNERS and DEFAULT_PLAN[0] in builtin_scenarios()

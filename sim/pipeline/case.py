@@ -23,7 +23,8 @@ from control.base import TRACKERS
 from control.fbl import FBLGains
 from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot
 from planning.errors import ConfigError, ScenarioError
-from planning.planners.base import PLANNERS, PlanProblem, PlanResult, make_planner
+from planning.planners.base import PlanProblem, PlanResult
+from planning.planners.registry import PLANNERS, make_planner
 from planning.scenario import Scenario, load_scenario
 from planning.trajectory.from_plan import checked_trajectory
 from planning.trajectory.references import REFERENCES, make_reference

@@ -18,7 +18,7 @@ from control.base import make_tracker, tracker_options
 from control.fbl import FBLGains
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
-from planning.planners.base import PLANNERS
+from planning.planners.registry import PLANNERS
 from planning.scenario import Scenario
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.metrics import TrackingMetrics, compute_metrics

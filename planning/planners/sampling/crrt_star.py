@@ -51,6 +51,7 @@ from numpy.typing import NDArray
 from planning.collision.exact import CollisionChecker
 from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
+from planning.planners.registry import config_from_options
 
 FloatArray = NDArray[np.float64]
 
@@ -115,16 +116,10 @@ class CRRTStar:
     """
 
     name = "c-rrt-star"
+    config_class = CRRTStarConfig
 
     def __init__(self, config: CRRTStarConfig | None = None, **options: Any) -> None:
-        base = config if config is not None else CRRTStarConfig()
-        unknown = set(options) - {f.name for f in dataclasses.fields(CRRTStarConfig)}
-        if unknown:
-            raise TypeError(
-                f"unknown option(s) {', '.join(sorted(unknown))}; valid: "
-                f"{', '.join(f.name for f in dataclasses.fields(CRRTStarConfig))}"
-            )
-        self.config = dataclasses.replace(base, **options)
+        self.config = config_from_options(CRRTStarConfig, options, config)
 
     def required_clearance(self, problem: PlanProblem) -> float:
         """Axle-centre clearance this problem's robot must keep [m]."""

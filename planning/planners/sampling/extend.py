@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.collision.grid import FastChecker
+from planning.core.geometry import cumulative_length
 from planning.core.robot import RobotSpec
 from planning.curves.words import Word
 from planning.errors import ConfigError
@@ -27,6 +28,7 @@ from planning.planners.sampling.steering import (
     default_turning_radius,
     diffdrive_metric,
     diffdrive_steer,
+    place,
     se2_metric,
     unicycle_primitives,
 )
@@ -39,8 +41,7 @@ Motion = tuple[FloatArray, FloatArray, FloatArray]  # (q_new (3,), poses (K, 3),
 
 def _arc_prefix(poses: FloatArray, length: float) -> int:
     """Index of the last sample whose chord-summed distance from the first is <= length."""
-    cum = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(poses[:, 0]), np.diff(poses[:, 1])))])
-    return int(np.searchsorted(cum, length, side="right") - 1)
+    return int(np.searchsorted(cumulative_length(poses), length, side="right") - 1)
 
 
 @dataclass
@@ -145,10 +146,10 @@ class LocalPlanner:
         for p in np.argsort(self.metric(ends, q_to), kind="stable"):
             body = self._dense[p]
             if backwards:
-                poses = _place(body, ends[p])
+                poses = place(body, ends[p])
                 poses[-1] = q_from
             else:
-                poses = _place(body, q_from)
+                poses = place(body, q_from)
             d = self._dirs[p]
             if self.checker.path_free(poses):
                 q_new = poses[0].copy() if backwards else poses[-1].copy()
@@ -172,12 +173,3 @@ class LocalPlanner:
             return None
         q_new = poses[0].copy() if backwards else poses[-1].copy()
         return q_new, poses, dirs
-
-
-def _place(body: FloatArray, pose: FloatArray) -> FloatArray:
-    c, s = np.cos(pose[2]), np.sin(pose[2])
-    out = np.empty_like(body)
-    out[:, 0] = pose[0] + c * body[:, 0] - s * body[:, 1]
-    out[:, 1] = pose[1] + s * body[:, 0] + c * body[:, 1]
-    out[:, 2] = pose[2] + body[:, 2]
-    return out

@@ -17,14 +17,17 @@ with the unicycle primitives.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
+from typing import Generic, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.geometry import path_length
 from planning.errors import ConfigError
-from planning.planners.base import PlanProblem, PlanResult, PlanStatus
-from planning.planners.sampling.extend import LocalPlanner
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
+from planning.planners.registry import config_from_options
+from planning.planners.sampling.extend import LocalPlanner, Motion
 from planning.planners.sampling.tree import (
     Budget,
     Tree,
@@ -79,32 +82,73 @@ class TreeConfig:
             raise ConfigError(f"shape must be 'footprint' or 'disc', got {self.shape!r}")
 
 
-def _config(cls: type[TreeConfig], options: dict[str, object]) -> TreeConfig:
-    names = {f.name for f in fields(cls)}
-    bad = sorted(set(options) - names)
-    if bad:
-        raise ConfigError(f"unknown option(s) {', '.join(bad)}: valid options are {', '.join(sorted(names))}")
-    return cls(**options)  # type: ignore[arg-type]
+ConfigT = TypeVar("ConfigT", bound=TreeConfig)
 
 
-class _TreePlanner:
+class _TreePlanner(Generic[ConfigT]):
+    """What the tree planners share: options into ``config_class``, setup, sampling, results."""
+
     name = "tree"
-    config_class: type[TreeConfig] = TreeConfig
+    config_class: type[ConfigT]
 
     def __init__(self, **options: object) -> None:
-        self.config = _config(self.config_class, options)
+        self.config: ConfigT = config_from_options(self.config_class, options)
 
-    def _setup(self, problem: PlanProblem) -> tuple[LocalPlanner, Budget, PlanResult | None]:
+    def plan(self, problem: PlanProblem) -> PlanResult:
+        """Plan from ``problem.start`` to ``problem.goal``; never raises for an unsolvable problem."""
+        local, budget, rng, bad = self._setup(problem)
+        return bad if bad is not None else self._search(problem, local, budget, rng)
+
+    def _search(
+        self, problem: PlanProblem, local: LocalPlanner, budget: Budget, rng: np.random.Generator
+    ) -> PlanResult:
+        """The planner's own search, once the end poses are known to be free."""
+        raise NotImplementedError
+
+    def _setup(self, problem: PlanProblem) -> tuple[LocalPlanner, Budget, np.random.Generator, PlanResult | None]:
+        """The run's local planner, budget and random generator, and an INVALID_START / INVALID_GOAL
+        result when an end pose collides (else None)."""
         cfg = self.config
         checker = make_checker(problem, cfg.shape, cfg.clearance)  # type: ignore[arg-type]
         w = problem.world
+        step_range = cfg.step_range if cfg.step_range is not None else 0.2 * float(np.hypot(w.width, w.height))
         local = LocalPlanner(
-            cfg.steering, problem.robot, checker, rho=cfg.turning_radius,
-            step_range=cfg.step_range if cfg.step_range is not None else 0.2 * float(np.hypot(w.width, w.height)),
-            n_speeds=cfg.n_speeds, primitive_duration=cfg.primitive_duration,
-        )  # fmt: skip
+            cfg.steering,
+            problem.robot,
+            checker,
+            rho=cfg.turning_radius,
+            step_range=step_range,
+            n_speeds=cfg.n_speeds,
+            primitive_duration=cfg.primitive_duration,
+        )
         budget = Budget(cfg.max_iterations, cfg.time_limit if cfg.time_limit is not None else problem.time_limit)
-        return local, budget, check_endpoints(problem, checker, self.name)
+        return local, budget, np.random.default_rng(problem.seed), check_endpoints(problem, checker, self.name)
+
+    def _sample(self, rng: np.random.Generator, target: FloatArray, problem: PlanProblem) -> FloatArray:
+        """``target`` with probability ``goal_bias``, else a uniform pose in the world."""
+        return target if rng.random() < self.config.goal_bias else sample_pose(rng, problem.world.bounds)
+
+    def _extend_toward_sample(
+        self, rng: np.random.Generator, tree: Tree, local: LocalPlanner, problem: PlanProblem
+    ) -> tuple[int, Motion] | None:
+        """One goal-biased sample, the tree's nearest node to it, and the motion from there toward it
+        (None when every motion collides)."""
+        q_rand = self._sample(rng, problem.goal.as_array(), problem)
+        i = tree.nearest(q_rand, local.metric)
+        ext = local.extend(tree.nodes[i], q_rand)
+        return None if ext is None else (i, ext)
+
+    @staticmethod
+    def _stats(budget: Budget, iterations: int, nodes: int) -> dict[str, object]:
+        return {"time_s": budget.elapsed(), "iterations": iterations, "nodes": nodes}
+
+    @staticmethod
+    def _partial(tree: Tree, problem: PlanProblem) -> tuple[FloatArray, FloatArray, float]:
+        """The branch to the node nearest the goal: poses (K, 3), directions (K,) and its gap [m]."""
+        gaps = goal_gap(tree.nodes[: tree.n], problem)
+        best = int(np.argmin(gaps))
+        path, dirs = tree.branch(best)
+        return path, dirs, float(gaps[best])
 
     def _result(
         self,
@@ -113,53 +157,45 @@ class _TreePlanner:
         dirs: FloatArray,
         reason: str,
         stats: Mapping[str, object],
-        tree: object,
+        tree: PlanTree,
     ) -> PlanResult:
-        length = float(np.sum(np.hypot(np.diff(poses[:, 0]), np.diff(poses[:, 1])))) if poses.shape[0] > 1 else 0.0
-        stats = {**stats, "length_m": length}
-        return PlanResult(status, self.name, path=poses, reason=reason, stats=stats, tree=tree, directions=dirs)  # type: ignore[arg-type]
+        stats = {**stats, "length_m": path_length(poses)}
+        return PlanResult(status, self.name, path=poses, reason=reason, stats=stats, tree=tree, directions=dirs)
 
 
-class RRT(_TreePlanner):
+class RRT(_TreePlanner[TreeConfig]):
     """Seed 000's goal-biased RRT with motion primitives (see the module doc)."""
 
     name = "rrt"
+    config_class = TreeConfig
 
-    def plan(self, problem: PlanProblem) -> PlanResult:
+    def _search(
+        self, problem: PlanProblem, local: LocalPlanner, budget: Budget, rng: np.random.Generator
+    ) -> PlanResult:
         """Grow a tree from the start until a node reaches the goal or the budget is spent."""
-        local, budget, bad = self._setup(problem)
-        if bad is not None:
-            return bad
-        cfg = self.config
-        rng = np.random.default_rng(problem.seed)
-        start, goal = problem.start.as_array(), problem.goal.as_array()
-        tree = Tree(start)
+        goal = problem.goal.as_array()
+        tree = Tree(problem.start.as_array())
         it = 0
         while not budget.spent(it):
             it += 1
-            q_rand = goal if rng.random() < cfg.goal_bias else sample_pose(rng, problem.world.bounds)
-            i = tree.nearest(q_rand, local.metric)
-            ext = local.extend(tree.nodes[i], q_rand)
-            if ext is None:
+            step = self._extend_toward_sample(rng, tree, local, problem)
+            if step is None:
                 continue
-            q_new, poses, dirs = ext
+            i, (q_new, poses, dirs) = step
             j = tree.add(q_new, i, poses, dirs)
             done = in_goal(q_new, problem)
-            if not done and local.metric(q_new[None, :], goal)[0] <= cfg.goal_connect_radius:
+            if not done and local.metric(q_new[None, :], goal)[0] <= self.config.goal_connect_radius:
                 final = local.connect(q_new, goal)
                 if final is not None:
                     j = tree.add(goal.copy(), j, *final)
                     done = True
             if done:
                 path, d = tree.branch(j)
-                stats = {"time_s": budget.elapsed(), "iterations": it, "nodes": tree.n}
+                stats = self._stats(budget, it, tree.n)
                 return self._result(PlanStatus.SUCCESS, path, d, "", stats, tree.plan_tree())
-        best = int(np.argmin(goal_gap(tree.nodes[: tree.n], problem)))
-        path, d = tree.branch(best)
-        gap = float(goal_gap(tree.nodes[best : best + 1], problem)[0])
+        path, d, gap = self._partial(tree, problem)
         reason = f"{budget.why(it)}; partial path to the node nearest the goal ({gap:.3f} m away)"
-        stats = {"time_s": budget.elapsed(), "iterations": it, "nodes": tree.n}
-        return self._result(PlanStatus.TIMEOUT, path, d, reason, stats, tree.plan_tree())
+        return self._result(PlanStatus.TIMEOUT, path, d, reason, self._stats(budget, it, tree.n), tree.plan_tree())
 
 
 @dataclass(frozen=True)
@@ -172,7 +208,7 @@ class BiRRTConfig(TreeConfig):
     connect_steps: int = 50
 
 
-class BiRRT(_TreePlanner):
+class BiRRT(_TreePlanner[BiRRTConfig]):
     """Bidirectional RRT with a connect step (see the module doc)."""
 
     name = "birrt"
@@ -184,30 +220,23 @@ class BiRRT(_TreePlanner):
             return None
         return tree.add(ext[0], i, ext[1], ext[2])
 
-    def plan(self, problem: PlanProblem) -> PlanResult:
+    def _search(
+        self, problem: PlanProblem, local: LocalPlanner, budget: Budget, rng: np.random.Generator
+    ) -> PlanResult:
         """Grow both trees until they join or the budget is spent."""
-        local, budget, bad = self._setup(problem)
-        if bad is not None:
-            return bad
         cfg = self.config
-        assert isinstance(cfg, BiRRTConfig)
-        rng = np.random.default_rng(problem.seed)
         start, goal = problem.start.as_array(), problem.goal.as_array()
         ta, tb = Tree(start), Tree(goal, backwards=True)
         # The trees may already be joined by one exact curve.
         direct = local.connect(start, goal)
         if direct is not None:
-            stats = {"time_s": budget.elapsed(), "iterations": 0, "nodes": 2}
+            stats = self._stats(budget, 0, 2)
             return self._result(PlanStatus.SUCCESS, direct[0], direct[1], "", stats, merge_trees(ta, tb))
         it = 0
         while not budget.spent(it):
             it += 1
             grow, other = (ta, tb) if it % 2 else (tb, ta)
-            q_rand = (
-                (goal if grow is ta else start)
-                if rng.random() < cfg.goal_bias
-                else sample_pose(rng, problem.world.bounds)
-            )
+            q_rand = self._sample(rng, goal if grow is ta else start, problem)
             j = self._grow(local, grow, grow.nearest(q_rand, local.metric), q_rand)
             if j is None:
                 continue
@@ -225,11 +254,11 @@ class BiRRT(_TreePlanner):
                 if k_new is None:
                     break
                 k = k_new
-        stats = {"time_s": budget.elapsed(), "iterations": it, "nodes": ta.n + tb.n}
-        best = int(np.argmin(goal_gap(ta.nodes[: ta.n], problem)))
-        path, d = ta.branch(best)
+        path, d, _ = self._partial(ta, problem)
         reason = f"{budget.why(it)}; the trees did not meet (partial path from the start tree)"
-        return self._result(PlanStatus.TIMEOUT, path, d, reason, stats, merge_trees(ta, tb))
+        return self._result(
+            PlanStatus.TIMEOUT, path, d, reason, self._stats(budget, it, ta.n + tb.n), merge_trees(ta, tb)
+        )
 
     def _joined(
         self, ta: Tree, tb: Tree, a: int, b: int, bridge: tuple[FloatArray, FloatArray] | None, budget: Budget, it: int
@@ -242,6 +271,7 @@ class BiRRT(_TreePlanner):
             parts_d.append(bridge[1][1:])
         parts_p.append(pb[1:])
         parts_d.append(db[1:])
-        stats = {"time_s": budget.elapsed(), "iterations": it, "nodes": ta.n + tb.n}
         path, dirs = np.vstack(parts_p), np.concatenate(parts_d)
-        return self._result(PlanStatus.SUCCESS, path, dirs, "", stats, merge_trees(ta, tb))
+        return self._result(
+            PlanStatus.SUCCESS, path, dirs, "", self._stats(budget, it, ta.n + tb.n), merge_trees(ta, tb)
+        )

@@ -13,10 +13,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
+from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus
+from planning.planners.sampling.extend import LocalPlanner
 from planning.planners.sampling.rrt import TreeConfig, _TreePlanner
-from planning.planners.sampling.tree import Tree, goal_gap, in_goal, sample_pose
+from planning.planners.sampling.tree import Budget, Tree, in_goal
+
+FloatArray = NDArray[np.float64]
 
 K_RRT = np.e * (1.0 + 1.0 / 3.0)
 
@@ -30,65 +35,31 @@ class RRTStarConfig(TreeConfig):
     stop_on_first: bool = False
 
 
-class RRTStar(_TreePlanner):
+class RRTStar(_TreePlanner[RRTStarConfig]):
     """Asymptotically optimal RRT* (see the module doc)."""
 
     name = "rrt-star"
     config_class = RRTStarConfig
 
-    def plan(self, problem: PlanProblem) -> PlanResult:
+    def _search(
+        self, problem: PlanProblem, local: LocalPlanner, budget: Budget, rng: np.random.Generator
+    ) -> PlanResult:
         """Grow and rewire until the budget is spent (or the first solution with stop_on_first)."""
-        local, budget, bad = self._setup(problem)
-        if bad is not None:
-            return bad
         cfg = self.config
-        assert isinstance(cfg, RRTStarConfig)
         if not local.exact:
-            from planning.errors import ConfigError
-
             raise ConfigError(f"rrt-star needs exact steering ('reeds_shepp' or 'dubins'), got {cfg.steering!r}")
-        rng = np.random.default_rng(problem.seed)
-        start, goal = problem.start.as_array(), problem.goal.as_array()
-        tree = Tree(start)
+        tree = Tree(problem.start.as_array())
         goal_nodes: list[int] = []
         history: list[tuple[int, float, float]] = []  # (iteration, time, best cost)
         best_cost, ttfs = np.inf, None
         it = 0
         while not budget.spent(it):
             it += 1
-            q_rand = goal if rng.random() < cfg.goal_bias else sample_pose(rng, problem.world.bounds)
-            i_near = tree.nearest(q_rand, local.metric)
-            ext = local.extend(tree.nodes[i_near], q_rand)
-            if ext is None:
+            step = self._extend_toward_sample(rng, tree, local, problem)
+            j = None if step is None else _insert(tree, local, step[1][0])
+            if j is None:
                 continue
-            q_new = ext[0]
-            n = tree.n
-            k = min(n, int(np.ceil(K_RRT * np.log(n + 1))))
-            d = local.metric(tree.nodes[:n], q_new)
-            nbrs = np.argpartition(d, k - 1)[:k] if k < n else np.arange(n)
-            if d[nbrs].min() < 1e-9:
-                continue  # already in the tree
-            to_new = local.curves.lengths(tree.nodes[nbrs], q_new)
-            order = np.argsort(tree.costs[nbrs] + to_new, kind="stable")
-            parent, motion = -1, None
-            for o in order:
-                m = local.connect(tree.nodes[nbrs[o]], q_new)
-                if m is not None:
-                    parent, motion, c_new = int(nbrs[o]), m, float(tree.costs[nbrs[o]] + to_new[o])
-                    break
-            if motion is None:
-                continue
-            j = tree.add(q_new, parent, motion[0], motion[1], c_new)
-            # Rewire: reparent neighbours through the new node when that is shorter.
-            from_new = local.curves.lengths(q_new, tree.nodes[nbrs])
-            for o in np.argsort(from_new, kind="stable"):
-                nb = int(nbrs[o])
-                if nb == parent or c_new + from_new[o] >= tree.costs[nb] - 1e-9:
-                    continue
-                m = local.connect(q_new, tree.nodes[nb])
-                if m is not None:
-                    tree.reparent(nb, j, m[0], m[1], c_new + float(from_new[o]))
-            if in_goal(q_new, problem):
+            if in_goal(tree.nodes[j], problem):
                 goal_nodes.append(j)
             if goal_nodes:
                 g = min(goal_nodes, key=lambda x: (tree.costs[x], x))
@@ -99,15 +70,50 @@ class RRTStar(_TreePlanner):
                     if cfg.stop_on_first:
                         break
         stats: dict[str, object] = {
-            "time_s": budget.elapsed(), "iterations": it, "nodes": tree.n,
-            "first_solution_s": ttfs, "cost_history": history,
-        }  # fmt: skip
+            **self._stats(budget, it, tree.n),
+            "first_solution_s": ttfs,
+            "cost_history": history,
+        }
         if goal_nodes:
             g = min(goal_nodes, key=lambda x: (tree.costs[x], x))
             path, dirs = tree.branch(g)
             stats["cost_m"] = float(tree.costs[g])
             return self._result(PlanStatus.SUCCESS, path, dirs, "", stats, tree.plan_tree())
-        best = int(np.argmin(goal_gap(tree.nodes[: tree.n], problem)))
-        path, dirs = tree.branch(best)
+        path, dirs, _ = self._partial(tree, problem)
         reason = f"{budget.why(it)} without reaching the goal; partial path to the node nearest the goal"
         return self._result(PlanStatus.TIMEOUT, path, dirs, reason, stats, tree.plan_tree())
+
+
+def _insert(tree: Tree, local: LocalPlanner, q_new: FloatArray) -> int | None:
+    """Add ``q_new`` through its cheapest collision-free neighbour and rewire the neighbours through it.
+
+    Neighbours are the k = ceil(K_RRT log(n + 1)) nearest nodes by the local metric, ranked by exact
+    curve length. Returns the new node's index, or None when ``q_new`` is already in the tree or no
+    neighbour reaches it.
+    """
+    n = tree.n
+    k = min(n, int(np.ceil(K_RRT * np.log(n + 1))))
+    d = local.metric(tree.nodes[:n], q_new)
+    nbrs = np.argpartition(d, k - 1)[:k] if k < n else np.arange(n)
+    if d[nbrs].min() < 1e-9:
+        return None  # already in the tree
+    to_new = local.curves.lengths(tree.nodes[nbrs], q_new)
+    parent, motion, c_new = -1, None, 0.0
+    for o in np.argsort(tree.costs[nbrs] + to_new, kind="stable"):
+        motion = local.connect(tree.nodes[nbrs[o]], q_new)
+        if motion is not None:
+            parent, c_new = int(nbrs[o]), float(tree.costs[nbrs[o]] + to_new[o])
+            break
+    if motion is None:
+        return None
+    j = tree.add(q_new, parent, motion[0], motion[1], c_new)
+    # Rewire: reparent neighbours through the new node when that is shorter.
+    from_new = local.curves.lengths(q_new, tree.nodes[nbrs])
+    for o in np.argsort(from_new, kind="stable"):
+        nb = int(nbrs[o])
+        if nb == parent or c_new + from_new[o] >= tree.costs[nb] - 1e-9:
+            continue
+        m = local.connect(q_new, tree.nodes[nb])
+        if m is not None:
+            tree.reparent(nb, j, m[0], m[1], c_new + float(from_new[o]))
+    return j

@@ -154,12 +154,12 @@ def check_endpoints(problem: PlanProblem, checker: FastChecker, planner: str) ->
         q = pose.as_array()
         if not checker.poses_free(q[None, :])[0]:
             clr = float(checker.clearance_of(q[None, :])[0])
-            return PlanResult(
-                status, planner,
-                reason=f"{which} pose ({q[0]:.3f}, {q[1]:.3f}, {q[2]:.3f}) is in collision or closer than the "
+            reason = (
+                f"{which} pose ({q[0]:.3f}, {q[1]:.3f}, {q[2]:.3f}) is in collision or closer than the "
                 f"required clearance {checker.checker.clearance:g} m (clearance {clr:.3f} m, "
-                f"{checker.checker.shape} model): move the {which} or lower the clearance",
-            )  # fmt: skip
+                f"{checker.checker.shape} model): move the {which} or lower the clearance"
+            )
+            return PlanResult(status, planner, reason=reason)
     return None
 
 

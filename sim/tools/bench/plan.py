@@ -160,7 +160,8 @@ def ompl_available() -> bool:
 def measure(problem: Any, space: str, seeds: int, budget: float, ttfs_limit: float) -> PlanBench:
     """Race birrt against RRTConnect (first solution within ``ttfs_limit`` [s]) and rrt-star against
     RRT* (length after ``budget`` [s]) on one problem for ``seeds`` seeds, on the same checker."""
-    from planning.planners.base import PlanStatus, make_planner
+    from planning.planners.base import PlanStatus
+    from planning.planners.registry import make_planner
     from planning.planners.sampling.extend import LocalPlanner
     from planning.planners.sampling.tree import make_checker
 

@@ -1,0 +1,66 @@
+"""The scenario type: a world, a robot, a start and a goal with its tolerances (read from TOML files by
+:mod:`planning.scenario`)."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from planning.core.geometry import Pose2D
+from planning.core.robot import ROBOT_FILES
+from planning.core.world import World
+from planning.errors import ScenarioError
+
+DEFAULT_POSITION_TOLERANCE = 0.05
+DEFAULT_HEADING_TOLERANCE = 0.1
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A planning and tracking problem.
+
+    Attributes:
+        name: Scenario name.
+        robot: Robot registry name.
+        world: Bounds and obstacles.
+        start: Start pose.
+        goal: Goal pose.
+        position_tolerance: Goal region radius [m].
+        heading_tolerance: Goal heading tolerance [rad].
+        description: Free text.
+        planner: The planner this scenario is meant for by default, if any.
+        robots: Robots the scenario suits (defaults to ``(robot,)``).
+        planner_options: Planner name -> keyword options for that planner in this scenario (the
+            ``[planners.<name>]`` tables).
+        source: The file it was loaded from, if any.
+    """
+
+    name: str
+    robot: str
+    world: World
+    start: Pose2D
+    goal: Pose2D
+    position_tolerance: float = DEFAULT_POSITION_TOLERANCE
+    heading_tolerance: float = DEFAULT_HEADING_TOLERANCE
+    description: str = ""
+    planner: str | None = None
+    robots: tuple[str, ...] = ()
+    planner_options: Mapping[str, Mapping[str, Any]] = field(default_factory=dict, hash=False)
+    source: Path | None = field(default=None, compare=False)
+
+    def __post_init__(self) -> None:
+        if not self.robots:
+            object.__setattr__(self, "robots", (self.robot,))
+
+    def with_robot(self, robot: str) -> Scenario:
+        """The same scenario for another robot."""
+        if robot not in ROBOT_FILES:
+            raise ScenarioError(f"unknown robot {robot!r}: choose one of {', '.join(sorted(ROBOT_FILES))}")
+        return dataclasses.replace(self, robot=robot)
+
+    def options_for(self, planner: str) -> dict[str, Any]:
+        """Keyword options this scenario gives ``planner`` (a copy; empty if none)."""
+        return dict(self.planner_options.get(planner, {}))

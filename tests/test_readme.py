@@ -1,0 +1,38 @@
+"""The README's Python API snippet runs as printed (in a scratch folder, never the repository's renders/)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def python_api_snippet() -> str:
+    """The first ```python block of the README's "Python API" section."""
+    text = README.read_text()
+    section = text[text.index("## Python API") :]
+    match = re.search(r"```python\n(.*?)```", section, flags=re.S)
+    assert match is not None, "the Python API section has no python block"
+    return match.group(1)
+
+
+def test_the_snippet_is_ten_lines_or_so() -> None:
+    lines = [line for line in python_api_snippet().splitlines() if line.strip()]
+    assert 6 <= len(lines) <= 12
+
+
+@pytest.mark.render
+def test_the_python_api_snippet_runs(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "renders").mkdir()
+    exec(compile(python_api_snippet(), "README.md (Python API)", "exec"), {})
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("success"), out[0]
+    assert {line.split()[0] for line in out[1:]} >= {"closed_loop", "open_loop"}
+    video = tmp_path / "renders" / "edumip_map.mp4"
+    assert video.stat().st_size > 10_000
