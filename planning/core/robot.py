@@ -2,8 +2,9 @@
 
 The planner and the physics must never disagree, so every number the planners and trackers use
 (wheel radius, track width, footprint, speed and rate limits) is read from the same MJCF file
-MuJoCo loads: geometry from the geoms and bodies, motor limits from the actuators, and the
-planning limits from ``<custom><numeric name="nhsim_..."/>`` entries.
+MuJoCo loads: geometry from the geoms and bodies, and the wheel-speed and planning limits from
+``<custom><numeric name="nhsim_..."/>`` entries (the wheels are driven by DC motors whose
+``ctrlrange`` is a voltage, so the wheel-speed limit the motors sustain is a numeric too).
 """
 
 from __future__ import annotations
@@ -25,8 +26,6 @@ ROBOTS_DIR = MODELS_DIR / "robots"
 
 #: Robot names accepted everywhere, mapped to their MJCF file stems.
 ROBOT_FILES: dict[str, str] = {"turtlebot3": "turtlebot3_burger", "edumip": "edumip"}
-#: MJCF actuator elements that drive a wheel at a commanded speed (their ``ctrlrange`` is in rad/s).
-WHEEL_SERVOS = ("velocity", "intvelocity")
 
 
 @dataclass(frozen=True)
@@ -43,7 +42,7 @@ class RobotSpec:
         max_yaw_rate: |omega| limit [rad/s].
         max_accel: |dv/dt| limit [m/s^2].
         max_yaw_accel: |domega/dt| limit [rad/s^2].
-        max_wheel_speed: Actuator ctrlrange bound [rad/s].
+        max_wheel_speed: Wheel-speed limit the motors sustain (``nhsim_max_wheel_speed``) [rad/s].
         wheelbase: Virtual wheelbase l of the bicycle model [m].
         max_steering: Virtual steering-angle bound |phi| [rad].
         footprint: (K, 2) convex footprint in the base frame, counter-clockwise [m].
@@ -193,10 +192,6 @@ def load_robot(name: str) -> RobotSpec:
     yl = _floats(bodies["wheel_left"].get("pos"), 3, "wheel_left pos")[1]
     yr = _floats(bodies["wheel_right"].get("pos"), 3, "wheel_right pos")[1]
     track = float(abs(yl - yr))
-    motors = [a for kind in WHEEL_SERVOS for a in root.iter(kind)]
-    if not motors:
-        raise ModelError(f"{path}: no wheel servos (<{'> or <'.join(WHEEL_SERVOS)}> actuators)")
-    max_wheel = float(np.min([np.max(np.abs(_floats(a.get("ctrlrange"), 2, "ctrlrange"))) for a in motors]))
 
     points = []
     base = bodies["base"]
@@ -230,7 +225,7 @@ def load_robot(name: str) -> RobotSpec:
         max_yaw_rate=numeric("max_angular_speed"),
         max_accel=numeric("max_linear_accel"),
         max_yaw_accel=numeric("max_angular_accel"),
-        max_wheel_speed=max_wheel,
+        max_wheel_speed=numeric("max_wheel_speed"),
         wheelbase=numeric("wheelbase"),
         max_steering=numeric("max_steering_angle"),
         footprint=hull,
