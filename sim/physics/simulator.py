@@ -205,7 +205,7 @@ class Simulator:
         t0, dt_ctrl = recorder.t0, schedule.dt_ctrl
         cmd, wcmd = recorder.command, recorder.wheel_command
         ctrl, sdata = d.ctrl, d.sensordata
-        acts, wheel_dofs, contact_adr = [self._act_l, self._act_r], self._wheel_dofs, self._contact_adr
+        acts, wheel_dofs, contact_adr = [self._act_l, self._act_r], self.wheel_dofs, self._contact_adr
         read_pose, command, wheel_speeds = self.read_pose, tracker.command, drive.wheel_speeds
         sample, step, isfinite = recorder.sample, mujoco.mj_step, math.isfinite
         firmware = self.motors.loop()  # the wheels' velocity loop, every k_fw steps from the start
