@@ -16,7 +16,7 @@ def test_spec_matches_the_compiled_model(name: str) -> None:
     yl = m.body_pos[m.body("wheel_left").id][1]
     yr = m.body_pos[m.body("wheel_right").id][1]
     assert spec.track_width == pytest.approx(yl - yr)
-    assert spec.max_wheel_speed == pytest.approx(m.actuator_ctrlrange[m.actuator("wheel_left_motor").id][1])
+    assert spec.max_wheel_speed == pytest.approx(float(m.numeric("nhsim_max_wheel_speed").data[0]))
     assert spec.mass == pytest.approx(float(np.sum(m.body_mass)), rel=1e-6)
     # the footprint covers every geom's horizontal extent (checked with MuJoCo's own AABBs)
     data = mujoco.MjData(m)
@@ -28,13 +28,20 @@ def test_spec_matches_the_compiled_model(name: str) -> None:
         r = m.geom_rbound[g]
         centre = data.geom_xpos[g][:2] - data.xpos[base][:2]
         assert np.hypot(*centre) - spec.radius <= r + 1e-9
-    # the robot can reach its planning limits with its motors
+    # the robot can reach its planning limits with its motors, below their no-load speed
     assert spec.max_speed <= spec.max_wheel_speed * spec.wheel_radius + 1e-9
+    assert spec.max_yaw_rate <= 2 * spec.max_wheel_speed * spec.wheel_radius / spec.track_width + 1e-9
+    assert spec.max_wheel_speed < float(m.numeric("nhsim_motor_no_load_speed").data[0])
 
 
-def test_seed_limits_are_in_the_models() -> None:
+def test_limits_in_the_models_are_what_the_motors_sustain() -> None:
+    """The EduMIP keeps seed 003's limits; the TurtleBot3's advertised 0.22 m/s and 2.84 rad/s are
+    above its XL430s' 57 rpm no-load speed (0.197 m/s on a 33 mm wheel), so its limits are what the
+    motors sustain with margin: 5.0 rad/s at the wheel (see the model's comments)."""
     tb3, mip = load_robot("turtlebot3"), load_robot("edumip")
-    assert (tb3.max_speed, tb3.max_yaw_rate, tb3.wheel_radius, tb3.track_width) == (0.22, 2.84, 0.033, 0.16)
+    assert (tb3.wheel_radius, tb3.track_width, tb3.max_wheel_speed) == (0.033, 0.16, 5.0)
+    assert (tb3.max_speed, tb3.max_yaw_rate) == (0.165, 2.06)
+    assert tb3.max_speed < 57 * 2 * np.pi / 60 * tb3.wheel_radius < 0.22
     assert (mip.max_speed, mip.max_yaw_rate) == (0.8, 0.5)
 
 

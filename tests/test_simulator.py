@@ -10,6 +10,7 @@ from planning.core.robot import load_robot
 from planning.core.world import Box, World
 from planning.errors import ConfigError
 from planning.trajectory.references import make_reference
+from sim.physics.perturb import Perturbation
 from sim.physics.simulator import SimConfig, Simulator
 from sim.pipeline.runs import RunKind
 from sim.pipeline.simulate import simulate_reference
@@ -18,13 +19,19 @@ from sim.pipeline.simulate import simulate_reference
 @pytest.mark.parametrize("robot", ["turtlebot3", "edumip"])
 @pytest.mark.parametrize("reference", ["figure8", "circle"])
 def test_closed_loop_tracks_to_the_centimetre_and_beats_open_loop(robot: str, reference: str) -> None:
+    """Closed loop tracks to the centimetre, as built and with a 1 % wheel-radius calibration error,
+    and open loop drifts at least five times as far under that error. (The motors' firmware
+    integrates the wheel-speed error away, so as built open loop drifts only by the firmware's lag
+    on speed ramps: 1.0-1.4 cm on the TurtleBot3, 3.5-4.2 times the closed loop's final error.)"""
     res = simulate_reference("open", robot=robot, reference=reference)
-    closed, opened = res.metrics["closed_loop"], res.metrics["open_loop"]
-    assert closed.rms_position_error_m <= 0.01
-    assert closed.final_position_error_m <= 0.01
+    miscalibrated = simulate_reference("open", robot=robot, reference=reference, perturbation=Perturbation(radius=1.01))
+    for job in (res, miscalibrated):
+        closed, opened = job.metrics["closed_loop"], job.metrics["open_loop"]
+        assert closed.rms_position_error_m <= 0.01
+        assert closed.final_position_error_m <= 0.01
+        for m in (closed, opened):
+            assert m.warnings == 0 and m.collisions == 0
     assert opened.final_position_error_m >= 5 * closed.final_position_error_m
-    for m in (closed, opened):
-        assert m.warnings == 0 and m.collisions == 0
     # the log's pose comes from the sensors and agrees with the free joint
     log = res.logs["closed_loop"]
     np.testing.assert_allclose(log.pose[:, :2], log.qpos[:, :2], atol=1e-9)

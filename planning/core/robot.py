@@ -2,8 +2,9 @@
 
 The planner and the physics must never disagree, so every number the planners and trackers use
 (wheel radius, track width, footprint, speed and rate limits) is read from the same MJCF file
-MuJoCo loads: geometry from the geoms and bodies, motor limits from the actuators, and the
-planning limits from ``<custom><numeric name="nhsim_..."/>`` entries.
+MuJoCo loads: geometry from the geoms and bodies, and the wheel-speed and planning limits from
+``<custom><numeric name="nhsim_..."/>`` entries (the wheels are driven by DC motors whose
+``ctrlrange`` is a voltage, so the wheel-speed limit the motors sustain is a numeric too).
 """
 
 from __future__ import annotations
@@ -25,8 +26,6 @@ ROBOTS_DIR = MODELS_DIR / "robots"
 
 #: Robot names accepted everywhere, mapped to their MJCF file stems.
 ROBOT_FILES: dict[str, str] = {"turtlebot3": "turtlebot3_burger", "edumip": "edumip"}
-#: MJCF actuator elements that drive a wheel at a commanded speed (their ``ctrlrange`` is in rad/s).
-WHEEL_SERVOS = ("velocity", "intvelocity")
 
 
 @dataclass(frozen=True)
@@ -43,7 +42,7 @@ class RobotSpec:
         max_yaw_rate: |omega| limit [rad/s].
         max_accel: |dv/dt| limit [m/s^2].
         max_yaw_accel: |domega/dt| limit [rad/s^2].
-        max_wheel_speed: Actuator ctrlrange bound [rad/s].
+        max_wheel_speed: Wheel-speed limit the motors sustain (``nhsim_max_wheel_speed``) [rad/s].
         wheelbase: Virtual wheelbase l of the bicycle model [m].
         max_steering: Virtual steering-angle bound |phi| [rad].
         footprint: (K, 2) convex footprint in the base frame, counter-clockwise [m].
@@ -190,7 +189,7 @@ def load_robot(name: str) -> RobotSpec:
         if required not in bodies:
             raise ModelError(f"{path}: body {required!r} is missing")
     defaults = _collect_defaults(root)
-    wheel_radius, track, max_wheel = _wheels(path, root, bodies, defaults)
+    wheel_radius, track = _wheels(path, root, bodies, defaults)
     hull = _footprint(bodies, defaults)
     mass = 0.0
     for body in root.iter("body"):
@@ -212,7 +211,7 @@ def load_robot(name: str) -> RobotSpec:
         max_yaw_rate=numeric("max_angular_speed"),
         max_accel=numeric("max_linear_accel"),
         max_yaw_accel=numeric("max_angular_accel"),
-        max_wheel_speed=max_wheel,
+        max_wheel_speed=numeric("max_wheel_speed"),
         wheelbase=numeric("wheelbase"),
         max_steering=numeric("max_steering_angle"),
         footprint=hull,
@@ -222,19 +221,15 @@ def load_robot(name: str) -> RobotSpec:
 
 def _wheels(
     path: Path, root: ET.Element, bodies: dict[str | None, ET.Element], defaults: dict[str, dict[str, str]]
-) -> tuple[float, float, float]:
-    """Wheel radius [m], track width [m] and the wheel servos' speed bound [rad/s] of a robot model."""
+) -> tuple[float, float]:
+    """Wheel radius [m] and track width [m] of a robot model."""
     left_geom = next((g for g in root.iter("geom") if g.get("name") == "wheel_left_geom"), None)
     if left_geom is None:
         raise ModelError(f"{path}: geom 'wheel_left_geom' is missing")
     wheel_radius = float(_floats(_geom_attrs(left_geom, defaults).get("size"), what="wheel size")[0])
     yl = _floats(bodies["wheel_left"].get("pos"), 3, "wheel_left pos")[1]
     yr = _floats(bodies["wheel_right"].get("pos"), 3, "wheel_right pos")[1]
-    motors = [a for kind in WHEEL_SERVOS for a in root.iter(kind)]
-    if not motors:
-        raise ModelError(f"{path}: no wheel servos (<{'> or <'.join(WHEEL_SERVOS)}> actuators)")
-    max_wheel = float(np.min([np.max(np.abs(_floats(a.get("ctrlrange"), 2, "ctrlrange"))) for a in motors]))
-    return wheel_radius, float(abs(yl - yr)), max_wheel
+    return wheel_radius, float(abs(yl - yr))
 
 
 def _footprint(bodies: dict[str | None, ET.Element], defaults: dict[str, dict[str, str]]) -> FloatArray:

@@ -8,6 +8,7 @@ shrink with height), and polygons are prisms over the triangles of an ear-clippi
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import mujoco
@@ -219,13 +220,36 @@ def _has_ancestor(model: mujoco.MjModel, body: int, ancestor: int) -> bool:
     return False
 
 
-def set_pose(model: mujoco.MjModel, data: mujoco.MjData, pose: Pose2D) -> None:
-    """Place the robot's free joint at a planar pose (at its model height), at rest."""
+def set_pose(model: mujoco.MjModel, data: mujoco.MjData, pose: Pose2D, *, settle: float = 0.5) -> None:
+    """Place the robot's free joint at a planar pose, at rest on the floor.
+
+    The robot is put at its model height, level, then left alone (no motor voltage) for ``settle``
+    seconds so the soft contacts take up its weight (the tyres sink about 0.2 mm and the base tilts
+    by a few mrad onto its caster or skid), and moved back to the pose's x, y and heading with zero
+    velocity and time 0. A run then starts from rest, not with the robot dropping onto the floor.
+
+    Args:
+        model: The compiled model.
+        data: Its data (modified).
+        pose: Planar pose of the base (the axle's midpoint) [m, m, rad].
+        settle: Seconds of physics to come to rest; 0 leaves the robot level at its model height.
+    """
     adr = model.jnt_qposadr[model.joint("root").id]
     data.qpos[adr : adr + 2] = [pose.x, pose.y]
     data.qpos[adr + 2] = model.body_pos[model.body("base").id][2]
     data.qpos[adr + 3 : adr + 7] = _quat_yaw(pose.theta)
     data.qvel[:] = 0.0
+    if settle > 0:
+        data.ctrl[:] = 0.0
+        mujoco.mj_step(model, data, nstep=max(1, round(settle / model.opt.timestep)))
+        w, x, y, z = data.qpos[adr + 3 : adr + 7]
+        drift = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)) - pose.theta
+        turn = np.empty(4)
+        mujoco.mju_mulQuat(turn, np.array(_quat_yaw(-drift)), data.qpos[adr + 3 : adr + 7].copy())
+        data.qpos[adr + 3 : adr + 7] = turn
+        data.qpos[adr : adr + 2] = [pose.x, pose.y]
+        data.qvel[:] = 0.0
+        data.time = 0.0
     mujoco.mj_forward(model, data)
 
 
@@ -235,9 +259,10 @@ def scale_wheels(model: mujoco.MjModel, factor: float) -> None:
     The collision tyres (``wheel_*_geom``) and the visual tyres (``wheel_*_tyre``) get radius
     ``factor * r``; their bounding radii and boxes follow. The axle rises by the change in radius
     (the base body's rest height, so :func:`set_pose` still puts the tyres on the floor), and the
-    base body's own geoms (chassis, caster or skids) move down by as much in the body frame, so
-    they keep their height above the floor: only the rolling radius changes, not how the weight
-    is shared between wheels and caster. Call ``mujoco.mj_setConst`` afterwards.
+    base body's own geoms (chassis, caster or skids) and the parts welded to it move down by as much
+    in the body frame, so they keep their height above the floor: only the rolling radius changes,
+    not how the weight is shared between wheels and caster. The wheels' touch-sensor zones
+    (``wheel_*_contact`` sites) grow with the tyre. Call ``mujoco.mj_setConst`` afterwards.
 
     Args:
         model: The compiled model (modified).
@@ -263,3 +288,11 @@ def scale_wheels(model: mujoco.MjModel, factor: float) -> None:
     rise = old * (factor - 1.0)
     model.body_pos[base, 2] += rise
     model.geom_pos[model.geom_bodyid == base, 2] -= rise
+    welded = (model.body_parentid == base) & (model.body_jntnum == 0)  # parts fixed to the base (LDS, caster)
+    model.body_pos[welded, 2] -= rise
+    for side in ("left", "right"):  # the touch sensors' zones keep their margin round the tyre
+        try:
+            site = model.site(f"wheel_{side}_contact").id
+        except KeyError:
+            continue
+        model.site_size[site, 0] += rise

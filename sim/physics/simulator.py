@@ -3,7 +3,9 @@
 Physics steps at the model's timestep (2 ms); the tracker is called at the control rate and physics
 advances with ``mj_step(m, d, nstep=k)`` in between, so the Python controller costs once per
 control period, not once per physics step. The log is written every ``log_steps`` physics steps
-(at least at the control rate, at most every 20 ms).
+(at least at the control rate, at most every 20 ms). The wheels are DC motors: the motors' firmware
+velocity loop (:mod:`sim.physics.motors`) turns the wheel-speed command in force into voltages from
+the measured wheel speeds every ``nhsim_motor_period`` (10 ms), on a grid fixed from the start.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from planning.errors import ConfigError, SimulationError
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import AsBuilt
 from sim.physics.model import BuiltModel, build_model, set_pose
+from sim.physics.motors import MotorModel, whole_steps
 from sim.physics.perturb import Perturbation
 from sim.physics.runlog import Contact, RunLog
 from sim.physics.sensing import Sensing, SensingSetup
@@ -94,6 +97,7 @@ class Simulator:
         self._contact_adr = int(m.sensor_adr[m.sensor("obstacle_contact").id])
         self._act_l = m.actuator("wheel_left_motor").id
         self._act_r = m.actuator("wheel_right_motor").id
+        self.motors = MotorModel.from_model(m)
         self._is_obstacle = np.zeros(m.ngeom, dtype=bool)
         self._is_obstacle[self.built.obstacle_geoms] = True
         self._is_robot = np.zeros(m.ngeom, dtype=bool)
@@ -101,9 +105,8 @@ class Simulator:
 
     def steps_per_control(self, control_rate: float) -> int:
         """Physics steps per control period; raises if the period is not a whole number of steps."""
-        ratio = 1.0 / (control_rate * self.model.opt.timestep)
-        k = round(ratio)
-        if k < 1 or abs(ratio - k) > 1e-6:
+        k = whole_steps(1.0 / control_rate, self.model.opt.timestep)
+        if not k:
             raise ConfigError(
                 f"control rate {control_rate} Hz is not a whole number of {self.model.opt.timestep * 1e3:g} ms "
                 f"physics steps; choose a rate that divides {1.0 / self.model.opt.timestep:g} Hz (e.g. 10, 25, 50, 100)"
@@ -215,17 +218,20 @@ class Simulator:
         sensing: Sensing | None = None,
     ) -> None:
         """Run the recorder's schedule: the tracker once per control period, physics in ``nstep`` chunks
-        between log samples, the wheel commands applied as they arrive (after the latency, if any).
-        Python runs per control period and per log sample, never per physics step."""
+        between log samples and motor-firmware updates, the wheel commands taken up as they arrive
+        (after the latency, if any). Python runs per control period, per log sample and per firmware
+        update (10 ms), never per physics step."""
         m, d, schedule = recorder.model, recorder.data, recorder.schedule
         k_ctrl, k_log, delay = schedule.k_ctrl, schedule.k_log, schedule.delay
         chunks, n_ctrl = schedule.chunks, schedule.n_ctrl
         t0, dt_ctrl = recorder.t0, schedule.dt_ctrl
         cmd, wcmd = recorder.command, recorder.wheel_command
         ctrl, sdata = d.ctrl, d.sensordata
-        act_l, act_r, contact_adr = self._act_l, self._act_r, self._contact_adr
+        acts, wheel_dofs, contact_adr = [self._act_l, self._act_r], self.wheel_dofs, self._contact_adr
         read_pose, command, wheel_speeds = self.read_pose, tracker.command, drive.wheel_speeds
         sample, step, isfinite = recorder.sample, mujoco.mj_step, math.isfinite
+        firmware = self.motors.loop()  # the wheels' velocity loop, every k_fw steps from the start
+        k_fw, qvel = self.motors.steps_per_update(m.opt.timestep), d.qvel
         every = max(1, -(-n_ctrl // PROGRESS_UPDATES))
         if progress is not None:
             progress(0, n_ctrl)
@@ -249,15 +255,17 @@ class Simulator:
             left, right = wheel_speeds(v, w)
             cmd[k + 1] = (v, w)
             wcmd[k + 1] = (left, right)
-            if not delay:
-                ctrl[act_l] = left
-                ctrl[act_r] = right
             for j in range(chunks):
-                if delay:  # the command computed at the last control instant <= now - latency
-                    src = max((k * k_ctrl + j * k_log - delay) // k_ctrl + 1, 0)
-                    ctrl[act_l] = wcmd[src, 0]
-                    ctrl[act_r] = wcmd[src, 1]
-                step(m, d, nstep=k_log)
+                # the wheel command in force: the one computed at the last control instant <= now - latency
+                src = max((k * k_ctrl + j * k_log - delay) // k_ctrl + 1, 0) if delay else k + 1
+                s = k * k_ctrl + j * k_log
+                end = s + k_log
+                while s < end:  # the firmware updates the motor voltages on its own grid of k_fw steps
+                    if s % k_fw == 0:
+                        ctrl[acts] = firmware(wcmd[src], qvel[wheel_dofs])
+                    n = min(end, s - s % k_fw + k_fw) - s
+                    step(m, d, nstep=n)
+                    s += n
                 sample(sdata[contact_adr] > 0.0)
         if progress is not None:
             progress(n_ctrl, n_ctrl)

@@ -2,7 +2,8 @@
 
 Both loops step the same compiled model from the same start for the same number of physics
 steps with the same wheel commands: the baseline replays the closed loop's logged wheel commands
-with ``mj_step(m, d, nstep=k)`` and nothing else (so the engine does the same contact work), the
+as the motors' no-load voltages with ``mj_step(m, d, nstep=k)`` and nothing else (so the engine
+does the same contact work), the
 closed loop runs the whole simulator (sensing, the FBL tracker at the control rate, the drive
 mapping, logging, contact checks). Target: ratio >= 0.8.
 """
@@ -93,7 +94,7 @@ def measure(
 
     log = simulator.run(traj, make_tracker("fbl", spec), cfg)
     chunks = (len(log) - 1) // (n_steps // k)
-    wheel_cmds = [tuple(row) for row in log.wheel_command[1::chunks]]
+    volts = [tuple(row) for row in simulator.motors.no_load_voltage(log.wheel_command[1::chunks])]
     act_l = simulator.model.actuator("wheel_left_motor").id
     act_r = simulator.model.actuator("wheel_right_motor").id
 
@@ -104,7 +105,7 @@ def measure(
         ctrl = d.ctrl
         step = mujoco.mj_step
         t0 = time.perf_counter()
-        for left, right in wheel_cmds:
+        for left, right in volts:
             ctrl[act_l] = left
             ctrl[act_r] = right
             step(m, d, nstep=k)
