@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Any
 
 TARGET_RATIO = 0.8
 
@@ -81,18 +82,25 @@ def measure(
     from planning.core.robot import load_robot
     from planning.scenario import load_scenario
     from planning.trajectory.references import make_reference
+    from sim.physics.asbuilt import DEFAULT_BUILD_SEED, AsBuilt
     from sim.physics.model import set_pose
+    from sim.physics.sensing import SensingSetup
     from sim.physics.simulator import SimConfig, Simulator
+    from sim.physics.sources import PoseSource
 
     scenario = load_scenario("open")
     spec = load_robot(robot)
     traj = make_reference(reference, spec, scenario.start)
-    simulator = Simulator(spec, scenario.world)
+    simulator = Simulator(spec, scenario.world, AsBuilt.draw(spec.name, DEFAULT_BUILD_SEED))
     cfg = SimConfig(control_rate=control_rate)
     k = simulator.steps_per_control(cfg.control_rate)
     n_steps = round(traj.duration / simulator.model.opt.timestep / k) * k
+    sensing = SensingSetup.for_robot(spec.name)
 
-    log = simulator.run(traj, make_tracker("fbl", spec), cfg)
+    def run_closed() -> Any:
+        return simulator.run(traj, make_tracker("fbl", spec), cfg, source=PoseSource.FUSED, sensing=sensing)
+
+    log = run_closed()
     chunks = (len(log) - 1) // (n_steps // k)
     volts = [tuple(row) for row in simulator.motors.no_load_voltage(log.wheel_command[1::chunks])]
     act_l = simulator.model.actuator("wheel_left_motor").id
@@ -112,9 +120,8 @@ def measure(
         return time.perf_counter() - t0
 
     def closed() -> float:
-        tracker = make_tracker("fbl", spec)
         t0 = time.perf_counter()
-        simulator.run(traj, tracker, cfg)
+        run_closed()
         return time.perf_counter() - t0
 
     t_bare = min(bare() for _ in range(repeats))
