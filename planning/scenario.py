@@ -4,7 +4,9 @@ Format version 1 (see README.md): top-level ``name``, ``robot``, ``description``
 tables ``[world]`` (``bounds``, ``[[world.obstacles]]``), ``[start]`` (``pose``) and ``[goal]``
 (``pose``, ``position_tolerance``, ``heading_tolerance``); optional ``[planners.<name>]`` tables of
 keyword options for a registered planner in this scenario (e.g. ``[planners.birrt]`` with
-``steering = "reeds_shepp"``), checked against that planner's options when the file is read. Every
+``steering = "reeds_shepp"``), checked against that planner's options when the file is read; an
+optional ``[sensors]`` table of numbers overriding the robot's sensor profile (checked by the
+simulator, which knows the profile's keys). Every
 problem is reported before anything runs, naming the file, the field and what is expected.
 """
 
@@ -28,7 +30,9 @@ from planning.errors import ConfigError, ScenarioError
 
 SCENARIOS_DIR = MODELS_DIR / "scenarios"
 
-_TOP_KEYS = {"name", "robot", "description", "version", "world", "start", "goal", "planner", "robots", "planners"}
+_TOP_KEYS = {
+    "name", "robot", "description", "version", "world", "start", "goal", "planner", "robots", "planners", "sensors",
+}  # fmt: skip
 _WORLD_KEYS = {"bounds", "obstacles", "map"}
 _OBSTACLE_KEYS: dict[str, tuple[set[str], set[str]]] = {
     # type: (required, optional)
@@ -150,7 +154,13 @@ def _header(r: TableReader, data: Mapping[str, Any], default_name: str) -> dict[
     if planner is not None and not isinstance(planner, str):
         raise r.fail("planner", "a planner name", planner)
     planner_options = _planner_options(r, data["planners"]) if "planners" in data else {}
+    sensors = data.get("sensors", {})
+    if not isinstance(sensors, dict) or not all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) for v in sensors.values()
+    ):
+        raise r.fail("sensors", "a [sensors] table of numbers overriding the robot's sensor profile", sensors)
     return {
+        "sensors": {k: float(v) for k, v in sensors.items()},
         "name": name,
         "robot": robot,
         "robots": tuple(robots),

@@ -35,6 +35,8 @@ class Scenario:
         robots: Robots the scenario suits (defaults to ``(robot,)``).
         planner_options: Planner name -> keyword options for that planner in this scenario (the
             ``[planners.<name>]`` tables).
+        sensors: Overrides of the robot's sensor profile in this scenario (the ``[sensors]`` table,
+            e.g. ``fix_rate = 5.0``); its keys are checked by the simulator against the profile.
         source: The file it was loaded from, if any.
     """
 
@@ -49,6 +51,7 @@ class Scenario:
     planner: str | None = None
     robots: tuple[str, ...] = ()
     planner_options: Mapping[str, Mapping[str, Any]] = field(default_factory=dict, hash=False)
+    sensors: Mapping[str, float] = field(default_factory=dict, hash=False)
     source: Path | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:

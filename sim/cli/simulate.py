@@ -301,7 +301,9 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
         **source,
     )
     runs = parse_runs(args.runs) if args.runs else run_choices()[args.tracker]
-    outputs = plan_outputs(args, scenario=load_scenario(scenario).name, source=planner or args.reference or "figure8")
+    loaded = load_scenario(scenario)
+    case.sensing(loaded.with_robot(args.robot) if args.robot else loaded)  # bad sensor settings stop here
+    outputs = plan_outputs(args, scenario=loaded.name, source=planner or args.reference or "figure8")
     with JobBars(outputs.progress) as bars:
         result = simulate(case, runs, progress=bars)
     record = result.record()

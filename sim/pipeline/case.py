@@ -154,7 +154,7 @@ class Case:
         Raises:
             ConfigError: An unknown sensor key or a bad value (naming the field and the fix).
         """
-        table = dict(getattr(scenario, "sensors", None) or {})
+        table = dict(scenario.sensors)
         profile = load_sensor_profile(scenario.robot, table=table or None, text=self.sensors or None)
         return SensingSetup(profile, self.seed)
 
