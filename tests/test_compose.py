@@ -81,7 +81,7 @@ def test_composited_frames_match_the_full_render(monkeypatch: pytest.MonkeyPatch
             ref = r.render().astype(int)
             ghost_rect = comp._rect(replay.datas[1])
             assert ghost_rect is not None
-            _, gdepth = comp._pass(replay.datas[1], ghost_rect, ghost=True)
+            _, gdepth = comp._pass(1, ghost_rect)
             ghost = np.zeros((H, W), bool)
             x0, y0, x1, y1 = ghost_rect
             ghost[y0:y1, x0:x1] = gdepth > 0

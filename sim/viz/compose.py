@@ -7,18 +7,21 @@ reflections) a robot changes no pixel outside its own silhouette. So the world i
    and the colour and depth buffers are read back; the reference path is drawn onto the colour
    image with PIL. This image, the *floor layer*, also collects the trails: each frame adds only the
    segments its robots completed since the previous frame (a few pixels wide crops).
-2. **robot pass** (each frame): MuJoCo draws only the robots' dynamic geoms, the ghost opaque in its
-   colour, and only the rectangles their bounding boxes project to are read back, colour and depth.
-   A robot pixel replaces the floor-layer pixel where it is nearer than the static depth; a ghost
-   pixel is blended over it with alpha :data:`sim.viz.scene.GHOST_ALPHA`. Where the two rectangles
-   overlap the robots are drawn in two passes so the ghost can be told from the solid robot.
+2. **robot passes** (each frame): one per robot, each through a small viewport: MuJoCo draws only
+   that robot's dynamic geoms (a ghost opaque in its run's colour) for the rectangle its bounding
+   box projects to, and that rectangle is read back, colour and depth. A solid-robot pixel replaces
+   the floor-layer pixel where it is nearer than the static depth; a ghost pixel is blended over
+   what is there with alpha :data:`sim.viz.scene.GHOST_ALPHA` where it is at least as near as the
+   world and the solid robot. Ghosts are blended farthest first, as MuJoCo sorts translucent geoms,
+   so where two ghosts overlap the nearer tint lies on top.
 3. the unfinished segment of each trail and the text overlay.
 
 The picture matches a full MuJoCo render of the scene pixel for pixel on the world and the solid
-robot; the ghost differs only where its own parts overlap (one translucent layer here, several in
-MuJoCo's blended draw). Trails now pass under the ghost's tint and the solid robot, as they would
-lie on the floor. Trails are drawn in frame order, whatever order the frames are asked in, so a
-frame's pixels do not depend on which frames were drawn before it.
+robot; a ghost differs only where its own parts overlap (one translucent layer here, several in
+MuJoCo's blended draw) and where ghosts overlap (sorted per robot here, per geom in MuJoCo). Trails
+pass under the ghosts' tints and the solid robot, as they would lie on the floor. Trails are drawn
+in frame order, whatever order the frames are asked in, so a frame's pixels do not depend on which
+frames were drawn before it.
 """
 
 from __future__ import annotations
@@ -34,13 +37,14 @@ from PIL import Image, ImageDraw
 from sim.viz.renderer import SceneRenderer
 from sim.viz.scene import (
     GHOST_ALPHA,
-    OPEN_RGBA,
     REFERENCE_RGBA,
     FloatArray,
     Frame,
     Projection,
     Track,
     geom_box_corners,
+    ghost_rgb,
+    light_gain,
     polylines,
     rgb255,
     trail_width,
@@ -64,7 +68,7 @@ class ComposedReplay(Protocol):
         model: The runs' model.
         ghost_model: The model with the robot's enclosed geoms left out (drawn for every robot pass).
         datas: One ``MjData`` per track, posed by :meth:`pose_frame`.
-        tracks: The runs, primary first.
+        tracks: The runs, the solid one first, then the ghosts.
         camera: The camera, the same in every frame.
         fixed_camera: Whether the camera stays put (required).
         ref3: (M, 3) decimated reference path on the floor [m].
@@ -147,6 +151,7 @@ class RobotPass:
         self.scene = mujoco.MjvScene(model, maxgeom=maxgeom)
         self.scene.flags[:] = flags
         self.scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
+        self._gain = light_gain(renderer.model)
         self._frustum: list[tuple[float, float, float, float]] = []
 
     def view(self, data: mujoco.MjData, camera: mujoco.MjvCamera) -> Projection:
@@ -178,14 +183,17 @@ class RobotPass:
         y1 = min(h, int(np.ceil(px[:, 1].max())) + RECT_MARGIN + 1)
         return (x0, y0, x1, y1) if x1 > x0 and y1 > y0 else None
 
-    def draw(self, data: mujoco.MjData, rect: Rect, ghost: bool) -> tuple[Frame, NDArray[np.float32]]:
-        """Draw the robot of ``data`` (opaque; in the ghost's colour with ``ghost``) as seen through
+    def draw(
+        self, data: mujoco.MjData, rect: Rect, tint: tuple[float, ...] | None = None
+    ) -> tuple[Frame, NDArray[np.float32]]:
+        """Draw the robot of ``data`` opaque, in its model's colours or all in ``tint`` (RGB(A) in
+        [0, 1], a ghost's colour, dimmed by :func:`sim.viz.scene.ghost_rgb`), as seen through
         ``rect`` (after :meth:`view`) and read back its colour and depth, row 0 at the top."""
         scn = self.scene
         scn.ngeom = 0
         mujoco.mjv_addGeoms(self.model, data, self.opt, self.pert, mujoco.mjtCatBit.mjCAT_DYNAMIC, scn)
-        if ghost:
-            color = (*OPEN_RGBA[:3], 1.0)
+        if tint is not None:
+            color = (*ghost_rgb(tint, self._gain), 1.0)
             for i in range(scn.ngeom):
                 scn.geoms[i].rgba = color
         x0, y0, x1, y1 = rect
@@ -289,28 +297,40 @@ class FixedViewCompositor:
     def _rect(self, data: mujoco.MjData) -> Rect | None:
         return self.passes.rect(self.proj, data, self.replay.robot_geoms, self.replay.robot_corners)
 
-    def _pass(self, data: mujoco.MjData, rect: Rect, ghost: bool) -> tuple[Frame, NDArray[np.float32]]:
-        return self.passes.draw(data, rect, ghost)
+    def _pass(self, track: int, rect: Rect) -> tuple[Frame, NDArray[np.float32]]:
+        """Draw track ``track``'s robot through ``rect``: the solid one (track 0) in its model's
+        colours, a ghost in its run's colour."""
+        r = self.replay
+        return self.passes.draw(r.datas[track], rect, None if track == 0 else r.tracks[track].rgba)
 
     def _robots(self, out: Frame) -> None:
         r = self.replay
-        self.passes.view(r.datas[0], r.camera)  # lights and eyes of this frame
+        proj = self.passes.view(r.datas[0], r.camera)  # lights and eyes of this frame
         solid = self._rect(r.datas[0])
-        ghost = self._rect(r.datas[1]) if len(r.datas) > 1 else None
         solid_depth = None
         if solid is not None:
             x0, y0, x1, y1 = solid
-            rgb, solid_depth = self._pass(r.datas[0], solid, ghost=False)
+            rgb, solid_depth = self._pass(0, solid)
             # reversed depth (MuJoCo's default): larger is nearer, 0 where nothing was drawn
             near = solid_depth > self.depth[y0:y1, x0:x1]
             out[y0:y1, x0:x1][near] = rgb[near]
-        if ghost is not None:
+        for ti in self._ghost_order(proj):
+            ghost = self._rect(r.datas[ti])
+            if ghost is None:
+                continue
             x0, y0, x1, y1 = ghost
-            rgb, depth = self._pass(r.datas[1], ghost, ghost=True)
+            rgb, depth = self._pass(ti, ghost)
             behind = self.depth[y0:y1, x0:x1]
             if solid is not None and solid_depth is not None and _overlap(solid, ghost):
                 behind = self._depth_with_solid(ghost, solid, solid_depth)
             blend_ghost(out, ghost, rgb, depth, behind)
+
+    def _ghost_order(self, proj: Projection) -> list[int]:
+        """Ghost tracks (1, 2, ...) farthest from the camera first (by their root body's position), so
+        nearer tints are blended over farther ones; ties keep the tracks' order."""
+        r = self.replay
+        dist = [float((d.geom_xpos[r.robot_geoms].mean(axis=0) - proj.pos) @ proj.forward) for d in r.datas[1:]]
+        return [1 + int(i) for i in np.argsort(-np.asarray(dist), kind="stable")]
 
     def _depth_with_solid(self, ghost: Rect, solid: Rect, solid_depth: NDArray[np.float32]) -> NDArray[np.float32]:
         """Static depth under the ghost's rectangle with the solid robot's nearer pixels in it."""
