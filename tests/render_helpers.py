@@ -30,3 +30,20 @@ def require_gl() -> None:
     reason = probe_renderer()
     if reason is not None:
         pytest.skip(f"no OpenGL backend can load here: {reason}")
+
+
+def spread_runs(model, *, overlap: bool = False):  # type: ignore[no-untyped-def]
+    """The short job's two runs and stand-ins for more, four runs in all, one beside the other to the
+    right of the line (below it in the overview, clear of the overlay): the open-loop ghost 0.3 m
+    off, an odometry-feedback ghost 0.6 m off and a run of a label the style table does not know
+    0.9 m off (0.66 m with ``overlap``: over the odometry ghost's edge)."""
+    from sim.tools.bench.render import moved_log
+
+    logs = short_job().logs
+    cl = logs["closed_loop"]
+    return {
+        "closed_loop": cl,
+        "open_loop": moved_log(model, logs["open_loop"], (0.0, -0.3)),
+        "closed_loop_odometry": moved_log(model, cl, (0.0, -0.6)),
+        "wobbly": moved_log(model, cl, (0.0, -0.66 if overlap else -0.9)),
+    }

@@ -7,26 +7,29 @@ reflections) a robot changes no pixel outside its own silhouette. So the world i
    and the colour and depth buffers are read back; the reference path is drawn onto the colour
    image with PIL. This image, the *floor layer*, also collects the trails: each frame adds only the
    segments its robots completed since the previous frame (a few pixels wide crops).
-2. **robot passes** (each frame): one per robot, each through a small viewport: MuJoCo draws only
-   that robot's dynamic geoms (a ghost opaque in its run's colour) for the rectangle its bounding
-   box projects to, and that rectangle is read back, colour and depth. A solid-robot pixel replaces
-   the floor-layer pixel where it is nearer than the static depth; a ghost pixel is blended over
-   what is there with alpha :data:`sim.viz.scene.GHOST_ALPHA` where it is at least as near as the
-   world and the solid robot. Ghosts are blended farthest first, as MuJoCo sorts translucent geoms,
-   so where two ghosts overlap the nearer tint lies on top.
+2. **robot passes** (each frame), each through a small viewport around the rectangle a robot's
+   bounding box projects to: MuJoCo draws the solid robot's dynamic geoms and the rectangle is read
+   back, colour and depth; a solid-robot pixel replaces the floor-layer pixel where it is nearer
+   than the static depth. Each ghost is drawn twice, translucent as in the full render, behind the
+   walls, obstacles and solid robot that overlap its rectangle drawn black (they hide what lies
+   behind them, as in MuJoCo): once in its colour, which gives its premultiplied colour ``P``, once
+   white and glowing, which gives its coverage ``1 - T``. MuJoCo's blend is linear in what lies
+   behind, so the ghost over the frame is ``P + T * frame``: MuJoCo's own pixels, within the
+   rounding of the two reads, with the trails under the tint. Ghosts whose rectangles overlap are
+   drawn together, so their geoms are sorted by depth together as in MuJoCo's full render.
 3. the unfinished segment of each trail and the text overlay.
 
 The picture matches a full MuJoCo render of the scene pixel for pixel on the world and the solid
-robot; a ghost differs only where its own parts overlap (one translucent layer here, several in
-MuJoCo's blended draw) and where ghosts overlap (sorted per robot here, per geom in MuJoCo). Trails
-pass under the ghosts' tints and the solid robot, as they would lie on the floor. Trails are drawn
-in frame order, whatever order the frames are asked in, so a frame's pixels do not depend on which
-frames were drawn before it.
+robot, and within the rounding of the reads on the ghosts. Trails pass under the ghosts' tints and
+the solid robot, as they would lie on the floor. Trails are drawn in frame order, whatever order
+the frames are asked in, so a frame's pixels do not depend on which frames were drawn before it.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Protocol
 
 import mujoco
@@ -51,14 +54,62 @@ from sim.viz.scene import (
 )
 
 Rect = tuple[int, int, int, int]  # x0, y0, x1, y1 [px], image coordinates, end exclusive
+GhostLayer = tuple[NDArray[np.float32], NDArray[np.float32]]  # premultiplied colour, transmission
 
 #: Pixels added around each robot's projected bounding box.
 RECT_MARGIN = 2
 
-#: Opacity of the ghost's one composited layer: MuJoCo blends the back and the front faces of each
-#: translucent part, each with :data:`sim.viz.scene.GHOST_ALPHA`, so a part over the floor shows
-#: ``1 - (1 - GHOST_ALPHA) ** 2`` of its colour.
-LAYER_ALPHA = 1.0 - (1.0 - GHOST_ALPHA) ** 2
+#: Emission of the white pass of a ghost: its colour saturates to white whatever the lights.
+WHITE_EMISSION = 10.0
+
+_BLACK = np.array([0.0, 0.0, 0.0, 1.0], dtype=np.float32)
+
+
+@dataclass(frozen=True)
+class Occluder:
+    """A static geom that can hide part of a ghost, as the ghost passes draw it (black).
+
+    Attributes:
+        type: Geom type (``mjtGeom``).
+        size: (3,) its scene size.
+        pos: (3,) position [m].
+        mat: (9,) orientation, row major.
+        dataid: Its scene ``dataid`` (the mesh drawn, for meshes).
+        rect: The rectangle of the image its bounding box projects to.
+    """
+
+    type: int
+    size: FloatArray
+    pos: FloatArray
+    mat: FloatArray
+    dataid: int
+    rect: Rect
+
+
+def static_occluders(model: mujoco.MjModel, scene: mujoco.MjvScene, proj: Projection) -> list[Occluder]:
+    """The static geoms of a scene (after ``mjv_updateScene`` of the static category) that can hide part
+    of a robot: all but planes, on which the robots stand and which hide nothing above them.
+
+    Args:
+        model: The scene's model (for each geom's bounding box).
+        scene: The static scene.
+        proj: Its view.
+    """
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+    out = []
+    for i in range(scene.ngeom):
+        g = scene.geoms[i]
+        if g.type == mujoco.mjtGeom.mjGEOM_PLANE or g.objtype != mujoco.mjtObj.mjOBJ_GEOM:
+            continue
+        aabb = model.geom_aabb[g.objid].reshape(2, 3)  # centre, half sizes in the geom's frame
+        mat = np.array(g.mat, dtype=float).reshape(3, 3)
+        corners = np.array(g.pos, dtype=float) + (aabb[0] + signs * aabb[1]) @ mat.T
+        px, ok = proj.pixels(corners)
+        lo, hi = np.floor(px.min(axis=0)).astype(int) - 1, np.ceil(px.max(axis=0)).astype(int) + 2
+        rect = (int(lo[0]), int(lo[1]), int(hi[0]), int(hi[1])) if ok.all() else (0, 0, proj.width, proj.height)
+        size, pos = np.array(g.size, dtype=float), np.array(g.pos, dtype=float)
+        out.append(Occluder(int(g.type), size, pos, mat.ravel(), int(g.dataid), rect))
+    return out
 
 
 class ComposedReplay(Protocol):
@@ -130,6 +181,33 @@ def _overlap(a: Rect, b: Rect) -> bool:
     return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
 
+def merge_rects(rects: Mapping[int, Rect]) -> list[tuple[Rect, list[int]]]:
+    """Group rectangles that overlap, directly or through others, or through the rectangle that
+    bounds a group: ghosts whose rectangles overlap are drawn together (their geoms sorted by
+    depth together, as in the full render) and groups never overlap, so their order does not matter.
+
+    Args:
+        rects: Key (a track) -> rectangle.
+
+    Returns:
+        (bounding rectangle, keys in the given order) per group, in the order of each group's first key.
+    """
+    groups = [(rect, [key]) for key, rect in rects.items()]
+    i = 0
+    while i < len(groups):
+        j = next((j for j in range(len(groups)) if j != i and _overlap(groups[i][0], groups[j][0])), None)
+        if j is None:
+            i += 1
+            continue
+        (a, ka), (b, kb) = groups[min(i, j)], groups[max(i, j)]
+        del groups[max(i, j)]
+        bound = (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3]))
+        groups[min(i, j)] = (bound, ka + kb)
+        i = 0  # the larger rectangle may now overlap one already passed
+    order = list(rects)
+    return [(rect, sorted(keys, key=order.index)) for rect, keys in groups]
+
+
 class RobotPass:
     """Draws one robot's dynamic geoms through a rectangle of the image, into a small viewport.
 
@@ -183,19 +261,70 @@ class RobotPass:
         y1 = min(h, int(np.ceil(px[:, 1].max())) + RECT_MARGIN + 1)
         return (x0, y0, x1, y1) if x1 > x0 and y1 > y0 else None
 
-    def draw(
-        self, data: mujoco.MjData, rect: Rect, tint: tuple[float, ...] | None = None
-    ) -> tuple[Frame, NDArray[np.float32]]:
-        """Draw the robot of ``data`` opaque, in its model's colours or all in ``tint`` (RGB(A) in
-        [0, 1], a ghost's colour, dimmed by :func:`sim.viz.scene.ghost_rgb`), as seen through
-        ``rect`` (after :meth:`view`) and read back its colour and depth, row 0 at the top."""
+    def draw(self, data: mujoco.MjData, rect: Rect) -> tuple[Frame, NDArray[np.float32]]:
+        """Draw the robot of ``data`` opaque, as seen through ``rect`` (after :meth:`view`), and read
+        back its colour and depth, row 0 at the top."""
         scn = self.scene
         scn.ngeom = 0
         mujoco.mjv_addGeoms(self.model, data, self.opt, self.pert, mujoco.mjtCatBit.mjCAT_DYNAMIC, scn)
-        if tint is not None:
-            color = (*ghost_rgb(tint, self._gain), 1.0)
-            for i in range(scn.ngeom):
-                scn.geoms[i].rgba = color
+        rgb, depth = self._render(rect, depth=True)
+        assert depth is not None
+        return rgb, depth
+
+    def draw_ghosts(
+        self,
+        datas: Sequence[mujoco.MjData],
+        rect: Rect,
+        colors: Sequence[tuple[float, ...]],
+        solid: mujoco.MjData | None = None,
+        occluders: Sequence[Occluder] = (),
+    ) -> GhostLayer:
+        """Draw robots as translucent ghosts, one colour each (as the full render does: dimmed by
+        :func:`sim.viz.scene.ghost_rgb`, alpha :data:`sim.viz.scene.GHOST_ALPHA`), through ``rect``,
+        in front of the ``occluders`` and the ``solid`` robot drawn black (they hide the ghosts' parts
+        behind them, as in the full render). Ghosts drawn together are sorted geom by geom, as in
+        the full render.
+
+        Args:
+            datas: The ghosts' states.
+            rect: The rectangle.
+            colors: RGB(A) in [0, 1] of each ghost.
+            solid: The solid robot's state, or None where it cannot hide a ghost.
+            occluders: Static geoms that can hide a ghost in ``rect``.
+
+        Returns:
+            (h, w, 3) premultiplied colour ``P`` and (h, w) transmission ``T`` in [0, 1] (1 where no
+            ghost covers a pixel): the ghosts over an image ``I`` are ``P + T * I``.
+        """
+        scn = self.scene
+        scn.ngeom = 0
+        add = mujoco.mjv_addGeoms
+        for o in occluders:
+            mujoco.mjv_initGeom(scn.geoms[scn.ngeom], o.type, o.size, o.pos, o.mat, _BLACK)
+            scn.geoms[scn.ngeom].dataid = o.dataid
+            scn.ngeom += 1
+        if solid is not None:
+            add(self.model, solid, self.opt, self.pert, mujoco.mjtCatBit.mjCAT_DYNAMIC, scn)
+        for i in range(scn.ngeom):  # black: they hide the ghosts' parts behind them and add nothing
+            g = scn.geoms[i]
+            g.rgba, g.emission, g.specular, g.reflectance = _BLACK, 0.0, 0.0, 0.0
+        ghosts = []
+        for data, color in zip(datas, colors, strict=True):
+            first = scn.ngeom
+            add(self.model, data, self.opt, self.pert, mujoco.mjtCatBit.mjCAT_DYNAMIC, scn)
+            tint = (*ghost_rgb(color, self._gain), GHOST_ALPHA)
+            for i in range(first, scn.ngeom):
+                scn.geoms[i].rgba = tint
+                ghosts.append(scn.geoms[i])
+        premult = self._render(rect, depth=False)[0].astype(np.float32)
+        for g in ghosts:
+            g.rgba, g.emission = (1.0, 1.0, 1.0, GHOST_ALPHA), WHITE_EMISSION
+        cover = self._render(rect, depth=False)[0][..., 0]
+        return premult, 1.0 - cover.astype(np.float32) / 255.0
+
+    def _render(self, rect: Rect, *, depth: bool) -> tuple[Frame, NDArray[np.float32] | None]:
+        """Draw the scene's geoms through ``rect`` and read back colour (and depth), row 0 at the top."""
+        scn = self.scene
         x0, y0, x1, y1 = rect
         w, h = self.renderer.width, self.renderer.height
         for eye, (center, half_w, bottom, top) in zip(scn.camera, self._frustum, strict=True):
@@ -206,26 +335,24 @@ class RobotPass:
             eye.frustum_bottom = top - y1 * dv
         self.renderer.draw(scn, (x1 - x0, y1 - y0))
         rgb = np.empty((y1 - y0, x1 - x0, 3), np.uint8)
-        depth = np.empty((y1 - y0, x1 - x0), np.float32)
-        self.renderer.read((0, h - (y1 - y0), x1 - x0, h), rgb, depth)  # the viewport's corner
-        return rgb, depth
+        z = np.empty((y1 - y0, x1 - x0), np.float32) if depth else None
+        self.renderer.read((0, h - (y1 - y0), x1 - x0, h), rgb, z)  # the viewport's corner
+        return rgb, z
 
 
-def blend_ghost(out: Frame, rect: Rect, rgb: Frame, depth: NDArray[np.float32], behind: NDArray[np.float32]) -> None:
-    """Blend a ghost pass over ``out`` where it is at least as near as ``behind``.
+def blend_ghost(out: Frame, rect: Rect, premult: NDArray[np.float32], transmission: NDArray[np.float32]) -> None:
+    """Lay a ghost over ``out`` in place: ``P + T * out`` in its rectangle (see :meth:`RobotPass.draw_ghost`).
 
     Args:
-        out: (H, W, 3) image, changed in place.
-        rect: The pass's rectangle (x0, y0, x1, y1).
-        rgb: (h, w, 3) the ghost drawn opaque.
-        depth: (h, w) its depth (reversed: larger is nearer, 0 where nothing was drawn).
-        behind: (h, w) depth of what is already in ``out`` there.
+        out: (H, W, 3) image.
+        rect: The ghost's rectangle (x0, y0, x1, y1).
+        premult: (h, w, 3) its premultiplied colour ``P`` [0, 255].
+        transmission: (h, w) its transmission ``T`` in [0, 1].
     """
     x0, y0, x1, y1 = rect
-    near = (depth >= behind) & (depth > 0.0)  # ties to the ghost, drawn last in MuJoCo too
     dst = out[y0:y1, x0:x1]
-    mixed = LAYER_ALPHA * rgb[near].astype(np.float32) + (1.0 - LAYER_ALPHA) * dst[near]
-    dst[near] = np.rint(mixed).astype(np.uint8)
+    mixed = premult + transmission[..., None] * dst
+    np.copyto(dst, np.clip(np.rint(mixed), 0, 255).astype(np.uint8))
 
 
 class FixedViewCompositor:
@@ -258,6 +385,7 @@ class FixedViewCompositor:
         static = mujoco.mjtCatBit.mjCAT_STATIC
         mujoco.mjv_updateScene(m, replay.datas[0], self._opt, self._pert, replay.camera, static, self._scene)
         self.proj = Projection.from_scene(self._scene, w, h)
+        self.occluders = static_occluders(m, self._scene, self.proj)
         rgb = np.empty((h, w, 3), np.uint8)
         depth = np.empty((h, w), np.float32)
         renderer.draw(self._scene)
@@ -297,51 +425,32 @@ class FixedViewCompositor:
     def _rect(self, data: mujoco.MjData) -> Rect | None:
         return self.passes.rect(self.proj, data, self.replay.robot_geoms, self.replay.robot_corners)
 
-    def _pass(self, track: int, rect: Rect) -> tuple[Frame, NDArray[np.float32]]:
-        """Draw track ``track``'s robot through ``rect``: the solid one (track 0) in its model's
-        colours, a ghost in its run's colour."""
+    def _pass(self, rect: Rect) -> tuple[Frame, NDArray[np.float32]]:
+        """Draw the solid robot through ``rect``: colour and depth."""
+        return self.passes.draw(self.replay.datas[0], rect)
+
+    def _ghost_pass(self, tracks: Sequence[int], rect: Rect, solid: Rect | None) -> GhostLayer:
+        """Draw the ghosts of ``tracks`` through ``rect`` (the solid robot hiding them where ``solid``
+        overlaps): their premultiplied colour and transmission."""
         r = self.replay
-        return self.passes.draw(r.datas[track], rect, None if track == 0 else r.tracks[track].rgba)
+        occluder = r.datas[0] if solid is not None and _overlap(solid, rect) else None
+        statics = [o for o in self.occluders if _overlap(o.rect, rect)]
+        datas = [r.datas[t] for t in tracks]
+        return self.passes.draw_ghosts(datas, rect, [r.tracks[t].rgba for t in tracks], occluder, statics)
 
     def _robots(self, out: Frame) -> None:
         r = self.replay
-        proj = self.passes.view(r.datas[0], r.camera)  # lights and eyes of this frame
+        self.passes.view(r.datas[0], r.camera)  # lights and eyes of this frame
         solid = self._rect(r.datas[0])
-        solid_depth = None
         if solid is not None:
             x0, y0, x1, y1 = solid
-            rgb, solid_depth = self._pass(0, solid)
+            rgb, solid_depth = self._pass(solid)
             # reversed depth (MuJoCo's default): larger is nearer, 0 where nothing was drawn
             near = solid_depth > self.depth[y0:y1, x0:x1]
             out[y0:y1, x0:x1][near] = rgb[near]
-        for ti in self._ghost_order(proj):
-            ghost = self._rect(r.datas[ti])
-            if ghost is None:
-                continue
-            x0, y0, x1, y1 = ghost
-            rgb, depth = self._pass(ti, ghost)
-            behind = self.depth[y0:y1, x0:x1]
-            if solid is not None and solid_depth is not None and _overlap(solid, ghost):
-                behind = self._depth_with_solid(ghost, solid, solid_depth)
-            blend_ghost(out, ghost, rgb, depth, behind)
-
-    def _ghost_order(self, proj: Projection) -> list[int]:
-        """Ghost tracks (1, 2, ...) farthest from the camera first (by their root body's position), so
-        nearer tints are blended over farther ones; ties keep the tracks' order."""
-        r = self.replay
-        dist = [float((d.geom_xpos[r.robot_geoms].mean(axis=0) - proj.pos) @ proj.forward) for d in r.datas[1:]]
-        return [1 + int(i) for i in np.argsort(-np.asarray(dist), kind="stable")]
-
-    def _depth_with_solid(self, ghost: Rect, solid: Rect, solid_depth: NDArray[np.float32]) -> NDArray[np.float32]:
-        """Static depth under the ghost's rectangle with the solid robot's nearer pixels in it."""
-        gx0, gy0, gx1, gy1 = ghost
-        sx0, sy0 = solid[0], solid[1]
-        behind = self.depth[gy0:gy1, gx0:gx1].copy()
-        ix0, iy0 = max(gx0, sx0), max(gy0, sy0)
-        ix1, iy1 = min(gx1, solid[2]), min(gy1, solid[3])
-        sub = behind[iy0 - gy0 : iy1 - gy0, ix0 - gx0 : ix1 - gx0]
-        np.maximum(sub, solid_depth[iy0 - sy0 : iy1 - sy0, ix0 - sx0 : ix1 - sx0], out=sub)
-        return behind
+        rects = {t: self._rect(r.datas[t]) for t in range(1, len(r.datas))}
+        for rect, tracks in merge_rects({t: rc for t, rc in rects.items() if rc is not None}):
+            blend_ghost(out, rect, *self._ghost_pass(tracks, rect, solid))
 
     # ---- frames ---------------------------------------------------------------------------------
     def frame(self, k: int, out: Frame) -> Frame:
