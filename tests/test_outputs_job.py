@@ -112,3 +112,24 @@ def test_video_path_moves_every_output(tmp_path: Path, monkeypatch: pytest.Monke
     names = sorted(p.name for p in (tmp_path / "out").iterdir())
     assert names == ["run-commands.png", "run-errors.png", "run-world.png", "run.json", "run.mp4"]
     assert not (tmp_path / "renders").exists()
+
+
+def test_the_estimation_plot_is_planned_beside_the_others(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Its name is decided and checked before running like every target; a job that gives no estimates
+    does not write it (see test_default_outputs_then_no_clobber)."""
+    from planning.errors import OutputExistsError
+    from sim.cli.job_outputs import plan_outputs
+    from sim.cli.main import build_parser
+
+    monkeypatch.chdir(tmp_path)
+    args = build_parser().parse_args([*FAST, "--no-video"])
+    plan = plan_outputs(args, scenario="open", source="line")
+    assert list(plan.plots) == ["world", "errors", "commands", "estimation"]
+    assert plan.plots["estimation"] == Path("renders/open-line-estimation.png")
+    stale = tmp_path / "renders" / "open-line-estimation.png"
+    stale.parent.mkdir()
+    stale.write_bytes(b"x")
+    with pytest.raises(OutputExistsError, match=r"open-line-estimation\.png"):
+        plan_outputs(args, scenario="open", source="line")
+    assert main([*FAST, "--no-video"]) == 2
+    assert stale.read_bytes() == b"x"
