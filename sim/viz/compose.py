@@ -64,6 +64,11 @@ WHITE_EMISSION = 10.0
 
 _BLACK = np.array([0.0, 0.0, 0.0, 1.0], dtype=np.float32)
 
+#: How far the occluders of a ghost pass are set back along the view [m]: where a ghost's face and
+#: the solid robot's lie in one plane (two runs at the same pose) the ghost shows, in every frame
+#: alike, rather than a pattern of depth rounding that changes with the pixel's place.
+OCCLUDER_SETBACK = 1e-5
+
 
 @dataclass(frozen=True)
 class Occluder:
@@ -231,6 +236,8 @@ class RobotPass:
         self.scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
         self._gain = light_gain(renderer.model)
         self._frustum: list[tuple[float, float, float, float]] = []
+        self._queued: list[tuple[int, int, int, int]] = []  # x, y, width, height in the buffer [px]
+        self._results: list[tuple[Frame, NDArray[np.float32]]] = []
 
     def view(self, data: mujoco.MjData, camera: mujoco.MjvCamera) -> Projection:
         """Take the camera and lights of a frame (no geoms); returns the full view's projection."""
@@ -261,29 +268,31 @@ class RobotPass:
         y1 = min(h, int(np.ceil(px[:, 1].max())) + RECT_MARGIN + 1)
         return (x0, y0, x1, y1) if x1 > x0 and y1 > y0 else None
 
-    def draw(self, data: mujoco.MjData, rect: Rect) -> tuple[Frame, NDArray[np.float32]]:
-        """Draw the robot of ``data`` opaque, as seen through ``rect`` (after :meth:`view`), and read
-        back its colour and depth, row 0 at the top."""
+    # ---- queued passes: drawn side by side into the off-screen buffer, read back at once -------------
+    def queue(self, data: mujoco.MjData, rect: Rect) -> int:
+        """Queue the robot of ``data``, opaque, as seen through ``rect`` (after :meth:`view`).
+
+        Returns:
+            Its slot in what :meth:`read` returns (colour and depth).
+        """
         scn = self.scene
         scn.ngeom = 0
         mujoco.mjv_addGeoms(self.model, data, self.opt, self.pert, mujoco.mjtCatBit.mjCAT_DYNAMIC, scn)
-        rgb, depth = self._render(rect, depth=True)
-        assert depth is not None
-        return rgb, depth
+        return self._draw(rect)
 
-    def draw_ghosts(
+    def queue_ghosts(
         self,
         datas: Sequence[mujoco.MjData],
         rect: Rect,
         colors: Sequence[tuple[float, ...]],
         solid: mujoco.MjData | None = None,
         occluders: Sequence[Occluder] = (),
-    ) -> GhostLayer:
-        """Draw robots as translucent ghosts, one colour each (as the full render does: dimmed by
+    ) -> tuple[int, int]:
+        """Queue robots as translucent ghosts, one colour each (as the full render does: dimmed by
         :func:`sim.viz.scene.ghost_rgb`, alpha :data:`sim.viz.scene.GHOST_ALPHA`), through ``rect``,
         in front of the ``occluders`` and the ``solid`` robot drawn black (they hide the ghosts' parts
         behind them, as in the full render). Ghosts drawn together are sorted geom by geom, as in
-        the full render.
+        the full render. Two passes: in their colours, then white and glowing.
 
         Args:
             datas: The ghosts' states.
@@ -293,8 +302,8 @@ class RobotPass:
             occluders: Static geoms that can hide a ghost in ``rect``.
 
         Returns:
-            (h, w, 3) premultiplied colour ``P`` and (h, w) transmission ``T`` in [0, 1] (1 where no
-            ghost covers a pixel): the ghosts over an image ``I`` are ``P + T * I``.
+            The slots of the two passes in what :meth:`read` returns; :func:`ghost_layer` of their
+            colours is the ghosts' premultiplied colour and transmission.
         """
         scn = self.scene
         scn.ngeom = 0
@@ -305,9 +314,11 @@ class RobotPass:
             scn.ngeom += 1
         if solid is not None:
             add(self.model, solid, self.opt, self.pert, mujoco.mjtCatBit.mjCAT_DYNAMIC, scn)
+        back = OCCLUDER_SETBACK * np.asarray(scn.camera[0].forward, dtype=np.float32)
         for i in range(scn.ngeom):  # black: they hide the ghosts' parts behind them and add nothing
             g = scn.geoms[i]
             g.rgba, g.emission, g.specular, g.reflectance = _BLACK, 0.0, 0.0, 0.0
+            g.pos[:] = g.pos + back
         ghosts = []
         for data, color in zip(datas, colors, strict=True):
             first = scn.ngeom
@@ -316,28 +327,89 @@ class RobotPass:
             for i in range(first, scn.ngeom):
                 scn.geoms[i].rgba = tint
                 ghosts.append(scn.geoms[i])
-        premult = self._render(rect, depth=False)[0].astype(np.float32)
+        tinted = self._draw(rect)
         for g in ghosts:
             g.rgba, g.emission = (1.0, 1.0, 1.0, GHOST_ALPHA), WHITE_EMISSION
-        cover = self._render(rect, depth=False)[0][..., 0]
-        return premult, 1.0 - cover.astype(np.float32) / 255.0
+        lights, scn.nlight = scn.nlight, 0  # white whatever the light: no lighting to compute
+        white = self._draw(rect)
+        scn.nlight = lights
+        return tinted, white
 
-    def _render(self, rect: Rect, *, depth: bool) -> tuple[Frame, NDArray[np.float32] | None]:
-        """Draw the scene's geoms through ``rect`` and read back colour (and depth), row 0 at the top."""
-        scn = self.scene
+    def read(self) -> list[tuple[Frame, NDArray[np.float32]]]:
+        """Colour and depth (row 0 at the top) of every pass queued since the last read, by slot."""
+        self._flush()
+        out, self._results = self._results, []
+        return out
+
+    def draw(self, data: mujoco.MjData, rect: Rect) -> tuple[Frame, NDArray[np.float32]]:
+        """:meth:`queue` and :meth:`read` one robot: its colour and depth."""
+        slot = self.queue(data, rect)
+        return self.read()[slot]
+
+    def draw_ghosts(
+        self,
+        datas: Sequence[mujoco.MjData],
+        rect: Rect,
+        colors: Sequence[tuple[float, ...]],
+        solid: mujoco.MjData | None = None,
+        occluders: Sequence[Occluder] = (),
+    ) -> GhostLayer:
+        """:meth:`queue_ghosts` and :meth:`read`: the ghosts' :func:`ghost_layer`."""
+        tinted, white = self.queue_ghosts(datas, rect, colors, solid, occluders)
+        res = self.read()
+        return ghost_layer(res[tinted][0], res[white][0])
+
+    def _draw(self, rect: Rect) -> int:
+        """Draw the scene's geoms as seen through ``rect`` into the next free place of the off-screen
+        buffer (rows of places from its bottom-left corner; read back first when it is full)."""
         x0, y0, x1, y1 = rect
         w, h = self.renderer.width, self.renderer.height
-        for eye, (center, half_w, bottom, top) in zip(scn.camera, self._frustum, strict=True):
+        pw, ph = x1 - x0, y1 - y0
+        if self._x + pw > w:  # a new row
+            self._x, self._y, self._row = 0, self._y + self._row, 0
+        if self._y + ph > h:
+            self._flush()
+        for eye, (center, half_w, bottom, top) in zip(self.scene.camera, self._frustum, strict=True):
             du = 2.0 * half_w / w
             dv = (top - bottom) / h
             eye.frustum_center = center - half_w + 0.5 * (x0 + x1) * du
             eye.frustum_top = top - y0 * dv
             eye.frustum_bottom = top - y1 * dv
-        self.renderer.draw(scn, (x1 - x0, y1 - y0))
-        rgb = np.empty((y1 - y0, x1 - x0, 3), np.uint8)
-        z = np.empty((y1 - y0, x1 - x0), np.float32) if depth else None
-        self.renderer.read((0, h - (y1 - y0), x1 - x0, h), rgb, z)  # the viewport's corner
-        return rgb, z
+        self.renderer.draw(self.scene, (pw, ph), origin=(self._x, self._y))
+        self._queued.append((self._x, self._y, pw, ph))
+        self._x += pw
+        self._row = max(self._row, ph)
+        return len(self._results) + len(self._queued) - 1
+
+    def _flush(self) -> None:
+        """Read back every queued place at once (one read costs far more than its pixels)."""
+        if self._queued:
+            h = self.renderer.height
+            top = max(y + ph for _, y, _, ph in self._queued)
+            right = max(x + pw for x, _, pw, _ in self._queued)
+            rgb = np.empty((top, right, 3), np.uint8)
+            depth = np.empty((top, right), np.float32)
+            self.renderer.read((0, h - top, right, h), rgb, depth)  # rows flipped: row 0 is GL row top - 1
+            for x, y, pw, ph in self._queued:
+                rows = slice(top - y - ph, top - y)
+                self._results.append((rgb[rows, x : x + pw], depth[rows, x : x + pw]))
+        self._queued = []
+        self._x = self._y = self._row = 0
+
+    _x: int = 0
+    _y: int = 0
+    _row: int = 0
+
+
+def ghost_layer(tinted: Frame, white: Frame) -> GhostLayer:
+    """A ghost pass pair as premultiplied colour ``P`` ((h, w, 3), [0, 255]) and transmission ``T``
+    ((h, w), in [0, 1], 1 where no ghost is): the ghosts over an image ``I`` are ``P + T * I``.
+
+    Args:
+        tinted: (h, w, 3) the ghosts in their colours over black.
+        white: (h, w, 3) the ghosts white and glowing over black (their coverage ``1 - T``).
+    """
+    return tinted.astype(np.float32), 1.0 - white[..., 0].astype(np.float32) / 255.0
 
 
 def blend_ghost(out: Frame, rect: Rect, premult: NDArray[np.float32], transmission: NDArray[np.float32]) -> None:
@@ -432,25 +504,35 @@ class FixedViewCompositor:
     def _ghost_pass(self, tracks: Sequence[int], rect: Rect, solid: Rect | None) -> GhostLayer:
         """Draw the ghosts of ``tracks`` through ``rect`` (the solid robot hiding them where ``solid``
         overlaps): their premultiplied colour and transmission."""
+        tinted, white = self._queue_ghosts(tracks, rect, solid)
+        res = self.passes.read()
+        return ghost_layer(res[tinted][0], res[white][0])
+
+    def _queue_ghosts(self, tracks: Sequence[int], rect: Rect, solid: Rect | None) -> tuple[int, int]:
         r = self.replay
         occluder = r.datas[0] if solid is not None and _overlap(solid, rect) else None
         statics = [o for o in self.occluders if _overlap(o.rect, rect)]
         datas = [r.datas[t] for t in tracks]
-        return self.passes.draw_ghosts(datas, rect, [r.tracks[t].rgba for t in tracks], occluder, statics)
+        return self.passes.queue_ghosts(datas, rect, [r.tracks[t].rgba for t in tracks], occluder, statics)
 
     def _robots(self, out: Frame) -> None:
+        """Draw every robot's passes, read them back at once, lay them over ``out``."""
         r = self.replay
         self.passes.view(r.datas[0], r.camera)  # lights and eyes of this frame
         solid = self._rect(r.datas[0])
+        solid_slot = self.passes.queue(r.datas[0], solid) if solid is not None else -1
+        rects = {t: self._rect(r.datas[t]) for t in range(1, len(r.datas))}
+        groups = merge_rects({t: rc for t, rc in rects.items() if rc is not None})
+        slots = [self._queue_ghosts(tracks, rect, solid) for rect, tracks in groups]
+        res = self.passes.read()
         if solid is not None:
             x0, y0, x1, y1 = solid
-            rgb, solid_depth = self._pass(solid)
+            rgb, solid_depth = res[solid_slot]
             # reversed depth (MuJoCo's default): larger is nearer, 0 where nothing was drawn
             near = solid_depth > self.depth[y0:y1, x0:x1]
             out[y0:y1, x0:x1][near] = rgb[near]
-        rects = {t: self._rect(r.datas[t]) for t in range(1, len(r.datas))}
-        for rect, tracks in merge_rects({t: rc for t, rc in rects.items() if rc is not None}):
-            blend_ghost(out, rect, *self._ghost_pass(tracks, rect, solid))
+        for (rect, _), (tinted, white) in zip(groups, slots, strict=True):
+            blend_ghost(out, rect, *ghost_layer(res[tinted][0], res[white][0]))
 
     # ---- frames ---------------------------------------------------------------------------------
     def frame(self, k: int, out: Frame) -> Frame:
