@@ -45,6 +45,7 @@ from sim.viz.scene import (
     Frame,
     Projection,
     Track,
+    aabb_corners,
     geom_box_corners,
     ghost_rgb,
     light_gain,
@@ -91,28 +92,28 @@ class Occluder:
     rect: Rect
 
 
-def static_occluders(model: mujoco.MjModel, scene: mujoco.MjvScene, proj: Projection) -> list[Occluder]:
+def static_occluders(
+    model: mujoco.MjModel, data: mujoco.MjData, scene: mujoco.MjvScene, proj: Projection
+) -> list[Occluder]:
     """The static geoms of a scene (after ``mjv_updateScene`` of the static category) that can hide part
     of a robot: all but planes, on which the robots stand and which hide nothing above them.
 
     Args:
-        model: The scene's model (for each geom's bounding box).
+        model: The scene's model.
+        data: A state of it (after kinematics: where the static geoms are).
         scene: The static scene.
         proj: Its view.
     """
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
     out = []
     for i in range(scene.ngeom):
         g = scene.geoms[i]
         if g.type == mujoco.mjtGeom.mjGEOM_PLANE or g.objtype != mujoco.mjtObj.mjOBJ_GEOM:
             continue
-        aabb = model.geom_aabb[g.objid].reshape(2, 3)  # centre, half sizes in the geom's frame
-        mat = np.array(g.mat, dtype=float).reshape(3, 3)
-        corners = np.array(g.pos, dtype=float) + (aabb[0] + signs * aabb[1]) @ mat.T
-        px, ok = proj.pixels(corners)
+        ids = np.array([g.objid], dtype=np.int64)
+        px, ok = proj.pixels(geom_box_corners(data, ids, aabb_corners(model, ids))[0])
         lo, hi = np.floor(px.min(axis=0)).astype(int) - 1, np.ceil(px.max(axis=0)).astype(int) + 2
         rect = (int(lo[0]), int(lo[1]), int(hi[0]), int(hi[1])) if ok.all() else (0, 0, proj.width, proj.height)
-        size, pos = np.array(g.size, dtype=float), np.array(g.pos, dtype=float)
+        size, pos, mat = (np.array(v, dtype=float) for v in (g.size, g.pos, g.mat))
         out.append(Occluder(int(g.type), size, pos, mat.ravel(), int(g.dataid), rect))
     return out
 
@@ -214,10 +215,11 @@ def merge_rects(rects: Mapping[int, Rect]) -> list[tuple[Rect, list[int]]]:
 
 
 class RobotPass:
-    """Draws one robot's dynamic geoms through a rectangle of the image, into a small viewport.
+    """Draws robots' dynamic geoms through rectangles of the image, each into a small viewport.
 
     The frustum is narrowed to the rectangle and the viewport shrunk to its size, so MuJoCo clears
-    and rasterises only those pixels (the same pixel centres as the full view).
+    and rasterises only those pixels (the same pixel centres as the full view). The passes of a
+    frame are queued side by side in the off-screen buffer and read back at once (:meth:`read`).
 
     Args:
         model: The model to draw (the replay's ``ghost_model``: geoms inside others left out).
@@ -303,7 +305,8 @@ class RobotPass:
 
         Returns:
             The slots of the two passes in what :meth:`read` returns; :func:`ghost_layer` of their
-            colours is the ghosts' premultiplied colour and transmission.
+            colours is the ghosts' premultiplied colour and transmission (see
+            :meth:`FixedViewCompositor._ghost_pass`).
         """
         scn = self.scene
         scn.ngeom = 0
@@ -345,19 +348,6 @@ class RobotPass:
         """:meth:`queue` and :meth:`read` one robot: its colour and depth."""
         slot = self.queue(data, rect)
         return self.read()[slot]
-
-    def draw_ghosts(
-        self,
-        datas: Sequence[mujoco.MjData],
-        rect: Rect,
-        colors: Sequence[tuple[float, ...]],
-        solid: mujoco.MjData | None = None,
-        occluders: Sequence[Occluder] = (),
-    ) -> GhostLayer:
-        """:meth:`queue_ghosts` and :meth:`read`: the ghosts' :func:`ghost_layer`."""
-        tinted, white = self.queue_ghosts(datas, rect, colors, solid, occluders)
-        res = self.read()
-        return ghost_layer(res[tinted][0], res[white][0])
 
     def _draw(self, rect: Rect) -> int:
         """Draw the scene's geoms as seen through ``rect`` into the next free place of the off-screen
@@ -413,7 +403,7 @@ def ghost_layer(tinted: Frame, white: Frame) -> GhostLayer:
 
 
 def blend_ghost(out: Frame, rect: Rect, premult: NDArray[np.float32], transmission: NDArray[np.float32]) -> None:
-    """Lay a ghost over ``out`` in place: ``P + T * out`` in its rectangle (see :meth:`RobotPass.draw_ghost`).
+    """Lay ghosts over ``out`` in place: ``P + T * out`` in their rectangle (see :func:`ghost_layer`).
 
     Args:
         out: (H, W, 3) image.
@@ -457,7 +447,7 @@ class FixedViewCompositor:
         static = mujoco.mjtCatBit.mjCAT_STATIC
         mujoco.mjv_updateScene(m, replay.datas[0], self._opt, self._pert, replay.camera, static, self._scene)
         self.proj = Projection.from_scene(self._scene, w, h)
-        self.occluders = static_occluders(m, self._scene, self.proj)
+        self.occluders = static_occluders(m, replay.datas[0], self._scene, self.proj)
         rgb = np.empty((h, w, 3), np.uint8)
         depth = np.empty((h, w), np.float32)
         renderer.draw(self._scene)

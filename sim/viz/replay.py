@@ -54,6 +54,7 @@ from sim.viz.scene import (
     Projection,
     RunStyle,
     Track,
+    aabb_corners,
     enclosed_geoms,
     geom_box_corners,
     ghost_rgb,
@@ -270,11 +271,8 @@ class Replay:
         m = self.model
         base = self._base_body()
         in_robot = [g for g in range(m.ngeom) if self._in_subtree(int(m.geom_bodyid[g]), base)]
-        ids = [g for g in in_robot if m.geom_group[g] < 3 and m.geom_rgba[g, 3] > 0]
-        aabb = m.geom_aabb[ids].reshape(-1, 2, 3)  # center, half sizes
-        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
-        corners = aabb[:, None, 0, :] + signs[None] * aabb[:, None, 1, :]
-        return np.asarray(ids, dtype=np.int64), corners
+        ids = np.asarray([g for g in in_robot if m.geom_group[g] < 3 and m.geom_rgba[g, 3] > 0], dtype=np.int64)
+        return ids, aabb_corners(m, ids)
 
     def _base_body(self) -> int:
         m = self.model

@@ -230,6 +230,16 @@ def polylines(px: FloatArray, ok: NDArray[np.bool_]) -> list[list[float]]:
     return runs
 
 
+#: The 8 sign combinations of a box's corners, x slowest.
+_SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+
+
+def aabb_corners(model: mujoco.MjModel, geoms: NDArray[np.int64]) -> FloatArray:
+    """(G, 8, 3) corners of the bounding box of each of ``geoms`` in its own frame [m] (``geom_aabb``)."""
+    aabb = model.geom_aabb[geoms].reshape(-1, 2, 3)  # centre, half sizes
+    return np.asarray(aabb[:, None, 0, :] + _SIGNS[None] * aabb[:, None, 1, :])
+
+
 def geom_box_corners(data: mujoco.MjData, geoms: NDArray[np.int64], corners: FloatArray) -> FloatArray:
     """World positions of the bounding-box corners of ``geoms``.
 
