@@ -12,7 +12,20 @@ import pytest
 from sim.cli.main import main
 from tests.render_helpers import require_gl
 
-FAST = ["simulate", "--reference", "line", "--fps", "5", "--size", "160x120", "--quiet"]
+#: Two runs (the fused closed loop and the open loop), so that no third robot stands where the pixel
+#: checks look for the closed-loop one.
+FAST = [
+    "simulate",
+    "--reference",
+    "line",
+    "--runs",
+    "closed_loop,open_loop",
+    "--fps",
+    "5",
+    "--size",
+    "160x120",
+    "--quiet",
+]
 
 
 def snapshot(folder: Path) -> dict[str, tuple[bytes, int]]:
@@ -31,12 +44,13 @@ def robot_pixel(record: dict, which: str) -> np.ndarray:
     from planning.core.robot import load_robot
     from planning.scenario import load_scenario
     from sim.physics.simulator import Simulator
+    from sim.pipeline.runs import RunKind
     from sim.pipeline.simulate import simulate_reference
     from sim.viz.renderer import SceneRenderer
     from sim.viz.replay import RenderSettings, Replay
     from sim.viz.scene import Projection
 
-    job = simulate_reference("open", reference="line")
+    job = simulate_reference("open", reference="line", runs=(RunKind.CLOSED_LOOP, RunKind.OPEN_LOOP))
     model = Simulator(load_robot("turtlebot3"), load_scenario("open").world).model
     replay = Replay(model, job.trajectory, job.logs, RenderSettings(width=160, height=120, fps=5.0))
     k = 0 if which == "first" else replay.n_frames - 1
@@ -112,3 +126,24 @@ def test_video_path_moves_every_output(tmp_path: Path, monkeypatch: pytest.Monke
     names = sorted(p.name for p in (tmp_path / "out").iterdir())
     assert names == ["run-commands.png", "run-errors.png", "run-world.png", "run.json", "run.mp4"]
     assert not (tmp_path / "renders").exists()
+
+
+def test_the_estimation_plot_is_planned_beside_the_others(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Its name is decided and checked before running like every target; a job that gives no estimates
+    does not write it (see test_default_outputs_then_no_clobber)."""
+    from planning.errors import OutputExistsError
+    from sim.cli.job_outputs import plan_outputs
+    from sim.cli.main import build_parser
+
+    monkeypatch.chdir(tmp_path)
+    args = build_parser().parse_args([*FAST, "--no-video"])
+    plan = plan_outputs(args, scenario="open", source="line")
+    assert list(plan.plots) == ["world", "errors", "commands", "estimation"]
+    assert plan.plots["estimation"] == Path("renders/open-line-estimation.png")
+    stale = tmp_path / "renders" / "open-line-estimation.png"
+    stale.parent.mkdir()
+    stale.write_bytes(b"x")
+    with pytest.raises(OutputExistsError, match=r"open-line-estimation\.png"):
+        plan_outputs(args, scenario="open", source="line")
+    assert main([*FAST, "--no-video"]) == 2
+    assert stale.read_bytes() == b"x"

@@ -6,13 +6,18 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from matplotlib.colors import to_rgba
 from PIL import Image
 
+from planning.core.geometry import wrap_angle
 from planning.core.world import Box, Circle, Ellipse, Polygon, World
-from planning.errors import OutputExistsError
+from planning.errors import ConfigError, OutputExistsError
+from sim.physics.metrics import heading_errors, position_errors
 from sim.viz.plots.draw import save_figure
-from sim.viz.plots.run import PLOTS, commands_figure, errors_figure, job_figures, world_figure
-from tests.render_helpers import short_job
+from sim.viz.plots.estimation import EstimationSeries, estimation_figure
+from sim.viz.plots.run import ESTIMATION_PLOT, PLOTS, commands_figure, errors_figure, job_figures, world_figure
+from sim.viz.scene import FALLBACK_RGBA, RUN_STYLES, run_styles
+from tests.render_helpers import short_job, spread_runs
 
 
 def png_is_nontrivial(path: Path) -> None:
@@ -75,3 +80,112 @@ def test_save_figure_never_overwrites(tmp_path: Path) -> None:
     assert out.read_bytes() == b"x"
     save_figure(errors_figure(job.logs), out, overwrite=True)
     png_is_nontrivial(out)
+
+
+def test_world_and_error_figures_draw_every_run_in_its_colour() -> None:
+    from sim.physics.simulator import Simulator
+
+    job = short_job()
+    logs = spread_runs(Simulator(job.robot, job.scenario.world).model)
+    styles = run_styles(logs)
+    ax_world = world_figure(job.scenario.world, job.trajectory, logs).axes[0]
+    ax_p, ax_h = errors_figure(logs).axes
+    for label, log in logs.items():
+        st = styles[label]
+        for ax, y in ((ax_world, log.pose[:, 1]), (ax_p, position_errors(log)), (ax_h, heading_errors(log))):
+            line = next(ln for ln in ax.lines if ln.get_label() == st.name)
+            assert to_rgba(line.get_color()) == pytest.approx(st.rgba)
+            assert line.get_linestyle() == st.linestyle
+            np.testing.assert_array_equal(line.get_ydata(), y)
+    assert styles["closed_loop_odometry"].rgba == RUN_STYLES["closed_loop_odometry"].rgba
+    assert styles["wobbly"].rgba == FALLBACK_RGBA[0]
+    assert len({styles[k].rgba for k in logs}) == 4
+
+
+# ---- estimation ---------------------------------------------------------------------------------
+
+T = np.linspace(0.0, 10.0, 101)
+#: A truth linear in time between samples (interpolation is exact); the heading wraps at t = pi / 0.7.
+TRUTH = np.column_stack([0.2 * T, -0.1 * T, wrap_angle(0.7 * T)])
+
+
+def _estimation() -> EstimationSeries:
+    cl = TRUTH + np.column_stack([0.1 * np.sin(T), np.full_like(T, -0.05), np.full_like(T, 0.02)])
+    cl[:, 2] = wrap_angle(cl[:, 2])  # across the wrap the stored heading jumps, its error does not
+    odo = TRUTH + np.column_stack([0.01 * T, 0.02 * T, -0.003 * T])
+    sig = np.column_stack([0.05 + 0.01 * T, 0.04 + 0.0 * T, 0.01 + 0.002 * T])
+    cov = np.zeros((T.size, 3, 3))
+    cov[:, [0, 1, 2], [0, 1, 2]] = sig**2
+    cov[:, 0, 1] = cov[:, 1, 0] = 0.3 * sig[:, 0] * sig[:, 1]  # correlations do not change the bands
+    tf = np.array([0.55, 3.3, 4.45, 7.05])  # 4.45 s: between samples either side of the wrap
+    offsets = np.array([[0.03, -0.04, 0.1], [-0.02, 0.01, -0.05], [0.0, 0.02, 0.08], [0.05, 0.0, -0.1]])
+    z = np.column_stack([0.2 * tf, -0.1 * tf, wrap_angle(0.7 * tf + offsets[:, 2])])
+    z[:, :2] += offsets[:, :2]
+    return EstimationSeries(
+        T,
+        TRUTH,
+        {"closed_loop": cl, "closed_loop_odometry": odo},
+        fixes={"closed_loop": (tf, z)},
+        cov={"closed_loop": cov},
+    )
+
+
+def test_estimation_figure_draws_errors_bands_and_fixes() -> None:
+    est = _estimation()
+    axes = est.figure(title="e").axes
+    assert len(axes) == 3
+    expect = {
+        "closed loop": np.column_stack([0.1 * np.sin(T), np.full_like(T, -0.05), np.full_like(T, 0.02)]),
+        "odometry feedback": np.column_stack([0.01 * T, 0.02 * T, -0.003 * T]),
+    }
+    sig = np.column_stack([0.05 + 0.01 * T, 0.04 + 0.0 * T, 0.01 + 0.002 * T])
+    fix_err = np.array([[0.03, -0.04, 0.1], [-0.02, 0.01, -0.05], [0.0, 0.02, 0.08], [0.05, 0.0, -0.1]])
+    for i, ax in enumerate(axes):
+        for name, err in expect.items():
+            line = next(ln for ln in ax.lines if ln.get_label() == name)
+            np.testing.assert_array_equal(line.get_xdata(), T)
+            np.testing.assert_allclose(line.get_ydata(), err[:, i], rtol=0, atol=1e-12)
+        dots = next(ln for ln in ax.lines if ln.get_label() == "closed loop fixes")
+        assert dots.get_marker() == "o" and dots.get_linestyle() == "None"
+        np.testing.assert_allclose(dots.get_ydata(), fix_err[:, i], rtol=0, atol=1e-12)
+        assert to_rgba(dots.get_color()) == pytest.approx(RUN_STYLES["closed_loop"].rgba)
+        # one band, the closed loop's: +-2 sigma of this coordinate at every time
+        (band,) = [c for c in ax.collections if c.get_label() == "closed loop ±2σ"]
+        assert len(ax.collections) == 1
+        verts = band.get_paths()[0].vertices
+        for sign in (1.0, -1.0):
+            pts = np.column_stack([T, sign * 2.0 * sig[:, i]])
+            dist = np.abs(verts[None, :, :] - pts[:, None, :]).max(axis=2).min(axis=1)
+            assert dist.max() < 1e-12
+        assert np.abs(verts[:, 1]).max() == pytest.approx(2.0 * sig[:, i].max())
+    odo = next(ln for ln in axes[0].lines if ln.get_label() == "odometry feedback")
+    assert to_rgba(odo.get_color()) == pytest.approx(RUN_STYLES["closed_loop_odometry"].rgba)
+
+
+def test_estimation_figure_names_bad_input() -> None:
+    est = _estimation()
+    good = est.estimates["closed_loop"]
+    cov = est.cov["closed_loop"] if est.cov else None
+    with pytest.raises(ConfigError, match=r"estimates\['closed_loop'\] has shape \(101, 2\), expected \(101, 3\)"):
+        estimation_figure(T, TRUTH, {"closed_loop": good[:, :2]})
+    with pytest.raises(ConfigError, match=r"truth has shape"):
+        estimation_figure(T, TRUTH[1:], {"closed_loop": good})
+    with pytest.raises(ConfigError, match="t must be non-empty and strictly increasing"):
+        estimation_figure(T[::-1], TRUTH, {"closed_loop": good})
+    with pytest.raises(ConfigError, match="NaN"):
+        estimation_figure(T, TRUTH, {"closed_loop": np.where(T[:, None] > 5, np.nan, good)})
+    with pytest.raises(ConfigError, match=r"cov\['open_loop'\] has no estimate"):
+        estimation_figure(T, TRUTH, {"closed_loop": good}, cov={"open_loop": cov})
+    with pytest.raises(ConfigError, match="negative variance"):
+        estimation_figure(T, TRUTH, {"closed_loop": good}, cov={"closed_loop": -np.asarray(cov)})
+    with pytest.raises(ConfigError, match=r"fixes\['closed_loop'\] span \[9, 11\] s reaches outside"):
+        estimation_figure(T, TRUTH, {"closed_loop": good}, fixes={"closed_loop": (np.array([9.0, 11.0]), TRUTH[:2])})
+    with pytest.raises(ConfigError, match="must be a pair"):
+        estimation_figure(T, TRUTH, {"closed_loop": good}, fixes={"closed_loop": T})  # type: ignore[dict-item]
+
+
+def test_job_figures_add_the_estimation_figure_when_given(tmp_path: Path) -> None:
+    job = short_job()
+    figs = job_figures(job.scenario.world, job.robot, job.trajectory, job.logs, estimation=_estimation())
+    assert tuple(figs) == (*PLOTS, ESTIMATION_PLOT)
+    png_is_nontrivial(save_figure(figs[ESTIMATION_PLOT], tmp_path / "estimation.png"))

@@ -23,8 +23,18 @@ from sim.viz.replay import (
     parse_size,
     render_frames,
 )
-from sim.viz.scene import GHOST_ALPHA, Projection
-from tests.render_helpers import require_gl, short_job
+from sim.viz.scene import (
+    FALLBACK_RGBA,
+    GHOST_ALPHA,
+    RUN_STYLES,
+    Projection,
+    geom_box_corners,
+    ghost_rgb,
+    light_gain,
+    rgb255,
+    run_styles,
+)
+from tests.render_helpers import require_gl, short_job, spread_runs
 
 # ---- pure numerics ------------------------------------------------------------------------------
 
@@ -277,3 +287,109 @@ def test_chase_camera_keeps_robot_near_centre() -> None:
             px, ok = proj.pixels(np.array([[*tr.xy[tr.idx[k]], 0.05]]))
             assert ok.all()
             assert abs(px[0, 0] - 80) < 40 and abs(px[0, 1] - 60) < 45
+
+
+# ---- several runs -------------------------------------------------------------------------------
+
+
+def test_run_styles_known_labels_and_distinct_fallbacks() -> None:
+    known = list(RUN_STYLES)
+    unknown = [f"run_{i}" for i in range(12)]
+    styles = run_styles([*known, *unknown, "run_0"])
+    assert list(styles) == known + unknown  # in the order given, a repeated label once
+    for label in known:
+        assert styles[label] == RUN_STYLES[label]
+    assert styles["closed_loop"].name == "closed loop" and styles["open_loop"].name == "open loop"
+    assert styles["run_3"].name == "run_3"
+    rgb = np.array([s.rgba[:3] for s in styles.values()])
+    gaps = np.abs(rgb[:, None, :] - rgb[None, :, :]).max(axis=2) + np.eye(len(rgb))
+    assert gaps.min() > 0.08  # no two runs share a colour (8-bit levels 20 apart at least)
+    assert np.all((rgb >= 0.0) & (rgb <= 1.0))
+    assert run_styles(["x", "y"])["x"].rgba == FALLBACK_RGBA[0]  # the first unknown label, whatever it is
+    assert run_styles(["closed_loop", "y"])["y"].rgba == FALLBACK_RGBA[0]
+
+
+def test_ghost_colour_is_divided_by_the_light_on_a_face_turned_up() -> None:
+    import mujoco
+
+    xml = """<mujoco><visual><headlight ambient=".1 .1 .1" diffuse=".4 .4 .4" specular="0 0 0"/></visual>
+      <worldbody><light dir="0 0 -1" ambient=".05 .05 .05" diffuse=".5 .5 .5"/>
+      <light dir="0 -1 -1" diffuse=".2 .2 .2"/><light dir="0 0 1" diffuse=".9 .9 .9"/></worldbody></mujoco>"""
+    m = mujoco.MjModel.from_xml_string(xml)
+    # headlight .1 + .4, lights .05 + .5 straight down, .2 at 45 degrees, none from below
+    expect = 0.1 + 0.4 + 0.05 + 0.5 + 0.2 / np.sqrt(2.0)
+    np.testing.assert_allclose(light_gain(m), [expect] * 3, rtol=1e-6)
+    assert ghost_rgb((1.0, 0.5, 0.1, 1.0), np.full(3, 1.6)) == pytest.approx((0.625, 0.3125, 0.0625))
+    assert ghost_rgb((1.0, 0.5, 0.1), np.full(3, 0.5)) == pytest.approx((1.0, 1.0, 0.2))  # at most 1
+
+
+def _replay_of(logs: dict, width: int, height: int, **settings: object) -> tuple[object, Replay]:
+    from sim.physics.simulator import Simulator
+
+    job = short_job()
+    model = Simulator(job.robot, job.scenario.world).model
+    return model, Replay(model, job.trajectory, logs, RenderSettings(width=width, height=height, **settings))
+
+
+@pytest.mark.parametrize("quality", ["fast", "high"])
+def test_every_ghost_in_its_colour_where_its_robot_is(quality: str) -> None:
+    """Four runs: each ghost's pixels at its robot's projected centre have its colour's hue, its trail
+    has its colour; fast: composited, high: the full scene."""
+    require_gl()
+    from sim.physics.simulator import Simulator
+
+    job = short_job()
+    logs = spread_runs(Simulator(job.robot, job.scenario.world).model)
+    model, replay = _replay_of(logs, 320, 240, fps=10.0, quality=quality)
+    assert [t.label for t in replay.tracks] == list(logs)  # closed loop first, solid
+    assert replay.required_geoms == 4 * model.ngeom + 64
+    cols = np.array([rgb255(t.rgba) for t in replay.tracks], dtype=float)
+    chroma = cols - cols.mean(axis=1, keepdims=True)  # what grey floor and white light leave of a colour
+    with SceneRenderer(model, 320, 240, quality=quality, max_geom=replay.required_geoms) as r:
+        assert replay.composited(r) == (quality == "fast")
+        for k in (0, replay.n_frames // 2, replay.n_frames - 1):
+            frame = replay.render_frame(r, k).astype(float)
+            r.renderer.update_scene(replay.datas[0], camera=replay.camera)
+            proj = Projection.from_scene(r.scene, 320, 240)
+            for ti in range(1, 4):
+                centre = geom_box_corners(replay.datas[ti], replay.robot_geoms, replay.robot_corners)
+                x, y = np.rint(proj.pixels(centre.reshape(-1, 3).mean(axis=0, keepdims=True))[0][0]).astype(int)
+                assert x > replay._box[0] + 3 or y > replay._box[1] + 3  # not under the overlay
+                patch = frame[y - 2 : y + 3, x - 2 : x + 3].reshape(-1, 3).mean(axis=0)
+                ch = patch - patch.mean()
+                cos = chroma @ ch / (np.linalg.norm(chroma, axis=1) * np.linalg.norm(ch))
+                assert np.linalg.norm(ch) > 30.0, (k, ti)  # tinted, not grey
+                assert cos[ti] > 0.95 and np.delete(cos, ti).max() < 0.8, (k, ti, cos)
+        last = replay.render_frame(r, replay.n_frames - 1)
+    # each ghost's trail (1 px wide here), the first half of its path, in its colour (within 2 levels)
+    # at the point or a pixel next to it
+    near = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
+    for ti, tr in enumerate(replay.tracks[1:], start=1):
+        px = proj.pixels(replay.trail3[ti][tr.trail_keep[: len(tr.trail_keep) // 2]])[0][3:]
+        rows = np.rint(px[:, 1]).astype(int)[:, None] + near[:, 0]
+        cols_ = np.rint(px[:, 0]).astype(int)[:, None] + near[:, 1]
+        pix = last.astype(int)[rows, cols_]  # (points, 9, 3)
+        assert len(px) > 10
+        assert np.mean((np.abs(pix - cols[ti]).max(axis=2) <= 2).any(axis=1)) > 0.8, tr.label
+    names = [text.split(":")[0] for text, _ in replay._overlay_lines(0)[1:]]
+    assert names == ["closed loop", "open loop (ghost)", "odometry feedback (ghost)", "wobbly (ghost)"]
+
+
+def test_chase_camera_keeps_every_run_in_view() -> None:
+    require_gl()
+    from sim.physics.simulator import Simulator
+
+    job = short_job()
+    logs = spread_runs(Simulator(job.robot, job.scenario.world).model)
+    model, replay = _replay_of(logs, 160, 120, fps=5.0, camera="chase")
+    with SceneRenderer(model, 160, 120, max_geom=replay.required_geoms) as r:
+        assert not replay.composited(r)
+        for k in range(replay.n_frames):
+            replay.render_frame(r, k)
+            alphas = np.array([r.scene.geoms[i].rgba[3] for i in range(r.scene.ngeom)])
+            assert int(np.sum(np.isclose(alphas, GHOST_ALPHA))) == 3 * (len(replay.robot_geoms) - 2)
+            proj = Projection.from_scene(r.scene, 160, 120)
+            for ti, d in enumerate(replay.datas):
+                corners = geom_box_corners(d, replay.robot_geoms, replay.robot_corners).reshape(-1, 3)
+                px, ok = proj.pixels(corners)
+                assert ok.all() and np.all((px >= 0) & (px <= (160, 120))), (k, replay.tracks[ti].label)

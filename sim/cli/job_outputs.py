@@ -3,9 +3,10 @@
 Default names, for scenario ``S`` tracked along reference (or planner) ``R``::
 
     renders/S-R.mp4            video (H.264, yuv420p)
-    renders/S-R-world.png      world, reference, open-loop and closed-loop paths
+    renders/S-R-world.png      world, reference and every run's path
     renders/S-R-errors.png     position and heading error against time
     renders/S-R-commands.png   v, omega and wheel speeds against their limits
+    renders/S-R-estimation.png estimates against the true pose (a job that gives its estimates)
     renders/S-R.json           run record; its "files" names every file written
 
 ``--video PATH`` moves all of them beside ``PATH`` (named after its stem); ``--json PATH`` moves the
@@ -74,7 +75,8 @@ class OutputPlan:
     Attributes:
         stem: ``<scenario>-<planner or reference>``.
         video: MP4 path, or None.
-        plots: Plot name -> PNG path (empty with --no-plots).
+        plots: Plot name -> PNG path (empty with --no-plots); the estimation plot's is written only
+            when the job gives its estimates.
         json: Run record path.
         settings: Render settings (None without video).
         overwrite: Replace existing files.
@@ -117,7 +119,7 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str) -> Out
         DependencyError: A video was asked for and no OpenGL backend can load.
     """
     from sim.outputs import check_writable
-    from sim.viz.plots.run import PLOTS
+    from sim.viz.plots.run import ESTIMATION_PLOT, PLOTS
     from sim.viz.replay import RenderSettings, parse_size
 
     stem = f"{scenario}-{source}"
@@ -132,7 +134,8 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str) -> Out
     elif args.video is not None:
         raise ConfigError("--video and --no-video contradict each other; drop one")
     base_dir, base = (args.video.parent, args.video.stem) if args.video is not None else (DEFAULT_DIR, stem)
-    plots = {name: base_dir / f"{base}-{name}.png" for name in PLOTS} if args.plots else {}
+    names = (*PLOTS, ESTIMATION_PLOT)  # the estimation plot only where the job gives its estimates
+    plots = {name: base_dir / f"{base}-{name}.png" for name in names} if args.plots else {}
     json_path = args.json if args.json is not None else base_dir / f"{base}.json"
     plan = OutputPlan(stem, video, plots, json_path, settings, args.overwrite, show_progress(args))
     targets = plan.targets()
@@ -194,6 +197,7 @@ def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict
     """
     from sim.outputs import write_json
     from sim.viz.plots.draw import save_figure
+    from sim.viz.plots.estimation import series_of_runs
     from sim.viz.plots.run import job_figures
 
     files: dict[str, str] = {}
@@ -202,8 +206,13 @@ def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict
         files["video"] = str(plan.video)
     if plan.plots:
         title = f"{result.scenario.name} | {result.robot.name} | {result.source}"
-        figs = job_figures(result.scenario.world, result.robot, result.trajectory, result.logs, title=title)
+        figs = job_figures(
+            result.scenario.world, result.robot, result.trajectory, result.logs, title=title,
+            estimation=series_of_runs(result.logs),
+        )  # fmt: skip
         for name, path in plan.plots.items():
+            if name not in figs:  # planned (and checked) but not drawn: the job gave no estimates
+                continue
             save_figure(figs[name], path, overwrite=plan.overwrite)
             files[f"plot_{name}"] = str(path)
     files["json"] = str(plan.json)

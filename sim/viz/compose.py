@@ -7,23 +7,29 @@ reflections) a robot changes no pixel outside its own silhouette. So the world i
    and the colour and depth buffers are read back; the reference path is drawn onto the colour
    image with PIL. This image, the *floor layer*, also collects the trails: each frame adds only the
    segments its robots completed since the previous frame (a few pixels wide crops).
-2. **robot pass** (each frame): MuJoCo draws only the robots' dynamic geoms, the ghost opaque in its
-   colour, and only the rectangles their bounding boxes project to are read back, colour and depth.
-   A robot pixel replaces the floor-layer pixel where it is nearer than the static depth; a ghost
-   pixel is blended over it with alpha :data:`sim.viz.scene.GHOST_ALPHA`. Where the two rectangles
-   overlap the robots are drawn in two passes so the ghost can be told from the solid robot.
+2. **robot passes** (each frame), each through a small viewport around the rectangle a robot's
+   bounding box projects to: MuJoCo draws the solid robot's dynamic geoms and the rectangle is read
+   back, colour and depth; a solid-robot pixel replaces the floor-layer pixel where it is nearer
+   than the static depth. Each ghost is drawn twice, translucent as in the full render, behind the
+   walls, obstacles and solid robot that overlap its rectangle drawn black (they hide what lies
+   behind them, as in MuJoCo): once in its colour, which gives its premultiplied colour ``P``, once
+   white and glowing, which gives its coverage ``1 - T``. MuJoCo's blend is linear in what lies
+   behind, so the ghost over the frame is ``P + T * frame``: MuJoCo's own pixels, within the
+   rounding of the two reads, with the trails under the tint. Ghosts whose rectangles overlap are
+   drawn together, so their geoms are sorted by depth together as in MuJoCo's full render.
 3. the unfinished segment of each trail and the text overlay.
 
 The picture matches a full MuJoCo render of the scene pixel for pixel on the world and the solid
-robot; the ghost differs only where its own parts overlap (one translucent layer here, several in
-MuJoCo's blended draw). Trails now pass under the ghost's tint and the solid robot, as they would
-lie on the floor. Trails are drawn in frame order, whatever order the frames are asked in, so a
-frame's pixels do not depend on which frames were drawn before it.
+robot, and within the rounding of the reads on the ghosts. Trails pass under the ghosts' tints and
+the solid robot, as they would lie on the floor. Trails are drawn in frame order, whatever order
+the frames are asked in, so a frame's pixels do not depend on which frames were drawn before it.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Protocol
 
 import mujoco
@@ -34,27 +40,82 @@ from PIL import Image, ImageDraw
 from sim.viz.renderer import SceneRenderer
 from sim.viz.scene import (
     GHOST_ALPHA,
-    OPEN_RGBA,
     REFERENCE_RGBA,
     FloatArray,
     Frame,
     Projection,
     Track,
+    aabb_corners,
     geom_box_corners,
+    ghost_rgb,
+    light_gain,
     polylines,
     rgb255,
     trail_width,
 )
 
 Rect = tuple[int, int, int, int]  # x0, y0, x1, y1 [px], image coordinates, end exclusive
+GhostLayer = tuple[NDArray[np.float32], NDArray[np.float32]]  # premultiplied colour, transmission
 
 #: Pixels added around each robot's projected bounding box.
 RECT_MARGIN = 2
 
-#: Opacity of the ghost's one composited layer: MuJoCo blends the back and the front faces of each
-#: translucent part, each with :data:`sim.viz.scene.GHOST_ALPHA`, so a part over the floor shows
-#: ``1 - (1 - GHOST_ALPHA) ** 2`` of its colour.
-LAYER_ALPHA = 1.0 - (1.0 - GHOST_ALPHA) ** 2
+#: Emission of the white pass of a ghost: its colour saturates to white whatever the lights.
+WHITE_EMISSION = 10.0
+
+_BLACK = np.array([0.0, 0.0, 0.0, 1.0], dtype=np.float32)
+
+#: How far the occluders of a ghost pass are set back along the view [m]: where a ghost's face and
+#: the solid robot's lie in one plane (two runs at the same pose) the ghost shows, in every frame
+#: alike, rather than a pattern of depth rounding that changes with the pixel's place.
+OCCLUDER_SETBACK = 1e-5
+
+
+@dataclass(frozen=True)
+class Occluder:
+    """A static geom that can hide part of a ghost, as the ghost passes draw it (black).
+
+    Attributes:
+        type: Geom type (``mjtGeom``).
+        size: (3,) its scene size.
+        pos: (3,) position [m].
+        mat: (9,) orientation, row major.
+        dataid: Its scene ``dataid`` (the mesh drawn, for meshes).
+        rect: The rectangle of the image its bounding box projects to.
+    """
+
+    type: int
+    size: FloatArray
+    pos: FloatArray
+    mat: FloatArray
+    dataid: int
+    rect: Rect
+
+
+def static_occluders(
+    model: mujoco.MjModel, data: mujoco.MjData, scene: mujoco.MjvScene, proj: Projection
+) -> list[Occluder]:
+    """The static geoms of a scene (after ``mjv_updateScene`` of the static category) that can hide part
+    of a robot: all but planes, on which the robots stand and which hide nothing above them.
+
+    Args:
+        model: The scene's model.
+        data: A state of it (after kinematics: where the static geoms are).
+        scene: The static scene.
+        proj: Its view.
+    """
+    out = []
+    for i in range(scene.ngeom):
+        g = scene.geoms[i]
+        if g.type == mujoco.mjtGeom.mjGEOM_PLANE or g.objtype != mujoco.mjtObj.mjOBJ_GEOM:
+            continue
+        ids = np.array([g.objid], dtype=np.int64)
+        px, ok = proj.pixels(geom_box_corners(data, ids, aabb_corners(model, ids))[0])
+        lo, hi = np.floor(px.min(axis=0)).astype(int) - 1, np.ceil(px.max(axis=0)).astype(int) + 2
+        rect = (int(lo[0]), int(lo[1]), int(hi[0]), int(hi[1])) if ok.all() else (0, 0, proj.width, proj.height)
+        size, pos, mat = (np.array(v, dtype=float) for v in (g.size, g.pos, g.mat))
+        out.append(Occluder(int(g.type), size, pos, mat.ravel(), int(g.dataid), rect))
+    return out
 
 
 class ComposedReplay(Protocol):
@@ -64,7 +125,7 @@ class ComposedReplay(Protocol):
         model: The runs' model.
         ghost_model: The model with the robot's enclosed geoms left out (drawn for every robot pass).
         datas: One ``MjData`` per track, posed by :meth:`pose_frame`.
-        tracks: The runs, primary first.
+        tracks: The runs, the solid one first, then the ghosts.
         camera: The camera, the same in every frame.
         fixed_camera: Whether the camera stays put (required).
         ref3: (M, 3) decimated reference path on the floor [m].
@@ -126,11 +187,39 @@ def _overlap(a: Rect, b: Rect) -> bool:
     return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
 
+def merge_rects(rects: Mapping[int, Rect]) -> list[tuple[Rect, list[int]]]:
+    """Group rectangles that overlap, directly or through others, or through the rectangle that
+    bounds a group: ghosts whose rectangles overlap are drawn together (their geoms sorted by
+    depth together, as in the full render) and groups never overlap, so their order does not matter.
+
+    Args:
+        rects: Key (a track) -> rectangle.
+
+    Returns:
+        (bounding rectangle, keys in the given order) per group, in the order of each group's first key.
+    """
+    groups = [(rect, [key]) for key, rect in rects.items()]
+    i = 0
+    while i < len(groups):
+        j = next((j for j in range(len(groups)) if j != i and _overlap(groups[i][0], groups[j][0])), None)
+        if j is None:
+            i += 1
+            continue
+        (a, ka), (b, kb) = groups[min(i, j)], groups[max(i, j)]
+        del groups[max(i, j)]
+        bound = (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3]))
+        groups[min(i, j)] = (bound, ka + kb)
+        i = 0  # the larger rectangle may now overlap one already passed
+    order = list(rects)
+    return [(rect, sorted(keys, key=order.index)) for rect, keys in groups]
+
+
 class RobotPass:
-    """Draws one robot's dynamic geoms through a rectangle of the image, into a small viewport.
+    """Draws robots' dynamic geoms through rectangles of the image, each into a small viewport.
 
     The frustum is narrowed to the rectangle and the viewport shrunk to its size, so MuJoCo clears
-    and rasterises only those pixels (the same pixel centres as the full view).
+    and rasterises only those pixels (the same pixel centres as the full view). The passes of a
+    frame are queued side by side in the off-screen buffer and read back at once (:meth:`read`).
 
     Args:
         model: The model to draw (the replay's ``ghost_model``: geoms inside others left out).
@@ -147,7 +236,10 @@ class RobotPass:
         self.scene = mujoco.MjvScene(model, maxgeom=maxgeom)
         self.scene.flags[:] = flags
         self.scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
+        self._gain = light_gain(renderer.model)
         self._frustum: list[tuple[float, float, float, float]] = []
+        self._queued: list[tuple[int, int, int, int]] = []  # x, y, width, height in the buffer [px]
+        self._results: list[tuple[Frame, NDArray[np.float32]]] = []
 
     def view(self, data: mujoco.MjData, camera: mujoco.MjvCamera) -> Projection:
         """Take the camera and lights of a frame (no geoms); returns the full view's projection."""
@@ -178,46 +270,151 @@ class RobotPass:
         y1 = min(h, int(np.ceil(px[:, 1].max())) + RECT_MARGIN + 1)
         return (x0, y0, x1, y1) if x1 > x0 and y1 > y0 else None
 
-    def draw(self, data: mujoco.MjData, rect: Rect, ghost: bool) -> tuple[Frame, NDArray[np.float32]]:
-        """Draw the robot of ``data`` (opaque; in the ghost's colour with ``ghost``) as seen through
-        ``rect`` (after :meth:`view`) and read back its colour and depth, row 0 at the top."""
+    # ---- queued passes: drawn side by side into the off-screen buffer, read back at once -------------
+    def queue(self, data: mujoco.MjData, rect: Rect) -> int:
+        """Queue the robot of ``data``, opaque, as seen through ``rect`` (after :meth:`view`).
+
+        Returns:
+            Its slot in what :meth:`read` returns (colour and depth).
+        """
         scn = self.scene
         scn.ngeom = 0
         mujoco.mjv_addGeoms(self.model, data, self.opt, self.pert, mujoco.mjtCatBit.mjCAT_DYNAMIC, scn)
-        if ghost:
-            color = (*OPEN_RGBA[:3], 1.0)
-            for i in range(scn.ngeom):
-                scn.geoms[i].rgba = color
+        return self._draw(rect)
+
+    def queue_ghosts(
+        self,
+        datas: Sequence[mujoco.MjData],
+        rect: Rect,
+        colors: Sequence[tuple[float, ...]],
+        solid: mujoco.MjData | None = None,
+        occluders: Sequence[Occluder] = (),
+    ) -> tuple[int, int]:
+        """Queue robots as translucent ghosts, one colour each (as the full render does: dimmed by
+        :func:`sim.viz.scene.ghost_rgb`, alpha :data:`sim.viz.scene.GHOST_ALPHA`), through ``rect``,
+        in front of the ``occluders`` and the ``solid`` robot drawn black (they hide the ghosts' parts
+        behind them, as in the full render). Ghosts drawn together are sorted geom by geom, as in
+        the full render. Two passes: in their colours, then white and glowing.
+
+        Args:
+            datas: The ghosts' states.
+            rect: The rectangle.
+            colors: RGB(A) in [0, 1] of each ghost.
+            solid: The solid robot's state, or None where it cannot hide a ghost.
+            occluders: Static geoms that can hide a ghost in ``rect``.
+
+        Returns:
+            The slots of the two passes in what :meth:`read` returns; :func:`ghost_layer` of their
+            colours is the ghosts' premultiplied colour and transmission (see
+            :meth:`FixedViewCompositor._ghost_pass`).
+        """
+        scn = self.scene
+        scn.ngeom = 0
+        add = mujoco.mjv_addGeoms
+        for o in occluders:
+            mujoco.mjv_initGeom(scn.geoms[scn.ngeom], o.type, o.size, o.pos, o.mat, _BLACK)
+            scn.geoms[scn.ngeom].dataid = o.dataid
+            scn.ngeom += 1
+        if solid is not None:
+            add(self.model, solid, self.opt, self.pert, mujoco.mjtCatBit.mjCAT_DYNAMIC, scn)
+        back = OCCLUDER_SETBACK * np.asarray(scn.camera[0].forward, dtype=np.float32)
+        for i in range(scn.ngeom):  # black: they hide the ghosts' parts behind them and add nothing
+            g = scn.geoms[i]
+            g.rgba, g.emission, g.specular, g.reflectance = _BLACK, 0.0, 0.0, 0.0
+            g.pos[:] = g.pos + back
+        ghosts = []
+        for data, color in zip(datas, colors, strict=True):
+            first = scn.ngeom
+            add(self.model, data, self.opt, self.pert, mujoco.mjtCatBit.mjCAT_DYNAMIC, scn)
+            tint = (*ghost_rgb(color, self._gain), GHOST_ALPHA)
+            for i in range(first, scn.ngeom):
+                scn.geoms[i].rgba = tint
+                ghosts.append(scn.geoms[i])
+        tinted = self._draw(rect)
+        for g in ghosts:
+            g.rgba, g.emission = (1.0, 1.0, 1.0, GHOST_ALPHA), WHITE_EMISSION
+        lights, scn.nlight = scn.nlight, 0  # white whatever the light: no lighting to compute
+        white = self._draw(rect)
+        scn.nlight = lights
+        return tinted, white
+
+    def read(self) -> list[tuple[Frame, NDArray[np.float32]]]:
+        """Colour and depth (row 0 at the top) of every pass queued since the last read, by slot."""
+        self._flush()
+        out, self._results = self._results, []
+        return out
+
+    def draw(self, data: mujoco.MjData, rect: Rect) -> tuple[Frame, NDArray[np.float32]]:
+        """:meth:`queue` and :meth:`read` one robot: its colour and depth."""
+        slot = self.queue(data, rect)
+        return self.read()[slot]
+
+    def _draw(self, rect: Rect) -> int:
+        """Draw the scene's geoms as seen through ``rect`` into the next free place of the off-screen
+        buffer (rows of places from its bottom-left corner; read back first when it is full)."""
         x0, y0, x1, y1 = rect
         w, h = self.renderer.width, self.renderer.height
-        for eye, (center, half_w, bottom, top) in zip(scn.camera, self._frustum, strict=True):
+        pw, ph = x1 - x0, y1 - y0
+        if self._x + pw > w:  # a new row
+            self._x, self._y, self._row = 0, self._y + self._row, 0
+        if self._y + ph > h:
+            self._flush()
+        for eye, (center, half_w, bottom, top) in zip(self.scene.camera, self._frustum, strict=True):
             du = 2.0 * half_w / w
             dv = (top - bottom) / h
             eye.frustum_center = center - half_w + 0.5 * (x0 + x1) * du
             eye.frustum_top = top - y0 * dv
             eye.frustum_bottom = top - y1 * dv
-        self.renderer.draw(scn, (x1 - x0, y1 - y0))
-        rgb = np.empty((y1 - y0, x1 - x0, 3), np.uint8)
-        depth = np.empty((y1 - y0, x1 - x0), np.float32)
-        self.renderer.read((0, h - (y1 - y0), x1 - x0, h), rgb, depth)  # the viewport's corner
-        return rgb, depth
+        self.renderer.draw(self.scene, (pw, ph), origin=(self._x, self._y))
+        self._queued.append((self._x, self._y, pw, ph))
+        self._x += pw
+        self._row = max(self._row, ph)
+        return len(self._results) + len(self._queued) - 1
+
+    def _flush(self) -> None:
+        """Read back every queued place at once (one read costs far more than its pixels)."""
+        if self._queued:
+            h = self.renderer.height
+            top = max(y + ph for _, y, _, ph in self._queued)
+            right = max(x + pw for x, _, pw, _ in self._queued)
+            rgb = np.empty((top, right, 3), np.uint8)
+            depth = np.empty((top, right), np.float32)
+            self.renderer.read((0, h - top, right, h), rgb, depth)  # rows flipped: row 0 is GL row top - 1
+            for x, y, pw, ph in self._queued:
+                rows = slice(top - y - ph, top - y)
+                self._results.append((rgb[rows, x : x + pw], depth[rows, x : x + pw]))
+        self._queued = []
+        self._x = self._y = self._row = 0
+
+    _x: int = 0
+    _y: int = 0
+    _row: int = 0
 
 
-def blend_ghost(out: Frame, rect: Rect, rgb: Frame, depth: NDArray[np.float32], behind: NDArray[np.float32]) -> None:
-    """Blend a ghost pass over ``out`` where it is at least as near as ``behind``.
+def ghost_layer(tinted: Frame, white: Frame) -> GhostLayer:
+    """A ghost pass pair as premultiplied colour ``P`` ((h, w, 3), [0, 255]) and transmission ``T``
+    ((h, w), in [0, 1], 1 where no ghost is): the ghosts over an image ``I`` are ``P + T * I``.
 
     Args:
-        out: (H, W, 3) image, changed in place.
-        rect: The pass's rectangle (x0, y0, x1, y1).
-        rgb: (h, w, 3) the ghost drawn opaque.
-        depth: (h, w) its depth (reversed: larger is nearer, 0 where nothing was drawn).
-        behind: (h, w) depth of what is already in ``out`` there.
+        tinted: (h, w, 3) the ghosts in their colours over black.
+        white: (h, w, 3) the ghosts white and glowing over black (their coverage ``1 - T``).
+    """
+    return tinted.astype(np.float32), 1.0 - white[..., 0].astype(np.float32) / 255.0
+
+
+def blend_ghost(out: Frame, rect: Rect, premult: NDArray[np.float32], transmission: NDArray[np.float32]) -> None:
+    """Lay ghosts over ``out`` in place: ``P + T * out`` in their rectangle (see :func:`ghost_layer`).
+
+    Args:
+        out: (H, W, 3) image.
+        rect: The ghost's rectangle (x0, y0, x1, y1).
+        premult: (h, w, 3) its premultiplied colour ``P`` [0, 255].
+        transmission: (h, w) its transmission ``T`` in [0, 1].
     """
     x0, y0, x1, y1 = rect
-    near = (depth >= behind) & (depth > 0.0)  # ties to the ghost, drawn last in MuJoCo too
     dst = out[y0:y1, x0:x1]
-    mixed = LAYER_ALPHA * rgb[near].astype(np.float32) + (1.0 - LAYER_ALPHA) * dst[near]
-    dst[near] = np.rint(mixed).astype(np.uint8)
+    mixed = premult + transmission[..., None] * dst
+    np.copyto(dst, np.clip(np.rint(mixed), 0, 255).astype(np.uint8))
 
 
 class FixedViewCompositor:
@@ -250,6 +447,7 @@ class FixedViewCompositor:
         static = mujoco.mjtCatBit.mjCAT_STATIC
         mujoco.mjv_updateScene(m, replay.datas[0], self._opt, self._pert, replay.camera, static, self._scene)
         self.proj = Projection.from_scene(self._scene, w, h)
+        self.occluders = static_occluders(m, replay.datas[0], self._scene, self.proj)
         rgb = np.empty((h, w, 3), np.uint8)
         depth = np.empty((h, w), np.float32)
         renderer.draw(self._scene)
@@ -289,39 +487,42 @@ class FixedViewCompositor:
     def _rect(self, data: mujoco.MjData) -> Rect | None:
         return self.passes.rect(self.proj, data, self.replay.robot_geoms, self.replay.robot_corners)
 
-    def _pass(self, data: mujoco.MjData, rect: Rect, ghost: bool) -> tuple[Frame, NDArray[np.float32]]:
-        return self.passes.draw(data, rect, ghost)
+    def _pass(self, rect: Rect) -> tuple[Frame, NDArray[np.float32]]:
+        """Draw the solid robot through ``rect``: colour and depth."""
+        return self.passes.draw(self.replay.datas[0], rect)
+
+    def _ghost_pass(self, tracks: Sequence[int], rect: Rect, solid: Rect | None) -> GhostLayer:
+        """Draw the ghosts of ``tracks`` through ``rect`` (the solid robot hiding them where ``solid``
+        overlaps): their premultiplied colour and transmission."""
+        tinted, white = self._queue_ghosts(tracks, rect, solid)
+        res = self.passes.read()
+        return ghost_layer(res[tinted][0], res[white][0])
+
+    def _queue_ghosts(self, tracks: Sequence[int], rect: Rect, solid: Rect | None) -> tuple[int, int]:
+        r = self.replay
+        occluder = r.datas[0] if solid is not None and _overlap(solid, rect) else None
+        statics = [o for o in self.occluders if _overlap(o.rect, rect)]
+        datas = [r.datas[t] for t in tracks]
+        return self.passes.queue_ghosts(datas, rect, [r.tracks[t].rgba for t in tracks], occluder, statics)
 
     def _robots(self, out: Frame) -> None:
+        """Draw every robot's passes, read them back at once, lay them over ``out``."""
         r = self.replay
         self.passes.view(r.datas[0], r.camera)  # lights and eyes of this frame
         solid = self._rect(r.datas[0])
-        ghost = self._rect(r.datas[1]) if len(r.datas) > 1 else None
-        solid_depth = None
+        solid_slot = self.passes.queue(r.datas[0], solid) if solid is not None else -1
+        rects = {t: self._rect(r.datas[t]) for t in range(1, len(r.datas))}
+        groups = merge_rects({t: rc for t, rc in rects.items() if rc is not None})
+        slots = [self._queue_ghosts(tracks, rect, solid) for rect, tracks in groups]
+        res = self.passes.read()
         if solid is not None:
             x0, y0, x1, y1 = solid
-            rgb, solid_depth = self._pass(r.datas[0], solid, ghost=False)
+            rgb, solid_depth = res[solid_slot]
             # reversed depth (MuJoCo's default): larger is nearer, 0 where nothing was drawn
             near = solid_depth > self.depth[y0:y1, x0:x1]
             out[y0:y1, x0:x1][near] = rgb[near]
-        if ghost is not None:
-            x0, y0, x1, y1 = ghost
-            rgb, depth = self._pass(r.datas[1], ghost, ghost=True)
-            behind = self.depth[y0:y1, x0:x1]
-            if solid is not None and solid_depth is not None and _overlap(solid, ghost):
-                behind = self._depth_with_solid(ghost, solid, solid_depth)
-            blend_ghost(out, ghost, rgb, depth, behind)
-
-    def _depth_with_solid(self, ghost: Rect, solid: Rect, solid_depth: NDArray[np.float32]) -> NDArray[np.float32]:
-        """Static depth under the ghost's rectangle with the solid robot's nearer pixels in it."""
-        gx0, gy0, gx1, gy1 = ghost
-        sx0, sy0 = solid[0], solid[1]
-        behind = self.depth[gy0:gy1, gx0:gx1].copy()
-        ix0, iy0 = max(gx0, sx0), max(gy0, sy0)
-        ix1, iy1 = min(gx1, solid[2]), min(gy1, solid[3])
-        sub = behind[iy0 - gy0 : iy1 - gy0, ix0 - gx0 : ix1 - gx0]
-        np.maximum(sub, solid_depth[iy0 - sy0 : iy1 - sy0, ix0 - sx0 : ix1 - sx0], out=sub)
-        return behind
+        for (rect, _), (tinted, white) in zip(groups, slots, strict=True):
+            blend_ghost(out, rect, *ghost_layer(res[tinted][0], res[white][0]))
 
     # ---- frames ---------------------------------------------------------------------------------
     def frame(self, k: int, out: Frame) -> Frame:

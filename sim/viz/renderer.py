@@ -21,6 +21,9 @@ from sim.viz.scene import Frame
 
 QUALITIES = ("fast", "high")
 
+#: Stacks of a sphere, capsule or ellipsoid in the fast look (MuJoCo's default 16).
+FAST_STACKS = 8
+
 
 class SceneRenderer:
     """The process's one OpenGL renderer (a :class:`mujoco.Renderer`), closed explicitly.
@@ -29,8 +32,9 @@ class SceneRenderer:
         model: The model to draw (its off-screen buffer is enlarged on a copy if too small).
         width: Image width [px].
         height: Image height [px].
-        quality: "fast" (no shadows, reflections or multisampling) or "high" (shadows,
-            reflections and the model's multisampling).
+        quality: "fast" (no shadows, reflections or multisampling, spheres in
+            :data:`FAST_STACKS` stacks) or "high" (shadows, reflections and the model's
+            multisampling and tessellation).
         max_geom: Capacity of the scene (model geoms plus decorations).
 
     Attributes:
@@ -64,6 +68,9 @@ class SceneRenderer:
         else:
             # multisampling doubles the cost of a frame under OSMesa; the fast look goes without
             model.vis.quality.offsamples = 0
+            # spheres (the robots' casters, a few pixels wide) in fewer stacks: the ghosts' passes draw
+            # each one up to four times a frame (translucent: back and front, in colour and white)
+            model.vis.quality.numstacks = min(model.vis.quality.numstacks, FAST_STACKS)
         self.model = model
         try:
             with gl.contexts_for(backend):
@@ -88,18 +95,21 @@ class SceneRenderer:
         """Draw the scene into ``out`` ((height, width, 3) uint8) or a new array."""
         return self.renderer.render(out=out)
 
-    def draw(self, scene: mujoco.MjvScene, size: tuple[int, int] | None = None) -> None:
+    def draw(
+        self, scene: mujoco.MjvScene, size: tuple[int, int] | None = None, origin: tuple[int, int] = (0, 0)
+    ) -> None:
         """Draw ``scene`` (any scene of this model) into the off-screen buffer; read it with :meth:`read`.
 
         Args:
             scene: The scene.
-            size: (width, height) [px] of the viewport, at the buffer's bottom-left corner (the
-                frustum fills it); None for the whole image.
+            size: (width, height) [px] of the viewport (the frustum fills it; MuJoCo clears only it);
+                None for the whole image.
+            origin: (x, y) [px] of the viewport's bottom-left corner in the buffer (OpenGL: y up).
         """
         r = self.renderer
         if r._gl_context:
             r._gl_context.make_current()
-        viewport = r._rect if size is None else mujoco.MjrRect(0, 0, size[0], size[1])
+        viewport = r._rect if size is None else mujoco.MjrRect(origin[0], origin[1], size[0], size[1])
         mujoco.mjr_render(viewport, scene, r._mjr_context)
 
     def read(self, rect: tuple[int, int, int, int], rgb: Frame | None, depth: NDArray[np.float32] | None) -> None:

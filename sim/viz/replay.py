@@ -1,4 +1,4 @@
-"""Replay logged runs as video frames: world, reference path, closed-loop robot, open-loop ghost.
+"""Replay logged runs as video frames: world, reference path, the main robot solid, the others ghosts.
 
 Physics runs first and is logged; this module replays the logs afterwards at the video frame rate.
 Frame ``k`` shows simulation time ``t_start + k / fps`` and each robot at its log sample nearest to
@@ -6,18 +6,20 @@ that time, so a 20 s run at 30 frames/s has 600 frames whatever the log rate.
 
 Drawing:
 
-- MuJoCo draws the Simulator's compiled model (floor, obstacles, walls) and the primary robot
-  (closed loop, or the only run) from one ``MjData``, and the open-loop robot as a translucent ghost
-  from a second ``MjData`` (``mjv_addGeoms`` of the dynamic geoms only, recoloured): the ghost is
-  never simulated against anything, only drawn;
+- MuJoCo draws the Simulator's compiled model (floor, obstacles, walls) and the main robot
+  ("closed_loop" when logged, else the first run) from one ``MjData``, and every other run as a
+  translucent ghost in its own colour (:data:`sim.viz.scene.RUN_STYLES`) from its own ``MjData``
+  (``mjv_addGeoms`` of the dynamic geoms only, recoloured): a ghost is never simulated against
+  anything, only drawn;
 - the reference path and a trail behind each robot are lines on the floor, projected through the
   scene's camera and drawn into the image with PIL (as ``mjGEOM_LINE`` geoms, the few hundred
   segments a smooth path needs cost more than the whole scene under OSMesa), hidden where the solid
   robot stands;
-- a small text overlay (time, each run's current position error).
+- a small text overlay (time, each run's current position error, in the run's colour).
 
 With a camera that stays put (the overview) and no shadows or reflections (the fast look), the
-world is drawn once per video and only the robots each frame, composited by depth
+world is drawn once per video and only the robots each frame, each through a small viewport,
+composited by depth
 (:mod:`sim.viz.compose`); the chase camera and the high look draw the whole scene every frame.
 
 The process holds one OpenGL renderer at a time (:class:`sim.viz.renderer.SceneRenderer`), closed
@@ -45,19 +47,21 @@ from sim.physics.runlog import RunLog
 from sim.viz.compose import FixedViewCompositor
 from sim.viz.renderer import QUALITIES, SceneRenderer
 from sim.viz.scene import (
-    CLOSED_RGBA,
     GHOST_ALPHA,
-    OPEN_RGBA,
     REFERENCE_RGBA,
-    RUN_STYLE,
     FloatArray,
     Frame,
     Projection,
+    RunStyle,
     Track,
+    aabb_corners,
     enclosed_geoms,
     geom_box_corners,
+    ghost_rgb,
+    light_gain,
     polylines,
     rgb255,
+    run_styles,
     trail_width,
 )
 
@@ -166,13 +170,15 @@ class Replay:
     Args:
         model: The runs' model (the Simulator's compiled model).
         trajectory: The reference (drawn on the floor).
-        logs: Run label ("closed_loop", "open_loop") -> log; closed loop is drawn solid, open loop
-            as a ghost; a single run is drawn solid.
+        logs: Run label -> log, any number of runs: the main run ("closed_loop" when present,
+            else the first) is drawn solid, every other run as a translucent ghost in its own
+            colour (:func:`sim.viz.scene.run_styles`).
         settings: Size, frame rate, camera, quality.
 
     Attributes:
         times: (n,) simulation time of each frame [s].
-        required_geoms: Scene capacity needed (the model twice, for the ghost); open the
+        tracks: The runs as drawn, the main run first, then the others in the order given.
+        required_geoms: Scene capacity needed (the model once per run, for the ghosts); open the
             :class:`SceneRenderer` with at least this ``max_geom``.
     """
 
@@ -187,9 +193,8 @@ class Replay:
         for label, log in logs.items():
             if log.qpos.shape[1] != m.nq:
                 raise ConfigError(f"log {label!r} has qpos of width {log.qpos.shape[1]} but the model has nq={m.nq}")
-        labels = [k for k in ("closed_loop", "open_loop") if k in logs] + [
-            k for k in logs if k not in ("closed_loop", "open_loop")
-        ]
+        main = "closed_loop" if "closed_loop" in logs else next(iter(logs))
+        labels = [main] + [k for k in logs if k != main]
         t0 = min(float(logs[k].t[0]) for k in labels)
         t1 = max(float(logs[k].t[-1]) for k in labels)
         self.times = frame_times(t0, t1, settings.fps)
@@ -199,7 +204,8 @@ class Replay:
         lo, hi = pts.min(axis=0), pts.max(axis=0)
         self._span = float(max(hi[0] - lo[0], hi[1] - lo[1], 0.5))
         spacing = self._span / 400.0
-        self.tracks = [self._track(k, logs[k], spacing) for k in labels[:2]]
+        styles = run_styles(labels)
+        self.tracks = [self._track(k, logs[k], spacing, styles[k]) for k in labels]
         self.datas = [mujoco.MjData(m) for _ in self.tracks]
         for d, tr in zip(self.datas, self.tracks, strict=True):
             d.qpos[:] = tr.qpos[0]
@@ -224,10 +230,10 @@ class Replay:
         self.fixed_camera = bool(np.all(self._cam_params == self._cam_params[0]))
         self._last_cam: FloatArray | None = None
         self._ref_lines: list[list[float]] = []
-        self.required_geoms = int(2 * m.ngeom + 64)
+        self.required_geoms = int(len(self.tracks) * m.ngeom + 64)
         self._font, self._box = self._overlay_setup()
 
-    def _track(self, label: str, log: RunLog, spacing: float) -> Track:
+    def _track(self, label: str, log: RunLog, spacing: float, style: RunStyle) -> Track:
         """A run's log as the frames show it; its trail keeps points ``spacing`` [m] apart."""
         xy = log.pose[:, :2]
         return Track(
@@ -237,7 +243,8 @@ class Replay:
             xy=xy,
             err=position_errors(log),
             trail_keep=decimate_path(xy, spacing),
-            rgba=RUN_STYLE.get(label, (label, CLOSED_RGBA))[1],
+            rgba=style.rgba,
+            name=style.name,
         )
 
     @property
@@ -264,11 +271,8 @@ class Replay:
         m = self.model
         base = self._base_body()
         in_robot = [g for g in range(m.ngeom) if self._in_subtree(int(m.geom_bodyid[g]), base)]
-        ids = [g for g in in_robot if m.geom_group[g] < 3 and m.geom_rgba[g, 3] > 0]
-        aabb = m.geom_aabb[ids].reshape(-1, 2, 3)  # center, half sizes
-        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
-        corners = aabb[:, None, 0, :] + signs[None] * aabb[:, None, 1, :]
-        return np.asarray(ids, dtype=np.int64), corners
+        ids = np.asarray([g for g in in_robot if m.geom_group[g] < 3 and m.geom_rgba[g, 3] > 0], dtype=np.int64)
+        return ids, aabb_corners(m, ids)
 
     def _base_body(self) -> int:
         m = self.model
@@ -298,17 +302,21 @@ class Replay:
             c = (lo + hi) / 2
             out[:] = (c[0], c[1], 0.0, dist, 90.0, -90.0)
             return out
-        # chase: behind the primary robot, smoothed; pulled back so the ghost stays in view
+        # chase: behind the main robot, smoothed, looking at the middle of the runs' bounding box and
+        # pulled back by its diagonal so every ghost stays in view (two runs: their midpoint, their
+        # separation)
         main = self.tracks[0]
         p = main.xy[main.idx]
         th = logs[main.label].pose[main.idx, 2]
-        other = self.tracks[1].xy[self.tracks[1].idx] if len(self.tracks) > 1 else p
-        # exponential smoothing per frame: position 0.15 s, heading 0.3 s, separation 0.5 s
+        xy = np.stack([tr.xy[tr.idx] for tr in self.tracks])  # (runs, n, 2)
+        lo_k, hi_k = xy.min(axis=0), xy.max(axis=0)
+        centre = (lo_k + hi_k) / 2
+        spread = np.hypot(*(hi_k - lo_k).T)
+        # exponential smoothing per frame: position 0.15 s, heading 0.3 s, spread 0.5 s
         alpha = 1.0 - np.exp(-1.0 / (self.settings.fps * np.array([0.15, 0.15, 0.3, 0.5])))
         state = np.array([p[0, 0], p[0, 1], th[0], 0.0])
         for k in range(n):
-            sep = float(np.hypot(*(other[k] - p[k])))
-            target = np.array([(p[k, 0] + other[k, 0]) / 2, (p[k, 1] + other[k, 1]) / 2, th[k], sep])
+            target = np.array([centre[k, 0], centre[k, 1], th[k], spread[k]])
             state = target if k == 0 else state + alpha * (target - state)
             dist = max(6.0 * self._robot_extent[0], (state[3] / 2 + 3.0 * self._robot_extent[0]) / tan_half)
             out[k] = (state[0], state[1], 0.5 * self._robot_extent[1], dist, math.degrees(state[2]), -30.0)
@@ -334,12 +342,13 @@ class Replay:
         cam = self.camera
         scene = r.scene
         r.renderer.update_scene(self.datas[0], camera=cam, scene_option=self.option)
-        n_model = scene.ngeom
-        if len(self.datas) > 1:  # the ghost: dynamic geoms of the second run, translucent
-            dynamic = mujoco.mjtCatBit.mjCAT_DYNAMIC
-            mujoco.mjv_addGeoms(self.ghost_model, self.datas[1], self.option, self.perturb, dynamic, scene)
-            ghost = (*OPEN_RGBA[:3], GHOST_ALPHA)
-            for i in range(n_model, scene.ngeom):
+        dynamic = mujoco.mjtCatBit.mjCAT_DYNAMIC
+        gain = light_gain(r.model)  # the renderer's lights (the high look dims them)
+        for d, tr in zip(self.datas[1:], self.tracks[1:], strict=True):  # the ghosts: translucent
+            first = scene.ngeom
+            mujoco.mjv_addGeoms(self.ghost_model, d, self.option, self.perturb, dynamic, scene)
+            ghost = (*ghost_rgb(tr.rgba, gain), GHOST_ALPHA)
+            for i in range(first, scene.ngeom):
                 scene.geoms[i].rgba = ghost
 
     # ---- lines and overlay ----------------------------------------------------------------------
@@ -406,10 +415,10 @@ class Replay:
     def _overlay_lines(self, k: int, *, worst: bool = False) -> list[tuple[str, tuple[int, int, int]]]:
         t = 9999.99 if worst else float(self.times[k] - self.times[0])
         lines = [(f"t = {t:7.2f} s", (255, 255, 255))]
-        for tr in self.tracks:
-            name, rgba = RUN_STYLE.get(tr.label, (tr.label, CLOSED_RGBA))
+        for i, tr in enumerate(self.tracks):
+            name = tr.name if i == 0 else f"{tr.name} (ghost)"
             err = 99.999 if worst else float(tr.err[tr.idx[k]])
-            color = tuple(int(min(255, 80 + 175 * c)) for c in rgba[:3])
+            color = tuple(int(min(255, 80 + 175 * c)) for c in tr.rgba[:3])
             lines.append((f"{name}: error {err:6.3f} m", (color[0], color[1], color[2])))
         return lines
 

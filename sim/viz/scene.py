@@ -7,6 +7,8 @@ This module imports neither of them: replay imports compose, and both import thi
 
 from __future__ import annotations
 
+import colorsys
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import mujoco
@@ -20,10 +22,71 @@ Frame = NDArray[np.uint8]
 REFERENCE_RGBA = (0.10, 0.55, 0.25, 1.0)
 CLOSED_RGBA = (0.10, 0.35, 0.95, 1.0)
 OPEN_RGBA = (1.00, 0.50, 0.10, 1.0)
+ODOMETRY_RGBA = (0.58, 0.22, 0.85, 1.0)
+#: Feedback on the true pose: teal, apart from the reference path's green.
+TRUTH_RGBA = (0.00, 0.72, 0.70, 1.0)
 GHOST_ALPHA = 0.35
 
-#: Run label -> (overlay name, trail colour).
-RUN_STYLE = {"closed_loop": ("closed loop", CLOSED_RGBA), "open_loop": ("open loop (ghost)", OPEN_RGBA)}
+
+@dataclass(frozen=True)
+class RunStyle:
+    """How one run is drawn, in the video and in the report plots alike.
+
+    Attributes:
+        name: Name in the video's overlay and the plots' legends.
+        rgba: Colour (RGBA in [0, 1]): the robot (the ghost's tint), its trail, its plot lines.
+        linestyle: Matplotlib line style of its lines in the plots.
+    """
+
+    name: str
+    rgba: tuple[float, float, float, float]
+    linestyle: str = "-"
+
+
+#: Run label -> style: the one table the video (:mod:`sim.viz.replay`, :mod:`sim.viz.compose`) and
+#: the plots (:mod:`sim.viz.plots.run`) read. Labels not in it get :data:`FALLBACK_RGBA` colours.
+RUN_STYLES: dict[str, RunStyle] = {
+    "closed_loop": RunStyle("closed loop", CLOSED_RGBA, "-"),
+    "open_loop": RunStyle("open loop", OPEN_RGBA, "--"),
+    "closed_loop_odometry": RunStyle("odometry feedback", ODOMETRY_RGBA, "-."),
+    "closed_loop_truth": RunStyle("true-pose feedback", TRUTH_RGBA, ":"),
+}
+
+#: Colours of runs whose label :data:`RUN_STYLES` does not know, taken in order (magenta, brown,
+#: olive, slate, crimson, grey); past these, hues a golden angle apart.
+FALLBACK_RGBA = (
+    (0.89, 0.20, 0.64, 1.0),
+    (0.55, 0.34, 0.16, 1.0),
+    (0.56, 0.58, 0.08, 1.0),
+    (0.30, 0.38, 0.50, 1.0),
+    (0.78, 0.08, 0.20, 1.0),
+    (0.40, 0.40, 0.40, 1.0),
+)
+
+
+def run_styles(labels: Iterable[str]) -> dict[str, RunStyle]:
+    """The style of each run label, in the order given.
+
+    A label of :data:`RUN_STYLES` gets its style; every other label gets the next colour of
+    :data:`FALLBACK_RGBA` (then hues a golden angle apart), named by its label, dotted in plots, so
+    the runs of one video or plot never share a colour.
+    """
+    out: dict[str, RunStyle] = {}
+    n_unknown = 0
+    for label in labels:
+        if label in out:
+            continue
+        style = RUN_STYLES.get(label)
+        if style is None:
+            if n_unknown < len(FALLBACK_RGBA):
+                rgba = FALLBACK_RGBA[n_unknown]
+            else:
+                hue = (0.13 + 0.381966 * (n_unknown - len(FALLBACK_RGBA))) % 1.0
+                rgba = (*colorsys.hsv_to_rgb(hue, 0.75, 0.7), 1.0)
+            style = RunStyle(label, rgba, ":")
+            n_unknown += 1
+        out[label] = style
+    return out
 
 
 @dataclass(frozen=True)
@@ -37,7 +100,8 @@ class Track:
         xy: (N, 2) logged positions [m].
         err: (N,) position error against the reference [m].
         trail_keep: Decimated log indices the trail is drawn through.
-        rgba: Trail colour.
+        rgba: Colour of its trail (and of its ghost).
+        name: Name in the overlay.
     """
 
     label: str
@@ -47,6 +111,28 @@ class Track:
     err: FloatArray
     trail_keep: NDArray[np.int64]
     rgba: tuple[float, ...]
+    name: str
+
+
+def light_gain(model: mujoco.MjModel) -> FloatArray:
+    """(3,) factor by which the lights scale the colour of a face turned up to them and to the camera:
+    the headlight's ambient and diffuse (straight on, as in the overview) plus every active light's
+    ambient and its diffuse times the cosine between its direction and the vertical."""
+    head = model.vis.headlight
+    gain = np.array(head.ambient, dtype=float) + (np.array(head.diffuse, dtype=float) if head.active else 0.0)
+    for i in range(model.nlight):
+        if model.light_active[i]:
+            d = np.asarray(model.light_dir[i], dtype=float)
+            cos = max(0.0, -float(d[2]) / max(float(np.linalg.norm(d)), 1e-12))
+            gain += np.asarray(model.light_ambient[i], dtype=float) + cos * np.asarray(model.light_diffuse[i])
+    return gain
+
+
+def ghost_rgb(rgba: tuple[float, ...], gain: FloatArray) -> tuple[float, float, float]:
+    """The colour to draw a ghost in so that its faces lit straight on show ``rgba`` (RGB(A) in
+    [0, 1]) rather than a washed-out brighter one: ``rgba`` divided by :func:`light_gain`, at most 1."""
+    r, g, b = (min(1.0, float(c) / max(float(k), 1e-6)) for c, k in zip(rgba[:3], gain, strict=True))
+    return (r, g, b)
 
 
 def rgb255(rgba: tuple[float, ...]) -> tuple[int, int, int]:
@@ -55,7 +141,7 @@ def rgb255(rgba: tuple[float, ...]) -> tuple[int, int, int]:
 
 
 def trail_width(track: int, line_width: int) -> int:
-    """Width [px] of a track's trail: the primary run's wider, the ghost's thinner (drawn on top)."""
+    """Width [px] of a track's trail: the primary run's wider, the ghosts' thinner (drawn on top)."""
     return line_width + 1 if track == 0 else max(1, line_width - 1)
 
 
@@ -142,6 +228,16 @@ def polylines(px: FloatArray, ok: NDArray[np.bool_]) -> list[list[float]]:
         if seg.size > 1:
             runs.append(px[seg].ravel().tolist())
     return runs
+
+
+#: The 8 sign combinations of a box's corners, x slowest.
+_SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+
+
+def aabb_corners(model: mujoco.MjModel, geoms: NDArray[np.int64]) -> FloatArray:
+    """(G, 8, 3) corners of the bounding box of each of ``geoms`` in its own frame [m] (``geom_aabb``)."""
+    aabb = model.geom_aabb[geoms].reshape(-1, 2, 3)  # centre, half sizes
+    return np.asarray(aabb[:, None, 0, :] + _SIGNS[None] * aabb[:, None, 1, :])
 
 
 def geom_box_corners(data: mujoco.MjData, geoms: NDArray[np.int64], corners: FloatArray) -> FloatArray:

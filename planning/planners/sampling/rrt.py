@@ -58,10 +58,8 @@ class TreeConfig:
         n_speeds: Bicycle primitive speeds per steering class.
         primitive_duration: Bicycle primitive and diff-drive drive duration [s].
         shape: Collision model, "footprint" or "disc".
-        clearance: Margin every pose must keep from obstacles and walls [m]. The default 1 cm
-            is the real robot's tracking budget: fed by its estimator, it follows a plan to a few
-            millimetres, so a plan that grazes a parked car by 3 mm has it touch the car (0 plans
-            to the limit).
+        clearance: Margin every pose must keep from obstacles and walls [m] (simulate jobs
+            plan with 1 cm, :class:`sim.pipeline.case.PlanOptions`).
     """
 
     steering: str = "bicycle"
@@ -74,7 +72,7 @@ class TreeConfig:
     n_speeds: int = 20
     primitive_duration: float = 1.0
     shape: str = "footprint"
-    clearance: float = 0.01
+    clearance: float = 0.0
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.goal_bias <= 1.0:

@@ -1,10 +1,13 @@
 """Report plots of a simulate job (matplotlib, Agg backend): figures in, PNG files out.
 
-Three figures:
+Three figures, every run in its colour and line style from the video's table
+(:data:`sim.viz.scene.RUN_STYLES`, :func:`sim.viz.scene.run_styles`):
 
-- ``world``: the arena, its obstacles, the reference path and the open-loop and closed-loop paths;
+- ``world``: the arena, its obstacles, the reference path and each run's path;
 - ``errors``: position and heading error of each run against time;
-- ``commands``: commanded v, omega and wheel speeds of each run against the robot's limits.
+- ``commands``: commanded v, omega and wheel speeds of each run against the robot's limits;
+
+and, when the job's estimates are given, ``estimation`` (:mod:`sim.viz.plots.estimation`).
 
 Figures are built without pyplot on the Agg canvas (no display, no global state). The figure
 builders return :class:`matplotlib.figure.Figure` objects and never touch the disk;
@@ -25,20 +28,20 @@ from planning.trajectory.trajectory import Trajectory
 from sim.physics.metrics import heading_errors, position_errors
 from sim.physics.runlog import RunLog
 from sim.viz.plots.draw import RUN_WORLD, draw_world
+from sim.viz.plots.estimation import EstimationSeries
+from sim.viz.scene import run_styles
 
-#: Run label -> (legend name, colour, line style); colours match the video.
-STYLE = {
-    "closed_loop": ("closed loop", "#1a59f2", "-"),
-    "open_loop": ("open loop", "#ff8019", "--"),
-}
 REFERENCE_COLOR = "#1a8c40"
 
-#: Plot name -> file suffix, in the order they are written.
+#: Plot names (file suffixes) of every job, in the order they are written.
 PLOTS = ("world", "errors", "commands")
+#: Plot name of the estimates against the truth, written when the job gives its estimates.
+ESTIMATION_PLOT = "estimation"
 
 
-def _style(label: str) -> tuple[str, str, str]:
-    return STYLE.get(label, (label, "#555555", ":"))
+def _styles(logs: Mapping[str, RunLog]) -> dict[str, tuple[str, tuple[float, ...], str]]:
+    """Run label -> (legend name, colour, line style) of every run of ``logs``."""
+    return {label: (st.name, st.rgba, st.linestyle) for label, st in run_styles(logs).items()}
 
 
 def world_figure(world: World, trajectory: Trajectory, logs: Mapping[str, RunLog], *, title: str = "") -> Figure:
@@ -56,8 +59,9 @@ def world_figure(world: World, trajectory: Trajectory, logs: Mapping[str, RunLog
     draw_world(ax, world, RUN_WORLD)
     ref = trajectory.pose
     ax.plot(ref[:, 0], ref[:, 1], color=REFERENCE_COLOR, lw=2.2, label="reference")
+    styles = _styles(logs)
     for label, log in logs.items():
-        name, color, ls = _style(label)
+        name, color, ls = styles[label]
         ax.plot(log.pose[:, 0], log.pose[:, 1], color=color, ls=ls, lw=1.4, label=name)
     ax.plot(*ref[0, :2], "o", color="k", ms=6, label="start")
     ax.plot(*ref[-1, :2], "*", color="k", ms=10, label="end of reference")
@@ -83,8 +87,9 @@ def errors_figure(logs: Mapping[str, RunLog], *, title: str = "") -> Figure:
     fig = Figure(figsize=(8.0, 5.6), dpi=110)
     FigureCanvasAgg(fig)
     ax_p, ax_h = fig.subplots(2, 1, sharex=True)
+    styles = _styles(logs)
     for label, log in logs.items():
-        name, color, ls = _style(label)
+        name, color, ls = styles[label]
         ax_p.plot(log.t, position_errors(log), color=color, ls=ls, label=name)
         ax_h.plot(log.t, heading_errors(log), color=color, ls=ls, label=name)
     ax_p.set_ylabel("position error [m]")
@@ -106,8 +111,9 @@ def commands_figure(logs: Mapping[str, RunLog], robot: RobotSpec, *, title: str 
     fig = Figure(figsize=(8.0, 8.0), dpi=110)
     FigureCanvasAgg(fig)
     ax_v, ax_w, ax_wh = fig.subplots(3, 1, sharex=True)
+    styles = _styles(logs)
     for label, log in logs.items():
-        name, color, ls = _style(label)
+        name, color, ls = styles[label]
         ax_v.step(log.t, log.command[:, 0], where="post", color=color, ls=ls, label=name)
         ax_w.step(log.t, log.command[:, 1], where="post", color=color, ls=ls, label=name)
         wheel = {"where": "post", "color": color, "ls": ls}
@@ -133,11 +139,21 @@ def commands_figure(logs: Mapping[str, RunLog], robot: RobotSpec, *, title: str 
 
 
 def job_figures(
-    world: World, robot: RobotSpec, trajectory: Trajectory, logs: Mapping[str, RunLog], *, title: str = ""
+    world: World,
+    robot: RobotSpec,
+    trajectory: Trajectory,
+    logs: Mapping[str, RunLog],
+    *,
+    title: str = "",
+    estimation: EstimationSeries | None = None,
 ) -> dict[str, Figure]:
-    """Every report figure of a job, by name (see :data:`PLOTS`)."""
-    return {
+    """Every report figure of a job, by name: :data:`PLOTS`, then :data:`ESTIMATION_PLOT` when
+    ``estimation`` (the estimates against the truth) is given."""
+    figs = {
         "world": world_figure(world, trajectory, logs, title=title),
         "errors": errors_figure(logs, title=title),
         "commands": commands_figure(logs, robot, title=title),
     }
+    if estimation is not None:
+        figs[ESTIMATION_PLOT] = estimation.figure(title=title)
+    return figs
