@@ -134,6 +134,7 @@ def test_parallel_workers_share_the_study(tmp_path: Path) -> None:
     trials = _completed(tmp_path)
     assert len(trials) == 4
     assert len({tuple(sorted(t.params.items())) for t in trials}) == 4
+    assert sum(t.params == {"kp": 9.0, "kd": 6.0, "xi_min": 0.02} for t in trials) == 1  # taken by one worker
 
 
 @pytest.mark.parametrize(

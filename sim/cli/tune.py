@@ -343,6 +343,7 @@ def run(args: argparse.Namespace) -> int:
 def _optimise(args: argparse.Namespace, spec: Any) -> Any:
     """Open (or create) the study and run the trials it still lacks, on one or more workers."""
     import optuna
+    from optuna.trial import TrialState
 
     from sim.tools.tune import completed, ensure_default_trial, load_study, run_worker, split_trials
 
@@ -362,9 +363,15 @@ def _optimise(args: argparse.Namespace, spec: Any) -> Any:
         )
     progress = _Progress(args.trials, done, not args.quiet and sys.stderr.isatty())
     shares = split_trials(remaining, args.jobs)
+    report = [lambda s, t: progress.set(len(completed(s)), _best_value(s))]
     try:
+        if len(shares) > 1 and study.get_trials(deepcopy=False, states=(TrialState.WAITING,)):
+            # SQLite cannot lock a row, so two workers starting together may both take the enqueued
+            # trial (optuna#4002) and one fails telling it; run it here first.
+            run_worker(spec, 1, 0, callbacks=report)
+            shares = split_trials(remaining - 1, args.jobs)
         if len(shares) == 1:
-            run_worker(spec, shares[0], 0, callbacks=[lambda s, t: progress.set(len(completed(s)), _best_value(s))])
+            run_worker(spec, shares[0], 0, callbacks=report)
         elif shares:
             _run_parallel(spec, shares, study, progress)
     finally:
