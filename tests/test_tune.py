@@ -216,6 +216,7 @@ def test_objective_is_the_stated_formula() -> None:
 def test_draws_are_fixed_by_the_seed_and_held_out_ones_are_new() -> None:
     train = make_draws(4, 0)
     assert train == make_draws(4, 0) and train != make_draws(4, 1)
+    assert make_draws(2, 0) == train[:2] and make_draws(9, 0)[:4] == train  # more draws extend the set
     for held_seed, n in ((0, 8), (0, 1), (3, 16)):
         held = make_draws(n, held_seed, held_out=True)
         assert held == make_draws(n, held_seed, held_out=True)
@@ -228,6 +229,7 @@ def test_draws_are_fixed_by_the_seed_and_held_out_ones_are_new() -> None:
     robust = make_draws(4, 0, perturbations=PerturbationRange(friction=(0.5, 0.6)))
     assert [(x.build_seed, x.seed) for x in robust] == [(x.build_seed, x.seed) for x in train]
     assert all(x.perturbation is not None and 0.5 <= x.perturbation.friction <= 0.6 for x in robust)
+    assert make_draws(2, 0, perturbations=PerturbationRange(friction=(0.5, 0.6))) == robust[:2]
 
 
 def test_evaluator_compiles_each_build_once(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -90,9 +90,10 @@ def make_draws(
 ) -> tuple[Draw, ...]:
     """``count`` draws made from a study's seed; the same arguments give the same draws.
 
-    The build seeds of one set are distinct, and so are its noise seeds. Training draws have even
-    seeds and held-out draws odd ones, so a held-out draw never repeats a robot or a noise
-    sequence of any training draw of any size.
+    The build seeds of one set are distinct, and so are its noise seeds; each comes from its own
+    stream, so a larger ``count`` keeps the smaller set's draws and adds to them. Training draws
+    have even seeds and held-out draws odd ones, so a held-out draw never repeats a robot or a
+    noise sequence of any training draw of any size.
 
     Args:
         count: Number of draws (>= 0).
@@ -106,11 +107,11 @@ def make_draws(
     if count < 0:
         raise ConfigError(f"number of draws must be >= 0, got {count}")
     parity = int(held_out)
-    rng = np.random.default_rng([seed, parity])
-    builds, noises = _distinct_seeds(rng, count, parity), _distinct_seeds(rng, count, parity)
+    build_rng, noise_rng, pert_rng = (np.random.default_rng([seed, parity, stream]) for stream in range(3))
+    builds, noises = _distinct_seeds(build_rng, count, parity), _distinct_seeds(noise_rng, count, parity)
     perts: list[Perturbation | None] = [None] * count
     if perturbations is not None:
-        perts = list(perturbations.sample(count, int(rng.integers(SEED_SPACE))))
+        perts = list(perturbations.sample(count, int(pert_rng.integers(SEED_SPACE))))
     return tuple(Draw(b, n, p) for b, n, p in zip(builds, noises, perts, strict=True))
 
 
