@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import re
 import signal
@@ -12,6 +13,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import optuna
 import pytest
 
@@ -19,18 +21,22 @@ from control.fbl import FBLGains
 from control.gains import load_gains_file
 from sim.cli.main import main
 from sim.cli.tune import default_study_name
+from sim.physics.asbuilt import check_build_seed
 from sim.physics.perturb import PerturbationRange
+from sim.pipeline import simulate
 from sim.pipeline.case import Case
 from sim.pipeline.simulate import prepare_case
-from sim.tools.tune import Evaluator, split_trials
+from sim.tools.tune import Comparison, Evaluation, Evaluator, make_draws, split_trials
 
-CASE = "open:line"  # the cheapest reference: 12 s simulated, ~0.1 s a run
+CASE = "open:line"  # the cheapest reference: 12 s simulated, ~0.3 s a run
+DRAWS = 2  # robots per case in the tests' studies
 
 
 def _args(tmp_path: Path, trials: int, *extra: str) -> list[str]:
     return [
         "tune", "--scenarios", CASE, "--trials", str(trials), "--storage", f"sqlite:///{tmp_path}/study.db",
-        "--study", "t", "--out", str(tmp_path / "gains.toml"), "--plots", str(tmp_path), "--quiet", *extra,
+        "--study", "t", "--out", str(tmp_path / "gains.toml"), "--plots", str(tmp_path), "--quiet",
+        "--draws", str(DRAWS), *extra,
     ]  # fmt: skip
 
 
@@ -52,22 +58,38 @@ def _completed_so_far(tmp_path: Path) -> int:
 
 
 def test_tuning_is_no_worse_than_the_defaults(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(_args(tmp_path, 6, "--eval-runs", "1")) == 0
+    assert main(_args(tmp_path, 6, "--eval-runs", "2")) == 0
     out = capsys.readouterr().out
-    assert "held-out perturbed runs" in out and "tuned / default" in out
     saved = load_gains_file(tmp_path / "gains.toml")
     prov = saved.provenance
-    # Re-evaluate both gain sets the same way, independently of the study.
-    ev = Evaluator([Case.parse(CASE)])
+    # Re-evaluate gain sets the same way, independently of the study: every trial met the same draws.
+    ev = Evaluator([Case.parse(CASE)], make_draws(DRAWS, 0))
     tuned, default = ev.evaluate(saved.gains), ev.evaluate(FBLGains())
     assert tuned.objective == prov["objective"]  # deterministic, and the file holds what was found
     assert default.objective == prov["default_objective"]
     assert tuned.objective <= default.objective
-    trials = _completed(tmp_path)
+    trials = sorted(_completed(tmp_path), key=lambda t: t.number)
     assert len(trials) == 6 == prov["trials"]
-    first = min(trials, key=lambda t: t.number)
-    assert first.params == {"kp": 9.0, "kd": 6.0, "xi_min": 0.02} and first.value == default.objective
-    assert prov["objective"] == min(t.value for t in trials)
+    assert trials[0].params == {"kp": 9.0, "kd": 6.0, "xi_min": 0.02} and trials[0].value == default.objective
+    for t in trials[1:3]:  # two more trials, scored afresh on the draws made from the seed
+        assert ev.evaluate(FBLGains(**t.params)).objective == t.value
+    assert prov["objective"] == min(t.value for t in trials if t.value is not None)
+    # The held-out comparison: other robots and noise, both gain sets on the same ones, named consistently.
+    record = json.loads((tmp_path / "gains.json").read_text())
+    held = record["held_out"]
+    trained = record["settings"]["draws"]
+    assert len(trained) == DRAWS and len(held["runs"]) == 2
+    for key in ("build_seed", "seed"):
+        assert not {d[key] for d in trained} & {r[key] for r in held["runs"]}
+    assert held["tuned"]["objective"] == pytest.approx(sum(r["tuned"] for r in held["runs"]) / 2, rel=1e-12)
+    ratio = held["tuned"]["objective"] / held["default"]["objective"]
+    assert held["ratios"]["objective"] == pytest.approx(ratio, rel=1e-12)
+    better = "tuned" if ratio < 1 else "default" if ratio > 1 else "neither"
+    assert held["better"] == better == prov["held_out"]["better"]
+    assert held["verdict"] == prov["held_out"]["verdict"] and held["verdict"] in out
+    assert "tuned/default" in out
+    if better != "neither":
+        assert held["verdict"].startswith(f"{better} gains are better on held-out robots: objective {ratio:.2f}x")
     assert (tmp_path / "tune-t-history.png").stat().st_size > 1000
     assert (tmp_path / "tune-t-importance.png").stat().st_size > 1000
     # Same command again: nothing left to run, and the outputs are not overwritten without --overwrite.
@@ -112,6 +134,7 @@ def test_parallel_workers_share_the_study(tmp_path: Path) -> None:
     trials = _completed(tmp_path)
     assert len(trials) == 4
     assert len({tuple(sorted(t.params.items())) for t in trials}) == 4
+    assert sum(t.params == {"kp": 9.0, "kd": 6.0, "xi_min": 0.02} for t in trials) == 1  # taken by one worker
 
 
 @pytest.mark.parametrize(
@@ -123,6 +146,9 @@ def test_parallel_workers_share_the_study(tmp_path: Path) -> None:
         ({"--storage": "nosuchdb://user@host/db"}, "cannot open storage"),
         ({"--perturb-range": "grip=1:2"}, "expected comma-separated"),
         ({"--trials": "0"}, "--trials must be >= 1"),
+        ({"--draws": "0"}, "--draws must be >= 1"),
+        ({"--perturb-range": "friction=0.5:1.5"}, "--perturb-range is used by --robust only"),
+        ({"--json": "OUT/gains.toml"}, "two outputs would be one file"),
     ],
 )
 def test_bad_input_is_a_clear_error_and_writes_nothing(
@@ -132,6 +158,7 @@ def test_bad_input_is_a_clear_error_and_writes_nothing(
     work.mkdir()
     args = _args(work, 3)
     for key, value in change.items():
+        value = value.replace("OUT", str(work))
         if key in args:
             args[args.index(key) + 1] = value
         else:
@@ -149,10 +176,17 @@ def test_malformed_gains_file_is_rejected_by_simulate(tmp_path: Path, capsys: py
     assert sorted(p.name for p in tmp_path.iterdir()) == ["g.toml"]
 
 
-def test_resuming_with_other_settings_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(_args(tmp_path, 1, "--eval-runs", "0")) == 0
-    assert main([*_args(tmp_path, 2, "--eval-runs", "0", "--saturation-weight", "1"), "--overwrite"]) == 2
-    assert "other settings" in capsys.readouterr().err
+@pytest.mark.parametrize(
+    ("change", "differ"),
+    [(["--saturation-weight", "1"], "saturation_weight"), (["--draws", "3"], "draws"), (["--seed", "1"], "draws")],
+)
+def test_resuming_with_other_settings_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], change: list[str], differ: str
+) -> None:
+    assert main(_args(tmp_path, 1, "--eval-runs", "0", "--draws", "1")) == 0
+    assert main([*_args(tmp_path, 2, "--eval-runs", "0", "--draws", "1", *change), "--overwrite"]) == 2
+    listed = re.search(r"other settings \(([^)]*) differ\)", capsys.readouterr().err)
+    assert listed is not None and differ in listed.group(1).split(", ")
     assert len(_completed(tmp_path)) == 1
 
 
@@ -170,8 +204,77 @@ def test_objective_is_the_stated_formula() -> None:
     ev = Evaluator([case], saturation_weight=0.5).evaluate(gains)
     assert ev.objective == m.rms_position_error_m + m.final_position_error_m + 0.5 * m.saturation_fraction
     assert (ev.runs, ev.failures, ev.rms_m) == (1, 0, m.rms_position_error_m)
-    perts = PerturbationRange().sample(2, seed=1)
-    robust = Evaluator([case, Case.parse("open:circle")], perts).evaluate(gains)
-    assert robust.runs == 4  # every case meets every perturbation
-    m2 = prepare_case(case).run(gains, perts[1]).metrics
-    assert m2 != m  # the perturbation reached the physics
+    draws = make_draws(2, 1, perturbations=PerturbationRange())
+    robust = Evaluator([case, Case.parse("open:circle")], draws).evaluate(gains)
+    assert robust.runs == 4  # every case meets every draw
+    d = draws[1]
+    m2 = prepare_case(case).with_build(d.build_seed).run(gains, d.perturbation, seed=d.seed).metrics
+    assert robust.costs[1] == m2.rms_position_error_m + m2.final_position_error_m + 0.05 * m2.saturation_fraction
+    assert m2 != m  # the build, the noise and the perturbation reached the physics
+
+
+def test_draws_are_fixed_by_the_seed_and_held_out_ones_are_new() -> None:
+    train = make_draws(4, 0)
+    assert train == make_draws(4, 0) and train != make_draws(4, 1)
+    assert make_draws(2, 0) == train[:2] and make_draws(9, 0)[:4] == train  # more draws extend the set
+    for held_seed, n in ((0, 8), (0, 1), (3, 16)):
+        held = make_draws(n, held_seed, held_out=True)
+        assert held == make_draws(n, held_seed, held_out=True)
+        for key in ("build_seed", "seed"):
+            values = [getattr(x, key) for x in held]
+            assert len(set(values)) == n  # n different robots, n different noise sequences
+            trained = {getattr(x, key) for s in (0, 1, 3) for x in make_draws(16, s)}
+            assert not set(values) & trained  # no robot or noise any training set of these seeds has
+    assert all(check_build_seed(x.build_seed) == x.build_seed and x.perturbation is None for x in train)
+    robust = make_draws(4, 0, perturbations=PerturbationRange(friction=(0.5, 0.6)))
+    assert [(x.build_seed, x.seed) for x in robust] == [(x.build_seed, x.seed) for x in train]
+    assert all(x.perturbation is not None and 0.5 <= x.perturbation.friction <= 0.6 for x in robust)
+    assert make_draws(2, 0, perturbations=PerturbationRange(friction=(0.5, 0.6))) == robust[:2]
+
+
+def test_evaluator_compiles_each_build_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    compiled: list[object] = []
+    real = simulate.Simulator
+
+    def counting(*args: object) -> object:
+        compiled.append(args[-1])
+        return real(*args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(simulate, "Simulator", counting)
+    ev = Evaluator([Case.parse(CASE)], make_draws(2, 0))
+    first = ev.evaluate(FBLGains())
+    assert len(compiled) == 3  # the case's own build, then each draw's
+    assert ev.evaluate(FBLGains()) == first and len(compiled) == 3  # a second trial compiles nothing
+    held = ev.with_draws(make_draws(1, 0, held_out=True))
+    held.evaluate(FBLGains())
+    held.evaluate(FBLGains(3.0, 2.0))
+    assert len(compiled) == 4
+
+
+def _evaluation(costs: list[float]) -> Evaluation:
+    return Evaluation(sum(costs) / len(costs), 0.01, 0.02, 0.0, 0, len(costs), tuple(costs))
+
+
+@pytest.mark.parametrize(
+    ("tuned", "better", "words"),
+    [
+        ([0.7, 1.4, 0.7], "tuned", "tuned gains are better on held-out robots: objective 0.70x default"),
+        ([1.2, 2.3, 1.1], "default", "default gains are better on held-out robots: objective 1.15x default"),
+        ([1.0, 2.0, 1.0], "neither", "tuned and default gains score the same on held-out robots (3 runs)"),
+        ([0.5, 2.5, 0.8], "tuned", "tuned gains are better on held-out robots: objective 0.95x default"),
+    ],
+)
+def test_the_verdict_names_the_better_gains(tuned: list[float], better: str, words: str) -> None:
+    draws = make_draws(3, 0, held_out=True)
+    c = Comparison(_evaluation([1.0, 2.0, 1.0]), _evaluation(tuned), draws, ("a",))
+    assert c.better == better and words in c.verdict()
+    diff = np.subtract(tuned, [1.0, 2.0, 1.0])
+    mean, sem = c.paired_difference()
+    assert (mean, sem) == pytest.approx((diff.mean(), diff.std(ddof=1) / np.sqrt(3)), rel=1e-12, abs=1e-15)
+    assert f"{mean * 1e3:+.3f} ± {sem * 1e3:.3f} mm" in c.verdict() or better == "neither"
+    clear = abs(mean) > 2 * sem
+    assert ("not a clear difference" in c.verdict()) == (better != "neither" and not clear)
+    record = c.as_dict()
+    assert [r["tuned"] for r in record["runs"]] == tuned and [r["seed"] for r in record["runs"]] == [
+        d.seed for d in draws
+    ]

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import math
 import re
 import sys
 import time
 import warnings
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -16,23 +17,30 @@ from planning.errors import ConfigError
 
 DESCRIPTION = """\
 Tune the feedback-linearisation tracker's gains (Kp, Kd, xi_min) with Optuna (TPE by default) over
-a set of cases. Objective (lower is better), averaged over cases (and, with --robust, over seeded
-perturbations): RMS position error + final position error + W * saturation fraction [m], plus 1 m
-for a run that collides, makes MuJoCo warn or fails.
+a set of cases on realistic robots. Each case runs its fused-estimate closed loop on --draws K draws
+made from --seed: an as-built robot (build seed), sensor noise (noise seed) and, with --robust, a
+perturbation from --perturb-range; every trial meets the same draws. Objective (lower is better),
+averaged over cases and draws: RMS position error + final position error + W * saturation
+fraction [m], plus 1 m for a run that collides, makes MuJoCo warn or fails. Errors are against the
+true pose, so gains that chase the estimate's noise pay for it.
 
 Cases (--scenarios, comma-separated): SCENARIO:REFERENCE tracks an analytic reference at the
 scenario's start (e.g. open:figure8, open:circle, open:line); SCENARIO:PLANNER or a bare SCENARIO
 tracks a plan (needs the planners).
 
 The study is kept in an SQLAlchemy storage (default sqlite:///renders/tune-<study>.db). Rerunning
-the same command resumes it: completed trials count toward --trials and are never repeated. Any
+the same command resumes it: completed trials count toward --trials and are never repeated; a rerun
+with other cases, draws (--draws, --seed, --robust, --perturb-range) or weights is refused. Any
 SQLAlchemy URL works (e.g. postgresql://user:pass@host/db), so workers on several machines can run
 the same command against one study; --jobs runs local worker processes. The default gains are
 always the study's first trial.
 
-At the end: the best gains are written to a gains file (for 'nhsim simulate --gains FILE'), plots
-of the optimisation history and the parameter importance are saved, and the tuned and the default
-gains are compared over --eval-runs perturbed runs per case drawn with a held-out seed.
+At the end the tuned and the default gains are run on --eval-runs held-out draws per case (other
+build and noise seeds than any trial's), a table compares them and a sentence says which are better
+and by how much. The best gains go to a gains file (for 'nhsim simulate --gains FILE') with that
+comparison in its provenance, the record of the study and the comparison (every held-out run's seeds
+and costs) to a JSON file, and plots of the optimisation history and the parameter importance are
+saved.
 
 Exit status: 0 done, 2 bad input (nothing written), 130 interrupted (the study keeps every
 completed trial; rerun the command to resume)."""
@@ -66,15 +74,15 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--sampler", choices=list(SAMPLERS), default="tpe", help="Optuna sampler (default: tpe)")
     p.add_argument("--robot", choices=list(ROBOT_FILES), default=None, help="robot (default: each scenario's)")
     p.add_argument("--control-rate", type=float, default=50.0, metavar="HZ", help="tracker rate (default: 50)")
-    p.add_argument("--robust", action="store_true", help="evaluate every trial over seeded perturbations")
     p.add_argument(
-        "--robust-runs", type=int, default=4, metavar="K", help="perturbations per case with --robust (default: 4)"
+        "--draws", type=int, default=4, metavar="K", help="robots (build and noise seeds) per case (default: 4)"
     )
+    p.add_argument("--robust", action="store_true", help="give each draw a perturbation from --perturb-range")
     p.add_argument(
         "--perturb-range",
         default=None,
         metavar="KEY=LO:HI,...",
-        help="perturbation ranges for --robust and the final comparison, e.g. friction=0.5:1.5,latency=0:0.04 "
+        help="perturbation ranges of --robust, e.g. friction=0.5:1.5,latency=0:0.04 "
         "(keys: friction, mass, radius, noise, heading_noise, latency; unspecified keys keep their defaults)",
     )
     p.add_argument(
@@ -82,7 +90,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         type=int,
         default=8,
         metavar="M",
-        help="held-out perturbed runs per case comparing tuned and default gains at the end (default: 8; 0 skips)",
+        help="held-out draws per case comparing tuned and default gains at the end (default: 8; 0 skips)",
     )
     p.add_argument(
         "--saturation-weight",
@@ -92,14 +100,27 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="cost of a saturated command, per unit saturation fraction [m] (default: 0.05)",
     )
     p.add_argument(
-        "--seed", type=int, default=0, metavar="N", help="seed of the sampler and perturbations (default: 0)"
+        "--seed", type=int, default=0, metavar="N", help="seed of the sampler, the draws and the plans (default: 0)"
     )
+    _add_output_arguments(p)
+    return p
+
+
+def _add_output_arguments(p: argparse.ArgumentParser) -> None:
+    """The options naming the files ``tune`` writes."""
     p.add_argument(
         "--out",
         type=Path,
         default=None,
         metavar="FILE",
         help="gains file to write (default: renders/tune-<study>.toml)",
+    )
+    p.add_argument(
+        "--json",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="record of the study and the held-out comparison (default: the gains file with .json)",
     )
     p.add_argument(
         "--plots",
@@ -110,7 +131,6 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     p.add_argument("--quiet", action="store_true", help="no progress display")
-    return p
 
 
 def default_study_name(tokens: list[str], robot: str | None, robust: bool) -> str:
@@ -222,6 +242,7 @@ class TuneFiles:
         gains: Gains file to write.
         history: Optimisation history plot.
         importance: Parameter importance plot.
+        record: JSON record of the study and the held-out comparison.
     """
 
     study: str
@@ -229,6 +250,7 @@ class TuneFiles:
     gains: Path
     history: Path
     importance: Path
+    record: Path
 
 
 def tune_files(args: argparse.Namespace, tokens: list[str]) -> TuneFiles:
@@ -240,14 +262,21 @@ def tune_files(args: argparse.Namespace, tokens: list[str]) -> TuneFiles:
     from sim.outputs import check_writable
 
     study = args.study or default_study_name(tokens, args.robot, args.robust)
+    gains = args.out or Path("renders") / f"tune-{study}.toml"
     files = TuneFiles(
         study,
         args.storage or f"sqlite:///renders/tune-{study}.db",
-        args.out or Path("renders") / f"tune-{study}.toml",
+        gains,
         args.plots / f"tune-{study}-history.png",
         args.plots / f"tune-{study}-importance.png",
+        args.json or gains.with_suffix(".json"),
     )
-    for path in (files.gains, files.history, files.importance):
+    paths = (files.gains, files.history, files.importance, files.record)
+    if len({p.resolve() for p in paths}) < len(paths):
+        raise ConfigError(
+            f"two outputs would be one file ({', '.join(map(str, paths))}); give --out and --json different paths"
+        )
+    for path in paths:
         check_writable(path, overwrite=args.overwrite)
     return files
 
@@ -256,8 +285,9 @@ def _check_counts(args: argparse.Namespace) -> None:
     counts = {
         "--trials": (args.trials, 1),
         "--jobs": (args.jobs, 1),
-        "--robust-runs": (args.robust_runs, 1),
+        "--draws": (args.draws, 1),
         "--eval-runs": (args.eval_runs, 0),
+        "--seed": (args.seed, 0),
     }
     for name, (value, low) in counts.items():
         if value < low:
@@ -266,24 +296,30 @@ def _check_counts(args: argparse.Namespace) -> None:
         raise ConfigError(f"--control-rate must be > 0 Hz, got {args.control_rate}")
 
 
+def _tokens(args: argparse.Namespace) -> list[str]:
+    return [t.strip() for t in args.scenarios.split(",") if t.strip()]
+
+
 def run(args: argparse.Namespace) -> int:
     """Execute ``tune``."""
     from sim.physics.perturb import PerturbationRange
     from sim.pipeline.case import Case
-    from sim.tools.tune import TuneSpec
+    from sim.tools.tune import TuneSpec, make_draws
 
-    tokens = [t.strip() for t in args.scenarios.split(",") if t.strip()]
+    tokens = _tokens(args)
     if not tokens:
         raise ConfigError("--scenarios is empty; give cases such as open:figure8,open:circle")
     _check_counts(args)
     fields_ = {"robot": args.robot, "seed": args.seed, "control_rate": args.control_rate, "tracker": "fbl"}
     cases = tuple(Case.parse(t, **fields_) for t in tokens)
     prange = PerturbationRange.parse(args.perturb_range) if args.perturb_range else PerturbationRange()
+    if args.perturb_range and not args.robust:
+        raise ConfigError("--perturb-range is used by --robust only; add --robust, or leave --perturb-range out")
     files = tune_files(args, tokens)
-    perts = tuple(prange.sample(args.robust_runs, args.seed)) if args.robust else ()  # each case meets all
+    perturbations = prange if args.robust else None
     spec = TuneSpec(
         cases,
-        perts,
+        make_draws(args.draws, args.seed, perturbations=perturbations),  # every case on every draw
         files.storage,
         files.study,
         args.trials,
@@ -298,14 +334,16 @@ def run(args: argparse.Namespace) -> int:
         Path("renders").mkdir(exist_ok=True)
     study = _optimise(args, spec)
     best, default_obj = _report_best(study, spec, evaluator)
-    comparison = _held_out(args, evaluator, prange, best)
-    _write_outputs(args, files, study, tokens, best, default_obj, comparison)
+    held_out = make_draws(args.eval_runs, args.seed, held_out=True, perturbations=perturbations)
+    comparison = _held_out(evaluator, held_out, best)
+    _write_outputs(args, files, spec, study, best, default_obj, comparison)
     return 0
 
 
 def _optimise(args: argparse.Namespace, spec: Any) -> Any:
     """Open (or create) the study and run the trials it still lacks, on one or more workers."""
     import optuna
+    from optuna.trial import TrialState
 
     from sim.tools.tune import completed, ensure_default_trial, load_study, run_worker, split_trials
 
@@ -325,9 +363,15 @@ def _optimise(args: argparse.Namespace, spec: Any) -> Any:
         )
     progress = _Progress(args.trials, done, not args.quiet and sys.stderr.isatty())
     shares = split_trials(remaining, args.jobs)
+    report = [lambda s, t: progress.set(len(completed(s)), _best_value(s))]
     try:
+        if len(shares) > 1 and study.get_trials(deepcopy=False, states=(TrialState.WAITING,)):
+            # SQLite cannot lock a row, so two workers starting together may both take the enqueued
+            # trial (optuna#4002) and one fails telling it; run it here first.
+            run_worker(spec, 1, 0, callbacks=report)
+            shares = split_trials(remaining - 1, args.jobs)
         if len(shares) == 1:
-            run_worker(spec, shares[0], 0, callbacks=[lambda s, t: progress.set(len(completed(s)), _best_value(s))])
+            run_worker(spec, shares[0], 0, callbacks=report)
         elif shares:
             _run_parallel(spec, shares, study, progress)
     finally:
@@ -345,52 +389,68 @@ def _report_best(study: Any, spec: Any, evaluator: Any) -> tuple[Any, float]:
     tuned = gains_of(best)
     dtrial = default_trial(study)
     default_obj = dtrial.value if dtrial is not None else evaluator.evaluate(FBLGains()).objective
-    print(f"study {spec.study}: {len(trials)} completed trials ({spec.storage})")
+    print(
+        f"study {spec.study}: {len(trials)} completed trials ({spec.storage}), each on {len(spec.draws)} draws per case"
+    )
     print(
         f"best trial #{best.number}: kp={tuned.kp:.4g} kd={tuned.kd:.4g} xi_min={tuned.xi_min:.4g} "
-        f"objective {best.value:.6f} m; default gains objective {default_obj:.6f} m "
+        f"objective {best.value:.6f} m; default gains objective {default_obj:.6f} m on the same draws "
         f"(ratio {best.value / default_obj:.3f})"
     )
     return best, float(default_obj)
 
 
-def _held_out(args: argparse.Namespace, evaluator: Any, prange: Any, best: Any) -> dict[str, Any]:
-    """Compare tuned and default gains over held-out perturbed runs (--eval-runs); print the table."""
-    from control.fbl import FBLGains
-    from sim.tools.tune import gains_of
+def _held_out(evaluator: Any, draws: tuple[Any, ...], best: Any) -> Any:
+    """Compare tuned and default gains on the held-out draws (none: skipped, None); print the
+    table and the verdict."""
+    from sim.tools.tune import compare, gains_of
 
-    if not args.eval_runs:
-        return {}
-    seed = args.seed + 7919
-    held_out = prange.sample(args.eval_runs, seed)  # every case meets each of them
-    ev = evaluator.with_perturbations(held_out)
-    d, t = ev.evaluate(FBLGains()), ev.evaluate(gains_of(best))
-    print(f"held-out perturbed runs: {t.runs} ({args.eval_runs} per case, seed {seed})")
-    print(f"{'gains':<8} {'objective [m]':>14} {'rms [m]':>10} {'final [m]':>10} {'saturation':>11} {'failed':>7}")
-    for label, r in (("default", d), ("tuned", t)):
+    if not draws:
+        return None
+    c = compare(evaluator, gains_of(best), draws)
+    ratio = c.ratios()
+    print(f"held-out runs: {c.tuned.runs} ({len(draws)} draws per case: builds and sensor noise no trial met)")
+    print(f"{'gains':<14} {'objective [m]':>14} {'rms [m]':>10} {'final [m]':>10} {'saturation':>11} {'failed':>7}")
+    for label, r in (("default", c.default), ("tuned", c.tuned)):
         print(
-            f"{label:<8} {r.objective:>14.6f} {r.rms_m:>10.6f} {r.final_m:>10.6f} {r.saturation:>11.4f} "
+            f"{label:<14} {r.objective:>14.6f} {r.rms_m:>10.6f} {r.final_m:>10.6f} {r.saturation:>11.4f} "
             f"{r.failures:>7d}"
         )
+    cells = [
+        f"{ratio[k]:.3f}x" if math.isfinite(ratio[k]) else "-" for k in ("objective", "rms", "final", "saturation")
+    ]
     print(
-        f"tuned / default: objective {t.objective / d.objective:.3f}, rms {t.rms_m / d.rms_m:.3f}, "
-        f"final {t.final_m / d.final_m:.3f}"
+        f"{'tuned/default':<14} {cells[0]:>14} {cells[1]:>10} {cells[2]:>10} {cells[3]:>11} "
+        f"{c.tuned.failures - c.default.failures:>+7d}"
     )
-    return {"runs": t.runs, "seed": seed, "default": d.as_dict(), "tuned": t.as_dict()}
+    print(c.verdict())
+    return c
+
+
+def _finite(value: Any, *, drop: bool) -> Any:
+    """``value`` with every non-finite float replaced by None (JSON) or its entry dropped (TOML)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        items = {k: _finite(v, drop=drop) for k, v in value.items()}
+        return {k: v for k, v in items.items() if not (drop and v is None)}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v, drop=drop) for v in value]
+    return value
 
 
 def _write_outputs(
     args: argparse.Namespace,
     files: TuneFiles,
+    spec: Any,
     study: Any,
-    tokens: list[str],
     best: Any,
     default_obj: float,
-    comparison: dict[str, Any],
+    comparison: Any,
 ) -> None:
-    """Write the gains file with its provenance and the plots; print what was written."""
+    """Write the gains file with its provenance, the JSON record and the plots; print what was written."""
     from control.gains import GainsFile, dump_gains_toml
-    from sim.outputs import atomic_path
+    from sim.outputs import atomic_path, write_json
     from sim.tools.tune import completed, gains_of
 
     provenance: dict[str, Any] = {
@@ -399,20 +459,30 @@ def _write_outputs(
         "objective": float(best.value),
         "trial": best.number,
         "default_objective": default_obj,
-        "scenarios": tokens,
+        "scenarios": _tokens(args),
         "robot": args.robot or "scenario default",
         "trials": len(completed(study)),
         "sampler": args.sampler,
         "seed": args.seed,
+        "draws": args.draws,
         "robust": args.robust,
         "saturation_weight": args.saturation_weight,
         "control_rate_hz": args.control_rate,
     }
-    if comparison:
-        provenance["held_out"] = comparison
+    held_out = None if comparison is None else comparison.as_dict()
+    if held_out is not None:
+        summary = {k: held_out[k] for k in ("better", "verdict", "ratios", "default", "tuned")}
+        provenance["held_out"] = _finite({"draws": args.eval_runs, **summary}, drop=True)
     with atomic_path(files.gains, overwrite=args.overwrite) as tmp:
         tmp.write_text(dump_gains_toml(GainsFile(gains_of(best), provenance)), encoding="utf-8")
+    record = {
+        **provenance,
+        "gains": asdict(gains_of(best)),
+        "settings": spec.settings(),
+        "held_out": held_out,
+    }
+    write_json(files.record, _finite(record, drop=False), overwrite=args.overwrite)
     plots, notes = _save_plots(study, files.history, files.importance, args.overwrite)
     for note in notes:
         print(note, file=sys.stderr)
-    print("wrote " + ", ".join([str(files.gains), *plots]))
+    print("wrote " + ", ".join([str(files.gains), str(files.record), *plots]))

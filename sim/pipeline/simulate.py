@@ -297,19 +297,41 @@ class PreparedCase:
         """The case."""
         return self.trajectory.case
 
-    def run(self, gains: FBLGains | None = None, perturbation: Perturbation | None = None) -> Run:
+    def with_build(self, build_seed: int | None) -> PreparedCase:
+        """The same trajectory on another as-built robot: a simulator of that build is compiled
+        here (self when the build is the case's own).
+
+        Args:
+            build_seed: Build seed of the robot (see :meth:`sim.pipeline.case.Case.as_built`); None
+                for the robot as drawn.
+
+        Raises:
+            ConfigError: A bad build seed.
+        """
+        if build_seed == self.case.build_seed:
+            return self
+        case = replace(self.case, build_seed=build_seed)
+        robot = self.trajectory.robot
+        simulator = Simulator(robot, self.trajectory.scenario.world, case.as_built(robot.name))
+        return PreparedCase(replace(self.trajectory, case=case), simulator)
+
+    def run(
+        self, gains: FBLGains | None = None, perturbation: Perturbation | None = None, *, seed: int | None = None
+    ) -> Run:
         """The case's single run (its tracker's kind), strict off: MuJoCo warnings are counted.
 
         Args:
             gains: Gains overriding the case's.
             perturbation: Perturbation overriding the case's.
+            seed: Sensor noise seed overriding the case's (the trajectory, planned or not, stays).
         """
         case = self.case
-        if gains is not None or perturbation is not None:
+        if gains is not None or perturbation is not None or seed is not None:
             case = replace(
                 case,
                 gains=gains or case.gains,
                 perturbation=perturbation if perturbation is not None else case.perturbation,
+                seed=seed if seed is not None else case.seed,
             )
         job = track(replace(self.trajectory, case=case), (case.kind,), strict=False, simulator=self.simulator)
         return job.runs[case.kind]

@@ -1,6 +1,6 @@
-"""Tuning the FBL tracker's gains with Optuna over a set of cases.
+r"""Tuning the FBL tracker's gains with Optuna over a set of cases, on realistic robots.
 
-Objective of a gain set (lower is better), averaged over every case and perturbation:
+Objective of a gain set (lower is better), averaged over every case and draw:
 
     J = rms_position_error + final_position_error + w_sat * saturation_fraction   [m]
 
@@ -8,14 +8,26 @@ plus ``FAILURE_COST`` for a run that touched an obstacle, made MuJoCo warn or pr
 non-finite command. ``w_sat`` (default 0.05 m) prices a command sitting on the speed or yaw-rate
 limit: saturating all the time costs as much as 5 cm of error.
 
+Each case is run in its own kind (the fused-estimate closed loop for the FBL tracker) over K
+:class:`Draw`\ s: an as-built robot (build seed, :mod:`sim.physics.asbuilt`), a sensor noise seed
+(:mod:`sim.physics.sensing`) and, in a robust study, a perturbation. :func:`make_draws` makes them
+from the study's seed, and every trial meets the same draws (common random numbers), so two gain
+sets differ only by their gains. High gains follow a perfect pose tightly but chase the estimate's
+noise; the objective, measured against the true pose, prices both.
+
+The gains found are judged on held-out draws (:func:`make_draws` with ``held_out=True``): other
+robots and other noise, never seen by a trial (training seeds are even, held-out seeds odd).
+:func:`compare` runs the tuned and the default gains on the same held-out draws and
+:class:`Comparison` says which is better and by how much.
+
 Search space (log-uniform): Kp in [0.5, 100] 1/s^2, Kd in [0.5, 40] 1/s, xi_min in
 [0.002, 0.2] m/s -- the whole parameter set the tracker exposes (:class:`FBLGains`).
 
-The study lives in an SQLAlchemy storage; its settings (cases, perturbations, weights) are
-stored with it, and a rerun with the same settings resumes it: completed trials count toward the
-requested number, trials left running by a killed worker are marked failed by the heartbeat and
-their gains are evaluated afresh by later trials, the default gains are evaluated once (as the
-first trial) so every study holds an honest "no worse than the defaults" comparison.
+The study lives in an SQLAlchemy storage; its settings (cases, draws, weights) are stored with
+it, and a rerun with the same settings resumes it: completed trials count toward the requested
+number, trials left running by a killed worker are marked failed by the heartbeat and their
+gains are evaluated afresh by later trials, the default gains are evaluated once (as the first
+trial) so every study holds an honest "no worse than the defaults" comparison.
 """
 
 from __future__ import annotations
@@ -26,7 +38,7 @@ import math
 import time
 import warnings
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -35,7 +47,8 @@ from control.fbl import FBLGains
 from planning.errors import ConfigError, NhsimError
 
 if TYPE_CHECKING:  # the command line reads SAMPLERS while building its parser, before mujoco may load
-    from sim.physics.perturb import Perturbation
+    from sim.physics.metrics import TrackingMetrics
+    from sim.physics.perturb import Perturbation, PerturbationRange
     from sim.pipeline.case import Case
     from sim.pipeline.simulate import PreparedCase
 
@@ -48,19 +61,81 @@ SAMPLERS: dict[str, str] = {"tpe": "optuna.samplers:TPESampler", "random": "optu
 #: Heartbeat of running trials [s] and the silence after which a trial is declared dead [s].
 HEARTBEAT_INTERVAL = 2
 GRACE_PERIOD = 10
+#: Seeds of draws are below this; training seeds are even, held-out seeds odd.
+SEED_SPACE = 2**31
+
+
+@dataclass(frozen=True)
+class Draw:
+    """One realistic robot and its sensors' noise, which a case is run on.
+
+    Attributes:
+        build_seed: Seed of the as-built robot (:meth:`sim.pipeline.case.Case.as_built`).
+        seed: Seed of the sensor noise (:meth:`sim.pipeline.case.Case.sensing`).
+        perturbation: Perturbation of a robust study; None for none.
+    """
+
+    build_seed: int
+    seed: int
+    perturbation: Perturbation | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain-dict view (study settings, records)."""
+        pert = None if self.perturbation is None else self.perturbation.as_dict()
+        return {"build_seed": self.build_seed, "seed": self.seed, "perturbation": pert}
+
+
+def make_draws(
+    count: int, seed: int, *, held_out: bool = False, perturbations: PerturbationRange | None = None
+) -> tuple[Draw, ...]:
+    """``count`` draws made from a study's seed; the same arguments give the same draws.
+
+    The build seeds of one set are distinct, and so are its noise seeds; each comes from its own
+    stream, so a larger ``count`` keeps the smaller set's draws and adds to them. Training draws
+    have even seeds and held-out draws odd ones, so a held-out draw never repeats a robot or a
+    noise sequence of any training draw of any size.
+
+    Args:
+        count: Number of draws (>= 0).
+        seed: The study's seed.
+        held_out: Draw the held-out set instead of the training set.
+        perturbations: Range each draw's perturbation is sampled from (robust study); None for none.
+
+    Raises:
+        ConfigError: Negative count.
+    """
+    if count < 0:
+        raise ConfigError(f"number of draws must be >= 0, got {count}")
+    parity = int(held_out)
+    build_rng, noise_rng, pert_rng = (np.random.default_rng([seed, parity, stream]) for stream in range(3))
+    builds, noises = _distinct_seeds(build_rng, count, parity), _distinct_seeds(noise_rng, count, parity)
+    perts: list[Perturbation | None] = [None] * count
+    if perturbations is not None:
+        perts = list(perturbations.sample(count, int(pert_rng.integers(SEED_SPACE))))
+    return tuple(Draw(b, n, p) for b, n, p in zip(builds, noises, perts, strict=True))
+
+
+def _distinct_seeds(rng: np.random.Generator, count: int, parity: int) -> list[int]:
+    out: list[int] = []
+    while len(out) < count:
+        value = 2 * int(rng.integers(SEED_SPACE // 2)) + parity
+        if value not in out:
+            out.append(value)
+    return out
 
 
 @dataclass(frozen=True)
 class Evaluation:
-    """A gain set's score over cases × perturbations.
+    """A gain set's score over cases × draws.
 
     Attributes:
         objective: Mean J [m].
-        rms_m: Mean RMS position error [m].
+        rms_m: Mean RMS position error [m] (of the runs that ran).
         final_m: Mean final position error [m].
         saturation: Mean saturation fraction.
         failures: Number of failed runs.
         runs: Number of runs.
+        costs: J of each run [m], cases outer, draws inner.
     """
 
     objective: float
@@ -69,26 +144,38 @@ class Evaluation:
     saturation: float
     failures: int
     runs: int
+    costs: tuple[float, ...] = field(default=(), repr=False)
 
     def as_dict(self) -> dict[str, float | int]:
-        """Plain-dict view."""
-        return asdict(self)
+        """Plain-dict view of the means and counts (not the per-run costs)."""
+        return {
+            "objective": self.objective,
+            "rms_m": self.rms_m,
+            "final_m": self.final_m,
+            "saturation": self.saturation,
+            "failures": self.failures,
+            "runs": self.runs,
+        }
 
 
 class Evaluator:
-    """Scores gain sets on a fixed set of cases and perturbations (common random numbers: every
-    gain set meets the same perturbations).
+    """Scores gain sets on a fixed set of cases and draws (common random numbers: every gain set
+    meets the same robots, noise and perturbations).
+
+    Each case's trajectory is prepared once, and a simulator is compiled once per (case, build
+    seed) and kept, so a trial only runs physics.
 
     Args:
         cases: The cases (built lazily, once).
-        perturbations: Perturbations each case is run under; empty or None -> the nominal run.
+        draws: Draws each case is run on; empty or None -> the case as it is (its own build seed,
+            seed and perturbation).
         saturation_weight: ``w_sat`` [m].
     """
 
     def __init__(
         self,
         cases: Sequence[Case],
-        perturbations: Sequence[Perturbation] | None = None,
+        draws: Sequence[Draw] | None = None,
         *,
         saturation_weight: float = 0.05,
     ) -> None:
@@ -97,9 +184,10 @@ class Evaluator:
         if not (math.isfinite(saturation_weight) and saturation_weight >= 0):
             raise ConfigError(f"saturation weight must be >= 0, got {saturation_weight}")
         self.cases = tuple(cases)
-        self.perturbations: tuple[Perturbation | None, ...] = tuple(perturbations) if perturbations else (None,)
+        self.draws: tuple[Draw | None, ...] = tuple(draws) if draws else (None,)
         self.saturation_weight = float(saturation_weight)
         self._prepared: list[PreparedCase] | None = None
+        self._builds: dict[tuple[int, int | None], PreparedCase] = {}
 
     def prepared(self) -> list[PreparedCase]:
         """The prepared cases (raises the cases' errors on first use)."""
@@ -109,32 +197,45 @@ class Evaluator:
             self._prepared = [prepare_case(c) for c in self.cases]
         return self._prepared
 
-    def with_perturbations(self, perturbations: Sequence[Perturbation]) -> Evaluator:
-        """The same cases (shared, not rebuilt) under other perturbations."""
-        other = Evaluator(self.cases, perturbations, saturation_weight=self.saturation_weight)
-        other._prepared = self._prepared
+    def built(self, index: int, build_seed: int | None) -> PreparedCase:
+        """Case ``index`` on the robot of ``build_seed``, compiled on first use and kept."""
+        key = (index, build_seed)
+        if key not in self._builds:
+            self._builds[key] = self.prepared()[index].with_build(build_seed)
+        return self._builds[key]
+
+    def with_draws(self, draws: Sequence[Draw]) -> Evaluator:
+        """The same cases (shared, not rebuilt, and sharing the compiled builds) on other draws."""
+        other = Evaluator(self.cases, draws, saturation_weight=self.saturation_weight)
+        other._prepared, other._builds = self.prepared(), self._builds
         return other
 
+    def score(self, pc: PreparedCase, gains: FBLGains, draw: Draw | None) -> tuple[float, TrackingMetrics | None, bool]:
+        """One run: its J [m], its metrics (None when the run raised) and whether it failed."""
+        try:
+            run = pc.run(gains, draw.perturbation, seed=draw.seed) if draw is not None else pc.run(gains)
+        except NhsimError:
+            return FAILURE_COST, None, True
+        m = run.metrics
+        cost = m.rms_position_error_m + m.final_position_error_m + self.saturation_weight * m.saturation_fraction
+        failed = m.collisions > 0 or m.warnings > 0 or not math.isfinite(cost)
+        return (cost if math.isfinite(cost) else 0.0) + (FAILURE_COST if failed else 0.0), m, failed
+
     def evaluate(self, gains: FBLGains) -> Evaluation:
-        """Run every case under every perturbation with ``gains`` and average."""
-        costs, rms, final, sat, failures = [], [], [], [], 0
-        for pc in self.prepared():
-            for pert in self.perturbations:
-                try:
-                    m = pc.run(gains, pert).metrics
-                except NhsimError:
-                    failures += 1
-                    costs.append(FAILURE_COST)
-                    continue
-                sat_cost = self.saturation_weight * m.saturation_fraction
-                cost = m.rms_position_error_m + m.final_position_error_m + sat_cost
-                failed = m.collisions > 0 or m.warnings > 0 or not math.isfinite(cost)
+        """Run every case on every draw with ``gains`` and average."""
+        costs: list[float] = []
+        rms, final, sat, failures = [], [], [], 0
+        for i, base in enumerate(self.prepared()):
+            for draw in self.draws:
+                cost, m, failed = self.score(base if draw is None else self.built(i, draw.build_seed), gains, draw)
+                costs.append(cost)
                 failures += int(failed)
-                costs.append((cost if math.isfinite(cost) else 0.0) + (FAILURE_COST if failed else 0.0))
-                rms.append(m.rms_position_error_m)
-                final.append(m.final_position_error_m)
-                sat.append(m.saturation_fraction)
-        return Evaluation(float(np.mean(costs)), _mean(rms), _mean(final), _mean(sat), failures, len(costs))
+                if m is not None:
+                    rms.append(m.rms_position_error_m)
+                    final.append(m.final_position_error_m)
+                    sat.append(m.saturation_fraction)
+        mean = float(np.mean(costs))
+        return Evaluation(mean, _mean(rms), _mean(final), _mean(sat), failures, len(costs), tuple(costs))
 
 
 def _mean(values: list[float]) -> float:
@@ -147,7 +248,8 @@ class TuneSpec:
 
     Attributes:
         cases: Cases tuned on.
-        perturbations: Perturbations of a robust study (empty: nominal).
+        draws: Draws every case is run on in every trial (:func:`make_draws`; empty: each case as
+            it is).
         storage: SQLAlchemy URL.
         study: Study name.
         trials: Completed trials wanted in the study.
@@ -157,7 +259,7 @@ class TuneSpec:
     """
 
     cases: tuple[Case, ...]
-    perturbations: tuple[Perturbation, ...] = ()
+    draws: tuple[Draw, ...] = ()
     storage: str = "sqlite:///renders/tune.db"
     study: str = "fbl"
     trials: int = 20
@@ -176,7 +278,7 @@ class TuneSpec:
         """What defines the objective; stored with the study and checked on resume."""
         return {
             "cases": [c.name for c in self.cases],
-            "perturbations": [p.as_dict() for p in self.perturbations],
+            "draws": [d.as_dict() for d in self.draws],
             "saturation_weight": self.saturation_weight,
             "search_space": {k: list(v) for k, v in SEARCH_SPACE.items()},
             **self.extra_settings,
@@ -184,7 +286,7 @@ class TuneSpec:
 
     def evaluator(self) -> Evaluator:
         """An evaluator of this spec's objective."""
-        return Evaluator(self.cases, self.perturbations, saturation_weight=self.saturation_weight)
+        return Evaluator(self.cases, self.draws, saturation_weight=self.saturation_weight)
 
 
 def open_storage(url: str) -> Any:
@@ -354,3 +456,93 @@ def split_trials(remaining: int, jobs: int) -> list[int]:
     """Trials per worker: ``remaining`` split as evenly as possible over ``jobs`` (no zeros)."""
     jobs = max(1, min(jobs, remaining))
     return [remaining // jobs + (1 if i < remaining % jobs else 0) for i in range(jobs)] if remaining > 0 else []
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Tuned against default gains on the same held-out draws.
+
+    Attributes:
+        default: The default gains' evaluation.
+        tuned: The tuned gains' evaluation.
+        draws: The held-out draws (each case ran on each).
+        cases: Names of the cases, in the order of the evaluations' per-run costs.
+    """
+
+    default: Evaluation
+    tuned: Evaluation
+    draws: tuple[Draw, ...]
+    cases: tuple[str, ...]
+
+    def ratios(self) -> dict[str, float]:
+        """Tuned / default of the objective, RMS, final error and saturation (nan for 0 / 0)."""
+        pairs = {
+            "objective": (self.tuned.objective, self.default.objective),
+            "rms": (self.tuned.rms_m, self.default.rms_m),
+            "final": (self.tuned.final_m, self.default.final_m),
+            "saturation": (self.tuned.saturation, self.default.saturation),
+        }
+        return {k: _ratio(t, d) for k, (t, d) in pairs.items()}
+
+    def paired_difference(self) -> tuple[float, float]:
+        """Mean and standard error of the per-run difference tuned - default of J [m] (the runs
+        pair up: same case, same draw); the standard error is 0 with one run."""
+        diff = np.asarray(self.tuned.costs) - np.asarray(self.default.costs)
+        sem = float(diff.std(ddof=1) / math.sqrt(diff.size)) if diff.size > 1 else 0.0
+        return float(diff.mean()), sem
+
+    @property
+    def better(self) -> str:
+        """ "tuned", "default", or "neither" (equal held-out objectives)."""
+        if self.tuned.objective < self.default.objective:
+            return "tuned"
+        return "default" if self.tuned.objective > self.default.objective else "neither"
+
+    def verdict(self) -> str:
+        """Which gains are better on the held-out robots and by how much, in words."""
+        ratio = self.ratios()["objective"]
+        mean, sem = self.paired_difference()
+        runs = self.tuned.runs
+        if self.better == "neither":
+            return f"tuned and default gains score the same on held-out robots ({runs} runs)"
+        spread = f"per-run difference {mean * 1e3:+.3f} ± {sem * 1e3:.3f} mm (mean ± standard error, {runs} runs)"
+        clear = abs(mean) > 2.0 * sem
+        return f"{self.better} gains are better on held-out robots: objective {ratio:.2f}x default; {spread}" + (
+            "" if clear else ", within twice its standard error: not a clear difference"
+        )
+
+    def as_dict(self) -> dict[str, Any]:
+        """Record view: both evaluations, ratios, verdict, and every run's draw and costs."""
+        mean, sem = self.paired_difference()
+        keys = [(case, draw) for case in self.cases for draw in self.draws]
+        per_run = [
+            {"case": case, **draw.as_dict(), "default": d, "tuned": t}
+            for (case, draw), d, t in zip(keys, self.default.costs, self.tuned.costs, strict=True)
+        ]
+        return {
+            "default": self.default.as_dict(),
+            "tuned": self.tuned.as_dict(),
+            "ratios": self.ratios(),
+            "better": self.better,
+            "verdict": self.verdict(),
+            "difference_m": {"mean": mean, "standard_error": sem},
+            "runs": per_run,
+        }
+
+
+def _ratio(num: float, den: float) -> float:
+    return num / den if den != 0 else (float("nan") if num == 0 else math.copysign(math.inf, num))
+
+
+def compare(evaluator: Evaluator, tuned: FBLGains, draws: Sequence[Draw]) -> Comparison:
+    """Run the default and the tuned gains on the evaluator's cases over held-out ``draws``.
+
+    Raises:
+        ConfigError: No draws.
+    """
+    if not draws:
+        raise ConfigError("no held-out draws to compare on; give --eval-runs >= 1")
+    held_out = evaluator.with_draws(draws)
+    return Comparison(
+        held_out.evaluate(FBLGains()), held_out.evaluate(tuned), tuple(draws), tuple(c.name for c in evaluator.cases)
+    )
