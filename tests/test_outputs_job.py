@@ -70,7 +70,7 @@ def test_default_outputs_then_no_clobber(tmp_path: Path, monkeypatch: pytest.Mon
     names = sorted(p.name for p in renders.iterdir())
     stem = "open-line"
     assert names == sorted(
-        [f"{stem}.mp4", f"{stem}.json"] + [f"{stem}-{n}.png" for n in ("world", "errors", "commands")]
+        [f"{stem}.mp4", f"{stem}.json"] + [f"{stem}-{n}.png" for n in ("world", "errors", "commands", "estimation")]
     )
     record = json.loads((renders / f"{stem}.json").read_text())
     assert sorted(Path(p).name for p in record["files"].values()) == names  # names every file written
@@ -124,7 +124,8 @@ def test_video_path_moves_every_output(tmp_path: Path, monkeypatch: pytest.Monke
     monkeypatch.chdir(tmp_path)
     assert main([*FAST, "--video", "out/run.mp4", "--fps", "2"]) == 0
     names = sorted(p.name for p in (tmp_path / "out").iterdir())
-    assert names == ["run-commands.png", "run-errors.png", "run-world.png", "run.json", "run.mp4"]
+    pngs = ["run-commands.png", "run-errors.png", "run-estimation.png", "run-world.png"]
+    assert names == [*pngs, "run.json", "run.mp4"]
     assert not (tmp_path / "renders").exists()
 
 
