@@ -257,24 +257,18 @@ class PoseEstimator:
         self._gyro = config.heading == "gyro"
         q = TWO_PI / config.counts_per_rev
         self._gate = chi2_upper(3, config.gate_prob)
-        self._prm = kernels.parameters(
+        cap = config.history_steps + 1
+        self._cap = cap
+        self._mem = kernels.allocate(cap)  # every array of the filter, in one block
+        block = kernels.Block.of(self._mem)
+        self._prm, self._F, self._Q, self._tmp = block.prm, block.f, block.q, block.tmp  # constants, F, Q, scratch
+        self._nu, self._bt, self._bu = block.nu, block.bt, block.bu  # last gated innovation, ring times and inputs
+        self._bx, self._bP = block.bx, block.bP  # ring states and covariances
+        block.prm[:] = kernels.parameters(
             self.nominal_radius, self.nominal_track, config.wheel_noise**2, config.position_noise**2,
             config.gyro_noise_density**2 if self._gyro else 0.0, config.gyro_bias_walk**2 if self._gyro else 0.0,
             q * q / 6.0, self._gyro, self._gate, config.reject_outliers,
         )  # fmt: skip
-        cap = config.history_steps + 1
-        self._cap = cap
-        self._bt = np.zeros(cap)  # ring buffer: step end times [s]
-        self._bu = np.zeros((cap, 3))  # (dl, dr, gyro) of each step
-        self._bx = np.zeros((cap, N_STATE))
-        self._bP = np.zeros((cap, N_STATE, N_STATE))
-        self._F = np.eye(N_STATE)
-        self._Q = np.zeros((N_STATE, N_STATE))
-        self._tmp = np.empty((N_STATE, N_STATE))
-        self._nu = np.zeros(3)  # innovation of the last gated fix
-        # scratch of a replay: state, covariance, Jacobian, noise, product, innovation
-        self._work = (np.zeros(N_STATE), np.zeros((N_STATE, N_STATE)), self._F, self._Q, self._tmp, self._nu)
-        self._ring = (self._bx, self._bP, self._bt, self._bu)
         self._head = -1
         self._size = 0
         self._t = math.nan
@@ -382,9 +376,7 @@ class PoseEstimator:
         if not math.isfinite(d_left + d_right + w):
             raise EstimatorInputError(f"predict at t={t} s: non-finite reading {d_left!r}, {d_right!r}, {gyro_z!r}")
         i = self._head + 1 if self._head + 1 < self._cap else 0
-        status = kernels.predict(
-            self._ring, self._head, i, self._work, self._prm, float(t), float(d_left), float(d_right), float(w)
-        )
+        status = kernels.predict(self._mem, self._head, i, float(t), float(d_left), float(d_right), float(w))
         if status != kernels.OK:
             self._diverged(status, t)
         self._t = float(t)
@@ -431,7 +423,7 @@ class PoseEstimator:
         """
         t_prev = self._bt[j]
         stored = np.array([fx for fx in self._fixes if fx[0] > t_prev], dtype=float).reshape(-1, 6)
-        status, t_bad, nis, ok = kernels.replay(self._ring, j, self._head, stored, np.array(new), self._work, self._prm)
+        status, t_bad, nis, ok = kernels.replay(self._mem, j, self._head, stored, np.array(new))
         if status != kernels.OK:
             self._diverged(status, t_bad)
         return nis, ok
@@ -537,7 +529,7 @@ class PoseEstimator:
         Returns:
             The pose, as :attr:`pose`.
         """
-        return kernels.head_pose(self._bx, self._bP, self._head, pose, variance, row)
+        return kernels.head_pose(self._mem, self._head, pose, variance, row)
 
     def nees(self, truth: PoseLike) -> float:
         """Normalised estimation error squared of the pose against a true pose (heading error
@@ -548,7 +540,7 @@ class PoseEstimator:
             truth: (3,) true pose [x, y, theta] [m, m, rad].
         """
         tx, ty, tth = truth
-        return kernels.head_nees(self._bx, self._bP, self._head, float(tx), float(ty), float(tth))
+        return kernels.head_nees(self._mem, self._head, float(tx), float(ty), float(tth))
 
     @property
     def cov(self) -> FloatArray:

@@ -1,7 +1,7 @@
 """The EKF's per-step arithmetic, compiled: prediction, fix update and the replay after a delayed fix.
 
 :class:`control.estimation.ekf.PoseEstimator` keeps its state in preallocated arrays (a ring buffer
-of states, covariances, times and inputs, :data:`Ring`, and scratch, :data:`Work`) and calls these
+of states, covariances, times and inputs, and scratch, in one block) and calls these
 kernels once per control period and once per fix; they work in place and allocate nothing per
 prediction, so a period costs one call into compiled code instead of a few dozen small numpy
 operations. The equations are the module doc's of :mod:`control.estimation.ekf`, written out
@@ -13,13 +13,24 @@ Errors are returned as a status code (:data:`OK`, :data:`BAD_INCREMENT`, :data:`
 :data:`BAD_INNOVATION`) with the time they happened at, and raised by the caller, which words
 the message.
 
-The constants of a filter travel in one (N_PARAMS,) array, indexed by :data:`RADIUS` ..
-:data:`REJECT` (:func:`parameters`).
+All of a filter's arrays live in one float block of rows of 7 (:func:`allocate`), so that a call
+into compiled code passes one array (a call's cost grows with its arguments, and a period makes
+few calls) and every part is a slice of rows (no reshaping per call). By row:
+
+- 0-1: the filter's constants, flat, indexed by :data:`RADIUS` .. :data:`REJECT` (:func:`parameters`);
+- 2-8: the Jacobian F of the last prediction (identity but where :func:`propagate` writes);
+  9-15: its noise Q (zero likewise); 16-22: a product;
+- 23, 24-30, 31: a replay's state, its covariance, and the innovation of the last gated fix;
+- from :data:`RING`, the ring of the last C steps: C rows (time [s], left and right wheel
+  increments [rad], gyro rate [rad/s]), C rows of states, C blocks of 7 rows of covariances.
+
+:class:`Block` gives the same parts as numpy views, for the Python side.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba as nb
 import numpy as np
@@ -28,12 +39,7 @@ from numpy.typing import NDArray
 from control.estimation.odometry import sinc_half
 
 FloatArray = NDArray[np.float64]
-#: The estimator's ring buffer: states (C, 7), covariances (C, 7, 7), times (C,) [s], inputs (C, 3)
-#: (left and right wheel increments [rad], gyro rate [rad/s]).
-Ring = tuple[FloatArray, FloatArray, FloatArray, FloatArray]
-#: Scratch: a state (7,), a covariance (7, 7), the Jacobian F (7, 7; identity but where
-#: :func:`propagate` writes), the noise Q (7, 7; zero likewise), a product (7, 7), an innovation (3,).
-Work = tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]
+
 
 #: Indices into the parameter array.
 RADIUS, TRACK, WHEEL_VAR, POSITION_VAR, GYRO_VAR, BIAS_WALK_VAR, QUANT_VAR, GYRO, GATE, REJECT = range(10)
@@ -44,6 +50,9 @@ OK, BAD_INCREMENT, BAD_STATE, BAD_INNOVATION = range(4)
 TWO_PI = 2.0 * math.pi
 PI = math.pi
 N = 7  # state size (control.estimation.ekf.N_STATE)
+#: First rows of the block's parts (see the module doc) and rows per ring step.
+F_ROW, Q_ROW, TMP_ROW, X_ROW, P_ROW, NU_ROW, RING = 2, 9, 16, 23, 24, 31, 32
+STEP_ROWS = 2 + N
 
 
 def parameters(
@@ -75,6 +84,49 @@ def parameters(
     return np.array(
         [radius, track, wheel_var, position_var, gyro_var, bias_walk_var, quant_var, float(gyro), gate, float(reject)]
     )
+
+
+def allocate(steps: int) -> FloatArray:
+    """A zeroed block for a ring of ``steps`` steps (see the module doc), F set to the identity."""
+    mem = np.zeros((RING + steps * STEP_ROWS, N))
+    mem[F_ROW : F_ROW + N] = np.eye(N)
+    return mem
+
+
+class Block(NamedTuple):
+    """Numpy views of a block's parts (see the module doc).
+
+    Attributes:
+        prm: (N_PARAMS,) constants. f, q, tmp: (7, 7) F, Q, scratch. nu: (3,) last gated innovation.
+        bt: (C,) step times [s]. bu: (C, 3) step inputs. bx: (C, 7) states. bP: (C, 7, 7) covariances.
+    """
+
+    prm: FloatArray
+    f: FloatArray
+    q: FloatArray
+    tmp: FloatArray
+    nu: FloatArray
+    bt: FloatArray
+    bu: FloatArray
+    bx: FloatArray
+    bP: FloatArray
+
+    @classmethod
+    def of(cls, mem: FloatArray) -> Block:
+        """The views of ``mem`` (made by :func:`allocate`)."""
+        cap = (mem.shape[0] - RING) // STEP_ROWS
+        ring, states, covs = mem[RING : RING + cap], mem[RING + cap : RING + 2 * cap], mem[RING + 2 * cap :]
+        return cls(
+            mem[:2].reshape(-1)[:N_PARAMS], mem[F_ROW:Q_ROW], mem[Q_ROW:TMP_ROW], mem[TMP_ROW:X_ROW],
+            mem[NU_ROW, :3], ring[:, 0], ring[:, 1:4], states, covs.reshape(cap, N, N),
+        )  # fmt: skip
+
+
+@nb.njit(cache=True, inline="always")
+def _ring(mem: FloatArray) -> tuple[int, int]:  # pragma: no cover - compiled
+    """(first row of the ring's states, first row of its covariances)."""
+    cap = (mem.shape[0] - RING) // STEP_ROWS
+    return RING + cap, RING + 2 * cap
 
 
 @nb.njit(cache=True, inline="always")
@@ -170,23 +222,22 @@ def propagate(
 
 
 @nb.njit(cache=True)
-def predict(
-    ring: Ring, src: int, dst: int, work: Work, prm: FloatArray, t: float, dl: float, dr: float, w: float
-) -> int:  # pragma: no cover - compiled
-    """Ring step ``dst`` = step ``src`` predicted to time t [s] with the period's inputs (stored with it).
+def predict(mem: FloatArray, src: int, dst: int, t: float, dl: float, dr: float, w: float) -> int:  # pragma: no cover
+    """Ring step ``dst`` = step ``src`` of a block predicted to time t [s] with the period's inputs
+    (stored with it).
 
     Returns:
         The status of :func:`propagate`; the time and inputs are stored only when OK.
     """
-    bx, bP, bt, bu = ring
-    _, _, f, q, tmp, _ = work
-    x, p = bx[dst], bP[dst]
-    x[:] = bx[src]
-    p[:, :] = bP[src]
-    status = propagate(x, p, f, q, tmp, prm, dl, dr, w, t - bt[src], 1.0)
+    xs, ps = _ring(mem)
+    x, p = mem[xs + dst], mem[ps + N * dst : ps + N * dst + N]
+    x[:] = mem[xs + src]
+    p[:, :] = mem[ps + N * src : ps + N * src + N]
+    f, q, tmp = mem[F_ROW:Q_ROW], mem[Q_ROW:TMP_ROW], mem[TMP_ROW:X_ROW]
+    status = propagate(x, p, f, q, tmp, mem[:2].reshape(2 * N), dl, dr, w, t - mem[RING + src, 0], 1.0)
     if status == OK:
-        bt[dst] = t
-        bu[dst, 0], bu[dst, 1], bu[dst, 2] = dl, dr, w
+        u = mem[RING + dst]
+        u[0], u[1], u[2], u[3] = t, dl, dr, w
     return status
 
 
@@ -253,42 +304,41 @@ def fix_update(
 
 @nb.njit(cache=True)
 def replay(
-    ring: Ring, j: int, head: int, stored: FloatArray, new: FloatArray, work: Work, prm: FloatArray
+    mem: FloatArray, j: int, head: int, stored: FloatArray, new: FloatArray
 ) -> tuple[int, float, float, bool]:  # pragma: no cover - compiled
-    """Re-filter the ring from step j to ``head`` with a new fix and the stored fixes measured later.
+    """Re-filter a block's ring from step j to ``head`` with a new fix and the stored fixes measured later.
 
     Args:
-        ring: The ring (states, covariances, times, inputs).
+        mem: The filter's block.
         j: Ring index of the newest step at or before the new fix's measurement time.
         head: Ring index of the newest step.
         stored: (M, 6) fixes already applied and measured after step j, in time order.
         new: (6,) the new fix (t_meas, z_x, z_y, z_theta, var_xy, var_theta); it is taken after
             stored fixes measured at the same time.
-        work: Scratch.
-        prm: Filter parameters.
 
     Returns:
         (status, time of the failure [s], NIS of the new fix, applied). A rejected fix changes nothing.
     """
-    bx, bP, bt, bu = ring
-    x, p, f, q, tmp, nu = work
-    cap = bt.shape[0]
-    t_prev = bt[j]
-    x[:] = bx[j]
-    p[:, :] = bP[j]
+    prm, f, q, tmp = mem[:2].reshape(2 * N), mem[F_ROW:Q_ROW], mem[Q_ROW:TMP_ROW], mem[TMP_ROW:X_ROW]
+    x, p, nu = mem[X_ROW], mem[P_ROW:NU_ROW], mem[NU_ROW]
+    xs, ps = _ring(mem)
+    cap = xs - RING
+    t_prev = mem[RING + j, 0]
+    x[:] = mem[xs + j]
+    p[:, :] = mem[ps + N * j : ps + N * j + N]
     done = new[0] <= t_prev  # measured exactly at step j
     nis = math.nan
     if done:
         status, nis, ok = fix_update(x, p, new, prm, True, nu)
         if status != OK or not ok:
             return status, new[0], nis, False
-        bx[j] = x
-        bP[j] = p
+        mem[xs + j] = x
+        mem[ps + N * j : ps + N * j + N] = p
     idx, fi, m = j, 0, stored.shape[0]
     while idx != head:
         idx = idx + 1 if idx + 1 < cap else 0
-        t_k, dt = bt[idx], bt[idx] - t_prev
-        dl, dr, w = bu[idx, 0], bu[idx, 1], bu[idx, 2]
+        t_k, dl, dr, w = mem[RING + idx, 0], mem[RING + idx, 1], mem[RING + idx, 2], mem[RING + idx, 3]
+        dt = t_k - t_prev
         s = t_prev
         while True:
             is_new = not done and (fi >= m or new[0] < stored[fi, 0])
@@ -319,27 +369,29 @@ def replay(
             status = propagate(x, p, f, q, tmp, prm, dl * frac, dr * frac, w, t_k - s, frac)
             if status != OK:
                 return status, t_k, nis, False
-        bx[idx] = x
-        bP[idx] = p
+        mem[xs + idx] = x
+        mem[ps + N * idx : ps + N * idx + N] = p
         t_prev = t_k
     return OK, 0.0, nis, True
 
 
 @nb.njit(cache=True)
 def head_pose(
-    bx: FloatArray, bP: FloatArray, head: int, pose: FloatArray, variance: FloatArray, row: int
+    mem: FloatArray, head: int, pose: FloatArray, variance: FloatArray, row: int
 ) -> tuple[float, float, float]:  # pragma: no cover - compiled
-    """Write the newest pose and its variances into row ``row`` of (K, 3) arrays; return the pose."""
-    x, p = bx[head], bP[head]
+    """Write a block's pose at ring step ``head`` and its variances into row ``row`` of (K, 3) arrays;
+    return the pose."""
+    xs, ps = _ring(mem)
+    x, p = mem[xs + head], mem[ps + N * head : ps + N * head + N]
     pose[row, 0], pose[row, 1], pose[row, 2] = x[0], x[1], x[2]
     variance[row, 0], variance[row, 1], variance[row, 2] = p[0, 0], p[1, 1], p[2, 2]
     return x[0], x[1], x[2]
 
 
 @nb.njit(cache=True)
-def head_nees(
-    bx: FloatArray, bP: FloatArray, head: int, tx: float, ty: float, tth: float
-) -> float:  # pragma: no cover - compiled
-    """NEES of the newest pose against a true pose (x [m], y [m], theta [rad]), heading error wrapped."""
-    x, p = bx[head], bP[head]
+def head_nees(mem: FloatArray, head: int, tx: float, ty: float, tth: float) -> float:  # pragma: no cover - compiled
+    """NEES of a block's pose at ring step ``head`` against a true pose (x [m], y [m], theta [rad]),
+    heading error wrapped."""
+    xs, ps = _ring(mem)
+    x, p = mem[xs + head], mem[ps + N * head : ps + N * head + N]
     return _quadratic(_cofactors(p, 0.0, 0.0), x[0] - tx, x[1] - ty, wrap(x[2] - tth))
