@@ -70,6 +70,7 @@ from numpy.typing import ArrayLike, NDArray
 from planning.errors import ConfigError, ModelError
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 
 #: The wheel actuators the firmware drives, in the order [left, right].
 WHEEL_ACTUATORS = ("wheel_left_motor", "wheel_right_motor")
@@ -244,23 +245,46 @@ class MotorModel:
             )
 
 
+@nb.njit(cache=True, inline="always")
+def _wheel(
+    integral: float, r: float, measured: float, kff: float, kp: float, ki_t: float, vb: float
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    """One wheel's update: (new integrator [V], voltage [V]) for command r and measured speed [rad/s]."""
+    e = r - measured
+    fixed = kff * r + kp * e
+    grown = integral + ki_t * e
+    if e > 0:  # grow up to the level that saturates the output, never beyond (nor pulled back)
+        grown = min(grown, max(integral, vb - fixed))
+    elif e < 0:
+        grown = max(grown, min(integral, -vb - fixed))
+    integral = min(max(grown, -vb), vb)
+    return integral, min(max(fixed + integral, -vb), vb)
+
+
 @nb.njit(cache=True)
 def _update(
     integral: FloatArray, command: FloatArray, measured: FloatArray, kff: float, kp: float, ki_t: float, vb: float
 ) -> FloatArray:  # pragma: no cover - compiled
     out = np.empty(integral.shape[0])
     for i in range(integral.shape[0]):
-        r = command[i]
-        e = r - measured[i]
-        fixed = kff * r + kp * e
-        grown = integral[i] + ki_t * e
-        if e > 0:  # grow up to the level that saturates the output, never beyond (nor pulled back)
-            grown = min(grown, max(integral[i], vb - fixed))
-        elif e < 0:
-            grown = max(grown, min(integral[i], -vb - fixed))
-        integral[i] = min(max(grown, -vb), vb)
-        out[i] = min(max(fixed + integral[i], -vb), vb)
+        integral[i], out[i] = _wheel(integral[i], command[i], measured[i], kff, kp, ki_t, vb)
     return out
+
+
+@nb.njit(cache=True)
+def _drive(
+    integral: FloatArray,
+    gains: FloatArray,
+    commands: FloatArray,
+    row: int,
+    qvel: FloatArray,
+    dofs: IntArray,
+    ctrl: FloatArray,
+    acts: IntArray,
+) -> None:  # pragma: no cover - compiled
+    kff, kp, ki_t, vb = gains[0], gains[1], gains[2], gains[3]
+    for i in range(integral.shape[0]):
+        integral[i], ctrl[acts[i]] = _wheel(integral[i], commands[row, i], qvel[dofs[i]], kff, kp, ki_t, vb)
 
 
 class VelocityLoop:
@@ -276,6 +300,7 @@ class VelocityLoop:
         self.motor = motor
         self.integral = np.zeros(wheels)
         self._gains = (motor.kff, motor.kp, motor.ki * motor.period, motor.battery_voltage)
+        self._gain_array = np.array(self._gains)
 
     def reset(self) -> None:
         """Zero the integrators (the firmware at power-up)."""
@@ -302,3 +327,20 @@ class VelocityLoop:
                 f"motor loop: command {r.shape} and measured {w.shape} must each hold {n} wheel speeds [rad/s]"
             )
         return _update(self.integral, r, w, *self._gains)
+
+    def drive(
+        self, commands: FloatArray, row: int, qvel: FloatArray, dofs: IntArray, ctrl: FloatArray, acts: IntArray
+    ) -> None:
+        """One update in place, for the simulator's control loop (one compiled call, no copies):
+        the command is row ``row`` of ``commands``, the measured speeds are ``qvel[dofs]`` and the
+        voltages go to ``ctrl[acts]``; the same arithmetic as a call.
+
+        Args:
+            commands: (K, wheels) commanded wheel speeds [rad/s].
+            row: Row of ``commands`` in force.
+            qvel: MuJoCo's joint velocities (``MjData.qvel``) [rad/s].
+            dofs: (wheels,) int64 indices of the wheels' dofs in ``qvel``.
+            ctrl: MuJoCo's controls (``MjData.ctrl``) [V], written at ``acts``.
+            acts: (wheels,) int64 indices of the wheels' actuators in ``ctrl``.
+        """
+        _drive(self.integral, self._gain_array, commands, row, qvel, dofs, ctrl, acts)

@@ -220,23 +220,24 @@ class Simulator:
         """Run the recorder's schedule: the tracker once per control period, physics in ``nstep`` chunks
         between log samples and motor-firmware updates, the wheel commands taken up as they arrive
         (after the latency, if any). Python runs per control period, per log sample and per firmware
-        update (10 ms), never per physics step."""
+        update (10 ms), never per physics step; the chunks of each period are planned once
+        (:meth:`Schedule.plan`)."""
         m, d, schedule = recorder.model, recorder.data, recorder.schedule
-        k_ctrl, k_log, delay = schedule.k_ctrl, schedule.k_log, schedule.delay
-        chunks, n_ctrl = schedule.chunks, schedule.n_ctrl
-        t0, dt_ctrl = recorder.t0, schedule.dt_ctrl
+        n_ctrl, t0, dt_ctrl = schedule.n_ctrl, recorder.t0, schedule.dt_ctrl
         cmd, wcmd = recorder.command, recorder.wheel_command
-        ctrl, sdata = d.ctrl, d.sensordata
-        acts, wheel_dofs, contact_adr = [self._act_l, self._act_r], self.wheel_dofs, self._contact_adr
+        ctrl, sdata, qvel, contact_adr = d.ctrl, d.sensordata, d.qvel, self._contact_adr
+        acts = np.array([self._act_l, self._act_r], dtype=np.int64)
+        dofs = np.array(self.wheel_dofs, dtype=np.int64)
         read_pose, command, wheel_speeds = self.read_pose, tracker.command, drive.wheel_speeds
         sample, step, isfinite = recorder.sample, mujoco.mj_step, math.isfinite
-        firmware = self.motors.loop()  # the wheels' velocity loop, every k_fw steps from the start
-        k_fw, qvel = self.motors.steps_per_update(m.opt.timestep), d.qvel
-        every = max(1, -(-n_ctrl // PROGRESS_UPDATES))
+        firmware = self.motors.loop().drive  # the wheels' velocity loop, every k_fw steps from the start
+        plans = schedule.plan(self.motors.steps_per_update(m.opt.timestep))
+        n_plans = len(plans)
+        every = max(1, -(-n_ctrl // PROGRESS_UPDATES)) if progress is not None else n_ctrl + 1
         if progress is not None:
             progress(0, n_ctrl)
         for k in range(n_ctrl):
-            if progress is not None and k and k % every == 0:
+            if k % every == 0 and k and progress is not None:
                 progress(k, n_ctrl)
             x, y, th = read_pose(d)
             if sensing is not None:
@@ -255,18 +256,12 @@ class Simulator:
             left, right = wheel_speeds(v, w)
             cmd[k + 1] = (v, w)
             wcmd[k + 1] = (left, right)
-            for j in range(chunks):
-                # the wheel command in force: the one computed at the last control instant <= now - latency
-                src = max((k * k_ctrl + j * k_log - delay) // k_ctrl + 1, 0) if delay else k + 1
-                s = k * k_ctrl + j * k_log
-                end = s + k_log
-                while s < end:  # the firmware updates the motor voltages on its own grid of k_fw steps
-                    if s % k_fw == 0:
-                        ctrl[acts] = firmware(wcmd[src], qvel[wheel_dofs])
-                    n = min(end, s - s % k_fw + k_fw) - s
-                    step(m, d, nstep=n)
-                    s += n
-                sample(sdata[contact_adr] > 0.0)
+            for update, src, n, log in plans[k % n_plans]:
+                if update:  # the wheel command in force: the last computed at or before now - latency
+                    firmware(wcmd, k + src if k + src > 0 else 0, qvel, dofs, ctrl, acts)
+                step(m, d, nstep=n)
+                if log:
+                    sample(sdata[contact_adr] > 0.0)
         if progress is not None:
             progress(n_ctrl, n_ctrl)
 
@@ -302,6 +297,33 @@ class Schedule:
         dt_ctrl = k_ctrl * timestep
         n_ctrl = math.ceil(horizon / dt_ctrl - 1e-9)
         return cls(k_ctrl, chunks, k_ctrl // chunks, n_ctrl, delay, dt_ctrl)
+
+    def plan(self, k_fw: int) -> tuple[tuple[tuple[bool, int, int, bool], ...], ...]:
+        """The physics chunks of the control periods, with the motor firmware updated every ``k_fw``
+        physics steps on a grid fixed from the start of the run.
+
+        Period k's chunks are ``plan[k % len(plan)]``: (update the firmware first, with the wheel
+        command of row ``max(k + src, 0)``; ``src``; physics steps; take a log sample after them).
+        A chunk ends at a firmware update or a log sample, whichever comes first.
+
+        Args:
+            k_fw: Physics steps per firmware update (>= 1).
+        """
+        phases = k_fw // math.gcd(self.k_ctrl, k_fw)  # the pattern repeats after this many periods
+        plans = []
+        for phase in range(phases):
+            chunks: list[tuple[bool, int, int, bool]] = []
+            for j in range(self.chunks):
+                # the command computed at the last control instant <= now - latency (row k + src)
+                src = (j * self.k_log - self.delay) // self.k_ctrl + 1 if self.delay else 1
+                s = phase * self.k_ctrl + j * self.k_log
+                end = s + self.k_log
+                while s < end:
+                    n = min(end, s - s % k_fw + k_fw) - s
+                    chunks.append((s % k_fw == 0, src, n, s + n == end))
+                    s += n
+            plans.append(tuple(chunks))
+        return tuple(plans)
 
     @property
     def n_log(self) -> int:
