@@ -109,11 +109,12 @@ def test_driving_in_place_is_a_call() -> None:
     called, driven = motor.loop(), motor.loop()
     rng = np.random.default_rng(5)
     commands = rng.uniform(-8, 8, (40, 2))
-    dofs, acts = np.array([6, 7], dtype=np.int64), np.array([1, 0], dtype=np.int64)  # actuators swapped
+    dofs, acts = [6, 7], [1, 0]  # actuators swapped
+    wiring = np.array([dofs, acts], dtype=np.int64)
     for row in range(commands.shape[0]):
         qvel, ctrl = rng.uniform(-8, 8, 9), np.full(3, np.nan)
         volts = called(commands[row], qvel[dofs])
-        driven.drive(commands, row, qvel, dofs, ctrl, acts)
+        driven.drive(commands, row, qvel, ctrl, wiring)
         assert ctrl[1] == volts[0] and ctrl[0] == volts[1] and np.isnan(ctrl[2])
         assert np.array_equal(driven.integral, called.integral)
     assert np.abs(called.integral).max() > 0.1 * motor.battery_voltage  # the integrators did work

@@ -273,18 +273,12 @@ def _update(
 
 @nb.njit(cache=True)
 def _drive(
-    integral: FloatArray,
-    gains: FloatArray,
-    commands: FloatArray,
-    row: int,
-    qvel: FloatArray,
-    dofs: IntArray,
-    ctrl: FloatArray,
-    acts: IntArray,
+    state: FloatArray, commands: FloatArray, row: int, qvel: FloatArray, ctrl: FloatArray, wiring: IntArray
 ) -> None:  # pragma: no cover - compiled
-    kff, kp, ki_t, vb = gains[0], gains[1], gains[2], gains[3]
-    for i in range(integral.shape[0]):
-        integral[i], ctrl[acts[i]] = _wheel(integral[i], commands[row, i], qvel[dofs[i]], kff, kp, ki_t, vb)
+    n = wiring.shape[1]  # state: the n integrators, then kff, kp, ki T, V_batt
+    kff, kp, ki_t, vb = state[n], state[n + 1], state[n + 2], state[n + 3]
+    for i in range(n):
+        state[i], ctrl[wiring[1, i]] = _wheel(state[i], commands[row, i], qvel[wiring[0, i]], kff, kp, ki_t, vb)
 
 
 class VelocityLoop:
@@ -298,9 +292,9 @@ class VelocityLoop:
 
     def __init__(self, motor: MotorModel, wheels: int = 2) -> None:
         self.motor = motor
-        self.integral = np.zeros(wheels)
         self._gains = (motor.kff, motor.kp, motor.ki * motor.period, motor.battery_voltage)
-        self._gain_array = np.array(self._gains)
+        self._state = np.array([0.0] * wheels + list(self._gains))  # the integrators, then the gains
+        self.integral = self._state[:wheels]
 
     def reset(self) -> None:
         """Zero the integrators (the firmware at power-up)."""
@@ -328,19 +322,16 @@ class VelocityLoop:
             )
         return _update(self.integral, r, w, *self._gains)
 
-    def drive(
-        self, commands: FloatArray, row: int, qvel: FloatArray, dofs: IntArray, ctrl: FloatArray, acts: IntArray
-    ) -> None:
+    def drive(self, commands: FloatArray, row: int, qvel: FloatArray, ctrl: FloatArray, wiring: IntArray) -> None:
         """One update in place, for the simulator's control loop (one compiled call, no copies):
-        the command is row ``row`` of ``commands``, the measured speeds are ``qvel[dofs]`` and the
-        voltages go to ``ctrl[acts]``; the same arithmetic as a call.
+        the command is row ``row`` of ``commands``, the measured speeds are read from ``qvel`` and
+        the voltages written into ``ctrl`` where ``wiring`` says; the same arithmetic as a call.
 
         Args:
             commands: (K, wheels) commanded wheel speeds [rad/s].
             row: Row of ``commands`` in force.
             qvel: MuJoCo's joint velocities (``MjData.qvel``) [rad/s].
-            dofs: (wheels,) int64 indices of the wheels' dofs in ``qvel``.
-            ctrl: MuJoCo's controls (``MjData.ctrl``) [V], written at ``acts``.
-            acts: (wheels,) int64 indices of the wheels' actuators in ``ctrl``.
+            ctrl: MuJoCo's controls (``MjData.ctrl``) [V].
+            wiring: (2, wheels) int64: the wheels' dofs in ``qvel``, then their actuators in ``ctrl``.
         """
-        _drive(self.integral, self._gain_array, commands, row, qvel, dofs, ctrl, acts)
+        _drive(self._state, commands, row, qvel, ctrl, wiring)

@@ -226,8 +226,7 @@ class Simulator:
         n_ctrl, t0, dt_ctrl = schedule.n_ctrl, recorder.t0, schedule.dt_ctrl
         cmd, wcmd = recorder.command, recorder.wheel_command
         ctrl, sdata, qvel, contact_adr = d.ctrl, d.sensordata, d.qvel, self._contact_adr
-        acts = np.array([self._act_l, self._act_r], dtype=np.int64)
-        dofs = np.array(self.wheel_dofs, dtype=np.int64)
+        wiring = np.array([self.wheel_dofs, [self._act_l, self._act_r]], dtype=np.int64)  # qvel, ctrl indices
         read_pose, command, wheel_speeds = self.read_pose, tracker.command, drive.wheel_speeds
         sample, step, isfinite = recorder.sample, mujoco.mj_step, math.isfinite
         firmware = self.motors.loop().drive  # the wheels' velocity loop, every k_fw steps from the start
@@ -258,7 +257,7 @@ class Simulator:
             wcmd[k + 1] = (left, right)
             for update, src, n, log in plans[k % n_plans]:
                 if update:  # the wheel command in force: the last computed at or before now - latency
-                    firmware(wcmd, k + src if k + src > 0 else 0, qvel, dofs, ctrl, acts)
+                    firmware(wcmd, k + src if k + src > 0 else 0, qvel, ctrl, wiring)
                 step(m, d, nstep=n)
                 if log:
                     sample(sdata[contact_adr] > 0.0)
