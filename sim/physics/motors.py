@@ -275,7 +275,7 @@ def _update(
 def _drive(
     state: FloatArray, commands: FloatArray, row: int, qvel: FloatArray, ctrl: FloatArray, wiring: IntArray
 ) -> None:  # pragma: no cover - compiled
-    n = wiring.shape[1]  # state: the n integrators, then kff, kp, ki T, V_batt
+    n = len(state) - 4  # state: the n integrators, then kff, kp, ki T, V_batt
     kff, kp, ki_t, vb = state[n], state[n + 1], state[n + 2], state[n + 3]
     for i in range(n):
         state[i], ctrl[wiring[1, i]] = _wheel(state[i], commands[row, i], qvel[wiring[0, i]], kff, kp, ki_t, vb)
