@@ -273,6 +273,8 @@ class PoseEstimator:
         self._size = 0
         self._t = math.nan
         self._fixes: list[Fix] = []
+        self._no_fixes = np.zeros((0, 6))
+        self._finite = True  # the state after the last replay
         self._nis: list[tuple[float, float]] = []
         self._outliers = 0
         self._rejected = 0
@@ -405,27 +407,24 @@ class PoseEstimator:
             reason="non-finite",
         )
 
-    def _rewind_index(self, t_meas: float) -> int | None:
-        """Ring index of the newest stored step at or before t_meas; None if all are later."""
-        idx = self._head
-        for _ in range(self._size):
-            if self._bt[idx] <= t_meas:
-                return idx
-            idx = idx - 1 if idx > 0 else self._cap - 1
-        return None
-
-    def _replay(self, j: int, new: Fix) -> tuple[float, bool]:
-        """Re-filter from stored step j to now with the new fix and the stored later fixes
-        (:func:`control.estimation.kernels.replay`).
+    def _replay(self, new: Fix) -> tuple[float, bool] | None:
+        """Rewind to the newest step at or before the new fix's measurement time, apply the fix there
+        and re-filter to now with the stored later fixes (:func:`control.estimation.kernels.rewind`
+        and :func:`~control.estimation.kernels.replay`).
 
         Returns:
-            (NIS of the new fix, whether it was applied). A rejected fix changes nothing.
+            (NIS of the new fix, whether it was applied); None when the fix is older than the
+            history. A rejected fix changes nothing.
         """
-        t_prev = self._bt[j]
-        stored = np.array([fx for fx in self._fixes if fx[0] > t_prev], dtype=float).reshape(-1, 6)
-        status, t_bad, nis, ok = kernels.replay(self._mem, j, self._head, stored, np.array(new))
+        j = kernels.rewind(self._mem, self._head, self._size, new[0])
+        if j < 0:
+            return None
+        later = bisect.bisect_right(self._fixes, self._bt[j], key=_fix_key)
+        stored = np.array(self._fixes[later:]) if later < len(self._fixes) else self._no_fixes
+        status, t_bad, nis, ok, finite = kernels.replay(self._mem, j, self._head, stored, np.array(new))
         if status != kernels.OK:
             self._diverged(status, t_bad)
+        self._finite = finite
         return nis, ok
 
     def correct(self, t_meas: float, z: PoseLike, std_xy: float | None = None, std_theta: float | None = None) -> bool:
@@ -452,20 +451,19 @@ class PoseEstimator:
                     f"correct: fix measured at t={t_meas} s is after the last predict ({self._t} s)"
                 )
             t_meas = self._t
-        j = self._rewind_index(t_meas)
-        if j is None:
+        fix = (float(t_meas), zx, zy, zth, vxy, vth)
+        result = self._replay(fix)
+        if result is None:
             self._stale += 1
             return False
-        fix = (float(t_meas), zx, zy, zth, vxy, vth)
-        nis, ok = self._replay(j, fix)
+        nis, ok = result
         self._nis.append((fix[0], nis))
         if ok:
             bisect.insort_right(self._fixes, fix, key=_fix_key)
         else:
             self._rejected += 1
         self._count_outlier(fix[0], nis)
-        x, p = self._bx[self._head], self._bP[self._head]
-        if not math.isfinite(x[0] + x[1] + x[2] + p[0, 0] + p[1, 1] + p[2, 2]):
+        if not self._finite:
             self._diverged_non_finite(self._t, "the state or its covariance")
         return ok
 

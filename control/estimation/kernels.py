@@ -303,10 +303,24 @@ def fix_update(
 
 
 @nb.njit(cache=True)
+def rewind(mem: FloatArray, head: int, size: int, t_meas: float) -> int:  # pragma: no cover - compiled
+    """Ring index of the newest of a block's ``size`` steps ending at ``head`` whose time is at or
+    before t_meas [s]; -1 if all are later."""
+    cap = (mem.shape[0] - RING) // STEP_ROWS
+    j = head
+    for _ in range(size):
+        if mem[RING + j, 0] <= t_meas:
+            return j
+        j = j - 1 if j > 0 else cap - 1
+    return -1
+
+
+@nb.njit(cache=True)
 def replay(
     mem: FloatArray, j: int, head: int, stored: FloatArray, new: FloatArray
-) -> tuple[int, float, float, bool]:  # pragma: no cover - compiled
-    """Re-filter a block's ring from step j to ``head`` with a new fix and the stored fixes measured later.
+) -> tuple[int, float, float, bool, bool]:  # pragma: no cover - compiled
+    """Fuse a fix: apply it at ring step j (the newest at or before its measurement time,
+    :func:`rewind`) and re-filter a block's ring to ``head`` with the stored fixes measured later.
 
     Args:
         mem: The filter's block.
@@ -317,8 +331,20 @@ def replay(
             stored fixes measured at the same time.
 
     Returns:
-        (status, time of the failure [s], NIS of the new fix, applied). A rejected fix changes nothing.
+        (status, time of the failure [s], NIS of the new fix, applied, the newest state and
+        covariance diagonal are finite). A rejected fix changes nothing.
     """
+    status, t_bad, nis, ok = _refilter(mem, j, head, stored, new)
+    xs, ps = _ring(mem)
+    x, p = mem[xs + head], mem[ps + N * head : ps + N * head + N]
+    return status, t_bad, nis, ok, math.isfinite(x[0] + x[1] + x[2] + p[0, 0] + p[1, 1] + p[2, 2])
+
+
+@nb.njit(cache=True)
+def _refilter(
+    mem: FloatArray, j: int, head: int, stored: FloatArray, new: FloatArray
+) -> tuple[int, float, float, bool]:  # pragma: no cover - compiled
+    """:func:`replay` but for the finiteness: (status, time of the failure [s], NIS, applied)."""
     prm, f, q, tmp = mem[:2].reshape(2 * N), mem[F_ROW:Q_ROW], mem[Q_ROW:TMP_ROW], mem[TMP_ROW:X_ROW]
     x, p, nu = mem[X_ROW], mem[P_ROW:NU_ROW], mem[NU_ROW]
     xs, ps = _ring(mem)
