@@ -385,10 +385,6 @@ class PoseEstimator:
         self._head = i
         if self._size < self._cap:
             self._size += 1
-        elif self._fixes:  # the ring is full: forget fixes no rewind can reach (at or before its oldest step)
-            oldest = self._bt[i + 1 if i + 1 < self._cap else 0]
-            while self._fixes and self._fixes[0][0] <= oldest:
-                self._fixes.pop(0)
 
     def _diverged(self, status: int, t: float) -> None:
         """Raise the divergence a kernel reported (its status) at time t [s]."""
@@ -419,6 +415,8 @@ class PoseEstimator:
         j = kernels.rewind(self._mem, self._head, self._size, new[0])
         if j < 0:
             return None
+        # forget the fixes no rewind can reach (at or before the oldest step), then take the later ones
+        del self._fixes[: bisect.bisect_right(self._fixes, self.history_start, key=_fix_key)]
         later = bisect.bisect_right(self._fixes, self._bt[j], key=_fix_key)
         stored = np.array(self._fixes[later:]) if later < len(self._fixes) else self._no_fixes
         status, t_bad, nis, ok, finite = kernels.replay(self._mem, j, self._head, stored, np.array(new))
