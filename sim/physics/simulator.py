@@ -284,7 +284,7 @@ class Simulator:
             for update, src, n, log in plans[k % n_plans]:
                 if update:  # the wheel command in force: the last computed at or before now - latency
                     firmware(wcmd, k + src if k + src > 0 else 0, qvel, ctrl, wiring)
-                step(m, d, nstep=n)
+                step(m, d, n)  # nstep, passed by position (a keyword costs a pybind11 lookup)
                 if log:
                     pose = sample()
         if progress is not None:
