@@ -118,7 +118,8 @@ class Sensing:
         self.dt = 1.0 / control_rate
         self.t0 = t0
         adr = model.sensor_adr
-        self._enc = (int(adr[model.sensor("wheel_left_pos").id]), int(adr[model.sensor("wheel_right_pos").id]))
+        self._enc_l = int(adr[model.sensor("wheel_left_pos").id])
+        self._enc_r = int(adr[model.sensor("wheel_right_pos").id])
         self._rad_per_count = TWO_PI / setup.profile.encoder_cpr
         self.estimator: PoseEstimator | None = None
         if self.source is not PoseSource.TRUTH:
@@ -152,7 +153,7 @@ class Sensing:
         if est is None:
             return truth
         s = data.sensordata
-        counts = self.sensors.encoder_counts(float(s[self._enc[0]]), float(s[self._enc[1]]))
+        counts = self.sensors.encoder_counts(float(s[self._enc_l]), float(s[self._enc_r]))
         if k == 0:
             est.reset(self.t0, truth)
         else:

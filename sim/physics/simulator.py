@@ -268,7 +268,7 @@ class Simulator:
             x, y, th = pose
             if sensing is not None:
                 try:
-                    x, y, th = sensing.observe(k, d, (x, y, th))
+                    x, y, th = sensing.observe(k, d, pose)
                 except EstimatorDivergedError as exc:
                     sensing.diverged(exc)
                     break
