@@ -137,6 +137,30 @@ def wrap(a: float) -> float:  # pragma: no cover - compiled
 
 
 @nb.njit(cache=True)
+def _congruence(p: FloatArray, f: FloatArray, q: FloatArray, tmp: FloatArray) -> None:  # pragma: no cover - compiled
+    """p = f p f^T + q in place (all (7, 7); tmp is scratch).
+
+    f is the identity but in rows 0-2, columns 2-6 (above the diagonal): its other rows copy, and
+    its identity entries add each term once, in the order a full product sums them (the same
+    result, bit for bit, with a third of the multiplications).
+    """
+    tmp[:, :] = p
+    for i in range(3):  # tmp = f p
+        for k in range(N):
+            s = p[i, k]
+            for j in range(max(2, i + 1), N):
+                s += f[i, j] * p[j, k]
+            tmp[i, k] = s
+    for i in range(N):  # p = tmp f^T + q
+        for k in range(N):
+            s = tmp[i, k]
+            if k < 3:
+                for j in range(max(2, k + 1), N):
+                    s += tmp[i, j] * f[k, j]
+            p[i, k] = s + q[i, k]
+
+
+@nb.njit(cache=True)
 def propagate(
     x: FloatArray,
     p: FloatArray,
@@ -204,22 +228,7 @@ def propagate(
     q[0, 2] = q[2, 0] = j0s * s_st + j0t * s_tt
     q[1, 2] = q[2, 1] = j1s * s_st + j1t * s_tt
     q[3, 3] = prm[BIAS_WALK_VAR] * dt
-    # p = f p f^T + q. f is the identity but in rows 0-2, columns 2-6 (above the diagonal): its other
-    # rows copy, and its identity entries add each term once, in the order a full product sums them
-    tmp[:, :] = p
-    for i in range(3):  # tmp = f p
-        for k in range(N):
-            s = p[i, k]
-            for j in range(max(2, i + 1), N):
-                s += f[i, j] * p[j, k]
-            tmp[i, k] = s
-    for i in range(N):  # p = tmp f^T + q
-        for k in range(N):
-            s = tmp[i, k]
-            if k < 3:
-                for j in range(max(2, k + 1), N):
-                    s += tmp[i, j] * f[k, j]
-            p[i, k] = s + q[i, k]
+    _congruence(p, f, q, tmp)
     if not math.isfinite(p[0, 0] + p[1, 1] + p[2, 2] + xn + yn):
         return BAD_STATE
     return OK
