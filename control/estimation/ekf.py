@@ -64,6 +64,11 @@ included; the cost is one prediction per stored step after t_meas.
 Divergence: a non-finite state or covariance, or ``max_outliers`` consecutive fixes whose
 normalised innovation squared (NIS) exceeds the chi-square(3) quantile ``gate_prob``, raises
 :class:`EstimatorDivergedError`. With ``reject_outliers`` such fixes are not applied.
+
+Cost: the estimator runs once per control period of a simulation, so its arithmetic (a prediction,
+a fix update, the rewind and the replay) is compiled (:mod:`control.estimation.kernels`) and works
+in place on arrays allocated once per estimator; Python only checks the inputs and keeps the
+books (about 1 us a prediction, a few a fix).
 """
 
 from __future__ import annotations
