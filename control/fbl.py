@@ -155,17 +155,20 @@ class DynamicFBL:
         k = round((t - self._t0) / self._dt)
         if 0 <= k < len(self._cache) and abs(self._t0 + k * self._dt - t) < 1e-9:
             return self._cache[k]
-        assert self._traj is not None
+        if self._traj is None:
+            raise RuntimeError("DynamicFBL.command called before reset")
         return flat_references(self._traj.sample_many(np.array([t])))[0]
 
     def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
-        """Body command for the period starting at ``t``; advances xi by one period."""
-        if self._traj is None:
-            raise RuntimeError("DynamicFBL.command called before reset")
-        vmax, wmax = self.robot.max_speed, self.robot.max_yaw_rate
+        """Body command for the period starting at ``t``; advances xi by one period.
+
+        Called once per control period, so written for speed: the saturations are inline
+        comparisons (the same values as ``min(max(a, -limit), limit)``).
+        """
         xi_dot, omega = fbl_law(self.gains, x, y, theta, self.xi, self._reference(t))
-        dt = self._dt
-        v = min(max(self.xi + 0.5 * xi_dot * dt, -vmax), vmax)
-        self.xi = min(max(self.xi + xi_dot * dt, -vmax), vmax)
-        omega = min(max(omega, -wmax), wmax)
-        return v, omega
+        vmax, wmax, dt, xi = self.robot.max_speed, self.robot.max_yaw_rate, self._dt, self.xi
+        v = xi + 0.5 * xi_dot * dt
+        v = -vmax if v < -vmax else (vmax if v > vmax else v)
+        xi += xi_dot * dt
+        self.xi = -vmax if xi < -vmax else (vmax if xi > vmax else xi)
+        return v, (-wmax if omega < -wmax else (wmax if omega > wmax else omega))

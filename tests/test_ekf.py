@@ -190,6 +190,48 @@ def test_propagation_jacobians_match_finite_differences(heading: str) -> None:
     np.testing.assert_allclose(q[:4, :4], want[:4, :4], rtol=1e-6, atol=1e-16)
 
 
+@pytest.mark.parametrize("heading", ["gyro", "encoders"])
+def test_propagated_covariance_is_f_p_ft_plus_q(heading: str) -> None:
+    """The compiled covariance update (which skips F's identity rows) is F P F^T + Q of the step's own
+    F and Q, for a full (dense, symmetric positive-definite) P."""
+    est = PoseEstimator(EstimatorConfig(heading=heading), RADIUS, TRACK)
+    rng = np.random.default_rng(4)
+    for _ in range(5):
+        a = rng.normal(size=(7, 7))
+        p0 = a @ a.T + 0.1 * np.eye(7)
+        x, p = rng.normal(scale=0.05, size=7), p0.copy()
+        est._propagate(x, p, *rng.uniform(-0.5, 0.5, 2), rng.uniform(-1, 1), DT, rng.uniform(0.2, 1.0), 0.0)
+        f, q = est._F, est._Q
+        np.testing.assert_allclose(p, f @ p0 @ f.T + q, rtol=1e-13, atol=1e-15)
+
+
+def test_the_compiled_angle_wrap_is_math_remainder() -> None:
+    from control.estimation import kernels
+
+    rng = np.random.default_rng(8)
+    angles = np.concatenate([rng.uniform(-1e4, 1e4, 2000), math.pi + rng.normal(scale=1e-12, size=200), [0.0, 7.0]])
+    for a in angles.tolist():
+        assert kernels.wrap(a) == math.remainder(a, 2 * math.pi), a
+
+
+def test_record_and_nees_read_the_newest_estimate(draws: list[Synthetic]) -> None:
+    """record() writes the pose and the diagonal of its covariance into the row asked for (and
+    nothing else); nees() is e^T P^-1 e with the heading error wrapped."""
+    d = draws[1]
+    est = fresh(d)
+    drive(est, d, 0, 30)
+    assert est.correct(float(d.t[25]), d.truth[25] + (0.01, -0.02, 0.01))
+    pose, variance = np.full((4, 3), np.nan), np.full((4, 3), np.nan)
+    assert est.record(pose, variance, 2) == est.pose
+    np.testing.assert_array_equal(pose[2], est.pose)
+    np.testing.assert_array_equal(variance[2], np.diag(est.cov))
+    assert np.isnan(np.delete(pose, 2, axis=0)).all() and np.isnan(np.delete(variance, 2, axis=0)).all()
+    truth = d.truth[30] + (0.0, 0.0, 4 * math.pi)  # a heading two turns away is the same heading
+    want = nees(pose_error(est.pose, d.truth[30]), est.cov)
+    assert est.nees(truth) == pytest.approx(want, rel=1e-12)
+    assert want > 0
+
+
 # --- accuracy and consistency over a Monte Carlo -------------------------------------------------
 
 

@@ -101,6 +101,25 @@ def test_the_loop_is_vectorised_over_the_wheels() -> None:
         both([1.0, 2.0, 3.0], [0.0, 0.0])
 
 
+def test_driving_in_place_is_a_call() -> None:
+    """The simulator's in-place update (command row, speeds read at the wheel dofs of qvel, voltages
+    written at the actuators of ctrl) gives a call's voltages and integrators, bit for bit, and
+    touches nothing else."""
+    motor = _motor("turtlebot3")
+    called, driven = motor.loop(), motor.loop()
+    rng = np.random.default_rng(5)
+    commands = rng.uniform(-8, 8, (40, 2))
+    dofs, acts = [6, 7], [1, 0]  # actuators swapped
+    wiring = np.array([dofs, acts], dtype=np.int64)
+    for row in range(commands.shape[0]):
+        qvel, ctrl = rng.uniform(-8, 8, 9), np.full(3, np.nan)
+        volts = called(commands[row], qvel[dofs])
+        driven.drive(commands, row, qvel, ctrl, wiring)
+        assert ctrl[1] == volts[0] and ctrl[0] == volts[1] and np.isnan(ctrl[2])
+        assert np.array_equal(driven.integral, called.integral)
+    assert np.abs(called.integral).max() > 0.1 * motor.battery_voltage  # the integrators did work
+
+
 def test_the_models_motors_are_their_datasheets() -> None:
     """XL430-W250 at 11.1 V: 1.4 N m stall, 57 rpm no load; EduMIP: 0.003 N m x 35.577 stall and
     1760 rad/s / 35.577 free run at 7.4 V (the models' comments give the sources)."""

@@ -11,7 +11,7 @@ from planning.core.world import Box, World
 from planning.errors import ConfigError
 from planning.trajectory.references import make_reference
 from sim.physics.perturb import Perturbation
-from sim.physics.simulator import SimConfig, Simulator
+from sim.physics.simulator import Schedule, SimConfig, Simulator
 from sim.pipeline.runs import RunKind
 from sim.pipeline.simulate import simulate_reference
 
@@ -102,3 +102,29 @@ def test_a_mujoco_warning_fails_the_run_loudly_and_keeps_the_log() -> None:
     assert log.warnings and len(log) > 1
     relaxed = sim.run(traj, make_tracker("fbl", robot), SimConfig(strict=False))
     assert relaxed.warnings
+
+
+@pytest.mark.parametrize(
+    ("k_ctrl", "k_fw", "delay"),
+    [(10, 5, 0), (10, 5, 7), (4, 5, 0), (4, 5, 6), (25, 5, 0), (20, 5, 13), (5, 5, 0), (50, 5, 60), (2, 3, 1)],
+)
+def test_the_period_plan_is_the_step_by_step_schedule(k_ctrl: int, k_fw: int, delay: int) -> None:
+    """Unrolled over a run, the per-period chunk plans update the firmware exactly at the steps s
+    with s % k_fw == 0, with the wheel command of the last control instant at or before s - delay
+    (row (s - delay) // k_ctrl + 1, none before the first: row 0), sample the log every k_log
+    steps, and step every physics step once."""
+    sched = Schedule.make(k_ctrl, 0.002, 60 * k_ctrl * 0.002, delay)
+    plans = sched.plan(k_fw)
+    updates, samples, s = [], [], 0
+    for k in range(sched.n_ctrl):
+        for update, src, n, log in plans[k % len(plans)]:
+            if update:
+                updates.append((s, max(k + src, 0)))
+            s += n
+            if log:
+                samples.append(s)
+    steps = sched.n_ctrl * k_ctrl
+    assert s == steps
+    assert updates == [(i, max((i - delay) // k_ctrl + 1, 0)) for i in range(0, steps, k_fw)]
+    assert samples == list(range(sched.k_log, steps + 1, sched.k_log))
+    assert len(samples) == sched.n_log - 1

@@ -64,6 +64,11 @@ included; the cost is one prediction per stored step after t_meas.
 Divergence: a non-finite state or covariance, or ``max_outliers`` consecutive fixes whose
 normalised innovation squared (NIS) exceeds the chi-square(3) quantile ``gate_prob``, raises
 :class:`EstimatorDivergedError`. With ``reject_outliers`` such fixes are not applied.
+
+Cost: the estimator runs once per control period of a simulation, so its arithmetic (a prediction,
+a fix update, the rewind and the replay) is compiled (:mod:`control.estimation.kernels`) and works
+in place on arrays allocated once per estimator; Python only checks the inputs and keeps the
+books (about 1 us a prediction, a few a fix).
 """
 
 from __future__ import annotations
@@ -76,8 +81,9 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from control.estimation import kernels
 from control.estimation.consistency import chi2_upper
-from control.estimation.odometry import check_geometry, sinc_half
+from control.estimation.odometry import check_geometry
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError, NhsimError, SimulationError
 
@@ -255,28 +261,26 @@ class PoseEstimator:
         self.nominal_track = float(track_width)
         self._gyro = config.heading == "gyro"
         q = TWO_PI / config.counts_per_rev
-        self._var_quant = q * q / 6.0
-        self._wn2 = config.wheel_noise**2
-        self._pn2 = config.position_noise**2
-        self._g2 = config.gyro_noise_density**2 if self._gyro else 0.0
-        self._bw2 = config.gyro_bias_walk**2 if self._gyro else 0.0
         self._gate = chi2_upper(3, config.gate_prob)
         cap = config.history_steps + 1
         self._cap = cap
-        self._bt = [0.0] * cap  # ring buffer: step end times [s]
-        self._bu: list[tuple[float, float, float]] = [(0.0, 0.0, 0.0)] * cap  # (dl, dr, gyro) of each step
-        self._bx = np.zeros((cap, N_STATE))
-        self._bP = np.zeros((cap, N_STATE, N_STATE))
-        self._F = np.eye(N_STATE)
-        self._FT = self._F.T
-        self._Q = np.zeros((N_STATE, N_STATE))
-        self._tmp = np.empty((N_STATE, N_STATE))
+        self._mem = kernels.allocate(cap)  # every array of the filter, in one block
+        block = kernels.Block.of(self._mem)
+        self._prm, self._F, self._Q, self._tmp = block.prm, block.f, block.q, block.tmp  # constants, F, Q, scratch
+        self._nu, self._bt, self._bu = block.nu, block.bt, block.bu  # last gated innovation, ring times and inputs
+        self._bx, self._bP = block.bx, block.bP  # ring states and covariances
+        block.prm[:] = kernels.parameters(
+            self.nominal_radius, self.nominal_track, config.wheel_noise**2, config.position_noise**2,
+            config.gyro_noise_density**2 if self._gyro else 0.0, config.gyro_bias_walk**2 if self._gyro else 0.0,
+            q * q / 6.0, self._gyro, self._gate, config.reject_outliers,
+        )  # fmt: skip
         self._head = -1
         self._size = 0
         self._t = math.nan
         self._fixes: list[Fix] = []
+        self._no_fixes = np.zeros((0, 6))
+        self._finite = True  # the state after the last replay
         self._nis: list[tuple[float, float]] = []
-        self._last_nu = (0.0, 0.0, 0.0)
         self._outliers = 0
         self._rejected = 0
         self._stale = 0
@@ -330,7 +334,7 @@ class PoseEstimator:
         self._bx[0, :3] = p0
         self._bx[0, ITH] = math.remainder(p0[2], TWO_PI)
         self._bt[0] = self._t = float(t0)
-        self._bu[0] = (0.0, 0.0, 0.0)
+        self._bu[0] = 0.0
         self._head, self._size = 0, 1
         self._fixes.clear()
         self._nis.clear()
@@ -339,64 +343,16 @@ class PoseEstimator:
     def _propagate(
         self, x: FloatArray, p: FloatArray, dl: float, dr: float, w: float, dt: float, frac: float, t: float
     ) -> None:
-        """One prediction over dt with wheel increments (dl, dr) [rad] and gyro rate w, in place.
+        """One prediction over dt with wheel increments (dl, dr) [rad] and gyro rate w, in place
+        (:func:`control.estimation.kernels.propagate`; the Jacobian and the noise are left in
+        ``_F`` and ``_Q``).
 
         frac is the share of a stored control period this interval covers (1 unless a fix splits
         the period): the quantisation variance of the period's increments is shared out by it.
-        Only the non-zero entries of the Jacobian F and the noise Q are written (the rest stay
-        as set up: F identity, Q zero).
         """
-        r = self.nominal_radius
-        px, py, th, bg, em, ed, be = x.tolist()
-        rl, rr = r * (1.0 + em - ed), r * (1.0 + em + ed)
-        ds = 0.5 * (rl * dl + rr * dr)
-        vl = self._wn2 * abs(dl) + frac * self._var_quant
-        vr = self._wn2 * abs(dr) + frac * self._var_quant
-        if self._gyro:
-            dth = (w - bg) * dt
-            s_st, s_tt = 0.0, self._g2 * dt  # the wheels do not enter dth
-        else:
-            bb = self.nominal_track * (1.0 + be)
-            dth = (rr * dr - rl * dl) / bb
-            s_st = 0.5 * (rr * rr * vr - rl * rl * vl) / bb
-            s_tt = (rl * rl * vl + rr * rr * vr) / (bb * bb)
-        if not math.isfinite(ds + dth):
-            self._diverged_non_finite(t, "the motion increment")
-        s_ss = 0.25 * (rl * rl * vl + rr * rr * vr)
-        c, dc = sinc_half(dth)
-        phi = th + 0.5 * dth
-        cp, sp = math.cos(phi), math.sin(phi)
-        a = ds * c
-        j0s, j0t = c * cp, ds * (dc * cp - 0.5 * c * sp)
-        j1s, j1t = c * sp, ds * (dc * sp + 0.5 * c * cp)
-        xn, yn = px + a * cp, py + a * sp
-        x[:3] = (xn, yn, math.remainder(th + dth, TWO_PI))
-        f = self._F
-        f[0, 2], f[1, 2] = -a * sp, a * cp
-        s_em, s_ed = 0.5 * r * (dl + dr), 0.5 * r * (dr - dl)  # d ds / d(e_m, e_d)
-        if self._gyro:  # d dth / d b_g = -dt; e_m, e_d act through ds only
-            f[0, 3], f[1, 3], f[2, 3] = -j0t * dt, -j1t * dt, -dt
-            f[0, 4], f[1, 4], f[0, 5], f[1, 5] = j0s * s_em, j1s * s_em, j0s * s_ed, j1s * s_ed
-        else:  # dth depends on e_m, e_d and beta
-            t_em, t_ed, t_be = r * (dr - dl) / bb, r * (dr + dl) / bb, -dth / (1.0 + be)
-            f[0, 4], f[1, 4], f[2, 4] = j0s * s_em + j0t * t_em, j1s * s_em + j1t * t_em, t_em
-            f[0, 5], f[1, 5], f[2, 5] = j0s * s_ed + j0t * t_ed, j1s * s_ed + j1t * t_ed, t_ed
-            f[0, 6], f[1, 6], f[2, 6] = j0t * t_be, j1t * t_be, t_be
-        q = self._Q
-        pn = self._pn2 * abs(ds)
-        q[0, 0] = j0s * j0s * s_ss + 2.0 * j0s * j0t * s_st + j0t * j0t * s_tt + pn
-        q[1, 1] = j1s * j1s * s_ss + 2.0 * j1s * j1t * s_st + j1t * j1t * s_tt + pn
-        q[2, 2] = s_tt
-        q[0, 1] = q[1, 0] = j0s * j1s * s_ss + (j0s * j1t + j0t * j1s) * s_st + j0t * j1t * s_tt
-        q[0, 2] = q[2, 0] = j0s * s_st + j0t * s_tt
-        q[1, 2] = q[2, 1] = j1s * s_st + j1t * s_tt
-        q[3, 3] = self._bw2 * dt
-        tmp = self._tmp
-        np.matmul(f, p, out=tmp)
-        np.matmul(tmp, self._FT, out=p)
-        p += q
-        if not math.isfinite(p[0, 0] + p[1, 1] + p[2, 2] + xn + yn):
-            self._diverged_non_finite(t, "the state or its covariance")
+        status = kernels.propagate(x, p, self._F, self._Q, self._tmp, self._prm, dl, dr, w, dt, frac)
+        if status != kernels.OK:
+            self._diverged(status, t)
 
     def predict(self, t: float, d_left: float, d_right: float, gyro_z: float | None = None) -> None:
         """Advance to time t with the wheel increments since the last call.
@@ -427,19 +383,22 @@ class PoseEstimator:
         if not math.isfinite(d_left + d_right + w):
             raise EstimatorInputError(f"predict at t={t} s: non-finite reading {d_left!r}, {d_right!r}, {gyro_z!r}")
         i = self._head + 1 if self._head + 1 < self._cap else 0
-        x, p = self._bx[i], self._bP[i]
-        x[:] = self._bx[self._head]
-        p[:] = self._bP[self._head]
-        self._propagate(x, p, d_left, d_right, w, t - t_prev, 1.0, t)
-        self._bt[i] = self._t = float(t)
-        self._bu[i] = (float(d_left), float(d_right), float(w))
+        status = kernels.predict(self._mem, self._head, i, float(t), float(d_left), float(d_right), float(w))
+        if status != kernels.OK:
+            self._diverged(status, t)
+        self._t = float(t)
         self._head = i
         if self._size < self._cap:
             self._size += 1
-        elif self._fixes:  # the ring is full: forget fixes no rewind can reach (at or before its oldest step)
-            oldest = self._bt[i + 1 if i + 1 < self._cap else 0]
-            while self._fixes and self._fixes[0][0] <= oldest:
-                self._fixes.pop(0)
+
+    def _diverged(self, status: int, t: float) -> None:
+        """Raise the divergence a kernel reported (its status) at time t [s]."""
+        what = {
+            kernels.BAD_INCREMENT: "the motion increment",
+            kernels.BAD_STATE: "the state or its covariance",
+            kernels.BAD_INNOVATION: "the innovation covariance (not positive definite)",
+        }[status]
+        self._diverged_non_finite(t, what)
 
     def _diverged_non_finite(self, t: float, what: str) -> None:
         raise EstimatorDivergedError(
@@ -449,91 +408,26 @@ class PoseEstimator:
             reason="non-finite",
         )
 
-    def _fix_update(self, x: FloatArray, p: FloatArray, fix: Fix, gated: bool) -> tuple[float, bool]:
-        """Apply a pose fix to (x, p) in place; with gated, an outlier is measured but not applied.
-
-        H = [I_3 0], so K = P[:, :3] S^-1 and P - K S K^T = P - K P[:3, :]; S is inverted by
-        cofactors (3 x 3 symmetric) and P re-symmetrised.
-
-        Returns:
-            (NIS, applied).
-        """
-        t_meas, zx, zy, zth, vxy, vth = fix
-        n0, n1, n2 = zx - x[0], zy - x[1], math.remainder(zth - x[2], TWO_PI)
-        (a, b, c), (_, d, e), (_, _, f) = p[:3, :3].tolist()
-        a, d, f = a + vxy, d + vxy, f + vth
-        ca, cb, cc = d * f - e * e, c * e - b * f, b * e - c * d
-        cd, ce, cf = a * f - c * c, b * c - a * e, a * d - b * b
-        det = a * ca + b * cb + c * cc
-        if not det > 0.0:
-            self._diverged_non_finite(t_meas, "the innovation covariance (not positive definite)")
-        nis = (ca * n0 * n0 + cd * n1 * n1 + cf * n2 * n2 + 2.0 * (cb * n0 * n1 + cc * n0 * n2 + ce * n1 * n2)) / det
-        if gated:
-            self._last_nu = (n0, n1, n2)
-            if self.config.reject_outliers and nis > self._gate:
-                return nis, False
-        inv_det = 1.0 / det
-        k = p[:, :3] @ np.array(((ca, cb, cc), (cb, cd, ce), (cc, ce, cf)))
-        k *= inv_det
-        x += k @ np.array((n0, n1, n2))
-        x[ITH] = math.remainder(x[ITH], TWO_PI)
-        p -= k @ p[:3, :]
-        tmp = self._tmp
-        np.add(p, p.T, out=tmp)
-        np.multiply(tmp, 0.5, out=p)
-        return nis, True
-
-    def _rewind_index(self, t_meas: float) -> int | None:
-        """Ring index of the newest stored step at or before t_meas; None if all are later."""
-        idx = self._head
-        for _ in range(self._size):
-            if self._bt[idx] <= t_meas:
-                return idx
-            idx = idx - 1 if idx > 0 else self._cap - 1
-        return None
-
-    def _replay(self, j: int, new: Fix) -> tuple[float, bool]:
-        """Re-filter from stored step j to now with the new fix and the stored later fixes.
+    def _replay(self, new: Fix) -> tuple[float, bool] | None:
+        """Rewind to the newest step at or before the new fix's measurement time, apply the fix there
+        and re-filter to now with the stored later fixes (:func:`control.estimation.kernels.rewind`
+        and :func:`~control.estimation.kernels.replay`).
 
         Returns:
-            (NIS of the new fix, whether it was applied). A rejected fix changes nothing.
+            (NIS of the new fix, whether it was applied); None when the fix is older than the
+            history. A rejected fix changes nothing.
         """
-        t_prev = self._bt[j]
-        x, p = self._bx[j].copy(), self._bP[j].copy()
-        pending = [fx for fx in self._fixes if fx[0] > t_prev]
-        if new[0] <= t_prev:  # measured exactly at step j
-            nis, ok = self._fix_update(x, p, new, gated=True)
-            if not ok:
-                return nis, False
-            self._bx[j], self._bP[j] = x, p
-        else:
-            bisect.insort_right(pending, new, key=_fix_key)
-            nis, ok = math.nan, True
-        idx, fi = j, 0
-        while idx != self._head:
-            idx = idx + 1 if idx + 1 < self._cap else 0
-            t_k = self._bt[idx]
-            dl, dr, w = self._bu[idx]
-            dt = t_k - t_prev
-            s = t_prev
-            while fi < len(pending) and pending[fi][0] <= t_k:
-                fx = pending[fi]
-                fi += 1
-                if fx[0] > s:
-                    frac = (fx[0] - s) / dt
-                    self._propagate(x, p, dl * frac, dr * frac, w, fx[0] - s, frac, fx[0])
-                    s = fx[0]
-                if fx is new:  # always inside the first replayed period: nothing stored yet
-                    nis, ok = self._fix_update(x, p, fx, gated=True)
-                    if not ok:
-                        return nis, False
-                else:
-                    self._fix_update(x, p, fx, gated=False)
-            if t_k > s:
-                frac = (t_k - s) / dt
-                self._propagate(x, p, dl * frac, dr * frac, w, t_k - s, frac, t_k)
-            self._bx[idx], self._bP[idx] = x, p
-            t_prev = t_k
+        j = kernels.rewind(self._mem, self._head, self._size, new[0])
+        if j < 0:
+            return None
+        # forget the fixes no rewind can reach (at or before the oldest step), then take the later ones
+        del self._fixes[: bisect.bisect_right(self._fixes, self.history_start, key=_fix_key)]
+        later = bisect.bisect_right(self._fixes, self._bt[j], key=_fix_key)
+        stored = np.array(self._fixes[later:]) if later < len(self._fixes) else self._no_fixes
+        status, t_bad, nis, ok, finite = kernels.replay(self._mem, j, self._head, stored, np.array(new))
+        if status != kernels.OK:
+            self._diverged(status, t_bad)
+        self._finite = finite
         return nis, ok
 
     def correct(self, t_meas: float, z: PoseLike, std_xy: float | None = None, std_theta: float | None = None) -> bool:
@@ -560,20 +454,19 @@ class PoseEstimator:
                     f"correct: fix measured at t={t_meas} s is after the last predict ({self._t} s)"
                 )
             t_meas = self._t
-        j = self._rewind_index(t_meas)
-        if j is None:
+        fix = (float(t_meas), zx, zy, zth, vxy, vth)
+        result = self._replay(fix)
+        if result is None:
             self._stale += 1
             return False
-        fix = (float(t_meas), zx, zy, zth, vxy, vth)
-        nis, ok = self._replay(j, fix)
+        nis, ok = result
         self._nis.append((fix[0], nis))
         if ok:
             bisect.insort_right(self._fixes, fix, key=_fix_key)
         else:
             self._rejected += 1
         self._count_outlier(fix[0], nis)
-        x, p = self._bx[self._head], self._bP[self._head]
-        if not math.isfinite(x[0] + x[1] + x[2] + p[0, 0] + p[1, 1] + p[2, 2]):
+        if not self._finite:
             self._diverged_non_finite(self._t, "the state or its covariance")
         return ok
 
@@ -601,7 +494,7 @@ class PoseEstimator:
             return
         self._outliers += 1
         if self._outliers >= self.config.max_outliers:
-            n0, n1, n2 = self._last_nu
+            n0, n1, n2 = self._nu.tolist()
             raise EstimatorDivergedError(
                 f"pose estimate diverged at t={self._t:.3f} s: {self._outliers} consecutive fixes (the last "
                 f"measured at t={t_meas:.3f} s) had a normalised innovation squared above {self._gate:.2f} "
@@ -623,6 +516,32 @@ class PoseEstimator:
         """Estimated pose (x [m], y [m], theta [rad] in [-pi, pi])."""
         x = self._bx[self._head]
         return float(x[0]), float(x[1]), float(x[2])
+
+    def record(self, pose: FloatArray, variance: FloatArray, row: int) -> tuple[float, float, float]:
+        """Write the pose and the variances of its components into row ``row`` of two arrays.
+
+        The cheap per-period read for a logger (no copies, one compiled call).
+
+        Args:
+            pose: (K, 3) float array for [x, y, theta] [m, m, rad], written in place.
+            variance: (K, 3) float array for [var_x, var_y, var_theta] [m^2, m^2, rad^2], written in place.
+            row: Row to write, 0 <= row < K.
+
+        Returns:
+            The pose, as :attr:`pose`.
+        """
+        return kernels.head_pose(self._mem, self._head, pose, variance, row)
+
+    def nees(self, truth: PoseLike) -> float:
+        """Normalised estimation error squared of the pose against a true pose (heading error
+        wrapped): e^T P^-1 e with e = pose - truth and P :attr:`cov` (see
+        :mod:`control.estimation.consistency`).
+
+        Args:
+            truth: (3,) true pose [x, y, theta] [m, m, rad].
+        """
+        tx, ty, tth = truth
+        return kernels.head_nees(self._mem, self._head, float(tx), float(ty), float(tth))
 
     @property
     def cov(self) -> FloatArray:
@@ -655,7 +574,7 @@ class PoseEstimator:
     def history_start(self) -> float:
         """Oldest time [s] a fix may be measured at and still be fused (older ones are stale)."""
         oldest = self._head - self._size + 1
-        return self._bt[oldest if oldest >= 0 else oldest + self._cap]
+        return float(self._bt[oldest if oldest >= 0 else oldest + self._cap])
 
     @property
     def nis_history(self) -> FloatArray:

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 
+import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -38,8 +39,10 @@ FloatArray = NDArray[np.float64]
 SERIES_BELOW = 1e-2
 
 
+@nb.njit(cache=True)
 def sinc_half(dtheta: float) -> tuple[float, float]:
-    """sin(h)/h with h = dtheta/2, and its derivative with respect to dtheta.
+    """sin(h)/h with h = dtheta/2, and its derivative with respect to dtheta (compiled: the EKF's
+    prediction kernel calls it).
 
     Args:
         dtheta: Heading increment [rad].

@@ -70,6 +70,7 @@ from numpy.typing import ArrayLike, NDArray
 from planning.errors import ConfigError, ModelError
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 
 #: The wheel actuators the firmware drives, in the order [left, right].
 WHEEL_ACTUATORS = ("wheel_left_motor", "wheel_right_motor")
@@ -244,23 +245,40 @@ class MotorModel:
             )
 
 
+@nb.njit(cache=True, inline="always")
+def _wheel(
+    integral: float, r: float, measured: float, kff: float, kp: float, ki_t: float, vb: float
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    """One wheel's update: (new integrator [V], voltage [V]) for command r and measured speed [rad/s]."""
+    e = r - measured
+    fixed = kff * r + kp * e
+    grown = integral + ki_t * e
+    if e > 0:  # grow up to the level that saturates the output, never beyond (nor pulled back)
+        grown = min(grown, max(integral, vb - fixed))
+    elif e < 0:
+        grown = max(grown, min(integral, -vb - fixed))
+    integral = min(max(grown, -vb), vb)
+    return integral, min(max(fixed + integral, -vb), vb)
+
+
 @nb.njit(cache=True)
 def _update(
     integral: FloatArray, command: FloatArray, measured: FloatArray, kff: float, kp: float, ki_t: float, vb: float
 ) -> FloatArray:  # pragma: no cover - compiled
     out = np.empty(integral.shape[0])
     for i in range(integral.shape[0]):
-        r = command[i]
-        e = r - measured[i]
-        fixed = kff * r + kp * e
-        grown = integral[i] + ki_t * e
-        if e > 0:  # grow up to the level that saturates the output, never beyond (nor pulled back)
-            grown = min(grown, max(integral[i], vb - fixed))
-        elif e < 0:
-            grown = max(grown, min(integral[i], -vb - fixed))
-        integral[i] = min(max(grown, -vb), vb)
-        out[i] = min(max(fixed + integral[i], -vb), vb)
+        integral[i], out[i] = _wheel(integral[i], command[i], measured[i], kff, kp, ki_t, vb)
     return out
+
+
+@nb.njit(cache=True)
+def _drive(
+    state: FloatArray, commands: FloatArray, row: int, qvel: FloatArray, ctrl: FloatArray, wiring: IntArray
+) -> None:  # pragma: no cover - compiled
+    n = len(state) - 4  # state: the n integrators, then kff, kp, ki T, V_batt
+    kff, kp, ki_t, vb = state[n], state[n + 1], state[n + 2], state[n + 3]
+    for i in range(n):
+        state[i], ctrl[wiring[1, i]] = _wheel(state[i], commands[row, i], qvel[wiring[0, i]], kff, kp, ki_t, vb)
 
 
 class VelocityLoop:
@@ -274,8 +292,9 @@ class VelocityLoop:
 
     def __init__(self, motor: MotorModel, wheels: int = 2) -> None:
         self.motor = motor
-        self.integral = np.zeros(wheels)
         self._gains = (motor.kff, motor.kp, motor.ki * motor.period, motor.battery_voltage)
+        self._state = np.array([0.0] * wheels + list(self._gains))  # the integrators, then the gains
+        self.integral = self._state[:wheels]
 
     def reset(self) -> None:
         """Zero the integrators (the firmware at power-up)."""
@@ -302,3 +321,17 @@ class VelocityLoop:
                 f"motor loop: command {r.shape} and measured {w.shape} must each hold {n} wheel speeds [rad/s]"
             )
         return _update(self.integral, r, w, *self._gains)
+
+    def drive(self, commands: FloatArray, row: int, qvel: FloatArray, ctrl: FloatArray, wiring: IntArray) -> None:
+        """One update in place, for the simulator's control loop (one compiled call, no copies):
+        the command is row ``row`` of ``commands``, the measured speeds are read from ``qvel`` and
+        the voltages written into ``ctrl`` where ``wiring`` says; the same arithmetic as a call.
+
+        Args:
+            commands: (K, wheels) commanded wheel speeds [rad/s].
+            row: Row of ``commands`` in force.
+            qvel: MuJoCo's joint velocities (``MjData.qvel``) [rad/s].
+            ctrl: MuJoCo's controls (``MjData.ctrl``) [V].
+            wiring: (2, wheels) int64: the wheels' dofs in ``qvel``, then their actuators in ``ctrl``.
+        """
+        _drive(self._state, commands, row, qvel, ctrl, wiring)

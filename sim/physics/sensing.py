@@ -118,7 +118,8 @@ class Sensing:
         self.dt = 1.0 / control_rate
         self.t0 = t0
         adr = model.sensor_adr
-        self._enc = (int(adr[model.sensor("wheel_left_pos").id]), int(adr[model.sensor("wheel_right_pos").id]))
+        self._enc_l = int(adr[model.sensor("wheel_left_pos").id])
+        self._enc_r = int(adr[model.sensor("wheel_right_pos").id])
         self._rad_per_count = TWO_PI / setup.profile.encoder_cpr
         self.estimator: PoseEstimator | None = None
         if self.source is not PoseSource.TRUTH:
@@ -130,6 +131,11 @@ class Sensing:
         self.nees: list[tuple[int, float]] = []  # (period, NEES) at each fix delivery
         self.fixes: dict[int, tuple[float, float, float]] = {}
         self.applied: list[int] = []  # periods whose fix the estimator accepted
+        # fixes by period: measured at these, delivered at period -> measured at period
+        self._fix_taken = frozenset(self.sensors.fix_periods.tolist())
+        self._fix_delivered = dict(
+            zip(self.sensors.fix_delivery_periods.tolist(), self.sensors.fix_periods.tolist(), strict=True)
+        )
         self.status = "ok"
         self._counts = (0, 0)
         self._yaw = 0.0
@@ -147,7 +153,7 @@ class Sensing:
         if est is None:
             return truth
         s = data.sensordata
-        counts = self.sensors.encoder_counts(float(s[self._enc[0]]), float(s[self._enc[1]]))
+        counts = self.sensors.encoder_counts(float(s[self._enc_l]), float(s[self._enc_r]))
         if k == 0:
             est.reset(self.t0, truth)
         else:
@@ -158,26 +164,21 @@ class Sensing:
                 self.sensors.gyro_z(k, rate),
             )  # fmt: skip
         self._counts, self._yaw = counts, truth[2]
-        self._handle_fixes(k, truth)
-        pose = est.pose
-        self.estimate[k] = pose
-        cov = est.cov
-        self.variance[k] = (cov[0, 0], cov[1, 1], cov[2, 2])
-        return pose
+        if k in self._fix_taken:
+            self.fixes[k] = self.sensors.fix(k, truth)
+        j = self._fix_delivered.get(k)
+        if j is not None:
+            self._deliver(j, k, truth)
+        return est.record(self.estimate, self.variance, k)
 
-    def _handle_fixes(self, k: int, truth: tuple[float, float, float]) -> None:
-        sensors, est = self.sensors, self.estimator
+    def _deliver(self, j: int, k: int, truth: tuple[float, float, float]) -> None:
+        """The fix measured at period j arrives at period k: fuse it (with ``fused``) and measure the
+        estimate's consistency (NEES) against the truth then."""
+        est = self.estimator
         assert est is not None
-        if sensors.is_fix_period(k):
-            self.fixes[k] = sensors.fix(k, truth)
-        j = sensors.fix_arriving(k)
-        if j is None:
-            return
         if self.source is PoseSource.FUSED and est.correct(self.t0 + j * self.dt, self.fixes[j]):
             self.applied.append(j)
-        err = np.array(est.pose) - np.asarray(truth)
-        err[2] = math.remainder(err[2], TWO_PI)
-        self.nees.append((k, float(err @ np.linalg.solve(est.cov, err))))
+        self.nees.append((k, est.nees(truth)))
 
     def diverged(self, error: EstimatorDivergedError) -> None:
         """Record that the estimator diverged at the current period (the run ends there)."""

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import mujoco
+import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
@@ -40,12 +41,37 @@ PROGRESS_UPDATES = 100
 
 SENSOR = mujoco.mjtObj.mjOBJ_SENSOR
 
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
 WARNING_NAMES = {int(v): k for k, v in mujoco.mjtWarning.__members__.items() if k != "mjNWARNING"}
 
 
+@nb.njit(cache=True)
 def yaw_from_quat(w: float, x: float, y: float, z: float) -> float:
     """Heading [rad] of a unit quaternion (rotation about z of the body x-axis)."""
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+#: Indices into a run's sensor address array (see :func:`_sample`).
+ADR_CONTACT, ADR_POS, ADR_QUAT, ADR_TOUCH_L, ADR_TOUCH_R = range(5)
+
+
+@nb.njit(cache=True)
+def _sample(
+    log: FloatArray, i: int, time: float, qpos: FloatArray, qvel: FloatArray, sdata: FloatArray, adr: IntArray
+) -> tuple[bool, float, float, float]:  # pragma: no cover - compiled
+    """Row i of a run's log [time, a wheel off the floor (1/0), qpos, qvel]; returns (the obstacle contact
+    sensor fired, pose x, y, theta from the pose sensors). A touch sensor address < 0: none."""
+    row, nq = log[i], qpos.shape[0]
+    row[0] = time
+    tl, tr = adr[ADR_TOUCH_L], adr[ADR_TOUCH_R]
+    row[1] = 1.0 if tl >= 0 and (sdata[tl] <= 0.0 or sdata[tr] <= 0.0) else 0.0
+    row[2 : 2 + nq] = qpos
+    row[2 + nq :] = qvel
+    p, q = adr[ADR_POS], adr[ADR_QUAT]
+    yaw = yaw_from_quat(sdata[q], sdata[q + 1], sdata[q + 2], sdata[q + 3])
+    return sdata[adr[ADR_CONTACT]] > 0.0, sdata[p], sdata[p + 1], yaw
 
 
 @dataclass(frozen=True)
@@ -94,7 +120,6 @@ class Simulator:
         self._wr_adr = int(m.sensor_adr[m.sensor("wheel_right_vel").id])
         self.root_qpos_adr = int(m.jnt_qposadr[m.joint("root").id])
         self.wheel_dofs = [int(m.jnt_dofadr[m.joint(n).id]) for n in ("wheel_left_joint", "wheel_right_joint")]
-        self._contact_adr = int(m.sensor_adr[m.sensor("obstacle_contact").id])
         self._act_l = m.actuator("wheel_left_motor").id
         self._act_r = m.actuator("wheel_right_motor").id
         self.motors = MotorModel.from_model(m)
@@ -220,28 +245,30 @@ class Simulator:
         """Run the recorder's schedule: the tracker once per control period, physics in ``nstep`` chunks
         between log samples and motor-firmware updates, the wheel commands taken up as they arrive
         (after the latency, if any). Python runs per control period, per log sample and per firmware
-        update (10 ms), never per physics step."""
+        update (10 ms), never per physics step; the chunks of each period are planned once
+        (:meth:`Schedule.plan`), and the tracker's pose is the one the pose sensors read at the last
+        log sample (the end of the previous period: the same state :meth:`read_pose` would read)."""
         m, d, schedule = recorder.model, recorder.data, recorder.schedule
-        k_ctrl, k_log, delay = schedule.k_ctrl, schedule.k_log, schedule.delay
-        chunks, n_ctrl = schedule.chunks, schedule.n_ctrl
-        t0, dt_ctrl = recorder.t0, schedule.dt_ctrl
-        cmd, wcmd = recorder.command, recorder.wheel_command
-        ctrl, sdata = d.ctrl, d.sensordata
-        acts, wheel_dofs, contact_adr = [self._act_l, self._act_r], self.wheel_dofs, self._contact_adr
-        read_pose, command, wheel_speeds = self.read_pose, tracker.command, drive.wheel_speeds
+        n_ctrl, t0, dt_ctrl = schedule.n_ctrl, recorder.t0, schedule.dt_ctrl
+        commands, wcmd = recorder.commands, recorder.wheel_command
+        ctrl, qvel = d.ctrl, d.qvel
+        wiring = np.array([self.wheel_dofs, [self._act_l, self._act_r]], dtype=np.int64)  # qvel, ctrl indices
+        command, wheel_speeds = tracker.command, drive.wheel_speeds
         sample, step, isfinite = recorder.sample, mujoco.mj_step, math.isfinite
-        firmware = self.motors.loop()  # the wheels' velocity loop, every k_fw steps from the start
-        k_fw, qvel = self.motors.steps_per_update(m.opt.timestep), d.qvel
-        every = max(1, -(-n_ctrl // PROGRESS_UPDATES))
+        firmware = self.motors.loop().drive  # the wheels' velocity loop, every k_fw steps from the start
+        plans = schedule.plan(self.motors.steps_per_update(m.opt.timestep))
+        n_plans = len(plans)
+        every = max(1, -(-n_ctrl // PROGRESS_UPDATES)) if progress is not None else n_ctrl + 1
         if progress is not None:
             progress(0, n_ctrl)
+        pose = recorder.pose  # the pose sensors at the last sample
         for k in range(n_ctrl):
-            if progress is not None and k and k % every == 0:
+            if k % every == 0 and k and progress is not None:
                 progress(k, n_ctrl)
-            x, y, th = read_pose(d)
+            x, y, th = pose
             if sensing is not None:
                 try:
-                    x, y, th = sensing.observe(k, d, (x, y, th))
+                    x, y, th = sensing.observe(k, d, pose)
                 except EstimatorDivergedError as exc:
                     sensing.diverged(exc)
                     break
@@ -253,20 +280,13 @@ class Simulator:
                     f"tracker {tracker.name!r} returned a non-finite command ({v}, {w}) at t={d.time:.3f} s"
                 )
             left, right = wheel_speeds(v, w)
-            cmd[k + 1] = (v, w)
-            wcmd[k + 1] = (left, right)
-            for j in range(chunks):
-                # the wheel command in force: the one computed at the last control instant <= now - latency
-                src = max((k * k_ctrl + j * k_log - delay) // k_ctrl + 1, 0) if delay else k + 1
-                s = k * k_ctrl + j * k_log
-                end = s + k_log
-                while s < end:  # the firmware updates the motor voltages on its own grid of k_fw steps
-                    if s % k_fw == 0:
-                        ctrl[acts] = firmware(wcmd[src], qvel[wheel_dofs])
-                    n = min(end, s - s % k_fw + k_fw) - s
-                    step(m, d, nstep=n)
-                    s += n
-                sample(sdata[contact_adr] > 0.0)
+            commands[k + 1] = (v, w, left, right)
+            for update, src, n, log in plans[k % n_plans]:
+                if update:  # the wheel command in force: the last computed at or before now - latency
+                    firmware(wcmd, k + src if k + src > 0 else 0, qvel, ctrl, wiring)
+                step(m, d, n)  # nstep, passed by position (a keyword costs a pybind11 lookup)
+                if log:
+                    pose = sample()
         if progress is not None:
             progress(n_ctrl, n_ctrl)
 
@@ -303,6 +323,33 @@ class Schedule:
         n_ctrl = math.ceil(horizon / dt_ctrl - 1e-9)
         return cls(k_ctrl, chunks, k_ctrl // chunks, n_ctrl, delay, dt_ctrl)
 
+    def plan(self, k_fw: int) -> tuple[tuple[tuple[bool, int, int, bool], ...], ...]:
+        """The physics chunks of the control periods, with the motor firmware updated every ``k_fw``
+        physics steps on a grid fixed from the start of the run.
+
+        Period k's chunks are ``plan[k % len(plan)]``: (update the firmware first, with the wheel
+        command of row ``max(k + src, 0)``; ``src``; physics steps; take a log sample after them).
+        A chunk ends at a firmware update or a log sample, whichever comes first.
+
+        Args:
+            k_fw: Physics steps per firmware update (>= 1).
+        """
+        phases = k_fw // math.gcd(self.k_ctrl, k_fw)  # the pattern repeats after this many periods
+        plans = []
+        for phase in range(phases):
+            chunks: list[tuple[bool, int, int, bool]] = []
+            for j in range(self.chunks):
+                # the command computed at the last control instant <= now - latency (row k + src)
+                src = (j * self.k_log - self.delay) // self.k_ctrl + 1 if self.delay else 1
+                s = phase * self.k_ctrl + j * self.k_log
+                end = s + self.k_log
+                while s < end:
+                    n = min(end, s - s % k_fw + k_fw) - s
+                    chunks.append((s % k_fw == 0, src, n, s + n == end))
+                    s += n
+            plans.append(tuple(chunks))
+        return tuple(plans)
+
     @property
     def n_log(self) -> int:
         """Log samples of the run (the start, then ``chunks`` per control period)."""
@@ -336,34 +383,36 @@ class Recorder:
         self, simulator: Simulator, model: mujoco.MjModel, data: mujoco.MjData, schedule: Schedule, t0: float
     ) -> None:
         self.simulator, self.model, self.data, self.schedule, self.t0 = simulator, model, data, schedule, t0
-        n_log = schedule.n_log
-        self.qvel = np.empty((n_log, model.nv))
-        self.qpos = np.empty((n_log, model.nq))
-        self.times = np.empty(n_log)
-        self.command = np.zeros((schedule.n_ctrl + 1, 2))
-        self.wheel_command = np.zeros((schedule.n_ctrl + 1, 2))
+        n_log, nq = schedule.n_log, model.nq
+        self._log = np.empty((n_log, 2 + nq + model.nv))  # time, a wheel off the floor (1/0), qpos, qvel
+        self.times, self.qpos, self.qvel = self._log[:, 0], self._log[:, 2 : 2 + nq], self._log[:, 2 + nq :]
+        self.commands = np.zeros((schedule.n_ctrl + 1, 4))  # v, omega, left, right from the tracker
+        self.command, self.wheel_command = self.commands[:, :2], self.commands[:, 2:]
         self.contacts: list[Contact] = []
         self._touching: set[int] = set()
-        self._qpos, self._qvel = data.qpos, data.qvel
+        self._qpos, self._qvel, self._sdata = data.qpos, data.qvel, data.sensordata
         touch = [n for n in ("wheel_left_touch", "wheel_right_touch") if mujoco.mj_name2id(model, SENSOR, n) >= 0]
-        self._touch = [int(model.sensor_adr[model.sensor(n).id]) for n in touch] if len(touch) == 2 else None
-        self.off_floor = np.zeros(n_log, dtype=bool)
-        self._i = 0
-        self.sample(False)
+        self._has_touch = len(touch) == 2
+        adr = [int(model.sensor_adr[model.sensor(n).id]) for n in ("obstacle_contact", "base_pos", "base_quat")]
+        adr += [int(model.sensor_adr[model.sensor(n).id]) for n in touch] if self._has_touch else [-1, -1]
+        self._adr = np.array(adr, dtype=np.int64)
+        self._i = 1
+        _, x, y, th = _sample(self._log, 0, data.time, self._qpos, self._qvel, self._sdata, self._adr)
+        self.pose = (x, y, th)  # the pose sensors' pose at the start
 
-    def sample(self, contact_sensed: bool) -> None:
+    def sample(self) -> tuple[float, float, float]:
         """Log the state now; look for new robot-obstacle contacts when the contact sensor fired or
-        one was touching."""
+        one was touching.
+
+        Returns:
+            The pose (x, y, theta) [m, m, rad] the pose sensors read now (as :meth:`Simulator.read_pose`).
+        """
         i = self._i
-        self.qvel[i] = self._qvel
-        self.qpos[i] = self._qpos
-        self.times[i] = self.data.time
-        if self._touch is not None:
-            s = self.data.sensordata
-            self.off_floor[i] = s[self._touch[0]] <= 0.0 or s[self._touch[1]] <= 0.0
+        contact, x, y, th = _sample(self._log, i, self.data.time, self._qpos, self._qvel, self._sdata, self._adr)
         self._i = i + 1
-        if contact_sensed or self._touching:
+        if contact or self._touching:
             self._contact_check()
+        return x, y, th
 
     def _contact_check(self) -> None:
         d = self.data
@@ -403,6 +452,6 @@ class Recorder:
         status = sensing.status if sensing is not None else "ok"
         return RunLog(
             t_log, pose, qpos, ref, cmd, wcmd, wspd, tuple(self.contacts), self.warnings(), meta,
-            estimation=estimation, wheel_off_floor=self.off_floor[:n] if self._touch is not None else None,
+            estimation=estimation, wheel_off_floor=self._log[:n, 1] > 0.5 if self._has_touch else None,
             status=status,
         )  # fmt: skip

@@ -1,0 +1,436 @@
+"""The EKF's per-step arithmetic, compiled: prediction, fix update and the replay after a delayed fix.
+
+:class:`control.estimation.ekf.PoseEstimator` keeps its state in preallocated arrays (a ring buffer
+of states, covariances, times and inputs, and scratch, in one block) and calls these
+kernels once per control period and once per fix; they work in place and allocate nothing per
+prediction, so a period costs one call into compiled code instead of a few dozen small numpy
+operations. The equations are the module doc's of :mod:`control.estimation.ekf`, written out
+element by element in the same order of operations (matrix products are summed in index order, so
+results can differ from numpy's BLAS products only at round-off, and are the same bit for bit from
+run to run).
+
+Errors are returned as a status code (:data:`OK`, :data:`BAD_INCREMENT`, :data:`BAD_STATE`,
+:data:`BAD_INNOVATION`) with the time they happened at, and raised by the caller, which words
+the message.
+
+All of a filter's arrays live in one float block of rows of 7 (:func:`allocate`), so that a call
+into compiled code passes one array (a call's cost grows with its arguments, and a period makes
+few calls) and every part is a slice of rows (no reshaping per call). By row:
+
+- 0-1: the filter's constants, flat, indexed by :data:`RADIUS` .. :data:`REJECT` (:func:`parameters`);
+- 2-8: the Jacobian F of the last prediction (identity but where :func:`propagate` writes);
+  9-15: its noise Q (zero likewise); 16-22: a product;
+- 23, 24-30, 31: a replay's state, its covariance, and the innovation of the last gated fix;
+- from :data:`RING`, the ring of the last C steps: C rows (time [s], left and right wheel
+  increments [rad], gyro rate [rad/s]), C rows of states, C blocks of 7 rows of covariances.
+
+:class:`Block` gives the same parts as numpy views, for the Python side.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numba as nb
+import numpy as np
+from numpy.typing import NDArray
+
+from control.estimation.odometry import sinc_half
+
+FloatArray = NDArray[np.float64]
+
+
+#: Indices into the parameter array.
+RADIUS, TRACK, WHEEL_VAR, POSITION_VAR, GYRO_VAR, BIAS_WALK_VAR, QUANT_VAR, GYRO, GATE, REJECT = range(10)
+N_PARAMS = 10
+#: Status codes.
+OK, BAD_INCREMENT, BAD_STATE, BAD_INNOVATION = range(4)
+
+TWO_PI = 2.0 * math.pi
+PI = math.pi
+N = 7  # state size (control.estimation.ekf.N_STATE)
+#: First rows of the block's parts (see the module doc) and rows per ring step.
+F_ROW, Q_ROW, TMP_ROW, X_ROW, P_ROW, NU_ROW, RING = 2, 9, 16, 23, 24, 31, 32
+STEP_ROWS = 2 + N
+
+
+def parameters(
+    radius: float,
+    track: float,
+    wheel_var: float,
+    position_var: float,
+    gyro_var: float,
+    bias_walk_var: float,
+    quant_var: float,
+    gyro: bool,
+    gate: float,
+    reject: bool,
+) -> FloatArray:
+    """The (N_PARAMS,) parameter array of a filter.
+
+    Args:
+        radius: Nominal wheel radius r [m].
+        track: Nominal track width b [m].
+        wheel_var: Wheel-angle noise variance per radian turned [rad].
+        position_var: Position noise variance per metre driven [m].
+        gyro_var: Gyro white-noise density squared [rad^2/s] (0 with the encoder heading).
+        bias_walk_var: Gyro bias walk variance per second [rad^2/s^3] (0 with the encoder heading).
+        quant_var: Encoder quantisation variance of a period's increment [rad^2].
+        gyro: The heading increment comes from the gyro (else from the encoders).
+        gate: NIS above which a fix is an outlier.
+        reject: Outlier fixes are not applied.
+    """
+    return np.array(
+        [radius, track, wheel_var, position_var, gyro_var, bias_walk_var, quant_var, float(gyro), gate, float(reject)]
+    )
+
+
+def allocate(steps: int) -> FloatArray:
+    """A zeroed block for a ring of ``steps`` steps (see the module doc), F set to the identity."""
+    mem = np.zeros((RING + steps * STEP_ROWS, N))
+    mem[F_ROW : F_ROW + N] = np.eye(N)
+    return mem
+
+
+class Block(NamedTuple):
+    """Numpy views of a block's parts (see the module doc).
+
+    Attributes:
+        prm: (N_PARAMS,) constants. f, q, tmp: (7, 7) F, Q, scratch. nu: (3,) last gated innovation.
+        bt: (C,) step times [s]. bu: (C, 3) step inputs. bx: (C, 7) states. bP: (C, 7, 7) covariances.
+    """
+
+    prm: FloatArray
+    f: FloatArray
+    q: FloatArray
+    tmp: FloatArray
+    nu: FloatArray
+    bt: FloatArray
+    bu: FloatArray
+    bx: FloatArray
+    bP: FloatArray
+
+    @classmethod
+    def of(cls, mem: FloatArray) -> Block:
+        """The views of ``mem`` (made by :func:`allocate`)."""
+        cap = (mem.shape[0] - RING) // STEP_ROWS
+        ring, states, covs = mem[RING : RING + cap], mem[RING + cap : RING + 2 * cap], mem[RING + 2 * cap :]
+        return cls(
+            mem[:2].reshape(-1)[:N_PARAMS], mem[F_ROW:Q_ROW], mem[Q_ROW:TMP_ROW], mem[TMP_ROW:X_ROW],
+            mem[NU_ROW, :3], ring[:, 0], ring[:, 1:4], states, covs.reshape(cap, N, N),
+        )  # fmt: skip
+
+
+@nb.njit(cache=True, inline="always")
+def _ring(mem: FloatArray) -> tuple[int, int]:  # pragma: no cover - compiled
+    """(first row of the ring's states, first row of its covariances)."""
+    cap = (mem.shape[0] - RING) // STEP_ROWS
+    return RING + cap, RING + 2 * cap
+
+
+@nb.njit(cache=True, inline="always")
+def wrap(a: float) -> float:  # pragma: no cover - compiled
+    """``math.remainder(a, 2 pi)`` (but for exact ties at +-pi, which keep their sign) [rad]."""
+    v = np.fmod(a, TWO_PI)
+    return v - TWO_PI if v > PI else (v + TWO_PI if v < -PI else v)
+
+
+@nb.njit(cache=True)
+def _congruence(p: FloatArray, f: FloatArray, q: FloatArray, tmp: FloatArray) -> None:  # pragma: no cover - compiled
+    """p = f p f^T + q in place (all (7, 7); tmp is scratch).
+
+    f is the identity but in rows 0-2, columns 2-6 (above the diagonal): its other rows copy, and
+    its identity entries add each term once, in the order a full product sums them (the same
+    result, bit for bit, with a third of the multiplications).
+    """
+    tmp[:, :] = p
+    for i in range(3):  # tmp = f p
+        for k in range(N):
+            s = p[i, k]
+            for j in range(max(2, i + 1), N):
+                s += f[i, j] * p[j, k]
+            tmp[i, k] = s
+    for i in range(N):  # p = tmp f^T + q
+        for k in range(N):
+            s = tmp[i, k]
+            if k < 3:
+                for j in range(max(2, k + 1), N):
+                    s += tmp[i, j] * f[k, j]
+            p[i, k] = s + q[i, k]
+
+
+@nb.njit(cache=True)
+def propagate(
+    x: FloatArray,
+    p: FloatArray,
+    f: FloatArray,
+    q: FloatArray,
+    tmp: FloatArray,
+    prm: FloatArray,
+    dl: float,
+    dr: float,
+    w: float,
+    dt: float,
+    frac: float,
+) -> int:  # pragma: no cover - compiled
+    """One prediction over dt [s] with wheel increments (dl, dr) [rad] and gyro rate w [rad/s], in place.
+
+    ``frac`` is the share of a stored control period this interval covers (the quantisation
+    variance is shared out by it). Only the non-zero entries of the Jacobian ``f`` (7, 7) and the
+    noise ``q`` (7, 7) are written (the rest stay as set up: f identity, q zero); ``tmp`` (7, 7) is
+    scratch.
+
+    Returns:
+        OK; BAD_INCREMENT (nothing changed) or BAD_STATE (x and p written) when non-finite.
+    """
+    r = prm[RADIUS]
+    px, py, th, bg, em, ed, be = x[0], x[1], x[2], x[3], x[4], x[5], x[6]
+    rl, rr = r * (1.0 + em - ed), r * (1.0 + em + ed)
+    ds = 0.5 * (rl * dl + rr * dr)
+    vl = prm[WHEEL_VAR] * abs(dl) + frac * prm[QUANT_VAR]
+    vr = prm[WHEEL_VAR] * abs(dr) + frac * prm[QUANT_VAR]
+    gyro = prm[GYRO] != 0.0
+    bb = prm[TRACK] * (1.0 + be)
+    if gyro:
+        dth = (w - bg) * dt
+        s_st, s_tt = 0.0, prm[GYRO_VAR] * dt  # the wheels do not enter dth
+    else:
+        dth = (rr * dr - rl * dl) / bb
+        s_st = 0.5 * (rr * rr * vr - rl * rl * vl) / bb
+        s_tt = (rl * rl * vl + rr * rr * vr) / (bb * bb)
+    if not math.isfinite(ds + dth):
+        return BAD_INCREMENT
+    s_ss = 0.25 * (rl * rl * vl + rr * rr * vr)
+    c, dc = sinc_half(dth)
+    phi = th + 0.5 * dth
+    cp, sp = math.cos(phi), math.sin(phi)
+    a = ds * c
+    j0s, j0t = c * cp, ds * (dc * cp - 0.5 * c * sp)
+    j1s, j1t = c * sp, ds * (dc * sp + 0.5 * c * cp)
+    xn, yn = px + a * cp, py + a * sp
+    x[0], x[1], x[2] = xn, yn, wrap(th + dth)
+    f[0, 2], f[1, 2] = -a * sp, a * cp
+    s_em, s_ed = 0.5 * r * (dl + dr), 0.5 * r * (dr - dl)  # d ds / d(e_m, e_d)
+    if gyro:  # d dth / d b_g = -dt; e_m, e_d act through ds only
+        f[0, 3], f[1, 3], f[2, 3] = -j0t * dt, -j1t * dt, -dt
+        f[0, 4], f[1, 4], f[0, 5], f[1, 5] = j0s * s_em, j1s * s_em, j0s * s_ed, j1s * s_ed
+    else:  # dth depends on e_m, e_d and beta
+        t_em, t_ed, t_be = r * (dr - dl) / bb, r * (dr + dl) / bb, -dth / (1.0 + be)
+        f[0, 4], f[1, 4], f[2, 4] = j0s * s_em + j0t * t_em, j1s * s_em + j1t * t_em, t_em
+        f[0, 5], f[1, 5], f[2, 5] = j0s * s_ed + j0t * t_ed, j1s * s_ed + j1t * t_ed, t_ed
+        f[0, 6], f[1, 6], f[2, 6] = j0t * t_be, j1t * t_be, t_be
+    pn = prm[POSITION_VAR] * abs(ds)
+    q[0, 0] = j0s * j0s * s_ss + 2.0 * j0s * j0t * s_st + j0t * j0t * s_tt + pn
+    q[1, 1] = j1s * j1s * s_ss + 2.0 * j1s * j1t * s_st + j1t * j1t * s_tt + pn
+    q[2, 2] = s_tt
+    q[0, 1] = q[1, 0] = j0s * j1s * s_ss + (j0s * j1t + j0t * j1s) * s_st + j0t * j1t * s_tt
+    q[0, 2] = q[2, 0] = j0s * s_st + j0t * s_tt
+    q[1, 2] = q[2, 1] = j1s * s_st + j1t * s_tt
+    q[3, 3] = prm[BIAS_WALK_VAR] * dt
+    _congruence(p, f, q, tmp)
+    if not math.isfinite(p[0, 0] + p[1, 1] + p[2, 2] + xn + yn):
+        return BAD_STATE
+    return OK
+
+
+@nb.njit(cache=True)
+def predict(mem: FloatArray, src: int, dst: int, t: float, dl: float, dr: float, w: float) -> int:  # pragma: no cover
+    """Ring step ``dst`` = step ``src`` of a block predicted to time t [s] with the period's inputs
+    (stored with it).
+
+    Returns:
+        The status of :func:`propagate`; the time and inputs are stored only when OK.
+    """
+    xs, ps = _ring(mem)
+    x, p = mem[xs + dst], mem[ps + N * dst : ps + N * dst + N]
+    x[:] = mem[xs + src]
+    p[:, :] = mem[ps + N * src : ps + N * src + N]
+    f, q, tmp = mem[F_ROW:Q_ROW], mem[Q_ROW:TMP_ROW], mem[TMP_ROW:X_ROW]
+    status = propagate(x, p, f, q, tmp, mem[:2].reshape(2 * N), dl, dr, w, t - mem[RING + src, 0], 1.0)
+    if status == OK:
+        u = mem[RING + dst]
+        u[0], u[1], u[2], u[3] = t, dl, dr, w
+    return status
+
+
+@nb.njit(cache=True, inline="always")
+def _cofactors(p: FloatArray, vxy: float, vth: float) -> tuple[float, float, float, float, float, float, float]:
+    """Cofactors (ca, cb, cc, cd, ce, cf) and determinant of S = P[:3, :3] + diag(vxy, vxy, vth)."""
+    a, b, c, d, e, f = p[0, 0] + vxy, p[0, 1], p[0, 2], p[1, 1] + vxy, p[1, 2], p[2, 2] + vth
+    ca, cb, cc = d * f - e * e, c * e - b * f, b * e - c * d
+    cd, ce, cf = a * f - c * c, b * c - a * e, a * d - b * b
+    return ca, cb, cc, cd, ce, cf, a * ca + b * cb + c * cc
+
+
+@nb.njit(cache=True, inline="always")
+def _quadratic(cof: tuple[float, float, float, float, float, float, float], n0: float, n1: float, n2: float) -> float:
+    """n^T S^-1 n for the cofactors and determinant of a symmetric 3 x 3 S."""
+    ca, cb, cc, cd, ce, cf, det = cof
+    return (ca * n0 * n0 + cd * n1 * n1 + cf * n2 * n2 + 2.0 * (cb * n0 * n1 + cc * n0 * n2 + ce * n1 * n2)) / det
+
+
+@nb.njit(cache=True)
+def fix_update(
+    x: FloatArray, p: FloatArray, fix: FloatArray, prm: FloatArray, gated: bool, nu: FloatArray
+) -> tuple[int, float, bool]:  # pragma: no cover - compiled
+    """Apply a pose fix (t_meas, z_x, z_y, z_theta, var_xy, var_theta) to (x, p) in place.
+
+    H = [I_3 0], so K = P[:, :3] S^-1 and P - K S K^T = P - K P[:3, :]; S is inverted by
+    cofactors and P re-symmetrised. With ``gated`` the innovation is written to ``nu`` (3,) and an
+    outlier (NIS above the gate, when the filter rejects outliers) is measured but not applied.
+
+    Returns:
+        (status: OK or BAD_INNOVATION, NIS, applied).
+    """
+    n0, n1, n2 = fix[1] - x[0], fix[2] - x[1], wrap(fix[3] - x[2])
+    cof = _cofactors(p, fix[4], fix[5])
+    ca, cb, cc, cd, ce, cf, det = cof
+    if not det > 0.0:
+        return BAD_INNOVATION, math.nan, False
+    nis = _quadratic(cof, n0, n1, n2)
+    if gated:
+        nu[0], nu[1], nu[2] = n0, n1, n2
+        if prm[REJECT] != 0.0 and nis > prm[GATE]:
+            return OK, nis, False
+    inv_det = 1.0 / det
+    k = np.empty((N, 3))
+    for i in range(N):
+        p0, p1, p2 = p[i, 0], p[i, 1], p[i, 2]
+        k[i, 0] = (p0 * ca + p1 * cb + p2 * cc) * inv_det
+        k[i, 1] = (p0 * cb + p1 * cd + p2 * ce) * inv_det
+        k[i, 2] = (p0 * cc + p1 * ce + p2 * cf) * inv_det
+    kp = np.empty((N, N))
+    for i in range(N):
+        x[i] += k[i, 0] * n0 + k[i, 1] * n1 + k[i, 2] * n2
+        for j in range(N):
+            kp[i, j] = k[i, 0] * p[0, j] + k[i, 1] * p[1, j] + k[i, 2] * p[2, j]
+    x[2] = wrap(x[2])
+    for i in range(N):
+        for j in range(N):
+            p[i, j] -= kp[i, j]
+    for i in range(N):
+        for j in range(i + 1, N):
+            p[i, j] = p[j, i] = 0.5 * (p[i, j] + p[j, i])
+    return OK, nis, True
+
+
+@nb.njit(cache=True)
+def rewind(mem: FloatArray, head: int, size: int, t_meas: float) -> int:  # pragma: no cover - compiled
+    """Ring index of the newest of a block's ``size`` steps ending at ``head`` whose time is at or
+    before t_meas [s]; -1 if all are later."""
+    cap = (mem.shape[0] - RING) // STEP_ROWS
+    j = head
+    for _ in range(size):
+        if mem[RING + j, 0] <= t_meas:
+            return j
+        j = j - 1 if j > 0 else cap - 1
+    return -1
+
+
+@nb.njit(cache=True)
+def replay(
+    mem: FloatArray, j: int, head: int, stored: FloatArray, new: FloatArray
+) -> tuple[int, float, float, bool, bool]:  # pragma: no cover - compiled
+    """Fuse a fix: apply it at ring step j (the newest at or before its measurement time,
+    :func:`rewind`) and re-filter a block's ring to ``head`` with the stored fixes measured later.
+
+    Args:
+        mem: The filter's block.
+        j: Ring index of the newest step at or before the new fix's measurement time.
+        head: Ring index of the newest step.
+        stored: (M, 6) fixes already applied and measured after step j, in time order.
+        new: (6,) the new fix (t_meas, z_x, z_y, z_theta, var_xy, var_theta); it is taken after
+            stored fixes measured at the same time.
+
+    Returns:
+        (status, time of the failure [s], NIS of the new fix, applied, the newest state and
+        covariance diagonal are finite). A rejected fix changes nothing.
+    """
+    status, t_bad, nis, ok = _refilter(mem, j, head, stored, new)
+    xs, ps = _ring(mem)
+    x, p = mem[xs + head], mem[ps + N * head : ps + N * head + N]
+    return status, t_bad, nis, ok, math.isfinite(x[0] + x[1] + x[2] + p[0, 0] + p[1, 1] + p[2, 2])
+
+
+@nb.njit(cache=True)
+def _refilter(
+    mem: FloatArray, j: int, head: int, stored: FloatArray, new: FloatArray
+) -> tuple[int, float, float, bool]:  # pragma: no cover - compiled
+    """:func:`replay` but for the finiteness: (status, time of the failure [s], NIS, applied)."""
+    prm, f, q, tmp = mem[:2].reshape(2 * N), mem[F_ROW:Q_ROW], mem[Q_ROW:TMP_ROW], mem[TMP_ROW:X_ROW]
+    x, p, nu = mem[X_ROW], mem[P_ROW:NU_ROW], mem[NU_ROW]
+    xs, ps = _ring(mem)
+    cap = xs - RING
+    t_prev = mem[RING + j, 0]
+    x[:] = mem[xs + j]
+    p[:, :] = mem[ps + N * j : ps + N * j + N]
+    done = new[0] <= t_prev  # measured exactly at step j
+    nis = math.nan
+    if done:
+        status, nis, ok = fix_update(x, p, new, prm, True, nu)
+        if status != OK or not ok:
+            return status, new[0], nis, False
+        mem[xs + j] = x
+        mem[ps + N * j : ps + N * j + N] = p
+    idx, fi, m = j, 0, stored.shape[0]
+    while idx != head:
+        idx = idx + 1 if idx + 1 < cap else 0
+        t_k, dl, dr, w = mem[RING + idx, 0], mem[RING + idx, 1], mem[RING + idx, 2], mem[RING + idx, 3]
+        dt = t_k - t_prev
+        s = t_prev
+        while True:
+            is_new = not done and (fi >= m or new[0] < stored[fi, 0])
+            if not is_new and fi >= m:
+                break
+            fx = new if is_new else stored[fi]
+            if fx[0] > t_k:
+                break
+            if is_new:
+                done = True
+            else:
+                fi += 1
+            if fx[0] > s:
+                frac = (fx[0] - s) / dt
+                status = propagate(x, p, f, q, tmp, prm, dl * frac, dr * frac, w, fx[0] - s, frac)
+                if status != OK:
+                    return status, fx[0], nis, False
+                s = fx[0]
+            status, nis_fx, ok = fix_update(x, p, fx, prm, is_new, nu)
+            if status != OK:
+                return status, fx[0], nis, False
+            if is_new:  # always inside the first replayed period: nothing stored yet
+                nis = nis_fx
+                if not ok:
+                    return OK, fx[0], nis, False
+        if t_k > s:
+            frac = (t_k - s) / dt
+            status = propagate(x, p, f, q, tmp, prm, dl * frac, dr * frac, w, t_k - s, frac)
+            if status != OK:
+                return status, t_k, nis, False
+        mem[xs + idx] = x
+        mem[ps + N * idx : ps + N * idx + N] = p
+        t_prev = t_k
+    return OK, 0.0, nis, True
+
+
+@nb.njit(cache=True)
+def head_pose(
+    mem: FloatArray, head: int, pose: FloatArray, variance: FloatArray, row: int
+) -> tuple[float, float, float]:  # pragma: no cover - compiled
+    """Write a block's pose at ring step ``head`` and its variances into row ``row`` of (K, 3) arrays;
+    return the pose."""
+    xs, ps = _ring(mem)
+    x, p = mem[xs + head], mem[ps + N * head : ps + N * head + N]
+    pose[row, 0], pose[row, 1], pose[row, 2] = x[0], x[1], x[2]
+    variance[row, 0], variance[row, 1], variance[row, 2] = p[0, 0], p[1, 1], p[2, 2]
+    return x[0], x[1], x[2]
+
+
+@nb.njit(cache=True)
+def head_nees(mem: FloatArray, head: int, tx: float, ty: float, tth: float) -> float:  # pragma: no cover - compiled
+    """NEES of a block's pose at ring step ``head`` against a true pose (x [m], y [m], theta [rad]),
+    heading error wrapped."""
+    xs, ps = _ring(mem)
+    x, p = mem[xs + head], mem[ps + N * head : ps + N * head + N]
+    return _quadratic(_cofactors(p, 0.0, 0.0), x[0] - tx, x[1] - ty, wrap(x[2] - tth))
