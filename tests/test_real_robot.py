@@ -134,6 +134,6 @@ def test_bad_robot_settings_are_clear_errors_and_write_nothing(
     tmp_path: Path, args: tuple[str, ...], needle: str
 ) -> None:
     out = tmp_path / "run.json"
-    r = nhsim("simulate", "--reference", "line", "--json", str(out), "--no-video", *args)
+    r = nhsim("simulate", "--reference", "line", "--json", str(out), "--no-video", "--no-plots", *args)
     assert r.returncode == 2 and needle in r.stderr, r.stderr
     assert not out.exists()
