@@ -154,6 +154,13 @@ def test_draws_are_repeatable_within_the_band_and_have_the_tolerance_spread(robo
     ):  # fmt: skip
         values = np.array([getattr(a, field) for a in draws])
         assert np.all(np.abs(values - centre) <= c * sigma * (1 + 1e-12)), field
+        if field == "com_offset_x" and math.isfinite(tol.com_x_forward_max):  # also cut in front
+            hi = min(c, tol.com_x_forward_max / sigma)
+            m1 = norm.expect(lambda z, hi=hi: np.clip(z, -c, hi))
+            m2 = norm.expect(lambda z, hi=hi: np.clip(z, -c, hi) ** 2)
+            assert np.std(values) == pytest.approx(sigma * math.sqrt(m2 - m1**2), rel=rel), field
+            assert values.max() <= tol.com_x_forward_max
+            continue
         assert np.std(values) == pytest.approx(sigma * clipped, rel=rel), field
     left = np.array([a.left_radius_scale for a in draws])
     right = np.array([a.right_radius_scale for a in draws])
@@ -192,3 +199,28 @@ def test_bad_builds_and_models_are_refused() -> None:
     )
     with pytest.raises(ModelError, match="no body named in"):
         SKEWED.apply_to_model(bare)
+
+
+def test_no_turtlebot3_build_has_its_centre_of_mass_where_it_tips_over() -> None:
+    """The TurtleBot3's centre of mass is 4 mm behind its axle with nothing in front: builds are cut
+    at 2.5 mm forward, and one cut there still rests level (pitch under 1 degree after 3 s)."""
+    import dataclasses
+
+    import mujoco
+
+    from planning.core.geometry import Pose2D
+    from planning.core.robot import load_robot
+    from sim.physics.asbuilt import TOLERANCES
+    from sim.physics.model import build_model, set_pose
+
+    limit = TOLERANCES["turtlebot3"].com_x_forward_max
+    xs = [AsBuilt.draw("turtlebot3", s).com_offset_x for s in range(300)]
+    assert max(xs) == limit and min(xs) < -limit  # cut in front only
+    base = build_model(load_robot("turtlebot3"), None).model
+    build = dataclasses.replace(AsBuilt.draw("turtlebot3", 52), com_offset_x=limit)
+    m = build.apply_to_model(base)
+    d = mujoco.MjData(m)
+    set_pose(m, d, Pose2D(0.0, 0.0, 0.0))
+    mujoco.mj_step(m, d, 1500)
+    w, x, y, z = d.qpos[3:7]
+    assert abs(np.degrees(np.arcsin(2 * (w * y - z * x)))) < 1.0

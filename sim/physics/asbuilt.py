@@ -47,6 +47,9 @@ class BuildTolerance:
         mass: Base mass scale [-].
         com_x: Centre-of-mass offset forward [m].
         com_y: Centre-of-mass offset to the left [m].
+        com_x_forward_max: Largest forward offset a build may have [m]: a robot whose centre of
+            mass sits too near the front of its support tips onto its chassis at rest or when it
+            brakes, and no such robot leaves assembly; draws beyond it are cut to it.
     """
 
     radius: float
@@ -55,6 +58,7 @@ class BuildTolerance:
     mass: float
     com_x: float
     com_y: float
+    com_x_forward_max: float = math.inf
 
 
 #: Robot -> tolerances. The magnitudes are estimates: neither robot's maker publishes them, and
@@ -69,6 +73,9 @@ TOLERANCES: dict[str, BuildTolerance] = {
         mass=0.02,  # estimate: screws, cables and battery variants of a kit, ~20 g in 1 kg
         com_x=0.003,  # estimate: battery slack in its holder along x
         com_y=0.002,  # estimate: cable runs and battery slack across
+        # the URDF's centre of mass is 4 mm behind the axle, the ball caster behind it: a build
+        # 5.7 mm further forward tipped onto its chassis at rest; half the margin is kept
+        com_x_forward_max=0.0025,
     ),
     # EduMIP: 68 mm wheels, ~12 mm tyres, 0.10 m track (the MJCF's sources [B] and [E]).
     "edumip": BuildTolerance(
@@ -185,7 +192,7 @@ class AsBuilt:
             track_change=tol.track * z[2],
             tyre_friction_scale=1.0 + tol.friction * z[3],
             base_mass_scale=1.0 + tol.mass * z[4],
-            com_offset_x=tol.com_x * z[5],
+            com_offset_x=min(tol.com_x * z[5], tol.com_x_forward_max),
             com_offset_y=tol.com_y * z[6],
             robot=robot_name,
             build_seed=seed,
