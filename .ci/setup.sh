@@ -29,7 +29,9 @@ nhsim_setup() {
         return 1
     fi
     # Headless rendering uses OSMesa (Debian's libosmesa6) where there is no display.
-    if command -v ldconfig >/dev/null 2>&1 && ! ldconfig -p 2>/dev/null | grep -q libOSMesa; then
+    # grep reads the whole list (no -q): under pipefail an early exit would SIGPIPE ldconfig and the
+    # library would look missing on every run
+    if command -v ldconfig >/dev/null 2>&1 && ! ldconfig -p 2>/dev/null | grep libOSMesa >/dev/null; then
         if command -v apt-get >/dev/null 2>&1; then
             nhsim_apt_install libosmesa6 || echo "setup: continuing without libosmesa6 (videos will be skipped)" >&2
         else
