@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 import tempfile
 from collections.abc import Iterator
@@ -49,10 +50,24 @@ def atomic_path(path: str | Path, *, overwrite: bool = False) -> Iterator[Path]:
 
 
 def write_json(path: str | Path, data: Any, *, overwrite: bool = False) -> Path:
-    """Write JSON atomically (indent 2, sorted keys)."""
+    """Write standard JSON atomically (indent 2, sorted keys); a NaN or infinite number is written as null."""
+    text = json.dumps(json_safe(data), indent=2, sort_keys=True, allow_nan=False, default=_default)
     with atomic_path(path, overwrite=overwrite) as tmp:
-        tmp.write_text(json.dumps(data, indent=2, sort_keys=True, default=_default) + "\n", encoding="utf-8")
+        tmp.write_text(text + "\n", encoding="utf-8")
     return Path(path)
+
+
+def json_safe(data: Any) -> Any:
+    """``data`` with arrays as lists and every non-finite float (NaN, +-inf) as None (JSON null)."""
+    if hasattr(data, "tolist") and not isinstance(data, (str, bytes)):
+        data = data.tolist()
+    if isinstance(data, float):
+        return data if math.isfinite(data) else None
+    if isinstance(data, dict):
+        return {k: json_safe(v) for k, v in data.items()}
+    if isinstance(data, (list, tuple)):
+        return [json_safe(v) for v in data]
+    return data
 
 
 def _default(obj: Any) -> Any:

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from sim.cli.main import main
+from sim.outputs import write_json
 from tests.render_helpers import require_gl
 
 #: Two runs (the fused closed loop and the open loop), so that no third robot stands where the pixel
@@ -148,3 +149,11 @@ def test_the_estimation_plot_is_planned_beside_the_others(tmp_path: Path, monkey
         plan_outputs(args, scenario="open", source="line")
     assert main([*FAST, "--no-video"]) == 2
     assert stale.read_bytes() == b"x"
+
+
+def test_write_json_writes_standard_json_with_null_for_non_finite(tmp_path: Path) -> None:
+    data = {"a": float("nan"), "b": [1.5, float("inf"), -float("inf")], "c": np.array([0.25, np.nan]), "d": "x"}
+    path = write_json(tmp_path / "r.json", data)
+    text = path.read_text()
+    assert "NaN" not in text and "Infinity" not in text
+    assert json.loads(text) == {"a": None, "b": [1.5, None, None], "c": [0.25, None], "d": "x"}
