@@ -150,3 +150,15 @@ def test_a_non_finite_clearance_is_never_a_success(tmp_path, capsys, monkeypatch
     assert "NaN" not in text
     rec = json.loads(text)
     assert rec["status"] == "failed" and rec["min_clearance_m"] is None and "not finite" in rec["reason"]
+
+
+@pytest.mark.parametrize("limit", ["0", "-1", "nan"])
+@pytest.mark.parametrize("command", ["simulate", "plan"])
+def test_a_time_limit_not_above_zero_is_exit_2(command, limit, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    argv = [command, "--scenario", "farm", "--planner", "rrt-star", f"--time-limit={limit}", "--quiet"]
+    extra = ["--no-video", "--no-plots"] if command == "simulate" else []
+    assert main([*argv, *extra]) == 2
+    err = capsys.readouterr().err
+    assert "--time-limit" in err and "> 0 s" in err
+    assert list(tmp_path.iterdir()) == []

@@ -96,6 +96,12 @@ def path_spacing(path: NDArray[np.float64], radius: float) -> float:
     return float(np.max(path_steps(path, radius))) if path.shape[0] >= 2 else 0.0
 
 
+def check_time_limit(seconds: float) -> None:
+    """Raise :class:`ConfigError` unless the ``--time-limit`` planning budget [s] is a number > 0."""
+    if not seconds > 0:
+        raise ConfigError(f"--time-limit must be a planning budget > 0 s, got {seconds:g}; pass e.g. --time-limit 30")
+
+
 def run(args: argparse.Namespace) -> int:
     """Execute ``plan``."""
     from planning.core.robot import load_robot
@@ -104,8 +110,7 @@ def run(args: argparse.Namespace) -> int:
     from planning.scenario import load_scenario
     from sim.outputs import check_writable, write_json
 
-    if not args.time_limit > 0:
-        raise ConfigError(f"--time-limit must be > 0 s, got {args.time_limit}")
+    check_time_limit(args.time_limit)
     for out in (args.json, args.plot):
         if out is not None:
             check_writable(out, overwrite=args.overwrite)
