@@ -108,11 +108,10 @@ class SegmentedTracker:
         """Start tracking: pre-sample the reference and its segment at every control instant.
 
         Raises:
-            ConfigError: ``dt`` [s] is not a finite number > 0.
+            ConfigError: The control period ``dt`` [s] is not a finite number > 0.
         """
-        dt = check_period(self.name, dt)
+        self._dt = dt = check_period(self.name, dt)
         self._traj = trajectory
-        self._dt = dt
         self._t0 = float(trajectory.t[0])
         if trajectory.segments is not None:
             seg, kinds = trajectory.segments, trajectory.segment_kinds
