@@ -9,7 +9,7 @@ from collections.abc import Callable
 from typing import Any, Protocol, TypeVar
 
 from planning.core.robot import RobotSpec
-from planning.errors import ConfigError
+from planning.errors import ConfigError, SimulationError
 from planning.trajectory.trajectory import Trajectory
 
 T = TypeVar("T")
@@ -124,3 +124,33 @@ def check_positive_fields(obj: object, names: tuple[str, ...], why: str) -> None
         if value <= 0:
             raise ConfigError(f"{where} must be > 0, got {value!r} ({why})")
         object.__setattr__(obj, name, float(value))
+
+
+def check_period(tracker: str, dt: float) -> float:
+    """The control period ``dt`` [s] given to a tracker's ``reset``, as a float.
+
+    Raises:
+        ConfigError: ``dt`` is not a finite number > 0 (names the tracker).
+    """
+    if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not (math.isfinite(dt) and dt > 0):
+        raise ConfigError(
+            f"tracker {tracker!r}: reset(dt) needs the control period dt as a finite number of seconds > 0, "
+            f"got {dt!r}; pass 1 / control rate, e.g. 0.02 for 50 Hz"
+        )
+    return float(dt)
+
+
+def check_measured_pose(tracker: str, t: float, x: float, y: float, theta: float) -> None:
+    """Refuse a non-finite time or measured pose given to a tracker's ``command``.
+
+    Every tracker that reads the pose calls this first, so a NaN from a sensor or an estimator stops
+    the run with the same error in every tracker, never a silent stop or a non-finite command.
+
+    Raises:
+        SimulationError: ``t``, ``x``, ``y`` or ``theta`` is NaN or infinite (names the tracker and t).
+    """
+    if not math.isfinite(t + x + y + theta):
+        raise SimulationError(
+            f"tracker {tracker!r} was given a non-finite pose (x={x}, y={y}, theta={theta}) at t={t:.3f} s: "
+            "the measured or estimated pose diverged"
+        )

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from control.base import check_positive_fields, option_value
+from control.base import check_measured_pose, check_period, check_positive_fields, option_value
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
 from planning.trajectory.trajectory import Trajectory, TrajectorySamples
@@ -142,9 +142,14 @@ class DynamicFBL:
 
     def reset(self, trajectory: Trajectory, dt: float) -> None:
         """Start tracking: xi starts at the reference speed; the reference is pre-sampled at the
-        control instants."""
+        control instants.
+
+        Raises:
+            ConfigError: ``dt`` [s] is not a finite number > 0.
+        """
+        dt = check_period(self.name, dt)
         self._traj = trajectory
-        self._dt = float(dt)
+        self._dt = dt
         self._t0 = float(trajectory.t[0])
         n = math.ceil(trajectory.duration / dt) + 2
         self._cache = flat_references(trajectory.sample_many(self._t0 + dt * np.arange(n)))
@@ -164,7 +169,11 @@ class DynamicFBL:
 
         Called once per control period, so written for speed: the saturations are inline
         comparisons (the same values as ``min(max(a, -limit), limit)``).
+
+        Raises:
+            SimulationError: ``t`` or the pose is not finite.
         """
+        check_measured_pose(self.name, t, x, y, theta)
         xi_dot, omega = fbl_law(self.gains, x, y, theta, self.xi, self._reference(t))
         vmax, wmax, dt, xi = self.robot.max_speed, self.robot.max_yaw_rate, self._dt, self.xi
         v = xi + 0.5 * xi_dot * dt

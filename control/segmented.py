@@ -18,7 +18,7 @@ goal. A planned trajectory (planning/trajectory/from_plan.py) is labelled with s
 * **After the end** the same regulation holds the final pose, so the heading reaches the goal too.
 
 Every command is clamped to the robot's |v| and |omega| limits and is finite (a non-finite
-intermediate becomes a stop).
+intermediate becomes a stop); a non-finite time or pose is refused (SimulationError), as by every tracker.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from control.base import check_positive_fields, option_value
+from control.base import check_measured_pose, check_period, check_positive_fields, option_value
 from control.fbl import FBLGains, FlatReference, fbl_law, flat_references
 from planning.core.robot import RobotSpec
 from planning.trajectory.segments import infer_segments
@@ -105,9 +105,13 @@ class SegmentedTracker:
         self._traj: Trajectory | None = None
 
     def reset(self, trajectory: Trajectory, dt: float) -> None:
-        """Start tracking: pre-sample the reference and its segment at every control instant."""
+        """Start tracking: pre-sample the reference and its segment at every control instant.
+
+        Raises:
+            ConfigError: The control period ``dt`` [s] is not a finite number > 0.
+        """
+        self._dt = dt = check_period(self.name, dt)
         self._traj = trajectory
-        self._dt = float(dt)
         self._t0 = float(trajectory.t[0])
         if trajectory.segments is not None:
             seg, kinds = trajectory.segments, trajectory.segment_kinds
@@ -154,9 +158,14 @@ class SegmentedTracker:
         return sgn * max(sgn * v, 0.0), w
 
     def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
-        """Body command for the period starting at ``t``."""
+        """Body command for the period starting at ``t``.
+
+        Raises:
+            SimulationError: ``t`` or the pose is not finite.
+        """
         if self._traj is None:
             raise RuntimeError("SegmentedTracker.command called before reset")
+        check_measured_pose(self.name, t, x, y, theta)
         k = round((t - self._t0) / self._dt)
         if k >= len(self._instants):
             v, w = self._regulate(x, y, theta, self._final, 0.0)

@@ -8,19 +8,59 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from planning.errors import OutputExistsError
+from planning.errors import ConfigError, OutputExistsError
 
 
 def check_writable(path: Path, *, overwrite: bool) -> None:
-    """Raise :class:`OutputExistsError` if ``path`` exists and overwriting was not asked for."""
+    """Check, before any work and without leaving anything behind, that ``path`` can be written.
+
+    Raises:
+        OutputExistsError: ``path`` exists and overwriting was not asked for.
+        ConfigError: ``path`` is a folder, a file stands where one of its folders should be, or its
+            folder (or the nearest existing one above it) does not accept new files.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise ConfigError(f"cannot write {path}: it is a folder; give a file name")
+    _check_absent(path, overwrite=overwrite)
+    _check_folder(path)
+
+
+def _check_absent(path: Path, *, overwrite: bool) -> None:
     if path.exists() and not overwrite:
         raise OutputExistsError(f"{path} exists already; pass --overwrite to replace it, or choose another path")
+
+
+def _check_folder(path: Path) -> None:
+    """``path``'s folder exists and takes new files, or the nearest existing folder above it can hold it.
+
+    The test creates and at once removes an empty temporary folder there (permissions alone do not
+    tell: the superuser passes every permission check, and /proc or a read-only mount refuse anyway).
+    """
+    folder = path.parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        raise ConfigError(
+            f"cannot write {path}: {folder} is a file, not a folder; remove or rename it, or choose another path"
+        )
+    try:
+        probe = tempfile.mkdtemp(prefix=".nhsim-probe-", dir=folder)
+    except OSError as exc:
+        problem = (
+            f"its folder {folder} does not accept new files"
+            if folder == path.parent
+            else f"its folder {path.parent} does not exist and cannot be created in {folder}"
+        )
+        raise ConfigError(f"cannot write {path}: {problem} ({exc.strerror or exc}); choose another path") from exc
+    os.rmdir(probe)
 
 
 @contextlib.contextmanager
@@ -41,7 +81,7 @@ def atomic_path(path: str | Path, *, overwrite: bool = False) -> Iterator[Path]:
     os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the permissions open() would
     try:
         yield tmp
-        check_writable(target, overwrite=overwrite)
+        _check_absent(target, overwrite=overwrite)
         os.replace(tmp, target)
     finally:
         if tmp.exists():
@@ -49,10 +89,24 @@ def atomic_path(path: str | Path, *, overwrite: bool = False) -> Iterator[Path]:
 
 
 def write_json(path: str | Path, data: Any, *, overwrite: bool = False) -> Path:
-    """Write JSON atomically (indent 2, sorted keys)."""
+    """Write standard JSON atomically (indent 2, sorted keys); a NaN or infinite number is written as null."""
+    text = json.dumps(json_safe(data), indent=2, sort_keys=True, allow_nan=False, default=_default)
     with atomic_path(path, overwrite=overwrite) as tmp:
-        tmp.write_text(json.dumps(data, indent=2, sort_keys=True, default=_default) + "\n", encoding="utf-8")
+        tmp.write_text(text + "\n", encoding="utf-8")
     return Path(path)
+
+
+def json_safe(data: Any) -> Any:
+    """``data`` with arrays as lists and every non-finite float (NaN, +-inf) as None (JSON null)."""
+    if hasattr(data, "tolist") and not isinstance(data, (str, bytes)):
+        data = data.tolist()
+    if isinstance(data, float):
+        return data if math.isfinite(data) else None
+    if isinstance(data, dict):
+        return {k: json_safe(v) for k, v in data.items()}
+    if isinstance(data, (list, tuple)):
+        return [json_safe(v) for v in data]
+    return data
 
 
 def _default(obj: Any) -> Any:

@@ -134,3 +134,31 @@ def test_scenarios_command_lists_every_builtin(capsys):
         sc = load_scenario(name)
         line = next(ln for ln in out.splitlines() if ln.startswith(name + " "))
         assert sc.robot in line and str(len(sc.world.obstacles)) in line
+
+
+def test_a_non_finite_clearance_is_never_a_success(tmp_path, capsys, monkeypatch):
+    import sim.cli.plan as plan_cli
+
+    real = plan_cli.plan_facts
+    monkeypatch.setattr(plan_cli, "plan_facts", lambda *a: {**real(*a), "min_clearance_m": float("nan")})
+    js = tmp_path / "p.json"
+    argv = ["plan", "--scenario", "edumip_map", "--planner", "c-rrt-star", "--json", str(js), "--quiet"]
+    assert main(argv) == 1
+    out = capsys.readouterr().out
+    assert "success" not in out and "failed" in out and "not finite" in out
+    text = js.read_text()
+    assert "NaN" not in text
+    rec = json.loads(text)
+    assert rec["status"] == "failed" and rec["min_clearance_m"] is None and "not finite" in rec["reason"]
+
+
+@pytest.mark.parametrize("limit", ["0", "-1", "nan"])
+@pytest.mark.parametrize("command", ["simulate", "plan"])
+def test_a_time_limit_not_above_zero_is_exit_2(command, limit, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    argv = [command, "--scenario", "farm", "--planner", "rrt-star", f"--time-limit={limit}", "--quiet"]
+    extra = ["--no-video", "--no-plots"] if command == "simulate" else []
+    assert main([*argv, *extra]) == 2
+    err = capsys.readouterr().err
+    assert "--time-limit" in err and "> 0 s" in err
+    assert list(tmp_path.iterdir()) == []

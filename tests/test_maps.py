@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import struct
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -10,6 +12,8 @@ from PIL import Image
 
 from planning.core.maps import (
     EDUMIP_MAP_OBSTACLES,
+    MAP_BYTES_PER_PIXEL,
+    MAX_MAP_PIXELS,
     edumip_map_image,
     load_image_obstacles,
     load_map_table,
@@ -167,3 +171,33 @@ def test_map_table_errors(tmp_path, table, message):
     with pytest.raises(ScenarioError, match=message) as info:
         load_scenario_file(_scenario(tmp_path, table))
     assert "m.toml" in str(info.value)
+
+
+def _png_header(path: Path, width: int, height: int) -> Path:
+    """A PNG whose header claims width x height 8-bit grey pixels and whose pixel data is empty."""
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", b"") + chunk(b"IEND", b""))
+    return path
+
+
+@pytest.mark.parametrize(("width", "height"), [(20000, 20000), (8000, 6251)])
+def test_a_huge_map_is_refused_before_decoding(tmp_path, width, height):
+    assert width * height > MAX_MAP_PIXELS
+    path = _png_header(tmp_path / "huge.png", width, height)
+    gb = width * height * MAP_BYTES_PER_PIXEL / 1e9
+    with pytest.raises(ScenarioError, match=rf"{width} x {height} px.*{gb:.1f} GB.*lower resolution.*crop"):
+        read_grey(path)
+
+
+def test_a_huge_map_in_a_scenario_is_exit_2(tmp_path, capsys):
+    from sim.cli.main import main
+
+    _png_header(tmp_path / "huge.png", 20000, 20000)
+    scenario = _scenario(tmp_path, 'image = "../huge.png"\nresolution = 0.01')
+    assert main(["plan", "--scenario", str(scenario), "--planner", "c-rrt-star", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "world.map.image" in err and "20000 x 20000 px" in err and "Traceback" not in err

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import imageio_ffmpeg
@@ -10,6 +11,7 @@ import numpy as np
 import pytest
 
 from sim.cli.main import main
+from sim.outputs import write_json
 from tests.render_helpers import require_gl
 
 #: Two runs (the fused closed loop and the open loop), so that no third robot stands where the pixel
@@ -148,3 +150,53 @@ def test_the_estimation_plot_is_planned_beside_the_others(tmp_path: Path, monkey
         plan_outputs(args, scenario="open", source="line")
     assert main([*FAST, "--no-video"]) == 2
     assert stale.read_bytes() == b"x"
+
+
+def test_write_json_writes_standard_json_with_null_for_non_finite(tmp_path: Path) -> None:
+    data = {"a": float("nan"), "b": [1.5, float("inf"), -float("inf")], "c": np.array([0.25, np.nan]), "d": "x"}
+    path = write_json(tmp_path / "r.json", data)
+    text = path.read_text()
+    assert "NaN" not in text and "Infinity" not in text
+    assert json.loads(text) == {"a": None, "b": [1.5, None, None], "c": [0.25, None], "d": "x"}
+
+
+def _tree(folder: Path) -> list[str]:
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*"))
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (["--video", "/proc/nope/x.mp4"], "cannot write /proc/nope/x.mp4: its folder /proc/nope does not exist"),
+        (["--video", "blocker/x.mp4"], "cannot write blocker/x.mp4: blocker is a file, not a folder"),
+        (["--no-video", "--json", "blocker/sub/r.json"], "cannot write blocker/sub/r.json: blocker is a file"),
+        (["--no-video", "--json", "folder"], "cannot write folder: it is a folder"),
+        (["--no-video", "--no-plots", "--json", "locked/r.json"], "its folder locked does not accept new files"),
+    ],
+)
+def test_unwritable_outputs_fail_before_any_physics(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    options: list[str],
+    message: str,
+) -> None:
+    if options[-1].startswith("/proc") and not Path("/proc").is_dir():
+        pytest.skip("no /proc on this system")
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "blocker").write_text("in the way")
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "locked").mkdir()
+    if "locked/r.json" in options:
+        if os.geteuid() == 0:
+            pytest.skip("the superuser may write into a read-only folder")
+        (tmp_path / "locked").chmod(0o500)
+
+    def no_physics(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the physics ran before the outputs were checked")
+
+    monkeypatch.setattr("sim.pipeline.simulate.simulate", no_physics)
+    before = _tree(tmp_path)
+    assert main([*FAST, *options]) == 2
+    assert message in capsys.readouterr().err
+    assert _tree(tmp_path) == before

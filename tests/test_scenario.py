@@ -74,6 +74,8 @@ def test_name_defaults_to_the_file_stem(tmp_path: Path) -> None:
         (("position_tolerance = 0.05", "position_tolerance = 0"), "expected a number > 0"),
         (("[goal]\npose = [2.5, 2.5, 1.57]", "[goal]"), r"missing field\(s\) 'goal.pose'"),
         (("radius = 0.3", "radius = 0.3\nfoo = 2"), r"unknown key\(s\) 'foo' in \[world.obstacles\[0\]\]"),
+        (("[0.5, 1.0]]", "[1.0, 0.0], [0.5, 1.0]]"), r"'world.obstacles\[3\].vertices'.*vertex 2 repeats vertex 1"),
+        (("[0.5, 1.0]]", "[1.0, 1.0], [0.0, 1.5], [2.0, 0.2]]"), r"obstacles\[3\].vertices'.*edges 1 and 3 cross"),
     ],
 )
 def test_bad_files_fail_with_file_field_and_expectation(tmp_path: Path, edit: tuple[str, str], match: str) -> None:

@@ -7,10 +7,11 @@ import numpy as np
 import pytest
 
 from control.base import make_tracker
-from control.segmented import SegmentedTracker
+from control.segmented import SegmentedParams, SegmentedTracker
 from planning.core.geometry import Pose2D
 from planning.core.robot import load_robot
 from planning.core.world import World
+from planning.errors import ConfigError, SimulationError
 from planning.trajectory.from_plan import to_trajectory
 from planning.trajectory.trajectory import Trajectory
 
@@ -76,3 +77,33 @@ def test_cusps_and_turns_in_place_are_tracked_to_the_goal(name: str, rate: float
     ref = traj.sample_many(traj.t[0] + np.arange(states.shape[0]) / rate)
     err = np.hypot(states[:, 0] - ref.x, states[:, 1] - ref.y)
     assert np.sqrt(np.mean(err**2)) < max(tol, 0.01)
+
+
+@pytest.mark.parametrize("name", ["segmented", "fbl"])
+@pytest.mark.parametrize("bad", [(math.nan, 0.0, 0.0), (0.0, math.inf, 0.0), (0.0, 0.0, math.nan)])
+def test_a_non_finite_pose_is_refused_by_every_tracker(name: str, bad: tuple[float, float, float]) -> None:
+    robot = load_robot("edumip")
+    tracker = make_tracker(name, robot)
+    tracker.reset(to_trajectory(CUSP_TURN, robot, OPEN), 0.02)
+    tracker.command(0.0, 0.0, 0.0, 0.0)
+    with pytest.raises(SimulationError, match=rf"tracker '{name}' was given a non-finite pose.*at t=0\.100 s"):
+        tracker.command(0.1, *bad)
+    with pytest.raises(SimulationError, match=rf"tracker '{name}'.*at t=nan s"):
+        tracker.command(math.nan, 0.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize("name", ["segmented", "fbl"])
+@pytest.mark.parametrize("dt", [0.0, -0.02, math.nan, math.inf])
+def test_reset_refuses_a_bad_control_period(name: str, dt: float) -> None:
+    robot = load_robot("edumip")
+    with pytest.raises(ConfigError, match=rf"tracker '{name}': reset\(dt\).*> 0, got {dt!r}"):
+        make_tracker(name, robot).reset(to_trajectory(CUSP_TURN, robot, OPEN), dt)
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [("heading_gain", math.nan, "a finite number"), ("xi_blend", 0.0, "> 0"), ("hold_speed", -0.1, "> 0")],
+)
+def test_segmented_params_are_checked(field: str, value: float, message: str) -> None:
+    with pytest.raises(ConfigError, match=rf"SegmentedParams\.{field} must be {message}"):
+        SegmentedParams(**{field: value})

@@ -5,6 +5,7 @@ import pytest
 from scipy.optimize import minimize_scalar
 
 from planning.core.world import Box, Circle, Ellipse, Polygon, World, polygon_area
+from planning.errors import ConfigError
 
 
 def _boundary(obs: object, n: int = 20000) -> np.ndarray:
@@ -102,6 +103,23 @@ def test_world_walls_and_minimum() -> None:
 def test_bad_shapes_are_rejected(ctor: object, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         ctor()  # type: ignore[operator]
+
+
+@pytest.mark.parametrize(
+    ("vertices", "match"),
+    [
+        (((0, 0), (1, 0), (1, 1), (1, 1), (0, 1)), r"^polygon vertex 3 repeats vertex 2"),
+        (((0, 0), (1, 0), (1, 1), (0, 1), (0, 0)), r"^polygon vertex 4 repeats vertex 0"),
+        (((0, 0), (2, 0), (2, 2), (0, 2), (3, 1)), r"^edges 1 and 3 cross"),  # signed area 1 m^2
+        (((0, 0), (2, 0), (2, 2), (1, 2), (1, 0), (0, 2)), r"^edges 0 and 3 cross"),  # vertex 4 on edge 0
+        (((0, 0), (2, 0), (2, 1), (3, 1), (1, 1), (0, 1)), r"^edges 2 and 3 fold back"),
+    ],
+)
+def test_degenerate_and_self_intersecting_polygons_are_rejected(
+    vertices: tuple[tuple[float, float], ...], match: str
+) -> None:
+    with pytest.raises(ConfigError, match=match):
+        Polygon(vertices)
 
 
 def test_polygon_orientation_is_normalised() -> None:

@@ -46,6 +46,13 @@ from planning.errors import ScenarioError
 FloatArray = NDArray[np.float64]
 MapShape = Literal["box", "polygon"]
 
+#: Largest map image read [pixels] (50 megapixels, e.g. 7071 x 7071); larger images are refused before
+#: they are decoded.
+MAX_MAP_PIXELS = 50_000_000
+#: Memory a map image takes while it is read [bytes per pixel]: the decoded RGBA image (4), its grey
+#: version (1) and the grey levels as float64 (8).
+MAP_BYTES_PER_PIXEL = 13
+
 _MAP_REQUIRED = {"image", "resolution"}
 _MAP_OPTIONAL = {"origin", "threshold", "shape"}
 
@@ -95,7 +102,8 @@ def read_grey(path: str | Path) -> FloatArray:
     if not p.is_file():
         raise ScenarioError(f"map image {p} does not exist; check the path (relative to the scenario file)")
     try:
-        with Image.open(p) as im:
+        with _open_header(p) as im:
+            _check_map_size(p, im.size)
             im.load()
             if im.mode in ("RGBA", "LA", "PA") or (im.mode == "P" and "transparency" in im.info):
                 rgba = im.convert("RGBA")
@@ -109,6 +117,35 @@ def read_grey(path: str | Path) -> FloatArray:
     if grey.ndim != 2 or grey.size == 0:
         raise ScenarioError(f"map image {p} has no pixels")
     return grey
+
+
+def _open_header(p: Path) -> Any:
+    """The image file opened without decoding its pixels (Pillow reads only the header here).
+
+    Pillow's own decompression-bomb limit is lifted for this call only: :func:`_check_map_size`
+    applies a lower one before any pixel is decoded.
+    """
+    from PIL import Image
+
+    limit = Image.MAX_IMAGE_PIXELS
+    Image.MAX_IMAGE_PIXELS = None
+    try:
+        return Image.open(p)
+    finally:
+        Image.MAX_IMAGE_PIXELS = limit
+
+
+def _check_map_size(p: Path, size: tuple[int, int]) -> None:
+    """Refuse a map image of more than :data:`MAX_MAP_PIXELS` pixels. size: (width, height) [px]."""
+    width, height = size
+    if width * height > MAX_MAP_PIXELS:
+        need_gb = width * height * MAP_BYTES_PER_PIXEL / 1e9
+        raise ScenarioError(
+            f"map image {p} is {width} x {height} px ({width * height / 1e6:.0f} megapixels); reading it would "
+            f"need about {need_gb:.1f} GB of memory, and the limit is {MAX_MAP_PIXELS / 1e6:.0f} megapixels: "
+            "save the map at a lower resolution (more metres per pixel, then raise world.map.resolution to "
+            "match) or crop it to the area the robot uses"
+        )
 
 
 def _outline(region: NDArray[np.bool_]) -> FloatArray:

@@ -13,6 +13,8 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planning.errors import ConfigError
+
 FloatArray = NDArray[np.float64]
 
 
@@ -188,8 +190,19 @@ class Polygon:
         v = np.asarray(self.vertices, dtype=float)
         if v.ndim != 2 or v.shape[1] != 2 or v.shape[0] < 3:
             raise ValueError(f"polygon needs at least 3 vertices of [x, y], got shape {v.shape}")
+        if not np.all(np.isfinite(v)):
+            raise ConfigError(f"polygon vertices must be finite numbers, got {v.tolist()}")
+        repeat = _repeated_vertex(v)
+        if repeat is not None:
+            raise ConfigError(f"{repeat}; remove the duplicate vertex")
         if abs(polygon_area(v)) < 1e-12:
             raise ValueError("polygon has zero area")
+        crossing = _crossing_edges(v)
+        if crossing is not None:
+            raise ConfigError(
+                f"{crossing} (edge i runs from vertex i to vertex i+1); a polygon must not intersect itself: "
+                "reorder its vertices or split it into simple polygons"
+            )
         if polygon_area(v) < 0:
             v = v[::-1].copy()
         object.__setattr__(self, "_v", v)
@@ -234,6 +247,64 @@ def polygon_area(v: FloatArray) -> float:
     """Signed area of a polygon (K, 2) [m^2], positive when counter-clockwise."""
     x, y = v[:, 0], v[:, 1]
     return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def _tolerance(v: FloatArray) -> float:
+    """Length below which two vertices of ``v`` count as one [m] (1e-12 of the polygon's scale)."""
+    return 1e-12 * max(1.0, float(np.max(np.abs(v))))
+
+
+def _repeated_vertex(v: FloatArray) -> str | None:
+    """``"polygon vertex j repeats vertex i"`` for the first vertex that repeats an earlier one, else None."""
+    gap = np.hypot(*(v[:, None, :] - v[None, :, :]).transpose(2, 0, 1))  # (K, K)
+    earlier, later = np.nonzero(np.triu(gap <= _tolerance(v), 1))
+    if later.size == 0:
+        return None
+    first = int(np.argmin(later))
+    return f"polygon vertex {later[first]} repeats vertex {earlier[first]}"
+
+
+def _cross2(u: FloatArray, w: FloatArray) -> FloatArray:
+    """z-component of the cross product of (..., 2) vectors."""
+    return np.asarray(u[..., 0] * w[..., 1] - u[..., 1] * w[..., 0], dtype=float)
+
+
+def _crossing_edges(v: FloatArray) -> str | None:
+    """``"edges i and j cross"`` for the first pair of edges that meet other than at their shared vertex.
+
+    Edge i runs from vertex i to vertex i+1 (the last edge closes the loop). Edges that share a vertex
+    meet wrongly when they fold back onto each other (collinear, opposite directions).
+    """
+    k = v.shape[0]
+    a, b = v, np.roll(v, -1, axis=0)
+    ab = b - a
+    tol = _tolerance(v) * max(1.0, float(np.max(np.hypot(*ab.T))))  # cross products scale as length^2
+    for e in range(k):
+        nxt = (e + 1) % k
+        if abs(_cross2(ab[e], ab[nxt])) <= tol and float(ab[e] @ ab[nxt]) < 0:
+            return f"edges {min(e, nxt)} and {max(e, nxt)} fold back onto each other"
+    i, j = np.triu_indices(k, 2)
+    keep = ~((i == 0) & (j == k - 1))  # the first and last edges share vertex 0
+    i, j = i[keep], j[keep]
+    d1 = _cross2(ab[i], a[j] - a[i])
+    d2 = _cross2(ab[i], b[j] - a[i])
+    d3 = _cross2(ab[j], a[i] - a[j])
+    d4 = _cross2(ab[j], b[i] - a[j])
+    proper = (d1 * d2 < 0) & (d3 * d4 < 0)
+    touch = (_on_segment(d1, a[j], a[i], b[i], tol) | _on_segment(d2, b[j], a[i], b[i], tol)) | (
+        _on_segment(d3, a[i], a[j], b[j], tol) | _on_segment(d4, b[i], a[j], b[j], tol)
+    )
+    hits = np.nonzero(proper | touch)[0]
+    if hits.size == 0:
+        return None
+    return f"edges {i[hits[0]]} and {j[hits[0]]} cross"
+
+
+def _on_segment(cross: FloatArray, p: FloatArray, a: FloatArray, b: FloatArray, tol: float) -> NDArray[np.bool_]:
+    """Whether points p (M, 2), collinear with segments a-b by ``cross`` (M,), lie on those segments."""
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    within = np.all((p >= lo - 1e-12) & (p <= hi + 1e-12), axis=-1)
+    return np.asarray((np.abs(cross) <= tol) & within)
 
 
 def _perimeter(v: FloatArray) -> float:

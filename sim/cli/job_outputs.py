@@ -10,8 +10,9 @@ Default names, for scenario ``S`` tracked along reference (or planner) ``R``::
     renders/S-R.json           run record; its "files" names every file written
 
 ``--video PATH`` moves all of them beside ``PATH`` (named after its stem); ``--json PATH`` moves the
-record. Existing files are never replaced without ``--overwrite``: every target is checked before
-any physics runs, and the command stops with an error naming the file (no numbered names).
+record. Existing files are never replaced without ``--overwrite``: every target (and whether its folder
+exists or can be created, and takes new files) is checked before any physics runs, and the command
+stops with an error naming the file (no numbered names).
 """
 
 from __future__ import annotations
@@ -114,7 +115,8 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str) -> Out
         source: Planner or reference name.
 
     Raises:
-        ConfigError: Bad --size, --fps or --video name, or two outputs with the same path.
+        ConfigError: Bad --size, --fps or --video name, two outputs with the same path, or an output
+            whose folder cannot hold it (a file in the way, a folder that cannot be created or written).
         OutputExistsError: A target exists and --overwrite was not given.
         DependencyError: A video was asked for and no OpenGL backend can load.
     """

@@ -96,6 +96,12 @@ def path_spacing(path: NDArray[np.float64], radius: float) -> float:
     return float(np.max(path_steps(path, radius))) if path.shape[0] >= 2 else 0.0
 
 
+def check_time_limit(seconds: float) -> None:
+    """Raise :class:`ConfigError` unless the ``--time-limit`` planning budget [s] is a number > 0."""
+    if not seconds > 0:
+        raise ConfigError(f"--time-limit must be a planning budget > 0 s, got {seconds:g}; pass e.g. --time-limit 30")
+
+
 def run(args: argparse.Namespace) -> int:
     """Execute ``plan``."""
     from planning.core.robot import load_robot
@@ -104,8 +110,7 @@ def run(args: argparse.Namespace) -> int:
     from planning.scenario import load_scenario
     from sim.outputs import check_writable, write_json
 
-    if not args.time_limit > 0:
-        raise ConfigError(f"--time-limit must be > 0 s, got {args.time_limit}")
+    check_time_limit(args.time_limit)
     for out in (args.json, args.plot):
         if out is not None:
             check_writable(out, overwrite=args.overwrite)
@@ -132,22 +137,23 @@ def run(args: argparse.Namespace) -> int:
     with TimedBar("planning", args.time_limit, enabled=show_progress(args)):
         result = planner.plan(problem)
     facts = plan_facts(problem, result, time.perf_counter() - t0)
+    status, reason = trusted_status(result.status, result.reason, facts["min_clearance_m"])
     min_clear, iterations = facts["min_clearance_m"], facts["iterations"]
     lines = [
-        f"status          {result.status.value}",
+        f"status          {status.value}",
         f"time            {facts['time_s']:.3f} s",
         f"iterations      {iterations if iterations is not None else '-'}",
         f"path length     {facts['length_m']:.3f} m",
         f"min clearance   {'-' if min_clear is None else f'{min_clear:.3f} m'}",
     ]
-    if result.reason:
-        lines.append(f"reason          {result.reason}")
+    if reason:
+        lines.append(f"reason          {reason}")
     print("\n".join(lines))
     if args.json is not None:
         record = {
-            "status": result.status.value,
+            "status": status.value,
             "planner": name,
-            "reason": result.reason,
+            "reason": reason,
             "scenario": scenario.name,
             "robot": robot.name,
             "seed": args.seed,
@@ -165,7 +171,28 @@ def run(args: argparse.Namespace) -> int:
         save_figure(plan_figure(problem, result), args.plot, overwrite=args.overwrite)
         if not args.quiet:
             print(f"wrote {args.plot}")
-    return 0 if result.status is PlanStatus.SUCCESS else 1
+    return 0 if status is PlanStatus.SUCCESS else 1
+
+
+def trusted_status(status: Any, reason: str, min_clearance: float | None) -> tuple[Any, str]:
+    """The status to report: a success whose path has a non-finite clearance is reported as failed.
+
+    Args:
+        status: The planner's PlanStatus.
+        reason: The planner's reason ("" when none).
+        min_clearance: Minimum clearance along the path [m], None without a path.
+
+    Returns:
+        (status, reason) to print and record.
+    """
+    from planning.planners.base import PlanStatus
+
+    if status is PlanStatus.SUCCESS and min_clearance is not None and not np.isfinite(min_clearance):
+        return PlanStatus.FAILED, (
+            f"the path's minimum clearance is {min_clearance} (not finite), so its collision check cannot be "
+            "trusted; check the scenario's obstacles"
+        )
+    return status, reason
 
 
 def plan_facts(problem: Any, result: Any, wall: float) -> dict[str, Any]:

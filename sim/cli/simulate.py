@@ -261,12 +261,14 @@ def run(args: argparse.Namespace) -> int:
     gl.configure(args.gl)  # before anything imports mujoco
     from control.fbl import FBLGains
     from control.gains import resolve_gains
+    from sim.cli.plan import check_time_limit
     from sim.physics.perturb import Perturbation
 
     gains = resolve_gains(args.gains) if args.gains else FBLGains()
     perturbation = Perturbation.parse(args.perturb, seed=args.seed) if args.perturb else None
     if args.control_rate <= 0:
         raise ConfigError(f"--control-rate must be > 0 Hz, got {args.control_rate}")
+    check_time_limit(args.time_limit)
     if args.all:
         from sim.cli.sweep_table import run_all
 
