@@ -17,6 +17,7 @@ import sys
 from collections.abc import Sequence
 
 from planning.errors import NhsimError, SimulationError
+from planning.trajectory.from_plan import TrajectoryError
 from sim.viz import gl
 
 #: Subcommand name -> module path.
@@ -48,7 +49,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``nhsim`` console script; returns the process exit code.
 
-    Exit codes: 0 success, 1 a run failed its checks (or a benchmark missed its target),
+    Exit codes: 0 success, 1 a run or check failed (a run failed its checks, a benchmark missed its
+    target, a planner ended without a path or its plan could not be made into a trajectory),
     2 bad input (usage or a clear error message), 130 interrupted.
     """
     parser = build_parser()
@@ -62,6 +64,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(mod.run(args))
     except SimulationError as exc:
         print(f"nhsim {args.command}: simulation failed: {exc}", file=sys.stderr)
+        return 1
+    except TrajectoryError as exc:  # a failed plan is a failed run, not bad input (as in ``nhsim plan``)
+        print(f"nhsim {args.command}: failed: {exc}", file=sys.stderr)
         return 1
     except NhsimError as exc:
         print(f"nhsim {args.command}: error: {exc}", file=sys.stderr)
