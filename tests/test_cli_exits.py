@@ -27,3 +27,36 @@ def test_a_failed_plan_exits_1_from_simulate_as_from_plan(
     assert main(["simulate", *common, "--no-video", "--no-plots"]) == 1
     err = capsys.readouterr().err
     assert "invalid_start" in err and "0.400 m" in err and "error:" not in err
+
+
+def test_a_closed_loop_off_its_reference_exits_1_naming_the_target(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    argv = ["simulate", "--reference", "circle", "--runs", "closed_loop", "--quiet", "--no-video", "--no-plots"]
+    assert main([*argv, "--gains", "1e9,1e9"]) == 1
+    err = capsys.readouterr().err
+    assert "missed its target" in err and "final_position_error_m" in err and "> 0.02" in err
+    assert main([*argv, "--overwrite"]) == 0  # the default gains meet every target
+    assert "missed" not in capsys.readouterr().err
+
+
+def test_a_plan_is_held_to_the_scenario_goal_tolerance() -> None:
+    from types import SimpleNamespace
+
+    from planning.scenario import load_scenario
+    from sim.cli.simulate import missed_targets
+    from sim.pipeline.sweep import TARGETS
+
+    sc = load_scenario("edumip_map")
+    assert sc.position_tolerance > TARGETS["final_position_error_m"]  # a plan is held to its goal, not 2 cm
+    inside = {"final_position_error_m": 0.9 * sc.position_tolerance, "final_heading_error_rad": 0.0}
+    metrics = SimpleNamespace(as_dict=lambda: {**inside, "rms_position_error_m": 1.0})
+    assert missed_targets(metrics, sc, planned=True) == []  # type: ignore[arg-type]  # no RMS bound on a plan
+    lines = missed_targets(metrics, sc, planned=False)  # type: ignore[arg-type]
+    assert len(lines) == 2 and "final_position_error_m" in lines[0] and "rms_position_error_m" in lines[1]
+    off = {"final_position_error_m": 1.1 * sc.position_tolerance, "final_heading_error_rad": 1.1 * sc.heading_tolerance}
+    lines = missed_targets(SimpleNamespace(as_dict=lambda: off), sc, planned=True)  # type: ignore[arg-type]
+    assert len(lines) == 2 and "final_heading_error_rad" in lines[1] and "goal tolerance" in lines[0]
+    nan = {k: float("nan") for k in TARGETS}
+    assert len(missed_targets(SimpleNamespace(as_dict=lambda: nan), sc, planned=False)) == 3  # type: ignore[arg-type]

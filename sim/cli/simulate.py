@@ -5,11 +5,15 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from planning.errors import ConfigError
 from sim.cli.job_outputs import add_output_arguments
 from sim.pipeline.runs import RunKind
+
+if TYPE_CHECKING:
+    from planning.scenario import Scenario
+    from sim.physics.metrics import TrackingMetrics
 
 DESCRIPTION = (
     "Run the robot in MuJoCo physics along a reference trajectory, once with the dynamic "
@@ -30,8 +34,10 @@ DESCRIPTION = (
     "Outputs: renders/<scenario>-<reference>.mp4 (both runs: closed loop solid, open loop as a "
     "ghost), PNG plots and a JSON record beside it; an existing file is never replaced without "
     "--overwrite (the command stops with an error before running anything).\n\n"
-    "Exit status: 0 when every run is clean (no MuJoCo warning, no collision in closed loop), "
-    "1 otherwise, 2 on bad input."
+    "Exit status: 0 when every run is clean (no MuJoCo warning, no collision in closed loop) and the "
+    "closed loop ends on target (a plan: inside the scenario's goal tolerance of the trajectory's final "
+    "pose; a reference: final position 2 cm, final heading 0.05 rad, RMS position 2 cm); 1 otherwise, or "
+    "when the plan fails (the missed target or the reason on stderr); 2 on bad input."
 )
 
 
@@ -320,16 +326,44 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
     for path in write_outputs(result, outputs, record).values():
         if not args.quiet:
             print(f"wrote {path}")
-    clean = all(run.metrics.warnings == 0 for run in result.runs.values())
-    for kind, run_ in result.runs.items():
-        if run_.metrics.status != "ok":
-            print(f"{kind}: {run_.metrics.status}", file=sys.stderr)
-            clean = False
+    failures = [f"{kind}: {run_.metrics.status}" for kind, run_ in result.runs.items() if run_.metrics.status != "ok"]
     closed = result.runs.get(RunKind.CLOSED_LOOP)
     if closed is not None and closed.metrics.collisions > 0:
-        print("closed-loop run touched an obstacle", file=sys.stderr)
-        clean = False
-    return 0 if clean else 1
+        failures.append("closed-loop run touched an obstacle")
+    if closed is not None:
+        failures += missed_targets(closed.metrics, result.scenario, planned=result.source.startswith("planner:"))
+    for line in failures:
+        print(line, file=sys.stderr)
+    clean = all(run.metrics.warnings == 0 for run in result.runs.values())
+    return 0 if clean and not failures else 1
+
+
+def closed_loop_targets(scenario: Scenario, *, planned: bool) -> dict[str, float]:
+    """What the fused closed loop must reach for ``simulate`` to exit 0: metric -> its upper bound.
+
+    A planned job must end inside the scenario's goal tolerance (position [m], heading [rad]) of the
+    trajectory's final pose; a reference must meet the sweep's targets (:data:`sim.pipeline.sweep.TARGETS`:
+    final position 2 cm, final heading 0.05 rad, RMS position 2 cm).
+    """
+    if planned:
+        return {
+            "final_position_error_m": scenario.position_tolerance,
+            "final_heading_error_rad": scenario.heading_tolerance,
+        }
+    from sim.pipeline.sweep import TARGETS
+
+    return dict(TARGETS)
+
+
+def missed_targets(metrics: TrackingMetrics, scenario: Scenario, *, planned: bool) -> list[str]:
+    """One line per target (:func:`closed_loop_targets`) the closed loop's metrics missed; [] when all met."""
+    values = metrics.as_dict()
+    return [
+        f"closed-loop run missed its target: {key} = {values[key]:.4g} > {bound:g}"
+        + (" (the scenario's goal tolerance)" if planned else "")
+        for key, bound in closed_loop_targets(scenario, planned=planned).items()
+        if not values[key] <= bound
+    ]
 
 
 #: The no-argument default once its planner is installed: seed 003's plan through its map.
