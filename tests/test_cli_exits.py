@@ -60,3 +60,25 @@ def test_a_plan_is_held_to_the_scenario_goal_tolerance() -> None:
     assert len(lines) == 2 and "final_heading_error_rad" in lines[1] and "goal tolerance" in lines[0]
     nan = {k: float("nan") for k in TARGETS}
     assert len(missed_targets(SimpleNamespace(as_dict=lambda: nan), sc, planned=False)) == 3  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("command", ["simulate", "plan"])
+def test_a_robot_the_scenario_does_not_list_is_exit_2(
+    command: str, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    extra = ["--no-video", "--no-plots"] if command == "simulate" else []
+    assert main([command, "--scenario", "three_point_turn", "--robot", "edumip", "--quiet", *extra]) == 2
+    err = capsys.readouterr().err
+    assert "'three_point_turn'" in err and "robots (turtlebot3)" in err and "'edumip'" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_case_refuses_a_robot_its_scenario_does_not_list() -> None:
+    from planning.errors import ConfigError
+    from sim.pipeline.case import Case, load_case_scenario
+
+    with pytest.raises(ConfigError, match=r"robots \(turtlebot3\)"):
+        load_case_scenario(Case("three_point_turn", robot="edumip", planner=""))
+    assert load_case_scenario(Case("three_point_turn", robot="turtlebot3", planner="")).robot == "turtlebot3"
+    assert load_case_scenario(Case("open", robot="edumip", reference="line")).robot == "edumip"

@@ -53,7 +53,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "--robot",
         choices=sorted(ROBOT_FILES),
         default=None,
-        help="robot, overriding the scenario's (default: the scenario's robot)",
+        help="robot, overriding the scenario's: one of the robots it lists (default: the scenario's robot)",
     )
     p.add_argument("--seed", type=int, default=0, metavar="N", help="random seed; same seed, same plan (default: 0)")
     p.add_argument(
@@ -109,6 +109,7 @@ def run(args: argparse.Namespace) -> int:
     from planning.planners.registry import make_planner
     from planning.scenario import load_scenario
     from sim.outputs import check_writable, write_json
+    from sim.pipeline.case import scenario_with_robot
 
     check_time_limit(args.time_limit)
     for out in (args.json, args.plot):
@@ -116,9 +117,7 @@ def run(args: argparse.Namespace) -> int:
             check_writable(out, overwrite=args.overwrite)
     if args.json is not None and args.plot is not None and args.json.resolve() == args.plot.resolve():
         raise ConfigError("--json and --plot name the same file; give two different paths")
-    scenario = load_scenario(args.scenario)
-    if args.robot is not None:
-        scenario = scenario.with_robot(args.robot)
+    scenario = scenario_with_robot(load_scenario(args.scenario), args.robot)
     name = args.planner or scenario.planner
     if name is None:
         raise ConfigError(f"scenario {scenario.name!r} names no default planner: pass --planner")

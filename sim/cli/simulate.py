@@ -135,7 +135,7 @@ def _add_job_arguments(p: argparse.ArgumentParser) -> None:
         "--robot",
         choices=list(ROBOT_FILES),
         default=None,
-        help="robot, overriding the scenario's (default: the scenario's robot)",
+        help="robot, overriding the scenario's: one of the robots it lists (default: the scenario's robot)",
     )
     p.add_argument(
         "--reference",
@@ -284,10 +284,9 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
     """One job: outputs planned, the case prepared and tracked, the table printed, the files written."""
-    from planning.scenario import load_scenario
     from sim.cli.job_outputs import plan_outputs, write_outputs
     from sim.cli.progress import JobBars
-    from sim.pipeline.case import Case, PlanOptions
+    from sim.pipeline.case import Case, PlanOptions, load_case_scenario
     from sim.pipeline.simulate import simulate
 
     planner, scenario = args.planner, args.scenario
@@ -309,8 +308,8 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
         **source,
     )
     runs = parse_runs(args.runs) if args.runs else run_choices()[args.tracker]
-    loaded = load_scenario(scenario)
-    case.sensing(loaded.with_robot(args.robot) if args.robot else loaded)  # bad sensor settings stop here
+    loaded = load_case_scenario(case)  # a robot the scenario does not list stops here
+    case.sensing(loaded)  # so do bad sensor settings
     outputs = plan_outputs(args, scenario=loaded.name, source=planner or args.reference or "figure8")
     with JobBars(outputs.progress) as bars:
         result = simulate(case, runs, progress=bars)

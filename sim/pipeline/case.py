@@ -206,14 +206,31 @@ class PreparedTrajectory:
     extra: Mapping[str, Any] = field(default_factory=dict)
 
 
+def scenario_with_robot(scenario: Scenario, robot: str | None) -> Scenario:
+    """The scenario with ``robot`` (None: its own robot), which must be one the scenario lists.
+
+    Raises:
+        ConfigError: The scenario's ``robots`` do not list the robot (the message names them).
+    """
+    if robot is None:
+        return scenario
+    if robot not in scenario.robots:
+        raise ConfigError(
+            f"robot {robot!r} is not one of scenario {scenario.name!r}'s robots ({', '.join(scenario.robots)}): "
+            f"choose one of them with --robot, or a scenario that lists {robot}"
+        )
+    return scenario.with_robot(robot)
+
+
 def load_case_scenario(case: Case) -> Scenario:
     """The case's scenario with its robot.
 
     Raises:
         ScenarioError: Unknown scenario (the message lists the built-in ones) or a bad file.
+        ConfigError: The scenario does not list the case's robot.
     """
     sc = case.scenario if isinstance(case.scenario, Scenario) else load_scenario(case.scenario)
-    return sc.with_robot(case.robot) if case.robot is not None else sc
+    return scenario_with_robot(sc, case.robot)
 
 
 def check_reference_fits(name: str, trajectory: Trajectory, scenario: Scenario, robot: RobotSpec) -> None:
