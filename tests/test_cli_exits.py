@@ -82,3 +82,23 @@ def test_a_case_refuses_a_robot_its_scenario_does_not_list() -> None:
         load_case_scenario(Case("three_point_turn", robot="edumip", planner=""))
     assert load_case_scenario(Case("three_point_turn", robot="turtlebot3", planner="")).robot == "turtlebot3"
     assert load_case_scenario(Case("open", robot="edumip", reference="line")).robot == "edumip"
+
+
+def test_version_prints_the_package_version(capsys: pytest.CaptureFixture[str]) -> None:
+    from importlib.metadata import version
+
+    with pytest.raises(SystemExit) as info:
+        main(["--version"])
+    assert info.value.code == 0
+    assert capsys.readouterr().out.strip() == f"nhsim {version('nhsim')}"
+
+
+def test_a_case_that_is_neither_reference_nor_planner_lists_both(capsys: pytest.CaptureFixture[str]) -> None:
+    from planning.planners.registry import PLANNERS
+    from planning.trajectory.references import REFERENCES
+
+    assert main(["tune", "--scenarios", "open:figure9", "--trials", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "'figure9'" in err and "reference" in err and "planner" in err
+    for name in [*REFERENCES, *PLANNERS]:
+        assert name in err

@@ -31,12 +31,24 @@ COMMANDS: dict[str, str] = {
 }
 
 
+def package_version() -> str:
+    """The installed ``nhsim`` distribution's version, or "unknown (not installed)" when run from a
+    source tree that was never installed."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("nhsim")
+    except PackageNotFoundError:
+        return "unknown (not installed)"
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The top-level parser with every registered subcommand."""
     parser = argparse.ArgumentParser(
         prog="nhsim",
         description="Plan, track and simulate nonholonomic wheeled robots (TurtleBot3, EduMIP) in MuJoCo.",
     )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {package_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, module in COMMANDS.items():
         mod = importlib.import_module(module)

@@ -172,13 +172,19 @@ class Case:
         """A case from ``SCENARIO[:REFERENCE|:PLANNER]`` plus keyword fields (robot, seed, ...).
 
         Raises:
-            ConfigError: Empty token.
+            ConfigError: Empty token, or a second part that is neither a reference nor a planner (the
+                message lists both).
         """
         scenario, _, second = token.strip().partition(":")
         if not scenario:
             raise ConfigError(f"case {token!r}: expected SCENARIO:REFERENCE (e.g. open:figure8) or SCENARIO:PLANNER")
         if second in REFERENCES:
             return cls(scenario, reference=second, **fields_)
+        if second and second not in PLANNERS:
+            raise ConfigError(
+                f"case {token!r}: {second!r} is neither a reference ({', '.join(REFERENCES)}) nor a planner "
+                f"({', '.join(sorted(PLANNERS)) or 'none registered'}); write SCENARIO:REFERENCE or SCENARIO:PLANNER"
+            )
         return cls(scenario, planner=second, **fields_)
 
 
