@@ -27,11 +27,7 @@ def nhsim(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[st
 
 def test_simulate_writes_the_documented_record(tmp_path: Path) -> None:
     out = tmp_path / "run.json"
-    # The TurtleBot3 meets every closed-loop target on the circle (exit 0); the EduMIP's closed loop ends
-    # 0.19 rad off in heading there, which misses the 0.05 rad target (exit 1).
-    r = nhsim(
-        "simulate", "--reference", "circle", "--robot", "turtlebot3", "--json", str(out), "--no-video", "--no-plots"
-    )
+    r = nhsim("simulate", "--reference", "circle", "--robot", "edumip", "--json", str(out), "--no-video", "--no-plots")
     assert r.returncode == 0, r.stderr
     assert "closed_loop" in r.stdout and "open_loop" in r.stdout
     rec = json.loads(out.read_text())
@@ -45,7 +41,7 @@ def test_simulate_writes_the_documented_record(tmp_path: Path) -> None:
             "warnings",
         ):
             assert key in rec[label]
-    assert rec["robot"] == "turtlebot3" and rec["seed"] == 0 and rec["gains"]["kp"] > 0
+    assert rec["robot"] == "edumip" and rec["seed"] == 0 and rec["gains"]["kp"] > 0
     assert rec["versions"]["mujoco"].startswith("3.")
     assert rec["closed_loop"]["rms_position_error_m"] < 0.01
 

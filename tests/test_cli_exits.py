@@ -59,7 +59,10 @@ def test_a_plan_is_held_to_the_scenario_goal_tolerance() -> None:
     lines = missed_targets(SimpleNamespace(as_dict=lambda: off), sc, planned=True)  # type: ignore[arg-type]
     assert len(lines) == 2 and "final_heading_error_rad" in lines[1] and "goal tolerance" in lines[0]
     nan = {k: float("nan") for k in TARGETS}
-    assert len(missed_targets(SimpleNamespace(as_dict=lambda: nan), sc, planned=False)) == 3  # type: ignore[arg-type]
+    assert len(missed_targets(SimpleNamespace(as_dict=lambda: nan), sc, planned=False)) == 2  # type: ignore[arg-type]
+    # a reference's heading is not regulated once it stops (the FBL's output is x, y): reported, not judged
+    turned = SimpleNamespace(as_dict=lambda: {k: 0.0 for k in TARGETS} | {"final_heading_error_rad": 0.2})
+    assert missed_targets(turned, sc, planned=False) == []  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize("command", ["simulate", "plan"])

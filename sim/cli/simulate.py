@@ -341,8 +341,10 @@ def closed_loop_targets(scenario: Scenario, *, planned: bool) -> dict[str, float
     """What the fused closed loop must reach for ``simulate`` to exit 0: metric -> its upper bound.
 
     A planned job must end inside the scenario's goal tolerance (position [m], heading [rad]) of the
-    trajectory's final pose; a reference must meet the sweep's targets (:data:`sim.pipeline.sweep.TARGETS`:
-    final position 2 cm, final heading 0.05 rad, RMS position 2 cm).
+    trajectory's final pose (the segmented tracker regulates the final pose). A reference is tracked by
+    the FBL, whose output is the position (x, y): it must not leave the path by more than the sweep's
+    position targets (:data:`sim.pipeline.sweep.TARGETS`: final position 2 cm, RMS 2 cm); its heading
+    is not regulated once the reference stops, so it is reported, not judged.
     """
     if planned:
         return {
@@ -351,7 +353,7 @@ def closed_loop_targets(scenario: Scenario, *, planned: bool) -> dict[str, float
         }
     from sim.pipeline.sweep import TARGETS
 
-    return dict(TARGETS)
+    return {k: v for k, v in TARGETS.items() if k != "final_heading_error_rad"}
 
 
 def missed_targets(metrics: TrackingMetrics, scenario: Scenario, *, planned: bool) -> list[str]:
