@@ -200,3 +200,55 @@ def test_unwritable_outputs_fail_before_any_physics(
     assert main([*FAST, *options]) == 2
     assert message in capsys.readouterr().err
     assert _tree(tmp_path) == before
+
+
+def test_sigterm_during_the_render_exits_130_and_leaves_no_file(tmp_path: Path) -> None:
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    require_gl()
+    root = Path(__file__).resolve().parents[1]
+    video = tmp_path / "run.mp4"
+    cmd = [sys.executable, "-m", "sim", *FAST[:-5], "--fps", "30", "--size", "640x480", "--quiet"]
+    proc = subprocess.Popen(
+        [*cmd, "--video", str(video)],
+        cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": str(root)},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + 300
+        while not list(tmp_path.glob(".run.*part.mp4")) and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert proc.poll() is None, (
+            f"the render ended before it could be stopped: {proc.stderr.read() if proc.stderr else ''}"
+        )
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, err
+    assert "interrupted" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == []  # no partial video, nothing else either
+
+
+def test_sigterm_is_an_interrupt_only_inside_the_block() -> None:
+    import signal
+
+    from sim.cli.job_outputs import sigterm_as_interrupt
+
+    def mine(signum: int, frame: object) -> None:
+        raise AssertionError("the block's handler should have run")
+
+    previous = signal.signal(signal.SIGTERM, mine)
+    try:
+        with pytest.raises(KeyboardInterrupt, match="SIGTERM"), sigterm_as_interrupt():
+            signal.raise_signal(signal.SIGTERM)
+        assert signal.getsignal(signal.SIGTERM) is mine
+    finally:
+        signal.signal(signal.SIGTERM, previous)

@@ -13,14 +13,22 @@ Default names, for scenario ``S`` tracked along reference (or planner) ``R``::
 record. Existing files are never replaced without ``--overwrite``: every target (and whether its folder
 exists or can be created, and takes new files) is checked before any physics runs, and the command
 stops with an error naming the file (no numbered names).
+
+While the files are written, SIGTERM (what ``timeout`` and job schedulers send) is turned into a
+KeyboardInterrupt, as Ctrl-C is: the file being written is removed and the command exits 130.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import signal
 import sys
+import threading
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import FrameType
 from typing import Any
 
 from planning.errors import ConfigError
@@ -186,8 +194,27 @@ def _progress_bar(total: int, desc: str, enabled: bool) -> Any:
     return tqdm(total=total, desc=desc, unit="frame", leave=False, dynamic_ncols=True)
 
 
+def _interrupt(signum: int, frame: FrameType | None) -> None:
+    raise KeyboardInterrupt(f"signal {signal.Signals(signum).name}")
+
+
+@contextlib.contextmanager
+def sigterm_as_interrupt() -> Iterator[None]:
+    """Within the block SIGTERM raises KeyboardInterrupt, as SIGINT does; the previous handler is
+    restored on leaving. Outside the main thread (where no handler can be set) it does nothing."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict[str, str]:
-    """Write the video, the plots and the JSON record of a job (each atomically).
+    """Write the video, the plots and the JSON record of a job (each atomically; SIGTERM is handled
+    as Ctrl-C, see :func:`sigterm_as_interrupt`).
 
     Args:
         result: The :class:`sim.pipeline.simulate.JobResult`.
@@ -197,6 +224,11 @@ def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict
     Returns:
         Output kind ("video", "plot_world", ..., "json") -> path written.
     """
+    with sigterm_as_interrupt():
+        return _write_outputs(result, plan, record)
+
+
+def _write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict[str, str]:
     from sim.outputs import write_json
     from sim.viz.plots.draw import save_figure
     from sim.viz.plots.estimation import series_of_runs
