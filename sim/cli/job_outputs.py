@@ -1,6 +1,7 @@
 """Files a simulate job leaves behind: the MP4, the PNG plots and the JSON run record.
 
-Default names, for scenario ``S`` tracked along reference (or planner) ``R``::
+Default names, for scenario ``S`` tracked along reference (or planner) ``R`` by the scenario's own
+robot with every run setting at its default::
 
     renders/S-R.mp4            video (H.264, yuv420p)
     renders/S-R-world.png      world, reference and every run's path
@@ -9,10 +10,15 @@ Default names, for scenario ``S`` tracked along reference (or planner) ``R``::
     renders/S-R-estimation.png estimates against the true pose (a job that gives its estimates)
     renders/S-R.json           run record; its "files" names every file written
 
-``--video PATH`` moves all of them beside ``PATH`` (named after its stem); ``--json PATH`` moves the
-record. Existing files are never replaced without ``--overwrite``: every target (and whether its folder
-exists or can be created, and takes new files) is checked before any physics runs, and the command
-stops with an error naming the file (no numbered names).
+The stem names everything that makes a job different (:func:`output_stem`): ``S-R``, then
+``-ROBOT`` when ``--robot`` is not the scenario's own robot, then ``-TAG`` when any of
+:data:`RUN_SETTINGS` is not at its default: TAG is the first 6 hex digits of the SHA-1 of those
+settings as canonical JSON (``{"option": value}`` of the non-default ones, keys sorted, a gains
+or sensors file by its content). ``--video PATH`` moves all of them beside ``PATH`` (named after
+its stem); ``--json PATH`` moves the record. Existing files are never replaced without
+``--overwrite``: every target (and whether its folder exists or can be created, and takes new
+files) is checked before any physics runs, and the command stops with an error naming the file (no
+numbered names).
 
 While the files are written, SIGTERM (what ``timeout`` and job schedulers send) is turned into a
 KeyboardInterrupt, as Ctrl-C is: the file being written is removed and the command exits 130.
@@ -22,6 +28,8 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import hashlib
+import json
 import signal
 import sys
 import threading
@@ -34,6 +42,19 @@ from typing import Any
 from planning.errors import ConfigError
 
 DEFAULT_DIR = Path("renders")
+#: Options of ``simulate`` that change the runs, with their defaults; any other value tags the stem.
+RUN_SETTINGS: dict[str, Any] = {
+    "tracker": "both",
+    "runs": None,
+    "gains": None,
+    "perturb": None,
+    "build": "as-built",
+    "build_seed": None,
+    "sensors": None,
+    "control_rate": 50.0,
+    "seed": 0,
+    "time_limit": 30.0,
+}
 
 
 def add_output_arguments(p: argparse.ArgumentParser) -> None:
@@ -82,7 +103,7 @@ class OutputPlan:
     """Where a job's outputs go, decided and checked before anything runs.
 
     Attributes:
-        stem: ``<scenario>-<planner or reference>``.
+        stem: ``<scenario>-<planner or reference>[-<robot>][-<tag>]`` (:func:`output_stem`).
         video: MP4 path, or None.
         plots: Plot name -> PNG path (empty with --no-plots); the estimation plot's is written only
             when the job gives its estimates.
@@ -111,6 +132,38 @@ def show_progress(args: argparse.Namespace) -> bool:
     return not getattr(args, "quiet", False) and sys.stdout.isatty() and sys.stderr.isatty()
 
 
+def settings_tag(args: argparse.Namespace) -> str:
+    """6 hex digits naming the non-default :data:`RUN_SETTINGS` of ``args`` ("" when all are default).
+
+    The SHA-1 of ``{"option": value}`` of the non-default settings as JSON with sorted keys; a
+    ``--gains`` or ``--sensors`` naming a file counts by the file's content.
+    """
+    changed: dict[str, Any] = {}
+    for key, default in RUN_SETTINGS.items():
+        value = getattr(args, key, default)
+        if value == default:
+            continue
+        if key in ("gains", "sensors") and Path(value).is_file():
+            value = {"file": Path(value).read_text(encoding="utf-8")}
+        changed[key] = value
+    if not changed:
+        return ""
+    return hashlib.sha1(json.dumps(changed, sort_keys=True).encode()).hexdigest()[:6]
+
+
+def output_stem(args: argparse.Namespace, *, scenario: str, source: str) -> str:
+    """``<scenario>-<source>[-<robot>][-<tag>]``: the robot when it is not the scenario's own, the
+    tag (:func:`settings_tag`) when a run setting is not at its default."""
+    from planning.scenario import load_scenario
+
+    stem = f"{scenario}-{source}"
+    robot = getattr(args, "robot", None)
+    if robot is not None and robot != load_scenario(scenario).robot:
+        stem += f"-{robot}"
+    tag = settings_tag(args)
+    return f"{stem}-{tag}" if tag else stem
+
+
 def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str) -> OutputPlan:
     """Decide every output path and check that none exists (unless --overwrite), before any work.
 
@@ -132,7 +185,7 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str) -> Out
     from sim.viz.plots.run import ESTIMATION_PLOT, PLOTS
     from sim.viz.replay import RenderSettings, parse_size
 
-    stem = f"{scenario}-{source}"
+    stem = output_stem(args, scenario=scenario, source=source)
     video: Path | None = None
     settings = None
     if not args.no_video:
