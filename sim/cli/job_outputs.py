@@ -61,7 +61,8 @@ def add_output_arguments(p: argparse.ArgumentParser) -> None:
     """Add the video, plot and GL options to a command's parser (no mujoco import)."""
     g = p.add_argument_group(
         "outputs",
-        "By default the video, plots and run record go to renders/<scenario>-<planner or reference>.* . "
+        "By default the video, plots and run record go to renders/<scenario>-<planner or reference>.* , "
+        "with -<robot> added for a robot other than the scenario's and -<6 hex> for non-default run settings. "
         "An existing file is never replaced unless --overwrite is given: the command checks every target "
         "first and stops with an error (exit 2) before running anything.",
     )
@@ -70,7 +71,8 @@ def add_output_arguments(p: argparse.ArgumentParser) -> None:
         type=Path,
         default=None,
         metavar="PATH",
-        help="MP4 to write (default: renders/<scenario>-<reference>.mp4); plots and record go beside it",
+        help="MP4 to write (default: renders/<scenario>-<reference>[-<robot>][-<tag>].mp4); plots and record go "
+        "beside it",
     )
     g.add_argument("--no-video", action="store_true", help="skip the video (no OpenGL needed)")
     g.add_argument(
