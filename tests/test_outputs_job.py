@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from pathlib import Path
@@ -28,8 +29,9 @@ FAST = [
     "160x120",
     "--quiet",
 ]
-#: FAST's exit status: its fused closed loop stays on the line (the reference's position targets).
-MISSED = 0
+#: FAST's stem: the scenario's own robot, and the one non-default run setting (--runs) as the first 6 hex
+#: digits of the SHA-1 of {"runs": ...} as JSON with sorted keys.
+STEM = "open-line-" + hashlib.sha1(json.dumps({"runs": "closed_loop,open_loop"}).encode()).hexdigest()[:6]
 
 
 def snapshot(folder: Path) -> dict[str, tuple[bytes, int]]:
@@ -69,10 +71,10 @@ def robot_pixel(record: dict, which: str) -> np.ndarray:
 def test_default_outputs_then_no_clobber(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     require_gl()
     monkeypatch.chdir(tmp_path)
-    assert main(FAST) == MISSED
+    assert main(FAST) == 0
     renders = tmp_path / "renders"
     names = sorted(p.name for p in renders.iterdir())
-    stem = "open-line"
+    stem = STEM
     assert names == sorted(
         [f"{stem}.mp4", f"{stem}.json"] + [f"{stem}-{n}.png" for n in ("world", "errors", "commands", "estimation")]
     )
@@ -99,18 +101,18 @@ def test_default_outputs_then_no_clobber(tmp_path: Path, monkeypatch: pytest.Mon
     assert main(FAST) == 2
     assert snapshot(renders) == before
     # with --overwrite it replaces them
-    assert main([*FAST, "--overwrite"]) == MISSED
+    assert main([*FAST, "--overwrite"]) == 0
 
 
 def test_custom_paths_and_switches(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(tmp_path)
     # no video, no plots: only the record, no OpenGL needed
-    assert main([*FAST, "--no-video", "--no-plots"]) == MISSED
-    assert sorted(p.name for p in (tmp_path / "renders").iterdir()) == ["open-line.json"]
-    record = json.loads((tmp_path / "renders" / "open-line.json").read_text())
-    assert record["files"] == {"json": "renders/open-line.json"}
+    assert main([*FAST, "--no-video", "--no-plots"]) == 0
+    assert sorted(p.name for p in (tmp_path / "renders").iterdir()) == [f"{STEM}.json"]
+    record = json.loads((tmp_path / "renders" / f"{STEM}.json").read_text())
+    assert record["files"] == {"json": f"renders/{STEM}.json"}
     # --json moves the record; plots keep their default place
-    assert main([*FAST, "--no-video", "--json", str(tmp_path / "rec.json")]) == MISSED
+    assert main([*FAST, "--no-video", "--json", str(tmp_path / "rec.json")]) == 0
     assert (tmp_path / "rec.json").exists()
 
 
@@ -126,7 +128,7 @@ def test_bad_options_fail_before_running(tmp_path: Path, monkeypatch: pytest.Mon
 def test_video_path_moves_every_output(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     require_gl()
     monkeypatch.chdir(tmp_path)
-    assert main([*FAST, "--video", "out/run.mp4", "--fps", "2"]) == MISSED
+    assert main([*FAST, "--video", "out/run.mp4", "--fps", "2"]) == 0
     names = sorted(p.name for p in (tmp_path / "out").iterdir())
     pngs = ["run-commands.png", "run-errors.png", "run-estimation.png", "run-world.png"]
     assert names == [*pngs, "run.json", "run.mp4"]
@@ -144,11 +146,11 @@ def test_the_estimation_plot_is_planned_beside_the_others(tmp_path: Path, monkey
     args = build_parser().parse_args([*FAST, "--no-video"])
     plan = plan_outputs(args, scenario="open", source="line")
     assert list(plan.plots) == ["world", "errors", "commands", "estimation"]
-    assert plan.plots["estimation"] == Path("renders/open-line-estimation.png")
-    stale = tmp_path / "renders" / "open-line-estimation.png"
+    assert plan.plots["estimation"] == Path(f"renders/{STEM}-estimation.png")
+    stale = tmp_path / "renders" / f"{STEM}-estimation.png"
     stale.parent.mkdir()
     stale.write_bytes(b"x")
-    with pytest.raises(OutputExistsError, match=r"open-line-estimation\.png"):
+    with pytest.raises(OutputExistsError, match=rf"{STEM}-estimation\.png"):
         plan_outputs(args, scenario="open", source="line")
     assert main([*FAST, "--no-video"]) == 2
     assert stale.read_bytes() == b"x"
@@ -202,3 +204,90 @@ def test_unwritable_outputs_fail_before_any_physics(
     assert main([*FAST, *options]) == 2
     assert message in capsys.readouterr().err
     assert _tree(tmp_path) == before
+
+
+def test_sigterm_during_the_render_exits_130_and_leaves_no_file(tmp_path: Path) -> None:
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    require_gl()
+    root = Path(__file__).resolve().parents[1]
+    video = tmp_path / "run.mp4"
+    cmd = [sys.executable, "-m", "sim", *FAST[:-5], "--fps", "30", "--size", "640x480", "--quiet"]
+    proc = subprocess.Popen(
+        [*cmd, "--video", str(video)],
+        cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": str(root)},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + 300
+        while not list(tmp_path.glob(".run.*part.mp4")) and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert proc.poll() is None, (
+            f"the render ended before it could be stopped: {proc.stderr.read() if proc.stderr else ''}"
+        )
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, err
+    assert "interrupted" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == []  # no partial video, nothing else either
+
+
+def test_sigterm_is_an_interrupt_only_inside_the_block() -> None:
+    import signal
+
+    from sim.cli.job_outputs import sigterm_as_interrupt
+
+    def mine(signum: int, frame: object) -> None:
+        raise AssertionError("the block's handler should have run")
+
+    previous = signal.signal(signal.SIGTERM, mine)
+    try:
+        with pytest.raises(KeyboardInterrupt, match="SIGTERM"), sigterm_as_interrupt():
+            signal.raise_signal(signal.SIGTERM)
+        assert signal.getsignal(signal.SIGTERM) is mine
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def test_outputs_are_named_by_the_robot_and_the_run_settings(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    job = ["simulate", "--reference", "figure8", "--runs", "closed_loop", "--no-video", "--no-plots", "--quiet"]
+    tag = hashlib.sha1(b'{"runs": "closed_loop"}').hexdigest()[:6]
+    assert main([*job, "--robot", "turtlebot3"]) == 0  # the open arena's own robot: no robot in the name
+    assert main([*job, "--robot", "edumip"]) == 0  # another robot: its own files, nothing refused
+    assert main([*job, "--robot", "edumip"]) == 2  # the same job again is still never overwritten
+    names = sorted(p.name for p in (tmp_path / "renders").iterdir())
+    assert names == [f"open-figure8-{tag}.json", f"open-figure8-edumip-{tag}.json"]
+    records = [json.loads((tmp_path / "renders" / n).read_text()) for n in names]
+    assert [r["robot"] for r in records] == ["turtlebot3", "edumip"]
+
+
+def test_the_settings_tag_names_non_default_settings_and_gains_files_by_content(tmp_path: Path) -> None:
+    from sim.cli.job_outputs import output_stem, settings_tag
+    from sim.cli.main import build_parser
+
+    def stem(*extra: str) -> str:
+        return output_stem(build_parser().parse_args(["simulate", *extra]), scenario="open", source="figure8")
+
+    assert stem() == stem("--robot", "turtlebot3", "--seed", "0", "--control-rate", "50") == "open-figure8"
+    sha = hashlib.sha1(json.dumps({"perturb": "friction=0.6", "seed": 3}, sort_keys=True).encode()).hexdigest()
+    assert stem("--seed", "3", "--perturb", "friction=0.6") == f"open-figure8-{sha[:6]}"
+    assert stem("--robot", "edumip", "--gains", "4,3").startswith("open-figure8-edumip-")
+    tags = {stem(*o) for o in (["--gains", "4,3"], ["--gains", "4,4"], ["--build", "nominal"], ["--tracker", "fbl"])}
+    assert len(tags) == 4
+    a, b = tmp_path / "a.toml", tmp_path / "b.toml"
+    a.write_text("[gains]\nkp = 4.0\n")
+    b.write_text("[gains]\nkp = 4.0\n")
+    parse = build_parser().parse_args
+    assert settings_tag(parse(["simulate", "--gains", str(a)])) == settings_tag(parse(["simulate", "--gains", str(b)]))
+    b.write_text("[gains]\nkp = 5.0\n")
+    assert settings_tag(parse(["simulate", "--gains", str(a)])) != settings_tag(parse(["simulate", "--gains", str(b)]))

@@ -278,3 +278,25 @@ def test_the_verdict_names_the_better_gains(tuned: list[float], better: str, wor
     assert [r["tuned"] for r in record["runs"]] == tuned and [r["seed"] for r in record["runs"]] == [
         d.seed for d in draws
     ]
+
+
+def test_tuned_gains_that_lose_on_held_out_robots_are_not_recommended(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import sim.tools.tune as tune
+
+    def losing(evaluator: Evaluator, tuned: FBLGains, draws: tuple[object, ...]) -> Comparison:
+        return Comparison(_evaluation([1.0, 2.0]), _evaluation([1.5, 2.5]), tuple(draws), ("a",))  # type: ignore[arg-type]
+
+    monkeypatch.setattr(tune, "compare", losing)
+    assert main(_args(tmp_path, 2, "--eval-runs", "2")) == 1
+    err = capsys.readouterr().err
+    saved = load_gains_file(tmp_path / "gains.toml")
+    assert saved.gains == FBLGains()  # the defaults, not the trial that lost
+    prov = saved.provenance
+    best = min(_completed(tmp_path), key=lambda t: (t.value, t.number))
+    assert prov["recommended"] == "default" and prov["tuned_gains"] == best.params
+    assert (prov["tuned_held_out_objective"], prov["default_held_out_objective"]) == (2.0, 1.5)
+    assert prov["held_out"]["better"] == "default"
+    assert "worse than the defaults on held-out robots: objective 2.000000 m against 1.500000 m (1.33x)" in err
+    assert json.loads((tmp_path / "gains.json").read_text())["gains"] == {"kp": 9.0, "kd": 6.0, "xi_min": 0.02}

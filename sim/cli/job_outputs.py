@@ -1,6 +1,7 @@
 """Files a simulate job leaves behind: the MP4, the PNG plots and the JSON run record.
 
-Default names, for scenario ``S`` tracked along reference (or planner) ``R``::
+Default names, for scenario ``S`` tracked along reference (or planner) ``R`` by the scenario's own
+robot with every run setting at its default::
 
     renders/S-R.mp4            video (H.264, yuv420p)
     renders/S-R-world.png      world, reference and every run's path
@@ -9,30 +10,59 @@ Default names, for scenario ``S`` tracked along reference (or planner) ``R``::
     renders/S-R-estimation.png estimates against the true pose (a job that gives its estimates)
     renders/S-R.json           run record; its "files" names every file written
 
-``--video PATH`` moves all of them beside ``PATH`` (named after its stem); ``--json PATH`` moves the
-record. Existing files are never replaced without ``--overwrite``: every target (and whether its folder
-exists or can be created, and takes new files) is checked before any physics runs, and the command
-stops with an error naming the file (no numbered names).
+The stem names everything that makes a job different (:func:`output_stem`): ``S-R``, then
+``-ROBOT`` when ``--robot`` is not the scenario's own robot, then ``-TAG`` when any of
+:data:`RUN_SETTINGS` is not at its default: TAG is the first 6 hex digits of the SHA-1 of those
+settings as canonical JSON (``{"option": value}`` of the non-default ones, keys sorted, a gains
+or sensors file by its content). ``--video PATH`` moves all of them beside ``PATH`` (named after
+its stem); ``--json PATH`` moves the record. Existing files are never replaced without
+``--overwrite``: every target (and whether its folder exists or can be created, and takes new
+files) is checked before any physics runs, and the command stops with an error naming the file (no
+numbered names).
+
+While the files are written, SIGTERM (what ``timeout`` and job schedulers send) is turned into a
+KeyboardInterrupt, as Ctrl-C is: the file being written is removed and the command exits 130.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import hashlib
+import json
+import signal
 import sys
+import threading
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import FrameType
 from typing import Any
 
 from planning.errors import ConfigError
 
 DEFAULT_DIR = Path("renders")
+#: Options of ``simulate`` that change the runs, with their defaults; any other value tags the stem.
+RUN_SETTINGS: dict[str, Any] = {
+    "tracker": "both",
+    "runs": None,
+    "gains": None,
+    "perturb": None,
+    "build": "as-built",
+    "build_seed": None,
+    "sensors": None,
+    "control_rate": 50.0,
+    "seed": 0,
+    "time_limit": 30.0,
+}
 
 
 def add_output_arguments(p: argparse.ArgumentParser) -> None:
     """Add the video, plot and GL options to a command's parser (no mujoco import)."""
     g = p.add_argument_group(
         "outputs",
-        "By default the video, plots and run record go to renders/<scenario>-<planner or reference>.* . "
+        "By default the video, plots and run record go to renders/<scenario>-<planner or reference>.* , "
+        "with -<robot> added for a robot other than the scenario's and -<6 hex> for non-default run settings. "
         "An existing file is never replaced unless --overwrite is given: the command checks every target "
         "first and stops with an error (exit 2) before running anything.",
     )
@@ -41,7 +71,8 @@ def add_output_arguments(p: argparse.ArgumentParser) -> None:
         type=Path,
         default=None,
         metavar="PATH",
-        help="MP4 to write (default: renders/<scenario>-<reference>.mp4); plots and record go beside it",
+        help="MP4 to write (default: renders/<scenario>-<reference>[-<robot>][-<tag>].mp4); plots and record go "
+        "beside it",
     )
     g.add_argument("--no-video", action="store_true", help="skip the video (no OpenGL needed)")
     g.add_argument(
@@ -74,7 +105,7 @@ class OutputPlan:
     """Where a job's outputs go, decided and checked before anything runs.
 
     Attributes:
-        stem: ``<scenario>-<planner or reference>``.
+        stem: ``<scenario>-<planner or reference>[-<robot>][-<tag>]`` (:func:`output_stem`).
         video: MP4 path, or None.
         plots: Plot name -> PNG path (empty with --no-plots); the estimation plot's is written only
             when the job gives its estimates.
@@ -103,6 +134,38 @@ def show_progress(args: argparse.Namespace) -> bool:
     return not getattr(args, "quiet", False) and sys.stdout.isatty() and sys.stderr.isatty()
 
 
+def settings_tag(args: argparse.Namespace) -> str:
+    """6 hex digits naming the non-default :data:`RUN_SETTINGS` of ``args`` ("" when all are default).
+
+    The SHA-1 of ``{"option": value}`` of the non-default settings as JSON with sorted keys; a
+    ``--gains`` or ``--sensors`` naming a file counts by the file's content.
+    """
+    changed: dict[str, Any] = {}
+    for key, default in RUN_SETTINGS.items():
+        value = getattr(args, key, default)
+        if value == default:
+            continue
+        if key in ("gains", "sensors") and Path(value).is_file():
+            value = {"file": Path(value).read_text(encoding="utf-8")}
+        changed[key] = value
+    if not changed:
+        return ""
+    return hashlib.sha1(json.dumps(changed, sort_keys=True).encode()).hexdigest()[:6]
+
+
+def output_stem(args: argparse.Namespace, *, scenario: str, source: str) -> str:
+    """``<scenario>-<source>[-<robot>][-<tag>]``: the robot when it is not the scenario's own, the
+    tag (:func:`settings_tag`) when a run setting is not at its default."""
+    from planning.scenario import load_scenario
+
+    stem = f"{scenario}-{source}"
+    robot = getattr(args, "robot", None)
+    if robot is not None and robot != load_scenario(scenario).robot:
+        stem += f"-{robot}"
+    tag = settings_tag(args)
+    return f"{stem}-{tag}" if tag else stem
+
+
 def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str) -> OutputPlan:
     """Decide every output path and check that none exists (unless --overwrite), before any work.
 
@@ -124,7 +187,7 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str) -> Out
     from sim.viz.plots.run import ESTIMATION_PLOT, PLOTS
     from sim.viz.replay import RenderSettings, parse_size
 
-    stem = f"{scenario}-{source}"
+    stem = output_stem(args, scenario=scenario, source=source)
     video: Path | None = None
     settings = None
     if not args.no_video:
@@ -186,8 +249,27 @@ def _progress_bar(total: int, desc: str, enabled: bool) -> Any:
     return tqdm(total=total, desc=desc, unit="frame", leave=False, dynamic_ncols=True)
 
 
+def _interrupt(signum: int, frame: FrameType | None) -> None:
+    raise KeyboardInterrupt(f"signal {signal.Signals(signum).name}")
+
+
+@contextlib.contextmanager
+def sigterm_as_interrupt() -> Iterator[None]:
+    """Within the block SIGTERM raises KeyboardInterrupt, as SIGINT does; the previous handler is
+    restored on leaving. Outside the main thread (where no handler can be set) it does nothing."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict[str, str]:
-    """Write the video, the plots and the JSON record of a job (each atomically).
+    """Write the video, the plots and the JSON record of a job (each atomically; SIGTERM is handled
+    as Ctrl-C, see :func:`sigterm_as_interrupt`).
 
     Args:
         result: The :class:`sim.pipeline.simulate.JobResult`.
@@ -197,6 +279,11 @@ def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict
     Returns:
         Output kind ("video", "plot_world", ..., "json") -> path written.
     """
+    with sigterm_as_interrupt():
+        return _write_outputs(result, plan, record)
+
+
+def _write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict[str, str]:
     from sim.outputs import write_json
     from sim.viz.plots.draw import save_figure
     from sim.viz.plots.estimation import series_of_runs

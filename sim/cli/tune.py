@@ -42,8 +42,13 @@ comparison in its provenance, the record of the study and the comparison (every 
 and costs) to a JSON file, and plots of the optimisation history and the parameter importance are
 saved.
 
-Exit status: 0 done, 2 bad input (nothing written), 130 interrupted (the study keeps every
-completed trial; rerun the command to resume)."""
+When the tuned gains score worse than the defaults on the held-out draws, the command says so, writes
+the DEFAULT gains to the gains file (its provenance names the tuned gains that lost and their
+held-out numbers) and exits 1.
+
+Exit status: 0 done, 1 the tuned gains lost to the defaults on held-out draws (the defaults were
+written), 2 bad input (nothing written), 130 interrupted (the study keeps every completed trial;
+rerun the command to resume)."""
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
@@ -336,8 +341,8 @@ def run(args: argparse.Namespace) -> int:
     best, default_obj = _report_best(study, spec, evaluator)
     held_out = make_draws(args.eval_runs, args.seed, held_out=True, perturbations=perturbations)
     comparison = _held_out(evaluator, held_out, best)
-    _write_outputs(args, files, spec, study, best, default_obj, comparison)
-    return 0
+    lost = _write_outputs(args, files, spec, study, best, default_obj, comparison)
+    return 1 if lost else 0
 
 
 def _optimise(args: argparse.Namespace, spec: Any) -> Any:
@@ -447,11 +452,16 @@ def _write_outputs(
     best: Any,
     default_obj: float,
     comparison: Any,
-) -> None:
-    """Write the gains file with its provenance, the JSON record and the plots; print what was written."""
+) -> bool:
+    """Write the gains file with its provenance, the JSON record and the plots; print what was written.
+
+    Returns:
+        Whether the tuned gains lost to the defaults on the held-out draws (the gains file then
+        holds the default gains; see :func:`recommendation`).
+    """
     from control.gains import GainsFile, dump_gains_toml
     from sim.outputs import atomic_path, write_json
-    from sim.tools.tune import completed, gains_of
+    from sim.tools.tune import completed
 
     provenance: dict[str, Any] = {
         "study": files.study,
@@ -473,11 +483,13 @@ def _write_outputs(
     if held_out is not None:
         summary = {k: held_out[k] for k in ("better", "verdict", "ratios", "default", "tuned")}
         provenance["held_out"] = _finite({"draws": args.eval_runs, **summary}, drop=True)
+    gains, verdict = recommendation(best, comparison)
+    provenance.update(verdict)
     with atomic_path(files.gains, overwrite=args.overwrite) as tmp:
-        tmp.write_text(dump_gains_toml(GainsFile(gains_of(best), provenance)), encoding="utf-8")
+        tmp.write_text(dump_gains_toml(GainsFile(gains, provenance)), encoding="utf-8")
     record = {
         **provenance,
-        "gains": asdict(gains_of(best)),
+        "gains": asdict(gains),
         "settings": spec.settings(),
         "held_out": held_out,
     }
@@ -486,3 +498,41 @@ def _write_outputs(
     for note in notes:
         print(note, file=sys.stderr)
     print("wrote " + ", ".join([str(files.gains), str(files.record), *plots]))
+    if verdict["recommended"] == "default":
+        print(f"{verdict['note']}: wrote the default gains to {files.gains}", file=sys.stderr)
+    return verdict["recommended"] == "default"
+
+
+def recommendation(best: Any, comparison: Any) -> tuple[Any, dict[str, Any]]:
+    """The gains to write, and provenance saying which gains they are and why.
+
+    The tuned gains are recommended unless the held-out comparison finds the defaults better; then
+    the default gains are, and the provenance keeps the tuned gains that lost and their held-out
+    objective against the defaults'.
+
+    Args:
+        best: The study's best trial.
+        comparison: The held-out :class:`sim.tools.tune.Comparison`, or None when skipped.
+
+    Returns:
+        (gains, provenance entries: ``recommended`` "tuned" or "default", and when "default" also
+        ``tuned_gains``, ``tuned_held_out_objective``, ``default_held_out_objective`` [m] and ``note``).
+    """
+    from control.fbl import FBLGains
+    from sim.tools.tune import gains_of
+
+    tuned = gains_of(best)
+    if comparison is None or comparison.better != "default":
+        return tuned, {"recommended": "tuned"}
+    t, d = comparison.tuned.objective, comparison.default.objective
+    note = (
+        f"tuned gains (trial #{best.number}) are worse than the defaults on held-out robots: objective "
+        f"{t:.6f} m against {d:.6f} m ({comparison.ratios()['objective']:.2f}x)"
+    )
+    return FBLGains(), {
+        "recommended": "default",
+        "tuned_gains": asdict(tuned),
+        "tuned_held_out_objective": t,
+        "default_held_out_objective": d,
+        "note": note,
+    }

@@ -60,7 +60,9 @@ class TrackingMetrics:
         final_goal_error_m: |p - p_final| at the end, against the trajectory's last pose [m].
         collisions: Number of robot-obstacle contact spells.
         warnings: Number of MuJoCo warnings.
-        saturation_fraction: Share of control periods where a command sat on a limit.
+        saturation_fraction: Share of logged control periods where a command sat on a limit: the
+            body command on |v| or |omega|, or a wheel command on the wheel-speed limit (the drive
+            mapping scales (v, omega) down so the faster wheel sits on it).
         duration_s: Simulated time [s].
         wheel_contact_loss_fraction: Share of the logged physics steps with a drive wheel off the
             floor.
@@ -103,7 +105,28 @@ def heading_errors(log: RunLog) -> np.ndarray:
     return np.asarray(wrap_angle(log.pose[:, 2] - log.ref_pose[:, 2]))
 
 
-def compute_metrics(log: RunLog, trajectory: Trajectory, *, max_speed: float, max_yaw_rate: float) -> TrackingMetrics:
+def saturated(log: RunLog, *, max_speed: float, max_yaw_rate: float, max_wheel_speed: float) -> np.ndarray:
+    """(N,) whether each logged command sat on a limit.
+
+    A sample counts when the body command is on |v| >= max_speed or |omega| >= max_yaw_rate, or
+    either wheel command is on |wheel| >= max_wheel_speed (where the drive mapping scaled the
+    body command down). Limits are met within a relative 1e-9.
+
+    Args:
+        log: The run.
+        max_speed: |v| limit [m/s].
+        max_yaw_rate: |omega| limit [rad/s].
+        max_wheel_speed: |wheel speed| limit [rad/s].
+    """
+    tight = 1 - 1e-9
+    body = (np.abs(log.command[:, 0]) >= max_speed * tight) | (np.abs(log.command[:, 1]) >= max_yaw_rate * tight)
+    wheel = np.abs(log.wheel_command).max(axis=1) >= max_wheel_speed * tight
+    return np.asarray(body | wheel)
+
+
+def compute_metrics(
+    log: RunLog, trajectory: Trajectory, *, max_speed: float, max_yaw_rate: float, max_wheel_speed: float
+) -> TrackingMetrics:
     """Metrics of a run.
 
     Args:
@@ -111,13 +134,12 @@ def compute_metrics(log: RunLog, trajectory: Trajectory, *, max_speed: float, ma
         trajectory: Its reference.
         max_speed: |v| limit, for the saturation share [m/s].
         max_yaw_rate: |omega| limit [rad/s].
+        max_wheel_speed: |wheel speed| limit, for the saturation share [rad/s].
     """
     err = position_errors(log)
     herr = heading_errors(log)
     final = trajectory.final_pose
-    sat = (np.abs(log.command[:, 0]) >= max_speed * (1 - 1e-9)) | (
-        np.abs(log.command[:, 1]) >= max_yaw_rate * (1 - 1e-9)
-    )
+    sat = saturated(log, max_speed=max_speed, max_yaw_rate=max_yaw_rate, max_wheel_speed=max_wheel_speed)
     return TrackingMetrics(
         final_position_error_m=float(err[-1]),
         final_heading_error_rad=float(abs(herr[-1])),

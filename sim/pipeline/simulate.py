@@ -204,7 +204,13 @@ def track(
             source=kind.source,
             sensing=sensing,
         )
-        metrics = compute_metrics(log, prepared.trajectory, max_speed=robot.max_speed, max_yaw_rate=robot.max_yaw_rate)
+        metrics = compute_metrics(
+            log,
+            prepared.trajectory,
+            max_speed=robot.max_speed,
+            max_yaw_rate=robot.max_yaw_rate,
+            max_wheel_speed=robot.max_wheel_speed,
+        )
         done[kind] = Run(kind, name, log, metrics)
     return JobResult(prepared, done, config)
 

@@ -1,0 +1,49 @@
+"""Tracking metrics on constructed logs with known answers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from control.diffdrive import DiffDrive
+from planning.core.geometry import Pose2D
+from planning.core.robot import load_robot
+from planning.trajectory.references import line
+from sim.physics.metrics import compute_metrics
+from sim.physics.runlog import RunLog
+
+
+def test_saturation_counts_the_wheel_limit_as_well_as_the_body_limits() -> None:
+    robot = load_robot("turtlebot3")
+    drive = DiffDrive.from_robot(robot)
+    asked = [
+        (0.05, 0.1),  # free
+        (robot.max_speed, 0.0),  # on the |v| limit
+        (0.2, 0.9 * robot.max_yaw_rate),  # under both body limits, but a wheel would exceed its own
+        (-0.05, -0.2),  # free
+        (0.0, robot.max_yaw_rate),  # on the |omega| limit
+    ]
+    wheels = np.array([drive.wheel_speeds(v, w) for v, w in asked])
+    body = np.array([drive.body_twist(left, right) for left, right in wheels])  # the command in force
+    assert np.all(np.abs(body[2]) < [robot.max_speed, robot.max_yaw_rate])  # only the wheel is on a limit
+    assert np.abs(wheels[2]).max() == pytest.approx(robot.max_wheel_speed)
+    assert np.abs(wheels[[0, 3]]).max() < robot.max_wheel_speed
+    n = len(asked)
+    pose = np.zeros((n, 3))
+    log = RunLog(
+        t=np.arange(n) * 0.02,
+        pose=pose,
+        qpos=np.zeros((n, 7)),
+        ref_pose=pose.copy(),
+        command=body,
+        wheel_command=wheels,
+        wheel_speed=wheels.copy(),
+    )
+    m = compute_metrics(
+        log,
+        line(robot, Pose2D(0, 0, 0)),
+        max_speed=robot.max_speed,
+        max_yaw_rate=robot.max_yaw_rate,
+        max_wheel_speed=robot.max_wheel_speed,
+    )
+    assert m.saturation_fraction == pytest.approx(3 / 5, abs=1e-12)  # samples 1, 2 and 4
