@@ -21,9 +21,11 @@ from planning.errors import ConfigError
 from planning.planners.registry import PLANNERS
 from planning.scenario import Scenario
 from planning.trajectory.trajectory import Trajectory
+from sim.physics.asbuilt import AsBuilt
 from sim.physics.metrics import TrackingMetrics, compute_metrics
 from sim.physics.perturb import Perturbation
 from sim.physics.runlog import RunLog
+from sim.physics.sensing import SensingSetup
 from sim.physics.simulator import SimConfig, Simulator
 from sim.pipeline.case import Case, PreparedTrajectory, prepare_trajectory
 from sim.pipeline.runs import DEFAULT_RUNS, Progress, RunKind
@@ -54,11 +56,15 @@ class JobResult:
         prepared: The case and its trajectory.
         runs: Run kind -> run, in the order run.
         config: The simulation settings of the runs.
+        build: The robot as built that the runs drove (the simulator's).
+        sensing: The sensors and estimator settings the runs used.
     """
 
     prepared: PreparedTrajectory
     runs: Mapping[RunKind, Run]
     config: SimConfig
+    build: AsBuilt
+    sensing: SensingSetup
 
     @property
     def case(self) -> Case:
@@ -138,8 +144,8 @@ class JobResult:
             "control_rate_hz": self.config.control_rate,
             "seed": self.seed,
             "build_seed": self.case.build_seed,
-            "as_built": self.case.as_built(self.robot.name).as_dict(),
-            "sensors": self.case.sensing(self.scenario).profile.as_dict(),
+            "as_built": self.build.as_dict(),
+            "sensors": self.sensing.profile.as_dict(),
             "versions": versions(),
         }
         for kind, run in self.runs.items():
@@ -187,7 +193,7 @@ def track(
     case, robot = prepared.case, prepared.robot
     gains = case.gains or FBLGains()
     config = SimConfig(control_rate=case.control_rate, hold=prepared.hold, strict=strict)
-    simulator = simulator or Simulator(robot, prepared.scenario.world, case.as_built(robot.name))
+    simulator = simulator or simulator_for(prepared)
     sensing = case.sensing(prepared.scenario)
     done: dict[RunKind, Run] = {}
     for kind in runs:
@@ -212,7 +218,12 @@ def track(
             max_wheel_speed=robot.max_wheel_speed,
         )
         done[kind] = Run(kind, name, log, metrics)
-    return JobResult(prepared, done, config)
+    return JobResult(prepared, done, config, simulator.build, sensing)
+
+
+def simulator_for(prepared: PreparedTrajectory) -> Simulator:
+    """A compiled simulator of a prepared case's robot, as its case builds it, in its world."""
+    return Simulator(prepared.robot, prepared.scenario.world, prepared.case.as_built(prepared.robot.name))
 
 
 def simulate(case: Case, runs: Iterable[RunKind] = DEFAULT_RUNS, *, progress: Progress | None = None) -> JobResult:
@@ -316,10 +327,8 @@ class PreparedCase:
         """
         if build_seed == self.case.build_seed:
             return self
-        case = replace(self.case, build_seed=build_seed)
-        robot = self.trajectory.robot
-        simulator = Simulator(robot, self.trajectory.scenario.world, case.as_built(robot.name))
-        return PreparedCase(replace(self.trajectory, case=case), simulator)
+        trajectory = replace(self.trajectory, case=replace(self.case, build_seed=build_seed))
+        return PreparedCase(trajectory, simulator_for(trajectory))
 
     def run(
         self, gains: FBLGains | None = None, perturbation: Perturbation | None = None, *, seed: int | None = None
@@ -350,9 +359,7 @@ def prepare_case(case: Case) -> PreparedCase:
         NhsimError: From :func:`sim.pipeline.case.prepare_trajectory`.
     """
     prepared = prepare_trajectory(case)
-    return PreparedCase(
-        prepared, Simulator(prepared.robot, prepared.scenario.world, case.as_built(prepared.robot.name))
-    )
+    return PreparedCase(prepared, simulator_for(prepared))
 
 
 # ------------------------------------------------------------------------------------------ plans
