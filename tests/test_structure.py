@@ -27,9 +27,10 @@ FORBIDDEN: dict[str, tuple[str, ...]] = {
     "planning.collision": ("planning.planners", "planning.trajectory", "planning.scenario"),
     "planning.curves": ("planning.planners", "planning.trajectory", "planning.scenario", "planning.collision"),
     "control": ("sim", "mujoco", "dm_control"),
-    "sim.physics": ("sim.pipeline", "sim.viz", "sim.tools", "sim.cli"),
-    "sim.pipeline": ("sim.viz", "sim.tools", "sim.cli"),
-    "sim.viz": ("sim.pipeline", "sim.tools", "sim.cli"),
+    "sim.physics": ("sim.pipeline", "sim.viz", "sim.tools", "sim.cli", "sim.suite"),
+    "sim.pipeline": ("sim.viz", "sim.tools", "sim.cli", "sim.suite"),
+    "sim.viz": ("sim.pipeline", "sim.tools", "sim.cli", "sim.suite"),
+    "sim.suite": ("sim.tools", "sim.cli"),
     "sim.tools": ("sim.cli",),
 }
 

@@ -248,16 +248,11 @@ class Simulator:
         update (10 ms), never per physics step; the chunks of each period are planned once
         (:meth:`Schedule.plan`), and the tracker's pose is the one the pose sensors read at the last
         log sample (the end of the previous period: the same state :meth:`read_pose` would read)."""
-        m, d, schedule = recorder.model, recorder.data, recorder.schedule
+        schedule, d = recorder.schedule, recorder.data
         n_ctrl, t0, dt_ctrl = schedule.n_ctrl, recorder.t0, schedule.dt_ctrl
-        commands, wcmd = recorder.commands, recorder.wheel_command
-        ctrl, qvel = d.ctrl, d.qvel
-        wiring = np.array([self.wheel_dofs, [self._act_l, self._act_r]], dtype=np.int64)  # qvel, ctrl indices
+        commands = recorder.commands
         command, wheel_speeds = tracker.command, drive.wheel_speeds
-        sample, step, isfinite = recorder.sample, mujoco.mj_step, math.isfinite
-        firmware = self.motors.loop().drive  # the wheels' velocity loop, every k_fw steps from the start
-        plans = schedule.plan(self.motors.steps_per_update(m.opt.timestep))
-        n_plans = len(plans)
+        advance, isfinite = PeriodPhysics(self, recorder).advance, math.isfinite
         every = max(1, -(-n_ctrl // PROGRESS_UPDATES)) if progress is not None else n_ctrl + 1
         if progress is not None:
             progress(0, n_ctrl)
@@ -281,14 +276,46 @@ class Simulator:
                 )
             left, right = wheel_speeds(v, w)
             commands[k + 1] = (v, w, left, right)
-            for update, src, n, log in plans[k % n_plans]:
-                if update:  # the wheel command in force: the last computed at or before now - latency
-                    firmware(wcmd, k + src if k + src > 0 else 0, qvel, ctrl, wiring)
-                step(m, d, n)  # nstep, passed by position (a keyword costs a pybind11 lookup)
-                if log:
-                    pose = sample()
+            pose = advance(k)
         if progress is not None:
             progress(n_ctrl, n_ctrl)
+
+
+class PeriodPhysics:
+    """The physics of a run's control periods: the motor firmware and ``mj_step`` chunks its schedule
+    plans (:meth:`Schedule.plan`), with the recorder's log samples between them.
+
+    The simulator's control loop and the control-suite environment (:mod:`sim.suite`) step a period
+    with the same code, so both drive the same physics from the same wheel commands, bit for bit.
+
+    Args:
+        simulator: The simulator (wheel joints and actuators, motor firmware).
+        recorder: The run's buffers; its ``wheel_command`` row ``k + 1`` holds period k's command.
+    """
+
+    def __init__(self, simulator: Simulator, recorder: Recorder) -> None:
+        m = recorder.model
+        self._recorder = recorder
+        self._firmware = simulator.motors.loop().drive  # every k_fw steps from the start of the run
+        self._plans = recorder.schedule.plan(simulator.motors.steps_per_update(m.opt.timestep))
+        # qvel and ctrl indices of the left and right wheel
+        self._wiring = np.array([simulator.wheel_dofs, [simulator._act_l, simulator._act_r]], dtype=np.int64)
+
+    def advance(self, k: int) -> tuple[float, float, float]:
+        """Step control period ``k``: the wheel command in force is taken up as it arrives (after the
+        latency, if any) at each firmware update; returns the pose the pose sensors read at the
+        period's last log sample [m, m, rad]."""
+        rec = self._recorder
+        m, d, wcmd, firmware, wiring = rec.model, rec.data, rec.wheel_command, self._firmware, self._wiring
+        qvel, ctrl, step = d.qvel, d.ctrl, mujoco.mj_step
+        pose = rec.pose
+        for update, src, n, log in self._plans[k % len(self._plans)]:
+            if update:  # the wheel command in force: the last computed at or before now - latency
+                firmware(wcmd, k + src if k + src > 0 else 0, qvel, ctrl, wiring)
+            step(m, d, n)  # nstep, passed by position (a keyword costs a pybind11 lookup)
+            if log:
+                pose = rec.sample()
+        return pose
 
 
 @dataclass(frozen=True)
@@ -412,7 +439,8 @@ class Recorder:
         self._i = i + 1
         if contact or self._touching:
             self._contact_check()
-        return x, y, th
+        self.pose = (x, y, th)
+        return self.pose
 
     def _contact_check(self) -> None:
         d = self.data

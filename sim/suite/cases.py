@@ -1,0 +1,103 @@
+"""Building a control-suite environment for a (scenario, robot, source) case."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from functools import cache
+
+from dm_control.mujoco.wrapper import core
+from dm_control.rl import control
+
+from planning.core.robot import ROBOT_FILES, load_robot
+from planning.errors import ConfigError
+from planning.planners.registry import PLANNERS
+from planning.trajectory.references import REFERENCES
+from sim.physics.asbuilt import DEFAULT_BUILD_SEED
+from sim.physics.simulator import SimConfig
+from sim.pipeline.case import Case, PreparedTrajectory, load_case_scenario, plan_case, prepare_trajectory
+from sim.pipeline.simulate import simulator_for
+from sim.pipeline.sweep import precondition_not_met, sweep_cases
+from sim.suite.env import Physics, TrackingTask
+
+
+class NotApplicableError(ConfigError):
+    """The planner does not apply to the scenario (``nhsim simulate --all`` reports such a case as n/a)."""
+
+
+@cache
+def all_cases() -> tuple[tuple[str, str, str], ...]:
+    """(scenario, robot, planner) of every case ``nhsim simulate --all`` runs, in its order."""
+    return tuple((str(c.scenario), str(c.robot), str(c.planner)) for c in sweep_cases())
+
+
+def _case(scenario: str, robot: str, source: str, seed: int, build_seed: int | None, control_rate: float) -> Case:
+    if robot not in ROBOT_FILES:
+        raise ConfigError(f"unknown robot {robot!r}; choose one of {', '.join(ROBOT_FILES)}")
+    is_reference = source in REFERENCES
+    if is_reference or source in PLANNERS:
+        return Case(
+            scenario,
+            robot=robot,
+            reference=source if is_reference else None,
+            planner=None if is_reference else source,
+            seed=seed,
+            build_seed=build_seed,
+            control_rate=control_rate,
+        )
+    raise ConfigError(
+        f"unknown source {source!r}: give a planner ({', '.join(sorted(PLANNERS))}) "
+        f"or a reference ({', '.join(REFERENCES)})"
+    )
+
+
+@cache
+def _prepared(
+    scenario: str, robot: str, source: str, seed: int, build_seed: int | None, rate: float
+) -> PreparedTrajectory:
+    """The case's trajectory, planned as ``nhsim simulate --all`` plans it (cached per process)."""
+    case = _case(scenario, robot, source, seed, build_seed, rate)
+    if case.reference is not None:
+        return prepare_trajectory(case)
+    sc = load_case_scenario(case)
+    plan = plan_case(case, sc, load_robot(sc.robot))
+    why = precondition_not_met(sc, plan)
+    if why is not None:
+        raise NotApplicableError(f"planner {case.planner!r} does not apply to {sc.name} with the {sc.robot}: {why}")
+    return prepare_trajectory(replace(case, scenario=sc, planning=replace(case.planning, plan=plan)))
+
+
+def load(
+    scenario: str,
+    robot: str,
+    source: str,
+    *,
+    seed: int = 0,
+    build_seed: int | None = DEFAULT_BUILD_SEED,
+    control_rate: float = 50.0,
+) -> control.Environment:
+    """A control-suite environment: the robot as built in the scenario's world, tracking the source's
+    trajectory with its own sensors (see :mod:`sim.suite.env`).
+
+    Args:
+        scenario: Built-in scenario name or scenario file.
+        robot: Robot name (``turtlebot3`` or ``edumip``); one the scenario lists.
+        source: A planner name (the plan is made once, with ``seed``) or an analytic reference.
+        seed: Seed of the plan and of the first episode's sensor noise (episode e: ``seed + e``).
+        build_seed: Seed of the as-built draw (None: the robot as drawn).
+        control_rate: Control periods (environment steps) per second [Hz].
+
+    Raises:
+        ConfigError: Unknown robot or source (the message lists the valid ones), a robot the
+            scenario does not list, a bad seed or rate.
+        NotApplicableError: The planner does not apply to the scenario (its own start/goal rule).
+        ScenarioError: Unknown scenario (the message lists the built-in ones).
+        TrajectoryError: The plan failed.
+    """
+    prepared = _prepared(scenario, robot, source, seed, build_seed, control_rate)
+    simulator = simulator_for(prepared)
+    SimConfig(control_rate=control_rate, hold=prepared.hold)  # checks the rate and the hold
+    task = TrackingTask(
+        prepared, simulator, prepared.case.sensing(prepared.scenario), hold=prepared.hold, control_rate=control_rate
+    )
+    physics = Physics.from_model(core.MjModel(simulator.model))
+    return control.Environment(physics, task, n_sub_steps=task.k_ctrl, legacy_step=False)

@@ -1,0 +1,179 @@
+"""The control suite (``sim.suite``), tested in the manner of dm_control's ``suite/suite_test.py``.
+
+One parametrised set of checks runs over every entry of ``suite.ALL`` (slow: each entry plans), and
+over a fast subset in the default run: valid specs, finite observations, reset determinism, random
+actions within the spec raising no MuJoCo warning. Then: the reference policy reproduces
+``nhsim simulate``'s closed-loop run bit for bit and beats a zero policy; bad input is refused with
+the valid choices or the spec.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from dm_control.rl import control
+from dm_env import specs
+
+from planning.errors import ConfigError, ScenarioError
+from sim import suite
+from sim.physics.runlog import RunLog
+from sim.pipeline.runs import RunKind
+from sim.pipeline.simulate import simulate_plan, simulate_reference
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+#: Entries checked in the default run: both robots, references and several planners.
+FAST = (
+    ("edumip_map", "edumip", "c-rrt-star"),
+    ("parallel_park", "turtlebot3", "birrt"),
+    ("three_point_turn", "turtlebot3", "rrt"),
+    ("turn_in_place", "edumip", "sinusoidal"),
+    ("open", "turtlebot3", "figure8"),
+    ("open", "edumip", "circle"),
+)
+
+
+def _load(entry: tuple[str, str, str], seed: int = 0) -> control.Environment:
+    try:
+        return suite.load(*entry, seed=seed)
+    except suite.NotApplicableError as exc:
+        pytest.skip(f"n/a, as in nhsim simulate --all: {exc}")
+
+
+def _random_actions(env: control.Environment, n: int, seed: int) -> Iterator[np.ndarray]:
+    spec = env.action_spec()
+    rng = np.random.default_rng(seed)
+    for _ in range(n):
+        yield rng.uniform(spec.minimum, spec.maximum, size=spec.shape)
+
+
+def _check_entry(entry: tuple[str, str, str]) -> None:
+    env = _load(entry)
+    # specs valid
+    aspec = env.action_spec()
+    assert isinstance(aspec, specs.BoundedArray) and aspec.shape == (2,)
+    assert np.all(np.isfinite(aspec.minimum)) and np.all(aspec.minimum < aspec.maximum)
+    ospec = env.observation_spec()
+    first = env.reset()
+    assert first.first() and list(first.observation) == list(ospec)
+    for name, spec in ospec.items():
+        spec.validate(first.observation[name])
+        assert np.all(np.isfinite(first.observation[name])), name
+    # reset determinism: the same seed gives the same first observation and the same 100 steps
+    env, twin = _load(entry), _load(entry)
+    steps = [(env.reset(), twin.reset())]
+    for action in _random_actions(env, 100, seed=7):
+        a, b = env.step(action), twin.step(action)
+        steps.append((a, b))
+        if a.last():
+            break
+    for a, b in steps:
+        assert a.step_type == b.step_type and a.reward == b.reward
+        for name in ospec:
+            np.testing.assert_array_equal(a.observation[name], b.observation[name], err_msg=name)
+    # random actions within the spec for 200 steps: no MuJoCo warning, finite observations, rewards in [0, 1]
+    ts = env.reset()
+    for action in _random_actions(env, 200, seed=11):
+        ts = env.step(action)
+        assert 0.0 <= ts.reward <= 1.0
+        assert all(np.all(np.isfinite(v)) for v in ts.observation.values())
+        if ts.last():
+            ts = env.reset()
+    assert not np.any(env.physics.data.warning.number), env.physics.data.warning.number
+
+
+@pytest.mark.parametrize("entry", FAST, ids="-".join)
+def test_fast_entries(entry: tuple[str, str, str]) -> None:
+    _check_entry(entry)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("entry", suite.ALL, ids="-".join)
+def test_every_entry(entry: tuple[str, str, str]) -> None:
+    _check_entry(entry)
+
+
+def test_all_is_the_sweep_matrix() -> None:
+    from sim.pipeline.sweep import sweep_cases
+
+    cases = sweep_cases()
+    assert len(suite.ALL) == len(cases) > 50
+    assert {(c.scenario, c.robot, c.planner) for c in cases} == set(suite.ALL)
+    assert ("edumip_map", "edumip", "c-rrt-star") in suite.ALL
+
+
+def _assert_same_run(episode: suite.EpisodeResult, log: RunLog) -> None:
+    assert episode.log.pose.shape == log.pose.shape
+    np.testing.assert_array_equal(episode.log.t, log.t)
+    np.testing.assert_array_equal(episode.log.pose, log.pose)
+    np.testing.assert_array_equal(episode.log.wheel_command, log.wheel_command)
+
+
+def test_reference_policy_reproduces_simulate_bit_for_bit_on_the_default_job() -> None:
+    env = suite.load("edumip_map", "edumip", "c-rrt-star", seed=3, build_seed=5)
+    episode = suite.run_episode(env, suite.reference_policy(env))
+    job = simulate_plan("edumip_map", planner="c-rrt-star", robot="edumip", seed=3, build_seed=5,
+                        runs=(RunKind.CLOSED_LOOP,))  # fmt: skip
+    _assert_same_run(episode, job.logs[RunKind.CLOSED_LOOP])
+    ours, theirs = episode.metrics, job.metrics[RunKind.CLOSED_LOOP]
+    for name in ("final_position_error_m", "final_heading_error_rad", "rms_position_error_m", "max_position_error_m"):
+        assert getattr(ours, name) == getattr(theirs, name), name
+    assert ours.final_position_error_m < 0.02 and episode.steps == len(job.logs[RunKind.CLOSED_LOOP].t) - 1
+
+
+def test_reference_policy_reproduces_a_reference_run_with_odometry() -> None:
+    env = suite.load("open", "turtlebot3", "figure8", seed=1)
+    episode = suite.run_episode(env, suite.reference_policy(env, "odometry"))
+    job = simulate_reference("open", reference="figure8", robot="turtlebot3", seed=1,
+                             runs=(RunKind.CLOSED_LOOP_ODOMETRY,))  # fmt: skip
+    _assert_same_run(episode, job.logs[RunKind.CLOSED_LOOP_ODOMETRY])
+
+
+def test_reference_policy_beats_a_zero_policy() -> None:
+    env = suite.load("open", "edumip", "circle", seed=0)
+    ours = suite.run_episode(env, suite.reference_policy(env))
+    zero = suite.run_episode(env, lambda ts: np.zeros(2))
+    assert ours.ret > 0.95 * ours.steps
+    assert zero.ret < 0.5 * ours.ret
+
+
+def test_episodes_after_the_first_draw_new_noise() -> None:
+    env = suite.load("open", "turtlebot3", "circle", seed=0)
+    a = env.reset().observation["gyro_z"]
+    b = env.reset().observation["gyro_z"]
+    assert a[0] != b[0]
+
+
+def test_unknown_names_list_the_valid_ones() -> None:
+    with pytest.raises(ConfigError, match="turtlebot3, edumip"):
+        suite.load("open", "roomba", "figure8")
+    with pytest.raises(ConfigError, match=r"c-rrt-star.*figure8"):
+        suite.load("open", "edumip", "astar")
+    with pytest.raises(ScenarioError, match="edumip_map"):
+        suite.load("moon", "edumip", "figure8")
+
+
+def test_bad_actions_raise_with_the_spec() -> None:
+    env = suite.load("open", "edumip", "circle", seed=0)
+    env.reset()
+    with pytest.raises(ValueError, match=r"shape.*BoundedArray"):
+        env.step(np.zeros(3))
+    with pytest.raises(ValueError, match=r"bounds.*BoundedArray"):
+        env.step(np.array([1e6, 0.0]))
+    with pytest.raises(ValueError, match="BoundedArray"):
+        env.step(np.array([np.nan, 0.0]))
+
+
+def test_the_readme_snippet_runs() -> None:
+    text = README.read_text()
+    section = text[text.index("## A control suite for dm_control") :]
+    match = re.search(r"```python\n(.*?)```", section, flags=re.S)
+    assert match is not None
+    scope: dict[str, object] = {}
+    exec(compile(match.group(1), "README.md (control suite)", "exec"), scope)
+    final = scope["timestep"]
+    assert final.last() and final.discount == 1.0  # type: ignore[attr-defined]
