@@ -104,3 +104,17 @@ def test_command_is_browser_playable() -> None:
     joined = " ".join(cmd)
     assert "-c:v libx264" in joined and "-pix_fmt yuv420p" in joined and "+faststart" in joined
     assert "-s 640x480" in joined and "-r 30" in joined
+
+
+def test_an_interrupt_while_ffmpeg_starts_leaves_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """SIGTERM (as KeyboardInterrupt) can land after the temporary file exists and before the writer is
+    open: nothing may stay behind."""
+    import sim.viz.video as video
+
+    def interrupted(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt("signal SIGTERM")
+
+    monkeypatch.setattr(video.subprocess, "Popen", interrupted)
+    with pytest.raises(KeyboardInterrupt), VideoWriter(tmp_path / "x.mp4", 64, 48, 10):
+        pass
+    assert list(tmp_path.iterdir()) == []

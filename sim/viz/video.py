@@ -113,15 +113,23 @@ class VideoWriter:
     def __enter__(self) -> VideoWriter:
         exe = ffmpeg_exe()
         tmp = self._stack.enter_context(atomic_path(self.path, overwrite=self.overwrite))
-        size = (self.width, self.height)
-        cmd = ffmpeg_command(exe, tmp, *size, self.fps, crf=self._crf, preset=self._preset, threads=self._threads)
+        # From here the temporary file exists: an interrupt (Ctrl-C, SIGTERM) before this returns
+        # never reaches __exit__, so this method removes it (and stops ffmpeg) itself.
         try:
-            self._proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        except OSError as exc:
-            self._stack.close()
-            raise DependencyError(f"cannot start ffmpeg ({exc}); reinstall: pip install imageio-ffmpeg") from exc
-        self._thread = threading.Thread(target=self._pump, name="mp4-writer", daemon=True)
-        self._thread.start()
+            size = (self.width, self.height)
+            cmd = ffmpeg_command(exe, tmp, *size, self.fps, crf=self._crf, preset=self._preset, threads=self._threads)
+            try:
+                self._proc = subprocess.Popen(
+                    cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+                )
+            except OSError as exc:
+                raise DependencyError(f"cannot start ffmpeg ({exc}); reinstall: pip install imageio-ffmpeg") from exc
+            self._thread = threading.Thread(target=self._pump, name="mp4-writer", daemon=True)
+            self._thread.start()
+        except BaseException as err:
+            self._abort()
+            self._stack.__exit__(type(err), err, err.__traceback__)
+            raise
         return self
 
     def __exit__(
