@@ -115,6 +115,7 @@ def test_an_interrupt_while_ffmpeg_starts_leaves_nothing(tmp_path: Path, monkeyp
         raise KeyboardInterrupt("signal SIGTERM")
 
     monkeypatch.setattr(video.subprocess, "Popen", interrupted)
-    with pytest.raises(KeyboardInterrupt), VideoWriter(tmp_path / "x.mp4", 64, 48, 10):
+    writer = VideoWriter(tmp_path / "x.mp4", 64, 48, 10)  # kept alive, as a traceback being handled keeps it
+    with pytest.raises(KeyboardInterrupt), writer:
         pass
     assert list(tmp_path.iterdir()) == []
