@@ -114,7 +114,7 @@ def test_an_interrupt_while_ffmpeg_starts_leaves_nothing(tmp_path: Path, monkeyp
     def interrupted(*args: object, **kwargs: object) -> None:
         raise KeyboardInterrupt("signal SIGTERM")
 
-    monkeypatch.setattr(video.subprocess, "Popen", interrupted)
+    monkeypatch.setattr(video, "ffmpeg_command", interrupted)  # called once the temporary file exists
     writer = VideoWriter(tmp_path / "x.mp4", 64, 48, 10)  # kept alive, as a traceback being handled keeps it
     with pytest.raises(KeyboardInterrupt), writer:
         pass
