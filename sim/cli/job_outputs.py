@@ -53,6 +53,7 @@ RUN_SETTINGS: dict[str, Any] = {
     "sensors": None,
     "control_rate": 50.0,
     "seed": 0,
+    "noise_seed": None,
     "time_limit": 30.0,
 }
 
