@@ -146,3 +146,23 @@ def test_the_cli_runs_resumes_and_replays_a_run_bit_for_bit(tmp_path: Path, monk
 def test_statistics_of_no_measured_run_are_nan_not_errors() -> None:
     stats = statistics([{"index": 0, "plan_seed": 1, "noise_seed": 1, "build_seed": 1, "failed": "plan"}])
     assert stats["plan_failures"] == 1 and stats["closed_loop"]["success_rate"] == 0.0
+
+
+def test_regress_on_two_workers_reports_what_the_serial_run_reports(capsys: pytest.CaptureFixture[str]) -> None:
+    cases = ["--case", "open-turtlebot3-line-fbl-s0,open-turtlebot3-line-open-loop-s0"]
+    assert main(["regress", *cases]) == 0
+    serial = capsys.readouterr().out
+    assert main(["regress", *cases, "--jobs", "2"]) == 0
+    assert capsys.readouterr().out == serial
+    assert "2 passed, 0 failed of 2 case(s)" in serial
+
+
+def test_sweep_cases_on_two_workers_give_the_serial_rows() -> None:
+    from sim.pipeline.sweep import sweep_case, sweep_task
+
+    cases = [Case("parallel_park", robot="turtlebot3", planner="birrt"), Case("turn_in_place", planner="sinusoidal")]
+    with DaskExecutor(jobs=2) as ex:
+        rows = {case.name: row for case, row in ex.map_unordered(sweep_task, cases)}
+    for case in cases:
+        ours, theirs = rows[case.name], sweep_case(case)
+        assert ours.outcome == theirs.outcome and ours.runs == theirs.runs  # every metric of every run, exactly

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from planning.errors import OutputExistsError
-from sim.cli.job_outputs import DEFAULT_DIR, sigterm_as_interrupt
+from sim.cli.job_outputs import DEFAULT_DIR, add_executor_arguments, sigterm_as_interrupt
 
 DESCRIPTION = """\
 Run one case N times, each run on its own as-built robot (--build-seed drawn per run), its own sensor
@@ -68,9 +68,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--gains", default=None, metavar="KP,KD|FILE", help="feedback gains (default: 9,6)")
     p.add_argument("--sensors", default=None, metavar="KEY=VALUE,...|FILE", help="sensor profile overrides")
     p.add_argument("--control-rate", type=float, default=50.0, metavar="HZ", help="tracker rate (default: 50)")
-    where = p.add_mutually_exclusive_group()
-    where.add_argument("--jobs", type=int, default=None, metavar="J", help="local worker processes (default: cores)")
-    where.add_argument("--scheduler", default=None, metavar="ADDRESS", help="a running Dask scheduler, tcp://host:8786")
+    add_executor_arguments(p, what="the runs", default_jobs="one per core")
     p.add_argument("--results", type=Path, default=None, metavar="PATH", help="results file (JSON lines)")
     p.add_argument("--json", type=Path, default=None, metavar="PATH", help="statistics record")
     p.add_argument("--plots", action=argparse.BooleanOptionalAction, default=True, help="write the plots (default: on)")

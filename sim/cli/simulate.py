@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from planning.errors import ConfigError
-from sim.cli.job_outputs import add_output_arguments
+from sim.cli.job_outputs import add_executor_arguments, add_output_arguments
 from sim.pipeline.runs import RunKind
 
 if TYPE_CHECKING:
@@ -147,6 +147,7 @@ def _add_job_arguments(p: argparse.ArgumentParser) -> None:
         "--planner", default=None, metavar="P", help=f"plan the scenario with planner P ({planners}) and track the plan"
     )
     p.add_argument("--all", action="store_true", help="every built-in scenario x applicable planner x robot")
+    add_executor_arguments(p, what="the cases of --all", default_jobs="1")
     p.add_argument("--time-limit", type=float, default=30.0, metavar="S", help="planning budget (default: 30 s)")
 
 

@@ -229,6 +229,11 @@ def run_sweep(cases: list[Case], *, progress: Callable[[SweepRow], None] | None 
     return rows
 
 
+def sweep_task(shared: object, case: Case) -> SweepRow:
+    """One case as an executor's task (see :mod:`sim.tools.executor`; ``shared`` is unused)."""
+    return sweep_case(case)
+
+
 def sweep_record(rows: list[SweepRow]) -> dict[str, Any]:
     """The JSON record of a sweep: applicable rows, not-applicable rows apart, and counts."""
     na = [r for r in rows if r.outcome is Outcome.NA]

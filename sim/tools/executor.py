@@ -58,6 +58,10 @@ class Executor:
         for item in items:
             yield item, fn(shared, item)
 
+    def preload(self, *modules: str) -> None:
+        """Import ``modules`` where the runs execute, before timing or running them (nothing to do here:
+        the caller imports them)."""
+
     def close(self) -> None:
         """Release workers and connections (nothing for the serial executor)."""
 
@@ -124,6 +128,14 @@ class DaskExecutor(Executor):
             self.retries += int(client.run_on_scheduler(_suspicious, keys=list(item_of)))
         finally:
             client.cancel(futures)
+
+    def preload(self, *modules: str) -> None:
+        """Import ``modules`` on every worker now (MuJoCo, numba's compiled kernels), so a worker's
+        first run is not slowed by its imports."""
+        import importlib
+
+        for name in modules:
+            self._client.run(importlib.import_module, name)
 
     def close(self) -> None:
         """Close the client and, if it was started here, the local cluster."""

@@ -246,6 +246,7 @@ def run_montecarlo(
     if progress is not None:
         progress(done, spec.runs)
     shared = (spec, None if spec.replan else prepared)
+    executor.preload("sim.tools.montecarlo", "sim.physics.simulator", "control.estimation.kernels")
     for _, record in executor.map_unordered(run_one, todo, shared=shared):
         results.add(record)
         done += 1
