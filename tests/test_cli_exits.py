@@ -45,8 +45,7 @@ def test_a_plan_is_held_to_the_scenario_goal_tolerance() -> None:
     from types import SimpleNamespace
 
     from planning.scenario import load_scenario
-    from sim.cli.simulate import missed_targets
-    from sim.pipeline.sweep import TARGETS
+    from sim.pipeline.sweep import TARGETS, missed_targets
 
     sc = load_scenario("edumip_map")
     assert sc.position_tolerance > TARGETS["final_position_error_m"]  # a plan is held to its goal, not 2 cm

@@ -53,8 +53,27 @@ RUN_SETTINGS: dict[str, Any] = {
     "sensors": None,
     "control_rate": 50.0,
     "seed": 0,
+    "noise_seed": None,
     "time_limit": 30.0,
 }
+
+
+def add_executor_arguments(p: argparse.ArgumentParser, *, what: str, default_jobs: str) -> None:
+    """``--jobs J`` / ``--scheduler ADDRESS``: where ``what`` runs (see :mod:`sim.tools.executor`)."""
+    where = p.add_mutually_exclusive_group()
+    where.add_argument(
+        "--jobs",
+        type=int,
+        default=None,
+        metavar="J",
+        help=f"run {what} on J local worker processes (Dask; 1: in this process; default: {default_jobs})",
+    )
+    where.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help=f"run {what} on the Dask cluster whose scheduler is at ADDRESS, e.g. tcp://host:8786",
+    )
 
 
 def add_output_arguments(p: argparse.ArgumentParser) -> None:

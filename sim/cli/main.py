@@ -28,6 +28,7 @@ COMMANDS: dict[str, str] = {
     "plan": "sim.cli.plan",
     "tune": "sim.cli.tune",
     "regress": "sim.cli.regress",
+    "montecarlo": "sim.cli.montecarlo",
 }
 
 

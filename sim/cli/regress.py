@@ -7,6 +7,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from sim.cli.job_outputs import add_executor_arguments
+
 #: The repository's suite and baselines, the defaults of --suite and --baselines.
 REPO_TESTS = Path(__file__).resolve().parents[2] / "tests"
 SUITE_PATH = REPO_TESTS / "regression_suite.toml"
@@ -57,6 +59,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "--baselines", type=Path, default=None, metavar="DIR", help="baseline directory (default: tests/baselines)"
     )
     p.add_argument("--list", action="store_true", help="list the selected cases and exit")
+    add_executor_arguments(p, what="the cases", default_jobs="1")
     return p
 
 
@@ -75,7 +78,8 @@ def format_changes(changes: list[Any]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Execute ``regress``."""
-    from sim.tools.regress import Status, check_case, load_suite
+    from sim.tools.executor import make_executor
+    from sim.tools.regress import Status, check_task, load_suite
 
     suite = load_suite(args.suite or SUITE_PATH)
     baselines: Path = args.baselines or BASELINE_DIR
@@ -86,13 +90,15 @@ def run(args: argparse.Namespace) -> int:
             print(f"{c.name}{'  (fast)' if c.fast else ''}")
         return 0
     tty = sys.stderr.isatty()
-    outcomes = []
-    for i, case in enumerate(cases):
-        if tty:
-            print(f"\r[{i + 1}/{len(cases)}] {case.name:<60}", end="", file=sys.stderr, flush=True)
-        outcomes.append(check_case(case, baselines, suite.tolerances))
+    done = {}
+    with make_executor(args.jobs or 1, args.scheduler) as executor:
+        for case, outcome in executor.map_unordered(check_task, cases, shared=(baselines, suite.tolerances)):
+            done[case.name] = outcome
+            if tty:
+                print(f"\r[{len(done)}/{len(cases)}] {case.name:<60}", end="", file=sys.stderr, flush=True)
     if tty:
         print("\r" + " " * 72 + "\r", end="", file=sys.stderr)
+    outcomes = [done[c.name] for c in cases]
 
     moved = [c for o in outcomes for c in o.changes]
     print(format_changes(moved) if moved else "no metric moved")

@@ -8,12 +8,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from planning.errors import ConfigError
-from sim.cli.job_outputs import add_output_arguments
+from sim.cli.job_outputs import add_executor_arguments, add_output_arguments
 from sim.pipeline.runs import RunKind
 
 if TYPE_CHECKING:
-    from planning.scenario import Scenario
-    from sim.physics.metrics import TrackingMetrics
+    pass
 
 DESCRIPTION = (
     "Run the robot in MuJoCo physics along a reference trajectory, once with the dynamic "
@@ -148,6 +147,7 @@ def _add_job_arguments(p: argparse.ArgumentParser) -> None:
         "--planner", default=None, metavar="P", help=f"plan the scenario with planner P ({planners}) and track the plan"
     )
     p.add_argument("--all", action="store_true", help="every built-in scenario x applicable planner x robot")
+    add_executor_arguments(p, what="the cases of --all", default_jobs="1")
     p.add_argument("--time-limit", type=float, default=30.0, metavar="S", help="planning budget (default: 30 s)")
 
 
@@ -203,6 +203,14 @@ def _add_run_arguments(p: argparse.ArgumentParser) -> None:
         help="tracker rate; must divide the 500 Hz physics rate (default: 50)",
     )
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed for every random choice (default: 0)")
+    p.add_argument(
+        "--noise-seed",
+        type=int,
+        default=None,
+        metavar="N",
+        help="seed of the sensor noise (and --perturb's pose noise) apart from the plan's: replays a run of "
+        "'nhsim montecarlo' (default: --seed)",
+    )
     p.add_argument(
         "--json",
         type=Path,
@@ -271,7 +279,8 @@ def run(args: argparse.Namespace) -> int:
     from sim.physics.perturb import Perturbation
 
     gains = resolve_gains(args.gains) if args.gains else FBLGains()
-    perturbation = Perturbation.parse(args.perturb, seed=args.seed) if args.perturb else None
+    noise_seed = args.seed if args.noise_seed is None else args.noise_seed
+    perturbation = Perturbation.parse(args.perturb, seed=noise_seed) if args.perturb else None
     if args.control_rate <= 0:
         raise ConfigError(f"--control-rate must be > 0 Hz, got {args.control_rate}")
     check_time_limit(args.time_limit)
@@ -288,6 +297,7 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
     from sim.cli.progress import JobBars
     from sim.pipeline.case import Case, PlanOptions, load_case_scenario
     from sim.pipeline.simulate import simulate
+    from sim.pipeline.sweep import missed_targets
 
     planner, scenario = args.planner, args.scenario
     if planner is None and args.reference is None and scenario == "open" and _default_plan_available():
@@ -305,6 +315,7 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
         planning=PlanOptions(time_limit=args.time_limit),
         build_seed=parse_build(args.build, args.build_seed),
         sensors=sensor_overrides(args.sensors),
+        noise_seed=args.noise_seed,
         **source,
     )
     runs = parse_runs(args.runs) if args.runs else run_choices()[args.tracker]
@@ -335,36 +346,6 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
         print(line, file=sys.stderr)
     clean = all(run.metrics.warnings == 0 for run in result.runs.values())
     return 0 if clean and not failures else 1
-
-
-def closed_loop_targets(scenario: Scenario, *, planned: bool) -> dict[str, float]:
-    """What the fused closed loop must reach for ``simulate`` to exit 0: metric -> its upper bound.
-
-    A planned job must end inside the scenario's goal tolerance (position [m], heading [rad]) of the
-    trajectory's final pose (the segmented tracker regulates the final pose). A reference is tracked by
-    the FBL, whose output is the position (x, y): it must not leave the path by more than the sweep's
-    position targets (:data:`sim.pipeline.sweep.TARGETS`: final position 2 cm, RMS 2 cm); its heading
-    is not regulated once the reference stops, so it is reported, not judged.
-    """
-    if planned:
-        return {
-            "final_position_error_m": scenario.position_tolerance,
-            "final_heading_error_rad": scenario.heading_tolerance,
-        }
-    from sim.pipeline.sweep import TARGETS
-
-    return {k: v for k, v in TARGETS.items() if k != "final_heading_error_rad"}
-
-
-def missed_targets(metrics: TrackingMetrics, scenario: Scenario, *, planned: bool) -> list[str]:
-    """One line per target (:func:`closed_loop_targets`) the closed loop's metrics missed; [] when all met."""
-    values = metrics.as_dict()
-    return [
-        f"closed-loop run missed its target: {key} = {values[key]:.4g} > {bound:g}"
-        + (" (the scenario's goal tolerance)" if planned else "")
-        for key, bound in closed_loop_targets(scenario, planned=planned).items()
-        if not values[key] <= bound
-    ]
 
 
 #: The no-argument default once its planner is installed: seed 003's plan through its map.

@@ -166,15 +166,21 @@ class PerturbationRange:
             object.__setattr__(self, name, (lo, hi))
 
     @classmethod
-    def parse(cls, text: str) -> PerturbationRange:
-        """Parse ``key=lo:hi,...`` (or ``key=value`` for a fixed value); keys left out keep their
-        default range.
+    def parse(cls, text: str, *, others: str = "default") -> PerturbationRange:
+        """Parse ``key=lo:hi,...`` (or ``key=value`` for a fixed value).
+
+        Args:
+            text: The ranges.
+            others: What the keys left out get: ``"default"`` their default range (a robust
+                study), ``"nominal"`` their nominal value (a Monte Carlo study of just those keys).
 
         Raises:
             ConfigError: Unknown key, malformed or out-of-range bounds.
         """
         what = f"--perturb-range {text!r}"
         out: dict[str, tuple[float, float]] = {}
+        if others == "nominal":
+            out = {name: (LIMITS[name][2], LIMITS[name][2]) for name in LIMITS}
         for key, value in parse_pairs(text, "--perturb-range", LIMITS, EXAMPLE).items():
             lo_s, sep, hi_s = value.partition(":")
             lo = parse_number(lo_s, key, what)

@@ -81,6 +81,8 @@ class Case:
             mass within their tolerances, :mod:`sim.physics.asbuilt`); None for the robot as drawn.
         sensors: ``key=value,...`` overrides of the robot's sensor profile (over the scenario's
             ``[sensors]`` table), e.g. ``fix_rate=10,fix_position_std=0.01``; "" for none.
+        noise_seed: Seed of the sensor noise when it differs from ``seed`` (a Monte Carlo run of a
+            plan made once); None: ``seed``.
     """
 
     scenario: str | Scenario
@@ -97,6 +99,7 @@ class Case:
     planning: PlanOptions = field(default_factory=PlanOptions)
     build_seed: int | None = DEFAULT_BUILD_SEED
     sensors: str = ""
+    noise_seed: int | None = None
 
     def __post_init__(self) -> None:
         if self.build_seed is not None:
@@ -117,6 +120,8 @@ class Case:
     def _derived_name(self) -> str:
         what = self.reference if self.reference is not None else f"plan-{self.planner or 'default'}"
         parts = [self.scenario_name, self.robot or "default", what, self.feedback_tracker, f"s{self.seed}"]
+        if self.noise_seed is not None:
+            parts.append(f"n{self.noise_seed}")
         if self.control_rate != 50.0:
             parts.append(f"{self.control_rate:g}hz")
         return "-".join(parts)
@@ -154,14 +159,14 @@ class Case:
 
     def sensing(self, scenario: Scenario) -> SensingSetup:
         """The sensors of the case's runs: the robot's profile, the scenario's ``[sensors]`` table and
-        the case's overrides, with the case's seed for every noise draw.
+        the case's overrides, with the case's noise seed (its seed unless set apart) for every noise draw.
 
         Raises:
             ConfigError: An unknown sensor key or a bad value (naming the field and the fix).
         """
         table = dict(scenario.sensors)
         profile = load_sensor_profile(scenario.robot, table=table or None, text=self.sensors or None)
-        return SensingSetup(profile, self.seed)
+        return SensingSetup(profile, self.seed if self.noise_seed is None else self.noise_seed)
 
     def tracker_for(self, kind: RunKind) -> str:
         """The tracker a run of ``kind`` uses in this case."""

@@ -143,6 +143,7 @@ class JobResult:
             "gains": {"kp": gains.kp, "kd": gains.kd, "xi_min": gains.xi_min},
             "control_rate_hz": self.config.control_rate,
             "seed": self.seed,
+            "noise_seed": self.sensing.seed,
             "build_seed": self.case.build_seed,
             "as_built": self.build.as_dict(),
             "sensors": self.sensing.profile.as_dict(),

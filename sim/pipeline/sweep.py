@@ -111,6 +111,34 @@ class SweepRow:
         return rec
 
 
+def closed_loop_targets(scenario: Scenario, *, planned: bool) -> dict[str, float]:
+    """What the fused closed loop must reach for ``simulate`` to exit 0: metric -> its upper bound.
+
+    A planned job must end inside the scenario's goal tolerance (position [m], heading [rad]) of the
+    trajectory's final pose (the segmented tracker regulates the final pose). A reference is tracked by
+    the FBL, whose output is the position (x, y): it must not leave the path by more than the sweep's
+    position targets (:data:`sim.pipeline.sweep.TARGETS`: final position 2 cm, RMS 2 cm); its heading
+    is not regulated once the reference stops, so it is reported, not judged.
+    """
+    if planned:
+        return {
+            "final_position_error_m": scenario.position_tolerance,
+            "final_heading_error_rad": scenario.heading_tolerance,
+        }
+    return {k: v for k, v in TARGETS.items() if k != "final_heading_error_rad"}
+
+
+def missed_targets(metrics: TrackingMetrics, scenario: Scenario, *, planned: bool) -> list[str]:
+    """One line per target (:func:`closed_loop_targets`) the closed loop's metrics missed; [] when all met."""
+    values = metrics.as_dict()
+    return [
+        f"closed-loop run missed its target: {key} = {values[key]:.4g} > {bound:g}"
+        + (" (the scenario's goal tolerance)" if planned else "")
+        for key, bound in closed_loop_targets(scenario, planned=planned).items()
+        if not values[key] <= bound
+    ]
+
+
 def sweep_cases(scenarios: list[str] | None = None, **fields_: Any) -> list[Case]:
     """The cases of the sweep, in a stable order: every scenario (default: the built-in ones) ×
     the robots it lists × its applicable planners.
@@ -199,6 +227,11 @@ def run_sweep(cases: list[Case], *, progress: Callable[[SweepRow], None] | None 
         if progress is not None:
             progress(row)
     return rows
+
+
+def sweep_task(shared: object, case: Case) -> SweepRow:
+    """One case as an executor's task (see :mod:`sim.tools.executor`; ``shared`` is unused)."""
+    return sweep_case(case)
 
 
 def sweep_record(rows: list[SweepRow]) -> dict[str, Any]:

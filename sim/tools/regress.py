@@ -427,6 +427,11 @@ def check_case(case: Case, baseline_dir: Path, tolerances: dict[str, Tolerance] 
     return CheckResult(case, Status.PASS, "", metrics, changes, exact)
 
 
+def check_task(shared: tuple[Path, dict[str, Tolerance] | None], case: Case) -> CheckResult:
+    """:func:`check_case` as an executor's task: ``shared`` is (baseline folder, tolerances)."""
+    return check_case(case, *shared)
+
+
 def baseline_document(case: Case, metrics: dict[str, Any]) -> dict[str, Any]:
     """The JSON content of a baseline."""
     return {"case": case_record(case), "metrics": metrics, "environment": environment()}

@@ -23,6 +23,10 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "optim planner: seed N=1000, dt=0.01 against the default (time, final error, length)",
     ),
     "render": ("sim.cli.bench.render", "video pipeline frames/s (replay, draw, encode) against a bare Renderer loop"),
+    "montecarlo": (
+        "sim.cli.bench.montecarlo",
+        "Monte Carlo runs on Dask workers against a direct loop (throughput, per-run overhead)",
+    ),
 }
 
 

@@ -1,0 +1,39 @@
+"""``nhsim bench montecarlo``: the same runs serially and on Dask workers (see :mod:`sim.tools.bench.montecarlo`)."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """Options of the benchmark."""
+    from planning.core.robot import ROBOT_FILES
+    from planning.trajectory.references import REFERENCES
+
+    p.add_argument("--runs", type=int, default=32, metavar="N", help="runs of the study (default: 32)")
+    p.add_argument("--workers", type=int, default=2, metavar="J", help="worker processes (default: 2)")
+    p.add_argument("--robot", choices=list(ROBOT_FILES), default="turtlebot3")
+    p.add_argument("--reference", choices=list(REFERENCES), default="line")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Measure and print; exit 1 when a target is missed."""
+    from planning.errors import ConfigError
+    from sim.pipeline.case import Case
+    from sim.tools.bench.montecarlo import TARGET_OVERHEAD, TARGET_SPEEDUP, measure
+    from sim.tools.montecarlo import MonteCarloSpec
+
+    if args.workers < 2:
+        raise ConfigError(f"--workers must be >= 2 to compare with one worker, got {args.workers}")
+    spec = MonteCarloSpec(Case("open", robot=args.robot, reference=args.reference), args.runs)
+    r = measure(spec, args.workers)
+    per = 1.0 / r.runs
+    print(f"{r.runs} runs of open | {args.robot} | reference:{args.reference} (3 run kinds each)")
+    print(f"direct loop, this process   {r.direct_s:>8.2f} s   {r.direct_s * per:.3f} s/run")
+    print(f"Dask, one worker            {r.one_worker_s:>8.2f} s   overhead {r.overhead:+.1%} per run "
+          f"(target <= {TARGET_OVERHEAD:.0%})")  # fmt: skip
+    print(f"Dask, {r.workers} workers             {r.workers_s:>8.2f} s   throughput x{r.speedup:.2f} "
+          f"(target >= {TARGET_SPEEDUP})")  # fmt: skip
+    print(f"local cluster start-up      {r.startup_s:>8.2f} s   (once per command)")
+    print(f"records equal to the direct loop's: {'yes' if r.same_records else 'NO'}")
+    return 0 if r.passed else 1

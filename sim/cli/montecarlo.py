@@ -1,0 +1,266 @@
+"""``nhsim montecarlo``: one case on many as-built robots and noise draws, on every core or a cluster."""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import shlex
+import sys
+from pathlib import Path
+from typing import Any
+
+from planning.errors import OutputExistsError
+from sim.cli.job_outputs import DEFAULT_DIR, add_executor_arguments, sigterm_as_interrupt
+
+DESCRIPTION = """\
+Run one case N times, each run on its own as-built robot (--build-seed drawn per run), its own sensor
+noise and, with --perturb-range, its own perturbation drawn from the ranges; the plan is made once
+from --seed (or per run with --replan). Every run drives the three run kinds (fused feedback, odometry
+feedback, open loop). Printed and recorded per run kind: the 50/90/99th percentiles of the final
+position and heading error and of the RMS and max position error, the success rate against the
+scenario's goal tolerance (a reference: the path targets of 'simulate'), the collision rate, and the
+worst runs with the 'nhsim simulate' command that replays each one bit for bit.
+
+Runs execute on Dask distributed: --jobs J starts J local worker processes (default: one per core;
+--jobs 1 runs in this process), --scheduler tcp://host:8786 uses a running cluster. Each finished run
+is appended to the results file (JSON lines, keyed by its seeds) at once: the same command run again
+skips what is done, so a killed study resumed ends with the statistics of an uninterrupted one. A
+results file of another study is refused, naming what differs.
+
+Outputs (renders/<scenario>-<source>[-<robot>]-mc-<6 hex of the study>.*): .jsonl the runs, .json the
+statistics, -fan.png every run's path per run kind, -cdf.png the CDF of the final error. A study
+rewrites its own summary and plots; any other existing file is kept unless --overwrite is given.
+
+Exit status: 0 the study finished, 1 a run failed to run (not a missed target: those are statistics),
+2 bad input, 130 interrupted (finished runs are kept)."""
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Register the ``montecarlo`` subcommand."""
+    from planning.core.robot import ROBOT_FILES
+    from planning.trajectory.references import REFERENCES
+
+    p: argparse.ArgumentParser = sub.add_parser(
+        "montecarlo",
+        help="run one case on many as-built robots and noise draws; percentiles, rates, worst runs",
+        description=DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--scenario", default="edumip_map", metavar="NAME|PATH", help="scenario (default: edumip_map)")
+    p.add_argument("--robot", choices=list(ROBOT_FILES), default=None, help="robot (default: the scenario's)")
+    src = p.add_mutually_exclusive_group()
+    src.add_argument("--planner", default=None, metavar="P", help="plan with planner P (default: the scenario's)")
+    src.add_argument("--reference", choices=list(REFERENCES), default=None, help="track an analytic reference")
+    p.add_argument("--runs", type=int, required=True, metavar="N", help="number of runs (>= 1)")
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the plan and of the draws (default: 0)")
+    p.add_argument(
+        "--perturb-range",
+        default=None,
+        metavar="K=LO:HI,...",
+        help="draw each run's perturbation uniformly from these ranges (friction, mass, radius, noise, "
+        "heading_noise, latency; keys left out stay nominal), e.g. radius=0.97:1.03,latency=0:0.02",
+    )
+    p.add_argument("--replan", action="store_true", help="plan each run anew with its own seed")
+    p.add_argument("--time-limit", type=float, default=30.0, metavar="S", help="planning budget (default: 30 s)")
+    p.add_argument("--build", choices=["as-built", "nominal"], default="as-built", help="draw each run's robot as "
+                   "built (default) or drive the robot as drawn every time")  # fmt: skip
+    p.add_argument("--gains", default=None, metavar="KP,KD|FILE", help="feedback gains (default: 9,6)")
+    p.add_argument("--sensors", default=None, metavar="KEY=VALUE,...|FILE", help="sensor profile overrides")
+    p.add_argument("--control-rate", type=float, default=50.0, metavar="HZ", help="tracker rate (default: 50)")
+    add_executor_arguments(p, what="the runs", default_jobs="one per core")
+    p.add_argument("--results", type=Path, default=None, metavar="PATH", help="results file (JSON lines)")
+    p.add_argument("--json", type=Path, default=None, metavar="PATH", help="statistics record")
+    p.add_argument("--plots", action=argparse.BooleanOptionalAction, default=True, help="write the plots (default: on)")
+    p.add_argument("--overwrite", action="store_true", help="replace existing outputs of another study")
+    p.add_argument("--quiet", action="store_true", help="print only the table")
+    p.add_argument("--gl", choices=["osmesa", "egl", "glfw"], default=None, help=argparse.SUPPRESS)
+    return p
+
+
+def _spec(args: argparse.Namespace) -> Any:
+    from control.fbl import FBLGains
+    from control.gains import resolve_gains
+    from sim.cli.plan import check_time_limit
+    from sim.cli.simulate import parse_build, sensor_overrides
+    from sim.physics.perturb import PerturbationRange
+    from sim.pipeline.case import Case, PlanOptions
+    from sim.tools.montecarlo import MonteCarloSpec
+
+    check_time_limit(args.time_limit)
+    source = {"reference": args.reference} if args.reference is not None else {"planner": args.planner or ""}
+    case = Case(
+        args.scenario,
+        robot=args.robot,
+        seed=args.seed,
+        control_rate=args.control_rate,
+        gains=resolve_gains(args.gains) if args.gains else FBLGains(),
+        planning=PlanOptions(time_limit=args.time_limit),
+        build_seed=parse_build(args.build, None),
+        sensors=sensor_overrides(args.sensors),
+        **source,
+    )
+    ranges = PerturbationRange.parse(args.perturb_range, others="nominal") if args.perturb_range else None
+    return MonteCarloSpec(case, args.runs, ranges, replan=args.replan)
+
+
+def _paths(args: argparse.Namespace, spec: Any, scenario: str, robot: str, own_robot: str) -> dict[str, Path]:
+    key = spec.key()
+    tag = hashlib.sha1(json.dumps(key, sort_keys=True).encode()).hexdigest()[:6]
+    source = key["source"].split(":", 1)[1] or "default"
+    stem = f"{scenario}-{source}" + (f"-{robot}" if robot != own_robot else "") + f"-mc-{tag}"
+    out = {"results": args.results or DEFAULT_DIR / f"{stem}.jsonl", "json": args.json or DEFAULT_DIR / f"{stem}.json"}
+    if args.plots:
+        base = out["json"]
+        out.update({name: base.with_name(f"{base.stem}-{name}.png") for name in ("fan", "cdf")})
+    return out
+
+
+def _check_outputs(paths: dict[str, Path], key: dict[str, Any], overwrite: bool) -> None:
+    """Every output can be written; existing ones must be this study's own (its summary names the key)."""
+    from sim.outputs import check_writable
+
+    summary = paths["json"]
+    own = False
+    if summary.exists():
+        try:
+            own = json.loads(summary.read_text(encoding="utf-8")).get("key") == key
+        except (OSError, ValueError, AttributeError):
+            own = False
+    for name, path in paths.items():
+        if name == "results":
+            check_writable(path, overwrite=True)  # its key is checked when it is opened
+            continue
+        try:
+            check_writable(path, overwrite=overwrite or own)
+        except OutputExistsError as exc:
+            raise OutputExistsError(f"{exc} (it is not this study's output)") from exc
+
+
+def format_table(stats: dict[str, Any]) -> str:
+    """One row per run kind: runs, success and collision rates, percentiles of the errors."""
+    head = (
+        f"{'run':<21} {'runs':>5} {'success':>8} {'collide':>8}  {'final pos p50/p90/p99 [m]':>27}  "
+        f"{'final head p50/p90/p99 [rad]':>28}  {'rms pos p50/p90/p99 [m]':>25}  {'max p99 [m]':>11}"
+    )
+    lines = [head, "-" * len(head)]
+    for kind, s in stats.items():
+        if not isinstance(s, dict) or "runs" not in s:
+            continue
+
+        def trio(name: str, s: dict[str, Any] = s) -> str:
+            v = s[name]
+            return f"{v['p50']:.4f}/{v['p90']:.4f}/{v['p99']:.4f}"
+
+        lines.append(
+            f"{kind:<21} {s['runs']:>5d} {s['success_rate']:>8.1%} {s['collision_rate']:>8.1%}  "
+            f"{trio('final_position_error_m'):>27}  {trio('final_heading_error_rad'):>28}  "
+            f"{trio('rms_position_error_m'):>25}  {s['max_position_error_m']['p99']:>11.4f}"
+        )
+    return "\n".join(lines)
+
+
+def _replay_line(argv_base: list[str], worst: dict[str, Any]) -> str:
+    from sim.tools.montecarlo import replay_options
+
+    cmd = ["nhsim", "simulate", *argv_base, *replay_options(worst), "--no-video"]
+    return " ".join(shlex.quote(c) for c in cmd)
+
+
+def _base_argv(args: argparse.Namespace, scenario: str) -> list[str]:
+    """The ``simulate`` options of the study's case (the seeds are per run)."""
+    argv = ["--scenario", scenario]
+    if args.robot:
+        argv += ["--robot", args.robot]
+    argv += ["--reference", args.reference] if args.reference else (["--planner", args.planner] if args.planner else [])
+    for opt, value, default in (
+        ("--time-limit", args.time_limit, 30.0),
+        ("--gains", args.gains, None),
+        ("--sensors", args.sensors, None),
+        ("--control-rate", args.control_rate, 50.0),
+    ):
+        if value != default:
+            argv += [opt, str(value)]
+    return argv
+
+
+def run(args: argparse.Namespace) -> int:
+    """Execute ``montecarlo``."""
+    from sim.viz import gl
+
+    gl.configure(args.gl)
+    from sim.pipeline.case import load_case_scenario
+    from sim.tools.executor import make_executor
+    from sim.tools.montecarlo import ResultsFile, run_montecarlo
+
+    spec = _spec(args)
+    scenario = load_case_scenario(spec.case)  # unknown scenario, a robot it does not list: stop here
+    from planning.scenario import load_scenario
+
+    own_robot = load_scenario(args.scenario).robot
+    paths = _paths(args, spec, scenario.name, scenario.robot, own_robot)
+    _check_outputs(paths, spec.key(), args.overwrite)
+    results = ResultsFile(paths["results"], spec.key())
+    if not args.quiet and results.records:
+        print(f"resuming: {len(results.records)} runs done in {paths['results']}")
+    with make_executor(args.jobs, args.scheduler) as executor, _bar(args, spec.runs) as bar:
+        if not args.quiet:
+            what = f"{scenario.name} | {scenario.robot} | {spec.key()['source']}"
+            print(f"{spec.runs} runs of {what} on {executor.where}")
+        result = run_montecarlo(spec, executor, results, progress=bar)
+    stats = result.stats
+    print(format_table(stats))
+    base = _base_argv(args, args.scenario)
+    closed = stats.get("closed_loop", {})
+    for worst in closed.get("worst", []):
+        err = worst["final_position_error_m"]
+        print(f"worst closed loop #{worst['index']} ({err:.4f} m): {_replay_line(base, worst)}")
+    if result.retries:
+        print(f"{result.retries} runs were run again after their worker died")
+    record = {"key": spec.key(), "runs": spec.runs, "ran_now": result.ran, "retries": result.retries}
+    record.update(statistics=stats, results=str(paths["results"]), replay_base=base)
+    with sigterm_as_interrupt():
+        _write(result, paths, record, args)
+    if not args.quiet:
+        for name, path in paths.items():
+            if name != "results":
+                print(f"wrote {path}")
+    return 0
+
+
+def _write(result: Any, paths: dict[str, Path], record: dict[str, Any], args: argparse.Namespace) -> None:
+    from sim.outputs import write_json
+    from sim.viz.plots.draw import save_figure
+    from sim.viz.plots.montecarlo import montecarlo_figures
+
+    if args.plots:
+        prep = result.prepared
+        title = f"{prep.scenario.name} | {prep.robot.name} | {prep.source} | {result.spec.runs} runs"
+        for name, fig in montecarlo_figures(prep.scenario.world, prep.trajectory, result.records, title=title).items():
+            save_figure(fig, paths[name], overwrite=True)  # checked above: absent, this study's, or --overwrite
+    write_json(paths["json"], record, overwrite=True)
+
+
+class _bar:
+    """A progress bar of runs done (on a terminal, without --quiet); a no-op otherwise."""
+
+    def __init__(self, args: argparse.Namespace, total: int) -> None:
+        from sim.cli.job_outputs import show_progress
+
+        self._bar: Any = None
+        if show_progress(args):
+            from tqdm import tqdm
+
+            self._bar = tqdm(total=total, desc="runs", unit="run", dynamic_ncols=True, file=sys.stderr)
+
+    def __call__(self, done: int, total: int) -> None:
+        if self._bar is not None:
+            self._bar.n = done
+            self._bar.refresh()
+
+    def __enter__(self) -> _bar:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._bar is not None:
+            self._bar.close()

@@ -1,0 +1,164 @@
+"""Where many independent runs execute: this process, local worker processes, or a Dask cluster.
+
+``nhsim montecarlo``, ``nhsim simulate --all`` and ``nhsim regress`` hand their runs to one
+:class:`Executor`, chosen by ``--jobs J`` / ``--scheduler ADDRESS`` (:func:`make_executor`):
+
+- ``--jobs 1``: a plain loop in this process (no Dask, nothing to start);
+- ``--jobs J`` (J > 1): a Dask ``LocalCluster`` of J single-threaded worker processes, started here
+  and closed when the executor closes;
+- ``--scheduler tcp://host:8786``: an existing Dask cluster (``dask scheduler`` and ``dask worker``
+  on any machines that have nhsim installed), with no other change.
+
+Runs are submitted at once and their results yielded as they finish (``as_completed``), each
+paired with its item, so the caller can store every result the moment it exists. Runs are pure
+functions of their item (and of one shared value, sent to each worker once): a worker that dies
+mid-run has its runs executed again elsewhere by the scheduler, and :attr:`Executor.retries` counts
+them (tasks that were on a worker when it died).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any, TypeVar
+
+from planning.errors import ConfigError, DependencyError
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+#: Seconds to reach a scheduler before giving up.
+CONNECT_TIMEOUT_S = 10
+
+
+def default_jobs() -> int:
+    """Worker processes by default: one per core this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+class Executor:
+    """Runs ``fn(shared, item)`` for many items: the serial base class (``--jobs 1``).
+
+    Attributes:
+        retries: Runs executed again because their worker died (always 0 here).
+        workers: Worker processes (1: this process).
+        where: A short description for messages ("this process", "2 local workers", the address).
+    """
+
+    retries = 0
+    workers = 1
+    where = "this process"
+
+    def map_unordered(self, fn: Callable[[Any, T], R], items: Sequence[T], shared: Any = None) -> Iterator[tuple[T, R]]:
+        """Yield ``(item, fn(shared, item))`` for every item, in the order they finish."""
+        for item in items:
+            yield item, fn(shared, item)
+
+    def preload(self, *modules: str) -> None:
+        """Import ``modules`` where the runs execute, before timing or running them (nothing to do here:
+        the caller imports them)."""
+
+    def close(self) -> None:
+        """Release workers and connections (nothing for the serial executor)."""
+
+    def __enter__(self) -> Executor:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _suspicious(dask_scheduler: Any, keys: list[str]) -> int:  # pragma: no cover - runs on the scheduler
+    """Runs on the scheduler: how many times the tasks ``keys`` were on a worker that died."""
+    return sum(ts.suspicious for key in keys if (ts := dask_scheduler.tasks.get(key)) is not None)
+
+
+class DaskExecutor(Executor):
+    """Runs on Dask distributed: a local cluster of ``jobs`` processes, or the cluster at ``address``.
+
+    Args:
+        jobs: Worker processes of a local cluster (ignored with an address).
+        address: A running scheduler, e.g. ``tcp://host:8786``.
+
+    Raises:
+        DependencyError: Dask distributed is not installed.
+        ConfigError: The scheduler cannot be reached within :data:`CONNECT_TIMEOUT_S` seconds.
+    """
+
+    def __init__(self, jobs: int = 2, address: str | None = None) -> None:
+        try:
+            from dask.distributed import Client, LocalCluster
+        except ImportError as exc:  # pragma: no cover - a dependency of the project
+            raise DependencyError("Dask distributed is missing: pip install 'dask[distributed]'") from exc
+        self._cluster = None
+        if address is not None:
+            try:
+                self._client = Client(address, timeout=CONNECT_TIMEOUT_S)
+            except (OSError, TimeoutError) as exc:
+                raise ConfigError(
+                    f"cannot reach the Dask scheduler at {address} within {CONNECT_TIMEOUT_S} s ({exc}); start one "
+                    "with 'dask scheduler' and workers with 'dask worker ADDRESS', or run here with --jobs J"
+                ) from exc
+            self.where = address
+        else:
+            self._cluster = LocalCluster(
+                n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR
+            )
+            self._client = Client(self._cluster)
+            self.where = f"{jobs} local worker processes"
+        self.workers = max(1, len(self._client.scheduler_info().get("workers", {})))
+
+    def map_unordered(self, fn: Callable[[Any, T], R], items: Sequence[T], shared: Any = None) -> Iterator[tuple[T, R]]:
+        """Submit every item, then yield ``(item, result)`` as each finishes; an error in a run is raised here."""
+        from dask.distributed import as_completed
+
+        client = self._client
+        if not items:
+            return
+        data = client.scatter(shared, broadcast=True) if shared is not None else None
+        futures = [client.submit(fn, data, item, pure=False) for item in items]
+        item_of = {f.key: item for f, item in zip(futures, items, strict=True)}
+        try:
+            for future in as_completed(futures):
+                yield item_of[future.key], future.result()
+            self.retries += int(client.run_on_scheduler(_suspicious, keys=list(item_of)))
+        finally:
+            client.cancel(futures)
+
+    def preload(self, *modules: str) -> None:
+        """Import ``modules`` on every worker now (MuJoCo, numba's compiled kernels), so a worker's
+        first run is not slowed by its imports."""
+        import importlib
+
+        for name in modules:
+            self._client.run(importlib.import_module, name)
+
+    def close(self) -> None:
+        """Close the client and, if it was started here, the local cluster."""
+        self._client.close()
+        if self._cluster is not None:
+            self._cluster.close()
+
+
+def make_executor(jobs: int | None = None, scheduler: str | None = None) -> Executor:
+    """The executor for ``--jobs`` / ``--scheduler`` (see the module docstring).
+
+    Args:
+        jobs: Worker processes here (None: :func:`default_jobs`); 1 runs in this process.
+        scheduler: Address of a running Dask scheduler; exclusive with ``jobs``.
+
+    Raises:
+        ConfigError: Both given, or ``jobs`` < 1, or an unreachable scheduler.
+    """
+    if scheduler is not None and jobs is not None:
+        raise ConfigError("--jobs and --scheduler exclude each other: run here with J processes, or on a cluster")
+    if scheduler is not None:
+        return DaskExecutor(address=scheduler)
+    n = default_jobs() if jobs is None else jobs
+    if n < 1:
+        raise ConfigError(f"--jobs must be >= 1, got {n}")
+    return Executor() if n == 1 else DaskExecutor(jobs=n)

@@ -1,0 +1,302 @@
+"""Monte Carlo of one case: many as-built robots and noise draws, the statistics, a file that loses nothing.
+
+Run ``i`` of a study drives the case's trajectory (planned once from the study's seed, or per run with
+``replan``) on its own :class:`~sim.tools.tune.Draw`: an as-built robot (build seed), a sensor noise
+seed and, with ranges, a perturbation drawn from them (:func:`sim.tools.tune.make_draws`: the first
+N draws of a larger study are those of a smaller one). Each run drives every run kind
+(:data:`sim.pipeline.runs.DEFAULT_RUNS`: fused feedback, odometry feedback, open loop) and is kept as
+one JSON record, keyed by its index and seeds, appended to the results file the moment it finishes
+(:class:`ResultsFile`). The statistics (:func:`statistics`) are computed from the records sorted by
+index, so a study killed and resumed (the same command: done runs are skipped) ends with exactly the
+statistics of one never interrupted, on any number of workers.
+
+A run is replayed bit for bit by ``nhsim simulate`` with its seeds (:func:`replay_options`):
+``--seed`` the plan's, ``--noise-seed`` the noise's (the perturbation's pose noise too),
+``--build-seed`` the robot's, and ``--perturb`` the drawn values written exactly.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Callable, Mapping
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from planning.errors import ConfigError, NhsimError
+from sim.physics.perturb import LIMITS, PerturbationRange
+from sim.pipeline.case import Case, PreparedTrajectory, prepare_trajectory
+from sim.pipeline.runs import DEFAULT_RUNS
+from sim.pipeline.simulate import track
+from sim.pipeline.sweep import missed_targets
+from sim.tools.executor import Executor
+from sim.tools.tune import Draw, make_draws
+
+#: Format version of the results file's header.
+RESULTS_VERSION = 1
+#: Spacing of the path samples kept per run (for the fan plot) [s].
+PATH_SPACING_S = 0.2
+#: Percentiles reported.
+PERCENTILES = (50, 90, 99)
+#: Metrics whose percentiles are reported.
+METRICS = ("final_position_error_m", "final_heading_error_rad", "rms_position_error_m", "max_position_error_m")
+#: Worst runs listed per run kind (by final position error).
+WORST = 3
+
+
+@dataclass(frozen=True)
+class MonteCarloSpec:
+    """A Monte Carlo study of one case.
+
+    Attributes:
+        case: The case; its ``seed`` is the study's (plan and draws).
+        runs: Number of runs (>= 1).
+        ranges: Perturbation ranges each run draws from; None for none.
+        replan: Plan each run anew with its own seed instead of once.
+    """
+
+    case: Case
+    runs: int
+    ranges: PerturbationRange | None = None
+    replan: bool = False
+
+    def __post_init__(self) -> None:
+        if isinstance(self.runs, bool) or not isinstance(self.runs, int) or self.runs < 1:
+            raise ConfigError(f"--runs must be a whole number >= 1, got {self.runs!r}")
+
+    def key(self) -> dict[str, Any]:
+        """What makes the study's runs what they are (everything but their number): a results file
+        holds the runs of one key."""
+        c = self.case
+        return {
+            "scenario": str(c.scenario_name),
+            "robot": c.robot,
+            "source": f"reference:{c.reference}" if c.reference is not None else f"planner:{c.planner}",
+            "tracker": c.feedback_tracker,
+            "seed": c.seed,
+            "control_rate": c.control_rate,
+            "gains": None if c.gains is None else asdict(c.gains),
+            "sensors": c.sensors,
+            "build": "nominal" if c.build_seed is None else "as-built",
+            "time_limit": c.planning.time_limit,
+            "ranges": None if self.ranges is None else {k: list(v) for k, v in asdict(self.ranges).items()},
+            "replan": self.replan,
+        }
+
+    def draws(self) -> tuple[Draw, ...]:
+        """The runs' draws (build seed, noise seed, perturbation)."""
+        return make_draws(self.runs, self.case.seed, perturbations=self.ranges)
+
+    def case_of(self, draw: Draw) -> Case:
+        """The case a run drives: the study's, on the draw's robot, noise and perturbation."""
+        pert = None if draw.perturbation is None else replace(draw.perturbation, seed=draw.seed)
+        build = None if self.case.build_seed is None else draw.build_seed
+        if self.replan:
+            return replace(self.case, seed=draw.seed, build_seed=build, perturbation=pert)
+        return replace(self.case, noise_seed=draw.seed, build_seed=build, perturbation=pert)
+
+
+def run_one(shared: tuple[MonteCarloSpec, PreparedTrajectory | None], item: tuple[int, Draw]) -> dict[str, Any]:
+    """Run ``i`` of a study (every run kind) as its record; the work of one executor task.
+
+    Args:
+        shared: The study and its trajectory (None with ``replan``: planned here).
+        item: (index, draw).
+    """
+    spec, prepared = shared
+    index, draw = item
+    case = spec.case_of(draw)
+    rec: dict[str, Any] = {
+        "index": index,
+        "plan_seed": case.seed,
+        "noise_seed": draw.seed,
+        "build_seed": case.build_seed,
+        "perturbation": None if case.perturbation is None else case.perturbation.as_dict(),
+    }
+    try:
+        prep = prepare_trajectory(case) if prepared is None else replace(prepared, case=case)
+    except NhsimError as exc:  # a replanned run whose plan failed: every kind failed
+        rec["failed"] = f"{type(exc).__name__}: {exc}"
+        return rec
+    job = track(prep, DEFAULT_RUNS, strict=False)
+    planned = prep.source.startswith("planner:")
+    every = max(1, round(PATH_SPACING_S / float(np.median(np.diff(job.logs[DEFAULT_RUNS[0]].t)))))
+    runs: dict[str, Any] = {}
+    for kind, run in job.runs.items():
+        m = run.metrics
+        missed = missed_targets(m, prep.scenario, planned=planned)
+        ok = not missed and m.collisions == 0 and m.warnings == 0 and m.status == "ok"
+        entry: dict[str, Any] = {name: float(getattr(m, name)) for name in METRICS}
+        entry.update(collisions=m.collisions, warnings=m.warnings, status=m.status, success=ok)
+        xy = run.log.pose[::every, :2]
+        entry["path"] = np.round(np.vstack([xy, run.log.pose[-1:, :2]]), 4).tolist()
+        runs[str(kind)] = entry
+    rec["runs"] = runs
+    return rec
+
+
+class ResultsFile:
+    """The runs of one study, one JSON line each after a header line naming the study's key.
+
+    Opening an existing file checks its key (a file of another study is refused, naming what
+    differs) and reads its runs; a last line cut short by a kill is dropped. Each new record is
+    appended, flushed and synced to disk before the next is taken.
+
+    Args:
+        path: The file (JSON lines).
+        key: The study's key (:meth:`MonteCarloSpec.key`).
+
+    Raises:
+        ConfigError: The file holds another study, or is not a results file.
+    """
+
+    def __init__(self, path: Path, key: Mapping[str, Any]) -> None:
+        self.path, self.key = Path(path), dict(key)
+        self.records: dict[int, dict[str, Any]] = {}
+        if self.path.exists():
+            self._read()
+        else:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._append({"nhsim_montecarlo": RESULTS_VERSION, "key": self.key})
+
+    def _read(self) -> None:
+        raw = self.path.read_bytes()
+        lines = raw.split(b"\n")
+        try:
+            header = json.loads(lines[0])
+            theirs = header["key"]
+        except (ValueError, KeyError, TypeError) as exc:
+            raise ConfigError(f"{self.path} is not an nhsim montecarlo results file; choose another --results") from exc
+        if theirs != self.key:
+            diff = ", ".join(
+                f"{k}: {theirs.get(k)!r} there, {self.key.get(k)!r} here"
+                for k in sorted(set(theirs) | set(self.key))
+                if theirs.get(k) != self.key.get(k)
+            )
+            raise ConfigError(
+                f"{self.path} holds the runs of another study ({diff}); give another --results or the same settings"
+            )
+        good = len(lines[0]) + 1
+        for line in lines[1:]:
+            if not line.strip():
+                good += len(line) + 1
+                continue
+            try:
+                rec = json.loads(line)
+            except ValueError:  # the last line of a run killed while writing it
+                break
+            self.records[int(rec["index"])] = rec
+            good += len(line) + 1
+        if good < len(raw):
+            with self.path.open("r+b") as f:
+                f.truncate(good)
+
+    def _append(self, obj: Mapping[str, Any]) -> None:
+        with self.path.open("a", encoding="utf-8") as f:
+            f.write(json.dumps(obj, allow_nan=False) + "\n")
+            f.flush()
+            os.fsync(f.fileno())
+
+    def add(self, record: dict[str, Any]) -> None:
+        """Store a finished run."""
+        self._append(record)
+        self.records[int(record["index"])] = record
+
+
+@dataclass(frozen=True)
+class MonteCarloResult:
+    """A finished study.
+
+    Attributes:
+        spec: The study.
+        prepared: Its trajectory (the study's plan; with ``replan``, the plan of the study's seed).
+        records: Run records by index, 0 .. runs - 1.
+        stats: :func:`statistics` of the records.
+        ran: Runs executed by this call (the others were read from the results file).
+        retries: Runs executed again because their worker died.
+    """
+
+    spec: MonteCarloSpec
+    prepared: PreparedTrajectory
+    records: list[dict[str, Any]]
+    stats: dict[str, Any]
+    ran: int
+    retries: int
+
+
+def run_montecarlo(
+    spec: MonteCarloSpec,
+    executor: Executor,
+    results: ResultsFile,
+    *,
+    progress: Callable[[int, int], Any] | None = None,
+) -> MonteCarloResult:
+    """Run the study's missing runs on the executor, storing each as it finishes, and compute the statistics.
+
+    Raises:
+        NhsimError: The plan failed (planned once), or a bad case.
+    """
+    prepared = prepare_trajectory(spec.case)
+    todo = [(i, d) for i, d in enumerate(spec.draws()) if i not in results.records]
+    done = spec.runs - len(todo)
+    if progress is not None:
+        progress(done, spec.runs)
+    shared = (spec, None if spec.replan else prepared)
+    executor.preload("sim.tools.montecarlo", "sim.physics.simulator", "control.estimation.kernels")
+    for _, record in executor.map_unordered(run_one, todo, shared=shared):
+        results.add(record)
+        done += 1
+        if progress is not None:
+            progress(done, spec.runs)
+    records = [results.records[i] for i in range(spec.runs)]
+    return MonteCarloResult(spec, prepared, records, statistics(records), len(todo), executor.retries)
+
+
+def statistics(records: list[dict[str, Any]]) -> dict[str, Any]:
+    """Per run kind: percentiles of each metric, success and collision rates, the worst runs.
+
+    A run whose replanning failed counts as a failure of every kind (no metrics).
+    """
+    out: dict[str, Any] = {}
+    for kind in (str(k) for k in DEFAULT_RUNS):
+        have = [r for r in records if "runs" in r and kind in r["runs"]]
+        entries = [r["runs"][kind] for r in have]
+        n = len(records)
+        stat: dict[str, Any] = {"runs": n, "measured": len(entries)}
+        for name in METRICS:
+            values = np.array([e[name] for e in entries], dtype=float)
+            stat[name] = {f"p{p}": float(np.percentile(values, p)) if len(values) else math.nan for p in PERCENTILES}
+        stat["success_rate"] = sum(bool(e["success"]) for e in entries) / n if n else math.nan
+        stat["collision_rate"] = sum(e["collisions"] > 0 for e in entries) / n if n else math.nan
+        order = sorted(have, key=lambda r: (-r["runs"][kind]["final_position_error_m"], r["index"]))
+        stat["worst"] = [
+            {
+                "index": r["index"],
+                "plan_seed": r["plan_seed"],
+                "noise_seed": r["noise_seed"],
+                "build_seed": r["build_seed"],
+                "perturbation": r["perturbation"],
+                "final_position_error_m": r["runs"][kind]["final_position_error_m"],
+            }
+            for r in order[:WORST]
+        ]
+        out[kind] = stat
+    out["plan_failures"] = sum("failed" in r for r in records)
+    return out
+
+
+def replay_options(record: Mapping[str, Any]) -> list[str]:
+    """The ``nhsim simulate`` options that replay a run bit for bit, besides the study's own options
+    (scenario, robot, source, gains, ...): its seeds and its perturbation, written exactly."""
+    opts = ["--seed", str(record["plan_seed"]), "--noise-seed", str(record["noise_seed"])]
+    opts += ["--build", "nominal"] if record["build_seed"] is None else ["--build-seed", str(record["build_seed"])]
+    pert = record.get("perturbation")
+    if pert:
+        changed = [f"{k}={pert[k]!r}" for k in LIMITS if pert[k] != LIMITS[k][2]]
+        if changed:
+            opts += ["--perturb", ",".join(changed)]
+    return opts

@@ -1,0 +1,168 @@
+"""Monte Carlo studies (``sim.tools.montecarlo``, ``nhsim montecarlo``) and the executor they run on.
+
+The distributed tests start a real Dask scheduler and two worker processes (a ``LocalCluster``),
+never a mock, and compare with the serial loop: equal statistics, bit for bit.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+
+import pytest
+
+from planning.errors import ConfigError
+from sim.cli.main import main
+from sim.physics.perturb import PerturbationRange
+from sim.pipeline.case import Case
+from sim.tools.executor import DaskExecutor, Executor, make_executor
+from sim.tools.montecarlo import MonteCarloSpec, ResultsFile, run_montecarlo, statistics
+
+CASE = Case("open", robot="turtlebot3", reference="line", seed=3)
+
+
+def _spec(runs: int = 3, **kw: object) -> MonteCarloSpec:
+    return MonteCarloSpec(CASE, runs, **kw)  # type: ignore[arg-type]
+
+
+@pytest.fixture(scope="module")
+def serial(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
+    """A 3-run study run serially, uninterrupted: the reference for the other tests."""
+    path = tmp_path_factory.mktemp("mc") / "serial.jsonl"
+    spec = _spec()
+    result = run_montecarlo(spec, Executor(), ResultsFile(path, spec.key()))
+    return {"stats": result.stats, "records": result.records, "path": path}
+
+
+def test_statistics_summarise_every_run_kind(serial: dict[str, object]) -> None:
+    stats = serial["stats"]
+    assert isinstance(stats, dict)
+    records = serial["records"]
+    assert isinstance(records, list) and [r["index"] for r in records] == [0, 1, 2]
+    assert len({r["build_seed"] for r in records}) == 3 and len({r["noise_seed"] for r in records}) == 3
+    for kind in ("closed_loop", "closed_loop_odometry", "open_loop"):
+        s = stats[kind]
+        finals = sorted(r["runs"][kind]["final_position_error_m"] for r in records)
+        assert s["final_position_error_m"]["p50"] == finals[1]  # the median of three
+        assert finals[1] <= s["final_position_error_m"]["p90"] <= s["final_position_error_m"]["p99"] <= finals[2]
+        assert s["worst"][0]["final_position_error_m"] == finals[2]
+    # the real robot's closed loop keeps to the path; open loop drifts further
+    assert stats["closed_loop"]["success_rate"] == 1.0
+    assert stats["open_loop"]["final_position_error_m"]["p50"] > stats["closed_loop"]["final_position_error_m"]["p50"]
+
+
+def test_two_dask_workers_give_the_serial_statistics(serial: dict[str, object], tmp_path: Path) -> None:
+    spec = _spec()
+    with DaskExecutor(jobs=2) as ex:
+        assert ex.workers == 2
+        result = run_montecarlo(spec, ex, ResultsFile(tmp_path / "dask.jsonl", spec.key()))
+    assert result.stats == serial["stats"]
+    assert result.records == serial["records"]
+
+
+def test_a_killed_study_resumed_ends_with_the_same_statistics(serial: dict[str, object], tmp_path: Path) -> None:
+    spec = _spec()
+    path = tmp_path / "resumed.jsonl"
+    lines = Path(str(serial["path"])).read_text().splitlines(keepends=True)
+    # killed after two runs, while writing the third (half a line on disk)
+    path.write_text("".join(lines[:3]) + lines[3][: len(lines[3]) // 2])
+    results = ResultsFile(path, spec.key())
+    assert sorted(results.records) == [0, 1]
+    result = run_montecarlo(spec, Executor(), results)
+    assert result.ran == 1
+    assert result.stats == serial["stats"]
+    assert [json.loads(x)["index"] for x in path.read_text().splitlines()[1:]] == [0, 1, 2]
+
+
+def test_a_results_file_of_another_study_is_refused(serial: dict[str, object]) -> None:
+    other = MonteCarloSpec(Case("open", robot="turtlebot3", reference="line", seed=4), 3)
+    with pytest.raises(ConfigError, match=r"another study \(seed: 3 there, 4 here\)"):
+        ResultsFile(Path(str(serial["path"])), other.key())
+    ranged = _spec(ranges=PerturbationRange.parse("radius=0.97:1.03", others="nominal"))
+    with pytest.raises(ConfigError, match="ranges: None there"):
+        ResultsFile(Path(str(serial["path"])), ranged.key())
+
+
+def test_perturbations_are_drawn_from_the_ranges_only() -> None:
+    spec = _spec(runs=20, ranges=PerturbationRange.parse("radius=0.97:1.03,latency=0:0.02", others="nominal"))
+    draws = spec.draws()
+    radii = [d.perturbation.radius for d in draws if d.perturbation is not None]
+    assert len(radii) == 20 and all(0.97 <= r <= 1.03 for r in radii) and len(set(radii)) == 20
+    assert all(d.perturbation is not None and d.perturbation.friction == 1.0 for d in draws)
+    # a larger study starts with the smaller one's runs
+    assert _spec(runs=5).draws() == _spec(runs=8).draws()[:5]
+
+
+def test_a_worker_that_dies_has_its_run_retried_elsewhere(tmp_path: Path) -> None:
+    marker = tmp_path / "died"
+    with DaskExecutor(jobs=2) as ex:
+        got = dict(ex.map_unordered(_die_once, [0, 1, 2, 3], shared=str(marker)))
+        assert got == {0: 0, 1: 10, 2: 20, 3: 30}
+        assert marker.exists() and ex.retries >= 1
+
+
+def _die_once(marker: str, item: int) -> int:
+    if item == 1 and not os.path.exists(marker):
+        Path(marker).write_text("x")
+        os._exit(1)  # the worker process dies mid-run
+    time.sleep(0.2)
+    return item * 10
+
+
+def test_bad_input_is_refused_clearly(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(ConfigError, match="--runs must be a whole number >= 1"):
+        _spec(runs=0)
+    assert main(["montecarlo", "--scenario", "open", "--reference", "line", "--runs", "0", "--jobs", "1"]) == 2
+    assert "--runs" in capsys.readouterr().err
+    with pytest.raises(ConfigError, match="--jobs must be >= 1"):
+        make_executor(0)
+    start = time.monotonic()
+    with pytest.raises(ConfigError, match=r"tcp://127\.0\.0\.1:9 within 10 s"):
+        make_executor(scheduler="tcp://127.0.0.1:9")
+    assert time.monotonic() - start < 20
+    assert not list(tmp_path.iterdir())
+
+
+def test_the_cli_runs_resumes_and_replays_a_run_bit_for_bit(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    argv = ["montecarlo", "--scenario", "open", "--reference", "line", "--robot", "turtlebot3", "--runs", "2"]
+    argv += ["--seed", "3", "--jobs", "1", "--quiet", "--no-plots", "--json", "mc.json", "--results", "mc.jsonl"]
+    assert main(argv) == 0
+    first = json.loads((tmp_path / "mc.json").read_text())
+    assert main(argv) == 0  # the same command again: nothing to run, its own summary rewritten
+    again = json.loads((tmp_path / "mc.json").read_text())
+    assert again["ran_now"] == 0 and again["statistics"] == first["statistics"]
+    worst = first["statistics"]["closed_loop"]["worst"][0]
+    from sim.tools.montecarlo import replay_options
+
+    replay = ["simulate", *first["replay_base"], *replay_options(worst), "--no-video", "--no-plots", "--quiet"]
+    assert main([*replay, "--json", "replay.json"]) in (0, 1)
+    rec = json.loads((tmp_path / "replay.json").read_text())
+    assert rec["closed_loop"]["final_position_error_m"] == worst["final_position_error_m"]
+
+
+def test_statistics_of_no_measured_run_are_nan_not_errors() -> None:
+    stats = statistics([{"index": 0, "plan_seed": 1, "noise_seed": 1, "build_seed": 1, "failed": "plan"}])
+    assert stats["plan_failures"] == 1 and stats["closed_loop"]["success_rate"] == 0.0
+
+
+def test_regress_on_two_workers_reports_what_the_serial_run_reports(capsys: pytest.CaptureFixture[str]) -> None:
+    cases = ["--case", "open-turtlebot3-line-fbl-s0,open-turtlebot3-line-open-loop-s0"]
+    assert main(["regress", *cases]) == 0
+    serial = capsys.readouterr().out
+    assert main(["regress", *cases, "--jobs", "2"]) == 0
+    assert capsys.readouterr().out == serial
+    assert "2 passed, 0 failed of 2 case(s)" in serial
+
+
+def test_sweep_cases_on_two_workers_give_the_serial_rows() -> None:
+    from sim.pipeline.sweep import sweep_case, sweep_task
+
+    cases = [Case("parallel_park", robot="turtlebot3", planner="birrt"), Case("turn_in_place", planner="sinusoidal")]
+    with DaskExecutor(jobs=2) as ex:
+        rows = {case.name: row for case, row in ex.map_unordered(sweep_task, cases)}
+    for case in cases:
+        ours, theirs = rows[case.name], sweep_case(case)
+        assert ours.outcome == theirs.outcome and ours.runs == theirs.runs  # every metric of every run, exactly
