@@ -54,6 +54,11 @@ RUN_SETTINGS: dict[str, Any] = {
     "control_rate": 50.0,
     "seed": 0,
     "time_limit": 30.0,
+    "columns": None,
+    "scale": None,
+    "time_scale": None,
+    "offset": None,
+    "allow_collisions": False,
 }
 
 

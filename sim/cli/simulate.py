@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 from planning.errors import ConfigError
 from sim.cli.job_outputs import add_output_arguments
+from sim.cli.trajectory_files import add_file_arguments, format_import
 from sim.pipeline.runs import RunKind
 
 if TYPE_CHECKING:
@@ -114,6 +115,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     _add_job_arguments(p)
+    add_file_arguments(p)
     _add_run_arguments(p)
     add_output_arguments(p)
     return p
@@ -282,38 +284,65 @@ def run(args: argparse.Namespace) -> int:
     return _run_job(args, gains, perturbation)
 
 
+def _case_fields(args: argparse.Namespace, gains: Any, perturbation: Any) -> dict[str, Any]:
+    """The case fields every job takes from the options (seed, rate, gains, build, sensors, ...)."""
+    from sim.pipeline.case import PlanOptions
+
+    return {
+        "seed": args.seed,
+        "control_rate": args.control_rate,
+        "gains": gains,
+        "perturbation": perturbation,
+        "planning": PlanOptions(time_limit=args.time_limit),
+        "build_seed": parse_build(args.build, args.build_seed),
+        "sensors": sensor_overrides(args.sensors),
+    }
+
+
 def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
     """One job: outputs planned, the case prepared and tracked, the table printed, the files written."""
-    from sim.cli.job_outputs import plan_outputs, write_outputs
-    from sim.cli.progress import JobBars
-    from sim.pipeline.case import Case, PlanOptions, load_case_scenario
-    from sim.pipeline.simulate import simulate
+    from sim.pipeline.case import Case
 
+    if getattr(args, "trajectory", None) is not None or getattr(args, "path", None) is not None:
+        return _run_file_job(args, gains, perturbation)
     planner, scenario = args.planner, args.scenario
     if planner is None and args.reference is None and scenario == "open" and _default_plan_available():
         scenario, planner = DEFAULT_PLAN
     if planner is not None and args.reference is not None:
         raise ConfigError("--reference and --planner exclude each other: track an analytic curve or a plan")
     source = {"planner": planner} if planner is not None else {"reference": args.reference or "figure8"}
-    case = Case(
-        scenario,
-        robot=args.robot,
-        seed=args.seed,
-        control_rate=args.control_rate,
-        gains=gains,
-        perturbation=perturbation,
-        planning=PlanOptions(time_limit=args.time_limit),
-        build_seed=parse_build(args.build, args.build_seed),
-        sensors=sensor_overrides(args.sensors),
-        **source,
-    )
+    case = Case(scenario, robot=args.robot, **_case_fields(args, gains, perturbation), **source)
+    return _track_job(args, case, planner or args.reference or "figure8")
+
+
+def _run_file_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
+    """A job on a trajectory or path file (:mod:`sim.cli.trajectory_files`)."""
+    from sim.cli.trajectory_files import file_source, file_world
+    from sim.pipeline.case import Case
+
+    source = file_source(args)
+    scenario, robot, name = file_world(args, source)
+    case = Case(scenario, robot=robot, trajectory_file=source, **_case_fields(args, gains, perturbation))
+    arena = not isinstance(scenario, str)  # built for the robot: its own robot, for the output names
+    return _track_job(args, case, name, argparse.Namespace(**{**vars(args), "robot": None}) if arena else None)
+
+
+def _track_job(args: argparse.Namespace, case: Any, source: str, stem_args: argparse.Namespace | None = None) -> int:
+    """Track a job's case: outputs planned (named after ``source``, with ``stem_args`` for the name if
+    given), the case prepared and tracked, the summary and table printed, the files written, judged."""
+    from sim.cli.job_outputs import plan_outputs, write_outputs
+    from sim.cli.progress import JobBars
+    from sim.pipeline.case import load_case_scenario
+    from sim.pipeline.simulate import simulate
+
     runs = parse_runs(args.runs) if args.runs else run_choices()[args.tracker]
     loaded = load_case_scenario(case)  # a robot the scenario does not list stops here
     case.sensing(loaded)  # so do bad sensor settings
-    outputs = plan_outputs(args, scenario=loaded.name, source=planner or args.reference or "figure8")
+    outputs = plan_outputs(stem_args or args, scenario=loaded.name, source=source)
     with JobBars(outputs.progress) as bars:
         result = simulate(case, runs, progress=bars)
     record = result.record()
+    gains, perturbation = result.gains, case.perturbation
     if not args.quiet:
         print(
             f"scenario {result.scenario.name} | robot {result.robot.name} | {result.source} | "
@@ -321,6 +350,8 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
             f"gains Kp={gains.kp:g} Kd={gains.kd:g}" + (f" | perturbed {perturbation.label()}" if perturbation else "")
         )
         print(f"{_build_line(record)} | {_sensor_line(record)}")
+        if "import" in record:
+            print("\n".join(format_import(record["import"])))
     print(format_table(record))
     for path in write_outputs(result, outputs, record).values():
         if not args.quiet:
@@ -330,7 +361,8 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
     if closed is not None and closed.metrics.collisions > 0:
         failures.append("closed-loop run touched an obstacle")
     if closed is not None:
-        failures += missed_targets(closed.metrics, result.scenario, planned=result.source.startswith("planner:"))
+        planned = result.source.startswith(("planner:", "file:"))  # a file is tracked and judged as a plan
+        failures += missed_targets(closed.metrics, result.scenario, planned=planned)
     for line in failures:
         print(line, file=sys.stderr)
     clean = all(run.metrics.warnings == 0 for run in result.runs.values())
