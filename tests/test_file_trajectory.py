@@ -67,8 +67,10 @@ def test_a_file_a_little_too_fast_is_slowed_uniformly(tmp_path: Path) -> None:
 def test_a_file_that_starts_moving_is_retimed_from_rest_with_the_reason(tmp_path: Path) -> None:
     t = np.arange(0.0, 10.0 + 1e-9, 0.5)
     x = 0.1 * t  # 10 cm/s from the first row to the last, velocities given
-    p = write_csv(tmp_path / "line.csv", {"t": t, "x": x, "y": np.zeros_like(t), "vx": np.full_like(t, 0.1),
-                                          "vy": np.zeros_like(t)})  # fmt: skip
+    p = write_csv(
+        tmp_path / "line.csv",
+        {"t": t, "x": x, "y": np.zeros_like(t), "vx": np.full_like(t, 0.1), "vy": np.zeros_like(t)},
+    )
     imp = read_trajectory_file(TrajectoryFile(p))
     res = file_trajectory(imp, ROBOT, WORLD)
     assert imp.report.retimed is True and "starts moving (+0.100 m/s)" in imp.report.timing
@@ -89,8 +91,17 @@ def test_a_file_that_jumps_to_speed_is_retimed_naming_its_acceleration(tmp_path:
 
 def test_a_turn_in_place_in_a_timed_file_follows_its_headings(tmp_path: Path) -> None:
     t = np.array([0.0, 5.0, 10.0, 12.0, 14.0, 19.0, 24.0])
-    rows = np.array([[0, 0, 0], [0.5, 0, 0], [1, 0, 0], [1, 0, np.pi / 4], [1, 0, np.pi / 2], [1, 0.5, np.pi / 2],
-                     [1, 1, np.pi / 2]])  # fmt: skip
+    rows = np.array(
+        [
+            [0, 0, 0],
+            [0.5, 0, 0],
+            [1, 0, 0],
+            [1, 0, np.pi / 4],
+            [1, 0, np.pi / 2],
+            [1, 0.5, np.pi / 2],
+            [1, 1, np.pi / 2],
+        ]
+    )
     p = write_csv(tmp_path / "turn.csv", {"t": t, "x": rows[:, 0], "y": rows[:, 1], "theta": rows[:, 2]})
     imp = read_trajectory_file(TrajectoryFile(p))
     dense = densify(imp)

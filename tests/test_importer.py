@@ -61,8 +61,10 @@ def test_scale_time_scale_and_offset_move_positions_and_derivatives(tmp_path: Pa
     t = np.arange(0.0, DURATION + 1e-9, 1.0)
     xy, vel, _ = s_curve(t)
     # the file in centimetres and tenths of a second, in a frame turned by -pi/2 from the world's
-    p = write_csv(tmp_path / "cm.csv", {"t": 10 * t, "x": 100 * xy[:, 0], "y": 100 * xy[:, 1],
-                                        "vx": 10 * vel[:, 0], "vy": 10 * vel[:, 1]})  # fmt: skip
+    p = write_csv(
+        tmp_path / "cm.csv",
+        {"t": 10 * t, "x": 100 * xy[:, 0], "y": 100 * xy[:, 1], "vx": 10 * vel[:, 0], "vy": 10 * vel[:, 1]},
+    )
     imp = read_trajectory_file(TrajectoryFile(p, scale=0.01, time_scale=0.1, offset=(1.0, -2.0, np.pi / 2)))
     rot = np.array([[0.0, -1.0], [1.0, 0.0]])
     np.testing.assert_allclose(imp.t, t, atol=1e-12)
@@ -203,8 +205,10 @@ def test_yaw_rates_and_headings_that_disagree_are_noted(tmp_path: Path) -> None:
 
 
 def test_a_path_ignores_times_and_derivatives_and_merges_repeated_poses(tmp_path: Path) -> None:
-    p = write_csv(tmp_path / "p.csv", {"t": np.arange(4.0), "x": np.array([0.0, 1.0, 1.0, 2.0]), "y": np.zeros(4),
-                                       "v": np.ones(4)})  # fmt: skip
+    p = write_csv(
+        tmp_path / "p.csv",
+        {"t": np.arange(4.0), "x": np.array([0.0, 1.0, 1.0, 2.0]), "y": np.zeros(4), "v": np.ones(4)},
+    )
     imp = read_trajectory_file(TrajectoryFile(p, timed=False))
     assert imp.t is None and imp.report.rows_merged == 1 and imp.rows == ("line 2", "line 3", "line 5")
     assert "columns t, v ignored" in imp.report.notes[0]

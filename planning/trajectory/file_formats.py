@@ -126,11 +126,10 @@ def read_table(path: str | Path, columns: Sequence[str] | None = None) -> FileTa
     """
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8-sig")
-    except OSError as exc:
-        raise TrajectoryFileError(f"cannot read trajectory file {p}: {exc.strerror or exc}") from exc
-    except UnicodeDecodeError as exc:
-        raise TrajectoryFileError(f"{p}: not a text file (UTF-8): {exc}") from exc
+        text = p.read_text(encoding="utf-8-sig")  # a byte-order mark (Windows exports) is dropped
+    except (OSError, UnicodeDecodeError) as exc:
+        why = "not UTF-8 text" if isinstance(exc, UnicodeDecodeError) else (exc.strerror or str(exc))
+        raise TrajectoryFileError(f"cannot read trajectory file {p}: {why}") from exc
     suffix = p.suffix.lower()
     if suffix in (".json", ".yaml", ".yml"):
         if columns is not None:

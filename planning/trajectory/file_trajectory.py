@@ -260,8 +260,14 @@ def arena_scenario(imported: ImportedFile, robot: RobotSpec) -> Scenario:
             "--scale 0.01 for 1 cm per pixel), or give the world with --scenario"
         )
     world = World((float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])))
-    sc = Scenario(ARENA_NAME, robot.name, world, Pose2D(0.0, 0.0, 0.0), Pose2D(0.0, 0.0, 0.0),
-                  description=f"empty arena around {imported.source.path}")  # fmt: skip
+    sc = Scenario(
+        ARENA_NAME,
+        robot.name,
+        world,
+        Pose2D(0.0, 0.0, 0.0),
+        Pose2D(0.0, 0.0, 0.0),
+        description=f"empty arena around {imported.source.path}",
+    )
     return with_file_ends(sc, imported)
 
 
@@ -288,8 +294,9 @@ def file_trajectory(imported: ImportedFile, robot: RobotSpec, world: World, **op
         dense = densify(imported)
         report.world = check_world(imported, dense.pose, dense.t, world, robot)
         retime, why, _ = timing_verdict(dense, Limits.from_robot(robot, options.get("margin", 0.85)))
-        plan = PlanResult(PlanStatus.SUCCESS, name, dense.pose, times=dense.t,
-                          controls=np.column_stack([dense.v, dense.omega]))  # fmt: skip
+        plan = PlanResult(
+            PlanStatus.SUCCESS, name, dense.pose, times=dense.t, controls=np.column_stack([dense.v, dense.omega])
+        )
         res = make_trajectory(plan, robot, world, goal=goal, retime=retime, name=name, **options)
         report.retimed, report.timing = retime, why
         report.time_stretch = float(res.stats.get("time_scale") or 1.0)

@@ -489,9 +489,15 @@ def _miss(t: FloatArray, values: FloatArray, rates: FloatArray, tol: tuple[float
 
 
 def _replace(
-    report: ImportReport, what: str, rows: tuple[str, ...], check: tuple[int, FloatArray], given: FloatArray,
-    used: FloatArray, unit: str, verb: str,
-) -> None:  # fmt: skip
+    report: ImportReport,
+    what: str,
+    rows: tuple[str, ...],
+    check: tuple[int, FloatArray],
+    given: FloatArray,
+    used: FloatArray,
+    unit: str,
+    verb: str,
+) -> None:
     """Note that ``given`` (N, k) values failed their check at interval ``check[0]`` and record the
     largest change to ``used``."""
     i, table = check
@@ -503,9 +509,10 @@ def _replace(
     diff = np.linalg.norm(given - used, axis=1)
     k = int(np.argmax(diff))
     report.corrections.append(
-        Correction(what, rows[k], tuple(map(float, given[k])), tuple(map(float, used[k])), float(diff[k]),
-                   float(allowed), unit)
-    )  # fmt: skip
+        Correction(
+            what, rows[k], tuple(map(float, given[k])), tuple(map(float, used[k])), float(diff[k]), float(allowed), unit
+        )
+    )
 
 
 def _timed(
@@ -547,9 +554,13 @@ def _timed(
 
 
 def _with_velocities(
-    t: FloatArray, xy: FloatArray, vel: FloatArray, acc: FloatArray | None, rows: tuple[str, ...],
+    t: FloatArray,
+    xy: FloatArray,
+    vel: FloatArray,
+    acc: FloatArray | None,
+    rows: tuple[str, ...],
     report: ImportReport,
-) -> PositionCurve:  # fmt: skip
+) -> PositionCurve:
     """The Hermite interpolant of checked velocities, quintic with accelerations that pass their check."""
     cubic = CubicHermiteSpline(t, xy, vel)
     if acc is None:
@@ -575,6 +586,13 @@ def _check_heading(
         f"{HEADING_TO_MOTION:g} rad): the heading follows the motion where the robot moves"
     )
     report.corrections.append(
-        Correction("headings theta", rows[k], (float(theta[k]),), (float(theta[k] - wrap_angle(theta[k] - motion[k])),),
-                   float(off[k]), HEADING_TO_MOTION, "rad")
-    )  # fmt: skip
+        Correction(
+            "headings theta",
+            rows[k],
+            (float(theta[k]),),
+            (float(theta[k] - wrap_angle(theta[k] - motion[k])),),
+            float(off[k]),
+            HEADING_TO_MOTION,
+            "rad",
+        )
+    )

@@ -251,7 +251,8 @@ def format_table(record: dict[str, Any]) -> str:
         r = record[kind]
         est = r.get("estimation")
         nees = est.get("nees_in_bound_fraction") if est else None
-        est_rms = f"{est['position_rmse_m']:.4f}" if est else "-"
+        rmse = est.get("position_rmse_m") if est else None  # None: the estimator diverged (its status says)
+        est_rms = f"{rmse:.4f}" if rmse is not None else "-"
         nees_ok = f"{nees:.0%}" if nees is not None else "-"
         lines.append(
             f"{kind:<21} {r['final_position_error_m']:>13.4f} {r['final_heading_error_rad']:>16.4f} "

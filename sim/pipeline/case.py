@@ -109,7 +109,9 @@ class Case:
         if self.build_seed is not None:
             check_build_seed(self.build_seed)
         if sum(x is not None for x in (self.reference, self.planner, self.trajectory_file)) != 1:
-            raise ConfigError(f"case {self.label}: give exactly one of reference, planner or trajectory_file")
+            raise ConfigError(
+                f"case {self.label}: give exactly one of reference or planner, or a trajectory_file instead of both"
+            )
         if self.reference is not None and self.reference not in REFERENCES:
             raise ConfigError(
                 f"case {self.label}: unknown reference {self.reference!r}; choose {', '.join(REFERENCES)}"
