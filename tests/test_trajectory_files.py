@@ -153,3 +153,14 @@ def test_a_file_through_an_obstacle_is_refused_or_run_anyway_on_request(
     rec = json.loads(out.read_text())
     assert rec["import"]["collisions_allowed"] and "enters obstacle 0" in rec["import"]["world"]
     assert rec["open_loop"]["collisions"] > 0
+
+
+def test_simulate_file_from_python_starts_where_the_file_does(tmp_path: Path) -> None:
+    from planning import TrajectoryFile
+    from sim import RunKind, simulate_file
+
+    job = simulate_file(TrajectoryFile(pixel_file(tmp_path, step=0.5), scale=0.01), runs=(RunKind.CLOSED_LOOP,))
+    assert job.source == "file:px" and job.scenario.name == "arena"
+    assert (job.scenario.start.x, job.scenario.start.y) == pytest.approx((0.40, 1.00), abs=1e-9)
+    assert job.extra["import"]["rows_merged"] == 2 and job.extra["import"]["arena"] is True
+    assert job.metrics[RunKind.CLOSED_LOOP].final_position_error_m <= 0.02

@@ -45,6 +45,8 @@ MAX_STRETCH = 2.0
 ARENA_MARGIN = 0.25
 #: Largest side of a default arena [m]: a larger file is almost surely not in metres.
 ARENA_MAX = 50.0
+#: The robot of an arena built around a file when none is asked for.
+ARENA_ROBOT = "turtlebot3"
 #: Sample period of a timed file's samples [s].
 DT = 0.01
 

@@ -14,9 +14,6 @@ if TYPE_CHECKING:
     from planning.scenario import Scenario
     from planning.trajectory.importer import TrajectoryFile
 
-#: The robot of a file run without --scenario or --robot.
-DEFAULT_FILE_ROBOT = "turtlebot3"
-
 HELP = (
     "Track your own trajectory (timed) or path (untimed) from a file: CSV, TSV or whitespace-separated text with "
     'a header row naming the columns (or --columns), JSON ({"t": [...], "x": [...]} or a list of records), or '
@@ -87,12 +84,12 @@ def file_world(args: argparse.Namespace, source: TrajectoryFile) -> tuple[str | 
     if args.scenario != getattr(args, "_scenario_default", None):
         return args.scenario, args.robot, source.name
     from planning.core.robot import load_robot
-    from planning.trajectory.file_trajectory import arena_scenario
+    from planning.trajectory.file_trajectory import ARENA_ROBOT, arena_scenario
     from planning.trajectory.importer import read_trajectory_file
 
-    robot = args.robot or DEFAULT_FILE_ROBOT
+    robot = args.robot or ARENA_ROBOT
     arena = arena_scenario(read_trajectory_file(source), load_robot(robot))
-    return arena, None, source.name if robot == DEFAULT_FILE_ROBOT else f"{source.name}-{robot}"
+    return arena, None, source.name if robot == ARENA_ROBOT else f"{source.name}-{robot}"
 
 
 def format_import(rec: dict[str, Any]) -> list[str]:
