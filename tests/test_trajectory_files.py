@@ -104,6 +104,7 @@ def test_a_ros_path_runs_in_an_arena_around_it(
         ("t,x,y\n0,0,0\n1,1,1\n1,2,1\n", [], "line 3 -> line 4"),
         ("t,x,y\n0,0,0\n1,1,1\n", ["--reference", "line"], "drop --planner, --reference"),
         ("t,x,y\n0,0,0\n1,1,1\n", ["--offset", "1,2"], "X,Y,THETA"),
+        ("t,x,y\n0,0,0\n1,1,1\n", ["--all"], "drop it to track"),
         ("t,x,y\n0,0,0\n1,1,1\n", ["--columns", "t,x,q"], "valid names"),
     ],
 )

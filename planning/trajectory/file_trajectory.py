@@ -142,7 +142,7 @@ def timing_verdict(dense: DenseFile, limits: Limits) -> tuple[bool, str, float]:
         why = f"keeping its clock within the speed and yaw-rate limits would slow it x{speed_scale:.3g}"
         return True, f"{why} (more than x{MAX_STRETCH:g})", 1.0
     if speed_scale > 1.0 + 1e-9:
-        return False, f"slowed uniformly x{speed_scale:.3g} to stay within the speed and yaw-rate limits", speed_scale
+        return False, f"slowed uniformly x{speed_scale:.3f} to stay within the speed and yaw-rate limits", speed_scale
     return False, "within the robot's limits", 1.0
 
 

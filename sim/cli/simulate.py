@@ -278,6 +278,8 @@ def run(args: argparse.Namespace) -> int:
     if args.control_rate <= 0:
         raise ConfigError(f"--control-rate must be > 0 Hz, got {args.control_rate}")
     check_time_limit(args.time_limit)
+    if args.all and (args.trajectory is not None or args.path is not None):
+        raise ConfigError("--all sweeps the built-in scenarios' plans: drop it to track a --trajectory or --path file")
     if args.all:
         from sim.cli.sweep_table import run_all
 
