@@ -183,3 +183,26 @@ def test_an_untimed_ros_path_is_timed_by_the_speed_profile(tmp_path: Path) -> No
     np.testing.assert_allclose(traj.pose[-1], [2.0, 0.0, yaw[-1]], atol=1e-6)
     assert np.max(np.abs(traj.vel[:, 0])) <= LIMITS.max_speed + 1e-9
     assert traj.duration > traj.path_length() / LIMITS.max_speed
+
+
+def test_a_cusp_from_the_sign_of_v_drives_forwards_then_backwards(tmp_path: Path) -> None:
+    """Forwards 0.6 m, then backwards along a 0.5 m arc: the speed's sign splits the drives at the cusp."""
+    t1 = np.arange(0.0, 10.0 + 1e-9, 0.5)
+    u = 10 * (t1 / 10) ** 3 - 15 * (t1 / 10) ** 4 + 6 * (t1 / 10) ** 5
+    phi = 0.8 * u[1:]  # the second half, on the arc
+    x = np.concatenate([0.6 * u, 0.6 - 0.5 * np.sin(phi)])
+    y = np.concatenate([0 * u, 0.5 * (1 - np.cos(phi))])
+    t = np.concatenate([t1, 10.0 + t1[1:]])
+    v = np.concatenate([np.full(t1.size, 0.05), np.full(phi.size, -0.05)])  # only the sign is read here
+    p = write_csv(tmp_path / "cusp.csv", {"t": t, "x": x, "y": y, "v": v})
+    imp = read_trajectory_file(TrajectoryFile(p))
+    assert [c.what for c in imp.report.corrections] == ["speeds v"]  # 5 cm/s is not how fast it moves
+    res = file_trajectory(imp, ROBOT, World((-1.0, 2.0, -1.0, 2.0)))
+    traj = res.trajectory
+    assert res.success and traj is not None and traj.segments is not None
+    kinds = [traj.segment_kinds[k] for k in traj.segments[np.abs(traj.vel[:, 0]) > 1e-3]]
+    assert kinds[0] == "forward" and kinds[-1] == "reverse" and set(kinds) == {"forward", "reverse"}
+    first_back = int(np.argmax(traj.vel[:, 0] < 0.0))  # one cusp: forwards until it, backwards after it
+    assert np.all(traj.vel[:first_back, 0] >= 0.0) and np.all(traj.vel[first_back:, 0] <= 0.0)
+    np.testing.assert_allclose(traj.pose[-1, :2], [x[-1], y[-1]], atol=1e-9)
+    np.testing.assert_allclose(traj.pose[-1, 2], -0.8, atol=1e-3)  # backing along the arc turns it clockwise

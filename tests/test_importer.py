@@ -116,6 +116,7 @@ def test_stamps_repeated_at_two_positions_or_going_back_are_errors_naming_the_ro
         ({"t": [0.0, 1.0, 2.0], "x": [0.5, 0.5, 0.5], "y": [1.0, 1.0, 1.0]}, True, "two distinct positions"),
         ({"x": [0.5, 0.5], "y": [1.0, 1.0]}, False, "two distinct positions"),
         ({"t": [0.0, 1.0], "x": [0.0, 1.0], "y": [0.0, 1.0], "vx": [0.0, 0.0]}, True, "vx and vy come together"),
+        ({"t": [0.0, 36000.0], "x": [0.0, 1.0], "y": [0.0, 1.0]}, True, "--time-scale 0.001"),
     ],
 )
 def test_missing_columns_and_a_single_position_are_errors(

@@ -55,6 +55,8 @@ HEADING_TOLERANCE = (0.02, 0.10)
 HEADING_TO_MOTION = 0.1
 #: Speed below which the robot counts as standing [m/s].
 MOVING_SPEED = 1e-3
+#: Longest trajectory a file may describe [s]: a longer one almost surely counts milliseconds.
+MAX_DURATION = 3600.0
 
 _DERIVATIVES = ("v", "omega", "vx", "vy", "ax", "ay")
 
@@ -521,6 +523,11 @@ def _timed(
     """A timed file's interpolant: given derivatives where they agree with the positions, else the
     positions' own; headings and yaw rates checked."""
     t, xy = cols["t"], cols["xy"]
+    if t[-1] - t[0] > MAX_DURATION:
+        raise TrajectoryFileError(
+            f"{report.file}: the trajectory lasts {t[-1] - t[0]:.6g} s, more than {MAX_DURATION:g} s: if its clock "
+            "counts milliseconds, give --time-scale 0.001 (seconds per file time unit)"
+        )
     direction = _directions(cols)
     fit = stretch_fit(t, xy)
     derived = fit(t, 1)
