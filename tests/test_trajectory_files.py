@@ -165,3 +165,15 @@ def test_simulate_file_from_python_starts_where_the_file_does(tmp_path: Path) ->
     assert (job.scenario.start.x, job.scenario.start.y) == pytest.approx((0.40, 1.00), abs=1e-9)
     assert job.extra["import"]["rows_merged"] == 2 and job.extra["import"]["arena"] is True
     assert job.metrics[RunKind.CLOSED_LOOP].final_position_error_m <= 0.02
+
+
+def test_a_scenario_file_with_another_robot_names_the_outputs_after_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    both = 'robot = "turtlebot3"\nrobots = ["turtlebot3", "edumip"]'
+    (tmp_path / "world.toml").write_text(WORLD.replace('robot = "turtlebot3"', both))
+    argv = ["simulate", "--trajectory", str(pixel_file(tmp_path)), "--scale", "0.01", "--scenario", "world.toml"]
+    assert main([*argv, "--robot", "edumip", "--runs", "closed_loop", "--no-video", "--no-plots", "--quiet"]) == 0
+    (out,) = (tmp_path / "renders").glob("world-px-edumip-*.json")
+    assert json.loads(out.read_text())["robot"] == "edumip"

@@ -326,13 +326,13 @@ def _run_file_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> in
     source = file_source(args)
     scenario, robot, name = file_world(args, source)
     case = Case(scenario, robot=robot, trajectory_file=source, **_case_fields(args, gains, perturbation))
-    arena = not isinstance(scenario, str)  # built for the robot: its own robot, for the output names
-    return _track_job(args, case, name, argparse.Namespace(**{**vars(args), "robot": None}) if arena else None)
+    return _track_job(args, case, name)
 
 
-def _track_job(args: argparse.Namespace, case: Any, source: str, stem_args: argparse.Namespace | None = None) -> int:
-    """Track a job's case: outputs planned (named after ``source``, with ``stem_args`` for the name if
-    given), the case prepared and tracked, the summary and table printed, the files written, judged."""
+def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
+    """Track a job's case: outputs planned (named after ``source``), the case prepared and tracked, the
+    summary and table printed, the files written, judged."""
+    from planning.scenario import load_scenario
     from sim.cli.job_outputs import plan_outputs, write_outputs
     from sim.cli.progress import JobBars
     from sim.pipeline.case import load_case_scenario
@@ -341,7 +341,10 @@ def _track_job(args: argparse.Namespace, case: Any, source: str, stem_args: argp
     runs = parse_runs(args.runs) if args.runs else run_choices()[args.tracker]
     loaded = load_case_scenario(case)  # a robot the scenario does not list stops here
     case.sensing(loaded)  # so do bad sensor settings
-    outputs = plan_outputs(stem_args or args, scenario=loaded.name, source=source)
+    own = None  # the scenario's own robot names the outputs apart from --robot (a file scenario's too)
+    if args.robot is not None:
+        own = (case.scenario if not isinstance(case.scenario, str) else load_scenario(case.scenario)).robot
+    outputs = plan_outputs(args, scenario=loaded.name, source=source, own_robot=own)
     with JobBars(outputs.progress) as bars:
         result = simulate(case, runs, progress=bars)
     record = result.record()
