@@ -34,6 +34,7 @@ def _check_txy(table) -> None:  # type: ignore[no-untyped-def]
         ("a.tsv", "t\tx\ty\n0\t0\t1\n0.5\t0.1\t1.5\n1\t0.3\t2.5\n", "tsv"),
         ("a.txt", "% MATLAB export\nT X Y\n0 0 1\n\n0.5 0.1 1.5\n# note\n1 0.3 2.5\n", "text"),
         ("a.dat", "t,x,y\n0,0,1\n0.5,0.1,1.5\n1,0.3,2.5\n", "csv"),
+        ("a.csv", "t; x; y\n0;0;1\n0.5;0.1;1.5\n1;0.3;2.5\n", "csv"),
     ],
 )
 def test_text_files_with_a_header(tmp_path: Path, name: str, text: str, fmt: str) -> None:

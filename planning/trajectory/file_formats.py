@@ -2,7 +2,7 @@
 
 Formats (chosen by the file's suffix):
 
-* **Text** (``.csv``, ``.tsv``, anything else): comma-, tab- or whitespace-separated cells, one row
+* **Text** (``.csv``, ``.tsv``, anything else): comma-, tab-, semicolon- or whitespace-separated cells, one row
   per line; lines starting with ``#``, ``%`` or ``//`` and blank lines are skipped. The first row
   names the columns (a header), or ``columns`` does (then a header row, if any, is skipped). ``_``
   skips a column.
@@ -163,16 +163,15 @@ def _load_yaml(p: Path, text: str) -> Any:
 
 # ----------------------------------------------------------------------------------------- text
 def _delimiter(suffix: str, first: str) -> str | None:
-    """The cell separator: by suffix, else sniffed from the first content line (None: whitespace)."""
-    if suffix == ".csv":
-        return ","
+    """The cell separator: tab for ``.tsv``; else a comma, tab or semicolon (spreadsheets where the
+    decimal mark is a comma) found in the first content line; else a comma for ``.csv``, whitespace
+    for the rest (None)."""
     if suffix in (".tsv", ".tab"):
         return "\t"
-    if "," in first:
-        return ","
-    if "\t" in first:
-        return "\t"
-    return None
+    found = [d for d in (",", "\t", ";") if d in first]
+    if found:
+        return found[0]
+    return "," if suffix == ".csv" else None
 
 
 def _split(lines: list[tuple[int, str]], delimiter: str | None) -> list[tuple[int, list[str]]]:
@@ -223,7 +222,7 @@ def _read_text(p: Path, text: str, columns: Sequence[str] | None) -> FileTable:
         for name, cell in zip(names, cells, strict=True):
             if name != SKIP:
                 values[name].append(_number(cell, str(p), f"line {n}", name))
-    fmt = {",": "csv", "\t": "tsv", None: "text"}[delimiter]
+    fmt = {",": "csv", ";": "csv", "\t": "tsv", None: "text"}[delimiter]
     arrays = {k: np.asarray(v, dtype=float) for k, v in values.items()}
     return FileTable(p, fmt, arrays, tuple(f"line {n}" for n, _ in body))
 
