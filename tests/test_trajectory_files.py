@@ -177,3 +177,25 @@ def test_a_scenario_file_with_another_robot_names_the_outputs_after_it(
     assert main([*argv, "--robot", "edumip", "--runs", "closed_loop", "--no-video", "--no-plots", "--quiet"]) == 0
     (out,) = (tmp_path / "renders").glob("world-px-edumip-*.json")
     assert json.loads(out.read_text())["robot"] == "edumip"
+
+
+def test_a_json_file_with_wrong_velocities_is_repaired_and_the_summary_and_record_say_so(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    lines = pixel_file(tmp_path).read_text().split()
+    names = lines[0].split(",")
+    records = [dict(zip(names, map(float, row.split(",")), strict=True)) for row in lines[1:]]
+    for r in records:
+        r["vx"], r["vy"] = 100 * r["vx"], 100 * r["vy"]  # centimetres of pixels per second: wrong units
+    p = tmp_path / "px.json"
+    p.write_text(json.dumps(records))
+    out = tmp_path / "run.json"
+    argv = ["simulate", "--trajectory", str(p), "--scale", "0.01", "--runs", "closed_loop", "--no-video", "--no-plots"]
+    assert main([*argv, "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "velocities (vx, vy) disagree with the positions" in printed
+    assert "largest correction: velocities (vx, vy) at record" in printed
+    imp = json.loads(out.read_text())["import"]
+    assert imp["format"] == "json" and imp["rows_merged"] == 2
+    assert imp["largest_correction"]["what"] == "velocities (vx, vy)" and imp["largest_correction"]["unit"] == "m/s"
