@@ -278,7 +278,7 @@ def run(args: argparse.Namespace) -> int:
     if args.control_rate <= 0:
         raise ConfigError(f"--control-rate must be > 0 Hz, got {args.control_rate}")
     check_time_limit(args.time_limit)
-    if args.all and (args.trajectory is not None or args.path is not None):
+    if args.all and _file_given(args):
         raise ConfigError("--all sweeps the built-in scenarios' plans: drop it to track a --trajectory or --path file")
     if args.all:
         from sim.cli.sweep_table import run_all
@@ -306,7 +306,7 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
     """One job: outputs planned, the case prepared and tracked, the table printed, the files written."""
     from sim.pipeline.case import Case
 
-    if getattr(args, "trajectory", None) is not None or getattr(args, "path", None) is not None:
+    if _file_given(args):
         return _run_file_job(args, gains, perturbation)
     planner, scenario = args.planner, args.scenario
     if planner is None and args.reference is None and scenario == "open" and _default_plan_available():
@@ -316,6 +316,11 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
     source = {"planner": planner} if planner is not None else {"reference": args.reference or "figure8"}
     case = Case(scenario, robot=args.robot, **_case_fields(args, gains, perturbation), **source)
     return _track_job(args, case, planner or args.reference or "figure8")
+
+
+def _file_given(args: argparse.Namespace) -> bool:
+    """Whether the options name a trajectory or path file."""
+    return getattr(args, "trajectory", None) is not None or getattr(args, "path", None) is not None
 
 
 def _run_file_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
