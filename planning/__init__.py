@@ -33,7 +33,10 @@ from planning.planners.registry import register_planner as register_planner
 from planning.scenario import Scenario as Scenario
 from planning.scenario import builtin_scenarios as builtin_scenarios
 from planning.scenario import load_scenario as load_scenario
+from planning.trajectory.file_trajectory import file_trajectory as file_trajectory
 from planning.trajectory.from_plan import to_trajectory as to_trajectory
+from planning.trajectory.importer import TrajectoryFile as TrajectoryFile
+from planning.trajectory.importer import read_trajectory_file as read_trajectory_file
 from planning.trajectory.references import REFERENCES as REFERENCES
 from planning.trajectory.references import make_reference as make_reference
 from planning.trajectory.trajectory import Trajectory as Trajectory

@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from sim.pipeline.runs import RunKind as RunKind
     from sim.pipeline.simulate import JobResult as JobResult
     from sim.pipeline.simulate import simulate as simulate
+    from sim.pipeline.simulate import simulate_file as simulate_file
     from sim.pipeline.simulate import simulate_plan as simulate_plan
     from sim.pipeline.simulate import simulate_reference as simulate_reference
     from sim.pipeline.simulate import track as track
@@ -54,6 +55,7 @@ _EXPORTS = {
     "RunKind": "sim.pipeline.runs",
     "JobResult": "sim.pipeline.simulate",
     "simulate": "sim.pipeline.simulate",
+    "simulate_file": "sim.pipeline.simulate",
     "simulate_plan": "sim.pipeline.simulate",
     "simulate_reference": "sim.pipeline.simulate",
     "track": "sim.pipeline.simulate",

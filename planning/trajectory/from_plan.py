@@ -139,6 +139,7 @@ def make_trajectory(
     snap_tolerance: float = 0.05,
     max_deviation: float = 0.05,
     name: str | None = None,
+    retime: bool | None = None,
 ) -> TrajectoryResult:
     """Turn a plan (or a bare path) into a timed, segment-labelled trajectory.
 
@@ -158,6 +159,8 @@ def make_trajectory(
         snap_tolerance: Largest distance from the path's end to ``goal`` that is closed [m].
         max_deviation: Largest distance from the smoothed path to the input path [m].
         name: Trajectory name (default "plan:<planner>" or "path").
+        retime: A timed plan only: True re-times it from rest to rest, False keeps its samples (slowed
+            uniformly to the limits), None decides by the rule above (the module doc).
 
     Returns:
         The result, with a status; only ``TrajectoryStatus.SUCCESS`` is safe to track.
@@ -190,7 +193,7 @@ def make_trajectory(
     build = _Build(Limits.from_robot(robot, margin), checker, need, goal_heading, dwell, dt, label, stats)
     if timed:
         assert isinstance(plan, PlanResult)
-        result = _from_timed(plan, path, build)
+        result = _from_timed(plan, path, build, retime)
     else:
         result = _from_path(path, dirs, build, corner_angle, max_deviation)
     result.stats["smoothing_time_s"] = time.perf_counter() - t_start
@@ -327,8 +330,20 @@ def _kept_samples(
     return Trajectory(t, path, vel, acc, name=label, segments=seg, segment_kinds=tuple(kind for kind, _, _ in runs))
 
 
-def _time_scales(v: FloatArray, w: FloatArray, dv: FloatArray, dw: FloatArray, limits: Limits) -> tuple[float, float]:
-    """How much slower a timed plan must run to respect the speed limits, and the acceleration limits."""
+def time_scales(v: FloatArray, w: FloatArray, dv: FloatArray, dw: FloatArray, limits: Limits) -> tuple[float, float]:
+    """How much slower a timed plan must run to respect the speed limits, and the acceleration limits.
+
+    Args:
+        v: (N,) speed [m/s].
+        w: (N,) yaw rate [rad/s].
+        dv: (N,) dv/dt [m/s^2].
+        dw: (N,) domega/dt [rad/s^2].
+        limits: The limits.
+
+    Returns:
+        ``(speed_scale, accel_scale)``: the clock stretch (>= 1) that brings speed, yaw rate and wheel
+        speed within their limits, and the one (any size) that brings both accelerations within theirs.
+    """
     wheel = np.abs(v) + 0.5 * limits.track_width * np.abs(w)
     speed_scale = max(
         1.0,
@@ -370,7 +385,7 @@ def _end_at_goal(body: Trajectory, end: FloatArray, build: _Build) -> Trajectory
     )
 
 
-def _from_timed(plan: PlanResult, path: FloatArray, build: _Build) -> TrajectoryResult:
+def _from_timed(plan: PlanResult, path: FloatArray, build: _Build, force: bool | None) -> TrajectoryResult:
     """A timed plan: its path kept, its samples kept (slowed uniformly) or re-timed from rest to rest."""
     assert plan.times is not None and plan.controls is not None
     t = np.asarray(plan.times, dtype=float).reshape(-1)
@@ -380,13 +395,14 @@ def _from_timed(plan: PlanResult, path: FloatArray, build: _Build) -> Trajectory
     t, u, path = (t - t[0])[keep], np.asarray(plan.controls, dtype=float)[keep], path[keep]
     v, w = u[:, 0], u[:, 1]
     dv, dw = np.gradient(v, t), np.gradient(w, t)
-    speed_scale, accel_scale = _time_scales(v, w, dv, dw, build.limits)
+    speed_scale, accel_scale = time_scales(v, w, dv, dw, build.limits)
     clear = float(build.checker.clearance_of(build.checker.densify(path)).min())
     kinds = list(infer_segments(v, w).labels)
     # A plan that starts or ends moving, or whose speed changes faster than the robot can follow
     # (inputs held over intervals step at every node), keeps its path but is re-timed from rest to rest
     # by the speed profile; a smooth one keeps its samples, slowed uniformly if it exceeds a limit.
-    retime = max(abs(float(v[0])), abs(float(v[-1]))) > 1e-3 or accel_scale > speed_scale
+    rule = max(abs(float(v[0])), abs(float(v[-1]))) > 1e-3 or accel_scale > speed_scale
+    retime = rule if force is None else force
     pieces = _retimed_pieces(path, kinds, build) if retime else []
     scale: float | None = None
     if pieces:

@@ -55,6 +55,11 @@ RUN_SETTINGS: dict[str, Any] = {
     "seed": 0,
     "noise_seed": None,
     "time_limit": 30.0,
+    "columns": None,
+    "scale": None,
+    "time_scale": None,
+    "offset": None,
+    "allow_collisions": False,
 }
 
 
@@ -172,20 +177,21 @@ def settings_tag(args: argparse.Namespace) -> str:
     return hashlib.sha1(json.dumps(changed, sort_keys=True).encode()).hexdigest()[:6]
 
 
-def output_stem(args: argparse.Namespace, *, scenario: str, source: str) -> str:
-    """``<scenario>-<source>[-<robot>][-<tag>]``: the robot when it is not the scenario's own, the
-    tag (:func:`settings_tag`) when a run setting is not at its default."""
+def output_stem(args: argparse.Namespace, *, scenario: str, source: str, own_robot: str | None = None) -> str:
+    """``<scenario>-<source>[-<robot>][-<tag>]``: the robot when it is not the scenario's own (``own_robot``,
+    else the robot of the built-in scenario of that name), the tag (:func:`settings_tag`) when a run
+    setting is not at its default."""
     from planning.scenario import load_scenario
 
     stem = f"{scenario}-{source}"
     robot = getattr(args, "robot", None)
-    if robot is not None and robot != load_scenario(scenario).robot:
+    if robot is not None and robot != (own_robot or load_scenario(scenario).robot):
         stem += f"-{robot}"
     tag = settings_tag(args)
     return f"{stem}-{tag}" if tag else stem
 
 
-def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str) -> OutputPlan:
+def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str, own_robot: str | None = None) -> OutputPlan:
     """Decide every output path and check that none exists (unless --overwrite), before any work.
 
     Call after :func:`sim.viz.gl.configure`: with a video it opens and closes a tiny OpenGL context so
@@ -195,6 +201,8 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str) -> Out
         args: Parsed options (see :func:`add_output_arguments`; also ``json``, ``overwrite``).
         scenario: Scenario name.
         source: Planner or reference name.
+        own_robot: The scenario's own robot (default: that of the built-in scenario named ``scenario``;
+            give it for a scenario read from a file or built in memory).
 
     Raises:
         ConfigError: Bad --size, --fps or --video name, two outputs with the same path, or an output
@@ -206,7 +214,7 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str) -> Out
     from sim.viz.plots.run import ESTIMATION_PLOT, PLOTS
     from sim.viz.replay import RenderSettings, parse_size
 
-    stem = output_stem(args, scenario=scenario, source=source)
+    stem = output_stem(args, scenario=scenario, source=source, own_robot=own_robot)
     video: Path | None = None
     settings = None
     if not args.no_video:

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 from planning.errors import ConfigError
 from sim.cli.job_outputs import add_executor_arguments, add_output_arguments
+from sim.cli.trajectory_files import add_file_arguments, format_import
 from sim.pipeline.runs import RunKind
 
 if TYPE_CHECKING:
@@ -113,6 +114,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     _add_job_arguments(p)
+    add_file_arguments(p)
     _add_run_arguments(p)
     add_output_arguments(p)
     return p
@@ -257,7 +259,8 @@ def format_table(record: dict[str, Any]) -> str:
         r = record[kind]
         est = r.get("estimation")
         nees = est.get("nees_in_bound_fraction") if est else None
-        est_rms = f"{est['position_rmse_m']:.4f}" if est else "-"
+        rmse = est.get("position_rmse_m") if est else None  # None: the estimator diverged (its status says)
+        est_rms = f"{rmse:.4f}" if rmse is not None else "-"
         nees_ok = f"{nees:.0%}" if nees is not None else "-"
         lines.append(
             f"{kind:<21} {r['final_position_error_m']:>13.4f} {r['final_heading_error_rad']:>16.4f} "
@@ -284,6 +287,8 @@ def run(args: argparse.Namespace) -> int:
     if args.control_rate <= 0:
         raise ConfigError(f"--control-rate must be > 0 Hz, got {args.control_rate}")
     check_time_limit(args.time_limit)
+    if args.all and _file_given(args):
+        raise ConfigError("--all sweeps the built-in scenarios' plans: drop it to track a --trajectory or --path file")
     if args.all:
         from sim.cli.sweep_table import run_all
 
@@ -291,40 +296,75 @@ def run(args: argparse.Namespace) -> int:
     return _run_job(args, gains, perturbation)
 
 
+def _case_fields(args: argparse.Namespace, gains: Any, perturbation: Any) -> dict[str, Any]:
+    """The case fields every job takes from the options (seed, rate, gains, build, sensors, ...)."""
+    from sim.pipeline.case import PlanOptions
+
+    return {
+        "seed": args.seed,
+        "control_rate": args.control_rate,
+        "gains": gains,
+        "perturbation": perturbation,
+        "planning": PlanOptions(time_limit=args.time_limit),
+        "build_seed": parse_build(args.build, args.build_seed),
+        "sensors": sensor_overrides(args.sensors),
+        "noise_seed": args.noise_seed,
+    }
+
+
 def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
     """One job: outputs planned, the case prepared and tracked, the table printed, the files written."""
-    from sim.cli.job_outputs import plan_outputs, write_outputs
-    from sim.cli.progress import JobBars
-    from sim.pipeline.case import Case, PlanOptions, load_case_scenario
-    from sim.pipeline.simulate import simulate
-    from sim.pipeline.sweep import missed_targets
+    from sim.pipeline.case import Case
 
+    if _file_given(args):
+        return _run_file_job(args, gains, perturbation)
     planner, scenario = args.planner, args.scenario
     if planner is None and args.reference is None and scenario == "open" and _default_plan_available():
         scenario, planner = DEFAULT_PLAN
     if planner is not None and args.reference is not None:
         raise ConfigError("--reference and --planner exclude each other: track an analytic curve or a plan")
     source = {"planner": planner} if planner is not None else {"reference": args.reference or "figure8"}
-    case = Case(
-        scenario,
-        robot=args.robot,
-        seed=args.seed,
-        control_rate=args.control_rate,
-        gains=gains,
-        perturbation=perturbation,
-        planning=PlanOptions(time_limit=args.time_limit),
-        build_seed=parse_build(args.build, args.build_seed),
-        sensors=sensor_overrides(args.sensors),
-        noise_seed=args.noise_seed,
-        **source,
-    )
+    case = Case(scenario, robot=args.robot, **_case_fields(args, gains, perturbation), **source)
+    return _track_job(args, case, planner or args.reference or "figure8")
+
+
+def _file_given(args: argparse.Namespace) -> bool:
+    """Whether the options name a trajectory or path file."""
+    return getattr(args, "trajectory", None) is not None or getattr(args, "path", None) is not None
+
+
+def _run_file_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
+    """A job on a trajectory or path file (:mod:`sim.cli.trajectory_files`)."""
+    from sim.cli.trajectory_files import file_source, file_world
+    from sim.pipeline.case import Case
+
+    source = file_source(args)
+    scenario, robot, name = file_world(args, source)
+    case = Case(scenario, robot=robot, trajectory_file=source, **_case_fields(args, gains, perturbation))
+    return _track_job(args, case, name)
+
+
+def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
+    """Track a job's case: outputs planned (named after ``source``), the case prepared and tracked, the
+    summary and table printed, the files written, judged."""
+    from planning.scenario import load_scenario
+    from sim.cli.job_outputs import plan_outputs, write_outputs
+    from sim.cli.progress import JobBars
+    from sim.pipeline.case import load_case_scenario
+    from sim.pipeline.simulate import simulate
+    from sim.pipeline.sweep import missed_targets
+
     runs = parse_runs(args.runs) if args.runs else run_choices()[args.tracker]
     loaded = load_case_scenario(case)  # a robot the scenario does not list stops here
     case.sensing(loaded)  # so do bad sensor settings
-    outputs = plan_outputs(args, scenario=loaded.name, source=planner or args.reference or "figure8")
+    own = None  # the scenario's own robot names the outputs apart from --robot (a file scenario's too)
+    if args.robot is not None:
+        own = (case.scenario if not isinstance(case.scenario, str) else load_scenario(case.scenario)).robot
+    outputs = plan_outputs(args, scenario=loaded.name, source=source, own_robot=own)
     with JobBars(outputs.progress) as bars:
         result = simulate(case, runs, progress=bars)
     record = result.record()
+    gains, perturbation = result.gains, case.perturbation
     if not args.quiet:
         print(
             f"scenario {result.scenario.name} | robot {result.robot.name} | {result.source} | "
@@ -332,6 +372,8 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
             f"gains Kp={gains.kp:g} Kd={gains.kd:g}" + (f" | perturbed {perturbation.label()}" if perturbation else "")
         )
         print(f"{_build_line(record)} | {_sensor_line(record)}")
+        if "import" in record:
+            print("\n".join(format_import(record["import"])))
     print(format_table(record))
     for path in write_outputs(result, outputs, record).values():
         if not args.quiet:
@@ -341,7 +383,8 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
     if closed is not None and closed.metrics.collisions > 0:
         failures.append("closed-loop run touched an obstacle")
     if closed is not None:
-        failures += missed_targets(closed.metrics, result.scenario, planned=result.source.startswith("planner:"))
+        planned = result.source.startswith(("planner:", "file:"))  # a file is tracked and judged as a plan
+        failures += missed_targets(closed.metrics, result.scenario, planned=planned)
     for line in failures:
         print(line, file=sys.stderr)
     clean = all(run.metrics.warnings == 0 for run in result.runs.values())

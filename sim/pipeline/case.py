@@ -4,8 +4,10 @@ A :class:`Case` is one seeded job: scenario × robot × reference or planner × 
 control rate and perturbation. ``nhsim simulate`` (one job and the ``--all`` sweep), the tuner and the
 regression suite all describe their work as cases.
 
-A case tracks either an analytic reference placed at the scenario's start pose
-(``reference = "figure8"``) or a plan of the scenario (``planner = "rrt"``).
+A case tracks an analytic reference placed at the scenario's start pose (``reference = "figure8"``),
+a plan of the scenario (``planner = "rrt"``), or a trajectory or path read from a file
+(``trajectory_file``, :mod:`planning.trajectory.importer`; the scenario then starts and ends where the
+file does).
 :func:`prepare_trajectory` makes the trajectory once (a planned case plans, smooths and times the
 scenario); :func:`sim.pipeline.simulate.track` runs it.
 
@@ -26,7 +28,9 @@ from planning.errors import ConfigError, ScenarioError
 from planning.planners.base import PlanProblem, PlanResult
 from planning.planners.registry import PLANNERS, make_planner, planner_options
 from planning.scenario import Scenario, load_scenario
+from planning.trajectory.file_trajectory import ARENA_NAME, file_trajectory, with_file_ends
 from planning.trajectory.from_plan import checked_trajectory
+from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
 from planning.trajectory.references import REFERENCES, make_reference
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import DEFAULT_BUILD_SEED, AsBuilt, check_build_seed
@@ -83,6 +87,8 @@ class Case:
             ``[sensors]`` table), e.g. ``fix_rate=10,fix_position_std=0.01``; "" for none.
         noise_seed: Seed of the sensor noise when it differs from ``seed`` (a Monte Carlo run of a
             plan made once); None: ``seed``.
+        trajectory_file: A trajectory or path file to track (exclusive with ``reference`` and
+            ``planner``); tracked like a plan (segmented tracker, final regulation).
     """
 
     scenario: str | Scenario
@@ -100,12 +106,15 @@ class Case:
     build_seed: int | None = DEFAULT_BUILD_SEED
     sensors: str = ""
     noise_seed: int | None = None
+    trajectory_file: TrajectoryFile | None = None
 
     def __post_init__(self) -> None:
         if self.build_seed is not None:
             check_build_seed(self.build_seed)
-        if (self.reference is None) == (self.planner is None):
-            raise ConfigError(f"case {self.label}: give exactly one of reference or planner")
+        if sum(x is not None for x in (self.reference, self.planner, self.trajectory_file)) != 1:
+            raise ConfigError(
+                f"case {self.label}: give exactly one of reference or planner, or a trajectory_file instead of both"
+            )
         if self.reference is not None and self.reference not in REFERENCES:
             raise ConfigError(
                 f"case {self.label}: unknown reference {self.reference!r}; choose {', '.join(REFERENCES)}"
@@ -119,6 +128,8 @@ class Case:
 
     def _derived_name(self) -> str:
         what = self.reference if self.reference is not None else f"plan-{self.planner or 'default'}"
+        if self.trajectory_file is not None:
+            what = f"file-{self.trajectory_file.name}"
         parts = [self.scenario_name, self.robot or "default", what, self.feedback_tracker, f"s{self.seed}"]
         if self.noise_seed is not None:
             parts.append(f"n{self.noise_seed}")
@@ -134,11 +145,13 @@ class Case:
     @property
     def label(self) -> str:
         """Name if set, else the fields in short."""
-        return self.name or f"{self.scenario_name}:{self.reference or self.planner}"
+        return self.name or self.token
 
     @property
     def token(self) -> str:
         """``SCENARIO:REFERENCE`` / ``SCENARIO:PLANNER`` form."""
+        if self.trajectory_file is not None:
+            return f"{self.scenario_name}:{self.trajectory_file.path}"
         return f"{self.scenario_name}:{self.reference if self.reference is not None else self.planner}"
 
     @property
@@ -241,7 +254,10 @@ def load_case_scenario(case: Case) -> Scenario:
         ConfigError: The scenario does not list the case's robot.
     """
     sc = case.scenario if isinstance(case.scenario, Scenario) else load_scenario(case.scenario)
-    return scenario_with_robot(sc, case.robot)
+    sc = scenario_with_robot(sc, case.robot)
+    if case.trajectory_file is not None:
+        sc = with_file_ends(sc, read_trajectory_file(case.trajectory_file))
+    return sc
 
 
 def check_reference_fits(name: str, trajectory: Trajectory, scenario: Scenario, robot: RobotSpec) -> None:
@@ -311,6 +327,8 @@ def prepare_trajectory(case: Case, *, progress: Progress | None = None) -> Prepa
         traj = make_reference(case.reference, spec, sc.start)
         check_reference_fits(case.reference, traj, sc, spec)
         return PreparedTrajectory(case, sc, spec, traj, f"reference:{case.reference}")
+    if case.trajectory_file is not None:
+        return _prepare_file(case, case.trajectory_file, sc, spec)
     plan = plan_case(case, sc, spec, progress=progress)
     plan_rec: dict[str, Any] = {
         "planner": plan.planner,
@@ -332,3 +350,20 @@ def prepare_trajectory(case: Case, *, progress: Progress | None = None) -> Prepa
         PLAN_HOLD_S,
         {"plan": plan_rec, "smoothing": smoothing},
     )
+
+
+def _prepare_file(case: Case, source: TrajectoryFile, sc: Scenario, spec: RobotSpec) -> PreparedTrajectory:
+    """A file case's trajectory (read, repaired, checked against the world, timed), tracked like a
+    plan; its record gains ``import`` (what was read and repaired) and ``smoothing``.
+
+    Raises:
+        TrajectoryFileError: The file cannot be read or used, or it collides (without allow_collisions).
+        TrajectoryError: No trajectory could be made of it.
+    """
+    imported = read_trajectory_file(source)
+    imported.report.arena = sc.name == ARENA_NAME and sc.source is None
+    res = file_trajectory(imported, spec, sc.world, **case.planning.smoothing)
+    assert res.trajectory is not None
+    smoothing = {k: v for k, v in res.stats.items() if isinstance(v, (int, float, str, bool))}
+    extra = {"import": {**source.as_dict(), **imported.report.as_dict()}, "smoothing": smoothing}
+    return PreparedTrajectory(case, sc, spec, res.trajectory, f"file:{source.name}", PLAN_HOLD_S, extra)

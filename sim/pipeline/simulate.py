@@ -12,6 +12,7 @@ import platform
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, replace
 from importlib import metadata
+from pathlib import Path
 from typing import Any
 
 from control.base import make_tracker, tracker_options
@@ -20,6 +21,7 @@ from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
 from planning.planners.registry import PLANNERS
 from planning.scenario import Scenario
+from planning.trajectory.importer import TrajectoryFile
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import AsBuilt
 from sim.physics.metrics import TrackingMetrics, compute_metrics
@@ -296,6 +298,43 @@ def simulate_plan(
         TrajectoryError: The plan failed or could not be made into a collision-free trajectory.
     """
     return simulate(_case(scenario, fields_, planner=planner or ""), runs, progress=progress)
+
+
+def simulate_file(
+    source: TrajectoryFile | str | Path,
+    scenario: str | Scenario | None = None,
+    *,
+    runs: Iterable[RunKind] = DEFAULT_RUNS,
+    progress: Progress | None = None,
+    **fields_: Any,
+) -> JobResult:
+    """Track a trajectory (timed) or path (untimed) file, as a plan is tracked, once per run kind.
+
+    Args:
+        source: The file and how to read it (a bare path: a timed file in metres and seconds).
+        scenario: Built-in name, path of a scenario file, or a Scenario giving the world; None: an empty
+            arena around the file (for ``robot``, default TurtleBot3).
+        runs: Run kinds to run.
+        progress: Told how the runs advance.
+        **fields_: Further :class:`~sim.pipeline.case.Case` fields (robot, seed, gains, ...).
+
+    Returns:
+        The job; ``source`` is "file:<stem>", ``extra["import"]`` says what was read and repaired.
+
+    Raises:
+        TrajectoryFileError: The file cannot be read or used, or it enters an obstacle or leaves the
+            world (unless ``source.allow_collisions``).
+    """
+    from planning.core.robot import load_robot
+    from planning.trajectory.file_trajectory import ARENA_ROBOT, arena_scenario
+    from planning.trajectory.importer import read_trajectory_file
+
+    if not isinstance(source, TrajectoryFile):
+        source = TrajectoryFile(Path(source))
+    if scenario is None:
+        robot = fields_.pop("robot", None) or ARENA_ROBOT
+        scenario = arena_scenario(read_trajectory_file(source), load_robot(robot))
+    return simulate(_case(scenario, fields_, trajectory_file=source), runs, progress=progress)
 
 
 @dataclass(frozen=True)

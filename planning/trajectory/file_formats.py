@@ -1,0 +1,327 @@
+"""Reading trajectory and path files into named numeric columns, as real files come.
+
+Formats (chosen by the file's suffix):
+
+* **Text** (``.csv``, ``.tsv``, anything else): comma-, tab-, semicolon- or whitespace-separated cells, one row
+  per line; lines starting with ``#``, ``%`` or ``//`` and blank lines are skipped. The first row
+  names the columns (a header), or ``columns`` does (then a header row, if any, is skipped). ``_``
+  skips a column.
+* **JSON** (``.json``): ``{"t": [...], "x": [...], ...}`` (one list per column) or a list of records
+  ``[{"t": 0, "x": 0.1, ...}, ...]``.
+* **YAML** (``.yaml``, ``.yml``): a ROS ``nav_msgs/Path`` as ``ros2 topic echo`` (or ``rostopic echo``)
+  writes it: ``poses[].pose.position`` (x, y), ``poses[].pose.orientation`` (a quaternion: the
+  heading is its yaw) and ``poses[].header.stamp`` (``sec``/``nanosec`` or ``secs``/``nsecs``; stamps
+  that are all equal give no time column); or the same two layouts as JSON. The first document of
+  a multi-document file is read.
+
+Column names: :data:`COLUMNS` (t [s], x, y [length], theta [rad], v [length/s], omega [rad/s],
+vx, vy [length/s], ax, ay [length/s^2]); units are whatever the file uses, scaled later
+(:mod:`planning.trajectory.importer`). Every problem is a :class:`TrajectoryFileError` naming the
+file, the row (line, record or pose) and the column.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from planning.errors import ConfigError
+
+FloatArray = NDArray[np.float64]
+
+__all__ = ["COLUMNS", "SKIP", "FileTable", "TrajectoryFileError", "parse_column_names", "read_table"]
+
+#: The column names a file may use, in this order in messages.
+COLUMNS = ("t", "x", "y", "theta", "v", "omega", "vx", "vy", "ax", "ay")
+#: The name that skips a column.
+SKIP = "_"
+_COMMENTS = ("#", "%", "//")
+
+
+class TrajectoryFileError(ConfigError):
+    """A trajectory or path file cannot be read or used as it is (the message names the row and the fix)."""
+
+
+@dataclass(frozen=True)
+class FileTable:
+    """A file's rows as named columns, before units and repairs.
+
+    Attributes:
+        path: The file.
+        fmt: "csv", "tsv", "text", "json", "yaml" or "nav_msgs/Path".
+        columns: Column name (one of :data:`COLUMNS`) -> (N,) finite values in the file's units.
+        rows: (N,) how messages name each row: "line 7", "record 3", "poses[2]".
+    """
+
+    path: Path
+    fmt: str
+    columns: dict[str, FloatArray]
+    rows: tuple[str, ...]
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+
+def _valid_names() -> str:
+    return ", ".join(COLUMNS)
+
+
+def parse_column_names(names: Sequence[str], where: str) -> tuple[str, ...]:
+    """Column names as given (a header or ``--columns``), checked: each one of :data:`COLUMNS` or ``_``.
+
+    Args:
+        names: The names (spaces around them and case are ignored).
+        where: How the message names their source (the file, or "--columns").
+
+    Raises:
+        TrajectoryFileError: An unknown or repeated name (the message lists the valid ones).
+    """
+    out = tuple(str(n).strip().lower() for n in names)
+    unknown = [n for n in out if n not in COLUMNS and n != SKIP]
+    if unknown:
+        raise TrajectoryFileError(
+            f"{where}: unknown column name(s) {', '.join(repr(n) for n in unknown)}; valid names are "
+            f"{_valid_names()} ({SKIP} skips a column); rename them in the header or give --columns"
+        )
+    named = [n for n in out if n != SKIP]
+    twice = sorted({n for n in named if named.count(n) > 1})
+    if twice:
+        raise TrajectoryFileError(f"{where}: column(s) {', '.join(twice)} named twice; name each column once")
+    return out
+
+
+def _number(value: Any, where: str, row: str, column: str) -> float:
+    """One cell as a finite float, else the error naming the row and the column."""
+    try:
+        if isinstance(value, bool):
+            raise ValueError
+        x = float(value)
+    except (TypeError, ValueError):
+        x = float("nan")
+    if not np.isfinite(x):
+        raise TrajectoryFileError(
+            f"{where}: {row}, column {column!r}: {value!r} is not a finite number; fix the cell or drop the row"
+        )
+    return x
+
+
+def read_table(path: str | Path, columns: Sequence[str] | None = None) -> FileTable:
+    """Read a trajectory or path file (see the module doc for the formats).
+
+    Args:
+        path: The file.
+        columns: Names of a text file's columns (``--columns``), overriding its header; None: the
+            header names them. Not for JSON or YAML, whose fields are named.
+
+    Raises:
+        TrajectoryFileError: An unreadable file, an unknown column name, a missing header, a row
+            with the wrong number of cells, a non-numeric cell (row and column named).
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8-sig")  # a byte-order mark (Windows exports) is dropped
+    except (OSError, UnicodeDecodeError) as exc:
+        why = "not UTF-8 text" if isinstance(exc, UnicodeDecodeError) else (exc.strerror or str(exc))
+        raise TrajectoryFileError(f"cannot read trajectory file {p}: {why}") from exc
+    suffix = p.suffix.lower()
+    if suffix in (".json", ".yaml", ".yml"):
+        if columns is not None:
+            raise TrajectoryFileError(
+                f"{p}: --columns names the columns of a text file; a {suffix[1:].upper()} file names its "
+                "own fields: drop --columns"
+            )
+        data = _load_json(p, text) if suffix == ".json" else _load_yaml(p, text)
+        return _from_document(p, data, "json" if suffix == ".json" else "yaml")
+    return _read_text(p, text, columns)
+
+
+def _load_json(p: Path, text: str) -> Any:
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise TrajectoryFileError(f"{p}: not valid JSON: {exc.msg} at line {exc.lineno}") from exc
+
+
+def _load_yaml(p: Path, text: str) -> Any:
+    import yaml
+
+    try:
+        docs = [d for d in yaml.safe_load_all(text) if d is not None]
+    except yaml.YAMLError as exc:
+        raise TrajectoryFileError(f"{p}: not valid YAML: {exc}") from exc
+    if not docs:
+        raise TrajectoryFileError(f"{p}: the YAML file is empty")
+    return docs[0]
+
+
+# ----------------------------------------------------------------------------------------- text
+def _delimiter(suffix: str, first: str) -> str | None:
+    """The cell separator: tab for ``.tsv``; else a comma, tab or semicolon (spreadsheets where the
+    decimal mark is a comma) found in the first content line; else a comma for ``.csv``, whitespace
+    for the rest (None)."""
+    if suffix in (".tsv", ".tab"):
+        return "\t"
+    found = [d for d in (",", "\t", ";") if d in first]
+    if found:
+        return found[0]
+    return "," if suffix == ".csv" else None
+
+
+def _split(lines: list[tuple[int, str]], delimiter: str | None) -> list[tuple[int, list[str]]]:
+    if delimiter is None:
+        return [(n, line.split()) for n, line in lines]
+    cells = csv.reader([line for _, line in lines], delimiter=delimiter, skipinitialspace=True)
+    return [(n, [c.strip() for c in row]) for (n, _), row in zip(lines, cells, strict=True)]
+
+
+def _is_numeric_row(cells: list[str]) -> bool:
+    try:
+        [float(c) for c in cells]
+    except ValueError:
+        return False
+    return True
+
+
+def _read_text(p: Path, text: str, columns: Sequence[str] | None) -> FileTable:
+    lines = [
+        (n, line.strip())
+        for n, line in enumerate(text.splitlines(), start=1)
+        if line.strip() and not line.strip().startswith(_COMMENTS)
+    ]
+    if not lines:
+        raise TrajectoryFileError(f"{p}: the file holds no rows")
+    delimiter = _delimiter(p.suffix.lower(), lines[0][1])
+    rows = _split(lines, delimiter)
+    has_header = not _is_numeric_row(rows[0][1])
+    if columns is not None:
+        names = parse_column_names(columns, "--columns")
+    elif has_header:
+        names = parse_column_names(rows[0][1], f"{p}, header (line {rows[0][0]})")
+    else:
+        raise TrajectoryFileError(
+            f"{p}: the first row (line {rows[0][0]}) is numbers, not a header naming the columns: add a header "
+            f"or give --columns (e.g. --columns t,x,y; names {_valid_names()}; {SKIP} skips a column)"
+        )
+    body = rows[1:] if has_header else rows
+    if not body:
+        raise TrajectoryFileError(f"{p}: the file holds a header and no rows")
+    values: dict[str, list[float]] = {n: [] for n in names if n != SKIP}
+    for n, cells in body:
+        if len(cells) != len(names):
+            raise TrajectoryFileError(
+                f"{p}: line {n} has {len(cells)} cells but {len(names)} columns are named ({', '.join(names)}); "
+                "give every row the same cells, or name the columns with --columns"
+            )
+        for name, cell in zip(names, cells, strict=True):
+            if name != SKIP:
+                values[name].append(_number(cell, str(p), f"line {n}", name))
+    fmt = {",": "csv", ";": "csv", "\t": "tsv", None: "text"}[delimiter]
+    arrays = {k: np.asarray(v, dtype=float) for k, v in values.items()}
+    return FileTable(p, fmt, arrays, tuple(f"line {n}" for n, _ in body))
+
+
+# ------------------------------------------------------------------------------- JSON and YAML
+def _from_document(p: Path, data: Any, fmt: str) -> FileTable:
+    if isinstance(data, Mapping) and "poses" in data:
+        return _nav_path(p, data)
+    if isinstance(data, Mapping):
+        return _from_columns(p, data, fmt)
+    if isinstance(data, list):
+        return _from_records(p, data, fmt)
+    raise TrajectoryFileError(
+        f'{p}: expected a table of columns ({{"t": [...], "x": [...]}}), a list of records '
+        f'([{{"t": 0, "x": 0}}, ...]) or a nav_msgs/Path (poses: [...]), got a {type(data).__name__}'
+    )
+
+
+def _from_columns(p: Path, data: Mapping[str, Any], fmt: str) -> FileTable:
+    names = parse_column_names(list(data), str(p))
+    lengths = {}
+    for key, name in zip(data, names, strict=True):
+        if not isinstance(data[key], list):
+            raise TrajectoryFileError(f"{p}: field {key!r} must be a list of numbers, got {type(data[key]).__name__}")
+        lengths[name] = len(data[key])
+    if len(set(lengths.values())) > 1:
+        sizes = ", ".join(f"{k}: {v}" for k, v in lengths.items())
+        raise TrajectoryFileError(f"{p}: the columns differ in length ({sizes}); give every column one value per row")
+    n = next(iter(lengths.values()), 0)
+    cols = {
+        name: np.array([_number(v, str(p), f"row {i}", name) for i, v in enumerate(data[key])])
+        for key, name in zip(data, names, strict=True)
+        if name != SKIP
+    }
+    return FileTable(p, fmt, cols, tuple(f"row {i}" for i in range(n)))
+
+
+def _from_records(p: Path, data: list[Any], fmt: str) -> FileTable:
+    if not data or not all(isinstance(r, Mapping) for r in data):
+        raise TrajectoryFileError(f'{p}: a list of records must hold one object per row, like {{"t": 0, "x": 0}}')
+    keys = list(dict.fromkeys(k for r in data for k in r))
+    names = parse_column_names(keys, str(p))
+    cols: dict[str, list[float]] = {name: [] for name in names if name != SKIP}
+    for i, rec in enumerate(data):
+        for key, name in zip(keys, names, strict=True):
+            if name == SKIP:
+                continue
+            if key not in rec:
+                raise TrajectoryFileError(f"{p}: record {i} has no {key!r}; give every record the same fields")
+            cols[name].append(_number(rec[key], str(p), f"record {i}", name))
+    arrays = {k: np.asarray(v, dtype=float) for k, v in cols.items()}
+    return FileTable(p, fmt, arrays, tuple(f"record {i}" for i in range(len(data))))
+
+
+def _field(node: Any, path: tuple[str, ...], p: Path, where: str) -> Any:
+    """``node[path[0]][path[1]]...``, else the error naming the missing field."""
+    for key in path:
+        if not isinstance(node, Mapping) or key not in node:
+            raise TrajectoryFileError(f"{p}: {where} has no {'.'.join(path)}; a nav_msgs/Path pose needs it")
+        node = node[key]
+    return node
+
+
+def _stamp(pose: Mapping[str, Any], p: Path, where: str) -> float | None:
+    stamp = pose.get("header", {}).get("stamp") if isinstance(pose.get("header"), Mapping) else None
+    if not isinstance(stamp, Mapping):
+        return None
+    sec = stamp.get("sec", stamp.get("secs", 0))
+    nsec = stamp.get("nanosec", stamp.get("nsecs", 0))
+    return _number(sec, str(p), where, "header.stamp.sec") + 1e-9 * _number(nsec, str(p), where, "header.stamp.nanosec")
+
+
+def _yaw(pose: Mapping[str, Any], p: Path, where: str) -> float | None:
+    q = pose["pose"].get("orientation")
+    if q is None:
+        return None
+    qx, qy, qz, qw = (_number(_field(q, (k,), p, where), str(p), where, f"orientation.{k}") for k in "xyzw")
+    norm = np.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+    if norm < 1e-9:
+        raise TrajectoryFileError(f"{p}: {where}: the orientation quaternion is zero; give a unit quaternion")
+    qx, qy, qz, qw = qx / norm, qy / norm, qz / norm, qw / norm
+    return float(np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz)))
+
+
+def _nav_path(p: Path, data: Mapping[str, Any]) -> FileTable:
+    poses = data["poses"]
+    if not isinstance(poses, list) or not poses:
+        raise TrajectoryFileError(f"{p}: poses must be a non-empty list of stamped poses")
+    rows = tuple(f"poses[{i}]" for i in range(len(poses)))
+    xs, ys, yaws, stamps = [], [], [], []
+    for where, pose in zip(rows, poses, strict=True):
+        pos = _field(pose, ("pose", "position"), p, where)
+        xs.append(_number(_field(pos, ("x",), p, where), str(p), where, "pose.position.x"))
+        ys.append(_number(_field(pos, ("y",), p, where), str(p), where, "pose.position.y"))
+        yaws.append(_yaw(pose, p, where))
+        stamps.append(_stamp(pose, p, where))
+    cols = {"x": np.asarray(xs), "y": np.asarray(ys)}
+    if all(y is not None for y in yaws):
+        cols["theta"] = np.asarray(yaws, dtype=float)
+    if all(s is not None for s in stamps) and len(set(stamps)) > 1:
+        cols["t"] = np.asarray(stamps, dtype=float)
+    return FileTable(p, "nav_msgs/Path", cols, rows)

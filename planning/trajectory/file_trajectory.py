@@ -1,0 +1,317 @@
+"""A repaired trajectory or path file (:mod:`planning.trajectory.importer`) as a trajectory in a world.
+
+A **timed** file is sampled every ``dt`` from its interpolant: positions and their derivatives, the
+heading along the motion where the robot moves and, where it stands, the file's own headings (their
+turn in place; shifted to meet the motion's heading at both ends) or a turn from the arriving to the
+leaving heading. Then it goes through the stage every timed plan goes through
+(:func:`planning.trajectory.from_plan.make_trajectory`): segments from the sign of v, its own samples
+kept (slowed uniformly, by at most :data:`MAX_STRETCH`, when it exceeds a limit) or re-timed from
+rest to rest by the speed profile, with the reason: it starts or ends moving, it accelerates beyond
+the robot's limits, or keeping its clock would take more than ``MAX_STRETCH`` times as long.
+
+An **untimed** path goes the way of a planner's path: loops cut, split at cusps and corners, each
+drive fitted by piecewise polynomials and timed by the speed profile.
+
+Both are checked against the world first: a robot footprint that enters an obstacle or leaves the
+world is an error naming the time (or the row), the position and the obstacle, unless the file
+asked to run anyway. Without a scenario, :func:`arena_scenario` builds an empty arena around it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from planning.collision.exact import CollisionChecker
+from planning.core.geometry import Pose2D, wrap_angle
+from planning.core.robot import RobotSpec
+from planning.core.scenario import Scenario
+from planning.core.world import World
+from planning.planners.base import PlanResult, PlanStatus
+from planning.trajectory.file_formats import TrajectoryFileError
+from planning.trajectory.from_plan import TrajectoryResult, TrajectoryStatus, make_trajectory, time_scales
+from planning.trajectory.importer import MOVING_SPEED, ImportedFile
+from planning.trajectory.speed_profile import Limits
+
+FloatArray = NDArray[np.float64]
+
+#: Largest uniform slow-down of a file's own clock that still counts as keeping its timing.
+MAX_STRETCH = 2.0
+#: Room between the file's extent (plus the robot's radius) and the walls of a default arena [m].
+ARENA_MARGIN = 0.25
+#: Largest side of a default arena [m]: a larger file is almost surely not in metres.
+ARENA_MAX = 50.0
+#: The robot of an arena built around a file when none is asked for.
+ARENA_ROBOT = "turtlebot3"
+#: Sample period of a timed file's samples [s].
+DT = 0.01
+
+
+@dataclass(frozen=True)
+class DenseFile:
+    """A timed file sampled every ``dt``.
+
+    Attributes:
+        t: (M,) times from 0 [s].
+        pose: (M, 3) poses [x, y, theta], heading unwrapped [m, m, rad].
+        v: (M,) signed speed [m/s].
+        omega: (M,) yaw rate [rad/s].
+    """
+
+    t: FloatArray
+    pose: FloatArray
+    v: FloatArray
+    omega: FloatArray
+
+
+def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
+    """Sample a timed file every ``dt`` (see the module doc)."""
+    assert imported.t is not None and imported.curve is not None
+    t0, t1 = float(imported.t[0]), float(imported.t[-1])
+    tg = np.append(np.arange(t0, t1, dt), t1) if (t1 - t0) % dt > 1e-9 else np.arange(t0, t1 + 0.5 * dt, dt)
+    d = imported.curve(tg, 1)
+    speed = np.hypot(d[:, 0], d[:, 1])
+    k = np.clip(np.searchsorted(imported.t, tg, side="right") - 1, 0, imported.direction.size - 1)
+    sgn = imported.direction[k]
+    heading = np.arctan2(sgn * d[:, 1], sgn * d[:, 0])
+    heading = _standing_headings(imported, tg, heading, speed > MOVING_SPEED)
+    heading = np.unwrap(heading)
+    pose = np.column_stack([imported.curve(tg, 0), heading])
+    return DenseFile(tg - t0, pose, sgn * speed, np.gradient(heading, tg))
+
+
+def _given_heading(imported: ImportedFile, tg: FloatArray) -> FloatArray | None:
+    """The file's own headings at times tg: Hermite with checked yaw rates, else monotone cubic."""
+    from scipy.interpolate import CubicHermiteSpline, PchipInterpolator
+
+    if imported.theta is None:
+        return None
+    assert imported.t is not None
+    if imported.omega is not None:
+        return np.asarray(CubicHermiteSpline(imported.t, imported.theta, imported.omega)(tg))
+    return np.asarray(PchipInterpolator(imported.t, imported.theta)(tg))
+
+
+def _standing_headings(
+    imported: ImportedFile, tg: FloatArray, heading: FloatArray, moving: NDArray[np.bool_]
+) -> FloatArray:
+    """Headings while standing: the file's own (shifted to meet the motion at both ends), else a turn
+    from the arriving heading to the leaving one."""
+    if not np.any(moving):
+        given = _given_heading(imported, tg)
+        return given if given is not None else np.zeros_like(tg)
+    own = _given_heading(imported, tg)
+    out = heading.copy()
+    edges = np.flatnonzero(np.diff(np.concatenate([[1], moving.astype(int), [1]])))
+    for a, b in zip(edges[::2], edges[1::2], strict=True):  # standing runs [a, b)
+        before, after = (a - 1 if a > 0 else b), (b if b < tg.size else a - 1)
+        h0, h1 = heading[before], heading[after]
+        w = (tg[a:b] - tg[a]) / max(tg[b - 1] - tg[a], 1e-12)
+        if own is None:
+            out[a:b] = h0 + w * wrap_angle(h1 - h0)
+        else:
+            d0, d1 = wrap_angle(h0 - own[before]), wrap_angle(h1 - own[after])
+            out[a:b] = own[a:b] + d0 + w * (d1 - d0)
+    return out
+
+
+def timing_verdict(dense: DenseFile, limits: Limits) -> tuple[bool, str, float]:
+    """Whether a timed file must be re-timed, why (or how its clock is kept), and the stretch kept.
+
+    Returns:
+        ``(retime, reason, stretch)``: stretch is the uniform slow-down of a kept clock (1 for none).
+    """
+    v, w, t = dense.v, dense.omega, dense.t
+    dv, dw = np.gradient(v, t), np.gradient(w, t)
+    speed_scale, accel_scale = time_scales(v, w, dv, dw, limits)
+    if abs(v[0]) > 1e-3 or abs(v[-1]) > 1e-3:
+        end, value = ("starts", v[0]) if abs(v[0]) > 1e-3 else ("ends", v[-1])
+        return True, f"it {end} moving ({value:+.3f} m/s) and the robot starts and ends at rest", 1.0
+    if accel_scale > speed_scale:
+        ka, kw = int(np.argmax(np.abs(dv))), int(np.argmax(np.abs(dw)))
+        if abs(dv[ka]) / limits.max_accel >= abs(dw[kw]) / limits.max_yaw_accel:
+            what, k, peak, unit, limit = "acceleration", ka, abs(dv[ka]), "m/s^2", limits.max_accel
+        else:
+            what, k, peak, unit, limit = "yaw acceleration", kw, abs(dw[kw]), "rad/s^2", limits.max_yaw_accel
+        return True, f"its {what} reaches {peak:.3g} {unit} at t = {t[k]:.2f} s (limit {limit:.3g} {unit})", 1.0
+    if speed_scale > MAX_STRETCH:
+        why = f"keeping its clock within the speed and yaw-rate limits would slow it x{speed_scale:.3g}"
+        return True, f"{why} (more than x{MAX_STRETCH:g})", 1.0
+    if speed_scale > 1.0 + 1e-9:
+        return False, f"slowed uniformly x{speed_scale:.3f} to stay within the speed and yaw-rate limits", speed_scale
+    return False, "within the robot's limits", 1.0
+
+
+# ------------------------------------------------------------------------------------ the world
+def _culprit(world: World, xy: FloatArray) -> tuple[bool, str]:
+    """What a robot at ``xy`` (2,) runs into: (a wall?, its description), the nearest by its centre."""
+    xmin, xmax, ymin, ymax = world.bounds
+    found: list[tuple[float, bool, str]] = [
+        (xy[0] - xmin, True, f"the wall x = {xmin:g}"),
+        (xmax - xy[0], True, f"the wall x = {xmax:g}"),
+        (xy[1] - ymin, True, f"the wall y = {ymin:g}"),
+        (ymax - xy[1], True, f"the wall y = {ymax:g}"),
+    ]
+    for k, obs in enumerate(world.obstacles):
+        x0, x1, y0, y1 = obs.bounding_box()
+        label = f"obstacle {k} ({obs.kind} about ({0.5 * (x0 + x1):.2f}, {0.5 * (y0 + y1):.2f}))"
+        found.append((float(obs.signed_distance(xy[None])[0]), False, label))
+    _, wall, label = min(found, key=lambda f: f[0])
+    return wall, label
+
+
+def _pixel_hint(imported: ImportedFile, world: World) -> str:
+    """A hint to give --scale when the file was read in its own units and is larger than the world."""
+    if imported.source.scale is not None:
+        return ""
+    span = np.ptp(imported.xy, axis=0)
+    if span[0] <= world.width and span[1] <= world.height:
+        return ""
+    return (
+        f"; the file spans {span[0]:.4g} x {span[1]:.4g} units but the world is {world.width:g} x {world.height:g} m: "
+        "if its units are pixels (or millimetres), give --scale (metres per unit, e.g. --scale 0.01 for 1 cm per pixel)"
+    )
+
+
+def check_world(
+    imported: ImportedFile, poses: FloatArray, times: FloatArray | None, world: World, robot: RobotSpec
+) -> str:
+    """Check the robot's footprint along (M, 3) ``poses`` against the world.
+
+    Args:
+        imported: The file (its options and rows, for the message).
+        poses: (M, 3) poses along the motion, dense enough to check.
+        times: (M,) their times [s] (a trajectory), or None (a path: the nearest row is named).
+        world: The world.
+        robot: The robot (its footprint).
+
+    Returns:
+        "" when the footprint stays clear, else what happened (with ``allow_collisions``).
+
+    Raises:
+        TrajectoryFileError: The footprint enters an obstacle or leaves the world at some pose (the
+            message names the time or row, the position and the obstacle or wall) and the file does
+            not allow collisions.
+    """
+    clear = CollisionChecker(world, robot, shape="footprint").clearance_of(poses)
+    bad = np.flatnonzero(clear <= 0.0)
+    if bad.size == 0:
+        return ""
+    k = int(bad[0])
+    x, y = poses[k, :2]
+    wall, label = _culprit(world, poses[k, :2])
+    if times is not None:
+        when = f"at t = {times[k]:.2f} s"
+    else:
+        when = f"near {imported.rows[int(np.argmin(np.hypot(*(imported.xy - poses[k, :2]).T)))]}"
+    what = f"leaves the world across {label}" if wall else f"enters {label}"
+    finding = f"{imported.source.path}: the robot {what} {when}, at ({x:.3f}, {y:.3f}) m"
+    if imported.source.allow_collisions:
+        return finding + " (run anyway: --allow-collisions)"
+    raise TrajectoryFileError(
+        finding + _pixel_hint(imported, world) + "; move the file with --offset, scale it with --scale, choose "
+        "another --scenario, or run it anyway with --allow-collisions"
+    )
+
+
+def path_poses(imported: ImportedFile) -> FloatArray:
+    """(N, 3) poses of an untimed file: its headings, else those of its steps (driven forwards)."""
+    xy = imported.xy
+    if imported.theta is not None:
+        return np.column_stack([xy, imported.theta])
+    d = np.diff(xy, axis=0)
+    h = np.arctan2(d[:, 1], d[:, 0])
+    return np.column_stack([xy, np.unwrap(np.append(h, h[-1]))])
+
+
+def file_poses(imported: ImportedFile) -> FloatArray:
+    """(M, 3) poses along the file: a trajectory's dense samples, a path's rows."""
+    return densify(imported).pose if imported.source.timed else path_poses(imported)
+
+
+def with_file_ends(scenario: Scenario, imported: ImportedFile) -> Scenario:
+    """The scenario starting where the file starts and with its goal where the file ends."""
+    poses = file_poses(imported)
+    start, goal = (Pose2D(float(p[0]), float(p[1]), wrap_angle(float(p[2]))) for p in (poses[0], poses[-1]))
+    return dataclasses.replace(scenario, start=start, goal=goal)
+
+
+#: Name of the arena built around a file when no scenario is given.
+ARENA_NAME = "arena"
+
+
+def arena_scenario(imported: ImportedFile, robot: RobotSpec) -> Scenario:
+    """An empty arena around the file: its extent plus the robot's radius and ``ARENA_MARGIN`` on
+    every side, starting and ending where the file does.
+
+    Raises:
+        TrajectoryFileError: The arena would be wider than ``ARENA_MAX`` (the message suggests --scale).
+    """
+    xy = file_poses(imported)[:, :2]
+    pad = robot.radius + ARENA_MARGIN
+    lo, hi = xy.min(axis=0) - pad, xy.max(axis=0) + pad
+    if float(np.max(hi - lo)) > ARENA_MAX:
+        span = np.ptp(xy, axis=0)
+        raise TrajectoryFileError(
+            f"{imported.source.path}: the file spans {span[0]:.4g} x {span[1]:.4g} m, more than the {ARENA_MAX:g} m "
+            "an arena is built for: if its units are pixels (or millimetres), give --scale (metres per unit, e.g. "
+            "--scale 0.01 for 1 cm per pixel), or give the world with --scenario"
+        )
+    world = World((float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])))
+    sc = Scenario(
+        ARENA_NAME,
+        robot.name,
+        world,
+        Pose2D(0.0, 0.0, 0.0),
+        Pose2D(0.0, 0.0, 0.0),
+        description=f"empty arena around {imported.source.path}",
+    )
+    return with_file_ends(sc, imported)
+
+
+# ------------------------------------------------------------------------------- the trajectory
+def file_trajectory(imported: ImportedFile, robot: RobotSpec, world: World, **options: Any) -> TrajectoryResult:
+    """The trajectory of a repaired file in a world (see the module doc); the report says how.
+
+    Args:
+        imported: From :func:`planning.trajectory.importer.read_trajectory_file`.
+        robot: The robot (limits, footprint).
+        world: The world.
+        **options: Further :func:`planning.trajectory.from_plan.make_trajectory` options.
+
+    Returns:
+        A successful result, or (with ``allow_collisions``) one whose status is ``COLLISION``.
+
+    Raises:
+        TrajectoryFileError: The file enters an obstacle or leaves the world (see :func:`check_world`).
+    """
+    source, report = imported.source, imported.report
+    name = f"file:{source.name}"
+    goal = with_file_ends(Scenario("file", robot.name, world, Pose2D(0, 0, 0), Pose2D(0, 0, 0)), imported).goal
+    if source.timed:
+        dense = densify(imported)
+        report.world = check_world(imported, dense.pose, dense.t, world, robot)
+        retime, why, _ = timing_verdict(dense, Limits.from_robot(robot, options.get("margin", 0.85)))
+        plan = PlanResult(
+            PlanStatus.SUCCESS, name, dense.pose, times=dense.t, controls=np.column_stack([dense.v, dense.omega])
+        )
+        res = make_trajectory(plan, robot, world, goal=goal, retime=retime, name=name, **options)
+        report.retimed, report.timing = retime, why
+        report.time_stretch = float(res.stats.get("time_scale") or 1.0)
+    else:
+        poses = path_poses(imported)
+        checker = CollisionChecker(world, robot, shape="footprint")
+        report.world = check_world(imported, checker.densify(poses), None, world, robot)
+        res = make_trajectory(poses, robot, world, goal=goal, name=name, **options)
+        report.timing = "a path has no clock: timed by the speed profile within the robot's limits"
+    report.collisions_allowed = bool(report.world)
+    ok = res.success or (source.allow_collisions and res.status is TrajectoryStatus.COLLISION)
+    if not ok or res.trajectory is None:
+        from planning.trajectory.from_plan import TrajectoryError
+
+        raise TrajectoryError(f"{source.path}: {res.reason}")
+    return res

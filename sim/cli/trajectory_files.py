@@ -1,0 +1,114 @@
+"""``nhsim simulate --trajectory FILE`` / ``--path FILE``: the options, the case's source and the
+printed summary of what was read and repaired (the reading itself is
+:mod:`planning.trajectory.importer`)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from planning.errors import ConfigError
+
+if TYPE_CHECKING:
+    from planning.scenario import Scenario
+    from planning.trajectory.importer import TrajectoryFile
+
+HELP = (
+    "Track your own trajectory (timed) or path (untimed) from a file: CSV, TSV or whitespace-separated text with "
+    'a header row naming the columns (or --columns), JSON ({"t": [...], "x": [...]} or a list of records), or '
+    "a ROS nav_msgs/Path as YAML. Columns: t, x, y, theta, v, omega, vx, vy, ax, ay (_ skips one). Repeated "
+    "stamps at one position merge, headings are unwrapped, given derivatives that disagree with the positions "
+    "are replaced, and a timed file keeps its clock when it is within the robot's limits (else it is re-timed): "
+    "the summary and the record's 'import' say what was done. The world is --scenario's (the file must stay "
+    "clear of its obstacles and walls) or, without one, an empty arena around the file."
+)
+
+
+def add_file_arguments(p: argparse.ArgumentParser) -> None:
+    """Add ``--trajectory``, ``--path`` and the options that read them to ``simulate``'s parser."""
+    g = p.add_argument_group("trajectory and path files", HELP)
+    which = g.add_mutually_exclusive_group()
+    which.add_argument("--trajectory", type=Path, default=None, metavar="FILE", help="track a timed file")
+    which.add_argument("--path", type=Path, default=None, metavar="FILE", help="time an untimed file and track it")
+    g.add_argument(
+        "--columns", default=None, metavar="NAME,...", help="names of a text file's columns, e.g. t,x,y,_,theta"
+    )
+    g.add_argument(
+        "--scale", type=float, default=None, metavar="S", help="metres per file unit (e.g. 0.01: 1 cm per pixel)"
+    )
+    g.add_argument("--time-scale", type=float, default=None, metavar="T", help="seconds per file time unit")
+    g.add_argument(
+        "--offset",
+        default=None,
+        metavar="X,Y,THETA",
+        help="move the file into the world: rotate by THETA [rad], then shift by X, Y [m] (write --offset=-1,0,0)",
+    )
+    g.add_argument(
+        "--allow-collisions",
+        action="store_true",
+        help="run a file that enters an obstacle or leaves the world anyway (the record says so)",
+    )
+    p.set_defaults(_scenario_default=p.get_default("scenario"))
+
+
+def file_source(args: argparse.Namespace) -> TrajectoryFile:
+    """The file the options name, with how to read it.
+
+    Raises:
+        ConfigError: --planner, --reference or --all with a file; bad --columns or --offset.
+    """
+    from planning.trajectory.importer import TrajectoryFile, parse_columns, parse_offset
+
+    if args.planner is not None or args.reference is not None or args.all:
+        raise ConfigError("--trajectory and --path track a file: drop --planner, --reference and --all")
+    timed = args.trajectory is not None
+    return TrajectoryFile(
+        args.trajectory if timed else args.path,
+        timed=timed,
+        columns=parse_columns(args.columns) if args.columns else None,
+        scale=args.scale,
+        time_scale=args.time_scale,
+        offset=parse_offset(args.offset) if args.offset else (0.0, 0.0, 0.0),
+        allow_collisions=args.allow_collisions,
+    )
+
+
+def file_world(args: argparse.Namespace, source: TrajectoryFile) -> tuple[str | Scenario, str | None, str]:
+    """The scenario a file runs in, the robot to ask for, and the source name of the outputs.
+
+    --scenario gives the world (at its default, itself an empty arena, an arena is sized around the
+    file instead: its extent plus the robot's radius and 0.25 m); the arena is built for --robot (or
+    TurtleBot3), whose name then joins the outputs' source when it is not the default.
+    """
+    if args.scenario != getattr(args, "_scenario_default", None):
+        return args.scenario, args.robot, source.name
+    from planning.core.robot import load_robot
+    from planning.trajectory.file_trajectory import ARENA_ROBOT, arena_scenario
+    from planning.trajectory.importer import read_trajectory_file
+
+    robot = args.robot or ARENA_ROBOT
+    arena = arena_scenario(read_trajectory_file(source), load_robot(robot))
+    return arena, None, source.name if robot == ARENA_ROBOT else f"{source.name}-{robot}"
+
+
+def format_import(rec: dict[str, Any]) -> list[str]:
+    """The printed summary of a record's ``import``: rows read and merged, the timing, every note."""
+    head = f"import {rec['file']} ({rec['format']}, {rec['kind']}): {rec['rows_read']} rows read, "
+    head += f"{rec['rows_merged']} merged"
+    if rec["retimed"] is not None:
+        head += f"; {'re-timed' if rec['retimed'] else 'timing kept'}: {rec['timing']}"
+    elif rec["timing"]:
+        head += f"; {rec['timing']}"
+    lines = [head, *(f"  {note}" for note in rec["notes"])]
+    largest = rec.get("largest_correction")
+    if largest:
+        lines.append(
+            f"  largest correction: {largest['what']} at {largest['row']}, {largest['difference']:.4g} "
+            f"{largest['unit']}"
+        )
+    if rec["world"]:
+        lines.append(f"  {rec['world']}")
+    if rec["arena"]:
+        lines.append("  world: an empty arena around the file (give --scenario for another)")
+    return lines

@@ -1,0 +1,208 @@
+"""A repaired file as a trajectory in a world: its clock kept or re-timed (with the reason), turns in
+place kept, refused where it enters an obstacle or leaves the world, an arena around it by default."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_importer import s_curve, write_csv
+
+from planning.collision.exact import CollisionChecker
+from planning.core.robot import load_robot
+from planning.core.world import Box, Circle, World
+from planning.trajectory.file_formats import TrajectoryFileError
+from planning.trajectory.file_trajectory import (
+    ARENA_MARGIN,
+    arena_scenario,
+    densify,
+    file_trajectory,
+    timing_verdict,
+)
+from planning.trajectory.from_plan import TrajectoryStatus
+from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
+from planning.trajectory.speed_profile import Limits
+
+ROBOT = load_robot("turtlebot3")
+LIMITS = Limits.from_robot(ROBOT)
+WORLD = World((-0.5, 2.5, -0.5, 1.0))
+
+
+def s_curve_file(tmp_path: Path, duration: float, step: float = 0.5, **extra: np.ndarray) -> Path:
+    t = np.arange(0.0, duration + 1e-9, step)
+    xy, _, _ = s_curve(t * 20.0 / duration)  # the 20 s S-curve, slowed to ``duration``
+    return write_csv(tmp_path / "s.csv", {"t": t, "x": xy[:, 0], "y": xy[:, 1], **extra})
+
+
+def test_a_file_within_the_limits_keeps_its_own_clock(tmp_path: Path) -> None:
+    p = s_curve_file(tmp_path, 30.0)
+    imp = read_trajectory_file(TrajectoryFile(p))
+    res = file_trajectory(imp, ROBOT, WORLD)
+    assert res.success and imp.report.retimed is False and imp.report.time_stretch == 1.0
+    assert imp.report.timing == "within the robot's limits"
+    traj = res.trajectory
+    assert traj is not None
+    t = np.arange(0.0, 30.0 + 1e-9, 0.5)
+    at = traj.sample_many(t)
+    np.testing.assert_allclose(at.pose[:, :2], s_curve(t * 20.0 / 30.0)[0], atol=1e-4)  # where the file is, when
+
+
+def test_a_file_a_little_too_fast_is_slowed_uniformly(tmp_path: Path) -> None:
+    imp = read_trajectory_file(TrajectoryFile(s_curve_file(tmp_path, 20.0)))
+    dense = densify(imp)
+    wheel = np.abs(dense.v) + 0.5 * ROBOT.track_width * np.abs(dense.omega)  # the outer wheel's rim speed
+    peak = float(np.max(wheel))
+    assert LIMITS.max_wheel_linear < peak < 2.0 * LIMITS.max_wheel_linear
+    res = file_trajectory(imp, ROBOT, WORLD)
+    assert imp.report.retimed is False and "slowed uniformly" in imp.report.timing
+    assert imp.report.time_stretch == pytest.approx(peak / LIMITS.max_wheel_linear, rel=1e-6)
+    traj = res.trajectory
+    assert traj is not None
+    assert traj.duration == pytest.approx(20.0 * imp.report.time_stretch + 0.3, abs=0.02)  # and a final hold
+    rim = np.abs(traj.vel[:, 0]) + 0.5 * ROBOT.track_width * np.abs(traj.vel[:, 1])
+    assert np.max(rim) == pytest.approx(LIMITS.max_wheel_linear, rel=1e-6)
+
+
+def test_a_file_that_starts_moving_is_retimed_from_rest_with_the_reason(tmp_path: Path) -> None:
+    t = np.arange(0.0, 10.0 + 1e-9, 0.5)
+    x = 0.1 * t  # 10 cm/s from the first row to the last, velocities given
+    p = write_csv(
+        tmp_path / "line.csv",
+        {"t": t, "x": x, "y": np.zeros_like(t), "vx": np.full_like(t, 0.1), "vy": np.zeros_like(t)},
+    )
+    imp = read_trajectory_file(TrajectoryFile(p))
+    res = file_trajectory(imp, ROBOT, WORLD)
+    assert imp.report.retimed is True and "starts moving (+0.100 m/s)" in imp.report.timing
+    traj = res.trajectory
+    assert traj is not None
+    assert traj.vel[0, 0] == 0.0 and traj.vel[-1, 0] == 0.0
+    assert np.max(np.abs(np.diff(traj.vel[:, 0]) / np.diff(traj.t))) <= LIMITS.max_accel + 1e-6
+    np.testing.assert_allclose(traj.pose[-1, :2], [1.0, 0.0], atol=1e-9)
+
+
+def test_a_file_that_jumps_to_speed_is_retimed_naming_its_acceleration(tmp_path: Path) -> None:
+    t = np.arange(0.0, 4.0 + 1e-9, 0.2)
+    x = np.concatenate([[0.0, 0.0], 0.14 * 0.2 * np.arange(1, t.size - 1)])  # rest, then 14 cm/s at once
+    imp = read_trajectory_file(TrajectoryFile(write_csv(tmp_path / "j.csv", {"t": t, "x": x, "y": 0 * t})))
+    retime, why, _ = timing_verdict(densify(imp), LIMITS)
+    assert retime and why.startswith("its acceleration reaches") and "limit 0.425 m/s^2" in why
+
+
+def test_a_turn_in_place_in_a_timed_file_follows_its_headings(tmp_path: Path) -> None:
+    t = np.array([0.0, 5.0, 10.0, 12.0, 14.0, 19.0, 24.0])
+    rows = np.array(
+        [
+            [0, 0, 0],
+            [0.5, 0, 0],
+            [1, 0, 0],
+            [1, 0, np.pi / 4],
+            [1, 0, np.pi / 2],
+            [1, 0.5, np.pi / 2],
+            [1, 1, np.pi / 2],
+        ]
+    )
+    p = write_csv(tmp_path / "turn.csv", {"t": t, "x": rows[:, 0], "y": rows[:, 1], "theta": rows[:, 2]})
+    imp = read_trajectory_file(TrajectoryFile(p))
+    dense = densify(imp)
+    k = np.searchsorted(dense.t, [10.0, 12.0, 14.0])
+    np.testing.assert_allclose(dense.pose[k, 2], [0.0, np.pi / 4, np.pi / 2], atol=1e-9)
+    np.testing.assert_allclose(dense.pose[k, :2], [[1.0, 0.0]] * 3, atol=1e-9)
+    res = file_trajectory(imp, ROBOT, World((-1.0, 2.0, -1.0, 2.0)))
+    assert res.trajectory is not None and "rotate" in res.trajectory.segment_kinds
+
+
+def test_a_file_through_an_obstacle_is_refused_naming_time_position_and_obstacle(tmp_path: Path) -> None:
+    world = World(WORLD.bounds, (Box((0.3, -0.3), (0.2, 0.2)), Circle((1.0, 0.3), 0.1)))
+    imp = read_trajectory_file(TrajectoryFile(s_curve_file(tmp_path, 30.0)))
+    with pytest.raises(TrajectoryFileError) as info:
+        file_trajectory(imp, ROBOT, world)
+    msg = str(info.value)
+    assert "enters obstacle 1 (circle about (1.00, 0.30))" in msg and "--allow-collisions" in msg
+    t = float(msg.split("at t = ")[1].split(" s")[0])
+    x, y = (float(v) for v in msg.split("at (")[1].split(")")[0].split(", "))
+    dense = densify(imp)
+    k = int(np.argmin(np.abs(dense.t - t)))
+    np.testing.assert_allclose(dense.pose[k, :2], [x, y], atol=1e-3)  # the position at that time
+    clear = _outline_clearance(world, dense.pose[: k + 1])
+    # the first touch, as far as the footprint checker sees it (a lower bound within tolerance / 2)
+    assert clear[-1] <= 0.5 * CollisionChecker(world, ROBOT).tolerance + 1e-4 and clear[:-1].min() > 0.0
+    allowed = read_trajectory_file(TrajectoryFile(s_curve_file(tmp_path, 30.0), allow_collisions=True))
+    res = file_trajectory(allowed, ROBOT, world)
+    assert res.status is TrajectoryStatus.COLLISION and res.trajectory is not None
+    assert allowed.report.collisions_allowed and "run anyway" in allowed.report.world
+
+
+def _outline_clearance(world: World, poses: np.ndarray) -> np.ndarray:
+    """(M,) least signed distance of the footprint's outline (every edge at 60 points) at each pose [m]."""
+    corners = ROBOT.footprint_at(poses)  # (M, K, 2)
+    nxt = np.roll(corners, -1, axis=1)
+    w = np.linspace(0.0, 1.0, 60)[None, None, :, None]
+    outline = corners[:, :, None, :] + w * (nxt - corners)[:, :, None, :]
+    return world.signed_distance(outline.reshape(-1, 2)).reshape(poses.shape[0], -1).min(axis=1)
+
+
+def test_a_file_in_pixels_leaving_the_world_suggests_scale(tmp_path: Path) -> None:
+    t = np.arange(0.0, 30.0 + 1e-9, 0.5)
+    xy = s_curve(t * 20.0 / 30.0)[0] * 100.0  # centimetres
+    p = write_csv(tmp_path / "px.csv", {"t": t, "x": xy[:, 0], "y": xy[:, 1]})
+    with pytest.raises(TrajectoryFileError, match=r"leaves the world across the wall y = 1 at t = .*give --scale"):
+        file_trajectory(read_trajectory_file(TrajectoryFile(p)), ROBOT, WORLD)
+    res = file_trajectory(read_trajectory_file(TrajectoryFile(p, scale=0.01)), ROBOT, WORLD)
+    assert res.success
+    with pytest.raises(TrajectoryFileError, match=r"more than the 50 m an arena is built for.*--scale"):
+        arena_scenario(read_trajectory_file(TrajectoryFile(p, scale=1.0 / 0.3)), ROBOT)
+
+
+def test_the_default_arena_holds_the_file_and_the_robot(tmp_path: Path) -> None:
+    imp = read_trajectory_file(TrajectoryFile(s_curve_file(tmp_path, 30.0)))
+    sc = arena_scenario(imp, ROBOT)
+    xy = densify(imp).pose[:, :2]
+    pad = ROBOT.radius + ARENA_MARGIN
+    expected = (xy[:, 0].min() - pad, xy[:, 0].max() + pad, xy[:, 1].min() - pad, xy[:, 1].max() + pad)
+    np.testing.assert_allclose(sc.world.bounds, expected, atol=1e-12)
+    assert (sc.start.x, sc.start.y) == (0.0, 0.0) and sc.goal.x == pytest.approx(2.0)
+    assert file_trajectory(imp, ROBOT, sc.world).success
+
+
+def test_an_untimed_ros_path_is_timed_by_the_speed_profile(tmp_path: Path) -> None:
+    u = np.linspace(0.0, 1.0, 41)
+    xy = np.column_stack([2.0 * u, 0.4 * np.sin(np.pi * u)])
+    d = np.gradient(xy, axis=0)
+    yaw = np.arctan2(d[:, 1], d[:, 0])
+    lines = ["header: {frame_id: map}", "poses:"]
+    for (x, y), th in zip(xy, yaw, strict=True):
+        q = f"{{x: 0.0, y: 0.0, z: {float(np.sin(th / 2))!r}, w: {float(np.cos(th / 2))!r}}}"
+        lines.append(f"- pose: {{position: {{x: {float(x)!r}, y: {float(y)!r}, z: 0.0}}, orientation: {q}}}")
+    p = tmp_path / "nav.yaml"
+    p.write_text("\n".join(lines) + "\n")
+    imp = read_trajectory_file(TrajectoryFile(p, timed=False))
+    res = file_trajectory(imp, ROBOT, WORLD)
+    traj = res.trajectory
+    assert res.success and traj is not None and imp.report.retimed is None
+    np.testing.assert_allclose(traj.pose[-1], [2.0, 0.0, yaw[-1]], atol=1e-6)
+    assert np.max(np.abs(traj.vel[:, 0])) <= LIMITS.max_speed + 1e-9
+    assert traj.duration > traj.path_length() / LIMITS.max_speed
+
+
+def test_a_cusp_from_the_sign_of_v_drives_forwards_then_backwards(tmp_path: Path) -> None:
+    """Forwards 0.6 m, then backwards along a 0.5 m arc: the speed's sign splits the drives at the cusp."""
+    t1 = np.arange(0.0, 10.0 + 1e-9, 0.5)
+    u = 10 * (t1 / 10) ** 3 - 15 * (t1 / 10) ** 4 + 6 * (t1 / 10) ** 5
+    phi = 0.8 * u[1:]  # the second half, on the arc
+    x = np.concatenate([0.6 * u, 0.6 - 0.5 * np.sin(phi)])
+    y = np.concatenate([0 * u, 0.5 * (1 - np.cos(phi))])
+    t = np.concatenate([t1, 10.0 + t1[1:]])
+    v = np.concatenate([np.full(t1.size, 0.05), np.full(phi.size, -0.05)])  # only the sign is read here
+    p = write_csv(tmp_path / "cusp.csv", {"t": t, "x": x, "y": y, "v": v})
+    imp = read_trajectory_file(TrajectoryFile(p))
+    assert [c.what for c in imp.report.corrections] == ["speeds v"]  # 5 cm/s is not how fast it moves
+    res = file_trajectory(imp, ROBOT, World((-1.0, 2.0, -1.0, 2.0)))
+    traj = res.trajectory
+    assert res.success and traj is not None and traj.segments is not None
+    kinds = [traj.segment_kinds[k] for k in traj.segments[np.abs(traj.vel[:, 0]) > 1e-3]]
+    assert kinds[0] == "forward" and kinds[-1] == "reverse" and set(kinds) == {"forward", "reverse"}
+    first_back = int(np.argmax(traj.vel[:, 0] < 0.0))  # one cusp: forwards until it, backwards after it
+    assert np.all(traj.vel[:first_back, 0] >= 0.0) and np.all(traj.vel[first_back:, 0] <= 0.0)
+    np.testing.assert_allclose(traj.pose[-1, :2], [x[-1], y[-1]], atol=1e-9)
+    np.testing.assert_allclose(traj.pose[-1, 2], -0.8, atol=1e-3)  # backing along the arc turns it clockwise

@@ -1,0 +1,227 @@
+"""Trajectory files in metres and seconds, repaired where safe and refused where not: each repair checked
+against the motion the file was written from (a rest-to-rest quintic S-curve, known in closed form)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from planning.trajectory.file_formats import TrajectoryFileError
+from planning.trajectory.importer import (
+    DISPLACEMENT_TOLERANCE,
+    TrajectoryFile,
+    parse_columns,
+    parse_offset,
+    read_trajectory_file,
+    stretch_fit,
+)
+
+DURATION = 20.0
+
+
+def s_curve(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Positions (N, 2) [m], velocities and accelerations of a rest-to-rest quintic S-curve, 2 m long."""
+    s = t / DURATION
+    u = 10 * s**3 - 15 * s**4 + 6 * s**5
+    du = (30 * s**2 - 60 * s**3 + 30 * s**4) / DURATION
+    ddu = (60 * s - 180 * s**2 + 120 * s**3) / DURATION**2
+    xy = np.column_stack([2 * u, 0.4 * np.sin(np.pi * u)])
+    vel = np.column_stack([2 * du, 0.4 * np.pi * np.cos(np.pi * u) * du])
+    acc = np.column_stack([2 * ddu, 0.4 * np.pi * (np.cos(np.pi * u) * ddu - np.pi * np.sin(np.pi * u) * du**2)])
+    return xy, vel, acc
+
+
+def write_csv(path: Path, columns: dict[str, np.ndarray]) -> Path:
+    names = list(columns)
+    n_rows = len(columns[names[0]])
+    rows = [",".join(names)] + [",".join(repr(float(columns[n][i])) for n in names) for i in range(n_rows)]
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def quintic_file(tmp_path: Path, step: float = 0.5, **extra: np.ndarray) -> tuple[Path, np.ndarray]:
+    t = np.arange(0.0, DURATION + 1e-9, step)
+    xy, _, _ = s_curve(t)
+    return write_csv(tmp_path / "q.csv", {"t": t, "x": xy[:, 0], "y": xy[:, 1], **extra}), t
+
+
+def test_the_positions_own_fit_reproduces_a_rest_to_rest_motion_from_coarse_samples() -> None:
+    t = np.arange(0.0, DURATION + 1e-9, 0.5)
+    fit = stretch_fit(t, s_curve(t)[0])
+    tq = np.linspace(0.0, DURATION, 4001)
+    xy, vel, _ = s_curve(tq)
+    assert np.abs(fit(tq) - xy).max() < 1e-5  # 10 micrometres from samples 0.5 s (up to 7 cm) apart
+    assert np.abs(fit(tq, 1) - vel).max() < 1e-4
+    np.testing.assert_allclose(fit(np.array([0.0, DURATION]), 1), 0.0, atol=1e-12)  # at rest at both ends
+
+
+def test_scale_time_scale_and_offset_move_positions_and_derivatives(tmp_path: Path) -> None:
+    t = np.arange(0.0, DURATION + 1e-9, 1.0)
+    xy, vel, _ = s_curve(t)
+    # the file in centimetres and tenths of a second, in a frame turned by -pi/2 from the world's
+    p = write_csv(
+        tmp_path / "cm.csv",
+        {"t": 10 * t, "x": 100 * xy[:, 0], "y": 100 * xy[:, 1], "vx": 10 * vel[:, 0], "vy": 10 * vel[:, 1]},
+    )
+    imp = read_trajectory_file(TrajectoryFile(p, scale=0.01, time_scale=0.1, offset=(1.0, -2.0, np.pi / 2)))
+    rot = np.array([[0.0, -1.0], [1.0, 0.0]])
+    np.testing.assert_allclose(imp.t, t, atol=1e-12)
+    np.testing.assert_allclose(imp.xy, xy @ rot.T + (1.0, -2.0), atol=1e-12)
+    assert imp.curve is not None and not imp.report.corrections  # the velocities agree: kept as given
+    np.testing.assert_allclose(imp.curve(t, 1), vel @ rot.T, atol=1e-12)
+
+
+def test_repeated_stamps_at_one_position_merge_and_say_so(tmp_path: Path) -> None:
+    t = np.arange(0.0, DURATION + 1e-9, 1.0)
+    xy, vel, _ = s_curve(t)
+    k = np.array([5, 12])  # pieces meet here: same stamp, same position, velocities differing by 1 cm/s
+    tt, pp, vv = (np.insert(a, k + 1, a[k], axis=0) for a in (t, xy, vel))
+    dup = k + 1 + np.arange(k.size)  # where the repeated rows landed
+    vv[dup] += 0.01
+    vv[dup - 1] -= 0.01  # the first row of each pair, 1 cm/s the other way: their mean is the motion's
+    p = write_csv(tmp_path / "r.csv", {"t": tt, "x": pp[:, 0], "y": pp[:, 1], "vx": vv[:, 0], "vy": vv[:, 1]})
+    imp = read_trajectory_file(TrajectoryFile(p))
+    assert imp.report.rows_read == t.size + 2 and imp.report.rows_merged == 2
+    assert "line 7 -> line 8" in imp.report.notes[0] and "line 15 -> line 16" in imp.report.notes[0]
+    np.testing.assert_allclose(imp.t, t)
+    assert imp.curve is not None
+    np.testing.assert_allclose(imp.curve(t, 1), vel, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("t", "needles"),
+    [
+        ([0.0, 1.0, 1.0, 2.0], ["line 3 -> line 4", "t = 1 s", "--path"]),
+        ([0.0, 1.0, 0.5, 2.0], ["line 3 -> line 4", "goes back"]),
+    ],
+)
+def test_stamps_repeated_at_two_positions_or_going_back_are_errors_naming_the_rows(
+    tmp_path: Path, t: list[float], needles: list[str]
+) -> None:
+    p = write_csv(tmp_path / "bad.csv", {"t": np.array(t), "x": np.array([0.0, 0.1, 0.2, 0.3]), "y": np.zeros(4)})
+    with pytest.raises(TrajectoryFileError) as info:
+        read_trajectory_file(TrajectoryFile(p))
+    for needle in needles:
+        assert needle in str(info.value), str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("columns", "timed", "needle"),
+    [
+        ({"t": [0.0, 1.0], "x": [0.0, 1.0]}, True, "no column y"),
+        ({"t": [0.0, 1.0], "y": [0.0, 1.0]}, True, "no column x"),
+        ({"x": [0.0, 1.0], "y": [0.0, 1.0]}, True, "use --path"),
+        ({"t": [0.0, 1.0, 2.0], "x": [0.5, 0.5, 0.5], "y": [1.0, 1.0, 1.0]}, True, "two distinct positions"),
+        ({"x": [0.5, 0.5], "y": [1.0, 1.0]}, False, "two distinct positions"),
+        ({"t": [0.0, 1.0], "x": [0.0, 1.0], "y": [0.0, 1.0], "vx": [0.0, 0.0]}, True, "vx and vy come together"),
+        ({"t": [0.0, 36000.0], "x": [0.0, 1.0], "y": [0.0, 1.0]}, True, "--time-scale 0.001"),
+    ],
+)
+def test_missing_columns_and_a_single_position_are_errors(
+    tmp_path: Path, columns: dict[str, list[float]], timed: bool, needle: str
+) -> None:
+    p = write_csv(tmp_path / "m.csv", {k: np.array(v) for k, v in columns.items()})
+    with pytest.raises(TrajectoryFileError, match=needle):
+        read_trajectory_file(TrajectoryFile(p, timed=timed))
+
+
+def test_wrapped_headings_are_unwrapped(tmp_path: Path) -> None:
+    t = np.linspace(0.0, 40.0, 81)
+    s = t / 40.0
+    ang = 2.0 * np.pi * 1.75 * (10 * s**3 - 15 * s**4 + 6 * s**5)  # 1.75 turns of a circle: through pi and 3 pi
+    x, y = np.sin(ang), 1.0 - np.cos(ang)
+    theta = np.arctan2(np.sin(ang), np.cos(ang))  # heading = angle on the circle, wrapped into (-pi, pi]
+    imp = read_trajectory_file(TrajectoryFile(write_csv(tmp_path / "c.csv", {"t": t, "x": x, "y": y, "theta": theta})))
+    assert imp.report.headings_unwrapped == 2
+    assert imp.theta is not None
+    np.testing.assert_allclose(imp.theta, ang, atol=1e-12)
+    assert not imp.report.corrections  # the headings follow the motion
+
+
+def test_velocities_in_the_wrong_units_are_replaced_by_the_positions_own(tmp_path: Path) -> None:
+    t = np.arange(0.0, DURATION + 1e-9, 0.5)
+    _, vel, _ = s_curve(t)
+    p, _ = quintic_file(tmp_path, vx=100 * vel[:, 0], vy=100 * vel[:, 1])  # cm/s in a file in metres
+    imp = read_trajectory_file(TrajectoryFile(p))
+    assert imp.curve is not None
+    np.testing.assert_allclose(imp.curve(t, 1), vel, atol=1e-4)  # the positions' own (the fit above)
+    (fix,) = imp.report.corrections
+    k = int(np.argmax(np.hypot(*vel.T)))
+    assert fix.row == f"line {k + 2}" and fix.difference == pytest.approx(99 * np.hypot(*vel[k]), rel=1e-3)
+    assert "velocities (vx, vy) disagree" in imp.report.notes[0]
+    assert imp.report.as_dict()["largest_correction"]["row"] == fix.row
+
+
+def test_velocities_that_agree_are_kept_and_a_small_error_within_tolerance_too(tmp_path: Path) -> None:
+    t = np.arange(0.0, DURATION + 1e-9, 0.5)
+    _, vel, _ = s_curve(t)
+    # 1.5 mm/s off everywhere moves 0.75 mm per 0.5 s step: inside 1 cm + 10 %
+    assert 0.0015 * 0.5 < DISPLACEMENT_TOLERANCE[0]
+    p, _ = quintic_file(tmp_path, vx=vel[:, 0] + 0.0015, vy=vel[:, 1])
+    imp = read_trajectory_file(TrajectoryFile(p))
+    assert not imp.report.corrections and imp.curve is not None
+    np.testing.assert_allclose(imp.curve(t, 1)[:, 0], vel[:, 0] + 0.0015, atol=1e-12)
+
+
+def test_speeds_along_the_heading_are_checked_too(tmp_path: Path) -> None:
+    t = np.arange(0.0, DURATION + 1e-9, 0.5)
+    _, vel, _ = s_curve(t)
+    theta = np.arctan2(vel[:, 1], vel[:, 0])
+    theta[0], theta[-1] = theta[1], theta[-2]  # at rest: the heading of the motion next to it
+    good, _ = quintic_file(tmp_path, theta=theta, v=np.hypot(*vel.T))
+    assert not read_trajectory_file(TrajectoryFile(good)).report.corrections
+    bad, _ = quintic_file(tmp_path, theta=theta, v=2.0 * np.hypot(*vel.T))
+    fixes = read_trajectory_file(TrajectoryFile(bad)).report.corrections
+    assert [f.what for f in fixes] == ["speeds v"]
+
+
+def test_accelerations_that_agree_make_quintic_pieces_and_wrong_ones_are_dropped(tmp_path: Path) -> None:
+    t = np.arange(0.0, DURATION + 1e-9, 0.5)
+    _, vel, acc = s_curve(t)
+    p, _ = quintic_file(tmp_path, vx=vel[:, 0], vy=vel[:, 1], ax=acc[:, 0], ay=acc[:, 1])
+    imp = read_trajectory_file(TrajectoryFile(p))
+    assert imp.curve is not None and not imp.report.corrections
+    np.testing.assert_allclose(imp.curve(t, 2), acc, atol=1e-10)
+    p, _ = quintic_file(tmp_path, vx=vel[:, 0], vy=vel[:, 1], ax=-5 * acc[:, 0], ay=acc[:, 1])
+    imp = read_trajectory_file(TrajectoryFile(p))
+    assert [f.what for f in imp.report.corrections] == ["accelerations (ax, ay)"]
+
+
+def test_yaw_rates_and_headings_that_disagree_are_noted(tmp_path: Path) -> None:
+    t = np.arange(0.0, DURATION + 1e-9, 0.5)
+    _, vel, _ = s_curve(t)
+    theta = np.unwrap(np.arctan2(vel[:, 1], vel[:, 0]))
+    theta[0], theta[-1] = theta[1], theta[-2]
+    off = theta.copy()
+    off[20] += 0.5  # half a radian sideways at one row
+    p, _ = quintic_file(tmp_path, theta=off, omega=np.gradient(theta, t) * 3.0)
+    imp = read_trajectory_file(TrajectoryFile(p))
+    whats = {f.what: f for f in imp.report.corrections}
+    assert set(whats) == {"headings theta", "yaw rates omega"}
+    assert whats["headings theta"].row == "line 22"
+    assert whats["headings theta"].difference == pytest.approx(0.5, abs=1e-3)
+    assert imp.omega is None
+
+
+def test_a_path_ignores_times_and_derivatives_and_merges_repeated_poses(tmp_path: Path) -> None:
+    p = write_csv(
+        tmp_path / "p.csv",
+        {"t": np.arange(4.0), "x": np.array([0.0, 1.0, 1.0, 2.0]), "y": np.zeros(4), "v": np.ones(4)},
+    )
+    imp = read_trajectory_file(TrajectoryFile(p, timed=False))
+    assert imp.t is None and imp.report.rows_merged == 1 and imp.rows == ("line 2", "line 3", "line 5")
+    assert "columns t, v ignored" in imp.report.notes[0]
+
+
+def test_option_parsers() -> None:
+    assert parse_offset("1.5, -2, 0.3") == (1.5, -2.0, 0.3)
+    assert parse_columns("t, x,y _ theta") == ("t", "x", "y", "_", "theta")
+    for bad in ("1,2", "a,b,c", "1,2,inf"):
+        with pytest.raises(TrajectoryFileError, match="X,Y,THETA"):
+            parse_offset(bad)
+    with pytest.raises(TrajectoryFileError, match="valid names are t, x, y, theta"):
+        parse_columns("t,x,z")
+    with pytest.raises(TrajectoryFileError, match="--scale"):
+        TrajectoryFile(Path("a.csv"), scale=0.0)

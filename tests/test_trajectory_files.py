@@ -1,0 +1,201 @@
+"""``nhsim simulate --trajectory/--path``: a coarse pixel file with repeated stamps tracked through a world
+with obstacles to the closed-loop targets; every bad file exits 2 and writes nothing."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sim.cli.main import main
+
+WORLD = """robot = "turtlebot3"
+[world]
+bounds = [0.0, 3.0, 0.0, 2.0]
+[[world.obstacles]]
+type = "circle"
+center = [1.5, 1.65]
+radius = 0.2
+[[world.obstacles]]
+type = "box"
+center = [0.9, 0.85]
+size = [0.4, 0.2]
+[[world.obstacles]]
+type = "circle"
+center = [2.3, 0.5]
+radius = 0.2
+[start]
+pose = [0.4, 1.0, 0.0]
+[goal]
+pose = [2.6, 1.0, 0.0]
+"""
+DURATION = 36.0
+
+
+def pixel_file(tmp_path: Path, step: float = 1.0) -> Path:
+    """A rest-to-rest quintic arc in pixels (1 cm each) sampled every ``step`` s, with velocities in pixels
+    per second; where its two pieces meet (12 s, 24 s) the stamp repeats with velocities 0.5 px/s apart."""
+    t = np.arange(0.0, DURATION + 1e-9, step)
+    s = t / DURATION
+    u = 10 * s**3 - 15 * s**4 + 6 * s**5
+    du = (30 * s**2 - 60 * s**3 + 30 * s**4) / DURATION
+    x, y = 40 + 220 * u, 100 + 30 * np.sin(np.pi * u)
+    vx, vy = 220 * du, 30 * np.pi * np.cos(np.pi * u) * du
+    rows = ["t,x,y,vx,vy"]
+    for i in range(t.size):
+        joint = t[i] in (12.0, 24.0)
+        for dv in (-0.5, 0.5) if joint else (0.0,):
+            rows.append(f"{t[i]:.4f},{x[i]:.4f},{y[i]:.4f},{vx[i] + dv:.4f},{vy[i]:.4f}")
+    p = tmp_path / "px.csv"
+    p.write_text("\n".join(rows) + "\n")
+    return p
+
+
+def test_a_coarse_pixel_trajectory_with_repeated_stamps_is_tracked_through_obstacles(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "world.toml").write_text(WORLD)
+    out = tmp_path / "run.json"
+    argv = ["simulate", "--trajectory", str(pixel_file(tmp_path)), "--scale", "0.01", "--scenario", "world.toml"]
+    assert main([*argv, "--no-video", "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "2 merged; timing kept" in printed and "line 14 -> line 15" in printed
+    rec = json.loads(out.read_text())
+    closed = rec["closed_loop"]
+    assert closed["final_position_error_m"] <= 0.02 and closed["final_heading_error_rad"] <= 0.05
+    assert closed["rms_position_error_m"] <= 0.02
+    assert closed["collisions"] == 0 and closed["warnings"] == 0 and closed["status"] == "ok"
+    assert rec["open_loop"]["final_position_error_m"] > closed["final_position_error_m"]
+    imp = rec["import"]
+    assert (imp["rows_read"], imp["rows_merged"], imp["retimed"], imp["scale"]) == (39, 2, False, 0.01)
+    assert rec["source"] == "file:px" and rec["smoothing"]["timed_input"] is True
+    assert rec["trajectory"]["duration_s"] == pytest.approx(DURATION + 0.3, abs=0.02)  # its own clock, then a hold
+    assert {"plot_world", "plot_errors", "plot_commands", "json"} <= set(rec["files"])
+    assert all(Path(f).exists() for f in rec["files"].values())
+
+
+def test_a_ros_path_runs_in_an_arena_around_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    lines = ["poses:"] + [
+        f"- pose: {{position: {{x: {x!r}, y: 0.5}}, orientation: {{x: 0, y: 0, z: 0, w: 1}}}}"
+        for x in np.linspace(-1.0, 0.0, 11).tolist()
+    ]
+    p = tmp_path / "nav.yaml"
+    p.write_text("\n".join(lines) + "\n")
+    assert main(["simulate", "--path", str(p), "--runs", "closed_loop", "--no-video", "--no-plots", "--quiet"]) == 0
+    (out,) = (tmp_path / "renders").glob("arena-nav-*.json")  # named after the arena and the file, tagged by --runs
+    rec = json.loads(out.read_text())
+    assert rec["scenario"] == "arena" and rec["import"]["arena"] and rec["import"]["format"] == "nav_msgs/Path"
+    assert rec["closed_loop"]["final_position_error_m"] <= 0.02
+
+
+@pytest.mark.parametrize(
+    ("text", "extra", "needle"),
+    [
+        ("t,x,northing\n0,0,0\n1,1,1\n", [], "valid names are t, x, y, theta"),
+        ("t,x\n0,0\n1,1\n", [], "no column y"),
+        ("t,x,y\n0,1,1\n1,1,1\n", [], "two distinct positions"),
+        ("t,x,y\n0,0,0\n1,abc,1\n", [], "line 3, column 'x': 'abc'"),
+        ("t,x,y\n0,0,0\n1,1,1\n1,2,1\n", [], "line 3 -> line 4"),
+        ("t,x,y\n0,0,0\n1,1,1\n", ["--reference", "line"], "drop --planner, --reference"),
+        ("t,x,y\n0,0,0\n1,1,1\n", ["--offset", "1,2"], "X,Y,THETA"),
+        ("t,x,y\n0,0,0\n1,1,1\n", ["--all"], "drop it to track"),
+        ("t,x,y\n0,0,0\n1,1,1\n", ["--columns", "t,x,q"], "valid names"),
+    ],
+)
+def test_bad_files_exit_2_and_write_nothing(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    text: str,
+    extra: list[str],
+    needle: str,
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    p = tmp_path / "bad.csv"
+    p.write_text(text)
+    assert main(["simulate", "--trajectory", str(p), *extra, "--no-video", "--quiet"]) == 2
+    assert needle in capsys.readouterr().err
+    assert not (tmp_path / "renders").exists() or not any((tmp_path / "renders").iterdir())
+
+
+def test_a_pixel_file_without_scale_is_refused_suggesting_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "world.toml").write_text(WORLD)
+    p = pixel_file(tmp_path)
+    assert main(["simulate", "--trajectory", str(p), "--scenario", "world.toml", "--no-video", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "leaves the world" in err and "give --scale" in err and "px.csv" in err
+    assert main(["simulate", "--trajectory", str(p), "--no-video", "--quiet"]) == 2  # no scenario: too big an arena
+    assert "--scale" in capsys.readouterr().err
+    assert not (tmp_path / "renders").exists() or not any((tmp_path / "renders").iterdir())
+
+
+def test_a_file_through_an_obstacle_is_refused_or_run_anyway_on_request(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "hit.toml").write_text(WORLD.replace("center = [1.5, 1.65]", "center = [1.5, 1.3]"))
+    argv = ["simulate", "--trajectory", str(pixel_file(tmp_path)), "--scale", "0.01", "--scenario", "hit.toml"]
+    out = tmp_path / "hit.json"
+    assert main([*argv, "--no-video", "--no-plots", "--json", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "enters obstacle 0 (circle about (1.50, 1.30)) at t = " in err and "--allow-collisions" in err
+    assert not out.exists()
+    rc = main([*argv, "--runs", "open_loop", "--no-video", "--no-plots", "--json", str(out), "--allow-collisions"])
+    assert rc == 0  # the open loop is not judged; the record says what was allowed
+    rec = json.loads(out.read_text())
+    assert rec["import"]["collisions_allowed"] and "enters obstacle 0" in rec["import"]["world"]
+    assert rec["open_loop"]["collisions"] > 0
+
+
+def test_simulate_file_from_python_starts_where_the_file_does(tmp_path: Path) -> None:
+    from planning import TrajectoryFile
+    from sim import RunKind, simulate_file
+
+    job = simulate_file(TrajectoryFile(pixel_file(tmp_path, step=0.5), scale=0.01), runs=(RunKind.CLOSED_LOOP,))
+    assert job.source == "file:px" and job.scenario.name == "arena"
+    assert (job.scenario.start.x, job.scenario.start.y) == pytest.approx((0.40, 1.00), abs=1e-9)
+    assert job.extra["import"]["rows_merged"] == 2 and job.extra["import"]["arena"] is True
+    assert job.metrics[RunKind.CLOSED_LOOP].final_position_error_m <= 0.02
+
+
+def test_a_scenario_file_with_another_robot_names_the_outputs_after_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    both = 'robot = "turtlebot3"\nrobots = ["turtlebot3", "edumip"]'
+    (tmp_path / "world.toml").write_text(WORLD.replace('robot = "turtlebot3"', both))
+    argv = ["simulate", "--trajectory", str(pixel_file(tmp_path)), "--scale", "0.01", "--scenario", "world.toml"]
+    assert main([*argv, "--robot", "edumip", "--runs", "closed_loop", "--no-video", "--no-plots", "--quiet"]) == 0
+    (out,) = (tmp_path / "renders").glob("world-px-edumip-*.json")
+    assert json.loads(out.read_text())["robot"] == "edumip"
+
+
+def test_a_json_file_with_wrong_velocities_is_repaired_and_the_summary_and_record_say_so(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    lines = pixel_file(tmp_path).read_text().split()
+    names = lines[0].split(",")
+    records = [dict(zip(names, map(float, row.split(",")), strict=True)) for row in lines[1:]]
+    for r in records:
+        r["vx"], r["vy"] = 100 * r["vx"], 100 * r["vy"]  # centimetres of pixels per second: wrong units
+    p = tmp_path / "px.json"
+    p.write_text(json.dumps(records))
+    out = tmp_path / "run.json"
+    argv = ["simulate", "--trajectory", str(p), "--scale", "0.01", "--runs", "closed_loop", "--no-video", "--no-plots"]
+    assert main([*argv, "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "velocities (vx, vy) disagree with the positions" in printed
+    assert "largest correction: velocities (vx, vy) at record" in printed
+    imp = json.loads(out.read_text())["import"]
+    assert imp["format"] == "json" and imp["rows_merged"] == 2
+    assert imp["largest_correction"]["what"] == "velocities (vx, vy)" and imp["largest_correction"]["unit"] == "m/s"
