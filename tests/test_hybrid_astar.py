@@ -183,3 +183,27 @@ def test_bad_options_name_the_field(field, value):
 def test_unknown_option_is_rejected():
     with pytest.raises(ConfigError, match=r"unknown option.*valid options are"):
         make_planner("hybrid-a-star", seed=3)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("scenario", "robot"), [("farm", "turtlebot3"), ("parking_lot", "edumip"), ("nav_map1", "edumip")]
+)
+def test_length_within_ten_percent_of_rrt_star(scenario, robot):
+    sc = load_scenario(scenario).with_robot(robot)
+    res = make_planner("hybrid-a-star", clearance=0.01).plan(PlanProblem.from_scenario(sc, time_limit=30.0))
+    star = [
+        make_planner("rrt-star", clearance=0.01).plan(PlanProblem.from_scenario(sc, seed=s, time_limit=60.0)).length()
+        for s in range(3)
+    ]
+    assert res.success and res.length() <= 1.1 * np.median(star)
+
+
+def test_every_builtin_scenario_with_a_goal_gets_it():
+    from planning.scenario import builtin_scenarios
+    from sim.pipeline.simulate import applicable_planners
+
+    for name in builtin_scenarios():
+        sc = load_scenario(name)
+        moves = sc.start.distance_to(sc.goal) > 0 or sc.start.heading_error_to(sc.goal) > 0
+        assert ("hybrid-a-star" in applicable_planners(sc)) == moves, name

@@ -109,7 +109,10 @@ def _integer(value: object) -> bool:
 _RULES: dict[str, tuple[str, Callable[[Any], bool]]] = {
     "angle_quantization_bins": ("an even integer >= 8 (e.g. 72)", lambda v: _integer(v) and v >= 8 and v % 2 == 0),
     "cell_size": ("a number > 0 [m] (e.g. 0.05)", lambda v: _number(v) and v > 0),
-    "turning_radius": ("None or a number > 0 [m]", lambda v: v is None or (_number(v) and v > 0)),
+    "turning_radius": (
+        "None or a number > 0 [m] (Reeds–Shepp curves need a turning radius; plan turns in place with c-rrt-star)",
+        lambda v: v is None or (_number(v) and v > 0),
+    ),
     "reverse_penalty": ("a number >= 1 (e.g. 2.0)", lambda v: _number(v) and v >= 1),
     "change_penalty": ("a number >= 0 (e.g. 0.0)", lambda v: _number(v) and v >= 0),
     "non_straight_penalty": ("a number >= 1 (e.g. 1.2)", lambda v: _number(v) and v >= 1),
