@@ -207,3 +207,22 @@ def test_every_builtin_scenario_with_a_goal_gets_it():
         sc = load_scenario(name)
         moves = sc.start.distance_to(sc.goal) > 0 or sc.start.heading_error_to(sc.goal) > 0
         assert ("hybrid-a-star" in applicable_planners(sc)) == moves, name
+
+
+def test_bench_worlds_are_seeded_and_their_ends_free():
+    from planning.collision.exact import CollisionChecker as Checker
+    from sim.tools.bench.hybrid import HybridRow, format_rows, unseen_world
+
+    assert unseen_world(3) == unseen_world(3) and unseen_world(3) != unseen_world(4)
+    for seed in range(4):
+        sc = unseen_world(seed)
+        for robot in ("turtlebot3", "edumip"):
+            ends = np.array([sc.start.as_array(), sc.goal.as_array()])
+            assert Checker(sc.world, load_robot(robot)).poses_free(ends).all()
+    rows = [
+        HybridRow("w", "r", "success", 0.05, 0.04, 10, 2.2, 2.0),
+        HybridRow("v", "r", "success", 0.1, 0.03, 5, 1.0, 1.0),
+    ]
+    lines = format_rows(rows)
+    assert len(lines) == 4 and lines[1].split()[-1] == "1.100" and lines[2].split()[-1] == "1.000"
+    assert lines[-1].startswith("worst: wall 100.0 ms, cpu 40.0 ms") and "ratio 1.100" in lines[-1]
