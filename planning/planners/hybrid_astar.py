@@ -330,11 +330,9 @@ def _stats(t0: float, iterations: int, nodes: int) -> dict[str, object]:
 
 def _tree(nodes: FloatArray, meta: NDArray[np.int64], state: NDArray[np.int8]) -> tuple[PlanTree, NDArray[np.int64]]:
     """The searched nodes as a :class:`PlanTree` (parents by position), and their lattice ids."""
-    ids = np.flatnonzero(state > 0)
-    position = np.full(state.shape[0], -1, dtype=np.int64)
-    position[ids] = np.arange(ids.size)
+    ids = np.flatnonzero(state)  # sorted: a parent's position is found by bisection
     par = meta[ids, 0]
-    parents = np.where(par >= 0, position[np.maximum(par, 0)], -1)
+    parents = np.where(par >= 0, np.searchsorted(ids, par), -1)
     return PlanTree(nodes[ids, :3].copy(), parents), ids
 
 

@@ -173,13 +173,12 @@ def _expand(
     heap: list,  # type: ignore[type-arg]
     counter: int,
     space: tuple,  # type: ignore[type-arg]
-    goal: FloatArray,
-    rho: float,
     buf: FloatArray,
 ) -> int:
     """Push every collision-free primitive successor of node ``cid`` that improves its cell.
 
-    ``nodes[c]`` = (x, y, theta, g, f, h_rs); ``meta[c]`` = (parent id, primitive index); ``space``
+    ``nodes[c]`` = (x, y, theta, g, f, h_rs), h_rs -1 until the node is popped; ``meta[c]`` = (parent id,
+    primitive index); ``space``
     as in :func:`search`. Returns the updated push counter (the heap's deterministic tie-break).
     """
     prims, lat, h2d, chk, cover = space
@@ -207,10 +206,9 @@ def _expand(
         _place(body[p], x, y, th, buf)
         if not _proven_free(buf, chk, cover):
             continue
-        h_rs = rs_length(q, goal, rho)
-        f = g_new + max(h_grid, h_rs)
+        f = g_new + h_grid  # the Reeds–Shepp bound is added when the node is popped (see search)
         nodes[k, 0], nodes[k, 1], nodes[k, 2] = q[0], q[1], q[2]
-        nodes[k, 3], nodes[k, 4], nodes[k, 5] = g_new, f, h_rs
+        nodes[k, 3], nodes[k, 4], nodes[k, 5] = g_new, f, -1.0
         meta[k, 0], meta[k, 1] = cid, p
         state[k] = _OPEN
         counter += 1
@@ -269,6 +267,14 @@ def search(
         f, _, cid = heapq.heappop(heap)
         if state[cid] == _CLOSED or f != nodes[cid, 4]:
             continue
+        if nodes[cid, 5] < 0.0:  # lazily: the Reeds–Shepp bound only for nodes that reach the top
+            nodes[cid, 5] = rs_length(nodes[cid, :3].copy(), goal, rho)
+            g = nodes[cid, 3]
+            if g + nodes[cid, 5] > f:
+                nodes[cid, 4] = g + nodes[cid, 5]
+                counter += 1
+                heapq.heappush(heap, (nodes[cid, 4], counter, cid))
+                continue
         state[cid] = _CLOSED
         it += 1
         q = nodes[cid, :3].copy()
@@ -286,5 +292,5 @@ def search(
             return ITERATIONS, cid, it, nodes, meta, state, none[0], none[1]
         if it % 256 == 0 and _now() > deadline:
             return TIMED_OUT, cid, it, nodes, meta, state, none[0], none[1]
-        counter = _expand(cid, nodes, meta, state, heap, counter, space, goal, rho, buf)
+        counter = _expand(cid, nodes, meta, state, heap, counter, space, buf)
     return EXHAUSTED, s, it, nodes, meta, state, none[0], none[1]
