@@ -158,6 +158,9 @@ def test_gap_too_narrow_for_the_body_exhausts_the_lattice():
     res = make_planner("hybrid-a-star", max_iterations=50).plan(prob)
     assert res.status is PlanStatus.TIMEOUT and "iteration budget" in res.reason
     assert res.stats["iterations"] == 50
+    res = make_planner("hybrid-a-star", time_limit=0.05).plan(prob)
+    assert res.status is PlanStatus.TIMEOUT and "time budget of 0.05 s" in res.reason
+    assert res.stats["time_s"] < 1.0
 
 
 def test_invalid_start_and_goal_keep_their_status():
