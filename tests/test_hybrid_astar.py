@@ -229,3 +229,11 @@ def test_bench_worlds_are_seeded_and_their_ends_free():
     lines = format_rows(rows)
     assert len(lines) == 4 and lines[1].split()[-1] == "1.100" and lines[2].split()[-1] == "1.000"
     assert lines[-1].startswith("worst: wall 100.0 ms, cpu 40.0 ms") and "ratio 1.100" in lines[-1]
+
+
+@pytest.mark.parametrize(("flag", "value"), [("--seeds", "0"), ("--repeats", "0"), ("--random", "-1")])
+def test_bench_rejects_bad_counts(flag, value, capsys):
+    from sim.cli.main import main
+
+    assert main(["bench", "hybrid", flag, value]) == 2
+    assert f"{flag} must be >=" in capsys.readouterr().err

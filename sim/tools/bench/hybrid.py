@@ -1,5 +1,5 @@
 """Hybrid-A* against rrt-star: time to its (only) path and its length, on the built-in worlds and on
-random seeded worlds (``python -m sim.tools.bench.hybrid [--random N] [--seeds N]``).
+random seeded worlds (``nhsim bench hybrid [--random N] [--seeds N]``).
 
 Per problem: Hybrid-A*'s status, median wall time and least process (CPU) time over ``repeats``
 runs (the world's distance grid built before timing, as in ``nhsim bench plan``), expansions and
@@ -10,7 +10,6 @@ time <= 0.2 s, length <= 1.1x rrt-star's.
 
 from __future__ import annotations
 
-import argparse
 import time
 from dataclasses import dataclass
 
@@ -99,6 +98,11 @@ def measure(world: str, robot: str, sc: Scenario, *, seeds: int = 3, repeats: in
     return HybridRow(world, robot, res.status.value, float(np.median(walls)), min(cpus), its, res.length(), ref)
 
 
+def passed(rows: list[HybridRow]) -> bool:
+    """Whether every problem succeeded within the time target (CPU) and the length target."""
+    return all(r.status == "success" and r.cpu_s <= TIME_TARGET_S and r.ratio <= LENGTH_TARGET for r in rows)
+
+
 def format_rows(rows: list[HybridRow]) -> list[str]:
     """The table: one line per problem, then the worst time and ratio against the targets."""
     lines = [f"{'world':<18}{'robot':<12}{'status':<10}{'wall ms':>9}{'cpu ms':>9}{'exp':>7}{'length':>9}"
@@ -115,22 +119,3 @@ def format_rows(rows: list[HybridRow]) -> list[str]:
             f"ratio {ratio:.3f} (target {LENGTH_TARGET})"
         )
     return lines
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Print the table; exit status 1 when a problem fails or misses a target."""
-    p = argparse.ArgumentParser(prog="python -m sim.tools.bench.hybrid", description=__doc__)
-    p.add_argument("--random", type=int, default=0, metavar="N", help="also N unseen random worlds (default 0)")
-    p.add_argument("--seeds", type=int, default=3, metavar="N", help="rrt-star seeds per problem (default 3)")
-    args = p.parse_args(argv)
-    rows = []
-    for world, robot, sc in problems(args.random):
-        rows.append(measure(world, robot, sc, seeds=args.seeds))
-        print(format_rows(rows[-1:])[1], flush=True)
-    print("\n".join(format_rows(rows)))
-    ok = all(r.status == "success" and r.cpu_s <= TIME_TARGET_S and r.ratio <= LENGTH_TARGET for r in rows)
-    return 0 if ok else 1
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
