@@ -33,6 +33,9 @@ from planning.core.world import World
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
+#: What the compiled classifier takes after the poses (see :meth:`FastChecker.proof_arguments`).
+ProofArguments = tuple[FloatArray, float, float, float, FloatArray, FloatArray, FloatArray, float, float, float, bool]
+
 #: Largest number of grid nodes tabulated (the spacing grows beyond 1 cm to stay below it).
 MAX_NODES = 4_000_000
 
@@ -158,15 +161,27 @@ class FastChecker:
         """Largest motion of any robot point between checked samples [m] (the exact checker's)."""
         return self.checker.resolution
 
-    def _classify(self, p: FloatArray, stop: bool) -> NDArray[np.int8]:
+    def proof_arguments(self) -> ProofArguments:
+        """The arguments after the poses of the compiled ``_classify`` kernel (grid, its origin and
+        spacing, footprint samples, footprint, anchors, radius, clearance, tolerance, disc), for
+        compiled callers that prove poses free themselves (:mod:`planning.planners.lattice`).
+
+        Raises:
+            ValueError: The checker ignores the walls (no grid is tabulated).
+        """
         c = self.checker
-        if not c.walls:  # the grid assumes walls; without them every pose is left undecided
-            return np.full(p.shape[0], -1, dtype=np.int8)
+        if not c.walls:
+            raise ValueError("proof_arguments needs a checker with walls (the grid assumes them)")
         x0, _, y0, _ = c.world.bounds
-        r, fp, disc = c.robot.radius, c.robot.footprint, c.shape == "disc"
-        return _classify(  # type: ignore[no-any-return]
-            p, self._grid, x0, y0, self._h, c._boundary, fp, c._anchors, r, c.clearance, c.tolerance, disc, stop
-        )
+        fp = np.ascontiguousarray(c.robot.footprint, dtype=float)
+        r, clr, tol, disc = float(c.robot.radius), float(c.clearance), float(c.tolerance), c.shape == "disc"
+        return (self._grid, float(x0), float(y0), self._h, c._boundary, fp, c._anchors, r, clr, tol, disc)
+
+    def _classify(self, p: FloatArray, stop: bool) -> NDArray[np.int8]:
+        if not self.checker.walls:  # the grid assumes walls; without them every pose is left undecided
+            return np.full(p.shape[0], -1, dtype=np.int8)
+        grid, x0, y0, h, boundary, fp, anchors, r, clr, tol, disc = self.proof_arguments()
+        return _classify(p, grid, x0, y0, h, boundary, fp, anchors, r, clr, tol, disc, stop)  # type: ignore[no-any-return]
 
     def poses_free(self, poses: ArrayLike) -> BoolArray:
         """(M,) whether each (M, 3) pose keeps the clearance from everything (exact verdict)."""
@@ -201,6 +216,25 @@ class FastChecker:
     def motion_free(self, poses: ArrayLike) -> bool:
         """Whether a motion (consecutive poses, densified here) is collision-free."""
         return self.path_free(self.densify(poses))
+
+    def distance_bounds(self, points: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Lower and upper bounds [m] of the world's signed distance (walls included) at (M, 2) points,
+        from the tabulated grid alone (``g -+ h / sqrt(2)``; -inf, -inf outside the bounds).
+
+        Raises:
+            ValueError: The checker ignores the walls (no grid is tabulated).
+        """
+        if not self.checker.walls:
+            raise ValueError("distance_bounds needs a checker with walls (the grid assumes them)")
+        p = np.atleast_2d(np.asarray(points, dtype=float))
+        x0, _, y0, _ = self.checker.world.bounds
+        i = np.floor((p[:, 0] - x0) / self._h + 0.5).astype(np.int64)
+        j = np.floor((p[:, 1] - y0) / self._h + 0.5).astype(np.int64)
+        inside = (i >= 0) & (j >= 0) & (i < self._grid.shape[0]) & (j < self._grid.shape[1])
+        g = np.full(p.shape[0], -np.inf)
+        g[inside] = self._grid[i[inside], j[inside]]
+        e = self._h / np.sqrt(2.0)
+        return g - e, g + e
 
     def clearance_of(self, poses: ArrayLike) -> FloatArray:
         """The exact checker's clearance lower bound [m] (not accelerated)."""

@@ -27,6 +27,7 @@ PLANNERS: dict[str, str] = {
     "c-rrt-star": "planning.planners.sampling.crrt_star:CRRTStar",
     "sinusoidal": "planning.planners.sinusoidal:Sinusoidal",
     "optim": "planning.planners.optim:Optim",
+    "hybrid-a-star": "planning.planners.hybrid_astar:HybridAStar",
 }
 
 

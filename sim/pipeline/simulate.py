@@ -404,7 +404,7 @@ def prepare_case(case: Case) -> PreparedCase:
 
 # ------------------------------------------------------------------------------------------ plans
 #: Planners that solve any scenario (they avoid obstacles); they apply to every scenario with a goal.
-GENERAL_PLANNERS = ("rrt", "birrt", "rrt-star", "c-rrt-star", "optim")
+GENERAL_PLANNERS = ("rrt", "birrt", "rrt-star", "c-rrt-star", "optim", "hybrid-a-star")
 #: Planners that ignore obstacles; they apply to scenarios without obstacles.
 OBSTACLE_FREE_PLANNERS = ("sinusoidal",)
 

@@ -22,6 +22,10 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "sim.cli.bench.optim",
         "optim planner: seed N=1000, dt=0.01 against the default (time, final error, length)",
     ),
+    "hybrid": (
+        "sim.cli.bench.hybrid",
+        "hybrid-a-star: time to its path and length against rrt-star's on built-in and seeded worlds",
+    ),
     "render": ("sim.cli.bench.render", "video pipeline frames/s (replay, draw, encode) against a bare Renderer loop"),
     "montecarlo": (
         "sim.cli.bench.montecarlo",

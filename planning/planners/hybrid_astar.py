@@ -1,0 +1,360 @@
+"""Hybrid-A* (``hybrid-a-star``): the search Nav2's Smac planner uses for car-like robots.
+
+A* over a lattice of (x, y, theta) cells (``cell_size`` squares, ``angle_quantization_bins``
+headings), keeping in each cell the exact pose a motion primitive reached (Dolgov et al., 2008).
+Primitives are sized as Smac sizes them: a turning arc of the turning radius just long enough to
+leave a cell (its chord at least sqrt(2) cells), its heading change rounded up to whole bins, and a
+straight move of the same chord; each forwards and backwards. With
+``allow_primitive_interpolation`` the arcs that turn by fewer bins (wider radius, same chord) are
+added too. The cost of a move is its length, times ``non_straight_penalty`` on arcs (plus
+``change_penalty`` when the steering side changes), times ``reverse_penalty`` backwards (Smac's
+parameters and defaults).
+
+The heuristic is the larger of two lower bounds: the obstacle-aware 2-D distance to the goal
+(Dijkstra from the goal cell over the 8-connected cells where the robot's inscribed disc fits, the
+costmap Smac searches on) and the obstacle-free Reeds–Shepp distance. A cell the 2-D search never
+reaches is pruned: a goal walled off from the start ends the search at once. Every
+``max(1, h / (analytic_expansion_ratio * cell))`` expansions (and whenever a node enters the goal
+tolerance) the shortest Reeds–Shepp curve to the goal is tried; when it is collision-free and no
+longer than ``analytic_expansion_max_length`` it completes the path, which therefore ends exactly
+on the goal pose.
+
+The search is deterministic (no random numbers: ``problem.seed`` is not used). Every motion is
+collision-checked at the exact checker's resolution through the fast checker's proofs (see
+:mod:`planning.planners.lattice`). The planner needs a turning radius > 0: it plans both robots
+with the virtual bicycle's radius, as the Reeds–Shepp tree planners do (no turn in place).
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, fields
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from planning.collision.grid import FastChecker
+from planning.core.geometry import path_length, unwrap_heading
+from planning.core.robot import RobotSpec
+from planning.errors import ConfigError
+from planning.planners import lattice
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
+from planning.planners.registry import config_from_options
+from planning.planners.sampling.steering import arc_poses, default_turning_radius, place
+from planning.planners.sampling.tree import check_endpoints, make_checker
+
+FloatArray = NDArray[np.float64]
+
+
+#: Largest cell side [m] of the discs that cover the footprint for the fast collision proof.
+COVER_SIDE = 0.05
+
+
+@dataclass(frozen=True)
+class HybridAStarConfig:
+    """Options of ``hybrid-a-star`` (names and defaults of Smac's Hybrid-A* where it has them).
+
+    Attributes:
+        angle_quantization_bins: Heading bins of the lattice (even, >= 8); 72 is 5 degrees.
+        cell_size: Side of a lattice cell and of the 2-D heuristic's cells [m].
+        turning_radius: Turning radius of the primitives and of the Reeds–Shepp curves [m];
+            None: the virtual bicycle's, wheelbase / tan(max_steering) (Smac's
+            ``minimum_turning_radius``).
+        reverse_penalty: Cost factor of backwards moves (>= 1).
+        change_penalty: Added to the arc factor when the steering side changes (>= 0).
+        non_straight_penalty: Cost factor of arcs (>= 1).
+        analytic_expansion_ratio: Try the analytic Reeds–Shepp completion every
+            ``max(1, h / (ratio * cell))`` expansions (> 0).
+        analytic_expansion_max_length: Longest analytic completion [m] (> 0).
+        allow_primitive_interpolation: Also use arcs that turn by fewer heading bins.
+        max_iterations: Expansion budget (>= 1).
+        time_limit: Wall-clock budget [s]; None takes the problem's.
+        shape: Collision model, "footprint" or "disc".
+        clearance: Margin every pose keeps from obstacles and walls [m] (>= 0).
+    """
+
+    angle_quantization_bins: int = 72
+    cell_size: float = 0.05
+    turning_radius: float | None = None
+    reverse_penalty: float = 2.0
+    change_penalty: float = 0.0
+    non_straight_penalty: float = 1.2
+    analytic_expansion_ratio: float = 3.5
+    analytic_expansion_max_length: float = 3.0
+    allow_primitive_interpolation: bool = False
+    max_iterations: int = 1_000_000
+    time_limit: float | None = None
+    shape: str = "footprint"
+    clearance: float = 0.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            expected = _EXPECTED[f.name]
+            if not _CHECKS[f.name](value):
+                raise ConfigError(f"hybrid-a-star option {f.name} must be {expected}, got {value!r}")
+
+
+def _number(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and bool(np.isfinite(value))
+
+
+def _integer(value: object) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+
+
+_RULES: dict[str, tuple[str, Callable[[Any], bool]]] = {
+    "angle_quantization_bins": ("an even integer >= 8 (e.g. 72)", lambda v: _integer(v) and v >= 8 and v % 2 == 0),
+    "cell_size": ("a number > 0 [m] (e.g. 0.05)", lambda v: _number(v) and v > 0),
+    "turning_radius": (
+        "None or a number > 0 [m] (Reeds–Shepp curves need a turning radius; plan turns in place with c-rrt-star)",
+        lambda v: v is None or (_number(v) and v > 0),
+    ),
+    "reverse_penalty": ("a number >= 1 (e.g. 2.0)", lambda v: _number(v) and v >= 1),
+    "change_penalty": ("a number >= 0 (e.g. 0.0)", lambda v: _number(v) and v >= 0),
+    "non_straight_penalty": ("a number >= 1 (e.g. 1.2)", lambda v: _number(v) and v >= 1),
+    "analytic_expansion_ratio": ("a number > 0 (e.g. 3.5)", lambda v: _number(v) and v > 0),
+    "analytic_expansion_max_length": ("a number > 0 [m] (e.g. 3.0)", lambda v: _number(v) and v > 0),
+    "allow_primitive_interpolation": ("true or false", lambda v: isinstance(v, bool)),
+    "max_iterations": ("an integer >= 1", lambda v: _integer(v) and v >= 1),
+    "time_limit": ("None or a number > 0 [s]", lambda v: v is None or (_number(v) and v > 0)),
+    "shape": ("'footprint' or 'disc'", lambda v: v in ("footprint", "disc")),
+    "clearance": ("a number >= 0 [m]", lambda v: _number(v) and v >= 0),
+}
+_EXPECTED = {k: v[0] for k, v in _RULES.items()}
+_CHECKS = {k: v[1] for k, v in _RULES.items()}
+
+
+@dataclass(frozen=True)
+class Primitives:
+    """Motion primitives in the body frame.
+
+    Attributes:
+        body: (P, K, 3) poses along each primitive from the origin, uniform in arc length.
+        lengths: (P,) arc lengths [m].
+        directions: (P,) +1 forwards, -1 backwards.
+        steer: (P,) +1 left arc, 0 straight, -1 right arc.
+    """
+
+    body: FloatArray
+    lengths: FloatArray
+    directions: FloatArray
+    steer: FloatArray
+
+    @property
+    def ends(self) -> FloatArray:
+        """(P, 3) end poses."""
+        return np.ascontiguousarray(self.body[:, -1])
+
+
+def motion_primitives(rho: float, cell: float, bins: int, step: float, *, interpolate: bool = False) -> Primitives:
+    """Smac's Hybrid-A* primitives (see the module doc).
+
+    Args:
+        rho: Turning radius [m].
+        cell: Lattice cell side [m].
+        bins: Heading bins.
+        step: Largest arc length between samples [m].
+        interpolate: Also the arcs turning by 1 .. (increments - 1) bins at the same chord.
+    """
+    bin_size = 2.0 * np.pi / bins
+    angle = 2.0 * np.arcsin(min(1.0, np.sqrt(2.0) * cell / (2.0 * rho)))
+    increments = max(1, int(np.ceil(angle / bin_size - 1e-9)))
+    chord = 2.0 * rho * np.sin(0.5 * increments * bin_size)
+    turns = range(1, increments + 1) if interpolate else (increments,)
+    arcs = [(0.0, chord)] + [(m * bin_size, chord / (2.0 * np.sin(0.5 * m * bin_size))) for m in turns]
+    n = int(np.ceil(max(r * a if a else chord for a, r in arcs) / step))
+    body, lengths, dirs, steer = [], [], [], []
+    for d in (1.0, -1.0):
+        for a, r in arcs:
+            for side in (1.0, -1.0) if a else (0.0,):
+                length = r * a if a else chord
+                body.append(arc_poses(d, d * side / r if a else 0.0, length, n))
+                lengths.append(length)
+                dirs.append(d)
+                steer.append(side)
+    return Primitives(np.ascontiguousarray(body), np.array(lengths), np.array(dirs), np.array(steer))
+
+
+def footprint_cover(robot: RobotSpec, side: float) -> FloatArray:
+    """Discs covering the footprint's bounding box: (C, 3) body-frame centres [m] and radii [m].
+
+    The box is cut into the fewest equal cells no longer than ``side`` on either axis; each cell's
+    circumscribed disc covers it.
+    """
+    lo, hi = robot.footprint.min(axis=0), robot.footprint.max(axis=0)
+    n = np.maximum(1, np.ceil((hi - lo) / side)).astype(int)
+    size = (hi - lo) / n
+    cx, cy = np.meshgrid(lo[0] + size[0] * (np.arange(n[0]) + 0.5), lo[1] + size[1] * (np.arange(n[1]) + 0.5))
+    return np.column_stack([cx.ravel(), cy.ravel(), np.full(cx.size, 0.5 * float(np.hypot(*size)))])
+
+
+def inscribed_radius(robot: RobotSpec, shape: str) -> float:
+    """Radius [m] of the largest disc about the base origin inside the robot (its footprint, or the disc)."""
+    if shape == "disc":
+        return float(robot.radius)
+    a = robot.footprint
+    b = np.roll(a, -1, axis=0)
+    edge = b - a
+    cross = np.abs(edge[:, 0] * a[:, 1] - edge[:, 1] * a[:, 0])
+    return float(np.min(cross / np.hypot(edge[:, 0], edge[:, 1])))
+
+
+@dataclass(frozen=True)
+class _Setup:
+    """What one run needs besides the problem: the checker, the lattice and the heuristic."""
+
+    checker: FastChecker
+    rho: float
+    step: float
+    prims: Primitives
+    lat: tuple[float, float, float, int, int, int]
+    h2d: FloatArray
+
+
+class HybridAStar:
+    """Hybrid-A* over (x, y, theta) with Reeds–Shepp completion (see the module doc)."""
+
+    name = "hybrid-a-star"
+    config_class = HybridAStarConfig
+
+    def __init__(self, **options: object) -> None:
+        self.config: HybridAStarConfig = config_from_options(HybridAStarConfig, options)
+
+    def plan(self, problem: PlanProblem) -> PlanResult:
+        """Plan from ``problem.start`` to ``problem.goal``; never raises for an unsolvable problem."""
+        t0 = time.perf_counter()
+        cfg = self.config
+        checker = make_checker(problem, cfg.shape, cfg.clearance)  # type: ignore[arg-type]
+        bad = check_endpoints(problem, checker, self.name)
+        if bad is not None:
+            return bad
+        setup = self._setup(problem, checker)
+        start, goal = problem.start.as_array(), problem.goal.as_array()
+        if not np.isfinite(setup.h2d[self._cell(setup, start)]):
+            reason = (
+                "the goal cannot be reached from the start even by the robot's inscribed disc "
+                f"(radius {inscribed_radius(problem.robot, cfg.shape):.3f} m plus the clearance "
+                f"{cfg.clearance:g} m) on the {cfg.cell_size:g} m grid: the goal is walled off"
+            )
+            return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=reason, stats=_stats(t0, 0, 0))
+        limit = cfg.time_limit if cfg.time_limit is not None else problem.time_limit
+        p = setup.prims
+        dirs = p.directions
+        cost = (
+            p.lengths
+            * np.where(p.steer != 0, cfg.non_straight_penalty, 1.0)
+            * np.where(dirs < 0, cfg.reverse_penalty, 1.0)
+        )
+        change = p.lengths * cfg.change_penalty * np.where(dirs < 0, cfg.reverse_penalty, 1.0)
+        turn_class = np.where(p.steer == 0, 0, np.where(p.steer > 0, 1, 2) + np.where(dirs < 0, 2, 0)).astype(np.int64)
+        space = (
+            (p.body, p.ends, cost, change, turn_class),
+            setup.lat,
+            setup.h2d,
+            setup.checker.proof_arguments(),
+            footprint_cover(problem.robot, COVER_SIDE),
+        )
+        tol = np.array([problem.position_tolerance, problem.heading_tolerance])
+        expansion = np.array([cfg.analytic_expansion_ratio, cfg.analytic_expansion_max_length])
+        out = lattice.search(start, goal, tol, setup.rho, setup.step, space, expansion, cfg.max_iterations, t0 + limit)
+        return self._result(problem, setup, out, t0, limit)
+
+    def _setup(self, problem: PlanProblem, checker: FastChecker) -> _Setup:
+        """The turning radius, primitives, lattice and obstacle heuristic of a run."""
+        cfg = self.config
+        robot = problem.robot
+        rho = cfg.turning_radius if cfg.turning_radius is not None else default_turning_radius(robot)
+        # Robot points move at most step * (1 + R / rho) between samples: the checker's resolution.
+        step = min(0.01, checker.resolution / (1.0 + robot.radius / rho))
+        prims = motion_primitives(
+            rho, cfg.cell_size, cfg.angle_quantization_bins, step, interpolate=cfg.allow_primitive_interpolation
+        )
+        xmin, xmax, ymin, ymax = problem.world.bounds
+        cell = cfg.cell_size
+        nx, ny = int(np.ceil((xmax - xmin) / cell)), int(np.ceil((ymax - ymin) / cell))
+        cx, cy = np.meshgrid(xmin + cell * (np.arange(nx) + 0.5), ymin + cell * (np.arange(ny) + 0.5), indexing="ij")
+        _, upper = checker.distance_bounds(np.column_stack([cx.ravel(), cy.ravel()]))
+        # A cell is blocked only when no point of it leaves room for the inscribed disc.
+        reach = upper + cell / np.sqrt(2.0)
+        free = (reach > inscribed_radius(robot, cfg.shape) + cfg.clearance).reshape(nx, ny)
+        lat = (float(xmin), float(ymin), float(cell), nx, ny, int(cfg.angle_quantization_bins))
+        setup = _Setup(checker, float(rho), float(step), prims, lat, np.zeros((nx, ny)))
+        gi, gj = self._cell(setup, problem.goal.as_array())
+        free[gi, gj] = True
+        h2d = lattice.obstacle_heuristic(free, gi, gj, float(cell))
+        return _Setup(checker, float(rho), float(step), prims, lat, h2d)
+
+    @staticmethod
+    def _cell(setup: _Setup, q: FloatArray) -> tuple[int, int]:
+        """The (ix, iy) cell holding pose ``q`` (clipped to the lattice)."""
+        xmin, ymin, cell, nx, ny, _ = setup.lat
+        return min(nx - 1, max(0, int((q[0] - xmin) // cell))), min(ny - 1, max(0, int((q[1] - ymin) // cell)))
+
+    def _result(self, problem: PlanProblem, setup: _Setup, out: tuple, t0: float, limit: float) -> PlanResult:  # type: ignore[type-arg]
+        """The plan result of a finished search (see :func:`planning.planners.lattice.search`)."""
+        outcome, end, its, nodes, meta, state, tail, tail_dirs = out
+        tree, ids = _tree(nodes, meta, state)
+        if outcome != lattice.FOUND:
+            gaps = np.hypot(*(nodes[ids, :2] - problem.goal.as_array()[:2]).T)
+            end = int(ids[np.argmin(gaps)]) if outcome != lattice.EXHAUSTED else end
+            tail, tail_dirs = np.zeros((0, 3)), np.zeros(0)
+        path, dirs = _branch(nodes, meta, setup.prims, int(end), tail, tail_dirs)
+        stats = {**_stats(t0, its, ids.size), "length_m": path_length(path), "analytic": tail.shape[0] > 0}
+        if outcome == lattice.FOUND:
+            path, dirs = self._simplified(path, dirs)
+            stats["length_m"] = path_length(path)
+            return PlanResult(PlanStatus.SUCCESS, self.name, path=path, stats=stats, tree=tree, directions=dirs)
+        if outcome == lattice.EXHAUSTED:
+            status = PlanStatus.INFEASIBLE
+            reason = f"the lattice search expanded every reachable state ({its}) without reaching the goal"
+        else:
+            status = PlanStatus.TIMEOUT
+            budget = f"iteration budget of {its}" if outcome == lattice.ITERATIONS else f"time budget of {limit:g} s"
+            reason = f"{budget} spent; partial path to the expanded node nearest the goal"
+        return PlanResult(status, self.name, path=path, reason=reason, stats=stats, tree=tree, directions=dirs)
+
+    def _simplified(self, path: FloatArray, dirs: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The one place where the path simplification of the sampling planners applies to a lattice path
+        (the same shortcutting and vertex reduction, with Reeds–Shepp steering); until it exists the raw
+        path is returned. Smoothing follows in :mod:`planning.trajectory`, as for every planner."""
+        return path, dirs
+
+
+def _stats(t0: float, iterations: int, nodes: int) -> dict[str, object]:
+    return {"time_s": time.perf_counter() - t0, "iterations": iterations, "nodes": nodes}
+
+
+def _tree(nodes: FloatArray, meta: NDArray[np.int64], state: NDArray[np.int8]) -> tuple[PlanTree, NDArray[np.int64]]:
+    """The searched nodes as a :class:`PlanTree` (parents by position), and their lattice ids."""
+    ids = np.flatnonzero(state)  # sorted: a parent's position is found by bisection
+    par = meta[ids, 0]
+    parents = np.where(par >= 0, np.searchsorted(ids, par), -1)
+    return PlanTree(nodes[ids, :3].copy(), parents), ids
+
+
+def _branch(
+    nodes: FloatArray, meta: NDArray[np.int64], prims: Primitives, end: int, tail: FloatArray, tail_dirs: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Dense poses (K, 3) and directions (K,) from the start to node ``end``, then along ``tail``."""
+    chain = [end]
+    while meta[chain[-1], 0] >= 0:
+        chain.append(int(meta[chain[-1], 0]))
+    chain.reverse()
+    parts, dparts = [nodes[chain[0], :3][None, :]], [np.ones(1)]
+    for a, b in itertools.pairwise(chain):
+        seg = place(prims.body[meta[b, 1]][1:], nodes[a, :3])
+        seg[-1] = nodes[b, :3]
+        parts.append(seg)
+        dparts.append(np.full(seg.shape[0], prims.directions[meta[b, 1]]))
+    if tail.shape[0] > 1:
+        parts.append(tail[1:])
+        dparts.append(tail_dirs[1:])
+    path, dirs = np.vstack(parts), np.concatenate(dparts)
+    path[:, 2] = unwrap_heading(path[:, 2])
+    if dirs.shape[0] > 1:
+        dirs[0] = dirs[1]
+    return path, dirs

@@ -1,0 +1,296 @@
+"""Compiled kernels of the Hybrid-A* search (:mod:`planning.planners.hybrid_astar`).
+
+The search lattice is (ix, iy, itheta): square cells of side ``cell`` over the world's bounds and
+``bins`` heading bins. Every lattice cell holds at most one node, indexed by the cell's id
+``(ix * ny + iy) * bins + itheta``, with its continuous pose (Hybrid-A* keeps the exact pose a
+primitive reached, not the cell centre).
+
+Collision verdicts come from :func:`planning.collision.grid._classify` (the fast checker's proofs):
+a motion is accepted only when every one of its samples is *proven* free. The few poses the grid
+cannot decide (within about two grid spacings of the clearance margin) count as collisions here,
+so every accepted motion is free by the exact checker's test as well.
+"""
+
+from __future__ import annotations
+
+import heapq
+import time
+
+import numba as nb
+import numpy as np
+from numpy.typing import NDArray
+
+from planning.collision.grid import _classify, _lookup
+from planning.curves.common import mod2pi
+from planning.curves.reeds_shepp import REEDS_SHEPP, RS_WORDS
+from planning.curves.words import _sample_word
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+_rs_solve = REEDS_SHEPP.solve
+
+#: Search outcomes returned by :func:`search`.
+FOUND, EXHAUSTED, ITERATIONS, TIMED_OUT = 0, 1, 2, 3
+
+#: Node states.
+_UNSEEN, _OPEN, _CLOSED = 0, 1, 2
+
+
+@nb.njit(cache=True)
+def _now() -> float:
+    with nb.objmode(t="float64"):
+        t = time.perf_counter()
+    return t
+
+
+@nb.njit(cache=True)
+def obstacle_heuristic(free: NDArray[np.bool_], goal_ix: int, goal_iy: int, cell: float) -> FloatArray:
+    """Dijkstra distances [m] from the goal cell over 8-connected free cells (inf: unreachable).
+
+    Args:
+        free: (nx, ny) cells the robot's inscribed disc may occupy.
+        goal_ix: Goal cell column.
+        goal_iy: Goal cell row.
+        cell: Cell side [m].
+    """
+    nx, ny = free.shape
+    dist = np.full((nx, ny), np.inf)
+    dist[goal_ix, goal_iy] = 0.0
+    heap = [(0.0, goal_ix * ny + goal_iy)]
+    diag = cell * np.sqrt(2.0)
+    while heap:
+        d, k = heapq.heappop(heap)
+        i, j = k // ny, k % ny
+        if d > dist[i, j]:
+            continue
+        for di in range(-1, 2):
+            for dj in range(-1, 2):
+                a, b = i + di, j + dj
+                if (di == 0 and dj == 0) or a < 0 or b < 0 or a >= nx or b >= ny or not free[a, b]:
+                    continue
+                nd = d + (diag if di != 0 and dj != 0 else cell)
+                if nd < dist[a, b]:
+                    dist[a, b] = nd
+                    heapq.heappush(heap, (nd, a * ny + b))
+    return dist
+
+
+@nb.njit(cache=True, inline="always")
+def _place(body: FloatArray, x: float, y: float, th: float, out: FloatArray) -> None:
+    """Body-frame poses (K, 3) placed at pose (x, y, th), written into ``out``."""
+    c, s = np.cos(th), np.sin(th)
+    for k in range(body.shape[0]):
+        out[k, 0] = x + c * body[k, 0] - s * body[k, 1]
+        out[k, 1] = y + s * body[k, 0] + c * body[k, 1]
+        out[k, 2] = th + body[k, 2]
+
+
+@nb.njit(cache=True)
+def _covered(px: float, py: float, th: float, cover: FloatArray, chk: tuple) -> bool:  # type: ignore[type-arg]
+    """Whether every disc of ``cover`` ((C, 3) body-frame centres and radii) placed at the pose keeps
+    ``clearance + tolerance / 2`` from everything by the grid's lower bound: then every footprint
+    point does, which is the exact checker's footprint criterion (no obstacle point lies inside)."""
+    grid, x0, y0, h, _, _, _, _, clearance, tol, _ = chk
+    e = h / np.sqrt(2.0)
+    c, s = np.cos(th), np.sin(th)
+    for k in range(cover.shape[0]):
+        bx, by = cover[k, 0], cover[k, 1]
+        g = _lookup(grid, x0, y0, h, px + c * bx - s * by, py + s * bx + c * by)
+        if g - e - cover[k, 2] <= clearance + 0.5 * tol:
+            return False
+    return True
+
+
+@nb.njit(cache=True)
+def _proven_free(poses: FloatArray, chk: tuple, cover: FloatArray) -> bool:  # type: ignore[type-arg]
+    """Whether every pose is proven free: by the centre's disc, by the cover discs (:func:`_covered`),
+    or by the fast checker's footprint proof; undecided counts as a collision."""
+    grid, x0, y0, h, boundary, footprint, anchors, radius, clearance, tol, disc = chk
+    e = h / np.sqrt(2.0)
+    for k in range(poses.shape[0]):
+        px, py, th = poses[k, 0], poses[k, 1], poses[k, 2]
+        if _lookup(grid, x0, y0, h, px, py) - e - radius > clearance + tol:
+            continue
+        if not disc and cover.shape[0] > 0 and _covered(px, py, th, cover, chk):
+            continue
+        one = poses[k : k + 1]
+        if _classify(one, grid, x0, y0, h, boundary, footprint, anchors, radius, clearance, tol, disc, True)[0] != 1:
+            return False
+    return True
+
+
+@nb.njit(cache=True)
+def rs_length(q: FloatArray, goal: FloatArray, rho: float) -> float:
+    """Reeds–Shepp length [m] from pose ``q`` (3,) to ``goal`` (3,)."""
+    return float(_rs_solve(q.reshape(1, 3), goal.reshape(1, 3), rho)[0][0])
+
+
+@nb.njit(cache=True)
+def analytic(
+    q: FloatArray,
+    goal: FloatArray,
+    rho: float,
+    step: float,
+    chk: tuple,  # type: ignore[type-arg]
+    cover: FloatArray,
+) -> tuple[bool, FloatArray, FloatArray]:
+    """The shortest Reeds–Shepp curve from ``q`` to ``goal`` sampled every ``step`` [m], and
+    whether it is proven collision-free. Returns (free, (K, 3) poses, (K,) directions)."""
+    _, types, segs = _rs_solve(q.reshape(1, 3), goal.reshape(1, 3), rho)
+    if types[0] < 0:
+        return False, np.zeros((0, 3)), np.zeros(0)
+    poses, dirs = _sample_word(q, RS_WORDS[types[0]], segs[0], rho, step)
+    # Land exactly on the goal (the sampler ends within 1e-9 m of it), keeping the heading continuous.
+    poses[-1, 0], poses[-1, 1] = goal[0], goal[1]
+    poses[-1, 2] += mod2pi(goal[2] - poses[-1, 2])
+    return _proven_free(poses, chk, cover), poses, dirs
+
+
+@nb.njit(cache=True, inline="always")
+def _cell_id(x: float, y: float, th: float, lat: tuple) -> int:  # type: ignore[type-arg]
+    """Lattice id of a pose, or -1 outside the bounds. ``lat`` = (xmin, ymin, cell, nx, ny, bins)."""
+    xmin, ymin, cell, nx, ny, bins = lat
+    ix = int(np.floor((x - xmin) / cell))
+    iy = int(np.floor((y - ymin) / cell))
+    if ix < 0 or iy < 0 or ix >= nx or iy >= ny:
+        return -1
+    it = int(np.floor(th / (2.0 * np.pi / bins) + 0.5)) % bins
+    return (ix * ny + iy) * bins + it
+
+
+@nb.njit(cache=True)
+def _in_goal(x: float, y: float, th: float, goal: FloatArray, tol: FloatArray) -> bool:
+    return np.hypot(x - goal[0], y - goal[1]) <= tol[0] and abs(mod2pi(th - goal[2])) <= tol[1]
+
+
+@nb.njit(cache=True)
+def _expand(
+    cid: int,
+    nodes: FloatArray,
+    meta: IntArray,
+    state: NDArray[np.int8],
+    heap: list,  # type: ignore[type-arg]
+    counter: int,
+    space: tuple,  # type: ignore[type-arg]
+    buf: FloatArray,
+) -> int:
+    """Push every collision-free primitive successor of node ``cid`` that improves its cell.
+
+    ``nodes[c]`` = (x, y, theta, g, f, h_rs), h_rs -1 until the node is popped; ``meta[c]`` = (parent id,
+    primitive index); ``space``
+    as in :func:`search`. Returns the updated push counter (the heap's deterministic tie-break).
+    """
+    prims, lat, h2d, chk, cover = space
+    body, ends, cost, change_extra, turn_class = prims
+    x, y, th, g = nodes[cid, 0], nodes[cid, 1], nodes[cid, 2], nodes[cid, 3]
+    parent_class = turn_class[meta[cid, 1]] if meta[cid, 1] >= 0 else 0
+    c, s = np.cos(th), np.sin(th)
+    ny, bins = lat[4], lat[5]
+    q = np.empty(3)
+    for p in range(ends.shape[0]):
+        q[0] = x + c * ends[p, 0] - s * ends[p, 1]
+        q[1] = y + s * ends[p, 0] + c * ends[p, 1]
+        q[2] = mod2pi(th + ends[p, 2])
+        k = _cell_id(q[0], q[1], q[2], lat)
+        if k < 0 or k == cid or state[k] == _CLOSED:
+            continue
+        g_new = g + cost[p]
+        if turn_class[p] != 0 and turn_class[p] != parent_class:
+            g_new += change_extra[p]
+        if state[k] == _OPEN and g_new >= nodes[k, 3] - 1e-12:
+            continue
+        h_grid = h2d[(k // bins) // ny, (k // bins) % ny]
+        if not np.isfinite(h_grid):
+            continue
+        _place(body[p], x, y, th, buf)
+        if not _proven_free(buf, chk, cover):
+            continue
+        f = g_new + h_grid  # the Reeds–Shepp bound is added when the node is popped (see search)
+        nodes[k, 0], nodes[k, 1], nodes[k, 2] = q[0], q[1], q[2]
+        nodes[k, 3], nodes[k, 4], nodes[k, 5] = g_new, f, -1.0
+        meta[k, 0], meta[k, 1] = cid, p
+        state[k] = _OPEN
+        counter += 1
+        heapq.heappush(heap, (f, counter, k))
+    return counter
+
+
+@nb.njit(cache=True)
+def search(
+    start: FloatArray,
+    goal: FloatArray,
+    tol: FloatArray,
+    rho: float,
+    step: float,
+    space: tuple,  # type: ignore[type-arg]
+    expansion: FloatArray,
+    max_iterations: int,
+    deadline: float,
+) -> tuple:  # type: ignore[type-arg]
+    """Hybrid-A* from ``start`` to ``goal`` (see the module doc).
+
+    Args:
+        start: (3,) start pose.
+        goal: (3,) goal pose.
+        tol: (2,) goal position [m] and heading [rad] tolerance.
+        rho: Turning radius [m].
+        step: Sample step of the analytic expansion [m].
+        space: The searched space, (prims, lat, h2d, chk, cover): prims = (body (P, K, 3) samples,
+            ends (P, 3), cost (P,), change_extra (P,), turn_class (P,)); lat = (xmin, ymin, cell,
+            nx, ny, bins); h2d (nx, ny) the obstacle heuristic [m]; chk the fast checker's
+            arguments (see :func:`_proven_free`); cover (C, 3) body-frame discs [x, y, r] covering
+            the footprint (see :func:`_covered`).
+        expansion: (2,) analytic expansion ratio and largest analytic length [m].
+        max_iterations: Expansion budget.
+        deadline: ``time.perf_counter()`` value at which the search gives up.
+
+    Returns:
+        (outcome, terminal node id, expansions, nodes, meta, state, analytic poses, analytic dirs).
+    """
+    prims, lat, h2d, chk, cover = space
+    n = lat[3] * lat[4] * lat[5]
+    nodes = np.empty((n, 6))
+    meta = np.empty((n, 2), dtype=np.int64)
+    state = np.zeros(n, dtype=np.int8)
+    buf = np.empty((prims[0].shape[1], 3))
+    s = _cell_id(start[0], start[1], start[2], lat)
+    h0 = rs_length(start, goal, rho)
+    nodes[s, 0], nodes[s, 1], nodes[s, 2], nodes[s, 3], nodes[s, 5] = start[0], start[1], start[2], 0.0, h0
+    nodes[s, 4] = max(h0, h2d[(s // lat[5]) // lat[4], (s // lat[5]) % lat[4]])
+    meta[s, 0], meta[s, 1] = -1, -1
+    state[s] = _OPEN
+    heap = [(nodes[s, 4], 0, s)]
+    counter, it, countdown = 0, 0, 0
+    none = (np.zeros((0, 3)), np.zeros(0))
+    while heap:
+        f, _, cid = heapq.heappop(heap)
+        if state[cid] == _CLOSED or f != nodes[cid, 4]:
+            continue
+        if nodes[cid, 5] < 0.0:  # lazily: the Reeds–Shepp bound only for nodes that reach the top
+            nodes[cid, 5] = rs_length(nodes[cid, :3].copy(), goal, rho)
+            g = nodes[cid, 3]
+            if g + nodes[cid, 5] > f:
+                nodes[cid, 4] = g + nodes[cid, 5]
+                counter += 1
+                heapq.heappush(heap, (nodes[cid, 4], counter, cid))
+                continue
+        state[cid] = _CLOSED
+        it += 1
+        q = nodes[cid, :3].copy()
+        near = _in_goal(q[0], q[1], q[2], goal, tol)
+        countdown -= 1
+        if near or (countdown <= 0 and nodes[cid, 5] <= expansion[1]):
+            h_cells = (nodes[cid, 4] - nodes[cid, 3]) / lat[2]
+            countdown = max(1, int(np.floor(h_cells / expansion[0])))
+            free, poses, dirs = analytic(q, goal, rho, step, chk, cover)
+            if free:
+                return FOUND, cid, it, nodes, meta, state, poses, dirs
+        if near:
+            return FOUND, cid, it, nodes, meta, state, none[0], none[1]
+        if it >= max_iterations:
+            return ITERATIONS, cid, it, nodes, meta, state, none[0], none[1]
+        if it % 256 == 0 and _now() > deadline:
+            return TIMED_OUT, cid, it, nodes, meta, state, none[0], none[1]
+        counter = _expand(cid, nodes, meta, state, heap, counter, space, buf)
+    return EXHAUSTED, s, it, nodes, meta, state, none[0], none[1]

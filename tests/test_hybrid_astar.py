@@ -1,0 +1,239 @@
+"""Hybrid-A*: primitives and heuristic against closed forms, valid and repeatable plans, statuses, options."""
+
+import time
+
+import numpy as np
+import pytest
+
+from planning.collision.exact import CollisionChecker
+from planning.collision.grid import FastChecker
+from planning.core.geometry import Pose2D
+from planning.core.robot import load_robot
+from planning.core.world import Box, World
+from planning.curves.reeds_shepp import reeds_shepp_length
+from planning.errors import ConfigError
+from planning.planners import lattice
+from planning.planners.base import PlanProblem, PlanStatus
+from planning.planners.hybrid_astar import footprint_cover, inscribed_radius, motion_primitives
+from planning.planners.registry import make_planner
+from planning.planners.sampling.steering import default_turning_radius
+from planning.scenario import load_scenario
+from tests.test_rrt import DISC, _check_path, _problem
+
+ROBOT = load_robot("turtlebot3")
+RHO = default_turning_radius(ROBOT)
+
+
+def test_primitives_leave_their_cell_on_the_turning_radius():
+    cell, bins, step = 0.05, 72, 0.01
+    p = motion_primitives(RHO, cell, bins, step)
+    assert p.body.shape[0] == 6  # straight, left, right; forwards and backwards
+    ends = p.ends
+    chord = np.hypot(ends[:, 0], ends[:, 1])
+    # Smac's sizing: the smallest whole number of bins whose arc chord is at least sqrt(2) cells
+    bin_size = 2 * np.pi / bins
+    m = int(np.ceil(2 * np.arcsin(np.sqrt(2) * cell / (2 * RHO)) / bin_size))
+    np.testing.assert_allclose(chord, 2 * RHO * np.sin(m * bin_size / 2), rtol=1e-12)
+    assert 2 * RHO * np.sin((m - 1) * bin_size / 2) < np.sqrt(2) * cell <= chord[0]
+    turning = p.steer != 0
+    np.testing.assert_allclose(np.abs(ends[turning, 2]), m * bin_size, rtol=1e-12)
+    np.testing.assert_allclose(p.lengths[turning], RHO * m * bin_size, rtol=1e-12)
+    np.testing.assert_allclose(ends[~turning, 2], 0.0, atol=1e-15)
+    # a backwards primitive is its forwards twin mirrored in the body's y axis
+    fwd, back = p.body[p.directions > 0], p.body[p.directions < 0]
+    np.testing.assert_allclose(back[..., 0], -fwd[..., 0], atol=1e-15)
+    np.testing.assert_allclose(back[..., 1], fwd[..., 1], atol=1e-15)
+    np.testing.assert_allclose(back[..., 2], -fwd[..., 2], atol=1e-15)
+    # samples no further apart than the step along the arc
+    arc = np.hypot(*np.diff(p.body[..., :2], axis=1).transpose(2, 0, 1))
+    assert arc.max() <= step
+
+
+def test_interpolated_primitives_turn_by_every_bin_count_at_the_same_chord():
+    p = motion_primitives(RHO, 0.05, 72, 0.01, interpolate=True)
+    turns = np.round(np.abs(p.ends[:, 2]) / (2 * np.pi / 72)).astype(int)
+    m = turns.max()
+    assert sorted(set(turns.tolist())) == list(range(m + 1))
+    chord = np.hypot(p.ends[:, 0], p.ends[:, 1])
+    np.testing.assert_allclose(chord, chord[0], rtol=1e-12)
+    # every arc radius is at least the turning radius: r = chord / (2 sin(dtheta / 2))
+    dth = np.abs(p.ends[p.steer != 0, 2])
+    assert np.all(chord[p.steer != 0] / (2 * np.sin(dth / 2)) >= RHO * (1 - 1e-12))
+
+
+def test_obstacle_heuristic_is_the_octile_distance_in_free_space_and_walls_cut_it():
+    free = np.ones((30, 20), dtype=bool)
+    d = lattice.obstacle_heuristic(free, 4, 7, 0.05)
+    i, j = np.meshgrid(np.arange(30), np.arange(20), indexing="ij")
+    a, b = np.abs(i - 4), np.abs(j - 7)
+    np.testing.assert_allclose(d, 0.05 * (np.maximum(a, b) + (np.sqrt(2) - 1) * np.minimum(a, b)), rtol=1e-12)
+    free[10, :] = False  # a full wall: everything beyond it is unreachable
+    d = lattice.obstacle_heuristic(free, 4, 7, 0.05)
+    assert np.all(np.isinf(d[10:])) and np.all(np.isfinite(d[:10]))
+
+
+def test_inscribed_radius_of_the_footprint():
+    # the TurtleBot3's footprint reaches 0.040 m ahead of its axle, its nearest edge
+    assert inscribed_radius(ROBOT, "footprint") == pytest.approx(0.040, abs=1e-9)
+    assert inscribed_radius(ROBOT, "disc") == ROBOT.radius
+
+
+@pytest.mark.parametrize("name", ["turtlebot3", "edumip"])
+def test_cover_discs_hold_the_whole_footprint(name):
+    robot = load_robot(name)
+    cover = footprint_cover(robot, 0.05)
+    assert np.all(cover[:, 2] <= 0.5 * np.hypot(0.05, 0.05) + 1e-12)
+    # points filling the footprint's bounding box (so the footprint too): each in some disc
+    lo, hi = robot.footprint.min(axis=0), robot.footprint.max(axis=0)
+    pts = lo + np.random.default_rng(0).random((5000, 2)) * (hi - lo)
+    d = np.hypot(pts[:, None, 0] - cover[None, :, 0], pts[:, None, 1] - cover[None, :, 1])
+    assert np.all(np.min(d - cover[None, :, 2], axis=1) <= 1e-12)
+
+
+def test_distance_bounds_hold_the_signed_distance():
+    checker = FastChecker(CollisionChecker(DISC, ROBOT))
+    pts = np.random.default_rng(1).uniform(-0.2, 6.2, (4000, 2))
+    lo, hi = checker.distance_bounds(pts)
+    sd = DISC.signed_distance(pts, walls=True)
+    inside = (pts >= 0.0).all(axis=1) & (pts <= 6.0).all(axis=1)
+    assert np.all(lo[inside] <= sd[inside]) and np.all(sd[inside] <= hi[inside])
+    assert np.all(hi[inside] - lo[inside] == pytest.approx(np.sqrt(2) * 0.01))
+
+
+def test_open_world_plan_is_the_shortest_reeds_shepp_curve():
+    world = World((0.0, 2.0, 0.0, 1.2), ())
+    prob = PlanProblem(world, ROBOT, Pose2D(1.0, 0.8, 0.0), Pose2D(1.0, 0.5, 0.0))
+    res = make_planner("hybrid-a-star").plan(prob)
+    _check_path(res, prob, RHO)
+    assert res.stats["iterations"] == 1 and res.stats["analytic"]
+    shortest = reeds_shepp_length(prob.start.as_array(), prob.goal.as_array(), RHO)[0]
+    assert res.length() == pytest.approx(shortest, rel=1e-3)  # chords of 1 cm samples on arcs
+    np.testing.assert_allclose(res.path[-1], prob.goal.as_array(), atol=1e-12)
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_paths_valid_around_a_disc(seed):
+    prob = _problem(seed)  # the seed is not used: the same plan for every seed
+    res = make_planner("hybrid-a-star").plan(prob)
+    _check_path(res, prob, RHO)
+    # no shorter than the obstacle-free curve nor than the way round the disc for the inscribed disc
+    assert res.length() >= reeds_shepp_length(prob.start.as_array(), prob.goal.as_array(), RHO)[0]
+    r, d = 1.2 + inscribed_radius(ROBOT, "footprint"), np.hypot(2.4, 2.4)
+    assert res.length() >= 2 * np.sqrt(d * d - r * r) + 2 * r * (np.pi / 2 - np.arccos(r / d)) - 1e-9
+
+
+@pytest.mark.parametrize(("scenario", "robot"), [("parking_lot", "turtlebot3"), ("edumip_map", "edumip"),
+                                                 ("three_point_turn", "turtlebot3"), ("farm", "edumip")])  # fmt: skip
+def test_builtin_worlds(scenario, robot):
+    sc = load_scenario(scenario).with_robot(robot)
+    prob = PlanProblem.from_scenario(sc, time_limit=20.0)
+    res = make_planner("hybrid-a-star", clearance=0.01).plan(prob)
+    _check_path(res, prob, RHO)
+
+
+def test_same_problem_same_path_whatever_the_seed():
+    a = make_planner("hybrid-a-star").plan(_problem(0))
+    b = make_planner("hybrid-a-star").plan(_problem(7))
+    assert a.success and np.array_equal(a.path, b.path) and np.array_equal(a.directions, b.directions)
+    assert a.stats["iterations"] == b.stats["iterations"]
+
+
+def test_goal_walled_off_is_infeasible_at_once():
+    walls = (Box((5.0, 4.0), (0.1, 2.0)), Box((5.0, 2.0), (0.1, 2.0)), Box((5.5, 5.0), (1.1, 0.1)),
+             Box((5.5, 1.0), (1.1, 0.1)))  # fmt: skip
+    prob = _problem(world=World((0.0, 6.0, 0.0, 6.0), walls), goal=(5.5, 3.0, 0.0))
+    t0 = time.perf_counter()
+    res = make_planner("hybrid-a-star").plan(prob)
+    assert res.status is PlanStatus.INFEASIBLE and "walled off" in res.reason
+    assert res.stats["iterations"] == 0 and time.perf_counter() - t0 < 1.0
+
+
+def test_gap_too_narrow_for_the_body_exhausts_the_lattice():
+    # a 0.12 m gap: the inscribed disc (0.08 m) passes, the 0.178 m wide body does not
+    walls = (Box((4.0, 1.97), (0.1, 3.94)), Box((4.0, 5.03), (0.1, 1.94)))
+    prob = _problem(world=World((0.0, 6.0, 0.0, 6.0), walls), goal=(5.4, 4.0, 0.0))
+    res = make_planner("hybrid-a-star").plan(prob)
+    assert res.status is PlanStatus.INFEASIBLE and "every reachable state" in res.reason
+    assert res.path.shape[1] == 3 and res.path.shape[0] >= 1
+    res = make_planner("hybrid-a-star", max_iterations=50).plan(prob)
+    assert res.status is PlanStatus.TIMEOUT and "iteration budget" in res.reason
+    assert res.stats["iterations"] == 50
+    res = make_planner("hybrid-a-star", time_limit=0.05).plan(prob)
+    assert res.status is PlanStatus.TIMEOUT and "time budget of 0.05 s" in res.reason
+    assert res.stats["time_s"] < 1.0
+
+
+def test_invalid_start_and_goal_keep_their_status():
+    res = make_planner("hybrid-a-star").plan(_problem(start=(3.0, 3.0, 0.0)))
+    assert res.status is PlanStatus.INVALID_START and "start" in res.reason
+    res = make_planner("hybrid-a-star").plan(_problem(goal=(0.05, 3.0, 0.0)))
+    assert res.status is PlanStatus.INVALID_GOAL and "goal" in res.reason
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [("angle_quantization_bins", 71), ("angle_quantization_bins", 4), ("angle_quantization_bins", 72.0),
+     ("cell_size", 0.0), ("turning_radius", -0.1), ("reverse_penalty", 0.5), ("change_penalty", -1.0),
+     ("non_straight_penalty", 0.9), ("analytic_expansion_ratio", 0.0), ("analytic_expansion_max_length", np.inf),
+     ("allow_primitive_interpolation", 1), ("max_iterations", 0), ("time_limit", 0.0), ("shape", "circle"),
+     ("clearance", -0.01)],
+)  # fmt: skip
+def test_bad_options_name_the_field(field, value):
+    with pytest.raises(ConfigError, match=f"hybrid-a-star option {field} must be"):
+        make_planner("hybrid-a-star", **{field: value})
+
+
+def test_unknown_option_is_rejected():
+    with pytest.raises(ConfigError, match=r"unknown option.*valid options are"):
+        make_planner("hybrid-a-star", seed=3)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("scenario", "robot"), [("farm", "turtlebot3"), ("parking_lot", "edumip"), ("nav_map1", "edumip")]
+)
+def test_length_within_ten_percent_of_rrt_star(scenario, robot):
+    sc = load_scenario(scenario).with_robot(robot)
+    res = make_planner("hybrid-a-star", clearance=0.01).plan(PlanProblem.from_scenario(sc, time_limit=30.0))
+    star = [
+        make_planner("rrt-star", clearance=0.01).plan(PlanProblem.from_scenario(sc, seed=s, time_limit=60.0)).length()
+        for s in range(3)
+    ]
+    assert res.success and res.length() <= 1.1 * np.median(star)
+
+
+def test_every_builtin_scenario_with_a_goal_gets_it():
+    from planning.scenario import builtin_scenarios
+    from sim.pipeline.simulate import applicable_planners
+
+    for name in builtin_scenarios():
+        sc = load_scenario(name)
+        moves = sc.start.distance_to(sc.goal) > 0 or sc.start.heading_error_to(sc.goal) > 0
+        assert ("hybrid-a-star" in applicable_planners(sc)) == moves, name
+
+
+def test_bench_worlds_are_seeded_and_their_ends_free():
+    from planning.collision.exact import CollisionChecker as Checker
+    from sim.tools.bench.hybrid import HybridRow, format_rows, unseen_world
+
+    assert unseen_world(3) == unseen_world(3) and unseen_world(3) != unseen_world(4)
+    for seed in range(4):
+        sc = unseen_world(seed)
+        for robot in ("turtlebot3", "edumip"):
+            ends = np.array([sc.start.as_array(), sc.goal.as_array()])
+            assert Checker(sc.world, load_robot(robot)).poses_free(ends).all()
+    rows = [
+        HybridRow("w", "r", "success", 0.05, 0.04, 10, 2.2, 2.0),
+        HybridRow("v", "r", "success", 0.1, 0.03, 5, 1.0, 1.0),
+    ]
+    lines = format_rows(rows)
+    assert len(lines) == 4 and lines[1].split()[-1] == "1.100" and lines[2].split()[-1] == "1.000"
+    assert lines[-1].startswith("worst: wall 100.0 ms, cpu 40.0 ms") and "ratio 1.100" in lines[-1]
+
+
+@pytest.mark.parametrize(("flag", "value"), [("--seeds", "0"), ("--repeats", "0"), ("--random", "-1")])
+def test_bench_rejects_bad_counts(flag, value, capsys):
+    from sim.cli.main import main
+
+    assert main(["bench", "hybrid", flag, value]) == 2
+    assert f"{flag} must be >=" in capsys.readouterr().err
