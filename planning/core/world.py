@@ -99,21 +99,24 @@ class Ellipse(_Folded):
         else:
             y0, y1, e0, e1 = q[..., 1], q[..., 0], b, a
         dist = np.empty_like(y0)
-        # y1 > 0, y0 > 0: bisection on F(t) = (e0 y0/(t+e0^2))^2 + (e1 y1/(t+e1^2))^2 - 1.
+        # y1 > 0, y0 > 0: root u = t + e1^2 of F = (e0 y0/(u + e0^2 - e1^2))^2 + (e1 y1/u)^2 - 1, bracketed by
+        # e1 y1 <= u <= |(e0 y0, e1 y1)| and bisected geometrically (in log u), so u keeps its relative
+        # precision even where it is far below e1^2 (a point near the major axis inside: bisecting t itself
+        # there lost up to 1e-4 m, and the bracket collapsed onto the pole for y1 < 1e-16 e1). A y1 so
+        # small that e1 y1 underflows counts as on the major axis (the distance moves by < 1e-300 m).
+        y1 = np.where(e1 * y1 > 0, y1, 0.0)
         gen = (y1 > 0) & (y0 > 0)
         if np.any(gen):
             g0, g1 = y0[gen], y1[gen]
-            lo = -e1 * e1 + e1 * g1
-            hi = -e1 * e1 + np.sqrt(e0 * e0 * g0 * g0 + e1 * e1 * g1 * g1)
-            for _ in range(60):
-                mid = 0.5 * (lo + hi)
-                f = (e0 * g0 / (mid + e0 * e0)) ** 2 + (e1 * g1 / (mid + e1 * e1)) ** 2 - 1.0
+            d = e0 * e0 - e1 * e1
+            lo, hi = e1 * g1, np.hypot(e0 * g0, e1 * g1)
+            for _ in range(64):
+                mid = np.sqrt(lo) * np.sqrt(hi)
+                f = (e0 * g0 / (mid + d)) ** 2 + (e1 * g1 / mid) ** 2 - 1.0
                 lo = np.where(f > 0, mid, lo)
                 hi = np.where(f > 0, hi, mid)
-            t = 0.5 * (lo + hi)
-            x0 = e0 * e0 * g0 / (t + e0 * e0)
-            x1 = e1 * e1 * g1 / (t + e1 * e1)
-            dist[gen] = np.hypot(x0 - g0, x1 - g1)
+            u = np.sqrt(lo) * np.sqrt(hi)
+            dist[gen] = np.hypot(e0 * e0 * g0 / (u + d) - g0, e1 * e1 * g1 / u - g1)
         on_minor = (y1 > 0) & (y0 <= 0)
         dist[on_minor] = np.abs(y1[on_minor] - e1)
         on_major = y1 <= 0

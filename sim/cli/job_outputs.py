@@ -153,20 +153,18 @@ def settings_tag(args: argparse.Namespace) -> str:
     return hashlib.sha1(json.dumps(changed, sort_keys=True).encode()).hexdigest()[:6]
 
 
-def output_stem(args: argparse.Namespace, *, scenario: str, source: str) -> str:
-    """``<scenario>-<source>[-<robot>][-<tag>]``: the robot when it is not the scenario's own, the
-    tag (:func:`settings_tag`) when a run setting is not at its default."""
-    from planning.scenario import load_scenario
-
+def output_stem(args: argparse.Namespace, *, scenario: str, scenario_robot: str, source: str) -> str:
+    """``<scenario>-<source>[-<robot>][-<tag>]``: the robot when it is not ``scenario_robot`` (the
+    scenario's own), the tag (:func:`settings_tag`) when a run setting is not at its default."""
     stem = f"{scenario}-{source}"
     robot = getattr(args, "robot", None)
-    if robot is not None and robot != load_scenario(scenario).robot:
+    if robot is not None and robot != scenario_robot:
         stem += f"-{robot}"
     tag = settings_tag(args)
     return f"{stem}-{tag}" if tag else stem
 
 
-def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str) -> OutputPlan:
+def plan_outputs(args: argparse.Namespace, *, scenario: str, scenario_robot: str, source: str) -> OutputPlan:
     """Decide every output path and check that none exists (unless --overwrite), before any work.
 
     Call after :func:`sim.viz.gl.configure`: with a video it opens and closes a tiny OpenGL context so
@@ -175,6 +173,7 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str) -> Out
     Args:
         args: Parsed options (see :func:`add_output_arguments`; also ``json``, ``overwrite``).
         scenario: Scenario name.
+        scenario_robot: The scenario's own robot (the name gets ``-<robot>`` for another one).
         source: Planner or reference name.
 
     Raises:
@@ -187,7 +186,7 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str) -> Out
     from sim.viz.plots.run import ESTIMATION_PLOT, PLOTS
     from sim.viz.replay import RenderSettings, parse_size
 
-    stem = output_stem(args, scenario=scenario, source=source)
+    stem = output_stem(args, scenario=scenario, scenario_robot=scenario_robot, source=source)
     video: Path | None = None
     settings = None
     if not args.no_video:

@@ -284,9 +284,10 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
     """One job: outputs planned, the case prepared and tracked, the table printed, the files written."""
+    from planning.scenario import load_scenario
     from sim.cli.job_outputs import plan_outputs, write_outputs
     from sim.cli.progress import JobBars
-    from sim.pipeline.case import Case, PlanOptions, load_case_scenario
+    from sim.pipeline.case import Case, PlanOptions, scenario_with_robot
     from sim.pipeline.simulate import simulate
 
     planner, scenario = args.planner, args.scenario
@@ -308,9 +309,11 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
         **source,
     )
     runs = parse_runs(args.runs) if args.runs else run_choices()[args.tracker]
-    loaded = load_case_scenario(case)  # a robot the scenario does not list stops here
+    own = load_scenario(scenario)
+    loaded = scenario_with_robot(own, case.robot)  # a robot the scenario does not list stops here
     case.sensing(loaded)  # so do bad sensor settings
-    outputs = plan_outputs(args, scenario=loaded.name, source=planner or args.reference or "figure8")
+    source_name = planner or args.reference or "figure8"
+    outputs = plan_outputs(args, scenario=loaded.name, scenario_robot=own.robot, source=source_name)
     with JobBars(outputs.progress) as bars:
         result = simulate(case, runs, progress=bars)
     record = result.record()
