@@ -142,8 +142,12 @@ def coordinate(lo: float = -20.0, hi: float = 20.0) -> st.SearchStrategy[float]:
 
 
 def maybe_bad(good: st.SearchStrategy[Any], bad: st.SearchStrategy[Any], p_bad: int = 8) -> st.SearchStrategy[Any]:
-    """``good`` most of the time, ``bad`` about one draw in ``p_bad``."""
-    return st.integers(0, p_bad - 1).flatmap(lambda k: bad if k == 0 else good)
+    """``good`` most of the time, ``bad`` about one draw in ``p_bad``.
+
+    The choice is an integer in [0, p_bad) that picks ``bad`` at its middle value: Hypothesis draws the
+    ends of a range (and 0 above all) far more often than 1 / p_bad, and shrinks towards 0, the good side.
+    """
+    return st.integers(0, p_bad - 1).flatmap(lambda k: bad if k == p_bad // 2 else good)
 
 
 #: A number that an option or a field may wrongly hold: non-finite, zero, negative, or not a number at all.

@@ -13,6 +13,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planning.core.checks import check_number
 from planning.errors import ConfigError
 
 FloatArray = NDArray[np.float64]
@@ -25,6 +26,16 @@ def _points(points: ArrayLike) -> FloatArray:
     if p.shape[-1] != 2:
         raise ValueError(f"points must have shape (M, 2), got {p.shape}")
     return p
+
+
+def _finite_pair(where: str, value: object) -> None:
+    """Raise ConfigError unless ``value`` is two finite numbers (``where`` names the field)."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        arr = np.full(1, np.nan)
+    if arr.shape != (2,) or not np.all(np.isfinite(arr)):
+        raise ConfigError(f"{where} must be two finite numbers, got {value!r}")
 
 
 def _to_local(p: FloatArray, center: FloatArray, angle: float) -> FloatArray:
@@ -44,8 +55,11 @@ class _Folded:
 
     def __post_init__(self) -> None:
         extents = getattr(self, self.extents_field)
+        _finite_pair(f"{self.kind} center", self.center)
+        _finite_pair(f"{self.kind} {self.extents_field}", extents)
         if not (extents[0] > 0 and extents[1] > 0):
-            raise ValueError(f"{self.kind} {self.extents_field} must be > 0, got {extents}")
+            raise ConfigError(f"{self.kind} {self.extents_field} must be > 0, got {extents}")
+        check_number(f"{self.kind} angle", self.angle)
 
     def _folded(self, points: ArrayLike) -> FloatArray:
         """(M, 2) points in the shape's frame, folded into its first quadrant (absolute coordinates)."""
@@ -61,8 +75,8 @@ class Circle:
     kind: ClassVar[str] = "circle"
 
     def __post_init__(self) -> None:
-        if not self.radius > 0:
-            raise ValueError(f"circle radius must be > 0, got {self.radius}")
+        _finite_pair("circle center", self.center)
+        check_number("circle radius", self.radius, above=0.0)
 
     def signed_distance(self, points: ArrayLike) -> FloatArray:
         """Signed distance of (M, 2) points [m]."""
@@ -192,14 +206,14 @@ class Polygon:
     def __post_init__(self) -> None:
         v = np.asarray(self.vertices, dtype=float)
         if v.ndim != 2 or v.shape[1] != 2 or v.shape[0] < 3:
-            raise ValueError(f"polygon needs at least 3 vertices of [x, y], got shape {v.shape}")
+            raise ConfigError(f"polygon needs at least 3 vertices of [x, y], got shape {v.shape}")
         if not np.all(np.isfinite(v)):
             raise ConfigError(f"polygon vertices must be finite numbers, got {v.tolist()}")
         repeat = _repeated_vertex(v)
         if repeat is not None:
             raise ConfigError(f"{repeat}; remove the duplicate vertex")
         if abs(polygon_area(v)) < 1e-12:
-            raise ValueError("polygon has zero area")
+            raise ConfigError("polygon has zero area")
         crossing = _crossing_edges(v)
         if crossing is not None:
             raise ConfigError(
@@ -330,11 +344,14 @@ class World:
     obstacles: tuple[Obstacle, ...] = ()
 
     def __post_init__(self) -> None:
-        b = tuple(float(x) for x in self.bounds)
+        try:
+            b = tuple(float(x) for x in self.bounds)
+        except (TypeError, ValueError):
+            b = ()
         if len(b) != 4 or not all(np.isfinite(b)):
-            raise ValueError(f"bounds must be 4 finite numbers [xmin, xmax, ymin, ymax], got {self.bounds}")
+            raise ConfigError(f"bounds must be 4 finite numbers [xmin, xmax, ymin, ymax], got {self.bounds}")
         if not (b[0] < b[1] and b[2] < b[3]):
-            raise ValueError(f"bounds need xmin < xmax and ymin < ymax, got {b}")
+            raise ConfigError(f"bounds need xmin < xmax and ymin < ymax, got {b}")
         object.__setattr__(self, "bounds", b)
         object.__setattr__(self, "obstacles", tuple(self.obstacles))
 
