@@ -84,18 +84,10 @@ def assert_finite(value: Any, where: str) -> None:
 
 # --------------------------------------------------------------------------------------------- TOML
 def _toml_value(value: Any) -> str:
-    """One TOML value (inline tables for mappings)."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        if math.isnan(value):
-            return "nan"
-        if math.isinf(value):
-            return "inf" if value > 0 else "-inf"
-        return repr(value)
-    if isinstance(value, str):
+    """One TOML value (inline tables for mappings; NaN and infinities as TOML writes them)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    if isinstance(value, (bool, int, float, str)):  # JSON's forms of these are TOML's too
         return json.dumps(value, ensure_ascii=False)
     if isinstance(value, (datetime, date, time)):
         return value.isoformat()

@@ -62,12 +62,11 @@ class PlanProblem:
     name: str = "problem"
 
     def __post_init__(self) -> None:
-        for label, value, kind in (
-            ("world", self.world, World), ("robot", self.robot, RobotSpec), ("start", self.start, Pose2D),
-            ("goal", self.goal, Pose2D),
-        ):  # fmt: skip
-            if not isinstance(value, kind):
-                raise ConfigError(f"PlanProblem.{label} must be a {kind.__name__}, got {type(value).__name__}")
+        kinds = {"world": World, "robot": RobotSpec, "start": Pose2D, "goal": Pose2D}
+        for label, kind in kinds.items():
+            if not isinstance(getattr(self, label), kind):
+                got = type(getattr(self, label)).__name__
+                raise ConfigError(f"PlanProblem.{label} must be a {kind.__name__}, got {got}")
         for label in ("position_tolerance", "heading_tolerance", "time_limit"):
             object.__setattr__(self, label, check_number(f"PlanProblem.{label}", getattr(self, label), above=0.0))
         object.__setattr__(self, "seed", check_number("PlanProblem.seed", self.seed, integer=True, at_least=0))
