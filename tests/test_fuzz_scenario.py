@@ -15,10 +15,12 @@ writes nothing.
 
 from __future__ import annotations
 
+import atexit
 import copy
 import dataclasses
 import io
 import math
+import shutil
 import tempfile
 from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
@@ -43,8 +45,9 @@ from tests.fuzz_helpers import (
     to_toml,
 )
 
-#: Where the drawn files go (one folder for the module; each example overwrites its own files).
+#: Where the drawn files go (one folder for the module, removed at exit; each example overwrites its own files).
 _WORKDIR = Path(tempfile.mkdtemp(prefix="nhsim-fuzz-"))
+atexit.register(shutil.rmtree, _WORKDIR, ignore_errors=True)
 MAP_IMAGE = "map.png"
 
 
