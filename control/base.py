@@ -126,16 +126,32 @@ def check_positive_fields(obj: object, names: tuple[str, ...], why: str) -> None
         object.__setattr__(obj, name, float(value))
 
 
-def check_period(tracker: str, dt: float) -> float:
+#: Most control periods a tracker pre-samples its reference at (a day at 10 Hz, 5.6 h at 50 Hz).
+MAX_CONTROL_PERIODS = 1_000_000
+
+
+def check_period(tracker: str, dt: float, trajectory: Trajectory) -> float:
     """The control period ``dt`` [s] given to a tracker's ``reset``, as a float.
 
+    Args:
+        tracker: The tracker's name, for the message.
+        dt: The control period [s].
+        trajectory: The reference the tracker pre-samples at every control instant of its span.
+
     Raises:
-        ConfigError: ``dt`` is not a finite number > 0 (names the tracker).
+        ConfigError: ``dt`` is not a finite number > 0, or so small that the trajectory would span
+            more than ``MAX_CONTROL_PERIODS`` control periods (names the tracker).
     """
     if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not (math.isfinite(dt) and dt > 0):
         raise ConfigError(
             f"tracker {tracker!r}: reset(dt) needs the control period dt as a finite number of seconds > 0, "
             f"got {dt!r}; pass 1 / control rate, e.g. 0.02 for 50 Hz"
+        )
+    periods = trajectory.duration / dt
+    if not periods <= MAX_CONTROL_PERIODS:
+        raise ConfigError(
+            f"tracker {tracker!r}: reset(dt={dt:g} s) over the trajectory's {trajectory.duration:.6g} s makes "
+            f"{periods:.3g} control periods (at most {MAX_CONTROL_PERIODS}); pass a longer period, e.g. 0.02 for 50 Hz"
         )
     return float(dt)
 
@@ -143,8 +159,9 @@ def check_period(tracker: str, dt: float) -> float:
 def check_measured_pose(tracker: str, t: float, x: float, y: float, theta: float) -> None:
     """Refuse a non-finite time or measured pose given to a tracker's ``command``.
 
-    Every tracker that reads the pose calls this first, so a NaN from a sensor or an estimator stops
-    the run with the same error in every tracker, never a silent stop or a non-finite command.
+    Every tracker calls this first (the open-loop player too, which ignores the pose), so a NaN from a
+    sensor or an estimator stops the run with the same error in every tracker, never a silent stop, a
+    non-finite command or a Python error.
 
     Raises:
         SimulationError: ``t``, ``x``, ``y`` or ``theta`` is NaN or infinite (names the tracker and t).

@@ -147,7 +147,7 @@ class DynamicFBL:
         Raises:
             ConfigError: ``dt`` [s] is not a finite number > 0.
         """
-        dt = check_period(self.name, dt)
+        dt = check_period(self.name, dt, trajectory)
         self._traj = trajectory
         self._dt = dt
         self._t0 = float(trajectory.t[0])

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from control.base import check_measured_pose, check_period
 from planning.core.robot import RobotSpec
 from planning.trajectory.trajectory import Trajectory
 
@@ -35,9 +36,13 @@ class OpenLoop:
 
     def reset(self, trajectory: Trajectory, dt: float) -> None:
         """Start playing ``trajectory`` with control period ``dt`` [s]; the commands of the control
-        periods starting at t0 + k dt are sampled here, once."""
+        periods starting at t0 + k dt are sampled here, once.
+
+        Raises:
+            ConfigError: ``dt`` [s] is not a finite number > 0 (or too small for the trajectory's span).
+        """
+        self._dt = check_period(self.name, dt, trajectory)
         self._traj = trajectory
-        self._dt = float(dt)
         self._t0 = float(trajectory.t[0])
         starts = self._t0 + self._dt * np.arange(math.ceil(trajectory.duration / dt) + 2)
         s = trajectory.sample_many(starts + 0.5 * self._dt)
@@ -45,9 +50,14 @@ class OpenLoop:
         self._commands = list(zip(s.v.tolist(), s.omega.tolist(), strict=True))
 
     def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
-        """Reference (v, omega) for the period starting at ``t``; the pose is ignored."""
+        """Reference (v, omega) for the period starting at ``t``; the pose is ignored (but must be finite).
+
+        Raises:
+            SimulationError: ``t`` or the pose is not finite, as in every tracker.
+        """
         if self._traj is None:
             raise RuntimeError("OpenLoop.command called before reset")
+        check_measured_pose(self.name, t, x, y, theta)
         k = round((t - self._t0) / self._dt)
         if 0 <= k < len(self._starts) and self._starts[k] == t:  # a control instant: sampled at reset
             return self._commands[k]

@@ -110,7 +110,7 @@ class SegmentedTracker:
         Raises:
             ConfigError: The control period ``dt`` [s] is not a finite number > 0.
         """
-        self._dt = dt = check_period(self.name, dt)
+        self._dt = dt = check_period(self.name, dt, trajectory)
         self._traj = trajectory
         self._t0 = float(trajectory.t[0])
         if trajectory.segments is not None:

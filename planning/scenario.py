@@ -50,7 +50,7 @@ def _obstacle(r: TableReader, table: Mapping[str, Any], ctx: str) -> Obstacle:
     if not isinstance(table, Mapping) or "type" not in table:
         raise r.fail(f"{ctx}type", f"one of {', '.join(_OBSTACLE_KEYS)}")
     kind = table["type"]
-    if kind not in _OBSTACLE_KEYS:
+    if not isinstance(kind, str) or kind not in _OBSTACLE_KEYS:
         raise r.fail(f"{ctx}type", f"one of {', '.join(_OBSTACLE_KEYS)}", kind)
     req, opt = _OBSTACLE_KEYS[kind]
     r.keys(table, ctx, req | {"type"}, opt)
@@ -140,10 +140,10 @@ def _header(r: TableReader, data: Mapping[str, Any], default_name: str) -> dict[
     if not isinstance(name, str) or not name:
         raise r.fail("name", "a non-empty string", name)
     robot = data.get("robot", "turtlebot3")
-    if robot not in ROBOT_FILES:
+    if not isinstance(robot, str) or robot not in ROBOT_FILES:
         raise r.fail("robot", f"one of {', '.join(sorted(ROBOT_FILES))}", robot)
     robots = data.get("robots", [robot])
-    if not isinstance(robots, list) or not all(x in ROBOT_FILES for x in robots) or not robots:
+    if not isinstance(robots, list) or not all(isinstance(x, str) and x in ROBOT_FILES for x in robots) or not robots:
         raise r.fail("robots", f"a list of robot names from {', '.join(sorted(ROBOT_FILES))}", robots)
     description = data.get("description", "")
     if not isinstance(description, str):

@@ -144,14 +144,14 @@ def test_the_estimation_plot_is_planned_beside_the_others(tmp_path: Path, monkey
 
     monkeypatch.chdir(tmp_path)
     args = build_parser().parse_args([*FAST, "--no-video"])
-    plan = plan_outputs(args, scenario="open", source="line")
+    plan = plan_outputs(args, scenario="open", own_robot="turtlebot3", source="line")
     assert list(plan.plots) == ["world", "errors", "commands", "estimation"]
     assert plan.plots["estimation"] == Path(f"renders/{STEM}-estimation.png")
     stale = tmp_path / "renders" / f"{STEM}-estimation.png"
     stale.parent.mkdir()
     stale.write_bytes(b"x")
     with pytest.raises(OutputExistsError, match=rf"{STEM}-estimation\.png"):
-        plan_outputs(args, scenario="open", source="line")
+        plan_outputs(args, scenario="open", own_robot="turtlebot3", source="line")
     assert main([*FAST, "--no-video"]) == 2
     assert stale.read_bytes() == b"x"
 
@@ -271,12 +271,36 @@ def test_outputs_are_named_by_the_robot_and_the_run_settings(tmp_path: Path, mon
     assert [r["robot"] for r in records] == ["turtlebot3", "edumip"]
 
 
+def test_a_scenario_file_with_another_robot_is_named_without_looking_it_up_by_name(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The robot part of an output name compares with the scenario file's own robot: the name inside a
+    file is not a built-in scenario (``--robot`` used to fail with "unknown scenario 'myworld'")."""
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(
+        'name = "myworld"\nrobot = "turtlebot3"\nrobots = ["turtlebot3", "edumip"]\n[world]\n'
+        "bounds = [-2.0, 2.0, -2.0, 2.0]\n[start]\npose = [0.0, 0.0, 0.0]\n[goal]\npose = [1.0, 0.0, 0.0]\n"
+    )
+    record = tmp_path / "run.json"
+    record.write_text("{}")  # in the way: the job stops at its output check, before any physics
+    job = ["simulate", "--scenario", str(scenario), "--reference", "line", "--no-video", "--no-plots"]
+    assert main([*job, "--robot", "edumip", "--json", str(record), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "unknown scenario" not in err and str(record) in err and "exists" in err
+    assert record.read_text() == "{}"
+
+
 def test_the_settings_tag_names_non_default_settings_and_gains_files_by_content(tmp_path: Path) -> None:
     from sim.cli.job_outputs import output_stem, settings_tag
     from sim.cli.main import build_parser
 
     def stem(*extra: str) -> str:
-        return output_stem(build_parser().parse_args(["simulate", *extra]), scenario="open", source="figure8")
+        return output_stem(
+            build_parser().parse_args(["simulate", *extra]),
+            scenario="open",
+            own_robot="turtlebot3",
+            source="figure8",
+        )
 
     assert stem() == stem("--robot", "turtlebot3", "--seed", "0", "--control-rate", "50") == "open-figure8"
     sha = hashlib.sha1(json.dumps({"perturb": "friction=0.6", "seed": 3}, sort_keys=True).encode()).hexdigest()

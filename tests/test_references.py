@@ -45,3 +45,24 @@ def test_unknown_reference_and_bad_sizes() -> None:
         make_reference("spiral", robot, Pose2D(0, 0, 0))
     with pytest.raises(ConfigError, match="radius"):
         make_reference("circle", robot, Pose2D(0, 0, 0), radius=-1.0)
+
+
+@pytest.mark.parametrize(
+    ("name", "options", "match"),
+    [  # each of these raised TypeError, ValueError, ZeroDivisionError, OverflowError or IndexError
+        ("circle", {"margin": [0.5]}, r"circle margin must be a finite number > 0, got \[0\.5\]"),
+        ("circle", {"margin": 1.5}, r"circle margin must be a fraction of the robot's limits in \(0, 1\]"),
+        ("figure8", {"size": "big"}, r"figure-eight size must be a finite number > 0, got 'big'"),
+        ("circle", {"radius": float("nan")}, r"circle radius must be a finite number > 0, got nan"),
+        ("circle", {"laps": 0.0}, r"circle laps must be a finite number > 0"),
+        ("line", {"dt": 0.0}, r"line dt must be a finite number > 0, got 0\.0"),
+        ("line", {"dt": -0.01}, r"line dt must be a finite number > 0"),
+        ("figure8", {"dt": float("inf")}, r"figure8 dt must be a finite number > 0, got inf"),
+        ("line", {"dt": 1e-12}, r"sampled every dt=1e-12 s needs .* samples \(at most 1000000\)"),
+        ("circle", {"laps": 1e300}, r"samples \(at most 1000000\): give a larger dt .* or fewer laps"),
+        ("line", {"laps": 2.0}, r"reference 'line': unknown option\(s\) laps; valid options: length, margin, dt"),
+    ],
+)
+def test_bad_reference_options_raise_config_errors_naming_them(name: str, options: dict, match: str) -> None:
+    with pytest.raises(ConfigError, match=match):
+        make_reference(name, load_robot("turtlebot3"), Pose2D(0, 0, 0), **options)

@@ -75,6 +75,10 @@ def test_name_defaults_to_the_file_stem(tmp_path: Path) -> None:
         (("[goal]\npose = [2.5, 2.5, 1.57]", "[goal]"), r"missing field\(s\) 'goal.pose'"),
         (("radius = 0.3", "radius = 0.3\nfoo = 2"), r"unknown key\(s\) 'foo' in \[world.obstacles\[0\]\]"),
         (("[0.5, 1.0]]", "[1.0, 0.0], [0.5, 1.0]]"), r"'world.obstacles\[3\].vertices'.*vertex 2 repeats vertex 1"),
+        # a list or a table where a name belongs (these raised TypeError: unhashable type)
+        (('type = "circle"', 'type = ["circle"]'), r"'world.obstacles\[0\].type': expected one of circle"),
+        (('robot = "turtlebot3"', 'robot = ["turtlebot3"]'), r"field 'robot': expected one of edumip, turtlebot3"),
+        (('robot = "turtlebot3"', 'robots = [{name = "edumip"}]'), r"field 'robots': expected a list of robot names"),
         (("[0.5, 1.0]]", "[1.0, 1.0], [0.0, 1.5], [2.0, 0.2]]"), r"obstacles\[3\].vertices'.*edges 1 and 3 cross"),
     ],
 )
@@ -125,7 +129,7 @@ def test_planner_options_tables_are_read_and_reach_the_planner(tmp_path: Path) -
             r" by planner 'birrt': unknown option\(s\) warp",
         ),
         ("[planners.teleport]\nx = 1\n", r"'planners.teleport': expected a registered planner name"),
-        ("[planners.birrt]\ngoal_bias = 2.0\n", r"'planners.birrt'.*goal_bias must be in \[0, 1\]"),
+        ("[planners.birrt]\ngoal_bias = 2.0\n", r"'planners.birrt'.*goal_bias must be >= 0 and <= 1, got 2.0"),
         ("planners = 3\n", r"field 'planners': expected a table"),
         ("[planners]\nbirrt = 3\n", r"'planners.birrt': expected a table of keyword options"),
     ],

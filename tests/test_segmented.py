@@ -2,11 +2,12 @@
 (an independent fine-step RK4 unicycle) through cusps and turns in place at 50 Hz and 10 Hz."""
 
 import math
+import re
 
 import numpy as np
 import pytest
 
-from control.base import make_tracker
+from control.base import MAX_CONTROL_PERIODS, TRACKERS, make_tracker
 from control.segmented import SegmentedParams, SegmentedTracker
 from planning.core.geometry import Pose2D
 from planning.core.robot import load_robot
@@ -79,7 +80,7 @@ def test_cusps_and_turns_in_place_are_tracked_to_the_goal(name: str, rate: float
     assert np.sqrt(np.mean(err**2)) < max(tol, 0.01)
 
 
-@pytest.mark.parametrize("name", ["segmented", "fbl"])
+@pytest.mark.parametrize("name", sorted(TRACKERS))  # the open-loop player too (it raised ValueError for t = NaN)
 @pytest.mark.parametrize("bad", [(math.nan, 0.0, 0.0), (0.0, math.inf, 0.0), (0.0, 0.0, math.nan)])
 def test_a_non_finite_pose_is_refused_by_every_tracker(name: str, bad: tuple[float, float, float]) -> None:
     robot = load_robot("edumip")
@@ -92,12 +93,27 @@ def test_a_non_finite_pose_is_refused_by_every_tracker(name: str, bad: tuple[flo
         tracker.command(math.nan, 0.0, 0.0, 0.0)
 
 
-@pytest.mark.parametrize("name", ["segmented", "fbl"])
+@pytest.mark.parametrize("name", sorted(TRACKERS))  # the open-loop player took any dt (0: ZeroDivisionError)
 @pytest.mark.parametrize("dt", [0.0, -0.02, math.nan, math.inf])
 def test_reset_refuses_a_bad_control_period(name: str, dt: float) -> None:
     robot = load_robot("edumip")
     with pytest.raises(ConfigError, match=rf"tracker '{name}': reset\(dt\).*> 0, got {dt!r}"):
         make_tracker(name, robot).reset(to_trajectory(CUSP_TURN, robot, OPEN), dt)
+
+
+@pytest.mark.parametrize("name", sorted(TRACKERS))
+def test_reset_refuses_a_period_too_small_for_the_trajectory(name: str) -> None:
+    """A period of 1e-300 s used to make reset allocate 1e301 samples (MemoryError or ValueError)."""
+    robot = load_robot("edumip")
+    traj = to_trajectory(CUSP_TURN, robot, OPEN)
+    periods = traj.duration / 1e-300
+    with pytest.raises(
+        ConfigError,
+        match=rf"tracker '{name}': reset\(dt=1e-300 s\).*makes {re.escape(f'{periods:.3g}')} control periods",
+    ):
+        make_tracker(name, robot).reset(traj, 1e-300)
+    assert MAX_CONTROL_PERIODS == 1_000_000
+    make_tracker(name, robot).reset(traj, traj.duration / 1000)
 
 
 @pytest.mark.parametrize(

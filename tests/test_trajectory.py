@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 
+from planning.errors import ConfigError
 from planning.trajectory.trajectory import SAMPLE_FIELDS, Trajectory
 
 
@@ -102,12 +103,13 @@ def test_sample_many_names_every_quantity() -> None:
         ({"t": np.array([0.0])}, "at least 2"),
         ({"pose": np.zeros((3, 2))}, r"pose must have shape \(3, 3\)"),
         ({"vel": np.full((3, 2), np.nan)}, "non-finite"),
+        ({"t": np.array([-1e308, 0.0, 1e308])}, "a duration too long to be a number"),  # trackers overflowed
     ],
 )
 def test_bad_arrays_are_rejected_with_the_field_named(kwargs: dict, match: str) -> None:
     base = {"t": np.array([0.0, 1.0, 2.0]), "pose": np.zeros((3, 3)), "vel": np.zeros((3, 2)), "acc": np.zeros((3, 2))}
     base.update(kwargs)
-    with pytest.raises(ValueError, match=match):
+    with pytest.raises(ConfigError, match=match):
         Trajectory(**base)
 
 

@@ -78,6 +78,38 @@ def test_ellipse_distance_is_exact_against_a_1d_minimisation() -> None:
         assert abs(abs(d) - best) < 1e-7
 
 
+def _ellipse_reference(a: float, b: float, p: np.ndarray) -> float:
+    """Unsigned distance from p to the axis-aligned ellipse of semi-axes a, b at the origin, by a dense
+    angle grid refined with a bounded 1-D minimisation (the parametrisation's angle u)."""
+
+    def dist(u: float) -> float:
+        return float(np.hypot(a * np.cos(u) - p[0], b * np.sin(u) - p[1]))
+
+    grid = np.linspace(-0.1, 2 * np.pi + 0.1, 4001)
+    k = int(np.argmin([dist(u) for u in grid]))
+    return float(
+        minimize_scalar(dist, bounds=(grid[k - 1], grid[k + 1]), method="bounded", options={"xatol": 1e-14}).fun
+    )
+
+
+@pytest.mark.parametrize("offset", [1e-3, 1e-6, 1e-9, 1e-11, 1e-13, 1e-17, 1e-200])
+def test_ellipse_distance_near_its_major_axis_inside_is_exact(offset: float) -> None:
+    """A point just off the major axis inside: the closest-point root lies next to the pole t = -b^2,
+    where bisecting t lost up to 4e-5 m (offset 1e-12) and, below 1e-16 m, made the distance -inf."""
+    a, b = 0.9, 0.5
+    for p in (np.array([0.2, offset]), np.array([offset, offset]), np.array([0.35, -offset])):
+        d = float(Ellipse((0.0, 0.0), (a, b)).signed_distance(p)[0])
+        assert d < 0 and abs(-d - _ellipse_reference(a, b, p)) < 1e-10, (p, d)
+
+
+def test_ellipse_distance_at_its_centre_is_minus_its_minor_semi_axis() -> None:
+    """Seen from the point at the origin, an ellipse centred a subnormal distance away is a -b deep."""
+    e = Ellipse((5.4e-210, 2.1e-258), (0.9152360054504847, 0.5830635839399547))
+    assert float(e.signed_distance([0.0, 0.0])[0]) == pytest.approx(-0.5830635839399547, abs=1e-12)
+    turned = Ellipse((1e-300, -1e-300), (0.3, 0.9), 1.2)
+    assert float(turned.signed_distance([0.0, 0.0])[0]) == pytest.approx(-0.3, abs=1e-12)
+
+
 def test_world_walls_and_minimum() -> None:
     w = World((-1, 1, -2, 2), (Circle((0, 0), 0.5),))
     np.testing.assert_allclose(w.wall_distance([[0.9, 0.0], [0, -1.5]]), [0.1, 0.5])

@@ -8,6 +8,8 @@ from typing import overload
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planning.errors import ConfigError
+
 FloatArray = NDArray[np.float64]
 
 
@@ -55,7 +57,7 @@ class Pose2D:
         for name in ("x", "y", "theta"):
             value = getattr(self, name)
             if not isinstance(value, (int, float, np.floating, np.integer)) or not np.isfinite(value):
-                raise ValueError(f"Pose2D.{name} must be a finite number, got {value!r}")
+                raise ConfigError(f"Pose2D.{name} must be a finite number, got {value!r}")
             object.__setattr__(self, name, float(value))
 
     @classmethod
@@ -63,7 +65,7 @@ class Pose2D:
         """Build a pose from a sequence ``[x, y, theta]``."""
         arr = np.asarray(values, dtype=float).reshape(-1)
         if arr.shape != (3,):
-            raise ValueError(f"a pose needs exactly 3 numbers [x, y, theta], got shape {arr.shape}")
+            raise ConfigError(f"a pose needs exactly 3 numbers [x, y, theta], got shape {arr.shape}")
         return cls(float(arr[0]), float(arr[1]), float(arr[2]))
 
     def as_array(self) -> FloatArray:

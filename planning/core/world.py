@@ -13,6 +13,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planning.core.checks import check_number
 from planning.errors import ConfigError
 
 FloatArray = NDArray[np.float64]
@@ -25,6 +26,16 @@ def _points(points: ArrayLike) -> FloatArray:
     if p.shape[-1] != 2:
         raise ValueError(f"points must have shape (M, 2), got {p.shape}")
     return p
+
+
+def _finite_pair(where: str, value: object) -> None:
+    """Raise ConfigError unless ``value`` is two finite numbers (``where`` names the field)."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        arr = np.full(1, np.nan)
+    if arr.shape != (2,) or not np.all(np.isfinite(arr)):
+        raise ConfigError(f"{where} must be two finite numbers, got {value!r}")
 
 
 def _to_local(p: FloatArray, center: FloatArray, angle: float) -> FloatArray:
@@ -44,8 +55,11 @@ class _Folded:
 
     def __post_init__(self) -> None:
         extents = getattr(self, self.extents_field)
+        _finite_pair(f"{self.kind} center", self.center)
+        _finite_pair(f"{self.kind} {self.extents_field}", extents)
         if not (extents[0] > 0 and extents[1] > 0):
-            raise ValueError(f"{self.kind} {self.extents_field} must be > 0, got {extents}")
+            raise ConfigError(f"{self.kind} {self.extents_field} must be > 0, got {extents}")
+        check_number(f"{self.kind} angle", self.angle)
 
     def _folded(self, points: ArrayLike) -> FloatArray:
         """(M, 2) points in the shape's frame, folded into its first quadrant (absolute coordinates)."""
@@ -61,8 +75,8 @@ class Circle:
     kind: ClassVar[str] = "circle"
 
     def __post_init__(self) -> None:
-        if not self.radius > 0:
-            raise ValueError(f"circle radius must be > 0, got {self.radius}")
+        _finite_pair("circle center", self.center)
+        check_number("circle radius", self.radius, above=0.0)
 
     def signed_distance(self, points: ArrayLike) -> FloatArray:
         """Signed distance of (M, 2) points [m]."""
@@ -99,21 +113,24 @@ class Ellipse(_Folded):
         else:
             y0, y1, e0, e1 = q[..., 1], q[..., 0], b, a
         dist = np.empty_like(y0)
-        # y1 > 0, y0 > 0: bisection on F(t) = (e0 y0/(t+e0^2))^2 + (e1 y1/(t+e1^2))^2 - 1.
+        # y1 > 0, y0 > 0: root u = t + e1^2 of F = (e0 y0/(u + e0^2 - e1^2))^2 + (e1 y1/u)^2 - 1, bracketed by
+        # e1 y1 <= u <= |(e0 y0, e1 y1)| and bisected geometrically (in log u), so u keeps its relative
+        # precision even where it is far below e1^2 (a point near the major axis inside: bisecting t itself
+        # there lost up to 1e-4 m, and the bracket collapsed onto the pole for y1 < 1e-16 e1). A y1 so
+        # small that e1 y1 underflows counts as on the major axis (the distance moves by < 1e-300 m).
+        y1 = np.where(e1 * y1 > 0, y1, 0.0)
         gen = (y1 > 0) & (y0 > 0)
         if np.any(gen):
             g0, g1 = y0[gen], y1[gen]
-            lo = -e1 * e1 + e1 * g1
-            hi = -e1 * e1 + np.sqrt(e0 * e0 * g0 * g0 + e1 * e1 * g1 * g1)
-            for _ in range(60):
-                mid = 0.5 * (lo + hi)
-                f = (e0 * g0 / (mid + e0 * e0)) ** 2 + (e1 * g1 / (mid + e1 * e1)) ** 2 - 1.0
+            d = e0 * e0 - e1 * e1
+            lo, hi = e1 * g1, np.hypot(e0 * g0, e1 * g1)
+            for _ in range(64):
+                mid = np.sqrt(lo) * np.sqrt(hi)
+                f = (e0 * g0 / (mid + d)) ** 2 + (e1 * g1 / mid) ** 2 - 1.0
                 lo = np.where(f > 0, mid, lo)
                 hi = np.where(f > 0, hi, mid)
-            t = 0.5 * (lo + hi)
-            x0 = e0 * e0 * g0 / (t + e0 * e0)
-            x1 = e1 * e1 * g1 / (t + e1 * e1)
-            dist[gen] = np.hypot(x0 - g0, x1 - g1)
+            u = np.sqrt(lo) * np.sqrt(hi)
+            dist[gen] = np.hypot(e0 * e0 * g0 / (u + d) - g0, e1 * e1 * g1 / u - g1)
         on_minor = (y1 > 0) & (y0 <= 0)
         dist[on_minor] = np.abs(y1[on_minor] - e1)
         on_major = y1 <= 0
@@ -189,14 +206,14 @@ class Polygon:
     def __post_init__(self) -> None:
         v = np.asarray(self.vertices, dtype=float)
         if v.ndim != 2 or v.shape[1] != 2 or v.shape[0] < 3:
-            raise ValueError(f"polygon needs at least 3 vertices of [x, y], got shape {v.shape}")
+            raise ConfigError(f"polygon needs at least 3 vertices of [x, y], got shape {v.shape}")
         if not np.all(np.isfinite(v)):
             raise ConfigError(f"polygon vertices must be finite numbers, got {v.tolist()}")
         repeat = _repeated_vertex(v)
         if repeat is not None:
             raise ConfigError(f"{repeat}; remove the duplicate vertex")
         if abs(polygon_area(v)) < 1e-12:
-            raise ValueError("polygon has zero area")
+            raise ConfigError("polygon has zero area")
         crossing = _crossing_edges(v)
         if crossing is not None:
             raise ConfigError(
@@ -327,11 +344,14 @@ class World:
     obstacles: tuple[Obstacle, ...] = ()
 
     def __post_init__(self) -> None:
-        b = tuple(float(x) for x in self.bounds)
+        try:
+            b = tuple(float(x) for x in self.bounds)
+        except (TypeError, ValueError):
+            b = ()
         if len(b) != 4 or not all(np.isfinite(b)):
-            raise ValueError(f"bounds must be 4 finite numbers [xmin, xmax, ymin, ymax], got {self.bounds}")
+            raise ConfigError(f"bounds must be 4 finite numbers [xmin, xmax, ymin, ymax], got {self.bounds}")
         if not (b[0] < b[1] and b[2] < b[3]):
-            raise ValueError(f"bounds need xmin < xmax and ymin < ymax, got {b}")
+            raise ConfigError(f"bounds need xmin < xmax and ymin < ymax, got {b}")
         object.__setattr__(self, "bounds", b)
         object.__setattr__(self, "obstacles", tuple(self.obstacles))
 

@@ -9,10 +9,12 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.checks import check_number
 from planning.core.geometry import Pose2D, path_length
 from planning.core.robot import RobotSpec, load_robot
 from planning.core.scenario import Scenario
 from planning.core.world import World
+from planning.errors import ConfigError
 
 FloatArray = NDArray[np.float64]
 
@@ -43,6 +45,10 @@ class PlanProblem:
         seed: Seed of the planner's random generator; same seed, same plan.
         time_limit: Wall-clock budget [s].
         name: Scenario name, for records.
+
+    Raises:
+        ConfigError: A field of the wrong type, a tolerance or time limit that is not a finite
+            number > 0, or a seed that is not an integer >= 0 (the message names the field).
     """
 
     world: World
@@ -54,6 +60,16 @@ class PlanProblem:
     seed: int = 0
     time_limit: float = 30.0
     name: str = "problem"
+
+    def __post_init__(self) -> None:
+        kinds = {"world": World, "robot": RobotSpec, "start": Pose2D, "goal": Pose2D}
+        for label, kind in kinds.items():
+            if not isinstance(getattr(self, label), kind):
+                got = type(getattr(self, label)).__name__
+                raise ConfigError(f"PlanProblem.{label} must be a {kind.__name__}, got {got}")
+        for label in ("position_tolerance", "heading_tolerance", "time_limit"):
+            object.__setattr__(self, label, check_number(f"PlanProblem.{label}", getattr(self, label), above=0.0))
+        object.__setattr__(self, "seed", check_number("PlanProblem.seed", self.seed, integer=True, at_least=0))
 
     @classmethod
     def from_scenario(

@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import ConvexHull
 
+from planning.core.checks import check_number
 from planning.core.geometry import cumulative_length, path_length, wrap_angle
 from planning.core.kinematics import bicycle_to_unicycle
 from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon
@@ -333,6 +334,10 @@ class Optim:
             )
         if init == self.name:
             raise ConfigError("optim: init='optim' would warm start from itself; choose 'straight' or another planner")
+        if not isinstance(init_options, (dict, type(None))):
+            raise ConfigError(
+                f"optim: init_options must be a table of the warm-start planner's options, got {init_options!r}"
+            )
         self.N = int(N)
         self.dt_opt = None if dt is None else float(dt)
         self.dt = DEFAULT_DT if dt is None else float(dt)
@@ -342,7 +347,7 @@ class Optim:
         self.margin = float(margin)
         self.w_steer = float(w_steer)
         self.w_smooth = float(w_smooth)
-        self.max_iter = int(max_iter)
+        self.max_iter = int(check_number("optim: max_iter", max_iter, integer=True, at_least=1))  # type: ignore[arg-type]
         if isinstance(max_resolves, bool) or not isinstance(max_resolves, (int, np.integer)) or max_resolves < 0:
             raise ConfigError(f"optim: max_resolves must be an integer >= 0, got {max_resolves!r}")
         self.max_resolves = int(max_resolves)

@@ -51,6 +51,7 @@ from numpy.typing import NDArray
 from scipy.integrate import cumulative_simpson, simpson
 from scipy.optimize import brentq
 
+from planning.core.checks import check_number
 from planning.core.geometry import wrap_angle
 from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus
@@ -191,6 +192,7 @@ class Sinusoidal:
             raise ConfigError(f"sinusoidal: phimax must be < pi/2, got {phimax}")
         if not 0 < max_heading_offset < math.pi / 2:
             raise ConfigError(f"sinusoidal: max_heading_offset must lie in (0, pi/2), got {max_heading_offset}")
+        check_number("sinusoidal: max_period", max_period, above=0.0)
         if max_period < min_period:
             raise ConfigError(f"sinusoidal: max_period ({max_period}) must be >= min_period ({min_period})")
         self.u1max_opt = u1max
@@ -402,13 +404,10 @@ class Sinusoidal:
         return self._result(problem, segs, models, t_start)
 
     def _result(self, problem: PlanProblem, segs: list[_Segment], models: list[ChainedModel], t0: float) -> PlanResult:
-        if not segs:
-            pose = problem.start.as_array()[None, :]
-            still: dict[str, Any] = {"times": np.zeros(1), "controls": np.zeros((1, 2)), "directions": np.ones(1)}
-            info = {"time_s": time.perf_counter() - t0, "pieces": len(models), "handoffs": len(models) - 1}
-            states = np.hstack([pose, np.zeros((1, 1))])
-            return PlanResult(PlanStatus.SUCCESS, self.name, path=pose, stats=info, states=states, **still)
-        t, x, uu = self._assemble(problem, segs)
+        if segs:
+            t, x, uu = self._assemble(problem, segs)
+        else:  # already at the goal: the start alone, judged as any path (it may touch an obstacle or a wall)
+            t, x, uu = np.zeros(1), np.append(problem.start.as_array(), 0.0)[None, :], np.zeros((1, 2))
         controls = np.column_stack([uu[:, 0], uu[:, 0] * np.tan(x[:, 3]) / self.l])
         direction = np.sign(uu[:, 0])
         for i in range(direction.size):

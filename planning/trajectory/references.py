@@ -7,6 +7,8 @@ sized and timed from the robot's limits so that speed, yaw rate and acceleration
 
 from __future__ import annotations
 
+import inspect
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -19,6 +21,9 @@ from planning.trajectory.trajectory import Trajectory
 
 FloatArray = NDArray[np.float64]
 Curve = Callable[[FloatArray], tuple[FloatArray, FloatArray, FloatArray]]
+
+#: Most samples a reference may have (2000 s at the default 2 ms), so a tiny dt or huge laps fails clearly.
+MAX_SAMPLES = 1_000_000
 
 
 def _phase_profile(
@@ -34,7 +39,7 @@ def _phase_profile(
     """
     cruise = max(total - rate * ramp, 0.0) / rate  # each ramp covers rate * ramp / 2 of phase
     duration = 2.0 * ramp + cruise
-    n = int(np.ceil(duration / dt)) + 1
+    n = _sample_count(duration, dt)
     t = np.linspace(0.0, duration, n)
 
     def up(u: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -57,10 +62,30 @@ def _phase_profile(
     return t, s, sdot, sddot
 
 
+def _sample_count(duration: float, dt: float) -> int:
+    """Samples of a reference lasting ``duration`` [s] every ``dt`` [s] (ConfigError above MAX_SAMPLES)."""
+    n = duration / dt + 1.0
+    if not n <= MAX_SAMPLES:
+        raise ConfigError(
+            f"a reference of {duration:.6g} s sampled every dt={dt:g} s needs {n:.3g} samples (at most {MAX_SAMPLES}): "
+            "give a larger dt (default 0.002 s) or fewer laps"
+        )
+    return int(np.ceil(duration / dt)) + 1
+
+
 def _build(
     curve: Curve, total: float, robot: RobotSpec, start: Pose2D, name: str, margin: float, dt: float
 ) -> Trajectory:
-    """Time a unit-phase curve p(s) within the robot's limits and place it at ``start``."""
+    """Time a unit-phase curve p(s) within the robot's limits and place it at ``start``.
+
+    Raises:
+        ConfigError: ``margin`` is not in (0, 1] or ``dt`` [s] is not a finite number > 0, or the
+            reference would need more than ``MAX_SAMPLES`` samples.
+    """
+    margin = _positive(f"{name} margin", margin, 1.0)
+    if margin > 1.0:
+        raise ConfigError(f"{name} margin must be a fraction of the robot's limits in (0, 1], got {margin}")
+    dt = _positive(f"{name} dt", dt, 0.002)
     s_grid = np.linspace(0.0, total, 4001)
     p, dp, ddp = curve(s_grid)
     g = np.hypot(dp[:, 0], dp[:, 1])
@@ -87,11 +112,12 @@ def _build(
 
 
 def _positive(what: str, value: float | None, default: float) -> float:
-    """``value`` (or ``default`` when None) as a float, which must be > 0 (ConfigError naming ``what``)."""
-    out = float(value if value is not None else default)
-    if out <= 0:
-        raise ConfigError(f"{what} must be > 0, got {out}")
-    return out
+    """``value`` (or ``default`` when None) as a float, which must be a finite number > 0 (ConfigError
+    naming ``what``)."""
+    out = default if value is None else value
+    if isinstance(out, bool) or not isinstance(out, (int, float)) or not (math.isfinite(out) and out > 0):
+        raise ConfigError(f"{what} must be a finite number > 0, got {out!r}")
+    return float(out)
 
 
 def line(
@@ -142,7 +168,7 @@ def circle(
         ddp = radius * np.column_stack([-np.sin(s), np.cos(s)])
         return p, dp, ddp
 
-    return _build(curve, 2.0 * np.pi * laps, robot, start, "circle", margin, dt)
+    return _build(curve, 2.0 * np.pi * _positive("circle laps", laps, 1.0), robot, start, "circle", margin, dt)
 
 
 def figure8(
@@ -176,7 +202,7 @@ def figure8(
         ddp = np.column_stack([-a * np.sin(s), -2 * a * np.sin(2 * s)])
         return p @ rot.T, dp @ rot.T, ddp @ rot.T
 
-    return _build(curve, 2.0 * np.pi * laps, robot, start, "figure8", margin, dt)
+    return _build(curve, 2.0 * np.pi * _positive("figure-eight laps", laps, 1.0), robot, start, "figure8", margin, dt)
 
 
 #: Reference name -> builder(robot, start, **options).
@@ -187,8 +213,16 @@ def make_reference(name: str, robot: RobotSpec, start: Pose2D, **options: float)
     """Build a named reference.
 
     Raises:
-        ConfigError: Unknown name (lists the valid ones).
+        ConfigError: Unknown name (lists the valid ones), an option the reference does not take (lists
+            the valid ones) or a bad option value.
     """
     if name not in REFERENCES:
         raise ConfigError(f"unknown reference {name!r}: choose one of {', '.join(REFERENCES)}")
+    params = inspect.signature(REFERENCES[name]).parameters.values()
+    valid = [p.name for p in params if p.kind is p.KEYWORD_ONLY]
+    unknown = sorted(set(options) - set(valid))
+    if unknown:
+        raise ConfigError(
+            f"reference {name!r}: unknown option(s) {', '.join(unknown)}; valid options: {', '.join(valid)}"
+        )
     return REFERENCES[name](robot, start, **options)

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from planning.core.geometry import Pose2D, wrap_angle
+from planning.errors import ConfigError
 
 FloatArray = NDArray[np.float64]
 
@@ -112,9 +114,9 @@ class TrajectorySamples:
 def _as_2d(name: str, value: ArrayLike, n: int, cols: int) -> FloatArray:
     arr = np.asarray(value, dtype=float)
     if arr.shape != (n, cols):
-        raise ValueError(f"Trajectory.{name} must have shape ({n}, {cols}), got {arr.shape}")
+        raise ConfigError(f"Trajectory.{name} must have shape ({n}, {cols}), got {arr.shape}")
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f"Trajectory.{name} contains non-finite values")
+        raise ConfigError(f"Trajectory.{name} contains non-finite values")
     return arr
 
 
@@ -134,6 +136,10 @@ class Trajectory:
             trackers that switch law between drives, cusps and turns in place.
         segment_kinds: Kind of each segment, one of ``SEGMENT_KINDS`` ("forward", "reverse",
             "rotate", "hold"); required with ``segments``.
+
+    Raises:
+        ConfigError: Times not finite and strictly increasing, arrays of the wrong shape or with
+            non-finite values, or segments that are not non-decreasing indices of known kinds.
     """
 
     t: FloatArray
@@ -148,12 +154,14 @@ class Trajectory:
     def __post_init__(self) -> None:
         t = np.asarray(self.t, dtype=float)
         if t.ndim != 1 or t.size < 2:
-            raise ValueError(f"Trajectory.t must be a 1-D array of at least 2 times, got shape {t.shape}")
+            raise ConfigError(f"Trajectory.t must be a 1-D array of at least 2 times, got shape {t.shape}")
         if not np.all(np.isfinite(t)):
-            raise ValueError("Trajectory.t contains non-finite values")
+            raise ConfigError("Trajectory.t contains non-finite values")
+        if not math.isfinite(float(t[-1]) - float(t[0])):
+            raise ConfigError(f"Trajectory.t spans {t[0]:g} to {t[-1]:g} s, a duration too long to be a number")
         if np.any(np.diff(t) <= 0.0):
             bad = int(np.argmax(np.diff(t) <= 0.0))
-            raise ValueError(f"Trajectory.t must be strictly increasing; t[{bad + 1}] <= t[{bad}]")
+            raise ConfigError(f"Trajectory.t must be strictly increasing; t[{bad + 1}] <= t[{bad}]")
         n = t.size
         pose = _as_2d("pose", self.pose, n, 3).copy()
         pose[:, 2] = np.unwrap(pose[:, 2])
@@ -166,15 +174,15 @@ class Trajectory:
         if self.segments is not None:
             seg = np.asarray(self.segments)
             if seg.shape != (n,) or not np.issubdtype(seg.dtype, np.integer):
-                raise ValueError(f"Trajectory.segments must be an integer array of shape ({n},), got {seg.shape}")
+                raise ConfigError(f"Trajectory.segments must be an integer array of shape ({n},), got {seg.shape}")
             kinds = tuple(self.segment_kinds)
             if np.any(np.diff(seg) < 0) or seg.min() < 0 or seg.max() >= len(kinds):
-                raise ValueError(
+                raise ConfigError(
                     f"Trajectory.segments must be non-decreasing indices into segment_kinds ({len(kinds)} kinds)"
                 )
             unknown = [name for name in kinds if name not in SEGMENT_KINDS]
             if unknown:
-                raise ValueError(f"Trajectory.segment_kinds: unknown kind(s) {unknown}; choose from {SEGMENT_KINDS}")
+                raise ConfigError(f"Trajectory.segment_kinds: unknown kind(s) {unknown}; choose from {SEGMENT_KINDS}")
             seg = seg.astype(np.int64)
             seg.setflags(write=False)
             object.__setattr__(self, "segments", seg)
@@ -288,11 +296,11 @@ class Trajectory:
             The reference at the M times, one (M,) array per quantity.
 
         Raises:
-            ValueError: ``times`` is not 1-D.
+            ConfigError: ``times`` is not 1-D.
         """
         tq_asked = np.array(times, dtype=float)
         if tq_asked.ndim != 1:
-            raise ValueError(f"Trajectory.sample_many: times must be a 1-D array (M,), got shape {tq_asked.shape}")
+            raise ConfigError(f"Trajectory.sample_many: times must be a 1-D array (M,), got shape {tq_asked.shape}")
         tq_asked.setflags(write=False)
         tq = np.clip(tq_asked, self.t[0], self.t[-1])
         table = self._table()

@@ -49,6 +49,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.collision.exact import CollisionChecker
+from planning.core.checks import check_fields
 from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
 from planning.planners.registry import config_from_options
@@ -93,19 +94,19 @@ class CRRTStarConfig:
     stop_at_goal: bool = True
 
     def __post_init__(self) -> None:
-        checks = [
-            (0.0 <= self.gamma <= 1.0, "gamma must be in [0, 1]"),
-            (self.max_step > 0, "max_step must be > 0 m"),
-            (self.neighbour_radius > 0, "neighbour_radius must be > 0 m"),
-            (self.goal_radius > 0, "goal_radius must be > 0 m"),
-            (self.rho >= 0, "rho must be >= 0 m"),
-            (self.sigma >= 0, "sigma must be >= 0 1/m^2"),
-            (self.center_clearance is None or self.center_clearance >= 0, "center_clearance must be >= 0 m"),
-            (self.max_iterations >= 1, "max_iterations must be >= 1"),
-        ]
-        for ok, msg in checks:
-            if not ok:
-                raise ConfigError(f"C-RRT*: {msg}")
+        checks: dict[str, dict[str, Any]] = {
+            "gamma": {"at_least": 0.0, "at_most": 1.0},
+            "max_step": {"above": 0.0},
+            "neighbour_radius": {"above": 0.0},
+            "goal_radius": {"above": 0.0},
+            "rho": {"at_least": 0.0},
+            "sigma": {"at_least": 0.0},
+            "center_clearance": {"at_least": 0.0, "optional": True},
+            "max_iterations": {"integer": True, "at_least": 1},
+        }
+        check_fields(self, checks, "C-RRT*: ")
+        if not isinstance(self.stop_at_goal, bool):
+            raise ConfigError(f"C-RRT*: stop_at_goal must be true or false, got {self.stop_at_goal!r}")
 
 
 class CRRTStar:

@@ -18,11 +18,12 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Generic, TypeVar
+from typing import Any, Generic, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.checks import check_fields
 from planning.core.geometry import path_length
 from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
@@ -40,6 +41,13 @@ from planning.planners.sampling.tree import (
 )
 
 FloatArray = NDArray[np.float64]
+
+
+#: Largest turning radius of the exact curves [m]: a curve of a larger one is a straight line in any world
+#: nhsim simulates, and its samples (its length over a centimetre) would not fit in memory.
+MAX_TURNING_RADIUS = 1000.0
+#: Longest bicycle primitive [s] (a primitive is sampled every centimetre of its motion).
+MAX_PRIMITIVE_DURATION = 60.0
 
 
 @dataclass(frozen=True)
@@ -75,10 +83,22 @@ class TreeConfig:
     clearance: float = 0.0
 
     def __post_init__(self) -> None:
-        if not 0.0 <= self.goal_bias <= 1.0:
-            raise ConfigError(f"goal_bias must be in [0, 1], got {self.goal_bias}")
-        if self.max_iterations < 1:
-            raise ConfigError(f"max_iterations must be >= 1, got {self.max_iterations}")
+        checks: dict[str, dict[str, Any]] = {
+            "goal_bias": {"at_least": 0.0, "at_most": 1.0},
+            "max_iterations": {"integer": True, "at_least": 1},
+            "time_limit": {"above": 0.0, "optional": True},
+            "turning_radius": {"above": 0.0, "at_most": MAX_TURNING_RADIUS, "optional": True},
+            "step_range": {"above": 0.0, "optional": True},
+            "goal_connect_radius": {"above": 0.0},
+            "n_speeds": {"integer": True, "at_least": 1},
+            "primitive_duration": {"above": 0.0, "at_most": MAX_PRIMITIVE_DURATION},
+            "clearance": {"at_least": 0.0},
+        }
+        check_fields(self, checks)
+        if not isinstance(self.steering, str):
+            raise ConfigError(
+                f"steering must be a name (bicycle, unicycle, diffdrive, reeds_shepp, dubins), got {self.steering!r}"
+            )
         if self.shape not in ("footprint", "disc"):
             raise ConfigError(f"shape must be 'footprint' or 'disc', got {self.shape!r}")
 

@@ -1,0 +1,151 @@
+"""Shared pieces of the property-based (Hypothesis) tests: settings, a TOML writer and value strategies.
+
+Every fuzz property runs twice: in the default run with :data:`FAST` (a few dozen examples, so the
+fuzz files stay well under 30 s on a loaded machine) and in the ``slow`` suite with :data:`SLOW`
+(1000 examples). Both are derandomised, so a run is reproducible; no example database is written.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable, Mapping
+from datetime import date, datetime, time
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, Phase, given, settings
+from hypothesis import strategies as st
+
+from planning.errors import NhsimError
+
+_COMMON: dict[str, Any] = {
+    "deadline": None,
+    "derandomize": True,
+    "database": None,
+    "print_blob": True,
+    "phases": [Phase.explicit, Phase.reuse, Phase.generate, Phase.target, Phase.shrink],
+    "suppress_health_check": [HealthCheck.too_slow, HealthCheck.data_too_large],
+}
+#: The default run's settings: few examples, reproducible.
+FAST = settings(max_examples=40, **_COMMON)
+#: The ``slow`` suite's settings: 1000 examples per property.
+SLOW = settings(max_examples=1000, **_COMMON)
+
+
+def fast_and_slow(
+    strategy: st.SearchStrategy[Any], prop: Callable[[Any], None], fast: int | None = None
+) -> tuple[Callable[[], None], Callable[[], None]]:
+    """Two tests of one property: the default run's (``fast`` examples, default :data:`FAST`'s) and the
+    ``slow``-marked one with :data:`SLOW`.
+
+    Args:
+        strategy: Draws one input of the property.
+        prop: Checks the property for one input (raises AssertionError when it fails).
+        fast: Examples of the default run's test.
+    """
+    fast_settings = FAST if fast is None else settings(FAST, max_examples=fast)
+    return (
+        fast_settings(given(strategy)(prop)),
+        pytest.mark.slow(SLOW(given(strategy)(prop))),
+    )
+
+
+def expect_nhsim_errors(call: Callable[[], Any]) -> tuple[Any, NhsimError | None]:
+    """``call()``'s result, or the NhsimError it raised; any other exception fails the test.
+
+    Returns:
+        (result, None) on a return, (None, error) on an NhsimError.
+    """
+    try:
+        return call(), None
+    except NhsimError as exc:
+        assert str(exc), f"{type(exc).__name__} without a message"
+        return None, exc
+    except Exception as exc:
+        raise AssertionError(f"raised {type(exc).__name__} (not an NhsimError): {exc!r}") from exc
+
+
+def assert_finite(value: Any, where: str) -> None:
+    """Every number in ``value`` (a number, an array, or nested lists, tuples and dicts of them) is finite."""
+    if isinstance(value, Mapping):
+        for key, item in value.items():
+            assert_finite(item, f"{where}[{key!r}]")
+    elif isinstance(value, (list, tuple)):
+        for i, item in enumerate(value):
+            assert_finite(item, f"{where}[{i}]")
+    elif isinstance(value, np.ndarray):
+        if value.dtype.kind in "fc":
+            assert np.all(np.isfinite(value)), f"{where} holds non-finite values"
+    elif isinstance(value, float):
+        assert math.isfinite(value), f"{where} = {value}"
+
+
+# --------------------------------------------------------------------------------------------- TOML
+def _toml_value(value: Any) -> str:
+    """One TOML value (inline tables for mappings; NaN and infinities as TOML writes them)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    if isinstance(value, (bool, int, float, str)):  # JSON's forms of these are TOML's too
+        return json.dumps(value, ensure_ascii=False)
+    if isinstance(value, (datetime, date, time)):
+        return value.isoformat()
+    if isinstance(value, Mapping):
+        return "{" + ", ".join(f"{json.dumps(str(k))} = {_toml_value(v)}" for k, v in value.items()) + "}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    raise TypeError(f"no TOML form for {type(value).__name__}")
+
+
+def to_toml(document: Mapping[str, Any]) -> str:
+    """A TOML document of top-level ``key = value`` lines (tables written inline).
+
+    Strings are written as JSON strings, which are TOML basic strings for the printable text the
+    strategies draw.
+    """
+    return "".join(f"{json.dumps(str(k))} = {_toml_value(v)}\n" for k, v in document.items())
+
+
+# ------------------------------------------------------------------------------------------- values
+#: Printable text that is valid inside a TOML basic string.
+TEXT = st.text(st.characters(codec="utf-8", categories=("L", "N", "P", "Zs")), max_size=12)
+#: Numbers that are not finite.
+NON_FINITE = st.sampled_from([math.nan, math.inf, -math.inf])
+#: Any TOML scalar, finite or not.
+SCALARS = st.one_of(
+    st.integers(-(10**6), 10**6),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.booleans(),
+    TEXT,
+    st.just(datetime(1979, 5, 27, 7, 32)),
+)
+#: Any TOML value: scalars, lists and tables of them, nested twice.
+ANY_VALUE = st.recursive(
+    SCALARS,
+    lambda inner: st.one_of(st.lists(inner, max_size=4), st.dictionaries(TEXT, inner, max_size=3)),
+    max_leaves=6,
+)
+
+
+def coordinate(lo: float = -20.0, hi: float = 20.0) -> st.SearchStrategy[float]:
+    """A finite coordinate in [lo, hi] [m]."""
+    return st.floats(lo, hi, allow_nan=False, allow_infinity=False)
+
+
+def maybe_bad(good: st.SearchStrategy[Any], bad: st.SearchStrategy[Any], p_bad: int = 8) -> st.SearchStrategy[Any]:
+    """``good`` most of the time, ``bad`` about one draw in ``p_bad``.
+
+    The choice is an integer in [0, p_bad) that picks ``bad`` at its middle value: Hypothesis draws the
+    ends of a range (and 0 above all) far more often than 1 / p_bad, and shrinks towards 0, the good side.
+    """
+    return st.integers(0, p_bad - 1).flatmap(lambda k: bad if k == p_bad // 2 else good)
+
+
+#: A number that an option or a field may wrongly hold: non-finite, zero, negative, or not a number at all.
+BAD_NUMBER = st.one_of(
+    NON_FINITE,
+    st.sampled_from([0, 0.0, -1.0, -1e-9, 1e300, -1e300, True, False]),
+    TEXT,
+    st.lists(st.floats(-1, 1), max_size=2),
+)
