@@ -348,13 +348,13 @@ def run(args: argparse.Namespace) -> int:
 def _optimise(args: argparse.Namespace, spec: Any) -> Any:
     """Open (or create) the study and run the trials it still lacks, on one or more workers."""
     import optuna
-    from optuna.trial import TrialState
 
     from sim.tools.tune import completed, ensure_default_trial, load_study, run_worker, split_trials
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
     study = load_study(spec, create=True)
+    _settle(study, args.quiet)
     done = len(completed(study))
     remaining = max(args.trials - done, 0)
     if remaining:
@@ -368,20 +368,41 @@ def _optimise(args: argparse.Namespace, spec: Any) -> Any:
         )
     progress = _Progress(args.trials, done, not args.quiet and sys.stderr.isatty())
     shares = split_trials(remaining, args.jobs)
-    report = [lambda s, t: progress.set(len(completed(s)), _best_value(s))]
     try:
-        if len(shares) > 1 and study.get_trials(deepcopy=False, states=(TrialState.WAITING,)):
-            # SQLite cannot lock a row, so two workers starting together may both take the enqueued
-            # trial (optuna#4002) and one fails telling it; run it here first.
-            run_worker(spec, 1, 0, callbacks=report)
-            shares = split_trials(remaining - 1, args.jobs)
         if len(shares) == 1:
-            run_worker(spec, shares[0], 0, callbacks=report)
+            run_worker(spec, shares[0], 0, callbacks=[lambda s, t: progress.set(len(completed(s)), _best_value(s))])
         elif shares:
             _run_parallel(spec, shares, study, progress)
     finally:
         progress.close()
     return study
+
+
+def _settle(study: Any, quiet: bool) -> None:
+    """Before counting what is left: fail the trials a killed worker left running (their gains are
+    enqueued again) and say so; a live worker's running trials are left to it."""
+    from optuna.trial import TrialState
+
+    from sim.tools.tune import GRACE_PERIOD, settle_running
+
+    running = [t.number for t in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,))]
+    if not running:
+        return
+    if not quiet:
+        print(
+            f"trials {_numbers(running)} are running: waiting up to {GRACE_PERIOD} s for their heartbeats "
+            "(a killed worker's trial is failed and its gains evaluated afresh)",
+            file=sys.stderr,
+        )
+    failed, alive = settle_running(study)
+    if not quiet and failed:
+        print(f"trials {_numbers(failed)} were left by a killed worker: failed, gains enqueued again", file=sys.stderr)
+    if not quiet and alive:
+        print(f"trials {_numbers(alive)} are still beating: left to their workers", file=sys.stderr)
+
+
+def _numbers(numbers: list[int]) -> str:
+    return ", ".join(f"#{n}" for n in numbers)
 
 
 def _report_best(study: Any, spec: Any, evaluator: Any) -> tuple[Any, float]:
