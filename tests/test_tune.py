@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import optuna
 import pytest
+from PIL import Image
 
 from control.fbl import FBLGains
 from control.gains import load_gains_file
@@ -108,11 +109,29 @@ def test_tuning_is_no_worse_than_the_defaults(tmp_path: Path, capsys: pytest.Cap
         assert held["verdict"].startswith(f"{better} gains are better on held-out robots: objective {ratio:.2f}x")
     assert (tmp_path / "tune-t-history.png").stat().st_size > 1000
     assert (tmp_path / "tune-t-importance.png").stat().st_size > 1000
-    # Same command again: nothing left to run, and the outputs are not overwritten without --overwrite.
-    before = (tmp_path / "gains.toml").read_bytes()
-    assert main(_args(tmp_path, 6)) == 2
-    assert "--overwrite" in capsys.readouterr().err
-    assert (tmp_path / "gains.toml").read_bytes() == before
+    # The same study resumed (one trial more) updates its own outputs without --overwrite ...
+    outputs = [tmp_path / n for n in ("gains.toml", "gains.json", "tune-t-history.png", "tune-t-importance.png")]
+    before = {p: p.read_bytes() for p in outputs}
+    assert main(_args(tmp_path, 7, "--eval-runs", "0")) == 0
+    assert load_gains_file(tmp_path / "gains.toml").provenance["trials"] == 7 == len(_completed(tmp_path))
+    assert json.loads((tmp_path / "gains.json").read_text())["trials"] == 7
+    assert all(p.read_bytes() != before[p] for p in outputs)  # the plots show the seventh trial
+    with Image.open(tmp_path / "tune-t-history.png") as image:
+        stamp = {k: image.text.get(k) for k in ("study", "storage")}  # type: ignore[attr-defined]
+    assert stamp == {"study": "t", "storage": f"sqlite:///{tmp_path}/study.db"}
+    # ... and another study, or a file that names no study, is refused before anything runs.
+    capsys.readouterr()
+    before = {p: p.read_bytes() for p in outputs}
+    other = _args(tmp_path, 1)
+    other[other.index("--study") + 1] = "u"
+    assert main(other) == 2
+    err = capsys.readouterr().err
+    assert f"holds the outputs of study 't' in 'sqlite:///{tmp_path}/study.db', not of study 'u'" in err
+    (tmp_path / "mine.json").write_text("{}")
+    assert main([*_args(tmp_path, 7), "--json", str(tmp_path / "mine.json")]) == 2
+    assert "mine.json exists already; pass --overwrite" in capsys.readouterr().err
+    assert {p: p.read_bytes() for p in outputs} == before and (tmp_path / "mine.json").read_text() == "{}"
+    assert [s.study_name for s in optuna.get_all_study_summaries(f"sqlite:///{tmp_path}/study.db")] == ["t"]
 
 
 def test_killed_study_resumes_with_every_trial_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

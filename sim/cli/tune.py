@@ -9,7 +9,7 @@ import re
 import sys
 import time
 import warnings
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -29,8 +29,11 @@ scenario's start (e.g. open:figure8, open:circle, open:line); SCENARIO:PLANNER o
 tracks a plan (needs the planners).
 
 The study is kept in an SQLAlchemy storage (default sqlite:///renders/tune-<study>.db). Rerunning
-the same command resumes it: completed trials count toward --trials and are never repeated; a rerun
-with other cases, draws (--draws, --seed, --robust, --perturb-range) or weights is refused. Any
+the same command resumes it: completed trials count toward --trials and are never repeated, a trial
+a killed worker left running is failed once its heartbeat has been silent for 10 s and its gains
+are evaluated afresh, and the outputs the study wrote before are updated (an existing output that
+names another study, or none, is replaced only with --overwrite); a rerun with other cases, draws
+(--draws, --seed, --robust, --perturb-range) or weights is refused. Any
 SQLAlchemy URL works (e.g. postgresql://user:pass@host/db), so workers on several machines can run
 the same command against one study; --jobs runs local worker processes. The default gains are
 always the study's first trial.
@@ -200,16 +203,16 @@ def _run_parallel(spec: Any, shares: list[int], study: Any, progress: _Progress)
         )
 
 
-def _save_figure(plt: Any, ax: Any, path: Path, overwrite: bool) -> None:
+def _save_figure(plt: Any, ax: Any, path: Path, files: TuneFiles, overwrite: bool) -> None:
     from sim.outputs import atomic_path
 
     fig = ax.get_figure(root=True)
-    with atomic_path(path, overwrite=overwrite) as tmp:
-        fig.savefig(tmp, dpi=120, bbox_inches="tight")
+    with atomic_path(path, overwrite=files.may_replace(path, overwrite)) as tmp:
+        fig.savefig(tmp, dpi=120, bbox_inches="tight", format="png", metadata=files.stamp())
     plt.close(fig)
 
 
-def _save_plots(study: Any, history: Path, importance: Path, overwrite: bool) -> tuple[list[str], list[str]]:
+def _save_plots(study: Any, files: TuneFiles, overwrite: bool) -> tuple[list[str], list[str]]:
     """Write both plots; returns the paths written and notes on plots that could not be drawn."""
     import matplotlib
 
@@ -219,11 +222,11 @@ def _save_plots(study: Any, history: Path, importance: Path, overwrite: bool) ->
     from optuna.visualization.matplotlib import plot_optimization_history, plot_param_importances
 
     notes: list[str] = []
-    written = [str(history)]
+    written = [str(files.history)]
     ax = plot_optimization_history(study)
     ax.set_ylabel("objective [m]")
     ax.set_yscale("log")
-    _save_figure(plt, ax, history, overwrite)
+    _save_figure(plt, ax, files.history, files, overwrite)
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", UserWarning)
@@ -232,8 +235,8 @@ def _save_plots(study: Any, history: Path, importance: Path, overwrite: bool) ->
     except Exception as exc:  # too few or identical trials
         notes.append(f"no importance plot: {exc}")
     else:
-        _save_figure(plt, ax, importance, overwrite)
-        written.append(str(importance))
+        _save_figure(plt, ax, files.importance, files, overwrite)
+        written.append(str(files.importance))
     return written, notes
 
 
@@ -248,6 +251,8 @@ class TuneFiles:
         history: Optimisation history plot.
         importance: Parameter importance plot.
         record: JSON record of the study and the held-out comparison.
+        own: The outputs that exist already and name this study and storage (an earlier run of the
+            same study wrote them): a resumed study replaces them without --overwrite.
     """
 
     study: str
@@ -256,14 +261,47 @@ class TuneFiles:
     history: Path
     importance: Path
     record: Path
+    own: frozenset[Path] = frozenset()
+
+    def stamp(self) -> dict[str, str]:
+        """The study and storage, as every output records them (provenance, record, PNG text)."""
+        return {"study": self.study, "storage": self.storage}
+
+    def may_replace(self, path: Path, overwrite: bool) -> bool:
+        """Whether ``path`` may be replaced: --overwrite, or an output of this study."""
+        return overwrite or path in self.own
+
+    def owner(self, path: Path) -> dict[str, str] | None:
+        """The study and storage an existing output of this run's names, None when it names none
+        (another program's file, or unreadable)."""
+        import json
+        import tomllib
+
+        from PIL import Image
+
+        try:
+            if path == self.gains:
+                stamp = tomllib.loads(path.read_text(encoding="utf-8")).get("provenance", {})
+            elif path == self.record:
+                stamp = json.loads(path.read_text(encoding="utf-8"))
+            else:
+                with Image.open(path) as image:
+                    stamp = dict(getattr(image, "text", {}))
+        except (OSError, ValueError):  # unreadable, or not TOML, JSON or an image
+            return None
+        if not isinstance(stamp, dict) or not all(isinstance(stamp.get(k), str) for k in ("study", "storage")):
+            return None
+        return {k: stamp[k] for k in ("study", "storage")}
 
 
 def tune_files(args: argparse.Namespace, tokens: list[str]) -> TuneFiles:
-    """Decide the study name, its storage and the output files, and check none would be replaced.
+    """Decide the study name, its storage and the output files, and check none would be replaced
+    unless it is an output of this same study (a resumed study updates its own outputs).
 
     Raises:
-        OutputExistsError: An output exists and --overwrite was not given.
+        OutputExistsError: An output exists, is not this study's, and --overwrite was not given.
     """
+    from planning.errors import OutputExistsError
     from sim.outputs import check_writable
 
     study = args.study or default_study_name(tokens, args.robot, args.robust)
@@ -281,9 +319,18 @@ def tune_files(args: argparse.Namespace, tokens: list[str]) -> TuneFiles:
         raise ConfigError(
             f"two outputs would be one file ({', '.join(map(str, paths))}); give --out and --json different paths"
         )
+    owners = {p: files.owner(p) for p in paths if p.is_file()}
+    own = frozenset(p for p, owner in owners.items() if owner == files.stamp())
     for path in paths:
-        check_writable(path, overwrite=args.overwrite)
-    return files
+        owner = owners.get(path)
+        if owner is not None and path not in own and not args.overwrite:
+            raise OutputExistsError(
+                f"{path} holds the outputs of study {owner['study']!r} in {owner['storage']!r}, not of study "
+                f"{study!r} in {files.storage!r}; pass --overwrite to replace it, or choose other output paths "
+                "(--out, --json, --plots)"
+            )
+        check_writable(path, overwrite=args.overwrite or path in own)
+    return replace(files, own=own)
 
 
 def _check_counts(args: argparse.Namespace) -> None:
@@ -485,8 +532,7 @@ def _write_outputs(
     from sim.tools.tune import completed
 
     provenance: dict[str, Any] = {
-        "study": files.study,
-        "storage": files.storage,
+        **files.stamp(),
         "objective": float(best.value),
         "trial": best.number,
         "default_objective": default_obj,
@@ -506,7 +552,7 @@ def _write_outputs(
         provenance["held_out"] = _finite({"draws": args.eval_runs, **summary}, drop=True)
     gains, verdict = recommendation(best, comparison)
     provenance.update(verdict)
-    with atomic_path(files.gains, overwrite=args.overwrite) as tmp:
+    with atomic_path(files.gains, overwrite=files.may_replace(files.gains, args.overwrite)) as tmp:
         tmp.write_text(dump_gains_toml(GainsFile(gains, provenance)), encoding="utf-8")
     record = {
         **provenance,
@@ -514,8 +560,8 @@ def _write_outputs(
         "settings": spec.settings(),
         "held_out": held_out,
     }
-    write_json(files.record, _finite(record, drop=False), overwrite=args.overwrite)
-    plots, notes = _save_plots(study, files.history, files.importance, args.overwrite)
+    write_json(files.record, _finite(record, drop=False), overwrite=files.may_replace(files.record, args.overwrite))
+    plots, notes = _save_plots(study, files, args.overwrite)
     for note in notes:
         print(note, file=sys.stderr)
     print("wrote " + ", ".join([str(files.gains), str(files.record), *plots]))
