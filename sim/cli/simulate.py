@@ -8,20 +8,33 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from planning.errors import ConfigError
-from sim.cli.job_outputs import add_output_arguments
+from sim.cli.job_outputs import RUN_SETTINGS, add_output_arguments
 from sim.pipeline.runs import RunKind
 
 if TYPE_CHECKING:
     from planning.scenario import Scenario
     from sim.physics.metrics import TrackingMetrics
 
+#: The scenario of a job that names none: this map for a plan (seed 003's job: the EduMIP plans
+#: through it with its planner, C-RRT*), the empty arena for an analytic reference.
+DEFAULT_SCENARIO = "edumip_map"
+REFERENCE_SCENARIO = "open"
+#: The reference tracked when neither --planner nor --reference is given and the scenario names no planner.
+DEFAULT_REFERENCE = "figure8"
+#: ``--build-seed``'s default as its help states it: :data:`sim.physics.asbuilt.DEFAULT_BUILD_SEED`
+#: (not imported here: it loads mujoco, which must wait for ``--gl``; a test holds them equal).
+BUILD_SEED_HELP = "1"
+
 DESCRIPTION = (
     "Run the robot in MuJoCo physics along a reference trajectory, once with the dynamic "
     "feedback-linearisation tracker (closed loop) and once replaying the reference inputs "
-    "(open loop), and print each run's errors. With no arguments: seed 003's job, a C-RRT* "
-    "plan through the 'edumip_map' scenario, smoothed and tracked (when the c-rrt-star planner "
-    "and that scenario are installed; otherwise TurtleBot3, figure-eight, in the 'open' "
-    "scenario).\n\n"
+    "(open loop), and print each run's errors.\n\n"
+    f"What runs, one rule: the scenario is --scenario, else '{REFERENCE_SCENARIO}' with --reference, else "
+    f"'{DEFAULT_SCENARIO}'; the path is --reference's curve or --planner's plan, else the plan of the "
+    f"scenario's own planner, else (the scenario names none) the '{DEFAULT_REFERENCE}' reference. With no "
+    f"arguments: seed 003's job, '{DEFAULT_SCENARIO}' planned with its own planner, smoothed and tracked; "
+    f"'--scenario farm' plans the farm with its own planner; '--reference circle' tracks a circle in "
+    f"'{REFERENCE_SCENARIO}'.\n\n"
     "--planner P plans the scenario with P, smooths the path (piecewise polynomial, speed "
     "profile, cusps and turns in place) and tracks it with the segmented tracker. --all runs "
     "every built-in scenario with every applicable planner (the scenario's own planner, every "
@@ -31,7 +44,7 @@ DESCRIPTION = (
     "final_heading_error_rad, rms_position_error_m, max_position_error_m, collisions, warnings, "
     "saturation_fraction; plus scenario, robot, source, tracker, gains, control_rate_hz, seed "
     "and package versions.\n\n"
-    "Outputs: renders/<scenario>-<reference>.mp4 (both runs: closed loop solid, open loop as a "
+    "Outputs: renders/<scenario>-<planner or reference>.mp4 (both runs: closed loop solid, open loop as a "
     "ghost), PNG plots and a JSON record beside it; an existing file is never replaced without "
     "--overwrite (the command stops with an error before running anything).\n\n"
     "Exit status: 0 when every run is clean (no MuJoCo warning, no collision in closed loop) and the "
@@ -127,9 +140,10 @@ def _add_job_arguments(p: argparse.ArgumentParser) -> None:
 
     p.add_argument(
         "--scenario",
-        default="open",
+        default=None,
         metavar="NAME|PATH",
-        help="built-in scenario name or path to a scenario .toml (default: open)",
+        help=f"built-in scenario name or path to a scenario .toml (default: {DEFAULT_SCENARIO}; {REFERENCE_SCENARIO} "
+        "with --reference)",
     )
     p.add_argument(
         "--robot",
@@ -141,74 +155,107 @@ def _add_job_arguments(p: argparse.ArgumentParser) -> None:
         "--reference",
         choices=list(REFERENCES),
         default=None,
-        help="analytic reference placed at the scenario's start pose (default: figure8)",
+        help="analytic reference placed at the scenario's start pose (default: none, the scenario's planner plans "
+        f"the path; {DEFAULT_REFERENCE} when the scenario names no planner)",
     )
     planners = ", ".join(sorted(PLANNERS)) or "none registered"
     p.add_argument(
-        "--planner", default=None, metavar="P", help=f"plan the scenario with planner P ({planners}) and track the plan"
+        "--planner",
+        default=None,
+        metavar="P",
+        help=f"plan the scenario with planner P ({planners}) and track the plan (default: the scenario's planner)",
     )
     p.add_argument("--all", action="store_true", help="every built-in scenario x applicable planner x robot")
-    p.add_argument("--time-limit", type=float, default=30.0, metavar="S", help="planning budget (default: 30 s)")
+    p.add_argument(
+        "--time-limit",
+        type=float,
+        default=RUN_SETTINGS["time_limit"],
+        metavar="S",
+        help="planning budget (default: %(default)g s)",
+    )
 
 
 def _add_run_arguments(p: argparse.ArgumentParser) -> None:
-    """How to run it: runs, gains, perturbation, rate, seed, record, verbosity."""
+    """How to run it: runs, build, sensors, gains, perturbation, rate, seed, record, verbosity. Defaults
+    are :data:`sim.cli.job_outputs.RUN_SETTINGS` (which also names outputs by the settings that differ)."""
+    from control.fbl import FBLGains
+
     p.add_argument(
         "--tracker",
         choices=sorted(run_choices()),
-        default="both",
+        default=RUN_SETTINGS["tracker"],
         help="fbl (closed loop on the fused estimate), open-loop, or both: the default runs, closed loop on the fused "
-        "estimate, closed loop on dead reckoning and open loop (default: both)",
+        "estimate, closed loop on dead reckoning and open loop (default: %(default)s)",
     )
     p.add_argument(
         "--runs",
-        default=None,
+        default=RUN_SETTINGS["runs"],
         metavar="KIND,...",
         help=f"the runs, overriding --tracker: any of {', '.join(str(k) for k in RunKind)} "
-        "(closed_loop_truth feeds the tracker the true pose, for comparison)",
+        "(closed_loop_truth feeds the tracker the true pose, for comparison) (default: those of --tracker)",
     )
     p.add_argument(
         "--build",
         choices=["as-built", "nominal"],
-        default="as-built",
+        default=RUN_SETTINGS["build"],
         help="as-built: wheel radii, track, tyre friction, mass and centre of mass drawn within their tolerances from "
-        "--build-seed (the tracker and estimator know only the drawing); nominal: the robot as drawn",
+        "--build-seed (the tracker and estimator know only the drawing); nominal: the robot as drawn "
+        "(default: %(default)s)",
     )
-    p.add_argument("--build-seed", type=int, default=None, metavar="N", help="seed of the as-built draw (default: 1)")
+    p.add_argument(
+        "--build-seed",
+        type=int,
+        default=RUN_SETTINGS["build_seed"],
+        metavar="N",
+        help=f"seed of the as-built draw (default: {BUILD_SEED_HELP})",
+    )
     p.add_argument(
         "--sensors",
-        default=None,
+        default=RUN_SETTINGS["sensors"],
         metavar="KEY=VALUE,...|FILE",
         help="override the robot's sensor profile (models/sensors/<robot>.toml), e.g. fix_rate=10,fix_latency=0.05, "
-        "or a TOML file with a [sensors] table",
+        "or a TOML file with a [sensors] table (default: the profile as it is)",
     )
     p.add_argument(
         "--gains",
-        default=None,
+        default=RUN_SETTINGS["gains"],
         metavar="KP,KD|FILE",
-        help="feedback gains Kp,Kd (both > 0), or a gains file written by 'nhsim tune' (default: 9,6)",
+        help="feedback gains Kp,Kd (both > 0), or a gains file written by 'nhsim tune' "
+        f"(default: {FBLGains().kp:g},{FBLGains().kd:g})",
     )
     p.add_argument(
         "--perturb",
-        default=None,
+        default=RUN_SETTINGS["perturb"],
         metavar="KEY=VALUE,...",
         help="perturb physics and loop: friction, mass, radius (scales), noise [m], heading_noise [rad], "
-        "latency [s], e.g. friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02 (noise uses --seed)",
+        "latency [s], e.g. friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02 (noise uses --seed) "
+        "(default: none)",
     )
     p.add_argument(
         "--control-rate",
         type=float,
-        default=50.0,
+        default=RUN_SETTINGS["control_rate"],
         metavar="HZ",
-        help="tracker rate; must divide the 500 Hz physics rate (default: 50)",
+        help="tracker rate; must divide the 500 Hz physics rate (default: %(default)g)",
     )
-    p.add_argument("--seed", type=int, default=0, metavar="N", help="seed for every random choice (default: 0)")
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=RUN_SETTINGS["seed"],
+        metavar="N",
+        help="seed for every random choice (default: %(default)s)",
+    )
+    _add_record_arguments(p)
+
+
+def _add_record_arguments(p: argparse.ArgumentParser) -> None:
+    """The record, overwriting and verbosity."""
     p.add_argument(
         "--json",
         type=Path,
         default=None,
         metavar="PATH",
-        help="run record (default: beside the video, renders/<scenario>-<reference>.json)",
+        help="run record (default: beside the video, renders/<scenario>-<planner or reference>[-...].json)",
     )
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     p.add_argument("--quiet", action="store_true", help="print only the results table; no progress bars")
@@ -282,6 +329,39 @@ def run(args: argparse.Namespace) -> int:
     return _run_job(args, gains, perturbation)
 
 
+def job_source(scenario: str | None, planner: str | None, reference: str | None) -> tuple[str, dict[str, str]]:
+    """What ``simulate`` runs, by the one rule its ``--help`` states.
+
+    The scenario is ``scenario``, else :data:`REFERENCE_SCENARIO` with a reference, else
+    :data:`DEFAULT_SCENARIO`; the path is ``planner``'s plan or ``reference``'s curve, else the plan of
+    the scenario's own planner, else (the scenario names no planner) :data:`DEFAULT_REFERENCE`.
+
+    Args:
+        scenario: ``--scenario`` (a built-in name or a path), or None.
+        planner: ``--planner``, or None.
+        reference: ``--reference``, or None.
+
+    Returns:
+        (scenario, ``{"planner": name}`` or ``{"reference": name}``).
+
+    Raises:
+        ConfigError: Both a planner and a reference.
+        ScenarioError: An unknown scenario or a bad scenario file (read only when its planner is needed).
+    """
+    if planner is not None and reference is not None:
+        raise ConfigError("--reference and --planner exclude each other: track an analytic curve or a plan")
+    if scenario is None:
+        scenario = REFERENCE_SCENARIO if reference is not None else DEFAULT_SCENARIO
+    if planner is not None:
+        return scenario, {"planner": planner}
+    if reference is not None:
+        return scenario, {"reference": reference}
+    from planning.scenario import load_scenario
+
+    own = load_scenario(scenario).planner
+    return scenario, ({"planner": own} if own is not None else {"reference": DEFAULT_REFERENCE})
+
+
 def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
     """One job: outputs planned, the case prepared and tracked, the table printed, the files written."""
     from sim.cli.job_outputs import plan_outputs, write_outputs
@@ -289,12 +369,7 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
     from sim.pipeline.case import Case, PlanOptions, load_case_scenario
     from sim.pipeline.simulate import simulate
 
-    planner, scenario = args.planner, args.scenario
-    if planner is None and args.reference is None and scenario == "open" and _default_plan_available():
-        scenario, planner = DEFAULT_PLAN
-    if planner is not None and args.reference is not None:
-        raise ConfigError("--reference and --planner exclude each other: track an analytic curve or a plan")
-    source = {"planner": planner} if planner is not None else {"reference": args.reference or "figure8"}
+    scenario, source = job_source(args.scenario, args.planner, args.reference)
     case = Case(
         scenario,
         robot=args.robot,
@@ -305,12 +380,13 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
         planning=PlanOptions(time_limit=args.time_limit),
         build_seed=parse_build(args.build, args.build_seed),
         sensors=sensor_overrides(args.sensors),
-        **source,
+        planner=source.get("planner"),
+        reference=source.get("reference"),
     )
     runs = parse_runs(args.runs) if args.runs else run_choices()[args.tracker]
     loaded = load_case_scenario(case)  # a robot the scenario does not list stops here
     case.sensing(loaded)  # so do bad sensor settings
-    outputs = plan_outputs(args, scenario=loaded.name, source=planner or args.reference or "figure8")
+    outputs = plan_outputs(args, scenario=loaded.name, source=next(iter(source.values())))
     with JobBars(outputs.progress) as bars:
         result = simulate(case, runs, progress=bars)
     record = result.record()
@@ -365,14 +441,3 @@ def missed_targets(metrics: TrackingMetrics, scenario: Scenario, *, planned: boo
         for key, bound in closed_loop_targets(scenario, planned=planned).items()
         if not values[key] <= bound
     ]
-
-
-#: The no-argument default once its planner is installed: seed 003's plan through its map.
-DEFAULT_PLAN = ("edumip_map", "c-rrt-star")
-
-
-def _default_plan_available() -> bool:
-    from planning.planners.registry import PLANNERS
-    from planning.scenario import builtin_scenarios
-
-    return DEFAULT_PLAN[1] in PLANNERS and DEFAULT_PLAN[0] in builtin_scenarios()
