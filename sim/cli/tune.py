@@ -14,8 +14,9 @@ from pathlib import Path
 from typing import Any
 
 from planning.errors import ConfigError
+from sim.tools.tune import GRACE_PERIOD
 
-DESCRIPTION = """\
+DESCRIPTION = f"""\
 Tune the feedback-linearisation tracker's gains (Kp, Kd, xi_min) with Optuna (TPE by default) over
 a set of cases on realistic robots. Each case runs its fused-estimate closed loop on --draws K draws
 made from --seed: an as-built robot (build seed), sensor noise (noise seed) and, with --robust, a
@@ -30,7 +31,7 @@ tracks a plan (needs the planners).
 
 The study is kept in an SQLAlchemy storage (default sqlite:///renders/tune-<study>.db). Rerunning
 the same command resumes it: completed trials count toward --trials and are never repeated, a trial
-a killed worker left running is failed once its heartbeat has been silent for 10 s and its gains
+a killed worker left running is failed once its heartbeat has been silent for {GRACE_PERIOD} s and its gains
 are evaluated afresh, and the outputs the study wrote before are updated (an existing output that
 names another study, or none, is replaced only with --overwrite); a rerun with other cases, draws
 (--draws, --seed, --robust, --perturb-range) or weights is refused. Any
@@ -430,18 +431,19 @@ def _settle(study: Any, quiet: bool) -> None:
     enqueued again) and say so; a live worker's running trials are left to it."""
     from optuna.trial import TrialState
 
-    from sim.tools.tune import GRACE_PERIOD, settle_running
+    from sim.tools import tune
 
     running = [t.number for t in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,))]
     if not running:
         return
     if not quiet:
+        wait = tune.GRACE_PERIOD + tune.HEARTBEAT_INTERVAL + 1
         print(
-            f"trials {_numbers(running)} are running: waiting up to {GRACE_PERIOD} s for their heartbeats "
+            f"trials {_numbers(running)} are running: waiting up to {wait} s for their heartbeats "
             "(a killed worker's trial is failed and its gains evaluated afresh)",
             file=sys.stderr,
         )
-    failed, alive = settle_running(study)
+    failed, alive = tune.settle_running(study)
     if not quiet and failed:
         print(f"trials {_numbers(failed)} were left by a killed worker: failed, gains enqueued again", file=sys.stderr)
     if not quiet and alive:
