@@ -166,13 +166,8 @@ def _add_job_arguments(p: argparse.ArgumentParser) -> None:
         help=f"plan the scenario with planner P ({planners}) and track the plan (default: the scenario's planner)",
     )
     p.add_argument("--all", action="store_true", help="every built-in scenario x applicable planner x robot")
-    p.add_argument(
-        "--time-limit",
-        type=float,
-        default=RUN_SETTINGS["time_limit"],
-        metavar="S",
-        help="planning budget (default: %(default)g s)",
-    )
+    limit, budget = RUN_SETTINGS["time_limit"], "planning budget (default: %(default)g s)"
+    p.add_argument("--time-limit", type=float, default=limit, metavar="S", help=budget)
 
 
 def _add_run_arguments(p: argparse.ArgumentParser) -> None:
@@ -238,13 +233,8 @@ def _add_run_arguments(p: argparse.ArgumentParser) -> None:
         metavar="HZ",
         help="tracker rate; must divide the 500 Hz physics rate (default: %(default)g)",
     )
-    p.add_argument(
-        "--seed",
-        type=int,
-        default=RUN_SETTINGS["seed"],
-        metavar="N",
-        help="seed for every random choice (default: %(default)s)",
-    )
+    seed, every = RUN_SETTINGS["seed"], "seed for every random choice (default: %(default)s)"
+    p.add_argument("--seed", type=int, default=seed, metavar="N", help=every)
     _add_record_arguments(p)
 
 
