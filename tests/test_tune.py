@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import optuna
 import pytest
+from PIL import Image
 
 from control.fbl import FBLGains
 from control.gains import load_gains_file
@@ -26,7 +27,7 @@ from sim.physics.perturb import PerturbationRange
 from sim.pipeline import simulate
 from sim.pipeline.case import Case
 from sim.pipeline.simulate import prepare_case
-from sim.tools.tune import Comparison, Evaluation, Evaluator, make_draws, split_trials
+from sim.tools.tune import Comparison, Evaluation, Evaluator, make_draws, open_storage, split_trials
 
 CASE = "open:line"  # the cheapest reference: 12 s simulated, ~0.3 s a run
 DRAWS = 2  # robots per case in the tests' studies
@@ -45,16 +46,32 @@ def _completed(tmp_path: Path) -> list[optuna.trial.FrozenTrial]:
     return study.get_trials(states=(optuna.trial.TrialState.COMPLETE,))
 
 
-def _completed_so_far(tmp_path: Path) -> int:
-    """Completed trials, read without touching the schema: polling must never race the tuner creating it."""
+def _query(tmp_path: Path, sql: str) -> list[tuple[int, ...]]:
+    """Rows of ``sql`` on the study, read without touching the schema: polling must never race the
+    tuner creating it (no rows while the schema is not there yet or the database is locked)."""
     db = tmp_path / "study.db"
     if not db.exists():
-        return 0
+        return []
     try:
         with contextlib.closing(sqlite3.connect(f"file:{db}?mode=ro", uri=True, timeout=1.0)) as con:
-            return int(con.execute("SELECT COUNT(*) FROM trials WHERE state = 'COMPLETE'").fetchone()[0])
+            return list(con.execute(sql).fetchall())
     except sqlite3.OperationalError:
-        return 0  # schema not created yet, or the database is locked for a moment
+        return []
+
+
+def _completed_so_far(tmp_path: Path) -> int:
+    """Completed trials."""
+    rows = _query(tmp_path, "SELECT COUNT(*) FROM trials WHERE state = 'COMPLETE'")
+    return int(rows[0][0]) if rows else 0
+
+
+def _beating(tmp_path: Path) -> list[int]:
+    """Numbers of the running trials that have beaten at least once and hold their gains."""
+    sql = (
+        "SELECT t.number FROM trials t JOIN trial_heartbeats h ON h.trial_id = t.trial_id WHERE t.state = 'RUNNING' "
+        "AND (SELECT COUNT(*) FROM trial_params p WHERE p.trial_id = t.trial_id) = 3"
+    )
+    return [int(row[0]) for row in _query(tmp_path, sql)]
 
 
 def test_tuning_is_no_worse_than_the_defaults(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -92,41 +109,75 @@ def test_tuning_is_no_worse_than_the_defaults(tmp_path: Path, capsys: pytest.Cap
         assert held["verdict"].startswith(f"{better} gains are better on held-out robots: objective {ratio:.2f}x")
     assert (tmp_path / "tune-t-history.png").stat().st_size > 1000
     assert (tmp_path / "tune-t-importance.png").stat().st_size > 1000
-    # Same command again: nothing left to run, and the outputs are not overwritten without --overwrite.
-    before = (tmp_path / "gains.toml").read_bytes()
-    assert main(_args(tmp_path, 6)) == 2
-    assert "--overwrite" in capsys.readouterr().err
-    assert (tmp_path / "gains.toml").read_bytes() == before
+    # The same study resumed (one trial more) updates its own outputs without --overwrite ...
+    outputs = [tmp_path / n for n in ("gains.toml", "gains.json", "tune-t-history.png", "tune-t-importance.png")]
+    before = {p: p.read_bytes() for p in outputs}
+    assert main(_args(tmp_path, 7, "--eval-runs", "0")) == 0
+    assert load_gains_file(tmp_path / "gains.toml").provenance["trials"] == 7 == len(_completed(tmp_path))
+    assert json.loads((tmp_path / "gains.json").read_text())["trials"] == 7
+    assert all(p.read_bytes() != before[p] for p in outputs)  # the plots show the seventh trial
+    with Image.open(tmp_path / "tune-t-history.png") as image:
+        stamp = {k: image.text.get(k) for k in ("study", "storage")}  # type: ignore[attr-defined]
+    assert stamp == {"study": "t", "storage": f"sqlite:///{tmp_path}/study.db"}
+    # ... and another study, or a file that names no study, is refused before anything runs.
+    capsys.readouterr()
+    before = {p: p.read_bytes() for p in outputs}
+    other = _args(tmp_path, 1)
+    other[other.index("--study") + 1] = "u"
+    assert main(other) == 2
+    err = capsys.readouterr().err
+    assert f"holds the outputs of study 't' in 'sqlite:///{tmp_path}/study.db', not of study 'u'" in err
+    (tmp_path / "mine.json").write_text("{}")
+    assert main([*_args(tmp_path, 7), "--json", str(tmp_path / "mine.json")]) == 2
+    assert "mine.json exists already; pass --overwrite" in capsys.readouterr().err
+    assert {p: p.read_bytes() for p in outputs} == before and (tmp_path / "mine.json").read_text() == "{}"
+    assert [s.study_name for s in optuna.get_all_study_summaries(f"sqlite:///{tmp_path}/study.db")] == ["t"]
 
 
-def test_killed_study_resumes_with_every_trial_once(tmp_path: Path) -> None:
-    args = _args(tmp_path, 10, "--eval-runs", "0")
+def test_killed_study_resumes_with_every_trial_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """SIGKILL in the last trial, the same command at once: that trial is failed by its silence and
+    its gains evaluated afresh (not left running with the study one trial short of done)."""
+    args = _args(tmp_path, 6, "--eval-runs", "0")
     proc = subprocess.Popen([sys.executable, "-m", "sim", *args], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     deadline = time.monotonic() + 120
     try:
-        while True:
+        while True:  # kill it in its last trial once that trial holds its gains and has beaten
             assert proc.poll() is None, f"tune ended before it was killed: {proc.stderr.read().decode()}"  # type: ignore[union-attr]
-            assert time.monotonic() < deadline, "no trial completed in 120 s"
-            if _completed_so_far(tmp_path) >= 3:
+            assert time.monotonic() < deadline, "5 trials did not complete in 120 s"
+            if _completed_so_far(tmp_path) == 5 and _beating(tmp_path):
                 break
-            time.sleep(0.05)
+            time.sleep(0.02)
     finally:
         os.kill(proc.pid, signal.SIGKILL)
         proc.wait()
     before = {t.number: (t.params, t.value) for t in _completed(tmp_path)}
-    assert 3 <= len(before) < 10
+    killed = _beating(tmp_path)
+    assert len(before) == 5 and len(killed) == 1 and killed[0] not in before
     assert not (tmp_path / "gains.toml").exists()
 
-    assert main(args) == 0  # the same command resumes
+    import sim.tools.tune as tune
+
+    # Resumed well within the grace period (the killed worker beat at most its 2 s interval ago):
+    # the study must wait for the silence, not run one new trial and leave the killed one running.
+    monkeypatch.setattr(tune, "HEARTBEAT_INTERVAL", 1)
+    monkeypatch.setattr(tune, "GRACE_PERIOD", 3)
+    assert main(args) == 0
+    study = optuna.load_study(study_name="t", storage=f"sqlite:///{tmp_path}/study.db")
+    dead = study.trials[killed[0]]
+    assert dead.state == optuna.trial.TrialState.FAIL and len(dead.params) == 3
     after = _completed(tmp_path)
-    assert len(after) == 10
-    assert len({t.number for t in after}) == 10
+    assert len(after) == 6 == len({t.number for t in after})
+    assert not study.get_trials(states=(optuna.trial.TrialState.RUNNING, optuna.trial.TrialState.WAITING))
     for number, record in before.items():  # every trial done before the kill is kept as it was
         assert {t.number: (t.params, t.value) for t in after}[number] == record
+    (retried,) = [t for t in after if t.number not in before]
+    assert retried.params == dead.params and retried.system_attrs["failed_trial"] == dead.number
+    fresh = Evaluator([Case.parse(CASE)], make_draws(DRAWS, 0)).evaluate(FBLGains(**dead.params))
+    assert retried.value == fresh.objective  # its gains evaluated afresh, once
     params = [tuple(sorted(t.params.items())) for t in after]
-    assert len(set(params)) == 10  # no trial evaluated twice
+    assert len(set(params)) == 6  # no trial evaluated twice
     assert params.count((("kd", 6.0), ("kp", 9.0), ("xi_min", 0.02))) == 1
-    assert load_gains_file(tmp_path / "gains.toml").provenance["trials"] == 10
+    assert load_gains_file(tmp_path / "gains.toml").provenance["trials"] == 6
 
 
 def test_parallel_workers_share_the_study(tmp_path: Path) -> None:
@@ -135,6 +186,42 @@ def test_parallel_workers_share_the_study(tmp_path: Path) -> None:
     assert len(trials) == 4
     assert len({tuple(sorted(t.params.items())) for t in trials}) == 4
     assert sum(t.params == {"kp": 9.0, "kd": 6.0, "xi_min": 0.02} for t in trials) == 1  # taken by one worker
+
+
+_POP = """
+import sys, warnings
+import optuna
+from sim.tools.tune import open_storage
+optuna.logging.set_verbosity(optuna.logging.ERROR)
+warnings.simplefilter("ignore")
+study = optuna.load_study(study_name="race", storage=open_storage(sys.argv[1]))
+for _ in range(int(sys.argv[2])):
+    study.optimize(lambda t: t.suggest_float("x", 0.0, 1.0), n_trials=1)
+"""
+
+
+def test_workers_never_take_one_waiting_trial_twice(tmp_path: Path) -> None:
+    """Four processes take 40 enqueued trials at once from one SQLite study: each is taken once.
+
+    Python's SQLite driver ran Optuna's read of a waiting trial outside the transaction that
+    marks it running, so two workers could take it and the second died telling it ("Cannot tell a
+    COMPLETE trial"); before every transaction began IMMEDIATE this failed in every run.
+    """
+    url = f"sqlite:///{tmp_path}/race.db"
+    study = optuna.create_study(study_name="race", storage=open_storage(url))
+    xs = [k / 40 for k in range(40)]
+    for x in xs:
+        study.enqueue_trial({"x": x})
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    procs = [
+        subprocess.Popen([sys.executable, "-c", _POP, url, "15"], stderr=subprocess.PIPE, env=env) for _ in range(4)
+    ]
+    errors = [p.communicate()[1].decode() for p in procs]
+    assert [p.returncode for p in procs] == [0] * 4, "\n".join(errors)
+    done = study.get_trials(states=(optuna.trial.TrialState.COMPLETE,))
+    assert len(done) == 60 and len(study.trials) == 60  # nothing failed, nothing left running or waiting
+    taken = sorted(t.params["x"] for t in done if "fixed_params" in t.system_attrs)
+    assert taken == xs  # every enqueued trial ran, once
 
 
 @pytest.mark.parametrize(

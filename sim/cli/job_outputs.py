@@ -71,13 +71,14 @@ def add_executor_arguments(p: argparse.ArgumentParser, *, what: str, default_job
         type=int,
         default=None,
         metavar="J",
-        help=f"run {what} on J local worker processes (Dask; 1: in this process; default: {default_jobs})",
+        help=f"run {what} on J local worker processes (Dask; 1: in this process) (default: {default_jobs})",
     )
     where.add_argument(
         "--scheduler",
         default=None,
         metavar="ADDRESS",
-        help=f"run {what} on the Dask cluster whose scheduler is at ADDRESS, e.g. tcp://host:8786",
+        help=f"run {what} on the Dask cluster whose scheduler is at ADDRESS, e.g. tcp://host:8786 "
+        "(default: none, run here)",
     )
 
 
@@ -95,26 +96,29 @@ def add_output_arguments(p: argparse.ArgumentParser) -> None:
         type=Path,
         default=None,
         metavar="PATH",
-        help="MP4 to write (default: renders/<scenario>-<reference>[-<robot>][-<tag>].mp4); plots and record go "
+        help="MP4 to write (default: renders/<scenario>-<planner or reference>[-<robot>][-<tag>].mp4); plots and "
+        "record go "
         "beside it",
     )
     g.add_argument("--no-video", action="store_true", help="skip the video (no OpenGL needed)")
     g.add_argument(
         "--plots", action=argparse.BooleanOptionalAction, default=True, help="write the PNG plots (default: on)"
     )
-    g.add_argument("--fps", type=float, default=30.0, metavar="N", help="video frames per second (default: 30)")
-    g.add_argument("--size", default="640x480", metavar="WxH", help="video size in pixels, even (default: 640x480)")
+    g.add_argument(
+        "--fps", type=float, default=30.0, metavar="N", help="video frames per second (default: %(default)g)"
+    )
+    g.add_argument("--size", default="640x480", metavar="WxH", help="video size in pixels, even (default: %(default)s)")
     g.add_argument(
         "--camera",
         choices=["overview", "chase"],
         default="overview",
-        help="top-down overview of both runs, or a chase camera (default: overview)",
+        help="top-down overview of both runs, or a chase camera (default: %(default)s)",
     )
     g.add_argument(
         "--quality",
         choices=["fast", "high"],
         default="fast",
-        help="fast: no shadows or reflections; high: shadows and reflections (about 4x slower)",
+        help="fast: no shadows or reflections; high: shadows and reflections (about 4x slower) (default: %(default)s)",
     )
     g.add_argument(
         "--gl",

@@ -5,23 +5,33 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from planning.errors import ConfigError
-from sim.cli.job_outputs import add_executor_arguments, add_output_arguments
+from sim.cli.job_outputs import RUN_SETTINGS, add_executor_arguments, add_output_arguments
 from sim.cli.trajectory_files import add_file_arguments, format_import
 from sim.pipeline.runs import RunKind
 
-if TYPE_CHECKING:
-    pass
+#: The scenario of a job that names none: this map for a plan (seed 003's job: the EduMIP plans
+#: through it with its planner, C-RRT*), the empty arena for an analytic reference.
+DEFAULT_SCENARIO = "edumip_map"
+REFERENCE_SCENARIO = "open"
+#: The reference tracked when neither --planner nor --reference is given and the scenario names no planner.
+DEFAULT_REFERENCE = "figure8"
+#: ``--build-seed``'s default as its help states it: :data:`sim.physics.asbuilt.DEFAULT_BUILD_SEED`
+#: (not imported here: it loads mujoco, which must wait for ``--gl``; a test holds them equal).
+BUILD_SEED_HELP = "1"
 
 DESCRIPTION = (
     "Run the robot in MuJoCo physics along a reference trajectory, once with the dynamic "
     "feedback-linearisation tracker (closed loop) and once replaying the reference inputs "
-    "(open loop), and print each run's errors. With no arguments: seed 003's job, a C-RRT* "
-    "plan through the 'edumip_map' scenario, smoothed and tracked (when the c-rrt-star planner "
-    "and that scenario are installed; otherwise TurtleBot3, figure-eight, in the 'open' "
-    "scenario).\n\n"
+    "(open loop), and print each run's errors.\n\n"
+    f"What runs, one rule: the scenario is --scenario, else '{REFERENCE_SCENARIO}' with --reference, else "
+    f"'{DEFAULT_SCENARIO}'; the path is --reference's curve or --planner's plan, else the plan of the "
+    f"scenario's own planner, else (the scenario names none) the '{DEFAULT_REFERENCE}' reference. With no "
+    f"arguments: seed 003's job, '{DEFAULT_SCENARIO}' planned with its own planner, smoothed and tracked; "
+    f"'--scenario farm' plans the farm with its own planner; '--reference circle' tracks a circle in "
+    f"'{REFERENCE_SCENARIO}'.\n\n"
     "--planner P plans the scenario with P, smooths the path (piecewise polynomial, speed "
     "profile, cusps and turns in place) and tracks it with the segmented tracker. --all runs "
     "every built-in scenario with every applicable planner (the scenario's own planner, every "
@@ -31,7 +41,7 @@ DESCRIPTION = (
     "final_heading_error_rad, rms_position_error_m, max_position_error_m, collisions, warnings, "
     "saturation_fraction; plus scenario, robot, source, tracker, gains, control_rate_hz, seed "
     "and package versions.\n\n"
-    "Outputs: renders/<scenario>-<reference>.mp4 (both runs: closed loop solid, open loop as a "
+    "Outputs: renders/<scenario>-<planner or reference>.mp4 (both runs: closed loop solid, open loop as a "
     "ghost), PNG plots and a JSON record beside it; an existing file is never replaced without "
     "--overwrite (the command stops with an error before running anything).\n\n"
     "Exit status: 0 when every run is clean (no MuJoCo warning, no collision in closed loop) and the "
@@ -128,9 +138,10 @@ def _add_job_arguments(p: argparse.ArgumentParser) -> None:
 
     p.add_argument(
         "--scenario",
-        default="open",
+        default=None,
         metavar="NAME|PATH",
-        help="built-in scenario name or path to a scenario .toml (default: open)",
+        help=f"built-in scenario name or path to a scenario .toml (default: {DEFAULT_SCENARIO}; {REFERENCE_SCENARIO} "
+        "with --reference)",
     )
     p.add_argument(
         "--robot",
@@ -142,69 +153,92 @@ def _add_job_arguments(p: argparse.ArgumentParser) -> None:
         "--reference",
         choices=list(REFERENCES),
         default=None,
-        help="analytic reference placed at the scenario's start pose (default: figure8)",
+        help="analytic reference placed at the scenario's start pose (default: none, the scenario's planner plans "
+        f"the path; {DEFAULT_REFERENCE} when the scenario names no planner)",
     )
     planners = ", ".join(sorted(PLANNERS)) or "none registered"
     p.add_argument(
-        "--planner", default=None, metavar="P", help=f"plan the scenario with planner P ({planners}) and track the plan"
+        "--planner",
+        default=None,
+        metavar="P",
+        help=f"plan the scenario with planner P ({planners}) and track the plan (default: the scenario's planner)",
     )
     p.add_argument("--all", action="store_true", help="every built-in scenario x applicable planner x robot")
     add_executor_arguments(p, what="the cases of --all", default_jobs="1")
-    p.add_argument("--time-limit", type=float, default=30.0, metavar="S", help="planning budget (default: 30 s)")
+    limit, budget = RUN_SETTINGS["time_limit"], "planning budget (default: %(default)g s)"
+    p.add_argument("--time-limit", type=float, default=limit, metavar="S", help=budget)
 
 
 def _add_run_arguments(p: argparse.ArgumentParser) -> None:
-    """How to run it: runs, gains, perturbation, rate, seed, record, verbosity."""
+    """How to run it: runs, build, sensors, gains, perturbation, rate, seed, record, verbosity. Defaults
+    are :data:`sim.cli.job_outputs.RUN_SETTINGS` (which also names outputs by the settings that differ)."""
+    from control.fbl import FBLGains
+
     p.add_argument(
         "--tracker",
         choices=sorted(run_choices()),
-        default="both",
+        default=RUN_SETTINGS["tracker"],
         help="fbl (closed loop on the fused estimate), open-loop, or both: the default runs, closed loop on the fused "
-        "estimate, closed loop on dead reckoning and open loop (default: both)",
+        "estimate, closed loop on dead reckoning and open loop (default: %(default)s)",
     )
     p.add_argument(
         "--runs",
-        default=None,
+        default=RUN_SETTINGS["runs"],
         metavar="KIND,...",
         help=f"the runs, overriding --tracker: any of {', '.join(str(k) for k in RunKind)} "
-        "(closed_loop_truth feeds the tracker the true pose, for comparison)",
+        "(closed_loop_truth feeds the tracker the true pose, for comparison) (default: those of --tracker)",
     )
     p.add_argument(
         "--build",
         choices=["as-built", "nominal"],
-        default="as-built",
+        default=RUN_SETTINGS["build"],
         help="as-built: wheel radii, track, tyre friction, mass and centre of mass drawn within their tolerances from "
-        "--build-seed (the tracker and estimator know only the drawing); nominal: the robot as drawn",
+        "--build-seed (the tracker and estimator know only the drawing); nominal: the robot as drawn "
+        "(default: %(default)s)",
     )
-    p.add_argument("--build-seed", type=int, default=None, metavar="N", help="seed of the as-built draw (default: 1)")
+    p.add_argument(
+        "--build-seed",
+        type=int,
+        default=RUN_SETTINGS["build_seed"],
+        metavar="N",
+        help=f"seed of the as-built draw (default: {BUILD_SEED_HELP})",
+    )
     p.add_argument(
         "--sensors",
-        default=None,
+        default=RUN_SETTINGS["sensors"],
         metavar="KEY=VALUE,...|FILE",
         help="override the robot's sensor profile (models/sensors/<robot>.toml), e.g. fix_rate=10,fix_latency=0.05, "
-        "or a TOML file with a [sensors] table",
+        "or a TOML file with a [sensors] table (default: the profile as it is)",
     )
     p.add_argument(
         "--gains",
-        default=None,
+        default=RUN_SETTINGS["gains"],
         metavar="KP,KD|FILE",
-        help="feedback gains Kp,Kd (both > 0), or a gains file written by 'nhsim tune' (default: 9,6)",
+        help="feedback gains Kp,Kd (both > 0), or a gains file written by 'nhsim tune' "
+        f"(default: {FBLGains().kp:g},{FBLGains().kd:g})",
     )
     p.add_argument(
         "--perturb",
-        default=None,
+        default=RUN_SETTINGS["perturb"],
         metavar="KEY=VALUE,...",
         help="perturb physics and loop: friction, mass, radius (scales), noise [m], heading_noise [rad], "
-        "latency [s], e.g. friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02 (noise uses --seed)",
+        "latency [s], e.g. friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02 (noise uses --seed) "
+        "(default: none)",
     )
     p.add_argument(
         "--control-rate",
         type=float,
-        default=50.0,
+        default=RUN_SETTINGS["control_rate"],
         metavar="HZ",
-        help="tracker rate; must divide the 500 Hz physics rate (default: 50)",
+        help="tracker rate; must divide the 500 Hz physics rate (default: %(default)g)",
     )
-    p.add_argument("--seed", type=int, default=0, metavar="N", help="seed for every random choice (default: 0)")
+    seed, every = RUN_SETTINGS["seed"], "seed for every random choice (default: %(default)s)"
+    p.add_argument("--seed", type=int, default=seed, metavar="N", help=every)
+    _add_record_arguments(p)
+
+
+def _add_record_arguments(p: argparse.ArgumentParser) -> None:
+    """The record, overwriting and verbosity."""
     p.add_argument(
         "--noise-seed",
         type=int,
@@ -218,7 +252,7 @@ def _add_run_arguments(p: argparse.ArgumentParser) -> None:
         type=Path,
         default=None,
         metavar="PATH",
-        help="run record (default: beside the video, renders/<scenario>-<reference>.json)",
+        help="run record (default: beside the video, renders/<scenario>-<planner or reference>[-...].json)",
     )
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     p.add_argument("--quiet", action="store_true", help="print only the results table; no progress bars")
@@ -312,20 +346,49 @@ def _case_fields(args: argparse.Namespace, gains: Any, perturbation: Any) -> dic
     }
 
 
+def job_source(scenario: str | None, planner: str | None, reference: str | None) -> tuple[str, dict[str, str]]:
+    """What ``simulate`` runs, by the one rule its ``--help`` states.
+
+    The scenario is ``scenario``, else :data:`REFERENCE_SCENARIO` with a reference, else
+    :data:`DEFAULT_SCENARIO`; the path is ``planner``'s plan or ``reference``'s curve, else the plan of
+    the scenario's own planner, else (the scenario names no planner) :data:`DEFAULT_REFERENCE`.
+
+    Args:
+        scenario: ``--scenario`` (a built-in name or a path), or None.
+        planner: ``--planner``, or None.
+        reference: ``--reference``, or None.
+
+    Returns:
+        (scenario, ``{"planner": name}`` or ``{"reference": name}``).
+
+    Raises:
+        ConfigError: Both a planner and a reference.
+        ScenarioError: An unknown scenario or a bad scenario file (read only when its planner is needed).
+    """
+    if planner is not None and reference is not None:
+        raise ConfigError("--reference and --planner exclude each other: track an analytic curve or a plan")
+    if scenario is None:
+        scenario = REFERENCE_SCENARIO if reference is not None else DEFAULT_SCENARIO
+    if planner is not None:
+        return scenario, {"planner": planner}
+    if reference is not None:
+        return scenario, {"reference": reference}
+    from planning.scenario import load_scenario
+
+    own = load_scenario(scenario).planner
+    return scenario, ({"planner": own} if own is not None else {"reference": DEFAULT_REFERENCE})
+
+
 def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
     """One job: outputs planned, the case prepared and tracked, the table printed, the files written."""
     from sim.pipeline.case import Case
 
     if _file_given(args):
         return _run_file_job(args, gains, perturbation)
-    planner, scenario = args.planner, args.scenario
-    if planner is None and args.reference is None and scenario == "open" and _default_plan_available():
-        scenario, planner = DEFAULT_PLAN
-    if planner is not None and args.reference is not None:
-        raise ConfigError("--reference and --planner exclude each other: track an analytic curve or a plan")
-    source = {"planner": planner} if planner is not None else {"reference": args.reference or "figure8"}
-    case = Case(scenario, robot=args.robot, **_case_fields(args, gains, perturbation), **source)
-    return _track_job(args, case, planner or args.reference or "figure8")
+    scenario, source = job_source(args.scenario, args.planner, args.reference)
+    fields = _case_fields(args, gains, perturbation)
+    case = Case(scenario, robot=args.robot, planner=source.get("planner"), reference=source.get("reference"), **fields)
+    return _track_job(args, case, next(iter(source.values())))
 
 
 def _file_given(args: argparse.Namespace) -> bool:
@@ -389,14 +452,3 @@ def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
         print(line, file=sys.stderr)
     clean = all(run.metrics.warnings == 0 for run in result.runs.values())
     return 0 if clean and not failures else 1
-
-
-#: The no-argument default once its planner is installed: seed 003's plan through its map.
-DEFAULT_PLAN = ("edumip_map", "c-rrt-star")
-
-
-def _default_plan_available() -> bool:
-    from planning.planners.registry import PLANNERS
-    from planning.scenario import builtin_scenarios
-
-    return DEFAULT_PLAN[1] in PLANNERS and DEFAULT_PLAN[0] in builtin_scenarios()

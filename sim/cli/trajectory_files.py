@@ -29,20 +29,38 @@ def add_file_arguments(p: argparse.ArgumentParser) -> None:
     """Add ``--trajectory``, ``--path`` and the options that read them to ``simulate``'s parser."""
     g = p.add_argument_group("trajectory and path files", HELP)
     which = g.add_mutually_exclusive_group()
-    which.add_argument("--trajectory", type=Path, default=None, metavar="FILE", help="track a timed file")
-    which.add_argument("--path", type=Path, default=None, metavar="FILE", help="time an untimed file and track it")
-    g.add_argument(
-        "--columns", default=None, metavar="NAME,...", help="names of a text file's columns, e.g. t,x,y,_,theta"
+    which.add_argument(
+        "--trajectory",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="track a timed file (default: none, a planner or reference)",
+    )
+    which.add_argument(
+        "--path", type=Path, default=None, metavar="FILE", help="time an untimed file and track it (default: none)"
     )
     g.add_argument(
-        "--scale", type=float, default=None, metavar="S", help="metres per file unit (e.g. 0.01: 1 cm per pixel)"
+        "--columns",
+        default=None,
+        metavar="NAME,...",
+        help="names of a text file's columns, e.g. t,x,y,_,theta (default: the header row)",
     )
-    g.add_argument("--time-scale", type=float, default=None, metavar="T", help="seconds per file time unit")
+    g.add_argument(
+        "--scale",
+        type=float,
+        default=None,
+        metavar="S",
+        help="metres per file unit, e.g. 0.01: 1 cm per pixel (default: 1)",
+    )
+    g.add_argument(
+        "--time-scale", type=float, default=None, metavar="T", help="seconds per file time unit (default: 1)"
+    )
     g.add_argument(
         "--offset",
         default=None,
         metavar="X,Y,THETA",
-        help="move the file into the world: rotate by THETA [rad], then shift by X, Y [m] (write --offset=-1,0,0)",
+        help="move the file into the world: rotate by THETA [rad], then shift by X, Y [m] (write --offset=-1,0,0) "
+        "(default: 0,0,0)",
     )
     g.add_argument(
         "--allow-collisions",
@@ -77,8 +95,8 @@ def file_source(args: argparse.Namespace) -> TrajectoryFile:
 def file_world(args: argparse.Namespace, source: TrajectoryFile) -> tuple[str | Scenario, str | None, str]:
     """The scenario a file runs in, the robot to ask for, and the source name of the outputs.
 
-    --scenario gives the world (at its default, itself an empty arena, an arena is sized around the
-    file instead: its extent plus the robot's radius and 0.25 m); the arena is built for --robot (or
+    --scenario gives the world (without it, an arena is sized around the file: its extent plus the
+    robot's radius and 0.25 m); the arena is built for --robot (or
     TurtleBot3), whose name then joins the outputs' source when it is not the default.
     """
     if args.scenario != getattr(args, "_scenario_default", None):

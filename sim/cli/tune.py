@@ -9,13 +9,14 @@ import re
 import sys
 import time
 import warnings
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from planning.errors import ConfigError
+from sim.tools.tune import GRACE_PERIOD
 
-DESCRIPTION = """\
+DESCRIPTION = f"""\
 Tune the feedback-linearisation tracker's gains (Kp, Kd, xi_min) with Optuna (TPE by default) over
 a set of cases on realistic robots. Each case runs its fused-estimate closed loop on --draws K draws
 made from --seed: an as-built robot (build seed), sensor noise (noise seed) and, with --robust, a
@@ -29,8 +30,11 @@ scenario's start (e.g. open:figure8, open:circle, open:line); SCENARIO:PLANNER o
 tracks a plan (needs the planners).
 
 The study is kept in an SQLAlchemy storage (default sqlite:///renders/tune-<study>.db). Rerunning
-the same command resumes it: completed trials count toward --trials and are never repeated; a rerun
-with other cases, draws (--draws, --seed, --robust, --perturb-range) or weights is refused. Any
+the same command resumes it: completed trials count toward --trials and are never repeated, a trial
+a killed worker left running is failed once its heartbeat has been silent for {GRACE_PERIOD} s and its gains
+are evaluated afresh, and the outputs the study wrote before are updated (an existing output that
+names another study, or none, is replaced only with --overwrite); a rerun with other cases, draws
+(--draws, --seed, --robust, --perturb-range) or weights is refused. Any
 SQLAlchemy URL works (e.g. postgresql://user:pass@host/db), so workers on several machines can run
 the same command against one study; --jobs runs local worker processes. The default gains are
 always the study's first trial.
@@ -200,16 +204,16 @@ def _run_parallel(spec: Any, shares: list[int], study: Any, progress: _Progress)
         )
 
 
-def _save_figure(plt: Any, ax: Any, path: Path, overwrite: bool) -> None:
+def _save_figure(plt: Any, ax: Any, path: Path, files: TuneFiles, overwrite: bool) -> None:
     from sim.outputs import atomic_path
 
     fig = ax.get_figure(root=True)
-    with atomic_path(path, overwrite=overwrite) as tmp:
-        fig.savefig(tmp, dpi=120, bbox_inches="tight")
+    with atomic_path(path, overwrite=files.may_replace(path, overwrite)) as tmp:
+        fig.savefig(tmp, dpi=120, bbox_inches="tight", format="png", metadata=files.stamp())
     plt.close(fig)
 
 
-def _save_plots(study: Any, history: Path, importance: Path, overwrite: bool) -> tuple[list[str], list[str]]:
+def _save_plots(study: Any, files: TuneFiles, overwrite: bool) -> tuple[list[str], list[str]]:
     """Write both plots; returns the paths written and notes on plots that could not be drawn."""
     import matplotlib
 
@@ -219,11 +223,11 @@ def _save_plots(study: Any, history: Path, importance: Path, overwrite: bool) ->
     from optuna.visualization.matplotlib import plot_optimization_history, plot_param_importances
 
     notes: list[str] = []
-    written = [str(history)]
+    written = [str(files.history)]
     ax = plot_optimization_history(study)
     ax.set_ylabel("objective [m]")
     ax.set_yscale("log")
-    _save_figure(plt, ax, history, overwrite)
+    _save_figure(plt, ax, files.history, files, overwrite)
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", UserWarning)
@@ -232,8 +236,8 @@ def _save_plots(study: Any, history: Path, importance: Path, overwrite: bool) ->
     except Exception as exc:  # too few or identical trials
         notes.append(f"no importance plot: {exc}")
     else:
-        _save_figure(plt, ax, importance, overwrite)
-        written.append(str(importance))
+        _save_figure(plt, ax, files.importance, files, overwrite)
+        written.append(str(files.importance))
     return written, notes
 
 
@@ -248,6 +252,8 @@ class TuneFiles:
         history: Optimisation history plot.
         importance: Parameter importance plot.
         record: JSON record of the study and the held-out comparison.
+        own: The outputs that exist already and name this study and storage (an earlier run of the
+            same study wrote them): a resumed study replaces them without --overwrite.
     """
 
     study: str
@@ -256,14 +262,47 @@ class TuneFiles:
     history: Path
     importance: Path
     record: Path
+    own: frozenset[Path] = frozenset()
+
+    def stamp(self) -> dict[str, str]:
+        """The study and storage, as every output records them (provenance, record, PNG text)."""
+        return {"study": self.study, "storage": self.storage}
+
+    def may_replace(self, path: Path, overwrite: bool) -> bool:
+        """Whether ``path`` may be replaced: --overwrite, or an output of this study."""
+        return overwrite or path in self.own
+
+    def owner(self, path: Path) -> dict[str, str] | None:
+        """The study and storage an existing output of this run's names, None when it names none
+        (another program's file, or unreadable)."""
+        import json
+        import tomllib
+
+        from PIL import Image
+
+        try:
+            if path == self.gains:
+                stamp = tomllib.loads(path.read_text(encoding="utf-8")).get("provenance", {})
+            elif path == self.record:
+                stamp = json.loads(path.read_text(encoding="utf-8"))
+            else:
+                with Image.open(path) as image:
+                    stamp = dict(getattr(image, "text", {}))
+        except (OSError, ValueError):  # unreadable, or not TOML, JSON or an image
+            return None
+        if not isinstance(stamp, dict) or not all(isinstance(stamp.get(k), str) for k in ("study", "storage")):
+            return None
+        return {k: stamp[k] for k in ("study", "storage")}
 
 
 def tune_files(args: argparse.Namespace, tokens: list[str]) -> TuneFiles:
-    """Decide the study name, its storage and the output files, and check none would be replaced.
+    """Decide the study name, its storage and the output files, and check none would be replaced
+    unless it is an output of this same study (a resumed study updates its own outputs).
 
     Raises:
-        OutputExistsError: An output exists and --overwrite was not given.
+        OutputExistsError: An output exists, is not this study's, and --overwrite was not given.
     """
+    from planning.errors import OutputExistsError
     from sim.outputs import check_writable
 
     study = args.study or default_study_name(tokens, args.robot, args.robust)
@@ -281,9 +320,18 @@ def tune_files(args: argparse.Namespace, tokens: list[str]) -> TuneFiles:
         raise ConfigError(
             f"two outputs would be one file ({', '.join(map(str, paths))}); give --out and --json different paths"
         )
+    owners = {p: files.owner(p) for p in paths if p.is_file()}
+    own = frozenset(p for p, owner in owners.items() if owner == files.stamp())
     for path in paths:
-        check_writable(path, overwrite=args.overwrite)
-    return files
+        owner = owners.get(path)
+        if owner is not None and path not in own and not args.overwrite:
+            raise OutputExistsError(
+                f"{path} holds the outputs of study {owner['study']!r} in {owner['storage']!r}, not of study "
+                f"{study!r} in {files.storage!r}; pass --overwrite to replace it, or choose other output paths "
+                "(--out, --json, --plots)"
+            )
+        check_writable(path, overwrite=args.overwrite or path in own)
+    return replace(files, own=own)
 
 
 def _check_counts(args: argparse.Namespace) -> None:
@@ -348,13 +396,13 @@ def run(args: argparse.Namespace) -> int:
 def _optimise(args: argparse.Namespace, spec: Any) -> Any:
     """Open (or create) the study and run the trials it still lacks, on one or more workers."""
     import optuna
-    from optuna.trial import TrialState
 
     from sim.tools.tune import completed, ensure_default_trial, load_study, run_worker, split_trials
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
     study = load_study(spec, create=True)
+    _settle(study, args.quiet)
     done = len(completed(study))
     remaining = max(args.trials - done, 0)
     if remaining:
@@ -368,20 +416,42 @@ def _optimise(args: argparse.Namespace, spec: Any) -> Any:
         )
     progress = _Progress(args.trials, done, not args.quiet and sys.stderr.isatty())
     shares = split_trials(remaining, args.jobs)
-    report = [lambda s, t: progress.set(len(completed(s)), _best_value(s))]
     try:
-        if len(shares) > 1 and study.get_trials(deepcopy=False, states=(TrialState.WAITING,)):
-            # SQLite cannot lock a row, so two workers starting together may both take the enqueued
-            # trial (optuna#4002) and one fails telling it; run it here first.
-            run_worker(spec, 1, 0, callbacks=report)
-            shares = split_trials(remaining - 1, args.jobs)
         if len(shares) == 1:
-            run_worker(spec, shares[0], 0, callbacks=report)
+            run_worker(spec, shares[0], 0, callbacks=[lambda s, t: progress.set(len(completed(s)), _best_value(s))])
         elif shares:
             _run_parallel(spec, shares, study, progress)
     finally:
         progress.close()
     return study
+
+
+def _settle(study: Any, quiet: bool) -> None:
+    """Before counting what is left: fail the trials a killed worker left running (their gains are
+    enqueued again) and say so; a live worker's running trials are left to it."""
+    from optuna.trial import TrialState
+
+    from sim.tools import tune
+
+    running = [t.number for t in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,))]
+    if not running:
+        return
+    if not quiet:
+        wait = tune.GRACE_PERIOD + tune.HEARTBEAT_INTERVAL + 1
+        print(
+            f"trials {_numbers(running)} are running: waiting up to {wait} s for their heartbeats "
+            "(a killed worker's trial is failed and its gains evaluated afresh)",
+            file=sys.stderr,
+        )
+    failed, alive = tune.settle_running(study)
+    if not quiet and failed:
+        print(f"trials {_numbers(failed)} were left by a killed worker: failed, gains enqueued again", file=sys.stderr)
+    if not quiet and alive:
+        print(f"trials {_numbers(alive)} are still beating: left to their workers", file=sys.stderr)
+
+
+def _numbers(numbers: list[int]) -> str:
+    return ", ".join(f"#{n}" for n in numbers)
 
 
 def _report_best(study: Any, spec: Any, evaluator: Any) -> tuple[Any, float]:
@@ -464,8 +534,7 @@ def _write_outputs(
     from sim.tools.tune import completed
 
     provenance: dict[str, Any] = {
-        "study": files.study,
-        "storage": files.storage,
+        **files.stamp(),
         "objective": float(best.value),
         "trial": best.number,
         "default_objective": default_obj,
@@ -485,7 +554,7 @@ def _write_outputs(
         provenance["held_out"] = _finite({"draws": args.eval_runs, **summary}, drop=True)
     gains, verdict = recommendation(best, comparison)
     provenance.update(verdict)
-    with atomic_path(files.gains, overwrite=args.overwrite) as tmp:
+    with atomic_path(files.gains, overwrite=files.may_replace(files.gains, args.overwrite)) as tmp:
         tmp.write_text(dump_gains_toml(GainsFile(gains, provenance)), encoding="utf-8")
     record = {
         **provenance,
@@ -493,8 +562,8 @@ def _write_outputs(
         "settings": spec.settings(),
         "held_out": held_out,
     }
-    write_json(files.record, _finite(record, drop=False), overwrite=args.overwrite)
-    plots, notes = _save_plots(study, files.history, files.importance, args.overwrite)
+    write_json(files.record, _finite(record, drop=False), overwrite=files.may_replace(files.record, args.overwrite))
+    plots, notes = _save_plots(study, files, args.overwrite)
     for note in notes:
         print(note, file=sys.stderr)
     print("wrote " + ", ".join([str(files.gains), str(files.record), *plots]))

@@ -25,9 +25,17 @@ Search space (log-uniform): Kp in [0.5, 100] 1/s^2, Kd in [0.5, 40] 1/s, xi_min 
 
 The study lives in an SQLAlchemy storage; its settings (cases, draws, weights) are stored with
 it, and a rerun with the same settings resumes it: completed trials count toward the requested
-number, trials left running by a killed worker are marked failed by the heartbeat and their
-gains are evaluated afresh by later trials, the default gains are evaluated once (as the first
-trial) so every study holds an honest "no worse than the defaults" comparison.
+number, the default gains are evaluated once so every study holds an honest "no worse than the
+defaults" comparison. A running trial beats every ``HEARTBEAT_INTERVAL`` seconds; one silent for
+``GRACE_PERIOD`` seconds belongs to a killed worker: it is failed and its gains are enqueued again
+(:func:`open_storage`, Optuna's ``RetryHeartbeatStaleTrialCallback``), and a resumed study waits for
+such trials before it counts what is left to run (:func:`settle_running`).
+
+Workers in several processes (or machines) share the study through the storage. Every SQLite
+transaction begins ``IMMEDIATE`` (:func:`open_storage`): Optuna reads a trial's state and then
+writes it ("take the waiting trial", "fail the stale trial"), and under Python's default SQLite
+mode the read runs outside the write's transaction, so two workers could both take one waiting
+trial and the second would die telling a trial the first had completed.
 """
 
 from __future__ import annotations
@@ -58,9 +66,12 @@ SEARCH_SPACE: dict[str, tuple[float, float]] = {"kp": (0.5, 100.0), "kd": (0.5, 
 FAILURE_COST = 1.0
 #: Sampler name -> "module:class"; each takes ``seed=``.
 SAMPLERS: dict[str, str] = {"tpe": "optuna.samplers:TPESampler", "random": "optuna.samplers:RandomSampler"}
-#: Heartbeat of running trials [s] and the silence after which a trial is declared dead [s].
+#: Heartbeat of running trials [s] and the silence after which a trial is declared dead [s]
+#: (read when a storage is opened).
 HEARTBEAT_INTERVAL = 2
 GRACE_PERIOD = 10
+#: How many times the gains of a trial killed while running are enqueued again.
+MAX_RETRY = 2
 #: Seeds of draws are below this; training seeds are even, held-out seeds odd.
 SEED_SPACE = 2**31
 
@@ -290,7 +301,12 @@ class TuneSpec:
 
 
 def open_storage(url: str) -> Any:
-    """An Optuna RDB storage with heartbeats, or a clear error.
+    """An Optuna RDB storage with heartbeats that re-enqueues a dead trial's gains, or a clear error.
+
+    A trial silent for ``GRACE_PERIOD`` seconds is failed by the next worker that looks (Optuna
+    does at the start of every trial, :func:`settle_running` on resume) and its gains are
+    enqueued again, up to ``MAX_RETRY`` times. An SQLite storage begins every transaction
+    ``IMMEDIATE`` (see the module's docstring), so one state change never overwrites another.
 
     Raises:
         ConfigError: The URL is malformed, its driver is missing, or the database cannot be opened.
@@ -298,12 +314,17 @@ def open_storage(url: str) -> Any:
     import optuna
 
     warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
+    sqlite = url.startswith("sqlite")
     engine_kwargs: dict[str, Any] = {}
-    if url.startswith("sqlite"):
-        engine_kwargs["connect_args"] = {"timeout": 60}
+    if sqlite:  # no implicit BEGIN from Python's sqlite3: _begin_immediate emits the BEGIN
+        engine_kwargs["connect_args"] = {"timeout": 60, "isolation_level": None}
     try:
-        return optuna.storages.RDBStorage(
-            url, engine_kwargs=engine_kwargs, heartbeat_interval=HEARTBEAT_INTERVAL, grace_period=GRACE_PERIOD
+        storage = optuna.storages.RDBStorage(
+            url,
+            engine_kwargs=engine_kwargs,
+            heartbeat_interval=HEARTBEAT_INTERVAL,
+            grace_period=GRACE_PERIOD,
+            heartbeat_stale_trial_callback=optuna.storages.RetryHeartbeatStaleTrialCallback(max_retry=MAX_RETRY),
         )
     except Exception as exc:  # sqlalchemy raises many kinds; all mean "cannot open"
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
@@ -312,6 +333,21 @@ def open_storage(url: str) -> Any:
             f"sqlite:///renders/tune.db (its directory must exist) or postgresql://user:pass@host/db "
             f"(with its driver installed and the server running)"
         ) from exc
+    if sqlite:
+        _begin_immediate(storage.engine)
+    return storage
+
+
+def _begin_immediate(engine: Any) -> None:
+    """Make every transaction on ``engine`` (SQLite, opened without implicit BEGIN) take the write
+    lock when it begins, so the reads it makes before writing see what it overwrites (the
+    SQLAlchemy recipe for SQLite transactions; other workers wait up to the connection timeout)."""
+    from sqlalchemy import event
+
+    def begin(conn: Any) -> None:
+        conn.exec_driver_sql("BEGIN IMMEDIATE")
+
+    event.listen(engine, "begin", begin)
 
 
 def make_sampler(name: str, seed: int, n_existing: int, worker: int) -> Any:
@@ -368,6 +404,40 @@ def ensure_default_trial(study: Any) -> None:
         if p == params:
             return
     study.enqueue_trial(params, user_attrs={"default_gains": True})
+
+
+def settle_running(study: Any, poll: float = 0.2) -> tuple[list[int], list[int]]:
+    """Wait until each trial running when called has finished, been failed as dead, or proven alive.
+
+    A trial killed with its worker stops beating; once it has been silent for ``GRACE_PERIOD``
+    seconds it is failed and its gains enqueued again (:func:`open_storage`). This waits for
+    that instead of leaving the trial running (and its gains never evaluated) when a killed study
+    is resumed at once: it returns as soon as no such trial is left running, and at the latest
+    after ``GRACE_PERIOD`` + ``HEARTBEAT_INTERVAL`` + 1 s (the storage's clock counts whole
+    seconds), when a trial still running has beaten within the grace period: a live worker's.
+
+    Args:
+        study: The study (on a storage from :func:`open_storage`).
+        poll: Time between looks [s].
+
+    Returns:
+        (numbers of those trials that ended failed, numbers of those still running: live workers').
+    """
+    from optuna.storages import fail_stale_trials
+    from optuna.trial import TrialState
+
+    def states() -> dict[int, Any]:
+        return {t.number: t.state for t in study.get_trials(deepcopy=False) if t.number in running}
+
+    running = {t.number for t in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,))}
+    deadline = time.monotonic() + GRACE_PERIOD + HEARTBEAT_INTERVAL + 1.0
+    while True:
+        fail_stale_trials(study)
+        now = states()
+        left = sorted(n for n, state in now.items() if state == TrialState.RUNNING)
+        if not left or time.monotonic() > deadline:
+            return sorted(n for n, state in now.items() if state == TrialState.FAIL), left
+        time.sleep(poll)
 
 
 def completed(study: Any) -> list[Any]:
