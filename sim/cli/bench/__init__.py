@@ -22,6 +22,10 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "sim.cli.bench.optim",
         "optim planner: seed N=1000, dt=0.01 against the default (time, final error, length)",
     ),
+    "simplify": (
+        "sim.cli.bench.simplify",
+        "simplified birrt / rrt paths and simulate --all trajectories against rrt-star's (length, cusps, time)",
+    ),
     "render": ("sim.cli.bench.render", "video pipeline frames/s (replay, draw, encode) against a bare Renderer loop"),
 }
 
