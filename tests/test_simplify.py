@@ -231,3 +231,24 @@ def test_rrt_star_rejects_a_bad_stall_option():
         make_planner("rrt-star", stall_clock="minutes")
     with pytest.raises(ConfigError, match="improvement_tol"):
         make_planner("rrt-star", improvement_tol=-0.1)
+
+
+# --- the benchmark -------------------------------------------------------------------------------------
+def test_bench_rows_on_a_free_problem_are_the_exact_shortest_curve():
+    """simple_motion is free between start and goal: every planner's simplified path is the one
+    Reeds–Shepp curve between them (length by the closed form), so every ratio is 1."""
+    from planning.curves.reeds_shepp import reeds_shepp_length
+    from planning.planners.sampling.steering import default_turning_radius
+    from sim.tools.bench.simplify import TrajectoryRow, measure_plans
+
+    sc = load_scenario("simple_motion")
+    robot = load_robot(sc.robot)
+    exact = float(reeds_shepp_length(sc.start.as_array(), sc.goal.as_array(), default_turning_radius(robot))[0])
+    rows = measure_plans(sc)
+    assert [r.planner for r in rows] == ["birrt", "rrt"]
+    for r in rows:
+        assert r.length == pytest.approx(exact, rel=1e-3) and r.ref_length == pytest.approx(exact, rel=1e-3)
+        assert r.missed == [] and r.cusps == r.ref_cusps == 0
+    row = TrajectoryRow("s", "turtlebot3", "sinusoidal", 3.0, 9.0, 1.0, 5.0)
+    assert row.ratio == 3.0 and not row.targeted and not row.missed
+    assert TrajectoryRow("s", "turtlebot3", "birrt", 1.3, 9.0, 1.0, 5.0).missed

@@ -72,7 +72,10 @@ def _trajectories(args: argparse.Namespace) -> bool:
     from sim.tools.bench import simplify as b
 
     names = [n for n in args.scenarios if not n.startswith("random")] if args.scenarios else None
-    print(f"\nsimulate --all trajectories against rrt-star's (length <= {b.TRAJECTORY_TARGET}x)")
+    print(
+        f"\nsimulate --all trajectories against rrt-star's (length <= {b.TRAJECTORY_TARGET}x for "
+        f"{', '.join(b.TRAJECTORY_TARGETED)})"
+    )
     print(
         f"{'scenario':<18}{'robot':<12}{'planner':<12}{'length m':>9}{'rrt* m':>8}{'ratio':>7}"
         f"{'s':>7}{'rrt* s':>8}  note"
@@ -81,8 +84,9 @@ def _trajectories(args: argparse.Namespace) -> bool:
     ratios = []
     for r in b.measure_trajectory(names):
         missed |= r.missed
-        ratios.append(r.ratio)
-        flag = "MISSED" if r.missed else r.note
+        if r.targeted:
+            ratios.append(r.ratio)
+        flag = "MISSED" if r.missed else (r.note or ("" if r.targeted else "(not a sampling planner)"))
         print(
             f"{r.scenario:<18}{r.robot:<12}{r.planner:<12}{r.length:>9.2f}{r.ref_length:>8.2f}{r.ratio:>7.3f}"
             f"{r.duration:>7.1f}{r.ref_duration:>8.1f}  {flag}",
