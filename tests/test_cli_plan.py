@@ -76,6 +76,17 @@ def test_plan_json_and_plot(tmp_path, capsys):
     assert unsimplified["length_m"] == unsimplified["raw_length_m"] == pytest.approx(rec["raw_length_m"], abs=1e-9)
 
 
+def test_rrt_star_records_its_first_path(tmp_path):
+    js = tmp_path / "star.json"
+    argv = ["plan", "--scenario", "nav_map1", "--planner", "rrt-star", "--json", str(js), "--quiet"]
+    assert main(argv) == 0
+    rec = json.loads(js.read_text())
+    first = rec["stats"]["cost_history"][0]
+    assert rec["first_path_time_s"] == first[1] > 0 and rec["first_path_length_m"] == first[2]
+    assert rec["first_path_length_m"] >= rec["stats"]["cost_m"] >= rec["length_m"] - 1e-9
+    assert rec["stats"]["stopped_by"] in ("converged", "budget")
+
+
 def test_no_simplify_for_a_planner_that_does_not_simplify(capsys):
     assert main(["plan", "--scenario", "simple_motion", "--planner", "sinusoidal", "--no-simplify"]) == 2
     err = capsys.readouterr().err
