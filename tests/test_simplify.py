@@ -16,7 +16,7 @@ from planning.planners.base import PlanProblem, PlanStatus
 from planning.planners.registry import make_planner
 from planning.planners.sampling.extend import LocalPlanner
 from planning.planners.sampling.tree import make_checker
-from planning.planners.simplify import SimplifyConfig, count_cusps, simplify_path
+from planning.planners.simplify import SimplifyConfig, count_cusps, length_cost, simplify_path
 from planning.scenario import load_scenario, random_scenario
 
 STEP = 0.01  # dense spacing of the synthetic paths [m]
@@ -252,3 +252,32 @@ def test_bench_rows_on_a_free_problem_are_the_exact_shortest_curve():
     row = TrajectoryRow("s", "turtlebot3", "sinusoidal", 3.0, 9.0, 1.0, 5.0)
     assert row.ratio == 3.0 and not row.targeted and not row.missed
     assert TrajectoryRow("s", "turtlebot3", "birrt", 1.3, 9.0, 1.0, 5.0).missed
+
+
+def test_a_stretch_driven_the_other_way_round_keeps_its_ground_and_flips_heading_and_direction():
+    """The turned-around candidate: steered to pose m1 turned by pi, poses m1..m2 over the same
+    ground with headings turned by pi and directions reversed, steered from pose m2 turned to b."""
+    from planning.planners.simplify import _Work
+
+    problem = PlanProblem.from_scenario(load_scenario("open"))
+    checker = make_checker(problem, "footprint", 0.0)
+    local = LocalPlanner("reeds_shepp", problem.robot, checker)
+    q = [np.array(v) for v in ([0, 0, 0], [1, 0, 0], [0.4, 0.2, 0.3], [2, 0.5, 0.2])]
+    parts = [local.steer(u, v) for u, v in itertools.pairwise(q)]
+    path = np.vstack([parts[0][0], *(m[0][1:] for m in parts[1:])])
+    dirs = np.concatenate([parts[0][1], *(m[1][1:] for m in parts[1:])])
+    w = _Work(path, dirs, [0, path.shape[0] - 1], local.steer, checker.path_free, length_cost)
+    n0 = parts[0][0].shape[0]
+    m1, m2 = n0 + 5, n0 + parts[1][0].shape[0] - 8
+    motion = w._motion(path[2], path[-3], (m1, m2))
+    assert motion is not None
+    poses, mdirs = motion
+    first = local.steer(path[2], path[m1] + [0, 0, np.pi])[0]
+    k = first.shape[0] - 1
+    middle = poses[k : k + m2 - m1 + 1]
+    np.testing.assert_array_equal(middle[:, :2], path[m1 : m2 + 1, :2])
+    np.testing.assert_allclose(middle[:, 2], path[m1 : m2 + 1, 2] + np.pi, atol=1e-12)
+    np.testing.assert_array_equal(mdirs[k + 1 : k + m2 - m1 + 1], -dirs[m1 + 1 : m2 + 1])
+    np.testing.assert_array_equal(poses[0], path[2])
+    np.testing.assert_array_equal(poses[-1], path[-3])
+    assert np.max(np.hypot(*np.diff(poses[:, :2], axis=0).T)) <= 0.01 + 1e-9  # dense for the checker

@@ -10,14 +10,17 @@ makes it shorter with the planner's own steering, never touching anything but wh
 2. **Greedy collapse** (back-and-forth, detours): from each vertex, in order, a shortcut to a later
    vertex is tried, largest estimated saving first (``greedy_tries`` of them), so a detour of many
    metres goes in one step. OMPL's ``collapseCloseVertices`` plays this part there.
-3. **Shortcuts** (OMPL ``shortcutPath``): two points drawn at random along the path, the second
+3. **Cusps**: shortcuts across each cusp from points 5 cm to 1.6 m either side of it, and each
+   stretch between cusps driven the other way round (same ground, heading turned by pi, entered
+   and left by steered motions), which merges the cusps at both its ends when it passes.
+4. **Shortcuts** (OMPL ``shortcutPath``): two points drawn at random along the path, the second
    within ``range_ratio`` of the path's length of the first, each snapped to a vertex when within
    ``snap_to_vertex`` of the length, otherwise a new vertex inside a piece; ``max_steps`` draws,
    stopping after ``max_empty_steps`` draws without a change (0: the number of vertices, as OMPL).
-4. **Vertex reduction** (OMPL ``reduceVertices``): first the whole path as one motion, then random
+5. **Vertex reduction** (OMPL ``reduceVertices``): first the whole path as one motion, then random
    pairs of vertices at most ``1 + round(range_ratio * count)`` apart.
 
-Steps 3 and 4 repeat, as OMPL's ``simplify`` does, for at most ``max_rounds`` rounds while they
+Steps 3 to 5 repeat, as OMPL's ``simplify`` does, for at most ``max_rounds`` rounds while they
 change the path. Every candidate replaces the stretch between two path states by the motion
 ``steer`` returns, and is kept only when all of these hold:
 
@@ -105,7 +108,10 @@ class SimplifyConfig:
             that vertex (OMPL: 0.005).
         greedy_tries: Shortcuts tried from each vertex in the greedy collapse (0 skips it).
         cusp_tries: Shortcuts tried across each cusp, from points up to 1.6 m before it to points up
-            to 1.6 m after it (0 skips it).
+            to 1.6 m after it (0 skips them and the turned stretches).
+        turn_stretches: Try driving each stretch between cusps the other way round; only for a robot
+            that may drive any stretch in either direction (Reeds–Shepp cars, differential drives),
+            not for forward-only steering.
         vertex_spacing: Without given vertices, the path's own are placed at its ends, its cusps and
             every ``vertex_spacing`` of x-y length [m], ...
         max_vertices: ... but no closer than the path's length over ``max_vertices``.
@@ -120,6 +126,7 @@ class SimplifyConfig:
     snap_to_vertex: float = 0.005
     greedy_tries: int = 3
     cusp_tries: int = 6
+    turn_stretches: bool = True
     vertex_spacing: float = 0.25
     max_vertices: int = 100
     min_gain: float = 1e-6
@@ -231,8 +238,25 @@ class _Work:
         seq = np.concatenate([[before] if before is not None else [], mid, [after] if after is not None else []])
         return int(np.count_nonzero(seq[1:] != seq[:-1]))
 
-    def shortcut(self, a: int, b: int, distance: Distance | None, min_gain: float) -> bool:
-        """Replace poses a..b (a < b, dense indices) by the steered motion if it passes every test."""
+    def _motion(self, qa: FloatArray, qb: FloatArray, turn: tuple[int, int] | None) -> Motion | None:
+        """The steered motion from qa to qb; with ``turn = (m1, m2)``: steered to pose m1 turned by pi,
+        then poses m1..m2 driven the other way round (same ground, heading turned by pi, opposite
+        direction), then steered from pose m2 turned to qb."""
+        if turn is None:
+            return self.steer(qa, qb)
+        m1, m2 = turn
+        mid = self.poses[m1 : m2 + 1] + np.array([0.0, 0.0, np.pi])
+        first, last = self.steer(qa, mid[0]), self.steer(mid[-1], qb)
+        if first is None or last is None:
+            return None
+        poses = np.vstack([first[0], mid[1:], last[0][1:]])
+        return poses, np.concatenate([first[1], -self.dirs[m1 + 1 : m2 + 1], last[1][1:]])
+
+    def shortcut(
+        self, a: int, b: int, distance: Distance | None, min_gain: float, turn: tuple[int, int] | None = None
+    ) -> bool:
+        """Replace poses a..b (a < b, dense indices) by the steered motion (driving poses m1..m2 the
+        other way round with ``turn = (m1, m2)``, a < m1 < m2 < b) if it passes every test."""
         if b - a < 2:
             return False
         p, verts = self.poses, self.verts
@@ -240,7 +264,14 @@ class _Work:
         k_hi = bisect.bisect_left(verts, b)
         v_lo, v_hi = verts[k_lo], verts[k_hi]
         old = float(sum(self.pcost[k_lo:k_hi]))
-        est = float(distance(p[a], p[b])[0]) if distance is not None else 0.0
+        est = 0.0
+        if distance is not None and turn is None:
+            est = float(distance(p[a], p[b])[0])
+        elif distance is not None and turn is not None:
+            m1, m2 = turn
+            flip = np.array([0.0, 0.0, np.pi])
+            ends = distance(np.vstack([p[a], p[m2] + flip]), np.vstack([p[m1] + flip, p[b]]))
+            est = float(np.sum(ends) + self.arc[m2] - self.arc[m1])
         if not est < old - min_gain:  # costs are >= 0: the pieces kept around it only add
             return False
         pre = self.piece(v_lo, a) if a > v_lo else 0.0
@@ -249,7 +280,7 @@ class _Work:
         if not est < budget:
             return False
         self.attempts += 1
-        motion = self.steer(p[a], p[b])
+        motion = self._motion(p[a], p[b], turn)
         if motion is None:
             return False
         m_poses, m_dirs = motion
@@ -335,6 +366,63 @@ def _cusp_pass(w: _Work, cfg: SimplifyConfig, distance: Distance | None) -> bool
                 changed, c = True, int(aa[o])
                 break
     return changed
+
+
+#: Where a stretch between cusps is entered and left when it is driven the other way round
+#: (fractions of its poses from either end).
+TURN_AT = np.array([0.02, 0.05, 0.1, 0.2])
+
+
+def _turned_pass(w: _Work, cfg: SimplifyConfig, distance: Distance | None) -> bool:
+    """Cusps merged by driving a stretch the other way round: the stretch between two cusps (or a
+    cusp and an end) is driven over the same ground in the opposite direction, heading turned by
+    pi, entered from a point up to 0.35 m before it and left to a point up to 0.35 m after it by
+    steered motions (2 ``cusp_tries`` per stretch, largest estimated saving first). Only for the
+    default length cost, which is additive at any pose, so the joints need no vertices."""
+    if w.cost is not length_cost or cfg.cusp_tries == 0 or not cfg.turn_stretches:
+        return False
+    spans = np.array([0.0, 0.35])
+    changed, k = False, 0
+    while True:
+        flips = (np.flatnonzero(w.dirs[2:] != w.dirs[1:-1]) + 1).tolist()
+        ends = [0, *flips, w.poses.shape[0] - 1]
+        if not flips or k >= len(ends) - 1:
+            return changed
+        lo, hi = ends[k], ends[k + 1]
+        k += 1
+        a = np.unique(np.searchsorted(w.arc, w.arc[lo] - spans).clip(0, lo))
+        b = np.unique(np.minimum(np.searchsorted(w.arc, w.arc[hi] + spans), w.arc.size - 1))
+        for a_i, b_j, turn in _turn_candidates(w, lo, hi, a, b, distance)[: 2 * cfg.cusp_tries]:
+            if w.shortcut(a_i, b_j, distance, cfg.min_gain, turn):
+                changed, k = True, 0
+                break
+
+
+def _turn_candidates(
+    w: _Work, lo: int, hi: int, a: NDArray[np.int64], b: NDArray[np.int64], distance: Distance | None
+) -> list[tuple[int, int, tuple[int, int]]]:
+    """(a, b, (m1, m2)) for every start a, end b and entry m1 / exit m2 of the stretch lo..hi,
+    largest estimated saving first (only those estimated to save anything)."""
+    n = hi - lo
+    m1s = np.unique(np.round(lo + TURN_AT * n).astype(np.int64))
+    m2s = np.unique(np.round(hi - TURN_AT * n).astype(np.int64))
+    flip = np.array([0.0, 0.0, np.pi])
+    out = []
+    for ai, m1, m2, bj in itertools.product(a.tolist(), m1s.tolist(), m2s.tolist(), b.tolist()):
+        if not ai < m1 < m2 < bj:
+            continue
+        ends = 0.0
+        if distance is not None:
+            ends = float(
+                np.sum(
+                    distance(np.vstack([w.poses[ai], w.poses[m2] + flip]), np.vstack([w.poses[m1] + flip, w.poses[bj]]))
+                )
+            )
+        gain = float(w.arc[bj] - w.arc[ai]) - ends - float(w.arc[m2] - w.arc[m1])
+        if gain > 0.0:
+            out.append((gain, ai, bj, (m1, m2)))
+    out.sort(key=lambda c: -c[0])
+    return [(ai, bj, turn) for _, ai, bj, turn in out]
 
 
 def _draw(w: _Work, p: float, threshold: float) -> int:
@@ -452,6 +540,7 @@ def simplify_path(
         _greedy(w, cfg, distance)
         for _ in range(cfg.max_rounds):
             changed = _cusp_pass(w, cfg, distance)
+            changed |= _turned_pass(w, cfg, distance)
             changed |= _shortcut_pass(w, cfg, rng, distance)
             changed |= _reduce_pass(w, cfg, rng, distance)
             if not changed:

@@ -165,7 +165,7 @@ class _Search:
         self.n = 0
         self.rewires = 0
         self.biased = 0
-        self._last_clearance: tuple[FloatArray, FloatArray] | None = None
+        self._clearance_memo: dict[bytes, float] = {}
 
     # -- helpers of Algorithm 1 -------------------------------------------------------------
     def sample_biased(self, prev: FloatArray) -> FloatArray:
@@ -351,12 +351,16 @@ class _Search:
         return poses, np.ones(poses.shape[0])
 
     def centre_clearance(self, poses: FloatArray) -> FloatArray:
-        """(K,) axle-centre distances of poses to obstacles and walls [m]; the last motion asked about
-        is remembered (its cost and its check ask for the same poses)."""
-        last = self._last_clearance
-        if last is None or last[0] is not poses:
-            last = self._last_clearance = (poses, self.checker.clearance_of(poses) + self.radius)
-        return last[1]
+        """(K,) axle-centre distances of poses to obstacles and walls [m]. Every position asked about
+        is remembered (the simplifier prices the same stretches of path many times), and only new
+        positions go to the checker."""
+        keys = [xy.tobytes() for xy in np.ascontiguousarray(poses[:, :2])]
+        memo = self._clearance_memo
+        new = [i for i, k in enumerate(keys) if k not in memo]
+        if new:
+            d = self.checker.clearance_of(poses[new]) + self.radius
+            memo.update(zip((keys[i] for i in new), d.tolist(), strict=True))
+        return np.array([memo[k] for k in keys])
 
     def keeps_clearance(self, poses: FloatArray) -> bool:
         """Whether dense poses keep the axle-centre clearance (the ``segments`` rule: every sample

@@ -39,7 +39,7 @@ from planning.planners.sampling.tree import (
     merge_trees,
     sample_pose,
 )
-from planning.planners.simplify import simplify_path
+from planning.planners.simplify import SimplifyConfig, simplify_path
 
 FloatArray = NDArray[np.float64]
 
@@ -176,8 +176,15 @@ class _TreePlanner(Generic[ConfigT]):
 def simplified(result: PlanResult, local: LocalPlanner, seed: int) -> PlanResult:
     """A successful tree plan with its path simplified by the local planner's exact curves
     (the raw path kept in ``raw_path``; stats gain the raw and simplified lengths and cusps)."""
+    config = SimplifyConfig(turn_stretches=local.curves.kind == "reeds_shepp")  # Dubins cars drive forwards only
     s = simplify_path(
-        result.path, result.directions, local.steer, local.checker.path_free, distance=local.curves.lengths, seed=seed
+        result.path,
+        result.directions,
+        local.steer,
+        local.checker.path_free,
+        distance=local.curves.lengths,
+        config=config,
+        seed=seed,
     )
     stats = {**result.stats, **s.stats()}
     return dataclasses.replace(result, path=s.path, directions=s.directions, raw_path=result.path, stats=stats)
