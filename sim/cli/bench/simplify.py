@@ -95,6 +95,7 @@ def _trajectories(args: argparse.Namespace) -> bool:
     finite = np.array([x for x in ratios if np.isfinite(x)])
     if finite.size:
         print(
-            f"trajectory length ratio: median {np.median(finite):.3f}, max {finite.max():.3f} over {finite.size} cases"
+            f"sampling planners' trajectory length ratio: median {np.median(finite):.3f}, "
+            f"max {finite.max():.3f} over {finite.size} cases"
         )
     return missed
