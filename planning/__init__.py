@@ -30,9 +30,13 @@ from planning.planners.base import PlanStatus as PlanStatus
 from planning.planners.registry import PLANNERS as PLANNERS
 from planning.planners.registry import make_planner as make_planner
 from planning.planners.registry import register_planner as register_planner
+from planning.planners.simplify import SimplifiedPath as SimplifiedPath
+from planning.planners.simplify import SimplifyConfig as SimplifyConfig
+from planning.planners.simplify import simplify_path as simplify_path
 from planning.scenario import Scenario as Scenario
 from planning.scenario import builtin_scenarios as builtin_scenarios
 from planning.scenario import load_scenario as load_scenario
+from planning.scenario import random_scenario as random_scenario
 from planning.trajectory.file_trajectory import file_trajectory as file_trajectory
 from planning.trajectory.from_plan import to_trajectory as to_trajectory
 from planning.trajectory.importer import TrajectoryFile as TrajectoryFile

@@ -239,3 +239,27 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     raise ScenarioError(
         f"unknown scenario {text!r}: give a path to a .toml file or one of: {', '.join(builtin_scenarios())}"
     )
+
+
+def random_scenario(robot: str, seed: int) -> Scenario:
+    """A world no scenario was tuned on: a 6 x 6 m arena with seven circles and boxes (radius or
+    half-width 0.2-0.5 m) drawn from ``seed``, kept clear of the start corner (-2.4, -2.4) and the
+    goal corner (2.4, 2.4); start and goal headings drawn too. Named ``random<seed>``.
+
+    Args:
+        robot: Robot name.
+        seed: Seed of the draw; same seed, same world.
+    """
+    rng = np.random.default_rng(1000 + seed)
+    obstacles: list[Obstacle] = []
+    while len(obstacles) < 7:
+        c = (float(rng.uniform(-2.2, 2.2)), float(rng.uniform(-2.2, 2.2)))
+        r = float(rng.uniform(0.2, 0.5))
+        if min(np.hypot(c[0] + 2.4, c[1] + 2.4), np.hypot(c[0] - 2.4, c[1] - 2.4)) > r + 0.6:
+            kind = rng.random() < 0.6
+            obstacles.append(Circle(c, r) if kind else Box(c, (2 * r, r), float(rng.uniform(0, 3))))
+    start = Pose2D(-2.4, -2.4, float(rng.uniform(-3, 3)))
+    goal = Pose2D(2.4, 2.4, float(rng.uniform(-3, 3)))
+    return Scenario(
+        name=f"random{seed}", robot=robot, world=World((-3, 3, -3, 3), tuple(obstacles)), start=start, goal=goal
+    )

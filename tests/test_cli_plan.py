@@ -18,6 +18,7 @@ from sim.cli.plan import path_spacing, record_path
 KEYS = {
     "status", "planner", "time_s", "iterations", "length_m", "min_clearance_m", "path", "reason", "seed",
     "scenario", "robot", "time_limit_s", "goal_position_error_m", "goal_heading_error_rad", "path_spacing_m", "stats",
+    "raw_length_m", "cusps", "raw_cusps", "simplify_time_s", "first_path_time_s", "first_path_length_m",
 }  # fmt: skip
 
 
@@ -65,6 +66,31 @@ def test_plan_json_and_plot(tmp_path, capsys):
     assert rec["min_clearance_m"] >= 0.40 - robot.radius  # C-RRT*'s axle-centre clearance minus the body
     with Image.open(png) as im:
         assert im.format == "PNG" and im.size[0] > 300
+    # simplified: never longer, never more cusps, and the search's own path is the one --no-simplify gives
+    assert rec["length_m"] <= rec["raw_length_m"] and rec["cusps"] <= rec["raw_cusps"]
+    assert rec["simplify_time_s"] > 0 and rec["stats"]["simplified_cost"] <= rec["stats"]["cost"]
+    raw = tmp_path / "raw.json"
+    assert main([*argv[:7], "--no-simplify", "--json", str(raw), "--quiet"]) == 0
+    unsimplified = json.loads(raw.read_text())
+    assert unsimplified["simplify_time_s"] is None
+    assert unsimplified["length_m"] == unsimplified["raw_length_m"] == pytest.approx(rec["raw_length_m"], abs=1e-9)
+
+
+def test_rrt_star_records_its_first_path(tmp_path):
+    js = tmp_path / "star.json"
+    argv = ["plan", "--scenario", "nav_map1", "--planner", "rrt-star", "--json", str(js), "--quiet"]
+    assert main(argv) == 0
+    rec = json.loads(js.read_text())
+    first = rec["stats"]["cost_history"][0]
+    assert rec["first_path_time_s"] == first[1] > 0 and rec["first_path_length_m"] == first[2]
+    assert rec["first_path_length_m"] >= rec["stats"]["cost_m"] >= rec["length_m"] - 1e-9
+    assert rec["stats"]["stopped_by"] in ("converged", "budget")
+
+
+def test_no_simplify_for_a_planner_that_does_not_simplify(capsys):
+    assert main(["plan", "--scenario", "simple_motion", "--planner", "sinusoidal", "--no-simplify"]) == 2
+    err = capsys.readouterr().err
+    assert "--no-simplify" in err and "birrt" in err and "c-rrt-star" in err
 
 
 def test_no_overwrite_without_flag(tmp_path, capsys):

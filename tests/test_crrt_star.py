@@ -8,7 +8,7 @@ import time
 import numpy as np
 import pytest
 
-from planning.core.geometry import Pose2D, wrap_angle
+from planning.core.geometry import Pose2D, path_length, wrap_angle
 from planning.core.robot import load_robot
 from planning.core.world import Box, World
 from planning.errors import ConfigError
@@ -93,7 +93,7 @@ def test_cost_decomposition(results, seed):
     lipschitz = cfg.rho * np.sqrt(2.0 * cfg.sigma) * np.exp(-0.5)  # max |d/dd rho exp(-sigma d^2)|
     independent = np.sum(lengths + cfg.rho * np.exp(-cfg.sigma * d_true**2))
     assert abs(res.stats["cost"] - independent) <= lipschitz * 0.0105 * len(lengths)
-    assert res.length() == pytest.approx(np.sum(lengths), abs=1e-9)
+    assert path_length(res.raw_path) == pytest.approx(np.sum(lengths), abs=1e-9)
     assert res.stats["polyline_length_m"] == pytest.approx(np.sum(lengths), abs=1e-9)
 
 

@@ -86,3 +86,18 @@ def test_plan_figure_draws_the_tree() -> None:
     (edges,) = [c for c in ax.collections if isinstance(c, LineCollection)]
     segs = sorted(map(tuple, (np.asarray(s).ravel() for s in edges.get_segments())))
     assert segs == sorted([(0.0, 0.0, 0.5, 0.1), (0.0, 0.0, 0.4, -0.3), (0.5, 0.1, 0.9, 0.2)])
+
+
+def test_plan_figure_draws_the_raw_path_faded_under_the_simplified_one() -> None:
+    problem = PlanProblem.from_scenario(load_scenario("parking_lot"))
+    result = make_planner("birrt").plan(problem)
+    assert result.raw_path is not None
+    ax = plan_figure(problem, result).axes[0]
+    (raw,) = [ln for ln in ax.lines if ln.get_label() == "raw path"]
+    (path,) = [ln for ln in ax.lines if ln.get_label() == "path"]
+    np.testing.assert_array_equal(raw.get_xydata(), result.raw_path[:, :2])
+    np.testing.assert_array_equal(path.get_xydata(), result.path[:, :2])
+    assert raw.get_linewidth() < path.get_linewidth() and raw.get_alpha() < 1.0 and raw.get_zorder() < path.get_zorder()
+    assert "raw" in ax.get_title()
+    plain = make_planner("birrt", simplify=False).plan(problem)
+    assert not [ln for ln in plan_figure(problem, plain).axes[0].lines if ln.get_label() == "raw path"]

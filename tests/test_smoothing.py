@@ -316,20 +316,22 @@ SAMPLING_CASES = [
 ]
 
 
+@pytest.mark.parametrize("simplify", [False, True], ids=["raw", "simplified"])
 @pytest.mark.parametrize(("scenario", "robot", "planner", "options"), SAMPLING_CASES, ids=lambda c: str(c))
 def test_sampling_planner_paths_smooth_collision_free_and_continuous(
-    scenario: str, robot: str, planner: str, options: dict
+    scenario: str, robot: str, planner: str, options: dict, simplify: bool
 ) -> None:
     sc = load_scenario(scenario).with_robot(robot)
     spec = load_robot(robot)
-    plan = make_planner(planner, **options).plan(PlanProblem.from_scenario(sc, robot=spec, seed=0, time_limit=20))
+    problem = PlanProblem.from_scenario(sc, robot=spec, seed=0, time_limit=20)
+    plan = make_planner(planner, simplify=simplify, **options).plan(problem)
     assert plan.success, plan.reason
     res = make_trajectory(plan, spec, sc.world, goal=sc.goal)
     assert res.success, res.reason
     traj = res.trajectory
     check_definitions(traj, spec)
     assert footprint_world_clearance(traj, spec, sc.world) > 0.0
-    if planner == "birrt":  # seed 001's connect step drives primitives and straight back: cut, not tracked
+    if planner == "birrt" and not simplify:  # seed 001's connect step drives primitives and straight back: cut
         assert res.stats["loop_poses_removed"] > 0.5 * plan.path.shape[0]
     # the drives keep the planner's travel directions: cusps in the plan are cusps in the trajectory
     d = np.asarray(plan.directions)

@@ -129,6 +129,8 @@ class PlanResult:
         directions: (N,) +1 forwards / -1 backwards of the motion arriving at each pose of ``path``
             (directions[0] repeats the first step's), when the planner knows.
         states: (N, n) full planner states (e.g. bicycle [x, y, theta, phi]) when richer than poses.
+        raw_path: (M, 3) the path as the search found it, before simplification
+            (:mod:`planning.planners.simplify`), when the planner simplified ``path``.
 
     Raises:
         ValueError: A status that is not a :class:`PlanStatus`, an array of the wrong shape or with
@@ -145,6 +147,7 @@ class PlanResult:
     controls: FloatArray | None = None
     directions: FloatArray | None = None
     states: FloatArray | None = None
+    raw_path: FloatArray | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.status, PlanStatus):
@@ -160,6 +163,8 @@ class PlanResult:
             value = getattr(self, name)
             if value is not None:
                 object.__setattr__(self, name, _float_array(name, value, shape))
+        if self.raw_path is not None:
+            object.__setattr__(self, "raw_path", _float_array("raw_path", self.raw_path, (None, 3)))
         if self.directions is not None and not np.all(np.abs(self.directions) == 1.0):
             raise ValueError("PlanResult.directions must hold +1 (forwards) or -1 (backwards) per pose")
 

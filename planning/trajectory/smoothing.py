@@ -289,14 +289,17 @@ def remove_loops(
     if not tolerance > 0:
         raise ValueError(f"tolerance must be > 0, got {tolerance}")
     keys = np.round(np.column_stack([p[:, 0], p[:, 1], wrap_angle(p[:, 2])]) / tolerance).astype(np.int64)
-    last: dict[tuple[int, int, int], int] = {}
-    for i, k in enumerate(map(tuple, keys.tolist())):
-        last[k] = i  # type: ignore[index]
+    # last[i]: the index of the last pose equal to pose i (sort the keys, take each run's largest index)
+    order = np.lexsort(keys.T[::-1])
+    new_run = np.concatenate([[True], np.any(np.diff(keys[order], axis=0) != 0, axis=1)])
+    run = np.cumsum(new_run) - 1
+    last = np.empty(p.shape[0], dtype=np.int64)
+    last[order] = np.maximum.reduceat(order, np.flatnonzero(new_run))[run] if p.shape[0] else order
     keep = []
     i = 0
     while i < p.shape[0]:
         keep.append(i)
-        i = last[tuple(keys[i].tolist())] + 1  # type: ignore[index]
+        i = int(last[i]) + 1
     idx = np.asarray(keep)
     dirs = None if directions is None else np.asarray(directions, dtype=float).reshape(-1)
     if dirs is not None and dirs.size != p.shape[0]:

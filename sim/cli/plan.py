@@ -32,11 +32,16 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
             "2.5 mm).\n\n"
             f"Planners: {planners}.\n\n"
             "JSON record (--json): status, planner, reason, scenario, robot, seed, time_limit_s, time_s, "
-            "iterations, length_m, min_clearance_m, goal_position_error_m, goal_heading_error_rad, "
+            "iterations, length_m, raw_length_m, cusps, raw_cusps, simplify_time_s, first_path_time_s, "
+            "first_path_length_m, min_clearance_m, goal_position_error_m, goal_heading_error_rad, "
             f"path_spacing_m, path (a list of [x, y, theta] states at most {PATH_SPACING * 100:g} cm apart "
             "along the motion, counting a turn in place as the robot's radius times the angle), stats.\n\n"
             "Exit status: 0 when the plan succeeded, 1 when the planner ended in another status "
-            "(outputs are still written), 2 on bad input."
+            "(outputs are still written), 2 on bad input.\n\n"
+            "The sampling planners return their path simplified (shortcuts with their own steering, fewer "
+            "vertices): length_m and cusps are the simplified path's, raw_length_m and raw_cusps the search's "
+            "(equal when nothing was simplified; simplify_time_s is then null); --no-simplify keeps the raw path. "
+            "first_path_time_s and first_path_length_m (rrt-star) are its first solution's."
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -62,6 +67,11 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         default=30.0,
         metavar="S",
         help="wall-clock budget in seconds; when spent the planner returns TIMEOUT (default: 30)",
+    )
+    p.add_argument(
+        "--no-simplify",
+        action="store_true",
+        help="return the search's raw path (sampling planners simplify their path by default)",
     )
     p.add_argument("--json", type=Path, default=None, metavar="PATH", help="write the plan record as JSON")
     p.add_argument("--plot", type=Path, default=None, metavar="PATH", help="write a PNG of world, tree and path")
@@ -121,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
     name = args.planner or scenario.planner
     if name is None:
         raise ConfigError(f"scenario {scenario.name!r} names no default planner: pass --planner")
-    planner = make_planner(name, **scenario.options_for(name))
+    planner = make_planner(name, **plan_options(name, scenario.options_for(name), simplify=not args.no_simplify))
     robot = load_robot(scenario.robot)
     problem = PlanProblem.from_scenario(scenario, robot=robot, seed=args.seed, time_limit=args.time_limit)
     if not args.quiet:
@@ -142,7 +152,7 @@ def run(args: argparse.Namespace) -> int:
         f"status          {status.value}",
         f"time            {facts['time_s']:.3f} s",
         f"iterations      {iterations if iterations is not None else '-'}",
-        f"path length     {facts['length_m']:.3f} m",
+        f"path length     {facts['length_m']:.3f} m{raw_note(facts)}",
         f"min clearance   {'-' if min_clear is None else f'{min_clear:.3f} m'}",
     ]
     if reason:
@@ -171,6 +181,32 @@ def run(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"wrote {args.plot}")
     return 0 if status is PlanStatus.SUCCESS else 1
+
+
+def plan_options(name: str, options: dict[str, Any], *, simplify: bool) -> dict[str, Any]:
+    """A planner's options with ``simplify=False`` added for ``--no-simplify`` (planners that simplify).
+
+    Raises:
+        ConfigError: ``--no-simplify`` for a planner that does not simplify (the message names those that do).
+    """
+    from planning.planners.registry import PLANNERS, planner_options
+
+    if simplify:
+        return options
+    if "simplify" not in planner_options(name):
+        which = ", ".join(sorted(n for n in PLANNERS if "simplify" in planner_options(n)))
+        raise ConfigError(f"--no-simplify: planner {name!r} does not simplify its path; only {which} do")
+    return {**options, "simplify": False}
+
+
+def raw_note(facts: dict[str, Any]) -> str:
+    """`` (raw 12.345 m, 3 -> 1 cusps, simplified in 8 ms)`` when the plan was simplified, else ""."""
+    if facts["simplify_time_s"] is None:
+        return ""
+    return (
+        f" (raw {facts['raw_length_m']:.3f} m, {facts['raw_cusps']} -> {facts['cusps']} cusps, "
+        f"simplified in {1e3 * facts['simplify_time_s']:.0f} ms)"
+    )
 
 
 def trusted_status(status: Any, reason: str, min_clearance: float | None) -> tuple[Any, str]:
@@ -203,11 +239,14 @@ def plan_facts(problem: Any, result: Any, wall: float) -> dict[str, Any]:
         wall: Wall time of the planner's call [s] (when its stats have no ``time_s``).
 
     Returns:
-        time_s, iterations, length_m, min_clearance_m, goal_position_error_m,
+        time_s, iterations, length_m, raw_length_m, cusps, raw_cusps, simplify_time_s (None when
+        not simplified), first_path_time_s, first_path_length_m (None unless the planner reports
+        them), min_clearance_m, goal_position_error_m,
         goal_heading_error_rad (None without a path), path_spacing_m and path (densified states).
     """
     from planning.collision.exact import CollisionChecker
     from planning.core.geometry import path_length, wrap_angle
+    from planning.planners.simplify import count_cusps
 
     robot = problem.robot
     path = record_path(np.asarray(result.path, dtype=float).reshape(-1, 3), robot.radius)
@@ -217,10 +256,19 @@ def plan_facts(problem: Any, result: Any, wall: float) -> dict[str, Any]:
         min_clear = float(np.min(checker.clearance_of(path)))
         goal_pos = float(np.hypot(path[-1, 0] - problem.goal.x, path[-1, 1] - problem.goal.y))
         goal_head = abs(float(wrap_angle(path[-1, 2] - problem.goal.theta)))
+    stats = result.stats
+    simplified = result.raw_path is not None
+    cusps = count_cusps(result.directions)
     return {
-        "time_s": float(result.stats.get("time_s", wall)),
-        "iterations": result.stats.get("iterations"),
+        "time_s": float(stats.get("time_s", wall)),
+        "iterations": stats.get("iterations"),
         "length_m": path_length(path),
+        "raw_length_m": path_length(result.raw_path) if simplified else path_length(path),
+        "cusps": cusps,
+        "raw_cusps": int(stats.get("raw_cusps", cusps)) if simplified else cusps,
+        "simplify_time_s": stats.get("simplify_time_s") if simplified else None,
+        "first_path_time_s": stats.get("first_solution_s"),
+        "first_path_length_m": stats.get("first_length_m"),
         "min_clearance_m": min_clear,
         "goal_position_error_m": goal_pos,
         "goal_heading_error_rad": goal_head,

@@ -50,9 +50,11 @@ from numpy.typing import NDArray
 
 from planning.collision.exact import CollisionChecker
 from planning.core.checks import check_fields
+from planning.core.geometry import path_length, wrap_angle
 from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
 from planning.planners.registry import config_from_options
+from planning.planners.simplify import simplify_path
 
 FloatArray = NDArray[np.float64]
 
@@ -81,6 +83,11 @@ class CRRTStarConfig:
         max_iterations: Sampling iterations before ``TIMEOUT``.
         stop_at_goal: Stop at the first node that reaches the goal region (the seed). If False, keep
             sampling to the iteration or time budget and return the cheapest goal connection.
+        simplify: Return the path simplified by straight shortcuts between its states (turns in
+            place at the vertices, :func:`planning.planners.simplify.simplify_path` seeded by the
+            problem's seed), each kept only when it keeps the clearance and lowers the path's cost
+            as defined here (length plus one clearance term per segment); False returns the tree's
+            path.
     """
 
     gamma: float = 0.5
@@ -92,6 +99,7 @@ class CRRTStarConfig:
     center_clearance: float | None = None
     max_iterations: int = 20000
     stop_at_goal: bool = True
+    simplify: bool = True
 
     def __post_init__(self) -> None:
         checks: dict[str, dict[str, Any]] = {
@@ -158,6 +166,7 @@ class _Search:
         self.n = 0
         self.rewires = 0
         self.biased = 0
+        self._clearance_memo: dict[bytes, float] = {}
 
     # -- helpers of Algorithm 1 -------------------------------------------------------------
     def sample_biased(self, prev: FloatArray) -> FloatArray:
@@ -324,9 +333,71 @@ class _Search:
             "waypoints": pts.tolist(),
             "distance_to_goal_m": float(np.hypot(*(pts[-1] - self.problem.goal.xy))),
         }
-        return PlanResult(
+        result = PlanResult(
             status, CRRTStar.name, path=path, reason=reason, stats=stats, tree=tree, directions=np.ones(len(path))
         )
+        return self.simplified(result, pts) if self.cfg.simplify and status is PlanStatus.SUCCESS else result
+
+    # -- simplification with the planner's own steering, clearance and cost ------------------------
+    def steer(self, qa: FloatArray, qb: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Turn in place toward ``qb``, drive straight to it, turn to its heading: dense poses (K, 3)
+        and directions (K,), all forwards."""
+        dx, dy = qb[0] - qa[0], qb[1] - qa[1]
+        h = qa[2] + float(wrap_angle(np.arctan2(dy, dx) - qa[2])) if dx or dy else float(qa[2])
+        end = h + float(wrap_angle(qb[2] - h))
+        rows = np.array([qa, [qa[0], qa[1], h], [qb[0], qb[1], h], [qb[0], qb[1], end]])
+        keep = np.concatenate([[True], np.any(np.diff(rows, axis=0) != 0.0, axis=1)])
+        poses = self.checker.densify(rows[keep])
+        poses[-1] = qb
+        return poses, np.ones(poses.shape[0])
+
+    def centre_clearance(self, poses: FloatArray) -> FloatArray:
+        """(K,) axle-centre distances of poses to obstacles and walls [m]. Every position asked about
+        is remembered (the simplifier prices the same stretches of path many times), and only new
+        positions go to the checker."""
+        keys = [xy.tobytes() for xy in np.ascontiguousarray(poses[:, :2])]
+        memo = self._clearance_memo
+        new = [i for i, k in enumerate(keys) if k not in memo]
+        if new:
+            d = self.checker.clearance_of(poses[new]) + self.radius
+            memo.update(zip((keys[i] for i in new), d.tolist(), strict=True))
+        return np.array([memo[k] for k in keys])
+
+    def keeps_clearance(self, poses: FloatArray) -> bool:
+        """Whether dense poses keep the axle-centre clearance (the ``segments`` rule: every sample
+        farther than the requirement plus half the sample spacing)."""
+        d = self.centre_clearance(poses)
+        h = float(np.max(np.hypot(*np.diff(poses[:, :2], axis=0).T))) if poses.shape[0] > 1 else 0.0
+        return bool(np.min(d) - 0.5 * h > self.required)
+
+    def piece_cost(self, poses: FloatArray, directions: FloatArray) -> float:
+        """c(Line) of one straight piece: length + rho exp(-sigma d^2), d its smallest axle-centre
+        clearance [m]; a turn in place costs nothing."""
+        length = path_length(poses)
+        if length == 0.0:
+            return 0.0
+        d = float(np.min(self.centre_clearance(poses)))
+        return float(self.edge_cost(np.array(length), np.array(d)))
+
+    def simplified(self, result: PlanResult, pts: FloatArray) -> PlanResult:
+        """``result`` with its path simplified (the raw one kept in ``raw_path``)."""
+        path = result.path
+        verts, k = [], 0
+        for p in pts:  # the dense index of each waypoint: where its turn in place starts
+            k += int(np.argmax(np.all(path[k:, :2] == p, axis=1)))
+            verts.append(k)
+        s = simplify_path(
+            path,
+            result.directions,
+            self.steer,
+            self.keeps_clearance,
+            cost=self.piece_cost,
+            distance=lambda q0, q1: np.atleast_1d(np.hypot(*(np.atleast_2d(q1)[:, :2] - np.atleast_2d(q0)[:, :2]).T)),
+            vertices=verts,
+            seed=self.problem.seed,
+        )
+        stats = {**result.stats, **s.stats()}  # "cost" stays the tree path's, "simplified_cost" is the result's
+        return dataclasses.replace(result, path=s.path, directions=s.directions, raw_path=path, stats=stats)
 
     # -- Algorithm 1 ----------------------------------------------------------------------------
     def run(self) -> PlanResult:

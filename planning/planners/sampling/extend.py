@@ -106,10 +106,15 @@ class LocalPlanner:
         """Dense samples (K, 3) and directions (K,) of a curve at the checking step."""
         return word.sample(self.sample_step)
 
-    def connect(self, q_a: FloatArray, q_b: FloatArray) -> tuple[FloatArray, FloatArray] | None:
-        """The exact curve from ``q_a`` (start side) to ``q_b`` (goal side) if collision-free."""
+    def steer(self, q_a: FloatArray, q_b: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The exact curve from ``q_a`` to ``q_b``, unchecked: dense poses (K, 3) and directions (K,)."""
         poses, dirs = self.word_motion(self.curves.curve(q_a, q_b))
         poses[-1] = q_b  # land exactly (the sampler's end is within 1e-9 m of q_b)
+        return poses, dirs
+
+    def connect(self, q_a: FloatArray, q_b: FloatArray) -> tuple[FloatArray, FloatArray] | None:
+        """The exact curve from ``q_a`` (start side) to ``q_b`` (goal side) if collision-free."""
+        poses, dirs = self.steer(q_a, q_b)
         return (poses, dirs) if self.checker.path_free(poses) else None
 
     def extend(self, q_from: FloatArray, q_to: FloatArray, backwards: bool = False) -> Motion | None:

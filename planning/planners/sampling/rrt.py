@@ -16,6 +16,7 @@ with the unicycle primitives.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Generic, TypeVar
@@ -39,6 +40,7 @@ from planning.planners.sampling.tree import (
     merge_trees,
     sample_pose,
 )
+from planning.planners.simplify import SimplifyConfig, simplify_path
 
 FloatArray = NDArray[np.float64]
 
@@ -68,6 +70,9 @@ class TreeConfig:
         shape: Collision model, "footprint" or "disc".
         clearance: Margin every pose must keep from obstacles and walls [m] (simulate jobs
             plan with 1 cm, :class:`sim.pipeline.case.PlanOptions`).
+        simplify: Return the path simplified with the exact curves (shortcuts, vertex reduction:
+            :func:`planning.planners.simplify.simplify_path`, seeded by the problem's seed); False
+            returns the search's raw path. A successful plan's stats report both lengths and cusps.
     """
 
     steering: str = "bicycle"
@@ -81,6 +86,7 @@ class TreeConfig:
     primitive_duration: float = 1.0
     shape: str = "footprint"
     clearance: float = 0.0
+    simplify: bool = True
 
     def __post_init__(self) -> None:
         checks: dict[str, dict[str, Any]] = {
@@ -118,7 +124,10 @@ class _TreePlanner(Generic[ConfigT]):
     def plan(self, problem: PlanProblem) -> PlanResult:
         """Plan from ``problem.start`` to ``problem.goal``; never raises for an unsolvable problem."""
         local, budget, rng, bad = self._setup(problem)
-        return bad if bad is not None else self._search(problem, local, budget, rng)
+        if bad is not None:
+            return bad
+        result = self._search(problem, local, budget, rng)
+        return simplified(result, local, problem.seed) if self.config.simplify and result.success else result
 
     def _search(
         self, problem: PlanProblem, local: LocalPlanner, budget: Budget, rng: np.random.Generator
@@ -182,6 +191,23 @@ class _TreePlanner(Generic[ConfigT]):
     ) -> PlanResult:
         stats = {**stats, "length_m": path_length(poses)}
         return PlanResult(status, self.name, path=poses, reason=reason, stats=stats, tree=tree, directions=dirs)
+
+
+def simplified(result: PlanResult, local: LocalPlanner, seed: int) -> PlanResult:
+    """A successful tree plan with its path simplified by the local planner's exact curves
+    (the raw path kept in ``raw_path``; stats gain the raw and simplified lengths and cusps)."""
+    config = SimplifyConfig(turn_stretches=local.curves.kind == "reeds_shepp")  # Dubins cars drive forwards only
+    s = simplify_path(
+        result.path,
+        result.directions,
+        local.steer,
+        local.checker.path_free,
+        distance=local.curves.lengths,
+        config=config,
+        seed=seed,
+    )
+    stats = {**result.stats, **s.stats()}
+    return dataclasses.replace(result, path=s.path, directions=s.directions, raw_path=result.path, stats=stats)
 
 
 class RRT(_TreePlanner[TreeConfig]):

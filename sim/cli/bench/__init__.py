@@ -26,6 +26,10 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "sim.cli.bench.hybrid",
         "hybrid-a-star: time to its path and length against rrt-star's on built-in and seeded worlds",
     ),
+    "simplify": (
+        "sim.cli.bench.simplify",
+        "simplified birrt / rrt paths and simulate --all trajectories against rrt-star's (length, cusps, time)",
+    ),
     "render": ("sim.cli.bench.render", "video pipeline frames/s (replay, draw, encode) against a bare Renderer loop"),
     "montecarlo": (
         "sim.cli.bench.montecarlo",

@@ -2,7 +2,8 @@
 
 Obstacles are filled grey (walls as the frame), the tree is thin blue edges (each node joined to its
 parent, or the planner's dense edge curves when it gives them), the path a thick red line with
-heading ticks, start a green and goal a red marker with the goal tolerance circle. With
+heading ticks (and, for a simplified plan, the search's raw path as a thin faded line under it),
+start a green and goal a red marker with the goal tolerance circle. With
 ``timeline``, a path timed by its planner (sinusoidal, optim) gets a column of panels beside it:
 x, y; theta (and phi); the inputs v, omega against time. Built with matplotlib's object API on the
 Agg canvas: no display, no global pyplot state.
@@ -19,6 +20,7 @@ from matplotlib.gridspec import GridSpec
 from matplotlib.patches import Circle as CirclePatch
 from numpy.typing import NDArray
 
+from planning.core.geometry import path_length
 from planning.core.world import World
 from planning.planners.base import PlanProblem, PlanResult, PlanTree
 from sim.viz.plots.draw import PLAN_WORLD, draw_world
@@ -49,6 +51,9 @@ def plan_figure(
     draw_world(ax, world, PLAN_WORLD)
     if result.tree is not None and result.tree.nodes.shape[0] > 0:
         _draw_tree(ax, result.tree)
+    if result.raw_path is not None and result.raw_path.shape[0] > 0:
+        raw = result.raw_path
+        ax.plot(raw[:, 0], raw[:, 1], "-", color="tab:orange", linewidth=0.9, alpha=0.55, zorder=3, label="raw path")
     if result.path.shape[0] > 0:
         _draw_path(ax, result.path, world)
     _draw_ends(ax, problem)
@@ -62,7 +67,8 @@ def plan_figure(
     ax.grid(True, linewidth=0.3, alpha=0.5)
     ax.legend(loc="upper left", fontsize=8, framealpha=0.9)
     length = result.length()
-    ax.set_title(title or f"{result.planner} on {problem.name}: {result.status.value}, path {length:.2f} m")
+    was = f" (raw {path_length(result.raw_path):.2f} m)" if result.raw_path is not None else ""
+    ax.set_title(title or f"{result.planner} on {problem.name}: {result.status.value}, path {length:.2f} m{was}")
     if grid is not None:
         _draw_timeline(fig, grid, result)
     fig.tight_layout()

@@ -1,0 +1,562 @@
+"""Path simplification for any planner that can steer exactly between two states (after OMPL's
+``PathSimplifier``).
+
+A sampling planner's first path wanders: motion primitives drive back and forth, trees grow around
+obstacles before they meet. :func:`simplify_path` takes such a path, dense along the motion, and
+makes it shorter with the planner's own steering, never touching anything but what it can prove:
+
+1. **Loops**: stretches that return to a pose already visited are cut
+   (:func:`planning.trajectory.smoothing.remove_loops`); what is left is made of the input's own steps.
+2. **Greedy collapse** (back-and-forth, detours): from each vertex, in order, a shortcut to a later
+   vertex is tried, largest estimated saving first (``greedy_tries`` of them), so a detour of many
+   metres goes in one step. OMPL's ``collapseCloseVertices`` plays this part there.
+3. **Cusps**: shortcuts across each cusp from points 5 cm to 1.6 m either side of it, and each
+   stretch between cusps driven the other way round (same ground, heading turned by pi, entered
+   and left by steered motions), which merges the cusps at both its ends when it passes.
+4. **Shortcuts** (OMPL ``shortcutPath``): two points drawn at random along the path, the second
+   within ``range_ratio`` of the path's length of the first, each snapped to a vertex when within
+   ``snap_to_vertex`` of the length, otherwise a new vertex inside a piece; ``max_steps`` draws,
+   stopping after ``max_empty_steps`` draws without a change (0: the number of vertices, as OMPL).
+5. **Vertex reduction** (OMPL ``reduceVertices``): first the whole path as one motion, then random
+   pairs of vertices at most ``1 + round(range_ratio * count)`` apart.
+
+Steps 3 to 5 repeat, as OMPL's ``simplify`` does, for at most ``max_rounds`` rounds while they
+change the path. Every candidate replaces the stretch between two path states by the motion
+``steer`` returns, and is kept only when all of these hold:
+
+* its cost (``cost`` summed over the pieces between vertices) is lower by at least ``min_gain``
+  (``distance``, a cheap lower bound, prunes hopeless candidates before steering);
+* the path has no more cusps (direction reversals) than before;
+* ``checker`` finds the new motion collision-free.
+
+So the result is collision-free wherever the input was, starts and ends at the same poses, is never
+costlier and never has more cusps. A cusp is merged whenever a shortcut across it passes the tests.
+OMPL's B-spline smoothing is left out (it moves states off the steering's curves); smoothing for the
+tracker happens later (:mod:`planning.trajectory.smoothing`).
+
+The random draws come from ``seed``: the same path and seed give the same result, bit for bit.
+
+Interface: ``steer(q_a, q_b)`` returns ``(poses (K, 3), directions (K,))`` dense enough for
+``checker`` (the first pose ``q_a``, the last ``q_b``; directions of the motion arriving at each pose)
+or None when it cannot join them; ``checker(poses)`` says whether dense poses are collision-free;
+``cost(poses, directions)`` is the cost of one piece, >= 0 and additive over pieces (default: the
+x-y length); ``distance(qs, q)`` (optional) gives lower bounds of the steered motions' costs between
+(M, 3) and (3,) poses, broadcast either way.
+"""
+
+from __future__ import annotations
+
+import bisect
+import itertools
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from planning.core.geometry import cumulative_length, path_length
+from planning.errors import ConfigError
+from planning.trajectory.smoothing import remove_loops
+
+FloatArray = NDArray[np.float64]
+Motion = tuple[FloatArray, FloatArray]
+#: ``steer(q_a, q_b)``: the exact motion from q_a to q_b, dense for the checker, or None.
+Steer = Callable[[FloatArray, FloatArray], Motion | None]
+#: ``checker(poses)``: whether (K, 3) dense poses are all collision-free.
+Checker = Callable[[FloatArray], bool]
+#: ``cost(poses, directions)``: the cost of one piece of path (additive over pieces).
+PieceCost = Callable[[FloatArray, FloatArray], float]
+#: ``distance(q0, q1)``: (M,) lower bounds of the steered motions' costs, q0 and q1 (M, 3) or (3,).
+Distance = Callable[[FloatArray, FloatArray], FloatArray]
+
+
+def length_cost(poses: FloatArray, directions: FloatArray) -> float:
+    """The default piece cost: the x-y length of the poses [m] (turns in place cost nothing)."""
+    return path_length(poses)
+
+
+def count_cusps(directions: FloatArray | None) -> int:
+    """Number of reversals of the direction of travel along a path.
+
+    Args:
+        directions: (N,) +1/-1 direction of the motion arriving at each pose (directions[0] repeats
+            the first step's), or None (no reversals known: 0).
+    """
+    if directions is None:
+        return 0
+    d = np.asarray(directions, dtype=float).reshape(-1)
+    return int(np.count_nonzero(d[2:] != d[1:-1])) if d.size > 2 else 0
+
+
+@dataclass(frozen=True)
+class SimplifyConfig:
+    """Parameters of :func:`simplify_path` (OMPL's defaults where OMPL has the parameter).
+
+    Attributes:
+        max_rounds: Rounds of shortcuts and vertex reduction (OMPL's ``simplify`` repeats its
+            shortcuts up to 5 times; 3 here, after the greedy collapse has done the bulk, keeps the
+            simplification within 50 ms on the benchmark's problems).
+        max_steps: Draws per shortcut or reduction pass; 0: the number of vertices (OMPL), but at
+            least ``min_steps``.
+        max_empty_steps: Draws without a change that end a pass; 0: as ``max_steps``.
+        min_steps: Fewest draws per pass when ``max_steps`` is 0: a short path of few vertices still
+            gets enough tries (OMPL draws as many times as there are vertices).
+        range_ratio: Largest distance between the two points of a draw, as a fraction of the path's
+            length (shortcuts) or of its vertex count (reduction); OMPL: 0.33.
+        snap_to_vertex: A drawn point within this fraction of the path's length of a vertex is
+            that vertex (OMPL: 0.005).
+        greedy_tries: Shortcuts tried from each vertex in the greedy collapse (0 skips it).
+        cusp_tries: Shortcuts tried across each cusp, from points up to 1.6 m before it to points up
+            to 1.6 m after it (0 skips them and the turned stretches).
+        turn_stretches: Try driving each stretch between cusps the other way round; only for a robot
+            that may drive any stretch in either direction (Reeds–Shepp cars, differential drives),
+            not for forward-only steering.
+        vertex_spacing: Without given vertices, the path's own are placed at its ends, its cusps and
+            every ``vertex_spacing`` of x-y length [m], ...
+        max_vertices: ... but no closer than the path's length over ``max_vertices``.
+        min_gain: Smallest cost saving that makes a shortcut worth keeping.
+    """
+
+    max_rounds: int = 3
+    max_steps: int = 0
+    max_empty_steps: int = 0
+    min_steps: int = 20
+    range_ratio: float = 0.33
+    snap_to_vertex: float = 0.005
+    greedy_tries: int = 3
+    cusp_tries: int = 6
+    turn_stretches: bool = True
+    vertex_spacing: float = 0.25
+    max_vertices: int = 100
+    min_gain: float = 1e-6
+
+    def __post_init__(self) -> None:
+        checks = [
+            (self.max_rounds >= 0, "max_rounds must be >= 0"),
+            (self.max_steps >= 0, "max_steps must be >= 0 (0: the number of vertices)"),
+            (self.max_empty_steps >= 0, "max_empty_steps must be >= 0 (0: as max_steps)"),
+            (self.min_steps >= 0, "min_steps must be >= 0"),
+            (self.max_vertices >= 2, "max_vertices must be >= 2"),
+            (0.0 < self.range_ratio <= 1.0, "range_ratio must be in (0, 1]"),
+            (0.0 <= self.snap_to_vertex < 0.5, "snap_to_vertex must be in [0, 0.5)"),
+            (self.greedy_tries >= 0, "greedy_tries must be >= 0"),
+            (self.cusp_tries >= 0, "cusp_tries must be >= 0"),
+            (self.vertex_spacing > 0.0, "vertex_spacing must be > 0 m"),
+            (self.min_gain >= 0.0, "min_gain must be >= 0"),
+        ]
+        for ok, msg in checks:
+            if not ok:
+                raise ConfigError(f"SimplifyConfig: {msg}")
+
+
+@dataclass(frozen=True)
+class SimplifiedPath:
+    """What :func:`simplify_path` returns.
+
+    Attributes:
+        path: (N, 3) dense poses of the simplified path.
+        directions: (N,) +1/-1 direction of the motion arriving at each pose.
+        vertices: (V,) indices into ``path`` of its vertices (the ends of its pieces).
+        raw_length: x-y length of the input [m].
+        length: x-y length of the result [m].
+        raw_cusps: Cusps of the input.
+        cusps: Cusps of the result.
+        raw_cost: Cost of the input (``cost`` summed over its pieces).
+        cost: Cost of the result.
+        shortcuts: Shortcuts kept.
+        attempts: Shortcuts steered (after the ``distance`` pruning).
+        time_s: Wall time of the simplification [s].
+        cpu_s: CPU time of the simplification's thread [s] (what the wall time is on an idle machine).
+    """
+
+    path: FloatArray
+    directions: FloatArray
+    vertices: NDArray[np.int64]
+    raw_length: float
+    length: float
+    raw_cusps: int
+    cusps: int
+    raw_cost: float
+    cost: float
+    shortcuts: int
+    attempts: int
+    time_s: float
+    cpu_s: float
+
+    def stats(self) -> dict[str, float | int]:
+        """The numbers a plan reports: raw and simplified length, cusps and cost, the shortcuts kept
+        and the time (wall and CPU) [m, s]."""
+        return {
+            "raw_length_m": self.raw_length,
+            "length_m": self.length,
+            "raw_cusps": self.raw_cusps,
+            "cusps": self.cusps,
+            "raw_cost": self.raw_cost,
+            "simplified_cost": self.cost,
+            "shortcuts": self.shortcuts,
+            "simplify_time_s": self.time_s,
+            "simplify_cpu_s": self.cpu_s,
+        }
+
+
+def default_vertices(path: FloatArray, directions: FloatArray, cfg: SimplifyConfig) -> list[int]:
+    """Vertices of a dense path: its ends, the poses at its cusps, and one every ``vertex_spacing``
+    (or every ``1 / max_vertices`` of the length if that is longer) [m]."""
+    n = path.shape[0]
+    arc = cumulative_length(path)
+    spacing = max(cfg.vertex_spacing, float(arc[-1]) / cfg.max_vertices)
+    marks = np.searchsorted(arc, np.arange(spacing, arc[-1], spacing))
+    cusp = np.flatnonzero(directions[2:] != directions[1:-1]) + 1
+    return sorted({0, n - 1, *marks.tolist(), *cusp.tolist()} - {n})
+
+
+class _Work:
+    """The path being simplified: dense poses, directions, vertices and the cost of each piece."""
+
+    def __init__(
+        self, poses: FloatArray, dirs: FloatArray, verts: list[int], steer: Steer, checker: Checker, cost: PieceCost
+    ) -> None:
+        self.poses, self.dirs, self.verts = poses, dirs, verts
+        self.steer, self.checker, self.cost = steer, checker, cost
+        self.arc = cumulative_length(poses)
+        self.pcost = [self.piece(a, b) for a, b in itertools.pairwise(verts)]
+        self.kept = 0
+        self.attempts = 0
+
+    def piece(self, a: int, b: int) -> float:
+        """Cost of poses a..b (the x-y length straight from the running sums for the default cost)."""
+        if self.cost is length_cost:
+            return float(self.arc[b] - self.arc[a])
+        return self.cost(self.poses[a : b + 1], self.dirs[a : b + 1])
+
+    def total(self) -> float:
+        """The path's cost."""
+        return float(sum(self.pcost))
+
+    def _cusps(self, before: float | None, mid: FloatArray, after: float | None) -> int:
+        seq = np.concatenate([[before] if before is not None else [], mid, [after] if after is not None else []])
+        return int(np.count_nonzero(seq[1:] != seq[:-1]))
+
+    def _motion(self, qa: FloatArray, qb: FloatArray, turn: tuple[int, int] | None) -> Motion | None:
+        """The steered motion from qa to qb; with ``turn = (m1, m2)``: steered to pose m1 turned by pi,
+        then poses m1..m2 driven the other way round (same ground, heading turned by pi, opposite
+        direction), then steered from pose m2 turned to qb."""
+        if turn is None:
+            return self.steer(qa, qb)
+        m1, m2 = turn
+        mid = self.poses[m1 : m2 + 1] + np.array([0.0, 0.0, np.pi])
+        first, last = self.steer(qa, mid[0]), self.steer(mid[-1], qb)
+        if first is None or last is None:
+            return None
+        poses = np.vstack([first[0], mid[1:], last[0][1:]])
+        return poses, np.concatenate([first[1], -self.dirs[m1 + 1 : m2 + 1], last[1][1:]])
+
+    def shortcut(
+        self, a: int, b: int, distance: Distance | None, min_gain: float, turn: tuple[int, int] | None = None
+    ) -> bool:
+        """Replace poses a..b (a < b, dense indices) by the steered motion (driving poses m1..m2 the
+        other way round with ``turn = (m1, m2)``, a < m1 < m2 < b) if it passes every test."""
+        if b - a < 2:
+            return False
+        p, verts = self.poses, self.verts
+        k_lo = bisect.bisect_right(verts, a) - 1
+        k_hi = bisect.bisect_left(verts, b)
+        v_lo, v_hi = verts[k_lo], verts[k_hi]
+        old = float(sum(self.pcost[k_lo:k_hi]))
+        est = 0.0
+        if distance is not None and turn is None:
+            est = float(distance(p[a], p[b])[0])
+        elif distance is not None and turn is not None:
+            m1, m2 = turn
+            flip = np.array([0.0, 0.0, np.pi])
+            ends = distance(np.vstack([p[a], p[m2] + flip]), np.vstack([p[m1] + flip, p[b]]))
+            est = float(np.sum(ends) + self.arc[m2] - self.arc[m1])
+        if not est < old - min_gain:  # costs are >= 0: the pieces kept around it only add
+            return False
+        pre = self.piece(v_lo, a) if a > v_lo else 0.0
+        post = self.piece(b, v_hi) if b < v_hi else 0.0
+        budget = old - pre - post - min_gain
+        if not est < budget:
+            return False
+        self.attempts += 1
+        motion = self._motion(p[a], p[b], turn)
+        if motion is None:
+            return False
+        m_poses, m_dirs = motion
+        c_new = self.cost(m_poses, m_dirs)
+        if not c_new < budget:
+            return False
+        n = p.shape[0]
+        before = float(self.dirs[a]) if a > 0 else None
+        after = float(self.dirs[b + 1]) if b + 1 < n else None
+        if self._cusps(before, m_dirs[1:], after) > self._cusps(before, self.dirs[a + 1 : b + 1], after):
+            return False
+        if not self.checker(m_poses):
+            return False
+        self._apply(a, b, m_poses, m_dirs, (k_lo, k_hi, pre, c_new, post))
+        return True
+
+    def _apply(
+        self, a: int, b: int, m_poses: FloatArray, m_dirs: FloatArray, piece: tuple[int, int, float, float, float]
+    ) -> None:
+        """Splice the motion in for poses a..b; ``piece``: the first and last piece replaced, and the
+        costs of the kept part before a, of the motion and of the kept part after b."""
+        k_lo, k_hi, pre, c_new, post = piece
+        verts, k = self.verts, m_poses.shape[0]
+        first_dir = self.dirs[a] if a > 0 else m_dirs[0]
+        mid = m_poses.copy()
+        mid[0], mid[-1] = self.poses[a], self.poses[b]
+        self.poses = np.vstack([self.poses[:a], mid, self.poses[b + 1 :]])
+        self.dirs = np.concatenate([self.dirs[:a], [first_dir], m_dirs[1:], self.dirs[b + 1 :]])
+        delta = a + k - 1 - b
+        head = verts[: k_lo + 1] + ([a] if a > verts[k_lo] else [])
+        tail = verts[k_hi:] if b < verts[k_hi] else verts[k_hi + 1 :]
+        self.verts = [*head, a + k - 1, *(v + delta for v in tail)]
+        costs = ([pre] if a > verts[k_lo] else []) + [c_new] + ([post] if b < verts[k_hi] else [])
+        self.pcost = self.pcost[:k_lo] + costs + self.pcost[k_hi:]
+        self.arc = cumulative_length(self.poses)
+        self.kept += 1
+
+
+def _greedy(w: _Work, cfg: SimplifyConfig, distance: Distance | None) -> None:
+    """From each vertex in turn, shortcuts to later vertices, largest estimated saving first."""
+    i = 0
+    while i < len(w.verts) - 2 and cfg.greedy_tries > 0:
+        a = w.verts[i]
+        later = np.asarray(w.verts[i + 2 :])
+        saved = np.cumsum(w.pcost[i:])[1:]  # cost from vertex i to each later vertex
+        if distance is not None:
+            est = distance(w.poses[a], w.poses[later])
+        else:  # the straight line between them: a lower bound of any motion's length
+            est = np.hypot(*(w.poses[later, :2] - w.poses[a, :2]).T)
+        gain = saved - est
+        order = np.argsort(-gain, kind="stable")[: cfg.greedy_tries]
+        for o in order:
+            if gain[o] > cfg.min_gain and w.shortcut(a, int(later[o]), distance, cfg.min_gain):
+                break
+        i += 1
+
+
+#: Arc lengths [m] before and after a cusp from which the cusp pass tries to cut across it.
+CUSP_SPANS = (0.05, 0.1, 0.2, 0.35, 0.6, 1.0, 1.6)
+
+
+def _cusp_pass(w: _Work, cfg: SimplifyConfig, distance: Distance | None) -> bool:
+    """Shortcuts across each cusp, from points 5 cm to 1.6 m before it to points as far after it,
+    largest estimated saving first (``cusp_tries`` per cusp)."""
+    changed, c = False, 0
+    while cfg.cusp_tries > 0:
+        flips = np.flatnonzero(w.dirs[2:] != w.dirs[1:-1]) + 1
+        flips = flips[flips > c]
+        if flips.size == 0:
+            return changed
+        c = int(flips[0])
+        span = np.asarray(CUSP_SPANS)
+        a = np.unique(np.searchsorted(w.arc, w.arc[c] - span[span <= w.arc[c]]))
+        b = np.unique(np.minimum(np.searchsorted(w.arc, w.arc[c] + span), w.arc.size - 1))
+        aa, bb = (g.ravel() for g in np.meshgrid(a, b))
+        if distance is not None:
+            est = distance(w.poses[aa], w.poses[bb])
+        else:
+            est = np.hypot(*(w.poses[bb, :2] - w.poses[aa, :2]).T)
+        gain = w.arc[bb] - w.arc[aa] - est
+        for o in np.argsort(-gain, kind="stable")[: cfg.cusp_tries]:
+            if gain[o] > cfg.min_gain and w.shortcut(int(aa[o]), int(bb[o]), distance, cfg.min_gain):
+                changed, c = True, int(aa[o])
+                break
+    return changed
+
+
+#: Where a stretch between cusps is entered and left when it is driven the other way round
+#: (fractions of its poses from either end).
+TURN_AT = np.array([0.02, 0.05, 0.1, 0.2])
+
+
+def _turned_pass(w: _Work, cfg: SimplifyConfig, distance: Distance | None) -> bool:
+    """Cusps merged by driving a stretch the other way round: the stretch between two cusps (or a
+    cusp and an end) is driven over the same ground in the opposite direction, heading turned by
+    pi, entered from a point up to 0.35 m before it and left to a point up to 0.35 m after it by
+    steered motions (2 ``cusp_tries`` per stretch, largest estimated saving first). Only for the
+    default length cost, which is additive at any pose, so the joints need no vertices."""
+    if w.cost is not length_cost or cfg.cusp_tries == 0 or not cfg.turn_stretches:
+        return False
+    spans = np.array([0.0, 0.35])
+    changed, k = False, 0
+    while True:
+        flips = (np.flatnonzero(w.dirs[2:] != w.dirs[1:-1]) + 1).tolist()
+        ends = [0, *flips, w.poses.shape[0] - 1]
+        if not flips or k >= len(ends) - 1:
+            return changed
+        lo, hi = ends[k], ends[k + 1]
+        k += 1
+        a = np.unique(np.searchsorted(w.arc, w.arc[lo] - spans).clip(0, lo))
+        b = np.unique(np.minimum(np.searchsorted(w.arc, w.arc[hi] + spans), w.arc.size - 1))
+        for a_i, b_j, turn in _turn_candidates(w, lo, hi, a, b, distance)[: 2 * cfg.cusp_tries]:
+            if w.shortcut(a_i, b_j, distance, cfg.min_gain, turn):
+                changed, k = True, 0
+                break
+
+
+def _turn_candidates(
+    w: _Work, lo: int, hi: int, a: NDArray[np.int64], b: NDArray[np.int64], distance: Distance | None
+) -> list[tuple[int, int, tuple[int, int]]]:
+    """(a, b, (m1, m2)) for every start a, end b and entry m1 / exit m2 of the stretch lo..hi,
+    largest estimated saving first (only those estimated to save anything)."""
+    n = hi - lo
+    m1s = np.unique(np.round(lo + TURN_AT * n).astype(np.int64))
+    m2s = np.unique(np.round(hi - TURN_AT * n).astype(np.int64))
+    flip = np.array([0.0, 0.0, np.pi])
+    out = []
+    for ai, m1, m2, bj in itertools.product(a.tolist(), m1s.tolist(), m2s.tolist(), b.tolist()):
+        if not ai < m1 < m2 < bj:
+            continue
+        ends = 0.0
+        if distance is not None:
+            ends = float(
+                np.sum(
+                    distance(np.vstack([w.poses[ai], w.poses[m2] + flip]), np.vstack([w.poses[m1] + flip, w.poses[bj]]))
+                )
+            )
+        gain = float(w.arc[bj] - w.arc[ai]) - ends - float(w.arc[m2] - w.arc[m1])
+        if gain > 0.0:
+            out.append((gain, ai, bj, (m1, m2)))
+    out.sort(key=lambda c: -c[0])
+    return [(ai, bj, turn) for _, ai, bj, turn in out]
+
+
+def _draw(w: _Work, p: float, threshold: float) -> int:
+    """The dense index at arc length ``p``, snapped to a vertex within ``threshold``."""
+    idx = min(int(np.searchsorted(w.arc, p)), w.arc.size - 1)
+    k = bisect.bisect_left(w.verts, idx)
+    for v in w.verts[max(0, k - 1) : k + 1]:
+        if abs(w.arc[v] - p) < threshold:
+            return v
+    return idx
+
+
+def _steps(w: _Work, cfg: SimplifyConfig) -> tuple[int, int]:
+    """Draws of one pass and draws without a change that end it."""
+    steps = cfg.max_steps or max(len(w.verts), cfg.min_steps)
+    return steps, cfg.max_empty_steps or steps
+
+
+def _shortcut_pass(w: _Work, cfg: SimplifyConfig, rng: np.random.Generator, distance: Distance | None) -> bool:
+    """OMPL's ``shortcutPath``: random pairs of points along the path (see the module doc)."""
+    steps, empty = _steps(w, cfg)
+    changed, nochange = False, 0
+    for _ in range(steps):
+        if nochange >= empty:
+            break
+        nochange += 1
+        total = float(w.arc[-1])
+        rd, threshold = cfg.range_ratio * total, cfg.snap_to_vertex * total
+        p0 = rng.uniform(0.0, total)
+        p1 = rng.uniform(max(0.0, p0 - rd), min(total, p0 + rd))
+        i0, i1 = sorted((_draw(w, p0, threshold), _draw(w, p1, threshold)))
+        if w.shortcut(i0, i1, distance, cfg.min_gain):
+            changed, nochange = True, 0
+    return changed
+
+
+def _reduce_pass(w: _Work, cfg: SimplifyConfig, rng: np.random.Generator, distance: Distance | None) -> bool:
+    """OMPL's ``reduceVertices``: the whole path as one motion, else random pairs of vertices."""
+    if len(w.verts) < 3:
+        return False
+    if w.shortcut(0, w.poses.shape[0] - 1, distance, cfg.min_gain):
+        return True
+    steps, empty = _steps(w, cfg)
+    changed, nochange = False, 0
+    for _ in range(steps):
+        count = len(w.verts)
+        if nochange >= empty or count < 3:
+            break
+        nochange += 1
+        reach = 1 + int(np.floor(0.5 + count * cfg.range_ratio))
+        p1 = int(rng.integers(0, count))
+        p2 = int(rng.integers(max(p1 - reach, 0), min(count - 1, p1 + reach) + 1))
+        if abs(p1 - p2) < 2:
+            p2 = p1 + 2 if p1 < count - 2 else p1 - 2
+            if not 0 <= p2 < count:
+                continue
+        lo, hi = sorted((p1, p2))
+        if w.shortcut(w.verts[lo], w.verts[hi], distance, cfg.min_gain):
+            changed, nochange = True, 0
+    return changed
+
+
+def simplify_path(
+    path: FloatArray,
+    directions: FloatArray | None,
+    steer: Steer,
+    checker: Checker,
+    *,
+    cost: PieceCost = length_cost,
+    distance: Distance | None = None,
+    vertices: Sequence[int] | None = None,
+    config: SimplifyConfig | None = None,
+    seed: int = 0,
+) -> SimplifiedPath:
+    """Simplify a dense path with exact steering (see the module doc).
+
+    Args:
+        path: (N, 3) poses [x, y, theta] densely along the motion, N >= 1.
+        directions: (N,) +1/-1 direction of the motion arriving at each pose; None: all forwards.
+        steer: Exact steering between two poses (dense motion or None).
+        checker: Whether dense poses are collision-free.
+        cost: Cost of one piece (additive over pieces); default the x-y length.
+        distance: Lower bounds of steered costs, for pruning (optional).
+        vertices: Indices of the path's vertices (increasing; the ends are added); None: the ends,
+            the cusps and one every ``config.vertex_spacing`` metres. A cost that is not additive
+            at every pose (a per-edge term, like C-RRT*'s) needs its own edges' ends here.
+        config: Parameters (default :class:`SimplifyConfig`).
+        seed: Seed of the random draws.
+
+    Returns:
+        The simplified path with its lengths, cusps, costs and the time taken.
+
+    Raises:
+        ValueError: A path that is not (N, 3) finite poses, or directions of another length.
+    """
+    t0, c0 = time.perf_counter(), time.thread_time()
+    cfg = config if config is not None else SimplifyConfig()
+    p = np.asarray(path, dtype=float)
+    if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 1 or not np.all(np.isfinite(p)):
+        raise ValueError(f"simplify_path: path must be (N, 3) finite poses with N >= 1, got shape {p.shape}")
+    d = np.ones(p.shape[0]) if directions is None else np.asarray(directions, dtype=float).reshape(-1)
+    if d.size != p.shape[0]:
+        raise ValueError(f"simplify_path: directions must have one entry per pose ({p.shape[0]}), got {d.size}")
+    verts = sorted({0, p.shape[0] - 1, *(int(v) for v in vertices)}) if vertices is not None else None
+    raw = _Work(p, d, verts or default_vertices(p, d, cfg), steer, checker, cost)
+    raw_cost, raw_len, raw_cusps = raw.total(), path_length(p), count_cusps(d)
+    w = raw
+    if vertices is None:  # loops are cut only where the cost is the path's own (no per-edge terms)
+        cut, cut_d = remove_loops(p, d)
+        assert cut_d is not None
+        if cut.shape[0] < p.shape[0]:
+            w = _Work(cut, cut_d, default_vertices(cut, cut_d, cfg), steer, checker, cost)
+    if p.shape[0] >= 3:
+        rng = np.random.default_rng(seed)
+        _greedy(w, cfg, distance)
+        for _ in range(cfg.max_rounds):
+            changed = _cusp_pass(w, cfg, distance)
+            changed |= _turned_pass(w, cfg, distance)
+            changed |= _shortcut_pass(w, cfg, rng, distance)
+            changed |= _reduce_pass(w, cfg, rng, distance)
+            if not changed:
+                break
+    return SimplifiedPath(
+        w.poses,
+        w.dirs,
+        np.asarray(w.verts, dtype=np.int64),
+        raw_len,
+        path_length(w.poses),
+        raw_cusps,
+        count_cusps(w.dirs),
+        raw_cost,
+        w.total(),
+        w.kept,
+        w.attempts,
+        time.perf_counter() - t0,
+        time.thread_time() - c0,
+    )
