@@ -340,21 +340,21 @@ def test_every_ghost_in_its_colour_where_its_robot_is(quality: str) -> None:
 
     job = short_job()
     logs = spread_runs(Simulator(job.robot, job.scenario.world).model)
-    model, replay = _replay_of(logs, 320, 240, fps=10.0, quality=quality)
+    model, replay = _replay_of(logs, 640, 480, fps=10.0, quality=quality)
     assert [t.label for t in replay.tracks] == list(logs)  # closed loop first, solid
     assert replay.required_geoms == 4 * model.ngeom + 64
     cols = np.array([rgb255(t.rgba) for t in replay.tracks], dtype=float)
     chroma = cols - cols.mean(axis=1, keepdims=True)  # what grey floor and white light leave of a colour
-    with SceneRenderer(model, 320, 240, quality=quality, max_geom=replay.required_geoms) as r:
+    with SceneRenderer(model, 640, 480, quality=quality, max_geom=replay.required_geoms) as r:
         assert replay.composited(r) == (quality == "fast")
         for k in (0, replay.n_frames // 2, replay.n_frames - 1):
             frame = replay.render_frame(r, k).astype(float)
             r.renderer.update_scene(replay.datas[0], camera=replay.camera)
-            proj = Projection.from_scene(r.scene, 320, 240)
+            proj = Projection.from_scene(r.scene, *replay.world_size)
             for ti in range(1, 4):
                 centre = geom_box_corners(replay.datas[ti], replay.robot_geoms, replay.robot_corners)
                 x, y = np.rint(proj.pixels(centre.reshape(-1, 3).mean(axis=0, keepdims=True))[0][0]).astype(int)
-                assert x > replay._box[0] + 3 or y > replay._box[1] + 3  # not under the overlay
+                assert 3 <= x < replay.world_size[0] - 3 and 3 <= y < replay.world_size[1] - 3  # in the world picture
                 patch = frame[y - 2 : y + 3, x - 2 : x + 3].reshape(-1, 3).mean(axis=0)
                 ch = patch - patch.mean()
                 cos = chroma @ ch / (np.linalg.norm(chroma, axis=1) * np.linalg.norm(ch))
@@ -371,7 +371,7 @@ def test_every_ghost_in_its_colour_where_its_robot_is(quality: str) -> None:
         pix = last.astype(int)[rows, cols_]  # (points, 9, 3)
         assert len(px) > 10
         assert np.mean((np.abs(pix - cols[ti]).max(axis=2) <= 2).any(axis=1)) > 0.8, tr.label
-    names = [text.split(":")[0] for text, _ in replay._overlay_lines(0)[1:]]
+    names = replay.panel.labels[2::2]
     assert names == ["closed loop", "open loop (ghost)", "odometry feedback (ghost)", "wobbly (ghost)"]
 
 

@@ -104,13 +104,13 @@ def measure(size: str, camera: str, quality: str, frames: int, repeats: int) -> 
         data.qpos[:] = job.logs[RunKind.CLOSED_LOOP].qpos[0]
         mujoco.mj_forward(model, data)
         replay.render_frame(renderer, 0)  # sets the camera of frame 0; warms the context up
-        camera = replay.camera
+        view = replay.camera
         frame = np.empty((h, w, 3), dtype=np.uint8)
 
         def bare() -> float:
             t0 = time.perf_counter()
             for _ in range(n):
-                renderer.renderer.update_scene(data, camera=camera)
+                renderer.renderer.update_scene(data, camera=view)
                 renderer.renderer.render(out=frame)
             return time.perf_counter() - t0
 
