@@ -393,3 +393,165 @@ def test_chase_camera_keeps_every_run_in_view() -> None:
                 corners = geom_box_corners(d, replay.robot_geoms, replay.robot_corners).reshape(-1, 3)
                 px, ok = proj.pixels(corners)
                 assert ok.all() and np.all((px >= 0) & (px <= (160, 120))), (k, replay.tracks[ti].label)
+
+
+# ---- the picture: the whole world, the close-up, the text beside them ----------------------------
+
+
+def _outline(obstacle: object) -> np.ndarray:
+    """(M, 2) points [m] enclosing an obstacle: its corners, or its bounding box's."""
+    from planning.core.world import Box, Polygon
+
+    if isinstance(obstacle, Box):
+        return obstacle.corners()
+    if isinstance(obstacle, Polygon):
+        return obstacle.array
+    x0, x1, y0, y1 = obstacle.bounding_box()  # type: ignore[attr-defined]
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+
+
+@pytest.mark.parametrize(("name", "robot"), [("parking_lot", "turtlebot3"), ("farm", "edumip")])
+def test_overview_frames_every_obstacle_and_wall(name: str, robot: str) -> None:
+    """Every obstacle's corners, at the floor and at their top (0.3 m), and the walls' outer corners
+    (0.05 m thick, 0.15 m high) project into the world picture, though the runs visit one corner;
+    the world fills the picture within its margins (not lost in a wide one)."""
+    from tests.render_helpers import scenario_replay
+
+    _, replay, world = scenario_replay(name, robot)
+    proj = replay.projection(replay.overview_camera, replay.world_size)
+    w, h = replay.world_size
+    pts = [
+        np.column_stack([np.repeat(_outline(o), 2, axis=0), np.tile([0.0, 0.3], len(_outline(o)))])
+        for o in world.obstacles
+    ]
+    x0, x1, y0, y1 = world.bounds
+    t = 0.05
+    walls = [(x, y, z) for x in (x0 - t, x1 + t) for y in (y0 - t, y1 + t) for z in (0.0, 0.15)]
+    px, ok = proj.pixels(np.vstack([*pts, walls]))
+    assert ok.all() and len(px) == 8 * 0 + sum(len(p) for p in pts) + 8
+    assert np.all((px >= 0) & (px <= (w, h))), px[~np.all((px >= 0) & (px <= (w, h)), axis=1)]
+    span = px.max(axis=0) - px.min(axis=0)
+    assert max(span[0] / w, span[1] / h) > 0.9
+
+
+#: The robots' longer sides [m] (TurtleBot3 Burger 0.178 m with its wheels, EduMIP 0.112 m).
+LENGTH = {"turtlebot3": 0.178, "edumip": 0.112}
+
+
+@pytest.mark.parametrize(("name", "robot"), [("parking_lot", "turtlebot3"), ("farm", "edumip"), ("open", "turtlebot3")])
+def test_inset_follows_the_robot_at_a_sixth_of_its_width(name: str, robot: str) -> None:
+    """In every frame the close-up holds the whole closed-loop robot, its longer side a sixth of the
+    inset's width (32 px of the default 192 px inset; more when it turns, at most 1.3 times), and the
+    middle of the open-loop ghost two robot lengths to its side."""
+    from sim.viz.replay import INSET_ROBOTS
+    from tests.render_helpers import scenario_replay
+
+    _, replay, _ = scenario_replay(name, robot, spacing=2 * LENGTH[robot])
+    iw, ih = replay.layout.inset[2] - replay.layout.inset[0], replay.layout.inset[3] - replay.layout.inset[1]
+    assert (iw, ih) == (192, 192) and replay.magnification > 1.5
+    proj = replay.projection(replay.overview_camera, replay.inset_view)
+    sizes = []
+    for k in range(0, replay.n_frames, 3):
+        replay.pose_frame(k)
+        win = replay.inset_windows[k]
+        for ti in (0, 1):  # the robot, the open-loop ghost
+            corners = geom_box_corners(replay.datas[ti], replay.robot_geoms, replay.robot_corners).reshape(-1, 3)
+            px = proj.pixels(corners)[0] - win[:2]
+            if ti == 0:  # all of it
+                assert np.all((px >= 0) & (px <= (iw, ih))), k
+                sizes.append(float(np.ptp(px, axis=0).max()))
+            else:  # its middle, well inside
+                assert np.all((px.mean(axis=0) >= 8) & (px.mean(axis=0) <= (iw - 8, ih - 8))), k
+    assert min(sizes) >= iw / INSET_ROBOTS - 1.0 and max(sizes) <= 1.3 * iw / INSET_ROBOTS, (min(sizes), max(sizes))
+
+
+def test_inset_shows_the_robot_and_each_near_ghost_in_its_colour() -> None:
+    """Rendered: at the close-up's projection of each robot the inset has that robot's pixels, the
+    ghosts in their own hue; the inset composited (fast) equals the inset drawn whole within 3 levels
+    away from the lines."""
+    require_gl()
+    from sim.viz import replay as replay_module
+    from tests.render_helpers import scenario_replay
+
+    model, replay, _ = scenario_replay("parking_lot", "turtlebot3", fps=10.0)
+    replay.tracks = replay.tracks[:2]  # the robot and the open-loop ghost 0.3 m off
+    replay.datas = replay.datas[:2]
+    x0, y0, x1, y1 = replay.layout.inset
+    col = np.array(rgb255(replay.tracks[1].rgba), dtype=float)
+    with SceneRenderer(model, 640, 480, max_geom=replay.required_geoms) as r:
+        proj = replay.projection(replay.overview_camera, replay.inset_view)
+        for k in (0, replay.n_frames - 1):
+            frame = replay.render_frame(r, k)
+            inset = frame[y0:y1, x0:x1].astype(float)
+            win = replay.inset_windows[k]
+            corners = geom_box_corners(replay.datas[1], replay.robot_geoms, replay.robot_corners).reshape(-1, 3)
+            cx, cy = np.rint(proj.pixels(corners.mean(axis=0, keepdims=True))[0][0] - win[:2]).astype(int)
+            patch = inset[cy - 3 : cy + 4, cx - 3 : cx + 4].reshape(-1, 3).mean(axis=0)
+            ch, want = patch - patch.mean(), col - col.mean()
+            assert float(ch @ want / (np.linalg.norm(ch) * np.linalg.norm(want))) > 0.95, (k, patch)
+            # drawn whole (as with shadows or reflections) instead of composited
+            whole = np.empty_like(frame[y0:y1, x0:x1])
+            lit = replay_module.lit
+            try:
+                replay_module.lit = lambda renderer: True  # type: ignore[assignment]
+                replay._render_inset(r, k, whole)
+            finally:
+                replay_module.lit = lit
+            diff = np.abs(whole.astype(int) - inset.astype(int)).max(axis=2)
+            assert np.mean(diff <= 3) > 0.97, (k, np.mean(diff <= 3))
+
+
+def test_panel_covers_no_world_pixel() -> None:
+    """The world picture, the inset and the text tile the frame without overlap; drawing the inset and
+    the text changes no pixel of the world picture (overview composited, and chase drawn whole)."""
+    require_gl()
+    from tests.render_helpers import scenario_replay
+
+    for camera in ("overview", "chase"):
+        model, replay, _ = scenario_replay("farm", "turtlebot3", (320, 240), fps=10.0, camera=camera)
+        lay = replay.layout
+        cover = np.zeros((240, 320), int)
+        for x0, y0, x1, y1 in (lay.world, lay.inset, lay.text):
+            cover[y0:y1, x0:x1] += 1
+        assert np.all(cover == 1)
+        wx0, wy0, wx1, wy1 = lay.world
+        assert (wx0, wy0, wy1) == (0, 0, 240) and wx1 == replay.world_size[0] == 320 - 96
+        with SceneRenderer(model, 320, 240, max_geom=replay.required_geoms) as r:
+            k = replay.n_frames // 2
+            full = replay.render_frame(r, k).copy()
+            replay.panel.draw = lambda k, frame: None  # type: ignore[method-assign]
+            replay._render_inset = lambda r, k, out: None  # type: ignore[method-assign]
+            bare = replay.render_frame(r, k, np.zeros_like(full))
+        np.testing.assert_array_equal(full[wy0:wy1, wx0:wx1], bare[wy0:wy1, wx0:wx1])
+        assert not np.any(bare[:, wx1:])  # the world drew nothing into the panel
+        assert full[:, wx1:].std() > 10.0
+
+
+def test_clock_prints_each_frames_own_time() -> None:
+    """Each frame prints its simulation time to 0.01 s (at 30 frames/s no two frames share a reading;
+    the clock stepped every 0.1 s before) and each run's error at its sample; the stamped numbers
+    change the text's pixels exactly when the printed text changes."""
+    from sim.viz.panel import TextPanel
+
+    _, replay = _replay_of(short_job().logs, 640, 480, fps=30.0)
+    panel: TextPanel = replay.panel
+    clocks = [panel.texts(k)[0] for k in range(replay.n_frames)]
+    assert clocks[:5] == ["0.00", "0.03", "0.07", "0.10", "0.13"]
+    for k, text in enumerate(clocks):
+        assert text == f"{k / 30.0:.2f}"
+        for tr, err in zip(replay.tracks, panel.texts(k)[1:], strict=True):
+            assert err == f"{tr.err[tr.idx[k]]:.3f}"
+    frames = []
+    for k in range(12):
+        img = np.zeros((480, 640, 3), np.uint8)
+        panel.draw(k, img)
+        frames.append(img)
+    x0, y0 = replay.layout.text[:2]
+    field = panel.fields[0][0]
+    for k in range(1, 12):
+        a, b = (f[y0 + field[1] : y0 + field[3], x0 + field[0] : x0 + field[2]] for f in (frames[k - 1], frames[k]))
+        assert np.any(a != b), k  # a new reading every frame
+    again = np.zeros((480, 640, 3), np.uint8)
+    panel.draw(5, again)
+    np.testing.assert_array_equal(again, frames[5])
+    assert not np.any(frames[5][:, : replay.layout.world[2]])  # nothing outside the text

@@ -143,7 +143,7 @@ class TextPanel:
         magnification: The close-up's scale over the world picture's.
     """
 
-    def __init__(self, layout: FrameLayout, tracks: Sequence[Track], times: FloatArray, magnification: int) -> None:
+    def __init__(self, layout: FrameLayout, tracks: Sequence[Track], times: FloatArray, magnification: float) -> None:
         self.tracks = list(tracks)
         self.times = times
         w, h = FrameLayout.size(layout.text)
@@ -171,7 +171,7 @@ class TextPanel:
         # each field as wide as its longest number with every digit an 8 (digits share one width)
         clock = f"{float(times[-1] - times[0]):.2f}"
         line(0, "t = ", TEXT_RGB, widest(clock), " s")
-        line(1, f"close-up x{magnification}", (150, 155, 165))
+        line(1, f"close-up x{magnification:.1f}", (150, 155, 165))
         for i, tr in enumerate(self.tracks):
             rgb = run_rgb(tr.rgba)
             line(2 + 2 * i, tr.name if i == 0 else f"{tr.name} (ghost)", rgb)

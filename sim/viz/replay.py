@@ -376,11 +376,11 @@ class Replay:
         mujoco.mjv_updateScene(self.model, self.datas[0], self.option, self.perturb, camera, 0, scene)
         return Projection.from_scene(scene, *size)
 
-    def _inset_setup(self, main: RunLog) -> tuple[int, tuple[int, int], NDArray[np.int64]]:
+    def _inset_setup(self, main: RunLog) -> tuple[float, tuple[int, int], NDArray[np.int64]]:
         """The close-up: the overview camera at ``m`` times the world picture's scale (a view ``m``
-        times its size; the inset shows a window of it that follows the main robot), ``m`` the
-        smallest whole number that makes the robot's longer side :data:`INSET_ROBOTS` times smaller
-        than the inset (at most :data:`MAX_MAGNIFIED` pixels a side).
+        times its size; the inset shows a window of it that follows the main robot), ``m`` such that
+        the robot's longer side is :data:`INSET_ROBOTS` times smaller than the inset, at least 1 (at
+        most :data:`MAX_MAGNIFIED` pixels a side).
 
         Returns:
             ``m``, the magnified view's (width, height) [px], (n, 4) the inset's window
@@ -395,9 +395,8 @@ class Replay:
         px_per_m = self.projection(self.overview_camera, self.world_size).scale(np.array([x, y, 0.0]))
         iw, ih = FrameLayout.size(self.layout.inset)
         want = iw / INSET_ROBOTS / (length * px_per_m)
-        cap = max(1, MAX_MAGNIFIED // max(self.world_size))
-        mag = int(min(cap, max(1, math.ceil(want))))
-        view = (mag * self.world_size[0], mag * self.world_size[1])
+        mag = min(MAX_MAGNIFIED / max(self.world_size), max(1.0, want))
+        view = (round(mag * self.world_size[0]), round(mag * self.world_size[1]))
         tr = self.tracks[0]
         centre = np.column_stack([tr.xy[tr.idx], np.full(tr.idx.size, 0.5 * self._robot_extent[1])])
         px = self.projection(self.overview_camera, view).pixels(centre)[0]
