@@ -95,6 +95,18 @@ def world_extent(world: World, paths: Sequence[NDArray[np.float64]] = ()) -> tup
     return (float(b[:, 0].min()), float(b[:, 1].max())), (float(b[:, 2].min()), float(b[:, 3].max()))
 
 
+def frame_world(ax: Axes, world: World, paths: Sequence[NDArray[np.float64]] = ()) -> None:
+    """Set ``ax`` to frame :func:`world_extent` of ``world`` and ``paths`` with a 3 % margin, equal
+    axes in metres."""
+    (xmin, xmax), (ymin, ymax) = world_extent(world, paths)
+    pad = 0.03 * max(xmax - xmin, ymax - ymin)
+    ax.set_xlim(xmin - pad, xmax + pad)
+    ax.set_ylim(ymin - pad, ymax + pad)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+
+
 def save_figure(fig: Figure, path: str | Path, *, overwrite: bool = False) -> Path:
     """Write a figure as PNG atomically (never replacing a file unless ``overwrite``)."""
     with atomic_path(path, overwrite=overwrite) as tmp:

@@ -26,7 +26,7 @@ from planning.core.world import World
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.metrics import heading_errors, position_errors
 from sim.physics.runlog import RunLog
-from sim.viz.plots.draw import RUN_WORLD, draw_world, world_extent
+from sim.viz.plots.draw import RUN_WORLD, draw_world, frame_world
 from sim.viz.plots.estimation import EstimationSeries
 from sim.viz.scene import run_styles
 
@@ -67,13 +67,7 @@ def world_figure(world: World, trajectory: Trajectory, logs: Mapping[str, RunLog
         ax.plot(log.pose[:, 0], log.pose[:, 1], color=color, ls=ls, lw=1.4, label=name)
     ax.plot(*ref[0, :2], "o", color="k", ms=6, label="start")
     ax.plot(*ref[-1, :2], "*", color="k", ms=10, label="end of reference")
-    (xmin, xmax), (ymin, ymax) = world_extent(world, [ref[:, :2]] + [log.pose[:, :2] for log in logs.values()])
-    pad = 0.03 * max(xmax - xmin, ymax - ymin)
-    ax.set_xlim(xmin - pad, xmax + pad)
-    ax.set_ylim(ymin - pad, ymax + pad)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
+    frame_world(ax, world, [ref[:, :2]] + [log.pose[:, :2] for log in logs.values()])
     ax.grid(True, alpha=0.3)
     # the legend beside the arena, so it covers none of it
     ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, fontsize=8)
