@@ -86,6 +86,7 @@ def test_default_outputs_then_no_clobber(tmp_path: Path, monkeypatch: pytest.Mon
     duration = record["closed_loop"]["duration_s"]
     assert frames.shape == (round(duration * 5), 240, 320, 3)
     assert record["video"]["frames"] == frames.shape[0]
+    assert record["video"]["inset_magnification"] > 1.0  # the close-up is larger than the overview
     assert frames.std() > 5.0
     # the closed-loop robot moved: its pixels at the start differ between first and last frame, and so
     # do those where it ends

@@ -15,7 +15,9 @@ Drawing:
   scene's camera and drawn into the image with PIL (as ``mjGEOM_LINE`` geoms, the few hundred
   segments a smooth path needs cost more than the whole scene under OSMesa), hidden where the solid
   robot stands;
-- a small text overlay (time, each run's current position error, in the run's colour).
+- beside the world picture, never over it (:class:`sim.viz.panel.FrameLayout`): a close-up inset
+  that follows the main robot (the overview camera magnified, seen through a moving window) and the
+  text (the frame's own time, each run's current position error, in the run's colour).
 
 With a camera that stays put (the overview) and no shadows or reflections (the fast look), the
 world is drawn once per video and only the robots each frame, each through a small viewport,
@@ -180,8 +182,8 @@ class Replay:
 
     The world, obstacles and robots are drawn by MuJoCo; the reference path and the trails are
     lines on the floor drawn into the image through the camera's projection (hundreds of line geoms
-    would cost more than the whole scene), hidden where the solid robot stands; the overlay is
-    drawn last.
+    would cost more than the whole scene), hidden where the solid robot stands. The world picture
+    takes the left of the frame; the close-up and the text the panel on its right.
 
     Args:
         model: The runs' model (the Simulator's compiled model).
