@@ -263,7 +263,7 @@ class RobotPass:
         self.scene = mujoco.MjvScene(model, maxgeom=maxgeom)
         self.scene.flags[:] = flags
         self.scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
-        self._gain = light_gain(renderer.model)
+        self._gain = light_gain(model)  # the lights it draws with
         self.size = (renderer.width, renderer.height)
         self._frustum: list[Frustum] = []
         self._queued: list[tuple[int, int, int, int]] = []  # x, y, width, height in the buffer [px]
@@ -459,9 +459,10 @@ class FixedViewCompositor:
             renderer's buffer is drawn in tiles (its static pass) and shown through windows
             (:meth:`frame`): the same camera at a finer scale, a magnifying glass.
         line_width: Width of the reference line [px]; None for the replay's.
+        flags: Render flags (``mjtRndFlag``); None for the renderer's.
 
     Raises:
-        ValueError: No camera given and the replay's moves, or the renderer draws shadows or reflections.
+        ValueError: No camera given and the replay's moves, or the flags draw shadows or reflections.
     """
 
     def __init__(
@@ -471,10 +472,11 @@ class FixedViewCompositor:
         camera: mujoco.MjvCamera | None = None,
         size: tuple[int, int] | None = None,
         line_width: int | None = None,
+        flags: NDArray[np.uint8] | None = None,
     ) -> None:
         if camera is None and not replay.fixed_camera:
             raise ValueError("the compositor needs a camera that stays put (the overview camera)")
-        flags = renderer.scene.flags
+        flags = renderer.scene.flags if flags is None else flags
         if flags[mujoco.mjtRndFlag.mjRND_SHADOW] or flags[mujoco.mjtRndFlag.mjRND_REFLECTION]:
             raise ValueError("the compositor cannot draw shadows or reflections: use the full render")
         self.replay = replay

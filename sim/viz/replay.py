@@ -485,7 +485,7 @@ class Replay:
     def composited(self, renderer: SceneRenderer) -> bool:
         """Whether the world picture is composited from a world drawn once (:mod:`sim.viz.compose`):
         with a camera that stays put and a renderer without shadows or reflections (robots change no
-        other pixel). The inset is composited whenever the renderer draws no shadows or reflections."""
+        other pixel). The close-up is always composited."""
         return self.fixed_camera and not lit(renderer)
 
     def render_frame(self, renderer: SceneRenderer, k: int, out: Frame | None = None) -> Frame:
@@ -526,31 +526,15 @@ class Replay:
 
     def _render_inset(self, renderer: SceneRenderer, k: int, out: Frame) -> None:
         """Draw frame ``k``'s close-up into ``out``: the window of the magnified overview around the
-        main robot, composited or (with shadows or reflections) drawn whole."""
+        main robot, composited (:mod:`sim.viz.compose`) in the fast look whatever the renderer's (its
+        shadows and reflections would cost a whole render a frame for a picture of the robots)."""
         win = tuple(int(v) for v in self.inset_windows[k])
-        window: Rect = (win[0], win[1], win[2], win[3])
-        if not lit(renderer):
-            inset = self._inset
-            if inset is None or inset.renderer is not renderer:
-                inset = FixedViewCompositor(
-                    self, renderer, self.overview_camera, self.inset_view, self.inset_line_width
-                )
-                self._inset = inset
-            inset.frame(k, out, window)
-            return
-        self.pose_frame(k)
-        if self._inset_scene is None:
-            self._inset_scene = mujoco.MjvScene(renderer.model, maxgeom=self.required_geoms)
-        scene = self._inset_scene
-        scene.flags[:] = renderer.scene.flags
-        every = mujoco.mjtCatBit.mjCAT_ALL
-        # the renderer's model: its lights (the high look dims them)
-        cam = self.overview_camera
-        mujoco.mjv_updateScene(renderer.model, self.datas[0], self.option, self.perturb, cam, every, scene)
-        self._add_ghosts(renderer, scene)
-        proj = Projection.from_scene(scene, *self.inset_view)
-        self._draw_view(renderer, scene, self.inset_view, window, out)
-        self._decorate(proj, k, out, window, self.inset_line_width)
+        if self._inset is None or self._inset.renderer is not renderer:
+            flags = np.array(renderer.scene.flags)
+            flags[mujoco.mjtRndFlag.mjRND_SHADOW] = flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = 0
+            view, width = self.inset_view, self.inset_line_width
+            self._inset = FixedViewCompositor(self, renderer, self.overview_camera, view, width, flags)
+        self._inset.frame(k, out, (win[0], win[1], win[2], win[3]))
 
     @staticmethod
     def _draw_view(r: SceneRenderer, scene: mujoco.MjvScene, view: tuple[int, int], window: Rect, out: Frame) -> None:
@@ -565,7 +549,6 @@ class Replay:
 
     _compositor: FixedViewCompositor | None = None
     _inset: FixedViewCompositor | None = None
-    _inset_scene: mujoco.MjvScene | None = None
 
 
 def lit(renderer: SceneRenderer) -> bool:

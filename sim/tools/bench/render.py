@@ -9,7 +9,7 @@ same camera and render flags, for the same number of frames, in one process with
   encoding into an MP4 through the writer thread (to a temporary file that is deleted). With the
   fixed overview camera in the fast look the pipeline draws the world once per video and only the
   robots each frame (:mod:`sim.viz.compose`), the close-up likewise; the chase camera and the high
-  look draw the whole world picture every frame (the high look its close-up too).
+  look draw the whole world picture every frame (the close-up stays composited, in the fast look).
 
 The two loops alternate for ``--repeats`` rounds and the best round of each counts, so load from
 other processes hits both alike. Targets: ratio >= 0.9, and >= 30 frames/s for the pipeline at
