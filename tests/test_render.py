@@ -562,3 +562,25 @@ def test_clock_prints_each_frames_own_time() -> None:
     panel.draw(5, again)
     np.testing.assert_array_equal(again, frames[5])
     assert not np.any(frames[5][:, : replay.layout.world[2]])  # nothing outside the text
+
+
+def test_inset_points_at_a_ghost_beyond_it() -> None:
+    """A ghost out of the close-up (four robot lengths off; the inset spans six) gets an arrowhead in
+    its colour on the inset's edge towards it (straight down: it is to the robot's right, south); one
+    in view (two lengths off) gets none."""
+    require_gl()
+    from tests.render_helpers import scenario_replay
+
+    model, replay, _ = scenario_replay("open", "turtlebot3", spacing=2 * LENGTH["turtlebot3"], fps=10.0)
+    replay.tracks = replay.tracks[:3]  # the robot, a ghost two robot lengths off (in view), one four off
+    replay.datas = replay.datas[:3]
+    x0, y0, x1, y1 = replay.layout.inset
+    purple = np.array(rgb255(replay.tracks[2].rgba))
+    orange = np.array(rgb255(replay.tracks[1].rgba))
+    with SceneRenderer(model, 640, 480, max_geom=replay.required_geoms) as r:
+        inset = replay.render_frame(r, 0)[y0:y1, x0:x1].astype(int)
+    near = lambda rgb, rows: int(np.sum(np.abs(inset[rows] - rgb).max(axis=2) <= 2))
+    bottom, top = slice(y1 - y0 - 16, y1 - y0), slice(0, y1 - y0 - 16)
+    assert near(purple, bottom) > 20  # the arrowhead
+    assert near(purple, top) == 0  # nothing else of it
+    assert near(orange, bottom) == 0  # the ghost in view gets none

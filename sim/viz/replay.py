@@ -399,9 +399,13 @@ class Replay:
         want = iw / INSET_ROBOTS / (length * px_per_m)
         mag = min(MAX_MAGNIFIED / max(self.world_size), max(1.0, want))
         view = (round(mag * self.world_size[0]), round(mag * self.world_size[1]))
-        tr = self.tracks[0]
-        centre = np.column_stack([tr.xy[tr.idx], np.full(tr.idx.size, 0.5 * self._robot_extent[1])])
-        px = self.projection(self.overview_camera, view).pixels(centre)[0]
+        proj = self.projection(self.overview_camera, view)
+        mid = 0.5 * self._robot_extent[1]
+        #: (runs, n, 2) each robot's middle in the magnified view per frame [px].
+        self.inset_centres = np.stack(
+            [proj.pixels(np.column_stack([t.xy[t.idx], np.full(t.idx.size, mid)]))[0] for t in self.tracks]
+        )
+        px = self.inset_centres[0]
         x0 = np.clip(np.rint(px[:, 0] - iw / 2), 0, max(0, view[0] - iw)).astype(np.int64)
         y0 = np.clip(np.rint(px[:, 1] - ih / 2), 0, max(0, view[1] - ih)).astype(np.int64)
         return mag, view, np.column_stack([x0, y0, x0 + iw, y0 + ih])
@@ -535,6 +539,30 @@ class Replay:
             view, width = self.inset_view, self.inset_line_width
             self._inset = FixedViewCompositor(self, renderer, self.overview_camera, view, width, flags)
         self._inset.frame(k, out, (win[0], win[1], win[2], win[3]))
+        self._point_to_far_ghosts(k, out)
+
+    def _point_to_far_ghosts(self, k: int, out: Frame) -> None:
+        """Draw, for each ghost whose middle is outside frame ``k``'s close-up, an arrowhead in its
+        colour on the close-up's edge, pointing at it from the middle of the close-up."""
+        h, w = out.shape[:2]
+        half = np.array([w / 2.0, h / 2.0])
+        size = max(6.0, w / 14.0)  # arrowhead length [px]
+        heads = []
+        for ti in range(1, len(self.tracks)):
+            d = self.inset_centres[ti, k] - self.inset_windows[k, :2] - half
+            if np.all(np.abs(d) <= half) or not np.all(np.isfinite(d)):
+                continue
+            u = d / float(np.hypot(*d))
+            tip = half + d * float(np.min((half - 2.0) / np.maximum(np.abs(d), 1e-9)))
+            side = np.array([-u[1], u[0]]) * 0.6 * size
+            base = tip - u * size
+            heads.append(([tuple(tip), tuple(base + side), tuple(base - side)], rgb255(self.tracks[ti].rgba)))
+        if heads:
+            img = Image.fromarray(out)
+            draw = ImageDraw.Draw(img)
+            for points, rgb in heads:
+                draw.polygon(points, fill=rgb, outline=(20, 20, 20))
+            out[:] = np.asarray(img)
 
     @staticmethod
     def _draw_view(r: SceneRenderer, scene: mujoco.MjvScene, view: tuple[int, int], window: Rect, out: Frame) -> None:
