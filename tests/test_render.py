@@ -509,9 +509,11 @@ def test_inset_shows_each_near_ghost_in_its_colour(quality: str) -> None:
 
 
 def test_panel_covers_no_world_pixel() -> None:
-    """The world picture, the inset and the text tile the frame without overlap; drawing the inset and
-    the text changes no pixel of the world picture (overview composited, and chase drawn whole)."""
+    """The world picture, the inset and the text tile the frame without overlap, and the frame's world
+    picture is the world drawn alone, pixel for pixel: nothing of the inset or the text lies over it
+    (overview composited, chase drawn whole)."""
     require_gl()
+    from sim.viz.compose import FixedViewCompositor
     from tests.render_helpers import scenario_replay
 
     for camera in ("overview", "chase"):
@@ -523,14 +525,19 @@ def test_panel_covers_no_world_pixel() -> None:
         assert np.all(cover == 1)
         wx0, wy0, wx1, wy1 = lay.world
         assert (wx0, wy0, wy1) == (0, 0, 240) and wx1 == replay.world_size[0] == 320 - 96
+        alone = np.zeros((240, wx1, 3), np.uint8)
         with SceneRenderer(model, 320, 240, max_geom=replay.required_geoms) as r:
             k = replay.n_frames // 2
             full = replay.render_frame(r, k).copy()
-            replay.panel.draw = lambda k, frame: None  # type: ignore[method-assign]
-            replay._render_inset = lambda r, k, out: None  # type: ignore[method-assign]
-            bare = replay.render_frame(r, k, np.zeros_like(full))
-        np.testing.assert_array_equal(full[wy0:wy1, wx0:wx1], bare[wy0:wy1, wx0:wx1])
-        assert not np.any(bare[:, wx1:])  # the world drew nothing into the panel
+            if camera == "overview":
+                FixedViewCompositor(replay, r, size=replay.world_size).frame(k, alone)
+            else:
+                replay._update(r, k)
+                replay._draw_view(r, r.scene, replay.world_size, lay.world, alone)
+                proj = Projection.from_scene(r.scene, *replay.world_size)
+                replay._decorate(proj, k, alone, lay.world, replay.line_width)
+        assert alone.std() > 10.0
+        np.testing.assert_array_equal(full[wy0:wy1, wx0:wx1], alone)
         assert full[:, wx1:].std() > 10.0
 
 

@@ -447,6 +447,25 @@ def blend_ghost(out: Frame, rect: Rect, premult: NDArray[np.float32], transmissi
     np.copyto(dst, np.clip(np.rint(mixed), 0, 255).astype(np.uint8))
 
 
+@dataclass(frozen=True)
+class Pending:
+    """The robots' passes of one frame of a view, queued and waiting to be read back.
+
+    Attributes:
+        window: The part of the view drawn.
+        solid: The solid robot's rectangle (view pixels), or None when it is out of the window.
+        solid_slot: Its pass's slot in what :meth:`RobotPass.read` returns.
+        ghost_rects: The rectangle of each group of ghosts.
+        ghost_slots: The slots of each group's two passes (tinted, white).
+    """
+
+    window: Rect
+    solid: Rect | None
+    solid_slot: int
+    ghost_rects: list[Rect]
+    ghost_slots: list[tuple[int, int]]
+
+
 class FixedViewCompositor:
     """Draws a replay's frames for a camera that does not move (see the module docstring), whole or
     through a window.
@@ -460,6 +479,8 @@ class FixedViewCompositor:
             (:meth:`frame`): the same camera at a finer scale, a magnifying glass.
         line_width: Width of the reference line [px]; None for the replay's.
         flags: Render flags (``mjtRndFlag``); None for the renderer's.
+        passes: A :class:`RobotPass` to share with another compositor of the same renderer and
+            flags (their passes are then read back at once); None for its own.
 
     Raises:
         ValueError: No camera given and the replay's moves, or the flags draw shadows or reflections.
@@ -473,6 +494,7 @@ class FixedViewCompositor:
         size: tuple[int, int] | None = None,
         line_width: int | None = None,
         flags: NDArray[np.uint8] | None = None,
+        passes: RobotPass | None = None,
     ) -> None:
         if camera is None and not replay.fixed_camera:
             raise ValueError("the compositor needs a camera that stays put (the overview camera)")
@@ -501,7 +523,7 @@ class FixedViewCompositor:
             draw.line(line, fill=rgb255(REFERENCE_RGBA), width=self.line_width)
         self._base: Frame = np.asarray(base).copy()
         # robots alone from here on, drawn through small rectangles
-        self.passes = RobotPass(replay.ghost_model, renderer, flags, replay.required_geoms)
+        self.passes = passes or RobotPass(replay.ghost_model, renderer, flags, replay.required_geoms)
         self._trail_px = [self.proj.pixels(t3)[0] for t3 in replay.trail3]
         self._reset_trails()
 
@@ -566,9 +588,8 @@ class FixedViewCompositor:
         datas = [r.datas[t] for t in tracks]
         return self.passes.queue_ghosts(datas, rect, [r.tracks[t].rgba for t in tracks], occluder, statics)
 
-    def _robots(self, out: Frame, window: Rect) -> None:
-        """Draw the passes of every robot in ``window`` of the view, read them back at once, lay them
-        over ``out`` (the window's pixels)."""
+    def _queue_robots(self, window: Rect) -> Pending:
+        """Queue the passes of every robot in ``window`` of the view (read back later, at once)."""
         r = self.replay
         self.passes.view(r.datas[0], self.camera, self.size)  # lights and eyes of this frame
         solid = self._rect(r.datas[0], window)
@@ -576,15 +597,18 @@ class FixedViewCompositor:
         rects = {t: self._rect(r.datas[t], window) for t in range(1, len(r.datas))}
         groups = merge_rects({t: rc for t, rc in rects.items() if rc is not None})
         slots = [self._queue_ghosts(tracks, rect, solid) for rect, tracks in groups]
-        res = self.passes.read()
-        ox, oy = window[:2]
-        if solid is not None:
-            x0, y0, x1, y1 = solid
-            rgb, solid_depth = res[solid_slot]
+        return Pending(window, solid, solid_slot, [rect for rect, _ in groups], slots)
+
+    def _lay_robots(self, out: Frame, pending: Pending, res: Sequence[tuple[Frame, NDArray[np.float32]]]) -> None:
+        """Lay the passes of ``pending`` (read back into ``res``) over ``out``, the window's pixels."""
+        ox, oy = pending.window[:2]
+        if pending.solid is not None:
+            x0, y0, x1, y1 = pending.solid
+            rgb, solid_depth = res[pending.solid_slot]
             # reversed depth (MuJoCo's default): larger is nearer, 0 where nothing was drawn
             near = solid_depth > self.depth[y0:y1, x0:x1]
             out[y0 - oy : y1 - oy, x0 - ox : x1 - ox][near] = rgb[near]
-        for (rect, _), (tinted, white) in zip(groups, slots, strict=True):
+        for rect, (tinted, white) in zip(pending.ghost_rects, pending.ghost_slots, strict=True):
             shifted = (rect[0] - ox, rect[1] - oy, rect[2] - ox, rect[3] - oy)
             blend_ghost(out, shifted, *ghost_layer(res[tinted][0], res[white][0]))
 
@@ -592,6 +616,14 @@ class FixedViewCompositor:
     def frame(self, k: int, out: Frame, window: Rect | None = None) -> Frame:
         """Draw frame ``k`` of the view, or of its rectangle ``window``, into ``out`` ((h, w, 3) uint8,
         the window's size; it may be a view into a larger image) and return it."""
+        pending = self.begin(k, out, window)
+        self.finish(out, pending, self.passes.read())
+        return out
+
+    def begin(self, k: int, out: Frame, window: Rect | None = None) -> Pending:
+        """The first half of :meth:`frame`: the world and trails into ``out``, the robots' passes
+        queued. Compositors that share one :class:`RobotPass` read their passes back at once
+        (``passes.read()``), then each calls :meth:`finish`."""
         r = self.replay
         win = window or (0, 0, *self.size)
         r.pose_frame(k)
@@ -603,5 +635,8 @@ class FixedViewCompositor:
             if upto and tr.trail_keep[upto - 1] != j:
                 pts = self._trail_px[ti][[int(tr.trail_keep[upto - 1]), j]] - win[:2]
                 draw_polyline(out, pts, rgb255(tr.rgba), trail_width(ti, self.line_width))
-        self._robots(out, win)
-        return out
+        return self._queue_robots(win)
+
+    def finish(self, out: Frame, pending: Pending, res: Sequence[tuple[Frame, NDArray[np.float32]]]) -> None:
+        """The second half of :meth:`frame`: lay the robots read back into ``res`` over ``out``."""
+        self._lay_robots(out, pending, res)

@@ -514,32 +514,41 @@ class Replay:
             )
         if out is None:
             out = np.empty((self.settings.height, self.settings.width, 3), dtype=np.uint8)
-        world = region(out, self.layout.world)
-        if self.composited(renderer):
-            if self._compositor is None or self._compositor.renderer is not renderer:
-                self._compositor = FixedViewCompositor(self, renderer, size=self.world_size)
-            self._compositor.frame(k, world)
+        world, inset = region(out, self.layout.world), region(out, self.layout.inset)
+        main, close = self._compositors(renderer)
+        x0, y0, x1, y1 = (int(v) for v in self.inset_windows[k])
+        if main is not None:  # both composited, their passes read back at once
+            pending = main.begin(k, world)
+            pending_inset = close.begin(k, inset, (x0, y0, x1, y1))
+            res = main.passes.read()
+            main.finish(world, pending, res)
+            close.finish(inset, pending_inset, res)
         else:
             self._update(renderer, k)
             self._draw_view(renderer, renderer.scene, self.world_size, (0, 0, *self.world_size), world)
             proj = Projection.from_scene(renderer.scene, *self.world_size)
             self._decorate(proj, k, world, (0, 0, *self.world_size), self.line_width)
-        self._render_inset(renderer, k, region(out, self.layout.inset))
+            close.frame(k, inset, (x0, y0, x1, y1))
+        self._point_to_far_ghosts(k, inset)
         self.panel.draw(k, out)
         return out
 
-    def _render_inset(self, renderer: SceneRenderer, k: int, out: Frame) -> None:
-        """Draw frame ``k``'s close-up into ``out``: the window of the magnified overview around the
-        main robot, composited (:mod:`sim.viz.compose`) in the fast look whatever the renderer's (its
-        shadows and reflections would cost a whole render a frame for a picture of the robots)."""
-        win = tuple(int(v) for v in self.inset_windows[k])
-        if self._inset is None or self._inset.renderer is not renderer:
-            flags = np.array(renderer.scene.flags)
-            flags[mujoco.mjtRndFlag.mjRND_SHADOW] = flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = 0
-            view, width = self.inset_view, self.inset_line_width
-            self._inset = FixedViewCompositor(self, renderer, self.overview_camera, view, width, flags)
-        self._inset.frame(k, out, (win[0], win[1], win[2], win[3]))
-        self._point_to_far_ghosts(k, out)
+    def _compositors(self, renderer: SceneRenderer) -> tuple[FixedViewCompositor | None, FixedViewCompositor]:
+        """The world picture's compositor (None when it is drawn whole) and the close-up's, made for
+        ``renderer`` on first use. The close-up is composited in the fast look whatever the
+        renderer's (shadows and reflections would cost a whole render a frame for a picture of the
+        robots), sharing the world picture's robot passes when it has them."""
+        if self._inset is not None and self._inset.renderer is renderer:
+            return self._compositor, self._inset
+        self._compositor = None
+        if self.composited(renderer):
+            self._compositor = FixedViewCompositor(self, renderer, size=self.world_size)
+        flags = np.array(renderer.scene.flags)
+        flags[mujoco.mjtRndFlag.mjRND_SHADOW] = flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = 0
+        view, width = self.inset_view, self.inset_line_width
+        passes = self._compositor.passes if self._compositor is not None else None
+        self._inset = FixedViewCompositor(self, renderer, self.overview_camera, view, width, flags, passes)
+        return self._compositor, self._inset
 
     def _point_to_far_ghosts(self, k: int, out: Frame) -> None:
         """Draw, for each ghost whose middle is outside frame ``k``'s close-up, an arrowhead in its
