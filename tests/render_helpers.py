@@ -6,6 +6,7 @@ import dataclasses
 import functools
 from typing import TYPE_CHECKING
 
+import numpy as np
 import pytest
 
 from planning.core.geometry import Pose2D
@@ -42,7 +43,7 @@ def require_gl() -> None:
         pytest.skip(f"no OpenGL backend can load here: {reason}")
 
 
-def spread_runs(model, *, overlap: bool = False):  # type: ignore[no-untyped-def]
+def spread_runs(model, *, overlap: bool = False, spacing: float = 0.3):  # type: ignore[no-untyped-def]
     """The short job's two runs and stand-ins for more, four runs in all, one beside the other to the
     right of the line (below it in the overview, clear of the overlay): the open-loop ghost 0.3 m
     off, an odometry-feedback ghost 0.6 m off and a run of a label the style table does not know
@@ -52,9 +53,9 @@ def spread_runs(model, *, overlap: bool = False):  # type: ignore[no-untyped-def
     cl = logs["closed_loop"]
     return {
         "closed_loop": cl,
-        "open_loop": moved_log(model, logs["open_loop"], (0.0, -0.3)),
-        "closed_loop_odometry": moved_log(model, cl, (0.0, -0.6)),
-        "wobbly": moved_log(model, cl, (0.0, -0.66 if overlap else -0.9)),
+        "open_loop": moved_log(model, logs["open_loop"], (0.0, -spacing)),
+        "closed_loop_odometry": moved_log(model, cl, (0.0, -2 * spacing)),
+        "wobbly": moved_log(model, cl, (0.0, -2.2 * spacing if overlap else -3 * spacing)),
     }
 
 
@@ -79,3 +80,23 @@ def moved_log(model: mujoco.MjModel, log: RunLog, offset: tuple[float, float]) -
     qpos[:, adr : adr + 2] += offset
     pose[:, :2] += offset
     return dataclasses.replace(log, qpos=qpos, pose=pose)
+
+
+def scenario_replay(  # type: ignore[no-untyped-def]
+    name: str, robot: str = "turtlebot3", size: tuple[int, int] = (640, 480), spacing: float = 0.3, **settings: object
+):
+    """The short job's runs moved to a scenario's start, replayed in that scenario's world with
+    ``robot``: (model, replay, world). Four runs (:func:`spread_runs`: ghosts ``spacing``, twice and
+    three times that [m] to the right of the closed loop)."""
+    from planning.core.robot import load_robot
+    from sim.physics.simulator import Simulator
+    from sim.viz.replay import RenderSettings, Replay
+
+    sc = load_scenario(name)
+    model = Simulator(load_robot(robot), sc.world).model
+    start = (sc.start.x, sc.start.y)
+    logs = {k: moved_log(model, log, start) for k, log in spread_runs(model, spacing=spacing).items()}
+    ref = short_job().trajectory
+    traj = dataclasses.replace(ref, pose=ref.pose + np.array([*start, 0.0]), _cache={})
+    replay = Replay(model, traj, logs, RenderSettings(width=size[0], height=size[1], **settings))  # type: ignore[arg-type]
+    return model, replay, sc.world

@@ -78,3 +78,22 @@ def test_help_documents_the_options() -> None:
 def test_bench_sim_prints_a_ratio() -> None:
     r = nhsim("bench", "sim", "--reference", "line", "--repeats", "1")
     assert "ratio" in r.stdout and r.returncode in (0, 1)
+
+
+def test_header_prints_the_simulated_time_of_the_runs(tmp_path: Path) -> None:
+    """A planned job simulates its trajectory and then a hold of final regulation: the header's time is
+    the runs' logged duration (not the trajectory's alone), and names both parts."""
+    import re
+
+    out = tmp_path / "run.json"
+    r = nhsim("simulate", "--json", str(out), "--no-video", "--no-plots")
+    assert r.returncode in (0, 1), r.stderr
+    rec = json.loads(out.read_text())
+    header = r.stdout.splitlines()[0]
+    m = re.search(r"\| ([\d.]+) s simulated \(trajectory ([\d.]+) s \+ hold ([\d.]+) s\) \|", header)
+    assert m is not None, header
+    total, trajectory, hold = (float(g) for g in m.groups())
+    for kind in ("closed_loop", "open_loop"):
+        assert total == round(rec[kind]["duration_s"], 1), (header, rec[kind]["duration_s"])
+    assert trajectory == round(rec["trajectory"]["duration_s"], 1)
+    assert hold > 0.0 and abs(total - trajectory - hold) <= 0.1 + 1e-9

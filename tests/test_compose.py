@@ -24,7 +24,21 @@ def _replay(camera: str = "overview", *, runs: int = 2) -> tuple[mujoco.MjModel,
     job = short_job()
     model = Simulator(job.robot, job.scenario.world).model
     logs = job.logs if runs == 2 else spread_runs(model, overlap=True)
-    return model, Replay(model, job.trajectory, logs, RenderSettings(width=W, height=H, fps=10.0, camera=camera))
+    replay = Replay(model, job.trajectory, logs, RenderSettings(width=W, height=H, fps=10.0, camera=camera))
+    if camera == "overview":
+        close_overview(replay)
+    return model, replay
+
+
+def close_overview(replay: Replay) -> None:
+    """Point the replay's fixed camera straight down at the runs, framing them alone on the renderer's
+    whole image (the robots then cover enough pixels to compare at this size)."""
+    xy = np.vstack([tr.xy for tr in replay.tracks])
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    tan_half = np.tan(np.radians(replay.model.vis.global_.fovy) / 2.0)
+    half = (hi - lo) / 2 + 0.35
+    dist = max(half[1] / tan_half, half[0] / (tan_half * W / H)) + 0.25
+    replay._cam_params[:] = (*((lo + hi) / 2), 0.0, dist, 90.0, -90.0)
 
 
 def test_draw_polyline_in_a_crop_equals_drawing_on_the_whole_image() -> None:
@@ -70,9 +84,8 @@ def test_composited_frames_match_the_full_render(monkeypatch: pytest.MonkeyPatch
     require_gl()
     model, replay = _replay(runs=runs)
     monkeypatch.setattr(compose, "draw_polyline", lambda *a, **k: None)  # no trails
-    monkeypatch.setattr(replay, "draw_overlay", lambda k, frame: None)
     with SceneRenderer(model, W, H, max_geom=replay.required_geoms) as r:
-        comp = FixedViewCompositor(replay, r)
+        comp = FixedViewCompositor(replay, r)  # the renderer's whole image, as r.render() draws it
         # the floor layer without the reference path: MuJoCo's static pass with the sky
         scn = comp._scene
         scn.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = True
@@ -187,12 +200,11 @@ def test_a_wall_hides_the_part_of_a_ghost_inside_it(monkeypatch: pytest.MonkeyPa
     model = Simulator(job.robot, job.scenario.world).model
     logs = {"closed_loop": job.logs["closed_loop"], "open_loop": moved_log(model, job.logs["open_loop"], (0.0, 3.0))}
     replay = Replay(model, job.trajectory, logs, RenderSettings(width=W, height=H, fps=10.0))
-    monkeypatch.setattr(replay, "draw_overlay", lambda k, frame: None)
+    close_overview(replay)
     with SceneRenderer(model, W, H, max_geom=replay.required_geoms) as r:
         k = replay.n_frames - 1
-        got = replay.render_frame(r, k).astype(int)
-        comp = replay._compositor
-        assert comp is not None
+        comp = FixedViewCompositor(replay, r)  # the renderer's whole image, as r.render() draws it
+        got = comp.frame(k, np.empty((H, W, 3), np.uint8)).astype(int)
         walls = [o for o in comp.occluders if o.type == mujoco.mjtGeom.mjGEOM_BOX]
         assert len(comp.occluders) == len(walls) == 4  # the walls; the floor plane is left out
         replay._update(r, k)

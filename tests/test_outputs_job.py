@@ -26,7 +26,7 @@ FAST = [
     "--fps",
     "5",
     "--size",
-    "160x120",
+    "320x240",
     "--quiet",
 ]
 #: FAST's stem: the scenario's own robot, and the one non-default run setting (--runs) as the first 6 hex
@@ -46,7 +46,7 @@ def decode(path: Path) -> tuple[dict, np.ndarray]:
 
 
 def robot_pixel(record: dict, which: str) -> np.ndarray:
-    """Image position of the closed-loop robot at the first or last frame (overview camera)."""
+    """Image position of the closed-loop robot at the first or last frame in the world picture (overview)."""
     from planning.core.robot import load_robot
     from planning.scenario import load_scenario
     from sim.physics.simulator import Simulator
@@ -58,13 +58,13 @@ def robot_pixel(record: dict, which: str) -> np.ndarray:
 
     job = simulate_reference("open", reference="line", runs=(RunKind.CLOSED_LOOP, RunKind.OPEN_LOOP))
     model = Simulator(load_robot("turtlebot3"), load_scenario("open").world).model
-    replay = Replay(model, job.trajectory, job.logs, RenderSettings(width=160, height=120, fps=5.0))
+    replay = Replay(model, job.trajectory, job.logs, RenderSettings(width=320, height=240, fps=5.0))
     k = 0 if which == "first" else replay.n_frames - 1
-    with SceneRenderer(model, 160, 120, max_geom=replay.required_geoms) as r:
+    with SceneRenderer(model, 320, 240, max_geom=replay.required_geoms) as r:
         replay.render_frame(r, k)  # poses the runs and the camera of frame k
         r.renderer.update_scene(replay.datas[0], camera=replay.camera)
         tr = replay.tracks[0]
-        px, _ = Projection.from_scene(r.scene, 160, 120).pixels(np.array([[*tr.xy[tr.idx[k]], 0.1]]))
+        px, _ = Projection.from_scene(r.scene, *replay.world_size).pixels(np.array([[*tr.xy[tr.idx[k]], 0.1]]))
     return px[0]
 
 
@@ -84,8 +84,9 @@ def test_default_outputs_then_no_clobber(tmp_path: Path, monkeypatch: pytest.Mon
     meta, frames = decode(renders / f"{stem}.mp4")
     assert meta["codec"] == "h264" and meta["pix_fmt"].startswith("yuv420p")
     duration = record["closed_loop"]["duration_s"]
-    assert frames.shape == (round(duration * 5), 120, 160, 3)
+    assert frames.shape == (round(duration * 5), 240, 320, 3)
     assert record["video"]["frames"] == frames.shape[0]
+    assert record["video"]["inset_magnification"] > 1.0  # the close-up is larger than the overview
     assert frames.std() > 5.0
     # the closed-loop robot moved: its pixels at the start differ between first and last frame, and so
     # do those where it ends

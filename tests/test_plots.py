@@ -52,6 +52,29 @@ def test_world_figure_draws_every_obstacle_and_path() -> None:
     np.testing.assert_array_equal(ref.get_xdata(), job.trajectory.pose[:, 0])
 
 
+@pytest.mark.parametrize("name", ["parking_lot", "farm"])
+def test_world_figure_frames_the_whole_arena(name: str) -> None:
+    """Every obstacle's outline and the walls lie inside the axes, though the runs visit a corner only;
+    the legend sits outside the axes."""
+    from planning.scenario import load_scenario
+
+    job = short_job()  # a 0.4 m line from the origin
+    world = load_scenario(name).world
+    fig = world_figure(world, job.trajectory, job.logs)
+    ax = fig.axes[0]
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    obstacles = [p for p in ax.patches[1:]]
+    assert len(obstacles) == len(world.obstacles) > 10
+    for patch in ax.patches:  # the walls' outline, then each obstacle's
+        xy = patch.get_path().transformed(patch.get_patch_transform()).vertices
+        assert np.all((xy[:, 0] >= x0) & (xy[:, 0] <= x1) & (xy[:, 1] >= y0) & (xy[:, 1] <= y1)), patch
+    bx0, bx1, by0, by1 = world.bounds
+    assert x1 - x0 <= 1.1 * max(bx1 - bx0, by1 - by0)  # framed, not lost in a margin
+    fig.canvas.draw()
+    legend = ax.get_legend().get_window_extent()
+    assert legend.x0 >= ax.get_window_extent().x1  # beside the axes, over nothing
+
+
 def test_errors_figure_plots_the_errors() -> None:
     job = short_job()
     ax_p, ax_h = errors_figure(job.logs).axes

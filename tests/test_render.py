@@ -340,21 +340,21 @@ def test_every_ghost_in_its_colour_where_its_robot_is(quality: str) -> None:
 
     job = short_job()
     logs = spread_runs(Simulator(job.robot, job.scenario.world).model)
-    model, replay = _replay_of(logs, 320, 240, fps=10.0, quality=quality)
+    model, replay = _replay_of(logs, 640, 480, fps=10.0, quality=quality)
     assert [t.label for t in replay.tracks] == list(logs)  # closed loop first, solid
     assert replay.required_geoms == 4 * model.ngeom + 64
     cols = np.array([rgb255(t.rgba) for t in replay.tracks], dtype=float)
     chroma = cols - cols.mean(axis=1, keepdims=True)  # what grey floor and white light leave of a colour
-    with SceneRenderer(model, 320, 240, quality=quality, max_geom=replay.required_geoms) as r:
+    with SceneRenderer(model, 640, 480, quality=quality, max_geom=replay.required_geoms) as r:
         assert replay.composited(r) == (quality == "fast")
         for k in (0, replay.n_frames // 2, replay.n_frames - 1):
             frame = replay.render_frame(r, k).astype(float)
             r.renderer.update_scene(replay.datas[0], camera=replay.camera)
-            proj = Projection.from_scene(r.scene, 320, 240)
+            proj = Projection.from_scene(r.scene, *replay.world_size)
             for ti in range(1, 4):
                 centre = geom_box_corners(replay.datas[ti], replay.robot_geoms, replay.robot_corners)
                 x, y = np.rint(proj.pixels(centre.reshape(-1, 3).mean(axis=0, keepdims=True))[0][0]).astype(int)
-                assert x > replay._box[0] + 3 or y > replay._box[1] + 3  # not under the overlay
+                assert 3 <= x < replay.world_size[0] - 3 and 3 <= y < replay.world_size[1] - 3  # in the world picture
                 patch = frame[y - 2 : y + 3, x - 2 : x + 3].reshape(-1, 3).mean(axis=0)
                 ch = patch - patch.mean()
                 cos = chroma @ ch / (np.linalg.norm(chroma, axis=1) * np.linalg.norm(ch))
@@ -371,7 +371,7 @@ def test_every_ghost_in_its_colour_where_its_robot_is(quality: str) -> None:
         pix = last.astype(int)[rows, cols_]  # (points, 9, 3)
         assert len(px) > 10
         assert np.mean((np.abs(pix - cols[ti]).max(axis=2) <= 2).any(axis=1)) > 0.8, tr.label
-    names = [text.split(":")[0] for text, _ in replay._overlay_lines(0)[1:]]
+    names = replay.panel.labels[2::2]
     assert names == ["closed loop", "open loop (ghost)", "odometry feedback (ghost)", "wobbly (ghost)"]
 
 
@@ -393,3 +393,201 @@ def test_chase_camera_keeps_every_run_in_view() -> None:
                 corners = geom_box_corners(d, replay.robot_geoms, replay.robot_corners).reshape(-1, 3)
                 px, ok = proj.pixels(corners)
                 assert ok.all() and np.all((px >= 0) & (px <= (160, 120))), (k, replay.tracks[ti].label)
+
+
+# ---- the picture: the whole world, the close-up, the text beside them ----------------------------
+
+
+def _outline(obstacle: object) -> np.ndarray:
+    """(M, 2) points [m] enclosing an obstacle: its corners, or its bounding box's."""
+    from planning.core.world import Box, Polygon
+
+    if isinstance(obstacle, Box):
+        return obstacle.corners()
+    if isinstance(obstacle, Polygon):
+        return obstacle.array
+    x0, x1, y0, y1 = obstacle.bounding_box()  # type: ignore[attr-defined]
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+
+
+@pytest.mark.parametrize(("name", "robot"), [("parking_lot", "turtlebot3"), ("farm", "edumip")])
+def test_overview_frames_every_obstacle_and_wall(name: str, robot: str) -> None:
+    """Every obstacle's corners, at the floor and at their top (0.3 m), and the walls' outer corners
+    (0.05 m thick, 0.15 m high) project into the world picture, though the runs visit one corner;
+    the world fills the picture within its margins (not lost in a wide one)."""
+    from tests.render_helpers import scenario_replay
+
+    _, replay, world = scenario_replay(name, robot)
+    proj = replay.projection(replay.overview_camera, replay.world_size)
+    w, h = replay.world_size
+    pts = [
+        np.column_stack([np.repeat(_outline(o), 2, axis=0), np.tile([0.0, 0.3], len(_outline(o)))])
+        for o in world.obstacles
+    ]
+    x0, x1, y0, y1 = world.bounds
+    t = 0.05
+    walls = [(x, y, z) for x in (x0 - t, x1 + t) for y in (y0 - t, y1 + t) for z in (0.0, 0.15)]
+    px, ok = proj.pixels(np.vstack([*pts, walls]))
+    assert ok.all() and len(px) == 8 * 0 + sum(len(p) for p in pts) + 8
+    assert np.all((px >= 0) & (px <= (w, h))), px[~np.all((px >= 0) & (px <= (w, h)), axis=1)]
+    span = px.max(axis=0) - px.min(axis=0)
+    assert max(span[0] / w, span[1] / h) > 0.9
+
+
+#: The robots' longer sides [m] (TurtleBot3 Burger 0.178 m with its wheels, EduMIP 0.112 m).
+LENGTH = {"turtlebot3": 0.178, "edumip": 0.112}
+
+
+@pytest.mark.parametrize(("name", "robot"), [("parking_lot", "turtlebot3"), ("farm", "edumip"), ("open", "turtlebot3")])
+def test_inset_follows_the_robot_at_a_sixth_of_its_width(name: str, robot: str) -> None:
+    """In every frame the close-up holds the whole closed-loop robot, its longer side a sixth of the
+    inset's width (32 px of the default 192 px inset; more when it turns, at most 1.3 times), and the
+    middle of the open-loop ghost two robot lengths to its side."""
+    from sim.viz.replay import INSET_ROBOTS
+    from tests.render_helpers import scenario_replay
+
+    _, replay, _ = scenario_replay(name, robot, spacing=2 * LENGTH[robot])
+    iw, ih = replay.layout.inset[2] - replay.layout.inset[0], replay.layout.inset[3] - replay.layout.inset[1]
+    assert (iw, ih) == (192, 192) and replay.magnification > 1.5
+    proj = replay.projection(replay.overview_camera, replay.inset_view)
+    sizes = []
+    for k in range(0, replay.n_frames, 3):
+        replay.pose_frame(k)
+        win = replay.inset_windows[k]
+        for ti in (0, 1):  # the robot, the open-loop ghost
+            corners = geom_box_corners(replay.datas[ti], replay.robot_geoms, replay.robot_corners).reshape(-1, 3)
+            px = proj.pixels(corners)[0] - win[:2]
+            if ti == 0:  # all of it
+                assert np.all((px >= 0) & (px <= (iw, ih))), k
+                sizes.append(float(np.ptp(px, axis=0).max()))
+            else:  # its middle, well inside
+                assert np.all((px.mean(axis=0) >= 8) & (px.mean(axis=0) <= (iw - 8, ih - 8))), k
+    assert min(sizes) >= iw / INSET_ROBOTS - 1.0 and max(sizes) <= 1.3 * iw / INSET_ROBOTS, (min(sizes), max(sizes))
+
+
+@pytest.mark.parametrize("quality", ["fast", "high"])
+def test_inset_shows_each_near_ghost_in_its_colour(quality: str) -> None:
+    """Rendered: at the close-up's projection of the open-loop ghost the inset has its hue; the
+    close-up (composited, unlit in either look) equals MuJoCo's render of the same window of the
+    magnified view with the lines drawn on it, within 3 levels on 97 % of its pixels (fast look)."""
+    require_gl()
+    import mujoco
+
+    from tests.render_helpers import scenario_replay
+
+    model, replay, _ = scenario_replay("parking_lot", "turtlebot3", fps=10.0, quality=quality)
+    replay.tracks = replay.tracks[:2]  # the robot and the open-loop ghost 0.3 m off
+    replay.datas = replay.datas[:2]
+    x0, y0, x1, y1 = replay.layout.inset
+    col = np.array(rgb255(replay.tracks[1].rgba), dtype=float)
+    with SceneRenderer(model, 640, 480, quality=quality, max_geom=replay.required_geoms) as r:
+        proj = replay.projection(replay.overview_camera, replay.inset_view)
+        scene = mujoco.MjvScene(model, maxgeom=replay.required_geoms)
+        scene.flags[:] = r.scene.flags
+        for k in (0, replay.n_frames - 1):
+            frame = replay.render_frame(r, k)
+            inset = frame[y0:y1, x0:x1].astype(float)
+            win = tuple(int(v) for v in replay.inset_windows[k])
+            corners = geom_box_corners(replay.datas[1], replay.robot_geoms, replay.robot_corners).reshape(-1, 3)
+            cx, cy = np.rint(proj.pixels(corners.mean(axis=0, keepdims=True))[0][0] - win[:2]).astype(int)
+            patch = inset[cy - 3 : cy + 4, cx - 3 : cx + 4].reshape(-1, 3).mean(axis=0)
+            ch, want = patch - patch.mean(), col - col.mean()
+            assert float(ch @ want / (np.linalg.norm(ch) * np.linalg.norm(want))) > 0.95, (k, patch)
+            if quality == "high":
+                continue
+            # MuJoCo's render of the window: world, robot and translucent ghost, then the lines
+            every = mujoco.mjtCatBit.mjCAT_ALL
+            mujoco.mjv_updateScene(
+                model, replay.datas[0], replay.option, replay.perturb, replay.overview_camera, every, scene
+            )
+            replay._add_ghosts(r, scene)
+            whole = np.empty((y1 - y0, x1 - x0, 3), np.uint8)
+            replay._draw_view(r, scene, replay.inset_view, win, whole)  # type: ignore[arg-type]
+            replay._decorate(Projection.from_scene(scene, *replay.inset_view), k, whole, win, replay.inset_line_width)  # type: ignore[arg-type]
+            diff = np.abs(whole.astype(int) - inset.astype(int)).max(axis=2)
+            assert np.mean(diff <= 3) > 0.97, (k, np.mean(diff <= 3))
+
+
+def test_panel_covers_no_world_pixel() -> None:
+    """The world picture, the inset and the text tile the frame without overlap, and the frame's world
+    picture is the world drawn alone, pixel for pixel: nothing of the inset or the text lies over it
+    (overview composited, chase drawn whole)."""
+    require_gl()
+    from sim.viz.compose import FixedViewCompositor
+    from tests.render_helpers import scenario_replay
+
+    for camera in ("overview", "chase"):
+        model, replay, _ = scenario_replay("farm", "turtlebot3", (320, 240), fps=10.0, camera=camera)
+        lay = replay.layout
+        cover = np.zeros((240, 320), int)
+        for x0, y0, x1, y1 in (lay.world, lay.inset, lay.text):
+            cover[y0:y1, x0:x1] += 1
+        assert np.all(cover == 1)
+        wx0, wy0, wx1, wy1 = lay.world
+        assert (wx0, wy0, wy1) == (0, 0, 240) and wx1 == replay.world_size[0] == 320 - 96
+        alone = np.zeros((240, wx1, 3), np.uint8)
+        with SceneRenderer(model, 320, 240, max_geom=replay.required_geoms) as r:
+            k = replay.n_frames // 2
+            full = replay.render_frame(r, k).copy()
+            if camera == "overview":
+                FixedViewCompositor(replay, r, size=replay.world_size).frame(k, alone)
+            else:
+                replay._update(r, k)
+                replay._draw_view(r, r.scene, replay.world_size, lay.world, alone)
+                proj = Projection.from_scene(r.scene, *replay.world_size)
+                replay._decorate(proj, k, alone, lay.world, replay.line_width)
+        assert alone.std() > 10.0
+        np.testing.assert_array_equal(full[wy0:wy1, wx0:wx1], alone)
+        assert full[:, wx1:].std() > 10.0
+
+
+def test_clock_prints_each_frames_own_time() -> None:
+    """Each frame prints its simulation time to 0.01 s (at 30 frames/s no two frames share a reading;
+    the clock stepped every 0.1 s before) and each run's error at its sample; the stamped numbers
+    change the text's pixels exactly when the printed text changes."""
+    from sim.viz.panel import TextPanel
+
+    _, replay = _replay_of(short_job().logs, 640, 480, fps=30.0)
+    panel: TextPanel = replay.panel
+    clocks = [panel.texts(k)[0] for k in range(replay.n_frames)]
+    assert clocks[:5] == ["0.00", "0.03", "0.07", "0.10", "0.13"]
+    for k, text in enumerate(clocks):
+        assert text == f"{k / 30.0:.2f}"
+        for tr, err in zip(replay.tracks, panel.texts(k)[1:], strict=True):
+            assert err == f"{tr.err[tr.idx[k]]:.3f}"
+    frames = []
+    for k in range(12):
+        img = np.zeros((480, 640, 3), np.uint8)
+        panel.draw(k, img)
+        frames.append(img)
+    x0, y0 = replay.layout.text[:2]
+    field = panel.fields[0][0]
+    for k in range(1, 12):
+        a, b = (f[y0 + field[1] : y0 + field[3], x0 + field[0] : x0 + field[2]] for f in (frames[k - 1], frames[k]))
+        assert np.any(a != b), k  # a new reading every frame
+    again = np.zeros((480, 640, 3), np.uint8)
+    panel.draw(5, again)
+    np.testing.assert_array_equal(again, frames[5])
+    assert not np.any(frames[5][:, : replay.layout.world[2]])  # nothing outside the text
+
+
+def test_inset_points_at_a_ghost_beyond_it() -> None:
+    """A ghost out of the close-up (four robot lengths off; the inset spans six) gets an arrowhead in
+    its colour on the inset's edge towards it (straight down: it is to the robot's right, south); one
+    in view (two lengths off) gets none."""
+    require_gl()
+    from tests.render_helpers import scenario_replay
+
+    model, replay, _ = scenario_replay("open", "turtlebot3", spacing=2 * LENGTH["turtlebot3"], fps=10.0)
+    replay.tracks = replay.tracks[:3]  # the robot, a ghost two robot lengths off (in view), one four off
+    replay.datas = replay.datas[:3]
+    x0, y0, x1, y1 = replay.layout.inset
+    purple = np.array(rgb255(replay.tracks[2].rgba))
+    orange = np.array(rgb255(replay.tracks[1].rgba))
+    with SceneRenderer(model, 640, 480, max_geom=replay.required_geoms) as r:
+        inset = replay.render_frame(r, 0)[y0:y1, x0:x1].astype(int)
+    near = lambda rgb, rows: int(np.sum(np.abs(inset[rows] - rgb).max(axis=2) <= 2))
+    bottom, top = slice(y1 - y0 - 16, y1 - y0), slice(0, y1 - y0 - 16)
+    assert near(purple, bottom) > 20  # the arrowhead
+    assert near(purple, top) == 0  # nothing else of it
+    assert near(orange, bottom) == 0  # the ghost in view gets none

@@ -112,7 +112,10 @@ def add_output_arguments(p: argparse.ArgumentParser) -> None:
         "--camera",
         choices=["overview", "chase"],
         default="overview",
-        help="top-down overview of both runs, or a chase camera (default: %(default)s)",
+        help=(
+            "top-down overview of the whole world, or a chase camera (default: %(default)s); "
+            "the close-up inset beside it follows the main robot either way"
+        ),
     )
     g.add_argument(
         "--quality",

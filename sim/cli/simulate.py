@@ -431,7 +431,7 @@ def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
     if not args.quiet:
         print(
             f"scenario {result.scenario.name} | robot {result.robot.name} | {result.source} | "
-            f"{result.trajectory.duration:.1f} s | control {args.control_rate:g} Hz | "
+            f"{duration_text(result)} | control {args.control_rate:g} Hz | "
             f"gains Kp={gains.kp:g} Kd={gains.kd:g}" + (f" | perturbed {perturbation.label()}" if perturbation else "")
         )
         print(f"{_build_line(record)} | {_sensor_line(record)}")
@@ -452,3 +452,15 @@ def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
         print(line, file=sys.stderr)
     clean = all(run.metrics.warnings == 0 for run in result.runs.values())
     return 0 if clean and not failures else 1
+
+
+def duration_text(result: Any) -> str:
+    """The simulated time of a job's runs for the header line: the main run's logged duration [s],
+    which is the trajectory's plus the hold after it (final regulation of a planned job), e.g.
+    ``"38.4 s simulated (trajectory 36.4 s + hold 2.0 s)"``."""
+    main = result.runs.get(RunKind.CLOSED_LOOP) or next(iter(result.runs.values()))
+    text = f"{main.metrics.duration_s:.1f} s simulated"
+    hold = float(result.prepared.hold)
+    if hold > 0.0:
+        text += f" (trajectory {result.trajectory.duration:.1f} s + hold {hold:.1f} s)"
+    return text

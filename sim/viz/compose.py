@@ -17,7 +17,10 @@ reflections) a robot changes no pixel outside its own silhouette. So the world i
    behind, so the ghost over the frame is ``P + T * frame``: MuJoCo's own pixels, within the
    rounding of the two reads, with the trails under the tint. Ghosts whose rectangles overlap are
    drawn together, so their geoms are sorted by depth together as in MuJoCo's full render.
-3. the unfinished segment of each trail and the text overlay.
+3. the unfinished segment of each trail.
+
+The same camera drawn at a finer scale (a view larger than the renderer's buffer, its static pass
+drawn in tiles) and shown through a window that follows a robot is the video's close-up inset.
 
 The picture matches a full MuJoCo render of the scene pixel for pixel on the world and the solid
 robot, and within the rounding of the reads on the ghosts. Trails pass under the ghosts' tints and
@@ -126,8 +129,8 @@ class ComposedReplay(Protocol):
         ghost_model: The model with the robot's enclosed geoms left out (drawn for every robot pass).
         datas: One ``MjData`` per track, posed by :meth:`pose_frame`.
         tracks: The runs, the solid one first, then the ghosts.
-        camera: The camera, the same in every frame.
-        fixed_camera: Whether the camera stays put (required).
+        camera: The camera (the compositor's default).
+        fixed_camera: Whether the camera stays put (required of a default camera).
         ref3: (M, 3) decimated reference path on the floor [m].
         trail3: Per track, (N, 3) logged path on the floor [m].
         line_width: Width of the reference line [px].
@@ -153,9 +156,33 @@ class ComposedReplay(Protocol):
         """Pose every run and the camera at frame ``k``."""
         ...
 
-    def draw_overlay(self, k: int, frame: Frame) -> None:
-        """Draw frame ``k``'s text overlay into ``frame``."""
-        ...
+
+Frustum = tuple[float, float, float, float]  # centre, half width, bottom, top at the near plane [m]
+
+
+def eye_frusta(scene: mujoco.MjvScene, size: tuple[int, int]) -> list[Frustum]:
+    """Each eye's frustum (after ``mjv_updateScene``) as ``mjr_render`` draws it on a view of ``size``
+    (width, height) [px]: its width fitted to the view's aspect."""
+    w, h = size
+    out = []
+    for c in scene.camera:
+        half_w = 0.5 * float(c.frustum_top - c.frustum_bottom) * w / h
+        out.append((float(c.frustum_center), half_w, float(c.frustum_bottom), float(c.frustum_top)))
+    return out
+
+
+def narrow_frustum(scene: mujoco.MjvScene, frusta: Sequence[Frustum], size: tuple[int, int], rect: Rect) -> None:
+    """Narrow each eye of ``scene`` to what a view of ``size`` (width, height) [px] with frusta ``frusta``
+    (:func:`eye_frusta`) shows through ``rect``: drawn into a viewport of the rectangle's size, the
+    picture is that rectangle of the view, pixel centre for pixel centre."""
+    x0, y0, x1, y1 = rect
+    w, h = size
+    for eye, (center, half_w, bottom, top) in zip(scene.camera, frusta, strict=True):
+        du = 2.0 * half_w / w
+        dv = (top - bottom) / h
+        eye.frustum_center = center - half_w + 0.5 * (x0 + x1) * du
+        eye.frustum_top = top - y0 * dv
+        eye.frustum_bottom = top - y1 * dv
 
 
 def draw_polyline(img: Frame, pts: NDArray[np.float64], rgb: tuple[int, int, int], width: int) -> None:
@@ -236,22 +263,29 @@ class RobotPass:
         self.scene = mujoco.MjvScene(model, maxgeom=maxgeom)
         self.scene.flags[:] = flags
         self.scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
-        self._gain = light_gain(renderer.model)
-        self._frustum: list[tuple[float, float, float, float]] = []
+        self._gain = light_gain(model)  # the lights it draws with
+        self.size = (renderer.width, renderer.height)
+        self._frustum: list[Frustum] = []
         self._queued: list[tuple[int, int, int, int]] = []  # x, y, width, height in the buffer [px]
         self._results: list[tuple[Frame, NDArray[np.float32]]] = []
 
-    def view(self, data: mujoco.MjData, camera: mujoco.MjvCamera) -> Projection:
-        """Take the camera and lights of a frame (no geoms); returns the full view's projection."""
+    def view(self, data: mujoco.MjData, camera: mujoco.MjvCamera, size: tuple[int, int] | None = None) -> Projection:
+        """Take the camera and lights of a frame (no geoms) for a view of ``size`` (width, height) [px],
+        the renderer's size by default (a view may be larger: rectangles of it are drawn); returns the
+        view's projection."""
         mujoco.mjv_updateScene(self.model, data, self.opt, self.pert, camera, 0, self.scene)
-        w, h = self.renderer.width, self.renderer.height
-        self._frustum = []
-        for c in self.scene.camera:
-            half_w = 0.5 * float(c.frustum_top - c.frustum_bottom) * w / h
-            self._frustum.append((float(c.frustum_center), half_w, float(c.frustum_bottom), float(c.frustum_top)))
-        return Projection.from_scene(self.scene, w, h)
+        self.size = size or (self.renderer.width, self.renderer.height)
+        self._frustum = eye_frusta(self.scene, self.size)
+        return Projection.from_scene(self.scene, *self.size)
 
-    def rect(self, proj: Projection, data: mujoco.MjData, geoms: NDArray[np.int64], corners: FloatArray) -> Rect | None:
+    def rect(
+        self,
+        proj: Projection,
+        data: mujoco.MjData,
+        geoms: NDArray[np.int64],
+        corners: FloatArray,
+        bounds: Rect | None = None,
+    ) -> Rect | None:
         """Pixel rectangle holding the projected bounding boxes of ``geoms``, or None when off screen.
 
         Args:
@@ -259,15 +293,16 @@ class RobotPass:
             data: The robot's state.
             geoms: (G,) geom ids.
             corners: (G, 8, 3) bounding-box corners of each geom in its own frame [m].
+            bounds: The part of the view drawn (the rectangle is clipped to it); None for the whole view.
         """
         px, ok = proj.pixels(geom_box_corners(data, geoms, corners).reshape(-1, 3))
-        w, h = self.renderer.width, self.renderer.height
+        bx0, by0, bx1, by1 = bounds or (0, 0, *self.size)
         if not ok.all():
-            return (0, 0, w, h)
-        x0 = max(0, int(np.floor(px[:, 0].min())) - RECT_MARGIN)
-        y0 = max(0, int(np.floor(px[:, 1].min())) - RECT_MARGIN)
-        x1 = min(w, int(np.ceil(px[:, 0].max())) + RECT_MARGIN + 1)
-        y1 = min(h, int(np.ceil(px[:, 1].max())) + RECT_MARGIN + 1)
+            return (bx0, by0, bx1, by1)
+        x0 = max(bx0, int(np.floor(px[:, 0].min())) - RECT_MARGIN)
+        y0 = max(by0, int(np.floor(px[:, 1].min())) - RECT_MARGIN)
+        x1 = min(bx1, int(np.ceil(px[:, 0].max())) + RECT_MARGIN + 1)
+        y1 = min(by1, int(np.ceil(px[:, 1].max())) + RECT_MARGIN + 1)
         return (x0, y0, x1, y1) if x1 > x0 and y1 > y0 else None
 
     # ---- queued passes: drawn side by side into the off-screen buffer, read back at once -------------
@@ -359,12 +394,7 @@ class RobotPass:
             self._x, self._y, self._row = 0, self._y + self._row, 0
         if self._y + ph > h:
             self._flush()
-        for eye, (center, half_w, bottom, top) in zip(self.scene.camera, self._frustum, strict=True):
-            du = 2.0 * half_w / w
-            dv = (top - bottom) / h
-            eye.frustum_center = center - half_w + 0.5 * (x0 + x1) * du
-            eye.frustum_top = top - y0 * dv
-            eye.frustum_bottom = top - y1 * dv
+        narrow_frustum(self.scene, self._frustum, self.size, rect)
         self.renderer.draw(self.scene, (pw, ph), origin=(self._x, self._y))
         self._queued.append((self._x, self._y, pw, ph))
         self._x += pw
@@ -417,51 +447,104 @@ def blend_ghost(out: Frame, rect: Rect, premult: NDArray[np.float32], transmissi
     np.copyto(dst, np.clip(np.rint(mixed), 0, 255).astype(np.uint8))
 
 
-class FixedViewCompositor:
-    """Draws a replay's frames for a camera that does not move (see the module docstring).
+@dataclass(frozen=True)
+class Pending:
+    """The robots' passes of one frame of a view, queued and waiting to be read back.
 
-    Args:
-        replay: The replay; its camera must be the same in every frame.
-        renderer: The open renderer, without shadows or reflections.
-
-    Raises:
-        ValueError: The camera moves, or the renderer draws shadows or reflections.
+    Attributes:
+        window: The part of the view drawn.
+        solid: The solid robot's rectangle (view pixels), or None when it is out of the window.
+        solid_slot: Its pass's slot in what :meth:`RobotPass.read` returns.
+        ghost_rects: The rectangle of each group of ghosts.
+        ghost_slots: The slots of each group's two passes (tinted, white).
     """
 
-    def __init__(self, replay: ComposedReplay, renderer: SceneRenderer) -> None:
-        if not replay.fixed_camera:
+    window: Rect
+    solid: Rect | None
+    solid_slot: int
+    ghost_rects: list[Rect]
+    ghost_slots: list[tuple[int, int]]
+
+
+class FixedViewCompositor:
+    """Draws a replay's frames for a camera that does not move (see the module docstring), whole or
+    through a window.
+
+    Args:
+        replay: The replay.
+        renderer: The open renderer, without shadows or reflections.
+        camera: The fixed camera; None for the replay's, which must then stay put.
+        size: (width, height) [px] of the view; None for the renderer's. A view larger than the
+            renderer's buffer is drawn in tiles (its static pass) and shown through windows
+            (:meth:`frame`): the same camera at a finer scale, a magnifying glass.
+        line_width: Width of the reference line [px]; None for the replay's.
+        flags: Render flags (``mjtRndFlag``); None for the renderer's.
+        passes: A :class:`RobotPass` to share with another compositor of the same renderer and
+            flags (their passes are then read back at once); None for its own.
+
+    Raises:
+        ValueError: No camera given and the replay's moves, or the flags draw shadows or reflections.
+    """
+
+    def __init__(
+        self,
+        replay: ComposedReplay,
+        renderer: SceneRenderer,
+        camera: mujoco.MjvCamera | None = None,
+        size: tuple[int, int] | None = None,
+        line_width: int | None = None,
+        flags: NDArray[np.uint8] | None = None,
+        passes: RobotPass | None = None,
+    ) -> None:
+        if camera is None and not replay.fixed_camera:
             raise ValueError("the compositor needs a camera that stays put (the overview camera)")
-        flags = renderer.scene.flags
+        flags = renderer.scene.flags if flags is None else flags
         if flags[mujoco.mjtRndFlag.mjRND_SHADOW] or flags[mujoco.mjtRndFlag.mjRND_REFLECTION]:
             raise ValueError("the compositor cannot draw shadows or reflections: use the full render")
         self.replay = replay
         self.renderer = renderer
-        m = replay.model
-        w, h = renderer.width, renderer.height
+        self.camera = camera if camera is not None else replay.camera
+        self.size = size or (renderer.width, renderer.height)
+        self.line_width = line_width or replay.line_width
         self._opt = mujoco.MjvOption()
         self._pert = mujoco.MjvPerturb()
-        self._scene = mujoco.MjvScene(m, maxgeom=replay.required_geoms)
+        self._scene = mujoco.MjvScene(replay.model, maxgeom=replay.required_geoms)
         self._scene.flags[:] = flags
         replay.pose_frame(0)
         # static pass: the world, read back whole, colour and depth
         static = mujoco.mjtCatBit.mjCAT_STATIC
-        mujoco.mjv_updateScene(m, replay.datas[0], self._opt, self._pert, replay.camera, static, self._scene)
-        self.proj = Projection.from_scene(self._scene, w, h)
-        self.occluders = static_occluders(m, replay.datas[0], self._scene, self.proj)
-        rgb = np.empty((h, w, 3), np.uint8)
-        depth = np.empty((h, w), np.float32)
-        renderer.draw(self._scene)
-        renderer.read((0, 0, w, h), rgb, depth)
-        self.depth = depth
+        mujoco.mjv_updateScene(replay.model, replay.datas[0], self._opt, self._pert, self.camera, static, self._scene)
+        self.proj = Projection.from_scene(self._scene, *self.size)
+        self.occluders = static_occluders(replay.model, replay.datas[0], self._scene, self.proj)
+        rgb, self.depth = self._static_pass()
         base = Image.fromarray(rgb)
         draw = ImageDraw.Draw(base)
         for line in polylines(*self.proj.pixels(replay.ref3)):
-            draw.line(line, fill=rgb255(REFERENCE_RGBA), width=replay.line_width)
+            draw.line(line, fill=rgb255(REFERENCE_RGBA), width=self.line_width)
         self._base: Frame = np.asarray(base).copy()
         # robots alone from here on, drawn through small rectangles
-        self.passes = RobotPass(replay.ghost_model, renderer, flags, replay.required_geoms)
+        self.passes = passes or RobotPass(replay.ghost_model, renderer, flags, replay.required_geoms)
         self._trail_px = [self.proj.pixels(t3)[0] for t3 in replay.trail3]
         self._reset_trails()
+
+    def _static_pass(self) -> tuple[Frame, NDArray[np.float32]]:
+        """Colour and depth of the static scene over the whole view, drawn in tiles of the renderer's size."""
+        w, h = self.size
+        bw, bh = self.renderer.width, self.renderer.height
+        rgb = np.empty((h, w, 3), np.uint8)
+        depth = np.empty((h, w), np.float32)
+        frusta = eye_frusta(self._scene, self.size)
+        for y0 in range(0, h, bh):
+            for x0 in range(0, w, bw):
+                rect = (x0, y0, min(w, x0 + bw), min(h, y0 + bh))
+                tw, th = rect[2] - x0, rect[3] - y0
+                narrow_frustum(self._scene, frusta, self.size, rect)
+                self.renderer.draw(self._scene, (tw, th))
+                tile_rgb, tile_depth = np.empty((th, tw, 3), np.uint8), np.empty((th, tw), np.float32)
+                self.renderer.read((0, bh - th, tw, bh), tile_rgb, tile_depth)
+                rgb[y0 : rect[3], x0 : rect[2]] = tile_rgb
+                depth[y0 : rect[3], x0 : rect[2]] = tile_depth
+        return rgb, depth
 
     # ---- trails ---------------------------------------------------------------------------------
     def _reset_trails(self) -> None:
@@ -479,13 +562,13 @@ class FixedViewCompositor:
                 done = self._drawn[ti]
                 if upto > done:
                     pts = self._trail_px[ti][tr.trail_keep[max(done - 1, 0) : upto]]
-                    draw_polyline(self.layer, pts, rgb255(tr.rgba), trail_width(ti, self.replay.line_width))
+                    draw_polyline(self.layer, pts, rgb255(tr.rgba), trail_width(ti, self.line_width))
                     self._drawn[ti] = upto
         self._trail_k = max(self._trail_k, k)
 
     # ---- robots ---------------------------------------------------------------------------------
-    def _rect(self, data: mujoco.MjData) -> Rect | None:
-        return self.passes.rect(self.proj, data, self.replay.robot_geoms, self.replay.robot_corners)
+    def _rect(self, data: mujoco.MjData, bounds: Rect | None = None) -> Rect | None:
+        return self.passes.rect(self.proj, data, self.replay.robot_geoms, self.replay.robot_corners, bounds)
 
     def _pass(self, rect: Rect) -> tuple[Frame, NDArray[np.float32]]:
         """Draw the solid robot through ``rect``: colour and depth."""
@@ -505,38 +588,55 @@ class FixedViewCompositor:
         datas = [r.datas[t] for t in tracks]
         return self.passes.queue_ghosts(datas, rect, [r.tracks[t].rgba for t in tracks], occluder, statics)
 
-    def _robots(self, out: Frame) -> None:
-        """Draw every robot's passes, read them back at once, lay them over ``out``."""
+    def _queue_robots(self, window: Rect) -> Pending:
+        """Queue the passes of every robot in ``window`` of the view (read back later, at once)."""
         r = self.replay
-        self.passes.view(r.datas[0], r.camera)  # lights and eyes of this frame
-        solid = self._rect(r.datas[0])
+        self.passes.view(r.datas[0], self.camera, self.size)  # lights and eyes of this frame
+        solid = self._rect(r.datas[0], window)
         solid_slot = self.passes.queue(r.datas[0], solid) if solid is not None else -1
-        rects = {t: self._rect(r.datas[t]) for t in range(1, len(r.datas))}
+        rects = {t: self._rect(r.datas[t], window) for t in range(1, len(r.datas))}
         groups = merge_rects({t: rc for t, rc in rects.items() if rc is not None})
         slots = [self._queue_ghosts(tracks, rect, solid) for rect, tracks in groups]
-        res = self.passes.read()
-        if solid is not None:
-            x0, y0, x1, y1 = solid
-            rgb, solid_depth = res[solid_slot]
+        return Pending(window, solid, solid_slot, [rect for rect, _ in groups], slots)
+
+    def _lay_robots(self, out: Frame, pending: Pending, res: Sequence[tuple[Frame, NDArray[np.float32]]]) -> None:
+        """Lay the passes of ``pending`` (read back into ``res``) over ``out``, the window's pixels."""
+        ox, oy = pending.window[:2]
+        if pending.solid is not None:
+            x0, y0, x1, y1 = pending.solid
+            rgb, solid_depth = res[pending.solid_slot]
             # reversed depth (MuJoCo's default): larger is nearer, 0 where nothing was drawn
             near = solid_depth > self.depth[y0:y1, x0:x1]
-            out[y0:y1, x0:x1][near] = rgb[near]
-        for (rect, _), (tinted, white) in zip(groups, slots, strict=True):
-            blend_ghost(out, rect, *ghost_layer(res[tinted][0], res[white][0]))
+            out[y0 - oy : y1 - oy, x0 - ox : x1 - ox][near] = rgb[near]
+        for rect, (tinted, white) in zip(pending.ghost_rects, pending.ghost_slots, strict=True):
+            shifted = (rect[0] - ox, rect[1] - oy, rect[2] - ox, rect[3] - oy)
+            blend_ghost(out, shifted, *ghost_layer(res[tinted][0], res[white][0]))
 
     # ---- frames ---------------------------------------------------------------------------------
-    def frame(self, k: int, out: Frame) -> Frame:
-        """Draw frame ``k`` into ``out`` ((H, W, 3) uint8) and return it."""
+    def frame(self, k: int, out: Frame, window: Rect | None = None) -> Frame:
+        """Draw frame ``k`` of the view, or of its rectangle ``window``, into ``out`` ((h, w, 3) uint8,
+        the window's size; it may be a view into a larger image) and return it."""
+        pending = self.begin(k, out, window)
+        self.finish(out, pending, self.passes.read())
+        return out
+
+    def begin(self, k: int, out: Frame, window: Rect | None = None) -> Pending:
+        """The first half of :meth:`frame`: the world and trails into ``out``, the robots' passes
+        queued. Compositors that share one :class:`RobotPass` read their passes back at once
+        (``passes.read()``), then each calls :meth:`finish`."""
         r = self.replay
+        win = window or (0, 0, *self.size)
         r.pose_frame(k)
         self._advance_trails(k)
-        np.copyto(out, self.layer)
+        np.copyto(out, self.layer[win[1] : win[3], win[0] : win[2]])
         for ti, tr in enumerate(r.tracks):  # the unfinished segment: last kept point to the robot
             j = int(tr.idx[k])
             upto = int(np.searchsorted(tr.trail_keep, j, side="right"))
             if upto and tr.trail_keep[upto - 1] != j:
-                pts = self._trail_px[ti][[int(tr.trail_keep[upto - 1]), j]]
-                draw_polyline(out, pts, rgb255(tr.rgba), trail_width(ti, self.replay.line_width))
-        self._robots(out)
-        r.draw_overlay(k, out)
-        return out
+                pts = self._trail_px[ti][[int(tr.trail_keep[upto - 1]), j]] - win[:2]
+                draw_polyline(out, pts, rgb255(tr.rgba), trail_width(ti, self.line_width))
+        return self._queue_robots(win)
+
+    def finish(self, out: Frame, pending: Pending, res: Sequence[tuple[Frame, NDArray[np.float32]]]) -> None:
+        """The second half of :meth:`frame`: lay the robots read back into ``res`` over ``out``."""
+        self._lay_robots(out, pending, res)

@@ -58,7 +58,8 @@ def write_video(
         progress: Called with the number of frames done since the last call.
 
     Returns:
-        Facts for the run record: frames, fps, size, camera, quality, GL backend, seconds taken.
+        Facts for the run record: frames, fps, size, camera, quality, the close-up's magnification
+        over the world picture, GL backend, seconds taken.
 
     Raises:
         DependencyError: No OpenGL backend can draw here (the message says what to install).
@@ -80,6 +81,7 @@ def write_video(
         "size": [s.width, s.height],
         "camera": s.camera,
         "quality": s.quality,
+        "inset_magnification": round(replay.magnification, 3),
         "gl_backend": backend,
         "render_seconds": round(time.perf_counter() - t0, 3),
     }

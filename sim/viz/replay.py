@@ -15,7 +15,9 @@ Drawing:
   scene's camera and drawn into the image with PIL (as ``mjGEOM_LINE`` geoms, the few hundred
   segments a smooth path needs cost more than the whole scene under OSMesa), hidden where the solid
   robot stands;
-- a small text overlay (time, each run's current position error, in the run's colour).
+- beside the world picture, never over it (:class:`sim.viz.panel.FrameLayout`): a close-up inset
+  that follows the main robot (the overview camera magnified, seen through a moving window) and the
+  text (the frame's own time, each run's current position error, in the run's colour).
 
 With a camera that stays put (the overview) and no shadows or reflections (the fast look), the
 world is drawn once per video and only the robots each frame, each through a small viewport,
@@ -38,13 +40,14 @@ from typing import Any, Protocol
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
-from PIL import Image, ImageDraw, ImageFont
+from PIL import Image, ImageDraw
 
 from planning.errors import ConfigError
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.metrics import position_errors
 from sim.physics.runlog import RunLog
-from sim.viz.compose import FixedViewCompositor
+from sim.viz.compose import FixedViewCompositor, eye_frusta, narrow_frustum
+from sim.viz.panel import FrameLayout, Rect, TextPanel, region
 from sim.viz.renderer import QUALITIES, SceneRenderer
 from sim.viz.scene import (
     GHOST_ALPHA,
@@ -67,8 +70,14 @@ from sim.viz.scene import (
 
 CAMERAS = ("overview", "chase")
 
-#: Overlay text refreshes per second of video (the time readout then steps by 0.1 s).
-OVERLAY_RATE = 10.0
+#: The close-up inset spans about this many robot lengths: the robot is a sixth of its width.
+INSET_ROBOTS = 6.0
+
+#: Largest side [px] of the magnified view the inset looks through.
+MAX_MAGNIFIED = 4096
+
+#: Margin of the overview around the world, a share of the world picture's size on each side.
+OVERVIEW_MARGIN = 0.02
 
 #: Corner indices (of the 8 sign combinations, x slowest) of the 6 faces of a box.
 _BOX_FACES = np.array([[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]])
@@ -103,6 +112,15 @@ class RenderSettings:
             raise ConfigError(f"unknown camera {self.camera!r}: choose one of {', '.join(CAMERAS)}")
         if self.quality not in QUALITIES:
             raise ConfigError(f"unknown quality {self.quality!r}: choose one of {', '.join(QUALITIES)}")
+
+
+def set_camera(camera: mujoco.MjvCamera, params: FloatArray) -> None:
+    """Set a free camera from (6,) lookat x, y, z [m], distance [m], azimuth, elevation [deg]."""
+    lx, ly, lz, dist, az, el = (float(v) for v in params)
+    camera.lookat[:] = (lx, ly, lz)
+    camera.distance = dist
+    camera.azimuth = az
+    camera.elevation = el
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -164,8 +182,8 @@ class Replay:
 
     The world, obstacles and robots are drawn by MuJoCo; the reference path and the trails are
     lines on the floor drawn into the image through the camera's projection (hundreds of line geoms
-    would cost more than the whole scene), hidden where the solid robot stands; the overlay is
-    drawn last.
+    would cost more than the whole scene), hidden where the solid robot stands. The world picture
+    takes the left of the frame; the close-up and the text the panel on its right.
 
     Args:
         model: The runs' model (the Simulator's compiled model).
@@ -199,7 +217,10 @@ class Replay:
         t1 = max(float(logs[k].t[-1]) for k in labels)
         self.times = frame_times(t0, t1, settings.fps)
 
-        # framing: everything any run or the reference visits
+        self.layout = FrameLayout.of(settings.width, settings.height)
+        #: (width, height) [px] of the world picture.
+        self.world_size = FrameLayout.size(self.layout.world)
+        # what the runs and the reference visit
         pts = np.vstack([trajectory.pose[:, :2]] + [logs[k].pose[:, :2] for k in labels])
         lo, hi = pts.min(axis=0), pts.max(axis=0)
         self._span = float(max(hi[0] - lo[0], hi[1] - lo[1], 0.5))
@@ -225,13 +246,20 @@ class Replay:
         self.line_width = max(2, round(settings.height / 200))
         self.camera = mujoco.MjvCamera()
         self.camera.type = mujoco.mjtCamera.mjCAMERA_FREE
-        self._cam_params = self._camera_path(logs, lo, hi)
+        #: The overview: top-down, fixed, framing the whole world and every run.
+        self.overview_camera = mujoco.MjvCamera()
+        self.overview_camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+        overview = self._overview_params(lo, hi)
+        set_camera(self.overview_camera, overview)
+        self._cam_params = np.tile(overview, (self.n_frames, 1))
+        if settings.camera == "chase":
+            self._cam_params = self._chase_path(logs)
         #: The camera stays put: frames are composited from a cached world (:mod:`sim.viz.compose`).
         self.fixed_camera = bool(np.all(self._cam_params == self._cam_params[0]))
-        self._last_cam: FloatArray | None = None
-        self._ref_lines: list[list[float]] = []
         self.required_geoms = int(len(self.tracks) * m.ngeom + 64)
-        self._font, self._box = self._overlay_setup()
+        self.magnification, self.inset_view, self.inset_windows = self._inset_setup(logs[main])
+        self.inset_line_width = max(self.line_width, round(self.line_width * self.magnification / 2))
+        self.panel = TextPanel(self.layout, self.tracks, self.times, self.magnification)
 
     def _track(self, label: str, log: RunLog, spacing: float, style: RunStyle) -> Track:
         """A run's log as the frames show it; its trail keeps points ``spacing`` [m] apart."""
@@ -286,25 +314,47 @@ class Replay:
             body = int(self.model.body_parentid[body])
         return body == root
 
-    # ---- camera ---------------------------------------------------------------------------------
-    def _camera_path(self, logs: Mapping[str, RunLog], lo: FloatArray, hi: FloatArray) -> FloatArray:
-        """(n, 6) per frame: lookat x, y, z, distance, azimuth, elevation."""
+    # ---- cameras ---------------------------------------------------------------------------------
+    def world_points(self, lo: FloatArray, hi: FloatArray) -> FloatArray:
+        """(M, 3) points [m] the overview must show: the bounding-box corners of every static geom but
+        the floor planes (walls, obstacles) and of the box the runs and the reference visit, widened by
+        the robot's footprint and as high as the robot."""
+        m, d = self.model, self.datas[0]
+        static = [
+            g
+            for g in range(m.ngeom)
+            if m.body_weldid[m.geom_bodyid[g]] == 0 and m.geom_type[g] != mujoco.mjtGeom.mjGEOM_PLANE
+        ]
+        ids = np.asarray(static, dtype=np.int64)
+        pts = [geom_box_corners(d, ids, aabb_corners(m, ids)).reshape(-1, 3)] if ids.size else []
+        rad, top = self._robot_extent
+        runs = np.array(
+            [[x, y, z] for x in (lo[0] - rad, hi[0] + rad) for y in (lo[1] - rad, hi[1] + rad) for z in (0.0, top)]
+        )
+        return np.vstack([*pts, runs])
+
+    def _overview_params(self, lo: FloatArray, hi: FloatArray) -> FloatArray:
+        """(6,) lookat x, y, z, distance, azimuth, elevation of the overview: straight down, north up,
+        high enough that every point of :meth:`world_points` lies inside the world picture with a
+        margin of :data:`OVERVIEW_MARGIN` of its size on each side (a point at height z and horizontal
+        offset r from the axis is seen at angle r / (distance - z))."""
+        pts = self.world_points(lo, hi)
+        w, h = self.world_size
+        tan_half = math.tan(math.radians(self.model.vis.global_.fovy) / 2.0) * (1.0 - 2.0 * OVERVIEW_MARGIN)
+        c = (pts[:, :2].min(axis=0) + pts[:, :2].max(axis=0)) / 2
+        off = np.abs(pts[:, :2] - c)
+        dist = float(np.max(pts[:, 2] + np.maximum(off[:, 0] / (tan_half * w / h), off[:, 1] / tan_half)))
+        return np.array([c[0], c[1], 0.0, dist, 90.0, -90.0])
+
+    def _chase_path(self, logs: Mapping[str, RunLog]) -> FloatArray:
+        """(n, 6) per frame: lookat x, y, z, distance, azimuth, elevation of the chase camera.
+
+        Behind the main robot, smoothed, looking at the middle of the runs' bounding box and pulled
+        back by its diagonal so every ghost stays in view (two runs: their midpoint, their separation).
+        """
         n = self.n_frames
-        m = self.model
-        aspect = self.settings.width / self.settings.height
-        tan_half = math.tan(math.radians(m.vis.global_.fovy) / 2.0)
+        tan_half = math.tan(math.radians(self.model.vis.global_.fovy) / 2.0)
         out = np.empty((n, 6))
-        if self.settings.camera == "overview":
-            margin = 0.06 * self._span + 2.0 * self._robot_extent[0]
-            half_w = (hi[0] - lo[0]) / 2 + margin
-            half_h = (hi[1] - lo[1]) / 2 + margin
-            dist = max(half_h / tan_half, half_w / (tan_half * aspect)) + self._robot_extent[1]
-            c = (lo + hi) / 2
-            out[:] = (c[0], c[1], 0.0, dist, 90.0, -90.0)
-            return out
-        # chase: behind the main robot, smoothed, looking at the middle of the runs' bounding box and
-        # pulled back by its diagonal so every ghost stays in view (two runs: their midpoint, their
-        # separation)
         main = self.tracks[0]
         p = main.xy[main.idx]
         th = logs[main.label].pose[main.idx, 2]
@@ -322,6 +372,44 @@ class Replay:
             out[k] = (state[0], state[1], 0.5 * self._robot_extent[1], dist, math.degrees(state[2]), -30.0)
         return out
 
+    def projection(self, camera: mujoco.MjvCamera, size: tuple[int, int]) -> Projection:
+        """The projection of ``camera`` onto a view of ``size`` (width, height) [px] (no GL needed)."""
+        scene = mujoco.MjvScene(self.model, maxgeom=0)
+        mujoco.mjv_updateScene(self.model, self.datas[0], self.option, self.perturb, camera, 0, scene)
+        return Projection.from_scene(scene, *size)
+
+    def _inset_setup(self, main: RunLog) -> tuple[float, tuple[int, int], NDArray[np.int64]]:
+        """The close-up: the overview camera at ``m`` times the world picture's scale (a view ``m``
+        times its size; the inset shows a window of it that follows the main robot), ``m`` such that
+        the robot's longer side is :data:`INSET_ROBOTS` times smaller than the inset, at least 1 (at
+        most :data:`MAX_MAGNIFIED` pixels a side).
+
+        Returns:
+            ``m``, the magnified view's (width, height) [px], (n, 4) the inset's window
+            (x0, y0, x1, y1) in it per frame.
+        """
+        corners = geom_box_corners(self.datas[0], self.robot_geoms, self.robot_corners).reshape(-1, 3)
+        x, y, yaw = main.pose[0]
+        c, s = math.cos(yaw), math.sin(yaw)
+        rel = corners[:, :2] - (x, y)
+        body = np.column_stack([rel @ (c, s), rel @ (-s, c)])  # in the robot's frame
+        length = float(np.ptp(body, axis=0).max())  # [m]
+        px_per_m = self.projection(self.overview_camera, self.world_size).scale(np.array([x, y, 0.0]))
+        iw, ih = FrameLayout.size(self.layout.inset)
+        want = iw / INSET_ROBOTS / (length * px_per_m)
+        mag = min(MAX_MAGNIFIED / max(self.world_size), max(1.0, want))
+        view = (round(mag * self.world_size[0]), round(mag * self.world_size[1]))
+        proj = self.projection(self.overview_camera, view)
+        mid = 0.5 * self._robot_extent[1]
+        #: (runs, n, 2) each robot's middle in the magnified view per frame [px].
+        self.inset_centres = np.stack(
+            [proj.pixels(np.column_stack([t.xy[t.idx], np.full(t.idx.size, mid)]))[0] for t in self.tracks]
+        )
+        px = self.inset_centres[0]
+        x0 = np.clip(np.rint(px[:, 0] - iw / 2), 0, max(0, view[0] - iw)).astype(np.int64)
+        y0 = np.clip(np.rint(px[:, 1] - ih / 2), 0, max(0, view[1] - ih)).astype(np.int64)
+        return mag, view, np.column_stack([x0, y0, x0 + iw, y0 + ih])
+
     # ---- scene ----------------------------------------------------------------------------------
     def pose_frame(self, k: int) -> None:
         """Put each run's ``MjData`` at its log sample of frame ``k`` (kinematics) and the camera on it."""
@@ -330,58 +418,59 @@ class Replay:
             d.qpos[:] = tr.qpos[tr.idx[k]]
             mujoco.mj_kinematics(m, d)
             mujoco.mj_camlight(m, d)
-        cam = self.camera
-        lx, ly, lz, dist, az, el = self._cam_params[k]
-        cam.lookat[:] = (lx, ly, lz)
-        cam.distance = dist
-        cam.azimuth = az
-        cam.elevation = el
+        set_camera(self.camera, self._cam_params[k])
 
     def _update(self, r: SceneRenderer, k: int) -> None:
+        """Pose frame ``k`` and fill the renderer's scene: the world and the solid robot seen by this
+        frame's camera, and the ghosts."""
         self.pose_frame(k)
-        cam = self.camera
-        scene = r.scene
-        r.renderer.update_scene(self.datas[0], camera=cam, scene_option=self.option)
+        r.renderer.update_scene(self.datas[0], camera=self.camera, scene_option=self.option)
+        self._add_ghosts(r, r.scene)
+
+    def _add_ghosts(self, r: SceneRenderer, scene: mujoco.MjvScene) -> None:
+        """Add every run but the main one to ``scene`` as a translucent ghost in its colour."""
         dynamic = mujoco.mjtCatBit.mjCAT_DYNAMIC
         gain = light_gain(r.model)  # the renderer's lights (the high look dims them)
-        for d, tr in zip(self.datas[1:], self.tracks[1:], strict=True):  # the ghosts: translucent
+        for d, tr in zip(self.datas[1:], self.tracks[1:], strict=True):
             first = scene.ngeom
             mujoco.mjv_addGeoms(self.ghost_model, d, self.option, self.perturb, dynamic, scene)
             ghost = (*ghost_rgb(tr.rgba, gain), GHOST_ALPHA)
             for i in range(first, scene.ngeom):
                 scene.geoms[i].rgba = ghost
 
-    # ---- lines and overlay ----------------------------------------------------------------------
-    def _decorate(self, r: SceneRenderer, k: int, frame: Frame) -> None:
-        proj = Projection.from_scene(r.scene, self.settings.width, self.settings.height)
-        cam = self._cam_params[k]
-        if self._last_cam is None or not np.array_equal(cam, self._last_cam):
-            self._ref_lines = polylines(*proj.pixels(self.ref3))
-            self._last_cam = cam
-        keep = self._robot_mask(proj, frame)
-        img = Image.fromarray(frame)
-        draw = ImageDraw.Draw(img)
-        w = self.line_width
-        for line in self._ref_lines:
-            draw.line(line, fill=rgb255(REFERENCE_RGBA), width=w)
+    # ---- lines ----------------------------------------------------------------------------------
+    def _decorate(self, proj: Projection, k: int, img: Frame, origin: Rect, line_width: int) -> None:
+        """Draw the reference path and each run's trail of frame ``k`` into ``img``, the rectangle
+        ``origin`` of the view ``proj`` projects onto, hidden where the solid robot stands."""
+        shift = np.array(origin[:2], dtype=float)
+        keep = self._robot_mask(proj, img, shift)
+        pil = Image.fromarray(img)
+        draw = ImageDraw.Draw(pil)
+        px, ok = proj.pixels(self.ref3)
+        for line in polylines(px - shift, ok):
+            draw.line(line, fill=rgb255(REFERENCE_RGBA), width=line_width)
         for ti, tr in enumerate(self.tracks):
             j = int(tr.idx[k])
             upto = int(np.searchsorted(tr.trail_keep, j, side="right"))
             pts = np.vstack([self.trail3[ti][tr.trail_keep[:upto]], self.trail3[ti][j : j + 1]])
-            for line in polylines(*proj.pixels(pts)):
-                draw.line(line, fill=rgb255(tr.rgba), width=trail_width(ti, w))
-        frame[:] = np.asarray(img)
-        self.draw_overlay(k, frame)
+            px, ok = proj.pixels(pts)
+            for line in polylines(px - shift, ok):
+                draw.line(line, fill=rgb255(tr.rgba), width=trail_width(ti, line_width))
+        img[:] = np.asarray(pil)
         if keep is not None:  # the solid robot hides the lines under it
             ys, xs, mask, saved = keep
-            frame[ys, xs][mask] = saved[mask]
+            img[ys, xs][mask] = saved[mask]
 
-    def _robot_mask(self, proj: Projection, frame: Frame) -> tuple[slice, slice, NDArray[np.bool_], Frame] | None:
-        """The solid robot's silhouette (union of its geoms' projected bounding boxes) and its pixels."""
+    def _robot_mask(
+        self, proj: Projection, frame: Frame, shift: FloatArray
+    ) -> tuple[slice, slice, NDArray[np.bool_], Frame] | None:
+        """The solid robot's silhouette (union of its geoms' projected bounding boxes, shifted by
+        ``-shift`` [px]) and its pixels in ``frame``."""
         g = self.robot_geoms
         px, ok = proj.pixels(geom_box_corners(self.datas[0], g, self.robot_corners).reshape(-1, 3))
         if not ok.all():
             return None
+        px = px - shift
         h, w = frame.shape[:2]
         x0, y0 = np.floor(px.min(axis=0)).astype(int) - 1
         x1, y1 = np.ceil(px.max(axis=0)).astype(int) + 2
@@ -396,58 +485,15 @@ class Replay:
         mask = np.asarray(mask_img) > 0
         return slice(y0, y1), slice(x0, x1), mask, frame[y0:y1, x0:x1].copy()
 
-    def _overlay_setup(self) -> tuple[Any, tuple[int, int]]:
-        size = max(10, round(self.settings.height / 30))
-        try:
-            font: Any = ImageFont.load_default(size=size)
-        except TypeError:  # Pillow without FreeType
-            font = ImageFont.load_default()
-        lines = self._overlay_lines(0, worst=True)
-        probe = ImageDraw.Draw(Image.new("RGB", (8, 8)))
-        widths = [int(probe.textbbox((0, 0), text, font=font)[2]) for text, _ in lines]
-        line_h = int(probe.textbbox((0, 0), "Ag", font=font)[3]) + 3
-        pad = 6
-        box_w = min(self.settings.width, max(widths) + 2 * pad)
-        box_h = min(self.settings.height, line_h * len(lines) + 2 * pad)
-        self._line_h, self._pad = line_h, pad
-        return font, (box_w, box_h)
-
-    def _overlay_lines(self, k: int, *, worst: bool = False) -> list[tuple[str, tuple[int, int, int]]]:
-        t = 9999.99 if worst else float(self.times[k] - self.times[0])
-        lines = [(f"t = {t:7.2f} s", (255, 255, 255))]
-        for i, tr in enumerate(self.tracks):
-            name = tr.name if i == 0 else f"{tr.name} (ghost)"
-            err = 99.999 if worst else float(tr.err[tr.idx[k]])
-            color = tuple(int(min(255, 80 + 175 * c)) for c in tr.rgba[:3])
-            lines.append((f"{name}: error {err:6.3f} m", (color[0], color[1], color[2])))
-        return lines
-
-    def draw_overlay(self, k: int, frame: Frame) -> None:
-        """Copy the overlay box into the frame; its text is redrawn every ``1 / OVERLAY_RATE`` s of video."""
-        bw, bh = self._box
-        step = max(1, round(self.settings.fps / OVERLAY_RATE))
-        key = k - k % step
-        if self._overlay_key != key:
-            img = Image.new("RGB", (bw, bh), (28, 30, 34))
-            draw = ImageDraw.Draw(img)
-            for i, (text, color) in enumerate(self._overlay_lines(key)):
-                draw.text((self._pad, self._pad + i * self._line_h), text, fill=color, font=self._font)
-            self._overlay_box, self._overlay_key = np.asarray(img), key
-        frame[:bh, :bw] = self._overlay_box
-
-    _overlay_key: int = -1
-    _overlay_box: Frame
-
     # ---- frames ---------------------------------------------------------------------------------
     def composited(self, renderer: SceneRenderer) -> bool:
-        """Whether frames are composited from a world drawn once (:mod:`sim.viz.compose`): with a camera
-        that stays put and a renderer without shadows or reflections (robots change no other pixel)."""
-        flags = renderer.scene.flags
-        lit = flags[mujoco.mjtRndFlag.mjRND_SHADOW] or flags[mujoco.mjtRndFlag.mjRND_REFLECTION]
-        return self.fixed_camera and not lit
+        """Whether the world picture is composited from a world drawn once (:mod:`sim.viz.compose`):
+        with a camera that stays put and a renderer without shadows or reflections (robots change no
+        other pixel). The close-up is always composited."""
+        return self.fixed_camera and not lit(renderer)
 
     def render_frame(self, renderer: SceneRenderer, k: int, out: Frame | None = None) -> Frame:
-        """Draw frame ``k``.
+        """Draw frame ``k``: the world picture, the close-up inset and the text (:class:`FrameLayout`).
 
         Args:
             renderer: The open renderer, made for this replay's model and size with
@@ -466,18 +512,86 @@ class Replay:
             raise ConfigError(
                 f"the renderer holds {renderer.scene.maxgeom} geoms, the replay needs {self.required_geoms}"
             )
+        if out is None:
+            out = np.empty((self.settings.height, self.settings.width, 3), dtype=np.uint8)
+        world, inset = region(out, self.layout.world), region(out, self.layout.inset)
+        main, close = self._compositors(renderer)
+        x0, y0, x1, y1 = (int(v) for v in self.inset_windows[k])
+        if main is not None:  # both composited, their passes read back at once
+            pending = main.begin(k, world)
+            pending_inset = close.begin(k, inset, (x0, y0, x1, y1))
+            res = main.passes.read()
+            main.finish(world, pending, res)
+            close.finish(inset, pending_inset, res)
+        else:
+            self._update(renderer, k)
+            self._draw_view(renderer, renderer.scene, self.world_size, (0, 0, *self.world_size), world)
+            proj = Projection.from_scene(renderer.scene, *self.world_size)
+            self._decorate(proj, k, world, (0, 0, *self.world_size), self.line_width)
+            close.frame(k, inset, (x0, y0, x1, y1))
+        self._point_to_far_ghosts(k, inset)
+        self.panel.draw(k, out)
+        return out
+
+    def _compositors(self, renderer: SceneRenderer) -> tuple[FixedViewCompositor | None, FixedViewCompositor]:
+        """The world picture's compositor (None when it is drawn whole) and the close-up's, made for
+        ``renderer`` on first use. The close-up is composited in the fast look whatever the
+        renderer's (shadows and reflections would cost a whole render a frame for a picture of the
+        robots), sharing the world picture's robot passes when it has them."""
+        if self._inset is not None and self._inset.renderer is renderer:
+            return self._compositor, self._inset
+        self._compositor = None
         if self.composited(renderer):
-            if self._compositor is None or self._compositor.renderer is not renderer:
-                self._compositor = FixedViewCompositor(self, renderer)
-            if out is None:
-                out = np.empty((self.settings.height, self.settings.width, 3), dtype=np.uint8)
-            return self._compositor.frame(k, out)
-        self._update(renderer, k)
-        frame = renderer.render(out=out)
-        self._decorate(renderer, k, frame)
-        return frame
+            self._compositor = FixedViewCompositor(self, renderer, size=self.world_size)
+        flags = np.array(renderer.scene.flags)
+        flags[mujoco.mjtRndFlag.mjRND_SHADOW] = flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = 0
+        view, width = self.inset_view, self.inset_line_width
+        passes = self._compositor.passes if self._compositor is not None else None
+        self._inset = FixedViewCompositor(self, renderer, self.overview_camera, view, width, flags, passes)
+        return self._compositor, self._inset
+
+    def _point_to_far_ghosts(self, k: int, out: Frame) -> None:
+        """Draw, for each ghost whose middle is outside frame ``k``'s close-up, an arrowhead in its
+        colour on the close-up's edge, pointing at it from the middle of the close-up."""
+        h, w = out.shape[:2]
+        half = np.array([w / 2.0, h / 2.0])
+        size = max(6.0, w / 14.0)  # arrowhead length [px]
+        heads = []
+        for ti in range(1, len(self.tracks)):
+            d = self.inset_centres[ti, k] - self.inset_windows[k, :2] - half
+            if np.all(np.abs(d) <= half) or not np.all(np.isfinite(d)):
+                continue
+            u = d / float(np.hypot(*d))
+            tip = half + d * float(np.min((half - 2.0) / np.maximum(np.abs(d), 1e-9)))
+            side = np.array([-u[1], u[0]]) * 0.6 * size
+            base = tip - u * size
+            heads.append(([tuple(tip), tuple(base + side), tuple(base - side)], rgb255(self.tracks[ti].rgba)))
+        if heads:
+            img = Image.fromarray(out)
+            draw = ImageDraw.Draw(img)
+            for points, rgb in heads:
+                draw.polygon(points, fill=rgb, outline=(20, 20, 20))
+            out[:] = np.asarray(img)
+
+    @staticmethod
+    def _draw_view(r: SceneRenderer, scene: mujoco.MjvScene, view: tuple[int, int], window: Rect, out: Frame) -> None:
+        """Draw the rectangle ``window`` of a view of ``scene`` of size ``view`` (width, height) [px]
+        into ``out`` (the window's size), through a viewport at the buffer's bottom-left corner."""
+        narrow_frustum(scene, eye_frusta(scene, view), view, window)
+        w, h = window[2] - window[0], window[3] - window[1]
+        r.draw(scene, (w, h))
+        rgb = np.empty((h, w, 3), np.uint8)
+        r.read((0, r.height - h, w, r.height), rgb, None)
+        np.copyto(out, rgb)
 
     _compositor: FixedViewCompositor | None = None
+    _inset: FixedViewCompositor | None = None
+
+
+def lit(renderer: SceneRenderer) -> bool:
+    """Whether the renderer draws shadows or reflections (a robot then changes pixels outside itself)."""
+    flags = renderer.scene.flags
+    return bool(flags[mujoco.mjtRndFlag.mjRND_SHADOW] or flags[mujoco.mjtRndFlag.mjRND_REFLECTION])
 
 
 class FrameSink(Protocol):

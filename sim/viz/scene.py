@@ -33,7 +33,7 @@ class RunStyle:
     """How one run is drawn, in the video and in the report plots alike.
 
     Attributes:
-        name: Name in the video's overlay and the plots' legends.
+        name: Name in the video's text and the plots' legends.
         rgba: Colour (RGBA in [0, 1]): the robot (the ghost's tint), its trail, its plot lines.
         linestyle: Matplotlib line style of its lines in the plots.
     """
@@ -101,7 +101,7 @@ class Track:
         err: (N,) position error against the reference [m].
         trail_keep: Decimated log indices the trail is drawn through.
         rgba: Colour of its trail (and of its ghost).
-        name: Name in the overlay.
+        name: Name in the video's text.
     """
 
     label: str

@@ -30,7 +30,8 @@ def run(args: argparse.Namespace) -> int:
     )
     print(f"bare Renderer loop       {r.bare_fps:>8.1f} frames/s   (update_scene + render)")
     how = "world drawn once, robots composited" if r.composited else "full scene every frame"
-    print(f"video pipeline           {r.pipeline_fps:>8.1f} frames/s   (replay, ghost, lines, overlay, H.264; {how})")
+    what = f"replay, ghosts, lines, inset, text, H.264; {how}"
+    print(f"video pipeline           {r.pipeline_fps:>8.1f} frames/s   ({what})")
     print(f"ratio                    {r.ratio:>8.3f}            (target >= {TARGET_RATIO})")
     print(
         f"pipeline frame rate      {r.pipeline_fps:>8.1f} frames/s   (target >= {TARGET_FPS:g} at 640x480, fast look)"

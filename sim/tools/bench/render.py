@@ -4,12 +4,12 @@ Both loops draw the same model (the default scenario's world and robot) at the s
 same camera and render flags, for the same number of frames, in one process with the one renderer:
 
 - baseline: ``update_scene`` + ``render`` (into a preallocated frame) and nothing else;
-- pipeline: a new :class:`sim.viz.replay.Replay` of the closed-loop and open-loop logs (its set-up
-  counts), kinematics of both runs, the ghost, the reference path and trails, the overlay, and
-  H.264 encoding into an MP4 through the writer thread (to a temporary file that is deleted). With
-  the fixed overview camera in the fast look the pipeline draws the world once per video and only
-  the robots each frame (:mod:`sim.viz.compose`); the chase camera and the high look draw the whole
-  scene every frame.
+- pipeline: a new :class:`sim.viz.replay.Replay` of the job's logs (its set-up counts), kinematics
+  of the runs, the ghosts, the reference path and trails, the close-up inset, the text, and H.264
+  encoding into an MP4 through the writer thread (to a temporary file that is deleted). With the
+  fixed overview camera in the fast look the pipeline draws the world once per video and only the
+  robots each frame (:mod:`sim.viz.compose`), the close-up likewise; the chase camera and the high
+  look draw the whole world picture every frame (the close-up stays composited, in the fast look).
 
 The two loops alternate for ``--repeats`` rounds and the best round of each counts, so load from
 other processes hits both alike. Targets: ratio >= 0.9, and >= 30 frames/s for the pipeline at
@@ -104,13 +104,13 @@ def measure(size: str, camera: str, quality: str, frames: int, repeats: int) -> 
         data.qpos[:] = job.logs[RunKind.CLOSED_LOOP].qpos[0]
         mujoco.mj_forward(model, data)
         replay.render_frame(renderer, 0)  # sets the camera of frame 0; warms the context up
-        camera = replay.camera
+        view = replay.camera
         frame = np.empty((h, w, 3), dtype=np.uint8)
 
         def bare() -> float:
             t0 = time.perf_counter()
             for _ in range(n):
-                renderer.renderer.update_scene(data, camera=camera)
+                renderer.renderer.update_scene(data, camera=view)
                 renderer.renderer.render(out=frame)
             return time.perf_counter() - t0
 

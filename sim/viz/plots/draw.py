@@ -5,7 +5,7 @@ Figures are built with matplotlib's object API on the Agg canvas (no display, no
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -17,6 +17,7 @@ from matplotlib.patches import Circle as CirclePatch
 from matplotlib.patches import Ellipse as EllipsePatch
 from matplotlib.patches import Patch, Rectangle
 from matplotlib.patches import Polygon as PolygonPatch
+from numpy.typing import NDArray
 
 from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon, World
 from sim.outputs import atomic_path
@@ -75,6 +76,35 @@ def draw_world(ax: Axes, world: World, style: WorldStyle = PLAN_WORLD) -> None:
         ax.add_patch(obstacle_patch(obstacle, **style.obstacle))
     if style.frame_on_top:
         ax.add_patch(frame)
+
+
+def world_extent(world: World, paths: Sequence[NDArray[np.float64]] = ()) -> tuple[tuple[float, float], ...]:
+    """The smallest axis-aligned rectangle holding an arena's bounds, every obstacle and ``paths``.
+
+    Args:
+        world: Bounds and obstacles (an obstacle may reach past the bounds).
+        paths: (N, 2) points [m] each (runs may leave the arena).
+
+    Returns:
+        ((xmin, xmax), (ymin, ymax)) [m].
+    """
+    xmin, xmax, ymin, ymax = world.bounds
+    boxes = [(xmin, xmax, ymin, ymax)] + [o.bounding_box() for o in world.obstacles]
+    boxes += [(float(p[:, 0].min()), float(p[:, 0].max()), float(p[:, 1].min()), float(p[:, 1].max())) for p in paths]
+    b = np.asarray(boxes, dtype=float)
+    return (float(b[:, 0].min()), float(b[:, 1].max())), (float(b[:, 2].min()), float(b[:, 3].max()))
+
+
+def frame_world(ax: Axes, world: World, paths: Sequence[NDArray[np.float64]] = ()) -> None:
+    """Set ``ax`` to frame :func:`world_extent` of ``world`` and ``paths`` with a 3 % margin, equal
+    axes in metres."""
+    (xmin, xmax), (ymin, ymax) = world_extent(world, paths)
+    pad = 0.03 * max(xmax - xmin, ymax - ymin)
+    ax.set_xlim(xmin - pad, xmax + pad)
+    ax.set_ylim(ymin - pad, ymax + pad)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
 
 
 def save_figure(fig: Figure, path: str | Path, *, overwrite: bool = False) -> Path:

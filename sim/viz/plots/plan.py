@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from planning.core.geometry import path_length
 from planning.core.world import World
 from planning.planners.base import PlanProblem, PlanResult, PlanTree
-from sim.viz.plots.draw import PLAN_WORLD, draw_world
+from sim.viz.plots.draw import PLAN_WORLD, draw_world, frame_world
 
 
 def plan_figure(
@@ -57,13 +57,7 @@ def plan_figure(
     if result.path.shape[0] > 0:
         _draw_path(ax, result.path, world)
     _draw_ends(ax, problem)
-    xmin, xmax, ymin, ymax = world.bounds
-    pad = 0.03 * max(xmax - xmin, ymax - ymin)
-    ax.set_xlim(xmin - pad, xmax + pad)
-    ax.set_ylim(ymin - pad, ymax + pad)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
+    frame_world(ax, world, [result.path[:, :2]] if result.path.shape[0] > 0 else [])
     ax.grid(True, linewidth=0.3, alpha=0.5)
     ax.legend(loc="upper left", fontsize=8, framealpha=0.9)
     length = result.length()

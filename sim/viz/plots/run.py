@@ -18,7 +18,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
@@ -27,7 +26,7 @@ from planning.core.world import World
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.metrics import heading_errors, position_errors
 from sim.physics.runlog import RunLog
-from sim.viz.plots.draw import RUN_WORLD, draw_world
+from sim.viz.plots.draw import RUN_WORLD, draw_world, frame_world
 from sim.viz.plots.estimation import EstimationSeries
 from sim.viz.scene import run_styles
 
@@ -47,13 +46,16 @@ def _styles(logs: Mapping[str, RunLog]) -> dict[str, tuple[str, tuple[float, ...
 def world_figure(world: World, trajectory: Trajectory, logs: Mapping[str, RunLog], *, title: str = "") -> Figure:
     """The arena with obstacles, the reference path and each run's path (top view, equal axes).
 
+    The axes frame the whole arena (its walls and every obstacle) and every path, whichever is larger,
+    the legend beside them.
+
     Args:
         world: Bounds and obstacles.
         trajectory: The reference.
         logs: Run label -> log.
         title: Figure title.
     """
-    fig = Figure(figsize=(7.0, 6.4), dpi=110)
+    fig = Figure(figsize=(8.6, 6.4), dpi=110)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
     draw_world(ax, world, RUN_WORLD)
@@ -65,18 +67,10 @@ def world_figure(world: World, trajectory: Trajectory, logs: Mapping[str, RunLog
         ax.plot(log.pose[:, 0], log.pose[:, 1], color=color, ls=ls, lw=1.4, label=name)
     ax.plot(*ref[0, :2], "o", color="k", ms=6, label="start")
     ax.plot(*ref[-1, :2], "*", color="k", ms=10, label="end of reference")
-    # frame the paths, with the arena when it is not much larger
-    pts = np.vstack([ref[:, :2]] + [log.pose[:, :2] for log in logs.values()])
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    pad = 0.1 * max(float((hi - lo).max()), 0.5)
-    xmin, xmax, ymin, ymax = world.bounds
-    ax.set_xlim(max(xmin - 0.1, lo[0] - pad), min(xmax + 0.1, hi[0] + pad))
-    ax.set_ylim(max(ymin - 0.1, lo[1] - pad), min(ymax + 0.1, hi[1] + pad))
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
+    frame_world(ax, world, [ref[:, :2]] + [log.pose[:, :2] for log in logs.values()])
     ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
+    # the legend beside the arena, so it covers none of it
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, fontsize=8)
     ax.set_title(title or "paths")
     fig.tight_layout()
     return fig
