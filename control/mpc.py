@@ -53,8 +53,13 @@ from planning.trajectory.trajectory import Trajectory
 
 FloatArray = NDArray[np.float64]
 
-#: Solver name -> CasADi plugin.
+#: The solvers: "sqp" (CasADi's sqpmethod with qrqp) and "ipopt".
 SOLVERS = ("sqp", "ipopt")
+#: sqpmethod's status when its line search can make no further step from a feasible iterate: the
+#: iterate is stationary to the step tolerance, so the solve counts as converged if it is feasible
+#: (every constraint met within ``_FEASIBILITY``).
+_STATIONARY = frozenset({"Search_Direction_Becomes_Too_Small"})
+_FEASIBILITY = 1e-7
 
 
 @dataclass(frozen=True)
@@ -78,7 +83,7 @@ class MPCParams:
     horizon: int = ranged(15, 2, 200, "steps")
     step: float = ranged(0.04, 0.005, 1.0, "s")
     q_position: float = ranged(100.0, 1e-6, 1e6, "1/(m^2 s)", tune=(1.0, 1e4))
-    q_heading: float = ranged(10.0, 0.0, 1e6, "1/(rad^2 s)", tune=(0.01, 1e3))
+    q_heading: float = ranged(1.0, 0.0, 1e6, "1/(rad^2 s)", tune=(0.01, 1e3))
     r_speed: float = ranged(1.0, 0.0, 1e6, "s/m^2", tune=(0.01, 100.0))
     r_yaw_rate: float = ranged(0.1, 0.0, 1e6, "s/rad^2", tune=(0.001, 10.0))
     r_accel: float = ranged(0.05, 0.0, 1e6, "s^3/m^2", tune=(1e-4, 10.0))
@@ -137,7 +142,7 @@ def _transcribe(p: MPCParams, lim: _Limits) -> tuple[dict[str, Any], FloatArray,
         change = uref[:, k] - uref[:, k - 1] if k else (uref[:, min(1, n - 1)] - uref[:, 0]) * (lim.dt / h)
         e, du = xs[:, k + 1] - ref[:, k + 1], u - prev - change
         cost += h * (ca.dot(q * e, e) + ca.dot(r * (u - uref[:, k]), u - uref[:, k])) + ca.dot(rd * du, du) / h
-        g += [du, ca.vertcat(u[0] + lim.half_track * u[1], u[0] - lim.half_track * u[1])]
+        g += [u - prev, ca.vertcat(u[0] + lim.half_track * u[1], u[0] - lim.half_track * u[1])]
         span = lim.dt if k == 0 else h
         lo += [0.0] * 3 + [-lim.accel * span, -lim.yaw_accel * span, -lim.wheel, -lim.wheel]
         hi += [0.0] * 3 + [lim.accel * span, lim.yaw_accel * span, lim.wheel, lim.wheel]
@@ -158,7 +163,7 @@ def _solver(p: MPCParams, lim: _Limits) -> tuple[Any, FloatArray, FloatArray]:
     if p.solver == "ipopt":
         ipopt = {"print_level": 0, "sb": "yes", "warm_start_init_point": "yes", "max_iter": p.max_iter}
         return ca.nlpsol("mpc", "ipopt", nlp, {**quiet, "ipopt": ipopt}), lbg, ubg
-    qp = {"print_iter": False, "print_header": False, "print_info": False, "error_on_fail": False}
+    qp = {"print_iter": False, "print_header": False, "print_info": False, "error_on_fail": False, "max_iter": 100}
     opts = {**quiet, "qpsol": "qrqp", "qpsol_options": qp, "max_iter": p.max_iter, "print_header": False,
             "print_iteration": False, "print_status": False}  # fmt: skip
     return ca.nlpsol("mpc", "sqpmethod", nlp, opts), lbg, ubg
@@ -244,10 +249,13 @@ class MPCTracker:
             args["lam_x0"], args["lam_g0"] = self._lam
         try:
             sol = self._call(solver, args)
-            ok = bool(solver.stats().get("success", False))
+            status = solver.stats()
             z = np.asarray(sol["x"], dtype=float).ravel()
+            g = np.asarray(sol["g"], dtype=float).ravel()
         except RuntimeError:
             return None
+        feasible = bool(np.all(g >= lbg - _FEASIBILITY) and np.all(g <= ubg + _FEASIBILITY))
+        ok = status.get("success", False) or (status.get("return_status") in _STATIONARY and feasible)
         if not ok or not np.all(np.isfinite(z)):
             return None
         self._lam = (sol["lam_x"], sol["lam_g"])
@@ -269,15 +277,17 @@ class MPCTracker:
         return np.concatenate([xs.ravel(), us.ravel()])
 
     def _fallback(self, t: float) -> FloatArray:
-        """The command after a failed solve: the last feasible plan at ``t``, else a braking step."""
+        """The command after a failed solve: the last feasible plan at ``t``, else rest, reached from the
+        command in force within the acceleration limits of one control period."""
+        assert self._lim is not None
+        target = np.zeros(2)
         if self._plan is not None:
             start, inputs = self._plan
             k = int((t - start) / self.params.step + 1e-9)
             if k < inputs.shape[0]:
-                return inputs[k].copy()
-        assert self._lim is not None
-        brake = np.array([self._lim.accel, self._lim.yaw_accel]) * self._dt
-        return np.sign(self._u) * np.maximum(np.abs(self._u) - brake, 0.0)
+                target = inputs[k]
+        step = np.array([self._lim.accel, self._lim.yaw_accel]) * self._dt
+        return np.asarray(self._u + np.clip(target - self._u, -step, step))
 
     def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
         """Solve, apply the first input (or fall back, see the module doc); record the solve time.

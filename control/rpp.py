@@ -156,7 +156,7 @@ class RegulatedPurePursuit(SegmentSwitcher):
 
     def _carrot(self, x: float, y: float, lookahead: float, sgn: float, end: int) -> tuple[tuple[float, float], int]:
         """The carrot on the drive's path ending before instant ``end``, and the closest path index."""
-        lo = self._near
+        lo = min(self._near, end - 1)
         hi = min(lo + _SEARCH, end)
         d2 = (self._px[lo:hi] - x) ** 2 + (self._py[lo:hi] - y) ** 2
         near = lo + int(np.argmin(d2))
