@@ -68,6 +68,22 @@ def tracker_options(name: str) -> tuple[str, ...]:
     return tuple(p.name for p in params if p.kind is inspect.Parameter.KEYWORD_ONLY)
 
 
+def tuned_option(name: str) -> tuple[str, type]:
+    """The option of a registered tracker that ``nhsim tune --tracker`` tunes, and its dataclass.
+
+    A tracker declares it as the class attribute ``TUNED = (option, dataclass)``, e.g.
+    ``("params", MPCParams)``.
+
+    Raises:
+        ConfigError: Unknown name (lists the valid ones), or a tracker with nothing to tune.
+    """
+    tuned = getattr(_factory(name), "TUNED", None)
+    if tuned is None:
+        with_params = [n for n in sorted(TRACKERS) if getattr(_factory(n), "TUNED", None) is not None]
+        raise ConfigError(f"tracker {name!r} has no parameters to tune; choose one of {', '.join(with_params)}")
+    return tuned  # type: ignore[no-any-return]
+
+
 def make_tracker(name: str, robot: RobotSpec, **options: Any) -> Tracker:
     """Instantiate a registered tracker for a robot.
 

@@ -94,6 +94,8 @@ class KanayamaTracker(SegmentSwitcher):
     """
 
     name = "kanayama"
+    #: The option ``nhsim tune --tracker`` tunes, and its dataclass.
+    TUNED = ("params", KanayamaParams)
 
     def __init__(
         self, robot: RobotSpec, *, params: KanayamaParams | None = None, turns: SegmentedParams | None = None

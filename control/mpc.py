@@ -187,6 +187,8 @@ class MPCTracker:
     """
 
     name = "mpc"
+    #: The option ``nhsim tune --tracker`` tunes, and its dataclass.
+    TUNED = ("params", MPCParams)
 
     def __init__(self, robot: RobotSpec, *, params: MPCParams | None = None) -> None:
         self.robot = robot

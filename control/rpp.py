@@ -131,6 +131,8 @@ class RegulatedPurePursuit(SegmentSwitcher):
     """
 
     name = "rpp"
+    #: The option ``nhsim tune --tracker`` tunes, and its dataclass.
+    TUNED = ("params", RPPParams)
 
     def __init__(
         self, robot: RobotSpec, *, params: RPPParams | None = None, turns: SegmentedParams | None = None

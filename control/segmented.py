@@ -194,6 +194,8 @@ class SegmentedTracker(SegmentSwitcher):
     """
 
     name = "segmented"
+    #: The option ``nhsim tune --tracker`` tunes, and its dataclass.
+    TUNED = ("gains", FBLGains)
 
     def __init__(
         self, robot: RobotSpec, *, gains: FBLGains | None = None, params: SegmentedParams | None = None
