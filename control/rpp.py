@@ -28,6 +28,7 @@ the map (the plan keeps its clearance), so that heuristic is left out.
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -39,8 +40,8 @@ from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
 from planning.trajectory.trajectory import Trajectory
 
-#: Path points searched ahead of the last closest point for the new closest point.
-_SEARCH = 200
+#: Path points past the last closest one that may be farther before the search for the closest stops.
+_PATIENCE = 4
 
 
 @dataclass(frozen=True)
@@ -139,8 +140,8 @@ class RegulatedPurePursuit(SegmentSwitcher):
     ) -> None:
         self.params = option_value(self.name, "params", params, RPPParams())
         super().__init__(robot, option_value(self.name, "turns", turns, SegmentedParams()))
-        self._px = np.zeros(0)
-        self._py = np.zeros(0)
+        self._px: list[float] = []
+        self._py: list[float] = []
         self._arc: list[float] = []
         self._near = 0
         self._v_last = 0.0
@@ -148,9 +149,10 @@ class RegulatedPurePursuit(SegmentSwitcher):
     def reset(self, trajectory: Trajectory, dt: float) -> None:
         """Start tracking: the path points of every control instant, the progress and speed at zero."""
         super().reset(trajectory, dt)
-        self._px = np.array([r.x for r in self._instants])
-        self._py = np.array([r.y for r in self._instants])
-        self._arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(self._px), np.diff(self._py)))]).tolist()
+        self._px = [r.x for r in self._instants]
+        self._py = [r.y for r in self._instants]
+        steps = np.hypot(np.diff(self._px), np.diff(self._py))
+        self._arc = np.concatenate([[0.0], np.cumsum(steps)]).tolist()
         self._near, self._v_last = 0, 0.0
 
     def _idle(self) -> None:
@@ -158,17 +160,21 @@ class RegulatedPurePursuit(SegmentSwitcher):
 
     def _carrot(self, x: float, y: float, lookahead: float, sgn: float, end: int) -> tuple[tuple[float, float], int]:
         """The carrot on the drive's path ending before instant ``end``, and the closest path index."""
-        lo = min(self._near, end - 1)
-        hi = min(lo + _SEARCH, end)
-        d2 = (self._px[lo:hi] - x) ** 2 + (self._py[lo:hi] - y) ** 2
-        near = lo + int(np.argmin(d2))
+        px, py, hypot = self._px, self._py, math.hypot
+        near = min(self._near, end - 1)
+        gap, j, misses = hypot(px[near] - x, py[near] - y), near + 1, 0
+        while j < end and misses < _PATIENCE:  # forwards from the last closest point, as Nav2 prunes
+            d = hypot(px[j] - x, py[j] - y)
+            near, gap, misses = (j, d, 0) if d < gap else (near, gap, misses + 1)
+            j += 1
         self._near = near
-        dist = np.hypot(self._px[near:end] - x, self._py[near:end] - y)
-        out = np.flatnonzero(dist >= lookahead)
-        if out.size:
-            j = near + int(out[0])
-            p1 = (float(self._px[max(j - 1, near)]), float(self._py[max(j - 1, near)]))
-            return circle_crossing(x, y, lookahead, p1, (float(self._px[j]), float(self._py[j]))), near
+        # no point closer along the path than lookahead - gap can be lookahead from the robot: start there
+        j = bisect.bisect_left(self._arc, self._arc[near] + lookahead - gap, near, end)
+        while j < end and hypot(px[j] - x, py[j] - y) < lookahead:
+            j += 1
+        if j < end:
+            p1 = (px[max(j - 1, near)], py[max(j - 1, near)])
+            return circle_crossing(x, y, lookahead, p1, (px[j], py[j])), near
         last = self._instants[end - 1]
         p1 = (last.x, last.y)
         reach = sgn * 2.0 * lookahead
@@ -177,6 +183,7 @@ class RegulatedPurePursuit(SegmentSwitcher):
 
     def _drive(self, x: float, y: float, theta: float, ref: _Instant, sgn: float, k: int) -> tuple[float, float]:
         """One period of Regulated Pure Pursuit along a drive of direction ``sgn``."""
+        x, y, theta = float(x), float(y), float(theta)  # Python floats: numpy scalars slow every step down
         p = self.params
         start, end = self._spans[ref.segment]
         if ref.segment != self.segment:

@@ -130,6 +130,7 @@ class TrackerRun:
         values: The per-run quantities by :data:`COLUMNS` key.
         solver: The tracker's own statistics (MPC: solves, failures, overruns, times), or {}.
         log: The run's log (kept for the first draw only: plots and video).
+        times: Wall-clock time of each ``command`` [s].
     """
 
     tracker: str
@@ -137,6 +138,7 @@ class TrackerRun:
     values: dict[str, float]
     solver: dict[str, Any]
     log: RunLog | None = None
+    times: tuple[float, ...] = ()
 
 
 def _measure(name: str, draw: int, run: Any, timed: TimedTracker, keep: bool) -> TrackerRun:
@@ -155,7 +157,8 @@ def _measure(name: str, draw: int, run: Any, timed: TimedTracker, keep: bool) ->
         "collisions": float(m.collisions),
     }
     stats = getattr(timed.inner, "stats", None)
-    return TrackerRun(name, draw, values, dict(stats()) if callable(stats) else {}, run.log if keep else None)
+    solver = dict(stats()) if callable(stats) else {}
+    return TrackerRun(name, draw, values, solver, run.log if keep else None, tuple(timed.times))
 
 
 @dataclass(frozen=True)

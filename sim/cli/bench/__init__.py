@@ -22,6 +22,10 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "sim.cli.bench.optim",
         "optim planner: seed N=1000, dt=0.01 against the default (time, final error, length)",
     ),
+    "track": (
+        "sim.cli.bench.track",
+        "control time per step of every tracker in the real robot's loop; MPC's 95th percentile solve time",
+    ),
     "render": ("sim.cli.bench.render", "video pipeline frames/s (replay, draw, encode) against a bare Renderer loop"),
 }
 
