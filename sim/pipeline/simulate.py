@@ -366,7 +366,12 @@ class PreparedCase:
         return PreparedCase(trajectory, simulator_for(trajectory))
 
     def run(
-        self, gains: FBLGains | None = None, perturbation: Perturbation | None = None, *, seed: int | None = None
+        self,
+        gains: FBLGains | None = None,
+        perturbation: Perturbation | None = None,
+        *,
+        seed: int | None = None,
+        params: Any = None,
     ) -> Run:
         """The case's single run (its tracker's kind), strict off: MuJoCo warnings are counted.
 
@@ -374,14 +379,16 @@ class PreparedCase:
             gains: Gains overriding the case's.
             perturbation: Perturbation overriding the case's.
             seed: Sensor noise seed overriding the case's (the trajectory, planned or not, stays).
+            params: The tracker's tuned parameters overriding the case's (see ``Case.params``).
         """
         case = self.case
-        if gains is not None or perturbation is not None or seed is not None:
+        if gains is not None or perturbation is not None or seed is not None or params is not None:
             case = replace(
                 case,
                 gains=gains or case.gains,
                 perturbation=perturbation if perturbation is not None else case.perturbation,
                 seed=seed if seed is not None else case.seed,
+                params=params if params is not None else case.params,
             )
         job = track(replace(self.trajectory, case=case), (case.kind,), strict=False, simulator=self.simulator)
         return job.runs[case.kind]
