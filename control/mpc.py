@@ -59,7 +59,7 @@ SOLVERS = ("sqp", "ipopt")
 #: iterate is stationary to the step tolerance, so the solve counts as converged if it is feasible
 #: (every constraint met within ``_FEASIBILITY``).
 _STATIONARY = frozenset({"Search_Direction_Becomes_Too_Small"})
-_FEASIBILITY = 1e-7
+_FEASIBILITY = 1e-6
 
 
 @dataclass(frozen=True)
@@ -89,7 +89,7 @@ class MPCParams:
     r_accel: float = ranged(0.05, 0.0, 1e6, "s^3/m^2", tune=(1e-4, 10.0))
     r_yaw_accel: float = ranged(0.005, 0.0, 1e6, "s^3/rad^2", tune=(1e-5, 1.0))
     terminal: float = ranged(0.5, 0.0, 1e3, "s", tune=(0.01, 10.0))
-    max_iter: int = ranged(20, 1, 1000, "iterations")
+    max_iter: int = ranged(50, 1, 1000, "iterations")
     solver: str = "sqp"
 
     def __post_init__(self) -> None:
@@ -165,7 +165,7 @@ def _solver(p: MPCParams, lim: _Limits) -> tuple[Any, FloatArray, FloatArray]:
         return ca.nlpsol("mpc", "ipopt", nlp, {**quiet, "ipopt": ipopt}), lbg, ubg
     qp = {"print_iter": False, "print_header": False, "print_info": False, "error_on_fail": False, "max_iter": 100}
     opts = {**quiet, "qpsol": "qrqp", "qpsol_options": qp, "max_iter": p.max_iter, "print_header": False,
-            "print_iteration": False, "print_status": False}  # fmt: skip
+            "print_iteration": False, "print_status": False, "convexify_strategy": "regularize"}  # fmt: skip
     return ca.nlpsol("mpc", "sqpmethod", nlp, opts), lbg, ubg
 
 
