@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import inspect
 import math
@@ -37,7 +38,10 @@ class Tracker(Protocol):
 #: Tracker name -> "module:factory"; the factory is called as factory(robot, **keyword-only options).
 TRACKERS: dict[str, str] = {
     "fbl": "control.fbl:DynamicFBL",
+    "kanayama": "control.kanayama:KanayamaTracker",
+    "mpc": "control.mpc:MPCTracker",
     "open-loop": "control.open_loop:OpenLoop",
+    "rpp": "control.rpp:RegulatedPurePursuit",
     "segmented": "control.segmented:SegmentedTracker",
 }
 
@@ -62,6 +66,22 @@ def tracker_options(name: str) -> tuple[str, ...]:
     """
     params = inspect.signature(_factory(name)).parameters.values()
     return tuple(p.name for p in params if p.kind is inspect.Parameter.KEYWORD_ONLY)
+
+
+def tuned_option(name: str) -> tuple[str, type]:
+    """The option of a registered tracker that ``nhsim tune --tracker`` tunes, and its dataclass.
+
+    A tracker declares it as the class attribute ``TUNED = (option, dataclass)``, e.g.
+    ``("params", MPCParams)``.
+
+    Raises:
+        ConfigError: Unknown name (lists the valid ones), or a tracker with nothing to tune.
+    """
+    tuned = getattr(_factory(name), "TUNED", None)
+    if tuned is None:
+        with_params = [n for n in sorted(TRACKERS) if getattr(_factory(n), "TUNED", None) is not None]
+        raise ConfigError(f"tracker {name!r} has no parameters to tune; choose one of {', '.join(with_params)}")
+    return tuned  # type: ignore[no-any-return]
 
 
 def make_tracker(name: str, robot: RobotSpec, **options: Any) -> Tracker:
@@ -171,3 +191,47 @@ def check_measured_pose(tracker: str, t: float, x: float, y: float, theta: float
             f"tracker {tracker!r} was given a non-finite pose (x={x}, y={y}, theta={theta}) at t={t:.3f} s: "
             "the measured or estimated pose diverged"
         )
+
+
+def ranged(default: float, low: float, high: float, unit: str, *, tune: tuple[float, float] | None = None) -> Any:
+    """A parameter field with its valid range [low, high] and, if tuned, its search range.
+
+    Use in a frozen parameter dataclass checked by :func:`check_ranges`; an int default makes an
+    integer parameter (e.g. a horizon length).
+
+    Args:
+        default: Default value.
+        low: Smallest valid value.
+        high: Largest valid value.
+        unit: Unit for messages, e.g. "1/s" ("" for a pure number).
+        tune: (low, high) searched log-uniformly by ``nhsim tune --tracker``; None: not tuned.
+    """
+    return dataclasses.field(default=default, metadata={"range": (low, high), "unit": unit, "tune": tune})
+
+
+def check_ranges(obj: object) -> None:
+    """Check every :func:`ranged` field of a frozen dataclass; store floats as floats.
+
+    Raises:
+        ConfigError: A field is not a number (a bool is not; an integer parameter needs an int), not
+            finite, or outside its range; the message names it (``MPCParams.horizon``), the range and
+            the unit.
+    """
+    for f in dataclasses.fields(obj):  # type: ignore[arg-type]
+        if "range" not in f.metadata:
+            continue
+        value, (low, high), unit = getattr(obj, f.name), f.metadata["range"], f.metadata["unit"]
+        where, integer = f"{type(obj).__name__}.{f.name}", isinstance(f.default, int)
+        kinds = (int,) if integer else (int, float)
+        if isinstance(value, bool) or not isinstance(value, kinds) or not math.isfinite(value):
+            what = "an integer" if integer else "a finite number"
+            raise ConfigError(f"{where} must be {what} in [{low:g}, {high:g}] {unit}, got {value!r}".rstrip())
+        if not low <= value <= high:
+            raise ConfigError(f"{where} must be in [{low:g}, {high:g}] {unit}, got {value!r}; choose a value in range")
+        if not integer:
+            object.__setattr__(obj, f.name, float(value))
+
+
+def search_space(cls: type) -> dict[str, tuple[float, float]]:
+    """The tuned fields of a parameter dataclass and their search ranges (see :func:`ranged`)."""
+    return {f.name: f.metadata["tune"] for f in dataclasses.fields(cls) if f.metadata.get("tune") is not None}

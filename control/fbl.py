@@ -130,6 +130,8 @@ class DynamicFBL:
     """
 
     name = "fbl"
+    #: The option ``nhsim tune --tracker`` tunes, and its dataclass.
+    TUNED = ("gains", FBLGains)
 
     def __init__(self, robot: RobotSpec, *, gains: FBLGains | None = None) -> None:
         self.robot = robot

@@ -69,36 +69,29 @@ class SegmentedParams:
         check_positive_fields(self, ("heading_gain", "along_gain", "xi_blend", "hold_speed"), why)
 
 
-class SegmentedTracker:
-    """Per-segment tracker (see the module doc).
+class SegmentSwitcher:
+    """The segment switching every per-segment tracker shares (see the module doc).
 
-    Source: the drives use the dynamic feedback linearisation of seed report 003, section III
-    (:class:`control.fbl.DynamicFBL`), whose singularity at v = 0 (G. Oriolo, A. De Luca,
-    M. Vendittelli, IEEE Trans. Control Systems Technology 10(6), 2002) is why cusps and turns in
-    place switch law; the switching, the low-speed blend and the heading regulation are this
-    project's design (README, "control/segmented.py").
+    A subclass gives the law of the drives (:meth:`_drive`) and the parameters of the turns in place
+    and stand-stills (``self._turns``: heading_gain, along_gain, hold_speed of a
+    :class:`SegmentedParams`); this class pre-samples the reference and its segment at every control
+    instant, switches law by segment, holds the final pose after the end, clamps every command to
+    the robot's limits and turns a non-finite one into a stop.
 
     Args:
         robot: Limits (max_speed, max_yaw_rate).
-        gains: FBL gains (Kp, Kd, xi_min); None for ``FBLGains()``.
-        params: Heading, along-track and blending parameters; None for ``SegmentedParams()``.
-
-    Raises:
-        ConfigError: ``gains`` is not an :class:`FBLGains` or ``params`` not a :class:`SegmentedParams`.
+        turns: Heading and spot-holding parameters of turns in place, stand-stills and the end.
     """
 
-    name = "segmented"
+    name = "segment-switcher"
 
-    def __init__(
-        self, robot: RobotSpec, *, gains: FBLGains | None = None, params: SegmentedParams | None = None
-    ) -> None:
+    def __init__(self, robot: RobotSpec, turns: SegmentedParams) -> None:
         self.robot = robot
-        self.gains = option_value(self.name, "gains", gains, FBLGains())
-        self.params = option_value(self.name, "params", params, SegmentedParams())
-        self.xi = 0.0
+        self._turns = turns
         self.segment = -1
         self._instants: list[_Instant] = []
         self._kinds: tuple[str, ...] = ()
+        self._spans: list[tuple[int, int]] = []
         self._final = (0.0, 0.0, 0.0)
         self._dt = 0.02
         self._t0 = 0.0
@@ -125,10 +118,23 @@ class SegmentedTracker:
         idx = np.clip(np.searchsorted(trajectory.t, times + 1e-9, side="right") - 1, 0, trajectory.t.size - 1)
         columns = (s.x.tolist(), s.y.tolist(), s.theta.tolist(), s.v.tolist(), s.omega.tolist())
         self._instants = [_Instant(*row) for row in zip(*columns, flat_references(s), seg[idx].tolist(), strict=True)]
+        at = seg[idx]
+        self._spans = [
+            (int(np.searchsorted(at, i)), int(np.searchsorted(at, i, side="right"))) for i in range(len(kinds))
+        ]
         self._kinds = tuple(kinds)
         self._final = (float(trajectory.pose[-1, 0]), float(trajectory.pose[-1, 1]), float(trajectory.pose[-1, 2]))
         self.segment = -1
-        self.xi = 0.0
+        self._idle()
+
+    def _idle(self) -> None:
+        """Called whenever no drive is under way (reset, turns, stand-stills, after the end)."""
+
+    def _drive(
+        self, x: float, y: float, theta: float, ref: _Instant, sgn: float, k: int
+    ) -> tuple[float, float]:  # pragma: no cover - abstract
+        """The law of a drive of direction ``sgn`` at control instant ``k``: (v, omega) before clamping."""
+        raise NotImplementedError
 
     def _regulate(
         self, x: float, y: float, theta: float, spot: tuple[float, float, float], omega_ref: float
@@ -136,11 +142,73 @@ class SegmentedTracker:
         """Hold ``spot`` (x, y) and turn to its heading: (v, omega) before clamping."""
         c, s = math.cos(theta), math.sin(theta)
         along = (spot[0] - x) * c + (spot[1] - y) * s
-        v = min(max(self.params.along_gain * along, -self.params.hold_speed), self.params.hold_speed)
+        v = min(max(self._turns.along_gain * along, -self._turns.hold_speed), self._turns.hold_speed)
         err = math.remainder(spot[2] - theta, 2.0 * math.pi)
-        return v, omega_ref + self.params.heading_gain * err
+        return v, omega_ref + self._turns.heading_gain * err
 
-    def _drive(self, x: float, y: float, theta: float, ref: _Instant, sgn: float) -> tuple[float, float]:
+    def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
+        """Body command for the period starting at ``t``.
+
+        Raises:
+            SimulationError: ``t`` or the pose is not finite.
+        """
+        if self._traj is None:
+            raise RuntimeError(f"{type(self).__name__}.command called before reset")
+        check_measured_pose(self.name, t, x, y, theta)
+        k = round((t - self._t0) / self._dt)
+        if k >= len(self._instants):
+            v, w = self._regulate(x, y, theta, self._final, 0.0)
+            self._idle()
+        else:
+            k = max(k, 0)
+            ref = self._instants[k]
+            kind = self._kinds[ref.segment]
+            if kind in ("forward", "reverse"):
+                v, w = self._drive(x, y, theta, ref, 1.0 if kind == "forward" else -1.0, k)
+            else:
+                v, w = self._regulate(x, y, theta, (ref.x, ref.y, ref.theta), ref.omega if kind == "rotate" else 0.0)
+                self._idle()
+            self.segment = ref.segment
+        if not (math.isfinite(v) and math.isfinite(w)):
+            v, w = 0.0, 0.0
+        vmax, wmax = self.robot.max_speed, self.robot.max_yaw_rate
+        return min(max(v, -vmax), vmax), min(max(w, -wmax), wmax)
+
+
+class SegmentedTracker(SegmentSwitcher):
+    """Per-segment tracker (see the module doc).
+
+    Source: the drives use the dynamic feedback linearisation of seed report 003, section III
+    (:class:`control.fbl.DynamicFBL`), whose singularity at v = 0 (G. Oriolo, A. De Luca,
+    M. Vendittelli, IEEE Trans. Control Systems Technology 10(6), 2002) is why cusps and turns in
+    place switch law; the switching, the low-speed blend and the heading regulation are this
+    project's design (README, "control/segmented.py").
+
+    Args:
+        robot: Limits (max_speed, max_yaw_rate).
+        gains: FBL gains (Kp, Kd, xi_min); None for ``FBLGains()``.
+        params: Heading, along-track and blending parameters; None for ``SegmentedParams()``.
+
+    Raises:
+        ConfigError: ``gains`` is not an :class:`FBLGains` or ``params`` not a :class:`SegmentedParams`.
+    """
+
+    name = "segmented"
+    #: The option ``nhsim tune --tracker`` tunes, and its dataclass.
+    TUNED = ("gains", FBLGains)
+
+    def __init__(
+        self, robot: RobotSpec, *, gains: FBLGains | None = None, params: SegmentedParams | None = None
+    ) -> None:
+        self.gains = option_value(self.name, "gains", gains, FBLGains())
+        self.params = option_value(self.name, "params", params, SegmentedParams())
+        self.xi = 0.0
+        super().__init__(robot, self.params)
+
+    def _idle(self) -> None:
+        self.xi = 0.0
+
+    def _drive(self, x: float, y: float, theta: float, ref: _Instant, sgn: float, k: int) -> tuple[float, float]:
         """FBL along a drive of direction ``sgn`` (+1 forwards, -1 backwards): (v, omega) before clamping;
         advances xi by one period, keeping it on the drive's side of zero."""
         if ref.segment != self.segment:
@@ -156,30 +224,3 @@ class SegmentedTracker:
         else:
             w = w_fbl
         return sgn * max(sgn * v, 0.0), w
-
-    def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
-        """Body command for the period starting at ``t``.
-
-        Raises:
-            SimulationError: ``t`` or the pose is not finite.
-        """
-        if self._traj is None:
-            raise RuntimeError("SegmentedTracker.command called before reset")
-        check_measured_pose(self.name, t, x, y, theta)
-        k = round((t - self._t0) / self._dt)
-        if k >= len(self._instants):
-            v, w = self._regulate(x, y, theta, self._final, 0.0)
-            self.xi = 0.0
-        else:
-            ref = self._instants[max(k, 0)]
-            kind = self._kinds[ref.segment]
-            if kind in ("forward", "reverse"):
-                v, w = self._drive(x, y, theta, ref, 1.0 if kind == "forward" else -1.0)
-            else:
-                v, w = self._regulate(x, y, theta, (ref.x, ref.y, ref.theta), ref.omega if kind == "rotate" else 0.0)
-                self.xi = 0.0
-            self.segment = ref.segment
-        if not (math.isfinite(v) and math.isfinite(w)):
-            v, w = 0.0, 0.0
-        vmax, wmax = self.robot.max_speed, self.robot.max_yaw_rate
-        return min(max(v, -vmax), vmax), min(max(w, -wmax), wmax)

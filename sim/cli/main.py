@@ -23,6 +23,7 @@ from sim.viz import gl
 #: Subcommand name -> module path.
 COMMANDS: dict[str, str] = {
     "simulate": "sim.cli.simulate",
+    "compare": "sim.cli.compare",
     "bench": "sim.cli.bench",
     "scenarios": "sim.cli.scenarios",
     "plan": "sim.cli.plan",

@@ -46,6 +46,11 @@ comparison in its provenance, the record of the study and the comparison (every 
 and costs) to a JSON file, and plots of the optimisation history and the parameter importance are
 saved.
 
+--tracker T tunes another registered tracker (mpc, rpp, kanayama, segmented) with the same objective
+and draws: its parameters over the ranges its dataclass declares (for mpc the weights, not the
+horizon); its defaults are the first trial, the record carries "tracker" and "params" (read by
+'nhsim compare --params'), and a gains file is written only for trackers tuned by their FBL gains.
+
 When the tuned gains score worse than the defaults on the held-out draws, the command says so, writes
 the DEFAULT gains to the gains file (its provenance names the tuned gains that lost and their
 held-out numbers) and exits 1.
@@ -68,6 +73,13 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--scenarios", required=True, metavar="CASE,...", help="cases to tune on, e.g. open:figure8,open:circle"
+    )
+    p.add_argument(
+        "--tracker",
+        default="fbl",
+        metavar="NAME",
+        help="tracker whose parameters are tuned (default: fbl, its gains); e.g. mpc, rpp, kanayama: their "
+        "parameters over the ranges they declare, the record's 'params' read by 'nhsim compare --params'",
     )
     p.add_argument(
         "--trials", type=int, default=30, metavar="N", help="completed trials wanted in the study (default: 30)"
@@ -142,9 +154,9 @@ def _add_output_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress display")
 
 
-def default_study_name(tokens: list[str], robot: str | None, robust: bool) -> str:
-    """A study name derived from the cases (the same command gives the same name)."""
-    base = "fbl-" + "_".join(tokens) + (f"-{robot}" if robot else "") + ("-robust" if robust else "")
+def default_study_name(tokens: list[str], robot: str | None, robust: bool, tracker: str = "fbl") -> str:
+    """A study name derived from the tracker and the cases (the same command gives the same name)."""
+    base = f"{tracker}-" + "_".join(tokens) + (f"-{robot}" if robot else "") + ("-robust" if robust else "")
     name = re.sub(r"[^A-Za-z0-9_.-]+", "-", base)
     if len(name) > 60:
         name = name[:50] + "-" + hashlib.sha1(name.encode()).hexdigest()[:8]
@@ -305,7 +317,7 @@ def tune_files(args: argparse.Namespace, tokens: list[str]) -> TuneFiles:
     from planning.errors import OutputExistsError
     from sim.outputs import check_writable
 
-    study = args.study or default_study_name(tokens, args.robot, args.robust)
+    study = args.study or default_study_name(tokens, args.robot, args.robust, getattr(args, "tracker", "fbl"))
     gains = args.out or Path("renders") / f"tune-{study}.toml"
     files = TuneFiles(
         study,
@@ -363,7 +375,12 @@ def run(args: argparse.Namespace) -> int:
     if not tokens:
         raise ConfigError("--scenarios is empty; give cases such as open:figure8,open:circle")
     _check_counts(args)
-    fields_ = {"robot": args.robot, "seed": args.seed, "control_rate": args.control_rate, "tracker": "fbl"}
+    from sim.tools.compare import check_trackers
+    from sim.tools.tune import tuned_space
+
+    tracker = check_trackers([args.tracker])[0]
+    tuned_space(tracker)  # a tracker with nothing to tune stops here
+    fields_ = {"robot": args.robot, "seed": args.seed, "control_rate": args.control_rate, "tracker": tracker}
     cases = tuple(Case.parse(t, **fields_) for t in tokens)
     prange = PerturbationRange.parse(args.perturb_range) if args.perturb_range else PerturbationRange()
     if args.perturb_range and not args.robust:
@@ -380,6 +397,7 @@ def run(args: argparse.Namespace) -> int:
         args.seed,
         args.saturation_weight,
         extra_settings={"robust": args.robust, "control_rate": args.control_rate, "robot": args.robot},
+        tracker="" if tracker == "fbl" else tracker,  # the FBL's studies keep their settings (resumable)
     )
     evaluator = spec.evaluator()
     evaluator.prepared()  # cases are built (and checked) before anything is written
@@ -406,7 +424,7 @@ def _optimise(args: argparse.Namespace, spec: Any) -> Any:
     done = len(completed(study))
     remaining = max(args.trials - done, 0)
     if remaining:
-        ensure_default_trial(study)
+        ensure_default_trial(study, spec.tracker)
     if not args.quiet:
         workers = f" on {args.jobs} workers" if args.jobs > 1 and remaining > 1 else ""
         print(
@@ -456,19 +474,19 @@ def _numbers(numbers: list[int]) -> str:
 
 def _report_best(study: Any, spec: Any, evaluator: Any) -> tuple[Any, float]:
     """Print the best trial against the default gains; returns it and the defaults' objective."""
-    from control.fbl import FBLGains
-    from sim.tools.tune import completed, default_trial, gains_of
+    from sim.tools.tune import completed, default_trial, gains_of, tuned_space
 
     trials = completed(study)
     best = min(trials, key=lambda t: (t.value, t.number))
-    tuned = gains_of(best)
-    dtrial = default_trial(study)
-    default_obj = dtrial.value if dtrial is not None else evaluator.evaluate(FBLGains()).objective
+    tuned = gains_of(best, spec.tracker)
+    cls, space = tuned_space(spec.tracker)
+    dtrial = default_trial(study, spec.tracker)
+    default_obj = dtrial.value if dtrial is not None else evaluator.evaluate(cls()).objective
     print(
         f"study {spec.study}: {len(trials)} completed trials ({spec.storage}), each on {len(spec.draws)} draws per case"
     )
     print(
-        f"best trial #{best.number}: kp={tuned.kp:.4g} kd={tuned.kd:.4g} xi_min={tuned.xi_min:.4g} "
+        f"best trial #{best.number}: {' '.join(f'{k}={getattr(tuned, k):.4g}' for k in space)} "
         f"objective {best.value:.6f} m; default gains objective {default_obj:.6f} m on the same draws "
         f"(ratio {best.value / default_obj:.3f})"
     )
@@ -482,7 +500,7 @@ def _held_out(evaluator: Any, draws: tuple[Any, ...], best: Any) -> Any:
 
     if not draws:
         return None
-    c = compare(evaluator, gains_of(best), draws)
+    c = compare(evaluator, gains_of(best, evaluator.tracker), draws)
     ratio = c.ratios()
     print(f"held-out runs: {c.tuned.runs} ({len(draws)} draws per case: builds and sensor noise no trial met)")
     print(f"{'gains':<14} {'objective [m]':>14} {'rms [m]':>10} {'final [m]':>10} {'saturation':>11} {'failed':>7}")
@@ -529,6 +547,7 @@ def _write_outputs(
         Whether the tuned gains lost to the defaults on the held-out draws (the gains file then
         holds the default gains; see :func:`recommendation`).
     """
+    from control.fbl import FBLGains
     from control.gains import GainsFile, dump_gains_toml
     from sim.outputs import atomic_path, write_json
     from sim.tools.tune import completed
@@ -552,12 +571,17 @@ def _write_outputs(
     if held_out is not None:
         summary = {k: held_out[k] for k in ("better", "verdict", "ratios", "default", "tuned")}
         provenance["held_out"] = _finite({"draws": args.eval_runs, **summary}, drop=True)
-    gains, verdict = recommendation(best, comparison)
+    gains, verdict = recommendation(best, comparison, spec.tracker)
     provenance.update(verdict)
-    with atomic_path(files.gains, overwrite=files.may_replace(files.gains, args.overwrite)) as tmp:
-        tmp.write_text(dump_gains_toml(GainsFile(gains, provenance)), encoding="utf-8")
+    written = [files.record]
+    if isinstance(gains, FBLGains):  # a gains file for 'simulate --gains'; the record serves every tracker
+        with atomic_path(files.gains, overwrite=files.may_replace(files.gains, args.overwrite)) as tmp:
+            tmp.write_text(dump_gains_toml(GainsFile(gains, provenance)), encoding="utf-8")
+        written.insert(0, files.gains)
     record = {
         **provenance,
+        "tracker": args.tracker,
+        "params": asdict(gains),
         "gains": asdict(gains),
         "settings": spec.settings(),
         "held_out": held_out,
@@ -566,13 +590,13 @@ def _write_outputs(
     plots, notes = _save_plots(study, files, args.overwrite)
     for note in notes:
         print(note, file=sys.stderr)
-    print("wrote " + ", ".join([str(files.gains), str(files.record), *plots]))
+    print("wrote " + ", ".join([*map(str, written), *plots]))
     if verdict["recommended"] == "default":
         print(f"{verdict['note']}: wrote the default gains to {files.gains}", file=sys.stderr)
     return verdict["recommended"] == "default"
 
 
-def recommendation(best: Any, comparison: Any) -> tuple[Any, dict[str, Any]]:
+def recommendation(best: Any, comparison: Any, tracker: str = "") -> tuple[Any, dict[str, Any]]:
     """The gains to write, and provenance saying which gains they are and why.
 
     The tuned gains are recommended unless the held-out comparison finds the defaults better; then
@@ -582,15 +606,15 @@ def recommendation(best: Any, comparison: Any) -> tuple[Any, dict[str, Any]]:
     Args:
         best: The study's best trial.
         comparison: The held-out :class:`sim.tools.tune.Comparison`, or None when skipped.
+        tracker: The tuned tracker ("": the FBL gains).
 
     Returns:
         (gains, provenance entries: ``recommended`` "tuned" or "default", and when "default" also
         ``tuned_gains``, ``tuned_held_out_objective``, ``default_held_out_objective`` [m] and ``note``).
     """
-    from control.fbl import FBLGains
-    from sim.tools.tune import gains_of
+    from sim.tools.tune import gains_of, tuned_space
 
-    tuned = gains_of(best)
+    tuned = gains_of(best, tracker)
     if comparison is None or comparison.better != "default":
         return tuned, {"recommended": "tuned"}
     t, d = comparison.tuned.objective, comparison.default.objective
@@ -598,7 +622,7 @@ def recommendation(best: Any, comparison: Any) -> tuple[Any, dict[str, Any]]:
         f"tuned gains (trial #{best.number}) are worse than the defaults on held-out robots: objective "
         f"{t:.6f} m against {d:.6f} m ({comparison.ratios()['objective']:.2f}x)"
     )
-    return FBLGains(), {
+    return tuned_space(tracker)[0](), {
         "recommended": "default",
         "tuned_gains": asdict(tuned),
         "tuned_held_out_objective": t,

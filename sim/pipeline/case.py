@@ -77,6 +77,8 @@ class Case:
         seed: Seed of the job (planner and sensor noise).
         control_rate: Tracker rate [Hz].
         gains: FBL gains; None for the defaults.
+        params: The feedback tracker's tuned parameters (the value of its tuned option, e.g. an
+            ``MPCParams`` for "mpc", see :func:`control.base.tuned_option`); None for its defaults.
         perturbation: Physics perturbation; None for the nominal model.
         name: Case name; derived from the fields when empty.
         fast: In the default (fast) subset of a regression suite.
@@ -101,6 +103,7 @@ class Case:
     gains: FBLGains | None = None
     perturbation: Perturbation | None = None
     name: str = ""
+    params: Any = None
     fast: bool = False
     planning: PlanOptions = field(default_factory=PlanOptions)
     build_seed: int | None = DEFAULT_BUILD_SEED

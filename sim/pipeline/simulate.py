@@ -9,13 +9,13 @@ a planner. The library returns data; only the CLI prints and writes files.
 from __future__ import annotations
 
 import platform
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, replace
 from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from control.base import make_tracker, tracker_options
+from control.base import Tracker, make_tracker, tracker_options, tuned_option
 from control.fbl import FBLGains
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
@@ -193,35 +193,70 @@ def track(
     Raises:
         SimulationError: MuJoCo warned (with ``strict``) or a tracker returned a non-finite command.
     """
-    case, robot = prepared.case, prepared.robot
-    gains = case.gains or FBLGains()
+    case = prepared.case
     config = SimConfig(control_rate=case.control_rate, hold=prepared.hold, strict=strict)
     simulator = simulator or simulator_for(prepared)
     sensing = case.sensing(prepared.scenario)
     done: dict[RunKind, Run] = {}
     for kind in runs:
-        name = case.tracker_for(kind)
         step = None if progress is None else (lambda d, total, _k=kind: progress(_k, d, total))
-        log = simulator.run(
-            prepared.trajectory,
-            make_tracker(name, robot, **({"gains": gains} if "gains" in tracker_options(name) else {})),
-            config,
-            start=prepared.scenario.start,
-            meta={"seed": case.seed, "case": case.name},
-            perturbation=case.perturbation,
-            progress=step,
-            source=kind.source,
-            sensing=sensing,
-        )
-        metrics = compute_metrics(
-            log,
-            prepared.trajectory,
-            max_speed=robot.max_speed,
-            max_yaw_rate=robot.max_yaw_rate,
-            max_wheel_speed=robot.max_wheel_speed,
-        )
-        done[kind] = Run(kind, name, log, metrics)
+        tracker = tracker_for_run(case, kind, prepared.robot)
+        done[kind] = run_tracker(prepared, kind, tracker, simulator, config, sensing, progress=step)
     return JobResult(prepared, done, config, simulator.build, sensing)
+
+
+def tracker_for_run(case: Case, kind: RunKind, robot: RobotSpec) -> Tracker:
+    """The tracker a run of ``kind`` uses in ``case``: its registered tracker with the case's FBL gains
+    (if it takes gains) and, for the case's feedback tracker, the case's ``params`` (its tuned option).
+
+    Raises:
+        ConfigError: The case's params are not of the tracker's tuned type.
+    """
+    name = case.tracker_for(kind)
+    options: dict[str, Any] = {}
+    if "gains" in tracker_options(name):
+        options["gains"] = case.gains or FBLGains()
+    if case.params is not None and not kind.tracker:
+        options[tuned_option(name)[0]] = case.params
+    return make_tracker(name, robot, **options)
+
+
+def run_tracker(
+    prepared: PreparedTrajectory,
+    kind: RunKind,
+    tracker: Tracker,
+    simulator: Simulator,
+    config: SimConfig,
+    sensing: SensingSetup,
+    *,
+    progress: Callable[[int, int], Any] | None = None,
+) -> Run:
+    """One run: ``tracker`` drives the prepared trajectory in ``simulator``, fed the pose of ``kind``'s
+    source; the log measured against the trajectory.
+
+    Raises:
+        SimulationError: MuJoCo warned (with ``config.strict``) or the tracker returned a non-finite command.
+    """
+    case, robot = prepared.case, prepared.robot
+    log = simulator.run(
+        prepared.trajectory,
+        tracker,
+        config,
+        start=prepared.scenario.start,
+        meta={"seed": case.seed, "case": case.name},
+        perturbation=case.perturbation,
+        progress=progress,
+        source=kind.source,
+        sensing=sensing,
+    )
+    metrics = compute_metrics(
+        log,
+        prepared.trajectory,
+        max_speed=robot.max_speed,
+        max_yaw_rate=robot.max_yaw_rate,
+        max_wheel_speed=robot.max_wheel_speed,
+    )
+    return Run(kind, case.tracker_for(kind), log, metrics)
 
 
 def simulator_for(prepared: PreparedTrajectory) -> Simulator:
@@ -371,7 +406,12 @@ class PreparedCase:
         return PreparedCase(trajectory, simulator_for(trajectory))
 
     def run(
-        self, gains: FBLGains | None = None, perturbation: Perturbation | None = None, *, seed: int | None = None
+        self,
+        gains: FBLGains | None = None,
+        perturbation: Perturbation | None = None,
+        *,
+        seed: int | None = None,
+        params: Any = None,
     ) -> Run:
         """The case's single run (its tracker's kind), strict off: MuJoCo warnings are counted.
 
@@ -379,14 +419,16 @@ class PreparedCase:
             gains: Gains overriding the case's.
             perturbation: Perturbation overriding the case's.
             seed: Sensor noise seed overriding the case's (the trajectory, planned or not, stays).
+            params: The tracker's tuned parameters overriding the case's (see ``Case.params``).
         """
         case = self.case
-        if gains is not None or perturbation is not None or seed is not None:
+        if gains is not None or perturbation is not None or seed is not None or params is not None:
             case = replace(
                 case,
                 gains=gains or case.gains,
                 perturbation=perturbation if perturbation is not None else case.perturbation,
                 seed=seed if seed is not None else case.seed,
+                params=params if params is not None else case.params,
             )
         job = track(replace(self.trajectory, case=case), (case.kind,), strict=False, simulator=self.simulator)
         return job.runs[case.kind]

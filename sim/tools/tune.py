@@ -51,6 +51,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from control.base import search_space, tuned_option
 from control.fbl import FBLGains
 from planning.errors import ConfigError, NhsimError
 
@@ -62,6 +63,27 @@ if TYPE_CHECKING:  # the command line reads SAMPLERS while building its parser, 
 
 #: Name -> (low, high) of each tuned parameter, sampled log-uniformly.
 SEARCH_SPACE: dict[str, tuple[float, float]] = {"kp": (0.5, 100.0), "kd": (0.5, 40.0), "xi_min": (0.002, 0.2)}
+
+
+def tuned_space(tracker: str = "") -> tuple[type, dict[str, tuple[float, float]]]:
+    """The parameter dataclass tuned for a tracker and its search space (log-uniform ranges).
+
+    "" (the default study) and the trackers whose tuned option is their FBL gains tune
+    :class:`FBLGains` over ``SEARCH_SPACE``; any other registered tracker its ``TUNED`` dataclass over
+    the ranges its fields declare (:func:`control.base.ranged`).
+
+    Raises:
+        ConfigError: An unknown tracker (lists the registered ones) or one with nothing to tune.
+    """
+    cls = tuned_option(tracker)[1] if tracker else FBLGains
+    return cls, (SEARCH_SPACE if cls is FBLGains else search_space(cls))
+
+
+def make_params(tracker: str, values: dict[str, float]) -> Any:
+    """The tracker's tuned dataclass with ``values`` (the other fields at their defaults)."""
+    return tuned_space(tracker)[0](**values)
+
+
 #: Cost added for a failed run (collision, MuJoCo warning, non-finite command) [m].
 FAILURE_COST = 1.0
 #: Sampler name -> "module:class"; each takes ``seed=``.
@@ -181,6 +203,7 @@ class Evaluator:
         draws: Draws each case is run on; empty or None -> the case as it is (its own build seed,
             seed and perturbation).
         saturation_weight: ``w_sat`` [m].
+        tracker: The tracker whose parameters are scored ("": the FBL gains of each case's tracker).
     """
 
     def __init__(
@@ -189,6 +212,7 @@ class Evaluator:
         draws: Sequence[Draw] | None = None,
         *,
         saturation_weight: float = 0.05,
+        tracker: str = "",
     ) -> None:
         if not cases:
             raise ConfigError("no cases to tune on; give --scenarios, e.g. open:figure8,open:circle")
@@ -197,6 +221,7 @@ class Evaluator:
         self.cases = tuple(cases)
         self.draws: tuple[Draw | None, ...] = tuple(draws) if draws else (None,)
         self.saturation_weight = float(saturation_weight)
+        self.tracker = tracker
         self._prepared: list[PreparedCase] | None = None
         self._builds: dict[tuple[int, int | None], PreparedCase] = {}
 
@@ -217,14 +242,17 @@ class Evaluator:
 
     def with_draws(self, draws: Sequence[Draw]) -> Evaluator:
         """The same cases (shared, not rebuilt, and sharing the compiled builds) on other draws."""
-        other = Evaluator(self.cases, draws, saturation_weight=self.saturation_weight)
+        other = Evaluator(self.cases, draws, saturation_weight=self.saturation_weight, tracker=self.tracker)
         other._prepared, other._builds = self.prepared(), self._builds
         return other
 
-    def score(self, pc: PreparedCase, gains: FBLGains, draw: Draw | None) -> tuple[float, TrackingMetrics | None, bool]:
-        """One run: its J [m], its metrics (None when the run raised) and whether it failed."""
+    def score(self, pc: PreparedCase, gains: Any, draw: Draw | None) -> tuple[float, TrackingMetrics | None, bool]:
+        """One run with FBL ``gains`` or a tracker's parameters: its J [m], its metrics (None when the
+        run raised) and whether it failed."""
+        fbl, params = (gains, None) if isinstance(gains, FBLGains) else (None, gains)
         try:
-            run = pc.run(gains, draw.perturbation, seed=draw.seed) if draw is not None else pc.run(gains)
+            pert, seed = (draw.perturbation, draw.seed) if draw is not None else (None, None)
+            run = pc.run(fbl, pert, seed=seed, params=params)
         except NhsimError:
             return FAILURE_COST, None, True
         m = run.metrics
@@ -232,8 +260,9 @@ class Evaluator:
         failed = m.collisions > 0 or m.warnings > 0 or not math.isfinite(cost)
         return (cost if math.isfinite(cost) else 0.0) + (FAILURE_COST if failed else 0.0), m, failed
 
-    def evaluate(self, gains: FBLGains) -> Evaluation:
-        """Run every case on every draw with ``gains`` and average."""
+    def evaluate(self, gains: Any) -> Evaluation:
+        """Run every case on every draw with ``gains`` (FBL gains or the tuned tracker's parameters)
+        and average."""
         costs: list[float] = []
         rms, final, sat, failures = [], [], [], 0
         for i, base in enumerate(self.prepared()):
@@ -267,6 +296,7 @@ class TuneSpec:
         sampler: Key of ``SAMPLERS``.
         seed: Seed of the sampler (mixed with the trial count and the worker index).
         saturation_weight: ``w_sat`` [m].
+        tracker: Tracker whose parameters are tuned ("": the FBL gains, the default study).
     """
 
     cases: tuple[Case, ...]
@@ -278,6 +308,7 @@ class TuneSpec:
     seed: int = 0
     saturation_weight: float = 0.05
     extra_settings: dict[str, Any] = field(default_factory=dict)
+    tracker: str = ""
 
     def __post_init__(self) -> None:
         if self.sampler not in SAMPLERS:
@@ -291,13 +322,14 @@ class TuneSpec:
             "cases": [c.name for c in self.cases],
             "draws": [d.as_dict() for d in self.draws],
             "saturation_weight": self.saturation_weight,
-            "search_space": {k: list(v) for k, v in SEARCH_SPACE.items()},
+            "search_space": {k: list(v) for k, v in tuned_space(self.tracker)[1].items()},
+            **({"tracker": self.tracker} if self.tracker else {}),
             **self.extra_settings,
         }
 
     def evaluator(self) -> Evaluator:
         """An evaluator of this spec's objective."""
-        return Evaluator(self.cases, self.draws, saturation_weight=self.saturation_weight)
+        return Evaluator(self.cases, self.draws, saturation_weight=self.saturation_weight, tracker=self.tracker)
 
 
 def open_storage(url: str) -> Any:
@@ -388,17 +420,18 @@ def load_study(spec: TuneSpec, *, worker: int = 0, create: bool = False) -> Any:
     return study
 
 
-def default_params() -> dict[str, float]:
-    """The tracker's default gains as study parameters."""
-    g = FBLGains()
-    return {"kp": g.kp, "kd": g.kd, "xi_min": g.xi_min}
+def default_params(tracker: str = "") -> dict[str, float]:
+    """The tracker's default gains (or tuned parameters) as study parameters."""
+    cls, space = tuned_space(tracker)
+    default = cls()
+    return {k: getattr(default, k) for k in space}
 
 
-def ensure_default_trial(study: Any) -> None:
+def ensure_default_trial(study: Any, tracker: str = "") -> None:
     """Enqueue the default gains unless a completed or waiting trial already holds them."""
     from optuna.trial import TrialState
 
-    params = default_params()
+    params = default_params(tracker)
     for t in study.get_trials(deepcopy=False, states=(TrialState.COMPLETE, TrialState.WAITING)):
         p = t.system_attrs.get("fixed_params", t.params)
         if p == params:
@@ -451,8 +484,9 @@ def objective_fn(evaluator: Evaluator) -> Any:
     """The Optuna objective: suggest gains, evaluate, record the parts as user attributes."""
 
     def objective(trial: Any) -> float:
-        values = {k: trial.suggest_float(k, lo, hi, log=True) for k, (lo, hi) in SEARCH_SPACE.items()}
-        ev = evaluator.evaluate(FBLGains(**values))
+        space = tuned_space(evaluator.tracker)[1]
+        values = {k: trial.suggest_float(k, lo, hi, log=True) for k, (lo, hi) in space.items()}
+        ev = evaluator.evaluate(make_params(evaluator.tracker, values))
         for k, v in ev.as_dict().items():
             trial.set_user_attr(k, v)
         return ev.objective
@@ -484,14 +518,14 @@ def run_worker(spec: TuneSpec, n_trials: int, worker: int = 0, callbacks: Sequen
     return len(study.trials) - before
 
 
-def gains_of(trial: Any) -> FBLGains:
-    """The gains a trial evaluated."""
-    return FBLGains(**{k: float(trial.params[k]) for k in SEARCH_SPACE})
+def gains_of(trial: Any, tracker: str = "") -> Any:
+    """The gains (or the tracker's parameters) a trial evaluated."""
+    return make_params(tracker, {k: float(trial.params[k]) for k in tuned_space(tracker)[1]})
 
 
-def default_trial(study: Any) -> Any | None:
+def default_trial(study: Any, tracker: str = "") -> Any | None:
     """The completed trial of the default gains, if any."""
-    params = default_params()
+    params = default_params(tracker)
     for t in completed(study):
         if {k: t.params.get(k) for k in params} == params:
             return t
@@ -604,7 +638,7 @@ def _ratio(num: float, den: float) -> float:
     return num / den if den != 0 else (float("nan") if num == 0 else math.copysign(math.inf, num))
 
 
-def compare(evaluator: Evaluator, tuned: FBLGains, draws: Sequence[Draw]) -> Comparison:
+def compare(evaluator: Evaluator, tuned: Any, draws: Sequence[Draw]) -> Comparison:
     """Run the default and the tuned gains on the evaluator's cases over held-out ``draws``.
 
     Raises:
@@ -614,5 +648,8 @@ def compare(evaluator: Evaluator, tuned: FBLGains, draws: Sequence[Draw]) -> Com
         raise ConfigError("no held-out draws to compare on; give --eval-runs >= 1")
     held_out = evaluator.with_draws(draws)
     return Comparison(
-        held_out.evaluate(FBLGains()), held_out.evaluate(tuned), tuple(draws), tuple(c.name for c in evaluator.cases)
+        held_out.evaluate(tuned_space(evaluator.tracker)[0]()),
+        held_out.evaluate(tuned),
+        tuple(draws),
+        tuple(c.name for c in evaluator.cases),
     )

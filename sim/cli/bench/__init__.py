@@ -30,6 +30,10 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "sim.cli.bench.simplify",
         "simplified birrt / rrt paths and simulate --all trajectories against rrt-star's (length, cusps, time)",
     ),
+    "track": (
+        "sim.cli.bench.track",
+        "control time per step of every tracker in the real robot's loop; MPC's 95th percentile solve time",
+    ),
     "render": ("sim.cli.bench.render", "video pipeline frames/s (replay, draw, encode) against a bare Renderer loop"),
     "montecarlo": (
         "sim.cli.bench.montecarlo",

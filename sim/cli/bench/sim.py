@@ -15,15 +15,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--reference", choices=list(REFERENCES), default="figure8")
     p.add_argument("--control-rate", type=float, default=50.0, metavar="HZ")
     p.add_argument("--repeats", type=int, default=3, help="best of N for each loop (default: 3)")
+    p.add_argument("--tracker", default="fbl", metavar="NAME", help="tracker of the closed loop (default: fbl)")
 
 
 def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when the ratio misses the target."""
     from sim.tools.bench.sim import TARGET_RATIO, measure
 
-    r = measure(args.robot, args.reference, args.control_rate, args.repeats)
+    r = measure(args.robot, args.reference, args.control_rate, args.repeats, args.tracker)
     print(
-        f"robot {r.robot}, reference {r.reference}, {r.n_steps} physics steps ({r.duration_s:.1f} s simulated), "
+        f"robot {r.robot}, reference {r.reference}, tracker {args.tracker}, {r.n_steps} physics steps "
+        f"({r.duration_s:.1f} s simulated), "
         f"control {r.control_rate:g} Hz, best of {r.repeats}"
     )
     print(f"bare mj_step loop    {r.bare_steps_per_s:>12,.0f} steps/s")

@@ -4,7 +4,7 @@ Both loops step the same compiled model from the same start for the same number 
 steps with the same wheel commands: the baseline replays the closed loop's logged wheel commands
 as the motors' no-load voltages with ``mj_step(m, d, nstep=k)`` and nothing else (so the engine
 does the same contact work), the
-closed loop runs the whole simulator (sensing, the FBL tracker at the control rate, the drive
+closed loop runs the whole simulator (sensing, the tracker (FBL unless told) at the control rate, the drive
 mapping, logging, contact checks). Target: ratio >= 0.8.
 """
 
@@ -68,13 +68,18 @@ class SimBench:
 
 
 def measure(
-    robot: str = "turtlebot3", reference: str = "figure8", control_rate: float = 50.0, repeats: int = 3
+    robot: str = "turtlebot3",
+    reference: str = "figure8",
+    control_rate: float = 50.0,
+    repeats: int = 3,
+    tracker: str = "fbl",
 ) -> SimBench:
-    """Time both loops (best of ``repeats``) on a reference at the 'open' scenario's start.
+    """Time both loops (best of ``repeats``) on a reference at the 'open' scenario's start, the closed
+    loop driven by ``tracker`` (a registered name).
 
     Raises:
-        ConfigError: Unknown robot or reference, or a control rate that is not a whole number of
-            physics steps.
+        ConfigError: Unknown robot, reference or tracker, or a control rate that is not a whole
+            number of physics steps.
     """
     import mujoco
 
@@ -98,7 +103,7 @@ def measure(
     sensing = SensingSetup.for_robot(spec.name)
 
     def run_closed() -> Any:
-        return simulator.run(traj, make_tracker("fbl", spec), cfg, source=PoseSource.FUSED, sensing=sensing)
+        return simulator.run(traj, make_tracker(tracker, spec), cfg, source=PoseSource.FUSED, sensing=sensing)
 
     log = run_closed()
     chunks = (len(log) - 1) // (n_steps // k)

@@ -1,0 +1,109 @@
+"""Kanayama's tracking law on the pose error, per segment of a trajectory.
+
+With the pose error expressed in the robot's frame,
+
+    e_x =  cos(theta) (x_r - x) + sin(theta) (y_r - y)
+    e_y = -sin(theta) (x_r - x) + cos(theta) (y_r - y)
+    e_theta = wrap(theta_r - theta),
+
+the command is
+
+    v     = v_r cos(e_theta) + K_x e_x
+    omega = omega_r + v_r K_y e_y + |v_r| K_theta sin(e_theta).
+
+Kanayama et al. prove, with the Lyapunov function V = (e_x^2 + e_y^2) / 2 + (1 - cos e_theta) / K_y,
+that the error converges for v_r > 0; the heading term here carries |v_r| instead of v_r so that the
+linearised lateral error e_y'' + |v_r| K_theta e_y' + v_r^2 K_y e_y = 0 is stable backwards too
+(critically damped for K_theta = 2 sqrt(K_y)). Where v_r vanishes the lateral and heading
+corrections vanish with it, so turns in place and stand-stills are held by the segment switching
+of :class:`control.segmented.SegmentSwitcher` (heading control, spot holding), as for the
+segmented FBL: the tracker accepts every trajectory, with cusps and turns in place.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from control.base import check_ranges, option_value, ranged
+from control.segmented import SegmentedParams, SegmentSwitcher, _Instant
+from planning.core.robot import RobotSpec
+
+
+@dataclass(frozen=True)
+class KanayamaParams:
+    """Gains of Kanayama's law (ranges checked; out of range raises ConfigError naming the range).
+
+    The defaults are the paper's (K_x = 10 1/s, K_y = 6.4e-3 1/cm^2, K_theta = 0.16 1/cm).
+
+    Attributes:
+        kx: Along-track gain K_x [1/s].
+        ky: Lateral gain K_y [1/m^2].
+        ktheta: Heading gain K_theta [1/m] (critical damping at 2 sqrt(K_y)).
+    """
+
+    kx: float = ranged(10.0, 0.01, 100.0, "1/s", tune=(0.2, 40.0))
+    ky: float = ranged(64.0, 0.01, 10000.0, "1/m^2", tune=(1.0, 1000.0))
+    ktheta: float = ranged(16.0, 0.01, 1000.0, "1/m", tune=(0.5, 100.0))
+
+    def __post_init__(self) -> None:
+        check_ranges(self)
+
+
+def kanayama_law(
+    params: KanayamaParams, x: float, y: float, theta: float, ref: tuple[float, float, float, float, float]
+) -> tuple[float, float]:
+    """Kanayama's command for a pose and a reference (see the module doc).
+
+    Args:
+        params: K_x, K_y, K_theta.
+        x: Position [m].
+        y: Position [m].
+        theta: Heading [rad].
+        ref: (x_r [m], y_r [m], theta_r [rad], v_r [m/s], omega_r [rad/s]).
+
+    Returns:
+        (v [m/s], omega [rad/s]), before saturation.
+    """
+    xr, yr, thr, vr, wr = ref
+    c, s = math.cos(theta), math.sin(theta)
+    dx, dy = xr - x, yr - y
+    ex, ey = c * dx + s * dy, -s * dx + c * dy
+    eth = math.remainder(thr - theta, 2.0 * math.pi)
+    v = vr * math.cos(eth) + params.kx * ex
+    omega = wr + vr * params.ky * ey + abs(vr) * params.ktheta * math.sin(eth)
+    return v, omega
+
+
+class KanayamaTracker(SegmentSwitcher):
+    """Kanayama's stable tracking law on the drives; turns in place by segment (see the module doc).
+
+    Source: Y. Kanayama, Y. Kimura, F. Miyazaki, T. Noguchi, "A stable tracking control method for an
+    autonomous mobile robot", Proc. IEEE International Conference on Robotics and Automation 1990,
+    pp. 384-389, eq. (8) (the law) and section IV (the Lyapunov function and the gains); |v_r| in the
+    heading term for reverse drives is this project's extension.
+
+    Args:
+        robot: Limits (max_speed, max_yaw_rate).
+        params: K_x, K_y, K_theta; None for ``KanayamaParams()``.
+        turns: Heading and spot-holding parameters of turns in place and stand-stills (its
+            ``xi_blend`` is unused); None for ``SegmentedParams()``.
+
+    Raises:
+        ConfigError: ``params`` is not a :class:`KanayamaParams` or ``turns`` not a :class:`SegmentedParams`.
+    """
+
+    name = "kanayama"
+    #: The option ``nhsim tune --tracker`` tunes, and its dataclass.
+    TUNED = ("params", KanayamaParams)
+
+    def __init__(
+        self, robot: RobotSpec, *, params: KanayamaParams | None = None, turns: SegmentedParams | None = None
+    ) -> None:
+        self.params = option_value(self.name, "params", params, KanayamaParams())
+        super().__init__(robot, option_value(self.name, "turns", turns, SegmentedParams()))
+
+    def _drive(self, x: float, y: float, theta: float, ref: _Instant, sgn: float, k: int) -> tuple[float, float]:
+        """Kanayama's law along a drive, its speed kept on the drive's side of zero."""
+        v, w = kanayama_law(self.params, x, y, theta, (ref.x, ref.y, ref.theta, ref.v, ref.omega))
+        return sgn * max(sgn * v, 0.0), w

@@ -1,0 +1,212 @@
+"""Regulated Pure Pursuit, as Nav2 describes it, on the drives of a timed trajectory.
+
+Per control period, on the current drive's path (the reference positions at the control instants):
+
+1. **Lookahead scaled with speed:** L = clip(|v| * lookahead_time, min_lookahead, max_lookahead),
+   |v| the last speed commanded.
+2. **Carrot:** the path is pruned to the point closest to the robot (searched forwards from the
+   last one); the carrot is where the path leaves the circle of radius L about the robot
+   (interpolated on the crossing path segment); past the drive's end the path is extended along its
+   last heading, so the carrot stays at distance L.
+3. **Curvature:** kappa = 2 y_c / L^2, (x_c, y_c) the carrot in the robot's frame.
+4. **Speed:** the desired speed is the reference speed plus ``along_gain`` times the along-track
+   error to the reference of this instant (this project's addition: Nav2 drives at a constant
+   desired speed; the comparison is on timed trajectories). It is then regulated as Nav2 does:
+   by curvature (times R / min_radius where the radius R = 1 / |kappa| is below min_radius, never
+   below min_regulated_speed) and by proximity to the drive's end (times d / approach_dist within
+   approach_dist of it, never below min_approach_speed). Where the yaw rate v kappa would exceed
+   the robot's limit, v is scaled down so the curvature is kept.
+5. **Rotate to heading:** when the carrot is more than ``rotate_angle`` off the driving direction,
+   the robot turns in place towards it (omega = heading_gain * angle).
+
+Backwards drives aim the same construction behind the robot (v < 0, omega = v kappa). Turns in
+place and stand-stills are held by the segment switching of
+:class:`control.segmented.SegmentSwitcher`, so the tracker accepts every trajectory. Nav2's third
+regulation, by proximity to obstacles, reads a costmap: a tracker here is given the trajectory, not
+the map (the plan keeps its clearance), so that heuristic is left out.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from control.base import check_ranges, option_value, ranged
+from control.segmented import SegmentedParams, SegmentSwitcher, _Instant
+from planning.core.robot import RobotSpec
+from planning.errors import ConfigError
+from planning.trajectory.trajectory import Trajectory
+
+#: Path points past the last closest one that may be farther before the search for the closest stops.
+_PATIENCE = 4
+
+
+@dataclass(frozen=True)
+class RPPParams:
+    """Parameters of Regulated Pure Pursuit (Nav2's names in brackets; ranges checked).
+
+    The defaults are Nav2's except where its values exceed these small robots (its minimum
+    lookahead 0.3 m and minimum regulated speed 0.25 m/s are above a TurtleBot3's 0.125 m tightest
+    reference radius and 0.22 m/s top speed).
+
+    Attributes:
+        lookahead_time: Lookahead per speed [s] (lookahead_time).
+        min_lookahead: Smallest lookahead [m] (min_lookahead_dist).
+        max_lookahead: Largest lookahead [m] (max_lookahead_dist).
+        min_radius: Path radius below which the speed is scaled down [m]
+            (regulated_linear_scaling_min_radius).
+        min_regulated_speed: Floor of the curvature-regulated speed [m/s]
+            (regulated_linear_scaling_min_speed).
+        approach_dist: Distance to the drive's end within which the speed is scaled down [m]
+            (approach_velocity_scaling_dist).
+        min_approach_speed: Floor of the approach-scaled speed [m/s] (min_approach_linear_velocity).
+        along_gain: Gain of the along-track error on the desired speed [1/s] (this project's).
+        rotate_angle: Carrot bearing beyond which the robot turns in place [rad]
+            (rotate_to_heading_min_angle).
+    """
+
+    lookahead_time: float = ranged(1.5, 0.01, 10.0, "s", tune=(0.1, 5.0))
+    min_lookahead: float = ranged(0.1, 0.01, 5.0, "m", tune=(0.02, 0.5))
+    max_lookahead: float = ranged(0.9, 0.01, 10.0, "m")
+    min_radius: float = ranged(0.3, 0.0, 10.0, "m", tune=(0.01, 2.0))
+    min_regulated_speed: float = ranged(0.05, 0.0, 10.0, "m/s")
+    approach_dist: float = ranged(0.2, 0.0, 10.0, "m", tune=(0.01, 1.0))
+    min_approach_speed: float = ranged(0.05, 0.0, 10.0, "m/s")
+    along_gain: float = ranged(1.0, 0.0, 100.0, "1/s", tune=(0.05, 10.0))
+    rotate_angle: float = ranged(0.785, 0.01, math.pi, "rad")
+
+    def __post_init__(self) -> None:
+        check_ranges(self)
+        if self.min_lookahead > self.max_lookahead:
+            raise ConfigError(
+                f"RPPParams.min_lookahead ({self.min_lookahead} m) must be <= max_lookahead ({self.max_lookahead} m)"
+            )
+
+
+def circle_crossing(
+    cx: float, cy: float, radius: float, p1: tuple[float, float], p2: tuple[float, float]
+) -> tuple[float, float]:
+    """Where the segment p1 -> p2 (p1 inside the circle, p2 on or outside it) leaves the circle.
+
+    Args:
+        cx: Circle centre x [m].
+        cy: Circle centre y [m].
+        radius: Circle radius [m].
+        p1: Segment start (inside).
+        p2: Segment end (outside).
+
+    Returns:
+        The crossing point (x, y) [m] (p2 when the segment is degenerate).
+    """
+    ax, ay = p1[0] - cx, p1[1] - cy
+    dx, dy = p2[0] - p1[0], p2[1] - p1[1]
+    a = dx * dx + dy * dy
+    if a < 1e-18:
+        return p2
+    b = 2.0 * (ax * dx + ay * dy)
+    c = ax * ax + ay * ay - radius * radius
+    s = (-b + math.sqrt(max(b * b - 4.0 * a * c, 0.0))) / (2.0 * a)
+    s = min(max(s, 0.0), 1.0)
+    return p1[0] + s * dx, p1[1] + s * dy
+
+
+class RegulatedPurePursuit(SegmentSwitcher):
+    """Regulated Pure Pursuit on the drives; turns in place by segment (see the module doc).
+
+    Source: S. Macenski, S. Singh, F. Martin, J. Gines, "Regulated Pure Pursuit for Robot Path
+    Tracking", Autonomous Robots 47, 2023; Nav2 documentation, "Regulated Pure Pursuit"
+    (docs.nav2.org/configuration/packages/configuring-regulated-pp.html); pure pursuit after
+    R. C. Coulter, "Implementation of the Pure Pursuit Path Tracking Algorithm", CMU-RI-TR-92-01, 1992.
+
+    Args:
+        robot: Limits (max_speed, max_yaw_rate).
+        params: Lookahead and regulation parameters; None for ``RPPParams()``.
+        turns: Heading and spot-holding parameters of turns in place and stand-stills (its
+            heading_gain also turns to the carrot); None for ``SegmentedParams()``.
+
+    Raises:
+        ConfigError: ``params`` is not an :class:`RPPParams` or ``turns`` not a :class:`SegmentedParams`.
+    """
+
+    name = "rpp"
+    #: The option ``nhsim tune --tracker`` tunes, and its dataclass.
+    TUNED = ("params", RPPParams)
+
+    def __init__(
+        self, robot: RobotSpec, *, params: RPPParams | None = None, turns: SegmentedParams | None = None
+    ) -> None:
+        self.params = option_value(self.name, "params", params, RPPParams())
+        super().__init__(robot, option_value(self.name, "turns", turns, SegmentedParams()))
+        self._px: list[float] = []
+        self._py: list[float] = []
+        self._arc: list[float] = []
+        self._near = 0
+        self._v_last = 0.0
+
+    def reset(self, trajectory: Trajectory, dt: float) -> None:
+        """Start tracking: the path points of every control instant, the progress and speed at zero."""
+        super().reset(trajectory, dt)
+        self._px = [r.x for r in self._instants]
+        self._py = [r.y for r in self._instants]
+        steps = np.hypot(np.diff(self._px), np.diff(self._py))
+        self._arc = np.concatenate([[0.0], np.cumsum(steps)]).tolist()
+        self._near, self._v_last = 0, 0.0
+
+    def _idle(self) -> None:
+        self._v_last = 0.0
+
+    def _carrot(self, x: float, y: float, lookahead: float, sgn: float, end: int) -> tuple[tuple[float, float], int]:
+        """The carrot on the drive's path ending before instant ``end``, and the closest path index."""
+        px, py, hypot = self._px, self._py, math.hypot
+        near = min(self._near, end - 1)
+        gap, j, misses = hypot(px[near] - x, py[near] - y), near + 1, 0
+        while j < end and misses < _PATIENCE:  # forwards from the last closest point, as Nav2 prunes
+            d = hypot(px[j] - x, py[j] - y)
+            near, gap, misses = (j, d, 0) if d < gap else (near, gap, misses + 1)
+            j += 1
+        self._near = near
+        # no point closer along the path than lookahead - gap can be lookahead from the robot: start there
+        j = bisect.bisect_left(self._arc, self._arc[near] + lookahead - gap, near, end)
+        while j < end and hypot(px[j] - x, py[j] - y) < lookahead:
+            j += 1
+        if j < end:
+            p1 = (px[max(j - 1, near)], py[max(j - 1, near)])
+            return circle_crossing(x, y, lookahead, p1, (px[j], py[j])), near
+        last = self._instants[end - 1]
+        p1 = (last.x, last.y)
+        reach = sgn * 2.0 * lookahead
+        far = (last.x + reach * math.cos(last.theta), last.y + reach * math.sin(last.theta))
+        return circle_crossing(x, y, lookahead, p1, far), near
+
+    def _drive(self, x: float, y: float, theta: float, ref: _Instant, sgn: float, k: int) -> tuple[float, float]:
+        """One period of Regulated Pure Pursuit along a drive of direction ``sgn``."""
+        x, y, theta = float(x), float(y), float(theta)  # Python floats: numpy scalars slow every step down
+        p = self.params
+        start, end = self._spans[ref.segment]
+        if ref.segment != self.segment:
+            self._near = start
+        lookahead = min(max(abs(self._v_last) * p.lookahead_time, p.min_lookahead), p.max_lookahead)
+        (gx, gy), near = self._carrot(x, y, lookahead, sgn, end)
+        c, s = math.cos(theta), math.sin(theta)
+        xc, yc = c * (gx - x) + s * (gy - y), -s * (gx - x) + c * (gy - y)
+        bearing = math.atan2(yc, xc) if sgn > 0 else math.atan2(-yc, -xc)
+        if abs(bearing) > p.rotate_angle:
+            self._v_last = 0.0
+            return 0.0, self._turns.heading_gain * bearing
+        kappa = 2.0 * yc / max(xc * xc + yc * yc, 1e-12)
+        along = sgn * (c * (ref.x - x) + s * (ref.y - y))
+        desired = min(max(abs(ref.v) + p.along_gain * along, 0.0), self.robot.max_speed)
+        v = desired
+        radius = 1.0 / abs(kappa) if kappa != 0.0 else math.inf
+        if radius < p.min_radius:
+            v = max(v * radius / p.min_radius, min(desired, p.min_regulated_speed))
+        remaining = self._arc[end - 1] - self._arc[near]
+        if remaining < p.approach_dist:
+            v = max(v * remaining / p.approach_dist, min(desired, p.min_approach_speed))
+        if abs(v * kappa) > self.robot.max_yaw_rate:
+            v = self.robot.max_yaw_rate / abs(kappa)
+        self._v_last = sgn * v
+        return sgn * v, sgn * v * kappa

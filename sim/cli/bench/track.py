@@ -1,0 +1,42 @@
+"""``nhsim bench track``: control time per step of every tracker in the real robot's loop, and MPC's
+95th percentile solve time per solver (see :mod:`sim.tools.bench.track`)."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """Options of the benchmark."""
+    from planning.core.robot import ROBOT_FILES
+    from planning.trajectory.references import REFERENCES
+
+    p.add_argument("--robot", choices=list(ROBOT_FILES), default="turtlebot3")
+    p.add_argument("--reference", choices=list(REFERENCES), default="figure8")
+    p.add_argument("--trackers", default="fbl,segmented,kanayama,rpp,mpc", metavar="A,B,...")
+    p.add_argument("--mpc-solvers", default="sqp,ipopt", metavar="S,...", help="MPC solvers to time (sqp, ipopt)")
+    p.add_argument("--control-rate", type=float, default=50.0, metavar="HZ")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Measure and print; exit 1 when a tracker's 95th percentile exceeds the control period."""
+    from sim.tools.bench.track import measure
+    from sim.tools.compare import check_trackers
+
+    trackers = check_trackers(args.trackers.split(","))
+    rows = measure(args.robot, args.reference, trackers, control_rate=args.control_rate,
+                   mpc_solvers=[s.strip() for s in args.mpc_solvers.split(",") if s.strip()])  # fmt: skip
+    period = 1e3 / args.control_rate
+    print(f"robot {args.robot}, reference {args.reference}, control {args.control_rate:g} Hz ({period:.1f} ms), "
+          "real robot's loop (physics, fused estimate)")  # fmt: skip
+    print(f"{'tracker':<14}{'steps':>7}{'mean ms':>10}{'p95 ms':>10}{'max ms':>10}{'> period':>10}"
+          f"{'solve p95 ms':>14}{'failures':>10}{'RMS [m]':>10}")  # fmt: skip
+    for r in rows:
+        solve = f"{r.solver['p95_ms']:.3f}" if "p95_ms" in r.solver else "-"
+        fails = str(r.solver.get("failures", "-"))
+        print(f"{r.label:<14}{r.steps:>7d}{r.mean_ms:>10.3f}{r.p95_ms:>10.3f}{r.max_ms:>10.3f}{r.over:>10d}"
+              f"{solve:>14}{fails:>10}{r.rms_m:>10.4f}")  # fmt: skip
+    missed = [r.label for r in rows if not r.passed]
+    print(f"target: 95th percentile of the control time within the period ({period:.1f} ms): "
+          + ("met by every tracker" if not missed else f"MISSED by {', '.join(missed)}"))  # fmt: skip
+    return 1 if missed else 0

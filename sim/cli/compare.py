@@ -1,0 +1,144 @@
+"""``nhsim compare``: several trackers on the same trajectory, robot and noise, side by side."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+DESCRIPTION = """\
+Run several trackers on the same trajectory (an analytic reference, or one plan of the scenario,
+planned once), on the same as-built robot with the same sensor noise, each in the real robot's loop
+(fused estimate), and print one row per tracker: final, RMS and max position error [m], final and
+RMS heading error [rad], effort = integral of (dv/dt)^2 + (domega/dt)^2 over the run, saturation
+fraction, control time per step (mean and 95th percentile, wall clock) [ms] and collisions; MPC's
+solver failures and overruns of the control period beside it.
+
+--runs N runs every tracker on the same N held-out draws (robots and noise made from --seed, never
+those a tuning study trains on) and prints the means. --params FILE[,FILE] gives tuned parameters:
+the JSON that 'nhsim tune --tracker T' writes, or {"tracker": {"field": value, ...}, ...}.
+
+With no --reference or --planner: seed 003's job, a C-RRT* plan through 'edumip_map' (when that
+planner and scenario are installed; else figure-eight in 'open').
+
+Outputs (each only when asked; an existing file is replaced only with --overwrite): --json PATH the
+record (every run), --plots STEM STEM-paths.png (the paths overlaid) and STEM-errors.png (errors
+against time), --video PATH one MP4 with every tracker's robot in its own colour (the first tracker
+solid, the others ghosts).
+
+Exit status: 0 done, 2 bad input (nothing run), 1 a run failed."""
+
+#: Trackers compared unless --trackers says otherwise.
+DEFAULT_TRACKERS = "fbl,segmented,mpc,rpp,kanayama"
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Register the ``compare`` subcommand."""
+    from planning.core.robot import ROBOT_FILES
+    from planning.trajectory.references import REFERENCES
+
+    p: argparse.ArgumentParser = sub.add_parser(
+        "compare",
+        help="several trackers on the same trajectory, robot and noise: a table, plots and one video",
+        description=DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "--scenario",
+        default=None,
+        metavar="NAME|PATH",
+        help="scenario (default: as simulate's: edumip_map; open with --reference)",
+    )
+    p.add_argument("--robot", choices=list(ROBOT_FILES), default=None, help="robot (default: the scenario's)")
+    p.add_argument("--reference", choices=list(REFERENCES), default=None, help="analytic reference to track")
+    p.add_argument("--planner", default=None, metavar="P", help="plan the scenario with P and track the plan")
+    p.add_argument("--trackers", default=DEFAULT_TRACKERS, metavar="A,B,...", help=f"(default: {DEFAULT_TRACKERS})")
+    p.add_argument("--runs", type=int, default=1, metavar="N", help="runs per tracker on held-out draws (default: 1)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the plan and the noise (default: 0)")
+    p.add_argument("--time-limit", type=float, default=30.0, metavar="S", help="planning budget (default: 30 s)")
+    p.add_argument("--params", default=None, metavar="FILE[,FILE]", help="tuned parameters (JSON)")
+    p.add_argument("--json", default=None, metavar="PATH", help="write the record here")
+    p.add_argument("--plots", default=None, metavar="STEM", help="write STEM-paths.png and STEM-errors.png")
+    p.add_argument("--video", default=None, metavar="PATH", help="write one MP4 of every tracker here")
+    p.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    return p
+
+
+def _outputs(args: argparse.Namespace) -> dict[str, Path]:
+    """The files asked for, checked writable before anything runs."""
+    from sim.outputs import check_writable
+
+    out: dict[str, Path] = {}
+    if args.json:
+        out["json"] = Path(args.json)
+    if args.plots:
+        out["paths"], out["errors"] = Path(f"{args.plots}-paths.png"), Path(f"{args.plots}-errors.png")
+    if args.video:
+        out["video"] = Path(args.video)
+    for path in out.values():
+        check_writable(path, overwrite=args.overwrite)
+    return out
+
+
+def _case(args: argparse.Namespace) -> Any:
+    """The case of the comparison (the default job when neither a reference nor a planner is given)."""
+    from sim.cli.plan import check_time_limit
+    from sim.cli.simulate import job_source
+    from sim.pipeline.case import Case, PlanOptions
+
+    check_time_limit(args.time_limit)
+    scenario, source = job_source(args.scenario, args.planner, args.reference)
+    return Case(
+        scenario,
+        robot=args.robot,
+        seed=args.seed,
+        planning=PlanOptions(time_limit=args.time_limit),
+        planner=source.get("planner"),
+        reference=source.get("reference"),
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Execute ``compare``."""
+    from sim.tools.compare import check_trackers, compare_trackers, format_table, load_params
+
+    names = check_trackers(args.trackers.split(","))
+    params = load_params(args.params.split(",")) if args.params else {}
+    outputs = _outputs(args)
+    case = _case(args)
+
+    def progress(name: str, done: int, total: int) -> None:
+        if not args.quiet:
+            print(f"compare: {name} run {done}/{total}", file=sys.stderr, flush=True)
+
+    result = compare_trackers(case, names, runs=args.runs, params=params, progress=progress)
+    p = result.prepared
+    print(f"{p.scenario.name} · {p.robot.name} · {p.source} · {p.trajectory.duration:.1f} s")
+    print(format_table(result))
+    _write(result, outputs, overwrite=args.overwrite)
+    return 0
+
+
+def _write(result: Any, outputs: dict[str, Path], *, overwrite: bool) -> None:
+    """Write the record, the plots and the video asked for."""
+    from sim.outputs import write_json
+
+    if "json" in outputs:
+        write_json(outputs["json"], result.record(), overwrite=overwrite)
+    if "paths" in outputs:
+        from sim.viz.plots.draw import save_figure
+        from sim.viz.plots.run import errors_figure, world_figure
+
+        p, logs = result.prepared, result.logs()
+        title = f"{p.scenario.name} · {p.robot.name} · {p.source}"
+        paths = world_figure(p.scenario.world, p.trajectory, logs, title=title)
+        save_figure(paths, outputs["paths"], overwrite=overwrite)
+        save_figure(errors_figure(logs, title=title), outputs["errors"], overwrite=overwrite)
+    if "video" in outputs:
+        from sim.viz.job_video import write_video
+
+        write_video(result.recorded(), outputs["video"], overwrite=overwrite)
+    for path in outputs.values():
+        print(f"wrote {path}")

@@ -1,0 +1,345 @@
+r"""Trackers side by side: the same trajectory, the same as-built robots and noise, one run each.
+
+:func:`compare_trackers` prepares a case's trajectory once (a planned case plans once) and runs each
+tracker on it in the real robot's loop (:attr:`sim.pipeline.runs.RunKind.CLOSED_LOOP`: as-built
+robot, sensors, fused estimate). With ``runs = 1`` every tracker drives the case's own robot and
+noise; with ``runs = N`` each tracker drives the same N held-out draws of robot and noise
+(:func:`sim.tools.tune.make_draws` with ``held_out=True``, from the case's seed): never the draws
+a tuning study trains on, so tuned parameters are judged on robots they have not seen.
+
+Per run: the final, RMS and max position error [m], the final and RMS heading error [rad], the
+effort :math:`\int (\dot v^2 + \dot\omega^2)\,dt` of the commands (finite differences over control
+periods) [m^2/s^3 + rad^2/s^3], the saturation fraction, the control time per step (wall clock of
+the tracker's ``command``) [ms] and the collisions; MPC's solver statistics (failures, overruns).
+:class:`Comparison` averages them per tracker.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from control.base import TRACKERS, Tracker, make_tracker, tracker_options, tuned_option
+from planning.core.robot import RobotSpec
+from planning.errors import ConfigError
+from planning.scenario import Scenario
+from planning.trajectory.trajectory import Trajectory
+from sim.physics.metrics import heading_errors
+from sim.physics.runlog import RunLog
+from sim.physics.simulator import SimConfig
+from sim.pipeline.case import Case, PreparedTrajectory, prepare_trajectory
+from sim.pipeline.runs import RunKind
+from sim.pipeline.simulate import PreparedCase, run_tracker, simulator_for
+from sim.tools.tune import Draw, make_draws
+
+#: Per-run quantities of a comparison, in table order: key -> (column title, format).
+COLUMNS: dict[str, tuple[str, str]] = {
+    "final_m": ("final [m]", "{:.4f}"),
+    "rms_m": ("RMS [m]", "{:.4f}"),
+    "max_m": ("max [m]", "{:.4f}"),
+    "final_heading_rad": ("hdg end [rad]", "{:.4f}"),
+    "rms_heading_rad": ("hdg RMS [rad]", "{:.4f}"),
+    "effort": ("effort", "{:.3f}"),
+    "saturation": ("sat", "{:.3f}"),
+    "step_ms": ("ms/step", "{:.3f}"),
+    "step_p95_ms": ("p95 ms", "{:.3f}"),
+    "collisions": ("coll", "{:.0f}"),
+}
+
+
+class TimedTracker:
+    """A tracker whose every ``command`` is timed (wall clock) and kept.
+
+    Args:
+        inner: The tracker to time.
+    """
+
+    def __init__(self, inner: Tracker) -> None:
+        self.inner = inner
+        self.name = inner.name
+        self.times: list[float] = []
+        self.commands: list[tuple[float, float]] = []
+        self.dt = 0.02
+
+    def reset(self, trajectory: Trajectory, dt: float) -> None:
+        """Reset the inner tracker (not timed) and the records."""
+        self.inner.reset(trajectory, dt)
+        self.dt = float(dt)
+        self.times, self.commands = [], []
+
+    def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
+        """The inner tracker's command, timed."""
+        start = time.perf_counter()
+        out = self.inner.command(t, x, y, theta)
+        self.times.append(time.perf_counter() - start)
+        self.commands.append(out)
+        return out
+
+    def effort(self) -> float:
+        """Integral of (dv/dt)^2 + (domega/dt)^2 over the run, by differences over control periods."""
+        if len(self.commands) < 2:
+            return 0.0
+        du = np.diff(np.asarray(self.commands), axis=0)
+        return float(np.sum(du**2) / self.dt)
+
+
+def check_trackers(names: Sequence[str]) -> tuple[str, ...]:
+    """The tracker names, checked: registered, none twice, at least one.
+
+    Raises:
+        ConfigError: An empty list, an unknown name (lists the registered ones) or a repeated one.
+    """
+    names = tuple(n.strip() for n in names if n.strip())
+    if not names:
+        raise ConfigError(f"--trackers needs at least one tracker: choose from {', '.join(sorted(TRACKERS))}")
+    for name in names:
+        if name not in TRACKERS:
+            raise ConfigError(f"unknown tracker {name!r}: choose from {', '.join(sorted(TRACKERS))}")
+        if names.count(name) > 1:
+            raise ConfigError(f"--trackers names {name!r} twice; give each tracker once")
+    return names
+
+
+def tracker_with(name: str, robot: Any, params: Any = None) -> Tracker:
+    """A registered tracker with its tuned option set to ``params`` (None: its defaults).
+
+    Raises:
+        ConfigError: ``params`` given for a tracker with nothing to tune, or of the wrong type.
+    """
+    options: dict[str, Any] = {}
+    if params is not None:
+        options[tuned_option(name)[0]] = params
+    elif "gains" in tracker_options(name):
+        options["gains"] = None
+    return make_tracker(name, robot, **options)
+
+
+@dataclass(frozen=True)
+class TrackerRun:
+    """One tracker on one draw.
+
+    Attributes:
+        tracker: Tracker name.
+        draw: Index of the draw.
+        values: The per-run quantities by :data:`COLUMNS` key.
+        solver: The tracker's own statistics (MPC: solves, failures, overruns, times), or {}.
+        log: The run's log (kept for the first draw only: plots and video).
+        times: Wall-clock time of each ``command`` [s].
+    """
+
+    tracker: str
+    draw: int
+    values: dict[str, float]
+    solver: dict[str, Any]
+    log: RunLog | None = None
+    times: tuple[float, ...] = ()
+
+
+def _measure(name: str, draw: int, run: Any, timed: TimedTracker, keep: bool) -> TrackerRun:
+    m = run.metrics
+    times = np.asarray(timed.times) * 1e3
+    values = {
+        "final_m": m.final_position_error_m,
+        "rms_m": m.rms_position_error_m,
+        "max_m": m.max_position_error_m,
+        "final_heading_rad": m.final_heading_error_rad,
+        "rms_heading_rad": float(np.sqrt(np.mean(heading_errors(run.log) ** 2))),
+        "effort": timed.effort(),
+        "saturation": m.saturation_fraction,
+        "step_ms": float(times.mean()) if times.size else 0.0,
+        "step_p95_ms": float(np.percentile(times, 95)) if times.size else 0.0,
+        "collisions": float(m.collisions),
+    }
+    stats = getattr(timed.inner, "stats", None)
+    solver = dict(stats()) if callable(stats) else {}
+    return TrackerRun(name, draw, values, solver, run.log if keep else None, tuple(timed.times))
+
+
+@dataclass(frozen=True)
+class RecordedRuns:
+    """Runs to draw in one video (the :class:`sim.viz.job_video.RecordedJob` protocol).
+
+    Attributes:
+        robot: The robot.
+        scenario: The scenario (its world).
+        trajectory: The reference drawn on the floor.
+        logs: Label -> log.
+    """
+
+    robot: RobotSpec
+    scenario: Scenario
+    trajectory: Trajectory
+    logs: Mapping[str, RunLog]
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Every tracker's runs on the same trajectory and draws.
+
+    Attributes:
+        prepared: The case and the trajectory all trackers followed.
+        trackers: Tracker names, in the order given.
+        draws: The draws (empty: the case's own robot and noise, one run per tracker).
+        runs: Every run, trackers outer, draws inner.
+        params: Tuned parameters given per tracker (as plain dicts).
+    """
+
+    prepared: PreparedTrajectory
+    trackers: tuple[str, ...]
+    draws: tuple[Draw, ...]
+    runs: tuple[TrackerRun, ...]
+    params: Mapping[str, dict[str, Any]]
+
+    def of(self, tracker: str) -> list[TrackerRun]:
+        """The runs of one tracker, by draw."""
+        return [r for r in self.runs if r.tracker == tracker]
+
+    def summary(self, tracker: str) -> dict[str, float]:
+        """Mean of each quantity over the tracker's runs (collisions summed), the RMS error's standard
+        deviation, and the solver's failures and overruns summed."""
+        runs = self.of(tracker)
+        out = {k: float(np.mean([r.values[k] for r in runs])) for k in COLUMNS}
+        out["collisions"] = float(sum(r.values["collisions"] for r in runs))
+        out["rms_m_std"] = float(np.std([r.values["rms_m"] for r in runs], ddof=1)) if len(runs) > 1 else 0.0
+        for key in ("failures", "overruns"):
+            if any(key in r.solver for r in runs):
+                out[key] = float(sum(r.solver.get(key, 0) for r in runs))
+        if any("p95_ms" in r.solver for r in runs):
+            out["solve_p95_ms"] = float(max(r.solver.get("p95_ms", 0.0) for r in runs))
+        return out
+
+    def logs(self) -> dict[str, RunLog]:
+        """Tracker -> log of the first draw (for plots and the video)."""
+        return {r.tracker: r.log for r in self.runs if r.log is not None}
+
+    def recorded(self) -> RecordedRuns:
+        """What :func:`sim.viz.job_video.write_video` draws: the first draw's run of every tracker, each
+        labelled by its tracker (so each gets its own colour; the first tracker is drawn solid)."""
+        p = self.prepared
+        return RecordedRuns(p.robot, p.scenario, p.trajectory, self.logs())
+
+    def record(self) -> dict[str, Any]:
+        """The JSON record: the case, the draws, each tracker's parameters, summary and runs."""
+        p = self.prepared
+        return {
+            "scenario": p.scenario.name,
+            "robot": p.robot.name,
+            "source": p.source,
+            "trajectory": {"name": p.trajectory.name, "duration_s": p.trajectory.duration},
+            "seed": p.case.seed,
+            "build_seed": p.case.build_seed,
+            "runs_per_tracker": max(len(self.draws), 1),
+            "draws": [d.as_dict() for d in self.draws],
+            "trackers": {
+                name: {
+                    "params": self.params.get(name, {}),
+                    "summary": self.summary(name),
+                    "runs": [{"draw": r.draw, **r.values, "solver": r.solver} for r in self.of(name)],
+                }
+                for name in self.trackers
+            },
+        }
+
+
+def compare_trackers(
+    case: Case,
+    trackers: Sequence[str],
+    *,
+    runs: int = 1,
+    params: Mapping[str, Any] | None = None,
+    progress: Callable[[str, int, int], Any] | None = None,
+) -> Comparison:
+    """Run each tracker on the case's trajectory, on the same robots and noise (see the module doc).
+
+    Args:
+        case: The case (scenario, robot, reference or planner, seed, build seed, control rate).
+        trackers: Registered tracker names.
+        runs: Runs per tracker (1: the case's own draw; N > 1: N held-out draws).
+        params: Tracker -> its tuned parameters (the dataclass of its tuned option); others default.
+        progress: Told (tracker, runs done, runs total) after each run.
+
+    Raises:
+        ConfigError: Unknown or repeated trackers, runs < 1, parameters of the wrong type.
+        NhsimError: From preparing the trajectory (planning, smoothing).
+    """
+    names = check_trackers(trackers)
+    if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
+        raise ConfigError(f"--runs must be an integer >= 1, got {runs!r}")
+    params = dict(params or {})
+    prepared = prepare_trajectory(case)
+    base = PreparedCase(prepared, simulator_for(prepared))
+    draws = make_draws(runs, case.seed, held_out=True) if runs > 1 else ()
+    done: list[TrackerRun] = []
+    for index, draw in enumerate(draws or (None,)):
+        pc = base if draw is None else base.with_build(draw.build_seed)
+        this = pc.trajectory.case if draw is None else replace(pc.trajectory.case, seed=draw.seed)
+        prepared_i = replace(pc.trajectory, case=this)
+        config = SimConfig(control_rate=this.control_rate, hold=prepared.hold, strict=False)
+        sensing = this.sensing(prepared.scenario)
+        for name in names:
+            timed = TimedTracker(tracker_with(name, prepared.robot, params.get(name)))
+            run = run_tracker(prepared_i, RunKind.CLOSED_LOOP, timed, pc.simulator, config, sensing)
+            done.append(_measure(name, index, run, timed, keep=index == 0))
+            if progress is not None:
+                progress(name, index + 1, max(runs, 1))
+    ordered = tuple(r for name in names for r in done if r.tracker == name)
+    plain = {name: _plain(value) for name, value in params.items()}
+    return Comparison(prepared, names, tuple(draws), ordered, plain)
+
+
+def _plain(params: Any) -> dict[str, Any]:
+    """A parameter dataclass as a dict of its fields."""
+    fields = getattr(params, "__dataclass_fields__", {})
+    return {k: getattr(params, k) for k in fields}
+
+
+def format_table(comparison: Comparison) -> str:
+    """The comparison as a text table: one row per tracker, the means over its runs."""
+    head = f"{'tracker':<10}" + "".join(f"{title:>14}" for title, _ in COLUMNS.values()) + f"{'solver':>22}"
+    lines = [head, "-" * len(head)]
+    for name in comparison.trackers:
+        s = comparison.summary(name)
+        row = f"{name:<10}" + "".join(f"{fmt.format(s[k]):>14}" for k, (_, fmt) in COLUMNS.items())
+        if "failures" in s:
+            row += f"{'fail ' + str(int(s['failures'])) + ', over ' + str(int(s['overruns'])):>22}"
+        lines.append(row)
+    n = max(len(comparison.draws), 1)
+    lines.append(f"(mean of {n} run{'s' if n > 1 else ''} per tracker; collisions summed)")
+    return "\n".join(lines)
+
+
+def load_params(paths: Sequence[str | Path]) -> dict[str, Any]:
+    """Tuned parameters by tracker from JSON files, as each tracker's tuned dataclass.
+
+    A file is either what ``nhsim tune --tracker T`` writes (``{"tracker": T, "params": {...}}``)
+    or a mapping ``{tracker: {field: value, ...}, ...}``; later files override earlier ones.
+
+    Raises:
+        ConfigError: An unreadable file, an unknown tracker, a tracker with nothing to tune, or an
+            unknown or out-of-range field (the message names the valid ones or the range).
+    """
+    out: dict[str, Any] = {}
+    for path in paths:
+        try:
+            data = json.loads(Path(path).read_text())
+        except (OSError, ValueError) as exc:
+            raise ConfigError(f"--params {path}: cannot read it as JSON ({exc})") from exc
+        if isinstance(data, dict) and "tracker" in data and isinstance(data.get("params"), dict):
+            data = {data["tracker"]: data["params"]}
+        if not isinstance(data, dict) or not all(isinstance(v, dict) for v in data.values()):
+            raise ConfigError(f"--params {path}: expected {{tracker: {{field: value}}}} or a 'nhsim tune' record")
+        for name, fields_ in data.items():
+            check_trackers([name])
+            cls = tuned_option(name)[1]
+            valid = list(getattr(cls, "__dataclass_fields__", {}))
+            unknown = [k for k in fields_ if k not in valid]
+            if unknown:
+                raise ConfigError(f"--params {path}: {name} has no parameter(s) {unknown}; valid: {', '.join(valid)}")
+            out[name] = cls(**fields_)
+    return out

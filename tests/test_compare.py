@@ -1,0 +1,123 @@
+"""``nhsim compare``: trackers on the same trajectory, robot and noise, end to end on a small case;
+the library's comparison (same draws for every tracker, the effort and timing it reports), the
+parameters files and the bad-input messages."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from control.base import TRACKERS
+from control.kanayama import KanayamaParams
+from control.mpc import MPCParams
+from planning.errors import ConfigError
+from sim.pipeline.case import Case
+from sim.tools.compare import TimedTracker, check_trackers, compare_trackers, load_params
+from tests.test_cli import nhsim
+
+
+def test_compare_cli_end_to_end(tmp_path: Path) -> None:
+    out = tmp_path / "cmp.json"
+    r = nhsim("compare", "--scenario", "open", "--robot", "turtlebot3", "--reference", "line",
+              "--trackers", "kanayama,mpc", "--runs", "2", "--json", str(out), "--plots", str(tmp_path / "cmp"),
+              "--quiet")  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert "kanayama" in r.stdout and "mpc" in r.stdout and "RMS [m]" in r.stdout and "fail 0" in r.stdout
+    rec = json.loads(out.read_text())
+    assert rec["runs_per_tracker"] == 2 and len(rec["draws"]) == 2
+    for name in ("kanayama", "mpc"):
+        entry = rec["trackers"][name]
+        assert len(entry["runs"]) == 2
+        summary = entry["summary"]
+        assert summary["rms_m"] == pytest.approx(np.mean([run["rms_m"] for run in entry["runs"]]))
+        assert 0 < summary["rms_m"] < 0.02 and summary["collisions"] == 0 and summary["step_ms"] > 0
+    assert rec["trackers"]["mpc"]["summary"]["failures"] == 0
+    assert (tmp_path / "cmp-paths.png").stat().st_size > 0 and (tmp_path / "cmp-errors.png").stat().st_size > 0
+
+
+def test_compare_cli_rejects_unknown_trackers_and_bad_params(tmp_path: Path) -> None:
+    r = nhsim("compare", "--reference", "line", "--trackers", "fbl,pid")
+    assert r.returncode == 2 and "unknown tracker 'pid'" in r.stderr
+    assert all(name in r.stderr for name in TRACKERS)
+    bad = tmp_path / "p.json"
+    bad.write_text(json.dumps({"mpc": {"horizon": 1}}))
+    r = nhsim("compare", "--reference", "line", "--trackers", "mpc", "--params", str(bad))
+    assert r.returncode == 2 and "MPCParams.horizon must be in [2, 200] steps, got 1" in r.stderr
+
+
+@pytest.mark.render
+def test_compare_cli_writes_one_video_of_every_tracker(tmp_path: Path) -> None:
+    from tests.render_helpers import require_gl
+
+    require_gl()
+    os.environ.setdefault("MUJOCO_GL", "osmesa")
+    video = tmp_path / "cmp.mp4"
+    r = nhsim("compare", "--robot", "turtlebot3", "--reference", "line", "--trackers", "kanayama,rpp",
+              "--video", str(video), "--quiet")  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert video.stat().st_size > 1000
+
+
+def test_every_tracker_meets_the_same_robot_and_noise() -> None:
+    case = Case("open", robot="turtlebot3", reference="line", seed=3)
+    result = compare_trackers(case, ["open-loop", "kanayama"], runs=2)
+    open_loop = result.of("open-loop")
+    assert [r.draw for r in open_loop] == [0, 1] and len(result.runs) == 4
+    # open loop ignores the pose: two runs differ only by the robot drawn, and a rerun repeats them
+    again = compare_trackers(case, ["open-loop"], runs=2)
+    assert [r.values["final_m"] for r in again.of("open-loop")] == [r.values["final_m"] for r in open_loop]
+    assert open_loop[0].values["final_m"] != open_loop[1].values["final_m"]
+    assert set(result.logs()) == {"open-loop", "kanayama"}  # the first draw's logs, for plots and the video
+
+
+def test_timed_tracker_effort_is_the_integral_of_the_squared_rates() -> None:
+    class Ramp:
+        name = "ramp"
+
+        def reset(self, trajectory: object, dt: float) -> None:
+            self.k = 0
+
+        def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
+            self.k += 1
+            return 0.1 * self.k * 0.02, 0.0  # dv/dt = 0.1 m/s^2
+
+    timed = TimedTracker(Ramp())
+    timed.reset(None, 0.02)  # type: ignore[arg-type]
+    for k in range(51):  # 50 periods of 0.02 s: 1 s
+        timed.command(k * 0.02, 0.0, 0.0, 0.0)
+    assert timed.effort() == pytest.approx(0.1**2 * 1.0)  # integral of (dv/dt)^2 over 1 s
+    assert len(timed.times) == 51 and all(t >= 0 for t in timed.times)
+
+
+def test_parameter_files(tmp_path: Path) -> None:
+    mapping = tmp_path / "a.json"
+    mapping.write_text(json.dumps({"mpc": {"horizon": 10, "q_position": 50.0}}))
+    tune_record = tmp_path / "b.json"
+    tune_record.write_text(json.dumps({"tracker": "kanayama", "params": {"kx": 3.0, "ky": 40.0, "ktheta": 9.0}}))
+    params = load_params([mapping, tune_record])
+    assert params == {"mpc": MPCParams(horizon=10, q_position=50.0), "kanayama": KanayamaParams(3.0, 40.0, 9.0)}
+    mapping.write_text(json.dumps({"mpc": {"horizn": 10}}))
+    with pytest.raises(ConfigError, match=r"mpc has no parameter\(s\) \['horizn'\]; valid: horizon"):
+        load_params([mapping])
+    mapping.write_text(json.dumps({"open-loop": {}}))
+    with pytest.raises(ConfigError, match="'open-loop' has no parameters to tune"):
+        load_params([mapping])
+    with pytest.raises(ConfigError, match="twice"):
+        check_trackers(["mpc", "mpc"])
+
+
+def test_bench_track_prints_every_tracker_and_mpc_solve_times() -> None:
+    r = nhsim("bench", "track", "--reference", "line", "--trackers", "kanayama,mpc", "--mpc-solvers", "sqp,ipopt")
+    assert r.returncode in (0, 1), r.stderr  # 1: a tracker's 95th percentile ran past the period on this machine
+    rows = {line.split()[0] + (" " + line.split()[1] if line.startswith("mpc") else ""): line.split()
+            for line in r.stdout.splitlines()[2:-1]}  # fmt: skip
+    assert set(rows) == {"kanayama", "mpc (sqp)", "mpc (ipopt)"}
+    for label in ("mpc (sqp)", "mpc (ipopt)"):
+        steps, mean, p95, solve_p95 = int(rows[label][2]), *(float(rows[label][i]) for i in (3, 4, 7))
+        assert steps > 600 and 0 < mean and 0 < solve_p95 <= p95 + 1.0  # the solve is most of a step
+    assert rows["kanayama"][7] == "-"  # no solver
+    assert "target: 95th percentile" in r.stdout

@@ -1,0 +1,227 @@
+"""The FBL's peers (mpc, rpp, kanayama): convergence on the analytic references from an offset
+start on an exact unicycle and in MuJoCo physics (the real robot: as built, fused estimate), MPC's
+constraints and its fallback on a forced solver failure, Regulated Pure Pursuit's regulation, and
+the parameter checks."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from control.base import make_tracker, search_space
+from control.kanayama import KanayamaParams, kanayama_law
+from control.mpc import MPCParams, MPCTracker
+from control.rpp import RegulatedPurePursuit, RPPParams, circle_crossing
+from planning.core.geometry import Pose2D
+from planning.core.robot import load_robot
+from planning.errors import ConfigError
+from planning.trajectory.references import make_reference
+from planning.trajectory.trajectory import Trajectory
+from tests.test_trackers import DT, _run
+
+PEERS = ("kanayama", "mpc", "rpp")
+
+
+def _errors(traj: Trajectory, poses: np.ndarray) -> np.ndarray:
+    """(K + 1,) distance to the reference at each control instant [m]."""
+    ref = traj.sample_many(traj.t[0] + DT * np.arange(poses.shape[0]))
+    return np.asarray(np.hypot(poses[:, 0] - ref.x, poses[:, 1] - ref.y))
+
+
+def _off_path(traj: Trajectory, poses: np.ndarray) -> np.ndarray:
+    """(K + 1,) distance to the reference's path [m] (to 4000 points along it)."""
+    dense = traj.sample_many(np.linspace(traj.t[0], traj.t[-1], 4000))
+    return np.asarray(np.hypot(poses[:, None, 0] - dense.x, poses[:, None, 1] - dense.y).min(axis=1))
+
+
+@pytest.mark.parametrize("robot_name", ["turtlebot3", "edumip"])
+@pytest.mark.parametrize("reference", ["circle", "figure8"])
+@pytest.mark.parametrize("name", PEERS)
+def test_peers_converge_from_an_offset_start(name: str, reference: str, robot_name: str) -> None:
+    robot = load_robot(robot_name)
+    traj = make_reference(reference, robot, Pose2D(0.2, -0.1, 0.4))
+    start = traj.pose[0] + np.array([-0.03 * math.sin(0.4), 0.03 * math.cos(0.4), 0.1])  # 3 cm left, 0.1 rad
+    commands, poses = _run(make_tracker(name, robot), traj, start)
+    assert np.all(np.isfinite(commands))
+    settled = int(5.0 / DT)
+    if name == "rpp":  # a path follower: back on the path, and near the goal after the 2 s hold
+        assert _off_path(traj, poses)[settled:].max() < 0.025
+        assert _errors(traj, poses)[-1] < 0.01
+    else:  # time trackers: on the reference by the end of it, on the goal after the hold
+        err = _errors(traj, poses)
+        assert err[math.ceil(traj.duration / DT)] < 2e-3 and err[-1] < 1e-3
+
+
+@pytest.mark.parametrize("name", PEERS)
+def test_peers_converge_driving_backwards(name: str) -> None:
+    robot = load_robot("turtlebot3")
+    t = np.linspace(0.0, 12.0, 601)
+    s = 0.1 * t - 0.1 * (1 - np.exp(-t))  # starts at rest, then 0.1 m/s backwards along -x
+    ds, dds = 0.1 * (1 - np.exp(-t)), 0.1 * np.exp(-t)
+    zeros = np.zeros_like(t)
+    traj = Trajectory.from_flat(t, np.column_stack([-s, zeros]), np.column_stack([-ds, zeros]),
+                                np.column_stack([-dds, zeros]), direction=-1.0)  # fmt: skip
+    commands, poses = _run(make_tracker(name, robot), traj, np.array([0.0, 0.03, 0.0]))
+    assert np.all(commands[20:-100, 0] <= 1e-9)  # drives backwards
+    assert abs(poses[-1, 1]) < 3e-3 and _errors(traj, poses)[-1] < 0.01
+
+
+def test_mpc_respects_its_constraints() -> None:
+    robot = load_robot("edumip")
+    traj = make_reference("figure8", robot, Pose2D(0.0, 0.0, 0.0))
+    tracker = MPCTracker(robot)
+    commands, _ = _run(tracker, traj, np.array([-0.1, 0.15, 0.5]))  # far off: the limits bind
+    assert tracker.stats()["failures"] < 0.01 * len(commands)  # and a failed solve's fallback keeps them too
+    u = np.vstack([traj.vel[:1], commands])  # the command in force before the first is the reference's
+    dv, dw = np.abs(np.diff(u[:, 0])), np.abs(np.diff(u[:, 1]))
+    tol = 1e-6
+    assert np.abs(u[:, 0]).max() <= robot.max_speed + tol and np.abs(u[:, 1]).max() <= robot.max_yaw_rate + tol
+    assert dv.max() <= robot.max_accel * DT + tol and dw.max() <= robot.max_yaw_accel * DT + tol
+    wheel = np.abs(u[:, 0]) + np.abs(u[:, 1]) * robot.track_width / 2
+    assert wheel.max() <= robot.max_wheel_speed * robot.wheel_radius + tol
+    assert dw.max() > 0.99 * robot.max_yaw_accel * DT  # the yaw-acceleration limit was active
+
+
+def test_mpc_falls_back_on_a_forced_solver_failure() -> None:
+    robot = load_robot("turtlebot3")
+    traj = make_reference("circle", robot, Pose2D(0.0, 0.0, 0.0))
+    tracker = MPCTracker(robot)
+    real = tracker._call
+    calls = [0]
+
+    def flaky(solver: object, args: dict[str, object]) -> object:
+        calls[0] += 1
+        if calls[0] % 3 == 0:
+            raise RuntimeError("forced solver failure")
+        if calls[0] % 3 == 1 and calls[0] > 1:  # a "solution" that is not finite
+            out = dict(real(solver, args))  # type: ignore[arg-type]
+            out["x"] = np.full(np.asarray(out["x"]).size, np.nan)
+            return out
+        return real(solver, args)  # type: ignore[arg-type]
+
+    tracker._call = flaky  # type: ignore[method-assign]
+    commands, poses = _run(tracker, traj, traj.pose[0].copy())
+    stats = tracker.stats()
+    assert stats["solves"] == len(commands) and stats["failures"] == 2 * len(commands) // 3 + (len(commands) % 3 == 2)
+    assert np.all(np.isfinite(commands))
+    assert _errors(traj, poses).max() < 5e-3  # the last feasible plan carries it between solves
+
+
+def test_mpc_brakes_within_its_limits_when_every_solve_fails() -> None:
+    robot = load_robot("edumip")
+    traj = make_reference("line", robot, Pose2D(0.0, 0.0, 0.0))
+    tracker = MPCTracker(robot)
+    tracker.reset(traj, DT)
+    t_mid = 0.5 * traj.duration
+    tracker._u = np.array([0.5, 0.2])  # in motion when the solver breaks for good
+    tracker._plan = None
+
+    def broken(solver: object, args: dict[str, object]) -> object:
+        raise RuntimeError("forced solver failure")
+
+    tracker._call = broken  # type: ignore[method-assign]
+    v = [tracker.command(t_mid + k * DT, 0.0, 0.0, 0.0) for k in range(100)]
+    speeds = np.array([0.5] + [c[0] for c in v])
+    assert np.allclose(np.diff(speeds)[:40], -robot.max_accel * DT) and speeds[-1] == 0.0
+    assert tracker.stats()["failures"] == 100
+
+
+def test_mpc_stats_count_overruns_of_the_control_period() -> None:
+    tracker = MPCTracker(load_robot("turtlebot3"))
+    tracker.reset(make_reference("line", load_robot("turtlebot3"), Pose2D(0, 0, 0)), DT)
+    assert tracker.stats()["solves"] == 0  # the warm-up solve of reset is not counted
+    tracker.solve_times = [0.001, 0.019, 0.021, 0.05]
+    stats = tracker.stats()
+    assert stats["overruns"] == 2 and stats["max_ms"] == pytest.approx(50.0)
+    assert stats["p95_ms"] == pytest.approx(np.percentile([1, 19, 21, 50], 95))
+
+
+@pytest.mark.parametrize("solver", ["sqp", "ipopt"])
+def test_both_mpc_solvers_track(solver: str) -> None:
+    robot = load_robot("turtlebot3")
+    traj = make_reference("circle", robot, Pose2D(0, 0, 0))
+    tracker = MPCTracker(robot, params=MPCParams(solver=solver, horizon=10))
+    _, poses = _run(tracker, traj, traj.pose[0] + np.array([0.0, 0.02, 0.0]))
+    assert _errors(traj, poses)[-1] < 1e-3 and tracker.stats()["failures"] == 0
+
+
+def test_rpp_regulates_its_speed_by_curvature_and_near_the_end() -> None:
+    robot = load_robot("turtlebot3")  # circle of radius 0.5 m
+    traj = make_reference("circle", robot, Pose2D(0, 0, 0))
+    k = int(0.5 * traj.duration / DT)
+    ref = traj.sample(traj.t[0] + k * DT)
+    speeds = {}
+    for min_radius in (0.25, 1.0):
+        rpp = RegulatedPurePursuit(robot, params=RPPParams(min_radius=min_radius, min_regulated_speed=0.0))
+        rpp.reset(traj, DT)
+        rpp.segment, rpp._near = rpp._instants[k].segment, k - 5  # mid-drive, the closest point just behind
+        v, w = rpp.command(float(ref.t), *ref.pose)
+        speeds[min_radius] = v
+        assert w == pytest.approx(v / 0.5, rel=1e-3)  # omega = v kappa on the circle's curvature
+    assert speeds[0.25] == pytest.approx(ref.vel[0], rel=1e-3)  # radius above min_radius: unregulated
+    assert speeds[1.0] == pytest.approx(ref.vel[0] * 0.5 / 1.0, rel=1e-3)  # R / min_radius
+    # near the end of the drive the speed is scaled by the distance left, floored
+    end = RegulatedPurePursuit(robot, params=RPPParams(approach_dist=0.5, min_approach_speed=0.0, along_gain=0.0))
+    end.reset(traj, DT)
+    j = len(end._instants) - 40
+    end.segment, end._near = end._instants[j].segment, j - 5
+    late = end._instants[j]
+    v, _ = end.command(traj.t[0] + j * DT, late.x, late.y, late.theta)
+    left = end._arc[-1] - end._arc[j]
+    assert v == pytest.approx(late.v * left / 0.5, rel=0.02)
+
+
+def test_circle_crossing_and_kanayama_law() -> None:
+    assert circle_crossing(0.0, 0.0, 1.0, (0.0, 0.0), (2.0, 0.0)) == pytest.approx((1.0, 0.0))
+    assert circle_crossing(1.0, 1.0, 0.5, (1.0, 1.0), (1.0, 3.0)) == pytest.approx((1.0, 1.5))
+    p = KanayamaParams()
+    assert kanayama_law(p, 1.0, 2.0, 0.3, (1.0, 2.0, 0.3, 0.2, 0.1)) == pytest.approx((0.2, 0.1))
+    v, w = kanayama_law(p, 0.0, 0.0, 0.0, (0.0, 0.01, 0.0, 0.2, 0.0))  # reference 1 cm to the left
+    assert v == pytest.approx(0.2) and w == pytest.approx(0.2 * p.ky * 0.01)
+
+
+@pytest.mark.parametrize(
+    ("build", "message"),
+    [
+        (lambda: MPCParams(horizon=1), r"MPCParams.horizon must be in \[2, 200\] steps, got 1"),
+        (lambda: MPCParams(horizon=2.5), r"MPCParams.horizon must be an integer in \[2, 200\] steps"),
+        (lambda: MPCParams(step=0.0), r"MPCParams.step must be in \[0.005, 1\] s, got 0.0"),
+        (lambda: MPCParams(q_heading=math.nan), r"MPCParams.q_heading must be a finite number"),
+        (lambda: MPCParams(solver="osqp"), r"MPCParams.solver must be one of sqp, ipopt, got 'osqp'"),
+        (lambda: KanayamaParams(ky=-1.0), r"KanayamaParams.ky must be in \[0.01, 10000\] 1/m\^2, got -1.0"),
+        (lambda: RPPParams(lookahead_time=True), r"RPPParams.lookahead_time must be a finite number"),
+        (lambda: RPPParams(min_lookahead=1.0, max_lookahead=0.5), r"min_lookahead \(1.0 m\) must be <= max_look"),
+    ],
+)
+def test_out_of_range_parameters_are_rejected_with_the_range(build: object, message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        build()  # type: ignore[operator]
+
+
+def test_options_are_type_checked_and_unknown_names_listed() -> None:
+    robot = load_robot("turtlebot3")
+    with pytest.raises(ConfigError, match="params must be an instance of MPCParams"):
+        make_tracker("mpc", robot, params=RPPParams())
+    with pytest.raises(ConfigError, match="unknown tracker 'mcp'") as err:
+        make_tracker("mcp", robot)
+    assert all(name in str(err.value) for name in ("fbl", "segmented", "mpc", "rpp", "kanayama"))
+    assert set(search_space(KanayamaParams)) == {"kx", "ky", "ktheta"}
+    assert "horizon" not in search_space(MPCParams) and "q_position" in search_space(MPCParams)
+
+
+@pytest.mark.parametrize("robot_name", ["turtlebot3", "edumip"])
+@pytest.mark.parametrize("reference", ["circle", "figure8"])
+@pytest.mark.parametrize("name", PEERS)
+def test_peers_track_in_physics(name: str, reference: str, robot_name: str) -> None:
+    from sim.pipeline.runs import RunKind
+    from sim.pipeline.simulate import simulate_reference
+
+    job = simulate_reference("open", reference=reference, robot=robot_name, tracker=name, runs=(RunKind.CLOSED_LOOP,))
+    m = job.runs[RunKind.CLOSED_LOOP].metrics
+    assert m.collisions == 0 and m.warnings == 0 and m.status == "ok"
+    if name == "rpp":  # lags the timed reference where it regulates its speed (the end, tight curves)
+        assert m.rms_position_error_m < 0.03 and m.final_position_error_m < 0.06
+    else:  # the closed-loop targets of a reference (README): final and RMS within 2 cm
+        assert m.rms_position_error_m < 0.02 and m.final_position_error_m < 0.02
