@@ -27,6 +27,7 @@ with the virtual bicycle's radius, as the Reeds–Shepp tree planners do (no tur
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import time
 from collections.abc import Callable
@@ -43,6 +44,8 @@ from planning.errors import ConfigError
 from planning.planners import lattice
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
 from planning.planners.registry import config_from_options
+from planning.planners.sampling.extend import LocalPlanner
+from planning.planners.sampling.rrt import simplified
 from planning.planners.sampling.steering import arc_poses, default_turning_radius, place
 from planning.planners.sampling.tree import check_endpoints, make_checker
 
@@ -74,6 +77,9 @@ class HybridAStarConfig:
         time_limit: Wall-clock budget [s]; None takes the problem's.
         shape: Collision model, "footprint" or "disc".
         clearance: Margin every pose keeps from obstacles and walls [m] (>= 0).
+        simplify: Return the path simplified as the sampling planners' are (shortcuts with
+            Reeds–Shepp curves of the same radius, vertex reduction, cusp merging:
+            :func:`planning.planners.sampling.rrt.simplified`); False returns the lattice's path.
     """
 
     angle_quantization_bins: int = 72
@@ -89,6 +95,7 @@ class HybridAStarConfig:
     time_limit: float | None = None
     shape: str = "footprint"
     clearance: float = 0.0
+    simplify: bool = True
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -123,6 +130,7 @@ _RULES: dict[str, tuple[str, Callable[[Any], bool]]] = {
     "time_limit": ("None or a number > 0 [s]", lambda v: v is None or (_number(v) and v > 0)),
     "shape": ("'footprint' or 'disc'", lambda v: v in ("footprint", "disc")),
     "clearance": ("a number >= 0 [m]", lambda v: _number(v) and v >= 0),
+    "simplify": ("true or false", lambda v: isinstance(v, bool)),
 }
 _EXPECTED = {k: v[0] for k, v in _RULES.items()}
 _CHECKS = {k: v[1] for k, v in _RULES.items()}
@@ -305,9 +313,8 @@ class HybridAStar:
         path, dirs = _branch(nodes, meta, setup.prims, int(end), tail, tail_dirs)
         stats = {**_stats(t0, its, ids.size), "length_m": path_length(path), "analytic": tail.shape[0] > 0}
         if outcome == lattice.FOUND:
-            path, dirs = self._simplified(path, dirs)
-            stats["length_m"] = path_length(path)
-            return PlanResult(PlanStatus.SUCCESS, self.name, path=path, stats=stats, tree=tree, directions=dirs)
+            found = PlanResult(PlanStatus.SUCCESS, self.name, path=path, stats=stats, tree=tree, directions=dirs)
+            return self._simplified(problem, setup, found)
         if outcome == lattice.EXHAUSTED:
             status = PlanStatus.INFEASIBLE
             reason = f"the lattice search expanded every reachable state ({its}) without reaching the goal"
@@ -317,11 +324,15 @@ class HybridAStar:
             reason = f"{budget} spent; partial path to the expanded node nearest the goal"
         return PlanResult(status, self.name, path=path, reason=reason, stats=stats, tree=tree, directions=dirs)
 
-    def _simplified(self, path: FloatArray, dirs: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """The one place where the path simplification of the sampling planners applies to a lattice path
-        (the same shortcutting and vertex reduction, with Reeds–Shepp steering); until it exists the raw
-        path is returned. Smoothing follows in :mod:`planning.trajectory`, as for every planner."""
-        return path, dirs
+    def _simplified(self, problem: PlanProblem, setup: _Setup, found: PlanResult) -> PlanResult:
+        """The lattice's path simplified as the sampling planners' paths are, with Reeds–Shepp curves of
+        the search's radius and its checker (the raw path kept in ``raw_path``; the stats report both
+        lengths and cusps). Smoothing follows in :mod:`planning.trajectory`, as for every planner."""
+        if not self.config.simplify:
+            return found
+        local = LocalPlanner("reeds_shepp", problem.robot, setup.checker, rho=setup.rho)
+        out = simplified(found, local, 0)  # deterministic: the same path whatever the problem's seed
+        return dataclasses.replace(out, stats={**out.stats, "length_m": path_length(out.path)})
 
 
 def _stats(t0: float, iterations: int, nodes: int) -> dict[str, object]:
