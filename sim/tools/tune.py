@@ -94,6 +94,8 @@ HEARTBEAT_INTERVAL = 2
 GRACE_PERIOD = 10
 #: How many times the gains of a trial killed while running are enqueued again.
 MAX_RETRY = 2
+#: Attempts to open a storage whose tables another worker is creating at the same moment.
+SCHEMA_ATTEMPTS = 4
 #: Seeds of draws are below this; training seeds are even, held-out seeds odd.
 SEED_SPACE = 2**31
 
@@ -350,24 +352,38 @@ def open_storage(url: str) -> Any:
     engine_kwargs: dict[str, Any] = {}
     if sqlite:  # no implicit BEGIN from Python's sqlite3: _begin_immediate emits the BEGIN
         engine_kwargs["connect_args"] = {"timeout": 60, "isolation_level": None}
-    try:
-        storage = optuna.storages.RDBStorage(
-            url,
-            engine_kwargs=engine_kwargs,
-            heartbeat_interval=HEARTBEAT_INTERVAL,
-            grace_period=GRACE_PERIOD,
-            heartbeat_stale_trial_callback=optuna.storages.RetryHeartbeatStaleTrialCallback(max_retry=MAX_RETRY),
-        )
-    except Exception as exc:  # sqlalchemy raises many kinds; all mean "cannot open"
-        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise ConfigError(
-            f"cannot open storage {url!r}: {reason}. Give an SQLAlchemy URL that can be opened, e.g. "
-            f"sqlite:///renders/tune.db (its directory must exist) or postgresql://user:pass@host/db "
-            f"(with its driver installed and the server running)"
-        ) from exc
+    callback = optuna.storages.RetryHeartbeatStaleTrialCallback(max_retry=MAX_RETRY)
+    for attempt in range(SCHEMA_ATTEMPTS):
+        try:
+            storage = optuna.storages.RDBStorage(
+                url,
+                engine_kwargs=engine_kwargs,
+                heartbeat_interval=HEARTBEAT_INTERVAL,
+                grace_period=GRACE_PERIOD,
+                heartbeat_stale_trial_callback=callback,
+            )
+            break
+        except Exception as exc:  # sqlalchemy raises many kinds; all mean "cannot open"
+            # Workers starting together on a new database race to create Optuna's tables (on
+            # PostgreSQL the loser gets a unique violation): the next attempt finds them made.
+            if attempt + 1 < SCHEMA_ATTEMPTS and _schema_race(exc):
+                time.sleep(0.5 * (attempt + 1))
+                continue
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise ConfigError(
+                f"cannot open storage {url!r}: {reason}. Give an SQLAlchemy URL that can be opened, e.g. "
+                f"sqlite:///renders/tune.db (its directory must exist) or postgresql://user:pass@host/db "
+                f"(with its driver installed and the server running)"
+            ) from exc
     if sqlite:
         _begin_immediate(storage.engine)
     return storage
+
+
+def _schema_race(exc: BaseException) -> bool:
+    """Whether opening a storage failed because another worker was creating the same tables."""
+    text = str(exc).lower()
+    return "already exists" in text or "duplicate key" in text or "uniqueviolation" in text
 
 
 def _begin_immediate(engine: Any) -> None:
@@ -383,8 +399,9 @@ def _begin_immediate(engine: Any) -> None:
 
 
 def make_sampler(name: str, seed: int, n_existing: int, worker: int) -> Any:
-    """A seeded sampler; the seed mixes ``seed``, the number of trials already in the study and the
-    worker index, so a resumed or parallel worker does not repeat another's proposals."""
+    """A seeded sampler; the seed mixes ``seed``, the number of trials already in the study (or a
+    trial's number, see :func:`objective_fn`) and the worker index, so a resumed or parallel worker
+    does not repeat another's proposals."""
     module, attr = SAMPLERS[name].split(":")
     cls = getattr(importlib.import_module(module), attr)
     mixed = int(np.random.SeedSequence([seed, n_existing, worker]).generate_state(1)[0])
@@ -480,10 +497,18 @@ def completed(study: Any) -> list[Any]:
     return list(study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,)))
 
 
-def objective_fn(evaluator: Evaluator) -> Any:
-    """The Optuna objective: suggest gains, evaluate, record the parts as user attributes."""
+def objective_fn(evaluator: Evaluator, spec: TuneSpec | None = None) -> Any:
+    """The Optuna objective: suggest gains, evaluate, record the parts as user attributes.
+
+    With ``spec``, each trial's proposals are drawn by a sampler seeded from the study's seed and the
+    trial's number, which the storage hands out once per study: workers in other processes or on
+    other machines (each its own ``nhsim tune``, with the same seed) never propose the same gains,
+    and one worker alone proposes the same sequence every time.
+    """
 
     def objective(trial: Any) -> float:
+        if spec is not None:
+            trial.study.sampler = make_sampler(spec.sampler, spec.seed, trial.number, 0)
         space = tuned_space(evaluator.tracker)[1]
         values = {k: trial.suggest_float(k, lo, hi, log=True) for k, (lo, hi) in space.items()}
         ev = evaluator.evaluate(make_params(evaluator.tracker, values))
@@ -514,7 +539,7 @@ def run_worker(spec: TuneSpec, n_trials: int, worker: int = 0, callbacks: Sequen
     before = len(study.trials)
     if n_trials > 0:
         stop = MaxTrialsCallback(spec.trials, states=(TrialState.COMPLETE,))
-        study.optimize(objective_fn(evaluator), n_trials=n_trials, callbacks=[stop, *callbacks])
+        study.optimize(objective_fn(evaluator, spec), n_trials=n_trials, callbacks=[stop, *callbacks])
     return len(study.trials) - before
 
 

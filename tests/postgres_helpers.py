@@ -1,0 +1,81 @@
+"""A throw-away PostgreSQL server for tests: Debian's ``postgresql`` binaries, a cluster in a temporary
+folder, on a free port of 127.0.0.1, stopped when the test ends. Skipped, saying why, where the
+binaries are missing (``.ci/setup.sh`` installs them for the tests)."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import pwd
+import shutil
+import socket
+import subprocess
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+
+def server_binaries() -> Path | None:
+    """The folder of ``initdb`` and ``pg_ctl`` (the newest Debian cluster version), or None."""
+    versions = sorted(Path("/usr/lib/postgresql").glob("*/bin"), key=lambda p: int(p.parent.name), reverse=True)
+    for folder in versions:
+        if (folder / "initdb").exists() and (folder / "pg_ctl").exists():
+            return folder
+    found = shutil.which("initdb")
+    return Path(found).parent if found and shutil.which("pg_ctl") else None
+
+
+def _free_port() -> int:
+    with contextlib.closing(socket.socket()) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def _as_server_user(cmd: list[str]) -> list[str]:
+    """PostgreSQL refuses to run as root: run as Debian's ``postgres`` user then."""
+    if os.geteuid() != 0:
+        return cmd
+    return ["runuser", "-u", "postgres", "--", *cmd]
+
+
+@contextlib.contextmanager
+def postgres_server(database: str = "nhsim") -> Iterator[str]:
+    """Start a server with a database; yield its SQLAlchemy URL (psycopg2 driver).
+
+    The cluster lives in a folder of its own under the system's temporary folder (pytest's are
+    private to their owner, and the server runs as ``postgres`` when the tests run as root)."""
+    reason = "the PostgreSQL driver psycopg2 is not installed (pip install psycopg2-binary)"
+    pytest.importorskip("psycopg2", reason=reason)
+    bindir = server_binaries()
+    if bindir is None:
+        pytest.skip("PostgreSQL server binaries not found: apt-get install postgresql")
+    if os.geteuid() == 0:
+        try:
+            pg = pwd.getpwnam("postgres")
+        except KeyError:
+            pytest.skip("running as root and there is no 'postgres' user to run the server as")
+    folder = Path(tempfile.mkdtemp(prefix="nhsim-pg-"))
+    data, sock = folder / "pgdata", folder / "pgsock"
+    sock.mkdir()
+    if os.geteuid() == 0:
+        os.chmod(folder, 0o755)
+        os.chown(sock, pg.pw_uid, pg.pw_gid)
+        data.mkdir()
+        os.chown(data, pg.pw_uid, pg.pw_gid)
+    port = _free_port()
+    run = {"check": True, "capture_output": True, "text": True, "timeout": 120}
+    try:
+        initdb = [str(bindir / "initdb"), "-D", str(data), "-U", "nhsim", "--auth=trust"]
+        subprocess.run(_as_server_user(initdb), **run)
+        opts = f"-p {port} -k {sock} -c listen_addresses=127.0.0.1 -c fsync=off"
+        start = [str(bindir / "pg_ctl"), "-D", str(data), "-l", str(sock / "log"), "-o", opts, "-w", "start"]
+        subprocess.run(_as_server_user(start), **run)
+        subprocess.run([str(bindir / "createdb"), "-h", "127.0.0.1", "-p", str(port), "-U", "nhsim", database], **run)
+        yield f"postgresql+psycopg2://nhsim@127.0.0.1:{port}/{database}"
+    finally:
+        if (data / "postmaster.pid").exists():
+            subprocess.run(_as_server_user([str(bindir / "pg_ctl"), "-D", str(data), "-m", "immediate", "stop"]),
+                           capture_output=True, timeout=120)  # fmt: skip
+        shutil.rmtree(folder, ignore_errors=True)
