@@ -19,6 +19,7 @@ its smallest extent, and at most 2 cm). All checks are vectorised over all poses
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -47,6 +48,15 @@ def _sample_polygon(poly: FloatArray, spacing: float) -> FloatArray:
         s = np.arange(n)[:, None] / n
         pts.append(a + s * (b - a))
     return np.vstack(pts)
+
+
+@functools.lru_cache(maxsize=16)
+def _boundary_samples(raw: bytes, spacing: float) -> FloatArray:
+    """:func:`_sample_polygon` of the polygon whose float64 (K, 2) vertices are ``raw``, computed once
+    per footprint and spacing (every planning run builds a checker); read-only."""
+    out = _sample_polygon(np.frombuffer(raw, dtype=np.float64).reshape(-1, 2), spacing)
+    out.setflags(write=False)
+    return out
 
 
 @dataclass(frozen=True)
@@ -78,7 +88,8 @@ class CollisionChecker:
             raise ValueError(f"tolerance must be > 0, got {self.tolerance}")
         if self.clearance < 0:
             raise ValueError(f"clearance must be >= 0, got {self.clearance}")
-        object.__setattr__(self, "_boundary", _sample_polygon(self.robot.footprint, self.tolerance))
+        fp = np.ascontiguousarray(self.robot.footprint, dtype=np.float64)
+        object.__setattr__(self, "_boundary", _boundary_samples(fp.tobytes(), float(self.tolerance)))
         anchors = [_obstacle_anchor(o) for o in self.world.obstacles]
         object.__setattr__(self, "_anchors", np.array(anchors).reshape(-1, 2))
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, field
+from typing import Any
 
 import numba as nb
 import numpy as np
@@ -63,7 +64,7 @@ def _lookup(grid: FloatArray, x0: float, y0: float, h: float, x: float, y: float
 
 
 @nb.njit(cache=True)
-def _classify(
+def classify_kernel(
     poses: FloatArray,
     grid: FloatArray,
     x0: float,
@@ -158,15 +159,29 @@ class FastChecker:
         """Largest motion of any robot point between checked samples [m] (the exact checker's)."""
         return self.checker.resolution
 
-    def _classify(self, p: FloatArray, stop: bool) -> NDArray[np.int8]:
+    def kernel_args(self) -> tuple[Any, ...] | None:
+        """Arguments 2.. of :func:`classify_kernel` (after the poses) except ``stop_on_collision``, for
+        compiled callers that classify poses they generate; None without walls (nothing is proven)."""
         c = self.checker
-        if not c.walls:  # the grid assumes walls; without them every pose is left undecided
-            return np.full(p.shape[0], -1, dtype=np.int8)
+        if not c.walls:
+            return None
         x0, _, y0, _ = c.world.bounds
         r, fp, disc = c.robot.radius, c.robot.footprint, c.shape == "disc"
-        return _classify(  # type: ignore[no-any-return]
-            p, self._grid, x0, y0, self._h, c._boundary, fp, c._anchors, r, c.clearance, c.tolerance, disc, stop
-        )
+        return (self._grid, x0, y0, self._h, c._boundary, fp, c._anchors, r, c.clearance, c.tolerance, disc)
+
+    def _classify(self, p: FloatArray, stop: bool) -> NDArray[np.int8]:
+        args = self.kernel_args()
+        if args is None:  # the grid assumes walls; without them every pose is left undecided
+            return np.full(p.shape[0], -1, dtype=np.int8)
+        return classify_kernel(p, *args, stop)  # type: ignore[no-any-return, call-arg]
+
+    def settle_path(self, poses: FloatArray, cls: NDArray[np.int8]) -> bool:
+        """:meth:`path_free`'s verdict from the (M, 3) poses and their ``classify_kernel`` classes
+        (computed with ``stop_on_collision``: possibly fewer than M, ending at a proven collision)."""
+        if cls.shape[0] < poses.shape[0] or np.any(cls == 0):
+            return False
+        und = cls < 0
+        return bool(not np.any(und) or np.all(self.checker.poses_free(poses[und])))
 
     def poses_free(self, poses: ArrayLike) -> BoolArray:
         """(M,) whether each (M, 3) pose keeps the clearance from everything (exact verdict)."""
@@ -182,11 +197,7 @@ class FastChecker:
         """Whether all (M, 3) poses are free; stops at the first proven collision. The poses must
         already be dense along the motion (use :meth:`motion_free` otherwise)."""
         p = np.ascontiguousarray(np.atleast_2d(np.asarray(poses, dtype=float)))
-        cls = self._classify(p, True)
-        if cls.shape[0] < p.shape[0] or np.any(cls == 0):
-            return False
-        und = cls < 0
-        return bool(not np.any(und) or np.all(self.checker.poses_free(p[und])))
+        return self.settle_path(p, self._classify(p, True))
 
     def first_collision(self, poses: ArrayLike) -> int | None:
         """Index of the first non-free pose among dense (M, 3) poses, or None."""
