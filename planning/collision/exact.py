@@ -129,15 +129,19 @@ class CollisionChecker:
         reach = self.robot.radius + self.clearance + self.tolerance
         sd = self.world.wall_distance(pts) if self.walls else np.full(pts.shape[0], np.inf)
         lo, hi = p[:, :2].min(axis=0) - reach, p[:, :2].max(axis=0) + reach
-        for obs in self.world.obstacles:
-            xmin, xmax, ymin, ymax = obs.bounding_box()
-            if xmax < lo[0] or xmin > hi[0] or ymax < lo[1] or ymin > hi[1]:
-                continue  # too far from every pose in this batch to matter
-            sd = np.minimum(sd, obs.signed_distance(pts))
+        bb = self._boxes
+        far = (bb[:, 1] < lo[0]) | (bb[:, 0] > hi[0]) | (bb[:, 3] < lo[1]) | (bb[:, 2] > hi[1])
+        for k in np.flatnonzero(~far):  # the others are too far from every pose in this batch to matter
+            sd = np.minimum(sd, self.world.obstacles[k].signed_distance(pts))
         out = sd.reshape(p.shape[0], -1).min(axis=1) - 0.5 * self.tolerance
         if self._anchors.size:
             out = np.where(self._anchor_inside(p), -np.inf, out)
         return out
+
+    @functools.cached_property
+    def _boxes(self) -> FloatArray:
+        """(n_obstacles, 4) bounding boxes (xmin, xmax, ymin, ymax) [m], computed on first use."""
+        return np.array([o.bounding_box() for o in self.world.obstacles], dtype=float).reshape(-1, 4)
 
     def _anchor_inside(self, p: FloatArray) -> NDArray[np.bool_]:
         """(M,) whether any obstacle's anchor point lies inside the footprint at each pose."""

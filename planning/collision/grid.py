@@ -14,8 +14,9 @@ node). A compiled kernel uses these bounds to *prove* each pose's verdict:
   ``radius + clearance``.
 
 Only poses within about ``2 e`` of the decision margin stay undecided; those go to the exact
-checker. The verdict is therefore *identical* to ``CollisionChecker.poses_free`` for every pose
-(tests compare them on random poses); the grid only saves time.
+checker's formulas, compiled (:mod:`planning.collision.compiled`). The verdict is therefore
+*identical* to ``CollisionChecker.poses_free`` for every pose (tests compare them on random and
+near-margin poses); the grid only saves time.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planning.collision.compiled import exact_free_kernel, pack_world
 from planning.collision.exact import CollisionChecker
 from planning.core.world import World
 
@@ -52,6 +54,11 @@ def _distance_grid(world: World, h: float) -> FloatArray:
         out[i0 : i0 + 256] = world.signed_distance(pts, walls=True).reshape(xx.shape)
     out.setflags(write=False)
     return out
+
+
+@functools.lru_cache(maxsize=8)
+def _packed_world(world: World) -> tuple[FloatArray, tuple[Any, ...]]:
+    return np.asarray(world.bounds, dtype=float), pack_world(world)
 
 
 @nb.njit(cache=True)
@@ -175,13 +182,22 @@ class FastChecker:
             return np.full(p.shape[0], -1, dtype=np.int8)
         return classify_kernel(p, *args, stop)  # type: ignore[no-any-return, call-arg]
 
+    def _exact(self, poses: FloatArray) -> BoolArray:
+        """``checker.poses_free`` of (M, 3) poses, compiled (:mod:`planning.collision.compiled`)."""
+        c = self.checker
+        bounds, packed = _packed_world(c.world)
+        return exact_free_kernel(  # type: ignore[no-any-return, call-arg]
+            np.ascontiguousarray(poses), bounds, c.walls, *packed, c._boundary, c.robot.footprint, c._anchors,
+            c.robot.radius, c.clearance, c.tolerance, c.shape == "disc",
+        )  # fmt: skip
+
     def settle_path(self, poses: FloatArray, cls: NDArray[np.int8]) -> bool:
         """:meth:`path_free`'s verdict from the (M, 3) poses and their ``classify_kernel`` classes
         (computed with ``stop_on_collision``: possibly fewer than M, ending at a proven collision)."""
         if cls.shape[0] < poses.shape[0] or np.any(cls == 0):
             return False
         und = cls < 0
-        return bool(not np.any(und) or np.all(self.checker.poses_free(poses[und])))
+        return bool(not np.any(und) or np.all(self._exact(poses[und])))
 
     def poses_free(self, poses: ArrayLike) -> BoolArray:
         """(M,) whether each (M, 3) pose keeps the clearance from everything (exact verdict)."""
@@ -190,7 +206,7 @@ class FastChecker:
         out = cls == 1
         und = cls < 0
         if np.any(und):
-            out[und] = self.checker.poses_free(p[und])
+            out[und] = self._exact(p[und])
         return out
 
     def path_free(self, poses: ArrayLike) -> bool:

@@ -12,7 +12,8 @@ every pose (same grid, same exact fallback), and whose motion checks sample the 
 (``pip install ompl``), when installed, runs as a second column through a Python validity callback
 (slower per check; it flatters us). ``hybrid-a-star``, when registered, adds its time and length.
 
-Times are wall-clock, per trial, interleaved ours / OMPL per seed: ours around ``Planner.plan``
+Times are wall-clock, per trial, interleaved ours / OMPL per seed (OMPL's in one warm harness
+process per problem, after an untimed warm-up solve): ours around ``Planner.plan``
 (its setup included, the world's distance grid built once before timing), OMPL's around
 ``SimpleSetup::solve`` (its setup included). Targets over the problems: median of the per-problem
 birrt / RRTConnect median-time ratios <= 1.0, median of the rrt-star / RRT* median-length ratios
@@ -21,6 +22,7 @@ birrt / RRTConnect median-time ratios <= 1.0, median of the rrt-star / RRT* medi
 
 from __future__ import annotations
 
+import contextlib
 import tempfile
 import time
 from dataclasses import dataclass, field
@@ -174,37 +176,45 @@ def measure(
     """
     from planning.planners.sampling.extend import LocalPlanner
     from planning.planners.sampling.tree import make_checker
-    from sim.tools.bench.ompl_native.problem import run_planner, write_problem
+    from sim.tools.bench.ompl_native.problem import Session, write_problem
 
     checker = make_checker(problem, "footprint", 0.0)  # builds the distance grid (not timed)
     local = LocalPlanner(space, problem.robot, checker)
     rho = float(local.rho if local.rho is not None else np.nan)
     ours = _Ours(space, ttfs_limit, budget)
     ours.first_path(problem)  # warm-up (compiled kernels loaded)
-    rows: dict[str, list[float]] = {k: [] for k in ("t", "ok", "len")}
-    for seed in range(seeds):
-        p = type(problem)(**{**problem.__dict__, "seed": seed})
-        t, ok = ours.first_path(p)
-        rows["t"].append(t)
-        rows["ok"].append(ok)
-        rows["len"].append(ours.length(p))
+    rows: dict[str, list[float]] = {k: [] for k in ("t", "ok", "len", "t_c", "ok_c", "len_c", "star_ok_c")}
+    with contextlib.ExitStack() as stack:
+        tmp = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="nhsim-ompl-")))
+        cpp = None
+        if harness is not None:
+            pf = write_problem(tmp, problem, checker, space, rho, local.sample_step)
+            cpp = stack.enter_context(Session(harness, pf, 1))
+        seeded = [type(problem)(**{**problem.__dict__, "seed": seed}) for seed in range(seeds)]
+        for p in seeded:  # interleaved, so a change in the machine's load hits both sides
+            t, ok = ours.first_path(p)
+            rows["t"].append(t)
+            rows["ok"].append(ok)
+            if cpp is not None:
+                rc = cpp.solve("RRTConnect", ttfs_limit)
+                rows["t_c"].append(rc["time_s"])
+                rows["ok_c"].append(rc["solved"])
+        for p in seeded:  # after the first paths: a 1 s run would leave both sides' caches cold
+            rows["len"].append(ours.length(p))
+            if cpp is not None:
+                rs = cpp.solve("RRTstar", budget)
+                rows["len_c"].append(rs["length_m"])
+                rows["star_ok_c"].append(rs["solved"])
     out: dict[str, Any] = {
         "ttfs_ours": tuple(rows["t"]),
         "ok_ours": tuple(rows["ok"]),
         "len_ours": tuple(rows["len"]),
         "star_ok_ours": tuple(float(np.isfinite(v)) for v in rows["len"]),
+        "ttfs_cpp": tuple(rows["t_c"]),
+        "ok_cpp": tuple(rows["ok_c"]),
+        "len_cpp": tuple(rows["len_c"]),
+        "star_ok_cpp": tuple(rows["star_ok_c"]),
     }
-    if harness is not None:
-        with tempfile.TemporaryDirectory(prefix="nhsim-ompl-") as tmp:
-            pf = write_problem(Path(tmp), problem, checker, space, rho, local.sample_step)
-            rc = run_planner(harness, pf, "RRTConnect", ttfs_limit, seeds, 1)
-            rs = run_planner(harness, pf, "RRTstar", budget, seeds, 1)
-        out |= {
-            "ttfs_cpp": tuple(rc.time_s.tolist()),
-            "ok_cpp": tuple(rc.solved.astype(float).tolist()),
-            "len_cpp": tuple(rs.length_m.tolist()),
-            "star_ok_cpp": tuple(rs.solved.astype(float).tolist()),
-        }
     if wheel:
         out |= _wheel(problem, space, checker, rho, local.sample_step, seeds, budget, ttfs_limit)
     h_time, h_len = _hybrid(problem)

@@ -13,6 +13,7 @@
 //                                            PLANNER: RRTConnect (stops at its first path) or RRTstar
 //                                            (runs LIMIT seconds); prints one JSON object: the trials
 //                                            and the states of the last path found
+//   harness serve PROBLEM SEED               one trial per stdin line "PLANNER LIMIT", one JSON line each
 #include <ompl/base/objectives/PathLengthOptimizationObjective.h>
 #include <ompl/base/spaces/DubinsStateSpace.h>
 #include <ompl/base/spaces/ReedsSheppStateSpace.h>
@@ -29,6 +30,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <iostream>
 #include <limits>
 #include <memory>
 #include <stdexcept>
@@ -370,9 +372,7 @@ std::string num(double v) {
     return buf;
 }
 
-int plan(const Problem &pb, const std::string &planner, double limit, int trials, unsigned seed) {
-    ompl::RNG::setSeed(seed);
-    Checker chk(pb);
+ob::StateSpacePtr make_space(const Problem &pb) {
     ob::StateSpacePtr space;
     if (pb.space == "dubins") space = std::make_shared<DenseCurveSpace<ob::DubinsStateSpace>>(pb.rho, pb.step);
     else space = std::make_shared<DenseCurveSpace<ob::ReedsSheppStateSpace>>(pb.rho, pb.step);
@@ -382,15 +382,26 @@ int plan(const Problem &pb, const std::string &planner, double limit, int trials
     bounds.setLow(1, pb.ymin);
     bounds.setHigh(1, pb.ymax);
     space->as<ob::SE2StateSpace>()->setBounds(bounds);
+    return space;
+}
+
+void print_trial(const Trial &t, const char *sep) {
+    std::printf("%s{\"solved\": %s, \"time_s\": %s, \"first_s\": %s, \"length_m\": %s}", sep,
+                t.solved ? "true" : "false", num(t.time_s).c_str(), num(t.first_s < 0 ? NAN : t.first_s).c_str(),
+                num(t.length_m).c_str());
+}
+
+int plan(const Problem &pb, const std::string &planner, double limit, int trials, unsigned seed) {
+    ompl::RNG::setSeed(seed);
+    Checker chk(pb);
+    ob::StateSpacePtr space = make_space(pb);
     solve_once(pb, chk, space, "RRTConnect", std::min(limit, 0.2));  // warm-up (grid pages, allocators)
     std::printf("{\"planner\": \"%s\", \"time_limit_s\": %s, \"seed\": %u, \"trials\": [", planner.c_str(),
                 num(limit).c_str(), seed);
     std::vector<double> last;
     for (int k = 0; k < trials; ++k) {
         Trial t = solve_once(pb, chk, space, planner, limit);
-        std::printf("%s{\"solved\": %s, \"time_s\": %s, \"first_s\": %s, \"length_m\": %s}", k ? ", " : "",
-                    t.solved ? "true" : "false", num(t.time_s).c_str(), num(t.first_s < 0 ? NAN : t.first_s).c_str(),
-                    num(t.length_m).c_str());
+        print_trial(t, k ? ", " : "");
         if (t.solved) last = t.path;
     }
     std::printf("], \"path\": [");  // the last path found, [[x, y, yaw], ...]
@@ -398,6 +409,23 @@ int plan(const Problem &pb, const std::string &planner, double limit, int trials
         std::printf("%s[%s, %s, %s]", k ? ", " : "", num(last[k]).c_str(), num(last[k + 1]).c_str(),
                     num(last[k + 2]).c_str());
     std::printf("]}\n");
+    return 0;
+}
+
+// One warm process for many trials: each stdin line "PLANNER LIMIT" runs one trial and prints it as
+// one JSON line (the bench interleaves these with its own runs).
+int serve(const Problem &pb, unsigned seed) {
+    ompl::RNG::setSeed(seed);
+    Checker chk(pb);
+    ob::StateSpacePtr space = make_space(pb);
+    solve_once(pb, chk, space, "RRTConnect", 0.2);  // warm-up
+    std::string planner;
+    double limit;
+    while (std::cin >> planner >> limit) {
+        print_trial(solve_once(pb, chk, space, planner, limit), "");
+        std::printf("\n");
+        std::fflush(stdout);
+    }
     return 0;
 }
 
@@ -422,11 +450,14 @@ int main(int argc, char **argv) {
     try {
         std::string mode = argc > 1 ? argv[1] : "";
         if (mode == "check" && argc == 5) return check(read_problem(argv[2]), argv[3], argv[4]);
+        if (mode == "serve" && argc == 4)
+            return serve(read_problem(argv[2]), static_cast<unsigned>(std::stoul(argv[3])));
         if (mode == "plan" && argc == 7)
             return plan(read_problem(argv[2]), argv[3], std::stod(argv[4]), std::stoi(argv[5]),
                         static_cast<unsigned>(std::stoul(argv[6])));
         std::fprintf(stderr,
-                     "usage: harness check PROBLEM POSES OUT | harness plan PROBLEM PLANNER LIMIT TRIALS SEED\n");
+                     "usage: harness check PROBLEM POSES OUT | harness plan PROBLEM PLANNER LIMIT TRIALS SEED | "
+                     "harness serve PROBLEM SEED\n");
         return 2;
     } catch (const std::exception &exc) {
         std::fprintf(stderr, "harness: %s\n", exc.what());

@@ -134,3 +134,41 @@ def run_planner(harness: Path, problem_file: Path, planner: str, limit: float, t
     solved = np.array([r["solved"] for r in rows], dtype=bool)
     path = np.asarray(out["path"], dtype=float).reshape(-1, 3)
     return Trials(planner, solved, col("time_s"), col("first_s"), col("length_m"), path)
+
+
+class Session:
+    """One warm harness process (``harness serve``) running trials on demand, so the bench can
+    interleave OMPL's trials with its own in a process that is already loaded.
+
+    Use as a context manager; :meth:`solve` runs one trial.
+    """
+
+    def __init__(self, harness: Path, problem_file: Path, seed: int) -> None:
+        self._args = [str(harness), "serve", str(problem_file), str(seed)]
+        self._proc: subprocess.Popen[str] | None = None
+
+    def __enter__(self) -> Session:
+        self._proc = subprocess.Popen(
+            self._args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        )
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._proc is not None:
+            assert self._proc.stdin is not None
+            self._proc.stdin.close()
+            self._proc.wait()
+            self._proc = None
+
+    def solve(self, planner: str, limit: float) -> dict[str, float]:
+        """One trial: {"solved": 0/1, "time_s", "first_s", "length_m"} (nan where there is none)."""
+        proc = self._proc
+        assert proc is not None and proc.stdin is not None and proc.stdout is not None, "use Session as `with`"
+        proc.stdin.write(f"{planner} {limit!r}\n")
+        proc.stdin.flush()
+        line = proc.stdout.readline()
+        if not line:
+            err = proc.stderr.read() if proc.stderr is not None else ""
+            raise DependencyError(f"the OMPL harness stopped ({' '.join(self._args)}): {err.strip()}")
+        row = json.loads(line)
+        return {k: float(np.nan if v is None else v) for k, v in row.items()}
