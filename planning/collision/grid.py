@@ -139,6 +139,21 @@ def classify_kernel(
     return out
 
 
+@nb.njit(cache=True)
+def _summary(cls: NDArray[np.int8], m: int) -> int:
+    """0 if fewer than ``m`` classes (stopped at a collision) or any proven collision, 1 if all proven
+    free, -1 if some are undecided."""
+    if cls.shape[0] < m:
+        return 0
+    out = 1
+    for c in cls:
+        if c == 0:
+            return 0
+        if c < 0:
+            out = -1
+    return out
+
+
 @dataclass(frozen=True)
 class FastChecker:
     """Same answers as ``checker``, much faster (see the module doc).
@@ -194,10 +209,10 @@ class FastChecker:
     def settle_path(self, poses: FloatArray, cls: NDArray[np.int8]) -> bool:
         """:meth:`path_free`'s verdict from the (M, 3) poses and their ``classify_kernel`` classes
         (computed with ``stop_on_collision``: possibly fewer than M, ending at a proven collision)."""
-        if cls.shape[0] < poses.shape[0] or np.any(cls == 0):
-            return False
-        und = cls < 0
-        return bool(not np.any(und) or np.all(self._exact(poses[und])))
+        verdict = _summary(cls, poses.shape[0])
+        if verdict >= 0:
+            return bool(verdict)
+        return bool(np.all(self._exact(poses[cls < 0])))
 
     def poses_free(self, poses: ArrayLike) -> BoolArray:
         """(M,) whether each (M, 3) pose keeps the clearance from everything (exact verdict)."""

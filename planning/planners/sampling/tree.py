@@ -147,12 +147,13 @@ def make_checker(problem: PlanProblem, shape: Shape, clearance: float) -> FastCh
 
 def check_endpoints(problem: PlanProblem, checker: FastChecker, planner: str) -> PlanResult | None:
     """An INVALID_START / INVALID_GOAL result if the start or goal pose collides, else None."""
-    for which, pose, status in (
-        ("start", problem.start, PlanStatus.INVALID_START),
-        ("goal", problem.goal, PlanStatus.INVALID_GOAL),
+    ends = np.array([problem.start.as_array(), problem.goal.as_array()])
+    free = checker.poses_free(ends)  # both in one call
+    for which, q, ok, status in (
+        ("start", ends[0], free[0], PlanStatus.INVALID_START),
+        ("goal", ends[1], free[1], PlanStatus.INVALID_GOAL),
     ):
-        q = pose.as_array()
-        if not checker.poses_free(q[None, :])[0]:
+        if not ok:
             clr = float(checker.clearance_of(q[None, :])[0])
             reason = (
                 f"{which} pose ({q[0]:.3f}, {q[1]:.3f}, {q[2]:.3f}) is in collision or closer than the "
