@@ -227,12 +227,12 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
         """Grow both trees until they join or the budget is spent."""
         cfg = self.config
         start, goal = problem.start.as_array(), problem.goal.as_array()
-        ta, tb = Tree(start), Tree(goal, backwards=True)
-        # The trees may already be joined by one exact curve.
+        # The trees may already be joined by one exact curve (then they are just their roots).
         direct = local.connect(start, goal)
         if direct is not None:
-            stats = self._stats(budget, 0, 2)
-            return self._result(PlanStatus.SUCCESS, direct[0], direct[1], "", stats, merge_trees(ta, tb))
+            roots = PlanTree(np.array([start, goal]), np.array([-1, -1], dtype=np.int64))
+            return self._result(PlanStatus.SUCCESS, direct[0], direct[1], "", self._stats(budget, 0, 2), roots)
+        ta, tb = Tree(start), Tree(goal, backwards=True)
         it = 0
         while not budget.spent(it):
             it += 1
