@@ -157,3 +157,21 @@ def test_hard_problems() -> None:
     assert {"three_point_turn", "parking_lot", *HARD} <= set(names) and "open" not in names
     with pytest.raises(ConfigError, match=r"nowhere.*choose from"):
         problems(["nowhere"])
+
+
+@needs_harness
+def test_measure_races_both_sides(harness: Path) -> None:
+    """One problem, two seeds through the warm harness session: both sides solve, and on an empty
+    world both RRT* paths are no shorter than the Reeds–Shepp optimum (the direct curve, less the goal
+    tolerance) and within 25 % of it after 0.3 s (on a loaded machine RRT* gets few iterations)."""
+    from sim.tools.bench.plan import measure
+
+    problem = problems(["simple_motion"])[0]
+    r = measure(problem, "reeds_shepp", 2, 0.3, 5.0, harness, wheel=False)
+    assert r.ok_ours == (1.0, 1.0) and r.ok_cpp == (1.0, 1.0) and r.star_ok_cpp == (1.0, 1.0)
+    assert all(0 < t < 5.0 for t in r.ttfs_ours + r.ttfs_cpp)
+    rho = LocalPlanner("reeds_shepp", problem.robot, make_checker(problem, "footprint", 0.0)).rho
+    optimum = float(reeds_shepp_length(problem.start.as_array(), problem.goal.as_array(), rho)[0])
+    for length in r.len_ours + r.len_cpp:
+        assert optimum - problem.position_tolerance <= length <= 1.25 * optimum
+    assert np.isfinite(r.ttfs_ratio) and np.isfinite(r.length_ratio)

@@ -118,9 +118,15 @@ def _polygon(x: float, y: float, v: FloatArray) -> float:
 
 @nb.njit(cache=True)
 def _world_distance(
-    x: float, y: float, bounds: FloatArray, walls: bool, kinds: IntArray, params: FloatArray,
-    verts: FloatArray, offsets: IntArray,
-) -> float:  # fmt: skip
+    x: float,
+    y: float,
+    bounds: FloatArray,
+    walls: bool,
+    kinds: IntArray,
+    params: FloatArray,
+    verts: FloatArray,
+    offsets: IntArray,
+) -> float:
     d = min(min(x - bounds[0], bounds[1] - x), min(y - bounds[2], bounds[3] - y)) if walls else np.inf
     for k in range(kinds.shape[0]):
         kind, p = kinds[k], params[k]
@@ -148,10 +154,21 @@ def _anchor_inside(lx: float, ly: float, footprint: FloatArray) -> bool:
 
 @nb.njit(cache=True)
 def exact_free_kernel(
-    poses: FloatArray, bounds: FloatArray, walls: bool, kinds: IntArray, params: FloatArray, verts: FloatArray,
-    offsets: IntArray, boundary: FloatArray, footprint: FloatArray, anchors: FloatArray, radius: float,
-    clearance: float, tol: float, disc: bool,
-) -> NDArray[np.bool_]:  # fmt: skip
+    poses: FloatArray,
+    bounds: FloatArray,
+    walls: bool,
+    kinds: IntArray,
+    params: FloatArray,
+    verts: FloatArray,
+    offsets: IntArray,
+    boundary: FloatArray,
+    footprint: FloatArray,
+    anchors: FloatArray,
+    radius: float,
+    clearance: float,
+    tol: float,
+    disc: bool,
+) -> NDArray[np.bool_]:
     """(M,) ``CollisionChecker.poses_free`` of (M, 3) poses (arguments: the checker's, packed)."""
     out = np.empty(poses.shape[0], dtype=np.bool_)
     for k in range(poses.shape[0]):

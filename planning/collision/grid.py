@@ -202,9 +202,18 @@ class FastChecker:
         c = self.checker
         bounds, packed = _packed_world(c.world)
         return exact_free_kernel(  # type: ignore[no-any-return, call-arg]
-            np.ascontiguousarray(poses), bounds, c.walls, *packed, c._boundary, c.robot.footprint, c._anchors,
-            c.robot.radius, c.clearance, c.tolerance, c.shape == "disc",
-        )  # fmt: skip
+            np.ascontiguousarray(poses),
+            bounds,
+            c.walls,
+            *packed,
+            c._boundary,
+            c.robot.footprint,
+            c._anchors,
+            c.robot.radius,
+            c.clearance,
+            c.tolerance,
+            c.shape == "disc",
+        )
 
     def settle_path(self, poses: FloatArray, cls: NDArray[np.int8]) -> bool:
         """:meth:`path_free`'s verdict from the (M, 3) poses and their ``classify_kernel`` classes
