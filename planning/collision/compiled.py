@@ -24,6 +24,11 @@ IntArray = NDArray[np.int64]
 
 CIRCLE, ELLIPSE, BOX, POLYGON = 0, 1, 2, 3
 
+#: (bounds (4,), walls, kinds, params, vertices, offsets): the world for the kernels.
+WorldArrays = tuple[FloatArray, bool, IntArray, FloatArray, FloatArray, IntArray]
+#: (boundary samples, footprint, anchors, radius, clearance, tolerance, disc): the robot and margins.
+RobotArrays = tuple[FloatArray, FloatArray, FloatArray, float, float, float, bool]
+
 
 def pack_world(world: World) -> tuple[IntArray, FloatArray, FloatArray, IntArray]:
     """The obstacles as arrays: kinds (n,), params (n, 5) (centre x, y, then radius; semi-axes and
@@ -117,16 +122,9 @@ def _polygon(x: float, y: float, v: FloatArray) -> float:
 
 
 @nb.njit(cache=True)
-def _world_distance(
-    x: float,
-    y: float,
-    bounds: FloatArray,
-    walls: bool,
-    kinds: IntArray,
-    params: FloatArray,
-    verts: FloatArray,
-    offsets: IntArray,
-) -> float:
+def _world_distance(x: float, y: float, world: WorldArrays) -> float:
+    """Signed distance of point (x, y) to the nearest obstacle or (with walls) wall [m]."""
+    bounds, walls, kinds, params, verts, offsets = world
     d = min(min(x - bounds[0], bounds[1] - x), min(y - bounds[2], bounds[3] - y)) if walls else np.inf
     for k in range(kinds.shape[0]):
         kind, p = kinds[k], params[k]
@@ -153,27 +151,15 @@ def _anchor_inside(lx: float, ly: float, footprint: FloatArray) -> bool:
 
 
 @nb.njit(cache=True)
-def exact_free_kernel(
-    poses: FloatArray,
-    bounds: FloatArray,
-    walls: bool,
-    kinds: IntArray,
-    params: FloatArray,
-    verts: FloatArray,
-    offsets: IntArray,
-    boundary: FloatArray,
-    footprint: FloatArray,
-    anchors: FloatArray,
-    radius: float,
-    clearance: float,
-    tol: float,
-    disc: bool,
-) -> NDArray[np.bool_]:
-    """(M,) ``CollisionChecker.poses_free`` of (M, 3) poses (arguments: the checker's, packed)."""
+def exact_free_kernel(poses: FloatArray, world: WorldArrays, robot: RobotArrays) -> NDArray[np.bool_]:
+    """(M,) ``CollisionChecker.poses_free`` of (M, 3) poses; ``world`` as :func:`pack_world` with the
+    bounds and walls flag in front, ``robot`` the checker's (boundary samples, footprint, obstacle
+    anchors, radius, clearance, tolerance, disc shape)."""
+    boundary, footprint, anchors, radius, clearance, tol, disc = robot
     out = np.empty(poses.shape[0], dtype=np.bool_)
     for k in range(poses.shape[0]):
         x, y, th = poses[k, 0], poses[k, 1], poses[k, 2]
-        centre = _world_distance(x, y, bounds, walls, kinds, params, verts, offsets)
+        centre = _world_distance(x, y, world)
         clr = centre - radius
         if not disc and centre <= radius + clearance + tol:
             c, s = np.cos(th), np.sin(th)
@@ -181,7 +167,7 @@ def exact_free_kernel(
             for b in range(boundary.shape[0]):
                 bx, by = boundary[b, 0], boundary[b, 1]
                 px, py = x + c * bx - s * by, y + s * bx + c * by
-                sd = min(sd, _world_distance(px, py, bounds, walls, kinds, params, verts, offsets))
+                sd = min(sd, _world_distance(px, py, world))
             clr = sd - 0.5 * tol
             for a in range(anchors.shape[0]):
                 dx, dy = anchors[a, 0] - x, anchors[a, 1] - y

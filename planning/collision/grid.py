@@ -201,19 +201,10 @@ class FastChecker:
         """``checker.poses_free`` of (M, 3) poses, compiled (:mod:`planning.collision.compiled`)."""
         c = self.checker
         bounds, packed = _packed_world(c.world)
-        return exact_free_kernel(  # type: ignore[no-any-return, call-arg]
-            np.ascontiguousarray(poses),
-            bounds,
-            c.walls,
-            *packed,
-            c._boundary,
-            c.robot.footprint,
-            c._anchors,
-            c.robot.radius,
-            c.clearance,
-            c.tolerance,
-            c.shape == "disc",
-        )
+        world = (bounds, c.walls, *packed)
+        disc = c.shape == "disc"
+        robot = (c._boundary, c.robot.footprint, c._anchors, c.robot.radius, c.clearance, c.tolerance, disc)
+        return exact_free_kernel(np.ascontiguousarray(poses), world, robot)  # type: ignore[no-any-return]
 
     def settle_path(self, poses: FloatArray, cls: NDArray[np.int8]) -> bool:
         """:meth:`path_free`'s verdict from the (M, 3) poses and their ``classify_kernel`` classes
