@@ -32,6 +32,7 @@ from planning.planners.sampling.steering import (
     se2_metric,
     unicycle_primitives,
 )
+from planning.planners.sampling.tree import Tree
 
 FloatArray = NDArray[np.float64]
 Steering = Literal["bicycle", "unicycle", "diffdrive", "reeds_shepp", "dubins"]
@@ -98,6 +99,14 @@ class LocalPlanner:
     def metric(self, nodes: FloatArray, q: FloatArray) -> FloatArray:
         """Nearest-node distance for this steering (seed 002's for diffdrive, seed 000's otherwise)."""
         return diffdrive_metric(nodes, q) if self.steering == "diffdrive" else se2_metric(nodes, q)
+
+    def nearest(self, tree: Tree, q: FloatArray) -> int:
+        """Index of ``tree``'s node nearest to ``q`` under :meth:`metric` (first of equals)."""
+        return tree.nearest(q, self.metric) if self.steering == "diffdrive" else tree.se2_nearest(q)
+
+    def tree_distances(self, tree: Tree, q: FloatArray) -> FloatArray:
+        """(n,) :meth:`metric` of every node of ``tree`` to ``q``."""
+        return self.metric(tree.nodes[: tree.n], q) if self.steering == "diffdrive" else tree.se2_distances(q)
 
     def word_motion(self, word: Word) -> tuple[FloatArray, FloatArray]:
         """Dense samples (K, 3) and directions (K,) of a curve at the checking step."""

@@ -135,7 +135,7 @@ class _TreePlanner(Generic[ConfigT]):
         """One goal-biased sample, the tree's nearest node to it, and the motion from there toward it
         (None when every motion collides)."""
         q_rand = self._sample(rng, problem.goal.as_array(), problem)
-        i = tree.nearest(q_rand, local.metric)
+        i = local.nearest(tree, q_rand)
         ext = local.extend(tree.nodes[i], q_rand)
         return None if ext is None else (i, ext)
 
@@ -238,11 +238,11 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
             it += 1
             grow, other = (ta, tb) if it % 2 else (tb, ta)
             q_rand = self._sample(rng, goal if grow is ta else start, problem)
-            j = self._grow(local, grow, grow.nearest(q_rand, local.metric), q_rand)
+            j = self._grow(local, grow, local.nearest(grow, q_rand), q_rand)
             if j is None:
                 continue
             target = grow.nodes[j]
-            k = other.nearest(target, local.metric)
+            k = local.nearest(other, target)
             for _ in range(cfg.connect_steps):
                 a, b = (j, k) if grow is ta else (k, j)
                 if local.exact and np.array_equal(ta.nodes[a], tb.nodes[b]):

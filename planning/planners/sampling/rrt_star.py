@@ -93,7 +93,7 @@ def _insert(tree: Tree, local: LocalPlanner, q_new: FloatArray) -> int | None:
     """
     n = tree.n
     k = min(n, int(np.ceil(K_RRT * np.log(n + 1))))
-    d = local.metric(tree.nodes[:n], q_new)
+    d = local.tree_distances(tree, q_new)
     nbrs = np.argpartition(d, k - 1)[:k] if k < n else np.arange(n)
     if d[nbrs].min() < 1e-9:
         return None  # already in the tree
