@@ -39,3 +39,23 @@ def test_tiny_obstacle_inside_footprint_is_caught():
     fast = FastChecker(exact)
     assert not fast.poses_free([[0.0, 0.0, 0.3]])[0]
     assert fast.first_collision([[0.5, 0.0, 0.0], [0.0, 0.0, 0.0]]) == 1
+
+
+@pytest.mark.parametrize(
+    ("robot", "shape", "clearance", "walls"),
+    [("turtlebot3", "footprint", 0.0, True), ("edumip", "footprint", 0.1, True), ("turtlebot3", "disc", 0.05, True),
+     ("turtlebot3", "footprint", 0.0, False)],
+)  # fmt: skip
+def test_compiled_exact_matches_exact_near_the_margin(robot, shape, clearance, walls):
+    """The compiled exact verdict (what FastChecker asks for the poses its grid leaves undecided)
+    equals the exact checker's on 3000 such poses, and on uniform poses."""
+    exact = CollisionChecker(WORLD, load_robot(robot), shape=shape, clearance=clearance, walls=walls)
+    fast = FastChecker(exact)
+    rng = np.random.default_rng(3)
+    poses = np.column_stack([rng.uniform(-2.1, 2.1, (200_000, 2)), rng.uniform(-9, 9, 200_000)])
+    undecided = poses[fast._classify(poses, False) < 0][:3000]
+    assert undecided.shape[0] == 3000
+    for p in (undecided, poses[:3000]):
+        ours, ref = fast._exact(p), exact.poses_free(p)
+        assert 0.05 < ref.mean() < 0.95
+        assert np.array_equal(ours, ref)

@@ -19,6 +19,7 @@ its smallest extent, and at most 2 cm). All checks are vectorised over all poses
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -47,6 +48,15 @@ def _sample_polygon(poly: FloatArray, spacing: float) -> FloatArray:
         s = np.arange(n)[:, None] / n
         pts.append(a + s * (b - a))
     return np.vstack(pts)
+
+
+@functools.lru_cache(maxsize=16)
+def _boundary_samples(raw: bytes, spacing: float) -> FloatArray:
+    """:func:`_sample_polygon` of the polygon whose float64 (K, 2) vertices are ``raw``, computed once
+    per footprint and spacing (every planning run builds a checker); read-only."""
+    out = _sample_polygon(np.frombuffer(raw, dtype=np.float64).reshape(-1, 2), spacing)
+    out.setflags(write=False)
+    return out
 
 
 @dataclass(frozen=True)
@@ -78,7 +88,8 @@ class CollisionChecker:
             raise ValueError(f"tolerance must be > 0, got {self.tolerance}")
         if self.clearance < 0:
             raise ValueError(f"clearance must be >= 0, got {self.clearance}")
-        object.__setattr__(self, "_boundary", _sample_polygon(self.robot.footprint, self.tolerance))
+        fp = np.ascontiguousarray(self.robot.footprint, dtype=np.float64)
+        object.__setattr__(self, "_boundary", _boundary_samples(fp.tobytes(), float(self.tolerance)))
         anchors = [_obstacle_anchor(o) for o in self.world.obstacles]
         object.__setattr__(self, "_anchors", np.array(anchors).reshape(-1, 2))
 
@@ -118,15 +129,19 @@ class CollisionChecker:
         reach = self.robot.radius + self.clearance + self.tolerance
         sd = self.world.wall_distance(pts) if self.walls else np.full(pts.shape[0], np.inf)
         lo, hi = p[:, :2].min(axis=0) - reach, p[:, :2].max(axis=0) + reach
-        for obs in self.world.obstacles:
-            xmin, xmax, ymin, ymax = obs.bounding_box()
-            if xmax < lo[0] or xmin > hi[0] or ymax < lo[1] or ymin > hi[1]:
-                continue  # too far from every pose in this batch to matter
-            sd = np.minimum(sd, obs.signed_distance(pts))
+        bb = self._boxes
+        far = (bb[:, 1] < lo[0]) | (bb[:, 0] > hi[0]) | (bb[:, 3] < lo[1]) | (bb[:, 2] > hi[1])
+        for k in np.flatnonzero(~far):  # the others are too far from every pose in this batch to matter
+            sd = np.minimum(sd, self.world.obstacles[k].signed_distance(pts))
         out = sd.reshape(p.shape[0], -1).min(axis=1) - 0.5 * self.tolerance
         if self._anchors.size:
             out = np.where(self._anchor_inside(p), -np.inf, out)
         return out
+
+    @functools.cached_property
+    def _boxes(self) -> FloatArray:
+        """(n_obstacles, 4) bounding boxes (xmin, xmax, ymin, ymax) [m], computed on first use."""
+        return np.array([o.bounding_box() for o in self.world.obstacles], dtype=float).reshape(-1, 4)
 
     def _anchor_inside(self, p: FloatArray) -> NDArray[np.bool_]:
         """(M,) whether any obstacle's anchor point lies inside the footprint at each pose."""

@@ -14,19 +14,22 @@ node). A compiled kernel uses these bounds to *prove* each pose's verdict:
   ``radius + clearance``.
 
 Only poses within about ``2 e`` of the decision margin stay undecided; those go to the exact
-checker. The verdict is therefore *identical* to ``CollisionChecker.poses_free`` for every pose
-(tests compare them on random poses); the grid only saves time.
+checker's formulas, compiled (:mod:`planning.collision.compiled`). The verdict is therefore
+*identical* to ``CollisionChecker.poses_free`` for every pose (tests compare them on random and
+near-margin poses); the grid only saves time.
 """
 
 from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, field
+from typing import Any
 
 import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planning.collision.compiled import exact_free_kernel, pack_world
 from planning.collision.exact import CollisionChecker
 from planning.core.world import World
 
@@ -56,6 +59,11 @@ def _distance_grid(world: World, h: float) -> FloatArray:
     return out
 
 
+@functools.lru_cache(maxsize=8)
+def _packed_world(world: World) -> tuple[FloatArray, tuple[Any, ...]]:
+    return np.asarray(world.bounds, dtype=float), pack_world(world)
+
+
 @nb.njit(cache=True)
 def _lookup(grid: FloatArray, x0: float, y0: float, h: float, x: float, y: float) -> float:
     i = int(np.floor((x - x0) / h + 0.5))
@@ -66,7 +74,7 @@ def _lookup(grid: FloatArray, x0: float, y0: float, h: float, x: float, y: float
 
 
 @nb.njit(cache=True)
-def _classify(
+def classify_kernel(
     poses: FloatArray,
     grid: FloatArray,
     x0: float,
@@ -134,6 +142,21 @@ def _classify(
     return out
 
 
+@nb.njit(cache=True)
+def _summary(cls: NDArray[np.int8], m: int) -> int:
+    """0 if fewer than ``m`` classes (stopped at a collision) or any proven collision, 1 if all proven
+    free, -1 if some are undecided."""
+    if cls.shape[0] < m:
+        return 0
+    out = 1
+    for c in cls:
+        if c == 0:
+            return 0
+        if c < 0:
+            out = -1
+    return out
+
+
 @dataclass(frozen=True)
 class FastChecker:
     """Same answers as ``checker``, much faster (see the module doc).
@@ -162,7 +185,7 @@ class FastChecker:
         return self.checker.resolution
 
     def proof_arguments(self) -> ProofArguments:
-        """The arguments after the poses of the compiled ``_classify`` kernel (grid, its origin and
+        """The arguments after the poses of the compiled :func:`classify_kernel` (grid, its origin and
         spacing, footprint samples, footprint, anchors, radius, clearance, tolerance, disc), for
         compiled callers that prove poses free themselves (:mod:`planning.planners.lattice`).
 
@@ -177,11 +200,38 @@ class FastChecker:
         r, clr, tol, disc = float(c.robot.radius), float(c.clearance), float(c.tolerance), c.shape == "disc"
         return (self._grid, float(x0), float(y0), self._h, c._boundary, fp, c._anchors, r, clr, tol, disc)
 
+    def kernel_args(self) -> tuple[Any, ...] | None:
+        """Arguments 2.. of :func:`classify_kernel` (after the poses) except ``stop_on_collision``, for
+        compiled callers that classify poses they generate; None without walls (nothing is proven)."""
+        c = self.checker
+        if not c.walls:
+            return None
+        x0, _, y0, _ = c.world.bounds
+        r, fp, disc = c.robot.radius, c.robot.footprint, c.shape == "disc"
+        return (self._grid, x0, y0, self._h, c._boundary, fp, c._anchors, r, c.clearance, c.tolerance, disc)
+
     def _classify(self, p: FloatArray, stop: bool) -> NDArray[np.int8]:
-        if not self.checker.walls:  # the grid assumes walls; without them every pose is left undecided
+        args = self.kernel_args()
+        if args is None:  # the grid assumes walls; without them every pose is left undecided
             return np.full(p.shape[0], -1, dtype=np.int8)
-        grid, x0, y0, h, boundary, fp, anchors, r, clr, tol, disc = self.proof_arguments()
-        return _classify(p, grid, x0, y0, h, boundary, fp, anchors, r, clr, tol, disc, stop)  # type: ignore[no-any-return]
+        return classify_kernel(p, *args, stop)  # type: ignore[no-any-return, call-arg]
+
+    def _exact(self, poses: FloatArray) -> BoolArray:
+        """``checker.poses_free`` of (M, 3) poses, compiled (:mod:`planning.collision.compiled`)."""
+        c = self.checker
+        bounds, packed = _packed_world(c.world)
+        world = (bounds, c.walls, *packed)
+        disc = c.shape == "disc"
+        robot = (c._boundary, c.robot.footprint, c._anchors, c.robot.radius, c.clearance, c.tolerance, disc)
+        return exact_free_kernel(np.ascontiguousarray(poses), world, robot)  # type: ignore[no-any-return]
+
+    def settle_path(self, poses: FloatArray, cls: NDArray[np.int8]) -> bool:
+        """:meth:`path_free`'s verdict from the (M, 3) poses and their ``classify_kernel`` classes
+        (computed with ``stop_on_collision``: possibly fewer than M, ending at a proven collision)."""
+        verdict = _summary(cls, poses.shape[0])
+        if verdict >= 0:
+            return bool(verdict)
+        return bool(np.all(self._exact(poses[cls < 0])))
 
     def poses_free(self, poses: ArrayLike) -> BoolArray:
         """(M,) whether each (M, 3) pose keeps the clearance from everything (exact verdict)."""
@@ -190,18 +240,14 @@ class FastChecker:
         out = cls == 1
         und = cls < 0
         if np.any(und):
-            out[und] = self.checker.poses_free(p[und])
+            out[und] = self._exact(p[und])
         return out
 
     def path_free(self, poses: ArrayLike) -> bool:
         """Whether all (M, 3) poses are free; stops at the first proven collision. The poses must
         already be dense along the motion (use :meth:`motion_free` otherwise)."""
         p = np.ascontiguousarray(np.atleast_2d(np.asarray(poses, dtype=float)))
-        cls = self._classify(p, True)
-        if cls.shape[0] < p.shape[0] or np.any(cls == 0):
-            return False
-        und = cls < 0
-        return bool(not np.any(und) or np.all(self.checker.poses_free(p[und])))
+        return self.settle_path(p, self._classify(p, True))
 
     def first_collision(self, poses: ArrayLike) -> int | None:
         """Index of the first non-free pose among dense (M, 3) poses, or None."""

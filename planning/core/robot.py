@@ -9,6 +9,7 @@ MuJoCo loads: geometry from the geoms and bodies, and the wheel-speed and planni
 
 from __future__ import annotations
 
+import functools
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -64,9 +65,9 @@ class RobotSpec:
     footprint: FloatArray = field(repr=False)
     mass: float = 0.0
 
-    @property
+    @functools.cached_property
     def radius(self) -> float:
-        """Radius of the smallest disc about the base origin that holds the footprint [m]."""
+        """Radius of the smallest disc about the base origin that holds the footprint [m] (computed once)."""
         return float(np.max(np.hypot(self.footprint[:, 0], self.footprint[:, 1])))
 
     def footprint_at(self, poses: FloatArray) -> FloatArray:

@@ -5,7 +5,7 @@ The search lattice is (ix, iy, itheta): square cells of side ``cell`` over the w
 ``(ix * ny + iy) * bins + itheta``, with its continuous pose (Hybrid-A* keeps the exact pose a
 primitive reached, not the cell centre).
 
-Collision verdicts come from :func:`planning.collision.grid._classify` (the fast checker's proofs):
+Collision verdicts come from :func:`planning.collision.grid.classify_kernel` (the fast checker's proofs):
 a motion is accepted only when every one of its samples is *proven* free. The few poses the grid
 cannot decide (within about two grid spacings of the clearance margin) count as collisions here,
 so every accepted motion is free by the exact checker's test as well.
@@ -20,7 +20,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.collision.grid import _classify, _lookup
+from planning.collision.grid import _lookup, classify_kernel
 from planning.curves.common import mod2pi
 from planning.curves.reeds_shepp import REEDS_SHEPP, RS_WORDS
 from planning.curves.words import _sample_word
@@ -115,7 +115,10 @@ def _proven_free(poses: FloatArray, chk: tuple, cover: FloatArray) -> bool:  # t
         if not disc and cover.shape[0] > 0 and _covered(px, py, th, cover, chk):
             continue
         one = poses[k : k + 1]
-        if _classify(one, grid, x0, y0, h, boundary, footprint, anchors, radius, clearance, tol, disc, True)[0] != 1:
+        if (
+            classify_kernel(one, grid, x0, y0, h, boundary, footprint, anchors, radius, clearance, tol, disc, True)[0]
+            != 1
+        ):
             return False
     return True
 

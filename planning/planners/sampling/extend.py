@@ -11,16 +11,16 @@ round.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.collision.grid import FastChecker
-from planning.core.geometry import cumulative_length
+from planning.collision.grid import FastChecker, classify_kernel
 from planning.core.robot import RobotSpec
 from planning.curves.words import Word
 from planning.errors import ConfigError
+from planning.planners.sampling.fastcurve import steer_kernel
 from planning.planners.sampling.steering import (
     SAMPLE_STEP,
     CurveSteering,
@@ -32,16 +32,12 @@ from planning.planners.sampling.steering import (
     se2_metric,
     unicycle_primitives,
 )
+from planning.planners.sampling.tree import Tree
 
 FloatArray = NDArray[np.float64]
 Steering = Literal["bicycle", "unicycle", "diffdrive", "reeds_shepp", "dubins"]
 STEERINGS: tuple[str, ...] = ("bicycle", "unicycle", "diffdrive", "reeds_shepp", "dubins")
 Motion = tuple[FloatArray, FloatArray, FloatArray]  # (q_new (3,), poses (K, 3), directions (K,))
-
-
-def _arc_prefix(poses: FloatArray, length: float) -> int:
-    """Index of the last sample whose chord-summed distance from the first is <= length."""
-    return int(np.searchsorted(cumulative_length(poses), length, side="right") - 1)
 
 
 @dataclass
@@ -71,6 +67,7 @@ class LocalPlanner:
     _dense: list[FloatArray] = field(init=False, default_factory=list)
     _dirs: FloatArray = field(init=False)
     _ends: FloatArray = field(init=False)
+    _kernel_args: tuple[Any, ...] | None = field(init=False, default=None)
 
     def __post_init__(self) -> None:
         if self.steering not in STEERINGS:
@@ -83,6 +80,7 @@ class LocalPlanner:
         self.curves = CurveSteering(kind, rho)
         # Robot points move at most step * (1 + R / rho) between curve samples.
         self.sample_step = min(SAMPLE_STEP, self.checker.resolution / (1.0 + self.robot.radius / rho))
+        self._kernel_args = self.checker.kernel_args()
         if self.steering in ("bicycle", "unicycle"):
             prims = (
                 bicycle_primitives(self.robot, n_speeds=self.n_speeds, duration=self.primitive_duration)
@@ -102,20 +100,46 @@ class LocalPlanner:
         """Nearest-node distance for this steering (seed 002's for diffdrive, seed 000's otherwise)."""
         return diffdrive_metric(nodes, q) if self.steering == "diffdrive" else se2_metric(nodes, q)
 
+    def nearest(self, tree: Tree, q: FloatArray) -> int:
+        """Index of ``tree``'s node nearest to ``q`` under :meth:`metric` (first of equals)."""
+        return tree.nearest(q, self.metric) if self.steering == "diffdrive" else tree.se2_nearest(q)
+
+    def tree_distances(self, tree: Tree, q: FloatArray) -> FloatArray:
+        """(n,) :meth:`metric` of every node of ``tree`` to ``q``."""
+        return self.metric(tree.nodes[: tree.n], q) if self.steering == "diffdrive" else tree.se2_distances(q)
+
     def word_motion(self, word: Word) -> tuple[FloatArray, FloatArray]:
         """Dense samples (K, 3) and directions (K,) of a curve at the checking step."""
         return word.sample(self.sample_step)
 
     def steer(self, q_a: FloatArray, q_b: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """The exact curve from ``q_a`` to ``q_b``, unchecked: dense poses (K, 3) and directions (K,)."""
-        poses, dirs = self.word_motion(self.curves.curve(q_a, q_b))
-        poses[-1] = q_b  # land exactly (the sampler's end is within 1e-9 m of q_b)
+        """The exact curve from ``q_a`` to ``q_b``, unchecked: dense poses (K, 3) and directions (K,),
+        ending exactly on ``q_b`` (path simplification's steering)."""
+        return self._steer(q_a, q_b, np.inf, False)
+
+    def _steer(self, q0: FloatArray, q1: FloatArray, max_len: float, keep_end: bool) -> tuple[FloatArray, FloatArray]:
+        """Samples of the exact curve ``q0`` -> ``q1`` at the checking step, end pose pinned, cut to
+        ``max_len`` of chords from the start (or, ``keep_end``, from the end); see :mod:`.fastcurve`."""
+        a, b = np.ascontiguousarray(q0, dtype=float), np.ascontiguousarray(q1, dtype=float)
+        assert self.rho is not None  # set in __post_init__
+        poses, dirs, ok = steer_kernel(
+            self.curves.kind == "reeds_shepp", a, b, self.rho, self.sample_step, max_len, keep_end
+        )
+        if not ok:
+            self.curves.curve(a, b)  # raises the solver's error (non-finite poses)
         return poses, dirs
+
+    def _free(self, poses: FloatArray) -> bool:
+        """``checker.path_free(poses)`` for dense (K, 3) float64 poses, with one compiled call."""
+        if self._kernel_args is None:
+            return self.checker.path_free(poses)
+        cls = classify_kernel(poses, *self._kernel_args, True)  # type: ignore[call-arg]
+        return self.checker.settle_path(poses, cls)
 
     def connect(self, q_a: FloatArray, q_b: FloatArray) -> tuple[FloatArray, FloatArray] | None:
         """The exact curve from ``q_a`` (start side) to ``q_b`` (goal side) if collision-free."""
-        poses, dirs = self.steer(q_a, q_b)
-        return (poses, dirs) if self.checker.path_free(poses) else None
+        poses, dirs = self._steer(q_a, q_b, np.inf, False)  # ends exactly on q_b
+        return (poses, dirs) if self._free(poses) else None
 
     def extend(self, q_from: FloatArray, q_to: FloatArray, backwards: bool = False) -> Motion | None:
         """A collision-free motion from ``q_from`` toward ``q_to`` (see the module doc), or None."""
@@ -162,19 +186,11 @@ class LocalPlanner:
         return None
 
     def _extend_curve(self, q_from: FloatArray, q_to: FloatArray, backwards: bool) -> Motion | None:
-        word = self.curves.curve(q_to, q_from) if backwards else self.curves.curve(q_from, q_to)
-        poses, dirs = self.word_motion(word)
-        if backwards:
-            poses[-1] = q_from
-            k = poses.shape[0] - 1 - _arc_prefix(poses[::-1], self.step_range)
-            poses, dirs = poses[k:], dirs[k:]
-            if k == 0:
-                poses[0] = q_to
+        if backwards:  # the curve from the target to the node, its last step_range of chords
+            poses, dirs = self._steer(q_to, q_from, self.step_range, True)
         else:
-            poses[-1] = q_to
-            k = _arc_prefix(poses, self.step_range)
-            poses, dirs = poses[: k + 1], dirs[: k + 1]
-        if poses.shape[0] < 2 or not self.checker.path_free(poses):
+            poses, dirs = self._steer(q_from, q_to, self.step_range, False)
+        if poses.shape[0] < 2 or not self._free(poses):
             return None
         q_new = poses[0].copy() if backwards else poses[-1].copy()
         return q_new, poses, dirs

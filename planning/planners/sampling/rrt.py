@@ -164,7 +164,7 @@ class _TreePlanner(Generic[ConfigT]):
         """One goal-biased sample, the tree's nearest node to it, and the motion from there toward it
         (None when every motion collides)."""
         q_rand = self._sample(rng, problem.goal.as_array(), problem)
-        i = tree.nearest(q_rand, local.metric)
+        i = local.nearest(tree, q_rand)
         ext = local.extend(tree.nodes[i], q_rand)
         return None if ext is None else (i, ext)
 
@@ -273,22 +273,22 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
         """Grow both trees until they join or the budget is spent."""
         cfg = self.config
         start, goal = problem.start.as_array(), problem.goal.as_array()
-        ta, tb = Tree(start), Tree(goal, backwards=True)
-        # The trees may already be joined by one exact curve.
+        # The trees may already be joined by one exact curve (then they are just their roots).
         direct = local.connect(start, goal)
         if direct is not None:
-            stats = self._stats(budget, 0, 2)
-            return self._result(PlanStatus.SUCCESS, direct[0], direct[1], "", stats, merge_trees(ta, tb))
+            roots = PlanTree(np.array([start, goal]), np.array([-1, -1], dtype=np.int64))
+            return self._result(PlanStatus.SUCCESS, direct[0], direct[1], "", self._stats(budget, 0, 2), roots)
+        ta, tb = Tree(start), Tree(goal, backwards=True)
         it = 0
         while not budget.spent(it):
             it += 1
             grow, other = (ta, tb) if it % 2 else (tb, ta)
             q_rand = self._sample(rng, goal if grow is ta else start, problem)
-            j = self._grow(local, grow, grow.nearest(q_rand, local.metric), q_rand)
+            j = self._grow(local, grow, local.nearest(grow, q_rand), q_rand)
             if j is None:
                 continue
             target = grow.nodes[j]
-            k = other.nearest(target, local.metric)
+            k = local.nearest(other, target)
             for _ in range(cfg.connect_steps):
                 a, b = (j, k) if grow is ta else (k, j)
                 if local.exact and np.array_equal(ta.nodes[a], tb.nodes[b]):

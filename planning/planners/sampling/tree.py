@@ -12,6 +12,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
@@ -21,6 +22,29 @@ from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
 
 FloatArray = NDArray[np.float64]
 Metric = Callable[[FloatArray, FloatArray], FloatArray]
+
+
+@nb.njit(cache=True)
+def _se2_distances(nodes: FloatArray, headings: FloatArray, n: int, q: FloatArray) -> FloatArray:
+    cq, sq = np.cos(q[2]), np.sin(q[2])
+    out = np.empty(n)
+    for i in range(n):
+        dx = nodes[i, 0] - q[0]
+        dy = nodes[i, 1] - q[1]
+        dc = headings[i, 0] - cq
+        ds = headings[i, 1] - sq
+        out[i] = np.sqrt(dx * dx + dy * dy + dc * dc + ds * ds)
+    return out
+
+
+@nb.njit(cache=True)
+def _se2_nearest(nodes: FloatArray, headings: FloatArray, n: int, q: FloatArray) -> int:
+    d = _se2_distances(nodes, headings, n, q)
+    best = 0
+    for i in range(1, n):
+        if d[i] < d[best]:
+            best = i
+    return best
 
 
 class Tree:
@@ -35,11 +59,13 @@ class Tree:
     def __init__(self, root: FloatArray, *, backwards: bool = False, capacity: int = 1024) -> None:
         self.backwards = backwards
         self.nodes = np.empty((capacity, 3))
+        self.headings = np.empty((capacity, 2))  # cos, sin of each node's heading (for the metric)
         self.parents = np.full(capacity, -1, dtype=np.int64)
         self.costs = np.zeros(capacity)
         self.edges: list[tuple[FloatArray, FloatArray]] = [(np.asarray(root, float)[None, :], np.ones(1))]
         self.children: list[list[int]] = [[]]
         self.nodes[0] = root
+        self.headings[0] = np.cos(self.nodes[0, 2]), np.sin(self.nodes[0, 2])
         self.n = 1
 
     def add(self, q: FloatArray, parent: int, poses: FloatArray, dirs: FloatArray, cost: float = 0.0) -> int:
@@ -47,10 +73,12 @@ class Tree:
         if self.n == self.nodes.shape[0]:
             cap = 2 * self.n
             self.nodes = np.concatenate([self.nodes, np.empty((self.n, 3))])
+            self.headings = np.concatenate([self.headings, np.empty((self.n, 2))])
             self.parents = np.concatenate([self.parents, np.full(cap - self.n, -1, dtype=np.int64)])
             self.costs = np.concatenate([self.costs, np.zeros(cap - self.n)])
         i = self.n
         self.nodes[i] = q
+        self.headings[i] = np.cos(self.nodes[i, 2]), np.sin(self.nodes[i, 2])
         self.parents[i] = parent
         self.costs[i] = cost
         self.edges.append((poses, dirs))
@@ -62,6 +90,15 @@ class Tree:
     def nearest(self, q: FloatArray, metric: Metric) -> int:
         """Index of the node nearest to ``q`` under ``metric``."""
         return int(np.argmin(metric(self.nodes[: self.n], q)))
+
+    def se2_distances(self, q: FloatArray) -> FloatArray:
+        """(n,) :func:`~planning.planners.sampling.steering.se2_metric` of every node to ``q``, from the
+        stored cosines and sines (the same numbers, no trigonometry per query)."""
+        return _se2_distances(self.nodes, self.headings, self.n, q)
+
+    def se2_nearest(self, q: FloatArray) -> int:
+        """Index of the node nearest to ``q`` by the (x, y, cos, sin) metric (first of equals)."""
+        return int(_se2_nearest(self.nodes, self.headings, self.n, q))
 
     def reparent(self, i: int, parent: int, poses: FloatArray, dirs: FloatArray, cost: float) -> None:
         """Give node ``i`` a new parent and edge; shifts the cost of all its descendants."""
@@ -147,12 +184,13 @@ def make_checker(problem: PlanProblem, shape: Shape, clearance: float) -> FastCh
 
 def check_endpoints(problem: PlanProblem, checker: FastChecker, planner: str) -> PlanResult | None:
     """An INVALID_START / INVALID_GOAL result if the start or goal pose collides, else None."""
-    for which, pose, status in (
-        ("start", problem.start, PlanStatus.INVALID_START),
-        ("goal", problem.goal, PlanStatus.INVALID_GOAL),
+    ends = np.array([problem.start.as_array(), problem.goal.as_array()])
+    free = checker.poses_free(ends)  # both in one call
+    for which, q, ok, status in (
+        ("start", ends[0], free[0], PlanStatus.INVALID_START),
+        ("goal", ends[1], free[1], PlanStatus.INVALID_GOAL),
     ):
-        q = pose.as_array()
-        if not checker.poses_free(q[None, :])[0]:
+        if not ok:
             clr = float(checker.clearance_of(q[None, :])[0])
             reason = (
                 f"{which} pose ({q[0]:.3f}, {q[1]:.3f}, {q[2]:.3f}) is in collision or closer than the "

@@ -16,7 +16,7 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
     "sim": ("sim.cli.bench.sim", "closed-loop physics steps/s against a bare mj_step loop, and real-time factor"),
     "plan": (
         "sim.cli.bench.plan",
-        "birrt / rrt-star against OMPL's RRTConnect / RRT* on the same problems and checker",
+        "birrt / rrt-star against OMPL C++ RRTConnect / RRT* on the same problems and checker",
     ),
     "optim": (
         "sim.cli.bench.optim",

@@ -1,155 +1,49 @@
-"""``nhsim bench plan``: our tree planners against OMPL's on the same problems and collision checker.
+"""``nhsim bench plan``: our tree planners against OMPL's C++ planners on the same problems and checker.
 
-Pairs: OMPL ``RRTConnect`` against ``birrt`` (time to first solution, success rate) and OMPL
-``RRTstar`` against ``rrt-star`` (path length after the same wall-clock budget), both on a
-Reeds–Shepp (or Dubins) state space with the same turning radius. OMPL's validity checker is our
-collision checker (its fast exact front end, one pose per call), and OMPL checks motions at the
-same spacing as ours. Scenarios: every built-in scenario whose start differs from its goal, plus
-``disc10`` (10 x 10 m, one disc of radius 2 m, start (1, 1, 0), goal (9, 9, 0)). Each scenario
-runs ``--seeds`` seeds. Targets: birrt median TTFS <= 3x OMPL's, rrt-star median length <= 1.05x
-OMPL's, success rates equal. The one-off distance-grid build of each world is done before timing.
+Pairs: OMPL ``RRTConnect`` against ``birrt`` (time to first path, success) and OMPL ``RRTstar``
+against ``rrt-star`` (path length after the same wall-clock budget, 1 s by default), both on a
+Reeds–Shepp (or Dubins) space with the same turning radius and goal (OMPL's goal threshold is the
+curve distance to the goal pose, our goal region's position tolerance).
+
+OMPL runs natively: a C++ harness (``ompl_native/harness.cpp``) compiled against the system's OMPL
+(Debian's ``libompl-dev``, OMPL 1.5) whose validity checker returns :class:`FastChecker`'s verdict for
+every pose (same grid, same exact fallback), and whose motion checks sample the exact curve every
+``LocalPlanner.sample_step`` (1 cm, finer near small obstacles), as ours do. OMPL's Python wheel
+(``pip install ompl``), when installed, runs as a second column through a Python validity callback
+(slower per check; it flatters us). ``hybrid-a-star``, when registered, adds its time and length.
+
+Times are wall-clock, per trial, interleaved ours / OMPL per seed (OMPL's in one warm harness
+process per problem, after an untimed warm-up solve): ours around ``Planner.plan``
+(its setup included, the world's distance grid built once before timing), OMPL's around
+``SimpleSetup::solve`` (its setup included). Targets over the problems: median of the per-problem
+birrt / RRTConnect median-time ratios <= 1.0, median of the rrt-star / RRT* median-length ratios
+<= 0.99, and on every problem our success rates not below OMPL's.
 """
 
 from __future__ import annotations
 
+import contextlib
+import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-TTFS_TARGET = 3.0
-LENGTH_TARGET = 1.05
+from planning.planners.base import PlanProblem
+from sim.tools.bench.plan_problems import problems
+
+__all__ = ["LENGTH_TARGET", "TTFS_TARGET", "PlanBench", "measure", "problems", "summary", "wheel_available"]
+
+TTFS_TARGET = 1.0
+LENGTH_TARGET = 0.99
+#: Name of the planner whose time and length are reported when it is registered.
+HYBRID = "hybrid-a-star"
 
 
-def problems(names: list[str] | None) -> list[Any]:
-    """The problems of the race: ``names`` (scenario names or "disc10"), or by default disc10 and every
-    built-in scenario whose start differs from its goal."""
-    from planning.core.geometry import Pose2D
-    from planning.core.robot import load_robot
-    from planning.core.world import Circle, World
-    from planning.planners.base import PlanProblem
-    from planning.scenario import builtin_scenarios, load_scenario
-
-    disc10 = PlanProblem(
-        World((0.0, 10.0, 0.0, 10.0), (Circle((5.0, 5.0), 2.0),)),
-        load_robot("turtlebot3"),
-        Pose2D(1.0, 1.0, 0.0),
-        Pose2D(9.0, 9.0, 0.0),
-        name="disc10",
-    )
-    if names is None:
-        out = [disc10]
-        for sc in builtin_scenarios():
-            s = load_scenario(sc) if isinstance(sc, str) else sc
-            if np.hypot(s.start.x - s.goal.x, s.start.y - s.goal.y) > s.position_tolerance:
-                out.append(PlanProblem.from_scenario(s))
-        return out
-    return [disc10 if n == "disc10" else PlanProblem.from_scenario(load_scenario(n)) for n in names]
-
-
-class _Ompl:
-    """OMPL on a Reeds–Shepp / Dubins space with our checker as its validity checker."""
-
-    def __init__(self, problem: Any, space: str, checker: Any, rho: float, step: float) -> None:
-        from ompl import base as ob
-        from ompl import util as ou
-
-        ou.setLogLevel(ou.LogLevel.LOG_NONE)
-        self.ob, self.ou = ob, ou
-        sp = ob.ReedsSheppStateSpace(rho) if space == "reeds_shepp" else ob.DubinsStateSpace(rho)
-        b = ob.RealVectorBounds(2)
-        xmin, xmax, ymin, ymax = problem.world.bounds
-        b.setLow(0, xmin)
-        b.setHigh(0, xmax)
-        b.setLow(1, ymin)
-        b.setHigh(1, ymax)
-        sp.setBounds(b)
-        self.space, self.problem, self.checker, self.step = sp, problem, checker, step
-
-    def solve(self, planner: str, seed: int, limit: float, stop_first: bool) -> tuple[bool, float, float]:
-        """(exact solution found, wall time of solve() [s], path length [m])."""
-        from ompl import geometric as og
-
-        ob = self.ob
-        self.ou.RNG.setSeed(seed + 1)
-        ss = og.SimpleSetup(self.space)
-        buf = np.empty((1, 3))
-        chk = self.checker
-
-        def valid(s: Any) -> bool:
-            buf[0, 0], buf[0, 1], buf[0, 2] = s.getX(), s.getY(), s.getYaw()
-            return chk.path_free(buf)
-
-        ss.setStateValidityChecker(valid)
-        si = ss.getSpaceInformation()
-        si.setStateValidityCheckingResolution(self.step / si.getMaximumExtent())
-        st, gl = self.space.allocState(), self.space.allocState()
-        for s, p in ((st, self.problem.start), (gl, self.problem.goal)):
-            s.setX(p.x)
-            s.setY(p.y)
-            s.setYaw(p.theta)
-        ss.setStartAndGoalStates(st, gl, self.problem.position_tolerance)
-        if planner == "RRTConnect":
-            ss.setPlanner(og.RRTConnect(si))
-        else:
-            obj = ob.PathLengthOptimizationObjective(si)
-            obj.setCostThreshold(ob.Cost(0.0 if not stop_first else np.inf))
-            ss.setOptimizationObjective(obj)
-            ss.setPlanner(og.RRTstar(si))
-        ss.setup()
-        t0 = time.perf_counter()
-        status = ss.solve(limit)
-        dt = time.perf_counter() - t0
-        ok = ss.haveExactSolutionPath() and str(status) == "Exact solution"
-        length = ss.getSolutionPath().length() if ok else float("nan")
-        return ok, dt, float(length)
-
-
-@dataclass(frozen=True)
-class PlanBench:
-    """Our planners against OMPL's on one problem over many seeds.
-
-    Attributes:
-        problem: Problem name.
-        ttfs_ours: Times to first solution of birrt [s], one per seed.
-        ttfs_ompl: Times to first solution of OMPL's RRTConnect [s].
-        solved_ours: 1.0 where birrt succeeded, else 0.0.
-        solved_ompl: 1.0 where RRTConnect found an exact solution.
-        length_ours: Path lengths of rrt-star after the budget [m] (nan: none).
-        length_ompl: Path lengths of OMPL's RRT* after the budget [m] (nan: none).
-    """
-
-    problem: str
-    ttfs_ours: tuple[float, ...]
-    ttfs_ompl: tuple[float, ...]
-    solved_ours: tuple[float, ...]
-    solved_ompl: tuple[float, ...]
-    length_ours: tuple[float, ...]
-    length_ompl: tuple[float, ...]
-
-    @property
-    def ttfs_ratio(self) -> float:
-        """Median TTFS, ours over OMPL's."""
-        return float(np.median(self.ttfs_ours) / np.median(self.ttfs_ompl))
-
-    @property
-    def length_ratio(self) -> float:
-        """Median length (of the paths found), ours over OMPL's."""
-        return float(np.nanmedian(self.length_ours) / np.nanmedian(self.length_ompl))
-
-    @property
-    def missed(self) -> dict[str, bool]:
-        """Target -> missed: "ttfs", "length", "success" (ours below OMPL's rate)."""
-        return {
-            "ttfs": bool(self.ttfs_ratio > TTFS_TARGET),
-            "length": not self.length_ratio <= LENGTH_TARGET,
-            "success": bool(np.mean(self.solved_ours) < np.mean(self.solved_ompl)),
-        }
-
-
-def ompl_available() -> bool:
-    """Whether OMPL's Python bindings import."""
+def wheel_available() -> bool:
+    """Whether OMPL's Python bindings (the wheel) import."""
     try:
         import ompl  # noqa: F401
     except ImportError:
@@ -157,36 +51,198 @@ def ompl_available() -> bool:
     return True
 
 
-def measure(problem: Any, space: str, seeds: int, budget: float, ttfs_limit: float) -> PlanBench:
-    """Race birrt against RRTConnect (first solution within ``ttfs_limit`` [s]) and rrt-star against
-    RRT* (length after ``budget`` [s]) on one problem for ``seeds`` seeds, on the same checker."""
+@dataclass(frozen=True)
+class PlanBench:
+    """Our planners against OMPL's on one problem over many seeds (times [s], lengths [m]; nan: no path).
+
+    Attributes:
+        problem: Problem name.
+        ttfs_ours / ok_ours: birrt's time to first path and success (1.0 / 0.0), one per seed.
+        len_ours / star_ok_ours: rrt-star's path length after the budget and success.
+        ttfs_cpp, ok_cpp, len_cpp, star_ok_cpp: the same for OMPL C++ RRTConnect / RRTstar
+            (empty when the harness could not be built).
+        ttfs_wheel, len_wheel: OMPL's Python wheel (empty when it is not installed).
+        hybrid_time, hybrid_length: hybrid-a-star's time and length (nan when absent or failed).
+    """
+
+    problem: str
+    ttfs_ours: tuple[float, ...]
+    ok_ours: tuple[float, ...]
+    len_ours: tuple[float, ...]
+    star_ok_ours: tuple[float, ...]
+    ttfs_cpp: tuple[float, ...] = ()
+    ok_cpp: tuple[float, ...] = ()
+    len_cpp: tuple[float, ...] = ()
+    star_ok_cpp: tuple[float, ...] = ()
+    ttfs_wheel: tuple[float, ...] = ()
+    len_wheel: tuple[float, ...] = ()
+    hybrid_time: float = float("nan")
+    hybrid_length: float = float("nan")
+
+    @staticmethod
+    def _ratio(ours: tuple[float, ...], theirs: tuple[float, ...]) -> float:
+        if not theirs or not np.any(np.isfinite(ours)) or not np.any(np.isfinite(theirs)):
+            return float("nan")
+        return float(np.nanmedian(ours) / np.nanmedian(theirs))
+
+    @property
+    def ttfs_ratio(self) -> float:
+        """Median time to first path (successful trials), birrt over OMPL C++ RRTConnect (nan: none)."""
+        return self._ratio(self._solved(self.ttfs_ours, self.ok_ours), self._solved(self.ttfs_cpp, self.ok_cpp))
+
+    @property
+    def length_ratio(self) -> float:
+        """Median length (of the paths found), rrt-star over OMPL C++ RRT* (nan: either found none)."""
+        return self._ratio(self.len_ours, self.len_cpp)
+
+    @staticmethod
+    def _solved(times: tuple[float, ...], ok: tuple[float, ...]) -> tuple[float, ...]:
+        return tuple(t if o else float("nan") for t, o in zip(times, ok, strict=True))
+
+    @property
+    def success_missed(self) -> bool:
+        """Whether a success rate of ours is below OMPL C++'s (birrt vs RRTConnect, rrt-star vs RRT*)."""
+        if not self.ok_cpp:
+            return False
+        return bool(
+            np.mean(self.ok_ours) < np.mean(self.ok_cpp) or np.mean(self.star_ok_ours) < np.mean(self.star_ok_cpp)
+        )
+
+
+@dataclass
+class _Ours:
+    """birrt and rrt-star with the bench's budgets (unsimplified paths when the planners simplify)."""
+
+    space: str
+    ttfs_limit: float
+    budget: float
+    birrt: Any = field(init=False)
+    rstar: Any = field(init=False)
+
+    def __post_init__(self) -> None:
+        from planning.planners.registry import make_planner, planner_options
+
+        def make(name: str, **opts: Any) -> Any:
+            raw = {"simplify": False} if "simplify" in planner_options(name) else {}
+            return make_planner(name, steering=self.space, **opts, **raw)
+
+        self.birrt = make("birrt", max_iterations=10**7, time_limit=self.ttfs_limit)
+        # as OMPL runs RRT*: the whole budget (no anytime early stop)
+        whole = {"improvement_tol": 0.0} if "improvement_tol" in planner_options("rrt-star") else {}
+        self.rstar = make("rrt-star", max_iterations=10**8, time_limit=self.budget, **whole)
+
+    def first_path(self, problem: PlanProblem) -> tuple[float, float]:
+        """(wall time [s], 1.0 if solved else 0.0) of one birrt run."""
+        from planning.planners.base import PlanStatus
+
+        t0 = time.perf_counter()
+        r = self.birrt.plan(problem)
+        return time.perf_counter() - t0, float(r.status is PlanStatus.SUCCESS)
+
+    def length(self, problem: PlanProblem) -> float:
+        """Length [m] of rrt-star's path after the budget (nan: none)."""
+        return float(self.rstar.plan(problem).stats.get("cost_m", np.nan))
+
+
+def _hybrid(problem: PlanProblem, repeats: int = 3) -> tuple[float, float]:
+    """hybrid-a-star's median wall time [s] and path length [m] (nan, nan when unregistered or failed)."""
+    from planning.errors import NhsimError
     from planning.planners.base import PlanStatus
-    from planning.planners.registry import make_planner
+    from planning.planners.registry import PLANNERS, make_planner
+
+    if HYBRID not in PLANNERS:
+        return float("nan"), float("nan")
+    try:
+        planner = make_planner(HYBRID)
+        times, result = [], None
+        for _ in range(repeats):  # deterministic: repeats only steady the time
+            t0 = time.perf_counter()
+            result = planner.plan(problem)
+            times.append(time.perf_counter() - t0)
+    except NhsimError:
+        return float("nan"), float("nan")
+    if result is None or result.status is not PlanStatus.SUCCESS:
+        return float(np.median(times)), float("nan")
+    return float(np.median(times)), float(result.stats.get("length_m", np.nan))
+
+
+def measure(
+    problem: PlanProblem, space: str, seeds: int, budget: float, ttfs_limit: float, harness: Path | None, wheel: bool
+) -> PlanBench:
+    """Race birrt against RRTConnect (first path within ``ttfs_limit`` [s]) and rrt-star against RRT*
+    (length after ``budget`` [s]) on one problem for ``seeds`` seeds.
+
+    Args:
+        harness: The compiled OMPL C++ harness (None: no C++ columns).
+        wheel: Also race OMPL's Python wheel.
+    """
     from planning.planners.sampling.extend import LocalPlanner
     from planning.planners.sampling.tree import make_checker
+    from sim.tools.bench.ompl_native.problem import Session, write_problem
 
     checker = make_checker(problem, "footprint", 0.0)  # builds the distance grid (not timed)
     local = LocalPlanner(space, problem.robot, checker)
-    assert local.rho is not None, "curve steering always has a turning radius"
-    ompl_run = _Ompl(problem, space, checker, float(local.rho), local.sample_step)
-    # raced as OMPL runs them: birrt's first path unsimplified, rrt-star for the whole budget
-    birrt = make_planner("birrt", steering=space, max_iterations=10**7, time_limit=ttfs_limit, simplify=False)
-    rstar = make_planner(
-        "rrt-star", steering=space, max_iterations=10**8, time_limit=budget, simplify=False, improvement_tol=0.0
-    )
-    birrt.plan(problem)  # warm-up (compiled kernels loaded)
-    rows: dict[str, list[float]] = {k: [] for k in ("t_us", "t_om", "ok_us", "ok_om", "l_us", "l_om")}
-    for seed in range(seeds):
-        p = type(problem)(**{**problem.__dict__, "seed": seed})
-        t0 = time.perf_counter()
-        r = birrt.plan(p)
-        rows["t_us"].append(time.perf_counter() - t0)
-        rows["ok_us"].append(float(r.status is PlanStatus.SUCCESS))
-        ok, dt, _ = ompl_run.solve("RRTConnect", seed, ttfs_limit, True)
-        rows["t_om"].append(dt)
-        rows["ok_om"].append(float(ok))
-        rs = rstar.plan(p)
-        rows["l_us"].append(float(rs.stats.get("cost_m", np.nan)))
-        _, _, length = ompl_run.solve("RRTstar", seed, budget, False)
-        rows["l_om"].append(length)
-    return PlanBench(problem.name, *(tuple(rows[k]) for k in ("t_us", "t_om", "ok_us", "ok_om", "l_us", "l_om")))
+    rho = float(local.rho if local.rho is not None else np.nan)
+    ours = _Ours(space, ttfs_limit, budget)
+    ours.first_path(problem)  # warm-up (compiled kernels loaded)
+    rows: dict[str, list[float]] = {k: [] for k in ("t", "ok", "len", "t_c", "ok_c", "len_c", "star_ok_c")}
+    with contextlib.ExitStack() as stack:
+        tmp = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="nhsim-ompl-")))
+        cpp = None
+        if harness is not None:
+            pf = write_problem(tmp, problem, checker, space, rho, local.sample_step)
+            cpp = stack.enter_context(Session(harness, pf, 1))
+        seeded = [type(problem)(**{**problem.__dict__, "seed": seed}) for seed in range(seeds)]
+        for p in seeded:  # interleaved, so a change in the machine's load hits both sides
+            t, ok = ours.first_path(p)
+            rows["t"].append(t)
+            rows["ok"].append(ok)
+            if cpp is not None:
+                rc = cpp.solve("RRTConnect", ttfs_limit)
+                rows["t_c"].append(rc["time_s"])
+                rows["ok_c"].append(rc["solved"])
+        for p in seeded:  # after the first paths: a 1 s run would leave both sides' caches cold
+            rows["len"].append(ours.length(p))
+            if cpp is not None:
+                rs = cpp.solve("RRTstar", budget)
+                rows["len_c"].append(rs["length_m"])
+                rows["star_ok_c"].append(rs["solved"])
+    out: dict[str, Any] = {
+        "ttfs_ours": tuple(rows["t"]),
+        "ok_ours": tuple(rows["ok"]),
+        "len_ours": tuple(rows["len"]),
+        "star_ok_ours": tuple(float(np.isfinite(v)) for v in rows["len"]),
+        "ttfs_cpp": tuple(rows["t_c"]),
+        "ok_cpp": tuple(rows["ok_c"]),
+        "len_cpp": tuple(rows["len_c"]),
+        "star_ok_cpp": tuple(rows["star_ok_c"]),
+    }
+    if wheel:
+        out |= _wheel(problem, space, checker, rho, local.sample_step, seeds, budget, ttfs_limit)
+    h_time, h_len = _hybrid(problem)
+    return PlanBench(problem.name, **out, hybrid_time=h_time, hybrid_length=h_len)
+
+
+def _wheel(
+    problem: PlanProblem, space: str, checker: Any, rho: float, step: float, seeds: int, budget: float, limit: float
+) -> dict[str, tuple[float, ...]]:
+    """OMPL's Python wheel: RRTConnect times and RRT* lengths, one per seed."""
+    from sim.tools.bench.ompl_wheel import WheelOmpl
+
+    run = WheelOmpl(problem, space, checker, rho, step)
+    t = [run.solve("RRTConnect", s, limit) for s in range(seeds)]
+    ln = [run.solve("RRTstar", s, budget) for s in range(seeds)]
+    return {
+        "ttfs_wheel": tuple(dt if ok else float("nan") for ok, dt, _ in t),
+        "len_wheel": tuple(length for _, _, length in ln),
+    }
+
+
+def summary(rows: list[PlanBench]) -> dict[str, float]:
+    """Median over the problems of the per-problem ratios (nan where no problem has one)."""
+
+    def med(vals: list[float]) -> float:
+        v = [x for x in vals if np.isfinite(x)]
+        return float(np.median(v)) if v else float("nan")
+
+    return {"ttfs_ratio": med([r.ttfs_ratio for r in rows]), "length_ratio": med([r.length_ratio for r in rows])}

@@ -1,0 +1,466 @@
+// OMPL's C++ planners on an nhsim planning problem, for `nhsim bench plan`.
+//
+// The problem file (written by sim/tools/bench/ompl_native/problem.py) holds the world, the robot's
+// footprint and the distance grid of nhsim's FastChecker, so the validity checker below returns
+// FastChecker's verdict for every pose: the grid's proven verdicts first, nhsim's exact
+// CollisionChecker (same formulas, same operation order) for the poses the grid leaves undecided.
+// Motions are checked along the exact Reeds-Shepp / Dubins curve every `step` metres of curve (the
+// state space's validSegmentCount is overridden: OMPL 1.5 counts segments per component).
+//
+// Usage:
+//   harness check PROBLEM POSES OUT          verdicts (uint8, 1 = free) of the (M, 3) float64 poses
+//   harness plan PROBLEM PLANNER LIMIT TRIALS SEED
+//                                            PLANNER: RRTConnect (stops at its first path) or RRTstar
+//                                            (runs LIMIT seconds); prints one JSON object: the trials
+//                                            and the states of the last path found
+//   harness serve PROBLEM SEED               one trial per stdin line "PLANNER LIMIT", one JSON line each
+#include <ompl/base/objectives/PathLengthOptimizationObjective.h>
+#include <ompl/base/spaces/DubinsStateSpace.h>
+#include <ompl/base/spaces/ReedsSheppStateSpace.h>
+#include <ompl/geometric/SimpleSetup.h>
+#include <ompl/geometric/planners/rrt/RRTConnect.h>
+#include <ompl/geometric/planners/rrt/RRTstar.h>
+#include <ompl/util/Console.h>
+#include <ompl/util/RandomNumbers.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace ob = ompl::base;
+namespace og = ompl::geometric;
+
+namespace {
+
+const double kInf = std::numeric_limits<double>::infinity();
+
+struct Pt {
+    double x, y;
+};
+
+struct Obstacle {
+    std::string kind;            // circle, ellipse, box, polygon
+    double cx = 0, cy = 0;       // centre [m]
+    double a = 0, b = 0;         // radius (circle), semi-axes (ellipse), full size (box) [m]
+    double angle = 0;            // [rad]
+    std::vector<Pt> vertices;    // polygon, counter-clockwise
+
+    // Point (x, y) in the shape's frame, folded into its first quadrant (planning/core/world.py).
+    void folded(double x, double y, double &q0, double &q1) const {
+        double c = std::cos(angle), s = std::sin(angle);
+        double d0 = x - cx, d1 = y - cy;
+        q0 = std::fabs(c * d0 + s * d1);
+        q1 = std::fabs(-s * d0 + c * d1);
+    }
+
+    double ellipse(double x, double y) const {
+        double q0, q1;
+        folded(x, y, q0, q1);
+        double y0, y1, e0, e1;
+        if (a >= b) {
+            y0 = q0; y1 = q1; e0 = a; e1 = b;
+        } else {
+            y0 = q1; y1 = q0; e0 = b; e1 = a;
+        }
+        double dist;
+        if (y1 > 0 && y0 > 0) {
+            double lo = -e1 * e1 + e1 * y1;
+            double hi = -e1 * e1 + std::sqrt(e0 * e0 * y0 * y0 + e1 * e1 * y1 * y1);
+            for (int k = 0; k < 60; ++k) {
+                double mid = 0.5 * (lo + hi);
+                double r0 = e0 * y0 / (mid + e0 * e0), r1 = e1 * y1 / (mid + e1 * e1);
+                double f = r0 * r0 + r1 * r1 - 1.0;
+                if (f > 0) lo = mid; else hi = mid;
+            }
+            double t = 0.5 * (lo + hi);
+            double x0 = e0 * e0 * y0 / (t + e0 * e0);
+            double x1 = e1 * e1 * y1 / (t + e1 * e1);
+            dist = std::hypot(x0 - y0, x1 - y1);
+        } else if (y1 > 0) {
+            dist = std::fabs(y1 - e1);
+        } else {
+            double thresh = (e0 * e0 - e1 * e1) / e0;
+            double x0 = e0, x1 = 0.0;
+            if (y0 < thresh) {
+                x0 = e0 * e0 * y0 / std::max(e0 * e0 - e1 * e1, 1e-300);
+                double r = x0 / e0;
+                x1 = e1 * std::sqrt(std::max(1.0 - r * r, 0.0));
+            }
+            dist = std::hypot(x0 - y0, x1);
+        }
+        double u = q0 / a, v = q1 / b;
+        return u * u + v * v < 1.0 ? -dist : dist;
+    }
+
+    double box(double x, double y) const {
+        double q0, q1;
+        folded(x, y, q0, q1);
+        double d0 = q0 - 0.5 * a, d1 = q1 - 0.5 * b;
+        double outside = std::hypot(std::max(d0, 0.0), std::max(d1, 0.0));
+        double inside = std::min(std::max(d0, d1), 0.0);
+        return outside + inside;
+    }
+
+    double polygon(double x, double y) const {
+        double dist = kInf;
+        int crossings = 0;
+        size_t n = vertices.size();
+        for (size_t i = 0; i < n; ++i) {
+            const Pt &p = vertices[i], &q = vertices[(i + 1) % n];
+            double ab0 = q.x - p.x, ab1 = q.y - p.y;
+            double ap0 = x - p.x, ap1 = y - p.y;
+            double t = std::min(std::max((ap0 * ab0 + ap1 * ab1) / (ab0 * ab0 + ab1 * ab1), 0.0), 1.0);
+            dist = std::min(dist, std::hypot(x - (p.x + t * ab0), y - (p.y + t * ab1)));
+            if ((p.y > y) != (q.y > y)) {
+                double xint = p.x + (y - p.y) * ab0 / (q.y - p.y);
+                if (x < xint) ++crossings;
+            }
+        }
+        return crossings % 2 == 1 ? -dist : dist;
+    }
+
+    double signed_distance(double x, double y) const {
+        if (kind == "circle") return std::hypot(x - cx, y - cy) - a;
+        if (kind == "ellipse") return ellipse(x, y);
+        if (kind == "box") return box(x, y);
+        return polygon(x, y);
+    }
+};
+
+struct Problem {
+    double xmin = 0, xmax = 0, ymin = 0, ymax = 0;
+    bool walls = true, disc = false;
+    double radius = 0, clearance = 0, tolerance = 0;
+    std::vector<Pt> footprint, boundary, anchors;
+    std::vector<Obstacle> obstacles;
+    long nx = 0, ny = 0;
+    double h = 0;
+    std::vector<double> grid;
+    std::string space = "reeds_shepp";
+    double rho = 1, step = 0.01, goal_tolerance = 0.05;
+    double start[3] = {0, 0, 0}, goal[3] = {0, 0, 0};
+};
+
+std::vector<Pt> read_points(std::istream &in) {
+    long n;
+    in >> n;
+    std::vector<Pt> out(n);
+    for (auto &p : out) in >> p.x >> p.y;
+    return out;
+}
+
+Problem read_problem(const std::string &path) {
+    std::ifstream in(path);
+    if (!in) throw std::runtime_error("cannot read problem file " + path);
+    Problem pb;
+    std::string key, grid_path;
+    in >> key;
+    if (key != "nhsim-ompl-problem") throw std::runtime_error(path + " is not an nhsim problem file");
+    int version;
+    in >> version;
+    while (in >> key) {
+        if (key == "bounds") in >> pb.xmin >> pb.xmax >> pb.ymin >> pb.ymax;
+        else if (key == "walls") in >> pb.walls;
+        else if (key == "disc") in >> pb.disc;
+        else if (key == "radius") in >> pb.radius;
+        else if (key == "clearance") in >> pb.clearance;
+        else if (key == "tolerance") in >> pb.tolerance;
+        else if (key == "footprint") pb.footprint = read_points(in);
+        else if (key == "boundary") pb.boundary = read_points(in);
+        else if (key == "anchors") pb.anchors = read_points(in);
+        else if (key == "grid") in >> pb.nx >> pb.ny >> pb.h >> grid_path;
+        else if (key == "space") in >> pb.space >> pb.rho >> pb.step;
+        else if (key == "start") in >> pb.start[0] >> pb.start[1] >> pb.start[2];
+        else if (key == "goal") in >> pb.goal[0] >> pb.goal[1] >> pb.goal[2] >> pb.goal_tolerance;
+        else if (key == "circle" || key == "ellipse" || key == "box" || key == "polygon") {
+            Obstacle o;
+            o.kind = key;
+            if (key == "circle") in >> o.cx >> o.cy >> o.a;
+            else if (key == "polygon") o.vertices = read_points(in);
+            else in >> o.cx >> o.cy >> o.a >> o.b >> o.angle;
+            pb.obstacles.push_back(o);
+        } else throw std::runtime_error("unknown key " + key + " in " + path);
+        if (!in) throw std::runtime_error("malformed value after " + key + " in " + path);
+    }
+    if (pb.nx > 0) {
+        size_t slash = path.rfind('/');  // the grid file sits next to the problem file
+        if (slash != std::string::npos) grid_path = path.substr(0, slash + 1) + grid_path;
+        pb.grid.resize(pb.nx * pb.ny);
+        std::FILE *f = std::fopen(grid_path.c_str(), "rb");
+        if (!f || std::fread(pb.grid.data(), sizeof(double), pb.grid.size(), f) != pb.grid.size())
+            throw std::runtime_error("cannot read the distance grid " + grid_path);
+        std::fclose(f);
+    }
+    return pb;
+}
+
+// FastChecker's verdict (planning/collision/grid.py and exact.py).
+class Checker {
+public:
+    explicit Checker(const Problem &pb) : pb_(pb), e_(pb.h / std::sqrt(2.0)) {}
+
+    bool free(double x, double y, double th) const {
+        int c = pb_.walls ? classify(x, y, th) : -1;
+        return c < 0 ? exact_free(x, y, th) : c == 1;
+    }
+
+    // 1 proven free, 0 proven in collision, -1 undecided (grid.py's _classify).
+    int classify(double px, double py, double th) const {
+        const double radius = pb_.radius, clearance = pb_.clearance, tol = pb_.tolerance;
+        double g = lookup(px, py);
+        if (pb_.disc) {
+            if (g - e_ - radius > clearance) return 1;
+            if (g + e_ - radius <= clearance) return 0;
+            return -1;
+        }
+        if (g - e_ - radius > clearance + tol) return 1;
+        double c = std::cos(th), s = std::sin(th);
+        bool all_free = true;
+        for (const Pt &b : pb_.boundary) {
+            double gb = lookup(px + c * b.x - s * b.y, py + s * b.x + c * b.y);
+            if (gb + e_ - 0.5 * tol <= clearance) return 0;
+            if (gb - e_ - 0.5 * tol <= clearance) all_free = false;
+        }
+        for (const Pt &a : pb_.anchors) {
+            double dx = a.x - px, dy = a.y - py;
+            if (dx * dx + dy * dy > radius * radius) continue;
+            if (inside_footprint(c * dx + s * dy, -s * dx + c * dy, false)) return 0;
+        }
+        return all_free ? 1 : -1;
+    }
+
+    // CollisionChecker.poses_free for one pose (exact.py).
+    bool exact_free(double x, double y, double th) const {
+        double centre = world_distance(x, y);
+        double out = centre - pb_.radius;
+        if (!pb_.disc && centre <= pb_.radius + pb_.clearance + pb_.tolerance) out = footprint_clearance(x, y, th);
+        return out > pb_.clearance;
+    }
+
+private:
+    double lookup(double x, double y) const {
+        double fi = std::floor((x - pb_.xmin) / pb_.h + 0.5), fj = std::floor((y - pb_.ymin) / pb_.h + 0.5);
+        if (!(fi >= 0 && fj >= 0 && fi < pb_.nx && fj < pb_.ny)) return -kInf;
+        return pb_.grid[static_cast<long>(fi) * pb_.ny + static_cast<long>(fj)];
+    }
+
+    double wall_distance(double x, double y) const {
+        return std::min(std::min(x - pb_.xmin, pb_.xmax - x), std::min(y - pb_.ymin, pb_.ymax - y));
+    }
+
+    double world_distance(double x, double y) const {
+        double d = pb_.walls ? wall_distance(x, y) : kInf;
+        for (const Obstacle &o : pb_.obstacles) d = std::min(d, o.signed_distance(x, y));
+        return d;
+    }
+
+    // Whether body-frame point (lx, ly) is inside the footprint; `closed` counts the boundary in.
+    bool inside_footprint(double lx, double ly, bool closed) const {
+        size_t n = pb_.footprint.size();
+        for (size_t v = 0; v < n; ++v) {
+            const Pt &a = pb_.footprint[v], &b = pb_.footprint[(v + 1) % n];
+            double cross = (b.x - a.x) * (ly - a.y) - (b.y - a.y) * (lx - a.x);
+            if (closed ? !(cross >= 0.0) : cross < 0.0) return false;
+        }
+        return true;
+    }
+
+    double footprint_clearance(double x, double y, double th) const {
+        double c = std::cos(th), s = std::sin(th);
+        double sd = kInf;
+        for (const Pt &b : pb_.boundary) sd = std::min(sd, world_distance(x + c * b.x - s * b.y, y + s * b.x + c * b.y));
+        for (const Pt &a : pb_.anchors) {
+            double dx = a.x - x, dy = a.y - y;
+            if (inside_footprint(c * dx + s * dy, -s * dx + c * dy, true)) return -kInf;
+        }
+        return sd - 0.5 * pb_.tolerance;
+    }
+
+    const Problem &pb_;
+    double e_;
+};
+
+// A curve space whose motions are checked every `step` metres of curve.
+template <class Base>
+class DenseCurveSpace : public Base {
+public:
+    DenseCurveSpace(double rho, double step) : Base(rho), step_(step) {}
+    unsigned int validSegmentCount(const ob::State *a, const ob::State *b) const override {
+        return std::max(1u, static_cast<unsigned int>(std::ceil(this->distance(a, b) / step_)));
+    }
+
+private:
+    double step_;
+};
+
+void set_pose(ob::State *s, const double *q) {
+    auto *se2 = s->as<ob::SE2StateSpace::StateType>();
+    se2->setX(q[0]);
+    se2->setY(q[1]);
+    se2->setYaw(q[2] - 2.0 * M_PI * std::floor((q[2] + M_PI) / (2.0 * M_PI)));  // [-pi, pi)
+}
+
+struct Trial {
+    bool solved;
+    double time_s, first_s, length_m;
+    std::vector<double> path;  // x, y, yaw of each state of the path found
+};
+
+Trial solve_once(const Problem &pb, const Checker &chk, const ob::StateSpacePtr &space, const std::string &planner,
+                 double limit) {
+    og::SimpleSetup ss(space);
+    ss.setStateValidityChecker([&chk](const ob::State *s) {
+        const auto *q = s->as<ob::SE2StateSpace::StateType>();
+        return chk.free(q->getX(), q->getY(), q->getYaw());
+    });
+    ob::SpaceInformationPtr si = ss.getSpaceInformation();
+    if (pb.space == "dubins") si->setMotionValidator(std::make_shared<ob::DubinsMotionValidator>(si));
+    else si->setMotionValidator(std::make_shared<ob::ReedsSheppMotionValidator>(si));
+    ob::ScopedState<> start(space), goal(space);
+    set_pose(start.get(), pb.start);
+    set_pose(goal.get(), pb.goal);
+    ss.setStartAndGoalStates(start, goal, pb.goal_tolerance);
+    auto t0 = std::chrono::steady_clock::now();
+    double first = -1.0;
+    auto seconds = [&t0]() {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    };
+    if (planner == "RRTstar") {
+        auto obj = std::make_shared<ob::PathLengthOptimizationObjective>(si);
+        obj->setCostThreshold(ob::Cost(0.0));  // never satisfied: RRT* spends its whole budget
+        ss.setOptimizationObjective(obj);
+        ss.setPlanner(std::make_shared<og::RRTstar>(si));
+        ss.getProblemDefinition()->setIntermediateSolutionCallback(
+            [&](const ob::Planner *, const std::vector<const ob::State *> &, const ob::Cost) {
+                if (first < 0) first = seconds();
+            });
+    } else if (planner == "RRTConnect") {
+        ss.setPlanner(std::make_shared<og::RRTConnect>(si));
+    } else {
+        throw std::runtime_error("unknown planner " + planner + ": choose RRTConnect or RRTstar");
+    }
+    t0 = std::chrono::steady_clock::now();
+    ss.solve(limit);
+    double dt = seconds();
+    Trial t{ss.haveExactSolutionPath(), dt, first, std::numeric_limits<double>::quiet_NaN(), {}};
+    if (t.solved) {
+        const og::PathGeometric &path = ss.getSolutionPath();
+        t.length_m = path.length();
+        for (std::size_t k = 0; k < path.getStateCount(); ++k) {
+            const auto *q = path.getState(k)->as<ob::SE2StateSpace::StateType>();
+            t.path.insert(t.path.end(), {q->getX(), q->getY(), q->getYaw()});
+        }
+    }
+    if (planner == "RRTConnect" && t.solved) t.first_s = dt;
+    return t;
+}
+
+std::string num(double v) {
+    if (!std::isfinite(v)) return "null";
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    return buf;
+}
+
+ob::StateSpacePtr make_space(const Problem &pb) {
+    ob::StateSpacePtr space;
+    if (pb.space == "dubins") space = std::make_shared<DenseCurveSpace<ob::DubinsStateSpace>>(pb.rho, pb.step);
+    else space = std::make_shared<DenseCurveSpace<ob::ReedsSheppStateSpace>>(pb.rho, pb.step);
+    ob::RealVectorBounds bounds(2);
+    bounds.setLow(0, pb.xmin);
+    bounds.setHigh(0, pb.xmax);
+    bounds.setLow(1, pb.ymin);
+    bounds.setHigh(1, pb.ymax);
+    space->as<ob::SE2StateSpace>()->setBounds(bounds);
+    return space;
+}
+
+void print_trial(const Trial &t, const char *sep) {
+    std::printf("%s{\"solved\": %s, \"time_s\": %s, \"first_s\": %s, \"length_m\": %s}", sep,
+                t.solved ? "true" : "false", num(t.time_s).c_str(), num(t.first_s < 0 ? NAN : t.first_s).c_str(),
+                num(t.length_m).c_str());
+}
+
+int plan(const Problem &pb, const std::string &planner, double limit, int trials, unsigned seed) {
+    ompl::RNG::setSeed(seed);
+    Checker chk(pb);
+    ob::StateSpacePtr space = make_space(pb);
+    solve_once(pb, chk, space, "RRTConnect", std::min(limit, 0.2));  // warm-up (grid pages, allocators)
+    std::printf("{\"planner\": \"%s\", \"time_limit_s\": %s, \"seed\": %u, \"trials\": [", planner.c_str(),
+                num(limit).c_str(), seed);
+    std::vector<double> last;
+    for (int k = 0; k < trials; ++k) {
+        Trial t = solve_once(pb, chk, space, planner, limit);
+        print_trial(t, k ? ", " : "");
+        if (t.solved) last = t.path;
+    }
+    std::printf("], \"path\": [");  // the last path found, [[x, y, yaw], ...]
+    for (size_t k = 0; k < last.size(); k += 3)
+        std::printf("%s[%s, %s, %s]", k ? ", " : "", num(last[k]).c_str(), num(last[k + 1]).c_str(),
+                    num(last[k + 2]).c_str());
+    std::printf("]}\n");
+    return 0;
+}
+
+// One warm process for many trials: each stdin line "PLANNER LIMIT" runs one trial and prints it as
+// one JSON line (the bench interleaves these with its own runs).
+int serve(const Problem &pb, unsigned seed) {
+    ompl::RNG::setSeed(seed);
+    Checker chk(pb);
+    ob::StateSpacePtr space = make_space(pb);
+    solve_once(pb, chk, space, "RRTConnect", 0.2);  // warm-up
+    std::string planner;
+    double limit;
+    while (std::cin >> planner >> limit) {
+        print_trial(solve_once(pb, chk, space, planner, limit), "");
+        std::printf("\n");
+        std::fflush(stdout);
+    }
+    return 0;
+}
+
+int check(const Problem &pb, const std::string &poses_path, const std::string &out_path) {
+    std::ifstream in(poses_path, std::ios::binary | std::ios::ate);
+    if (!in) throw std::runtime_error("cannot read poses file " + poses_path);
+    std::vector<double> poses(static_cast<size_t>(in.tellg()) / sizeof(double));
+    in.seekg(0);
+    in.read(reinterpret_cast<char *>(poses.data()), static_cast<std::streamsize>(poses.size() * sizeof(double)));
+    Checker chk(pb);
+    std::vector<std::uint8_t> out(poses.size() / 3);
+    for (size_t k = 0; k < out.size(); ++k) out[k] = chk.free(poses[3 * k], poses[3 * k + 1], poses[3 * k + 2]);
+    std::ofstream(out_path, std::ios::binary).write(reinterpret_cast<const char *>(out.data()),
+                                                   static_cast<std::streamsize>(out.size()));
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char **argv) {
+    ompl::msg::setLogLevel(std::getenv("NHSIM_OMPL_LOG") ? ompl::msg::LOG_DEBUG : ompl::msg::LOG_NONE);
+    try {
+        std::string mode = argc > 1 ? argv[1] : "";
+        if (mode == "check" && argc == 5) return check(read_problem(argv[2]), argv[3], argv[4]);
+        if (mode == "serve" && argc == 4)
+            return serve(read_problem(argv[2]), static_cast<unsigned>(std::stoul(argv[3])));
+        if (mode == "plan" && argc == 7)
+            return plan(read_problem(argv[2]), argv[3], std::stod(argv[4]), std::stoi(argv[5]),
+                        static_cast<unsigned>(std::stoul(argv[6])));
+        std::fprintf(stderr,
+                     "usage: harness check PROBLEM POSES OUT | harness plan PROBLEM PLANNER LIMIT TRIALS SEED | "
+                     "harness serve PROBLEM SEED\n");
+        return 2;
+    } catch (const std::exception &exc) {
+        std::fprintf(stderr, "harness: %s\n", exc.what());
+        return 2;
+    }
+}
