@@ -38,11 +38,22 @@ nhsim_setup() {
             echo "setup: no libOSMesa found; install OSMesa for headless rendering" >&2
         fi
     fi
-    # The bench's OMPL race compiles a C++ harness against Debian's libompl-dev; only on request
-    # (NHSIM_BENCH=1, as CI sets it), since the two packages pull in ~200 MB.
-    if [ -n "${NHSIM_BENCH:-}" ] && command -v apt-get >/dev/null 2>&1 && \
-        ! { command -v g++ >/dev/null 2>&1 && [ -n "$(ls /usr/include/ompl-*/ompl/config.h 2>/dev/null)" ]; }; then
-        nhsim_apt_install g++ libompl-dev || echo "setup: continuing without libompl-dev (the OMPL C++ race is skipped)" >&2
+    # The tests' system packages, only on request (NHSIM_BENCH=1: ./run-tests sets it unless told
+    # NHSIM_BENCH=0; ./nhsim does not): g++ and Debian's libompl-dev for the bench's OMPL C++ harness
+    # (~200 MB), and PostgreSQL's server for the shared-study test of 'nhsim tune'. Without them
+    # those tests skip, saying why.
+    if [ "${NHSIM_BENCH:-0}" != 0 ] && command -v apt-get >/dev/null 2>&1; then
+        local wanted=""
+        if ! { command -v g++ >/dev/null 2>&1 && [ -n "$(ls /usr/include/ompl-*/ompl/config.h 2>/dev/null)" ]; }; then
+            wanted="g++ libompl-dev"
+        fi
+        if [ -z "$(ls /usr/lib/postgresql/*/bin/initdb 2>/dev/null)" ]; then
+            wanted="$wanted postgresql"
+        fi
+        if [ -n "$wanted" ]; then
+            # shellcheck disable=SC2086  # a word list
+            nhsim_apt_install $wanted || echo "setup: continuing without$wanted (their tests are skipped)" >&2
+        fi
     fi
     if [ ! -x "$nhsim_root/.venv/bin/python" ]; then
         nhsim_say "creating .venv"
