@@ -47,10 +47,15 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         description=DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--scenario", default="edumip_map", metavar="NAME|PATH", help="scenario (default: edumip_map)")
+    p.add_argument(
+        "--scenario",
+        default=None,
+        metavar="NAME|PATH",
+        help="scenario (default: as simulate's: edumip_map; open with --reference)",
+    )
     p.add_argument("--robot", choices=list(ROBOT_FILES), default=None, help="robot (default: the scenario's)")
     src = p.add_mutually_exclusive_group()
-    src.add_argument("--planner", default=None, metavar="P", help="plan with planner P (default: the scenario's)")
+    src.add_argument("--planner", default=None, metavar="P", help="plan with P (default: the scenario's planner)")
     src.add_argument("--reference", choices=list(REFERENCES), default=None, help="track an analytic reference")
     p.add_argument("--runs", type=int, required=True, metavar="N", help="number of runs (>= 1)")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the plan and of the draws (default: 0)")
@@ -82,15 +87,15 @@ def _spec(args: argparse.Namespace) -> Any:
     from control.fbl import FBLGains
     from control.gains import resolve_gains
     from sim.cli.plan import check_time_limit
-    from sim.cli.simulate import parse_build, sensor_overrides
+    from sim.cli.simulate import job_source, parse_build, sensor_overrides
     from sim.physics.perturb import PerturbationRange
     from sim.pipeline.case import Case, PlanOptions
     from sim.tools.montecarlo import MonteCarloSpec
 
     check_time_limit(args.time_limit)
-    source = {"reference": args.reference} if args.reference is not None else {"planner": args.planner or ""}
+    scenario, source = job_source(args.scenario, args.planner, args.reference)
     case = Case(
-        args.scenario,
+        scenario,
         robot=args.robot,
         seed=args.seed,
         control_rate=args.control_rate,
@@ -98,7 +103,8 @@ def _spec(args: argparse.Namespace) -> Any:
         planning=PlanOptions(time_limit=args.time_limit),
         build_seed=parse_build(args.build, None),
         sensors=sensor_overrides(args.sensors),
-        **source,
+        planner=source.get("planner"),
+        reference=source.get("reference"),
     )
     ranges = PerturbationRange.parse(args.perturb_range, others="nominal") if args.perturb_range else None
     return MonteCarloSpec(case, args.runs, ranges, replan=args.replan)
@@ -167,12 +173,12 @@ def _replay_line(argv_base: list[str], worst: dict[str, Any]) -> str:
     return " ".join(shlex.quote(c) for c in cmd)
 
 
-def _base_argv(args: argparse.Namespace, scenario: str) -> list[str]:
+def _base_argv(args: argparse.Namespace, case: Any) -> list[str]:
     """The ``simulate`` options of the study's case (the seeds are per run)."""
-    argv = ["--scenario", scenario]
+    argv = ["--scenario", str(case.scenario)]
     if args.robot:
         argv += ["--robot", args.robot]
-    argv += ["--reference", args.reference] if args.reference else (["--planner", args.planner] if args.planner else [])
+    argv += ["--reference", case.reference] if case.reference is not None else ["--planner", str(case.planner)]
     for opt, value, default in (
         ("--time-limit", args.time_limit, 30.0),
         ("--gains", args.gains, None),
@@ -197,7 +203,7 @@ def run(args: argparse.Namespace) -> int:
     scenario = load_case_scenario(spec.case)  # unknown scenario, a robot it does not list: stop here
     from planning.scenario import load_scenario
 
-    own_robot = load_scenario(args.scenario).robot
+    own_robot = load_scenario(str(spec.case.scenario)).robot
     paths = _paths(args, spec, scenario.name, scenario.robot, own_robot)
     _check_outputs(paths, spec.key(), args.overwrite)
     results = ResultsFile(paths["results"], spec.key())
@@ -210,7 +216,7 @@ def run(args: argparse.Namespace) -> int:
         result = run_montecarlo(spec, executor, results, progress=bar)
     stats = result.stats
     print(format_table(stats))
-    base = _base_argv(args, args.scenario)
+    base = _base_argv(args, spec.case)
     closed = stats.get("closed_loop", {})
     for worst in closed.get("worst", []):
         err = worst["final_position_error_m"]
