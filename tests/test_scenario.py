@@ -62,7 +62,10 @@ def test_name_defaults_to_the_file_stem(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("edit", "match"),
     [
-        (('robot = "turtlebot3"', 'robot = "roomba"'), r"field 'robot': expected one of edumip, turtlebot3"),
+        (
+            ('robot = "turtlebot3"', 'robot = "roomba"'),
+            r"field 'robot': expected one of edumip, edumip-balancing, turtlebot3",
+        ),
         (("[start]", "colour = 1\n[start]"), r"unknown key\(s\) 'colour'"),
         (("pose = [-2.5, -2.5, 0.0]", "pose = [-2.5, -2.5]"), r"'start.pose': expected a list of 3 finite numbers"),
         (("pose = [-2.5, -2.5, 0.0]", "pose = [-9.0, 0.0, 0.0]"), r"'start.pose': expected a position inside"),
