@@ -10,6 +10,7 @@ import pytest
 
 from planning.core.geometry import Pose2D
 from planning.core.robot import ROBOT_FILES, load_robot
+from sim.physics.balance import load_balance_profile
 from sim.physics.model import build_model, set_pose
 from sim.physics.sensors import load_sensor_profile
 
@@ -53,7 +54,7 @@ def test_same_wheels_motors_sensors(models: tuple[mujoco.MjModel, mujoco.MjModel
 
 def test_timestep_gives_whole_balance_and_control_periods(models: tuple[mujoco.MjModel, mujoco.MjModel]) -> None:
     m, _ = models
-    rate = float(m.numeric("nhsim_balance_rate").data[0])
+    rate = load_balance_profile(NAME).rate
     assert rate == 200.0
     for hz in (rate, 50.0):
         steps = 1.0 / (hz * m.opt.timestep)
