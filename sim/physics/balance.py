@@ -83,6 +83,11 @@ class BalanceProfile:
     path: Path
 
 
+def is_balancing(robot: str) -> bool:
+    """True when the robot has a balance profile (``models/balance/<robot>.toml``): it balances."""
+    return (BALANCE_DIR / f"{robot}.toml").is_file()
+
+
 def balance_profile_path(robot: str) -> Path:
     """``models/balance/<robot>.toml``.
 

@@ -30,6 +30,7 @@ from sim.physics.asbuilt import AsBuilt
 from sim.physics.balance import balance_gains, load_balance_profile
 from sim.physics.model import build_model, set_pose
 from sim.physics.motors import whole_steps
+from sim.physics.runlog import BalanceLog
 from sim.physics.sensors import SensorProfile, load_sensor_profile
 
 FloatArray = NDArray[np.float64]
@@ -173,6 +174,12 @@ class BalanceFirmware:
         left, right = c.update(gyro, accel, angles, (float(commands[row, 0]), float(commands[row, 1])))
         ctrl[wiring[1, 0]], ctrl[wiring[1, 1]] = left, right
         self.theta_estimates.append((float(d.time), c.theta, c.theta_ref))
+
+    def to_log(self, t0: float = 0.0) -> BalanceLog:
+        """The loop's trace, times shifted by ``t0`` [s] (the trajectory's start)."""
+        trace = np.array(self.theta_estimates).reshape(-1, 3)
+        fell = None if self.fell_at is None else t0 + self.fell_at
+        return BalanceLog(t0 + trace[:, 0], trace[:, 1], trace[:, 2], fell)
 
 
 def make_firmware(robot: RobotSpec, model: mujoco.MjModel, data: mujoco.MjData, seed: int = 0) -> BalanceFirmware:
