@@ -13,6 +13,7 @@ from planning.core.robot import load_robot
 from planning.errors import ConfigError
 from sim.physics.asbuilt import AsBuilt
 from sim.physics.balance import (
+    balance_accel_limit,
     balance_gains,
     design_balance,
     linearise_upright,
@@ -122,3 +123,19 @@ def test_a_push_is_recovered_and_a_big_one_is_a_fall() -> None:
     fall = run_balance(robot, 6.0, build=build, push=Push(0.3, 1.0))
     assert fall.fell_at is not None and 1.0 < fall.fell_at < 2.0
     assert fall.times[-1] == pytest.approx(fall.fell_at, abs=0.006)  # the run ended there
+
+
+def test_acceleration_limit_comes_from_the_lean() -> None:
+    """The model's acceleration limit is the profile's lean through the steady-lean relation, checked
+    here against a run: held at that acceleration, the nominal robot leans by the profile's lean."""
+    robot = load_robot(NAME)
+    model = build_model(robot).model
+    prof = load_balance_profile(NAME)
+    a_max = balance_accel_limit(model, prof.max_lean)
+    assert a_max == pytest.approx(0.337, abs=0.001)
+    assert robot.max_accel == math.floor(a_max * 100) / 100
+    accel = 0.3  # m/s^2 for 1.5 s from rest: wheel speed a t / r
+    run = run_balance(robot, 2.0, command=lambda t: (min(t, 1.5) * accel / 0.034,) * 2)
+    steady = (run.times > 1.0) & (run.times < 1.5)
+    expected = prof.max_lean * accel / a_max
+    assert np.mean(run.pitch[steady]) == pytest.approx(expected, rel=0.15)

@@ -47,7 +47,7 @@ FloatArray = NDArray[np.float64]
 BALANCE_DIR = MODELS_DIR / "balance"
 #: Profile keys: table -> keys.
 PROFILE_KEYS = {
-    "balance": ("rate", "filter_time_constant", "tip_angle"),
+    "balance": ("rate", "filter_time_constant", "tip_angle", "max_lean"),
     "weights": ("theta_max", "theta_dot_max", "phi_max", "phi_dot_max", "phi_integral_max", "voltage_max"),
     "turn": ("kp", "ki"),
     "gains": ("k",),
@@ -64,6 +64,7 @@ class BalanceProfile:
         rate: Updates per second [Hz].
         filter_time_constant: Complementary filter's tau [s].
         tip_angle: |pitch| beyond which the robot has fallen [rad].
+        max_lean: Lean allowed for the planned accelerations [rad] (:func:`balance_accel_limit`).
         maxima: (5,) Bryson maxima of :data:`control.balance.STATE_NAMES` [rad, rad/s, rad, rad/s, rad s].
         voltage_max: Bryson maximum of the voltage [V].
         turn_kp: Turn loop's proportional gain [V s/rad].
@@ -75,12 +76,51 @@ class BalanceProfile:
     rate: float
     filter_time_constant: float
     tip_angle: float
+    max_lean: float
     maxima: tuple[float, ...]
     voltage_max: float
     turn_kp: float
     turn_ki: float
     k: tuple[float, ...]
     path: Path
+
+
+def balance_accel_limit(model: mujoco.MjModel, lean: float, gravity: float | None = None) -> float:
+    """The forward acceleration [m/s^2] a balancing robot holds with its body leaning by ``lean`` [rad].
+
+    Derivation. Take the sagittal model of the robot (axle position x, pitch theta): body mass M,
+    centre of mass l above the axle, pitch inertia I; both wheels' mass m and axle inertia J; the
+    motors' rotor inertia J_a on the joints; motor torque tau on the wheels (and -tau on the body).
+    Linearised about upright, Lagrange's equations read::
+
+        (m + M + (J + J_a) / r^2) x'' + (M l - J_a / r) theta'' = tau / r
+        (M l - J_a / r) x'' + (I + M l^2 + J_a) theta''      = M g l theta - tau
+
+    A steady acceleration x'' = a at a steady lean (theta'' = 0) needs tau = r a (m + M + (J + J_a)
+    / r^2) from the first line and then, from the second, a lean of::
+
+        theta = a (M l + r (m + M) + J / r) / (M g l)
+
+    (the rotor terms cancel): a forward acceleration needs a forward lean first, the body's weight
+    supplying the torque that tips it along. So ``a_max = lean M g l / (M l + r (m + M) + J / r)``.
+    For the EduMIP's numbers [B] theta / a = 0.207 rad per m/s^2: 1 m/s^2 leans it 11.9 deg.
+
+    Args:
+        model: The compiled model (base body, ``wheel_left`` body and ``wheel_left_geom`` tyre).
+        lean: The lean allowed for acceleration [rad].
+        gravity: g [m/s^2]; the model's if None.
+    """
+    base, wheel = model.body("base").id, model.body("wheel_left").id
+    mass_b, height = float(model.body_mass[base]), float(model.body_ipos[base][2])
+    r = float(model.geom_size[model.geom("wheel_left_geom").id][0])
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, model.body_iquat[wheel])
+    rot3 = rot.reshape(3, 3)
+    axle_inertia = 2.0 * float((rot3 @ np.diag(model.body_inertia[wheel]) @ rot3.T)[1, 1])
+    mass_w = 2.0 * float(model.body_mass[wheel])
+    g = -float(model.opt.gravity[2]) if gravity is None else gravity
+    moment = mass_b * height
+    return lean * moment * g / (moment + r * (mass_w + mass_b) + axle_inertia / r)
 
 
 def is_balancing(robot: str) -> bool:
@@ -127,6 +167,7 @@ def load_balance_profile(robot: str) -> BalanceProfile:
         rate=float(values["balance.rate"]),
         filter_time_constant=float(values["balance.filter_time_constant"]),
         tip_angle=float(values["balance.tip_angle"]),
+        max_lean=float(values["balance.max_lean"]),
         maxima=tuple(float(values[f"weights.{key}"]) for key in w[:-1]),
         voltage_max=float(values["weights.voltage_max"]),
         turn_kp=float(values["turn.kp"]),
