@@ -55,7 +55,8 @@ class Push:
 
     Attributes:
         impulse: Size [N s], positive pushing forward (the heading's +x).
-        time: When [s], applied over one physics step.
+        time: When [s] from the start of the run; the force acts over the balance period that holds
+            it (5 ms at 200 Hz), as impulse / period.
     """
 
     impulse: float
@@ -135,6 +136,9 @@ class BalanceFirmware:
         )
         self._chassis = model.geom("chassis").id
         self.fell_at: float | None = None
+        self.push: Push | None = None  # a push to give the body (set before the run)
+        self._pushing = False
+        self._base = model.body("base").id
         self.max_pitch = 0.0
         self.theta_estimates: list[tuple[float, float, float]] = []  # time, estimate, set-point
         self.reset()
@@ -163,6 +167,7 @@ class BalanceFirmware:
         """One update, with the signature of :meth:`sim.physics.motors.VelocityLoop.drive`: the wheel-speed
         command is row ``row`` of ``commands`` [rad/s]; the voltages go into ``ctrl`` at ``wiring[1]``."""
         d = self.data
+        self._push_step()
         if self.fallen():
             ctrl[wiring[1]] = 0.0
             return
@@ -174,6 +179,18 @@ class BalanceFirmware:
         left, right = c.update(gyro, accel, angles, (float(commands[row, 0]), float(commands[row, 1])))
         ctrl[wiring[1, 0]], ctrl[wiring[1, 1]] = left, right
         self.theta_estimates.append((float(d.time), c.theta, c.theta_ref))
+
+    def _push_step(self) -> None:
+        """Give the push over the period that holds its time (force = impulse / period at the top of
+        the chassis, forward along the heading), and take it off at the next update."""
+        d, push = self.data, self.push
+        period = self.steps * float(self.model.opt.timestep)
+        if push is not None and d.time - 1e-9 <= push.time < d.time + period - 1e-9:
+            _apply_push(self.model, d, self._base, push.impulse / period)
+            self._pushing = True
+        elif self._pushing:
+            d.xfrc_applied[self._base] = 0.0
+            self._pushing = False
 
     def to_log(self, t0: float = 0.0) -> BalanceLog:
         """The loop's trace, times shifted by ``t0`` [s] (the trajectory's start)."""
@@ -248,8 +265,7 @@ def run_balance(
     n = round(duration * fw.controller.gains.rate)
     cmd = np.zeros((1, 2))
     times, pitch, pos = np.zeros(n + 1), np.zeros(n + 1), np.zeros((n + 1, 2))
-    push_step = round(push.time / m.opt.timestep) if push is not None else -1
-    base = m.body("base").id
+    fw.push = push
     i = 0
     for i in range(n + 1):
         times[i], pitch[i], pos[i] = d.time, body_pitch(d.qpos[3:7]), d.qpos[:2]
@@ -260,25 +276,16 @@ def run_balance(
         fw.drive(cmd, 0, d.qvel, d.ctrl, wiring)
         if fw.fell_at is not None:
             break
-        start = round(d.time / m.opt.timestep)
-        if push is not None and start <= push_step < start + fw.steps:
-            mujoco.mj_step(m, d, push_step - start)
-            _apply_push(m, d, base, push.impulse)
-            mujoco.mj_step(m, d, 1)
-            d.xfrc_applied[base] = 0.0
-            mujoco.mj_step(m, d, start + fw.steps - push_step - 1)
-        else:
-            mujoco.mj_step(m, d, fw.steps)
+        mujoco.mj_step(m, d, fw.steps)
     return BalanceRun(times[: i + 1], pitch[: i + 1], pos[: i + 1], fw.fell_at)
 
 
-def _apply_push(model: mujoco.MjModel, data: mujoco.MjData, body: int, impulse: float) -> None:
-    """Set the base's applied force for one step: ``impulse / timestep`` forward along the heading, at the
-    top of the chassis."""
+def _apply_push(model: mujoco.MjModel, data: mujoco.MjData, body: int, force_n: float) -> None:
+    """Set the base's applied force: ``force_n`` [N] forward along the heading, at the top of the chassis."""
     g = model.geom("chassis").id
     top = data.geom_xpos[g] + data.geom_xmat[g].reshape(3, 3) @ np.array([0.0, 0.0, model.geom_size[g, 2]])
     heading = data.xmat[body].reshape(3, 3)[:, 0].copy()
     heading[2] = 0.0
-    force = heading / np.linalg.norm(heading) * (impulse / model.opt.timestep)
+    force = heading / np.linalg.norm(heading) * force_n
     data.xfrc_applied[body, :3] = force  # at the body's centre of mass, with the moment of the offset
     data.xfrc_applied[body, 3:] = np.cross(top - data.xipos[body], force)

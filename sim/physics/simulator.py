@@ -30,7 +30,7 @@ from planning.errors import ConfigError, SimulationError
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import AsBuilt
 from sim.physics.balance import balance_gains, is_balancing, load_balance_profile
-from sim.physics.balancing import BalanceFirmware
+from sim.physics.balancing import BalanceFirmware, Push
 from sim.physics.model import BuiltModel, build_model, set_pose
 from sim.physics.motors import MotorModel, whole_steps
 from sim.physics.perturb import Perturbation
@@ -227,6 +227,12 @@ class Simulator:
         if self.balance is not None:
             seed = sensing.seed if sensing is not None else 0
             recorder.balance = self.balance_firmware(m, d, seed)
+            recorder.balance.push = Push(*pert.push) if pert is not None and pert.push is not None else None
+        elif pert is not None and pert.push is not None:
+            raise ConfigError(
+                f"--perturb push: robot {self.robot.name!r} does not balance; a push is given to a balancing "
+                f"robot's body (e.g. --robot edumip-balancing)"
+            )
         sensed = None
         if PoseSource(source) is not PoseSource.TRUTH:
             setup = sensing if sensing is not None else SensingSetup.for_robot(self.robot.name)
