@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from control.base import make_tracker
@@ -11,11 +12,13 @@ from planning.core.geometry import Pose2D
 from planning.core.robot import load_robot
 from planning.errors import ConfigError
 from planning.trajectory.references import make_reference
+from sim.physics.balancing import body_pitch
 from sim.physics.metrics import compute_metrics
 from sim.physics.perturb import Perturbation
 from sim.physics.simulator import Simulator
 from sim.pipeline.runs import RunKind
 from sim.pipeline.simulate import simulate_plan, simulate_reference
+from sim.viz.plots.run import pitch_figure
 
 NAME = "edumip-balancing"
 
@@ -30,12 +33,20 @@ def test_tracks_a_circle_balancing() -> None:
     record = m.as_dict()
     assert {"max_pitch_rad", "fell", "fall_time_s"} <= record.keys()
     log = job.logs["closed_loop"]
-    assert log.balance is not None and len(log.balance.t) > 0.9 * 200 * (log.t[-1] - log.t[0])
+    bal = log.balance
+    assert bal is not None and len(bal.t) > 0.9 * 200 * (log.t[-1] - log.t[0])
+    # the complementary filter follows the true pitch: RMS error under 1 deg (gyro and accelerometer noise
+    # and biases of the profile, the accelerometer's share of the driving accelerations)
+    truth = np.interp(bal.t, log.t, body_pitch(log.qpos[:, 3:7]))
+    assert float(np.sqrt(np.mean((bal.pitch_estimate - truth) ** 2))) < math.radians(1.0)
+    fig = pitch_figure(job.logs)
+    assert fig is not None and len(fig.axes[0].lines) == 3
 
 
 def test_skid_records_have_no_balance_fields() -> None:
     job = simulate_reference("open", robot="edumip", reference="circle", runs=[RunKind.CLOSED_LOOP])
     assert "max_pitch_rad" not in job.metrics["closed_loop"].as_dict()
+    assert pitch_figure(job.logs) is None
 
 
 def test_a_push_too_large_is_a_reported_fall_that_ends_the_run() -> None:
