@@ -18,6 +18,7 @@ builders return :class:`matplotlib.figure.Figure` objects and never touch the di
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -77,11 +78,16 @@ def world_figure(world: World, trajectory: Trajectory, logs: Mapping[str, RunLog
     ax.set_xlim(max(xmin - 0.1, lo[0] - pad), min(xmax + 0.1, hi[0] + pad))
     ax.set_ylim(max(ymin - 0.1, lo[1] - pad), min(ymax + 0.1, hi[1] + pad))
     ax.set_aspect("equal")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
+    return _finish(fig, ax, ("x [m]", "y [m]"), title or "paths", 8)
+
+
+def _finish(fig: Figure, ax: Any, labels: tuple[str, str], title: str, fontsize: int) -> Figure:
+    """Label a one-axes figure (x, y), grid, legend and title it, and lay it out."""
+    ax.set_xlabel(labels[0])
+    ax.set_ylabel(labels[1])
     ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
-    ax.set_title(title or "paths")
+    ax.legend(loc="best", fontsize=fontsize)
+    ax.set_title(title)
     fig.tight_layout()
     return fig
 
@@ -162,13 +168,7 @@ def pitch_figure(logs: Mapping[str, RunLog], *, title: str = "") -> Figure | Non
         ax.plot(bal.t, bal.pitch_setpoint, color=color, lw=0.8, ls=":", label=f"{name} set-point")
         if bal.fell_at is not None:
             ax.axvline(bal.fell_at, color="#c0392b", lw=1.0, label=f"{name} fell")
-    ax.set_xlabel("time [s]")
-    ax.set_ylabel("pitch [rad]")
-    ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize=7)
-    ax.set_title(title or "pitch and its set-point")
-    fig.tight_layout()
-    return fig
+    return _finish(fig, ax, ("time [s]", "pitch [rad]"), title or "pitch and its set-point", 7)
 
 
 def job_figures(
