@@ -141,6 +141,27 @@ class Simulator:
         tip = load_balance_profile(self.robot.name).tip_angle
         return BalanceFirmware(model, data, self.balance, sensors, tip, seed)
 
+    def _balance_for_run(
+        self, m: mujoco.MjModel, d: mujoco.MjData, pert: Perturbation | None, sensing: SensingSetup | None
+    ) -> BalanceFirmware | None:
+        """A run's balance firmware (None for a robot that does not balance), with the perturbation's
+        push; its sensor noise seeded by the sensing setup's seed.
+
+        Raises:
+            ConfigError: A push for a robot that does not balance.
+        """
+        push = pert.push if pert is not None else None
+        if self.balance is None:
+            if push is not None:
+                raise ConfigError(
+                    f"--perturb push: robot {self.robot.name!r} does not balance; a push is given to a balancing "
+                    f"robot's body (e.g. --robot edumip-balancing)"
+                )
+            return None
+        firmware = self.balance_firmware(m, d, sensing.seed if sensing is not None else 0)
+        firmware.push = Push(*push) if push is not None else None
+        return firmware
+
     def steps_per_control(self, control_rate: float) -> int:
         """Physics steps per control period; raises if the period is not a whole number of steps."""
         k = whole_steps(1.0 / control_rate, self.model.opt.timestep)
@@ -224,15 +245,7 @@ class Simulator:
         noise = pert.sensor_noise(schedule.n_ctrl) if pert is not None else None
         tracker.reset(trajectory, schedule.dt_ctrl)
         recorder = Recorder(self, m, d, schedule, float(trajectory.t[0]))
-        if self.balance is not None:
-            seed = sensing.seed if sensing is not None else 0
-            recorder.balance = self.balance_firmware(m, d, seed)
-            recorder.balance.push = Push(*pert.push) if pert is not None and pert.push is not None else None
-        elif pert is not None and pert.push is not None:
-            raise ConfigError(
-                f"--perturb push: robot {self.robot.name!r} does not balance; a push is given to a balancing "
-                f"robot's body (e.g. --robot edumip-balancing)"
-            )
+        recorder.balance = self._balance_for_run(m, d, pert, sensing)
         sensed = None
         if PoseSource(source) is not PoseSource.TRUTH:
             setup = sensing if sensing is not None else SensingSetup.for_robot(self.robot.name)
