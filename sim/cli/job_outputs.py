@@ -228,7 +228,7 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str, own_ro
     elif args.video is not None:
         raise ConfigError("--video and --no-video contradict each other; drop one")
     base_dir, base = (args.video.parent, args.video.stem) if args.video is not None else (DEFAULT_DIR, stem)
-    names = (*PLOTS, ESTIMATION_PLOT)  # the estimation plot only where the job gives its estimates
+    names: tuple[str, ...] = (*PLOTS, ESTIMATION_PLOT)  # the estimation plot only where the job gives its estimates
     robot = getattr(args, "robot", None)
     if robot is not None and is_balancing(robot):  # a balancing robot's runs also plot their pitch
         names = (*names, PITCH_PLOT)
