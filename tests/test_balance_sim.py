@@ -85,3 +85,19 @@ def test_default_scenario_plan_within_the_targets() -> None:
     assert m.final_position_error_m <= 0.02 and m.final_heading_error_rad <= 0.05
     assert m.rms_position_error_m <= 0.03
     assert m.max_pitch_rad is not None and m.max_pitch_rad <= math.radians(20.0)
+
+
+def test_sweep_judges_a_balancing_run_by_its_own_targets() -> None:
+    """RMS 3 cm and |pitch| <= 20 deg for a balancing run (2 cm for the others); a fall fails."""
+    from dataclasses import replace
+
+    from sim.physics.metrics import TrackingMetrics
+    from sim.pipeline.sweep import met_targets
+
+    base = TrackingMetrics(0.01, 0.01, 0.025, 0.05, 0.01, 0, 0, 0.0, 10.0)
+    assert not met_targets(base)  # 2.5 cm RMS misses the 2 cm of a skid robot
+    up = replace(base, max_pitch_rad=0.3, fell=False)
+    assert met_targets(up)
+    assert not met_targets(replace(up, max_pitch_rad=0.36))  # beyond 20 deg
+    assert not met_targets(replace(up, rms_position_error_m=0.031))
+    assert not met_targets(replace(up, fell=True, fall_time_s=3.0))
