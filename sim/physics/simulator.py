@@ -141,7 +141,7 @@ class Simulator:
         tip = load_balance_profile(self.robot.name).tip_angle
         return BalanceFirmware(model, data, self.balance, sensors, tip, seed)
 
-    def _balance_for_run(
+    def balance_for_run(
         self, m: mujoco.MjModel, d: mujoco.MjData, pert: Perturbation | None, sensing: SensingSetup | None
     ) -> BalanceFirmware | None:
         """A run's balance firmware (None for a robot that does not balance), with the perturbation's
@@ -245,7 +245,7 @@ class Simulator:
         noise = pert.sensor_noise(schedule.n_ctrl) if pert is not None else None
         tracker.reset(trajectory, schedule.dt_ctrl)
         recorder = Recorder(self, m, d, schedule, float(trajectory.t[0]))
-        recorder.balance = self._balance_for_run(m, d, pert, sensing)
+        recorder.balance = self.balance_for_run(m, d, pert, sensing)
         sensed = None
         if PoseSource(source) is not PoseSource.TRUTH:
             setup = sensing if sensing is not None else SensingSetup.for_robot(self.robot.name)
