@@ -316,3 +316,16 @@ def test_the_settings_tag_names_non_default_settings_and_gains_files_by_content(
     assert settings_tag(parse(["simulate", "--gains", str(a)])) == settings_tag(parse(["simulate", "--gains", str(b)]))
     b.write_text("[gains]\nkp = 5.0\n")
     assert settings_tag(parse(["simulate", "--gains", str(a)])) != settings_tag(parse(["simulate", "--gains", str(b)]))
+
+
+def test_the_pitch_plot_is_planned_for_a_balancing_robot(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from sim.cli.job_outputs import plan_outputs
+    from sim.cli.main import build_parser
+
+    monkeypatch.chdir(tmp_path)
+    args = build_parser().parse_args([*FAST, "--no-video", "--robot", "edumip-balancing"])
+    plan = plan_outputs(args, scenario="open", source="line")
+    assert list(plan.plots) == ["world", "errors", "commands", "estimation", "pitch"]
+    assert plan.plots["pitch"].name.startswith("open-line-edumip-balancing") and plan.plots["pitch"].name.endswith(
+        "-pitch.png"
+    )

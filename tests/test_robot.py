@@ -46,7 +46,7 @@ def test_limits_in_the_models_are_what_the_motors_sustain() -> None:
 
 
 def test_unknown_robot_names_the_choices() -> None:
-    with pytest.raises(ModelError, match="edumip, turtlebot3"):
+    with pytest.raises(ModelError, match="edumip, edumip-balancing, turtlebot3"):
         load_robot("roomba")
 
 

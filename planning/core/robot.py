@@ -26,7 +26,11 @@ MODELS_DIR = Path(__file__).resolve().parents[2] / "models"
 ROBOTS_DIR = MODELS_DIR / "robots"
 
 #: Robot names accepted everywhere, mapped to their MJCF file stems.
-ROBOT_FILES: dict[str, str] = {"turtlebot3": "turtlebot3_burger", "edumip": "edumip"}
+ROBOT_FILES: dict[str, str] = {
+    "turtlebot3": "turtlebot3_burger",
+    "edumip": "edumip",
+    "edumip-balancing": "edumip_balancing",
+}
 
 
 @dataclass(frozen=True)

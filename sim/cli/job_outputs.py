@@ -8,6 +8,7 @@ robot with every run setting at its default::
     renders/S-R-errors.png     position and heading error against time
     renders/S-R-commands.png   v, omega and wheel speeds against their limits
     renders/S-R-estimation.png estimates against the true pose (a job that gives its estimates)
+    renders/S-R-pitch.png      pitch, its estimate and set-point (a balancing robot given by --robot)
     renders/S-R.json           run record; its "files" names every file written
 
 The stem names everything that makes a job different (:func:`output_stem`): ``S-R``, then
@@ -218,7 +219,8 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str, own_ro
         DependencyError: A video was asked for and no OpenGL backend can load.
     """
     from sim.outputs import check_writable
-    from sim.viz.plots.run import ESTIMATION_PLOT, PLOTS
+    from sim.physics.balance import is_balancing
+    from sim.viz.plots.run import ESTIMATION_PLOT, PITCH_PLOT, PLOTS
     from sim.viz.replay import RenderSettings, parse_size
 
     stem = output_stem(args, scenario=scenario, source=source, own_robot=own_robot)
@@ -233,7 +235,10 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str, own_ro
     elif args.video is not None:
         raise ConfigError("--video and --no-video contradict each other; drop one")
     base_dir, base = (args.video.parent, args.video.stem) if args.video is not None else (DEFAULT_DIR, stem)
-    names = (*PLOTS, ESTIMATION_PLOT)  # the estimation plot only where the job gives its estimates
+    names: tuple[str, ...] = (*PLOTS, ESTIMATION_PLOT)  # the estimation plot only where the job gives its estimates
+    robot = getattr(args, "robot", None)
+    if robot is not None and is_balancing(robot):  # a balancing robot's runs also plot their pitch
+        names = (*names, PITCH_PLOT)
     plots = {name: base_dir / f"{base}-{name}.png" for name in names} if args.plots else {}
     json_path = args.json if args.json is not None else base_dir / f"{base}.json"
     plan = OutputPlan(stem, video, plots, json_path, settings, args.overwrite, show_progress(args))

@@ -39,15 +39,16 @@ DESCRIPTION = (
     "every robot the scenario lists, and prints one row each.\n\n"
     f"JSON record (--json): per run ({', '.join(repr(str(kind)) for kind in RunKind)}) final_position_error_m, "
     "final_heading_error_rad, rms_position_error_m, max_position_error_m, collisions, warnings, "
-    "saturation_fraction; plus scenario, robot, source, tracker, gains, control_rate_hz, seed "
-    "and package versions.\n\n"
+    "saturation_fraction (a balancing robot's also max_pitch_rad, fell, fall_time_s); plus scenario, "
+    "robot, source, tracker, gains, control_rate_hz, seed and package versions.\n\n"
     "Outputs: renders/<scenario>-<planner or reference>.mp4 (both runs: closed loop solid, open loop as a "
     "ghost), PNG plots and a JSON record beside it; an existing file is never replaced without "
     "--overwrite (the command stops with an error before running anything).\n\n"
     "Exit status: 0 when every run is clean (no MuJoCo warning, no collision in closed loop) and the "
     "closed loop ends on target (a plan: inside the scenario's goal tolerance of the trajectory's final "
     "pose; a reference: final position 2 cm, final heading 0.05 rad, RMS position 2 cm); 1 otherwise, or "
-    "when the plan fails (the missed target or the reason on stderr); 2 on bad input."
+    "when the plan fails or a balancing robot falls (the missed target, the reason or the fall time on "
+    "stderr); 2 on bad input."
 )
 
 
@@ -222,7 +223,8 @@ def _add_run_arguments(p: argparse.ArgumentParser) -> None:
         default=RUN_SETTINGS["perturb"],
         metavar="KEY=VALUE,...",
         help="perturb physics and loop: friction, mass, radius (scales), noise [m], heading_noise [rad], "
-        "latency [s], e.g. friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02 (noise uses --seed) "
+        "latency [s], e.g. friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02 (noise uses --seed); "
+        "a balancing robot also takes push=J@T, an impulse of J N s on its body top at T s (e.g. push=0.05@10) "
         "(default: none)",
     )
     p.add_argument(

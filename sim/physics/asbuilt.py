@@ -88,6 +88,9 @@ TOLERANCES: dict[str, BuildTolerance] = {
     ),
 }
 
+#: The balancing EduMIP is the same kit assembled the same way (its wheels, board and battery).
+TOLERANCES["edumip-balancing"] = TOLERANCES["edumip"]
+
 #: Field -> (lowest allowed, highest allowed, nominal, unit).
 LIMITS: dict[str, tuple[float, float, float, str]] = {
     "left_radius_scale": (0.8, 1.2, 1.0, "x"),

@@ -10,6 +10,7 @@ import numpy as np
 
 from planning.core.geometry import wrap_angle
 from planning.trajectory.trajectory import Trajectory
+from sim.physics.balancing import body_pitch
 from sim.physics.runlog import EstimationLog, RunLog
 
 
@@ -66,8 +67,11 @@ class TrackingMetrics:
         duration_s: Simulated time [s].
         wheel_contact_loss_fraction: Share of the logged physics steps with a drive wheel off the
             floor.
-        status: "ok", or why the run ended early (the estimator diverged).
+        status: "ok", or why the run ended early (the estimator diverged, the robot fell).
         estimation: The estimator's accuracy and consistency (None when the tracker saw the truth).
+        max_pitch_rad: A balancing robot's largest |pitch| over the log [rad] (None for the others).
+        fell: Whether a balancing robot fell (None for the others).
+        fall_time_s: When it fell [s] (None if it did not).
     """
 
     final_position_error_m: float
@@ -82,10 +86,17 @@ class TrackingMetrics:
     wheel_contact_loss_fraction: float = 0.0
     status: str = "ok"
     estimation: EstimationMetrics | None = None
+    max_pitch_rad: float | None = None
+    fell: bool | None = None
+    fall_time_s: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
-        """Plain-dict view for JSON (``estimation`` a nested dict, NaN as None)."""
+        """Plain-dict view for JSON (``estimation`` a nested dict, NaN as None; the balance fields only
+        for a balancing robot)."""
         out = asdict(self)
+        if self.fell is None:
+            for key in ("max_pitch_rad", "fell", "fall_time_s"):
+                del out[key]
         if out["estimation"] is None:
             del out["estimation"]
         else:
@@ -153,4 +164,15 @@ def compute_metrics(
         wheel_contact_loss_fraction=log.wheel_contact_loss_fraction,
         status=log.status,
         estimation=EstimationMetrics.of(log.estimation) if log.estimation is not None else None,
+        **balance_metrics(log),
     )
+
+
+def balance_metrics(log: RunLog) -> dict[str, Any]:
+    """``max_pitch_rad``, ``fell`` and ``fall_time_s`` of a balancing robot's run (empty for the others);
+    the pitch from the logged base quaternion (the free joint's qpos 3:7, the model's first joint)."""
+    if log.balance is None:
+        return {}
+    pitch = body_pitch(log.qpos[:, 3:7])
+    fell_at = log.balance.fell_at
+    return {"max_pitch_rad": float(np.max(np.abs(pitch))), "fell": fell_at is not None, "fall_time_s": fell_at}

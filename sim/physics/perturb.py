@@ -14,6 +14,9 @@ A :class:`Perturbation` changes one run:
 - ``latency``: delay [s] between the pose measurement and the wheels receiving the command it
   produced, rounded to whole physics steps (2 ms); commands not yet arrived leave the previous
   one in force (zero wheel speed at the start).
+- ``push=J@t`` (balancing robots): a horizontal impulse of J [N s] on the top of the body at t [s]
+  from the start of the run, forward along the heading (negative: backward), e.g. ``push=0.05@10``;
+  |J| <= 1 N s. Not drawn by ranges.
 
 Command-line syntax (``nhsim simulate --perturb``): comma-separated ``key=value`` with keys
 friction, mass, radius, noise, heading_noise, latency, e.g.
@@ -25,6 +28,7 @@ from __future__ import annotations
 
 import copy
 from dataclasses import asdict, dataclass, fields
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -45,6 +49,24 @@ LIMITS: dict[str, tuple[float, float, float, str]] = {
 }
 #: A valid ``--perturb`` text, quoted when a part is malformed.
 EXAMPLE = "friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02"
+#: Largest |push| impulse [N s] (five times what topples the balancing EduMIP).
+MAX_PUSH = 1.0
+
+
+def parse_push(value: str, text: str) -> tuple[float, float]:
+    """``J@t`` -> (impulse [N s], time [s]).
+
+    Raises:
+        ConfigError: Malformed, non-numeric, |J| > :data:`MAX_PUSH` or t < 0.
+    """
+    what = f"--perturb {text!r}"
+    impulse_s, sep, time_s = value.partition("@")
+    if not sep:
+        raise ConfigError(f"{what}: push must be IMPULSE@TIME in N s and s (e.g. push=0.05@10), got {value!r}")
+    impulse = check_number(parse_number(impulse_s, "push impulse", what), "push impulse", "perturbation",
+                           (-MAX_PUSH, MAX_PUSH), "N s")  # fmt: skip
+    time = check_number(parse_number(time_s, "push time", what), "push time", "perturbation", (0.0, 1e6), "s")
+    return impulse, time
 
 
 def _check(name: str, value: object) -> float:
@@ -64,6 +86,7 @@ class Perturbation:
         heading_noise: Pose-sensor heading noise standard deviation [rad].
         latency: Control latency [s].
         seed: Seed of the sensor noise.
+        push: (impulse [N s], time [s]) of a push on a balancing robot's body top, or None.
     """
 
     friction: float = 1.0
@@ -73,6 +96,7 @@ class Perturbation:
     heading_noise: float = 0.0
     latency: float = 0.0
     seed: int = 0
+    push: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         for name in LIMITS:
@@ -88,26 +112,34 @@ class Perturbation:
         Raises:
             ConfigError: Unknown key, repeated key, non-numeric or out-of-range value.
         """
-        pairs = parse_pairs(text, "--perturb", LIMITS, EXAMPLE)
-        return cls(**{k: parse_number(v, k, f"--perturb {text!r}") for k, v in pairs.items()}, seed=seed)
+        pairs = parse_pairs(text, "--perturb", [*LIMITS, "push"], EXAMPLE)
+        push = parse_push(pairs.pop("push"), text) if "push" in pairs else None
+        return cls(**{k: parse_number(v, k, f"--perturb {text!r}") for k, v in pairs.items()}, seed=seed, push=push)
 
     @property
     def is_nominal(self) -> bool:
         """True when nothing is changed (the run is the unperturbed one)."""
-        return all(getattr(self, n) == LIMITS[n][2] for n in LIMITS)
+        return self.push is None and all(getattr(self, n) == LIMITS[n][2] for n in LIMITS)
 
     @property
     def changes_model(self) -> bool:
         """True when the compiled model must be modified (friction, mass or radius)."""
         return (self.friction, self.mass, self.radius) != (1.0, 1.0, 1.0)
 
-    def as_dict(self) -> dict[str, float | int]:
-        """Plain-dict view for records."""
-        return asdict(self)
+    def as_dict(self) -> dict[str, Any]:
+        """Plain-dict view for records (``push`` only when there is one)."""
+        out = asdict(self)
+        if self.push is None:
+            del out["push"]
+        else:
+            out["push"] = list(self.push)
+        return out
 
     def label(self) -> str:
         """The ``key=value`` text of the non-nominal fields ("nominal" if none)."""
         parts = [f"{n}={getattr(self, n):g}" for n in LIMITS if getattr(self, n) != LIMITS[n][2]]
+        if self.push is not None:
+            parts.append(f"push={self.push[0]:g}@{self.push[1]:g}")
         return ",".join(parts) or "nominal"
 
     def apply_to_model(self, model: mujoco.MjModel) -> mujoco.MjModel:
@@ -195,6 +227,6 @@ class PerturbationRange:
         rng = np.random.default_rng(seed)
         out = []
         for _ in range(n):
-            values = {f.name: float(rng.uniform(*getattr(self, f.name))) for f in fields(self)}
+            values: dict[str, Any] = {f.name: float(rng.uniform(*getattr(self, f.name))) for f in fields(self)}
             out.append(Perturbation(**values, seed=int(rng.integers(2**31))))
         return out

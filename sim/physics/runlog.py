@@ -33,6 +33,23 @@ class Contact:
 
 
 @dataclass(frozen=True)
+class BalanceLog:
+    """What a balancing robot's balance loop did.
+
+    Attributes:
+        t: (K,) update times [s].
+        pitch_estimate: (K,) the complementary filter's pitch [rad].
+        pitch_setpoint: (K,) the pitch the loop asked for (its position and speed errors as a lean) [rad].
+        fell_at: Time of a fall [s] (the run ended there), None if it stayed up.
+    """
+
+    t: FloatArray
+    pitch_estimate: FloatArray
+    pitch_setpoint: FloatArray
+    fell_at: float | None = None
+
+
+@dataclass(frozen=True)
 class EstimationLog:
     """What a run's estimator believed, per control period, against the truth.
 
@@ -113,7 +130,8 @@ class RunLog:
         estimation: What the estimator believed (None when the tracker saw the true pose).
         wheel_off_floor: (N,) whether a drive wheel was off the floor at each sample (None: the
             model has no wheel contact sensors).
-        status: "ok", or why the run ended early (e.g. the estimator diverged).
+        status: "ok", or why the run ended early (e.g. the estimator diverged, the robot fell).
+        balance: A balancing robot's balance loop (None for the others).
     """
 
     t: FloatArray
@@ -129,6 +147,7 @@ class RunLog:
     estimation: EstimationLog | None = None
     wheel_off_floor: NDArray[np.bool_] | None = None
     status: str = "ok"
+    balance: BalanceLog | None = None
 
     def __post_init__(self) -> None:
         if self.t.ndim != 1 or self.t.size < 1:

@@ -54,6 +54,8 @@ from planning.errors import ConfigError
 from sim.physics.keyvalue import check_number, parse_number, parse_pairs
 
 SENSORS_DIR = MODELS_DIR / "sensors"
+#: Robots that share another robot's sensors: the balancing EduMIP carries the EduMIP's.
+SHARED_PROFILES: dict[str, str] = {"edumip-balancing": "edumip"}
 
 #: Field -> (lowest allowed, highest allowed, unit, a typical value quoted in messages).
 LIMITS: dict[str, tuple[float, float, str, str]] = {
@@ -167,12 +169,12 @@ class SensorProfile:
 
 
 def sensor_profile_path(robot: str) -> Path:
-    """The profile file of a robot, ``models/sensors/<robot>.toml``.
+    """The profile file of a robot, ``models/sensors/<robot>.toml`` (or the one it shares, :data:`SHARED_PROFILES`).
 
     Raises:
         ConfigError: No profile for that robot (the message lists those there are).
     """
-    path = SENSORS_DIR / f"{robot}.toml"
+    path = SENSORS_DIR / f"{SHARED_PROFILES.get(robot, robot)}.toml"
     if not path.is_file():
         known = ", ".join(sorted(p.stem for p in SENSORS_DIR.glob("*.toml")))
         raise ConfigError(f"no sensor profile for robot {robot!r}: choose one of {known} or add {path}")

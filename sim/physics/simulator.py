@@ -29,6 +29,8 @@ from planning.core.world import World
 from planning.errors import ConfigError, SimulationError
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import AsBuilt
+from sim.physics.balance import balance_gains, is_balancing, load_balance_profile
+from sim.physics.balancing import BalanceFirmware, Push
 from sim.physics.model import BuiltModel, build_model, set_pose
 from sim.physics.motors import MotorModel, whole_steps
 from sim.physics.perturb import Perturbation
@@ -123,10 +125,42 @@ class Simulator:
         self._act_l = m.actuator("wheel_left_motor").id
         self._act_r = m.actuator("wheel_right_motor").id
         self.motors = MotorModel.from_model(m)
+        # A balancing robot's firmware is its balance loop, its gains checked stable before any run.
+        self.balance = balance_gains(robot.name) if is_balancing(robot.name) else None
         self._is_obstacle = np.zeros(m.ngeom, dtype=bool)
         self._is_obstacle[self.built.obstacle_geoms] = True
         self._is_robot = np.zeros(m.ngeom, dtype=bool)
         self._is_robot[self.built.robot_geoms] = True
+
+    def balance_firmware(self, model: mujoco.MjModel, data: mujoco.MjData, seed: int = 0) -> BalanceFirmware:
+        """The balance firmware of a run of this (balancing) robot on ``model`` and ``data``, with
+        sensor-noise seed ``seed``."""
+        if self.balance is None:
+            raise ConfigError(f"robot {self.robot.name!r} does not balance: it has no balance firmware")
+        sensors = SensingSetup.for_robot(self.robot.name).profile
+        tip = load_balance_profile(self.robot.name).tip_angle
+        return BalanceFirmware(model, data, self.balance, sensors, tip, seed)
+
+    def balance_for_run(
+        self, m: mujoco.MjModel, d: mujoco.MjData, pert: Perturbation | None, sensing: SensingSetup | None
+    ) -> BalanceFirmware | None:
+        """A run's balance firmware (None for a robot that does not balance), with the perturbation's
+        push; its sensor noise seeded by the sensing setup's seed.
+
+        Raises:
+            ConfigError: A push for a robot that does not balance.
+        """
+        push = pert.push if pert is not None else None
+        if self.balance is None:
+            if push is not None:
+                raise ConfigError(
+                    f"--perturb push: robot {self.robot.name!r} does not balance; a push is given to a balancing "
+                    f"robot's body (e.g. --robot edumip-balancing)"
+                )
+            return None
+        firmware = self.balance_firmware(m, d, sensing.seed if sensing is not None else 0)
+        firmware.push = Push(*push) if push is not None else None
+        return firmware
 
     def steps_per_control(self, control_rate: float) -> int:
         """Physics steps per control period; raises if the period is not a whole number of steps."""
@@ -202,7 +236,8 @@ class Simulator:
         pert = perturbation if perturbation is not None and not perturbation.is_nominal else None
         m = pert.apply_to_model(self.model) if pert is not None and pert.changes_model else self.model
         d = mujoco.MjData(m)
-        set_pose(m, d, start or trajectory.start_pose)
+        # a balancing robot starts upright at once: left alone to settle, it would topple
+        set_pose(m, d, start or trajectory.start_pose, **({"settle": 0.0} if self.balance is not None else {}))
         delay = pert.latency_steps(m.opt.timestep) if pert is not None else 0
         schedule = Schedule.make(
             self.steps_per_control(cfg.control_rate), float(m.opt.timestep), trajectory.duration + cfg.hold, delay
@@ -210,6 +245,7 @@ class Simulator:
         noise = pert.sensor_noise(schedule.n_ctrl) if pert is not None else None
         tracker.reset(trajectory, schedule.dt_ctrl)
         recorder = Recorder(self, m, d, schedule, float(trajectory.t[0]))
+        recorder.balance = self.balance_for_run(m, d, pert, sensing)
         sensed = None
         if PoseSource(source) is not PoseSource.TRUTH:
             setup = sensing if sensing is not None else SensingSetup.for_robot(self.robot.name)
@@ -223,6 +259,8 @@ class Simulator:
             "timestep_s": float(m.opt.timestep),
             "trajectory": trajectory.name,
         }
+        if self.balance is not None:
+            info["balance_rate_hz"] = self.balance.rate
         if pert is not None:
             info["perturbation"] = pert.as_dict()
         info.update(meta or {})
@@ -277,6 +315,8 @@ class Simulator:
             left, right = wheel_speeds(v, w)
             commands[k + 1] = (v, w, left, right)
             pose = advance(k)
+            if recorder.balance is not None and recorder.balance.fell_at is not None:
+                break  # the robot fell: the run ends here (its status says when)
         if progress is not None:
             progress(n_ctrl, n_ctrl)
 
@@ -296,8 +336,13 @@ class PeriodPhysics:
     def __init__(self, simulator: Simulator, recorder: Recorder) -> None:
         m = recorder.model
         self._recorder = recorder
-        self._firmware = simulator.motors.loop().drive  # every k_fw steps from the start of the run
-        self._plans = recorder.schedule.plan(simulator.motors.steps_per_update(m.opt.timestep))
+        if recorder.balance is not None:  # the balance loop drives the voltages at its own rate
+            self._firmware = recorder.balance.drive
+            k_fw = recorder.balance.steps
+        else:  # every k_fw steps from the start of the run
+            self._firmware = simulator.motors.loop().drive
+            k_fw = simulator.motors.steps_per_update(m.opt.timestep)
+        self._plans = recorder.schedule.plan(k_fw)
         # qvel and ctrl indices of the left and right wheel
         self._wiring = np.array([simulator.wheel_dofs, [simulator._act_l, simulator._act_r]], dtype=np.int64)
 
@@ -416,6 +461,7 @@ class Recorder:
         self.commands = np.zeros((schedule.n_ctrl + 1, 4))  # v, omega, left, right from the tracker
         self.command, self.wheel_command = self.commands[:, :2], self.commands[:, 2:]
         self.contacts: list[Contact] = []
+        self.balance: BalanceFirmware | None = None  # a balancing robot's firmware (set by the simulator)
         self._touching: set[int] = set()
         self._qpos, self._qvel, self._sdata = data.qpos, data.qvel, data.sensordata
         touch = [n for n in ("wheel_left_touch", "wheel_right_touch") if mujoco.mj_name2id(model, SENSOR, n) >= 0]
@@ -478,8 +524,14 @@ class Recorder:
         ref = trajectory.sample_many(t_log).pose
         estimation = sensing.to_log() if sensing is not None else None
         status = sensing.status if sensing is not None else "ok"
+        fw = self.balance
+        if fw is not None and fw.fell_at is not None:
+            status = (
+                f"fell at t={self.t0 + fw.fell_at:.3f} s (|tilt| beyond {fw.tip_angle:g} rad or the chassis "
+                "on the floor); the run ended there"
+            )
         return RunLog(
             t_log, pose, qpos, ref, cmd, wcmd, wspd, tuple(self.contacts), self.warnings(), meta,
             estimation=estimation, wheel_off_floor=self._log[:n, 1] > 0.5 if self._has_touch else None,
-            status=status,
+            status=status, balance=fw.to_log(self.t0) if fw is not None else None,
         )  # fmt: skip

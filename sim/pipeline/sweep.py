@@ -14,6 +14,7 @@ is a failure of that case.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
@@ -32,6 +33,9 @@ from sim.pipeline.simulate import applicable_planners, simulate
 
 #: What a closed-loop run must reach to count as a success in the table.
 TARGETS = {"final_position_error_m": 0.02, "final_heading_error_rad": 0.05, "rms_position_error_m": 0.02}
+#: A balancing robot's targets (issue 15): RMS 3 cm, its forward motion waiting on a lean, and
+#: |pitch| <= 20 deg; and it must not fall.
+BALANCING_TARGETS = {**TARGETS, "rms_position_error_m": 0.03, "max_pitch_rad": math.radians(20.0)}
 
 
 class Outcome(StrEnum):
@@ -178,9 +182,16 @@ def precondition_not_met(scenario: Scenario, plan: PlanResult) -> str | None:
 
 
 def met_targets(metrics: TrackingMetrics) -> bool:
-    """Whether a closed-loop run met every target of the table, without contact or warning."""
+    """Whether a closed-loop run met every target of the table (:data:`BALANCING_TARGETS` for a balancing
+    robot's run, which must also stay up), without contact or warning."""
     values = metrics.as_dict()
-    return all(values[k] <= v for k, v in TARGETS.items()) and metrics.collisions == 0 and metrics.warnings == 0
+    targets = BALANCING_TARGETS if metrics.fell is not None else TARGETS
+    return (
+        all(values[k] <= v for k, v in targets.items())
+        and not metrics.fell
+        and metrics.collisions == 0
+        and metrics.warnings == 0
+    )
 
 
 def sweep_case(case: Case) -> SweepRow:

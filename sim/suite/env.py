@@ -154,8 +154,10 @@ class TrackingTask(control.Task):  # type: ignore[misc]
     def initialize_episode(self, physics: Physics) -> None:
         """Place the robot at the start, at rest, and draw the episode's sensor noise."""
         m, d = physics.model.ptr, physics.data.ptr
-        set_pose(m, d, self.start)
+        balancing = self.simulator.balance is not None
+        set_pose(m, d, self.start, **({"settle": 0.0} if balancing else {}))  # a balancing robot starts upright
         recorder = Recorder(self.simulator, m, d, self.schedule, float(self.trajectory.t[0]))
+        recorder.balance = self.simulator.balance_for_run(m, d, None, self.sensing)  # its firmware, if it balances
         sensors = SensorModel(
             self.sensing.profile, control_rate=self.control_rate, timestep=float(m.opt.timestep),
             n_periods=self.schedule.n_ctrl + 1, seed=self.sensing.seed + self.episodes,

@@ -58,6 +58,8 @@ DIRECTIONS: dict[str, str] = {
     "wheel_contact_loss_fraction": "lower",
     "estimation_position_rmse_m": "lower",
     "estimation_heading_rmse_rad": "lower",
+    "max_pitch_rad": "lower",  # a balancing robot's (absent for the others)
+    "fell": "lower",  # a balancing robot's: True (1) where it stood (0) is a regression
 }
 #: Fields a suite's case table may have.
 CASE_KEYS = {

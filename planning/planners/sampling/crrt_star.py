@@ -59,7 +59,7 @@ from planning.planners.simplify import simplify_path
 FloatArray = NDArray[np.float64]
 
 #: Seed 003's axle-centre clearance per robot [m]; other robots keep just their own radius.
-SEED_CLEARANCE: dict[str, float] = {"edumip": 0.40}
+SEED_CLEARANCE: dict[str, float] = {"edumip": 0.40, "edumip-balancing": 0.40}  # the same EduMIP, balancing
 
 
 @dataclass(frozen=True)

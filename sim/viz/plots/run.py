@@ -7,7 +7,8 @@ Three figures, every run in its colour and line style from the video's table
 - ``errors``: position and heading error of each run against time;
 - ``commands``: commanded v, omega and wheel speeds of each run against the robot's limits;
 
-and, when the job's estimates are given, ``estimation`` (:mod:`sim.viz.plots.estimation`).
+and, when the job's estimates are given, ``estimation`` (:mod:`sim.viz.plots.estimation`); for a
+balancing robot, ``pitch``: its true pitch, the balance loop's estimate and its set-point.
 
 Figures are built without pyplot on the Agg canvas (no display, no global state). The figure
 builders return :class:`matplotlib.figure.Figure` objects and never touch the disk;
@@ -17,6 +18,7 @@ builders return :class:`matplotlib.figure.Figure` objects and never touch the di
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
@@ -24,6 +26,7 @@ from matplotlib.figure import Figure
 from planning.core.robot import RobotSpec
 from planning.core.world import World
 from planning.trajectory.trajectory import Trajectory
+from sim.physics.balancing import body_pitch
 from sim.physics.metrics import heading_errors, position_errors
 from sim.physics.runlog import RunLog
 from sim.viz.plots.draw import RUN_WORLD, draw_world, frame_world
@@ -36,6 +39,8 @@ REFERENCE_COLOR = "#1a8c40"
 PLOTS = ("world", "errors", "commands")
 #: Plot name of the estimates against the truth, written when the job gives its estimates.
 ESTIMATION_PLOT = "estimation"
+#: Plot name of a balancing robot's pitch, written when its runs logged their balance loop.
+PITCH_PLOT = "pitch"
 
 
 def _styles(logs: Mapping[str, RunLog]) -> dict[str, tuple[str, tuple[float, ...], str]]:
@@ -72,6 +77,17 @@ def world_figure(world: World, trajectory: Trajectory, logs: Mapping[str, RunLog
     # the legend beside the arena, so it covers none of it
     ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, fontsize=8)
     ax.set_title(title or "paths")
+    fig.tight_layout()
+    return fig
+
+
+def _finish(fig: Figure, ax: Any, labels: tuple[str, str], title: str, fontsize: int) -> Figure:
+    """Label a one-axes figure (x, y), grid, legend and title it, and lay it out."""
+    ax.set_xlabel(labels[0])
+    ax.set_ylabel(labels[1])
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize=fontsize)
+    ax.set_title(title)
     fig.tight_layout()
     return fig
 
@@ -132,6 +148,29 @@ def commands_figure(logs: Mapping[str, RunLog], robot: RobotSpec, *, title: str 
     return fig
 
 
+def pitch_figure(logs: Mapping[str, RunLog], *, title: str = "") -> Figure | None:
+    """A balancing robot's pitch [rad] against time [s]: the truth (from the base's orientation), the
+    balance loop's estimate (thin) and its set-point (dotted), one colour per run; None when no run
+    logged a balance loop."""
+    runs = {label: log for label, log in logs.items() if log.balance is not None}
+    if not runs:
+        return None
+    fig = Figure(figsize=(8.0, 4.2), dpi=110)
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    styles = _styles(runs)
+    for label, log in runs.items():
+        name, color, ls = styles[label]
+        bal = log.balance
+        assert bal is not None
+        ax.plot(log.t, body_pitch(log.qpos[:, 3:7]), color=color, ls=ls, label=f"{name} pitch")
+        ax.plot(bal.t, bal.pitch_estimate, color=color, lw=0.6, alpha=0.7, label=f"{name} estimate")
+        ax.plot(bal.t, bal.pitch_setpoint, color=color, lw=0.8, ls=":", label=f"{name} set-point")
+        if bal.fell_at is not None:
+            ax.axvline(bal.fell_at, color="#c0392b", lw=1.0, label=f"{name} fell")
+    return _finish(fig, ax, ("time [s]", "pitch [rad]"), title or "pitch and its set-point", 7)
+
+
 def job_figures(
     world: World,
     robot: RobotSpec,
@@ -142,7 +181,8 @@ def job_figures(
     estimation: EstimationSeries | None = None,
 ) -> dict[str, Figure]:
     """Every report figure of a job, by name: :data:`PLOTS`, then :data:`ESTIMATION_PLOT` when
-    ``estimation`` (the estimates against the truth) is given."""
+    ``estimation`` (the estimates against the truth) is given and :data:`PITCH_PLOT` for a balancing
+    robot."""
     figs = {
         "world": world_figure(world, trajectory, logs, title=title),
         "errors": errors_figure(logs, title=title),
@@ -150,4 +190,7 @@ def job_figures(
     }
     if estimation is not None:
         figs[ESTIMATION_PLOT] = estimation.figure(title=title)
+    pitch = pitch_figure(logs, title=title)
+    if pitch is not None:
+        figs[PITCH_PLOT] = pitch
     return figs

@@ -1,0 +1,354 @@
+"""The balance firmware's design from the robot's model, and its profile.
+
+Linearisation. :func:`linearise_upright` settles the robot upright on the floor with no voltage
+(upright is an equilibrium: the body's centre of mass is above the axle) and asks MuJoCo for the
+one-step transition Jacobians ``A = d x_{k+1} / d x_k`` and ``B = d x_{k+1} / d u_k`` by centred
+finite differences (``mujoco.mjd_transitionFD``; x = (tangent-space positions, velocities), 2 nv
+states). The free joint's tangent coordinates at a level, heading-0 base are the world x, y, z and
+the small rotations about x, y, z; the wheel joints' are their angles relative to the body.
+
+Reduction. The balance loop sees the sagittal plane only: pitch theta (rotation about y, positive
+tipping the top forward), the wheel position phi (the mean wheel angle in the world, mean joint
+angle + theta) and their rates. A sagittal state s lifts to the full state by ``L`` (base x = r phi
+as the tyres roll without slipping, pitch = theta, each joint angle = phi - theta; the same for the
+rates) and comes back by ``P`` (theta = the pitch coordinate, phi = mean joint angle + pitch). The
+period-T map of the full model with the voltage held (n = T / timestep steps) is ``A^n`` and
+``sum_i A^i B``; its sagittal part is ``P A^n L`` and ``P sum_i A^i B (1, 1)`` (one common voltage).
+The integral of the wheel-position error adds a fifth state, ``z_{k+1} = z_k + T phi_k``.
+
+Design. A discrete LQR on that model (``scipy.linalg.solve_discrete_are``) with Bryson weights from
+the profile gives the gains ``K`` of :class:`control.balance.BalanceController`; the closed loop's
+poles ``eig(A - B K)`` must lie inside the unit disc (:func:`check_closed_loop`).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+from control.balance import STATE_NAMES, BalanceGains
+from planning.core.geometry import Pose2D
+from planning.core.robot import MODELS_DIR, load_robot
+from planning.errors import ConfigError
+from sim.physics.model import build_model, set_pose
+from sim.physics.motors import MotorModel, whole_steps
+
+FloatArray = NDArray[np.float64]
+
+BALANCE_DIR = MODELS_DIR / "balance"
+#: Profile keys: table -> keys.
+PROFILE_KEYS = {
+    "balance": ("rate", "filter_time_constant", "tip_angle", "max_lean"),
+    "weights": ("theta_max", "theta_dot_max", "phi_max", "phi_dot_max", "phi_integral_max", "voltage_max"),
+    "turn": ("kp", "ki"),
+    "gains": ("k",),
+}
+#: Free-joint tangent indices: base x, pitch; wheel joints follow the free joint's 6.
+DOF_X, DOF_PITCH, DOF_WHEELS = 0, 4, (6, 7)
+
+
+@dataclass(frozen=True)
+class BalanceProfile:
+    """A balancing robot's firmware settings (``models/balance/<robot>.toml``).
+
+    Attributes:
+        rate: Updates per second [Hz].
+        filter_time_constant: Complementary filter's tau [s].
+        tip_angle: |pitch| beyond which the robot has fallen [rad].
+        max_lean: Lean allowed for the planned accelerations [rad] (:func:`balance_accel_limit`).
+        maxima: (5,) Bryson maxima of :data:`control.balance.STATE_NAMES` [rad, rad/s, rad, rad/s, rad s].
+        voltage_max: Bryson maximum of the voltage [V].
+        turn_kp: Turn loop's proportional gain [V s/rad].
+        turn_ki: Turn loop's integral gain [V/rad].
+        k: (5,) stored gains [V per state unit].
+        path: The file it was read from.
+    """
+
+    rate: float
+    filter_time_constant: float
+    tip_angle: float
+    max_lean: float
+    maxima: tuple[float, ...]
+    voltage_max: float
+    turn_kp: float
+    turn_ki: float
+    k: tuple[float, ...]
+    path: Path
+
+
+def balance_accel_limit(model: mujoco.MjModel, lean: float, gravity: float | None = None) -> float:
+    """The forward acceleration [m/s^2] a balancing robot holds with its body leaning by ``lean`` [rad].
+
+    Derivation. Take the sagittal model of the robot (axle position x, pitch theta): body mass M,
+    centre of mass l above the axle, pitch inertia I; both wheels' mass m and axle inertia J; the
+    motors' rotor inertia J_a on the joints; motor torque tau on the wheels (and -tau on the body).
+    Linearised about upright, Lagrange's equations read::
+
+        (m + M + (J + J_a) / r^2) x'' + (M l - J_a / r) theta'' = tau / r
+        (M l - J_a / r) x'' + (I + M l^2 + J_a) theta''      = M g l theta - tau
+
+    A steady acceleration x'' = a at a steady lean (theta'' = 0) needs tau = r a (m + M + (J + J_a)
+    / r^2) from the first line and then, from the second, a lean of::
+
+        theta = a (M l + r (m + M) + J / r) / (M g l)
+
+    (the rotor terms cancel): a forward acceleration needs a forward lean first, the body's weight
+    supplying the torque that tips it along. So ``a_max = lean M g l / (M l + r (m + M) + J / r)``.
+    For the EduMIP's numbers [B] theta / a = 0.207 rad per m/s^2: 1 m/s^2 leans it 11.9 deg.
+
+    Args:
+        model: The compiled model (base body, ``wheel_left`` body and ``wheel_left_geom`` tyre).
+        lean: The lean allowed for acceleration [rad].
+        gravity: g [m/s^2]; the model's if None.
+    """
+    base, wheel = model.body("base").id, model.body("wheel_left").id
+    mass_b, height = float(model.body_mass[base]), float(model.body_ipos[base][2])
+    r = float(model.geom_size[model.geom("wheel_left_geom").id][0])
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, model.body_iquat[wheel])
+    rot3 = rot.reshape(3, 3)
+    axle_inertia = 2.0 * float((rot3 @ np.diag(model.body_inertia[wheel]) @ rot3.T)[1, 1])
+    mass_w = 2.0 * float(model.body_mass[wheel])
+    g = -float(model.opt.gravity[2]) if gravity is None else gravity
+    moment = mass_b * height
+    return lean * moment * g / (moment + r * (mass_w + mass_b) + axle_inertia / r)
+
+
+def is_balancing(robot: str) -> bool:
+    """True when the robot has a balance profile (``models/balance/<robot>.toml``): it balances."""
+    return (BALANCE_DIR / f"{robot}.toml").is_file()
+
+
+def balance_profile_path(robot: str) -> Path:
+    """``models/balance/<robot>.toml``.
+
+    Raises:
+        ConfigError: The robot has no balance profile (it does not balance).
+    """
+    path = BALANCE_DIR / f"{robot}.toml"
+    if not path.is_file():
+        known = ", ".join(sorted(p.stem for p in BALANCE_DIR.glob("*.toml")))
+        raise ConfigError(f"robot {robot!r} has no balance profile {path}: balancing robots are {known}")
+    return path
+
+
+def load_balance_profile(robot: str) -> BalanceProfile:
+    """Read a balancing robot's profile.
+
+    Raises:
+        ConfigError: No profile, or a table or key is missing or not a number (named).
+    """
+    path = balance_profile_path(robot)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise ConfigError(f"cannot read balance profile {path}: {exc}") from exc
+    values: dict[str, Any] = {}
+    for table, keys in PROFILE_KEYS.items():
+        for key in keys:
+            value = data.get(table, {}).get(key)
+            ok = isinstance(value, list) and all(isinstance(x, (int, float)) for x in value)
+            if not (ok or (isinstance(value, (int, float)) and not isinstance(value, bool))):
+                raise ConfigError(
+                    f"{path}: [{table}] {key} must be a number (or a list of numbers for k), got {value!r}"
+                )
+            values[f"{table}.{key}"] = value
+    w = PROFILE_KEYS["weights"]
+    return BalanceProfile(
+        rate=float(values["balance.rate"]),
+        filter_time_constant=float(values["balance.filter_time_constant"]),
+        tip_angle=float(values["balance.tip_angle"]),
+        max_lean=float(values["balance.max_lean"]),
+        maxima=tuple(float(values[f"weights.{key}"]) for key in w[:-1]),
+        voltage_max=float(values["weights.voltage_max"]),
+        turn_kp=float(values["turn.kp"]),
+        turn_ki=float(values["turn.ki"]),
+        k=tuple(float(x) for x in values["gains.k"]),
+        path=path,
+    )
+
+
+def linearise_upright(model: mujoco.MjModel, eps: float = 1e-6) -> tuple[FloatArray, FloatArray]:
+    """One-step Jacobians of the model at rest upright on the floor, no voltage.
+
+    Args:
+        model: The compiled robot model (its scene).
+        eps: Finite-difference step.
+
+    Returns:
+        A (2 nv, 2 nv) and B (2 nv, nu) of ``mujoco.mjd_transitionFD`` (centred differences).
+    """
+    d = mujoco.MjData(model)
+    set_pose(model, d, Pose2D(0.0, 0.0, 0.0), settle=0.5)
+    n = 2 * model.nv + model.na
+    a, b = np.zeros((n, n)), np.zeros((n, model.nu))
+    mujoco.mjd_transitionFD(model, d, eps, True, a, b, None, None)
+    return a, b
+
+
+def sagittal_maps(model: mujoco.MjModel, wheel_radius: float) -> tuple[FloatArray, FloatArray]:
+    """``L`` (2 nv, 4) lifting (theta, phi, theta_dot, phi_dot) to the full tangent state and ``P`` (4, 2 nv)
+    bringing it back (see the module docstring)."""
+    nv = model.nv
+    lift, proj = np.zeros((2 * nv, 4)), np.zeros((4, 2 * nv))
+    for off, (i_th, i_phi) in ((0, (0, 1)), (nv, (2, 3))):
+        lift[off + DOF_X, i_phi] = wheel_radius
+        lift[off + DOF_PITCH, i_th] = 1.0
+        proj[i_th, off + DOF_PITCH] = 1.0
+        proj[i_phi, off + DOF_PITCH] = 1.0
+        for w in DOF_WHEELS:
+            lift[off + w, i_phi], lift[off + w, i_th] = 1.0, -1.0
+            proj[i_phi, off + w] = 0.5
+    return lift, proj
+
+
+def sagittal_model(
+    model: mujoco.MjModel, wheel_radius: float, period: float, jacobians: tuple[FloatArray, FloatArray] | None = None
+) -> tuple[FloatArray, FloatArray]:
+    """The balance loop's plant over one period, with the wheel-position integral.
+
+    Args:
+        model: The compiled robot model.
+        wheel_radius: r [m].
+        period: Loop period T [s], a whole number of physics steps.
+        jacobians: (A, B) of :func:`linearise_upright`, computed if None.
+
+    Returns:
+        A (5, 5) and B (5, 1) over the state :data:`control.balance.STATE_NAMES`, input the common
+        voltage [V].
+    """
+    steps = whole_steps(period, float(model.opt.timestep))
+    if not steps:
+        raise ConfigError(
+            f"balance period {period:g} s is not a whole number of {model.opt.timestep:g} s physics steps"
+        )
+    a, b = jacobians if jacobians is not None else linearise_upright(model)
+    an, bn = np.eye(a.shape[0]), np.zeros_like(b)
+    for _ in range(steps):
+        bn = a @ bn + b
+        an = a @ an
+    lift, proj = sagittal_maps(model, wheel_radius)
+    a4, b4 = proj @ an @ lift, proj @ bn @ np.ones(b.shape[1])
+    order = [0, 2, 1, 3]  # (theta, phi, theta_dot, phi_dot) -> (theta, theta_dot, phi, phi_dot)
+    a4, b4 = a4[np.ix_(order, order)], b4[order]
+    a5 = np.zeros((5, 5))
+    a5[:4, :4] = a4
+    a5[4, 2], a5[4, 4] = period, 1.0
+    b5 = np.zeros((5, 1))
+    b5[:4, 0] = b4
+    return a5, b5
+
+
+def lqr_gains(a: FloatArray, b: FloatArray, maxima: tuple[float, ...], voltage_max: float) -> FloatArray:
+    """Discrete LQR gains K (1, n) with Bryson weights Q = diag(1 / maxima^2), R = 1 / voltage_max^2."""
+    q = np.diag(1.0 / np.square(np.asarray(maxima, dtype=float)))
+    r = np.array([[1.0 / voltage_max**2]])
+    p = scipy.linalg.solve_discrete_are(a, b, q, r)
+    return np.linalg.solve(r + b.T @ p @ b, b.T @ p @ a)  # type: ignore[no-any-return]
+
+
+def check_closed_loop(a: FloatArray, b: FloatArray, k: FloatArray | tuple[float, ...]) -> NDArray[np.complex128]:
+    """The closed loop's poles ``eig(A - B K)``, checked to lie inside the unit disc.
+
+    Raises:
+        ConfigError: A pole on or outside the unit circle (named, with its magnitude).
+    """
+    gains = np.atleast_2d(np.asarray(k, dtype=float))
+    poles = np.linalg.eigvals(a - b @ gains)
+    worst = poles[np.argmax(np.abs(poles))]
+    if not np.abs(worst) < 1.0:
+        raise ConfigError(
+            f"balance gains k={gains.ravel().round(4).tolist()} destabilise the loop: closed-loop pole "
+            f"{worst.real:.4f}{worst.imag:+.4f}j has |z| = {abs(worst):.4f} >= 1 at the loop's rate; "
+            f"recompute them with sim.physics.balance.design_report"
+        )
+    return np.asarray(poles, dtype=complex)
+
+
+@dataclass(frozen=True)
+class BalanceDesign:
+    """A balance loop designed from a model.
+
+    Attributes:
+        a: (5, 5) plant over one period.
+        b: (5, 1) its input (common voltage).
+        k: (5,) LQR gains.
+        poles: (5,) complex closed-loop poles.
+        open_loop: (5,) complex open-loop poles (one outside the unit disc: the pendulum).
+    """
+
+    a: FloatArray
+    b: FloatArray
+    k: FloatArray
+    poles: NDArray[np.complex128]
+    open_loop: NDArray[np.complex128]
+
+
+def design_balance(robot: str, model: mujoco.MjModel | None = None) -> BalanceDesign:
+    """Design a balancing robot's loop from its model and profile weights.
+
+    Args:
+        robot: Registry name of a balancing robot.
+        model: Its compiled model (the drawing's if None).
+    """
+    spec = load_robot(robot)
+    prof = load_balance_profile(robot)
+    m = model if model is not None else build_model(spec).model
+    a, b = sagittal_model(m, spec.wheel_radius, 1.0 / prof.rate)
+    k = lqr_gains(a, b, prof.maxima, prof.voltage_max)
+    return BalanceDesign(a, b, k.ravel(), check_closed_loop(a, b, k), np.asarray(np.linalg.eigvals(a), dtype=complex))
+
+
+@functools.lru_cache(maxsize=8)
+def _drawing_plant(robot: str, rate: float) -> tuple[FloatArray, FloatArray, MotorModel]:
+    spec = load_robot(robot)
+    model = build_model(spec).model
+    a, b = sagittal_model(model, spec.wheel_radius, 1.0 / rate)
+    return a, b, MotorModel.from_model(model)
+
+
+def balance_gains(robot: str, k: tuple[float, ...] | None = None) -> BalanceGains:
+    """The firmware gains of a balancing robot: its profile's stored gains (or ``k``), checked stable
+    (:func:`check_closed_loop`) on the linearisation of the robot as drawn, the model the firmware
+    knows (as a tracker knows the drawing, not the build), before a run.
+
+    Raises:
+        ConfigError: The gains destabilise the loop (the offending pole named).
+    """
+    prof = load_balance_profile(robot)
+    gains = prof.k if k is None else tuple(float(x) for x in k)
+    a, b, motor = _drawing_plant(robot, prof.rate)
+    check_closed_loop(a, b, gains)
+    return BalanceGains(
+        rate=prof.rate,
+        k=gains,
+        filter_time_constant=prof.filter_time_constant,
+        kff=motor.battery_voltage / motor.no_load_speed,
+        turn_kp=prof.turn_kp,
+        turn_ki=prof.turn_ki,
+        battery_voltage=motor.battery_voltage,
+    )
+
+
+def design_report(robot: str) -> str:
+    """The design of a balancing robot's loop as text: its poles and the profile's ``[gains]`` line."""
+    design = design_balance(robot)
+    slowest = float(np.abs(design.poles).max())
+    rate = load_balance_profile(robot).rate
+    return "\n".join(
+        [
+            f"open-loop poles: {np.round(design.open_loop, 5).tolist()}",
+            f"closed-loop poles: {np.round(design.poles, 5).tolist()} (max |z| = {slowest:.5f})",
+            f"slowest time constant: {-1.0 / (math.log(slowest) * rate):.3f} s",
+            "k = [" + ", ".join(f"{x:.6g}" for x in design.k) + "]  # " + ", ".join(STATE_NAMES),
+        ]
+    )

@@ -1,0 +1,141 @@
+"""The balancing EduMIP's balance loop: linearisation, design, stability, standing, pushes and falls."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from control.balance import BalanceController
+from planning.core.robot import load_robot
+from planning.errors import ConfigError
+from sim.physics.asbuilt import AsBuilt
+from sim.physics.balance import (
+    balance_accel_limit,
+    balance_gains,
+    design_balance,
+    linearise_upright,
+    load_balance_profile,
+)
+from sim.physics.balancing import Push, run_balance
+from sim.physics.model import build_model
+
+NAME = "edumip-balancing"
+
+
+def pendulum_eigenvalue(model: mujoco.MjModel) -> float:
+    """The unstable root [1/s] of the wheeled inverted pendulum of the model's parameters.
+
+    Coordinates x (axle position) and theta (pitch); body mass M, centre of mass l (h in the code) above the axle,
+    pitch inertia I about it; wheels of mass m and axle inertia J (both wheels), the motors'
+    rotors J_a on the joint (wheel relative to body) and their back-EMF damping b (both motors):
+
+        [m + M + (J + J_a) / r^2,  M l - J_a / r] [x'']   [0      ]   [1 / r]
+        [M l - J_a / r,    I + M l^2 + J_a      ] [th''] = [M g l th] - [-1   ] b (x' / r - th')
+    """
+    base, wheel = model.body("base").id, model.body("wheel_left").id
+    big_m, h, i_b = model.body_mass[base], model.body_ipos[base][2], model.body_inertia[base][1]
+    r = model.geom_size[model.geom("wheel_left_geom").id][0]
+    rot = np.empty(9)  # the wheel's principal axes back to its frame
+    mujoco.mju_quat2Mat(rot, model.body_iquat[wheel])
+    rot = rot.reshape(3, 3)
+    j_w = 2 * (rot @ np.diag(model.body_inertia[wheel]) @ rot.T)[1, 1]
+    m_w, j_a = 2 * model.body_mass[wheel], 2 * model.dof_armature[model.joint("wheel_left_joint").dofadr[0]]
+    b = -2 * model.actuator_biasprm[model.actuator("wheel_left_motor").id][2]
+    g = -model.opt.gravity[2]
+    mass = np.array(
+        [[m_w + big_m + (j_w + j_a) / r**2, big_m * h - j_a / r], [big_m * h - j_a / r, i_b + big_m * h * h + j_a]]
+    )
+    c = np.array([1 / r, -1.0])
+    minv = np.linalg.inv(mass)
+    a = np.block([[np.zeros((2, 2)), np.eye(2)], [minv @ np.diag([0.0, big_m * g * h]), -minv @ (b * np.outer(c, c))]])
+    return float(np.max(np.linalg.eigvals(a).real))
+
+
+def test_linearisation_matches_the_inverted_pendulum() -> None:
+    """MuJoCo's finite-difference linearisation at upright has one unstable mode, the pendulum's
+    exp(lambda dt); soft contacts and the integrator move it by well under 1 %."""
+    model = build_model(load_robot(NAME)).model
+    a, _ = linearise_upright(model)
+    eig = np.linalg.eigvals(a)
+    unstable = eig[np.abs(eig) > 1.0 + 1e-6]
+    assert len(unstable) == 1
+    measured = math.log(abs(unstable[0])) / model.opt.timestep
+    expected = pendulum_eigenvalue(model)
+    assert expected == pytest.approx(8.50, abs=0.01)  # the [B] numbers: sqrt-like growth of 8.5 /s
+    assert measured == pytest.approx(expected, rel=0.01)
+
+
+def test_design_reproduces_the_profile_and_is_stable() -> None:
+    design = design_balance(NAME)
+    prof = load_balance_profile(NAME)
+    np.testing.assert_allclose(design.k, prof.k, rtol=1e-4)
+    assert np.max(np.abs(design.open_loop)) > 1.0  # the pendulum
+    assert np.max(np.abs(design.poles)) < 1.0  # every closed-loop pole inside the unit disc at 200 Hz
+    assert prof.rate == 200.0
+
+
+@pytest.mark.parametrize(
+    ("k", "pole"),
+    [((0.0, 0.0, 0.0, 0.0, 0.0), r"\|z\| = 1\.04"), ((49.3772, 4.98, 1.98, 1.38, 0.75), r"\|z\| = ")],
+)
+def test_destabilising_gains_are_rejected_naming_the_pole(k: tuple[float, ...], pole: str) -> None:
+    with pytest.raises(ConfigError, match=r"destabilise the loop: closed-loop pole .*" + pole):
+        balance_gains(NAME, k)
+
+
+def test_complementary_filter_follows_the_tilt_and_rejects_gyro_bias() -> None:
+    """Held at 0.1 rad with a gyroscope biased by 0.01 rad/s, the estimate settles at 0.1 + tau b."""
+    gains = balance_gains(NAME)
+    c = BalanceController(gains)
+    tilt, bias = 0.1, 0.01
+    accel = 9.81 * np.array([-math.sin(tilt), 0.0, math.cos(tilt)])
+    for _ in range(round(5.0 * gains.rate)):  # 10 filter time constants
+        c.update(bias, accel, (0.0, 0.0), (0.0, 0.0))
+    assert c.theta == pytest.approx(tilt + gains.filter_time_constant * bias, abs=1e-4)
+
+
+def lean(build: AsBuilt) -> float:
+    """The pitch [rad] that puts the as-built centre of mass over the axle: atan(-dx / l)."""
+    return math.atan2(-build.com_offset_x, 0.0477)
+
+
+@pytest.mark.parametrize("build_seed", [0, 1, 2])
+def test_stands_for_a_minute(build_seed: int) -> None:
+    """60 s with sensor noise on an as-built draw: within 3 deg of its balance point after the first
+    second, drifting at most 2 cm."""
+    build = AsBuilt.draw(NAME, build_seed)
+    run = run_balance(load_robot(NAME), 60.0, build=build, seed=build_seed)
+    assert run.fell_at is None
+    settled = run.times >= 1.0
+    assert np.max(np.abs(run.pitch[settled] - lean(build))) <= math.radians(3.0)
+    assert run.drift <= 0.02
+
+
+def test_a_push_is_recovered_and_a_big_one_is_a_fall() -> None:
+    robot, build = load_robot(NAME), AsBuilt.draw(NAME, 0)
+    run = run_balance(robot, 6.0, build=build, push=Push(0.05, 1.0))
+    assert run.fell_at is None
+    assert math.radians(8.0) < run.max_pitch < math.radians(30.0)  # it was felt
+    assert abs(run.pitch[-1] - lean(build)) <= math.radians(3.0)
+    fall = run_balance(robot, 6.0, build=build, push=Push(0.3, 1.0))
+    assert fall.fell_at is not None and 1.0 < fall.fell_at < 2.0
+    assert fall.times[-1] == pytest.approx(fall.fell_at, abs=0.006)  # the run ended there
+
+
+def test_acceleration_limit_comes_from_the_lean() -> None:
+    """The model's acceleration limit is the profile's lean through the steady-lean relation, checked
+    here against a run: held at that acceleration, the nominal robot leans by the profile's lean."""
+    robot = load_robot(NAME)
+    model = build_model(robot).model
+    prof = load_balance_profile(NAME)
+    a_max = balance_accel_limit(model, prof.max_lean)
+    assert a_max == pytest.approx(0.337, abs=0.001)
+    assert robot.max_accel == math.floor(a_max * 100) / 100
+    accel = 0.3  # m/s^2 for 1.5 s from rest: wheel speed a t / r
+    run = run_balance(robot, 2.0, command=lambda t: (min(t, 1.5) * accel / 0.034,) * 2)
+    steady = (run.times > 1.0) & (run.times < 1.5)
+    expected = prof.max_lean * accel / a_max
+    assert np.mean(run.pitch[steady]) == pytest.approx(expected, rel=0.15)

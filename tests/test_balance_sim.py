@@ -1,0 +1,103 @@
+"""The balancing EduMIP in the simulator: its balance loop under the tracker, pushes and falls."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from control.base import make_tracker
+from planning.core.geometry import Pose2D
+from planning.core.robot import load_robot
+from planning.errors import ConfigError
+from planning.trajectory.references import make_reference
+from sim.physics.balancing import body_pitch
+from sim.physics.metrics import compute_metrics
+from sim.physics.perturb import Perturbation
+from sim.physics.simulator import Simulator
+from sim.pipeline.runs import RunKind
+from sim.pipeline.simulate import simulate_plan, simulate_reference
+from sim.viz.plots.run import pitch_figure
+
+NAME = "edumip-balancing"
+
+
+def test_tracks_a_circle_balancing() -> None:
+    job = simulate_reference("open", robot=NAME, reference="circle", runs=[RunKind.CLOSED_LOOP])
+    m = job.metrics["closed_loop"]
+    assert m.fell is False and m.fall_time_s is None and m.status == "ok"
+    assert m.final_position_error_m <= 0.02 and m.rms_position_error_m <= 0.03
+    assert m.max_pitch_rad is not None and 0.0 < m.max_pitch_rad <= math.radians(20.0)
+    assert m.warnings == 0 and m.collisions == 0
+    record = m.as_dict()
+    assert {"max_pitch_rad", "fell", "fall_time_s"} <= record.keys()
+    log = job.logs["closed_loop"]
+    bal = log.balance
+    assert bal is not None and len(bal.t) > 0.9 * 200 * (log.t[-1] - log.t[0])
+    # the complementary filter follows the true pitch: RMS error under 1 deg (gyro and accelerometer noise
+    # and biases of the profile, the accelerometer's share of the driving accelerations)
+    truth = np.interp(bal.t, log.t, body_pitch(log.qpos[:, 3:7]))
+    assert float(np.sqrt(np.mean((bal.pitch_estimate - truth) ** 2))) < math.radians(1.0)
+    fig = pitch_figure(job.logs)
+    assert fig is not None and len(fig.axes[0].lines) == 3
+
+
+def test_skid_records_have_no_balance_fields() -> None:
+    job = simulate_reference("open", robot="edumip", reference="circle", runs=[RunKind.CLOSED_LOOP])
+    assert "max_pitch_rad" not in job.metrics["closed_loop"].as_dict()
+    assert pitch_figure(job.logs) is None
+
+
+def test_a_push_too_large_is_a_reported_fall_that_ends_the_run() -> None:
+    robot = load_robot(NAME)
+    traj = make_reference("line", robot, Pose2D(0.0, 0.0, 0.0))
+    log = Simulator(robot).run(traj, make_tracker("fbl", robot), perturbation=Perturbation(push=(0.5, 2.0)))
+    assert log.status.startswith("fell at t=2.0")
+    assert log.balance is not None and log.balance.fell_at is not None and 2.0 <= log.balance.fell_at < 2.2
+    assert log.t[-1] - log.t[0] < 2.3 < traj.duration  # the run ended at the fall
+    m = compute_metrics(log, traj, max_speed=robot.max_speed, max_yaw_rate=robot.max_yaw_rate,
+                        max_wheel_speed=robot.max_wheel_speed)  # fmt: skip
+    assert m.fell is True and m.fall_time_s == log.balance.fell_at
+
+
+def test_push_parses_and_is_refused_on_a_skid_robot() -> None:
+    p = Perturbation.parse("push=0.05@10,latency=0.02")
+    assert p.push == (0.05, 10.0) and p.latency == 0.02 and not p.is_nominal
+    assert p.label() == "latency=0.02,push=0.05@10" and p.as_dict()["push"] == [0.05, 10.0]
+    for bad, match in (("push=0.05", "IMPULSE@TIME"), ("push=2@1", r"push impulse=2.0 is outside"),
+                       ("push=0.1@-1", "push time")):  # fmt: skip
+        with pytest.raises(ConfigError, match=match):
+            Perturbation.parse(bad)
+    robot = load_robot("edumip")
+    traj = make_reference("line", robot, Pose2D(0.0, 0.0, 0.0))
+    with pytest.raises(ConfigError, match="does not balance"):
+        Simulator(robot).run(traj, make_tracker("fbl", robot), perturbation=Perturbation(push=(0.05, 1.0)))
+
+
+@pytest.mark.slow
+def test_default_scenario_plan_within_the_targets() -> None:
+    """The default scenario's C-RRT* plan, tracked balancing with sensor noise and an as-built draw:
+    ends within 2 cm and 0.05 rad, RMS <= 3 cm, |pitch| <= 20 deg, no fall, contact or warning."""
+    job = simulate_plan("edumip_map", planner="c-rrt-star", robot=NAME, runs=[RunKind.CLOSED_LOOP])
+    m = job.metrics["closed_loop"]
+    assert m.fell is False and m.status == "ok" and m.collisions == 0 and m.warnings == 0
+    assert m.final_position_error_m <= 0.02 and m.final_heading_error_rad <= 0.05
+    assert m.rms_position_error_m <= 0.03
+    assert m.max_pitch_rad is not None and m.max_pitch_rad <= math.radians(20.0)
+
+
+def test_sweep_judges_a_balancing_run_by_its_own_targets() -> None:
+    """RMS 3 cm and |pitch| <= 20 deg for a balancing run (2 cm for the others); a fall fails."""
+    from dataclasses import replace
+
+    from sim.physics.metrics import TrackingMetrics
+    from sim.pipeline.sweep import met_targets
+
+    base = TrackingMetrics(0.01, 0.01, 0.025, 0.05, 0.01, 0, 0, 0.0, 10.0)
+    assert not met_targets(base)  # 2.5 cm RMS misses the 2 cm of a skid robot
+    up = replace(base, max_pitch_rad=0.3, fell=False)
+    assert met_targets(up)
+    assert not met_targets(replace(up, max_pitch_rad=0.36))  # beyond 20 deg
+    assert not met_targets(replace(up, rms_position_error_m=0.031))
+    assert not met_targets(replace(up, fell=True, fall_time_s=3.0))
