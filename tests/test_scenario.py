@@ -80,7 +80,10 @@ def test_name_defaults_to_the_file_stem(tmp_path: Path) -> None:
         (("[0.5, 1.0]]", "[1.0, 0.0], [0.5, 1.0]]"), r"'world.obstacles\[3\].vertices'.*vertex 2 repeats vertex 1"),
         # a list or a table where a name belongs (these raised TypeError: unhashable type)
         (('type = "circle"', 'type = ["circle"]'), r"'world.obstacles\[0\].type': expected one of circle"),
-        (('robot = "turtlebot3"', 'robot = ["turtlebot3"]'), r"field 'robot': expected one of edumip, edumip-balancing, turtlebot3"),
+        (
+            ('robot = "turtlebot3"', 'robot = ["turtlebot3"]'),
+            r"field 'robot': expected one of edumip, edumip-balancing, turtlebot3",
+        ),
         (('robot = "turtlebot3"', 'robots = [{name = "edumip"}]'), r"field 'robots': expected a list of robot names"),
         (("[0.5, 1.0]]", "[1.0, 1.0], [0.0, 1.5], [2.0, 0.2]]"), r"obstacles\[3\].vertices'.*edges 1 and 3 cross"),
     ],

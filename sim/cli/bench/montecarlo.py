@@ -12,8 +12,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
     p.add_argument("--runs", type=int, default=32, metavar="N", help="runs of the study (default: 32)")
     p.add_argument("--workers", type=int, default=2, metavar="J", help="worker processes (default: 2)")
-    p.add_argument("--robot", choices=list(ROBOT_FILES), default="turtlebot3")
-    p.add_argument("--reference", choices=list(REFERENCES), default="line")
+    p.add_argument("--scenario", default=None, metavar="NAME", help="scenario (default: as simulate's, edumip_map)")
+    p.add_argument("--robot", choices=list(ROBOT_FILES), default=None, help="robot (default: the scenario's)")
+    p.add_argument("--reference", choices=list(REFERENCES), default=None, help="reference (default: the plan)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -25,10 +26,14 @@ def run(args: argparse.Namespace) -> int:
 
     if args.workers < 2:
         raise ConfigError(f"--workers must be >= 2 to compare with one worker, got {args.workers}")
-    spec = MonteCarloSpec(Case("open", robot=args.robot, reference=args.reference), args.runs)
+    from sim.cli.simulate import job_source
+
+    scenario, source = job_source(args.scenario, None, args.reference)
+    case = Case(scenario, robot=args.robot, planner=source.get("planner"), reference=source.get("reference"))
+    spec = MonteCarloSpec(case, args.runs)
     r = measure(spec, args.workers)
     per = 1.0 / r.runs
-    print(f"{r.runs} runs of open | {args.robot} | reference:{args.reference} (3 run kinds each)")
+    print(f"{r.runs} runs of {scenario} | {args.robot or 'its robot'} | {source} (3 run kinds each)")
     print(f"direct loop, this process   {r.direct_s:>8.2f} s   {r.direct_s * per:.3f} s/run")
     print(f"Dask, one worker            {r.one_worker_s:>8.2f} s   overhead {r.overhead:+.1%} per run "
           f"(target <= {TARGET_OVERHEAD:.0%})")  # fmt: skip
