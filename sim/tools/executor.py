@@ -13,7 +13,7 @@ Runs are submitted at once and their results yielded as they finish (``as_comple
 paired with its item, so the caller can store every result the moment it exists. Runs are pure
 functions of their item (and of one shared value, sent to each worker once): a worker that dies
 mid-run has its runs executed again elsewhere by the scheduler, and :attr:`Executor.retries` counts
-them (tasks that were on a worker when it died).
+them (batches of runs that were on a worker when it died).
 """
 
 from __future__ import annotations
@@ -28,6 +28,8 @@ from planning.errors import ConfigError, DependencyError
 T = TypeVar("T")
 R = TypeVar("R")
 
+#: Batches of runs per worker process (see :meth:`DaskExecutor.map_unordered`).
+BATCHES_PER_WORKER = 4
 #: Seconds to reach a scheduler before giving up.
 CONNECT_TIMEOUT_S = 10
 
@@ -72,6 +74,11 @@ class Executor:
         self.close()
 
 
+def _run_batch(fn: Callable[[Any, T], R], shared: Any, batch: list[T]) -> list[R]:
+    """One task: ``fn(shared, item)`` for each item of a batch, in order."""
+    return [fn(shared, item) for item in batch]
+
+
 def _suspicious(dask_scheduler: Any, keys: list[str]) -> int:  # pragma: no cover - runs on the scheduler
     """Runs on the scheduler: how many times the tasks ``keys`` were on a worker that died."""
     return sum(ts.suspicious for key in keys if (ts := dask_scheduler.tasks.get(key)) is not None)
@@ -113,19 +120,26 @@ class DaskExecutor(Executor):
         self.workers = max(1, len(self._client.scheduler_info().get("workers", {})))
 
     def map_unordered(self, fn: Callable[[Any, T], R], items: Sequence[T], shared: Any = None) -> Iterator[tuple[T, R]]:
-        """Submit every item, then yield ``(item, result)`` as each finishes; an error in a run is raised here."""
+        """Submit every item, then yield ``(item, result)`` as each finishes; an error in a run is raised here.
+
+        Items go in batches of about a quarter of an even share per worker (:data:`BATCHES_PER_WORKER`
+        batches each), so the scheduler's cost per task is paid once per batch while the last batches
+        still even out the workers' loads; a batch's results are yielded as soon as it is done.
+        """
         from dask.distributed import as_completed
 
         client = self._client
         if not items:
             return
         data = client.scatter(shared, broadcast=True) if shared is not None else None
-        futures = [client.submit(fn, data, item, pure=False) for item in items]
-        item_of = {f.key: item for f, item in zip(futures, items, strict=True)}
+        size = max(1, len(items) // (BATCHES_PER_WORKER * self.workers))
+        batches = [list(items[i : i + size]) for i in range(0, len(items), size)]
+        futures = [client.submit(_run_batch, fn, data, batch, pure=False) for batch in batches]
+        batch_of = {f.key: batch for f, batch in zip(futures, batches, strict=True)}
         try:
             for future in as_completed(futures):
-                yield item_of[future.key], future.result()
-            self.retries += int(client.run_on_scheduler(_suspicious, keys=list(item_of)))
+                yield from zip(batch_of[future.key], future.result(), strict=True)
+            self.retries += int(client.run_on_scheduler(_suspicious, keys=list(batch_of)))
         finally:
             client.cancel(futures)
 
