@@ -7,6 +7,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from sim.cli.job_outputs import add_case_arguments
+
 DESCRIPTION = """\
 Run several trackers on the same trajectory (an analytic reference, or one plan of the scenario,
 planned once), on the same as-built robot with the same sensor noise, each in the real robot's loop
@@ -35,24 +37,13 @@ DEFAULT_TRACKERS = "fbl,segmented,mpc,rpp,kanayama"
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Register the ``compare`` subcommand."""
-    from planning.core.robot import ROBOT_FILES
-    from planning.trajectory.references import REFERENCES
-
     p: argparse.ArgumentParser = sub.add_parser(
         "compare",
         help="several trackers on the same trajectory, robot and noise: a table, plots and one video",
         description=DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument(
-        "--scenario",
-        default=None,
-        metavar="NAME|PATH",
-        help="scenario (default: as simulate's: edumip_map; open with --reference)",
-    )
-    p.add_argument("--robot", choices=list(ROBOT_FILES), default=None, help="robot (default: the scenario's)")
-    p.add_argument("--reference", choices=list(REFERENCES), default=None, help="analytic reference to track")
-    p.add_argument("--planner", default=None, metavar="P", help="plan the scenario with P and track the plan")
+    add_case_arguments(p)
     p.add_argument("--trackers", default=DEFAULT_TRACKERS, metavar="A,B,...", help=f"(default: {DEFAULT_TRACKERS})")
     p.add_argument("--runs", type=int, default=1, metavar="N", help="runs per tracker on held-out draws (default: 1)")
     p.add_argument("--seed", type=int, default=0, help="seed of the plan and the noise (default: 0)")

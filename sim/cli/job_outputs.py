@@ -64,6 +64,24 @@ RUN_SETTINGS: dict[str, Any] = {
 }
 
 
+def add_case_arguments(p: argparse.ArgumentParser) -> None:
+    """``--scenario``, ``--robot`` and ``--planner`` / ``--reference``, decided by simulate's rule
+    (:func:`sim.cli.simulate.job_source`) for commands that run one case (compare, montecarlo)."""
+    from planning.core.robot import ROBOT_FILES
+    from planning.trajectory.references import REFERENCES
+
+    p.add_argument(
+        "--scenario",
+        default=None,
+        metavar="NAME|PATH",
+        help="scenario (default: as simulate's: edumip_map; open with --reference)",
+    )
+    p.add_argument("--robot", choices=list(ROBOT_FILES), default=None, help="robot (default: the scenario's)")
+    src = p.add_mutually_exclusive_group()
+    src.add_argument("--planner", default=None, metavar="P", help="plan with P (default: the scenario's planner)")
+    src.add_argument("--reference", choices=list(REFERENCES), default=None, help="track an analytic reference")
+
+
 def add_executor_arguments(p: argparse.ArgumentParser, *, what: str, default_jobs: str) -> None:
     """``--jobs J`` / ``--scheduler ADDRESS``: where ``what`` runs (see :mod:`sim.tools.executor`)."""
     where = p.add_mutually_exclusive_group()

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from planning.errors import OutputExistsError
-from sim.cli.job_outputs import DEFAULT_DIR, add_executor_arguments, sigterm_as_interrupt
+from sim.cli.job_outputs import DEFAULT_DIR, add_case_arguments, add_executor_arguments, sigterm_as_interrupt
 
 DESCRIPTION = """\
 Run one case N times, each run on its own as-built robot (--build-seed drawn per run), its own sensor
@@ -38,25 +38,13 @@ Exit status: 0 the study finished, 1 a run failed to run (not a missed target: t
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Register the ``montecarlo`` subcommand."""
-    from planning.core.robot import ROBOT_FILES
-    from planning.trajectory.references import REFERENCES
-
     p: argparse.ArgumentParser = sub.add_parser(
         "montecarlo",
         help="run one case on many as-built robots and noise draws; percentiles, rates, worst runs",
         description=DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument(
-        "--scenario",
-        default=None,
-        metavar="NAME|PATH",
-        help="scenario (default: as simulate's: edumip_map; open with --reference)",
-    )
-    p.add_argument("--robot", choices=list(ROBOT_FILES), default=None, help="robot (default: the scenario's)")
-    src = p.add_mutually_exclusive_group()
-    src.add_argument("--planner", default=None, metavar="P", help="plan with P (default: the scenario's planner)")
-    src.add_argument("--reference", choices=list(REFERENCES), default=None, help="track an analytic reference")
+    add_case_arguments(p)
     p.add_argument("--runs", type=int, required=True, metavar="N", help="number of runs (>= 1)")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the plan and of the draws (default: 0)")
     p.add_argument(
