@@ -60,7 +60,7 @@ def run_all(args: argparse.Namespace, gains: Any) -> int:
     """Run the sweep: print the table as rows come, the summary, and write the record with --json."""
     from sim.outputs import check_writable, write_json
     from sim.pipeline.case import PlanOptions
-    from sim.pipeline.sweep import sweep_cases, sweep_passed, sweep_record, sweep_task
+    from sim.pipeline.sweep import run_sweep, sweep_cases, sweep_passed, sweep_record
     from sim.tools.executor import make_executor
 
     if args.json is not None:
@@ -75,11 +75,8 @@ def run_all(args: argparse.Namespace, gains: Any) -> int:
         if executor.workers > 1 and not args.quiet:
             print(f"{len(cases)} cases on {executor.where} (rows print as they finish)", flush=True)
         print(header(), flush=True)
-        done = {}
-        for case, row in executor.map_unordered(sweep_task, cases):
-            print(format_row(row), flush=True)
-            done[case.name] = row
-    rows = [done[c.name] for c in cases]
+        show = lambda row: print(format_row(row), flush=True)
+        rows = run_sweep(cases, progress=show, mapper=executor.map_unordered)
     print("\n".join(summary(rows)))  # part of the results: printed with --quiet too
     if args.json is not None:
         write_json(args.json, sweep_record(rows), overwrite=args.overwrite)

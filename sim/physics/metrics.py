@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from planning.core.geometry import wrap_angle
+from planning.core.robot import RobotSpec
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.balancing import body_pitch
 from sim.physics.runlog import EstimationLog, RunLog
@@ -176,3 +177,14 @@ def balance_metrics(log: RunLog) -> dict[str, Any]:
     pitch = body_pitch(log.qpos[:, 3:7])
     fell_at = log.balance.fell_at
     return {"max_pitch_rad": float(np.max(np.abs(pitch))), "fell": fell_at is not None, "fall_time_s": fell_at}
+
+
+def robot_metrics(log: RunLog, trajectory: Trajectory, robot: RobotSpec) -> TrackingMetrics:
+    """:func:`compute_metrics` of a run with the robot's own speed, yaw-rate and wheel-speed limits."""
+    return compute_metrics(
+        log,
+        trajectory,
+        max_speed=robot.max_speed,
+        max_yaw_rate=robot.max_yaw_rate,
+        max_wheel_speed=robot.max_wheel_speed,
+    )

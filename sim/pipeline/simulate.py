@@ -24,7 +24,7 @@ from planning.scenario import Scenario
 from planning.trajectory.importer import TrajectoryFile
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import AsBuilt
-from sim.physics.metrics import TrackingMetrics, compute_metrics
+from sim.physics.metrics import TrackingMetrics, robot_metrics
 from sim.physics.perturb import Perturbation
 from sim.physics.runlog import RunLog
 from sim.physics.sensing import SensingSetup
@@ -249,13 +249,7 @@ def run_tracker(
         source=kind.source,
         sensing=sensing,
     )
-    metrics = compute_metrics(
-        log,
-        prepared.trajectory,
-        max_speed=robot.max_speed,
-        max_yaw_rate=robot.max_yaw_rate,
-        max_wheel_speed=robot.max_wheel_speed,
-    )
+    metrics = robot_metrics(log, prepared.trajectory, robot)
     return Run(kind, case.tracker_for(kind), log, metrics)
 
 

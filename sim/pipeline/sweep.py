@@ -15,7 +15,7 @@ is a failure of that case.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from typing import Any
@@ -229,15 +229,33 @@ def sweep_case(case: Case) -> SweepRow:
     )
 
 
-def run_sweep(cases: list[Case], *, progress: Callable[[SweepRow], None] | None = None) -> list[SweepRow]:
-    """Run every case (see :func:`sweep_case`), calling ``progress`` with each row as it is done."""
-    rows = []
-    for case in cases:
-        row = sweep_case(case)
-        rows.append(row)
+#: Runs ``fn(shared, item)`` for every item and yields ``(item, result)`` as each finishes: the
+#: ``map_unordered`` of an executor (:mod:`sim.tools.executor`, local processes or a Dask cluster).
+Mapper = Callable[[Callable[[Any, Case], SweepRow], list[Case]], Iterable[tuple[Case, SweepRow]]]
+
+
+def run_sweep(
+    cases: list[Case], *, progress: Callable[[SweepRow], None] | None = None, mapper: Mapper | None = None
+) -> list[SweepRow]:
+    """Run every case (see :func:`sweep_case`), calling ``progress`` with each row as it is done.
+
+    Args:
+        cases: The cases.
+        progress: Told each row as it is done (in the order they finish).
+        mapper: Where the cases run (see :data:`Mapper`); None: one after the other, here.
+
+    Returns:
+        The rows, in the order of ``cases``.
+    """
+    runs: Iterable[tuple[Case, SweepRow]] = (
+        ((case, sweep_case(case)) for case in cases) if mapper is None else mapper(sweep_task, cases)
+    )
+    done = {}
+    for case, row in runs:
+        done[case.name] = row
         if progress is not None:
             progress(row)
-    return rows
+    return [done[c.name] for c in cases]
 
 
 def sweep_task(shared: object, case: Case) -> SweepRow:

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import mujoco
@@ -82,7 +82,7 @@ class Episode:
     fix: tuple[float, float, float] | None = None
     fix_age: float = 0.0
     yaw: float = 0.0
-    measured: dict[int, tuple[float, float, float]] | None = None
+    measured: dict[int, tuple[float, float, float]] = field(default_factory=dict)
 
 
 class Physics(dm_mujoco.Physics):
@@ -163,7 +163,7 @@ class TrackingTask(control.Task):  # type: ignore[misc]
             n_periods=self.schedule.n_ctrl + 1, seed=self.sensing.seed + self.episodes,
         )  # fmt: skip
         self.episodes += 1
-        self.episode = Episode(recorder, PeriodPhysics(self.simulator, recorder), sensors, measured={})
+        self.episode = Episode(recorder, PeriodPhysics(self.simulator, recorder), sensors)
         physics.begin(self.episode)
         self._read_sensors(d)
 
@@ -201,7 +201,6 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         ep.gyro_z = sensors.gyro_z(k, rate)
         ep.accel = sensors.accel(k, s[self._accel_adr : self._accel_adr + 3])
         ep.yaw = truth[2]
-        assert ep.measured is not None
         if sensors.is_fix_period(k):
             ep.measured[k] = sensors.fix(k, truth)
         j = sensors.fix_arriving(k)

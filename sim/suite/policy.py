@@ -23,7 +23,7 @@ from control.base import Tracker, make_tracker, tracker_options
 from control.diffdrive import DiffDrive
 from control.estimation import PoseEstimator
 from control.fbl import FBLGains
-from sim.physics.metrics import TrackingMetrics, compute_metrics
+from sim.physics.metrics import TrackingMetrics, robot_metrics
 from sim.physics.runlog import RunLog
 from sim.physics.sources import PoseSource
 from sim.pipeline.runs import RunKind
@@ -116,12 +116,5 @@ def run_episode(env: control.Environment, policy: Callable[[dm_env.TimeStep], An
         ret += float(timestep.reward)
         steps += 1
     log = task.log()
-    robot = task.prepared.robot
-    metrics = compute_metrics(
-        log,
-        task.trajectory,
-        max_speed=robot.max_speed,
-        max_yaw_rate=robot.max_yaw_rate,
-        max_wheel_speed=robot.max_wheel_speed,
-    )
+    metrics = robot_metrics(log, task.trajectory, task.prepared.robot)
     return EpisodeResult(ret, steps, log, metrics)

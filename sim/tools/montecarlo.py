@@ -44,6 +44,9 @@ PATH_SPACING_S = 0.2
 PERCENTILES = (50, 90, 99)
 #: Metrics whose percentiles are reported.
 METRICS = ("final_position_error_m", "final_heading_error_rad", "rms_position_error_m", "max_position_error_m")
+#: Modules a worker imports before its first run (MuJoCo, the compiled kernels): see
+#: :meth:`sim.tools.executor.Executor.preload`.
+WORKER_MODULES = ("sim.tools.montecarlo", "sim.physics.simulator", "control.estimation.kernels")
 #: Worst runs listed per run kind (by final position error).
 WORST = 3
 
@@ -246,7 +249,7 @@ def run_montecarlo(
     if progress is not None:
         progress(done, spec.runs)
     shared = (spec, None if spec.replan else prepared)
-    executor.preload("sim.tools.montecarlo", "sim.physics.simulator", "control.estimation.kernels")
+    executor.preload(*WORKER_MODULES)
     for _, record in executor.map_unordered(run_one, todo, shared=shared):
         results.add(record)
         done += 1

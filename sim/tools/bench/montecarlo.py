@@ -23,8 +23,6 @@ from typing import Any
 #: Targets: throughput ratio on the workers, per-run overhead of the distributed path.
 TARGET_SPEEDUP = 1.7
 TARGET_OVERHEAD = 0.10
-#: Modules every worker imports before the timing starts (part of the start-up, as in ``nhsim montecarlo``).
-PRELOAD = ("sim.tools.montecarlo", "sim.physics.simulator", "control.estimation.kernels")
 
 
 @dataclass(frozen=True)
@@ -59,7 +57,7 @@ def measure(spec: Any, workers: int = 2) -> MonteCarloBench:
     """Time the study's runs directly, on one worker and on ``workers`` workers."""
     from sim.pipeline.case import prepare_trajectory
     from sim.tools.executor import DaskExecutor
-    from sim.tools.montecarlo import run_one
+    from sim.tools.montecarlo import WORKER_MODULES, run_one
 
     prepared = prepare_trajectory(spec.case)
     shared = (spec, None if spec.replan else prepared)
@@ -72,7 +70,7 @@ def measure(spec: Any, workers: int = 2) -> MonteCarloBench:
     for n in (1, workers):
         t0 = time.perf_counter()
         with DaskExecutor(jobs=n) as ex:
-            ex.preload(*PRELOAD)
+            ex.preload(*WORKER_MODULES)  # part of the start-up, as in nhsim montecarlo
             startup = max(startup, time.perf_counter() - t0)
             t1 = time.perf_counter()
             got = {item[0]: rec for item, rec in ex.map_unordered(run_one, items, shared=shared)}
