@@ -121,3 +121,17 @@ def test_bench_track_prints_every_tracker_and_mpc_solve_times() -> None:
         assert steps > 600 and 0 < mean and 0 < solve_p95 <= p95 + 1.0  # the solve is most of a step
     assert rows["kanayama"][7] == "-"  # no solver
     assert "target: 95th percentile" in r.stdout
+
+
+def test_compare_takes_a_path_file_as_simulate_reads_it(tmp_path: Path) -> None:
+    f = tmp_path / "nav.csv"
+    f.write_text("x,y\n" + "\n".join(f"{x!r},0.5" for x in np.linspace(-1.0, 0.0, 11).tolist()) + "\n")
+    out = tmp_path / "cmp.json"
+    r = nhsim("compare", "--path", str(f), "--trackers", "segmented,kanayama", "--json", str(out), "--quiet")
+    assert r.returncode == 0, r.stderr
+    rec = json.loads(out.read_text())
+    for name in ("segmented", "kanayama"):
+        summary = rec["trackers"][name]["summary"]
+        assert summary["final_m"] < 0.02 and summary["collisions"] == 0
+    bad = nhsim("compare", "--path", str(f), "--reference", "line", "--quiet")
+    assert bad.returncode == 2 and "drop --planner, --reference" in bad.stderr

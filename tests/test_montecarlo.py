@@ -166,3 +166,52 @@ def test_sweep_cases_on_two_workers_give_the_serial_rows() -> None:
     for case in cases:
         ours, theirs = rows[case.name], sweep_case(case)
         assert ours.outcome == theirs.outcome and ours.runs == theirs.runs  # every metric of every run, exactly
+
+
+def test_a_path_file_runs_as_a_study_resumes_and_replays(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``--path`` (issue 19's files) as simulate reads it: an arena around the file, every run judged
+    as a plan; the replay command reads the file again and gives the same run."""
+    import numpy as np
+
+    monkeypatch.chdir(tmp_path)
+    f = tmp_path / "nav.csv"
+    f.write_text("x,y\n" + "\n".join(f"{x!r},0.5" for x in np.linspace(-1.0, 0.0, 11).tolist()) + "\n")
+    argv = ["montecarlo", "--path", str(f), "--runs", "2", "--jobs", "1", "--quiet", "--no-plots"]
+    argv += ["--json", "mc.json", "--results", "mc.jsonl"]
+    assert main(argv) == 0
+    rec = json.loads((tmp_path / "mc.json").read_text())
+    assert rec["key"]["source"] == f"file:{f}" and rec["key"]["file"]["kind"] == "path"
+    assert rec["statistics"]["closed_loop"]["success_rate"] == 1.0
+    f.write_text(f.read_text().replace("0.0,0.5", "0.0,0.6"))  # another file: another study
+    with pytest.raises(ConfigError, match="another study"):
+        from sim.cli.montecarlo import _spec
+
+        ResultsFile(tmp_path / "mc.jsonl", _spec(build_argv(argv)).key())
+    f.write_text(f.read_text().replace("0.0,0.6", "0.0,0.5"))
+    worst = rec["statistics"]["closed_loop"]["worst"][0]
+    from sim.tools.montecarlo import replay_options
+
+    replay = ["simulate", *rec["replay_base"], *replay_options(worst), "--no-video", "--no-plots", "--quiet"]
+    assert main([*replay, "--runs", "closed_loop", "--json", "replay.json"]) == 0
+    again = json.loads((tmp_path / "replay.json").read_text())
+    assert again["closed_loop"]["final_position_error_m"] == worst["final_position_error_m"]
+
+
+def build_argv(argv: list[str]) -> object:
+    from sim.cli.main import build_parser
+
+    return build_parser().parse_args(argv)
+
+
+def test_replan_plans_each_run_with_its_own_seed(tmp_path: Path) -> None:
+    spec = MonteCarloSpec(Case("parallel_park", robot="turtlebot3", planner="birrt", seed=2), 2, replan=True)
+    result = run_montecarlo(spec, Executor(), ResultsFile(tmp_path / "r.jsonl", spec.key()))
+    for rec, draw in zip(result.records, spec.draws(), strict=True):
+        assert rec["plan_seed"] == rec["noise_seed"] == draw.seed != spec.case.seed
+        assert rec["runs"]["closed_loop"]["success"]
+    once = MonteCarloSpec(spec.case, 2)
+    assert once.key() != spec.key()  # replanned runs are another study
+    assert all(
+        r["plan_seed"] == 2
+        for r in run_montecarlo(once, Executor(), ResultsFile(tmp_path / "o.jsonl", once.key())).records
+    )

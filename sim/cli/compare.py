@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from sim.cli.job_outputs import add_case_arguments
+from sim.cli.trajectory_files import add_file_arguments
 
 DESCRIPTION = """\
 Run several trackers on the same trajectory (an analytic reference, or one plan of the scenario,
@@ -44,6 +45,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_case_arguments(p)
+    add_file_arguments(p)
     p.add_argument("--trackers", default=DEFAULT_TRACKERS, metavar="A,B,...", help=f"(default: {DEFAULT_TRACKERS})")
     p.add_argument("--runs", type=int, default=1, metavar="N", help="runs per tracker on held-out draws (default: 1)")
     p.add_argument("--seed", type=int, default=0, help="seed of the plan and the noise (default: 0)")
@@ -77,18 +79,18 @@ def _case(args: argparse.Namespace) -> Any:
     """The case of the comparison (the default job when neither a reference nor a planner is given)."""
     from sim.cli.plan import check_time_limit
     from sim.cli.simulate import job_source
+    from sim.cli.trajectory_files import file_given, file_source, file_world
     from sim.pipeline.case import Case, PlanOptions
 
     check_time_limit(args.time_limit)
+    fields = {"seed": args.seed, "planning": PlanOptions(time_limit=args.time_limit)}
+    if file_given(args):  # a trajectory or path file, read and checked as simulate reads it
+        tfile = file_source(args)
+        world, robot, _ = file_world(args, tfile)
+        return Case(world, robot=robot, trajectory_file=tfile, **fields)
     scenario, source = job_source(args.scenario, args.planner, args.reference)
-    return Case(
-        scenario,
-        robot=args.robot,
-        seed=args.seed,
-        planning=PlanOptions(time_limit=args.time_limit),
-        planner=source.get("planner"),
-        reference=source.get("reference"),
-    )
+    planner, reference = source.get("planner"), source.get("reference")
+    return Case(scenario, robot=args.robot, planner=planner, reference=reference, **fields)
 
 
 def run(args: argparse.Namespace) -> int:

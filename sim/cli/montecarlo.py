@@ -12,6 +12,7 @@ from typing import Any
 
 from planning.errors import OutputExistsError
 from sim.cli.job_outputs import DEFAULT_DIR, add_case_arguments, add_executor_arguments, sigterm_as_interrupt
+from sim.cli.trajectory_files import add_file_arguments, file_options
 
 DESCRIPTION = """\
 Run one case N times, each run on its own as-built robot (--build-seed drawn per run), its own sensor
@@ -62,6 +63,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--sensors", default=None, metavar="KEY=VALUE,...|FILE", help="sensor profile overrides")
     p.add_argument("--control-rate", type=float, default=50.0, metavar="HZ", help="tracker rate (default: 50)")
     add_executor_arguments(p, what="the runs", default_jobs="one per core")
+    add_file_arguments(p)
     p.add_argument("--results", type=Path, default=None, metavar="PATH", help="results file (JSON lines)")
     p.add_argument("--json", type=Path, default=None, metavar="PATH", help="statistics record")
     p.add_argument("--plots", action=argparse.BooleanOptionalAction, default=True, help="write the plots (default: on)")
@@ -76,24 +78,28 @@ def _spec(args: argparse.Namespace) -> Any:
     from control.gains import resolve_gains
     from sim.cli.plan import check_time_limit
     from sim.cli.simulate import job_source, parse_build, sensor_overrides
+    from sim.cli.trajectory_files import file_given, file_source, file_world
     from sim.physics.perturb import PerturbationRange
     from sim.pipeline.case import Case, PlanOptions
     from sim.tools.montecarlo import MonteCarloSpec
 
     check_time_limit(args.time_limit)
-    scenario, source = job_source(args.scenario, args.planner, args.reference)
-    case = Case(
-        scenario,
-        robot=args.robot,
-        seed=args.seed,
-        control_rate=args.control_rate,
-        gains=resolve_gains(args.gains) if args.gains else FBLGains(),
-        planning=PlanOptions(time_limit=args.time_limit),
-        build_seed=parse_build(args.build, None),
-        sensors=sensor_overrides(args.sensors),
-        planner=source.get("planner"),
-        reference=source.get("reference"),
-    )
+    fields = {
+        "seed": args.seed,
+        "control_rate": args.control_rate,
+        "gains": resolve_gains(args.gains) if args.gains else FBLGains(),
+        "planning": PlanOptions(time_limit=args.time_limit),
+        "build_seed": parse_build(args.build, None),
+        "sensors": sensor_overrides(args.sensors),
+    }
+    if file_given(args):  # a trajectory or path file, read and checked as simulate reads it
+        tfile = file_source(args)
+        world, robot, _ = file_world(args, tfile)
+        case = Case(world, robot=robot, trajectory_file=tfile, **fields)
+    else:
+        scenario, source = job_source(args.scenario, args.planner, args.reference)
+        planner, reference = source.get("planner"), source.get("reference")
+        case = Case(scenario, robot=args.robot, planner=planner, reference=reference, **fields)
     ranges = PerturbationRange.parse(args.perturb_range, others="nominal") if args.perturb_range else None
     return MonteCarloSpec(case, args.runs, ranges, replan=args.replan)
 
@@ -101,7 +107,7 @@ def _spec(args: argparse.Namespace) -> Any:
 def _paths(args: argparse.Namespace, spec: Any, scenario: str, robot: str, own_robot: str) -> dict[str, Path]:
     key = spec.key()
     tag = hashlib.sha1(json.dumps(key, sort_keys=True).encode()).hexdigest()[:6]
-    source = key["source"].split(":", 1)[1] or "default"
+    source = Path(key["source"].split(":", 1)[1]).stem or "default"  # a file's stem, not its path
     stem = f"{scenario}-{source}" + (f"-{robot}" if robot != own_robot else "") + f"-mc-{tag}"
     out = {"results": args.results or DEFAULT_DIR / f"{stem}.jsonl", "json": args.json or DEFAULT_DIR / f"{stem}.json"}
     if args.plots:
@@ -163,10 +169,14 @@ def _replay_line(argv_base: list[str], worst: dict[str, Any]) -> str:
 
 def _base_argv(args: argparse.Namespace, case: Any) -> list[str]:
     """The ``simulate`` options of the study's case (the seeds are per run)."""
-    argv = ["--scenario", str(case.scenario)]
+    if case.trajectory_file is not None:  # the file's own options; its world is --scenario's or an arena
+        argv = ["--scenario", args.scenario] if args.scenario is not None else []
+        argv += file_options(args)
+    else:
+        argv = ["--scenario", str(case.scenario)]
+        argv += ["--reference", case.reference] if case.reference is not None else ["--planner", str(case.planner)]
     if args.robot:
         argv += ["--robot", args.robot]
-    argv += ["--reference", case.reference] if case.reference is not None else ["--planner", str(case.planner)]
     for opt, value, default in (
         ("--time-limit", args.time_limit, 30.0),
         ("--gains", args.gains, None),
@@ -191,7 +201,8 @@ def run(args: argparse.Namespace) -> int:
     scenario = load_case_scenario(spec.case)  # unknown scenario, a robot it does not list: stop here
     from planning.scenario import load_scenario
 
-    own_robot = load_scenario(str(spec.case.scenario)).robot
+    sc = spec.case.scenario
+    own_robot = load_scenario(sc).robot if isinstance(sc, str) else sc.robot
     paths = _paths(args, spec, scenario.name, scenario.robot, own_robot)
     _check_outputs(paths, spec.key(), args.overwrite)
     results = ResultsFile(paths["results"], spec.key())

@@ -9,7 +9,7 @@ from typing import Any
 
 from planning.errors import ConfigError
 from sim.cli.job_outputs import RUN_SETTINGS, add_executor_arguments, add_output_arguments
-from sim.cli.trajectory_files import add_file_arguments, format_import
+from sim.cli.trajectory_files import add_file_arguments, file_given, format_import
 from sim.pipeline.runs import RunKind
 
 #: The scenario of a job that names none: this map for a plan (seed 003's job: the EduMIP plans
@@ -323,7 +323,7 @@ def run(args: argparse.Namespace) -> int:
     if args.control_rate <= 0:
         raise ConfigError(f"--control-rate must be > 0 Hz, got {args.control_rate}")
     check_time_limit(args.time_limit)
-    if args.all and _file_given(args):
+    if args.all and file_given(args):
         raise ConfigError("--all sweeps the built-in scenarios' plans: drop it to track a --trajectory or --path file")
     if args.all:
         from sim.cli.sweep_table import run_all
@@ -385,17 +385,12 @@ def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
     """One job: outputs planned, the case prepared and tracked, the table printed, the files written."""
     from sim.pipeline.case import Case
 
-    if _file_given(args):
+    if file_given(args):
         return _run_file_job(args, gains, perturbation)
     scenario, source = job_source(args.scenario, args.planner, args.reference)
     fields = _case_fields(args, gains, perturbation)
     case = Case(scenario, robot=args.robot, planner=source.get("planner"), reference=source.get("reference"), **fields)
     return _track_job(args, case, next(iter(source.values())))
-
-
-def _file_given(args: argparse.Namespace) -> bool:
-    """Whether the options name a trajectory or path file."""
-    return getattr(args, "trajectory", None) is not None or getattr(args, "path", None) is not None
 
 
 def _run_file_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:

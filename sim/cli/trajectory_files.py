@@ -70,6 +70,22 @@ def add_file_arguments(p: argparse.ArgumentParser) -> None:
     p.set_defaults(_scenario_default=p.get_default("scenario"))
 
 
+def file_given(args: argparse.Namespace) -> bool:
+    """Whether the options name a trajectory or path file."""
+    return getattr(args, "trajectory", None) is not None or getattr(args, "path", None) is not None
+
+
+def file_options(args: argparse.Namespace) -> list[str]:
+    """The options that read the same file the same way again (e.g. in a replay command)."""
+    argv = ["--trajectory", str(args.trajectory)] if args.trajectory is not None else ["--path", str(args.path)]
+    for opt, value in (("--columns", args.columns), ("--scale", args.scale), ("--time-scale", args.time_scale)):
+        if value is not None:
+            argv += [opt, str(value)]
+    if args.offset:
+        argv.append(f"--offset={args.offset}")
+    return [*argv, "--allow-collisions"] if args.allow_collisions else argv
+
+
 def file_source(args: argparse.Namespace) -> TrajectoryFile:
     """The file the options name, with how to read it.
 
@@ -78,7 +94,7 @@ def file_source(args: argparse.Namespace) -> TrajectoryFile:
     """
     from planning.trajectory.importer import TrajectoryFile, parse_columns, parse_offset
 
-    if args.planner is not None or args.reference is not None or args.all:
+    if args.planner is not None or args.reference is not None or getattr(args, "all", False):
         raise ConfigError("--trajectory and --path track a file: drop --planner, --reference and --all")
     timed = args.trajectory is not None
     return TrajectoryFile(

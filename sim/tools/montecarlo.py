@@ -17,6 +17,7 @@ A run is replayed bit for bit by ``nhsim simulate`` with its seeds (:func:`repla
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -28,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from planning.errors import ConfigError, NhsimError
+from planning.trajectory.importer import TrajectoryFile
 from sim.physics.perturb import LIMITS, PerturbationRange
 from sim.pipeline.case import Case, PreparedTrajectory, prepare_trajectory
 from sim.pipeline.runs import DEFAULT_RUNS
@@ -78,7 +80,8 @@ class MonteCarloSpec:
         return {
             "scenario": str(c.scenario_name),
             "robot": c.robot,
-            "source": f"reference:{c.reference}" if c.reference is not None else f"planner:{c.planner}",
+            "source": _source(c),
+            "file": None if c.trajectory_file is None else _file_key(c.trajectory_file),
             "tracker": c.feedback_tracker,
             "seed": c.seed,
             "control_rate": c.control_rate,
@@ -101,6 +104,19 @@ class MonteCarloSpec:
         if self.replan:
             return replace(self.case, seed=draw.seed, build_seed=build, perturbation=pert)
         return replace(self.case, noise_seed=draw.seed, build_seed=build, perturbation=pert)
+
+
+def _source(case: Case) -> str:
+    """``reference:NAME``, ``planner:NAME`` or ``file:PATH``."""
+    if case.trajectory_file is not None:
+        return f"file:{case.trajectory_file.path}"
+    return f"reference:{case.reference}" if case.reference is not None else f"planner:{case.planner}"
+
+
+def _file_key(tfile: TrajectoryFile) -> dict[str, Any]:
+    """How a file is read, and a hash of its content: a file edited since is another study."""
+    digest = hashlib.sha1(Path(tfile.path).read_bytes()).hexdigest()
+    return {**tfile.as_dict(), "sha1": digest}
 
 
 def run_one(shared: tuple[MonteCarloSpec, PreparedTrajectory | None], item: tuple[int, Draw]) -> dict[str, Any]:
@@ -126,7 +142,7 @@ def run_one(shared: tuple[MonteCarloSpec, PreparedTrajectory | None], item: tupl
         rec["failed"] = f"{type(exc).__name__}: {exc}"
         return rec
     job = track(prep, DEFAULT_RUNS, strict=False)
-    planned = prep.source.startswith("planner:")
+    planned = prep.source.startswith(("planner:", "file:"))  # a file is tracked and judged as a plan (simulate)
     every = max(1, round(PATH_SPACING_S / float(np.median(np.diff(job.logs[DEFAULT_RUNS[0]].t)))))
     runs: dict[str, Any] = {}
     for kind, run in job.runs.items():
