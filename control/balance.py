@@ -5,25 +5,41 @@ It runs at ``rate`` (200 Hz on the balancing EduMIP) and drives the motor voltag
 place of the wheel-speed firmware of the skid robots. Per update of period T:
 
 1. Pitch estimate (complementary filter, as the MAE 144 balance labs on the Robotics Cape do): the
-   accelerometer's tilt ``theta_a = atan2(-a_x, a_z)`` (a the specific force in the body frame;
-   pitch positive tips the top forward, +x) is low-passed and the gyroscope's pitch rate
-   integrated and high-passed with the same time constant tau, in one line::
+   accelerometer's tilt (a the specific force in the body frame; pitch positive tips the top
+   forward, +x) is low-passed and the gyroscope's pitch rate integrated and high-passed with the
+   same time constant tau, in one line::
 
        theta_k = alpha (theta_{k-1} + T omega_y) + (1 - alpha) theta_a,   alpha = tau / (tau + T).
 
+   Accelerating forward at a_f adds ``a_f`` along the world's x to the specific force, so the plain
+   tilt ``atan2(-a_x, a_z)`` reads low by about a_f / g (0.03 rad at 0.3 m/s^2; over a 1.5 s
+   acceleration the filter believed it, the robot stood 0.012 rad less leant than it meant and
+   ran 2 cm ahead). The firmware knows the acceleration it asks for over the last period (step 3),
+   ``a_f = r phi_ddot_ref``, and takes it out: ``theta_a = atan2(a_f cos theta - a_x, a_z - a_f sin
+   theta)`` with theta the last estimate.
 2. Wheel position ``phi = mean(wheel angles from the encoders) + theta`` (the wheel's angle in the
    world, as ``rc_balance`` computes it) and its rate by a difference over one period.
-3. References from the wheel-speed command (left, right) [rad/s] the tracker's (v, omega) maps to:
-   the mean moves the wheel-position reference ``phi_ref += T mean``, the half difference is the
-   turn loop's target.
-4. Forward: ``u = kff phi_dot_ref - K [theta, theta_dot, phi - phi_ref, phi_dot - phi_dot_ref,
+3. Reference from the wheel-speed command (left, right) [rad/s] the tracker's (v, omega) maps to.
+   The mean is the wheel-speed set-point; it changes once per command period T_c (the tracker's,
+   20 ms at 50 Hz), and the reference speed ``phi_dot_ref`` ramps from where it is to each new
+   set-point over the next T_c, at ``phi_ddot_ref = (set-point - phi_dot_ref) / T_c``: the
+   acceleration the tracker asked for (an FBL tracker's v is its integrated acceleration command),
+   one command period late. ``phi_ref`` integrates ``phi_dot_ref`` exactly (trapezoid on the ramp).
+   The half difference is the turn loop's target.
+4. Feed-forward of that motion: a steady acceleration ``a = r phi_ddot_ref`` needs the body leant
+   by ``theta_ff = c_theta a`` and a voltage ``u_ff = kff phi_dot_ref + c_u a`` (kff the no-load
+   voltage per wheel speed, the back-EMF; c_theta and c_u derived from the model in
+   :class:`sim.physics.balance.SagittalParams`). On a ramp the reference (theta_ff, 0, phi_ref,
+   phi_dot_ref) is a steady solution of the model's linearisation under u_ff; between ramps the
+   lean steps and the loop takes the step as an error.
+5. Forward: ``u = u_ff - K [theta - theta_ff, theta_dot, phi - phi_ref, phi_dot - phi_dot_ref,
    integral of (phi - phi_ref)]`` [V], K the LQR gains designed from the model
-   (:mod:`sim.physics.balance`), kff the no-load voltage per wheel speed (the voltage that moves the
-   wheels at the reference speed with no torque). Leaning forward to accelerate is the LQR's: the
-   pitch set-point is implicit in the position and speed errors (``theta_ref = -(K_phi e_phi + ...)
-   / K_theta``), as rc_balance's outer loop sets the inner loop's pitch set-point.
-5. Turn: a PI on the half difference of the wheel speeds with the no-load feed-forward, ``u_d``.
-6. Voltages ``u - u_d`` (left) and ``u + u_d`` (right), clipped to the battery.
+   (:mod:`sim.physics.balance`), the speed error against the reference's mean speed over the period
+   the encoder difference spans. Beyond the feed-forward, leaning is the LQR's: the pitch set-point
+   is ``theta_ref = theta_ff - (K_phi e_phi + ...) / K_theta``, as rc_balance's outer loop sets the
+   inner loop's pitch set-point.
+6. Turn: a PI on the half difference of the wheel speeds with the no-load feed-forward, ``u_d``.
+7. Voltages ``u - u_d`` (left) and ``u + u_d`` (right), clipped to the battery.
 """
 
 from __future__ import annotations
@@ -54,6 +70,9 @@ class BalanceGains:
         turn_kp: Turn loop's proportional gain [V s/rad].
         turn_ki: Turn loop's integral gain [V/rad].
         battery_voltage: Voltage bound [V].
+        lean_per_accel: c_theta r, the steady lean per wheel acceleration [rad per rad/s^2].
+        voltage_per_accel: c_u r, the voltage per wheel acceleration beyond the back-EMF [V per rad/s^2].
+        wheel_radius: r [m] (the forward acceleration the accelerometer reads is r phi_ddot).
     """
 
     rate: float
@@ -63,6 +82,9 @@ class BalanceGains:
     turn_kp: float
     turn_ki: float
     battery_voltage: float
+    lean_per_accel: float
+    voltage_per_accel: float
+    wheel_radius: float
 
     def __post_init__(self) -> None:
         if len(self.k) != len(STATE_NAMES):
@@ -73,8 +95,9 @@ class BalanceGains:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ConfigError(f"balance {name} must be a finite number > 0, got {value!r}")
-        if not all(math.isfinite(x) for x in (*self.k, self.kff, self.turn_kp, self.turn_ki)):
-            raise ConfigError(f"balance gains must be finite numbers, got k={self.k}")
+        feed = (self.kff, self.lean_per_accel, self.voltage_per_accel, self.wheel_radius)
+        if not all(math.isfinite(x) for x in (*self.k, *feed, self.turn_kp, self.turn_ki)):
+            raise ConfigError(f"balance gains must be finite numbers, got k={self.k}, feed-forward {feed}")
 
     @property
     def period(self) -> float:
@@ -87,10 +110,20 @@ class BalanceController:
 
     Args:
         gains: Rates and gains.
+        command_period: T_c, how often the wheel-speed command changes [s] (the tracker's period);
+            the firmware's own period if None (a command that may change at every update).
+
+    Raises:
+        ConfigError: A command period that is not a positive number.
     """
 
-    def __init__(self, gains: BalanceGains) -> None:
+    def __init__(self, gains: BalanceGains, command_period: float | None = None) -> None:
         self.gains = gains
+        period = gains.period if command_period is None else command_period
+        if not (math.isfinite(period) and period > 0):
+            raise ConfigError(f"balance command_period must be a finite number > 0 [s], got {period!r}")
+        # the ramp spans the command period, to the nearest whole update (at least one)
+        self._ramp_updates = max(1, round(period / gains.period))
         self._k = np.asarray(gains.k, dtype=float)
         t, tau = gains.period, gains.filter_time_constant
         self._alpha = tau / (tau + t)
@@ -105,6 +138,30 @@ class BalanceController:
         self.turn_integral = 0.0
         self._last_angles: tuple[float, float] | None = None
         self.theta_ref = 0.0
+        self.speed_ref = 0.0  # the reference wheel speed now [rad/s]
+        self.accel_ref = 0.0  # its rate over the coming period [rad/s^2]
+        self._command = 0.0  # the mean wheel-speed command the ramp heads for [rad/s]
+        self._ramp_left = 0  # updates left on the ramp
+
+    def _reference(self, mean_command: float) -> tuple[float, float]:
+        """Advance the reference over the last period and take up a new set-point ``mean_command``
+        [rad/s] (step 3 of the module docstring).
+
+        Returns:
+            The reference's mean wheel speed over the last period and over the coming one [rad/s].
+        """
+        t = self.gains.period
+        last = self.speed_ref + 0.5 * t * self.accel_ref
+        self.phi_ref += t * last
+        self.speed_ref += t * self.accel_ref
+        self._ramp_left -= 1
+        if self._ramp_left <= 0:
+            self.speed_ref, self.accel_ref = self._command, 0.0
+        if mean_command != self._command:
+            self._command = mean_command
+            self._ramp_left = self._ramp_updates
+            self.accel_ref = (mean_command - self.speed_ref) / (self._ramp_updates * t)
+        return last, self.speed_ref + 0.5 * t * self.accel_ref
 
     def update(
         self, gyro_y: float, accel: FloatArray, angles: tuple[float, float], command: tuple[float, float]
@@ -122,20 +179,25 @@ class BalanceController:
         """
         g, t = self.gains, self.gains.period
         a = self._alpha
-        self.theta = a * (self.theta + t * gyro_y) + (1.0 - a) * math.atan2(-float(accel[0]), float(accel[2]))
+        # the accelerometer's tilt, less the forward acceleration the reference asks for
+        fwd, th = g.wheel_radius * self.accel_ref, self.theta
+        tilt = math.atan2(fwd * math.cos(th) - float(accel[0]), float(accel[2]) - fwd * math.sin(th))
+        self.theta = a * (self.theta + t * gyro_y) + (1.0 - a) * tilt
         last = self._last_angles if self._last_angles is not None else angles
         self._last_angles = angles
         phi = 0.5 * (angles[0] + angles[1]) + self.theta
         phi_dot = (phi - self.phi) / t
         self.phi = phi
-        mean_ref, half_ref = 0.5 * (command[0] + command[1]), 0.5 * (command[1] - command[0])
-        self.phi_ref += t * mean_ref
+        past, coming = self._reference(0.5 * (command[0] + command[1]))
         e_phi = phi - self.phi_ref
         self.integral += t * e_phi
         k = self._k
-        e_rest = k[2] * e_phi + k[3] * (phi_dot - mean_ref) + k[4] * self.integral
-        self.theta_ref = -e_rest / k[0] if k[0] else 0.0
-        u = g.kff * mean_ref - k[0] * self.theta - k[1] * gyro_y - e_rest
+        e_rest = k[2] * e_phi + k[3] * (phi_dot - past) + k[4] * self.integral
+        lean = g.lean_per_accel * self.accel_ref
+        self.theta_ref = lean - e_rest / k[0] if k[0] else lean
+        u_ff = g.kff * coming + g.voltage_per_accel * self.accel_ref
+        u = u_ff - k[0] * (self.theta - lean) - k[1] * gyro_y - e_rest
+        half_ref = 0.5 * (command[1] - command[0])
         half = 0.5 * ((angles[1] - last[1]) - (angles[0] - last[0])) / t
         e_turn = half_ref - half
         self.turn_integral = min(

@@ -50,7 +50,7 @@ PROFILE_KEYS = {
     "balance": ("rate", "filter_time_constant", "tip_angle", "max_lean"),
     "weights": ("theta_max", "theta_dot_max", "phi_max", "phi_dot_max", "phi_integral_max", "voltage_max"),
     "turn": ("kp", "ki"),
-    "gains": ("k",),
+    "gains": ("k", "lean_per_accel", "voltage_per_accel"),
 }
 #: Free-joint tangent indices: base x, pitch; wheel joints follow the free joint's 6.
 DOF_X, DOF_PITCH, DOF_WHEELS = 0, 4, (6, 7)
@@ -70,6 +70,10 @@ class BalanceProfile:
         turn_kp: Turn loop's proportional gain [V s/rad].
         turn_ki: Turn loop's integral gain [V/rad].
         k: (5,) stored gains [V per state unit].
+        lean_per_accel: Stored steady lean per forward acceleration [rad per m/s^2]
+            (:attr:`SagittalParams.lean_per_accel`).
+        voltage_per_accel: Stored voltage per forward acceleration [V per m/s^2]
+            (:attr:`SagittalParams.voltage_per_accel`).
         path: The file it was read from.
     """
 
@@ -82,7 +86,74 @@ class BalanceProfile:
     turn_kp: float
     turn_ki: float
     k: tuple[float, ...]
+    lean_per_accel: float
+    voltage_per_accel: float
     path: Path
+
+
+@dataclass(frozen=True)
+class SagittalParams:
+    """The sagittal model's numbers of a balancing robot, read from its compiled model.
+
+    Attributes:
+        body_mass: M, the body's mass [kg].
+        com_height: l, its centre of mass above the axle [m].
+        wheel_mass: m, both wheels' mass [kg].
+        axle_inertia: J, both wheels' inertia about the axle [kg m^2].
+        rotor_inertia: J_a, both motors' rotor inertia on the joints (armature) [kg m^2].
+        wheel_radius: r [m].
+        gravity: g [m/s^2].
+        torque_per_volt: The motor's torque per volt at the wheel, g_m = tau_stall / V_batt [N m/V].
+    """
+
+    body_mass: float
+    com_height: float
+    wheel_mass: float
+    axle_inertia: float
+    rotor_inertia: float
+    wheel_radius: float
+    gravity: float
+    torque_per_volt: float
+
+    @classmethod
+    def from_model(cls, model: mujoco.MjModel, gravity: float | None = None) -> SagittalParams:
+        """Read them from a compiled model (``base`` and ``wheel_left`` bodies, ``wheel_left_geom`` tyre,
+        ``wheel_left_joint``, the motor constants); ``gravity`` [m/s^2] overrides the model's."""
+        base, wheel = model.body("base").id, model.body("wheel_left").id
+        rot = np.empty(9)
+        mujoco.mju_quat2Mat(rot, model.body_iquat[wheel])
+        rot3 = rot.reshape(3, 3)
+        motor = MotorModel.from_model(model)
+        return cls(
+            body_mass=float(model.body_mass[base]),
+            com_height=float(model.body_ipos[base][2]),
+            wheel_mass=2.0 * float(model.body_mass[wheel]),
+            axle_inertia=2.0 * float((rot3 @ np.diag(model.body_inertia[wheel]) @ rot3.T)[1, 1]),
+            rotor_inertia=2.0 * float(model.dof_armature[model.joint("wheel_left_joint").dofadr[0]]),
+            wheel_radius=float(model.geom_size[model.geom("wheel_left_geom").id][0]),
+            gravity=-float(model.opt.gravity[2]) if gravity is None else gravity,
+            torque_per_volt=motor.stall_torque / motor.battery_voltage,
+        )
+
+    @property
+    def lean_per_accel(self) -> float:
+        """The steady lean a steady forward acceleration needs [rad per m/s^2] (see :func:`balance_accel_limit`)::
+
+        theta / a = (M l + r (m + M) + J / r) / (M g l)
+        """
+        m_l, r = self.body_mass * self.com_height, self.wheel_radius
+        return (m_l + r * (self.wheel_mass + self.body_mass) + self.axle_inertia / r) / (m_l * self.gravity)
+
+    @property
+    def voltage_per_accel(self) -> float:
+        """The common motor voltage a steady forward acceleration needs beyond the back-EMF of the
+        wheel speed [V per m/s^2] (see :func:`balance_accel_limit`)::
+
+            u / a = r (m + M + (J + J_a) / r^2) / (2 g_m)
+        """
+        r = self.wheel_radius
+        inertia = self.wheel_mass + self.body_mass + (self.axle_inertia + self.rotor_inertia) / r**2
+        return r * inertia / (2.0 * self.torque_per_volt)
 
 
 def balance_accel_limit(model: mujoco.MjModel, lean: float, gravity: float | None = None) -> float:
@@ -103,24 +174,17 @@ def balance_accel_limit(model: mujoco.MjModel, lean: float, gravity: float | Non
 
     (the rotor terms cancel): a forward acceleration needs a forward lean first, the body's weight
     supplying the torque that tips it along. So ``a_max = lean M g l / (M l + r (m + M) + J / r)``.
-    For the EduMIP's numbers [B] theta / a = 0.207 rad per m/s^2: 1 m/s^2 leans it 11.9 deg.
+    For the EduMIP's numbers [B] theta / a = 0.207 rad per m/s^2: 1 m/s^2 leans it 11.9 deg. The
+    torque is the motors' ``g_m (u - kff omega)`` (:mod:`sim.physics.motors`), both motors at the
+    common voltage u: beyond the back-EMF ``kff omega`` of the wheel speed omega, the acceleration
+    needs ``u = tau / (2 g_m)`` (:attr:`SagittalParams.voltage_per_accel`).
 
     Args:
         model: The compiled model (base body, ``wheel_left`` body and ``wheel_left_geom`` tyre).
         lean: The lean allowed for acceleration [rad].
         gravity: g [m/s^2]; the model's if None.
     """
-    base, wheel = model.body("base").id, model.body("wheel_left").id
-    mass_b, height = float(model.body_mass[base]), float(model.body_ipos[base][2])
-    r = float(model.geom_size[model.geom("wheel_left_geom").id][0])
-    rot = np.empty(9)
-    mujoco.mju_quat2Mat(rot, model.body_iquat[wheel])
-    rot3 = rot.reshape(3, 3)
-    axle_inertia = 2.0 * float((rot3 @ np.diag(model.body_inertia[wheel]) @ rot3.T)[1, 1])
-    mass_w = 2.0 * float(model.body_mass[wheel])
-    g = -float(model.opt.gravity[2]) if gravity is None else gravity
-    moment = mass_b * height
-    return lean * moment * g / (moment + r * (mass_w + mass_b) + axle_inertia / r)
+    return lean / SagittalParams.from_model(model, gravity).lean_per_accel
 
 
 def is_balancing(robot: str) -> bool:
@@ -156,11 +220,10 @@ def load_balance_profile(robot: str) -> BalanceProfile:
     for table, keys in PROFILE_KEYS.items():
         for key in keys:
             value = data.get(table, {}).get(key)
-            ok = isinstance(value, list) and all(isinstance(x, (int, float)) for x in value)
-            if not (ok or (isinstance(value, (int, float)) and not isinstance(value, bool))):
-                raise ConfigError(
-                    f"{path}: [{table}] {key} must be a number (or a list of numbers for k), got {value!r}"
-                )
+            listed = key == "k" and isinstance(value, list) and all(isinstance(x, (int, float)) for x in value)
+            if not (listed or (key != "k" and isinstance(value, (int, float)) and not isinstance(value, bool))):
+                kind = "a list of numbers" if key == "k" else "a number"
+                raise ConfigError(f"{path}: [{table}] {key} must be {kind}, got {value!r}")
             values[f"{table}.{key}"] = value
     w = PROFILE_KEYS["weights"]
     return BalanceProfile(
@@ -173,6 +236,8 @@ def load_balance_profile(robot: str) -> BalanceProfile:
         turn_kp=float(values["turn.kp"]),
         turn_ki=float(values["turn.ki"]),
         k=tuple(float(x) for x in values["gains.k"]),
+        lean_per_accel=float(values["gains.lean_per_accel"]),
+        voltage_per_accel=float(values["gains.voltage_per_accel"]),
         path=path,
     )
 
@@ -284,6 +349,8 @@ class BalanceDesign:
         k: (5,) LQR gains.
         poles: (5,) complex closed-loop poles.
         open_loop: (5,) complex open-loop poles (one outside the unit disc: the pendulum).
+        lean_per_accel: Steady lean per forward acceleration [rad per m/s^2] (:class:`SagittalParams`).
+        voltage_per_accel: Voltage per forward acceleration [V per m/s^2] (:class:`SagittalParams`).
     """
 
     a: FloatArray
@@ -291,6 +358,8 @@ class BalanceDesign:
     k: FloatArray
     poles: NDArray[np.complex128]
     open_loop: NDArray[np.complex128]
+    lean_per_accel: float
+    voltage_per_accel: float
 
 
 def design_balance(robot: str, model: mujoco.MjModel | None = None) -> BalanceDesign:
@@ -305,15 +374,19 @@ def design_balance(robot: str, model: mujoco.MjModel | None = None) -> BalanceDe
     m = model if model is not None else build_model(spec).model
     a, b = sagittal_model(m, spec.wheel_radius, 1.0 / prof.rate)
     k = lqr_gains(a, b, prof.maxima, prof.voltage_max)
-    return BalanceDesign(a, b, k.ravel(), check_closed_loop(a, b, k), np.asarray(np.linalg.eigvals(a), dtype=complex))
+    params = SagittalParams.from_model(m)
+    open_loop = np.asarray(np.linalg.eigvals(a), dtype=complex)
+    return BalanceDesign(
+        a, b, k.ravel(), check_closed_loop(a, b, k), open_loop, params.lean_per_accel, params.voltage_per_accel
+    )
 
 
 @functools.lru_cache(maxsize=8)
-def _drawing_plant(robot: str, rate: float) -> tuple[FloatArray, FloatArray, MotorModel]:
+def _drawing_plant(robot: str, rate: float) -> tuple[FloatArray, FloatArray, MotorModel, SagittalParams]:
     spec = load_robot(robot)
     model = build_model(spec).model
     a, b = sagittal_model(model, spec.wheel_radius, 1.0 / rate)
-    return a, b, MotorModel.from_model(model)
+    return a, b, MotorModel.from_model(model), SagittalParams.from_model(model)
 
 
 def balance_gains(robot: str, k: tuple[float, ...] | None = None) -> BalanceGains:
@@ -326,7 +399,7 @@ def balance_gains(robot: str, k: tuple[float, ...] | None = None) -> BalanceGain
     """
     prof = load_balance_profile(robot)
     gains = prof.k if k is None else tuple(float(x) for x in k)
-    a, b, motor = _drawing_plant(robot, prof.rate)
+    a, b, motor, params = _drawing_plant(robot, prof.rate)
     check_closed_loop(a, b, gains)
     return BalanceGains(
         rate=prof.rate,
@@ -336,11 +409,14 @@ def balance_gains(robot: str, k: tuple[float, ...] | None = None) -> BalanceGain
         turn_kp=prof.turn_kp,
         turn_ki=prof.turn_ki,
         battery_voltage=motor.battery_voltage,
+        lean_per_accel=prof.lean_per_accel * params.wheel_radius,
+        voltage_per_accel=prof.voltage_per_accel * params.wheel_radius,
+        wheel_radius=params.wheel_radius,
     )
 
 
 def design_report(robot: str) -> str:
-    """The design of a balancing robot's loop as text: its poles and the profile's ``[gains]`` line."""
+    """The design of a balancing robot's loop as text: its poles and the profile's ``[gains]`` lines."""
     design = design_balance(robot)
     slowest = float(np.abs(design.poles).max())
     rate = load_balance_profile(robot).rate
@@ -350,5 +426,7 @@ def design_report(robot: str) -> str:
             f"closed-loop poles: {np.round(design.poles, 5).tolist()} (max |z| = {slowest:.5f})",
             f"slowest time constant: {-1.0 / (math.log(slowest) * rate):.3f} s",
             "k = [" + ", ".join(f"{x:.6g}" for x in design.k) + "]  # " + ", ".join(STATE_NAMES),
+            f"lean_per_accel = {design.lean_per_accel:.6g}  # rad per m/s^2",
+            f"voltage_per_accel = {design.voltage_per_accel:.6g}  # V per m/s^2",
         ]
     )

@@ -108,6 +108,8 @@ class BalanceFirmware:
         profile: The robot's sensor profile.
         tip_angle: |tilt| beyond which the robot has fallen [rad].
         seed: Seed of the sensor noise.
+        command_period: How often the wheel-speed command changes [s] (the tracker's period); the
+            firmware's own if None (see :class:`control.balance.BalanceController`).
     """
 
     def __init__(
@@ -118,6 +120,7 @@ class BalanceFirmware:
         profile: SensorProfile,
         tip_angle: float,
         seed: int = 0,
+        command_period: float | None = None,
     ) -> None:
         self.model, self.data, self.tip_angle = model, data, tip_angle
         self.steps = whole_steps(gains.period, float(model.opt.timestep))
@@ -125,7 +128,7 @@ class BalanceFirmware:
             raise ConfigError(
                 f"balance rate {gains.rate:g} Hz is not a whole number of {model.opt.timestep * 1e3:g} ms physics steps"
             )
-        self.controller = BalanceController(gains)
+        self.controller = BalanceController(gains, command_period)
         self.noise = ImuNoise(profile, gains.rate, seed)
         adr = model.sensor_adr
         self._gyro = int(adr[model.sensor("imu_gyro").id]) + 1

@@ -132,20 +132,29 @@ class Simulator:
         self._is_robot = np.zeros(m.ngeom, dtype=bool)
         self._is_robot[self.built.robot_geoms] = True
 
-    def balance_firmware(self, model: mujoco.MjModel, data: mujoco.MjData, seed: int = 0) -> BalanceFirmware:
+    def balance_firmware(
+        self, model: mujoco.MjModel, data: mujoco.MjData, seed: int = 0, command_period: float | None = None
+    ) -> BalanceFirmware:
         """The balance firmware of a run of this (balancing) robot on ``model`` and ``data``, with
-        sensor-noise seed ``seed``."""
+        sensor-noise seed ``seed``, its wheel-speed commands changing every ``command_period`` [s]
+        (the tracker's period; every firmware update if None)."""
         if self.balance is None:
             raise ConfigError(f"robot {self.robot.name!r} does not balance: it has no balance firmware")
         sensors = SensingSetup.for_robot(self.robot.name).profile
         tip = load_balance_profile(self.robot.name).tip_angle
-        return BalanceFirmware(model, data, self.balance, sensors, tip, seed)
+        return BalanceFirmware(model, data, self.balance, sensors, tip, seed, command_period)
 
     def balance_for_run(
-        self, m: mujoco.MjModel, d: mujoco.MjData, pert: Perturbation | None, sensing: SensingSetup | None
+        self,
+        m: mujoco.MjModel,
+        d: mujoco.MjData,
+        pert: Perturbation | None,
+        sensing: SensingSetup | None,
+        command_period: float | None = None,
     ) -> BalanceFirmware | None:
         """A run's balance firmware (None for a robot that does not balance), with the perturbation's
-        push; its sensor noise seeded by the sensing setup's seed.
+        push; its sensor noise seeded by the sensing setup's seed, its commands changing every
+        ``command_period`` [s] (the control period).
 
         Raises:
             ConfigError: A push for a robot that does not balance.
@@ -158,7 +167,7 @@ class Simulator:
                     f"robot's body (e.g. --robot edumip-balancing)"
                 )
             return None
-        firmware = self.balance_firmware(m, d, sensing.seed if sensing is not None else 0)
+        firmware = self.balance_firmware(m, d, sensing.seed if sensing is not None else 0, command_period)
         firmware.push = Push(*push) if push is not None else None
         return firmware
 
@@ -245,7 +254,7 @@ class Simulator:
         noise = pert.sensor_noise(schedule.n_ctrl) if pert is not None else None
         tracker.reset(trajectory, schedule.dt_ctrl)
         recorder = Recorder(self, m, d, schedule, float(trajectory.t[0]))
-        recorder.balance = self.balance_for_run(m, d, pert, sensing)
+        recorder.balance = self.balance_for_run(m, d, pert, sensing, schedule.dt_ctrl)
         sensed = None
         if PoseSource(source) is not PoseSource.TRUTH:
             setup = sensing if sensing is not None else SensingSetup.for_robot(self.robot.name)

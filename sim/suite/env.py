@@ -157,7 +157,8 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         balancing = self.simulator.balance is not None
         set_pose(m, d, self.start, **({"settle": 0.0} if balancing else {}))  # a balancing robot starts upright
         recorder = Recorder(self.simulator, m, d, self.schedule, float(self.trajectory.t[0]))
-        recorder.balance = self.simulator.balance_for_run(m, d, None, self.sensing)  # its firmware, if it balances
+        # its firmware, if it balances, told the action period (the commands' ramp)
+        recorder.balance = self.simulator.balance_for_run(m, d, None, self.sensing, self.schedule.dt_ctrl)
         sensors = SensorModel(
             self.sensing.profile, control_rate=self.control_rate, timestep=float(m.opt.timestep),
             n_periods=self.schedule.n_ctrl + 1, seed=self.sensing.seed + self.episodes,
