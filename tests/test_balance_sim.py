@@ -76,11 +76,6 @@ def test_push_parses_and_is_refused_on_a_skid_robot() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="RMS 3.05 cm against the 3 cm target on the simplified (23 s) C-RRT* plan; no acceleration "
-    "feed-forward into the lean set-point yet",
-)
 def test_default_scenario_plan_within_the_targets() -> None:
     """The default scenario's C-RRT* plan, tracked balancing with sensor noise and an as-built draw:
     ends within 2 cm and 0.05 rad, RMS <= 3 cm, |pitch| <= 20 deg, no fall, contact or warning."""
