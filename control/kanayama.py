@@ -23,7 +23,9 @@ segmented FBL: the tracker accepts every trajectory, with cusps and turns in pla
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from control.base import check_ranges, option_value, ranged
 from control.segmented import SegmentedParams, SegmentSwitcher, _Instant
@@ -50,9 +52,7 @@ class KanayamaParams:
         check_ranges(self)
 
 
-def kanayama_law(
-    params: KanayamaParams, x: float, y: float, theta: float, ref: tuple[float, float, float, float, float]
-) -> tuple[float, float]:
+def kanayama_law(params: KanayamaParams, x: float, y: float, theta: float, ref: Sequence[Any]) -> tuple[float, float]:
     """Kanayama's command for a pose and a reference (see the module doc).
 
     Args:
@@ -60,12 +60,13 @@ def kanayama_law(
         x: Position [m].
         y: Position [m].
         theta: Heading [rad].
-        ref: (x_r [m], y_r [m], theta_r [rad], v_r [m/s], omega_r [rad/s]).
+        ref: (x_r [m], y_r [m], theta_r [rad], v_r [m/s], omega_r [rad/s]), or a longer sequence
+            that starts with them (a segment switcher's reference instant).
 
     Returns:
         (v [m/s], omega [rad/s]), before saturation.
     """
-    xr, yr, thr, vr, wr = ref
+    xr, yr, thr, vr, wr = ref[0], ref[1], ref[2], ref[3], ref[4]
     c, s = math.cos(theta), math.sin(theta)
     dx, dy = xr - x, yr - y
     ex, ey = c * dx + s * dy, -s * dx + c * dy
@@ -105,5 +106,5 @@ class KanayamaTracker(SegmentSwitcher):
 
     def _drive(self, x: float, y: float, theta: float, ref: _Instant, sgn: float, k: int) -> tuple[float, float]:
         """Kanayama's law along a drive, its speed kept on the drive's side of zero."""
-        v, w = kanayama_law(self.params, x, y, theta, (ref.x, ref.y, ref.theta, ref.v, ref.omega))
+        v, w = kanayama_law(self.params, x, y, theta, ref)
         return sgn * max(sgn * v, 0.0), w

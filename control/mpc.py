@@ -22,9 +22,23 @@ rest, so the same problem regulates the goal.
 
 The NLP is built once per (robot, parameters, period) with ``expand=True`` (SX) and kept; each
 solve is warm-started from the previous solution shifted by one control period, primal and dual
-(CasADi's ``x0``, ``lam_x0``, ``lam_g0``). ``solver="sqp"`` (default) is CasADi's ``sqpmethod``
-with its active-set QP solver ``qrqp``; ``"ipopt"`` is the interior-point method, warm-started with
-``warm_start_init_point``. ``nhsim bench track`` measures both.
+(CasADi's ``x0``, ``lam_x0``, ``lam_g0``). Three solvers (``MPCParams.solver``):
+
+* ``"rti"`` (default), the real-time iteration (M. Diehl, H. G. Bock, J. P. Schloeder, SIAM J.
+  Control Optim. 43(5), 2005; acados' SQP_RTI): one full step of CasADi's ``sqpmethod`` per control
+  period (exact Hessian, regularised to convexity, no line search) from the shifted previous
+  solution. Its cost is one linearisation and one QP, the same every period, so its time has no
+  tail of many-iteration solves; the solution is never iterated to convergence, but the next period
+  starts from it, so over the periods the iterates contract to the moving optimum. Its result is
+  used when the step's QP met the input constraints (linear, so a correct QP meets them exactly);
+  the shooting gaps left by one step are the method's.
+* ``"sqp"``, the same ``sqpmethod`` iterated to convergence (``max_iter``).
+* ``"ipopt"``, the interior-point method, warm-started with ``warm_start_init_point``.
+
+The QP solver of the first two is DAQP (D. Arnstroem, A. Bemporad, D. Axehill, IEEE Trans.
+Automatic Control 67(8), 2022; ``qp_solver="daqp"``, default), a dual active-set method for small
+dense QPs, or CasADi's ``qrqp``, which on the default job's cusps stopped at an infeasible point in
+about half the one-step QPs. ``nhsim bench track`` measures them all.
 
 Solve times are recorded (:meth:`MPCTracker.stats`), with the solves that ran past the control
 period. A solve that fails (solver error, not converged, or a non-finite solution) is counted and
@@ -53,13 +67,20 @@ from planning.trajectory.trajectory import Trajectory
 
 FloatArray = NDArray[np.float64]
 
-#: The solvers: "sqp" (CasADi's sqpmethod with qrqp) and "ipopt".
-SOLVERS = ("sqp", "ipopt")
+#: The solvers: "rti" (one full step of CasADi's sqpmethod per control period, the real-time
+#: iteration), "sqp" (sqpmethod iterated to convergence) and "ipopt".
+SOLVERS = ("rti", "sqp", "ipopt")
+#: The QP solvers of "rti" and "sqp" (CasADi conic plugins): DAQP, a dual active-set method for small
+#: dense QPs, and CasADi's own active-set ``qrqp``.
+QP_SOLVERS = ("daqp", "qrqp")
 #: sqpmethod's status when its line search can make no further step from a feasible iterate: the
 #: iterate is stationary to the step tolerance, so the solve counts as converged if it is feasible
 #: (every constraint met within ``_FEASIBILITY``).
 _STATIONARY = frozenset({"Search_Direction_Becomes_Too_Small"})
 _FEASIBILITY = 1e-6
+#: sqpmethod's status after the one iteration "rti" allows (the step is taken, as the real-time
+#: iteration means it to be).
+_ONE_STEP = frozenset({"Maximum_Iterations_Exceeded"})
 
 
 @dataclass(frozen=True)
@@ -76,8 +97,9 @@ class MPCParams:
         r_accel: Acceleration weight r_a [s^3/m^2].
         r_yaw_accel: Yaw acceleration weight r_alpha [s^3/rad^2].
         terminal: Terminal weight factor (times q_p, q_theta) [s].
-        max_iter: Iteration cap of one solve.
-        solver: "sqp" (sqpmethod + qrqp) or "ipopt".
+        max_iter: Iteration cap of one solve ("rti" makes one iteration whatever it says).
+        solver: "rti" (one SQP step a period), "sqp" (SQP to convergence) or "ipopt".
+        qp_solver: The QP solver of "rti" and "sqp": "daqp" or "qrqp".
     """
 
     horizon: int = ranged(15, 2, 200, "steps")
@@ -90,12 +112,15 @@ class MPCParams:
     r_yaw_accel: float = ranged(0.005, 0.0, 1e6, "s^3/rad^2", tune=(1e-5, 1.0))
     terminal: float = ranged(0.5, 0.0, 1e3, "s", tune=(0.01, 10.0))
     max_iter: int = ranged(50, 1, 1000, "iterations")
-    solver: str = "sqp"
+    solver: str = "rti"
+    qp_solver: str = "daqp"
 
     def __post_init__(self) -> None:
         check_ranges(self)
         if self.solver not in SOLVERS:
             raise ConfigError(f"MPCParams.solver must be one of {', '.join(SOLVERS)}, got {self.solver!r}")
+        if self.qp_solver not in QP_SOLVERS:
+            raise ConfigError(f"MPCParams.qp_solver must be one of {', '.join(QP_SOLVERS)}, got {self.qp_solver!r}")
 
 
 @dataclass(frozen=True)
@@ -163,10 +188,36 @@ def _solver(p: MPCParams, lim: _Limits) -> tuple[Any, FloatArray, FloatArray]:
     if p.solver == "ipopt":
         ipopt = {"print_level": 0, "sb": "yes", "warm_start_init_point": "yes", "max_iter": p.max_iter}
         return ca.nlpsol("mpc", "ipopt", nlp, {**quiet, "ipopt": ipopt}), lbg, ubg
-    qp = {"print_iter": False, "print_header": False, "print_info": False, "error_on_fail": False, "max_iter": 100}
-    opts = {**quiet, "qpsol": "qrqp", "qpsol_options": qp, "max_iter": p.max_iter, "print_header": False,
+    qp: dict[str, Any] = {"error_on_fail": False}
+    if p.qp_solver == "qrqp":
+        qp |= {"print_iter": False, "print_header": False, "print_info": False, "max_iter": 100}
+    elif not ca.has_conic(p.qp_solver):  # pragma: no cover - CasADi's wheels carry DAQP
+        raise DependencyError(f"this CasADi has no {p.qp_solver!r} QP plugin; use MPCParams(qp_solver='qrqp')")
+    opts = {**quiet, "qpsol": p.qp_solver, "qpsol_options": qp, "max_iter": p.max_iter, "print_header": False,
             "print_iteration": False, "print_status": False, "convexify_strategy": "regularize"}  # fmt: skip
+    if p.solver == "rti":  # one full Newton-type step from the shifted guess: no line search
+        opts |= {"max_iter": 1, "max_iter_ls": 0}
     return ca.nlpsol("mpc", "sqpmethod", nlp, opts), lbg, ubg
+
+
+@lru_cache(maxsize=16)
+def _shift_weights(n: int, h: float, dt: float) -> tuple[FloatArray, FloatArray]:
+    """Linear interpolation one control period ``dt`` [s] on along a horizon of ``n`` steps of ``h`` [s],
+    as matrices: shifted states = (N + 1, N + 1) @ states, shifted inputs = (N, N) @ inputs (the last
+    entries held)."""
+    grid = h * np.arange(n + 1)
+    at = np.minimum(grid + dt, grid[-1])
+    states = np.array([np.interp(at, grid, e) for e in np.eye(n + 1)]).T
+    inputs = np.array([np.interp(at[:-1], grid[:-1], e) for e in np.eye(n)]).T
+    return states, inputs
+
+
+@lru_cache(maxsize=16)
+def _input_bounds(n: int, v: float, w: float) -> tuple[FloatArray, FloatArray]:
+    """(lbx, ubx) of the decision vector: states free, |v| <= v [m/s], |omega| <= w [rad/s]."""
+    ubx = np.full(3 * (n + 1) + 2 * n, np.inf)
+    ubx[3 * (n + 1) :: 2], ubx[3 * (n + 1) + 1 :: 2] = v, w
+    return -ubx, ubx
 
 
 class MPCTracker:
@@ -201,6 +252,7 @@ class MPCTracker:
         self._plan: tuple[float, FloatArray] | None = None  # (start time, (N, 2) inputs) of the last feasible plan
         self._u = np.zeros(2)
         self.solve_times: list[float] = []
+        self.solve_cpu_times: list[float] = []
         self.failures = 0
 
     def reset(self, trajectory: Trajectory, dt: float) -> None:
@@ -222,7 +274,7 @@ class MPCTracker:
         self._u = uref[:, 0].copy()
         x0 = trajectory.pose[0]
         self._solve(float(trajectory.t[0]), float(x0[0]), float(x0[1]), float(x0[2]))
-        self.solve_times, self.failures = [], 0
+        self.solve_times, self.solve_cpu_times, self.failures = [], [], 0
         self._u = np.array([float(trajectory.vel[0, 0]), float(trajectory.vel[0, 1])])
         assert self._guess.size == 3 * (n + 1) + 2 * n
 
@@ -232,9 +284,9 @@ class MPCTracker:
         if self._traj is None:
             raise RuntimeError("MPCTracker.command called before reset")
         n, h = self.params.horizon, self.params.step
-        s = self._traj.sample_many(t + h * np.arange(n + 1))
-        mid = self._traj.sample_many(t + h * (np.arange(n) + 0.5))  # a held input is best at its midpoint
-        return np.vstack([s.x, s.y, s.theta]), np.vstack([mid.v, mid.omega])
+        # the horizon's instants, then the midpoints of its steps (a held input is best at its midpoint)
+        s = self._traj.sample_many(t + h * np.concatenate([np.arange(n + 1.0), np.arange(n) + 0.5]))
+        return np.vstack([s.x[: n + 1], s.y[: n + 1], s.theta[: n + 1]]), np.vstack([s.v[n + 1 :], s.omega[n + 1 :]])
 
     def _solve(self, t: float, x: float, y: float, theta: float) -> FloatArray | None:
         """One warm-started solve from the pose at ``t``: the (N, 2) inputs, or None if it failed."""
@@ -244,9 +296,8 @@ class MPCTracker:
         ref, uref = self._reference(t)
         theta += 2.0 * math.pi * round((float(ref[2, 0]) - theta) / (2.0 * math.pi))  # the reference's branch
         p = np.concatenate([[x, y, theta], ref.T.ravel(), uref.T.ravel(), self._u])
-        ubx = np.full(self._guess.size, np.inf)
-        ubx[3 * (n + 1) :: 2], ubx[3 * (n + 1) + 1 :: 2] = lim.v, lim.w
-        args: dict[str, Any] = {"x0": self._guess, "p": p, "lbx": -ubx, "ubx": ubx, "lbg": lbg, "ubg": ubg}
+        lbx, ubx = _input_bounds(n, lim.v, lim.w)
+        args: dict[str, Any] = {"x0": self._guess, "p": p, "lbx": lbx, "ubx": ubx, "lbg": lbg, "ubg": ubg}
         if self._lam is not None:
             args["lam_x0"], args["lam_g0"] = self._lam
         try:
@@ -256,13 +307,21 @@ class MPCTracker:
             g = np.asarray(sol["g"], dtype=float).ravel()
         except RuntimeError:
             return None
-        feasible = bool(np.all(g >= lbg - _FEASIBILITY) and np.all(g <= ubg + _FEASIBILITY))
-        ok = status.get("success", False) or (status.get("return_status") in _STATIONARY and feasible)
-        if not ok or not np.all(np.isfinite(z)):
+        if not self._accepted(status, g, lbg, ubg) or not np.all(np.isfinite(z)):
             return None
         self._lam = (sol["lam_x"], sol["lam_g"])
         self._guess = self._shifted(z)
         return z[3 * (n + 1) :].reshape(n, 2)
+
+    def _accepted(self, status: dict[str, Any], g: FloatArray, lbg: FloatArray, ubg: FloatArray) -> bool:
+        """Whether a solve's result is used: converged, or stationary and feasible; for "rti" its one
+        step taken with the input constraints (linear, so met by the step's QP) holding."""
+        excess = np.maximum(lbg - g, g - ubg)  # > 0 where a constraint is violated
+        if self.params.solver == "rti":
+            stepped = status.get("success", False) or status.get("return_status") in _ONE_STEP
+            return bool(stepped and np.all(excess[lbg < ubg] <= _FEASIBILITY))  # the dynamics' gap is RTI's
+        feasible = bool(np.all(excess <= _FEASIBILITY))
+        return bool(status.get("success", False) or (status.get("return_status") in _STATIONARY and feasible))
 
     def _call(self, solver: Any, args: dict[str, Any]) -> Any:
         """Call the solver (a seam: tests replace it to force a failure)."""
@@ -270,13 +329,10 @@ class MPCTracker:
 
     def _shifted(self, z: FloatArray) -> FloatArray:
         """The solution moved one control period on: the next solve's initial guess."""
-        n, h = self.params.horizon, self.params.step
+        n = self.params.horizon
+        shift_x, shift_u = _shift_weights(n, self.params.step, self._dt)
         xs, us = z[: 3 * (n + 1)].reshape(n + 1, 3), z[3 * (n + 1) :].reshape(n, 2)
-        grid = h * np.arange(n + 1)
-        at = np.minimum(grid + self._dt, grid[-1])
-        xs = np.column_stack([np.interp(at, grid, xs[:, i]) for i in range(3)])
-        us = np.column_stack([np.interp(at[:-1], grid[:-1], us[:, i]) for i in range(2)])
-        return np.concatenate([xs.ravel(), us.ravel()])
+        return np.concatenate([(shift_x @ xs).ravel(), (shift_u @ us).ravel()])
 
     def _fallback(self, t: float) -> FloatArray:
         """The command after a failed solve: the last feasible plan at ``t``, else rest, reached from the
@@ -298,9 +354,10 @@ class MPCTracker:
             SimulationError: ``t`` or the pose is not finite.
         """
         check_measured_pose(self.name, t, x, y, theta)
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.thread_time()
         inputs = self._solve(t, x, y, theta)
         self.solve_times.append(time.perf_counter() - start)
+        self.solve_cpu_times.append(time.thread_time() - cpu)
         if inputs is None:
             self.failures += 1
             u = self._fallback(t)
@@ -316,15 +373,16 @@ class MPCTracker:
 
     def stats(self) -> dict[str, float | int]:
         """Solve statistics of the run so far: solves, failures, overruns (solves longer than the
-        control period), mean, 95th percentile and max solve time [ms]."""
-        times = np.asarray(self.solve_times) * 1e3
-        if times.size == 0:
-            return {"solves": 0, "failures": self.failures, "overruns": 0, "mean_ms": 0.0, "p95_ms": 0.0, "max_ms": 0.0}
-        return {
-            "solves": int(times.size),
-            "failures": self.failures,
-            "overruns": int(np.count_nonzero(times > self._dt * 1e3)),
-            "mean_ms": float(times.mean()),
-            "p95_ms": float(np.percentile(times, 95)),
-            "max_ms": float(times.max()),
-        }
+        control period), mean, 95th percentile and max solve time [ms] by the wall clock, and the mean
+        and 95th percentile of the CPU time of the solving thread [ms] (the wall clock less the time
+        other processes held the core: what the solve itself costs on a shared machine)."""
+        times, cpu = np.asarray(self.solve_times) * 1e3, np.asarray(self.solve_cpu_times) * 1e3
+        out: dict[str, float | int] = {"solves": int(times.size), "failures": self.failures, "overruns": 0}
+        out |= {"mean_ms": 0.0, "p95_ms": 0.0, "max_ms": 0.0, "cpu_mean_ms": 0.0, "cpu_p95_ms": 0.0}
+        if times.size:
+            out["overruns"] = int(np.count_nonzero(times > self._dt * 1e3))
+            out["mean_ms"], out["p95_ms"] = float(times.mean()), float(np.percentile(times, 95))
+            out["max_ms"] = float(times.max())
+        if cpu.size:
+            out |= {"cpu_mean_ms": float(cpu.mean()), "cpu_p95_ms": float(np.percentile(cpu, 95))}
+        return out

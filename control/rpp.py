@@ -28,17 +28,21 @@ the map (the plan keeps its clearance), so that heuristic is left out.
 
 from __future__ import annotations
 
-import bisect
+import dataclasses
 import math
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
+from numpy.typing import NDArray
 
 from control.base import check_ranges, option_value, ranged
 from control.segmented import SegmentedParams, SegmentSwitcher, _Instant
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
 from planning.trajectory.trajectory import Trajectory
+
+FloatArray = NDArray[np.float64]
 
 #: Path points past the last closest one that may be farther before the search for the closest stops.
 _PATIENCE = 4
@@ -86,9 +90,10 @@ class RPPParams:
             )
 
 
+@nb.njit(cache=True)
 def circle_crossing(
     cx: float, cy: float, radius: float, p1: tuple[float, float], p2: tuple[float, float]
-) -> tuple[float, float]:
+) -> tuple[float, float]:  # pragma: no cover - compiled
     """Where the segment p1 -> p2 (p1 inside the circle, p2 on or outside it) leaves the circle.
 
     Args:
@@ -111,6 +116,89 @@ def circle_crossing(
     s = (-b + math.sqrt(max(b * b - 4.0 * a * c, 0.0))) / (2.0 * a)
     s = min(max(s, 0.0), 1.0)
     return p1[0] + s * dx, p1[1] + s * dy
+
+
+#: Layout of the kernel's constants (built by ``RegulatedPurePursuit.reset``): RPPParams' fields in
+#: declaration order, then the turns' heading gain and the robot's speed and yaw-rate limits.
+_LOOKAHEAD_TIME, _MIN_LOOKAHEAD, _MAX_LOOKAHEAD, _MIN_RADIUS, _MIN_REGULATED, _APPROACH = range(6)
+_MIN_APPROACH, _ALONG, _ROTATE, _HEADING, _VMAX, _WMAX = range(6, 12)
+
+
+@nb.njit(cache=True)
+def _carrot(
+    path: FloatArray, near: int, end: int, x: float, y: float, lookahead: float, sgn: float
+) -> tuple[float, float, int]:  # pragma: no cover - compiled
+    """The carrot (x, y) [m] on the drive's path ending before row ``end``, and the closest row.
+
+    ``path`` is (M, 4): x, y, heading and arc length of the reference at each control instant.
+    """
+    near = min(near, end - 1)
+    gap, j, misses = math.hypot(path[near, 0] - x, path[near, 1] - y), near + 1, 0
+    while j < end and misses < _PATIENCE:  # forwards from the last closest point, as Nav2 prunes
+        d = math.hypot(path[j, 0] - x, path[j, 1] - y)
+        if d < gap:
+            near, gap, misses = j, d, 0
+        else:
+            misses += 1
+        j += 1
+    # no point closer along the path than lookahead - gap can be lookahead from the robot: start there
+    j = near + int(np.searchsorted(path[near:end, 3], path[near, 3] + lookahead - gap))
+    while j < end and math.hypot(path[j, 0] - x, path[j, 1] - y) < lookahead:
+        j += 1
+    if j < end:
+        i = max(j - 1, near)
+        gx, gy = circle_crossing(x, y, lookahead, (path[i, 0], path[i, 1]), (path[j, 0], path[j, 1]))
+        return gx, gy, near
+    lx, ly, lth = path[end - 1, 0], path[end - 1, 1], path[end - 1, 2]
+    reach = sgn * 2.0 * lookahead
+    gx, gy = circle_crossing(x, y, lookahead, (lx, ly), (lx + reach * math.cos(lth), ly + reach * math.sin(lth)))
+    return gx, gy, near
+
+
+@nb.njit(cache=True)
+def _rpp_drive(
+    path: FloatArray,
+    c: FloatArray,
+    near: int,
+    end: int,
+    pose: tuple[float, float, float],
+    ref: tuple[float, float, float],
+    sgn: float,
+    v_last: float,
+) -> tuple[float, float, int]:  # pragma: no cover - compiled
+    """One period of Regulated Pure Pursuit (the module doc's steps 1-5): (v, omega, closest row).
+
+    Args:
+        path: (M, 4) x, y, heading and arc length of the reference at each control instant.
+        c: The constants (indices ``_LOOKAHEAD_TIME`` ... ``_WMAX``).
+        near: The closest row found the period before.
+        end: One past the drive's last row.
+        pose: The measured (x, y, theta).
+        ref: The reference's (x, y, v) at this instant.
+        sgn: +1 forwards, -1 backwards.
+        v_last: The speed commanded the period before [m/s].
+    """
+    x, y, theta = pose
+    lookahead = min(max(abs(v_last) * c[_LOOKAHEAD_TIME], c[_MIN_LOOKAHEAD]), c[_MAX_LOOKAHEAD])
+    gx, gy, near = _carrot(path, near, end, x, y, lookahead, sgn)
+    co, si = math.cos(theta), math.sin(theta)
+    xc, yc = co * (gx - x) + si * (gy - y), -si * (gx - x) + co * (gy - y)
+    bearing = math.atan2(yc, xc) if sgn > 0 else math.atan2(-yc, -xc)
+    if abs(bearing) > c[_ROTATE]:
+        return 0.0, c[_HEADING] * bearing, near
+    kappa = 2.0 * yc / max(xc * xc + yc * yc, 1e-12)
+    along = sgn * (co * (ref[0] - x) + si * (ref[1] - y))
+    desired = min(max(abs(ref[2]) + c[_ALONG] * along, 0.0), c[_VMAX])
+    v = desired
+    radius = 1.0 / abs(kappa) if kappa != 0.0 else math.inf
+    if radius < c[_MIN_RADIUS]:
+        v = max(v * radius / c[_MIN_RADIUS], min(desired, c[_MIN_REGULATED]))
+    remaining = path[end - 1, 3] - path[near, 3]
+    if remaining < c[_APPROACH]:
+        v = max(v * remaining / c[_APPROACH], min(desired, c[_MIN_APPROACH]))
+    if abs(v * kappa) > c[_WMAX]:
+        v = c[_WMAX] / abs(kappa)
+    return sgn * v, sgn * v * kappa, near
 
 
 class RegulatedPurePursuit(SegmentSwitcher):
@@ -140,73 +228,35 @@ class RegulatedPurePursuit(SegmentSwitcher):
     ) -> None:
         self.params = option_value(self.name, "params", params, RPPParams())
         super().__init__(robot, option_value(self.name, "turns", turns, SegmentedParams()))
-        self._px: list[float] = []
-        self._py: list[float] = []
-        self._arc: list[float] = []
+        self._track: FloatArray = np.zeros((0, 4))  # (M, 4) x, y, heading, arc length at each control instant
+        self._arc: FloatArray = np.zeros(0)
+        self._c: FloatArray = np.zeros(12)
         self._near = 0
         self._v_last = 0.0
 
     def reset(self, trajectory: Trajectory, dt: float) -> None:
-        """Start tracking: the path points of every control instant, the progress and speed at zero."""
+        """Start tracking: the path (position, heading, arc length) of every control instant, the
+        progress and speed at zero, the kernel's constants."""
         super().reset(trajectory, dt)
-        self._px = [r.x for r in self._instants]
-        self._py = [r.y for r in self._instants]
-        steps = np.hypot(np.diff(self._px), np.diff(self._py))
-        self._arc = np.concatenate([[0.0], np.cumsum(steps)]).tolist()
+        pose = self._path
+        arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(pose[:, 0]), np.diff(pose[:, 1])))])
+        self._track = np.column_stack([pose, arc])
+        self._arc = self._track[:, 3]
+        p, r = self.params, self.robot
+        fields = [getattr(p, f.name) for f in dataclasses.fields(p)]
+        self._c = np.array([*fields, self._turns.heading_gain, r.max_speed, r.max_yaw_rate], dtype=float)
         self._near, self._v_last = 0, 0.0
 
     def _idle(self) -> None:
         self._v_last = 0.0
 
-    def _carrot(self, x: float, y: float, lookahead: float, sgn: float, end: int) -> tuple[tuple[float, float], int]:
-        """The carrot on the drive's path ending before instant ``end``, and the closest path index."""
-        px, py, hypot = self._px, self._py, math.hypot
-        near = min(self._near, end - 1)
-        gap, j, misses = hypot(px[near] - x, py[near] - y), near + 1, 0
-        while j < end and misses < _PATIENCE:  # forwards from the last closest point, as Nav2 prunes
-            d = hypot(px[j] - x, py[j] - y)
-            near, gap, misses = (j, d, 0) if d < gap else (near, gap, misses + 1)
-            j += 1
-        self._near = near
-        # no point closer along the path than lookahead - gap can be lookahead from the robot: start there
-        j = bisect.bisect_left(self._arc, self._arc[near] + lookahead - gap, near, end)
-        while j < end and hypot(px[j] - x, py[j] - y) < lookahead:
-            j += 1
-        if j < end:
-            p1 = (px[max(j - 1, near)], py[max(j - 1, near)])
-            return circle_crossing(x, y, lookahead, p1, (px[j], py[j])), near
-        last = self._instants[end - 1]
-        p1 = (last.x, last.y)
-        reach = sgn * 2.0 * lookahead
-        far = (last.x + reach * math.cos(last.theta), last.y + reach * math.sin(last.theta))
-        return circle_crossing(x, y, lookahead, p1, far), near
-
     def _drive(self, x: float, y: float, theta: float, ref: _Instant, sgn: float, k: int) -> tuple[float, float]:
-        """One period of Regulated Pure Pursuit along a drive of direction ``sgn``."""
-        x, y, theta = float(x), float(y), float(theta)  # Python floats: numpy scalars slow every step down
-        p = self.params
+        """One period of Regulated Pure Pursuit along a drive of direction ``sgn`` (a compiled kernel:
+        no allocation, the closest point searched forwards from the last one)."""
         start, end = self._spans[ref.segment]
         if ref.segment != self.segment:
             self._near = start
-        lookahead = min(max(abs(self._v_last) * p.lookahead_time, p.min_lookahead), p.max_lookahead)
-        (gx, gy), near = self._carrot(x, y, lookahead, sgn, end)
-        c, s = math.cos(theta), math.sin(theta)
-        xc, yc = c * (gx - x) + s * (gy - y), -s * (gx - x) + c * (gy - y)
-        bearing = math.atan2(yc, xc) if sgn > 0 else math.atan2(-yc, -xc)
-        if abs(bearing) > p.rotate_angle:
-            self._v_last = 0.0
-            return 0.0, self._turns.heading_gain * bearing
-        kappa = 2.0 * yc / max(xc * xc + yc * yc, 1e-12)
-        along = sgn * (c * (ref.x - x) + s * (ref.y - y))
-        desired = min(max(abs(ref.v) + p.along_gain * along, 0.0), self.robot.max_speed)
-        v = desired
-        radius = 1.0 / abs(kappa) if kappa != 0.0 else math.inf
-        if radius < p.min_radius:
-            v = max(v * radius / p.min_radius, min(desired, p.min_regulated_speed))
-        remaining = self._arc[end - 1] - self._arc[near]
-        if remaining < p.approach_dist:
-            v = max(v * remaining / p.approach_dist, min(desired, p.min_approach_speed))
-        if abs(v * kappa) > self.robot.max_yaw_rate:
-            v = self.robot.max_yaw_rate / abs(kappa)
-        self._v_last = sgn * v
-        return sgn * v, sgn * v * kappa
+        pose, at = (float(x), float(y), float(theta)), (ref.x, ref.y, ref.v)
+        v, w, self._near = _rpp_drive(self._track, self._c, self._near, end, pose, at, sgn, self._v_last)
+        self._v_last = v
+        return v, w

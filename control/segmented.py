@@ -90,9 +90,12 @@ class SegmentSwitcher:
         self._turns = turns
         self.segment = -1
         self._instants: list[_Instant] = []
+        self._path: np.ndarray = np.zeros((0, 3))  # (M, 3) reference pose at each control instant
         self._kinds: tuple[str, ...] = ()
+        self._signs: tuple[float, ...] = ()
         self._spans: list[tuple[int, int]] = []
         self._final = (0.0, 0.0, 0.0)
+        self._vmax, self._wmax = float(robot.max_speed), float(robot.max_yaw_rate)
         self._dt = 0.02
         self._t0 = 0.0
         self._traj: Trajectory | None = None
@@ -117,12 +120,15 @@ class SegmentSwitcher:
         # the segment in force at a control instant: that of the last sample at or before it
         idx = np.clip(np.searchsorted(trajectory.t, times + 1e-9, side="right") - 1, 0, trajectory.t.size - 1)
         columns = (s.x.tolist(), s.y.tolist(), s.theta.tolist(), s.v.tolist(), s.omega.tolist())
-        self._instants = [_Instant(*row) for row in zip(*columns, flat_references(s), seg[idx].tolist(), strict=True)]
+        self._instants = list(map(_Instant._make, zip(*columns, flat_references(s), seg[idx].tolist(), strict=True)))
+        self._path = np.column_stack([s.x, s.y, s.theta])
         at = seg[idx]
         self._spans = [
             (int(np.searchsorted(at, i)), int(np.searchsorted(at, i, side="right"))) for i in range(len(kinds))
         ]
         self._kinds = tuple(kinds)
+        # per segment: +1 forwards, -1 backwards, 0 turn in place or stand-still (read once a period)
+        self._signs = tuple(1.0 if kind == "forward" else (-1.0 if kind == "reverse" else 0.0) for kind in kinds)
         self._final = (float(trajectory.pose[-1, 0]), float(trajectory.pose[-1, 1]), float(trajectory.pose[-1, 2]))
         self.segment = -1
         self._idle()
@@ -160,19 +166,19 @@ class SegmentSwitcher:
             v, w = self._regulate(x, y, theta, self._final, 0.0)
             self._idle()
         else:
-            k = max(k, 0)
-            ref = self._instants[k]
-            kind = self._kinds[ref.segment]
-            if kind in ("forward", "reverse"):
-                v, w = self._drive(x, y, theta, ref, 1.0 if kind == "forward" else -1.0, k)
+            ref = self._instants[k if k > 0 else 0]
+            sgn = self._signs[ref.segment]
+            if sgn != 0.0:
+                v, w = self._drive(x, y, theta, ref, sgn, k if k > 0 else 0)
             else:
-                v, w = self._regulate(x, y, theta, (ref.x, ref.y, ref.theta), ref.omega if kind == "rotate" else 0.0)
+                rotate = self._kinds[ref.segment] == "rotate"
+                v, w = self._regulate(x, y, theta, (ref.x, ref.y, ref.theta), ref.omega if rotate else 0.0)
                 self._idle()
             self.segment = ref.segment
         if not (math.isfinite(v) and math.isfinite(w)):
             v, w = 0.0, 0.0
-        vmax, wmax = self.robot.max_speed, self.robot.max_yaw_rate
-        return min(max(v, -vmax), vmax), min(max(w, -wmax), wmax)
+        vmax, wmax = self._vmax, self._wmax
+        return (-vmax if v < -vmax else (vmax if v > vmax else v)), (-wmax if w < -wmax else (wmax if w > wmax else w))
 
 
 class SegmentedTracker(SegmentSwitcher):

@@ -16,6 +16,7 @@ from control.kanayama import KanayamaParams
 from control.mpc import MPCParams
 from planning.errors import ConfigError
 from sim.pipeline.case import Case
+from sim.tools.bench.track import mpc_params
 from sim.tools.compare import TimedTracker, check_trackers, compare_trackers, load_params
 from tests.test_cli import nhsim
 
@@ -121,6 +122,15 @@ def test_bench_track_prints_every_tracker_and_mpc_solve_times() -> None:
         assert steps > 600 and 0 < mean and 0 < solve_p95 <= p95 + 1.0  # the solve is most of a step
     assert rows["kanayama"][7] == "-"  # no solver
     assert "target: 95th percentile" in r.stdout
+
+
+def test_bench_track_reads_each_mpc_solver_with_its_qp_solver() -> None:
+    assert mpc_params("rti") == MPCParams() and MPCParams().solver == "rti" and MPCParams().qp_solver == "daqp"
+    assert mpc_params("sqp:qrqp") == MPCParams(solver="sqp", qp_solver="qrqp")
+    with pytest.raises(ConfigError, match=r"MPCParams\.qp_solver must be one of daqp, qrqp, got 'osqp'"):
+        mpc_params("rti:osqp")
+    with pytest.raises(ConfigError, match=r"MPCParams\.solver must be one of rti, sqp, ipopt, got 'rit'"):
+        mpc_params("rit")
 
 
 def test_compare_takes_a_path_file_as_simulate_reads_it(tmp_path: Path) -> None:

@@ -138,13 +138,65 @@ def test_mpc_stats_count_overruns_of_the_control_period() -> None:
     assert stats["p95_ms"] == pytest.approx(np.percentile([1, 19, 21, 50], 95))
 
 
-@pytest.mark.parametrize("solver", ["sqp", "ipopt"])
-def test_both_mpc_solvers_track(solver: str) -> None:
+@pytest.mark.parametrize("solver", ["rti", "sqp", "ipopt"])
+def test_every_mpc_solver_tracks(solver: str) -> None:
     robot = load_robot("turtlebot3")
     traj = make_reference("circle", robot, Pose2D(0, 0, 0))
     tracker = MPCTracker(robot, params=MPCParams(solver=solver, horizon=10))
     _, poses = _run(tracker, traj, traj.pose[0] + np.array([0.0, 0.02, 0.0]))
     assert _errors(traj, poses)[-1] < 1e-3 and tracker.stats()["failures"] == 0
+
+
+@pytest.mark.parametrize("robot_name", ["turtlebot3", "edumip"])
+def test_the_real_time_iteration_tracks_a_figure_eight_as_the_converged_sqp_does(robot_name: str) -> None:
+    robot = load_robot(robot_name)
+    traj = make_reference("figure8", robot, Pose2D(0.0, 0.0, 0.0))
+    start = traj.pose[0] + np.array([0.0, 0.02, 0.05])  # 2 cm and 0.05 rad off
+    rms = {}
+    for solver in ("rti", "sqp"):
+        tracker = MPCTracker(robot, params=MPCParams(solver=solver))
+        commands, poses = _run(tracker, traj, start)
+        err = _errors(traj, poses)
+        assert np.all(np.isfinite(commands)) and tracker.stats()["failures"] == 0
+        rms[solver] = float(np.sqrt(np.mean(err**2)))
+        assert err[int(5.0 / DT) :].max() < 5e-3 and err[-1] < 1e-4  # settled, then on the goal
+    assert rms["rti"] <= 1.1 * rms["sqp"]  # one step a period: within 10 % of the converged solution's RMS
+
+
+def test_the_real_time_iteration_keeps_a_step_only_if_its_input_constraints_hold() -> None:
+    robot = load_robot("turtlebot3")
+    rti, sqp = MPCTracker(robot), MPCTracker(robot, params=MPCParams(solver="sqp"))
+    lbg, ubg = np.array([0.0, 0.0, -1.0]), np.array([0.0, 0.0, 1.0])  # two shooting gaps, one input row
+    one_step = {"success": False, "return_status": "Maximum_Iterations_Exceeded"}
+    gapped = np.array([1e-3, -1e-3, 0.5])  # the gaps a single step leaves, the input constraint met
+    assert rti._accepted(one_step, gapped, lbg, ubg)
+    assert not sqp._accepted(one_step, gapped, lbg, ubg)  # a converging solver must close them
+    assert not rti._accepted(one_step, np.array([0.0, 0.0, 1.01]), lbg, ubg)  # the step broke a limit
+    assert not rti._accepted({"success": False, "return_status": "Infeasible_Problem_Detected"}, gapped, lbg, ubg)
+
+
+@pytest.mark.parametrize("solver", ["rti", "sqp"])
+def test_the_mpc_never_commands_a_non_finite_input_whatever_the_solver_returns(solver: str) -> None:
+    robot = load_robot("edumip")
+    traj = make_reference("figure8", robot, Pose2D(0.0, 0.0, 0.0))
+    tracker = MPCTracker(robot, params=MPCParams(solver=solver))
+    real, calls = tracker._call, [0]
+
+    def poisoned(solver_fn: object, args: dict[str, object]) -> object:
+        out = dict(real(solver_fn, args))  # type: ignore[arg-type]
+        calls[0] += 1
+        if calls[0] % 4 == 0:  # every fourth solve returns NaN and infinities
+            x = np.asarray(out["x"], dtype=float).copy()
+            x[::2], x[1::2] = np.nan, np.inf
+            out["x"] = x
+        return out
+
+    tracker._call = poisoned  # type: ignore[method-assign]
+    commands, poses = _run(tracker, traj, traj.pose[0].copy())
+    assert np.all(np.isfinite(commands)) and np.all(np.isfinite(poses))
+    assert tracker.stats()["failures"] == calls[0] // 4  # each poisoned solve counted (reset's is call 1)
+    assert np.abs(commands[:, 0]).max() <= robot.max_speed and np.abs(commands[:, 1]).max() <= robot.max_yaw_rate
+    assert _errors(traj, poses).max() < 5e-3
 
 
 def test_rpp_regulates_its_speed_by_curvature_and_near_the_end() -> None:
@@ -189,7 +241,8 @@ def test_circle_crossing_and_kanayama_law() -> None:
         (lambda: MPCParams(horizon=2.5), r"MPCParams.horizon must be an integer in \[2, 200\] steps"),
         (lambda: MPCParams(step=0.0), r"MPCParams.step must be in \[0.005, 1\] s, got 0.0"),
         (lambda: MPCParams(q_heading=math.nan), r"MPCParams.q_heading must be a finite number"),
-        (lambda: MPCParams(solver="osqp"), r"MPCParams.solver must be one of sqp, ipopt, got 'osqp'"),
+        (lambda: MPCParams(solver="osqp"), r"MPCParams.solver must be one of rti, sqp, ipopt, got 'osqp'"),
+        (lambda: MPCParams(qp_solver="osqp"), r"MPCParams.qp_solver must be one of daqp, qrqp, got 'osqp'"),
         (lambda: KanayamaParams(ky=-1.0), r"KanayamaParams.ky must be in \[0.01, 10000\] 1/m\^2, got -1.0"),
         (lambda: RPPParams(lookahead_time=True), r"RPPParams.lookahead_time must be a finite number"),
         (lambda: RPPParams(min_lookahead=1.0, max_lookahead=0.5), r"min_lookahead \(1.0 m\) must be <= max_look"),

@@ -28,14 +28,20 @@ class InferredSegments:
     """Segments inferred from a trajectory's inputs.
 
     Attributes:
-        labels: (N,) kind of every sample ("forward", "reverse" or "rotate").
+        codes: (N,) kind of every sample by code (1 forward, 2 reverse, 3 rotate).
         index: (N,) segment of every sample: 0, 1, ... non-decreasing, as ``Trajectory.segments``.
         kinds: Kind of each segment, as ``Trajectory.segment_kinds``; consecutive kinds differ.
     """
 
-    labels: tuple[str, ...]
+    codes: NDArray[np.int64]
     index: NDArray[np.int64]
     kinds: tuple[str, ...]
+
+    @property
+    def labels(self) -> tuple[str, ...]:
+        """(N,) kind of every sample ("forward", "reverse" or "rotate"); built when asked (a tracker
+        that needs only the segments never pays for N strings)."""
+        return tuple(np.array(_KINDS)[self.codes].tolist())
 
 
 def infer_segments(v: ArrayLike, omega: ArrayLike, eps: float = 1e-4) -> InferredSegments:
@@ -58,7 +64,7 @@ def infer_segments(v: ArrayLike, omega: ArrayLike, eps: float = 1e-4) -> Inferre
         raise ValueError(f"infer_segments: v and omega must be 1-D of one length, got {v.shape} and {omega.shape}")
     n = v.size
     if n == 0:
-        return InferredSegments((), np.zeros(0, dtype=np.int64), ())
+        return InferredSegments(np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), ())
     rotating = (np.abs(v) <= eps) & (np.abs(omega) > eps)
     codes = np.select([v > eps, v < -eps, rotating], [1, 2, 3], 0)
     moving = np.flatnonzero(codes)
@@ -71,4 +77,4 @@ def infer_segments(v: ArrayLike, omega: ArrayLike, eps: float = 1e-4) -> Inferre
     new = np.concatenate([[True], codes[1:] != codes[:-1]])  # a segment starts here
     index = (np.cumsum(new) - 1).astype(np.int64)
     names = np.array(_KINDS)
-    return InferredSegments(tuple(names[codes].tolist()), index, tuple(names[codes[new]].tolist()))
+    return InferredSegments(codes.astype(np.int64), index, tuple(names[codes[new]].tolist()))
