@@ -21,7 +21,16 @@ makes it shorter with the planner's own steering, never touching anything but wh
    pairs of vertices at most ``1 + round(range_ratio * count)`` apart.
 
 Steps 3 to 5 repeat, as OMPL's ``simplify`` does, for at most ``max_rounds`` rounds while they
-change the path. Every candidate replaces the stretch between two path states by the motion
+change the path.
+
+6. **Other ways round** (``routes``): shortcuts keep the way the path goes round each obstacle (a
+   shortcut's motion stays near the stretch it replaces). So each route given, poses the caller
+   took from a shorter way (the obstacle-aware 2-D route, :mod:`planning.planners.geodesic`), is
+   joined by ``steer`` from the path's first pose to its last; when that path is collision-free it
+   gets the greedy pass and one round, and, if it is then cheaper than the simplified path with no
+   more cusps, the remaining rounds, and it becomes the result.
+
+Every candidate replaces the stretch between two path states by the motion
 ``steer`` returns, and is kept only when all of these hold:
 
 * its cost (``cost`` summed over the pieces between vertices) is lower by at least ``min_gain``
@@ -30,7 +39,9 @@ change the path. Every candidate replaces the stretch between two path states by
 * ``checker`` finds the new motion collision-free.
 
 So the result is collision-free wherever the input was, starts and ends at the same poses, is never
-costlier and never has more cusps. A cusp is merged whenever a shortcut across it passes the tests.
+costlier and never has more cusps (a route's path is checked whole and only taken when cheaper with
+no more cusps than the simplified input). A motion found to collide is remembered by its end poses
+and not steered or checked again. A cusp is merged whenever a shortcut across it passes the tests.
 OMPL's B-spline smoothing is left out (it moves states off the steering's curves); smoothing for the
 tracker happens later (:mod:`planning.trajectory.smoothing`).
 
@@ -165,7 +176,8 @@ class SimplifiedPath:
         raw_cost: Cost of the input (``cost`` summed over its pieces).
         cost: Cost of the result.
         shortcuts: Shortcuts kept.
-        attempts: Shortcuts steered (after the ``distance`` pruning).
+        attempts: Shortcuts steered (after the ``distance`` pruning), on every route tried.
+        route: Which way the result goes: -1 the input's, k the k-th of ``routes``.
         time_s: Wall time of the simplification [s].
         cpu_s: CPU time of the simplification's thread [s] (what the wall time is on an idle machine).
     """
@@ -181,6 +193,7 @@ class SimplifiedPath:
     cost: float
     shortcuts: int
     attempts: int
+    route: int
     time_s: float
     cpu_s: float
 
@@ -195,6 +208,7 @@ class SimplifiedPath:
             "raw_cost": self.raw_cost,
             "simplified_cost": self.cost,
             "shortcuts": self.shortcuts,
+            "simplify_route": self.route,
             "simplify_time_s": self.time_s,
             "simplify_cpu_s": self.cpu_s,
         }
@@ -223,6 +237,9 @@ class _Work:
         self.pcost = [self.piece(a, b) for a, b in itertools.pairwise(verts)]
         self.kept = 0
         self.attempts = 0
+        #: Pose pairs (their bytes) whose steered motion collides: refused again without steering or
+        #: checking (the motion between the same two poses is always the same).
+        self.collides: set[bytes] = set()
 
     def piece(self, a: int, b: int) -> float:
         """Cost of poses a..b (the x-y length straight from the running sums for the default cost)."""
@@ -279,6 +296,9 @@ class _Work:
         budget = old - pre - post - min_gain
         if not est < budget:
             return False
+        key = p[a].tobytes() + p[b].tobytes() if turn is None else None
+        if key in self.collides:
+            return False
         self.attempts += 1
         motion = self._motion(p[a], p[b], turn)
         if motion is None:
@@ -293,6 +313,8 @@ class _Work:
         if self._cusps(before, m_dirs[1:], after) > self._cusps(before, self.dirs[a + 1 : b + 1], after):
             return False
         if not self.checker(m_poses):
+            if key is not None:
+                self.collides.add(key)
             return False
         self._apply(a, b, m_poses, m_dirs, (k_lo, k_hi, pre, c_new, post))
         return True
@@ -485,6 +507,61 @@ def _reduce_pass(w: _Work, cfg: SimplifyConfig, rng: np.random.Generator, distan
     return changed
 
 
+def _rounds(w: _Work, cfg: SimplifyConfig, distance: Distance | None, rng: np.random.Generator, rounds: int) -> bool:
+    """Up to ``rounds`` rounds of steps 3 to 5 of the module doc on ``w``, while they change it;
+    returns whether the last one run still changed it (more rounds might)."""
+    for _ in range(rounds):
+        changed = _cusp_pass(w, cfg, distance)
+        changed |= _turned_pass(w, cfg, distance)
+        changed |= _shortcut_pass(w, cfg, rng, distance)
+        changed |= _reduce_pass(w, cfg, rng, distance)
+        if not changed:
+            return False
+    return True
+
+
+def _route_work(w: _Work, route: FloatArray) -> _Work | None:
+    """The path steered from ``w``'s first pose through the (W, 3) ``route`` poses to its last, if
+    every piece steers and the whole is collision-free (else None). Its vertices are the route's
+    poses: each steered piece is one of the cost's pieces, and few vertices keep the greedy pass
+    short on a path that has no detour to collapse."""
+    qs = [w.poses[0], *np.asarray(route, dtype=float).reshape(-1, 3), w.poses[-1]]
+    parts = [w.steer(a, b) for a, b in itertools.pairwise(qs)]
+    if any(m is None for m in parts):
+        return None
+    motions = [m for m in parts if m is not None]
+    poses = np.vstack([motions[0][0], *(m[0][1:] for m in motions[1:])])
+    dirs = np.concatenate([motions[0][1], *(m[1][1:] for m in motions[1:])])
+    poses[0], poses[-1] = w.poses[0], w.poses[-1]
+    if not w.checker(poses):
+        return None
+    joints = np.cumsum([0, *(m[0].shape[0] - 1 for m in motions)]).tolist()
+    return _Work(poses, dirs, joints, w.steer, w.checker, w.cost)
+
+
+def _best_route(
+    w: _Work, routes: Sequence[FloatArray], cfg: SimplifyConfig, distance: Distance | None, seed: int
+) -> tuple[_Work, int, int]:
+    """The cheapest of the simplified path ``w`` and the paths steered through ``routes`` and
+    simplified the same way, among those with no more cusps than ``w``; which one it is (-1: ``w``),
+    and the shortcuts steered on all of them. A route gets one round first and the rest only if it
+    beats the best so far (more rounds only make it cheaper)."""
+    best, chosen, attempts = w, -1, w.attempts
+    for k, r in enumerate(routes if w.poses.shape[0] >= 3 else ()):
+        alt = _route_work(w, r)
+        if alt is None:
+            continue
+        rng = np.random.default_rng(seed)
+        _greedy(alt, cfg, distance)
+        more = _rounds(alt, cfg, distance, rng, min(1, cfg.max_rounds))
+        if alt.total() < best.total() - cfg.min_gain and count_cusps(alt.dirs) <= count_cusps(best.dirs):
+            if more:
+                _rounds(alt, cfg, distance, rng, cfg.max_rounds - 1)
+            best, chosen = alt, k
+        attempts += alt.attempts
+    return best, chosen, attempts
+
+
 def simplify_path(
     path: FloatArray,
     directions: FloatArray | None,
@@ -494,6 +571,7 @@ def simplify_path(
     cost: PieceCost = length_cost,
     distance: Distance | None = None,
     vertices: Sequence[int] | None = None,
+    routes: Sequence[FloatArray] = (),
     config: SimplifyConfig | None = None,
     seed: int = 0,
 ) -> SimplifiedPath:
@@ -509,6 +587,10 @@ def simplify_path(
         vertices: Indices of the path's vertices (increasing; the ends are added); None: the ends,
             the cusps and one every ``config.vertex_spacing`` metres. A cost that is not additive
             at every pose (a per-edge term, like C-RRT*'s) needs its own edges' ends here.
+        routes: Other ways to go, each (W, 3) poses that ``steer`` joins from the path's first pose
+            to its last (e.g. along the obstacle-aware 2-D route, :mod:`planning.planners.geodesic`):
+            each one that steers and is collision-free is simplified the same way, and the result is
+            the cheapest of all whose cusps are no more than the simplified path's.
         config: Parameters (default :class:`SimplifyConfig`).
         seed: Seed of the random draws.
 
@@ -535,28 +617,23 @@ def simplify_path(
         assert cut_d is not None
         if cut.shape[0] < p.shape[0]:
             w = _Work(cut, cut_d, default_vertices(cut, cut_d, cfg), steer, checker, cost)
-    if p.shape[0] >= 3:
-        rng = np.random.default_rng(seed)
+    if w.poses.shape[0] >= 3:
         _greedy(w, cfg, distance)
-        for _ in range(cfg.max_rounds):
-            changed = _cusp_pass(w, cfg, distance)
-            changed |= _turned_pass(w, cfg, distance)
-            changed |= _shortcut_pass(w, cfg, rng, distance)
-            changed |= _reduce_pass(w, cfg, rng, distance)
-            if not changed:
-                break
+        _rounds(w, cfg, distance, np.random.default_rng(seed), cfg.max_rounds)
+    best, chosen, attempts = _best_route(w, routes, cfg, distance, seed)
     return SimplifiedPath(
-        w.poses,
-        w.dirs,
-        np.asarray(w.verts, dtype=np.int64),
+        best.poses,
+        best.dirs,
+        np.asarray(best.verts, dtype=np.int64),
         raw_len,
-        path_length(w.poses),
+        path_length(best.poses),
         raw_cusps,
-        count_cusps(w.dirs),
+        count_cusps(best.dirs),
         raw_cost,
-        w.total(),
-        w.kept,
-        w.attempts,
+        best.total(),
+        best.kept,
+        attempts,
+        chosen,
         time.perf_counter() - t0,
         time.thread_time() - c0,
     )
