@@ -14,6 +14,8 @@ Tests compare the verdicts with the exact checker's on random and near-margin po
 
 from __future__ import annotations
 
+import functools
+
 import numba as nb
 import numpy as np
 from numpy.typing import NDArray
@@ -61,6 +63,23 @@ def pack_world(world: World) -> tuple[IntArray, FloatArray, FloatArray, IntArray
         np.ascontiguousarray(v, dtype=float),
         np.array(offsets, dtype=np.int64),
     )
+
+
+@functools.lru_cache(maxsize=8)
+def world_arrays(world: World, walls: bool = True) -> WorldArrays:
+    """The world as the kernels take it: its bounds, the walls flag and :func:`pack_world`'s arrays
+    (cached per world)."""
+    return (np.asarray(world.bounds, dtype=float), walls, *pack_world(world))
+
+
+@nb.njit(cache=True)
+def world_distances(points: FloatArray, world: WorldArrays) -> FloatArray:
+    """(M,) signed distances [m] of (M, 2) points to the nearest obstacle or (with walls) wall, by the
+    formulas of :mod:`planning.core.world` (the exact checker's), compiled."""
+    out = np.empty(points.shape[0])
+    for k in range(points.shape[0]):
+        out[k] = _world_distance(points[k, 0], points[k, 1], world)
+    return out
 
 
 @nb.njit(cache=True)

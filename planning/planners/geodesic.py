@@ -5,10 +5,10 @@ shortcuts never change that (a shortcut replaces a stretch by a nearby motion, w
 same side). :func:`route` gives the shortest way for a disc of a given radius instead, from the
 same distance field Hybrid-A*'s heuristic searches (:func:`planning.planners.lattice.obstacle_heuristic`,
 Dijkstra from the goal over 8-connected cells): cells of side ``cell`` are free where the disc
-about the cell's centre provably keeps off everything (the fast checker's distance grid, lower
-bound); the route descends the field from the start's cell to the goal's and is then string-pulled,
-each vertex kept only where the last kept one cannot see farther along (every point of the straight
-segment, sampled at the grid's spacing, keeps the radius by the grid's lower bound).
+about the cell's centre keeps off everything (:func:`centre_distances`); the route
+descends the field from the start's cell to the goal's and is then string-pulled, each vertex
+kept only where the last kept one cannot see farther along (every point of the straight segment
+keeps the radius: samples ``SEE_STEP`` apart, each asked half a spacing more).
 
 :func:`curve_waypoints` and :func:`polyline_waypoints` turn a route into poses that a planner's own
 steering joins: the simplifier (:func:`planning.planners.simplify.simplify_path`, its ``routes``)
@@ -22,13 +22,15 @@ Monte Carlo runs plan the same problem many times).
 
 from __future__ import annotations
 
+import functools
 from collections import OrderedDict
 
 import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.collision.grid import FastChecker, _lookup
+from planning.collision.compiled import WorldArrays, _world_distance, world_arrays, world_distances
+from planning.core.world import World
 from planning.planners.lattice import obstacle_heuristic
 
 FloatArray = NDArray[np.float64]
@@ -36,6 +38,8 @@ IntArray = NDArray[np.int64]
 
 #: Cell side of the 2-D search [m] (Hybrid-A*'s default ``cell_size``).
 CELL = 0.05
+#: Largest distance between the points at which a route's segment is measured [m].
+SEE_STEP = 0.02
 #: Smallest turn at a route's vertex that :func:`curve_waypoints` rounds [rad]; a smaller one moves the
 #: straight line past the vertex by at most the segment's length times half of it.
 MIN_TURN = 1e-3
@@ -44,18 +48,17 @@ CACHE_SIZE = 16
 _FIELDS: OrderedDict[tuple[object, ...], FloatArray] = OrderedDict()
 
 
-def free_cells(checker: FastChecker, cell: float, radius: float) -> tuple[NDArray[np.bool_], tuple[float, float]]:
-    """Cells of side ``cell`` over the world's bounds whose centre keeps a disc of ``radius`` [m] off
-    every obstacle and wall by the checker's distance grid (its lower bound, so provably).
-
-    Returns:
-        (nx, ny) free cells and the (x, y) of the lower-left corner of cell (0, 0) [m].
-    """
-    xmin, xmax, ymin, ymax = checker.checker.world.bounds
+@functools.lru_cache(maxsize=8)
+def centre_distances(world: World, cell: float) -> FloatArray:
+    """(nx, ny) signed distances [m] from the centres of the cells of side ``cell`` over the world's
+    bounds (cell (0, 0) at its lower-left corner) to the nearest obstacle or wall: the exact signed
+    distance, compiled; cached per world and cell."""
+    xmin, xmax, ymin, ymax = world.bounds
     nx, ny = int(np.ceil((xmax - xmin) / cell)), int(np.ceil((ymax - ymin) / cell))
     cx, cy = np.meshgrid(xmin + cell * (np.arange(nx) + 0.5), ymin + cell * (np.arange(ny) + 0.5), indexing="ij")
-    lower, _ = checker.distance_bounds(np.column_stack([cx.ravel(), cy.ravel()]))
-    return (lower > radius).reshape(nx, ny), (float(xmin), float(ymin))
+    d = world_distances(np.column_stack([cx.ravel(), cy.ravel()]), world_arrays(world)).reshape(nx, ny)
+    d.setflags(write=False)
+    return d  # type: ignore[no-any-return]
 
 
 def _cell_of(p: FloatArray, origin: tuple[float, float], cell: float, shape: tuple[int, ...]) -> tuple[int, int]:
@@ -65,30 +68,32 @@ def _cell_of(p: FloatArray, origin: tuple[float, float], cell: float, shape: tup
 
 
 def distance_field(
-    checker: FastChecker, radius: float, start: FloatArray, goal: FloatArray, cell: float = CELL
+    world: World, radius: float, start: FloatArray, goal: FloatArray, cell: float = CELL
 ) -> tuple[FloatArray, tuple[float, float]]:
     """Dijkstra distances [m] to the goal's cell over the free cells (:func:`free_cells`), the cells
     within ``radius`` of the start and of the goal counted free too (the ends may sit closer to
-    something than the disc allows; the steered path is checked anyway). Cached per world, grid,
-    radius, cell and end cells.
+    something than the disc allows; the steered path is checked anyway). Cached per world, radius,
+    cell and end cells.
 
     Returns:
         (nx, ny) distances (inf where unreachable) and the lower-left corner of cell (0, 0) [m].
     """
-    free, origin = free_cells(checker, cell, radius)
-    s, g = _cell_of(start, origin, cell, free.shape), _cell_of(goal, origin, cell, free.shape)
-    args = checker.proof_arguments()
-    key = (checker.checker.world, args[3], cell, radius, s, g)
+    xmin, xmax, ymin, ymax = world.bounds
+    origin = (float(xmin), float(ymin))
+    shape = (int(np.ceil((xmax - xmin) / cell)), int(np.ceil((ymax - ymin) / cell)))
+    s, g = _cell_of(start, origin, cell, shape), _cell_of(goal, origin, cell, shape)
+    key = (world, cell, radius, s, g)
     hit = _FIELDS.get(key)
     if hit is not None:
         _FIELDS.move_to_end(key)
         return hit, origin
+    free = centre_distances(world, cell) > radius
     reach = int(np.ceil(radius / cell))
     for ci, cj in (s, g):
         for di in range(-reach, reach + 1):
             for dj in range(-reach, reach + 1):
                 a, b = ci + di, cj + dj
-                if 0 <= a < free.shape[0] and 0 <= b < free.shape[1] and np.hypot(di, dj) * cell <= radius:
+                if 0 <= a < shape[0] and 0 <= b < shape[1] and np.hypot(di, dj) * cell <= radius:
                     free[a, b] = True
     field = obstacle_heuristic(free, g[0], g[1], float(cell))
     field.setflags(write=False)
@@ -121,44 +126,41 @@ def _descend(field: FloatArray, i: int, j: int) -> IntArray:
 
 
 @nb.njit(cache=True)
-def _sees(a: FloatArray, b: FloatArray, grid: FloatArray, x0: float, y0: float, h: float, radius: float) -> bool:
-    """Whether every point of segment a-b keeps ``radius`` by the grid's lower bound, or, for an end
-    closer than that to something (a start or goal pose near a wall), what that end keeps less one
-    spacing (samples every h; the bound is 1-Lipschitz, so half a spacing more is asked of each)."""
-    e = h / np.sqrt(2.0)
-    keep = min(radius, _lookup(grid, x0, y0, h, a[0], a[1]) - e - h, _lookup(grid, x0, y0, h, b[0], b[1]) - e - h)
+def _sees(a: FloatArray, b: FloatArray, world: WorldArrays, radius: float, step: float) -> bool:
+    """Whether every point of segment a-b is farther than ``radius`` from everything, or, for an end
+    closer than that (a start or goal pose near a wall), than what that end keeps less one ``step``.
+    Samples at most ``step`` apart; the distance is 1-Lipschitz, so half a spacing more is asked of
+    each."""
+    keep = min(radius, _world_distance(a[0], a[1], world) - step, _world_distance(b[0], b[1], world) - step)
     length = np.hypot(b[0] - a[0], b[1] - a[1])
-    n = max(1, int(np.ceil(length / h)))
+    n = max(1, int(np.ceil(length / step)))
     for k in range(n + 1):
         t = k / n
-        x, y = a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])
-        if _lookup(grid, x0, y0, h, x, y) - e - 0.5 * length / n <= keep:
+        if _world_distance(a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), world) - 0.5 * length / n <= keep:
             return False
     return True
 
 
 @nb.njit(cache=True)
-def _pull(pts: FloatArray, grid: FloatArray, x0: float, y0: float, h: float, radius: float) -> IntArray:
+def _pull(pts: FloatArray, world: WorldArrays, radius: float, step: float) -> IntArray:
     """Indices of the points kept by string-pulling: from each kept point, the farthest point up to
     which every one is seen (:func:`_sees`; the next point at least)."""
     keep = [0]
     i, n = 0, pts.shape[0]
     while i < n - 1:
         j = i + 1
-        while j + 1 < n and _sees(pts[i], pts[j + 1], grid, x0, y0, h, radius):
+        while j + 1 < n and _sees(pts[i], pts[j + 1], world, radius, step):
             j += 1
         keep.append(j)
         i = j
     return np.array(keep, dtype=np.int64)
 
 
-def route(
-    checker: FastChecker, start: FloatArray, goal: FloatArray, radius: float, cell: float = CELL
-) -> FloatArray | None:
+def route(world: World, start: FloatArray, goal: FloatArray, radius: float, cell: float = CELL) -> FloatArray | None:
     """The shortest 2-D route for a disc of ``radius`` [m] from ``start`` to ``goal`` (see the module doc).
 
     Args:
-        checker: The planner's fast checker (its world and distance grid; it needs walls).
+        world: Bounds (walls) and obstacles.
         start: Start position, (2,) or a pose (3,) [m].
         goal: Goal position, (2,) or a pose (3,) [m].
         radius: Radius of the disc about the route [m].
@@ -169,15 +171,14 @@ def route(
         reached from the start's.
     """
     s, g = np.asarray(start, dtype=float)[:2], np.asarray(goal, dtype=float)[:2]
-    field, origin = distance_field(checker, radius, s, g, cell)
+    field, origin = distance_field(world, radius, s, g, cell)
     i, j = _cell_of(s, origin, cell, field.shape)
     if not np.isfinite(field[i, j]):
         return None
     cells = _descend(field, i, j)
     centres = np.column_stack([origin[0] + cell * (cells[:, 0] + 0.5), origin[1] + cell * (cells[:, 1] + 0.5)])
     pts = np.vstack([s, centres[1:-1], g]) if cells.shape[0] > 2 else np.vstack([s, g])
-    grid, x0, y0, h = checker.proof_arguments()[:4]
-    return pts[_pull(np.ascontiguousarray(pts), grid, x0, y0, h, radius)]  # type: ignore[no-any-return]
+    return pts[_pull(np.ascontiguousarray(pts), world_arrays(world), radius, SEE_STEP)]  # type: ignore[no-any-return]
 
 
 def polyline_waypoints(vertices: FloatArray) -> FloatArray:

@@ -341,18 +341,42 @@ class _Work:
         self.kept += 1
 
 
+def _best_gains(
+    saved: FloatArray, lower: FloatArray, qa: FloatArray, qs: FloatArray, distance: Distance, k: int
+) -> FloatArray:
+    """The gains ``saved - distance(qa, qs)`` of the candidates (rows of ``qs``) that can be among the
+    ``k`` largest, -inf for the others, asking ``distance`` about as few as it can: candidates in
+    order of their largest possible gain ``saved - lower`` (``lower`` <= ``distance``), in batches,
+    until the k-th largest gain found exceeds every gain not yet asked about. The ``k`` largest
+    (ties included) are those of asking about all of them."""
+    n = saved.size
+    gain = np.full(n, -np.inf)
+    upper = saved - lower + 1e-9  # rounding: a bound may come out below ``lower`` by an ulp
+    order = np.argsort(-upper, kind="stable")
+    batch, done = max(4 * k, 16), 0
+    while done < n:
+        idx = order[done : done + batch]
+        gain[idx] = saved[idx] - distance(qa, qs[idx])
+        done += idx.size
+        if done >= k and done < n and np.sort(gain[order[:done]])[-k] > upper[order[done]]:
+            break
+    return gain
+
+
 def _greedy(w: _Work, cfg: SimplifyConfig, distance: Distance | None) -> None:
-    """From each vertex in turn, shortcuts to later vertices, largest estimated saving first."""
+    """From each vertex in turn, shortcuts to later vertices, largest estimated saving first (the
+    straight line between two vertices, a lower bound of any motion's cost, spares ``distance`` the
+    later vertices that cannot be among the best)."""
     i = 0
     while i < len(w.verts) - 2 and cfg.greedy_tries > 0:
         a = w.verts[i]
         later = np.asarray(w.verts[i + 2 :])
         saved = np.cumsum(w.pcost[i:])[1:]  # cost from vertex i to each later vertex
+        line = np.hypot(*(w.poses[later, :2] - w.poses[a, :2]).T)
         if distance is not None:
-            est = distance(w.poses[a], w.poses[later])
-        else:  # the straight line between them: a lower bound of any motion's length
-            est = np.hypot(*(w.poses[later, :2] - w.poses[a, :2]).T)
-        gain = saved - est
+            gain = _best_gains(saved, line, w.poses[a], w.poses[later], distance, cfg.greedy_tries)
+        else:
+            gain = saved - line
         order = np.argsort(-gain, kind="stable")[: cfg.greedy_tries]
         for o in order:
             if gain[o] > cfg.min_gain and w.shortcut(a, int(later[o]), distance, cfg.min_gain):
@@ -429,18 +453,23 @@ def _turn_candidates(
     m1s = np.unique(np.round(lo + TURN_AT * n).astype(np.int64))
     m2s = np.unique(np.round(hi - TURN_AT * n).astype(np.int64))
     flip = np.array([0.0, 0.0, np.pi])
+    combos = [
+        (ai, m1, m2, bj)
+        for ai, m1, m2, bj in itertools.product(a.tolist(), m1s.tolist(), m2s.tolist(), b.tolist())
+        if ai < m1 < m2 < bj
+    ]
+    if not combos:
+        return []
+    c = np.array(combos, dtype=np.int64)
+    ends = np.zeros(len(combos))
+    if distance is not None:  # both steered ends of every candidate in one call
+        starts = np.stack([w.poses[c[:, 0]], w.poses[c[:, 2]] + flip], axis=1).reshape(-1, 3)
+        stops = np.stack([w.poses[c[:, 1]] + flip, w.poses[c[:, 3]]], axis=1).reshape(-1, 3)
+        d = distance(starts, stops)
+        ends = d[0::2] + d[1::2]
     out = []
-    for ai, m1, m2, bj in itertools.product(a.tolist(), m1s.tolist(), m2s.tolist(), b.tolist()):
-        if not ai < m1 < m2 < bj:
-            continue
-        ends = 0.0
-        if distance is not None:
-            ends = float(
-                np.sum(
-                    distance(np.vstack([w.poses[ai], w.poses[m2] + flip]), np.vstack([w.poses[m1] + flip, w.poses[bj]]))
-                )
-            )
-        gain = float(w.arc[bj] - w.arc[ai]) - ends - float(w.arc[m2] - w.arc[m1])
+    for (ai, m1, m2, bj), e in zip(combos, ends.tolist(), strict=True):
+        gain = float(w.arc[bj] - w.arc[ai]) - e - float(w.arc[m2] - w.arc[m1])
         if gain > 0.0:
             out.append((gain, ai, bj, (m1, m2)))
     out.sort(key=lambda c: -c[0])

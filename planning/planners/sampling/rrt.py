@@ -222,14 +222,12 @@ def curve_routes(local: LocalPlanner, start: FloatArray, goal: FloatArray) -> li
     """Waypoints along the obstacle-aware 2-D route from ``start`` to ``goal`` for the local planner's
     curves (:mod:`planning.planners.geodesic`): the route of a disc of the robot's circumscribed
     radius plus the clearance and ``ROUTE_MARGINS[0]``, else of its half-width plus the clearance and
-    ``ROUTE_MARGINS[1]``; none when the checker has no walls or neither route exists."""
+    ``ROUTE_MARGINS[1]``; none when neither route exists."""
     chk = local.checker.checker
-    if not chk.walls:
-        return []
     half_width = chk.robot.radius if chk.shape == "disc" else float(np.max(np.abs(chk.robot.footprint[:, 1])))
     assert local.rho is not None
     for size, margin in zip((chk.robot.radius, half_width), ROUTE_MARGINS, strict=True):
-        vertices = geodesic.route(local.checker, start, goal, size + chk.clearance + margin)
+        vertices = geodesic.route(chk.world, start, goal, size + chk.clearance + margin)
         if vertices is not None:
             return [geodesic.curve_waypoints(vertices, local.rho)]
     return []
