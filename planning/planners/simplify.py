@@ -52,7 +52,8 @@ Interface: ``steer(q_a, q_b)`` returns ``(poses (K, 3), directions (K,))`` dense
 or None when it cannot join them; ``checker(poses)`` says whether dense poses are collision-free;
 ``cost(poses, directions)`` is the cost of one piece, >= 0 and additive over pieces (default: the
 x-y length); ``distance(qs, q)`` (optional) gives lower bounds of the steered motions' costs between
-(M, 3) and (3,) poses, broadcast either way.
+(M, 3) and (3,) poses, broadcast either way, no lower than the straight line between their positions
+(the greedy pass asks it only about the vertices that line leaves among the best).
 """
 
 from __future__ import annotations
