@@ -8,7 +8,11 @@ Dijkstra from the goal over 8-connected cells): cells of side ``cell`` are free 
 about the cell's centre keeps off everything (:func:`centre_distances`); the route
 descends the field from the start's cell to the goal's and is then string-pulled, each vertex
 kept only where the last kept one cannot see farther along (every point of the straight segment
-keeps the radius: samples ``SEE_STEP`` apart, each asked half a spacing more).
+keeps the radius, by sphere tracing the exact distance). Where no farther
+point is seen the next cell's centre is kept: such a step, at most a cell's diagonal long between
+two centres that keep the radius, may come closer than it by that chord's sagitta (a millimetre
+or so); and near a start or goal closer than the radius to something the route keeps what the
+end keeps. The route only proposes a way round: the planner steers and checks the path itself.
 
 :func:`curve_waypoints` and :func:`polyline_waypoints` turn a route into poses that a planner's own
 steering joins: the simplifier (:func:`planning.planners.simplify.simplify_path`, its ``routes``)
@@ -38,8 +42,8 @@ IntArray = NDArray[np.int64]
 
 #: Cell side of the 2-D search [m] (Hybrid-A*'s default ``cell_size``).
 CELL = 0.05
-#: Largest distance between the points at which a route's segment is measured [m].
-SEE_STEP = 0.02
+#: How much farther than its radius every point of a string-pulled segment must be [m].
+SEE_MARGIN = 1e-4
 #: Smallest turn at a route's vertex that :func:`curve_waypoints` rounds [rad]; a smaller one moves the
 #: straight line past the vertex by at most the segment's length times half of it.
 MIN_TURN = 1e-3
@@ -126,30 +130,39 @@ def _descend(field: FloatArray, i: int, j: int) -> IntArray:
 
 
 @nb.njit(cache=True)
-def _sees(a: FloatArray, b: FloatArray, world: WorldArrays, radius: float, step: float) -> bool:
-    """Whether every point of segment a-b is farther than ``radius`` from everything, or, for an end
-    closer than that (a start or goal pose near a wall), than what that end keeps less one ``step``.
-    Samples at most ``step`` apart; the distance is 1-Lipschitz, so half a spacing more is asked of
-    each."""
-    keep = min(radius, _world_distance(a[0], a[1], world) - step, _world_distance(b[0], b[1], world) - step)
+def _sees(a: FloatArray, b: FloatArray, world: WorldArrays, keep: float) -> bool:
+    """Whether every point of segment a-b is farther than ``keep`` from everything, by sphere tracing:
+    the distance is 1-Lipschitz, so from a point ``excess = distance - keep`` away from the limit the
+    next ``excess`` of the segment keeps it; a point within ``SEE_MARGIN`` of the limit is a no."""
     length = np.hypot(b[0] - a[0], b[1] - a[1])
-    n = max(1, int(np.ceil(length / step)))
-    for k in range(n + 1):
-        t = k / n
-        if _world_distance(a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), world) - 0.5 * length / n <= keep:
+    t = 0.0
+    while True:
+        f = t / length if length > 0.0 else 0.0
+        excess = _world_distance(a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), world) - keep
+        if excess <= SEE_MARGIN:
             return False
-    return True
+        if t >= length:
+            return True
+        t = min(length, t + excess)
 
 
 @nb.njit(cache=True)
-def _pull(pts: FloatArray, world: WorldArrays, radius: float, step: float) -> IntArray:
+def _pull(pts: FloatArray, world: WorldArrays, radius: float) -> IntArray:
     """Indices of the points kept by string-pulling: from each kept point, the farthest point up to
-    which every one is seen (:func:`_sees`; the next point at least)."""
+    which every one is seen (:func:`_sees`: keeping ``radius``, or, on a segment from the first point
+    or to the last, what that end keeps less 1 cm when it is nearer to something: a start or goal
+    near a wall); the next point at least."""
+    n = pts.shape[0]
+    first = min(radius, _world_distance(pts[0, 0], pts[0, 1], world) - 0.01)
+    last = min(radius, _world_distance(pts[n - 1, 0], pts[n - 1, 1], world) - 0.01)
     keep = [0]
-    i, n = 0, pts.shape[0]
+    i = 0
     while i < n - 1:
         j = i + 1
-        while j + 1 < n and _sees(pts[i], pts[j + 1], world, radius, step):
+        while j + 1 < n:
+            need = min(first if i == 0 else radius, last if j + 1 == n - 1 else radius)
+            if not _sees(pts[i], pts[j + 1], world, need):
+                break
             j += 1
         keep.append(j)
         i = j
@@ -178,7 +191,7 @@ def route(world: World, start: FloatArray, goal: FloatArray, radius: float, cell
     cells = _descend(field, i, j)
     centres = np.column_stack([origin[0] + cell * (cells[:, 0] + 0.5), origin[1] + cell * (cells[:, 1] + 0.5)])
     pts = np.vstack([s, centres[1:-1], g]) if cells.shape[0] > 2 else np.vstack([s, g])
-    return pts[_pull(np.ascontiguousarray(pts), world_arrays(world), radius, SEE_STEP)]  # type: ignore[no-any-return]
+    return pts[_pull(np.ascontiguousarray(pts), world_arrays(world), radius)]  # type: ignore[no-any-return]
 
 
 def polyline_waypoints(vertices: FloatArray) -> FloatArray:
