@@ -4,24 +4,24 @@ A sampling planner's path goes round each obstacle on the side its trees happene
 shortcuts never change that (a shortcut replaces a stretch by a nearby motion, which stays on the
 same side). :func:`route` gives the shortest way for a disc of a given radius instead, from the
 same distance field Hybrid-A*'s heuristic searches (:func:`planning.planners.lattice.obstacle_heuristic`,
-Dijkstra from the goal over 8-connected cells): cells of side ``cell`` are free where the disc
-about the cell's centre keeps off everything (:func:`centre_distances`); the route
-descends the field from the start's cell to the goal's and is then string-pulled, each vertex
-kept only where the last kept one cannot see farther along (every point of the straight segment
-keeps the radius, by sphere tracing the exact distance). Where no farther
-point is seen the next cell's centre is kept: such a step, at most a cell's diagonal long between
-two centres that keep the radius, may come closer than it by that chord's sagitta (a millimetre
-or so); and near a start or goal closer than the radius to something the route keeps what the
-end keeps. The route only proposes a way round: the planner steers and checks the path itself.
+Dijkstra from the goal over 8-connected cells): cells of side ``cell`` are free where the disc about
+the cell's centre keeps off everything (:func:`centre_distances`). The route descends the field
+from the start's cell to the goal's and is then string-pulled: each vertex is kept only where the
+last kept one cannot see farther along (every point of the straight segment keeps the radius, by
+sphere tracing the exact distance). Where no farther point is seen the next cell's centre is
+kept: such a step, at most a cell's diagonal between two centres that keep the radius, may come
+closer than the radius by that chord's sagitta (a millimetre or so); near a start or goal that is
+closer than the radius to something, the route keeps what that end keeps.
 
 :func:`curve_waypoints` and :func:`polyline_waypoints` turn a route into poses that a planner's own
 steering joins: the simplifier (:func:`planning.planners.simplify.simplify_path`, its ``routes``)
-steers through them, checks the result and simplifies it like the search's path, and keeps the
-cheaper of the two. So the route only proposes a way round; what the plan drives is always the
-planner's exact steering, collision-checked.
+steers through them, checks the result, simplifies it like the search's path and keeps the cheaper
+of the two. So the route only proposes a way round; what the plan drives is always the planner's
+exact steering, collision-checked.
 
-The distance fields are cached per world, radius, cell and end cells (the benchmark and the
-Monte Carlo runs plan the same problem many times).
+The cells' distances are computed once per world and cell size, the Dijkstra fields cached per
+world, radius, cell and end cells (the benchmark and the Monte Carlo runs plan the same problem
+many times).
 """
 
 from __future__ import annotations
