@@ -577,7 +577,7 @@ def _best_route(
     and the shortcuts steered on all of them. A route gets one round first and the rest only if it
     beats the best so far (more rounds only make it cheaper)."""
     best, chosen, attempts = w, -1, w.attempts
-    for k, r in enumerate(routes if w.poses.shape[0] >= 3 else ()):
+    for k, r in enumerate(routes):
         alt = _route_work(w, r)
         if alt is None:
             continue
@@ -601,7 +601,7 @@ def simplify_path(
     cost: PieceCost = length_cost,
     distance: Distance | None = None,
     vertices: Sequence[int] | None = None,
-    routes: Sequence[FloatArray] = (),
+    routes: Sequence[FloatArray] | Callable[[], Sequence[FloatArray]] = (),
     config: SimplifyConfig | None = None,
     seed: int = 0,
 ) -> SimplifiedPath:
@@ -620,7 +620,8 @@ def simplify_path(
         routes: Other ways to go, each (W, 3) poses that ``steer`` joins from the path's first pose
             to its last (e.g. along the obstacle-aware 2-D route, :mod:`planning.planners.geodesic`):
             each one that steers and is collision-free is simplified the same way, and the result is
-            the cheapest of all whose cusps are no more than the simplified path's.
+            the cheapest of all whose cusps are no more than the simplified path's. A callable is
+            asked for them once the input is simplified (its time is counted in the result's).
         config: Parameters (default :class:`SimplifyConfig`).
         seed: Seed of the random draws.
 
@@ -650,7 +651,8 @@ def simplify_path(
     if w.poses.shape[0] >= 3:
         _greedy(w, cfg, distance)
         _rounds(w, cfg, distance, np.random.default_rng(seed), cfg.max_rounds)
-    best, chosen, attempts = _best_route(w, routes, cfg, distance, seed)
+    ways = (routes() if callable(routes) else routes) if w.poses.shape[0] >= 3 else ()
+    best, chosen, attempts = _best_route(w, ways, cfg, distance, seed)
     return SimplifiedPath(
         best.poses,
         best.dirs,

@@ -403,7 +403,7 @@ class _Search:
             cost=self.piece_cost,
             distance=lambda q0, q1: np.atleast_1d(np.hypot(*(np.atleast_2d(q1)[:, :2] - np.atleast_2d(q0)[:, :2]).T)),
             vertices=verts,
-            routes=self.routes(),
+            routes=self.routes,
             seed=self.problem.seed,
         )
         stats = {**result.stats, **s.stats()}  # "cost" stays the tree path's, "simplified_cost" is the result's

@@ -204,7 +204,7 @@ def simplified(result: PlanResult, local: LocalPlanner, seed: int) -> PlanResult
         local.steer,
         local.checker.path_free,
         distance=local.curves.lengths,
-        routes=curve_routes(local, result.path[0], result.path[-1]),
+        routes=lambda: curve_routes(local, result.path[0], result.path[-1]),
         config=config,
         seed=seed,
     )
