@@ -281,3 +281,160 @@ def test_a_stretch_driven_the_other_way_round_keeps_its_ground_and_flips_heading
     np.testing.assert_array_equal(poses[0], path[2])
     np.testing.assert_array_equal(poses[-1], path[-3])
     assert np.max(np.hypot(*np.diff(poses[:, :2], axis=0).T)) <= 0.01 + 1e-9  # dense for the checker
+
+
+# --- other ways round: the 2-D route ------------------------------------------------------------------
+DISC_C, DISC_R = (2.0, 0.2), 0.5  # a disc a little above the line from (0, 0) to (4, 0): under it is shorter
+
+
+def round_disc(side: float) -> float:
+    """Shortest length from (0, 0) to (4, 0) past the disc on ``side`` (+1 over, -1 under): two tangents
+    and the arc between their touching points (the ends are D from the centre, at beta off its level)."""
+    dist, beta = np.hypot(2.0, DISC_C[1]), np.arctan2(DISC_C[1], 2.0)
+    return 2.0 * np.sqrt(dist**2 - DISC_R**2) + DISC_R * (np.pi + 2.0 * side * beta - 2.0 * np.arccos(DISC_R / dist))
+
+
+def _over_the_disc() -> tuple[np.ndarray, list[int], np.ndarray]:
+    """A path the long way, over the disc, its corners, and waypoints along the 2-D route (under it)."""
+    from planning.core.world import Circle, World
+    from planning.planners import geodesic
+
+    path, verts = polyline((0, 0), (0.5, 1.2), (3.5, 1.2), (4, 0))
+    world = World((-1.0, 5.0, -2.0, 2.0), (Circle(DISC_C, DISC_R),))
+    route = geodesic.route(world, path[0], path[-1], 0.01)
+    assert route is not None
+    return path, verts, geodesic.polyline_waypoints(route)
+
+
+def test_shortcuts_alone_keep_the_way_round_and_a_route_changes_it():
+    """Shortcuts keep the input's way over the disc (never below the shortest length over it); with the
+    route's waypoints the result goes under it, within 3 % of the shortest length there."""
+    path, verts, route = _over_the_disc()
+    free = outside_disc(DISC_C, DISC_R)
+    alone = simplify_path(path, None, straight, free, vertices=verts, seed=2)
+    assert alone.route == -1 and alone.length >= round_disc(+1) - 1e-9
+    s = simplify_path(path, None, straight, free, vertices=verts, routes=[route], seed=2)
+    assert s.route == 0 and round_disc(-1) - 1e-9 <= s.length <= 1.03 * round_disc(-1) < round_disc(+1)
+    dense = densify_path(s.path, 0.001)
+    assert np.min(np.hypot(dense[:, 0] - DISC_C[0], dense[:, 1] - DISC_C[1])) >= DISC_R - 1e-3
+    np.testing.assert_array_equal(s.path[0], path[0])
+    np.testing.assert_array_equal(s.path[-1], path[-1])
+    assert s.cost == pytest.approx(path_length(s.path), abs=1e-9) and s.cusps == 0
+
+
+def test_a_route_that_collides_or_adds_cusps_is_not_taken():
+    path, verts, route = _over_the_disc()
+    free = outside_disc(DISC_C, DISC_R)
+    alone = simplify_path(path, None, straight, free, vertices=verts, seed=2)
+    through = np.array([[2.0, 0.0, 0.0]])  # straight through the disc
+    s = simplify_path(path, None, straight, free, vertices=verts, routes=[through], seed=2)
+    assert s.route == -1 and s.path.tobytes() == alone.path.tobytes()
+
+    def flagged(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Straight, but a motion that ends below y = -0.01 counts as driven backwards."""
+        poses, dirs = straight(a, b)
+        return poses, (-dirs if b[1] < -0.01 else dirs)
+
+    s = simplify_path(path, None, flagged, free, vertices=verts, routes=[route], seed=2)
+    assert s.route == -1 and s.cusps == 0 and s.length >= round_disc(+1) - 1e-9  # shorter, but with cusps
+
+
+def test_best_gains_are_those_of_measuring_every_candidate():
+    from planning.planners.simplify import _best_gains
+
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        n, k = int(rng.integers(1, 60)), int(rng.integers(1, 5))
+        qa, qs = rng.uniform(-2, 2, 3), rng.uniform(-2, 2, (n, 3))
+        line = np.hypot(*(qs[:, :2] - qa[:2]).T)
+        extra = rng.choice([0.0, 0.3], n) * rng.random(n)  # the distance: the line plus something, or the line
+        table = {q.tobytes(): e for q, e in zip(qs, extra, strict=True)}
+
+        def distance(q0: np.ndarray, q1: np.ndarray, table=table) -> np.ndarray:
+            rows = np.atleast_2d(q1)
+            return np.hypot(*(rows[:, :2] - q0[:2]).T) + np.array([table[r.tobytes()] for r in rows])
+
+        saved = line + rng.choice([0.0, 0.5, 1.0], n)  # ties among the gains too
+        full = saved - distance(qa, qs)
+        some = _best_gains(saved, line, qa, qs, distance, k)
+        top = np.argsort(-full, kind="stable")[:k]
+        np.testing.assert_array_equal(np.argsort(-some, kind="stable")[:k], top)
+        np.testing.assert_array_equal(some[top], full[top])
+
+
+def _box_problem(robot: str, low: float, high: float) -> PlanProblem:
+    """From (-2, 0) to (2, 0) past a box x in [-0.5, 0.5], y in [low, high] (low < 0 < high): the way
+    over it crosses x = 0 above ``high``, so any path that way is longer than ``over_box(high)``."""
+    from planning.core.geometry import Pose2D
+    from planning.core.world import Box, World
+
+    world = World((-3.0, 3.0, -3.0, 3.0), (Box((0.0, 0.5 * (low + high)), (1.0, high - low)),))
+    return PlanProblem(world, load_robot(robot), Pose2D(-2.0, 0.0, 0.0), Pose2D(2.0, 0.0, 0.0))
+
+
+def over_box(high: float) -> float:
+    """The straight-line bound of a path from (-2, 0) to (2, 0) through a point of x = 0 above ``high``."""
+    return float(2.0 * np.hypot(2.0, high))
+
+
+def test_a_tree_path_the_long_way_round_a_box_is_simplified_the_short_way():
+    """A search path over the box (Reeds–Shepp curves through waypoints above it): the simplified
+    path goes under it, shorter than any path over it, collision-free by the exact checker."""
+    from planning.planners.base import PlanResult
+    from planning.planners.sampling.rrt import simplified
+
+    problem = _box_problem("turtlebot3", -0.7, 2.3)
+    checker = make_checker(problem, "footprint", 0.01)
+    local = LocalPlanner("reeds_shepp", problem.robot, checker)
+    q = [np.array(v) for v in ([-2, 0, 0], [-1.2, 2.6, 0.6], [0, 2.65, 0], [1.2, 2.6, -0.6], [2, 0, 0])]
+    parts = [local.steer(a, b) for a, b in itertools.pairwise(q)]
+    path = np.vstack([parts[0][0], *(m[0][1:] for m in parts[1:])])
+    dirs = np.concatenate([parts[0][1], *(m[1][1:] for m in parts[1:])])
+    assert checker.path_free(path) and path_length(path) > over_box(2.3)
+    raw = PlanResult(PlanStatus.SUCCESS, "rrt", path=path, directions=dirs, stats={})
+    res = simplified(raw, local, 0)
+    assert res.stats["simplify_route"] == 0 and res.length() < over_box(2.3)
+    assert res.stats["cusps"] == count_cusps(res.directions) <= count_cusps(dirs)
+    exact = CollisionChecker(problem.world, problem.robot, shape="footprint", clearance=0.01)
+    assert np.all(exact.poses_free(exact.densify(res.path)))
+    np.testing.assert_array_equal(res.path[0], path[0])
+    np.testing.assert_array_equal(res.path[-1], path[-1])
+
+
+def test_a_c_rrt_star_path_the_long_way_round_a_box_is_simplified_the_short_way():
+    """C-RRT*'s tree path over the box: simplified along the route under it, 40 cm from everything,
+    at a lower cost (its own: length plus a clearance term per segment) than any path over the box."""
+    from planning.planners.base import PlanResult
+    from planning.planners.sampling.crrt_star import CRRTStarConfig, _Search
+
+    problem = _box_problem("edumip", -0.9, 1.9)
+    search = _Search(CRRTStarConfig(), problem, 0.40)
+    pts = np.array([[-2.0, 0.0], [-1.0, 2.45], [1.0, 2.45], [2.0, 0.0]])
+    path = search.poses(pts, 0.0)
+    assert search.keeps_clearance(path)
+    raw = PlanResult(PlanStatus.SUCCESS, "c-rrt-star", path=path, directions=np.ones(len(path)), stats={})
+    res = search.simplified(raw, pts)
+    st = res.stats
+    assert st["simplify_route"] == 0 and st["simplified_cost"] < st["raw_cost"]
+    assert res.length() <= st["simplified_cost"] < over_box(1.9)  # the cost is at least the length
+    dense = densify_path(res.path, 0.001)
+    assert np.min(problem.world.signed_distance(dense[:, :2])) >= 0.40 - 1e-9
+    np.testing.assert_array_equal(res.path[-1], path[-1])
+
+
+@pytest.mark.parametrize("seed", [31, 32, 33, 34])
+def test_on_worlds_no_test_tuned_on_every_plan_keeps_the_guarantees(seed):
+    """birrt and rrt on random worlds the benchmark does not use: ends kept, collision-free by the exact
+    checker, never longer and never more cusps than the search's path, whichever way the result goes."""
+    problem = PlanProblem.from_scenario(random_scenario("turtlebot3", seed), seed=seed, time_limit=20.0)
+    exact = CollisionChecker(problem.world, problem.robot, shape="footprint")
+    for planner in ("birrt", "rrt"):
+        res = make_planner(planner).plan(problem)
+        assert res.status is PlanStatus.SUCCESS, res.reason
+        raw = res.raw_path
+        assert raw is not None and res.stats["simplify_route"] in (-1, 0)
+        np.testing.assert_array_equal(res.path[0], raw[0])
+        np.testing.assert_array_equal(res.path[-1], raw[-1])
+        assert np.all(exact.poses_free(exact.densify(res.path)))
+        assert res.length() <= path_length(raw) + 1e-9
+        assert res.stats["cusps"] == count_cusps(res.directions) <= res.stats["raw_cusps"]

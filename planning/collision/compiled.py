@@ -7,11 +7,14 @@ circles, ellipses by Eberly's 60-step bisection, boxes, even-odd polygons, walls
 beyond the clearance, and no obstacle anchor inside the footprint), one pose at a time. The exact
 checker skips obstacles whose bounding box is out of reach of a whole batch; that changes no verdict
 (such an obstacle is more than ``clearance + tolerance`` from every boundary sample), so every
-obstacle is measured here. Tests compare the verdicts with the exact checker's on random and
-near-margin poses.
+obstacle is measured here, except an ellipse whose circumscribed circle is farther from the point
+than an obstacle already measured (the minimum cannot change; it saves the 60 bisection steps).
+Tests compare the verdicts with the exact checker's on random and near-margin poses.
 """
 
 from __future__ import annotations
+
+import functools
 
 import numba as nb
 import numpy as np
@@ -23,6 +26,9 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 CIRCLE, ELLIPSE, BOX, POLYGON = 0, 1, 2, 3
+#: An ellipse whose circumscribed circle is this much farther than the nearest obstacle so far is not
+#: measured [m] (far above the bisection's error, so the minimum distance is unchanged).
+ELLIPSE_SKIP_MARGIN = 1e-9
 
 #: (bounds (4,), walls, kinds, params, vertices, offsets): the world for the kernels.
 WorldArrays = tuple[FloatArray, bool, IntArray, FloatArray, FloatArray, IntArray]
@@ -57,6 +63,23 @@ def pack_world(world: World) -> tuple[IntArray, FloatArray, FloatArray, IntArray
         np.ascontiguousarray(v, dtype=float),
         np.array(offsets, dtype=np.int64),
     )
+
+
+@functools.lru_cache(maxsize=8)
+def world_arrays(world: World, walls: bool = True) -> WorldArrays:
+    """The world as the kernels take it: its bounds, the walls flag and :func:`pack_world`'s arrays
+    (cached per world)."""
+    return (np.asarray(world.bounds, dtype=float), walls, *pack_world(world))
+
+
+@nb.njit(cache=True)
+def world_distances(points: FloatArray, world: WorldArrays) -> FloatArray:
+    """(M,) signed distances [m] of (M, 2) points to the nearest obstacle or (with walls) wall, by the
+    formulas of :mod:`planning.core.world` (the exact checker's), compiled."""
+    out = np.empty(points.shape[0])
+    for k in range(points.shape[0]):
+        out[k] = _world_distance(points[k, 0], points[k, 1], world)
+    return out
 
 
 @nb.njit(cache=True)
@@ -131,7 +154,10 @@ def _world_distance(x: float, y: float, world: WorldArrays) -> float:
         if kind == CIRCLE:
             d = min(d, np.hypot(x - p[0], y - p[1]) - p[2])
         elif kind == ELLIPSE:
-            d = min(d, _ellipse(x, y, p))
+            # Skipped when even the circumscribed circle is farther than d (by more than the bisection's
+            # 1e-12 m error): the minimum is the same, without 60 bisection steps.
+            if np.hypot(x - p[0], y - p[1]) - max(p[2], p[3]) <= d + ELLIPSE_SKIP_MARGIN:
+                d = min(d, _ellipse(x, y, p))
         elif kind == BOX:
             d = min(d, _box(x, y, p))
         else:

@@ -29,7 +29,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from planning.collision.compiled import exact_free_kernel, pack_world
+from planning.collision.compiled import exact_free_kernel, world_arrays
 from planning.collision.exact import CollisionChecker
 from planning.core.world import World
 
@@ -57,11 +57,6 @@ def _distance_grid(world: World, h: float) -> FloatArray:
         out[i0 : i0 + 256] = world.signed_distance(pts, walls=True).reshape(xx.shape)
     out.setflags(write=False)
     return out
-
-
-@functools.lru_cache(maxsize=8)
-def _packed_world(world: World) -> tuple[FloatArray, tuple[Any, ...]]:
-    return np.asarray(world.bounds, dtype=float), pack_world(world)
 
 
 @nb.njit(cache=True)
@@ -219,8 +214,7 @@ class FastChecker:
     def _exact(self, poses: FloatArray) -> BoolArray:
         """``checker.poses_free`` of (M, 3) poses, compiled (:mod:`planning.collision.compiled`)."""
         c = self.checker
-        bounds, packed = _packed_world(c.world)
-        world = (bounds, c.walls, *packed)
+        world = world_arrays(c.world, c.walls)
         disc = c.shape == "disc"
         robot = (c._boundary, c.robot.footprint, c._anchors, c.robot.radius, c.clearance, c.tolerance, disc)
         return exact_free_kernel(np.ascontiguousarray(poses), world, robot)  # type: ignore[no-any-return]

@@ -21,7 +21,16 @@ makes it shorter with the planner's own steering, never touching anything but wh
    pairs of vertices at most ``1 + round(range_ratio * count)`` apart.
 
 Steps 3 to 5 repeat, as OMPL's ``simplify`` does, for at most ``max_rounds`` rounds while they
-change the path. Every candidate replaces the stretch between two path states by the motion
+change the path.
+
+6. **Other ways round** (``routes``): shortcuts keep the way the path goes round each obstacle (a
+   shortcut's motion stays near the stretch it replaces). So each route given, poses the caller
+   took from a shorter way (the obstacle-aware 2-D route, :mod:`planning.planners.geodesic`), is
+   joined by ``steer`` from the path's first pose to its last; when that path is collision-free it
+   gets the greedy pass and one round, and, if it is then cheaper than the simplified path with no
+   more cusps, the remaining rounds, and it becomes the result.
+
+Every candidate replaces the stretch between two path states by the motion
 ``steer`` returns, and is kept only when all of these hold:
 
 * its cost (``cost`` summed over the pieces between vertices) is lower by at least ``min_gain``
@@ -30,7 +39,9 @@ change the path. Every candidate replaces the stretch between two path states by
 * ``checker`` finds the new motion collision-free.
 
 So the result is collision-free wherever the input was, starts and ends at the same poses, is never
-costlier and never has more cusps. A cusp is merged whenever a shortcut across it passes the tests.
+costlier and never has more cusps (a route's path is checked whole and only taken when cheaper with
+no more cusps than the simplified input). A motion found to collide is remembered by its end poses
+and not steered or checked again. A cusp is merged whenever a shortcut across it passes the tests.
 OMPL's B-spline smoothing is left out (it moves states off the steering's curves); smoothing for the
 tracker happens later (:mod:`planning.trajectory.smoothing`).
 
@@ -41,7 +52,8 @@ Interface: ``steer(q_a, q_b)`` returns ``(poses (K, 3), directions (K,))`` dense
 or None when it cannot join them; ``checker(poses)`` says whether dense poses are collision-free;
 ``cost(poses, directions)`` is the cost of one piece, >= 0 and additive over pieces (default: the
 x-y length); ``distance(qs, q)`` (optional) gives lower bounds of the steered motions' costs between
-(M, 3) and (3,) poses, broadcast either way.
+(M, 3) and (3,) poses, broadcast either way, no lower than the straight line between their positions
+(the greedy pass asks it only about the vertices that line leaves among the best).
 """
 
 from __future__ import annotations
@@ -165,7 +177,8 @@ class SimplifiedPath:
         raw_cost: Cost of the input (``cost`` summed over its pieces).
         cost: Cost of the result.
         shortcuts: Shortcuts kept.
-        attempts: Shortcuts steered (after the ``distance`` pruning).
+        attempts: Shortcuts steered (after the ``distance`` pruning), on every route tried.
+        route: Which way the result goes: -1 the input's, k the k-th of ``routes``.
         time_s: Wall time of the simplification [s].
         cpu_s: CPU time of the simplification's thread [s] (what the wall time is on an idle machine).
     """
@@ -181,6 +194,7 @@ class SimplifiedPath:
     cost: float
     shortcuts: int
     attempts: int
+    route: int
     time_s: float
     cpu_s: float
 
@@ -195,6 +209,7 @@ class SimplifiedPath:
             "raw_cost": self.raw_cost,
             "simplified_cost": self.cost,
             "shortcuts": self.shortcuts,
+            "simplify_route": self.route,
             "simplify_time_s": self.time_s,
             "simplify_cpu_s": self.cpu_s,
         }
@@ -223,6 +238,9 @@ class _Work:
         self.pcost = [self.piece(a, b) for a, b in itertools.pairwise(verts)]
         self.kept = 0
         self.attempts = 0
+        #: Pose pairs (their bytes) whose steered motion collides: refused again without steering or
+        #: checking (the motion between the same two poses is always the same).
+        self.collides: set[bytes] = set()
 
     def piece(self, a: int, b: int) -> float:
         """Cost of poses a..b (the x-y length straight from the running sums for the default cost)."""
@@ -279,6 +297,9 @@ class _Work:
         budget = old - pre - post - min_gain
         if not est < budget:
             return False
+        key = p[a].tobytes() + p[b].tobytes() if turn is None else None
+        if key in self.collides:
+            return False
         self.attempts += 1
         motion = self._motion(p[a], p[b], turn)
         if motion is None:
@@ -293,6 +314,8 @@ class _Work:
         if self._cusps(before, m_dirs[1:], after) > self._cusps(before, self.dirs[a + 1 : b + 1], after):
             return False
         if not self.checker(m_poses):
+            if key is not None:
+                self.collides.add(key)
             return False
         self._apply(a, b, m_poses, m_dirs, (k_lo, k_hi, pre, c_new, post))
         return True
@@ -319,18 +342,42 @@ class _Work:
         self.kept += 1
 
 
+def _best_gains(
+    saved: FloatArray, lower: FloatArray, qa: FloatArray, qs: FloatArray, distance: Distance, k: int
+) -> FloatArray:
+    """The gains ``saved - distance(qa, qs)`` of the candidates (rows of ``qs``) that can be among the
+    ``k`` largest, -inf for the others, asking ``distance`` about as few as it can: candidates in
+    order of their largest possible gain ``saved - lower`` (``lower`` <= ``distance``), in batches,
+    until the k-th largest gain found exceeds every gain not yet asked about. The ``k`` largest
+    (ties included) are those of asking about all of them."""
+    n = saved.size
+    gain = np.full(n, -np.inf)
+    upper = saved - lower + 1e-9  # rounding: a bound may come out below ``lower`` by an ulp
+    order = np.argsort(-upper, kind="stable")
+    batch, done = max(4 * k, 16), 0
+    while done < n:
+        idx = order[done : done + batch]
+        gain[idx] = saved[idx] - distance(qa, qs[idx])
+        done += idx.size
+        if done >= k and done < n and np.sort(gain[order[:done]])[-k] > upper[order[done]]:
+            break
+    return gain
+
+
 def _greedy(w: _Work, cfg: SimplifyConfig, distance: Distance | None) -> None:
-    """From each vertex in turn, shortcuts to later vertices, largest estimated saving first."""
+    """From each vertex in turn, shortcuts to later vertices, largest estimated saving first (the
+    straight line between two vertices, a lower bound of any motion's cost, spares ``distance`` the
+    later vertices that cannot be among the best)."""
     i = 0
     while i < len(w.verts) - 2 and cfg.greedy_tries > 0:
         a = w.verts[i]
         later = np.asarray(w.verts[i + 2 :])
         saved = np.cumsum(w.pcost[i:])[1:]  # cost from vertex i to each later vertex
+        line = np.hypot(*(w.poses[later, :2] - w.poses[a, :2]).T)
         if distance is not None:
-            est = distance(w.poses[a], w.poses[later])
-        else:  # the straight line between them: a lower bound of any motion's length
-            est = np.hypot(*(w.poses[later, :2] - w.poses[a, :2]).T)
-        gain = saved - est
+            gain = _best_gains(saved, line, w.poses[a], w.poses[later], distance, cfg.greedy_tries)
+        else:
+            gain = saved - line
         order = np.argsort(-gain, kind="stable")[: cfg.greedy_tries]
         for o in order:
             if gain[o] > cfg.min_gain and w.shortcut(a, int(later[o]), distance, cfg.min_gain):
@@ -407,18 +454,23 @@ def _turn_candidates(
     m1s = np.unique(np.round(lo + TURN_AT * n).astype(np.int64))
     m2s = np.unique(np.round(hi - TURN_AT * n).astype(np.int64))
     flip = np.array([0.0, 0.0, np.pi])
+    combos = [
+        (ai, m1, m2, bj)
+        for ai, m1, m2, bj in itertools.product(a.tolist(), m1s.tolist(), m2s.tolist(), b.tolist())
+        if ai < m1 < m2 < bj
+    ]
+    if not combos:
+        return []
+    c = np.array(combos, dtype=np.int64)
+    ends = np.zeros(len(combos))
+    if distance is not None:  # both steered ends of every candidate in one call
+        starts = np.stack([w.poses[c[:, 0]], w.poses[c[:, 2]] + flip], axis=1).reshape(-1, 3)
+        stops = np.stack([w.poses[c[:, 1]] + flip, w.poses[c[:, 3]]], axis=1).reshape(-1, 3)
+        d = distance(starts, stops)
+        ends = d[0::2] + d[1::2]
     out = []
-    for ai, m1, m2, bj in itertools.product(a.tolist(), m1s.tolist(), m2s.tolist(), b.tolist()):
-        if not ai < m1 < m2 < bj:
-            continue
-        ends = 0.0
-        if distance is not None:
-            ends = float(
-                np.sum(
-                    distance(np.vstack([w.poses[ai], w.poses[m2] + flip]), np.vstack([w.poses[m1] + flip, w.poses[bj]]))
-                )
-            )
-        gain = float(w.arc[bj] - w.arc[ai]) - ends - float(w.arc[m2] - w.arc[m1])
+    for (ai, m1, m2, bj), e in zip(combos, ends.tolist(), strict=True):
+        gain = float(w.arc[bj] - w.arc[ai]) - e - float(w.arc[m2] - w.arc[m1])
         if gain > 0.0:
             out.append((gain, ai, bj, (m1, m2)))
     out.sort(key=lambda c: -c[0])
@@ -485,6 +537,61 @@ def _reduce_pass(w: _Work, cfg: SimplifyConfig, rng: np.random.Generator, distan
     return changed
 
 
+def _rounds(w: _Work, cfg: SimplifyConfig, distance: Distance | None, rng: np.random.Generator, rounds: int) -> bool:
+    """Up to ``rounds`` rounds of steps 3 to 5 of the module doc on ``w``, while they change it;
+    returns whether the last one run still changed it (more rounds might)."""
+    for _ in range(rounds):
+        changed = _cusp_pass(w, cfg, distance)
+        changed |= _turned_pass(w, cfg, distance)
+        changed |= _shortcut_pass(w, cfg, rng, distance)
+        changed |= _reduce_pass(w, cfg, rng, distance)
+        if not changed:
+            return False
+    return True
+
+
+def _route_work(w: _Work, route: FloatArray) -> _Work | None:
+    """The path steered from ``w``'s first pose through the (W, 3) ``route`` poses to its last, if
+    every piece steers and the whole is collision-free (else None). Its vertices are the route's
+    poses: each steered piece is one of the cost's pieces, and few vertices keep the greedy pass
+    short on a path that has no detour to collapse."""
+    qs = [w.poses[0], *np.asarray(route, dtype=float).reshape(-1, 3), w.poses[-1]]
+    parts = [w.steer(a, b) for a, b in itertools.pairwise(qs)]
+    if any(m is None for m in parts):
+        return None
+    motions = [m for m in parts if m is not None]
+    poses = np.vstack([motions[0][0], *(m[0][1:] for m in motions[1:])])
+    dirs = np.concatenate([motions[0][1], *(m[1][1:] for m in motions[1:])])
+    poses[0], poses[-1] = w.poses[0], w.poses[-1]
+    if not w.checker(poses):
+        return None
+    joints = np.cumsum([0, *(m[0].shape[0] - 1 for m in motions)]).tolist()
+    return _Work(poses, dirs, joints, w.steer, w.checker, w.cost)
+
+
+def _best_route(
+    w: _Work, routes: Sequence[FloatArray], cfg: SimplifyConfig, distance: Distance | None, seed: int
+) -> tuple[_Work, int, int]:
+    """The cheapest of the simplified path ``w`` and the paths steered through ``routes`` and
+    simplified the same way, among those with no more cusps than ``w``; which one it is (-1: ``w``),
+    and the shortcuts steered on all of them. A route gets one round first and the rest only if it
+    beats the best so far (more rounds only make it cheaper)."""
+    best, chosen, attempts = w, -1, w.attempts
+    for k, r in enumerate(routes):
+        alt = _route_work(w, r)
+        if alt is None:
+            continue
+        rng = np.random.default_rng(seed)
+        _greedy(alt, cfg, distance)
+        more = _rounds(alt, cfg, distance, rng, min(1, cfg.max_rounds))
+        if alt.total() < best.total() - cfg.min_gain and count_cusps(alt.dirs) <= count_cusps(best.dirs):
+            if more:
+                _rounds(alt, cfg, distance, rng, cfg.max_rounds - 1)
+            best, chosen = alt, k
+        attempts += alt.attempts
+    return best, chosen, attempts
+
+
 def simplify_path(
     path: FloatArray,
     directions: FloatArray | None,
@@ -494,6 +601,7 @@ def simplify_path(
     cost: PieceCost = length_cost,
     distance: Distance | None = None,
     vertices: Sequence[int] | None = None,
+    routes: Sequence[FloatArray] | Callable[[], Sequence[FloatArray]] = (),
     config: SimplifyConfig | None = None,
     seed: int = 0,
 ) -> SimplifiedPath:
@@ -509,6 +617,11 @@ def simplify_path(
         vertices: Indices of the path's vertices (increasing; the ends are added); None: the ends,
             the cusps and one every ``config.vertex_spacing`` metres. A cost that is not additive
             at every pose (a per-edge term, like C-RRT*'s) needs its own edges' ends here.
+        routes: Other ways to go, each (W, 3) poses that ``steer`` joins from the path's first pose
+            to its last (e.g. along the obstacle-aware 2-D route, :mod:`planning.planners.geodesic`):
+            each one that steers and is collision-free is simplified the same way, and the result is
+            the cheapest of all whose cusps are no more than the simplified path's. A callable is
+            asked for them once the input is simplified (its time is counted in the result's).
         config: Parameters (default :class:`SimplifyConfig`).
         seed: Seed of the random draws.
 
@@ -535,28 +648,24 @@ def simplify_path(
         assert cut_d is not None
         if cut.shape[0] < p.shape[0]:
             w = _Work(cut, cut_d, default_vertices(cut, cut_d, cfg), steer, checker, cost)
-    if p.shape[0] >= 3:
-        rng = np.random.default_rng(seed)
+    if w.poses.shape[0] >= 3:
         _greedy(w, cfg, distance)
-        for _ in range(cfg.max_rounds):
-            changed = _cusp_pass(w, cfg, distance)
-            changed |= _turned_pass(w, cfg, distance)
-            changed |= _shortcut_pass(w, cfg, rng, distance)
-            changed |= _reduce_pass(w, cfg, rng, distance)
-            if not changed:
-                break
+        _rounds(w, cfg, distance, np.random.default_rng(seed), cfg.max_rounds)
+    ways = (routes() if callable(routes) else routes) if w.poses.shape[0] >= 3 else ()
+    best, chosen, attempts = _best_route(w, ways, cfg, distance, seed)
     return SimplifiedPath(
-        w.poses,
-        w.dirs,
-        np.asarray(w.verts, dtype=np.int64),
+        best.poses,
+        best.dirs,
+        np.asarray(best.verts, dtype=np.int64),
         raw_len,
-        path_length(w.poses),
+        path_length(best.poses),
         raw_cusps,
-        count_cusps(w.dirs),
+        count_cusps(best.dirs),
         raw_cost,
-        w.total(),
-        w.kept,
-        w.attempts,
+        best.total(),
+        best.kept,
+        attempts,
+        chosen,
         time.perf_counter() - t0,
         time.thread_time() - c0,
     )

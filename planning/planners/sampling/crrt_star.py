@@ -48,16 +48,21 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.collision.compiled import world_arrays, world_distances
 from planning.collision.exact import CollisionChecker
 from planning.core.checks import check_fields
 from planning.core.geometry import path_length, wrap_angle
 from planning.errors import ConfigError
+from planning.planners import geodesic
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
 from planning.planners.registry import config_from_options
 from planning.planners.simplify import simplify_path
 
 FloatArray = NDArray[np.float64]
 
+#: What the 2-D route the simplifier tries keeps beyond the axle-centre clearance [m] (the sampled
+#: clearance check asks half a sample spacing, at most 1 cm here, more).
+ROUTE_MARGIN = 0.02
 #: Seed 003's axle-centre clearance per robot [m]; other robots keep just their own radius.
 SEED_CLEARANCE: dict[str, float] = {"edumip": 0.40, "edumip-balancing": 0.40}  # the same EduMIP, balancing
 
@@ -86,8 +91,10 @@ class CRRTStarConfig:
         simplify: Return the path simplified by straight shortcuts between its states (turns in
             place at the vertices, :func:`planning.planners.simplify.simplify_path` seeded by the
             problem's seed), each kept only when it keeps the clearance and lowers the path's cost
-            as defined here (length plus one clearance term per segment); False returns the tree's
-            path.
+            as defined here (length plus one clearance term per segment), and the path along the
+            obstacle-aware 2-D route for the axle-centre clearance (straight segments, turns in
+            place) simplified the same way, kept instead when it costs less; False returns the
+            tree's path.
     """
 
     gamma: float = 0.5
@@ -166,7 +173,7 @@ class _Search:
         self.n = 0
         self.rewires = 0
         self.biased = 0
-        self._clearance_memo: dict[bytes, float] = {}
+        self.world_arrays = world_arrays(problem.world, self.checker.walls)
 
     # -- helpers of Algorithm 1 -------------------------------------------------------------
     def sample_biased(self, prev: FloatArray) -> FloatArray:
@@ -352,16 +359,10 @@ class _Search:
         return poses, np.ones(poses.shape[0])
 
     def centre_clearance(self, poses: FloatArray) -> FloatArray:
-        """(K,) axle-centre distances of poses to obstacles and walls [m]. Every position asked about
-        is remembered (the simplifier prices the same stretches of path many times), and only new
-        positions go to the checker."""
-        keys = [xy.tobytes() for xy in np.ascontiguousarray(poses[:, :2])]
-        memo = self._clearance_memo
-        new = [i for i, k in enumerate(keys) if k not in memo]
-        if new:
-            d = self.checker.clearance_of(poses[new]) + self.radius
-            memo.update(zip((keys[i] for i in new), d.tolist(), strict=True))
-        return np.array([memo[k] for k in keys])
+        """(K,) axle-centre distances of poses to obstacles and walls [m]: the checker's signed distance
+        (its formulas, compiled: :func:`planning.collision.compiled.world_distances`; the simplifier
+        prices the same stretches of path many times)."""
+        return world_distances(np.ascontiguousarray(poses[:, :2], dtype=float), self.world_arrays)  # type: ignore[no-any-return]
 
     def keeps_clearance(self, poses: FloatArray) -> bool:
         """Whether dense poses keep the axle-centre clearance (the ``segments`` rule: every sample
@@ -379,6 +380,14 @@ class _Search:
         d = float(np.min(self.centre_clearance(poses)))
         return float(self.edge_cost(np.array(length), np.array(d)))
 
+    def routes(self) -> list[FloatArray]:
+        """The obstacle-aware 2-D route from the start to the goal (:mod:`planning.planners.geodesic`)
+        for a disc of the axle-centre clearance plus ``ROUTE_MARGIN``, as poses that this planner's
+        steering joins (none when no such route exists): the simplifier's other way round."""
+        p = self.problem
+        vertices = geodesic.route(p.world, p.start.as_array(), p.goal.as_array(), self.required + ROUTE_MARGIN)
+        return [] if vertices is None else [geodesic.polyline_waypoints(vertices)]
+
     def simplified(self, result: PlanResult, pts: FloatArray) -> PlanResult:
         """``result`` with its path simplified (the raw one kept in ``raw_path``)."""
         path = result.path
@@ -394,6 +403,7 @@ class _Search:
             cost=self.piece_cost,
             distance=lambda q0, q1: np.atleast_1d(np.hypot(*(np.atleast_2d(q1)[:, :2] - np.atleast_2d(q0)[:, :2]).T)),
             vertices=verts,
+            routes=self.routes,
             seed=self.problem.seed,
         )
         stats = {**result.stats, **s.stats()}  # "cost" stays the tree path's, "simplified_cost" is the result's

@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 from planning.core.checks import check_fields
 from planning.core.geometry import path_length
 from planning.errors import ConfigError
+from planning.planners import geodesic
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
 from planning.planners.registry import config_from_options
 from planning.planners.sampling.extend import LocalPlanner, Motion
@@ -203,11 +204,33 @@ def simplified(result: PlanResult, local: LocalPlanner, seed: int) -> PlanResult
         local.steer,
         local.checker.path_free,
         distance=local.curves.lengths,
+        routes=lambda: curve_routes(local, result.path[0], result.path[-1]),
         config=config,
         seed=seed,
     )
     stats = {**result.stats, **s.stats()}
     return dataclasses.replace(result, path=s.path, directions=s.directions, raw_path=result.path, stats=stats)
+
+
+#: Margins the 2-D route keeps beyond the robot's circumscribed radius and clearance (room for the arcs
+#: that round its corners, :func:`planning.planners.geodesic.curve_waypoints`), and, where no such
+#: route exists, beyond the footprint's half-width and clearance (what a robot driving along it sweeps) [m].
+ROUTE_MARGINS = (0.05, 0.02)
+
+
+def curve_routes(local: LocalPlanner, start: FloatArray, goal: FloatArray) -> list[FloatArray]:
+    """Waypoints along the obstacle-aware 2-D route from ``start`` to ``goal`` for the local planner's
+    curves (:mod:`planning.planners.geodesic`): the route of a disc of the robot's circumscribed
+    radius plus the clearance and ``ROUTE_MARGINS[0]``, else of its half-width plus the clearance and
+    ``ROUTE_MARGINS[1]``; none when neither route exists."""
+    chk = local.checker.checker
+    half_width = chk.robot.radius if chk.shape == "disc" else float(np.max(np.abs(chk.robot.footprint[:, 1])))
+    assert local.rho is not None
+    for size, margin in zip((chk.robot.radius, half_width), ROUTE_MARGINS, strict=True):
+        vertices = geodesic.route(chk.world, start, goal, size + chk.clearance + margin)
+        if vertices is not None:
+            return [geodesic.curve_waypoints(vertices, local.rho)]
+    return []
 
 
 class RRT(_TreePlanner[TreeConfig]):

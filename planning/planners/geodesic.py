@@ -1,0 +1,234 @@
+"""Obstacle-aware 2-D shortest routes: which way round the obstacles a path should go.
+
+A sampling planner's path goes round each obstacle on the side its trees happened to grow, and
+shortcuts never change that (a shortcut replaces a stretch by a nearby motion, which stays on the
+same side). :func:`route` gives the shortest way for a disc of a given radius instead, from the
+same distance field Hybrid-A*'s heuristic searches (:func:`planning.planners.lattice.obstacle_heuristic`,
+Dijkstra from the goal over 8-connected cells): cells of side ``cell`` are free where the disc about
+the cell's centre keeps off everything (:func:`centre_distances`). The route descends the field
+from the start's cell to the goal's and is then string-pulled: each vertex is kept only where the
+last kept one cannot see farther along (every point of the straight segment keeps the radius, by
+sphere tracing the exact distance). Where no farther point is seen the next cell's centre is
+kept: such a step, at most a cell's diagonal between two centres that keep the radius, may come
+closer than the radius by that chord's sagitta (a millimetre or so); near a start or goal that is
+closer than the radius to something, the route keeps what that end keeps.
+
+:func:`curve_waypoints` and :func:`polyline_waypoints` turn a route into poses that a planner's own
+steering joins: the simplifier (:func:`planning.planners.simplify.simplify_path`, its ``routes``)
+steers through them, checks the result, simplifies it like the search's path and keeps the cheaper
+of the two. So the route only proposes a way round; what the plan drives is always the planner's
+exact steering, collision-checked.
+
+The cells' distances are computed once per world and cell size, the Dijkstra fields cached per
+world, radius, cell and end cells (the benchmark and the Monte Carlo runs plan the same problem
+many times).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections import OrderedDict
+
+import numba as nb
+import numpy as np
+from numpy.typing import NDArray
+
+from planning.collision.compiled import WorldArrays, _world_distance, world_arrays, world_distances
+from planning.core.world import World
+from planning.planners.lattice import obstacle_heuristic
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+#: Cell side of the 2-D search [m] (Hybrid-A*'s default ``cell_size``).
+CELL = 0.05
+#: How much farther than its radius every point of a string-pulled segment must be [m].
+SEE_MARGIN = 1e-4
+#: Smallest turn at a route's vertex that :func:`curve_waypoints` rounds [rad]; a smaller one moves the
+#: straight line past the vertex by at most the segment's length times half of it.
+MIN_TURN = 1e-3
+#: Distance fields kept (the most recently used).
+CACHE_SIZE = 16
+_FIELDS: OrderedDict[tuple[object, ...], FloatArray] = OrderedDict()
+
+
+@functools.lru_cache(maxsize=8)
+def centre_distances(world: World, cell: float) -> FloatArray:
+    """(nx, ny) signed distances [m] from the centres of the cells of side ``cell`` over the world's
+    bounds (cell (0, 0) at its lower-left corner) to the nearest obstacle or wall: the exact signed
+    distance, compiled; cached per world and cell."""
+    xmin, xmax, ymin, ymax = world.bounds
+    nx, ny = int(np.ceil((xmax - xmin) / cell)), int(np.ceil((ymax - ymin) / cell))
+    cx, cy = np.meshgrid(xmin + cell * (np.arange(nx) + 0.5), ymin + cell * (np.arange(ny) + 0.5), indexing="ij")
+    d = world_distances(np.column_stack([cx.ravel(), cy.ravel()]), world_arrays(world)).reshape(nx, ny)
+    d.setflags(write=False)
+    return d  # type: ignore[no-any-return]
+
+
+def clear_caches() -> None:
+    """Forget the cached cell distances and distance fields (to time a route computed from nothing)."""
+    centre_distances.cache_clear()
+    _FIELDS.clear()
+
+
+def _cell_of(p: FloatArray, origin: tuple[float, float], cell: float, shape: tuple[int, ...]) -> tuple[int, int]:
+    i = int(np.clip(np.floor((p[0] - origin[0]) / cell), 0, shape[0] - 1))
+    j = int(np.clip(np.floor((p[1] - origin[1]) / cell), 0, shape[1] - 1))
+    return i, j
+
+
+def distance_field(
+    world: World, radius: float, start: FloatArray, goal: FloatArray, cell: float = CELL
+) -> tuple[FloatArray, tuple[float, float]]:
+    """Dijkstra distances [m] to the goal's cell over the free cells (:func:`free_cells`), the cells
+    within ``radius`` of the start and of the goal counted free too (the ends may sit closer to
+    something than the disc allows; the steered path is checked anyway). Cached per world, radius,
+    cell and end cells.
+
+    Returns:
+        (nx, ny) distances (inf where unreachable) and the lower-left corner of cell (0, 0) [m].
+    """
+    xmin, xmax, ymin, ymax = world.bounds
+    origin = (float(xmin), float(ymin))
+    shape = (int(np.ceil((xmax - xmin) / cell)), int(np.ceil((ymax - ymin) / cell)))
+    s, g = _cell_of(start, origin, cell, shape), _cell_of(goal, origin, cell, shape)
+    key = (world, cell, radius, s, g)
+    hit = _FIELDS.get(key)
+    if hit is not None:
+        _FIELDS.move_to_end(key)
+        return hit, origin
+    free = centre_distances(world, cell) > radius
+    reach = int(np.ceil(radius / cell))
+    for ci, cj in (s, g):
+        for di in range(-reach, reach + 1):
+            for dj in range(-reach, reach + 1):
+                a, b = ci + di, cj + dj
+                if 0 <= a < shape[0] and 0 <= b < shape[1] and np.hypot(di, dj) * cell <= radius:
+                    free[a, b] = True
+    field = obstacle_heuristic(free, g[0], g[1], float(cell))
+    field.setflags(write=False)
+    _FIELDS[key] = field
+    if len(_FIELDS) > CACHE_SIZE:
+        _FIELDS.popitem(last=False)
+    return field, origin
+
+
+@nb.njit(cache=True)
+def _descend(field: FloatArray, i: int, j: int) -> IntArray:
+    """Cells from (i, j) to the field's zero, each to the 8-neighbour of least distance ((K, 2))."""
+    nx, ny = field.shape
+    out = [(i, j)]
+    while field[i, j] > 0.0:
+        bi, bj, best = i, j, field[i, j]
+        for di in range(-1, 2):
+            for dj in range(-1, 2):
+                a, b = i + di, j + dj
+                if 0 <= a < nx and 0 <= b < ny and field[a, b] < best:
+                    bi, bj, best = a, b, field[a, b]
+        if bi == i and bj == j:
+            break
+        i, j = bi, bj
+        out.append((i, j))
+    res = np.empty((len(out), 2), dtype=np.int64)
+    for k in range(len(out)):
+        res[k, 0], res[k, 1] = out[k]
+    return res
+
+
+@nb.njit(cache=True)
+def _sees(a: FloatArray, b: FloatArray, world: WorldArrays, keep: float) -> bool:
+    """Whether every point of segment a-b is farther than ``keep`` from everything, by sphere tracing:
+    the distance is 1-Lipschitz, so from a point ``excess = distance - keep`` away from the limit the
+    next ``excess`` of the segment keeps it; a point within ``SEE_MARGIN`` of the limit is a no."""
+    length = np.hypot(b[0] - a[0], b[1] - a[1])
+    t = 0.0
+    while True:
+        f = t / length if length > 0.0 else 0.0
+        excess = _world_distance(a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), world) - keep
+        if excess <= SEE_MARGIN:
+            return False
+        if t >= length:
+            return True
+        t = min(length, t + excess)
+
+
+@nb.njit(cache=True)
+def _pull(pts: FloatArray, world: WorldArrays, radius: float) -> IntArray:
+    """Indices of the points kept by string-pulling: from each kept point, the farthest point up to
+    which every one is seen (:func:`_sees`: keeping ``radius``, or, on a segment from the first point
+    or to the last, what that end keeps less 1 cm when it is nearer to something: a start or goal
+    near a wall); the next point at least."""
+    n = pts.shape[0]
+    first = min(radius, _world_distance(pts[0, 0], pts[0, 1], world) - 0.01)
+    last = min(radius, _world_distance(pts[n - 1, 0], pts[n - 1, 1], world) - 0.01)
+    keep = [0]
+    i = 0
+    while i < n - 1:
+        j = i + 1
+        while j + 1 < n:
+            need = min(first if i == 0 else radius, last if j + 1 == n - 1 else radius)
+            if not _sees(pts[i], pts[j + 1], world, need):
+                break
+            j += 1
+        keep.append(j)
+        i = j
+    return np.array(keep, dtype=np.int64)
+
+
+def route(world: World, start: FloatArray, goal: FloatArray, radius: float, cell: float = CELL) -> FloatArray | None:
+    """The shortest 2-D route for a disc of ``radius`` [m] from ``start`` to ``goal`` (see the module doc).
+
+    Args:
+        world: Bounds (walls) and obstacles.
+        start: Start position, (2,) or a pose (3,) [m].
+        goal: Goal position, (2,) or a pose (3,) [m].
+        radius: Radius of the disc about the route [m].
+        cell: Cell side of the search [m].
+
+    Returns:
+        (M, 2) vertices from ``start`` to ``goal`` (M >= 2), or None when the goal's cell cannot be
+        reached from the start's.
+    """
+    s, g = np.asarray(start, dtype=float)[:2], np.asarray(goal, dtype=float)[:2]
+    field, origin = distance_field(world, radius, s, g, cell)
+    i, j = _cell_of(s, origin, cell, field.shape)
+    if not np.isfinite(field[i, j]):
+        return None
+    cells = _descend(field, i, j)
+    centres = np.column_stack([origin[0] + cell * (cells[:, 0] + 0.5), origin[1] + cell * (cells[:, 1] + 0.5)])
+    pts = np.vstack([s, centres[1:-1], g]) if cells.shape[0] > 2 else np.vstack([s, g])
+    return pts[_pull(np.ascontiguousarray(pts), world_arrays(world), radius)]  # type: ignore[no-any-return]
+
+
+def polyline_waypoints(vertices: FloatArray) -> FloatArray:
+    """The interior vertices of a route as poses (W, 3), each heading along the segment that arrives
+    at it (straight segments and turns in place join them: C-RRT*'s steering)."""
+    v = np.asarray(vertices, dtype=float)
+    d = np.diff(v, axis=0)
+    return np.column_stack([v[1:-1], np.arctan2(d[:-1, 1], d[:-1, 0])])
+
+
+def curve_waypoints(vertices: FloatArray, rho: float) -> FloatArray:
+    """Poses (W, 3) along a route for curve steering of turning radius ``rho`` [m], one per interior
+    vertex that turns by more than ``MIN_TURN``: the middle of the arc of radius ``rho`` tangent to
+    both segments (the corner's fillet), heading half-way between the segments'. Where the fillet
+    does not fit (its tangent points farther than half of either segment from the vertex) the pose
+    is the vertex itself. Reeds–Shepp or Dubins steering from one such pose to the next then drives
+    the rest of the first fillet, the straight segment and the start of the next fillet (no pose
+    lies on a straight segment, where the curves' solvers can return arcs of ~1e-9 m with cusps)."""
+    v = np.asarray(vertices, dtype=float)
+    d = np.diff(v, axis=0)
+    seg = np.hypot(d[:, 0], d[:, 1])
+    heading = np.unwrap(np.arctan2(d[:, 1], d[:, 0]))
+    out = []
+    for k in range(1, v.shape[0] - 1):
+        turn = float(heading[k] - heading[k - 1])
+        if abs(turn) < MIN_TURN:
+            continue
+        half = 0.5 * abs(turn)
+        mid = heading[k - 1] + 0.5 * turn
+        inward = mid + np.copysign(0.5 * np.pi, turn)  # toward the centre of the fillet
+        fits = rho * np.tan(half) <= 0.5 * min(seg[k - 1], seg[k])
+        offset = rho * (1.0 / np.cos(half) - 1.0) if fits else 0.0
+        out.append([v[k, 0] + offset * np.cos(inward), v[k, 1] + offset * np.sin(inward), mid])
+    return np.array(out).reshape(-1, 3)

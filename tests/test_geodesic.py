@@ -1,0 +1,70 @@
+"""The obstacle-aware 2-D route (planning.planners.geodesic): the shorter way round an obstacle, the
+radius kept all along, the analytic shortest length approached from above, waypoints on the fillets."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from planning.collision.compiled import world_arrays, world_distances
+from planning.core.geometry import densify_path, path_length
+from planning.core.world import Box, Circle, World
+from planning.planners import geodesic
+from planning.scenario import load_scenario
+
+
+def test_the_route_goes_the_short_way_round_a_disc_and_keeps_its_radius():
+    """A disc of 0.5 m at (0, 0.3) between (-2, 0) and (2, 0): under it is the shorter way. For a route
+    of radius R the disc grows to r = 0.5 + R, and the shortest way under it is two tangents of
+    sqrt(D^2 - r^2) (D the ends' distance from the centre) and the arc between their touching points,
+    r (pi - 2 beta - 2 acos(r / D)) with beta = atan(0.3 / 2)."""
+    world = World((-3.0, 3.0, -3.0, 3.0), (Circle((0.0, 0.3), 0.5),))
+    radius = 0.2
+    v = geodesic.route(world, np.array([-2.0, 0.0]), np.array([2.0, 0.0]), radius)
+    assert v is not None
+    np.testing.assert_array_equal(v[0], [-2.0, 0.0])
+    np.testing.assert_array_equal(v[-1], [2.0, 0.0])
+    dense = densify_path(np.column_stack([v, np.zeros(len(v))]), 0.001)
+    assert np.min(world.signed_distance(dense[:, :2])) > radius  # every point, not just the samples
+    assert np.max(dense[:, 1]) <= 1e-12 and np.min(dense[:, 1]) < 0.3 - 0.5 - radius  # under the grown disc
+    r, dist, beta = 0.5 + radius, np.hypot(2.0, 0.3), np.arctan2(0.3, 2.0)
+    exact = 2.0 * np.sqrt(dist**2 - r**2) + r * (np.pi - 2.0 * beta - 2.0 * np.arccos(r / dist))
+    over = 2.0 * np.sqrt(dist**2 - r**2) + r * (np.pi + 2.0 * beta - 2.0 * np.arccos(r / dist))
+    assert exact - 1e-9 <= path_length(v) <= 1.03 * exact < over
+
+
+def test_around_a_disc_on_the_line_the_route_length_approaches_the_analytic_one():
+    """Two tangents and the arc between them round a disc of 0.5 m + R centred between the ends."""
+    world = World((-3.0, 3.0, -3.0, 3.0), (Circle((0.0, 0.0), 0.5),))
+    for radius in (0.1, 0.3):
+        v = geodesic.route(world, np.array([-2.0, 0.0]), np.array([2.0, 0.0]), radius)
+        assert v is not None
+        r = 0.5 + radius
+        exact = 2.0 * np.sqrt(4.0 - r * r) + r * (np.pi - 2.0 * np.arccos(r / 2.0))
+        assert exact - 1e-9 <= path_length(v) <= 1.03 * exact
+
+
+def test_a_walled_off_goal_has_no_route():
+    wall = Box((0.0, 0.0), (0.2, 6.0))  # from wall to wall
+    world = World((-3.0, 3.0, -3.0, 3.0), (wall,))
+    assert geodesic.route(world, np.array([-2.0, 0.0]), np.array([2.0, 0.0]), 0.1) is None
+
+
+def test_curve_waypoints_lie_on_the_fillets_of_the_corners():
+    """A right-angle corner at (1, 0) with radius 0.2: the fillet's middle is (1 - 0.2 (1 - 1/sqrt 2),
+    0.2 (1 - 1/sqrt 2)) from the corner inwards, heading 45 degrees; a straight vertex gives nothing."""
+    v = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [1.0, 2.0]])
+    wp = geodesic.curve_waypoints(v, 0.2)
+    inward = 0.2 * (np.sqrt(2.0) - 1.0) / np.sqrt(2.0)  # rho (1 / cos 45 - 1) along the bisector
+    np.testing.assert_allclose(wp, [[1.0 - inward, inward, np.pi / 4]], atol=1e-12)
+    assert np.hypot(wp[0, 0] - 0.8, wp[0, 1] - 0.2) == pytest.approx(0.2, abs=1e-12)  # on the arc
+    tight = geodesic.curve_waypoints(v, 5.0)  # the fillet does not fit: the vertex itself
+    np.testing.assert_allclose(tight, [[1.0, 0.0, np.pi / 4]], atol=1e-12)
+    poly = geodesic.polyline_waypoints(v)
+    np.testing.assert_allclose(poly, [[1.0, 0.0, 0.0], [1.0, 1.0, np.pi / 2]], atol=1e-12)
+
+
+def test_compiled_world_distances_equal_the_worlds_own():
+    world = load_scenario("farm").world  # circles and ellipses (bisection), walls
+    pts = np.random.default_rng(4).uniform(-3.2, 3.2, (5000, 2))
+    np.testing.assert_allclose(world_distances(pts, world_arrays(world)), world.signed_distance(pts), atol=1e-12)
