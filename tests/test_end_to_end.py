@@ -125,7 +125,15 @@ def test_a_planner_precondition_is_not_applicable_but_a_planner_failure_is_a_fai
     rows = [na, fail]
     rec = sweep_record(rows)
     assert rec["rows"] == [fail.record()] and rec["not_applicable"] == [na.record()]
-    assert rec["summary"] == {"cases": 1, "passed": 0, "failed": 1, "not_applicable": 1, "targets": TARGETS}
+    assert rec["summary"] == {
+        "cases": 1,
+        "passed": 0,
+        "failed": 1,
+        "not_applicable": 1,
+        "targets": TARGETS,
+        "balancing_targets": BALANCING_TARGETS,
+    }
+    assert BALANCING_TARGETS["rms_position_error_m"] == 0.03 and BALANCING_TARGETS["max_pitch_rad"] == np.radians(20)
     keys = {"scenario", "robot", "planner", "seed", "success", "outcome", "stage", "reason", "plan_status"}
     assert set(na.record()) == keys | {"plan_time_s"} and set(fail.record()) == keys
     assert na.record()["outcome"] == "n/a" and fail.record()["outcome"] == "FAIL"
@@ -170,8 +178,8 @@ def test_every_scenario_planner_and_robot(case: Case) -> None:
 
 def test_the_table_keeps_its_columns_for_the_longest_robot_and_planner_names() -> None:
     head = header().splitlines()[0]
-    row = SweepRow(Case("parking_lot", robot="edumip-balancing", planner="hybrid-a-star"), Outcome.NA,
-                   Stage.PRECONDITION, reason="why")  # fmt: skip
+    case = Case("parking_lot", robot="edumip-balancing", planner="hybrid-a-star")
+    row = SweepRow(case, Outcome.NA, Stage.PRECONDITION, reason="why")
     line = format_row(row)
     assert line.index("hybrid-a-star") == head.index("planner")
     assert line.index(" n/a") + len(" n/a") == head.index(" ok") + len(" ok")
