@@ -52,14 +52,17 @@ def test_parallel_park_by_hand_with_a_cusp_in_physics() -> None:
 
 
 def test_the_balancing_edumip_takes_cusps_and_turns_in_place_through_its_balance_loop() -> None:
-    # the same stop-turn-go path with a cusp: turn in place, drive, turn in place, reverse, turn in
-    # place. A balancing robot cannot stop or turn on skids: every stop, turn and change of direction
-    # goes through the balance loop's lean (issue 15's targets: BALANCING_TARGETS, no fall)
-    sc = load_scenario("parallel_park")
-    path = np.array([[1.0, 0.8, 0.0], [1.3, 0.8, 0.0], [1.3, 0.8, -0.9], [1.0, 0.5, -0.9], [1.0, 0.5, 0.0]])
+    # forwards, a turn in place, backwards (a cusp), a turn in place. A balancing robot cannot stop or
+    # turn on skids: every stop, turn and change of direction goes through the balance loop's lean
+    # (issue 15's targets: BALANCING_TARGETS, no fall)
+    sc = load_scenario("parallel_park")  # (1.0, 0.8, 0) -> (1.0, 0.5, 0)
+    q = np.pi / 4
+    path = np.array([[1.0, 0.8, 0.0], [1.3, 0.8, 0.0], [1.3, 0.8, q], [1.0, 0.5, q], [1.0, 0.5, 0.0]])
     plan = PlanResult(PlanStatus.SUCCESS, "by-hand", path=path)
     job = simulate_plan(sc, robot="edumip-balancing", planning=PlanOptions(plan=plan))
-    assert (job.extra["smoothing"]["drives"], job.extra["smoothing"]["rotations"]) == (2, 2)
+    smoothing = job.extra["smoothing"]
+    assert (smoothing["drives"], smoothing["cusps"], smoothing["rotations"]) == (2, 1, 2)
+    assert [k for k in job.trajectory.segment_kinds if k != "hold"] == ["forward", "rotate", "reverse", "rotate"]
     cl = job.metrics["closed_loop"]
     values = cl.as_dict()
     assert all(values[k] <= bound for k, bound in BALANCING_TARGETS.items()), values
