@@ -156,10 +156,16 @@ def test_record_path():
 def test_scenarios_command_lists_every_builtin(capsys):
     assert main(["scenarios"]) == 0
     out = capsys.readouterr().out
+    lines = out.splitlines()
+    bounds_at = lines[0].index("bounds [m]")
     for name in builtin_scenarios():
         sc = load_scenario(name)
-        line = next(ln for ln in out.splitlines() if ln.startswith(name + " "))
-        assert sc.robot in line and str(len(sc.world.obstacles)) in line
+        line = next(ln for ln in lines if ln.startswith(name + " "))
+        assert str(len(sc.world.obstacles)) in line
+        # every robot it lists, the default first, in a column that ends before the bounds column
+        robots = line[len(name) : bounds_at].strip().split(", ")
+        assert robots[0] == sc.robot and set(robots) == set(sc.robots) and len(robots) == len(sc.robots)
+        assert line[bounds_at] == "[", line
 
 
 def test_a_non_finite_clearance_is_never_a_success(tmp_path, capsys, monkeypatch):

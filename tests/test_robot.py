@@ -56,3 +56,46 @@ def test_model_missing_a_limit_is_reported(tmp_path) -> None:  # type: ignore[no
     bad.write_text(text)
     with pytest.raises(ModelError, match="nhsim_max_linear_speed"):
         load_robot(str(bad))
+
+
+def _inside(poly: np.ndarray, pts: np.ndarray, tol: float) -> np.ndarray:
+    """Whether points lie inside a convex counter-clockwise polygon, within ``tol`` [m]."""
+    a, b = poly, np.roll(poly, -1, axis=0)
+    edge = b - a
+    rel = pts[:, None, :] - a[None, :, :]
+    cross = edge[None, :, 0] * rel[..., 1] - edge[None, :, 1] * rel[..., 0]
+    return np.all(cross / np.hypot(edge[:, 0], edge[:, 1])[None, :] >= -tol, axis=1)
+
+
+def test_the_balancing_footprint_holds_the_body_at_every_pitch_the_target_allows() -> None:
+    from sim.pipeline.sweep import BALANCING_TARGETS
+
+    spec = load_robot("edumip-balancing")
+    assert spec.footprint_pitch == pytest.approx(BALANCING_TARGETS["max_pitch_rad"], abs=1e-6)
+    assert load_robot("edumip").footprint_pitch == load_robot("turtlebot3").footprint_pitch == 0.0
+    # MuJoCo places the chassis box pitched about the axle; its corners' x-y projection (relative to the
+    # axle's midpoint, heading +x) stays inside the footprint, and at the bound it touches it
+    m = mujoco.MjModel.from_xml_path(str(spec.scene))
+    d = mujoco.MjData(m)
+    g = m.geom("chassis").id
+    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * m.geom_size[g]
+    reach = 0.0
+    for pitch in np.linspace(-spec.footprint_pitch, spec.footprint_pitch, 13):
+        d.qpos[3:7] = [np.cos(pitch / 2), 0.0, np.sin(pitch / 2), 0.0]  # about y: the top forward
+        mujoco.mj_forward(m, d)
+        world = d.geom_xpos[g] + corners @ d.geom_xmat[g].reshape(3, 3).T
+        xy = world[:, :2] - d.qpos[:2]
+        assert np.all(_inside(spec.footprint, xy, 1e-5)), pitch
+        reach = max(reach, float(np.abs(xy[:, 0]).max()))
+    assert reach == pytest.approx(np.abs(spec.footprint[:, 0]).max(), abs=1e-4)
+    assert reach > 0.06 > m.geom_size[m.geom("wheel_left_geom").id][0]  # beyond the wheels' 34 mm
+
+
+@pytest.mark.parametrize("bad", ["-0.1", "1.6", "nan"])
+def test_a_footprint_pitch_outside_its_range_is_reported(tmp_path, bad: str) -> None:  # type: ignore[no-untyped-def]
+    text = load_robot("edumip-balancing").mjcf.read_text()
+    text = text.replace('name="nhsim_footprint_pitch" data="0.349066"', f'name="nhsim_footprint_pitch" data="{bad}"')
+    path = tmp_path / "edumip_balancing.xml"
+    path.write_text(text)
+    with pytest.raises(ModelError, match=r"nhsim_footprint_pitch must be in \[0, pi/2\)"):
+        load_robot(str(path))

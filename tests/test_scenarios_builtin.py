@@ -34,6 +34,16 @@ def test_loads_with_free_start_and_goal(name):
         PlanProblem.from_scenario(sc, robot=robot)
 
 
+def test_the_balancing_edumip_goes_wherever_the_edumip_goes():
+    # issue 15: `nhsim scenarios` lists the balancing EduMIP where the EduMIP applies (the same wheels,
+    # motors and sensors; only the skids differ), and nowhere else
+    with_edumip = {n for n in NAMES if "edumip" in load_scenario(n).robots}
+    with_balancing = {n for n in NAMES if "edumip-balancing" in load_scenario(n).robots}
+    assert with_balancing == with_edumip
+    assert {"open", "edumip_map", "farm", "parking_lot", "turn_in_place"} <= with_balancing
+    assert "three_point_turn" not in with_balancing  # a bicycle's manoeuvre: the TurtleBot3's only
+
+
 def test_farm_is_seed_001():
     sc = load_scenario("farm")
     assert sc.world.bounds == (-3.0, 3.0, -3.0, 3.0)

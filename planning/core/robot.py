@@ -10,6 +10,7 @@ MuJoCo loads: geometry from the geoms and bodies, and the wheel-speed and planni
 from __future__ import annotations
 
 import functools
+import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -50,8 +51,12 @@ class RobotSpec:
         max_wheel_speed: Wheel-speed limit the motors sustain (``nhsim_max_wheel_speed``) [rad/s].
         wheelbase: Virtual wheelbase l of the bicycle model [m].
         max_steering: Virtual steering-angle bound |phi| [rad].
-        footprint: (K, 2) convex footprint in the base frame, counter-clockwise [m].
+        footprint: (K, 2) convex footprint in the base frame, counter-clockwise [m]: the x-y projection
+            of the base's and the wheels' geoms, the base's swept through every pitch within
+            ``footprint_pitch`` about the wheel axle.
         mass: Total mass [kg].
+        footprint_pitch: |pitch| the footprint covers the body at (``nhsim_footprint_pitch``; 0 for a
+            body held level by skids or casters) [rad].
     """
 
     name: str
@@ -68,6 +73,7 @@ class RobotSpec:
     max_steering: float
     footprint: FloatArray = field(repr=False)
     mass: float = 0.0
+    footprint_pitch: float = 0.0
 
     @functools.cached_property
     def radius(self) -> float:
@@ -114,8 +120,22 @@ def _geom_attrs(geom: ET.Element, defaults: dict[str, dict[str, str]]) -> dict[s
     return attrs
 
 
-def _geom_outline(geom: ET.Element, defaults: dict[str, dict[str, str]], offset: FloatArray) -> FloatArray:
-    """Points whose planar convex hull covers the geom's x-y projection."""
+#: The single pitch of a body that does not pitch [rad].
+UPRIGHT: FloatArray = np.zeros(1)
+
+
+def _pitched_xy(points: FloatArray, pitches: FloatArray) -> FloatArray:
+    """(P * N, 2) x-y projections of (N, 3) points turned about the y axis by each of (P,) pitches [rad];
+    a positive pitch tips +z towards +x: x -> x cos a + z sin a, y stays."""
+    x = np.outer(np.cos(pitches), points[:, 0]) + np.outer(np.sin(pitches), points[:, 2])
+    return np.column_stack([x.ravel(), np.tile(points[:, 1], pitches.size)])
+
+
+def _geom_outline(
+    geom: ET.Element, defaults: dict[str, dict[str, str]], offset: FloatArray, pitches: FloatArray = UPRIGHT
+) -> FloatArray:
+    """Points whose planar convex hull covers the geom's x-y projection, the geom turned about the frame's
+    y axis by each of ``pitches`` [rad]."""
     attrs = _geom_attrs(geom, defaults)
     gtype = attrs.get("type", "sphere")
     size = _floats(attrs.get("size", "0"), what="geom size")
@@ -123,7 +143,8 @@ def _geom_outline(geom: ET.Element, defaults: dict[str, dict[str, str]], offset:
     rot = _euler_matrix(_floats(attrs["euler"], 3, "euler")) if "euler" in attrs else np.eye(3)
     if gtype == "sphere":
         ang = np.linspace(0, 2 * np.pi, 24, endpoint=False)
-        return pos[:2] + size[0] * np.column_stack([np.cos(ang), np.sin(ang)])
+        ring = size[0] * np.column_stack([np.cos(ang), np.sin(ang)])
+        return (_pitched_xy(pos[None, :], pitches)[:, None, :] + ring[None, :, :]).reshape(-1, 2)
     if gtype == "box":
         local = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * size[:3]
     elif gtype == "cylinder":
@@ -132,7 +153,7 @@ def _geom_outline(geom: ET.Element, defaults: dict[str, dict[str, str]], offset:
         local = np.vstack([np.column_stack([ring, np.full(24, h)]) for h in (-size[1], size[1])])
     else:
         raise ModelError(f"footprint: geom type {gtype!r} is not supported (use box, cylinder or sphere)")
-    return (local @ rot.T + pos)[:, :2]
+    return _pitched_xy(local @ rot.T + pos, pitches)
 
 
 def _collect_defaults(root: ET.Element) -> dict[str, dict[str, str]]:
@@ -195,7 +216,10 @@ def load_robot(name: str) -> RobotSpec:
             raise ModelError(f"{path}: body {required!r} is missing")
     defaults = _collect_defaults(root)
     wheel_radius, track = _wheels(path, root, bodies, defaults)
-    hull = _footprint(bodies, defaults)
+    pitch = numeric("footprint_pitch") if "nhsim_footprint_pitch" in numerics else 0.0
+    if not 0.0 <= pitch < np.pi / 2:
+        raise ModelError(f"{path}: nhsim_footprint_pitch must be in [0, pi/2) [rad], got {pitch!r}")
+    hull = _footprint(bodies, defaults, pitch)
     mass = 0.0
     for body in root.iter("body"):
         inertial = body.find("inertial")
@@ -221,6 +245,7 @@ def load_robot(name: str) -> RobotSpec:
         max_steering=numeric("max_steering_angle"),
         footprint=hull,
         mass=mass,
+        footprint_pitch=pitch,
     )
 
 
@@ -237,9 +262,18 @@ def _wheels(
     return wheel_radius, float(abs(yl - yr))
 
 
-def _footprint(bodies: dict[str | None, ET.Element], defaults: dict[str, dict[str, str]]) -> FloatArray:
-    """(K, 2) convex hull of the x-y projections of the base's and the wheels' geoms, counter-clockwise [m]."""
-    points = [_geom_outline(g, defaults, np.zeros(3)) for g in bodies["base"].findall("geom")]
+#: Pitch angles a swept footprint samples per radian on each side of upright, at most 1/60 rad (0.95 deg)
+#: apart: the hull of the samples holds a point r from the axle to within r (1 - cos(step / 2)), 4 um at
+#: 0.11 m.
+PITCH_SAMPLES_PER_RAD = 60
+
+
+def _footprint(bodies: dict[str | None, ET.Element], defaults: dict[str, dict[str, str]], pitch: float) -> FloatArray:
+    """(K, 2) convex hull of the x-y projections of the base's and the wheels' geoms, counter-clockwise [m];
+    the base's rotated about the wheel axle (the base frame's y axis) through every pitch in
+    [-pitch, pitch] [rad] (the wheels turn about that axis and stay where they are)."""
+    angles = np.linspace(-pitch, pitch, 1 + 2 * math.ceil(pitch * PITCH_SAMPLES_PER_RAD))
+    points = [_geom_outline(g, defaults, np.zeros(3), angles) for g in bodies["base"].findall("geom")]
     for wheel in ("wheel_left", "wheel_right"):
         off = _floats(bodies[wheel].get("pos"), 3, f"{wheel} pos")
         points.extend(_geom_outline(g, defaults, off) for g in bodies[wheel].findall("geom"))

@@ -49,7 +49,8 @@ def scenario_rows() -> list[dict[str, Any]]:
 def run(args: argparse.Namespace) -> int:
     """Execute ``scenarios``."""
     rows = scenario_rows()
-    head = f"{'name':<16} {'robots':<22} {'bounds [m]':<26} {'obstacles':>9}  {'planner':<12} description"
+    width = max((len(", ".join(r["robots"])) for r in rows if "robots" in r), default=6)
+    head = f"{'name':<16} {'robots':<{width}} {'bounds [m]':<26} {'obstacles':>9}  {'planner':<12} description"
     print(head)
     print("-" * len(head))
     failed = False
@@ -60,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
             continue
         bounds = "[" + ", ".join(f"{b:g}" for b in r["bounds"]) + "]"
         print(
-            f"{r['name']:<16} {', '.join(r['robots']):<22} {bounds:<26} {r['obstacles']:>9}  "
+            f"{r['name']:<16} {', '.join(r['robots']):<{width}} {bounds:<26} {r['obstacles']:>9}  "
             f"{r['planner']:<12} {r['description']}"
         )
     return 1 if failed else 0

@@ -5,24 +5,30 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from planning.core.robot import ROBOT_FILES
+from planning.planners.registry import PLANNERS
 from sim.pipeline.runs import RunKind
 from sim.pipeline.sweep import Outcome, Stage, SweepRow
 
 NAN = float("nan")
+#: Widths of the robot and planner columns: the longest name of each ("edumip-balancing", "hybrid-a-star").
+ROBOT_WIDTH = max(map(len, ROBOT_FILES))
+PLANNER_WIDTH = max(map(len, PLANNERS))
 
 
 def header() -> str:
     """Column titles of the table (closed loop | open loop) and the rule under them."""
     head = (
-        f"{'scenario':<17} {'robot':<10} {'planner':<11} {'ok':>4} {'plan [s]':>8} {'fin pos':>9} {'fin head':>9} "
-        f"{'rms pos':>8} {'coll':>4} {'warn':>4} | {'OL fin':>9} {'OL rms':>8} {'coll':>4}"
+        f"{'scenario':<17} {'robot':<{ROBOT_WIDTH}} {'planner':<{PLANNER_WIDTH}} {'ok':>4} {'plan [s]':>8} "
+        f"{'fin pos':>9} {'fin head':>9} {'rms pos':>8} {'coll':>4} {'warn':>4} | "
+        f"{'OL fin':>9} {'OL rms':>8} {'coll':>4}"
     )
     return head + "\n" + "-" * len(head)
 
 
 def format_row(row: SweepRow) -> str:
     """One line of the table."""
-    head = f"{row.case.scenario_name:<17} {row.robot:<10} {row.case.planner:<11}"
+    head = f"{row.case.scenario_name:<17} {row.robot:<{ROBOT_WIDTH}} {row.case.planner:<{PLANNER_WIDTH}}"
     if row.stage is not Stage.TRACK:
         return f"{head} {row.outcome:>4}  {row.reason[:90]}"
     cl, ol = row.runs.get(RunKind.CLOSED_LOOP, {}), row.runs.get(RunKind.OPEN_LOOP, {})

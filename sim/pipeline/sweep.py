@@ -264,7 +264,8 @@ def sweep_task(shared: object, case: Case) -> SweepRow:
 
 
 def sweep_record(rows: list[SweepRow]) -> dict[str, Any]:
-    """The JSON record of a sweep: applicable rows, not-applicable rows apart, and counts."""
+    """The JSON record of a sweep: applicable rows, not-applicable rows apart, and counts, with the
+    targets a row is judged by (``targets``; a balancing robot's row by ``balancing_targets``)."""
     na = [r for r in rows if r.outcome is Outcome.NA]
     applicable = [r for r in rows if r.outcome is not Outcome.NA]
     return {
@@ -276,6 +277,7 @@ def sweep_record(rows: list[SweepRow]) -> dict[str, Any]:
             "failed": sum(not r.success for r in applicable),
             "not_applicable": len(na),
             "targets": TARGETS,
+            "balancing_targets": BALANCING_TARGETS,
         },
     }
 

@@ -69,6 +69,7 @@ def _trajectories(args: argparse.Namespace) -> bool:
     """The simulate --all table; True when a case misses its target."""
     import numpy as np
 
+    from sim.cli.sweep_table import PLANNER_WIDTH, ROBOT_WIDTH
     from sim.tools.bench import simplify as b
 
     names = [n for n in args.scenarios if not n.startswith("random")] if args.scenarios else None
@@ -77,8 +78,8 @@ def _trajectories(args: argparse.Namespace) -> bool:
         f"{', '.join(b.TRAJECTORY_TARGETED)})"
     )
     print(
-        f"{'scenario':<18}{'robot':<12}{'planner':<12}{'length m':>9}{'rrt* m':>8}{'ratio':>7}"
-        f"{'s':>7}{'rrt* s':>8}  note"
+        f"{'scenario':<18}{'robot':<{ROBOT_WIDTH + 2}}{'planner':<{PLANNER_WIDTH + 1}}"
+        f"{'length m':>9}{'rrt* m':>8}{'ratio':>7}{'s':>7}{'rrt* s':>8}  note"
     )
     missed = False
     ratios = []
@@ -88,7 +89,8 @@ def _trajectories(args: argparse.Namespace) -> bool:
             ratios.append(r.ratio)
         flag = "MISSED" if r.missed else (r.note or ("" if r.targeted else "(not a sampling planner)"))
         print(
-            f"{r.scenario:<18}{r.robot:<12}{r.planner:<12}{r.length:>9.2f}{r.ref_length:>8.2f}{r.ratio:>7.3f}"
+            f"{r.scenario:<18}{r.robot:<{ROBOT_WIDTH + 2}}{r.planner:<{PLANNER_WIDTH + 1}}"
+            f"{r.length:>9.2f}{r.ref_length:>8.2f}{r.ratio:>7.3f}"
             f"{r.duration:>7.1f}{r.ref_duration:>8.1f}  {flag}",
             flush=True,
         )
