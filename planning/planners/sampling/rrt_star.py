@@ -17,6 +17,9 @@ Informed sampling (Gammell et al. 2014): once a path of cost c exists, samples a
 the x-y ellipse with foci at the start and goal and major axis c + the goal's position tolerance
 (headings uniform). A curve is never shorter than the straight line between its ends, so every
 pose of a shorter path lies in it: the ellipse leaves out nothing that could improve the path.
+Path biasing (Akgun and Stilman 2011): a fraction ``path_bias`` of those samples is instead a node of
+the best path moved by normal noise, so rewiring straightens the path where it is, while the rest
+keep exploring the ellipse.
 
 Anytime: the stats report the first solution's time, iteration and length; the search stops when
 the best cost has improved by less than ``improvement_tol`` (0.1 %) over the last half of the run
@@ -63,6 +66,10 @@ class RRTStarConfig(TreeConfig):
         neighbour_pool: Neighbours are the k of shortest exact curve among the ``neighbour_pool`` x k
             nearest by the (x, y, cos, sin) metric (>= 1; 1: the k nearest by that metric).
         connect_steps: Most extensions of one connect step toward the other tree.
+        path_bias: After the first solution, the probability that a sample is drawn near the best
+            path (see the module doc); 0 never.
+        path_sigma: Spread of those samples: normal noise of ``path_sigma`` turning radii in x and y
+            and ``path_sigma`` rad in heading.
     """
 
     steering: str = "reeds_shepp"
@@ -75,6 +82,8 @@ class RRTStarConfig(TreeConfig):
     informed: bool = True
     neighbour_pool: float = 2.0
     connect_steps: int = 50
+    path_bias: float = 0.15
+    path_sigma: float = 0.5
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -84,6 +93,8 @@ class RRTStarConfig(TreeConfig):
                 "min_iterations": {"integer": True, "at_least": 0},
                 "neighbour_pool": {"at_least": 1.0},
                 "connect_steps": {"integer": True, "at_least": 1},
+                "path_bias": {"at_least": 0.0, "at_most": 1.0},
+                "path_sigma": {"above": 0.0},
             },
         )
         if not self.improvement_tol >= 0.0:
@@ -157,7 +168,12 @@ class RRTStar(_TreePlanner[RRTStarConfig]):
                     stop = "first solution"
                     break
         tree = search.tree
-        stats: dict[str, object] = {**self._stats(budget, it, tree.n), **run.stats(), "stopped_by": stop}
+        stats: dict[str, object] = {
+            **self._stats(budget, it, tree.n),
+            **run.stats(),
+            "stopped_by": stop,
+            "goal_tree_joined": search.grafted,
+        }
         if search.goal_nodes:
             g = search.best_goal()
             path, dirs = tree.branch(g)
@@ -178,6 +194,8 @@ class _Search:
         self.back: Tree | None = Tree(self.goal, backwards=True) if cfg.goal_tree else None
         self.goal_nodes: list[int] = []
         self.goal_node: int | None = None  # the node on the goal pose itself
+        self.grafted = False  # whether the first solution came through the goal tree
+        self.incumbent = np.zeros(0, dtype=np.int64)  # the best path's nodes (root excluded)
         self.best = np.inf
 
     def best_goal(self) -> int:
@@ -199,21 +217,42 @@ class _Search:
                 self._to_goal(j)
         if not self.goal_nodes:
             return False
-        cost = float(self.tree.costs[self.best_goal()])  # rewiring may have lowered it
-        if cost < self.best:
-            self.best = cost
+        g = self.best_goal()
+        if self.tree.costs[g] < self.best:  # rewiring may have lowered it
+            self.best = float(self.tree.costs[g])
+            self.incumbent = self._branch_nodes(g)
             return True
         return False
 
+    def _branch_nodes(self, i: int) -> NDArray[np.int64]:
+        """The nodes between the root (excluded) and node ``i``."""
+        out = []
+        while i > 0:
+            out.append(i)
+            i = int(self.tree.parents[i])
+        return np.array(out, dtype=np.int64)
+
     def _sample(self, toward_start: bool = False) -> FloatArray:
-        """The goal (or, for the goal tree, the start) with probability ``goal_bias``, else a uniform pose,
-        from the informed ellipse once a solution exists."""
+        """The goal (or, for the goal tree, the start) with probability ``goal_bias``; once a solution
+        exists, a pose near it with probability ``path_bias``, else one from the informed ellipse;
+        else a uniform pose."""
         cfg, rng = self.cfg, self.rng
         if rng.random() < cfg.goal_bias:
             return self.start if toward_start else self.goal
+        if self.incumbent.size and rng.random() < cfg.path_bias:
+            return self._near_path()
         if cfg.informed and np.isfinite(self.best):
             return informed_pose(rng, self.problem, self.best + self.problem.position_tolerance)
         return sample_pose(rng, self.problem.world.bounds)
+
+    def _near_path(self) -> FloatArray:
+        """A node of the best path moved by normal noise (``path_sigma``), kept inside the bounds."""
+        cfg, rng, b = self.cfg, self.rng, self.problem.world.bounds
+        q = self.tree.nodes[self.incumbent[rng.integers(self.incumbent.size)]]
+        assert self.local.rho is not None
+        noise = rng.normal(0.0, cfg.path_sigma, 3) * np.array([self.local.rho, self.local.rho, 1.0])
+        x, y = np.clip(q[0] + noise[0], b[0], b[1]), np.clip(q[1] + noise[1], b[2], b[3])
+        return np.array([x, y, (q[2] + noise[2] + np.pi) % (2.0 * np.pi) - np.pi])
 
     def _grow(self, target: FloatArray) -> int | None:
         """One RRT* extension toward ``target`` (choose-parent and rewire); the new node or None."""
@@ -301,7 +340,7 @@ class _Search:
         goal-tree edge, the exact curve from a node to its parent, becomes an RRT* edge as it is."""
         back, tree = self.back, self.tree
         assert back is not None
-        prev = a
+        self.grafted, prev = True, a
         while b != 0:
             parent = int(back.parents[b])
             poses, dirs = back.edges[b]
