@@ -175,3 +175,117 @@ def test_builtin_scenarios(scenario, name, opts):
             _check_path(res, prob, None if name == "rrt" else default_turning_radius(prob.robot))
         else:
             assert res.status is PlanStatus.TIMEOUT and res.reason
+
+
+# --- rrt-star: goal tree, curves to the goal, informed sampling -------------------------------------------
+def _search_until_solved(prob, extra_iterations, **opts):
+    """An rrt-star search run step by step until its first solution, then ``extra_iterations`` more."""
+    from planning.planners.sampling.rrt_star import RRTStar, _Search
+
+    planner = RRTStar(**opts)
+    local, _, rng, bad = planner._setup(prob)
+    assert bad is None
+    search = _Search(planner.config, prob, local, rng)
+    it = 0
+    while not search.goal_nodes:
+        it += 1
+        assert it < 5000, "no solution"
+        search.step(it)
+    for _ in range(extra_iterations):
+        it += 1
+        search.step(it)
+    return search
+
+
+def test_rrt_star_goal_tree_graft_keeps_every_edge_exact_and_every_cost_its_curves():
+    """Through the goal tree's graft, the goal-node reparenting and rewiring: each node's cost is its
+    parent's plus the exact Reeds–Shepp length between them, and its edge runs from the parent's pose
+    to its own with no more chord length than that curve."""
+    search = _search_until_solved(_problem(1), 400)
+    assert search.grafted  # the disc blocks the direct curve: the first path came through the goal tree
+    tree = search.tree
+    for i in range(1, tree.n):
+        parent = int(tree.parents[i])
+        poses = tree.edges[i][0]
+        assert np.allclose(poses[0, :2], tree.nodes[parent, :2], atol=1e-9)
+        assert np.allclose(poses[-1, :2], tree.nodes[i, :2], atol=1e-9)
+        curve = reeds_shepp_length(tree.nodes[parent], tree.nodes[i], RHO)[0]
+        assert tree.costs[i] == pytest.approx(tree.costs[parent] + curve, abs=1e-9)
+        assert np.hypot(*np.diff(poses[:, :2], axis=0).T).sum() <= curve + 1e-9
+    assert search.best == pytest.approx(min(tree.costs[g] for g in search.goal_nodes), abs=0.0)
+
+
+def test_rrt_star_parks_in_a_slot_twice_its_length_with_its_goal_tree_only():
+    """The bench's tight_park: with one tree (OMPL's RRT* way) neither seed finds the slot in 4000
+    iterations; with the goal tree both do."""
+    from sim.tools.bench.plan_problems import tight_park
+
+    base = tight_park()
+    for seed in (3, 5):
+        prob = PlanProblem(**{**base.__dict__, "seed": seed, "time_limit": 120.0})
+        opts = {"stop_on_first": True, "max_iterations": 4000, "simplify": False}
+        with_tree = make_planner("rrt-star", **opts).plan(prob)
+        _check_path(with_tree, prob, RHO)
+        assert with_tree.stats["goal_tree_joined"] is True
+        assert make_planner("rrt-star", goal_tree=False, **opts).plan(prob).status is PlanStatus.TIMEOUT
+
+
+def test_rrt_star_takes_the_direct_curve_when_the_start_sees_the_goal():
+    prob = _problem(0, world=World((0.0, 6.0, 0.0, 6.0), ()))
+    res = make_planner("rrt-star", max_iterations=50, simplify=False).plan(prob)
+    direct = reeds_shepp_length(prob.start.as_array(), prob.goal.as_array(), RHO)[0]
+    assert res.stats["first_solution_iteration"] == 1
+    assert res.stats["first_length_m"] == pytest.approx(direct, rel=1e-12)
+    assert res.stats["cost_m"] == pytest.approx(direct, rel=1e-12)
+
+
+@pytest.mark.parametrize("major", [5.0, 40.0])  # drawn in the ellipse; drawn in the bounds and rejected
+def test_informed_poses_fill_the_ellipse_uniformly(major):
+    from planning.planners.sampling.rrt_star import informed_pose
+
+    prob = _problem(0, world=World((-1.0, 7.0, -3.0, 3.0), ()), start=(0.0, 0.0, 0.0), goal=(4.0, 0.0, 0.0))
+    rng = np.random.default_rng(7)
+    q = np.array([informed_pose(rng, prob, major) for _ in range(4000)])
+    focal = np.hypot(q[:, 0], q[:, 1]) + np.hypot(q[:, 0] - 4.0, q[:, 1])
+    assert np.all(focal <= major + 1e-12)
+    assert np.all((q[:, 0] >= -1.0) & (q[:, 0] <= 7.0) & (q[:, 1] >= -3.0) & (q[:, 1] <= 3.0))
+    assert np.all(np.abs(q[:, 2]) <= np.pi)
+    if major == 5.0:  # wholly inside the bounds: half the samples in each half, half in the ellipse scaled by 1/sqrt(2)
+        a, b = 2.5, 1.5
+        inner = ((q[:, 0] - 2.0) / a) ** 2 + (q[:, 1] / b) ** 2 <= 0.5
+        assert abs(np.mean(q[:, 0] > 2.0) - 0.5) < 0.03 and abs(np.mean(inner) - 0.5) < 0.03
+        assert abs(np.mean(q[:, 2] > 0.0) - 0.5) < 0.03
+
+
+def test_rrt_star_never_stops_before_its_minimum_iterations():
+    res = make_planner("rrt-star", simplify=False, min_iterations=900, max_iterations=2000).plan(_problem(2))
+    assert res.stats["iterations"] >= 900
+
+
+@pytest.mark.parametrize(
+    ("opts", "field"),
+    [({"neighbour_pool": 0.5}, "neighbour_pool"), ({"min_iterations": -1}, "min_iterations"),
+     ({"connect_steps": 0}, "connect_steps")],
+)  # fmt: skip
+def test_rrt_star_rejects_bad_search_options(opts, field):
+    from planning.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=field):
+        make_planner("rrt-star", **opts)
+
+
+def test_rrt_star_path_bias_samples_around_the_best_path():
+    """After the first solution, ``path_bias`` = 1 draws every non-goal sample within a few ``path_sigma``
+    of a node of the best path (normal noise: 4 sigma bounds all but ~1e-4 of them), inside the bounds."""
+    search = _search_until_solved(_problem(1), 50, path_bias=1.0, goal_bias=0.0)
+    path_nodes = search.tree.nodes[search.incumbent]
+    assert search.incumbent.size and search.incumbent[0] == search.best_goal()
+
+    def near(points):  # fraction within 4 sigma (radially, sqrt(2) sigma per axis) of a path node
+        gap = np.hypot(points[:, None, 0] - path_nodes[None, :, 0], points[:, None, 1] - path_nodes[None, :, 1])
+        return np.mean(gap.min(axis=1) <= 4 * 0.5 * RHO * np.sqrt(2))
+
+    q = np.array([search._sample() for _ in range(2000)])
+    assert near(q) > 0.999
+    assert np.all((q[:, :2] >= 0.0) & (q[:, :2] <= 6.0)) and np.all(np.abs(q[:, 2]) <= np.pi)
+    assert near(search.rng.random((2000, 2)) * 6.0) < 0.9  # the same test fails for uniform samples

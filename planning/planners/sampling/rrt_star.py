@@ -4,8 +4,22 @@ Every edge is the exact shortest curve from its parent's pose to its node's pose
 A node's pose never changes; rewiring replaces only the rewired node's own edge by the exact curve
 from its new parent, so its children's edges (which start at the unchanged pose) stay exact and
 no infeasible corner can appear. Costs are curve lengths; the best goal cost never rises.
-Neighbours are the k nearest nodes (k = ceil(k_rrt log n), k_rrt = e (1 + 1/3)), pre-selected by
-the (x, y, cos, sin) metric and ranked by exact curve length, all in vectorised calls.
+Neighbours are the k = ceil(k_rrt log n) nodes (k_rrt = e (1 + 1/3)) of shortest exact curve among the
+``neighbour_pool`` x k nearest by the (x, y, cos, sin) metric, all in vectorised calls.
+
+First solution: until one is found, a second tree grows backwards from the goal and the two are
+joined by RRT-Connect's connect step (``birrt``'s), as RRT*-Connect does (Klemm et al. 2015); the
+goal tree's branch from the meeting pose is then grafted into the RRT* tree (its edges are exact
+curves too) and the goal tree dropped. A goal region the size of a parking slot is found this way
+where one tree, sampling the goal pose 5 % of the time, almost never reaches it.
+
+Informed sampling (Gammell et al. 2014): once a path of cost c exists, samples are drawn only from
+the x-y ellipse with foci at the start and goal and major axis c + the goal's position tolerance
+(headings uniform). A curve is never shorter than the straight line between its ends, so every
+pose of a shorter path lies in it: the ellipse leaves out nothing that could improve the path.
+Path biasing (Akgun and Stilman 2011): a fraction ``path_bias`` of those samples is instead a node of
+the best path moved by normal noise, so rewiring straightens the path where it is, while the rest
+keep exploring the ellipse.
 
 Anytime: the stats report the first solution's time, iteration and length; the search stops when
 the best cost has improved by less than ``improvement_tol`` (0.1 %) over the last half of the run
@@ -21,11 +35,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.checks import check_fields
 from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus
 from planning.planners.sampling.extend import LocalPlanner
 from planning.planners.sampling.rrt import TreeConfig, _TreePlanner
-from planning.planners.sampling.tree import Budget, Tree, in_goal
+from planning.planners.sampling.tree import Budget, Tree, in_goal, sample_pose
 
 FloatArray = NDArray[np.float64]
 
@@ -45,6 +60,16 @@ class RRTStarConfig(TreeConfig):
         stall_clock: What measures the run for ``improvement_tol``: "iterations" (the default:
             the stop is the same on every run with the same seed, which the regression suite
             needs) or "time" (wall-clock seconds).
+        goal_tree: Until the first solution, also grow a tree backwards from the goal and join the
+            two by the connect step (see the module doc); False grows one tree, as OMPL's RRT*.
+        informed: After the first solution, sample the admissible x-y ellipse (see the module doc).
+        neighbour_pool: Neighbours are the k of shortest exact curve among the ``neighbour_pool`` x k
+            nearest by the (x, y, cos, sin) metric (>= 1; 1: the k nearest by that metric).
+        connect_steps: Most extensions of one connect step toward the other tree.
+        path_bias: After the first solution, the probability that a sample is drawn near the best
+            path (see the module doc); 0 never.
+        path_sigma: Spread of those samples: normal noise of ``path_sigma`` turning radii in x and y
+            and ``path_sigma`` rad in heading.
     """
 
     steering: str = "reeds_shepp"
@@ -52,9 +77,26 @@ class RRTStarConfig(TreeConfig):
     stop_on_first: bool = False
     improvement_tol: float = 0.001
     stall_clock: str = "iterations"
+    min_iterations: int = 500
+    goal_tree: bool = True
+    informed: bool = True
+    neighbour_pool: float = 2.0
+    connect_steps: int = 50
+    path_bias: float = 0.15
+    path_sigma: float = 0.5
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        check_fields(
+            self,
+            {
+                "min_iterations": {"integer": True, "at_least": 0},
+                "neighbour_pool": {"at_least": 1.0},
+                "connect_steps": {"integer": True, "at_least": 1},
+                "path_bias": {"at_least": 0.0, "at_most": 1.0},
+                "path_sigma": {"above": 0.0},
+            },
+        )
         if not self.improvement_tol >= 0.0:
             raise ConfigError(f"improvement_tol must be >= 0 (0: run the whole budget), got {self.improvement_tol}")
         if self.stall_clock not in ("iterations", "time"):
@@ -81,7 +123,7 @@ class _Anytime:
     def converged(self, it: int) -> bool:
         """Whether the best cost improved by less than ``improvement_tol`` over the last half of the run."""
         tol = self.cfg.improvement_tol
-        if not self.history or tol <= 0.0:
+        if not self.history or tol <= 0.0 or it < self.cfg.min_iterations:
             return False
         k = bisect.bisect_right(self.clocks, 0.5 * self.clock(it)) - 1
         return k >= 0 and self.history[k][2] - self.history[-1][2] < tol * self.history[k][2]
@@ -111,33 +153,29 @@ class RRTStar(_TreePlanner[RRTStarConfig]):
         cfg = self.config
         if not local.exact:
             raise ConfigError(f"rrt-star needs exact steering ('reeds_shepp' or 'dubins'), got {cfg.steering!r}")
-        tree = Tree(problem.start.as_array())
-        goal_nodes: list[int] = []
+        search = _Search(cfg, problem, local, rng)
         run = _Anytime(cfg, budget)
-        best_cost, stop = np.inf, "budget"
+        stop = "budget"
         it = 0
         while not budget.spent(it):
             it += 1
             if run.converged(it):
                 stop = "converged"
                 break
-            step = self._extend_toward_sample(rng, tree, local, problem)
-            j = None if step is None else _insert(tree, local, step[1][0])
-            if j is None:
-                continue
-            if in_goal(tree.nodes[j], problem):
-                goal_nodes.append(j)
-            if goal_nodes:
-                g = min(goal_nodes, key=lambda x: (tree.costs[x], x))
-                if tree.costs[g] < best_cost:
-                    best_cost = float(tree.costs[g])
-                    run.improved(it, best_cost)
-                    if cfg.stop_on_first:
-                        stop = "first solution"
-                        break
-        stats: dict[str, object] = {**self._stats(budget, it, tree.n), **run.stats(), "stopped_by": stop}
-        if goal_nodes:
-            g = min(goal_nodes, key=lambda x: (tree.costs[x], x))
+            if search.step(it):
+                run.improved(it, search.best)
+                if cfg.stop_on_first:
+                    stop = "first solution"
+                    break
+        tree = search.tree
+        stats: dict[str, object] = {
+            **self._stats(budget, it, tree.n),
+            **run.stats(),
+            "stopped_by": stop,
+            "goal_tree_joined": search.grafted,
+        }
+        if search.goal_nodes:
+            g = search.best_goal()
             path, dirs = tree.branch(g)
             stats["cost_m"] = float(tree.costs[g])
             return self._result(PlanStatus.SUCCESS, path, dirs, "", stats, tree.plan_tree())
@@ -146,20 +184,238 @@ class RRTStar(_TreePlanner[RRTStarConfig]):
         return self._result(PlanStatus.TIMEOUT, path, dirs, reason, stats, tree.plan_tree())
 
 
-def _insert(tree: Tree, local: LocalPlanner, q_new: FloatArray) -> int | None:
+class _Search:
+    """One run's RRT* tree, its goal tree until the first solution, and its goal nodes."""
+
+    def __init__(self, cfg: RRTStarConfig, problem: PlanProblem, local: LocalPlanner, rng: np.random.Generator) -> None:
+        self.cfg, self.problem, self.local, self.rng = cfg, problem, local, rng
+        self.start, self.goal = problem.start.as_array(), problem.goal.as_array()
+        self.tree = Tree(self.start)
+        self.back: Tree | None = Tree(self.goal, backwards=True) if cfg.goal_tree else None
+        self.goal_nodes: list[int] = []
+        self.goal_node: int | None = None  # the node on the goal pose itself
+        self.grafted = False  # whether the first solution came through the goal tree
+        self.incumbent = np.zeros(0, dtype=np.int64)  # the best path's nodes (root excluded)
+        self.best = np.inf
+
+    def best_goal(self) -> int:
+        """The cheapest goal node (first of equals)."""
+        nodes = np.asarray(self.goal_nodes)
+        costs = self.tree.costs[nodes]
+        return int(nodes[costs == costs.min()].min())
+
+    def step(self, it: int) -> bool:
+        """Iteration ``it``; returns whether the best cost fell."""
+        if it == 1:
+            self._to_goal(0)  # the start may see the goal
+        if self.back is not None and not self.goal_nodes:
+            self._connect_step(it)
+        else:
+            self.back = None  # the goal tree's work is done at the first solution
+            j = self._grow(self._sample())
+            if j is not None and self.goal_nodes:
+                self._to_goal(j)
+        if not self.goal_nodes:
+            return False
+        g = self.best_goal()
+        if self.tree.costs[g] < self.best:  # rewiring may have lowered it
+            self.best = float(self.tree.costs[g])
+            self.incumbent = self._branch_nodes(g)
+            return True
+        return False
+
+    def _branch_nodes(self, i: int) -> NDArray[np.int64]:
+        """The nodes between the root (excluded) and node ``i``."""
+        out = []
+        while i > 0:
+            out.append(i)
+            i = int(self.tree.parents[i])
+        return np.array(out, dtype=np.int64)
+
+    def _sample(self, toward_start: bool = False) -> FloatArray:
+        """The goal (or, for the goal tree, the start) with probability ``goal_bias``; once a solution
+        exists, a pose near it with probability ``path_bias``, else one from the informed ellipse;
+        else a uniform pose."""
+        cfg, rng = self.cfg, self.rng
+        if rng.random() < cfg.goal_bias:
+            return self.start if toward_start else self.goal
+        if self.incumbent.size and rng.random() < cfg.path_bias:
+            return self._near_path()
+        if cfg.informed and np.isfinite(self.best):
+            return informed_pose(rng, self.problem, self.best + self.problem.position_tolerance)
+        return sample_pose(rng, self.problem.world.bounds)
+
+    def _near_path(self) -> FloatArray:
+        """A node of the best path moved by normal noise (``path_sigma``), kept inside the bounds."""
+        cfg, rng, b = self.cfg, self.rng, self.problem.world.bounds
+        q = self.tree.nodes[self.incumbent[rng.integers(self.incumbent.size)]]
+        assert self.local.rho is not None
+        noise = rng.normal(0.0, cfg.path_sigma, 3) * np.array([self.local.rho, self.local.rho, 1.0])
+        x, y = np.clip(q[0] + noise[0], b[0], b[1]), np.clip(q[1] + noise[1], b[2], b[3])
+        return np.array([x, y, (q[2] + noise[2] + np.pi) % (2.0 * np.pi) - np.pi])
+
+    def _grow(self, target: FloatArray) -> int | None:
+        """One RRT* extension toward ``target`` (choose-parent and rewire); the new node or None."""
+        tree, local = self.tree, self.local
+        ext = local.extend(tree.nodes[local.nearest(tree, target)], target)
+        j = None if ext is None else _insert(tree, local, ext[0], self.cfg.neighbour_pool)
+        if j is not None:
+            self._note(j)
+        return j
+
+    def _note(self, j: int) -> None:
+        """Record new node ``j`` if it is in the goal region (or on the goal pose)."""
+        if in_goal(self.tree.nodes[j], self.problem):
+            self.goal_nodes.append(j)
+            if np.array_equal(self.tree.nodes[j], self.goal):
+                self.goal_node = j
+
+    def _to_goal(self, j: int) -> None:
+        """Try the exact curve from node ``j`` to the goal pose when it would beat the best cost; if it is
+        free, it becomes the goal node's edge (the goal node is added the first time)."""
+        tree, goal = self.tree, self.goal
+        q, cost = tree.nodes[j], float(tree.costs[j])
+        # below the goal node's own cost too, so j is not its descendant (rewiring may have lowered it)
+        bound = self.best if self.goal_node is None else min(self.best, float(tree.costs[self.goal_node]))
+        if j == self.goal_node or cost + float(np.hypot(*(goal[:2] - q[:2]))) >= bound - 1e-9:
+            return
+        through = cost + float(self.local.curves.lengths(q, goal)[0])
+        if through >= bound - 1e-9:
+            return
+        curve = self.local.connect(q, goal)
+        if curve is None:
+            return
+        if self.goal_node is None:
+            self._note(tree.add(goal.copy(), j, curve[0], curve[1], through))
+        else:
+            tree.reparent(self.goal_node, j, curve[0], curve[1], through)
+
+    def _connect_step(self, it: int) -> None:
+        """birrt's iteration with the RRT* tree as its start tree: odd iterations grow the RRT* tree
+        toward a sample and connect the goal tree to the new node, even ones the other way round."""
+        if it % 2:
+            j = self._grow(self._sample())
+            if j is not None and not self.goal_nodes:
+                self._connect_back(j)
+            return
+        back, local = self.back, self.local
+        assert back is not None
+        q = self._sample(toward_start=True)
+        k = local.nearest(back, q)
+        ext = local.extend(back.nodes[k], q, backwards=True)
+        if ext is not None:
+            self._connect_forward(back.add(ext[0], k, ext[1], ext[2]))
+
+    def _connect_back(self, j: int) -> None:
+        """Extend the goal tree toward RRT* node ``j`` until it reaches it (then graft) or is blocked."""
+        back, local = self.back, self.local
+        assert back is not None
+        target = self.tree.nodes[j]
+        k = local.nearest(back, target)
+        for _ in range(self.cfg.connect_steps):
+            if np.array_equal(back.nodes[k], target):
+                self._graft(j, k)
+                return
+            ext = local.extend(back.nodes[k], target, backwards=True)
+            if ext is None:
+                return
+            k = back.add(ext[0], k, ext[1], ext[2])
+
+    def _connect_forward(self, b: int) -> None:
+        """Grow the RRT* tree toward goal-tree node ``b`` until it reaches it (then graft), is blocked
+        or reaches the goal region."""
+        back, tree = self.back, self.tree
+        assert back is not None
+        target = back.nodes[b]
+        for _ in range(self.cfg.connect_steps):
+            i = self.local.nearest(tree, target)
+            if np.array_equal(tree.nodes[i], target):
+                self._graft(i, b)
+                return
+            if self._grow(target) is None or self.goal_nodes:
+                return
+
+    def _graft(self, a: int, b: int) -> None:
+        """Add goal-tree node ``b``'s branch to the goal under RRT* node ``a`` (the same pose): each
+        goal-tree edge, the exact curve from a node to its parent, becomes an RRT* edge as it is."""
+        back, tree = self.back, self.tree
+        assert back is not None
+        self.grafted, prev = True, a
+        while b != 0:
+            parent = int(back.parents[b])
+            poses, dirs = back.edges[b]
+            cost = tree.costs[prev] + float(self.local.curves.lengths(back.nodes[b], back.nodes[parent])[0])
+            prev = tree.add(back.nodes[parent].copy(), prev, poses, dirs, cost)
+            self._note(prev)
+            b = parent
+
+
+def informed_pose(rng: np.random.Generator, problem: PlanProblem, c: float) -> FloatArray:
+    """A pose uniform over the x-y ellipse {p : |p - start| + |p - goal| <= c} inside the bounds, heading
+    uniform (Gammell et al. 2014): drawn in the ellipse when it is smaller than the bounds, else drawn
+    in the bounds and rejected outside it; a uniform pose in the bounds after 100 misses.
+
+    Args:
+        rng: The run's generator.
+        problem: Start, goal and bounds.
+        c: Major axis [m] (a path's cost plus the goal's position tolerance).
+    """
+    s, g = problem.start.as_array()[:2], problem.goal.as_array()[:2]
+    b = problem.world.bounds
+    focal = float(np.hypot(*(g - s)))
+    semi = np.array([0.5 * c, 0.5 * np.sqrt(max(c * c - focal * focal, 0.0))])
+    in_ellipse = np.pi * semi[0] * semi[1] < (b[1] - b[0]) * (b[3] - b[2])
+    angle = np.arctan2(g[1] - s[1], g[0] - s[0])
+    rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    for _ in range(100):
+        if in_ellipse:
+            r, t = np.sqrt(rng.random()), 2.0 * np.pi * rng.random()
+            x, y = 0.5 * (s + g) + rot @ (semi * r * np.array([np.cos(t), np.sin(t)]))
+            if b[0] <= x <= b[1] and b[2] <= y <= b[3]:
+                return np.array([x, y, np.pi * (2.0 * rng.random() - 1.0)])
+        else:
+            q = sample_pose(rng, b)
+            if np.hypot(*(q[:2] - s)) + np.hypot(*(q[:2] - g)) <= c:
+                return q
+    return sample_pose(rng, b)
+
+
+def _improve_parent(tree: Tree, local: LocalPlanner, e: int, nbrs: NDArray[np.int64]) -> None:
+    """Reparent existing node ``e`` through the cheapest of ``nbrs`` whose exact curve to it is free and
+    shorter than its cost (a sample that lands on a node, e.g. the goal, improves that node)."""
+    if e == 0:
+        return
+    others = nbrs[nbrs != e]
+    to_e = local.curves.lengths(tree.nodes[others], tree.nodes[e])
+    through = tree.costs[others] + to_e
+    for o in np.argsort(through, kind="stable"):
+        if through[o] >= tree.costs[e] - 1e-9:
+            return  # a descendant of e costs at least as much as e: never a cycle
+        curve = local.connect(tree.nodes[others[o]], tree.nodes[e])
+        if curve is not None:
+            tree.reparent(e, int(others[o]), curve[0], curve[1], float(through[o]))
+            return
+
+
+def _insert(tree: Tree, local: LocalPlanner, q_new: FloatArray, pool: float) -> int | None:
     """Add ``q_new`` through its cheapest collision-free neighbour and rewire the neighbours through it.
 
-    Neighbours are the k = ceil(K_RRT log(n + 1)) nearest nodes by the local metric, ranked by exact
-    curve length. Returns the new node's index, or None when ``q_new`` is already in the tree or no
-    neighbour reaches it.
+    Neighbours are the k = ceil(K_RRT log(n + 1)) nodes of shortest exact curve among the ceil(pool k)
+    nearest by the local metric. Returns the new node's index, or None when ``q_new`` is already in the
+    tree or no neighbour reaches it.
     """
     n = tree.n
     k = min(n, int(np.ceil(K_RRT * np.log(n + 1))))
+    m = min(n, int(np.ceil(pool * k)))
     d = local.tree_distances(tree, q_new)
-    nbrs = np.argpartition(d, k - 1)[:k] if k < n else np.arange(n)
+    nbrs = np.argpartition(d, m - 1)[:m] if m < n else np.arange(n)
     if d[nbrs].min() < 1e-9:
+        _improve_parent(tree, local, int(nbrs[np.argmin(d[nbrs])]), nbrs)
         return None  # already in the tree
     to_new = local.curves.lengths(tree.nodes[nbrs], q_new)
+    if m > k:
+        keep = np.sort(np.argpartition(to_new, k - 1)[:k])
+        nbrs, to_new = nbrs[keep], to_new[keep]
     parent, motion, c_new = -1, None, 0.0
     for o in np.argsort(tree.costs[nbrs] + to_new, kind="stable"):
         motion = local.connect(tree.nodes[nbrs[o]], q_new)
@@ -171,17 +427,22 @@ def _insert(tree: Tree, local: LocalPlanner, q_new: FloatArray) -> int | None:
     j = tree.add(q_new, parent, motion[0], motion[1], c_new)
     # Rewire: reparent neighbours through the new node when that is shorter. No curve is shorter than
     # the straight line (bound lowered by 1e-12 against rounding), so only neighbours the line could
-    # improve get a curve solved: the same rewiring, in the same order, for fewer solves.
+    # improve get a curve solved. Reeds–Shepp lengths are symmetric (drive the curve backwards), so
+    # theirs are the lengths already solved; Dubins curves are solved again the other way.
     line = np.hypot(tree.nodes[nbrs, 0] - q_new[0], tree.nodes[nbrs, 1] - q_new[1]) * (1.0 - 1e-12) - 1e-12
-    cand = nbrs[(c_new + line < tree.costs[nbrs] - 1e-9) & (nbrs != parent)]
+    improvable = (c_new + line < tree.costs[nbrs] - 1e-9) & (nbrs != parent)
+    cand = nbrs[improvable]
     if cand.size == 0:
         return j
-    from_new = local.curves.lengths(q_new, tree.nodes[cand])
+    if local.curves.kind == "reeds_shepp":
+        from_new = to_new[improvable]
+    else:
+        from_new = local.curves.lengths(q_new, tree.nodes[cand])
     for o in np.argsort(from_new, kind="stable"):
         nb = int(cand[o])
         if c_new + from_new[o] >= tree.costs[nb] - 1e-9:
             continue
-        m = local.connect(q_new, tree.nodes[nb])
-        if m is not None:
-            tree.reparent(nb, j, m[0], m[1], c_new + float(from_new[o]))
+        curve = local.connect(q_new, tree.nodes[nb])
+        if curve is not None:
+            tree.reparent(nb, j, curve[0], curve[1], c_new + float(from_new[o]))
     return j
