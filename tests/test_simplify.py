@@ -266,7 +266,7 @@ def test_a_stretch_driven_the_other_way_round_keeps_its_ground_and_flips_heading
     parts = [local.steer(u, v) for u, v in itertools.pairwise(q)]
     path = np.vstack([parts[0][0], *(m[0][1:] for m in parts[1:])])
     dirs = np.concatenate([parts[0][1], *(m[1][1:] for m in parts[1:])])
-    w = _Work(path, dirs, [0, path.shape[0] - 1], local.steer, checker.path_free, length_cost)
+    w = _Work(path, dirs, [0, path.shape[0] - 1], (local.steer, checker.path_free, length_cost))
     n0 = parts[0][0].shape[0]
     m1, m2 = n0 + 5, n0 + parts[1][0].shape[0] - 8
     motion = w._motion(path[2], path[-3], (m1, m2))
@@ -355,11 +355,15 @@ def test_best_gains_are_those_of_measuring_every_candidate():
             return np.hypot(*(rows[:, :2] - q0[:2]).T) + np.array([table[r.tobytes()] for r in rows])
 
         saved = line + rng.choice([0.0, 0.5, 1.0], n)  # ties among the gains too
-        full = saved - distance(qa, qs)
-        some = _best_gains(saved, line, qa, qs, distance, k)
+        every = distance(qa, qs)
+        full = saved - every
+        some, asked = _best_gains(saved, line, qa, qs, distance, k)
         top = np.argsort(-full, kind="stable")[:k]
         np.testing.assert_array_equal(np.argsort(-some, kind="stable")[:k], top)
         np.testing.assert_array_equal(some[top], full[top])
+        # the distances it reports are those it asked about (the same numbers), inf for the others
+        np.testing.assert_array_equal(asked[np.isfinite(some)], every[np.isfinite(some)])
+        assert np.all(np.isinf(asked[~np.isfinite(some)]))
 
 
 def _box_problem(robot: str, low: float, high: float) -> PlanProblem:
