@@ -476,8 +476,8 @@ def _turned_pass(w: _Work, cfg: SimplifyConfig, distance: Distance | None) -> bo
         k += 1
         a = np.unique(np.searchsorted(w.arc, w.arc[lo] - spans).clip(0, lo))
         b = np.unique(np.minimum(np.searchsorted(w.arc, w.arc[hi] + spans), w.arc.size - 1))
-        for a_i, b_j, turn, ends in _turn_candidates(w, lo, hi, a, b, distance)[: 2 * cfg.cusp_tries]:
-            if w.shortcut(a_i, b_j, distance, cfg.min_gain, turn, ends):
+        for a_i, b_j, turn, bound in _turn_candidates(w, lo, hi, a, b, distance)[: 2 * cfg.cusp_tries]:
+            if w.shortcut(a_i, b_j, distance, cfg.min_gain, turn, bound):
                 changed, k = True, 0
                 break
 
