@@ -266,7 +266,7 @@ def test_a_stretch_driven_the_other_way_round_keeps_its_ground_and_flips_heading
     parts = [local.steer(u, v) for u, v in itertools.pairwise(q)]
     path = np.vstack([parts[0][0], *(m[0][1:] for m in parts[1:])])
     dirs = np.concatenate([parts[0][1], *(m[1][1:] for m in parts[1:])])
-    w = _Work(path, dirs, [0, path.shape[0] - 1], local.steer, checker.path_free, length_cost)
+    w = _Work(path, dirs, [0, path.shape[0] - 1], (local.steer, checker.path_free, length_cost))
     n0 = parts[0][0].shape[0]
     m1, m2 = n0 + 5, n0 + parts[1][0].shape[0] - 8
     motion = w._motion(path[2], path[-3], (m1, m2))
@@ -355,11 +355,15 @@ def test_best_gains_are_those_of_measuring_every_candidate():
             return np.hypot(*(rows[:, :2] - q0[:2]).T) + np.array([table[r.tobytes()] for r in rows])
 
         saved = line + rng.choice([0.0, 0.5, 1.0], n)  # ties among the gains too
-        full = saved - distance(qa, qs)
-        some = _best_gains(saved, line, qa, qs, distance, k)
+        every = distance(qa, qs)
+        full = saved - every
+        some, asked = _best_gains(saved, line, qa, qs, distance, k)
         top = np.argsort(-full, kind="stable")[:k]
         np.testing.assert_array_equal(np.argsort(-some, kind="stable")[:k], top)
         np.testing.assert_array_equal(some[top], full[top])
+        # the distances it reports are those it asked about (the same numbers), inf for the others
+        np.testing.assert_array_equal(asked[np.isfinite(some)], every[np.isfinite(some)])
+        assert np.all(np.isinf(asked[~np.isfinite(some)]))
 
 
 def _box_problem(robot: str, low: float, high: float) -> PlanProblem:
@@ -399,6 +403,71 @@ def test_a_tree_path_the_long_way_round_a_box_is_simplified_the_short_way():
     assert np.all(exact.poses_free(exact.densify(res.path)))
     np.testing.assert_array_equal(res.path[0], path[0])
     np.testing.assert_array_equal(res.path[-1], path[-1])
+
+
+def _steered(local: LocalPlanner, *poses: list[float]) -> tuple[np.ndarray, np.ndarray]:
+    """Dense poses and directions of the planner's curves through ``poses`` in turn."""
+    q = [np.array(v, dtype=float) for v in poses]
+    parts = [local.steer(a, b) for a, b in itertools.pairwise(q)]
+    return np.vstack([parts[0][0], *(m[0][1:] for m in parts[1:])]), np.concatenate(
+        [parts[0][1], *(m[1][1:] for m in parts[1:])]
+    )
+
+
+def _wander(local: LocalPlanner, base: np.ndarray, dirs: np.ndarray, every: int) -> tuple[np.ndarray, np.ndarray]:
+    """``base`` with an excursion after every ``every``-th pose, as a motion-primitive tree drives
+    them: a curve out to a random pose nearby and back over the same poses (reversing), when it is
+    collision-free."""
+    rng = np.random.default_rng(7)
+    poses, out_dirs = [base[:1]], [dirs[:1]]
+    for k in range(1, base.shape[0]):
+        poses.append(base[k : k + 1])
+        out_dirs.append(dirs[k : k + 1])
+        if k % every or k == base.shape[0] - 1:
+            continue
+        target = base[k] + np.array([*rng.uniform(-0.8, 0.8, 2), rng.uniform(-1.5, 1.5)])
+        m, md = local.steer(base[k], target)
+        if local.checker.path_free(m):
+            m = m.copy()
+            m[0] = base[k]
+            poses += [m[1:], m[-2::-1]]  # out, then back over the same poses to base[k]
+            out_dirs += [md[1:], -md[:0:-1]]  # the step into pose j on the way back reverses the step out of it
+    return np.vstack(poses), np.concatenate(out_dirs)
+
+
+def test_a_long_looping_tree_path_costs_only_its_loop_cutting():
+    """A raw path like birrt's worst (hundreds of metres of excursions driven out and back, hundreds of
+    cusps, tens of thousands of poses) around a path over the box: its loops cut leave exactly that
+    path, and the simplification does the same work (the same shortcuts steered) and gives the same
+    result bit for bit as on that path alone: under the box, collision-free, ends kept."""
+    from planning.planners.sampling.rrt import curve_routes
+    from planning.trajectory.smoothing import remove_loops
+
+    problem = _box_problem("turtlebot3", -0.7, 2.3)
+    checker = make_checker(problem, "footprint", 0.01)
+    local = LocalPlanner("reeds_shepp", problem.robot, checker)
+    over = ([-2.4, 1.5, 1.6], [-1.2, 2.6, 0.3], [0, 2.65, 0], [1.2, 2.6, -0.3], [2.4, 1.5, -1.6])
+    base, base_dirs = _steered(local, [-2, 0, 0], *over, [2, 0, 0])
+    path, dirs = _wander(local, base, base_dirs, 4)
+    assert checker.path_free(path) and path.shape[0] > 20 * base.shape[0]
+    assert path_length(path) > 20 * path_length(base) and count_cusps(dirs) > 100 * max(1, count_cusps(base_dirs))
+    cut, cut_dirs = remove_loops(path, dirs)
+    np.testing.assert_array_equal(cut, base)
+    np.testing.assert_array_equal(cut_dirs, base_dirs)
+
+    def simplify(p: np.ndarray, d: np.ndarray):
+        routes = curve_routes(local, p[0], p[-1])
+        return simplify_path(p, d, local.steer, checker.path_free, distance=local.curves.lengths, routes=routes)
+
+    s, alone = simplify(path, dirs), simplify(base, base_dirs)
+    assert s.attempts == alone.attempts and s.shortcuts == alone.shortcuts and s.route == alone.route == 0
+    np.testing.assert_array_equal(s.path, alone.path)
+    np.testing.assert_array_equal(s.directions, alone.directions)
+    assert (s.raw_length, s.raw_cusps) == (path_length(path), count_cusps(dirs))
+    assert s.length < over_box(2.3) and s.cusps <= count_cusps(base_dirs)
+    exact = CollisionChecker(problem.world, problem.robot, shape="footprint", clearance=0.01)
+    assert np.all(exact.poses_free(exact.densify(s.path)))
+    np.testing.assert_array_equal(s.path[[0, -1]], path[[0, -1]])
 
 
 def test_a_c_rrt_star_path_the_long_way_round_a_box_is_simplified_the_short_way():

@@ -298,6 +298,34 @@ def test_remove_loops_cuts_retraced_stretches_and_keeps_only_input_steps() -> No
     assert none is None
 
 
+def _loops_reference(path: np.ndarray, tolerance: float) -> np.ndarray:
+    """remove_loops' kept indices the plain way: a dict from each rounded pose (theta wrapped to
+    [-pi, pi)) to its last index, and the walk that jumps past each kept pose's last visit."""
+    keys = np.round(np.column_stack([path[:, :2], np.mod(path[:, 2] + np.pi, 2 * np.pi) - np.pi]) / tolerance)
+    last = {tuple(k): i for i, k in enumerate(keys.tolist())}
+    keep, i = [], 0
+    while i < path.shape[0]:
+        keep.append(i)
+        i = last[tuple(keys[i].tolist())] + 1
+    return np.array(keep, dtype=np.int64)
+
+
+def test_remove_loops_keeps_what_the_plain_walk_keeps_on_long_paths_with_many_revisits():
+    """Random paths drawn from a few hundred poses (so most poses recur, some with headings 2 pi apart,
+    some half a grid step apart: rounded to the same or the next key), up to 50 000 long: the
+    compiled walk keeps exactly the poses the plain one keeps."""
+    rng = np.random.default_rng(11)
+    for n, tolerance in ((0, 1e-6), (1, 1e-6), (50, 1e-6), (2_000, 0.01), (50_000, 1e-6)):
+        pool = np.column_stack([rng.uniform(-3, 3, (300, 2)), rng.uniform(-np.pi, np.pi, 300)])
+        path = pool[rng.integers(0, 300, n)]
+        path[:, 2] += 2 * np.pi * rng.integers(-2, 3, n)  # the same heading, wound differently
+        path[rng.random(n) < 0.1, :2] += rng.choice([0.4, 0.6], (1, 2)) * tolerance  # a rounding either way
+        cut, _ = remove_loops(path, tolerance=tolerance)
+        np.testing.assert_array_equal(cut, path[_loops_reference(path, tolerance)])
+        if n > 100:
+            assert cut.shape[0] < 0.1 * n
+
+
 def footprint_world_clearance(traj, robot, world) -> float:  # type: ignore[no-untyped-def]
     """Independent footprint test: footprint edges at every sample, 40 points each, against the
     world's exact signed distances (obstacles and walls)."""

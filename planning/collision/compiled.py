@@ -177,11 +177,34 @@ def _anchor_inside(lx: float, ly: float, footprint: FloatArray) -> bool:
 
 
 @nb.njit(cache=True)
-def exact_free_kernel(poses: FloatArray, world: WorldArrays, robot: RobotArrays) -> NDArray[np.bool_]:
+def grid_lookup(grid: FloatArray, x0: float, y0: float, h: float, x: float, y: float) -> float:
+    """The tabulated signed distance [m] at the grid node nearest (x, y) (nodes every ``h`` from
+    (x0, y0)); -inf outside the grid (inside a wall)."""
+    i = int(np.floor((x - x0) / h + 0.5))
+    j = int(np.floor((y - y0) / h + 0.5))
+    if i < 0 or j < 0 or i >= grid.shape[0] or j >= grid.shape[1]:
+        return -np.inf  # outside the bounds: inside a wall
+    return grid[i, j]
+
+
+#: (grid (nx, ny), x0, y0, h): the world's signed distance (walls included) tabulated every h from
+#: (x0, y0) (:class:`planning.collision.grid.FastChecker`'s), or an empty grid: nothing proven.
+GridArrays = tuple[FloatArray, float, float, float]
+
+
+@nb.njit(cache=True)
+def exact_free_kernel(
+    poses: FloatArray, world: WorldArrays, robot: RobotArrays, proof: GridArrays
+) -> NDArray[np.bool_]:
     """(M,) ``CollisionChecker.poses_free`` of (M, 3) poses; ``world`` as :func:`pack_world` with the
     bounds and walls flag in front, ``robot`` the checker's (boundary samples, footprint, obstacle
-    anchors, radius, clearance, tolerance, disc shape)."""
+    anchors, radius, clearance, tolerance, disc shape). A boundary sample whose grid bound (``proof``:
+    the node's distance less ``h / sqrt(2)``, what :class:`planning.collision.grid.FastChecker`
+    proves free with) already keeps ``clearance + tolerance / 2`` is not measured: the verdict, that
+    every sample keeps it, is the same."""
     boundary, footprint, anchors, radius, clearance, tol, disc = robot
+    grid, x0, y0, h = proof
+    e = h / np.sqrt(2.0)
     out = np.empty(poses.shape[0], dtype=np.bool_)
     for k in range(poses.shape[0]):
         x, y, th = poses[k, 0], poses[k, 1], poses[k, 2]
@@ -193,6 +216,8 @@ def exact_free_kernel(poses: FloatArray, world: WorldArrays, robot: RobotArrays)
             for b in range(boundary.shape[0]):
                 bx, by = boundary[b, 0], boundary[b, 1]
                 px, py = x + c * bx - s * by, y + s * bx + c * by
+                if grid.size > 0 and grid_lookup(grid, x0, y0, h, px, py) - e - 0.5 * tol > clearance:
+                    continue
                 sd = min(sd, _world_distance(px, py, world))
             clr = sd - 0.5 * tol
             for a in range(anchors.shape[0]):

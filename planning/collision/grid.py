@@ -29,7 +29,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from planning.collision.compiled import exact_free_kernel, world_arrays
+from planning.collision.compiled import exact_free_kernel, grid_lookup, world_arrays
 from planning.collision.exact import CollisionChecker
 from planning.core.world import World
 
@@ -60,15 +60,6 @@ def _distance_grid(world: World, h: float) -> FloatArray:
 
 
 @nb.njit(cache=True)
-def _lookup(grid: FloatArray, x0: float, y0: float, h: float, x: float, y: float) -> float:
-    i = int(np.floor((x - x0) / h + 0.5))
-    j = int(np.floor((y - y0) / h + 0.5))
-    if i < 0 or j < 0 or i >= grid.shape[0] or j >= grid.shape[1]:
-        return -np.inf  # outside the bounds: inside a wall
-    return grid[i, j]
-
-
-@nb.njit(cache=True)
 def classify_kernel(
     poses: FloatArray,
     grid: FloatArray,
@@ -91,7 +82,7 @@ def classify_kernel(
     nf = footprint.shape[0]
     for k in range(n):
         px, py, th = poses[k, 0], poses[k, 1], poses[k, 2]
-        g = _lookup(grid, x0, y0, h, px, py)
+        g = grid_lookup(grid, x0, y0, h, px, py)
         if disc:
             if g - e - radius > clearance:
                 out[k] = 1
@@ -106,7 +97,7 @@ def classify_kernel(
             for b in range(boundary.shape[0]):
                 bx = px + c * boundary[b, 0] - s * boundary[b, 1]
                 by = py + s * boundary[b, 0] + c * boundary[b, 1]
-                gb = _lookup(grid, x0, y0, h, bx, by)
+                gb = grid_lookup(grid, x0, y0, h, bx, by)
                 if gb + e - 0.5 * tol <= clearance:
                     hit = True
                     break
@@ -217,7 +208,8 @@ class FastChecker:
         world = world_arrays(c.world, c.walls)
         disc = c.shape == "disc"
         robot = (c._boundary, c.robot.footprint, c._anchors, c.robot.radius, c.clearance, c.tolerance, disc)
-        return exact_free_kernel(np.ascontiguousarray(poses), world, robot)  # type: ignore[no-any-return]
+        proof = (self._grid, float(c.world.bounds[0]), float(c.world.bounds[2]), self._h)  # empty without walls
+        return exact_free_kernel(np.ascontiguousarray(poses), world, robot, proof)  # type: ignore[no-any-return]
 
     def settle_path(self, poses: FloatArray, cls: NDArray[np.int8]) -> bool:
         """:meth:`path_free`'s verdict from the (M, 3) poses and their ``classify_kernel`` classes

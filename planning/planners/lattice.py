@@ -20,7 +20,8 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.collision.grid import _lookup, classify_kernel
+from planning.collision.compiled import grid_lookup
+from planning.collision.grid import classify_kernel
 from planning.curves.common import mod2pi
 from planning.curves.reeds_shepp import REEDS_SHEPP, RS_WORDS
 from planning.curves.words import _sample_word
@@ -96,7 +97,7 @@ def _covered(px: float, py: float, th: float, cover: FloatArray, chk: tuple) -> 
     c, s = np.cos(th), np.sin(th)
     for k in range(cover.shape[0]):
         bx, by = cover[k, 0], cover[k, 1]
-        g = _lookup(grid, x0, y0, h, px + c * bx - s * by, py + s * bx + c * by)
+        g = grid_lookup(grid, x0, y0, h, px + c * bx - s * by, py + s * bx + c * by)
         if g - e - cover[k, 2] <= clearance + 0.5 * tol:
             return False
     return True
@@ -110,7 +111,7 @@ def _proven_free(poses: FloatArray, chk: tuple, cover: FloatArray) -> bool:  # t
     e = h / np.sqrt(2.0)
     for k in range(poses.shape[0]):
         px, py, th = poses[k, 0], poses[k, 1], poses[k, 2]
-        if _lookup(grid, x0, y0, h, px, py) - e - radius > clearance + tol:
+        if grid_lookup(grid, x0, y0, h, px, py) - e - radius > clearance + tol:
             continue
         if not disc and cover.shape[0] > 0 and _covered(px, py, th, cover, chk):
             continue

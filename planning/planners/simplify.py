@@ -67,7 +67,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.core.geometry import cumulative_length, path_length
+from planning.core.geometry import cumulative_length, path_length, path_steps
 from planning.errors import ConfigError
 from planning.trajectory.smoothing import remove_loops
 
@@ -84,8 +84,12 @@ Distance = Callable[[FloatArray, FloatArray], FloatArray]
 
 
 def length_cost(poses: FloatArray, directions: FloatArray) -> float:
-    """The default piece cost: the x-y length of the poses [m] (turns in place cost nothing)."""
-    return path_length(poses)
+    """The default piece cost: the x-y length of the poses [m] (turns in place cost nothing);
+    :func:`planning.core.geometry.path_length`'s sum, without its checks (it is asked once per
+    shortcut steered)."""
+    if poses.shape[0] < 2:
+        return 0.0
+    return float(np.sum(np.hypot(poses[1:, 0] - poses[:-1, 0], poses[1:, 1] - poses[:-1, 1])))
 
 
 def count_cusps(directions: FloatArray | None) -> int:
@@ -215,11 +219,14 @@ class SimplifiedPath:
         }
 
 
-def default_vertices(path: FloatArray, directions: FloatArray, cfg: SimplifyConfig) -> list[int]:
+def default_vertices(
+    path: FloatArray, directions: FloatArray, cfg: SimplifyConfig, arc: FloatArray | None = None
+) -> list[int]:
     """Vertices of a dense path: its ends, the poses at its cusps, and one every ``vertex_spacing``
-    (or every ``1 / max_vertices`` of the length if that is longer) [m]."""
+    (or every ``1 / max_vertices`` of the length if that is longer) [m]; ``arc``: the path's
+    :func:`planning.core.geometry.cumulative_length` if already known."""
     n = path.shape[0]
-    arc = cumulative_length(path)
+    arc = cumulative_length(path) if arc is None else arc
     spacing = max(cfg.vertex_spacing, float(arc[-1]) / cfg.max_vertices)
     marks = np.searchsorted(arc, np.arange(spacing, arc[-1], spacing))
     cusp = np.flatnonzero(directions[2:] != directions[1:-1]) + 1
@@ -230,11 +237,16 @@ class _Work:
     """The path being simplified: dense poses, directions, vertices and the cost of each piece."""
 
     def __init__(
-        self, poses: FloatArray, dirs: FloatArray, verts: list[int], steer: Steer, checker: Checker, cost: PieceCost
+        self,
+        poses: FloatArray,
+        dirs: FloatArray,
+        verts: list[int],
+        fns: tuple[Steer, Checker, PieceCost],
+        arc: FloatArray | None = None,
     ) -> None:
         self.poses, self.dirs, self.verts = poses, dirs, verts
-        self.steer, self.checker, self.cost = steer, checker, cost
-        self.arc = cumulative_length(poses)
+        self.steer, self.checker, self.cost = fns
+        self.arc = cumulative_length(poses) if arc is None else arc
         self.pcost = [self.piece(a, b) for a, b in itertools.pairwise(verts)]
         self.kept = 0
         self.attempts = 0
@@ -252,9 +264,13 @@ class _Work:
         """The path's cost."""
         return float(sum(self.pcost))
 
-    def _cusps(self, before: float | None, mid: FloatArray, after: float | None) -> int:
-        seq = np.concatenate([[before] if before is not None else [], mid, [after] if after is not None else []])
-        return int(np.count_nonzero(seq[1:] != seq[:-1]))
+    @staticmethod
+    def _cusps(before: float | None, mid: FloatArray, after: float | None) -> int:
+        """Reversals along the directions ``before``, ``mid`` (M,), ``after`` (None: no such end)."""
+        if mid.size == 0:
+            return int(before is not None and after is not None and before != after)
+        n = int(np.count_nonzero(mid[1:] != mid[:-1]))
+        return n + int(before is not None and before != mid[0]) + int(after is not None and after != mid[-1])
 
     def _motion(self, qa: FloatArray, qb: FloatArray, turn: tuple[int, int] | None) -> Motion | None:
         """The steered motion from qa to qb; with ``turn = (m1, m2)``: steered to pose m1 turned by pi,
@@ -270,11 +286,36 @@ class _Work:
         poses = np.vstack([first[0], mid[1:], last[0][1:]])
         return poses, np.concatenate([first[1], -self.dirs[m1 + 1 : m2 + 1], last[1][1:]])
 
+    def _estimate(
+        self, a: int, b: int, distance: Distance | None, turn: tuple[int, int] | None, known: float | None
+    ) -> float:
+        """A lower bound of the cost of the motion from pose a to pose b (0 without ``distance``):
+        ``distance`` between them, or with ``turn = (m1, m2)`` that of its two steered ends plus the
+        turned stretch's length. ``known``: the bound between a and b (or the two ends' sum) that
+        the caller already asked ``distance`` for (the same number, not asked again)."""
+        if distance is None:
+            return 0.0
+        p = self.poses
+        if turn is None:
+            return known if known is not None else float(distance(p[a], p[b])[0])
+        m1, m2 = turn
+        if known is None:
+            flip = np.array([0.0, 0.0, np.pi])
+            known = float(np.sum(distance(np.vstack([p[a], p[m2] + flip]), np.vstack([p[m1] + flip, p[b]]))))
+        return float(known + self.arc[m2] - self.arc[m1])
+
     def shortcut(
-        self, a: int, b: int, distance: Distance | None, min_gain: float, turn: tuple[int, int] | None = None
+        self,
+        a: int,
+        b: int,
+        distance: Distance | None,
+        min_gain: float,
+        turn: tuple[int, int] | None = None,
+        known: float | None = None,
     ) -> bool:
         """Replace poses a..b (a < b, dense indices) by the steered motion (driving poses m1..m2 the
-        other way round with ``turn = (m1, m2)``, a < m1 < m2 < b) if it passes every test."""
+        other way round with ``turn = (m1, m2)``, a < m1 < m2 < b) if it passes every test;
+        ``known``: the ``distance`` bound already measured (see :meth:`_estimate`)."""
         if b - a < 2:
             return False
         p, verts = self.poses, self.verts
@@ -282,14 +323,7 @@ class _Work:
         k_hi = bisect.bisect_left(verts, b)
         v_lo, v_hi = verts[k_lo], verts[k_hi]
         old = float(sum(self.pcost[k_lo:k_hi]))
-        est = 0.0
-        if distance is not None and turn is None:
-            est = float(distance(p[a], p[b])[0])
-        elif distance is not None and turn is not None:
-            m1, m2 = turn
-            flip = np.array([0.0, 0.0, np.pi])
-            ends = distance(np.vstack([p[a], p[m2] + flip]), np.vstack([p[m1] + flip, p[b]]))
-            est = float(np.sum(ends) + self.arc[m2] - self.arc[m1])
+        est = self._estimate(a, b, distance, turn, known)
         if not est < old - min_gain:  # costs are >= 0: the pieces kept around it only add
             return False
         pre = self.piece(v_lo, a) if a > v_lo else 0.0
@@ -344,24 +378,26 @@ class _Work:
 
 def _best_gains(
     saved: FloatArray, lower: FloatArray, qa: FloatArray, qs: FloatArray, distance: Distance, k: int
-) -> FloatArray:
+) -> tuple[FloatArray, FloatArray]:
     """The gains ``saved - distance(qa, qs)`` of the candidates (rows of ``qs``) that can be among the
     ``k`` largest, -inf for the others, asking ``distance`` about as few as it can: candidates in
     order of their largest possible gain ``saved - lower`` (``lower`` <= ``distance``), in batches,
     until the k-th largest gain found exceeds every gain not yet asked about. The ``k`` largest
-    (ties included) are those of asking about all of them."""
+    (ties included) are those of asking about all of them. Also the distances asked (inf for the
+    others)."""
     n = saved.size
-    gain = np.full(n, -np.inf)
+    gain, dist = np.full(n, -np.inf), np.full(n, np.inf)
     upper = saved - lower + 1e-9  # rounding: a bound may come out below ``lower`` by an ulp
     order = np.argsort(-upper, kind="stable")
     batch, done = max(4 * k, 16), 0
     while done < n:
         idx = order[done : done + batch]
-        gain[idx] = saved[idx] - distance(qa, qs[idx])
+        dist[idx] = distance(qa, qs[idx])
+        gain[idx] = saved[idx] - dist[idx]
         done += idx.size
         if done >= k and done < n and np.sort(gain[order[:done]])[-k] > upper[order[done]]:
             break
-    return gain
+    return gain, dist
 
 
 def _greedy(w: _Work, cfg: SimplifyConfig, distance: Distance | None) -> None:
@@ -375,12 +411,12 @@ def _greedy(w: _Work, cfg: SimplifyConfig, distance: Distance | None) -> None:
         saved = np.cumsum(w.pcost[i:])[1:]  # cost from vertex i to each later vertex
         line = np.hypot(*(w.poses[later, :2] - w.poses[a, :2]).T)
         if distance is not None:
-            gain = _best_gains(saved, line, w.poses[a], w.poses[later], distance, cfg.greedy_tries)
+            gain, dist = _best_gains(saved, line, w.poses[a], w.poses[later], distance, cfg.greedy_tries)
         else:
-            gain = saved - line
+            gain, dist = saved - line, line
         order = np.argsort(-gain, kind="stable")[: cfg.greedy_tries]
         for o in order:
-            if gain[o] > cfg.min_gain and w.shortcut(a, int(later[o]), distance, cfg.min_gain):
+            if gain[o] > cfg.min_gain and w.shortcut(a, int(later[o]), distance, cfg.min_gain, None, float(dist[o])):
                 break
         i += 1
 
@@ -409,7 +445,8 @@ def _cusp_pass(w: _Work, cfg: SimplifyConfig, distance: Distance | None) -> bool
             est = np.hypot(*(w.poses[bb, :2] - w.poses[aa, :2]).T)
         gain = w.arc[bb] - w.arc[aa] - est
         for o in np.argsort(-gain, kind="stable")[: cfg.cusp_tries]:
-            if gain[o] > cfg.min_gain and w.shortcut(int(aa[o]), int(bb[o]), distance, cfg.min_gain):
+            a_o, b_o, e_o = int(aa[o]), int(bb[o]), float(est[o])
+            if gain[o] > cfg.min_gain and w.shortcut(a_o, b_o, distance, cfg.min_gain, None, e_o):
                 changed, c = True, int(aa[o])
                 break
     return changed
@@ -439,17 +476,18 @@ def _turned_pass(w: _Work, cfg: SimplifyConfig, distance: Distance | None) -> bo
         k += 1
         a = np.unique(np.searchsorted(w.arc, w.arc[lo] - spans).clip(0, lo))
         b = np.unique(np.minimum(np.searchsorted(w.arc, w.arc[hi] + spans), w.arc.size - 1))
-        for a_i, b_j, turn in _turn_candidates(w, lo, hi, a, b, distance)[: 2 * cfg.cusp_tries]:
-            if w.shortcut(a_i, b_j, distance, cfg.min_gain, turn):
+        for a_i, b_j, turn, bound in _turn_candidates(w, lo, hi, a, b, distance)[: 2 * cfg.cusp_tries]:
+            if w.shortcut(a_i, b_j, distance, cfg.min_gain, turn, bound):
                 changed, k = True, 0
                 break
 
 
 def _turn_candidates(
     w: _Work, lo: int, hi: int, a: NDArray[np.int64], b: NDArray[np.int64], distance: Distance | None
-) -> list[tuple[int, int, tuple[int, int]]]:
-    """(a, b, (m1, m2)) for every start a, end b and entry m1 / exit m2 of the stretch lo..hi,
-    largest estimated saving first (only those estimated to save anything)."""
+) -> list[tuple[int, int, tuple[int, int], float]]:
+    """(a, b, (m1, m2), ends) for every start a, end b and entry m1 / exit m2 of the stretch lo..hi,
+    largest estimated saving first (only those estimated to save anything); ``ends``: the bound of
+    the two steered ends' costs (0 without ``distance``)."""
     n = hi - lo
     m1s = np.unique(np.round(lo + TURN_AT * n).astype(np.int64))
     m2s = np.unique(np.round(hi - TURN_AT * n).astype(np.int64))
@@ -472,9 +510,9 @@ def _turn_candidates(
     for (ai, m1, m2, bj), e in zip(combos, ends.tolist(), strict=True):
         gain = float(w.arc[bj] - w.arc[ai]) - e - float(w.arc[m2] - w.arc[m1])
         if gain > 0.0:
-            out.append((gain, ai, bj, (m1, m2)))
+            out.append((gain, ai, bj, (m1, m2), e))
     out.sort(key=lambda c: -c[0])
-    return [(ai, bj, turn) for _, ai, bj, turn in out]
+    return [(ai, bj, turn, e) for _, ai, bj, turn, e in out]
 
 
 def _draw(w: _Work, p: float, threshold: float) -> int:
@@ -566,7 +604,7 @@ def _route_work(w: _Work, route: FloatArray) -> _Work | None:
     if not w.checker(poses):
         return None
     joints = np.cumsum([0, *(m[0].shape[0] - 1 for m in motions)]).tolist()
-    return _Work(poses, dirs, joints, w.steer, w.checker, w.cost)
+    return _Work(poses, dirs, joints, (w.steer, w.checker, w.cost))
 
 
 def _best_route(
@@ -640,14 +678,16 @@ def simplify_path(
     if d.size != p.shape[0]:
         raise ValueError(f"simplify_path: directions must have one entry per pose ({p.shape[0]}), got {d.size}")
     verts = sorted({0, p.shape[0] - 1, *(int(v) for v in vertices)}) if vertices is not None else None
-    raw = _Work(p, d, verts or default_vertices(p, d, cfg), steer, checker, cost)
-    raw_cost, raw_len, raw_cusps = raw.total(), path_length(p), count_cusps(d)
+    steps = path_steps(p)
+    arc = np.concatenate([[0.0], np.cumsum(steps)])  # cumulative_length(p), from the same steps
+    raw = _Work(p, d, verts or default_vertices(p, d, cfg, arc), (steer, checker, cost), arc)
+    raw_cost, raw_len, raw_cusps = raw.total(), float(np.sum(steps)), count_cusps(d)
     w = raw
     if vertices is None:  # loops are cut only where the cost is the path's own (no per-edge terms)
         cut, cut_d = remove_loops(p, d)
         assert cut_d is not None
         if cut.shape[0] < p.shape[0]:
-            w = _Work(cut, cut_d, default_vertices(cut, cut_d, cfg), steer, checker, cost)
+            w = _Work(cut, cut_d, default_vertices(cut, cut_d, cfg), (steer, checker, cost))
     if w.poses.shape[0] >= 3:
         _greedy(w, cfg, distance)
         _rounds(w, cfg, distance, np.random.default_rng(seed), cfg.max_rounds)
