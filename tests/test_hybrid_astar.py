@@ -228,6 +228,10 @@ def test_bench_worlds_are_seeded_and_their_ends_free():
     ]
     lines = format_rows(rows)
     assert len(lines) == 4 and lines[1].split()[-1] == "1.100" and lines[2].split()[-1] == "1.000"
+    # the longest robot name keeps its column apart from the status
+    long = format_rows([HybridRow("w", "edumip-balancing", "success", 0.05, 0.04, 10, 2.2, 2.0)])
+    assert long[1].split()[1:3] == ["edumip-balancing", "success"]
+    assert long[0].index("status") == long[1].index("success")
     assert lines[-1].startswith("worst: wall 100.0 ms, cpu 40.0 ms") and "ratio 1.100" in lines[-1]
 
 

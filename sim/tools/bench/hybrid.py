@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from planning.core.geometry import Pose2D
-from planning.core.robot import load_robot
+from planning.core.robot import ROBOT_FILES, load_robot
 from planning.core.world import Box, Circle, World
 from planning.planners.base import PlanProblem
 from planning.planners.registry import make_planner
@@ -105,11 +105,12 @@ def passed(rows: list[HybridRow]) -> bool:
 
 def format_rows(rows: list[HybridRow]) -> list[str]:
     """The table: one line per problem, then the worst time and ratio against the targets."""
-    lines = [f"{'world':<18}{'robot':<12}{'status':<10}{'wall ms':>9}{'cpu ms':>9}{'exp':>7}{'length':>9}"
+    rw = max(map(len, ROBOT_FILES)) + 2  # the longest robot name ("edumip-balancing") and a gap
+    lines = [f"{'world':<18}{'robot':<{rw}}{'status':<10}{'wall ms':>9}{'cpu ms':>9}{'exp':>7}{'length':>9}"
              f"{'rrt*':>9}{'ratio':>8}"]  # fmt: skip
     for r in rows:
         lines.append(
-            f"{r.world:<18}{r.robot:<12}{r.status:<10}{1e3 * r.wall_s:>9.1f}{1e3 * r.cpu_s:>9.1f}{r.expansions:>7}"
+            f"{r.world:<18}{r.robot:<{rw}}{r.status:<10}{1e3 * r.wall_s:>9.1f}{1e3 * r.cpu_s:>9.1f}{r.expansions:>7}"
             f"{r.length_m:>9.3f}{r.rrt_star_m:>9.3f}{r.ratio:>8.3f}"
         )
     if rows:
