@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 
 from planning.collision.compiled import WorldArrays, _world_distance, world_arrays, world_distances
 from planning.core.world import World
-from planning.planners.lattice import obstacle_heuristic
+from planning.planners.lattice import cell_centres, obstacle_heuristic
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -57,10 +57,8 @@ def centre_distances(world: World, cell: float) -> FloatArray:
     """(nx, ny) signed distances [m] from the centres of the cells of side ``cell`` over the world's
     bounds (cell (0, 0) at its lower-left corner) to the nearest obstacle or wall: the exact signed
     distance, compiled; cached per world and cell."""
-    xmin, xmax, ymin, ymax = world.bounds
-    nx, ny = int(np.ceil((xmax - xmin) / cell)), int(np.ceil((ymax - ymin) / cell))
-    cx, cy = np.meshgrid(xmin + cell * (np.arange(nx) + 0.5), ymin + cell * (np.arange(ny) + 0.5), indexing="ij")
-    d = world_distances(np.column_stack([cx.ravel(), cy.ravel()]), world_arrays(world)).reshape(nx, ny)
+    nx, ny, centres = cell_centres(world.bounds, cell)
+    d = world_distances(centres, world_arrays(world)).reshape(nx, ny)
     d.setflags(write=False)
     return d  # type: ignore[no-any-return]
 
@@ -80,24 +78,25 @@ def _cell_of(p: FloatArray, origin: tuple[float, float], cell: float, shape: tup
 def distance_field(
     world: World, radius: float, start: FloatArray, goal: FloatArray, cell: float = CELL
 ) -> tuple[FloatArray, tuple[float, float]]:
-    """Dijkstra distances [m] to the goal's cell over the free cells (:func:`free_cells`), the cells
-    within ``radius`` of the start and of the goal counted free too (the ends may sit closer to
-    something than the disc allows; the steered path is checked anyway). Cached per world, radius,
-    cell and end cells.
+    """Dijkstra distances [m] to the goal's cell over the cells whose centre keeps ``radius`` off
+    everything (:func:`centre_distances`), the cells within ``radius`` of the start and of the goal
+    counted free too (the ends may sit closer to something than the disc allows; the steered path is
+    checked anyway). Cached per world, radius, cell and end cells.
 
     Returns:
         (nx, ny) distances (inf where unreachable) and the lower-left corner of cell (0, 0) [m].
     """
-    xmin, xmax, ymin, ymax = world.bounds
+    xmin, _, ymin, _ = world.bounds
     origin = (float(xmin), float(ymin))
-    shape = (int(np.ceil((xmax - xmin) / cell)), int(np.ceil((ymax - ymin) / cell)))
+    centres = centre_distances(world, cell)  # cached per world and cell
+    shape = centres.shape
     s, g = _cell_of(start, origin, cell, shape), _cell_of(goal, origin, cell, shape)
     key = (world, cell, radius, s, g)
     hit = _FIELDS.get(key)
     if hit is not None:
         _FIELDS.move_to_end(key)
         return hit, origin
-    free = centre_distances(world, cell) > radius
+    free = centres > radius
     reach = int(np.ceil(radius / cell))
     for ci, cj in (s, g):
         for di in range(-reach, reach + 1):

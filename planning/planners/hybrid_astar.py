@@ -281,11 +281,10 @@ class HybridAStar:
         prims = motion_primitives(
             rho, cfg.cell_size, cfg.angle_quantization_bins, step, interpolate=cfg.allow_primitive_interpolation
         )
-        xmin, xmax, ymin, ymax = problem.world.bounds
+        xmin, _, ymin, _ = problem.world.bounds
         cell = cfg.cell_size
-        nx, ny = int(np.ceil((xmax - xmin) / cell)), int(np.ceil((ymax - ymin) / cell))
-        cx, cy = np.meshgrid(xmin + cell * (np.arange(nx) + 0.5), ymin + cell * (np.arange(ny) + 0.5), indexing="ij")
-        _, upper = checker.distance_bounds(np.column_stack([cx.ravel(), cy.ravel()]))
+        nx, ny, centres = lattice.cell_centres(problem.world.bounds, cell)
+        _, upper = checker.distance_bounds(centres)
         # A cell is blocked only when no point of it leaves room for the inscribed disc.
         reach = upper + cell / np.sqrt(2.0)
         free = (reach > inscribed_radius(robot, cfg.shape) + cfg.clearance).reshape(nx, ny)

@@ -45,6 +45,16 @@ def _now() -> float:
     return t
 
 
+def cell_centres(bounds: tuple[float, float, float, float], cell: float) -> tuple[int, int, FloatArray]:
+    """The square cells of side ``cell`` [m] over ``bounds`` (xmin, xmax, ymin, ymax), cell (0, 0) at the
+    lower-left corner: their counts along x and y and their centres, (nx * ny, 2) [m] in (ix, iy) order
+    (row ``ix * ny + iy``), the grid :func:`obstacle_heuristic` searches."""
+    xmin, xmax, ymin, ymax = bounds
+    nx, ny = int(np.ceil((xmax - xmin) / cell)), int(np.ceil((ymax - ymin) / cell))
+    cx, cy = np.meshgrid(xmin + cell * (np.arange(nx) + 0.5), ymin + cell * (np.arange(ny) + 0.5), indexing="ij")
+    return nx, ny, np.column_stack([cx.ravel(), cy.ravel()])
+
+
 @nb.njit(cache=True)
 def obstacle_heuristic(free: NDArray[np.bool_], goal_ix: int, goal_iy: int, cell: float) -> FloatArray:
     """Dijkstra distances [m] from the goal cell over 8-connected free cells (inf: unreachable).
