@@ -2,9 +2,45 @@
 
 from __future__ import annotations
 
+import functools
+import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
+import numba as nb
+import numpy as np
+from numpy.typing import NDArray
+
 from planning.core.robot import RobotSpec
+
+
+@nb.njit(cache=True)
+def _wheel_speeds(
+    v: float, omega: float, radius: float, track: float, limit: float
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    """:meth:`DiffDrive.wheel_speeds`, compiled."""
+    half = 0.5 * track * omega
+    left = (v - half) / radius
+    right = (v + half) / radius
+    peak = max(abs(left), abs(right))
+    if peak > limit:
+        scale = limit / peak
+        left *= scale
+        right *= scale
+    return left, right
+
+
+@nb.njit(cache=True)
+def _command_into(
+    radius: float, track: float, limit: float, commands: NDArray[np.float64], row: int, v: float, omega: float
+) -> bool:  # pragma: no cover - compiled
+    """:meth:`DiffDrive.command_into`, compiled (the drive's constants first, to be bound)."""
+    if not (math.isfinite(v) and math.isfinite(omega)):
+        return False
+    left, right = _wheel_speeds(v, omega, radius, track, limit)
+    c = commands[row]
+    c[0], c[1], c[2], c[3] = v, omega, left, right
+    return True
 
 
 @dataclass(frozen=True)
@@ -41,15 +77,22 @@ class DiffDrive:
             v: Body speed [m/s].
             omega: Yaw rate [rad/s].
         """
-        half = 0.5 * self.track_width * omega
-        left = (v - half) / self.wheel_radius
-        right = (v + half) / self.wheel_radius
-        peak = max(abs(left), abs(right))
-        if peak > self.max_wheel_speed:
-            scale = self.max_wheel_speed / peak
-            left *= scale
-            right *= scale
-        return left, right
+        return _wheel_speeds(v, omega, self.wheel_radius, self.track_width, self.max_wheel_speed)
+
+    def command_into(self, commands: NDArray[np.float64], row: int, v: float, omega: float) -> bool:
+        """Write a finite body command and its wheel speeds (:meth:`wheel_speeds`) into row ``row``
+        of a (K, 4) float array [v, omega, left, right] in one compiled call (a control loop's per-period
+        bookkeeping).
+
+        Returns:
+            False, writing nothing, when ``v`` or ``omega`` is not finite.
+        """
+        return _command_into(self.wheel_radius, self.track_width, self.max_wheel_speed, commands, row, v, omega)
+
+    def command_writer(self, commands: NDArray[np.float64]) -> Callable[[int, float, float], bool]:
+        """:meth:`command_into` bound to one table: ``write(row, v, omega)``, without a Python frame of its
+        own (the compiled call with the drive and the table bound), for a loop that writes every period."""
+        return functools.partial(_command_into, self.wheel_radius, self.track_width, self.max_wheel_speed, commands)
 
     def body_twist(self, left: float, right: float) -> tuple[float, float]:
         """Body (v, omega) [m/s, rad/s] from wheel speeds [rad/s]."""

@@ -23,7 +23,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
+from numpy.typing import NDArray
 
 from control.base import check_measured_pose, check_period, check_positive_fields, option_value
 from planning.core.robot import RobotSpec
@@ -81,6 +83,32 @@ class FBLGains:
         return cls(kp=kp, kd=kd)
 
 
+@nb.njit(cache=True)
+def _law(
+    kp: float,
+    kd: float,
+    xi_min: float,
+    x: float,
+    y: float,
+    theta: float,
+    xi: float,
+    xd: float,
+    yd: float,
+    dxd: float,
+    dyd: float,
+    ddxd: float,
+    ddyd: float,
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    """:func:`fbl_law`, compiled, with the gains and the reference as numbers."""
+    c, s = math.cos(theta), math.sin(theta)
+    w1 = ddxd - kp * (x - xd) - kd * (xi * c - dxd)
+    w2 = ddyd - kp * (y - yd) - kd * (xi * s - dyd)
+    xi_dot = c * w1 + s * w2
+    guard = xi if abs(xi) >= xi_min else math.copysign(xi_min, xi if xi != 0.0 else 1.0)
+    omega = (-s * w1 + c * w2) / guard
+    return xi_dot, omega
+
+
 def fbl_law(
     gains: FBLGains,
     x: float,
@@ -89,7 +117,8 @@ def fbl_law(
     xi: float,
     ref: FlatReference,
 ) -> tuple[float, float]:
-    """The continuous-time law: (xi_dot, omega) for a state and a reference.
+    """The continuous-time law: (xi_dot, omega) for a state and a reference (the module doc's
+    equations; compiled).
 
     Args:
         gains: Kp, Kd, xi_min.
@@ -102,14 +131,55 @@ def fbl_law(
     Returns:
         (xi_dot [m/s^2], omega [rad/s]), before saturation.
     """
-    xd, yd, dxd, dyd, ddxd, ddyd = ref
-    c, s = math.cos(theta), math.sin(theta)
-    w1 = ddxd - gains.kp * (x - xd) - gains.kd * (xi * c - dxd)
-    w2 = ddyd - gains.kp * (y - yd) - gains.kd * (xi * s - dyd)
-    xi_dot = c * w1 + s * w2
-    guard = xi if abs(xi) >= gains.xi_min else math.copysign(gains.xi_min, xi if xi != 0.0 else 1.0)
-    omega = (-s * w1 + c * w2) / guard
-    return xi_dot, omega
+    return _law(gains.kp, gains.kd, gains.xi_min, x, y, theta, xi, *ref)
+
+
+#: Slots of a tracker's state array (:func:`_step`): xi [m/s], then its constants: Kp, Kd, xi_min,
+#: the speed and yaw-rate limits, the control period [s] and the trajectory's start time [s].
+XI, KP, KD, XI_MIN, VMAX, WMAX, DT, T0 = range(8)
+#: :func:`_period`'s status: a command; a non-finite time or pose; a time off the control instants.
+OK, BAD_POSE, OFF_GRID = range(3)
+
+
+@nb.njit(cache=True)
+def _step(
+    st: NDArray[np.float64],
+    x: float,
+    y: float,
+    theta: float,
+    xd: float,
+    yd: float,
+    dxd: float,
+    dyd: float,
+    ddxd: float,
+    ddyd: float,
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    """One period of the tracker on its state ``st`` for a reference: the saturated command (v, omega),
+    xi advanced by one period (see :meth:`DynamicFBL.command`)."""
+    xi = st[XI]
+    xi_dot, omega = _law(st[KP], st[KD], st[XI_MIN], x, y, theta, xi, xd, yd, dxd, dyd, ddxd, ddyd)
+    vmax, wmax, dt = st[VMAX], st[WMAX], st[DT]
+    v = xi + 0.5 * xi_dot * dt
+    v = -vmax if v < -vmax else (vmax if v > vmax else v)
+    xi += xi_dot * dt
+    st[XI] = -vmax if xi < -vmax else (vmax if xi > vmax else xi)
+    return v, (-wmax if omega < -wmax else (wmax if omega > wmax else omega))
+
+
+@nb.njit(cache=True)
+def _period(
+    t: float, x: float, y: float, theta: float, table: NDArray[np.float64], st: NDArray[np.float64]
+) -> tuple[int, float, float]:  # pragma: no cover - compiled
+    """:meth:`DynamicFBL.command` at a control instant, its reference read from row k of ``table``
+    (M, 6): (OK, v, omega); (BAD_POSE or OFF_GRID, nan, nan) changing nothing."""
+    if not math.isfinite(t + x + y + theta):
+        return BAD_POSE, math.nan, math.nan
+    k = round((t - st[T0]) / st[DT])
+    if not (0 <= k < table.shape[0] and abs(st[T0] + k * st[DT] - t) < 1e-9):
+        return OFF_GRID, math.nan, math.nan
+    r = table[k]
+    v, omega = _step(st, x, y, theta, r[0], r[1], r[2], r[3], r[4], r[5])
+    return OK, v, omega
 
 
 class DynamicFBL:
@@ -136,50 +206,48 @@ class DynamicFBL:
     def __init__(self, robot: RobotSpec, *, gains: FBLGains | None = None) -> None:
         self.robot = robot
         self.gains = option_value(self.name, "gains", gains, FBLGains())
-        self.xi = 0.0
         self._traj: Trajectory | None = None
-        self._dt = 0.02
-        self._t0 = 0.0
-        self._cache: list[FlatReference] = []
+        self._state = np.zeros(8)  # xi and the constants (XI .. T0), set at reset
+        self._table = np.zeros((0, 6))  # the law's reference at the control instants
+
+    @property
+    def xi(self) -> float:
+        """The compensator state xi (the speed) [m/s]."""
+        return float(self._state[XI])
+
+    @xi.setter
+    def xi(self, value: float) -> None:
+        self._state[XI] = value
 
     def reset(self, trajectory: Trajectory, dt: float) -> None:
         """Start tracking: xi starts at the reference speed; the reference is pre-sampled at the
-        control instants.
+        control instants; the gains and the robot's limits are taken as they are now.
 
         Raises:
             ConfigError: ``dt`` [s] is not a finite number > 0.
         """
         dt = check_period(self.name, dt, trajectory)
         self._traj = trajectory
-        self._dt = dt
-        self._t0 = float(trajectory.t[0])
+        t0 = float(trajectory.t[0])
         n = math.ceil(trajectory.duration / dt) + 2
-        self._cache = flat_references(trajectory.sample_many(self._t0 + dt * np.arange(n)))
-        self.xi = float(trajectory.vel[0, 0])
-
-    def _reference(self, t: float) -> FlatReference:
-        """The law's reference at ``t``: from the table at a control instant, else interpolated."""
-        k = round((t - self._t0) / self._dt)
-        if 0 <= k < len(self._cache) and abs(self._t0 + k * self._dt - t) < 1e-9:
-            return self._cache[k]
-        if self._traj is None:
-            raise RuntimeError("DynamicFBL.command called before reset")
-        return flat_references(self._traj.sample_many(np.array([t])))[0]
+        s = trajectory.sample_many(t0 + dt * np.arange(n))
+        self._table = np.column_stack([s.x, s.y, s.dx, s.dy, s.ddx, s.ddy])
+        g, r = self.gains, self.robot
+        self._state[:] = (trajectory.vel[0, 0], g.kp, g.kd, g.xi_min, r.max_speed, r.max_yaw_rate, dt, t0)
 
     def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
         """Body command for the period starting at ``t``; advances xi by one period.
 
-        Called once per control period, so written for speed: the saturations are inline
-        comparisons (the same values as ``min(max(a, -limit), limit)``).
+        One compiled call (:func:`_period`) at a control instant; between them the reference is
+        interpolated from the trajectory.
 
         Raises:
             SimulationError: ``t`` or the pose is not finite.
         """
-        check_measured_pose(self.name, t, x, y, theta)
-        xi_dot, omega = fbl_law(self.gains, x, y, theta, self.xi, self._reference(t))
-        vmax, wmax, dt, xi = self.robot.max_speed, self.robot.max_yaw_rate, self._dt, self.xi
-        v = xi + 0.5 * xi_dot * dt
-        v = -vmax if v < -vmax else (vmax if v > vmax else v)
-        xi += xi_dot * dt
-        self.xi = -vmax if xi < -vmax else (vmax if xi > vmax else xi)
-        return v, (-wmax if omega < -wmax else (wmax if omega > wmax else omega))
+        status, v, omega = _period(t, x, y, theta, self._table, self._state)
+        if status == OK:
+            return v, omega
+        check_measured_pose(self.name, t, x, y, theta)  # raises for BAD_POSE
+        if self._traj is None:
+            raise RuntimeError("DynamicFBL.command called before reset")
+        return _step(self._state, x, y, theta, *flat_references(self._traj.sample_many(np.array([t])))[0])

@@ -274,9 +274,7 @@ class PoseEstimator:
             config.gyro_noise_density**2 if self._gyro else 0.0, config.gyro_bias_walk**2 if self._gyro else 0.0,
             q * q / 6.0, self._gyro, self._gate, config.reject_outliers,
         )  # fmt: skip
-        self._head = -1
-        self._size = 0
-        self._t = math.nan
+        self._hdr = self._mem[kernels.NU_ROW]  # the ring's newest step, its size and time (kernels.HEAD ..)
         self._fixes: list[Fix] = []
         self._no_fixes = np.zeros((0, 6))
         self._finite = True  # the state after the last replay
@@ -333,9 +331,10 @@ class PoseEstimator:
         self._bx[0] = 0.0
         self._bx[0, :3] = p0
         self._bx[0, ITH] = math.remainder(p0[2], TWO_PI)
-        self._bt[0] = self._t = float(t0)
+        self._bt[0] = float(t0)
         self._bu[0] = 0.0
-        self._head, self._size = 0, 1
+        hdr = self._hdr
+        hdr[kernels.HEAD], hdr[kernels.SIZE], hdr[kernels.TIME] = 0, 1, t0
         self._fixes.clear()
         self._nis.clear()
         self._outliers = self._rejected = self._stale = 0
@@ -368,28 +367,51 @@ class PoseEstimator:
             EstimatorInputError: Not reset, time not increasing, a non-finite reading, no gyro.
             EstimatorDivergedError: The state or covariance became non-finite.
         """
-        t_prev = self._t
-        if not t > t_prev or not math.isfinite(t):
+        if self._gyro and gyro_z is None:
             raise EstimatorInputError(
-                f"predict: time must be finite and increase (previous {t_prev!r} s, got {t!r} s); call reset first"
+                "predict: heading='gyro' needs gyro_z [rad/s]; use heading='encoders' without a gyro"
             )
-        w = 0.0
-        if self._gyro:
-            if gyro_z is None:
-                raise EstimatorInputError(
-                    "predict: heading='gyro' needs gyro_z [rad/s]; use heading='encoders' without a gyro"
-                )
-            w = gyro_z
-        if not math.isfinite(d_left + d_right + w):
-            raise EstimatorInputError(f"predict at t={t} s: non-finite reading {d_left!r}, {d_right!r}, {gyro_z!r}")
-        i = self._head + 1 if self._head + 1 < self._cap else 0
-        status = kernels.predict(self._mem, self._head, i, float(t), float(d_left), float(d_right), float(w))
+        status = kernels.step(
+            self._mem, float(t), float(d_left), float(d_right), 0.0 if gyro_z is None else float(gyro_z)
+        )
         if status != kernels.OK:
-            self._diverged(status, t)
-        self._t = float(t)
-        self._head = i
-        if self._size < self._cap:
-            self._size += 1
+            self.raise_status(status, t, (d_left, d_right, gyro_z))
+
+    @property
+    def block(self) -> FloatArray:
+        """The filter's whole state in one array (:mod:`control.estimation.kernels`), for a compiled
+        caller that predicts with :func:`~control.estimation.kernels.step` and reads with
+        :func:`~control.estimation.kernels.head_pose` (raising a failed step's status with
+        :meth:`raise_status`)."""
+        return self._mem
+
+    def raise_status(self, status: int, t: float, readings: tuple[object, ...] = ()) -> None:
+        """Raise the error a kernel's status stands for, at time t [s] (the step's readings
+        (d_left, d_right, gyro_z) named in the message, when given).
+
+        Raises:
+            EstimatorInputError: BAD_TIME (not reset, or the time does not increase), BAD_READING.
+            EstimatorDivergedError: The state or covariance became non-finite.
+        """
+        if status == kernels.BAD_TIME:
+            raise EstimatorInputError(
+                f"predict: time must be finite and increase (previous {self._t!r} s, got {t!r} s); call reset first"
+            )
+        if status == kernels.BAD_READING:
+            raise EstimatorInputError(f"predict at t={t} s: non-finite reading {', '.join(map(repr, readings))}")
+        self._diverged(status, t)
+
+    @property
+    def _head(self) -> int:
+        return int(self._hdr[kernels.HEAD])
+
+    @property
+    def _size(self) -> int:
+        return int(self._hdr[kernels.SIZE])
+
+    @property
+    def _t(self) -> float:
+        return float(self._hdr[kernels.TIME])
 
     def _diverged(self, status: int, t: float) -> None:
         """Raise the divergence a kernel reported (its status) at time t [s]."""

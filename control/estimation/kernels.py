@@ -20,7 +20,9 @@ few calls) and every part is a slice of rows (no reshaping per call). By row:
 - 0-1: the filter's constants, flat, indexed by :data:`RADIUS` .. :data:`REJECT` (:func:`parameters`);
 - 2-8: the Jacobian F of the last prediction (identity but where :func:`propagate` writes);
   9-15: its noise Q (zero likewise); 16-22: a product;
-- 23, 24-30, 31: a replay's state, its covariance, and the innovation of the last gated fix;
+- 23, 24-30: a replay's state and its covariance; 31: the innovation of the last gated fix
+  (columns 0-2), then the ring's newest step, its number of steps and the newest time [s]
+  (columns :data:`HEAD`, :data:`SIZE`, :data:`TIME`; the head is -1 before a reset);
 - from :data:`RING`, the ring of the last C steps: C rows (time [s], left and right wheel
   increments [rad], gyro rate [rad/s]), C rows of states, C blocks of 7 rows of covariances.
 
@@ -45,7 +47,7 @@ FloatArray = NDArray[np.float64]
 RADIUS, TRACK, WHEEL_VAR, POSITION_VAR, GYRO_VAR, BIAS_WALK_VAR, QUANT_VAR, GYRO, GATE, REJECT = range(10)
 N_PARAMS = 10
 #: Status codes.
-OK, BAD_INCREMENT, BAD_STATE, BAD_INNOVATION = range(4)
+OK, BAD_INCREMENT, BAD_STATE, BAD_INNOVATION, BAD_TIME, BAD_READING = range(6)
 
 TWO_PI = 2.0 * math.pi
 PI = math.pi
@@ -53,6 +55,8 @@ N = 7  # state size (control.estimation.ekf.N_STATE)
 #: First rows of the block's parts (see the module doc) and rows per ring step.
 F_ROW, Q_ROW, TMP_ROW, X_ROW, P_ROW, NU_ROW, RING = 2, 9, 16, 23, 24, 31, 32
 STEP_ROWS = 2 + N
+#: Columns of row NU_ROW holding the ring's bookkeeping: newest step, number of steps, newest time [s].
+HEAD, SIZE, TIME = 3, 4, 5
 
 
 def parameters(
@@ -90,6 +94,7 @@ def allocate(steps: int) -> FloatArray:
     """A zeroed block for a ring of ``steps`` steps (see the module doc), F set to the identity."""
     mem = np.zeros((RING + steps * STEP_ROWS, N))
     mem[F_ROW : F_ROW + N] = np.eye(N)
+    mem[NU_ROW, HEAD], mem[NU_ROW, TIME] = -1.0, math.nan
     return mem
 
 
@@ -251,6 +256,34 @@ def predict(mem: FloatArray, src: int, dst: int, t: float, dl: float, dr: float,
     if status == OK:
         u = mem[RING + dst]
         u[0], u[1], u[2], u[3] = t, dl, dr, w
+    return status
+
+
+@nb.njit(cache=True)
+def step(mem: FloatArray, t: float, dl: float, dr: float, w: float) -> int:  # pragma: no cover - compiled
+    """One prediction of a block to time t [s] with the wheel increments (dl, dr) [rad] and the gyro
+    rate w [rad/s] (ignored with the encoder heading) since the newest step, which becomes the next
+    ring step (:func:`predict`; the ring's bookkeeping is updated only when it succeeds).
+
+    Returns:
+        OK; BAD_TIME (not reset, or t is not finite or not after the newest step); BAD_READING (a
+        non-finite reading); or the status of :func:`predict`.
+    """
+    hdr = mem[NU_ROW]
+    head = int(hdr[HEAD])
+    if head < 0 or not (t > hdr[TIME] and math.isfinite(t)):
+        return BAD_TIME
+    if mem[GYRO // N, GYRO % N] == 0.0:  # the parameters, rows 0-1 flat
+        w = 0.0
+    if not math.isfinite(dl + dr + w):
+        return BAD_READING
+    cap = (mem.shape[0] - RING) // STEP_ROWS
+    dst = head + 1 if head + 1 < cap else 0
+    status = predict(mem, head, dst, t, dl, dr, w)
+    if status == OK:
+        hdr[HEAD], hdr[TIME] = dst, t
+        if hdr[SIZE] < cap:
+            hdr[SIZE] += 1
     return status
 
 

@@ -168,8 +168,10 @@ class BalanceFirmware:
 
     def drive(self, commands: FloatArray, row: int, qvel: FloatArray, ctrl: FloatArray, wiring: IntArray) -> None:
         """One update, with the signature of :meth:`sim.physics.motors.VelocityLoop.drive`: the wheel-speed
-        command is row ``row`` of ``commands`` [rad/s]; the voltages go into ``ctrl`` at ``wiring[1]``."""
+        command is row ``row`` of ``commands`` [rad/s] (< 0: row 0); the voltages go into ``ctrl`` at
+        ``wiring[1]``."""
         d = self.data
+        row = max(row, 0)
         self._push_step()
         if self.fallen():
             ctrl[wiring[1]] = 0.0

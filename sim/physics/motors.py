@@ -59,7 +59,9 @@ that arrives between two updates is taken up at the next, as on the real board.
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import mujoco
@@ -277,6 +279,7 @@ def _drive(
 ) -> None:  # pragma: no cover - compiled
     n = len(state) - 4  # state: the n integrators, then kff, kp, ki T, V_batt
     kff, kp, ki_t, vb = state[n], state[n + 1], state[n + 2], state[n + 3]
+    row = max(row, 0)
     for i in range(n):
         state[i], ctrl[wiring[1, i]] = _wheel(state[i], commands[row, i], qvel[wiring[0, i]], kff, kp, ki_t, vb)
 
@@ -329,9 +332,14 @@ class VelocityLoop:
 
         Args:
             commands: (K, wheels) commanded wheel speeds [rad/s].
-            row: Row of ``commands`` in force.
+            row: Row of ``commands`` in force (< 0: row 0, the command before any was computed).
             qvel: MuJoCo's joint velocities (``MjData.qvel``) [rad/s].
             ctrl: MuJoCo's controls (``MjData.ctrl``) [V].
             wiring: (2, wheels) int64: the wheels' dofs in ``qvel``, then their actuators in ``ctrl``.
         """
         _drive(self._state, commands, row, qvel, ctrl, wiring)
+
+    def driver(self) -> Callable[[FloatArray, int, FloatArray, FloatArray, IntArray], None]:
+        """:meth:`drive` as a callable without a Python frame of its own (the compiled update bound to
+        this loop's state), for a control loop that calls it every firmware period."""
+        return functools.partial(_drive, self._state)

@@ -26,10 +26,11 @@ import math
 from dataclasses import dataclass, field, replace
 
 import mujoco
+import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from control.estimation import EstimatorConfig, EstimatorDivergedError, PoseEstimator, chi2_interval
+from control.estimation import EstimatorConfig, EstimatorDivergedError, PoseEstimator, chi2_interval, kernels
 from planning.core.robot import RobotSpec
 from sim.physics.asbuilt import TOLERANCES
 from sim.physics.runlog import EstimationLog
@@ -37,7 +38,51 @@ from sim.physics.sensors import SensorModel, SensorProfile, load_sensor_profile
 from sim.physics.sources import PoseSource
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 TWO_PI = 2.0 * math.pi
+
+#: Slots of a run's reading state (:func:`_read_and_predict`): the last encoder counts and true
+#: heading, then constants: time of period 0 [s], the period [s], counts per radian, the encoders'
+#: phases [counts], radians per count, and the encoders' addresses in ``MjData.sensordata``.
+COUNTS_L, COUNTS_R, YAW, T0, DT, PER_RAD, PHASE_L, PHASE_R, RAD_PER_COUNT, ENC_L, ENC_R = range(11)
+
+
+@nb.njit(cache=True)
+def _read_and_predict(
+    k: int,
+    x: float,
+    y: float,
+    th: float,
+    mem: FloatArray,
+    sdata: FloatArray,
+    io: FloatArray,
+    gyro_error: FloatArray,
+    trace: FloatArray,
+) -> tuple[int, float, float, float]:  # pragma: no cover - compiled
+    """Period k >= 1 of :meth:`Sensing.observe` in one compiled call: log the true pose (x, y, th)
+    [m, m, rad], read the encoders (quantised) and the gyro (the mean true yaw rate over the period
+    plus ``gyro_error[k]``), predict the estimator's block ``mem`` with them
+    (:func:`control.estimation.kernels.step`) and log its pose and variances. ``trace`` holds a
+    run's true poses, estimates and variances by period, three columns each.
+
+    Returns:
+        (status of the step, the estimated pose); on a failed step the pose is NaN and nothing is logged.
+    """
+    row = trace[k]
+    row[0], row[1], row[2] = x, y, th
+    if k >= gyro_error.shape[0]:
+        return kernels.BAD_TIME, math.nan, math.nan, math.nan
+    cl = math.floor(sdata[int(io[ENC_L])] * io[PER_RAD] + io[PHASE_L])
+    cr = math.floor(sdata[int(io[ENC_R])] * io[PER_RAD] + io[PHASE_R])
+    rate = kernels.wrap(th - io[YAW]) / io[DT]
+    q = io[RAD_PER_COUNT]
+    t = io[T0] + k * io[DT]
+    status = kernels.step(mem, t, (cl - io[COUNTS_L]) * q, (cr - io[COUNTS_R]) * q, rate + gyro_error[k])
+    io[COUNTS_L], io[COUNTS_R], io[YAW] = cl, cr, th
+    if status != kernels.OK:
+        return status, math.nan, math.nan, math.nan
+    head = int(mem[kernels.NU_ROW, kernels.HEAD])
+    return (status, *kernels.head_pose(mem, head, trace[:, 3:6], trace[:, 6:9], k))
 
 
 @dataclass(frozen=True)
@@ -125,9 +170,8 @@ class Sensing:
         if self.source is not PoseSource.TRUTH:
             self.estimator = PoseEstimator.for_robot(robot, setup.estimator_config(robot))
         n = n_periods + 1
-        self.truth = np.full((n, 3), np.nan)
-        self.estimate = np.full((n, 3), np.nan)
-        self.variance = np.full((n, 3), np.nan)
+        self._trace = np.full((n, 9), np.nan)  # true pose, estimate, variances by period
+        self.truth, self.estimate, self.variance = self._trace[:, :3], self._trace[:, 3:6], self._trace[:, 6:]
         self.nees: list[tuple[int, float]] = []  # (period, NEES) at each fix delivery
         self.fixes: dict[int, tuple[float, float, float]] = {}
         self.applied: list[int] = []  # periods whose fix the estimator accepted
@@ -136,34 +180,47 @@ class Sensing:
         self._fix_delivered = dict(
             zip(self.sensors.fix_delivery_periods.tolist(), self.sensors.fix_periods.tolist(), strict=True)
         )
+        self._events = self._fix_taken | self._fix_delivered.keys()  # periods with a fix taken or delivered
         self.status = "ok"
-        self._counts = (0, 0)
-        self._yaw = 0.0
         self._k = -1
+        # the compiled period's state and inputs (_read_and_predict), bound to the run's data at period 0
+        self._io = np.zeros(11)
+        self._io[T0:] = (t0, self.dt, setup.profile.encoder_cpr / TWO_PI, *self.sensors.encoder_phase,
+                         self._rad_per_count, self._enc_l, self._enc_r)  # fmt: skip
+        self._bound: tuple[FloatArray, ...] = ()
+        self._data: mujoco.MjData | None = None
 
     def observe(self, k: int, data: mujoco.MjData, truth: tuple[float, float, float]) -> tuple[float, float, float]:
         """The pose the tracker sees at control period ``k`` (``truth`` is MuJoCo's pose then).
+
+        Periods 1, 2, .. without a fix to take or deliver cost one compiled call
+        (:func:`_read_and_predict`). ``data`` is the run's data, the same object at every period.
 
         Raises:
             EstimatorDivergedError: The estimator diverged (the simulator ends the run on it).
         """
         self._k = k
-        self.truth[k] = truth
         est = self.estimator
         if est is None:
+            self.truth[k] = truth
             return truth
-        s = data.sensordata
-        counts = self.sensors.encoder_counts(float(s[self._enc_l]), float(s[self._enc_r]))
         if k == 0:
+            self.truth[k] = truth
+            s = data.sensordata
+            counts = self.sensors.encoder_counts(float(s[self._enc_l]), float(s[self._enc_r]))
             est.reset(self.t0, truth)
+            self._io[COUNTS_L], self._io[COUNTS_R], self._io[YAW] = *counts, truth[2]
+            self._bound = (est.block, s, self._io, self.sensors.gyro_error, self._trace)
+            self._data = data
         else:
-            rate = math.remainder(truth[2] - self._yaw, TWO_PI) / self.dt
-            q = self._rad_per_count
-            est.predict(
-                self.t0 + k * self.dt, (counts[0] - self._counts[0]) * q, (counts[1] - self._counts[1]) * q,
-                self.sensors.gyro_z(k, rate),
-            )  # fmt: skip
-        self._counts, self._yaw = counts, truth[2]
+            if data is not self._data:
+                raise ValueError("Sensing.observe: a run's periods must all read the MjData of its period 0")
+            x, y, th = truth
+            status, ex, ey, eth = _read_and_predict(k, x, y, th, *self._bound)
+            if status != kernels.OK:
+                est.raise_status(status, self.t0 + k * self.dt)
+            if k not in self._events:
+                return ex, ey, eth
         if k in self._fix_taken:
             self.fixes[k] = self.sensors.fix(k, truth)
         j = self._fix_delivered.get(k)

@@ -270,6 +270,7 @@ class SensorModel:
         encoder_phase: (2,) left and right encoder phase at start [counts], in [0, 1).
         gyro_bias: (n_periods,) gyroscope bias per period [rad/s].
         gyro_white: (n_periods,) gyroscope white noise per period [rad/s].
+        gyro_error: (n_periods,) their sum, the gyroscope's error per period [rad/s].
         accel_bias: (3,) accelerometer bias [m/s^2].
         accel_white: (n_periods, 3) accelerometer white noise per period [m/s^2].
         fix_periods: (M,) periods at which fixes are measured.
@@ -335,7 +336,8 @@ class SensorModel:
         self.fix_delivery_periods = _readonly(self.fix_periods + self.fix_latency_periods)
         scale = np.array([p.fix_position_std, p.fix_position_std, p.fix_heading_std])
         self.fix_noise = _readonly(rng["fix"].standard_normal((len(self.fix_periods), 3)) * scale)
-        self._gyro_error = (self.gyro_bias + self.gyro_white).tolist()
+        self.gyro_error = _readonly(self.gyro_bias + self.gyro_white)
+        self._gyro_error = self.gyro_error.tolist()
         self._accel_error = _readonly(self.accel_bias + self.accel_white)
         self._counts_per_turn = p.encoder_cpr / (2.0 * math.pi)
 

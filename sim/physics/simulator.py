@@ -55,16 +55,19 @@ def yaw_from_quat(w: float, x: float, y: float, z: float) -> float:
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
-#: Indices into a run's sensor address array (see :func:`_sample`).
-ADR_CONTACT, ADR_POS, ADR_QUAT, ADR_TOUCH_L, ADR_TOUCH_R = range(5)
+#: Indices into a run's sensor address array (see :func:`_sample`), then the log's next row.
+ADR_CONTACT, ADR_POS, ADR_QUAT, ADR_TOUCH_L, ADR_TOUCH_R, NEXT_ROW = range(6)
 
 
 @nb.njit(cache=True)
 def _sample(
-    log: FloatArray, i: int, time: float, qpos: FloatArray, qvel: FloatArray, sdata: FloatArray, adr: IntArray
+    time: float, log: FloatArray, qpos: FloatArray, qvel: FloatArray, sdata: FloatArray, adr: IntArray
 ) -> tuple[bool, float, float, float]:  # pragma: no cover - compiled
-    """Row i of a run's log [time, a wheel off the floor (1/0), qpos, qvel]; returns (the obstacle contact
-    sensor fired, pose x, y, theta from the pose sensors). A touch sensor address < 0: none."""
+    """The next row of a run's log (``adr[NEXT_ROW]``, counted up) [time, a wheel off the floor (1/0),
+    qpos, qvel]; returns (the obstacle contact sensor fired, pose x, y, theta from the pose sensors).
+    A touch sensor address < 0: none."""
+    i = adr[NEXT_ROW]
+    adr[NEXT_ROW] = i + 1
     row, nq = log[i], qpos.shape[0]
     row[0] = time
     tl, tr = adr[ADR_TOUCH_L], adr[ADR_TOUCH_R]
@@ -298,33 +301,37 @@ class Simulator:
         schedule, d = recorder.schedule, recorder.data
         n_ctrl, t0, dt_ctrl = schedule.n_ctrl, recorder.t0, schedule.dt_ctrl
         commands = recorder.commands
-        command, wheel_speeds = tracker.command, drive.wheel_speeds
-        advance, isfinite = PeriodPhysics(self, recorder).advance, math.isfinite
-        every = max(1, -(-n_ctrl // PROGRESS_UPDATES)) if progress is not None else n_ctrl + 1
+        command, write = tracker.command, drive.command_writer(commands)
+        advance = PeriodPhysics(self, recorder).advance
+        every = max(1, -(-n_ctrl // PROGRESS_UPDATES))
+        report = every if progress is not None else -1  # the next period that reports progress
         if progress is not None:
             progress(0, n_ctrl)
+        observe = sensing.observe if sensing is not None else None
+        firmware = recorder.balance
         pose = recorder.pose  # the pose sensors at the last sample
         for k in range(n_ctrl):
-            if k % every == 0 and k and progress is not None:
+            if k == report and progress is not None:
                 progress(k, n_ctrl)
-            x, y, th = pose
-            if sensing is not None:
+                report += every
+            if observe is not None:
                 try:
-                    x, y, th = sensing.observe(k, d, pose)
+                    x, y, th = observe(k, d, pose)
                 except EstimatorDivergedError as exc:
+                    assert sensing is not None
                     sensing.diverged(exc)
                     break
+            else:
+                x, y, th = pose
             if noise is not None:
                 x, y, th = x + noise[k, 0], y + noise[k, 1], th + noise[k, 2]
             v, w = command(t0 + k * dt_ctrl, x, y, th)
-            if not (isfinite(v) and isfinite(w)):
+            if not write(k + 1, v, w):  # commands[k + 1] = [v, w, left, right], if finite
                 raise SimulationError(
                     f"tracker {tracker.name!r} returned a non-finite command ({v}, {w}) at t={d.time:.3f} s"
                 )
-            left, right = wheel_speeds(v, w)
-            commands[k + 1] = (v, w, left, right)
             pose = advance(k)
-            if recorder.balance is not None and recorder.balance.fell_at is not None:
+            if firmware is not None and firmware.fell_at is not None:
                 break  # the robot fell: the run ends here (its status says when)
         if progress is not None:
             progress(n_ctrl, n_ctrl)
@@ -340,7 +347,15 @@ class PeriodPhysics:
     Args:
         simulator: The simulator (wheel joints and actuators, motor firmware).
         recorder: The run's buffers; its ``wheel_command`` row ``k + 1`` holds period k's command.
+
+    Attributes:
+        advance: ``advance(k)`` steps control period ``k``: the wheel command in force is taken up as it
+            arrives (after the latency, if any) at each firmware update; returns the pose the pose
+            sensors read at the period's last log sample [m, m, rad]. A closure with the run's
+            constants bound (called every period, it looks nothing up).
     """
+
+    advance: Callable[[int], tuple[float, float, float]]
 
     def __init__(self, simulator: Simulator, recorder: Recorder) -> None:
         m = recorder.model
@@ -349,27 +364,35 @@ class PeriodPhysics:
             self._firmware = recorder.balance.drive
             k_fw = recorder.balance.steps
         else:  # every k_fw steps from the start of the run
-            self._firmware = simulator.motors.loop().drive
+            self._firmware = simulator.motors.loop().driver()
             k_fw = simulator.motors.steps_per_update(m.opt.timestep)
-        self._plans = recorder.schedule.plan(k_fw)
+        plans = recorder.schedule.plan(k_fw)
         # qvel and ctrl indices of the left and right wheel
-        self._wiring = np.array([simulator.wheel_dofs, [simulator._act_l, simulator._act_r]], dtype=np.int64)
+        wiring = np.array([simulator.wheel_dofs, [simulator._act_l, simulator._act_r]], dtype=np.int64)
+        self.advance = self._stepper(recorder, self._firmware, plans, wiring)
 
-    def advance(self, k: int) -> tuple[float, float, float]:
-        """Step control period ``k``: the wheel command in force is taken up as it arrives (after the
-        latency, if any) at each firmware update; returns the pose the pose sensors read at the
-        period's last log sample [m, m, rad]."""
-        rec = self._recorder
-        m, d, wcmd, firmware, wiring = rec.model, rec.data, rec.wheel_command, self._firmware, self._wiring
+    @staticmethod
+    def _stepper(
+        rec: Recorder,
+        firmware: Callable[..., None],
+        plans: tuple[tuple[tuple[bool, int, int, bool], ...], ...],
+        wiring: IntArray,
+    ) -> Callable[[int], tuple[float, float, float]]:
+        """The :attr:`advance` of a run."""
+        m, d, wcmd, sample, n_plans = rec.model, rec.data, rec.wheel_command, rec.sample, len(plans)
         qvel, ctrl, step = d.qvel, d.ctrl, mujoco.mj_step
-        pose = rec.pose
-        for update, src, n, log in self._plans[k % len(self._plans)]:
-            if update:  # the wheel command in force: the last computed at or before now - latency
-                firmware(wcmd, k + src if k + src > 0 else 0, qvel, ctrl, wiring)
-            step(m, d, n)  # nstep, passed by position (a keyword costs a pybind11 lookup)
-            if log:
-                pose = rec.sample()
-        return pose
+
+        def advance(k: int) -> tuple[float, float, float]:
+            pose = rec.pose
+            for update, src, n, log in plans[k % n_plans]:
+                if update:  # the wheel command in force: row k + src (the last computed at or before now - latency)
+                    firmware(wcmd, k + src, qvel, ctrl, wiring)  # a row < 0 (latency, at the start) reads row 0
+                step(m, d, n)  # nstep, passed by position (a keyword costs a pybind11 lookup)
+                if log:
+                    pose = sample()
+            return pose
+
+        return advance
 
 
 @dataclass(frozen=True)
@@ -477,9 +500,9 @@ class Recorder:
         self._has_touch = len(touch) == 2
         adr = [int(model.sensor_adr[model.sensor(n).id]) for n in ("obstacle_contact", "base_pos", "base_quat")]
         adr += [int(model.sensor_adr[model.sensor(n).id]) for n in touch] if self._has_touch else [-1, -1]
-        self._adr = np.array(adr, dtype=np.int64)
-        self._i = 1
-        _, x, y, th = _sample(self._log, 0, data.time, self._qpos, self._qvel, self._sdata, self._adr)
+        self._adr = np.array([*adr, 0], dtype=np.int64)  # and the next row of the log
+        self._bound = (self._log, self._qpos, self._qvel, self._sdata, self._adr)
+        _, x, y, th = _sample(data.time, *self._bound)
         self.pose = (x, y, th)  # the pose sensors' pose at the start
 
     def sample(self) -> tuple[float, float, float]:
@@ -489,13 +512,11 @@ class Recorder:
         Returns:
             The pose (x, y, theta) [m, m, rad] the pose sensors read now (as :meth:`Simulator.read_pose`).
         """
-        i = self._i
-        contact, x, y, th = _sample(self._log, i, self.data.time, self._qpos, self._qvel, self._sdata, self._adr)
-        self._i = i + 1
+        contact, x, y, th = _sample(self.data.time, *self._bound)
         if contact or self._touching:
             self._contact_check()
-        self.pose = (x, y, th)
-        return self.pose
+        pose = self.pose = (x, y, th)
+        return pose
 
     def _contact_check(self) -> None:
         d = self.data
@@ -517,7 +538,7 @@ class Recorder:
     def to_log(self, trajectory: Trajectory, meta: dict[str, Any], sensing: Sensing | None = None) -> RunLog:
         """The run's log: true poses at the logged times, the commands in force, the reference, and
         what the estimator believed (a run that ended early is cut where it ended)."""
-        sim, n = self.simulator, self._i
+        sim, n = self.simulator, int(self._adr[NEXT_ROW])
         qpos = self.qpos[:n]
         t_log = self.t0 + self.times[:n]
         # The log records the true state at the logged time (qpos after the step); the tracker saw
