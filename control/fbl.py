@@ -84,7 +84,7 @@ class FBLGains:
 
 
 @nb.njit(cache=True)
-def _law(
+def fbl_law_kernel(
     kp: float,
     kd: float,
     xi_min: float,
@@ -99,7 +99,7 @@ def _law(
     ddxd: float,
     ddyd: float,
 ) -> tuple[float, float]:  # pragma: no cover - compiled
-    """:func:`fbl_law`, compiled, with the gains and the reference as numbers."""
+    """:func:`fbl_law` with the gains and the reference as numbers (compiled, for compiled callers)."""
     c, s = math.cos(theta), math.sin(theta)
     w1 = ddxd - kp * (x - xd) - kd * (xi * c - dxd)
     w2 = ddyd - kp * (y - yd) - kd * (xi * s - dyd)
@@ -131,7 +131,7 @@ def fbl_law(
     Returns:
         (xi_dot [m/s^2], omega [rad/s]), before saturation.
     """
-    return _law(gains.kp, gains.kd, gains.xi_min, x, y, theta, xi, *ref)
+    return fbl_law_kernel(gains.kp, gains.kd, gains.xi_min, x, y, theta, xi, *ref)
 
 
 #: Slots of a tracker's state array (:func:`_step`): xi [m/s], then its constants: Kp, Kd, xi_min,
@@ -157,7 +157,7 @@ def _step(
     """One period of the tracker on its state ``st`` for a reference: the saturated command (v, omega),
     xi advanced by one period (see :meth:`DynamicFBL.command`)."""
     xi = st[XI]
-    xi_dot, omega = _law(st[KP], st[KD], st[XI_MIN], x, y, theta, xi, xd, yd, dxd, dyd, ddxd, ddyd)
+    xi_dot, omega = fbl_law_kernel(st[KP], st[KD], st[XI_MIN], x, y, theta, xi, xd, yd, dxd, dyd, ddxd, ddyd)
     vmax, wmax, dt = st[VMAX], st[WMAX], st[DT]
     v = xi + 0.5 * xi_dot * dt
     v = -vmax if v < -vmax else (vmax if v > vmax else v)

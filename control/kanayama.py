@@ -27,7 +27,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numba as nb
+
 from control.base import check_ranges, option_value, ranged
+from control.estimation.kernels import wrap
 from control.segmented import SegmentedParams, SegmentSwitcher, _Instant
 from planning.core.robot import RobotSpec
 
@@ -52,6 +55,30 @@ class KanayamaParams:
         check_ranges(self)
 
 
+@nb.njit(cache=True)
+def _law(
+    kx: float,
+    ky: float,
+    ktheta: float,
+    x: float,
+    y: float,
+    theta: float,
+    xr: float,
+    yr: float,
+    thr: float,
+    vr: float,
+    wr: float,
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    """:func:`kanayama_law` with the gains and the reference as numbers, compiled."""
+    c, s = math.cos(theta), math.sin(theta)
+    dx, dy = xr - x, yr - y
+    ex, ey = c * dx + s * dy, -s * dx + c * dy
+    eth = wrap(thr - theta)
+    v = vr * math.cos(eth) + kx * ex
+    omega = wr + vr * ky * ey + abs(vr) * ktheta * math.sin(eth)
+    return v, omega
+
+
 def kanayama_law(params: KanayamaParams, x: float, y: float, theta: float, ref: Sequence[Any]) -> tuple[float, float]:
     """Kanayama's command for a pose and a reference (see the module doc).
 
@@ -66,14 +93,7 @@ def kanayama_law(params: KanayamaParams, x: float, y: float, theta: float, ref: 
     Returns:
         (v [m/s], omega [rad/s]), before saturation.
     """
-    xr, yr, thr, vr, wr = ref[0], ref[1], ref[2], ref[3], ref[4]
-    c, s = math.cos(theta), math.sin(theta)
-    dx, dy = xr - x, yr - y
-    ex, ey = c * dx + s * dy, -s * dx + c * dy
-    eth = math.remainder(thr - theta, 2.0 * math.pi)
-    v = vr * math.cos(eth) + params.kx * ex
-    omega = wr + vr * params.ky * ey + abs(vr) * params.ktheta * math.sin(eth)
-    return v, omega
+    return _law(params.kx, params.ky, params.ktheta, x, y, theta, ref[0], ref[1], ref[2], ref[3], ref[4])
 
 
 class KanayamaTracker(SegmentSwitcher):
@@ -106,5 +126,6 @@ class KanayamaTracker(SegmentSwitcher):
 
     def _drive(self, x: float, y: float, theta: float, ref: _Instant, sgn: float, k: int) -> tuple[float, float]:
         """Kanayama's law along a drive, its speed kept on the drive's side of zero."""
-        v, w = kanayama_law(self.params, x, y, theta, ref)
+        p = self.params
+        v, w = _law(p.kx, p.ky, p.ktheta, x, y, theta, ref.x, ref.y, ref.theta, ref.v, ref.omega)
         return sgn * max(sgn * v, 0.0), w

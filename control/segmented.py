@@ -27,10 +27,13 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
+import numba as nb
 import numpy as np
+from numpy.typing import NDArray
 
 from control.base import check_measured_pose, check_period, check_positive_fields, option_value
-from control.fbl import FBLGains, FlatReference, fbl_law, flat_references
+from control.estimation.kernels import wrap
+from control.fbl import FBLGains, FlatReference, fbl_law_kernel, flat_references
 from planning.core.robot import RobotSpec
 from planning.trajectory.segments import infer_segments
 from planning.trajectory.trajectory import Trajectory
@@ -160,16 +163,18 @@ class SegmentSwitcher:
         """
         if self._traj is None:
             raise RuntimeError(f"{type(self).__name__}.command called before reset")
-        check_measured_pose(self.name, t, x, y, theta)
+        if not math.isfinite(t + x + y + theta):
+            check_measured_pose(self.name, t, x, y, theta)  # raises
         k = round((t - self._t0) / self._dt)
         if k >= len(self._instants):
             v, w = self._regulate(x, y, theta, self._final, 0.0)
             self._idle()
         else:
-            ref = self._instants[k if k > 0 else 0]
+            k = k if k > 0 else 0
+            ref = self._instants[k]
             sgn = self._signs[ref.segment]
             if sgn != 0.0:
-                v, w = self._drive(x, y, theta, ref, sgn, k if k > 0 else 0)
+                v, w = self._drive(x, y, theta, ref, sgn, k)
             else:
                 rotate = self._kinds[ref.segment] == "rotate"
                 v, w = self._regulate(x, y, theta, (ref.x, ref.y, ref.theta), ref.omega if rotate else 0.0)
@@ -179,6 +184,37 @@ class SegmentSwitcher:
             v, w = 0.0, 0.0
         vmax, wmax = self._vmax, self._wmax
         return (-vmax if v < -vmax else (vmax if v > vmax else v)), (-wmax if w < -wmax else (wmax if w > wmax else w))
+
+
+@nb.njit(cache=True)
+def _drive_step(
+    c: NDArray[np.float64],
+    xi: float,
+    x: float,
+    y: float,
+    theta: float,
+    ref_theta: float,
+    ref_omega: float,
+    sgn: float,
+    xd: float,
+    yd: float,
+    dxd: float,
+    dyd: float,
+    ddxd: float,
+    ddyd: float,
+) -> tuple[float, float, float]:  # pragma: no cover - compiled
+    """:meth:`SegmentedTracker._drive` after a drive's start, compiled: (v, omega, the next xi) for the
+    constants ``c`` (Kp, Kd, xi_min, the speed limit, the period, xi_blend, the heading gain)."""
+    xi_dot, w_fbl = fbl_law_kernel(c[0], c[1], c[2], x, y, theta, xi, xd, yd, dxd, dyd, ddxd, ddyd)
+    dt = c[4]
+    v = xi + 0.5 * xi_dot * dt
+    xi = sgn * min(max(sgn * (xi + xi_dot * dt), 1e-6), c[3])
+    alpha = min(abs(xi) / c[5], 1.0)
+    if alpha < 1.0:
+        w = alpha * w_fbl + (1.0 - alpha) * (ref_omega + c[6] * wrap(ref_theta - theta))
+    else:
+        w = w_fbl
+    return sgn * max(sgn * v, 0.0), w, xi
 
 
 class SegmentedTracker(SegmentSwitcher):
@@ -209,24 +245,23 @@ class SegmentedTracker(SegmentSwitcher):
         self.gains = option_value(self.name, "gains", gains, FBLGains())
         self.params = option_value(self.name, "params", params, SegmentedParams())
         self.xi = 0.0
+        self._consts = np.zeros(7)  # for _drive_step, set at reset
         super().__init__(robot, self.params)
 
     def _idle(self) -> None:
         self.xi = 0.0
 
+    def reset(self, trajectory: Trajectory, dt: float) -> None:
+        """Start tracking (see :meth:`SegmentSwitcher.reset`); the gains and parameters are taken as
+        they are now."""
+        super().reset(trajectory, dt)
+        g, p = self.gains, self.params
+        self._consts = np.array([g.kp, g.kd, g.xi_min, self.robot.max_speed, self._dt, p.xi_blend, p.heading_gain])
+
     def _drive(self, x: float, y: float, theta: float, ref: _Instant, sgn: float, k: int) -> tuple[float, float]:
         """FBL along a drive of direction ``sgn`` (+1 forwards, -1 backwards): (v, omega) before clamping;
-        advances xi by one period, keeping it on the drive's side of zero."""
+        advances xi by one period, keeping it on the drive's side of zero (compiled: :func:`_drive_step`)."""
         if ref.segment != self.segment:
             self.xi = sgn * max(abs(ref.v) if ref.v * sgn > 0 else 0.0, 1e-6)
-        xi_dot, w_fbl = fbl_law(self.gains, x, y, theta, self.xi, ref.flat)
-        dt = self._dt
-        v = self.xi + 0.5 * xi_dot * dt
-        self.xi = sgn * min(max(sgn * (self.xi + xi_dot * dt), 1e-6), self.robot.max_speed)
-        alpha = min(abs(self.xi) / self.params.xi_blend, 1.0)
-        if alpha < 1.0:
-            err = math.remainder(ref.theta - theta, 2.0 * math.pi)
-            w = alpha * w_fbl + (1.0 - alpha) * (ref.omega + self.params.heading_gain * err)
-        else:
-            w = w_fbl
-        return sgn * max(sgn * v, 0.0), w
+        v, w, self.xi = _drive_step(self._consts, self.xi, x, y, theta, ref.theta, ref.omega, sgn, *ref.flat)
+        return v, w

@@ -359,17 +359,17 @@ class PeriodPhysics:
 
     def __init__(self, simulator: Simulator, recorder: Recorder) -> None:
         m = recorder.model
-        self._recorder = recorder
+        firmware: Callable[[FloatArray, int, FloatArray, FloatArray, IntArray], None]
         if recorder.balance is not None:  # the balance loop drives the voltages at its own rate
-            self._firmware = recorder.balance.drive
+            firmware = recorder.balance.drive
             k_fw = recorder.balance.steps
         else:  # every k_fw steps from the start of the run
-            self._firmware = simulator.motors.loop().driver()
+            firmware = simulator.motors.loop().driver()
             k_fw = simulator.motors.steps_per_update(m.opt.timestep)
         plans = recorder.schedule.plan(k_fw)
         # qvel and ctrl indices of the left and right wheel
         wiring = np.array([simulator.wheel_dofs, [simulator._act_l, simulator._act_r]], dtype=np.int64)
-        self.advance = self._stepper(recorder, self._firmware, plans, wiring)
+        self.advance = self._stepper(recorder, firmware, plans, wiring)
 
     @staticmethod
     def _stepper(
