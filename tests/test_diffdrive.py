@@ -17,6 +17,18 @@ def test_wheel_speeds_are_scaled_keeping_curvature() -> None:
     assert d.wheel_speeds(0.1, 0.2) == pytest.approx(((0.1 - 0.016) / 0.033, (0.1 + 0.016) / 0.033))
 
 
+def test_commands_are_written_with_their_wheel_speeds_and_only_when_finite() -> None:
+    d = DiffDrive(0.033, 0.16, 6.67)
+    table = np.zeros((3, 4))
+    write = d.command_writer(table)
+    for v, w in [(0.1, 0.2), (0.5, 3.0), (-0.2, -1.0)]:
+        assert d.command_into(table, 1, v, w) and table[1].tolist() == [v, w, *d.wheel_speeds(v, w)]
+        assert write(2, v, w) and np.array_equal(table[2], table[1])
+    for v, w in [(float("nan"), 0.0), (0.1, float("inf"))]:
+        assert not d.command_into(table, 0, v, w) and not write(0, v, w)
+    assert not table[0].any()  # a refused command writes nothing
+
+
 def test_diffdrive_validates() -> None:
     with pytest.raises(ValueError, match="wheel_radius"):
         DiffDrive(0.0, 0.1, 1.0)

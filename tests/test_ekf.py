@@ -106,10 +106,12 @@ def test_bad_calls_raise() -> None:
         est.reset(0.0, (0.0, 0.0, 0.0), np.eye(2))
     est.reset(0.0, (0.0, 0.0, 0.0))
     est.predict(0.02, 0.1, 0.1, 0.0)
+    state = est.state
     with pytest.raises(EstimatorInputError, match="increase"):
         est.predict(0.02, 0.1, 0.1, 0.0)
     with pytest.raises(EstimatorInputError, match="non-finite"):
         est.predict(0.04, math.nan, 0.1, 0.0)
+    assert est.t == 0.02 and np.array_equal(est.state, state)  # a refused reading changes nothing
     with pytest.raises(EstimatorInputError, match="gyro_z"):
         est.predict(0.04, 0.1, 0.1)
     with pytest.raises(EstimatorInputError, match="after the last predict"):

@@ -91,6 +91,30 @@ def test_singularity_guard_keeps_commands_finite_and_saturated() -> None:
     assert math.isfinite(xi_dot) and math.isfinite(omega)
 
 
+def _python_period(tracker: DynamicFBL, dt: float, pose: tuple[float, float, float], ref: tuple) -> tuple:
+    """One period of the module doc's law in plain Python: (v, omega, next xi)."""
+    xi_dot, omega = fbl_law(tracker.gains, *pose, tracker.xi, ref)
+    vmax, wmax = tracker.robot.max_speed, tracker.robot.max_yaw_rate
+    v = min(max(tracker.xi + 0.5 * xi_dot * dt, -vmax), vmax)
+    return v, min(max(omega, -wmax), wmax), min(max(tracker.xi + xi_dot * dt, -vmax), vmax)
+
+
+def test_a_period_is_the_law_at_and_between_control_instants() -> None:
+    """The compiled period gives the law's saturated command and xi, bit for bit, on the pre-sampled
+    reference at a control instant and on the interpolated reference between them."""
+    robot = load_robot("turtlebot3")
+    ref = figure8(robot, Pose2D(0.3, -0.2, 0.4))
+    tracker = DynamicFBL(robot, gains=FBLGains(kp=5.0, kd=3.0))
+    dt = 0.02
+    tracker.reset(ref, dt)
+    rng = np.random.default_rng(3)
+    for t in [0.0, 0.02, 1.0, 3.37, 7.001, 12.5, ref.duration + 0.5]:
+        pose = (float(ref.sample(t).pose[0] + rng.normal(0, 0.05)), float(ref.sample(t).pose[1]), 0.3)
+        s = ref.sample_many(np.array([t]))
+        expected = _python_period(tracker, dt, pose, (s.x[0], s.y[0], s.dx[0], s.dy[0], s.ddx[0], s.ddy[0]))
+        assert (*tracker.command(t, *pose), tracker.xi) == expected, t
+
+
 @pytest.mark.parametrize("bad", [0.0, -1.0, float("nan"), float("inf"), True])
 def test_gains_reject_non_positive_and_non_finite(bad: float) -> None:
     with pytest.raises(ConfigError, match="kp"):
