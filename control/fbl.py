@@ -137,6 +137,8 @@ def fbl_law(
 #: Slots of a tracker's state array (:func:`_step`): xi [m/s], then its constants: Kp, Kd, xi_min,
 #: the speed and yaw-rate limits, the control period [s] and the trajectory's start time [s].
 XI, KP, KD, XI_MIN, VMAX, WMAX, DT, T0 = range(8)
+#: Rows of a tracker's block before its reference table (the state, flat in their 12 slots).
+STATE_ROWS = 2
 #: :func:`_period`'s status: a command; a non-finite time or pose; a time off the control instants.
 OK, BAD_POSE, OFF_GRID = range(3)
 
@@ -168,16 +170,18 @@ def _step(
 
 @nb.njit(cache=True)
 def _period(
-    t: float, x: float, y: float, theta: float, table: NDArray[np.float64], st: NDArray[np.float64]
+    t: float, x: float, y: float, theta: float, block: NDArray[np.float64]
 ) -> tuple[int, float, float]:  # pragma: no cover - compiled
-    """:meth:`DynamicFBL.command` at a control instant, its reference read from row k of ``table``
-    (M, 6): (OK, v, omega); (BAD_POSE or OFF_GRID, nan, nan) changing nothing."""
+    """:meth:`DynamicFBL.command` at a control instant on a tracker's block (the state in its first
+    :data:`STATE_ROWS` rows, then the reference at control instant k in row STATE_ROWS + k, (M, 6)):
+    (OK, v, omega); (BAD_POSE or OFF_GRID, nan, nan) changing nothing."""
     if not math.isfinite(t + x + y + theta):
         return BAD_POSE, math.nan, math.nan
+    st = block[:STATE_ROWS].reshape(-1)
     k = round((t - st[T0]) / st[DT])
-    if not (0 <= k < table.shape[0] and abs(st[T0] + k * st[DT] - t) < 1e-9):
+    if not (0 <= k < block.shape[0] - STATE_ROWS and abs(st[T0] + k * st[DT] - t) < 1e-9):
         return OFF_GRID, math.nan, math.nan
-    r = table[k]
+    r = block[STATE_ROWS + k]
     v, omega = _step(st, x, y, theta, r[0], r[1], r[2], r[3], r[4], r[5])
     return OK, v, omega
 
@@ -207,8 +211,10 @@ class DynamicFBL:
         self.robot = robot
         self.gains = option_value(self.name, "gains", gains, FBLGains())
         self._traj: Trajectory | None = None
-        self._state = np.zeros(8)  # xi and the constants (XI .. T0), set at reset
-        self._table = np.zeros((0, 6))  # the law's reference at the control instants
+        # xi and the constants (XI .. T0, set at reset) in the first rows, then the law's reference at the
+        # control instants
+        self._block = np.zeros((STATE_ROWS, 6))
+        self._state = self._block[:STATE_ROWS].reshape(-1)
 
     @property
     def xi(self) -> float:
@@ -231,9 +237,10 @@ class DynamicFBL:
         t0 = float(trajectory.t[0])
         n = math.ceil(trajectory.duration / dt) + 2
         s = trajectory.sample_many(t0 + dt * np.arange(n))
-        self._table = np.column_stack([s.x, s.y, s.dx, s.dy, s.ddx, s.ddy])
+        self._block = np.vstack([np.zeros((STATE_ROWS, 6)), np.column_stack([s.x, s.y, s.dx, s.dy, s.ddx, s.ddy])])
+        self._state = self._block[:STATE_ROWS].reshape(-1)
         g, r = self.gains, self.robot
-        self._state[:] = (trajectory.vel[0, 0], g.kp, g.kd, g.xi_min, r.max_speed, r.max_yaw_rate, dt, t0)
+        self._state[:8] = (trajectory.vel[0, 0], g.kp, g.kd, g.xi_min, r.max_speed, r.max_yaw_rate, dt, t0)
 
     def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
         """Body command for the period starting at ``t``; advances xi by one period.
@@ -244,7 +251,7 @@ class DynamicFBL:
         Raises:
             SimulationError: ``t`` or the pose is not finite.
         """
-        status, v, omega = _period(t, x, y, theta, self._table, self._state)
+        status, v, omega = _period(t, x, y, theta, self._block)
         if status == OK:
             return v, omega
         check_measured_pose(self.name, t, x, y, theta)  # raises for BAD_POSE

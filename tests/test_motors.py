@@ -107,16 +107,19 @@ def test_driving_in_place_is_a_call() -> None:
     touches nothing else."""
     motor = _motor("turtlebot3")
     called, driven, bound = motor.loop(), motor.loop(), motor.loop()
-    driver = bound.driver()  # the frameless form the simulator calls
     rng = np.random.default_rng(5)
     commands = rng.uniform(-8, 8, (40, 2))
     dofs, acts = [6, 7], [1, 0]  # actuators swapped
     wiring = np.array([dofs, acts], dtype=np.int64)
+    qvel, ctrl_bound = np.zeros(9), np.full(3, np.nan)
+    update = bound.driver(commands, qvel, ctrl_bound, wiring)  # the frameless form the simulator calls
+    with pytest.raises(ConfigError, match="wiring"):
+        motor.loop().driver(commands, qvel, ctrl_bound, wiring[:, :1])
     for row in range(-2, commands.shape[0]):  # a row < 0 (latency, at the start) reads row 0
-        qvel, ctrl, ctrl_bound = rng.uniform(-8, 8, 9), np.full(3, np.nan), np.full(3, np.nan)
+        qvel[:], ctrl, ctrl_bound[:] = rng.uniform(-8, 8, 9), np.full(3, np.nan), np.nan
         volts = called(commands[max(row, 0)], qvel[dofs])
         driven.drive(commands, row, qvel, ctrl, wiring)
-        driver(commands, row, qvel, ctrl_bound, wiring)
+        update(row)
         assert ctrl[1] == volts[0] and ctrl[0] == volts[1] and np.isnan(ctrl[2])
         assert np.array_equal(ctrl_bound, ctrl, equal_nan=True)
         assert np.array_equal(driven.integral, called.integral)

@@ -277,11 +277,24 @@ def _update(
 def _drive(
     state: FloatArray, commands: FloatArray, row: int, qvel: FloatArray, ctrl: FloatArray, wiring: IntArray
 ) -> None:  # pragma: no cover - compiled
-    n = len(state) - 4  # state: the n integrators, then kff, kp, ki T, V_batt
+    n = (len(state) - 4) // 3  # state: the n integrators, kff, kp, ki T, V_batt, then the wiring's 2n slots
     kff, kp, ki_t, vb = state[n], state[n + 1], state[n + 2], state[n + 3]
     row = max(row, 0)
     for i in range(n):
         state[i], ctrl[wiring[1, i]] = _wheel(state[i], commands[row, i], qvel[wiring[0, i]], kff, kp, ki_t, vb)
+
+
+@nb.njit(cache=True)
+def _drive_wired(
+    state: FloatArray, commands: FloatArray, qvel: FloatArray, ctrl: FloatArray, row: int
+) -> None:  # pragma: no cover - compiled
+    """:func:`_drive` with the wiring read from the state (a compiled call takes one array fewer)."""
+    n = (len(state) - 4) // 3
+    kff, kp, ki_t, vb = state[n], state[n + 1], state[n + 2], state[n + 3]
+    row = max(row, 0)
+    for i in range(n):
+        dof, act = int(state[n + 4 + i]), int(state[n + 4 + n + i])
+        state[i], ctrl[act] = _wheel(state[i], commands[row, i], qvel[dof], kff, kp, ki_t, vb)
 
 
 class VelocityLoop:
@@ -296,7 +309,8 @@ class VelocityLoop:
     def __init__(self, motor: MotorModel, wheels: int = 2) -> None:
         self.motor = motor
         self._gains = (motor.kff, motor.kp, motor.ki * motor.period, motor.battery_voltage)
-        self._state = np.array([0.0] * wheels + list(self._gains))  # the integrators, then the gains
+        # the integrators, the gains, then the wiring (dofs, actuators) of a driver
+        self._state = np.array([0.0] * wheels + list(self._gains) + [-1.0] * (2 * wheels))
         self.integral = self._state[:wheels]
 
     def reset(self) -> None:
@@ -339,7 +353,19 @@ class VelocityLoop:
         """
         _drive(self._state, commands, row, qvel, ctrl, wiring)
 
-    def driver(self) -> Callable[[FloatArray, int, FloatArray, FloatArray, IntArray], None]:
-        """:meth:`drive` as a callable without a Python frame of its own (the compiled update bound to
-        this loop's state), for a control loop that calls it every firmware period."""
-        return functools.partial(_drive, self._state)
+    def driver(
+        self, commands: FloatArray, qvel: FloatArray, ctrl: FloatArray, wiring: IntArray
+    ) -> Callable[[int], None]:
+        """:meth:`drive` bound to a run's arrays: ``update(row)``, without a Python frame of its own
+        (the compiled update with this loop's state, the wiring inside it), for a control loop that
+        calls it every firmware period.
+
+        Raises:
+            ConfigError: ``wiring`` is not (2, wheels).
+        """
+        n = self.integral.shape[0]
+        w = np.asarray(wiring)
+        if w.shape != (2, n):
+            raise ConfigError(f"motor loop: wiring {w.shape} must be (2, {n}): the wheels' dofs, then their actuators")
+        self._state[n + 4 :] = w.reshape(-1)
+        return functools.partial(_drive_wired, self._state, commands, qvel, ctrl)

@@ -43,8 +43,9 @@ TWO_PI = 2.0 * math.pi
 
 #: Slots of a run's reading state (:func:`_read_and_predict`): the last encoder counts and true
 #: heading, then constants: time of period 0 [s], the period [s], counts per radian, the encoders'
-#: phases [counts], radians per count, and the encoders' addresses in ``MjData.sensordata``.
-COUNTS_L, COUNTS_R, YAW, T0, DT, PER_RAD, PHASE_L, PHASE_R, RAD_PER_COUNT, ENC_L, ENC_R = range(11)
+#: phases [counts], radians per count, and the encoders' addresses in ``MjData.sensordata``; the
+#: gyro's error at each period follows, from slot :data:`GYRO_ERROR`.
+COUNTS_L, COUNTS_R, YAW, T0, DT, PER_RAD, PHASE_L, PHASE_R, RAD_PER_COUNT, ENC_L, ENC_R, GYRO_ERROR = range(12)
 
 
 @nb.njit(cache=True)
@@ -56,12 +57,11 @@ def _read_and_predict(
     mem: FloatArray,
     sdata: FloatArray,
     io: FloatArray,
-    gyro_error: FloatArray,
     trace: FloatArray,
 ) -> tuple[int, float, float, float]:  # pragma: no cover - compiled
     """Period k >= 1 of :meth:`Sensing.observe` in one compiled call: log the true pose (x, y, th)
     [m, m, rad], read the encoders (quantised) and the gyro (the mean true yaw rate over the period
-    plus ``gyro_error[k]``), predict the estimator's block ``mem`` with them
+    plus its error ``io[GYRO_ERROR + k]``), predict the estimator's block ``mem`` with them
     (:func:`control.estimation.kernels.step`) and log its pose and variances. ``trace`` holds a
     run's true poses, estimates and variances by period, three columns each.
 
@@ -70,14 +70,14 @@ def _read_and_predict(
     """
     row = trace[k]
     row[0], row[1], row[2] = x, y, th
-    if k >= gyro_error.shape[0]:
+    if k >= io.shape[0] - GYRO_ERROR:
         return kernels.BAD_TIME, math.nan, math.nan, math.nan
     cl = math.floor(sdata[int(io[ENC_L])] * io[PER_RAD] + io[PHASE_L])
     cr = math.floor(sdata[int(io[ENC_R])] * io[PER_RAD] + io[PHASE_R])
     rate = kernels.wrap(th - io[YAW]) / io[DT]
     q = io[RAD_PER_COUNT]
     t = io[T0] + k * io[DT]
-    status = kernels.step(mem, t, (cl - io[COUNTS_L]) * q, (cr - io[COUNTS_R]) * q, rate + gyro_error[k])
+    status = kernels.step(mem, t, (cl - io[COUNTS_L]) * q, (cr - io[COUNTS_R]) * q, rate + io[GYRO_ERROR + k])
     io[COUNTS_L], io[COUNTS_R], io[YAW] = cl, cr, th
     if status != kernels.OK:
         return status, math.nan, math.nan, math.nan
@@ -184,9 +184,9 @@ class Sensing:
         self.status = "ok"
         self._k = -1
         # the compiled period's state and inputs (_read_and_predict), bound to the run's data at period 0
-        self._io = np.zeros(11)
-        self._io[T0:] = (t0, self.dt, setup.profile.encoder_cpr / TWO_PI, *self.sensors.encoder_phase,
-                         self._rad_per_count, self._enc_l, self._enc_r)  # fmt: skip
+        self._io = np.concatenate([np.zeros(GYRO_ERROR), self.sensors.gyro_error])
+        self._io[T0:GYRO_ERROR] = (t0, self.dt, setup.profile.encoder_cpr / TWO_PI, *self.sensors.encoder_phase,
+                                   self._rad_per_count, self._enc_l, self._enc_r)  # fmt: skip
         self._bound: tuple[FloatArray, ...] = ()
         self._data: mujoco.MjData | None = None
 
@@ -210,7 +210,7 @@ class Sensing:
             counts = self.sensors.encoder_counts(float(s[self._enc_l]), float(s[self._enc_r]))
             est.reset(self.t0, truth)
             self._io[COUNTS_L], self._io[COUNTS_R], self._io[YAW] = *counts, truth[2]
-            self._bound = (est.block, s, self._io, self.sensors.gyro_error, self._trace)
+            self._bound = (est.block, s, self._io, self._trace)
             self._data = data
         else:
             if data is not self._data:

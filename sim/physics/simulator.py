@@ -358,35 +358,34 @@ class PeriodPhysics:
     advance: Callable[[int], tuple[float, float, float]]
 
     def __init__(self, simulator: Simulator, recorder: Recorder) -> None:
-        m = recorder.model
-        firmware: Callable[[FloatArray, int, FloatArray, FloatArray, IntArray], None]
-        if recorder.balance is not None:  # the balance loop drives the voltages at its own rate
-            firmware = recorder.balance.drive
-            k_fw = recorder.balance.steps
-        else:  # every k_fw steps from the start of the run
-            firmware = simulator.motors.loop().driver()
-            k_fw = simulator.motors.steps_per_update(m.opt.timestep)
-        plans = recorder.schedule.plan(k_fw)
+        m, d, wcmd = recorder.model, recorder.data, recorder.wheel_command
+        qvel, ctrl = d.qvel, d.ctrl
         # qvel and ctrl indices of the left and right wheel
         wiring = np.array([simulator.wheel_dofs, [simulator._act_l, simulator._act_r]], dtype=np.int64)
-        self.advance = self._stepper(recorder, firmware, plans, wiring)
+        firmware: Callable[[int], None]  # update(row of the wheel command in force)
+        if (balance := recorder.balance) is not None:  # the balance loop drives the voltages at its own rate
+
+            def firmware(row: int) -> None:
+                balance.drive(wcmd, row, qvel, ctrl, wiring)
+
+            k_fw = balance.steps
+        else:  # every k_fw steps from the start of the run
+            firmware = simulator.motors.loop().driver(wcmd, qvel, ctrl, wiring)
+            k_fw = simulator.motors.steps_per_update(m.opt.timestep)
+        self.advance = self._stepper(recorder, firmware, recorder.schedule.plan(k_fw))
 
     @staticmethod
     def _stepper(
-        rec: Recorder,
-        firmware: Callable[..., None],
-        plans: tuple[tuple[tuple[bool, int, int, bool], ...], ...],
-        wiring: IntArray,
+        rec: Recorder, firmware: Callable[[int], None], plans: tuple[tuple[tuple[bool, int, int, bool], ...], ...]
     ) -> Callable[[int], tuple[float, float, float]]:
         """The :attr:`advance` of a run."""
-        m, d, wcmd, sample, n_plans = rec.model, rec.data, rec.wheel_command, rec.sample, len(plans)
-        qvel, ctrl, step = d.qvel, d.ctrl, mujoco.mj_step
+        m, d, sample, n_plans, step = rec.model, rec.data, rec.sample, len(plans), mujoco.mj_step
 
         def advance(k: int) -> tuple[float, float, float]:
             pose = rec.pose
             for update, src, n, log in plans[k % n_plans]:
                 if update:  # the wheel command in force: row k + src (the last computed at or before now - latency)
-                    firmware(wcmd, k + src, qvel, ctrl, wiring)  # a row < 0 (latency, at the start) reads row 0
+                    firmware(k + src)  # a row < 0 (latency, at the start) reads row 0
                 step(m, d, n)  # nstep, passed by position (a keyword costs a pybind11 lookup)
                 if log:
                     pose = sample()

@@ -32,5 +32,6 @@ def run(args: argparse.Namespace) -> int:
     print(f"closed-loop run      {r.closed_steps_per_s:>12,.0f} steps/s")
     print(f"ratio                {r.ratio:>12.3f}   (target >= {TARGET_RATIO})")
     print(f"ratio by CPU time    {r.cpu_ratio:>12.3f}   (the measuring thread's; without other processes' turns)")
+    print(f"median pair by CPU   {r.pair_median:>12.3f}   (of the {r.repeats} back-to-back pairs' ratios)")
     print(f"real-time factor     {r.real_time_factor:>12.1f}x  (simulated seconds per wall-clock second, closed loop)")
     return 0 if r.passed else 1

@@ -12,6 +12,8 @@ floor for 0.5 s of physics first), which both do alike. Target: ratio >= 0.8.
 
 from __future__ import annotations
 
+import math
+import statistics
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -34,6 +36,7 @@ class SimBench:
         closed_s: Best wall time of the closed loop [s].
         bare_cpu_s: Least CPU time of the bare loop's thread [s].
         closed_cpu_s: Least CPU time of the closed loop's thread [s].
+        pair_cpu_ratios: Each alternating pair's ratio by CPU time (bare over closed), in run order.
     """
 
     robot: str
@@ -46,6 +49,7 @@ class SimBench:
     closed_s: float
     bare_cpu_s: float
     closed_cpu_s: float
+    pair_cpu_ratios: tuple[float, ...] = ()
 
     @property
     def bare_steps_per_s(self) -> float:
@@ -68,6 +72,12 @@ class SimBench:
         without the time other processes held the core (on a loaded machine the wall clock's best of a
         few runs still includes some)."""
         return self.bare_cpu_s / self.closed_cpu_s
+
+    @property
+    def pair_median(self) -> float:
+        """The median of the pairs' ratios by CPU time: each pair's two loops ran back to back, so a
+        slow spell of the machine (another tenant, the clock) meets both loops of a pair alike."""
+        return statistics.median(self.pair_cpu_ratios) if self.pair_cpu_ratios else math.nan
 
     @property
     def real_time_factor(self) -> float:
@@ -146,6 +156,8 @@ def measure(
     pairs = [(bare(), closed()) for _ in range(repeats)]
     t_bare, c_bare = min(b[0] for b, _ in pairs), min(b[1] for b, _ in pairs)
     t_closed, c_closed = min(c[0] for _, c in pairs), min(c[1] for _, c in pairs)
+    pair_ratios = tuple(b[1] / c[1] for b, c in pairs)
     return SimBench(
-        spec.name, reference, cfg.control_rate, repeats, n_steps, traj.duration, t_bare, t_closed, c_bare, c_closed
-    )
+        spec.name, reference, cfg.control_rate, repeats, n_steps, traj.duration, t_bare, t_closed, c_bare, c_closed,
+        pair_ratios,
+    )  # fmt: skip
