@@ -94,6 +94,7 @@ class SegmentSwitcher:
         self.segment = -1
         self._instants: list[_Instant] = []
         self._path: np.ndarray = np.zeros((0, 3))  # (M, 3) reference pose at each control instant
+        self._table = np.zeros((0, 13))  # the instants as numbers (see reset)
         self._kinds: tuple[str, ...] = ()
         self._signs: tuple[float, ...] = ()
         self._spans: list[tuple[int, int]] = []
@@ -126,6 +127,11 @@ class SegmentSwitcher:
         self._instants = list(map(_Instant._make, zip(*columns, flat_references(s), seg[idx].tolist(), strict=True)))
         self._path = np.column_stack([s.x, s.y, s.theta])
         at = seg[idx]
+        signs = np.array([1.0 if k == "forward" else (-1.0 if k == "reverse" else 0.0) for k in kinds])
+        # the instants as numbers for compiled drives: x, y, theta, v, omega, the flat reference, segment, sign
+        self._table = np.column_stack(
+            [s.x, s.y, s.theta, s.v, s.omega, s.x, s.y, s.dx, s.dy, s.ddx, s.ddy, at, signs[at]]
+        )
         self._spans = [
             (int(np.searchsorted(at, i)), int(np.searchsorted(at, i, side="right"))) for i in range(len(kinds))
         ]
@@ -217,6 +223,41 @@ def _drive_step(
     return sgn * max(sgn * v, 0.0), w, xi
 
 
+#: :func:`_drive_period`'s status: a command; the general path decides (not a drive under way).
+DRIVE, GENERAL = range(2)
+
+
+@nb.njit(cache=True)
+def _drive_period(
+    t: float, x: float, y: float, theta: float, xi: float, segment: int, block: NDArray[np.float64]
+) -> tuple[int, float, float, float]:  # pragma: no cover - compiled
+    """:meth:`SegmentedTracker.command` in one compiled call while a drive is under way: the control
+    instant's reference (row 1 + k of ``block``, the columns of ``SegmentSwitcher._table``) is on a
+    drive and in the segment of the last period. Row 0 holds the constants of :func:`_drive_step`, then
+    the start time [s] and the yaw-rate limit. Returns (DRIVE, v, omega, the next xi), clamped as the
+    general path clamps; (GENERAL, nan, nan, xi) for the general path to decide, nothing changed."""
+    c = block[0]
+    if not math.isfinite(t + x + y + theta):
+        return GENERAL, math.nan, math.nan, xi
+    k = round((t - c[7]) / c[4])
+    if k >= block.shape[0] - 1:
+        return GENERAL, math.nan, math.nan, xi
+    r = block[1 + (k if k > 0 else 0)]
+    sgn = r[12]
+    if sgn == 0.0 or r[11] != segment:
+        return GENERAL, math.nan, math.nan, xi
+    v, w, xi = _drive_step(c, xi, x, y, theta, r[2], r[4], sgn, r[5], r[6], r[7], r[8], r[9], r[10])
+    if not (math.isfinite(v) and math.isfinite(w)):
+        v, w = 0.0, 0.0
+    vmax, wmax = c[3], c[8]
+    return (
+        DRIVE,
+        (-vmax if v < -vmax else (vmax if v > vmax else v)),
+        (-wmax if w < -wmax else (wmax if w > wmax else w)),
+        xi,
+    )
+
+
 class SegmentedTracker(SegmentSwitcher):
     """Per-segment tracker (see the module doc).
 
@@ -245,7 +286,8 @@ class SegmentedTracker(SegmentSwitcher):
         self.gains = option_value(self.name, "gains", gains, FBLGains())
         self.params = option_value(self.name, "params", params, SegmentedParams())
         self.xi = 0.0
-        self._consts = np.zeros(7)  # for _drive_step, set at reset
+        self._block = np.zeros((1, 13))  # constants, then the instants (_drive_period), set at reset
+        self._consts = self._block[0]
         super().__init__(robot, self.params)
 
     def _idle(self) -> None:
@@ -255,8 +297,22 @@ class SegmentedTracker(SegmentSwitcher):
         """Start tracking (see :meth:`SegmentSwitcher.reset`); the gains and parameters are taken as
         they are now."""
         super().reset(trajectory, dt)
-        g, p = self.gains, self.params
-        self._consts = np.array([g.kp, g.kd, g.xi_min, self.robot.max_speed, self._dt, p.xi_blend, p.heading_gain])
+        g, p, r = self.gains, self.params, self.robot
+        consts = [g.kp, g.kd, g.xi_min, r.max_speed, self._dt, p.xi_blend, p.heading_gain, self._t0, r.max_yaw_rate]
+        self._block = np.zeros((1 + len(self._table), self._table.shape[1]))
+        self._block[0, : len(consts)] = consts
+        self._block[1:] = self._table
+        self._consts = self._block[0]
+
+    def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
+        """Body command for the period starting at ``t`` (see :meth:`SegmentSwitcher.command`): one
+        compiled call while a drive is under way (:func:`_drive_period`)."""
+        if self._traj is not None:
+            status, v, w, xi = _drive_period(t, x, y, theta, self.xi, self.segment, self._block)
+            if status == DRIVE:
+                self.xi = xi
+                return v, w
+        return super().command(t, x, y, theta)
 
     def _drive(self, x: float, y: float, theta: float, ref: _Instant, sgn: float, k: int) -> tuple[float, float]:
         """FBL along a drive of direction ``sgn`` (+1 forwards, -1 backwards): (v, omega) before clamping;
