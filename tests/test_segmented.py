@@ -123,3 +123,36 @@ def test_reset_refuses_a_period_too_small_for_the_trajectory(name: str) -> None:
 def test_segmented_params_are_checked(field: str, value: float, message: str) -> None:
     with pytest.raises(ConfigError, match=rf"SegmentedParams\.{field} must be {message}"):
         SegmentedParams(**{field: value})
+
+
+def test_a_compiled_drive_period_is_the_general_path_bit_for_bit(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Along a plan with a cusp and a turn in place, from noisy poses, the tracker's compiled drive
+    periods give what its general (Python) path gives, command and state, bit for bit."""
+    import control.segmented as seg
+    from control.segmented import SegmentSwitcher
+
+    compiled, kernel = [], seg._drive_period
+
+    def counted(*args: object) -> tuple[int, float, float, float]:
+        out = kernel(*args)
+        compiled.append(out[0] == seg.DRIVE)
+        return out
+
+    monkeypatch.setattr(seg, "_drive_period", counted)
+
+    robot = load_robot("turtlebot3")
+    traj = to_trajectory(CUSP_TURN, robot, OPEN)
+    fast, general = SegmentedTracker(robot), SegmentedTracker(robot)
+    fast.reset(traj, 0.02)
+    general.reset(traj, 0.02)
+    rng = np.random.default_rng(4)
+    n = math.ceil(traj.duration / 0.02) + 20
+    for k in range(n):
+        t = float(traj.t[0]) + k * 0.02
+        ref = traj.sample(min(t, float(traj.t[-1]))).pose
+        pose = (float(ref[0] + rng.normal(0, 0.02)), float(ref[1] + rng.normal(0, 0.02)), float(ref[2] + 0.1))
+        got = fast.command(t, *pose)
+        assert got == SegmentSwitcher.command(general, t, *pose), k
+        assert (fast.xi, fast.segment) == (general.xi, general.segment), k
+    assert fast.segment == general.segment == len(traj.segment_kinds) - 1
+    assert 0.5 * n < sum(compiled) < n  # most periods were compiled drives, the others were not
