@@ -28,11 +28,14 @@ from dataclasses import dataclass
 from typing import Any
 
 import numba as nb
+import numpy as np
+import numpy.typing as npt
 
 from control.base import check_ranges, option_value, ranged
 from control.estimation.kernels import wrap
-from control.segmented import SegmentedParams, SegmentSwitcher, _Instant
+from control.segmented import DRIVE, GENERAL, LAW, SegmentedParams, SegmentSwitcher, _Instant, clamp_command, drive_row
 from planning.core.robot import RobotSpec
+from planning.trajectory.trajectory import Trajectory
 
 
 @dataclass(frozen=True)
@@ -79,6 +82,23 @@ def _law(
     return v, omega
 
 
+@nb.njit(cache=True)
+def _drive_period(
+    t: float, x: float, y: float, theta: float, segment: int, block: npt.NDArray[np.float64]
+) -> tuple[int, float, float]:  # pragma: no cover - compiled
+    """:meth:`KanayamaTracker.command` in one compiled call while a drive is under way
+    (:func:`control.segmented.drive_row`; the gains K_x, K_y, K_theta in row 0 from LAW): (DRIVE, v,
+    omega), clamped as the general path clamps; (GENERAL, nan, nan) for the general path to decide."""
+    i = drive_row(t, x, y, theta, segment, block)
+    if i < 0:
+        return GENERAL, math.nan, math.nan
+    r, c = block[i], block[0]
+    v, w = _law(c[LAW], c[LAW + 1], c[LAW + 2], x, y, theta, r[0], r[1], r[2], r[3], r[4])
+    sgn = r[12]
+    v, w = clamp_command(sgn * max(sgn * v, 0.0), w, c)
+    return DRIVE, v, w
+
+
 def kanayama_law(params: KanayamaParams, x: float, y: float, theta: float, ref: Sequence[Any]) -> tuple[float, float]:
     """Kanayama's command for a pose and a reference (see the module doc).
 
@@ -123,6 +143,21 @@ class KanayamaTracker(SegmentSwitcher):
     ) -> None:
         self.params = option_value(self.name, "params", params, KanayamaParams())
         super().__init__(robot, option_value(self.name, "turns", turns, SegmentedParams()))
+
+    def reset(self, trajectory: Trajectory, dt: float) -> None:
+        """Start tracking (see :meth:`SegmentSwitcher.reset`); the gains are taken as they are now."""
+        super().reset(trajectory, dt)
+        p = self.params
+        self._block[0, LAW : LAW + 3] = (p.kx, p.ky, p.ktheta)
+
+    def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
+        """Body command for the period starting at ``t`` (see :meth:`SegmentSwitcher.command`): one
+        compiled call while a drive is under way (:func:`_drive_period`)."""
+        if self._traj is not None:
+            status, v, w = _drive_period(t, x, y, theta, self.segment, self._block)
+            if status == DRIVE:
+                return v, w
+        return super().command(t, x, y, theta)
 
     def _drive(self, x: float, y: float, theta: float, ref: _Instant, sgn: float, k: int) -> tuple[float, float]:
         """Kanayama's law along a drive, its speed kept on the drive's side of zero."""

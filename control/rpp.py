@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.base import check_ranges, option_value, ranged
-from control.segmented import SegmentedParams, SegmentSwitcher, _Instant
+from control.segmented import DRIVE, GENERAL, SegmentedParams, SegmentSwitcher, _Instant, clamp_command, drive_row
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
 from planning.trajectory.trajectory import Trajectory
@@ -201,6 +201,33 @@ def _rpp_drive(
     return sgn * v, sgn * v * kappa, near
 
 
+@nb.njit(cache=True)
+def _drive_period(
+    t: float,
+    x: float,
+    y: float,
+    theta: float,
+    segment: int,
+    near: int,
+    v_last: float,
+    block: FloatArray,
+    path: FloatArray,
+    c: FloatArray,
+) -> tuple[int, float, float, int, float]:  # pragma: no cover - compiled
+    """:meth:`RegulatedPurePursuit.command` in one compiled call while a drive is under way
+    (:func:`control.segmented.drive_row`): (DRIVE, v, omega clamped as the general path clamps, the
+    closest row, v before clamping); (GENERAL, nan, nan, near, v_last) for the general path to decide.
+    ``path`` column 4 is the end (exclusive) of each row's segment."""
+    i = drive_row(t, x, y, theta, segment, block)
+    if i < 0:
+        return GENERAL, math.nan, math.nan, near, v_last
+    r = block[i]
+    end = int(path[i - 1, 4])
+    v, w, near = _rpp_drive(path, c, near, end, (x, y, theta), (r[0], r[1], r[3]), r[12], v_last)
+    vc, wc = clamp_command(v, w, block[0])
+    return DRIVE, vc, wc, near, v
+
+
 class RegulatedPurePursuit(SegmentSwitcher):
     """Regulated Pure Pursuit on the drives; turns in place by segment (see the module doc).
 
@@ -228,7 +255,8 @@ class RegulatedPurePursuit(SegmentSwitcher):
     ) -> None:
         self.params = option_value(self.name, "params", params, RPPParams())
         super().__init__(robot, option_value(self.name, "turns", turns, SegmentedParams()))
-        self._track: FloatArray = np.zeros((0, 4))  # (M, 4) x, y, heading, arc length at each control instant
+        # (M, 5) x, y, heading, arc length, the end (exclusive) of its segment's rows at each control instant
+        self._track: FloatArray = np.zeros((0, 5))
         self._arc: FloatArray = np.zeros(0)
         self._c: FloatArray = np.zeros(12)
         self._near = 0
@@ -240,7 +268,10 @@ class RegulatedPurePursuit(SegmentSwitcher):
         super().reset(trajectory, dt)
         pose = self._path
         arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(pose[:, 0]), np.diff(pose[:, 1])))])
-        self._track = np.column_stack([pose, arc])
+        ends = np.zeros(len(pose))
+        for start, end in self._spans:
+            ends[start:end] = end
+        self._track = np.column_stack([pose, arc, ends])
         self._arc = self._track[:, 3]
         p, r = self.params, self.robot
         fields = [getattr(p, f.name) for f in dataclasses.fields(p)]
@@ -249,6 +280,17 @@ class RegulatedPurePursuit(SegmentSwitcher):
 
     def _idle(self) -> None:
         self._v_last = 0.0
+
+    def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
+        """Body command for the period starting at ``t`` (see :meth:`SegmentSwitcher.command`): one
+        compiled call while a drive is under way (:func:`_drive_period`)."""
+        if self._traj is not None:
+            args = (self.segment, self._near, self._v_last, self._block, self._track, self._c)
+            status, v, w, near, v_raw = _drive_period(t, x, y, theta, *args)
+            if status == DRIVE:
+                self._near, self._v_last = near, v_raw
+                return v, w
+        return super().command(t, x, y, theta)
 
     def _drive(self, x: float, y: float, theta: float, ref: _Instant, sgn: float, k: int) -> tuple[float, float]:
         """One period of Regulated Pure Pursuit along a drive of direction ``sgn`` (a compiled kernel:

@@ -33,10 +33,10 @@ from numpy.typing import NDArray
 
 from control.base import check_measured_pose, check_period, check_positive_fields, option_value
 from control.estimation.kernels import wrap
-from control.fbl import FBLGains, FlatReference, fbl_law_kernel, flat_references
+from control.fbl import FBLGains, FlatReference, fbl_law_kernel
 from planning.core.robot import RobotSpec
 from planning.trajectory.segments import infer_segments
-from planning.trajectory.trajectory import Trajectory
+from planning.trajectory.trajectory import Trajectory, TrajectorySamples
 
 
 class _Instant(NamedTuple):
@@ -49,6 +49,30 @@ class _Instant(NamedTuple):
     omega: float
     flat: FlatReference
     segment: int
+
+
+class _Instants:
+    """The reference at a trajectory's control instants, each :class:`_Instant` made when it is read.
+
+    The numbers are kept in columns of Python floats: thousands of tuples made at once (one per
+    instant) would wake the garbage collector, whose full pass over the process's objects cost more
+    than a run's whole control loop.
+
+    Args:
+        s: The reference sampled at the control instants.
+        segment: (M,) the segment in force at each instant.
+    """
+
+    def __init__(self, s: TrajectorySamples, segment: NDArray[np.int64]) -> None:
+        self._columns = tuple(c.tolist() for c in (s.x, s.y, s.theta, s.v, s.omega, s.dx, s.dy, s.ddx, s.ddy))
+        self._segment = segment.tolist()
+
+    def __len__(self) -> int:
+        return len(self._segment)
+
+    def __getitem__(self, k: int) -> _Instant:
+        x, y, th, v, w, dx, dy, ddx, ddy = self._columns
+        return _Instant(x[k], y[k], th[k], v[k], w[k], (x[k], y[k], dx[k], dy[k], ddx[k], ddy[k]), self._segment[k])
 
 
 @dataclass(frozen=True)
@@ -92,9 +116,9 @@ class SegmentSwitcher:
         self.robot = robot
         self._turns = turns
         self.segment = -1
-        self._instants: list[_Instant] = []
+        self._instants: _Instants | list[_Instant] = []
         self._path: np.ndarray = np.zeros((0, 3))  # (M, 3) reference pose at each control instant
-        self._table = np.zeros((0, 13))  # the instants as numbers (see reset)
+        self._block = np.zeros((1, 13))  # constants, then the instants as numbers (see reset)
         self._kinds: tuple[str, ...] = ()
         self._signs: tuple[float, ...] = ()
         self._spans: list[tuple[int, int]] = []
@@ -123,15 +147,15 @@ class SegmentSwitcher:
         s = trajectory.sample_many(times)
         # the segment in force at a control instant: that of the last sample at or before it
         idx = np.clip(np.searchsorted(trajectory.t, times + 1e-9, side="right") - 1, 0, trajectory.t.size - 1)
-        columns = (s.x.tolist(), s.y.tolist(), s.theta.tolist(), s.v.tolist(), s.omega.tolist())
-        self._instants = list(map(_Instant._make, zip(*columns, flat_references(s), seg[idx].tolist(), strict=True)))
-        self._path = np.column_stack([s.x, s.y, s.theta])
         at = seg[idx]
+        self._instants = _Instants(s, at)
+        self._path = np.column_stack([s.x, s.y, s.theta])
         signs = np.array([1.0 if k == "forward" else (-1.0 if k == "reverse" else 0.0) for k in kinds])
-        # the instants as numbers for compiled drives: x, y, theta, v, omega, the flat reference, segment, sign
-        self._table = np.column_stack(
-            [s.x, s.y, s.theta, s.v, s.omega, s.x, s.y, s.dx, s.dy, s.ddx, s.ddy, at, signs[at]]
-        )
+        # for compiled drives: row 0 the constants (T0 .., a subclass's from LAW), then the instants as
+        # numbers: x, y, theta, v, omega, the flat reference, segment, sign
+        table = np.column_stack([s.x, s.y, s.theta, s.v, s.omega, s.x, s.y, s.dx, s.dy, s.ddx, s.ddy, at, signs[at]])
+        self._block = np.vstack([np.zeros((1, table.shape[1])), table])
+        self._block[0, :LAW] = (self._t0, dt, self._vmax, self._wmax)
         self._spans = [
             (int(np.searchsorted(at, i)), int(np.searchsorted(at, i, side="right"))) for i in range(len(kinds))
         ]
@@ -192,6 +216,42 @@ class SegmentSwitcher:
         return (-vmax if v < -vmax else (vmax if v > vmax else v)), (-wmax if w < -wmax else (wmax if w > wmax else w))
 
 
+#: Slots of row 0 of a segment switcher's block: the start time [s], the control period [s], the speed
+#: and yaw-rate limits, then the drive law's constants (a subclass's), from LAW.
+T0, DT, VMAX, WMAX, LAW = range(5)
+#: A compiled drive period's status: a command; the general path decides (not a drive under way).
+DRIVE, GENERAL = range(2)
+
+
+@nb.njit(cache=True, inline="always")
+def drive_row(
+    t: float, x: float, y: float, theta: float, segment: int, block: NDArray[np.float64]
+) -> int:  # pragma: no cover - compiled
+    """The row of a segment switcher's block (row 1 + k: control instant k) whose drive is under way at
+    ``t`` in ``segment`` (the segment of the last period), or -1: not a drive, a new segment, past the
+    end, or a non-finite time or pose (the general path decides)."""
+    c = block[0]
+    if not math.isfinite(t + x + y + theta):
+        return -1
+    k = round((t - c[T0]) / c[DT])
+    if k >= block.shape[0] - 1:
+        return -1
+    i = 1 + (k if k > 0 else 0)
+    if block[i, 12] == 0.0 or block[i, 11] != segment:
+        return -1
+    return i
+
+
+@nb.njit(cache=True, inline="always")
+def clamp_command(v: float, w: float, c: NDArray[np.float64]) -> tuple[float, float]:  # pragma: no cover - compiled
+    """:meth:`SegmentSwitcher.command`'s last step: a non-finite command is a stop; then the limits in
+    row 0 ``c`` of the block."""
+    if not (math.isfinite(v) and math.isfinite(w)):
+        v, w = 0.0, 0.0
+    vmax, wmax = c[VMAX], c[WMAX]
+    return (-vmax if v < -vmax else (vmax if v > vmax else v)), (-wmax if w < -wmax else (wmax if w > wmax else w))
+
+
 @nb.njit(cache=True)
 def _drive_step(
     c: NDArray[np.float64],
@@ -209,53 +269,35 @@ def _drive_step(
     ddxd: float,
     ddyd: float,
 ) -> tuple[float, float, float]:  # pragma: no cover - compiled
-    """:meth:`SegmentedTracker._drive` after a drive's start, compiled: (v, omega, the next xi) for the
-    constants ``c`` (Kp, Kd, xi_min, the speed limit, the period, xi_blend, the heading gain)."""
-    xi_dot, w_fbl = fbl_law_kernel(c[0], c[1], c[2], x, y, theta, xi, xd, yd, dxd, dyd, ddxd, ddyd)
-    dt = c[4]
+    """:meth:`SegmentedTracker._drive` after a drive's start, compiled: (v, omega, the next xi) for row 0
+    ``c`` of the block (the law's constants from LAW: Kp, Kd, xi_min, xi_blend, the heading gain)."""
+    kp, kd, xi_min, xi_blend, heading_gain = c[LAW], c[LAW + 1], c[LAW + 2], c[LAW + 3], c[LAW + 4]
+    xi_dot, w_fbl = fbl_law_kernel(kp, kd, xi_min, x, y, theta, xi, xd, yd, dxd, dyd, ddxd, ddyd)
+    dt = c[DT]
     v = xi + 0.5 * xi_dot * dt
-    xi = sgn * min(max(sgn * (xi + xi_dot * dt), 1e-6), c[3])
-    alpha = min(abs(xi) / c[5], 1.0)
+    xi = sgn * min(max(sgn * (xi + xi_dot * dt), 1e-6), c[VMAX])
+    alpha = min(abs(xi) / xi_blend, 1.0)
     if alpha < 1.0:
-        w = alpha * w_fbl + (1.0 - alpha) * (ref_omega + c[6] * wrap(ref_theta - theta))
+        w = alpha * w_fbl + (1.0 - alpha) * (ref_omega + heading_gain * wrap(ref_theta - theta))
     else:
         w = w_fbl
     return sgn * max(sgn * v, 0.0), w, xi
-
-
-#: :func:`_drive_period`'s status: a command; the general path decides (not a drive under way).
-DRIVE, GENERAL = range(2)
 
 
 @nb.njit(cache=True)
 def _drive_period(
     t: float, x: float, y: float, theta: float, xi: float, segment: int, block: NDArray[np.float64]
 ) -> tuple[int, float, float, float]:  # pragma: no cover - compiled
-    """:meth:`SegmentedTracker.command` in one compiled call while a drive is under way: the control
-    instant's reference (row 1 + k of ``block``, the columns of ``SegmentSwitcher._table``) is on a
-    drive and in the segment of the last period. Row 0 holds the constants of :func:`_drive_step`, then
-    the start time [s] and the yaw-rate limit. Returns (DRIVE, v, omega, the next xi), clamped as the
-    general path clamps; (GENERAL, nan, nan, xi) for the general path to decide, nothing changed."""
-    c = block[0]
-    if not math.isfinite(t + x + y + theta):
+    """:meth:`SegmentedTracker.command` in one compiled call while a drive is under way
+    (:func:`drive_row`): (DRIVE, v, omega, the next xi), clamped as the general path clamps; (GENERAL,
+    nan, nan, xi) for the general path to decide, nothing changed."""
+    i = drive_row(t, x, y, theta, segment, block)
+    if i < 0:
         return GENERAL, math.nan, math.nan, xi
-    k = round((t - c[7]) / c[4])
-    if k >= block.shape[0] - 1:
-        return GENERAL, math.nan, math.nan, xi
-    r = block[1 + (k if k > 0 else 0)]
-    sgn = r[12]
-    if sgn == 0.0 or r[11] != segment:
-        return GENERAL, math.nan, math.nan, xi
-    v, w, xi = _drive_step(c, xi, x, y, theta, r[2], r[4], sgn, r[5], r[6], r[7], r[8], r[9], r[10])
-    if not (math.isfinite(v) and math.isfinite(w)):
-        v, w = 0.0, 0.0
-    vmax, wmax = c[3], c[8]
-    return (
-        DRIVE,
-        (-vmax if v < -vmax else (vmax if v > vmax else v)),
-        (-wmax if w < -wmax else (wmax if w > wmax else w)),
-        xi,
-    )
+    r, c = block[i], block[0]
+    v, w, xi = _drive_step(c, xi, x, y, theta, r[2], r[4], r[12], r[5], r[6], r[7], r[8], r[9], r[10])
+    v, w = clamp_command(v, w, c)
+    return DRIVE, v, w, xi
 
 
 class SegmentedTracker(SegmentSwitcher):
@@ -286,8 +328,6 @@ class SegmentedTracker(SegmentSwitcher):
         self.gains = option_value(self.name, "gains", gains, FBLGains())
         self.params = option_value(self.name, "params", params, SegmentedParams())
         self.xi = 0.0
-        self._block = np.zeros((1, 13))  # constants, then the instants (_drive_period), set at reset
-        self._consts = self._block[0]
         super().__init__(robot, self.params)
 
     def _idle(self) -> None:
@@ -297,12 +337,8 @@ class SegmentedTracker(SegmentSwitcher):
         """Start tracking (see :meth:`SegmentSwitcher.reset`); the gains and parameters are taken as
         they are now."""
         super().reset(trajectory, dt)
-        g, p, r = self.gains, self.params, self.robot
-        consts = [g.kp, g.kd, g.xi_min, r.max_speed, self._dt, p.xi_blend, p.heading_gain, self._t0, r.max_yaw_rate]
-        self._block = np.zeros((1 + len(self._table), self._table.shape[1]))
-        self._block[0, : len(consts)] = consts
-        self._block[1:] = self._table
-        self._consts = self._block[0]
+        g, p = self.gains, self.params
+        self._block[0, LAW : LAW + 5] = (g.kp, g.kd, g.xi_min, p.xi_blend, p.heading_gain)
 
     def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
         """Body command for the period starting at ``t`` (see :meth:`SegmentSwitcher.command`): one
@@ -319,5 +355,5 @@ class SegmentedTracker(SegmentSwitcher):
         advances xi by one period, keeping it on the drive's side of zero (compiled: :func:`_drive_step`)."""
         if ref.segment != self.segment:
             self.xi = sgn * max(abs(ref.v) if ref.v * sgn > 0 else 0.0, 1e-6)
-        v, w, self.xi = _drive_step(self._consts, self.xi, x, y, theta, ref.theta, ref.omega, sgn, *ref.flat)
+        v, w, self.xi = _drive_step(self._block[0], self.xi, x, y, theta, ref.theta, ref.omega, sgn, *ref.flat)
         return v, w

@@ -125,24 +125,26 @@ def test_segmented_params_are_checked(field: str, value: float, message: str) ->
         SegmentedParams(**{field: value})
 
 
-def test_a_compiled_drive_period_is_the_general_path_bit_for_bit(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Along a plan with a cusp and a turn in place, from noisy poses, the tracker's compiled drive
+@pytest.mark.parametrize("name", ["segmented", "kanayama", "rpp"])
+def test_a_compiled_drive_period_is_the_general_path_bit_for_bit(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Along a plan with a cusp and a turn in place, from noisy poses, a tracker's compiled drive
     periods give what its general (Python) path gives, command and state, bit for bit."""
-    import control.segmented as seg
+    import importlib
+
     from control.segmented import SegmentSwitcher
 
-    compiled, kernel = [], seg._drive_period
+    module = importlib.import_module(f"control.{name}")
+    compiled, kernel = [], module._drive_period
 
-    def counted(*args: object) -> tuple[int, float, float, float]:
+    def counted(*args: object) -> tuple:
         out = kernel(*args)
-        compiled.append(out[0] == seg.DRIVE)
+        compiled.append(out[0] == module.DRIVE)
         return out
 
-    monkeypatch.setattr(seg, "_drive_period", counted)
-
+    monkeypatch.setattr(module, "_drive_period", counted)
     robot = load_robot("turtlebot3")
     traj = to_trajectory(CUSP_TURN, robot, OPEN)
-    fast, general = SegmentedTracker(robot), SegmentedTracker(robot)
+    fast, general = make_tracker(name, robot), make_tracker(name, robot)
     fast.reset(traj, 0.02)
     general.reset(traj, 0.02)
     rng = np.random.default_rng(4)
@@ -153,6 +155,7 @@ def test_a_compiled_drive_period_is_the_general_path_bit_for_bit(monkeypatch: py
         pose = (float(ref[0] + rng.normal(0, 0.02)), float(ref[1] + rng.normal(0, 0.02)), float(ref[2] + 0.1))
         got = fast.command(t, *pose)
         assert got == SegmentSwitcher.command(general, t, *pose), k
-        assert (fast.xi, fast.segment) == (general.xi, general.segment), k
+        state = [(getattr(tr, a, None) for a in ("segment", "xi", "_near", "_v_last")) for tr in (fast, general)]
+        assert tuple(state[0]) == tuple(state[1]), k
     assert fast.segment == general.segment == len(traj.segment_kinds) - 1
     assert 0.5 * n < sum(compiled) < n  # most periods were compiled drives, the others were not
