@@ -55,8 +55,7 @@ class _Instants:
     """The reference at a trajectory's control instants, each :class:`_Instant` made when it is read.
 
     The numbers are kept in columns of Python floats: thousands of tuples made at once (one per
-    instant) would wake the garbage collector, whose full pass over the process's objects cost more
-    than a run's whole control loop.
+    instant) woke the garbage collector, which then spent more than a run's whole control loop.
 
     Args:
         s: The reference sampled at the control instants.

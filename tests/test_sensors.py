@@ -297,3 +297,40 @@ def test_drawn_arrays_are_read_only_and_the_record_is_json() -> None:
     record = json.loads(json.dumps(m.as_dict()))
     assert record["profile"] == TB3.as_dict()
     assert (record["seed"], record["fix_every_periods"], record["n_periods"]) == (7, 10, 100)
+
+
+def test_the_loops_observer_is_observe_bit_for_bit() -> None:
+    """A run's sensing through :meth:`Sensing.observer` (the loop's compiled periods) and through
+    :meth:`Sensing.observe` (every period in Python) sees the same estimates and logs the same, and
+    observe refuses a period read from another MjData."""
+    import mujoco
+
+    from planning.core.geometry import Pose2D
+    from planning.core.robot import load_robot
+    from sim.physics.model import set_pose
+    from sim.physics.sensing import Sensing, SensingSetup
+    from sim.physics.simulator import Simulator
+    from sim.physics.sources import PoseSource
+
+    robot = load_robot("turtlebot3")
+    sim = Simulator(robot)
+    m = sim.model
+    d = mujoco.MjData(m)
+    set_pose(m, d, Pose2D(0.0, 0.0, 0.3))
+    n = 60
+    kw = {"n_periods": n, "control_rate": 50.0, "t0": 0.0}
+    setup = SensingSetup.for_robot(robot.name, seed=3)
+    looped, called = (Sensing(m, robot, PoseSource.FUSED, setup, **kw) for _ in range(2))
+    observe = looped.observer(d)
+    d.ctrl[:] = [4.0, 6.0]  # volts: a left turn
+    for k in range(n):
+        truth = sim.read_pose(d)
+        assert observe(k, truth) == called.observe(k, d, truth), k
+        mujoco.mj_step(m, d, 10)
+    a, b = looped.to_log(), called.to_log()
+    assert a is not None and b is not None
+    for name in ("truth", "estimate", "variance", "nees"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+    assert len(a.fix_t) >= 5  # fixes were taken and fused on the way
+    with pytest.raises(ValueError, match="MjData"):
+        called.observe(n, mujoco.MjData(m), truth)

@@ -23,6 +23,7 @@ and every run kind of a job sees the same noise.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import mujoco
@@ -187,14 +188,11 @@ class Sensing:
         self._io = np.concatenate([np.zeros(GYRO_ERROR), self.sensors.gyro_error])
         self._io[T0:GYRO_ERROR] = (t0, self.dt, setup.profile.encoder_cpr / TWO_PI, *self.sensors.encoder_phase,
                                    self._rad_per_count, self._enc_l, self._enc_r)  # fmt: skip
-        self._bound: tuple[FloatArray, ...] = ()
         self._data: mujoco.MjData | None = None
 
     def observe(self, k: int, data: mujoco.MjData, truth: tuple[float, float, float]) -> tuple[float, float, float]:
-        """The pose the tracker sees at control period ``k`` (``truth`` is MuJoCo's pose then).
-
-        Periods 1, 2, .. without a fix to take or deliver cost one compiled call
-        (:func:`_read_and_predict`). ``data`` is the run's data, the same object at every period.
+        """The pose the tracker sees at control period ``k`` (``truth`` is MuJoCo's pose then; ``data``
+        is the run's data, the same object at every period). A loop calls :meth:`observer` instead.
 
         Raises:
             EstimatorDivergedError: The estimator diverged (the simulator ends the run on it).
@@ -210,23 +208,40 @@ class Sensing:
             counts = self.sensors.encoder_counts(float(s[self._enc_l]), float(s[self._enc_r]))
             est.reset(self.t0, truth)
             self._io[COUNTS_L], self._io[COUNTS_R], self._io[YAW] = *counts, truth[2]
-            self._bound = (est.block, s, self._io, self._trace)
             self._data = data
         else:
+            sdata = data.sensordata
             if data is not self._data:
                 raise ValueError("Sensing.observe: a run's periods must all read the MjData of its period 0")
-            x, y, th = truth
-            status, ex, ey, eth = _read_and_predict(k, x, y, th, *self._bound)
+            status, *_ = _read_and_predict(k, *truth, est.block, sdata, self._io, self._trace)
             if status != kernels.OK:
                 est.raise_status(status, self.t0 + k * self.dt)
-            if k not in self._events:
-                return ex, ey, eth
         if k in self._fix_taken:
             self.fixes[k] = self.sensors.fix(k, truth)
         j = self._fix_delivered.get(k)
         if j is not None:
             self._deliver(j, k, truth)
         return est.record(self.estimate, self.variance, k)
+
+    def observer(self, data: mujoco.MjData) -> Callable[[int, tuple[float, float, float]], tuple[float, float, float]]:
+        """:meth:`observe` bound to the run's data, for a loop that calls it every period:
+        ``observe(k, truth)``. A period after the first without a fix to take or deliver is one compiled
+        call (:func:`_read_and_predict`, the same arithmetic) and a few operations."""
+        observe, est, events, kernel = self.observe, self.estimator, self._events, _read_and_predict
+        if est is None:
+            return lambda k, truth: observe(k, data, truth)
+        bound, raise_status = (est.block, data.sensordata, self._io, self._trace), est.raise_status
+
+        def fast(k: int, truth: tuple[float, float, float]) -> tuple[float, float, float]:
+            if k == 0 or k in events:
+                return observe(k, data, truth)
+            status, x, y, th = kernel(k, truth[0], truth[1], truth[2], *bound)
+            self._k = k
+            if status != kernels.OK:
+                raise_status(status, self.t0 + k * self.dt)
+            return x, y, th
+
+        return fast
 
     def _deliver(self, j: int, k: int, truth: tuple[float, float, float]) -> None:
         """The fix measured at period j arrives at period k: fuse it (with ``fused``) and measure the
