@@ -382,8 +382,9 @@ class PeriodPhysics:
         period is the same chunks, each after a firmware update with the period's own command (no
         latency) and the log sampled after the last, it runs just those."""
         m, d, sample, n_plans, step = rec.model, rec.data, rec.sample, len(plans), mujoco.mj_step
-        if len(set(plans)) == 1 and all(u and src == 1 and log == (i == len(plans[0]) - 1)
-                                        for i, (u, src, _, log) in enumerate(plans[0])):  # fmt: skip
+        last = len(plans[0]) - 1
+        plain = all(update and src == 1 and log == (i == last) for i, (update, src, _, log) in enumerate(plans[0]))
+        if plain and len(set(plans)) == 1:
             steps = tuple(n for _, _, n, _ in plans[0])
 
             def advance_plain(k: int) -> tuple[float, float, float]:
