@@ -334,3 +334,6 @@ def test_the_loops_observer_is_observe_bit_for_bit() -> None:
     assert len(a.fix_t) >= 5  # fixes were taken and fused on the way
     with pytest.raises(ValueError, match="MjData"):
         called.observe(n, mujoco.MjData(m), truth)
+    for k in (n + 1, n + 50, -3):  # past the run's periods (its logs have n + 1 rows), or before it
+        with pytest.raises(IndexError, match="outside the run"):
+            observe(k, truth)

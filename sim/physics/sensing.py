@@ -47,6 +47,8 @@ TWO_PI = 2.0 * math.pi
 #: phases [counts], radians per count, and the encoders' addresses in ``MjData.sensordata``; the
 #: gyro's error at each period follows, from slot :data:`GYRO_ERROR`.
 COUNTS_L, COUNTS_R, YAW, T0, DT, PER_RAD, PHASE_L, PHASE_R, RAD_PER_COUNT, ENC_L, ENC_R, GYRO_ERROR = range(12)
+#: :func:`_read_and_predict`'s status for a period after the run's last (else the estimator's step status).
+PAST_THE_RUN = -1
 
 
 @nb.njit(cache=True)
@@ -67,12 +69,13 @@ def _read_and_predict(
     run's true poses, estimates and variances by period, three columns each.
 
     Returns:
-        (status of the step, the estimated pose); on a failed step the pose is NaN and nothing is logged.
+        (status of the step, or PAST_THE_RUN for a period outside 1 .. the run's last; the estimated
+        pose); on a failure the pose is NaN and the estimate is not logged.
     """
+    if not 0 < k < io.shape[0] - GYRO_ERROR:  # (the trace has as many rows)
+        return PAST_THE_RUN, math.nan, math.nan, math.nan
     row = trace[k]
     row[0], row[1], row[2] = x, y, th
-    if k >= io.shape[0] - GYRO_ERROR:
-        return kernels.BAD_TIME, math.nan, math.nan, math.nan
     cl = math.floor(sdata[int(io[ENC_L])] * io[PER_RAD] + io[PHASE_L])
     cr = math.floor(sdata[int(io[ENC_R])] * io[PER_RAD] + io[PHASE_R])
     rate = kernels.wrap(th - io[YAW]) / io[DT]
@@ -215,7 +218,7 @@ class Sensing:
                 raise ValueError("Sensing.observe: a run's periods must all read the MjData of its period 0")
             status, *_ = _read_and_predict(k, *truth, est.block, sdata, self._io, self._trace)
             if status != kernels.OK:
-                est.raise_status(status, self.t0 + k * self.dt)
+                self._refuse(status, k)
         if k in self._fix_taken:
             self.fixes[k] = self.sensors.fix(k, truth)
         j = self._fix_delivered.get(k)
@@ -230,7 +233,7 @@ class Sensing:
         observe, est, events, kernel = self.observe, self.estimator, self._events, _read_and_predict
         if est is None:
             return lambda k, truth: observe(k, data, truth)
-        bound, raise_status = (est.block, data.sensordata, self._io, self._trace), est.raise_status
+        bound, refuse = (est.block, data.sensordata, self._io, self._trace), self._refuse
 
         def fast(k: int, truth: tuple[float, float, float]) -> tuple[float, float, float]:
             if k == 0 or k in events:
@@ -238,10 +241,17 @@ class Sensing:
             status, x, y, th = kernel(k, truth[0], truth[1], truth[2], *bound)
             self._k = k
             if status != kernels.OK:
-                raise_status(status, self.t0 + k * self.dt)
+                refuse(status, k)
             return x, y, th
 
         return fast
+
+    def _refuse(self, status: int, k: int) -> None:
+        """Raise the error of a failed period ``k`` (:func:`_read_and_predict`'s status)."""
+        if status == PAST_THE_RUN:
+            raise IndexError(f"control period {k} is outside the run's 0 .. {self.sensors.n_periods - 1}")
+        assert self.estimator is not None
+        self.estimator.raise_status(status, self.t0 + k * self.dt)
 
     def _deliver(self, j: int, k: int, truth: tuple[float, float, float]) -> None:
         """The fix measured at period j arrives at period k: fuse it (with ``fused``) and measure the
