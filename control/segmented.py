@@ -149,6 +149,7 @@ class SegmentSwitcher:
         at = seg[idx]
         self._instants = _Instants(s, at)
         self._path = np.column_stack([s.x, s.y, s.theta])
+        # per segment: +1 forwards, -1 backwards, 0 turn in place or stand-still
         signs = np.array([1.0 if k == "forward" else (-1.0 if k == "reverse" else 0.0) for k in kinds])
         # for compiled drives: row 0 the constants (T0 .., a subclass's from LAW), then the instants as
         # numbers: x, y, theta, v, omega, the flat reference, segment, sign
@@ -159,8 +160,7 @@ class SegmentSwitcher:
             (int(np.searchsorted(at, i)), int(np.searchsorted(at, i, side="right"))) for i in range(len(kinds))
         ]
         self._kinds = tuple(kinds)
-        # per segment: +1 forwards, -1 backwards, 0 turn in place or stand-still (read once a period)
-        self._signs = tuple(1.0 if kind == "forward" else (-1.0 if kind == "reverse" else 0.0) for kind in kinds)
+        self._signs = tuple(signs.tolist())  # (read once a period)
         self._final = (float(trajectory.pose[-1, 0]), float(trajectory.pose[-1, 1]), float(trajectory.pose[-1, 2]))
         self.segment = -1
         self._idle()

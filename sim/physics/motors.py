@@ -274,21 +274,12 @@ def _update(
 
 
 @nb.njit(cache=True)
-def _drive(
-    state: FloatArray, commands: FloatArray, row: int, qvel: FloatArray, ctrl: FloatArray, wiring: IntArray
-) -> None:  # pragma: no cover - compiled
-    n = (len(state) - 4) // 3  # state: the n integrators, kff, kp, ki T, V_batt, then the wiring's 2n slots
-    kff, kp, ki_t, vb = state[n], state[n + 1], state[n + 2], state[n + 3]
-    row = max(row, 0)
-    for i in range(n):
-        state[i], ctrl[wiring[1, i]] = _wheel(state[i], commands[row, i], qvel[wiring[0, i]], kff, kp, ki_t, vb)
-
-
-@nb.njit(cache=True)
 def _drive_wired(
     state: FloatArray, commands: FloatArray, qvel: FloatArray, ctrl: FloatArray, row: int
 ) -> None:  # pragma: no cover - compiled
-    """:func:`_drive` with the wiring read from the state (a compiled call takes one array fewer)."""
+    """One update of a loop's ``state`` (the n integrators, kff, kp, ki T, V_batt, then the wiring's 2n
+    slots: the wheels' dofs in ``qvel``, their actuators in ``ctrl``) with row ``row`` of ``commands``
+    (< 0: row 0); the wiring rides in the state so that a compiled call takes one array fewer."""
     n = (len(state) - 4) // 3
     kff, kp, ki_t, vb = state[n], state[n + 1], state[n + 2], state[n + 3]
     row = max(row, 0)
@@ -351,7 +342,8 @@ class VelocityLoop:
             ctrl: MuJoCo's controls (``MjData.ctrl``) [V].
             wiring: (2, wheels) int64: the wheels' dofs in ``qvel``, then their actuators in ``ctrl``.
         """
-        _drive(self._state, commands, row, qvel, ctrl, wiring)
+        self._wire(wiring)
+        _drive_wired(self._state, commands, qvel, ctrl, row)
 
     def driver(
         self, commands: FloatArray, qvel: FloatArray, ctrl: FloatArray, wiring: IntArray
@@ -363,9 +355,13 @@ class VelocityLoop:
         Raises:
             ConfigError: ``wiring`` is not (2, wheels).
         """
+        self._wire(wiring)
+        return functools.partial(_drive_wired, self._state, commands, qvel, ctrl)
+
+    def _wire(self, wiring: IntArray) -> None:
+        """Put a (2, wheels) wiring (dofs, then actuators) into the state; raises ConfigError if misshapen."""
         n = self.integral.shape[0]
         w = np.asarray(wiring)
         if w.shape != (2, n):
             raise ConfigError(f"motor loop: wiring {w.shape} must be (2, {n}): the wheels' dofs, then their actuators")
         self._state[n + 4 :] = w.reshape(-1)
-        return functools.partial(_drive_wired, self._state, commands, qvel, ctrl)

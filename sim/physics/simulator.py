@@ -308,7 +308,7 @@ class Simulator:
         if progress is not None:
             progress(0, n_ctrl)
         observe = sensing.observer(d) if sensing is not None else None
-        firmware = recorder.balance
+        balance = recorder.balance
         pose = recorder.pose  # the pose sensors at the last sample
         for k in range(n_ctrl):
             if k == report and progress is not None:
@@ -331,7 +331,7 @@ class Simulator:
                     f"tracker {tracker.name!r} returned a non-finite command ({v}, {w}) at t={d.time:.3f} s"
                 )
             pose = advance(k)
-            if firmware is not None and firmware.fell_at is not None:
+            if balance is not None and balance.fell_at is not None:
                 break  # the robot fell: the run ends here (its status says when)
         if progress is not None:
             progress(n_ctrl, n_ctrl)
