@@ -3,6 +3,7 @@ against the motion the file was written from (a rest-to-rest quintic S-curve, kn
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -225,3 +226,19 @@ def test_option_parsers() -> None:
         parse_columns("t,x,z")
     with pytest.raises(TrajectoryFileError, match="--scale"):
         TrajectoryFile(Path("a.csv"), scale=0.0)
+
+
+def test_a_correction_note_quotes_the_miss_that_failed_not_two_sizes_within_tolerance(tmp_path: Path) -> None:
+    t = np.arange(0.0, DURATION + 1e-9, 0.5)
+    _, vel, _ = s_curve(t)
+    p, _ = quintic_file(tmp_path, vx=vel[:, 0], vy=-vel[:, 1])  # vy of the wrong sign: same sizes, wrong way
+    (note,) = read_trajectory_file(TrajectoryFile(p)).report.notes
+    num = r"(-?[\d.]+(?:e-?\d+)?)"
+    found = re.search(
+        rf"they move \({num}, {num}\) m but the rows move \({num}, {num}\) m, {num} m apart \(tolerance {num} m\)", note
+    )
+    assert found, note
+    said, rows = (np.array([float(found[i]), float(found[i + 1])]) for i in (1, 3))
+    miss, tol = float(found[5]), float(found[6])
+    assert miss > tol  # the quantity quoted is the one that failed
+    assert miss == pytest.approx(float(np.hypot(*(said - rows))), rel=1e-2)

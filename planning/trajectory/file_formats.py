@@ -23,6 +23,7 @@ file, the row (line, record or pose) and the column.
 from __future__ import annotations
 
 import csv
+import io
 import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -178,7 +179,7 @@ def _split(lines: list[tuple[int, str]], delimiter: str | None) -> list[tuple[in
     if delimiter is None:
         return [(n, line.split()) for n, line in lines]
     cells = csv.reader([line for _, line in lines], delimiter=delimiter, skipinitialspace=True)
-    return [(n, [c.strip() for c in row]) for (n, _), row in zip(lines, cells, strict=True)]
+    return [(n, row) for (n, _), row in zip(lines, cells, strict=True)]  # float() ignores spaces around a number
 
 
 def _is_numeric_row(cells: list[str]) -> bool:
@@ -190,41 +191,66 @@ def _is_numeric_row(cells: list[str]) -> bool:
 
 
 def _read_text(p: Path, text: str, columns: Sequence[str] | None) -> FileTable:
-    lines = [
-        (n, line.strip())
-        for n, line in enumerate(text.splitlines(), start=1)
-        if line.strip() and not line.strip().startswith(_COMMENTS)
-    ]
+    lines = []
+    for n, raw in enumerate(text.splitlines(), start=1):
+        line = raw.strip()
+        if line and not line.startswith(_COMMENTS):
+            lines.append((n, line))
     if not lines:
         raise TrajectoryFileError(f"{p}: the file holds no rows")
     delimiter = _delimiter(p.suffix.lower(), lines[0][1])
-    rows = _split(lines, delimiter)
-    has_header = not _is_numeric_row(rows[0][1])
+    first = _split(lines[:1], delimiter)[0][1]
+    has_header = not _is_numeric_row(first)
     if columns is not None:
         names = parse_column_names(columns, "--columns")
     elif has_header:
-        names = parse_column_names(rows[0][1], f"{p}, header (line {rows[0][0]})")
+        names = parse_column_names(first, f"{p}, header (line {lines[0][0]})")
     else:
         raise TrajectoryFileError(
-            f"{p}: the first row (line {rows[0][0]}) is numbers, not a header naming the columns: add a header "
+            f"{p}: the first row (line {lines[0][0]}) is numbers, not a header naming the columns: add a header "
             f"or give --columns (e.g. --columns t,x,y; names {_valid_names()}; {SKIP} skips a column)"
         )
-    body = rows[1:] if has_header else rows
+    body = lines[1:] if has_header else lines
     if not body:
         raise TrajectoryFileError(f"{p}: the file holds a header and no rows")
-    values: dict[str, list[float]] = {n: [] for n in names if n != SKIP}
+    values = _plain_numbers(body, delimiter, names) if '"' not in text else None
+    if values is None:  # quoted cells, or a row to name: cell by cell
+        values = _numbers(p, _split(body, delimiter), names)
+    fmt = {",": "csv", ";": "csv", "\t": "tsv", None: "text"}[delimiter]
+    arrays = dict(zip([n for n in names if n != SKIP], values.T, strict=True))
+    return FileTable(p, fmt, arrays, tuple(f"line {n}" for n, _ in body))
+
+
+def _plain_numbers(body: list[tuple[int, str]], delimiter: str | None, names: tuple[str, ...]) -> FloatArray | None:
+    """(rows, named columns) values of unquoted rows, parsed by numpy at once; None when a row has the
+    wrong number of cells or a cell (skipped columns' too) is not a finite number: the cell-by-cell
+    reading then names the row, or reads the skipped columns' text."""
+    try:  # every column, so that a row with more or fewer cells fails
+        values = np.loadtxt(
+            io.StringIO("\n".join(line for _, line in body)), delimiter=delimiter, ndmin=2, comments=None, dtype=float
+        )
+    except ValueError:
+        return None
+    if values.shape != (len(body), len(names)) or not np.all(np.isfinite(values)):
+        return None
+    values = values[:, [j for j, name in enumerate(names) if name != SKIP]]
+    return values
+
+
+def _numbers(p: Path, body: list[tuple[int, list[str]]], names: tuple[str, ...]) -> FloatArray:
+    """(rows, named columns) values of a text file's cells; a row with the wrong number of cells, or a
+    cell that is not a finite number, is an error naming its line (and column)."""
     for n, cells in body:
         if len(cells) != len(names):
             raise TrajectoryFileError(
                 f"{p}: line {n} has {len(cells)} cells but {len(names)} columns are named ({', '.join(names)}); "
                 "give every row the same cells, or name the columns with --columns"
             )
-        for name, cell in zip(names, cells, strict=True):
-            if name != SKIP:
-                values[name].append(_number(cell, str(p), f"line {n}", name))
-    fmt = {",": "csv", ";": "csv", "\t": "tsv", None: "text"}[delimiter]
-    arrays = {k: np.asarray(v, dtype=float) for k, v in values.items()}
-    return FileTable(p, fmt, arrays, tuple(f"line {n}" for n, _ in body))
+    keep = [j for j, name in enumerate(names) if name != SKIP]
+    where = str(p)
+    return np.array(
+        [[_number(cells[j], where, f"line {n}", names[j]) for j in keep] for n, cells in body], dtype=float
+    ).reshape(len(body), len(keep))
 
 
 # ------------------------------------------------------------------------------- JSON and YAML

@@ -27,24 +27,25 @@ that pass the check are kept as Hermite data (with accelerations: quintic Hermit
 
 from __future__ import annotations
 
-import itertools
 import re
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.interpolate import BPoly, CubicHermiteSpline, CubicSpline
 
 from planning.core.geometry import wrap_angle
 from planning.trajectory.file_formats import FileTable, TrajectoryFileError, parse_column_names, read_table
+from planning.trajectory.row_curves import MOVING_SPEED as MOVING_SPEED
+from planning.trajectory.row_curves import SAME_POSITION as SAME_POSITION
+from planning.trajectory.row_curves import PositionCurve as PositionCurve
+from planning.trajectory.row_curves import hermite_curve
+from planning.trajectory.row_curves import stretch_fit as stretch_fit
 
 FloatArray = NDArray[np.float64]
 
-#: Rows closer than this are at one position [m]; stamps closer than SAME_TIME are one stamp [s].
-SAME_POSITION = 1e-4
+#: Stamps closer than this are one stamp [s] (rows closer than SAME_POSITION are at one position).
 SAME_TIME = 1e-9
 #: (absolute, relative) tolerances of the trapezoid checks: displacement [m], velocity change [m/s],
 #: heading change [rad].
@@ -53,8 +54,6 @@ VELOCITY_TOLERANCE = (0.02, 0.10)
 HEADING_TOLERANCE = (0.02, 0.10)
 #: Largest angle between a given heading and the direction of motion (forwards or backwards) [rad].
 HEADING_TO_MOTION = 0.1
-#: Speed below which the robot counts as standing [m/s].
-MOVING_SPEED = 1e-3
 #: Longest trajectory a file may describe [s]: a longer one almost surely counts milliseconds.
 MAX_DURATION = 3600.0
 
@@ -263,39 +262,6 @@ class ImportedFile:
     report: ImportReport
 
 
-class PositionCurve:
-    """x(t), y(t) through a timed file's rows: one interpolant per stretch of time.
-
-    Args:
-        breaks: (K + 1,) times where the stretches meet [s].
-        pieces: K interpolants, each callable as ``f(t, nu) -> (M, 2)`` (scipy splines).
-    """
-
-    def __init__(self, breaks: FloatArray, pieces: Sequence[Any]) -> None:
-        self.breaks = np.asarray(breaks, dtype=float)
-        self.pieces = list(pieces)
-
-    def __call__(self, t: FloatArray, nu: int = 0) -> FloatArray:
-        """(M, 2) positions (nu = 0) [m] or their nu-th time derivative at times t (M,) [s]."""
-        tq = np.clip(np.asarray(t, dtype=float), self.breaks[0], self.breaks[-1])
-        k = np.clip(np.searchsorted(self.breaks, tq, side="right") - 1, 0, len(self.pieces) - 1)
-        out = np.empty((tq.size, 2))
-        for j in np.unique(k):
-            sel = k == j
-            out[sel] = self.pieces[j](tq[sel], nu)
-        return out
-
-
-class _Hermite2:
-    """Two scalar quintic Hermite pieces (x and y) as one ``f(t, nu) -> (M, 2)``."""
-
-    def __init__(self, t: FloatArray, xy: FloatArray, vel: FloatArray, acc: FloatArray) -> None:
-        self.parts = [BPoly.from_derivatives(t, np.column_stack([xy[:, i], vel[:, i], acc[:, i]])) for i in range(2)]
-
-    def __call__(self, t: FloatArray, nu: int = 0) -> FloatArray:
-        return np.column_stack([p(t, nu) for p in self.parts])
-
-
 # ------------------------------------------------------------------------------------ reading
 def read_trajectory_file(source: TrajectoryFile) -> ImportedFile:
     """Read a file, bring it into metres and seconds and repair it (see the module doc).
@@ -345,8 +311,12 @@ def _to_metres(cols: dict[str, FloatArray], source: TrajectoryFile) -> dict[str,
     s = source.scale or 1.0
     ts = source.time_scale or 1.0
     ox, oy, oth = source.offset
-    rot = np.array([[np.cos(oth), -np.sin(oth)], [np.sin(oth), np.cos(oth)]])
-    out: dict[str, FloatArray] = {"xy": np.column_stack([cols["x"], cols["y"]]) * s @ rot.T + (ox, oy)}
+    c, si = np.cos(oth), np.sin(oth)
+
+    def turn(u: FloatArray, w: FloatArray, k: float) -> FloatArray:  # (N, 2): (u, w) * k turned by oth
+        return np.column_stack([k * (c * u - si * w), k * (si * u + c * w)])
+
+    out: dict[str, FloatArray] = {"xy": turn(cols["x"], cols["y"], s) + np.array([ox, oy])}
     if "t" in cols:
         out["t"] = cols["t"] * ts
     if "theta" in cols:
@@ -358,7 +328,7 @@ def _to_metres(cols: dict[str, FloatArray], source: TrajectoryFile) -> dict[str,
     for pair, power in (("v", 1), ("a", 2)):
         names = (f"{pair}x", f"{pair}y")
         if all(n in cols for n in names):
-            out[f"{pair}xy"] = np.column_stack([cols[names[0]], cols[names[1]]]) * (s / ts**power) @ rot.T
+            out[f"{pair}xy"] = turn(cols[names[0]], cols[names[1]], s / ts**power)
         elif any(n in cols for n in names):
             raise TrajectoryFileError(f"columns {names[0]} and {names[1]} come together: give both or neither")
     return out
@@ -444,29 +414,6 @@ def _directions(cols: dict[str, FloatArray]) -> FloatArray:
 
 
 # ------------------------------------------------------------------------ timed files: derivatives
-def stretch_fit(t: FloatArray, xy: FloatArray) -> PositionCurve:
-    """The positions' own interpolant: a cubic spline through each stretch of rows between stops (the
-    ends, stand-stills, corners sharper than 90 degrees), at rest at both ends of every stretch.
-
-    Args:
-        t: (N,) strictly increasing times [s].
-        xy: (N, 2) positions [m].
-    """
-    d = np.diff(xy, axis=0)
-    stand = np.hypot(d[:, 0], d[:, 1]) <= SAME_POSITION
-    inner = np.arange(1, t.size - 1)
-    sharp = np.einsum("ij,ij->i", d[:-1], d[1:]) < 0.0
-    stops = inner[stand[:-1] | stand[1:] | sharp]
-    knots = np.concatenate([[0], stops, [t.size - 1]])
-    pieces: list[Any] = []
-    for a, b in itertools.pairwise(knots):
-        if np.all(stand[a:b]):
-            pieces.append(CubicHermiteSpline(t[[a, b]], xy[[a, a]], np.zeros((2, 2))))
-        else:
-            pieces.append(CubicSpline(t[a : b + 1], xy[a : b + 1], bc_type="clamped"))
-    return PositionCurve(t[knots], pieces)
-
-
 def _row_direction(direction: FloatArray) -> FloatArray:
     return np.concatenate([direction, direction[-1:]])
 
@@ -477,42 +424,74 @@ def _motion_heading(vel: FloatArray, direction: FloatArray) -> FloatArray:
     return np.arctan2(s * vel[:, 1], s * vel[:, 0])
 
 
-def _miss(t: FloatArray, values: FloatArray, rates: FloatArray, tol: tuple[float, float]) -> tuple[int, FloatArray]:
-    """Trapezoid check of ``rates`` (N, k) against ``values`` (N, k): the worst interval (-1 when every
-    interval is within ``tol``) and, per interval, [change, predicted, allowed]."""
+class _Check(NamedTuple):
+    """A trapezoid check over every interval of N rows.
+
+    Attributes:
+        worst: The interval missing most for its tolerance, or -1 when every interval is within it.
+        change: (N - 1, k) how the rows' values change over each interval.
+        predicted: (N - 1, k) how the rates say they change.
+        miss: (N - 1,) size of the difference (what is checked).
+        allowed: (N - 1,) its tolerance.
+    """
+
+    worst: int
+    change: FloatArray
+    predicted: FloatArray
+    miss: FloatArray
+    allowed: FloatArray
+
+
+def _miss(t: FloatArray, values: FloatArray, rates: FloatArray, tol: tuple[float, float]) -> _Check:
+    """Trapezoid check of ``rates`` (N, k) against ``values`` (N, k): over each interval the change the
+    rates predict must be within ``tol`` (absolute, relative to the change) of the change of the values."""
     change = np.diff(values, axis=0)
     predicted = 0.5 * np.diff(t)[:, None] * (rates[:-1] + rates[1:])
     miss = np.linalg.norm(change - predicted, axis=1)
-    size = np.linalg.norm(change, axis=1)
-    allowed = tol[0] + tol[1] * size
+    allowed = tol[0] + tol[1] * np.linalg.norm(change, axis=1)
     worst = int(np.argmax(miss / allowed))
-    table = np.column_stack([size, np.linalg.norm(predicted, axis=1), allowed])
-    return (worst if miss[worst] > allowed[worst] else -1), table
+    return _Check(worst if miss[worst] > allowed[worst] else -1, change, predicted, miss, allowed)
+
+
+def _quantity(value: FloatArray, unit: str) -> str:
+    """A value (k,) with its unit: "0.25 rad", "(0.25, -0.04) m"."""
+    text = ", ".join(f"{v:.4g}" for v in value)
+    return f"{text} {unit}" if value.size == 1 else f"({text}) {unit}"
 
 
 def _replace(
     report: ImportReport,
     what: str,
     rows: tuple[str, ...],
-    check: tuple[int, FloatArray],
+    check: _Check,
     given: FloatArray,
     used: FloatArray,
-    unit: str,
+    units: tuple[str, str],
     verb: str,
 ) -> None:
-    """Note that ``given`` (N, k) values failed their check at interval ``check[0]`` and record the
-    largest change to ``used``."""
-    i, table = check
-    change, predicted, allowed = table[i]
+    """Note that ``given`` (N, k) values failed their check at its worst interval, quoting what failed
+    (the two changes and how far apart they are), and record the largest change to ``used``.
+
+    Args:
+        units: (unit of ``given``, unit of the checked change).
+    """
+    i, unit = check.worst, units[1]
     report.notes.append(
-        f"{what} disagree with the positions: from {rows[i]} to {rows[i + 1]} they {verb} {predicted:.4g} but the "
-        f"rows {verb} {change:.4g} (tolerance {allowed:.3g}); replaced by the positions' own"
+        f"{what} disagree with the positions: from {rows[i]} to {rows[i + 1]} they {verb} "
+        f"{_quantity(check.predicted[i], unit)} but the rows {verb} {_quantity(check.change[i], unit)}, "
+        f"{check.miss[i]:.3g} {unit} apart (tolerance {check.allowed[i]:.3g} {unit}); replaced by the positions' own"
     )
     diff = np.linalg.norm(given - used, axis=1)
     k = int(np.argmax(diff))
     report.corrections.append(
         Correction(
-            what, rows[k], tuple(map(float, given[k])), tuple(map(float, used[k])), float(diff[k]), float(allowed), unit
+            what,
+            rows[k],
+            tuple(map(float, given[k])),
+            tuple(map(float, used[k])),
+            float(diff[k]),
+            float(check.allowed[i]),
+            units[0],
         )
     )
 
@@ -541,8 +520,8 @@ def _timed(
         given, what = cols["v"][:, None] * np.column_stack([np.cos(heading), np.sin(heading)]), "speeds v"
     if given is not None:
         check = _miss(t, xy, given, DISPLACEMENT_TOLERANCE)
-        if check[0] >= 0:
-            _replace(report, what, rows, check, given, derived, "m/s", "move")
+        if check.worst >= 0:
+            _replace(report, what, rows, check, given, derived, ("m/s", "m"), "move")
         else:
             curve = _with_velocities(t, xy, given, cols.get("axy"), rows, report)
     elif "axy" in cols:
@@ -553,9 +532,9 @@ def _timed(
     omega = cols.get("omega")
     if omega is not None:
         check = _miss(t, heading[:, None], omega[:, None], HEADING_TOLERANCE)
-        if check[0] >= 0:
+        if check.worst >= 0:
             own = np.gradient(heading, t)
-            _replace(report, "yaw rates omega", rows, check, omega[:, None], own[:, None], "rad/s", "turn")
+            _replace(report, "yaw rates omega", rows, check, omega[:, None], own[:, None], ("rad/s", "rad"), "turn")
             omega = None
     return ImportedFile(source, rows, xy, t, theta, direction, curve, omega, report)
 
@@ -569,14 +548,15 @@ def _with_velocities(
     report: ImportReport,
 ) -> PositionCurve:
     """The Hermite interpolant of checked velocities, quintic with accelerations that pass their check."""
-    cubic = CubicHermiteSpline(t, xy, vel)
+    cubic = hermite_curve(t, xy, vel)
     if acc is None:
-        return PositionCurve(t[[0, -1]], [cubic])
+        return cubic
     check = _miss(t, vel, acc, VELOCITY_TOLERANCE)
-    if check[0] >= 0:
-        _replace(report, "accelerations (ax, ay)", rows, check, acc, cubic(t, 2), "m/s^2", "change the velocity by")
-        return PositionCurve(t[[0, -1]], [cubic])
-    return PositionCurve(t[[0, -1]], [_Hermite2(t, xy, vel, acc)])
+    if check.worst >= 0:
+        verb = "change the velocity by"
+        _replace(report, "accelerations (ax, ay)", rows, check, acc, cubic(t, 2), ("m/s^2", "m/s"), verb)
+        return cubic
+    return hermite_curve(t, xy, vel, acc)
 
 
 def _check_heading(

@@ -1,0 +1,159 @@
+"""Curves through a timed file's rows: the spline where it is well-behaved (checked against scipy's
+clamped spline, stretch by stretch), shape-preserving where rows far apart in time would make it ring,
+the same curve from a dense slow file as from a coarse one, quintic pieces checked against scipy's
+Bernstein form, and a cost linear in the rows."""
+
+from __future__ import annotations
+
+import itertools
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.interpolate import BPoly, CubicSpline
+from test_importer import DURATION, s_curve, write_csv
+
+from planning.core.robot import load_robot
+from planning.trajectory.file_trajectory import arena_scenario, densify, file_poses
+from planning.trajectory.importer import MOVING_SPEED, TrajectoryFile, read_trajectory_file, stretch_fit
+from planning.trajectory.row_curves import (
+    OVERSHOOT_TOLERANCE,
+    hermite_curve,
+    limit_overshoot,
+    spline_slopes,
+    standing,
+    stops,
+)
+
+ROBOT = load_robot("turtlebot3")
+
+
+def _overshoot(t: np.ndarray, xy: np.ndarray, curve: object, per: int = 400) -> np.ndarray:
+    """(N - 1,) how far the curve leaves each interval's range of its two rows (the worse coordinate),
+    found by sampling, over the interval's allowance."""
+    out = np.empty(t.size - 1)
+    for i in range(t.size - 1):
+        p = curve(np.linspace(t[i], t[i + 1], per))  # type: ignore[operator]
+        lo, hi = np.minimum(xy[i], xy[i + 1]), np.maximum(xy[i], xy[i + 1])
+        out[i] = max(0.0, float(np.max(p - hi)), float(np.max(lo - p)))
+        out[i] /= OVERSHOOT_TOLERANCE[0] + OVERSHOOT_TOLERANCE[1] * np.hypot(*(xy[i + 1] - xy[i]))
+    return out
+
+
+@pytest.mark.parametrize("last", [3000.0, 200.0])
+def test_rows_far_apart_in_time_are_joined_without_overshooting_them(tmp_path: Path, last: float) -> None:
+    t = np.array([0.0, 1.0, last, last + 1.0])
+    x = np.array([0.0, 0.2, 0.4, 0.6])
+    imp = read_trajectory_file(TrajectoryFile(write_csv(tmp_path / "far.csv", {"t": t, "x": x, "y": 0 * t})))
+    assert imp.curve is not None
+    tq = np.linspace(0.0, last + 1.0, 200001)
+    xq = imp.curve(tq)[:, 0]
+    assert xq.min() >= 0.0 and xq.max() <= 0.6 + 1e-12 and np.all(np.diff(xq) >= -1e-12)  # monotone as its rows
+    arena = arena_scenario(imp, ROBOT)  # spans 0.6 m: no "give --scale"
+    span = np.ptp(file_poses(imp)[:, :2], axis=0)
+    assert span[0] == pytest.approx(0.6, abs=1e-9) and span[1] < 1e-9
+    assert arena.world.width < 0.6 + 2 * (ROBOT.radius + 0.25) + 1e-9
+
+
+def test_rows_at_random_gaps_never_overshoot_beyond_the_tolerance() -> None:
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        n = int(rng.integers(3, 12))
+        gaps = rng.choice([0.05, 1.0, 1.8, 200.0, 3000.0], n - 1) * rng.uniform(0.5, 2.0, n - 1)
+        t = np.concatenate([[0.0], np.cumsum(gaps)])
+        xy = np.cumsum(rng.normal(0.0, 0.2, (n, 2)) * (rng.random((n, 1)) < 0.8), axis=0)
+        assert np.all(_overshoot(t, xy, stretch_fit(t, xy)) <= 1.0 + 1e-6)
+
+
+def test_a_well_sampled_smooth_motion_keeps_the_spline_unchanged() -> None:
+    for t, xy in [
+        (np.arange(0.0, DURATION + 1e-9, 0.5), s_curve(np.arange(0.0, DURATION + 1e-9, 0.5))[0]),
+        (np.linspace(0.0, 20.0, 41), np.column_stack([np.sin(np.linspace(0, 5, 41)), np.cos(np.linspace(0, 5, 41))])),
+    ]:
+        m = spline_slopes(t, xy, stops(t, xy))
+        np.testing.assert_array_equal(limit_overshoot(t, xy, m), m)
+
+
+def test_spline_slopes_are_scipys_clamped_spline_stretch_by_stretch() -> None:
+    rng = np.random.default_rng(3)
+    t = np.concatenate([[0.0], np.cumsum(rng.uniform(0.05, 1.8, 40))])
+    xy = np.cumsum(rng.normal(0.0, 0.1, (41, 2)), axis=0)
+    rest = np.array([0, 9, 10, 25, 40])
+    m = spline_slopes(t, xy, rest)
+    for a, b in itertools.pairwise(rest):
+        ref = CubicSpline(t[a : b + 1], xy[a : b + 1], bc_type="clamped")(t[a : b + 1], 1)
+        np.testing.assert_allclose(m[a : b + 1], ref, atol=1e-12)
+
+
+def test_quintic_hermite_pieces_are_scipys_bernstein_form() -> None:
+    rng = np.random.default_rng(5)
+    t = np.concatenate([[0.0], np.cumsum(rng.uniform(0.05, 1.8, 30))])
+    xy, vel, acc = (rng.normal(size=(31, 2)) for _ in range(3))
+    curve = hermite_curve(t, xy, vel, acc)
+    tq = np.linspace(0.0, t[-1], 3001)
+    for nu in range(3):
+        ref = np.column_stack(
+            [BPoly.from_derivatives(t, np.column_stack([xy[:, i], vel[:, i], acc[:, i]]))(tq, nu) for i in range(2)]
+        )
+        np.testing.assert_allclose(curve(tq, nu), ref, rtol=1e-8, atol=1e-8 * np.abs(ref).max())
+
+
+def _slow_arc(tmp_path: Path, step: float) -> tuple[Path, np.ndarray]:
+    """A 1 m radius arc of 1 rad in 100 s (1 cm/s), rest to rest, written with 6 decimals every ``step`` s."""
+    t = np.round(np.arange(0.0, 100.0 + 1e-9, step), 6)
+    s = t / 100.0
+    a = 10 * s**3 - 15 * s**4 + 6 * s**5
+    xy = np.round(np.column_stack([0.5 + np.sin(a), 1.5 - np.cos(a)]), 6)
+    return write_csv(tmp_path / f"arc{step:g}.csv", {"t": t, "x": xy[:, 0], "y": xy[:, 1]}), t
+
+
+def test_a_dense_slow_file_is_the_same_curve_as_a_coarse_one(tmp_path: Path) -> None:
+    dense_file, t = _slow_arc(tmp_path, 0.01)
+    assert t.size == 10001
+    dense = densify(read_trajectory_file(TrajectoryFile(dense_file)))
+    coarse = densify(read_trajectory_file(TrajectoryFile(_slow_arc(tmp_path, 0.1)[0])))
+    np.testing.assert_allclose(dense.t, coarse.t)
+    assert np.abs(dense.pose[:, :2] - coarse.pose[:, :2]).max() < 1e-4
+    # below MOVING_SPEED the robot counts as standing, and where a stand-still ends depends on the rows
+    dv = np.abs(dense.v - coarse.v)
+    assert dv.max() < 2 * MOVING_SPEED and np.sqrt(np.mean(dv**2)) < 1e-4
+    assert dense.v.max() == pytest.approx(0.01875, rel=0.01)  # 1.875 x the mean 1 cm/s: it moves
+    # headings of the motion: 1 um of rounding per 0.01 s is 0.1 mm/s of noise in the direction of a slow motion
+    fast = np.minimum(np.abs(dense.v), np.abs(coarse.v)) > 5 * MOVING_SPEED
+    assert np.abs(dense.pose[fast, 2] - coarse.pose[fast, 2]).max() < 0.02
+
+
+def test_standing_needs_a_small_step_and_a_small_speed() -> None:
+    t = np.array([0.0, 0.01, 0.02, 1.02, 2.02])
+    xy = np.array([[0.0, 0.0], [1e-4, 0.0], [1e-4, 0.0], [1.5e-4, 0.0], [1.0, 0.0]])
+    np.testing.assert_array_equal(standing(t, xy), [False, True, True, False])  # 1 cm/s moves; 0.05 mm/s stands
+
+
+def _walk(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """A 100 Hz log of a wandering robot with noise: thousands of stops (sharp corners) and stand-stills."""
+    rng = np.random.default_rng(n)
+    t = np.arange(n) * 0.01
+    xy = np.cumsum(rng.normal(0.0, 1e-3, (n, 2)), axis=0)
+    xy[rng.random(n) < 0.1] = np.nan
+    xy = np.where(np.isnan(xy), np.roll(xy, 1, axis=0), xy)  # repeated rows: stand-stills
+    return t, np.nan_to_num(xy)
+
+
+def test_the_cost_of_a_file_grows_linearly_with_its_rows(tmp_path: Path) -> None:
+    files = {}
+    for n in (10_000, 80_000):
+        t, xy = _walk(n)
+        files[n] = tmp_path / f"w{n}.csv"
+        np.savetxt(files[n], np.column_stack([t, xy]), delimiter=",", header="t,x,y", comments="", fmt="%.6f")
+    best = dict.fromkeys(files, np.inf)
+    for _ in range(3):  # interleaved, best of three: a loaded machine slows both alike
+        for n, p in files.items():
+            start = time.perf_counter()
+            imp = read_trajectory_file(TrajectoryFile(p))
+            assert imp.curve is not None
+            imp.curve(np.linspace(0.0, float(imp.t[-1]), n))  # type: ignore[index]
+            best[n] = min(best[n], time.perf_counter() - start)
+    ratio = best[80_000] / best[10_000]
+    assert ratio < 8 * 3, f"8x the rows cost {ratio:.1f}x the time (linear: 8x; quadratic: 64x)"
+    assert imp.curve.poly.x.size == imp.t.size  # type: ignore[union-attr]  # one polynomial, rows as breaks
