@@ -7,6 +7,7 @@ fuzz files stay well under 30 s on a loaded machine) and in the ``slow`` suite w
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections.abc import Callable, Mapping
@@ -149,3 +150,149 @@ BAD_NUMBER = st.one_of(
     TEXT,
     st.lists(st.floats(-1, 1), max_size=2),
 )
+
+
+# ------------------------------------------------------------------------------------- timed files
+@dataclasses.dataclass(frozen=True)
+class TimedFile:
+    """A drawn trajectory file shaped like published ones (see :func:`timed_files`).
+
+    Attributes:
+        text: The file's text (CSV with a header, or without one when ``columns`` names them).
+        columns: ``--columns`` for a file without a header, else None.
+        scale: ``--scale`` (0.01 for a file in pixels of 1 cm), or None for metres.
+        refused_at: The row the file must be refused at ("line 7"), for a drawn fault; None when it
+            must run.
+        why: What was drawn, for the failure report.
+    """
+
+    text: str
+    columns: tuple[str, ...] | None
+    scale: float | None
+    refused_at: str | None
+    why: str
+
+
+def _piece(t: np.ndarray, p0: np.ndarray, p1: np.ndarray, bend: float, ramp: bool) -> tuple[np.ndarray, ...]:
+    """Positions, velocities and accelerations at times t (from 0) of a drive from p0 to p1 bent sideways
+    by ``bend``: rest to rest (quintic) when ``ramp``, else at constant pace."""
+    T = float(t[-1])
+    s = t / T
+    if ramp:
+        u, du, ddu = (
+            10 * s**3 - 15 * s**4 + 6 * s**5,
+            (30 * s**2 - 60 * s**3 + 30 * s**4) / T,
+            (60 * s - 180 * s**2 + 120 * s**3) / T**2,
+        )
+    else:
+        u, du, ddu = s, np.full_like(s, 1.0 / T), np.zeros_like(s)
+    d = p1 - p0
+    nrm = np.array([-d[1], d[0]]) / max(float(np.hypot(*d)), 1e-9)
+    w, dw = np.sin(np.pi * u), np.pi * np.cos(np.pi * u)
+    xy = p0 + np.outer(u, d) + bend * np.outer(w, nrm)
+    vel = np.outer(du, d) + bend * np.outer(dw * du, nrm)
+    acc = np.outer(ddu, d) + bend * np.outer(dw * ddu - np.pi**2 * w * du**2, nrm)
+    return xy, vel, acc
+
+
+#: The column sets a drawn file gives (t, x, y and some derivatives and headings).
+TIMED_COLUMNS = (
+    ("t", "x", "y"),
+    ("t", "x", "y", "theta"),
+    ("t", "x", "y", "vx", "vy"),
+    ("t", "x", "y", "vx", "vy", "ax", "ay"),
+    ("t", "x", "y", "vx", "vy", "ax", "ay", "theta"),
+)
+_ORDER = {"t": 0, "x": 1, "y": 2, "vx": 3, "vy": 4, "ax": 5, "ay": 6, "theta": 7}
+
+
+def _stand(rng: np.random.Generator, last: np.ndarray, t0: float) -> np.ndarray:
+    """Rows standing at the pose of row ``last`` (8,) while time passes after t0."""
+    ts = t0 + np.cumsum(rng.uniform(0.05, 1.8, int(rng.integers(2, 6))))
+    block = np.tile(last, (ts.size, 1))
+    block[:, 0], block[:, 3:7] = ts, 0.0
+    return block
+
+
+def _drive(
+    rng: np.random.Generator, start: np.ndarray, target: np.ndarray, t0: float, ramp: bool, back: bool
+) -> np.ndarray:
+    """Rows (t, x, y, vx, vy, ax, ay, theta) of one drive from ``start`` to ``target`` after t0, stamps
+    0.05-1.8 s apart; the heading points backwards on a drive ``back``."""
+    dur = float(rng.uniform(3.0, 40.0))
+    ts = np.concatenate([[0.0], np.cumsum(rng.uniform(0.05, 1.8, max(int(dur / 0.9), 2)))])
+    ts *= dur / ts[-1]
+    xy, vel, acc = _piece(ts, start, target, float(rng.uniform(-0.3, 0.3)), ramp)
+    sgn = -1.0 if back else 1.0
+    theta = np.arctan2(sgn * vel[:, 1], sgn * vel[:, 0])
+    theta[0], theta[-1] = theta[1], theta[-2]  # at rest: the heading of the motion next to it
+    return np.column_stack([ts + t0, xy, vel, acc, theta])
+
+
+def _drives(draw: st.DrawFn, rng: np.random.Generator, why: list[str]) -> np.ndarray:
+    """The rows of one to four drives, stand-stills and reversals, in metres and seconds."""
+    rows = [_drive(rng, rng.uniform(0.3, 2.7, 2), rng.uniform(0.3, 2.7, 2), 0.0, True, False)]
+    for _ in range(draw(st.integers(0, 3))):
+        kind = draw(st.sampled_from(["drive", "reverse", "stand"]))
+        last = rows[-1][-1]
+        if kind == "stand":
+            rows.append(_stand(rng, last, float(last[0])))
+            why.append("stand")
+            continue
+        back = rows[-1][0, 1:3] if kind == "reverse" else rng.uniform(0.3, 2.7, 2)  # reverse: the way it came
+        ramp = draw(st.booleans())
+        block = _drive(rng, last[1:3], back, float(last[0]), ramp, kind == "reverse")
+        if draw(st.booleans()):  # the join's stamp repeated: the same place, velocities a little apart
+            block[0, 3:5] += rng.normal(0.0, 0.005, 2)
+            why.append("repeated stamp")
+        else:
+            block = block[1:]
+        rows.append(block)
+        why.append(kind if ramp else f"{kind} (moving at its ends)")
+    return np.vstack(rows)
+
+
+@st.composite
+def timed_files(draw: st.DrawFn, faults: bool = True) -> TimedFile:
+    """Trajectory files like one published for an EduMIP: ``t,x,y,vx,vy,ax,ay,theta`` (some of them) in
+    pixels of 1 cm or in metres, sampled irregularly 0.05-1.8 s apart, made of one to four drives
+    that meet at repeated stamps (same place, velocities a little apart), with stand-stills (rows at
+    one place while time passes), reversals (a drive back the way it came: a cusp), drives that start
+    or end moving, and given derivatives that agree with the positions or not (vy of the wrong sign,
+    wrong units, noise). With ``faults``, about one file in six gets a fault that must be refused
+    naming its row: a stamp repeated at another place, or a stamp going back.
+
+    Bulk numbers come from a numpy generator seeded by the draw (a failure replays exactly); the shape
+    of the file is drawn by Hypothesis.
+    """
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    scale = draw(st.sampled_from([0.01, None]))
+    names = draw(st.sampled_from(TIMED_COLUMNS))
+    why = ["pixels" if scale else "metres", ",".join(names)]
+    data = _drives(draw, rng, why)
+    derivs = draw(st.sampled_from(["agree", "agree", "vy sign", "units", "noise"]))
+    if derivs == "vy sign":
+        data[:, 4] *= -1.0
+    elif derivs == "units":
+        data[:, 3:7] *= 100.0
+    elif derivs == "noise":
+        data[:, 3:7] += rng.normal(0.0, 0.02, (data.shape[0], 4))
+    why.append(f"derivatives {derivs}")
+    fault = None
+    kind = draw(st.sampled_from([None, None, None, None, "repeat", "back"])) if faults else None
+    if kind is not None:
+        k = int(rng.integers(1, data.shape[0] - 1))
+        if kind == "repeat":  # a stamp repeated 5 cm away
+            data = np.insert(data, k + 1, data[k], axis=0)
+            data[k + 1, 1] += 0.05
+            why.append(f"stamp repeated at another place, data row {k + 1}")
+        else:
+            data[k + 1, 0] = data[k, 0] - 0.5
+            why.append(f"stamp going back, data row {k + 1}")
+        fault = k + 1
+    data[:, 1:7] /= scale or 1.0
+    header = draw(st.booleans())
+    body = [",".join(f"{v:.4f}" for v in row[[_ORDER[c] for c in names]]) for row in data]
+    text = "\n".join([",".join(names), *body] if header else body) + "\n"
+    refused_at = None if fault is None else f"line {fault + 1 + int(header)}"
+    return TimedFile(text, None if header else names, scale, refused_at, "; ".join(why))
