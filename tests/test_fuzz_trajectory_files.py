@@ -15,7 +15,7 @@ import io
 import re
 import shutil
 import tempfile
-from contextlib import redirect_stderr, redirect_stdout
+from contextlib import chdir, redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import numpy as np
@@ -76,9 +76,10 @@ def import_property(f: TimedFile) -> None:
 test_import_fast, test_import_slow = fast_and_slow(timed_files(), import_property, fast=40)
 
 
-def _run_cli(argv: list[str]) -> tuple[int, str]:
+def _run_cli(argv: list[str], where: Path) -> tuple[int, str]:
+    """Exit status and stderr of ``nhsim ARGV`` run in the folder ``where`` (its renders/ are its own)."""
     err = io.StringIO()
-    with redirect_stdout(io.StringIO()), redirect_stderr(err):
+    with chdir(where), redirect_stdout(io.StringIO()), redirect_stderr(err):
         try:
             code = main(argv)
         except SystemExit as exc:
@@ -94,7 +95,7 @@ def simulate_property(f: TimedFile) -> None:
         argv += ["--columns", ",".join(f.columns)]
     if f.scale:
         argv += ["--scale", str(f.scale)]
-    code, err = _run_cli(argv)
+    code, err = _run_cli(argv, path.parent)
     if f.refused_at is not None:
         assert code == 2 and f.refused_at in err and not out.exists(), (f.why, code, err)
     elif code == 2:
