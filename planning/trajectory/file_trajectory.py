@@ -1,9 +1,10 @@
 """A repaired trajectory or path file (:mod:`planning.trajectory.importer`) as a trajectory in a world.
 
 A **timed** file is sampled every ``dt`` from its interpolant: positions and their derivatives, the
-heading along the motion where the robot moves and, where it stands, the file's own headings (their
-turn in place; shifted to meet the motion's heading at both ends) or a turn from the arriving to the
-leaving heading. Then it goes through the stage every timed plan goes through
+heading along the motion where the robot moves (the direction of the curve's chord over
+:data:`HEADING_WINDOW`, within one drive) and, where it stands, the file's own headings (their turn in
+place; shifted to meet the motion's heading at both ends) or a turn from the arriving to the leaving
+heading. Then it goes through the stage every timed plan goes through
 (:func:`planning.trajectory.from_plan.make_trajectory`): segments from the sign of v, its own samples
 kept (slowed uniformly, by at most :data:`MAX_STRETCH`, when it exceeds a limit) or re-timed from
 rest to rest by the speed profile, with the reason: it starts or ends moving, it accelerates beyond
@@ -49,6 +50,8 @@ ARENA_MAX = 50.0
 ARENA_ROBOT = "turtlebot3"
 #: Sample period of a timed file's samples [s].
 DT = 0.01
+#: Time over which a timed file's direction of motion is taken (its heading where it moves) [s].
+HEADING_WINDOW = 0.1
 
 
 @dataclass(frozen=True)
@@ -77,11 +80,36 @@ def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
     speed = np.hypot(d[:, 0], d[:, 1])
     k = np.clip(np.searchsorted(imported.t, tg, side="right") - 1, 0, imported.direction.size - 1)
     sgn = imported.direction[k]
-    heading = np.arctan2(sgn * d[:, 1], sgn * d[:, 0])
-    heading = _standing_headings(imported, tg, heading, speed > MOVING_SPEED)
+    moving = speed > MOVING_SPEED
+    chord = _chords(imported, tg, moving, sgn)
+    heading = np.arctan2(sgn * chord[:, 1], sgn * chord[:, 0])
+    heading = _standing_headings(imported, tg, heading, moving)
     heading = np.unwrap(heading)
     pose = np.column_stack([imported.curve(tg, 0), heading])
     return DenseFile(tg - t0, pose, sgn * speed, np.gradient(heading, tg))
+
+
+def _chords(imported: ImportedFile, tg: FloatArray, moving: NDArray[np.bool_], sgn: FloatArray) -> FloatArray:
+    """(M, 2) direction of motion at times tg (M,): the chord of the curve over HEADING_WINDOW around each
+    time, within its own run of moving samples of one travel direction.
+
+    Over a window rather than at an instant: a file's rounding, differentiated between rows 0.01 s
+    apart, turns the direction of a slow motion by tenths of a radian from row to row (1 um of
+    rounding at 1 mm/s), and such a heading jitters at yaw accelerations of hundreds of rad/s^2. The
+    chord of a circle is parallel to its tangent at the chord's middle, so a steady turn keeps its
+    heading exactly."""
+    assert imported.curve is not None
+    new = np.concatenate([[True], (moving[1:] != moving[:-1]) | (sgn[1:] != sgn[:-1])])
+    run = np.cumsum(new) - 1
+    starts = np.flatnonzero(new)
+    ends = np.append(starts[1:], tg.size) - 1
+    lo, hi = tg[starts[run]], tg[ends[run]]
+    after = imported.curve(np.clip(tg + 0.5 * HEADING_WINDOW, lo, hi), 0)
+    before = imported.curve(np.clip(tg - 0.5 * HEADING_WINDOW, lo, hi), 0)
+    chord = after - before
+    flat = np.hypot(chord[:, 0], chord[:, 1]) == 0.0  # a run of one sample: its velocity
+    chord[flat] = imported.curve(tg[flat], 1)
+    return chord
 
 
 def _given_heading(imported: ImportedFile, tg: FloatArray) -> FloatArray | None:

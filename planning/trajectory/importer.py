@@ -404,7 +404,15 @@ def _directions(cols: dict[str, FloatArray]) -> FloatArray:
     else forwards."""
     d = np.diff(cols["xy"], axis=0)
     if "v" in cols:
+        v = np.sign(cols["v"])
         s = np.sign(cols["v"][:-1] + cols["v"][1:])
+        # v changes sign over an interval: the cusp is at the row where the steps reverse (its start
+        # when the step turns back there, else its end)
+        flips = np.flatnonzero(v[:-1] * v[1:] < 0)
+        back = np.zeros(flips.size, dtype=bool)
+        inner = flips > 0
+        back[inner] = np.einsum("ij,ij->i", d[flips[inner] - 1], d[flips[inner]]) < 0.0
+        s[flips] = np.where(back, v[flips + 1], v[flips])
     elif "theta" in cols:
         mid = 0.5 * (cols["theta"][:-1] + cols["theta"][1:])
         s = np.sign(np.cos(mid) * d[:, 0] + np.sin(mid) * d[:, 1])
