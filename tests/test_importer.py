@@ -9,10 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from planning.trajectory.file_formats import TrajectoryFileError
+from planning.trajectory.file_formats import TrajectoryFileError, table_from_arrays
 from planning.trajectory.importer import (
     DISPLACEMENT_TOLERANCE,
     TrajectoryFile,
+    import_table,
     parse_columns,
     parse_offset,
     read_trajectory_file,
@@ -242,3 +243,22 @@ def test_a_correction_note_quotes_the_miss_that_failed_not_two_sizes_within_tole
     miss, tol = float(found[5]), float(found[6])
     assert miss > tol  # the quantity quoted is the one that failed
     assert miss == pytest.approx(float(np.hypot(*(said - rows))), rel=1e-2)
+
+
+def test_arrays_import_as_a_file_of_the_same_rows_does(tmp_path: Path) -> None:
+    p, t = quintic_file(tmp_path)
+    xy = s_curve(t)[0]
+    from_file = read_trajectory_file(TrajectoryFile(p, scale=100.0, offset=(1.0, 0.0, 0.3)))
+    table = table_from_arrays(p, {"t": t, "x": xy[:, 0], "y": xy[:, 1]}, "arrays", [f"message {i}" for i in t])
+    from_arrays = import_table(table, TrajectoryFile(p, scale=100.0, offset=(1.0, 0.0, 0.3)))
+    np.testing.assert_array_equal(from_arrays.xy, from_file.xy)
+    assert from_arrays.curve is not None and from_file.curve is not None
+    np.testing.assert_array_equal(from_arrays.curve(t, 1), from_file.curve(t, 1))
+    assert from_arrays.rows[3] == "message 1.5" and from_arrays.report.fmt == "arrays"
+    bad = {"t": t, "x": np.where(t == 2.0, np.nan, xy[:, 0]), "y": xy[:, 1]}
+    with pytest.raises(TrajectoryFileError, match=r"row 4, column 'x'"):
+        table_from_arrays(p, bad, "arrays")
+    with pytest.raises(TrajectoryFileError, match="differ in length"):
+        table_from_arrays(p, {"t": t, "x": xy[:-1, 0], "y": xy[:, 1]}, "arrays")
+    with pytest.raises(TrajectoryFileError, match="unknown column"):
+        table_from_arrays(p, {"t": t, "x": xy[:, 0], "z": xy[:, 1]}, "arrays")

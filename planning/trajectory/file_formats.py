@@ -31,13 +31,21 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from planning.errors import ConfigError
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["COLUMNS", "SKIP", "FileTable", "TrajectoryFileError", "parse_column_names", "read_table"]
+__all__ = [
+    "COLUMNS",
+    "SKIP",
+    "FileTable",
+    "TrajectoryFileError",
+    "parse_column_names",
+    "read_table",
+    "table_from_arrays",
+]
 
 #: The column names a file may use, in this order in messages.
 COLUMNS = ("t", "x", "y", "theta", "v", "omega", "vx", "vy", "ax", "ay")
@@ -68,6 +76,51 @@ class FileTable:
 
     def __len__(self) -> int:
         return len(self.rows)
+
+
+def table_from_arrays(
+    path: str | Path, columns: Mapping[str, ArrayLike], fmt: str, rows: Sequence[str] | None = None
+) -> FileTable:
+    """Columns read elsewhere (a ROS 2 bag's messages, a caller's arrays) as a table, checked as a
+    file's are: names among :data:`COLUMNS` (``_`` columns dropped), one length, finite numbers.
+
+    Args:
+        path: The source the messages name (the bag, the file).
+        columns: Column name -> (N,) values in the source's units (scaled later, as a file's).
+        fmt: How the import report names the format, e.g. "rosbag2 /odom".
+        rows: (N,) how messages name each row ("message 12"); default "row 0", "row 1", ...
+
+    Raises:
+        TrajectoryFileError: An unknown or repeated name, a column that is not 1-D or differs in
+            length, a value that is not a finite number (its row and column named).
+    """
+    p = Path(path)
+    names = parse_column_names(list(columns), str(p))
+    arrays: dict[str, FloatArray] = {}
+    for key, name in zip(columns, names, strict=True):
+        try:
+            arr = np.asarray(columns[key], dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise TrajectoryFileError(f"{p}: column {name!r} is not numbers: {exc}") from exc
+        if arr.ndim != 1:
+            raise TrajectoryFileError(f"{p}: column {name!r} must be one value per row, got shape {arr.shape}")
+        if name != SKIP:
+            arrays[name] = arr
+    sizes = {name: arr.size for name, arr in arrays.items()}
+    if len(set(sizes.values())) > 1:
+        shown = ", ".join(f"{k}: {v}" for k, v in sizes.items())
+        raise TrajectoryFileError(f"{p}: the columns differ in length ({shown}); give every column one value per row")
+    n = next(iter(sizes.values()), 0)
+    labels = tuple(rows) if rows is not None else tuple(f"row {i}" for i in range(n))
+    if len(labels) != n:
+        raise TrajectoryFileError(f"{p}: {len(labels)} row names for {n} rows")
+    for name, arr in arrays.items():
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            raise TrajectoryFileError(
+                f"{p}: {labels[bad[0]]}, column {name!r}: {arr[bad[0]]!r} is not a finite number; fix or drop the row"
+            )
+    return FileTable(p, fmt, arrays, labels)
 
 
 def _valid_names() -> str:

@@ -271,7 +271,28 @@ def read_trajectory_file(source: TrajectoryFile) -> ImportedFile:
             a non-numeric cell, stamps that go back or repeat at different positions, fewer than
             two distinct positions.
     """
-    table = read_table(source.path, source.columns)
+    return import_table(read_table(source.path, source.columns), source)
+
+
+def import_table(table: FileTable, source: TrajectoryFile) -> ImportedFile:
+    """Bring rows already read into metres and seconds and repair them (see the module doc).
+
+    The entry point for sources that are not text, JSON or YAML files (a ROS 2 bag's messages): build
+    the table with :func:`planning.trajectory.file_formats.table_from_arrays`, then import it with the
+    options of ``source`` (``timed``, ``scale``, ``time_scale``, ``offset``, ``allow_collisions``;
+    ``columns`` names a text file's columns and is not used here). The cost is linear in the rows.
+
+    Args:
+        table: The rows, in the source's units, named for messages.
+        source: The source (``source.path`` names it in messages) and how to read it.
+
+    Returns:
+        The imported rows, their curve (a timed source) and the report of every repair.
+
+    Raises:
+        TrajectoryFileError: Missing x or y (or t for a trajectory), stamps that go back or repeat at
+            different positions, fewer than two distinct positions (the rows named).
+    """
     report = ImportReport(str(source.path), table.fmt, "trajectory" if source.timed else "path", len(table))
     cols = _required(table, source, report)
     cols = _to_metres(cols, source)
