@@ -199,3 +199,52 @@ def test_a_json_file_with_wrong_velocities_is_repaired_and_the_summary_and_recor
     imp = json.loads(out.read_text())["import"]
     assert imp["format"] == "json" and imp["rows_merged"] == 2
     assert imp["largest_correction"]["what"] == "velocities (vx, vy)" and imp["largest_correction"]["unit"] == "m/s"
+
+
+FOUR_BOXES = """robot = "edumip"
+robots = ["edumip"]
+[world]
+bounds = [0.0, 2.0, 0.0, 1.5]
+[[world.obstacles]]
+type = "box"
+center = [0.2, 0.2]
+size = [0.2, 0.2]
+[[world.obstacles]]
+type = "box"
+center = [1.8, 0.2]
+size = [0.2, 0.2]
+[[world.obstacles]]
+type = "box"
+center = [0.2, 1.3]
+size = [0.2, 0.2]
+[[world.obstacles]]
+type = "box"
+center = [1.8, 1.3]
+size = [0.2, 0.2]
+[start]
+pose = [0.5, 0.5, 0.0]
+[goal]
+pose = [0.95, 0.5, 0.0]
+"""
+
+
+def test_a_headerless_pixel_file_stopping_short_while_turning_runs_among_four_boxes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """All eight columns in pixels of 1 cm, no header: its last row stops within 0.05 s while the heading
+    turns (the re-timing labelled that sample alone a turn in place, timed in no time: t[k+1] <= t[k])."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "boxes.toml").write_text(FOUR_BOXES)
+    t = [0.0, 1.0, 2.5, 4.0, 5.0, 5.05]
+    x = [50.0, 55.0, 70.0, 85.0, 95.0, 95.25]
+    vx, ax = [0.0, 10.0, 10.0, 10.0, 10.0, 0.0], [10.0, 0.0, 0.0, 0.0, 0.0, -200.0]
+    theta = [0.0, 0.0, 0.0, 0.0, 0.0, 0.05]
+    rows = [f"{a},{b},50,{c},0,{d},0,{e}" for a, b, c, d, e in zip(t, x, vx, ax, theta, strict=True)]
+    p = tmp_path / "edumip.csv"
+    p.write_text("\n".join(rows) + "\n")
+    out = tmp_path / "run.json"
+    argv = ["simulate", "--trajectory", str(p), "--columns", "t,x,y,vx,vy,ax,ay,theta", "--scale", "0.01"]
+    rc = main([*argv, "--scenario", "boxes.toml", "--no-video", "--no-plots", "--json", str(out), "--quiet"])
+    assert rc in (0, 1) and out.exists()
+    rec = json.loads(out.read_text())
+    assert rec["import"]["retimed"] and rec["closed_loop"]["collisions"] == 0
