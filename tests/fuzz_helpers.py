@@ -259,7 +259,7 @@ def timed_files(draw: st.DrawFn, faults: bool = True) -> TimedFile:
     that meet at repeated stamps (same place, velocities a little apart), with stand-stills (rows at
     one place while time passes), reversals (a drive back the way it came: a cusp), drives that start
     or end moving, and given derivatives that agree with the positions or not (vy of the wrong sign,
-    wrong units, noise). With ``faults``, about one file in six gets a fault that must be refused
+    wrong units, noise). With ``faults``, about one file in three gets a fault that must be refused
     naming its row: a stamp repeated at another place, or a stamp going back.
 
     Bulk numbers come from a numpy generator seeded by the draw (a failure replays exactly); the shape
