@@ -17,10 +17,13 @@ into the scenario's frame), and repairs what real files get wrong:
   than :data:`HEADING_TO_MOTION` (0.1 rad) off the direction of motion is replaced by it (the
   robot cannot move sideways).
 
-The positions' own derivatives come from a cubic spline through each stretch of rows between
-stops (the file's ends, stand-stills, and corners sharper than 90 degrees, cusps included), at rest
-at both ends of the stretch: a file without velocities starts and ends at rest. Given velocities
-that pass the check are kept as Hermite data (with accelerations: quintic Hermite pieces).
+The positions' own derivatives come from one curve through all rows
+(:func:`planning.trajectory.row_curves.stretch_fit`): a cubic spline at rest at the stops (the file's
+ends, where stand-stills begin and end, corners sharper than 90 degrees, cusps included), made
+shape-preserving where rows far apart in time would make it ring: a file without velocities starts
+and ends at rest. Given velocities that pass the check are kept as Hermite data (with
+accelerations: quintic Hermite pieces). Rows read elsewhere (a bag's messages) go through the same
+steps with :func:`import_table`. The cost is linear in the rows.
 
 :mod:`planning.trajectory.file_trajectory` turns the result into a trajectory in a world.
 """
