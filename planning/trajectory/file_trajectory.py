@@ -2,9 +2,9 @@
 
 A **timed** file is sampled every ``dt`` from its interpolant: positions and their derivatives, the
 heading along the motion where the robot moves (the direction of the curve's chord over
-:data:`HEADING_WINDOW`, within one drive) and, where it stands, the file's own headings (their turn in
-place; shifted to meet the motion's heading at both ends) or a turn from the arriving to the leaving
-heading. Then it goes through the stage every timed plan goes through
+:data:`HEADING_WINDOW` and :data:`HEADING_LENGTH`, within one drive) and, where it stands, the file's
+own headings (their turn in place; shifted to meet the motion's heading at both ends) or a turn from
+the arriving to the leaving heading. Then it goes through the stage every timed plan goes through
 (:func:`planning.trajectory.from_plan.make_trajectory`): segments from the sign of v, its own samples
 kept (slowed uniformly, by at most :data:`MAX_STRETCH`, when it exceeds a limit) or re-timed from
 rest to rest by the speed profile, with the reason: it starts or ends moving, it accelerates beyond
@@ -50,8 +50,10 @@ ARENA_MAX = 50.0
 ARENA_ROBOT = "turtlebot3"
 #: Sample period of a timed file's samples [s].
 DT = 0.01
-#: Time over which a timed file's direction of motion is taken (its heading where it moves) [s].
+#: Least time [s] and path [m] over which a timed file's direction of motion is taken (its heading
+#: where it moves).
 HEADING_WINDOW = 0.1
+HEADING_LENGTH = 0.005
 
 
 @dataclass(frozen=True)
@@ -90,23 +92,38 @@ def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
 
 
 def _chords(imported: ImportedFile, tg: FloatArray, moving: NDArray[np.bool_], sgn: FloatArray) -> FloatArray:
-    """(M, 2) direction of motion at times tg (M,): the chord of the curve over HEADING_WINDOW around each
-    time, within its own run of moving samples of one travel direction.
+    """(M, 2) direction of motion at times tg (M,): the chord of the curve around each time over at least
+    HEADING_WINDOW and at least HEADING_LENGTH of path, within its own drive (samples of one travel
+    direction between stand-stills of HEADING_WINDOW or more).
 
     Over a window rather than at an instant: a file's rounding, differentiated between rows 0.01 s
     apart, turns the direction of a slow motion by tenths of a radian from row to row (1 um of
-    rounding at 1 mm/s), and such a heading jitters at yaw accelerations of hundreds of rad/s^2. The
-    chord of a circle is parallel to its tangent at the chord's middle, so a steady turn keeps its
-    heading exactly."""
+    rounding at 1 mm/s), and such a heading jitters at yaw accelerations of hundreds of rad/s^2; over
+    5 mm of path the same rounding turns it by less than a milliradian. The chord of a circle is
+    parallel to its tangent at the chord's middle, so a steady turn keeps its heading exactly."""
     assert imported.curve is not None
-    new = np.concatenate([[True], (moving[1:] != moving[:-1]) | (sgn[1:] != sgn[:-1])])
+    # runs of one travel direction, split by stand-stills of HEADING_WINDOW or more (a turn in place may
+    # happen there); a shorter dip below MOVING_SPEED is part of the drive
+    edges = np.flatnonzero(np.diff(np.concatenate([[1], moving.astype(int), [1]])))
+    a, b = edges[::2], edges[1::2]  # standing samples [a, b)
+    keep = tg[b - 1] - tg[a] >= HEADING_WINDOW
+    mark = np.zeros(tg.size + 1, dtype=np.int64)
+    np.add.at(mark, a[keep], 1)
+    np.add.at(mark, b[keep], -1)
+    long_stand = np.cumsum(mark)[:-1] > 0
+    new = np.concatenate([[True], (sgn[1:] != sgn[:-1]) | (long_stand[1:] != long_stand[:-1])])
     run = np.cumsum(new) - 1
     starts = np.flatnonzero(new)
     ends = np.append(starts[1:], tg.size) - 1
     lo, hi = tg[starts[run]], tg[ends[run]]
-    after = imported.curve(np.clip(tg + 0.5 * HEADING_WINDOW, lo, hi), 0)
-    before = imported.curve(np.clip(tg - 0.5 * HEADING_WINDOW, lo, hi), 0)
-    chord = after - before
+    xy = imported.curve(tg, 0)
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])  # path length [m]
+    ahead = np.interp(s + 0.5 * HEADING_LENGTH, s, tg) - tg
+    behind = tg - np.interp(s - 0.5 * HEADING_LENGTH, s, tg)
+    # symmetric about each time, so that near a drive's ends the chord does not lean into a turn
+    half = np.minimum(np.maximum.reduce([np.full_like(tg, 0.5 * HEADING_WINDOW), ahead, behind]), tg - lo)
+    half = np.minimum(half, hi - tg)
+    chord = imported.curve(tg + half, 0) - imported.curve(tg - half, 0)
     flat = np.hypot(chord[:, 0], chord[:, 1]) == 0.0  # a run of one sample: its velocity
     chord[flat] = imported.curve(tg[flat], 1)
     return chord
