@@ -82,7 +82,7 @@ def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
     speed = np.hypot(d[:, 0], d[:, 1])
     k = np.clip(np.searchsorted(imported.t, tg, side="right") - 1, 0, imported.direction.size - 1)
     sgn = imported.direction[k]
-    moving = speed > MOVING_SPEED
+    moving = _steady(_steady(speed > MOVING_SPEED, tg, False), tg, True)
     chord = _chords(imported, tg, moving, sgn)
     heading = np.arctan2(sgn * chord[:, 1], sgn * chord[:, 0])
     heading = _standing_headings(imported, tg, heading, moving)
@@ -91,10 +91,23 @@ def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
     return DenseFile(tg - t0, pose, sgn * speed, np.gradient(heading, tg))
 
 
+def _steady(mask: NDArray[np.bool_], tg: FloatArray, value: bool) -> NDArray[np.bool_]:
+    """``mask`` (M,) with its runs of ``not value`` shorter than HEADING_WINDOW (between runs of
+    ``value``) set to ``value``: a speed hovering about MOVING_SPEED neither stops a drive for a sample
+    nor starts one."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[1], (mask != value).astype(int) ^ 1, [1]])))
+    a, b = edges[::2], edges[1::2]  # runs [a, b) of not value
+    short = (tg[b - 1] - tg[a] < HEADING_WINDOW) & (a > 0) & (b < tg.size)
+    mark = np.zeros(tg.size + 1, dtype=np.int64)
+    np.add.at(mark, a[short], 1)
+    np.add.at(mark, b[short], -1)
+    return np.where(np.cumsum(mark)[:-1] > 0, value, mask)
+
+
 def _chords(imported: ImportedFile, tg: FloatArray, moving: NDArray[np.bool_], sgn: FloatArray) -> FloatArray:
     """(M, 2) direction of motion at times tg (M,): the chord of the curve around each time over at least
-    HEADING_WINDOW and at least HEADING_LENGTH of path, within its own drive (samples of one travel
-    direction between stand-stills of HEADING_WINDOW or more).
+    HEADING_WINDOW and at least HEADING_LENGTH of path, within its own drive (moving samples of one
+    travel direction).
 
     Over a window rather than at an instant: a file's rounding, differentiated between rows 0.01 s
     apart, turns the direction of a slow motion by tenths of a radian from row to row (1 um of
@@ -102,16 +115,7 @@ def _chords(imported: ImportedFile, tg: FloatArray, moving: NDArray[np.bool_], s
     5 mm of path the same rounding turns it by less than a milliradian. The chord of a circle is
     parallel to its tangent at the chord's middle, so a steady turn keeps its heading exactly."""
     assert imported.curve is not None
-    # runs of one travel direction, split by stand-stills of HEADING_WINDOW or more (a turn in place may
-    # happen there); a shorter dip below MOVING_SPEED is part of the drive
-    edges = np.flatnonzero(np.diff(np.concatenate([[1], moving.astype(int), [1]])))
-    a, b = edges[::2], edges[1::2]  # standing samples [a, b)
-    keep = tg[b - 1] - tg[a] >= HEADING_WINDOW
-    mark = np.zeros(tg.size + 1, dtype=np.int64)
-    np.add.at(mark, a[keep], 1)
-    np.add.at(mark, b[keep], -1)
-    long_stand = np.cumsum(mark)[:-1] > 0
-    new = np.concatenate([[True], (sgn[1:] != sgn[:-1]) | (long_stand[1:] != long_stand[:-1])])
+    new = np.concatenate([[True], (sgn[1:] != sgn[:-1]) | (moving[1:] != moving[:-1])])
     run = np.cumsum(new) - 1
     starts = np.flatnonzero(new)
     ends = np.append(starts[1:], tg.size) - 1
@@ -120,10 +124,13 @@ def _chords(imported: ImportedFile, tg: FloatArray, moving: NDArray[np.bool_], s
     s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])  # path length [m]
     ahead = np.interp(s + 0.5 * HEADING_LENGTH, s, tg) - tg
     behind = tg - np.interp(s - 0.5 * HEADING_LENGTH, s, tg)
-    # symmetric about each time, so that near a drive's ends the chord does not lean into a turn
-    half = np.minimum(np.maximum.reduce([np.full_like(tg, 0.5 * HEADING_WINDOW), ahead, behind]), tg - lo)
-    half = np.minimum(half, hi - tg)
-    chord = imported.curve(tg + half, 0) - imported.curve(tg - half, 0)
+    # HEADING_LENGTH of path symmetric about each time (near a drive's ends a chord leaning to one side
+    # would lean into a turn by half the angle it spans); HEADING_WINDOW of time shifted to fit the
+    # drive (at its ends the robot is slow and the window spans little path)
+    half = np.minimum.reduce([np.maximum(ahead, behind), tg - lo, hi - tg])
+    start = np.clip(tg - 0.5 * HEADING_WINDOW, lo, np.maximum(hi - HEADING_WINDOW, lo))
+    chord = imported.curve(np.maximum(tg + half, np.minimum(start + HEADING_WINDOW, hi)), 0)
+    chord -= imported.curve(np.minimum(tg - half, start), 0)
     flat = np.hypot(chord[:, 0], chord[:, 1]) == 0.0  # a run of one sample: its velocity
     chord[flat] = imported.curve(tg[flat], 1)
     return chord
