@@ -5,7 +5,7 @@ derivatives that agree or not, stand-stills, reversals, pixel units).
 Properties: every file either becomes a valid trajectory in an arena around it (strictly increasing
 stamps, finite values, starting and ending where the file does) or is refused with a
 TrajectoryFileError naming its row; a drawn fault is refused naming the row it was put in, never run.
-A few files are run through ``nhsim simulate`` too: exit 0 or 1 with a record, or 2 naming the row.
+Two files (50 in the slow suite) are run through ``nhsim simulate`` too: exit 0 or 1 with a record, or 2 naming the row.
 """
 
 from __future__ import annotations
@@ -19,14 +19,15 @@ from contextlib import chdir, redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import numpy as np
-from hypothesis import event
+import pytest
+from hypothesis import event, given, settings
 
 from planning.core.robot import load_robot
 from planning.trajectory.file_formats import TrajectoryFileError
 from planning.trajectory.file_trajectory import arena_scenario, file_trajectory
 from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
 from sim.cli.main import main
-from tests.fuzz_helpers import TimedFile, assert_finite, expect_nhsim_errors, fast_and_slow, timed_files
+from tests.fuzz_helpers import FAST, SLOW, TimedFile, assert_finite, expect_nhsim_errors, fast_and_slow, timed_files
 
 ROBOTS = {name: load_robot(name) for name in ("edumip", "turtlebot3")}
 _WORKDIR = Path(tempfile.mkdtemp(prefix="nhsim-fuzz-files-"))
@@ -104,4 +105,6 @@ def simulate_property(f: TimedFile) -> None:
         assert code in (0, 1) and out.exists(), (f.why, code, err)
 
 
-test_simulate_fast, test_simulate_slow = fast_and_slow(timed_files(), simulate_property, fast=2)
+test_simulate_fast = settings(FAST, max_examples=2)(given(timed_files())(simulate_property))
+# a simulate run costs seconds: the slow suite runs 50 of them, not SLOW's 1000
+test_simulate_slow = pytest.mark.slow(settings(SLOW, max_examples=50)(given(timed_files())(simulate_property)))
