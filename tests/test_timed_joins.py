@@ -14,7 +14,7 @@ from planning.core.robot import load_robot
 from planning.core.world import World
 from planning.planners.base import PlanResult, PlanStatus
 from planning.trajectory.file_trajectory import file_trajectory
-from planning.trajectory.from_plan import make_trajectory
+from planning.trajectory.from_plan import make_trajectory, turn_legs
 from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
 from planning.trajectory.speed_profile import Limits, TimedSamples, time_rotation
 
@@ -67,3 +67,31 @@ def test_a_file_that_stops_short_while_its_heading_turns_is_retimed_not_broken(t
     assert np.all(np.diff(traj.t) > 0.0)
     np.testing.assert_allclose(traj.pose[-1, :2], [0.9525, 0.5], atol=1e-6)  # where the file ends
     assert np.max(np.abs(traj.pose[:, 1] - 0.5)) < 1e-9  # along its line
+
+
+def _ramp(u: np.ndarray) -> np.ndarray:
+    return 10 * u**3 - 15 * u**4 + 6 * u**5
+
+
+def test_a_turn_in_place_out_and_back_keeps_both_legs_when_retimed() -> None:
+    # drive 0.25 m, turn in place to +1 rad and back to 0, drive on 0.25 m: the turn's net is nothing
+    t = np.arange(0.0, 12.0 + 1e-9, 0.01)
+    s, turn = np.clip(t / 4.0, 0.0, 1.0), np.clip((t - 4.0) / 4.0, 0.0, 1.0)
+    s2 = np.clip((t - 8.0) / 4.0, 0.0, 1.0)
+    x = 0.5 + 0.25 * _ramp(s) + 0.25 * _ramp(s2)
+    theta = np.sin(np.pi * turn)  # 0 -> 1 -> 0 rad
+    path = np.column_stack([x, np.full_like(t, 0.5), theta])
+    v, w = np.gradient(x, t), np.gradient(theta, t)
+    plan = PlanResult(PlanStatus.SUCCESS, "timed", path, times=t, controls=np.column_stack([v, w]))
+    res = make_trajectory(plan, EDUMIP, World((0.0, 1.5, 0.0, 1.0)), retime=True)
+    traj = res.trajectory
+    assert res.success and traj is not None and np.all(np.diff(traj.t) > 0.0)
+    assert traj.pose[:, 2].max() == pytest.approx(1.0, abs=1e-3)  # out to +1 rad ...
+    assert traj.segment_kinds.count("rotate") == 2 and abs(traj.pose[-1, 2]) < 1e-3  # ... and back
+
+
+def test_turn_legs_split_at_reversals_beyond_the_tolerance() -> None:
+    assert turn_legs(np.array([0.0, 0.5, 1.0, 0.5, 0.0])) == [0, 2, 4]
+    assert turn_legs(np.array([0.0, 1e-4, 2e-4, 1e-4, 0.5])) == [0, 4]  # a wobble of 0.1 mrad is no reversal
+    assert turn_legs(np.array([0.0, -1.0, 2.0, 2.0])) == [0, 1, 3]
+    assert turn_legs(np.array([0.3])) == [0]

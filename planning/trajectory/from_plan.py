@@ -302,23 +302,48 @@ def _runs(kinds: list[str]) -> list[tuple[str, int, int]]:
     return out
 
 
+#: A turn in place reverses where its heading comes back by more than this from its extreme [rad].
+TURN_REVERSAL = 1e-3
+
+
+def turn_legs(theta: FloatArray, tol: float = TURN_REVERSAL) -> list[int]:
+    """Where a turn in place reverses: indices into ``theta`` (M,) [rad] of its first sample, of every
+    extreme the heading comes back from by more than ``tol``, and of its last sample."""
+    legs, ext, sign = [0], 0, 0.0
+    for i in range(1, theta.size):
+        step = theta[i] - theta[ext]
+        if sign == 0.0 and abs(step) > tol:
+            sign = float(np.sign(step))
+        if sign * step > 0.0:
+            ext = i
+        elif sign != 0.0 and -sign * step > tol:  # came back from the extreme: a leg ends there
+            legs.append(ext)
+            ext, sign = i, -sign
+    if legs[-1] != theta.size - 1:
+        legs.append(theta.size - 1)
+    return legs
+
+
 def _retimed_pieces(path: FloatArray, kinds: list[str], build: _Build) -> list[Piece]:
     """A timed plan's path, re-timed: each drive of one direction from rest to rest by the speed profile
-    (its own samples as the curve), each turn in place by the yaw-rate profile, stand-stills between."""
+    (its own samples as the curve), each turn in place by the yaw-rate profile (one per leg where it
+    turns back), stand-stills between."""
     pieces: list[Piece] = []
     for kind, start, stop in _runs(kinds):
         sl = slice(start, min(stop + 1, len(kinds)))  # through the next piece's first pose
-        try:
-            if kind == "rotate":
-                smp = time_rotation(path[sl][0, :2], path[sl][0, 2], path[sl][-1, 2], build.limits, dt=build.dt)
-            else:
-                smp = time_drive(
-                    SampledCurve.from_poses(path[sl], 1 if kind == "forward" else -1), build.limits, dt=build.dt
-                )
-        except ValueError:  # turns by nothing (a last sample labelled "rotate") or stands still: nothing to time
-            continue
-        build.pause(pieces)
-        pieces.append((kind, smp))
+        if kind == "rotate":
+            th = path[sl][:, 2]
+            legs = [(th[a], th[b]) for a, b in itertools.pairwise(turn_legs(th))]
+            timed = [time_rotation(path[start, :2], a, b, build.limits, dt=build.dt) for a, b in legs if a != b]
+        else:
+            try:
+                curve = SampledCurve.from_poses(path[sl], 1 if kind == "forward" else -1)
+            except ValueError:  # stands still: nothing to drive
+                continue
+            timed = [time_drive(curve, build.limits, dt=build.dt)]
+        for smp in timed:  # a turn by nothing (a last sample labelled "rotate" alone) times no piece
+            build.pause(pieces)
+            pieces.append((kind, smp))
     return pieces
 
 
