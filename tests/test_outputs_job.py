@@ -245,7 +245,7 @@ def test_sigterm_during_the_render_exits_130_and_leaves_no_file(tmp_path: Path) 
 def test_sigterm_is_an_interrupt_only_inside_the_block() -> None:
     import signal
 
-    from sim.cli.job_outputs import sigterm_as_interrupt
+    from sim.cli.interrupt import sigterm_as_interrupt
 
     def mine(signum: int, frame: object) -> None:
         raise AssertionError("the block's handler should have run")
