@@ -294,3 +294,27 @@ def test_a_silent_server_at_the_scheduler_address_fails_in_the_promised_time(
         for s in [*accepted, listener]:
             s.close()
     assert "accepted the connection but sent nothing within 2 s" in err
+
+
+def test_simulate_all_and_regress_run_on_a_scheduler_without_jobs(capsys: pytest.CaptureFixture[str]) -> None:
+    """``--scheduler`` alone: the commands' own default of one process is not a given ``--jobs``."""
+    import logging
+
+    from dask.distributed import LocalCluster
+
+    cases = ["--case", "open-turtlebot3-line-fbl-s0,open-turtlebot3-line-open-loop-s0"]
+    assert main(["regress", *cases]) == 0
+    serial = capsys.readouterr().out
+    sweep = ["simulate", "--all", "--robot", "turtlebot3", "--planner", "sinusoidal", "--quiet"]
+    assert main(sweep) == 0
+    serial_sweep = capsys.readouterr().out
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR
+    ) as cluster:
+        assert main(["regress", *cases, "--scheduler", cluster.scheduler_address]) == 0
+        assert capsys.readouterr().out == serial
+        assert main([*sweep, "--scheduler", cluster.scheduler_address]) == 0
+        rows = capsys.readouterr().out
+    untimed = lambda text: sorted(" ".join(line.split()[:4] + line.split()[5:]) for line in text.splitlines())
+    assert untimed(rows) == untimed(serial_sweep)  # every column but the planning time [s]
+    assert "sinusoidal      ok" in rows

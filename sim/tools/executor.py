@@ -270,12 +270,14 @@ def _greeting(sock: socket.socket, deadline: float, timeout: float) -> str | Non
     return f"the server accepted the connection but sent nothing within {timeout:g} s"
 
 
-def make_executor(jobs: int | None = None, scheduler: str | None = None) -> Executor:
+def make_executor(jobs: int | None = None, scheduler: str | None = None, *, default: int | None = None) -> Executor:
     """The executor for ``--jobs`` / ``--scheduler`` (see the module docstring).
 
     Args:
-        jobs: Worker processes here (None: :func:`default_jobs`); 1 runs in this process.
+        jobs: Worker processes here, as given (None: not given); 1 runs in this process.
         scheduler: Address of a running Dask scheduler; exclusive with ``jobs``.
+        default: Worker processes when neither is given (None: :func:`default_jobs`); a
+            command's default, so that it never counts as a given ``--jobs``.
 
     Raises:
         ConfigError: Both given, or ``jobs`` < 1, or an unreachable scheduler.
@@ -284,7 +286,7 @@ def make_executor(jobs: int | None = None, scheduler: str | None = None) -> Exec
         raise ConfigError("--jobs and --scheduler exclude each other: run here with J processes, or on a cluster")
     if scheduler is not None:
         return DaskExecutor(address=scheduler)
-    n = default_jobs() if jobs is None else jobs
+    n = jobs if jobs is not None else default if default is not None else default_jobs()
     if n < 1:
         raise ConfigError(f"--jobs must be >= 1, got {n}")
     return Executor() if n == 1 else DaskExecutor(jobs=n)
