@@ -318,3 +318,10 @@ def test_simulate_all_and_regress_run_on_a_scheduler_without_jobs(capsys: pytest
     untimed = lambda text: sorted(" ".join(line.split()[:4] + line.split()[5:]) for line in text.splitlines())
     assert untimed(rows) == untimed(serial_sweep)  # every column but the planning time [s]
     assert "sinusoidal      ok" in rows
+
+
+def test_more_runs_than_distinct_draws_are_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    from sim.tools.tune import MAX_DRAWS
+
+    assert main(["montecarlo", "--reference", "line", "--runs", str(MAX_DRAWS + 1), "--jobs", "1"]) == 2
+    assert f"--runs must be at most {MAX_DRAWS}" in capsys.readouterr().err

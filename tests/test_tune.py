@@ -391,3 +391,42 @@ def test_tuned_gains_that_lose_on_held_out_robots_are_not_recommended(
     assert prov["held_out"]["better"] == "default"
     assert "worse than the defaults on held-out robots: objective 2.000000 m against 1.500000 m (1.33x)" in err
     assert json.loads((tmp_path / "gains.json").read_text())["gains"] == {"kp": 9.0, "kd": 6.0, "xi_min": 0.02}
+
+
+def _reference_seeds(rng: np.random.Generator, count: int, parity: int) -> list[int]:
+    """The draws' seeds as first defined: rejection against every seed drawn so far."""
+    out: list[int] = []
+    while len(out) < count:
+        value = 2 * int(rng.integers(2**30)) + parity
+        if value not in out:
+            out.append(value)
+    return out
+
+
+def test_draws_take_time_linear_in_their_count() -> None:
+    from sim.tools.tune import _distinct_seeds
+
+    for parity in (0, 1):
+        ours, reference = (np.random.default_rng([5, parity, 0]) for _ in range(2))
+        assert _distinct_seeds(ours, 3000, parity) == _reference_seeds(reference, 3000, parity)  # the same seeds
+
+    def best_time(count: int) -> float:
+        times = []
+        for _ in range(3):
+            start = time.perf_counter()
+            make_draws(count, 0)
+            times.append(time.perf_counter() - start)
+        return min(times)
+
+    small, large = best_time(4_000), best_time(40_000)
+    assert large / small < 30, (small, large)  # 10 for linear time; 100 for the former quadratic search
+    draws = make_draws(100_000, 0)  # montecarlo --runs 100000 starts
+    assert len({d.build_seed for d in draws}) == len({d.seed for d in draws}) == 100_000
+
+
+def test_more_draws_than_seeds_are_refused() -> None:
+    from planning.errors import ConfigError
+    from sim.tools.tune import MAX_DRAWS
+
+    with pytest.raises(ConfigError, match="at most"):
+        make_draws(MAX_DRAWS + 1, 0)
