@@ -177,6 +177,10 @@ def _tree(folder: Path) -> list[str]:
         (["--no-video", "--json", "blocker/sub/r.json"], "cannot write blocker/sub/r.json: blocker is a file"),
         (["--no-video", "--json", "folder"], "cannot write folder: it is a folder"),
         (["--no-video", "--no-plots", "--json", "locked/r.json"], "its folder locked does not accept new files"),
+        (["--no-video", "--no-plots", "--json", "n" * 300 + ".json"], "its name is 305 bytes long; at most 255"),
+        # the name fits, its temporary name (".NAME.XXXXXXXX.part.json") does not
+        (["--no-video", "--no-plots", "--json", "n" * 245 + ".json"], "would be 265 bytes long; at most 255 fit"),
+        (["--no-video", "--no-plots", "--json", "/".join(["d" * 200] * 21) + "/r.json"], "path is 4227 bytes long"),
     ],
 )
 def test_unwritable_outputs_fail_before_any_physics(

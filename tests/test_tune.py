@@ -430,3 +430,27 @@ def test_more_draws_than_seeds_are_refused() -> None:
 
     with pytest.raises(ConfigError, match="at most"):
         make_draws(MAX_DRAWS + 1, 0)
+
+
+def test_two_tune_commands_on_one_sqlite_study_run_it_once(tmp_path: Path) -> None:
+    """The same ``nhsim tune`` twice at once (default outputs, default SQLite storage): both end well,
+    each updates the study's own outputs, the default gains run once, exactly --trials trials complete."""
+    base = [sys.executable, "-m", "sim", "tune", "--scenarios", CASE, "--robot", "turtlebot3", "--trials", "4",
+            "--study", "pair", "--draws", "1", "--eval-runs", "0", "--quiet"]  # fmt: skip
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    for attempt in range(2):  # two pairs: the races are at creation and at the end
+        study_dir = tmp_path / f"pair{attempt}"
+        study_dir.mkdir()
+        pipe = subprocess.PIPE
+        procs = [subprocess.Popen(base, cwd=study_dir, env=env, stdout=pipe, stderr=pipe, text=True) for _ in range(2)]
+        outs = [p.communicate(timeout=900) for p in procs]
+        for p, (_, err) in zip(procs, outs, strict=True):
+            assert p.returncode in (0, 1), err  # 1: tuned gains that lose to the defaults are not recommended
+            assert "exists already" not in err and "UNIQUE" not in err
+        study = optuna.load_study(study_name="pair", storage=f"sqlite:///{study_dir}/renders/tune-pair.db")
+        states = [t.state for t in study.trials]
+        assert optuna.trial.TrialState.RUNNING not in states and optuna.trial.TrialState.WAITING not in states
+        complete = study.get_trials(states=(optuna.trial.TrialState.COMPLETE,))
+        assert len(complete) == 4
+        assert sum(t.params == {"kp": 9.0, "kd": 6.0, "xi_min": 0.02} for t in complete) == 1
+        assert load_gains_file(study_dir / "renders" / "tune-pair.toml").provenance["study"] == "pair"
