@@ -147,3 +147,32 @@ def test_montecarlo_counts_success_by_the_reference_rule(
     entry = rec["runs"]["closed_loop"]
     assert entry["final_heading_error_rad"] == closed["final_heading_error_rad"]  # the same run
     assert entry["success"] is True
+
+
+@pytest.mark.parametrize("robot", ["edumip", "edumip-balancing"])
+def test_a_line_is_fitted_to_the_room_of_open_for_every_robot(
+    robot: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The EduMIP's 10 s at top speed would run the line into open's wall: the line runs as far as
+    the room allows, the robot's radius clear, and the run is judged as any other."""
+    from planning.core.robot import load_robot
+    from planning.scenario import load_scenario
+    from planning.trajectory.references import make_reference
+    from sim.pipeline.case import FIT_MARGIN_M, fitted_reference
+
+    sc, spec = load_scenario("open").with_robot(robot), load_robot(robot)
+    default = make_reference("line", spec, sc.start)
+    assert float(sc.world.signed_distance(default.pose[:, :2]).min()) <= spec.radius  # would not fit
+    fitted = fitted_reference("line", sc, spec)
+    clearance = sc.world.signed_distance(fitted.pose[:, :2])
+    assert spec.radius < float(clearance.min()) and float(clearance.min()) == pytest.approx(
+        spec.radius + FIT_MARGIN_M, abs=0.01
+    )
+    monkeypatch.chdir(tmp_path)
+    argv = ["simulate", "--reference", "line", "--robot", robot, "--runs", "closed_loop", "--quiet"]
+    assert main([*argv, "--no-video", "--no-plots"]) == 0, capsys.readouterr().err
+    tb = load_robot("turtlebot3")
+    import numpy as np
+
+    unchanged = fitted_reference("line", sc.with_robot("turtlebot3"), tb), make_reference("line", tb, sc.start)
+    assert np.array_equal(unchanged[0].pose, unchanged[1].pose)  # a line that fits is left as it was
