@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import logging
 import math
 import re
 import sys
@@ -425,6 +426,8 @@ def _optimise(args: argparse.Namespace, spec: Any) -> Any:
     from sim.tools.tune import completed, ensure_default_trial, load_study, run_worker, split_trials
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
+    for handler in logging.getLogger("optuna").handlers:  # its trials' loggers pass records up to these
+        handler.addFilter(_not_interrupted)
     warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
     study = load_study(spec, create=True)
     _settle(study, args.quiet)
@@ -449,6 +452,13 @@ def _optimise(args: argparse.Namespace, spec: Any) -> Any:
     finally:
         progress.close()
     return study
+
+
+def _not_interrupted(record: logging.LogRecord) -> bool:
+    """Drop Optuna's report of a trial stopped by Ctrl-C or SIGTERM (with its traceback): the command
+    says "interrupted", and the trial is kept as failed in the study."""
+    exc = record.exc_info[1] if record.exc_info else None
+    return not isinstance(exc, KeyboardInterrupt) and "KeyboardInterrupt" not in record.getMessage()
 
 
 def _settle(study: Any, quiet: bool) -> None:
