@@ -145,6 +145,8 @@ def _header(r: TableReader, data: Mapping[str, Any], default_name: str) -> dict[
     robots = data.get("robots", [robot])
     if not isinstance(robots, list) or not all(isinstance(x, str) and x in ROBOT_FILES for x in robots) or not robots:
         raise r.fail("robots", f"a list of robot names from {', '.join(sorted(ROBOT_FILES))}", robots)
+    if robot not in robots:
+        raise r.fail("robots", f"a list that includes the scenario's own robot {robot!r} (field 'robot')", robots)
     description = data.get("description", "")
     if not isinstance(description, str):
         raise r.fail("description", "a string", description)

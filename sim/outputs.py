@@ -11,11 +11,16 @@ import json
 import math
 import os
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 from planning.errors import ConfigError, OutputExistsError
+
+#: Whether an existing file may be replaced: a flag, or a question asked of the path each time it is
+#: checked (before the work and again just before the rename), for a file another process of the same
+#: job may write meanwhile.
+Overwrite = bool | Callable[[Path], bool]
 
 
 def check_writable(path: Path, *, overwrite: bool) -> None:
@@ -23,14 +28,63 @@ def check_writable(path: Path, *, overwrite: bool) -> None:
 
     Raises:
         OutputExistsError: ``path`` exists and overwriting was not asked for.
-        ConfigError: ``path`` is a folder, a file stands where one of its folders should be, or its
-            folder (or the nearest existing one above it) does not accept new files.
+        ConfigError: ``path`` is a folder, a file stands where one of its folders should be, its
+            folder (or the nearest existing one above it) does not accept new files, or its name, its
+            temporary name (:func:`atomic_path`) or either's whole path is longer than the file
+            system takes (NAME_MAX, PATH_MAX).
     """
     path = Path(path)
+    _check_length(path)
     if path.is_dir():
         raise ConfigError(f"cannot write {path}: it is a folder; give a file name")
     _check_absent(path, overwrite=overwrite)
     _check_folder(path)
+
+
+#: Characters ``tempfile.mkstemp`` puts between its prefix and suffix.
+_RANDOM_CHARS = 8
+
+
+def _temporary_affixes(target: Path) -> tuple[str, str]:
+    """The prefix and suffix of :func:`atomic_path`'s temporary file beside ``target``."""
+    return f".{target.stem}.", f".part{target.suffix}"
+
+
+def _limits(path: Path) -> tuple[int, int]:
+    """(NAME_MAX, PATH_MAX) [bytes] of the file system of ``path``'s nearest existing folder."""
+    folder = path.parent
+    while True:
+        try:
+            if folder.is_dir():
+                return os.pathconf(folder, "PC_NAME_MAX"), os.pathconf(folder, "PC_PATH_MAX")
+        except OSError:  # the folder's own name is too long: the file system's limits are above it
+            pass
+        if folder == folder.parent:
+            return 255, 4096
+        folder = folder.parent
+
+
+def _check_length(path: Path) -> None:
+    """The name, the temporary name and both whole paths fit the file system's limits."""
+    name_max, path_max = _limits(path)
+    prefix, suffix = _temporary_affixes(path)
+    name = len(os.fsencode(path.name))
+    temporary = len(os.fsencode(prefix + suffix)) + _RANDOM_CHARS
+    whole = len(os.fsencode(str(path)))
+    fix = "choose a shorter name (--video, --json, --plots ... take a path)"
+    if name > name_max:
+        raise ConfigError(f"cannot write {path}: its name is {name} bytes long; at most {name_max} fit; {fix}")
+    if temporary > name_max:
+        raise ConfigError(
+            f"cannot write {path}: its temporary name ({prefix}XXXXXXXX{suffix}, written first and renamed) "
+            f"would be {temporary} bytes long; at most {name_max} fit; {fix} ({temporary - name_max} bytes shorter)"
+        )
+    longest = whole - name + temporary
+    if max(whole, longest) >= path_max:
+        raise ConfigError(
+            f"cannot write {path}: its path is {whole} bytes long ({longest} for its temporary file); at most "
+            f"{path_max - 1} fit; {fix}, or a shorter folder"
+        )
 
 
 def _check_absent(path: Path, *, overwrite: bool) -> None:
@@ -64,16 +118,18 @@ def _check_folder(path: Path) -> None:
 
 
 @contextlib.contextmanager
-def atomic_path(path: str | Path, *, overwrite: bool = False) -> Iterator[Path]:
+def atomic_path(path: str | Path, *, overwrite: Overwrite = False) -> Iterator[Path]:
     """Yield a temporary path in the target's directory; rename it onto ``path`` on success.
 
     On any exception (including KeyboardInterrupt) the temporary file is removed and ``path`` is
-    untouched.
+    untouched. ``overwrite`` is asked before the work and again before the rename (:data:`Overwrite`).
     """
     target = Path(path)
-    check_writable(target, overwrite=overwrite)
+    allowed = overwrite if callable(overwrite) else (lambda _: bool(overwrite))
+    check_writable(target, overwrite=allowed(target))
     target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=f".part{target.suffix}", dir=target.parent)
+    prefix, suffix = _temporary_affixes(target)
+    fd, tmp_name = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=target.parent)
     os.close(fd)
     tmp = Path(tmp_name)
     umask = os.umask(0)
@@ -81,14 +137,14 @@ def atomic_path(path: str | Path, *, overwrite: bool = False) -> Iterator[Path]:
     os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the permissions open() would
     try:
         yield tmp
-        _check_absent(target, overwrite=overwrite)
+        _check_absent(target, overwrite=allowed(target))
         os.replace(tmp, target)
     finally:
         if tmp.exists():
             tmp.unlink()
 
 
-def write_json(path: str | Path, data: Any, *, overwrite: bool = False) -> Path:
+def write_json(path: str | Path, data: Any, *, overwrite: Overwrite = False) -> Path:
     """Write standard JSON atomically (indent 2, sorted keys); a NaN or infinite number is written as null."""
     text = json.dumps(json_safe(data), indent=2, sort_keys=True, allow_nan=False, default=_default)
     with atomic_path(path, overwrite=overwrite) as tmp:

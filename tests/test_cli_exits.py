@@ -104,3 +104,75 @@ def test_a_case_that_is_neither_reference_nor_planner_lists_both(capsys: pytest.
     assert "'figure9'" in err and "reference" in err and "planner" in err
     for name in [*REFERENCES, *PLANNERS]:
         assert name in err
+
+
+def test_help_and_check_agree_on_what_a_reference_must_reach(capsys: pytest.CaptureFixture[str]) -> None:
+    """One rule for a reference's targets: ``closed_loop_targets`` (used by simulate's exit status and
+    montecarlo's success count), and ``simulate --help`` says that rule."""
+    import re
+
+    from planning.scenario import load_scenario
+    from sim.pipeline.sweep import closed_loop_targets
+
+    targets = closed_loop_targets(load_scenario("open"), planned=False)
+    assert targets == {"final_position_error_m": 0.02, "rms_position_error_m": 0.02}
+    with pytest.raises(SystemExit):
+        main(["simulate", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    said = re.search(r"a reference: ([^;]*?), the heading reported, not judged", text)
+    assert said is not None, text
+    assert said.group(1) == "final position 2 cm and RMS position 2 cm"
+    assert "0.05 rad" not in text
+
+
+def test_montecarlo_counts_success_by_the_reference_rule(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The run that ends 0.102 rad off in heading and 2 cm on its path: simulate exits 0, and the
+    same draw counts as a success in montecarlo."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["simulate", "--scenario", "open", "--reference", "line", "--seed", "0", "--noise-seed", "1647505296"]
+    argv += ["--build-seed", "661058652", "--no-video", "--no-plots", "--quiet", "--json", "r.json"]
+    assert main(argv) == 0
+    import json
+
+    closed = json.loads((tmp_path / "r.json").read_text())["closed_loop"]
+    assert closed["final_heading_error_rad"] > 0.05  # reported, not judged
+    from sim.pipeline.case import Case
+    from sim.tools.montecarlo import MonteCarloSpec, run_one
+    from sim.tools.tune import Draw
+
+    spec = MonteCarloSpec(Case("open", reference="line", seed=0), 1)
+    rec = run_one((spec, None), (0, Draw(661058652, 1647505296)))
+    entry = rec["runs"]["closed_loop"]
+    assert entry["final_heading_error_rad"] == closed["final_heading_error_rad"]  # the same run
+    assert entry["success"] is True
+
+
+@pytest.mark.parametrize("robot", ["edumip", "edumip-balancing"])
+def test_a_line_is_fitted_to_the_room_of_open_for_every_robot(
+    robot: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The EduMIP's 10 s at top speed would run the line into open's wall: the line runs as far as
+    the room allows, the robot's radius clear, and the run is judged as any other."""
+    from planning.core.robot import load_robot
+    from planning.scenario import load_scenario
+    from planning.trajectory.references import make_reference
+    from sim.pipeline.case import FIT_MARGIN_M, fitted_reference
+
+    sc, spec = load_scenario("open").with_robot(robot), load_robot(robot)
+    default = make_reference("line", spec, sc.start)
+    assert float(sc.world.signed_distance(default.pose[:, :2]).min()) <= spec.radius  # would not fit
+    fitted = fitted_reference("line", sc, spec)
+    clearance = sc.world.signed_distance(fitted.pose[:, :2])
+    assert spec.radius < float(clearance.min()) and float(clearance.min()) == pytest.approx(
+        spec.radius + FIT_MARGIN_M, abs=0.01
+    )
+    monkeypatch.chdir(tmp_path)
+    argv = ["simulate", "--reference", "line", "--robot", robot, "--runs", "closed_loop", "--quiet"]
+    assert main([*argv, "--no-video", "--no-plots"]) == 0, capsys.readouterr().err
+    tb = load_robot("turtlebot3")
+    import numpy as np
+
+    unchanged = fitted_reference("line", sc.with_robot("turtlebot3"), tb), make_reference("line", tb, sc.start)
+    assert np.array_equal(unchanged[0].pose, unchanged[1].pose)  # a line that fits is left as it was

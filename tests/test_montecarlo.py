@@ -215,3 +215,113 @@ def test_replan_plans_each_run_with_its_own_seed(tmp_path: Path) -> None:
         r["plan_seed"] == 2
         for r in run_montecarlo(once, Executor(), ResultsFile(tmp_path / "o.jsonl", once.key())).records
     )
+
+
+@pytest.fixture
+def short_connect(monkeypatch: pytest.MonkeyPatch) -> float:
+    """The scheduler's connection deadline cut to 2 s so the failures below are quick to test."""
+    import sim.tools.executor as executor
+
+    monkeypatch.setattr(executor, "CONNECT_TIMEOUT_S", 2)
+    return 2.0
+
+
+def _scheduler_refused(argv_scheduler: str, capsys: pytest.CaptureFixture[str], limit: float) -> str:
+    start = time.monotonic()
+    argv = ["montecarlo", "--reference", "line", "--runs", "2", "--quiet", "--no-plots"]
+    assert main([*argv, "--scheduler", argv_scheduler]) == 2
+    assert time.monotonic() - start < limit + 3  # the promised time, and a margin for a loaded machine
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and argv_scheduler in err
+    return err
+
+
+def test_a_scheduler_address_that_is_no_address_is_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    err = _scheduler_refused("notanaddress", capsys, 0)
+    assert "missing port number" in err and "tcp://HOST:PORT" in err
+
+
+def test_an_http_server_at_the_scheduler_address_is_named(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], short_connect: float
+) -> None:
+    import threading
+    from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+
+    class Quiet(BaseHTTPRequestHandler):
+        def log_message(self, *args: object) -> None:
+            pass
+
+    monkeypatch.chdir(tmp_path)
+    server = ThreadingHTTPServer(("127.0.0.1", 0), Quiet)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        err = _scheduler_refused(f"tcp://127.0.0.1:{server.server_address[1]}", capsys, short_connect)
+    finally:
+        server.shutdown()
+        server.server_close()
+    assert "an HTTP server answered" in err and "not a Dask scheduler" in err
+
+
+def test_a_silent_server_at_the_scheduler_address_fails_in_the_promised_time(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], short_connect: float
+) -> None:
+    import socket
+    import threading
+
+    monkeypatch.chdir(tmp_path)
+    listener = socket.create_server(("127.0.0.1", 0))
+    accepted: list[socket.socket] = []
+    stop = threading.Event()
+
+    def accept() -> None:
+        listener.settimeout(0.1)
+        while not stop.is_set():
+            try:
+                accepted.append(listener.accept()[0])  # and say nothing
+            except TimeoutError:
+                continue
+
+    thread = threading.Thread(target=accept, daemon=True)
+    thread.start()
+    try:
+        err = _scheduler_refused(f"tcp://127.0.0.1:{listener.getsockname()[1]}", capsys, short_connect)
+    finally:
+        stop.set()
+        thread.join()
+        for s in [*accepted, listener]:
+            s.close()
+    assert "accepted the connection but sent nothing within 2 s" in err
+
+
+def test_simulate_all_and_regress_run_on_a_scheduler_without_jobs(capsys: pytest.CaptureFixture[str]) -> None:
+    """``--scheduler`` alone: the commands' own default of one process is not a given ``--jobs``."""
+    import logging
+
+    from dask.distributed import LocalCluster
+
+    cases = ["--case", "open-turtlebot3-line-fbl-s0,open-turtlebot3-line-open-loop-s0"]
+    assert main(["regress", *cases]) == 0
+    serial = capsys.readouterr().out
+    sweep = ["simulate", "--all", "--robot", "turtlebot3", "--planner", "sinusoidal", "--quiet"]
+    assert main(sweep) == 0
+    serial_sweep = capsys.readouterr().out
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR
+    ) as cluster:
+        assert main(["regress", *cases, "--scheduler", cluster.scheduler_address]) == 0
+        assert capsys.readouterr().out == serial
+        assert main([*sweep, "--scheduler", cluster.scheduler_address]) == 0
+        rows = capsys.readouterr().out
+    untimed = lambda text: sorted(" ".join(line.split()[:4] + line.split()[5:]) for line in text.splitlines())
+    assert untimed(rows) == untimed(serial_sweep)  # every column but the planning time [s]
+    assert "sinusoidal      ok" in rows
+
+
+def test_more_runs_than_distinct_draws_are_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    from sim.tools.tune import MAX_DRAWS
+
+    assert main(["montecarlo", "--reference", "line", "--runs", str(MAX_DRAWS + 1), "--jobs", "1"]) == 2
+    assert f"--runs must be at most {MAX_DRAWS}" in capsys.readouterr().err

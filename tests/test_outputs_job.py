@@ -177,6 +177,10 @@ def _tree(folder: Path) -> list[str]:
         (["--no-video", "--json", "blocker/sub/r.json"], "cannot write blocker/sub/r.json: blocker is a file"),
         (["--no-video", "--json", "folder"], "cannot write folder: it is a folder"),
         (["--no-video", "--no-plots", "--json", "locked/r.json"], "its folder locked does not accept new files"),
+        (["--no-video", "--no-plots", "--json", "n" * 300 + ".json"], "its name is 305 bytes long; at most 255"),
+        # the name fits, its temporary name (".NAME.XXXXXXXX.part.json") does not
+        (["--no-video", "--no-plots", "--json", "n" * 245 + ".json"], "would be 265 bytes long; at most 255 fit"),
+        (["--no-video", "--no-plots", "--json", "/".join(["d" * 200] * 21) + "/r.json"], "path is 4227 bytes long"),
     ],
 )
 def test_unwritable_outputs_fail_before_any_physics(
@@ -245,7 +249,7 @@ def test_sigterm_during_the_render_exits_130_and_leaves_no_file(tmp_path: Path) 
 def test_sigterm_is_an_interrupt_only_inside_the_block() -> None:
     import signal
 
-    from sim.cli.job_outputs import sigterm_as_interrupt
+    from sim.cli.interrupt import sigterm_as_interrupt
 
     def mine(signum: int, frame: object) -> None:
         raise AssertionError("the block's handler should have run")

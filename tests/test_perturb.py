@@ -136,3 +136,30 @@ def test_range_sampling_is_seeded_and_within_bounds() -> None:
     assert len({p.seed for p in a}) == 50
     with pytest.raises(ConfigError, match=r"lo 0.7 > hi 0.5"):
         PerturbationRange.parse("friction=0.7:0.5")
+
+
+def test_a_timed_perturbation_outside_the_run_is_refused(
+    tmp_path: object, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A push after the run's end (or a latency as long as the run) would be claimed and never act:
+    refused before any physics, naming the key, its time and the run's length."""
+    from pathlib import Path
+
+    from sim.cli.main import main
+
+    Perturbation.parse("push=0.9@17.9").check_within(18.0)
+    with pytest.raises(ConfigError, match=r"push=0\.9@25 comes at 25 s, but the run lasts 18 s"):
+        Perturbation.parse("push=0.9@25").check_within(18.0)
+    with pytest.raises(ConfigError, match=r"latency=0.6 delays every command by 0.6 s, but the run lasts 0.5 s"):
+        Perturbation.parse("latency=0.6").check_within(0.5)
+    monkeypatch.chdir(tmp_path)  # type: ignore[arg-type]
+
+    def no_physics(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the physics ran")
+
+    monkeypatch.setattr("sim.physics.simulator.Recorder", no_physics)  # the run's log, made as it starts
+    argv = ["simulate", "--robot", "edumip-balancing", "--reference", "circle", "--perturb", "push=0.9@250"]
+    assert main([*argv, "--no-video", "--no-plots", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "push=0.9@250 comes at 250 s, but the run lasts" in err and "Traceback" not in err
+    assert not list(Path(".").rglob("*.json"))

@@ -85,6 +85,11 @@ def test_name_defaults_to_the_file_stem(tmp_path: Path) -> None:
             r"field 'robot': expected one of edumip, edumip-balancing, turtlebot3",
         ),
         (('robot = "turtlebot3"', 'robots = [{name = "edumip"}]'), r"field 'robots': expected a list of robot names"),
+        # a scenario whose own robot is not among the robots it suits
+        (
+            ('robot = "turtlebot3"', 'robot = "turtlebot3"\nrobots = ["edumip"]'),
+            r"field 'robots': expected a list that includes the scenario's own robot 'turtlebot3' \(field 'robot'\)",
+        ),
         (("[0.5, 1.0]]", "[1.0, 1.0], [0.0, 1.5], [2.0, 0.2]]"), r"obstacles\[3\].vertices'.*edges 1 and 3 cross"),
     ],
 )

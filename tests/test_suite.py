@@ -171,6 +171,27 @@ def test_bad_actions_raise_with_the_spec() -> None:
         env.step(np.array([1e6, 0.0]))
     with pytest.raises(ValueError, match="BoundedArray"):
         env.step(np.array([np.nan, 0.0]))
+    with pytest.raises(ValueError, match=r"complex.*BoundedArray"):  # not cast to its real part
+        env.step(np.array([1.0 + 2.0j, 0.0]))
+    with pytest.raises(ValueError, match=r"complex.*BoundedArray"):
+        env.step([1.0, 0.5j])
+
+
+def test_seeds_are_taken_as_dm_controls_suite_takes_them() -> None:
+    """An int, None (a random seed) or a RandomState, checked at load; anything else refused there."""
+    for bad in ("7", 7.0, True, -1):
+        with pytest.raises(ConfigError, match=r"seed must be an integer >= 0, None .* or a numpy.random.RandomState"):
+            suite.load("open", "turtlebot3", "circle", seed=bad)  # type: ignore[arg-type]
+    from sim.suite.cases import suite_seed
+
+    assert suite_seed(7) == 7 and suite_seed(np.int64(7)) == 7
+    assert suite_seed(np.random.RandomState(3)) == suite_seed(np.random.RandomState(3))  # drawn from it
+    assert suite_seed(None) != suite_seed(None)  # a fresh random seed (equal once in 2**31)
+    env = suite.load("open", "turtlebot3", "circle", seed=None)
+    assert env.reset().observation["gyro_z"].shape == (1,)
+    rs = suite.load("open", "turtlebot3", "circle", seed=np.random.RandomState(3))
+    again = suite.load("open", "turtlebot3", "circle", seed=np.random.RandomState(3))
+    assert rs.reset().observation["gyro_z"][0] == again.reset().observation["gyro_z"][0]
 
 
 def test_the_readme_snippet_runs() -> None:

@@ -391,3 +391,66 @@ def test_tuned_gains_that_lose_on_held_out_robots_are_not_recommended(
     assert prov["held_out"]["better"] == "default"
     assert "worse than the defaults on held-out robots: objective 2.000000 m against 1.500000 m (1.33x)" in err
     assert json.loads((tmp_path / "gains.json").read_text())["gains"] == {"kp": 9.0, "kd": 6.0, "xi_min": 0.02}
+
+
+def _reference_seeds(rng: np.random.Generator, count: int, parity: int) -> list[int]:
+    """The draws' seeds as first defined: rejection against every seed drawn so far."""
+    out: list[int] = []
+    while len(out) < count:
+        value = 2 * int(rng.integers(2**30)) + parity
+        if value not in out:
+            out.append(value)
+    return out
+
+
+def test_draws_take_time_linear_in_their_count() -> None:
+    from sim.tools.tune import _distinct_seeds
+
+    for parity in (0, 1):
+        ours, reference = (np.random.default_rng([5, parity, 0]) for _ in range(2))
+        assert _distinct_seeds(ours, 3000, parity) == _reference_seeds(reference, 3000, parity)  # the same seeds
+
+    def best_time(count: int) -> float:
+        times = []
+        for _ in range(3):
+            start = time.perf_counter()
+            make_draws(count, 0)
+            times.append(time.perf_counter() - start)
+        return min(times)
+
+    small, large = best_time(4_000), best_time(40_000)
+    assert large / small < 30, (small, large)  # 10 for linear time; 100 for the former quadratic search
+    draws = make_draws(100_000, 0)  # montecarlo --runs 100000 starts
+    assert len({d.build_seed for d in draws}) == len({d.seed for d in draws}) == 100_000
+
+
+def test_more_draws_than_seeds_are_refused() -> None:
+    from planning.errors import ConfigError
+    from sim.tools.tune import MAX_DRAWS
+
+    with pytest.raises(ConfigError, match="at most"):
+        make_draws(MAX_DRAWS + 1, 0)
+
+
+def test_two_tune_commands_on_one_sqlite_study_run_it_once(tmp_path: Path) -> None:
+    """The same ``nhsim tune`` twice at once (default outputs, default SQLite storage): both end well,
+    each updates the study's own outputs, the default gains run once, exactly --trials trials complete."""
+    base = [sys.executable, "-m", "sim", "tune", "--scenarios", CASE, "--robot", "turtlebot3", "--trials", "4",
+            "--study", "pair", "--draws", "1", "--eval-runs", "0", "--quiet"]  # fmt: skip
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    for attempt in range(2):  # two pairs: the races are at creation and at the end
+        study_dir = tmp_path / f"pair{attempt}"
+        study_dir.mkdir()
+        pipe = subprocess.PIPE
+        procs = [subprocess.Popen(base, cwd=study_dir, env=env, stdout=pipe, stderr=pipe, text=True) for _ in range(2)]
+        outs = [p.communicate(timeout=900) for p in procs]
+        for p, (_, err) in zip(procs, outs, strict=True):
+            assert p.returncode in (0, 1), err  # 1: tuned gains that lose to the defaults are not recommended
+            assert "exists already" not in err and "UNIQUE" not in err
+        study = optuna.load_study(study_name="pair", storage=f"sqlite:///{study_dir}/renders/tune-pair.db")
+        states = [t.state for t in study.trials]
+        assert optuna.trial.TrialState.RUNNING not in states and optuna.trial.TrialState.WAITING not in states
+        complete = study.get_trials(states=(optuna.trial.TrialState.COMPLETE,))
+        assert len(complete) == 4
+        assert sum(t.params == {"kp": 9.0, "kd": 6.0, "xi_min": 0.02} for t in complete) == 1
+        assert load_gains_file(study_dir / "renders" / "tune-pair.toml").provenance["study"] == "pair"

@@ -21,23 +21,18 @@ its stem); ``--json PATH`` moves the record. Existing files are never replaced w
 files) is checked before any physics runs, and the command stops with an error naming the file (no
 numbered names).
 
-While the files are written, SIGTERM (what ``timeout`` and job schedulers send) is turned into a
-KeyboardInterrupt, as Ctrl-C is: the file being written is removed and the command exits 130.
+An interrupt while the files are written (Ctrl-C, or SIGTERM, which ``nhsim`` turns into the same
+KeyboardInterrupt: :mod:`sim.cli.interrupt`) removes the file being written; the command exits 130.
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
 import hashlib
 import json
-import signal
 import sys
-import threading
-from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import FrameType
 from typing import Any
 
 from planning.errors import ConfigError
@@ -306,27 +301,9 @@ def _progress_bar(total: int, desc: str, enabled: bool) -> Any:
     return tqdm(total=total, desc=desc, unit="frame", leave=False, dynamic_ncols=True)
 
 
-def _interrupt(signum: int, frame: FrameType | None) -> None:
-    raise KeyboardInterrupt(f"signal {signal.Signals(signum).name}")
-
-
-@contextlib.contextmanager
-def sigterm_as_interrupt() -> Iterator[None]:
-    """Within the block SIGTERM raises KeyboardInterrupt, as SIGINT does; the previous handler is
-    restored on leaving. Outside the main thread (where no handler can be set) it does nothing."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.signal(signal.SIGTERM, _interrupt)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
-
-
 def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict[str, str]:
-    """Write the video, the plots and the JSON record of a job (each atomically; SIGTERM is handled
-    as Ctrl-C, see :func:`sigterm_as_interrupt`).
+    """Write the video, the plots and the JSON record of a job (each atomically: a KeyboardInterrupt,
+    which ``nhsim`` also raises on SIGTERM, removes the file being written).
 
     Args:
         result: The :class:`sim.pipeline.simulate.JobResult`.
@@ -336,11 +313,6 @@ def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict
     Returns:
         Output kind ("video", "plot_world", ..., "json") -> path written.
     """
-    with sigterm_as_interrupt():
-        return _write_outputs(result, plan, record)
-
-
-def _write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict[str, str]:
     from sim.outputs import write_json
     from sim.viz.plots.draw import save_figure
     from sim.viz.plots.estimation import series_of_runs

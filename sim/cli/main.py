@@ -65,8 +65,20 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     Exit codes: 0 success, 1 a run or check failed (a run failed its checks, a benchmark missed its
     target, a planner ended without a path or its plan could not be made into a trajectory),
-    2 bad input (usage or a clear error message), 130 interrupted.
+    2 bad input (usage or a clear error message), 130 interrupted (Ctrl-C or SIGTERM, handled alike
+    for the whole command: :mod:`sim.cli.interrupt`).
     """
+    from sim.cli.interrupt import sigterm_as_interrupt
+
+    with sigterm_as_interrupt():
+        try:
+            return _main(argv)
+        except KeyboardInterrupt:  # before a command was chosen (building the parser, parsing)
+            print("nhsim: interrupted", file=sys.stderr)
+            return 130
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "command", None):

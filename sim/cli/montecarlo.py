@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from planning.errors import OutputExistsError
-from sim.cli.job_outputs import DEFAULT_DIR, add_case_arguments, add_executor_arguments, sigterm_as_interrupt
+from sim.cli.job_outputs import DEFAULT_DIR, add_case_arguments, add_executor_arguments
 from sim.cli.trajectory_files import add_file_arguments, file_options
 
 DESCRIPTION = """\
@@ -224,8 +224,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"{result.retries} runs were run again after their worker died")
     record = {"key": spec.key(), "runs": spec.runs, "ran_now": result.ran, "retries": result.retries}
     record.update(statistics=stats, results=str(paths["results"]), replay_base=base)
-    with sigterm_as_interrupt():
-        _write(result, paths, record, args)
+    _write(result, paths, record, args)
     if not args.quiet:
         for name, path in paths.items():
             if name != "results":

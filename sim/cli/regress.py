@@ -91,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     tty = sys.stderr.isatty()
     done = {}
-    with make_executor(args.jobs or 1, args.scheduler) as executor:
+    with make_executor(args.jobs, args.scheduler, default=1) as executor:
         for case, outcome in executor.map_unordered(check_task, cases, shared=(baselines, suite.tolerances)):
             done[case.name] = outcome
             if tty:

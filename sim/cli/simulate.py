@@ -46,7 +46,8 @@ DESCRIPTION = (
     "--overwrite (the command stops with an error before running anything).\n\n"
     "Exit status: 0 when every run is clean (no MuJoCo warning, no collision in closed loop) and the "
     "closed loop ends on target (a plan: inside the scenario's goal tolerance of the trajectory's final "
-    "pose; a reference: final position 2 cm, final heading 0.05 rad, RMS position 2 cm); 1 otherwise, or "
+    "pose; a reference: final position 2 cm and RMS position 2 cm, the heading reported, not judged: the "
+    "tracker follows a reference's position and stops with it); 1 otherwise, or "
     "when the plan fails or a balancing robot falls (the missed target, the reason or the fall time on "
     "stderr); 2 on bad input."
 )

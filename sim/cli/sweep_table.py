@@ -77,7 +77,7 @@ def run_all(args: argparse.Namespace, gains: Any) -> int:
         cases = [c for c in cases if c.robot == args.robot]
     if args.planner is not None:
         cases = [c for c in cases if c.planner == args.planner]
-    with make_executor(args.jobs or 1, args.scheduler) as executor:
+    with make_executor(args.jobs, args.scheduler, default=1) as executor:
         if executor.workers > 1 and not args.quiet:
             print(f"{len(cases)} cases on {executor.where} (rows print as they finish)", flush=True)
         print(header(), flush=True)

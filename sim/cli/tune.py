@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import logging
 import math
 import re
 import sys
 import time
 import warnings
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -220,7 +222,7 @@ def _save_figure(plt: Any, ax: Any, path: Path, files: TuneFiles, overwrite: boo
     from sim.outputs import atomic_path
 
     fig = ax.get_figure(root=True)
-    with atomic_path(path, overwrite=files.may_replace(path, overwrite)) as tmp:
+    with atomic_path(path, overwrite=files.replaceable(overwrite)) as tmp:
         fig.savefig(tmp, dpi=120, bbox_inches="tight", format="png", metadata=files.stamp())
     plt.close(fig)
 
@@ -281,8 +283,14 @@ class TuneFiles:
         return {"study": self.study, "storage": self.storage}
 
     def may_replace(self, path: Path, overwrite: bool) -> bool:
-        """Whether ``path`` may be replaced: --overwrite, or an output of this study."""
-        return overwrite or path in self.own
+        """Whether ``path`` may be replaced: --overwrite, or an output of this study, when this run
+        began or now (another worker of the same study, started together, wrote it meanwhile)."""
+        return overwrite or path in self.own or (path.is_file() and self.owner(path) == self.stamp())
+
+    def replaceable(self, overwrite: bool) -> Callable[[Path], bool]:
+        """:meth:`may_replace` as the question :func:`sim.outputs.atomic_path` asks at each check:
+        another worker of this study may write the same output while this one works."""
+        return lambda path: self.may_replace(path, overwrite)
 
     def owner(self, path: Path) -> dict[str, str] | None:
         """The study and storage an existing output of this run's names, None when it names none
@@ -418,6 +426,8 @@ def _optimise(args: argparse.Namespace, spec: Any) -> Any:
     from sim.tools.tune import completed, ensure_default_trial, load_study, run_worker, split_trials
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
+    for handler in logging.getLogger("optuna").handlers:  # its trials' loggers pass records up to these
+        handler.addFilter(_not_interrupted)
     warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
     study = load_study(spec, create=True)
     _settle(study, args.quiet)
@@ -442,6 +452,13 @@ def _optimise(args: argparse.Namespace, spec: Any) -> Any:
     finally:
         progress.close()
     return study
+
+
+def _not_interrupted(record: logging.LogRecord) -> bool:
+    """Drop Optuna's report of a trial stopped by Ctrl-C or SIGTERM (with its traceback): the command
+    says "interrupted", and the trial is kept as failed in the study."""
+    exc = record.exc_info[1] if record.exc_info else None
+    return not isinstance(exc, KeyboardInterrupt) and "KeyboardInterrupt" not in record.getMessage()
 
 
 def _settle(study: Any, quiet: bool) -> None:
@@ -575,7 +592,7 @@ def _write_outputs(
     provenance.update(verdict)
     written = [files.record]
     if isinstance(gains, FBLGains):  # a gains file for 'simulate --gains'; the record serves every tracker
-        with atomic_path(files.gains, overwrite=files.may_replace(files.gains, args.overwrite)) as tmp:
+        with atomic_path(files.gains, overwrite=files.replaceable(args.overwrite)) as tmp:
             tmp.write_text(dump_gains_toml(GainsFile(gains, provenance)), encoding="utf-8")
         written.insert(0, files.gains)
     record = {
@@ -586,7 +603,7 @@ def _write_outputs(
         "settings": spec.settings(),
         "held_out": held_out,
     }
-    write_json(files.record, _finite(record, drop=False), overwrite=files.may_replace(files.record, args.overwrite))
+    write_json(files.record, _finite(record, drop=False), overwrite=files.replaceable(args.overwrite))
     plots, notes = _save_plots(study, files, args.overwrite)
     for note in notes:
         print(note, file=sys.stderr)

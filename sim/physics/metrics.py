@@ -25,7 +25,8 @@ class EstimationMetrics:
         heading_rmse_rad: RMS of its wrapped heading error [rad].
         final_position_error_m: Position error of the last estimate [m].
         nees_in_bound_fraction: Share of fix deliveries whose NEES lies inside the two-sided 95 %
-            chi-square interval (about 0.95 for a consistent estimator; NaN without fixes).
+            chi-square interval (about 0.95 for a consistent estimator; NaN, a statistic of nothing,
+            without a delivery the estimator compared: none, or all older than its history).
         fixes_used: Fixes the estimator applied.
     """
 

@@ -142,6 +142,25 @@ class Perturbation:
             parts.append(f"push={self.push[0]:g}@{self.push[1]:g}")
         return ",".join(parts) or "nominal"
 
+    def check_within(self, horizon: float) -> None:
+        """Check that every timed key acts inside a run of ``horizon`` seconds [s]: a push after the
+        run's end, or a latency as long as the run (no command would reach the wheels), would be
+        claimed and never happen.
+
+        Raises:
+            ConfigError: Naming the key, its time and the run's length.
+        """
+        late = []
+        if self.push is not None and self.push[1] >= horizon:
+            late.append(f"push={self.push[0]:g}@{self.push[1]:g} comes at {self.push[1]:g} s")
+        if self.latency >= horizon:
+            late.append(f"latency={self.latency:g} delays every command by {self.latency:g} s")
+        if late:
+            raise ConfigError(
+                f"--perturb {'; '.join(late)}, but the run lasts {horizon:.4g} s: it would never act; give a "
+                f"time below {horizon:.4g} s (or a longer run: a slower reference or a longer trajectory)"
+            )
+
     def apply_to_model(self, model: mujoco.MjModel) -> mujoco.MjModel:
         """A perturbed copy of a compiled model (friction, base mass, wheel radius); the input is
         not touched."""

@@ -245,9 +245,12 @@ class Simulator:
 
         Raises:
             SimulationError: MuJoCo warned (with ``config.strict``); the message lists the warnings.
+            ConfigError: A timed perturbation outside the run (:meth:`Perturbation.check_within`).
         """
         cfg = config or SimConfig()
         pert = perturbation if perturbation is not None and not perturbation.is_nominal else None
+        if pert is not None:
+            pert.check_within(trajectory.duration + cfg.hold)  # before any physics
         m = pert.apply_to_model(self.model) if pert is not None and pert.changes_model else self.model
         d = mujoco.MjData(m)
         # a balancing robot starts upright at once: left alone to settle, it would topple

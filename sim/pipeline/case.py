@@ -17,9 +17,12 @@ On the command line (``nhsim tune --scenarios``) a case is ``SCENARIO:REFERENCE`
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
+
+import numpy as np
 
 from control.base import TRACKERS
 from control.fbl import FBLGains
@@ -263,6 +266,25 @@ def load_case_scenario(case: Case) -> Scenario:
     return sc
 
 
+#: Clearance kept beyond the robot's radius when a reference is fitted to its room [m].
+FIT_MARGIN_M = 0.02
+
+
+def fitted_reference(name: str, scenario: Scenario, robot: RobotSpec) -> Trajectory:
+    """The named reference from the scenario's start; one that takes a ``length`` (the line) and
+    would run into a wall or obstacle is made as long as the room ahead allows (the robot's radius
+    and :data:`FIT_MARGIN_M` clear), up to its own default length."""
+    traj = make_reference(name, robot, scenario.start)
+    clearance = scenario.world.signed_distance(traj.pose[:, :2])
+    needed = robot.radius + FIT_MARGIN_M
+    takes_length = "length" in inspect.signature(REFERENCES[name]).parameters
+    if not takes_length or float(clearance.min()) > needed:
+        return traj
+    blocked = int(np.argmax(clearance <= needed))
+    room = float(np.sum(np.hypot(*np.diff(traj.pose[: blocked + 1, :2], axis=0).T)))
+    return make_reference(name, robot, scenario.start, length=room) if room > 0 else traj
+
+
 def check_reference_fits(name: str, trajectory: Trajectory, scenario: Scenario, robot: RobotSpec) -> None:
     """Raise unless an analytic reference keeps the robot's radius clear of every obstacle and wall.
 
@@ -276,7 +298,8 @@ def check_reference_fits(name: str, trajectory: Trajectory, scenario: Scenario, 
             f"reference {name!r} placed at the start of scenario {scenario.name!r} comes within "
             f"{max(float(clearance[k]), 0.0):.3f} m of an obstacle or wall at ({trajectory.pose[k, 0]:.2f}, "
             f"{trajectory.pose[k, 1]:.2f}) but the {robot.name} needs {robot.radius:.3f} m; use a scenario with room "
-            f"for it (e.g. --scenario open) or plan a path with --planner"
+            f"for it{' (e.g. --scenario open)' if scenario.name != 'open' else ''}, another reference, or plan a "
+            "path with --planner"
         )
 
 
@@ -327,7 +350,7 @@ def prepare_trajectory(case: Case, *, progress: Progress | None = None) -> Prepa
     sc = load_case_scenario(case)
     spec = load_robot(sc.robot)
     if case.reference is not None:
-        traj = make_reference(case.reference, spec, sc.start)
+        traj = fitted_reference(case.reference, sc, spec)
         check_reference_fits(case.reference, traj, sc, spec)
         return PreparedTrajectory(case, sc, spec, traj, f"reference:{case.reference}")
     if case.trajectory_file is not None:

@@ -255,11 +255,18 @@ class Sensing:
 
     def _deliver(self, j: int, k: int, truth: tuple[float, float, float]) -> None:
         """The fix measured at period j arrives at period k: fuse it (with ``fused``) and measure the
-        estimate's consistency (NEES) against the truth then."""
+        estimate's consistency (NEES) against the truth then. A fused run takes no sample for a fix
+        too old for the estimator's history (it judged nothing), so a run whose fixes all came too
+        late has no NEES statistic (NaN, written null and printed "-"), not a perfect one; a
+        dead-reckoning run samples at every delivery, the instants its fused twin is checked."""
         est = self.estimator
         assert est is not None
-        if self.source is PoseSource.FUSED and est.correct(self.t0 + j * self.dt, self.fixes[j]):
-            self.applied.append(j)
+        if self.source is PoseSource.FUSED:
+            stale = est.fixes_stale
+            if est.correct(self.t0 + j * self.dt, self.fixes[j]):
+                self.applied.append(j)
+            if est.fixes_stale > stale:  # older than the history: never compared with the estimate
+                return
         self.nees.append((k, est.nees(truth)))
 
     def diverged(self, error: EstimatorDivergedError) -> None:

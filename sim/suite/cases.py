@@ -4,7 +4,9 @@ from __future__ import annotations
 
 from dataclasses import replace
 from functools import cache
+from typing import Any
 
+import numpy as np
 from dm_control.mujoco.wrapper import core
 from dm_control.rl import control
 
@@ -22,6 +24,26 @@ from sim.suite.env import Physics, TrackingTask
 
 class NotApplicableError(ConfigError):
     """The planner does not apply to the scenario (``nhsim simulate --all`` reports such a case as n/a)."""
+
+
+def suite_seed(seed: Any) -> int:
+    """The environment's seed from what dm_control's suite takes as a task's ``random``: an int
+    (>= 0 here: it seeds the plan), None (a seed drawn from the operating system's entropy) or a
+    ``numpy.random.RandomState`` (a seed drawn from it).
+
+    Raises:
+        ConfigError: Anything else (a string, a float, a bool, a negative int), named with its type.
+    """
+    if seed is None:
+        return int(np.random.SeedSequence().generate_state(1)[0] >> 1)
+    if isinstance(seed, np.random.RandomState):
+        return int(seed.randint(2**31 - 1))
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ConfigError(
+            f"seed must be an integer >= 0, None (a random seed) or a numpy.random.RandomState, as dm_control's "
+            f"suite takes; got {seed!r} ({type(seed).__name__})"
+        )
+    return int(seed)
 
 
 @cache
@@ -71,7 +93,7 @@ def load(
     robot: str,
     source: str,
     *,
-    seed: int = 0,
+    seed: int | np.random.RandomState | None = 0,
     build_seed: int | None = DEFAULT_BUILD_SEED,
     control_rate: float = 50.0,
 ) -> control.Environment:
@@ -82,7 +104,9 @@ def load(
         scenario: Built-in scenario name or scenario file.
         robot: Robot name (``turtlebot3`` or ``edumip``); one the scenario lists.
         source: A planner name (the plan is made once, with ``seed``) or an analytic reference.
-        seed: Seed of the plan and of the first episode's sensor noise (episode e: ``seed + e``).
+        seed: Seed of the plan and of the first episode's sensor noise (episode e: ``seed + e``): an
+            int >= 0, None for a random one, or a ``numpy.random.RandomState`` a seed is drawn from,
+            as dm_control's own suite takes its ``random`` (:func:`suite_seed`).
         build_seed: Seed of the as-built draw (None: the robot as drawn).
         control_rate: Control periods (environment steps) per second [Hz].
 
@@ -93,7 +117,7 @@ def load(
         ScenarioError: Unknown scenario (the message lists the built-in ones).
         TrajectoryError: The plan failed.
     """
-    prepared = _prepared(scenario, robot, source, seed, build_seed, control_rate)
+    prepared = _prepared(scenario, robot, source, suite_seed(seed), build_seed, control_rate)
     simulator = simulator_for(prepared)
     SimConfig(control_rate=control_rate, hold=prepared.hold)  # checks the rate and the hold
     task = TrackingTask(

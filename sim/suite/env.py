@@ -172,7 +172,10 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         """Check the action against its spec and put it in force for the coming period."""
         ep = self._current()
         try:
-            value = self._action_spec.validate(np.asarray(action, dtype=np.float64))
+            raw = np.asarray(action)
+            if np.iscomplexobj(raw):  # float64 would drop the imaginary part with a warning
+                raise TypeError(f"action {action!r} is complex; give real wheel speeds")
+            value = self._action_spec.validate(raw.astype(np.float64))
         except (ValueError, TypeError) as exc:
             raise ValueError(f"{exc}; the action spec is {self._action_spec!r}") from exc
         if not np.all(np.isfinite(value)):

@@ -20,6 +20,9 @@ from __future__ import annotations
 
 import logging
 import os
+import socket
+import struct
+import time
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TypeVar
 
@@ -32,6 +35,8 @@ R = TypeVar("R")
 BATCHES_PER_WORKER = 4
 #: Seconds to reach a scheduler before giving up.
 CONNECT_TIMEOUT_S = 10
+#: Largest first message a Dask scheduler is taken to greet with [bytes] (its handshake is ~1 kB).
+MAX_GREETING_BYTES = 1 << 20
 
 
 def default_jobs() -> int:
@@ -103,6 +108,7 @@ class DaskExecutor(Executor):
             raise DependencyError("Dask distributed is missing: pip install 'dask[distributed]'") from exc
         self._cluster = None
         if address is not None:
+            check_scheduler(address, CONNECT_TIMEOUT_S)
             try:
                 self._client = Client(address, timeout=CONNECT_TIMEOUT_S)
             except (OSError, TimeoutError) as exc:
@@ -158,12 +164,120 @@ class DaskExecutor(Executor):
             self._cluster.close()
 
 
-def make_executor(jobs: int | None = None, scheduler: str | None = None) -> Executor:
+def _advice(address: str) -> str:
+    return (
+        f"is {address} a Dask scheduler's port (8786 by default; the dashboard's 8787 is a web page)? Start one with "
+        "'dask scheduler' and workers with 'dask worker ADDRESS', or run here with --jobs J"
+    )
+
+
+def check_scheduler(address: str, timeout: float) -> None:
+    """Check that a Dask scheduler answers at ``address`` within ``timeout`` seconds, before Dask's
+    client connects: the client's handshake waits without a deadline for a silent server and reads
+    any other server's reply as the length of a Dask message (an HTTP reply asks for exabytes).
+
+    A scheduler greets first: on accepting a connection it sends its handshake, an 8-byte length then
+    the message. So the check connects (retrying a refused connection until the deadline, as Dask does
+    for a scheduler still starting), reads those 8 bytes and the message, and sends nothing; a server
+    silent until 1 s before the deadline is asked ``HEAD / HTTP/1.0`` so that a web server names
+    itself. Addresses other than ``tcp://`` (TLS, websockets) are left to Dask's own timeout.
+
+    Args:
+        address: ``tcp://HOST:PORT`` or ``HOST:PORT`` (Dask's address forms).
+        timeout: Seconds for all of it.
+
+    Raises:
+        ConfigError: Not an address, nothing reachable, or something other than a Dask scheduler
+            answered (naming the address and what answered).
+    """
+    from distributed.comm.addressing import get_address_host_port, parse_address
+
+    try:
+        scheme = parse_address(address)[0]
+        host, port = get_address_host_port(address)
+    except ValueError as exc:
+        raise ConfigError(
+            f"--scheduler {address!r} is not a scheduler address ({exc}); give tcp://HOST:PORT, e.g. tcp://127.0.0.1:8786"
+        ) from exc
+    if scheme != "tcp":
+        return
+    deadline = time.monotonic() + timeout
+    sock = _connect(address, host, port, deadline, timeout)
+    with sock:
+        answer = _greeting(sock, deadline, timeout)
+    if answer is None:
+        return
+    raise ConfigError(f"no Dask scheduler at {address}: {answer}; {_advice(address)}")
+
+
+def _connect(address: str, host: str, port: int, deadline: float, timeout: float) -> socket.socket:
+    """A TCP connection to ``host:port``, retried until ``deadline`` while refused."""
+    while True:
+        try:
+            return socket.create_connection((host, port), timeout=max(0.01, deadline - time.monotonic()))
+        except socket.gaierror as exc:
+            raise ConfigError(f"cannot reach the Dask scheduler at {address}: unknown host {host!r} ({exc})") from exc
+        except OSError as exc:
+            if time.monotonic() + 0.1 >= deadline:
+                raise ConfigError(
+                    f"cannot reach the Dask scheduler at {address} within {timeout:g} s ({exc}); {_advice(address)}"
+                ) from exc
+            time.sleep(0.1)
+
+
+def _recv(sock: socket.socket, n: int, until: float) -> bytes:
+    """Up to ``n`` bytes, fewer when the peer closes or ``until`` (monotonic) passes."""
+    data = b""
+    while len(data) < n and (left := until - time.monotonic()) > 0:
+        sock.settimeout(left)
+        try:
+            chunk = sock.recv(n - len(data))
+        except TimeoutError:
+            break
+        if not chunk:
+            break
+        data += chunk
+    return data
+
+
+def _first_line(data: bytes) -> str:
+    return data.split(b"\r")[0].split(b"\n")[0].decode(errors="replace")
+
+
+def _greeting(sock: socket.socket, deadline: float, timeout: float) -> str | None:
+    """None when the peer greets as a Dask scheduler does, else what it did instead."""
+    quiet_until = deadline - min(1.0, (deadline - time.monotonic()) / 2)
+    head = _recv(sock, 8, quiet_until)
+    if len(head) == 8:
+        (size,) = struct.unpack("Q", head)  # Dask's frame header: native uint64, as distributed.comm.tcp reads it
+        if size > MAX_GREETING_BYTES:
+            answered = _first_line(head + _recv(sock, 64, min(deadline, time.monotonic() + 0.2)))
+            return f"the server answered {answered!r}, not a Dask scheduler's greeting"
+        if len(_recv(sock, size, deadline)) < size:
+            return "the server began a greeting and did not finish it in time"
+        return None
+    if head:
+        return f"the server sent {head!r} and stopped, not a Dask scheduler's greeting"
+    try:
+        sock.sendall(b"HEAD / HTTP/1.0\r\n\r\n")
+    except OSError:
+        return "the server closed the connection without a word"
+    reply = _recv(sock, 64, deadline)
+    if reply.startswith(b"HTTP/"):
+        return f"an HTTP server answered ({_first_line(reply)}), not a Dask scheduler"
+    if reply:
+        return f"the server answered {reply!r}, not a Dask scheduler's greeting"
+    return f"the server accepted the connection but sent nothing within {timeout:g} s"
+
+
+def make_executor(jobs: int | None = None, scheduler: str | None = None, *, default: int | None = None) -> Executor:
     """The executor for ``--jobs`` / ``--scheduler`` (see the module docstring).
 
     Args:
-        jobs: Worker processes here (None: :func:`default_jobs`); 1 runs in this process.
+        jobs: Worker processes here, as given (None: not given); 1 runs in this process.
         scheduler: Address of a running Dask scheduler; exclusive with ``jobs``.
+        default: Worker processes when neither is given (None: :func:`default_jobs`); a
+            command's default, so that it never counts as a given ``--jobs``.
 
     Raises:
         ConfigError: Both given, or ``jobs`` < 1, or an unreachable scheduler.
@@ -172,7 +286,7 @@ def make_executor(jobs: int | None = None, scheduler: str | None = None) -> Exec
         raise ConfigError("--jobs and --scheduler exclude each other: run here with J processes, or on a cluster")
     if scheduler is not None:
         return DaskExecutor(address=scheduler)
-    n = default_jobs() if jobs is None else jobs
+    n = jobs if jobs is not None else default if default is not None else default_jobs()
     if n < 1:
         raise ConfigError(f"--jobs must be >= 1, got {n}")
     return Executor() if n == 1 else DaskExecutor(jobs=n)

@@ -36,7 +36,7 @@ from sim.pipeline.runs import DEFAULT_RUNS
 from sim.pipeline.simulate import track
 from sim.pipeline.sweep import missed_targets
 from sim.tools.executor import Executor
-from sim.tools.tune import Draw, make_draws
+from sim.tools.tune import MAX_DRAWS, Draw, make_draws
 
 #: Format version of the results file's header.
 RESULTS_VERSION = 1
@@ -72,6 +72,8 @@ class MonteCarloSpec:
     def __post_init__(self) -> None:
         if isinstance(self.runs, bool) or not isinstance(self.runs, int) or self.runs < 1:
             raise ConfigError(f"--runs must be a whole number >= 1, got {self.runs!r}")
+        if self.runs > MAX_DRAWS:
+            raise ConfigError(f"--runs must be at most {MAX_DRAWS} (distinct robots and noise draws), got {self.runs}")
 
     def key(self) -> dict[str, Any]:
         """What makes the study's runs what they are (everything but their number): a results file

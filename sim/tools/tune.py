@@ -96,8 +96,12 @@ GRACE_PERIOD = 10
 MAX_RETRY = 2
 #: Attempts to open a storage whose tables another worker is creating at the same moment.
 SCHEMA_ATTEMPTS = 4
+#: Seconds a worker waits for the settings of a study another worker has just created.
+SETTINGS_WAIT_S = 30.0
 #: Seeds of draws are below this; training seeds are even, held-out seeds odd.
 SEED_SPACE = 2**31
+#: Most draws of one set: a quarter of the seeds of one parity, so that drawing them stays linear in time.
+MAX_DRAWS = SEED_SPACE // 8
 
 
 @dataclass(frozen=True)
@@ -137,10 +141,14 @@ def make_draws(
         perturbations: Range each draw's perturbation is sampled from (robust study); None for none.
 
     Raises:
-        ConfigError: Negative count.
+        ConfigError: Negative count, or more than :data:`MAX_DRAWS`.
     """
     if count < 0:
         raise ConfigError(f"number of draws must be >= 0, got {count}")
+    if count > MAX_DRAWS:
+        raise ConfigError(
+            f"number of draws must be at most {MAX_DRAWS} (a quarter of the seeds of one parity), got {count}"
+        )
     parity = int(held_out)
     build_rng, noise_rng, pert_rng = (np.random.default_rng([seed, parity, stream]) for stream in range(3))
     builds, noises = _distinct_seeds(build_rng, count, parity), _distinct_seeds(noise_rng, count, parity)
@@ -151,10 +159,18 @@ def make_draws(
 
 
 def _distinct_seeds(rng: np.random.Generator, count: int, parity: int) -> list[int]:
+    """``count`` distinct seeds of one parity, each drawn uniformly and a repeat drawn again.
+
+    A set holds the seeds drawn so far, so the whole costs time linear in ``count``: at most a quarter
+    of the seeds of a parity are ever taken (:data:`MAX_DRAWS`), so a draw repeats less than a third of
+    the time.
+    """
     out: list[int] = []
+    seen: set[int] = set()
     while len(out) < count:
         value = 2 * int(rng.integers(SEED_SPACE // 2)) + parity
-        if value not in out:
+        if value not in seen:
+            seen.add(value)
             out.append(value)
     return out
 
@@ -383,7 +399,8 @@ def open_storage(url: str) -> Any:
 def _schema_race(exc: BaseException) -> bool:
     """Whether opening a storage failed because another worker was creating the same tables."""
     text = str(exc).lower()
-    return "already exists" in text or "duplicate key" in text or "uniqueviolation" in text
+    # PostgreSQL: "duplicate key", "UniqueViolation"; SQLite: "UNIQUE constraint failed" (alembic_version)
+    return any(s in text for s in ("already exists", "duplicate key", "uniqueviolation", "unique constraint failed"))
 
 
 def _begin_immediate(engine: Any) -> None:
@@ -411,22 +428,38 @@ def make_sampler(name: str, seed: int, n_existing: int, worker: int) -> Any:
 def load_study(spec: TuneSpec, *, worker: int = 0, create: bool = False) -> Any:
     """Open (or create) the spec's study with a sampler for this worker.
 
+    With ``create``, the worker whose creation of the study succeeds (the storage refuses a second
+    study of one name, so one worker does, whichever the database) enqueues the default gains and
+    then stores the settings; a worker that finds the study made waits for its settings, so it
+    never sees a new study without its default trial (:func:`ensure_default_trial`).
+
     Raises:
         ConfigError: The storage cannot be opened, or the study exists with other settings.
     """
     import optuna
 
     storage = open_storage(spec.storage)
+    settings = json.loads(json.dumps(spec.settings()))
     try:
-        study = optuna.create_study(storage=storage, study_name=spec.study, direction="minimize", load_if_exists=True)
+        if create:
+            try:
+                study = optuna.create_study(storage=storage, study_name=spec.study, direction="minimize")
+            except optuna.exceptions.DuplicatedStudyError:
+                study = optuna.load_study(storage=storage, study_name=spec.study)
+            else:
+                ensure_default_trial(study, spec.tracker)
+                study.set_user_attr("settings", settings)
+        else:
+            study = optuna.load_study(storage=storage, study_name=spec.study)
+    except ConfigError:
+        raise
     except Exception as exc:
         raise ConfigError(f"cannot open study {spec.study!r} in {spec.storage!r}: {exc}") from exc
-    settings = json.loads(json.dumps(spec.settings()))
-    stored = study.user_attrs.get("settings")
+    stored = _stored_settings(study, wait=SETTINGS_WAIT_S if create else 0.0)
     if stored is None:
         if not create:
             raise ConfigError(f"study {spec.study!r} in {spec.storage!r} has no settings; create it with nhsim tune")
-        study.set_user_attr("settings", settings)
+        study.set_user_attr("settings", settings)  # a study left without settings by an older version
     elif stored != settings:
         diff = sorted(k for k in set(stored) | set(settings) if stored.get(k) != settings.get(k))
         raise ConfigError(
@@ -437,6 +470,14 @@ def load_study(spec: TuneSpec, *, worker: int = 0, create: bool = False) -> Any:
     return study
 
 
+def _stored_settings(study: Any, wait: float) -> Any:
+    """The study's stored settings, waiting up to ``wait`` seconds for the worker creating it."""
+    deadline = time.monotonic() + wait
+    while (stored := study.user_attrs.get("settings")) is None and time.monotonic() < deadline:
+        time.sleep(0.1)
+    return stored
+
+
 def default_params(tracker: str = "") -> dict[str, float]:
     """The tracker's default gains (or tuned parameters) as study parameters."""
     cls, space = tuned_space(tracker)
@@ -445,11 +486,12 @@ def default_params(tracker: str = "") -> dict[str, float]:
 
 
 def ensure_default_trial(study: Any, tracker: str = "") -> None:
-    """Enqueue the default gains unless a completed or waiting trial already holds them."""
+    """Enqueue the default gains unless a completed, running or waiting trial already holds them."""
     from optuna.trial import TrialState
 
     params = default_params(tracker)
-    for t in study.get_trials(deepcopy=False, states=(TrialState.COMPLETE, TrialState.WAITING)):
+    held = (TrialState.COMPLETE, TrialState.RUNNING, TrialState.WAITING)
+    for t in study.get_trials(deepcopy=False, states=held):
         p = t.system_attrs.get("fixed_params", t.params)
         if p == params:
             return
@@ -508,6 +550,7 @@ def objective_fn(evaluator: Evaluator, spec: TuneSpec | None = None) -> Any:
 
     def objective(trial: Any) -> float:
         if spec is not None:
+            _claim(trial, spec.trials)
             trial.study.sampler = make_sampler(spec.sampler, spec.seed, trial.number, 0)
         space = tuned_space(evaluator.tracker)[1]
         values = {k: trial.suggest_float(k, lo, hi, log=True) for k, (lo, hi) in space.items()}
@@ -517,6 +560,22 @@ def objective_fn(evaluator: Evaluator, spec: TuneSpec | None = None) -> Any:
         return ev.objective
 
     return objective
+
+
+def _claim(trial: Any, wanted: int) -> None:
+    """Prune ``trial`` before it runs when the trials completed and those running ahead of it (lower
+    numbers: the storage numbers trials once, in the order workers take them) already make the
+    ``wanted`` count, and stop this worker: workers that each finish the trial they took would
+    otherwise end the study with more completed trials than asked for."""
+    import optuna
+    from optuna.trial import TrialState
+
+    ahead = 0
+    for t in trial.study.get_trials(deepcopy=False, states=(TrialState.COMPLETE, TrialState.RUNNING)):
+        ahead += t.state == TrialState.COMPLETE or t.number < trial.number
+    if ahead >= wanted:
+        trial.study.stop()
+        raise optuna.TrialPruned(f"the study holds or is running its {wanted} trials")
 
 
 def run_worker(spec: TuneSpec, n_trials: int, worker: int = 0, callbacks: Sequence[Any] = ()) -> int:
