@@ -123,6 +123,7 @@ class KanayamaTracker(PerSegmentTracker):
     #: The option ``nhsim tune --tracker`` tunes, and its dataclass.
     TUNED = ("params", KanayamaParams)
     STATE = STATE
+    DRIVE = staticmethod(drive)
     PERIOD = staticmethod(_period)
 
     def __init__(

@@ -215,6 +215,7 @@ class RegulatedPurePursuit(PerSegmentTracker):
     #: The option ``nhsim tune --tracker`` tunes, and its dataclass.
     TUNED = ("params", RPPParams)
     STATE = STATE
+    DRIVE = staticmethod(drive)
     PERIOD = staticmethod(_period)
 
     def __init__(

@@ -78,6 +78,7 @@ class SegmentedTracker(PerSegmentTracker):
     #: The option ``nhsim tune --tracker`` tunes, and its dataclass.
     TUNED = ("gains", FBLGains)
     STATE = STATE
+    DRIVE = staticmethod(drive)
     PERIOD = staticmethod(_period)
 
     def __init__(

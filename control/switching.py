@@ -217,9 +217,10 @@ def period(
 class PerSegmentTracker:
     """A tracker that switches law per segment (the module doc); a subclass names its law.
 
-    A subclass sets ``name``, ``STATE`` (:func:`state_dtype` with its law's fields), ``PERIOD``
-    (its compiled ``_period``, as a staticmethod) and :meth:`law_values` (its fields' values at
-    reset); its constructor stores its options and calls this one.
+    A subclass sets ``name``, ``STATE`` (:func:`state_dtype` with its law's fields), ``DRIVE`` (its
+    compiled drive law) and ``PERIOD`` (its compiled ``_period``), both as staticmethods, and
+    :meth:`law_values` (its fields' values at reset); its constructor stores its options and calls
+    this one.
 
     Args:
         robot: Limits (max_speed, max_yaw_rate).
@@ -228,6 +229,7 @@ class PerSegmentTracker:
 
     name: ClassVar[str] = "per-segment"
     STATE: ClassVar[np.dtype] = state_dtype(())
+    DRIVE: ClassVar[Callable[..., tuple[float, float]]]
     PERIOD: ClassVar[Callable[..., tuple[int, float, float]]]
 
     def __init__(self, robot: RobotSpec, turns: SegmentedParams) -> None:

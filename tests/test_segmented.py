@@ -7,9 +7,9 @@ import re
 import numpy as np
 import pytest
 
-from control.base import MAX_CONTROL_PERIODS, TRACKERS, make_tracker
+from control.base import MAX_CONTROL_PERIODS, TRACKERS, make_tracker, tracker_factory
 from control.segmented import SegmentedParams, SegmentedTracker
-from control.switching import PerSegmentTracker
+from control.switching import SWITCHING_FIELDS, PerSegmentTracker
 from planning.core.geometry import Pose2D
 from planning.core.robot import load_robot
 from planning.core.world import World
@@ -166,3 +166,39 @@ def test_a_compiled_period_is_the_python_reference_bit_for_bit(name: str) -> Non
         drives += not python.rested
     assert tracker.segment == python.segment == len(traj.segment_kinds) - 1
     assert 0.5 * n < drives < n  # most periods were drives, the others were not
+
+
+def per_segment_trackers() -> list[str]:
+    """The registered trackers that switch law per segment (control/switching.py)."""
+    return [n for n in sorted(TRACKERS) if issubclass(tracker_factory(n), PerSegmentTracker)]  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("name", per_segment_trackers())
+def test_the_compiled_switching_is_the_python_switching_for_every_registered_law(name: str) -> None:
+    """Every registered per-segment tracker, its own compiled drive law given to the plain-Python
+    switching (tests/reference_laws.py) on a copy of its state: the same commands, segment and law
+    state as its compiled period, bit for bit, along a cusp-and-turn plan from noisy poses, before
+    the start and past the end. (A new tracker is checked here by registering it.)"""
+    robot = load_robot("edumip")
+    traj = to_trajectory(CUSP_TURN, robot, OPEN)
+    tracker = make_tracker(name, robot)
+    assert isinstance(tracker, PerSegmentTracker)
+    tracker.reset(traj, 0.05)
+    assert tracker.state is not None
+    record, law = tracker.state.copy(), type(tracker).DRIVE
+    own = [f for f in record.dtype.names if f not in dict(SWITCHING_FIELDS)]
+
+    def drive(sw: reference_laws.Switcher, k: int, x: float, y: float, theta: float, enter: bool, rested: bool):
+        return law(record[0], tracker._ref, k, x, y, theta, enter, rested)
+
+    t0, goal = float(traj.t[0]), traj.pose[-1].tolist()
+    python = reference_laws.Switcher(tracker._ref, t0, 0.05, goal, robot, tracker.turns, drive)
+    rng = np.random.default_rng(5)
+    for k in range(-2, math.ceil(traj.duration / 0.05) + 10):
+        t = t0 + k * 0.05
+        ref = traj.sample(min(max(t, t0), float(traj.t[-1]))).pose
+        pose = (float(ref[0] + rng.normal(0, 0.03)), float(ref[1] + rng.normal(0, 0.03)), float(ref[2] - 0.2))
+        assert tracker.command(t, *pose) == python.command(t, *pose), k
+        assert (tracker.segment, bool(tracker.state[0]["rested"])) == (python.segment, python.rested), k
+        assert [tracker.state[0][f] for f in own] == [record[0][f] for f in own], k
+    assert tracker.segment == len(traj.segment_kinds) - 1
