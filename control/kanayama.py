@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 
 from control.base import check_ranges, option_value, ranged
 from control.estimation.kernels import wrap
-from control.switching import PerSegmentTracker, SegmentedParams, dataclass_values, period, state_dtype
+from control.switching import PerSegmentTracker, Record, SegmentedParams, dataclass_values, period, state_dtype
 from planning.core.robot import RobotSpec
 
 
@@ -87,7 +87,7 @@ STATE = state_dtype([("kx", "f8"), ("ky", "f8"), ("ktheta", "f8")])
 
 @nb.njit(cache=True)
 def drive(
-    s: NDArray[np.void], ref: NDArray[np.void], k: int, x: float, y: float, theta: float, enter: bool, rested: bool
+    s: Record, ref: NDArray[np.void], k: int, x: float, y: float, theta: float, enter: bool, rested: bool
 ) -> tuple[float, float]:  # pragma: no cover - compiled
     """Kanayama's law along a drive (no memory): (v, omega) before clamping."""
     r = ref[k]

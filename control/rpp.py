@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.base import check_ranges, option_value, ranged
-from control.switching import PerSegmentTracker, SegmentedParams, dataclass_values, period, state_dtype
+from control.switching import PerSegmentTracker, Record, SegmentedParams, dataclass_values, period, state_dtype
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
 
@@ -151,7 +151,7 @@ def _carrot(
 
 @nb.njit(cache=True)
 def drive(
-    s: NDArray[np.void], ref: NDArray[np.void], k: int, x: float, y: float, theta: float, enter: bool, rested: bool
+    s: Record, ref: NDArray[np.void], k: int, x: float, y: float, theta: float, enter: bool, rested: bool
 ) -> tuple[float, float]:  # pragma: no cover - compiled
     """One period of Regulated Pure Pursuit along the drive of row ``k`` of ``ref`` (the module
     doc's steps 1-5): (v, omega) before clamping. Its memory: the closest row ``s.near`` (the drive's

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from control.base import option_value
 from control.estimation.kernels import wrap
 from control.fbl import XI_FLOOR, FBLGains, fbl_law_kernel, xi_period
-from control.switching import PerSegmentTracker, SegmentedParams, period, state_dtype
+from control.switching import PerSegmentTracker, Record, SegmentedParams, period, state_dtype
 from planning.core.robot import RobotSpec
 
 __all__ = ["SegmentedParams", "SegmentedTracker"]
@@ -34,7 +34,7 @@ STATE = state_dtype([("kp", "f8"), ("kd", "f8"), ("xi_min", "f8"), ("xi_blend", 
 
 @nb.njit(cache=True)
 def drive(
-    s: NDArray[np.void], ref: NDArray[np.void], k: int, x: float, y: float, theta: float, enter: bool, rested: bool
+    s: Record, ref: NDArray[np.void], k: int, x: float, y: float, theta: float, enter: bool, rested: bool
 ) -> tuple[float, float]:  # pragma: no cover - compiled
     """The FBL along a drive (the module doc): (v, omega) before clamping; advances ``s.xi``."""
     r = ref[k]

@@ -93,6 +93,10 @@ SWITCHING_FIELDS: tuple[tuple[str, str], ...] = (
     ("rested", "?"),
 )
 
+#: A tracker's state record inside compiled code (a numba Record of :func:`state_dtype`): its fields
+#: are read and written as attributes, ``s.segment``.
+Record = Any
+
 #: :func:`period`'s status: a command; a non-finite time or pose (nothing changed).
 OK, BAD_POSE = range(2)
 
@@ -164,7 +168,7 @@ def clamp_command(v: float, w: float, vmax: float, wmax: float) -> tuple[float, 
 
 @nb.njit(cache=True, inline="always")
 def _hold(
-    s: Any, x: float, y: float, theta: float, gx: float, gy: float, gth: float, omega_ref: float
+    s: Record, x: float, y: float, theta: float, gx: float, gy: float, gth: float, omega_ref: float
 ) -> tuple[float, float]:  # pragma: no cover - compiled
     """Hold the spot (gx, gy) and turn to its heading gth: (v, omega) before clamping."""
     c, sn = math.cos(theta), math.sin(theta)
