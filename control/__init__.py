@@ -10,6 +10,7 @@ re-exported here, so ``from control import make_tracker, FBLGains`` is all a use
 
 from control.base import TRACKERS as TRACKERS
 from control.base import Tracker as Tracker
+from control.base import feedback_trackers as feedback_trackers
 from control.base import make_tracker as make_tracker
 from control.base import register_tracker as register_tracker
 from control.base import tracker_options as tracker_options
@@ -22,3 +23,4 @@ from control.gains import resolve_gains as resolve_gains
 from control.open_loop import OpenLoop as OpenLoop
 from control.segmented import SegmentedParams as SegmentedParams
 from control.segmented import SegmentedTracker as SegmentedTracker
+from control.switching import PerSegmentTracker as PerSegmentTracker

@@ -35,8 +35,10 @@ class Tracker(Protocol):
         ...
 
 
-#: Tracker name -> "module:factory"; the factory is called as factory(robot, **keyword-only options).
-TRACKERS: dict[str, str] = {
+#: Tracker name -> its factory, or "module:factory" imported when first used; the factory is called as
+#: factory(robot, **keyword-only options). The CLI (compare, bench track, tune), the registry-wide tests
+#: and the fuzz suite enumerate this registry: registering a tracker is all it takes to appear there.
+TRACKERS: dict[str, str | Callable[..., Tracker]] = {
     "fbl": "control.fbl:DynamicFBL",
     "kanayama": "control.kanayama:KanayamaTracker",
     "mpc": "control.mpc:MPCTracker",
@@ -45,17 +47,48 @@ TRACKERS: dict[str, str] = {
     "segmented": "control.segmented:SegmentedTracker",
 }
 
+#: Registered names without feedback (baselines): not compared by default, not held to the robot's limits.
+BASELINES: set[str] = {"open-loop"}
 
-def register_tracker(name: str, target: str) -> None:
-    """Register a tracker factory by import path, e.g. ``"control.fbl:DynamicFBL"``."""
+
+def register_tracker(name: str, target: str | Callable[..., Tracker], *, baseline: bool = False) -> None:
+    """Register a tracker by name: its factory (a class), or its import path, e.g. ``"control.fbl:DynamicFBL"``.
+
+    Args:
+        name: The tracker's name (``--trackers``, ``--tracker``, the run records).
+        target: The factory, called as ``factory(robot, **keyword-only options)``, or "module:attr".
+        baseline: A player without feedback (like "open-loop"): left out of ``compare``'s default set
+            and not held to the robot's limits by the tests.
+    """
     TRACKERS[name] = target
+    if baseline:
+        BASELINES.add(name)
+    else:
+        BASELINES.discard(name)
+
+
+def feedback_trackers() -> tuple[str, ...]:
+    """The registered trackers with feedback (every one but the baselines), in registration order."""
+    return tuple(name for name in TRACKERS if name not in BASELINES)
 
 
 def _factory(name: str) -> Callable[..., Tracker]:
     if name not in TRACKERS:
         raise ConfigError(f"unknown tracker {name!r}: choose one of {', '.join(sorted(TRACKERS))}")
-    module_name, attr = TRACKERS[name].split(":")
+    target = TRACKERS[name]
+    if not isinstance(target, str):
+        return target
+    module_name, attr = target.split(":")
     return getattr(importlib.import_module(module_name), attr)  # type: ignore[no-any-return]
+
+
+def tracker_factory(name: str) -> Callable[..., Tracker]:
+    """The factory (class) of a registered tracker.
+
+    Raises:
+        ConfigError: Unknown name (lists the valid ones).
+    """
+    return _factory(name)
 
 
 def tracker_options(name: str) -> tuple[str, ...]:

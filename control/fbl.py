@@ -28,25 +28,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.base import check_measured_pose, check_period, check_positive_fields, option_value
+from control.switching import REFERENCE, clamp_command, reference_table
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
-from planning.trajectory.trajectory import Trajectory, TrajectorySamples
-
-#: The reference the law takes: (x_d, y_d, xdot_d, ydot_d, xddot_d, yddot_d) [m, m/s, m/s^2].
-FlatReference = tuple[float, float, float, float, float, float]
-
-
-def flat_references(samples: TrajectorySamples) -> list[FlatReference]:
-    """The law's reference at each sampled instant, as Python floats (cheap to read per call).
-
-    Args:
-        samples: The reference at M instants.
-
-    Returns:
-        M tuples (x_d, y_d, xdot_d, ydot_d, xddot_d, yddot_d).
-    """
-    columns = (samples.x, samples.y, samples.dx, samples.dy, samples.ddx, samples.ddy)
-    return list(zip(*(c.tolist() for c in columns), strict=True))
+from planning.trajectory.trajectory import Trajectory
 
 
 @dataclass(frozen=True)
@@ -99,7 +84,9 @@ def fbl_law_kernel(
     ddxd: float,
     ddyd: float,
 ) -> tuple[float, float]:  # pragma: no cover - compiled
-    """:func:`fbl_law` with the gains and the reference as numbers (compiled, for compiled callers)."""
+    """The continuous-time law (the module doc's equations): (xi_dot [m/s^2], omega [rad/s]) before
+    saturation, for gains Kp, Kd, xi_min, a pose (x, y [m], theta [rad]), the compensator state xi
+    [m/s] and the flat reference (x_d, y_d [m], xdot_d, ydot_d [m/s], xddot_d, yddot_d [m/s^2])."""
     c, s = math.cos(theta), math.sin(theta)
     w1 = ddxd - kp * (x - xd) - kd * (xi * c - dxd)
     w2 = ddyd - kp * (y - yd) - kd * (xi * s - dyd)
@@ -109,80 +96,70 @@ def fbl_law_kernel(
     return xi_dot, omega
 
 
-def fbl_law(
-    gains: FBLGains,
-    x: float,
-    y: float,
-    theta: float,
-    xi: float,
-    ref: FlatReference,
-) -> tuple[float, float]:
-    """The continuous-time law: (xi_dot, omega) for a state and a reference (the module doc's
-    equations; compiled).
+#: Smallest |xi| [m/s] kept along a drive of known direction (:func:`xi_period`), so xi keeps the
+#: drive's sign through a stop.
+XI_FLOOR = 1e-6
+
+
+@nb.njit(cache=True, inline="always")
+def xi_period(
+    xi: float, xi_dot: float, dt: float, vmax: float, sign: float
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    """The FBL's discretisation of one control period: (v, the next xi).
+
+    xi integrates xi_dot over the period (u1 <- u1 + u1_dot dt, seed report 003, III) and stays
+    within the speed limit |u1| <= vmax; along a drive of known direction (``sign`` +1 forwards, -1
+    backwards) within that direction's side, sign * xi in [XI_FLOOR, vmax], so a drive never
+    reverses and the law keeps dividing by a speed of the drive's sign; ``sign`` 0 (a reference
+    without a direction) bounds xi by +-vmax only. The command v is xi at the period's midpoint,
+    xi + xi_dot dt / 2, before the caller clamps it.
 
     Args:
-        gains: Kp, Kd, xi_min.
-        x: Position [m].
-        y: Position [m].
-        theta: Heading [rad].
-        xi: Compensator state (speed) [m/s].
-        ref: (x_d, y_d, xdot_d, ydot_d, xddot_d, yddot_d).
-
-    Returns:
-        (xi_dot [m/s^2], omega [rad/s]), before saturation.
+        xi: The compensator state [m/s].
+        xi_dot: Its rate from the law [m/s^2].
+        dt: The control period [s].
+        vmax: The speed limit [m/s].
+        sign: The drive's direction: +1, -1, or 0 for none.
     """
-    return fbl_law_kernel(gains.kp, gains.kd, gains.xi_min, x, y, theta, xi, *ref)
+    v = xi + 0.5 * xi_dot * dt
+    xi = xi + xi_dot * dt
+    if sign == 0.0:
+        return v, -vmax if xi < -vmax else (vmax if xi > vmax else xi)
+    return v, sign * min(max(sign * xi, XI_FLOOR), vmax)
 
 
-#: Slots of a tracker's state array (:func:`_step`): xi [m/s], then its constants: Kp, Kd, xi_min,
-#: the speed and yaw-rate limits, the control period [s] and the trajectory's start time [s].
-XI, KP, KD, XI_MIN, VMAX, WMAX, DT, T0 = range(8)
-#: Rows of a tracker's block before its reference table (the state, flat in their 12 slots).
-STATE_ROWS = 2
+#: The state record of :class:`DynamicFBL`: xi [m/s], the gains, the speed and yaw-rate limits, the
+#: control period [s] and the trajectory's start time [s].
+STATE = np.dtype([(name, "f8") for name in ("xi", "kp", "kd", "xi_min", "vmax", "wmax", "dt", "t0")], align=True)
 #: :func:`_period`'s status: a command; a non-finite time or pose; a time off the control instants.
 OK, BAD_POSE, OFF_GRID = range(3)
 
 
 @nb.njit(cache=True)
-def _step(
-    st: NDArray[np.float64],
-    x: float,
-    y: float,
-    theta: float,
-    xd: float,
-    yd: float,
-    dxd: float,
-    dyd: float,
-    ddxd: float,
-    ddyd: float,
+def step(
+    state: NDArray[np.void], ref: NDArray[np.void], k: int, x: float, y: float, theta: float
 ) -> tuple[float, float]:  # pragma: no cover - compiled
-    """One period of the tracker on its state ``st`` for a reference: the saturated command (v, omega),
-    xi advanced by one period (see :meth:`DynamicFBL.command`)."""
-    xi = st[XI]
-    xi_dot, omega = fbl_law_kernel(st[KP], st[KD], st[XI_MIN], x, y, theta, xi, xd, yd, dxd, dyd, ddxd, ddyd)
-    vmax, wmax, dt = st[VMAX], st[WMAX], st[DT]
-    v = xi + 0.5 * xi_dot * dt
-    v = -vmax if v < -vmax else (vmax if v > vmax else v)
-    xi += xi_dot * dt
-    st[XI] = -vmax if xi < -vmax else (vmax if xi > vmax else xi)
-    return v, (-wmax if omega < -wmax else (wmax if omega > wmax else omega))
+    """One period of the tracker on its state record for the reference row ``ref[k]``
+    (:data:`control.switching.REFERENCE`): the clamped command (v, omega); xi advanced one period."""
+    s, r = state[0], ref[k]
+    xi_dot, omega = fbl_law_kernel(s.kp, s.kd, s.xi_min, x, y, theta, s.xi, r.x, r.y, r.dx, r.dy, r.ddx, r.ddy)
+    v, s.xi = xi_period(s.xi, xi_dot, s.dt, s.vmax, 0.0)
+    return clamp_command(v, omega, s.vmax, s.wmax)
 
 
 @nb.njit(cache=True)
 def _period(
-    t: float, x: float, y: float, theta: float, block: NDArray[np.float64]
+    state: NDArray[np.void], ref: NDArray[np.void], t: float, x: float, y: float, theta: float
 ) -> tuple[int, float, float]:  # pragma: no cover - compiled
-    """:meth:`DynamicFBL.command` at a control instant on a tracker's block (the state in its first
-    :data:`STATE_ROWS` rows, then the reference at control instant k in row STATE_ROWS + k, (M, 6)):
-    (OK, v, omega); (BAD_POSE or OFF_GRID, nan, nan) changing nothing."""
+    """:meth:`DynamicFBL.command` at a control instant (``ref`` row k at t0 + k dt): (OK, v, omega);
+    (BAD_POSE or OFF_GRID, nan, nan) changing nothing."""
     if not math.isfinite(t + x + y + theta):
         return BAD_POSE, math.nan, math.nan
-    st = block[:STATE_ROWS].reshape(-1)
-    k = round((t - st[T0]) / st[DT])
-    if not (0 <= k < block.shape[0] - STATE_ROWS and abs(st[T0] + k * st[DT] - t) < 1e-9):
+    s = state[0]
+    k = round((t - s.t0) / s.dt)
+    if not (0 <= k < ref.size and abs(s.t0 + k * s.dt - t) < 1e-9):
         return OFF_GRID, math.nan, math.nan
-    r = block[STATE_ROWS + k]
-    v, omega = _step(st, x, y, theta, r[0], r[1], r[2], r[3], r[4], r[5])
+    v, omega = step(state, ref, k, x, y, theta)
     return OK, v, omega
 
 
@@ -211,19 +188,17 @@ class DynamicFBL:
         self.robot = robot
         self.gains = option_value(self.name, "gains", gains, FBLGains())
         self._traj: Trajectory | None = None
-        # xi and the constants (XI .. T0, set at reset) in the first rows, then the law's reference at the
-        # control instants
-        self._block = np.zeros((STATE_ROWS, 6))
-        self._state = self._block[:STATE_ROWS].reshape(-1)
+        self.state = np.zeros(1, STATE)
+        self._ref = np.zeros(0, REFERENCE)  # the law's reference at the control instants
 
     @property
     def xi(self) -> float:
         """The compensator state xi (the speed) [m/s]."""
-        return float(self._state[XI])
+        return float(self.state[0]["xi"])
 
     @xi.setter
     def xi(self, value: float) -> None:
-        self._state[XI] = value
+        self.state[0]["xi"] = value
 
     def reset(self, trajectory: Trajectory, dt: float) -> None:
         """Start tracking: xi starts at the reference speed; the reference is pre-sampled at the
@@ -234,13 +209,10 @@ class DynamicFBL:
         """
         dt = check_period(self.name, dt, trajectory)
         self._traj = trajectory
-        t0 = float(trajectory.t[0])
-        n = math.ceil(trajectory.duration / dt) + 2
-        s = trajectory.sample_many(t0 + dt * np.arange(n))
-        self._block = np.vstack([np.zeros((STATE_ROWS, 6)), np.column_stack([s.x, s.y, s.dx, s.dy, s.ddx, s.ddy])])
-        self._state = self._block[:STATE_ROWS].reshape(-1)
+        self._ref = reference_table(trajectory, dt, math.ceil(trajectory.duration / dt) + 2)
         g, r = self.gains, self.robot
-        self._state[:8] = (trajectory.vel[0, 0], g.kp, g.kd, g.xi_min, r.max_speed, r.max_yaw_rate, dt, t0)
+        values = (trajectory.vel[0, 0], g.kp, g.kd, g.xi_min, r.max_speed, r.max_yaw_rate, dt, trajectory.t[0])
+        self.state = np.array([values], STATE)
 
     def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
         """Body command for the period starting at ``t``; advances xi by one period.
@@ -251,10 +223,19 @@ class DynamicFBL:
         Raises:
             SimulationError: ``t`` or the pose is not finite.
         """
-        status, v, omega = _period(t, x, y, theta, self._block)
+        status, v, omega = _period(self.state, self._ref, t, x, y, theta)
         if status == OK:
             return v, omega
         check_measured_pose(self.name, t, x, y, theta)  # raises for BAD_POSE
         if self._traj is None:
             raise RuntimeError("DynamicFBL.command called before reset")
-        return _step(self._state, x, y, theta, *flat_references(self._traj.sample_many(np.array([t])))[0])
+        return step(self.state, _at(self._traj, t), 0, x, y, theta)
+
+
+def _at(trajectory: Trajectory, t: float) -> NDArray[np.void]:
+    """The law's reference at time ``t`` [s], interpolated, as a one-row table."""
+    s = trajectory.sample_many(np.array([t]))
+    row = np.zeros(1, REFERENCE)
+    for name in ("x", "y", "dx", "dy", "ddx", "ddy"):
+        row[name] = getattr(s, name)
+    return row

@@ -16,26 +16,23 @@ that the error converges for v_r > 0; the heading term here carries |v_r| instea
 linearised lateral error e_y'' + |v_r| K_theta e_y' + v_r^2 K_y e_y = 0 is stable backwards too
 (critically damped for K_theta = 2 sqrt(K_y)). Where v_r vanishes the lateral and heading
 corrections vanish with it, so turns in place and stand-stills are held by the segment switching
-of :class:`control.segmented.SegmentSwitcher` (heading control, spot holding), as for the
+of :mod:`control.switching` (heading control, spot holding), as for the
 segmented FBL: the tracker accepts every trajectory, with cusps and turns in place.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numba as nb
 import numpy as np
-import numpy.typing as npt
+from numpy.typing import NDArray
 
 from control.base import check_ranges, option_value, ranged
 from control.estimation.kernels import wrap
-from control.segmented import DRIVE, GENERAL, LAW, SegmentedParams, SegmentSwitcher, _Instant, clamp_command, drive_row
+from control.switching import PerSegmentTracker, Record, SegmentedParams, dataclass_values, period, state_dtype
 from planning.core.robot import RobotSpec
-from planning.trajectory.trajectory import Trajectory
 
 
 @dataclass(frozen=True)
@@ -59,7 +56,7 @@ class KanayamaParams:
 
 
 @nb.njit(cache=True)
-def _law(
+def kanayama_kernel(
     kx: float,
     ky: float,
     ktheta: float,
@@ -72,7 +69,9 @@ def _law(
     vr: float,
     wr: float,
 ) -> tuple[float, float]:  # pragma: no cover - compiled
-    """:func:`kanayama_law` with the gains and the reference as numbers, compiled."""
+    """Kanayama's command (v [m/s], omega [rad/s]) before saturation (the module doc), for gains K_x,
+    K_y, K_theta, a pose (x, y [m], theta [rad]) and the reference's pose and inputs (x_r, y_r [m],
+    theta_r [rad], v_r [m/s], omega_r [rad/s])."""
     c, s = math.cos(theta), math.sin(theta)
     dx, dy = xr - x, yr - y
     ex, ey = c * dx + s * dy, -s * dx + c * dy
@@ -82,41 +81,27 @@ def _law(
     return v, omega
 
 
+#: The state record: the switching's fields, then the gains.
+STATE = state_dtype([("kx", "f8"), ("ky", "f8"), ("ktheta", "f8")])
+
+
 @nb.njit(cache=True)
-def _drive_period(
-    t: float, x: float, y: float, theta: float, segment: int, block: npt.NDArray[np.float64]
+def drive(
+    s: Record, ref: NDArray[np.void], k: int, x: float, y: float, theta: float, enter: bool, rested: bool
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    """Kanayama's law along a drive (no memory): (v, omega) before clamping."""
+    r = ref[k]
+    return kanayama_kernel(s.kx, s.ky, s.ktheta, x, y, theta, r.x, r.y, r.theta, r.v, r.omega)
+
+
+@nb.njit(cache=True)
+def _period(
+    state: NDArray[np.void], ref: NDArray[np.void], t: float, x: float, y: float, theta: float
 ) -> tuple[int, float, float]:  # pragma: no cover - compiled
-    """:meth:`KanayamaTracker.command` in one compiled call while a drive is under way
-    (:func:`control.segmented.drive_row`; the gains K_x, K_y, K_theta in row 0 from LAW): (DRIVE, v,
-    omega), clamped as the general path clamps; (GENERAL, nan, nan) for the general path to decide."""
-    i = drive_row(t, x, y, theta, segment, block)
-    if i < 0:
-        return GENERAL, math.nan, math.nan
-    r, c = block[i], block[0]
-    v, w = _law(c[LAW], c[LAW + 1], c[LAW + 2], x, y, theta, r[0], r[1], r[2], r[3], r[4])
-    sgn = r[12]
-    v, w = clamp_command(sgn * max(sgn * v, 0.0), w, c)
-    return DRIVE, v, w
+    return period(state, ref, t, x, y, theta, drive)
 
 
-def kanayama_law(params: KanayamaParams, x: float, y: float, theta: float, ref: Sequence[Any]) -> tuple[float, float]:
-    """Kanayama's command for a pose and a reference (see the module doc).
-
-    Args:
-        params: K_x, K_y, K_theta.
-        x: Position [m].
-        y: Position [m].
-        theta: Heading [rad].
-        ref: (x_r [m], y_r [m], theta_r [rad], v_r [m/s], omega_r [rad/s]), or a longer sequence
-            that starts with them (a segment switcher's reference instant).
-
-    Returns:
-        (v [m/s], omega [rad/s]), before saturation.
-    """
-    return _law(params.kx, params.ky, params.ktheta, x, y, theta, ref[0], ref[1], ref[2], ref[3], ref[4])
-
-
-class KanayamaTracker(SegmentSwitcher):
+class KanayamaTracker(PerSegmentTracker):
     """Kanayama's stable tracking law on the drives; turns in place by segment (see the module doc).
 
     Source: Y. Kanayama, Y. Kimura, F. Miyazaki, T. Noguchi, "A stable tracking control method for an
@@ -137,6 +122,9 @@ class KanayamaTracker(SegmentSwitcher):
     name = "kanayama"
     #: The option ``nhsim tune --tracker`` tunes, and its dataclass.
     TUNED = ("params", KanayamaParams)
+    STATE = STATE
+    DRIVE = staticmethod(drive)
+    PERIOD = staticmethod(_period)
 
     def __init__(
         self, robot: RobotSpec, *, params: KanayamaParams | None = None, turns: SegmentedParams | None = None
@@ -144,23 +132,6 @@ class KanayamaTracker(SegmentSwitcher):
         self.params = option_value(self.name, "params", params, KanayamaParams())
         super().__init__(robot, option_value(self.name, "turns", turns, SegmentedParams()))
 
-    def reset(self, trajectory: Trajectory, dt: float) -> None:
-        """Start tracking (see :meth:`SegmentSwitcher.reset`); the gains are taken as they are now."""
-        super().reset(trajectory, dt)
-        p = self.params
-        self._block[0, LAW : LAW + 3] = (p.kx, p.ky, p.ktheta)
-
-    def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
-        """Body command for the period starting at ``t`` (see :meth:`SegmentSwitcher.command`): one
-        compiled call while a drive is under way (:func:`_drive_period`)."""
-        if self._traj is not None:
-            status, v, w = _drive_period(t, x, y, theta, self.segment, self._block)
-            if status == DRIVE:
-                return v, w
-        return super().command(t, x, y, theta)
-
-    def _drive(self, x: float, y: float, theta: float, ref: _Instant, sgn: float, k: int) -> tuple[float, float]:
-        """Kanayama's law along a drive, its speed kept on the drive's side of zero."""
-        p = self.params
-        v, w = _law(p.kx, p.ky, p.ktheta, x, y, theta, ref.x, ref.y, ref.theta, ref.v, ref.omega)
-        return sgn * max(sgn * v, 0.0), w
+    def law_values(self) -> dict[str, float]:
+        """The gains."""
+        return dataclass_values(self.params)

@@ -21,7 +21,7 @@ Per control period, on the current drive's path (the reference positions at the 
 
 Backwards drives aim the same construction behind the robot (v < 0, omega = v kappa). Turns in
 place and stand-stills are held by the segment switching of
-:class:`control.segmented.SegmentSwitcher`, so the tracker accepts every trajectory. Nav2's third
+:mod:`control.switching`, so the tracker accepts every trajectory. Nav2's third
 regulation, by proximity to obstacles, reads a costmap: a tracker here is given the trajectory, not
 the map (the plan keeps its clearance), so that heuristic is left out.
 """
@@ -37,12 +37,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.base import check_ranges, option_value, ranged
-from control.segmented import DRIVE, GENERAL, SegmentedParams, SegmentSwitcher, _Instant, clamp_command, drive_row
+from control.switching import PerSegmentTracker, Record, SegmentedParams, dataclass_values, period, state_dtype
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
-from planning.trajectory.trajectory import Trajectory
-
-FloatArray = NDArray[np.float64]
 
 #: Path points past the last closest one that may be farther before the search for the closest stops.
 _PATIENCE = 4
@@ -118,117 +115,85 @@ def circle_crossing(
     return p1[0] + s * dx, p1[1] + s * dy
 
 
-#: Layout of the kernel's constants (built by ``RegulatedPurePursuit.reset``): RPPParams' fields in
-#: declaration order, then the turns' heading gain and the robot's speed and yaw-rate limits.
-_LOOKAHEAD_TIME, _MIN_LOOKAHEAD, _MAX_LOOKAHEAD, _MIN_RADIUS, _MIN_REGULATED, _APPROACH = range(6)
-_MIN_APPROACH, _ALONG, _ROTATE, _HEADING, _VMAX, _WMAX = range(6, 12)
+#: The state record: the switching's fields, then RPPParams' fields and the law's memory: the
+#: closest row found the period before (``near``) and the speed the law commanded then (``v_last``).
+STATE = state_dtype([*((f.name, "f8") for f in dataclasses.fields(RPPParams)), ("near", "i8"), ("v_last", "f8")])
 
 
 @nb.njit(cache=True)
 def _carrot(
-    path: FloatArray, near: int, end: int, x: float, y: float, lookahead: float, sgn: float
+    ref: NDArray[np.void], near: int, end: int, x: float, y: float, lookahead: float, sgn: float
 ) -> tuple[float, float, int]:  # pragma: no cover - compiled
-    """The carrot (x, y) [m] on the drive's path ending before row ``end``, and the closest row.
-
-    ``path`` is (M, 4): x, y, heading and arc length of the reference at each control instant.
-    """
+    """The carrot (x, y) [m] on the drive's path (``ref`` rows before ``end``), and the closest row."""
     near = min(near, end - 1)
-    gap, j, misses = math.hypot(path[near, 0] - x, path[near, 1] - y), near + 1, 0
+    gap, j, misses = math.hypot(ref[near].x - x, ref[near].y - y), near + 1, 0
     while j < end and misses < _PATIENCE:  # forwards from the last closest point, as Nav2 prunes
-        d = math.hypot(path[j, 0] - x, path[j, 1] - y)
+        d = math.hypot(ref[j].x - x, ref[j].y - y)
         if d < gap:
             near, gap, misses = j, d, 0
         else:
             misses += 1
         j += 1
     # no point closer along the path than lookahead - gap can be lookahead from the robot: start there
-    j = near + int(np.searchsorted(path[near:end, 3], path[near, 3] + lookahead - gap))
-    while j < end and math.hypot(path[j, 0] - x, path[j, 1] - y) < lookahead:
+    j = near + int(np.searchsorted(ref["arc"][near:end], ref[near].arc + lookahead - gap))
+    while j < end and math.hypot(ref[j].x - x, ref[j].y - y) < lookahead:
         j += 1
     if j < end:
         i = max(j - 1, near)
-        gx, gy = circle_crossing(x, y, lookahead, (path[i, 0], path[i, 1]), (path[j, 0], path[j, 1]))
+        gx, gy = circle_crossing(x, y, lookahead, (ref[i].x, ref[i].y), (ref[j].x, ref[j].y))
         return gx, gy, near
-    lx, ly, lth = path[end - 1, 0], path[end - 1, 1], path[end - 1, 2]
+    last = ref[end - 1]
     reach = sgn * 2.0 * lookahead
-    gx, gy = circle_crossing(x, y, lookahead, (lx, ly), (lx + reach * math.cos(lth), ly + reach * math.sin(lth)))
+    far = (last.x + reach * math.cos(last.theta), last.y + reach * math.sin(last.theta))
+    gx, gy = circle_crossing(x, y, lookahead, (last.x, last.y), far)
     return gx, gy, near
 
 
 @nb.njit(cache=True)
-def _rpp_drive(
-    path: FloatArray,
-    c: FloatArray,
-    near: int,
-    end: int,
-    pose: tuple[float, float, float],
-    ref: tuple[float, float, float],
-    sgn: float,
-    v_last: float,
-) -> tuple[float, float, int]:  # pragma: no cover - compiled
-    """One period of Regulated Pure Pursuit (the module doc's steps 1-5): (v, omega, closest row).
-
-    Args:
-        path: (M, 4) x, y, heading and arc length of the reference at each control instant.
-        c: The constants (indices ``_LOOKAHEAD_TIME`` ... ``_WMAX``).
-        near: The closest row found the period before.
-        end: One past the drive's last row.
-        pose: The measured (x, y, theta).
-        ref: The reference's (x, y, v) at this instant.
-        sgn: +1 forwards, -1 backwards.
-        v_last: The speed commanded the period before [m/s].
-    """
-    x, y, theta = pose
-    lookahead = min(max(abs(v_last) * c[_LOOKAHEAD_TIME], c[_MIN_LOOKAHEAD]), c[_MAX_LOOKAHEAD])
-    gx, gy, near = _carrot(path, near, end, x, y, lookahead, sgn)
+def drive(
+    s: Record, ref: NDArray[np.void], k: int, x: float, y: float, theta: float, enter: bool, rested: bool
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    """One period of Regulated Pure Pursuit along the drive of row ``k`` of ``ref`` (the module
+    doc's steps 1-5): (v, omega) before clamping. Its memory: the closest row ``s.near`` (the drive's
+    first on entering it) and the speed ``s.v_last`` it commanded the period before (0 after a rest)."""
+    r = ref[k]
+    sgn, end = r.sign, r.end
+    if enter:
+        s.near = r.start
+    if rested:
+        s.v_last = 0.0
+    lookahead = min(max(abs(s.v_last) * s.lookahead_time, s.min_lookahead), s.max_lookahead)
+    gx, gy, s.near = _carrot(ref, s.near, end, x, y, lookahead, sgn)
     co, si = math.cos(theta), math.sin(theta)
     xc, yc = co * (gx - x) + si * (gy - y), -si * (gx - x) + co * (gy - y)
     bearing = math.atan2(yc, xc) if sgn > 0 else math.atan2(-yc, -xc)
-    if abs(bearing) > c[_ROTATE]:
-        return 0.0, c[_HEADING] * bearing, near
+    if abs(bearing) > s.rotate_angle:
+        s.v_last = 0.0
+        return 0.0, s.heading_gain * bearing
     kappa = 2.0 * yc / max(xc * xc + yc * yc, 1e-12)
-    along = sgn * (co * (ref[0] - x) + si * (ref[1] - y))
-    desired = min(max(abs(ref[2]) + c[_ALONG] * along, 0.0), c[_VMAX])
+    along = sgn * (co * (r.x - x) + si * (r.y - y))
+    desired = min(max(abs(r.v) + s.along_gain * along, 0.0), s.vmax)
     v = desired
     radius = 1.0 / abs(kappa) if kappa != 0.0 else math.inf
-    if radius < c[_MIN_RADIUS]:
-        v = max(v * radius / c[_MIN_RADIUS], min(desired, c[_MIN_REGULATED]))
-    remaining = path[end - 1, 3] - path[near, 3]
-    if remaining < c[_APPROACH]:
-        v = max(v * remaining / c[_APPROACH], min(desired, c[_MIN_APPROACH]))
-    if abs(v * kappa) > c[_WMAX]:
-        v = c[_WMAX] / abs(kappa)
-    return sgn * v, sgn * v * kappa, near
+    if radius < s.min_radius:
+        v = max(v * radius / s.min_radius, min(desired, s.min_regulated_speed))
+    remaining = ref[end - 1].arc - ref[s.near].arc
+    if remaining < s.approach_dist:
+        v = max(v * remaining / s.approach_dist, min(desired, s.min_approach_speed))
+    if abs(v * kappa) > s.wmax:
+        v = s.wmax / abs(kappa)
+    s.v_last = sgn * v
+    return sgn * v, sgn * v * kappa
 
 
 @nb.njit(cache=True)
-def _drive_period(
-    t: float,
-    x: float,
-    y: float,
-    theta: float,
-    segment: int,
-    near: int,
-    v_last: float,
-    block: FloatArray,
-    path: FloatArray,
-    c: FloatArray,
-) -> tuple[int, float, float, int, float]:  # pragma: no cover - compiled
-    """:meth:`RegulatedPurePursuit.command` in one compiled call while a drive is under way
-    (:func:`control.segmented.drive_row`): (DRIVE, v, omega clamped as the general path clamps, the
-    closest row, v before clamping); (GENERAL, nan, nan, near, v_last) for the general path to decide.
-    ``path`` column 4 is the end (exclusive) of each row's segment."""
-    i = drive_row(t, x, y, theta, segment, block)
-    if i < 0:
-        return GENERAL, math.nan, math.nan, near, v_last
-    r = block[i]
-    end = int(path[i - 1, 4])
-    v, w, near = _rpp_drive(path, c, near, end, (x, y, theta), (r[0], r[1], r[3]), r[12], v_last)
-    vc, wc = clamp_command(v, w, block[0])
-    return DRIVE, vc, wc, near, v
+def _period(
+    state: NDArray[np.void], ref: NDArray[np.void], t: float, x: float, y: float, theta: float
+) -> tuple[int, float, float]:  # pragma: no cover - compiled
+    return period(state, ref, t, x, y, theta, drive)
 
 
-class RegulatedPurePursuit(SegmentSwitcher):
+class RegulatedPurePursuit(PerSegmentTracker):
     """Regulated Pure Pursuit on the drives; turns in place by segment (see the module doc).
 
     Source: S. Macenski, S. Singh, F. Martin, J. Gines, "Regulated Pure Pursuit for Robot Path
@@ -249,56 +214,16 @@ class RegulatedPurePursuit(SegmentSwitcher):
     name = "rpp"
     #: The option ``nhsim tune --tracker`` tunes, and its dataclass.
     TUNED = ("params", RPPParams)
+    STATE = STATE
+    DRIVE = staticmethod(drive)
+    PERIOD = staticmethod(_period)
 
     def __init__(
         self, robot: RobotSpec, *, params: RPPParams | None = None, turns: SegmentedParams | None = None
     ) -> None:
         self.params = option_value(self.name, "params", params, RPPParams())
         super().__init__(robot, option_value(self.name, "turns", turns, SegmentedParams()))
-        # (M, 5) x, y, heading, arc length, the end (exclusive) of its segment's rows at each control instant
-        self._track: FloatArray = np.zeros((0, 5))
-        self._arc: FloatArray = np.zeros(0)
-        self._c: FloatArray = np.zeros(12)
-        self._near = 0
-        self._v_last = 0.0
 
-    def reset(self, trajectory: Trajectory, dt: float) -> None:
-        """Start tracking: the path (position, heading, arc length) of every control instant, the
-        progress and speed at zero, the kernel's constants."""
-        super().reset(trajectory, dt)
-        pose = self._path
-        arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(pose[:, 0]), np.diff(pose[:, 1])))])
-        ends = np.zeros(len(pose))
-        for start, end in self._spans:
-            ends[start:end] = end
-        self._track = np.column_stack([pose, arc, ends])
-        self._arc = self._track[:, 3]
-        p, r = self.params, self.robot
-        fields = [getattr(p, f.name) for f in dataclasses.fields(p)]
-        self._c = np.array([*fields, self._turns.heading_gain, r.max_speed, r.max_yaw_rate], dtype=float)
-        self._near, self._v_last = 0, 0.0
-
-    def _idle(self) -> None:
-        self._v_last = 0.0
-
-    def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
-        """Body command for the period starting at ``t`` (see :meth:`SegmentSwitcher.command`): one
-        compiled call while a drive is under way (:func:`_drive_period`)."""
-        if self._traj is not None:
-            args = (self.segment, self._near, self._v_last, self._block, self._track, self._c)
-            status, v, w, near, v_raw = _drive_period(t, x, y, theta, *args)
-            if status == DRIVE:
-                self._near, self._v_last = near, v_raw
-                return v, w
-        return super().command(t, x, y, theta)
-
-    def _drive(self, x: float, y: float, theta: float, ref: _Instant, sgn: float, k: int) -> tuple[float, float]:
-        """One period of Regulated Pure Pursuit along a drive of direction ``sgn`` (a compiled kernel:
-        no allocation, the closest point searched forwards from the last one)."""
-        start, end = self._spans[ref.segment]
-        if ref.segment != self.segment:
-            self._near = start
-        pose, at = (float(x), float(y), float(theta)), (ref.x, ref.y, ref.v)
-        v, w, self._near = _rpp_drive(self._track, self._c, self._near, end, pose, at, sgn, self._v_last)
-        self._v_last = v
-        return v, w
+    def law_values(self) -> dict[str, float]:
+        """The parameters; the closest row and the last speed start at 0."""
+        return {**dataclass_values(self.params), "near": 0, "v_last": 0.0}

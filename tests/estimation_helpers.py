@@ -17,7 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from control.estimation import EstimatorConfig, PoseEstimator, integrate_arcs
+from control.estimation import EstimatorConfig, PoseEstimator, kernels
+from tests.reference_odometry import integrate_arcs
 
 FloatArray = NDArray[np.float64]
 
@@ -126,3 +127,24 @@ def run(est: PoseEstimator, data: Synthetic, *, fuse: bool = True) -> tuple[Floa
             j += 1
         poses[i], covs[i] = est.pose, est.cov
     return poses, covs
+
+
+def propagate(
+    est: PoseEstimator,
+    x: NDArray[np.float64],
+    p: NDArray[np.float64],
+    dl: float,
+    dr: float,
+    w: float,
+    dt: float,
+    frac: float,
+) -> None:
+    """One compiled prediction of ``est`` (:func:`control.estimation.kernels.propagate`) on a state x
+    (7,) and covariance p (7, 7), in place, over dt [s] with wheel increments (dl, dr) [rad], gyro
+    rate w [rad/s] and the period share frac; its Jacobian and noise are left in ``est._F``, ``est._Q``.
+
+    Raises:
+        AssertionError: The kernel reports a non-finite state.
+    """
+    status = kernels.propagate(x, p, est._F, est._Q, est._tmp, est._prm, dl, dr, w, dt, frac)
+    assert status == kernels.OK, status

@@ -15,13 +15,13 @@ from control.estimation import (
     EstimatorInputError,
     PoseEstimator,
     chi2_interval,
-    integrate_wheels,
     nees,
     pose_error,
 )
 from planning.core.robot import load_robot
 from planning.errors import ConfigError, NhsimError, SimulationError
-from tests.estimation_helpers import DT, RADIUS, TRACK, Scenario, Synthetic, draw, run, wheel_rates
+from tests.estimation_helpers import DT, RADIUS, TRACK, Scenario, Synthetic, draw, propagate, run, wheel_rates
+from tests.reference_odometry import integrate_wheels
 
 CONFIG = EstimatorConfig()
 RUNS = 50
@@ -163,12 +163,12 @@ def test_propagation_jacobians_match_finite_differences(heading: str) -> None:
 
     def mean(x: np.ndarray, uu: np.ndarray) -> np.ndarray:
         xx = x.copy()
-        est._propagate(xx, np.zeros((7, 7)), uu[0], uu[1], uu[2], DT, 1.0, 0.0)
+        propagate(est, xx, np.zeros((7, 7)), uu[0], uu[1], uu[2], DT, 1.0)
         return xx
 
     p = np.zeros((7, 7))
     x = x0.copy()
-    est._propagate(x, p, u[0], u[1], u[2], DT, 1.0, 0.0)
+    propagate(est, x, p, u[0], u[1], u[2], DT, 1.0)
     f, q = est._F.copy(), est._Q.copy()
     eps = 1e-6
 
@@ -202,7 +202,7 @@ def test_propagated_covariance_is_f_p_ft_plus_q(heading: str) -> None:
         a = rng.normal(size=(7, 7))
         p0 = a @ a.T + 0.1 * np.eye(7)
         x, p = rng.normal(scale=0.05, size=7), p0.copy()
-        est._propagate(x, p, *rng.uniform(-0.5, 0.5, 2), rng.uniform(-1, 1), DT, rng.uniform(0.2, 1.0), 0.0)
+        propagate(est, x, p, *rng.uniform(-0.5, 0.5, 2), rng.uniform(-1, 1), DT, rng.uniform(0.2, 1.0))
         f, q = est._F, est._Q
         np.testing.assert_allclose(p, f @ p0 @ f.T + q, rtol=1e-13, atol=1e-15)
 

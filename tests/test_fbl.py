@@ -6,12 +6,13 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from control.fbl import DynamicFBL, FBLGains, fbl_law
+from control.fbl import DynamicFBL, FBLGains, fbl_law_kernel
 from planning.core.geometry import Pose2D
 from planning.core.kinematics import rk4_step, unicycle_rhs
 from planning.core.robot import load_robot
 from planning.errors import ConfigError
 from planning.trajectory.references import circle, figure8
+from tests.reference_laws import fbl_law, xi_period
 
 
 def _analytic_error(e0: float, de0: float, kp: float, kd: float, t: np.ndarray) -> np.ndarray:
@@ -42,7 +43,7 @@ def test_error_follows_the_promised_linear_dynamics(gains: FBLGains) -> None:
     x0 = np.array([r_start[0] + 0.03, r_start[1] - 0.02, np.arctan2(r_start[3], r_start[2]) + 0.15, 0.1])
 
     def closed_loop(t: float, s: np.ndarray) -> list[float]:
-        xi_dot, omega = fbl_law(gains, s[0], s[1], s[2], s[3], reference(t))
+        xi_dot, omega = fbl_law_kernel(gains.kp, gains.kd, gains.xi_min, s[0], s[1], s[2], s[3], *reference(t))
         return [s[3] * math.cos(s[2]), s[3] * math.sin(s[2]), omega, xi_dot]
 
     t_eval = np.linspace(t0, t0 + 6, 61)
@@ -87,16 +88,32 @@ def test_singularity_guard_keeps_commands_finite_and_saturated() -> None:
         v, w = tracker.command(k * 0.02, 1.0, -1.0, math.pi)
         assert math.isfinite(v) and math.isfinite(w)
         assert abs(v) <= robot.max_speed and abs(w) <= robot.max_yaw_rate
-    xi_dot, omega = fbl_law(FBLGains(), 0.0, 0.0, 0.0, 0.0, (1.0, 1.0, 0.0, 0.0, 0.0, 0.0))
+    g = FBLGains()
+    xi_dot, omega = fbl_law_kernel(g.kp, g.kd, g.xi_min, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0)
     assert math.isfinite(xi_dot) and math.isfinite(omega)
+    assert (xi_dot, omega) == fbl_law(g, 0.0, 0.0, 0.0, 0.0, (1.0, 1.0, 0.0, 0.0, 0.0, 0.0))
+
+
+def test_the_compiled_law_is_the_python_reference_bit_for_bit() -> None:
+    """The compiled law (control/fbl.py) against the plain-Python one (tests/reference_laws.py), on
+    random poses, speeds (through the guard band and zero) and references."""
+    rng = np.random.default_rng(11)
+    for _ in range(2000):
+        g = FBLGains(
+            kp=float(rng.uniform(0.5, 20)), kd=float(rng.uniform(0.5, 10)), xi_min=float(rng.uniform(0.001, 0.1))
+        )
+        pose = rng.normal(0, [2, 2, 4]).tolist()
+        xi = float(rng.choice([0.0, rng.normal(0, 0.01), rng.normal(0, 0.3)]))
+        ref = rng.normal(0, [2, 2, 0.3, 0.3, 0.5, 0.5]).tolist()
+        assert fbl_law_kernel(g.kp, g.kd, g.xi_min, *pose, xi, *ref) == fbl_law(g, *pose, xi, ref)
 
 
 def _python_period(tracker: DynamicFBL, dt: float, pose: tuple[float, float, float], ref: tuple) -> tuple:
-    """One period of the module doc's law in plain Python: (v, omega, next xi)."""
+    """One period of the module doc's law in plain Python (tests/reference_laws.py): (v, omega, next xi)."""
     xi_dot, omega = fbl_law(tracker.gains, *pose, tracker.xi, ref)
     vmax, wmax = tracker.robot.max_speed, tracker.robot.max_yaw_rate
-    v = min(max(tracker.xi + 0.5 * xi_dot * dt, -vmax), vmax)
-    return v, min(max(omega, -wmax), wmax), min(max(tracker.xi + xi_dot * dt, -vmax), vmax)
+    v, xi = xi_period(tracker.xi, xi_dot, dt, vmax, 0.0)
+    return min(max(v, -vmax), vmax), min(max(omega, -wmax), wmax), xi
 
 
 def test_a_period_is_the_law_at_and_between_control_instants() -> None:
@@ -128,3 +145,19 @@ def test_gain_strings_are_validated(text: str) -> None:
     with pytest.raises(ConfigError):
         FBLGains.parse(text)
     assert FBLGains.parse(" 4, 3 ") == FBLGains(kp=4.0, kd=3.0)
+
+
+def test_one_xi_discretisation_is_the_python_reference_bit_for_bit() -> None:
+    """control/fbl.py's xi_period (FBL: no direction; segmented: a drive's side of zero, floored)
+    against tests/reference_laws.py, and its rule: xi within +-vmax, on the drive's side."""
+    from control.fbl import XI_FLOOR
+    from control.fbl import xi_period as compiled
+
+    rng = np.random.default_rng(13)
+    for _ in range(3000):
+        xi, xi_dot, sign = float(rng.normal(0, 0.2)), float(rng.normal(0, 5)), float(rng.choice([-1.0, 0.0, 1.0]))
+        v, nxt = compiled(xi, xi_dot, 0.02, 0.22, sign)
+        assert (v, nxt) == xi_period(xi, xi_dot, 0.02, 0.22, sign)
+        assert v == xi + 0.5 * xi_dot * 0.02 and abs(nxt) <= 0.22
+        if sign != 0.0:
+            assert sign * nxt >= XI_FLOOR

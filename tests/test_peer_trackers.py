@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from control.base import make_tracker, search_space
-from control.kanayama import KanayamaParams, kanayama_law
+from control.kanayama import KanayamaParams, kanayama_kernel
 from control.mpc import MPCParams, MPCTracker
 from control.rpp import RegulatedPurePursuit, RPPParams, circle_crossing
 from planning.core.geometry import Pose2D
@@ -19,6 +19,7 @@ from planning.core.robot import load_robot
 from planning.errors import ConfigError
 from planning.trajectory.references import make_reference
 from planning.trajectory.trajectory import Trajectory
+from tests.reference_laws import kanayama_law
 from tests.test_trackers import DT, _run
 
 PEERS = ("kanayama", "mpc", "rpp")
@@ -208,7 +209,8 @@ def test_rpp_regulates_its_speed_by_curvature_and_near_the_end() -> None:
     for min_radius in (0.25, 1.0):
         rpp = RegulatedPurePursuit(robot, params=RPPParams(min_radius=min_radius, min_regulated_speed=0.0))
         rpp.reset(traj, DT)
-        rpp.segment, rpp._near = rpp._instants[k].segment, k - 5  # mid-drive, the closest point just behind
+        state = rpp.state[0]  # type: ignore[index]
+        state["segment"], state["near"] = rpp._ref[k]["segment"], k - 5  # mid-drive, the closest point just behind
         v, w = rpp.command(float(ref.t), *ref.pose)
         speeds[min_radius] = v
         assert w == pytest.approx(v / 0.5, rel=1e-3)  # omega = v kappa on the circle's curvature
@@ -217,21 +219,33 @@ def test_rpp_regulates_its_speed_by_curvature_and_near_the_end() -> None:
     # near the end of the drive the speed is scaled by the distance left, floored
     end = RegulatedPurePursuit(robot, params=RPPParams(approach_dist=0.5, min_approach_speed=0.0, along_gain=0.0))
     end.reset(traj, DT)
-    j = len(end._instants) - 40
-    end.segment, end._near = end._instants[j].segment, j - 5
-    late = end._instants[j]
-    v, _ = end.command(traj.t[0] + j * DT, late.x, late.y, late.theta)
-    left = end._arc[-1] - end._arc[j]
-    assert v == pytest.approx(late.v * left / 0.5, rel=0.02)
+    j = len(end._ref) - 40
+    late = end._ref[j]
+    end.state[0]["segment"], end.state[0]["near"] = late["segment"], j - 5  # type: ignore[index]
+    v, _ = end.command(traj.t[0] + j * DT, late["x"], late["y"], late["theta"])
+    left = end._ref[-1]["arc"] - late["arc"]
+    assert v == pytest.approx(late["v"] * left / 0.5, rel=0.02)
 
 
 def test_circle_crossing_and_kanayama_law() -> None:
     assert circle_crossing(0.0, 0.0, 1.0, (0.0, 0.0), (2.0, 0.0)) == pytest.approx((1.0, 0.0))
     assert circle_crossing(1.0, 1.0, 0.5, (1.0, 1.0), (1.0, 3.0)) == pytest.approx((1.0, 1.5))
     p = KanayamaParams()
-    assert kanayama_law(p, 1.0, 2.0, 0.3, (1.0, 2.0, 0.3, 0.2, 0.1)) == pytest.approx((0.2, 0.1))
-    v, w = kanayama_law(p, 0.0, 0.0, 0.0, (0.0, 0.01, 0.0, 0.2, 0.0))  # reference 1 cm to the left
+    assert kanayama_kernel(p.kx, p.ky, p.ktheta, 1.0, 2.0, 0.3, 1.0, 2.0, 0.3, 0.2, 0.1) == pytest.approx((0.2, 0.1))
+    v, w = kanayama_kernel(p.kx, p.ky, p.ktheta, 0.0, 0.0, 0.0, 0.0, 0.01, 0.0, 0.2, 0.0)  # reference 1 cm to the left
     assert v == pytest.approx(0.2) and w == pytest.approx(0.2 * p.ky * 0.01)
+
+
+def test_the_compiled_kanayama_law_is_the_python_reference_bit_for_bit() -> None:
+    """control/kanayama.py's compiled law against tests/reference_laws.py, on random poses and
+    references (forwards and backwards, heading errors past +-pi)."""
+    rng = np.random.default_rng(12)
+    for _ in range(2000):
+        p = KanayamaParams(
+            kx=float(rng.uniform(0.1, 50)), ky=float(rng.uniform(1, 1000)), ktheta=float(rng.uniform(1, 100))
+        )
+        pose, ref = rng.normal(0, [1, 1, 5]).tolist(), rng.normal(0, [1, 1, 5, 0.3, 1]).tolist()
+        assert kanayama_kernel(p.kx, p.ky, p.ktheta, *pose, *ref) == kanayama_law(p, *pose, ref)
 
 
 @pytest.mark.parametrize(

@@ -7,14 +7,16 @@ import re
 import numpy as np
 import pytest
 
-from control.base import MAX_CONTROL_PERIODS, TRACKERS, make_tracker
+from control.base import MAX_CONTROL_PERIODS, TRACKERS, make_tracker, tracker_factory
 from control.segmented import SegmentedParams, SegmentedTracker
+from control.switching import SWITCHING_FIELDS, PerSegmentTracker
 from planning.core.geometry import Pose2D
 from planning.core.robot import load_robot
 from planning.core.world import World
 from planning.errors import ConfigError, SimulationError
 from planning.trajectory.from_plan import to_trajectory
 from planning.trajectory.trajectory import Trajectory
+from tests import reference_laws
 
 OPEN = World((-3.0, 3.0, -3.0, 3.0), ())
 CUSP_TURN = np.vstack([
@@ -125,41 +127,78 @@ def test_segmented_params_are_checked(field: str, value: float, message: str) ->
         SegmentedParams(**{field: value})
 
 
+def _python_reference(name: str, tracker: PerSegmentTracker, traj: Trajectory, dt: float) -> reference_laws.Switcher:
+    """The plain-Python switcher with the plain-Python drive law of a registered per-segment tracker."""
+    opts = tracker.__dict__
+    drives = {
+        "segmented": lambda: reference_laws.segmented_drive(opts["gains"], opts["params"]),
+        "kanayama": lambda: reference_laws.kanayama_drive(opts["params"]),
+        "rpp": lambda: reference_laws.rpp_drive(opts["params"], tracker.turns),
+    }
+    t0, goal = float(traj.t[0]), traj.pose[-1].tolist()
+    return reference_laws.Switcher(tracker._ref, t0, dt, goal, tracker.robot, tracker.turns, drives[name]())
+
+
 @pytest.mark.parametrize("name", ["segmented", "kanayama", "rpp"])
-def test_a_compiled_drive_period_is_the_general_path_bit_for_bit(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Along a plan with a cusp and a turn in place, from noisy poses, a tracker's compiled drive
-    periods give what its general (Python) path gives, command and state, bit for bit."""
-    import importlib
-
-    from control.segmented import SegmentSwitcher
-
-    module = importlib.import_module(f"control.{name}")
-    compiled, kernel = [], module._drive_period
-
-    def counted(*args: object) -> tuple:
-        out = kernel(*args)
-        compiled.append(out[0] == module.DRIVE)
-        return out
-
-    monkeypatch.setattr(module, "_drive_period", counted)
-
-    def state(tracker: object) -> tuple[object, ...]:
-        """The tracker's switching and law state, read now."""
-        return tuple(getattr(tracker, a, None) for a in ("segment", "xi", "_near", "_v_last"))
-
+def test_a_compiled_period_is_the_python_reference_bit_for_bit(name: str) -> None:
+    """Along a plan with a cusp and a turn in place, from noisy poses, past the end and before the
+    start, a per-segment tracker's compiled period (control/switching.py and its drive law) gives
+    what the plain-Python reference (tests/reference_laws.py) gives, command and state, bit for bit."""
     robot = load_robot("turtlebot3")
     traj = to_trajectory(CUSP_TURN, robot, OPEN)
-    fast, general = make_tracker(name, robot), make_tracker(name, robot)
-    fast.reset(traj, 0.02)
-    general.reset(traj, 0.02)
+    tracker = make_tracker(name, robot)
+    assert isinstance(tracker, PerSegmentTracker)
+    tracker.reset(traj, 0.02)
+    python = _python_reference(name, tracker, traj, 0.02)
+    assert {"forward", "reverse", "rotate"} <= set(traj.segment_kinds)
     rng = np.random.default_rng(4)
     n = math.ceil(traj.duration / 0.02) + 20
-    for k in range(n):
+    drives = 0
+    for k in range(-3, n):
         t = float(traj.t[0]) + k * 0.02
-        ref = traj.sample(min(t, float(traj.t[-1]))).pose
+        ref = traj.sample(min(max(t, float(traj.t[0])), float(traj.t[-1]))).pose
         pose = (float(ref[0] + rng.normal(0, 0.02)), float(ref[1] + rng.normal(0, 0.02)), float(ref[2] + 0.1))
-        got = fast.command(t, *pose)
-        assert got == SegmentSwitcher.command(general, t, *pose), k
-        assert state(fast) == state(general), k
-    assert fast.segment == general.segment == len(traj.segment_kinds) - 1
-    assert 0.5 * n < sum(compiled) < n  # most periods were compiled drives, the others were not
+        assert tracker.command(t, *pose) == python.command(t, *pose), k
+        s = tracker.state[0]  # type: ignore[index]
+        assert (int(s["segment"]), bool(s["rested"])) == (python.segment, python.rested), k
+        for field, value in python.memory.items():
+            assert s[field] == value, (k, field)
+        drives += not python.rested
+    assert tracker.segment == python.segment == len(traj.segment_kinds) - 1
+    assert 0.5 * n < drives < n  # most periods were drives, the others were not
+
+
+def per_segment_trackers() -> list[str]:
+    """The registered trackers that switch law per segment (control/switching.py)."""
+    return [n for n in sorted(TRACKERS) if issubclass(tracker_factory(n), PerSegmentTracker)]  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("name", per_segment_trackers())
+def test_the_compiled_switching_is_the_python_switching_for_every_registered_law(name: str) -> None:
+    """Every registered per-segment tracker, its own compiled drive law given to the plain-Python
+    switching (tests/reference_laws.py) on a copy of its state: the same commands, segment and law
+    state as its compiled period, bit for bit, along a cusp-and-turn plan from noisy poses, before
+    the start and past the end. (A new tracker is checked here by registering it.)"""
+    robot = load_robot("edumip")
+    traj = to_trajectory(CUSP_TURN, robot, OPEN)
+    tracker = make_tracker(name, robot)
+    assert isinstance(tracker, PerSegmentTracker)
+    tracker.reset(traj, 0.05)
+    assert tracker.state is not None
+    record, law = tracker.state.copy(), type(tracker).DRIVE
+    own = [f for f in record.dtype.names if f not in dict(SWITCHING_FIELDS)]
+
+    def drive(sw: reference_laws.Switcher, k: int, x: float, y: float, theta: float, enter: bool, rested: bool):
+        return law(record[0], tracker._ref, k, x, y, theta, enter, rested)
+
+    t0, goal = float(traj.t[0]), traj.pose[-1].tolist()
+    python = reference_laws.Switcher(tracker._ref, t0, 0.05, goal, robot, tracker.turns, drive)
+    rng = np.random.default_rng(5)
+    for k in range(-2, math.ceil(traj.duration / 0.05) + 10):
+        t = t0 + k * 0.05
+        ref = traj.sample(min(max(t, t0), float(traj.t[-1]))).pose
+        pose = (float(ref[0] + rng.normal(0, 0.03)), float(ref[1] + rng.normal(0, 0.03)), float(ref[2] - 0.2))
+        assert tracker.command(t, *pose) == python.command(t, *pose), k
+        assert (tracker.segment, bool(tracker.state[0]["rested"])) == (python.segment, python.rested), k
+        assert [tracker.state[0][f] for f in own] == [record[0][f] for f in own], k
+    assert tracker.segment == len(traj.segment_kinds) - 1

@@ -15,9 +15,5 @@ from control.estimation.ekf import EstimatorConfig as EstimatorConfig
 from control.estimation.ekf import EstimatorDivergedError as EstimatorDivergedError
 from control.estimation.ekf import EstimatorInputError as EstimatorInputError
 from control.estimation.ekf import PoseEstimator as PoseEstimator
-from control.estimation.odometry import arc_jacobians as arc_jacobians
-from control.estimation.odometry import arc_step as arc_step
 from control.estimation.odometry import counts_to_radians as counts_to_radians
-from control.estimation.odometry import integrate_arcs as integrate_arcs
-from control.estimation.odometry import integrate_wheels as integrate_wheels
 from control.estimation.odometry import wheel_to_body as wheel_to_body

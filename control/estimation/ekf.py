@@ -339,20 +339,6 @@ class PoseEstimator:
         self._nis.clear()
         self._outliers = self._rejected = self._stale = 0
 
-    def _propagate(
-        self, x: FloatArray, p: FloatArray, dl: float, dr: float, w: float, dt: float, frac: float, t: float
-    ) -> None:
-        """One prediction over dt with wheel increments (dl, dr) [rad] and gyro rate w, in place
-        (:func:`control.estimation.kernels.propagate`; the Jacobian and the noise are left in
-        ``_F`` and ``_Q``).
-
-        frac is the share of a stored control period this interval covers (1 unless a fix splits
-        the period): the quantisation variance of the period's increments is shared out by it.
-        """
-        status = kernels.propagate(x, p, self._F, self._Q, self._tmp, self._prm, dl, dr, w, dt, frac)
-        if status != kernels.OK:
-            self._diverged(status, t)
-
     def predict(self, t: float, d_left: float, d_right: float, gyro_z: float | None = None) -> None:
         """Advance to time t with the wheel increments since the last call.
 

@@ -32,8 +32,8 @@ solid, the others ghosts).
 
 Exit status: 0 done, 2 bad input (nothing run), 1 a run failed."""
 
-#: Trackers compared unless --trackers says otherwise.
-DEFAULT_TRACKERS = "fbl,segmented,mpc,rpp,kanayama"
+#: What --trackers defaults to: every registered tracker with feedback (control.base.feedback_trackers).
+DEFAULT_TRACKERS = "every registered tracker with feedback (all but open-loop)"
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
@@ -46,7 +46,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     add_case_arguments(p)
     add_file_arguments(p)
-    p.add_argument("--trackers", default=DEFAULT_TRACKERS, metavar="A,B,...", help=f"(default: {DEFAULT_TRACKERS})")
+    p.add_argument("--trackers", default=None, metavar="A,B,...", help=f"(default: {DEFAULT_TRACKERS})")
     p.add_argument("--runs", type=int, default=1, metavar="N", help="runs per tracker on held-out draws (default: 1)")
     p.add_argument("--seed", type=int, default=0, help="seed of the plan and the noise (default: 0)")
     p.add_argument("--time-limit", type=float, default=30.0, metavar="S", help="planning budget (default: 30 s)")
@@ -95,9 +95,10 @@ def _case(args: argparse.Namespace) -> Any:
 
 def run(args: argparse.Namespace) -> int:
     """Execute ``compare``."""
+    from control.base import feedback_trackers
     from sim.tools.compare import check_trackers, compare_trackers, format_table, load_params
 
-    names = check_trackers(args.trackers.split(","))
+    names = check_trackers(args.trackers.split(",") if args.trackers is not None else feedback_trackers())
     params = load_params(args.params.split(",")) if args.params else {}
     outputs = _outputs(args)
     case = _case(args)

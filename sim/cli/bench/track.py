@@ -13,7 +13,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
     p.add_argument("--robot", choices=list(ROBOT_FILES), default="turtlebot3")
     p.add_argument("--reference", choices=list(REFERENCES), default="figure8")
-    p.add_argument("--trackers", default="fbl,segmented,kanayama,rpp,mpc", metavar="A,B,...")
+    p.add_argument(
+        "--trackers", default=None, metavar="A,B,...", help="(default: every registered tracker with feedback)"
+    )
     p.add_argument(
         "--mpc-solvers",
         default="rti,sqp,ipopt",
@@ -29,7 +31,7 @@ def run(args: argparse.Namespace) -> int:
     from sim.tools.bench.track import measure
     from sim.tools.compare import check_trackers
 
-    trackers = check_trackers(args.trackers.split(","))
+    trackers = check_trackers(args.trackers.split(",")) if args.trackers is not None else None
     rows = measure(args.robot, args.reference, trackers, control_rate=args.control_rate,
                    mpc_solvers=[s.strip() for s in args.mpc_solvers.split(",") if s.strip()])  # fmt: skip
     period = 1e3 / args.control_rate

@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
+from control.base import feedback_trackers
 from control.mpc import MPCParams
 from sim.pipeline.case import Case
 from sim.tools.compare import compare_trackers
@@ -55,18 +56,19 @@ class TrackBench:
 def measure(
     robot: str = "turtlebot3",
     reference: str = "figure8",
-    trackers: Sequence[str] = ("fbl", "segmented", "kanayama", "rpp", "mpc"),
+    trackers: Sequence[str] | None = None,
     *,
     control_rate: float = 50.0,
     mpc_solvers: Sequence[str] = ("rti", "sqp", "ipopt"),
 ) -> list[TrackBench]:
     """Time every tracker (MPC once per solver, each ``SOLVER[:QP]`` as :func:`mpc_params` reads it) on
-    one reference in physics.
+    one reference in physics; ``trackers`` None: every registered tracker with feedback.
 
     Raises:
         ConfigError: Unknown robot, reference, tracker or solver.
     """
     case = Case("open", robot=robot, reference=reference, control_rate=control_rate)
+    trackers = feedback_trackers() if trackers is None else trackers
     plain = [t for t in trackers if t != "mpc"]
     rows: list[TrackBench] = []
     jobs: list[tuple[str, list[str], dict[str, Any]]] = [("", plain, {})] if plain else []
