@@ -13,6 +13,7 @@ import subprocess
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -40,6 +41,22 @@ def _as_server_user(cmd: list[str]) -> list[str]:
     return ["runuser", "-u", "postgres", "--", *cmd]
 
 
+def _start(bindir: Path, data: Path, sock: Path, run: dict[str, Any]) -> int:
+    """Start the cluster on a free port; the port it listens on. A port found free can be taken by
+    another process (a parallel test worker) before the server binds it: then try another."""
+    for attempt in range(3):
+        port = _free_port()
+        opts = f"-p {port} -k {sock} -c listen_addresses=127.0.0.1 -c fsync=off"
+        start = [str(bindir / "pg_ctl"), "-D", str(data), "-l", str(sock / "log"), "-o", opts, "-w", "start"]
+        try:
+            subprocess.run(_as_server_user(start), **run)
+            return port
+        except subprocess.CalledProcessError:
+            if attempt == 2:
+                raise
+    raise AssertionError("unreachable")
+
+
 @contextlib.contextmanager
 def postgres_server(database: str = "nhsim") -> Iterator[str]:
     """Start a server with a database; yield its SQLAlchemy URL (psycopg2 driver).
@@ -64,14 +81,11 @@ def postgres_server(database: str = "nhsim") -> Iterator[str]:
         os.chown(sock, pg.pw_uid, pg.pw_gid)
         data.mkdir()
         os.chown(data, pg.pw_uid, pg.pw_gid)
-    port = _free_port()
     run = {"check": True, "capture_output": True, "text": True, "timeout": 120}
     try:
         initdb = [str(bindir / "initdb"), "-D", str(data), "-U", "nhsim", "--auth=trust"]
         subprocess.run(_as_server_user(initdb), **run)
-        opts = f"-p {port} -k {sock} -c listen_addresses=127.0.0.1 -c fsync=off"
-        start = [str(bindir / "pg_ctl"), "-D", str(data), "-l", str(sock / "log"), "-o", opts, "-w", "start"]
-        subprocess.run(_as_server_user(start), **run)
+        port = _start(bindir, data, sock, run)
         subprocess.run([str(bindir / "createdb"), "-h", "127.0.0.1", "-p", str(port), "-U", "nhsim", database], **run)
         yield f"postgresql+psycopg2://nhsim@127.0.0.1:{port}/{database}"
     finally:

@@ -50,6 +50,7 @@ def test_compare_cli_rejects_unknown_trackers_and_bad_params(tmp_path: Path) -> 
     assert r.returncode == 2 and "MPCParams.horizon must be in [2, 200] steps, got 1" in r.stderr
 
 
+@pytest.mark.slow  # every tracker simulated and rendered
 @pytest.mark.render
 def test_compare_cli_writes_one_video_of_every_tracker(tmp_path: Path) -> None:
     from tests.render_helpers import require_gl

@@ -53,6 +53,7 @@ def test_statistics_summarise_every_run_kind(serial: dict[str, object]) -> None:
     assert stats["open_loop"]["final_position_error_m"]["p50"] > stats["closed_loop"]["final_position_error_m"]["p50"]
 
 
+@pytest.mark.slow  # a Dask cluster of two worker processes
 def test_two_dask_workers_give_the_serial_statistics(serial: dict[str, object], tmp_path: Path) -> None:
     spec = _spec()
     with DaskExecutor(jobs=2) as ex:
@@ -148,6 +149,7 @@ def test_statistics_of_no_measured_run_are_nan_not_errors() -> None:
     assert stats["plan_failures"] == 1 and stats["closed_loop"]["success_rate"] == 0.0
 
 
+@pytest.mark.slow  # a Dask cluster of two worker processes
 def test_regress_on_two_workers_reports_what_the_serial_run_reports(capsys: pytest.CaptureFixture[str]) -> None:
     cases = ["--case", "open-turtlebot3-line-fbl-s0,open-turtlebot3-line-open-loop-s0"]
     assert main(["regress", *cases]) == 0
@@ -157,6 +159,7 @@ def test_regress_on_two_workers_reports_what_the_serial_run_reports(capsys: pyte
     assert "2 passed, 0 failed of 2 case(s)" in serial
 
 
+@pytest.mark.slow  # a Dask cluster of two worker processes
 def test_sweep_cases_on_two_workers_give_the_serial_rows() -> None:
     from sim.pipeline.sweep import sweep_case, sweep_task
 

@@ -139,7 +139,7 @@ def test_mpc_stats_count_overruns_of_the_control_period() -> None:
     assert stats["p95_ms"] == pytest.approx(np.percentile([1, 19, 21, 50], 95))
 
 
-@pytest.mark.parametrize("solver", ["rti", "sqp", "ipopt"])
+@pytest.mark.parametrize("solver", ["rti", "sqp", pytest.param("ipopt", marks=pytest.mark.slow)])
 def test_every_mpc_solver_tracks(solver: str) -> None:
     robot = load_robot("turtlebot3")
     traj = make_reference("circle", robot, Pose2D(0, 0, 0))

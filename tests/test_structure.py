@@ -160,6 +160,23 @@ def _is_table(node: ast.stmt) -> bool:
     return isinstance(value, (ast.Dict, ast.List, ast.Tuple, ast.Set, ast.Call))
 
 
+#: Rooms whose modules are named after a command (``sim/cli/<command>.py``, ``sim/tools/bench/<what it
+#: benchmarks>.py``, ``sim/viz/plots/<command>.py``) and so may share a name with what they drive.
+NAMED_AFTER_COMMANDS = ("sim.cli", "sim.tools.bench", "sim.viz.plots")
+#: Names every family of registered things gives its protocol and registry.
+SHARED_NAMES = frozenset({"base"})
+
+
+def test_no_two_modules_share_a_name() -> None:
+    by_name: dict[str, list[str]] = {}
+    for name, (path, _) in _sources().items():
+        if path.name in ("__init__.py", "__main__.py") or any(_in_room(name, r) for r in NAMED_AFTER_COMMANDS):
+            continue
+        by_name.setdefault(name.rsplit(".", 1)[-1], []).append(name)
+    shared = {k: v for k, v in by_name.items() if len(v) > 1 and k not in SHARED_NAMES}
+    assert not shared, f"modules doing different things share a name: {shared}"
+
+
 def test_fmt_skip_only_on_aligned_tables() -> None:
     bad = []
     for path, tree in _sources().values():

@@ -184,6 +184,7 @@ def test_killed_study_resumes_with_every_trial_once(tmp_path: Path, monkeypatch:
     assert load_gains_file(tmp_path / "gains.toml").provenance["trials"] == 6
 
 
+@pytest.mark.slow  # two tuning worker processes
 def test_parallel_workers_share_the_study(tmp_path: Path) -> None:
     assert main(_args(tmp_path, 4, "--jobs", "2", "--eval-runs", "0")) == 0
     trials = _completed(tmp_path)
@@ -204,6 +205,7 @@ for _ in range(int(sys.argv[2])):
 """
 
 
+@pytest.mark.slow  # four processes race for 40 trials
 def test_workers_never_take_one_waiting_trial_twice(tmp_path: Path) -> None:
     """Four processes take 40 enqueued trials at once from one SQLite study: each is taken once.
 

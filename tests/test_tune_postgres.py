@@ -17,6 +17,7 @@ ROOT = Path(__file__).resolve().parents[1]
 CASE = "open:line"
 
 
+@pytest.mark.slow  # a PostgreSQL server and two tuning workers
 def test_two_tune_workers_share_a_postgresql_study(tmp_path: Path) -> None:
     with postgres_server() as url:
         base = [sys.executable, "-m", "sim", "tune", "--scenarios", CASE, "--robot", "turtlebot3", "--trials", "6",

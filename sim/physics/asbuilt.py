@@ -22,13 +22,19 @@ from __future__ import annotations
 import copy
 import math
 import zlib
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
 
 from planning.errors import ConfigError, ModelError
 from sim.physics.keyvalue import check_number
+from sim.physics.model import BuiltModel, build_model
+
+if TYPE_CHECKING:
+    from planning.core.robot import RobotSpec
+    from planning.core.world import World
 
 #: The build seed used when none is given.
 DEFAULT_BUILD_SEED = 1
@@ -218,6 +224,13 @@ class AsBuilt:
     def as_dict(self) -> dict[str, float | int | str | None]:
         """Plain-dict view for records."""
         return {**asdict(self), "wheel_ratio": self.wheel_ratio}
+
+    def compile(self, robot: RobotSpec, world: World | None = None) -> BuiltModel:
+        """The robot as built in ``world`` (None: an empty floor), compiled: the drawing's model
+        (:func:`sim.physics.model.build_model`) with this build applied (:meth:`apply_to_model`), the
+        drawing's own when nominal. The model a run of this build steps and its video draws."""
+        built = build_model(robot, world)
+        return built if self.is_nominal else replace(built, model=self.apply_to_model(built.model))
 
     def apply_to_model(self, model: mujoco.MjModel) -> mujoco.MjModel:
         """An as-built copy of a compiled model; the input is not touched.

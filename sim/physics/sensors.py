@@ -12,7 +12,9 @@ A :class:`SensorProfile` holds one robot's numbers, read from ``models/sensors/<
 A :class:`SensorModel` turns true values into readings, one control period ``k`` at a time:
 
 - Encoders count ``floor(theta * cpr / (2 pi) + phase)`` for a wheel angle ``theta`` [rad], with a
-  per-wheel phase drawn uniformly in [0, 1) counts (where the wheel sat in its count at start-up).
+  per-wheel phase drawn uniformly in [0, 1) counts (where the wheel sat in its count at start-up);
+  :func:`encoder_count` is the one quantiser every encoder reading goes through, in Python and in
+  compiled periods alike.
 - The gyroscope reads ``omega + b_k + n_k`` [rad/s]. ``n_k`` is white with standard deviation
   ``gyro_noise_density * sqrt(control_rate / 2)``: datasheets quote a one-sided density (the
   MPU-9250's 0.01 deg/s/sqrt(Hz) times the square root of its 92 Hz filter bandwidth is its table's
@@ -46,6 +48,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
@@ -219,6 +222,18 @@ def load_sensor_profile(
     return profile
 
 
+@nb.njit(cache=True, inline="always")
+def encoder_count(angle: float, counts_per_rad: float, phase: float) -> int:  # pragma: no cover - compiled
+    """An encoder's count for a wheel angle: ``floor(angle * counts_per_rad + phase)``.
+
+    Args:
+        angle: The wheel's true angle [rad].
+        counts_per_rad: The encoder's counts per radian, ``cpr / (2 pi)``.
+        phase: Where the wheel sat in its count at start-up [counts], in [0, 1).
+    """
+    return math.floor(angle * counts_per_rad + phase)
+
+
 def _whole(ratio: float) -> int | None:
     """``ratio`` as an int if it is one within :data:`WHOLE_TOL` (relative), else None."""
     k = round(ratio)
@@ -349,7 +364,7 @@ class SensorModel:
     def encoder_counts(self, left: float, right: float) -> tuple[int, int]:
         """Encoder counts for true wheel angles [rad]: ``floor(theta * cpr / (2 pi) + phase)``."""
         c, ph = self._counts_per_turn, self.encoder_phase
-        return math.floor(left * c + ph[0]), math.floor(right * c + ph[1])
+        return encoder_count(left, c, float(ph[0])), encoder_count(right, c, float(ph[1]))
 
     def gyro_z(self, k: int, rate: float) -> float:
         """Gyroscope reading at period ``k`` for a true yaw rate [rad/s]: ``rate + (b_k + n_k)``."""

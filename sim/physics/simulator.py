@@ -30,7 +30,7 @@ from planning.core.world import World
 from planning.errors import ConfigError, SimulationError
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import AsBuilt
-from sim.physics.model import BuiltModel, build_model, set_pose
+from sim.physics.model import BuiltModel, set_pose
 from sim.physics.motors import MotorModel, whole_steps
 from sim.physics.perturb import Perturbation
 from sim.physics.runlog import Contact, RunLog
@@ -118,8 +118,8 @@ class Simulator:
         self.robot = robot
         self.world = world
         self.build = build if build is not None else AsBuilt.nominal()
-        self.built: BuiltModel = build_model(robot, world)
-        self.model = self.built.model if self.build.is_nominal else self.build.apply_to_model(self.built.model)
+        self.built: BuiltModel = self.build.compile(robot, world)
+        self.model = self.built.model
         m = self.model
         self._pos_adr = int(m.sensor_adr[m.sensor("base_pos").id])
         self._quat_adr = int(m.sensor_adr[m.sensor("base_quat").id])
@@ -175,6 +175,12 @@ class Simulator:
         firmware = self.balance_firmware(m, d, sensing.seed if sensing is not None else 0, command_period)
         firmware.push = Push(*push) if push is not None else None
         return firmware
+
+    def run_model(self, perturbation: Perturbation | None = None) -> mujoco.MjModel:
+        """The model a run with ``perturbation`` steps: this robot as built, perturbed where the
+        perturbation changes the model (friction, mass, wheel radius; a copy), else :attr:`model`."""
+        pert = perturbation
+        return pert.apply_to_model(self.model) if pert is not None and pert.changes_model else self.model
 
     def steps_per_control(self, control_rate: float) -> int:
         """Physics steps per control period; raises if the period is not a whole number of steps."""
@@ -251,7 +257,7 @@ class Simulator:
         pert = perturbation if perturbation is not None and not perturbation.is_nominal else None
         if pert is not None:
             pert.check_within(trajectory.duration + cfg.hold)  # before any physics
-        m = pert.apply_to_model(self.model) if pert is not None and pert.changes_model else self.model
+        m = self.run_model(pert)
         d = mujoco.MjData(m)
         # a balancing robot starts upright at once: left alone to settle, it would topple
         set_pose(m, d, start or trajectory.start_pose, **({"settle": 0.0} if self.balance is not None else {}))

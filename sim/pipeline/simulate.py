@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import platform
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from importlib import metadata
 from pathlib import Path
 from typing import Any
+
+import mujoco
 
 from control.base import Tracker, make_tracker, tracker_options, tuned_option
 from control.fbl import FBLGains
@@ -60,6 +62,8 @@ class JobResult:
         config: The simulation settings of the runs.
         build: The robot as built that the runs drove (the simulator's).
         sensing: The sensors and estimator settings the runs used.
+        model: The compiled model the runs stepped (the robot as built in the scenario's world, with
+            the case's perturbation), which a video of the job draws.
     """
 
     prepared: PreparedTrajectory
@@ -67,6 +71,7 @@ class JobResult:
     config: SimConfig
     build: AsBuilt
     sensing: SensingSetup
+    model: mujoco.MjModel = field(compare=False, repr=False)
 
     @property
     def case(self) -> Case:
@@ -202,7 +207,7 @@ def track(
         step = None if progress is None else (lambda d, total, _k=kind: progress(_k, d, total))
         tracker = tracker_for_run(case, kind, prepared.robot)
         done[kind] = run_tracker(prepared, kind, tracker, simulator, config, sensing, progress=step)
-    return JobResult(prepared, done, config, simulator.build, sensing)
+    return JobResult(prepared, done, config, simulator.build, sensing, simulator.run_model(case.perturbation))
 
 
 def tracker_for_run(case: Case, kind: RunKind, robot: RobotSpec) -> Tracker:

@@ -31,7 +31,7 @@ from sim.physics.asbuilt import AsBuilt
 from sim.physics.model import body_pitch, build_model, set_pose
 from sim.physics.motors import whole_steps
 from sim.physics.runlog import BalanceLog
-from sim.physics.sensors import SensorProfile, load_sensor_profile
+from sim.physics.sensors import SensorProfile, encoder_count, load_sensor_profile
 from sim.robot.balance_design import balance_gains
 
 FloatArray = NDArray[np.float64]
@@ -82,9 +82,9 @@ class ImuNoise:
         self.gyro_bias += self._walk_std * float(rng.standard_normal())
         g = gyro_y + self.gyro_bias + self.gyro_white_std * float(rng.standard_normal())
         a = accel + self.accel_bias + self.accel_white_std * rng.standard_normal(3)
-        counts = np.floor(angles * self.counts_per_rad + self.encoder_phase)
-        q = counts / self.counts_per_rad
-        return g, a, (float(q[0]), float(q[1]))
+        c, ph = self.counts_per_rad, self.encoder_phase
+        left, right = encoder_count(float(angles[0]), c, float(ph[0])), encoder_count(float(angles[1]), c, float(ph[1]))
+        return g, a, (left / c, right / c)
 
 
 class BalanceFirmware:

@@ -35,7 +35,7 @@ from control.estimation import EstimatorConfig, EstimatorDivergedError, PoseEsti
 from planning.core.robot import RobotSpec
 from sim.physics.asbuilt import TOLERANCES
 from sim.physics.runlog import EstimationLog
-from sim.physics.sensors import SensorModel, SensorProfile, load_sensor_profile
+from sim.physics.sensors import SensorModel, SensorProfile, encoder_count, load_sensor_profile
 from sim.robot.sources import PoseSource
 
 FloatArray = NDArray[np.float64]
@@ -76,8 +76,8 @@ def _read_and_predict(
         return PAST_THE_RUN, math.nan, math.nan, math.nan
     row = trace[k]
     row[0], row[1], row[2] = x, y, th
-    cl = math.floor(sdata[int(io[ENC_L])] * io[PER_RAD] + io[PHASE_L])
-    cr = math.floor(sdata[int(io[ENC_R])] * io[PER_RAD] + io[PHASE_R])
+    cl = encoder_count(sdata[int(io[ENC_L])], io[PER_RAD], io[PHASE_L])
+    cr = encoder_count(sdata[int(io[ENC_R])], io[PER_RAD], io[PHASE_R])
     rate = kernels.wrap(th - io[YAW]) / io[DT]
     q = io[RAD_PER_COUNT]
     t = io[T0] + k * io[DT]

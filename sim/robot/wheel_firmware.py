@@ -56,29 +56,27 @@ def _wheel(
     return integral, min(max(fixed + integral, -vb), vb)
 
 
-@nb.njit(cache=True)
-def _update(
-    integral: FloatArray, command: FloatArray, measured: FloatArray, kff: float, kp: float, ki_t: float, vb: float
-) -> FloatArray:  # pragma: no cover - compiled
-    out = np.empty(integral.shape[0])
-    for i in range(integral.shape[0]):
-        integral[i], out[i] = _wheel(integral[i], command[i], measured[i], kff, kp, ki_t, vb)
-    return out
+def state_dtype(wheels: int) -> np.dtype[np.void]:
+    """The record of a loop's state: the integrators [V], the gains (kff [V s/rad], kp [V s/rad],
+    ki T [V s/rad], V_batt [V]) and the wiring (the wheels' dofs in ``MjData.qvel``, their actuators in
+    ``MjData.ctrl``; -1 until wired), one record so that a compiled update takes one array."""
+    f8, i8 = np.float64, np.int64
+    fields = [("integral", f8, (wheels,)), ("kff", f8), ("kp", f8), ("ki_t", f8), ("vb", f8)]
+    return np.dtype([*fields, ("dof", i8, (wheels,)), ("act", i8, (wheels,))])
 
 
 @nb.njit(cache=True)
-def _drive_wired(
-    state: FloatArray, commands: FloatArray, qvel: FloatArray, ctrl: FloatArray, row: int
+def _drive(
+    state: NDArray[np.void], commands: FloatArray, qvel: FloatArray, ctrl: FloatArray, row: int
 ) -> None:  # pragma: no cover - compiled
-    """One update of a loop's ``state`` (the n integrators, kff, kp, ki T, V_batt, then the wiring's 2n
-    slots: the wheels' dofs in ``qvel``, their actuators in ``ctrl``) with row ``row`` of ``commands``
-    (< 0: row 0); the wiring rides in the state so that a compiled call takes one array fewer."""
-    n = (len(state) - 4) // 3
-    kff, kp, ki_t, vb = state[n], state[n + 1], state[n + 2], state[n + 3]
+    """One update of a loop's ``state`` (a (1,) array of :func:`state_dtype`) with row ``row`` of
+    ``commands`` (< 0: row 0): each wheel's speed read from ``qvel[dof]``, its voltage written to
+    ``ctrl[act]``."""
+    s = state[0]
     row = max(row, 0)
-    for i in range(n):
-        dof, act = int(state[n + 4 + i]), int(state[n + 4 + n + i])
-        state[i], ctrl[act] = _wheel(state[i], commands[row, i], qvel[dof], kff, kp, ki_t, vb)
+    integral, dof, act = s.integral, s.dof, s.act
+    for i in range(integral.shape[0]):
+        integral[i], ctrl[act[i]] = _wheel(integral[i], commands[row, i], qvel[dof[i]], s.kff, s.kp, s.ki_t, s.vb)
 
 
 class VelocityLoop:
@@ -92,17 +90,21 @@ class VelocityLoop:
 
     def __init__(self, motor: MotorModel, wheels: int = 2) -> None:
         self.motor = motor
-        self._gains = (motor.kff, motor.kp, motor.ki * motor.period, motor.battery_voltage)
-        # the integrators, the gains, then the wiring (dofs, actuators) of a driver
-        self._state = np.array([0.0] * wheels + list(self._gains) + [-1.0] * (2 * wheels))
-        self.integral = self._state[:wheels]
+        self._state = np.zeros(1, state_dtype(wheels))
+        s = self._state[0]
+        s["kff"], s["kp"], s["ki_t"], s["vb"] = motor.kff, motor.kp, motor.ki * motor.period, motor.battery_voltage
+        s["dof"], s["act"] = -1, -1
+        self.integral: FloatArray = self._state["integral"][0]  # a view: (wheels,) integrators [V]
+        self._own = np.arange(wheels, dtype=np.int64)  # the wiring of a call: command i -> voltage i
+        self._bound = False
 
     def reset(self) -> None:
         """Zero the integrators (the firmware at power-up)."""
         self.integral[:] = 0.0
 
     def __call__(self, command: ArrayLike, measured: ArrayLike) -> FloatArray:
-        """One update: the voltages for the next period (compiled; about 1 us a call).
+        """One update: the voltages for the next period (the compiled update of :meth:`drive`, wired
+        command i -> voltage i).
 
         Args:
             command: (wheels,) commanded wheel speeds [rad/s].
@@ -121,7 +123,12 @@ class VelocityLoop:
             raise ConfigError(
                 f"motor loop: command {r.shape} and measured {w.shape} must each hold {n} wheel speeds [rad/s]"
             )
-        return _update(self.integral, r, w, *self._gains)
+        if self._bound:
+            raise ConfigError("motor loop: a loop bound to a run by driver() is updated through it, not called")
+        out = np.empty(n)
+        self._wire(np.stack([self._own, self._own]))
+        _drive(self._state, r.reshape(1, n), w, out, 0)
+        return out
 
     def drive(self, commands: FloatArray, row: int, qvel: FloatArray, ctrl: FloatArray, wiring: IntArray) -> None:
         """One update in place, for the simulator's control loop (one compiled call, no copies):
@@ -136,20 +143,21 @@ class VelocityLoop:
             wiring: (2, wheels) int64: the wheels' dofs in ``qvel``, then their actuators in ``ctrl``.
         """
         self._wire(wiring)
-        _drive_wired(self._state, commands, qvel, ctrl, row)
+        _drive(self._state, commands, qvel, ctrl, row)
 
     def driver(
         self, commands: FloatArray, qvel: FloatArray, ctrl: FloatArray, wiring: IntArray
     ) -> Callable[[int], None]:
         """:meth:`drive` bound to a run's arrays: ``update(row)``, without a Python frame of its own
         (the compiled update with this loop's state, the wiring inside it), for a control loop that
-        calls it every firmware period.
+        calls it every firmware period. The loop is then updated through it only (a call raises).
 
         Raises:
             ConfigError: ``wiring`` is not (2, wheels).
         """
         self._wire(wiring)
-        return functools.partial(_drive_wired, self._state, commands, qvel, ctrl)
+        self._bound = True
+        return functools.partial(_drive, self._state, commands, qvel, ctrl)
 
     def _wire(self, wiring: IntArray) -> None:
         """Put a (2, wheels) wiring (dofs, then actuators) into the state; raises ConfigError if misshapen."""
@@ -157,4 +165,5 @@ class VelocityLoop:
         w = np.asarray(wiring)
         if w.shape != (2, n):
             raise ConfigError(f"motor loop: wiring {w.shape} must be (2, {n}): the wheels' dofs, then their actuators")
-        self._state[n + 4 :] = w.reshape(-1)
+        s = self._state[0]
+        s["dof"], s["act"] = w[0], w[1]

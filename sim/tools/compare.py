@@ -20,10 +20,11 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import mujoco
 import numpy as np
 
 from control.base import TRACKERS, Tracker, make_tracker, tracker_options, tuned_option
@@ -176,12 +177,14 @@ class RecordedRuns:
         scenario: The scenario (its world).
         trajectory: The reference drawn on the floor.
         logs: Label -> log.
+        model: The compiled model the runs stepped.
     """
 
     robot: RobotSpec
     scenario: Scenario
     trajectory: Trajectory
     logs: Mapping[str, RunLog]
+    model: mujoco.MjModel
 
 
 @dataclass(frozen=True)
@@ -194,6 +197,7 @@ class Comparison:
         draws: The draws (empty: the case's own robot and noise, one run per tracker).
         runs: Every run, trackers outer, draws inner.
         params: Tuned parameters given per tracker (as plain dicts).
+        model: The compiled model the first draw's runs stepped (what the video draws).
     """
 
     prepared: PreparedTrajectory
@@ -201,6 +205,7 @@ class Comparison:
     draws: tuple[Draw, ...]
     runs: tuple[TrackerRun, ...]
     params: Mapping[str, dict[str, Any]]
+    model: mujoco.MjModel = field(compare=False, repr=False)
 
     def of(self, tracker: str) -> list[TrackerRun]:
         """The runs of one tracker, by draw."""
@@ -228,7 +233,7 @@ class Comparison:
         """What :func:`sim.viz.job_video.write_video` draws: the first draw's run of every tracker, each
         labelled by its tracker (so each gets its own colour; the first tracker is drawn solid)."""
         p = self.prepared
-        return RecordedRuns(p.robot, p.scenario, p.trajectory, self.logs())
+        return RecordedRuns(p.robot, p.scenario, p.trajectory, self.logs(), self.model)
 
     def record(self) -> dict[str, Any]:
         """The JSON record: the case, the draws, each tracker's parameters, summary and runs."""
@@ -282,8 +287,10 @@ def compare_trackers(
     base = PreparedCase(prepared, simulator_for(prepared))
     draws = make_draws(runs, case.seed, held_out=True) if runs > 1 else ()
     done: list[TrackerRun] = []
+    model = None  # the first draw's, for the video
     for index, draw in enumerate(draws or (None,)):
         pc = base if draw is None else base.with_build(draw.build_seed)
+        model = model if model is not None else pc.simulator.run_model(case.perturbation)
         this = pc.trajectory.case if draw is None else replace(pc.trajectory.case, seed=draw.seed)
         prepared_i = replace(pc.trajectory, case=this)
         config = SimConfig(control_rate=this.control_rate, hold=prepared.hold, strict=False)
@@ -296,7 +303,8 @@ def compare_trackers(
                 progress(name, index + 1, max(runs, 1))
     ordered = tuple(r for name in names for r in done if r.tracker == name)
     plain = {name: _plain(value) for name, value in params.items()}
-    return Comparison(prepared, names, tuple(draws), ordered, plain)
+    assert model is not None  # there is at least one draw
+    return Comparison(prepared, names, tuple(draws), ordered, plain, model)
 
 
 def _plain(params: Any) -> dict[str, Any]:

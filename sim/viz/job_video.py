@@ -23,7 +23,8 @@ from sim.viz.video import VideoWriter
 
 
 class RecordedJob(Protocol):
-    """What a video needs of a job (:class:`sim.pipeline.simulate.JobResult` has it)."""
+    """What a video needs of a job (:class:`sim.pipeline.simulate.JobResult` has it): the robot, the
+    world, the reference, the logs, and the compiled model the runs stepped."""
 
     @property
     def robot(self) -> RobotSpec: ...
@@ -36,6 +37,9 @@ class RecordedJob(Protocol):
 
     @property
     def logs(self) -> Mapping[str, RunLog]: ...
+
+    @property
+    def model(self) -> mujoco.MjModel: ...
 
 
 def write_video(
@@ -53,7 +57,7 @@ def write_video(
         job: The job (robot, scenario, trajectory and logs).
         path: The MP4 to write; an existing file is replaced only with ``overwrite``.
         settings: Size, frame rate, camera and look (default: 640x480, 30 frames/s, overview, fast).
-        model: The model to draw (default: the robot in the scenario's world as drawn).
+        model: The model to draw (default: the job's, the model its runs stepped).
         overwrite: Replace an existing file.
         progress: Called with the number of frames done since the last call.
 
@@ -65,10 +69,8 @@ def write_video(
         DependencyError: No OpenGL backend can draw here (the message says what to install).
         FileExistsError: ``path`` exists and ``overwrite`` is false.
     """
-    from sim.physics.simulator import Simulator
-
     s = settings or RenderSettings()
-    model = model if model is not None else Simulator(job.robot, job.scenario.world).model
+    model = model if model is not None else job.model
     replay = Replay(model, job.trajectory, dict(job.logs), s)
     t0 = time.perf_counter()
     with SceneRenderer(model, s.width, s.height, quality=s.quality, max_geom=replay.required_geoms) as renderer:

@@ -86,7 +86,6 @@ def measure(size: str, camera: str, quality: str, frames: int, repeats: int) -> 
     import numpy as np
 
     from planning.errors import ConfigError
-    from sim.physics.simulator import Simulator
     from sim.pipeline.runs import RunKind
     from sim.pipeline.simulate import simulate_reference
     from sim.viz.replay import RenderSettings, Replay, SceneRenderer, parse_size
@@ -96,7 +95,7 @@ def measure(size: str, camera: str, quality: str, frames: int, repeats: int) -> 
     w, h = parse_size(size)
     settings = RenderSettings(width=w, height=h, camera=camera, quality=quality)
     job = simulate_reference("open")
-    model = Simulator(job.robot, job.scenario.world).model
+    model = job.model
     replay = Replay(model, job.trajectory, job.logs, settings)
     n = min(frames, replay.n_frames)
     with SceneRenderer(model, w, h, quality=quality, max_geom=replay.required_geoms) as renderer:
