@@ -117,9 +117,8 @@ def run(args: argparse.Namespace) -> int:
     from planning.core.robot import load_robot
     from planning.planners.base import PlanProblem, PlanStatus
     from planning.planners.registry import make_planner
-    from planning.scenario import load_scenario
+    from planning.scenario import load_scenario, scenario_with_robot
     from sim.outputs import check_writable, write_json
-    from sim.pipeline.case import scenario_with_robot
 
     check_time_limit(args.time_limit)
     for out in (args.json, args.plot):
