@@ -3,12 +3,13 @@ plans in a warm process (``nhsim bench cold``).
 
 Per world (a TOML scenario written for it, never planned before): the fresh process's wall and
 CPU time (``resource``'s children accounting) from start to exit, the plan time it reports (the
-collision grid included, and its part ``grid_s``), and the same plan warm in this process: first
-with the code loaded but the world new (its grid built inside the timed plan), then fully warm
-(grid cached), the median of ``repeats`` runs. Targets (issue 27): the cold process reports at most
-:data:`REPORTED_TARGET_S` on worlds up to 8 x 8 m with up to 20 obstacles, and ends within
-:data:`PROCESS_TARGET_S` of wall time for a plan taking at most 0.1 s warm; a crowded world (2000
-obstacles) plans within its ``--time-limit``, grid included, or times out on it.
+collision grid included, and its part ``grid_s``; its CPU time ``cpu_s`` where the planner reports
+one: on a loaded machine the wall times grow with the load, the CPU times hardly), and the same
+plan warm in this process: first with the code loaded but the world new (its grid built inside the
+timed plan), then fully warm (grid cached), the median of ``repeats`` runs. Targets (issue 27):
+the cold process reports at most :data:`REPORTED_TARGET_S` on worlds up to 8 x 8 m with up to 20
+obstacles, and ends within :data:`PROCESS_TARGET_S` of wall time for a plan taking at most 0.1 s
+warm; a crowded world (2000 obstacles) plans within its ``--time-limit``, grid included, or times out on it.
 """
 
 from __future__ import annotations
@@ -45,6 +46,7 @@ class ColdRow:
     process_wall_s: float
     process_cpu_s: float
     reported_s: float
+    reported_cpu_s: float
     grid_s: float
     new_world_s: float
     warm_s: float
@@ -150,6 +152,7 @@ def measure(seed: int, size: float, count: int, scale: float, planner: str, time
         process_wall_s=wall,
         process_cpu_s=cpu,
         reported_s=float(record["time_s"]),
+        reported_cpu_s=float(record["stats"].get("cpu_s", float("nan"))),
         grid_s=float(record["stats"].get("grid_s", float("nan"))),
         new_world_s=new_world,
         warm_s=warm,
@@ -167,17 +170,16 @@ def warm_up(planner: str) -> None:
 
 def format_rows(rows: list[ColdRow]) -> list[str]:
     """A header line and one line per row."""
-    head = (
-        f"{'world':>10} {'obst':>5} {'size':>5} {'status':>8} {'proc wall':>9} {'proc cpu':>8} {'reported':>8} "
-        f"{'grid':>7} {'new warm':>8} {'warm':>7} {'rep/warm':>8} {'proc/warm':>9}  targets"
-    )
-    out = [head]
+    cols = ("world", "obst", "size", "status", "proc wall", "proc cpu", "reported", "rep cpu", "grid")
+    widths = (10, 5, 5, 8, 9, 8, 8, 7, 7, 8, 7, 8, 9)
+    names = (*cols, "new warm", "warm", "rep/warm", "proc/warm")
+    out = [" ".join(f"{n:>{w}}" for n, w in zip(names, widths, strict=True)) + "  targets"]
     for r in rows:
-        out.append(
-            f"{r.world:>10} {r.obstacles:>5d} {r.size_m:>5g} {r.status:>8} {r.process_wall_s:>9.3f} "
-            f"{r.process_cpu_s:>8.3f} {r.reported_s:>8.3f} {r.grid_s:>7.3f} {r.new_world_s:>8.3f} {r.warm_s:>7.3f} "
-            f"{r.reported_ratio:>8.1f} {r.process_ratio:>9.1f}  {'; '.join(r.targets)}"
-        )
+        times = (r.process_wall_s, r.process_cpu_s, r.reported_s, r.reported_cpu_s, r.grid_s, r.new_world_s, r.warm_s)
+        cells = [f"{r.world:>10}", f"{r.obstacles:>5d}", f"{r.size_m:>5g}", f"{r.status:>8}"]
+        cells += [f"{t:>{w}.3f}" for t, w in zip(times, widths[4:11], strict=True)]
+        cells += [f"{r.reported_ratio:>8.1f}", f"{r.process_ratio:>9.1f}"]
+        out.append(" ".join(cells) + "  " + "; ".join(r.targets))
     return out
 
 
