@@ -23,7 +23,7 @@ any point inside the grid is then measured against its block's candidates only
 (:func:`planning.collision.compiled.field_distance`), which is what the fast checker's exact
 fallback asks on crowded maps.
 
-The field is built a row of superblocks at a time, so a build can honour a deadline
+The field is built a row of blocks at a time, so a build can honour a deadline
 (:class:`FieldTimeout`); finished fields are cached per world and spacing.
 """
 
@@ -138,7 +138,7 @@ def distance_field(world: World, h: float, deadline: float | None = None) -> Dis
 
 
 def _build(world: World, h: float, deadline: float | None) -> DistanceField:
-    """Build the field a row of superblocks at a time (see the module doc)."""
+    """Build the field a row of blocks at a time (see the module doc)."""
     t0 = time.perf_counter()
     xmin, xmax, ymin, ymax = world.bounds
     nx = int(np.ceil((xmax - xmin) / h)) + 1
@@ -148,11 +148,13 @@ def _build(world: World, h: float, deadline: float | None) -> DistanceField:
     nbx, nby = -(-nx // BLOCK), -(-ny // BLOCK)
     counts = np.zeros(nbx * nby, dtype=np.int64)
     parts = []
-    rows = BLOCK * SUPER
-    for i0 in range(0, nx, rows):
-        if deadline is not None and time.perf_counter() > deadline:
-            raise FieldTimeout(time.perf_counter() - t0, nx * ny, len(world.obstacles))
-        parts.append(fill_rows(grid, float(xmin), float(ymin), h, i0, min(nx, i0 + rows), w, counts))
+    side = BLOCK * SUPER
+    for s0 in range(0, nx, side):
+        tops = superblock_candidates(s0, min(nx, s0 + side), ny, float(xmin), float(ymin), h, w)
+        for i0 in range(s0, min(nx, s0 + side), BLOCK):  # a block row a call: the deadline is checked often
+            if deadline is not None and time.perf_counter() > deadline:
+                raise FieldTimeout(time.perf_counter() - t0, nx * ny, len(world.obstacles))
+            parts.append(fill_rows(grid, float(xmin), float(ymin), h, i0, w, counts, tops))
     grid.setflags(write=False)
     starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
     members = np.concatenate(parts).astype(np.int64) if parts else np.zeros(0, dtype=np.int64)
@@ -228,35 +230,56 @@ def fill_block(
 
 
 @nb.njit(cache=True)
-def fill_rows(
-    grid: FloatArray, x0: float, y0: float, h: float, i0: int, i1: int, world: WorldArrays, counts: IntArray
-) -> IntArray:
-    """Fill ``grid[i0:i1]`` (i0 a multiple of ``BLOCK * SUPER``, i1 at most a superblock further) and
-    the candidate counts of its blocks (block ``bi * nby + bj``); return the blocks' candidates, block
-    after block in index order."""
-    ny = grid.shape[1]
-    nby = (ny + BLOCK - 1) // BLOCK
+def superblock_candidates(
+    i0: int, i1: int, ny: int, x0: float, y0: float, h: float, world: WorldArrays
+) -> tuple[IntArray, IntArray]:
+    """The candidates of the superblocks of node rows [i0, i1) (at most a superblock), left to right:
+    superblock ``s``'s are ``flat[offsets[s]:offsets[s + 1]]``."""
     side = BLOCK * SUPER
     everything = np.arange(world[2].shape[0])
-    cx, hx = _region(i0, min(i1, i0 + side) - i0, x0, h)
-    tops = []  # each superblock's candidates, left to right
-    for sj in range(0, ny, side):
-        cy, hy = _region(sj, min(ny, sj + side) - sj, y0, h)
-        tops.append(prune(cx, cy, np.hypot(hx, hy), everything, world))
+    cx, hx = _region(i0, i1 - i0, x0, h)
+    n = (ny + side - 1) // side
+    offsets = np.zeros(n + 1, dtype=np.int64)
+    flat = np.empty(0, dtype=np.int64)
+    for s in range(n):
+        cy, hy = _region(s * side, min(ny, (s + 1) * side) - s * side, y0, h)
+        mine = prune(cx, cy, np.hypot(hx, hy), everything, world)
+        flat = np.concatenate((flat, mine))
+        offsets[s + 1] = flat.shape[0]
+    return flat, offsets
+
+
+@nb.njit(cache=True)
+def fill_rows(
+    grid: FloatArray,
+    x0: float,
+    y0: float,
+    h: float,
+    i0: int,
+    world: WorldArrays,
+    counts: IntArray,
+    tops: tuple[IntArray, IntArray],
+) -> IntArray:
+    """Fill ``grid``'s block row from node row ``i0`` (a multiple of ``BLOCK``) and its blocks' candidate
+    counts (block ``bi * nby + bj``), pruning the candidates ``tops`` of its superblocks
+    (:func:`superblock_candidates`); return the blocks' candidates, block after block."""
+    ny = grid.shape[1]
+    nby = (ny + BLOCK - 1) // BLOCK
+    flat, offsets = tops
     out = np.empty(16 * BLOCK * BLOCK, dtype=np.int64)
     used = 0
-    for bi0 in range(i0, i1, BLOCK):  # blocks in index order: their candidates are concatenated so
-        for bj0 in range(0, ny, BLOCK):
-            # a block's region is its full square even at the grid's edge (a superset is harmless)
-            bx, hbx = _region(bi0, BLOCK, x0, h)
-            by, hby = _region(bj0, BLOCK, y0, h)
-            mine = prune(bx, by, np.hypot(hbx, hby), tops[bj0 // side], world)
-            counts[(bi0 // BLOCK) * nby + bj0 // BLOCK] = mine.shape[0]
-            if used + mine.shape[0] > out.shape[0]:
-                grown = np.empty(2 * out.shape[0] + mine.shape[0], dtype=np.int64)
-                grown[:used] = out[:used]
-                out = grown
-            out[used : used + mine.shape[0]] = mine
-            used += mine.shape[0]
-            fill_block(grid, bi0, bj0, x0, y0, h, mine, world)
+    for bj0 in range(0, ny, BLOCK):  # blocks in index order: their candidates are concatenated so
+        # a block's region is its full square even at the grid's edge (a superset is harmless)
+        bx, hbx = _region(i0, BLOCK, x0, h)
+        by, hby = _region(bj0, BLOCK, y0, h)
+        s = bj0 // (BLOCK * SUPER)
+        mine = prune(bx, by, np.hypot(hbx, hby), flat[offsets[s] : offsets[s + 1]], world)
+        counts[(i0 // BLOCK) * nby + bj0 // BLOCK] = mine.shape[0]
+        if used + mine.shape[0] > out.shape[0]:
+            grown = np.empty(2 * out.shape[0] + mine.shape[0], dtype=np.int64)
+            grown[:used] = out[:used]
+            out = grown
+        out[used : used + mine.shape[0]] = mine
+        used += mine.shape[0]
+        fill_block(grid, i0, bj0, x0, y0, h, mine, world)
     return out[:used].copy()
