@@ -41,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
         f"{args.repeats}); {bench.load_note()}"
     )
     bench.warm_up(args.planner)
-    rows = []
+    rows: list[bench.ColdRow] = []
     for kind, size, count, scale, limit in WORLDS:
         if args.no_crowded and count > 20:
             continue
