@@ -6,21 +6,64 @@ re-exported here, so ``from control import make_tracker, FBLGains`` is all a use
     tracker = make_tracker("fbl", robot, gains=FBLGains(kp=9.0, kd=6.0))
     tracker.reset(trajectory, dt=0.02)
     v, omega = tracker.command(t, x, y, theta)
+
+Importing this package imports none of its modules: each public name loads its module on first use,
+so that a command loads only what it runs (``nhsim --version`` loads no numerics).
 """
 
-from control.base import TRACKERS as TRACKERS
-from control.base import Tracker as Tracker
-from control.base import feedback_trackers as feedback_trackers
-from control.base import make_tracker as make_tracker
-from control.base import register_tracker as register_tracker
-from control.base import tracker_options as tracker_options
-from control.diffdrive import DiffDrive as DiffDrive
-from control.fbl import DynamicFBL as DynamicFBL
-from control.fbl import FBLGains as FBLGains
-from control.gains import GainsFile as GainsFile
-from control.gains import load_gains_file as load_gains_file
-from control.gains import resolve_gains as resolve_gains
-from control.open_loop import OpenLoop as OpenLoop
-from control.segmented import SegmentedParams as SegmentedParams
-from control.segmented import SegmentedTracker as SegmentedTracker
-from control.switching import PerSegmentTracker as PerSegmentTracker
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from control.base import TRACKERS as TRACKERS
+    from control.base import Tracker as Tracker
+    from control.base import feedback_trackers as feedback_trackers
+    from control.base import make_tracker as make_tracker
+    from control.base import register_tracker as register_tracker
+    from control.base import tracker_options as tracker_options
+    from control.diffdrive import DiffDrive as DiffDrive
+    from control.fbl import DynamicFBL as DynamicFBL
+    from control.fbl import FBLGains as FBLGains
+    from control.gains import GainsFile as GainsFile
+    from control.gains import load_gains_file as load_gains_file
+    from control.gains import resolve_gains as resolve_gains
+    from control.open_loop import OpenLoop as OpenLoop
+    from control.segmented import SegmentedParams as SegmentedParams
+    from control.segmented import SegmentedTracker as SegmentedTracker
+    from control.switching import PerSegmentTracker as PerSegmentTracker
+
+#: Public name -> the module that defines it (loaded on first use).
+_EXPORTS = {
+    "TRACKERS": "control.base",
+    "Tracker": "control.base",
+    "feedback_trackers": "control.base",
+    "make_tracker": "control.base",
+    "register_tracker": "control.base",
+    "tracker_options": "control.base",
+    "DiffDrive": "control.diffdrive",
+    "DynamicFBL": "control.fbl",
+    "FBLGains": "control.fbl",
+    "GainsFile": "control.gains",
+    "load_gains_file": "control.gains",
+    "resolve_gains": "control.gains",
+    "OpenLoop": "control.open_loop",
+    "SegmentedParams": "control.segmented",
+    "SegmentedTracker": "control.segmented",
+    "PerSegmentTracker": "control.switching",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'control' has no attribute {name!r}; its public names are {', '.join(__all__)}")
+    value = getattr(importlib.import_module(_EXPORTS[name]), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))

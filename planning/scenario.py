@@ -243,6 +243,22 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     )
 
 
+def scenario_with_robot(scenario: Scenario, robot: str | None) -> Scenario:
+    """The scenario with ``robot`` (None: its own robot), which must be one the scenario lists.
+
+    Raises:
+        ConfigError: The scenario's ``robots`` do not list the robot (the message names them).
+    """
+    if robot is None:
+        return scenario
+    if robot not in scenario.robots:
+        raise ConfigError(
+            f"robot {robot!r} is not one of scenario {scenario.name!r}'s robots ({', '.join(scenario.robots)}): "
+            f"choose one of them with --robot, or a scenario that lists {robot}"
+        )
+    return scenario.with_robot(robot)
+
+
 def random_scenario(robot: str, seed: int) -> Scenario:
     """A world no scenario was tuned on: a 6 x 6 m arena with seven circles and boxes (radius or
     half-width 0.2-0.5 m) drawn from ``seed``, kept clear of the start corner (-2.4, -2.4) and the

@@ -296,3 +296,45 @@ def timed_files(draw: st.DrawFn, faults: bool = True) -> TimedFile:
     text = "\n".join([",".join(names), *body] if header else body) + "\n"
     refused_at = None if fault is None else f"line {fault + 1 + int(header)}"
     return TimedFile(text, None if header else names, scale, refused_at, "; ".join(why))
+
+
+# ---------------------------------------------------------------------------------------- crowded worlds
+@st.composite
+def crowded_worlds(draw: st.DrawFn, min_obstacles: int = 20, max_obstacles: int = 300) -> Any:
+    """A world of many obstacles of every kind (circles, ellipses, oriented boxes, convex and
+    star-shaped polygons), small and large, overlapping each other and the walls, in bounds of
+    random size and place (a few metres to about 15 m a side).
+
+    The obstacles are drawn from a seeded generator (one drawn seed and count: Hypothesis shrinks
+    those, not hundreds of coordinates).
+    """
+    from planning.core.world import Box, Circle, Ellipse, Polygon, World
+
+    n = draw(st.integers(min_obstacles, max_obstacles), label="obstacles")
+    seed = draw(st.integers(0, 2**32 - 1), label="seed")
+    rng = np.random.default_rng(seed)
+    w, h = rng.uniform(2.0, 15.0, 2)
+    x0, y0 = rng.uniform(-10.0, 10.0, 2)
+    scale = float(rng.choice([0.02, 0.1, 0.4]))  # typical obstacle size [m]: fruits, poles, tables
+    obstacles: list[Any] = []
+    for _ in range(n):
+        c = (float(x0 + rng.uniform(-0.1, 1.1) * w), float(y0 + rng.uniform(-0.1, 1.1) * h))
+        a, b = (float(v) for v in scale * rng.uniform(0.2, 2.0, 2))
+        angle = float(rng.uniform(-4.0, 4.0))
+        kind = int(rng.integers(4))
+        if kind == 0:
+            obstacles.append(Circle(c, a))
+        elif kind == 1:
+            obstacles.append(Ellipse(c, (a, b), angle))
+        elif kind == 2:
+            obstacles.append(Box(c, (2 * a, 2 * b), angle))
+        else:  # a star-shaped polygon: vertices at increasing angles about the centre
+            k = int(rng.integers(3, 9))
+            phi = 2 * np.pi * (np.arange(k) + rng.uniform(0.0, 0.8, k)) / k
+            r = a * rng.uniform(0.3, 1.0, k)
+            vertices = tuple((c[0] + r[i] * np.cos(phi[i]), c[1] + r[i] * np.sin(phi[i])) for i in range(k))
+            try:
+                obstacles.append(Polygon(vertices))
+            except NhsimError:  # a degenerate draw (three nearly collinear vertices): a circle instead
+                obstacles.append(Circle(c, a))
+    return World((float(x0), float(x0 + w), float(y0), float(y0 + h)), tuple(obstacles))

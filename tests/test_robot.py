@@ -99,3 +99,22 @@ def test_a_footprint_pitch_outside_its_range_is_reported(tmp_path, bad: str) -> 
     path.write_text(text)
     with pytest.raises(ModelError, match=r"nhsim_footprint_pitch must be in \[0, pi/2\)"):
         load_robot(str(path))
+
+
+def test_convex_hull_is_qhulls_for_every_footprint_and_random_points():
+    """The footprint's hull (written to spare every command scipy's import) against scipy's qhull."""
+
+    from scipy.spatial import ConvexHull
+
+    from planning.core.robot import ROBOT_FILES, convex_hull, load_robot
+
+    for name in ROBOT_FILES:
+        fp = load_robot(name).footprint
+        np.testing.assert_array_equal(convex_hull(fp), fp)  # a hull is its own hull, in the same order
+    rng = np.random.default_rng(0)
+    for k in range(50):
+        pts = rng.normal(size=(int(rng.integers(3, 200)), 2)) * rng.uniform(0.01, 5.0)
+        ours, ref = convex_hull(pts), pts[ConvexHull(pts).vertices]
+        assert sorted(map(tuple, ours)) == sorted(map(tuple, ref)), k
+        area = 0.5 * np.sum(ours[:, 0] * np.roll(ours[:, 1], -1) - np.roll(ours[:, 0], -1) * ours[:, 1])
+        assert area > 0  # counter-clockwise

@@ -2,13 +2,14 @@
 grid leaves undecided.
 
 The same formulas in the same operation order as :mod:`planning.core.world` (signed distances of
-circles, ellipses by Eberly's 60-step bisection, boxes, even-odd polygons, walls) and
+circles, ellipses by Eberly's bisection (in log u, 64 steps), boxes, even-odd polygons, walls) and
 :mod:`planning.collision.exact` (disc test; footprint boundary samples at least ``tolerance / 2``
 beyond the clearance, and no obstacle anchor inside the footprint), one pose at a time. The exact
 checker skips obstacles whose bounding box is out of reach of a whole batch; that changes no verdict
 (such an obstacle is more than ``clearance + tolerance`` from every boundary sample), so every
 obstacle is measured here, except an ellipse whose circumscribed circle is farther from the point
-than an obstacle already measured (the minimum cannot change; it saves the 60 bisection steps).
+than an obstacle already measured (the minimum cannot change; it saves the 64 bisection steps), and
+obstacles a distance field's broad phase proves farther than the nearest (:func:`field_distance`).
 Tests compare the verdicts with the exact checker's on random and near-margin poses.
 """
 
@@ -92,23 +93,33 @@ def _folded(x: float, y: float, cx: float, cy: float, angle: float) -> tuple[flo
 @nb.njit(cache=True)
 def _ellipse(x: float, y: float, p: FloatArray) -> float:
     q0, q1 = _folded(x, y, p[0], p[1], p[4])
-    a, b = p[2], p[3]
+    return ellipse_local(q0, q1, p[2], p[3])
+
+
+@nb.njit(cache=True)
+def ellipse_local(q0: float, q1: float, a: float, b: float) -> float:
+    """Signed distance [m] to the ellipse of semi-axes (a, b) [m] of a point (q0, q1) >= 0 in its
+    frame, folded into the first quadrant (Eberly's closest point, bisected in log u)."""
     if a >= b:
         y0, y1, e0, e1 = q0, q1, a, b
     else:
         y0, y1, e0, e1 = q1, q0, b, a
+    if not e1 * y1 > 0:
+        y1 = 0.0  # on the major axis (or so near it that e1 y1 underflows)
     if y1 > 0 and y0 > 0:
-        lo = -e1 * e1 + e1 * y1
-        hi = -e1 * e1 + np.sqrt(e0 * e0 * y0 * y0 + e1 * e1 * y1 * y1)
-        for _ in range(60):
-            mid = 0.5 * (lo + hi)
-            r0, r1 = e0 * y0 / (mid + e0 * e0), e1 * y1 / (mid + e1 * e1)
+        # the root u = t + e1^2 of (e0 y0 / (u + e0^2 - e1^2))^2 + (e1 y1 / u)^2 = 1, bisected in log u
+        d = e0 * e0 - e1 * e1
+        lo, hi = e1 * y1, np.hypot(e0 * y0, e1 * y1)
+        slo, shi = np.sqrt(lo), np.sqrt(hi)  # kept: one square root a step (the same values)
+        for _ in range(64):
+            mid = slo * shi
+            r0, r1 = e0 * y0 / (mid + d), e1 * y1 / mid
             if r0 * r0 + r1 * r1 - 1.0 > 0:
-                lo = mid
+                slo = np.sqrt(mid)
             else:
-                hi = mid
-        t = 0.5 * (lo + hi)
-        dist = np.hypot(e0 * e0 * y0 / (t + e0 * e0) - y0, e1 * e1 * y1 / (t + e1 * e1) - y1)
+                shi = np.sqrt(mid)
+        u = slo * shi
+        dist = np.hypot(e0 * e0 * y0 / (u + d) - y0, e1 * e1 * y1 / u - y1)
     elif y1 > 0:
         dist = abs(y1 - e1)
     else:
@@ -123,14 +134,58 @@ def _ellipse(x: float, y: float, p: FloatArray) -> float:
 
 
 @nb.njit(cache=True)
-def _box(x: float, y: float, p: FloatArray) -> float:
-    q0, q1 = _folded(x, y, p[0], p[1], p[4])
-    d0, d1 = q0 - 0.5 * p[2], q1 - 0.5 * p[3]
-    return np.hypot(max(d0, 0.0), max(d1, 0.0)) + min(max(d0, d1), 0.0)
+def ellipse_many(q0: FloatArray, q1: FloatArray, a: float, b: float, out: FloatArray) -> None:
+    """:func:`ellipse_local` of many folded points at once, into ``out``: the same operations, so the
+    same values, with the bisection's steps taken for all points side by side (independent steps the
+    processor overlaps, where one point's steps wait on each other)."""
+    m = q0.shape[0]
+    e0, e1 = (a, b) if a >= b else (b, a)
+    d = e0 * e0 - e1 * e1
+    y0, y1 = np.empty(m), np.empty(m)
+    slo, shi, c0, c1 = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
+    for n in range(m):
+        y0[n], y1[n] = (q0[n], q1[n]) if a >= b else (q1[n], q0[n])
+        if not e1 * y1[n] > 0:
+            y1[n] = 0.0
+        general = y1[n] > 0 and y0[n] > 0
+        c0[n] = e0 * y0[n] if general else 1.0  # a harmless stand-in where the bisection is not used
+        c1[n] = e1 * y1[n] if general else 1.0
+        slo[n], shi[n] = np.sqrt(c1[n]), np.sqrt(np.hypot(c0[n], c1[n]))
+    for _ in range(64):
+        for n in range(m):
+            mid = slo[n] * shi[n]
+            r0, r1 = c0[n] / (mid + d), c1[n] / mid
+            s = np.sqrt(mid)
+            above = r0 * r0 + r1 * r1 - 1.0 > 0
+            slo[n] = s if above else slo[n]
+            shi[n] = shi[n] if above else s
+    for n in range(m):
+        if y1[n] > 0 and y0[n] > 0:
+            u = slo[n] * shi[n]
+            dist = np.hypot(e0 * e0 * y0[n] / (u + d) - y0[n], e1 * e1 * y1[n] / u - y1[n])
+            uu, vv = q0[n] / a, q1[n] / b
+            out[n] = -dist if uu * uu + vv * vv < 1.0 else dist
+        else:
+            out[n] = ellipse_local(q0[n], q1[n], a, b)
 
 
 @nb.njit(cache=True)
-def _polygon(x: float, y: float, v: FloatArray) -> float:
+def _box(x: float, y: float, p: FloatArray) -> float:
+    q0, q1 = _folded(x, y, p[0], p[1], p[4])
+    return box_local(q0, q1, p[2], p[3])
+
+
+@nb.njit(cache=True)
+def box_local(q0: float, q1: float, sx: float, sy: float) -> float:
+    """Signed distance [m] to the box of full size (sx, sy) [m] of a point (q0, q1) >= 0 in its frame,
+    folded into the first quadrant."""
+    d0, d1 = q0 - 0.5 * sx, q1 - 0.5 * sy
+    return float(np.hypot(max(d0, 0.0), max(d1, 0.0)) + min(max(d0, d1), 0.0))
+
+
+@nb.njit(cache=True)
+def polygon_distance(x: float, y: float, v: FloatArray) -> float:
+    """Signed distance [m] of (x, y) to the polygon of (K, 2) vertices ``v`` (even-odd rule)."""
     dist = np.inf
     crossings = 0
     n = v.shape[0]
@@ -145,24 +200,78 @@ def _polygon(x: float, y: float, v: FloatArray) -> float:
 
 
 @nb.njit(cache=True)
+def obstacle_distance(x: float, y: float, kind: int, p: FloatArray, v: FloatArray) -> float:
+    """Signed distance [m] of (x, y) to one obstacle: ``kind`` and its row ``p`` of :func:`pack_world`'s
+    params, ``v`` its polygon vertices (empty for the other kinds)."""
+    if kind == CIRCLE:
+        return float(np.hypot(x - p[0], y - p[1]) - p[2])
+    if kind == ELLIPSE:
+        return _ellipse(x, y, p)
+    if kind == BOX:
+        return _box(x, y, p)
+    return polygon_distance(x, y, v)
+
+
+@nb.njit(cache=True)
+def _nearer(x: float, y: float, k: int, world: WorldArrays, d: float) -> float:
+    """``min(d, signed distance of (x, y) to obstacle k)`` [m]; an ellipse whose circumscribed circle is
+    farther than ``d`` (by more than the bisection's 1e-12 m error) is not measured: the minimum is
+    the same, without 64 bisection steps."""
+    _, _, kinds, params, verts, offsets = world
+    p = params[k]
+    if kinds[k] == ELLIPSE and np.hypot(x - p[0], y - p[1]) - max(p[2], p[3]) > d + ELLIPSE_SKIP_MARGIN:
+        return d
+    return min(d, obstacle_distance(x, y, kinds[k], p, verts[offsets[k] : offsets[k + 1]]))
+
+
+@nb.njit(cache=True)
+def walls_distance(x: float, y: float, world: WorldArrays) -> float:
+    """Distance [m] of (x, y) to the nearest wall, positive inside the bounds (inf without walls)."""
+    bounds, walls = world[0], world[1]
+    return min(min(x - bounds[0], bounds[1] - x), min(y - bounds[2], bounds[3] - y)) if walls else np.inf
+
+
+@nb.njit(cache=True)
 def _world_distance(x: float, y: float, world: WorldArrays) -> float:
     """Signed distance of point (x, y) to the nearest obstacle or (with walls) wall [m]."""
-    bounds, walls, kinds, params, verts, offsets = world
-    d = min(min(x - bounds[0], bounds[1] - x), min(y - bounds[2], bounds[3] - y)) if walls else np.inf
-    for k in range(kinds.shape[0]):
-        kind, p = kinds[k], params[k]
-        if kind == CIRCLE:
-            d = min(d, np.hypot(x - p[0], y - p[1]) - p[2])
-        elif kind == ELLIPSE:
-            # Skipped when even the circumscribed circle is farther than d (by more than the bisection's
-            # 1e-12 m error): the minimum is the same, without 60 bisection steps.
-            if np.hypot(x - p[0], y - p[1]) - max(p[2], p[3]) <= d + ELLIPSE_SKIP_MARGIN:
-                d = min(d, _ellipse(x, y, p))
-        elif kind == BOX:
-            d = min(d, _box(x, y, p))
-        else:
-            d = min(d, _polygon(x, y, verts[offsets[k] : offsets[k + 1]]))
+    d = walls_distance(x, y, world)
+    for k in range(world[2].shape[0]):
+        d = _nearer(x, y, k, world, d)
     return d
+
+
+@nb.njit(cache=True)
+def candidates_distance(x: float, y: float, candidates: IntArray, world: WorldArrays) -> float:
+    """Signed distance [m] of (x, y) to the walls (if the world has them) and the obstacles whose
+    indices are ``candidates``."""
+    d = walls_distance(x, y, world)
+    for m in range(candidates.shape[0]):
+        d = _nearer(x, y, candidates[m], world, d)
+    return d
+
+
+#: Nodes per side of a block of a distance field (:mod:`planning.collision.field`).
+BLOCK = 8
+
+#: (grid (nx, ny), x0, y0, h, starts, members): the world's signed distance (walls included)
+#: tabulated every h from (x0, y0), and each block's candidate obstacles (block ``bi * nby + bj``'s are
+#: ``members[starts[b]:starts[b + 1]]``; :class:`planning.collision.field.DistanceField`), or an empty
+#: grid: nothing tabulated.
+FieldArrays = tuple[FloatArray, float, float, float, IntArray, IntArray]
+
+
+@nb.njit(cache=True)
+def field_distance(x: float, y: float, world: WorldArrays, field: FieldArrays) -> float:
+    """Signed distance [m] of (x, y), equal to :func:`_world_distance`'s: measured against the
+    candidates of the block whose region holds the point (every obstacle outside the grid, or
+    without one)."""
+    grid, x0, y0, h, starts, members = field
+    i = int(np.floor((x - x0) / h + 0.5))
+    j = int(np.floor((y - y0) / h + 0.5))
+    if grid.size == 0 or i < 0 or j < 0 or i >= grid.shape[0] or j >= grid.shape[1]:
+        return _world_distance(x, y, world)
+    b = (i // BLOCK) * ((grid.shape[1] + BLOCK - 1) // BLOCK) + j // BLOCK
+    return candidates_distance(x, y, members[starts[b] : starts[b + 1]], world)
 
 
 @nb.njit(cache=True)
@@ -187,28 +296,25 @@ def grid_lookup(grid: FloatArray, x0: float, y0: float, h: float, x: float, y: f
     return grid[i, j]
 
 
-#: (grid (nx, ny), x0, y0, h): the world's signed distance (walls included) tabulated every h from
-#: (x0, y0) (:class:`planning.collision.grid.FastChecker`'s), or an empty grid: nothing proven.
-GridArrays = tuple[FloatArray, float, float, float]
-
-
 @nb.njit(cache=True)
 def exact_free_kernel(
-    poses: FloatArray, world: WorldArrays, robot: RobotArrays, proof: GridArrays
+    poses: FloatArray, world: WorldArrays, robot: RobotArrays, field: FieldArrays
 ) -> NDArray[np.bool_]:
     """(M,) ``CollisionChecker.poses_free`` of (M, 3) poses; ``world`` as :func:`pack_world` with the
     bounds and walls flag in front, ``robot`` the checker's (boundary samples, footprint, obstacle
-    anchors, radius, clearance, tolerance, disc shape). A boundary sample whose grid bound (``proof``:
-    the node's distance less ``h / sqrt(2)``, what :class:`planning.collision.grid.FastChecker`
-    proves free with) already keeps ``clearance + tolerance / 2`` is not measured: the verdict, that
-    every sample keeps it, is the same."""
+    anchors, radius, clearance, tolerance, disc shape), ``field`` the world's distance field (with the
+    same walls) or an empty one. Distances are measured against the field's block candidates
+    (:func:`field_distance`, the same values as a full scan). A boundary sample whose grid bound (the
+    node's distance less ``h / sqrt(2)``, what :class:`planning.collision.grid.FastChecker` proves free
+    with) already keeps ``clearance + tolerance / 2`` is not measured: the verdict, that every sample
+    keeps it, is the same; nor is an anchor outside the robot's circumscribed disc (``radius``)."""
     boundary, footprint, anchors, radius, clearance, tol, disc = robot
-    grid, x0, y0, h = proof
+    grid, x0, y0, h = field[0], field[1], field[2], field[3]
     e = h / np.sqrt(2.0)
     out = np.empty(poses.shape[0], dtype=np.bool_)
     for k in range(poses.shape[0]):
         x, y, th = poses[k, 0], poses[k, 1], poses[k, 2]
-        centre = _world_distance(x, y, world)
+        centre = field_distance(x, y, world, field)
         clr = centre - radius
         if not disc and centre <= radius + clearance + tol:
             c, s = np.cos(th), np.sin(th)
@@ -218,10 +324,12 @@ def exact_free_kernel(
                 px, py = x + c * bx - s * by, y + s * bx + c * by
                 if grid.size > 0 and grid_lookup(grid, x0, y0, h, px, py) - e - 0.5 * tol > clearance:
                     continue
-                sd = min(sd, _world_distance(px, py, world))
+                sd = min(sd, field_distance(px, py, world, field))
             clr = sd - 0.5 * tol
             for a in range(anchors.shape[0]):
                 dx, dy = anchors[a, 0] - x, anchors[a, 1] - y
+                if dx * dx + dy * dy > (radius + 1e-9) * (radius + 1e-9):
+                    continue  # outside the circumscribed disc, so outside the footprint
                 if _anchor_inside(c * dx + s * dy, -s * dx + c * dy, footprint):
                     clr = -np.inf
                     break

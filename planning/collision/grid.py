@@ -21,7 +21,7 @@ near-margin poses); the grid only saves time.
 
 from __future__ import annotations
 
-import functools
+import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -29,9 +29,9 @@ import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from planning.collision.compiled import exact_free_kernel, grid_lookup, world_arrays
+from planning.collision.compiled import FieldArrays, exact_free_kernel, grid_lookup, world_arrays
 from planning.collision.exact import CollisionChecker
-from planning.core.world import World
+from planning.collision.field import DistanceField, distance_field
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -41,22 +41,6 @@ ProofArguments = tuple[FloatArray, float, float, float, FloatArray, FloatArray, 
 
 #: Largest number of grid nodes tabulated (the spacing grows beyond 1 cm to stay below it).
 MAX_NODES = 4_000_000
-
-
-@functools.lru_cache(maxsize=8)
-def _distance_grid(world: World, h: float) -> FloatArray:
-    xmin, xmax, ymin, ymax = world.bounds
-    nx = int(np.ceil((xmax - xmin) / h)) + 1
-    ny = int(np.ceil((ymax - ymin) / h)) + 1
-    xs = xmin + h * np.arange(nx)
-    out = np.empty((nx, ny))
-    ys = ymin + h * np.arange(ny)
-    for i0 in range(0, nx, 256):  # chunks keep memory small
-        xx, yy = np.meshgrid(xs[i0 : i0 + 256], ys, indexing="ij")
-        pts = np.column_stack([xx.ravel(), yy.ravel()])
-        out[i0 : i0 + 256] = world.signed_distance(pts, walls=True).reshape(xx.shape)
-    out.setflags(write=False)
-    return out
 
 
 @nb.njit(cache=True)
@@ -150,20 +134,38 @@ class FastChecker:
     Args:
         checker: The exact checker whose verdicts are reproduced.
         spacing: Grid spacing [m]; default 1 cm (coarser only for very large worlds).
+        deadline: ``time.perf_counter()`` value by which the grid must be built (None: no limit).
+
+    Raises:
+        planning.collision.field.FieldTimeout: The grid was not built by ``deadline``.
     """
 
     checker: CollisionChecker
     spacing: float | None = None
+    deadline: float | None = field(default=None, repr=False, compare=False)
     _grid: FloatArray = field(init=False, repr=False, compare=False)
     _h: float = field(init=False, repr=False, compare=False)
+    _field: FieldArrays = field(init=False, repr=False, compare=False)
+    grid_seconds: float = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
+        t0 = time.perf_counter()
         w = self.checker.world
         h = self.spacing if self.spacing is not None else max(0.01, float(np.sqrt(w.width * w.height / MAX_NODES)))
         if not h > 0:
             raise ValueError(f"grid spacing must be > 0, got {h}")
         object.__setattr__(self, "_h", float(h))
-        object.__setattr__(self, "_grid", _distance_grid(w, float(h)) if self.checker.walls else np.empty((0, 0)))
+        if self.checker.walls:
+            built: DistanceField = distance_field(w, float(h), self.deadline)
+            arrays = built.arrays()
+        else:  # nothing tabulated: every pose goes to the exact formulas, over every obstacle
+            x0, _, y0, _ = w.bounds
+            empty = np.zeros(0, dtype=np.int64)
+            arrays = (np.empty((0, 0)), float(x0), float(y0), float(h), empty, empty)
+        object.__setattr__(self, "_grid", arrays[0])
+        object.__setattr__(self, "_field", arrays)
+        #: Time this checker spent getting its grid [s] (building it, or ~0 when cached for the world).
+        object.__setattr__(self, "grid_seconds", time.perf_counter() - t0)
 
     @property
     def resolution(self) -> float:
@@ -208,8 +210,7 @@ class FastChecker:
         world = world_arrays(c.world, c.walls)
         disc = c.shape == "disc"
         robot = (c._boundary, c.robot.footprint, c._anchors, c.robot.radius, c.clearance, c.tolerance, disc)
-        proof = (self._grid, float(c.world.bounds[0]), float(c.world.bounds[2]), self._h)  # empty without walls
-        return exact_free_kernel(np.ascontiguousarray(poses), world, robot, proof)  # type: ignore[no-any-return]
+        return exact_free_kernel(np.ascontiguousarray(poses), world, robot, self._field)  # type: ignore[no-any-return]
 
     def settle_path(self, poses: FloatArray, cls: NDArray[np.int8]) -> bool:
         """:meth:`path_free`'s verdict from the (M, 3) poses and their ``classify_kernel`` classes

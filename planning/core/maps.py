@@ -37,7 +37,6 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 
 from planning.core.tables import TableReader
 from planning.core.world import Box, Obstacle, Polygon
@@ -156,6 +155,8 @@ def _outline(region: NDArray[np.bool_]) -> FloatArray:
     left and chained; at a corner touched twice the chain turns left (keeping the loop simple). The
     longest loop is the outer outline; collinear vertices are dropped.
     """
+    from scipy import ndimage  # loaded when a map image is read
+
     filled = ndimage.binary_fill_holes(region)
     h, _ = filled.shape
     pad = np.pad(filled, 1)
@@ -222,6 +223,8 @@ def obstacles_from_mask(
         raise ValueError(f"resolution must be > 0 m/px, got {resolution}")
     if shape not in ("box", "polygon"):
         raise ValueError(f"shape must be 'box' or 'polygon', got {shape!r}")
+    from scipy import ndimage  # loaded when a map image is read
+
     labels, count = ndimage.label(mask)
     h = mask.shape[0]
     ox, oy = float(origin[0]), float(origin[1])

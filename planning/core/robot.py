@@ -17,7 +17,6 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import ConvexHull
 
 from planning.errors import ModelError
 
@@ -278,4 +277,30 @@ def _footprint(bodies: dict[str | None, ET.Element], defaults: dict[str, dict[st
         off = _floats(bodies[wheel].get("pos"), 3, f"{wheel} pos")
         points.extend(_geom_outline(g, defaults, off) for g in bodies[wheel].findall("geom"))
     allpts = np.vstack(points)
-    return allpts[ConvexHull(allpts).vertices]  # type: ignore[no-any-return]
+    return convex_hull(allpts)
+
+
+def convex_hull(points: FloatArray) -> FloatArray:
+    """(K, 2) vertices of the convex hull of (N, 2) points [m], counter-clockwise without collinear
+    vertices, starting at the leftmost vertex (the upper one of two): the order qhull's
+    ``ConvexHull(points).vertices`` gives these footprints (Andrew's monotone chain; a footprint
+    needs no scipy, whose import costs every command that loads a robot a few tenths of a second).
+    """
+    pts = np.unique(np.asarray(points, dtype=float), axis=0)  # sorted by x, then y
+
+    def half(order: FloatArray) -> list[FloatArray]:
+        chain: list[FloatArray] = []
+        for p in order:
+            while len(chain) >= 2:
+                (ax, ay), (bx, by) = chain[-2], chain[-1]
+                if (bx - ax) * (p[1] - ay) - (by - ay) * (p[0] - ax) > 0:
+                    break
+                chain.pop()
+            chain.append(p)
+        return chain
+
+    lower, upper = half(pts), half(pts[::-1])
+    hull = np.array(lower[:-1] + upper[:-1])  # counter-clockwise from the lowest leftmost point
+    left = np.flatnonzero(hull[:, 0] == hull[:, 0].min())
+    start = int(left[np.argmax(hull[left, 1])])
+    return np.roll(hull, -start, axis=0)

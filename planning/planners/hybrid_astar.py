@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.collision.field import FieldTimeout
 from planning.collision.grid import FastChecker
 from planning.core.geometry import path_length, unwrap_heading
 from planning.core.robot import RobotSpec
@@ -47,7 +48,7 @@ from planning.planners.registry import config_from_options
 from planning.planners.sampling.extend import LocalPlanner
 from planning.planners.sampling.rrt import simplified
 from planning.planners.sampling.steering import arc_poses, default_turning_radius, place
-from planning.planners.sampling.tree import check_endpoints, make_checker
+from planning.planners.sampling.tree import check_endpoints, grid_timeout, make_checker
 
 FloatArray = NDArray[np.float64]
 
@@ -235,8 +236,13 @@ class HybridAStar:
     def plan(self, problem: PlanProblem) -> PlanResult:
         """Plan from ``problem.start`` to ``problem.goal``; never raises for an unsolvable problem."""
         t0 = time.perf_counter()
+        clock = (t0, time.process_time())
         cfg = self.config
-        checker = make_checker(problem, cfg.shape, cfg.clearance)  # type: ignore[arg-type]
+        limit = cfg.time_limit if cfg.time_limit is not None else problem.time_limit
+        try:  # the grid counts against the time limit
+            checker = make_checker(problem, cfg.shape, cfg.clearance, t0 + limit)  # type: ignore[arg-type]
+        except FieldTimeout as exc:
+            return grid_timeout(self.name, exc)
         bad = check_endpoints(problem, checker, self.name)
         if bad is not None:
             return bad
@@ -248,8 +254,7 @@ class HybridAStar:
                 f"(radius {inscribed_radius(problem.robot, cfg.shape):.3f} m plus the clearance "
                 f"{cfg.clearance:g} m) on the {cfg.cell_size:g} m grid: the goal is walled off"
             )
-            return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=reason, stats=_stats(t0, 0, 0))
-        limit = cfg.time_limit if cfg.time_limit is not None else problem.time_limit
+            return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=reason, stats=_stats(clock, checker, 0, 0))
         p = setup.prims
         dirs = p.directions
         cost = (
@@ -269,7 +274,7 @@ class HybridAStar:
         tol = np.array([problem.position_tolerance, problem.heading_tolerance])
         expansion = np.array([cfg.analytic_expansion_ratio, cfg.analytic_expansion_max_length])
         out = lattice.search(start, goal, tol, setup.rho, setup.step, space, expansion, cfg.max_iterations, t0 + limit)
-        return self._result(problem, setup, out, t0, limit)
+        return self._result(problem, setup, out, clock, limit)
 
     def _setup(self, problem: PlanProblem, checker: FastChecker) -> _Setup:
         """The turning radius, primitives, lattice and obstacle heuristic of a run."""
@@ -301,7 +306,14 @@ class HybridAStar:
         xmin, ymin, cell, nx, ny, _ = setup.lat
         return min(nx - 1, max(0, int((q[0] - xmin) // cell))), min(ny - 1, max(0, int((q[1] - ymin) // cell)))
 
-    def _result(self, problem: PlanProblem, setup: _Setup, out: tuple, t0: float, limit: float) -> PlanResult:  # type: ignore[type-arg]
+    def _result(
+        self,
+        problem: PlanProblem,
+        setup: _Setup,
+        out: tuple,  # type: ignore[type-arg]
+        clock: tuple[float, float],
+        limit: float,
+    ) -> PlanResult:
         """The plan result of a finished search (see :func:`planning.planners.lattice.search`)."""
         outcome, end, its, nodes, meta, state, tail, tail_dirs = out
         tree, ids = _tree(nodes, meta, state)
@@ -310,7 +322,11 @@ class HybridAStar:
             end = int(ids[np.argmin(gaps)]) if outcome != lattice.EXHAUSTED else end
             tail, tail_dirs = np.zeros((0, 3)), np.zeros(0)
         path, dirs = _branch(nodes, meta, setup.prims, int(end), tail, tail_dirs)
-        stats = {**_stats(t0, its, ids.size), "length_m": path_length(path), "analytic": tail.shape[0] > 0}
+        stats = {
+            **_stats(clock, setup.checker, its, ids.size),
+            "length_m": path_length(path),
+            "analytic": tail.shape[0] > 0,
+        }
         if outcome == lattice.FOUND:
             found = PlanResult(PlanStatus.SUCCESS, self.name, path=path, stats=stats, tree=tree, directions=dirs)
             return self._simplified(problem, setup, found)
@@ -334,8 +350,17 @@ class HybridAStar:
         return dataclasses.replace(out, stats={**out.stats, "length_m": path_length(out.path)})
 
 
-def _stats(t0: float, iterations: int, nodes: int) -> dict[str, object]:
-    return {"time_s": time.perf_counter() - t0, "iterations": iterations, "nodes": nodes}
+def _stats(clock: tuple[float, float], checker: FastChecker, iterations: int, nodes: int) -> dict[str, object]:
+    """time_s (wall: grid, lattice and search), cpu_s (this process's CPU time over the same span: the
+    cost without other processes' load), grid_s (the collision grid's part of time_s), iterations and
+    nodes; ``clock`` is (``time.perf_counter()``, ``time.process_time()``) at the start."""
+    return {
+        "time_s": time.perf_counter() - clock[0],
+        "cpu_s": time.process_time() - clock[1],
+        "grid_s": checker.grid_seconds,
+        "iterations": iterations,
+        "nodes": nodes,
+    }
 
 
 def _tree(nodes: FloatArray, meta: NDArray[np.int64], state: NDArray[np.int8]) -> tuple[PlanTree, NDArray[np.int64]]:

@@ -33,16 +33,17 @@ import itertools
 import warnings
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numba as nb
 import numpy as np
-import scipy.sparse
-import scipy.sparse.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from planning.collision.exact import CollisionChecker
 from planning.core.geometry import cumulative_length, path_steps, wrap_angle
+
+if TYPE_CHECKING:  # scipy.sparse is loaded where a fit is solved, not by every planner that imports this
+    import scipy.sparse
 
 FloatArray = NDArray[np.float64]
 SegmentKind = Literal["drive", "rotate"]
@@ -455,6 +456,8 @@ def fit_piecewise(
     tangents = (start_tangent, end_tangent)
     a_mat, b_mat = _constraint_rows(pts, br, degree, tangents, end_curvature_zero, continuity)
     # KKT system of min |B p - y|^2 s.t. A p = b: [[B^T B, A^T], [A, 0]] [p; mu] = [B^T y; b]
+    import scipy.sparse.linalg
+
     kkt = scipy.sparse.block_array([[bsp.T @ bsp, a_mat.T], [a_mat, None]], format="csc")
     kkt_rhs = np.vstack([bsp.T @ y, b_mat])
     n_coef = m * (degree + 1)
@@ -491,6 +494,8 @@ def _data_rows(
         c_idx.append(np.repeat(np.arange(m), 3 * nc) * nc + np.tile(np.arange(nc), 3 * m))
         rhs.append(np.zeros((3 * m, 2)))
         nrow += 3 * m
+    import scipy.sparse
+
     bsp = scipy.sparse.csr_array(
         (np.concatenate(data), (np.concatenate(r_idx), np.concatenate(c_idx))), shape=(nrow, m * nc)
     )
@@ -533,6 +538,8 @@ def _constraint_rows(
     for jj in range(m - 1):
         for der in range(continuity + 1):
             add([(jj, 1.0, der, 1.0), (jj + 1, 0.0, der, -1.0)], np.zeros(2))
+    import scipy.sparse
+
     a_mat = scipy.sparse.csr_array(
         (np.concatenate(a_data), (np.concatenate(a_r), np.concatenate(a_c))), shape=(len(b_rows), m * nc)
     )

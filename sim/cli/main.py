@@ -4,21 +4,24 @@ Each subcommand lives in its own module under ``sim/cli/`` with two functions:
 ``add_parser(subparsers) -> argparse.ArgumentParser`` and ``run(args) -> int``. The table below is
 the whole registry; the CLI, the help text and the tests enumerate it.
 
-Modules are imported only when their command runs, except for building the parsers, which must not
-import mujoco at module level: :func:`main` chooses MuJoCo's GL backend first
-(:func:`sim.viz.gl.configure` with the command's ``--gl``, else ``MUJOCO_GL`` or the default).
+A command's module is imported only when that command is named (to build its parser and run it):
+``nhsim --version`` and ``nhsim --help`` import none of them (the overview lists each command with
+the first line of its module's docstring, read from the file) and no numerics at all, and a command
+loads only what it uses. Building a parser must not import mujoco: :func:`main` chooses MuJoCo's GL
+backend first (:func:`sim.viz.gl.configure` with the command's ``--gl``, else ``MUJOCO_GL`` or the
+default).
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.util
+import re
 import sys
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 
 from planning.errors import NhsimError, SimulationError
-from planning.trajectory.from_plan import TrajectoryError
-from sim.viz import gl
 
 #: Subcommand name -> module path.
 COMMANDS: dict[str, str] = {
@@ -44,20 +47,54 @@ def package_version() -> str:
         return "unknown (not installed)"
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The top-level parser with every registered subcommand."""
+class _Version(argparse.Action):
+    """``--version``: print ``nhsim VERSION`` and exit (the version is looked up only then)."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str, **kwargs: object) -> None:
+        super().__init__(option_strings, dest, nargs=0, help=str(kwargs.get("help", "")))
+
+    def __call__(self, parser: argparse.ArgumentParser, *_: object) -> None:
+        print(f"{parser.prog} {package_version()}")  # on stdout, as argparse's own version action
+        parser.exit()
+
+
+def summary(module: str) -> str:
+    """The first line of a command module's docstring without its ``nhsim NAME``: prefix, read from
+    its file (the module is not imported)."""
+    spec = importlib.util.find_spec(module)
+    origin = spec.origin if spec is not None else None
+    if origin is None:
+        return ""
+    with open(origin, encoding="utf-8") as f:
+        head = f.read(2000)
+    found = re.match(r'\s*[rRuU]?"""(.*?)(?:\n|""")', head, re.S)
+    line = found.group(1).strip() if found else ""
+    return re.sub(r"^``nhsim [\w-]+``:\s*", "", line)
+
+
+def build_parser(commands: Collection[str] | None = None) -> argparse.ArgumentParser:
+    """The top-level parser. The commands named in ``commands`` (None: every one) get their full
+    parser, built by their module; the others are listed with their :func:`summary` only."""
     parser = argparse.ArgumentParser(
         prog="nhsim",
         description="Plan, track and simulate nonholonomic wheeled robots (TurtleBot3, EduMIP) in MuJoCo.",
     )
-    parser.add_argument("--version", action="version", version=f"%(prog)s {package_version()}")
+    parser.add_argument("--version", action=_Version, help="show the installed version and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, module in COMMANDS.items():
-        mod = importlib.import_module(module)
-        p = mod.add_parser(sub)
+        if commands is not None and name not in commands:
+            sub.add_parser(name, help=summary(module)).set_defaults(_module=module)
+            continue
+        p = importlib.import_module(module).add_parser(sub)
         p.set_defaults(_module=module)
         assert p.prog.endswith(name)
     return parser
+
+
+def named_command(argv: Sequence[str]) -> str | None:
+    """The command ``argv`` names (its first word that is not an option), or None."""
+    first = next((a for a in argv if not a.startswith("-")), None)
+    return first if first in COMMANDS else None
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -79,27 +116,38 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _main(argv: Sequence[str] | None) -> int:
-    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    command = named_command(argv)
+    parser = build_parser([command] if command is not None else [])
     args = parser.parse_args(argv)
     if not getattr(args, "command", None):
         parser.print_help()
         return 2
     try:
+        from sim.viz import gl
+
         gl.configure(getattr(args, "gl", None))  # before the command imports mujoco
         mod = importlib.import_module(args._module)
         return int(mod.run(args))
     except SimulationError as exc:
         print(f"nhsim {args.command}: simulation failed: {exc}", file=sys.stderr)
         return 1
-    except TrajectoryError as exc:  # a failed plan is a failed run, not bad input (as in ``nhsim plan``)
-        print(f"nhsim {args.command}: failed: {exc}", file=sys.stderr)
-        return 1
     except NhsimError as exc:
+        if _failed_plan(exc):  # a failed plan is a failed run, not bad input (as in ``nhsim plan``)
+            print(f"nhsim {args.command}: failed: {exc}", file=sys.stderr)
+            return 1
         print(f"nhsim {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"nhsim {args.command}: interrupted", file=sys.stderr)
         return 130
+
+
+def _failed_plan(exc: BaseException) -> bool:
+    """Whether ``exc`` is a :class:`planning.trajectory.from_plan.TrajectoryError` (its module is
+    looked up, not imported: an error of that class means it is loaded)."""
+    module = sys.modules.get("planning.trajectory.from_plan")
+    return module is not None and isinstance(exc, module.TrajectoryError)
 
 
 if __name__ == "__main__":

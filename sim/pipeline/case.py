@@ -31,6 +31,7 @@ from planning.errors import ConfigError, ScenarioError
 from planning.planners.base import PlanProblem, PlanResult
 from planning.planners.registry import PLANNERS, make_planner, planner_options
 from planning.scenario import Scenario, load_scenario
+from planning.scenario import scenario_with_robot as scenario_with_robot  # defined beside load_scenario
 from planning.trajectory.file_trajectory import ARENA_NAME, file_trajectory, with_file_ends
 from planning.trajectory.from_plan import checked_trajectory
 from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
@@ -234,22 +235,6 @@ class PreparedTrajectory:
     source: str
     hold: float = 0.0
     extra: Mapping[str, Any] = field(default_factory=dict)
-
-
-def scenario_with_robot(scenario: Scenario, robot: str | None) -> Scenario:
-    """The scenario with ``robot`` (None: its own robot), which must be one the scenario lists.
-
-    Raises:
-        ConfigError: The scenario's ``robots`` do not list the robot (the message names them).
-    """
-    if robot is None:
-        return scenario
-    if robot not in scenario.robots:
-        raise ConfigError(
-            f"robot {robot!r} is not one of scenario {scenario.name!r}'s robots ({', '.join(scenario.robots)}): "
-            f"choose one of them with --robot, or a scenario that lists {robot}"
-        )
-    return scenario.with_robot(robot)
 
 
 def load_case_scenario(case: Case) -> Scenario:

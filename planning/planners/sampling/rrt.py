@@ -24,6 +24,7 @@ from typing import Any, Generic, TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.collision.field import FieldTimeout
 from planning.core.checks import check_fields
 from planning.core.geometry import path_length
 from planning.errors import ConfigError
@@ -36,6 +37,7 @@ from planning.planners.sampling.tree import (
     Tree,
     check_endpoints,
     goal_gap,
+    grid_timeout,
     in_goal,
     make_checker,
     merge_trees,
@@ -124,7 +126,10 @@ class _TreePlanner(Generic[ConfigT]):
 
     def plan(self, problem: PlanProblem) -> PlanResult:
         """Plan from ``problem.start`` to ``problem.goal``; never raises for an unsolvable problem."""
-        local, budget, rng, bad = self._setup(problem)
+        try:
+            local, budget, rng, bad = self._setup(problem)
+        except FieldTimeout as exc:  # the time limit passed while the collision grid was built
+            return grid_timeout(self.name, exc)
         if bad is not None:
             return bad
         result = self._search(problem, local, budget, rng)
@@ -140,7 +145,9 @@ class _TreePlanner(Generic[ConfigT]):
         """The run's local planner, budget and random generator, and an INVALID_START / INVALID_GOAL
         result when an end pose collides (else None)."""
         cfg = self.config
-        checker = make_checker(problem, cfg.shape, cfg.clearance)  # type: ignore[arg-type]
+        budget = Budget(cfg.max_iterations, cfg.time_limit if cfg.time_limit is not None else problem.time_limit)
+        checker = make_checker(problem, cfg.shape, cfg.clearance, budget.deadline)  # type: ignore[arg-type]
+        budget.grid_s = checker.grid_seconds  # the grid counts against the time limit
         w = problem.world
         step_range = cfg.step_range if cfg.step_range is not None else 0.2 * float(np.hypot(w.width, w.height))
         local = LocalPlanner(
@@ -171,7 +178,7 @@ class _TreePlanner(Generic[ConfigT]):
 
     @staticmethod
     def _stats(budget: Budget, iterations: int, nodes: int) -> dict[str, object]:
-        return {"time_s": budget.elapsed(), "iterations": iterations, "nodes": nodes}
+        return {"time_s": budget.elapsed(), "grid_s": budget.grid_s, "iterations": iterations, "nodes": nodes}
 
     @staticmethod
     def _partial(tree: Tree, problem: PlanProblem) -> tuple[FloatArray, FloatArray, float]:

@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.collision.exact import CollisionChecker, Shape
+from planning.collision.field import FieldTimeout
 from planning.collision.grid import FastChecker
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
 
@@ -154,6 +155,7 @@ class Budget:
     max_iterations: int
     time_limit: float
     t0: float = 0.0
+    grid_s: float = 0.0  # of the time spent, getting the collision grid [s]
 
     def __post_init__(self) -> None:
         if self.max_iterations < 1:
@@ -161,6 +163,11 @@ class Budget:
         if not self.time_limit > 0:
             raise ValueError(f"time_limit must be > 0 s, got {self.time_limit}")
         self.t0 = time.perf_counter()
+
+    @property
+    def deadline(self) -> float:
+        """``time.perf_counter()`` value at which the time limit is spent."""
+        return self.t0 + self.time_limit
 
     def elapsed(self) -> float:
         """Seconds since the budget started."""
@@ -177,9 +184,21 @@ class Budget:
         return f"time budget of {self.time_limit:g} s spent after {iteration} iterations"
 
 
-def make_checker(problem: PlanProblem, shape: Shape, clearance: float) -> FastChecker:
-    """The shared collision checker for a problem, with its fast exact front end."""
-    return FastChecker(CollisionChecker(problem.world, problem.robot, shape=shape, clearance=clearance))
+def make_checker(problem: PlanProblem, shape: Shape, clearance: float, deadline: float | None = None) -> FastChecker:
+    """The shared collision checker for a problem, with its fast exact front end, its grid built by
+    ``deadline`` (a ``time.perf_counter()`` value; None: no limit).
+
+    Raises:
+        planning.collision.field.FieldTimeout: The grid was not built by ``deadline``.
+    """
+    exact = CollisionChecker(problem.world, problem.robot, shape=shape, clearance=clearance)
+    return FastChecker(exact, deadline=deadline)
+
+
+def grid_timeout(planner: str, exc: FieldTimeout) -> PlanResult:
+    """The TIMEOUT result of a run whose time limit passed while its collision grid was built."""
+    stats = {"time_s": exc.seconds, "grid_s": exc.seconds, "iterations": 0, "nodes": 0}
+    return PlanResult(PlanStatus.TIMEOUT, planner, reason=str(exc), stats=stats)
 
 
 def check_endpoints(problem: PlanProblem, checker: FastChecker, planner: str) -> PlanResult | None:

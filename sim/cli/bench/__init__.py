@@ -26,6 +26,10 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "sim.cli.bench.hybrid",
         "hybrid-a-star: time to its path and length against rrt-star's on built-in and seeded worlds",
     ),
+    "cold": (
+        "sim.cli.bench.cold",
+        "nhsim plan in fresh processes on new seeded worlds against the same plans warm (time, process wall)",
+    ),
     "simplify": (
         "sim.cli.bench.simplify",
         "simplified birrt / rrt paths and simulate --all trajectories against rrt-star's (length, cusps, time)",

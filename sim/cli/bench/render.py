@@ -36,4 +36,10 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"pipeline frame rate      {r.pipeline_fps:>8.1f} frames/s   (target >= {TARGET_FPS:g} at 640x480, fast look)"
     )
+    ms = 1e3 / r.frames
+    print(
+        f"CPU per frame            bare {r.bare_cpu_s * ms:.2f} ms, pipeline {r.pipeline_cpu_s * ms:.2f} ms "
+        f"(encoder {r.encoder_cpu_s * ms:.2f} ms); bare / pipeline {r.cpu_ratio:.3f}: the ratio's bound when the "
+        "rasteriser keeps every core busy"
+    )
     return 0 if r.passed else 1

@@ -14,10 +14,17 @@ same camera and render flags, for the same number of frames, in one process with
 The two loops alternate for ``--repeats`` rounds and the best round of each counts, so load from
 other processes hits both alike. Targets: ratio >= 0.9, and >= 30 frames/s for the pipeline at
 640x480 in the default (fast) look.
+
+CPU time is counted too (``resource``: this process, its rasteriser threads included, and the
+finished ffmpeg child), least of the rounds: where the rasteriser already keeps every core busy, the
+pipeline's frame rate can be at most the bare loop's times (bare CPU) / (pipeline CPU), whatever the
+scheduling, so that CPU ratio is what bounds the wall ratio on a machine with few cores, and it is
+hardly moved by other processes' load.
 """
 
 from __future__ import annotations
 
+import resource
 import tempfile
 import time
 from dataclasses import dataclass
@@ -42,6 +49,9 @@ class RenderBench:
         bare_s: Best wall time of the bare loop [s].
         pipeline_s: Best wall time of the pipeline [s].
         composited: The pipeline drew the world once and composited the robots.
+        bare_cpu_s: Least CPU time of the bare loop [s].
+        pipeline_cpu_s: Least CPU time of the pipeline, the encoder's included [s].
+        encoder_cpu_s: The encoder's (ffmpeg's) CPU time in that round [s].
     """
 
     width: int
@@ -53,6 +63,14 @@ class RenderBench:
     bare_s: float
     pipeline_s: float
     composited: bool
+    bare_cpu_s: float = float("nan")
+    pipeline_cpu_s: float = float("nan")
+    encoder_cpu_s: float = float("nan")
+
+    @property
+    def cpu_ratio(self) -> float:
+        """Bare CPU time over the pipeline's: the frame-rate ratio's bound when the cores are saturated."""
+        return self.bare_cpu_s / self.pipeline_cpu_s
 
     @property
     def bare_fps(self) -> float:
@@ -106,36 +124,47 @@ def measure(size: str, camera: str, quality: str, frames: int, repeats: int) -> 
         view = replay.camera
         frame = np.empty((h, w, 3), dtype=np.uint8)
 
-        def bare() -> float:
-            t0 = time.perf_counter()
+        def bare() -> tuple[float, float]:
+            t0, c0 = time.perf_counter(), _cpu(resource.RUSAGE_SELF)
             for _ in range(n):
                 renderer.renderer.update_scene(data, camera=view)
                 renderer.renderer.render(out=frame)
-            return time.perf_counter() - t0
+            return time.perf_counter() - t0, _cpu(resource.RUSAGE_SELF) - c0
 
         t_bare, t_pipe = [], []
         for _ in range(repeats):
             t_bare.append(bare())
             t_pipe.append(_pipeline(model, job, settings, renderer, n))
         composited = bool(replay.composited(renderer))
-    return RenderBench(w, h, quality, camera, n, repeats, min(t_bare), min(t_pipe), composited)
+    least = min(t_pipe, key=lambda t: t[1])
+    walls = (min(t[0] for t in t_bare), min(t[0] for t in t_pipe))
+    cpus = (min(t[1] for t in t_bare), least[1], least[2])
+    return RenderBench(w, h, quality, camera, n, repeats, *walls, composited, *cpus)
 
 
-def _pipeline(model: Any, job: Any, settings: Any, renderer: Any, n: int) -> float:
-    """Wall time of a new replay (its set-up counts) drawing and encoding ``n`` frames to a deleted MP4."""
+def _cpu(who: int) -> float:
+    """User plus system CPU time [s] of this process (``RUSAGE_SELF``) or its finished children."""
+    r = resource.getrusage(who)
+    return r.ru_utime + r.ru_stime
+
+
+def _pipeline(model: Any, job: Any, settings: Any, renderer: Any, n: int) -> tuple[float, float, float]:
+    """Wall time, CPU time (the encoder's included) and the encoder's CPU time [s] of a new replay (its
+    set-up counts) drawing and encoding ``n`` frames to a deleted MP4."""
     from sim.viz.replay import Replay
     from sim.viz.video import VideoWriter
 
     tmpdir = Path(tempfile.mkdtemp(prefix="nhsim-bench-"))
     out = tmpdir / "bench.mp4"
-    t0 = time.perf_counter()
+    t0, c0, e0 = time.perf_counter(), _cpu(resource.RUSAGE_SELF), _cpu(resource.RUSAGE_CHILDREN)
     rp = Replay(model, job.trajectory, job.logs, settings)
     with VideoWriter(out, settings.width, settings.height, settings.fps, overwrite=True) as writer:
         for k in range(n):
             buf = writer.frame_buffer()
             rp.render_frame(renderer, k, buf)
             writer.submit(buf)
-    dt = time.perf_counter() - t0
+    dt, enc = time.perf_counter() - t0, _cpu(resource.RUSAGE_CHILDREN) - e0  # ffmpeg is reaped on close
+    cpu = _cpu(resource.RUSAGE_SELF) - c0 + enc
     out.unlink()
     tmpdir.rmdir()
-    return dt
+    return dt, cpu, enc

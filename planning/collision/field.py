@@ -1,0 +1,285 @@
+"""The world's signed distance tabulated on a grid, built in compiled code with a broad phase.
+
+:class:`~planning.collision.grid.FastChecker` proves verdicts from the world's signed distance
+(walls included) at the nodes of a grid of spacing ``h``: every node must hold the exact value, the
+minimum over the walls and every obstacle. Measuring every obstacle at every node costs
+nodes x obstacles; the broad phase makes it grow with the obstacles *near* each node instead:
+
+* The nodes are cut into blocks of :data:`BLOCK` x :data:`BLOCK`, the blocks into superblocks of
+  :data:`SUPER` x :data:`SUPER` blocks. A (super)block's region is the square of points whose nearest
+  node lies in it: centre ``c``, circumradius ``r``.
+* Every signed distance is 1-Lipschitz, so at any point ``p`` of the region the world's distance is
+  at most ``d(c) + r`` (``d(c)`` the minimum over walls and the candidates at the centre), and an
+  obstacle's at least ``sd_o(c) - r``. An obstacle with ``sd_o(c) - r > d(c) + r`` (by more than
+  :data:`PRUNE_MARGIN`, far above rounding) is therefore never the nearest anywhere in the region and
+  is dropped from its candidates. Superblocks prune all obstacles, blocks prune their superblock's
+  candidates, nodes measure their block's.
+* The minimum over a set that holds the nearest obstacle is the minimum over all: every node holds
+  the value a full scan gives, bit for bit (tests compare with the plain formulas of
+  :mod:`planning.core.world` on random worlds).
+
+The blocks' candidate lists are kept (:attr:`DistanceField.members`): the exact signed distance of
+any point inside the grid is then measured against its block's candidates only
+(:func:`planning.collision.compiled.field_distance`), which is what the fast checker's exact
+fallback asks on crowded maps.
+
+The field is built a row of blocks at a time, so a build can honour a deadline
+(:class:`FieldTimeout`); finished fields are cached per world and spacing.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+from numpy.typing import NDArray
+
+from planning.collision.compiled import (
+    BLOCK,
+    BOX,
+    CIRCLE,
+    ELLIPSE_SKIP_MARGIN,
+    POLYGON,
+    FieldArrays,
+    WorldArrays,
+    box_local,
+    ellipse_many,
+    obstacle_distance,
+    polygon_distance,
+    walls_distance,
+    world_arrays,
+)
+from planning.core.world import World
+from planning.errors import NhsimError
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+#: Blocks per superblock side.
+SUPER = 8
+#: Slack of the pruning test [m]: far above the signed distances' rounding (1e-12 m), far below
+#: anything geometric, so an obstacle is dropped only when it is certainly not the nearest.
+PRUNE_MARGIN = 1e-9
+#: Finished fields kept (per world and spacing).
+CACHE_SIZE = 8
+
+
+class FieldTimeout(NhsimError):
+    """Building a distance field passed its deadline.
+
+    Attributes:
+        seconds: Time spent before giving up [s].
+        nodes: Nodes of the field that was being built.
+        obstacles: Obstacles of its world.
+    """
+
+    def __init__(self, seconds: float, nodes: int, obstacles: int) -> None:
+        self.seconds, self.nodes, self.obstacles = seconds, nodes, obstacles
+        super().__init__(
+            f"building the collision grid ({nodes} nodes, {obstacles} obstacles) passed the time limit "
+            f"after {seconds:.3f} s"
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class DistanceField:
+    """The signed distance of a world (walls included) at the nodes ``(x0 + i h, y0 + j h)``.
+
+    Attributes:
+        grid: (nx, ny) signed distances [m], read-only.
+        x0: x of node (0, 0) [m].
+        y0: y of node (0, 0) [m].
+        h: Node spacing [m].
+        starts: (nbx * nby + 1,) offsets into ``members`` of block ``bi * nby + bj``'s candidates.
+        members: The blocks' candidate obstacle indices, concatenated.
+        seconds: Time the build took [s].
+    """
+
+    grid: FloatArray
+    x0: float
+    y0: float
+    h: float
+    starts: IntArray
+    members: IntArray
+    seconds: float
+
+    def arrays(self) -> FieldArrays:
+        """The field as the compiled kernels take it."""
+        return (self.grid, self.x0, self.y0, self.h, self.starts, self.members)
+
+
+_CACHE: OrderedDict[tuple[World, float], DistanceField] = OrderedDict()
+
+
+def distance_field(world: World, h: float, deadline: float | None = None) -> DistanceField:
+    """The world's signed distance field at spacing ``h`` [m] (cached per world and spacing).
+
+    Args:
+        world: Bounds and obstacles; the bounds count as walls.
+        h: Node spacing [m], > 0.
+        deadline: ``time.perf_counter()`` value after which the build gives up (None: never).
+
+    Raises:
+        FieldTimeout: The deadline passed before the field was finished.
+    """
+    key = (world, float(h))
+    hit = _CACHE.get(key)
+    if hit is not None:
+        _CACHE.move_to_end(key)
+        return hit
+    field = _build(world, float(h), deadline)
+    _CACHE[key] = field
+    while len(_CACHE) > CACHE_SIZE:
+        _CACHE.popitem(last=False)
+    return field
+
+
+def _build(world: World, h: float, deadline: float | None) -> DistanceField:
+    """Build the field a row of blocks at a time (see the module doc)."""
+    t0 = time.perf_counter()
+    xmin, xmax, ymin, ymax = world.bounds
+    nx = int(np.ceil((xmax - xmin) / h)) + 1
+    ny = int(np.ceil((ymax - ymin) / h)) + 1
+    w = world_arrays(world, True)
+    grid = np.empty((nx, ny))
+    nbx, nby = -(-nx // BLOCK), -(-ny // BLOCK)
+    counts = np.zeros(nbx * nby, dtype=np.int64)
+    parts = []
+    side = BLOCK * SUPER
+    for s0 in range(0, nx, side):
+        tops = superblock_candidates(s0, min(nx, s0 + side), ny, float(xmin), float(ymin), h, w)
+        for i0 in range(s0, min(nx, s0 + side), BLOCK):  # a block row a call: the deadline is checked often
+            if deadline is not None and time.perf_counter() > deadline:
+                raise FieldTimeout(time.perf_counter() - t0, nx * ny, len(world.obstacles))
+            parts.append(fill_rows(grid, float(xmin), float(ymin), h, i0, w, counts, tops))
+    grid.setflags(write=False)
+    starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    members = np.concatenate(parts).astype(np.int64) if parts else np.zeros(0, dtype=np.int64)
+    return DistanceField(grid, float(xmin), float(ymin), h, starts, members, time.perf_counter() - t0)
+
+
+@nb.njit(cache=True)
+def _region(lo: int, n: int, origin: float, h: float) -> tuple[float, float]:
+    """Centre [m] and half-width [m] of the points whose nearest node index lies in [lo, lo + n)."""
+    return origin + (lo + 0.5 * (n - 1)) * h, 0.5 * n * h
+
+
+@nb.njit(cache=True)
+def prune(cx: float, cy: float, r: float, candidates: IntArray, world: WorldArrays) -> IntArray:
+    """The candidates that may be the nearest obstacle somewhere within ``r`` [m] of (cx, cy) [m]
+    (the module doc's test), in their given order."""
+    _, _, kinds, params, verts, offsets = world
+    n = candidates.shape[0]
+    vals = np.empty(n)
+    d = walls_distance(cx, cy, world)
+    for m in range(n):
+        k = candidates[m]
+        vals[m] = obstacle_distance(cx, cy, kinds[k], params[k], verts[offsets[k] : offsets[k + 1]])
+        d = min(d, vals[m])
+    keep = vals - r <= d + r + PRUNE_MARGIN
+    return candidates[keep]
+
+
+@nb.njit(cache=True)
+def fill_block(
+    grid: FloatArray, i0: int, j0: int, x0: float, y0: float, h: float, candidates: IntArray, world: WorldArrays
+) -> None:
+    """``grid``'s block of nodes from (i0, j0): the distance to the walls, then the minimum with each
+    candidate's, one obstacle at a time over the block (the values of
+    :func:`planning.collision.compiled.candidates_distance`)."""
+    bounds, _, kinds, params, verts, offsets = world
+    i1, j1 = min(grid.shape[0], i0 + BLOCK), min(grid.shape[1], j0 + BLOCK)
+    for i in range(i0, i1):
+        x = x0 + i * h
+        for j in range(j0, j1):
+            y = y0 + j * h
+            grid[i, j] = min(min(x - bounds[0], bounds[1] - x), min(y - bounds[2], bounds[3] - y))
+    qa, qb, sd = np.empty(BLOCK * BLOCK), np.empty(BLOCK * BLOCK), np.empty(BLOCK * BLOCK)
+    at = np.empty(BLOCK * BLOCK, dtype=np.int64)
+    for m in range(candidates.shape[0]):
+        k = candidates[m]
+        kind, p = kinds[k], params[k]
+        cx, cy, c, s = p[0], p[1], np.cos(p[4]), np.sin(p[4])
+        v = verts[offsets[k] : offsets[k + 1]]
+        count = 0  # ellipse nodes to measure, gathered to be measured side by side
+        for i in range(i0, i1):
+            x = x0 + i * h
+            for j in range(j0, j1):
+                y = y0 + j * h
+                d0, d1 = x - cx, y - cy
+                if kind == CIRCLE:
+                    grid[i, j] = min(grid[i, j], np.hypot(d0, d1) - p[2])
+                elif kind == POLYGON:
+                    grid[i, j] = min(grid[i, j], polygon_distance(x, y, v))
+                elif kind == BOX:
+                    q0, q1 = abs(c * d0 + s * d1), abs(-s * d0 + c * d1)
+                    grid[i, j] = min(grid[i, j], box_local(q0, q1, p[2], p[3]))
+                elif np.hypot(d0, d1) - max(p[2], p[3]) <= grid[i, j] + ELLIPSE_SKIP_MARGIN:
+                    # (farther ones are not measured, as in a full scan: they cannot be the nearest)
+                    qa[count], qb[count] = abs(c * d0 + s * d1), abs(-s * d0 + c * d1)
+                    at[count] = (i - i0) * BLOCK + (j - j0)
+                    count += 1
+        if count:
+            ellipse_many(qa[:count], qb[:count], p[2], p[3], sd[:count])
+            for n in range(count):
+                i, j = i0 + at[n] // BLOCK, j0 + at[n] % BLOCK
+                grid[i, j] = min(grid[i, j], sd[n])
+
+
+@nb.njit(cache=True)
+def superblock_candidates(
+    i0: int, i1: int, ny: int, x0: float, y0: float, h: float, world: WorldArrays
+) -> tuple[IntArray, IntArray]:
+    """The candidates of the superblocks of node rows [i0, i1) (at most a superblock), left to right:
+    superblock ``s``'s are ``flat[offsets[s]:offsets[s + 1]]``."""
+    side = BLOCK * SUPER
+    everything = np.arange(world[2].shape[0])
+    cx, hx = _region(i0, i1 - i0, x0, h)
+    n = (ny + side - 1) // side
+    offsets = np.zeros(n + 1, dtype=np.int64)
+    flat = np.empty(0, dtype=np.int64)
+    for s in range(n):
+        cy, hy = _region(s * side, min(ny, (s + 1) * side) - s * side, y0, h)
+        mine = prune(cx, cy, np.hypot(hx, hy), everything, world)
+        flat = np.concatenate((flat, mine))
+        offsets[s + 1] = flat.shape[0]
+    return flat, offsets
+
+
+@nb.njit(cache=True)
+def fill_rows(
+    grid: FloatArray,
+    x0: float,
+    y0: float,
+    h: float,
+    i0: int,
+    world: WorldArrays,
+    counts: IntArray,
+    tops: tuple[IntArray, IntArray],
+) -> IntArray:
+    """Fill ``grid``'s block row from node row ``i0`` (a multiple of ``BLOCK``) and its blocks' candidate
+    counts (block ``bi * nby + bj``), pruning the candidates ``tops`` of its superblocks
+    (:func:`superblock_candidates`); return the blocks' candidates, block after block."""
+    ny = grid.shape[1]
+    nby = (ny + BLOCK - 1) // BLOCK
+    flat, offsets = tops
+    out = np.empty(16 * BLOCK * BLOCK, dtype=np.int64)
+    used = 0
+    for bj0 in range(0, ny, BLOCK):  # blocks in index order: their candidates are concatenated so
+        # a block's region is its full square even at the grid's edge (a superset is harmless)
+        bx, hbx = _region(i0, BLOCK, x0, h)
+        by, hby = _region(bj0, BLOCK, y0, h)
+        s = bj0 // (BLOCK * SUPER)
+        mine = prune(bx, by, np.hypot(hbx, hby), flat[offsets[s] : offsets[s + 1]], world)
+        counts[(i0 // BLOCK) * nby + bj0 // BLOCK] = mine.shape[0]
+        if used + mine.shape[0] > out.shape[0]:
+            grown = np.empty(2 * out.shape[0] + mine.shape[0], dtype=np.int64)
+            grown[:used] = out[:used]
+            out = grown
+        out[used : used + mine.shape[0]] = mine
+        used += mine.shape[0]
+        fill_block(grid, i0, bj0, x0, y0, h, mine, world)
+    return out[:used].copy()

@@ -1,0 +1,56 @@
+"""``nhsim bench cold``: ``nhsim plan`` in fresh processes on new seeded worlds against the same plans
+warm (see :mod:`sim.tools.bench.cold`)."""
+
+from __future__ import annotations
+
+import argparse
+
+#: (name, arena side [m], obstacles, obstacle scale [m], time limit [s]) of the worlds measured.
+WORLDS = (
+    ("room", 6.0, 8, 0.4, 30.0),
+    ("hall", 8.0, 20, 0.35, 30.0),
+    ("crowded", 20.0, 2000, 0.08, 2.0),
+)
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """Options of the benchmark."""
+    p.add_argument("--planner", default="hybrid-a-star", metavar="P", help="planner (default: hybrid-a-star)")
+    p.add_argument("--worlds", type=int, default=2, metavar="N", help="new worlds of each kind (default: 2)")
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the first world (default: 0)")
+    p.add_argument("--repeats", type=int, default=3, metavar="N", help="warm plans per world (default: 3)")
+    p.add_argument("--no-crowded", action="store_true", help="skip the 2000-obstacle worlds")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Measure and print one row per world as it is done; exit 1 when a target is missed."""
+    from planning.errors import ConfigError
+    from planning.planners.registry import PLANNERS
+    from sim.tools.bench import cold as bench
+
+    if args.planner not in PLANNERS:
+        raise ConfigError(f"--planner {args.planner!r} is not a planner; choose one of {', '.join(sorted(PLANNERS))}")
+    for name in ("worlds", "repeats"):
+        if getattr(args, name) < 1:
+            raise ConfigError(f"--{name} must be >= 1, got {getattr(args, name)}")
+    if args.seed < 0:
+        raise ConfigError(f"--seed must be >= 0, got {args.seed}")
+    print(
+        f"{args.planner}: a fresh 'nhsim plan' process per new world (wall and CPU from start to exit, its reported "
+        f"plan time and grid part) against the same plan here: new world with code loaded, then warm (median of "
+        f"{args.repeats}); {bench.load_note()}"
+    )
+    bench.warm_up(args.planner)
+    rows: list[bench.ColdRow] = []
+    for kind, size, count, scale, limit in WORLDS:
+        if args.no_crowded and count > 20:
+            continue
+        for k in range(args.worlds):
+            seed = args.seed + 1000 * len(rows) + k
+            rows.append(bench.measure(seed, size, count, scale, args.planner, limit, args.repeats))
+            lines = bench.format_rows(rows[-1:])
+            if len(rows) == 1:
+                print(lines[0], flush=True)
+            print(f"{lines[1]}  ({kind})", flush=True)
+    print(bench.load_note())
+    return 0 if bench.passed(rows) else 1

@@ -1,0 +1,167 @@
+"""The distance field (compiled, with a broad phase) against plain-Python references on random worlds.
+
+The references here are the plain formulas of :mod:`planning.core.world` measured against every
+obstacle at every node (what the field replaced), and a plain-Python broad phase check: at points of
+each block, the nearest obstacle by a full scan is among the block's candidates.
+"""
+
+import time
+
+import numpy as np
+import pytest
+
+from planning.collision.compiled import BLOCK, _world_distance, field_distance, world_arrays
+from planning.collision.exact import CollisionChecker
+from planning.collision.field import FieldTimeout, distance_field
+from planning.collision.grid import FastChecker
+from planning.core.geometry import Pose2D
+from planning.core.robot import load_robot
+from planning.core.world import Box, Circle, Ellipse, Polygon, World
+from planning.planners.base import PlanProblem, PlanStatus
+from planning.planners.registry import make_planner
+from tests.fuzz_helpers import crowded_worlds, fast_and_slow
+
+
+def reference_grid(world: World, h: float) -> np.ndarray:
+    """The signed distance (walls included) at every node, by the plain formulas, every obstacle at
+    every node."""
+    xmin, xmax, ymin, ymax = world.bounds
+    nx, ny = int(np.ceil((xmax - xmin) / h)) + 1, int(np.ceil((ymax - ymin) / h)) + 1
+    xx, yy = np.meshgrid(xmin + h * np.arange(nx), ymin + h * np.arange(ny), indexing="ij")
+    return world.signed_distance(np.column_stack([xx.ravel(), yy.ravel()]), walls=True).reshape(nx, ny)
+
+
+def reference_nearest(world: World, pts: np.ndarray) -> np.ndarray:
+    """(M,) index of the nearest obstacle at each point (-1 where a wall is nearer than all), plain."""
+    d = np.array([o.signed_distance(pts) for o in world.obstacles]).reshape(len(world.obstacles), -1)
+    best = np.argmin(d, axis=0) if len(world.obstacles) else np.full(pts.shape[0], -1)
+    nearest = d[best, np.arange(pts.shape[0])] if len(world.obstacles) else np.full(pts.shape[0], np.inf)
+    return np.where(world.wall_distance(pts) < nearest, -1, best)
+
+
+def random_world(seed: int, n: int, size: float, scale: float) -> World:
+    """``n`` obstacles of the four kinds (scaled by ``scale`` [m]) in a ``size`` x ``size`` m arena."""
+    rng = np.random.default_rng(seed)
+    obstacles: list = []
+    for k in range(n):
+        c = (float(rng.uniform(0, size)), float(rng.uniform(0, size)))
+        if min(np.hypot(*c), np.hypot(c[0] - size, c[1] - size)) < 4 * scale + 0.3:
+            c = (0.5 * size, 0.5 * size)  # the corners stay free for a start and a goal
+        a, b = (float(v) for v in scale * rng.uniform(0.3, 1.5, 2))
+        angle = float(rng.uniform(-3, 3))
+        kind = k % 4
+        if kind == 0:
+            obstacles.append(Circle(c, a))
+        elif kind == 1:
+            obstacles.append(Ellipse(c, (a, b), angle))
+        elif kind == 2:
+            obstacles.append(Box(c, (2 * a, b), angle))
+        else:
+            phi = 2 * np.pi * (np.arange(5) + rng.uniform(0, 0.8, 5)) / 5
+            r = a * rng.uniform(0.5, 1.0, 5)
+            obstacles.append(
+                Polygon(tuple((c[0] + r[i] * np.cos(phi[i]), c[1] + r[i] * np.sin(phi[i])) for i in range(5)))
+            )
+    return World((0.0, size, 0.0, size), tuple(obstacles))
+
+
+WORLDS = [
+    random_world(0, 8, 6.0, 0.4),  # a room with furniture
+    random_world(1, 20, 8.0, 0.3),
+    random_world(2, 300, 5.0, 0.05),  # crowded: poles and fruits
+    World((-1.0, 1.5, -0.5, 0.7), ()),  # walls only, sides not a whole number of blocks
+]
+
+
+@pytest.mark.parametrize("world", WORLDS, ids=["room", "8m-20", "crowded", "empty"])
+def test_field_equals_the_plain_formulas_at_every_node(world):
+    h = 0.02 if len(world.obstacles) < 100 else 0.05
+    field = distance_field(world, h)
+    ref = reference_grid(world, h)
+    assert field.grid.shape == ref.shape
+    np.testing.assert_array_equal(field.grid, ref)  # bit for bit: the same formulas, the same minimum
+
+
+@pytest.mark.parametrize("world", WORLDS[:3], ids=["room", "8m-20", "crowded"])
+def test_every_block_holds_the_nearest_obstacle_of_its_points(world):
+    """The broad phase's candidates (plain-Python check): at random points of every block's region
+    the nearest obstacle by a full scan is a candidate of the block the point falls in."""
+    h = 0.02
+    field = distance_field(world, h)
+    rng = np.random.default_rng(7)
+    pts = rng.uniform(world.bounds[0], world.bounds[1], (20_000, 2))
+    i = np.floor((pts[:, 0] - field.x0) / h + 0.5).astype(int)
+    j = np.floor((pts[:, 1] - field.y0) / h + 0.5).astype(int)
+    nby = -(-field.grid.shape[1] // BLOCK)
+    block = (i // BLOCK) * nby + j // BLOCK
+    nearest = reference_nearest(world, pts)
+    for b, k in zip(block, nearest, strict=True):
+        assert k < 0 or k in field.members[field.starts[b] : field.starts[b + 1]]
+    # and the broad phase prunes: a block holds few of the obstacles
+    per_block = np.diff(field.starts)
+    assert per_block.mean() < 0.05 * len(world.obstacles) + 2
+
+
+@pytest.mark.parametrize("world", WORLDS[:3], ids=["room", "8m-20", "crowded"])
+def test_field_distance_equals_a_full_scan_inside_and_outside_the_grid(world):
+    field = distance_field(world, 0.02)
+    wa = world_arrays(world, True)
+    rng = np.random.default_rng(11)
+    lo, hi = world.bounds[0] - 0.3, world.bounds[1] + 0.3
+    pts = rng.uniform(lo, hi, (5000, 2))
+    ours = np.array([field_distance(x, y, wa, field.arrays()) for x, y in pts])
+    full = np.array([_world_distance(x, y, wa) for x, y in pts])
+    np.testing.assert_array_equal(ours, full)
+    np.testing.assert_array_equal(ours, world.signed_distance(pts))
+
+
+@pytest.mark.parametrize("shape", ["disc", "footprint"])
+def test_fast_checker_verdicts_on_a_crowded_world_equal_the_exact_ones(shape):
+    world = WORLDS[2]
+    exact = CollisionChecker(world, load_robot("turtlebot3"), shape=shape, clearance=0.02)
+    fast = FastChecker(exact)
+    rng = np.random.default_rng(5)
+    m = 1000 if shape == "disc" else 400  # the exact footprint test is slow in plain numpy
+    poses = np.column_stack([rng.uniform(-0.1, 5.1, (m, 2)), rng.uniform(-4, 4, m)])
+    assert np.array_equal(fast.poses_free(poses), exact.poses_free(poses))
+    undecided = poses[fast._classify(poses, False) < 0]
+    assert undecided.shape[0] > 20
+    assert np.array_equal(fast._exact(undecided), exact.poses_free(undecided))
+
+
+def test_a_passed_deadline_stops_the_build_and_the_planners_time_out_on_it():
+    world = random_world(3, 50, 6.0, 0.1)  # never built before in this process
+    with pytest.raises(FieldTimeout, match="collision grid"):
+        distance_field(world, 0.01, deadline=time.perf_counter())
+    problem = PlanProblem(
+        random_world(4, 2000, 20.0, 0.03), load_robot("turtlebot3"), Pose2D(0.3, 0.3, 0), Pose2D(19.5, 19.5, 0),
+        time_limit=1e-6,
+    )  # fmt: skip
+    for name in ("hybrid-a-star", "rrt", "birrt", "rrt-star"):
+        result = make_planner(name).plan(problem)
+        assert result.status is PlanStatus.TIMEOUT, name
+        assert "collision grid" in result.reason and "time limit" in result.reason
+        assert result.stats["grid_s"] == result.stats["time_s"] > 0
+
+
+def test_the_grid_is_reported_and_counted_in_the_planners_time():
+    world = random_world(5, 12, 5.0, 0.3)
+    problem = PlanProblem(world, load_robot("turtlebot3"), Pose2D(0.2, 0.2, 0.0), Pose2D(4.8, 4.8, 0.0))
+    for name in ("hybrid-a-star", "birrt"):
+        result = make_planner(name).plan(problem)
+        assert 0 <= result.stats["grid_s"] <= result.stats["time_s"], name
+
+
+def _crowded_property(world: World) -> None:
+    """On any crowded world: nodes as the plain formulas give them, verdicts as the exact checker's."""
+    field = distance_field(world, 0.1)
+    np.testing.assert_array_equal(field.grid, reference_grid(world, 0.1))
+    exact = CollisionChecker(world, load_robot("turtlebot3"))
+    fast = FastChecker(exact, spacing=0.1)
+    rng = np.random.default_rng(0)
+    b = world.bounds
+    poses = np.column_stack([rng.uniform(b[0], b[1], 100), rng.uniform(b[2], b[3], 100), rng.uniform(-4, 4, 100)])
+    assert np.array_equal(fast.poses_free(poses), exact.poses_free(poses))
+
+
+test_crowded_worlds_fuzz, test_crowded_worlds_fuzz_slow = fast_and_slow(crowded_worlds(), _crowded_property, fast=8)
