@@ -29,6 +29,7 @@
 #include <ompl/base/spaces/DubinsStateSpace.h>
 #include <ompl/base/spaces/ReedsSheppStateSpace.h>
 #include <ompl/geometric/SimpleSetup.h>
+#include <ompl/base/PlannerData.h>
 #include <ompl/base/goals/GoalSampleableRegion.h>
 #include <ompl/geometric/planners/informedtrees/ABITstar.h>
 #include <ompl/geometric/planners/informedtrees/AITstar.h>
@@ -478,7 +479,7 @@ ob::PlannerPtr make_planner(const std::string &name, const ob::SpaceInformationP
 struct Trial {
     bool solved;
     double time_s, first_s, length_m, last_check_s;
-    long states, motions;
+    long states, motions, nodes;
     std::vector<double> path;  // x, y, yaw of each state of the path found
 };
 
@@ -529,8 +530,10 @@ Trial solve_once(const Problem &pb, const Checker &chk, const ob::StateSpacePtr 
     else ss.solve(ob::timedPlannerTerminationCondition(limit));
     double dt = since(std::chrono::steady_clock::now());
     double nan = std::numeric_limits<double>::quiet_NaN();
-    Trial t{ss.haveExactSolutionPath(), dt, first, nan, opt.probe ? since(count.last) : nan, count.states,
-            count.motions, {}};
+    ob::PlannerData data(si);  // after the clock stopped
+    ss.getPlannerData(data);
+    Trial t{ss.haveExactSolutionPath(), dt,           first, nan, opt.probe ? since(count.last) : nan,
+            count.states,              count.motions, static_cast<long>(data.numVertices()), {}};
     if (t.solved) {
         const og::PathGeometric &path = ss.getSolutionPath();
         t.length_m = path.length();
@@ -565,9 +568,9 @@ ob::StateSpacePtr make_space(const Problem &pb) {
 
 void print_trial(const Trial &t, const char *sep) {
     std::printf("%s{\"solved\": %s, \"time_s\": %s, \"first_s\": %s, \"length_m\": %s, \"last_check_s\": %s, "
-                "\"states\": %ld, \"motions\": %ld}",
+                "\"states\": %ld, \"motions\": %ld, \"nodes\": %ld}",
                 sep, t.solved ? "true" : "false", num(t.time_s).c_str(), num(t.first_s < 0 ? NAN : t.first_s).c_str(),
-                num(t.length_m).c_str(), num(t.last_check_s).c_str(), t.states, t.motions);
+                num(t.length_m).c_str(), num(t.last_check_s).c_str(), t.states, t.motions, t.nodes);
 }
 
 int plan(const Problem &pb, const std::string &planner, double limit, int trials, unsigned seed) {
