@@ -116,10 +116,14 @@ def _verdict(rows: list[Any]) -> tuple[bool, list[str]]:
     return ttfs_miss or cap_miss or len_miss or bool(succ), lines
 
 
-def _stamp(seeds: int, budget: float, space: str, load: tuple[float, float]) -> str:
-    """Date, commit, cores and load of a run (for the Markdown output)."""
+def _commit() -> str:
+    """The checkout's commit (short hash; "unknown" outside a git checkout)."""
     git = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=False)
-    commit = git.stdout.strip() if git.returncode == 0 else "unknown"
+    return git.stdout.strip() if git.returncode == 0 else "unknown"
+
+
+def _stamp(seeds: int, budget: float, space: str, load: tuple[float, float], commit: str) -> str:
+    """Date, commit (at the start), cores and load of a run (for the Markdown output)."""
     now = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     return (
         f"Measured {now}, commit {commit}, {os.cpu_count()} cores, load average {load[0]:.1f} at the start and "
@@ -170,7 +174,7 @@ def run(args: argparse.Namespace) -> int:
         check_writable(Path(args.markdown), overwrite=args.overwrite)
     randoms = args.random_worlds if args.random_worlds is not None else (3 if names is None else 0)
     probs = problems(names, randoms)
-    load0 = os.getloadavg()[0]
+    load0, commit = os.getloadavg()[0], _commit()
     why = build.missing()
     harness = build.harness() if why is None else None
     wheel = not args.no_wheel and wheel_available()
@@ -194,7 +198,7 @@ def run(args: argparse.Namespace) -> int:
     for v in verdict:
         print(v)
     if args.markdown:
-        stamp = _stamp(seeds, budget, args.space, (load0, os.getloadavg()[0]))
+        stamp = _stamp(seeds, budget, args.space, (load0, os.getloadavg()[0]), commit)
         with atomic_path(args.markdown, overwrite=args.overwrite) as tmp:
             tmp.write_text(_markdown(rows, stamp, verdict, cpp), encoding="utf-8")
         print(f"wrote {args.markdown}")
