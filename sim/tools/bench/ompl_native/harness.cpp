@@ -24,7 +24,9 @@
 //                                            [range=M]", one JSON line each; `watchdog`: time ss.solve(LIMIT)
 //                                            (OMPL's watchdog thread) instead; `probe`: also report when the
 //                                            last validity check returned (a clock read per check); `range`:
-//                                            set the planner's range [m]
+//                                            set the planner's range [m]; `warm`: first an untimed solve
+//                                            (at most 50 ms), so the timed one does not start cold from
+//                                            the wait on stdin
 //   PLANNER: RRTConnect, or an asymptotically optimal one run for LIMIT seconds on path length: RRTstar,
 //            RRTstar+informed, RRTstar+rejection, InformedRRTstar, SORRTstar, BITstar, ABITstar, AITstar,
 //            RRTXstatic, RRTsharp
@@ -70,6 +72,7 @@ namespace og = ompl::geometric;
 namespace {
 
 const double kInf = std::numeric_limits<double>::infinity();
+const double kWarmUp = 0.05;  // longest untimed solve before a `warm` trial [s]
 
 struct Pt {
     double x, y;
@@ -502,7 +505,7 @@ struct Trial {
 };
 
 struct Options {
-    bool watchdog = false, probe = false;
+    bool watchdog = false, probe = false, warm = false;
     double range = 0.0;  // the planner's range [m] when > 0, else its default (0.2 x the space's extent)
 };
 
@@ -632,9 +635,11 @@ int serve(const Problem &pb, unsigned seed) {
         while (in >> flag) {
             if (flag == "watchdog") opt.watchdog = true;
             else if (flag == "probe") opt.probe = true;
+            else if (flag == "warm") opt.warm = true;
             else if (flag.rfind("range=", 0) == 0) opt.range = std::stod(flag.substr(6));
-            else throw std::runtime_error("unknown flag " + flag + ": watchdog, probe or range=METRES");
+            else throw std::runtime_error("unknown flag " + flag + ": watchdog, probe, warm or range=METRES");
         }
+        if (opt.warm) solve_once(pb, chk, space, planner, std::min(limit, kWarmUp), opt);  // untimed
         print_trial(solve_once(pb, chk, space, planner, limit, opt), "");
         std::printf("\n");
         std::fflush(stdout);

@@ -171,11 +171,13 @@ class Session:
             self._proc.wait()
             self._proc = None
 
-    def solve(self, planner: str, limit: float) -> dict[str, float]:
-        """One trial: {"solved": 0/1, "time_s", "first_s", "length_m"} (nan where there is none)."""
+    def solve(self, planner: str, limit: float, *flags: str) -> dict[str, float]:
+        """One trial: {"solved": 0/1, "time_s", "first_s", "length_m", "last_check_s", "states", "motions",
+        "nodes"} (nan where there is none). ``flags``: the harness's (``warm``: an untimed solve of at
+        most 50 ms first; ``probe``; ``watchdog``; ``range=M``)."""
         proc = self._proc
         assert proc is not None and proc.stdin is not None and proc.stdout is not None, "use Session as `with`"
-        proc.stdin.write(f"{planner} {limit!r}\n")
+        proc.stdin.write(" ".join([planner, repr(limit), *flags]) + "\n")
         proc.stdin.flush()
         line = proc.stdout.readline()
         if not line:
