@@ -289,3 +289,16 @@ def test_rrt_star_path_bias_samples_around_the_best_path():
     assert near(q) > 0.999
     assert np.all((q[:, :2] >= 0.0) & (q[:, :2] <= 6.0)) and np.all(np.abs(q[:, 2]) <= np.pi)
     assert near(search.rng.random((2000, 2)) * 6.0) < 0.9  # the same test fails for uniform samples
+
+
+def test_check_order_is_ompl_bisection_and_keeps_verdicts() -> None:
+    """Motions are checked new end first, then the other end, then the interior by bisection (OMPL's
+    order): a permutation of every pose, so the verdict, and with it every plan, is unchanged."""
+    from planning.planners.sampling.extend import check_order
+
+    assert check_order(8, False).tolist() == [7, 0, 3, 1, 5, 2, 4, 6]
+    assert check_order(8, True).tolist() == [0, 7, 3, 1, 5, 2, 4, 6]
+    assert check_order(1, False).tolist() == [0] and check_order(2, True).tolist() == [0, 1]
+    for n in range(1, 300):
+        for new_first in (False, True):
+            assert sorted(check_order(n, new_first).tolist()) == list(range(n))

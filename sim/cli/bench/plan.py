@@ -116,15 +116,22 @@ def _verdict(rows: list[Any]) -> tuple[bool, list[str]]:
     return ttfs_miss or cap_miss or len_miss or bool(succ), lines
 
 
-def _stamp(seeds: int, budget: float, space: str, load: tuple[float, float]) -> str:
-    """Date, commit, cores and load of a run (for the Markdown output)."""
+def _commit() -> str:
+    """The checkout's commit (short hash; "unknown" outside a git checkout)."""
     git = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=False)
-    commit = git.stdout.strip() if git.returncode == 0 else "unknown"
-    now = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
+    return git.stdout.strip() if git.returncode == 0 else "unknown"
+
+
+def _now() -> str:
+    return datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
+
+
+def _stamp(seeds: int, budget: float, space: str, load: tuple[float, float], commit: str, started: str) -> str:
+    """Dates, commit (at the start), cores and load of a run (for the Markdown output)."""
     return (
-        f"Measured {now}, commit {commit}, {os.cpu_count()} cores, load average {load[0]:.1f} at the start and "
-        f"{load[1]:.1f} at the end; {space}, {seeds} seeds per problem, RRT* budget {budget:g} s. Ratios are "
-        "measured within one command, ours and OMPL's trials interleaved seed by seed."
+        f"Measured {started} to {_now()}, commit {commit}, {os.cpu_count()} cores, load average {load[0]:.1f} "
+        f"at the start and {load[1]:.1f} at the end; {space}, {seeds} seeds per problem, RRT* budget {budget:g} s. "
+        "Ratios are measured within one command, ours and OMPL's trials interleaved seed by seed."
     )
 
 
@@ -170,7 +177,7 @@ def run(args: argparse.Namespace) -> int:
         check_writable(Path(args.markdown), overwrite=args.overwrite)
     randoms = args.random_worlds if args.random_worlds is not None else (3 if names is None else 0)
     probs = problems(names, randoms)
-    load0 = os.getloadavg()[0]
+    load0, commit, started = os.getloadavg()[0], _commit(), _now()
     why = build.missing()
     harness = build.harness() if why is None else None
     wheel = not args.no_wheel and wheel_available()
@@ -194,7 +201,7 @@ def run(args: argparse.Namespace) -> int:
     for v in verdict:
         print(v)
     if args.markdown:
-        stamp = _stamp(seeds, budget, args.space, (load0, os.getloadavg()[0]))
+        stamp = _stamp(seeds, budget, args.space, (load0, os.getloadavg()[0]), commit, started)
         with atomic_path(args.markdown, overwrite=args.overwrite) as tmp:
             tmp.write_text(_markdown(rows, stamp, verdict, cpp), encoding="utf-8")
         print(f"wrote {args.markdown}")

@@ -18,7 +18,11 @@ second column through a Python validity callback (slower per check; it flatters 
 ``hybrid-a-star``, when registered, adds its time and length.
 
 Times are wall-clock, per trial, interleaved ours / OMPL per seed (OMPL's in one warm harness
-process per problem, after an untimed warm-up solve): ours around ``Planner.plan`` (its setup
+process per problem). Each timed first path is preceded, on its side, by an untimed solve of at
+most 50 ms (ours on another seed): interleaving makes each side wait for the other, and a trial
+started straight from that wait runs with cold caches, which costs a Python interpreter more than
+the harness (birrt's median on simple_motion 0.58 ms straight from the wait, 0.18 ms otherwise).
+Ours around ``Planner.plan`` (its setup
 included, the world's distance grid built once before timing), OMPL's around
 ``SimpleSetup::solve(timedPlannerTerminationCondition(limit))`` (its setup included; no watchdog
 thread, as OMPL's C++ users run it). Lengths: a failed trial counts as infinitely long, so a median
@@ -31,6 +35,7 @@ RRTConnect's and the anchor's.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import tempfile
 import time
 from collections.abc import Mapping
@@ -72,6 +77,9 @@ OPTIMAL = (
     "RRTXstatic",
     "RRTsharp",
 )
+#: Longest untimed solve before each timed first-path trial, on each side [s], and the seed offset of ours.
+WARM_UP = 0.05
+WARM_SEED = 1_000_000
 #: Name of the planner whose time and length are reported when it is registered.
 HYBRID = "hybrid-a-star"
 
@@ -183,14 +191,18 @@ class _Ours:
             return make_planner(name, steering=self.space, **opts, **raw)
 
         self.birrt = make("birrt", max_iterations=10**7, time_limit=self.ttfs_limit)
+        self.warm_birrt = make("birrt", max_iterations=10**7, time_limit=WARM_UP)
         # as OMPL runs RRT*: the whole budget (no anytime early stop)
         whole = {"improvement_tol": 0.0} if "improvement_tol" in planner_options("rrt-star") else {}
         self.rstar = make("rrt-star", max_iterations=10**8, time_limit=self.budget, **whole)
 
     def first_path(self, problem: PlanProblem) -> tuple[float, float]:
-        """(wall time [s], 1.0 if solved else 0.0) of one birrt run."""
+        """(wall time [s], 1.0 if solved else 0.0) of one birrt run, after an untimed one of at most
+        :data:`WARM_UP` on another seed (so the timed run does not start cold from the wait on OMPL's
+        harness, as OMPL's does not start cold from its wait on ours)."""
         from planning.planners.base import PlanStatus
 
+        self.warm_birrt.plan(dataclasses.replace(problem, seed=problem.seed + WARM_SEED))
         t0 = time.perf_counter()
         r = self.birrt.plan(problem)
         return time.perf_counter() - t0, float(r.status is PlanStatus.SUCCESS)
@@ -263,7 +275,7 @@ def measure(
             rows["t"].append(t)
             rows["ok"].append(ok)
             if cpp is not None:
-                rc = cpp.solve("RRTConnect", ttfs_limit)
+                rc = cpp.solve("RRTConnect", ttfs_limit, "warm")
                 rows["t_c"].append(rc["time_s"])
                 rows["ok_c"].append(rc["solved"])
         for p in seeded:  # after the first paths: a 1 s run would leave both sides' caches cold

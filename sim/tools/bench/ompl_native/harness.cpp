@@ -6,7 +6,8 @@
 // CollisionChecker (same formulas, same operation order) for the poses the grid leaves undecided.
 // Motions are checked along the exact Reeds-Shepp / Dubins curve every `step` metres of curve (the
 // state space's validSegmentCount is overridden: OMPL 1.5 counts segments per component), by a motion
-// validator that solves each curve once, as OMPL's own does, and checks it in OMPL's bisection order.
+// validator that solves each curve once, as OMPL's own does, checks the poses nhsim checks (every
+// segment's end included) in OMPL's bisection order.
 // The goal is nhsim's goal region (position within its tolerance and heading within its tolerance),
 // sampled at the goal pose itself, as nhsim's planners root their goal trees there.
 // Solves are timed as OMPL's users run them: ss.solve(timedPlannerTerminationCondition(limit)), no
@@ -14,14 +15,18 @@
 //
 // Usage:
 //   harness check PROBLEM POSES OUT          verdicts (uint8, 1 = free) of the (M, 3) float64 poses
+//   harness motions PROBLEM PAIRS OUT        verdicts of the motions between (M, 6) float64 pose pairs
 //   harness plan PROBLEM PLANNER LIMIT TRIALS SEED
 //                                            PLANNER: RRTConnect (stops at its first path) or RRTstar
 //                                            (runs LIMIT seconds); prints one JSON object: the trials
 //                                            and the states of the last path found
-//   harness serve PROBLEM SEED               one trial per stdin line "PLANNER LIMIT [watchdog] [probe]", one
-//                                            JSON line each; `watchdog`: time ss.solve(LIMIT) (OMPL's
-//                                            watchdog thread) instead; `probe`: also report when the last
-//                                            validity check returned (a clock read per check)
+//   harness serve PROBLEM SEED               one trial per stdin line "PLANNER LIMIT [watchdog] [probe]
+//                                            [range=M]", one JSON line each; `watchdog`: time ss.solve(LIMIT)
+//                                            (OMPL's watchdog thread) instead; `probe`: also report when the
+//                                            last validity check returned (a clock read per check); `range`:
+//                                            set the planner's range [m]; `warm`: first an untimed solve
+//                                            (at most 50 ms), so the timed one does not start cold from
+//                                            the wait on stdin
 //   PLANNER: RRTConnect, or an asymptotically optimal one run for LIMIT seconds on path length: RRTstar,
 //            RRTstar+informed, RRTstar+rejection, InformedRRTstar, SORRTstar, BITstar, ABITstar, AITstar,
 //            RRTXstatic, RRTsharp
@@ -29,6 +34,7 @@
 #include <ompl/base/spaces/DubinsStateSpace.h>
 #include <ompl/base/spaces/ReedsSheppStateSpace.h>
 #include <ompl/geometric/SimpleSetup.h>
+#include <ompl/base/PlannerData.h>
 #include <ompl/base/goals/GoalSampleableRegion.h>
 #include <ompl/geometric/planners/informedtrees/ABITstar.h>
 #include <ompl/geometric/planners/informedtrees/AITstar.h>
@@ -66,6 +72,7 @@ namespace og = ompl::geometric;
 namespace {
 
 const double kInf = std::numeric_limits<double>::infinity();
+const double kWarmUp = 0.05;  // longest untimed solve before a `warm` trial [s]
 
 struct Pt {
     double x, y;
@@ -343,8 +350,12 @@ struct Counters {
     std::chrono::steady_clock::time_point last;
 };
 
-// OMPL's ReedsShepp/DubinsMotionValidator::checkMotion (end state first, then the interior in
-// bisection order), with the curve solved once for both its length and its states.
+// OMPL's ReedsShepp/DubinsMotionValidator::checkMotion (the end state first, then the interior in
+// bisection order) on the poses nhsim checks (planning/curves/words.py _sample_word): each segment of
+// the curve cut into ceil(length / step) equal pieces, so every segment's end (a cusp where the car
+// reverses) is checked. OMPL's own validator spaces its states evenly over the whole curve and steps
+// over the cusps, where a car parking in a slot touches the kerb: its paths there graze obstacles
+// nhsim's checks refuse. The curve is solved once for its segments and its states.
 template <class Space, class CurvePath>
 class DenseMotionValidator : public ob::MotionValidator {
 public:
@@ -358,16 +369,26 @@ public:
             return false;
         }
         CurvePath path = solve(s1, s2);
-        int nd = static_cast<int>(space_->segments(space_->rho() * path.length()));
+        std::vector<double> &t = fractions_;  // of the curve's length, the interior poses nhsim checks
+        t.clear();
+        double total = path.length(), done = 0.0;
+        for (double seg : path.length_) {
+            double len = std::fabs(seg);
+            if (len == 0.0) continue;
+            int n = static_cast<int>(space_->segments(len * space_->rho()));
+            for (int j = 1; j <= n; ++j) t.push_back((done + len * j / n) / total);
+            done += len;
+        }
+        if (!t.empty()) t.pop_back();  // the end state, checked first
         bool result = true, first = false;  // the path is solved: interpolate reuses it
-        if (nd >= 2) {
+        if (!t.empty()) {
             std::queue<std::pair<int, int>> pos;
-            pos.emplace(1, nd - 1);
+            pos.emplace(0, static_cast<int>(t.size()) - 1);
             ob::State *test = si_->allocState();
             while (!pos.empty()) {
                 std::pair<int, int> x = pos.front();
                 int mid = (x.first + x.second) / 2;
-                space_->interpolate(s1, s2, static_cast<double>(mid) / nd, first, path, test);
+                space_->interpolate(s1, s2, t[mid], first, path, test);
                 if (!si_->isValid(test)) {
                     result = false;
                     break;
@@ -391,6 +412,7 @@ private:
     CurvePath solve(const ob::State *s1, const ob::State *s2) const;
     const Space *space_;
     Counters &count_;
+    mutable std::vector<double> fractions_;
 };
 
 template <>
@@ -478,12 +500,13 @@ ob::PlannerPtr make_planner(const std::string &name, const ob::SpaceInformationP
 struct Trial {
     bool solved;
     double time_s, first_s, length_m, last_check_s;
-    long states, motions;
+    long states, motions, nodes;
     std::vector<double> path;  // x, y, yaw of each state of the path found
 };
 
 struct Options {
-    bool watchdog = false, probe = false;
+    bool watchdog = false, probe = false, warm = false;
+    double range = 0.0;  // the planner's range [m] when > 0, else its default (0.2 x the space's extent)
 };
 
 Trial solve_once(const Problem &pb, const Checker &chk, const ob::StateSpacePtr &space, const std::string &planner,
@@ -514,7 +537,9 @@ Trial solve_once(const Problem &pb, const Checker &chk, const ob::StateSpacePtr 
     auto since = [&t0](std::chrono::steady_clock::time_point t) {
         return std::chrono::duration<double>(t - t0).count();
     };
-    ss.setPlanner(make_planner(planner, si));
+    ob::PlannerPtr p = make_planner(planner, si);
+    if (opt.range > 0) p->params().setParam("range", std::to_string(opt.range));
+    ss.setPlanner(p);
     if (planner != "RRTConnect") {
         auto obj = std::make_shared<ob::PathLengthOptimizationObjective>(si);
         obj->setCostThreshold(ob::Cost(0.0));  // never satisfied: the planner spends its whole budget
@@ -529,8 +554,10 @@ Trial solve_once(const Problem &pb, const Checker &chk, const ob::StateSpacePtr 
     else ss.solve(ob::timedPlannerTerminationCondition(limit));
     double dt = since(std::chrono::steady_clock::now());
     double nan = std::numeric_limits<double>::quiet_NaN();
-    Trial t{ss.haveExactSolutionPath(), dt, first, nan, opt.probe ? since(count.last) : nan, count.states,
-            count.motions, {}};
+    ob::PlannerData data(si);  // after the clock stopped
+    ss.getPlannerData(data);
+    Trial t{ss.haveExactSolutionPath(), dt,           first, nan, opt.probe ? since(count.last) : nan,
+            count.states,              count.motions, static_cast<long>(data.numVertices()), {}};
     if (t.solved) {
         const og::PathGeometric &path = ss.getSolutionPath();
         t.length_m = path.length();
@@ -565,9 +592,9 @@ ob::StateSpacePtr make_space(const Problem &pb) {
 
 void print_trial(const Trial &t, const char *sep) {
     std::printf("%s{\"solved\": %s, \"time_s\": %s, \"first_s\": %s, \"length_m\": %s, \"last_check_s\": %s, "
-                "\"states\": %ld, \"motions\": %ld}",
+                "\"states\": %ld, \"motions\": %ld, \"nodes\": %ld}",
                 sep, t.solved ? "true" : "false", num(t.time_s).c_str(), num(t.first_s < 0 ? NAN : t.first_s).c_str(),
-                num(t.length_m).c_str(), num(t.last_check_s).c_str(), t.states, t.motions);
+                num(t.length_m).c_str(), num(t.last_check_s).c_str(), t.states, t.motions, t.nodes);
 }
 
 int plan(const Problem &pb, const std::string &planner, double limit, int trials, unsigned seed) {
@@ -608,12 +635,49 @@ int serve(const Problem &pb, unsigned seed) {
         while (in >> flag) {
             if (flag == "watchdog") opt.watchdog = true;
             else if (flag == "probe") opt.probe = true;
-            else throw std::runtime_error("unknown flag " + flag + ": watchdog or probe");
+            else if (flag == "warm") opt.warm = true;
+            else if (flag.rfind("range=", 0) == 0) opt.range = std::stod(flag.substr(6));
+            else throw std::runtime_error("unknown flag " + flag + ": watchdog, probe, warm or range=METRES");
         }
+        if (opt.warm) solve_once(pb, chk, space, planner, std::min(limit, kWarmUp), opt);  // untimed
         print_trial(solve_once(pb, chk, space, planner, limit, opt), "");
         std::printf("\n");
         std::fflush(stdout);
     }
+    return 0;
+}
+
+// Verdicts (uint8, 1 = free) of the motions between the (M, 6) float64 pose pairs [x0 y0 th0 x1 y1 th1],
+// by the harness's motion validator (the start pose is not checked, as in OMPL).
+int motions(const Problem &pb, const std::string &pairs_path, const std::string &out_path) {
+    std::ifstream in(pairs_path, std::ios::binary | std::ios::ate);
+    if (!in) throw std::runtime_error("cannot read pose pairs file " + pairs_path);
+    std::vector<double> q(static_cast<size_t>(in.tellg()) / sizeof(double));
+    in.seekg(0);
+    in.read(reinterpret_cast<char *>(q.data()), static_cast<std::streamsize>(q.size() * sizeof(double)));
+    Checker chk(pb);
+    ob::StateSpacePtr space = make_space(pb);
+    og::SimpleSetup ss(space);
+    Counters count;
+    ss.setStateValidityChecker([&chk](const ob::State *s) {
+        const auto *p = s->as<ob::SE2StateSpace::StateType>();
+        return chk.free(p->getX(), p->getY(), p->getYaw());
+    });
+    ob::SpaceInformationPtr si = ss.getSpaceInformation();
+    ob::MotionValidatorPtr mv;
+    if (pb.space == "dubins") mv = std::make_shared<DenseMotionValidator<DenseDubins, ob::DubinsStateSpace::DubinsPath>>(si, count);
+    else mv = std::make_shared<DenseMotionValidator<DenseRS, ob::ReedsSheppStateSpace::ReedsSheppPath>>(si, count);
+    si->setMotionValidator(mv);
+    si->setup();
+    ob::ScopedState<> a(space), b(space);
+    std::vector<std::uint8_t> out(q.size() / 6);
+    for (size_t k = 0; k < out.size(); ++k) {
+        set_pose(a.get(), &q[6 * k]);
+        set_pose(b.get(), &q[6 * k + 3]);
+        out[k] = mv->checkMotion(a.get(), b.get());
+    }
+    std::ofstream(out_path, std::ios::binary).write(reinterpret_cast<const char *>(out.data()),
+                                                   static_cast<std::streamsize>(out.size()));
     return 0;
 }
 
@@ -638,13 +702,14 @@ int main(int argc, char **argv) {
     try {
         std::string mode = argc > 1 ? argv[1] : "";
         if (mode == "check" && argc == 5) return check(read_problem(argv[2]), argv[3], argv[4]);
+        if (mode == "motions" && argc == 5) return motions(read_problem(argv[2]), argv[3], argv[4]);
         if (mode == "serve" && argc == 4)
             return serve(read_problem(argv[2]), static_cast<unsigned>(std::stoul(argv[3])));
         if (mode == "plan" && argc == 7)
             return plan(read_problem(argv[2]), argv[3], std::stod(argv[4]), std::stoi(argv[5]),
                         static_cast<unsigned>(std::stoul(argv[6])));
         std::fprintf(stderr,
-                     "usage: harness check PROBLEM POSES OUT | harness plan PROBLEM PLANNER LIMIT TRIALS SEED | "
+                     "usage: harness check PROBLEM POSES OUT | harness motions PROBLEM PAIRS OUT | harness plan PROBLEM PLANNER LIMIT TRIALS SEED | "
                      "harness serve PROBLEM SEED\n");
         return 2;
     } catch (const std::exception &exc) {

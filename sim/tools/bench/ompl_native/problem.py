@@ -102,6 +102,16 @@ def check_poses(harness: Path, problem_file: Path, poses: ArrayLike) -> NDArray[
     return np.fromfile(out, dtype=np.uint8).astype(bool)
 
 
+def check_motions(harness: Path, problem_file: Path, pairs: ArrayLike) -> NDArray[np.bool_]:
+    """(M,) the harness's motion validator's verdicts (True = free) on the curves between (M, 6) pose
+    pairs [x0, y0, theta0, x1, y1, theta1] (the first pose of each is not checked, as in OMPL)."""
+    p = np.ascontiguousarray(np.asarray(pairs, dtype=np.float64).reshape(-1, 6))
+    src, out = problem_file.with_name("pairs.f64"), problem_file.with_name("motions.u8")
+    p.tofile(src)
+    _call([str(harness), "motions", str(problem_file), str(src), str(out)])
+    return np.fromfile(out, dtype=np.uint8).astype(bool)
+
+
 @dataclass(frozen=True)
 class Trials:
     """One OMPL planner's trials on one problem.
@@ -161,11 +171,13 @@ class Session:
             self._proc.wait()
             self._proc = None
 
-    def solve(self, planner: str, limit: float) -> dict[str, float]:
-        """One trial: {"solved": 0/1, "time_s", "first_s", "length_m"} (nan where there is none)."""
+    def solve(self, planner: str, limit: float, *flags: str) -> dict[str, float]:
+        """One trial: {"solved": 0/1, "time_s", "first_s", "length_m", "last_check_s", "states", "motions",
+        "nodes"} (nan where there is none). ``flags``: the harness's (``warm``: an untimed solve of at
+        most 50 ms first; ``probe``; ``watchdog``; ``range=M``)."""
         proc = self._proc
         assert proc is not None and proc.stdin is not None and proc.stdout is not None, "use Session as `with`"
-        proc.stdin.write(f"{planner} {limit!r}\n")
+        proc.stdin.write(" ".join([planner, repr(limit), *flags]) + "\n")
         proc.stdin.flush()
         line = proc.stdout.readline()
         if not line:
