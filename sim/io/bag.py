@@ -1,0 +1,171 @@
+"""A job as a ROS 2 bag: a rosbag2 folder with MCAP storage (zstd-compressed chunks) and its
+``metadata.yaml``, written with ``rosbags`` (no ROS needed), readable by ``ros2 bag``, Foxglove and
+PlotJuggler.
+
+The topics and frames are those of :mod:`sim.io.bag_topics`; every message is stamped in simulated
+time, and the bag's own clock (the log time of each message) equals its header stamp. The bag is
+written into a temporary folder beside the target and moved into place when complete: an interrupted
+write leaves nothing under the target's name, and an existing bag is replaced only when asked.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from planning.errors import ConfigError, OutputExistsError
+from sim.io import bag_topics as bt
+from sim.io import rosmsgs as m
+
+#: Writer settings: rosbag2 metadata version, storage and compression.
+BAG_VERSION = 8
+
+
+@dataclass(frozen=True)
+class BagSummary:
+    """What was written.
+
+    Attributes:
+        path: The bag folder.
+        topics: Topic -> (message type, message count).
+        size_bytes: Bytes of the folder's files.
+        duration_s: Span of the message stamps [s].
+    """
+
+    path: Path
+    topics: dict[str, tuple[str, int]]
+    size_bytes: int
+    duration_s: float
+
+    def as_dict(self) -> dict[str, Any]:
+        """The record's ``bag`` section."""
+        return {
+            "path": str(self.path),
+            "size_bytes": self.size_bytes,
+            "duration_s": self.duration_s,
+            "topics": {k: {"type": t, "messages": n} for k, (t, n) in self.topics.items()},
+        }
+
+
+def check_bag_target(path: Path, *, overwrite: bool) -> None:
+    """Check, before any work, that a bag can be written at ``path`` (a folder to be created).
+
+    Raises:
+        OutputExistsError: ``path`` exists and ``overwrite`` is false.
+        ConfigError: ``path`` is a file, or a folder that is not a rosbag2 bag (it is never replaced), or
+            its parent folder cannot take new files.
+    """
+    from sim.outputs import check_writable
+
+    path = Path(path)
+    if path.exists() or path.is_symlink():
+        if not path.is_dir():
+            raise ConfigError(f"cannot write the bag {path}: a file of that name exists; choose another --bag folder")
+        if not overwrite:
+            raise OutputExistsError(f"{path} exists already; pass --overwrite to replace it, or choose another --bag")
+        if any(path.iterdir()) and not (path / "metadata.yaml").is_file():
+            raise ConfigError(
+                f"cannot replace {path}: it is a folder that holds files but no rosbag2 metadata.yaml, so not a bag "
+                "this command wrote; choose another --bag folder"
+            )
+    check_writable(path.parent / f".{path.name}.probe", overwrite=True)
+
+
+def latched_qos() -> Any:
+    """Transient-local, reliable, keep-last-1: a late subscriber (RViz, Foxglove) gets the message."""
+    from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+
+    forever = QosTime(sec=2147483647, nsec=4294967295)
+    return Qos(
+        QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE, QosDurability.TRANSIENT_LOCAL, forever, forever,
+        QosLiveliness.AUTOMATIC, forever, False,
+    )  # fmt: skip
+
+
+def _distinct(poses: np.ndarray) -> np.ndarray:
+    """The poses without the repeats of a trajectory standing still (the path of a reference)."""
+    keep = np.concatenate([[True], np.any(np.abs(np.diff(poses, axis=0)) > 1e-9, axis=1)])
+    return poses[keep]
+
+
+def job_topics(result: Any) -> list[bt.Topic]:
+    """Every topic of a job (see :mod:`sim.io.bag_topics`), the per-run ones under each run's name.
+
+    Args:
+        result: A :class:`sim.pipeline.simulate.JobResult`.
+    """
+    sk = bt.skeleton(result.robot.name)
+    profile = result.sensing.profile
+    std = (float(profile.fix_position_std), float(profile.fix_heading_std))
+    topics: list[bt.Topic] = []
+    for kind, log in result.logs.items():
+        topics += bt.run_topics(str(kind), log, result.robot, sk, std)
+    times = np.unique(np.concatenate([log.t for log in result.logs.values()]))
+    clock = m.msg(m.TYPES["clock"])
+    topics.append(bt.Topic("/clock", m.TYPES["clock"], [(float(t), clock(clock=m.stamp(float(t)))) for t in times]))
+    traj, world = result.trajectory, result.scenario.world
+    path = result.prepared.path if result.prepared.path is not None else _distinct(traj.pose)
+    once = [
+        ("/tf_static", "tf", bt.static_transforms([str(k) for k in result.logs], sk)),
+        ("/plan", "path", m.path(0.0, "map", np.asarray(path, dtype=float))),
+        ("/reference", "path", m.path(0.0, "map", traj.pose, traj.t)),
+        ("/map", "grid", bt.map_message(world)),
+        ("/obstacles", "markers", bt.obstacle_markers(world)),
+    ]
+    topics += [bt.Topic(name, m.TYPES[kind], [(0.0, message)], latched=True) for name, kind, message in once]
+    return topics
+
+
+def _write(topics: list[bt.Topic], folder: Path) -> None:
+    """Write the topics into a new rosbag2 folder, messages in time order (ties: topic order)."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
+
+    writer = Writer(folder, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
+    writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+    order = sorted((round(t * 1e9), i, j) for i, topic in enumerate(topics) for j, (t, _) in enumerate(topic.messages))
+    with writer:
+        conns = [
+            writer.add_connection(
+                tp.name, tp.msgtype, typestore=m.typestore(), offered_qos_profiles=[latched_qos()] if tp.latched else []
+            )
+            for tp in topics
+        ]
+        for ns, i, j in order:
+            writer.write(conns[i], ns, m.serialize(topics[i].messages[j][1]))
+
+
+def write_bag(result: Any, path: Path, *, overwrite: bool = False) -> BagSummary:
+    """Write a job as a rosbag2 folder at ``path`` (atomically: built beside it, then moved into place).
+
+    Args:
+        result: A :class:`sim.pipeline.simulate.JobResult`.
+        path: The bag folder to create.
+        overwrite: Replace an existing bag there.
+
+    Raises:
+        OutputExistsError, ConfigError: See :func:`check_bag_target`.
+    """
+    path = Path(path)
+    check_bag_target(path, overwrite=overwrite)
+    topics = job_topics(result)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    work = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent))
+    try:
+        _write(topics, work / path.name)
+        if path.exists():
+            check_bag_target(path, overwrite=overwrite)
+            os.replace(path, work / "replaced")
+        os.replace(work / path.name, path)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    stamps = [t for tp in topics for t, _ in tp.messages]
+    size = sum(f.stat().st_size for f in path.iterdir() if f.is_file())
+    counts = {tp.name: (tp.msgtype, len(tp.messages)) for tp in topics}
+    return BagSummary(path, counts, size, max(stamps) - min(stamps))

@@ -1,0 +1,351 @@
+"""What a job's ROS 2 bag holds: its topics, each a list of (time, message), built from the run logs.
+
+Frames (REP 105), one tree per run under the run's name (``closed_loop/odom``, ...) beside the shared
+``map``::
+
+    map -> RUN/odom -> RUN/base_footprint -> RUN/base_link -> RUN/wheel_left_link, RUN/wheel_right_link
+                                                          \\-> RUN/imu_link, RUN/base_scan (static)
+
+``RUN/odom -> RUN/base_footprint`` is what the run's estimator believed (the fused estimate, dead
+reckoning, or the truth for a run fed the true pose); ``map -> RUN/odom`` carries the estimate's
+error, so ``base_footprint`` sits at the true pose in ``map``. ``base_footprint -> base_link`` is the
+body's height, pitch and roll from the physics (a balancing robot leans); the wheels turn by their
+joint angles.
+
+Per run (namespace ``/RUN``): ``tf``, ``odom`` (the estimate with its covariance), ``ground_truth/odom``,
+``joint_states``, ``imu`` (from the true motion: orientation, yaw rate, planar acceleration plus
+gravity; noise-free), ``cmd_vel``, ``fix`` (the localisation fixes, when the run's sensors give them)
+and ``scan`` (when the run log carries one). Once per job: ``/clock``, ``/tf_static``, ``/plan``,
+``/reference``, ``/map`` and ``/obstacles``, the last four and ``/tf_static`` latched.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import cache
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from planning.core.world import Box, Circle, Ellipse, Polygon, World
+from sim.io import rosmsgs as m
+
+FloatArray = NDArray[np.float64]
+
+#: Edge of a map cell [m] (coarser for large worlds: at most MAP_MAX_CELLS cells).
+MAP_RESOLUTION = 0.02
+MAP_MAX_CELLS = 1_000_000
+#: Height of the obstacle markers [m].
+OBSTACLE_HEIGHT = 0.25
+GRAVITY = 9.80665
+WHEELS = ("wheel_left", "wheel_right")
+
+
+@dataclass
+class Topic:
+    """One topic of the bag.
+
+    Attributes:
+        name: Topic name (absolute).
+        msgtype: Full message type, e.g. ``nav_msgs/msg/Odometry``.
+        messages: (time [s], message) in time order.
+        latched: Offered with transient-local durability (a late subscriber gets the last message).
+    """
+
+    name: str
+    msgtype: str
+    messages: list[tuple[float, Any]] = field(default_factory=list)
+    latched: bool = False
+
+
+@dataclass(frozen=True)
+class Skeleton:
+    """The robot's joints and fixed frames from its MJCF file.
+
+    Attributes:
+        root: qpos address of the free joint (position then w, x, y, z quaternion).
+        wheels: qpos addresses of the left and right wheel joints.
+        wheel_pos: (2, 3) wheel axle centres in the base body [m].
+        scan_pos: (3,) the lidar in the base body [m], or None.
+    """
+
+    root: int
+    wheels: tuple[int, int]
+    wheel_pos: FloatArray
+    scan_pos: FloatArray | None
+
+
+@cache
+def skeleton(robot: str) -> Skeleton:
+    """The joints and fixed frames of a robot's model (loaded once per robot)."""
+    import mujoco
+
+    from planning.core.robot import robot_path
+
+    model = mujoco.MjModel.from_xml_path(str(robot_path(robot)))
+    adr = model.jnt_qposadr
+    wheels = tuple(int(adr[model.joint(f"{w}_joint").id]) for w in WHEELS)
+    wheel_pos = np.array([model.body(w).pos for w in WHEELS], dtype=float)
+    names = {model.body(i).name for i in range(model.nbody)}
+    scan = np.array(model.body("base_scan").pos, dtype=float) if "base_scan" in names else None
+    return Skeleton(int(adr[model.joint("root").id]), (wheels[0], wheels[1]), wheel_pos, scan)
+
+
+def ros_quat(wxyz: FloatArray) -> tuple[float, float, float, float]:
+    """MuJoCo's (w, x, y, z) as ROS's (x, y, z, w)."""
+    return (float(wxyz[1]), float(wxyz[2]), float(wxyz[3]), float(wxyz[0]))
+
+
+def _quat_mul(a: FloatArray, b: FloatArray) -> FloatArray:
+    """Hamilton product of (w, x, y, z) quaternions, rowwise over (N, 4)."""
+    w1, x1, y1, z1 = a.T
+    w2, x2, y2, z2 = b.T
+    return np.column_stack([
+        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+    ])  # fmt: skip
+
+
+def compose(a: FloatArray, b: FloatArray) -> FloatArray:
+    """Planar poses a ∘ b (N, 3): b expressed in a's frame, brought into a's parent."""
+    c, s = np.cos(a[:, 2]), np.sin(a[:, 2])
+    return np.column_stack(
+        [a[:, 0] + c * b[:, 0] - s * b[:, 1], a[:, 1] + s * b[:, 0] + c * b[:, 1], a[:, 2] + b[:, 2]]
+    )
+
+
+def inverse(a: FloatArray) -> FloatArray:
+    """Planar poses a⁻¹ (N, 3)."""
+    c, s = np.cos(a[:, 2]), np.sin(a[:, 2])
+    return np.column_stack([-c * a[:, 0] - s * a[:, 1], s * a[:, 0] - c * a[:, 1], -a[:, 2]])
+
+
+def body_velocity(t: FloatArray, pose: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """(v, omega) (N,) each: speed along the heading [m/s] and yaw rate [rad/s] of a pose series."""
+    if t.size < 2:
+        return np.zeros(t.size), np.zeros(t.size)
+    dx, dy, dth = (np.gradient(pose[:, k], t) for k in range(3))
+    return np.cos(pose[:, 2]) * dx + np.sin(pose[:, 2]) * dy, dth
+
+
+def estimate_at(log: Any, t: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """What the run's estimator believed at times ``t``: (poses (N, 3), variances (N, 3)); the true
+    pose with zero variance for a run fed the truth."""
+    est = log.estimation
+    if est is None or est.t.size == 0:
+        return log.pose.copy(), np.zeros((t.size, 3))
+    e = est.estimate.copy()
+    e[:, 2] = np.unwrap(e[:, 2])
+    pose = np.column_stack([np.interp(t, est.t, e[:, k]) for k in range(3)])
+    var = np.column_stack([np.interp(t, est.t, est.variance[:, k]) for k in range(3)])
+    return pose, var
+
+
+def run_frames(ns: str) -> dict[str, str]:
+    """The run's frame names (REP 105, prefixed by the run)."""
+    names = ("odom", "base_footprint", "base_link", "wheel_left_link", "wheel_right_link", "imu_link", "base_scan")
+    return {n: f"{ns}/{n}" for n in names}
+
+
+def _tf_series(log: Any, sk: Skeleton, frames: dict[str, str]) -> list[tuple[float, Any]]:
+    """``RUN/tf``: per logged sample map -> odom -> base_footprint -> base_link -> wheels."""
+    t, truth = log.t, log.pose
+    est, _ = estimate_at(log, t)
+    map_odom = compose(truth, inverse(est))
+    q = log.qpos[:, sk.root + 3 : sk.root + 7]
+    yaw_inv = np.column_stack([np.cos(0.5 * truth[:, 2]), np.zeros((t.size, 2)), -np.sin(0.5 * truth[:, 2])])
+    tilt = _quat_mul(yaw_inv, q)  # the body's pitch and roll, in the footprint frame
+    rel = log.qpos[:, sk.root : sk.root + 2] - truth[:, :2]
+    c, s = np.cos(truth[:, 2]), np.sin(truth[:, 2])
+    lift = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1], log.qpos[:, sk.root + 2]])
+    angles = log.qpos[:, list(sk.wheels)]
+    out = []
+    for k in range(t.size):
+        tk = float(t[k])
+        tfs = [
+            m.transform(tk, "map", frames["odom"], (map_odom[k, 0], map_odom[k, 1], 0.0), m.yaw_quat(map_odom[k, 2])),
+            m.transform(
+                tk, frames["odom"], frames["base_footprint"], (est[k, 0], est[k, 1], 0.0), m.yaw_quat(est[k, 2])
+            ),
+            m.transform(tk, frames["base_footprint"], frames["base_link"], lift[k], ros_quat(tilt[k])),
+        ]
+        for j, wheel in enumerate(("wheel_left_link", "wheel_right_link")):
+            a = 0.5 * float(angles[k, j])
+            tfs.append(
+                m.transform(
+                    tk, frames["base_link"], frames[wheel], sk.wheel_pos[j], (0.0, math.sin(a), 0.0, math.cos(a))
+                )
+            )
+        out.append((tk, m.tf_message(tfs)))
+    return out
+
+
+def _odom_series(
+    log: Any, frames: dict[str, str], wheel: Callable[[FloatArray], tuple[FloatArray, FloatArray]]
+) -> list[tuple[float, Any]]:
+    """``RUN/odom``: the estimate (at the control instants, or the logged samples without an
+    estimator) with its variances; the twist from the wheel speeds."""
+    est = log.estimation
+    t = est.t if est is not None and est.t.size else log.t
+    pose, var = estimate_at(log, t)
+    v, omega = wheel(t)
+    fr, ch = frames["odom"], frames["base_footprint"]
+    return [(float(t[k]), m.odometry(float(t[k]), fr, ch, pose[k], var[k], v[k], omega[k])) for k in range(t.size)]
+
+
+def _truth_series(log: Any, frames: dict[str, str]) -> list[tuple[float, Any]]:
+    """``RUN/ground_truth/odom``: the true pose and body velocity in ``map``."""
+    v, omega = body_velocity(log.t, log.pose)
+    zero = np.zeros(3)
+    ch = frames["base_footprint"]
+    return [
+        (float(tk), m.odometry(float(tk), "map", ch, log.pose[k], zero, v[k], omega[k])) for k, tk in enumerate(log.t)
+    ]
+
+
+def _imu_series(log: Any, sk: Skeleton, frames: dict[str, str]) -> list[tuple[float, Any]]:
+    """``RUN/imu``: the body's orientation, its yaw rate and planar acceleration plus gravity (true motion)."""
+    v, omega = body_velocity(log.t, log.pose)
+    dv = np.gradient(v, log.t) if log.t.size > 1 else np.zeros(log.t.size)
+    q = log.qpos[:, sk.root + 3 : sk.root + 7]
+    fr = frames["imu_link"]
+    return [
+        (float(tk), m.imu(float(tk), fr, ros_quat(q[k]), (0.0, 0.0, omega[k]), (dv[k], v[k] * omega[k], GRAVITY)))
+        for k, tk in enumerate(log.t)
+    ]
+
+
+def _fix_series(log: Any, std: tuple[float, float]) -> list[tuple[float, Any]]:
+    """``RUN/fix``: the localisation fixes at their measurement times, with the profile's variances."""
+    est = log.estimation
+    if est is None or est.fix_t.size == 0:
+        return []
+    var = np.array([std[0] ** 2, std[0] ** 2, std[1] ** 2])
+    return [(float(tk), m.pose_fix(float(tk), "map", est.fix[k], var)) for k, tk in enumerate(est.fix_t)]
+
+
+def scan_of(log: Any) -> Any:
+    """The run log's lidar sweeps, or None: an object with ``t`` (K,) [s], ``ranges`` (K, B) [m] and the
+    sweep geometry (``angle_min``, ``angle_max``, ``angle_increment``, ``range_min``, ``range_max``)."""
+    return getattr(log, "scan", None)
+
+
+def _scan_series(log: Any, frames: dict[str, str]) -> list[tuple[float, Any]]:
+    scan = scan_of(log)
+    if scan is None:
+        return []
+    fr = frames["base_scan"]
+    return [(float(tk), m.laser_scan(float(tk), fr, scan, scan.ranges[k])) for k, tk in enumerate(scan.t)]
+
+
+def run_topics(ns: str, log: Any, robot: Any, sk: Skeleton, fix_std: tuple[float, float]) -> list[Topic]:
+    """The topics of one run under ``/ns``.
+
+    Args:
+        ns: The run's name (its namespace and frame prefix).
+        log: Its :class:`sim.physics.runlog.RunLog`.
+        robot: The robot spec (wheel radius and track for the odometry twist).
+        sk: The robot's skeleton.
+        fix_std: Standard deviations of the localisation fixes (position [m], heading [rad]).
+    """
+    frames = run_frames(ns)
+    r, b = robot.wheel_radius, robot.track_width
+
+    def wheel(t: FloatArray) -> tuple[FloatArray, FloatArray]:
+        wl, wr = (np.interp(t, log.t, log.wheel_speed[:, j]) for j in range(2))
+        return 0.5 * r * (wl + wr), r * (wr - wl) / b
+
+    names = ["wheel_left_joint", "wheel_right_joint"]
+    angles, speeds = log.qpos[:, list(sk.wheels)], log.wheel_speed
+    joints = [(float(tk), m.joint_state(float(tk), names, angles[k], speeds[k])) for k, tk in enumerate(log.t)]
+    cmd = [(float(tk), m.twist_stamped(float(tk), frames["base_link"], *log.command[k])) for k, tk in enumerate(log.t)]
+    topics = [
+        Topic(f"/{ns}/tf", m.TYPES["tf"], _tf_series(log, sk, frames)),
+        Topic(f"/{ns}/odom", m.TYPES["odometry"], _odom_series(log, frames, wheel)),
+        Topic(f"/{ns}/ground_truth/odom", m.TYPES["odometry"], _truth_series(log, frames)),
+        Topic(f"/{ns}/joint_states", m.TYPES["joints"], joints),
+        Topic(f"/{ns}/imu", m.TYPES["imu"], _imu_series(log, sk, frames)),
+        Topic(f"/{ns}/cmd_vel", m.TYPES["twist"], cmd),
+        Topic(f"/{ns}/fix", m.TYPES["fix"], _fix_series(log, fix_std)),
+        Topic(f"/{ns}/scan", m.TYPES["scan"], _scan_series(log, frames)),
+    ]
+    return [tp for tp in topics if tp.messages]
+
+
+def static_transforms(namespaces: list[str], sk: Skeleton) -> Any:
+    """``/tf_static``: each run's IMU at its base, and its lidar where the model has one."""
+    tfs = []
+    for ns in namespaces:
+        fr = run_frames(ns)
+        tfs.append(m.transform(0.0, fr["base_link"], fr["imu_link"], np.zeros(3), (0.0, 0.0, 0.0, 1.0)))
+        if sk.scan_pos is not None:
+            tfs.append(m.transform(0.0, fr["base_link"], fr["base_scan"], sk.scan_pos, (0.0, 0.0, 0.0, 1.0)))
+    return m.tf_message(tfs)
+
+
+def occupancy(world: World, resolution: float = MAP_RESOLUTION) -> tuple[float, FloatArray]:
+    """The world's obstacles as occupancy (100 inside one, 0 free), rows along y from ``(xmin, ymin)``.
+
+    Returns:
+        (resolution [m], coarsened for large worlds, (H, W) int8 grid).
+    """
+    xmin, xmax, ymin, ymax = world.bounds
+    area = (xmax - xmin) * (ymax - ymin)
+    res = max(resolution, math.ceil(math.sqrt(area / MAP_MAX_CELLS) * 1000.0) / 1000.0)
+    w, h = max(1, math.ceil((xmax - xmin) / res)), max(1, math.ceil((ymax - ymin) / res))
+    xs, ys = xmin + (np.arange(w) + 0.5) * res, ymin + (np.arange(h) + 0.5) * res
+    gx, gy = np.meshgrid(xs, ys)
+    inside = world.obstacle_distance(np.column_stack([gx.ravel(), gy.ravel()])) <= 0.0
+    return res, np.where(inside, 100, 0).astype(np.int8).reshape(h, w)
+
+
+def map_message(world: World) -> Any:
+    """``/map``: the occupancy grid of the world (see :func:`occupancy`)."""
+    res, grid = occupancy(world)
+    info = m.msg("nav_msgs/msg/MapMetaData")(
+        map_load_time=m.stamp(0.0), resolution=res, width=grid.shape[1], height=grid.shape[0],
+        origin=m.pose(world.bounds[0], world.bounds[2], 0.0, (0.0, 0.0, 0.0, 1.0)),
+    )  # fmt: skip
+    return m.msg(m.TYPES["grid"])(header=m.header(0.0, "map"), info=info, data=grid.ravel())
+
+
+def _marker(k: int, kind: int, p: Any, scale: tuple[float, float, float], points: list[Any]) -> Any:
+    marker = m.msg("visualization_msgs/msg/Marker")
+    return marker(
+        header=m.header(0.0, "map"), ns="obstacles", id=k, type=kind, action=0, pose=p, scale=m.vector(*scale),
+        color=m.msg("std_msgs/msg/ColorRGBA")(r=0.55, g=0.45, b=0.35, a=0.9),
+        lifetime=m.msg("builtin_interfaces/msg/Duration")(sec=0, nanosec=0), frame_locked=False, points=points,
+        colors=[], texture_resource="", texture=m.msg("sensor_msgs/msg/CompressedImage")(
+            header=m.header(0.0, ""), format="", data=np.zeros(0, dtype=np.uint8)),
+        uv_coordinates=[], text="", mesh_resource="",
+        mesh_file=m.msg("visualization_msgs/msg/MeshFile")(filename="", data=np.zeros(0, dtype=np.uint8)),
+        mesh_use_embedded_materials=False,
+    )  # fmt: skip
+
+
+def obstacle_markers(world: World) -> Any:
+    """``/obstacles``: each obstacle as a solid of :data:`OBSTACLE_HEIGHT` (a polygon as its outline),
+    and the world's walls as a line."""
+    hz, markers = 0.5 * OBSTACLE_HEIGHT, []
+    for k, obs in enumerate(world.obstacles):
+        if isinstance(obs, Polygon):
+            pts = [m.point(x, y, OBSTACLE_HEIGHT) for x, y in [*obs.vertices, obs.vertices[0]]]
+            markers.append(_marker(k, 4, m.pose(0, 0, 0, (0, 0, 0, 1)), (0.02, 0, 0), pts))
+            continue
+        if isinstance(obs, Circle):
+            size, angle, kind = (2 * obs.radius, 2 * obs.radius), 0.0, 3
+        elif isinstance(obs, Ellipse):
+            size, angle, kind = (2 * obs.radii[0], 2 * obs.radii[1]), obs.angle, 3
+        elif isinstance(obs, Box):
+            size, angle, kind = (obs.size[0], obs.size[1]), obs.angle, 1
+        else:
+            continue
+        p = m.pose(obs.center[0], obs.center[1], hz, m.yaw_quat(angle))
+        markers.append(_marker(k, kind, p, (size[0], size[1], OBSTACLE_HEIGHT), []))
+    xmin, xmax, ymin, ymax = world.bounds
+    walls = [m.point(x, y) for x, y in ((xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax), (xmin, ymin))]
+    markers.append(_marker(len(world.obstacles), 4, m.pose(0, 0, 0, (0, 0, 0, 1)), (0.02, 0, 0), walls))
+    return m.msg(m.TYPES["markers"])(markers=markers)
