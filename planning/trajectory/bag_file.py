@@ -107,8 +107,9 @@ def _yaw(q: Any) -> float:
     return float(np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))
 
 
-def _seconds(stamp: Any) -> float:
-    return float(stamp.sec) + 1e-9 * float(stamp.nanosec)
+def _nanoseconds(stamp: Any) -> int:
+    """A stamp as whole nanoseconds (exact: a wall-clock stamp in float seconds keeps only ~0.2 us)."""
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
 
 
 def _pose_of(msg: Any, msgtype: str) -> Any:
@@ -116,14 +117,14 @@ def _pose_of(msg: Any, msgtype: str) -> Any:
     return msg.pose.pose if msgtype != "geometry_msgs/msg/PoseStamped" else msg.pose
 
 
-def _columns(poses: list[Any], stamps: list[float]) -> dict[str, Any]:
+def _columns(poses: list[Any], stamps: list[int]) -> dict[str, Any]:
     cols = {
         "x": np.array([p.position.x for p in poses], dtype=float),
         "y": np.array([p.position.y for p in poses], dtype=float),
         "theta": np.array([_yaw(p.orientation) for p in poses], dtype=float),
     }
     if len(set(stamps)) > 1:
-        cols["t"] = np.asarray(stamps, dtype=float) - stamps[0]
+        cols["t"] = np.array([s - stamps[0] for s in stamps], dtype=float) * 1e-9
     return cols
 
 
@@ -170,12 +171,12 @@ def read_bag_table(path: Path, topic: str | None, message: int | None = None, *,
         if not path_msg.poses:
             raise TrajectoryFileError(f"{path}: message {k} of {topic} is an empty path; choose another with --message")
         rows = tuple(f"{topic} message {k} poses[{i}]" for i in range(len(path_msg.poses)))
-        cols = _columns([p.pose for p in path_msg.poses], [_seconds(p.header.stamp) for p in path_msg.poses])
+        cols = _columns([p.pose for p in path_msg.poses], [_nanoseconds(p.header.stamp) for p in path_msg.poses])
     else:
         if message is not None:
             raise TrajectoryFileError(f"--message picks one nav_msgs/Path; {topic} carries {_name(msgtype)}: drop it")
         rows = tuple(f"{topic} message {i}" for i in range(len(msgs)))
-        cols = _columns([_pose_of(mm, msgtype) for mm in msgs], [_seconds(mm.header.stamp) for mm in msgs])
+        cols = _columns([_pose_of(mm, msgtype) for mm in msgs], [_nanoseconds(mm.header.stamp) for mm in msgs])
         if msgtype == "nav_msgs/msg/Odometry":
             cols["v"] = np.array([mm.twist.twist.linear.x for mm in msgs], dtype=float)
             cols["omega"] = np.array([mm.twist.twist.angular.z for mm in msgs], dtype=float)
