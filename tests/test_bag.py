@@ -17,7 +17,7 @@ import yaml
 from planning.errors import ConfigError, OutputExistsError
 from planning.trajectory.importer import TrajectoryFile
 from sim.io import bag as bagmod
-from sim.io.bag import write_bag
+from sim.io.bag import write_job_bag
 from sim.pipeline.runs import RunKind
 
 RUNS = (RunKind.CLOSED_LOOP, RunKind.CLOSED_LOOP_ODOMETRY, RunKind.OPEN_LOOP)
@@ -40,7 +40,7 @@ def job(tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Path]:
 
     folder = tmp_path_factory.mktemp("bag")
     result = simulate_file(TrajectoryFile(path_file(folder), timed=False), robot="turtlebot3", runs=RUNS)
-    return result, write_bag(result, folder / "job").path
+    return result, write_job_bag(result, folder / "job").path
 
 
 def _yaw(q: Any) -> float:
@@ -185,7 +185,7 @@ def test_a_scan_in_the_run_log_is_published_with_its_frame(job: tuple[Any, Path]
     fake = scan(np.linspace(0.0, 0.6, k), ranges, 0.0, 2 * math.pi * 359 / 360, 2 * math.pi / 360, 0.12, 3.5)
     object.__setattr__(log, "scan", fake)
     job2 = dataclasses.replace(result, runs={RunKind.CLOSED_LOOP: dataclasses.replace(run, log=log)})
-    path = write_bag(job2, tmp_path / "scan").path
+    path = write_job_bag(job2, tmp_path / "scan").path
     with AnyReader([path]) as reader:
         conns = [c for c in reader.connections if c.topic == "/closed_loop/scan"]
         assert [c.msgtype for c in conns] == ["sensor_msgs/msg/LaserScan"]
@@ -206,16 +206,16 @@ def test_an_existing_bag_is_kept_without_overwrite_and_replaced_with_it(job: tup
     target.mkdir()
     (target / "metadata.yaml").write_text("old")
     with pytest.raises(OutputExistsError, match="--overwrite"):
-        write_bag(result, target)
+        write_job_bag(result, target)
     assert (target / "metadata.yaml").read_text() == "old"
-    write_bag(result, target, overwrite=True)
+    write_job_bag(result, target, overwrite=True)
     assert "rosbag2_bagfile_information" in (target / "metadata.yaml").read_text()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["b"]  # no temporary folder left
     other = tmp_path / "notes"
     other.mkdir()
     (other / "keep.txt").write_text("mine")
     with pytest.raises(ConfigError, match="not a bag"):
-        write_bag(result, other, overwrite=True)
+        write_job_bag(result, other, overwrite=True)
     assert (other / "keep.txt").read_text() == "mine"
 
 
@@ -234,5 +234,5 @@ def test_an_interrupted_write_leaves_nothing(
 
     monkeypatch.setattr(bagmod.m, "serialize", failing)
     with pytest.raises(KeyboardInterrupt):
-        write_bag(result, tmp_path / "cut")
+        write_job_bag(result, tmp_path / "cut")
     assert list(tmp_path.iterdir()) == []

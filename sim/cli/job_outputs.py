@@ -379,9 +379,9 @@ def _write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dic
             save_figure(figs[name], path, overwrite=plan.overwrite)
             files[f"plot_{name}"] = str(path)
     if plan.bag is not None:
-        from sim.io.bag import write_bag
+        from sim.io.bag import write_job_bag
 
-        record["bag"] = write_bag(result, plan.bag, overwrite=plan.overwrite).as_dict()
+        record["bag"] = write_job_bag(result, plan.bag, overwrite=plan.overwrite).as_dict()
         files["bag"] = str(plan.bag)
     files["json"] = str(plan.json)
     record["files"] = dict(files)

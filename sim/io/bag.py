@@ -11,8 +11,10 @@ write leaves nothing under the target's name, and an existing bag is replaced on
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import tempfile
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -94,25 +96,33 @@ def _distinct(poses: np.ndarray) -> np.ndarray:
     return poses[keep]
 
 
-def job_topics(result: Any) -> list[bt.Topic]:
+def ros_name(label: str) -> str:
+    """A run's label as a ROS name (letters, digits and underscores, not starting with a digit)."""
+    name = re.sub(r"[^A-Za-z0-9_]", "_", label)
+    return name if name[:1].isalpha() else f"run_{name}"
+
+
+def job_topics(prepared: Any, logs: Mapping[str, Any]) -> list[bt.Topic]:
     """Every topic of a job (see :mod:`sim.io.bag_topics`), the per-run ones under each run's name.
 
     Args:
-        result: A :class:`sim.pipeline.simulate.JobResult`.
+        prepared: The job's :class:`sim.pipeline.case.PreparedTrajectory` (robot, world, trajectory, plan).
+        logs: Run label (a run kind, a tracker) -> its :class:`sim.physics.runlog.RunLog`.
     """
-    sk = bt.skeleton(result.robot.name)
-    profile = result.sensing.profile
+    sk = bt.skeleton(prepared.robot.name)
+    profile = prepared.case.sensing(prepared.scenario).profile
     std = (float(profile.fix_position_std), float(profile.fix_heading_std))
+    names = [ros_name(str(label)) for label in logs]
     topics: list[bt.Topic] = []
-    for kind, log in result.logs.items():
-        topics += bt.run_topics(str(kind), log, result.robot, sk, std)
-    times = np.unique(np.concatenate([log.t for log in result.logs.values()]))
+    for ns, log in zip(names, logs.values(), strict=True):
+        topics += bt.run_topics(ns, log, prepared.robot, sk, std)
+    times = np.unique(np.concatenate([log.t for log in logs.values()]))
     clock = m.msg(m.TYPES["clock"])
     topics.append(bt.Topic("/clock", m.TYPES["clock"], [(float(t), clock(clock=m.stamp(float(t)))) for t in times]))
-    traj, world = result.trajectory, result.scenario.world
-    path = result.prepared.path if result.prepared.path is not None else _distinct(traj.pose)
+    traj, world = prepared.trajectory, prepared.scenario.world
+    path = prepared.path if prepared.path is not None else _distinct(traj.pose)
     once = [
-        ("/tf_static", "tf", bt.static_transforms([str(k) for k in result.logs], sk)),
+        ("/tf_static", "tf", bt.static_transforms(names, sk)),
         ("/plan", "path", m.path(0.0, "map", np.asarray(path, dtype=float))),
         ("/reference", "path", m.path(0.0, "map", traj.pose, traj.t)),
         ("/map", "grid", bt.map_message(world)),
@@ -141,11 +151,17 @@ def _write(topics: list[bt.Topic], folder: Path) -> None:
             writer.write(conns[i], ns, m.serialize(topics[i].messages[j][1]))
 
 
-def write_bag(result: Any, path: Path, *, overwrite: bool = False) -> BagSummary:
-    """Write a job as a rosbag2 folder at ``path`` (atomically: built beside it, then moved into place).
+def write_job_bag(result: Any, path: Path, *, overwrite: bool = False) -> BagSummary:
+    """Write a :class:`sim.pipeline.simulate.JobResult`'s runs as a bag (see :func:`write_bag`)."""
+    return write_bag(result.prepared, result.logs, path, overwrite=overwrite)
+
+
+def write_bag(prepared: Any, logs: Mapping[str, Any], path: Path, *, overwrite: bool = False) -> BagSummary:
+    """Write a job's runs as a rosbag2 folder at ``path`` (atomically: built beside it, then moved into place).
 
     Args:
-        result: A :class:`sim.pipeline.simulate.JobResult`.
+        prepared: The job's :class:`sim.pipeline.case.PreparedTrajectory`.
+        logs: Run label -> run log (each run's namespace and frame prefix, see :func:`ros_name`).
         path: The bag folder to create.
         overwrite: Replace an existing bag there.
 
@@ -154,7 +170,7 @@ def write_bag(result: Any, path: Path, *, overwrite: bool = False) -> BagSummary
     """
     path = Path(path)
     check_bag_target(path, overwrite=overwrite)
-    topics = job_topics(result)
+    topics = job_topics(prepared, logs)
     path.parent.mkdir(parents=True, exist_ok=True)
     work = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent))
     try:
