@@ -14,6 +14,7 @@ import os
 import re
 import shutil
 import tempfile
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,12 +39,14 @@ class BagSummary:
         topics: Topic -> (message type, message count).
         size_bytes: Bytes of the folder's files.
         duration_s: Span of the message stamps [s].
+        write_s: Wall time the writing took [s].
     """
 
     path: Path
     topics: dict[str, tuple[str, int]]
     size_bytes: int
     duration_s: float
+    write_s: float = 0.0
 
     def as_dict(self) -> dict[str, Any]:
         """The record's ``bag`` section."""
@@ -51,6 +54,7 @@ class BagSummary:
             "path": str(self.path),
             "size_bytes": self.size_bytes,
             "duration_s": self.duration_s,
+            "write_s": self.write_s,
             "topics": {k: {"type": t, "messages": n} for k, (t, n) in self.topics.items()},
         }
 
@@ -118,7 +122,7 @@ def job_topics(prepared: Any, logs: Mapping[str, Any]) -> list[bt.Topic]:
         topics += bt.run_topics(ns, log, prepared.robot, sk, std)
     times = np.unique(np.concatenate([log.t for log in logs.values()]))
     clock = m.msg(m.TYPES["clock"])
-    topics.append(bt.Topic("/clock", m.TYPES["clock"], [(float(t), clock(clock=m.stamp(float(t)))) for t in times]))
+    topics.append(bt.Topic("/clock", m.TYPES["clock"], times, lambda k: clock(clock=m.stamp(float(times[k])))))
     traj, world = prepared.trajectory, prepared.scenario.world
     path = prepared.path if prepared.path is not None else _distinct(traj.pose)
     once = [
@@ -128,7 +132,8 @@ def job_topics(prepared: Any, logs: Mapping[str, Any]) -> list[bt.Topic]:
         ("/map", "grid", bt.map_message(world)),
         ("/obstacles", "markers", bt.obstacle_markers(world)),
     ]
-    topics += [bt.Topic(name, m.TYPES[kind], [(0.0, message)], latched=True) for name, kind, message in once]
+    for name, kind, message in once:
+        topics.append(bt.Topic(name, m.TYPES[kind], np.zeros(1), lambda k, msg=message: msg, latched=True))
     return topics
 
 
@@ -139,7 +144,10 @@ def _write(topics: list[bt.Topic], folder: Path) -> None:
 
     writer = Writer(folder, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
     writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
-    order = sorted((round(t * 1e9), i, j) for i, topic in enumerate(topics) for j, (t, _) in enumerate(topic.messages))
+    stamps = np.concatenate([np.round(tp.times * 1e9).astype(np.int64) for tp in topics])
+    which = np.concatenate([np.full(tp.times.size, i) for i, tp in enumerate(topics)])
+    index = np.concatenate([np.arange(tp.times.size) for tp in topics])
+    order = np.lexsort((index, which, stamps))  # by time, then topic, then message
     with writer:
         conns = [
             writer.add_connection(
@@ -147,8 +155,9 @@ def _write(topics: list[bt.Topic], folder: Path) -> None:
             )
             for tp in topics
         ]
-        for ns, i, j in order:
-            writer.write(conns[i], ns, m.serialize(topics[i].messages[j][1]))
+        for n in order.tolist():
+            i = int(which[n])
+            writer.write(conns[i], int(stamps[n]), m.serialize(topics[i].make(int(index[n]))))
 
 
 def write_job_bag(result: Any, path: Path, *, overwrite: bool = False) -> BagSummary:
@@ -168,6 +177,7 @@ def write_bag(prepared: Any, logs: Mapping[str, Any], path: Path, *, overwrite: 
     Raises:
         OutputExistsError, ConfigError: See :func:`check_bag_target`.
     """
+    start = time.perf_counter()
     path = Path(path)
     check_bag_target(path, overwrite=overwrite)
     topics = job_topics(prepared, logs)
@@ -181,7 +191,7 @@ def write_bag(prepared: Any, logs: Mapping[str, Any], path: Path, *, overwrite: 
         os.replace(work / path.name, path)
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    stamps = [t for tp in topics for t, _ in tp.messages]
+    stamps = np.concatenate([tp.times for tp in topics])
     size = sum(f.stat().st_size for f in path.iterdir() if f.is_file())
-    counts = {tp.name: (tp.msgtype, len(tp.messages)) for tp in topics}
-    return BagSummary(path, counts, size, max(stamps) - min(stamps))
+    counts = {tp.name: (tp.msgtype, int(tp.times.size)) for tp in topics}
+    return BagSummary(path, counts, size, float(stamps.max() - stamps.min()), time.perf_counter() - start)

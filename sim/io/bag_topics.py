@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cache
 from typing import Any
 
@@ -48,16 +48,21 @@ WHEELS = ("wheel_left", "wheel_right")
 class Topic:
     """One topic of the bag.
 
+    Messages are made one at a time as they are written (a job's bag holds tens of thousands), so
+    that none is kept.
+
     Attributes:
         name: Topic name (absolute).
         msgtype: Full message type, e.g. ``nav_msgs/msg/Odometry``.
-        messages: (time [s], message) in time order.
+        times: (K,) the messages' times [s], non-decreasing.
+        make: Message k of the topic, stamped ``times[k]``.
         latched: Offered with transient-local durability (a late subscriber gets the last message).
     """
 
     name: str
     msgtype: str
-    messages: list[tuple[float, Any]] = field(default_factory=list)
+    times: FloatArray
+    make: Callable[[int], Any]
     latched: bool = False
 
 
@@ -150,7 +155,10 @@ def run_frames(ns: str) -> dict[str, str]:
     return {n: f"{ns}/{n}" for n in names}
 
 
-def _tf_series(log: Any, sk: Skeleton, frames: dict[str, str]) -> list[tuple[float, Any]]:
+Series = tuple[FloatArray, Callable[[int], Any]]
+
+
+def _tf_series(log: Any, sk: Skeleton, frames: dict[str, str]) -> Series:
     """``RUN/tf``: per logged sample map -> odom -> base_footprint -> base_link -> wheels."""
     t, truth = log.t, log.pose
     est, _ = estimate_at(log, t)
@@ -161,31 +169,30 @@ def _tf_series(log: Any, sk: Skeleton, frames: dict[str, str]) -> list[tuple[flo
     rel = log.qpos[:, sk.root : sk.root + 2] - truth[:, :2]
     c, s = np.cos(truth[:, 2]), np.sin(truth[:, 2])
     lift = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1], log.qpos[:, sk.root + 2]])
-    angles = log.qpos[:, list(sk.wheels)]
-    out = []
-    for k in range(t.size):
+    half = 0.5 * log.qpos[:, list(sk.wheels)]
+    fr = frames
+
+    def make(k: int) -> Any:
         tk = float(t[k])
+        mo, e = map_odom[k], est[k]
         tfs = [
-            m.transform(tk, "map", frames["odom"], (map_odom[k, 0], map_odom[k, 1], 0.0), m.yaw_quat(map_odom[k, 2])),
-            m.transform(
-                tk, frames["odom"], frames["base_footprint"], (est[k, 0], est[k, 1], 0.0), m.yaw_quat(est[k, 2])
-            ),
-            m.transform(tk, frames["base_footprint"], frames["base_link"], lift[k], ros_quat(tilt[k])),
+            m.transform(tk, "map", fr["odom"], (mo[0], mo[1], 0.0), m.yaw_quat(mo[2])),
+            m.transform(tk, fr["odom"], fr["base_footprint"], (e[0], e[1], 0.0), m.yaw_quat(e[2])),
+            m.transform(tk, fr["base_footprint"], fr["base_link"], lift[k], ros_quat(tilt[k])),
         ]
         for j, wheel in enumerate(("wheel_left_link", "wheel_right_link")):
-            a = 0.5 * float(angles[k, j])
+            a = float(half[k, j])
             tfs.append(
-                m.transform(
-                    tk, frames["base_link"], frames[wheel], sk.wheel_pos[j], (0.0, math.sin(a), 0.0, math.cos(a))
-                )
+                m.transform(tk, fr["base_link"], fr[wheel], sk.wheel_pos[j], (0.0, math.sin(a), 0.0, math.cos(a)))
             )
-        out.append((tk, m.tf_message(tfs)))
-    return out
+        return m.tf_message(tfs)
+
+    return t, make
 
 
 def _odom_series(
     log: Any, frames: dict[str, str], wheel: Callable[[FloatArray], tuple[FloatArray, FloatArray]]
-) -> list[tuple[float, Any]]:
+) -> Series:
     """``RUN/odom``: the estimate (at the control instants, or the logged samples without an
     estimator) with its variances; the twist from the wheel speeds."""
     est = log.estimation
@@ -193,38 +200,32 @@ def _odom_series(
     pose, var = estimate_at(log, t)
     v, omega = wheel(t)
     fr, ch = frames["odom"], frames["base_footprint"]
-    return [(float(t[k]), m.odometry(float(t[k]), fr, ch, pose[k], var[k], v[k], omega[k])) for k in range(t.size)]
+    return t, lambda k: m.odometry(float(t[k]), fr, ch, pose[k], var[k], v[k], omega[k])
 
 
-def _truth_series(log: Any, frames: dict[str, str]) -> list[tuple[float, Any]]:
+def _truth_series(log: Any, frames: dict[str, str]) -> Series:
     """``RUN/ground_truth/odom``: the true pose and body velocity in ``map``."""
     v, omega = body_velocity(log.t, log.pose)
-    zero = np.zeros(3)
-    ch = frames["base_footprint"]
-    return [
-        (float(tk), m.odometry(float(tk), "map", ch, log.pose[k], zero, v[k], omega[k])) for k, tk in enumerate(log.t)
-    ]
+    zero, ch, t = np.zeros(3), frames["base_footprint"], log.t
+    return t, lambda k: m.odometry(float(t[k]), "map", ch, log.pose[k], zero, v[k], omega[k])
 
 
-def _imu_series(log: Any, sk: Skeleton, frames: dict[str, str]) -> list[tuple[float, Any]]:
+def _imu_series(log: Any, sk: Skeleton, frames: dict[str, str]) -> Series:
     """``RUN/imu``: the body's orientation, its yaw rate and planar acceleration plus gravity (true motion)."""
     v, omega = body_velocity(log.t, log.pose)
     dv = np.gradient(v, log.t) if log.t.size > 1 else np.zeros(log.t.size)
     q = log.qpos[:, sk.root + 3 : sk.root + 7]
-    fr = frames["imu_link"]
-    return [
-        (float(tk), m.imu(float(tk), fr, ros_quat(q[k]), (0.0, 0.0, omega[k]), (dv[k], v[k] * omega[k], GRAVITY)))
-        for k, tk in enumerate(log.t)
-    ]
+    fr, t = frames["imu_link"], log.t
+    return t, lambda k: m.imu(float(t[k]), fr, ros_quat(q[k]), (0.0, 0.0, omega[k]), (dv[k], v[k] * omega[k], GRAVITY))
 
 
-def _fix_series(log: Any, std: tuple[float, float]) -> list[tuple[float, Any]]:
+def _fix_series(log: Any, std: tuple[float, float]) -> Series:
     """``RUN/fix``: the localisation fixes at their measurement times, with the profile's variances."""
     est = log.estimation
     if est is None or est.fix_t.size == 0:
-        return []
+        return np.zeros(0), lambda k: None
     var = np.array([std[0] ** 2, std[0] ** 2, std[1] ** 2])
-    return [(float(tk), m.pose_fix(float(tk), "map", est.fix[k], var)) for k, tk in enumerate(est.fix_t)]
+    return est.fix_t, lambda k: m.pose_fix(float(est.fix_t[k]), "map", est.fix[k], var)
 
 
 def scan_of(log: Any) -> Any:
@@ -233,12 +234,12 @@ def scan_of(log: Any) -> Any:
     return getattr(log, "scan", None)
 
 
-def _scan_series(log: Any, frames: dict[str, str]) -> list[tuple[float, Any]]:
+def _scan_series(log: Any, frames: dict[str, str]) -> Series:
     scan = scan_of(log)
     if scan is None:
-        return []
+        return np.zeros(0), lambda k: None
     fr = frames["base_scan"]
-    return [(float(tk), m.laser_scan(float(tk), fr, scan, scan.ranges[k])) for k, tk in enumerate(scan.t)]
+    return np.asarray(scan.t, dtype=float), lambda k: m.laser_scan(float(scan.t[k]), fr, scan, scan.ranges[k])
 
 
 def run_topics(ns: str, log: Any, robot: Any, sk: Skeleton, fix_std: tuple[float, float]) -> list[Topic]:
@@ -259,20 +260,24 @@ def run_topics(ns: str, log: Any, robot: Any, sk: Skeleton, fix_std: tuple[float
         return 0.5 * r * (wl + wr), r * (wr - wl) / b
 
     names = ["wheel_left_joint", "wheel_right_joint"]
-    angles, speeds = log.qpos[:, list(sk.wheels)], log.wheel_speed
-    joints = [(float(tk), m.joint_state(float(tk), names, angles[k], speeds[k])) for k, tk in enumerate(log.t)]
-    cmd = [(float(tk), m.twist_stamped(float(tk), frames["base_link"], *log.command[k])) for k, tk in enumerate(log.t)]
-    topics = [
-        Topic(f"/{ns}/tf", m.TYPES["tf"], _tf_series(log, sk, frames)),
-        Topic(f"/{ns}/odom", m.TYPES["odometry"], _odom_series(log, frames, wheel)),
-        Topic(f"/{ns}/ground_truth/odom", m.TYPES["odometry"], _truth_series(log, frames)),
-        Topic(f"/{ns}/joint_states", m.TYPES["joints"], joints),
-        Topic(f"/{ns}/imu", m.TYPES["imu"], _imu_series(log, sk, frames)),
-        Topic(f"/{ns}/cmd_vel", m.TYPES["twist"], cmd),
-        Topic(f"/{ns}/fix", m.TYPES["fix"], _fix_series(log, fix_std)),
-        Topic(f"/{ns}/scan", m.TYPES["scan"], _scan_series(log, frames)),
+    t, angles, speeds, cmd, base = (
+        log.t,
+        log.qpos[:, list(sk.wheels)],
+        log.wheel_speed,
+        log.command,
+        frames["base_link"],
+    )
+    series: list[tuple[str, str, Series]] = [
+        ("tf", "tf", _tf_series(log, sk, frames)),
+        ("odom", "odometry", _odom_series(log, frames, wheel)),
+        ("ground_truth/odom", "odometry", _truth_series(log, frames)),
+        ("joint_states", "joints", (t, lambda k: m.joint_state(float(t[k]), names, angles[k], speeds[k]))),
+        ("imu", "imu", _imu_series(log, sk, frames)),
+        ("cmd_vel", "twist", (t, lambda k: m.twist_stamped(float(t[k]), base, cmd[k, 0], cmd[k, 1]))),
+        ("fix", "fix", _fix_series(log, fix_std)),
+        ("scan", "scan", _scan_series(log, frames)),
     ]
-    return [tp for tp in topics if tp.messages]
+    return [Topic(f"/{ns}/{name}", m.TYPES[kind], times, make) for name, kind, (times, make) in series if times.size]
 
 
 def static_transforms(namespaces: list[str], sk: Skeleton) -> Any:
