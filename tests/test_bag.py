@@ -21,7 +21,7 @@ from sim.io.bag import write_job_bag
 from sim.pipeline.runs import RunKind
 
 RUNS = (RunKind.CLOSED_LOOP, RunKind.CLOSED_LOOP_ODOMETRY, RunKind.OPEN_LOOP)
-PER_SAMPLE = ("tf", "ground_truth/odom", "joint_states", "imu", "cmd_vel")
+PER_SAMPLE = ("tf", "ground_truth/odom", "joint_states", "imu", "cmd_vel", "tracking_error")
 ONCE = ("/tf_static", "/plan", "/reference", "/map", "/obstacles")
 
 
@@ -59,6 +59,7 @@ def expected_counts(result: Any) -> dict[str, int]:
             counts[f"/{kind}/{name}"] = log.t.size
         est = log.estimation
         counts[f"/{kind}/odom"] = est.t.size if est is not None else log.t.size
+        counts[f"/{kind}/robot"] = 1
         if est is not None and est.fix_t.size:
             counts[f"/{kind}/fix"] = est.fix_t.size
     counts["/clock"] = np.unique(np.concatenate([log.t for log in result.logs.values()])).size
@@ -104,8 +105,8 @@ def test_rosbags_reads_every_topic_with_the_logs_counts_stamps_and_frames(job: t
             (f"{kind}/base_footprint", f"{kind}/base_link"), (f"{kind}/base_link", f"{kind}/wheel_left_link"),
             (f"{kind}/base_link", f"{kind}/wheel_right_link"),
         ]  # fmt: skip
-    assert qos["/map"][0].durability.name == "TRANSIENT_LOCAL"
-    assert all(qos[t][0].durability.name == "TRANSIENT_LOCAL" for t in ONCE)
+    latched = {t for t, q in qos.items() if q and q[0].durability.name == "TRANSIENT_LOCAL"}
+    assert latched == {*ONCE, *(f"/{kind}/robot" for kind in result.logs)}
 
 
 def test_tf_puts_base_footprint_at_the_true_pose_and_ground_truth_ends_at_the_final_pose(job: tuple[Any, Path]) -> None:
@@ -126,6 +127,10 @@ def test_tf_puts_base_footprint_at_the_true_pose_and_ground_truth_ends_at_the_fi
         y = a.translation.y + math.sin(ya) * b.translation.x + math.cos(ya) * b.translation.y
         assert (x, y) == pytest.approx((final[0], final[1]), abs=1e-9)
         assert _wrap(ya + _yaw(b.rotation) - final[2]) == pytest.approx(0.0, abs=1e-9)
+        err = msgs[f"/{kind}/tracking_error"][-1][1].vector
+        assert err.x == pytest.approx(float(np.hypot(*(log.pose[-1, :2] - log.ref_pose[-1, :2]))), abs=1e-12)
+        robot = msgs[f"/{kind}/robot"][0][1].markers
+        assert {mk.header.frame_id for mk in robot} == {f"{kind}/base_link"} and all(mk.frame_locked for mk in robot)
         joints = msgs[f"/{kind}/joint_states"][-1][1]
         assert list(joints.name) == ["wheel_left_joint", "wheel_right_joint"]
         assert list(joints.velocity) == pytest.approx(list(log.wheel_speed[-1]), abs=0.0)
@@ -150,7 +155,8 @@ def test_the_mcap_library_reads_the_same_counts_and_final_pose(job: tuple[Any, P
         qos = {c.topic: yaml.safe_load(c.metadata["offered_qos_profiles"]) for c in summary.channels.values()}
     assert counts == expected_counts(result)
     # rmw's durability 1 is transient local: the once-per-job topics are latched, the others volatile
-    assert {topic for topic, q in qos.items() if q and q[0]["durability"] == 1} == set(ONCE)
+    latched = {topic for topic, q in qos.items() if q and q[0]["durability"] == 1}
+    assert latched == {*ONCE, *(f"/{kind}/robot" for kind in result.logs)}
     log = result.logs[RunKind.CLOSED_LOOP]
     t, gt = last["/closed_loop/ground_truth/odom"]
     assert t == round(float(log.t[-1]) * 1e9)
@@ -236,3 +242,27 @@ def test_an_interrupted_write_leaves_nothing(
     with pytest.raises(KeyboardInterrupt):
         write_job_bag(result, tmp_path / "cut")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_foxglove_layout_names_only_topics_and_fields_a_bag_has(job: tuple[Any, Path]) -> None:
+    import json
+
+    from rosbags.highlevel import AnyReader
+
+    result, path = job
+    layout = json.loads((Path(__file__).resolve().parents[1] / "docs" / "foxglove" / "nhsim-bag.json").read_text())
+    panels = layout["configById"]
+    shown = set(panels["3D!nhsim"]["topics"])
+    plotted = [p["value"] for key, panel in panels.items() if key.startswith("Plot!") for p in panel["paths"]]
+    _, msgs, _ = read_rosbags(path)
+    assert shown - set(msgs) == {"/closed_loop/scan"}  # the scan only where the robot has a lidar
+    assert {f"/{kind}/robot" for kind in result.logs} <= shown  # the three robots
+    with AnyReader([path]) as reader:
+        types = {c.topic: c.msgtype for c in reader.connections}
+    for value in plotted:  # each plotted field exists and is a number
+        topic, *fields = value.split(".")
+        node = msgs[topic][0][1]
+        for name in fields:
+            node = getattr(node, name)
+        assert isinstance(node, float), (value, types[topic])
+    assert {v.split(".")[0].split("/")[1] for v in plotted} == {str(k) for k in result.logs}

@@ -118,8 +118,11 @@ def job_topics(prepared: Any, logs: Mapping[str, Any]) -> list[bt.Topic]:
     std = (float(profile.fix_position_std), float(profile.fix_heading_std))
     names = [ros_name(str(label)) for label in logs]
     topics: list[bt.Topic] = []
-    for ns, log in zip(names, logs.values(), strict=True):
+    for k, (ns, log) in enumerate(zip(names, logs.values(), strict=True)):
         topics += bt.run_topics(ns, log, prepared.robot, sk, std)
+        colour = bt.RUN_COLOURS[min(k, len(bt.RUN_COLOURS) - 1)]
+        robot = bt.robot_markers(ns, prepared.robot, sk, colour)
+        topics.append(bt.Topic(f"/{ns}/robot", m.TYPES["markers"], np.zeros(1), lambda k, msg=robot: msg, latched=True))
     times = np.unique(np.concatenate([log.t for log in logs.values()]))
     clock = m.msg(m.TYPES["clock"])
     topics.append(bt.Topic("/clock", m.TYPES["clock"], times, lambda k: clock(clock=m.stamp(float(times[k])))))

@@ -40,6 +40,8 @@ MAP_RESOLUTION = 0.02
 MAP_MAX_CELLS = 1_000_000
 #: Height of the obstacle markers [m].
 OBSTACLE_HEIGHT = 0.25
+#: Height of a robot's body marker [m].
+ROBOT_HEIGHT = 0.12
 GRAVITY = 9.80665
 WHEELS = ("wheel_left", "wheel_right")
 
@@ -219,6 +221,16 @@ def _imu_series(log: Any, sk: Skeleton, frames: dict[str, str]) -> Series:
     return t, lambda k: m.imu(float(t[k]), fr, ros_quat(q[k]), (0.0, 0.0, omega[k]), (dv[k], v[k] * omega[k], GRAVITY))
 
 
+def _error_series(log: Any, frame: str) -> Series:
+    """``RUN/tracking_error``: x the distance from the reference pose at the same time [m], y the heading
+    error [rad] (wrapped), z 0."""
+    d = log.pose[:, :2] - log.ref_pose[:, :2]
+    dist = np.hypot(d[:, 0], d[:, 1])
+    head = np.remainder(log.pose[:, 2] - log.ref_pose[:, 2] + np.pi, 2 * np.pi) - np.pi
+    t = log.t
+    return t, lambda k: m.vector_stamped(float(t[k]), frame, dist[k], head[k], 0.0)
+
+
 def _fix_series(log: Any, std: tuple[float, float]) -> Series:
     """``RUN/fix``: the localisation fixes at their measurement times, with the profile's variances."""
     est = log.estimation
@@ -274,6 +286,7 @@ def run_topics(ns: str, log: Any, robot: Any, sk: Skeleton, fix_std: tuple[float
         ("joint_states", "joints", (t, lambda k: m.joint_state(float(t[k]), names, angles[k], speeds[k]))),
         ("imu", "imu", _imu_series(log, sk, frames)),
         ("cmd_vel", "twist", (t, lambda k: m.twist_stamped(float(t[k]), base, cmd[k, 0], cmd[k, 1]))),
+        ("tracking_error", "vector", _error_series(log, base)),
         ("fix", "fix", _fix_series(log, fix_std)),
         ("scan", "scan", _scan_series(log, frames)),
     ]
@@ -317,18 +330,46 @@ def map_message(world: World) -> Any:
     return m.msg(m.TYPES["grid"])(header=m.header(0.0, "map"), info=info, data=grid.ravel())
 
 
-def _marker(k: int, kind: int, p: Any, scale: tuple[float, float, float], points: list[Any]) -> Any:
+OBSTACLE_COLOUR = (0.55, 0.45, 0.35, 0.9)
+#: Colours of the runs' robots (RGBA), in the order of the job's runs; the rest grey.
+RUN_COLOURS = ((0.12, 0.47, 0.71, 1.0), (1.0, 0.5, 0.05, 0.9), (0.5, 0.5, 0.5, 0.5), (0.17, 0.63, 0.17, 0.9))
+
+
+def _marker(
+    k: int, kind: int, p: Any, scale: tuple[float, float, float], points: list[Any], *, frame: str = "map",
+    ns: str = "obstacles", colour: tuple[float, ...] = OBSTACLE_COLOUR,
+) -> Any:  # fmt: skip
+    """A ``visualization_msgs/Marker`` (lifetime forever; locked to its frame, so it moves with it)."""
     marker = m.msg("visualization_msgs/msg/Marker")
+    r, g, b, a = colour
     return marker(
-        header=m.header(0.0, "map"), ns="obstacles", id=k, type=kind, action=0, pose=p, scale=m.vector(*scale),
-        color=m.msg("std_msgs/msg/ColorRGBA")(r=0.55, g=0.45, b=0.35, a=0.9),
-        lifetime=m.msg("builtin_interfaces/msg/Duration")(sec=0, nanosec=0), frame_locked=False, points=points,
+        header=m.header(0.0, frame), ns=ns, id=k, type=kind, action=0, pose=p, scale=m.vector(*scale),
+        color=m.msg("std_msgs/msg/ColorRGBA")(r=r, g=g, b=b, a=a),
+        lifetime=m.msg("builtin_interfaces/msg/Duration")(sec=0, nanosec=0), frame_locked=frame != "map", points=points,
         colors=[], texture_resource="", texture=m.msg("sensor_msgs/msg/CompressedImage")(
             header=m.header(0.0, ""), format="", data=np.zeros(0, dtype=np.uint8)),
         uv_coordinates=[], text="", mesh_resource="",
         mesh_file=m.msg("visualization_msgs/msg/MeshFile")(filename="", data=np.zeros(0, dtype=np.uint8)),
         mesh_use_embedded_materials=False,
     )  # fmt: skip
+
+
+def robot_markers(ns: str, robot: Any, sk: Skeleton, colour: tuple[float, ...]) -> Any:
+    """``RUN/robot``: the run's robot drawn in its ``base_link`` (a box over the footprint, two wheels),
+    locked to the frame so that it drives with the run's transforms."""
+    frame = run_frames(ns)["base_link"]
+    lo, hi = robot.footprint.min(axis=0), robot.footprint.max(axis=0)
+    r, height = robot.wheel_radius, ROBOT_HEIGHT
+    body = m.pose(0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * height + 0.005 - r, (0.0, 0.0, 0.0, 1.0))
+    size = (float(hi[0] - lo[0]), float(hi[1] - lo[1]), height)
+    markers = [_marker(0, 1, body, size, [], frame=frame, ns=ns, colour=colour)]
+    axle = (math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5))  # a cylinder's axis turned from z onto y
+    for j, pos in enumerate(sk.wheel_pos):
+        wheel = m.pose(pos[0], pos[1], pos[2], axle)
+        markers.append(
+            _marker(j + 1, 3, wheel, (2 * r, 2 * r, 0.018), [], frame=frame, ns=ns, colour=(0.1, 0.1, 0.1, colour[3]))
+        )
+    return m.msg(m.TYPES["markers"])(markers=markers)
 
 
 def obstacle_markers(world: World) -> Any:

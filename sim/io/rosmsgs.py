@@ -29,6 +29,7 @@ TYPES = {
     "twist": "geometry_msgs/msg/TwistStamped",
     "fix": "geometry_msgs/msg/PoseWithCovarianceStamped",
     "markers": "visualization_msgs/msg/MarkerArray",
+    "vector": "geometry_msgs/msg/Vector3Stamped",
 }
 
 
@@ -80,6 +81,11 @@ def quaternion(q: tuple[float, float, float, float]) -> Any:
 def vector(x: float, y: float, z: float) -> Any:
     """``geometry_msgs/Vector3``."""
     return msg("geometry_msgs/msg/Vector3")(x=float(x), y=float(y), z=float(z))
+
+
+def vector_stamped(t: float, frame: str, x: float, y: float, z: float) -> Any:
+    """``geometry_msgs/Vector3Stamped``."""
+    return msg(TYPES["vector"])(header=header(t, frame), vector=vector(x, y, z))
 
 
 def point(x: float, y: float, z: float = 0.0) -> Any:
