@@ -101,10 +101,12 @@ def test_rosbags_reads_every_topic_with_the_logs_counts_stamps_and_frames(job: t
         tf = msgs[f"/{kind}/tf"]
         chain = [(x.header.frame_id, x.child_frame_id) for x in tf[0][1].transforms]
         assert chain == [
-            ("map", f"{kind}/odom"), (f"{kind}/odom", f"{kind}/base_footprint"),
-            (f"{kind}/base_footprint", f"{kind}/base_link"), (f"{kind}/base_link", f"{kind}/wheel_left_link"),
+            ("map", f"{kind}/odom"),
+            (f"{kind}/odom", f"{kind}/base_footprint"),
+            (f"{kind}/base_footprint", f"{kind}/base_link"),
+            (f"{kind}/base_link", f"{kind}/wheel_left_link"),
             (f"{kind}/base_link", f"{kind}/wheel_right_link"),
-        ]  # fmt: skip
+        ]
     latched = {t for t, q in qos.items() if q and q[0].durability.name == "TRANSIENT_LOCAL"}
     assert latched == {*ONCE, *(f"/{kind}/robot" for kind in result.logs)}
 
@@ -186,8 +188,9 @@ def test_a_scan_in_the_run_log_is_published_with_its_frame(job: tuple[Any, Path]
     k, beams = 7, 360
     ranges = np.linspace(0.2, 3.0, k * beams).reshape(k, beams)
     ranges[0, 5] = np.inf  # no return
-    scan = dataclasses.make_dataclass("Scan", ["t", "ranges", "angle_min", "angle_max", "angle_increment",
-                                                "range_min", "range_max"])  # fmt: skip
+    scan = dataclasses.make_dataclass(
+        "Scan", ["t", "ranges", "angle_min", "angle_max", "angle_increment", "range_min", "range_max"]
+    )
     fake = scan(np.linspace(0.0, 0.6, k), ranges, 0.0, 2 * math.pi * 359 / 360, 2 * math.pi / 360, 0.12, 3.5)
     object.__setattr__(log, "scan", fake)
     job2 = dataclasses.replace(result, runs={RunKind.CLOSED_LOOP: dataclasses.replace(run, log=log)})
@@ -196,8 +199,7 @@ def test_a_scan_in_the_run_log_is_published_with_its_frame(job: tuple[Any, Path]
         conns = [c for c in reader.connections if c.topic == "/closed_loop/scan"]
         assert [c.msgtype for c in conns] == ["sensor_msgs/msg/LaserScan"]
         got = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(connections=conns)]
-        static = next(reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages()
-                      if c.topic == "/tf_static")  # fmt: skip
+        static = next(reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages() if c.topic == "/tf_static")
     assert len(got) == k
     assert got[3].header.frame_id == "closed_loop/base_scan"
     np.testing.assert_array_equal(got[3].ranges, ranges[3].astype(np.float32))

@@ -118,11 +118,17 @@ def _rosbags_bag(path: Path, *, ros1: bool) -> Path:
         )
         vec = ty["geometry_msgs/msg/Vector3"]
         tw = ty["geometry_msgs/msg/Twist"](linear=vec(x=speed, y=0.0, z=0.0), angular=vec(x=0.0, y=0.0, z=speed))
-        msgs.append((int(tk * 1e9), ty["nav_msgs/msg/Odometry"](
-            header=ty["std_msgs/msg/Header"](**head), child_frame_id="base_footprint",
-            pose=ty["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=np.zeros(36)),
-            twist=ty["geometry_msgs/msg/TwistWithCovariance"](twist=tw, covariance=np.zeros(36)),
-        )))  # fmt: skip
+        msgs.append(
+            (
+                int(tk * 1e9),
+                ty["nav_msgs/msg/Odometry"](
+                    header=ty["std_msgs/msg/Header"](**head),
+                    child_frame_id="base_footprint",
+                    pose=ty["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=np.zeros(36)),
+                    twist=ty["geometry_msgs/msg/TwistWithCovariance"](twist=tw, covariance=np.zeros(36)),
+                ),
+            )
+        )
     if ros1:
         from rosbags.rosbag1 import Writer as Writer1
 
@@ -200,9 +206,13 @@ def _bad_bags(tmp_path: Path) -> dict[str, Path]:
     ],
 )
 def test_a_bad_bag_or_topic_exits_2_naming_it(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, case: str, argv: list[str],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    case: str,
+    argv: list[str],
     said: str,
-) -> None:  # fmt: skip
+) -> None:
     monkeypatch.chdir(tmp_path)
     (tmp_path / "a.csv").write_text("x,y\n0,0\n1,0\n")
     names = {k: str(v) for k, v in _bad_bags(tmp_path).items()} | {"tmp": str(tmp_path)}

@@ -89,9 +89,16 @@ def latched_qos() -> Any:
 
     forever = QosTime(sec=2147483647, nsec=4294967295)
     return Qos(
-        QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE, QosDurability.TRANSIENT_LOCAL, forever, forever,
-        QosLiveliness.AUTOMATIC, forever, False,
-    )  # fmt: skip
+        QosHistory.KEEP_LAST,
+        1,
+        QosReliability.RELIABLE,
+        QosDurability.TRANSIENT_LOCAL,
+        forever,
+        forever,
+        QosLiveliness.AUTOMATIC,
+        forever,
+        False,
+    )
 
 
 def _distinct(poses: np.ndarray) -> np.ndarray:

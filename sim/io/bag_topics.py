@@ -110,10 +110,14 @@ def _quat_mul(a: FloatArray, b: FloatArray) -> FloatArray:
     """Hamilton product of (w, x, y, z) quaternions, rowwise over (N, 4)."""
     w1, x1, y1, z1 = a.T
     w2, x2, y2, z2 = b.T
-    return np.column_stack([
-        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-    ])  # fmt: skip
+    return np.column_stack(
+        [
+            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+        ]
+    )
 
 
 def compose(a: FloatArray, b: FloatArray) -> FloatArray:
@@ -324,9 +328,12 @@ def map_message(world: World) -> Any:
     """``/map``: the occupancy grid of the world (see :func:`occupancy`)."""
     res, grid = occupancy(world)
     info = m.msg("nav_msgs/msg/MapMetaData")(
-        map_load_time=m.stamp(0.0), resolution=res, width=grid.shape[1], height=grid.shape[0],
+        map_load_time=m.stamp(0.0),
+        resolution=res,
+        width=grid.shape[1],
+        height=grid.shape[0],
         origin=m.pose(world.bounds[0], world.bounds[2], 0.0, (0.0, 0.0, 0.0, 1.0)),
-    )  # fmt: skip
+    )
     return m.msg(m.TYPES["grid"])(header=m.header(0.0, "map"), info=info, data=grid.ravel())
 
 
@@ -336,22 +343,42 @@ RUN_COLOURS = ((0.12, 0.47, 0.71, 1.0), (1.0, 0.5, 0.05, 0.9), (0.5, 0.5, 0.5, 0
 
 
 def _marker(
-    k: int, kind: int, p: Any, scale: tuple[float, float, float], points: list[Any], *, frame: str = "map",
-    ns: str = "obstacles", colour: tuple[float, ...] = OBSTACLE_COLOUR,
-) -> Any:  # fmt: skip
+    k: int,
+    kind: int,
+    p: Any,
+    scale: tuple[float, float, float],
+    points: list[Any],
+    *,
+    frame: str = "map",
+    ns: str = "obstacles",
+    colour: tuple[float, ...] = OBSTACLE_COLOUR,
+) -> Any:
     """A ``visualization_msgs/Marker`` (lifetime forever; locked to its frame, so it moves with it)."""
     marker = m.msg("visualization_msgs/msg/Marker")
     r, g, b, a = colour
     return marker(
-        header=m.header(0.0, frame), ns=ns, id=k, type=kind, action=0, pose=p, scale=m.vector(*scale),
+        header=m.header(0.0, frame),
+        ns=ns,
+        id=k,
+        type=kind,
+        action=0,
+        pose=p,
+        scale=m.vector(*scale),
         color=m.msg("std_msgs/msg/ColorRGBA")(r=r, g=g, b=b, a=a),
-        lifetime=m.msg("builtin_interfaces/msg/Duration")(sec=0, nanosec=0), frame_locked=frame != "map", points=points,
-        colors=[], texture_resource="", texture=m.msg("sensor_msgs/msg/CompressedImage")(
-            header=m.header(0.0, ""), format="", data=np.zeros(0, dtype=np.uint8)),
-        uv_coordinates=[], text="", mesh_resource="",
+        lifetime=m.msg("builtin_interfaces/msg/Duration")(sec=0, nanosec=0),
+        frame_locked=frame != "map",
+        points=points,
+        colors=[],
+        texture_resource="",
+        texture=m.msg("sensor_msgs/msg/CompressedImage")(
+            header=m.header(0.0, ""), format="", data=np.zeros(0, dtype=np.uint8)
+        ),
+        uv_coordinates=[],
+        text="",
+        mesh_resource="",
         mesh_file=m.msg("visualization_msgs/msg/MeshFile")(filename="", data=np.zeros(0, dtype=np.uint8)),
         mesh_use_embedded_materials=False,
-    )  # fmt: skip
+    )
 
 
 def robot_markers(ns: str, robot: Any, sk: Skeleton, colour: tuple[float, ...]) -> Any:

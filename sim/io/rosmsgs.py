@@ -150,19 +150,26 @@ def twist_stamped(t: float, frame: str, v: float, omega: float) -> Any:
 def joint_state(t: float, names: list[str], position: FloatArray, velocity: FloatArray) -> Any:
     """``sensor_msgs/JointState`` (positions [rad], velocities [rad/s], no efforts)."""
     return msg(TYPES["joints"])(
-        header=header(t, ""), name=names, position=np.array(position, dtype=float),
-        velocity=np.array(velocity, dtype=float), effort=np.zeros(0),
-    )  # fmt: skip
+        header=header(t, ""),
+        name=names,
+        position=np.array(position, dtype=float),
+        velocity=np.array(velocity, dtype=float),
+        effort=np.zeros(0),
+    )
 
 
 def imu(t: float, frame: str, q: tuple[float, float, float, float], gyro: FloatArray, accel: FloatArray) -> Any:
     """``sensor_msgs/Imu``: orientation, angular velocity [rad/s], linear acceleration [m/s^2] (covariances
     zero: not given)."""
     return msg(TYPES["imu"])(
-        header=header(t, frame), orientation=quaternion(q), orientation_covariance=np.zeros(9),
-        angular_velocity=vector(*gyro), angular_velocity_covariance=np.zeros(9),
-        linear_acceleration=vector(*accel), linear_acceleration_covariance=np.zeros(9),
-    )  # fmt: skip
+        header=header(t, frame),
+        orientation=quaternion(q),
+        orientation_covariance=np.zeros(9),
+        angular_velocity=vector(*gyro),
+        angular_velocity_covariance=np.zeros(9),
+        linear_acceleration=vector(*accel),
+        linear_acceleration_covariance=np.zeros(9),
+    )
 
 
 def path(t: float, frame: str, poses: FloatArray, times: FloatArray | None = None) -> Any:
@@ -178,9 +185,14 @@ def laser_scan(t: float, frame: str, scan: Any, ranges: FloatArray) -> Any:
     ``angle_increment`` [rad], ``range_min``, ``range_max`` [m], optional ``scan_time``,
     ``time_increment`` [s]), ``ranges`` (B,) [m] (inf: no return)."""
     return msg(TYPES["scan"])(
-        header=header(t, frame), angle_min=float(scan.angle_min), angle_max=float(scan.angle_max),
-        angle_increment=float(scan.angle_increment), time_increment=float(getattr(scan, "time_increment", 0.0)),
-        scan_time=float(getattr(scan, "scan_time", 0.0)), range_min=float(scan.range_min),
-        range_max=float(scan.range_max), ranges=np.array(ranges, dtype=np.float32),
+        header=header(t, frame),
+        angle_min=float(scan.angle_min),
+        angle_max=float(scan.angle_max),
+        angle_increment=float(scan.angle_increment),
+        time_increment=float(getattr(scan, "time_increment", 0.0)),
+        scan_time=float(getattr(scan, "scan_time", 0.0)),
+        range_min=float(scan.range_min),
+        range_max=float(scan.range_max),
+        ranges=np.array(ranges, dtype=np.float32),
         intensities=np.zeros(0, dtype=np.float32),
-    )  # fmt: skip
+    )

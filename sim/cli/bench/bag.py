@@ -26,8 +26,10 @@ def run(args: argparse.Namespace) -> int:
         if getattr(args, opt) is not None:
             argv += [f"--{opt}", str(getattr(args, opt))]
     r = measure(argv, args.repeats)
-    print(f"nhsim simulate {' '.join(argv)} --no-video: {r.duration_s:.1f} s simulated, {args.repeats} runs each way, "
-          "interleaved")  # fmt: skip
+    print(
+        f"nhsim simulate {' '.join(argv)} --no-video: {r.duration_s:.1f} s simulated, {args.repeats} runs each way, "
+        "interleaved"
+    )
     print(f"without the bag      {min(r.without_s):>7.2f} .. {max(r.without_s):.2f} s")
     print(f"with the bag         {min(r.with_s):>7.2f} .. {max(r.with_s):.2f} s")
     print(f"bag write            {min(r.write_s):>7.2f} .. {max(r.write_s):.2f} s   ({r.messages} messages)")
