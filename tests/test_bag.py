@@ -179,22 +179,44 @@ def test_the_plan_of_a_bag_read_as_a_path_reproduces_the_jobs_trajectory(job: tu
     assert again.extra["import"]["format"] == "bag topic /plan, nav_msgs/Path"
 
 
-def test_a_scan_in_the_run_log_is_published_with_its_frame(job: tuple[Any, Path], tmp_path: Path) -> None:
+def _with_scan(result: Any, where: str, ranges: np.ndarray, t: np.ndarray) -> Any:
+    """The job with synthetic LDS-01 sweeps in its closed loop's log: as ``log.scan``, or where the scan
+    localiser keeps them (``log.estimation.localiser``: bearing 0 first, 1 degree apart)."""
+    run = result.runs[RunKind.CLOSED_LOOP]
+    log = dataclasses.replace(run.log)
+    step = 2 * math.pi / ranges.shape[1]
+    if where == "log.scan":
+        fields = [
+            "t",
+            "ranges",
+            "angle_min",
+            "angle_increment",
+            "time_increment",
+            "scan_time",
+            "range_min",
+            "range_max",
+        ]
+        scan = dataclasses.make_dataclass("Scan", fields)(t, ranges, 0.0, step, 0.2 / 360, 0.2, 0.12, 3.5)
+        object.__setattr__(log, "scan", scan)
+    else:
+        fields = ["scan_t", "scan_ranges", "scan_angle_increment", "scan_time_increment", "range_min", "range_max"]
+        loc = dataclasses.make_dataclass("Localiser", fields)(t, ranges, step, 0.2 / 360, 0.12, 3.5)
+        est = dataclasses.replace(log.estimation)
+        object.__setattr__(est, "localiser", loc)
+        object.__setattr__(log, "estimation", est)
+    return dataclasses.replace(result, runs={RunKind.CLOSED_LOOP: dataclasses.replace(run, log=log)})
+
+
+@pytest.mark.parametrize("where", ["log.scan", "estimation.localiser"])
+def test_a_scan_in_the_run_log_is_published_with_its_frame(job: tuple[Any, Path], tmp_path: Path, where: str) -> None:
     from rosbags.highlevel import AnyReader
 
     result, _ = job
-    run = result.runs[RunKind.CLOSED_LOOP]
-    log = dataclasses.replace(run.log)
     k, beams = 7, 360
     ranges = np.linspace(0.2, 3.0, k * beams).reshape(k, beams)
-    ranges[0, 5] = np.inf  # no return
-    scan = dataclasses.make_dataclass(
-        "Scan", ["t", "ranges", "angle_min", "angle_max", "angle_increment", "range_min", "range_max"]
-    )
-    fake = scan(np.linspace(0.0, 0.6, k), ranges, 0.0, 2 * math.pi * 359 / 360, 2 * math.pi / 360, 0.12, 3.5)
-    object.__setattr__(log, "scan", fake)
-    job2 = dataclasses.replace(result, runs={RunKind.CLOSED_LOOP: dataclasses.replace(run, log=log)})
-    path = write_job_bag(job2, tmp_path / "scan").path
+    ranges[0, 5], ranges[1, 7] = np.inf, -np.inf  # REP 117: nothing within range, too close
+    t = np.linspace(0.0, 1.2, k)
+    path = write_job_bag(_with_scan(result, where, ranges, t), tmp_path / "scan").path
     with AnyReader([path]) as reader:
         conns = [c for c in reader.connections if c.topic == "/closed_loop/scan"]
         assert [c.msgtype for c in conns] == ["sensor_msgs/msg/LaserScan"]
@@ -202,8 +224,11 @@ def test_a_scan_in_the_run_log_is_published_with_its_frame(job: tuple[Any, Path]
         static = next(reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages() if c.topic == "/tf_static")
     assert len(got) == k
     assert got[3].header.frame_id == "closed_loop/base_scan"
+    assert got[3].header.stamp.sec * 10**9 + got[3].header.stamp.nanosec == round(t[3] * 1e9)
     np.testing.assert_array_equal(got[3].ranges, ranges[3].astype(np.float32))
-    assert np.isinf(got[0].ranges[5])
+    assert got[0].ranges[5] == np.inf and got[1].ranges[7] == -np.inf
+    assert got[0].angle_max == pytest.approx(2 * math.pi * 359 / 360)
+    assert got[0].scan_time == pytest.approx(0.2) and got[0].range_max == pytest.approx(3.5)
     scan_tf = [x for x in static.transforms if x.child_frame_id == "closed_loop/base_scan"]
     assert len(scan_tf) == 1 and scan_tf[0].transform.translation.z == pytest.approx(0.149)
 

@@ -244,10 +244,69 @@ def _fix_series(log: Any, std: tuple[float, float]) -> Series:
     return est.fix_t, lambda k: m.pose_fix(float(est.fix_t[k]), "map", est.fix[k], var)
 
 
-def scan_of(log: Any) -> Any:
-    """The run log's lidar sweeps, or None: an object with ``t`` (K,) [s], ``ranges`` (K, B) [m] and the
-    sweep geometry (``angle_min``, ``angle_max``, ``angle_increment``, ``range_min``, ``range_max``)."""
-    return getattr(log, "scan", None)
+@dataclass(frozen=True)
+class Sweeps:
+    """A run's lidar revolutions as ``sensor_msgs/LaserScan`` describes them.
+
+    Attributes:
+        t: (K,) stamps (first beam) [s].
+        ranges: (K, B) ranges [m] (REP 117: -inf too close, +inf nothing within range).
+        angle_min: Bearing of the first beam [rad]; the others follow counter-clockwise.
+        angle_increment: Bearing step [rad].
+        time_increment: Time between beams [s].
+        scan_time: Time between revolutions [s].
+        range_min: Shortest range [m].
+        range_max: Longest range [m].
+    """
+
+    t: FloatArray
+    ranges: FloatArray
+    angle_min: float
+    angle_increment: float
+    time_increment: float
+    scan_time: float
+    range_min: float
+    range_max: float
+
+    @property
+    def angle_max(self) -> float:
+        """Bearing of the last beam [rad]."""
+        return self.angle_min + (self.ranges.shape[1] - 1) * self.angle_increment
+
+
+def scan_of(log: Any) -> Sweeps | None:
+    """The run's lidar revolutions, or None: the scans the run's scan localiser took
+    (``log.estimation.localiser``: ``scan_t``, ``scan_ranges``, ``scan_angle_increment`` from bearing 0,
+    ``scan_time_increment``, ``range_min``, ``range_max``), or a ``log.scan`` with those fields of
+    :class:`Sweeps` (``t``, ``ranges``, ``angle_min``, ...)."""
+    loc = getattr(log.estimation, "localiser", None) if log.estimation is not None else None
+    if loc is not None and np.asarray(loc.scan_t).size:
+        t = np.asarray(loc.scan_t, dtype=float)
+        period = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+        return Sweeps(
+            t,
+            np.asarray(loc.scan_ranges, dtype=float),
+            0.0,
+            float(loc.scan_angle_increment),
+            float(loc.scan_time_increment),
+            period,
+            float(loc.range_min),
+            float(loc.range_max),
+        )
+    scan = getattr(log, "scan", None)
+    if scan is None:
+        return None
+    t = np.asarray(scan.t, dtype=float)
+    return Sweeps(
+        t,
+        np.asarray(scan.ranges, dtype=float),
+        float(scan.angle_min),
+        float(scan.angle_increment),
+        float(getattr(scan, "time_increment", 0.0)),
+        float(getattr(scan, "scan_time", 0.0)),
+        float(scan.range_min),
+        float(scan.range_max),
+    )
 
 
 def _scan_series(log: Any, frames: dict[str, str]) -> Series:
@@ -255,7 +314,7 @@ def _scan_series(log: Any, frames: dict[str, str]) -> Series:
     if scan is None:
         return np.zeros(0), lambda k: None
     fr = frames["base_scan"]
-    return np.asarray(scan.t, dtype=float), lambda k: m.laser_scan(float(scan.t[k]), fr, scan, scan.ranges[k])
+    return scan.t, lambda k: m.laser_scan(float(scan.t[k]), fr, scan, scan.ranges[k])
 
 
 def run_topics(ns: str, log: Any, robot: Any, sk: Skeleton, fix_std: tuple[float, float]) -> list[Topic]:

@@ -182,15 +182,15 @@ def path(t: float, frame: str, poses: FloatArray, times: FloatArray | None = Non
 
 def laser_scan(t: float, frame: str, scan: Any, ranges: FloatArray) -> Any:
     """``sensor_msgs/LaserScan`` of one sweep: the geometry from ``scan`` (``angle_min``, ``angle_max``,
-    ``angle_increment`` [rad], ``range_min``, ``range_max`` [m], optional ``scan_time``,
-    ``time_increment`` [s]), ``ranges`` (B,) [m] (inf: no return)."""
+    ``angle_increment`` [rad], ``range_min``, ``range_max`` [m], ``scan_time``, ``time_increment`` [s]),
+    ``ranges`` (B,) [m] (REP 117: -inf too close, +inf no return)."""
     return msg(TYPES["scan"])(
         header=header(t, frame),
         angle_min=float(scan.angle_min),
         angle_max=float(scan.angle_max),
         angle_increment=float(scan.angle_increment),
-        time_increment=float(getattr(scan, "time_increment", 0.0)),
-        scan_time=float(getattr(scan, "scan_time", 0.0)),
+        time_increment=float(scan.time_increment),
+        scan_time=float(scan.scan_time),
         range_min=float(scan.range_min),
         range_max=float(scan.range_max),
         ranges=np.array(ranges, dtype=np.float32),
