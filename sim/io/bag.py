@@ -101,6 +101,18 @@ def latched_qos() -> Any:
     )
 
 
+#: Spacing of the samples of ``/reference`` (and of a reference's ``/plan``) [s]: the trajectory's own
+#: samples (every 2-10 ms) thinned to the control period of the default rate.
+REFERENCE_PERIOD = 0.02
+
+
+def _thinned(t: np.ndarray) -> np.ndarray:
+    """Indices of the samples at times ``t`` (N,) at least :data:`REFERENCE_PERIOD` apart, the last kept."""
+    grid = np.arange(t[0], t[-1], REFERENCE_PERIOD)
+    idx = np.unique(np.searchsorted(t, grid - 1e-9))
+    return np.unique(np.append(idx[idx < t.size], t.size - 1))
+
+
 def _distinct(poses: np.ndarray) -> np.ndarray:
     """The poses without the repeats of a trajectory standing still (the path of a reference)."""
     keep = np.concatenate([[True], np.any(np.abs(np.diff(poses, axis=0)) > 1e-9, axis=1)])
@@ -134,11 +146,12 @@ def job_topics(prepared: Any, logs: Mapping[str, Any]) -> list[bt.Topic]:
     clock = m.msg(m.TYPES["clock"])
     topics.append(bt.Topic("/clock", m.TYPES["clock"], times, lambda k: clock(clock=m.stamp(float(times[k])))))
     traj, world = prepared.trajectory, prepared.scenario.world
-    path = prepared.path if prepared.path is not None else _distinct(traj.pose)
+    ref = _thinned(traj.t)
+    path = prepared.path if prepared.path is not None else _distinct(traj.pose[ref])
     once = [
         ("/tf_static", "tf", bt.static_transforms(names, sk)),
         ("/plan", "path", m.path(0.0, "map", np.asarray(path, dtype=float))),
-        ("/reference", "path", m.path(0.0, "map", traj.pose, traj.t)),
+        ("/reference", "path", m.path(0.0, "map", traj.pose[ref], traj.t[ref])),
         ("/map", "grid", bt.map_message(world)),
         ("/obstacles", "markers", bt.obstacle_markers(world)),
     ]
