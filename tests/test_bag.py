@@ -179,6 +179,22 @@ def test_the_plan_of_a_bag_read_as_a_path_reproduces_the_jobs_trajectory(job: tu
     assert again.extra["import"]["format"] == "bag topic /plan, nav_msgs/Path"
 
 
+def test_the_plan_of_a_planned_jobs_bag_reproduces_its_trajectory(tmp_path: Path) -> None:
+    """A planner's path on /plan, read back with --path semantics in the job's scenario, is smoothed and timed
+    into the very trajectory the job tracked."""
+    from sim.pipeline.case import Case, PlanOptions, prepare_trajectory
+    from sim.pipeline.simulate import track
+
+    prepared = prepare_trajectory(Case("simple_motion", planner="birrt", planning=PlanOptions(time_limit=5.0)))
+    job = track(prepared, (RunKind.OPEN_LOOP,), strict=False)
+    path = write_job_bag(job, tmp_path / "planned").path
+    read = TrajectoryFile(path, timed=False, topic="/plan")
+    again = prepare_trajectory(Case(prepared.scenario, trajectory_file=read))
+    assert prepared.path is not None and len(prepared.path) > 2
+    np.testing.assert_allclose(again.trajectory.t, prepared.trajectory.t, atol=1e-9)
+    np.testing.assert_allclose(again.trajectory.pose, prepared.trajectory.pose, atol=1e-9)
+
+
 def _with_scan(result: Any, where: str, ranges: np.ndarray, t: np.ndarray) -> Any:
     """The job with synthetic LDS-01 sweeps in its closed loop's log: as ``log.scan``, or where the scan
     localiser keeps them (``log.estimation.localiser``: bearing 0 first, 1 degree apart)."""
