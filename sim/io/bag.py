@@ -15,10 +15,10 @@ import re
 import shutil
 import tempfile
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -27,7 +27,7 @@ from sim.io import bag_topics as bt
 from sim.io import rosmsgs as m
 
 #: Writer settings: rosbag2 metadata version, storage and compression.
-BAG_VERSION = 8
+BAG_VERSION: Literal[8] = 8
 
 
 @dataclass(frozen=True)
@@ -119,6 +119,11 @@ def _distinct(poses: np.ndarray) -> np.ndarray:
     return poses[keep]
 
 
+def _once(message: Any) -> Callable[[int], Any]:
+    """The ``make`` of a topic of one message."""
+    return lambda k: message
+
+
 def ros_name(label: str) -> str:
     """A run's label as a ROS name (letters, digits and underscores, not starting with a digit)."""
     name = re.sub(r"[^A-Za-z0-9_]", "_", label)
@@ -141,7 +146,7 @@ def job_topics(prepared: Any, logs: Mapping[str, Any]) -> list[bt.Topic]:
         topics += bt.run_topics(ns, log, prepared.robot, sk, std)
         colour = bt.RUN_COLOURS[min(k, len(bt.RUN_COLOURS) - 1)]
         robot = bt.robot_markers(ns, prepared.robot, sk, colour)
-        topics.append(bt.Topic(f"/{ns}/robot", m.TYPES["markers"], np.zeros(1), lambda k, msg=robot: msg, latched=True))
+        topics.append(bt.Topic(f"/{ns}/robot", m.TYPES["markers"], np.zeros(1), _once(robot), latched=True))
     times = np.unique(np.concatenate([log.t for log in logs.values()]))
     clock = m.msg(m.TYPES["clock"])
     topics.append(bt.Topic("/clock", m.TYPES["clock"], times, lambda k: clock(clock=m.stamp(float(times[k])))))
@@ -156,7 +161,7 @@ def job_topics(prepared: Any, logs: Mapping[str, Any]) -> list[bt.Topic]:
         ("/obstacles", "markers", bt.obstacle_markers(world)),
     ]
     for name, kind, message in once:
-        topics.append(bt.Topic(name, m.TYPES[kind], np.zeros(1), lambda k, msg=message: msg, latched=True))
+        topics.append(bt.Topic(name, m.TYPES[kind], np.zeros(1), _once(message), latched=True))
     return topics
 
 

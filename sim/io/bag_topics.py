@@ -367,7 +367,7 @@ def static_transforms(namespaces: list[str], sk: Skeleton) -> Any:
     return m.tf_message(tfs)
 
 
-def occupancy(world: World, resolution: float = MAP_RESOLUTION) -> tuple[float, FloatArray]:
+def occupancy(world: World, resolution: float = MAP_RESOLUTION) -> tuple[float, NDArray[np.int8]]:
     """The world's obstacles as occupancy (100 inside one, 0 free), rows along y from ``(xmin, ymin)``.
 
     Returns:

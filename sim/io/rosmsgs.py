@@ -8,6 +8,7 @@ CDR bytes. Times are simulated seconds, written as ``builtin_interfaces/Time``; 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from functools import cache, lru_cache
 from typing import Any
 
@@ -15,6 +16,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
+#: Three numbers: a tuple or a (3,) array.
+Vec3 = Sequence[float] | FloatArray
 
 #: Message types by short name.
 TYPES = {
@@ -103,7 +106,7 @@ def planar_pose(p: FloatArray) -> Any:
     return pose(p[0], p[1], 0.0, yaw_quat(float(p[2])))
 
 
-def transform(t: float, parent: str, child: str, xyz: FloatArray, q: tuple[float, float, float, float]) -> Any:
+def transform(t: float, parent: str, child: str, xyz: Vec3, q: tuple[float, float, float, float]) -> Any:
     """``geometry_msgs/TransformStamped`` of ``child`` in ``parent`` at ``t`` [s]."""
     tf = msg("geometry_msgs/msg/Transform")(translation=vector(*xyz), rotation=quaternion(q))
     return msg("geometry_msgs/msg/TransformStamped")(header=header(t, parent), child_frame_id=child, transform=tf)
@@ -158,7 +161,7 @@ def joint_state(t: float, names: list[str], position: FloatArray, velocity: Floa
     )
 
 
-def imu(t: float, frame: str, q: tuple[float, float, float, float], gyro: FloatArray, accel: FloatArray) -> Any:
+def imu(t: float, frame: str, q: tuple[float, float, float, float], gyro: Vec3, accel: Vec3) -> Any:
     """``sensor_msgs/Imu``: orientation, angular velocity [rad/s], linear acceleration [m/s^2] (covariances
     zero: not given)."""
     return msg(TYPES["imu"])(
