@@ -57,7 +57,8 @@ class Topic:
         name: Topic name (absolute).
         msgtype: Full message type, e.g. ``nav_msgs/msg/Odometry``.
         times: (K,) the messages' times [s], non-decreasing.
-        make: Message k of the topic, stamped ``times[k]``.
+        make: Message k of the topic, stamped ``times[k]``: for the topics of many messages, one message
+            object filled anew at each call (serialise it before the next).
         latched: Offered with transient-local durability (a late subscriber gets the last message).
     """
 
@@ -177,21 +178,43 @@ def _tf_series(log: Any, sk: Skeleton, frames: dict[str, str]) -> Series:
     lift = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1], log.qpos[:, sk.root + 2]])
     half = 0.5 * log.qpos[:, list(sk.wheels)]
     fr = frames
+    links = [
+        ("map", "odom"),
+        ("odom", "base_footprint"),
+        ("base_footprint", "base_link"),
+        ("base_link", "wheel_left_link"),
+        ("base_link", "wheel_right_link"),
+    ]
+    msg = m.tf_message([m.transform(0.0, fr.get(a, a), fr[b], (0.0, 0.0, 0.0), (0, 0, 0, 1)) for a, b in links])
+    trs = msg.transforms
 
     def make(k: int) -> Any:
         tk = float(t[k])
         mo, e = map_odom[k], est[k]
-        tfs = [
-            m.transform(tk, "map", fr["odom"], (mo[0], mo[1], 0.0), m.yaw_quat(mo[2])),
-            m.transform(tk, fr["odom"], fr["base_footprint"], (e[0], e[1], 0.0), m.yaw_quat(e[2])),
-            m.transform(tk, fr["base_footprint"], fr["base_link"], lift[k], ros_quat(tilt[k])),
-        ]
-        for j, wheel in enumerate(("wheel_left_link", "wheel_right_link")):
+        m.set_transform(trs[0], tk, (mo[0], mo[1], 0.0), m.yaw_quat(mo[2]))
+        m.set_transform(trs[1], tk, (e[0], e[1], 0.0), m.yaw_quat(e[2]))
+        m.set_transform(trs[2], tk, lift[k], ros_quat(tilt[k]))
+        for j in range(2):
             a = float(half[k, j])
-            tfs.append(
-                m.transform(tk, fr["base_link"], fr[wheel], sk.wheel_pos[j], (0.0, math.sin(a), 0.0, math.cos(a)))
-            )
-        return m.tf_message(tfs)
+            m.set_transform(trs[3 + j], tk, sk.wheel_pos[j], (0.0, math.sin(a), 0.0, math.cos(a)))
+        return msg
+
+    return t, make
+
+
+def _odometry(
+    t: FloatArray, frame: str, child: str, pose: FloatArray, var: FloatArray, v: FloatArray, omega: FloatArray
+) -> Series:
+    """``nav_msgs/Odometry`` at times ``t`` (K,): planar poses (K, 3), their variances (K, 3), body velocity."""
+    msg = m.odometry(0.0, frame, child, pose[0], var[0], v[0], omega[0])
+    cov, tw = msg.pose.covariance, msg.twist.twist
+
+    def make(k: int) -> Any:
+        msg.header.stamp = m.stamp(float(t[k]))
+        m.set_planar_pose(msg.pose.pose, pose[k])
+        cov[[0, 7, 35]] = var[k]
+        tw.linear.x, tw.angular.z = float(v[k]), float(omega[k])
+        return msg
 
     return t, make
 
@@ -205,15 +228,13 @@ def _odom_series(
     t = est.t if est is not None and est.t.size else log.t
     pose, var = estimate_at(log, t)
     v, omega = wheel(t)
-    fr, ch = frames["odom"], frames["base_footprint"]
-    return t, lambda k: m.odometry(float(t[k]), fr, ch, pose[k], var[k], v[k], omega[k])
+    return _odometry(t, frames["odom"], frames["base_footprint"], pose, var, v, omega)
 
 
 def _truth_series(log: Any, frames: dict[str, str]) -> Series:
     """``RUN/ground_truth/odom``: the true pose and body velocity in ``map``."""
     v, omega = body_velocity(log.t, log.pose)
-    zero, ch, t = np.zeros(3), frames["base_footprint"], log.t
-    return t, lambda k: m.odometry(float(t[k]), "map", ch, log.pose[k], zero, v[k], omega[k])
+    return _odometry(log.t, "map", frames["base_footprint"], log.pose, np.zeros((log.t.size, 3)), v, omega)
 
 
 def _imu_series(log: Any, sk: Skeleton, frames: dict[str, str]) -> Series:
@@ -221,8 +242,17 @@ def _imu_series(log: Any, sk: Skeleton, frames: dict[str, str]) -> Series:
     v, omega = body_velocity(log.t, log.pose)
     dv = np.gradient(v, log.t) if log.t.size > 1 else np.zeros(log.t.size)
     q = log.qpos[:, sk.root + 3 : sk.root + 7]
-    fr, t = frames["imu_link"], log.t
-    return t, lambda k: m.imu(float(t[k]), fr, ros_quat(q[k]), (0.0, 0.0, omega[k]), (dv[k], v[k] * omega[k], GRAVITY))
+    t = log.t
+    msg = m.imu(0.0, frames["imu_link"], (0.0, 0.0, 0.0, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, GRAVITY))
+
+    def make(k: int) -> Any:
+        msg.header.stamp = m.stamp(float(t[k]))
+        m.set_quaternion(msg.orientation, ros_quat(q[k]))
+        msg.angular_velocity.z = float(omega[k])
+        msg.linear_acceleration.x, msg.linear_acceleration.y = float(dv[k]), float(v[k] * omega[k])
+        return msg
+
+    return t, make
 
 
 def _error_series(log: Any, frame: str) -> Series:
@@ -232,7 +262,40 @@ def _error_series(log: Any, frame: str) -> Series:
     dist = np.hypot(d[:, 0], d[:, 1])
     head = np.remainder(log.pose[:, 2] - log.ref_pose[:, 2] + np.pi, 2 * np.pi) - np.pi
     t = log.t
-    return t, lambda k: m.vector_stamped(float(t[k]), frame, dist[k], head[k], 0.0)
+    msg = m.vector_stamped(0.0, frame, 0.0, 0.0, 0.0)
+
+    def make(k: int) -> Any:
+        msg.header.stamp = m.stamp(float(t[k]))
+        msg.vector.x, msg.vector.y = float(dist[k]), float(head[k])
+        return msg
+
+    return t, make
+
+
+def _joints_series(log: Any, sk: Skeleton) -> Series:
+    """``RUN/joint_states``: the wheels' angles [rad] and speeds [rad/s]."""
+    t, angles, speeds = log.t, log.qpos[:, list(sk.wheels)], log.wheel_speed
+    msg = m.joint_state(0.0, ["wheel_left_joint", "wheel_right_joint"], angles[0], speeds[0])
+
+    def make(k: int) -> Any:
+        msg.header.stamp = m.stamp(float(t[k]))
+        msg.position, msg.velocity = np.array(angles[k], dtype=float), np.array(speeds[k], dtype=float)
+        return msg
+
+    return t, make
+
+
+def _command_series(log: Any, frame: str) -> Series:
+    """``RUN/cmd_vel``: the body command (v [m/s], omega [rad/s]) in force."""
+    t, cmd = log.t, log.command
+    msg = m.twist_stamped(0.0, frame, 0.0, 0.0)
+
+    def make(k: int) -> Any:
+        msg.header.stamp = m.stamp(float(t[k]))
+        msg.twist.linear.x, msg.twist.angular.z = float(cmd[k, 0]), float(cmd[k, 1])
+        return msg
+
+    return t, make
 
 
 def _fix_series(log: Any, std: tuple[float, float]) -> Series:
@@ -334,21 +397,14 @@ def run_topics(ns: str, log: Any, robot: Any, sk: Skeleton, fix_std: tuple[float
         wl, wr = (np.interp(t, log.t, log.wheel_speed[:, j]) for j in range(2))
         return 0.5 * r * (wl + wr), r * (wr - wl) / b
 
-    names = ["wheel_left_joint", "wheel_right_joint"]
-    t, angles, speeds, cmd, base = (
-        log.t,
-        log.qpos[:, list(sk.wheels)],
-        log.wheel_speed,
-        log.command,
-        frames["base_link"],
-    )
+    base = frames["base_link"]
     series: list[tuple[str, str, Series]] = [
         ("tf", "tf", _tf_series(log, sk, frames)),
         ("odom", "odometry", _odom_series(log, frames, wheel)),
         ("ground_truth/odom", "odometry", _truth_series(log, frames)),
-        ("joint_states", "joints", (t, lambda k: m.joint_state(float(t[k]), names, angles[k], speeds[k]))),
+        ("joint_states", "joints", _joints_series(log, sk)),
         ("imu", "imu", _imu_series(log, sk, frames)),
-        ("cmd_vel", "twist", (t, lambda k: m.twist_stamped(float(t[k]), base, cmd[k, 0], cmd[k, 1]))),
+        ("cmd_vel", "twist", _command_series(log, base)),
         ("tracking_error", "vector", _error_series(log, base)),
         ("fix", "fix", _fix_series(log, fix_std)),
         ("scan", "scan", _scan_series(log, frames)),

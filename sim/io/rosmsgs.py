@@ -101,6 +101,29 @@ def pose(x: float, y: float, z: float, q: tuple[float, float, float, float]) -> 
     return msg("geometry_msgs/msg/Pose")(position=point(x, y, z), orientation=quaternion(q))
 
 
+def set_quaternion(q_msg: Any, q: tuple[float, float, float, float]) -> None:
+    """Fill a ``geometry_msgs/Quaternion`` in place with (x, y, z, w)."""
+    q_msg.x, q_msg.y, q_msg.z, q_msg.w = float(q[0]), float(q[1]), float(q[2]), float(q[3])
+
+
+def set_vector(v_msg: Any, x: float, y: float, z: float) -> None:
+    """Fill a ``geometry_msgs/Vector3`` or ``Point`` in place."""
+    v_msg.x, v_msg.y, v_msg.z = float(x), float(y), float(z)
+
+
+def set_planar_pose(pose_msg: Any, p: FloatArray) -> None:
+    """Fill a ``geometry_msgs/Pose`` in place with a planar pose ``[x, y, theta]``."""
+    set_vector(pose_msg.position, p[0], p[1], 0.0)
+    set_quaternion(pose_msg.orientation, yaw_quat(float(p[2])))
+
+
+def set_transform(tf_msg: Any, t: float, xyz: Vec3, q: tuple[float, float, float, float]) -> None:
+    """Fill a ``geometry_msgs/TransformStamped`` in place: stamp ``t`` [s], translation, rotation."""
+    tf_msg.header.stamp = stamp(t)
+    set_vector(tf_msg.transform.translation, *xyz)
+    set_quaternion(tf_msg.transform.rotation, q)
+
+
 def planar_pose(p: FloatArray) -> Any:
     """``geometry_msgs/Pose`` of a planar pose ``[x, y, theta]``."""
     return pose(p[0], p[1], 0.0, yaw_quat(float(p[2])))
