@@ -229,3 +229,18 @@ def test_an_existing_bag_folder_stops_the_job_before_it_runs(
     err = _exit_2(["--reference", "circle", "--bag", str(tmp_path / "b")], tmp_path, capsys)
     assert "exists already; pass --overwrite" in err
     assert (tmp_path / "b" / "metadata.yaml").read_text() == "old"
+
+
+def test_a_monte_carlo_study_of_a_bag_folder_is_keyed_by_its_files(tmp_path: Path) -> None:
+    from sim.tools.montecarlo import _file_key
+
+    folder = _rosbags_bag(tmp_path / "odom", ros1=False)
+    key = _file_key(TrajectoryFile(folder, timed=True, topic="/odom"))
+    assert key["topic"] == "/odom" and key["message"] is None
+    (folder / "metadata.yaml").write_text((folder / "metadata.yaml").read_text() + "\n")
+    assert _file_key(TrajectoryFile(folder, timed=True, topic="/odom"))["sha1"] != key["sha1"]
+    single = tmp_path / "plan.mcap"
+    mcap_bag(single)
+    import hashlib
+
+    assert _file_key(TrajectoryFile(single, timed=False))["sha1"] == hashlib.sha1(single.read_bytes()).hexdigest()
