@@ -59,3 +59,12 @@ def test_compare_and_montecarlo_write_bags(tmp_path: Path, monkeypatch: pytest.M
             last = reader.deserialize(raw, c.msgtype).vector.x
         entry = next(w for w in summary["statistics"]["closed_loop"]["worst"] if w["index"] == i)
         assert last == pytest.approx(entry["final_position_error_m"], abs=1e-9)
+
+
+def test_a_bag_of_a_sweep_is_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "--all", "--bag", "b", "--no-video"]) == 2
+    assert "--bag writes one job's runs" in capsys.readouterr().err
+    assert not (tmp_path / "b").exists()
