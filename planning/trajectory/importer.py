@@ -76,6 +76,8 @@ class TrajectoryFile:
         offset: (x [m], y [m], theta [rad]) rigid move applied after scaling: rotate by theta about
             the origin, then shift.
         allow_collisions: Run a file that enters an obstacle or leaves the world anyway.
+        topic: The topic of a bag to read (:mod:`planning.trajectory.bag_file`); None for other files.
+        message: Which message of a bag's path topic (None: the last).
     """
 
     path: Path
@@ -85,6 +87,8 @@ class TrajectoryFile:
     time_scale: float | None = None
     offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
     allow_collisions: bool = False
+    topic: str | None = None
+    message: int | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "path", Path(self.path))
@@ -113,6 +117,8 @@ class TrajectoryFile:
             "time_scale": self.time_scale,
             "offset": list(self.offset),
             "allow_collisions": self.allow_collisions,
+            "topic": self.topic,
+            "message": self.message,
         }
 
 
@@ -267,14 +273,15 @@ class ImportedFile:
 
 # ------------------------------------------------------------------------------------ reading
 def read_trajectory_file(source: TrajectoryFile) -> ImportedFile:
-    """Read a file, bring it into metres and seconds and repair it (see the module doc).
+    """Read a file (text, JSON, YAML, or a bag's topic), bring it into metres and seconds and repair it
+    (see the module doc).
 
     Raises:
         TrajectoryFileError: Unreadable file, unknown columns, missing x or y (or t for a trajectory),
             a non-numeric cell, stamps that go back or repeat at different positions, fewer than
             two distinct positions.
     """
-    return import_table(read_table(source.path, source.columns), source)
+    return import_table(_read_source(source), source)
 
 
 def import_table(table: FileTable, source: TrajectoryFile) -> ImportedFile:
@@ -307,6 +314,21 @@ def import_table(table: FileTable, source: TrajectoryFile) -> ImportedFile:
     if not source.timed:
         return ImportedFile(source, rows, cols["xy"], None, cols.get("theta"), _directions(cols), None, None, report)
     return _timed(source, rows, cols, report)
+
+
+def _read_source(source: TrajectoryFile) -> FileTable:
+    """The file's columns: a bag's topic (:mod:`planning.trajectory.bag_file`), else a text, JSON or YAML file."""
+    from planning.trajectory.bag_file import is_bag, read_bag_table
+
+    if source.topic is None and source.message is None and not is_bag(source.path):
+        return read_table(source.path, source.columns)
+    if not is_bag(source.path):
+        raise TrajectoryFileError(
+            f"{source.path}: --topic and --message read a bag (.mcap, .bag, .db3 or a rosbag2 folder): drop them"
+        )
+    if source.columns is not None:
+        raise TrajectoryFileError(f"{source.path}: --columns names a text file's columns; a bag's topic names its own")
+    return read_bag_table(source.path, source.topic, source.message, timed=source.timed)
 
 
 def _required(table: FileTable, source: TrajectoryFile, report: ImportReport) -> dict[str, FloatArray]:

@@ -28,7 +28,8 @@ planner and scenario are installed; else figure-eight in 'open').
 Outputs (each only when asked; an existing file is replaced only with --overwrite): --json PATH the
 record (every run), --plots STEM STEM-paths.png (the paths overlaid) and STEM-errors.png (errors
 against time), --video PATH one MP4 with every tracker's robot in its own colour (the first tracker
-solid, the others ghosts).
+solid, the others ghosts), --bag DIR a ROS 2 bag (rosbag2 folder, MCAP) with every tracker's first run
+under its own namespace (/fbl/..., /segmented/...).
 
 Exit status: 0 done, 2 bad input (nothing run), 1 a run failed."""
 
@@ -54,6 +55,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--json", default=None, metavar="PATH", help="write the record here")
     p.add_argument("--plots", default=None, metavar="STEM", help="write STEM-paths.png and STEM-errors.png")
     p.add_argument("--video", default=None, metavar="PATH", help="write one MP4 of every tracker here")
+    p.add_argument("--bag", type=Path, default=None, metavar="DIR", help="write every tracker's run as a ROS 2 bag")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     return p
@@ -72,6 +74,11 @@ def _outputs(args: argparse.Namespace) -> dict[str, Path]:
         out["video"] = Path(args.video)
     for path in out.values():
         check_writable(path, overwrite=args.overwrite)
+    if args.bag is not None:
+        from sim.io.bag import check_bag_target
+
+        check_bag_target(args.bag, overwrite=args.overwrite)
+        out["bag"] = args.bag
     return out
 
 
@@ -134,5 +141,9 @@ def _write(result: Any, outputs: dict[str, Path], *, overwrite: bool) -> None:
         from sim.viz.job_video import write_video
 
         write_video(result.recorded(), outputs["video"], overwrite=overwrite)
+    if "bag" in outputs:
+        from sim.io.bag import write_bag
+
+        write_bag(result.prepared, result.logs(), outputs["bag"], overwrite=overwrite)
     for path in outputs.values():
         print(f"wrote {path}")

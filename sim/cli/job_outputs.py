@@ -56,6 +56,8 @@ RUN_SETTINGS: dict[str, Any] = {
     "time_scale": None,
     "offset": None,
     "allow_collisions": False,
+    "topic": None,
+    "message": None,
 }
 
 
@@ -116,6 +118,14 @@ def add_output_arguments(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument("--no-video", action="store_true", help="skip the video (no OpenGL needed)")
     g.add_argument(
+        "--bag",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="also write the runs as a ROS 2 bag: a rosbag2 folder DIR with MCAP storage, for Foxglove, RViz "
+        "(ros2 bag play) or PlotJuggler (default: none)",
+    )
+    g.add_argument(
         "--plots", action=argparse.BooleanOptionalAction, default=True, help="write the PNG plots (default: on)"
     )
     g.add_argument(
@@ -158,6 +168,7 @@ class OutputPlan:
         settings: Render settings (None without video).
         overwrite: Replace existing files.
         progress: Show progress bars.
+        bag: ROS 2 bag folder to write (``--bag``), or None.
     """
 
     stem: str
@@ -168,6 +179,7 @@ class OutputPlan:
     overwrite: bool
     progress: bool
     extra: dict[str, Any] = field(default_factory=dict)
+    bag: Path | None = None
 
     def targets(self) -> list[Path]:
         """Every file the job will write."""
@@ -254,7 +266,12 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str, own_ro
         names = (*names, PITCH_PLOT)
     plots = {name: base_dir / f"{base}-{name}.png" for name in names} if args.plots else {}
     json_path = args.json if args.json is not None else base_dir / f"{base}.json"
-    plan = OutputPlan(stem, video, plots, json_path, settings, args.overwrite, show_progress(args))
+    bag = getattr(args, "bag", None)
+    plan = OutputPlan(stem, video, plots, json_path, settings, args.overwrite, show_progress(args), bag=bag)
+    if bag is not None:
+        from sim.io.bag import check_bag_target
+
+        check_bag_target(bag, overwrite=args.overwrite)
     targets = plan.targets()
     if len({p.resolve() for p in targets}) != len(targets):
         raise ConfigError(f"two outputs share a path: {', '.join(map(str, targets))}; choose distinct names")
@@ -333,6 +350,11 @@ def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict
                 continue
             save_figure(figs[name], path, overwrite=plan.overwrite)
             files[f"plot_{name}"] = str(path)
+    if plan.bag is not None:
+        from sim.io.bag import write_job_bag
+
+        record["bag"] = write_job_bag(result, plan.bag, overwrite=plan.overwrite).as_dict()
+        files["bag"] = str(plan.bag)
     files["json"] = str(plan.json)
     record["files"] = dict(files)
     write_json(plan.json, record, overwrite=plan.overwrite)

@@ -32,6 +32,7 @@ results file of another study is refused, naming what differs.
 Outputs (renders/<scenario>-<source>[-<robot>]-mc-<6 hex of the study>.*): .jsonl the runs, .json the
 statistics, -fan.png every run's path per run kind, -cdf.png the CDF of the final error. A study
 rewrites its own summary and plots; any other existing file is kept unless --overwrite is given.
+--bags DIR replays the worst closed-loop runs (bit for bit) and writes each as a ROS 2 bag DIR/worst-<index>.
 
 Exit status: 0 the study finished, 1 a run failed to run (not a missed target: those are statistics),
 2 bad input, 130 interrupted (finished runs are kept)."""
@@ -66,6 +67,14 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     add_file_arguments(p)
     p.add_argument("--results", type=Path, default=None, metavar="PATH", help="results file (JSON lines)")
     p.add_argument("--json", type=Path, default=None, metavar="PATH", help="statistics record")
+    p.add_argument(
+        "--bags",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="write the worst closed-loop runs as ROS 2 "
+        "bags DIR/worst-<index> (replayed after the study; default: none)",
+    )
     p.add_argument("--plots", action=argparse.BooleanOptionalAction, default=True, help="write the plots (default: on)")
     p.add_argument("--overwrite", action="store_true", help="replace existing outputs of another study")
     p.add_argument("--quiet", action="store_true", help="print only the table")
@@ -205,6 +214,10 @@ def run(args: argparse.Namespace) -> int:
     own_robot = load_scenario(sc).robot if isinstance(sc, str) else sc.robot
     paths = _paths(args, spec, scenario.name, scenario.robot, own_robot)
     _check_outputs(paths, spec.key(), args.overwrite)
+    if args.bags is not None:  # a folder of bags: each one is checked as it is written
+        from sim.outputs import check_writable
+
+        check_writable(args.bags / "worst-0", overwrite=True)
     results = ResultsFile(paths["results"], spec.key())
     if not args.quiet and results.records:
         print(f"resuming: {len(results.records)} runs done in {paths['results']}")
@@ -225,7 +238,10 @@ def run(args: argparse.Namespace) -> int:
     record = {"key": spec.key(), "runs": spec.runs, "ran_now": result.ran, "retries": result.retries}
     record.update(statistics=stats, results=str(paths["results"]), replay_base=base)
     _write(result, paths, record, args)
+    bags = _worst_bags(result, args.bags, args.overwrite) if args.bags is not None else []
     if not args.quiet:
+        for bag in bags:
+            print(f"wrote {bag}")
         for name, path in paths.items():
             if name != "results":
                 print(f"wrote {path}")
@@ -243,6 +259,24 @@ def _write(result: Any, paths: dict[str, Path], record: dict[str, Any], args: ar
         for name, fig in montecarlo_figures(prep.scenario.world, prep.trajectory, result.records, title=title).items():
             save_figure(fig, paths[name], overwrite=True)  # checked above: absent, this study's, or --overwrite
     write_json(paths["json"], record, overwrite=True)
+
+
+def _worst_bags(result: Any, folder: Path, overwrite: bool) -> list[Path]:
+    """Replay the worst closed-loop runs of a study (the runs its table names) and write each as a bag."""
+    from dataclasses import replace
+
+    from sim.io.bag import write_job_bag
+    from sim.pipeline.case import prepare_trajectory
+    from sim.pipeline.runs import DEFAULT_RUNS
+    from sim.pipeline.simulate import track
+
+    spec, draws, out = result.spec, result.spec.draws(), []
+    for worst in result.stats.get("closed_loop", {}).get("worst", []):
+        case = spec.case_of(draws[worst["index"]])
+        prep = prepare_trajectory(case) if spec.replan else replace(result.prepared, case=case)
+        job = track(prep, DEFAULT_RUNS, strict=False)
+        out.append(write_job_bag(job, folder / f"worst-{worst['index']}", overwrite=overwrite).path)
+    return out
 
 
 class _bar:

@@ -324,6 +324,8 @@ def run(args: argparse.Namespace) -> int:
     if args.control_rate <= 0:
         raise ConfigError(f"--control-rate must be > 0 Hz, got {args.control_rate}")
     check_time_limit(args.time_limit)
+    if args.all and args.bag is not None:
+        raise ConfigError("--bag writes one job's runs; --all sweeps many jobs: drop one of them")
     if args.all and file_given(args):
         raise ConfigError("--all sweeps the built-in scenarios' plans: drop it to track a --trajectory or --path file")
     if args.all:

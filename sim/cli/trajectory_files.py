@@ -63,6 +63,21 @@ def add_file_arguments(p: argparse.ArgumentParser) -> None:
         "(default: 0,0,0)",
     )
     g.add_argument(
+        "--topic",
+        default=None,
+        metavar="NAME",
+        help="read this topic of a bag (.mcap, rosbag2 folder, ROS 1 .bag): a nav_msgs/Path (e.g. /plan), or for "
+        "--trajectory also nav_msgs/Odometry or geometry_msgs/PoseStamped (e.g. /odom), stamps as the clock "
+        "(default: none; a bag without it lists its topics)",
+    )
+    g.add_argument(
+        "--message",
+        type=int,
+        default=None,
+        metavar="N",
+        help="which nav_msgs/Path on --topic: 0 the first, -1 the last (default: the last)",
+    )
+    g.add_argument(
         "--allow-collisions",
         action="store_true",
         help="run a file that enters an obstacle or leaves the world anyway (the record says so)",
@@ -83,6 +98,9 @@ def file_options(args: argparse.Namespace) -> list[str]:
             argv += [opt, str(value)]
     if args.offset:
         argv.append(f"--offset={args.offset}")
+    for opt, value in (("--topic", getattr(args, "topic", None)), ("--message", getattr(args, "message", None))):
+        if value is not None:
+            argv += [opt, str(value)]
     return [*argv, "--allow-collisions"] if args.allow_collisions else argv
 
 
@@ -105,6 +123,8 @@ def file_source(args: argparse.Namespace) -> TrajectoryFile:
         time_scale=args.time_scale,
         offset=parse_offset(args.offset) if args.offset else (0.0, 0.0, 0.0),
         allow_collisions=args.allow_collisions,
+        topic=getattr(args, "topic", None),
+        message=getattr(args, "message", None),
     )
 
 

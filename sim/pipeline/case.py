@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from control.base import TRACKERS
 from control.fbl import FBLGains
@@ -32,7 +33,7 @@ from planning.planners.base import PlanProblem, PlanResult
 from planning.planners.registry import PLANNERS, make_planner, planner_options
 from planning.scenario import Scenario, load_scenario
 from planning.scenario import scenario_with_robot as scenario_with_robot  # defined beside load_scenario
-from planning.trajectory.file_trajectory import ARENA_NAME, file_trajectory, with_file_ends
+from planning.trajectory.file_trajectory import ARENA_NAME, file_poses, file_trajectory, with_file_ends
 from planning.trajectory.from_plan import checked_trajectory
 from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
 from planning.trajectory.references import REFERENCES, make_reference
@@ -42,6 +43,8 @@ from sim.physics.perturb import Perturbation
 from sim.physics.sensors import load_sensor_profile
 from sim.pipeline.runs import PLAN_HOLD_S, PLAN_TRACKER, REFERENCE_TRACKER, Progress, RunKind
 from sim.robot.sensing import SensingSetup
+
+FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -226,6 +229,8 @@ class PreparedTrajectory:
         hold: Time simulated after the trajectory ends [s] (final regulation of planned cases).
         extra: Record fields of the stage: a plan's ``plan`` status and statistics and its
             ``smoothing`` statistics; empty for a reference.
+        path: (M, 3) the poses the trajectory was made from: the planner's path, a path file's rows
+            or a timed file's samples [m, m, rad]; None for a reference.
     """
 
     case: Case
@@ -235,6 +240,7 @@ class PreparedTrajectory:
     source: str
     hold: float = 0.0
     extra: Mapping[str, Any] = field(default_factory=dict)
+    path: FloatArray | None = None
 
 
 def load_case_scenario(case: Case) -> Scenario:
@@ -360,6 +366,7 @@ def prepare_trajectory(case: Case, *, progress: Progress | None = None) -> Prepa
         f"planner:{plan.planner}",
         PLAN_HOLD_S,
         {"plan": plan_rec, "smoothing": smoothing},
+        np.asarray(plan.path, dtype=float),
     )
 
 
@@ -377,4 +384,5 @@ def _prepare_file(case: Case, source: TrajectoryFile, sc: Scenario, spec: RobotS
     assert res.trajectory is not None
     smoothing = {k: v for k, v in res.stats.items() if isinstance(v, (int, float, str, bool))}
     extra = {"import": {**source.as_dict(), **imported.report.as_dict()}, "smoothing": smoothing}
-    return PreparedTrajectory(case, sc, spec, res.trajectory, f"file:{source.name}", PLAN_HOLD_S, extra)
+    path = file_poses(imported)
+    return PreparedTrajectory(case, sc, spec, res.trajectory, f"file:{source.name}", PLAN_HOLD_S, extra, path)

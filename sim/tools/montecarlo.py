@@ -116,8 +116,11 @@ def _source(case: Case) -> str:
 
 
 def _file_key(tfile: TrajectoryFile) -> dict[str, Any]:
-    """How a file is read, and a hash of its content: a file edited since is another study."""
-    digest = hashlib.sha1(Path(tfile.path).read_bytes()).hexdigest()
+    """How a file is read, and a hash of its content: a file edited since is another study (a rosbag2
+    folder: its files' contents in name order)."""
+    path = Path(tfile.path)
+    files = sorted(f for f in path.rglob("*") if f.is_file()) if path.is_dir() else [path]
+    digest = hashlib.sha1(b"".join(f.read_bytes() for f in files)).hexdigest()
     return {**tfile.as_dict(), "sha1": digest}
 
 

@@ -39,6 +39,7 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "control time per step of every tracker in the real robot's loop; MPC's 95th percentile solve time",
     ),
     "render": ("sim.cli.bench.render", "video pipeline frames/s (replay, draw, encode) against a bare Renderer loop"),
+    "bag": ("sim.cli.bench.bag", "a run with its ROS 2 bag against the same run without it (time, bag size)"),
     "montecarlo": (
         "sim.cli.bench.montecarlo",
         "Monte Carlo runs on Dask workers against a direct loop (throughput, per-run overhead)",

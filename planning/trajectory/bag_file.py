@@ -1,0 +1,184 @@
+"""Plans and runs recorded in bags, as the named columns every trajectory file becomes.
+
+A bag is a ROS 2 MCAP file (``.mcap``), a rosbag2 folder (MCAP or sqlite3 storage, with its
+``metadata.yaml``) or a ROS 1 ``.bag``, read with ``rosbags`` (no ROS needed). One topic is read:
+
+* ``nav_msgs/Path`` (a planner's ``/plan``): one message, the last on the topic unless ``message``
+  says which (0 the first, -1 the last); its poses are the rows (x, y, the heading of the
+  orientation, and the pose stamps as ``t`` when they differ).
+* ``nav_msgs/Odometry``, ``geometry_msgs/PoseStamped`` or ``geometry_msgs/PoseWithCovarianceStamped``
+  (a robot's recorded motion): every message is a row, its header stamp the clock (counted from
+  the first message); an odometry message's twist gives ``v`` and ``omega``.
+
+The table then goes through :func:`planning.trajectory.importer.read_trajectory_file`'s repairs and
+checks like any other file. Every problem (no such bag, a truncated file or one that is not a bag,
+a topic that is missing, of another type or empty) is a :class:`TrajectoryFileError` naming it and
+the fix.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from planning.trajectory.file_formats import FileTable, TrajectoryFileError, table_from_arrays
+
+#: File suffixes read as bags (a folder with a ``metadata.yaml`` is one too).
+BAG_SUFFIXES = (".mcap", ".bag", ".db3")
+PATH_TYPE = "nav_msgs/msg/Path"
+#: Types whose messages are each one row of a recorded motion.
+MOTION_TYPES = ("nav_msgs/msg/Odometry", "geometry_msgs/msg/PoseStamped", "geometry_msgs/msg/PoseWithCovarianceStamped")
+
+
+def is_bag(path: Path) -> bool:
+    """Whether ``path`` names a bag: a ``.mcap``, ``.bag`` or ``.db3`` file, or a rosbag2 folder."""
+    path = Path(path)
+    return path.suffix.lower() in BAG_SUFFIXES or path.is_dir()
+
+
+def _name(t: str) -> str:
+    return t.replace("/msg/", "/")
+
+
+def _open(path: Path) -> Any:
+    """An open ``rosbags`` AnyReader of the bag (ROS 2 Humble types for bags that carry none)."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    if not path.exists():
+        raise TrajectoryFileError(f"cannot read bag {path}: no such file or folder; check the path")
+    if path.is_dir() and not (path / "metadata.yaml").is_file():
+        raise TrajectoryFileError(
+            f"cannot read bag {path}: the folder has no metadata.yaml, so it is not a rosbag2 bag; give the bag "
+            "folder ros2 bag record wrote (or its .mcap file); `ros2 bag reindex` rebuilds a lost metadata.yaml"
+        )
+    reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
+    try:
+        reader.open()
+    except Exception as exc:  # rosbags raises its own errors, and struct/OS errors on broken files
+        raise TrajectoryFileError(
+            f"cannot read bag {path}: {exc or type(exc).__name__}; it is truncated or not a bag: give a complete "
+            ".mcap, rosbag2 folder or ROS 1 .bag (a recording cut short can be repaired with `ros2 bag reindex` "
+            "or `mcap recover`)"
+        ) from exc
+    return reader
+
+
+def _topics_text(reader: Any) -> str:
+    return ", ".join(f"{name} ({_name(info.msgtype or '?')}, {info.msgcount})" for name, info in reader.topics.items())
+
+
+def _messages(reader: Any, path: Path, topic: str, timed: bool) -> tuple[str, list[Any]]:
+    """The topic's type and its deserialised messages, checked."""
+    if topic not in reader.topics:
+        raise TrajectoryFileError(
+            f"{path}: no topic {topic!r}; the bag has {_topics_text(reader) or 'no topics'}: name one with --topic"
+        )
+    msgtype = reader.topics[topic].msgtype or ""
+    wanted = (PATH_TYPE, *MOTION_TYPES) if timed else (PATH_TYPE,)
+    if msgtype not in wanted:
+        use = "a nav_msgs/Path topic (e.g. /plan)"
+        if timed:
+            use = "a nav_msgs/Path, nav_msgs/Odometry or geometry_msgs/PoseStamped topic (e.g. /odom)"
+        elif msgtype in MOTION_TYPES:
+            use += f", or read the recorded motion of {topic} with --trajectory"
+        what = "a path or a recorded motion" if timed else "a path"
+        raise TrajectoryFileError(f"{path}: topic {topic} carries {_name(msgtype)}, not {what}; give {use}")
+    conns = [c for c in reader.connections if c.topic == topic]
+    try:
+        msgs = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(connections=conns)]
+    except Exception as exc:  # a chunk that ends early or fails to decompress
+        raise TrajectoryFileError(
+            f"cannot read topic {topic} of bag {path}: {exc}; the bag is truncated or damaged (try `ros2 bag reindex` "
+            "or `mcap recover`)"
+        ) from exc
+    if not msgs:
+        raise TrajectoryFileError(f"{path}: topic {topic} holds no messages; the bag has {_topics_text(reader)}")
+    return msgtype, msgs
+
+
+def _yaw(q: Any) -> float:
+    n = float(np.sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w))
+    if n < 1e-9:
+        return float("nan")
+    x, y, z, w = q.x / n, q.y / n, q.z / n, q.w / n
+    return float(np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))
+
+
+def _nanoseconds(stamp: Any) -> int:
+    """A stamp as whole nanoseconds (exact: a wall-clock stamp in float seconds keeps only ~0.2 us)."""
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
+def _pose_of(msg: Any, msgtype: str) -> Any:
+    """The geometry_msgs/Pose of a motion message."""
+    return msg.pose.pose if msgtype != "geometry_msgs/msg/PoseStamped" else msg.pose
+
+
+def _columns(poses: list[Any], stamps: list[int]) -> dict[str, Any]:
+    cols = {
+        "x": np.array([p.position.x for p in poses], dtype=float),
+        "y": np.array([p.position.y for p in poses], dtype=float),
+        "theta": np.array([_yaw(p.orientation) for p in poses], dtype=float),
+    }
+    if len(set(stamps)) > 1:
+        cols["t"] = np.array([s - stamps[0] for s in stamps], dtype=float) * 1e-9
+    return cols
+
+
+def _check_finite(path: Path, cols: dict[str, Any], rows: tuple[str, ...]) -> None:
+    for name, values in cols.items():
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            what = "a zero orientation quaternion" if name == "theta" else f"a non-finite {name}"
+            raise TrajectoryFileError(f"{path}: {rows[bad[0]]} has {what}; fix or drop that pose")
+
+
+def read_bag_table(path: Path, topic: str | None, message: int | None = None, *, timed: bool) -> FileTable:
+    """One topic of a bag as named columns (see the module doc).
+
+    Args:
+        path: The bag (file or rosbag2 folder).
+        topic: The topic to read; None is an error listing the bag's topics.
+        message: Which message of a path topic (0 the first, negative from the end); None: the last.
+        timed: Read for ``--trajectory`` (motion topics allowed) rather than ``--path``.
+
+    Raises:
+        TrajectoryFileError: No bag there, a truncated file or one that is not a bag, no ``topic``, a topic
+            missing, of another type or empty, a ``message`` out of range, a non-finite pose.
+    """
+    path = Path(path)
+    reader = _open(path)
+    try:
+        if topic is None:
+            raise TrajectoryFileError(
+                f"{path} is a bag: name the topic to read with --topic; it has {_topics_text(reader) or 'no topics'}"
+            )
+        msgtype, msgs = _messages(reader, path, topic, timed)
+    finally:
+        reader.close()
+    if msgtype == PATH_TYPE:
+        k = len(msgs) - 1 if message is None else message
+        if not -len(msgs) <= k < len(msgs):
+            raise TrajectoryFileError(
+                f"{path}: --message {message} but topic {topic} holds {len(msgs)} message(s); give 0 to "
+                f"{len(msgs) - 1} (or -1 for the last)"
+            )
+        k %= len(msgs)
+        path_msg = msgs[k]
+        if not path_msg.poses:
+            raise TrajectoryFileError(f"{path}: message {k} of {topic} is an empty path; choose another with --message")
+        rows = tuple(f"{topic} message {k} poses[{i}]" for i in range(len(path_msg.poses)))
+        cols = _columns([p.pose for p in path_msg.poses], [_nanoseconds(p.header.stamp) for p in path_msg.poses])
+    else:
+        if message is not None:
+            raise TrajectoryFileError(f"--message picks one nav_msgs/Path; {topic} carries {_name(msgtype)}: drop it")
+        rows = tuple(f"{topic} message {i}" for i in range(len(msgs)))
+        cols = _columns([_pose_of(mm, msgtype) for mm in msgs], [_nanoseconds(mm.header.stamp) for mm in msgs])
+        if msgtype == "nav_msgs/msg/Odometry":
+            cols["v"] = np.array([mm.twist.twist.linear.x for mm in msgs], dtype=float)
+            cols["omega"] = np.array([mm.twist.twist.angular.z for mm in msgs], dtype=float)
+    _check_finite(path, cols, rows)  # a zero quaternion named as such, before the table's own check
+    return table_from_arrays(path, cols, f"bag topic {topic}, {_name(msgtype)}", rows)

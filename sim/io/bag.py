@@ -1,0 +1,229 @@
+"""A job as a ROS 2 bag: a rosbag2 folder with MCAP storage (zstd-compressed chunks) and its
+``metadata.yaml``, written with ``rosbags`` (no ROS needed), readable by ``ros2 bag``, Foxglove and
+PlotJuggler.
+
+The topics and frames are those of :mod:`sim.io.bag_topics`; every message is stamped in simulated
+time, and the bag's own clock (the log time of each message) equals its header stamp. The bag is
+written into a temporary folder beside the target and moved into place when complete: an interrupted
+write leaves nothing under the target's name, and an existing bag is replaced only when asked.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import tempfile
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from planning.errors import ConfigError, OutputExistsError
+from sim.io import bag_topics as bt
+from sim.io import rosmsgs as m
+
+#: Writer settings: rosbag2 metadata version, storage and compression.
+BAG_VERSION: Literal[8] = 8
+
+
+@dataclass(frozen=True)
+class BagSummary:
+    """What was written.
+
+    Attributes:
+        path: The bag folder.
+        topics: Topic -> (message type, message count).
+        size_bytes: Bytes of the folder's files.
+        duration_s: Span of the message stamps [s].
+        write_s: Wall time the writing took [s].
+        write_cpu_s: CPU time the writing took [s] (this process's; steadier than wall time on a busy machine).
+    """
+
+    path: Path
+    topics: dict[str, tuple[str, int]]
+    size_bytes: int
+    duration_s: float
+    write_s: float = 0.0
+    write_cpu_s: float = 0.0
+
+    def as_dict(self) -> dict[str, Any]:
+        """The record's ``bag`` section."""
+        return {
+            "path": str(self.path),
+            "size_bytes": self.size_bytes,
+            "duration_s": self.duration_s,
+            "write_s": self.write_s,
+            "write_cpu_s": self.write_cpu_s,
+            "topics": {k: {"type": t, "messages": n} for k, (t, n) in self.topics.items()},
+        }
+
+
+def check_bag_target(path: Path, *, overwrite: bool) -> None:
+    """Check, before any work, that a bag can be written at ``path`` (a folder to be created).
+
+    Raises:
+        OutputExistsError: ``path`` exists and ``overwrite`` is false.
+        ConfigError: ``path`` is a file, or a folder that is not a rosbag2 bag (it is never replaced), or
+            its parent folder cannot take new files.
+    """
+    from sim.outputs import check_writable
+
+    path = Path(path)
+    if path.exists() or path.is_symlink():
+        if not path.is_dir():
+            raise ConfigError(f"cannot write the bag {path}: a file of that name exists; choose another --bag folder")
+        if not overwrite:
+            raise OutputExistsError(f"{path} exists already; pass --overwrite to replace it, or choose another --bag")
+        if any(path.iterdir()) and not (path / "metadata.yaml").is_file():
+            raise ConfigError(
+                f"cannot replace {path}: it is a folder that holds files but no rosbag2 metadata.yaml, so not a bag "
+                "this command wrote; choose another --bag folder"
+            )
+    check_writable(path.parent / f".{path.name}.probe", overwrite=True)
+
+
+def latched_qos() -> Any:
+    """Transient-local, reliable, keep-last-1: a late subscriber (RViz, Foxglove) gets the message."""
+    from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+
+    forever = QosTime(sec=2147483647, nsec=4294967295)
+    return Qos(
+        QosHistory.KEEP_LAST,
+        1,
+        QosReliability.RELIABLE,
+        QosDurability.TRANSIENT_LOCAL,
+        forever,
+        forever,
+        QosLiveliness.AUTOMATIC,
+        forever,
+        False,
+    )
+
+
+#: Spacing of the samples of ``/reference`` (and of a reference's ``/plan``) [s]: the trajectory's own
+#: samples (every 2-10 ms) thinned to the control period of the default rate.
+REFERENCE_PERIOD = 0.02
+
+
+def _thinned(t: np.ndarray) -> np.ndarray:
+    """Indices of the samples at times ``t`` (N,) at least :data:`REFERENCE_PERIOD` apart, the last kept."""
+    grid = np.arange(t[0], t[-1], REFERENCE_PERIOD)
+    idx = np.unique(np.searchsorted(t, grid - 1e-9))
+    return np.unique(np.append(idx[idx < t.size], t.size - 1))
+
+
+def _distinct(poses: np.ndarray) -> np.ndarray:
+    """The poses without the repeats of a trajectory standing still (the path of a reference)."""
+    keep = np.concatenate([[True], np.any(np.abs(np.diff(poses, axis=0)) > 1e-9, axis=1)])
+    return poses[keep]
+
+
+def _once(message: Any) -> Callable[[int], Any]:
+    """The ``make`` of a topic of one message."""
+    return lambda k: message
+
+
+def ros_name(label: str) -> str:
+    """A run's label as a ROS name (letters, digits and underscores, not starting with a digit)."""
+    name = re.sub(r"[^A-Za-z0-9_]", "_", label)
+    return name if name[:1].isalpha() else f"run_{name}"
+
+
+def job_topics(prepared: Any, logs: Mapping[str, Any]) -> list[bt.Topic]:
+    """Every topic of a job (see :mod:`sim.io.bag_topics`), the per-run ones under each run's name.
+
+    Args:
+        prepared: The job's :class:`sim.pipeline.case.PreparedTrajectory` (robot, world, trajectory, plan).
+        logs: Run label (a run kind, a tracker) -> its :class:`sim.physics.runlog.RunLog`.
+    """
+    sk = bt.skeleton(prepared.robot.name)
+    profile = prepared.case.sensing(prepared.scenario).profile
+    std = (float(profile.fix_position_std), float(profile.fix_heading_std))
+    names = [ros_name(str(label)) for label in logs]
+    topics: list[bt.Topic] = []
+    for k, (ns, log) in enumerate(zip(names, logs.values(), strict=True)):
+        topics += bt.run_topics(ns, log, prepared.robot, sk, std)
+        colour = bt.RUN_COLOURS[min(k, len(bt.RUN_COLOURS) - 1)]
+        robot = bt.robot_markers(ns, prepared.robot, sk, colour)
+        topics.append(bt.Topic(f"/{ns}/robot", m.TYPES["markers"], np.zeros(1), _once(robot), latched=True))
+    times = np.unique(np.concatenate([log.t for log in logs.values()]))
+    clock = m.msg(m.TYPES["clock"])
+    topics.append(bt.Topic("/clock", m.TYPES["clock"], times, lambda k: clock(clock=m.stamp(float(times[k])))))
+    traj, world = prepared.trajectory, prepared.scenario.world
+    ref = _thinned(traj.t)
+    path = prepared.path if prepared.path is not None else _distinct(traj.pose[ref])
+    once = [
+        ("/tf_static", "tf", bt.static_transforms(names, sk)),
+        ("/plan", "path", m.path(0.0, "map", np.asarray(path, dtype=float))),
+        ("/reference", "path", m.path(0.0, "map", traj.pose[ref], traj.t[ref])),
+        ("/map", "grid", bt.map_message(world)),
+        ("/obstacles", "markers", bt.obstacle_markers(world)),
+    ]
+    for name, kind, message in once:
+        topics.append(bt.Topic(name, m.TYPES[kind], np.zeros(1), _once(message), latched=True))
+    return topics
+
+
+def _write(topics: list[bt.Topic], folder: Path) -> None:
+    """Write the topics into a new rosbag2 folder, messages in time order (ties: topic order)."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
+
+    writer = Writer(folder, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
+    writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+    stamps = np.concatenate([np.round(tp.times * 1e9).astype(np.int64) for tp in topics])
+    which = np.concatenate([np.full(tp.times.size, i) for i, tp in enumerate(topics)])
+    index = np.concatenate([np.arange(tp.times.size) for tp in topics])
+    order = np.lexsort((index, which, stamps))  # by time, then topic, then message
+    with writer:
+        conns = [
+            writer.add_connection(
+                tp.name, tp.msgtype, typestore=m.typestore(), offered_qos_profiles=[latched_qos()] if tp.latched else []
+            )
+            for tp in topics
+        ]
+        for n in order.tolist():
+            i = int(which[n])
+            writer.write(conns[i], int(stamps[n]), m.serialize(topics[i].make(int(index[n]))))
+
+
+def write_job_bag(result: Any, path: Path, *, overwrite: bool = False) -> BagSummary:
+    """Write a :class:`sim.pipeline.simulate.JobResult`'s runs as a bag (see :func:`write_bag`)."""
+    return write_bag(result.prepared, result.logs, path, overwrite=overwrite)
+
+
+def write_bag(prepared: Any, logs: Mapping[str, Any], path: Path, *, overwrite: bool = False) -> BagSummary:
+    """Write a job's runs as a rosbag2 folder at ``path`` (atomically: built beside it, then moved into place).
+
+    Args:
+        prepared: The job's :class:`sim.pipeline.case.PreparedTrajectory`.
+        logs: Run label -> run log (each run's namespace and frame prefix, see :func:`ros_name`).
+        path: The bag folder to create.
+        overwrite: Replace an existing bag there.
+
+    Raises:
+        OutputExistsError, ConfigError: See :func:`check_bag_target`.
+    """
+    start, cpu = time.perf_counter(), time.process_time()
+    path = Path(path)
+    check_bag_target(path, overwrite=overwrite)
+    topics = job_topics(prepared, logs)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    work = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent))
+    try:
+        _write(topics, work / path.name)
+        if path.exists():
+            check_bag_target(path, overwrite=overwrite)
+            os.replace(path, work / "replaced")
+        os.replace(work / path.name, path)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    stamps = np.concatenate([tp.times for tp in topics])
+    size = sum(f.stat().st_size for f in path.iterdir() if f.is_file())
+    counts = {tp.name: (tp.msgtype, int(tp.times.size)) for tp in topics}
+    span = float(stamps.max() - stamps.min())
+    return BagSummary(path, counts, size, span, time.perf_counter() - start, time.process_time() - cpu)

@@ -1,0 +1,129 @@
+"""What writing the bag adds to a run without video (``nhsim bench bag``).
+
+The same ``nhsim simulate ... --no-video`` command runs ``repeats`` times without ``--bag`` and
+``repeats`` times with it, interleaved (without, with; then with, without; ...) so that load from
+other processes hits both alike, each in a fresh process as a user runs it (imports, planning,
+physics, plots and record included). Each command's wall time and CPU time (user + system, of the
+child process) are measured; the cost is the ratio of the medians with and without the bag. The CPU
+ratio is the judged one: on a machine shared with other work a command waits for the processor a
+varying part of its wall time, which the CPU time does not count. The bag's own write time (wall and
+CPU, from the record) is reported beside it. Targets: CPU ratio at most :data:`TARGET_RATIO`, bag at
+most :data:`TARGET_MB` MB.
+"""
+
+from __future__ import annotations
+
+import json
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from planning.errors import NhsimError
+
+TARGET_RATIO = 1.2
+TARGET_MB = 5.0
+
+
+@dataclass(frozen=True)
+class BagBench:
+    """One measurement.
+
+    Attributes:
+        without_s: Wall time of each command without the bag [s].
+        with_s: Wall time of each command with it [s].
+        without_cpu_s: CPU time of each command without the bag [s].
+        with_cpu_s: CPU time of each command with it [s].
+        write_s: The bag's write time of each command with it, as its record states [s].
+        write_cpu_s: The bag's write CPU time of each command with it [s].
+        size_bytes: Bytes of the bag.
+        messages: Messages in the bag.
+        duration_s: Simulated time of the bag [s].
+    """
+
+    without_s: tuple[float, ...]
+    with_s: tuple[float, ...]
+    without_cpu_s: tuple[float, ...]
+    with_cpu_s: tuple[float, ...]
+    write_s: tuple[float, ...]
+    write_cpu_s: tuple[float, ...]
+    size_bytes: int
+    messages: int
+    duration_s: float
+
+    @property
+    def ratio(self) -> float:
+        """Median wall time with the bag over median wall time without it."""
+        return statistics.median(self.with_s) / statistics.median(self.without_s)
+
+    @property
+    def cpu_ratio(self) -> float:
+        """Median CPU time with the bag over median CPU time without it (the judged ratio)."""
+        return statistics.median(self.with_cpu_s) / statistics.median(self.without_cpu_s)
+
+    @property
+    def passed(self) -> bool:
+        """Both targets met."""
+        return self.cpu_ratio <= TARGET_RATIO and self.size_bytes <= TARGET_MB * 1e6
+
+
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _command(argv: list[str], folder: Path, bag: bool) -> tuple[float, float, dict[str, Any]]:
+    """Run ``nhsim simulate ARGV --no-video`` (with ``--bag`` when asked): (wall [s], CPU [s], its record)."""
+    record = folder / "run.json"
+    cmd = [
+        sys.executable,
+        "-m",
+        "sim",
+        "simulate",
+        *argv,
+        "--no-video",
+        "--quiet",
+        "--overwrite",
+        "--json",
+        str(record),
+    ]
+    if bag:
+        cmd += ["--bag", str(folder / "bag")]
+    cpu, t0 = _children_cpu(), time.perf_counter()
+    done = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    wall, cpu = time.perf_counter() - t0, _children_cpu() - cpu
+    if done.returncode == 2 or not record.is_file():
+        raise NhsimError(f"{' '.join(cmd[3:])} failed (exit {done.returncode}): {done.stderr.strip()[-500:]}")
+    return wall, cpu, json.loads(record.read_text(encoding="utf-8"))
+
+
+def measure(argv: list[str], repeats: int) -> BagBench:
+    """Run ``nhsim simulate ARGV`` ``repeats`` times without and with ``--bag``, interleaved."""
+    runs: dict[bool, list[tuple[float, float]]] = {False: [], True: []}
+    writes: list[tuple[float, float]] = []
+    last: dict[str, Any] = {}
+    with tempfile.TemporaryDirectory(prefix="nhsim-bench-bag-") as tmp:
+        for r in range(repeats):
+            for bag in (False, True) if r % 2 == 0 else (True, False):
+                wall, cpu, record = _command(argv, Path(tmp), bag)
+                runs[bag].append((wall, cpu))
+                if bag:
+                    last = record["bag"]
+                    writes.append((float(last["write_s"]), float(last["write_cpu_s"])))
+    messages = sum(int(t["messages"]) for t in last["topics"].values())
+    return BagBench(
+        tuple(w for w, _ in runs[False]),
+        tuple(w for w, _ in runs[True]),
+        tuple(c for _, c in runs[False]),
+        tuple(c for _, c in runs[True]),
+        tuple(w for w, _ in writes),
+        tuple(c for _, c in writes),
+        int(last["size_bytes"]),
+        messages,
+        float(last["duration_s"]),
+    )

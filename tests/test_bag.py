@@ -1,0 +1,311 @@
+"""Runs as ROS 2 bags, checked independently: a job written with ``rosbags`` is read back with ``rosbags``
+and, separately, with the ``mcap`` library (counts per topic, stamps, frames, the final true pose), its
+``/plan`` read as a path reproduces the job's trajectory, a lidar scan in the run log is published,
+and the write is atomic."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+
+from planning.errors import ConfigError, OutputExistsError
+from planning.trajectory.importer import TrajectoryFile
+from sim.io import bag as bagmod
+from sim.io.bag import write_job_bag
+from sim.pipeline.runs import RunKind
+
+RUNS = (RunKind.CLOSED_LOOP, RunKind.CLOSED_LOOP_ODOMETRY, RunKind.OPEN_LOOP)
+PER_SAMPLE = ("tf", "ground_truth/odom", "joint_states", "imu", "cmd_vel", "tracking_error")
+ONCE = ("/tf_static", "/plan", "/reference", "/map", "/obstacles")
+
+
+def path_file(folder: Path) -> Path:
+    """A gentle 0.8 m arc as an untimed path (x, y only)."""
+    x = np.linspace(0.0, 0.8, 9)
+    y = 0.15 * np.sin(np.pi * x / 0.8)
+    p = folder / "arc.csv"
+    p.write_text("x,y\n" + "\n".join(f"{a:.4f},{b:.4f}" for a, b in zip(x, y, strict=True)) + "\n")
+    return p
+
+
+@pytest.fixture(scope="module")
+def job(tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Path]:
+    from sim.pipeline.simulate import simulate_file
+
+    folder = tmp_path_factory.mktemp("bag")
+    result = simulate_file(TrajectoryFile(path_file(folder), timed=False), robot="turtlebot3", runs=RUNS)
+    return result, write_job_bag(result, folder / "job").path
+
+
+def _yaw(q: Any) -> float:
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def expected_counts(result: Any) -> dict[str, int]:
+    """Messages per topic as the logs dictate."""
+    counts: dict[str, int] = {}
+    for kind, log in result.logs.items():
+        for name in PER_SAMPLE:
+            counts[f"/{kind}/{name}"] = log.t.size
+        est = log.estimation
+        counts[f"/{kind}/odom"] = est.t.size if est is not None else log.t.size
+        counts[f"/{kind}/robot"] = 1
+        if est is not None and est.fix_t.size:
+            counts[f"/{kind}/fix"] = est.fix_t.size
+    counts["/clock"] = np.unique(np.concatenate([log.t for log in result.logs.values()])).size
+    counts.update(dict.fromkeys(ONCE, 1))
+    return counts
+
+
+def read_rosbags(path: Path) -> tuple[dict[str, str], dict[str, list[tuple[int, Any]]], Any]:
+    """Topic -> type, topic -> [(log time ns, message)], and the rosbag2 metadata, read by rosbags."""
+    from rosbags.highlevel import AnyReader
+
+    out: dict[str, list[tuple[int, Any]]] = {}
+    with AnyReader([path]) as reader:
+        types = {c.topic: c.msgtype for c in reader.connections}
+        qos = {c.topic: c.ext.offered_qos_profiles for c in reader.connections}
+        for conn, t, raw in reader.messages():
+            out.setdefault(conn.topic, []).append((t, reader.deserialize(raw, conn.msgtype)))
+    return types, out, qos
+
+
+def test_rosbags_reads_every_topic_with_the_logs_counts_stamps_and_frames(job: tuple[Any, Path]) -> None:
+    result, path = job
+    types, msgs, qos = read_rosbags(path)
+    assert {k: len(v) for k, v in msgs.items()} == expected_counts(result)
+    assert types["/closed_loop/odom"] == "nav_msgs/msg/Odometry"
+    assert types["/closed_loop/cmd_vel"] == "geometry_msgs/msg/TwistStamped"
+    assert types["/closed_loop/fix"] == "geometry_msgs/msg/PoseWithCovarianceStamped"
+    assert types["/map"] == "nav_msgs/msg/OccupancyGrid" and types["/obstacles"] == "visualization_msgs/msg/MarkerArray"
+    end = max(float(log.t[-1]) for log in result.logs.values())
+    for topic, items in msgs.items():
+        times = np.array([t for t, _ in items])
+        assert np.all(np.diff(times) >= 0), f"{topic}: log times go back"
+        assert times[0] >= 0 and times[-1] <= round(end * 1e9), topic
+        header = getattr(items[0][1], "header", None)
+        if header is not None and topic not in ONCE:  # each message's stamp is its log time
+            stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for _, m in items]
+            assert stamps == list(times), topic
+    for kind in result.logs:  # each run's tree: map -> odom -> base_footprint -> base_link -> wheels
+        tf = msgs[f"/{kind}/tf"]
+        chain = [(x.header.frame_id, x.child_frame_id) for x in tf[0][1].transforms]
+        assert chain == [
+            ("map", f"{kind}/odom"),
+            (f"{kind}/odom", f"{kind}/base_footprint"),
+            (f"{kind}/base_footprint", f"{kind}/base_link"),
+            (f"{kind}/base_link", f"{kind}/wheel_left_link"),
+            (f"{kind}/base_link", f"{kind}/wheel_right_link"),
+        ]
+    latched = {t for t, q in qos.items() if q and q[0].durability.name == "TRANSIENT_LOCAL"}
+    assert latched == {*ONCE, *(f"/{kind}/robot" for kind in result.logs)}
+
+
+def test_tf_puts_base_footprint_at_the_true_pose_and_ground_truth_ends_at_the_final_pose(job: tuple[Any, Path]) -> None:
+    result, path = job
+    _, msgs, _ = read_rosbags(path)
+    for kind, log in result.logs.items():
+        final = log.pose[-1]
+        gt = msgs[f"/{kind}/ground_truth/odom"][-1][1]
+        assert gt.header.frame_id == "map" and gt.child_frame_id == f"{kind}/base_footprint"
+        p = gt.pose.pose
+        assert (p.position.x, p.position.y) == pytest.approx((final[0], final[1]), abs=1e-12)
+        assert _wrap(_yaw(p.orientation) - final[2]) == pytest.approx(0.0, abs=1e-9)
+        # map -> odom -> base_footprint composes to the true pose (the estimate's error is in map -> odom)
+        tfs = msgs[f"/{kind}/tf"][-1][1].transforms
+        a, b = tfs[0].transform, tfs[1].transform
+        ya = _yaw(a.rotation)
+        x = a.translation.x + math.cos(ya) * b.translation.x - math.sin(ya) * b.translation.y
+        y = a.translation.y + math.sin(ya) * b.translation.x + math.cos(ya) * b.translation.y
+        assert (x, y) == pytest.approx((final[0], final[1]), abs=1e-9)
+        assert _wrap(ya + _yaw(b.rotation) - final[2]) == pytest.approx(0.0, abs=1e-9)
+        err = msgs[f"/{kind}/tracking_error"][-1][1].vector
+        assert err.x == pytest.approx(float(np.hypot(*(log.pose[-1, :2] - log.ref_pose[-1, :2]))), abs=1e-12)
+        robot = msgs[f"/{kind}/robot"][0][1].markers
+        assert {mk.header.frame_id for mk in robot} == {f"{kind}/base_link"} and all(mk.frame_locked for mk in robot)
+        joints = msgs[f"/{kind}/joint_states"][-1][1]
+        assert list(joints.name) == ["wheel_left_joint", "wheel_right_joint"]
+        assert list(joints.velocity) == pytest.approx(list(log.wheel_speed[-1]), abs=0.0)
+
+
+def test_the_mcap_library_reads_the_same_counts_and_final_pose(job: tuple[Any, Path]) -> None:
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    result, path = job
+    files = list(path.glob("*.mcap"))
+    assert len(files) == 1 and (path / "metadata.yaml").is_file()
+    counts: dict[str, int] = {}
+    last: dict[str, Any] = {}
+    with files[0].open("rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        summary = reader.get_summary()
+        assert summary is not None and {c.compression for c in summary.chunk_indexes} == {"zstd"}
+        for _, channel, message, decoded in reader.iter_decoded_messages(log_time_order=True):
+            counts[channel.topic] = counts.get(channel.topic, 0) + 1
+            last[channel.topic] = (message.log_time, decoded)
+        qos = {c.topic: yaml.safe_load(c.metadata["offered_qos_profiles"]) for c in summary.channels.values()}
+    assert counts == expected_counts(result)
+    # rmw's durability 1 is transient local: the once-per-job topics are latched, the others volatile
+    latched = {topic for topic, q in qos.items() if q and q[0]["durability"] == 1}
+    assert latched == {*ONCE, *(f"/{kind}/robot" for kind in result.logs)}
+    log = result.logs[RunKind.CLOSED_LOOP]
+    t, gt = last["/closed_loop/ground_truth/odom"]
+    assert t == round(float(log.t[-1]) * 1e9)
+    assert (gt.pose.pose.position.x, gt.pose.pose.position.y) == pytest.approx(tuple(log.pose[-1, :2]), abs=1e-12)
+    grid = last["/map"][1]
+    assert grid.info.resolution == pytest.approx(0.02) and len(grid.data) == grid.info.width * grid.info.height
+
+
+def test_the_plan_of_a_bag_read_as_a_path_reproduces_the_jobs_trajectory(job: tuple[Any, Path]) -> None:
+    from sim.pipeline.case import Case, prepare_trajectory
+
+    result, path = job
+    again = prepare_trajectory(Case(result.scenario, trajectory_file=TrajectoryFile(path, timed=False, topic="/plan")))
+    a, b = result.trajectory, again.trajectory
+    assert a.t.shape == b.t.shape
+    np.testing.assert_allclose(b.t, a.t, atol=1e-9)
+    np.testing.assert_allclose(b.pose, a.pose, atol=1e-9)
+    assert again.extra["import"]["format"] == "bag topic /plan, nav_msgs/Path"
+
+
+def test_the_plan_of_a_planned_jobs_bag_reproduces_its_trajectory(tmp_path: Path) -> None:
+    """A planner's path on /plan, read back with --path semantics in the job's scenario, is smoothed and timed
+    into the very trajectory the job tracked."""
+    from sim.pipeline.case import Case, PlanOptions, prepare_trajectory
+    from sim.pipeline.simulate import track
+
+    prepared = prepare_trajectory(Case("simple_motion", planner="birrt", planning=PlanOptions(time_limit=5.0)))
+    job = track(prepared, (RunKind.OPEN_LOOP,), strict=False)
+    path = write_job_bag(job, tmp_path / "planned").path
+    read = TrajectoryFile(path, timed=False, topic="/plan")
+    again = prepare_trajectory(Case(prepared.scenario, trajectory_file=read))
+    assert prepared.path is not None and len(prepared.path) > 2
+    np.testing.assert_allclose(again.trajectory.t, prepared.trajectory.t, atol=1e-9)
+    np.testing.assert_allclose(again.trajectory.pose, prepared.trajectory.pose, atol=1e-9)
+
+
+def _with_scan(result: Any, where: str, ranges: np.ndarray, t: np.ndarray) -> Any:
+    """The job with synthetic LDS-01 sweeps in its closed loop's log: as ``log.scan``, or where the scan
+    localiser keeps them (``log.estimation.localiser``: bearing 0 first, 1 degree apart)."""
+    run = result.runs[RunKind.CLOSED_LOOP]
+    log = dataclasses.replace(run.log)
+    step = 2 * math.pi / ranges.shape[1]
+    if where == "log.scan":
+        fields = [
+            "t",
+            "ranges",
+            "angle_min",
+            "angle_increment",
+            "time_increment",
+            "scan_time",
+            "range_min",
+            "range_max",
+        ]
+        scan = dataclasses.make_dataclass("Scan", fields)(t, ranges, 0.0, step, 0.2 / 360, 0.2, 0.12, 3.5)
+        object.__setattr__(log, "scan", scan)
+    else:
+        fields = ["scan_t", "scan_ranges", "scan_angle_increment", "scan_time_increment", "range_min", "range_max"]
+        loc = dataclasses.make_dataclass("Localiser", fields)(t, ranges, step, 0.2 / 360, 0.12, 3.5)
+        est = dataclasses.replace(log.estimation)
+        object.__setattr__(est, "localiser", loc)
+        object.__setattr__(log, "estimation", est)
+    return dataclasses.replace(result, runs={RunKind.CLOSED_LOOP: dataclasses.replace(run, log=log)})
+
+
+@pytest.mark.parametrize("where", ["log.scan", "estimation.localiser"])
+def test_a_scan_in_the_run_log_is_published_with_its_frame(job: tuple[Any, Path], tmp_path: Path, where: str) -> None:
+    from rosbags.highlevel import AnyReader
+
+    result, _ = job
+    k, beams = 7, 360
+    ranges = np.linspace(0.2, 3.0, k * beams).reshape(k, beams)
+    ranges[0, 5], ranges[1, 7] = np.inf, -np.inf  # REP 117: nothing within range, too close
+    t = np.linspace(0.0, 1.2, k)
+    path = write_job_bag(_with_scan(result, where, ranges, t), tmp_path / "scan").path
+    with AnyReader([path]) as reader:
+        conns = [c for c in reader.connections if c.topic == "/closed_loop/scan"]
+        assert [c.msgtype for c in conns] == ["sensor_msgs/msg/LaserScan"]
+        got = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(connections=conns)]
+        static = next(reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages() if c.topic == "/tf_static")
+    assert len(got) == k
+    assert got[3].header.frame_id == "closed_loop/base_scan"
+    assert got[3].header.stamp.sec * 10**9 + got[3].header.stamp.nanosec == round(t[3] * 1e9)
+    np.testing.assert_array_equal(got[3].ranges, ranges[3].astype(np.float32))
+    assert got[0].ranges[5] == np.inf and got[1].ranges[7] == -np.inf
+    assert got[0].angle_max == pytest.approx(2 * math.pi * 359 / 360)
+    assert got[0].scan_time == pytest.approx(0.2) and got[0].range_max == pytest.approx(3.5)
+    scan_tf = [x for x in static.transforms if x.child_frame_id == "closed_loop/base_scan"]
+    assert len(scan_tf) == 1 and scan_tf[0].transform.translation.z == pytest.approx(0.149)
+
+
+def test_an_existing_bag_is_kept_without_overwrite_and_replaced_with_it(job: tuple[Any, Path], tmp_path: Path) -> None:
+    result, _ = job
+    target = tmp_path / "b"
+    target.mkdir()
+    (target / "metadata.yaml").write_text("old")
+    with pytest.raises(OutputExistsError, match="--overwrite"):
+        write_job_bag(result, target)
+    assert (target / "metadata.yaml").read_text() == "old"
+    write_job_bag(result, target, overwrite=True)
+    assert "rosbag2_bagfile_information" in (target / "metadata.yaml").read_text()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b"]  # no temporary folder left
+    other = tmp_path / "notes"
+    other.mkdir()
+    (other / "keep.txt").write_text("mine")
+    with pytest.raises(ConfigError, match="not a bag"):
+        write_job_bag(result, other, overwrite=True)
+    assert (other / "keep.txt").read_text() == "mine"
+
+
+def test_an_interrupted_write_leaves_nothing(
+    job: tuple[Any, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    result, _ = job
+    calls = {"n": 0}
+    real = bagmod.m.serialize
+
+    def failing(message: Any) -> bytes:
+        calls["n"] += 1
+        if calls["n"] > 500:
+            raise KeyboardInterrupt
+        return real(message)
+
+    monkeypatch.setattr(bagmod.m, "serialize", failing)
+    with pytest.raises(KeyboardInterrupt):
+        write_job_bag(result, tmp_path / "cut")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_foxglove_layout_names_only_topics_and_fields_a_bag_has(job: tuple[Any, Path]) -> None:
+    import json
+
+    from rosbags.highlevel import AnyReader
+
+    result, path = job
+    layout = json.loads((Path(__file__).resolve().parents[1] / "docs" / "foxglove" / "nhsim-bag.json").read_text())
+    panels = layout["configById"]
+    shown = set(panels["3D!nhsim"]["topics"])
+    plotted = [p["value"] for key, panel in panels.items() if key.startswith("Plot!") for p in panel["paths"]]
+    _, msgs, _ = read_rosbags(path)
+    assert shown - set(msgs) == {"/closed_loop/scan"}  # the scan only where the robot has a lidar
+    assert {f"/{kind}/robot" for kind in result.logs} <= shown  # the three robots
+    with AnyReader([path]) as reader:
+        types = {c.topic: c.msgtype for c in reader.connections}
+    for value in plotted:  # each plotted field exists and is a number
+        topic, *fields = value.split(".")
+        node = msgs[topic][0][1]
+        for name in fields:
+            node = getattr(node, name)
+        assert isinstance(node, float), (value, types[topic])
+    assert {v.split(".")[0].split("/")[1] for v in plotted} == {str(k) for k in result.logs}

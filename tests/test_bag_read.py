@@ -1,0 +1,246 @@
+"""Reading plans and recorded motion from bags written by other tools (the ``mcap`` library's own ROS 2
+writer, a sqlite3 rosbag2 folder, a ROS 1 bag), and every bad bag or topic: exit 2 naming the problem
+and the fix, nothing written, no traceback."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from planning.trajectory.bag_file import read_bag_table
+from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
+from sim.cli.main import main
+
+#: The ROS 2 message definitions a recorder stores in an MCAP schema (ros2msg: the type, then each
+#: dependency after a line of '='), as ros2 bag record writes them.
+_SEP = "=" * 80
+_TIME = "int32 sec\nuint32 nanosec"
+_HEADER = "builtin_interfaces/Time stamp\nstring frame_id"
+_POSE = "Point position\nQuaternion orientation"
+_POINT = "float64 x\nfloat64 y\nfloat64 z"
+_QUAT = "float64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1"
+_DEPS = (
+    f"{_SEP}\nMSG: std_msgs/Header\n{_HEADER}\n{_SEP}\nMSG: builtin_interfaces/Time\n{_TIME}\n"
+    f"{_SEP}\nMSG: geometry_msgs/Pose\n{_POSE}\n{_SEP}\nMSG: geometry_msgs/Point\n{_POINT}\n"
+    f"{_SEP}\nMSG: geometry_msgs/Quaternion\n{_QUAT}\n"
+)
+POSE_STAMPED_DEF = f"std_msgs/Header header\ngeometry_msgs/Pose pose\n{_DEPS}"
+PATH_DEF = (
+    f"std_msgs/Header header\ngeometry_msgs/PoseStamped[] poses\n{_SEP}\nMSG: geometry_msgs/PoseStamped\n"
+    f"std_msgs/Header header\ngeometry_msgs/Pose pose\n{_DEPS}"
+)
+EPOCH = 1_700_000_000  # a real recording's stamps are wall-clock seconds
+
+
+def _stamped(t: float, x: float, y: float, yaw: float) -> dict[str, Any]:
+    sec = math.floor(t)
+    return {
+        "header": {"stamp": {"sec": EPOCH + sec, "nanosec": round((t - sec) * 1e9)}, "frame_id": "map"},
+        "pose": {
+            "position": {"x": x, "y": y, "z": 0.0},
+            "orientation": {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2), "w": math.cos(yaw / 2)},
+        },
+    }
+
+
+def arc(n: int = 41, duration: float = 8.0) -> tuple[np.ndarray, np.ndarray]:
+    """(t (n,), poses (n, 3)): a quarter circle of radius 1 m driven at constant speed, headings along it."""
+    t = np.linspace(0.0, duration, n)
+    a = 0.5 * np.pi * t / duration
+    return t, np.column_stack([np.sin(a), 1.0 - np.cos(a), a])
+
+
+def mcap_bag(path: Path) -> Path:
+    """An MCAP file written by the mcap library's ROS 2 writer: two plans on /plan (the second the arc)
+    and the arc's poses on /pose as geometry_msgs/PoseStamped."""
+    from mcap_ros2.writer import Writer
+
+    t, poses = arc()
+    with path.open("wb") as f:
+        writer = Writer(f)
+        plan = writer.register_msgdef("nav_msgs/msg/Path", PATH_DEF)
+        pose = writer.register_msgdef("geometry_msgs/msg/PoseStamped", POSE_STAMPED_DEF)
+        first = [_stamped(0.0, 0.5 * k, 0.0, 0.0) for k in range(3)]
+        writer.write_message("/plan", plan, {"header": first[0]["header"], "poses": first}, log_time=EPOCH * 10**9)
+        poses_msgs = [_stamped(0.0, *p) for p in poses]
+        msg = {"header": poses_msgs[0]["header"], "poses": poses_msgs}
+        writer.write_message("/plan", plan, msg, log_time=EPOCH * 10**9 + 1)
+        for tk, p in zip(t, poses, strict=True):
+            ns = EPOCH * 10**9 + round(tk * 1e9)
+            writer.write_message("/pose", pose, _stamped(float(tk), *p), log_time=ns, publish_time=ns)
+        writer.finish()
+    return path
+
+
+def test_a_plan_from_the_mcap_librarys_writer_is_read_last_or_by_index(tmp_path: Path) -> None:
+    bag = mcap_bag(tmp_path / "other.mcap")
+    _, poses = arc()
+    last = read_bag_table(bag, "/plan", timed=False)
+    np.testing.assert_allclose(last.columns["x"], poses[:, 0], atol=1e-12)
+    np.testing.assert_allclose(last.columns["theta"], poses[:, 2], atol=1e-12)
+    assert "t" not in last.columns  # all poses stamped alike: no clock
+    first = read_bag_table(bag, "/plan", 0, timed=False)
+    np.testing.assert_allclose(first.columns["x"], [0.0, 0.5, 1.0])
+    assert first.rows[2] == "/plan message 0 poses[2]"
+
+
+def test_a_recorded_motion_keeps_its_clock_through_the_import(tmp_path: Path) -> None:
+    bag = mcap_bag(tmp_path / "other.mcap")
+    t, poses = arc()
+    imported = read_trajectory_file(TrajectoryFile(bag, timed=True, topic="/pose"))
+    assert imported.t is not None
+    np.testing.assert_allclose(imported.t, t, atol=2e-9)  # counted from the first stamp
+    np.testing.assert_allclose(imported.xy, poses[:, :2], atol=1e-12)
+    assert imported.report.fmt == "bag topic /pose, geometry_msgs/PoseStamped"
+    assert imported.report.rows_read == t.size
+
+
+def _rosbags_bag(path: Path, *, ros1: bool) -> Path:
+    """The arc as nav_msgs/Odometry on /odom (with its twist), written by rosbags as a sqlite3 rosbag2
+    folder or a ROS 1 bag."""
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    ty = store.types
+    t, poses = arc()
+    speed = 0.5 * np.pi / t[-1]
+    msgs = []
+    for tk, p in zip(t, poses, strict=True):
+        stamp = ty["builtin_interfaces/msg/Time"](sec=EPOCH + int(tk), nanosec=round((tk % 1) * 1e9))
+        head = {"stamp": stamp, "frame_id": "odom", **({"seq": 0} if ros1 else {})}
+        pose = ty["geometry_msgs/msg/Pose"](
+            position=ty["geometry_msgs/msg/Point"](x=p[0], y=p[1], z=0.0),
+            orientation=ty["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=math.sin(p[2] / 2), w=math.cos(p[2] / 2)),
+        )
+        vec = ty["geometry_msgs/msg/Vector3"]
+        tw = ty["geometry_msgs/msg/Twist"](linear=vec(x=speed, y=0.0, z=0.0), angular=vec(x=0.0, y=0.0, z=speed))
+        msgs.append(
+            (
+                int(tk * 1e9),
+                ty["nav_msgs/msg/Odometry"](
+                    header=ty["std_msgs/msg/Header"](**head),
+                    child_frame_id="base_footprint",
+                    pose=ty["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=np.zeros(36)),
+                    twist=ty["geometry_msgs/msg/TwistWithCovariance"](twist=tw, covariance=np.zeros(36)),
+                ),
+            )
+        )
+    if ros1:
+        from rosbags.rosbag1 import Writer as Writer1
+
+        with Writer1(path) as w1:
+            conn = w1.add_connection("/odom", "nav_msgs/msg/Odometry", typestore=store)
+            for ns, msg in msgs:
+                w1.write(conn, EPOCH * 10**9 + ns, store.serialize_ros1(msg, "nav_msgs/msg/Odometry"))
+        return path
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    with Writer(path, version=8, storage_plugin=StoragePlugin.SQLITE3) as w2:
+        conn = w2.add_connection("/odom", "nav_msgs/msg/Odometry", typestore=store)
+        for ns, msg in msgs:
+            w2.write(conn, EPOCH * 10**9 + ns, store.serialize_cdr(msg, "nav_msgs/msg/Odometry"))
+    return path
+
+
+@pytest.mark.parametrize("ros1", [False, True], ids=["rosbag2-sqlite3", "ros1-bag"])
+def test_odometry_from_a_sqlite3_folder_or_a_ros1_bag(tmp_path: Path, ros1: bool) -> None:
+    bag = _rosbags_bag(tmp_path / ("odom.bag" if ros1 else "odom"), ros1=ros1)
+    t, poses = arc()
+    table = read_bag_table(bag, "/odom", timed=True)
+    np.testing.assert_allclose(table.columns["t"], t, atol=2e-9)
+    np.testing.assert_allclose(table.columns["y"], poses[:, 1], atol=1e-12)
+    np.testing.assert_allclose(table.columns["omega"], 0.5 * np.pi / t[-1])
+    imported = read_trajectory_file(TrajectoryFile(bag, timed=True, topic="/odom"))
+    assert imported.report.corrections == []  # its twist agrees with its poses: kept
+
+
+# ------------------------------------------------------------------------------------------ bad input
+def _exit_2(argv: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> str:
+    assert main(["simulate", *argv, "--no-video", "--json", str(tmp_path / "out" / "r.json")]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    assert not (tmp_path / "out").exists() and not (tmp_path / "renders").exists()
+    return err
+
+
+def _bad_bags(tmp_path: Path) -> dict[str, Path]:
+    good = mcap_bag(tmp_path / "good.mcap")
+    data = good.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) // 2])
+    text = tmp_path / "notes.mcap"
+    text.write_text("t,x,y\n0,0,0\n")
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    empty = tmp_path / "empty"
+    with Writer(empty, version=8, storage_plugin=StoragePlugin.MCAP) as w:
+        from rosbags.typesys import Stores, get_typestore
+
+        w.add_connection("/plan", "nav_msgs/msg/Path", typestore=get_typestore(Stores.ROS2_HUMBLE))
+    return {"good": good, "cut": cut, "text": text, "folder": folder, "empty": empty}
+
+
+@pytest.mark.parametrize(
+    ("case", "argv", "said"),
+    [
+        ("missing", ["--path", "{tmp}/nowhere.mcap", "--topic", "/plan"], "no such file or folder"),
+        ("cut", ["--path", "{cut}", "--topic", "/plan"], "truncated or not a bag"),
+        ("text", ["--path", "{text}", "--topic", "/plan"], "truncated or not a bag"),
+        ("folder", ["--path", "{folder}", "--topic", "/plan"], "no metadata.yaml"),
+        (
+            "no topic given",
+            ["--path", "{good}"],
+            "name the topic to read with --topic; it has /plan (nav_msgs/Path, 2)",
+        ),
+        ("topic missing", ["--path", "{good}", "--topic", "/odom"], "no topic '/odom'; the bag has /plan"),
+        ("wrong type", ["--path", "{good}", "--topic", "/pose"], "carries geometry_msgs/PoseStamped, not a path"),
+        ("empty", ["--path", "{empty}", "--topic", "/plan"], "holds no messages"),
+        ("message out of range", ["--path", "{good}", "--topic", "/plan", "--message", "5"], "give 0 to 1"),
+        ("topic on a text file", ["--path", "{tmp}/a.csv", "--topic", "/plan"], "drop them"),
+    ],
+)
+def test_a_bad_bag_or_topic_exits_2_naming_it(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    case: str,
+    argv: list[str],
+    said: str,
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "a.csv").write_text("x,y\n0,0\n1,0\n")
+    names = {k: str(v) for k, v in _bad_bags(tmp_path).items()} | {"tmp": str(tmp_path)}
+    err = _exit_2([a.format(**names) for a in argv], tmp_path, capsys)
+    assert said in err, err
+
+
+def test_an_existing_bag_folder_stops_the_job_before_it_runs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "b").mkdir()
+    (tmp_path / "b" / "metadata.yaml").write_text("old")
+    err = _exit_2(["--reference", "circle", "--bag", str(tmp_path / "b")], tmp_path, capsys)
+    assert "exists already; pass --overwrite" in err
+    assert (tmp_path / "b" / "metadata.yaml").read_text() == "old"
+
+
+def test_a_monte_carlo_study_of_a_bag_folder_is_keyed_by_its_files(tmp_path: Path) -> None:
+    from sim.tools.montecarlo import _file_key
+
+    folder = _rosbags_bag(tmp_path / "odom", ros1=False)
+    key = _file_key(TrajectoryFile(folder, timed=True, topic="/odom"))
+    assert key["topic"] == "/odom" and key["message"] is None
+    (folder / "metadata.yaml").write_text((folder / "metadata.yaml").read_text() + "\n")
+    assert _file_key(TrajectoryFile(folder, timed=True, topic="/odom"))["sha1"] != key["sha1"]
+    single = tmp_path / "plan.mcap"
+    mcap_bag(single)
+    import hashlib
+
+    assert _file_key(TrajectoryFile(single, timed=False))["sha1"] == hashlib.sha1(single.read_bytes()).hexdigest()
