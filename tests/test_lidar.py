@@ -78,8 +78,13 @@ def _place(model: mujoco.MjModel, data: mujoco.MjData, pose: tuple[float, float,
 def test_profile_is_the_datasheet_and_refuses_values_outside_it() -> None:
     p = load_lidar_profile("turtlebot3")
     assert p is not None and (p.beams, p.rate, p.range_min, p.range_max) == (360, 5.0, 0.12, 3.5)
-    for text, field in [("beams=720", "beams"), ("rate=10", "rate"), ("range_max=8", "range_max"),
-                        ("range_min=0.05", "range_min"), ("beams=90.5", "beams")]:  # fmt: skip
+    for text, field in [
+        ("beams=720", "beams"),
+        ("rate=10", "rate"),
+        ("range_max=8", "range_max"),
+        ("range_min=0.05", "range_min"),
+        ("beams=90.5", "beams"),
+    ]:
         with pytest.raises(ConfigError, match=field):
             p.parse(text)
     with pytest.raises(ConfigError, match="range_min"):
