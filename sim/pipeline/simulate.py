@@ -255,7 +255,7 @@ def run_tracker(
 
 def simulator_for(prepared: PreparedTrajectory) -> Simulator:
     """A compiled simulator of a prepared case's robot, as its case builds it, in its world."""
-    return Simulator(prepared.robot, prepared.scenario.world, prepared.case.as_built(prepared.robot.name))
+    return Simulator(prepared.robot, prepared.scenario.physical_world, prepared.case.as_built(prepared.robot.name))
 
 
 def simulate(case: Case, runs: Iterable[RunKind] = DEFAULT_RUNS, *, progress: Progress | None = None) -> JobResult:

@@ -68,7 +68,7 @@ def write_video(
     from sim.physics.simulator import Simulator
 
     s = settings or RenderSettings()
-    model = model if model is not None else Simulator(job.robot, job.scenario.world).model
+    model = model if model is not None else Simulator(job.robot, job.scenario.physical_world).model
     replay = Replay(model, job.trajectory, dict(job.logs), s)
     t0 = time.perf_counter()
     with SceneRenderer(model, s.width, s.height, quality=s.quality, max_geom=replay.required_geoms) as renderer:
