@@ -21,8 +21,9 @@ The algorithm of Probabilistic Robotics (Thrun, Burgard, Fox 2005) ch. 8 as Nav2
   bin of the bin of most weight), then, with ``refine`` on (nhsim's addition; Nav2 has none), a
   Gauss-Newton scan-to-map fit of the used beams' end points to the map's signed distance from
   that mean, over every valid beam (not only the ``max_beams`` subset), whose covariance
-  ``s^2 (J^T J)^-1`` (``s^2`` the residual variance) replaces the cluster's when the fit holds (at
-  least ``max_beams / 2`` beams within ``refine_gate``).
+  ``s^2 (J^T J)^-1`` (``s^2`` the residual variance), where larger, replaces the cluster's entries
+  when the fit holds (at least ``max_beams / 2`` beams within ``refine_gate``); the cluster's
+  spread stands for the scan's systematic error, which the fit's own covariance does not know.
 
 The map is the world's own signed distance (:func:`planning.collision.compiled.world_distances`,
 the planner's formulas), tabulated once per world on a ``map_resolution`` grid and read bilinearly.
@@ -427,9 +428,12 @@ class Amcl:
             )
             ok = used >= max(10, c.max_beams // 2) and np.linalg.cond(info) < 1e8
             if ok and math.hypot(pose[0] - mean[0], pose[1] - mean[1]) < 0.5:
+                # the fit's own covariance s^2 (J^T J)^-1 knows only the scan's white noise, not its
+                # systematic error: the larger of it and the cluster's is reported
                 s2 = max(ssr / (used - 3), 1e-8)
                 pose[2] = math.atan2(math.sin(pose[2]), math.cos(pose[2]))
-                return AmclEstimate(pose, s2 * np.linalg.inv(info), self.particles.shape[0], spread, True)
+                cov = np.maximum(s2 * np.linalg.inv(info), cov) if np.all(np.diag(cov) > 0) else cov
+                return AmclEstimate(pose, _psd(cov), self.particles.shape[0], spread, True)
         return AmclEstimate(mean, cov, self.particles.shape[0], spread, False)
 
     def spread(self) -> float:
@@ -438,3 +442,10 @@ class Amcl:
         xy = self.particles[:, :2]
         mu = w @ xy
         return float(math.sqrt(max(0.0, float(w @ np.sum((xy - mu) ** 2, axis=1)))))
+
+
+def _psd(cov: FloatArray) -> FloatArray:
+    """``cov`` made symmetric positive definite (eigenvalues at least 1e-10)."""
+    sym = 0.5 * (cov + cov.T)
+    w, v = np.linalg.eigh(sym)
+    return np.asarray((v * np.maximum(w, 1e-10)) @ v.T)

@@ -149,6 +149,7 @@ class JobResult:
             "build_seed": self.case.build_seed,
             "as_built": self.build.as_dict(),
             "sensors": self.sensing.profile.as_dict(),
+            "localiser": self.sensing.localiser.as_dict(),
             "versions": versions(),
         }
         for kind, run in self.runs.items():
