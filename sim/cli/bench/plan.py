@@ -132,8 +132,12 @@ def _markdown(rows: list[Any], stamp: str, verdict: list[str], cpp: bool) -> str
     names = list(rows[0].len_cpp) if rows else []
     per = (("problem", "problem", 0), *((n, n, 0) for n in names))
     out = [f"_{stamp}_", ""]
-    for title, cols in (("First path", TTFS_COLS), ("Length after the budget", LEN_COLS), ("Each OMPL planner: "
-                        "median length m (success)", per)):  # fmt: skip
+    tables = (
+        ("First path", TTFS_COLS),
+        ("Length after the budget", LEN_COLS),
+        ("Each OMPL planner: median length m (success)", per),
+    )
+    for title, cols in tables:
         if cols is per and not names:
             continue
         out += [f"**{title}**", "", "| " + " | ".join(h for _, h, _ in cols) + " |"]
