@@ -50,7 +50,9 @@ def field_at(field, grid, x, y):  # type: ignore[no-untyped-def]
 
 
 def likelihood(particles, ranges, bearings, laser, field, grid, model):  # type: ignore[no-untyped-def]
+    """p = 1 + sum pz^3 per particle, d at the grid node nearest to each end point (cap off the grid)."""
     z_hit, z_rand, sigma, rmax = model
+    x0, y0, h, cap = grid
     out = []
     for x, y, th in particles:
         lx = x + math.cos(th) * laser[0] - math.sin(th) * laser[1]
@@ -58,7 +60,9 @@ def likelihood(particles, ranges, bearings, laser, field, grid, model):  # type:
         p = 1.0
         for r, b in zip(ranges, bearings, strict=True):
             a = th + laser[2] + b
-            d = field_at(field, grid, lx + r * math.cos(a), ly + r * math.sin(a))
+            i = math.floor((lx + r * math.cos(a) - x0) / h + 0.5)
+            j = math.floor((ly + r * math.sin(a) - y0) / h + 0.5)
+            d = field[i, j] if 0 <= i < field.shape[0] and 0 <= j < field.shape[1] else cap
             pz = z_hit * math.exp(-(d**2) / (2 * sigma**2)) + z_rand / rmax
             p += pz**3
         out.append(p)

@@ -9,9 +9,10 @@ The algorithm of Probabilistic Robotics (Thrun, Burgard, Fox 2005) ch. 8 as Nav2
 - **Sensor**: the likelihood-field model over ``max_beams`` evenly spaced beams (Nav2's step
   ``(beams - 1) // (max_beams - 1)``), ``p = 1 + sum pz^3``, ``pz = z_hit exp(-d^2 / 2 sigma_hit^2) +
   z_rand / range_max`` with ``d`` the distance from a beam's end point to the nearest mapped
-  obstacle or wall, capped at ``laser_likelihood_max_dist``. Beams at or beyond the range limit
-  (``min(laser_max_range, the scan's range_max)``) or at or below the scan's ``range_min`` (REP 117
-  infinities among them) are left out, as Nav2 does.
+  obstacle or wall, capped at ``laser_likelihood_max_dist``, read at the nearest node of the
+  ``map_resolution`` grid as Nav2 reads its map's cell (``pz^3`` is tabulated there once). Beams
+  at or beyond the range limit (``min(laser_max_range, the scan's range_max)``) or at or below the
+  scan's ``range_min`` (REP 117 infinities among them) are left out, as Nav2 does.
 - **Resampling**: low-variance (table 4.4) with the set's size chosen by KLD sampling (Fox 2003;
   bins of 0.5 m x 0.5 m x 10 deg, ``pf_err``, ``pf_z``, between ``min_particles`` and
   ``max_particles``), every ``resample_interval`` updates.
@@ -20,7 +21,8 @@ The algorithm of Probabilistic Robotics (Thrun, Burgard, Fox 2005) ch. 8 as Nav2
 - **Estimate**: the weighted mean and covariance of the heaviest cluster (the particles within one
   bin of the bin of most weight), then, with ``refine`` on (nhsim's addition; Nav2 has none), a
   Gauss-Newton scan-to-map fit of the used beams' end points to the map's signed distance from
-  that mean, over every valid beam (not only the ``max_beams`` subset), whose covariance
+  that mean and from the last estimate moved by the odometry (the fit with more beams within the
+  gate, then the smaller residual, wins), over every valid beam (not only the ``max_beams`` subset), whose covariance
   ``s^2 (J^T J)^-1`` (``s^2`` the residual variance), where larger, replaces the cluster's entries
   when the fit holds (at least ``max_beams / 2`` beams within ``refine_gate``); the cluster's
   spread stands for the scan's systematic error, which the fit's own covariance does not know.
@@ -280,6 +282,7 @@ class Amcl:
         self.w_slow = self.w_fast = 0.0
         self.updates = 0
         self.estimate: AmclEstimate | None = None
+        self._table: tuple[float, FloatArray, float] | None = None  # (range_max, pz^3 grid, pz^3 off it)
 
     def reset(self, pose: ArrayLike, std_xy: float | None = None, std_theta: float | None = None) -> None:
         """Start from a Gaussian cloud of ``max_particles`` around ``pose`` (Nav2's initial pose)."""
@@ -320,9 +323,14 @@ class Amcl:
         angle_increment: float,
         *,
         every: bool = False,
+        bearings: FloatArray | None = None,
     ) -> tuple[FloatArray, FloatArray]:
         """The beams the sensor model uses: Nav2's subset (or, with ``every``, all: the refinement's), within
         (range_min, min(range_max, laser_max_range)).
+
+        Args:
+            bearings: (beams,) each beam's bearing [rad], given instead of ``angle_min + i * angle_increment``
+                (a scan deskewed by the robot's own motion).
 
         Returns:
             (B,) ranges [m] and (B,) bearings [rad].
@@ -331,7 +339,8 @@ class Amcl:
         r = ranges[idx]
         rmax = min(range_max, self.config.laser_max_range)
         ok = np.isfinite(r) & (r > range_min) & (r < rmax)
-        return np.ascontiguousarray(r[ok]), np.ascontiguousarray(angle_min + angle_increment * idx[ok])
+        b = angle_min + angle_increment * idx[ok] if bearings is None else np.asarray(bearings, dtype=float)[idx[ok]]
+        return np.ascontiguousarray(r[ok]), np.ascontiguousarray(b)
 
     def moved_enough(self, odom: FloatArray) -> bool:
         """Whether the odometry moved past ``update_min_d`` (in x or y) or ``update_min_a`` since the last update."""
@@ -355,6 +364,7 @@ class Amcl:
         angle_increment: float,
         *,
         force: bool = False,
+        bearings: FloatArray | None = None,
     ) -> bool:
         """Take one scan with the odometry pose at its time; update if moved enough (or ``force``).
 
@@ -364,6 +374,7 @@ class Amcl:
             range_min, range_max: The scan's limits [m].
             angle_min, angle_increment: The scan's bearings [rad].
             force: Update without motion (Nav2's ``nomotion_update``).
+            bearings: (beams,) each beam's bearing [rad], instead of the evenly spaced ones.
 
         Returns:
             Whether the filter updated (then :attr:`estimate` is new).
@@ -376,25 +387,31 @@ class Amcl:
         if force and self.config.roughen_xy + self.config.roughen_theta > 0:
             jitter = self.rng.standard_normal((self.particles.shape[0], 3))
             self.particles += jitter * [self.config.roughen_xy, self.config.roughen_xy, self.config.roughen_theta]
+        prior = None
         if self.odom_ref is not None:
+            if self.estimate is not None:  # the last estimate moved by the odometry since
+                prior = _moved(self.estimate.pose, self.odom_ref, o)
             normals = self.rng.standard_normal((self.particles.shape[0], 3))
             K.motion_update(self.particles, self.odom_ref, o, self.alphas, normals)
         self.odom_ref = o.copy()
         z = np.asarray(ranges, dtype=float)
-        r, b = self.beams(z, range_min, range_max, angle_min, angle_increment)
+        limits = (range_min, range_max, angle_min, angle_increment)
+        r, b = self.beams(z, *limits, bearings=bearings)
         self._sense(r, b, min(range_max, self.config.laser_max_range))
         self.updates += 1
         if self.updates % self.config.resample_interval == 0:
             self._resample()
-        self.estimate = self._estimate(*self.beams(z, range_min, range_max, angle_min, angle_increment, every=True))
+        self.estimate = self._estimate(*self.beams(z, *limits, every=True, bearings=bearings), prior)
         return True
 
     def _sense(self, r: FloatArray, b: FloatArray, rmax: float) -> None:
         c = self.config
-        model = np.array([c.z_hit, c.z_rand, c.sigma_hit, rmax])
-        total = K.likelihood_update(
-            self.particles, self.weights, r, b, self.laser, self.field.capped, self.field.grid, model
-        )
+        if self._table is None or self._table[0] != rmax:
+            model = np.array([c.z_hit, c.z_rand, c.sigma_hit, rmax])
+            far = float(K.pz_cubed(np.array([c.laser_likelihood_max_dist]), model)[0])
+            self._table = (rmax, np.ascontiguousarray(K.pz_cubed(self.field.capped, model)), far)
+        _, table, outside = self._table
+        total = K.likelihood_update(self.particles, self.weights, r, b, self.laser, table, self.field.grid, outside)
         n = self.weights.size
         w_avg = total / n
         self.weights /= total
@@ -418,23 +435,30 @@ class Amcl:
         self.particles = out[:n].copy()
         self.weights = np.full(n, 1.0 / n)
 
-    def _estimate(self, r: FloatArray, b: FloatArray) -> AmclEstimate:
+    def _estimate(self, r: FloatArray, b: FloatArray, prior: FloatArray | None = None) -> AmclEstimate:
         mean, cov, _ = K.cluster_estimate(self.particles, self.weights, self.bins, self.shape)
         spread = self.spread()
         c = self.config
-        if c.refine and r.size >= max(10, c.max_beams // 2):
-            pose, info, used, ssr = K.refine(
-                mean, r, b, self.laser, self.field.signed, self.field.grid, c.refine_gate, 10
-            )
-            ok = used >= max(10, c.max_beams // 2) and np.linalg.cond(info) < 1e8
-            if ok and math.hypot(pose[0] - mean[0], pose[1] - mean[1]) < 0.5:
-                # the fit's own covariance s^2 (J^T J)^-1 knows only the scan's white noise, not its
-                # systematic error: the larger of it and the cluster's is reported
-                s2 = max(ssr / (used - 3), 1e-8)
-                pose[2] = math.atan2(math.sin(pose[2]), math.cos(pose[2]))
-                cov = np.maximum(s2 * np.linalg.inv(info), cov) if np.all(np.diag(cov) > 0) else cov
-                return AmclEstimate(pose, _psd(cov), self.particles.shape[0], spread, True)
-        return AmclEstimate(mean, cov, self.particles.shape[0], spread, False)
+        least = max(10, c.max_beams // 2)
+        if not c.refine or r.size < least:
+            return AmclEstimate(mean, cov, self.particles.shape[0], spread, False)
+        best = None
+        for start in (mean,) if prior is None else (mean, prior):
+            fit = K.refine(start, r, b, self.laser, self.field.signed, self.field.grid, c.refine_gate, 10)
+            pose, info, used, ssr = fit
+            if used < least or math.hypot(pose[0] - start[0], pose[1] - start[1]) >= 0.5:
+                continue
+            if np.linalg.cond(info) < 1e8 and (best is None or (used, -ssr) > (best[2], -best[3])):
+                best = fit
+        if best is None:
+            return AmclEstimate(mean, cov, self.particles.shape[0], spread, False)
+        pose, info, used, ssr = best
+        # the fit's own covariance s^2 (J^T J)^-1 knows only the scan's white noise, not its systematic
+        # error: the larger of it and the cluster's is reported
+        s2 = max(ssr / (used - 3), 1e-8)
+        pose[2] = math.atan2(math.sin(pose[2]), math.cos(pose[2]))
+        cov = np.maximum(s2 * np.linalg.inv(info), cov) if np.all(np.diag(cov) > 0) else cov
+        return AmclEstimate(pose, _psd(cov), self.particles.shape[0], spread, True)
 
     def spread(self) -> float:
         """Root of the trace of the whole particle set's weighted (x, y) covariance [m]."""
@@ -449,3 +473,12 @@ def _psd(cov: FloatArray) -> FloatArray:
     sym = 0.5 * (cov + cov.T)
     w, v = np.linalg.eigh(sym)
     return np.asarray((v * np.maximum(w, 1e-10)) @ v.T)
+
+
+def _moved(pose: FloatArray, old: FloatArray, new: FloatArray) -> FloatArray:
+    """``pose`` moved by the odometry's motion from ``old`` to ``new`` (in the odometry's own frame)."""
+    dx, dy = new[0] - old[0], new[1] - old[1]
+    c, s = math.cos(old[2]), math.sin(old[2])
+    fx, fy = c * dx + s * dy, -s * dx + c * dy  # the motion in the robot's frame at old
+    cp, sp = math.cos(pose[2]), math.sin(pose[2])
+    return np.array([pose[0] + cp * fx - sp * fy, pose[1] + sp * fx + cp * fy, pose[2] + K.angle_diff(new[2], old[2])])

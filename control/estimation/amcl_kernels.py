@@ -84,14 +84,15 @@ def likelihood_update(
     ranges: FloatArray,
     bearings: FloatArray,
     laser: FloatArray,
-    field: FloatArray,
+    table: FloatArray,
     grid: FloatArray,
-    model: FloatArray,
+    outside: float,
 ) -> float:
     """Weigh particles by the likelihood-field model (Nav2's ``LikelihoodFieldModel``), in place.
 
-    Per particle, ``p = 1 + sum_i pz_i^3`` over the beams with ``pz = z_hit exp(-d^2 / (2 sigma^2))
-    + z_rand / range_max``, ``d`` the map's distance at the beam's end point; ``weights *= p``.
+    Per particle, ``p = 1 + sum_i pz_i^3`` over the beams, ``pz^3`` read from ``table`` at the grid
+    node nearest to each beam's end point (Nav2 reads the map cell's distance the same way);
+    ``weights *= p``.
 
     Args:
         particles: (N, 3) poses.
@@ -99,32 +100,41 @@ def likelihood_update(
         ranges: (B,) ranges of the beams used (finite, below range_max) [m].
         bearings: (B,) their bearings in the scanner's frame [rad].
         laser: (3,) scanner pose in the robot's frame (x, y, yaw).
-        field: (nx, ny) distance to the nearest obstacle or wall, capped [m].
-        grid: (x0, y0, h, far) of ``field``: origin, spacing and value outside it [m].
-        model: (z_hit, z_rand, sigma_hit, range_max).
+        table: (nx, ny) ``pz^3`` at each grid node (:func:`pz_cubed`).
+        grid: (x0, y0, h, ...) of ``table``: origin and spacing [m].
+        outside: ``pz^3`` of an end point off the grid.
 
     Returns:
         The sum of the new weights.
     """
-    x0, y0, h, far = grid[0], grid[1], grid[2], grid[3]
-    z_hit, z_rand, sigma, rmax = model[0], model[1], model[2], model[3]
-    denom = 2.0 * sigma * sigma
-    rand = z_rand / rmax
+    x0, y0, inv_h = grid[0], grid[1], 1.0 / grid[2]
+    nx, ny = table.shape
+    nb_ = ranges.shape[0]
+    ex, ey = np.empty(nb_), np.empty(nb_)  # end points in the robot's frame
+    for b in range(nb_):
+        ex[b] = laser[0] + ranges[b] * math.cos(laser[2] + bearings[b])
+        ey[b] = laser[1] + ranges[b] * math.sin(laser[2] + bearings[b])
     total = 0.0
     for k in range(particles.shape[0]):
         c, s = math.cos(particles[k, 2]), math.sin(particles[k, 2])
-        lx = particles[k, 0] + c * laser[0] - s * laser[1]
-        ly = particles[k, 1] + s * laser[0] + c * laser[1]
-        lth = particles[k, 2] + laser[2]
+        px, py = (particles[k, 0] - x0) * inv_h + 0.5, (particles[k, 1] - y0) * inv_h + 0.5
+        cs, ss = c * inv_h, s * inv_h
         p = 1.0
-        for b in range(ranges.shape[0]):
-            a = lth + bearings[b]
-            d = field_at(field, x0, y0, h, far, lx + ranges[b] * math.cos(a), ly + ranges[b] * math.sin(a))
-            pz = z_hit * math.exp(-d * d / denom) + rand
-            p += pz * pz * pz
+        for b in range(nb_):
+            i = math.floor(px + cs * ex[b] - ss * ey[b])
+            j = math.floor(py + ss * ex[b] + cs * ey[b])
+            p += table[i, j] if 0 <= i < nx and 0 <= j < ny else outside
         weights[k] *= p
         total += weights[k]
     return total
+
+
+def pz_cubed(d: FloatArray, model: FloatArray) -> FloatArray:
+    """``pz^3`` of the likelihood-field model for map distances ``d`` [m]: ``pz = z_hit exp(-d^2 / (2
+    sigma_hit^2)) + z_rand / range_max`` with ``model = (z_hit, z_rand, sigma_hit, range_max)``."""
+    z_hit, z_rand, sigma, rmax = model
+    pz = z_hit * np.exp(-(d * d) / (2.0 * sigma * sigma)) + z_rand / rmax
+    return np.asarray(pz * pz * pz)
 
 
 @nb.njit(cache=True)

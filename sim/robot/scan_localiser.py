@@ -169,14 +169,18 @@ class ScanLocaliser:
         self.odom_at[k] = self.odom.copy()
 
     def fix(
-        self, j: int, data: mujoco.MjData, truth: FloatArray
+        self, j: int, data: mujoco.MjData, truth: FloatArray, estimate: FloatArray
     ) -> tuple[tuple[float, float, float], float, float] | None:
         """The localiser's answer for the revolution centred on period ``j`` (None if AMCL did not update).
+
+        The scan is deskewed first, as the robot can: each beam moved into the frame of the estimated
+        pose at ``j`` by the estimator's own poses over the revolution (:func:`deskew`).
 
         Args:
             j: The fix's period (its measurement time).
             data: The run's data (the static geoms placed).
             truth: (K, 3) true poses by period, filled up to the current period (at least ``j + half``).
+            estimate: (K, 3) the estimator's poses by period, filled as far.
 
         Returns:
             The pose, the standard deviations of its position (the larger axis) [m] and heading [rad].
@@ -193,7 +197,10 @@ class ScanLocaliser:
         self.scan_t.append(stamp)
         self.scan_ranges.append(scan.ranges)
         odom = self.odom_at.pop(j)
-        if not self.amcl.update(odom, scan.ranges, lidar.range_min, lidar.range_max, 0.0, lidar.angle_increment):
+        est_poses = beam_poses(t, estimate[ks], times)
+        ranges, bearings = deskew(scan.ranges, scan.bearings, est_poses, estimate[j], self.amcl.laser)
+        limits = (lidar.range_min, lidar.range_max, 0.0, lidar.angle_increment)
+        if not self.amcl.update(odom, ranges, *limits, bearings=bearings):
             return None
         est = self.amcl.estimate
         assert est is not None
@@ -263,3 +270,34 @@ def localiser_schedule(setup: LocaliserSetup, fix_every: int, latency_periods: i
             f"sensor fix_latency must be at least half a revolution plus a control period ({need:g} s) with "
             f"--localiser amcl: a revolution's fix is known only when it has ended; set --sensors fix_latency={need:g}"
         )
+
+
+def deskew(
+    ranges: FloatArray, bearings: FloatArray, poses: FloatArray, ref: FloatArray, laser: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """A revolution's beams as seen from one pose: each finite beam's end point, placed by the pose the
+    robot believed it had at its instant, in the scanner's frame at ``ref``.
+
+    Args:
+        ranges: (B,) ranges [m] (non-finite ones are kept as they are).
+        bearings: (B,) bearings in the scanner's frame [rad].
+        poses: (B, 3) the robot's pose at each beam's instant.
+        ref: (3,) the pose to see them from.
+        laser: (3,) the scanner's pose in the robot's frame.
+
+    Returns:
+        (B,) ranges [m] and (B,) bearings [rad] from the scanner at ``ref``.
+    """
+    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+    lx = poses[:, 0] + c * laser[0] - s * laser[1]
+    ly = poses[:, 1] + s * laser[0] + c * laser[1]
+    fin = np.isfinite(ranges)
+    r = np.where(fin, ranges, 0.0)
+    a = poses[:, 2] + laser[2] + bearings
+    px, py = lx + r * np.cos(a), ly + r * np.sin(a)
+    cr, sr = math.cos(ref[2]), math.sin(ref[2])
+    mx, my = ref[0] + cr * laser[0] - sr * laser[1], ref[1] + sr * laser[0] + cr * laser[1]
+    dx, dy = px - mx, py - my
+    out_r = np.where(fin, np.hypot(dx, dy), ranges)
+    out_b = np.where(fin, np.arctan2(dy, dx) - ref[2] - laser[2], bearings)
+    return np.asarray(out_r, dtype=float), np.asarray(out_b, dtype=float)

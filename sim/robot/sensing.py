@@ -288,7 +288,7 @@ class Sensing:
         """
         assert self.scans is not None and self._data is not None
         try:
-            got = self.scans.fix(j, self._data, self.truth)
+            got = self.scans.fix(j, self._data, self.truth, self.estimate)
         except LocaliserLost as lost:
             raise EstimatorDivergedError(str(lost), t=lost.t, reason="localisation lost") from lost
         if got is not None:
