@@ -202,12 +202,12 @@ class Scan:
     @property
     def bearings(self) -> FloatArray:
         """(beams,) bearing of each beam in the scanner's frame [rad]."""
-        return self.angle_min + self.angle_increment * np.arange(self.ranges.size)
+        return np.asarray(self.angle_min + self.angle_increment * np.arange(self.ranges.size), dtype=float)
 
     @property
     def times(self) -> FloatArray:
         """(beams,) time of each beam [s]."""
-        return self.stamp + self.time_increment * np.arange(self.ranges.size)
+        return np.asarray(self.stamp + self.time_increment * np.arange(self.ranges.size), dtype=float)
 
 
 def _other_bodies_below(model: mujoco.MjModel, root: int, height: float) -> None:

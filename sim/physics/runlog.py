@@ -70,6 +70,7 @@ class LocaliserLog:
         lost_at: Measurement time at which the error passed 0.5 m (the run ended there), or None.
         global_scans: Revolutions taken by global localisation (None: the start pose was known).
         global_converged: Whether global localisation converged (None: not run).
+        laser: The scanner's pose in the robot's frame (x, y, yaw) [m, m, rad].
     """
 
     t: FloatArray
@@ -88,6 +89,7 @@ class LocaliserLog:
     lost_at: float | None = None
     global_scans: int | None = None
     global_converged: bool | None = None
+    laser: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def errors(self) -> FloatArray:
         """(L,) position error of each update [m]."""

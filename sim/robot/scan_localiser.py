@@ -190,9 +190,9 @@ class ScanLocaliser:
         """
         lidar = self.scanner.profile
         ks = np.clip(np.arange(j - self.half, j + self.half + 1), 0, None)
-        t = self.t0 + self.dt * np.arange(j - self.half, j + self.half + 1)
+        t = np.asarray(self.t0 + self.dt * np.arange(j - self.half, j + self.half + 1), dtype=float)
         stamp = t[0]
-        times = stamp + lidar.time_increment * np.arange(lidar.beams)
+        times = np.asarray(stamp + lidar.time_increment * np.arange(lidar.beams), dtype=float)
         scan = self.scanner.scan(data, stamp, beam_poses(t, truth[ks], times))
         self.scan_t.append(stamp)
         self.scan_ranges.append(scan.ranges)
@@ -246,6 +246,7 @@ class ScanLocaliser:
             lost_at=self.lost_at,
             global_scans=self.global_scans,
             global_converged=self.global_converged,
+            laser=(float(self.amcl.laser[0]), float(self.amcl.laser[1]), float(self.amcl.laser[2])),
         )
 
 
