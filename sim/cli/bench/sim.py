@@ -27,7 +27,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when the ratio misses the target."""
-    from sim.tools.bench.sim import TARGET_RATIO, measure, measure_scan
+    from sim.tools.bench.sim import TARGET_RATIO, TARGET_RATIO_AMCL, measure, measure_scan
 
     r = measure(args.robot, args.reference, args.control_rate, args.repeats, args.tracker, args.localiser)
     print(
@@ -38,7 +38,8 @@ def run(args: argparse.Namespace) -> int:
     )
     print(f"bare mj_step loop    {r.bare_steps_per_s:>12,.0f} steps/s")
     print(f"closed-loop run      {r.closed_steps_per_s:>12,.0f} steps/s")
-    print(f"ratio                {r.ratio:>12.3f}   (target >= {TARGET_RATIO})")
+    target = TARGET_RATIO if args.localiser == "fixes" else TARGET_RATIO_AMCL
+    print(f"ratio                {r.ratio:>12.3f}   (target >= {target})")
     print(f"ratio by CPU time    {r.cpu_ratio:>12.3f}   (the measuring thread's; without other processes' turns)")
     print(f"median pair by CPU   {r.pair_median:>12.3f}   (of the {r.repeats} back-to-back pairs' ratios)")
     print(f"real-time factor     {r.real_time_factor:>12.1f}x  (simulated seconds per wall-clock second, closed loop)")
@@ -49,4 +50,4 @@ def run(args: argparse.Namespace) -> int:
             f"{1e3 * s.localiser_cpu_s:.3f} ms CPU ({s.particles} particles, {s.max_beams} beams; median of "
             f"{s.revolutions}; aim <= 1 ms each)"
         )
-    return 0 if r.passed else 1
+    return 0 if r.ratio >= target else 1

@@ -19,6 +19,8 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 TARGET_RATIO = 0.8
+#: Target with the scan localiser in the loop (a revolution cast and matched every 0.2 s).
+TARGET_RATIO_AMCL = 0.5
 
 
 @dataclass(frozen=True)
