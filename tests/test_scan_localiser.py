@@ -13,7 +13,7 @@ from planning.errors import ConfigError
 from planning.scenario import load_scenario
 from sim.pipeline.case import Case
 from sim.pipeline.runs import RunKind
-from sim.pipeline.simulate import simulate_reference
+from sim.pipeline.simulate import simulate_plan, simulate_reference
 
 CLOSED = [RunKind.CLOSED_LOOP]
 
@@ -98,3 +98,12 @@ def test_a_localiser_that_loses_the_robot_ends_the_run_with_that_status(monkeypa
     assert metrics.estimation is not None and metrics.estimation.localisation_lost == 0.0
     assert "localisation lost at t=0.000 s" in metrics.status
     assert metrics.duration_s < 1.0
+
+
+@pytest.mark.parametrize("scenario", ["nav_map1", "nav_map2"])
+def test_global_localisation_converges_within_20_scans_in_a_world_that_is_not_symmetric(scenario: str) -> None:
+    res = simulate_plan(scenario, robot="turtlebot3", runs=CLOSED, initial_pose="unknown")
+    est = res.runs[RunKind.CLOSED_LOOP].metrics.estimation
+    assert est is not None and est.global_localisation_converged is True
+    assert est.global_localisation_scans is not None and est.global_localisation_scans <= 20
+    assert est.localisation_lost is None

@@ -58,6 +58,8 @@ FloatArray = NDArray[np.float64]
 #: KLD histogram bins (Nav2's pf kd-tree): 0.5 m in x and y, 10 deg in heading.
 BIN_XY = 0.5
 BIN_TH = math.radians(10.0)
+#: Poses of a correlative search refined by the scan-to-map fit.
+SEARCH_KEPT = 20
 #: The distance field reaches this far beyond the walls [m] (end points of beams that pass a wall
 #: by a little, from a particle a little off, land there).
 GRID_MARGIN = 0.5
@@ -302,6 +304,42 @@ class Amcl:
         self.particles = self._random_poses(self.config.max_particles)
         self._restart()
 
+    def search(
+        self, ranges: FloatArray, range_min: float, range_max: float, bearings: FloatArray, *, step: float = 0.2
+    ) -> tuple[FloatArray, float]:
+        """Correlative search of the whole free space for one scan (global localisation's seed): the
+        likelihood-field score of poses on a ``step`` grid of free positions x 10 deg headings, the best
+        :data:`SEARCH_KEPT` refined by the scan-to-map fit.
+
+        Args:
+            ranges: (beams,) the scan's ranges [m].
+            range_min, range_max: Its limits [m].
+            bearings: (beams,) each beam's bearing [rad].
+            step: Grid spacing of the positions tried [m].
+
+        Returns:
+            (3,) the best pose and the share of the valid beams within ``refine_gate`` of the map there.
+        """
+        c = self.config
+        free = self.field.free
+        keep = np.unique(np.round(free / step).astype(np.int64), axis=0) * step
+        heads = np.arange(36) * BIN_TH
+        cand = np.column_stack([np.repeat(keep, heads.size, axis=0), np.tile(heads, keep.shape[0])])
+        r, b = self.beams(ranges, range_min, range_max, 0.0, 0.0, bearings=bearings)
+        ra, ba = self.beams(ranges, range_min, range_max, 0.0, 0.0, every=True, bearings=bearings)
+        if ra.size < 10:
+            return cand[0], 0.0
+        w = np.ones(cand.shape[0])
+        self._sense_weights(cand, w, r, b, min(range_max, c.laser_max_range))
+        best, score = cand[0], (-1, 0.0)
+        for i in np.argsort(-w)[:SEARCH_KEPT]:
+            pose, _, used, ssr = K.refine(
+                cand[i], ra, ba, self.laser, self.field.signed, self.field.grid, c.refine_gate, 10
+            )
+            if (used, -ssr) > score:
+                best, score = pose, (used, -ssr)
+        return best, score[0] / ra.size
+
     def _restart(self) -> None:
         n = self.particles.shape[0]
         self.weights = np.full(n, 1.0 / n)
@@ -404,14 +442,21 @@ class Amcl:
         self.estimate = self._estimate(*self.beams(z, *limits, every=True, bearings=bearings), prior)
         return True
 
-    def _sense(self, r: FloatArray, b: FloatArray, rmax: float) -> None:
+    def _sense_weights(
+        self, particles: FloatArray, weights: FloatArray, r: FloatArray, b: FloatArray, rmax: float
+    ) -> float:
+        """:func:`amcl_kernels.likelihood_update` with this map's ``pz^3`` table (made once per range limit)."""
         c = self.config
         if self._table is None or self._table[0] != rmax:
             model = np.array([c.z_hit, c.z_rand, c.sigma_hit, rmax])
             far = float(K.pz_cubed(np.array([c.laser_likelihood_max_dist]), model)[0])
             self._table = (rmax, np.ascontiguousarray(K.pz_cubed(self.field.capped, model)), far)
         _, table, outside = self._table
-        total = K.likelihood_update(self.particles, self.weights, r, b, self.laser, table, self.field.grid, outside)
+        return float(K.likelihood_update(particles, weights, r, b, self.laser, table, self.field.grid, outside))
+
+    def _sense(self, r: FloatArray, b: FloatArray, rmax: float) -> None:
+        c = self.config
+        total = self._sense_weights(self.particles, self.weights, r, b, rmax)
         n = self.weights.size
         w_avg = total / n
         self.weights /= total

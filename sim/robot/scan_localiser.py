@@ -15,6 +15,9 @@ per fix period with the robot's drawn wheel radius and track), as the TurtleBot3
 is. With ``initial = "unknown"`` the particles start spread over the free space and the robot,
 standing at its start before the run, takes up to :data:`GLOBAL_SCANS` revolutions (forced
 updates, Nav2's ``nomotion_update``) until the particle spread is below :data:`CONVERGED_SPREAD`;
+each revolution until then is also searched over the whole free space (a correlative search,
+:meth:`control.estimation.amcl.Amcl.search`), whose best pose, once it fits the map well
+(:data:`SEARCH_FIT`), seeds the particles;
 the run then says after how many, and whether the error then was below :data:`CONVERGED_ERROR`.
 A localiser whose error against the truth passes :data:`LOST_ERROR` ends the run with that status.
 """
@@ -46,6 +49,12 @@ GLOBAL_SCANS = 40
 CONVERGED_SPREAD = 0.2
 #: ... with the estimate's error below this [m].
 CONVERGED_ERROR = 0.1
+#: Global localisation: a correlative search's best pose seeds the particles when this share of the
+#: scan's valid beams ends within the fit's gate of the map there ...
+SEARCH_FIT = 0.8
+#: ... as a Gaussian cloud of these standard deviations [m], [rad].
+SEED_STD_XY = 0.05
+SEED_STD_THETA = 0.03
 #: Particles kept per update in the log, for the video's cloud.
 CLOUD_KEPT = 200
 #: The sources of the EKF's pose corrections (``--localiser``).
@@ -145,9 +154,15 @@ class ScanLocaliser:
         self.amcl.reset_global()
         pose = np.tile(np.asarray(truth, dtype=float), (self.scanner.profile.beams, 1))
         lidar = self.scanner.profile
+        seeded = False
         for n in range(1, GLOBAL_SCANS + 1):
             scan = self.scanner.scan(data, self.t0 - (GLOBAL_SCANS - n + 1) * lidar.period, pose)
             limits = (lidar.range_min, lidar.range_max, 0.0, lidar.angle_increment)
+            if not seeded:  # a correlative search of the free space seeds the particles once it fits well
+                best, share = self.amcl.search(scan.ranges, lidar.range_min, lidar.range_max, scan.bearings)
+                if share >= SEARCH_FIT:
+                    self.amcl.reset(best, SEED_STD_XY, SEED_STD_THETA)
+                    seeded = True
             self.amcl.update(self.odom, scan.ranges, *limits, force=True)
             est = self.amcl.estimate
             if est is not None and est.spread < CONVERGED_SPREAD:
