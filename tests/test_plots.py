@@ -219,5 +219,5 @@ def test_estimation_figure_names_bad_input() -> None:
 def test_job_figures_add_the_estimation_figure_when_given(tmp_path: Path) -> None:
     job = short_job()
     figs = job_figures(job.scenario.world, job.robot, job.trajectory, job.logs, estimation=_estimation())
-    assert tuple(figs) == (*PLOTS, ESTIMATION_PLOT)
+    assert tuple(figs) == (*PLOTS, ESTIMATION_PLOT, LOCALISER_PLOT)
     png_is_nontrivial(save_figure(figs[ESTIMATION_PLOT], tmp_path / "estimation.png"))
