@@ -1,7 +1,9 @@
 """Scenarios: a world, a robot, a start and a goal, loaded from TOML files.
 
 Format version 1 (see README.md): top-level ``name``, ``robot``, ``description``, ``version``;
-tables ``[world]`` (``bounds``, ``[[world.obstacles]]``), ``[start]`` (``pose``) and ``[goal]``
+tables ``[world]`` (``bounds``, ``[[world.obstacles]]``, ``[[world.unmapped]]``: obstacles shaped as
+``[[world.obstacles]]`` that exist in physics and in the laser scan but not in the map the planner and the
+localiser use, none within the robot's reach of the start), ``[start]`` (``pose``) and ``[goal]``
 (``pose``, ``position_tolerance``, ``heading_tolerance``); optional ``[planners.<name>]`` tables of
 keyword options for a registered planner in this scenario (e.g. ``[planners.birrt]`` with
 ``steering = "reeds_shepp"``), checked against that planner's options when the file is read; an
@@ -22,7 +24,7 @@ import numpy as np
 
 from planning.core.geometry import Pose2D
 from planning.core.maps import load_map_table
-from planning.core.robot import MODELS_DIR, ROBOT_FILES
+from planning.core.robot import MODELS_DIR, ROBOT_FILES, load_robot
 from planning.core.scenario_type import DEFAULT_HEADING_TOLERANCE, DEFAULT_POSITION_TOLERANCE, Scenario
 from planning.core.tables import TableReader
 from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon, World
@@ -33,7 +35,7 @@ SCENARIOS_DIR = MODELS_DIR / "scenarios"
 _TOP_KEYS = {
     "name", "robot", "description", "version", "world", "start", "goal", "planner", "robots", "planners", "sensors",
 }  # fmt: skip
-_WORLD_KEYS = {"bounds", "obstacles", "map"}
+_WORLD_KEYS = {"bounds", "obstacles", "map", "unmapped"}
 _OBSTACLE_KEYS: dict[str, tuple[set[str], set[str]]] = {
     # type: (required, optional)
     "circle": ({"center", "radius"}, set()),
@@ -131,7 +133,33 @@ def parse_scenario(data: Mapping[str, Any], *, where: str, default_name: str, ba
     htol = r.number(goal_t, "heading_tolerance", "goal.", positive=True, default=DEFAULT_HEADING_TOLERANCE)
     for label, pose in (("start", start), ("goal", goal)):
         _check_free(r, world, label, pose)
-    return Scenario(world=world, start=start, goal=goal, position_tolerance=ptol, heading_tolerance=htol, **header)
+    unmapped = _unmapped(r, data["world"], start, header["robot"])
+    return Scenario(
+        world=world,
+        start=start,
+        goal=goal,
+        position_tolerance=ptol,
+        heading_tolerance=htol,
+        unmapped=unmapped,
+        **header,
+    )
+
+
+def _unmapped(r: TableReader, table: Mapping[str, Any], start: Pose2D, robot: str) -> tuple[Obstacle, ...]:
+    """The ``[[world.unmapped]]`` obstacles (physics and the scan only), none touching the robot at its start."""
+    items = table.get("unmapped", [])
+    if not isinstance(items, list):
+        raise r.fail("world.unmapped", "an array of tables ([[world.unmapped]], shaped as [[world.obstacles]])", items)
+    out = tuple(_obstacle(r, ot, f"world.unmapped[{i}].") for i, ot in enumerate(items))
+    reach = load_robot(robot).radius
+    for i, o in enumerate(out):
+        gap = float(o.signed_distance(start.xy)[0])
+        if gap <= reach:
+            raise ScenarioError(
+                f"{r.where}: field 'world.unmapped[{i}]' ({o.kind}) overlaps the robot at its start "
+                f"({gap:.3f} m from start.pose, the robot reaches {reach:.3f} m); move it away from the start"
+            )
+    return out
 
 
 def _header(r: TableReader, data: Mapping[str, Any], default_name: str) -> dict[str, Any]:

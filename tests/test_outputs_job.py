@@ -76,7 +76,8 @@ def test_default_outputs_then_no_clobber(tmp_path: Path, monkeypatch: pytest.Mon
     names = sorted(p.name for p in renders.iterdir())
     stem = STEM
     assert names == sorted(
-        [f"{stem}.mp4", f"{stem}.json"] + [f"{stem}-{n}.png" for n in ("world", "errors", "commands", "estimation")]
+        [f"{stem}.mp4", f"{stem}.json"]
+        + [f"{stem}-{n}.png" for n in ("world", "errors", "commands", "estimation", "localiser")]
     )
     record = json.loads((renders / f"{stem}.json").read_text())
     assert sorted(Path(p).name for p in record["files"].values()) == names  # names every file written
@@ -131,7 +132,7 @@ def test_video_path_moves_every_output(tmp_path: Path, monkeypatch: pytest.Monke
     monkeypatch.chdir(tmp_path)
     assert main([*FAST, "--video", "out/run.mp4", "--fps", "2"]) == 0
     names = sorted(p.name for p in (tmp_path / "out").iterdir())
-    pngs = ["run-commands.png", "run-errors.png", "run-estimation.png", "run-world.png"]
+    pngs = ["run-commands.png", "run-errors.png", "run-estimation.png", "run-localiser.png", "run-world.png"]
     assert names == [*pngs, "run.json", "run.mp4"]
     assert not (tmp_path / "renders").exists()
 
@@ -146,7 +147,7 @@ def test_the_estimation_plot_is_planned_beside_the_others(tmp_path: Path, monkey
     monkeypatch.chdir(tmp_path)
     args = build_parser().parse_args([*FAST, "--no-video"])
     plan = plan_outputs(args, scenario="open", own_robot="turtlebot3", source="line")
-    assert list(plan.plots) == ["world", "errors", "commands", "estimation"]
+    assert list(plan.plots) == ["world", "errors", "commands", "estimation", "localiser"]
     assert plan.plots["estimation"] == Path(f"renders/{STEM}-estimation.png")
     stale = tmp_path / "renders" / f"{STEM}-estimation.png"
     stale.parent.mkdir()

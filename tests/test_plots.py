@@ -15,7 +15,15 @@ from planning.errors import ConfigError, OutputExistsError
 from sim.physics.metrics import heading_errors, position_errors
 from sim.viz.plots.draw import save_figure
 from sim.viz.plots.estimation import EstimationSeries, estimation_figure
-from sim.viz.plots.run import ESTIMATION_PLOT, PLOTS, commands_figure, errors_figure, job_figures, world_figure
+from sim.viz.plots.run import (
+    ESTIMATION_PLOT,
+    LOCALISER_PLOT,
+    PLOTS,
+    commands_figure,
+    errors_figure,
+    job_figures,
+    world_figure,
+)
 from sim.viz.scene import FALLBACK_RGBA, RUN_STYLES, run_styles
 from tests.render_helpers import short_job, spread_runs
 
@@ -30,11 +38,12 @@ def png_is_nontrivial(path: Path) -> None:
 def test_job_figures_write_nontrivial_pngs(tmp_path: Path) -> None:
     job = short_job()
     figs = job_figures(job.scenario.world, job.robot, job.trajectory, job.logs, title="t")
-    assert tuple(figs) == PLOTS
+    want = (*PLOTS, LOCALISER_PLOT)  # the TurtleBot3's closed loop runs on its scan localiser
+    assert tuple(figs) == want
     for name, fig in figs.items():
         out = save_figure(fig, tmp_path / f"{name}.png")
         png_is_nontrivial(out)
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(f"{n}.png" for n in PLOTS)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(f"{n}.png" for n in want)
 
 
 def test_world_figure_draws_every_obstacle_and_path() -> None:
@@ -210,5 +219,5 @@ def test_estimation_figure_names_bad_input() -> None:
 def test_job_figures_add_the_estimation_figure_when_given(tmp_path: Path) -> None:
     job = short_job()
     figs = job_figures(job.scenario.world, job.robot, job.trajectory, job.logs, estimation=_estimation())
-    assert tuple(figs) == (*PLOTS, ESTIMATION_PLOT)
+    assert tuple(figs) == (*PLOTS, ESTIMATION_PLOT, LOCALISER_PLOT)
     png_is_nontrivial(save_figure(figs[ESTIMATION_PLOT], tmp_path / "estimation.png"))

@@ -23,8 +23,14 @@ def test_closed_loop_tracks_to_the_centimetre_and_beats_open_loop(robot: str, re
     and open loop drifts at least five times as far under that error. (The motors' firmware
     integrates the wheel-speed error away, so as built open loop drifts only by the firmware's lag
     on speed ramps: 1.0-1.4 cm on the TurtleBot3, 3.5-4.2 times the closed loop's final error.)"""
-    res = simulate_reference("open", robot=robot, reference=reference)
-    miscalibrated = simulate_reference("open", robot=robot, reference=reference, perturbation=Perturbation(radius=1.01))
+    # on synthetic fixes: the tracker and firmware are measured here; the TurtleBot3's scan localiser (its
+    # default) is measured in tests/test_scan_localiser.py (in this empty arena its scanner's systematic
+    # error shows: the circle's RMS is 1.2 cm on it)
+    fixes = {"localiser": "fixes"}
+    res = simulate_reference("open", robot=robot, reference=reference, **fixes)
+    miscalibrated = simulate_reference(
+        "open", robot=robot, reference=reference, perturbation=Perturbation(radius=1.01), **fixes
+    )
     for job in (res, miscalibrated):
         closed, opened = job.metrics["closed_loop"], job.metrics["open_loop"]
         assert closed.rms_position_error_m <= 0.01

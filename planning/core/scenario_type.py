@@ -11,7 +11,7 @@ from typing import Any
 
 from planning.core.geometry import Pose2D
 from planning.core.robot import ROBOT_FILES
-from planning.core.world import World
+from planning.core.world import Obstacle, World
 from planning.errors import ScenarioError
 
 DEFAULT_POSITION_TOLERANCE = 0.05
@@ -38,6 +38,8 @@ class Scenario:
         sensors: Overrides of the robot's sensor profile in this scenario (the ``[sensors]`` table,
             e.g. ``fix_rate = 5.0``); its keys are checked by the simulator against the profile.
         source: The file it was loaded from, if any.
+        unmapped: Obstacles that exist in physics and in the laser scan but not in ``world``, the map
+            the planner and the localiser use (the ``[[world.unmapped]]`` tables).
     """
 
     name: str
@@ -53,6 +55,14 @@ class Scenario:
     planner_options: Mapping[str, Mapping[str, Any]] = field(default_factory=dict, hash=False)
     sensors: Mapping[str, float] = field(default_factory=dict, hash=False)
     source: Path | None = field(default=None, compare=False)
+    unmapped: tuple[Obstacle, ...] = ()
+
+    @property
+    def physical_world(self) -> World:
+        """The world as it is (the map's obstacles and the unmapped ones): what physics and the scan see."""
+        if not self.unmapped:
+            return self.world
+        return World(self.world.bounds, self.world.obstacles + tuple(self.unmapped))
 
     def __post_init__(self) -> None:
         if not self.robots:

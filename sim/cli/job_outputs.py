@@ -47,6 +47,10 @@ RUN_SETTINGS: dict[str, Any] = {
     "build": "as-built",
     "build_seed": None,
     "sensors": None,
+    "localiser": None,
+    "lidar": None,
+    "amcl": None,
+    "initial_pose": "known",
     "control_rate": 50.0,
     "seed": 0,
     "noise_seed": None,
@@ -245,7 +249,7 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str, own_ro
     """
     from control.design.balance_profile import is_balancing
     from sim.outputs import check_writable
-    from sim.viz.plots.run import ESTIMATION_PLOT, PITCH_PLOT, PLOTS
+    from sim.viz.plots.run import ESTIMATION_PLOT, LOCALISER_PLOT, PITCH_PLOT, PLOTS
     from sim.viz.replay import RenderSettings, parse_size
 
     stem = output_stem(args, scenario=scenario, source=source, own_robot=own_robot)
@@ -262,6 +266,8 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str, own_ro
     base_dir, base = (args.video.parent, args.video.stem) if args.video is not None else (DEFAULT_DIR, stem)
     names: tuple[str, ...] = (*PLOTS, ESTIMATION_PLOT)  # the estimation plot only where the job gives its estimates
     robot = getattr(args, "robot", None)
+    if _may_scan(args, robot or own_robot):  # the scan localiser's plot where a run used one
+        names = (*names, LOCALISER_PLOT)
     if robot is not None and is_balancing(robot):  # a balancing robot's runs also plot their pitch
         names = (*names, PITCH_PLOT)
     plots = {name: base_dir / f"{base}-{name}.png" for name in names} if args.plots else {}
@@ -359,3 +365,13 @@ def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict
     record["files"] = dict(files)
     write_json(plan.json, record, overwrite=plan.overwrite)
     return files
+
+
+def _may_scan(args: argparse.Namespace, robot: str | None) -> bool:
+    """Whether the job may run a scan localiser: not told ``--localiser fixes``, and its robot (when known
+    here) has a laser scanner."""
+    from sim.physics.lidar import load_lidar_profile
+
+    if getattr(args, "localiser", None) == "fixes":
+        return False
+    return robot is None or load_lidar_profile(robot) is not None

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -212,6 +213,7 @@ def _add_run_arguments(p: argparse.ArgumentParser) -> None:
         help="override the robot's sensor profile (models/sensors/<robot>.toml), e.g. fix_rate=10,fix_latency=0.05, "
         "or a TOML file with a [sensors] table (default: the profile as it is)",
     )
+    add_localiser_arguments(p)
     p.add_argument(
         "--gains",
         default=RUN_SETTINGS["gains"],
@@ -275,10 +277,37 @@ def _sensor_line(record: dict[str, Any]) -> str:
     s = record.get("sensors") or {}
     if not s.get("fix_rate"):
         return f"encoders {s.get('encoder_cpr', 0):g}/rev, no localisation fixes"
+    loc = record.get("localiser") or {}
+    if loc.get("kind") == "amcl":
+        start = "global localisation first" if loc.get("initial") == "unknown" else "from the start pose"
+        return (
+            f"encoders {s['encoder_cpr']:g}/rev, AMCL on LDS-01 scans ({s['fix_rate']:g} Hz, {start}), "
+            f"{s['fix_latency'] * 1e3:g} ms late"
+        )
     return (
         f"encoders {s['encoder_cpr']:g}/rev, fixes {s['fix_rate']:g} Hz +-{s['fix_position_std'] * 1e3:g} mm "
         f"+-{s['fix_heading_std']:g} rad, {s['fix_latency'] * 1e3:g} ms late"
     )
+
+
+def localiser_line(est: dict[str, Any]) -> str:
+    """The closed loop's scan localiser in one line ("" without one): its accuracy, its particles and,
+    after ``--initial-pose unknown``, how global localisation went."""
+    if est.get("scans_used") is None:
+        return ""
+    rmse, head = est.get("localiser_rmse_m"), est.get("localiser_heading_rmse_rad")
+    text = (
+        f"localiser: {est['scans_used']} scans used, RMSE "
+        + (f"{rmse * 100:.1f} cm / {math.degrees(head):.2f} deg" if rmse is not None and head is not None else "-")
+        + (f", {est['mean_particles']:.0f} particles on average" if est.get("mean_particles") is not None else "")
+    )
+    if est.get("localisation_lost") is not None:
+        text += f"; LOST at t={est['localisation_lost']:.2f} s"
+    scans = est.get("global_localisation_scans")
+    if scans is not None:
+        ok = est.get("global_localisation_converged")
+        text += f"; global localisation {'converged after' if ok else 'did not converge in'} {scans} scans"
+    return text
 
 
 def format_table(record: dict[str, Any]) -> str:
@@ -348,6 +377,50 @@ def _case_fields(args: argparse.Namespace, gains: Any, perturbation: Any) -> dic
         "build_seed": parse_build(args.build, args.build_seed),
         "sensors": sensor_overrides(args.sensors),
         "noise_seed": args.noise_seed,
+        **localiser_fields(args),
+    }
+
+
+def add_localiser_arguments(p: argparse.ArgumentParser) -> None:
+    """``--localiser``, ``--lidar``, ``--amcl`` and ``--initial-pose``: where the EKF's fixes come from."""
+    p.add_argument(
+        "--localiser",
+        choices=("amcl", "fixes"),
+        default=RUN_SETTINGS["localiser"],
+        help="source of the estimator's pose corrections: amcl (the LDS-01's scans matched against the map; the "
+        "TurtleBot3's) or fixes (synthetic Gaussian fixes; the EduMIP's motion-capture-like source) (default: the "
+        "robot's own: amcl for a robot with a laser scanner, fixes otherwise)",
+    )
+    p.add_argument(
+        "--lidar",
+        default=RUN_SETTINGS["lidar"],
+        metavar="KEY=VALUE,...",
+        help="override the laser scanner's settings ([lidar] in models/sensors/<robot>.toml), e.g. beams=180 "
+        "(default: the profile as it is)",
+    )
+    p.add_argument(
+        "--amcl",
+        default=RUN_SETTINGS["amcl"],
+        metavar="KEY=VALUE,...",
+        help="override the localiser's settings (Nav2's amcl names), e.g. max_particles=1000,refine=0 "
+        "(default: Nav2's defaults, control/estimation/amcl.py)",
+    )
+    p.add_argument(
+        "--initial-pose",
+        choices=("known", "unknown"),
+        default=RUN_SETTINGS["initial_pose"],
+        help="known: the localiser starts around the start pose; unknown: global localisation over the free space "
+        "before tracking (default: %(default)s)",
+    )
+
+
+def localiser_fields(args: argparse.Namespace) -> dict[str, Any]:
+    """The case fields of :func:`add_localiser_arguments`' options."""
+    return {
+        "localiser": args.localiser,
+        "lidar": args.lidar or "",
+        "amcl": args.amcl or "",
+        "initial_pose": args.initial_pose,
     }
 
 
@@ -438,6 +511,9 @@ def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
         if "import" in record:
             print("\n".join(format_import(record["import"])))
     print(format_table(record))
+    line = localiser_line(record.get(str(RunKind.CLOSED_LOOP), {}).get("estimation") or {})
+    if line and not args.quiet:
+        print(line)
     for path in write_outputs(result, outputs, record).values():
         if not args.quiet:
             print(f"wrote {path}")

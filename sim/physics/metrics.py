@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from control.estimation import chi2_interval
 from planning.core.geometry import wrap_angle
 from planning.core.robot import RobotSpec
 from planning.trajectory.trajectory import Trajectory
@@ -28,6 +29,16 @@ class EstimationMetrics:
             chi-square interval (about 0.95 for a consistent estimator; NaN, a statistic of nothing,
             without a delivery the estimator compared: none, or all older than its history).
         fixes_used: Fixes the estimator applied.
+        localiser_rmse_m: RMS position error of the scan localiser's updates [m] (None: no scan
+            localiser).
+        localiser_heading_rmse_rad: RMS heading error of its updates [rad].
+        localiser_nees_in_bound_fraction: Share of its updates whose NEES against its own covariance
+            lies inside the 95 % chi-square(3) interval.
+        mean_particles: Mean particle count over its updates.
+        scans_used: Its updates (scans that moved the filter).
+        localisation_lost: Time its error passed 0.5 m [s] (the run ended there), or None.
+        global_localisation_scans: Revolutions global localisation took (None: start pose known).
+        global_localisation_converged: Whether it converged (error < 0.1 m, spread < 0.2 m).
     """
 
     source: str
@@ -36,12 +47,21 @@ class EstimationMetrics:
     final_position_error_m: float
     nees_in_bound_fraction: float
     fixes_used: int
+    localiser_rmse_m: float | None = None
+    localiser_heading_rmse_rad: float | None = None
+    localiser_nees_in_bound_fraction: float | None = None
+    mean_particles: float | None = None
+    scans_used: int | None = None
+    localisation_lost: float | None = None
+    global_localisation_scans: int | None = None
+    global_localisation_converged: bool | None = None
 
     @classmethod
     def of(cls, log: EstimationLog) -> EstimationMetrics:
         """The metrics of an estimation log."""
         pe, he = log.position_errors(), log.heading_errors()
         return cls(
+            **_localiser_metrics(log),
             source=log.source,
             position_rmse_m=float(np.sqrt(np.mean(pe**2))),
             heading_rmse_rad=float(np.sqrt(np.mean(he**2))),
@@ -49,6 +69,31 @@ class EstimationMetrics:
             nees_in_bound_fraction=log.nees_in_bound_fraction(),
             fixes_used=int(np.count_nonzero(log.fix_applied)),
         )
+
+
+def _localiser_metrics(log: EstimationLog) -> dict[str, Any]:
+    """The scan localiser's fields of :class:`EstimationMetrics` (none without one)."""
+    loc = log.localiser
+    if loc is None:
+        return {}
+    n = loc.t.size
+    e, h = loc.errors(), loc.heading_errors()
+    err = np.column_stack([loc.pose[:, :2] - loc.truth[:, :2], h]) if n else np.zeros((0, 3))
+    inside = np.nan
+    if n:
+        lo, hi = chi2_interval(3)
+        nees = np.array([float(x @ np.linalg.solve(c, x)) for x, c in zip(err, loc.cov, strict=True)])
+        inside = float(np.mean((nees >= lo) & (nees <= hi)))
+    return {
+        "localiser_rmse_m": float(np.sqrt(np.mean(e**2))) if n else math.nan,
+        "localiser_heading_rmse_rad": float(np.sqrt(np.mean(h**2))) if n else math.nan,
+        "localiser_nees_in_bound_fraction": inside,
+        "mean_particles": float(np.mean(loc.particles)) if n else math.nan,
+        "scans_used": int(n),
+        "localisation_lost": loc.lost_at,
+        "global_localisation_scans": loc.global_scans,
+        "global_localisation_converged": loc.global_converged,
+    }
 
 
 @dataclass(frozen=True)
@@ -103,8 +148,23 @@ class TrackingMetrics:
             del out["estimation"]
         else:
             est = out["estimation"]
+            if self.estimation is not None and self.estimation.scans_used is None:  # no scan localiser
+                est = {k: v for k, v in est.items() if k not in _LOCALISER_KEYS}
             out["estimation"] = {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in est.items()}
         return out
+
+
+#: The scan localiser's fields of :class:`EstimationMetrics`, left out of records of runs without one.
+_LOCALISER_KEYS = (
+    "localiser_rmse_m",
+    "localiser_heading_rmse_rad",
+    "localiser_nees_in_bound_fraction",
+    "mean_particles",
+    "scans_used",
+    "localisation_lost",
+    "global_localisation_scans",
+    "global_localisation_converged",
+)
 
 
 def position_errors(log: RunLog) -> np.ndarray:

@@ -102,7 +102,7 @@ def build_model(
     world: World | None = None,
     *,
     obstacle_height: float = 0.3,
-    wall_height: float = 0.15,
+    wall_height: float = 0.3,
     wall_thickness: float = 0.05,
 ) -> BuiltModel:
     """Compile the robot's scene with the world's obstacles and walls.
@@ -111,7 +111,8 @@ def build_model(
         robot: The robot (its scene file is loaded).
         world: Bounds and obstacles; None for the bare scene.
         obstacle_height: Height of obstacle geoms [m].
-        wall_height: Height of the boundary walls [m].
+        wall_height: Height of the boundary walls [m] (above a laser scanner's plane: the
+            TurtleBot3's LDS-01 scans 0.182 m above the floor).
         wall_thickness: Thickness of the walls, placed outside the bounds [m].
 
     Returns:

@@ -50,6 +50,57 @@ class BalanceLog:
 
 
 @dataclass(frozen=True)
+class LocaliserLog:
+    """What a scan localiser (AMCL on LDS-01 scans) answered, against the truth, and the scans it took.
+
+    Attributes:
+        t: (L,) measurement times of its updates [s].
+        pose: (L, 3) its poses [x, y, theta].
+        cov: (L, 3, 3) their covariances.
+        truth: (L, 3) the true poses then.
+        particles: (L,) particle count after each update.
+        spread: (L,) root of the trace of the particles' (x, y) covariance [m].
+        cloud: (L, P, 3) up to P particles kept per update, NaN rows where fewer.
+        scan_t: (S,) stamps (first beam) of every revolution cast [s].
+        scan_ranges: (S, B) their ranges [m], REP 117 (-inf too close, +inf nothing within range).
+        scan_angle_increment: Bearing step of the scans [rad] (angle_min 0).
+        scan_time_increment: Time between beams [s].
+        range_min: Shortest range [m].
+        range_max: Longest range [m].
+        lost_at: Measurement time at which the error passed 0.5 m (the run ended there), or None.
+        global_scans: Revolutions taken by global localisation (None: the start pose was known).
+        global_converged: Whether global localisation converged (None: not run).
+        laser: The scanner's pose in the robot's frame (x, y, yaw) [m, m, rad].
+    """
+
+    t: FloatArray
+    pose: FloatArray
+    cov: FloatArray
+    truth: FloatArray
+    particles: NDArray[np.int64]
+    spread: FloatArray
+    cloud: FloatArray
+    scan_t: FloatArray
+    scan_ranges: FloatArray
+    scan_angle_increment: float
+    scan_time_increment: float
+    range_min: float
+    range_max: float
+    lost_at: float | None = None
+    global_scans: int | None = None
+    global_converged: bool | None = None
+    laser: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def errors(self) -> FloatArray:
+        """(L,) position error of each update [m]."""
+        return np.asarray(np.hypot(*(self.pose[:, :2] - self.truth[:, :2]).T), dtype=float)
+
+    def heading_errors(self) -> FloatArray:
+        """(L,) wrapped heading error of each update [rad]."""
+        return np.asarray(np.remainder(self.pose[:, 2] - self.truth[:, 2] + np.pi, 2 * np.pi) - np.pi)
+
+
+@dataclass(frozen=True)
 class EstimationLog:
     """What a run's estimator believed, per control period, against the truth.
 
@@ -67,6 +118,7 @@ class EstimationLog:
         nees: (J,) normalised estimation error squared of the pose after each delivery.
         nees_bounds: Two-sided 95 % chi-square interval of the NEES (3 degrees of freedom).
         status: "ok", or why the estimator stopped (the run ended there).
+        localiser: The scan localiser's own answers, when one gave the fixes.
     """
 
     source: str
@@ -81,6 +133,7 @@ class EstimationLog:
     nees: FloatArray
     nees_bounds: tuple[float, float]
     status: str = "ok"
+    localiser: LocaliserLog | None = None
 
     def __post_init__(self) -> None:
         k, m = self.t.shape[0], self.fix_t.shape[0]

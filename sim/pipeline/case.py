@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.base import TRACKERS
+from control.estimation.amcl import AmclConfig
 from control.fbl import FBLGains
 from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot
 from planning.errors import ConfigError, ScenarioError
@@ -39,9 +40,11 @@ from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
 from planning.trajectory.references import REFERENCES, make_reference
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import DEFAULT_BUILD_SEED, AsBuilt, check_build_seed
+from sim.physics.lidar import load_lidar_profile
 from sim.physics.perturb import Perturbation
 from sim.physics.sensors import load_sensor_profile
 from sim.pipeline.runs import PLAN_HOLD_S, PLAN_TRACKER, REFERENCE_TRACKER, Progress, RunKind
+from sim.robot.scan_localiser import INITIAL_POSES, LOCALISERS, LocaliserSetup
 from sim.robot.sensing import SensingSetup
 
 FloatArray = NDArray[np.float64]
@@ -98,6 +101,14 @@ class Case:
             plan made once); None: ``seed``.
         trajectory_file: A trajectory or path file to track (exclusive with ``reference`` and
             ``planner``); tracked like a plan (segmented tracker, final regulation).
+        localiser: Source of the EKF's pose corrections: "amcl" (the robot's laser scans matched
+            against the map), "fixes" (synthetic Gaussian fixes), None for the robot's default (amcl
+            for a robot with a scanner, the TurtleBot3; fixes otherwise, the EduMIP's motion-capture-like
+            source).
+        lidar: ``key=value,...`` overrides of the scanner's settings; "" for none.
+        amcl: ``key=value,...`` overrides of the localiser's settings; "" for none.
+        initial_pose: "known" (the localiser starts around the start pose) or "unknown" (global
+            localisation before tracking).
     """
 
     scenario: str | Scenario
@@ -117,8 +128,20 @@ class Case:
     sensors: str = ""
     noise_seed: int | None = None
     trajectory_file: TrajectoryFile | None = None
+    localiser: str | None = None
+    lidar: str = ""
+    amcl: str = ""
+    initial_pose: str = "known"
 
     def __post_init__(self) -> None:
+        if self.localiser not in (None, *LOCALISERS):
+            raise ConfigError(
+                f"case {self.label}: unknown localiser {self.localiser!r}; choose {', '.join(LOCALISERS)}"
+            )
+        if self.initial_pose not in INITIAL_POSES:
+            raise ConfigError(
+                f"case {self.label}: unknown initial pose {self.initial_pose!r}; choose {', '.join(INITIAL_POSES)}"
+            )
         if self.build_seed is not None:
             check_build_seed(self.build_seed)
         if sum(x is not None for x in (self.reference, self.planner, self.trajectory_file)) != 1:
@@ -189,7 +212,29 @@ class Case:
         """
         table = dict(scenario.sensors)
         profile = load_sensor_profile(scenario.robot, table=table or None, text=self.sensors or None)
-        return SensingSetup(profile, self.seed if self.noise_seed is None else self.noise_seed)
+        seed = self.seed if self.noise_seed is None else self.noise_seed
+        return SensingSetup(profile, seed, localiser=self.localiser_setup(scenario))
+
+    def localiser_setup(self, scenario: Scenario) -> LocaliserSetup:
+        """The case's localiser for the scenario's robot (see ``localiser``).
+
+        Raises:
+            ConfigError: amcl (or scanner or localiser settings, or an unknown initial pose) for a robot
+                without a laser scanner, or a bad scanner or localiser setting.
+        """
+        lidar = load_lidar_profile(scenario.robot, text=self.lidar or None)
+        kind = self.localiser or ("amcl" if lidar is not None else "fixes")
+        if lidar is None and (kind == "amcl" or self.amcl or self.initial_pose != "known"):
+            raise ConfigError(
+                f"robot {scenario.robot!r} has no laser scanner: --localiser amcl, --amcl and --initial-pose unknown "
+                "need one (the TurtleBot3's LDS-01); use --localiser fixes"
+            )
+        if kind == "fixes":
+            if self.amcl or self.initial_pose != "known":
+                raise ConfigError("--amcl and --initial-pose unknown need --localiser amcl")
+            return LocaliserSetup()
+        amcl = AmclConfig().parse(self.amcl) if self.amcl else AmclConfig()
+        return LocaliserSetup("amcl", scenario.world, lidar, amcl, self.initial_pose)
 
     def tracker_for(self, kind: RunKind) -> str:
         """The tracker a run of ``kind`` uses in this case."""

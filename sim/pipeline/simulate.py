@@ -154,6 +154,7 @@ class JobResult:
             "build_seed": self.case.build_seed,
             "as_built": self.build.as_dict(),
             "sensors": self.sensing.profile.as_dict(),
+            "localiser": self.sensing.localiser.as_dict(),
             "versions": versions(),
         }
         for kind, run in self.runs.items():
@@ -260,7 +261,7 @@ def run_tracker(
 
 def simulator_for(prepared: PreparedTrajectory) -> Simulator:
     """A compiled simulator of a prepared case's robot, as its case builds it, in its world."""
-    return Simulator(prepared.robot, prepared.scenario.world, prepared.case.as_built(prepared.robot.name))
+    return Simulator(prepared.robot, prepared.scenario.physical_world, prepared.case.as_built(prepared.robot.name))
 
 
 def simulate(case: Case, runs: Iterable[RunKind] = DEFAULT_RUNS, *, progress: Progress | None = None) -> JobResult:

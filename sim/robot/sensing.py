@@ -36,6 +36,7 @@ from planning.core.robot import RobotSpec
 from sim.physics.asbuilt import TOLERANCES
 from sim.physics.runlog import EstimationLog
 from sim.physics.sensors import SensorModel, SensorProfile, encoder_count, load_sensor_profile
+from sim.robot.scan_localiser import LocaliserLost, LocaliserSetup, ScanLocaliser, localiser_schedule
 from sim.robot.sources import PoseSource
 
 FloatArray = NDArray[np.float64]
@@ -98,11 +99,14 @@ class SensingSetup:
         seed: Seed of every noise draw (an integer >= 0); every run of a job uses the same one.
         estimator: The EKF's noise model; None derives it from the profile and the robot's build
             tolerances (:func:`estimator_config`).
+        localiser: Where the fixes come from: synthetic (the profile's fix noise) or AMCL on the
+            robot's laser scans (:mod:`sim.robot.scan_localiser`).
     """
 
     profile: SensorProfile
     seed: int = 0
     estimator: EstimatorConfig | None = field(default=None)
+    localiser: LocaliserSetup = field(default_factory=LocaliserSetup)
 
     @classmethod
     def for_robot(cls, robot: str, seed: int = 0, *, text: str | None = None) -> SensingSetup:
@@ -192,6 +196,12 @@ class Sensing:
         self._io[T0:GYRO_ERROR] = (t0, self.dt, setup.profile.encoder_cpr / TWO_PI, *self.sensors.encoder_phase,
                                    self._rad_per_count, self._enc_l, self._enc_r)  # fmt: skip
         self._data: mujoco.MjData | None = None
+        self.scans: ScanLocaliser | None = None
+        if setup.localiser.kind == "amcl" and self.source is PoseSource.FUSED:
+            localiser_schedule(setup.localiser, self.sensors.fix_every, self.sensors.fix_latency_periods, self.dt)
+            self.scans = ScanLocaliser(
+                model, robot, setup.localiser, setup.seed, t0=t0, dt=self.dt, rad_per_count=self._rad_per_count
+            )
 
     def observe(self, k: int, data: mujoco.MjData, truth: tuple[float, float, float]) -> tuple[float, float, float]:
         """The pose the tracker sees at control period ``k`` (``truth`` is MuJoCo's pose then; ``data``
@@ -212,6 +222,8 @@ class Sensing:
             est.reset(self.t0, truth)
             self._io[COUNTS_L], self._io[COUNTS_R], self._io[YAW] = *counts, truth[2]
             self._data = data
+            if self.scans is not None:
+                self.scans.start(data, truth, counts)
         else:
             sdata = data.sensordata
             if data is not self._data:
@@ -220,7 +232,10 @@ class Sensing:
             if status != kernels.OK:
                 self._refuse(status, k)
         if k in self._fix_taken:
-            self.fixes[k] = self.sensors.fix(k, truth)
+            if self.scans is None:
+                self.fixes[k] = self.sensors.fix(k, truth)
+            elif k > 0:
+                self.scans.mark(k, (int(self._io[COUNTS_L]), int(self._io[COUNTS_R])))
         j = self._fix_delivered.get(k)
         if j is not None:
             self._deliver(j, k, truth)
@@ -261,13 +276,31 @@ class Sensing:
         dead-reckoning run samples at every delivery, the instants its fused twin is checked."""
         est = self.estimator
         assert est is not None
-        if self.source is PoseSource.FUSED:
-            stale = est.fixes_stale
-            if est.correct(self.t0 + j * self.dt, self.fixes[j]):
-                self.applied.append(j)
-            if est.fixes_stale > stale:  # older than the history: never compared with the estimate
-                return
+        stale = est.fixes_stale
+        if self.scans is not None:
+            self._deliver_scan(j, est)
+        elif self.source is PoseSource.FUSED and est.correct(self.t0 + j * self.dt, self.fixes[j]):
+            self.applied.append(j)
+        if est.fixes_stale > stale:  # older than the history: never compared with the estimate
+            return
         self.nees.append((k, est.nees(truth)))
+
+    def _deliver_scan(self, j: int, est: PoseEstimator) -> None:
+        """The scan localiser's answer for the revolution centred on period j, fused at j's time with
+        its own covariance (nothing when AMCL did not update).
+
+        Raises:
+            EstimatorDivergedError: The localiser lost the robot (the run ends there).
+        """
+        assert self.scans is not None and self._data is not None
+        try:
+            got = self.scans.fix(j, self._data, self.truth, self.estimate)
+        except LocaliserLost as lost:
+            raise EstimatorDivergedError(str(lost), t=lost.t, reason="localisation lost") from lost
+        if got is not None:
+            self.fixes[j] = got[0]
+            if est.correct(self.t0 + j * self.dt, got[0], got[1], got[2]):
+                self.applied.append(j)
 
     def diverged(self, error: EstimatorDivergedError) -> None:
         """Record that the estimator diverged at the current period (the run ends there)."""
@@ -294,4 +327,5 @@ class Sensing:
             nees=nees,
             nees_bounds=(float(lo), float(hi)),
             status=self.status,
+            localiser=self.scans.to_log() if self.scans is not None else None,
         )

@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol
 
 import mujoco
 import numpy as np
@@ -137,9 +137,11 @@ class ComposedReplay(Protocol):
         required_geoms: Scene capacity.
         robot_geoms: (G,) visible geoms of the robot.
         robot_corners: (G, 8, 3) their bounding-box corners in their own frames [m].
+        times: (F,) the frames' times [s].
     """
 
     model: mujoco.MjModel
+    times: FloatArray
     ghost_model: mujoco.MjModel
     datas: list[mujoco.MjData]
     tracks: list[Track]
@@ -506,6 +508,8 @@ class FixedViewCompositor:
         self.camera = camera if camera is not None else replay.camera
         self.size = size or (renderer.width, renderer.height)
         self.line_width = line_width or replay.line_width
+        #: What the close-up draws over its frames (:class:`sim.viz.scan_overlay.ScanOverlay`), set by the replay.
+        self.scan_overlay: Any = None
         self._opt = mujoco.MjvOption()
         self._pert = mujoco.MjvPerturb()
         self._scene = mujoco.MjvScene(replay.model, maxgeom=replay.required_geoms)
@@ -635,6 +639,8 @@ class FixedViewCompositor:
             if upto and tr.trail_keep[upto - 1] != j:
                 pts = self._trail_px[ti][[int(tr.trail_keep[upto - 1]), j]] - win[:2]
                 draw_polyline(out, pts, rgb255(tr.rgba), trail_width(ti, self.line_width))
+        if self.scan_overlay is not None:  # the close-up's scan and particles (sim.viz.scan_overlay)
+            self.scan_overlay.draw(out, self.proj, np.array(win[:2], dtype=float), float(r.times[k]), self.line_width)
         return self._queue_robots(win)
 
     def finish(self, out: Frame, pending: Pending, res: Sequence[tuple[Frame, NDArray[np.float32]]]) -> None:

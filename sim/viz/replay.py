@@ -49,6 +49,7 @@ from sim.physics.runlog import RunLog
 from sim.viz.compose import FixedViewCompositor, eye_frusta, narrow_frustum
 from sim.viz.panel import FrameLayout, Rect, TextPanel, region
 from sim.viz.renderer import QUALITIES, SceneRenderer
+from sim.viz.scan_overlay import ScanOverlay
 from sim.viz.scene import (
     GHOST_ALPHA,
     REFERENCE_RGBA,
@@ -258,6 +259,8 @@ class Replay:
         self.fixed_camera = bool(np.all(self._cam_params == self._cam_params[0]))
         self.required_geoms = int(len(self.tracks) * m.ngeom + 64)
         self.magnification, self.inset_view, self.inset_windows = self._inset_setup(logs[main])
+        #: The main run's scan localiser, drawn in the close-up (None without one).
+        self.scan_overlay = ScanOverlay.of(logs[main])
         self.inset_line_width = max(self.line_width, round(self.line_width * self.magnification / 2))
         self.panel = TextPanel(self.layout, self.tracks, self.times, self.magnification)
 
@@ -548,6 +551,7 @@ class Replay:
         view, width = self.inset_view, self.inset_line_width
         passes = self._compositor.passes if self._compositor is not None else None
         self._inset = FixedViewCompositor(self, renderer, self.overview_camera, view, width, flags, passes)
+        self._inset.scan_overlay = self.scan_overlay
         return self._compositor, self._inset
 
     def _point_to_far_ghosts(self, k: int, out: Frame) -> None:

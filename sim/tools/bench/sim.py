@@ -15,10 +15,12 @@ from __future__ import annotations
 import math
 import statistics
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 TARGET_RATIO = 0.8
+#: Target with the scan localiser in the loop (a revolution cast and matched every 0.2 s).
+TARGET_RATIO_AMCL = 0.5
 
 
 @dataclass(frozen=True)
@@ -96,9 +98,11 @@ def measure(
     control_rate: float = 50.0,
     repeats: int = 3,
     tracker: str = "fbl",
+    localiser: str = "fixes",
 ) -> SimBench:
     """Time both loops (best of ``repeats``) on a reference at the 'open' scenario's start, the closed
-    loop driven by ``tracker`` (a registered name).
+    loop driven by ``tracker`` (a registered name), its estimator corrected by ``localiser`` ("fixes"
+    or "amcl": the robot's laser scans through its Monte Carlo localiser, Nav2's defaults).
 
     Raises:
         ConfigError: Unknown robot, reference or tracker, or a control rate that is not a whole
@@ -124,6 +128,11 @@ def measure(
     k = simulator.steps_per_control(cfg.control_rate)
     n_steps = round(traj.duration / simulator.model.opt.timestep / k) * k
     sensing = SensingSetup.for_robot(spec.name)
+    if localiser != "fixes":
+        from sim.pipeline.case import Case
+
+        setup = Case("open", robot=spec.name, reference=reference, localiser=localiser).localiser_setup(scenario)
+        sensing = replace(sensing, localiser=setup)
 
     def run_closed() -> Any:
         return simulator.run(traj, make_tracker(tracker, spec), cfg, source=PoseSource.FUSED, sensing=sensing)
@@ -161,3 +170,75 @@ def measure(
         spec.name, reference, cfg.control_rate, repeats, n_steps, traj.duration, t_bare, t_closed, c_bare, c_closed,
         pair_ratios,
     )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class ScanBench:
+    """CPU time of one LDS-01 revolution and of one localiser update (``nhsim bench sim --localiser amcl``).
+
+    Attributes:
+        beams: Beams cast per revolution.
+        particles: Particles the localiser kept.
+        max_beams: Beams its sensor model used.
+        revolutions: Revolutions timed.
+        scan_cpu_s: Median CPU time of casting and measuring one revolution [s].
+        localiser_cpu_s: Median CPU time of one localiser update (motion, sensor model, resampling,
+            estimate and refinement) [s].
+    """
+
+    beams: int
+    particles: int
+    max_beams: int
+    revolutions: int
+    scan_cpu_s: float
+    localiser_cpu_s: float
+
+
+def measure_scan(particles: int = 500, revolutions: int = 50) -> ScanBench:
+    """Time the TurtleBot3's scan and its localiser per revolution on a driving robot in 'nav_map1'
+    (the robot moving 0.05 m and 0.05 rad a revolution past the update thresholds, so every one updates).
+
+    Args:
+        particles: Particle count (min and max alike).
+        revolutions: Revolutions timed (the median counts).
+    """
+    import mujoco
+    import numpy as np
+
+    from control.estimation.amcl import Amcl, AmclConfig
+    from planning.core.robot import load_robot
+    from planning.scenario import load_scenario
+    from sim.physics.lidar import LidarScanner, load_lidar_profile
+    from sim.physics.model import build_model
+
+    scenario = load_scenario("nav_map1")
+    profile = load_lidar_profile("turtlebot3")
+    assert profile is not None
+    model = build_model(load_robot("turtlebot3"), scenario.world).model
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    scanner = LidarScanner(model, profile, seed=0)
+    cfg = AmclConfig(min_particles=particles, max_particles=particles, update_min_d=0.0, update_min_a=0.0)
+    amcl = Amcl(scenario.world, cfg, (float(scanner.offset[0]), float(scanner.offset[1]), 0.0), seed=0)
+    start = scenario.start
+    pose = np.array([start.x, start.y, start.theta])
+    amcl.reset(pose)
+    scan_t, loc_t = [], []
+    for n in range(revolutions + 1):
+        now = pose + n * np.array([0.05 * math.cos(start.theta), 0.05 * math.sin(start.theta), 0.0])
+        c0 = time.thread_time()
+        scan = scanner.scan(data, 0.2 * n, np.tile(now, (profile.beams, 1)))
+        c1 = time.thread_time()
+        amcl.update(now, scan.ranges, profile.range_min, profile.range_max, 0.0, profile.angle_increment, force=True)
+        c2 = time.thread_time()
+        if n:  # the first loads the compiled kernels
+            scan_t.append(c1 - c0)
+            loc_t.append(c2 - c1)
+    return ScanBench(
+        profile.beams,
+        amcl.particles.shape[0],
+        cfg.max_beams,
+        revolutions,
+        statistics.median(scan_t),
+        statistics.median(loc_t),
+    )

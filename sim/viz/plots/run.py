@@ -20,6 +20,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
@@ -30,7 +31,7 @@ from sim.physics.metrics import heading_errors, position_errors
 from sim.physics.model import body_pitch
 from sim.physics.runlog import RunLog
 from sim.viz.plots.draw import RUN_WORLD, draw_world, frame_world
-from sim.viz.plots.estimation import EstimationSeries
+from sim.viz.plots.estimation import EstimationSeries, estimation_figure
 from sim.viz.scene import run_styles
 
 REFERENCE_COLOR = "#1a8c40"
@@ -41,6 +42,8 @@ PLOTS = ("world", "errors", "commands")
 ESTIMATION_PLOT = "estimation"
 #: Plot name of a balancing robot's pitch, written when its runs logged their balance loop.
 PITCH_PLOT = "pitch"
+#: Plot name of the scan localiser's error against time with its 2-sigma band (runs on AMCL).
+LOCALISER_PLOT = "localiser"
 
 
 def _styles(logs: Mapping[str, RunLog]) -> dict[str, tuple[str, tuple[float, ...], str]]:
@@ -181,8 +184,8 @@ def job_figures(
     estimation: EstimationSeries | None = None,
 ) -> dict[str, Figure]:
     """Every report figure of a job, by name: :data:`PLOTS`, then :data:`ESTIMATION_PLOT` when
-    ``estimation`` (the estimates against the truth) is given and :data:`PITCH_PLOT` for a balancing
-    robot."""
+    ``estimation`` (the estimates against the truth) is given, :data:`PITCH_PLOT` for a balancing
+    robot and :data:`LOCALISER_PLOT` for a run fed by a scan localiser."""
     figs = {
         "world": world_figure(world, trajectory, logs, title=title),
         "errors": errors_figure(logs, title=title),
@@ -193,4 +196,13 @@ def job_figures(
     pitch = pitch_figure(logs, title=title)
     if pitch is not None:
         figs[PITCH_PLOT] = pitch
+    for log in logs.values():
+        loc = log.estimation.localiser if log.estimation is not None else None
+        if loc is not None and loc.t.size >= 2:  # the first run fed by a scan localiser
+            heading = np.column_stack([loc.truth[:, :2], np.unwrap(loc.truth[:, 2])])
+            what = title or "scan localiser (AMCL) against the true pose"
+            figs[LOCALISER_PLOT] = estimation_figure(
+                loc.t, heading, {"localiser": loc.pose}, cov={"localiser": loc.cov}, title=what
+            )
+            break
     return figs

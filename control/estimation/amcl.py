@@ -1,0 +1,529 @@
+"""Monte Carlo localisation of a robot's laser scans against the map (AMCL).
+
+The algorithm of Probabilistic Robotics (Thrun, Burgard, Fox 2005) ch. 8 as Nav2's ``amcl`` runs it
+(ros-navigation/navigation2, ``nav2_amcl``), compiled in :mod:`control.estimation.amcl_kernels`:
+
+- **Motion**: the odometry motion model (table 5.6) with ``alpha1..alpha4``, applied to every
+  particle when the odometry has moved more than ``update_min_d`` along x or y or ``update_min_a``
+  in heading since the last update (Nav2's per-axis test); the scan is used only then.
+- **Sensor**: the likelihood-field model over ``max_beams`` evenly spaced beams (Nav2's step
+  ``(beams - 1) // (max_beams - 1)``), ``p = 1 + sum pz^3``, ``pz = z_hit exp(-d^2 / 2 sigma_hit^2) +
+  z_rand / range_max`` with ``d`` the distance from a beam's end point to the nearest mapped
+  obstacle or wall, capped at ``laser_likelihood_max_dist``, read at the nearest node of the
+  ``map_resolution`` grid as Nav2 reads its map's cell (``pz^3`` is tabulated there once). Beams
+  at or beyond the range limit (``min(laser_max_range, the scan's range_max)``) or at or below the
+  scan's ``range_min`` (REP 117 infinities among them) are left out, as Nav2 does.
+- **Resampling**: low-variance (table 4.4) with the set's size chosen by KLD sampling (Fox 2003;
+  bins of 0.5 m x 0.5 m x 10 deg, ``pf_err``, ``pf_z``, between ``min_particles`` and
+  ``max_particles``), every ``resample_interval`` updates.
+- **Recovery**: random particles over the free space with probability ``max(0, 1 - w_fast /
+  w_slow)`` (augmented MCL, table 8.3; ``recovery_alpha_slow``, ``recovery_alpha_fast``, 0 = off).
+- **Estimate**: the weighted mean and covariance of the heaviest cluster (the particles within one
+  bin of the bin of most weight), then, with ``refine`` on (nhsim's addition; Nav2 has none), a
+  Gauss-Newton scan-to-map fit of the used beams' end points to the map's signed distance from
+  that mean and from the last estimate moved by the odometry (the fit with more beams within the
+  gate, then the smaller residual, wins), over every valid beam (not only the ``max_beams`` subset), whose covariance
+  ``s^2 (J^T J)^-1`` (``s^2`` the residual variance), where larger, replaces the cluster's entries
+  when the fit holds (at least ``max_beams / 2`` beams within ``refine_gate``); the cluster's
+  spread stands for the scan's systematic error, which the fit's own covariance does not know.
+
+The map is the world's own signed distance (:func:`planning.collision.compiled.world_distances`,
+the planner's formulas), tabulated once per world on a ``map_resolution`` grid and read bilinearly.
+
+Defaults are Nav2's (``nav2_bringup/params/nav2_params.yaml``, ``amcl``): alpha1-4 0.2,
+laser_likelihood_max_dist 2.0, laser_max_range 100.0, max_beams 60, min/max_particles 500/2000,
+pf_err 0.05, pf_z 0.99, recovery_alpha_slow/fast 0.0, resample_interval 1, sigma_hit 0.2,
+update_min_a 0.2, update_min_d 0.25, z_hit 0.5, z_rand 0.5; its initial covariance (AMCL's
+``initial_cov_xx/yy/aa`` defaults) 0.25 m^2, 0.25 m^2, (pi/12)^2 rad^2.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, fields
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from control.estimation import amcl_kernels as K
+from planning.collision.compiled import world_arrays, world_distances
+from planning.core.world import World
+from planning.errors import ConfigError
+
+FloatArray = NDArray[np.float64]
+
+#: KLD histogram bins (Nav2's pf kd-tree): 0.5 m in x and y, 10 deg in heading.
+BIN_XY = 0.5
+BIN_TH = math.radians(10.0)
+#: Poses of a correlative search refined by the scan-to-map fit.
+SEARCH_KEPT = 20
+#: The distance field reaches this far beyond the walls [m] (end points of beams that pass a wall
+#: by a little, from a particle a little off, land there).
+GRID_MARGIN = 0.5
+#: A valid ``--amcl`` text, quoted in messages.
+EXAMPLE = "max_particles=1000,refine=0"
+
+
+@dataclass(frozen=True)
+class AmclConfig:
+    """The localiser's parameters (Nav2's names and defaults; see the module docstring).
+
+    Attributes:
+        alpha1: Rotation noise from rotation [-].
+        alpha2: Rotation noise from translation [rad^2/m^2].
+        alpha3: Translation noise from translation [-].
+        alpha4: Translation noise from rotation [m^2/rad^2].
+        z_hit: Weight of the hit component [-].
+        z_rand: Weight of the random component [-].
+        sigma_hit: Standard deviation of the hit component [m].
+        laser_likelihood_max_dist: Cap of the map distance [m].
+        laser_max_range: Longest range used [m] (the scan's own limit applies too).
+        max_beams: Beams used per scan [-].
+        min_particles: Smallest set [-] (>= 10).
+        max_particles: Largest set [-].
+        pf_err: KLD error bound [-].
+        pf_z: KLD quantile (Nav2 uses the value itself as the normal quantile) [-].
+        recovery_alpha_slow: Slow average's rate [-], 0 = no recovery.
+        recovery_alpha_fast: Fast average's rate [-].
+        resample_interval: Updates between resamplings [-].
+        update_min_d: Travel before an update [m].
+        update_min_a: Rotation before an update [rad].
+        initial_std_xy: Initial standard deviation in x and y [m].
+        initial_std_theta: Initial standard deviation of heading [rad].
+        map_resolution: Spacing of the tabulated distance field [m].
+        refine: 1 to refine the estimate by scan-to-map fitting, 0 for plain AMCL.
+        refine_gate: Largest map distance of a beam used by the fit [m].
+        roughen_xy: Standard deviation of the jitter added to every particle by an update without
+            motion (``force``; global localisation of a standing robot) [m] (Gordon's roughening).
+        roughen_theta: The same in heading [rad].
+    """
+
+    alpha1: float = 0.2
+    alpha2: float = 0.2
+    alpha3: float = 0.2
+    alpha4: float = 0.2
+    z_hit: float = 0.5
+    z_rand: float = 0.5
+    sigma_hit: float = 0.2
+    laser_likelihood_max_dist: float = 2.0
+    laser_max_range: float = 100.0
+    max_beams: int = 60
+    min_particles: int = 500
+    max_particles: int = 2000
+    pf_err: float = 0.05
+    pf_z: float = 0.99
+    recovery_alpha_slow: float = 0.0
+    recovery_alpha_fast: float = 0.0
+    resample_interval: int = 1
+    update_min_d: float = 0.25
+    update_min_a: float = 0.2
+    initial_std_xy: float = 0.5
+    initial_std_theta: float = math.pi / 12
+    map_resolution: float = 0.025
+    refine: int = 1
+    refine_gate: float = 0.3
+    roughen_xy: float = 0.05
+    roughen_theta: float = 0.05
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+                raise ConfigError(f"amcl {f.name} must be a finite number >= 0, got {v!r}; e.g. --amcl {EXAMPLE}")
+        for name in ("max_beams", "min_particles", "max_particles", "resample_interval", "refine"):
+            if getattr(self, name) != int(getattr(self, name)):
+                raise ConfigError(f"amcl {name} must be a whole number, got {getattr(self, name)!r}")
+            object.__setattr__(self, name, int(getattr(self, name)))
+        if self.min_particles < 10:
+            raise ConfigError(f"amcl min_particles={self.min_particles} is below 10; give at least 10 (Nav2: 500)")
+        if self.max_particles < self.min_particles:
+            raise ConfigError(
+                f"amcl max_particles={self.max_particles} is below min_particles={self.min_particles}; raise it"
+            )
+        for name in ("sigma_hit", "pf_err", "map_resolution", "max_beams", "resample_interval"):
+            if getattr(self, name) <= 0:
+                raise ConfigError(f"amcl {name} must be > 0, got {getattr(self, name)!r}")
+        if self.max_beams < 2:
+            raise ConfigError(f"amcl max_beams must be at least 2, got {self.max_beams}")
+        if self.refine not in (0, 1):
+            raise ConfigError(f"amcl refine must be 0 or 1, got {self.refine}")
+
+    def override(self, table: Mapping[str, object], what: str = "[amcl]") -> AmclConfig:
+        """This configuration with the keys of ``table`` replaced.
+
+        Raises:
+            ConfigError: An unknown key or a bad value.
+        """
+        names = [f.name for f in fields(self)]
+        unknown = [k for k in table if k not in names]
+        if unknown:
+            raise ConfigError(f"{what}: unknown localiser key {unknown[0]!r}; the keys are {', '.join(names)}")
+        values: dict[str, Any] = {**asdict(self), **table}
+        return AmclConfig(**values)
+
+    def parse(self, text: str) -> AmclConfig:
+        """This configuration with ``key=value,...`` (``--amcl``) applied.
+
+        Raises:
+            ConfigError: A malformed part, an unknown key or a bad value.
+        """
+        table: dict[str, float] = {}
+        for part in filter(None, (p.strip() for p in text.split(","))):
+            key, sep, value = part.partition("=")
+            try:
+                table[key.strip()] = float(value) if sep else float("nan")
+            except ValueError as exc:
+                raise ConfigError(f"--amcl {text!r}: {key.strip()} must be a number, got {value!r}") from exc
+            if not sep:
+                raise ConfigError(f"--amcl {text!r}: expected key=value pairs, e.g. {EXAMPLE}; got {part!r}")
+        return self.override(table, "--amcl")
+
+    def as_dict(self) -> dict[str, float]:
+        """Plain-dict view for records."""
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class LikelihoodField:
+    """A world's distance field, tabulated once (see :func:`likelihood_field`).
+
+    Attributes:
+        capped: (nx, ny) ``min(max(sd, 0), cap)``: the likelihood model's distance [m].
+        signed: (nx, ny) ``clip(sd, -cap, cap)``: the refinement's signed distance [m].
+        grid: (x0, y0, h, cap): origin [m], spacing [m], and the value outside the grid.
+        free: (F, 2) centres of the cells at least ``clearance`` from every obstacle and wall.
+    """
+
+    capped: FloatArray
+    signed: FloatArray
+    grid: FloatArray
+    free: FloatArray
+
+
+@functools.lru_cache(maxsize=8)
+def likelihood_field(world: World, resolution: float, cap: float, clearance: float = 0.1) -> LikelihoodField:
+    """The world's signed distance (walls included) on a grid of spacing ``resolution`` [m], reaching
+    :data:`GRID_MARGIN` beyond the walls.
+
+    Args:
+        world: The map: what the planner knows.
+        resolution: Grid spacing [m].
+        cap: Largest distance kept (``laser_likelihood_max_dist``) [m].
+        clearance: Free cells are at least this far from obstacles and walls [m].
+    """
+    m = GRID_MARGIN
+    xmin, xmax, ymin, ymax = (float(v) for v in np.asarray(world.bounds) + np.array([-m, m, -m, m]))
+    nx = math.ceil((xmax - xmin) / resolution) + 1
+    ny = math.ceil((ymax - ymin) / resolution) + 1
+    xx, yy = np.meshgrid(xmin + resolution * np.arange(nx), ymin + resolution * np.arange(ny), indexing="ij")
+    pts = np.ascontiguousarray(np.column_stack([xx.ravel(), yy.ravel()]))
+    sd = world_distances(pts, world_arrays(world, True)).reshape(nx, ny)
+    capped = np.minimum(np.maximum(sd, 0.0), cap)
+    signed = np.clip(sd, -cap, cap)
+    free = pts[sd.ravel() >= clearance]
+    if free.shape[0] == 0:
+        raise ConfigError(f"the map has no free space {clearance} m from its obstacles and walls to localise in")
+    for a in (capped, signed, free):
+        a.setflags(write=False)
+    return LikelihoodField(capped, signed, np.array([xmin, ymin, resolution, cap]), np.ascontiguousarray(free))
+
+
+def beam_subset(n: int, max_beams: int) -> NDArray[np.int64]:
+    """Indices of the beams used of ``n`` (Nav2: every ``(n - 1) // (max_beams - 1)``-th, at least 1)."""
+    step = max(1, (n - 1) // (max_beams - 1))
+    return np.arange(0, n, step, dtype=np.int64)
+
+
+@dataclass(frozen=True)
+class AmclEstimate:
+    """The localiser's answer after an update.
+
+    Attributes:
+        pose: (3,) estimated pose (x, y, theta) [m, m, rad].
+        cov: (3, 3) its covariance.
+        particles: Size of the particle set [-].
+        spread: Root of the trace of the whole set's (x, y) covariance [m].
+        refined: Whether the scan-to-map fit gave the pose.
+    """
+
+    pose: FloatArray
+    cov: FloatArray
+    particles: int
+    spread: float
+    refined: bool
+
+
+class Amcl:
+    """Adaptive Monte Carlo localisation on a known map (see the module docstring).
+
+    Args:
+        world: The map (what the planner knows; unmapped obstacles left out).
+        config: Parameters.
+        laser: (3,) the scanner's pose in the robot's frame (x, y, yaw) [m, m, rad].
+        seed: Seed of the localiser's own random numbers.
+        clearance: Random particles are drawn this far from obstacles and walls [m].
+    """
+
+    def __init__(self, world: World, config: AmclConfig, laser: ArrayLike, seed: int, *, clearance: float = 0.1):
+        self.config = config
+        self.field = likelihood_field(world, config.map_resolution, config.laser_likelihood_max_dist, clearance)
+        self.laser = np.asarray(laser, dtype=float).reshape(3)
+        self.rng = np.random.default_rng(seed)
+        xmin, xmax, ymin, ymax = world.bounds
+        self.bins = np.array([xmin - 1.0, ymin - 1.0, BIN_XY, BIN_TH])
+        self.shape = np.array(
+            [math.ceil((xmax - xmin + 2.0) / BIN_XY), math.ceil((ymax - ymin + 2.0) / BIN_XY), 36], dtype=np.int64
+        )
+        self.alphas = np.array([config.alpha1, config.alpha2, config.alpha3, config.alpha4])
+        self.particles = np.zeros((0, 3))
+        self.weights = np.zeros(0)
+        self.odom_ref: FloatArray | None = None
+        self.w_slow = self.w_fast = 0.0
+        self.updates = 0
+        self.estimate: AmclEstimate | None = None
+        self._table: tuple[float, FloatArray, float] | None = None  # (range_max, pz^3 grid, pz^3 off it)
+
+    def reset(self, pose: ArrayLike, std_xy: float | None = None, std_theta: float | None = None) -> None:
+        """Start from a Gaussian cloud of ``max_particles`` around ``pose`` (Nav2's initial pose)."""
+        c = self.config
+        sxy = c.initial_std_xy if std_xy is None else std_xy
+        sth = c.initial_std_theta if std_theta is None else std_theta
+        n = c.max_particles
+        self.particles = np.asarray(pose, dtype=float).reshape(1, 3) + self.rng.standard_normal((n, 3)) * [
+            sxy,
+            sxy,
+            sth,
+        ]
+        self._restart()
+
+    def reset_global(self) -> None:
+        """Start from ``max_particles`` spread uniformly over the free space, headings uniform."""
+        self.particles = self._random_poses(self.config.max_particles)
+        self._restart()
+
+    def search(
+        self, ranges: FloatArray, range_min: float, range_max: float, bearings: FloatArray, *, step: float = 0.2
+    ) -> tuple[FloatArray, float]:
+        """Correlative search of the whole free space for one scan (global localisation's seed): the
+        likelihood-field score of poses on a ``step`` grid of free positions x 10 deg headings, the best
+        :data:`SEARCH_KEPT` refined by the scan-to-map fit.
+
+        Args:
+            ranges: (beams,) the scan's ranges [m].
+            range_min, range_max: Its limits [m].
+            bearings: (beams,) each beam's bearing [rad].
+            step: Grid spacing of the positions tried [m].
+
+        Returns:
+            (3,) the best pose and the share of the valid beams within ``refine_gate`` of the map there.
+        """
+        c = self.config
+        free = self.field.free
+        keep = np.unique(np.round(free / step).astype(np.int64), axis=0) * step
+        heads = np.arange(36) * BIN_TH
+        cand = np.column_stack([np.repeat(keep, heads.size, axis=0), np.tile(heads, keep.shape[0])])
+        r, b = self.beams(ranges, range_min, range_max, 0.0, 0.0, bearings=bearings)
+        ra, ba = self.beams(ranges, range_min, range_max, 0.0, 0.0, every=True, bearings=bearings)
+        if ra.size < 10:
+            return cand[0], 0.0
+        w = np.ones(cand.shape[0])
+        self._sense_weights(cand, w, r, b, min(range_max, c.laser_max_range))
+        best, score = cand[0], (-1, 0.0)
+        for i in np.argsort(-w)[:SEARCH_KEPT]:
+            pose, _, used, ssr = K.refine(
+                cand[i], ra, ba, self.laser, self.field.signed, self.field.grid, c.refine_gate, 10
+            )
+            if (used, -ssr) > score:
+                best, score = pose, (used, -ssr)
+        return best, score[0] / ra.size
+
+    def _restart(self) -> None:
+        n = self.particles.shape[0]
+        self.weights = np.full(n, 1.0 / n)
+        self.odom_ref, self.estimate = None, None
+        self.w_slow = self.w_fast = 0.0
+        self.updates = 0
+
+    def _random_poses(self, n: int) -> FloatArray:
+        free, h = self.field.free, self.field.grid[2]
+        pick = free[self.rng.integers(0, free.shape[0], n)] + self.rng.uniform(-h / 2, h / 2, (n, 2))
+        return np.column_stack([pick, self.rng.uniform(-math.pi, math.pi, n)])
+
+    def beams(
+        self,
+        ranges: FloatArray,
+        range_min: float,
+        range_max: float,
+        angle_min: float,
+        angle_increment: float,
+        *,
+        every: bool = False,
+        bearings: FloatArray | None = None,
+    ) -> tuple[FloatArray, FloatArray]:
+        """The beams the sensor model uses: Nav2's subset (or, with ``every``, all: the refinement's), within
+        (range_min, min(range_max, laser_max_range)).
+
+        Args:
+            bearings: (beams,) each beam's bearing [rad], given instead of ``angle_min + i * angle_increment``
+                (a scan deskewed by the robot's own motion).
+
+        Returns:
+            (B,) ranges [m] and (B,) bearings [rad].
+        """
+        idx = np.arange(ranges.size) if every else beam_subset(ranges.size, self.config.max_beams)
+        r = ranges[idx]
+        rmax = min(range_max, self.config.laser_max_range)
+        ok = np.isfinite(r) & (r > range_min) & (r < rmax)
+        b = angle_min + angle_increment * idx[ok] if bearings is None else np.asarray(bearings, dtype=float)[idx[ok]]
+        return np.ascontiguousarray(r[ok]), np.ascontiguousarray(b)
+
+    def moved_enough(self, odom: FloatArray) -> bool:
+        """Whether the odometry moved past ``update_min_d`` (in x or y) or ``update_min_a`` since the last update."""
+        if self.odom_ref is None:
+            return True
+        d = odom - self.odom_ref
+        da = abs(K.angle_diff(float(odom[2]), float(self.odom_ref[2])))
+        return bool(
+            abs(d[0]) > self.config.update_min_d
+            or abs(d[1]) > self.config.update_min_d
+            or da > self.config.update_min_a
+        )
+
+    def update(
+        self,
+        odom: ArrayLike,
+        ranges: ArrayLike,
+        range_min: float,
+        range_max: float,
+        angle_min: float,
+        angle_increment: float,
+        *,
+        force: bool = False,
+        bearings: FloatArray | None = None,
+    ) -> bool:
+        """Take one scan with the odometry pose at its time; update if moved enough (or ``force``).
+
+        Args:
+            odom: (3,) odometry pose (dead reckoning) at the scan's time.
+            ranges: (beams,) the scan's ranges [m] (REP 117).
+            range_min, range_max: The scan's limits [m].
+            angle_min, angle_increment: The scan's bearings [rad].
+            force: Update without motion (Nav2's ``nomotion_update``).
+            bearings: (beams,) each beam's bearing [rad], instead of the evenly spaced ones.
+
+        Returns:
+            Whether the filter updated (then :attr:`estimate` is new).
+        """
+        if self.particles.shape[0] == 0:
+            raise RuntimeError("the localiser has no particles: call reset() or reset_global() first")
+        o = np.asarray(odom, dtype=float).reshape(3)
+        if not (force or self.moved_enough(o)):
+            return False
+        if force and self.config.roughen_xy + self.config.roughen_theta > 0:
+            jitter = self.rng.standard_normal((self.particles.shape[0], 3))
+            self.particles += jitter * [self.config.roughen_xy, self.config.roughen_xy, self.config.roughen_theta]
+        prior = None
+        if self.odom_ref is not None:
+            if self.estimate is not None:  # the last estimate moved by the odometry since
+                prior = _moved(self.estimate.pose, self.odom_ref, o)
+            normals = self.rng.standard_normal((self.particles.shape[0], 3))
+            K.motion_update(self.particles, self.odom_ref, o, self.alphas, normals)
+        self.odom_ref = o.copy()
+        z = np.asarray(ranges, dtype=float)
+        limits = (range_min, range_max, angle_min, angle_increment)
+        r, b = self.beams(z, *limits, bearings=bearings)
+        self._sense(r, b, min(range_max, self.config.laser_max_range))
+        self.updates += 1
+        if self.updates % self.config.resample_interval == 0:
+            self._resample()
+        self.estimate = self._estimate(*self.beams(z, *limits, every=True, bearings=bearings), prior)
+        return True
+
+    def _sense_weights(
+        self, particles: FloatArray, weights: FloatArray, r: FloatArray, b: FloatArray, rmax: float
+    ) -> float:
+        """:func:`amcl_kernels.likelihood_update` with this map's ``pz^3`` table (made once per range limit)."""
+        c = self.config
+        if self._table is None or self._table[0] != rmax:
+            model = np.array([c.z_hit, c.z_rand, c.sigma_hit, rmax])
+            far = float(K.pz_cubed(np.array([c.laser_likelihood_max_dist]), model)[0])
+            self._table = (rmax, np.ascontiguousarray(K.pz_cubed(self.field.capped, model)), far)
+        _, table, outside = self._table
+        return float(K.likelihood_update(particles, weights, r, b, self.laser, table, self.field.grid, outside))
+
+    def _sense(self, r: FloatArray, b: FloatArray, rmax: float) -> None:
+        c = self.config
+        total = self._sense_weights(self.particles, self.weights, r, b, rmax)
+        n = self.weights.size
+        w_avg = total / n
+        self.weights /= total
+        self.w_slow = w_avg if self.w_slow == 0.0 else self.w_slow + c.recovery_alpha_slow * (w_avg - self.w_slow)
+        self.w_fast = w_avg if self.w_fast == 0.0 else self.w_fast + c.recovery_alpha_fast * (w_avg - self.w_fast)
+
+    def _resample(self) -> None:
+        c = self.config
+        m = c.max_particles
+        w_diff = max(0.0, 1.0 - self.w_fast / self.w_slow) if self.w_slow > 0 else 0.0
+        offset = float(self.rng.uniform())
+        order = self.rng.permutation(m).astype(np.int64)
+        coins, randoms = (
+            (self.rng.uniform(size=m), self._random_poses(m)) if w_diff > 0 else (np.zeros(0), np.zeros((0, 3)))
+        )
+        out = np.empty((m, 3))
+        kld = np.array([c.pf_err, c.pf_z, float(c.min_particles)])
+        n = K.resample(
+            self.particles, self.weights, offset, order, w_diff, coins, randoms, self.bins, self.shape, kld, out
+        )
+        self.particles = out[:n].copy()
+        self.weights = np.full(n, 1.0 / n)
+
+    def _estimate(self, r: FloatArray, b: FloatArray, prior: FloatArray | None = None) -> AmclEstimate:
+        mean, cov, _ = K.cluster_estimate(self.particles, self.weights, self.bins, self.shape)
+        spread = self.spread()
+        c = self.config
+        least = max(10, c.max_beams // 2)
+        if not c.refine or r.size < least:
+            return AmclEstimate(mean, cov, self.particles.shape[0], spread, False)
+        best = None
+        for start in (mean,) if prior is None else (mean, prior):
+            fit = K.refine(start, r, b, self.laser, self.field.signed, self.field.grid, c.refine_gate, 10)
+            pose, info, used, ssr = fit
+            if used < least or math.hypot(pose[0] - start[0], pose[1] - start[1]) >= 0.5:
+                continue
+            if np.linalg.cond(info) < 1e8 and (best is None or (used, -ssr) > (best[2], -best[3])):
+                best = fit
+        if best is None:
+            return AmclEstimate(mean, cov, self.particles.shape[0], spread, False)
+        pose, info, used, ssr = best
+        # the fit's own covariance s^2 (J^T J)^-1 knows only the scan's white noise, not its systematic
+        # error: the larger of it and the cluster's is reported
+        s2 = max(ssr / (used - 3), 1e-8)
+        pose[2] = math.atan2(math.sin(pose[2]), math.cos(pose[2]))
+        cov = np.maximum(s2 * np.linalg.inv(info), cov) if np.all(np.diag(cov) > 0) else cov
+        return AmclEstimate(pose, _psd(cov), self.particles.shape[0], spread, True)
+
+    def spread(self) -> float:
+        """Root of the trace of the whole particle set's weighted (x, y) covariance [m]."""
+        w = self.weights
+        xy = self.particles[:, :2]
+        mu = w @ xy
+        return float(math.sqrt(max(0.0, float(w @ np.sum((xy - mu) ** 2, axis=1)))))
+
+
+def _psd(cov: FloatArray) -> FloatArray:
+    """``cov`` made symmetric positive definite (eigenvalues at least 1e-10)."""
+    sym = 0.5 * (cov + cov.T)
+    w, v = np.linalg.eigh(sym)
+    return np.asarray((v * np.maximum(w, 1e-10)) @ v.T)
+
+
+def _moved(pose: FloatArray, old: FloatArray, new: FloatArray) -> FloatArray:
+    """``pose`` moved by the odometry's motion from ``old`` to ``new`` (in the odometry's own frame)."""
+    dx, dy = new[0] - old[0], new[1] - old[1]
+    c, s = math.cos(old[2]), math.sin(old[2])
+    fx, fy = c * dx + s * dy, -s * dx + c * dy  # the motion in the robot's frame at old
+    cp, sp = math.cos(pose[2]), math.sin(pose[2])
+    return np.array([pose[0] + cp * fx - sp * fy, pose[1] + sp * fx + cp * fy, pose[2] + K.angle_diff(new[2], old[2])])

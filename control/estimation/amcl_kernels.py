@@ -1,0 +1,339 @@
+"""The compiled steps of :mod:`control.estimation.amcl` (Monte Carlo localisation).
+
+Every random number is drawn by the caller from a numpy generator and passed in, so the kernels
+are deterministic functions of their arguments; ``tests/amcl_reference.py`` holds a plain-Python
+reference of each, checked against them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+@nb.njit(cache=True)
+def angle_diff(a: float, b: float) -> float:
+    """``a - b`` wrapped to [-pi, pi] (Nav2 amcl's ``angle_diff``) [rad]."""
+    a = math.atan2(math.sin(a), math.cos(a))
+    b = math.atan2(math.sin(b), math.cos(b))
+    d1 = a - b
+    d2 = 2.0 * math.pi - abs(d1)
+    if d1 > 0:
+        d2 *= -1.0
+    return d1 if abs(d1) < abs(d2) else d2
+
+
+@nb.njit(cache=True)
+def motion_update(
+    particles: FloatArray, old: FloatArray, new: FloatArray, alphas: FloatArray, normals: FloatArray
+) -> None:
+    """Sample the odometry motion model into ``particles`` in place (Probabilistic Robotics table 5.6
+    as Nav2's ``DifferentialMotionModel`` does it).
+
+    Args:
+        particles: (N, 3) poses (x, y, theta) [m, m, rad], moved in place.
+        old: (3,) odometry pose at the last update.
+        new: (3,) odometry pose now.
+        alphas: (4,) alpha1..alpha4 [-].
+        normals: (N, 3) standard normal draws.
+    """
+    dx, dy = new[0] - old[0], new[1] - old[1]
+    trans = math.sqrt(dx * dx + dy * dy)
+    rot1 = 0.0 if trans < 0.01 else angle_diff(math.atan2(dy, dx), old[2])
+    rot2 = angle_diff(angle_diff(new[2], old[2]), rot1)
+    rot1_n = min(abs(angle_diff(rot1, 0.0)), abs(angle_diff(rot1, math.pi)))
+    rot2_n = min(abs(angle_diff(rot2, 0.0)), abs(angle_diff(rot2, math.pi)))
+    a1, a2, a3, a4 = alphas[0], alphas[1], alphas[2], alphas[3]
+    s_rot1 = math.sqrt(a1 * rot1_n * rot1_n + a2 * trans * trans)
+    s_trans = math.sqrt(a3 * trans * trans + a4 * rot1_n * rot1_n + a4 * rot2_n * rot2_n)
+    s_rot2 = math.sqrt(a1 * rot2_n * rot2_n + a2 * trans * trans)
+    for i in range(particles.shape[0]):
+        r1 = angle_diff(rot1, s_rot1 * normals[i, 0])
+        tr = trans - s_trans * normals[i, 1]
+        r2 = angle_diff(rot2, s_rot2 * normals[i, 2])
+        th = particles[i, 2]
+        particles[i, 0] += tr * math.cos(th + r1)
+        particles[i, 1] += tr * math.sin(th + r1)
+        particles[i, 2] = th + r1 + r2
+
+
+@nb.njit(cache=True)
+def field_at(field: FloatArray, x0: float, y0: float, h: float, far: float, x: float, y: float) -> float:
+    """Bilinear value of a distance grid at (x, y) [m]; ``far`` outside the grid."""
+    fx, fy = (x - x0) / h, (y - y0) / h
+    nx, ny = field.shape
+    if not (fx >= 0.0 and fy >= 0.0 and fx <= nx - 1 and fy <= ny - 1):
+        return far
+    i, j = min(int(fx), nx - 2), min(int(fy), ny - 2)
+    u, v = fx - i, fy - j
+    return (1 - u) * ((1 - v) * field[i, j] + v * field[i, j + 1]) + u * (
+        (1 - v) * field[i + 1, j] + v * field[i + 1, j + 1]
+    )
+
+
+@nb.njit(cache=True)
+def likelihood_update(
+    particles: FloatArray,
+    weights: FloatArray,
+    ranges: FloatArray,
+    bearings: FloatArray,
+    laser: FloatArray,
+    table: FloatArray,
+    grid: FloatArray,
+    outside: float,
+) -> float:
+    """Weigh particles by the likelihood-field model (Nav2's ``LikelihoodFieldModel``), in place.
+
+    Per particle, ``p = 1 + sum_i pz_i^3`` over the beams, ``pz^3`` read from ``table`` at the grid
+    node nearest to each beam's end point (Nav2 reads the map cell's distance the same way);
+    ``weights *= p``.
+
+    Args:
+        particles: (N, 3) poses.
+        weights: (N,) weights, multiplied in place.
+        ranges: (B,) ranges of the beams used (finite, below range_max) [m].
+        bearings: (B,) their bearings in the scanner's frame [rad].
+        laser: (3,) scanner pose in the robot's frame (x, y, yaw).
+        table: (nx, ny) ``pz^3`` at each grid node (:func:`pz_cubed`).
+        grid: (x0, y0, h, ...) of ``table``: origin and spacing [m].
+        outside: ``pz^3`` of an end point off the grid.
+
+    Returns:
+        The sum of the new weights.
+    """
+    x0, y0, inv_h = grid[0], grid[1], 1.0 / grid[2]
+    nx, ny = table.shape
+    nb_ = ranges.shape[0]
+    ex, ey = np.empty(nb_), np.empty(nb_)  # end points in the robot's frame
+    for b in range(nb_):
+        ex[b] = laser[0] + ranges[b] * math.cos(laser[2] + bearings[b])
+        ey[b] = laser[1] + ranges[b] * math.sin(laser[2] + bearings[b])
+    total = 0.0
+    for k in range(particles.shape[0]):
+        c, s = math.cos(particles[k, 2]), math.sin(particles[k, 2])
+        px, py = (particles[k, 0] - x0) * inv_h + 0.5, (particles[k, 1] - y0) * inv_h + 0.5
+        cs, ss = c * inv_h, s * inv_h
+        p = 1.0
+        for b in range(nb_):
+            i = math.floor(px + cs * ex[b] - ss * ey[b])
+            j = math.floor(py + ss * ex[b] + cs * ey[b])
+            p += table[i, j] if 0 <= i < nx and 0 <= j < ny else outside
+        weights[k] *= p
+        total += weights[k]
+    return total
+
+
+def pz_cubed(d: FloatArray, model: FloatArray) -> FloatArray:
+    """``pz^3`` of the likelihood-field model for map distances ``d`` [m]: ``pz = z_hit exp(-d^2 / (2
+    sigma_hit^2)) + z_rand / range_max`` with ``model = (z_hit, z_rand, sigma_hit, range_max)``."""
+    z_hit, z_rand, sigma, rmax = model
+    pz = z_hit * np.exp(-(d * d) / (2.0 * sigma * sigma)) + z_rand / rmax
+    return np.asarray(pz * pz * pz)
+
+
+@nb.njit(cache=True)
+def kld_limit(k: int, err: float, z: float, least: int, most: int) -> int:
+    """Particles needed for ``k`` occupied bins (Fox 2003; Nav2's ``pf_resample_limit``, which uses
+    ``pf_z`` itself as the normal quantile), clamped to [least, most]; ``most`` for k <= 1."""
+    if k <= 1:
+        return most
+    b = 2.0 / (9.0 * (k - 1))
+    x = 1.0 - b + math.sqrt(b) * z
+    n = math.ceil((k - 1) / (2.0 * err) * x * x * x)
+    return max(least, min(most, n))
+
+
+@nb.njit(cache=True)
+def bin_index(x: float, y: float, th: float, bins: FloatArray, shape: IntArray) -> int:
+    """Flat index of a pose's histogram bin: (x0, y0, size_xy, size_th) in ``bins``, grid ``shape``."""
+    i = min(max(math.floor((x - bins[0]) / bins[2]), 0), shape[0] - 1)
+    j = min(max(math.floor((y - bins[1]) / bins[2]), 0), shape[1] - 1)
+    t = math.atan2(math.sin(th), math.cos(th)) + math.pi
+    m = min(math.floor(t / bins[3]), shape[2] - 1)
+    return (i * shape[1] + j) * shape[2] + m
+
+
+@nb.njit(cache=True)
+def resample(
+    particles: FloatArray,
+    weights: FloatArray,
+    offset: float,
+    order: IntArray,
+    w_diff: float,
+    coins: FloatArray,
+    randoms: FloatArray,
+    bins: FloatArray,
+    shape: IntArray,
+    kld: FloatArray,
+    out: FloatArray,
+) -> int:
+    """Low-variance resampling with KLD-adaptive size and random-particle recovery.
+
+    The low-variance sampler (Probabilistic Robotics table 4.4) picks ``M = len(order)`` indices
+    at ``(offset + m) / M`` of the weights' cumulative sum; they are taken in ``order`` (a random
+    permutation, so any prefix is an unbiased sample) until the count exceeds the KLD limit of the
+    bins occupied so far (Nav2's ``pf_update_resample``). Sample ``j`` is instead ``randoms[j]``
+    when ``coins[j] < w_diff`` (augmented MCL, table 8.3).
+
+    Args:
+        particles: (N, 3) current set.
+        weights: (N,) normalised weights.
+        offset: Low-variance offset in [0, 1).
+        order: (M,) permutation of range(M), M the largest set.
+        w_diff: Probability of a random particle, max(0, 1 - w_fast / w_slow).
+        coins: (M,) uniform draws (unused when w_diff is 0; may then be empty).
+        randoms: (M, 3) random poses in free space (same).
+        bins: (x0, y0, size_xy, size_th) of the KLD histogram.
+        shape: (3,) its number of bins per axis.
+        kld: (pf_err, pf_z, min_particles).
+        out: (M, 3) filled with the new set.
+
+    Returns:
+        The new set's size.
+    """
+    n, m_max = particles.shape[0], order.shape[0]
+    idx = np.empty(m_max, dtype=np.int64)
+    c, i = weights[0], 0
+    for m in range(m_max):
+        u = (offset + m) / m_max
+        while u > c and i < n - 1:
+            i += 1
+            c += weights[i]
+        idx[m] = i
+    seen = np.zeros(shape[0] * shape[1] * shape[2], dtype=np.bool_)
+    k, count = 0, 0
+    least = int(kld[2])
+    while count < m_max:
+        if w_diff > 0.0 and coins[count] < w_diff:
+            out[count] = randoms[count]
+        else:
+            out[count] = particles[idx[order[count]]]
+        b = bin_index(out[count, 0], out[count, 1], out[count, 2], bins, shape)
+        if not seen[b]:
+            seen[b] = True
+            k += 1
+        count += 1
+        if count > kld_limit(k, kld[0], kld[1], least, m_max):
+            break
+    return count
+
+
+@nb.njit(cache=True)
+def cluster_estimate(
+    particles: FloatArray, weights: FloatArray, bins: FloatArray, shape: IntArray
+) -> tuple[FloatArray, FloatArray, float]:
+    """Mean and covariance of the heaviest cluster: the particles in the 3 x 3 x 3 bins around the
+    bin of most weight (headings wrapping).
+
+    Returns:
+        (3,) mean (circular in theta), (3, 3) covariance, the cluster's share of the weight.
+    """
+    nb_ = shape[0] * shape[1] * shape[2]
+    mass = np.zeros(nb_)
+    n = particles.shape[0]
+    which = np.empty(n, dtype=np.int64)
+    for k in range(n):
+        which[k] = bin_index(particles[k, 0], particles[k, 1], particles[k, 2], bins, shape)
+        mass[which[k]] += weights[k]
+    best = int(np.argmax(mass))
+    bt, bj, bi = best % shape[2], (best // shape[2]) % shape[1], best // (shape[1] * shape[2])
+    w, sx, sy, sc, ss = 0.0, 0.0, 0.0, 0.0, 0.0
+    inside = np.zeros(n, dtype=np.bool_)
+    for k in range(n):
+        t = which[k] % shape[2]
+        j = (which[k] // shape[2]) % shape[1]
+        i = which[k] // (shape[1] * shape[2])
+        dt = min((t - bt) % shape[2], (bt - t) % shape[2])
+        if abs(i - bi) <= 1 and abs(j - bj) <= 1 and dt <= 1:
+            inside[k] = True
+            wk = weights[k]
+            w += wk
+            sx += wk * particles[k, 0]
+            sy += wk * particles[k, 1]
+            sc += wk * math.cos(particles[k, 2])
+            ss += wk * math.sin(particles[k, 2])
+    mean = np.array([sx / w, sy / w, math.atan2(ss, sc)])
+    cov = np.zeros((3, 3))
+    for k in range(n):
+        if inside[k]:
+            e0, e1 = particles[k, 0] - mean[0], particles[k, 1] - mean[1]
+            e2 = angle_diff(particles[k, 2], mean[2])
+            e = (e0, e1, e2)
+            for a in range(3):
+                for b in range(3):
+                    cov[a, b] += weights[k] * e[a] * e[b] / w
+    return mean, cov, w
+
+
+@nb.njit(cache=True)
+def refine(
+    pose: FloatArray,
+    ranges: FloatArray,
+    bearings: FloatArray,
+    laser: FloatArray,
+    field: FloatArray,
+    grid: FloatArray,
+    gate: float,
+    iterations: int,
+) -> tuple[FloatArray, FloatArray, int, float]:
+    """Scan-to-map refinement: Gauss-Newton on the squared signed map distances of the beams' end points.
+
+    Beams whose end point is farther than ``gate`` [m] from the map's surfaces (unmapped obstacles,
+    or a wrong pose) are left out of each iteration.
+
+    Args:
+        pose: (3,) starting pose.
+        ranges, bearings, laser: As :func:`likelihood_update`.
+        field: (nx, ny) signed distance to the nearest obstacle or wall, negative inside [m].
+        grid: (x0, y0, h, far) of ``field``.
+        gate: Largest |distance| of a beam used [m].
+        iterations: Most Gauss-Newton steps.
+
+    Returns:
+        (3,) refined pose, (3, 3) the information ``J^T J`` at it, the number of beams in it and the
+        sum of their squared distances [m^2].
+    """
+    x = pose.copy()
+    x0, y0, h, far = grid[0], grid[1], grid[2], grid[3]
+    info = np.zeros((3, 3))
+    used, ssr = 0, 0.0
+    done = iterations <= 0
+    for _ in range(iterations + 1):
+        info[:] = 0.0
+        g = np.zeros(3)
+        used, ssr = 0, 0.0
+        c, s = math.cos(x[2]), math.sin(x[2])
+        lx, ly = x[0] + c * laser[0] - s * laser[1], x[1] + s * laser[0] + c * laser[1]
+        for b in range(ranges.shape[0]):
+            a = x[2] + laser[2] + bearings[b]
+            px, py = lx + ranges[b] * math.cos(a), ly + ranges[b] * math.sin(a)
+            d = field_at(field, x0, y0, h, far, px, py)
+            if abs(d) > gate:
+                continue
+            gx = (
+                field_at(field, x0, y0, h, far, px + 0.5 * h, py) - field_at(field, x0, y0, h, far, px - 0.5 * h, py)
+            ) / h
+            gy = (
+                field_at(field, x0, y0, h, far, px, py + 0.5 * h) - field_at(field, x0, y0, h, far, px, py - 0.5 * h)
+            ) / h
+            jac = (gx, gy, -gx * (py - x[1]) + gy * (px - x[0]))
+            for i in range(3):
+                g[i] += jac[i] * d
+                for j in range(3):
+                    info[i, j] += jac[i] * jac[j]
+            used += 1
+            ssr += d * d
+        if used < 10 or done:
+            break
+        step = np.linalg.solve(info + 1e-9 * np.eye(3), g)
+        x -= step
+        done = abs(step[0]) + abs(step[1]) < 1e-5 and abs(step[2]) < 1e-5
+        if _ == iterations - 1:
+            done = True
+    return x, info, used, ssr

@@ -1,0 +1,319 @@
+"""The TurtleBot3's scan-based localiser in the loop: LDS-01 revolutions cast in the run's physics
+(:mod:`sim.physics.lidar`) and matched against the map by AMCL (:mod:`control.estimation.amcl`).
+
+It replaces the synthetic pose fixes of :class:`sim.robot.sensing.Sensing` on the same schedule: a
+fix "measured" at control period ``j`` is the AMCL estimate for the revolution centred on ``j``
+(its beams from periods ``j - h`` to ``j + h``, ``h`` half a revolution, each from the true pose of
+its own instant, interpolated between control periods), with the odometry pose at ``j``; it is
+delivered at period ``j + fix_latency`` (after the revolution has ended) and fused by the EKF at
+its measurement time ``j`` with the localiser's own covariance. AMCL updates only when the
+odometry has moved past ``update_min_d`` or ``update_min_a``: a revolution without an update
+delivers nothing.
+
+The odometry AMCL takes is the robot's dead reckoning from its quantised wheel encoders (one arc
+per fix period with the robot's drawn wheel radius and track), as the TurtleBot3's ``odom`` frame
+is. With ``initial = "unknown"`` the particles start spread over the free space and the robot,
+standing at its start before the run, takes up to :data:`GLOBAL_SCANS` revolutions (forced
+updates, Nav2's ``nomotion_update``) until the particle spread is below :data:`CONVERGED_SPREAD`;
+each revolution until then is also searched over the whole free space (a correlative search,
+:meth:`control.estimation.amcl.Amcl.search`), whose best pose, once it fits the map well
+(:data:`SEARCH_FIT`), seeds the particles;
+the run then says after how many, and whether the error then was below :data:`CONVERGED_ERROR`.
+A localiser whose error against the truth passes :data:`LOST_ERROR` ends the run with that status.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from control.estimation.amcl import Amcl, AmclConfig
+from control.estimation.amcl_kernels import angle_diff
+from planning.core.robot import RobotSpec
+from planning.core.world import World
+from planning.errors import ConfigError
+from sim.physics.lidar import LidarProfile, LidarScanner, beam_poses
+from sim.physics.runlog import LocaliserLog
+
+FloatArray = NDArray[np.float64]
+
+#: Error against the truth beyond which the localiser counts as lost [m].
+LOST_ERROR = 0.5
+#: Global localisation: most revolutions taken standing at the start.
+GLOBAL_SCANS = 40
+#: Converged: particle spread below this [m] ...
+CONVERGED_SPREAD = 0.2
+#: ... with the estimate's error below this [m].
+CONVERGED_ERROR = 0.1
+#: Global localisation: a correlative search's best pose seeds the particles when this share of the
+#: scan's valid beams ends within the fit's gate of the map there ...
+SEARCH_FIT = 0.8
+#: ... as a Gaussian cloud of these standard deviations [m], [rad].
+SEED_STD_XY = 0.05
+SEED_STD_THETA = 0.03
+#: Particles kept per update in the log, for the video's cloud.
+CLOUD_KEPT = 200
+#: The sources of the EKF's pose corrections (``--localiser``).
+LOCALISERS = ("amcl", "fixes")
+#: How the localiser starts (``--initial-pose``).
+INITIAL_POSES = ("known", "unknown")
+#: Offset of the localiser's seeds from the run's noise seed (its own stream).
+SEED_OFFSET = 0x5CA9
+
+
+@dataclass(frozen=True)
+class LocaliserSetup:
+    """Which localiser corrects the EKF, with its settings.
+
+    Attributes:
+        kind: "amcl" (LDS-01 scans matched against the map) or "fixes" (synthetic Gaussian fixes).
+        world: The map (the scenario's world, unmapped obstacles left out); None with "fixes".
+        lidar: The scanner's settings; None with "fixes".
+        amcl: The localiser's settings.
+        initial: "known" (particles around the start pose, Nav2's initial covariance) or "unknown"
+            (global localisation before tracking).
+    """
+
+    kind: str = "fixes"
+    world: World | None = None
+    lidar: LidarProfile | None = None
+    amcl: AmclConfig = field(default_factory=AmclConfig)
+    initial: str = "known"
+
+    def as_dict(self) -> dict[str, object]:
+        """Plain-dict view for records."""
+        out: dict[str, object] = {"kind": self.kind, "initial": self.initial}
+        if self.kind == "amcl":
+            out["lidar"] = self.lidar.as_dict() if self.lidar is not None else None
+            out["amcl"] = self.amcl.as_dict()
+        return out
+
+
+class LocaliserLost(Exception):
+    """The localiser's error passed :data:`LOST_ERROR` (the run ends)."""
+
+    def __init__(self, t: float, error: float) -> None:
+        super().__init__(f"localisation lost at t={t:.3f} s: the localiser's pose is {error:.2f} m from the truth")
+        self.t = t
+
+
+class ScanLocaliser:
+    """One run's scanner and AMCL (see the module docstring).
+
+    Args:
+        model: The run's compiled model (the physical world, unmapped obstacles included).
+        robot: The robot as drawn (the odometry's wheel radius and track).
+        setup: The localiser's settings (kind "amcl").
+        seed: The run's noise seed.
+        t0: Time of control period 0 [s].
+        dt: Control period [s].
+        rad_per_count: Wheel angle of one encoder count [rad].
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        robot: RobotSpec,
+        setup: LocaliserSetup,
+        seed: int,
+        *,
+        t0: float,
+        dt: float,
+        rad_per_count: float,
+    ) -> None:
+        assert setup.world is not None and setup.lidar is not None
+        self.scanner = LidarScanner(model, setup.lidar, seed)
+        laser = (float(self.scanner.offset[0]), float(self.scanner.offset[1]), 0.0)
+        self.amcl = Amcl(setup.world, setup.amcl, laser, seed + SEED_OFFSET)
+        self.setup, self.t0, self.dt = setup, t0, dt
+        self.half = max(1, round(0.5 * setup.lidar.period / dt))
+        self.r, self.track = robot.wheel_radius, robot.track_width
+        self.rad_per_count = rad_per_count
+        self.odom = np.zeros(3)
+        self.counts = (0, 0)
+        self.odom_at: dict[int, FloatArray] = {}
+        self.rows: list[tuple[float, ...]] = []  # t, pose(3), cov(9), truth(3), particles, spread
+        self.clouds: list[FloatArray] = []
+        self.scan_t: list[float] = []
+        self.scan_ranges: list[FloatArray] = []
+        self.lost_at: float | None = None
+        self.global_scans: int | None = None
+        self.global_converged: bool | None = None
+
+    def start(self, data: mujoco.MjData, truth: tuple[float, float, float], counts: tuple[int, int]) -> None:
+        """Period 0: the odometry's origin, and the particles (around the start, or global localisation)."""
+        self.counts = counts
+        self.odom_at[0] = self.odom.copy()
+        if self.setup.initial == "known":
+            self.amcl.reset(truth)
+            return
+        self.amcl.reset_global()
+        pose = np.tile(np.asarray(truth, dtype=float), (self.scanner.profile.beams, 1))
+        lidar = self.scanner.profile
+        seeded = False
+        for n in range(1, GLOBAL_SCANS + 1):
+            scan = self.scanner.scan(data, self.t0 - (GLOBAL_SCANS - n + 1) * lidar.period, pose)
+            limits = (lidar.range_min, lidar.range_max, 0.0, lidar.angle_increment)
+            if not seeded:  # a correlative search of the free space seeds the particles once it fits well
+                best, share = self.amcl.search(scan.ranges, lidar.range_min, lidar.range_max, scan.bearings)
+                if share >= SEARCH_FIT:
+                    self.amcl.reset(best, SEED_STD_XY, SEED_STD_THETA)
+                    seeded = True
+            self.amcl.update(self.odom, scan.ranges, *limits, force=True)
+            est = self.amcl.estimate
+            if est is not None and est.spread < CONVERGED_SPREAD:
+                err = math.hypot(est.pose[0] - truth[0], est.pose[1] - truth[1])
+                self.global_scans, self.global_converged = n, err < CONVERGED_ERROR
+                return
+        self.global_scans, self.global_converged = GLOBAL_SCANS, False
+
+    def mark(self, k: int, counts: tuple[int, int]) -> None:
+        """The encoder counts at a fix period ``k``: the odometry there (one arc since the last)."""
+        dl, dr = counts[0] - self.counts[0], counts[1] - self.counts[1]
+        self.counts = counts
+        sl, sr = dl * self.rad_per_count * self.r, dr * self.rad_per_count * self.r
+        ds, dth = 0.5 * (sl + sr), (sr - sl) / self.track
+        x, y, th = self.odom
+        phi = th + 0.5 * dth
+        c = 1.0 if abs(dth) < 1e-9 else math.sin(0.5 * dth) / (0.5 * dth)
+        self.odom = np.array([x + ds * c * math.cos(phi), y + ds * c * math.sin(phi), th + dth])
+        self.odom_at[k] = self.odom.copy()
+
+    def fix(
+        self, j: int, data: mujoco.MjData, truth: FloatArray, estimate: FloatArray
+    ) -> tuple[tuple[float, float, float], float, float] | None:
+        """The localiser's answer for the revolution centred on period ``j`` (None if AMCL did not update).
+
+        The scan is deskewed first, as the robot can: each beam moved into the frame of the estimated
+        pose at ``j`` by the estimator's own poses over the revolution (:func:`deskew`).
+
+        Args:
+            j: The fix's period (its measurement time).
+            data: The run's data (the static geoms placed).
+            truth: (K, 3) true poses by period, filled up to the current period (at least ``j + half``).
+            estimate: (K, 3) the estimator's poses by period, filled as far.
+
+        Returns:
+            The pose, the standard deviations of its position (the larger axis) [m] and heading [rad].
+
+        Raises:
+            LocaliserLost: The estimate is more than :data:`LOST_ERROR` from the truth at ``j``.
+        """
+        lidar = self.scanner.profile
+        ks = np.clip(np.arange(j - self.half, j + self.half + 1), 0, None)
+        t = np.asarray(self.t0 + self.dt * np.arange(j - self.half, j + self.half + 1), dtype=float)
+        stamp = t[0]
+        times = np.asarray(stamp + lidar.time_increment * np.arange(lidar.beams), dtype=float)
+        scan = self.scanner.scan(data, stamp, beam_poses(t, truth[ks], times))
+        self.scan_t.append(stamp)
+        self.scan_ranges.append(scan.ranges)
+        odom = self.odom_at.pop(j)
+        est_poses = beam_poses(t, estimate[ks], times)
+        ranges, bearings = deskew(scan.ranges, scan.bearings, est_poses, estimate[j], self.amcl.laser)
+        limits = (lidar.range_min, lidar.range_max, 0.0, lidar.angle_increment)
+        if not self.amcl.update(odom, ranges, *limits, bearings=bearings):
+            return None
+        est = self.amcl.estimate
+        assert est is not None
+        tj = self.t0 + self.dt * j
+        true = truth[j]
+        err = math.hypot(est.pose[0] - true[0], est.pose[1] - true[1])
+        self.rows.append((tj, *est.pose, *est.cov.ravel(), *true, est.particles, est.spread))
+        step = max(1, self.amcl.particles.shape[0] // CLOUD_KEPT)
+        self.clouds.append(self.amcl.particles[::step][:CLOUD_KEPT].copy())
+        if err > LOST_ERROR and self.lost_at is None:
+            self.lost_at = tj
+            raise LocaliserLost(tj, err)
+        pose = (float(est.pose[0]), float(est.pose[1]), math.remainder(float(est.pose[2]), 2 * math.pi))
+        sxy = math.sqrt(max(est.cov[0, 0], est.cov[1, 1], 1e-8))
+        sth = math.sqrt(max(est.cov[2, 2], 1e-10))
+        return pose, sxy, sth
+
+    def heading_error(self, pose: FloatArray, true: FloatArray) -> float:
+        """Wrapped heading error [rad]."""
+        return angle_diff(float(pose[2]), float(true[2]))
+
+    def to_log(self) -> LocaliserLog:
+        """The run's localiser record (its updates against the truth, and every scan cast)."""
+        rows = np.array(self.rows, dtype=float).reshape(-1, 18)
+        lidar = self.scanner.profile
+        cloud = np.full((len(self.clouds), CLOUD_KEPT, 3), np.nan)
+        for i, c in enumerate(self.clouds):
+            cloud[i, : c.shape[0]] = c
+        return LocaliserLog(
+            t=rows[:, 0].copy(),
+            pose=rows[:, 1:4].copy(),
+            cov=rows[:, 4:13].reshape(-1, 3, 3).copy(),
+            truth=rows[:, 13:16].copy(),
+            particles=rows[:, 16].astype(np.int64),
+            spread=rows[:, 17].copy(),
+            cloud=cloud,
+            scan_t=np.array(self.scan_t, dtype=float),
+            scan_ranges=np.array(self.scan_ranges, dtype=float).reshape(-1, lidar.beams),
+            scan_angle_increment=lidar.angle_increment,
+            scan_time_increment=lidar.time_increment,
+            range_min=lidar.range_min,
+            range_max=lidar.range_max,
+            lost_at=self.lost_at,
+            global_scans=self.global_scans,
+            global_converged=self.global_converged,
+            laser=(float(self.amcl.laser[0]), float(self.amcl.laser[1]), float(self.amcl.laser[2])),
+        )
+
+
+def localiser_schedule(setup: LocaliserSetup, fix_every: int, latency_periods: int, dt: float) -> None:
+    """Check that the fix schedule fits the scanner: one fix per revolution, delivered after it ends.
+
+    Raises:
+        ConfigError: The fix rate is not the scan rate, or the latency is shorter than half a
+            revolution plus a control period (naming the sensor field and the fix).
+    """
+    assert setup.lidar is not None
+    per_rev = setup.lidar.period / dt
+    if fix_every == 0 or abs(fix_every - per_rev) > 1e-6 * per_rev:
+        raise ConfigError(
+            f"sensor fix_rate must equal the scan rate ({setup.lidar.rate:g} Hz) with --localiser amcl: one fix a "
+            f"revolution; set --sensors fix_rate={setup.lidar.rate:g} (or use --localiser fixes)"
+        )
+    half = max(1, round(0.5 * per_rev))
+    if latency_periods < half + 1:
+        need = (half + 1) * dt
+        raise ConfigError(
+            f"sensor fix_latency must be at least half a revolution plus a control period ({need:g} s) with "
+            f"--localiser amcl: a revolution's fix is known only when it has ended; set --sensors fix_latency={need:g}"
+        )
+
+
+def deskew(
+    ranges: FloatArray, bearings: FloatArray, poses: FloatArray, ref: FloatArray, laser: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """A revolution's beams as seen from one pose: each finite beam's end point, placed by the pose the
+    robot believed it had at its instant, in the scanner's frame at ``ref``.
+
+    Args:
+        ranges: (B,) ranges [m] (non-finite ones are kept as they are).
+        bearings: (B,) bearings in the scanner's frame [rad].
+        poses: (B, 3) the robot's pose at each beam's instant.
+        ref: (3,) the pose to see them from.
+        laser: (3,) the scanner's pose in the robot's frame.
+
+    Returns:
+        (B,) ranges [m] and (B,) bearings [rad] from the scanner at ``ref``.
+    """
+    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+    lx = poses[:, 0] + c * laser[0] - s * laser[1]
+    ly = poses[:, 1] + s * laser[0] + c * laser[1]
+    fin = np.isfinite(ranges)
+    r = np.where(fin, ranges, 0.0)
+    a = poses[:, 2] + laser[2] + bearings
+    px, py = lx + r * np.cos(a), ly + r * np.sin(a)
+    cr, sr = math.cos(ref[2]), math.sin(ref[2])
+    mx, my = ref[0] + cr * laser[0] - sr * laser[1], ref[1] + sr * laser[0] + cr * laser[1]
+    dx, dy = px - mx, py - my
+    out_r = np.where(fin, np.hypot(dx, dy), ranges)
+    out_b = np.where(fin, np.arctan2(dy, dx) - ref[2] - laser[2], bearings)
+    return np.asarray(out_r, dtype=float), np.asarray(out_b, dtype=float)

@@ -1,0 +1,104 @@
+"""Plain-Python reference of :mod:`control.estimation.amcl_kernels`, written from Probabilistic Robotics
+and Nav2's amcl sources independently of the compiled kernels (loops over Python floats)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def angle_diff(a: float, b: float) -> float:
+    d = (a - b + math.pi) % (2 * math.pi) - math.pi
+    return math.pi if d == -math.pi and a - b > 0 else d
+
+
+def motion_update(particles, old, new, alphas, normals):  # type: ignore[no-untyped-def]
+    dx, dy = new[0] - old[0], new[1] - old[1]
+    trans = math.hypot(dx, dy)
+    rot1 = 0.0 if trans < 0.01 else angle_diff(math.atan2(dy, dx), old[2])
+    rot2 = angle_diff(angle_diff(new[2], old[2]), rot1)
+
+    def fold(r: float) -> float:  # the smaller of the turn and the turn reversed
+        return min(abs(r), math.pi - abs(r))
+
+    n1, n2 = fold(rot1), fold(rot2)
+    a1, a2, a3, a4 = alphas
+    out = []
+    for p, z in zip(particles, normals, strict=True):
+        r1 = angle_diff(rot1, math.sqrt(a1 * n1**2 + a2 * trans**2) * z[0])
+        tr = trans - math.sqrt(a3 * trans**2 + a4 * n1**2 + a4 * n2**2) * z[1]
+        r2 = angle_diff(rot2, math.sqrt(a1 * n2**2 + a2 * trans**2) * z[2])
+        out.append([p[0] + tr * math.cos(p[2] + r1), p[1] + tr * math.sin(p[2] + r1), p[2] + r1 + r2])
+    return np.array(out)
+
+
+def field_at(field, grid, x, y):  # type: ignore[no-untyped-def]
+    x0, y0, h, far = grid
+    fx, fy = (x - x0) / h, (y - y0) / h
+    nx, ny = field.shape
+    if not (0 <= fx <= nx - 1 and 0 <= fy <= ny - 1):
+        return far
+    i, j = min(int(fx), nx - 2), min(int(fy), ny - 2)
+    u, v = fx - i, fy - j
+    return (
+        (1 - u) * (1 - v) * field[i, j]
+        + (1 - u) * v * field[i, j + 1]
+        + u * (1 - v) * field[i + 1, j]
+        + u * v * field[i + 1, j + 1]
+    )
+
+
+def likelihood(particles, ranges, bearings, laser, field, grid, model):  # type: ignore[no-untyped-def]
+    """p = 1 + sum pz^3 per particle, d at the grid node nearest to each end point (cap off the grid)."""
+    z_hit, z_rand, sigma, rmax = model
+    x0, y0, h, cap = grid
+    out = []
+    for x, y, th in particles:
+        lx = x + math.cos(th) * laser[0] - math.sin(th) * laser[1]
+        ly = y + math.sin(th) * laser[0] + math.cos(th) * laser[1]
+        p = 1.0
+        for r, b in zip(ranges, bearings, strict=True):
+            a = th + laser[2] + b
+            i = math.floor((lx + r * math.cos(a) - x0) / h + 0.5)
+            j = math.floor((ly + r * math.sin(a) - y0) / h + 0.5)
+            d = field[i, j] if 0 <= i < field.shape[0] and 0 <= j < field.shape[1] else cap
+            pz = z_hit * math.exp(-(d**2) / (2 * sigma**2)) + z_rand / rmax
+            p += pz**3
+        out.append(p)
+    return np.array(out)
+
+
+def kld_limit(k, err, z, least, most):  # type: ignore[no-untyped-def]
+    if k <= 1:
+        return most
+    b = 2 / (9 * (k - 1))
+    n = math.ceil((k - 1) / (2 * err) * (1 - b + math.sqrt(b) * z) ** 3)
+    return max(least, min(most, n))
+
+
+def bin_of(p, bins, shape):  # type: ignore[no-untyped-def]
+    i = min(max(math.floor((p[0] - bins[0]) / bins[2]), 0), shape[0] - 1)
+    j = min(max(math.floor((p[1] - bins[1]) / bins[2]), 0), shape[1] - 1)
+    t = min(math.floor((math.atan2(math.sin(p[2]), math.cos(p[2])) + math.pi) / bins[3]), shape[2] - 1)
+    return (i, j, t)
+
+
+def resample(particles, weights, offset, order, w_diff, coins, randoms, bins, shape, kld):  # type: ignore[no-untyped-def]
+    m_max = len(order)
+    cum = np.cumsum(weights)
+    picks = []
+    i = 0
+    for m in range(m_max):
+        u = (offset + m) / m_max
+        while u > cum[i] and i < len(weights) - 1:
+            i += 1
+        picks.append(i)
+    out, seen = [], set()
+    for count in range(m_max):
+        p = randoms[count] if (w_diff > 0 and coins[count] < w_diff) else particles[picks[order[count]]]
+        out.append(np.array(p))
+        seen.add(bin_of(p, bins, shape))
+        if count + 1 > kld_limit(len(seen), kld[0], kld[1], int(kld[2]), m_max):
+            break
+    return np.array(out)

@@ -1,0 +1,193 @@
+"""The Monte Carlo localiser: configuration, compiled kernels against the plain-Python reference,
+the likelihood field against the world's distances, and tracking on LDS-01 scans."""
+
+from __future__ import annotations
+
+import math
+
+import amcl_reference as ref
+import mujoco
+import numpy as np
+import pytest
+
+from control.estimation import amcl_kernels as K
+from control.estimation.amcl import Amcl, AmclConfig, beam_subset, likelihood_field
+from planning.core.robot import load_robot
+from planning.core.world import Box, Circle, World
+from planning.errors import ConfigError
+from sim.physics.lidar import LidarProfile, LidarScanner, beam_poses
+from sim.physics.model import build_model
+
+WORLD = World((-2.0, 2.0, -1.5, 1.5), (Box((1.0, 0.5), (0.4, 0.3), 0.3), Circle((-1.0, -0.5), 0.3)))
+EXACT = LidarProfile(accuracy_near=0, accuracy_far=0, precision_near=0, precision_far=0)
+
+
+def test_defaults_are_nav2s_and_bad_settings_are_refused() -> None:
+    c = AmclConfig()
+    nav2 = {
+        "alpha1": 0.2,
+        "alpha2": 0.2,
+        "alpha3": 0.2,
+        "alpha4": 0.2,
+        "z_hit": 0.5,
+        "z_rand": 0.5,
+        "sigma_hit": 0.2,
+        "laser_likelihood_max_dist": 2.0,
+        "laser_max_range": 100.0,
+        "max_beams": 60,
+        "min_particles": 500,
+        "max_particles": 2000,
+        "pf_err": 0.05,
+        "pf_z": 0.99,
+        "recovery_alpha_slow": 0.0,
+        "recovery_alpha_fast": 0.0,
+        "resample_interval": 1,
+        "update_min_d": 0.25,
+        "update_min_a": 0.2,
+    }
+    assert {k: getattr(c, k) for k in nav2} == nav2
+    with pytest.raises(ConfigError, match="min_particles=5 is below 10"):
+        c.parse("min_particles=5")
+    with pytest.raises(ConfigError, match="unknown localiser key 'particles'"):
+        c.parse("particles=100")
+    with pytest.raises(ConfigError, match="max_particles=100 is below min_particles=500"):
+        c.parse("max_particles=100")
+    with pytest.raises(ConfigError, match="sigma_hit must be > 0"):
+        c.override({"sigma_hit": 0.0})
+    assert c.parse("max_particles=1000,refine=0").max_particles == 1000
+    assert beam_subset(360, 60).size == 60 and beam_subset(360, 60)[1] == 6  # Nav2's step (360 - 1) // 59
+
+
+def test_motion_model_matches_reference() -> None:
+    rng = np.random.default_rng(0)
+    alphas = np.array([0.2, 0.1, 0.3, 0.05])
+    for old, new in [
+        ((0, 0, 0), (0.3, 0.1, 0.4)),
+        ((1, 2, 3.0), (0.8, 2.1, -3.0)),
+        ((0, 0, 1), (0.005, 0, 1.3)),
+        ((0, 0, 0), (-0.25, 0.0, 0.0)),
+    ]:
+        parts = rng.normal(size=(200, 3))
+        z = rng.normal(size=(200, 3))
+        got = parts.copy()
+        K.motion_update(got, np.array(old, float), np.array(new, float), alphas, z)
+        np.testing.assert_allclose(got, ref.motion_update(parts, old, new, alphas, z), atol=1e-12)
+    # noiseless: a particle at the odometry's start ends at its end
+    p = np.array([[0.0, 0.0, 0.3]])
+    K.motion_update(p, np.array([0.0, 0.0, 0.3]), np.array([0.2, 0.1, -0.2]), np.zeros(4), np.ones((1, 3)))
+    np.testing.assert_allclose(p[0], [0.2, 0.1, -0.2], atol=1e-12)
+
+
+def test_likelihood_field_is_the_worlds_distance_and_the_sensor_model_matches_reference() -> None:
+    f = likelihood_field(WORLD, 0.05, 2.0)
+    x0, y0, h, cap = f.grid
+    i, j = np.meshgrid(np.arange(f.signed.shape[0]), np.arange(f.signed.shape[1]), indexing="ij")
+    pts = np.column_stack([x0 + h * i.ravel(), y0 + h * j.ravel()])
+    sd = WORLD.signed_distance(pts).reshape(f.signed.shape)
+    np.testing.assert_allclose(f.signed, np.clip(sd, -cap, cap), atol=1e-12)
+    np.testing.assert_allclose(f.capped, np.clip(sd, 0, cap), atol=1e-12)
+    assert np.all(WORLD.signed_distance(f.free) >= 0.1)
+    rng = np.random.default_rng(1)
+    parts = np.column_stack([rng.uniform(-1.5, 1.5, 50), rng.uniform(-1, 1, 50), rng.uniform(-3, 3, 50)])
+    r, b = rng.uniform(0.2, 3.0, 60), np.linspace(0, 2 * np.pi, 60, endpoint=False)
+    laser, model = np.array([-0.032, 0.0, 0.0]), np.array([0.5, 0.5, 0.2, 3.5])
+    w = np.full(50, 2.0)
+    far = float(K.pz_cubed(np.array([f.grid[3]]), model)[0])
+    total = K.likelihood_update(parts, w, r, b, laser, K.pz_cubed(f.capped, model), f.grid, far)
+    want = 2.0 * ref.likelihood(parts, r, b, laser, f.capped, f.grid, model)
+    np.testing.assert_allclose(w, want, rtol=1e-12)
+    assert total == pytest.approx(want.sum(), rel=1e-12)
+
+
+def test_resampling_and_kld_match_reference() -> None:
+    rng = np.random.default_rng(2)
+    bins = np.array([-3.0, -3.0, 0.5, math.radians(10)])
+    shape = np.array([12, 12, 36], dtype=np.int64)
+    assert K.kld_limit(1, 0.05, 0.99, 10, 2000) == 2000
+    b = 2 / (9 * 49)
+    assert K.kld_limit(50, 0.05, 0.99, 10, 2000) == math.ceil(49 / 0.1 * (1 - b + math.sqrt(b) * 0.99) ** 3)
+    for n, spread, w_diff in [(300, 0.2, 0.0), (500, 2.0, 0.0), (400, 1.0, 0.3)]:
+        parts = rng.normal(0, spread, (n, 3))
+        w = rng.random(n) ** 4
+        w /= w.sum()
+        m = 600
+        order = rng.permutation(m).astype(np.int64)
+        coins, randoms = rng.random(m), rng.uniform(-2, 2, (m, 3))
+        kld = np.array([0.05, 0.99, 20.0])
+        out = np.empty((m, 3))
+        count = K.resample(parts, w, 0.37, order, w_diff, coins, randoms, bins, shape, kld, out)
+        want = ref.resample(parts, w, 0.37, order, w_diff, coins, randoms, bins, shape, kld)
+        assert count == len(want)
+        np.testing.assert_array_equal(out[:count], want)
+    # a tight cloud needs few particles, a wide one many
+    tight = K.resample(
+        rng.normal(0, 0.05, (500, 3)),
+        np.full(500, 1 / 500),
+        0.5,
+        rng.permutation(2000),
+        0.0,
+        np.zeros(0),
+        np.zeros((0, 3)),
+        bins,
+        shape,
+        np.array([0.05, 0.99, 100.0]),
+        np.empty((2000, 3)),
+    )
+    wide = K.resample(
+        rng.uniform(-2.5, 2.5, (500, 3)),
+        np.full(500, 1 / 500),
+        0.5,
+        rng.permutation(2000),
+        0.0,
+        np.zeros(0),
+        np.zeros((0, 3)),
+        bins,
+        shape,
+        np.array([0.05, 0.99, 100.0]),
+        np.empty((2000, 3)),
+    )
+    assert 100 < tight < 150 and wide == 2000  # 8 bins at most (the cloud straddles 0) against hundreds
+
+
+@pytest.fixture(scope="module")
+def scanner() -> tuple[mujoco.MjData, LidarScanner]:
+    model = build_model(load_robot("turtlebot3"), WORLD).model
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    return data, LidarScanner(model, EXACT, seed=3)
+
+
+def test_refinement_recovers_the_pose_from_an_exact_scan(scanner: tuple) -> None:
+    data, lidar = scanner
+    pose = np.array([0.1, -0.3, 0.4])
+    scan = lidar.scan(data, 0.0, np.tile(pose, (360, 1)))
+    amcl = Amcl(WORLD, AmclConfig(), [*lidar.offset[:2], 0.0], seed=1)
+    f = amcl.field
+    r, b = amcl.beams(scan.ranges, 0.12, 3.5, 0.0, scan.angle_increment, every=True)
+    got, _, used, _ = K.refine(pose + np.array([0.06, -0.04, 0.04]), r, b, amcl.laser, f.signed, f.grid, 0.3, 20)
+    assert used > 300
+    np.testing.assert_allclose(got, pose, atol=2e-4)  # the grid's bilinear error
+
+
+def test_tracks_a_driving_robot_on_exact_scans(scanner: tuple) -> None:
+    data, lidar = scanner
+    t = np.arange(0.0, 20.0, 0.02)
+    th = 0.25 * t
+    truth = np.column_stack([0.6 * np.sin(th), -0.5 - 0.6 * (np.cos(th) - 1.0) - 0.6, th])
+    truth[:, 1] += 0.1
+    odom = truth + np.cumsum(np.random.default_rng(4).normal(0, 5e-4, truth.shape), axis=0)
+    amcl = Amcl(WORLD, AmclConfig(), [*lidar.offset[:2], 0.0], seed=1)
+    amcl.reset(truth[0] + [0.1, -0.1, 0.05])
+    errs = []
+    for k0 in range(0, len(t) - 11, 10):
+        times = t[k0] + lidar.profile.time_increment * np.arange(360)
+        scan = lidar.scan(data, t[k0], beam_poses(t[k0 : k0 + 11], truth[k0 : k0 + 11], times))
+        if amcl.update(odom[k0 + 5], scan.ranges, 0.12, 3.5, 0.0, scan.angle_increment, force=k0 == 0):
+            e = amcl.estimate
+            assert e is not None and e.refined
+            errs.append([math.hypot(*(e.pose[:2] - truth[k0 + 5, :2])), abs(K.angle_diff(e.pose[2], truth[k0 + 5, 2]))])
+    errs_a = np.array(errs)
+    assert len(errs) >= 15  # an update every 0.25 m or 0.2 rad
+    assert np.sqrt(np.mean(errs_a[:, 0] ** 2)) < 0.01  # the scan's skew over a revolution is what is left
+    assert np.sqrt(np.mean(errs_a[:, 1] ** 2)) < math.radians(0.5)
+    assert 500 <= amcl.particles.shape[0] <= 2000

@@ -1,0 +1,169 @@
+"""The LDS-01 scan model: datasheet checks, ranges against analytic distances, skew, REP 117, seeds."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from planning.core.robot import load_robot
+from planning.core.world import Box, Circle, World
+from planning.errors import ConfigError
+from sim.physics.lidar import LidarProfile, LidarScanner, beam_poses, load_lidar_profile
+from sim.physics.model import build_model
+
+WORLD = World((-2.0, 2.0, -1.5, 1.5), (Box((1.0, 0.5), (0.4, 0.3), 0.3), Circle((-1.0, -0.5), 0.3)))
+EXACT = LidarProfile(accuracy_near=0, accuracy_far=0, precision_near=0, precision_far=0)
+
+
+def _ray_box(o: np.ndarray, d: np.ndarray, box: Box) -> float:
+    c, s = math.cos(box.angle), math.sin(box.angle)
+    rot = np.array([[c, s], [-s, c]])
+    lo_, do = rot @ (o - np.asarray(box.center)), rot @ d
+    h = 0.5 * np.asarray(box.size)
+    t0, t1 = -math.inf, math.inf
+    for k in range(2):
+        if abs(do[k]) < 1e-15:
+            if abs(lo_[k]) > h[k]:
+                return math.inf
+            continue
+        a, b = (-h[k] - lo_[k]) / do[k], (h[k] - lo_[k]) / do[k]
+        t0, t1 = max(t0, min(a, b)), min(t1, max(a, b))
+    return t0 if t0 <= t1 and t0 > 0 else math.inf
+
+
+def _ray_circle(o: np.ndarray, d: np.ndarray, circ: Circle) -> float:
+    f = o - np.asarray(circ.center)
+    b = float(f @ d)
+    disc = b * b - (float(f @ f) - circ.radius**2)
+    if disc < 0:
+        return math.inf
+    t = -b - math.sqrt(disc)
+    return t if t > 0 else math.inf
+
+
+def _ray_walls(o: np.ndarray, d: np.ndarray, bounds: tuple[float, ...]) -> float:
+    ts = []
+    for k, (lo, hi) in enumerate(((bounds[0], bounds[1]), (bounds[2], bounds[3]))):
+        if d[k] > 0:
+            ts.append((hi - o[k]) / d[k])
+        elif d[k] < 0:
+            ts.append((lo - o[k]) / d[k])
+    return min(ts)
+
+
+def analytic(origin: np.ndarray, heading: float) -> float:
+    """Distance along a horizontal ray to WORLD's walls and obstacles (plain Python)."""
+    d = np.array([math.cos(heading), math.sin(heading)])
+    o = origin[:2]
+    return min(
+        _ray_walls(o, d, WORLD.bounds), _ray_box(o, d, WORLD.obstacles[0]), _ray_circle(o, d, WORLD.obstacles[1])
+    )
+
+
+@pytest.fixture(scope="module")
+def scene() -> tuple[mujoco.MjModel, mujoco.MjData]:
+    model = build_model(load_robot("turtlebot3"), WORLD).model
+    return model, mujoco.MjData(model)
+
+
+def _place(model: mujoco.MjModel, data: mujoco.MjData, pose: tuple[float, float, float]) -> None:
+    data.qpos[:3] = [pose[0], pose[1], 0.033]
+    data.qpos[3:7] = [math.cos(pose[2] / 2), 0, 0, math.sin(pose[2] / 2)]
+    mujoco.mj_forward(model, data)
+
+
+def test_profile_is_the_datasheet_and_refuses_values_outside_it() -> None:
+    p = load_lidar_profile("turtlebot3")
+    assert p is not None and (p.beams, p.rate, p.range_min, p.range_max) == (360, 5.0, 0.12, 3.5)
+    for text, field in [
+        ("beams=720", "beams"),
+        ("rate=10", "rate"),
+        ("range_max=8", "range_max"),
+        ("range_min=0.05", "range_min"),
+        ("beams=90.5", "beams"),
+    ]:
+        with pytest.raises(ConfigError, match=field):
+            p.parse(text)
+    with pytest.raises(ConfigError, match="range_min"):
+        p.parse("range_min=2,range_max=1")
+    with pytest.raises(ConfigError, match="unknown key 'fov'"):
+        p.override({"fov": 1.0})
+    assert load_lidar_profile("edumip") is None
+    with pytest.raises(ConfigError, match="no laser scanner"):
+        load_lidar_profile("edumip", text="beams=90")
+
+
+def test_ranges_match_analytic_distances_to_walls_boxes_and_circles(scene: tuple) -> None:
+    model, data = scene
+    pose = (0.1, -0.2, 0.4)
+    _place(model, data, pose)
+    lidar = LidarScanner(model, EXACT, seed=1)
+    assert lidar.height == pytest.approx(0.182, abs=1e-6)
+    poses = np.tile(pose, (360, 1))
+    got = lidar.cast(data, poses)
+    origin = lidar.origins(poses[:1])[0]
+    assert np.allclose(origin[:2], [0.1 - 0.032 * math.cos(0.4), -0.2 - 0.032 * math.sin(0.4)])
+    want = np.array([analytic(origin, pose[2] + math.radians(i)) for i in range(360)])
+    assert np.all(np.isfinite(got))
+    np.testing.assert_allclose(got, want, atol=1e-9)
+    # the robot's own chassis and scanner housing are not seen
+    assert got.min() > 0.3
+
+
+def test_rep117_out_of_range_returns() -> None:
+    big = World((-5.0, 5.0, -0.5, 0.5))
+    m2 = build_model(load_robot("turtlebot3"), big).model
+    d2 = mujoco.MjData(m2)
+    pose = (0.0, 0.4, 0.0)  # the lidar 0.1 m from the north wall, 4.96 m from the east one
+    _place(m2, d2, pose)
+    lidar = LidarScanner(m2, EXACT, seed=1)
+    scan = lidar.scan(d2, 0.0, np.tile(pose, (360, 1)))
+    assert scan.ranges[90] == -np.inf  # 0.1 m < range_min
+    assert scan.ranges[0] == np.inf  # 4.97 m > range_max
+    assert scan.ranges[270] == pytest.approx(0.9)
+    assert not np.any(np.isnan(scan.ranges))
+
+
+def test_a_turning_robot_sees_a_skewed_scan(scene: tuple) -> None:
+    model, data = scene
+    _place(model, data, (0.0, 0.0, 0.0))
+    lidar = LidarScanner(model, EXACT, seed=1)
+    one = LidarScanner(model, EXACT, seed=1, batch_time=0.0)  # one beam a call: each from its own origin
+    assert (lidar.batch, one.batch) == (18, 1)
+    # turning in place at 2 rad/s while driving 0.2 m/s: the pose logged every 20 ms
+    t = np.arange(0.0, 0.2001, 0.02)
+    log = np.column_stack([0.2 * t, 0.05 * t, 2.0 * t])
+    times = lidar.profile.time_increment * np.arange(360)
+    poses = beam_poses(t, log, times)
+    got = lidar.cast(data, poses)
+    origins = lidar.origins(poses)
+    want = np.array([analytic(origins[i], poses[i, 2] + math.radians(i)) for i in range(360)])
+    np.testing.assert_allclose(one.cast(data, poses), want, atol=1e-9)
+    # 18 beams share the origin of the middle one (<= 1 mm apart): grazing beams aside, as close
+    assert np.mean(np.abs(got - want) < 2e-3) > 0.98  # (a shifted origin moves a range by up to twice as much)
+    still = lidar.cast(data, np.tile(log[0], (360, 1)))
+    assert np.max(np.abs(got - still)) > 0.05
+
+
+def test_noise_is_seeded_and_has_the_datasheet_statistics(scene: tuple) -> None:
+    model, data = scene
+    pose = (0.0, 0.0, 0.0)
+    _place(model, data, pose)
+    p = LidarProfile()
+    poses = np.tile(pose, (360, 1))
+    a, b, c = (LidarScanner(model, p, seed=s) for s in (7, 7, 8))
+    ra = [a.scan(data, 0.2 * k, poses).ranges for k in range(3)]
+    rb = [b.scan(data, 0.2 * k, poses).ranges for k in range(3)]
+    assert all(np.array_equal(x, y) for x, y in zip(ra, rb, strict=True))
+    assert not np.array_equal(ra[0], ra[1])  # white noise differs between revolutions
+    assert not np.array_equal(ra[0], c.scan(data, 0.0, poses).ranges)
+    truth = a.cast(data, poses)
+    errs = np.array([a.measure(truth) - truth for _ in range(400)])  # (400, 360)
+    far = truth >= p.accuracy_split
+    rel = errs[:, far] / truth[far]
+    assert abs(a.bias_far) <= 1.0
+    assert rel.mean() == pytest.approx(a.bias_far * p.accuracy_far, abs=0.002)
+    assert rel.std() == pytest.approx(p.precision_far, rel=0.02)
