@@ -4,6 +4,7 @@ command reference is generated from the parsers themselves."""
 from __future__ import annotations
 
 import argparse
+import re
 import importlib.util
 import subprocess
 import sys
@@ -60,9 +61,8 @@ def test_the_command_reference_names_every_command_and_option() -> None:
     options = _every_option(build_parser())
     assert len(options) > 100
     sections = {}
-    for chunk in text.split("\n#")[1:]:
-        title = chunk.split("`")[1]
-        sections[title] = chunk
+    for chunk in re.split(r"^(?=#+ `)", text, flags=re.M)[1:]:
+        sections[chunk.split("`")[1]] = chunk
     for command, option in options:
         assert command in sections, f"no section for {command}"
         assert f"`{option}`" in sections[command], f"{command} {option} missing from the reference"
