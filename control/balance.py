@@ -29,12 +29,12 @@ place of the wheel-speed firmware of the skid robots. Per update of period T:
 4. Feed-forward of that motion: a steady acceleration ``a = r phi_ddot_ref`` needs the body leant
    by ``theta_ff = c_theta a`` and a voltage ``u_ff = kff phi_dot_ref + c_u a`` (kff the no-load
    voltage per wheel speed, the back-EMF; c_theta and c_u derived from the model in
-   :class:`sim.physics.balance.SagittalParams`). On a ramp the reference (theta_ff, 0, phi_ref,
+   :class:`sim.physics.sagittal.SagittalParams`). On a ramp the reference (theta_ff, 0, phi_ref,
    phi_dot_ref) is a steady solution of the model's linearisation under u_ff; between ramps the
    lean steps and the loop takes the step as an error.
 5. Forward: ``u = u_ff - K [theta - theta_ff, theta_dot, phi - phi_ref, phi_dot - phi_dot_ref,
    integral of (phi - phi_ref)]`` [V], K the LQR gains designed from the model
-   (:mod:`sim.physics.balance`), the speed error against the reference's mean speed over the period
+   (:mod:`sim.robot.balance_design`), the speed error against the reference's mean speed over the period
    the encoder difference spans. Beyond the feed-forward, leaning is the LQR's: the pitch set-point
    is ``theta_ref = theta_ff - (K_phi e_phi + ...) / K_theta``, as rc_balance's outer loop sets the
    inner loop's pitch set-point.

@@ -23,7 +23,7 @@ import numpy as np
 from planning.core.geometry import Pose2D
 from planning.core.maps import load_map_table
 from planning.core.robot import MODELS_DIR, ROBOT_FILES
-from planning.core.scenario import DEFAULT_HEADING_TOLERANCE, DEFAULT_POSITION_TOLERANCE, Scenario
+from planning.core.scenario_type import DEFAULT_HEADING_TOLERANCE, DEFAULT_POSITION_TOLERANCE, Scenario
 from planning.core.tables import TableReader
 from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon, World
 from planning.errors import ConfigError, ScenarioError

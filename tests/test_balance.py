@@ -10,18 +10,14 @@ import pytest
 from numpy.typing import NDArray
 
 from control.balance import BalanceController
+from control.design.balance_profile import load_balance_profile
 from planning.core.robot import load_robot
 from planning.errors import ConfigError
 from sim.physics.asbuilt import AsBuilt
-from sim.physics.balance import (
-    balance_accel_limit,
-    balance_gains,
-    design_balance,
-    linearise_upright,
-    load_balance_profile,
-)
-from sim.physics.balancing import Push, run_balance
 from sim.physics.model import build_model
+from sim.physics.sagittal import balance_accel_limit, linearise_upright
+from sim.robot.balance_design import balance_gains, design_balance
+from sim.robot.balance_firmware import Push, run_balance
 
 NAME = "edumip-balancing"
 FloatArray = NDArray[np.float64]

@@ -12,8 +12,8 @@ from planning.core.geometry import Pose2D
 from planning.core.robot import load_robot
 from planning.errors import ConfigError
 from planning.trajectory.references import make_reference
-from sim.physics.balancing import body_pitch
 from sim.physics.metrics import compute_metrics
+from sim.physics.model import body_pitch
 from sim.physics.perturb import Perturbation
 from sim.physics.simulator import Simulator
 from sim.pipeline.runs import RunKind

@@ -8,9 +8,9 @@ import mujoco
 import numpy as np
 import pytest
 
+from control.design.balance_profile import load_balance_profile
 from planning.core.geometry import Pose2D
 from planning.core.robot import ROBOT_FILES, load_robot
-from sim.physics.balance import load_balance_profile
 from sim.physics.model import build_model, set_pose
 from sim.physics.sensors import load_sensor_profile
 

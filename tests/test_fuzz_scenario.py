@@ -31,7 +31,7 @@ from hypothesis import event, find
 from hypothesis import strategies as st
 from PIL import Image
 
-from planning.core.scenario import Scenario
+from planning.core.scenario_type import Scenario
 from planning.errors import ScenarioError
 from planning.scenario import load_scenario_file
 from tests.fuzz_helpers import (

@@ -14,8 +14,9 @@ from control.diffdrive import DiffDrive
 from planning.core.robot import MODELS_DIR, load_robot
 from planning.scenario import builtin_scenarios, load_scenario
 from sim.physics.model import build_model, set_pose
-from sim.physics.motors import MotorModel, VelocityLoop
+from sim.physics.motors import MotorModel
 from sim.physics.runlog import RunLog
+from sim.robot.wheel_firmware import VelocityLoop
 
 SCENES = sorted((MODELS_DIR / "robots").glob("*_scene.xml"))
 ROBOTS = ["turtlebot3", "edumip"]
@@ -110,7 +111,7 @@ def _steady_run(name: str, wl: float, wr: float) -> tuple[Any, np.ndarray, np.nd
     hold them a second, then sample for half a second: body-frame (vx, vy) of the axle centre, yaw
     rate, the measured wheel speeds [left, right] and the motor voltages."""
     spec, m, d = _scene(name)
-    loop = MotorModel.from_model(m).loop()
+    loop = VelocityLoop(MotorModel.from_model(m))
     period = loop.motor.period
     v, w = DiffDrive.from_robot(spec).body_twist(wl, wr)
     _drive(m, d, loop, _wheel_schedule(spec, [(1.0, v, w)], period))
@@ -221,7 +222,7 @@ def test_drive_wheels_stay_on_the_floor(name: str, drive: str) -> None:
     spec, m, d = _scene(name)
     touch = [int(m.sensor_adr[m.sensor(f"wheel_{s}_touch").id]) for s in ("left", "right")]
     segments = [(h, f * spec.max_speed, g * spec.max_yaw_rate) for h, f, g in CONTACT_DRIVES[drive]]
-    loop = MotorModel.from_model(m).loop()
+    loop = VelocityLoop(MotorModel.from_model(m))
     commands = _wheel_schedule(spec, segments, loop.motor.period)
     steps, off = [0], [0]
 

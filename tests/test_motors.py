@@ -13,7 +13,8 @@ import pytest
 
 from planning.core.robot import ROBOTS_DIR
 from planning.errors import ConfigError, ModelError
-from sim.physics.motors import MotorModel, VelocityLoop
+from sim.physics.motors import MotorModel
+from sim.robot.wheel_firmware import VelocityLoop
 
 MODELS = {"turtlebot3": ROBOTS_DIR / "turtlebot3_burger.xml", "edumip": ROBOTS_DIR / "edumip.xml"}
 
@@ -47,7 +48,7 @@ def test_the_loop_is_stable_below_the_bound_for_every_load_and_not_beyond(name: 
     for fraction in (0.3, 0.9, 0.98):
         loop_motor = dataclasses.replace(motor, period=fraction * t_max)
         for a in (0.0, 0.2, 0.5, 0.8, 0.95):
-            speeds = _closed_loop(loop_motor.loop(1), a, 0.0, 4000, omega0=1e-3)
+            speeds = _closed_loop(VelocityLoop(loop_motor, 1), a, 0.0, 4000, omega0=1e-3)
             assert abs(speeds[-1, 0]) < 1e-6, (fraction, a)
     with pytest.raises(ConfigError, match="stability bound"):
         dataclasses.replace(motor, period=1.02 * t_max)
@@ -67,7 +68,7 @@ def test_the_integrator_removes_a_constant_load_and_the_feed_forward_the_lag(nam
     motor = _motor(name)
     a = math.exp(-motor.period / 0.02)  # a 20 ms motor time constant
     command = 0.5 * motor.no_load_speed
-    speeds = _closed_loop(motor.loop(1), a, command, 2000, load=0.1 * motor.stall_torque)
+    speeds = _closed_loop(VelocityLoop(motor, 1), a, command, 2000, load=0.1 * motor.stall_torque)
     assert speeds[-1, 0] == pytest.approx(command, abs=1e-9)
 
 
@@ -76,7 +77,7 @@ def test_the_integrator_does_not_wind_up_while_the_voltage_is_saturated() -> Non
     bounded; once the command is reachable again the wheel settles without the overshoot a
     wound-up integrator would cause (within 2 % of the step)."""
     motor = _motor("turtlebot3")
-    loop = motor.loop(1)
+    loop = VelocityLoop(motor, 1)
     a = math.exp(-motor.period / 0.02)
     fast = _closed_loop(loop, a, 2 * motor.no_load_speed, 300)  # 3 s out of reach
     assert fast[-1, 0] == pytest.approx(motor.no_load_speed, rel=1e-6)  # full voltage, no load
@@ -90,7 +91,7 @@ def test_the_integrator_does_not_wind_up_while_the_voltage_is_saturated() -> Non
 def test_the_loop_is_vectorised_over_the_wheels() -> None:
     """Two wheels in one call give the voltages of two single-wheel loops, bit for bit."""
     motor = _motor("edumip")
-    both, left, right = motor.loop(2), motor.loop(1), motor.loop(1)
+    both, left, right = VelocityLoop(motor, 2), VelocityLoop(motor, 1), VelocityLoop(motor, 1)
     rng = np.random.default_rng(3)
     for _ in range(50):
         command, measured = rng.uniform(-20, 20, 2), rng.uniform(-20, 20, 2)
@@ -106,7 +107,7 @@ def test_driving_in_place_is_a_call() -> None:
     written at the actuators of ctrl) gives a call's voltages and integrators, bit for bit, and
     touches nothing else."""
     motor = _motor("turtlebot3")
-    called, driven, bound = motor.loop(), motor.loop(), motor.loop()
+    called, driven, bound = VelocityLoop(motor), VelocityLoop(motor), VelocityLoop(motor)
     rng = np.random.default_rng(5)
     commands = rng.uniform(-8, 8, (40, 2))
     dofs, acts = [6, 7], [1, 0]  # actuators swapped
@@ -114,7 +115,7 @@ def test_driving_in_place_is_a_call() -> None:
     qvel, ctrl_bound = np.zeros(9), np.full(3, np.nan)
     update = bound.driver(commands, qvel, ctrl_bound, wiring)  # the frameless form the simulator calls
     with pytest.raises(ConfigError, match="wiring"):
-        motor.loop().driver(commands, qvel, ctrl_bound, wiring[:, :1])
+        VelocityLoop(motor).driver(commands, qvel, ctrl_bound, wiring[:, :1])
     for row in range(-2, commands.shape[0]):  # a row < 0 (latency, at the start) reads row 0
         qvel[:], ctrl, ctrl_bound[:] = rng.uniform(-8, 8, 9), np.full(3, np.nan), np.nan
         volts = called(commands[max(row, 0)], qvel[dofs])

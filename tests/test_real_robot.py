@@ -18,11 +18,11 @@ from planning.core.robot import load_robot
 from planning.scenario import load_scenario
 from planning.trajectory.references import make_reference
 from sim.physics.asbuilt import AsBuilt
-from sim.physics.sensing import SensingSetup
 from sim.physics.simulator import SimConfig, Simulator
-from sim.physics.sources import PoseSource
 from sim.pipeline.runs import RunKind
 from sim.pipeline.simulate import simulate_plan
+from sim.robot.sensing import SensingSetup
+from sim.robot.sources import PoseSource
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -142,6 +142,11 @@ def test_a_compiled_drive_period_is_the_general_path_bit_for_bit(name: str, monk
         return out
 
     monkeypatch.setattr(module, "_drive_period", counted)
+
+    def state(tracker: object) -> tuple[object, ...]:
+        """The tracker's switching and law state, read now."""
+        return tuple(getattr(tracker, a, None) for a in ("segment", "xi", "_near", "_v_last"))
+
     robot = load_robot("turtlebot3")
     traj = to_trajectory(CUSP_TURN, robot, OPEN)
     fast, general = make_tracker(name, robot), make_tracker(name, robot)
@@ -155,7 +160,6 @@ def test_a_compiled_drive_period_is_the_general_path_bit_for_bit(name: str, monk
         pose = (float(ref[0] + rng.normal(0, 0.02)), float(ref[1] + rng.normal(0, 0.02)), float(ref[2] + 0.1))
         got = fast.command(t, *pose)
         assert got == SegmentSwitcher.command(general, t, *pose), k
-        state = [(getattr(tr, a, None) for a in ("segment", "xi", "_near", "_v_last")) for tr in (fast, general)]
-        assert tuple(state[0]) == tuple(state[1]), k
+        assert state(fast) == state(general), k
     assert fast.segment == general.segment == len(traj.segment_kinds) - 1
     assert 0.5 * n < sum(compiled) < n  # most periods were compiled drives, the others were not

@@ -308,9 +308,9 @@ def test_the_loops_observer_is_observe_bit_for_bit() -> None:
     from planning.core.geometry import Pose2D
     from planning.core.robot import load_robot
     from sim.physics.model import set_pose
-    from sim.physics.sensing import Sensing, SensingSetup
     from sim.physics.simulator import Simulator
-    from sim.physics.sources import PoseSource
+    from sim.robot.sensing import Sensing, SensingSetup
+    from sim.robot.sources import PoseSource
 
     robot = load_robot("turtlebot3")
     sim = Simulator(robot)

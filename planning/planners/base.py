@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 from planning.core.checks import check_number
 from planning.core.geometry import Pose2D, path_length
 from planning.core.robot import RobotSpec, load_robot
-from planning.core.scenario import Scenario
+from planning.core.scenario_type import Scenario
 from planning.core.world import World
 from planning.errors import ConfigError
 

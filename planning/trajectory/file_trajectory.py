@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 from planning.collision.exact import CollisionChecker
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import RobotSpec
-from planning.core.scenario import Scenario
+from planning.core.scenario_type import Scenario
 from planning.core.world import World
 from planning.planners.base import PlanResult, PlanStatus
 from planning.trajectory.file_formats import TrajectoryFileError

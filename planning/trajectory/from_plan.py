@@ -308,14 +308,15 @@ def _retimed_pieces(path: FloatArray, kinds: list[str], build: _Build) -> list[P
     pieces: list[Piece] = []
     for kind, start, stop in _runs(kinds):
         sl = slice(start, min(stop + 1, len(kinds)))  # through the next piece's first pose
-        if kind == "rotate":
-            smp = time_rotation(path[sl][0, :2], path[sl][0, 2], path[sl][-1, 2], build.limits, dt=build.dt)
-        else:
-            try:
-                curve = SampledCurve.from_poses(path[sl], 1 if kind == "forward" else -1)
-                smp = time_drive(curve, build.limits, dt=build.dt)
-            except ValueError:  # stands still: nothing to drive
-                continue
+        try:
+            if kind == "rotate":
+                smp = time_rotation(path[sl][0, :2], path[sl][0, 2], path[sl][-1, 2], build.limits, dt=build.dt)
+            else:
+                smp = time_drive(
+                    SampledCurve.from_poses(path[sl], 1 if kind == "forward" else -1), build.limits, dt=build.dt
+                )
+        except ValueError:  # turns by nothing (a last sample labelled "rotate") or stands still: nothing to time
+            continue
         build.pause(pieces)
         pieces.append((kind, smp))
     return pieces

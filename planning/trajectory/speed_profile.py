@@ -114,17 +114,35 @@ def forward_backward(ds: FloatArray, vmax: FloatArray, accel: float, v0: float =
 class TimedSamples:
     """Uniformly timed samples of one segment.
 
+    Pieces are joined end to end into one trajectory (:func:`planning.trajectory.from_plan.make_trajectory`),
+    so a piece checks itself: its times start at 0 and strictly increase (a piece of no duration, such
+    as a turn by nothing, is not a piece: its maker refuses it).
+
     Attributes:
-        t: (N,) times from 0 [s].
+        t: (N,) times from 0 [s], N >= 2, strictly increasing.
         pose: (N, 3) poses [m, m, rad].
         vel: (N, 2) [v, omega] [m/s, rad/s].
         acc: (N, 2) [dv/dt, domega/dt] [m/s^2, rad/s^2].
+
+    Raises:
+        ValueError: Times that do not start at 0 or do not strictly increase, or arrays of other shapes.
     """
 
     t: FloatArray
     pose: FloatArray
     vel: FloatArray
     acc: FloatArray
+
+    def __post_init__(self) -> None:
+        n = self.t.shape[0] if self.t.ndim == 1 else -1
+        if n < 2 or self.pose.shape != (n, 3) or self.vel.shape != (n, 2) or self.acc.shape != (n, 2):
+            shapes = (self.t.shape, self.pose.shape, self.vel.shape, self.acc.shape)
+            raise ValueError(
+                f"TimedSamples: t, pose, vel, acc must be (N,), (N, 3), (N, 2), (N, 2), N >= 2; got {shapes}"
+            )
+        if self.t[0] != 0.0 or not np.all(np.diff(self.t) > 0.0):
+            bad = int(np.argmax(np.diff(self.t) <= 0.0)) + 1 if self.t[0] == 0.0 else 0
+            raise ValueError(f"TimedSamples: times must start at 0 and strictly increase; t[{bad}] = {self.t[bad]!r}")
 
 
 def time_drive(
@@ -180,9 +198,14 @@ def time_rotation(xy: FloatArray, theta0: float, theta1: float, limits: Limits, 
 
     Returns:
         The samples.
+
+    Raises:
+        ValueError: A turn of zero (or not finite): there is nothing to time.
     """
     turn = float(theta1 - theta0)
     dist = abs(turn)
+    if not (np.isfinite(dist) and dist > 0.0):
+        raise ValueError(f"a turn in place from {theta0!r} to {theta1!r} rad turns by nothing: nothing to time")
     sgn = 1.0 if turn >= 0 else -1.0
     wmax, amax = limits.max_yaw_rate, limits.max_yaw_accel
     if dist >= wmax**2 / amax:  # trapezoid

@@ -236,8 +236,8 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str, own_ro
         OutputExistsError: A target exists and --overwrite was not given.
         DependencyError: A video was asked for and no OpenGL backend can load.
     """
+    from control.design.balance_profile import is_balancing
     from sim.outputs import check_writable
-    from sim.physics.balance import is_balancing
     from sim.viz.plots.run import ESTIMATION_PLOT, PITCH_PLOT, PLOTS
     from sim.viz.replay import RenderSettings, parse_size
 

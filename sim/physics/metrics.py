@@ -11,7 +11,7 @@ import numpy as np
 from planning.core.geometry import wrap_angle
 from planning.core.robot import RobotSpec
 from planning.trajectory.trajectory import Trajectory
-from sim.physics.balancing import body_pitch
+from sim.physics.model import body_pitch
 from sim.physics.runlog import EstimationLog, RunLog
 
 

@@ -296,3 +296,15 @@ def scale_wheels(model: mujoco.MjModel, factor: float) -> None:
         except KeyError:
             continue
         model.site_size[site, 0] += rise
+
+
+def body_pitch(quat: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Pitch [rad] of the body's axis in its heading's vertical plane, positive tipping forward.
+
+    Args:
+        quat: (..., 4) unit quaternions (w, x, y, z) of the base.
+    """
+    w, x, y, z = np.moveaxis(np.asarray(quat, dtype=float), -1, 0)
+    ax, ay, az = 2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)  # body z axis in the world
+    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return np.arctan2(np.cos(yaw) * ax + np.sin(yaw) * ay, az)  # type: ignore[no-any-return]

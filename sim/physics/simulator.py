@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.base import Tracker
+from control.design.balance_profile import is_balancing, load_balance_profile
 from control.diffdrive import DiffDrive
 from control.estimation import EstimatorDivergedError
 from planning.core.geometry import Pose2D
@@ -29,14 +30,15 @@ from planning.core.world import World
 from planning.errors import ConfigError, SimulationError
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import AsBuilt
-from sim.physics.balance import balance_gains, is_balancing, load_balance_profile
-from sim.physics.balancing import BalanceFirmware, Push
 from sim.physics.model import BuiltModel, build_model, set_pose
 from sim.physics.motors import MotorModel, whole_steps
 from sim.physics.perturb import Perturbation
 from sim.physics.runlog import Contact, RunLog
-from sim.physics.sensing import Sensing, SensingSetup
-from sim.physics.sources import PoseSource
+from sim.robot.balance_design import balance_gains
+from sim.robot.balance_firmware import BalanceFirmware, Push
+from sim.robot.sensing import Sensing, SensingSetup
+from sim.robot.sources import PoseSource
+from sim.robot.wheel_firmware import VelocityLoop
 
 #: Progress reports during a run (besides the first and the last), see :meth:`Simulator.run`.
 PROGRESS_UPDATES = 100
@@ -234,7 +236,7 @@ class Simulator:
                 at most :data:`PROGRESS_UPDATES` times during it, and with (total, total) at the end
                 (e.g. to drive a progress bar); None costs nothing.
             source: Where the tracker's pose comes from: the fused estimate, dead reckoning or the
-                truth (see :mod:`sim.physics.sensing`).
+                truth (see :mod:`sim.robot.sensing`).
             sensing: The sensors and the estimator (default: the robot's sensor profile, seed 0);
                 unused when ``source`` is the truth.
 
@@ -370,7 +372,7 @@ class PeriodPhysics:
 
             k_fw = balance.steps
         else:  # every k_fw steps from the start of the run
-            firmware = simulator.motors.loop().driver(wcmd, qvel, ctrl, wiring)
+            firmware = VelocityLoop(simulator.motors).driver(wcmd, qvel, ctrl, wiring)
             k_fw = simulator.motors.steps_per_update(m.opt.timestep)
         self.advance = self._stepper(recorder, firmware, recorder.schedule.plan(k_fw))
 

@@ -35,9 +35,9 @@ from planning.trajectory.references import REFERENCES, make_reference
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import DEFAULT_BUILD_SEED, AsBuilt, check_build_seed
 from sim.physics.perturb import Perturbation
-from sim.physics.sensing import SensingSetup
 from sim.physics.sensors import load_sensor_profile
 from sim.pipeline.runs import PLAN_HOLD_S, PLAN_TRACKER, REFERENCE_TRACKER, Progress, RunKind
+from sim.robot.sensing import SensingSetup
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ from collections.abc import Callable
 from enum import StrEnum
 from typing import Any
 
-from sim.physics.sources import PoseSource
+from sim.robot.sources import PoseSource
 
 #: Feedback tracker of a case that names none: analytic references are smooth (dynamic feedback
 #: linearisation), plans have cusps and turns in place (the segmented tracker).
@@ -31,7 +31,7 @@ class RunKind(StrEnum):
 
     Each member is one line: its label, the tracker it always uses ("" for the case's feedback
     tracker, see :meth:`sim.pipeline.case.Case.tracker_for`), where that tracker's pose comes from
-    (:class:`sim.physics.sensing.PoseSource`) and the caption of its progress bar. Adding a kind is
+    (:class:`sim.robot.sensing.PoseSource`) and the caption of its progress bar. Adding a kind is
     adding a line.
 
     Attributes:

@@ -27,10 +27,10 @@ from sim.physics.asbuilt import AsBuilt
 from sim.physics.metrics import TrackingMetrics, robot_metrics
 from sim.physics.perturb import Perturbation
 from sim.physics.runlog import RunLog
-from sim.physics.sensing import SensingSetup
 from sim.physics.simulator import SimConfig, Simulator
 from sim.pipeline.case import Case, PreparedTrajectory, prepare_trajectory
 from sim.pipeline.runs import DEFAULT_RUNS, Progress, RunKind
+from sim.robot.sensing import SensingSetup
 
 
 @dataclass(frozen=True)

@@ -36,10 +36,10 @@ from planning.core.geometry import Pose2D
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.model import set_pose
 from sim.physics.runlog import RunLog
-from sim.physics.sensing import SensingSetup
 from sim.physics.sensors import SensorModel
 from sim.physics.simulator import PeriodPhysics, Recorder, Schedule, Simulator
 from sim.pipeline.case import PreparedTrajectory
+from sim.robot.sensing import SensingSetup
 
 FloatArray = NDArray[np.float64]
 TWO_PI = 2.0 * math.pi
@@ -193,7 +193,7 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         return self.episode
 
     def _read_sensors(self, d: mujoco.MjData) -> None:
-        """The readings at the current period, as :class:`sim.physics.sensing.Sensing` takes them."""
+        """The readings at the current period, as :class:`sim.robot.sensing.Sensing` takes them."""
         ep = self._current()
         k, truth, sensors, s = ep.k, ep.recorder.pose, ep.sensors, d.sensordata
         enc = self._encoder_adr

@@ -25,8 +25,8 @@ from control.estimation import PoseEstimator
 from control.fbl import FBLGains
 from sim.physics.metrics import TrackingMetrics, robot_metrics
 from sim.physics.runlog import RunLog
-from sim.physics.sources import PoseSource
 from sim.pipeline.runs import RunKind
+from sim.robot.sources import PoseSource
 from sim.suite.env import TrackingTask
 
 FloatArray = NDArray[np.float64]

@@ -10,7 +10,7 @@ limit: saturating all the time costs as much as 5 cm of error.
 
 Each case is run in its own kind (the fused-estimate closed loop for the FBL tracker) over K
 :class:`Draw`\ s: an as-built robot (build seed, :mod:`sim.physics.asbuilt`), a sensor noise seed
-(:mod:`sim.physics.sensing`) and, in a robust study, a perturbation. :func:`make_draws` makes them
+(:mod:`sim.robot.sensing`) and, in a robust study, a perturbation. :func:`make_draws` makes them
 from the study's seed, and every trial meets the same draws (common random numbers), so two gain
 sets differ only by their gains. High gains follow a perfect pose tightly but chase the estimate's
 noise; the objective, measured against the true pose, prices both.

@@ -1,15 +1,22 @@
-"""``nhsim bench plan``: birrt / rrt-star against OMPL's C++ RRTConnect / RRT* (see
-:mod:`sim.tools.bench.plan`)."""
+"""``nhsim bench plan``: birrt against OMPL's C++ RRTConnect, rrt-star against OMPL's best optimal
+planner (see :mod:`sim.tools.bench.plan`); ``--markdown`` writes the tables for the docs."""
 
 from __future__ import annotations
 
 import argparse
+import datetime
 import math
+import os
+import subprocess
 from typing import Any
+
+from planning.errors import ConfigError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Options of the benchmark."""
+    from sim.tools.bench.plan import OPTIMAL
+
     p.add_argument(
         "--space", choices=["reeds_shepp", "dubins"], default="reeds_shepp", help="curve space of both sides"
     )
@@ -18,99 +25,177 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--scenarios",
         nargs="*",
         default=None,
-        help="problem names: built-in scenarios, disc10, corridor, maze, tight_park "
+        help="problem names: built-in scenarios, disc10, corridor, maze, tight_park, random<N> "
         "(default: every built-in scenario whose start is outside its goal region, and the four named)",
+    )
+    p.add_argument(
+        "--random-worlds",
+        type=int,
+        default=None,
+        metavar="N",
+        help="add seeded random worlds random0.. (default: 3 without --scenarios, else 0)",
+    )
+    p.add_argument(
+        "--optimal",
+        nargs="+",
+        default=list(OPTIMAL),
+        metavar="PLANNER",
+        help=f"OMPL's optimal planners rrt-star races (default: all of {', '.join(OPTIMAL)})",
     )
     p.add_argument("--budget", type=float, default=1.0, metavar="S", help="RRT* time budget [s] (default: 1)")
     p.add_argument("--ttfs-limit", type=float, default=10.0, metavar="S", help="time limit for first paths [s]")
     p.add_argument("--no-wheel", action="store_true", help="skip OMPL's Python wheel even when installed")
-    p.add_argument("--quick", action="store_true", help="5 seeds, disc10 only, 0.5 s budget")
+    p.add_argument("--markdown", metavar="PATH", help="also write the tables as Markdown, stamped, to PATH")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing --markdown file")
+    p.add_argument("--quick", action="store_true", help="5 seeds, disc10 only, 0.5 s budget, RRTstar only")
 
 
-def _fmt(v: float, spec: str, width: int) -> str:
-    return f"{v:>{width}{spec}}" if math.isfinite(v) else f"{'-':>{width}}"
+def _fmt(v: float, spec: str, width: int = 0) -> str:
+    return f"{v:>{width}{spec}}" if math.isfinite(v) else f"{'inf' if v == math.inf else '-':>{width}}"
 
 
-def _header(cpp: bool, wheel: bool, hybrid: bool) -> str:
-    h = f"{'problem':<17}{'success birrt/RRTC':>19}{'TTFS ms ours':>13}"
-    h += f"{'C++':>9}{'ratio':>7}" if cpp else ""
-    h += f"{'wheel':>9}" if wheel else ""
-    h += f"{'success rrt*/RRT*':>19}{'len m ours':>11}"
-    h += f"{'C++':>9}{'ratio':>7}" if cpp else ""
-    h += f"{'wheel':>9}" if wheel else ""
-    h += f"{'HA* ms':>9}{'HA* m':>8}" if hybrid else ""
-    return h
-
-
-def _row(r: Any, cpp: bool, wheel: bool, hybrid: bool) -> str:
+def _cells(r: Any, cpp: bool) -> dict[str, str]:
+    """One problem's numbers as text, keyed by column."""
     import numpy as np
 
-    from sim.tools.bench.plan import PlanBench
+    from sim.tools.bench.plan import length_median
 
     def med(v: tuple[float, ...], scale: float = 1.0) -> float:
         return float(np.nanmedian(v) * scale) if np.any(np.isfinite(v)) else float("nan")
 
-    solved = PlanBench._solved
-    ok = f"{np.mean(r.ok_ours):.2f}" + (f"/{np.mean(r.ok_cpp):.2f}" if cpp else "")
-    s = f"{r.problem:<17}{ok:>19}{_fmt(med(solved(r.ttfs_ours, r.ok_ours), 1e3), '.2f', 13)}"
-    if cpp:
-        s += _fmt(med(solved(r.ttfs_cpp, r.ok_cpp), 1e3), ".2f", 9) + _fmt(r.ttfs_ratio, ".2f", 7)
-    s += _fmt(med(r.ttfs_wheel, 1e3), ".2f", 9) if wheel else ""
-    star = f"{np.mean(r.star_ok_ours):.2f}" + (f"/{np.mean(r.star_ok_cpp):.2f}" if cpp else "")
-    s += f"{star:>19}{_fmt(med(r.len_ours), '.3f', 11)}"
-    if cpp:
-        s += _fmt(med(r.len_cpp), ".3f", 9) + _fmt(r.length_ratio, ".3f", 7)
-    s += _fmt(med(r.len_wheel), ".3f", 9) if wheel else ""
-    s += _fmt(1e3 * r.hybrid_time, ".1f", 9) + _fmt(r.hybrid_length, ".2f", 8) if hybrid else ""
-    return s + ("  SUCCESS MISSED" if r.success_missed else "")
+    solved = r._solved
+    c = {
+        "problem": r.problem,
+        "ok": f"{np.mean(r.ok_ours):.2f}" + (f"/{np.mean(r.ok_cpp):.2f}" if cpp else ""),
+        "t": _fmt(med(solved(r.ttfs_ours, r.ok_ours), 1e3), ".2f"),
+        "t_c": _fmt(med(solved(r.ttfs_cpp, r.ok_cpp), 1e3), ".2f") if cpp else "-",
+        "t_r": _fmt(r.ttfs_ratio, ".2f"),
+        "len": _fmt(length_median(r.len_ours), ".3f"),
+        "anchor": r.anchor or "-",
+        "len_c": _fmt(length_median(r.len_cpp[r.anchor]), ".3f") if r.anchor else "-",
+        "len_r": _fmt(r.length_ratio, ".3f"),
+        "star_ok": f"{np.mean(r.star_ok_ours):.2f}" + (f"/{r.success(r.anchor):.2f}" if r.anchor else ""),
+        "wheel_t": _fmt(med(r.ttfs_wheel, 1e3), ".2f") if r.ttfs_wheel else "-",
+        "wheel_len": _fmt(med(r.len_wheel), ".3f") if r.len_wheel else "-",
+        "hybrid": f"{_fmt(1e3 * r.hybrid_time, '.1f')} ms {_fmt(r.hybrid_length, '.2f')} m",
+        "miss": "SUCCESS MISSED" if r.success_missed else "",
+    }
+    for name, lengths in r.len_cpp.items():
+        c[name] = f"{_fmt(length_median(lengths), '.3f')} ({np.mean(np.isfinite(lengths)):.2f})"
+    return c
 
 
-def _verdict(rows: list[Any]) -> bool:
-    """Print the medians over the problems against the targets; True when a target is missed."""
-    from sim.tools.bench.plan import LENGTH_TARGET, TTFS_TARGET, summary
+#: The first-path table and the length table: (key, header, width).
+TTFS_COLS = (("problem", "problem", 17), ("ok", "success birrt/RRTC", 19), ("t", "birrt ms", 10),
+             ("t_c", "RRTConnect ms", 14), ("t_r", "ratio", 7), ("wheel_t", "wheel ms", 10))  # fmt: skip
+LEN_COLS = (("problem", "problem", 17), ("star_ok", "success rrt*/best", 18), ("len", "rrt-star m", 11),
+            ("len_c", "best m", 9), ("len_r", "ratio", 7), ("anchor", "best OMPL", 18),
+            ("wheel_len", "wheel RRT* m", 13), ("hybrid", "hybrid-a-star", 20))  # fmt: skip
+
+
+def _line(cells: dict[str, str], cols: tuple[tuple[str, str, int], ...]) -> str:
+    return "".join(f"{cells[k]:<{w}}" if i == 0 else f"{cells[k]:>{w}}" for i, (k, _, w) in enumerate(cols))
+
+
+def _verdict(rows: list[Any]) -> tuple[bool, list[str]]:
+    """The medians over the problems against the targets: (a target missed, lines to print)."""
+    from sim.tools.bench.plan import LENGTH_TARGET, TTFS_CAP, TTFS_TARGET, summary
 
     s = summary(rows)
     ttfs_miss = not s["ttfs_ratio"] <= TTFS_TARGET
+    cap_miss = not s["ttfs_worst"] <= TTFS_CAP
     len_miss = not s["length_ratio"] <= LENGTH_TARGET
     succ = [r.problem for r in rows if r.success_missed]
-    print(
-        f"median over problems: TTFS birrt / RRTConnect {s['ttfs_ratio']:.2f} (target <= {TTFS_TARGET})"
-        f"{'  MISSED' if ttfs_miss else ''}; length rrt-star / RRT* {s['length_ratio']:.3f} "
-        f"(target <= {LENGTH_TARGET}){'  MISSED' if len_miss else ''}"
+    lines = [
+        f"median over problems: first path birrt / RRTConnect {s['ttfs_ratio']:.2f} (target <= {TTFS_TARGET})"
+        f"{'  MISSED' if ttfs_miss else ''}, worst {s['ttfs_worst']:.2f} (target <= {TTFS_CAP})"
+        f"{'  MISSED' if cap_miss else ''}; length rrt-star / best OMPL {_fmt(s['length_ratio'], '.3f')} "
+        f"(target <= {LENGTH_TARGET}){'  MISSED' if len_miss else ''}",
+        f"success below OMPL's on: {', '.join(succ)}  MISSED" if succ else "success: never below OMPL's",
+    ]
+    return ttfs_miss or cap_miss or len_miss or bool(succ), lines
+
+
+def _stamp(seeds: int, budget: float, space: str, load: tuple[float, float]) -> str:
+    """Date, commit, cores and load of a run (for the Markdown output)."""
+    git = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=False)
+    commit = git.stdout.strip() if git.returncode == 0 else "unknown"
+    now = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
+    return (
+        f"Measured {now}, commit {commit}, {os.cpu_count()} cores, load average {load[0]:.1f} at the start and "
+        f"{load[1]:.1f} at the end; {space}, {seeds} seeds per problem, RRT* budget {budget:g} s. Ratios are "
+        "measured within one command, ours and OMPL's trials interleaved seed by seed."
     )
-    print(f"success below OMPL's on: {', '.join(succ)}  MISSED" if succ else "success: never below OMPL's")
-    return ttfs_miss or len_miss or bool(succ)
+
+
+def _markdown(rows: list[Any], stamp: str, verdict: list[str], cpp: bool) -> str:
+    names = list(rows[0].len_cpp) if rows else []
+    per = (("problem", "problem", 0), *((n, n, 0) for n in names))
+    out = [f"_{stamp}_", ""]
+    tables = (
+        ("First path", TTFS_COLS),
+        ("Length after the budget", LEN_COLS),
+        ("Each OMPL planner: median length m (success)", per),
+    )
+    for title, cols in tables:
+        if cols is per and not names:
+            continue
+        out += [f"**{title}**", "", "| " + " | ".join(h for _, h, _ in cols) + " |"]
+        out.append("|" + "|".join(":--" if i == 0 else "--:" for i in range(len(cols))) + "|")
+        out += ["| " + " | ".join(_cells(r, cpp)[k] for k, _, _ in cols) + " |" for r in rows]
+        out.append("")
+    return "\n".join(out + [f"- {v}" for v in verdict]) + "\n"
 
 
 def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when a target is missed, 0 with a note when OMPL C++ is unavailable."""
-    from planning.errors import ConfigError
-    from planning.planners.registry import PLANNERS
+    from pathlib import Path
+
+    from sim.outputs import atomic_path, check_writable
     from sim.tools.bench.ompl_native import build
-    from sim.tools.bench.plan import HYBRID, measure, problems, wheel_available
+    from sim.tools.bench.plan import OPTIMAL, measure, problems, wheel_available
 
     seeds, names, budget = (
         (5, args.scenarios or ["disc10"], 0.5) if args.quick else (args.seeds, args.scenarios, args.budget)
     )
+    optimal = ("RRTstar",) if args.quick else tuple(args.optimal)
     if seeds < 1 or not budget > 0 or not args.ttfs_limit > 0:
         raise ConfigError("--seeds must be >= 1, --budget and --ttfs-limit > 0 s")
-    probs = problems(names)
+    unknown = [n for n in optimal if n not in OPTIMAL]
+    if unknown:
+        raise ConfigError(
+            f"unknown OMPL planner(s) {', '.join(unknown)} for --optimal: choose from {', '.join(OPTIMAL)}"
+        )
+    if args.markdown:
+        check_writable(Path(args.markdown), overwrite=args.overwrite)
+    randoms = args.random_worlds if args.random_worlds is not None else (3 if names is None else 0)
+    probs = problems(names, randoms)
+    load0 = os.getloadavg()[0]
     why = build.missing()
     harness = build.harness() if why is None else None
     wheel = not args.no_wheel and wheel_available()
-    if harness is None:
+    cpp = harness is not None
+    if not cpp:
         other = "OMPL's Python wheel only" if wheel else "our planners only (pip install ompl adds the wheel)"
         print(f"note: OMPL's C++ planners cannot be raced: {why}. Racing {other}; no target is judged.")
-    hybrid = HYBRID in PLANNERS
     print(
         f"space {args.space}, {seeds} seeds per problem, first paths within {args.ttfs_limit:g} s, RRT* budget "
-        f"{budget:g} s; times are medians over solved trials"
+        f"{budget:g} s against {', '.join(optimal)}; times are medians over solved trials, lengths medians "
+        "with a failure counted infinitely long"
     )
-    print(_header(harness is not None, wheel, hybrid))
+    heads = {k: h for k, h, _ in TTFS_COLS + LEN_COLS}
+    print(f"{_line(heads, TTFS_COLS)}  |{_line(heads, LEN_COLS[1:])}")
     rows = []
     for prob in probs:
-        rows.append(measure(prob, args.space, seeds, budget, args.ttfs_limit, harness, wheel))
-        print(_row(rows[-1], harness is not None, wheel, hybrid), flush=True)
-    if harness is None:
-        return 0
-    return 1 if _verdict(rows) else 0
+        rows.append(measure(prob, args.space, seeds, budget, args.ttfs_limit, harness, wheel, optimal))
+        c = _cells(rows[-1], cpp)
+        print(f"{_line(c, TTFS_COLS)}  |{_line(c, LEN_COLS[1:])}  {c['miss']}", flush=True)
+    missed, verdict = _verdict(rows) if cpp else (False, [])
+    for v in verdict:
+        print(v)
+    if args.markdown:
+        stamp = _stamp(seeds, budget, args.space, (load0, os.getloadavg()[0]))
+        with atomic_path(args.markdown, overwrite=args.overwrite) as tmp:
+            tmp.write_text(_markdown(rows, stamp, verdict, cpp), encoding="utf-8")
+        print(f"wrote {args.markdown}")
+    return 1 if missed else 0

@@ -3,6 +3,8 @@
 Its validity checker is a Python callback into :class:`FastChecker` (one pose per call), so every
 state check pays the Python call; the C++ harness (:mod:`sim.tools.bench.ompl_native`) is the fair race.
 Motions are checked at the same curve spacing (the state-validity resolution set from ``step``).
+Its goal is OMPL's own (the Reeds–Shepp distance to the goal pose within the position tolerance),
+not our region: the column is shown, not judged.
 """
 
 from __future__ import annotations
@@ -78,7 +80,7 @@ class WheelOmpl:
             ss.setOptimizationObjective(obj)
             ss.setPlanner(og.RRTstar(si))
         t0 = time.perf_counter()
-        ss.solve(limit)
+        ss.solve(ob.timedPlannerTerminationCondition(limit))  # no watchdog thread (ss.solve(limit) starts one)
         dt = time.perf_counter() - t0
         ok = bool(ss.haveExactSolutionPath())
         return ok, dt, float(ss.getSolutionPath().length()) if ok else float("nan")

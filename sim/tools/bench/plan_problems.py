@@ -8,6 +8,8 @@
   by 0.7 m gaps at alternate ends; the goal is at the far end of the last lane.
 * ``tight_park``: a kerbside slot 2 x the robot's length (footprint x-extent) between two parked
   blocks as deep as the slot; the goal is in the slot, the start in the lane.
+* ``random<N>``: :func:`planning.scenario.random_scenario`'s seeded 6 x 6 m world ``N`` for the
+  TurtleBot3 (seven circles and boxes, corner to corner), a world nothing was tuned on.
 """
 
 from __future__ import annotations
@@ -83,22 +85,41 @@ def _posed(problem: PlanProblem) -> bool:
     return bool(np.hypot(s.x - g.x, s.y - g.y) > problem.position_tolerance or dth > problem.heading_tolerance)
 
 
-def problems(names: list[str] | None = None) -> list[PlanProblem]:
-    """The race's problems: ``names`` (built-in scenario names or a key of :data:`HARD`), or by default
-    every built-in scenario whose start is outside its goal region, then :data:`HARD`.
+def _random_world(seed: int) -> PlanProblem:
+    """``random<seed>``: :func:`planning.scenario.random_scenario`'s world for the TurtleBot3."""
+    from planning.scenario import random_scenario
+
+    return PlanProblem.from_scenario(random_scenario("turtlebot3", seed))
+
+
+def _random(name: str) -> PlanProblem | None:
+    """``random<N>``'s problem, or None when ``name`` is not of that form."""
+    digits = name.removeprefix("random")
+    return _random_world(int(digits)) if name != digits and digits.isdigit() else None
+
+
+def problems(names: list[str] | None = None, random_worlds: int = 0) -> list[PlanProblem]:
+    """The race's problems: ``names`` (built-in scenario names, a key of :data:`HARD` or ``random<N>``),
+    or by default every built-in scenario whose start is outside its goal region, then :data:`HARD`;
+    then the seeded random worlds ``random0`` .. ``random<random_worlds - 1>``.
 
     Raises:
-        ConfigError: An unknown name (the message lists the valid ones).
+        ConfigError: An unknown name (the message lists the valid ones) or a negative count.
     """
     from planning.scenario import builtin_scenarios, load_scenario
 
+    if random_worlds < 0:
+        raise ConfigError(f"--random-worlds must be >= 0, got {random_worlds}")
     builtin = builtin_scenarios()
+    extra = [_random_world(s) for s in range(random_worlds)]
     if names is None:
         found = [PlanProblem.from_scenario(load_scenario(n)) for n in builtin]
-        return [p for p in found if _posed(p)] + [make() for make in HARD.values()]
-    unknown = [n for n in names if n not in HARD and n not in builtin]
+        return [p for p in found if _posed(p)] + [make() for make in HARD.values()] + extra
+    unknown = [n for n in names if n not in HARD and n not in builtin and _random(n) is None]
     if unknown:
         raise ConfigError(
-            f"unknown problem(s) {', '.join(unknown)} for --scenarios: choose from {', '.join([*builtin, *HARD])}"
+            f"unknown problem(s) {', '.join(unknown)} for --scenarios: choose from "
+            f"{', '.join([*builtin, *HARD])} or random<N>"
         )
-    return [HARD[n]() if n in HARD else PlanProblem.from_scenario(load_scenario(n)) for n in names]
+    named = [HARD[n]() if n in HARD else _random(n) or PlanProblem.from_scenario(load_scenario(n)) for n in names]
+    return named + extra

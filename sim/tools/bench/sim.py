@@ -112,9 +112,9 @@ def measure(
     from planning.trajectory.references import make_reference
     from sim.physics.asbuilt import DEFAULT_BUILD_SEED, AsBuilt
     from sim.physics.model import set_pose
-    from sim.physics.sensing import SensingSetup
     from sim.physics.simulator import SimConfig, Simulator
-    from sim.physics.sources import PoseSource
+    from sim.robot.sensing import SensingSetup
+    from sim.robot.sources import PoseSource
 
     scenario = load_scenario("open")
     spec = load_robot(robot)

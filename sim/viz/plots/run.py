@@ -26,8 +26,8 @@ from matplotlib.figure import Figure
 from planning.core.robot import RobotSpec
 from planning.core.world import World
 from planning.trajectory.trajectory import Trajectory
-from sim.physics.balancing import body_pitch
 from sim.physics.metrics import heading_errors, position_errors
+from sim.physics.model import body_pitch
 from sim.physics.runlog import RunLog
 from sim.viz.plots.draw import RUN_WORLD, draw_world, frame_world
 from sim.viz.plots.estimation import EstimationSeries

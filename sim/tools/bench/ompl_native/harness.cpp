@@ -5,7 +5,12 @@
 // FastChecker's verdict for every pose: the grid's proven verdicts first, nhsim's exact
 // CollisionChecker (same formulas, same operation order) for the poses the grid leaves undecided.
 // Motions are checked along the exact Reeds-Shepp / Dubins curve every `step` metres of curve (the
-// state space's validSegmentCount is overridden: OMPL 1.5 counts segments per component).
+// state space's validSegmentCount is overridden: OMPL 1.5 counts segments per component), by a motion
+// validator that solves each curve once, as OMPL's own does, and checks it in OMPL's bisection order.
+// The goal is nhsim's goal region (position within its tolerance and heading within its tolerance),
+// sampled at the goal pose itself, as nhsim's planners root their goal trees there.
+// Solves are timed as OMPL's users run them: ss.solve(timedPlannerTerminationCondition(limit)), no
+// watchdog thread (ss.solve(double) starts one for limits of 1 s or more; `watchdog` asks for it).
 //
 // Usage:
 //   harness check PROBLEM POSES OUT          verdicts (uint8, 1 = free) of the (M, 3) float64 poses
@@ -13,13 +18,27 @@
 //                                            PLANNER: RRTConnect (stops at its first path) or RRTstar
 //                                            (runs LIMIT seconds); prints one JSON object: the trials
 //                                            and the states of the last path found
-//   harness serve PROBLEM SEED               one trial per stdin line "PLANNER LIMIT", one JSON line each
+//   harness serve PROBLEM SEED               one trial per stdin line "PLANNER LIMIT [watchdog] [probe]", one
+//                                            JSON line each; `watchdog`: time ss.solve(LIMIT) (OMPL's
+//                                            watchdog thread) instead; `probe`: also report when the last
+//                                            validity check returned (a clock read per check)
+//   PLANNER: RRTConnect, or an asymptotically optimal one run for LIMIT seconds on path length: RRTstar,
+//            RRTstar+informed, RRTstar+rejection, InformedRRTstar, SORRTstar, BITstar, ABITstar, AITstar,
+//            RRTXstatic, RRTsharp
 #include <ompl/base/objectives/PathLengthOptimizationObjective.h>
 #include <ompl/base/spaces/DubinsStateSpace.h>
 #include <ompl/base/spaces/ReedsSheppStateSpace.h>
 #include <ompl/geometric/SimpleSetup.h>
+#include <ompl/base/goals/GoalSampleableRegion.h>
+#include <ompl/geometric/planners/informedtrees/ABITstar.h>
+#include <ompl/geometric/planners/informedtrees/AITstar.h>
+#include <ompl/geometric/planners/informedtrees/BITstar.h>
+#include <ompl/geometric/planners/rrt/InformedRRTstar.h>
 #include <ompl/geometric/planners/rrt/RRTConnect.h>
+#include <ompl/geometric/planners/rrt/RRTXstatic.h>
+#include <ompl/geometric/planners/rrt/RRTsharp.h>
 #include <ompl/geometric/planners/rrt/RRTstar.h>
+#include <ompl/geometric/planners/rrt/SORRTstar.h>
 #include <ompl/util/Console.h>
 #include <ompl/util/RandomNumbers.h>
 
@@ -30,6 +49,10 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <functional>
+#include <map>
+#include <queue>
+#include <sstream>
 #include <iostream>
 #include <limits>
 #include <memory>
@@ -147,7 +170,7 @@ struct Problem {
     double h = 0;
     std::vector<double> grid;
     std::string space = "reeds_shepp";
-    double rho = 1, step = 0.01, goal_tolerance = 0.05;
+    double rho = 1, step = 0.01, goal_tolerance = 0.05, heading_tolerance = 0.1;
     double start[3] = {0, 0, 0}, goal[3] = {0, 0, 0};
 };
 
@@ -168,6 +191,7 @@ Problem read_problem(const std::string &path) {
     if (key != "nhsim-ompl-problem") throw std::runtime_error(path + " is not an nhsim problem file");
     int version;
     in >> version;
+    if (version != 2) throw std::runtime_error(path + ": problem format " + std::to_string(version) + ", expected 2");
     while (in >> key) {
         if (key == "bounds") in >> pb.xmin >> pb.xmax >> pb.ymin >> pb.ymax;
         else if (key == "walls") in >> pb.walls;
@@ -181,7 +205,8 @@ Problem read_problem(const std::string &path) {
         else if (key == "grid") in >> pb.nx >> pb.ny >> pb.h >> grid_path;
         else if (key == "space") in >> pb.space >> pb.rho >> pb.step;
         else if (key == "start") in >> pb.start[0] >> pb.start[1] >> pb.start[2];
-        else if (key == "goal") in >> pb.goal[0] >> pb.goal[1] >> pb.goal[2] >> pb.goal_tolerance;
+        else if (key == "goal")
+            in >> pb.goal[0] >> pb.goal[1] >> pb.goal[2] >> pb.goal_tolerance >> pb.heading_tolerance;
         else if (key == "circle" || key == "ellipse" || key == "box" || key == "polygon") {
             Obstacle o;
             o.kind = key;
@@ -294,65 +319,218 @@ private:
 template <class Base>
 class DenseCurveSpace : public Base {
 public:
-    DenseCurveSpace(double rho, double step) : Base(rho), step_(step) {}
+    DenseCurveSpace(double rho, double step) : Base(rho), rho_(rho), step_(step) {}
     unsigned int validSegmentCount(const ob::State *a, const ob::State *b) const override {
-        return std::max(1u, static_cast<unsigned int>(std::ceil(this->distance(a, b) / step_)));
+        return segments(this->distance(a, b));
+    }
+    // Checked segments of a curve `length` metres long.
+    unsigned int segments(double length) const {
+        return std::max(1u, static_cast<unsigned int>(std::ceil(length / step_)));
+    }
+    double rho() const { return rho_; }
+
+private:
+    double rho_, step_;
+};
+
+using DenseRS = DenseCurveSpace<ob::ReedsSheppStateSpace>;
+using DenseDubins = DenseCurveSpace<ob::DubinsStateSpace>;
+
+// What one solve cost: validity checks (states), motion checks, and (probe) when the last check returned.
+struct Counters {
+    long states = 0, motions = 0;
+    bool probe = false;
+    std::chrono::steady_clock::time_point last;
+};
+
+// OMPL's ReedsShepp/DubinsMotionValidator::checkMotion (end state first, then the interior in
+// bisection order), with the curve solved once for both its length and its states.
+template <class Space, class CurvePath>
+class DenseMotionValidator : public ob::MotionValidator {
+public:
+    DenseMotionValidator(const ob::SpaceInformationPtr &si, Counters &count)
+        : ob::MotionValidator(si), space_(si->getStateSpace()->as<Space>()), count_(count) {}
+
+    bool checkMotion(const ob::State *s1, const ob::State *s2) const override {
+        ++count_.motions;
+        if (!si_->isValid(s2)) {
+            invalid_++;
+            return false;
+        }
+        CurvePath path = solve(s1, s2);
+        int nd = static_cast<int>(space_->segments(space_->rho() * path.length()));
+        bool result = true, first = false;  // the path is solved: interpolate reuses it
+        if (nd >= 2) {
+            std::queue<std::pair<int, int>> pos;
+            pos.emplace(1, nd - 1);
+            ob::State *test = si_->allocState();
+            while (!pos.empty()) {
+                std::pair<int, int> x = pos.front();
+                int mid = (x.first + x.second) / 2;
+                space_->interpolate(s1, s2, static_cast<double>(mid) / nd, first, path, test);
+                if (!si_->isValid(test)) {
+                    result = false;
+                    break;
+                }
+                pos.pop();
+                if (x.first < mid) pos.emplace(x.first, mid - 1);
+                if (x.second > mid) pos.emplace(mid + 1, x.second);
+            }
+            si_->freeState(test);
+        }
+        if (result) valid_++;
+        else invalid_++;
+        return result;
+    }
+
+    bool checkMotion(const ob::State *s1, const ob::State *s2, std::pair<ob::State *, double> &) const override {
+        throw std::runtime_error("the harness's motion validator does not report the last valid state");
     }
 
 private:
-    double step_;
+    CurvePath solve(const ob::State *s1, const ob::State *s2) const;
+    const Space *space_;
+    Counters &count_;
 };
+
+template <>
+ob::ReedsSheppStateSpace::ReedsSheppPath DenseMotionValidator<DenseRS, ob::ReedsSheppStateSpace::ReedsSheppPath>::solve(
+    const ob::State *s1, const ob::State *s2) const {
+    return space_->reedsShepp(s1, s2);
+}
+
+template <>
+ob::DubinsStateSpace::DubinsPath DenseMotionValidator<DenseDubins, ob::DubinsStateSpace::DubinsPath>::solve(
+    const ob::State *s1, const ob::State *s2) const {
+    return space_->dubins(s1, s2);
+}
+
+double wrap(double a) { return a - 2.0 * M_PI * std::floor((a + M_PI) / (2.0 * M_PI)); }  // [-pi, pi)
 
 void set_pose(ob::State *s, const double *q) {
     auto *se2 = s->as<ob::SE2StateSpace::StateType>();
     se2->setX(q[0]);
     se2->setY(q[1]);
-    se2->setYaw(q[2] - 2.0 * M_PI * std::floor((q[2] + M_PI) / (2.0 * M_PI)));  // [-pi, pi)
+    se2->setYaw(wrap(q[2]));
+}
+
+// nhsim's goal region (planning/planners/sampling/tree.py in_goal): position within `goal_tolerance`
+// and heading within `heading_tolerance` of the goal pose. Its one sample is the goal pose. Its
+// distance is the planar distance to the goal position, its threshold the position tolerance, so
+// OMPL's cost-to-go heuristic (distance less threshold) never exceeds a path's length to the region.
+class RegionGoal : public ob::GoalSampleableRegion {
+public:
+    RegionGoal(const ob::SpaceInformationPtr &si, const Problem &pb) : ob::GoalSampleableRegion(si), pb_(pb) {
+        setThreshold(pb.goal_tolerance);
+        goal_ = si->allocState();
+        set_pose(goal_, pb.goal);
+    }
+    ~RegionGoal() override { si_->freeState(goal_); }
+
+    double distanceGoal(const ob::State *s) const override {
+        const auto *q = s->as<ob::SE2StateSpace::StateType>();
+        return std::hypot(q->getX() - pb_.goal[0], q->getY() - pb_.goal[1]);
+    }
+    bool isSatisfied(const ob::State *s) const override { return isSatisfied(s, nullptr); }
+    bool isSatisfied(const ob::State *s, double *distance) const override {
+        const auto *q = s->as<ob::SE2StateSpace::StateType>();
+        double d = distanceGoal(s);
+        if (distance != nullptr) *distance = d;
+        return d <= pb_.goal_tolerance && std::fabs(wrap(q->getYaw() - pb_.goal[2])) <= pb_.heading_tolerance;
+    }
+    void sampleGoal(ob::State *s) const override { si_->copyState(s, goal_); }
+    unsigned int maxSampleCount() const override { return 1; }
+
+private:
+    const Problem &pb_;
+    ob::State *goal_;
+};
+
+// The planners raced, by name: RRTConnect, and the asymptotically optimal ones OMPL 1.5 runs on a
+// Reeds-Shepp space (RRTstar with its options; the informed trees; RRTX and RRT#).
+ob::PlannerPtr make_planner(const std::string &name, const ob::SpaceInformationPtr &si) {
+    if (name == "RRTConnect") return std::make_shared<og::RRTConnect>(si);
+    if (name == "RRTstar") return std::make_shared<og::RRTstar>(si);
+    if (name == "RRTstar+informed") {  // informed sampling and new-state rejection (sample rejection excludes it)
+        auto p = std::make_shared<og::RRTstar>(si);
+        p->setInformedSampling(true);
+        p->setNewStateRejection(true);
+        return p;
+    }
+    if (name == "RRTstar+rejection") {  // sample rejection and new-state rejection
+        auto p = std::make_shared<og::RRTstar>(si);
+        p->setSampleRejection(true);
+        p->setNewStateRejection(true);
+        return p;
+    }
+    if (name == "InformedRRTstar") return std::make_shared<og::InformedRRTstar>(si);
+    if (name == "SORRTstar") return std::make_shared<og::SORRTstar>(si);
+    if (name == "BITstar") return std::make_shared<og::BITstar>(si);
+    if (name == "ABITstar") return std::make_shared<og::ABITstar>(si);
+    if (name == "AITstar") return std::make_shared<og::AITstar>(si);
+    if (name == "RRTXstatic") return std::make_shared<og::RRTXstatic>(si);
+    if (name == "RRTsharp") return std::make_shared<og::RRTsharp>(si);
+    throw std::runtime_error("unknown planner " + name +
+                             ": choose RRTConnect, RRTstar, RRTstar+informed, RRTstar+rejection, InformedRRTstar, "
+                             "SORRTstar, BITstar, ABITstar, AITstar, RRTXstatic or RRTsharp");
 }
 
 struct Trial {
     bool solved;
-    double time_s, first_s, length_m;
+    double time_s, first_s, length_m, last_check_s;
+    long states, motions;
     std::vector<double> path;  // x, y, yaw of each state of the path found
 };
 
+struct Options {
+    bool watchdog = false, probe = false;
+};
+
 Trial solve_once(const Problem &pb, const Checker &chk, const ob::StateSpacePtr &space, const std::string &planner,
-                 double limit) {
+                 double limit, Options opt = {}) {
+    Counters count;
+    count.probe = opt.probe;
     og::SimpleSetup ss(space);
-    ss.setStateValidityChecker([&chk](const ob::State *s) {
+    ss.setStateValidityChecker([&chk, &count](const ob::State *s) {
         const auto *q = s->as<ob::SE2StateSpace::StateType>();
-        return chk.free(q->getX(), q->getY(), q->getYaw());
+        bool ok = chk.free(q->getX(), q->getY(), q->getYaw());
+        ++count.states;
+        if (count.probe) count.last = std::chrono::steady_clock::now();
+        return ok;
     });
     ob::SpaceInformationPtr si = ss.getSpaceInformation();
-    if (pb.space == "dubins") si->setMotionValidator(std::make_shared<ob::DubinsMotionValidator>(si));
-    else si->setMotionValidator(std::make_shared<ob::ReedsSheppMotionValidator>(si));
-    ob::ScopedState<> start(space), goal(space);
+    if (pb.space == "dubins")
+        si->setMotionValidator(
+            std::make_shared<DenseMotionValidator<DenseDubins, ob::DubinsStateSpace::DubinsPath>>(si, count));
+    else
+        si->setMotionValidator(
+            std::make_shared<DenseMotionValidator<DenseRS, ob::ReedsSheppStateSpace::ReedsSheppPath>>(si, count));
+    ob::ScopedState<> start(space);
     set_pose(start.get(), pb.start);
-    set_pose(goal.get(), pb.goal);
-    ss.setStartAndGoalStates(start, goal, pb.goal_tolerance);
-    auto t0 = std::chrono::steady_clock::now();
+    ss.setStartState(start);
+    ss.setGoal(std::make_shared<RegionGoal>(si, pb));
     double first = -1.0;
-    auto seconds = [&t0]() {
-        return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    auto t0 = std::chrono::steady_clock::now();
+    auto since = [&t0](std::chrono::steady_clock::time_point t) {
+        return std::chrono::duration<double>(t - t0).count();
     };
-    if (planner == "RRTstar") {
+    ss.setPlanner(make_planner(planner, si));
+    if (planner != "RRTConnect") {
         auto obj = std::make_shared<ob::PathLengthOptimizationObjective>(si);
-        obj->setCostThreshold(ob::Cost(0.0));  // never satisfied: RRT* spends its whole budget
+        obj->setCostThreshold(ob::Cost(0.0));  // never satisfied: the planner spends its whole budget
         ss.setOptimizationObjective(obj);
-        ss.setPlanner(std::make_shared<og::RRTstar>(si));
         ss.getProblemDefinition()->setIntermediateSolutionCallback(
             [&](const ob::Planner *, const std::vector<const ob::State *> &, const ob::Cost) {
-                if (first < 0) first = seconds();
+                if (first < 0) first = since(std::chrono::steady_clock::now());
             });
-    } else if (planner == "RRTConnect") {
-        ss.setPlanner(std::make_shared<og::RRTConnect>(si));
-    } else {
-        throw std::runtime_error("unknown planner " + planner + ": choose RRTConnect or RRTstar");
     }
     t0 = std::chrono::steady_clock::now();
-    ss.solve(limit);
-    double dt = seconds();
-    Trial t{ss.haveExactSolutionPath(), dt, first, std::numeric_limits<double>::quiet_NaN(), {}};
+    if (opt.watchdog) ss.solve(limit);
+    else ss.solve(ob::timedPlannerTerminationCondition(limit));
+    double dt = since(std::chrono::steady_clock::now());
+    double nan = std::numeric_limits<double>::quiet_NaN();
+    Trial t{ss.haveExactSolutionPath(), dt, first, nan, opt.probe ? since(count.last) : nan, count.states,
+            count.motions, {}};
     if (t.solved) {
         const og::PathGeometric &path = ss.getSolutionPath();
         t.length_m = path.length();
@@ -374,8 +552,8 @@ std::string num(double v) {
 
 ob::StateSpacePtr make_space(const Problem &pb) {
     ob::StateSpacePtr space;
-    if (pb.space == "dubins") space = std::make_shared<DenseCurveSpace<ob::DubinsStateSpace>>(pb.rho, pb.step);
-    else space = std::make_shared<DenseCurveSpace<ob::ReedsSheppStateSpace>>(pb.rho, pb.step);
+    if (pb.space == "dubins") space = std::make_shared<DenseDubins>(pb.rho, pb.step);
+    else space = std::make_shared<DenseRS>(pb.rho, pb.step);
     ob::RealVectorBounds bounds(2);
     bounds.setLow(0, pb.xmin);
     bounds.setHigh(0, pb.xmax);
@@ -386,9 +564,10 @@ ob::StateSpacePtr make_space(const Problem &pb) {
 }
 
 void print_trial(const Trial &t, const char *sep) {
-    std::printf("%s{\"solved\": %s, \"time_s\": %s, \"first_s\": %s, \"length_m\": %s}", sep,
-                t.solved ? "true" : "false", num(t.time_s).c_str(), num(t.first_s < 0 ? NAN : t.first_s).c_str(),
-                num(t.length_m).c_str());
+    std::printf("%s{\"solved\": %s, \"time_s\": %s, \"first_s\": %s, \"length_m\": %s, \"last_check_s\": %s, "
+                "\"states\": %ld, \"motions\": %ld}",
+                sep, t.solved ? "true" : "false", num(t.time_s).c_str(), num(t.first_s < 0 ? NAN : t.first_s).c_str(),
+                num(t.length_m).c_str(), num(t.last_check_s).c_str(), t.states, t.motions);
 }
 
 int plan(const Problem &pb, const std::string &planner, double limit, int trials, unsigned seed) {
@@ -412,17 +591,26 @@ int plan(const Problem &pb, const std::string &planner, double limit, int trials
     return 0;
 }
 
-// One warm process for many trials: each stdin line "PLANNER LIMIT" runs one trial and prints it as
-// one JSON line (the bench interleaves these with its own runs).
+// One warm process for many trials: each stdin line "PLANNER LIMIT [watchdog] [probe]" runs one trial
+// and prints it as one JSON line (the bench interleaves these with its own runs).
 int serve(const Problem &pb, unsigned seed) {
     ompl::RNG::setSeed(seed);
     Checker chk(pb);
     ob::StateSpacePtr space = make_space(pb);
     solve_once(pb, chk, space, "RRTConnect", 0.2);  // warm-up
-    std::string planner;
-    double limit;
-    while (std::cin >> planner >> limit) {
-        print_trial(solve_once(pb, chk, space, planner, limit), "");
+    std::string line;
+    while (std::getline(std::cin, line)) {
+        std::istringstream in(line);
+        std::string planner, flag;
+        double limit;
+        if (!(in >> planner >> limit)) throw std::runtime_error("bad request \"" + line + "\": PLANNER LIMIT [flags]");
+        Options opt;
+        while (in >> flag) {
+            if (flag == "watchdog") opt.watchdog = true;
+            else if (flag == "probe") opt.probe = true;
+            else throw std::runtime_error("unknown flag " + flag + ": watchdog or probe");
+        }
+        print_trial(solve_once(pb, chk, space, planner, limit, opt), "");
         std::printf("\n");
         std::fflush(stdout);
     }

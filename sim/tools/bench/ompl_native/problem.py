@@ -22,7 +22,7 @@ from planning.core.world import Box, Circle, Ellipse, Polygon
 from planning.errors import DependencyError
 from planning.planners.base import PlanProblem
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 
 
 def _points(key: str, pts: NDArray[np.float64]) -> str:
@@ -49,8 +49,8 @@ def write_problem(
 
     Args:
         directory: An existing directory.
-        problem: World, start, goal and goal tolerance (position [m]; OMPL's goal threshold is the
-            curve distance to the goal pose).
+        problem: World, start, goal and goal region (position [m] and heading [rad] tolerances: the
+            harness gives OMPL this region, sampled at the goal pose, as nhsim's planners use it).
         checker: The checker whose verdicts the harness reproduces.
         space: "reeds_shepp" or "dubins".
         rho: Turning radius [m].
@@ -77,7 +77,8 @@ def write_problem(
         f"grid {grid.shape[0]} {grid.shape[1] if grid.ndim == 2 else 0} {checker._h!r} grid.f64",
         f"space {space} {float(rho)!r} {float(step)!r}",
         f"start {float(s.x)!r} {float(s.y)!r} {float(s.theta)!r}",
-        f"goal {float(g.x)!r} {float(g.y)!r} {float(g.theta)!r} {float(problem.position_tolerance)!r}",
+        f"goal {float(g.x)!r} {float(g.y)!r} {float(g.theta)!r} {float(problem.position_tolerance)!r} "
+        f"{float(problem.heading_tolerance)!r}",
         *(_obstacle(o) for o in problem.world.obstacles),
     ]
     path = directory / "problem.txt"

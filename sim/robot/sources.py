@@ -6,7 +6,7 @@ from enum import StrEnum
 
 
 class PoseSource(StrEnum):
-    """Where the tracker's pose comes from (see :mod:`sim.physics.sensing`).
+    """Where the tracker's pose comes from (see :mod:`sim.robot.sensing`).
 
     - ``fused``: the EKF's estimate from wheel encoders, gyro and localisation fixes;
     - ``odometry``: dead reckoning, the same EKF without fixes;

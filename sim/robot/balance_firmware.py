@@ -23,30 +23,19 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.balance import BalanceController, BalanceGains
+from control.design.balance_profile import load_balance_profile
 from planning.core.geometry import Pose2D
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
 from sim.physics.asbuilt import AsBuilt
-from sim.physics.balance import balance_gains, load_balance_profile
-from sim.physics.model import build_model, set_pose
+from sim.physics.model import body_pitch, build_model, set_pose
 from sim.physics.motors import whole_steps
 from sim.physics.runlog import BalanceLog
 from sim.physics.sensors import SensorProfile, load_sensor_profile
+from sim.robot.balance_design import balance_gains
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
-
-
-def body_pitch(quat: FloatArray) -> FloatArray:
-    """Pitch [rad] of the body's axis in its heading's vertical plane, positive tipping forward.
-
-    Args:
-        quat: (..., 4) unit quaternions (w, x, y, z) of the base.
-    """
-    w, x, y, z = np.moveaxis(np.asarray(quat, dtype=float), -1, 0)
-    ax, ay, az = 2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)  # body z axis in the world
-    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return np.arctan2(np.cos(yaw) * ax + np.sin(yaw) * ay, az)  # type: ignore[no-any-return]
 
 
 @dataclass(frozen=True)
@@ -104,7 +93,7 @@ class BalanceFirmware:
     Args:
         model: The run's model (perturbed or as built).
         data: The run's data.
-        gains: Rates and gains (checked by :func:`sim.physics.balance.balance_gains`).
+        gains: Rates and gains (checked by :func:`sim.robot.balance_design.balance_gains`).
         profile: The robot's sensor profile.
         tip_angle: |tilt| beyond which the robot has fallen [rad].
         seed: Seed of the sensor noise.
@@ -167,7 +156,7 @@ class BalanceFirmware:
         return self.fell_at is not None
 
     def drive(self, commands: FloatArray, row: int, qvel: FloatArray, ctrl: FloatArray, wiring: IntArray) -> None:
-        """One update, with the signature of :meth:`sim.physics.motors.VelocityLoop.drive`: the wheel-speed
+        """One update, with the signature of :meth:`sim.robot.wheel_firmware.VelocityLoop.drive`: the wheel-speed
         command is row ``row`` of ``commands`` [rad/s] (< 0: row 0); the voltages go into ``ctrl`` at
         ``wiring[1]``."""
         d = self.data

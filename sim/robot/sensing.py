@@ -36,7 +36,7 @@ from planning.core.robot import RobotSpec
 from sim.physics.asbuilt import TOLERANCES
 from sim.physics.runlog import EstimationLog
 from sim.physics.sensors import SensorModel, SensorProfile, load_sensor_profile
-from sim.physics.sources import PoseSource
+from sim.robot.sources import PoseSource
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
