@@ -70,7 +70,7 @@ nhsim_setup() {
     if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
         nhsim_say "installing nhsim and its dependencies into .venv (first run takes a few minutes)"
         "$nhsim_root/.venv/bin/python" -m pip install -q --upgrade pip >/dev/null
-        "$nhsim_root/.venv/bin/python" -m pip install -q -e "$nhsim_root[dev]"
+        "$nhsim_root/.venv/bin/python" -m pip install -q -e "$nhsim_root[dev,docs]"
         echo "$want" > "$stamp"
     fi
 }

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.doc_blocks import block_of
+
 README = Path(__file__).resolve().parents[1] / "README.md"
 
 
@@ -17,6 +19,17 @@ def python_api_snippet() -> str:
     match = re.search(r"```python\n(.*?)```", section, flags=re.S)
     assert match is not None, "the Python API section has no python block"
     return match.group(1)
+
+
+def test_the_docs_python_page_shows_the_same_snippet() -> None:
+    assert block_of("docs/how-to/python-api.md").code == python_api_snippet()
+
+
+def test_the_readme_fits_on_two_screens_and_links_only_to_what_exists() -> None:
+    text = README.read_text()
+    assert len(text.splitlines()) <= 200
+    for target in re.findall(r"\]\(((?:docs/)[^)#]+)", text):
+        assert (README.parent / target).is_file(), f"README links to missing {target}"
 
 
 def test_the_snippet_is_ten_lines_or_so() -> None:

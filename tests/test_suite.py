@@ -9,9 +9,7 @@ the valid choices or the spec.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Iterator
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,8 +21,7 @@ from sim import suite
 from sim.physics.runlog import RunLog
 from sim.pipeline.runs import RunKind
 from sim.pipeline.simulate import simulate_plan, simulate_reference
-
-README = Path(__file__).resolve().parents[1] / "README.md"
+from tests.doc_blocks import block_of
 
 #: Entries checked in the default run: both robots, references and several planners.
 FAST = (
@@ -194,12 +191,9 @@ def test_seeds_are_taken_as_dm_controls_suite_takes_them() -> None:
     assert rs.reset().observation["gyro_z"][0] == again.reset().observation["gyro_z"][0]
 
 
-def test_the_readme_snippet_runs() -> None:
-    text = README.read_text()
-    section = text[text.index("## A control suite for dm_control") :]
-    match = re.search(r"```python\n(.*?)```", section, flags=re.S)
-    assert match is not None
+def test_the_docs_snippet_runs() -> None:
+    block = block_of("docs/how-to/dm-control-suite.md")
     scope: dict[str, object] = {}
-    exec(compile(match.group(1), "README.md (control suite)", "exec"), scope)
+    exec(compile(block.code, block.name, "exec"), scope)
     final = scope["timestep"]
     assert final.last() and final.discount == 1.0  # type: ignore[attr-defined]

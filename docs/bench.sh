@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# Re-measure the benchmark pages: each docs/benchmarks/<name>.md is what its `nhsim bench ...` command
+# printed, stamped with the date, the commit and the machine (cores, load before and after). Nothing in
+# those pages is typed by hand. Usage: docs/bench.sh [NAME ...]   (default: every benchmark below)
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+cd "$root"
+nhsim=(.venv/bin/python -m sim)
+
+declare -A CMDS=(
+    [sim]="bench sim --repeats 5"
+    [sim-segmented]="bench sim --tracker segmented --repeats 5"
+    [sim-kanayama]="bench sim --tracker kanayama --repeats 5"
+    [sim-rpp]="bench sim --tracker rpp --repeats 5"
+    [track]="bench track"
+    [render]="bench render"
+    [plan]="bench plan --seeds 5"
+    [hybrid]="bench hybrid"
+    [optim]="bench optim"
+    [simplify]="bench simplify"
+    [montecarlo]="bench montecarlo"
+)
+
+stamp() {
+    printf '%s UTC, commit %s, %s cores, load average %s' "$(date -u '+%Y-%m-%d %H:%M')" \
+        "$(git rev-parse --short HEAD)" "$(nproc)" "$(cut -d' ' -f1-3 /proc/loadavg)"
+}
+
+names=("$@")
+[ ${#names[@]} -gt 0 ] || names=(sim sim-segmented sim-kanayama sim-rpp track render plan hybrid optim simplify montecarlo)
+for name in "${names[@]}"; do
+    cmd="${CMDS[$name]:-}"
+    if [ -z "$cmd" ]; then echo "docs/bench.sh: no benchmark '$name' (known: ${!CMDS[*]})" >&2; exit 2; fi
+    out="docs/benchmarks/$name.md"
+    tmp="$(mktemp "docs/benchmarks/.$name.XXXXXX")"
+    before="$(stamp)"
+    echo "docs/bench.sh: nhsim $cmd" >&2
+    set +e
+    # shellcheck disable=SC2086  # a word list
+    text="$("${nhsim[@]}" $cmd 2>&1)"  # no bars: stdout is not a terminal
+    status=$?
+    set -e
+    {
+        echo "# nhsim $cmd"
+        echo
+        echo "Printed by \`nhsim $cmd\` (exit status $status); started $before; ended with load average $(cut -d' ' -f1-3 /proc/loadavg)."
+        echo "Re-measure with \`docs/bench.sh $name\`."
+        echo
+        echo '```text'
+        echo "$text"
+        echo '```'
+    } > "$tmp"
+    mv "$tmp" "$out"
+done
