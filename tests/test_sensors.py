@@ -173,7 +173,7 @@ def test_white_noise_std_is_density_times_sqrt_half_the_rate() -> None:
     assert np.std(m.accel_white, axis=0) == pytest.approx([expected_a] * 3, rel=4 / math.sqrt(2 * n))
     assert abs(np.mean(m.gyro_white)) < 4 * expected_g / math.sqrt(n)
     assert np.all(m.gyro_bias == 0.0)
-    readings = np.array([m.gyro_z(k, 0.25) for k in range(1000)])
+    readings = np.array([m.gyro(k, 0.25) for k in range(1000)])
     assert np.array_equal(readings, 0.25 + (m.gyro_bias[:1000] + m.gyro_white[:1000]))
 
 
@@ -265,7 +265,7 @@ def test_no_pose_source_gives_no_fixes() -> None:
 
 def test_periods_outside_the_run_are_refused() -> None:
     m = _model(n=10)
-    for call in (lambda: m.gyro_z(10, 0.0), lambda: m.gyro_z(-1, 0.0), lambda: m.accel(10, np.zeros(3))):
+    for call in (lambda: m.gyro(10, 0.0), lambda: m.gyro(-1, 0.0), lambda: m.accel(10, np.zeros(3))):
         with pytest.raises(IndexError, match=r"outside the run's 0 \.\. 9"):
             call()
 
@@ -289,6 +289,33 @@ def test_a_longer_run_begins_with_a_shorter_runs_noise() -> None:
     for name in ARRAYS:
         s = getattr(short, name)
         assert np.array_equal(getattr(long, name)[: len(s)], s), name
+
+
+def test_longer_keeps_the_noise_and_its_settings() -> None:
+    short = _model(n=100, seed=4)
+    long = short.longer(1000)
+    assert (long.n_periods, long.seed, long.part, long.control_rate) == (1000, 4, 0, short.control_rate)
+    for name in ARRAYS:
+        assert np.array_equal(getattr(long, name)[: len(getattr(short, name))], getattr(short, name)), name
+
+
+def test_a_second_part_draws_its_own_streams_of_the_same_seed() -> None:
+    """Part 0 draws stream i from child i of the seed's sequence (as before parts existed), part 1
+    from child len(STREAMS) + i: the firmware's IMU noise is independent of the base's."""
+    from sim.physics.sensors import STREAMS
+
+    profile = replace(TB3, gyro_bias_std=1e-3)
+    base = SensorModel(profile, control_rate=50.0, timestep=0.002, n_periods=300, seed=9)
+    other = SensorModel(profile, control_rate=50.0, timestep=0.002, n_periods=300, seed=9, part=1)
+    children = np.random.SeedSequence(9).spawn(2 * len(STREAMS))
+    white = STREAMS.index("gyro_white")
+    for model, child in ((base, children[white]), (other, children[len(STREAMS) + white])):
+        expected = np.random.default_rng(child).standard_normal(300) * model.gyro_white_std
+        assert np.array_equal(model.gyro_white, expected)
+    for name in ARRAYS:
+        assert not np.any(getattr(base, name) == getattr(other, name)), name
+    with pytest.raises(ConfigError, match="sensor part"):
+        SensorModel(profile, control_rate=50.0, timestep=0.002, n_periods=3, seed=9, part=-1)
 
 
 def test_drawn_arrays_are_read_only_and_the_record_is_json() -> None:
@@ -328,7 +355,7 @@ class _PlainSensing:
         else:
             rate = math.remainder(truth[2] - self.yaw, 2.0 * math.pi) / self.dt
             dl, dr = ((c - p) * self.q for c, p in zip(counts, self.counts, strict=True))
-            est.predict(k * self.dt, dl, dr, sensors.gyro_z(k, rate))
+            est.predict(k * self.dt, dl, dr, sensors.gyro(k, rate))
         self.counts, self.yaw = counts, truth[2]
         if sensors.is_fix_period(k):
             self.fixes[k] = sensors.fix(k, truth)

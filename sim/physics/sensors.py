@@ -36,7 +36,10 @@ A :class:`SensorModel` turns true values into readings, one control period ``k``
   period's estimate.
 
 Each noise has its own stream spawned from ``np.random.SeedSequence(seed)``, so a longer run's
-noise begins with a shorter run's.
+noise begins with a shorter run's. A robot with a second set of sensors read at another rate (the
+balancing EduMIP's firmware reads its IMU and encoders at 200 Hz) draws that set's noise as
+``part`` 1: stream ``i`` of part ``p`` is child ``p * len(STREAMS) + i`` of the same seed sequence,
+so the parts are independent and part 0 is what it always was.
 """
 
 from __future__ import annotations
@@ -281,6 +284,8 @@ class SensorModel:
         timestep: Physics time step [s]; the control period must be a whole number of steps.
         n_periods: Control periods in the run (``k = 0 .. n_periods - 1``).
         seed: Seed of the noise (an integer >= 0).
+        part: Which of the robot's sensor sets (0: the base's, read at the control rate; 1: a
+            balancing robot's firmware IMU and encoders); each part's noise is independent.
 
     Attributes:
         steps_per_control: Physics steps per control period.
@@ -300,13 +305,21 @@ class SensorModel:
     """
 
     def __init__(
-        self, profile: SensorProfile, *, control_rate: float, timestep: float, n_periods: int, seed: int
+        self,
+        profile: SensorProfile,
+        *,
+        control_rate: float,
+        timestep: float,
+        n_periods: int,
+        seed: int,
+        part: int = 0,
     ) -> None:
         self.profile = profile
         self.control_rate = _positive(control_rate, "control rate [Hz]")
         self.timestep = _positive(timestep, "physics timestep [s]")
         self.n_periods = _count(n_periods, "number of control periods", 1, "a run has at least one")
         self.seed = _count(seed, "sensor noise seed", 0, "pass a whole number such as seed=0")
+        self.part = _count(part, "sensor part", 0, "0 for the base's sensors, 1 for a balancing robot's firmware")
         steps = _whole(1.0 / (self.control_rate * self.timestep))
         if not steps:
             raise ConfigError(
@@ -343,7 +356,8 @@ class SensorModel:
 
     def _draw(self) -> None:
         p, n = self.profile, self.n_periods
-        children = np.random.SeedSequence(self.seed).spawn(len(STREAMS))
+        n_streams = len(STREAMS)
+        children = np.random.SeedSequence(self.seed).spawn(n_streams * (self.part + 1))[n_streams * self.part :]
         rng = {name: np.random.default_rng(child) for name, child in zip(STREAMS, children, strict=True)}
         self.encoder_phase = _readonly(rng["encoder_phase"].random(2))
         walk = rng["gyro_walk"].standard_normal(n) * (p.gyro_bias_walk * math.sqrt(1.0 / self.control_rate))
@@ -372,8 +386,13 @@ class SensorModel:
         c, ph = self._counts_per_turn, self.encoder_phase
         return encoder_count(left, c, float(ph[0])), encoder_count(right, c, float(ph[1]))
 
-    def gyro_z(self, k: int, rate: float) -> float:
-        """Gyroscope reading at period ``k`` for a true yaw rate [rad/s]: ``rate + (b_k + n_k)``."""
+    def longer(self, n_periods: int) -> SensorModel:
+        """The same sensors over a run of ``n_periods`` periods (its noise begins with this one's)."""
+        return SensorModel(self.profile, control_rate=self.control_rate, timestep=self.timestep,
+                           n_periods=n_periods, seed=self.seed, part=self.part)  # fmt: skip
+
+    def gyro(self, k: int, rate: float) -> float:
+        """Gyroscope reading at period ``k`` for a true rate [rad/s] about its axis: ``rate + (b_k + n_k)``."""
         return rate + self._gyro_error[self._period(k)]
 
     def accel(self, k: int, specific_force: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -410,6 +429,7 @@ class SensorModel:
             "timestep_s": self.timestep,
             "n_periods": self.n_periods,
             "seed": self.seed,
+            "part": self.part,
             "steps_per_control": self.steps_per_control,
             "fix_every_periods": self.fix_every,
             "fix_latency_periods": self.fix_latency_periods,

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import mujoco
@@ -156,10 +156,11 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         set_pose(m, d, self.start, **({"settle": 0.0} if balancing else {}))  # a balancing robot starts upright
         recorder = Recorder(self.simulator, m, d, self.schedule, float(self.trajectory.t[0]))
         # its firmware, if it balances, told the action period (the commands' ramp)
-        recorder.balance = self.simulator.balance_for_run(m, d, None, self.sensing, self.schedule.dt_ctrl)
+        sensing = replace(self.sensing, seed=self.sensing.seed + self.episodes)  # this episode's noise
+        recorder.balance = self.simulator.balance_for_run(m, d, None, sensing, self.schedule.dt_ctrl)
         sensors = SensorModel(
-            self.sensing.profile, control_rate=self.control_rate, timestep=float(m.opt.timestep),
-            n_periods=self.schedule.n_ctrl + 1, seed=self.sensing.seed + self.episodes,
+            sensing.profile, control_rate=self.control_rate, timestep=float(m.opt.timestep),
+            n_periods=self.schedule.n_ctrl + 1, seed=sensing.seed,
         )  # fmt: skip
         self.episodes += 1
         self.episode = Episode(recorder, PeriodPhysics(self.simulator, recorder), sensors, SensorReader(m, sensors))
