@@ -396,7 +396,7 @@ def test_a_runs_sensing_is_the_plain_python_period_bit_for_bit() -> None:
         mujoco.mj_step(m, d, 10)
     a = looped.to_log()
     assert a is not None
-    b = {"truth": called.truth[:n], "estimate": called.estimate[:n], "variance": called.variance[:n],
+    b: dict[str, Any] = {"truth": called.truth[:n], "estimate": called.estimate[:n], "variance": called.variance[:n],
          "nees": called.nees}  # fmt: skip
     for name in ("truth", "estimate", "variance", "nees"):
         assert np.array_equal(getattr(a, name), b[name]), name
