@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import mujoco
 import numpy as np
@@ -192,3 +193,27 @@ def test_acceleration_limit_comes_from_the_lean() -> None:
     # fed forward, the robot keeps to its reference while it accelerates (it lagged 3.4 cm without)
     reference = 0.5 * accel * run.times[steady] ** 2
     assert np.max(np.abs(run.position[steady, 0] - reference)) < 0.005
+
+
+def test_the_firmware_reads_through_the_one_sensor_model(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The firmware's readings are the sensor model's (part 1 of the run's seed, no fixes), the
+    encoder angles its quantised counts, also past the noise drawn at first (drawn longer, same start)."""
+    from sim.physics.sensors import SensorModel, encoder_count, load_sensor_profile
+    from sim.robot import balance_firmware
+
+    monkeypatch.setattr(balance_firmware, "NOISE_PERIODS", 7)
+    profile = load_sensor_profile(NAME)
+    sensors = balance_firmware.FirmwareSensors(profile, 200.0, 0.001, seed=4)
+    whole = SensorModel(replace(profile, fix_rate=0.0), control_rate=200.0, timestep=0.001, n_periods=40, seed=4,
+                        part=1)  # fmt: skip
+    c = profile.encoder_cpr / (2.0 * math.pi)
+    rng = np.random.default_rng(1)
+    for k in range(40):
+        rate, accel, angles = float(rng.normal()), rng.normal(size=3), rng.normal(size=2) * 10.0
+        gyro, acc, (left, right) = sensors.read(rate, accel, angles)
+        assert gyro == rate + whole.gyro_error[k], k
+        assert np.array_equal(acc, accel + (whole.accel_bias + whole.accel_white[k])), k
+        assert (left * c, right * c) == pytest.approx(
+            [encoder_count(a, c, p) for a, p in zip(angles, whole.encoder_phase, strict=True)], abs=1e-6
+        )
+    assert sensors.noise.n_periods == 56  # 7 doubled three times

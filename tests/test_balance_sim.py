@@ -101,3 +101,21 @@ def test_sweep_judges_a_balancing_run_by_its_own_targets() -> None:
     assert not met_targets(replace(up, max_pitch_rad=0.36))  # beyond 20 deg
     assert not met_targets(replace(up, rms_position_error_m=0.031))
     assert not met_targets(replace(up, fell=True, fall_time_s=3.0))
+
+
+def test_the_firmware_reads_with_the_runs_sensor_profile_and_seed() -> None:
+    """A run's sensor overrides (``--sensors``) and seed reach the balance firmware's IMU and
+    encoders, not only the base's sensors."""
+    from dataclasses import replace
+
+    import mujoco
+
+    from sim.robot.sensing import SensingSetup
+
+    sim = Simulator(load_robot(NAME))
+    setup = SensingSetup.for_robot(NAME, seed=3, text="gyro_noise_density=0,accel_bias_std=0.1")
+    firmware = sim.balance_for_run(sim.model, mujoco.MjData(sim.model), None, setup, 0.02)
+    assert firmware is not None
+    noise = firmware.sensors.noise
+    assert noise.profile == replace(setup.profile, fix_rate=0.0) and (noise.seed, noise.part) == (3, 1)
+    assert np.all(noise.gyro_white == 0.0) and not np.all(noise.accel_bias == 0.0)

@@ -11,6 +11,7 @@ import json
 import math
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -172,7 +173,7 @@ def test_white_noise_std_is_density_times_sqrt_half_the_rate() -> None:
     assert np.std(m.accel_white, axis=0) == pytest.approx([expected_a] * 3, rel=4 / math.sqrt(2 * n))
     assert abs(np.mean(m.gyro_white)) < 4 * expected_g / math.sqrt(n)
     assert np.all(m.gyro_bias == 0.0)
-    readings = np.array([m.gyro_z(k, 0.25) for k in range(1000)])
+    readings = np.array([m.gyro(k, 0.25) for k in range(1000)])
     assert np.array_equal(readings, 0.25 + (m.gyro_bias[:1000] + m.gyro_white[:1000]))
 
 
@@ -264,7 +265,7 @@ def test_no_pose_source_gives_no_fixes() -> None:
 
 def test_periods_outside_the_run_are_refused() -> None:
     m = _model(n=10)
-    for call in (lambda: m.gyro_z(10, 0.0), lambda: m.gyro_z(-1, 0.0), lambda: m.accel(10, np.zeros(3))):
+    for call in (lambda: m.gyro(10, 0.0), lambda: m.gyro(-1, 0.0), lambda: m.accel(10, np.zeros(3))):
         with pytest.raises(IndexError, match=r"outside the run's 0 \.\. 9"):
             call()
 
@@ -290,6 +291,33 @@ def test_a_longer_run_begins_with_a_shorter_runs_noise() -> None:
         assert np.array_equal(getattr(long, name)[: len(s)], s), name
 
 
+def test_longer_keeps_the_noise_and_its_settings() -> None:
+    short = _model(n=100, seed=4)
+    long = short.longer(1000)
+    assert (long.n_periods, long.seed, long.part, long.control_rate) == (1000, 4, 0, short.control_rate)
+    for name in ARRAYS:
+        assert np.array_equal(getattr(long, name)[: len(getattr(short, name))], getattr(short, name)), name
+
+
+def test_a_second_part_draws_its_own_streams_of_the_same_seed() -> None:
+    """Part 0 draws stream i from child i of the seed's sequence (as before parts existed), part 1
+    from child len(STREAMS) + i: the firmware's IMU noise is independent of the base's."""
+    from sim.physics.sensors import STREAMS
+
+    profile = replace(TB3, gyro_bias_std=1e-3)
+    base = SensorModel(profile, control_rate=50.0, timestep=0.002, n_periods=300, seed=9)
+    other = SensorModel(profile, control_rate=50.0, timestep=0.002, n_periods=300, seed=9, part=1)
+    children = np.random.SeedSequence(9).spawn(2 * len(STREAMS))
+    white = STREAMS.index("gyro_white")
+    for model, child in ((base, children[white]), (other, children[len(STREAMS) + white])):
+        expected = np.random.default_rng(child).standard_normal(300) * model.gyro_white_std
+        assert np.array_equal(model.gyro_white, expected)
+    for name in ARRAYS:
+        assert not np.any(getattr(base, name) == getattr(other, name)), name
+    with pytest.raises(ConfigError, match="sensor part"):
+        SensorModel(profile, control_rate=50.0, timestep=0.002, n_periods=3, seed=9, part=-1)
+
+
 def test_drawn_arrays_are_read_only_and_the_record_is_json() -> None:
     m = _model()
     with pytest.raises(ValueError):
@@ -299,10 +327,49 @@ def test_drawn_arrays_are_read_only_and_the_record_is_json() -> None:
     assert (record["seed"], record["fix_every_periods"], record["n_periods"]) == (7, 10, 100)
 
 
-def test_the_loops_observer_is_observe_bit_for_bit() -> None:
-    """A run's sensing through :meth:`Sensing.observer` (the loop's compiled periods) and through
-    :meth:`Sensing.observe` (every period in Python) sees the same estimates and logs the same, and
-    observe refuses a period read from another MjData."""
+class _PlainSensing:
+    """The sensing period in plain Python: :class:`SensorModel`'s Python readings (encoder counts, the
+    gyro over the period's heading change) into :class:`control.estimation.PoseEstimator`'s Python
+    calls, fixes taken, delivered and fused as :mod:`sim.robot.sensing` documents; the compiled
+    route is checked against it."""
+
+    def __init__(self, m: Any, robot: Any, setup: Any, n: int, rate: float) -> None:
+        from control.estimation import PoseEstimator
+
+        self.sensors = SensorModel(setup.profile, control_rate=rate, timestep=float(m.opt.timestep),
+                                   n_periods=n + 1, seed=setup.seed)  # fmt: skip
+        self.est = PoseEstimator.for_robot(robot, setup.estimator_config(robot))
+        self.adr = [int(m.sensor_adr[m.sensor(s).id]) for s in ("wheel_left_pos", "wheel_right_pos")]
+        self.q, self.dt = 2.0 * math.pi / setup.profile.encoder_cpr, 1.0 / rate
+        self.truth, self.estimate, self.variance = (np.full((n + 1, 3), np.nan) for _ in range(3))
+        self.fixes: dict[int, tuple[float, float, float]] = {}
+        self.nees: list[float] = []
+        self.counts, self.yaw = (0, 0), 0.0
+
+    def __call__(self, k: int, sdata: NDArray[np.float64], truth: tuple[float, float, float]) -> tuple[float, ...]:
+        sensors, est = self.sensors, self.est
+        self.truth[k] = truth
+        counts = sensors.encoder_counts(float(sdata[self.adr[0]]), float(sdata[self.adr[1]]))
+        if k == 0:
+            est.reset(0.0, truth)
+        else:
+            rate = math.remainder(truth[2] - self.yaw, 2.0 * math.pi) / self.dt
+            dl, dr = ((c - p) * self.q for c, p in zip(counts, self.counts, strict=True))
+            est.predict(k * self.dt, dl, dr, sensors.gyro(k, rate))
+        self.counts, self.yaw = counts, truth[2]
+        if sensors.is_fix_period(k):
+            self.fixes[k] = sensors.fix(k, truth)
+        j = sensors.fix_arriving(k)
+        if j is not None:
+            est.correct(j * self.dt, self.fixes[j])
+            self.nees.append(est.nees(truth))
+        return est.record(self.estimate, self.variance, k)
+
+
+def test_a_runs_sensing_is_the_plain_python_period_bit_for_bit() -> None:
+    """A run's sensing (:meth:`Sensing.observe`: compiled reading and prediction) sees the same
+    estimates as the plain-Python period (:class:`_PlainSensing`) and logs the same, and refuses a
+    second MjData and periods outside the run."""
     import mujoco
 
     from planning.core.geometry import Pose2D
@@ -318,22 +385,25 @@ def test_the_loops_observer_is_observe_bit_for_bit() -> None:
     d = mujoco.MjData(m)
     set_pose(m, d, Pose2D(0.0, 0.0, 0.3))
     n = 60
-    kw = {"n_periods": n, "control_rate": 50.0, "t0": 0.0}
     setup = SensingSetup.for_robot(robot.name, seed=3)
-    looped, called = (Sensing(m, robot, PoseSource.FUSED, setup, **kw) for _ in range(2))
+    looped = Sensing(m, robot, PoseSource.FUSED, setup, n_periods=n, control_rate=50.0, t0=0.0)
+    called = _PlainSensing(m, robot, setup, n, 50.0)
     observe = looped.observer(d)
     d.ctrl[:] = [4.0, 6.0]  # volts: a left turn
     for k in range(n):
         truth = sim.read_pose(d)
-        assert observe(k, truth) == called.observe(k, d, truth), k
+        assert observe(k, truth) == called(k, d.sensordata, truth), k
         mujoco.mj_step(m, d, 10)
-    a, b = looped.to_log(), called.to_log()
-    assert a is not None and b is not None
+    a = looped.to_log()
+    assert a is not None
+    b: dict[str, Any] = {"truth": called.truth[:n], "estimate": called.estimate[:n], "variance": called.variance[:n],
+         "nees": called.nees}  # fmt: skip
     for name in ("truth", "estimate", "variance", "nees"):
-        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+        assert np.array_equal(getattr(a, name), b[name]), name
+    assert np.array_equal(a.fix, [called.fixes[k] for k in sorted(called.fixes)])
     assert len(a.fix_t) >= 5  # fixes were taken and fused on the way
     with pytest.raises(ValueError, match="MjData"):
-        called.observe(n, mujoco.MjData(m), truth)
+        looped.observer(mujoco.MjData(m))
     for k in (n + 1, n + 50, -3):  # past the run's periods (its logs have n + 1 rows), or before it
         with pytest.raises(IndexError, match="outside the run"):
             observe(k, truth)

@@ -36,7 +36,10 @@ A :class:`SensorModel` turns true values into readings, one control period ``k``
   period's estimate.
 
 Each noise has its own stream spawned from ``np.random.SeedSequence(seed)``, so a longer run's
-noise begins with a shorter run's.
+noise begins with a shorter run's. A robot with a second set of sensors read at another rate (the
+balancing EduMIP's firmware reads its IMU and encoders at 200 Hz) draws that set's noise as
+``part`` 1: stream ``i`` of part ``p`` is child ``p * len(STREAMS) + i`` of the same seed sequence,
+so the parts are independent and part 0 is what it always was.
 """
 
 from __future__ import annotations
@@ -46,15 +49,21 @@ import tomllib
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from control.estimation.kernels import wrap
 from planning.core.robot import MODELS_DIR
 from planning.errors import ConfigError
 from sim.physics.keyvalue import check_number, parse_number, parse_pairs
+
+if TYPE_CHECKING:
+    import mujoco
+
+FloatArray = NDArray[np.float64]
 
 SENSORS_DIR = MODELS_DIR / "sensors"
 #: Robots that share another robot's sensors: the balancing EduMIP carries the EduMIP's.
@@ -275,6 +284,8 @@ class SensorModel:
         timestep: Physics time step [s]; the control period must be a whole number of steps.
         n_periods: Control periods in the run (``k = 0 .. n_periods - 1``).
         seed: Seed of the noise (an integer >= 0).
+        part: Which of the robot's sensor sets (0: the base's, read at the control rate; 1: a
+            balancing robot's firmware IMU and encoders); each part's noise is independent.
 
     Attributes:
         steps_per_control: Physics steps per control period.
@@ -294,13 +305,21 @@ class SensorModel:
     """
 
     def __init__(
-        self, profile: SensorProfile, *, control_rate: float, timestep: float, n_periods: int, seed: int
+        self,
+        profile: SensorProfile,
+        *,
+        control_rate: float,
+        timestep: float,
+        n_periods: int,
+        seed: int,
+        part: int = 0,
     ) -> None:
         self.profile = profile
         self.control_rate = _positive(control_rate, "control rate [Hz]")
         self.timestep = _positive(timestep, "physics timestep [s]")
         self.n_periods = _count(n_periods, "number of control periods", 1, "a run has at least one")
         self.seed = _count(seed, "sensor noise seed", 0, "pass a whole number such as seed=0")
+        self.part = _count(part, "sensor part", 0, "0 for the base's sensors, 1 for a balancing robot's firmware")
         steps = _whole(1.0 / (self.control_rate * self.timestep))
         if not steps:
             raise ConfigError(
@@ -337,7 +356,8 @@ class SensorModel:
 
     def _draw(self) -> None:
         p, n = self.profile, self.n_periods
-        children = np.random.SeedSequence(self.seed).spawn(len(STREAMS))
+        n_streams = len(STREAMS)
+        children = np.random.SeedSequence(self.seed).spawn(n_streams * (self.part + 1))[n_streams * self.part :]
         rng = {name: np.random.default_rng(child) for name, child in zip(STREAMS, children, strict=True)}
         self.encoder_phase = _readonly(rng["encoder_phase"].random(2))
         walk = rng["gyro_walk"].standard_normal(n) * (p.gyro_bias_walk * math.sqrt(1.0 / self.control_rate))
@@ -366,8 +386,13 @@ class SensorModel:
         c, ph = self._counts_per_turn, self.encoder_phase
         return encoder_count(left, c, float(ph[0])), encoder_count(right, c, float(ph[1]))
 
-    def gyro_z(self, k: int, rate: float) -> float:
-        """Gyroscope reading at period ``k`` for a true yaw rate [rad/s]: ``rate + (b_k + n_k)``."""
+    def longer(self, n_periods: int) -> SensorModel:
+        """The same sensors over a run of ``n_periods`` periods (its noise begins with this one's)."""
+        return SensorModel(self.profile, control_rate=self.control_rate, timestep=self.timestep,
+                           n_periods=n_periods, seed=self.seed, part=self.part)  # fmt: skip
+
+    def gyro(self, k: int, rate: float) -> float:
+        """Gyroscope reading at period ``k`` for a true rate [rad/s] about its axis: ``rate + (b_k + n_k)``."""
         return rate + self._gyro_error[self._period(k)]
 
     def accel(self, k: int, specific_force: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -404,6 +429,7 @@ class SensorModel:
             "timestep_s": self.timestep,
             "n_periods": self.n_periods,
             "seed": self.seed,
+            "part": self.part,
             "steps_per_control": self.steps_per_control,
             "fix_every_periods": self.fix_every,
             "fix_latency_periods": self.fix_latency_periods,
@@ -412,3 +438,86 @@ class SensorModel:
             "accel_white_std": self.accel_white_std,
             "encoder_phase": self.encoder_phase.tolist(),
         }
+
+
+#: The record of a run's encoder and gyroscope reading (:func:`read_period`): the last counts and
+#: true heading [rad], then constants: the period [s], counts per radian, the encoders' phases
+#: [counts] and their addresses in ``MjData.sensordata``.
+READER_STATE = np.dtype(
+    [("counts", np.int64, (2,)), ("yaw", np.float64), ("dt", np.float64), ("per_rad", np.float64),
+     ("phase", np.float64, (2,)), ("encoder", np.int64, (2,))]
+)  # fmt: skip
+
+
+@nb.njit(cache=True)
+def read_period(
+    k: int, yaw: float, sdata: FloatArray, state: NDArray[np.void], gyro_error: FloatArray
+) -> tuple[int, int, float]:  # pragma: no cover - compiled
+    """The wheel encoders and the gyroscope at control period ``k``: each encoder's count
+    (:func:`encoder_count` of its angle in ``sdata``) and the gyro's reading, the mean true yaw rate
+    over the period (the change of the true heading ``yaw`` [rad] since the last reading, wrapped,
+    over the period) plus its error ``gyro_error[k]`` [rad/s]. ``state`` is a (1,) array of
+    :data:`READER_STATE`; the counts and the heading are kept in it for the next period.
+
+    Returns:
+        (left count, right count, gyro reading [rad/s]).
+    """
+    s = state[0]
+    enc, phase, counts = s.encoder, s.phase, s.counts
+    left = encoder_count(sdata[enc[0]], s.per_rad, phase[0])
+    right = encoder_count(sdata[enc[1]], s.per_rad, phase[1])
+    rate = wrap(yaw - s.yaw) / s.dt
+    counts[0], counts[1], s.yaw = left, right, yaw
+    return left, right, rate + gyro_error[k]
+
+
+class SensorReader:
+    """A run's wheel encoders and yaw gyroscope, read from its ``MjData`` once per control period
+    with the noise of its :class:`SensorModel` (the gyro reads the mean yaw rate over the period, as
+    an IMU's delta-angle output does). The simulator's sensing and the control-suite environment
+    read through it.
+
+    Args:
+        model: The run's compiled model (named sensors ``wheel_left_pos`` and ``wheel_right_pos``).
+        sensors: The run's noise draws (its control rate is the period's).
+    """
+
+    def __init__(self, model: mujoco.MjModel, sensors: SensorModel) -> None:
+        self.sensors = sensors
+        self._state = np.zeros(1, READER_STATE)
+        s = self._state[0]
+        s["dt"] = 1.0 / sensors.control_rate
+        s["per_rad"] = sensors.profile.encoder_cpr / (2.0 * math.pi)
+        s["phase"] = sensors.encoder_phase
+        adr = model.sensor_adr
+        s["encoder"] = [int(adr[model.sensor(name).id]) for name in ("wheel_left_pos", "wheel_right_pos")]
+        self._gyro_error = np.array(sensors.gyro_error)  # writable: one compiled signature for every run
+        self._sdata: FloatArray | None = None
+        self.counts: NDArray[np.int64] = self._state["counts"][0]  # a view: the last counts (left, right)
+
+    def start(self, data: mujoco.MjData, yaw: float) -> tuple[int, int, float]:
+        """Bind the run's data and read period 0 at the true heading ``yaw`` [rad] (the gyro reads
+        its error alone: no heading change before the run).
+
+        Raises:
+            ValueError: The reader was started on another ``MjData`` (a run reads one).
+        """
+        if self._sdata is not None and data.sensordata is not self._sdata:
+            raise ValueError("a run's periods must all read the MjData of its period 0; make a reader per run")
+        self._sdata = data.sensordata
+        self._state[0]["yaw"] = yaw
+        return self.read(0, yaw)
+
+    def read(self, k: int, yaw: float) -> tuple[int, int, float]:
+        """(left count, right count, gyro reading [rad/s]) at control period ``k`` (:func:`read_period`),
+        the true heading then being ``yaw`` [rad].
+
+        Raises:
+            IndexError: ``k`` is outside the run's periods.
+            ValueError: The reader was not started.
+        """
+        if not 0 <= k < self.sensors.n_periods:
+            raise IndexError(f"control period {k} is outside the run's 0 .. {self.sensors.n_periods - 1}")
+        if self._sdata is None:
+            raise ValueError("start the reader on the run's MjData before reading (SensorReader.start)")
+        return read_period(k, yaw, self._sdata, self._state, self._gyro_error)

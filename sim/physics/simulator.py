@@ -138,14 +138,20 @@ class Simulator:
         self._is_robot[self.built.robot_geoms] = True
 
     def balance_firmware(
-        self, model: mujoco.MjModel, data: mujoco.MjData, seed: int = 0, command_period: float | None = None
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        seed: int = 0,
+        command_period: float | None = None,
+        sensing: SensingSetup | None = None,
     ) -> BalanceFirmware:
         """The balance firmware of a run of this (balancing) robot on ``model`` and ``data``, with
         sensor-noise seed ``seed``, its wheel-speed commands changing every ``command_period`` [s]
-        (the tracker's period; every firmware update if None)."""
+        (the tracker's period; every firmware update if None), its sensors those of ``sensing``'s
+        profile (the robot's own if None)."""
         if self.balance is None:
             raise ConfigError(f"robot {self.robot.name!r} does not balance: it has no balance firmware")
-        sensors = SensingSetup.for_robot(self.robot.name).profile
+        sensors = (sensing or SensingSetup.for_robot(self.robot.name)).profile
         tip = load_balance_profile(self.robot.name).tip_angle
         return BalanceFirmware(model, data, self.balance, sensors, tip, seed, command_period)
 
@@ -172,7 +178,7 @@ class Simulator:
                     f"robot's body (e.g. --robot edumip-balancing)"
                 )
             return None
-        firmware = self.balance_firmware(m, d, sensing.seed if sensing is not None else 0, command_period)
+        firmware = self.balance_firmware(m, d, sensing.seed if sensing is not None else 0, command_period, sensing)
         firmware.push = Push(*push) if push is not None else None
         return firmware
 

@@ -2,9 +2,9 @@
 
 :class:`BalanceFirmware` is a balancing robot's firmware in the simulator: every period (5 physics
 steps of 1 ms at 200 Hz) it reads the IMU at its site (``imu_gyro``, ``imu_accel``) and the wheel
-encoders from the physics, with the robot's sensor profile's noise (:mod:`sim.physics.sensors`
-numbers: gyroscope white noise and bias with its random walk, accelerometer white noise and bias,
-encoder counts), runs :class:`control.balance.BalanceController` and writes the motor voltages.
+encoders from the physics (:class:`FirmwareSensors`: the robot's sensor profile's noise drawn by
+:class:`sim.physics.sensors.SensorModel`, gyroscope white noise and bias with its random walk,
+accelerometer white noise and bias, quantised encoder counts), runs :class:`control.balance.BalanceController` and writes the motor voltages.
 It watches for a fall: the true tilt of the body beyond the profile's ``tip_angle`` or the chassis
 touching the floor; from then on it drives nothing and the run is to end.
 
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
@@ -31,7 +31,7 @@ from sim.physics.asbuilt import AsBuilt
 from sim.physics.model import body_pitch, build_model, set_pose
 from sim.physics.motors import whole_steps
 from sim.physics.runlog import BalanceLog
-from sim.physics.sensors import SensorProfile, encoder_count, load_sensor_profile
+from sim.physics.sensors import SensorModel, SensorProfile, load_sensor_profile
 from sim.robot.balance_design import balance_gains
 
 FloatArray = NDArray[np.float64]
@@ -52,39 +52,44 @@ class Push:
     time: float
 
 
-class ImuNoise:
-    """The noise of a run's IMU pitch-rate and accelerometer readings and encoder phases, drawn per
-    firmware period from a sensor profile (the same numbers as :class:`sim.physics.sensors.SensorModel`).
+#: Firmware periods of noise drawn at first (a minute at 200 Hz); a longer run draws twice as many,
+#: beginning with the same noise.
+NOISE_PERIODS = 12_000
+
+
+class FirmwareSensors:
+    """A balancing robot's firmware readings, one firmware period at a time: the IMU's pitch rate and
+    specific force and the wheel encoders, with the noise of the robot's sensor profile drawn as
+    part 1 of the run's seed (:class:`sim.physics.sensors.SensorModel`: independent of the base's
+    yaw gyro and encoders, part 0) and the encoders quantised by
+    :func:`sim.physics.sensors.encoder_count`.
 
     Args:
-        profile: The sensor profile.
+        profile: The sensor profile (its pose fixes are not the firmware's and are left out).
         rate: Readings per second [Hz].
-        seed: Seed of the draws.
+        timestep: Physics time step [s] (a firmware period is a whole number of them).
+        seed: Seed of the run's sensor noise.
     """
 
-    def __init__(self, profile: SensorProfile, rate: float, seed: int) -> None:
-        rng = np.random.default_rng(np.random.SeedSequence([seed, 15]))
-        self.rate = rate
-        self.gyro_white_std = profile.gyro_noise_density * math.sqrt(rate / 2.0)
-        self.accel_white_std = profile.accel_noise_density * math.sqrt(rate / 2.0)
-        self.gyro_bias = float(rng.standard_normal()) * profile.gyro_bias_std
-        self.accel_bias = rng.standard_normal(3) * profile.accel_bias_std
-        self.encoder_phase = rng.random(2)
+    def __init__(self, profile: SensorProfile, rate: float, timestep: float, seed: int) -> None:
+        quiet = replace(profile, fix_rate=0.0)
+        self.noise = SensorModel(quiet, control_rate=rate, timestep=timestep, n_periods=NOISE_PERIODS, seed=seed,
+                                 part=1)  # fmt: skip
         self.counts_per_rad = profile.encoder_cpr / (2.0 * math.pi)
-        self._walk_std = profile.gyro_bias_walk * math.sqrt(1.0 / rate)
-        self._rng = rng
+        self.k = 0  # readings taken
 
     def read(
         self, gyro_y: float, accel: FloatArray, angles: FloatArray
     ) -> tuple[float, FloatArray, tuple[float, float]]:
-        """Noisy readings of the true pitch rate [rad/s], specific force (3,) [m/s^2] and wheel angles (2,) [rad]."""
-        rng = self._rng
-        self.gyro_bias += self._walk_std * float(rng.standard_normal())
-        g = gyro_y + self.gyro_bias + self.gyro_white_std * float(rng.standard_normal())
-        a = accel + self.accel_bias + self.accel_white_std * rng.standard_normal(3)
-        c, ph = self.counts_per_rad, self.encoder_phase
-        left, right = encoder_count(float(angles[0]), c, float(ph[0])), encoder_count(float(angles[1]), c, float(ph[1]))
-        return g, a, (left / c, right / c)
+        """The next period's readings of the true pitch rate [rad/s], specific force (3,) [m/s^2] and
+        wheel angles (2,) [rad]: (gyro [rad/s], accelerometer (3,) [m/s^2], quantised angles [rad])."""
+        k, noise = self.k, self.noise
+        if k >= noise.n_periods:
+            noise = self.noise = noise.longer(2 * noise.n_periods)
+        self.k = k + 1
+        left, right = noise.encoder_counts(float(angles[0]), float(angles[1]))
+        c = self.counts_per_rad
+        return noise.gyro(k, gyro_y), noise.accel(k, accel), (left / c, right / c)
 
 
 class BalanceFirmware:
@@ -118,7 +123,7 @@ class BalanceFirmware:
                 f"balance rate {gains.rate:g} Hz is not a whole number of {model.opt.timestep * 1e3:g} ms physics steps"
             )
         self.controller = BalanceController(gains, command_period)
-        self.noise = ImuNoise(profile, gains.rate, seed)
+        self.sensors = FirmwareSensors(profile, gains.rate, float(model.opt.timestep), seed)
         adr = model.sensor_adr
         self._gyro = int(adr[model.sensor("imu_gyro").id]) + 1
         self._accel = int(adr[model.sensor("imu_accel").id])
@@ -166,7 +171,7 @@ class BalanceFirmware:
             ctrl[wiring[1]] = 0.0
             return
         s = d.sensordata
-        gyro, accel, angles = self.noise.read(
+        gyro, accel, angles = self.sensors.read(
             float(s[self._gyro]), s[self._accel : self._accel + 3].copy(), d.qpos[self._wheels]
         )
         c = self.controller

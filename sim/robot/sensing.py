@@ -35,59 +35,108 @@ from control.estimation import EstimatorConfig, EstimatorDivergedError, PoseEsti
 from planning.core.robot import RobotSpec
 from sim.physics.asbuilt import TOLERANCES
 from sim.physics.runlog import EstimationLog
-from sim.physics.sensors import SensorModel, SensorProfile, encoder_count, load_sensor_profile
+from sim.physics.sensors import SensorModel, SensorProfile, SensorReader, load_sensor_profile
 from sim.robot.scan_localiser import LocaliserLost, LocaliserSetup, ScanLocaliser, localiser_schedule
 from sim.robot.sources import PoseSource
 
 FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 TWO_PI = 2.0 * math.pi
 
-#: Slots of a run's reading state (:func:`_read_and_predict`): the last encoder counts and true
-#: heading, then constants: time of period 0 [s], the period [s], counts per radian, the encoders'
-#: phases [counts], radians per count, and the encoders' addresses in ``MjData.sensordata``; the
-#: gyro's error at each period follows, from slot :data:`GYRO_ERROR`.
-COUNTS_L, COUNTS_R, YAW, T0, DT, PER_RAD, PHASE_L, PHASE_R, RAD_PER_COUNT, ENC_L, ENC_R, GYRO_ERROR = range(12)
-#: :func:`_read_and_predict`'s status for a period after the run's last (else the estimator's step status).
+#: The record of an estimator loop's period (:func:`predict_period`): the last encoder counts, the
+#: time of period 0 [s], the period [s] and radians per count.
+LOOP_STATE = np.dtype(
+    [("counts", np.int64, (2,)), ("t0", np.float64), ("dt", np.float64), ("rad_per_count", np.float64)]
+)
+#: :func:`predict_period`'s status for a period outside 1 .. the run's last (else the estimator's step status).
 PAST_THE_RUN = -1
 
 
 @nb.njit(cache=True)
-def _read_and_predict(
-    k: int,
-    x: float,
-    y: float,
-    th: float,
-    mem: FloatArray,
-    sdata: FloatArray,
-    io: FloatArray,
-    trace: FloatArray,
+def predict_period(
+    k: int, left: int, right: int, gyro: float, mem: FloatArray, state: NDArray[np.void], trace: FloatArray
 ) -> tuple[int, float, float, float]:  # pragma: no cover - compiled
-    """Period k >= 1 of :meth:`Sensing.observe` in one compiled call: log the true pose (x, y, th)
-    [m, m, rad], read the encoders (quantised) and the gyro (the mean true yaw rate over the period
-    plus its error ``io[GYRO_ERROR + k]``), predict the estimator's block ``mem`` with them
-    (:func:`control.estimation.kernels.step`) and log its pose and variances. ``trace`` holds a
-    run's true poses, estimates and variances by period, three columns each.
+    """Period k >= 1 of an :class:`EstimatorLoop` in one compiled call: predict the estimator's
+    block ``mem`` (:func:`control.estimation.kernels.step`) with the wheels' turns since the last
+    period (the counts ``left``, ``right`` against those kept in ``state``, a (1,) array of
+    :data:`LOOP_STATE`) and the gyro's reading [rad/s], and log its pose and variances into row k
+    of ``trace`` (K, 6).
 
     Returns:
-        (status of the step, or PAST_THE_RUN for a period outside 1 .. the run's last; the estimated
-        pose); on a failure the pose is NaN and the estimate is not logged.
+        (status of the step, or PAST_THE_RUN for a period outside 1 .. K - 1; the estimated pose);
+        on a failure the pose is NaN and the estimate is not logged.
     """
-    if not 0 < k < io.shape[0] - GYRO_ERROR:  # (the trace has as many rows)
+    if not 0 < k < trace.shape[0]:
         return PAST_THE_RUN, math.nan, math.nan, math.nan
-    row = trace[k]
-    row[0], row[1], row[2] = x, y, th
-    cl = encoder_count(sdata[int(io[ENC_L])], io[PER_RAD], io[PHASE_L])
-    cr = encoder_count(sdata[int(io[ENC_R])], io[PER_RAD], io[PHASE_R])
-    rate = kernels.wrap(th - io[YAW]) / io[DT]
-    q = io[RAD_PER_COUNT]
-    t = io[T0] + k * io[DT]
-    status = kernels.step(mem, t, (cl - io[COUNTS_L]) * q, (cr - io[COUNTS_R]) * q, rate + io[GYRO_ERROR + k])
-    io[COUNTS_L], io[COUNTS_R], io[YAW] = cl, cr, th
+    s = state[0]
+    counts, q = s.counts, s.rad_per_count
+    status = kernels.step(mem, s.t0 + k * s.dt, (left - counts[0]) * q, (right - counts[1]) * q, gyro)
+    counts[0], counts[1] = left, right
     if status != kernels.OK:
         return status, math.nan, math.nan, math.nan
     head = int(mem[kernels.NU_ROW, kernels.HEAD])
-    return (status, *kernels.head_pose(mem, head, trace[:, 3:6], trace[:, 6:9], k))
+    return (status, *kernels.head_pose(mem, head, trace[:, :3], trace[:, 3:], k))
+
+
+class EstimatorLoop:
+    """The robot's pose estimator run on its sensors' readings, once per control period: the EKF
+    (:class:`control.estimation.PoseEstimator`, knowing only the robot as drawn) predicted with the
+    encoder counts and the gyro's reading, corrected with the fixes that arrive, its pose and
+    variances logged by period. The simulator's sensing and the control suite's reference policy
+    run it.
+
+    Args:
+        robot: The robot as drawn (the estimator's geometry).
+        config: The estimator's noise model.
+        n_periods: Control periods of the run (the estimate is logged at periods 0 .. n_periods).
+        dt: The control period [s].
+        rad_per_count: Wheel radians per encoder count.
+    """
+
+    def __init__(
+        self, robot: RobotSpec, config: EstimatorConfig, *, n_periods: int, dt: float, rad_per_count: float
+    ) -> None:
+        self.estimator = PoseEstimator.for_robot(robot, config)
+        self.dt = dt
+        self._trace = np.full((n_periods + 1, 6), np.nan)  # estimate, variances by period
+        self.estimate, self.variance = self._trace[:, :3], self._trace[:, 3:]
+        self._state = np.zeros(1, LOOP_STATE)
+        self._state[0]["dt"], self._state[0]["rad_per_count"] = dt, rad_per_count
+        self.t0 = 0.0
+
+    def start(self, t0: float, pose: tuple[float, float, float], counts: tuple[int, int]) -> tuple[float, float, float]:
+        """Period 0 at time ``t0`` [s]: the estimator at a known ``pose`` (the robot placed there),
+        the encoders reading ``counts``. Returns the pose."""
+        self.t0 = t0
+        self.estimator.reset(t0, pose)
+        self._state[0]["t0"], self._state[0]["counts"] = t0, counts
+        return self.record(0)
+
+    def step(self, k: int, left: int, right: int, gyro: float) -> tuple[float, float, float]:
+        """Period ``k`` >= 1 (:func:`predict_period`) with the encoders' counts and the gyro's
+        reading [rad/s]; returns the estimated pose [m, m, rad].
+
+        Raises:
+            IndexError: ``k`` is outside the run's periods.
+            EstimatorDivergedError: The estimator diverged.
+            EstimatorInputError: A reading was not finite.
+        """
+        status, x, y, th = predict_period(k, left, right, gyro, self.estimator.block, self._state, self._trace)
+        if status != kernels.OK:
+            if status == PAST_THE_RUN:
+                raise IndexError(f"control period {k} is outside the run's 1 .. {self._trace.shape[0] - 1}")
+            self.estimator.raise_status(status, self.t0 + k * self.dt)
+        return x, y, th
+
+    def correct(
+        self, j: int, fix: tuple[float, float, float], std_xy: float | None = None, std_theta: float | None = None
+    ) -> bool:
+        """Fuse the fix measured at period ``j`` (the estimator replays the periods since); True when
+        it was applied (see :meth:`control.estimation.PoseEstimator.correct`)."""
+        return self.estimator.correct(self.t0 + j * self.dt, fix, std_xy, std_theta)
+
+    def record(self, k: int) -> tuple[float, float, float]:
+        """Log the estimate as period ``k``'s (after a correction) and return its pose."""
+        return self.estimator.record(self.estimate, self.variance, k)
 
 
 @dataclass(frozen=True)
@@ -141,6 +190,10 @@ def estimator_config(profile: SensorProfile, robot: str) -> EstimatorConfig:
 class Sensing:
     """One run's sensors and estimator, called once per control period by the simulator.
 
+    A period reads the sensors (:class:`sim.physics.sensors.SensorReader`), runs the estimator on
+    the readings (:class:`EstimatorLoop`) and, at the periods that take or deliver a pose fix, takes
+    it and fuses it.
+
     Args:
         model: The run's compiled model (named sensors ``base_pos``, ``base_quat``, and the encoders
             ``wheel_left_pos`` / ``wheel_right_pos``).
@@ -168,18 +221,19 @@ class Sensing:
             setup.profile, control_rate=control_rate, timestep=float(model.opt.timestep), n_periods=n_periods + 1,
             seed=setup.seed,
         )  # fmt: skip
+        self.reader = SensorReader(model, self.sensors)
         self.dt = 1.0 / control_rate
         self.t0 = t0
-        adr = model.sensor_adr
-        self._enc_l = int(adr[model.sensor("wheel_left_pos").id])
-        self._enc_r = int(adr[model.sensor("wheel_right_pos").id])
         self._rad_per_count = TWO_PI / setup.profile.encoder_cpr
-        self.estimator: PoseEstimator | None = None
+        self.loop: EstimatorLoop | None = None
         if self.source is not PoseSource.TRUTH:
-            self.estimator = PoseEstimator.for_robot(robot, setup.estimator_config(robot))
-        n = n_periods + 1
-        self._trace = np.full((n, 9), np.nan)  # true pose, estimate, variances by period
-        self.truth, self.estimate, self.variance = self._trace[:, :3], self._trace[:, 3:6], self._trace[:, 6:]
+            self.loop = EstimatorLoop(robot, setup.estimator_config(robot), n_periods=n_periods, dt=self.dt,
+                                      rad_per_count=self._rad_per_count)  # fmt: skip
+        self.estimator = self.loop.estimator if self.loop is not None else None
+        self.truth = np.full((n_periods + 1, 3), np.nan)  # true pose by period
+        loop = self.loop
+        self.estimate = loop.estimate if loop is not None else np.full_like(self.truth, np.nan)
+        self.variance = loop.variance if loop is not None else np.full_like(self.truth, np.nan)
         self.nees: list[tuple[int, float]] = []  # (period, NEES) at each fix delivery
         self.fixes: dict[int, tuple[float, float, float]] = {}
         self.applied: list[int] = []  # periods whose fix the estimator accepted
@@ -191,10 +245,6 @@ class Sensing:
         self._events = self._fix_taken | self._fix_delivered.keys()  # periods with a fix taken or delivered
         self.status = "ok"
         self._k = -1
-        # the compiled period's state and inputs (_read_and_predict), bound to the run's data at period 0
-        self._io = np.concatenate([np.zeros(GYRO_ERROR), self.sensors.gyro_error])
-        self._io[T0:GYRO_ERROR] = (t0, self.dt, setup.profile.encoder_cpr / TWO_PI, *self.sensors.encoder_phase,
-                                   self._rad_per_count, self._enc_l, self._enc_r)  # fmt: skip
         self._data: mujoco.MjData | None = None
         self.scans: ScanLocaliser | None = None
         if setup.localiser.kind == "amcl" and self.source is PoseSource.FUSED:
@@ -203,70 +253,55 @@ class Sensing:
                 model, robot, setup.localiser, setup.seed, t0=t0, dt=self.dt, rad_per_count=self._rad_per_count
             )
 
-    def observe(self, k: int, data: mujoco.MjData, truth: tuple[float, float, float]) -> tuple[float, float, float]:
-        """The pose the tracker sees at control period ``k`` (``truth`` is MuJoCo's pose then; ``data``
-        is the run's data, the same object at every period). A loop calls :meth:`observer` instead.
+    def observer(self, data: mujoco.MjData) -> Callable[[int, tuple[float, float, float]], tuple[float, float, float]]:
+        """:meth:`observe` of a run on ``data`` (its ``MjData``, the same object at every period).
+
+        Raises:
+            ValueError: This run's sensing already reads another ``MjData``.
+        """
+        if self._data is not None and data is not self._data:
+            raise ValueError("Sensing.observer: a run's periods must all read the MjData of its period 0")
+        self._data = data
+        return self.observe
+
+    def observe(self, k: int, truth: tuple[float, float, float]) -> tuple[float, float, float]:
+        """The pose the tracker sees at control period ``k`` (``truth`` is MuJoCo's pose then), the
+        run's data bound by :meth:`observer`.
 
         Raises:
             EstimatorDivergedError: The estimator diverged (the simulator ends the run on it).
+            IndexError: ``k`` is outside the run's periods.
         """
-        self._k = k
-        est = self.estimator
-        if est is None:
-            self.truth[k] = truth
-            return truth
+        loop, data = self.loop, self._data
+        if data is None:
+            raise ValueError("Sensing.observe: bind the run's MjData first (Sensing.observer)")
         if k == 0:
-            self.truth[k] = truth
-            s = data.sensordata
-            counts = self.sensors.encoder_counts(float(s[self._enc_l]), float(s[self._enc_r]))
-            est.reset(self.t0, truth)
-            self._io[COUNTS_L], self._io[COUNTS_R], self._io[YAW] = *counts, truth[2]
-            self._data = data
+            left, right, _ = self.reader.start(data, truth[2])
             if self.scans is not None:
-                self.scans.start(data, truth, counts)
+                self.scans.start(data, truth, (left, right))
         else:
-            sdata = data.sensordata
-            if data is not self._data:
-                raise ValueError("Sensing.observe: a run's periods must all read the MjData of its period 0")
-            status, *_ = _read_and_predict(k, *truth, est.block, sdata, self._io, self._trace)
-            if status != kernels.OK:
-                self._refuse(status, k)
+            left, right, gyro = self.reader.read(k, truth[2])
+        self._k = k
+        self.truth[k] = truth
+        if loop is None:
+            return truth
+        pose = loop.start(self.t0, truth, (left, right)) if k == 0 else loop.step(k, left, right, gyro)
+        if k in self._events:
+            self._fix_events(k, truth)
+            pose = loop.record(k)
+        return pose
+
+    def _fix_events(self, k: int, truth: tuple[float, float, float]) -> None:
+        """Take the fix measured at period ``k`` and fuse the one delivered then, if any."""
         if k in self._fix_taken:
             if self.scans is None:
                 self.fixes[k] = self.sensors.fix(k, truth)
             elif k > 0:
-                self.scans.mark(k, (int(self._io[COUNTS_L]), int(self._io[COUNTS_R])))
+                left, right = self.reader.counts.tolist()
+                self.scans.mark(k, (left, right))
         j = self._fix_delivered.get(k)
         if j is not None:
             self._deliver(j, k, truth)
-        return est.record(self.estimate, self.variance, k)
-
-    def observer(self, data: mujoco.MjData) -> Callable[[int, tuple[float, float, float]], tuple[float, float, float]]:
-        """:meth:`observe` bound to the run's data, for a loop that calls it every period:
-        ``observe(k, truth)``. A period after the first without a fix to take or deliver is one compiled
-        call (:func:`_read_and_predict`, the same arithmetic) and a few operations."""
-        observe, est, events, kernel = self.observe, self.estimator, self._events, _read_and_predict
-        if est is None:
-            return lambda k, truth: observe(k, data, truth)
-        bound, refuse = (est.block, data.sensordata, self._io, self._trace), self._refuse
-
-        def fast(k: int, truth: tuple[float, float, float]) -> tuple[float, float, float]:
-            if k == 0 or k in events:
-                return observe(k, data, truth)
-            status, x, y, th = kernel(k, truth[0], truth[1], truth[2], *bound)
-            self._k = k
-            if status != kernels.OK:
-                refuse(status, k)
-            return x, y, th
-
-        return fast
-
-    def _refuse(self, status: int, k: int) -> None:
-        """Raise the error of a failed period ``k`` (:func:`_read_and_predict`'s status)."""
-        if status == PAST_THE_RUN:
-            raise IndexError(f"control period {k} is outside the run's 0 .. {self.sensors.n_periods - 1}")
-        assert self.estimator is not None
-        self.estimator.raise_status(status, self.t0 + k * self.dt)
 
     def _deliver(self, j: int, k: int, truth: tuple[float, float, float]) -> None:
         """The fix measured at period j arrives at period k: fuse it (with ``fused``) and measure the

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import mujoco
@@ -36,7 +36,7 @@ from planning.core.geometry import Pose2D
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.model import set_pose
 from sim.physics.runlog import RunLog
-from sim.physics.sensors import SensorModel
+from sim.physics.sensors import SensorModel, SensorReader
 from sim.physics.simulator import PeriodPhysics, Recorder, Schedule, Simulator
 from sim.pipeline.case import PreparedTrajectory
 from sim.robot.sensing import SensingSetup
@@ -62,26 +62,26 @@ class Episode:
         recorder: The run's log buffers (as a simulator run keeps them).
         physics: Steps the control periods (motor firmware, ``mj_step`` chunks, log samples).
         sensors: The episode's sensor noise draws.
+        reader: Reads the encoders and the gyro each period, as the simulator's sensing does.
         k: Control periods done.
         counts: Encoder counts now (left, right).
         gyro_z: Gyro reading of the last period [rad/s] (0 before the first period).
         accel: (3,) accelerometer reading [m/s^2].
         fix: The fix delivered now (x, y, theta), or None.
         fix_age: Time from that fix's measurement to now [s].
-        yaw: True heading at the current period [rad] (the gyro reads its change over the period).
         measured: Fixes measured so far, by control period.
     """
 
     recorder: Recorder
     physics: PeriodPhysics
     sensors: SensorModel
+    reader: SensorReader
     k: int = 0
     counts: tuple[int, int] = (0, 0)
     gyro_z: float = 0.0
     accel: FloatArray | None = None
     fix: tuple[float, float, float] | None = None
     fix_age: float = 0.0
-    yaw: float = 0.0
     measured: dict[int, tuple[float, float, float]] = field(default_factory=dict)
 
 
@@ -134,7 +134,6 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         super().__init__()
         self.prepared, self.simulator, self.sensing = prepared, simulator, sensing
         self.control_rate = control_rate
-        self.dt = 1.0 / control_rate  # as the simulator's sensing divides by it
         self.k_ctrl = simulator.steps_per_control(control_rate)
         self.trajectory: Trajectory = prepared.trajectory
         self.start: Pose2D = prepared.scenario.start
@@ -146,7 +145,6 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         )
         m = simulator.model
         self._accel_adr = int(m.sensor_adr[m.sensor("imu_accel").id])
-        self._encoder_adr = tuple(int(m.sensor_adr[m.sensor(n).id]) for n in ("wheel_left_pos", "wheel_right_pos"))
         self.episodes = 0
         self.episode: Episode | None = None
 
@@ -158,13 +156,14 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         set_pose(m, d, self.start, **({"settle": 0.0} if balancing else {}))  # a balancing robot starts upright
         recorder = Recorder(self.simulator, m, d, self.schedule, float(self.trajectory.t[0]))
         # its firmware, if it balances, told the action period (the commands' ramp)
-        recorder.balance = self.simulator.balance_for_run(m, d, None, self.sensing, self.schedule.dt_ctrl)
+        sensing = replace(self.sensing, seed=self.sensing.seed + self.episodes)  # this episode's noise
+        recorder.balance = self.simulator.balance_for_run(m, d, None, sensing, self.schedule.dt_ctrl)
         sensors = SensorModel(
-            self.sensing.profile, control_rate=self.control_rate, timestep=float(m.opt.timestep),
-            n_periods=self.schedule.n_ctrl + 1, seed=self.sensing.seed + self.episodes,
+            sensing.profile, control_rate=self.control_rate, timestep=float(m.opt.timestep),
+            n_periods=self.schedule.n_ctrl + 1, seed=sensing.seed,
         )  # fmt: skip
         self.episodes += 1
-        self.episode = Episode(recorder, PeriodPhysics(self.simulator, recorder), sensors)
+        self.episode = Episode(recorder, PeriodPhysics(self.simulator, recorder), sensors, SensorReader(m, sensors))
         physics.begin(self.episode)
         self._read_sensors(d)
 
@@ -196,15 +195,12 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         return self.episode
 
     def _read_sensors(self, d: mujoco.MjData) -> None:
-        """The readings at the current period, as :class:`sim.robot.sensing.Sensing` takes them."""
+        """The readings at the current period, taken by the reader of :class:`sim.robot.sensing.Sensing`."""
         ep = self._current()
         k, truth, sensors, s = ep.k, ep.recorder.pose, ep.sensors, d.sensordata
-        enc = self._encoder_adr
-        ep.counts = sensors.encoder_counts(float(s[enc[0]]), float(s[enc[1]]))
-        rate = math.remainder(truth[2] - ep.yaw, TWO_PI) / self.dt if k else 0.0
-        ep.gyro_z = sensors.gyro_z(k, rate)
+        left, right, ep.gyro_z = ep.reader.read(k, truth[2]) if k else ep.reader.start(d, truth[2])
+        ep.counts = (left, right)
         ep.accel = sensors.accel(k, s[self._accel_adr : self._accel_adr + 3])
-        ep.yaw = truth[2]
         if sensors.is_fix_period(k):
             ep.measured[k] = sensors.fix(k, truth)
         j = sensors.fix_arriving(k)

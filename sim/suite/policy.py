@@ -21,11 +21,11 @@ from numpy.typing import NDArray
 
 from control.base import Tracker, make_tracker, tracker_options
 from control.diffdrive import DiffDrive
-from control.estimation import PoseEstimator
 from control.fbl import FBLGains
 from sim.physics.metrics import TrackingMetrics, robot_metrics
 from sim.physics.runlog import RunLog
 from sim.pipeline.runs import RunKind
+from sim.robot.sensing import EstimatorLoop
 from sim.robot.sources import PoseSource
 from sim.suite.env import TrackingTask
 
@@ -35,10 +35,16 @@ FloatArray = NDArray[np.float64]
 class ReferencePolicy:
     """The estimator and tracker of a task's closed loop, as ``policy(timestep) -> action``.
 
+    The estimator runs the simulator's own period on the observed readings
+    (:class:`sim.robot.sensing.EstimatorLoop`).
+
     Args:
         task: The environment's task (the robot as drawn, its sensor profile, the trajectory and
             the case's tracker and gains: what the robot's own software is configured with).
         source: ``fused`` (encoders, gyro and fixes) or ``odometry`` (fixes ignored).
+
+    Attributes:
+        loop: The estimator's loop; its ``estimate`` and ``variance`` (N + 1, 3) are logged by period.
     """
 
     def __init__(self, task: TrackingTask, source: PoseSource = PoseSource.FUSED) -> None:
@@ -49,34 +55,29 @@ class ReferencePolicy:
         self.tracker_name = case.tracker_for(RunKind.CLOSED_LOOP)
         options = {"gains": case.gains or FBLGains()} if "gains" in tracker_options(self.tracker_name) else {}
         self.tracker: Tracker = make_tracker(self.tracker_name, robot, **options)
-        self.estimator = PoseEstimator.for_robot(robot, task.sensing.estimator_config(robot))
+        self.loop = EstimatorLoop(
+            robot, task.sensing.estimator_config(robot), n_periods=task.schedule.n_ctrl,
+            dt=1.0 / task.control_rate, rad_per_count=2.0 * np.pi / task.sensing.profile.encoder_cpr,
+        )  # fmt: skip
         self.drive = DiffDrive.from_robot(robot)
-        self._rad_per_count = 2.0 * np.pi / task.sensing.profile.encoder_cpr
-        n = task.schedule.n_ctrl + 1
-        self.estimate, self.variance = np.full((n, 3), np.nan), np.full((n, 3), np.nan)
-        self._counts = np.zeros(2, dtype=np.int64)
-        self._k, self._t0 = 0, 0.0
-        self._dt = 1.0 / task.control_rate  # the estimator's clock, as the simulator's sensing keeps it
+        self._k = 0
 
     def __call__(self, timestep: dm_env.TimeStep) -> FloatArray:
         """The wheel-speed command [left, right] [rad/s] for the timestep's observation."""
-        obs, task, est = timestep.observation, self.task, self.estimator
+        obs, task, loop = timestep.observation, self.task, self.loop
         t = float(obs["time"][0])
-        counts = obs["encoder_counts"]
+        left, right = (int(c) for c in obs["encoder_counts"])
         if timestep.first():
-            self._k, self._t0 = 0, t
-            est.reset(t, tuple(obs["privileged_true_pose"]))
+            self._k = 0
+            loop.start(t, tuple(obs["privileged_true_pose"]), (left, right))
             self.tracker.reset(task.trajectory, task.schedule.dt_ctrl)
         else:
             self._k += 1
-            q = self._rad_per_count
-            d_left, d_right = (counts - self._counts) * q
-            est.predict(self._t0 + self._k * self._dt, float(d_left), float(d_right), float(obs["gyro_z"][0]))
-        self._counts = counts.copy()
+            loop.step(self._k, left, right, float(obs["gyro_z"][0]))
         if obs["fix_valid"][0] > 0.0 and self.source is PoseSource.FUSED:
             j = self._k - round(float(obs["fix_age"][0]) * task.control_rate)  # the period it was measured at
-            est.correct(self._t0 + j * self._dt, tuple(obs["fix"]))
-        x, y, th = est.record(self.estimate, self.variance, self._k)
+            loop.correct(j, tuple(obs["fix"]))
+        x, y, th = loop.record(self._k)
         v, w = self.tracker.command(t, x, y, th)
         return np.array(self.drive.wheel_speeds(v, w))
 
