@@ -100,13 +100,14 @@ def test_quintic_hermite_pieces_are_scipys_bernstein_form() -> None:
         np.testing.assert_allclose(curve(tq, nu), ref, rtol=1e-8, atol=1e-8 * np.abs(ref).max())
 
 
-def _slow_arc(tmp_path: Path, step: float) -> tuple[Path, np.ndarray]:
-    """A 1 m radius arc of 1 rad in 100 s (1 cm/s), rest to rest, written with 6 decimals every ``step`` s."""
-    t = np.round(np.arange(0.0, 100.0 + 1e-9, step), 6)
-    s = t / 100.0
+def _slow_arc(tmp_path: Path, step: float, duration: float = 100.0, decimals: int = 6) -> tuple[Path, np.ndarray]:
+    """A 1 m radius arc of 1 rad in ``duration`` s (100 s: 1 cm/s), rest to rest, written with ``decimals``
+    decimals every ``step`` s."""
+    t = np.round(np.arange(0.0, duration + 1e-9, step), 6)
+    s = t / duration
     a = 10 * s**3 - 15 * s**4 + 6 * s**5
-    xy = np.round(np.column_stack([0.5 + np.sin(a), 1.5 - np.cos(a)]), 6)
-    return write_csv(tmp_path / f"arc{step:g}.csv", {"t": t, "x": xy[:, 0], "y": xy[:, 1]}), t
+    xy = np.round(np.column_stack([0.5 + np.sin(a), 1.5 - np.cos(a)]), decimals)
+    return write_csv(tmp_path / f"arc{step:g}-{duration:g}-{decimals}.csv", {"t": t, "x": xy[:, 0], "y": xy[:, 1]}), t
 
 
 def test_a_dense_slow_file_is_the_same_curve_as_a_coarse_one(tmp_path: Path) -> None:
@@ -156,6 +157,21 @@ def test_a_slow_file_keeps_its_clock_dense_or_coarse(tmp_path: Path) -> None:
     np.testing.assert_allclose(dense_t.t, coarse_t.t)
     assert np.abs(dense_t.pose[:, :2] - coarse_t.pose[:, :2]).max() < 1e-4
     assert np.abs(dense_t.pose[:, 2] - coarse_t.pose[:, 2]).max() < 2e-3
+
+
+def test_a_slow_start_hovering_about_the_moving_speed_keeps_its_clock(tmp_path: Path) -> None:
+    """The same arc in 300 s, written with 5 decimals every 0.02 s: for about 25 s at each end its speed
+    hovers about MOVING_SPEED (10 um of rounding per row), crossing it again and again. Those crossings
+    are no stand-stills (the robot creeps on): its drive is one, not drives of tenths of a millimetre
+    with turns between them (6.7 rad/s^2 of yaw acceleration, and the file was re-timed)."""
+    limits = Limits.from_robot(ROBOT, 0.85)
+    path, _ = _slow_arc(tmp_path, 0.02, duration=300.0, decimals=5)
+    dense = densify(read_trajectory_file(TrajectoryFile(path)))
+    assert timing_verdict(dense, limits) == (False, "within the robot's limits", 1.0)
+    a = np.arctan2(dense.pose[:, 0] - 0.5, 1.5 - dense.pose[:, 1])
+    # at the ends it stands (a third of MOVING_SPEED on average) and creeps 2 cm (0.02 rad) unturned
+    inner = (a > 0.03) & (a < 0.97)
+    assert np.abs(dense.pose[inner, 2] - a[inner]).max() < 0.005
 
 
 def test_standing_needs_a_small_step_and_a_small_speed() -> None:

@@ -84,6 +84,7 @@ def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
     k = np.clip(np.searchsorted(imported.t, tg, side="right") - 1, 0, imported.direction.size - 1)
     sgn = imported.direction[k]
     moving = _steady(_steady(speed > MOVING_SPEED, tg, False), tg, True)
+    moving = _creeping(moving, tg, imported.curve(tg, 0))
     heading = _motion_headings(imported, tg, moving, sgn)
     heading = _standing_headings(imported, tg, heading, moving)
     heading = np.unwrap(heading)
@@ -102,6 +103,34 @@ def _steady(mask: NDArray[np.bool_], tg: FloatArray, value: bool) -> NDArray[np.
     np.add.at(mark, a[short], 1)
     np.add.at(mark, b[short], -1)
     return np.where(np.cumsum(mark)[:-1] > 0, value, mask)
+
+
+def _creeping(moving: NDArray[np.bool_], tg: FloatArray, xy: FloatArray) -> NDArray[np.bool_]:
+    """``moving`` (M,) with the runs where the robot creeps on rather than stays set moving: those whose
+    ends (the samples before and after them) are at least half of what MOVING_SPEED would cover in their
+    time apart.
+
+    A robot speeding up or slowing down through MOVING_SPEED over seconds hovers about it: its speed
+    crosses it again and again for longer than HEADING_WINDOW, and every crossing split the motion into
+    drives of tenths of a millimetre, each too short to resolve a direction, with turns between them
+    (yaw accelerations of 5-20 rad/s^2 along slow arcs written with 4 to 6 decimals). Where the robot
+    stays (a stand-still, a stop at a sharp corner: at most 0.35 of MOVING_SPEED's distance about a
+    right angle, a start or an end from rest: a third) it is still standing.
+
+    Args:
+        moving: (M,) whether each sample moves.
+        tg: (M,) times [s].
+        xy: (M, 2) positions [m].
+    """
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], (~moving).astype(int), [0]])))
+    a, b = edges[::2], edges[1::2]  # standing runs [a, b)
+    i, j = np.maximum(a - 1, 0), np.minimum(b, tg.size - 1)
+    creep = np.hypot(*(xy[j] - xy[i]).T) >= 0.5 * MOVING_SPEED * (tg[j] - tg[i])
+    creep &= tg[j] > tg[i]
+    mark = np.zeros(tg.size + 1, dtype=np.int64)
+    np.add.at(mark, a[creep], 1)
+    np.add.at(mark, b[creep], -1)
+    return moving | (np.cumsum(mark)[:-1] > 0)
 
 
 def _motion_headings(imported: ImportedFile, tg: FloatArray, moving: NDArray[np.bool_], sgn: FloatArray) -> FloatArray:
