@@ -15,7 +15,7 @@ from scipy.interpolate import BPoly, CubicSpline
 from test_importer import DURATION, s_curve, write_csv
 
 from planning.core.robot import load_robot
-from planning.trajectory.file_trajectory import arena_scenario, densify, file_poses
+from planning.trajectory.file_trajectory import arena_scenario, densify, file_poses, file_trajectory, timing_verdict
 from planning.trajectory.importer import MOVING_SPEED, TrajectoryFile, read_trajectory_file, stretch_fit
 from planning.trajectory.row_curves import (
     OVERSHOOT_TOLERANCE,
@@ -25,6 +25,7 @@ from planning.trajectory.row_curves import (
     standing,
     stops,
 )
+from planning.trajectory.speed_profile import Limits
 
 ROBOT = load_robot("turtlebot3")
 
@@ -99,13 +100,14 @@ def test_quintic_hermite_pieces_are_scipys_bernstein_form() -> None:
         np.testing.assert_allclose(curve(tq, nu), ref, rtol=1e-8, atol=1e-8 * np.abs(ref).max())
 
 
-def _slow_arc(tmp_path: Path, step: float) -> tuple[Path, np.ndarray]:
-    """A 1 m radius arc of 1 rad in 100 s (1 cm/s), rest to rest, written with 6 decimals every ``step`` s."""
-    t = np.round(np.arange(0.0, 100.0 + 1e-9, step), 6)
-    s = t / 100.0
+def _slow_arc(tmp_path: Path, step: float, duration: float = 100.0, decimals: int = 6) -> tuple[Path, np.ndarray]:
+    """A 1 m radius arc of 1 rad in ``duration`` s (100 s: 1 cm/s), rest to rest, written with ``decimals``
+    decimals every ``step`` s."""
+    t = np.round(np.arange(0.0, duration + 1e-9, step), 6)
+    s = t / duration
     a = 10 * s**3 - 15 * s**4 + 6 * s**5
-    xy = np.round(np.column_stack([0.5 + np.sin(a), 1.5 - np.cos(a)]), 6)
-    return write_csv(tmp_path / f"arc{step:g}.csv", {"t": t, "x": xy[:, 0], "y": xy[:, 1]}), t
+    xy = np.round(np.column_stack([0.5 + np.sin(a), 1.5 - np.cos(a)]), decimals)
+    return write_csv(tmp_path / f"arc{step:g}-{duration:g}-{decimals}.csv", {"t": t, "x": xy[:, 0], "y": xy[:, 1]}), t
 
 
 def test_a_dense_slow_file_is_the_same_curve_as_a_coarse_one(tmp_path: Path) -> None:
@@ -123,6 +125,53 @@ def test_a_dense_slow_file_is_the_same_curve_as_a_coarse_one(tmp_path: Path) -> 
     # motion, averaged over HEADING_WINDOW and HEADING_LENGTH
     moving = np.minimum(np.abs(dense.v), np.abs(coarse.v)) > 2 * MOVING_SPEED
     assert np.abs(dense.pose[moving, 2] - coarse.pose[moving, 2]).max() < 0.002
+
+
+def test_a_slow_file_keeps_its_clock_dense_or_coarse(tmp_path: Path) -> None:
+    """The slow arc (1 cm/s, 1.9 cm/s at most) is well within the robot's limits: every 0.01 s and every
+    0.1 s its own 100 s clock is kept, and both give the same trajectory. Near its ends, where it moves at
+    about MOVING_SPEED, its direction is not resolved by a few rows (a 0.1 mm chord turns by 0.01 rad with
+    the file's 1 um of rounding): the heading there continues the resolved one along the path, it does not
+    jerk at several rad/s^2 and have the file re-timed 12 times faster."""
+    limits = Limits.from_robot(ROBOT, 0.85)
+    trajectories = []
+    for step in (0.01, 0.1):
+        path, t = _slow_arc(tmp_path, step)
+        imp = read_trajectory_file(TrajectoryFile(path))
+        dense = densify(imp)
+        w = np.gradient(dense.omega, dense.t)
+        assert np.abs(w).max() < 0.5 * limits.max_yaw_accel, f"every {step} s: yaw acceleration {np.abs(w).max():.3g}"
+        assert timing_verdict(dense, limits) == (False, "within the robot's limits", 1.0)
+        res = file_trajectory(imp, ROBOT, arena_scenario(imp, ROBOT).world)
+        assert res.success and res.trajectory is not None and imp.report.retimed is False
+        assert imp.report.time_stretch == 1.0 and res.trajectory.duration < 101.0  # (it ends with a dwell)
+        at = res.trajectory.sample_many(t)  # where the file is, when
+        assert np.abs(at.pose[:, :2] - imp.xy).max() < 1e-4
+        # where it moves, the heading follows the arc's tangent (1 m radius: the angle travelled) within a
+        # milliradian (standing, below MOVING_SPEED in its first and last 6 s, it creeps 2.7 mm unturned)
+        a = np.arctan2(dense.pose[:, 0] - 0.5, 1.5 - dense.pose[:, 1])
+        moving = np.abs(dense.v) > MOVING_SPEED
+        assert np.abs(dense.pose[moving, 2] - a[moving]).max() < 1e-3
+        trajectories.append(res.trajectory)
+    dense_t, coarse_t = trajectories
+    np.testing.assert_allclose(dense_t.t, coarse_t.t)
+    assert np.abs(dense_t.pose[:, :2] - coarse_t.pose[:, :2]).max() < 1e-4
+    assert np.abs(dense_t.pose[:, 2] - coarse_t.pose[:, 2]).max() < 2e-3
+
+
+def test_a_slow_start_hovering_about_the_moving_speed_keeps_its_clock(tmp_path: Path) -> None:
+    """The same arc in 300 s, written with 5 decimals every 0.02 s: for about 25 s at each end its speed
+    hovers about MOVING_SPEED (10 um of rounding per row), crossing it again and again. Those crossings
+    are no stand-stills (the robot creeps on): its drive is one, not drives of tenths of a millimetre
+    with turns between them (6.7 rad/s^2 of yaw acceleration, and the file was re-timed)."""
+    limits = Limits.from_robot(ROBOT, 0.85)
+    path, _ = _slow_arc(tmp_path, 0.02, duration=300.0, decimals=5)
+    dense = densify(read_trajectory_file(TrajectoryFile(path)))
+    assert timing_verdict(dense, limits) == (False, "within the robot's limits", 1.0)
+    a = np.arctan2(dense.pose[:, 0] - 0.5, 1.5 - dense.pose[:, 1])
+    # at the ends it stands (a third of MOVING_SPEED on average) and creeps 2 cm (0.02 rad) unturned
+    inner = (a > 0.03) & (a < 0.97)
+    assert np.abs(dense.pose[inner, 2] - a[inner]).max() < 0.005
 
 
 def test_standing_needs_a_small_step_and_a_small_speed() -> None:

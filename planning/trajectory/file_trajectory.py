@@ -2,7 +2,8 @@
 
 A **timed** file is sampled every ``dt`` from its interpolant: positions and their derivatives, the
 heading along the motion where the robot moves (the direction of the curve's chord over
-:data:`HEADING_WINDOW` and :data:`HEADING_LENGTH`, within one drive) and, where it stands, the file's
+:data:`HEADING_LENGTH` of path and :data:`HEADING_WINDOW` of time, within one drive, continued along
+the path near a drive's ends, where the motion is too short to resolve it) and, where it stands, the file's
 own headings (their turn in place; shifted to meet the motion's heading at both ends) or a turn from
 the arriving to the leaving heading. Then it goes through the stage every timed plan goes through
 (:func:`planning.trajectory.from_plan.make_trajectory`): segments from the sign of v, its own samples
@@ -83,8 +84,8 @@ def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
     k = np.clip(np.searchsorted(imported.t, tg, side="right") - 1, 0, imported.direction.size - 1)
     sgn = imported.direction[k]
     moving = _steady(_steady(speed > MOVING_SPEED, tg, False), tg, True)
-    chord = _chords(imported, tg, moving, sgn)
-    heading = np.arctan2(sgn * chord[:, 1], sgn * chord[:, 0])
+    moving = _creeping(moving, tg, imported.curve(tg, 0))
+    heading = _motion_headings(imported, tg, moving, sgn)
     heading = _standing_headings(imported, tg, heading, moving)
     heading = np.unwrap(heading)
     pose = np.column_stack([imported.curve(tg, 0), heading])
@@ -104,16 +105,56 @@ def _steady(mask: NDArray[np.bool_], tg: FloatArray, value: bool) -> NDArray[np.
     return np.where(np.cumsum(mark)[:-1] > 0, value, mask)
 
 
-def _chords(imported: ImportedFile, tg: FloatArray, moving: NDArray[np.bool_], sgn: FloatArray) -> FloatArray:
-    """(M, 2) direction of motion at times tg (M,): the chord of the curve around each time over at least
-    HEADING_WINDOW and at least HEADING_LENGTH of path, within its own drive (moving samples of one
-    travel direction).
+def _creeping(moving: NDArray[np.bool_], tg: FloatArray, xy: FloatArray) -> NDArray[np.bool_]:
+    """``moving`` (M,) with the runs where the robot creeps on rather than stays set moving: those whose
+    ends (the samples before and after them) are at least half of what MOVING_SPEED would cover in their
+    time apart.
 
-    Over a window rather than at an instant: a file's rounding, differentiated between rows 0.01 s
-    apart, turns the direction of a slow motion by tenths of a radian from row to row (1 um of
-    rounding at 1 mm/s), and such a heading jitters at yaw accelerations of hundreds of rad/s^2; over
-    5 mm of path the same rounding turns it by less than a milliradian. The chord of a circle is
-    parallel to its tangent at the chord's middle, so a steady turn keeps its heading exactly."""
+    A robot speeding up or slowing down through MOVING_SPEED over seconds hovers about it: its speed
+    crosses it again and again for longer than HEADING_WINDOW, and every crossing split the motion into
+    drives of tenths of a millimetre, each too short to resolve a direction, with turns between them
+    (yaw accelerations of 5-20 rad/s^2 along slow arcs written with 4 to 6 decimals). Where the robot
+    stays (a stand-still, a stop at a sharp corner: at most 0.35 of MOVING_SPEED's distance about a
+    right angle, a start or an end from rest: a third) it is still standing.
+
+    Args:
+        moving: (M,) whether each sample moves.
+        tg: (M,) times [s].
+        xy: (M, 2) positions [m].
+    """
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], (~moving).astype(int), [0]])))
+    a, b = edges[::2], edges[1::2]  # standing runs [a, b)
+    i, j = np.maximum(a - 1, 0), np.minimum(b, tg.size - 1)
+    creep = np.hypot(*(xy[j] - xy[i]).T) >= 0.5 * MOVING_SPEED * (tg[j] - tg[i])
+    creep &= tg[j] > tg[i]
+    mark = np.zeros(tg.size + 1, dtype=np.int64)
+    np.add.at(mark, a[creep], 1)
+    np.add.at(mark, b[creep], -1)
+    return moving | (np.cumsum(mark)[:-1] > 0)
+
+
+def _motion_headings(imported: ImportedFile, tg: FloatArray, moving: NDArray[np.bool_], sgn: FloatArray) -> FloatArray:
+    """(M,) heading of the motion at times tg (M,) [rad], backwards where ``sgn`` is -1, at the moving
+    samples (the others are placeholders that :func:`_standing_headings` replaces).
+
+    Where the motion **resolves** it: the direction of the curve's chord about each time over at least
+    HEADING_LENGTH of path (or what HEADING_WINDOW of time covers, if more), symmetric in path, each end
+    of it the mean position over HEADING_WINDOW about it, all inside the sample's own drive (moving
+    samples of one travel direction). Over a window rather than at an instant: a file's rounding,
+    differentiated between rows 0.01 s apart, turns the direction of a slow motion by tenths of a radian
+    from row to row (1 um of rounding at 1 mm/s); over 5 mm of path the same rounding turns it by less
+    than a milliradian, and the means keep one row's rounding from jerking the heading as the chord
+    slides past it (yaw accelerations of 1.7 rad/s^2 from end points alone, 0.2 with the means, every
+    0.01 s along the slow arc of ``tests/test_row_curves.py``). Symmetric in path, the chord of a circle
+    is parallel to its tangent at the chord's middle, so a steady turn keeps its heading exactly, at
+    any speed profile.
+
+    Near a drive's ends, where such a chord does not fit inside the drive, the motion is too short to
+    resolve a direction (a chord of 0.1 mm turns by 0.01 rad with 1 um of rounding: a slowly starting
+    robot jerked its heading at 5-9 rad/s^2 while its speed was near MOVING_SPEED, and the file was
+    re-timed): there the heading continues the resolved one along the path, turning with the curvature
+    the resolved headings have over the first (last) HEADING_LENGTH / 2 of path (exact on a circle). A
+    drive too short for any resolved chord keeps the direction of its whole chord."""
     assert imported.curve is not None
     new = np.concatenate([[True], (sgn[1:] != sgn[:-1]) | (moving[1:] != moving[:-1])])
     run = np.cumsum(new) - 1
@@ -122,18 +163,39 @@ def _chords(imported: ImportedFile, tg: FloatArray, moving: NDArray[np.bool_], s
     lo, hi = tg[starts[run]], tg[ends[run]]
     xy = imported.curve(tg, 0)
     s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])  # path length [m]
-    ahead = np.interp(s + 0.5 * HEADING_LENGTH, s, tg) - tg
-    behind = tg - np.interp(s - 0.5 * HEADING_LENGTH, s, tg)
-    # HEADING_LENGTH of path symmetric about each time (near a drive's ends a chord leaning to one side
-    # would lean into a turn by half the angle it spans); HEADING_WINDOW of time shifted to fit the
-    # drive (at its ends the robot is slow and the window spans little path)
-    half = np.minimum.reduce([np.maximum(ahead, behind), tg - lo, hi - tg])
-    start = np.clip(tg - 0.5 * HEADING_WINDOW, lo, np.maximum(hi - HEADING_WINDOW, lo))
-    chord = imported.curve(np.maximum(tg + half, np.minimum(start + HEADING_WINDOW, hi)), 0)
-    chord -= imported.curve(np.minimum(tg - half, start), 0)
+    # half the chord in path: HEADING_LENGTH / 2, or what HEADING_WINDOW / 2 of time covers if more
+    around = np.interp(tg + 0.5 * HEADING_WINDOW, tg, s) - np.interp(tg - 0.5 * HEADING_WINDOW, tg, s)
+    half = np.maximum(0.5 * HEADING_LENGTH, 0.5 * around)
+    ta, tb = np.interp(s - half, s, tg), np.interp(s + half, s, tg)
+    w = 0.5 * HEADING_WINDOW  # each end of the chord: the mean position over HEADING_WINDOW about it
+    resolved = (s - half >= s[starts[run]]) & (s + half <= s[ends[run]]) & (ta - w >= lo) & (tb + w <= hi)
+    chord = imported.curve.mean(tb - w, tb + w) - imported.curve.mean(ta - w, ta + w)
+    whole = ~np.isin(run, run[resolved])  # drives without a resolved chord: the whole drive's
+    chord[whole] = imported.curve(hi[whole], 0) - imported.curve(lo[whole], 0)
     flat = np.hypot(chord[:, 0], chord[:, 1]) == 0.0  # a run of one sample: its velocity
     chord[flat] = imported.curve(tg[flat], 1)
-    return chord
+    heading = np.arctan2(sgn * chord[:, 1], sgn * chord[:, 0])
+    idx = np.flatnonzero(resolved)
+    if idx.size == 0:
+        return heading
+    first = np.full(starts.size, -1)
+    last = np.full(starts.size, -1)
+    first[run[idx[::-1]]] = idx[::-1]  # the last write wins: the first resolved sample of each drive
+    last[run[idx]] = idx
+    for edge, toward in ((first, 1), (last, -1)):
+        k = edge[run]  # each sample's resolved edge of its drive (-1: none)
+        out = (k >= 0) & (toward * (np.arange(tg.size) - k) < 0)
+        k = k[out]
+        other = last[run[out]] if toward > 0 else first[run[out]]
+        # the resolved sample half HEADING_LENGTH of path further in (at most the drive's other edge)
+        far = np.searchsorted(s, s[k] + toward * 0.5 * HEADING_LENGTH, side="left" if toward > 0 else "right")
+        far = far - (toward < 0)
+        far = np.clip(far, np.minimum(k, other), np.maximum(k, other))
+        span = s[far] - s[k]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            curvature = np.where(span != 0.0, wrap_angle(heading[far] - heading[k]) / span, 0.0)
+        heading[out] = heading[k] + curvature * (s[out] - s[k])
+    return heading
 
 
 def _given_heading(imported: ImportedFile, tg: FloatArray) -> FloatArray | None:

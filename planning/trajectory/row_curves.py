@@ -49,11 +49,25 @@ class PositionCurve:
     def __init__(self, poly: PPoly) -> None:
         self.poly = poly
         self.span = (float(poly.x[0]), float(poly.x[-1]))
+        self._integral: PPoly | None = None
 
     def __call__(self, t: FloatArray, nu: int = 0) -> FloatArray:
         """(M, 2) positions (nu = 0) [m] or their nu-th time derivative at times t (M,) [s]."""
         tq = np.clip(np.asarray(t, dtype=float).reshape(-1), *self.span)
         return np.asarray(self.poly(tq, nu)).reshape(tq.size, 2)
+
+    def mean(self, a: FloatArray, b: FloatArray) -> FloatArray:
+        """(M, 2) mean positions [m] over the time intervals [a, b] (M,) [s] (the position at a where
+        b <= a), from the curve's antiderivative."""
+        a = np.clip(np.asarray(a, dtype=float).reshape(-1), *self.span)
+        b = np.clip(np.asarray(b, dtype=float).reshape(-1), *self.span)
+        if self._integral is None:
+            self._integral = self.poly.antiderivative()
+        wide = b > a
+        out = self(a)
+        area = np.asarray(self._integral(b[wide]) - self._integral(a[wide])).reshape(-1, 2)
+        out[wide] = area / (b[wide] - a[wide])[:, None]
+        return out
 
 
 def standing(t: FloatArray, xy: FloatArray) -> NDArray[np.bool_]:
