@@ -200,7 +200,8 @@ class Sensing:
         if setup.localiser.kind == "amcl" and self.source is PoseSource.FUSED:
             localiser_schedule(setup.localiser, self.sensors.fix_every, self.sensors.fix_latency_periods, self.dt)
             self.scans = ScanLocaliser(
-                model, robot, setup.localiser, setup.seed, t0=t0, dt=self.dt, rad_per_count=self._rad_per_count
+                model, robot, setup.localiser, setup.seed, t0=t0, dt=self.dt, rad_per_count=self._rad_per_count,
+                gyro_error=self.sensors.gyro_error,
             )
 
     def observe(self, k: int, data: mujoco.MjData, truth: tuple[float, float, float]) -> tuple[float, float, float]:
@@ -235,7 +236,7 @@ class Sensing:
             if self.scans is None:
                 self.fixes[k] = self.sensors.fix(k, truth)
             elif k > 0:
-                self.scans.mark(k, (int(self._io[COUNTS_L]), int(self._io[COUNTS_R])))
+                self.scans.mark(k, (int(self._io[COUNTS_L]), int(self._io[COUNTS_R])), truth[2])
         j = self._fix_delivered.get(k)
         if j is not None:
             self._deliver(j, k, truth)
