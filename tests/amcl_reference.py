@@ -105,11 +105,11 @@ def resample(particles, weights, offset, order, w_diff, coins, randoms, bins, sh
 
 
 def fit_sensitivity(pose, ranges, bearings, laser, field, grid, gate, split):  # type: ignore[no-untyped-def]
-    """J^T J and J^T u (scale, offset) of the scan-to-map fit at a pose (central differences of the map)."""
+    """A^T A and A^T d of the scan-to-map fit at a pose, A = [J, u_scale, u_offset] (central differences)."""
     h = grid[2]
     c, s = math.cos(pose[2]), math.sin(pose[2])
     lx, ly = pose[0] + c * laser[0] - s * laser[1], pose[1] + s * laser[0] + c * laser[1]
-    jrows, urows, used, ssr = [], [], 0, 0.0
+    rows, ds = [], []
     for z, bearing in zip(ranges, bearings, strict=True):
         e = np.array([math.cos(pose[2] + laser[2] + bearing), math.sin(pose[2] + laser[2] + bearing)])
         p = np.array([lx, ly]) + z * e
@@ -123,10 +123,9 @@ def fit_sensitivity(pose, ranges, bearings, laser, field, grid, gate, split):  #
             ]
         )
         lever = p - np.asarray(pose[:2], dtype=float)
-        jrows.append([grad[0], grad[1], grad[1] * lever[0] - grad[0] * lever[1]])
         along = float(grad @ e)
-        urows.append([along * z, 0.0] if z >= split else [0.0, along])
-        used += 1
-        ssr += d * d
-    j, u = np.array(jrows).reshape(-1, 3), np.array(urows).reshape(-1, 2)
-    return j.T @ j, j.T @ u, used, ssr
+        u = [along * z, 0.0] if z >= split else [0.0, along]
+        rows.append([grad[0], grad[1], grad[1] * lever[0] - grad[0] * lever[1], *u])
+        ds.append(d)
+    a, d_ = np.array(rows).reshape(-1, 5), np.array(ds)
+    return a.T @ a, a.T @ d_, len(ds), float(d_ @ d_)
