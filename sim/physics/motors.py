@@ -406,7 +406,13 @@ def supplied_robot(spec: RobotSpec, overrides: str = "") -> RobotSpec:
     check_model_limits(spec, motor, supply)
     new = supply.with_overrides(overrides)
     limits = speed_limits(motor, new, spec.wheel_radius, spec.track_width)
-    return replace(spec, battery_voltage=new.battery_voltage, **limits)
+    return replace(
+        spec,
+        battery_voltage=new.battery_voltage,
+        max_wheel_speed=limits["max_wheel_speed"],
+        max_speed=limits["max_speed"],
+        max_yaw_rate=limits["max_yaw_rate"],
+    )
 
 
 def check_model_limits(spec: RobotSpec, motor: MotorModel, supply: Supply) -> None:
