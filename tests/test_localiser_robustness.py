@@ -70,7 +70,7 @@ def test_the_fix_covariance_carries_the_scanners_systematic_error(scan: tuple) -
     gain = np.linalg.solve(ata[:3, :3], ata[:3, 3:])
     np.testing.assert_allclose(cov, white + gain @ np.diag([0.03**2, 0.015**2]) @ gain.T, rtol=1e-6, atol=1e-12)
     assert math.sqrt(cov[0, 0] + cov[1, 1]) > 10 * math.sqrt(white[0, 0] + white[1, 1])  # exact scan: no white noise
-    assert range_bias(LidarProfile()) == pytest.approx((0.5, 0.015 / math.sqrt(3), 0.05 / math.sqrt(3)))
+    assert range_bias(LidarProfile()) == pytest.approx((0.5, 0.015 / 3, 0.05 / 3))  # the band at 3 sigma
     assert abs(step) < 1e-3 and var > 0  # an exact scan shows no scale error
 
 
@@ -81,7 +81,7 @@ def test_the_localiser_learns_its_scanners_scale_and_the_fit_stops_moving_with_i
     ranges = np.full(360, np.inf)
     ranges[: r.size] = scaled
     bearings = np.concatenate([b, np.zeros(360 - r.size)])
-    loc = Amcl(WORLD, AmclConfig(), amcl.laser, seed=2, range_bias=(0.5, 0.0, 0.05 / math.sqrt(3)))
+    loc = Amcl(WORLD, AmclConfig(), amcl.laser, seed=2, range_bias=(0.5, 0.0, 0.05 / 3))
     loc.reset(POSE, 0.02, 0.01)
     first = None
     for _ in range(15):  # the robot standing: forced updates
@@ -90,7 +90,7 @@ def test_the_localiser_learns_its_scanners_scale_and_the_fit_stops_moving_with_i
         assert e is not None and e.refined
         first = first if first is not None else math.hypot(*(e.pose[:2] - POSE[:2]))
     assert loc.scale == pytest.approx(k, abs=0.004)
-    assert math.sqrt(loc.scale_var) < 0.2 * 0.05 / math.sqrt(3)
+    assert math.sqrt(loc.scale_var) < 0.2 * 0.05 / 3
     last = math.hypot(*(loc.estimate.pose[:2] - POSE[:2]))  # type: ignore[union-attr]
     assert first > 0.01 and last < 0.25 * first  # the biased fit's error, then the calibrated one's
 

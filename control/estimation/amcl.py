@@ -563,11 +563,11 @@ class Amcl:
 
     def _learn_scale(self, step: float, var: float) -> None:
         """Fuse one scan's measurement of the remaining scale error (a scalar Kalman update; the error is
-        the unit's own, constant over the run), kept within the datasheet's bound."""
+        the unit's own, constant over the run), kept within three standard deviations of the prior."""
         if not math.isfinite(var) or self.range_bias is None:
             return
         gain = self.scale_var / (self.scale_var + var)
-        bound = math.sqrt(3.0) * self.range_bias[2]
+        bound = 3.0 * self.range_bias[2]
         self.scale = min(max(self.scale + gain * step, -bound), bound)
         self.scale_var *= 1.0 - gain
 

@@ -47,6 +47,7 @@ from control.estimation.amcl_kernels import angle_diff
 from planning.core.robot import RobotSpec
 from planning.core.world import World
 from planning.errors import ConfigError
+from sim.physics.asbuilt import CLIP_SIGMAS
 from sim.physics.lidar import LidarProfile, LidarScanner, beam_poses
 from sim.physics.runlog import LocaliserLog
 
@@ -291,10 +292,10 @@ class ScanLocaliser:
 
 def range_bias(lidar: LidarProfile) -> tuple[float, float, float]:
     """The scanner's systematic range error as the localiser models it: (split [m], standard deviation
-    of the offset below it [m], of the relative scale error from it [-]); the datasheet's accuracy is a
-    bound, the unit's own error uniform within it (:mod:`sim.physics.lidar`), so bound / sqrt(3)."""
-    root3 = math.sqrt(3.0)
-    return lidar.accuracy_split, lidar.accuracy_near / root3, lidar.accuracy_far / root3
+    of the offset below it [m], of the relative scale error from it [-]); the datasheet's accuracy is
+    the band a unit's own error fills at :data:`sim.physics.asbuilt.CLIP_SIGMAS` standard deviations
+    (:mod:`sim.physics.lidar`)."""
+    return lidar.accuracy_split, lidar.accuracy_near / CLIP_SIGMAS, lidar.accuracy_far / CLIP_SIGMAS
 
 
 def localiser_schedule(setup: LocaliserSetup, fix_every: int, latency_periods: int, dt: float) -> None:
