@@ -105,7 +105,7 @@ def resample(particles, weights, offset, order, w_diff, coins, randoms, bins, sh
 
 
 def fit_sensitivity(pose, ranges, bearings, laser, field, grid, gate, split):  # type: ignore[no-untyped-def]
-    """A^T A and A^T d of the scan-to-map fit at a pose, A = [J, u_scale, u_offset] (central differences)."""
+    """A^T A of the scan-to-map fit at a pose, A = [J, u_scale, u_offset] (central differences)."""
     h = grid[2]
     c, s = math.cos(pose[2]), math.sin(pose[2])
     lx, ly = pose[0] + c * laser[0] - s * laser[1], pose[1] + s * laser[0] + c * laser[1]
@@ -128,4 +128,4 @@ def fit_sensitivity(pose, ranges, bearings, laser, field, grid, gate, split):  #
         rows.append([grad[0], grad[1], grad[1] * lever[0] - grad[0] * lever[1], *u])
         ds.append(d)
     a, d_ = np.array(rows).reshape(-1, 5), np.array(ds)
-    return a.T @ a, a.T @ d_, len(ds), float(d_ @ d_)
+    return a.T @ a, len(ds), float(d_ @ d_)

@@ -291,8 +291,6 @@ class Amcl:
     ):
         self.config = config
         self.range_bias = range_bias
-        # the scanner's relative scale error as estimated so far, and its variance (the datasheet's prior)
-        self.scale, self.scale_var = 0.0, (range_bias[2] ** 2 if range_bias is not None else 0.0)
         self.field = likelihood_field(world, config.map_resolution, config.laser_likelihood_max_dist, clearance)
         self.laser = np.asarray(laser, dtype=float).reshape(3)
         self.rng = np.random.default_rng(seed)
@@ -456,7 +454,7 @@ class Amcl:
             normals = self.rng.standard_normal((self.particles.shape[0], 3))
             K.motion_update(self.particles, self.odom_ref, o, self.alphas, normals)
         self.odom_ref = o.copy()
-        z = self.rescaled(np.asarray(ranges, dtype=float))
+        z = np.asarray(ranges, dtype=float)
         limits = (range_min, range_max, angle_min, angle_increment)
         r, b = self.beams(z, *limits, bearings=bearings)
         self._sense(r, b, min(range_max, self.config.laser_max_range))
@@ -524,52 +522,24 @@ class Amcl:
         pose, info, used, ssr = best
         pose[2] = math.atan2(math.sin(pose[2]), math.cos(pose[2]))
         if self.range_bias is not None:
-            cov, step, var = self._fit_cov(pose, r, b)
-            self._learn_scale(step, var)
-            return AmclEstimate(pose, cov, self.particles.shape[0], spread, True)
+            return AmclEstimate(pose, self._fit_cov(pose, r, b), self.particles.shape[0], spread, True)
         # the fit's own covariance s^2 (J^T J)^-1 knows only the scan's white noise, not its systematic
         # error: the larger of it and the cluster's is reported
         s2 = max(ssr / (used - 3), 1e-8)
         cov = np.maximum(s2 * np.linalg.inv(info), cov) if np.all(np.diag(cov) > 0) else cov
         return AmclEstimate(pose, _psd(cov), self.particles.shape[0], spread, True)
 
-    def rescaled(self, ranges: FloatArray) -> FloatArray:
-        """Ranges with the estimated scale error taken out of those at or beyond the split (``range_bias``)."""
-        if self.range_bias is None or self.scale == 0.0:
-            return ranges
-        far = np.isfinite(ranges) & (ranges >= self.range_bias[0])
-        return np.where(far, ranges / (1.0 + self.scale), ranges)
-
-    def _fit_cov(self, pose: FloatArray, r: FloatArray, b: FloatArray) -> tuple[FloatArray, float, float]:
-        """The refined pose's covariance, the white noise's ``s^2 (J^T J)^-1`` plus the scanner's
-        systematic error carried through the fit (the scale's as estimated so far, the offset's from
-        the datasheet); and this scan's measurement of the remaining scale error with its variance
-        (the scale's least-squares step with the pose free; variance inf where the walls in range
-        do not show it).
-        """
+    def _fit_cov(self, pose: FloatArray, r: FloatArray, b: FloatArray) -> FloatArray:
+        """The refined pose's covariance: the white noise's ``s^2 (J^T J)^-1`` plus the scanner's
+        systematic error (``range_bias``) carried through the fit (see the module docstring)."""
         assert self.range_bias is not None
-        split, sd_offset, _ = self.range_bias
-        ata, atd, used, ssr = K.fit_sensitivity(pose, r, b, self.laser, self.field.signed, self.field.grid,
-                                                self.config.refine_gate, split)  # fmt: skip
-        s2 = max(ssr / max(used - 3, 1), 1e-8)
+        split, sd_offset, sd_scale = self.range_bias
+        ata, used, ssr = K.fit_sensitivity(pose, r, b, self.laser, self.field.signed, self.field.grid,
+                                           self.config.refine_gate, split)  # fmt: skip
         inv = np.linalg.inv(ata[:3, :3])
         gain = inv @ ata[:3, 3:]
-        cov = s2 * inv + gain @ np.diag([self.scale_var, sd_offset**2]) @ gain.T
-        shown = float(ata[3, 3] - ata[3, :3] @ gain[:, 0])  # the scale's information with the pose free, / s^2
-        if shown <= 1e-9 * max(float(ata[3, 3]), 1e-12):
-            return _psd(cov), 0.0, math.inf
-        step = float(atd[3] - ata[3, :3] @ inv @ atd[:3]) / shown
-        return _psd(cov), step, s2 / shown
-
-    def _learn_scale(self, step: float, var: float) -> None:
-        """Fuse one scan's measurement of the remaining scale error (a scalar Kalman update; the error is
-        the unit's own, constant over the run), kept within three standard deviations of the prior."""
-        if not math.isfinite(var) or self.range_bias is None:
-            return
-        gain = self.scale_var / (self.scale_var + var)
-        bound = 3.0 * self.range_bias[2]
-        self.scale = min(max(self.scale + gain * step, -bound), bound)
-        self.scale_var *= 1.0 - gain
+        cov = max(ssr / max(used - 3, 1), 1e-8) * inv + gain @ np.diag([sd_scale**2, sd_offset**2]) @ gain.T
+        return _psd(cov)
 
     def spread(self) -> float:
         """Root of the trace of the whole particle set's weighted (x, y) covariance [m]."""

@@ -349,8 +349,8 @@ def fit_sensitivity(
     grid: FloatArray,
     gate: float,
     split: float,
-) -> tuple[FloatArray, FloatArray, int, float]:
-    """The scan-to-map fit's normal equations at ``pose``, extended by the scanner's systematic range
+) -> tuple[FloatArray, int, float]:
+    """The scan-to-map fit's information at ``pose``, extended by the scanner's systematic range
     errors: a relative scale error ``k`` (a beam of range ``z`` at or beyond ``split`` [m] reads
     ``z (1 + k)``) and an offset ``b`` (nearer beams read ``z + b``).
 
@@ -359,7 +359,7 @@ def fit_sensitivity(
     point along its beam: ``d_i`` changes by ``u_i = grad d_i . (z_i e_i)`` per unit of ``k`` (far
     beams) or ``grad d_i . e_i`` per metre of ``b`` (near ones), ``e_i`` the beam's direction. With
     ``A = [J, u_k, u_b]`` (the columns x, y, theta, k, b), the least-squares pose moves by
-    ``-(J^T J)^-1 J^T u`` per unit of each error, and ``A^T d`` is the gradient of the squared residuals.
+    ``-(J^T J)^-1 J^T u`` per unit of each error.
 
     Args:
         pose: (3,) the fit's pose.
@@ -367,11 +367,10 @@ def fit_sensitivity(
         split: Range [m] from which the error is relative.
 
     Returns:
-        (5, 5) ``A^T A``, (5,) ``A^T d``, the beams used and the sum of their squared distances [m^2].
+        (5, 5) ``A^T A``, the beams used and the sum of their squared distances [m^2].
     """
     x0, y0, h, far = grid[0], grid[1], grid[2], grid[3]
     ata = np.zeros((5, 5))
-    atd = np.zeros(5)
     row = np.zeros(5)
     used, ssr = 0, 0.0
     c, s = math.cos(pose[2]), math.sin(pose[2])
@@ -389,9 +388,8 @@ def fit_sensitivity(
         row[0], row[1], row[2] = gx, gy, -gx * (py - pose[1]) + gy * (px - pose[0])
         row[3], row[4] = (along * ranges[b], 0.0) if ranges[b] >= split else (0.0, along)
         for i in range(5):
-            atd[i] += row[i] * d
             for j in range(5):
                 ata[i, j] += row[i] * row[j]
         used += 1
         ssr += d * d
-    return ata, atd, used, ssr
+    return ata, used, ssr
