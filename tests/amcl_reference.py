@@ -102,3 +102,30 @@ def resample(particles, weights, offset, order, w_diff, coins, randoms, bins, sh
         if count + 1 > kld_limit(len(seen), kld[0], kld[1], int(kld[2]), m_max):
             break
     return np.array(out)
+
+
+def fit_sensitivity(pose, ranges, bearings, laser, field, grid, gate, split):  # type: ignore[no-untyped-def]
+    """A^T A of the scan-to-map fit at a pose, A = [J, u_scale, u_offset] (central differences)."""
+    h = grid[2]
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    lx, ly = pose[0] + c * laser[0] - s * laser[1], pose[1] + s * laser[0] + c * laser[1]
+    rows, ds = [], []
+    for z, bearing in zip(ranges, bearings, strict=True):
+        e = np.array([math.cos(pose[2] + laser[2] + bearing), math.sin(pose[2] + laser[2] + bearing)])
+        p = np.array([lx, ly]) + z * e
+        d = field_at(field, grid, p[0], p[1])
+        if abs(d) > gate:
+            continue
+        grad = np.array(
+            [
+                (field_at(field, grid, p[0] + h / 2, p[1]) - field_at(field, grid, p[0] - h / 2, p[1])) / h,
+                (field_at(field, grid, p[0], p[1] + h / 2) - field_at(field, grid, p[0], p[1] - h / 2)) / h,
+            ]
+        )
+        lever = p - np.asarray(pose[:2], dtype=float)
+        along = float(grad @ e)
+        u = [along * z, 0.0] if z >= split else [0.0, along]
+        rows.append([grad[0], grad[1], grad[1] * lever[0] - grad[0] * lever[1], *u])
+        ds.append(d)
+    a, d_ = np.array(rows).reshape(-1, 5), np.array(ds)
+    return a.T @ a, len(ds), float(d_ @ d_)

@@ -27,11 +27,6 @@ def test_the_fused_closed_loop_meets_its_targets_on_random_worlds(robot: str, se
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="the LDS-01's datasheet systematic error (up to 5 % of the range, drawn per run) leaves AMCL "
-    "2.7-15 cm off in these 6 x 6 m arenas (docs/_incoming/i29-lidar.md); drop this mark when it passes",
-)
 @pytest.mark.parametrize("seed", range(4))
 def test_the_closed_loop_on_amcl_meets_its_targets_on_random_worlds(seed: int) -> None:
     job = simulate_plan(

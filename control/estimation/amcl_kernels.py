@@ -337,3 +337,59 @@ def refine(
         if _ == iterations - 1:
             done = True
     return x, info, used, ssr
+
+
+@nb.njit(cache=True)
+def fit_sensitivity(
+    pose: FloatArray,
+    ranges: FloatArray,
+    bearings: FloatArray,
+    laser: FloatArray,
+    field: FloatArray,
+    grid: FloatArray,
+    gate: float,
+    split: float,
+) -> tuple[FloatArray, int, float]:
+    """The scan-to-map fit's information at ``pose``, extended by the scanner's systematic range
+    errors: a relative scale error ``k`` (a beam of range ``z`` at or beyond ``split`` [m] reads
+    ``z (1 + k)``) and an offset ``b`` (nearer beams read ``z + b``).
+
+    With the residuals ``d_i`` (signed map distances of the beams' end points, beams within ``gate``
+    as :func:`refine` uses them) and their pose Jacobian ``J``, a systematic error moves every end
+    point along its beam: ``d_i`` changes by ``u_i = grad d_i . (z_i e_i)`` per unit of ``k`` (far
+    beams) or ``grad d_i . e_i`` per metre of ``b`` (near ones), ``e_i`` the beam's direction. With
+    ``A = [J, u_k, u_b]`` (the columns x, y, theta, k, b), the least-squares pose moves by
+    ``-(J^T J)^-1 J^T u`` per unit of each error.
+
+    Args:
+        pose: (3,) the fit's pose.
+        ranges, bearings, laser, field, grid, gate: As :func:`refine`.
+        split: Range [m] from which the error is relative.
+
+    Returns:
+        (5, 5) ``A^T A``, the beams used and the sum of their squared distances [m^2].
+    """
+    x0, y0, h, far = grid[0], grid[1], grid[2], grid[3]
+    ata = np.zeros((5, 5))
+    row = np.zeros(5)
+    used, ssr = 0, 0.0
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    lx, ly = pose[0] + c * laser[0] - s * laser[1], pose[1] + s * laser[0] + c * laser[1]
+    for b in range(ranges.shape[0]):
+        a = pose[2] + laser[2] + bearings[b]
+        ex, ey = math.cos(a), math.sin(a)
+        px, py = lx + ranges[b] * ex, ly + ranges[b] * ey
+        d = field_at(field, x0, y0, h, far, px, py)
+        if abs(d) > gate:
+            continue
+        gx = (field_at(field, x0, y0, h, far, px + 0.5 * h, py) - field_at(field, x0, y0, h, far, px - 0.5 * h, py)) / h
+        gy = (field_at(field, x0, y0, h, far, px, py + 0.5 * h) - field_at(field, x0, y0, h, far, px, py - 0.5 * h)) / h
+        along = gx * ex + gy * ey
+        row[0], row[1], row[2] = gx, gy, -gx * (py - pose[1]) + gy * (px - pose[0])
+        row[3], row[4] = (along * ranges[b], 0.0) if ranges[b] >= split else (0.0, along)
+        for i in range(5):
+            for j in range(5):
+                ata[i, j] += row[i] * row[j]
+        used += 1
+        ssr += d * d
+    return ata, used, ssr

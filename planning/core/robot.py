@@ -56,6 +56,8 @@ class RobotSpec:
         mass: Total mass [kg].
         footprint_pitch: |pitch| the footprint covers the body at (``nhsim_footprint_pitch``; 0 for a
             body held level by skids or casters) [rad].
+        battery_voltage: The supply the wheel motors run on (``nhsim_motor_battery_voltage``; the speed
+            limits above are those of this voltage, :mod:`sim.physics.motors`) [V]; 0 when not given.
     """
 
     name: str
@@ -73,6 +75,7 @@ class RobotSpec:
     footprint: FloatArray = field(repr=False)
     mass: float = 0.0
     footprint_pitch: float = 0.0
+    battery_voltage: float = 0.0
 
     @functools.cached_property
     def radius(self) -> float:
@@ -245,6 +248,7 @@ def load_robot(name: str) -> RobotSpec:
         footprint=hull,
         mass=mass,
         footprint_pitch=pitch,
+        battery_voltage=numeric("motor_battery_voltage") if "nhsim_motor_battery_voltage" in numerics else 0.0,
     )
 
 

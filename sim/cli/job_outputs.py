@@ -47,6 +47,7 @@ RUN_SETTINGS: dict[str, Any] = {
     "build": "as-built",
     "build_seed": None,
     "sensors": None,
+    "motors": None,
     "localiser": None,
     "lidar": None,
     "amcl": None,

@@ -213,6 +213,15 @@ def _add_run_arguments(p: argparse.ArgumentParser) -> None:
         help="override the robot's sensor profile (models/sensors/<robot>.toml), e.g. fix_rate=10,fix_latency=0.05, "
         "or a TOML file with a [sensors] table (default: the profile as it is)",
     )
+    p.add_argument(
+        "--motors",
+        default=RUN_SETTINGS["motors"],
+        metavar="KEY=VALUE,...",
+        help="the wheel motors' supply: battery_voltage [V] (the TurtleBot3's 3-cell pack, 11.1 V nominal, 12.6 V "
+        "charged; rated 6.5-12.6 V), supply_sag [V] and torque_reserve (the margins of its wheel-speed limit), e.g. "
+        "battery_voltage=12.6; the no-load speed and the robot's speed limits follow (default: the robot's own; the "
+        "EduMIP's is fixed)",
+    )
     add_localiser_arguments(p)
     p.add_argument(
         "--gains",
@@ -377,6 +386,7 @@ def _case_fields(args: argparse.Namespace, gains: Any, perturbation: Any) -> dic
         "build_seed": parse_build(args.build, args.build_seed),
         "sensors": sensor_overrides(args.sensors),
         "noise_seed": args.noise_seed,
+        "motors": args.motors or "",
         **localiser_fields(args),
     }
 
@@ -493,6 +503,7 @@ def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
     runs = parse_runs(args.runs) if args.runs else run_choices()[args.tracker]
     loaded = load_case_scenario(case)  # a robot the scenario does not list stops here
     case.sensing(loaded)  # so do bad sensor settings
+    case.robot_spec(loaded.robot)  # and a bad supply
     own = None  # the scenario's own robot names the outputs apart from --robot (a file scenario's too)
     if args.robot is not None:
         own = (case.scenario if not isinstance(case.scenario, str) else load_scenario(case.scenario)).robot

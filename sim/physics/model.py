@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 from planning.core.geometry import Pose2D
 from planning.core.robot import RobotSpec
 from planning.core.world import Box, Circle, Ellipse, Polygon, World
+from sim.physics.motors import apply_supply
 
 OBSTACLE_RGBA = (0.72, 0.36, 0.28, 1.0)
 WALL_RGBA = (0.55, 0.58, 0.62, 1.0)
@@ -140,6 +141,8 @@ def build_model(
         spec.stat.extent = float(max(xmax - xmin, ymax - ymin))
         spec.stat.center = [(xmin + xmax) / 2, (ymin + ymax) / 2, 0.0]
     model = spec.compile()
+    if robot.battery_voltage > 0:
+        apply_supply(model, robot.battery_voltage)  # the run's battery (nothing at the model's own)
     obstacle_ids = np.array([model.geom(n).id for n in names], dtype=np.int64)
     base = model.body("base").id
     robot_bodies = {b for b in range(model.nbody) if b == base or _has_ancestor(model, b, base)}

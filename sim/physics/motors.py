@@ -38,17 +38,30 @@ omega_{k+1} = A omega_k + (1 - A) K u_k with A = expm(-T b J^-1) for the symmetr
 scalar bound with its own a. Saturation only removes gain, and the clamped integrator cannot wind
 up. :meth:`MotorModel.max_period` returns T_max, and a model whose ``nhsim_motor_period`` is not
 below it is refused.
+
+The supply. The battery's voltage V_batt is the robot's profile value ``battery_voltage`` (the
+model's ``nhsim_motor_battery_voltage``, overridden per run with ``--motors battery_voltage=V``). The
+motor's constants g = k_t / R and b = k_t k_e / R do not depend on it, so a pack at another voltage
+moves the stall torque (g V_batt) and the no-load speed (V_batt / k_e = (g / b) V_batt) in
+proportion and leaves the back-EMF constant fixed (:meth:`MotorModel.at_voltage`); the drive's
+``ctrlrange`` follows (:func:`apply_supply`). The wheel-speed limit the planners and trackers keep
+to is derived from the same voltage (:func:`wheel_speed_limit`, :class:`Supply`): the no-load speed
+at the voltage left under load (V_batt minus the pack's sag), less the speed that the torque
+reserve kept for load and for the loop costs, rounded down to 0.1 rad/s, and never above the
+firmware's cap; the linear and turning limits follow from it (:func:`supplied_robot`). A model's
+own limit numerics must be this rule at its own voltage (checked).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, replace
 
 import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planning.core.robot import RobotSpec
 from planning.errors import ConfigError, ModelError
 
 FloatArray = NDArray[np.float64]
@@ -151,6 +164,24 @@ class MotorModel:
         v = np.asarray(speed, dtype=float) / self.speed_per_volt
         return np.clip(v, -self.battery_voltage, self.battery_voltage)
 
+    def at_voltage(self, voltage: float) -> MotorModel:
+        """The same motor on a supply of ``voltage`` [V]: stall torque g V and no-load speed (g / b) V
+        scale with it, g and b (the torque and back-EMF constants over the winding's resistance) stay;
+        ``self`` when the voltage is its own.
+
+        Raises:
+            ConfigError: The voltage is not a finite number > 0, or the loop is unstable at it.
+        """
+        if voltage == self.battery_voltage:
+            return self
+        ratio = voltage / self.battery_voltage
+        return replace(
+            self,
+            battery_voltage=voltage,
+            stall_torque=self.stall_torque * ratio,
+            no_load_speed=self.no_load_speed * ratio,
+        )
+
     def steps_per_update(self, timestep: float) -> int:
         """Physics steps of ``timestep`` [s] per firmware update.
 
@@ -221,3 +252,198 @@ class MotorModel:
             raise ModelError(
                 f"actuator {name!r} is not the DC motor of the nhsim_motor_* numerics: {'; '.join(problems)}"
             )
+
+
+#: Supply field -> <custom><numeric> name in the MJCF (a robot without them has a fixed supply).
+SUPPLY_NUMERICS = {
+    "battery_voltage": "nhsim_motor_battery_voltage",
+    "min_voltage": "nhsim_motor_min_voltage",
+    "max_voltage": "nhsim_motor_max_voltage",
+    "supply_sag": "nhsim_motor_supply_sag",
+    "torque_reserve": "nhsim_motor_torque_reserve",
+    "speed_cap": "nhsim_motor_speed_cap",
+}
+#: The supply fields ``--motors`` may set.
+SUPPLY_KEYS = ("battery_voltage", "supply_sag", "torque_reserve")
+#: Steps per unit the limits are rounded down to: the wheel-speed limit to 0.1 rad/s, the linear limit to
+#: 1 mm/s, the turning one to 0.01 rad/s; the tolerance keeps a whole step (5.0) from rounding down a step.
+_SPEED_STEPS, _LINEAR_STEPS, _TURN_STEPS, _FLOOR_TOL = 10, 1000, 100, 1e-9
+
+
+@dataclass(frozen=True)
+class Supply:
+    """A robot's battery and the margins its wheel-speed limit keeps from it.
+
+    Attributes:
+        battery_voltage: The pack's voltage V_batt [V], the drive's voltage bound.
+        min_voltage: Lowest voltage the motors are rated for [V].
+        max_voltage: Highest voltage the motors are rated for [V].
+        supply_sag: Voltage the pack loses under the motors' load [V].
+        torque_reserve: Fraction of the stall torque (at the loaded voltage) kept for load and for the
+            velocity loop to correct, in [0, 1).
+        speed_cap: The firmware's wheel-speed cap [rad/s].
+    """
+
+    battery_voltage: float
+    min_voltage: float
+    max_voltage: float
+    supply_sag: float
+    torque_reserve: float
+    speed_cap: float
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ConfigError(f"motors: {f.name} must be a number, got {value!r}; give e.g. {f.name}=0.5")
+        v, lo, hi = self.battery_voltage, self.min_voltage, self.max_voltage
+        if not lo <= v <= hi:
+            raise ConfigError(
+                f"motors: battery_voltage = {v:g} V is outside the {lo:g}-{hi:g} V the motors are rated for; give a "
+                f"voltage in that range (e.g. battery_voltage=12.6 for a charged 3-cell pack)"
+            )
+        if not 0 <= self.supply_sag < v:
+            raise ConfigError(f"motors: supply_sag must be in [0, battery_voltage) [V], got {self.supply_sag!r}")
+        if not 0 <= self.torque_reserve < 1:
+            raise ConfigError(f"motors: torque_reserve must be a fraction in [0, 1), got {self.torque_reserve!r}")
+        if not self.speed_cap > 0:
+            raise ConfigError(f"motors: speed_cap must be > 0 [rad/s], got {self.speed_cap!r}")
+
+    @classmethod
+    def from_model(cls, model: mujoco.MjModel) -> Supply | None:
+        """The supply of a compiled model (its ``nhsim_motor_*`` supply numerics); None when it has none
+        but the battery voltage (a robot whose supply is fixed).
+
+        Raises:
+            ModelError: Some of the supply numerics but not all, or bad values (named).
+        """
+        values: dict[str, float] = {}
+        for name, key in SUPPLY_NUMERICS.items():
+            try:
+                values[name] = float(model.numeric(key).data[0])
+            except KeyError:
+                continue
+        if set(values) <= {"battery_voltage"}:
+            return None
+        missing = [SUPPLY_NUMERICS[k] for k in SUPPLY_NUMERICS if k not in values]
+        if missing:
+            raise ModelError(f"model supply numerics: {', '.join(missing)} missing (give all or none)")
+        try:
+            return cls(**values)
+        except ConfigError as exc:
+            raise ModelError(f"model supply numerics: {exc}") from exc
+
+    def with_overrides(self, text: str) -> Supply:
+        """This supply with ``key=value,...`` overrides of :data:`SUPPLY_KEYS` (``--motors``).
+
+        Raises:
+            ConfigError: An unknown key, a malformed item, a value that is not a number or out of range
+                (naming the field and the fix).
+        """
+        changes: dict[str, float] = {}
+        for item in (p.strip() for p in text.split(",")):
+            if not item:
+                continue
+            key, eq, raw = (x.strip() for x in item.partition("="))
+            if not eq:
+                raise ConfigError(f"--motors {text!r}: expected KEY=VALUE, got {item!r} (e.g. battery_voltage=12.6)")
+            if key not in SUPPLY_KEYS:
+                raise ConfigError(f"--motors: unknown key {key!r}; choose from {', '.join(SUPPLY_KEYS)}")
+            try:
+                changes[key] = float(raw)
+            except ValueError:
+                raise ConfigError(
+                    f"motors: {key} must be a number, got {raw!r}; give e.g. {key}={getattr(self, key):g}"
+                ) from None
+        return replace(self, **changes)
+
+
+def _floor(value: float, steps: int) -> float:
+    """``value`` rounded down to a whole number of 1 / ``steps`` (a value within 1e-9 steps of one stays):
+    the float nearest that decimal, as the number written in a model file reads."""
+    return math.floor(value * steps + _FLOOR_TOL) / steps
+
+
+def wheel_speed_limit(motor: MotorModel, supply: Supply) -> float:
+    """The wheel speed [rad/s] the motors sustain on ``supply`` with its torque reserve: (1 - reserve)
+    times the no-load speed at the loaded voltage (V_batt - sag), rounded down to 0.1 rad/s, capped by
+    the firmware (``motor``'s constants; its own voltage does not matter)."""
+    loaded = motor.speed_per_volt * (supply.battery_voltage - supply.supply_sag)
+    return min(supply.speed_cap, _floor((1.0 - supply.torque_reserve) * loaded, _SPEED_STEPS))
+
+
+def speed_limits(motor: MotorModel, supply: Supply, wheel_radius: float, track_width: float) -> dict[str, float]:
+    """The robot's limits on ``supply``: ``max_wheel_speed`` [rad/s], ``max_speed`` (r times it, rounded
+    down to 1 mm/s) [m/s] and ``max_yaw_rate`` (turning in place, 2 r times it over the track, rounded
+    down to 0.01 rad/s) [rad/s]."""
+    wheel = wheel_speed_limit(motor, supply)
+    return {
+        "max_wheel_speed": wheel,
+        "max_speed": _floor(wheel_radius * wheel, _LINEAR_STEPS),
+        "max_yaw_rate": _floor(2.0 * wheel_radius * wheel / track_width, _TURN_STEPS),
+    }
+
+
+def supplied_robot(spec: RobotSpec, overrides: str = "") -> RobotSpec:
+    """The robot on its supply with ``--motors`` overrides: its battery voltage and the limits that
+    follow from it; ``spec`` itself without overrides.
+
+    Raises:
+        ConfigError: Overrides for a robot whose supply is fixed, or bad overrides (named).
+        ModelError: The model's own limit numerics are not the rule at its own voltage.
+    """
+    if not overrides.strip():
+        return spec
+    model = mujoco.MjModel.from_xml_path(str(spec.mjcf))
+    supply = Supply.from_model(model)
+    if supply is None:
+        raise ConfigError(
+            f"robot {spec.name!r} runs on a fixed supply of {spec.battery_voltage:g} V (its model gives no supply "
+            "ratings; the EduMIP's firmware scales its duty cycle by the nominal over the measured battery "
+            "voltage, so its motors see the nominal 7.4 V of its 2-cell pack at any charge): drop --motors"
+        )
+    motor = MotorModel.from_model(model)
+    check_model_limits(spec, motor, supply)
+    new = supply.with_overrides(overrides)
+    limits = speed_limits(motor, new, spec.wheel_radius, spec.track_width)
+    return replace(
+        spec,
+        battery_voltage=new.battery_voltage,
+        max_wheel_speed=limits["max_wheel_speed"],
+        max_speed=limits["max_speed"],
+        max_yaw_rate=limits["max_yaw_rate"],
+    )
+
+
+def check_model_limits(spec: RobotSpec, motor: MotorModel, supply: Supply) -> None:
+    """Raise unless the model's limit numerics (``spec``'s) are :func:`speed_limits` at its own supply.
+
+    Raises:
+        ModelError: A limit differs (named, with the rule's value).
+    """
+    want = speed_limits(motor, supply, spec.wheel_radius, spec.track_width)
+    wrong = [f"{k} = {getattr(spec, k)!r}, the rule gives {v!r}" for k, v in want.items() if getattr(spec, k) != v]
+    if wrong:
+        raise ModelError(f"{spec.mjcf}: the speed limits are not those of its supply: {'; '.join(wrong)}")
+
+
+def apply_supply(model: mujoco.MjModel, voltage: float) -> None:
+    """Put a compiled model's wheel motors on a supply of ``voltage`` [V], in place: the motor numerics
+    (:meth:`MotorModel.at_voltage`) and the actuators' ``ctrlrange``; nothing when it is the model's own.
+
+    Raises:
+        ModelError: The model's motors are not the DC motors of its numerics.
+    """
+    try:
+        own = float(model.numeric(NUMERICS["battery_voltage"]).data[0])
+    except KeyError as exc:
+        raise ModelError(
+            f"model has no <custom><numeric name={NUMERICS['battery_voltage']!r}>: add its battery voltage"
+        ) from exc
+    if voltage == own:
+        return
+    new = MotorModel.from_model(model).at_voltage(voltage)
+    for name in ("battery_voltage", "stall_torque", "no_load_speed"):
+        model.numeric_data[model.numeric_adr[model.numeric(NUMERICS[name]).id]] = getattr(new, name)
+    for name in WHEEL_ACTUATORS:
+        model.actuator_ctrlrange[model.actuator(name).id] = (-voltage, voltage)

@@ -41,6 +41,7 @@ from planning.trajectory.references import REFERENCES, make_reference
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import DEFAULT_BUILD_SEED, AsBuilt, check_build_seed
 from sim.physics.lidar import load_lidar_profile
+from sim.physics.motors import supplied_robot
 from sim.physics.perturb import Perturbation
 from sim.physics.sensors import load_sensor_profile
 from sim.pipeline.runs import PLAN_HOLD_S, PLAN_TRACKER, REFERENCE_TRACKER, Progress, RunKind
@@ -109,6 +110,9 @@ class Case:
         amcl: ``key=value,...`` overrides of the localiser's settings; "" for none.
         initial_pose: "known" (the localiser starts around the start pose) or "unknown" (global
             localisation before tracking).
+        motors: ``key=value,...`` overrides of the robot's supply (``battery_voltage``, ``supply_sag``,
+            ``torque_reserve``; :func:`sim.physics.motors.supplied_robot`), which move its speed limits;
+            "" for the robot's own.
     """
 
     scenario: str | Scenario
@@ -132,6 +136,7 @@ class Case:
     lidar: str = ""
     amcl: str = ""
     initial_pose: str = "known"
+    motors: str = ""
 
     def __post_init__(self) -> None:
         if self.localiser not in (None, *LOCALISERS):
@@ -202,6 +207,14 @@ class Case:
     def as_built(self, robot: str) -> AsBuilt:
         """The robot as built for this case (nominal without a build seed)."""
         return AsBuilt.nominal() if self.build_seed is None else AsBuilt.draw(robot, self.build_seed)
+
+    def robot_spec(self, robot: str) -> RobotSpec:
+        """The robot on the case's supply (its limits those of the battery's voltage).
+
+        Raises:
+            ConfigError: Bad ``motors`` overrides, or overrides for a robot whose supply is fixed.
+        """
+        return supplied_robot(load_robot(robot), self.motors)
 
     def sensing(self, scenario: Scenario) -> SensingSetup:
         """The sensors of the case's runs: the robot's profile, the scenario's ``[sensors]`` table and
@@ -384,7 +397,7 @@ def prepare_trajectory(case: Case, *, progress: Progress | None = None) -> Prepa
         TrajectoryError: The plan failed or could not be made into a collision-free trajectory.
     """
     sc = load_case_scenario(case)
-    spec = load_robot(sc.robot)
+    spec = case.robot_spec(sc.robot)
     if case.reference is not None:
         traj = fitted_reference(case.reference, sc, spec)
         check_reference_fits(case.reference, traj, sc, spec)

@@ -153,6 +153,7 @@ class JobResult:
             "noise_seed": self.sensing.seed,
             "build_seed": self.case.build_seed,
             "as_built": self.build.as_dict(),
+            "battery_voltage_v": self.robot.battery_voltage,
             "sensors": self.sensing.profile.as_dict(),
             "localiser": self.sensing.localiser.as_dict(),
             "versions": versions(),

@@ -250,7 +250,8 @@ class Sensing:
         if setup.localiser.kind == "amcl" and self.source is PoseSource.FUSED:
             localiser_schedule(setup.localiser, self.sensors.fix_every, self.sensors.fix_latency_periods, self.dt)
             self.scans = ScanLocaliser(
-                model, robot, setup.localiser, setup.seed, t0=t0, dt=self.dt, rad_per_count=self._rad_per_count
+                model, robot, setup.localiser, setup.seed, t0=t0, dt=self.dt, rad_per_count=self._rad_per_count,
+                gyro_error=self.sensors.gyro_error,
             )
 
     def observer(self, data: mujoco.MjData) -> Callable[[int, tuple[float, float, float]], tuple[float, float, float]]:
@@ -298,7 +299,7 @@ class Sensing:
                 self.fixes[k] = self.sensors.fix(k, truth)
             elif k > 0:
                 left, right = self.reader.counts.tolist()
-                self.scans.mark(k, (left, right))
+                self.scans.mark(k, (left, right), truth[2])
         j = self._fix_delivered.get(k)
         if j is not None:
             self._deliver(j, k, truth)

@@ -1,0 +1,93 @@
+"""The scan localiser's fix as the EKF gets it: its covariance carries the scanner's systematic error,
+and its odometry's heading is the IMU's, so a slipping wheel does not turn the particles."""
+
+from __future__ import annotations
+
+import math
+
+import amcl_reference as ref
+import mujoco
+import numpy as np
+import pytest
+
+from control.estimation import amcl_kernels as K
+from control.estimation.amcl import Amcl, AmclConfig
+from planning.core.robot import load_robot
+from planning.core.world import Box, Circle, World
+from sim.physics.lidar import LidarProfile, LidarScanner
+from sim.physics.model import build_model
+from sim.robot.scan_localiser import LocaliserSetup, ScanLocaliser, range_bias
+
+WORLD = World((-2.0, 2.0, -1.5, 1.5), (Box((1.0, 0.5), (0.4, 0.3), 0.3), Circle((-1.0, -0.5), 0.3)))
+EXACT = LidarProfile(accuracy_near=0, accuracy_far=0, precision_near=0, precision_far=0)
+POSE = np.array([0.1, -0.3, 0.4])
+
+
+@pytest.fixture(scope="module")
+def scan() -> tuple[Amcl, np.ndarray, np.ndarray]:
+    model = build_model(load_robot("turtlebot3"), WORLD).model
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    lidar = LidarScanner(model, EXACT, seed=3)
+    s = lidar.scan(data, 0.0, np.tile(POSE, (360, 1)))
+    amcl = Amcl(WORLD, AmclConfig(), [*lidar.offset[:2], 0.0], seed=1, range_bias=(0.5, 0.015, 0.03))
+    r, b = amcl.beams(s.ranges, 0.12, 3.5, 0.0, s.angle_increment, every=True)
+    return amcl, r, b
+
+
+def test_the_fit_sensitivity_matches_the_reference(scan: tuple) -> None:
+    amcl, r, b = scan
+    f = amcl.field
+    pose = POSE + np.array([0.01, -0.02, 0.01])
+    ata, used, ssr = K.fit_sensitivity(pose, r, b, amcl.laser, f.signed, f.grid, 0.3, 1.5)
+    want = ref.fit_sensitivity(pose, r, b, amcl.laser, f.signed, f.grid, 0.3, 1.5)
+    np.testing.assert_allclose(ata, want[0], rtol=1e-9, atol=1e-9)
+    assert (used, ssr) == (want[1], pytest.approx(want[2], rel=1e-9))
+    assert used > 300 and np.abs(ata[:3, 4]).max() > 0  # beams both sides of the split (1.5 m here)
+
+
+def test_the_sensitivity_predicts_how_a_scaled_scan_moves_the_fit(scan: tuple) -> None:
+    amcl, r, b = scan
+    f = amcl.field
+    ata, _, _ = K.fit_sensitivity(POSE, r, b, amcl.laser, f.signed, f.grid, 0.3, 0.5)
+    for k in (0.03, -0.03):
+        scaled = np.where(r >= 0.5, r * (1 + k), r)
+        got, _, _, _ = K.refine(POSE.copy(), scaled, b, amcl.laser, f.signed, f.grid, 0.3, 20)
+        predicted = -np.linalg.solve(ata[:3, :3], ata[:3, 3]) * k
+        shift = got - POSE
+        assert np.linalg.norm(shift[:2]) > 0.005  # this room does not surround the robot evenly
+        np.testing.assert_allclose(shift, predicted, atol=0.2 * np.abs(predicted).max() + 1e-3)
+
+
+def test_the_fix_covariance_carries_the_scanners_systematic_error(scan: tuple) -> None:
+    amcl, r, b = scan
+    f = amcl.field
+    pose = POSE.copy()
+    ata, used, ssr = K.fit_sensitivity(pose, r, b, amcl.laser, f.signed, f.grid, 0.3, 0.5)
+    cov = amcl._fit_cov(pose, r, b)
+    white = max(ssr / (used - 3), 1e-8) * np.linalg.inv(ata[:3, :3])
+    gain = np.linalg.solve(ata[:3, :3], ata[:3, 3:])
+    np.testing.assert_allclose(cov, white + gain @ np.diag([0.03**2, 0.015**2]) @ gain.T, rtol=1e-6, atol=1e-12)
+    assert math.sqrt(cov[0, 0] + cov[1, 1]) > 10 * math.sqrt(white[0, 0] + white[1, 1])  # exact scan: no white noise
+    assert range_bias(LidarProfile()) == pytest.approx((0.5, 0.015 / 3, 0.05 / 3))  # the band at 3 sigma
+
+
+def _localiser(gyro: bool) -> ScanLocaliser:
+    model = build_model(load_robot("turtlebot3"), WORLD).model
+    setup = LocaliserSetup("amcl", WORLD, LidarProfile(), AmclConfig())
+    error = np.full(100, 0.01) if gyro else None  # a gyro reading 0.01 rad/s high
+    return ScanLocaliser(model, load_robot("turtlebot3"), setup, 0, t0=0.0, dt=0.02, rad_per_count=2 * math.pi / 4096,
+                         gyro_error=error)  # fmt: skip
+
+
+def test_a_slipping_wheel_does_not_turn_the_odometry_the_localiser_takes() -> None:
+    data = mujoco.MjData(build_model(load_robot("turtlebot3"), WORLD).model)
+    for gyro in (True, False):
+        loc = _localiser(gyro)
+        loc.start(data, (0.0, 0.0, 0.3), (0, 0))
+        loc.mark(10, (0, 400), 0.3)  # the right wheel turned a tenth of a turn, the robot did not
+        if gyro:  # the IMU's heading: no turn but the gyro's drift over the 10 periods
+            assert loc.odom[2] == pytest.approx(10 * 0.02 * 0.01, abs=1e-12)
+        else:  # the encoders' differential: 0.033 x 2 pi 400 / 4096 / 0.16 = 0.127 rad
+            assert loc.odom[2] == pytest.approx(0.033 * 2 * math.pi * 400 / 4096 / 0.16, rel=1e-9)
+        assert loc.odom[0] > 0.009  # the encoders' distance either way
