@@ -16,8 +16,8 @@ import yaml
 
 from planning.errors import ConfigError, OutputExistsError
 from planning.trajectory.importer import TrajectoryFile
-from sim.io import bag as bagmod
 from sim.io.bag import write_job_bag
+from sim.io.bag_topics import scan_of
 from sim.pipeline.runs import RunKind
 
 RUNS = (RunKind.CLOSED_LOOP, RunKind.CLOSED_LOOP_ODOMETRY, RunKind.OPEN_LOOP)
@@ -62,6 +62,9 @@ def expected_counts(result: Any) -> dict[str, int]:
         counts[f"/{kind}/robot"] = 1
         if est is not None and est.fix_t.size:
             counts[f"/{kind}/fix"] = est.fix_t.size
+        scan = scan_of(log)
+        if scan is not None and scan.t.size:
+            counts[f"/{kind}/scan"] = scan.t.size
     counts["/clock"] = np.unique(np.concatenate([log.t for log in result.logs.values()])).size
     counts.update(dict.fromkeys(ONCE, 1))
     return counts
@@ -272,16 +275,18 @@ def test_an_interrupted_write_leaves_nothing(
     job: tuple[Any, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     result, _ = job
-    calls = {"n": 0}
-    real = bagmod.m.serialize
+    from rosbags.rosbag2 import Writer
 
-    def failing(message: Any) -> bytes:
+    calls = {"n": 0}
+    real = Writer.write
+
+    def failing(self: Any, *args: Any) -> None:  # Ctrl-C amid the messages
         calls["n"] += 1
         if calls["n"] > 500:
             raise KeyboardInterrupt
-        return real(message)
+        real(self, *args)
 
-    monkeypatch.setattr(bagmod.m, "serialize", failing)
+    monkeypatch.setattr(Writer, "write", failing)
     with pytest.raises(KeyboardInterrupt):
         write_job_bag(result, tmp_path / "cut")
     assert list(tmp_path.iterdir()) == []
@@ -298,7 +303,7 @@ def test_the_foxglove_layout_names_only_topics_and_fields_a_bag_has(job: tuple[A
     shown = set(panels["3D!nhsim"]["topics"])
     plotted = [p["value"] for key, panel in panels.items() if key.startswith("Plot!") for p in panel["paths"]]
     _, msgs, _ = read_rosbags(path)
-    assert shown - set(msgs) == {"/closed_loop/scan"}  # the scan only where the robot has a lidar
+    assert shown - set(msgs) == {"/closed_loop/scan"} - set(msgs)  # the scan only where the robot has a lidar
     assert {f"/{kind}/robot" for kind in result.logs} <= shown  # the three robots
     with AnyReader([path]) as reader:
         types = {c.topic: c.msgtype for c in reader.connections}
@@ -309,3 +314,23 @@ def test_the_foxglove_layout_names_only_topics_and_fields_a_bag_has(job: tuple[A
             node = getattr(node, name)
         assert isinstance(node, float), (value, types[topic])
     assert {v.split(".")[0].split("/")[1] for v in plotted} == {str(k) for k in result.logs}
+
+
+def test_a_revolution_begun_before_the_run_keeps_its_beams_from_time_zero(
+    job: tuple[Any, Path], tmp_path: Path
+) -> None:
+    from rosbags.highlevel import AnyReader
+
+    result, _ = job
+    ranges = np.linspace(0.2, 3.0, 3 * 360).reshape(3, 360)
+    t = np.array([-0.1, 0.1, 0.3])  # the first centred on t = 0: half of it before the run
+    path = write_job_bag(_with_scan(result, "log.scan", ranges, t), tmp_path / "early").path
+    with AnyReader([path]) as reader:
+        conns = [c for c in reader.connections if c.topic == "/closed_loop/scan"]
+        got = [(s, reader.deserialize(raw, c.msgtype)) for c, s, raw in reader.messages(connections=conns)]
+    (s0, first), (s1, second) = got[0], got[1]
+    step = 2 * math.pi / 360
+    assert s0 == 0 and first.header.stamp.sec == 0 and first.header.stamp.nanosec == 0
+    assert first.angle_min == pytest.approx(180 * step) and first.angle_max == pytest.approx(359 * step)
+    np.testing.assert_array_equal(first.ranges, ranges[0, 180:].astype(np.float32))
+    assert s1 == round(0.1e9) and second.angle_min == 0.0 and second.ranges.size == 360

@@ -152,7 +152,7 @@ def job_topics(prepared: Any, logs: Mapping[str, Any]) -> list[bt.Topic]:
         topics.append(bt.Topic(f"/{ns}/robot", m.TYPES["markers"], np.zeros(1), _once(robot), latched=True))
     times = np.unique(np.concatenate([log.t for log in logs.values()]))
     clock = m.msg(m.TYPES["clock"])
-    topics.append(bt.Topic("/clock", m.TYPES["clock"], times, lambda k: clock(clock=m.stamp(float(times[k])))))
+    topics.append(bt.Topic("/clock", m.TYPES["clock"], times, rows=(clock(clock=m.stamp(0.0)), {"clock": times})))
     traj, world = prepared.trajectory, prepared.scenario.world
     ref = _thinned(traj.t)
     path = prepared.path if prepared.path is not None else _distinct(traj.pose[ref])
@@ -179,6 +179,7 @@ def _write(topics: list[bt.Topic], folder: Path) -> None:
     which = np.concatenate([np.full(tp.times.size, i) for i, tp in enumerate(topics)])
     index = np.concatenate([np.arange(tp.times.size) for tp in topics])
     order = np.lexsort((index, which, stamps))  # by time, then topic, then message
+    payloads = [tp.serialized() for tp in topics]
     with writer:
         conns = [
             writer.add_connection(
@@ -186,9 +187,8 @@ def _write(topics: list[bt.Topic], folder: Path) -> None:
             )
             for tp in topics
         ]
-        for n in order.tolist():
-            i = int(which[n])
-            writer.write(conns[i], int(stamps[n]), m.serialize(topics[i].make(int(index[n]))))
+        for i, k, ns in zip(which[order].tolist(), index[order].tolist(), stamps[order].tolist(), strict=True):
+            writer.write(conns[i], ns, payloads[i][k])
 
 
 def write_job_bag(result: Any, path: Path, *, overwrite: bool = False) -> BagSummary:
