@@ -334,3 +334,60 @@ def test_a_revolution_begun_before_the_run_keeps_its_beams_from_time_zero(
     assert first.angle_min == pytest.approx(180 * step) and first.angle_max == pytest.approx(359 * step)
     np.testing.assert_array_equal(first.ranges, ranges[0, 180:].astype(np.float32))
     assert s1 == round(0.1e9) and second.angle_min == 0.0 and second.ranges.size == 360
+
+
+def test_obstacles_not_on_the_map_are_drawn_apart_and_left_off_the_map(job: tuple[Any, Path]) -> None:
+    from planning.core.world import Box, Circle
+    from sim.io.bag import job_topics
+    from sim.io.bag_topics import OBSTACLE_COLOUR, UNMAPPED_COLOUR
+
+    result, _ = job
+    hidden = (Box((0.4, 0.5), (0.3, 0.2), 0.3), Circle((0.2, -0.4), 0.1))
+    scenario = dataclasses.replace(result.prepared.scenario, unmapped=hidden)
+    topics = {tp.name: tp for tp in job_topics(dataclasses.replace(result.prepared, scenario=scenario), result.logs)}
+    markers = topics["/obstacles"].make(0).markers  # type: ignore[misc]
+    mapped = [x for x in markers if x.ns == "obstacles"]
+    unmapped = [x for x in markers if x.ns == "unmapped"]
+    assert len(mapped) == len(scenario.world.obstacles) + 1  # and the walls
+    assert [(x.id, x.type) for x in unmapped] == [(0, 1), (1, 3)]  # a cube, a cylinder
+    assert (unmapped[0].pose.position.x, unmapped[0].pose.position.y) == (0.4, 0.5)
+    assert (unmapped[0].scale.x, unmapped[0].scale.y) == (0.3, 0.2) and unmapped[1].scale.x == pytest.approx(0.2)
+    colours = {(x.color.r, x.color.g, x.color.b, x.color.a) for x in unmapped}
+    assert colours == {UNMAPPED_COLOUR} and all(
+        (x.color.r, x.color.g, x.color.b, x.color.a) == OBSTACLE_COLOUR for x in mapped[:-1]
+    )
+    grid = topics["/map"].make(0)  # type: ignore[misc]
+    res, w = grid.info.resolution, grid.info.width
+    ox, oy = grid.info.origin.position.x, grid.info.origin.position.y
+    cell = int((0.5 - oy) / res) * w + int((0.4 - ox) / res)
+    assert grid.data[cell] == 0  # the map the planner and the localiser use does not hold them
+
+
+def test_the_imu_reads_what_the_robots_gyro_and_accelerometer_measured(job: tuple[Any, Path]) -> None:
+    """The gyro reading at period k is the heading change over the period (from the estimator's record of
+    the true pose by period) over its length plus the seed's gyro error at k, as the estimator was fed."""
+    from sim.physics.sensors import SensorModel
+
+    result, path = job
+    _, msgs, _ = read_rosbags(path)
+    setup = result.prepared.case.sensing(result.prepared.scenario)
+    log = result.logs[RunKind.CLOSED_LOOP]
+    est, rate = log.estimation, log.meta["control_rate_hz"]
+    n = est.t.size
+    sensors = SensorModel(setup.profile, control_rate=rate, timestep=0.002, n_periods=n, seed=setup.seed)
+    imu = [x for _, x in msgs["/closed_loop/imu"]]
+    stamps = np.array([x.header.stamp.sec + 1e-9 * x.header.stamp.nanosec for x in imu])
+    ks = np.arange(1, n)
+    rows = np.searchsorted(stamps, est.t[ks] - 1e-9)
+    true_rate = np.array([_wrap(float(a - b)) for a, b in zip(est.truth[ks, 2], est.truth[ks - 1, 2], strict=True)])
+    gyro = np.array([imu[r].angular_velocity.z for r in rows])
+    np.testing.assert_allclose(gyro, true_rate * rate + sensors.gyro_error[ks], atol=1e-9)
+    assert np.std(gyro - true_rate * rate) > 0.5 * sensors.gyro_white_std  # the noise is there
+    accel = np.array([[x.linear_acceleration.x, x.linear_acceleration.y, x.linear_acceleration.z] for x in imu])
+    assert np.median(accel[:, 2]) == pytest.approx(9.80665 + sensors.accel_bias[2], abs=4 * sensors.accel_white_std)
+    p = setup.profile
+    first = imu[0]
+    assert first.orientation_covariance[0] == -1.0  # not measured
+    assert first.angular_velocity_covariance[8] == pytest.approx(sensors.gyro_white_std**2 + p.gyro_bias_std**2)
+    assert imu[-1].angular_velocity_covariance[8] > first.angular_velocity_covariance[8]  # the bias walks
+    assert first.linear_acceleration_covariance[0] == pytest.approx(sensors.accel_white_std**2 + p.accel_bias_std**2)

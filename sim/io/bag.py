@@ -141,12 +141,11 @@ def job_topics(prepared: Any, logs: Mapping[str, Any]) -> list[bt.Topic]:
         logs: Run label (a run kind, a tracker) -> its :class:`sim.physics.runlog.RunLog`.
     """
     sk = bt.skeleton(prepared.robot.name)
-    profile = prepared.case.sensing(prepared.scenario).profile
-    std = (float(profile.fix_position_std), float(profile.fix_heading_std))
+    sensing = prepared.case.sensing(prepared.scenario)
     names = [ros_name(str(label)) for label in logs]
     topics: list[bt.Topic] = []
     for k, (ns, log) in enumerate(zip(names, logs.values(), strict=True)):
-        topics += bt.run_topics(ns, log, prepared.robot, sk, std)
+        topics += bt.run_topics(ns, log, prepared.robot, sk, sensing)
         colour = bt.RUN_COLOURS[min(k, len(bt.RUN_COLOURS) - 1)]
         robot = bt.robot_markers(ns, prepared.robot, sk, colour)
         topics.append(bt.Topic(f"/{ns}/robot", m.TYPES["markers"], np.zeros(1), _once(robot), latched=True))
@@ -161,7 +160,7 @@ def job_topics(prepared: Any, logs: Mapping[str, Any]) -> list[bt.Topic]:
         ("/plan", "path", m.path(0.0, "map", np.asarray(path, dtype=float))),
         ("/reference", "path", m.path(0.0, "map", traj.pose[ref], traj.t[ref])),
         ("/map", "grid", bt.map_message(world)),
-        ("/obstacles", "markers", bt.obstacle_markers(world)),
+        ("/obstacles", "markers", bt.obstacle_markers(world, prepared.scenario.unmapped)),
     ]
     for name, kind, message in once:
         topics.append(bt.Topic(name, m.TYPES[kind], np.zeros(1), _once(message), latched=True))

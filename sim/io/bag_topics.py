@@ -13,16 +13,17 @@ body's height, pitch and roll from the physics (a balancing robot leans); the wh
 joint angles.
 
 Per run (namespace ``/RUN``): ``tf``, ``odom`` (the estimate with its covariance), ``ground_truth/odom``,
-``joint_states``, ``imu`` (from the true motion: orientation, yaw rate, planar acceleration plus
-gravity; noise-free), ``cmd_vel``, ``fix`` (the localisation fixes, when the run's sensors give them)
+``joint_states``, ``imu`` (what the robot's gyro and accelerometer read, their noise included, with the
+sensor profile's covariances), ``cmd_vel``, ``fix`` (the localisation fixes, when the run's sensors give them)
 and ``scan`` (when the run log carries one). Once per job: ``/clock``, ``/tf_static``, ``/plan``,
-``/reference``, ``/map`` and ``/obstacles``, the last four and ``/tf_static`` latched.
+``/reference``, ``/map`` and ``/obstacles`` (the map's and, apart, the unmapped ones), the last four and
+``/tf_static`` latched.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cache
 from typing import Any
@@ -255,16 +256,56 @@ def _truth_series(log: Any, frames: dict[str, str]) -> Series:
     return _odometry(log.t, "map", frames["base_footprint"], log.pose, np.zeros((log.t.size, 3)), v, omega)
 
 
-def _imu_series(log: Any, sk: Skeleton, frames: dict[str, str]) -> Series:
-    """``RUN/imu``: the body's orientation, its yaw rate and planar acceleration plus gravity (true motion)."""
-    v, omega = body_velocity(log.t, log.pose)
-    dv = np.gradient(v, log.t) if log.t.size > 1 else np.zeros(log.t.size)
-    q = log.qpos[:, sk.root + 3 : sk.root + 7]
+def _period_yaw_rates(log: Any, rate: float, n: int) -> FloatArray:
+    """(n,) the true mean yaw rate over each control period ending at period k (0 at period 0) [rad/s]:
+    the heading change over the period over its length, from the true headings the run's sensors read
+    (the estimator's record, ``log.estimation.truth``), else the logged poses at the periods' instants."""
     t = log.t
+    heading = np.interp(t[0] + np.arange(n) / rate, t, np.unwrap(log.pose[:, 2]))
+    est = log.estimation
+    if est is not None and est.t.size:
+        j = np.round((est.t - t[0]) * rate).astype(np.int64)
+        seen = np.unwrap(est.truth[:, 2])
+        keep = (j >= 0) & (j < n) & np.isfinite(seen)
+        heading[j[keep]] = seen[keep]
+    return np.diff(heading, prepend=heading[0]) * rate
+
+
+def _imu_series(log: Any, frames: dict[str, str], sensing: Any) -> Series:
+    """``RUN/imu``: what the robot's IMU measured at each logged sample, in period ``k``: the gyro (yaw)
+    the true mean yaw rate over the period plus its bias and white noise, the accelerometer the planar
+    specific force (acceleration along and across the heading, gravity up) plus its bias and white
+    noise, from the run's own noise draws (:class:`sim.physics.sensors.SensorModel`, the job's seed).
+    Covariances from the sensor profile: the gyro's z variance is its white noise's plus its bias's,
+    which walks (``gyro_bias_std^2 + gyro_bias_walk^2 t``); x and y, which a yaw gyro does not measure,
+    a large variance; the accelerometer's per axis its white noise's plus its bias's. The orientation is
+    not measured (``orientation_covariance[0] = -1``, as ``sensor_msgs/Imu`` asks)."""
+    from sim.physics.sensors import SensorModel
+
+    t = log.t
+    rate = float(log.meta.get("control_rate_hz", 50.0))
+    k = np.clip(np.round((t - t[0]) * rate).astype(np.int64), 0, None)
+    sensors = SensorModel(
+        sensing.profile,
+        control_rate=rate,
+        timestep=float(log.meta.get("timestep_s", 1.0 / rate)),
+        n_periods=int(k.max()) + 1,
+        seed=int(sensing.seed),
+    )
+    yaw_rate = _period_yaw_rates(log, rate, int(k.max()) + 1)[k]
+    v, omega = body_velocity(t, log.pose)
+    dv = np.gradient(v, t) if t.size > 1 else np.zeros(t.size)
+    accel = np.column_stack([dv, v * omega, np.full(t.size, GRAVITY)]) + sensors.accel_bias + sensors.accel_white[k]
+    p = sensing.profile
+    gyro_var = sensors.gyro_white_std**2 + p.gyro_bias_std**2 + p.gyro_bias_walk**2 * (t - t[0])
+    accel_var = sensors.accel_white_std**2 + p.accel_bias_std**2
     msg = m.imu(0.0, frames["imu_link"], (0.0, 0.0, 0.0, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, GRAVITY))
-    cols = {"header.stamp": t, "angular_velocity.z": omega, "linear_acceleration.x": dv}
-    cols["linear_acceleration.y"] = v * omega
-    cols.update({f"orientation.{a}": q[:, (j + 1) % 4] for j, a in enumerate("xyzw")})
+    msg.orientation_covariance[0] = -1.0
+    msg.angular_velocity_covariance[[0, 4]] = 1e6
+    msg.linear_acceleration_covariance[[0, 4, 8]] = accel_var
+    cols = {"header.stamp": t, "angular_velocity.z": yaw_rate + sensors.gyro_error[k]}
+    cols.update({f"linear_acceleration.{a}": accel[:, j] for j, a in enumerate("xyz")})
+    cols["angular_velocity_covariance.8"] = gyro_var
     return t, (msg, cols)
 
 
@@ -390,7 +431,7 @@ def _scan_series(log: Any, frames: dict[str, str]) -> Series:
     return stamps, make
 
 
-def run_topics(ns: str, log: Any, robot: Any, sk: Skeleton, fix_std: tuple[float, float]) -> list[Topic]:
+def run_topics(ns: str, log: Any, robot: Any, sk: Skeleton, sensing: Any) -> list[Topic]:
     """The topics of one run under ``/ns``.
 
     Args:
@@ -398,7 +439,7 @@ def run_topics(ns: str, log: Any, robot: Any, sk: Skeleton, fix_std: tuple[float
         log: Its :class:`sim.physics.runlog.RunLog`.
         robot: The robot spec (wheel radius and track for the odometry twist).
         sk: The robot's skeleton.
-        fix_std: Standard deviations of the localisation fixes (position [m], heading [rad]).
+        sensing: The job's :class:`sim.robot.sensing.SensingSetup` (its sensor profile and noise seed).
     """
     frames = run_frames(ns)
     r, b = robot.wheel_radius, robot.track_width
@@ -413,10 +454,10 @@ def run_topics(ns: str, log: Any, robot: Any, sk: Skeleton, fix_std: tuple[float
         ("odom", "odometry", _odom_series(log, frames, wheel)),
         ("ground_truth/odom", "odometry", _truth_series(log, frames)),
         ("joint_states", "joints", _joints_series(log, sk)),
-        ("imu", "imu", _imu_series(log, sk, frames)),
+        ("imu", "imu", _imu_series(log, frames, sensing)),
         ("cmd_vel", "twist", _command_series(log, base)),
         ("tracking_error", "vector", _error_series(log, base)),
-        ("fix", "fix", _fix_series(log, fix_std)),
+        ("fix", "fix", _fix_series(log, (sensing.profile.fix_position_std, sensing.profile.fix_heading_std))),
         ("scan", "scan", _scan_series(log, frames)),
     ]
     return [topic(f"/{ns}/{name}", m.TYPES[kind], times, how) for name, kind, (times, how) in series if times.size]
@@ -468,6 +509,8 @@ def map_message(world: World) -> Any:
 
 
 OBSTACLE_COLOUR = (0.55, 0.45, 0.35, 0.9)
+#: Colour of the obstacles not on the map (RGBA): red, half transparent.
+UNMAPPED_COLOUR = (0.85, 0.15, 0.15, 0.7)
 #: Colours of the runs' robots (RGBA), in the order of the job's runs; the rest grey.
 RUN_COLOURS = ((0.12, 0.47, 0.71, 1.0), (1.0, 0.5, 0.05, 0.9), (0.5, 0.5, 0.5, 0.5), (0.17, 0.63, 0.17, 0.9))
 
@@ -529,26 +572,32 @@ def robot_markers(ns: str, robot: Any, sk: Skeleton, colour: tuple[float, ...]) 
     return m.msg(m.TYPES["markers"])(markers=markers)
 
 
-def obstacle_markers(world: World) -> Any:
-    """``/obstacles``: each obstacle as a solid of :data:`OBSTACLE_HEIGHT` (a polygon as its outline),
-    and the world's walls as a line."""
-    hz, markers = 0.5 * OBSTACLE_HEIGHT, []
-    for k, obs in enumerate(world.obstacles):
-        if isinstance(obs, Polygon):
-            pts = [m.point(x, y, OBSTACLE_HEIGHT) for x, y in [*obs.vertices, obs.vertices[0]]]
-            markers.append(_marker(k, 4, m.pose(0, 0, 0, (0, 0, 0, 1)), (0.02, 0, 0), pts))
-            continue
-        if isinstance(obs, Circle):
-            size, angle, kind = (2 * obs.radius, 2 * obs.radius), 0.0, 3
-        elif isinstance(obs, Ellipse):
-            size, angle, kind = (2 * obs.radii[0], 2 * obs.radii[1]), obs.angle, 3
-        elif isinstance(obs, Box):
-            size, angle, kind = (obs.size[0], obs.size[1]), obs.angle, 1
-        else:
-            continue
-        p = m.pose(obs.center[0], obs.center[1], hz, m.yaw_quat(angle))
-        markers.append(_marker(k, kind, p, (size[0], size[1], OBSTACLE_HEIGHT), []))
+def _obstacle_marker(k: int, obs: Any, ns: str, colour: tuple[float, ...]) -> Any | None:
+    """One obstacle as a solid of :data:`OBSTACLE_HEIGHT` (a polygon as its outline), or None (a shape
+    not drawn)."""
+    if isinstance(obs, Polygon):
+        pts = [m.point(x, y, OBSTACLE_HEIGHT) for x, y in [*obs.vertices, obs.vertices[0]]]
+        return _marker(k, 4, m.pose(0, 0, 0, (0, 0, 0, 1)), (0.02, 0, 0), pts, ns=ns, colour=colour)
+    if isinstance(obs, Circle):
+        size, angle, kind = (2 * obs.radius, 2 * obs.radius), 0.0, 3
+    elif isinstance(obs, Ellipse):
+        size, angle, kind = (2 * obs.radii[0], 2 * obs.radii[1]), obs.angle, 3
+    elif isinstance(obs, Box):
+        size, angle, kind = (obs.size[0], obs.size[1]), obs.angle, 1
+    else:
+        return None
+    p = m.pose(obs.center[0], obs.center[1], 0.5 * OBSTACLE_HEIGHT, m.yaw_quat(angle))
+    return _marker(k, kind, p, (size[0], size[1], OBSTACLE_HEIGHT), [], ns=ns, colour=colour)
+
+
+def obstacle_markers(world: World, unmapped: Sequence[Any] = ()) -> Any:
+    """``/obstacles``: the map's obstacles (namespace ``obstacles``), the world's walls as a line (its last
+    id), and the obstacles that are not on the map (namespace ``unmapped``, :data:`UNMAPPED_COLOUR`: in
+    physics and in the scan, unknown to the planner and the localiser), each a solid of
+    :data:`OBSTACLE_HEIGHT` (a polygon as its outline)."""
+    mapped = [_obstacle_marker(k, obs, "obstacles", OBSTACLE_COLOUR) for k, obs in enumerate(world.obstacles)]
     xmin, xmax, ymin, ymax = world.bounds
     walls = [m.point(x, y) for x, y in ((xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax), (xmin, ymin))]
-    markers.append(_marker(len(world.obstacles), 4, m.pose(0, 0, 0, (0, 0, 0, 1)), (0.02, 0, 0), walls))
-    return m.msg(m.TYPES["markers"])(markers=markers)
+    mapped.append(_marker(len(world.obstacles), 4, m.pose(0, 0, 0, (0, 0, 0, 1)), (0.02, 0, 0), walls))
+    hidden = [_obstacle_marker(k, obs, "unmapped", UNMAPPED_COLOUR) for k, obs in enumerate(unmapped)]
+    return m.msg(m.TYPES["markers"])(markers=[x for x in mapped + hidden if x is not None])
