@@ -396,3 +396,29 @@ def test_the_imu_reads_what_the_robots_gyro_and_accelerometer_measured(job: tupl
     assert first.angular_velocity_covariance[8] == pytest.approx(sensors.gyro_white_std**2 + p.gyro_bias_std**2)
     assert imu[-1].angular_velocity_covariance[8] > first.angular_velocity_covariance[8]  # the bias walks
     assert first.linear_acceleration_covariance[0] == pytest.approx(sensors.accel_white_std**2 + p.accel_bias_std**2)
+
+
+def test_the_imu_noise_is_the_runs_own_seed(job: tuple[Any, Path]) -> None:
+    """A run drawn with another noise seed (a compare draw) reads its own gyro noise in the bag."""
+    from sim.io.bag import job_topics
+    from sim.physics.sensors import SensorModel
+
+    result, _ = job
+    setup = result.prepared.case.sensing(result.prepared.scenario)
+    log = result.logs[RunKind.CLOSED_LOOP]
+    other = dataclasses.replace(log, meta={**log.meta, "noise_seed": setup.seed + 7})
+
+    def gyro(run_log: Any) -> np.ndarray:
+        topics = job_topics(result.prepared, {RunKind.CLOSED_LOOP: run_log})
+        imu = next(tp for tp in topics if tp.name.endswith("/imu"))
+        return np.asarray(imu.rows[1]["angular_velocity.z"])  # type: ignore[index]
+
+    n = log.t.size
+    k = np.round((log.t - log.t[0]) * log.meta["control_rate_hz"]).astype(int)
+
+    def error(seed: int) -> np.ndarray:
+        model = SensorModel(setup.profile, control_rate=50.0, timestep=0.002, n_periods=int(k.max()) + 1, seed=seed)
+        return model.gyro_error[k]
+
+    assert log.meta["noise_seed"] == setup.seed and n > 100
+    np.testing.assert_allclose(gyro(other) - gyro(log), error(setup.seed + 7) - error(setup.seed), atol=1e-12)

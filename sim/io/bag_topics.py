@@ -275,7 +275,7 @@ def _imu_series(log: Any, frames: dict[str, str], sensing: Any) -> Series:
     """``RUN/imu``: what the robot's IMU measured at each logged sample, in period ``k``: the gyro (yaw)
     the true mean yaw rate over the period plus its bias and white noise, the accelerometer the planar
     specific force (acceleration along and across the heading, gravity up) plus its bias and white
-    noise, from the run's own noise draws (:class:`sim.physics.sensors.SensorModel`, the job's seed).
+    noise, from the run's own noise draws (:class:`sim.physics.sensors.SensorModel`, the run's noise seed).
     Covariances from the sensor profile: the gyro's z variance is its white noise's plus its bias's,
     which walks (``gyro_bias_std^2 + gyro_bias_walk^2 t``); x and y, which a yaw gyro does not measure,
     a large variance; the accelerometer's per axis its white noise's plus its bias's. The orientation is
@@ -290,7 +290,7 @@ def _imu_series(log: Any, frames: dict[str, str], sensing: Any) -> Series:
         control_rate=rate,
         timestep=float(log.meta.get("timestep_s", 1.0 / rate)),
         n_periods=int(k.max()) + 1,
-        seed=int(sensing.seed),
+        seed=int(log.meta.get("noise_seed", sensing.seed)),  # the run's own (a compare draw's)
     )
     yaw_rate = _period_yaw_rates(log, rate, int(k.max()) + 1)[k]
     v, omega = body_velocity(t, log.pose)
