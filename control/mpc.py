@@ -47,12 +47,23 @@ towards rest within the acceleration limits: the command is always finite and wi
 
 The model accepts every trajectory: v may take either sign, so cusps and turns in place are part
 of the optimisation, with no segment switching.
+
+Interrupts: CasADi polls Python for signals inside a solve (its interrupt check calls the Python
+signal handlers), and a ``KeyboardInterrupt`` raised there is caught inside the solver, which ends
+the solve as failed (it warns ``KeyboardInterruptException``) and returns: the interrupt would be
+lost. So SIGINT and SIGTERM are held for the solve's few milliseconds (:func:`signals_held`) and
+delivered to their own handlers as it returns: Ctrl-C or SIGTERM stops a run of this tracker as
+promptly as any other.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
+import signal
+import threading
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
@@ -200,6 +211,37 @@ def _solver(p: MPCParams, lim: _Limits) -> tuple[Any, FloatArray, FloatArray]:
     return ca.nlpsol("mpc", "sqpmethod", nlp, opts), lbg, ubg
 
 
+#: The signals held during a solve.
+HELD_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+@contextlib.contextmanager
+def signals_held() -> Iterator[None]:
+    """Within the block SIGINT and SIGTERM are only noted; on leaving, the previous handlers are back
+    and each signal noted is raised again, so they act on it (e.g. raise KeyboardInterrupt) then.
+
+    Outside the main thread (where no handler can be set), or when a handler was not set from Python
+    (it could not be restored), the block runs as it is.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {sig: signal.getsignal(sig) for sig in HELD_SIGNALS}
+    if any(h is None for h in previous.values()):
+        yield
+        return
+    noted: list[int] = []
+    for sig in HELD_SIGNALS:
+        signal.signal(sig, lambda signum, frame: noted.append(signum))
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        for signum in dict.fromkeys(noted):
+            signal.raise_signal(signum)
+
+
 @lru_cache(maxsize=16)
 def _shift_weights(n: int, h: float, dt: float) -> tuple[FloatArray, FloatArray]:
     """Linear interpolation one control period ``dt`` [s] on along a horizon of ``n`` steps of ``h`` [s],
@@ -301,7 +343,8 @@ class MPCTracker:
         if self._lam is not None:
             args["lam_x0"], args["lam_g0"] = self._lam
         try:
-            sol = self._call(solver, args)
+            with signals_held():  # CasADi would swallow them (see the module doc)
+                sol = self._call(solver, args)
             status = solver.stats()
             z = np.asarray(sol["x"], dtype=float).ravel()
             g = np.asarray(sol["g"], dtype=float).ravel()

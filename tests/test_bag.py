@@ -16,8 +16,8 @@ import yaml
 
 from planning.errors import ConfigError, OutputExistsError
 from planning.trajectory.importer import TrajectoryFile
-from sim.io import bag as bagmod
 from sim.io.bag import write_job_bag
+from sim.io.bag_topics import scan_of
 from sim.pipeline.runs import RunKind
 
 RUNS = (RunKind.CLOSED_LOOP, RunKind.CLOSED_LOOP_ODOMETRY, RunKind.OPEN_LOOP)
@@ -62,9 +62,9 @@ def expected_counts(result: Any) -> dict[str, int]:
         counts[f"/{kind}/robot"] = 1
         if est is not None and est.fix_t.size:
             counts[f"/{kind}/fix"] = est.fix_t.size
-        loc = est.localiser if est is not None else None
-        if loc is not None and np.asarray(loc.scan_t).size:  # revolutions begun in the run (t >= 0)
-            counts[f"/{kind}/scan"] = int(np.count_nonzero(np.asarray(loc.scan_t) >= 0.0))
+        scan = scan_of(log)
+        if scan is not None and scan.t.size:
+            counts[f"/{kind}/scan"] = scan.t.size
     counts["/clock"] = np.unique(np.concatenate([log.t for log in result.logs.values()])).size
     counts.update(dict.fromkeys(ONCE, 1))
     return counts
@@ -279,16 +279,18 @@ def test_an_interrupted_write_leaves_nothing(
     job: tuple[Any, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     result, _ = job
-    calls = {"n": 0}
-    real = bagmod.m.serialize
+    from rosbags.rosbag2 import Writer
 
-    def failing(message: Any) -> bytes:
+    calls = {"n": 0}
+    real = Writer.write
+
+    def failing(self: Any, *args: Any) -> None:  # Ctrl-C amid the messages
         calls["n"] += 1
         if calls["n"] > 500:
             raise KeyboardInterrupt
-        return real(message)
+        real(self, *args)
 
-    monkeypatch.setattr(bagmod.m, "serialize", failing)
+    monkeypatch.setattr(Writer, "write", failing)
     with pytest.raises(KeyboardInterrupt):
         write_job_bag(result, tmp_path / "cut")
     assert list(tmp_path.iterdir()) == []
@@ -317,3 +319,106 @@ def test_the_foxglove_layout_names_only_topics_and_fields_a_bag_has(job: tuple[A
             node = getattr(node, name)
         assert isinstance(node, float), (value, types[topic])
     assert {v.split(".")[0].split("/")[1] for v in plotted} == {str(k) for k in result.logs}
+
+
+def test_a_revolution_begun_before_the_run_keeps_its_beams_from_time_zero(
+    job: tuple[Any, Path], tmp_path: Path
+) -> None:
+    from rosbags.highlevel import AnyReader
+
+    result, _ = job
+    ranges = np.linspace(0.2, 3.0, 3 * 360).reshape(3, 360)
+    t = np.array([-0.1, 0.1, 0.3])  # the first centred on t = 0: half of it before the run
+    path = write_job_bag(_with_scan(result, "log.scan", ranges, t), tmp_path / "early").path
+    with AnyReader([path]) as reader:
+        conns = [c for c in reader.connections if c.topic == "/closed_loop/scan"]
+        got = [(s, reader.deserialize(raw, c.msgtype)) for c, s, raw in reader.messages(connections=conns)]
+    (s0, first), (s1, second) = got[0], got[1]
+    step = 2 * math.pi / 360
+    assert s0 == 0 and first.header.stamp.sec == 0 and first.header.stamp.nanosec == 0
+    assert first.angle_min == pytest.approx(180 * step) and first.angle_max == pytest.approx(359 * step)
+    np.testing.assert_array_equal(first.ranges, ranges[0, 180:].astype(np.float32))
+    assert s1 == round(0.1e9) and second.angle_min == 0.0 and second.ranges.size == 360
+
+
+def test_obstacles_not_on_the_map_are_drawn_apart_and_left_off_the_map(job: tuple[Any, Path]) -> None:
+    from planning.core.world import Box, Circle
+    from sim.io.bag import job_topics
+    from sim.io.bag_topics import OBSTACLE_COLOUR, UNMAPPED_COLOUR
+
+    result, _ = job
+    hidden = (Box((0.4, 0.5), (0.3, 0.2), 0.3), Circle((0.2, -0.4), 0.1))
+    scenario = dataclasses.replace(result.prepared.scenario, unmapped=hidden)
+    topics = {tp.name: tp for tp in job_topics(dataclasses.replace(result.prepared, scenario=scenario), result.logs)}
+    markers = topics["/obstacles"].make(0).markers  # type: ignore[misc]
+    mapped = [x for x in markers if x.ns == "obstacles"]
+    unmapped = [x for x in markers if x.ns == "unmapped"]
+    assert len(mapped) == len(scenario.world.obstacles) + 1  # and the walls
+    assert [(x.id, x.type) for x in unmapped] == [(0, 1), (1, 3)]  # a cube, a cylinder
+    assert (unmapped[0].pose.position.x, unmapped[0].pose.position.y) == (0.4, 0.5)
+    assert (unmapped[0].scale.x, unmapped[0].scale.y) == (0.3, 0.2) and unmapped[1].scale.x == pytest.approx(0.2)
+    colours = {(x.color.r, x.color.g, x.color.b, x.color.a) for x in unmapped}
+    assert colours == {UNMAPPED_COLOUR} and all(
+        (x.color.r, x.color.g, x.color.b, x.color.a) == OBSTACLE_COLOUR for x in mapped[:-1]
+    )
+    grid = topics["/map"].make(0)  # type: ignore[misc]
+    res, w = grid.info.resolution, grid.info.width
+    ox, oy = grid.info.origin.position.x, grid.info.origin.position.y
+    cell = int((0.5 - oy) / res) * w + int((0.4 - ox) / res)
+    assert grid.data[cell] == 0  # the map the planner and the localiser use does not hold them
+
+
+def test_the_imu_reads_what_the_robots_gyro_and_accelerometer_measured(job: tuple[Any, Path]) -> None:
+    """The gyro reading at period k is the heading change over the period (from the estimator's record of
+    the true pose by period) over its length plus the seed's gyro error at k, as the estimator was fed."""
+    from sim.physics.sensors import SensorModel
+
+    result, path = job
+    _, msgs, _ = read_rosbags(path)
+    setup = result.prepared.case.sensing(result.prepared.scenario)
+    log = result.logs[RunKind.CLOSED_LOOP]
+    est, rate = log.estimation, log.meta["control_rate_hz"]
+    n = est.t.size
+    sensors = SensorModel(setup.profile, control_rate=rate, timestep=0.002, n_periods=n, seed=setup.seed)
+    imu = [x for _, x in msgs["/closed_loop/imu"]]
+    stamps = np.array([x.header.stamp.sec + 1e-9 * x.header.stamp.nanosec for x in imu])
+    ks = np.arange(1, n)
+    rows = np.searchsorted(stamps, est.t[ks] - 1e-9)
+    true_rate = np.array([_wrap(float(a - b)) for a, b in zip(est.truth[ks, 2], est.truth[ks - 1, 2], strict=True)])
+    gyro = np.array([imu[r].angular_velocity.z for r in rows])
+    np.testing.assert_allclose(gyro, true_rate * rate + sensors.gyro_error[ks], atol=1e-9)
+    assert np.std(gyro - true_rate * rate) > 0.5 * sensors.gyro_white_std  # the noise is there
+    accel = np.array([[x.linear_acceleration.x, x.linear_acceleration.y, x.linear_acceleration.z] for x in imu])
+    assert np.median(accel[:, 2]) == pytest.approx(9.80665 + sensors.accel_bias[2], abs=4 * sensors.accel_white_std)
+    p = setup.profile
+    first = imu[0]
+    assert first.orientation_covariance[0] == -1.0  # not measured
+    assert first.angular_velocity_covariance[8] == pytest.approx(sensors.gyro_white_std**2 + p.gyro_bias_std**2)
+    assert imu[-1].angular_velocity_covariance[8] > first.angular_velocity_covariance[8]  # the bias walks
+    assert first.linear_acceleration_covariance[0] == pytest.approx(sensors.accel_white_std**2 + p.accel_bias_std**2)
+
+
+def test_the_imu_noise_is_the_runs_own_seed(job: tuple[Any, Path]) -> None:
+    """A run drawn with another noise seed (a compare draw) reads its own gyro noise in the bag."""
+    from sim.io.bag import job_topics
+    from sim.physics.sensors import SensorModel
+
+    result, _ = job
+    setup = result.prepared.case.sensing(result.prepared.scenario)
+    log = result.logs[RunKind.CLOSED_LOOP]
+    other = dataclasses.replace(log, meta={**log.meta, "noise_seed": setup.seed + 7})
+
+    def gyro(run_log: Any) -> np.ndarray:
+        topics = job_topics(result.prepared, {RunKind.CLOSED_LOOP: run_log})
+        imu = next(tp for tp in topics if tp.name.endswith("/imu"))
+        return np.asarray(imu.rows[1]["angular_velocity.z"])  # type: ignore[index]
+
+    n = log.t.size
+    k = np.round((log.t - log.t[0]) * log.meta["control_rate_hz"]).astype(int)
+
+    def error(seed: int) -> np.ndarray:
+        model = SensorModel(setup.profile, control_rate=50.0, timestep=0.002, n_periods=int(k.max()) + 1, seed=seed)
+        return model.gyro_error[k]
+
+    assert log.meta["noise_seed"] == setup.seed and n > 100
+    np.testing.assert_allclose(gyro(other) - gyro(log), error(setup.seed + 7) - error(setup.seed), atol=1e-12)

@@ -131,9 +131,8 @@ def test_simulate_all_stops_without_a_record(tmp_path: Path, sig: signal.Signals
 
 @pytest.mark.parametrize("sig", SIGNALS)
 def test_compare_stops_without_a_record(tmp_path: Path, sig: signal.Signals) -> None:
-    # Without mpc: CasADi's solvers catch an interrupt that lands inside a solve and go on (it warns
-    # "KeyboardInterruptException"), so a signal then is lost; the other trackers are plain Python.
-    args = ["compare", "--reference", "figure8", "--runs", "20", "--trackers", "fbl,segmented,rpp,kanayama"]
+    # mpc too: its solves hold the signal and deliver it as they return (CasADi would swallow it)
+    args = ["compare", "--reference", "figure8", "--runs", "20", "--trackers", "mpc,fbl,segmented,rpp,kanayama"]
     args += ["--quiet", "--json", "cmp.json"]
     stopped = stop_when(args, tmp_path, imported_then("sim.tools.compare", 2.0), sig)  # its runs under way
     assert_interrupted(stopped, "compare", tmp_path)
@@ -198,3 +197,51 @@ def test_plan_stops_without_a_record(tmp_path: Path, sig: signal.Signals) -> Non
 def test_bench_stops(tmp_path: Path, sig: signal.Signals) -> None:
     stopped = stop_when(["bench", "sim", "--repeats", "50"], tmp_path, imported_then("mujoco", 1.5), sig)
     assert_interrupted(stopped, "bench", tmp_path)
+
+
+@pytest.mark.parametrize("held", [False, True])
+def test_a_signal_inside_a_casadi_solve_is_delivered_after_it(held: bool) -> None:
+    """CasADi runs the Python signal handlers inside a solve and swallows the KeyboardInterrupt they raise
+    (the solve ends failed, the interrupt is lost); held (as the mpc tracker holds its solves), the
+    signal stops the program as the solve returns. Here the signal is sent from inside the solve."""
+    import contextlib
+
+    import casadi as ca
+
+    from control.mpc import signals_held
+
+    class Kick(ca.Callback):  # type: ignore[misc]
+        """f(x) = x^2, sending SIGINT to this process at its third evaluation."""
+
+        def __init__(self) -> None:
+            ca.Callback.__init__(self)
+            self.calls = 0
+            self.construct("kick", {"enable_fd": True})
+
+        def get_n_in(self) -> int:
+            return 1
+
+        def get_n_out(self) -> int:
+            return 1
+
+        def eval(self, arg: list[object]) -> list[object]:
+            self.calls += 1
+            if self.calls == 3:
+                os.kill(os.getpid(), signal.SIGINT)
+            return [arg[0] ** 2]  # type: ignore[operator]
+
+    kick = Kick()
+    x = ca.MX.sym("x")
+    ipopt = {"print_level": 0, "sb": "yes", "hessian_approximation": "limited-memory"}
+    solver = ca.nlpsol(
+        "s", "ipopt", {"x": x, "f": kick(x - 1.0)}, {"print_time": False, "error_on_fail": False, "ipopt": ipopt}
+    )
+    if held:
+        with pytest.raises(KeyboardInterrupt), signals_held():
+            solver(x0=5.0)
+        assert solver.stats()["success"] and kick.calls > 3  # the solve ran to its end, then the signal acted
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    else:
+        with contextlib.nullcontext():
+            solver(x0=5.0)  # no KeyboardInterrupt: CasADi caught it
+        assert not solver.stats()["success"] and kick.calls == 3

@@ -141,18 +141,17 @@ def job_topics(prepared: Any, logs: Mapping[str, Any]) -> list[bt.Topic]:
         logs: Run label (a run kind, a tracker) -> its :class:`sim.physics.runlog.RunLog`.
     """
     sk = bt.skeleton(prepared.robot.name)
-    profile = prepared.case.sensing(prepared.scenario).profile
-    std = (float(profile.fix_position_std), float(profile.fix_heading_std))
+    sensing = prepared.case.sensing(prepared.scenario)
     names = [ros_name(str(label)) for label in logs]
     topics: list[bt.Topic] = []
     for k, (ns, log) in enumerate(zip(names, logs.values(), strict=True)):
-        topics += bt.run_topics(ns, log, prepared.robot, sk, std)
+        topics += bt.run_topics(ns, log, prepared.robot, sk, sensing)
         colour = bt.RUN_COLOURS[min(k, len(bt.RUN_COLOURS) - 1)]
         robot = bt.robot_markers(ns, prepared.robot, sk, colour)
         topics.append(bt.Topic(f"/{ns}/robot", m.TYPES["markers"], np.zeros(1), _once(robot), latched=True))
     times = np.unique(np.concatenate([log.t for log in logs.values()]))
     clock = m.msg(m.TYPES["clock"])
-    topics.append(bt.Topic("/clock", m.TYPES["clock"], times, lambda k: clock(clock=m.stamp(float(times[k])))))
+    topics.append(bt.Topic("/clock", m.TYPES["clock"], times, rows=(clock(clock=m.stamp(0.0)), {"clock": times})))
     traj, world = prepared.trajectory, prepared.scenario.world
     ref = _thinned(traj.t)
     path = prepared.path if prepared.path is not None else _distinct(traj.pose[ref])
@@ -161,7 +160,7 @@ def job_topics(prepared: Any, logs: Mapping[str, Any]) -> list[bt.Topic]:
         ("/plan", "path", m.path(0.0, "map", np.asarray(path, dtype=float))),
         ("/reference", "path", m.path(0.0, "map", traj.pose[ref], traj.t[ref])),
         ("/map", "grid", bt.map_message(world)),
-        ("/obstacles", "markers", bt.obstacle_markers(world)),
+        ("/obstacles", "markers", bt.obstacle_markers(world, prepared.scenario.unmapped)),
     ]
     for name, kind, message in once:
         topics.append(bt.Topic(name, m.TYPES[kind], np.zeros(1), _once(message), latched=True))
@@ -179,6 +178,7 @@ def _write(topics: list[bt.Topic], folder: Path) -> None:
     which = np.concatenate([np.full(tp.times.size, i) for i, tp in enumerate(topics)])
     index = np.concatenate([np.arange(tp.times.size) for tp in topics])
     order = np.lexsort((index, which, stamps))  # by time, then topic, then message
+    payloads = [tp.serialized() for tp in topics]
     with writer:
         conns = [
             writer.add_connection(
@@ -186,9 +186,8 @@ def _write(topics: list[bt.Topic], folder: Path) -> None:
             )
             for tp in topics
         ]
-        for n in order.tolist():
-            i = int(which[n])
-            writer.write(conns[i], int(stamps[n]), m.serialize(topics[i].make(int(index[n]))))
+        for i, k, ns in zip(which[order].tolist(), index[order].tolist(), stamps[order].tolist(), strict=True):
+            writer.write(conns[i], ns, payloads[i][k])
 
 
 def write_job_bag(result: Any, path: Path, *, overwrite: bool = False) -> BagSummary:

@@ -13,16 +13,17 @@ body's height, pitch and roll from the physics (a balancing robot leans); the wh
 joint angles.
 
 Per run (namespace ``/RUN``): ``tf``, ``odom`` (the estimate with its covariance), ``ground_truth/odom``,
-``joint_states``, ``imu`` (from the true motion: orientation, yaw rate, planar acceleration plus
-gravity; noise-free), ``cmd_vel``, ``fix`` (the localisation fixes, when the run's sensors give them)
+``joint_states``, ``imu`` (what the robot's gyro and accelerometer read, their noise included, with the
+sensor profile's covariances), ``cmd_vel``, ``fix`` (the localisation fixes, when the run's sensors give them)
 and ``scan`` (when the run log carries one). Once per job: ``/clock``, ``/tf_static``, ``/plan``,
-``/reference``, ``/map`` and ``/obstacles``, the last four and ``/tf_static`` latched.
+``/reference``, ``/map`` and ``/obstacles`` (the map's and, apart, the unmapped ones), the last four and
+``/tf_static`` latched.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cache
 from typing import Any
@@ -50,23 +51,35 @@ WHEELS = ("wheel_left", "wheel_right")
 class Topic:
     """One topic of the bag.
 
-    Messages are made one at a time as they are written (a job's bag holds tens of thousands), so
-    that none is kept.
+    A topic of thousands of messages (one per logged sample) is given as ``rows``: a template message
+    and the columns of its fields that vary, serialised all at once
+    (:func:`sim.io.rosmsgs.serialize_rows`); a topic of a few messages (fixes, scans, the latched
+    ones) as ``make``, its messages one at a time.
 
     Attributes:
         name: Topic name (absolute).
         msgtype: Full message type, e.g. ``nav_msgs/msg/Odometry``.
         times: (K,) the messages' times [s], non-decreasing.
-        make: Message k of the topic, stamped ``times[k]``: for the topics of many messages, one message
-            object filled anew at each call (serialise it before the next).
+        make: Message k of the topic, stamped ``times[k]`` (None when ``rows`` is given).
         latched: Offered with transient-local durability (a late subscriber gets the last message).
+        rows: (template, field path -> (K,) values) (None when ``make`` is given).
     """
 
     name: str
     msgtype: str
     times: FloatArray
-    make: Callable[[int], Any]
+    make: Callable[[int], Any] | None = None
     latched: bool = False
+    rows: Rows | None = None
+
+    def serialized(self) -> list[bytes | memoryview]:
+        """The topic's K messages as CDR bytes, in order."""
+        if self.rows is not None:
+            data = m.serialize_rows(*self.rows)
+            flat, width = memoryview(data.tobytes()), data.shape[1]
+            return [flat[k * width : (k + 1) * width] for k in range(data.shape[0])]
+        assert self.make is not None
+        return [m.serialize(self.make(k)) for k in range(self.times.size)]
 
 
 @dataclass(frozen=True)
@@ -162,7 +175,25 @@ def run_frames(ns: str) -> dict[str, str]:
     return {n: f"{ns}/{n}" for n in names}
 
 
-Series = tuple[FloatArray, Callable[[int], Any]]
+#: A topic's messages as a template and the columns of its varying fields (see :class:`Topic`).
+Rows = tuple[Any, dict[str, FloatArray]]
+#: A topic's times (K,) and its messages: ``make`` (message k) or :data:`Rows`.
+Series = tuple[FloatArray, Callable[[int], Any] | Rows]
+
+
+def yaw_quats(theta: FloatArray) -> FloatArray:
+    """(N, 4) quaternions (x, y, z, w) of rotations by ``theta`` (N,) [rad] about z."""
+    zero = np.zeros_like(theta)
+    return np.column_stack([zero, zero, np.sin(0.5 * theta), np.cos(0.5 * theta)])
+
+
+def _pose_columns(prefix: str, xyz: FloatArray, q: FloatArray) -> dict[str, FloatArray]:
+    """Columns of a pose or transform at ``prefix`` (``position``/``orientation`` or ``translation``/
+    ``rotation`` by what the prefix holds): (K, 3) positions [m], (K, 4) quaternions (x, y, z, w)."""
+    where, turn = ("translation", "rotation") if prefix.endswith("transform") else ("position", "orientation")
+    cols = {f"{prefix}.{where}.{a}": xyz[:, j] for j, a in enumerate("xyz")}
+    cols.update({f"{prefix}.{turn}.{a}": q[:, j] for j, a in enumerate("xyzw")})
+    return cols
 
 
 def _tf_series(log: Any, sk: Skeleton, frames: dict[str, str]) -> Series:
@@ -172,34 +203,27 @@ def _tf_series(log: Any, sk: Skeleton, frames: dict[str, str]) -> Series:
     map_odom = compose(truth, inverse(est))
     q = log.qpos[:, sk.root + 3 : sk.root + 7]
     yaw_inv = np.column_stack([np.cos(0.5 * truth[:, 2]), np.zeros((t.size, 2)), -np.sin(0.5 * truth[:, 2])])
-    tilt = _quat_mul(yaw_inv, q)  # the body's pitch and roll, in the footprint frame
+    tilt = _quat_mul(yaw_inv, q)[:, [1, 2, 3, 0]]  # the body's pitch and roll, in the footprint frame
     rel = log.qpos[:, sk.root : sk.root + 2] - truth[:, :2]
     c, s = np.cos(truth[:, 2]), np.sin(truth[:, 2])
     lift = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1], log.qpos[:, sk.root + 2]])
     half = 0.5 * log.qpos[:, list(sk.wheels)]
-    fr = frames
+    zero, flat = np.zeros(t.size), np.zeros((t.size, 3))
     links = [
-        ("map", "odom"),
-        ("odom", "base_footprint"),
-        ("base_footprint", "base_link"),
-        ("base_link", "wheel_left_link"),
-        ("base_link", "wheel_right_link"),
+        ("map", "odom", np.column_stack([map_odom[:, :2], zero]), yaw_quats(map_odom[:, 2])),
+        ("odom", "base_footprint", np.column_stack([est[:, :2], zero]), yaw_quats(est[:, 2])),
+        ("base_footprint", "base_link", lift, tilt),
     ]
-    msg = m.tf_message([m.transform(0.0, fr.get(a, a), fr[b], (0.0, 0.0, 0.0), (0, 0, 0, 1)) for a, b in links])
-    trs = msg.transforms
-
-    def make(k: int) -> Any:
-        tk = float(t[k])
-        mo, e = map_odom[k], est[k]
-        m.set_transform(trs[0], tk, (mo[0], mo[1], 0.0), m.yaw_quat(mo[2]))
-        m.set_transform(trs[1], tk, (e[0], e[1], 0.0), m.yaw_quat(e[2]))
-        m.set_transform(trs[2], tk, lift[k], ros_quat(tilt[k]))
-        for j in range(2):
-            a = float(half[k, j])
-            m.set_transform(trs[3 + j], tk, sk.wheel_pos[j], (0.0, math.sin(a), 0.0, math.cos(a)))
-        return msg
-
-    return t, make
+    for j, wheel in enumerate(("wheel_left_link", "wheel_right_link")):
+        spin = np.column_stack([zero, np.sin(half[:, j]), zero, np.cos(half[:, j])])
+        links.append(("base_link", wheel, flat + sk.wheel_pos[j], spin))
+    fr = frames
+    msg = m.tf_message([m.transform(0.0, fr.get(a, a), fr[b], (0.0, 0.0, 0.0), (0, 0, 0, 1)) for a, b, _, _ in links])
+    cols: dict[str, FloatArray] = {}
+    for i, (_, _, xyz, quat) in enumerate(links):
+        cols[f"transforms.{i}.header.stamp"] = t
+        cols.update(_pose_columns(f"transforms.{i}.transform", xyz, quat))
+    return t, (msg, cols)
 
 
 def _odometry(
@@ -207,16 +231,11 @@ def _odometry(
 ) -> Series:
     """``nav_msgs/Odometry`` at times ``t`` (K,): planar poses (K, 3), their variances (K, 3), body velocity."""
     msg = m.odometry(0.0, frame, child, pose[0], var[0], v[0], omega[0])
-    cov, tw = msg.pose.covariance, msg.twist.twist
-
-    def make(k: int) -> Any:
-        msg.header.stamp = m.stamp(float(t[k]))
-        m.set_planar_pose(msg.pose.pose, pose[k])
-        cov[[0, 7, 35]] = var[k]
-        tw.linear.x, tw.angular.z = float(v[k]), float(omega[k])
-        return msg
-
-    return t, make
+    cols = {"header.stamp": t}
+    cols.update(_pose_columns("pose.pose", np.column_stack([pose[:, :2], np.zeros(t.size)]), yaw_quats(pose[:, 2])))
+    cols.update({f"pose.covariance.{i}": var[:, j] for j, i in enumerate((0, 7, 35))})
+    cols.update({"twist.twist.linear.x": v, "twist.twist.angular.z": omega})
+    return t, (msg, cols)
 
 
 def _odom_series(
@@ -237,22 +256,57 @@ def _truth_series(log: Any, frames: dict[str, str]) -> Series:
     return _odometry(log.t, "map", frames["base_footprint"], log.pose, np.zeros((log.t.size, 3)), v, omega)
 
 
-def _imu_series(log: Any, sk: Skeleton, frames: dict[str, str]) -> Series:
-    """``RUN/imu``: the body's orientation, its yaw rate and planar acceleration plus gravity (true motion)."""
-    v, omega = body_velocity(log.t, log.pose)
-    dv = np.gradient(v, log.t) if log.t.size > 1 else np.zeros(log.t.size)
-    q = log.qpos[:, sk.root + 3 : sk.root + 7]
+def _period_yaw_rates(log: Any, rate: float, n: int) -> FloatArray:
+    """(n,) the true mean yaw rate over each control period ending at period k (0 at period 0) [rad/s]:
+    the heading change over the period over its length, from the true headings the run's sensors read
+    (the estimator's record, ``log.estimation.truth``), else the logged poses at the periods' instants."""
     t = log.t
+    heading = np.interp(t[0] + np.arange(n) / rate, t, np.unwrap(log.pose[:, 2]))
+    est = log.estimation
+    if est is not None and est.t.size:
+        j = np.round((est.t - t[0]) * rate).astype(np.int64)
+        seen = np.unwrap(est.truth[:, 2])
+        keep = (j >= 0) & (j < n) & np.isfinite(seen)
+        heading[j[keep]] = seen[keep]
+    return np.diff(heading, prepend=heading[0]) * rate
+
+
+def _imu_series(log: Any, frames: dict[str, str], sensing: Any) -> Series:
+    """``RUN/imu``: what the robot's IMU measured at each logged sample, in period ``k``: the gyro (yaw)
+    the true mean yaw rate over the period plus its bias and white noise, the accelerometer the planar
+    specific force (acceleration along and across the heading, gravity up) plus its bias and white
+    noise, from the run's own noise draws (:class:`sim.physics.sensors.SensorModel`, the run's noise seed).
+    Covariances from the sensor profile: the gyro's z variance is its white noise's plus its bias's,
+    which walks (``gyro_bias_std^2 + gyro_bias_walk^2 t``); x and y, which a yaw gyro does not measure,
+    a large variance; the accelerometer's per axis its white noise's plus its bias's. The orientation is
+    not measured (``orientation_covariance[0] = -1``, as ``sensor_msgs/Imu`` asks)."""
+    from sim.physics.sensors import SensorModel
+
+    t = log.t
+    rate = float(log.meta.get("control_rate_hz", 50.0))
+    k = np.clip(np.round((t - t[0]) * rate).astype(np.int64), 0, None)
+    sensors = SensorModel(
+        sensing.profile,
+        control_rate=rate,
+        timestep=float(log.meta.get("timestep_s", 1.0 / rate)),
+        n_periods=int(k.max()) + 1,
+        seed=int(log.meta.get("noise_seed", sensing.seed)),  # the run's own (a compare draw's)
+    )
+    yaw_rate = _period_yaw_rates(log, rate, int(k.max()) + 1)[k]
+    v, omega = body_velocity(t, log.pose)
+    dv = np.gradient(v, t) if t.size > 1 else np.zeros(t.size)
+    accel = np.column_stack([dv, v * omega, np.full(t.size, GRAVITY)]) + sensors.accel_bias + sensors.accel_white[k]
+    p = sensing.profile
+    gyro_var = sensors.gyro_white_std**2 + p.gyro_bias_std**2 + p.gyro_bias_walk**2 * (t - t[0])
+    accel_var = sensors.accel_white_std**2 + p.accel_bias_std**2
     msg = m.imu(0.0, frames["imu_link"], (0.0, 0.0, 0.0, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, GRAVITY))
-
-    def make(k: int) -> Any:
-        msg.header.stamp = m.stamp(float(t[k]))
-        m.set_quaternion(msg.orientation, ros_quat(q[k]))
-        msg.angular_velocity.z = float(omega[k])
-        msg.linear_acceleration.x, msg.linear_acceleration.y = float(dv[k]), float(v[k] * omega[k])
-        return msg
-
-    return t, make
+    msg.orientation_covariance[0] = -1.0
+    msg.angular_velocity_covariance[[0, 4]] = 1e6
+    msg.linear_acceleration_covariance[[0, 4, 8]] = accel_var
+    cols = {"header.stamp": t, "angular_velocity.z": yaw_rate + sensors.gyro_error[k]}
+    cols.update({f"linear_acceleration.{a}": accel[:, j] for j, a in enumerate("xyz")})
+    cols["angular_velocity_covariance.8"] = gyro_var
+    return t, (msg, cols)
 
 
 def _error_series(log: Any, frame: str) -> Series:
@@ -261,41 +315,25 @@ def _error_series(log: Any, frame: str) -> Series:
     d = log.pose[:, :2] - log.ref_pose[:, :2]
     dist = np.hypot(d[:, 0], d[:, 1])
     head = np.remainder(log.pose[:, 2] - log.ref_pose[:, 2] + np.pi, 2 * np.pi) - np.pi
-    t = log.t
     msg = m.vector_stamped(0.0, frame, 0.0, 0.0, 0.0)
-
-    def make(k: int) -> Any:
-        msg.header.stamp = m.stamp(float(t[k]))
-        msg.vector.x, msg.vector.y = float(dist[k]), float(head[k])
-        return msg
-
-    return t, make
+    return log.t, (msg, {"header.stamp": log.t, "vector.x": dist, "vector.y": head})
 
 
 def _joints_series(log: Any, sk: Skeleton) -> Series:
     """``RUN/joint_states``: the wheels' angles [rad] and speeds [rad/s]."""
     t, angles, speeds = log.t, log.qpos[:, list(sk.wheels)], log.wheel_speed
     msg = m.joint_state(0.0, ["wheel_left_joint", "wheel_right_joint"], angles[0], speeds[0])
-
-    def make(k: int) -> Any:
-        msg.header.stamp = m.stamp(float(t[k]))
-        msg.position, msg.velocity = np.array(angles[k], dtype=float), np.array(speeds[k], dtype=float)
-        return msg
-
-    return t, make
+    cols = {"header.stamp": t}
+    for j in range(2):
+        cols[f"position.{j}"], cols[f"velocity.{j}"] = angles[:, j], speeds[:, j]
+    return t, (msg, cols)
 
 
 def _command_series(log: Any, frame: str) -> Series:
     """``RUN/cmd_vel``: the body command (v [m/s], omega [rad/s]) in force."""
-    t, cmd = log.t, log.command
     msg = m.twist_stamped(0.0, frame, 0.0, 0.0)
-
-    def make(k: int) -> Any:
-        msg.header.stamp = m.stamp(float(t[k]))
-        msg.twist.linear.x, msg.twist.angular.z = float(cmd[k, 0]), float(cmd[k, 1])
-        return msg
-
-    return t, make
+    cols = {"header.stamp": log.t, "twist.linear.x": log.command[:, 0], "twist.angular.z": log.command[:, 1]}
+    return log.t, (msg, cols)
 
 
 def _fix_series(log: Any, std: tuple[float, float]) -> Series:
@@ -338,10 +376,22 @@ class Sweeps:
 
 
 def scan_of(log: Any) -> Sweeps | None:
-    """The run's lidar revolutions, or None: the scans the run's scan localiser took
+    """The run's lidar revolutions, or None: a ``log.scan`` with the fields of :class:`Sweeps` (``t``,
+    ``ranges``, ``angle_min``, ...), else the scans the run's scan localiser took
     (``log.estimation.localiser``: ``scan_t``, ``scan_ranges``, ``scan_angle_increment`` from bearing 0,
-    ``scan_time_increment``, ``range_min``, ``range_max``), or a ``log.scan`` with those fields of
-    :class:`Sweeps` (``t``, ``ranges``, ``angle_min``, ...)."""
+    ``scan_time_increment``, ``range_min``, ``range_max``)."""
+    scan = getattr(log, "scan", None)
+    if scan is not None:
+        return Sweeps(
+            np.asarray(scan.t, dtype=float),
+            np.asarray(scan.ranges, dtype=float),
+            float(scan.angle_min),
+            float(scan.angle_increment),
+            float(getattr(scan, "time_increment", 0.0)),
+            float(getattr(scan, "scan_time", 0.0)),
+            float(scan.range_min),
+            float(scan.range_max),
+        )
     loc = getattr(log.estimation, "localiser", None) if log.estimation is not None else None
     if loc is not None and np.asarray(loc.scan_t).size:
         t = np.asarray(loc.scan_t, dtype=float)
@@ -356,34 +406,32 @@ def scan_of(log: Any) -> Sweeps | None:
             float(loc.range_min),
             float(loc.range_max),
         )
-    scan = getattr(log, "scan", None)
-    if scan is None:
-        return None
-    t = np.asarray(scan.t, dtype=float)
-    return Sweeps(
-        t,
-        np.asarray(scan.ranges, dtype=float),
-        float(scan.angle_min),
-        float(scan.angle_increment),
-        float(getattr(scan, "time_increment", 0.0)),
-        float(getattr(scan, "scan_time", 0.0)),
-        float(scan.range_min),
-        float(scan.range_max),
-    )
+    return None
 
 
 def _scan_series(log: Any, frames: dict[str, str]) -> Series:
-    """The revolutions that began in the run (the first fix's revolution is centred on its start, so
-    half of it turned while the robot stood there before time 0, which a bag cannot stamp)."""
+    """``RUN/scan``: the lidar revolutions, each stamped at its first beam. A revolution begun before the
+    run (the first, centred on period 0) keeps its beams from time 0 on, stamped at the first of them
+    with ``angle_min`` its bearing: a bag's time starts at 0."""
     scan = scan_of(log)
     if scan is None:
         return np.zeros(0), lambda k: None
     fr = frames["base_scan"]
-    keep = np.flatnonzero(scan.t >= 0.0)
-    return scan.t[keep], lambda k: m.laser_scan(float(scan.t[keep[k]]), fr, scan, scan.ranges[keep[k]])
+    skip = np.zeros(scan.t.size, dtype=int)
+    if scan.time_increment > 0:
+        late = np.ceil(-scan.t / scan.time_increment - 1e-6)
+        skip = np.clip(late, 0, scan.ranges.shape[1] - 1).astype(int)
+    stamps = np.maximum(scan.t + skip * scan.time_increment, 0.0)
+
+    def make(k: int) -> Any:
+        msg = m.laser_scan(float(stamps[k]), fr, scan, scan.ranges[k, skip[k] :])
+        msg.angle_min += float(skip[k] * scan.angle_increment)
+        return msg
+
+    return stamps, make
 
 
-def run_topics(ns: str, log: Any, robot: Any, sk: Skeleton, fix_std: tuple[float, float]) -> list[Topic]:
+def run_topics(ns: str, log: Any, robot: Any, sk: Skeleton, sensing: Any) -> list[Topic]:
     """The topics of one run under ``/ns``.
 
     Args:
@@ -391,7 +439,7 @@ def run_topics(ns: str, log: Any, robot: Any, sk: Skeleton, fix_std: tuple[float
         log: Its :class:`sim.physics.runlog.RunLog`.
         robot: The robot spec (wheel radius and track for the odometry twist).
         sk: The robot's skeleton.
-        fix_std: Standard deviations of the localisation fixes (position [m], heading [rad]).
+        sensing: The job's :class:`sim.robot.sensing.SensingSetup` (its sensor profile and noise seed).
     """
     frames = run_frames(ns)
     r, b = robot.wheel_radius, robot.track_width
@@ -406,13 +454,18 @@ def run_topics(ns: str, log: Any, robot: Any, sk: Skeleton, fix_std: tuple[float
         ("odom", "odometry", _odom_series(log, frames, wheel)),
         ("ground_truth/odom", "odometry", _truth_series(log, frames)),
         ("joint_states", "joints", _joints_series(log, sk)),
-        ("imu", "imu", _imu_series(log, sk, frames)),
+        ("imu", "imu", _imu_series(log, frames, sensing)),
         ("cmd_vel", "twist", _command_series(log, base)),
         ("tracking_error", "vector", _error_series(log, base)),
-        ("fix", "fix", _fix_series(log, fix_std)),
+        ("fix", "fix", _fix_series(log, (sensing.profile.fix_position_std, sensing.profile.fix_heading_std))),
         ("scan", "scan", _scan_series(log, frames)),
     ]
-    return [Topic(f"/{ns}/{name}", m.TYPES[kind], times, make) for name, kind, (times, make) in series if times.size]
+    return [topic(f"/{ns}/{name}", m.TYPES[kind], times, how) for name, kind, (times, how) in series if times.size]
+
+
+def topic(name: str, msgtype: str, times: FloatArray, how: Callable[[int], Any] | Rows) -> Topic:
+    """A :class:`Topic` of the messages ``how`` gives: ``make`` (message k) or :data:`Rows`."""
+    return Topic(name, msgtype, times, rows=how) if isinstance(how, tuple) else Topic(name, msgtype, times, how)
 
 
 def static_transforms(namespaces: list[str], sk: Skeleton) -> Any:
@@ -456,6 +509,8 @@ def map_message(world: World) -> Any:
 
 
 OBSTACLE_COLOUR = (0.55, 0.45, 0.35, 0.9)
+#: Colour of the obstacles not on the map (RGBA): red, half transparent.
+UNMAPPED_COLOUR = (0.85, 0.15, 0.15, 0.7)
 #: Colours of the runs' robots (RGBA), in the order of the job's runs; the rest grey.
 RUN_COLOURS = ((0.12, 0.47, 0.71, 1.0), (1.0, 0.5, 0.05, 0.9), (0.5, 0.5, 0.5, 0.5), (0.17, 0.63, 0.17, 0.9))
 
@@ -517,26 +572,32 @@ def robot_markers(ns: str, robot: Any, sk: Skeleton, colour: tuple[float, ...]) 
     return m.msg(m.TYPES["markers"])(markers=markers)
 
 
-def obstacle_markers(world: World) -> Any:
-    """``/obstacles``: each obstacle as a solid of :data:`OBSTACLE_HEIGHT` (a polygon as its outline),
-    and the world's walls as a line."""
-    hz, markers = 0.5 * OBSTACLE_HEIGHT, []
-    for k, obs in enumerate(world.obstacles):
-        if isinstance(obs, Polygon):
-            pts = [m.point(x, y, OBSTACLE_HEIGHT) for x, y in [*obs.vertices, obs.vertices[0]]]
-            markers.append(_marker(k, 4, m.pose(0, 0, 0, (0, 0, 0, 1)), (0.02, 0, 0), pts))
-            continue
-        if isinstance(obs, Circle):
-            size, angle, kind = (2 * obs.radius, 2 * obs.radius), 0.0, 3
-        elif isinstance(obs, Ellipse):
-            size, angle, kind = (2 * obs.radii[0], 2 * obs.radii[1]), obs.angle, 3
-        elif isinstance(obs, Box):
-            size, angle, kind = (obs.size[0], obs.size[1]), obs.angle, 1
-        else:
-            continue
-        p = m.pose(obs.center[0], obs.center[1], hz, m.yaw_quat(angle))
-        markers.append(_marker(k, kind, p, (size[0], size[1], OBSTACLE_HEIGHT), []))
+def _obstacle_marker(k: int, obs: Any, ns: str, colour: tuple[float, ...]) -> Any | None:
+    """One obstacle as a solid of :data:`OBSTACLE_HEIGHT` (a polygon as its outline), or None (a shape
+    not drawn)."""
+    if isinstance(obs, Polygon):
+        pts = [m.point(x, y, OBSTACLE_HEIGHT) for x, y in [*obs.vertices, obs.vertices[0]]]
+        return _marker(k, 4, m.pose(0, 0, 0, (0, 0, 0, 1)), (0.02, 0, 0), pts, ns=ns, colour=colour)
+    if isinstance(obs, Circle):
+        size, angle, kind = (2 * obs.radius, 2 * obs.radius), 0.0, 3
+    elif isinstance(obs, Ellipse):
+        size, angle, kind = (2 * obs.radii[0], 2 * obs.radii[1]), obs.angle, 3
+    elif isinstance(obs, Box):
+        size, angle, kind = (obs.size[0], obs.size[1]), obs.angle, 1
+    else:
+        return None
+    p = m.pose(obs.center[0], obs.center[1], 0.5 * OBSTACLE_HEIGHT, m.yaw_quat(angle))
+    return _marker(k, kind, p, (size[0], size[1], OBSTACLE_HEIGHT), [], ns=ns, colour=colour)
+
+
+def obstacle_markers(world: World, unmapped: Sequence[Any] = ()) -> Any:
+    """``/obstacles``: the map's obstacles (namespace ``obstacles``), the world's walls as a line (its last
+    id), and the obstacles that are not on the map (namespace ``unmapped``, :data:`UNMAPPED_COLOUR`: in
+    physics and in the scan, unknown to the planner and the localiser), each a solid of
+    :data:`OBSTACLE_HEIGHT` (a polygon as its outline)."""
+    mapped = [_obstacle_marker(k, obs, "obstacles", OBSTACLE_COLOUR) for k, obs in enumerate(world.obstacles)]
     xmin, xmax, ymin, ymax = world.bounds
     walls = [m.point(x, y) for x, y in ((xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax), (xmin, ymin))]
-    markers.append(_marker(len(world.obstacles), 4, m.pose(0, 0, 0, (0, 0, 0, 1)), (0.02, 0, 0), walls))
-    return m.msg(m.TYPES["markers"])(markers=markers)
+    mapped.append(_marker(len(world.obstacles), 4, m.pose(0, 0, 0, (0, 0, 0, 1)), (0.02, 0, 0), walls))
+    hidden = [_obstacle_marker(k, obs, "unmapped", UNMAPPED_COLOUR) for k, obs in enumerate(unmapped)]
+    return m.msg(m.TYPES["markers"])(markers=[x for x in mapped + hidden if x is not None])

@@ -55,6 +55,104 @@ def serialize(message: Any) -> bytes:
     return bytes(typestore().serialize_cdr(message, message.__msgtype__))
 
 
+def _field(message: Any, path: str) -> tuple[Any, str]:
+    """The object holding a dotted field ``path`` of ``message`` (``"transforms.0.header.stamp"``,
+    ``"pose.covariance.35"``) and the last key."""
+    *head, last = path.split(".")
+    obj = message
+    for key in head:
+        obj = obj[int(key)] if key.isdigit() else getattr(obj, key)
+    return obj, last
+
+
+def _assign(message: Any, path: str, value: Any) -> None:
+    """Set a dotted field of ``message`` to ``value``."""
+    obj, last = _field(message, path)
+    if last.isdigit():
+        obj[int(last)] = value
+    else:
+        setattr(obj, last, value)
+
+
+def _is_time(message: Any, path: str) -> bool:
+    """Whether a dotted field of ``message`` is a ``builtin_interfaces/Time`` (else a float).
+
+    Raises:
+        NhsimError: The field is neither.
+    """
+    from planning.errors import NhsimError
+
+    obj, last = _field(message, path)
+    value = obj[int(last)] if last.isdigit() else getattr(obj, last)
+    if hasattr(value, "nanosec"):
+        return True
+    if not isinstance(value, float | np.floating):
+        raise NhsimError(f"{message.__msgtype__}.{path} is not a float64 or time field: it cannot vary by rows")
+    return False
+
+
+#: Marks put into the fields of a template to find where its serialisation holds them.
+_FLOAT_MARK = 0.1234567890123457
+_TIME_MARK = (0x5EC0_0000, 0x3B9A_0000)
+
+
+def _marked(template: Any, fields: Sequence[str]) -> tuple[bytes, list[tuple[bytes, bool]]]:
+    """The template's CDR bytes with a distinct mark in each field, and each field's mark (8 bytes) and
+    whether the field is a time."""
+    marks = []
+    for j, path in enumerate(fields):
+        if _is_time(template, path):
+            sec, nsec = _TIME_MARK[0] + j, _TIME_MARK[1] + j
+            _assign(template, path, msg("builtin_interfaces/msg/Time")(sec=sec, nanosec=nsec))
+            marks.append((np.array([sec, nsec], dtype="<u4").tobytes(), True))
+            continue
+        value = _FLOAT_MARK + j * 2.0**-30
+        _assign(template, path, value)
+        marks.append((np.float64(value).astype("<f8").tobytes(), False))
+    return serialize(template), marks
+
+
+def serialize_rows(template: Any, columns: dict[str, FloatArray]) -> NDArray[np.uint8]:
+    """CDR bytes of K messages that differ from ``template`` only in fixed-size numeric fields, at once.
+
+    ``rosbags`` serialises the template once, with a distinct mark in each field of ``columns``; each
+    mark's place in the bytes is where that field lies in every message of the same fixed layout (the
+    template's strings and sequence lengths are those of all K), and the K values are written there
+    as columns. The result equals ``serialize`` of each message filled field by field (tests check
+    it), at a small fraction of the cost for the topics of thousands of messages.
+
+    Args:
+        template: A message; its fields named in ``columns`` are overwritten (it serves as scratch).
+        columns: Dotted field path -> (K,) values: times [s] for the ``builtin_interfaces/Time`` fields,
+            floats for the ``float64`` fields.
+
+    Returns:
+        (K, L) bytes, row k message k.
+
+    Raises:
+        NhsimError: A field's place is not unique (not a fixed-size float64 or time field).
+    """
+    from planning.errors import NhsimError
+
+    fields = list(columns)
+    base, marks = _marked(template, fields)
+    k = len(next(iter(columns.values()))) if fields else 0
+    rows = np.tile(np.frombuffer(base, dtype=np.uint8), (k, 1))
+    for path, (mark, is_time) in zip(fields, marks, strict=True):
+        at = base.find(mark)
+        if at < 0 or base.find(mark, at + 1) >= 0:
+            raise NhsimError(f"{template.__msgtype__}.{path} has no single place in its serialisation")
+        values = np.asarray(columns[path], dtype=float)
+        if is_time:
+            ns = np.round(values * 1e9).astype(np.int64)
+            pair = np.column_stack([ns // 1_000_000_000, ns % 1_000_000_000])
+            cell = pair.astype("<i4").view(np.uint8)
+        else:
+            cell = values.astype("<f8").view(np.uint8)
+        rows[:, at : at + 8] = cell.reshape(k, 8)
+    return rows
+
+
 def stamp(t: float) -> Any:
     """``builtin_interfaces/Time`` of ``t`` seconds (t >= 0)."""
     return _stamp(round(float(t) * 1e9))

@@ -250,7 +250,7 @@ def run_tracker(
         tracker,
         config,
         start=prepared.scenario.start,
-        meta={"seed": case.seed, "case": case.name},
+        meta={"seed": case.seed, "noise_seed": sensing.seed, "case": case.name},
         perturbation=case.perturbation,
         progress=progress,
         source=kind.source,

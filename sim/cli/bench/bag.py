@@ -36,5 +36,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"{'with the bag':22}{_span(r.with_s):>20}{_span(r.with_cpu_s):>24}")
     print(f"{'bag write':22}{_span(r.write_s):>20}{_span(r.write_cpu_s):>24}   ({r.messages} messages)")
     print(f"{'ratio (medians)':22}{r.ratio:>20.3f}{r.cpu_ratio:>24.3f}   (target: CPU <= {TARGET_RATIO})")
+    print(f"{'ratio (least)':22}{'':>20}{r.cpu_ratio_min:>24.3f}")
+    print(f"{'bag write / without':22}{'':>20}{1.0 + r.write_share:>24.3f}   (1 + the write's CPU share)")
     print(f"bag size {r.size_bytes / 1e6:.2f} MB (target <= {TARGET_MB:g} MB)")
     return 0 if r.passed else 1
