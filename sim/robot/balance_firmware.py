@@ -5,8 +5,9 @@ steps of 1 ms at 200 Hz) it reads the IMU at its site (``imu_gyro``, ``imu_accel
 encoders from the physics (:class:`FirmwareSensors`: the robot's sensor profile's noise drawn by
 :class:`sim.physics.sensors.SensorModel`, gyroscope white noise and bias with its random walk,
 accelerometer white noise and bias, quantised encoder counts), runs
-:class:`control.balance.BalanceController` and writes the motor voltages. It watches for a fall: the true tilt of the body beyond the profile's ``tip_angle`` or the chassis
-touching the floor; from then on it drives nothing and the run is to end.
+:class:`control.balance.BalanceController` and writes the motor voltages. It watches for a fall: the
+true tilt of the body beyond the profile's ``tip_angle`` or the chassis touching the floor; from then on it
+drives nothing and the run is to end.
 
 :func:`run_balance` runs the firmware alone (no tracker) for a while, optionally with a wheel-speed
 command and a push, and reports the pitch, the drift and a fall.
