@@ -250,7 +250,13 @@ class Sensing:
         if setup.localiser.kind == "amcl" and self.source is PoseSource.FUSED:
             localiser_schedule(setup.localiser, self.sensors.fix_every, self.sensors.fix_latency_periods, self.dt)
             self.scans = ScanLocaliser(
-                model, robot, setup.localiser, setup.seed, t0=t0, dt=self.dt, rad_per_count=self._rad_per_count,
+                model,
+                robot,
+                setup.localiser,
+                setup.seed,
+                t0=t0,
+                dt=self.dt,
+                rad_per_count=self._rad_per_count,
                 gyro_error=self.sensors.gyro_error,
             )
 
