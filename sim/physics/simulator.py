@@ -21,9 +21,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.base import Tracker
-from control.dispatch import bind
 from control.design.balance_profile import is_balancing, load_balance_profile
 from control.diffdrive import DiffDrive
+from control.dispatch import bind
 from control.estimation import EstimatorDivergedError
 from planning.core.geometry import Pose2D
 from planning.core.robot import RobotSpec
