@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -11,6 +10,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from control.dispatch import bind
 from planning.core.robot import RobotSpec
 
 
@@ -91,8 +91,11 @@ class DiffDrive:
 
     def command_writer(self, commands: NDArray[np.float64]) -> Callable[[int, float, float], bool]:
         """:meth:`command_into` bound to one table: ``write(row, v, omega)``, without a Python frame of its
-        own (the compiled call with the drive and the table bound), for a loop that writes every period."""
-        return functools.partial(_command_into, self.wheel_radius, self.track_width, self.max_wheel_speed, commands)
+        own (the compiled call with the drive and the table bound, its overload resolved once:
+        :func:`control.dispatch.bind`), for a loop that writes every period."""
+        return bind(
+            _command_into, self.wheel_radius, self.track_width, self.max_wheel_speed, commands, free=(0, 0.0, 0.0)
+        )
 
     def body_twist(self, left: float, right: float) -> tuple[float, float]:
         """Body (v, omega) [m/s, rad/s] from wheel speeds [rad/s]."""

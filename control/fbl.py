@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.base import check_measured_pose, check_period, check_positive_fields, option_value
+from control.dispatch import bind
 from control.switching import REFERENCE, clamp_command, reference_table
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
@@ -190,6 +191,7 @@ class DynamicFBL:
         self._traj: Trajectory | None = None
         self.state = np.zeros(1, STATE)
         self._ref = np.zeros(0, REFERENCE)  # the law's reference at the control instants
+        self._bind()
 
     @property
     def xi(self) -> float:
@@ -213,6 +215,12 @@ class DynamicFBL:
         g, r = self.gains, self.robot
         values = (trajectory.vel[0, 0], g.kp, g.kd, g.xi_min, r.max_speed, r.max_yaw_rate, dt, trajectory.t[0])
         self.state = np.array([values], STATE)
+        self._bind()
+
+    def _bind(self) -> None:
+        """:func:`_period` bound to the state record and the reference table, its overload resolved
+        once (:func:`control.dispatch.bind`): ``self._period(t, x, y, theta)``."""
+        self._period = bind(_period, self.state, self._ref, free=(0.0, 0.0, 0.0, 0.0))
 
     def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
         """Body command for the period starting at ``t``; advances xi by one period.
@@ -223,7 +231,7 @@ class DynamicFBL:
         Raises:
             SimulationError: ``t`` or the pose is not finite.
         """
-        status, v, omega = _period(self.state, self._ref, t, x, y, theta)
+        status, v, omega = self._period(t, x, y, theta)
         if status == OK:
             return v, omega
         check_measured_pose(self.name, t, x, y, theta)  # raises for BAD_POSE

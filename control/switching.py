@@ -41,6 +41,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.base import check_measured_pose, check_period, check_positive_fields
+from control.dispatch import bind
 from control.estimation.kernels import wrap
 from planning.core.robot import RobotSpec
 from planning.trajectory.segments import infer_segments
@@ -241,6 +242,7 @@ class PerSegmentTracker:
         self.turns = turns
         self.state: NDArray[np.void] | None = None
         self._ref: NDArray[np.void] = np.zeros(0, REFERENCE)
+        self._period: Callable[[float, float, float, float], tuple[int, float, float]] | None = None
 
     def law_values(self) -> dict[str, float]:
         """The law's constants in the state record (by field name), taken at reset."""
@@ -266,6 +268,8 @@ class PerSegmentTracker:
         for key, value in values.items():
             state[key] = value
         self.state = state
+        # PERIOD bound to this run's record and table, its overload resolved once (control/dispatch.py)
+        self._period = bind(self.PERIOD, state, self._ref, free=(0.0, 0.0, 0.0, 0.0))
 
     @property
     def segment(self) -> int:
@@ -278,9 +282,9 @@ class PerSegmentTracker:
         Raises:
             SimulationError: ``t`` or the pose is not finite.
         """
-        if self.state is None:
+        if self._period is None:
             raise RuntimeError(f"{type(self).__name__}.command called before reset")
-        status, v, w = self.PERIOD(self.state, self._ref, t, x, y, theta)
+        status, v, w = self._period(t, x, y, theta)
         if status != OK:
             check_measured_pose(self.name, t, x, y, theta)  # raises
         return v, w

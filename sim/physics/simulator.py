@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 from control.base import Tracker
 from control.design.balance_profile import is_balancing, load_balance_profile
 from control.diffdrive import DiffDrive
+from control.dispatch import bind
 from control.estimation import EstimatorDivergedError
 from planning.core.geometry import Pose2D
 from planning.core.robot import RobotSpec
@@ -63,7 +64,7 @@ ADR_CONTACT, ADR_POS, ADR_QUAT, ADR_TOUCH_L, ADR_TOUCH_R, NEXT_ROW = range(6)
 
 @nb.njit(cache=True)
 def _sample(
-    time: float, log: FloatArray, qpos: FloatArray, qvel: FloatArray, sdata: FloatArray, adr: IntArray
+    log: FloatArray, qpos: FloatArray, qvel: FloatArray, sdata: FloatArray, adr: IntArray, time: float
 ) -> tuple[bool, float, float, float]:  # pragma: no cover - compiled
     """The next row of a run's log (``adr[NEXT_ROW]``, counted up) [time, a wheel off the floor (1/0),
     qpos, qvel]; returns (the obstacle contact sensor fired, pose x, y, theta from the pose sensors).
@@ -532,8 +533,9 @@ class Recorder:
         adr = [int(model.sensor_adr[model.sensor(n).id]) for n in ("obstacle_contact", "base_pos", "base_quat")]
         adr += [int(model.sensor_adr[model.sensor(n).id]) for n in touch] if self._has_touch else [-1, -1]
         self._adr = np.array([*adr, 0], dtype=np.int64)  # and the next row of the log
-        self._bound = (self._log, self._qpos, self._qvel, self._sdata, self._adr)
-        _, x, y, th = _sample(data.time, *self._bound)
+        # the compiled sample bound to the run's arrays, its overload resolved once (control/dispatch.py)
+        self._sample = bind(_sample, self._log, self._qpos, self._qvel, self._sdata, self._adr, free=(0.0,))
+        _, x, y, th = self._sample(data.time)
         self.pose = (x, y, th)  # the pose sensors' pose at the start
 
     def sample(self) -> tuple[float, float, float]:
@@ -543,7 +545,7 @@ class Recorder:
         Returns:
             The pose (x, y, theta) [m, m, rad] the pose sensors read now (as :meth:`Simulator.read_pose`).
         """
-        contact, x, y, th = _sample(self.data.time, *self._bound)
+        contact, x, y, th = self._sample(self.data.time)
         if contact or self._touching:
             self._contact_check()
         pose = self.pose = (x, y, th)

@@ -23,7 +23,6 @@ that arrives between two updates is taken up at the next, as on the real board.
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -31,6 +30,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from control.dispatch import bind
 from planning.errors import ConfigError
 
 if TYPE_CHECKING:
@@ -149,15 +149,16 @@ class VelocityLoop:
         self, commands: FloatArray, qvel: FloatArray, ctrl: FloatArray, wiring: IntArray
     ) -> Callable[[int], None]:
         """:meth:`drive` bound to a run's arrays: ``update(row)``, without a Python frame of its own
-        (the compiled update with this loop's state, the wiring inside it), for a control loop that
-        calls it every firmware period. The loop is then updated through it only (a call raises).
+        (the compiled update with this loop's state, the wiring inside it, its overload resolved once:
+        :func:`control.dispatch.bind`), for a control loop that calls it every firmware period. The
+        loop is then updated through it only (a call raises).
 
         Raises:
             ConfigError: ``wiring`` is not (2, wheels).
         """
         self._wire(wiring)
         self._bound = True
-        return functools.partial(_drive, self._state, commands, qvel, ctrl)
+        return bind(_drive, self._state, commands, qvel, ctrl, free=(0,))
 
     def _wire(self, wiring: IntArray) -> None:
         """Put a (2, wheels) wiring (dofs, then actuators) into the state; raises ConfigError if misshapen."""
