@@ -31,6 +31,7 @@ from planning.errors import ConfigError
 from planning.planners import geodesic
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
 from planning.planners.registry import config_from_options
+from planning.planners.sampling.connect_kernel import CHUNK_DONE, JOINED, CompiledSearch
 from planning.planners.sampling.extend import LocalPlanner, Motion
 from planning.planners.sampling.tree import (
     Budget,
@@ -300,7 +301,44 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
     def _search(
         self, problem: PlanProblem, local: LocalPlanner, budget: Budget, rng: np.random.Generator
     ) -> PlanResult:
-        """Grow both trees until they join or the budget is spent."""
+        """Grow both trees until they join or the budget is spent: compiled on exact curves
+        (:mod:`.connect_kernel`, the same trees and path as :meth:`_search_python`), else in Python."""
+        if local.exact and local.check_arrays is not None:
+            return self._search_compiled(problem, local, budget, rng)
+        return self._search_python(problem, local, budget, rng)
+
+    def _search_compiled(
+        self, problem: PlanProblem, local: LocalPlanner, budget: Budget, rng: np.random.Generator
+    ) -> PlanResult:
+        """:meth:`_search_python` on exact curves, its iterations run by :func:`.connect_kernel.search_chunk`
+        in chunks (the time limit checked between them, every 16 iterations at first)."""
+        cfg = self.config
+        start, goal = problem.start.as_array(), problem.goal.as_array()
+        direct = local.connect(start, goal)
+        if direct is not None:
+            roots = PlanTree(np.array([start, goal]), np.array([-1, -1], dtype=np.int64))
+            return self._result(PlanStatus.SUCCESS, direct[0], direct[1], "", self._stats(budget, 0, 2), roots)
+        search = CompiledSearch(local, problem, cfg)
+        chunk, it, what = 16, 0, CHUNK_DONE
+        while not budget.spent(it):
+            what, a, b, bridged = search.run(rng, min(it + chunk, cfg.max_iterations))
+            it = search.iterations
+            if what == JOINED:
+                ta, tb = search.trees()
+                bridge = local.connect(ta.nodes[a], tb.nodes[b]) if bridged else None
+                return self._joined(ta, tb, a, b, bridge, budget, it)
+            chunk = min(2 * chunk, 256)
+        ta, tb = search.trees()
+        path, d, _ = self._partial(ta, problem)
+        reason = f"{budget.why(it)}; the trees did not meet (partial path from the start tree)"
+        return self._result(
+            PlanStatus.TIMEOUT, path, d, reason, self._stats(budget, it, ta.n + tb.n), merge_trees(ta, tb)
+        )
+
+    def _search_python(
+        self, problem: PlanProblem, local: LocalPlanner, budget: Budget, rng: np.random.Generator
+    ) -> PlanResult:
+        """Grow both trees until they join or the budget is spent, one Python step at a time."""
         cfg = self.config
         start, goal = problem.start.as_array(), problem.goal.as_array()
         # The trees may already be joined by one exact curve (then they are just their roots).
