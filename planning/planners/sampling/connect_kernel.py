@@ -123,15 +123,6 @@ def _nearest(nodes: FloatArray, headings: FloatArray, n: int, q: FloatArray) -> 
 
 
 @nb.njit(cache=True)
-def _se2_gap(a: FloatArray, b: FloatArray) -> float:
-    """:func:`planning.planners.sampling.steering.se2_metric` of pose ``a`` to pose ``b``."""
-    cq, sq = np.cos(b[2]), np.sin(b[2])
-    dx, dy = a[0] - b[0], a[1] - b[1]
-    dc, ds = np.cos(a[2]) - cq, np.sin(a[2]) - sq
-    return float(np.sqrt(dx * dx + dy * dy + dc * dc + ds * ds))
-
-
-@nb.njit(cache=True)
 def _grow(
     nodes: FloatArray,
     headings: FloatArray,
@@ -184,7 +175,7 @@ def search_chunk(
     rs: bool,
     connect_steps: int,
     chk: CheckArrays,
-) -> tuple[int, int, int, bool]:
+) -> tuple[int, int, int]:
     """Run BiRRT's iterations until ``state[2]`` (the iteration count) reaches ``stop_it`` or the trees
     join.
 
@@ -197,24 +188,24 @@ def search_chunk(
         uniforms: Uniform numbers in [0, 1) of the run's generator, in order.
         stop_it: Iteration count at which to return.
         bounds: (4,) world bounds (xmin, xmax, ymin, ymax) [m].
-        geometry: (rho, sample step, range, goal bias, join radius) [m, m, m, -, -].
+        geometry: (rho, sample step, range, goal bias) [m, m, m, -].
         rs: Reeds–Shepp curves, else Dubins.
         connect_steps: Longest connect step (extensions of the other tree).
         chk: The checker (:meth:`planning.collision.grid.FastChecker.check_arrays`).
 
     Returns:
-        (what, a, b, bridge): ``what`` one of :data:`CHUNK_DONE`, :data:`JOINED`, :data:`NEED_ROOM`
-        (a tree's arrays cannot take another iteration's nodes), :data:`NEED_UNIFORMS`,
-        :data:`BAD_CURVE`; when joined, the start-tree node ``a``, the goal-tree node ``b``, and
-        whether they join by an exact curve (else they are the same pose).
+        (what, a, b): ``what`` one of :data:`CHUNK_DONE`, :data:`JOINED`, :data:`NEED_ROOM` (a tree's
+        arrays cannot take another iteration's nodes), :data:`NEED_UNIFORMS`, :data:`BAD_CURVE`; when
+        joined, the start-tree node ``a`` and the goal-tree node ``b`` (the same pose: an extension
+        reached the other tree's node exactly).
     """
     spans = np.empty(4096, dtype=np.int64)
-    goal_bias, join_radius = geometry[3], geometry[4]
+    goal_bias = geometry[3]
     while state[2] < stop_it:
         if state[0] + connect_steps + 2 > nodes_a.shape[0] or state[1] + connect_steps + 2 > nodes_b.shape[0]:
-            return NEED_ROOM, -1, -1, False
+            return NEED_ROOM, -1, -1
         if state[3] + 4 > uniforms.shape[0]:
-            return NEED_UNIFORMS, -1, -1, False
+            return NEED_UNIFORMS, -1, -1
         state[2] += 1
         grow_a = state[2] % 2 == 1
         # the sample: the other tree's root with the goal bias, else a uniform pose (tree.sample_pose)
@@ -238,7 +229,7 @@ def search_chunk(
         i = _nearest(gn, gh, state[g_idx], q)
         j = _grow(gn, gh, gp, gt, state[g_idx], not grow_a, i, q, geometry, rs, chk, spans)
         if j == -2:
-            return BAD_CURVE, -1, -1, False
+            return BAD_CURVE, -1, -1
         if j < 0:
             continue
         state[g_idx] += 1
@@ -248,21 +239,15 @@ def search_chunk(
             a, b = (j, k) if grow_a else (k, j)
             pa, pb = nodes_a[a], nodes_b[b]
             if pa[0] == pb[0] and pa[1] == pb[1] and pa[2] == pb[2]:
-                return JOINED, a, b, False
-            if _se2_gap(pa, pb) <= join_radius:
-                verdict = steer_free(rs, pa, pb, geometry, np.inf, False, 1, chk, spans)[1]
-                if verdict < 0:
-                    return BAD_CURVE, -1, -1, False
-                if verdict == 1:
-                    return JOINED, a, b, True
+                return JOINED, a, b
             k_new = _grow(on, oh, op, ot, state[o_idx], grow_a, k, target, geometry, rs, chk, spans)
             if k_new == -2:
-                return BAD_CURVE, -1, -1, False
+                return BAD_CURVE, -1, -1
             if k_new < 0:
                 break
             state[o_idx] += 1
             k = k_new
-    return CHUNK_DONE, -1, -1, False
+    return CHUNK_DONE, -1, -1
 
 
 @nb.njit(cache=True)
@@ -317,7 +302,7 @@ class CompiledSearch:
     Args:
         local: The run's local planner (exact curves, a checker with walls).
         problem: The problem (start, goal, world bounds).
-        config: The planner's options (goal bias, join radius, connect steps).
+        config: The planner's options (goal bias, connect steps).
     """
 
     def __init__(self, local: LocalPlanner, problem: PlanProblem, config: BiRRTConfig) -> None:
@@ -326,9 +311,7 @@ class CompiledSearch:
             raise ValueError("the compiled search needs exact curves and a checker with walls")
         self._local, self._chk = local, chk
         self._rs = local.curves.kind == "reeds_shepp"
-        self._geometry = np.array(
-            [local.rho, local.sample_step, local.step_range, config.goal_bias, config.goal_connect_radius]
-        )
+        self._geometry = np.array([local.rho, local.sample_step, local.step_range, config.goal_bias])
         self._bounds = np.asarray(problem.world.bounds, dtype=float)
         self._steps = config.connect_steps
         cap = 4 * (config.connect_steps + 2)
@@ -349,7 +332,7 @@ class CompiledSearch:
         """Iterations run so far."""
         return int(self._state[2])
 
-    def run(self, rng: np.random.Generator, stop_it: int) -> tuple[int, int, int, bool]:
+    def run(self, rng: np.random.Generator, stop_it: int) -> tuple[int, int, int]:
         """Iterate until ``stop_it`` iterations are done or the trees join (``search_chunk``'s results,
         never NEED_ROOM or NEED_UNIFORMS: the arrays grow and numbers are drawn here as needed).
 
@@ -370,7 +353,7 @@ class CompiledSearch:
             elif what == BAD_CURVE:
                 raise ValueError("a Reeds-Shepp or Dubins curve of the search did not verify (non-finite poses)")
             else:
-                return what, int(out[1]), int(out[2]), bool(out[3])
+                return what, int(out[1]), int(out[2])
 
     @staticmethod
     def _grown(tree: list[FloatArray | IntArray]) -> list[FloatArray | IntArray]:
