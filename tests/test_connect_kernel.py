@@ -124,13 +124,21 @@ def test_the_lazy_motion_check_gives_the_checkers_verdict():
     assert local.rho is not None and local.check_arrays is not None
     geometry = np.array([local.rho, local.sample_step])
     spans = np.empty(8, dtype=np.int64)  # too short: replaced inside
+    buf_p, buf_d = np.empty((4, 3)), np.empty(4)  # too short: replaced
     verdicts = []
     for q0, q1 in _pairs(300, seed=2):
         for max_len, keep_end in ((np.inf, False), (0.6, False), (0.6, True)):
-            word, verdict = steer_free(True, q0, q1, geometry, max_len, keep_end, 1, local.check_arrays, spans)
-            poses, _ = word_poses(word, local.rho)
+            args = (True, q0, q1, geometry, max_len, keep_end, 1, local.check_arrays, spans, buf_p, buf_d)
+            n, verdict, p, d = steer_free(*args)
+            poses, dirs = word_poses(
+                cut_word(True, q0, q1, local.rho, local.sample_step, max_len, keep_end)[0], local.rho
+            )
+            assert n == poses.shape[0]
             assert verdict == int(chk.path_free(poses))
             assert verdict == int(bool(np.all(chk.checker.poses_free(poses))))
+            if verdict:  # every pose was computed while checked
+                np.testing.assert_array_equal(p[:n], poses)
+                np.testing.assert_array_equal(d[:n], dirs)
             verdicts.append(verdict)
     assert 0.1 < np.mean(verdicts) < 0.9  # both verdicts were exercised
 

@@ -17,8 +17,8 @@ joint and the path are the same as the Python loop's for the same seed (tests co
   motion validator interpolates the states it checks the same way; sampling every curve whole
   before checking it cost more than the checks on the problems where most extensions collide).
 
-A tree node keeps its parent and the pose its extension steered toward (``targets``), so its edge's
-dense motion can be solved again, identically, when the search has ended (:func:`edge_motions`).
+A tree node keeps its parent and its edge's dense poses (computed while they were checked), so the
+trees come back as :class:`~.tree.Tree` objects without solving a curve again.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.collision.grid import CheckArrays, pose_free
-from planning.planners.sampling.fastcurve import CutWord, cut_word, steer_kernel, word_pose, word_size
+from planning.planners.sampling.fastcurve import CutWord, cut_word, word_pose, word_size
 from planning.planners.sampling.tree import Tree
 
 if TYPE_CHECKING:
@@ -41,28 +41,44 @@ if TYPE_CHECKING:
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
+#: A tree as the kernels grow it: poses (cap, 3), cos and sin of their headings (cap, 2), parents
+#: (cap,), each node's rows [first, end) in the edge store (cap, 2), the edge store's dense poses
+#: (E, 3) and directions (E,) (a node's edge runs from its parent to it, or from it to its parent in
+#: a tree grown backwards, in driving order).
+TreeArrays = tuple[FloatArray, FloatArray, IntArray, IntArray, FloatArray, FloatArray]
+
 #: What a chunk ended on (:func:`search_chunk`'s first result).
 CHUNK_DONE, JOINED, NEED_ROOM, NEED_UNIFORMS, BAD_CURVE = 0, 1, 2, 3, 4
 
 
 @nb.njit(cache=True)
-def word_free(word: CutWord, rho: float, new_first: bool, chk: CheckArrays, spans: IntArray) -> bool:
+def _checked_pose(word: CutWord, j: int, rho: float, chk: CheckArrays, out_p: FloatArray, out_d: FloatArray) -> bool:
+    """Compute dense pose ``j`` of a cut word into ``out_p[j]`` (its direction into ``out_d[j]``) and
+    return whether it is free."""
+    x, y, th, d = word_pose(word, j, rho)
+    out_p[j, 0], out_p[j, 1], out_p[j, 2], out_d[j] = x, y, th, d
+    return pose_free(x, y, th, chk)
+
+
+@nb.njit(cache=True)
+def word_free(
+    word: CutWord, rho: float, new_first: bool, chk: CheckArrays, spans: IntArray, out_p: FloatArray, out_d: FloatArray
+) -> bool:
     """Whether every dense pose of a cut word (:mod:`.fastcurve`) is free, checked in OMPL's order
     (the new end, the first pose with ``new_first`` else the last, then the other end, then the
     interior by breadth-first bisection: :func:`planning.planners.sampling.extend.check_order`),
-    each pose computed when it is checked, stopping at the first that is not free. ``spans``:
+    each pose computed when it is checked (into ``out_p`` (>= n, 3) and its direction into ``out_d``
+    (>= n,): all of them when the word is free), stopping at the first that is not free. ``spans``:
     scratch space (replaced when shorter than 4 n + 8)."""
     n = word_size(word)
     if spans.shape[0] < 4 * n + 8:
         spans = np.empty(4 * n + 8, dtype=np.int64)
     first, second = (0, n - 1) if new_first else (n - 1, 0)
-    x, y, th, _ = word_pose(word, first, rho)
-    if not pose_free(x, y, th, chk):
+    if not _checked_pose(word, first, rho, chk, out_p, out_d):
         return False
     if n == 1:
         return True
-    x, y, th, _ = word_pose(word, second, rho)
-    if not pose_free(x, y, th, chk):
+    if not _checked_pose(word, second, rho, chk, out_p, out_d):
         return False
     head, tail = 0, 1
     spans[0], spans[1] = 1, n - 2
@@ -72,8 +88,7 @@ def word_free(word: CutWord, rho: float, new_first: bool, chk: CheckArrays, span
         if lo > hi:
             continue
         mid = (lo + hi) // 2
-        x, y, th, _ = word_pose(word, mid, rho)
-        if not pose_free(x, y, th, chk):
+        if not _checked_pose(word, mid, rho, chk, out_p, out_d):
             return False
         spans[2 * tail], spans[2 * tail + 1] = lo, mid - 1
         spans[2 * tail + 2], spans[2 * tail + 3] = mid + 1, hi
@@ -92,17 +107,28 @@ def steer_free(
     min_poses: int,
     chk: CheckArrays,
     spans: IntArray,
-) -> tuple[CutWord, int]:
+    out_p: FloatArray,
+    out_d: FloatArray,
+) -> tuple[int, int, FloatArray, FloatArray]:
     """The cut word from ``q0`` to ``q1`` (:func:`.fastcurve.cut_word`; ``geometry``: rho, sample step)
-    and its verdict: 1 every pose free (the new end, its first pose with ``keep_end``, checked
-    first), 0 not (or fewer than ``min_poses`` poses), -1 no curve verifies (non-finite poses)."""
+    checked by :func:`word_free`.
+
+    Returns:
+        (n, verdict, poses, dirs): the word's number of dense poses; 1 every pose free (the new end,
+        its first pose with ``keep_end``, checked first), 0 not (or fewer than ``min_poses`` poses),
+        -1 no curve verifies (non-finite poses); ``out_p`` and ``out_d`` (or larger arrays when they
+        hold fewer than n rows) whose first n rows are the dense poses and directions when free.
+    """
     rho = geometry[0]
     word, ok = cut_word(rs, q0, q1, rho, geometry[1], max_len, keep_end)
     if not ok:
-        return word, -1
-    if word_size(word) < min_poses or not word_free(word, rho, keep_end, chk, spans):
-        return word, 0
-    return word, 1
+        return 0, -1, out_p, out_d
+    n = word_size(word)
+    if out_p.shape[0] < n:
+        out_p, out_d = np.empty((n, 3)), np.empty(n)
+    if n < min_poses or not word_free(word, rho, keep_end, chk, spans, out_p, out_d):
+        return n, 0, out_p, out_d
+    return n, 1, out_p, out_d
 
 
 @nb.njit(cache=True)
@@ -124,49 +150,53 @@ def _nearest(nodes: FloatArray, headings: FloatArray, n: int, q: FloatArray) -> 
 
 @nb.njit(cache=True)
 def _grow(
-    nodes: FloatArray,
-    headings: FloatArray,
-    parents: IntArray,
-    targets: FloatArray,
+    tree: TreeArrays,
     n: int,
+    fill: int,
     backwards: bool,
     i: int,
     target: FloatArray,
     geometry: FloatArray,
     rs: bool,
     chk: CheckArrays,
-    spans: IntArray,
+    scratch: tuple[IntArray, FloatArray, FloatArray],
 ) -> int:
     """Extend node ``i`` toward ``target`` (``LocalPlanner.extend`` on exact curves) and append the new
-    node at index ``n``: returns ``n``, -1 when the motion collides or is shorter than a step, -2 when
-    no curve verifies (non-finite poses). ``geometry``: (rho, sample step, range)."""
+    node at index ``n``, its edge's dense poses at row ``fill`` of the tree's edge store: returns the
+    edge's number of poses, -1 when the motion collides or is shorter than a step, -2 when no curve
+    verifies (non-finite poses). ``geometry``: (rho, sample step, range)."""
+    nodes, headings, parents, edge_rows, edge_p, edge_d = tree
+    spans, buf_p, buf_d = scratch
     if backwards:
-        word, verdict = steer_free(rs, target, nodes[i], geometry, geometry[2], True, 2, chk, spans)
+        m, verdict, p, d = steer_free(rs, target, nodes[i], geometry, geometry[2], True, 2, chk, spans, buf_p, buf_d)
     else:
-        word, verdict = steer_free(rs, nodes[i], target, geometry, geometry[2], False, 2, chk, spans)
+        m, verdict, p, d = steer_free(rs, nodes[i], target, geometry, geometry[2], False, 2, chk, spans, buf_p, buf_d)
     if verdict < 0:
         return -2
     if verdict == 0:
         return -1
-    x, y, th, _ = word_pose(word, 0 if backwards else word_size(word) - 1, geometry[0])
-    nodes[n, 0], nodes[n, 1], nodes[n, 2] = x, y, th
-    for c in range(3):
-        targets[n, c] = target[c]
+    if fill + m > edge_p.shape[0]:
+        raise ValueError("the edge store cannot take the motion (its room is checked before each iteration)")
+    k = 0 if backwards else m - 1
+    nodes[n, 0], nodes[n, 1], nodes[n, 2] = p[k, 0], p[k, 1], p[k, 2]
     headings[n, 0], headings[n, 1] = np.cos(nodes[n, 2]), np.sin(nodes[n, 2])
     parents[n] = i
-    return n
+    edge_p[fill : fill + m] = p[:m]
+    edge_d[fill : fill + m] = d[:m]
+    edge_rows[n, 0], edge_rows[n, 1] = fill, fill + m
+    return m
+
+
+@nb.njit(cache=True)
+def _room(tree: TreeArrays, n: int, fill: int, nodes: int, rows: int) -> bool:
+    """Whether the tree's arrays can take ``nodes`` more nodes and ``rows`` more edge poses."""
+    return n + nodes <= tree[0].shape[0] and fill + rows <= tree[4].shape[0]
 
 
 @nb.njit(cache=True)
 def search_chunk(
-    nodes_a: FloatArray,
-    head_a: FloatArray,
-    par_a: IntArray,
-    tgt_a: FloatArray,
-    nodes_b: FloatArray,
-    head_b: FloatArray,
-    par_b: IntArray,
-    tgt_b: FloatArray,
+    tree_a: TreeArrays,
+    tree_b: TreeArrays,
     state: IntArray,
     uniforms: FloatArray,
     stop_it: int,
@@ -174,35 +204,40 @@ def search_chunk(
     geometry: FloatArray,
     rs: bool,
     connect_steps: int,
+    max_motion: int,
     chk: CheckArrays,
 ) -> tuple[int, int, int]:
     """Run BiRRT's iterations until ``state[2]`` (the iteration count) reaches ``stop_it`` or the trees
     join.
 
     Args:
-        nodes_a, head_a, par_a, tgt_a: The start tree: (cap, 3) poses, (cap, 2) cos and sin of their
-            headings, (cap,) parents, (cap, 3) extension targets; filled up to ``state[0]`` nodes.
-        nodes_b, head_b, par_b, tgt_b: The goal tree (grown backwards), ``state[1]`` nodes.
-        state: (4,) node counts of the two trees, iterations done, next unused entry of ``uniforms``;
-            updated in place.
+        tree_a: The start tree (:data:`TreeArrays`), ``state[0]`` nodes and ``state[4]`` edge poses.
+        tree_b: The goal tree (grown backwards), ``state[1]`` nodes and ``state[5]`` edge poses.
+        state: (6,) node counts of the two trees, iterations done, next unused entry of ``uniforms``,
+            edge poses stored in the two trees; updated in place.
         uniforms: Uniform numbers in [0, 1) of the run's generator, in order.
         stop_it: Iteration count at which to return.
         bounds: (4,) world bounds (xmin, xmax, ymin, ymax) [m].
         geometry: (rho, sample step, range, goal bias) [m, m, m, -].
         rs: Reeds–Shepp curves, else Dubins.
         connect_steps: Longest connect step (extensions of the other tree).
+        max_motion: Most dense poses of one extension (cut to the range).
         chk: The checker (:meth:`planning.collision.grid.FastChecker.check_arrays`).
 
     Returns:
         (what, a, b): ``what`` one of :data:`CHUNK_DONE`, :data:`JOINED`, :data:`NEED_ROOM` (a tree's
-        arrays cannot take another iteration's nodes), :data:`NEED_UNIFORMS`, :data:`BAD_CURVE`; when
-        joined, the start-tree node ``a`` and the goal-tree node ``b`` (the same pose: an extension
-        reached the other tree's node exactly).
+        arrays cannot take another iteration's nodes and edges), :data:`NEED_UNIFORMS`,
+        :data:`BAD_CURVE`; when joined, the start-tree node ``a`` and the goal-tree node ``b`` (the
+        same pose: an extension reached the other tree's node exactly).
     """
-    spans = np.empty(4096, dtype=np.int64)
+    scratch = (np.empty(4 * max_motion + 8, dtype=np.int64), np.empty((max_motion, 3)), np.empty(max_motion))
     goal_bias = geometry[3]
+    most = connect_steps + 2
     while state[2] < stop_it:
-        if state[0] + connect_steps + 2 > nodes_a.shape[0] or state[1] + connect_steps + 2 > nodes_b.shape[0]:
+        if not (
+            _room(tree_a, state[0], state[4], most, most * max_motion)
+            and _room(tree_b, state[1], state[5], most, most * max_motion)
+        ):
             return NEED_ROOM, -1, -1
         if state[3] + 4 > uniforms.shape[0]:
             return NEED_UNIFORMS, -1, -1
@@ -212,7 +247,7 @@ def search_chunk(
         u = uniforms[state[3]]
         state[3] += 1
         if u < goal_bias:
-            q = nodes_b[0].copy() if grow_a else nodes_a[0].copy()
+            q = tree_b[0][0].copy() if grow_a else tree_a[0][0].copy()
         else:
             u0, u1, u2 = uniforms[state[3]], uniforms[state[3] + 1], uniforms[state[3] + 2]
             state[3] += 3
@@ -223,72 +258,33 @@ def search_chunk(
                     np.pi * (2 * u2 - 1),
                 ]
             )
-        gn, gh, gp, gt = (nodes_a, head_a, par_a, tgt_a) if grow_a else (nodes_b, head_b, par_b, tgt_b)
-        on, oh, op, ot = (nodes_b, head_b, par_b, tgt_b) if grow_a else (nodes_a, head_a, par_a, tgt_a)
-        g_idx, o_idx = (0, 1) if grow_a else (1, 0)
-        i = _nearest(gn, gh, state[g_idx], q)
-        j = _grow(gn, gh, gp, gt, state[g_idx], not grow_a, i, q, geometry, rs, chk, spans)
-        if j == -2:
+        grow, other = (tree_a, tree_b) if grow_a else (tree_b, tree_a)
+        g, o = (0, 1) if grow_a else (1, 0)
+        i = _nearest(grow[0], grow[1], state[g], q)
+        m = _grow(grow, state[g], state[4 + g], not grow_a, i, q, geometry, rs, chk, scratch)
+        if m == -2:
             return BAD_CURVE, -1, -1
-        if j < 0:
+        if m < 0:
             continue
-        state[g_idx] += 1
-        target = gn[j].copy()
-        k = _nearest(on, oh, state[o_idx], target)
+        j = state[g]
+        state[g] += 1
+        state[4 + g] += m
+        target = grow[0][j].copy()
+        k = _nearest(other[0], other[1], state[o], target)
         for _ in range(connect_steps):
             a, b = (j, k) if grow_a else (k, j)
-            pa, pb = nodes_a[a], nodes_b[b]
+            pa, pb = tree_a[0][a], tree_b[0][b]
             if pa[0] == pb[0] and pa[1] == pb[1] and pa[2] == pb[2]:
                 return JOINED, a, b
-            k_new = _grow(on, oh, op, ot, state[o_idx], grow_a, k, target, geometry, rs, chk, spans)
-            if k_new == -2:
+            m = _grow(other, state[o], state[4 + o], grow_a, k, target, geometry, rs, chk, scratch)
+            if m == -2:
                 return BAD_CURVE, -1, -1
-            if k_new < 0:
+            if m < 0:
                 break
-            state[o_idx] += 1
-            k = k_new
+            k = state[o]
+            state[o] += 1
+            state[4 + o] += m
     return CHUNK_DONE, -1, -1
-
-
-@nb.njit(cache=True)
-def edge_motions(
-    nodes: FloatArray,
-    parents: IntArray,
-    targets: FloatArray,
-    n: int,
-    backwards: bool,
-    geometry: FloatArray,
-    rs: bool,
-) -> tuple[FloatArray, FloatArray, IntArray]:
-    """The dense edge motions of nodes 1..n-1 of a tree grown by :func:`search_chunk`, solved again as
-    they were when each node was added (the same curve, the same samples).
-
-    Returns:
-        Poses (K, 3) and directions (K,) of all edges in node order, and (n + 1,) offsets: node ``i``'s
-        edge is rows ``offsets[i]:offsets[i + 1]`` (none for the root).
-    """
-    rho, step, rng = geometry[0], geometry[1], geometry[2]
-    offsets = np.zeros(n + 1, dtype=np.int64)
-    parts_p = []
-    parts_d = []
-    for i in range(1, n):
-        p = parents[i]
-        if backwards:
-            poses, dirs, _ = steer_kernel(rs, targets[i], nodes[p], rho, step, rng, True)
-        else:
-            poses, dirs, _ = steer_kernel(rs, nodes[p], targets[i], rho, step, rng, False)
-        parts_p.append(poses)
-        parts_d.append(dirs)
-        offsets[i + 1] = offsets[i] + poses.shape[0]
-    offsets[1] = 0
-    total = offsets[n]
-    out_p = np.empty((total, 3))
-    out_d = np.empty(total)
-    for i in range(1, n):
-        a, b = offsets[i], offsets[i + 1]
-        out_p[a:b] = parts_p[i - 1]
-        out_d[a:b] = parts_d[i - 1]
-    return out_p, out_d, offsets
 
 
 #: Uniform numbers drawn ahead per refill (more are drawn when a chunk runs out).
@@ -309,23 +305,26 @@ class CompiledSearch:
         chk = local.check_arrays
         if not local.exact or chk is None or local.rho is None:
             raise ValueError("the compiled search needs exact curves and a checker with walls")
-        self._local, self._chk = local, chk
+        self._chk = chk
         self._rs = local.curves.kind == "reeds_shepp"
         self._geometry = np.array([local.rho, local.sample_step, local.step_range, config.goal_bias])
         self._bounds = np.asarray(problem.world.bounds, dtype=float)
         self._steps = config.connect_steps
-        cap = 4 * (config.connect_steps + 2)
-        self._a = self._tree(problem.start.as_array(), cap)
-        self._b = self._tree(problem.goal.as_array(), cap)
-        self._state = np.array([1, 1, 0, 0], dtype=np.int64)
+        # an extension cut to the range: ceil(piece / step) poses per segment, rounding included
+        self._max_motion = int(np.ceil(local.step_range / local.sample_step)) + 16
+        cap = 2 * (config.connect_steps + 2)
+        self._a = self._tree(problem.start.as_array(), cap, cap * self._max_motion)
+        self._b = self._tree(problem.goal.as_array(), cap, cap * self._max_motion)
+        self._state = np.array([1, 1, 0, 0, 0, 0], dtype=np.int64)
         self._uniforms = np.empty(0)
 
     @staticmethod
-    def _tree(root: FloatArray, cap: int) -> list[FloatArray | IntArray]:
+    def _tree(root: FloatArray, cap: int, rows: int) -> TreeArrays:
         nodes, heads = np.empty((cap, 3)), np.empty((cap, 2))
         nodes[0] = root
         heads[0] = np.cos(nodes[0, 2]), np.sin(nodes[0, 2])
-        return [nodes, heads, np.full(cap, -1, dtype=np.int64), np.zeros((cap, 3))]
+        edges = np.zeros((cap, 2), dtype=np.int64)
+        return nodes, heads, np.full(cap, -1, dtype=np.int64), edges, np.empty((rows, 3)), np.empty(rows)
 
     @property
     def iterations(self) -> int:
@@ -341,8 +340,8 @@ class CompiledSearch:
         """
         while True:
             out = search_chunk(
-                *self._a, *self._b, self._state, self._uniforms, stop_it, self._bounds, self._geometry,
-                self._rs, self._steps, self._chk,
+                self._a, self._b, self._state, self._uniforms, stop_it, self._bounds, self._geometry,
+                self._rs, self._steps, self._max_motion, self._chk,
             )  # fmt: skip
             what = int(out[0])
             if what == NEED_ROOM:
@@ -356,26 +355,24 @@ class CompiledSearch:
                 return what, int(out[1]), int(out[2])
 
     @staticmethod
-    def _grown(tree: list[FloatArray | IntArray]) -> list[FloatArray | IntArray]:
-        out = []
-        for arr in tree:
-            more = np.full_like(arr, -1) if arr.dtype == np.int64 else np.zeros_like(arr)
-            out.append(np.concatenate([arr, more]))
-        return out
+    def _grown(tree: TreeArrays) -> TreeArrays:
+        """The tree's arrays, each twice as long."""
+        nodes, heads, parents, rows, edge_p, edge_d = (np.concatenate([a, np.empty_like(a)]) for a in tree)
+        return nodes, heads, parents, rows, edge_p, edge_d
 
     def trees(self) -> tuple[Tree, Tree]:
-        """The start and goal trees as :class:`~.tree.Tree` objects, their edges solved again."""
+        """The start and goal trees as :class:`~.tree.Tree` objects (their edges views of the stores)."""
         return self._as_tree(self._a, int(self._state[0]), False), self._as_tree(self._b, int(self._state[1]), True)
 
-    def _as_tree(self, arrays: list[FloatArray | IntArray], n: int, backwards: bool) -> Tree:
-        nodes, heads, parents, targets = arrays
+    @staticmethod
+    def _as_tree(arrays: TreeArrays, n: int, backwards: bool) -> Tree:
+        nodes, heads, parents, rows, edge_p, edge_d = arrays
         tree = Tree(nodes[0], backwards=backwards, capacity=max(n, 1))
         tree.nodes[:n], tree.headings[:n], tree.parents[:n] = nodes[:n], heads[:n], parents[:n]
         tree.n = n
-        poses, dirs, offsets = edge_motions(nodes, parents, targets, n, backwards, self._geometry, self._rs)
         for i in range(1, n):
-            a, b = offsets[i], offsets[i + 1]
-            tree.edges.append((poses[a:b], dirs[a:b]))
+            a, b = rows[i]
+            tree.edges.append((edge_p[a:b], edge_d[a:b]))
             tree.children.append([])
             tree.children[int(parents[i])].append(i)
         return tree

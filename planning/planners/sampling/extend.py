@@ -21,7 +21,7 @@ from planning.core.robot import RobotSpec
 from planning.curves.words import Word
 from planning.errors import ConfigError
 from planning.planners.sampling.connect_kernel import steer_free
-from planning.planners.sampling.fastcurve import steer_kernel, word_poses
+from planning.planners.sampling.fastcurve import steer_kernel
 from planning.planners.sampling.steering import (
     SAMPLE_STEP,
     CurveSteering,
@@ -97,6 +97,8 @@ class LocalPlanner:
     _ends: FloatArray = field(init=False)
     _check: CheckArrays | None = field(init=False, default=None)
     _spans: NDArray[np.int64] = field(init=False, default_factory=lambda: np.empty(4096, dtype=np.int64))
+    _buf_p: FloatArray = field(init=False, default_factory=lambda: np.empty((1024, 3)))
+    _buf_d: FloatArray = field(init=False, default_factory=lambda: np.empty(1024))
 
     def __post_init__(self) -> None:
         if self.steering not in STEERINGS:
@@ -175,12 +177,14 @@ class LocalPlanner:
             return (poses, dirs) if poses.shape[0] >= min_poses and self.checker.path_free(poses) else None
         assert self.rho is not None  # set in __post_init__
         geometry = np.array([self.rho, self.sample_step])
-        word, verdict = steer_free(
-            self.curves.kind == "reeds_shepp", a, b, geometry, max_len, keep_end, min_poses, self._check, self._spans
+        rs = self.curves.kind == "reeds_shepp"
+        n, verdict, p, d = steer_free(
+            rs, a, b, geometry, max_len, keep_end, min_poses, self._check, self._spans, self._buf_p, self._buf_d
         )
         if verdict < 0:
             self.curves.curve(a, b)  # raises the solver's error (non-finite poses)
-        return word_poses(word, self.rho) if verdict == 1 else None
+        self._buf_p, self._buf_d = p, d  # grown when a curve needed more room
+        return (p[:n].copy(), d[:n].copy()) if verdict == 1 else None
 
     def connect(self, q_a: FloatArray, q_b: FloatArray) -> tuple[FloatArray, FloatArray] | None:
         """The exact curve from ``q_a`` (start side) to ``q_b`` (goal side) if collision-free."""
