@@ -168,6 +168,15 @@ def pose_free(x: float, y: float, th: float, chk: CheckArrays) -> bool:
 
 
 @nb.njit(cache=True)
+def poses_free_kernel(poses: FloatArray, chk: CheckArrays) -> BoolArray:
+    """(M,) :func:`pose_free` of each (M, 3) pose."""
+    out = np.empty(poses.shape[0], dtype=np.bool_)
+    for k in range(poses.shape[0]):
+        out[k] = pose_free(poses[k, 0], poses[k, 1], poses[k, 2], chk)
+    return out
+
+
+@nb.njit(cache=True)
 def _summary(cls: NDArray[np.int8], m: int) -> int:
     """0 if fewer than ``m`` classes (stopped at a collision) or any proven collision, 1 if all proven
     free, -1 if some are undecided."""
@@ -201,6 +210,7 @@ class FastChecker:
     _grid: FloatArray = field(init=False, repr=False, compare=False)
     _h: float = field(init=False, repr=False, compare=False)
     _field: FieldArrays = field(init=False, repr=False, compare=False)
+    _check: CheckArrays | None = field(init=False, repr=False, compare=False, default=None)
     grid_seconds: float = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -255,7 +265,13 @@ class FastChecker:
 
     def check_arrays(self) -> CheckArrays | None:
         """What the compiled :func:`pose_free` takes: :meth:`kernel_args` and the exact fallback's
-        world, robot and field arrays; None without walls (the grid assumes them)."""
+        world, robot and field arrays (built once per checker); None without walls (the grid
+        assumes them)."""
+        if self._check is None and self.checker.walls:
+            object.__setattr__(self, "_check", self._check_arrays())
+        return self._check
+
+    def _check_arrays(self) -> CheckArrays | None:
         args = self.kernel_args()
         if args is None:
             return None
@@ -290,6 +306,9 @@ class FastChecker:
     def poses_free(self, poses: ArrayLike) -> BoolArray:
         """(M,) whether each (M, 3) pose keeps the clearance from everything (exact verdict)."""
         p = np.ascontiguousarray(np.atleast_2d(np.asarray(poses, dtype=float)))
+        chk = self.check_arrays()
+        if chk is not None:  # one compiled call (the same verdicts)
+            return poses_free_kernel(p, chk)  # type: ignore[no-any-return]
         cls = self._classify(p, False)
         out = cls == 1
         und = cls < 0
