@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.collision.grid import CheckArrays, pose_free
+from planning.planners.base import PlanTree
 from planning.planners.sampling.fastcurve import CutWord, cut_word, word_pose, word_size
 from planning.planners.sampling.tree import Tree
 
@@ -331,6 +332,11 @@ class CompiledSearch:
         """Iterations run so far."""
         return int(self._state[2])
 
+    @property
+    def nodes(self) -> int:
+        """Nodes in both trees."""
+        return int(self._state[0] + self._state[1])
+
     def run(self, rng: np.random.Generator, stop_it: int) -> tuple[int, int, int]:
         """Iterate until ``stop_it`` iterations are done or the trees join (``search_chunk``'s results,
         never NEED_ROOM or NEED_UNIFORMS: the arrays grow and numbers are drawn here as needed).
@@ -359,6 +365,42 @@ class CompiledSearch:
         """The tree's arrays, each twice as long."""
         nodes, heads, parents, rows, edge_p, edge_d = (np.concatenate([a, np.empty_like(a)]) for a in tree)
         return nodes, heads, parents, rows, edge_p, edge_d
+
+    def _branch(self, tree: TreeArrays, i: int, backwards: bool) -> tuple[FloatArray, FloatArray]:
+        """:meth:`~.tree.Tree.branch` of node ``i`` (the same poses and directions)."""
+        nodes, _, parents, rows, edge_p, edge_d = tree
+        first, chain = i, []
+        while i > 0:
+            chain.append(i)
+            i = int(parents[i])
+        if not backwards:
+            chain.reverse()
+            first = 0
+        if not chain:
+            return nodes[first][None, :].copy(), np.ones(1)
+        spans = [rows[k] for k in chain]
+        poses = [nodes[first][None, :], *(edge_p[a + 1 : b] for a, b in spans)]
+        dirs = [edge_d[spans[0][0] : spans[0][0] + 1], *(edge_d[a + 1 : b] for a, b in spans)]
+        return np.concatenate(poses), np.concatenate(dirs)
+
+    def path(self, a: int, b: int) -> tuple[FloatArray, FloatArray]:
+        """Poses (K, 3) and directions (K,) from the start through start-tree node ``a`` and goal-tree
+        node ``b`` (the same pose) to the goal."""
+        pa, da = self._branch(self._a, a, False)
+        pb, db = self._branch(self._b, b, True)
+        return np.concatenate([pa, pb[1:]]), np.concatenate([da, db[1:]])
+
+    def plan_tree(self) -> PlanTree:
+        """Both trees as one :class:`~planning.planners.base.PlanTree` (:func:`.tree.merge_trees`'s)."""
+        na, nb = int(self._state[0]), int(self._state[1])
+        par_b = self._b[2][:nb].copy()
+        par_b[par_b >= 0] += na
+        edges = []
+        for tree, n in ((self._a, na), (self._b, nb)):
+            rows, edge_p = tree[3], tree[4]
+            edges += [edge_p[rows[i, 0] : rows[i, 1], :2] for i in range(1, n)]
+        nodes = np.concatenate([self._a[0][:na], self._b[0][:nb]])
+        return PlanTree(nodes, np.concatenate([self._a[2][:na], par_b]), tuple(edges))
 
     def trees(self) -> tuple[Tree, Tree]:
         """The start and goal trees as :class:`~.tree.Tree` objects (their edges views of the stores)."""

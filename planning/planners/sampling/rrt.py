@@ -341,8 +341,9 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
             what, a, b = search.run(rng, min(it + chunk, cfg.max_iterations))
             it = search.iterations
             if what == JOINED:
-                ta, tb = search.trees()
-                return self._joined(ta, tb, a, b, None, budget, it)
+                path, dirs = search.path(a, b)
+                stats = self._stats(budget, it, search.nodes)
+                return self._result(PlanStatus.SUCCESS, path, dirs, "", stats, search.plan_tree())
             chunk = min(2 * chunk, 256)
         ta, tb = search.trees()
         path, d, _ = self._partial(ta, problem)
