@@ -19,6 +19,8 @@ declare -A CMDS=(
     [optim]="bench optim"
     [simplify]="bench simplify"
     [montecarlo]="bench montecarlo"
+    [cold]="bench cold"
+    [bag]="bench bag"
 )
 
 stamp() {
@@ -27,7 +29,7 @@ stamp() {
 }
 
 names=("$@")
-[ ${#names[@]} -gt 0 ] || names=(sim sim-segmented sim-kanayama sim-rpp track render plan hybrid optim simplify montecarlo)
+[ ${#names[@]} -gt 0 ] || names=(sim sim-segmented sim-kanayama sim-rpp track render plan hybrid optim simplify montecarlo cold bag)
 for name in "${names[@]}"; do
     cmd="${CMDS[$name]:-}"
     if [ -z "$cmd" ]; then echo "docs/bench.sh: no benchmark '$name' (known: ${!CMDS[*]})" >&2; exit 2; fi

@@ -129,18 +129,19 @@ def atomic_path(path: str | Path, *, overwrite: Overwrite = False) -> Iterator[P
     check_writable(target, overwrite=allowed(target))
     target.parent.mkdir(parents=True, exist_ok=True)
     prefix, suffix = _temporary_affixes(target)
-    fd, tmp_name = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=target.parent)
-    os.close(fd)
-    tmp = Path(tmp_name)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the permissions open() would
-    try:
+    tmp: Path | None = None
+    try:  # from the file's creation on: an interrupt while it is being set up removes it too
+        fd, tmp_name = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=target.parent)
+        tmp = Path(tmp_name)
+        os.close(fd)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the permissions open() would
         yield tmp
         _check_absent(target, overwrite=allowed(target))
         os.replace(tmp, target)
     finally:
-        if tmp.exists():
+        if tmp is not None and tmp.exists():
             tmp.unlink()
 
 

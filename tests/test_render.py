@@ -528,6 +528,9 @@ def test_panel_covers_no_world_pixel() -> None:
         alone = np.zeros((240, wx1, 3), np.uint8)
         with SceneRenderer(model, 320, 240, max_geom=replay.required_geoms) as r:
             k = replay.n_frames // 2
+            # a context's first frame can differ from later ones by one level in a few pixels (GL state
+            # set up on first use; seen on the farm since its walls rose to 0.3 m): compare settled frames
+            replay.render_frame(r, k)
             full = replay.render_frame(r, k).copy()
             if camera == "overview":
                 FixedViewCompositor(replay, r, size=replay.world_size).frame(k, alone)

@@ -1,78 +1,40 @@
-"""A new tracker costs one law: a proportional pose controller written and registered here (its
-parameters, its compiled drive law, a short class) is compared, benchmarked, tuned, checked by the
-registry-wide tests and fuzzed, with no list anywhere else edited (docs: "add a tracker")."""
+"""A new tracker costs one law: the proportional pose controller of docs/how-to/new-tracker.md (its
+parameters, its compiled drive law, a short class, run from the page) is registered here and compared,
+benchmarked, tuned, checked by the registry-wide tests and fuzzed, with no list anywhere else edited."""
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import sys
+import types
 from typing import Any
 
-import numba as nb
 import pytest
 from hypothesis import HealthCheck, given, settings
 
 from control.base import (
     BASELINES,
     TRACKERS,
-    check_ranges,
     feedback_trackers,
-    option_value,
-    ranged,
     register_tracker,
     search_space,
     tuned_option,
 )
-from control.estimation.kernels import wrap
-from control.switching import PerSegmentTracker, SegmentedParams, dataclass_values, period, state_dtype
-from planning.core.robot import RobotSpec
+from tests.doc_blocks import block_of
 
 
-# ---- the new tracker: one module's worth ------------------------------------------------------------
-@dataclass(frozen=True)
-class PoseGains:
-    """Gains of the proportional pose controller (ranges checked)."""
-
-    k_along: float = ranged(2.0, 0.01, 50.0, "1/s", tune=(0.2, 20.0))
-    k_lateral: float = ranged(20.0, 0.01, 1000.0, "1/m^2", tune=(1.0, 200.0))
-    k_heading: float = ranged(3.0, 0.01, 50.0, "1/s", tune=(0.2, 20.0))
-
-    def __post_init__(self) -> None:
-        check_ranges(self)
+# ---- the new tracker: the module docs/how-to/new-tracker.md shows, run from there ------------------------
+def _tracker_module() -> types.ModuleType:
+    """The page's block run as the module it says it is (``p_pose``, in ``sys.modules`` as an import puts it)."""
+    block = block_of("docs/how-to/new-tracker.md")
+    module = types.ModuleType("p_pose")
+    sys.modules["p_pose"] = module
+    exec(compile(block.code, block.name, "exec"), module.__dict__)
+    return module
 
 
-STATE = state_dtype([("k_along", "f8"), ("k_lateral", "f8"), ("k_heading", "f8")])
-
-
-@nb.njit
-def drive(s: Any, ref: Any, k: int, x: float, y: float, theta: float, enter: bool, rested: bool) -> tuple[float, float]:
-    """The reference's inputs plus proportional feedback on the pose error in the robot's frame."""
-    r = ref[k]
-    c, sn = math.cos(theta), math.sin(theta)
-    ex, ey = c * (r.x - x) + sn * (r.y - y), -sn * (r.x - x) + c * (r.y - y)
-    return r.v + s.k_along * ex, r.omega + s.k_lateral * r.v * ey + s.k_heading * wrap(r.theta - theta)
-
-
-@nb.njit
-def _period(state: Any, ref: Any, t: float, x: float, y: float, theta: float) -> tuple[int, float, float]:
-    return period(state, ref, t, x, y, theta, drive)
-
-
-class PoseP(PerSegmentTracker):
-    """Proportional pose control on the drives; turns in place and stand-stills by segment."""
-
-    name = "p-pose"
-    TUNED = ("gains", PoseGains)
-    STATE = STATE
-    DRIVE = staticmethod(drive)
-    PERIOD = staticmethod(_period)
-
-    def __init__(self, robot: RobotSpec, *, gains: PoseGains | None = None, turns: SegmentedParams | None = None):
-        self.gains = option_value(self.name, "gains", gains, PoseGains())
-        super().__init__(robot, option_value(self.name, "turns", turns, SegmentedParams()))
-
-    def law_values(self) -> dict[str, float]:
-        return dataclass_values(self.gains)
+_MODULE = _tracker_module()
+PoseGains, PoseP = _MODULE.PoseGains, _MODULE.PoseP
 
 
 # ---- the proof ----------------------------------------------------------------------------------------

@@ -373,11 +373,14 @@ def scan_of(log: Any) -> Sweeps | None:
 
 
 def _scan_series(log: Any, frames: dict[str, str]) -> Series:
+    """The revolutions that began in the run (the first fix's revolution is centred on its start, so
+    half of it turned while the robot stood there before time 0, which a bag cannot stamp)."""
     scan = scan_of(log)
     if scan is None:
         return np.zeros(0), lambda k: None
     fr = frames["base_scan"]
-    return scan.t, lambda k: m.laser_scan(float(scan.t[k]), fr, scan, scan.ranges[k])
+    keep = np.flatnonzero(scan.t >= 0.0)
+    return scan.t[keep], lambda k: m.laser_scan(float(scan.t[keep[k]]), fr, scan, scan.ranges[keep[k]])
 
 
 def run_topics(ns: str, log: Any, robot: Any, sk: Skeleton, fix_std: tuple[float, float]) -> list[Topic]:

@@ -16,10 +16,12 @@ own instant (the origin of a beam is off by at most the distance travelled in ha
 own geoms are excluded by ``bodyexclude`` (its root body, which carries the chassis and the
 scanner's housing); the constructor checks that no other body of the robot reaches the scan plane.
 
-Noise (from the run's noise seed; :data:`STREAMS`): the datasheet's accuracy is a systematic error
-drawn once per run, ``u_near * accuracy_near`` below ``accuracy_split`` and ``u_far *
-accuracy_far * r`` above (``u`` uniform in [-1, 1]); its precision is white Gaussian noise of
-standard deviation ``precision_near`` or ``precision_far * r`` per return.
+Noise (from the run's noise seed; :data:`STREAMS`): the datasheet's accuracy is the band a unit's
+systematic (calibration) error lies in, drawn once per run as every as-built tolerance is
+(:mod:`sim.physics.asbuilt`): ``u_near * accuracy_near`` below ``accuracy_split`` and ``u_far *
+accuracy_far * r`` above, ``u`` a standard normal clipped at ``CLIP_SIGMAS`` and divided by it, so
+the band is three standard deviations wide and no unit leaves it; its precision is white Gaussian
+noise of standard deviation ``precision_near`` or ``precision_far * r`` per return.
 
 Ranges follow REP 117 (``sensor_msgs/LaserScan``): a return measured below ``range_min`` reads
 ``-inf``, nothing within ``range_max`` reads ``+inf``; NaN is never produced (the scene has no
@@ -39,6 +41,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.errors import ConfigError
+from sim.physics.asbuilt import CLIP_SIGMAS
 from sim.physics.keyvalue import check_number, parse_number, parse_pairs
 from sim.physics.sensors import sensor_profile_path
 
@@ -257,7 +260,8 @@ class LidarScanner:
         self.batch = max(1, int(batch_time / profile.time_increment + 1e-9))
         seq = np.random.SeedSequence([int(seed), LIDAR_KEY]).spawn(len(STREAMS))
         accuracy, self._precision = (np.random.default_rng(s) for s in seq)
-        self.bias_near, self.bias_far = accuracy.uniform(-1.0, 1.0, 2)
+        u = np.clip(accuracy.standard_normal(2), -CLIP_SIGMAS, CLIP_SIGMAS) / CLIP_SIGMAS
+        self.bias_near, self.bias_far = (float(v) for v in u)
         self._geomgroup = np.ones(6, dtype=np.uint8)
         n = profile.beams
         self._geomid = np.empty(n, dtype=np.int32)

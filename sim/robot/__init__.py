@@ -6,8 +6,9 @@ Importing this package imports no MuJoCo: each public name below loads its modul
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from planning.lazy import lazy_exports
 
 if TYPE_CHECKING:
     from sim.robot.balance_design import BalanceDesign as BalanceDesign
@@ -44,15 +45,4 @@ _EXPORTS = {
 }
 
 __all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str) -> Any:
-    if name not in _EXPORTS:
-        raise AttributeError(f"module 'sim.robot' has no attribute {name!r}; public: {', '.join(__all__)}")
-    value = getattr(importlib.import_module(_EXPORTS[name]), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_EXPORTS))
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

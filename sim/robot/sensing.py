@@ -273,21 +273,24 @@ class Sensing:
         estimate's consistency (NEES) against the truth then. A fused run takes no sample for a fix
         too old for the estimator's history (it judged nothing), so a run whose fixes all came too
         late has no NEES statistic (NaN, written null and printed "-"), not a perfect one; a
-        dead-reckoning run samples at every delivery, the instants its fused twin is checked."""
+        dead-reckoning run samples at every delivery, the instants its fused twin is checked. A run on
+        the scan localiser samples where it gave a fix (a revolution that did not move the filter
+        gives none and judges nothing)."""
         est = self.estimator
         assert est is not None
         stale = est.fixes_stale
         if self.scans is not None:
-            self._deliver_scan(j, est)
+            if not self._deliver_scan(j, est):
+                return
         elif self.source is PoseSource.FUSED and est.correct(self.t0 + j * self.dt, self.fixes[j]):
             self.applied.append(j)
         if est.fixes_stale > stale:  # older than the history: never compared with the estimate
             return
         self.nees.append((k, est.nees(truth)))
 
-    def _deliver_scan(self, j: int, est: PoseEstimator) -> None:
+    def _deliver_scan(self, j: int, est: PoseEstimator) -> bool:
         """The scan localiser's answer for the revolution centred on period j, fused at j's time with
-        its own covariance (nothing when AMCL did not update).
+        its own covariance (nothing when AMCL did not update); whether there was an answer.
 
         Raises:
             EstimatorDivergedError: The localiser lost the robot (the run ends there).
@@ -297,10 +300,12 @@ class Sensing:
             got = self.scans.fix(j, self._data, self.truth, self.estimate)
         except LocaliserLost as lost:
             raise EstimatorDivergedError(str(lost), t=lost.t, reason="localisation lost") from lost
-        if got is not None:
-            self.fixes[j] = got[0]
-            if est.correct(self.t0 + j * self.dt, got[0], got[1], got[2]):
-                self.applied.append(j)
+        if got is None:
+            return False
+        self.fixes[j] = got[0]
+        if est.correct(self.t0 + j * self.dt, got[0], got[1], got[2]):
+            self.applied.append(j)
+        return True
 
     def diverged(self, error: EstimatorDivergedError) -> None:
         """Record that the estimator diverged at the current period (the run ends there)."""

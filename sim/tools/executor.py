@@ -137,10 +137,12 @@ class DaskExecutor(Executor):
         client = self._client
         if not items:
             return
-        data = client.scatter(shared, broadcast=True) if shared is not None else None
         size = max(1, len(items) // (BATCHES_PER_WORKER * self.workers))
         batches = [list(items[i : i + size]) for i in range(0, len(items), size)]
-        futures = [client.submit(_run_batch, fn, data, batch, pure=False) for batch in batches]
+        # ``shared`` (a spec, baselines: small) travels inside each of the few batch tasks rather than
+        # scattered once: scattered data held by a worker that dies is lost with it (a worker that
+        # joined after the scatter holds none), and every task needing it is cancelled, not retried
+        futures = [client.submit(_run_batch, fn, shared, batch, pure=False) for batch in batches]
         batch_of = {f.key: batch for f, batch in zip(futures, batches, strict=True)}
         try:
             for future in as_completed(futures):

@@ -112,10 +112,10 @@ class VideoWriter:
     # ---- lifecycle ------------------------------------------------------------------------------
     def __enter__(self) -> VideoWriter:
         exe = ffmpeg_exe()
-        tmp = self._stack.enter_context(atomic_path(self.path, overwrite=self.overwrite))
-        # From here the temporary file exists: an interrupt (Ctrl-C, SIGTERM) before this returns
-        # never reaches __exit__, so this method removes it (and stops ffmpeg) itself.
+        # An interrupt (Ctrl-C, SIGTERM) before this returns never reaches __exit__, so this method
+        # removes the temporary file (and stops ffmpeg) itself, from the moment the file exists.
         try:
+            tmp = self._stack.enter_context(atomic_path(self.path, overwrite=self.overwrite))
             size = (self.width, self.height)
             cmd = ffmpeg_command(exe, tmp, *size, self.fps, crf=self._crf, preset=self._preset, threads=self._threads)
             try:
