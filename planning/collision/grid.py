@@ -50,9 +50,21 @@ ProofArguments = tuple[FloatArray, float, float, float, FloatArray, FloatArray, 
 #: (grid, x0, y0, h, boundary, footprint, anchors, radius, clearance, tolerance, disc, world, robot,
 #: field): everything :func:`pose_free` decides with (:meth:`FastChecker.check_arrays`).
 CheckArrays = tuple[
-    FloatArray, float, float, float, FloatArray, FloatArray, FloatArray, float, float, float, bool,
-    WorldArrays, RobotArrays, FieldArrays,
-]  # fmt: skip
+    FloatArray,
+    float,
+    float,
+    float,
+    FloatArray,
+    FloatArray,
+    FloatArray,
+    float,
+    float,
+    float,
+    bool,
+    WorldArrays,
+    RobotArrays,
+    FieldArrays,
+]
 
 #: Largest number of grid nodes tabulated (the spacing grows beyond 1 cm to stay below it).
 MAX_NODES = 4_000_000

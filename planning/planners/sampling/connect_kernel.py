@@ -23,21 +23,14 @@ trees come back as :class:`~.tree.Tree` objects without solving a curve again.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
 from planning.collision.grid import CheckArrays, pose_free
-from planning.planners.base import PlanTree
+from planning.planners.base import PlanProblem, PlanTree
 from planning.planners.sampling.fastcurve import CutWord, cut_word, word_pose, word_size
 from planning.planners.sampling.tree import Tree
-
-if TYPE_CHECKING:
-    from planning.planners.base import PlanProblem
-    from planning.planners.sampling.extend import LocalPlanner
-    from planning.planners.sampling.rrt import BiRRTConfig
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -195,6 +188,23 @@ def _room(tree: TreeArrays, n: int, fill: int, nodes: int, rows: int) -> bool:
 
 
 @nb.njit(cache=True)
+def _sample(
+    uniforms: FloatArray, state: IntArray, bounds: FloatArray, goal_bias: float, root: FloatArray
+) -> FloatArray:
+    """The iteration's sample: the other tree's ``root`` with probability ``goal_bias``, else a uniform
+    pose (:func:`.tree.sample_pose`), from the uniform numbers at ``state[3]`` (advanced)."""
+    u = uniforms[state[3]]
+    state[3] += 1
+    if u < goal_bias:
+        return root.copy()
+    u0, u1, u2 = uniforms[state[3]], uniforms[state[3] + 1], uniforms[state[3] + 2]
+    state[3] += 3
+    x = bounds[0] + u0 * (bounds[1] - bounds[0])
+    y = bounds[2] + u1 * (bounds[3] - bounds[2])
+    return np.array([x, y, np.pi * (2 * u2 - 1)])
+
+
+@nb.njit(cache=True)
 def search_chunk(
     tree_a: TreeArrays,
     tree_b: TreeArrays,
@@ -244,21 +254,7 @@ def search_chunk(
             return NEED_UNIFORMS, -1, -1
         state[2] += 1
         grow_a = state[2] % 2 == 1
-        # the sample: the other tree's root with the goal bias, else a uniform pose (tree.sample_pose)
-        u = uniforms[state[3]]
-        state[3] += 1
-        if u < goal_bias:
-            q = tree_b[0][0].copy() if grow_a else tree_a[0][0].copy()
-        else:
-            u0, u1, u2 = uniforms[state[3]], uniforms[state[3] + 1], uniforms[state[3] + 2]
-            state[3] += 3
-            q = np.array(
-                [
-                    bounds[0] + u0 * (bounds[1] - bounds[0]),
-                    bounds[2] + u1 * (bounds[3] - bounds[2]),
-                    np.pi * (2 * u2 - 1),
-                ]
-            )
+        q = _sample(uniforms, state, bounds, goal_bias, tree_b[0][0] if grow_a else tree_a[0][0])
         grow, other = (tree_a, tree_b) if grow_a else (tree_b, tree_a)
         g, o = (0, 1) if grow_a else (1, 0)
         i = _nearest(grow[0], grow[1], state[g], q)
@@ -297,23 +293,33 @@ class CompiledSearch:
     chunks of :func:`search_chunk`.
 
     Args:
-        local: The run's local planner (exact curves, a checker with walls).
+        chk: The checker (:meth:`planning.collision.grid.FastChecker.check_arrays`).
+        reeds_shepp: Reeds–Shepp curves, else Dubins.
+        geometry: (turning radius, sample step, range) [m] (``LocalPlanner``'s ``rho``,
+            ``sample_step`` and ``step_range``).
         problem: The problem (start, goal, world bounds).
-        config: The planner's options (goal bias, connect steps).
+        goal_bias: Probability of sampling the other tree's root.
+        connect_steps: Longest connect step.
     """
 
-    def __init__(self, local: LocalPlanner, problem: PlanProblem, config: BiRRTConfig) -> None:
-        chk = local.check_arrays
-        if not local.exact or chk is None or local.rho is None:
-            raise ValueError("the compiled search needs exact curves and a checker with walls")
+    def __init__(
+        self,
+        chk: CheckArrays,
+        reeds_shepp: bool,
+        geometry: tuple[float, float, float],
+        problem: PlanProblem,
+        goal_bias: float,
+        connect_steps: int,
+    ) -> None:
+        rho, step, reach = geometry
         self._chk = chk
-        self._rs = local.curves.kind == "reeds_shepp"
-        self._geometry = np.array([local.rho, local.sample_step, local.step_range, config.goal_bias])
+        self._rs = reeds_shepp
+        self._geometry = np.array([rho, step, reach, goal_bias])
         self._bounds = np.asarray(problem.world.bounds, dtype=float)
-        self._steps = config.connect_steps
+        self._steps = connect_steps
         # an extension cut to the range: ceil(piece / step) poses per segment, rounding included
-        self._max_motion = int(np.ceil(local.step_range / local.sample_step)) + 16
-        cap = 2 * (config.connect_steps + 2)
+        self._max_motion = int(np.ceil(reach / step)) + 16
+        cap = 2 * (connect_steps + 2)
         self._a = self._tree(problem.start.as_array(), cap, cap * self._max_motion)
         self._b = self._tree(problem.goal.as_array(), cap, cap * self._max_motion)
         self._state = np.array([1, 1, 0, 0, 0, 0], dtype=np.int64)
@@ -345,10 +351,8 @@ class CompiledSearch:
             ValueError: A curve did not verify (non-finite poses).
         """
         while True:
-            out = search_chunk(
-                self._a, self._b, self._state, self._uniforms, stop_it, self._bounds, self._geometry,
-                self._rs, self._steps, self._max_motion, self._chk,
-            )  # fmt: skip
+            problem = (self._state, self._uniforms, stop_it, self._bounds, self._geometry)
+            out = search_chunk(self._a, self._b, *problem, self._rs, self._steps, self._max_motion, self._chk)
             what = int(out[0])
             if what == NEED_ROOM:
                 self._a, self._b = self._grown(self._a), self._grown(self._b)

@@ -335,7 +335,11 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
         if direct is not None:
             roots = PlanTree(np.array([start, goal]), np.array([-1, -1], dtype=np.int64))
             return self._result(PlanStatus.SUCCESS, direct[0], direct[1], "", self._stats(budget, 0, 2), roots)
-        search = CompiledSearch(local, problem, cfg)
+        chk = local.check_arrays
+        assert chk is not None and local.rho is not None
+        geometry = (local.rho, local.sample_step, local.step_range)
+        rs = local.curves.kind == "reeds_shepp"
+        search = CompiledSearch(chk, rs, geometry, problem, cfg.goal_bias, cfg.connect_steps)
         chunk, it = 16, 0
         while not budget.spent(it):
             what, a, b = search.run(rng, min(it + chunk, cfg.max_iterations))
