@@ -27,7 +27,8 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.collision.grid import CheckArrays, pose_free
+from planning.collision.compiled import exact_pose_free
+from planning.collision.grid import CheckArrays, classify_pose
 from planning.planners.base import PlanProblem, PlanTree
 from planning.planners.sampling.fastcurve import CutWord, cut_word, word_pose, word_size
 from planning.planners.sampling.tree import Tree
@@ -46,15 +47,6 @@ CHUNK_DONE, JOINED, NEED_ROOM, NEED_UNIFORMS, BAD_CURVE = 0, 1, 2, 3, 4
 
 
 @nb.njit(cache=True)
-def _checked_pose(word: CutWord, j: int, rho: float, chk: CheckArrays, out_p: FloatArray, out_d: FloatArray) -> bool:
-    """Compute dense pose ``j`` of a cut word into ``out_p[j]`` (its direction into ``out_d[j]``) and
-    return whether it is free."""
-    x, y, th, d = word_pose(word, j, rho)
-    out_p[j, 0], out_p[j, 1], out_p[j, 2], out_d[j] = x, y, th, d
-    return pose_free(x, y, th, chk)
-
-
-@nb.njit(cache=True)
 def word_free(
     word: CutWord, rho: float, new_first: bool, chk: CheckArrays, spans: IntArray, out_p: FloatArray, out_d: FloatArray
 ) -> bool:
@@ -62,31 +54,36 @@ def word_free(
     (the new end, the first pose with ``new_first`` else the last, then the other end, then the
     interior by breadth-first bisection: :func:`planning.planners.sampling.extend.check_order`),
     each pose computed when it is checked (into ``out_p`` (>= n, 3) and its direction into ``out_d``
-    (>= n,): all of them when the word is free), stopping at the first that is not free. ``spans``:
-    scratch space (replaced when shorter than 4 n + 8)."""
+    (>= n,): all of them when the word is free) and proven by the grid
+    (:func:`planning.collision.grid.classify_pose`) or, where it cannot decide, the exact formulas
+    (the verdict of :func:`planning.collision.grid.pose_free`), stopping at the first that is not
+    free. ``spans``: scratch space (replaced when shorter than 4 n + 8)."""
+    grid, x0, y0, h, boundary, footprint, anchors, radius, clearance, tol, disc, world, robot, field = chk
     n = word_size(word)
     if spans.shape[0] < 4 * n + 8:
         spans = np.empty(4 * n + 8, dtype=np.int64)
-    first, second = (0, n - 1) if new_first else (n - 1, 0)
-    if not _checked_pose(word, first, rho, chk, out_p, out_d):
-        return False
-    if n == 1:
-        return True
-    if not _checked_pose(word, second, rho, chk, out_p, out_d):
-        return False
     head, tail = 0, 1
     spans[0], spans[1] = 1, n - 2
-    while head < tail:
-        lo, hi = spans[2 * head], spans[2 * head + 1]
-        head += 1
-        if lo > hi:
-            continue
-        mid = (lo + hi) // 2
-        if not _checked_pose(word, mid, rho, chk, out_p, out_d):
+    for k in range(n):
+        if k == 0:
+            j = 0 if new_first else n - 1
+        elif k == 1:
+            j = n - 1 if new_first else 0
+        else:  # the next non-empty span's middle (breadth first)
+            j = -1
+            while head < tail and j < 0:
+                lo, hi = spans[2 * head], spans[2 * head + 1]
+                head += 1
+                if lo <= hi:
+                    j = (lo + hi) // 2
+                    spans[2 * tail], spans[2 * tail + 1] = lo, j - 1
+                    spans[2 * tail + 2], spans[2 * tail + 3] = j + 1, hi
+                    tail += 2
+        x, y, th, d = word_pose(word, j, rho)
+        out_p[j, 0], out_p[j, 1], out_p[j, 2], out_d[j] = x, y, th, d
+        c = classify_pose(x, y, th, grid, x0, y0, h, boundary, footprint, anchors, radius, clearance, tol, disc)
+        if c == 0 or (c < 0 and not exact_pose_free(x, y, th, world, robot, field)):
             return False
-        spans[2 * tail], spans[2 * tail + 1] = lo, mid - 1
-        spans[2 * tail + 2], spans[2 * tail + 3] = mid + 1, hi
-        tail += 2
     return True
 
 
