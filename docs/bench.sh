@@ -35,6 +35,7 @@ for name in "${names[@]}"; do
     if [ -z "$cmd" ]; then echo "docs/bench.sh: no benchmark '$name' (known: ${!CMDS[*]})" >&2; exit 2; fi
     out="docs/benchmarks/$name.md"
     tmp="$(mktemp "docs/benchmarks/.$name.XXXXXX")"
+    trap 'rm -f "$tmp"' EXIT; trap 'rm -f "$tmp"; exit 130' INT TERM  # an interrupted run leaves no half-written page
     before="$(stamp)"
     echo "docs/bench.sh: nhsim $cmd" >&2
     set +e

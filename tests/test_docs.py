@@ -4,8 +4,8 @@ command reference is generated from the parsers themselves."""
 from __future__ import annotations
 
 import argparse
-import re
 import importlib.util
+import re
 import subprocess
 import sys
 from pathlib import Path
