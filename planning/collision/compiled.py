@@ -297,6 +297,35 @@ def grid_lookup(grid: FloatArray, x0: float, y0: float, h: float, x: float, y: f
 
 
 @nb.njit(cache=True)
+def exact_pose_free(x: float, y: float, th: float, world: WorldArrays, robot: RobotArrays, field: FieldArrays) -> bool:
+    """``CollisionChecker.poses_free`` of one pose (x [m], y [m], heading [rad]); the other arguments
+    and the method as :func:`exact_free_kernel`'s."""
+    boundary, footprint, anchors, radius, clearance, tol, disc = robot
+    grid, x0, y0, h = field[0], field[1], field[2], field[3]
+    e = h / np.sqrt(2.0)
+    centre = field_distance(x, y, world, field)
+    clr = centre - radius
+    if not disc and centre <= radius + clearance + tol:
+        c, s = np.cos(th), np.sin(th)
+        sd = np.inf
+        for b in range(boundary.shape[0]):
+            bx, by = boundary[b, 0], boundary[b, 1]
+            px, py = x + c * bx - s * by, y + s * bx + c * by
+            if grid.size > 0 and grid_lookup(grid, x0, y0, h, px, py) - e - 0.5 * tol > clearance:
+                continue
+            sd = min(sd, field_distance(px, py, world, field))
+        clr = sd - 0.5 * tol
+        for a in range(anchors.shape[0]):
+            dx, dy = anchors[a, 0] - x, anchors[a, 1] - y
+            if dx * dx + dy * dy > (radius + 1e-9) * (radius + 1e-9):
+                continue  # outside the circumscribed disc, so outside the footprint
+            if _anchor_inside(c * dx + s * dy, -s * dx + c * dy, footprint):
+                clr = -np.inf
+                break
+    return clr > clearance
+
+
+@nb.njit(cache=True)
 def exact_free_kernel(
     poses: FloatArray, world: WorldArrays, robot: RobotArrays, field: FieldArrays
 ) -> NDArray[np.bool_]:
@@ -308,30 +337,7 @@ def exact_free_kernel(
     node's distance less ``h / sqrt(2)``, what :class:`planning.collision.grid.FastChecker` proves free
     with) already keeps ``clearance + tolerance / 2`` is not measured: the verdict, that every sample
     keeps it, is the same; nor is an anchor outside the robot's circumscribed disc (``radius``)."""
-    boundary, footprint, anchors, radius, clearance, tol, disc = robot
-    grid, x0, y0, h = field[0], field[1], field[2], field[3]
-    e = h / np.sqrt(2.0)
     out = np.empty(poses.shape[0], dtype=np.bool_)
     for k in range(poses.shape[0]):
-        x, y, th = poses[k, 0], poses[k, 1], poses[k, 2]
-        centre = field_distance(x, y, world, field)
-        clr = centre - radius
-        if not disc and centre <= radius + clearance + tol:
-            c, s = np.cos(th), np.sin(th)
-            sd = np.inf
-            for b in range(boundary.shape[0]):
-                bx, by = boundary[b, 0], boundary[b, 1]
-                px, py = x + c * bx - s * by, y + s * bx + c * by
-                if grid.size > 0 and grid_lookup(grid, x0, y0, h, px, py) - e - 0.5 * tol > clearance:
-                    continue
-                sd = min(sd, field_distance(px, py, world, field))
-            clr = sd - 0.5 * tol
-            for a in range(anchors.shape[0]):
-                dx, dy = anchors[a, 0] - x, anchors[a, 1] - y
-                if dx * dx + dy * dy > (radius + 1e-9) * (radius + 1e-9):
-                    continue  # outside the circumscribed disc, so outside the footprint
-                if _anchor_inside(c * dx + s * dy, -s * dx + c * dy, footprint):
-                    clr = -np.inf
-                    break
-        out[k] = clr > clearance
+        out[k] = exact_pose_free(poses[k, 0], poses[k, 1], poses[k, 2], world, robot, field)
     return out

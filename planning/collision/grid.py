@@ -29,7 +29,15 @@ import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from planning.collision.compiled import FieldArrays, exact_free_kernel, grid_lookup, world_arrays
+from planning.collision.compiled import (
+    FieldArrays,
+    RobotArrays,
+    WorldArrays,
+    exact_free_kernel,
+    exact_pose_free,
+    grid_lookup,
+    world_arrays,
+)
 from planning.collision.exact import CollisionChecker
 from planning.collision.field import DistanceField, distance_field
 
@@ -39,8 +47,84 @@ BoolArray = NDArray[np.bool_]
 #: What the compiled classifier takes after the poses (see :meth:`FastChecker.proof_arguments`).
 ProofArguments = tuple[FloatArray, float, float, float, FloatArray, FloatArray, FloatArray, float, float, float, bool]
 
+#: (grid, x0, y0, h, boundary, footprint, anchors, radius, clearance, tolerance, disc, world, robot,
+#: field): everything :func:`pose_free` decides with (:meth:`FastChecker.check_arrays`).
+CheckArrays = tuple[
+    FloatArray,
+    float,
+    float,
+    float,
+    FloatArray,
+    FloatArray,
+    FloatArray,
+    float,
+    float,
+    float,
+    bool,
+    WorldArrays,
+    RobotArrays,
+    FieldArrays,
+]
+
 #: Largest number of grid nodes tabulated (the spacing grows beyond 1 cm to stay below it).
 MAX_NODES = 4_000_000
+
+
+@nb.njit(cache=True)
+def classify_pose(
+    px: float,
+    py: float,
+    th: float,
+    grid: FloatArray,
+    x0: float,
+    y0: float,
+    h: float,
+    boundary: FloatArray,
+    footprint: FloatArray,
+    anchors: FloatArray,
+    radius: float,
+    clearance: float,
+    tol: float,
+    disc: bool,
+) -> int:
+    """One pose (x [m], y [m], heading [rad]): 1 proven free, 0 proven in collision, -1 undecided (ask
+    the exact checker); the arguments after the pose as :func:`classify_kernel`'s."""
+    e = h / np.sqrt(2.0)
+    g = grid_lookup(grid, x0, y0, h, px, py)
+    if disc:
+        if g - e - radius > clearance:
+            return 1
+        if g + e - radius <= clearance:
+            return 0
+        return -1
+    if g - e - radius > clearance + tol:
+        return 1
+    nf = footprint.shape[0]
+    c, s = np.cos(th), np.sin(th)
+    all_free = True
+    for b in range(boundary.shape[0]):
+        bx = px + c * boundary[b, 0] - s * boundary[b, 1]
+        by = py + s * boundary[b, 0] + c * boundary[b, 1]
+        gb = grid_lookup(grid, x0, y0, h, bx, by)
+        if gb + e - 0.5 * tol <= clearance:
+            return 0
+        if gb - e - 0.5 * tol <= clearance:
+            all_free = False
+    for a in range(anchors.shape[0]):
+        dx, dy = anchors[a, 0] - px, anchors[a, 1] - py
+        if dx * dx + dy * dy > radius * radius:
+            continue
+        lx, ly = c * dx + s * dy, -s * dx + c * dy
+        inside = True
+        for v in range(nf):
+            ax, ay = footprint[v, 0], footprint[v, 1]
+            bx2, by2 = footprint[(v + 1) % nf, 0], footprint[(v + 1) % nf, 1]
+            if (bx2 - ax) * (ly - ay) - (by2 - ay) * (lx - ax) < 0.0:
+                inside = False
+                break
+        if inside:
+            return 0
+    return 1 if all_free else -1
 
 
 @nb.njit(cache=True)
@@ -60,55 +144,47 @@ def classify_kernel(
     stop_on_collision: bool,
 ) -> NDArray[np.int8]:
     """Per pose: 1 proven free, 0 proven in collision, -1 undecided (ask the exact checker)."""
-    e = h / np.sqrt(2.0)
     n = poses.shape[0]
     out = np.full(n, -1, dtype=np.int8)
-    nf = footprint.shape[0]
     for k in range(n):
-        px, py, th = poses[k, 0], poses[k, 1], poses[k, 2]
-        g = grid_lookup(grid, x0, y0, h, px, py)
-        if disc:
-            if g - e - radius > clearance:
-                out[k] = 1
-            elif g + e - radius <= clearance:
-                out[k] = 0
-        elif g - e - radius > clearance + tol:
-            out[k] = 1
-        else:
-            c, s = np.cos(th), np.sin(th)
-            all_free = True
-            hit = False
-            for b in range(boundary.shape[0]):
-                bx = px + c * boundary[b, 0] - s * boundary[b, 1]
-                by = py + s * boundary[b, 0] + c * boundary[b, 1]
-                gb = grid_lookup(grid, x0, y0, h, bx, by)
-                if gb + e - 0.5 * tol <= clearance:
-                    hit = True
-                    break
-                if gb - e - 0.5 * tol <= clearance:
-                    all_free = False
-            if not hit:
-                for a in range(anchors.shape[0]):
-                    dx, dy = anchors[a, 0] - px, anchors[a, 1] - py
-                    if dx * dx + dy * dy > radius * radius:
-                        continue
-                    lx, ly = c * dx + s * dy, -s * dx + c * dy
-                    inside = True
-                    for v in range(nf):
-                        ax, ay = footprint[v, 0], footprint[v, 1]
-                        bx2, by2 = footprint[(v + 1) % nf, 0], footprint[(v + 1) % nf, 1]
-                        if (bx2 - ax) * (ly - ay) - (by2 - ay) * (lx - ax) < 0.0:
-                            inside = False
-                            break
-                    if inside:
-                        hit = True
-                        break
-            if hit:
-                out[k] = 0
-            elif all_free:
-                out[k] = 1
+        out[k] = classify_pose(
+            poses[k, 0],
+            poses[k, 1],
+            poses[k, 2],
+            grid,
+            x0,
+            y0,
+            h,
+            boundary,
+            footprint,
+            anchors,
+            radius,
+            clearance,
+            tol,
+            disc,
+        )
         if stop_on_collision and out[k] == 0:
             return out[: k + 1]
+    return out
+
+
+@nb.njit(cache=True)
+def pose_free(x: float, y: float, th: float, chk: CheckArrays) -> bool:
+    """:meth:`FastChecker.poses_free` of one pose (x [m], y [m], heading [rad]), compiled: the grid's
+    proof (:func:`classify_pose`), else the exact formulas (:func:`exact_pose_free`)."""
+    grid, x0, y0, h, boundary, footprint, anchors, radius, clearance, tol, disc, world, robot, field = chk
+    c = classify_pose(x, y, th, grid, x0, y0, h, boundary, footprint, anchors, radius, clearance, tol, disc)
+    if c >= 0:
+        return c == 1
+    return exact_pose_free(x, y, th, world, robot, field)
+
+
+@nb.njit(cache=True)
+def poses_free_kernel(poses: FloatArray, chk: CheckArrays) -> BoolArray:
+    """(M,) :func:`pose_free` of each (M, 3) pose."""
+    out = np.empty(poses.shape[0], dtype=np.bool_)
+    for k in range(poses.shape[0]):
+        out[k] = pose_free(poses[k, 0], poses[k, 1], poses[k, 2], chk)
     return out
 
 
@@ -146,6 +222,7 @@ class FastChecker:
     _grid: FloatArray = field(init=False, repr=False, compare=False)
     _h: float = field(init=False, repr=False, compare=False)
     _field: FieldArrays = field(init=False, repr=False, compare=False)
+    _check: CheckArrays | None = field(init=False, repr=False, compare=False, default=None)
     grid_seconds: float = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -198,6 +275,24 @@ class FastChecker:
         r, fp, disc = c.robot.radius, c.robot.footprint, c.shape == "disc"
         return (self._grid, x0, y0, self._h, c._boundary, fp, c._anchors, r, c.clearance, c.tolerance, disc)
 
+    def check_arrays(self) -> CheckArrays | None:
+        """What the compiled :func:`pose_free` takes: :meth:`kernel_args` and the exact fallback's
+        world, robot and field arrays (built once per checker); None without walls (the grid
+        assumes them)."""
+        if self._check is None and self.checker.walls:
+            object.__setattr__(self, "_check", self._check_arrays())
+        return self._check
+
+    def _check_arrays(self) -> CheckArrays | None:
+        args = self.kernel_args()
+        if args is None:
+            return None
+        c = self.checker
+        robot = (c._boundary, np.ascontiguousarray(c.robot.footprint, dtype=float), c._anchors)
+        margins = (float(c.robot.radius), float(c.clearance), float(c.tolerance), c.shape == "disc")
+        grid, x0, y0, h = self._grid, float(args[1]), float(args[2]), float(args[3])
+        return (grid, x0, y0, h, *robot, *margins, world_arrays(c.world, c.walls), (*robot, *margins), self._field)  # type: ignore[return-value]
+
     def _classify(self, p: FloatArray, stop: bool) -> NDArray[np.int8]:
         args = self.kernel_args()
         if args is None:  # the grid assumes walls; without them every pose is left undecided
@@ -223,6 +318,9 @@ class FastChecker:
     def poses_free(self, poses: ArrayLike) -> BoolArray:
         """(M,) whether each (M, 3) pose keeps the clearance from everything (exact verdict)."""
         p = np.ascontiguousarray(np.atleast_2d(np.asarray(poses, dtype=float)))
+        chk = self.check_arrays()
+        if chk is not None:  # one compiled call (the same verdicts)
+            return poses_free_kernel(p, chk)  # type: ignore[no-any-return]
         cls = self._classify(p, False)
         out = cls == 1
         und = cls < 0

@@ -11,15 +11,16 @@ round.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.collision.grid import FastChecker, classify_kernel
+from planning.collision.grid import CheckArrays, FastChecker
 from planning.core.robot import RobotSpec
 from planning.curves.words import Word
 from planning.errors import ConfigError
+from planning.planners.sampling.connect_kernel import steer_free
 from planning.planners.sampling.fastcurve import steer_kernel
 from planning.planners.sampling.steering import (
     SAMPLE_STEP,
@@ -94,7 +95,10 @@ class LocalPlanner:
     _dense: list[FloatArray] = field(init=False, default_factory=list)
     _dirs: FloatArray = field(init=False)
     _ends: FloatArray = field(init=False)
-    _kernel_args: tuple[Any, ...] | None = field(init=False, default=None)
+    _check: CheckArrays | None = field(init=False, default=None)
+    _spans: NDArray[np.int64] = field(init=False, default_factory=lambda: np.empty(4096, dtype=np.int64))
+    _buf_p: FloatArray = field(init=False, default_factory=lambda: np.empty((1024, 3)))
+    _buf_d: FloatArray = field(init=False, default_factory=lambda: np.empty(1024))
 
     def __post_init__(self) -> None:
         if self.steering not in STEERINGS:
@@ -107,7 +111,7 @@ class LocalPlanner:
         self.curves = CurveSteering(kind, rho)
         # Robot points move at most step * (1 + R / rho) between curve samples.
         self.sample_step = min(SAMPLE_STEP, self.checker.resolution / (1.0 + self.robot.radius / rho))
-        self._kernel_args = self.checker.kernel_args()
+        self._check = self.checker.check_arrays()
         if self.steering in ("bicycle", "unicycle"):
             prims = (
                 bicycle_primitives(self.robot, n_speeds=self.n_speeds, duration=self.primitive_duration)
@@ -156,19 +160,35 @@ class LocalPlanner:
             self.curves.curve(a, b)  # raises the solver's error (non-finite poses)
         return poses, dirs
 
-    def _free(self, poses: FloatArray, new_first: bool = False) -> bool:
-        """``checker.path_free(poses)`` for dense (K, 3) float64 poses, with one compiled call, checked in
-        :func:`check_order` (the new end, ``poses[0]`` with ``new_first``, else ``poses[-1]``, first)."""
-        if self._kernel_args is None:
-            return self.checker.path_free(poses)
-        p = np.take(poses, check_order(poses.shape[0], new_first), axis=0)  # faster than fancy indexing
-        cls = classify_kernel(p, *self._kernel_args, True)  # type: ignore[call-arg]
-        return self.checker.settle_path(p, cls)
+    @property
+    def check_arrays(self) -> CheckArrays | None:
+        """The checker as compiled callers take it (:meth:`FastChecker.check_arrays`; None: no walls)."""
+        return self._check
+
+    def _checked(
+        self, q0: FloatArray, q1: FloatArray, max_len: float, keep_end: bool, min_poses: int = 1
+    ) -> tuple[FloatArray, FloatArray] | None:
+        """The samples of :meth:`_steer` if there are ``min_poses`` or more and all are free (checked in
+        :func:`check_order`, the new end first: ``poses[0]`` with ``keep_end``, else ``poses[-1]``;
+        :func:`.connect_kernel.steer_free`), else None."""
+        a, b = np.ascontiguousarray(q0, dtype=float), np.ascontiguousarray(q1, dtype=float)
+        if self._check is None:
+            poses, dirs = self._steer(a, b, max_len, keep_end)
+            return (poses, dirs) if poses.shape[0] >= min_poses and self.checker.path_free(poses) else None
+        assert self.rho is not None  # set in __post_init__
+        geometry = np.array([self.rho, self.sample_step])
+        rs = self.curves.kind == "reeds_shepp"
+        n, verdict, p, d = steer_free(
+            rs, a, b, geometry, max_len, keep_end, min_poses, self._check, self._spans, self._buf_p, self._buf_d
+        )
+        if verdict < 0:
+            self.curves.curve(a, b)  # raises the solver's error (non-finite poses)
+        self._buf_p, self._buf_d = p, d  # grown when a curve needed more room
+        return (p[:n].copy(), d[:n].copy()) if verdict == 1 else None
 
     def connect(self, q_a: FloatArray, q_b: FloatArray) -> tuple[FloatArray, FloatArray] | None:
         """The exact curve from ``q_a`` (start side) to ``q_b`` (goal side) if collision-free."""
-        poses, dirs = self._steer(q_a, q_b, np.inf, False)  # ends exactly on q_b
-        return (poses, dirs) if self._free(poses) else None
+        return self._checked(q_a, q_b, np.inf, False)  # ends exactly on q_b
 
     def extend(self, q_from: FloatArray, q_to: FloatArray, backwards: bool = False) -> Motion | None:
         """A collision-free motion from ``q_from`` toward ``q_to`` (see the module doc), or None."""
@@ -215,11 +235,12 @@ class LocalPlanner:
         return None
 
     def _extend_curve(self, q_from: FloatArray, q_to: FloatArray, backwards: bool) -> Motion | None:
-        if backwards:  # the curve from the target to the node, its last step_range of chords
-            poses, dirs = self._steer(q_to, q_from, self.step_range, True)
+        if backwards:  # the curve from the target to the node, its last step_range of arc
+            motion = self._checked(q_to, q_from, self.step_range, True, 2)
         else:
-            poses, dirs = self._steer(q_from, q_to, self.step_range, False)
-        if poses.shape[0] < 2 or not self._free(poses, new_first=backwards):
+            motion = self._checked(q_from, q_to, self.step_range, False, 2)
+        if motion is None:
             return None
+        poses, dirs = motion
         q_new = poses[0].copy() if backwards else poses[-1].copy()
         return q_new, poses, dirs

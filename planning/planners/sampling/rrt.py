@@ -8,7 +8,9 @@ curve to the goal is tried as the final plan (seed 000, step 8).
 ``birrt``: two trees, one from the start and one grown backwards from the goal, alternately
 extended toward uniform samples; after each extension the other tree runs a connect step toward
 the new node (repeated extensions until reached or blocked). With exact curves the trees meet at
-a shared pose; with primitives they join by an exact curve once within ``goal_connect_radius``.
+a shared pose, the connect step's last extension ending on the node (as OMPL's RRTConnect: no curve
+across a longer gap is tried, which would be checked along its whole length); with primitives they
+join by an exact curve once within ``goal_connect_radius``.
 Every joining curve runs from the start-tree node to the goal-tree node (never reversed), so a
 Dubins join cannot turn into a reversed, infeasible U-turn. Seed 001's default: 5000 samples
 with the unicycle primitives.
@@ -17,6 +19,7 @@ with the unicycle primitives.
 from __future__ import annotations
 
 import dataclasses
+import threading
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Generic, TypeVar
@@ -31,6 +34,7 @@ from planning.errors import ConfigError
 from planning.planners import geodesic
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
 from planning.planners.registry import config_from_options
+from planning.planners.sampling.connect_kernel import JOINED, CompiledSearch
 from planning.planners.sampling.extend import LocalPlanner, Motion
 from planning.planners.sampling.tree import (
     Budget,
@@ -123,6 +127,7 @@ class _TreePlanner(Generic[ConfigT]):
 
     def __init__(self, **options: object) -> None:
         self.config: ConfigT = config_from_options(self.config_class, options)
+        self._locals: dict[tuple[int, int, int], tuple[object, object, LocalPlanner]] = {}
 
     def plan(self, problem: PlanProblem) -> PlanResult:
         """Plan from ``problem.start`` to ``problem.goal``; never raises for an unsolvable problem."""
@@ -146,6 +151,19 @@ class _TreePlanner(Generic[ConfigT]):
         result when an end pose collides (else None)."""
         cfg = self.config
         budget = Budget(cfg.max_iterations, cfg.time_limit if cfg.time_limit is not None else problem.time_limit)
+        local = self._local_planner(problem, budget)
+        return local, budget, np.random.default_rng(problem.seed), check_endpoints(problem, local.checker, self.name)
+
+    def _local_planner(self, problem: PlanProblem, budget: Budget) -> LocalPlanner:
+        """The local planner (steering and checker) for the problem's world and robot: the last one
+        built by this thread when it was for the very same world and robot objects (a planner run
+        over many seeds of one problem builds it once), else a new one, its collision grid built
+        within ``budget`` (its time in ``budget.grid_s``)."""
+        key = (id(problem.world), id(problem.robot), threading.get_ident())
+        cached = self._locals.get(key)
+        if cached is not None and cached[0] is problem.world and cached[1] is problem.robot:
+            return cached[2]
+        cfg = self.config
         checker = make_checker(problem, cfg.shape, cfg.clearance, budget.deadline)  # type: ignore[arg-type]
         budget.grid_s = checker.grid_seconds  # the grid counts against the time limit
         w = problem.world
@@ -159,8 +177,8 @@ class _TreePlanner(Generic[ConfigT]):
             n_speeds=cfg.n_speeds,
             primitive_duration=cfg.primitive_duration,
         )
-        budget = Budget(cfg.max_iterations, cfg.time_limit if cfg.time_limit is not None else problem.time_limit)
-        return local, budget, np.random.default_rng(problem.seed), check_endpoints(problem, checker, self.name)
+        self._locals = {key: (problem.world, problem.robot, local)}  # one entry: the last problem's
+        return local
 
     def _sample(self, rng: np.random.Generator, target: FloatArray, problem: PlanProblem) -> FloatArray:
         """``target`` with probability ``goal_bias``, else a uniform pose in the world."""
@@ -300,7 +318,48 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
     def _search(
         self, problem: PlanProblem, local: LocalPlanner, budget: Budget, rng: np.random.Generator
     ) -> PlanResult:
-        """Grow both trees until they join or the budget is spent."""
+        """Grow both trees until they join or the budget is spent: compiled on exact curves
+        (:mod:`.connect_kernel`, the same trees and path as :meth:`_search_python`), else in Python."""
+        if local.exact and local.check_arrays is not None:
+            return self._search_compiled(problem, local, budget, rng)
+        return self._search_python(problem, local, budget, rng)
+
+    def _search_compiled(
+        self, problem: PlanProblem, local: LocalPlanner, budget: Budget, rng: np.random.Generator
+    ) -> PlanResult:
+        """:meth:`_search_python` on exact curves, its iterations run by :func:`.connect_kernel.search_chunk`
+        in chunks (the time limit checked between them, every 16 iterations at first)."""
+        cfg = self.config
+        start, goal = problem.start.as_array(), problem.goal.as_array()
+        direct = local.connect(start, goal)
+        if direct is not None:
+            roots = PlanTree(np.array([start, goal]), np.array([-1, -1], dtype=np.int64))
+            return self._result(PlanStatus.SUCCESS, direct[0], direct[1], "", self._stats(budget, 0, 2), roots)
+        chk = local.check_arrays
+        assert chk is not None and local.rho is not None
+        geometry = (local.rho, local.sample_step, local.step_range)
+        rs = local.curves.kind == "reeds_shepp"
+        search = CompiledSearch(chk, rs, geometry, problem, cfg.goal_bias, cfg.connect_steps)
+        chunk, it = 16, 0
+        while not budget.spent(it):
+            what, a, b = search.run(rng, min(it + chunk, cfg.max_iterations))
+            it = search.iterations
+            if what == JOINED:
+                path, dirs = search.path(a, b)
+                stats = self._stats(budget, it, search.nodes)
+                return self._result(PlanStatus.SUCCESS, path, dirs, "", stats, search.plan_tree())
+            chunk = min(2 * chunk, 256)
+        ta, tb = search.trees()
+        path, d, _ = self._partial(ta, problem)
+        reason = f"{budget.why(it)}; the trees did not meet (partial path from the start tree)"
+        return self._result(
+            PlanStatus.TIMEOUT, path, d, reason, self._stats(budget, it, ta.n + tb.n), merge_trees(ta, tb)
+        )
+
+    def _search_python(
+        self, problem: PlanProblem, local: LocalPlanner, budget: Budget, rng: np.random.Generator
+    ) -> PlanResult:
+        """Grow both trees until they join or the budget is spent, one Python step at a time."""
         cfg = self.config
         start, goal = problem.start.as_array(), problem.goal.as_array()
         # The trees may already be joined by one exact curve (then they are just their roots).
@@ -323,7 +382,7 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
                 a, b = (j, k) if grow is ta else (k, j)
                 if local.exact and np.array_equal(ta.nodes[a], tb.nodes[b]):
                     return self._joined(ta, tb, a, b, None, budget, it)
-                if local.metric(ta.nodes[a][None, :], tb.nodes[b])[0] <= cfg.goal_connect_radius:
+                if not local.exact and local.metric(ta.nodes[a][None, :], tb.nodes[b])[0] <= cfg.goal_connect_radius:
                     bridge = local.connect(ta.nodes[a], tb.nodes[b])
                     if bridge is not None:
                         return self._joined(ta, tb, a, b, bridge, budget, it)

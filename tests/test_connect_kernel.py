@@ -1,0 +1,149 @@
+"""BiRRT's compiled search and the lazily checked curves it extends along.
+
+The compiled loop (:mod:`planning.planners.sampling.connect_kernel`) must grow the same trees and
+return the same path as the plain-Python loop (``BiRRT._search_python``, the reference), the lazily
+computed poses of a cut curve must be the poses its dense samples hold, and the compiled motion
+verdict must be the exact checker's on those samples.
+"""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from planning.core.geometry import Pose2D
+from planning.core.robot import load_robot
+from planning.core.world import Box, Circle, World
+from planning.planners.base import PlanProblem, PlanStatus
+from planning.planners.registry import make_planner
+from planning.planners.sampling.connect_kernel import steer_free
+from planning.planners.sampling.extend import LocalPlanner, check_order
+from planning.planners.sampling.fastcurve import cut_word, steer_kernel, word_pose, word_poses, word_size
+from planning.planners.sampling.rrt import BiRRT
+from planning.planners.sampling.steering import CurveSteering
+from planning.planners.sampling.tree import make_checker
+from planning.scenario import random_scenario
+
+ROBOT = load_robot("turtlebot3")
+CLUTTER = World(
+    (0.0, 3.0, 0.0, 2.0),
+    (Circle((1.0, 1.0), 0.3), Box((2.0, 0.6), (0.4, 0.8)), Circle((2.2, 1.6), 0.15)),
+)
+
+
+def _problems() -> list[PlanProblem]:
+    clutter = PlanProblem(CLUTTER, ROBOT, Pose2D(0.3, 0.3, 0.0), Pose2D(2.7, 1.7, np.pi / 2), time_limit=600.0)
+    rand = [PlanProblem.from_scenario(random_scenario("turtlebot3", s)) for s in (3, 11)]
+    return [clutter, *(dataclasses.replace(p, time_limit=600.0) for p in rand)]
+
+
+def _python(planner: BiRRT, problem: PlanProblem):
+    """The plan with the plain-Python search loop."""
+    local, budget, rng, bad = planner._setup(problem)
+    assert bad is None
+    return planner._search_python(problem, local, budget, rng)
+
+
+@pytest.mark.parametrize("steering", ["reeds_shepp", "dubins"])
+def test_compiled_search_grows_the_python_loops_trees(steering):
+    for problem in _problems():
+        planner = make_planner("birrt", steering=steering, simplify=False, max_iterations=3000)
+        for seed in range(4):
+            p = dataclasses.replace(problem, seed=seed)
+            fast, ref = planner.plan(p), _python(planner, p)
+            assert fast.status is ref.status
+            assert fast.stats["iterations"] == ref.stats["iterations"] and fast.stats["nodes"] == ref.stats["nodes"]
+            np.testing.assert_array_equal(fast.path, ref.path)
+            np.testing.assert_array_equal(fast.directions, ref.directions)
+            np.testing.assert_array_equal(fast.tree.nodes, ref.tree.nodes)
+            np.testing.assert_array_equal(fast.tree.parents, ref.tree.parents)
+            assert len(fast.tree.edges) == len(ref.tree.edges)
+            for a, b in zip(fast.tree.edges, ref.tree.edges, strict=True):
+                np.testing.assert_array_equal(a, b)
+
+
+def test_compiled_search_stops_at_its_iteration_budget():
+    wall = World((0.0, 3.0, 0.0, 2.0), (Box((1.5, 1.0), (0.1, 2.0)),))  # no way through
+    p = PlanProblem(wall, ROBOT, Pose2D(0.4, 1.0, 0.0), Pose2D(2.6, 1.0, 0.0), time_limit=600.0)
+    planner = make_planner("birrt", steering="reeds_shepp", simplify=False, max_iterations=300)
+    fast, ref = planner.plan(p), _python(planner, p)
+    assert fast.status is PlanStatus.TIMEOUT and ref.status is PlanStatus.TIMEOUT
+    assert fast.stats["iterations"] == ref.stats["iterations"] == 300
+    assert fast.stats["nodes"] == ref.stats["nodes"] > 2
+    np.testing.assert_array_equal(fast.path, ref.path)
+
+
+def _pairs(n: int, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    lo, hi = np.array([0.0, 0.0, -np.pi]), np.array([3.0, 2.0, np.pi])
+    return rng.uniform(lo, hi, size=(n, 2, 3))
+
+
+@pytest.mark.parametrize("kind", ["reeds_shepp", "dubins"])
+def test_an_uncut_curve_samples_as_the_word_does(kind):
+    rho, step = 0.15, 0.01
+    for q0, q1 in _pairs(40):
+        poses, dirs, ok = steer_kernel(kind == "reeds_shepp", q0, q1, rho, step, np.inf, False)
+        assert ok
+        ref, ref_dirs = CurveSteering(kind, rho).curve(q0, q1).sample(step)
+        ref[-1] = q1  # the end pinned
+        np.testing.assert_array_equal(poses, ref)
+        np.testing.assert_array_equal(dirs, ref_dirs)
+
+
+@pytest.mark.parametrize("keep_end", [False, True])
+def test_a_cut_curve_keeps_its_arc_and_lies_on_the_whole_curve(keep_end):
+    rho, step, max_len = 0.15, 0.01, 0.4
+    for q0, q1 in _pairs(40, seed=1):
+        word, ok = cut_word(True, q0, q1, rho, step, max_len, keep_end)
+        whole, ok2 = cut_word(True, q0, q1, rho, step, np.inf, False)
+        assert ok and ok2
+        total = float(np.sum(np.abs(whole[2]))) * rho
+        kept = float(np.sum(np.abs(word[2]))) * rho
+        assert kept == pytest.approx(min(total, max_len), abs=1e-9)
+        poses, _ = word_poses(word, rho)
+        assert word_size(word) == poses.shape[0]
+        for j in (0, poses.shape[0] // 2, poses.shape[0] - 1):
+            np.testing.assert_array_equal(poses[j], word_pose(word, j, rho)[:3])
+        if keep_end:
+            np.testing.assert_array_equal(poses[-1], q1)
+        else:
+            np.testing.assert_array_equal(poses[0], q0)
+        steps = np.hypot(*np.diff(poses[:, :2], axis=0).T)
+        assert steps.max() <= step + 1e-12
+        # every kept pose is on the whole curve (within the sampling's rounding)
+        dense = steer_kernel(True, q0, q1, rho, 0.001, np.inf, False)[0]
+        gap = np.min(np.hypot(dense[None, :, 0] - poses[:, None, 0], dense[None, :, 1] - poses[:, None, 1]), axis=1)
+        assert gap.max() <= 0.001
+
+
+def test_the_lazy_motion_check_gives_the_checkers_verdict():
+    problem = _problems()[0]
+    chk = make_checker(problem, "footprint", 0.0)
+    local = LocalPlanner("reeds_shepp", ROBOT, chk, step_range=0.6)
+    assert local.rho is not None and local.check_arrays is not None
+    geometry = np.array([local.rho, local.sample_step])
+    spans = np.empty(8, dtype=np.int64)  # too short: replaced inside
+    buf_p, buf_d = np.empty((4, 3)), np.empty(4)  # too short: replaced
+    verdicts = []
+    for q0, q1 in _pairs(300, seed=2):
+        for max_len, keep_end in ((np.inf, False), (0.6, False), (0.6, True)):
+            args = (True, q0, q1, geometry, max_len, keep_end, 1, local.check_arrays, spans, buf_p, buf_d)
+            n, verdict, p, d = steer_free(*args)
+            poses, dirs = word_poses(
+                cut_word(True, q0, q1, local.rho, local.sample_step, max_len, keep_end)[0], local.rho
+            )
+            assert n == poses.shape[0]
+            assert verdict == int(chk.path_free(poses))
+            assert verdict == int(bool(np.all(chk.checker.poses_free(poses))))
+            if verdict:  # every pose was computed while checked
+                np.testing.assert_array_equal(p[:n], poses)
+                np.testing.assert_array_equal(d[:n], dirs)
+            verdicts.append(verdict)
+    assert 0.1 < np.mean(verdicts) < 0.9  # both verdicts were exercised
+
+
+def test_check_order_is_a_permutation():
+    for n in (1, 2, 3, 10, 57):
+        for new_first in (False, True):
+            assert sorted(check_order(n, new_first).tolist()) == list(range(n))
