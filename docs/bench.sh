@@ -53,5 +53,6 @@ for name in "${names[@]}"; do
         echo "$text"
         echo '```'
     } > "$tmp"
+    chmod 644 "$tmp"  # mktemp makes 0600; a page is read by all
     mv "$tmp" "$out"
 done
