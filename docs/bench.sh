@@ -14,7 +14,8 @@ declare -A CMDS=(
     [sim-rpp]="bench sim --tracker rpp --repeats 5"
     [track]="bench track"
     [render]="bench render"
-    [plan]="bench plan --seeds 5"
+    [plan]="bench plan --seeds 15 --optimal RRTstar --budget 0.05 --no-wheel"
+    [plan-optimal]="bench plan --seeds 5 --no-wheel"
     [hybrid]="bench hybrid"
     [optim]="bench optim"
     [simplify]="bench simplify"
@@ -29,7 +30,7 @@ stamp() {
 }
 
 names=("$@")
-[ ${#names[@]} -gt 0 ] || names=(sim sim-segmented sim-kanayama sim-rpp track render plan hybrid optim simplify montecarlo cold bag)
+[ ${#names[@]} -gt 0 ] || names=(sim sim-segmented sim-kanayama sim-rpp track render plan plan-optimal hybrid optim simplify montecarlo cold bag)
 for name in "${names[@]}"; do
     cmd="${CMDS[$name]:-}"
     if [ -z "$cmd" ]; then echo "docs/bench.sh: no benchmark '$name' (known: ${!CMDS[*]})" >&2; exit 2; fi
