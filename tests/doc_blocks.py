@@ -31,8 +31,6 @@ def runnable_blocks() -> list[Block]:
     """Every runnable Python block of the docs, in page order."""
     out = []
     for path in sorted(DOCS.rglob("*.md")):
-        if "_incoming" in path.parts:
-            continue
         text = path.read_text()
         for m in _BLOCK.finditer(text):
             line = text.count("\n", 0, m.start("code")) + 1
