@@ -245,3 +245,24 @@ def test_a_signal_inside_a_casadi_solve_is_delivered_after_it(held: bool) -> Non
         with contextlib.nullcontext():
             solver(x0=5.0)  # no KeyboardInterrupt: CasADi caught it
         assert not solver.stats()["success"] and kick.calls == 3
+
+
+def test_an_interrupt_landing_in_a_callback_that_drops_it_is_raised_after_it() -> None:
+    """A signal whose handler runs inside a Python function that C code calls back and whose exception
+    it prints and drops (llvmlite's object-cache hook while numba compiles: a SIGTERM was lost there) is
+    raised again a moment later, outside it."""
+    import time
+    from types import SimpleNamespace
+
+    from sim.cli.interrupt import RETRY_S, _interrupt, sigterm_as_interrupt
+
+    callback = SimpleNamespace(f_code=SimpleNamespace(co_filename="/venv/site-packages/llvmlite/binding/ee.py"))
+    with sigterm_as_interrupt():
+        _interrupt(signal.SIGTERM, callback)  # type: ignore[arg-type]  # nothing raised inside the callback
+        start = time.monotonic()
+        with pytest.raises(KeyboardInterrupt, match="SIGTERM"):
+            while time.monotonic() - start < 100 * RETRY_S:
+                time.sleep(RETRY_S / 10)
+    assert time.monotonic() - start < 100 * RETRY_S
+    with pytest.raises(KeyboardInterrupt, match="SIGINT"), sigterm_as_interrupt():
+        _interrupt(signal.SIGINT, None)

@@ -11,25 +11,42 @@ exit-status contract). :func:`sim.cli.main.main` holds it around every command.
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
 import threading
 from collections.abc import Iterator
 from types import FrameType
 
+#: Where an exception raised by a signal handler is printed and dropped: Python functions that C code
+#: calls back (llvmlite's object-cache hooks, while numba compiles or loads a kernel).
+SWALLOWING = (f"{os.sep}llvmlite{os.sep}",)
+#: How long an interrupt landing in such a callback waits before it is raised again [s].
+RETRY_S = 0.01
+
 
 def _interrupt(signum: int, frame: FrameType | None) -> None:
+    """Raise KeyboardInterrupt; where the running frame would swallow it, raise it a moment later."""
+    if frame is not None and any(part in frame.f_code.co_filename for part in SWALLOWING):
+        signal.signal(signal.SIGALRM, lambda _s, f: _interrupt(signum, f))
+        signal.setitimer(signal.ITIMER_REAL, RETRY_S)
+        return
     raise KeyboardInterrupt(f"signal {signal.Signals(signum).name}")
 
 
 @contextlib.contextmanager
 def sigterm_as_interrupt() -> Iterator[None]:
-    """Within the block SIGTERM raises KeyboardInterrupt, as SIGINT does; the previous handler is
-    restored on leaving. Outside the main thread (where no handler can be set) it does nothing."""
+    """Within the block SIGTERM raises KeyboardInterrupt, as SIGINT does, and neither is lost inside a
+    C callback that would drop it (it is raised when the callback has returned); the previous
+    handlers are restored on leaving. Outside the main thread (where no handler can be set) it does
+    nothing."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = signal.signal(signal.SIGTERM, _interrupt)
+    alarm = signal.getsignal(signal.SIGALRM)
+    previous = {sig: signal.signal(sig, _interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        for sig, handler in (*previous.items(), (signal.SIGALRM, alarm)):
+            signal.signal(sig, handler)
