@@ -21,10 +21,10 @@ if TYPE_CHECKING:
 
 
 @functools.cache
-def short_job():  # type: ignore[no-untyped-def]
-    """A 0.4 m line (about 3.3 s) tracked closed and open loop in the 'open' scenario, on synthetic fixes
-    (the drawing is under test here, not the localiser: the runs' poses stay those the pixel checks
-    were made on)."""
+def short_job(localiser: str = "fixes"):  # type: ignore[no-untyped-def]
+    """A 0.4 m line (about 3.3 s) tracked closed and open loop in the 'open' scenario, by default on
+    synthetic fixes (the drawing is under test, not the localiser: the runs' poses stay those the
+    pixel checks were made on); ``localiser="amcl"`` for a run with scans."""
     from sim.pipeline.case import Case, PreparedTrajectory
     from sim.pipeline.runs import RunKind
     from sim.pipeline.simulate import track
@@ -32,7 +32,8 @@ def short_job():  # type: ignore[no-untyped-def]
     sc = load_scenario("open")
     robot = load_robot(sc.robot)
     traj = make_reference("line", robot, Pose2D(0.0, 0.0, 0.0), length=0.4)
-    prepared = PreparedTrajectory(Case("open", reference="line", localiser="fixes"), sc, robot, traj, "reference:line")
+    case = Case("open", reference="line", localiser=localiser)
+    prepared = PreparedTrajectory(case, sc, robot, traj, "reference:line")
     return track(prepared, (RunKind.CLOSED_LOOP, RunKind.OPEN_LOOP))
 
 

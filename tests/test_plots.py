@@ -36,7 +36,7 @@ def png_is_nontrivial(path: Path) -> None:
 
 
 def test_job_figures_write_nontrivial_pngs(tmp_path: Path) -> None:
-    job = short_job()
+    job = short_job("amcl")
     figs = job_figures(job.scenario.world, job.robot, job.trajectory, job.logs, title="t")
     want = (*PLOTS, LOCALISER_PLOT)  # the TurtleBot3's closed loop runs on its scan localiser
     assert tuple(figs) == want
@@ -217,7 +217,7 @@ def test_estimation_figure_names_bad_input() -> None:
 
 
 def test_job_figures_add_the_estimation_figure_when_given(tmp_path: Path) -> None:
-    job = short_job()
+    job = short_job("amcl")
     figs = job_figures(job.scenario.world, job.robot, job.trajectory, job.logs, estimation=_estimation())
     assert tuple(figs) == (*PLOTS, ESTIMATION_PLOT, LOCALISER_PLOT)
     png_is_nontrivial(save_figure(figs[ESTIMATION_PLOT], tmp_path / "estimation.png"))
