@@ -51,19 +51,15 @@ of the optimisation, with no segment switching.
 Interrupts: CasADi polls Python for signals inside a solve (its interrupt check calls the Python
 signal handlers), and a ``KeyboardInterrupt`` raised there is caught inside the solver, which ends
 the solve as failed (it warns ``KeyboardInterruptException``) and returns: the interrupt would be
-lost. So SIGINT and SIGTERM are held for the solve's few milliseconds (:func:`signals_held`) and
-delivered to their own handlers as it returns: Ctrl-C or SIGTERM stops a run of this tracker as
-promptly as any other.
+lost. So SIGINT and SIGTERM are held for the solve's few milliseconds
+(:func:`control.signals.signals_held`) and delivered to their own handlers as it returns: Ctrl-C or
+SIGTERM stops a run of this tracker as promptly as any other.
 """
 
 from __future__ import annotations
 
-import contextlib
 import math
-import signal
-import threading
 import time
-from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
@@ -72,6 +68,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.base import check_measured_pose, check_period, check_ranges, option_value, ranged
+from control.signals import signals_held
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError, DependencyError
 from planning.trajectory.trajectory import Trajectory
@@ -209,37 +206,6 @@ def _solver(p: MPCParams, lim: _Limits) -> tuple[Any, FloatArray, FloatArray]:
     if p.solver == "rti":  # one full Newton-type step from the shifted guess: no line search
         opts |= {"max_iter": 1, "max_iter_ls": 0}
     return ca.nlpsol("mpc", "sqpmethod", nlp, opts), lbg, ubg
-
-
-#: The signals held during a solve.
-HELD_SIGNALS = (signal.SIGINT, signal.SIGTERM)
-
-
-@contextlib.contextmanager
-def signals_held() -> Iterator[None]:
-    """Within the block SIGINT and SIGTERM are only noted; on leaving, the previous handlers are back
-    and each signal noted is raised again, so they act on it (e.g. raise KeyboardInterrupt) then.
-
-    Outside the main thread (where no handler can be set), or when a handler was not set from Python
-    (it could not be restored), the block runs as it is.
-    """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = {sig: signal.getsignal(sig) for sig in HELD_SIGNALS}
-    if any(h is None for h in previous.values()):
-        yield
-        return
-    noted: list[int] = []
-    for sig in HELD_SIGNALS:
-        signal.signal(sig, lambda signum, frame: noted.append(signum))
-    try:
-        yield
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
-        for signum in dict.fromkeys(noted):
-            signal.raise_signal(signum)
 
 
 @lru_cache(maxsize=16)

@@ -208,7 +208,7 @@ def test_a_signal_inside_a_casadi_solve_is_delivered_after_it(held: bool) -> Non
 
     import casadi as ca
 
-    from control.mpc import signals_held
+    from control.signals import signals_held
 
     class Kick(ca.Callback):  # type: ignore[misc]
         """f(x) = x^2, sending SIGINT to this process at its third evaluation."""

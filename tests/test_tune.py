@@ -456,3 +456,30 @@ def test_two_tune_commands_on_one_sqlite_study_run_it_once(tmp_path: Path) -> No
         assert len(complete) == 4
         assert sum(t.params == {"kp": 9.0, "kd": 6.0, "xi_min": 0.02} for t in complete) == 1
         assert load_gains_file(study_dir / "renders" / "tune-pair.toml").provenance["study"] == "pair"
+
+
+def test_an_interrupt_while_optuna_records_a_trial_waits_for_the_record(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """SIGTERM landing in Optuna's bookkeeping after an objective returned (writing the trial's value):
+    the value is written, then the command stops as interrupted (130) with the trial complete. Taken
+    there, the interrupt left the trial running and Optuna failed with ``AssertionError: Should not
+    reach`` (exit 1, the trial failed only after the heartbeat grace period)."""
+    from optuna.storages import RDBStorage
+    from optuna.trial import TrialState
+
+    write = RDBStorage.set_trial_state_values
+    kicked: list[int] = []
+
+    def kick_then_write(self: RDBStorage, trial_id: int, state: TrialState, values: object = None) -> bool:
+        if state == TrialState.COMPLETE and not kicked:
+            kicked.append(trial_id)
+            os.kill(os.getpid(), signal.SIGTERM)  # delivered at once to a handler that raises
+        return write(self, trial_id, state, values)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(RDBStorage, "set_trial_state_values", kick_then_write)
+    assert main(_args(tmp_path, 3, "--eval-runs", "0")) == 130
+    assert "interrupted" in capsys.readouterr().err
+    study = optuna.load_study(study_name="t", storage=f"sqlite:///{tmp_path}/study.db")
+    assert kicked and [t.state for t in study.trials] == [TrialState.COMPLETE]
+    assert not (tmp_path / "gains.toml").exists()

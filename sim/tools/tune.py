@@ -53,6 +53,7 @@ import numpy as np
 
 from control.base import search_space, tuned_option
 from control.fbl import FBLGains
+from control.signals import signals_held, signals_released
 from planning.errors import ConfigError, NhsimError
 
 if TYPE_CHECKING:  # the command line reads SAMPLERS while building its parser, before mujoco may load
@@ -598,7 +599,20 @@ def run_worker(spec: TuneSpec, n_trials: int, worker: int = 0, callbacks: Sequen
     before = len(study.trials)
     if n_trials > 0:
         stop = MaxTrialsCallback(spec.trials, states=(TrialState.COMPLETE,))
-        study.optimize(objective_fn(evaluator, spec), n_trials=n_trials, callbacks=[stop, *callbacks])
+        objective = objective_fn(evaluator, spec)
+
+        def interruptible(trial: Any) -> float:
+            with signals_released():
+                return objective(trial)
+
+        def between(study: Any, trial: Any) -> None:  # a trial recorded: act on a signal held meanwhile
+            with signals_released():
+                pass
+
+        # an interrupt acts inside a trial's evaluation (Optuna records the trial as failed and stops) or
+        # between trials, never inside Optuna's own bookkeeping around them (see control.signals)
+        with signals_held():
+            study.optimize(interruptible, n_trials=n_trials, callbacks=[stop, *callbacks, between])
     return len(study.trials) - before
 
 

@@ -1,0 +1,88 @@
+"""SIGINT and SIGTERM held across code that would lose them or be left half done by them.
+
+Two kinds of code must not take a ``KeyboardInterrupt`` in the middle:
+
+- C code that runs the Python signal handlers and swallows what they raise: CasADi polls for signals
+  inside a solve, catches the ``KeyboardInterrupt`` and ends the solve as failed, so the interrupt is
+  lost (:mod:`control.mpc`);
+- bookkeeping that must finish once begun: Optuna's ``study.optimize`` writes a trial's result to its
+  storage after the objective returns, and an interrupt landing there leaves the trial ``RUNNING``
+  and Optuna's own state inconsistent (it fails with ``AssertionError: Should not reach``).
+
+:func:`signals_held` notes the signals for the block's duration and acts on them as it ends;
+:func:`signals_released`, inside a held block, lets them act at once (the objective of a study, where
+the time is spent) and delivers those noted so far as it begins.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+from collections.abc import Callable, Iterator
+from typing import Any
+
+#: The signals held.
+HELD_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+#: The held blocks open in the main thread, innermost last: (the handlers they replaced, signals noted).
+_HELD: list[tuple[dict[signal.Signals, Any], list[int]]] = []
+
+
+def _noting(noted: list[int]) -> Callable[[int, Any], None]:
+    return lambda signum, frame: noted.append(signum)
+
+
+def _deliver(noted: list[int]) -> None:
+    """Raise each signal noted once more (to the handlers in place now), and forget them."""
+    pending = list(dict.fromkeys(noted))
+    noted.clear()
+    for signum in pending:
+        signal.raise_signal(signum)
+
+
+@contextlib.contextmanager
+def signals_held() -> Iterator[None]:
+    """Within the block SIGINT and SIGTERM are only noted; on leaving, the previous handlers are back
+    and each signal noted is raised again, so they act on it (e.g. raise KeyboardInterrupt) then.
+
+    Outside the main thread (where no handler can be set), or when a handler was not set from Python
+    (it could not be restored), the block runs as it is.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous: dict[signal.Signals, Any] = {sig: signal.getsignal(sig) for sig in HELD_SIGNALS}
+    if any(h is None for h in previous.values()):
+        yield
+        return
+    noted: list[int] = []
+    for sig in HELD_SIGNALS:
+        signal.signal(sig, _noting(noted))
+    _HELD.append((previous, noted))
+    try:
+        yield
+    finally:
+        _HELD.pop()
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        _deliver(noted)
+
+
+@contextlib.contextmanager
+def signals_released() -> Iterator[None]:
+    """Inside :func:`signals_held`: the handlers it replaced act again within this block, and the
+    signals it noted so far are delivered to them as the block begins; on leaving, they are held
+    again. Outside a held block (or outside the main thread) the block runs as it is."""
+    if not _HELD or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous, noted = _HELD[-1]
+    for sig, handler in previous.items():
+        signal.signal(sig, handler)
+    try:
+        _deliver(noted)
+        yield
+    finally:
+        for sig in HELD_SIGNALS:
+            signal.signal(sig, _noting(noted))
