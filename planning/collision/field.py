@@ -24,10 +24,10 @@ any point inside the grid is then measured against its block's candidates only
 fallback asks on crowded maps.
 
 The field is built a row of blocks at a time, so a build can honour a deadline
-(:class:`FieldTimeout`); finished fields are cached per world and spacing. The first build of a
-process first readies the kernels (numba loads them from its cache, or compiles them once after an
-install: several seconds): that time is in the build's reported :attr:`DistanceField.seconds` but
-not charged against the deadline, which bounds the work a world takes, not the installation's.
+(:class:`FieldTimeout`); finished fields are cached per world and spacing. The deadline is moved
+on by the time numba spends compiling the kernels (once after an install: several seconds;
+:mod:`planning.clock`): that time is in the build's reported :attr:`DistanceField.seconds` but not
+charged against the deadline, which bounds the work a world takes, not the installation's.
 """
 
 from __future__ import annotations
@@ -40,6 +40,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.clock import compile_seconds
 from planning.collision.compiled import (
     BLOCK,
     BOX,
@@ -140,36 +141,12 @@ def distance_field(world: World, h: float, deadline: float | None = None) -> Dis
     return field
 
 
-#: Seconds this process spent readying the kernels (empty until its first build).
-_CODE_SECONDS: list[float] = []
-
-
-def _ready_code() -> float:
-    """Load or compile the kernels on a one-disc world, once per process; the seconds it took then,
-    0 afterwards."""
-    if _CODE_SECONDS:
-        return 0.0
-    t0 = time.perf_counter()
-    from planning.core.world import Circle
-
-    _CODE_SECONDS.append(0.0)  # a failure below is not retried at every build
-    _fill(World((0.0, 0.1, 0.0, 0.1), (Circle((0.05, 0.05), 0.01),)), 0.05, None, t0)
-    _CODE_SECONDS[0] = time.perf_counter() - t0
-    return _CODE_SECONDS[0]
-
-
 def _build(world: World, h: float, deadline: float | None) -> DistanceField:
     """Build the field a row of blocks at a time (see the module doc)."""
-    t0 = time.perf_counter()
-    code = _ready_code()
-    return _fill(world, h, None if deadline is None else deadline + code, t0)
-
-
-def _fill(world: World, h: float, deadline: float | None, t0: float) -> DistanceField:
-    """The field, built from ``t0`` (its reported time's start) until done or ``deadline``."""
     xmin, xmax, ymin, ymax = world.bounds
     nx = int(np.ceil((xmax - xmin) / h)) + 1
     ny = int(np.ceil((ymax - ymin) / h)) + 1
+    t0, c0 = time.perf_counter(), compile_seconds()
     w = world_arrays(world, True)
     grid = np.empty((nx, ny))
     nbx, nby = -(-nx // BLOCK), -(-ny // BLOCK)
@@ -179,7 +156,7 @@ def _fill(world: World, h: float, deadline: float | None, t0: float) -> Distance
     for s0 in range(0, nx, side):
         tops = superblock_candidates(s0, min(nx, s0 + side), ny, float(xmin), float(ymin), h, w)
         for i0 in range(s0, min(nx, s0 + side), BLOCK):  # a block row a call: the deadline is checked often
-            if deadline is not None and time.perf_counter() > deadline:
+            if deadline is not None and time.perf_counter() - (compile_seconds() - c0) > deadline:
                 raise FieldTimeout(time.perf_counter() - t0, nx * ny, len(world.obstacles))
             parts.append(fill_rows(grid, float(xmin), float(ymin), h, i0, w, counts, tops))
     grid.setflags(write=False)

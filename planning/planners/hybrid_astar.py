@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.clock import PlanClock
 from planning.collision.field import FieldTimeout
 from planning.collision.grid import FastChecker
 from planning.core.geometry import path_length, unwrap_heading
@@ -235,12 +236,11 @@ class HybridAStar:
 
     def plan(self, problem: PlanProblem) -> PlanResult:
         """Plan from ``problem.start`` to ``problem.goal``; never raises for an unsolvable problem."""
-        t0 = time.perf_counter()
-        clock = (t0, time.process_time())
         cfg = self.config
         limit = cfg.time_limit if cfg.time_limit is not None else problem.time_limit
+        clock = (PlanClock(limit), time.process_time())
         try:  # the grid counts against the time limit
-            checker = make_checker(problem, cfg.shape, cfg.clearance, t0 + limit)  # type: ignore[arg-type]
+            checker = make_checker(problem, cfg.shape, cfg.clearance, clock[0].deadline())  # type: ignore[arg-type]
         except FieldTimeout as exc:
             return grid_timeout(self.name, exc)
         bad = check_endpoints(problem, checker, self.name)
@@ -273,7 +273,8 @@ class HybridAStar:
         )
         tol = np.array([problem.position_tolerance, problem.heading_tolerance])
         expansion = np.array([cfg.analytic_expansion_ratio, cfg.analytic_expansion_max_length])
-        out = lattice.search(start, goal, tol, setup.rho, setup.step, space, expansion, cfg.max_iterations, t0 + limit)
+        left = clock[0].remaining()
+        out = lattice.search(start, goal, tol, setup.rho, setup.step, space, expansion, cfg.max_iterations, left)
         return self._result(problem, setup, out, clock, limit)
 
     def _setup(self, problem: PlanProblem, checker: FastChecker) -> _Setup:
@@ -311,7 +312,7 @@ class HybridAStar:
         problem: PlanProblem,
         setup: _Setup,
         out: tuple,  # type: ignore[type-arg]
-        clock: tuple[float, float],
+        clock: tuple[PlanClock, float],
         limit: float,
     ) -> PlanResult:
         """The plan result of a finished search (see :func:`planning.planners.lattice.search`)."""
@@ -350,12 +351,14 @@ class HybridAStar:
         return dataclasses.replace(out, stats={**out.stats, "length_m": path_length(out.path)})
 
 
-def _stats(clock: tuple[float, float], checker: FastChecker, iterations: int, nodes: int) -> dict[str, object]:
+def _stats(clock: tuple[PlanClock, float], checker: FastChecker, iterations: int, nodes: int) -> dict[str, object]:
     """time_s (wall: grid, lattice and search), cpu_s (this process's CPU time over the same span: the
     cost without other processes' load), grid_s (the collision grid's part of time_s), iterations and
-    nodes; ``clock`` is (``time.perf_counter()``, ``time.process_time()``) at the start."""
+    nodes, compile_s (numba compiling kernels, not counted against the time limit); ``clock`` is (the
+    planner's :class:`planning.clock.PlanClock`, ``time.process_time()`` at the start)."""
     return {
-        "time_s": time.perf_counter() - clock[0],
+        "time_s": clock[0].elapsed(),
+        "compile_s": clock[0].compiling(),
         "cpu_s": time.process_time() - clock[1],
         "grid_s": checker.grid_seconds,
         "iterations": iterations,

@@ -240,7 +240,7 @@ def search(
     space: tuple,  # type: ignore[type-arg]
     expansion: FloatArray,
     max_iterations: int,
-    deadline: float,
+    seconds: float,
 ) -> tuple:  # type: ignore[type-arg]
     """Hybrid-A* from ``start`` to ``goal`` (see the module doc).
 
@@ -257,11 +257,12 @@ def search(
             the footprint (see :func:`_covered`).
         expansion: (2,) analytic expansion ratio and largest analytic length [m].
         max_iterations: Expansion budget.
-        deadline: ``time.perf_counter()`` value at which the search gives up.
+        seconds: Time the search may take [s], from its start (after numba has compiled or loaded it).
 
     Returns:
         (outcome, terminal node id, expansions, nodes, meta, state, analytic poses, analytic dirs).
     """
+    deadline = _now() + seconds
     prims, lat, h2d, chk, cover = space
     n = lat[3] * lat[4] * lat[5]
     nodes = np.empty((n, 6))

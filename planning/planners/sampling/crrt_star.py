@@ -41,13 +41,13 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-import time
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.clock import PlanClock
 from planning.collision.compiled import world_arrays, world_distances
 from planning.collision.exact import CollisionChecker
 from planning.core.checks import check_fields
@@ -309,7 +309,7 @@ class _Search:
         return self.checker.densify(q[keep])
 
     def result(
-        self, status: PlanStatus, goal_node: int | None, t0: float, iterations: int, reason: str = ""
+        self, status: PlanStatus, goal_node: int | None, clock: PlanClock, iterations: int, reason: str = ""
     ) -> PlanResult:
         n = self.n
         heading = np.zeros(n)
@@ -328,7 +328,8 @@ class _Search:
             chain.append(int(self.parent[chain[-1]]))
         edges = np.array(chain[:-1], dtype=np.int64)
         stats: dict[str, Any] = {
-            "time_s": time.perf_counter() - t0,
+            "time_s": clock.elapsed(),
+            "compile_s": clock.compiling(),
             "iterations": iterations,
             "nodes": n,
             "rewires": self.rewires,
@@ -411,7 +412,7 @@ class _Search:
 
     # -- Algorithm 1 ----------------------------------------------------------------------------
     def run(self) -> PlanResult:
-        t0 = time.perf_counter()
+        clock = PlanClock(self.problem.time_limit)
         p, cfg = self.problem, self.cfg
         req = self.required
         for label, pose, status in (
@@ -424,7 +425,7 @@ class _Search:
                     f"{label} ({pose.x:.3f}, {pose.y:.3f}) is {d:.3f} m from the nearest obstacle or wall; "
                     f"C-RRT* keeps the axle centre {req:.3f} m away: move the {label} or lower center_clearance"
                 )
-                return PlanResult(status, CRRTStar.name, reason=why, stats={"time_s": time.perf_counter() - t0})
+                return PlanResult(status, CRRTStar.name, reason=why, stats={"time_s": clock.elapsed()})
         self.add(p.start.xy, -1, 0.0, np.inf)
         goal = p.goal.xy
         prev = p.start.xy
@@ -438,7 +439,7 @@ class _Search:
             candidates = []
             if best_goal is not None and cfg.stop_at_goal:
                 break
-            if time.perf_counter() - t0 > p.time_limit:
+            if clock.expired():
                 break
             it += 1
             q_rand = self.sample_biased(prev)
@@ -453,9 +454,9 @@ class _Search:
                 prev = self.xy[new].copy()
                 candidates = [new]
         if best_goal is not None:
-            return self.result(PlanStatus.SUCCESS, best_goal, t0, it)
+            return self.result(PlanStatus.SUCCESS, best_goal, clock, it)
         spent = f"{it} iterations" if it >= cfg.max_iterations else f"the {p.time_limit:g} s time limit"
-        partial = self.result(PlanStatus.TIMEOUT, None, t0, it)
+        partial = self.result(PlanStatus.TIMEOUT, None, clock, it)
         reason = (
             f"no node reached the goal region ({cfg.goal_radius:g} m) with a free straight segment within "
             f"{spent}; the partial path ends {partial.stats['distance_to_goal_m']:.3f} m from the goal"

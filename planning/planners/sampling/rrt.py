@@ -196,7 +196,9 @@ class _TreePlanner(Generic[ConfigT]):
 
     @staticmethod
     def _stats(budget: Budget, iterations: int, nodes: int) -> dict[str, object]:
-        return {"time_s": budget.elapsed(), "grid_s": budget.grid_s, "iterations": iterations, "nodes": nodes}
+        clock = budget.clock
+        return {"time_s": clock.elapsed(), "compile_s": clock.compiling(), "grid_s": budget.grid_s,
+                "iterations": iterations, "nodes": nodes}  # fmt: skip
 
     @staticmethod
     def _partial(tree: Tree, problem: PlanProblem) -> tuple[FloatArray, FloatArray, float]:

@@ -113,7 +113,7 @@ class _Anytime:
 
     def clock(self, it: int) -> float:
         """The run's clock: iterations or seconds (``stall_clock``)."""
-        return float(it) if self.cfg.stall_clock == "iterations" else self.budget.elapsed()
+        return float(it) if self.cfg.stall_clock == "iterations" else self.budget.clock.working()
 
     def improved(self, it: int, cost: float) -> None:
         """Record a new best cost at iteration ``it``."""

@@ -8,14 +8,14 @@ the goal, from the node to the parent (always in the direction the robot drives)
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.clock import PlanClock
 from planning.collision.exact import CollisionChecker, Shape
 from planning.collision.field import FieldTimeout
 from planning.collision.grid import FastChecker
@@ -150,11 +150,12 @@ def merge_trees(a: Tree, b: Tree) -> PlanTree:
 
 @dataclass
 class Budget:
-    """Iteration and wall-clock budget of one planning run."""
+    """Iteration and time budget of one planning run (the time limit counts planning, not numba compiling:
+    :class:`planning.clock.PlanClock`)."""
 
     max_iterations: int
     time_limit: float
-    t0: float = 0.0
+    clock: PlanClock = field(init=False, repr=False)
     grid_s: float = 0.0  # of the time spent, getting the collision grid [s]
 
     def __post_init__(self) -> None:
@@ -162,20 +163,20 @@ class Budget:
             raise ValueError(f"max_iterations must be >= 1, got {self.max_iterations}")
         if not self.time_limit > 0:
             raise ValueError(f"time_limit must be > 0 s, got {self.time_limit}")
-        self.t0 = time.perf_counter()
+        self.clock = PlanClock(self.time_limit)
 
     @property
     def deadline(self) -> float:
-        """``time.perf_counter()`` value at which the time limit is spent."""
-        return self.t0 + self.time_limit
+        """``time.perf_counter()`` value at which the time limit is spent (as of now)."""
+        return self.clock.deadline()
 
     def elapsed(self) -> float:
-        """Seconds since the budget started."""
-        return time.perf_counter() - self.t0
+        """Seconds since the budget started (compiling included)."""
+        return self.clock.elapsed()
 
     def spent(self, iteration: int) -> bool:
         """Whether iteration ``iteration`` (0-based) may not run."""
-        return iteration >= self.max_iterations or (iteration % 16 == 0 and self.elapsed() > self.time_limit)
+        return iteration >= self.max_iterations or (iteration % 16 == 0 and self.clock.expired())
 
     def why(self, iteration: int) -> str:
         """Which budget ended the run."""
