@@ -271,7 +271,12 @@ def test_malformed_gains_file_is_rejected_by_simulate(tmp_path: Path, capsys: py
 
 @pytest.mark.parametrize(
     ("change", "differ"),
-    [(["--saturation-weight", "1"], "saturation_weight"), (["--draws", "3"], "draws"), (["--seed", "1"], "draws")],
+    [
+        (["--saturation-weight", "1"], "saturation_weight"),
+        (["--draws", "3"], "draws"),
+        (["--seed", "1"], "draws"),
+        (["--localiser", "fixes"], "localiser"),
+    ],
 )
 def test_resuming_with_other_settings_is_refused(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], change: list[str], differ: str
@@ -288,6 +293,7 @@ def test_helpers() -> None:
     assert default_study_name(["open:figure8", "open:circle"], None, True) == "fbl-open-figure8_open-circle-robust"
     long = default_study_name([f"open:figure8-{i}" for i in range(20)], "edumip", False)
     assert len(long) <= 60 and long == default_study_name([f"open:figure8-{i}" for i in range(20)], "edumip", False)
+    assert default_study_name(["nav_map1"], "turtlebot3", False, "fbl", "fixes") == "fbl-nav_map1-turtlebot3-fixes"
 
 
 def test_objective_is_the_stated_formula() -> None:

@@ -12,6 +12,7 @@ from typing import Any
 
 from planning.errors import OutputExistsError
 from sim.cli.job_outputs import DEFAULT_DIR, add_case_arguments, add_executor_arguments
+from sim.cli.simulate import add_localiser_arguments
 from sim.cli.trajectory_files import add_file_arguments, file_options
 
 DESCRIPTION = """\
@@ -63,6 +64,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--gains", default=None, metavar="KP,KD|FILE", help="feedback gains (default: 9,6)")
     p.add_argument("--sensors", default=None, metavar="KEY=VALUE,...|FILE", help="sensor profile overrides")
     p.add_argument("--control-rate", type=float, default=50.0, metavar="HZ", help="tracker rate (default: 50)")
+    add_localiser_arguments(p)
     add_executor_arguments(p, what="the runs", default_jobs="one per core")
     add_file_arguments(p)
     p.add_argument("--results", type=Path, default=None, metavar="PATH", help="results file (JSON lines)")
@@ -86,7 +88,7 @@ def _spec(args: argparse.Namespace) -> Any:
     from control.fbl import FBLGains
     from control.gains import resolve_gains
     from sim.cli.plan import check_time_limit
-    from sim.cli.simulate import job_source, parse_build, sensor_overrides
+    from sim.cli.simulate import job_source, localiser_fields, parse_build, sensor_overrides
     from sim.cli.trajectory_files import file_given, file_source, file_world
     from sim.physics.perturb import PerturbationRange
     from sim.pipeline.case import Case, PlanOptions
@@ -100,6 +102,7 @@ def _spec(args: argparse.Namespace) -> Any:
         "planning": PlanOptions(time_limit=args.time_limit),
         "build_seed": parse_build(args.build, None),
         "sensors": sensor_overrides(args.sensors),
+        **localiser_fields(args),
     }
     if file_given(args):  # a trajectory or path file, read and checked as simulate reads it
         tfile = file_source(args)
@@ -191,6 +194,10 @@ def _base_argv(args: argparse.Namespace, case: Any) -> list[str]:
         ("--gains", args.gains, None),
         ("--sensors", args.sensors, None),
         ("--control-rate", args.control_rate, 50.0),
+        ("--localiser", args.localiser, None),
+        ("--lidar", args.lidar, None),
+        ("--amcl", args.amcl, None),
+        ("--initial-pose", args.initial_pose, "known"),
     ):
         if value != default:
             argv += [opt, str(value)]

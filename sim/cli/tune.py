@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from planning.errors import ConfigError
+from sim.cli.simulate import add_localiser_arguments, localiser_fields
 from sim.tools.tune import GRACE_PERIOD
 
 DESCRIPTION = f"""\
@@ -97,6 +98,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--sampler", choices=list(SAMPLERS), default="tpe", help="Optuna sampler (default: tpe)")
     p.add_argument("--robot", choices=list(ROBOT_FILES), default=None, help="robot (default: each scenario's)")
     p.add_argument("--control-rate", type=float, default=50.0, metavar="HZ", help="tracker rate (default: 50)")
+    add_localiser_arguments(p)
     p.add_argument(
         "--draws", type=int, default=4, metavar="K", help="robots (build and noise seeds) per case (default: 4)"
     )
@@ -156,9 +158,13 @@ def _add_output_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress display")
 
 
-def default_study_name(tokens: list[str], robot: str | None, robust: bool, tracker: str = "fbl") -> str:
-    """A study name derived from the tracker and the cases (the same command gives the same name)."""
+def default_study_name(
+    tokens: list[str], robot: str | None, robust: bool, tracker: str = "fbl", localiser: str | None = None
+) -> str:
+    """A study name derived from the tracker, the cases and the settings given (the same command gives the
+    same name)."""
     base = f"{tracker}-" + "_".join(tokens) + (f"-{robot}" if robot else "") + ("-robust" if robust else "")
+    base += f"-{localiser}" if localiser else ""
     name = re.sub(r"[^A-Za-z0-9_.-]+", "-", base)
     if len(name) > 60:
         name = name[:50] + "-" + hashlib.sha1(name.encode()).hexdigest()[:8]
@@ -325,7 +331,9 @@ def tune_files(args: argparse.Namespace, tokens: list[str]) -> TuneFiles:
     from planning.errors import OutputExistsError
     from sim.outputs import check_writable
 
-    study = args.study or default_study_name(tokens, args.robot, args.robust, getattr(args, "tracker", "fbl"))
+    study = args.study or default_study_name(
+        tokens, args.robot, args.robust, getattr(args, "tracker", "fbl"), getattr(args, "localiser", None)
+    )
     gains = args.out or Path("renders") / f"tune-{study}.toml"
     files = TuneFiles(
         study,
@@ -369,6 +377,15 @@ def _check_counts(args: argparse.Namespace) -> None:
         raise ConfigError(f"--control-rate must be > 0 Hz, got {args.control_rate}")
 
 
+def localiser_settings(args: argparse.Namespace) -> dict[str, str]:
+    """The localiser options given (``--localiser``, ``--lidar``, ``--amcl``, ``--initial-pose``), for the
+    study's settings: a study made without them keeps its settings and resumes."""
+    given = {k: v for k, v in localiser_fields(args).items() if v}
+    if given.get("initial_pose") == "known":
+        del given["initial_pose"]
+    return given
+
+
 def _tokens(args: argparse.Namespace) -> list[str]:
     return [t.strip() for t in args.scenarios.split(",") if t.strip()]
 
@@ -389,6 +406,7 @@ def run(args: argparse.Namespace) -> int:
     tracker = check_trackers([args.tracker])[0]
     tuned_space(tracker)  # a tracker with nothing to tune stops here
     fields_ = {"robot": args.robot, "seed": args.seed, "control_rate": args.control_rate, "tracker": tracker}
+    fields_ |= localiser_fields(args)
     cases = tuple(Case.parse(t, **fields_) for t in tokens)
     prange = PerturbationRange.parse(args.perturb_range) if args.perturb_range else PerturbationRange()
     if args.perturb_range and not args.robust:
@@ -404,7 +422,8 @@ def run(args: argparse.Namespace) -> int:
         args.sampler,
         args.seed,
         args.saturation_weight,
-        extra_settings={"robust": args.robust, "control_rate": args.control_rate, "robot": args.robot},
+        extra_settings={"robust": args.robust, "control_rate": args.control_rate, "robot": args.robot}
+        | localiser_settings(args),
         tracker="" if tracker == "fbl" else tracker,  # the FBL's studies keep their settings (resumable)
     )
     evaluator = spec.evaluator()
@@ -583,6 +602,8 @@ def _write_outputs(
         "robust": args.robust,
         "saturation_weight": args.saturation_weight,
         "control_rate_hz": args.control_rate,
+        "localiser": args.localiser or "robot default",
+        **{k: v for k, v in localiser_settings(args).items() if k != "localiser"},
     }
     held_out = None if comparison is None else comparison.as_dict()
     if held_out is not None:
