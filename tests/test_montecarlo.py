@@ -320,6 +320,7 @@ def test_a_silent_server_at_the_scheduler_address_fails_in_the_promised_time(
     assert "accepted the connection but sent nothing within 2 s" in err
 
 
+@pytest.mark.slow  # a Dask cluster of worker processes
 def test_simulate_all_and_regress_run_on_a_scheduler_without_jobs(capsys: pytest.CaptureFixture[str]) -> None:
     """``--scheduler`` alone: the commands' own default of one process is not a given ``--jobs``."""
     import logging

@@ -138,6 +138,7 @@ def test_tuning_is_no_worse_than_the_defaults(tmp_path: Path, capsys: pytest.Cap
     assert [s.study_name for s in optuna.get_all_study_summaries(f"sqlite:///{tmp_path}/study.db")] == ["t"]
 
 
+@pytest.mark.slow  # a tuning process killed, then resumed after the heartbeat grace
 def test_killed_study_resumes_with_every_trial_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """SIGKILL in the last trial, the same command at once: that trial is failed by its silence and
     its gains evaluated afresh (not left running with the study one trial short of done)."""
@@ -440,6 +441,7 @@ def test_more_draws_than_seeds_are_refused() -> None:
         make_draws(MAX_DRAWS + 1, 0)
 
 
+@pytest.mark.slow  # two tuning processes at once, twice
 def test_two_tune_commands_on_one_sqlite_study_run_it_once(tmp_path: Path) -> None:
     """The same ``nhsim tune`` twice at once (default outputs, default SQLite storage): both end well,
     each updates the study's own outputs, the default gains run once, exactly --trials trials complete."""
