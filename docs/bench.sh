@@ -21,7 +21,7 @@ declare -A CMDS=(
     [simplify]="bench simplify"
     [montecarlo]="bench montecarlo"
     [cold]="bench cold"
-    [bag]="bench bag"
+    [bag]="bench bag --repeats 5"
 )
 
 stamp() {
