@@ -45,9 +45,19 @@ def _run(tracker: object, traj: Trajectory, start: np.ndarray, hold: float = 2.0
     return np.array(commands), np.array(poses)
 
 
-@pytest.mark.parametrize("reference", sorted(REFERENCES))
-@pytest.mark.parametrize("robot_name", ROBOTS)
-@pytest.mark.parametrize("name", sorted(TRACKERS))
+def _tracker_cases() -> list[object]:
+    """Every tracker on every robot and reference; the MPC's (a CasADi solve a period, seconds each) on one
+    robot and reference by default, on all of them in the slow suite."""
+    cases = []
+    for name in sorted(TRACKERS):
+        for robot_name in ROBOTS:
+            for reference in sorted(REFERENCES):
+                slow = name == "mpc" and (robot_name, reference) != ("turtlebot3", "figure8")
+                cases.append(pytest.param(name, robot_name, reference, marks=[pytest.mark.slow] if slow else []))
+    return cases
+
+
+@pytest.mark.parametrize(("name", "robot_name", "reference"), _tracker_cases())
 def test_every_tracker_tracks_every_reference(name: str, robot_name: str, reference: str) -> None:
     robot = load_robot(robot_name)
     traj = make_reference(reference, robot, Pose2D(0.2, -0.1, 0.4))
