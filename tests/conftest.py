@@ -2,11 +2,65 @@
 
 Tests marked ``slow`` are deselected by default (``-m "not slow"`` in pyproject); run them with
 ``-m slow``, or everything with ``--all-cases``.
+
+On a fresh clone numba compiles every kernel on its first call (over a minute of CPU for the default
+run) and caches it on disk. Two pytest-xdist workers that meet the same kernel at once would each
+compile it; :func:`_compile_once` makes the second wait for the first and load its cache entry.
 """
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
+import os
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
 import pytest
+
+#: Where the workers' per-kernel compile locks live (one file per kernel, shared by the workers).
+_LOCKS = Path(tempfile.gettempdir()) / f"nhsim-numba-compile-{os.getuid()}"
+
+
+_HELD: set[str] = set()
+
+
+@contextlib.contextmanager
+def _kernel_lock(name: str) -> Iterator[None]:
+    """An exclusive lock on ``name`` among the test processes (re-entered freely within one)."""
+    if name in _HELD:
+        yield
+        return
+    _LOCKS.mkdir(exist_ok=True)
+    with open(_LOCKS / f"{name}.lock", "w") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        _HELD.add(name)
+        try:
+            yield
+        finally:
+            _HELD.discard(name)
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def _compile_once() -> None:
+    """Numba's ``Dispatcher.compile`` (which loads a cached kernel or compiles it) under a lock per kernel
+    shared by the test processes: a worker that needs a kernel another is compiling loads the other's
+    result when it is written, instead of compiling it too. Results are the same either way."""
+    from numba.core.dispatcher import Dispatcher
+
+    compile_ = Dispatcher.compile
+    if getattr(compile_, "nhsim_once", False):
+        return
+
+    def compile_locked(self: Any, sig: Any) -> Any:
+        func = self.py_func
+        with _kernel_lock(f"{func.__module__}.{func.__qualname__}".replace("<", "_").replace(">", "_")):
+            return compile_(self, sig)
+
+    compile_locked.nhsim_once = True  # type: ignore[attr-defined]
+    Dispatcher.compile = compile_locked  # type: ignore[method-assign]
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -16,6 +70,7 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 def pytest_configure(config: pytest.Config) -> None:
     from sim.viz import gl
 
+    _compile_once()
     gl.configure()  # MUJOCO_GL (the user's, or the default) before collection imports mujoco
     if config.getoption("--all-cases"):
         config.option.markexpr = ""
