@@ -266,3 +266,41 @@ def test_an_interrupt_landing_in_a_callback_that_drops_it_is_raised_after_it() -
     assert time.monotonic() - start < 100 * RETRY_S
     with pytest.raises(KeyboardInterrupt, match="SIGINT"), sigterm_as_interrupt():
         _interrupt(signal.SIGINT, None)
+
+
+def test_an_interrupt_during_a_numba_compile_is_raised_when_the_compile_is_done() -> None:
+    """SIGTERM arriving while numba compiles a kernel (cold caches: the first seconds of most commands)
+    waits for the compile: raised inside numba's compiler passes, it left LLVM's objects half built,
+    and the command printed "interrupted" then died at exit (``free(): double free detected``)."""
+    import threading
+    import time
+
+    import numba
+    import numpy as np
+
+    from sim.cli.interrupt import sigterm_as_interrupt
+
+    @numba.njit(cache=False)
+    def kernel(x: np.ndarray) -> float:  # never compiled before: the first call compiles it
+        total = 0.0
+        for i in range(x.shape[0]):
+            total += np.sin(x[i]) * np.cos(x[i]) + np.sqrt(abs(x[i])) - np.tanh(x[i])
+        return total
+
+    compiling = threading.Event()
+
+    def kick() -> None:
+        compiling.wait(5.0)
+        time.sleep(0.02)  # well inside the compile (a tenth of a second or more)
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    done: list[float] = []
+    thread = threading.Thread(target=kick)
+    with pytest.raises(KeyboardInterrupt, match="SIGTERM"), sigterm_as_interrupt():
+        thread.start()
+        compiling.set()
+        done.append(kernel(np.ones(3)))
+        while True:
+            time.sleep(0.001)
+    thread.join()
+    assert done and len(kernel.signatures) == 1  # the compile finished, then the interrupt came

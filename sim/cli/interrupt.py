@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import sys
 import threading
 from collections.abc import Iterator
 from types import FrameType
@@ -24,9 +25,25 @@ SWALLOWING = (f"{os.sep}llvmlite{os.sep}",)
 RETRY_S = 0.01
 
 
-def _interrupt(signum: int, frame: FrameType | None) -> None:
-    """Raise KeyboardInterrupt; where the running frame would swallow it, raise it a moment later."""
+def _deferred(frame: FrameType | None) -> bool:
+    """Whether an interrupt raised now would be lost or would break native state:
+
+    - the running frame is a Python function that C code calls back and that drops what it raises
+      (:data:`SWALLOWING`);
+    - numba is compiling or loading a kernel in this thread (it holds its compiler lock). A
+      KeyboardInterrupt raised in numba's compiler passes left LLVM's objects half built: the command
+      printed "interrupted" and then died at exit (``free(): double free detected``, or by SIGINT).
+    """
     if frame is not None and any(part in frame.f_code.co_filename for part in SWALLOWING):
+        return True
+    lock = sys.modules.get("numba.core.compiler_lock")  # never imported here: numba may not be loaded
+    return lock is not None and bool(lock.global_compiler_lock.is_locked())
+
+
+def _interrupt(signum: int, frame: FrameType | None) -> None:
+    """Raise KeyboardInterrupt; where that would be lost or break a compile (:func:`_deferred`), raise it
+    a moment later, once the running code is past that point."""
+    if _deferred(frame):
         signal.signal(signal.SIGALRM, lambda _s, f: _interrupt(signum, f))
         signal.setitimer(signal.ITIMER_REAL, RETRY_S)
         return
@@ -36,8 +53,8 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
 @contextlib.contextmanager
 def sigterm_as_interrupt() -> Iterator[None]:
     """Within the block SIGTERM raises KeyboardInterrupt, as SIGINT does, and neither is lost inside a
-    C callback that would drop it (it is raised when the callback has returned); the previous
-    handlers are restored on leaving. Outside the main thread (where no handler can be set) it does
+    C callback that would drop it nor raised inside a numba compile (it is raised when the callback or
+    the compile has returned); the previous handlers are restored on leaving. Outside the main thread (where no handler can be set) it does
     nothing."""
     if threading.current_thread() is not threading.main_thread():
         yield
