@@ -13,31 +13,28 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
-import sys
 import threading
 from collections.abc import Iterator
 from types import FrameType
 
-#: Where an exception raised by a signal handler is printed and dropped: Python functions that C code
-#: calls back (llvmlite's object-cache hooks, while numba compiles or loads a kernel).
-SWALLOWING = (f"{os.sep}llvmlite{os.sep}",)
-#: How long an interrupt landing in such a callback waits before it is raised again [s].
+#: Packages whose Python code an exception raised by a signal handler must not cross: C code calls it
+#: back and drops what it raises (llvmlite's object-cache hooks, while numba compiles or loads a
+#: kernel) or turns it into a SystemError (numba's helpers that compiled code calls, such as the
+#: unpickling of a kernel's constants), and numba's compiler, interrupted in its passes or its imports,
+#: leaves LLVM's objects half built (the command said "interrupted", then died at exit: ``free():
+#: double free detected``, or by SIGINT).
+SWALLOWING = (f"{os.sep}llvmlite{os.sep}", f"{os.sep}numba{os.sep}")
+#: How long an interrupt waits before it is tried again [s].
 RETRY_S = 0.01
 
 
 def _deferred(frame: FrameType | None) -> bool:
-    """Whether an interrupt raised now would be lost or would break native state:
-
-    - the running frame is a Python function that C code calls back and that drops what it raises
-      (:data:`SWALLOWING`);
-    - numba is compiling or loading a kernel in this thread (it holds its compiler lock). A
-      KeyboardInterrupt raised in numba's compiler passes left LLVM's objects half built: the command
-      printed "interrupted" and then died at exit (``free(): double free detected``, or by SIGINT).
-    """
-    if frame is not None and any(part in frame.f_code.co_filename for part in SWALLOWING):
-        return True
-    lock = sys.modules.get("numba.core.compiler_lock")  # never imported here: numba may not be loaded
-    return lock is not None and bool(lock.global_compiler_lock.is_locked())
+    """Whether an interrupt raised now would cross :data:`SWALLOWING` code: a frame of it is on the stack."""
+    while frame is not None:
+        if any(part in frame.f_code.co_filename for part in SWALLOWING):
+            return True
+        frame = frame.f_back
+    return False
 
 
 def _interrupt(signum: int, frame: FrameType | None) -> None:
@@ -53,9 +50,9 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
 @contextlib.contextmanager
 def sigterm_as_interrupt() -> Iterator[None]:
     """Within the block SIGTERM raises KeyboardInterrupt, as SIGINT does, and neither is lost inside a
-    C callback that would drop it nor raised inside a numba compile (it is raised when the callback or
-    the compile has returned); the previous handlers are restored on leaving. Outside the main thread (where no handler can be set) it does
-    nothing."""
+    C callback that would drop it nor raised inside numba's compiler or its runtime helpers (it is
+    raised when they have returned: :func:`_deferred`); the previous handlers are restored on leaving.
+    Outside the main thread (where no handler can be set) it does nothing."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
