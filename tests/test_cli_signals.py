@@ -256,7 +256,8 @@ def test_an_interrupt_landing_in_a_callback_that_drops_it_is_raised_after_it() -
 
     from sim.cli.interrupt import RETRY_S, _interrupt, sigterm_as_interrupt
 
-    callback = SimpleNamespace(f_code=SimpleNamespace(co_filename="/venv/site-packages/llvmlite/binding/ee.py"))
+    code = SimpleNamespace(co_filename="/venv/site-packages/llvmlite/binding/ee.py")
+    callback = SimpleNamespace(f_code=code, f_back=None)
     with sigterm_as_interrupt():
         _interrupt(signal.SIGTERM, callback)  # type: ignore[arg-type]  # nothing raised inside the callback
         start = time.monotonic()
@@ -305,3 +306,21 @@ def test_an_interrupt_during_a_numba_compile_is_raised_when_the_compile_is_done(
     assert len(kernel.signatures) == 1  # the compile finished, then the interrupt came
     expected = 3 * (np.sin(1.0) * np.cos(1.0) + 1.0 - np.tanh(1.0))
     assert kernel(np.ones(3)) == pytest.approx(expected, rel=1e-12)  # and the kernel works
+
+
+def test_a_second_interrupt_while_one_waits_is_raised_at_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ctrl-C inside numba's compiler waits for the kernel (seconds on a fresh install); a second one
+    stops the command at once."""
+    from types import SimpleNamespace
+
+    import sim.cli.interrupt as interrupt
+
+    monkeypatch.setattr(interrupt, "RETRY_S", 60.0)  # the first would be tried again only in a minute
+    compiler = SimpleNamespace(co_filename="/venv/site-packages/numba/core/compiler.py")
+    ours = SimpleNamespace(f_code=SimpleNamespace(co_filename="/src/planning/planners/rrt.py"), f_back=None)
+    inside = SimpleNamespace(f_code=compiler, f_back=ours)  # numba's frame called from ours
+    with pytest.raises(KeyboardInterrupt, match="SIGINT"), interrupt.sigterm_as_interrupt():
+        interrupt._interrupt(signal.SIGINT, inside)  # type: ignore[arg-type]  # waits
+        assert interrupt._WAITING and signal.getitimer(signal.ITIMER_REAL)[0] > 0
+        interrupt._interrupt(signal.SIGINT, inside)  # type: ignore[arg-type]  # the user insists
+    assert not interrupt._WAITING and signal.getitimer(signal.ITIMER_REAL)[0] == 0

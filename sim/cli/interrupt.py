@@ -13,7 +13,9 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import sys
 import threading
+import time
 from collections.abc import Iterator
 from types import FrameType
 
@@ -37,13 +39,27 @@ def _deferred(frame: FrameType | None) -> bool:
     return False
 
 
-def _interrupt(signum: int, frame: FrameType | None) -> None:
+#: After this long waiting [s], a waiting interrupt says why the command has not stopped yet.
+NOTICE_S = 1.0
+#: The interrupt waiting (its signal and when it came), if any.
+_WAITING: dict[str, float] = {}
+
+
+def _interrupt(signum: int, frame: FrameType | None, retry: bool = False) -> None:
     """Raise KeyboardInterrupt; where that would be lost or break a compile (:func:`_deferred`), raise it
-    a moment later, once the running code is past that point."""
-    if _deferred(frame):
-        signal.signal(signal.SIGALRM, lambda _s, f: _interrupt(signum, f))
+    a moment later, once the running code is past that point. A second signal while one waits is raised
+    at once (the user insists; a kernel being compiled is then lost and is compiled again next time)."""
+    if _deferred(frame) and (retry or not _WAITING):
+        since = _WAITING.setdefault("since", time.monotonic())
+        if retry and time.monotonic() - since > NOTICE_S and not _WAITING.get("told"):
+            _WAITING["told"] = 1.0
+            print("nhsim: stopping once numba has built the kernel it is compiling; interrupt again to stop at once",
+                  file=sys.stderr, flush=True)  # fmt: skip
+        signal.signal(signal.SIGALRM, lambda _s, f: _interrupt(signum, f, retry=True))
         signal.setitimer(signal.ITIMER_REAL, RETRY_S)
         return
+    _WAITING.clear()
+    signal.setitimer(signal.ITIMER_REAL, 0.0)
     raise KeyboardInterrupt(f"signal {signal.Signals(signum).name}")
 
 
@@ -62,5 +78,6 @@ def sigterm_as_interrupt() -> Iterator[None]:
         yield
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0.0)
+        _WAITING.clear()
         for sig, handler in (*previous.items(), (signal.SIGALRM, alarm)):
             signal.signal(sig, handler)
