@@ -37,9 +37,18 @@ def _off_path(traj: Trajectory, poses: np.ndarray) -> np.ndarray:
     return np.asarray(np.hypot(poses[:, None, 0] - dense.x, poses[:, None, 1] - dense.y).min(axis=1))
 
 
-@pytest.mark.parametrize("robot_name", ["turtlebot3", "edumip"])
-@pytest.mark.parametrize("reference", ["circle", "figure8"])
-@pytest.mark.parametrize("name", PEERS)
+def _peer_cases() -> list[object]:
+    """Every peer on both references and robots; the MPC's EduMIP runs (a CasADi solve a period) in the
+    slow suite only."""
+    return [
+        pytest.param(name, reference, robot, marks=[pytest.mark.slow] if (name, robot) == ("mpc", "edumip") else [])
+        for name in PEERS
+        for reference in ("circle", "figure8")
+        for robot in ("turtlebot3", "edumip")
+    ]
+
+
+@pytest.mark.parametrize(("name", "reference", "robot_name"), _peer_cases())
 def test_peers_converge_from_an_offset_start(name: str, reference: str, robot_name: str) -> None:
     robot = load_robot(robot_name)
     traj = make_reference(reference, robot, Pose2D(0.2, -0.1, 0.4))
@@ -176,7 +185,7 @@ def test_the_real_time_iteration_keeps_a_step_only_if_its_input_constraints_hold
     assert not rti._accepted({"success": False, "return_status": "Infeasible_Problem_Detected"}, gapped, lbg, ubg)
 
 
-@pytest.mark.parametrize("solver", ["rti", "sqp"])
+@pytest.mark.parametrize("solver", ["rti", pytest.param("sqp", marks=pytest.mark.slow)])
 def test_the_mpc_never_commands_a_non_finite_input_whatever_the_solver_returns(solver: str) -> None:
     robot = load_robot("edumip")
     traj = make_reference("figure8", robot, Pose2D(0.0, 0.0, 0.0))
@@ -278,9 +287,7 @@ def test_options_are_type_checked_and_unknown_names_listed() -> None:
     assert "horizon" not in search_space(MPCParams) and "q_position" in search_space(MPCParams)
 
 
-@pytest.mark.parametrize("robot_name", ["turtlebot3", "edumip"])
-@pytest.mark.parametrize("reference", ["circle", "figure8"])
-@pytest.mark.parametrize("name", PEERS)
+@pytest.mark.parametrize(("name", "reference", "robot_name"), _peer_cases())
 def test_peers_track_in_physics(name: str, reference: str, robot_name: str) -> None:
     from sim.pipeline.runs import RunKind
     from sim.pipeline.simulate import simulate_reference
