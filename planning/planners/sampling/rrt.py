@@ -326,17 +326,25 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
             return self._search_compiled(problem, local, budget, rng)
         return self._search_python(problem, local, budget, rng)
 
+    def _joined_roots(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult | None:
+        """The plan when one exact curve joins the start and the goal (the trees are then just their
+        roots), else None."""
+        start, goal = problem.start.as_array(), problem.goal.as_array()
+        direct = local.connect(start, goal)
+        if direct is None:
+            return None
+        roots = PlanTree(np.array([start, goal]), np.array([-1, -1], dtype=np.int64))
+        return self._result(PlanStatus.SUCCESS, direct[0], direct[1], "", self._stats(budget, 0, 2), roots)
+
     def _search_compiled(
         self, problem: PlanProblem, local: LocalPlanner, budget: Budget, rng: np.random.Generator
     ) -> PlanResult:
         """:meth:`_search_python` on exact curves, its iterations run by :func:`.connect_kernel.search_chunk`
         in chunks (the time limit checked between them, every 16 iterations at first)."""
         cfg = self.config
-        start, goal = problem.start.as_array(), problem.goal.as_array()
-        direct = local.connect(start, goal)
-        if direct is not None:
-            roots = PlanTree(np.array([start, goal]), np.array([-1, -1], dtype=np.int64))
-            return self._result(PlanStatus.SUCCESS, direct[0], direct[1], "", self._stats(budget, 0, 2), roots)
+        joined = self._joined_roots(problem, local, budget)
+        if joined is not None:
+            return joined
         chk = local.check_arrays
         assert chk is not None and local.rho is not None
         geometry = (local.rho, local.sample_step, local.step_range)
@@ -363,12 +371,10 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
     ) -> PlanResult:
         """Grow both trees until they join or the budget is spent, one Python step at a time."""
         cfg = self.config
+        joined = self._joined_roots(problem, local, budget)
+        if joined is not None:
+            return joined
         start, goal = problem.start.as_array(), problem.goal.as_array()
-        # The trees may already be joined by one exact curve (then they are just their roots).
-        direct = local.connect(start, goal)
-        if direct is not None:
-            roots = PlanTree(np.array([start, goal]), np.array([-1, -1], dtype=np.int64))
-            return self._result(PlanStatus.SUCCESS, direct[0], direct[1], "", self._stats(budget, 0, 2), roots)
         ta, tb = Tree(start), Tree(goal, backwards=True)
         it = 0
         while not budget.spent(it):
