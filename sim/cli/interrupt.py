@@ -41,7 +41,7 @@ def _deferred(frame: FrameType | None) -> bool:
 
 #: After this long waiting [s], a waiting interrupt says why the command has not stopped yet.
 NOTICE_S = 1.0
-#: The interrupt waiting (its signal and when it came), if any.
+#: The interrupt waiting, if any: when it came ("since") and whether it has said why ("told").
 _WAITING: dict[str, float] = {}
 
 

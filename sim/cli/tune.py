@@ -377,15 +377,6 @@ def _check_counts(args: argparse.Namespace) -> None:
         raise ConfigError(f"--control-rate must be > 0 Hz, got {args.control_rate}")
 
 
-def localiser_settings(args: argparse.Namespace) -> dict[str, str]:
-    """The localiser options given (``--localiser``, ``--lidar``, ``--amcl``, ``--initial-pose``), for the
-    study's settings: a study made without them keeps its settings and resumes."""
-    given = {k: v for k, v in localiser_fields(args).items() if v}
-    if given.get("initial_pose") == "known":
-        del given["initial_pose"]
-    return given
-
-
 def _tokens(args: argparse.Namespace) -> list[str]:
     return [t.strip() for t in args.scenarios.split(",") if t.strip()]
 
@@ -423,7 +414,7 @@ def run(args: argparse.Namespace) -> int:
         args.seed,
         args.saturation_weight,
         extra_settings={"robust": args.robust, "control_rate": args.control_rate, "robot": args.robot}
-        | localiser_settings(args),
+        | cases[0].localiser_options(),  # every case has the same
         tracker="" if tracker == "fbl" else tracker,  # the FBL's studies keep their settings (resumable)
     )
     evaluator = spec.evaluator()
@@ -603,7 +594,7 @@ def _write_outputs(
         "saturation_weight": args.saturation_weight,
         "control_rate_hz": args.control_rate,
         "localiser": args.localiser or "robot default",
-        **{k: v for k, v in localiser_settings(args).items() if k != "localiser"},
+        **{k: v for k, v in spec.cases[0].localiser_options().items() if k != "localiser"},
     }
     held_out = None if comparison is None else comparison.as_dict()
     if held_out is not None:

@@ -228,6 +228,14 @@ class Case:
         seed = self.seed if self.noise_seed is None else self.noise_seed
         return SensingSetup(profile, seed, localiser=self.localiser_setup(scenario))
 
+    def localiser_options(self) -> dict[str, str]:
+        """The localiser settings given to the case (``localiser``, ``lidar``, ``amcl``, an unknown
+        ``initial_pose``), those left to the robot's own omitted: what a study made before they could be
+        given did not record."""
+        given = {"localiser": self.localiser or "", "lidar": self.lidar, "amcl": self.amcl}
+        given["initial_pose"] = "" if self.initial_pose == "known" else self.initial_pose
+        return {k: v for k, v in given.items() if v}
+
     def localiser_setup(self, scenario: Scenario) -> LocaliserSetup:
         """The case's localiser for the scenario's robot (see ``localiser``).
 

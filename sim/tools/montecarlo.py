@@ -93,15 +93,8 @@ class MonteCarloSpec:
             "time_limit": c.planning.time_limit,
             "ranges": None if self.ranges is None else {k: list(v) for k, v in asdict(self.ranges).items()},
             "replan": self.replan,
-            **{k: v for k, v in self.localiser_settings().items() if v},
+            **self.case.localiser_options(),
         }
-
-    def localiser_settings(self) -> dict[str, str]:
-        """The case's localiser settings (``--localiser``, ``--lidar``, ``--amcl``, ``--initial-pose``), ""
-        where the case keeps the robot's own (a study made before they could be given keeps its key)."""
-        c = self.case
-        initial = "" if c.initial_pose == "known" else c.initial_pose
-        return {"localiser": c.localiser or "", "lidar": c.lidar, "amcl": c.amcl, "initial_pose": initial}
 
     def draws(self) -> tuple[Draw, ...]:
         """The runs' draws (build seed, noise seed, perturbation)."""
