@@ -401,7 +401,7 @@ def _refilter(
     done = new[0] <= t_prev  # measured exactly at step j
     nis = math.nan
     if done:
-        status, nis, ok = fix_update(x, p, new, prm, True, nu)
+        status, nis, ok = fix_update(x, p, new, prm, done, nu)  # done is True: a run-time bool, one compile
         if status != OK or not ok:
             return status, new[0], nis, False
         mem[xs + j] = x

@@ -276,7 +276,9 @@ def search(
     meta[s, 0], meta[s, 1] = -1, -1
     state[s] = _OPEN
     heap = [(nodes[s, 4], 0, s)]
-    counter, it, countdown = 0, 0, 0
+    # a typed zero, not the literal 0 (for which numba would compile _expand a second time)
+    counter: int = np.int64(0)  # type: ignore[assignment]
+    it, countdown = 0, 0
     none = (np.zeros((0, 3)), np.zeros(0))
     while heap:
         f, _, cid = heapq.heappop(heap)

@@ -158,10 +158,9 @@ def _grow(
     verifies (non-finite poses). ``geometry``: (rho, sample step, range)."""
     nodes, headings, parents, edge_rows, edge_p, edge_d = tree
     spans, buf_p, buf_d = scratch
-    if backwards:
-        m, verdict, p, d = steer_free(rs, target, nodes[i], geometry, geometry[2], True, 2, chk, spans, buf_p, buf_d)
-    else:
-        m, verdict, p, d = steer_free(rs, nodes[i], target, geometry, geometry[2], False, 2, chk, spans, buf_p, buf_d)
+    q0, q1 = (target, nodes[i]) if backwards else (nodes[i], target)
+    # one call with keep_end a run-time bool: a literal True or False would have numba compile steer_free twice
+    m, verdict, p, d = steer_free(rs, q0, q1, geometry, geometry[2], backwards, 2, chk, spans, buf_p, buf_d)
     if verdict < 0:
         return -2
     if verdict == 0:
