@@ -237,13 +237,14 @@ class ScanLocaliser:
         self.scan_t.append(stamp)
         self.scan_ranges.append(scan.ranges)
         odom = self.odom_at.pop(j)
+        if not self.amcl.moved_enough(odom):  # AMCL takes no scan until the robot has moved (Nav2's rule)
+            return None
         est_poses = beam_poses(t, estimate[ks], times)
         ranges, bearings = deskew(scan.ranges, scan.bearings, est_poses, estimate[j], self.amcl.laser)
         limits = (lidar.range_min, lidar.range_max, 0.0, lidar.angle_increment)
-        if not self.amcl.update(odom, ranges, *limits, bearings=bearings):
-            return None
+        updated = self.amcl.update(odom, ranges, *limits, bearings=bearings)
         est = self.amcl.estimate
-        assert est is not None
+        assert updated and est is not None
         tj = self.t0 + self.dt * j
         true = truth[j]
         err = math.hypot(est.pose[0] - true[0], est.pose[1] - true[1])
