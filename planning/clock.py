@@ -1,16 +1,18 @@
-"""A planner's clock: its time limit counts planning, not numba compiling the planner's kernels.
+"""A planner's clock: its time limit counts planning, not numba getting the planner's code ready.
 
-A fresh install compiles each compiled kernel on its first call (the collision field's, BiRRT's
-search loop, Hybrid-A*'s search: tens of seconds of CPU in all) and caches it on disk; every later
-process loads it in milliseconds. A time limit that counted the compiling would time out a fresh
-install's first plans (BiRRT on 'nav_map1' ran 16 iterations in its 30 s), so the same problem would
-get another answer on a first run than on any other. :class:`PlanClock` leaves the compiling out of
-the time it holds against the limit; the time a planner reports (``stats["time_s"]``) still includes
-it, and ``stats["compile_s"]`` says how much of it that was.
+A process runs a compiled kernel only once numba has it: compiled on its first call after an install
+(tens of seconds of CPU for BiRRT's search loop, the collision field, Hybrid-A*'s search) and cached on
+disk, or loaded from that cache in every later process (milliseconds a kernel, after numba's own
+set-up on the first compiled call of a process, about 0.3 s). A time limit that counted this would
+give the same problem another answer in a fresh process than in a warm one: a fresh install's first
+BiRRT plan on 'nav_map1' ran 16 iterations in its 30 s, and a 2000-obstacle Hybrid-A* plan in a new
+process overshot its 2 s limit by the loading. :class:`PlanClock` leaves the code's time out of the
+time it holds against the limit; the time a planner reports (``stats["time_s"]``) still includes it,
+and ``stats["code_s"]`` says how much of it that was.
 
-Compiling is timed by numba's own ``numba:compile`` events (the outermost of nested compiles, per
-thread: a planner's compiles happen in the thread that calls its kernels). Loading a kernel from the
-disk cache is not compiling and counts.
+The code's time is timed by numba's own ``numba:compiler_lock`` events: numba holds its compiler lock
+while it compiles a kernel, loads one from the cache, or sets itself up, and at no other time (the
+outermost of nested holds, per thread: a planner's kernels are readied in the thread that calls them).
 """
 
 from __future__ import annotations
@@ -22,8 +24,8 @@ from typing import Any
 from numba.core import event
 
 
-class _CompileTimer(event.Listener):  # type: ignore[misc]
-    """Seconds each thread spent in numba compiles (nested ones counted once)."""
+class _CodeTimer(event.Listener):  # type: ignore[misc]
+    """Seconds each thread spent holding (or waiting for) numba's compiler lock (nested holds counted once)."""
 
     def __init__(self) -> None:
         self.local = threading.local()
@@ -45,12 +47,13 @@ class _CompileTimer(event.Listener):  # type: ignore[misc]
         return getattr(self.local, "total", 0.0) + (0.0 if since is None else time.perf_counter() - since)
 
 
-_TIMER = _CompileTimer()
-event.register("numba:compile", _TIMER)
+_TIMER = _CodeTimer()
+event.register("numba:compiler_lock", _TIMER)
 
 
-def compile_seconds() -> float:
-    """Seconds this thread has spent compiling numba kernels (one that is compiling now included)."""
+def code_seconds() -> float:
+    """Seconds this thread has spent getting numba code ready: compiling kernels, loading them from the
+    disk cache, numba's own set-up (the one under way now included)."""
     return _TIMER.seconds()
 
 
@@ -64,19 +67,19 @@ class PlanClock:
     def __init__(self, limit: float) -> None:
         self.limit = float(limit)
         self.t0 = time.perf_counter()
-        self._c0 = compile_seconds()
+        self._c0 = code_seconds()
 
     def elapsed(self) -> float:
         """Seconds since the start (what the planner reports)."""
         return time.perf_counter() - self.t0
 
-    def compiling(self) -> float:
-        """Seconds of :meth:`elapsed` numba spent compiling kernels."""
-        return compile_seconds() - self._c0
+    def code(self) -> float:
+        """Seconds of :meth:`elapsed` numba spent getting code ready (:func:`code_seconds`)."""
+        return code_seconds() - self._c0
 
     def working(self) -> float:
-        """Seconds since the start less the compiling: what the time limit counts."""
-        return self.elapsed() - self.compiling()
+        """Seconds since the start less the code's: what the time limit counts."""
+        return self.elapsed() - self.code()
 
     def expired(self) -> bool:
         """Whether the time limit is spent."""
@@ -87,5 +90,5 @@ class PlanClock:
         return max(0.0, self.limit - self.working())
 
     def deadline(self) -> float:
-        """``time.perf_counter()`` value at which the limit is spent, were nothing compiled from now on."""
+        """``time.perf_counter()`` value at which the limit is spent, were no code readied from now on."""
         return time.perf_counter() + self.remaining()

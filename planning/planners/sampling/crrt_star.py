@@ -329,7 +329,7 @@ class _Search:
         edges = np.array(chain[:-1], dtype=np.int64)
         stats: dict[str, Any] = {
             "time_s": clock.elapsed(),
-            "compile_s": clock.compiling(),
+            "code_s": clock.code(),
             "iterations": iterations,
             "nodes": n,
             "rewires": self.rewires,

@@ -197,7 +197,7 @@ class _TreePlanner(Generic[ConfigT]):
     @staticmethod
     def _stats(budget: Budget, iterations: int, nodes: int) -> dict[str, object]:
         clock = budget.clock
-        return {"time_s": clock.elapsed(), "compile_s": clock.compiling(), "grid_s": budget.grid_s,
+        return {"time_s": clock.elapsed(), "code_s": clock.code(), "grid_s": budget.grid_s,
                 "iterations": iterations, "nodes": nodes}  # fmt: skip
 
     @staticmethod

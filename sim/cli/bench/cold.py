@@ -37,7 +37,9 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--seed must be >= 0, got {args.seed}")
     print(
         f"{args.planner}: a fresh 'nhsim plan' process per new world (wall and CPU from start to exit, its reported "
-        f"plan time and grid part) against the same plan here: new world with code loaded, then warm (median of "
+        f"plan time, the part of it numba spent readying code (its set-up, cached kernels; not counted by the time "
+        f"limit), the time less it, and the grid's part) against the same plan here: new world with code "
+        f"loaded, then warm (median of "
         f"{args.repeats}); {bench.load_note()}"
     )
     bench.warm_up(args.planner)
