@@ -316,11 +316,45 @@ def test_a_second_interrupt_while_one_waits_is_raised_at_once(monkeypatch: pytes
     import sim.cli.interrupt as interrupt
 
     monkeypatch.setattr(interrupt, "RETRY_S", 60.0)  # the first would be tried again only in a minute
-    compiler = SimpleNamespace(co_filename="/venv/site-packages/numba/core/compiler.py")
-    ours = SimpleNamespace(f_code=SimpleNamespace(co_filename="/src/planning/planners/rrt.py"), f_back=None)
+    compiler = SimpleNamespace(co_filename="/venv/site-packages/numba/core/compiler.py", co_name="compile_extra")
+    plan = SimpleNamespace(co_filename="/src/planning/planners/rrt.py", co_name="plan")
+    ours = SimpleNamespace(f_code=plan, f_back=None)
     inside = SimpleNamespace(f_code=compiler, f_back=ours)  # numba's frame called from ours
     with pytest.raises(KeyboardInterrupt, match="SIGINT"), interrupt.sigterm_as_interrupt():
         interrupt._interrupt(signal.SIGINT, inside)  # type: ignore[arg-type]  # waits
         assert interrupt._WAITING and signal.getitimer(signal.ITIMER_REAL)[0] > 0
         interrupt._interrupt(signal.SIGINT, inside)  # type: ignore[arg-type]  # the user insists
     assert not interrupt._WAITING and signal.getitimer(signal.ITIMER_REAL)[0] == 0
+
+
+_EXEC_PROBE = """
+import os, signal, sys, threading, time
+from sim.cli.interrupt import sigterm_as_interrupt
+
+def body() -> int:
+    with sigterm_as_interrupt():
+        try:
+            threading.Timer(0.05, lambda: os.kill(os.getpid(), signal.SIGTERM)).start()
+            exec("for _ in range(3_000_000):\\n    pass")  # source text: run by PyRun_String
+            print("exec done", file=sys.stderr, flush=True)
+            time.sleep(30)
+        except KeyboardInterrupt:
+            print("interrupted", file=sys.stderr)
+            return 130
+    return 0
+
+raise SystemExit(body())
+"""
+
+
+def test_an_interrupt_inside_exec_of_source_text_waits_for_it_and_the_exit_status_is_130(tmp_path: Path) -> None:
+    """A KeyboardInterrupt that leaves exec of a string (dataclasses, namedtuple and numba run source
+    text) marks CPython as stopped by an unhandled Ctrl-C: ``python -m`` then killed itself with SIGINT
+    at exit (status -2) though the command printed "interrupted" and returned 130. The interrupt now
+    waits for the exec to end."""
+    (tmp_path / "probe").mkdir()
+    (tmp_path / "probe" / "__main__.py").write_text(_EXEC_PROBE)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(ROOT)])}
+    done = subprocess.run([sys.executable, "-m", "probe"], env=env, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 130, (done.returncode, done.stderr)
+    assert done.stderr.splitlines() == ["exec done", "interrupted"]

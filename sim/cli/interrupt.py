@@ -31,9 +31,21 @@ RETRY_S = 0.01
 
 
 def _deferred(frame: FrameType | None) -> bool:
-    """Whether an interrupt raised now would cross :data:`SWALLOWING` code: a frame of it is on the stack."""
+    """Whether an interrupt raised now would cross :data:`SWALLOWING` code or leave an ``exec`` or ``eval``
+    of source text: a frame of either is on the stack.
+
+    CPython runs source text through ``PyRun_String`` and, when a KeyboardInterrupt leaves it, marks the
+    interpreter as stopped by an unhandled Ctrl-C; ``python -m sim`` then ends by killing itself with
+    SIGINT at exit (status -2), however the command handled the interrupt and whatever status it
+    returned. Source text is run more often than it seems: ``dataclasses`` and ``namedtuple`` build
+    their methods with it, numba its stubs, and a class of either is made whenever a module defining
+    one is imported. Such code is module-level code named ``<string>``.
+    """
     while frame is not None:
-        if any(part in frame.f_code.co_filename for part in SWALLOWING):
+        code = frame.f_code
+        if code.co_filename == "<string>" and code.co_name == "<module>":
+            return True
+        if any(part in code.co_filename for part in SWALLOWING):
             return True
         frame = frame.f_back
     return False
