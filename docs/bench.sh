@@ -12,6 +12,7 @@ declare -A CMDS=(
     [sim-segmented]="bench sim --tracker segmented --repeats 5"
     [sim-kanayama]="bench sim --tracker kanayama --repeats 5"
     [sim-rpp]="bench sim --tracker rpp --repeats 5"
+    [sim-amcl]="bench sim --robot turtlebot3 --localiser amcl --repeats 7"
     [track]="bench track"
     [render]="bench render"
     [plan]="bench plan --seeds 15 --optimal RRTstar --budget 0.05 --no-wheel"
@@ -30,7 +31,7 @@ stamp() {
 }
 
 names=("$@")
-[ ${#names[@]} -gt 0 ] || names=(sim sim-segmented sim-kanayama sim-rpp track render plan plan-optimal hybrid optim simplify montecarlo cold bag)
+[ ${#names[@]} -gt 0 ] || names=(sim sim-segmented sim-kanayama sim-rpp sim-amcl track render plan plan-optimal hybrid optim simplify montecarlo cold bag)
 for name in "${names[@]}"; do
     cmd="${CMDS[$name]:-}"
     if [ -z "$cmd" ]; then echo "docs/bench.sh: no benchmark '$name' (known: ${!CMDS[*]})" >&2; exit 2; fi
