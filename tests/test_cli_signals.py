@@ -358,3 +358,25 @@ def test_an_interrupt_inside_exec_of_source_text_waits_for_it_and_the_exit_statu
     done = subprocess.run([sys.executable, "-m", "probe"], env=env, capture_output=True, text=True, timeout=60)
     assert done.returncode == 130, (done.returncode, done.stderr)
     assert done.stderr.splitlines() == ["exec done", "interrupted"]
+
+
+_UNDER_EXEC = """
+import os, signal, sys, threading, time
+from sim.cli.interrupt import sigterm_as_interrupt
+
+with sigterm_as_interrupt():
+    try:
+        threading.Timer(0.05, lambda: os.kill(os.getpid(), signal.SIGTERM)).start()
+        time.sleep(30)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        sys.exit(130)
+"""
+
+
+def test_a_command_run_from_source_text_is_interrupted_at_once() -> None:
+    """``python -c`` (and pytest-xdist's workers) run the whole program as source text: an interrupt the
+    block catches never leaves that text, so it is not held back for it (it was held forever)."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run([sys.executable, "-c", _UNDER_EXEC], env=env, capture_output=True, text=True, timeout=20)
+    assert (done.returncode, done.stderr) == (130, "interrupted\n")

@@ -30,9 +30,16 @@ SWALLOWING = (f"{os.sep}llvmlite{os.sep}", f"{os.sep}numba{os.sep}")
 RETRY_S = 0.01
 
 
+#: The frames that called the innermost :func:`sigterm_as_interrupt` block (where its interrupt is
+#: caught): an interrupt never crosses them, so :func:`_deferred` looks only at the frames above.
+_OUTSIDE: list[tuple[FrameType, ...]] = []
+
+
 def _deferred(frame: FrameType | None) -> bool:
     """Whether an interrupt raised now would cross :data:`SWALLOWING` code or leave an ``exec`` or ``eval``
-    of source text: a frame of either is on the stack.
+    of source text: a frame of either is on the stack above the block's callers (:data:`_OUTSIDE`; below
+    them are, for instance, ``python -c``'s own source text and pytest-xdist's, which the interrupt, caught
+    in the block, never leaves).
 
     CPython runs source text through ``PyRun_String`` and, when a KeyboardInterrupt leaves it, marks the
     interpreter as stopped by an unhandled Ctrl-C; ``python -m sim`` then ends by killing itself with
@@ -41,7 +48,8 @@ def _deferred(frame: FrameType | None) -> bool:
     their methods with it, numba its stubs, and a class of either is made whenever a module defining
     one is imported. Such code is module-level code named ``<string>``.
     """
-    while frame is not None:
+    outside = _OUTSIDE[-1] if _OUTSIDE else ()
+    while frame is not None and not any(frame is f for f in outside):
         code = frame.f_code
         if code.co_filename == "<string>" and code.co_name == "<module>":
             return True
@@ -84,6 +92,12 @@ def sigterm_as_interrupt() -> Iterator[None]:
     if threading.current_thread() is not threading.main_thread():
         yield
         return
+    callers: list[FrameType] = []
+    frame: FrameType | None = sys._getframe(1)
+    while frame is not None:
+        callers.append(frame)
+        frame = frame.f_back
+    _OUTSIDE.append(tuple(callers))
     alarm = signal.getsignal(signal.SIGALRM)
     previous = {sig: signal.signal(sig, _interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
@@ -91,5 +105,6 @@ def sigterm_as_interrupt() -> Iterator[None]:
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0.0)
         _WAITING.clear()
+        _OUTSIDE.pop()
         for sig, handler in (*previous.items(), (signal.SIGALRM, alarm)):
             signal.signal(sig, handler)
