@@ -379,3 +379,26 @@ def test_a_command_run_from_source_text_is_interrupted_at_once() -> None:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     done = subprocess.run([sys.executable, "-c", _UNDER_EXEC], env=env, capture_output=True, text=True, timeout=20)
     assert (done.returncode, done.stderr) == (130, "interrupted\n")
+
+
+def test_a_waiting_interrupt_tried_again_inside_a_held_block_waits_for_its_end(monkeypatch: pytest.MonkeyPatch) -> None:
+    """An interrupt that waited for numba and is tried again while ``tune`` holds the signals (Optuna
+    recording a trial) is noted there and raised as the hold ends: raised inside, it left the trial
+    RUNNING and the command waiting out Optuna's heartbeat (the default run timed out on it)."""
+    from types import SimpleNamespace
+
+    import sim.cli.interrupt as interrupt
+    from control.signals import signals_held
+
+    monkeypatch.setattr(interrupt, "RETRY_S", 60.0)  # tried again only when this test says
+    compiler = SimpleNamespace(co_filename="/venv/site-packages/numba/core/compiler.py", co_name="compile_extra")
+    inside = SimpleNamespace(f_code=compiler, f_back=None)
+    reached = []
+    with pytest.raises(KeyboardInterrupt, match="SIGTERM"), interrupt.sigterm_as_interrupt():
+        interrupt._interrupt(signal.SIGTERM, inside)  # type: ignore[arg-type]  # waits for numba
+        try_again = signal.getsignal(signal.SIGALRM)
+        with signals_held():
+            try_again(signal.SIGALRM, None)  # type: ignore[operator]  # the timer fires in the held block
+            reached.append("held block done")
+        reached.append("not raised")
+    assert reached == ["held block done"]

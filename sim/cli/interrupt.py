@@ -65,17 +65,27 @@ NOTICE_S = 1.0
 _WAITING: dict[str, float] = {}
 
 
-def _interrupt(signum: int, frame: FrameType | None, retry: bool = False) -> None:
+def _retry(signum: int) -> None:
+    """Try a waiting interrupt again: the signal is raised anew, so that the handler in place now takes
+    it (inside :func:`control.signals.signals_held` it is noted and acted on as the block ends: a retry
+    must not land in Optuna's bookkeeping either)."""
+    _WAITING["retry"] = 1.0
+    signal.raise_signal(signum)
+
+
+def _interrupt(signum: int, frame: FrameType | None) -> None:
     """Raise KeyboardInterrupt; where that would be lost or break a compile (:func:`_deferred`), raise it
-    a moment later, once the running code is past that point. A second signal while one waits is raised
-    at once (the user insists; a kernel being compiled is then lost and is compiled again next time)."""
+    a moment later, once the running code is past that point (:func:`_retry`). A second signal while one
+    waits is raised at once (the user insists; a kernel being compiled is then lost and is compiled again
+    next time)."""
+    retry = bool(_WAITING.pop("retry", 0.0))
     if _deferred(frame) and (retry or not _WAITING):
         since = _WAITING.setdefault("since", time.monotonic())
         if retry and time.monotonic() - since > NOTICE_S and not _WAITING.get("told"):
             _WAITING["told"] = 1.0
             print("nhsim: stopping once numba has built the kernel it is compiling; interrupt again to stop at once",
                   file=sys.stderr, flush=True)  # fmt: skip
-        signal.signal(signal.SIGALRM, lambda _s, f: _interrupt(signum, f, retry=True))
+        signal.signal(signal.SIGALRM, lambda _s, _f: _retry(signum))
         signal.setitimer(signal.ITIMER_REAL, RETRY_S)
         return
     _WAITING.clear()
