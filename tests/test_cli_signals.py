@@ -383,8 +383,8 @@ def test_a_command_run_from_source_text_is_interrupted_at_once() -> None:
 
 def test_a_waiting_interrupt_tried_again_inside_a_held_block_waits_for_its_end(monkeypatch: pytest.MonkeyPatch) -> None:
     """An interrupt that waited for numba and is tried again while ``tune`` holds the signals (Optuna
-    recording a trial) is noted there and raised as the hold ends: raised inside, it left the trial
-    RUNNING and the command waiting out Optuna's heartbeat (the default run timed out on it)."""
+    recording a trial) is noted there and raised as the hold ends: raised inside, it would leave the
+    trial RUNNING and the command waiting out Optuna's heartbeat."""
     from types import SimpleNamespace
 
     import sim.cli.interrupt as interrupt
