@@ -41,7 +41,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.clock import code_seconds
+from planning.clock import PlanClock
 from planning.collision.compiled import (
     BLOCK,
     BOX,
@@ -149,7 +149,7 @@ def _build(world: World, h: float, deadline: float | None) -> DistanceField:
     xmin, xmax, ymin, ymax = world.bounds
     nx = int(np.ceil((xmax - xmin) / h)) + 1
     ny = int(np.ceil((ymax - ymin) / h)) + 1
-    t0, c0 = time.perf_counter(), code_seconds()
+    clock = PlanClock(float("inf") if deadline is None else deadline - time.perf_counter())
     w = world_arrays(world, True)
     grid = np.empty((nx, ny))
     nbx, nby = -(-nx // BLOCK), -(-ny // BLOCK)
@@ -159,13 +159,13 @@ def _build(world: World, h: float, deadline: float | None) -> DistanceField:
     for s0 in range(0, nx, side):
         tops = superblock_candidates(s0, min(nx, s0 + side), ny, float(xmin), float(ymin), h, w)
         for i0 in range(s0, min(nx, s0 + side), BLOCK):  # a block row a call: the deadline is checked often
-            if deadline is not None and time.perf_counter() - (code_seconds() - c0) > deadline:
-                raise FieldTimeout(time.perf_counter() - t0, nx * ny, len(world.obstacles), code_seconds() - c0)
+            if clock.expired():
+                raise FieldTimeout(clock.elapsed(), nx * ny, len(world.obstacles), clock.code())
             parts.append(fill_rows(grid, float(xmin), float(ymin), h, i0, w, counts, tops))
     grid.setflags(write=False)
     starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
     members = np.concatenate(parts).astype(np.int64) if parts else np.zeros(0, dtype=np.int64)
-    return DistanceField(grid, float(xmin), float(ymin), h, starts, members, time.perf_counter() - t0)
+    return DistanceField(grid, float(xmin), float(ymin), h, starts, members, clock.elapsed())
 
 
 @nb.njit(cache=True)

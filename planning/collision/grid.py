@@ -21,7 +21,6 @@ near-margin poses); the grid only saves time.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -29,7 +28,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from planning.clock import code_seconds
+from planning.clock import PlanClock
 from planning.collision.compiled import (
     FieldArrays,
     RobotArrays,
@@ -227,7 +226,7 @@ class FastChecker:
     grid_seconds: float = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        t0, c0 = time.perf_counter(), code_seconds()
+        clock = PlanClock(float("inf"))  # only to time the grid less numba readying its kernels
         w = self.checker.world
         h = self.spacing if self.spacing is not None else max(0.01, float(np.sqrt(w.width * w.height / MAX_NODES)))
         if not h > 0:
@@ -243,8 +242,8 @@ class FastChecker:
         object.__setattr__(self, "_grid", arrays[0])
         object.__setattr__(self, "_field", arrays)
         #: Time this checker spent getting its grid [s] (building it, or ~0 when cached for the world), less
-        #: numba readying the kernels that build it (:func:`planning.clock.code_seconds`).
-        object.__setattr__(self, "grid_seconds", time.perf_counter() - t0 - (code_seconds() - c0))
+        #: numba readying the kernels that build it (:meth:`planning.clock.PlanClock.working`).
+        object.__setattr__(self, "grid_seconds", clock.working())
 
     @property
     def resolution(self) -> float:
