@@ -1,5 +1,7 @@
 """Signed distances checked against a slow reference: distance to a densely sampled boundary."""
 
+import math
+
 import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
@@ -108,6 +110,54 @@ def test_ellipse_distance_at_its_centre_is_minus_its_minor_semi_axis() -> None:
     assert float(e.signed_distance([0.0, 0.0])[0]) == pytest.approx(-0.5830635839399547, abs=1e-12)
     turned = Ellipse((1e-300, -1e-300), (0.3, 0.9), 1.2)
     assert float(turned.signed_distance([0.0, 0.0])[0]) == pytest.approx(-0.3, abs=1e-12)
+
+
+def _bisected_ellipse_distance(q0: float, q1: float, a: float, b: float) -> float:
+    """Signed distance of a folded point (q0, q1) >= 0 to the ellipse of semi-axes (a, b) by 64 steps of
+    Eberly's bisection of the closest-point root in log u: the plain-Python reference of
+    :mod:`planning.core.ellipse`, which finds the same root by safeguarded Newton steps."""
+    y0, y1, e0, e1 = (q0, q1, a, b) if a >= b else (q1, q0, b, a)
+    if not e1 * y1 > 0:
+        y1 = 0.0
+    if y1 > 0 and y0 > 0:
+        d = e0 * e0 - e1 * e1
+        lo, hi = e1 * y1, math.hypot(e0 * y0, e1 * y1)
+        for _ in range(64):
+            mid = math.sqrt(lo) * math.sqrt(hi)
+            if (e0 * y0 / (mid + d)) ** 2 + (e1 * y1 / mid) ** 2 - 1.0 > 0:
+                lo = mid
+            else:
+                hi = mid
+        u = math.sqrt(lo) * math.sqrt(hi)
+        dist = math.hypot(e0 * e0 * y0 / (u + d) - y0, e1 * e1 * y1 / u - y1)
+    elif y1 > 0:
+        dist = abs(y1 - e1)
+    else:
+        x0, x1 = e0, 0.0
+        if y0 < (e0 * e0 - e1 * e1) / e0:
+            x0 = e0 * e0 * y0 / max(e0 * e0 - e1 * e1, 1e-300)
+            x1 = e1 * math.sqrt(max(1.0 - (x0 / e0) ** 2, 0.0))
+        dist = math.hypot(x0 - y0, x1)
+    return -dist if (q0 / a) ** 2 + (q1 / b) ** 2 < 1.0 else dist
+
+
+def test_ellipse_distance_equals_the_plain_bisection_on_random_and_near_axis_points() -> None:
+    """The compiled Newton root against the plain 64-step bisection: random ellipses, points up to 3 m
+    out, points a hair off either axis (inside and out) and on the boundary, to 1e-14 m."""
+    rng = np.random.default_rng(11)
+    worst = 0.0
+    for _ in range(200):
+        a, b = rng.uniform(0.05, 1.0, 2)
+        q = rng.uniform(0.0, 3.0, (40, 2))
+        near = rng.uniform(0.0, 1.2 * max(a, b), 10)
+        hair = 10.0 ** rng.uniform(-300, -3, 10)
+        t = rng.uniform(0, np.pi / 2, 10)
+        on = np.column_stack([a * np.cos(t), b * np.sin(t)])
+        q = np.vstack([q, np.column_stack([near, hair]), np.column_stack([hair, near]), on])
+        got = Ellipse((0.0, 0.0), (float(a), float(b))).signed_distance(q)
+        ref = np.array([_bisected_ellipse_distance(float(x), float(y), float(a), float(b)) for x, y in q])
+        worst = max(worst, float(np.max(np.abs(got - ref))))
+    assert worst <= 1e-14, worst
 
 
 def test_world_walls_and_minimum() -> None:

@@ -2,13 +2,14 @@
 grid leaves undecided.
 
 The same formulas in the same operation order as :mod:`planning.core.world` (signed distances of
-circles, ellipses by Eberly's bisection (in log u, 64 steps), boxes, even-odd polygons, walls) and
+circles, ellipses (:func:`planning.core.ellipse.ellipse_local`, the one implementation), boxes,
+even-odd polygons, walls) and
 :mod:`planning.collision.exact` (disc test; footprint boundary samples at least ``tolerance / 2``
 beyond the clearance, and no obstacle anchor inside the footprint), one pose at a time. The exact
 checker skips obstacles whose bounding box is out of reach of a whole batch; that changes no verdict
 (such an obstacle is more than ``clearance + tolerance`` from every boundary sample), so every
 obstacle is measured here, except an ellipse whose circumscribed circle is farther from the point
-than an obstacle already measured (the minimum cannot change; it saves the 64 bisection steps), and
+than an obstacle already measured (the minimum cannot change; it saves solving for its closest point), and
 obstacles a distance field's broad phase proves farther than the nearest (:func:`field_distance`).
 Tests compare the verdicts with the exact checker's on random and near-margin poses.
 """
@@ -21,6 +22,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.ellipse import ellipse_local
 from planning.core.world import Box, Circle, Ellipse, Polygon, World
 
 FloatArray = NDArray[np.float64]
@@ -28,7 +30,7 @@ IntArray = NDArray[np.int64]
 
 CIRCLE, ELLIPSE, BOX, POLYGON = 0, 1, 2, 3
 #: An ellipse whose circumscribed circle is this much farther than the nearest obstacle so far is not
-#: measured [m] (far above the bisection's error, so the minimum distance is unchanged).
+#: measured [m] (far above the closest-point solution's error, so the minimum distance is unchanged).
 ELLIPSE_SKIP_MARGIN = 1e-9
 
 #: (bounds (4,), walls, kinds, params, vertices, offsets): the world for the kernels.
@@ -97,79 +99,6 @@ def _ellipse(x: float, y: float, p: FloatArray) -> float:
 
 
 @nb.njit(cache=True)
-def ellipse_local(q0: float, q1: float, a: float, b: float) -> float:
-    """Signed distance [m] to the ellipse of semi-axes (a, b) [m] of a point (q0, q1) >= 0 in its
-    frame, folded into the first quadrant (Eberly's closest point, bisected in log u)."""
-    if a >= b:
-        y0, y1, e0, e1 = q0, q1, a, b
-    else:
-        y0, y1, e0, e1 = q1, q0, b, a
-    if not e1 * y1 > 0:
-        y1 = 0.0  # on the major axis (or so near it that e1 y1 underflows)
-    if y1 > 0 and y0 > 0:
-        # the root u = t + e1^2 of (e0 y0 / (u + e0^2 - e1^2))^2 + (e1 y1 / u)^2 = 1, bisected in log u
-        d = e0 * e0 - e1 * e1
-        lo, hi = e1 * y1, np.hypot(e0 * y0, e1 * y1)
-        slo, shi = np.sqrt(lo), np.sqrt(hi)  # kept: one square root a step (the same values)
-        for _ in range(64):
-            mid = slo * shi
-            r0, r1 = e0 * y0 / (mid + d), e1 * y1 / mid
-            if r0 * r0 + r1 * r1 - 1.0 > 0:
-                slo = np.sqrt(mid)
-            else:
-                shi = np.sqrt(mid)
-        u = slo * shi
-        dist = np.hypot(e0 * e0 * y0 / (u + d) - y0, e1 * e1 * y1 / u - y1)
-    elif y1 > 0:
-        dist = abs(y1 - e1)
-    else:
-        x0, x1 = e0, 0.0
-        if y0 < (e0 * e0 - e1 * e1) / e0:
-            x0 = e0 * e0 * y0 / max(e0 * e0 - e1 * e1, 1e-300)
-            r = x0 / e0
-            x1 = e1 * np.sqrt(max(1.0 - r * r, 0.0))
-        dist = np.hypot(x0 - y0, x1)
-    u, v = q0 / a, q1 / b
-    return -dist if u * u + v * v < 1.0 else dist
-
-
-@nb.njit(cache=True)
-def ellipse_many(q0: FloatArray, q1: FloatArray, a: float, b: float, out: FloatArray) -> None:
-    """:func:`ellipse_local` of many folded points at once, into ``out``: the same operations, so the
-    same values, with the bisection's steps taken for all points side by side (independent steps the
-    processor overlaps, where one point's steps wait on each other)."""
-    m = q0.shape[0]
-    e0, e1 = (a, b) if a >= b else (b, a)
-    d = e0 * e0 - e1 * e1
-    y0, y1 = np.empty(m), np.empty(m)
-    slo, shi, c0, c1 = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
-    for n in range(m):
-        y0[n], y1[n] = (q0[n], q1[n]) if a >= b else (q1[n], q0[n])
-        if not e1 * y1[n] > 0:
-            y1[n] = 0.0
-        general = y1[n] > 0 and y0[n] > 0
-        c0[n] = e0 * y0[n] if general else 1.0  # a harmless stand-in where the bisection is not used
-        c1[n] = e1 * y1[n] if general else 1.0
-        slo[n], shi[n] = np.sqrt(c1[n]), np.sqrt(np.hypot(c0[n], c1[n]))
-    for _ in range(64):
-        for n in range(m):
-            mid = slo[n] * shi[n]
-            r0, r1 = c0[n] / (mid + d), c1[n] / mid
-            s = np.sqrt(mid)
-            above = r0 * r0 + r1 * r1 - 1.0 > 0
-            slo[n] = s if above else slo[n]
-            shi[n] = shi[n] if above else s
-    for n in range(m):
-        if y1[n] > 0 and y0[n] > 0:
-            u = slo[n] * shi[n]
-            dist = np.hypot(e0 * e0 * y0[n] / (u + d) - y0[n], e1 * e1 * y1[n] / u - y1[n])
-            uu, vv = q0[n] / a, q1[n] / b
-            out[n] = -dist if uu * uu + vv * vv < 1.0 else dist
-        else:
-            out[n] = ellipse_local(q0[n], q1[n], a, b)
-
-
-@nb.njit(cache=True)
 def _box(x: float, y: float, p: FloatArray) -> float:
     q0, q1 = _folded(x, y, p[0], p[1], p[4])
     return box_local(q0, q1, p[2], p[3])
@@ -215,8 +144,8 @@ def obstacle_distance(x: float, y: float, kind: int, p: FloatArray, v: FloatArra
 @nb.njit(cache=True)
 def _nearer(x: float, y: float, k: int, world: WorldArrays, d: float) -> float:
     """``min(d, signed distance of (x, y) to obstacle k)`` [m]; an ellipse whose circumscribed circle is
-    farther than ``d`` (by more than the bisection's 1e-12 m error) is not measured: the minimum is
-    the same, without 64 bisection steps."""
+    farther than ``d`` (by more than :data:`ELLIPSE_SKIP_MARGIN`, far above its distance's 1e-15 m error)
+    is not measured: the minimum is the same, without solving for its closest point."""
     _, _, kinds, params, verts, offsets = world
     p = params[k]
     if kinds[k] == ELLIPSE and np.hypot(x - p[0], y - p[1]) - max(p[2], p[3]) > d + ELLIPSE_SKIP_MARGIN:

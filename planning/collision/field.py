@@ -51,7 +51,7 @@ from planning.collision.compiled import (
     FieldArrays,
     WorldArrays,
     box_local,
-    ellipse_many,
+    ellipse_local,
     obstacle_distance,
     polygon_distance,
     walls_distance,
@@ -204,14 +204,11 @@ def fill_block(
         for j in range(j0, j1):
             y = y0 + j * h
             grid[i, j] = min(min(x - bounds[0], bounds[1] - x), min(y - bounds[2], bounds[3] - y))
-    qa, qb, sd = np.empty(BLOCK * BLOCK), np.empty(BLOCK * BLOCK), np.empty(BLOCK * BLOCK)
-    at = np.empty(BLOCK * BLOCK, dtype=np.int64)
     for m in range(candidates.shape[0]):
         k = candidates[m]
         kind, p = kinds[k], params[k]
         cx, cy, c, s = p[0], p[1], np.cos(p[4]), np.sin(p[4])
         v = verts[offsets[k] : offsets[k + 1]]
-        count = 0  # ellipse nodes to measure, gathered to be measured side by side
         for i in range(i0, i1):
             x = x0 + i * h
             for j in range(j0, j1):
@@ -226,14 +223,8 @@ def fill_block(
                     grid[i, j] = min(grid[i, j], box_local(q0, q1, p[2], p[3]))
                 elif np.hypot(d0, d1) - max(p[2], p[3]) <= grid[i, j] + ELLIPSE_SKIP_MARGIN:
                     # (farther ones are not measured, as in a full scan: they cannot be the nearest)
-                    qa[count], qb[count] = abs(c * d0 + s * d1), abs(-s * d0 + c * d1)
-                    at[count] = (i - i0) * BLOCK + (j - j0)
-                    count += 1
-        if count:
-            ellipse_many(qa[:count], qb[:count], p[2], p[3], sd[:count])
-            for n in range(count):
-                i, j = i0 + at[n] // BLOCK, j0 + at[n] % BLOCK
-                grid[i, j] = min(grid[i, j], sd[n])
+                    q0, q1 = abs(c * d0 + s * d1), abs(-s * d0 + c * d1)
+                    grid[i, j] = min(grid[i, j], ellipse_local(q0, q1, p[2], p[3]))
 
 
 @nb.njit(cache=True)

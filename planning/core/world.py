@@ -2,7 +2,7 @@
 
 Every obstacle answers ``signed_distance(points)`` for many points at once: positive outside,
 negative inside, zero on the boundary [m], exact to floating-point precision (the ellipse by
-Eberly's bisection on the closest-point equation, converged to 1e-12 m).
+Eberly's closest-point equation, solved to about 1e-15 m: :mod:`planning.core.ellipse`).
 """
 
 from __future__ import annotations
@@ -105,44 +105,15 @@ class Ellipse(_Folded):
     extents_field: ClassVar[str] = "radii"
 
     def signed_distance(self, points: ArrayLike) -> FloatArray:
-        """Signed distance of (M, 2) points [m] (exact; Eberly's closest-point bisection)."""
+        """Signed distance of (M, 2) points [m] (exact; Eberly's closest-point equation, solved by
+        :mod:`planning.core.ellipse`)."""
+        from planning.core.ellipse import ellipse_distances  # compiled: loaded when an ellipse is measured
+
         q = self._folded(points)
+        flat = q.reshape(-1, 2)
         a, b = self.radii
-        if a >= b:
-            y0, y1, e0, e1 = q[..., 0], q[..., 1], a, b
-        else:
-            y0, y1, e0, e1 = q[..., 1], q[..., 0], b, a
-        dist = np.empty_like(y0)
-        # y1 > 0, y0 > 0: root u = t + e1^2 of F = (e0 y0/(u + e0^2 - e1^2))^2 + (e1 y1/u)^2 - 1, bracketed by
-        # e1 y1 <= u <= |(e0 y0, e1 y1)| and bisected geometrically (in log u), so u keeps its relative
-        # precision even where it is far below e1^2 (a point near the major axis inside: bisecting t itself
-        # there lost up to 1e-4 m, and the bracket collapsed onto the pole for y1 < 1e-16 e1). A y1 so
-        # small that e1 y1 underflows counts as on the major axis (the distance moves by < 1e-300 m).
-        y1 = np.where(e1 * y1 > 0, y1, 0.0)
-        gen = (y1 > 0) & (y0 > 0)
-        if np.any(gen):
-            g0, g1 = y0[gen], y1[gen]
-            d = e0 * e0 - e1 * e1
-            lo, hi = e1 * g1, np.hypot(e0 * g0, e1 * g1)
-            for _ in range(64):
-                mid = np.sqrt(lo) * np.sqrt(hi)
-                f = (e0 * g0 / (mid + d)) ** 2 + (e1 * g1 / mid) ** 2 - 1.0
-                lo = np.where(f > 0, mid, lo)
-                hi = np.where(f > 0, hi, mid)
-            u = np.sqrt(lo) * np.sqrt(hi)
-            dist[gen] = np.hypot(e0 * e0 * g0 / (u + d) - g0, e1 * e1 * g1 / u - g1)
-        on_minor = (y1 > 0) & (y0 <= 0)
-        dist[on_minor] = np.abs(y1[on_minor] - e1)
-        on_major = y1 <= 0
-        if np.any(on_major):
-            g0 = y0[on_major]
-            thresh = (e0 * e0 - e1 * e1) / e0
-            inner = g0 < thresh
-            x0 = np.where(inner, e0 * e0 * g0 / max(e0 * e0 - e1 * e1, 1e-300), e0)
-            x1 = np.where(inner, e1 * np.sqrt(np.clip(1.0 - (x0 / e0) ** 2, 0.0, None)), 0.0)
-            dist[on_major] = np.hypot(x0 - g0, x1)
-        inside = (q[..., 0] / a) ** 2 + (q[..., 1] / b) ** 2 < 1.0
-        return np.where(inside, -dist, dist)
+        out = ellipse_distances(np.ascontiguousarray(flat[:, 0]), np.ascontiguousarray(flat[:, 1]), float(a), float(b))
+        return np.asarray(out).reshape(q.shape[:-1])
 
     def bounding_box(self) -> tuple[float, float, float, float]:
         """Axis-aligned box (xmin, xmax, ymin, ymax) [m]."""
