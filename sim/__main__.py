@@ -1,5 +1,5 @@
 """``python -m sim`` is the ``nhsim`` command."""
 
-from sim.cli.main import main
+from sim.cli.main import console
 
-raise SystemExit(main())
+raise SystemExit(console())
