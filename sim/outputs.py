@@ -15,6 +15,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
+from control.signals import signals_held
 from planning.errors import ConfigError, OutputExistsError
 
 #: Whether an existing file may be replaced: a flag, or a question asked of the path each time it is
@@ -106,7 +107,8 @@ def _check_folder(path: Path) -> None:
             f"cannot write {path}: {folder} is a file, not a folder; remove or rename it, or choose another path"
         )
     try:
-        probe = tempfile.mkdtemp(prefix=".nhsim-probe-", dir=folder)
+        with signals_held():  # made and removed at once: an interrupt waits until the probe is gone
+            os.rmdir(tempfile.mkdtemp(prefix=".nhsim-probe-", dir=folder))
     except OSError as exc:
         problem = (
             f"its folder {folder} does not accept new files"
@@ -114,7 +116,6 @@ def _check_folder(path: Path) -> None:
             else f"its folder {path.parent} does not exist and cannot be created in {folder}"
         )
         raise ConfigError(f"cannot write {path}: {problem} ({exc.strerror or exc}); choose another path") from exc
-    os.rmdir(probe)
 
 
 @contextlib.contextmanager
@@ -131,8 +132,9 @@ def atomic_path(path: str | Path, *, overwrite: Overwrite = False) -> Iterator[P
     prefix, suffix = _temporary_affixes(target)
     tmp: Path | None = None
     try:  # from the file's creation on: an interrupt while it is being set up removes it too
-        fd, tmp_name = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=target.parent)
-        tmp = Path(tmp_name)
+        with signals_held():  # one landing between the file's creation and ``tmp`` naming it waits
+            fd, tmp_name = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=target.parent)
+            tmp = Path(tmp_name)
         os.close(fd)
         umask = os.umask(0)
         os.umask(umask)

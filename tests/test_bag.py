@@ -296,6 +296,29 @@ def test_an_interrupted_write_leaves_nothing(
     assert list(tmp_path.iterdir()) == []
 
 
+def test_an_interrupt_as_the_work_folder_is_made_leaves_nothing(
+    job: tuple[Any, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A signal landing just after ``mkdtemp`` made the bag's work folder, before its name is kept: the
+    interrupt waits until it is, so the folder is removed."""
+    import signal
+    import tempfile
+
+    result, _ = job
+    real = tempfile.mkdtemp
+
+    def made_then_interrupted(*args: Any, **kwargs: Any) -> str:
+        made = real(*args, **kwargs)
+        signal.raise_signal(signal.SIGINT)  # Python's own handler: KeyboardInterrupt at once
+        return made
+
+    monkeypatch.setattr(tempfile, "mkdtemp", made_then_interrupted)
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    with pytest.raises(KeyboardInterrupt):
+        write_job_bag(result, tmp_path / "cut")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_the_foxglove_layout_names_only_topics_and_fields_a_bag_has(job: tuple[Any, Path]) -> None:
     import json
 

@@ -119,3 +119,26 @@ def test_an_interrupt_while_ffmpeg_starts_leaves_nothing(tmp_path: Path, monkeyp
     with pytest.raises(KeyboardInterrupt), writer:
         pass
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_interrupt_as_the_temporary_file_is_created_leaves_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A signal landing just after ``mkstemp`` made the temporary file, before its name is returned and
+    kept: the interrupt waits until the name is kept, so the file is removed (it stayed behind once
+    under load, a SIGTERM sent as soon as the file appeared)."""
+    import signal
+    import tempfile
+
+    real = tempfile.mkstemp
+
+    def made_then_interrupted(*args: object, **kwargs: object) -> tuple[int, str]:
+        made = real(*args, **kwargs)  # type: ignore[call-overload]
+        signal.raise_signal(signal.SIGINT)  # Python's own handler: KeyboardInterrupt at once
+        return made  # type: ignore[no-any-return]
+
+    monkeypatch.setattr(tempfile, "mkstemp", made_then_interrupted)
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    with pytest.raises(KeyboardInterrupt), VideoWriter(tmp_path / "x.mp4", 64, 48, 10):
+        pass
+    assert list(tmp_path.iterdir()) == []

@@ -22,6 +22,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from control.signals import signals_held
 from planning.errors import ConfigError, OutputExistsError
 from sim.io import bag_topics as bt
 from sim.io import rosmsgs as m
@@ -212,15 +213,18 @@ def write_bag(prepared: Any, logs: Mapping[str, Any], path: Path, *, overwrite: 
     check_bag_target(path, overwrite=overwrite)
     topics = job_topics(prepared, logs)
     path.parent.mkdir(parents=True, exist_ok=True)
-    work = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent))
+    work: Path | None = None
     try:
+        with signals_held():  # an interrupt landing as the folder is made waits until ``work`` names it
+            work = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent))
         _write(topics, work / path.name)
         if path.exists():
             check_bag_target(path, overwrite=overwrite)
             os.replace(path, work / "replaced")
         os.replace(work / path.name, path)
     finally:
-        shutil.rmtree(work, ignore_errors=True)
+        if work is not None:
+            shutil.rmtree(work, ignore_errors=True)
     stamps = np.concatenate([tp.times for tp in topics])
     size = sum(f.stat().st_size for f in path.iterdir() if f.is_file())
     counts = {tp.name: (tp.msgtype, int(tp.times.size)) for tp in topics}
