@@ -122,11 +122,13 @@ def console() -> int:
     When the command has finished (its outputs written and closed), the objects still alive are
     frozen out of the garbage collector: the interpreter's collections at exit would otherwise walk
     every object numba and the libraries made (about 0.15 s after a plan, more than the plan of a
-    small world) only to free memory the process is about to return anyway. Tests call :func:`main`,
-    which leaves the collector alone.
+    small world) only to free memory the process is about to return anyway. An interrupted command
+    (130) exits the slow way: what it left half done may still hold a temporary file that only its
+    collection removes. Tests call :func:`main`, which leaves the collector alone.
     """
     code = main()
-    gc.freeze()
+    if code != 130:
+        gc.freeze()
     return code
 
 
