@@ -20,6 +20,7 @@ from planning.core.world import Box, Circle, Ellipse, Polygon, World
 from planning.planners.base import PlanProblem, PlanStatus
 from planning.planners.registry import make_planner
 from tests.fuzz_helpers import crowded_worlds, fast_and_slow
+from tests.reference_checker import reference_clearance
 
 
 def reference_grid(world: World, h: float) -> np.ndarray:
@@ -127,6 +128,35 @@ def test_fast_checker_verdicts_on_a_crowded_world_equal_the_exact_ones(shape):
     undecided = poses[fast._classify(poses, False) < 0]
     assert undecided.shape[0] > 20
     assert np.array_equal(fast._exact(undecided), exact.poses_free(undecided))
+
+
+@pytest.mark.parametrize("world", WORLDS[:3], ids=["room", "8m-20", "crowded"])
+@pytest.mark.parametrize("shape", ["footprint", "disc"])
+@pytest.mark.parametrize("walls", [True, False])
+def test_clearance_equals_the_plain_reference_with_and_without_a_cached_field(world, shape, walls):
+    """The compiled clearance bit for bit against the numpy reference (every obstacle measured), before
+    and after a distance field of the world is cached (then measured against its block candidates), on
+    poses near the obstacles (where the footprint's samples count) and anywhere."""
+    from planning.collision import field as fields
+
+    rng = np.random.default_rng(len(world.obstacles))
+    x0, x1, y0, y1 = world.bounds
+    anywhere = np.column_stack([rng.uniform(x0, x1, 300), rng.uniform(y0, y1, 300), rng.uniform(-4, 4, 300)])
+    near = [
+        (*np.asarray(o.center) + rng.normal(0, 0.3, 2), rng.uniform(-4, 4))
+        for o in world.obstacles
+        if hasattr(o, "center")
+    ]
+    poses = np.vstack([anywhere, np.asarray(near[:200])])
+    checker = CollisionChecker(world, load_robot("turtlebot3"), shape=shape, clearance=0.05, walls=walls)
+    ref = reference_clearance(checker, poses)
+    for key in [k for k in fields._CACHE if k[0] == world]:
+        del fields._CACHE[key]
+    assert np.array_equal(checker.clearance_of(poses), ref)  # no field: every obstacle scanned
+    distance_field(world, 0.05)
+    assert fields.cached_field(world) is not None
+    assert np.array_equal(checker.clearance_of(poses), ref)  # the field's candidates (walls only)
+    assert np.array_equal(checker.poses_free(poses), ref > checker.clearance)
 
 
 def test_a_passed_deadline_stops_the_build_and_the_planners_time_out_on_it():

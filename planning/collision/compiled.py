@@ -189,6 +189,15 @@ BLOCK = 8
 FieldArrays = tuple[FloatArray, float, float, float, IntArray, IntArray]
 
 
+def empty_field(world: World) -> FieldArrays:
+    """No field: nothing tabulated, every point measured against every obstacle (:func:`field_distance`).
+    Its grid is read-only, as a built field's is, so the kernels compile once for both."""
+    grid = np.empty((0, 0))
+    grid.setflags(write=False)
+    none = np.zeros(0, dtype=np.int64)
+    return (grid, float(world.bounds[0]), float(world.bounds[2]), 1.0, none, none)
+
+
 @nb.njit(cache=True)
 def field_distance(x: float, y: float, world: WorldArrays, field: FieldArrays) -> float:
     """Signed distance [m] of (x, y), equal to :func:`_world_distance`'s: measured against the
@@ -226,9 +235,17 @@ def grid_lookup(grid: FloatArray, x0: float, y0: float, h: float, x: float, y: f
 
 
 @nb.njit(cache=True)
-def exact_pose_free(x: float, y: float, th: float, world: WorldArrays, robot: RobotArrays, field: FieldArrays) -> bool:
-    """``CollisionChecker.poses_free`` of one pose (x [m], y [m], heading [rad]); the other arguments
-    and the method as :func:`exact_free_kernel`'s."""
+def pose_clearance(
+    x: float, y: float, th: float, world: WorldArrays, robot: RobotArrays, field: FieldArrays, proven_above: float
+) -> float:
+    """``CollisionChecker.clearance_of`` of one pose (x [m], y [m], heading [rad]) [m]: the centre's
+    distance less the radius, but for the footprint near something (its centre within ``radius +
+    clearance + tolerance``) the nearest boundary sample's distance less ``tolerance / 2``, or -inf
+    with an obstacle's anchor inside the footprint. The other arguments as :func:`exact_free_kernel`'s.
+
+    A boundary sample whose grid bound (the node's distance less ``h / sqrt(2)``) already exceeds
+    ``proven_above + tolerance / 2`` is not measured (``np.inf``: every sample is): whether the result
+    exceeds ``proven_above`` is the same, though the result itself may then be larger."""
     boundary, footprint, anchors, radius, clearance, tol, disc = robot
     grid, x0, y0, h = field[0], field[1], field[2], field[3]
     e = h / np.sqrt(2.0)
@@ -240,7 +257,7 @@ def exact_pose_free(x: float, y: float, th: float, world: WorldArrays, robot: Ro
         for b in range(boundary.shape[0]):
             bx, by = boundary[b, 0], boundary[b, 1]
             px, py = x + c * bx - s * by, y + s * bx + c * by
-            if grid.size > 0 and grid_lookup(grid, x0, y0, h, px, py) - e - 0.5 * tol > clearance:
+            if grid.size > 0 and grid_lookup(grid, x0, y0, h, px, py) - e - 0.5 * tol > proven_above:
                 continue
             sd = min(sd, field_distance(px, py, world, field))
         clr = sd - 0.5 * tol
@@ -251,7 +268,24 @@ def exact_pose_free(x: float, y: float, th: float, world: WorldArrays, robot: Ro
             if _anchor_inside(c * dx + s * dy, -s * dx + c * dy, footprint):
                 clr = -np.inf
                 break
-    return clr > clearance
+    return clr
+
+
+@nb.njit(cache=True)
+def exact_pose_free(x: float, y: float, th: float, world: WorldArrays, robot: RobotArrays, field: FieldArrays) -> bool:
+    """``CollisionChecker.poses_free`` of one pose (x [m], y [m], heading [rad]); the other arguments
+    and the method as :func:`exact_free_kernel`'s."""
+    clearance = robot[4]
+    return pose_clearance(x, y, th, world, robot, field, clearance) > clearance
+
+
+@nb.njit(cache=True)
+def clearances_kernel(poses: FloatArray, world: WorldArrays, robot: RobotArrays, field: FieldArrays) -> FloatArray:
+    """(M,) :func:`pose_clearance` of (M, 3) poses, every boundary sample measured."""
+    out = np.empty(poses.shape[0])
+    for k in range(poses.shape[0]):
+        out[k] = pose_clearance(poses[k, 0], poses[k, 1], poses[k, 2], world, robot, field, np.inf)
+    return out
 
 
 @nb.njit(cache=True)

@@ -14,7 +14,9 @@ Two shapes:
 
 Motions are checked by sampling poses so that no point of the robot moves more than
 ``resolution`` between samples; ``resolution`` is finer than the smallest obstacle (a quarter of
-its smallest extent, and at most 2 cm). All checks are vectorised over all poses at once.
+its smallest extent, and at most 2 cm). The clearance every verdict comes from is computed in
+compiled code, pose by pose (:meth:`CollisionChecker.clearance_of`); ``tests/reference_checker.py``
+keeps it in plain numpy, and the tests compare the two bit for bit.
 """
 
 from __future__ import annotations
@@ -26,6 +28,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planning.collision.compiled import FieldArrays, RobotArrays, clearances_kernel, empty_field, world_arrays
+from planning.collision.field import cached_field
 from planning.core.geometry import densify_path
 from planning.core.robot import RobotSpec
 from planning.core.world import Box, Circle, Ellipse, Polygon, World
@@ -101,8 +105,12 @@ class CollisionChecker:
     def clearance_of(self, poses: ArrayLike) -> FloatArray:
         """Lower bound on the distance between the robot and the nearest obstacle or wall [m].
 
-        Exact for "disc"; within ``tolerance / 2`` below the truth for "footprint".
-        Negative means overlap.
+        Exact for "disc"; within ``tolerance / 2`` below the truth for "footprint" where the robot's
+        centre is within ``radius + clearance + tolerance`` of something (elsewhere the centre's
+        distance less the radius: the footprint lies inside that disc). Negative means overlap.
+        Compiled (:func:`planning.collision.compiled.clearances_kernel`); measured against the
+        candidates of the world's distance field when one is cached (the same values as a scan of every
+        obstacle: a 2000-obstacle world's path in milliseconds).
 
         Args:
             poses: (M, 3) poses [x, y, theta].
@@ -110,51 +118,21 @@ class CollisionChecker:
         Returns:
             (M,) clearances.
         """
-        p = np.atleast_2d(np.asarray(poses, dtype=float))
-        if self.shape == "disc":
-            return self.world.signed_distance(p[:, :2], walls=self.walls) - self.robot.radius
-        # Broad phase: the footprint lies between its inscribed and circumscribed discs about the
-        # base origin, so poses far from everything (or deep inside something) need no exact test.
-        centre = self.world.signed_distance(p[:, :2], walls=self.walls)
-        out = centre - self.robot.radius
-        band = centre <= self.robot.radius + self.clearance + self.tolerance
-        if np.any(band):
-            out[band] = self._footprint_clearance(p[band])
-        return out
+        p = np.ascontiguousarray(np.atleast_2d(np.asarray(poses, dtype=float)))
+        return clearances_kernel(p, world_arrays(self.world, self.walls), self.robot_arrays(), self._field())  # type: ignore[no-any-return]
 
-    def _footprint_clearance(self, p: FloatArray) -> FloatArray:
-        c, s = np.cos(p[:, 2])[:, None], np.sin(p[:, 2])[:, None]
-        bx, by = self._boundary[None, :, 0], self._boundary[None, :, 1]
-        pts = np.stack([p[:, :1] + c * bx - s * by, p[:, 1:2] + s * bx + c * by], axis=-1).reshape(-1, 2)
-        reach = self.robot.radius + self.clearance + self.tolerance
-        sd = self.world.wall_distance(pts) if self.walls else np.full(pts.shape[0], np.inf)
-        lo, hi = p[:, :2].min(axis=0) - reach, p[:, :2].max(axis=0) + reach
-        bb = self._boxes
-        far = (bb[:, 1] < lo[0]) | (bb[:, 0] > hi[0]) | (bb[:, 3] < lo[1]) | (bb[:, 2] > hi[1])
-        for k in np.flatnonzero(~far):  # the others are too far from every pose in this batch to matter
-            sd = np.minimum(sd, self.world.obstacles[k].signed_distance(pts))
-        out = sd.reshape(p.shape[0], -1).min(axis=1) - 0.5 * self.tolerance
-        if self._anchors.size:
-            out = np.where(self._anchor_inside(p), -np.inf, out)
-        return out
+    def robot_arrays(self) -> RobotArrays:
+        """The robot and margins as the compiled kernels take them (boundary samples, footprint, obstacle
+        anchors, radius, clearance, tolerance, disc shape)."""
+        fp = np.ascontiguousarray(self.robot.footprint, dtype=float)
+        margins = (float(self.robot.radius), float(self.clearance), float(self.tolerance), self.shape == "disc")
+        return (self._boundary, fp, self._anchors, *margins)
 
-    @functools.cached_property
-    def _boxes(self) -> FloatArray:
-        """(n_obstacles, 4) bounding boxes (xmin, xmax, ymin, ymax) [m], computed on first use."""
-        return np.array([o.bounding_box() for o in self.world.obstacles], dtype=float).reshape(-1, 4)
-
-    def _anchor_inside(self, p: FloatArray) -> NDArray[np.bool_]:
-        """(M,) whether any obstacle's anchor point lies inside the footprint at each pose."""
-        c, s = np.cos(p[:, 2])[:, None], np.sin(p[:, 2])[:, None]
-        dx = self._anchors[None, :, 0] - p[:, :1]
-        dy = self._anchors[None, :, 1] - p[:, 1:2]
-        lx, ly = c * dx + s * dy, -s * dx + c * dy  # anchors in the body frame, (M, n_obs)
-        fp = self.robot.footprint
-        a, b = fp, np.roll(fp, -1, axis=0)
-        cross = (b[:, 0] - a[:, 0])[None, None, :] * (ly[..., None] - a[None, None, :, 1]) - (b[:, 1] - a[:, 1])[
-            None, None, :
-        ] * (lx[..., None] - a[None, None, :, 0])
-        return np.any(np.all(cross >= 0.0, axis=-1), axis=-1)
+    def _field(self) -> FieldArrays:
+        """The world's cached distance field (its block candidates speed the scan), else none; never
+        without walls (the field's candidates assume them)."""
+        built = cached_field(self.world) if self.walls else None
+        return built.arrays() if built is not None else empty_field(self.world)
 
     def poses_free(self, poses: ArrayLike) -> NDArray[np.bool_]:
         """(M,) whether each pose keeps ``clearance`` from every obstacle and wall."""

@@ -144,6 +144,14 @@ def distance_field(world: World, h: float, deadline: float | None = None) -> Dis
     return field
 
 
+def cached_field(world: World) -> DistanceField | None:
+    """The world's most recently built field (at any spacing), or None: never builds one."""
+    for (w, _), built in reversed(_CACHE.items()):
+        if w == world:
+            return built
+    return None
+
+
 def _build(world: World, h: float, deadline: float | None) -> DistanceField:
     """Build the field a row of blocks at a time (see the module doc)."""
     xmin, xmax, ymin, ymax = world.bounds

@@ -33,6 +33,8 @@ from planning.collision.compiled import (
     FieldArrays,
     RobotArrays,
     WorldArrays,
+    clearances_kernel,
+    empty_field,
     exact_free_kernel,
     exact_pose_free,
     grid_lookup,
@@ -236,9 +238,7 @@ class FastChecker:
             built: DistanceField = distance_field(w, float(h), self.deadline)
             arrays = built.arrays()
         else:  # nothing tabulated: every pose goes to the exact formulas, over every obstacle
-            x0, _, y0, _ = w.bounds
-            empty = np.zeros(0, dtype=np.int64)
-            arrays = (np.empty((0, 0)), float(x0), float(y0), float(h), empty, empty)
+            arrays = empty_field(w)
         object.__setattr__(self, "_grid", arrays[0])
         object.__setattr__(self, "_field", arrays)
         #: Time this checker spent getting its grid [s] (building it, or ~0 when cached for the world), less
@@ -289,10 +289,9 @@ class FastChecker:
         if args is None:
             return None
         c = self.checker
-        robot = (c._boundary, np.ascontiguousarray(c.robot.footprint, dtype=float), c._anchors)
-        margins = (float(c.robot.radius), float(c.clearance), float(c.tolerance), c.shape == "disc")
+        robot = c.robot_arrays()
         grid, x0, y0, h = self._grid, float(args[1]), float(args[2]), float(args[3])
-        return (grid, x0, y0, h, *robot, *margins, world_arrays(c.world, c.walls), (*robot, *margins), self._field)  # type: ignore[return-value]
+        return (grid, x0, y0, h, *robot, world_arrays(c.world, c.walls), robot, self._field)  # type: ignore[return-value]
 
     def _classify(self, p: FloatArray, stop: bool) -> NDArray[np.int8]:
         args = self.kernel_args()
@@ -304,9 +303,7 @@ class FastChecker:
         """``checker.poses_free`` of (M, 3) poses, compiled (:mod:`planning.collision.compiled`)."""
         c = self.checker
         world = world_arrays(c.world, c.walls)
-        disc = c.shape == "disc"
-        robot = (c._boundary, c.robot.footprint, c._anchors, c.robot.radius, c.clearance, c.tolerance, disc)
-        return exact_free_kernel(np.ascontiguousarray(poses), world, robot, self._field)  # type: ignore[no-any-return]
+        return exact_free_kernel(np.ascontiguousarray(poses), world, c.robot_arrays(), self._field)  # type: ignore[no-any-return]
 
     def settle_path(self, poses: FloatArray, cls: NDArray[np.int8]) -> bool:
         """:meth:`path_free`'s verdict from the (M, 3) poses and their ``classify_kernel`` classes
@@ -369,5 +366,7 @@ class FastChecker:
         return g - e, g + e
 
     def clearance_of(self, poses: ArrayLike) -> FloatArray:
-        """The exact checker's clearance lower bound [m] (not accelerated)."""
-        return self.checker.clearance_of(poses)
+        """The exact checker's clearance lower bound [m] (measured against this checker's field)."""
+        p = np.ascontiguousarray(np.atleast_2d(np.asarray(poses, dtype=float)))
+        c = self.checker
+        return clearances_kernel(p, world_arrays(c.world, c.walls), c.robot_arrays(), self._field)  # type: ignore[no-any-return]
