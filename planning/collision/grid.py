@@ -22,7 +22,6 @@ near-margin poses); the grid only saves time.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 import numba as nb
 import numpy as np
@@ -262,19 +261,12 @@ class FastChecker:
         if not c.walls:
             raise ValueError("proof_arguments needs a checker with walls (the grid assumes them)")
         x0, _, y0, _ = c.world.bounds
-        fp = np.ascontiguousarray(c.robot.footprint, dtype=float)
-        r, clr, tol, disc = float(c.robot.radius), float(c.clearance), float(c.tolerance), c.shape == "disc"
-        return (self._grid, float(x0), float(y0), self._h, c._boundary, fp, c._anchors, r, clr, tol, disc)
+        return (self._grid, float(x0), float(y0), self._h, *c.robot_arrays())
 
-    def kernel_args(self) -> tuple[Any, ...] | None:
-        """Arguments 2.. of :func:`classify_kernel` (after the poses) except ``stop_on_collision``, for
-        compiled callers that classify poses they generate; None without walls (nothing is proven)."""
-        c = self.checker
-        if not c.walls:
-            return None
-        x0, _, y0, _ = c.world.bounds
-        r, fp, disc = c.robot.radius, c.robot.footprint, c.shape == "disc"
-        return (self._grid, x0, y0, self._h, c._boundary, fp, c._anchors, r, c.clearance, c.tolerance, disc)
+    def kernel_args(self) -> ProofArguments | None:
+        """:meth:`proof_arguments`, or None without walls (nothing is proven), for compiled callers that
+        classify poses they generate (:func:`classify_kernel` after the poses, but ``stop_on_collision``)."""
+        return self.proof_arguments() if self.checker.walls else None
 
     def check_arrays(self) -> CheckArrays | None:
         """What the compiled :func:`pose_free` takes: :meth:`kernel_args` and the exact fallback's
@@ -289,9 +281,7 @@ class FastChecker:
         if args is None:
             return None
         c = self.checker
-        robot = c.robot_arrays()
-        grid, x0, y0, h = self._grid, float(args[1]), float(args[2]), float(args[3])
-        return (grid, x0, y0, h, *robot, world_arrays(c.world, c.walls), robot, self._field)  # type: ignore[return-value]
+        return (*args, world_arrays(c.world, c.walls), c.robot_arrays(), self._field)
 
     def _classify(self, p: FloatArray, stop: bool) -> NDArray[np.int8]:
         args = self.kernel_args()
