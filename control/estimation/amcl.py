@@ -36,7 +36,7 @@ The algorithm of Probabilistic Robotics (Thrun, Burgard, Fox 2005) ch. 8 as Nav2
   as a fix's, it leaves dead reckoning uncorrected; measured on a seeded random world, the
   estimate drifted 4 cm from an accurate localiser into an obstacle.)
 
-The map is the world's own signed distance (:func:`planning.collision.compiled.world_distances`,
+The map is the world's own signed distance (:func:`planning.collision.field.signed_distances`,
 the planner's formulas), tabulated once per world on a ``map_resolution`` grid and read bilinearly.
 
 Defaults are Nav2's (``nav2_bringup/params/nav2_params.yaml``, ``amcl``): alpha1-4 0.2,
@@ -58,7 +58,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from control.estimation import amcl_kernels as K
-from planning.collision.compiled import world_arrays, world_distances
+from planning.collision.field import signed_distances
 from planning.core.world import World
 from planning.errors import ConfigError
 
@@ -229,7 +229,7 @@ def likelihood_field(world: World, resolution: float, cap: float, clearance: flo
     ny = math.ceil((ymax - ymin) / resolution) + 1
     xx, yy = np.meshgrid(xmin + resolution * np.arange(nx), ymin + resolution * np.arange(ny), indexing="ij")
     pts = np.ascontiguousarray(np.column_stack([xx.ravel(), yy.ravel()]))
-    sd = world_distances(pts, world_arrays(world, True)).reshape(nx, ny)
+    sd = signed_distances(world, pts, resolution).reshape(nx, ny)
     capped = np.minimum(np.maximum(sd, 0.0), cap)
     signed = np.clip(sd, -cap, cap)
     free = pts[sd.ravel() >= clearance]

@@ -213,6 +213,16 @@ def field_distance(x: float, y: float, world: WorldArrays, field: FieldArrays) -
 
 
 @nb.njit(cache=True)
+def field_distances(points: FloatArray, world: WorldArrays, field: FieldArrays) -> FloatArray:
+    """(M,) :func:`field_distance` of (M, 2) points [m]: :func:`world_distances`' values, measured against
+    the field's block candidates."""
+    out = np.empty(points.shape[0])
+    for k in range(points.shape[0]):
+        out[k] = field_distance(points[k, 0], points[k, 1], world, field)
+    return out
+
+
+@nb.njit(cache=True)
 def _anchor_inside(lx: float, ly: float, footprint: FloatArray) -> bool:
     nf = footprint.shape[0]
     for v in range(nf):

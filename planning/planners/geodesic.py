@@ -33,7 +33,8 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.collision.compiled import WorldArrays, _world_distance, world_arrays, world_distances
+from planning.collision.compiled import FieldArrays, WorldArrays, empty_field, field_distance, world_arrays
+from planning.collision.field import cached_field, signed_distances
 from planning.core.world import World
 from planning.planners.lattice import cell_centres, obstacle_heuristic
 
@@ -56,9 +57,10 @@ _FIELDS: OrderedDict[tuple[object, ...], FloatArray] = OrderedDict()
 def centre_distances(world: World, cell: float) -> FloatArray:
     """(nx, ny) signed distances [m] from the centres of the cells of side ``cell`` over the world's
     bounds (cell (0, 0) at its lower-left corner) to the nearest obstacle or wall: the exact signed
-    distance, compiled; cached per world and cell."""
+    distance, compiled, with the distance field's broad phase
+    (:func:`planning.collision.field.signed_distances`); cached per world and cell."""
     nx, ny, centres = cell_centres(world.bounds, cell)
-    d = world_distances(centres, world_arrays(world)).reshape(nx, ny)
+    d = signed_distances(world, centres, cell).reshape(nx, ny)
     d.setflags(write=False)
     return d  # type: ignore[no-any-return]
 
@@ -135,15 +137,16 @@ def _descend(field: FloatArray, i: int, j: int) -> IntArray:
 
 
 @nb.njit(cache=True)
-def _sees(a: FloatArray, b: FloatArray, world: WorldArrays, keep: float) -> bool:
+def _sees(a: FloatArray, b: FloatArray, world: WorldArrays, field: FieldArrays, keep: float) -> bool:
     """Whether every point of segment a-b is farther than ``keep`` from everything, by sphere tracing:
     the distance is 1-Lipschitz, so from a point ``excess = distance - keep`` away from the limit the
-    next ``excess`` of the segment keeps it; a point within ``SEE_MARGIN`` of the limit is a no."""
+    next ``excess`` of the segment keeps it; a point within ``SEE_MARGIN`` of the limit is a no. The
+    distance is measured against ``field``'s block candidates (the values of a scan of everything)."""
     length = np.hypot(b[0] - a[0], b[1] - a[1])
     t = 0.0
     while True:
         f = t / length if length > 0.0 else 0.0
-        excess = _world_distance(a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), world) - keep
+        excess = field_distance(a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), world, field) - keep
         if excess <= SEE_MARGIN:
             return False
         if t >= length:
@@ -152,21 +155,21 @@ def _sees(a: FloatArray, b: FloatArray, world: WorldArrays, keep: float) -> bool
 
 
 @nb.njit(cache=True)
-def _pull(pts: FloatArray, world: WorldArrays, radius: float) -> IntArray:
+def _pull(pts: FloatArray, world: WorldArrays, field: FieldArrays, radius: float) -> IntArray:
     """Indices of the points kept by string-pulling: from each kept point, the farthest point up to
     which every one is seen (:func:`_sees`: keeping ``radius``, or, on a segment from the first point
     or to the last, what that end keeps less 1 cm when it is nearer to something: a start or goal
     near a wall); the next point at least."""
     n = pts.shape[0]
-    first = min(radius, _world_distance(pts[0, 0], pts[0, 1], world) - 0.01)
-    last = min(radius, _world_distance(pts[n - 1, 0], pts[n - 1, 1], world) - 0.01)
+    first = min(radius, field_distance(pts[0, 0], pts[0, 1], world, field) - 0.01)
+    last = min(radius, field_distance(pts[n - 1, 0], pts[n - 1, 1], world, field) - 0.01)
     keep = [0]
     i = 0
     while i < n - 1:
         j = i + 1
         while j + 1 < n:
             need = min(first if i == 0 else radius, last if j + 1 == n - 1 else radius)
-            if not _sees(pts[i], pts[j + 1], world, need):
+            if not _sees(pts[i], pts[j + 1], world, field, need):
                 break
             j += 1
         keep.append(j)
@@ -196,7 +199,9 @@ def route(world: World, start: FloatArray, goal: FloatArray, radius: float, cell
     cells = _descend(field, i, j)
     centres = np.column_stack([origin[0] + cell * (cells[:, 0] + 0.5), origin[1] + cell * (cells[:, 1] + 0.5)])
     pts = np.vstack([s, centres[1:-1], g]) if cells.shape[0] > 2 else np.vstack([s, g])
-    return pts[_pull(np.ascontiguousarray(pts), world_arrays(world), radius)]  # type: ignore[no-any-return]
+    built = cached_field(world)  # centre_distances made or found one
+    arrays = built.arrays() if built is not None else empty_field(world)
+    return pts[_pull(np.ascontiguousarray(pts), world_arrays(world), arrays, radius)]  # type: ignore[no-any-return]
 
 
 def polyline_waypoints(vertices: FloatArray) -> FloatArray:

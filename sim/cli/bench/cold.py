@@ -38,7 +38,8 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"{args.planner}: a fresh 'nhsim plan' process per new world (wall and CPU from start to exit, its reported "
         f"plan time, the part of it numba spent readying code (its set-up, cached kernels; not counted by the time "
-        f"limit), the time less it, and the grid's part) against the same plan here: new world with code "
+        f"limit), the time less it, the grid's part, and the path's simplification after the plan, reported "
+        f"beside its time, not in it) against the same plan here: new world with code "
         f"loaded, then warm (median of "
         f"{args.repeats}); {bench.load_note()}"
     )
