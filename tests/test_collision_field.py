@@ -160,6 +160,25 @@ def test_clearance_equals_the_plain_reference_with_and_without_a_cached_field(wo
     assert np.array_equal(checker.poses_free(poses), ref > checker.clearance)
 
 
+@pytest.mark.parametrize("world", WORLDS, ids=["room", "8m-20", "crowded", "empty"])
+def test_signed_distances_equal_a_full_scan_inside_and_outside_the_bounds(world):
+    """``field.signed_distances`` (the block candidates of the cached field, else of one it builds)
+    against the compiled scan of every obstacle, bit for bit, at points inside the bounds and up to
+    1 m beyond them (outside the grid: every obstacle is scanned there)."""
+    from planning.collision import field as fields
+    from planning.collision.compiled import world_distances
+
+    for key in [k for k in fields._CACHE if k[0] == world]:
+        del fields._CACHE[key]
+    x0, x1, y0, y1 = world.bounds
+    rng = np.random.default_rng(7)
+    pts = np.column_stack([rng.uniform(x0 - 1, x1 + 1, 3000), rng.uniform(y0 - 1, y1 + 1, 3000)])
+    full = world_distances(pts, world_arrays(world, True))
+    assert np.array_equal(fields.signed_distances(world, pts, 0.05), full)  # builds a field at 5 cm
+    assert fields.cached_field(world) is not None
+    assert np.array_equal(fields.signed_distances(world, pts, 0.05), full)  # finds it
+
+
 def test_a_passed_deadline_stops_the_build_and_the_planners_time_out_on_it():
     world = random_world(3, 50, 6.0, 0.1)  # never built before in this process
     with pytest.raises(FieldTimeout, match="collision grid"):

@@ -7,8 +7,9 @@ collision grid included, and its part ``grid_s``; numba readying the code, ``cod
 and loading the cached kernels, which the time limit does not count; the path's simplification after
 the plan, ``simplify_time_s``, which every planner reports beside its plan time, not in it; its CPU
 time ``cpu_s`` where the planner reports one: on a loaded machine the wall times grow with the load,
-the CPU times hardly), and the same plan warm in this process: first with the code loaded but the world new (its grid built inside the
-timed plan), then fully warm (grid cached), the median of ``repeats`` runs. Targets (issue 27):
+the CPU times hardly), and the same plan warm in this process: first with the code loaded but the
+world new (its grid built inside the timed plan), then fully warm (grid cached), the median of
+``repeats`` runs. Targets (issue 27):
 the cold process reports at most :data:`REPORTED_TARGET_S` on worlds up to 8 x 8 m with up to 20
 obstacles, and ends within :data:`PROCESS_TARGET_S` of wall time for a plan taking at most 0.1 s
 warm; a crowded world (2000 obstacles) plans within its ``--time-limit``, grid included (the time the

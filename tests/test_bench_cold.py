@@ -1,0 +1,38 @@
+"""``nhsim bench cold``'s worlds and table (the fresh processes themselves are timed by the benchmark)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from planning.scenario import load_scenario
+from sim.tools.bench.cold import ColdRow, format_rows, world_toml
+
+
+def _row(**kw: object) -> ColdRow:
+    base = dict(world="cold0", obstacles=8, size_m=6.0, status="success", time_limit_s=10.0, process_wall_s=1.2,
+                process_cpu_s=1.4, reported_s=0.15, reported_cpu_s=0.15, grid_s=0.02, code_s=0.09, new_world_s=0.06,
+                warm_s=0.05, simplify_s=0.03)  # fmt: skip
+    return ColdRow(**{**base, **kw})  # type: ignore[arg-type]
+
+
+def test_the_worlds_are_seeded_valid_and_hold_every_kind(tmp_path: Path) -> None:
+    text = world_toml(2000, 8.0, 20, 0.6)
+    assert text == world_toml(2000, 8.0, 20, 0.6) and text != world_toml(2001, 8.0, 20, 0.6)
+    (tmp_path / "w.toml").write_text(text)
+    scenario = load_scenario(tmp_path / "w.toml")
+    kinds = [o.kind for o in scenario.world.obstacles]
+    assert len(kinds) == 20 and set(kinds) == {"circle", "ellipse", "box", "polygon"}
+    assert scenario.world.bounds == (-4.0, 4.0, -4.0, 4.0)
+
+
+def test_the_table_shows_the_simplification_beside_the_reported_time_and_judges_the_targets() -> None:
+    quick, slow = _row(), _row(world="cold2000", reported_s=0.25, process_wall_s=1.6, simplify_s=math.nan)
+    header, *lines = format_rows([quick, slow])
+    assert header.split()[:4] == ["world", "obst", "size", "status"] and "simplify" in header.split()
+    cells = lines[0].split()  # world, obst, size, status, then the times: ..., grid, simplify, new warm, warm
+    assert cells[10:14] == ["0.020", "0.030", "0.060", "0.050"]
+    assert "reported <= 0.2 s met; process <= 1.5 s met" in lines[0]
+    assert "nan" in lines[1] and "reported <= 0.2 s MISSED; process <= 1.5 s MISSED" in lines[1]
+    crowded = _row(obstacles=2000, size_m=20.0, status="timeout", time_limit_s=2.0, reported_s=2.2, code_s=0.15)
+    assert crowded.working_s == 2.2 - 0.15 and "within the 2 s limit met" in format_rows([crowded])[1]
