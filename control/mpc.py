@@ -51,9 +51,12 @@ of the optimisation, with no segment switching.
 Interrupts: CasADi polls Python for signals inside a solve (its interrupt check calls the Python
 signal handlers), and a ``KeyboardInterrupt`` raised there is caught inside the solver, which ends
 the solve as failed (it warns ``KeyboardInterruptException``) and returns: the interrupt would be
-lost. So SIGINT and SIGTERM are held for the solve's few milliseconds
-(:func:`control.signals.signals_held`) and delivered to their own handlers as it returns: Ctrl-C or
-SIGTERM stops a run of this tracker as promptly as any other.
+lost. Reading its results is no safer: numpy converts a CasADi matrix through ``DM.__array__``,
+whose compiled wrapper calls Python back, and an interrupt raised in there leaves the wrapper with an
+exception set, which Python reports as a ``SystemError`` (the command then crashed with exit 1 instead
+of stopping with 130). So SIGINT and SIGTERM are held for the solve's few milliseconds and the reading
+of its results (:func:`control.signals.signals_held`) and delivered to their own handlers as that
+returns: Ctrl-C or SIGTERM stops a run of this tracker as promptly as any other.
 """
 
 from __future__ import annotations
@@ -309,11 +312,11 @@ class MPCTracker:
         if self._lam is not None:
             args["lam_x0"], args["lam_g0"] = self._lam
         try:
-            with signals_held():  # CasADi would swallow them (see the module doc)
+            with signals_held():  # CasADi would swallow them, or turn them into errors (see the module doc)
                 sol = self._call(solver, args)
-            status = solver.stats()
-            z = np.asarray(sol["x"], dtype=float).ravel()
-            g = np.asarray(sol["g"], dtype=float).ravel()
+                status = solver.stats()
+                z = np.asarray(sol["x"], dtype=float).ravel()
+                g = np.asarray(sol["g"], dtype=float).ravel()
         except RuntimeError:
             return None
         if not self._accepted(status, g, lbg, ubg) or not np.all(np.isfinite(z)):

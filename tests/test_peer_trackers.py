@@ -148,6 +148,35 @@ def test_mpc_stats_count_overruns_of_the_control_period() -> None:
     assert stats["p95_ms"] == pytest.approx(np.percentile([1, 19, 21, 50], 95))
 
 
+def test_an_interrupt_while_the_mpc_reads_its_solution_stops_it_cleanly(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A signal landing while numpy reads a solve's result out of CasADi (``DM.__array__``, a compiled
+    wrapper calling Python back) is held and raised as the reading ends: a KeyboardInterrupt, not the
+    SystemError the wrapper made of it (seen once in a cold default run: SIGTERM to ``nhsim compare``
+    exited 1 with a traceback)."""
+    import signal
+
+    import casadi as ca
+
+    robot = load_robot("turtlebot3")
+    tracker = MPCTracker(robot)
+    traj = make_reference("line", robot, Pose2D(0, 0, 0))
+    tracker.reset(traj, DT)
+    real = ca.DM.toarray
+    sent = []
+
+    def interrupted(self: object, *args: object, **kwargs: object) -> object:
+        if not sent:
+            sent.append(True)
+            signal.raise_signal(signal.SIGINT)  # Python's own handler: KeyboardInterrupt at once, unless held
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(ca.DM, "toarray", interrupted)
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    with pytest.raises(KeyboardInterrupt):
+        tracker.command(float(traj.t[0]) + DT, *traj.pose[0])
+    assert sent
+
+
 @pytest.mark.parametrize("solver", ["rti", "sqp", pytest.param("ipopt", marks=pytest.mark.slow)])
 def test_every_mpc_solver_tracks(solver: str) -> None:
     robot = load_robot("turtlebot3")
