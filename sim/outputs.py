@@ -135,7 +135,7 @@ def atomic_path(path: str | Path, *, overwrite: Overwrite = False) -> Iterator[P
         with signals_held():  # one landing between the file's creation and ``tmp`` naming it waits
             fd, tmp_name = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=target.parent)
             tmp = Path(tmp_name)
-        os.close(fd)
+            os.close(fd)
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the permissions open() would

@@ -5,13 +5,13 @@ The same formulas in the same operation order as :mod:`planning.core.world` (sig
 circles, ellipses (:func:`planning.core.ellipse.ellipse_local`, the one implementation), boxes,
 even-odd polygons, walls) and
 :mod:`planning.collision.exact` (disc test; footprint boundary samples at least ``tolerance / 2``
-beyond the clearance, and no obstacle anchor inside the footprint), one pose at a time. The exact
-checker skips obstacles whose bounding box is out of reach of a whole batch; that changes no verdict
-(such an obstacle is more than ``clearance + tolerance`` from every boundary sample), so every
-obstacle is measured here, except an ellipse whose circumscribed circle is farther from the point
-than an obstacle already measured (the minimum cannot change; it saves solving for its closest point), and
-obstacles a distance field's broad phase proves farther than the nearest (:func:`field_distance`).
-Tests compare the verdicts with the exact checker's on random and near-margin poses.
+beyond the clearance, and no obstacle anchor inside the footprint), one pose at a time; the exact
+checker's clearance is :func:`clearances_kernel` itself. Every obstacle is measured, except an ellipse
+whose circumscribed circle is farther from the point than an obstacle already measured (the minimum
+cannot change; it saves solving for its closest point), and obstacles a distance field's broad phase
+proves farther than the nearest (:func:`field_distance`). Tests compare the clearances with a plain
+numpy version bit for bit (``tests/reference_checker.py``), and the fast checker's verdicts with the
+exact checker's on random and near-margin poses.
 """
 
 from __future__ import annotations

@@ -32,7 +32,6 @@ from planning.collision.compiled import (
     FieldArrays,
     RobotArrays,
     WorldArrays,
-    clearances_kernel,
     empty_field,
     exact_free_kernel,
     exact_pose_free,
@@ -356,7 +355,5 @@ class FastChecker:
         return g - e, g + e
 
     def clearance_of(self, poses: ArrayLike) -> FloatArray:
-        """The exact checker's clearance lower bound [m] (measured against this checker's field)."""
-        p = np.ascontiguousarray(np.atleast_2d(np.asarray(poses, dtype=float)))
-        c = self.checker
-        return clearances_kernel(p, world_arrays(c.world, c.walls), c.robot_arrays(), self._field)  # type: ignore[no-any-return]
+        """The exact checker's clearance lower bound [m] (compiled; against the world's cached field)."""
+        return self.checker.clearance_of(poses)
