@@ -55,7 +55,7 @@ lost. Reading its results is no safer: numpy converts a CasADi matrix through ``
 whose compiled wrapper calls Python back, and an interrupt raised in there leaves the wrapper with an
 exception set, which Python reports as a ``SystemError`` (the command then crashed with exit 1 instead
 of stopping with 130). So SIGINT and SIGTERM are held for the solve's few milliseconds and the reading
-of its results (:func:`control.signals.signals_held`) and delivered to their own handlers as that
+of its results (:func:`planning.signals.signals_held`) and delivered to their own handlers as that
 returns: Ctrl-C or SIGTERM stops a run of this tracker as promptly as any other.
 """
 
@@ -71,9 +71,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.base import check_measured_pose, check_period, check_ranges, option_value, ranged
-from control.signals import signals_held
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError, DependencyError
+from planning.signals import signals_held
 from planning.trajectory.trajectory import Trajectory
 
 FloatArray = NDArray[np.float64]

@@ -15,8 +15,8 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
-from control.signals import signals_held
 from planning.errors import ConfigError, OutputExistsError
+from planning.signals import signals_held
 
 #: Whether an existing file may be replaced: a flag, or a question asked of the path each time it is
 #: checked (before the work and again just before the rename), for a file another process of the same

@@ -194,21 +194,38 @@ def test_plan_stops_without_a_record(tmp_path: Path, sig: signal.Signals) -> Non
 
 
 @pytest.mark.parametrize("sig", SIGNALS)
+def test_plan_stops_inside_an_ipopt_solve(tmp_path: Path, sig: signal.Signals) -> None:
+    """The optim planner's solve runs for seconds inside CasADi, which ends it at a signal and swallows
+    the interrupt: the command printed "status failed" and exited 1. Sent once IPOPT prints its
+    iterations, the signal now stops the command with 130 and no record."""
+    scenario = tmp_path / "lot.toml"
+    scenario.write_text(
+        (ROOT / "models" / "scenarios" / "parking_lot.toml").read_text() + "\n[planners.optim]\nverbose = true\n"
+    )
+    args = ["plan", "--scenario", str(scenario), "--planner", "optim", "--json", "plan.json"]
+    stopped = stop_when(args, tmp_path, lambda out, err: "iter    objective" in out, sig)
+    assert_interrupted(stopped, "plan", tmp_path)
+    assert not (tmp_path / "plan.json").exists()
+
+
+@pytest.mark.parametrize("sig", SIGNALS)
 def test_bench_stops(tmp_path: Path, sig: signal.Signals) -> None:
     stopped = stop_when(["bench", "sim", "--repeats", "50"], tmp_path, imported_then("mujoco", 1.5), sig)
     assert_interrupted(stopped, "bench", tmp_path)
 
 
-@pytest.mark.parametrize("held", [False, True])
-def test_a_signal_inside_a_casadi_solve_is_delivered_after_it(held: bool) -> None:
+@pytest.mark.parametrize("mode", ["bare", "held", "end_early"])
+def test_a_signal_inside_a_casadi_solve_is_delivered_after_it(mode: str) -> None:
     """CasADi runs the Python signal handlers inside a solve and swallows the KeyboardInterrupt they raise
     (the solve ends failed, the interrupt is lost); held (as the mpc tracker holds its solves), the
-    signal stops the program as the solve returns. Here the signal is sent from inside the solve."""
+    signal stops the program as the solve returns; under ``signals_end_early`` (the optim planner's
+    long solves) the solve ends at the signal and the signal stops the program as it returns. Here the
+    signal is sent from inside the solve."""
     import contextlib
 
     import casadi as ca
 
-    from control.signals import signals_held
+    from planning.signals import signals_end_early, signals_held
 
     class Kick(ca.Callback):  # type: ignore[misc]
         """f(x) = x^2, sending SIGINT to this process at its third evaluation."""
@@ -236,10 +253,17 @@ def test_a_signal_inside_a_casadi_solve_is_delivered_after_it(held: bool) -> Non
     solver = ca.nlpsol(
         "s", "ipopt", {"x": x, "f": kick(x - 1.0)}, {"print_time": False, "error_on_fail": False, "ipopt": ipopt}
     )
-    if held:
+    if mode == "held":
         with pytest.raises(KeyboardInterrupt), signals_held():
             solver(x0=5.0)
         assert solver.stats()["success"] and kick.calls > 3  # the solve ran to its end, then the signal acted
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    elif mode == "end_early":
+        returned = False
+        with pytest.raises(KeyboardInterrupt), signals_end_early():
+            solver(x0=5.0)
+            returned = True
+        assert returned and not solver.stats()["success"] and kick.calls == 3  # ended at the signal, then raised
         assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
     else:
         with contextlib.nullcontext():
@@ -388,7 +412,7 @@ def test_a_waiting_interrupt_tried_again_inside_a_held_block_waits_for_its_end(m
     from types import SimpleNamespace
 
     import sim.cli.interrupt as interrupt
-    from control.signals import signals_held
+    from planning.signals import signals_held
 
     monkeypatch.setattr(interrupt, "RETRY_S", 60.0)  # tried again only when this test says
     compiler = SimpleNamespace(co_filename="/venv/site-packages/numba/core/compiler.py", co_name="compile_extra")
@@ -402,3 +426,21 @@ def test_a_waiting_interrupt_tried_again_inside_a_held_block_waits_for_its_end(m
             reached.append("held block done")
         reached.append("not raised")
     assert reached == ["held block done"]
+
+
+def test_a_signal_ending_a_block_early_is_raised_once_and_a_hold_around_it_keeps_it() -> None:
+    """``signals_end_early``: a signal raises at once inside the block; one that leaves the block as an
+    exception is not raised a second time; inside ``signals_held`` the signal stays held."""
+    from planning.signals import signals_end_early, signals_held
+
+    with pytest.raises(KeyboardInterrupt) as raised, signals_end_early():
+        signal.raise_signal(signal.SIGINT)
+    assert raised.value.__context__ is None  # not raised again as the block ended
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    reached = []
+    with pytest.raises(KeyboardInterrupt), signals_held():
+        with signals_end_early():
+            signal.raise_signal(signal.SIGINT)
+            reached.append("inside")  # noted by the hold, not raised
+        reached.append("after")
+    assert reached == ["inside", "after"]

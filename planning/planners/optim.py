@@ -45,6 +45,7 @@ from planning.errors import ConfigError, DependencyError
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus
 from planning.planners.gridpath import grid_path
 from planning.planners.registry import PLANNERS, make_planner
+from planning.signals import signals_end_early, signals_held
 
 FloatArray = NDArray[np.float64]
 
@@ -477,14 +478,18 @@ class Optim:
         self._set_values(nlp, problem, robot.radius + margin, obstacles, x_init[-1, 2])
         self._warm_start(nlp, x_init, u_init, obstacles)
         t_solve = time.perf_counter()
+        # CasADi ends a solve at a signal and swallows the interrupt: it is acted on as the solve returns,
+        # and held while the results are read (see planning.signals)
+        with signals_end_early():
+            try:
+                nlp.opti.solve_limited()
+            except RuntimeError:
+                pass  # a failed solve raises; its status and last iterate are read below
         try:
-            nlp.opti.solve_limited()
-        except RuntimeError:
-            pass  # a failed solve raises; its status and last iterate are read below
-        try:
-            ipopt_stats = nlp.opti.stats()
-            xv = np.asarray(nlp.opti.debug.value(nlp.x)).T
-            uv = np.asarray(nlp.opti.debug.value(nlp.u)).T.reshape(self.N, 2)
+            with signals_held():
+                ipopt_stats = nlp.opti.stats()
+                xv = np.asarray(nlp.opti.debug.value(nlp.x)).T
+                uv = np.asarray(nlp.opti.debug.value(nlp.u)).T.reshape(self.N, 2)
         except RuntimeError as exc:
             why = f"IPOPT stopped with an error: {exc}"
             return self._failure(PlanStatus.FAILED, why, {"time_s": time.perf_counter() - t0, "init": init_source})

@@ -67,7 +67,7 @@ _WAITING: dict[str, float] = {}
 
 def _retry(signum: int) -> None:
     """Try a waiting interrupt again: the signal is raised anew, so that the handler in place now takes
-    it (inside :func:`control.signals.signals_held` it is noted and acted on as the block ends: a retry
+    it (inside :func:`planning.signals.signals_held` it is noted and acted on as the block ends: a retry
     must not land in Optuna's bookkeeping either)."""
     _WAITING["retry"] = 1.0
     signal.raise_signal(signum)

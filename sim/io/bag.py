@@ -22,8 +22,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from control.signals import signals_held
 from planning.errors import ConfigError, OutputExistsError
+from planning.signals import signals_held
 from sim.io import bag_topics as bt
 from sim.io import rosmsgs as m
 

@@ -53,8 +53,8 @@ import numpy as np
 
 from control.base import search_space, tuned_option
 from control.fbl import FBLGains
-from control.signals import signals_held, signals_released
 from planning.errors import ConfigError, NhsimError
+from planning.signals import signals_held, signals_released
 
 if TYPE_CHECKING:  # the command line reads SAMPLERS while building its parser, before mujoco may load
     from sim.physics.metrics import TrackingMetrics
@@ -610,7 +610,7 @@ def run_worker(spec: TuneSpec, n_trials: int, worker: int = 0, callbacks: Sequen
                 pass
 
         # an interrupt acts inside a trial's evaluation (Optuna records the trial as failed and stops) or
-        # between trials, never inside Optuna's own bookkeeping around them (see control.signals)
+        # between trials, never inside Optuna's own bookkeeping around them (see planning.signals)
         with signals_held():
             study.optimize(interruptible, n_trials=n_trials, callbacks=[stop, *callbacks, between])
     return len(study.trials) - before

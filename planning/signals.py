@@ -11,7 +11,10 @@ Two kinds of code must not take a ``KeyboardInterrupt`` in the middle:
 
 :func:`signals_held` notes the signals for the block's duration and acts on them as it ends;
 :func:`signals_released`, inside a held block, lets them act at once (the objective of a study, where
-the time is spent) and delivers those noted so far as it begins.
+the time is spent) and delivers those noted so far as it begins. A solve too long to hold (the
+``optim`` planner's IPOPT solve takes seconds) runs in :func:`signals_end_early`: a signal ends it at
+CasADi's next poll, as CasADi means it to, and is acted on again as the solve returns, so it is not
+lost.
 """
 
 from __future__ import annotations
@@ -30,7 +33,11 @@ _HELD: list[tuple[dict[signal.Signals, Any], list[int]]] = []
 
 
 def _noting(noted: list[int]) -> Callable[[int, Any], None]:
-    return lambda signum, frame: noted.append(signum)
+    def note(signum: int, frame: Any) -> None:
+        noted.append(signum)
+
+    note.nhsim_noting = True  # type: ignore[attr-defined]
+    return note
 
 
 def _deliver(noted: list[int]) -> None:
@@ -86,3 +93,41 @@ def signals_released() -> Iterator[None]:
     finally:
         for sig in HELD_SIGNALS:
             signal.signal(sig, _noting(noted))
+
+
+@contextlib.contextmanager
+def signals_end_early() -> Iterator[None]:
+    """For C code that runs the Python signal handlers while it works, ends its work early when one
+    raises, and swallows the ``KeyboardInterrupt`` (a CasADi solve ends as failed and returns). Within
+    the block SIGINT and SIGTERM are noted and raise ``KeyboardInterrupt``, so such a solve stops at its
+    next poll; on leaving, the previous handlers are back and each signal noted is raised again, so they
+    act on it (e.g. raise ``KeyboardInterrupt``) then. One that left the block as an exception is not
+    raised again.
+
+    Inside :func:`signals_held` (and not released) the signals stay held: the block runs as it is.
+    Outside the main thread, or when a handler was not set from Python, it runs as it is too.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous: dict[signal.Signals, Any] = {sig: signal.getsignal(sig) for sig in HELD_SIGNALS}
+    if any(h is None or getattr(h, "nhsim_noting", False) for h in previous.values()):
+        yield
+        return
+    noted: list[int] = []
+
+    def note_and_raise(signum: int, frame: Any) -> None:
+        noted.append(signum)
+        raise KeyboardInterrupt(signal.Signals(signum).name)
+
+    for sig in HELD_SIGNALS:
+        signal.signal(sig, note_and_raise)
+    try:
+        yield
+    except KeyboardInterrupt:
+        noted.clear()  # it left the block: acted on already
+        raise
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        _deliver(noted)
