@@ -48,6 +48,20 @@ def _deliver(noted: list[int]) -> None:
         signal.raise_signal(signum)
 
 
+def _replaceable() -> dict[signal.Signals, Any] | None:
+    """The handlers of the signals in place, when this thread may replace and restore them (it is the main
+    thread, and every handler was set from Python); else None."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    previous: dict[signal.Signals, Any] = {sig: signal.getsignal(sig) for sig in HELD_SIGNALS}
+    return None if any(h is None for h in previous.values()) else previous
+
+
+def _set(handlers: dict[signal.Signals, Any]) -> None:
+    for sig, handler in handlers.items():
+        signal.signal(sig, handler)
+
+
 @contextlib.contextmanager
 def signals_held() -> Iterator[None]:
     """Within the block SIGINT and SIGTERM are only noted; on leaving, the previous handlers are back
@@ -56,23 +70,18 @@ def signals_held() -> Iterator[None]:
     Outside the main thread (where no handler can be set), or when a handler was not set from Python
     (it could not be restored), the block runs as it is.
     """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous: dict[signal.Signals, Any] = {sig: signal.getsignal(sig) for sig in HELD_SIGNALS}
-    if any(h is None for h in previous.values()):
+    previous = _replaceable()
+    if previous is None:
         yield
         return
     noted: list[int] = []
-    for sig in HELD_SIGNALS:
-        signal.signal(sig, _noting(noted))
+    _set(dict.fromkeys(HELD_SIGNALS, _noting(noted)))
     _HELD.append((previous, noted))
     try:
         yield
     finally:
         _HELD.pop()
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
+        _set(previous)
         _deliver(noted)
 
 
@@ -85,14 +94,12 @@ def signals_released() -> Iterator[None]:
         yield
         return
     previous, noted = _HELD[-1]
-    for sig, handler in previous.items():
-        signal.signal(sig, handler)
+    _set(previous)
     try:
         _deliver(noted)
         yield
     finally:
-        for sig in HELD_SIGNALS:
-            signal.signal(sig, _noting(noted))
+        _set(dict.fromkeys(HELD_SIGNALS, _noting(noted)))
 
 
 @contextlib.contextmanager
@@ -107,11 +114,8 @@ def signals_end_early() -> Iterator[None]:
     Inside :func:`signals_held` (and not released) the signals stay held: the block runs as it is.
     Outside the main thread, or when a handler was not set from Python, it runs as it is too.
     """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous: dict[signal.Signals, Any] = {sig: signal.getsignal(sig) for sig in HELD_SIGNALS}
-    if any(h is None or getattr(h, "nhsim_noting", False) for h in previous.values()):
+    previous = _replaceable()
+    if previous is None or any(getattr(h, "nhsim_noting", False) for h in previous.values()):
         yield
         return
     noted: list[int] = []
@@ -120,14 +124,12 @@ def signals_end_early() -> Iterator[None]:
         noted.append(signum)
         raise KeyboardInterrupt(signal.Signals(signum).name)
 
-    for sig in HELD_SIGNALS:
-        signal.signal(sig, note_and_raise)
+    _set(dict.fromkeys(HELD_SIGNALS, note_and_raise))
     try:
         yield
     except KeyboardInterrupt:
         noted.clear()  # it left the block: acted on already
         raise
     finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
+        _set(previous)
         _deliver(noted)
