@@ -111,12 +111,36 @@ def test_no_overwrite_without_flag(tmp_path, capsys):
         (["--scenario", "edumip_map", "--planner", "nope"], "c-rrt-star"),
         (["--scenario", "no_such_scenario", "--planner", "c-rrt-star"], "unknown scenario"),
         (["--scenario", "edumip_map", "--planner", "c-rrt-star", "--time-limit", "0"], "--time-limit"),
+        (["--scenario", "edumip_map", "--time-limit", "inf"], "--time-limit must be a finite planning budget"),
+        (
+            ["--scenario", "edumip_map", "--seed", "-1"],
+            "--seed must be a whole number >= 0, got -1; pass e.g. --seed 0",
+        ),
         (["--scenario", "open"], "--planner"),
     ],
 )
 def test_bad_input(argv, message, capsys):
     assert main(["plan", *argv]) == 2
     assert message in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["simulate", "--seed", "-1"], "--seed must be a whole number >= 0, got -1; pass e.g. --seed 0"),
+        (["simulate", "--noise-seed", "-3"], "--noise-seed must be a whole number >= 0, got -3"),
+        (["simulate", "--time-limit", "inf"], "--time-limit must be a finite planning budget > 0 s, got inf"),
+        (["compare", "--seed", "-1"], "--seed must be a whole number >= 0"),
+        (["montecarlo", "--seed", "-1"], "--seed must be a whole number >= 0"),
+        (["montecarlo", "--time-limit", "inf"], "--time-limit must be a finite planning budget"),
+    ],
+)
+def test_every_command_names_a_bad_seed_or_time_limit_by_its_flag(argv, message, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main([*argv, "--reference", "line"] if argv[0] != "montecarlo" else [*argv, "--runs", "2"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "PlanProblem" not in err and "Traceback" not in err
+    assert not any(tmp_path.iterdir())  # nothing written
 
 
 def test_bad_robot_is_a_usage_error():

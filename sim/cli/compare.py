@@ -84,12 +84,13 @@ def _outputs(args: argparse.Namespace) -> dict[str, Path]:
 
 def _case(args: argparse.Namespace) -> Any:
     """The case of the comparison (the default job when neither a reference nor a planner is given)."""
-    from sim.cli.plan import check_time_limit
+    from sim.cli.plan import check_seeds, check_time_limit
     from sim.cli.simulate import job_source
     from sim.cli.trajectory_files import file_given, file_source, file_world
     from sim.pipeline.case import Case, PlanOptions
 
     check_time_limit(args.time_limit)
+    check_seeds(seed=args.seed)
     fields = {"seed": args.seed, "planning": PlanOptions(time_limit=args.time_limit)}
     if file_given(args):  # a trajectory or path file, read and checked as simulate reads it
         tfile = file_source(args)

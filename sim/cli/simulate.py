@@ -353,9 +353,10 @@ def run(args: argparse.Namespace) -> int:
     gl.configure(args.gl)  # before anything imports mujoco
     from control.fbl import FBLGains
     from control.gains import resolve_gains
-    from sim.cli.plan import check_time_limit
+    from sim.cli.plan import check_seeds, check_time_limit
     from sim.physics.perturb import Perturbation
 
+    check_seeds(seed=args.seed, noise_seed=args.noise_seed)
     gains = resolve_gains(args.gains) if args.gains else FBLGains()
     noise_seed = args.seed if args.noise_seed is None else args.noise_seed
     perturbation = Perturbation.parse(args.perturb, seed=noise_seed) if args.perturb else None
