@@ -222,11 +222,12 @@ def _check_free(r: TableReader, world: World, label: str, pose: Pose2D) -> None:
     """The start or goal lies inside the bounds and outside every obstacle."""
     xmin, xmax, ymin, ymax = world.bounds
     if not (xmin < pose.x < xmax and ymin < pose.y < ymax):
-        raise r.fail(f"{label}.pose", f"a position inside the world bounds {list(world.bounds)}", list(pose.as_array()))
+        inside = f"a position inside the world bounds {list(world.bounds)}"
+        raise r.fail(f"{label}.pose", inside, pose.as_array().tolist())
     if float(world.obstacle_distance(pose.xy)[0]) <= 0:
         idx = int(np.argmin([o.signed_distance(pose.xy)[0] for o in world.obstacles]))
         raise ScenarioError(
-            f"{r.where}: field '{label}.pose': {list(pose.as_array())} lies inside "
+            f"{r.where}: field '{label}.pose': {pose.as_array().tolist()} lies inside "
             f"world.obstacles[{idx}] ({world.obstacles[idx].kind}); move it into free space"
         )
 
