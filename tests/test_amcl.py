@@ -55,6 +55,17 @@ def test_defaults_are_nav2s_and_bad_settings_are_refused() -> None:
     with pytest.raises(ConfigError, match="sigma_hit must be > 0"):
         c.override({"sigma_hit": 0.0})
     assert c.parse("max_particles=1000,refine=0").max_particles == 1000
+    for bad, match in [
+        ("z_hit=2", r"z_hit must be a fraction in \[0, 1\], got 2"),
+        ("z_hit=0", "z_hit must be > 0"),
+        ("z_hit=0.8", r"z_hit \+ z_rand = 1.3 exceeds 1.*lower one of them"),
+        ("pf_err=1.5", "pf_err must be a fraction"),
+        ("recovery_alpha_slow=0.1,recovery_alpha_fast=0.001", "recovery_alpha_slow=0.1 must be below"),
+        ("recovery_alpha_fast=3", "recovery_alpha_fast must be a fraction"),
+    ]:
+        with pytest.raises(ConfigError, match=match):
+            c.parse(bad)
+    assert c.parse("z_hit=0.95,z_rand=0.05,recovery_alpha_slow=0.001,recovery_alpha_fast=0.1").z_hit == 0.95
     assert beam_subset(360, 60).size == 60 and beam_subset(360, 60)[1] == 6  # Nav2's step (360 - 1) // 59
 
 

@@ -159,6 +159,26 @@ class AmclConfig:
             raise ConfigError(f"amcl max_beams must be at least 2, got {self.max_beams}")
         if self.refine not in (0, 1):
             raise ConfigError(f"amcl refine must be 0 or 1, got {self.refine}")
+        self._check_fractions()
+
+    def _check_fractions(self) -> None:
+        """The mixture weights and rates that are fractions (Probabilistic Robotics sec. 6.4, 8.3.5)."""
+        for name in ("z_hit", "z_rand", "recovery_alpha_slow", "recovery_alpha_fast", "pf_err"):
+            if getattr(self, name) > 1:
+                raise ConfigError(f"amcl {name} must be a fraction in [0, 1], got {getattr(self, name)!r}")
+        if self.z_hit == 0:
+            raise ConfigError("amcl z_hit must be > 0: with no hit component the scan moves no particle")
+        if self.z_hit + self.z_rand > 1 + 1e-9:
+            raise ConfigError(
+                f"amcl z_hit + z_rand = {self.z_hit + self.z_rand:g} exceeds 1: they are the weights of one mixture "
+                "(Nav2: z_hit=0.5,z_rand=0.5); lower one of them"
+            )
+        slow, fast = self.recovery_alpha_slow, self.recovery_alpha_fast
+        if slow > 0 and not slow < fast:
+            raise ConfigError(
+                f"amcl recovery_alpha_slow={slow:g} must be below recovery_alpha_fast={fast:g} (the slow average "
+                "of the likelihood against the fast one; e.g. 0.001 and 0.1), or 0 to turn recovery off"
+            )
 
     def override(self, table: Mapping[str, object], what: str = "[amcl]") -> AmclConfig:
         """This configuration with the keys of ``table`` replaced.
