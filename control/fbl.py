@@ -59,13 +59,16 @@ class FBLGains:
         Raises:
             ConfigError: Not two comma-separated positive numbers.
         """
+        bad = ConfigError(f"gains must be 'KP,KD' (two positive finite numbers, e.g. 9,6), got {text!r}")
         parts = [p.strip() for p in text.split(",")]
         if len(parts) != 2:
-            raise ConfigError(f"gains must be 'KP,KD' (two positive numbers, e.g. 9,6), got {text!r}")
+            raise bad
         try:
             kp, kd = float(parts[0]), float(parts[1])
         except ValueError as exc:
-            raise ConfigError(f"gains must be 'KP,KD' (two positive numbers, e.g. 9,6), got {text!r}") from exc
+            raise bad from exc
+        if not all(math.isfinite(g) and g > 0 for g in (kp, kd)):
+            raise bad
         return cls(kp=kp, kd=kd)
 
 
