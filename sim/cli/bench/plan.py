@@ -166,8 +166,11 @@ def run(args: argparse.Namespace) -> int:
         (5, args.scenarios or ["disc10"], 0.5) if args.quick else (args.seeds, args.scenarios, args.budget)
     )
     optimal = ("RRTstar",) if args.quick else tuple(args.optimal)
-    if seeds < 1 or not budget > 0 or not args.ttfs_limit > 0:
-        raise ConfigError("--seeds must be >= 1, --budget and --ttfs-limit > 0 s")
+    if seeds < 1:
+        raise ConfigError(f"--seeds must be >= 1, got {seeds}")
+    for flag, value in (("--budget", budget), ("--ttfs-limit", args.ttfs_limit)):
+        if not (value > 0 and math.isfinite(value)):
+            raise ConfigError(f"{flag} must be a finite number of seconds > 0, got {value:g}")
     unknown = [n for n in optimal if n not in OPTIMAL]
     if unknown:
         raise ConfigError(

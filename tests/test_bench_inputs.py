@@ -1,0 +1,32 @@
+"""Every benchmark refuses a bad count or time with status 2, naming the flag, before measuring anything."""
+
+from __future__ import annotations
+
+import pytest
+
+from sim.cli.main import main
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["sim", "--repeats", "0"], "--repeats must be >= 1, got 0"),
+        (["sim", "--control-rate", "inf"], "--control-rate must be a finite number of Hz > 0, got inf"),
+        (["plan", "--seeds", "0"], "--seeds must be >= 1, got 0"),
+        (["plan", "--budget", "0"], "--budget must be a finite number of seconds > 0, got 0"),
+        (["plan", "--budget", "nan"], "--budget must be a finite number of seconds > 0, got nan"),
+        (["plan", "--quick", "--ttfs-limit", "-1"], "--ttfs-limit must be a finite number of seconds > 0, got -1"),
+        (["render", "--frames", "0"], "--frames must be >= 10"),
+        (["optim", "--repeats", "-1"], "--repeats must be >= 1, got -1"),
+        (["bag", "--repeats", "0"], "--repeats must be >= 1, got 0"),
+        (["montecarlo", "--workers", "0"], "--workers must be >= 2"),
+        (["simplify", "--seeds", "0"], "--seeds must be >= 1"),
+        (["cold", "--worlds", "0"], "--worlds must be >= 1, got 0"),
+    ],
+)
+def test_a_bad_count_or_time_is_refused_naming_the_flag(
+    argv: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["bench", *argv]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
