@@ -252,3 +252,53 @@ def test_a_headerless_pixel_file_stopping_short_while_turning_runs_among_four_bo
     assert rc in (0, 1) and out.exists()
     rec = json.loads(out.read_text())
     assert rec["import"]["retimed"] and rec["closed_loop"]["collisions"] == 0
+
+
+def test_an_untimed_row_where_the_path_turns_is_arrived_at_and_left_with_two_headings(tmp_path: Path) -> None:
+    from planning import TrajectoryFile
+    from planning.trajectory.file_trajectory import path_poses
+    from planning.trajectory.importer import read_trajectory_file
+
+    p = tmp_path / "ell.csv"
+    p.write_text("x,y\n0,0\n0.5,0\n1,0\n1,1\n0,1\n")  # a straight row, then two corners of 90 deg
+    poses = path_poses(read_trajectory_file(TrajectoryFile(p, timed=False)))
+    h = np.pi / 2
+    expect = [(0, 0, 0), (0.5, 0, 0), (1, 0, 0), (1, 0, h), (1, 1, h), (1, 1, 2 * h), (0, 1, 2 * h)]
+    assert np.allclose(poses, expect, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("rows", "length", "rotations"),
+    [
+        ("x,y\n0,0\n1,0\n0,0\n", 2.0, 1),  # out and back: a U-turn in place (it could not be smoothed)
+        ("x,y\n0,0\n1,0\n0,0\n1,0\n0,0\n", 4.0, 3),  # there and back twice: the second trip is driven too
+        ("x,y\n0,0\n1,0\n0,0.1\n", 2.005, 1),  # a corner of 174 deg
+    ],
+)
+def test_a_path_that_turns_back_is_driven_as_given(tmp_path: Path, rows: str, length: float, rotations: int) -> None:
+    from planning import TrajectoryFile
+    from sim import RunKind, simulate_file
+
+    p = tmp_path / "back.csv"
+    p.write_text(rows)
+    job = simulate_file(TrajectoryFile(p, timed=False), runs=(RunKind.CLOSED_LOOP,), localiser="fixes")
+    smoothing = job.extra["smoothing"]
+    assert smoothing["length_m"] == pytest.approx(length, abs=0.01) and smoothing["rotations"] == rotations
+    assert smoothing["loop_poses_removed"] == 0
+    assert job.metrics[RunKind.CLOSED_LOOP].final_position_error_m <= 0.02
+
+
+def test_a_route_driven_twice_keeps_both_laps(tmp_path: Path) -> None:
+    from planning import TrajectoryFile
+    from planning.core.robot import load_robot
+    from planning.trajectory.file_trajectory import arena_scenario, file_trajectory
+    from planning.trajectory.importer import read_trajectory_file
+
+    a = np.linspace(0.0, 4.0 * np.pi, 201)
+    p = tmp_path / "laps.csv"
+    p.write_text("x,y\n" + "".join(f"{np.cos(t) - 1:.6f},{np.sin(t):.6f}\n" for t in a))
+    imported = read_trajectory_file(TrajectoryFile(p, timed=False))
+    robot = load_robot("turtlebot3")
+    res = file_trajectory(imported, robot, arena_scenario(imported, robot).world)
+    assert res.success and res.stats["loop_poses_removed"] == 0
+    assert res.stats["length_m"] == pytest.approx(4.0 * np.pi, rel=0.005)  # two laps of a 1 m circle

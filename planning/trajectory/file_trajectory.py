@@ -55,6 +55,8 @@ DT = 0.01
 #: where it moves).
 HEADING_WINDOW = 0.1
 HEADING_LENGTH = 0.005
+#: Turn [rad] at a row of an untimed file above which the robot arrives and leaves with two headings.
+TURN_EPS = 1e-9
 
 
 @dataclass(frozen=True)
@@ -333,13 +335,25 @@ def check_world(
 
 
 def path_poses(imported: ImportedFile) -> FloatArray:
-    """(N, 3) poses of an untimed file: its headings, else those of its steps (driven forwards)."""
+    """(M, 3) poses of an untimed file: its headings, else those of its steps, driven forwards.
+
+    Without headings, a row where the path turns is the robot there twice: arriving along the step
+    before, then leaving along the step after (a turn in place between them, as a planner's polyline
+    gives it). The smoothing rounds off the turns that are gentle enough and stops to turn at the
+    sharp ones, a U-turn included. Giving the row only its leaving heading made a drive end pointing
+    away from its own motion: a path that went out and came back could not be smoothed.
+    """
     xy = imported.xy
     if imported.theta is not None:
         return np.column_stack([xy, imported.theta])
-    d = np.diff(xy, axis=0)
+    d = np.diff(xy, axis=0)  # every step moves: the import merged repeated rows
     h = np.arctan2(d[:, 1], d[:, 0])
-    return np.column_stack([xy, np.unwrap(np.append(h, h[-1]))])
+    arrive, leave = np.append(h[:1], h), np.append(h, h[-1:])  # per row: the step into it, the step out
+    turn = np.abs(wrap_angle(leave - arrive)) > TURN_EPS
+    rows = np.repeat(np.arange(xy.shape[0]), np.where(turn, 2, 1))
+    first = np.concatenate([[True], rows[1:] != rows[:-1]])  # a row's arriving pose, then its leaving one
+    heading = np.where(first, arrive[rows], leave[rows])
+    return np.column_stack([xy[rows], np.unwrap(heading)])
 
 
 def file_poses(imported: ImportedFile) -> FloatArray:
@@ -420,7 +434,7 @@ def file_trajectory(imported: ImportedFile, robot: RobotSpec, world: World, **op
         poses = path_poses(imported)
         checker = CollisionChecker(world, robot, shape="footprint")
         report.world = check_world(imported, checker.densify(poses), None, world, robot)
-        res = make_trajectory(poses, robot, world, goal=goal, name=name, **options)
+        res = make_trajectory(poses, robot, world, goal=goal, name=name, keep_loops=True, **options)
         report.timing = "a path has no clock: timed by the speed profile within the robot's limits"
     report.collisions_allowed = bool(report.world)
     ok = res.success or (source.allow_collisions and res.status is TrajectoryStatus.COLLISION)

@@ -140,6 +140,7 @@ def make_trajectory(
     max_deviation: float = 0.05,
     name: str | None = None,
     retime: bool | None = None,
+    keep_loops: bool = False,
 ) -> TrajectoryResult:
     """Turn a plan (or a bare path) into a timed, segment-labelled trajectory.
 
@@ -161,6 +162,9 @@ def make_trajectory(
         name: Trajectory name (default "plan:<planner>" or "path").
         retime: A timed plan only: True re-times it from rest to rest, False keeps its samples (slowed
             uniformly to the limits), None decides by the rule above (the module doc).
+        keep_loops: A bare path only: drive the stretches that return to a pose already visited (a route
+            given to be followed as it is, such as a file's second lap) instead of cutting them (a
+            planner's detours).
 
     Returns:
         The result, with a status; only ``TrajectoryStatus.SUCCESS`` is safe to track.
@@ -195,7 +199,7 @@ def make_trajectory(
         assert isinstance(plan, PlanResult)
         result = _from_timed(plan, path, build, retime)
     else:
-        result = _from_path(path, dirs, build, corner_angle, max_deviation)
+        result = _from_path(path, dirs, build, corner_angle, max_deviation, keep_loops=keep_loops)
     result.stats["smoothing_time_s"] = time.perf_counter() - t_start
     return result
 
@@ -234,11 +238,19 @@ class _Build:
 
 
 def _from_path(
-    path: FloatArray, dirs: ArrayLike | None, build: _Build, corner_angle: float, max_deviation: float
+    path: FloatArray,
+    dirs: ArrayLike | None,
+    build: _Build,
+    corner_angle: float,
+    max_deviation: float,
+    *,
+    keep_loops: bool = False,
 ) -> TrajectoryResult:
-    """An untimed path: loops cut, split at cusps, corners and turns, each drive smoothed and timed."""
+    """An untimed path: loops cut (unless kept), split at cusps, corners and turns, each drive smoothed
+    and timed."""
     n_in = path.shape[0]
-    path, dirs = remove_loops(path, dirs)
+    if not keep_loops:
+        path, dirs = remove_loops(path, dirs)
     build.stats["loop_poses_removed"] = n_in - path.shape[0]
     segs = split_path(path, dirs, goal_heading=build.goal_heading, corner_angle=corner_angle)
     limits, dt = build.limits, build.dt
