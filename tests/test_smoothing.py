@@ -198,6 +198,16 @@ def test_a_path_through_an_obstacle_is_a_failure_status() -> None:
         TrajectoryResult("success", None)  # type: ignore[arg-type]
 
 
+def test_a_drive_that_folds_back_on_itself_says_so_not_that_it_strayed() -> None:
+    # headings that follow the motion, but the first drive ends pointing back along itself: every fit
+    # keeps close to the path (no deviation to speak of) and folds back at the turn
+    path = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, np.pi], [0.0, 0.02, np.pi]])
+    res = make_trajectory(path, load_robot("turtlebot3"), World((-2.0, 3.0, -2.0, 2.0)))
+    assert res.status is TrajectoryStatus.DEVIATION
+    assert "the fitted curve still folds back on itself (its speed along the path falls to 0.0" in res.reason
+    assert "deviation 0.0" not in res.reason  # the old message quoted a deviation well within its bound
+
+
 def test_timed_plans_are_kept_as_they_are_or_slowed_uniformly() -> None:
     t = np.linspace(0.0, 4.0, 401)
     v = 0.1 * np.sin(np.pi * t / 4.0) ** 2

@@ -44,9 +44,11 @@ from planning.errors import NhsimError
 from planning.planners.base import PlanResult
 from planning.trajectory.segments import infer_segments
 from planning.trajectory.smoothing import (
+    MIN_SPEED,
     PathSegment,
     SampledCurve,
     SmoothResult,
+    SmoothStatus,
     remove_loops,
     smooth_drive,
     split_path,
@@ -296,6 +298,13 @@ def _from_path(
 
 def _smoothing_failure(seg: PathSegment, res: SmoothResult, build: _Build, max_deviation: float) -> str:
     at = seg.points[0]
+    if res.status is SmoothStatus.DEVIATION and res.max_deviation <= max_deviation:
+        return (
+            f"the drive from ({at[0]:.2f}, {at[1]:.2f}) could not be smoothed: after {res.attempts} refinements "
+            f"the fitted curve still folds back on itself (its speed along the path falls to "
+            f"{res.min_speed:.2f} of the path's, at most {MIN_SPEED:g}): the path turns too sharply there to be "
+            "rounded off; give it a corner the robot can stop and turn at, or headings that follow its motion"
+        )
     return (
         f"the drive from ({at[0]:.2f}, {at[1]:.2f}) could not be smoothed: {res.status.value} after "
         f"{res.attempts} refinements (clearance {res.min_clearance:.4f} m, needed > {build.need:.4f} m; "

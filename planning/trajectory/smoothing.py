@@ -678,6 +678,11 @@ def _polyline_distance(q: FloatArray, poly: FloatArray) -> FloatArray:
     return best
 
 
+#: Smallest speed of a fitted drive along its parameter (the path's length) that still follows the
+#: path: a fit whose speed collapses has a kink or a loop.
+MIN_SPEED = 0.3
+
+
 @dataclass(frozen=True)
 class SmoothResult:
     """Outcome of smoothing one drive.
@@ -689,6 +694,8 @@ class SmoothResult:
         attempts: Refinements tried.
         max_deviation: Largest distance from the curve to the input polyline [m].
         min_clearance: Smallest footprint clearance along the curve [m].
+        min_speed: Smallest speed of the curve along its parameter, the path's length (1 follows the path;
+            at most :data:`MIN_SPEED` the fit folds back on itself and fails as a deviation).
     """
 
     status: SmoothStatus
@@ -697,6 +704,7 @@ class SmoothResult:
     attempts: int
     max_deviation: float
     min_clearance: float
+    min_speed: float = 1.0
 
     @property
     def success(self) -> bool:
@@ -758,7 +766,7 @@ def smooth_drive(
         dev = float(_polyline_distance(poses[:, :2], pts).max())
         # the parametric speed must stay near 1: a collapsing derivative means a kink or a loop
         sp = np.hypot(*poly(curve.u_table, 1).T)
-        ok_shape = dev <= max_deviation and float(sp.min()) > 0.3
+        ok_shape = dev <= max_deviation and float(sp.min()) > MIN_SPEED
         clear = float(checker.clearance_of(checker.densify(poses)).min()) if checker is not None else np.inf
         ok_clear = clear > clearance
         status = (
@@ -766,7 +774,7 @@ def smooth_drive(
             if (ok_shape and ok_clear)
             else (SmoothStatus.COLLISION if ok_shape else SmoothStatus.DEVIATION)
         )
-        result = SmoothResult(status, curve, m, attempt + 1, dev, clear)
+        result = SmoothResult(status, curve, m, attempt + 1, dev, clear, float(sp.min()))
         if status is SmoothStatus.SUCCESS:
             break
         piece_length *= 0.5
