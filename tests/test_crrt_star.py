@@ -136,16 +136,35 @@ def test_bitwise_deterministic(scenario):
     assert other.path.shape != a.path.shape or not np.array_equal(other.path, a.path)
 
 
-def _enclosed_goal_problem(**kw) -> PlanProblem:
-    # the goal sits in a closed square room of boxes: free itself, unreachable
-    walls = (
-        Box((4.0, 3.0), (2.2, 0.2)),
-        Box((4.0, 5.0), (2.2, 0.2)),
-        Box((3.0, 4.0), (0.2, 2.2)),
-        Box((5.0, 4.0), (0.2, 2.2)),
-    )
+#: A door 1 mm narrower than the axle centre's clearance needs (2 x 0.40 m): no way through it, and the
+#: 2-D proof cannot show that (its 1 cm cells allow half a diagonal, 7 mm): the search runs its budget.
+NARROW_DOOR = 0.799
+
+
+def _enclosed_goal_problem(door: float | None = NARROW_DOOR, **kw) -> PlanProblem:
+    # the goal sits in a square room of boxes (free itself), entered by a door in its west wall
+    west = (Box((3.0, 4.0), (0.2, 2.2)),)
+    if door is not None:
+        low, high = 4.0 - door / 2, 4.0 + door / 2  # the wall runs from y = 2.9 to 5.1
+        west = (Box((3.0, (2.9 + low) / 2), (0.2, low - 2.9)), Box((3.0, (high + 5.1) / 2), (0.2, 5.1 - high)))
+    walls = (Box((4.0, 3.0), (2.2, 0.2)), Box((4.0, 5.0), (2.2, 0.2)), *west, Box((5.0, 4.0), (0.2, 2.2)))
     world = World((0.0, 6.0, 0.0, 6.0), walls)
     return PlanProblem(world, load_robot("edumip"), Pose2D(1.0, 1.0, 0.0), Pose2D(4.0, 4.0, 0.0), **kw)
+
+
+def test_a_goal_no_way_reaches_with_the_clearance_is_infeasible_at_once():
+    t0 = time.perf_counter()
+    res = CRRTStar().plan(_enclosed_goal_problem(door=None, time_limit=60.0))  # a closed room
+    assert time.perf_counter() - t0 < 5.0
+    assert res.status is PlanStatus.INFEASIBLE and res.path.shape[0] == 0
+    assert "keeps the axle centre 0.400 m from every obstacle and wall" in res.reason
+    assert "walled off" in res.reason and "lower center_clearance" in res.reason
+    # a door 1 cm too narrow is proven too (on 1 cm cells); one 6 cm wider than needed is gone through
+    assert CRRTStar().plan(_enclosed_goal_problem(door=0.79, time_limit=60.0)).status is PlanStatus.INFEASIBLE
+    problem = _enclosed_goal_problem(door=0.86, time_limit=60.0)
+    wide = CRRTStar().plan(problem)
+    assert wide.status is PlanStatus.SUCCESS
+    assert np.min(problem.world.signed_distance(wide.path[:, :2])) >= CLEARANCE
 
 
 def test_unreachable_goal_times_out_on_iterations():

@@ -177,6 +177,20 @@ def _pull(pts: FloatArray, world: WorldArrays, field: FieldArrays, radius: float
     return np.array(keep, dtype=np.int64)
 
 
+def reachable(world: World, start: FloatArray, goal: FloatArray, radius: float, cell: float = CELL) -> bool:
+    """Whether the goal's cell can be reached from the start's over the 8-connected cells whose centres
+    keep ``radius`` off everything (the cells near either end counted free, as in :func:`distance_field`).
+
+    A proof of the contrary: any continuous path inside the bounds whose points all keep
+    ``radius + cell / sqrt(2)`` passes through 8-connected cells whose centres keep ``radius`` (a signed
+    distance is 1-Lipschitz, and a centre is at most half a cell's diagonal from the path in its cell),
+    so when this is False no such path exists.
+    """
+    s = np.asarray(start, dtype=float)[:2]
+    field, origin = distance_field(world, radius, s, np.asarray(goal, dtype=float)[:2], cell)
+    return bool(np.isfinite(field[_cell_of(s, origin, cell, field.shape)]))
+
+
 def route(world: World, start: FloatArray, goal: FloatArray, radius: float, cell: float = CELL) -> FloatArray | None:
     """The shortest 2-D route for a disc of ``radius`` [m] from ``start`` to ``goal`` (see the module doc).
 
@@ -192,10 +206,10 @@ def route(world: World, start: FloatArray, goal: FloatArray, radius: float, cell
         reached from the start's.
     """
     s, g = np.asarray(start, dtype=float)[:2], np.asarray(goal, dtype=float)[:2]
-    field, origin = distance_field(world, radius, s, g, cell)
-    i, j = _cell_of(s, origin, cell, field.shape)
-    if not np.isfinite(field[i, j]):
+    if not reachable(world, s, g, radius, cell):
         return None
+    field, origin = distance_field(world, radius, s, g, cell)  # cached by the call above
+    i, j = _cell_of(s, origin, cell, field.shape)
     cells = _descend(field, i, j)
     centres = np.column_stack([origin[0] + cell * (cells[:, 0] + 0.5), origin[1] + cell * (cells[:, 1] + 0.5)])
     pts = np.vstack([s, centres[1:-1], g]) if cells.shape[0] > 2 else np.vstack([s, g])

@@ -60,6 +60,10 @@ from planning.planners.simplify import simplify_path
 
 FloatArray = NDArray[np.float64]
 
+#: Cell sides [m] of the 2-D searches that may prove a problem has no way keeping the clearance, coarse
+#: first (see :meth:`_Search.walled_off`), and the most cells one of them may have.
+PROOF_CELLS = (0.05, 0.02, 0.01)
+PROOF_MAX_CELLS = 1_000_000
 #: What the 2-D route the simplifier tries keeps beyond the axle-centre clearance [m] (the sampled
 #: clearance check asks half a sample spacing, at most 1 cm here, more).
 ROUTE_MARGIN = 0.02
@@ -410,6 +414,26 @@ class _Search:
         stats = {**result.stats, **s.stats()}  # "cost" stays the tree path's, "simplified_cost" is the result's
         return dataclasses.replace(result, path=s.path, directions=s.directions, raw_path=path, stats=stats)
 
+    def walled_off(self) -> str | None:
+        """Why no path from the start to the goal can keep the axle centre ``required`` off everything,
+        when a 2-D search proves it (:func:`planning.planners.geodesic.reachable` at ``required`` less half
+        a cell's diagonal, on cells of 5 cm, then 2 cm and 1 cm while the answer is open); else None."""
+        p, req = self.problem, self.required
+        xmin, xmax, ymin, ymax = p.world.bounds
+        for cell in PROOF_CELLS:
+            if (xmax - xmin) * (ymax - ymin) / cell**2 > PROOF_MAX_CELLS:
+                break
+            proof = req - cell / np.sqrt(2.0) - 1e-9
+            if not geodesic.reachable(p.world, p.start.xy, p.goal.xy, proof, cell):
+                return (
+                    f"no way from the start to the goal keeps the axle centre {req:.3f} m from every obstacle "
+                    f"and wall: a 2-D search over {cell:g} m cells finds the goal walled off even at {proof:.3f} m, "
+                    "which such a way would keep; lower center_clearance, or plan with another planner"
+                )
+            if geodesic.reachable(p.world, p.start.xy, p.goal.xy, req, cell):
+                break  # a way of cells keeps it: search
+        return None
+
     # -- Algorithm 1 ----------------------------------------------------------------------------
     def run(self) -> PlanResult:
         clock = PlanClock(self.problem.time_limit)
@@ -426,8 +450,11 @@ class _Search:
                     f"C-RRT* keeps the axle centre {req:.3f} m away: move the {label} or lower center_clearance"
                 )
                 return PlanResult(status, CRRTStar.name, reason=why, stats={"time_s": clock.elapsed()})
-        self.add(p.start.xy, -1, 0.0, np.inf)
+        walled = self.walled_off()
+        if walled is not None:
+            return PlanResult(PlanStatus.INFEASIBLE, CRRTStar.name, reason=walled, stats={"time_s": clock.elapsed()})
         goal = p.goal.xy
+        self.add(p.start.xy, -1, 0.0, np.inf)
         prev = p.start.xy
         best_goal: int | None = None
         candidates: list[int] = [0]
