@@ -67,8 +67,9 @@ class FBLGains:
             kp, kd = float(parts[0]), float(parts[1])
         except ValueError as exc:
             raise bad from exc
-        if not all(math.isfinite(g) and g > 0 for g in (kp, kd)):
-            raise bad
+        for name, gain in (("KP", kp), ("KD", kd)):
+            if not (math.isfinite(gain) and gain > 0):
+                raise ConfigError(f"{bad}: {name} = {gain:g} is not")
         return cls(kp=kp, kd=kd)
 
 

@@ -56,7 +56,7 @@ def test_json_is_never_silently_overwritten(tmp_path: Path) -> None:
 
 def test_bad_gains_and_scenarios_are_clear_errors(tmp_path: Path) -> None:
     r = nhsim("simulate", "--gains", "1,-2")
-    assert r.returncode == 2 and "kd" in r.stderr
+    assert r.returncode == 2 and "KD = -2 is not" in r.stderr
     r = nhsim("simulate", "--gains", "fast")
     assert r.returncode == 2 and "KP,KD" in r.stderr
     r = nhsim("simulate", "--scenario", "no-such-scenario")

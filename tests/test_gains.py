@@ -56,8 +56,9 @@ def test_resolve_accepts_pair_or_file(tmp_path: Path) -> None:
         resolve_gains(str(tmp_path / "missing.toml"))
     with pytest.raises(ConfigError, match="neither 'KP,KD'"):
         resolve_gains("nine")
-    for pair in ("nan,1", "9,inf", "-9,6", "9,0"):  # named as the --gains pair, not as FBLGains' field
-        with pytest.raises(ConfigError, match=r"gains must be 'KP,KD' \(two positive finite numbers, e.g. 9,6\)"):
+    for pair, which in (("nan,1", "KP = nan"), ("9,inf", "KD = inf"), ("-9,6", "KP = -9"), ("9,0", "KD = 0")):
+        # named as the --gains pair, not as FBLGains' field
+        with pytest.raises(ConfigError, match=rf"gains must be 'KP,KD' \(two positive finite .*: {which} is not"):
             resolve_gains(pair)
 
 
