@@ -12,6 +12,7 @@ from sim.cli.main import main
     [
         (["sim", "--repeats", "0"], "--repeats must be >= 1, got 0"),
         (["sim", "--control-rate", "inf"], "--control-rate must be a finite number of Hz > 0, got inf"),
+        (["sim", "--control-rate", "nan"], "--control-rate must be a finite number of Hz > 0, got nan"),
         (["plan", "--seeds", "0"], "--seeds must be >= 1, got 0"),
         (["plan", "--budget", "0"], "--budget must be a finite number of seconds > 0, got 0"),
         (["plan", "--budget", "nan"], "--budget must be a finite number of seconds > 0, got nan"),

@@ -133,11 +133,16 @@ def test_bad_input(argv, message, capsys):
         (["compare", "--seed", "-1"], "--seed must be a whole number >= 0"),
         (["montecarlo", "--seed", "-1"], "--seed must be a whole number >= 0"),
         (["montecarlo", "--time-limit", "inf"], "--time-limit must be a finite planning budget"),
+        (["simulate", "--control-rate", "nan"], "--control-rate must be a finite number of Hz > 0, got nan"),
+        (["montecarlo", "--control-rate", "nan"], "--control-rate must be a finite number of Hz > 0, got nan"),
+        (["tune", "--control-rate", "nan"], "--control-rate must be a finite number of Hz > 0, got nan"),
+        (["tune", "--control-rate", "-5"], "--control-rate must be a finite number of Hz > 0, got -5"),
     ],
 )
-def test_every_command_names_a_bad_seed_or_time_limit_by_its_flag(argv, message, tmp_path, monkeypatch, capsys):
+def test_every_command_names_a_bad_seed_time_limit_or_rate_by_its_flag(argv, message, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    assert main([*argv, "--reference", "line"] if argv[0] != "montecarlo" else [*argv, "--runs", "2"]) == 2
+    rest = {"montecarlo": ["--runs", "2"], "tune": ["--scenarios", "open:line", "--trials", "1"]}
+    assert main([*argv, *rest.get(argv[0], ["--reference", "line"])]) == 2
     err = capsys.readouterr().err
     assert message in err and "PlanProblem" not in err and "Traceback" not in err
     assert not any(tmp_path.iterdir())  # nothing written

@@ -84,7 +84,7 @@ def _outputs(args: argparse.Namespace) -> dict[str, Path]:
 
 def _case(args: argparse.Namespace) -> Any:
     """The case of the comparison (the default job when neither a reference nor a planner is given)."""
-    from sim.cli.plan import check_seeds, check_time_limit
+    from sim.cli.checks import check_seeds, check_time_limit
     from sim.cli.simulate import job_source
     from sim.cli.trajectory_files import file_given, file_source, file_world
     from sim.pipeline.case import Case, PlanOptions

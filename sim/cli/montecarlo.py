@@ -87,7 +87,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 def _spec(args: argparse.Namespace) -> Any:
     from control.fbl import FBLGains
     from control.gains import resolve_gains
-    from sim.cli.plan import check_seeds, check_time_limit
+    from sim.cli.checks import check_control_rate, check_seeds, check_time_limit
     from sim.cli.simulate import job_source, localiser_fields, parse_build, sensor_overrides
     from sim.cli.trajectory_files import file_given, file_source, file_world
     from sim.physics.perturb import PerturbationRange
@@ -96,6 +96,7 @@ def _spec(args: argparse.Namespace) -> Any:
 
     check_time_limit(args.time_limit)
     check_seeds(seed=args.seed)
+    check_control_rate(args.control_rate)
     fields = {
         "seed": args.seed,
         "control_rate": args.control_rate,

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import math
 import time
 from pathlib import Path
 from typing import Any
@@ -110,33 +109,17 @@ def path_spacing(path: NDArray[np.float64], radius: float) -> float:
     return float(np.max(path_steps(path, radius))) if path.shape[0] >= 2 else 0.0
 
 
-def check_time_limit(seconds: float) -> None:
-    """Raise :class:`ConfigError` unless the ``--time-limit`` planning budget [s] is a finite number > 0."""
-    if not (seconds > 0 and math.isfinite(seconds)):
-        raise ConfigError(
-            f"--time-limit must be a finite planning budget > 0 s, got {seconds:g}; pass e.g. --time-limit 30"
-        )
-
-
-def check_seeds(**flags: int | None) -> None:
-    """Raise :class:`ConfigError` unless every seed given (``flag_name=value``, ``None`` for one not given)
-    is >= 0, naming the flag: ``check_seeds(seed=args.seed)`` checks ``--seed``."""
-    for name, value in flags.items():
-        if value is not None and value < 0:
-            flag = "--" + name.replace("_", "-")
-            raise ConfigError(f"{flag} must be a whole number >= 0, got {value}; pass e.g. {flag} 0")
-
-
 def run(args: argparse.Namespace) -> int:
     """Execute ``plan``."""
     from planning.core.robot import load_robot
     from planning.planners.base import PlanProblem, PlanStatus
     from planning.planners.registry import make_planner
     from planning.scenario import load_scenario, scenario_with_robot
+    from sim.cli.checks import check_seeds, check_time_limit
     from sim.outputs import check_writable, write_json
 
-    check_time_limit(args.time_limit)
     check_seeds(seed=args.seed)
+    check_time_limit(args.time_limit)
     for out in (args.json, args.plot):
         if out is not None:
             check_writable(out, overwrite=args.overwrite)

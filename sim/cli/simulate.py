@@ -353,15 +353,14 @@ def run(args: argparse.Namespace) -> int:
     gl.configure(args.gl)  # before anything imports mujoco
     from control.fbl import FBLGains
     from control.gains import resolve_gains
-    from sim.cli.plan import check_seeds, check_time_limit
+    from sim.cli.checks import check_control_rate, check_seeds, check_time_limit
     from sim.physics.perturb import Perturbation
 
     check_seeds(seed=args.seed, noise_seed=args.noise_seed)
     gains = resolve_gains(args.gains) if args.gains else FBLGains()
     noise_seed = args.seed if args.noise_seed is None else args.noise_seed
     perturbation = Perturbation.parse(args.perturb, seed=noise_seed) if args.perturb else None
-    if args.control_rate <= 0:
-        raise ConfigError(f"--control-rate must be > 0 Hz, got {args.control_rate}")
+    check_control_rate(args.control_rate)
     check_time_limit(args.time_limit)
     if args.all and args.bag is not None:
         raise ConfigError("--bag writes one job's runs; --all sweeps many jobs: drop one of them")

@@ -373,8 +373,9 @@ def _check_counts(args: argparse.Namespace) -> None:
     for name, (value, low) in counts.items():
         if value < low:
             raise ConfigError(f"{name} must be >= {low}, got {value}")
-    if args.control_rate <= 0:
-        raise ConfigError(f"--control-rate must be > 0 Hz, got {args.control_rate}")
+    from sim.cli.checks import check_control_rate
+
+    check_control_rate(args.control_rate)
 
 
 def _tokens(args: argparse.Namespace) -> list[str]:

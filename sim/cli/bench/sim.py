@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import argparse
-import math
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -29,12 +28,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when the ratio misses the target."""
     from planning.errors import ConfigError
+    from sim.cli.checks import check_control_rate
     from sim.tools.bench.sim import TARGET_RATIO, TARGET_RATIO_AMCL, measure, measure_scan
 
     if args.repeats < 1:
         raise ConfigError(f"--repeats must be >= 1, got {args.repeats}")
-    if not (args.control_rate > 0 and math.isfinite(args.control_rate)):
-        raise ConfigError(f"--control-rate must be a finite number of Hz > 0, got {args.control_rate:g}")
+    check_control_rate(args.control_rate)
     r = measure(args.robot, args.reference, args.control_rate, args.repeats, args.tracker, args.localiser)
     print(
         f"robot {r.robot}, reference {r.reference}, tracker {args.tracker}, localiser {args.localiser}, "
