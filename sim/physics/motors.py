@@ -265,6 +265,8 @@ SUPPLY_NUMERICS = {
 }
 #: The supply fields ``--motors`` may set.
 SUPPLY_KEYS = ("battery_voltage", "supply_sag", "torque_reserve")
+#: A valid value of each, for messages (a charged 3-cell pack; the TurtleBot3's own margins).
+SUPPLY_EXAMPLES = {"battery_voltage": 12.6, "supply_sag": 0.6, "torque_reserve": 0.1}
 #: Steps per unit the limits are rounded down to: the wheel-speed limit to 0.1 rad/s, the linear limit to
 #: 1 mm/s, the turning one to 0.01 rad/s; the tolerance keeps a whole step (5.0) from rounding down a step.
 _SPEED_STEPS, _LINEAR_STEPS, _TURN_STEPS, _FLOOR_TOL = 10, 1000, 100, 1e-9
@@ -295,7 +297,8 @@ class Supply:
         for f in fields(self):
             value = getattr(self, f.name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise ConfigError(f"motors: {f.name} must be a number, got {value!r}; give e.g. {f.name}=0.5")
+                example = SUPPLY_EXAMPLES.get(f.name, 1.0)
+                raise ConfigError(f"motors: {f.name} must be a number, got {value!r}; give e.g. {f.name}={example:g}")
         v, lo, hi = self.battery_voltage, self.min_voltage, self.max_voltage
         if not lo <= v <= hi:
             raise ConfigError(
