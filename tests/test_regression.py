@@ -151,3 +151,23 @@ def test_unknown_scenario_case_is_an_error_naming_it(tmp_path: Path) -> None:
     case = Case("nowhere", reference="line", name="lost")
     outcome = check_case(case, tmp_path)
     assert outcome.status == "error" and "lost" in outcome.message and "nowhere" in outcome.message
+
+
+def test_a_baselines_folder_that_cannot_serve_is_refused_before_any_case_runs(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    def no_run(*args: object, **kwargs: object) -> None:
+        raise AssertionError("a case ran")
+
+    monkeypatch.setattr(regress, "check_task", no_run)
+    case = ["--case", "open-turtlebot3-line-fbl-s0"]
+    a_file = tmp_path / "baselines.txt"
+    a_file.write_text("x")
+    for args, message in [
+        (["--baselines", str(tmp_path / "none")], "does not exist; give the folder that holds the baselines"),
+        (["--baselines", str(a_file)], "is a file, not a folder"),
+        (["--update", "--baselines", str(a_file / "sub")], "cannot write"),
+    ]:
+        assert main(["regress", *args, *case]) == 2
+        assert message in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["baselines.txt"]  # nothing written

@@ -89,6 +89,7 @@ def run(args: argparse.Namespace) -> int:
         for c in cases:
             print(f"{c.name}{'  (fast)' if c.fast else ''}")
         return 0
+    check_baselines(baselines, cases, update=args.update)
     tty = sys.stderr.isatty()
     done = {}
     with make_executor(args.jobs, args.scheduler, default=1) as executor:
@@ -120,6 +121,29 @@ def run(args: argparse.Namespace) -> int:
     for o in failed:
         print(f"nhsim regress: {o.status}: {o.message}", file=sys.stderr)
     return 1 if failed else 0
+
+
+def check_baselines(baselines: Path, cases: list[Any], *, update: bool) -> None:
+    """Before any case runs: the baselines folder exists and is a folder (to compare), or its baselines
+    can be written there (``--update``).
+
+    Raises:
+        ConfigError: Naming the folder and the fix.
+    """
+    from planning.errors import ConfigError
+    from sim.outputs import check_writable
+    from sim.tools.regress import baseline_path
+
+    if baselines.exists() and not baselines.is_dir():
+        raise ConfigError(f"--baselines {baselines} is a file, not a folder; give the folder that holds the baselines")
+    if update:
+        for case in cases:
+            check_writable(baseline_path(case, baselines), overwrite=True)
+    elif not baselines.exists():
+        raise ConfigError(
+            f"--baselines {baselines} does not exist; give the folder that holds the baselines, or record them "
+            f"there with nhsim regress --update --baselines {baselines}"
+        )
 
 
 def update_baselines(outcomes: list[Any], baselines: Path) -> int:
