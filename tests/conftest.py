@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import os
+import signal
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -72,6 +73,10 @@ def pytest_configure(config: pytest.Config) -> None:
 
     _compile_once()
     gl.configure()  # MUJOCO_GL (the user's, or the default) before collection imports mujoco
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        # started in the background (``./run-tests &``): the shell ignores SIGINT for it, and the tests of
+        # Ctrl-C need Python's own handler, as a command run in the foreground has it
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     if config.getoption("--all-cases"):
         config.option.markexpr = ""
 

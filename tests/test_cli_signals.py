@@ -444,3 +444,38 @@ def test_a_signal_ending_a_block_early_is_raised_once_and_a_hold_around_it_keeps
             reached.append("inside")  # noted by the hold, not raised
         reached.append("after")
     assert reached == ["inside", "after"]
+
+
+@pytest.mark.parametrize("finalizer", ["__del__", "weakref.finalize"])
+def test_an_interrupt_landing_in_a_finalizer_is_raised_after_it(finalizer: str) -> None:
+    """Python prints and drops what a finalizer raises ("Exception ignored in ... __del__"): a SIGTERM
+    arriving as an object was freed was lost (``tune`` ran on to its last trial). It is raised a moment
+    later, outside the finalizer."""
+    import time
+    import weakref
+
+    from sim.cli.interrupt import RETRY_S, sigterm_as_interrupt
+
+    def kick() -> None:
+        os.kill(os.getpid(), signal.SIGTERM)
+        for _ in range(1000):  # the handler runs here, inside the finalizer
+            pass
+
+    class Freed:
+        def __del__(self) -> None:
+            kick()
+
+    class Plain:
+        pass
+
+    start = time.monotonic()
+    with pytest.raises(KeyboardInterrupt, match="SIGTERM"), sigterm_as_interrupt():
+        if finalizer == "__del__":
+            Freed()  # freed at once
+        else:
+            obj = Plain()
+            weakref.finalize(obj, kick)
+            del obj
+        while time.monotonic() - start < 100 * RETRY_S:
+            time.sleep(RETRY_S / 10)
+    assert time.monotonic() - start < 100 * RETRY_S
