@@ -43,9 +43,9 @@ _OUTSIDE: list[tuple[FrameType, ...]] = []
 
 def _deferred(frame: FrameType | None) -> bool:
     """Whether an interrupt raised now would cross :data:`SWALLOWING` code or a finalizer
-    (:data:`FINALIZING`), or leave an ``exec`` or ``eval`` of source text: a frame of either is on the stack above the block's callers (:data:`_OUTSIDE`; below
-    them are, for instance, ``python -c``'s own source text and pytest-xdist's, which the interrupt, caught
-    in the block, never leaves).
+    (:data:`FINALIZING`), or leave an ``exec`` or ``eval`` of source text: a frame of any of them is on
+    the stack above the block's callers (:data:`_OUTSIDE`; below them are, for instance, ``python -c``'s
+    own source text and pytest-xdist's, which the interrupt, caught in the block, never leaves).
 
     CPython runs source text through ``PyRun_String`` and, when a KeyboardInterrupt leaves it, marks the
     interpreter as stopped by an unhandled Ctrl-C; ``python -m sim`` then ends by killing itself with
