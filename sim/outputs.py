@@ -128,23 +128,41 @@ def atomic_path(path: str | Path, *, overwrite: Overwrite = False) -> Iterator[P
     target = Path(path)
     allowed = overwrite if callable(overwrite) else (lambda _: bool(overwrite))
     check_writable(target, overwrite=allowed(target))
-    target.parent.mkdir(parents=True, exist_ok=True)
     prefix, suffix = _temporary_affixes(target)
     tmp: Path | None = None
-    try:  # from the file's creation on: an interrupt while it is being set up removes it too
-        with signals_held():  # one landing between the file's creation and ``tmp`` naming it waits
-            fd, tmp_name = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=target.parent)
-            tmp = Path(tmp_name)
-            os.close(fd)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the permissions open() would
-        yield tmp
-        _check_absent(target, overwrite=allowed(target))
-        os.replace(tmp, target)
-    finally:
-        if tmp is not None and tmp.exists():
-            tmp.unlink()
+    with folder_for(target):
+        try:  # from the file's creation on: an interrupt while it is being set up removes it too
+            with signals_held():  # one landing between the file's creation and ``tmp`` naming it waits
+                fd, tmp_name = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=target.parent)
+                tmp = Path(tmp_name)
+                os.close(fd)
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the permissions open() would
+            yield tmp
+            _check_absent(target, overwrite=allowed(target))
+            os.replace(tmp, target)
+        finally:
+            if tmp is not None and tmp.exists():
+                tmp.unlink()
+
+
+@contextlib.contextmanager
+def folder_for(path: Path) -> Iterator[None]:
+    """Make ``path``'s folder (and the ones above it) where missing; when the block fails (an error, an
+    interrupt), remove again those it made that are still empty (another writer may have put something
+    in one meanwhile), so an unfinished output leaves no folder behind either."""
+    made = [p for p in (path.parent, *path.parent.parents) if not p.exists()]  # deepest first
+    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        yield
+    except BaseException:
+        for folder in made:
+            try:
+                folder.rmdir()
+            except OSError:
+                break
+        raise
 
 
 def write_json(path: str | Path, data: Any, *, overwrite: Overwrite = False) -> Path:

@@ -318,6 +318,14 @@ def test_an_interrupt_as_the_work_folder_is_made_leaves_nothing(
         write_job_bag(result, tmp_path / "cut")
     assert list(tmp_path.iterdir()) == []
 
+    def work_then_interrupted(*args: Any, **kwargs: Any) -> str:  # the work folder's, not the probe's
+        return made_then_interrupted(*args, **kwargs) if kwargs.get("suffix") == ".part" else real(*args, **kwargs)
+
+    monkeypatch.setattr(tempfile, "mkdtemp", work_then_interrupted)
+    with pytest.raises(KeyboardInterrupt):  # into folders that do not exist yet: they go too
+        write_job_bag(result, tmp_path / "new" / "deeper" / "cut")
+    assert list(tmp_path.iterdir()) == []
+
 
 def test_the_foxglove_layout_names_only_topics_and_fields_a_bag_has(job: tuple[Any, Path]) -> None:
     import json

@@ -142,3 +142,15 @@ def test_an_interrupt_as_the_temporary_file_is_created_leaves_nothing(
     with pytest.raises(KeyboardInterrupt), VideoWriter(tmp_path / "x.mp4", 64, 48, 10):
         pass
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_unfinished_output_leaves_no_folder_it_made(tmp_path: Path) -> None:
+    from sim.outputs import atomic_path, write_json
+
+    keep = tmp_path / "renders" / "other.json"
+    write_json(keep, {})
+    with pytest.raises(KeyboardInterrupt), atomic_path(tmp_path / "renders" / "new" / "deeper" / "x.json"):
+        raise KeyboardInterrupt  # an interrupt while the output is being written
+    assert [p.relative_to(tmp_path) for p in tmp_path.rglob("*")] == [Path("renders"), Path("renders/other.json")]
+    write_json(tmp_path / "a" / "b" / "y.json", {"done": 1})  # a finished one keeps the folders it made
+    assert (tmp_path / "a" / "b" / "y.json").is_file()

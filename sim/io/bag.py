@@ -26,6 +26,7 @@ from planning.errors import ConfigError, OutputExistsError
 from planning.signals import signals_held
 from sim.io import bag_topics as bt
 from sim.io import rosmsgs as m
+from sim.outputs import folder_for
 
 #: Writer settings: rosbag2 metadata version, storage and compression.
 BAG_VERSION: Literal[8] = 8
@@ -212,19 +213,19 @@ def write_bag(prepared: Any, logs: Mapping[str, Any], path: Path, *, overwrite: 
     path = Path(path)
     check_bag_target(path, overwrite=overwrite)
     topics = job_topics(prepared, logs)
-    path.parent.mkdir(parents=True, exist_ok=True)
     work: Path | None = None
-    try:
-        with signals_held():  # an interrupt landing as the folder is made waits until ``work`` names it
-            work = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent))
-        _write(topics, work / path.name)
-        if path.exists():
-            check_bag_target(path, overwrite=overwrite)
-            os.replace(path, work / "replaced")
-        os.replace(work / path.name, path)
-    finally:
-        if work is not None:
-            shutil.rmtree(work, ignore_errors=True)
+    with folder_for(path):
+        try:
+            with signals_held():  # an interrupt landing as the folder is made waits until ``work`` names it
+                work = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent))
+            _write(topics, work / path.name)
+            if path.exists():
+                check_bag_target(path, overwrite=overwrite)
+                os.replace(path, work / "replaced")
+            os.replace(work / path.name, path)
+        finally:
+            if work is not None:
+                shutil.rmtree(work, ignore_errors=True)
     stamps = np.concatenate([tp.times for tp in topics])
     size = sum(f.stat().st_size for f in path.iterdir() if f.is_file())
     counts = {tp.name: (tp.msgtype, int(tp.times.size)) for tp in topics}
