@@ -160,7 +160,8 @@ def _grow(
     spans, buf_p, buf_d = scratch
     q0, q1 = (target, nodes[i]) if backwards else (nodes[i], target)
     # one call with keep_end a run-time bool: a literal True or False would have numba compile steer_free twice
-    m, verdict, p, d = steer_free(rs, q0, q1, geometry, geometry[2], backwards, 2, chk, spans, buf_p, buf_d)
+    # and min_poses an int64, not the literal 2, for which it would compile a third specialisation
+    m, verdict, p, d = steer_free(rs, q0, q1, geometry, geometry[2], backwards, np.int64(2), chk, spans, buf_p, buf_d)
     if verdict < 0:
         return -2
     if verdict == 0:
