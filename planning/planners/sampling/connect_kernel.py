@@ -95,7 +95,7 @@ def steer_free(
     geometry: FloatArray,
     max_len: float,
     keep_end: bool,
-    min_poses: int,
+    min_poses: int | np.int64,
     chk: CheckArrays,
     spans: IntArray,
     out_p: FloatArray,
