@@ -23,6 +23,9 @@ from sim.cli.main import main
         (["montecarlo", "--workers", "0"], "--workers must be >= 2"),
         (["simplify", "--seeds", "0"], "--seeds must be >= 1"),
         (["cold", "--worlds", "0"], "--worlds must be >= 1, got 0"),
+        (["cold", "--seed", "-1"], "--seed must be a whole number >= 0, got -1"),
+        (["simplify", "--random-worlds", "-1"], "--random-worlds must be >= 0, got -1"),
+        (["hybrid", "--random", "-1"], "--random must be >= 0, got -1"),
     ],
 )
 def test_a_bad_count_or_time_is_refused_naming_the_flag(

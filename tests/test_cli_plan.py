@@ -137,6 +137,7 @@ def test_bad_input(argv, message, capsys):
         (["montecarlo", "--control-rate", "nan"], "--control-rate must be a finite number of Hz > 0, got nan"),
         (["tune", "--control-rate", "nan"], "--control-rate must be a finite number of Hz > 0, got nan"),
         (["tune", "--control-rate", "-5"], "--control-rate must be a finite number of Hz > 0, got -5"),
+        (["tune", "--seed", "-1"], "--seed must be a whole number >= 0, got -1; pass e.g. --seed 0"),
     ],
 )
 def test_every_command_names_a_bad_seed_time_limit_or_rate_by_its_flag(argv, message, tmp_path, monkeypatch, capsys):

@@ -24,6 +24,14 @@ def check_seeds(**flags: int | None) -> None:
             raise ConfigError(f"{flag} must be a whole number >= 0, got {value}; pass e.g. {flag} 0")
 
 
+def check_at_least(counts: dict[str, tuple[int, int]]) -> None:
+    """Raise :class:`ConfigError` naming the first flag whose count is below its least value:
+    ``counts`` maps a flag (``"--repeats"``) to ``(value, least)``."""
+    for flag, (value, least) in counts.items():
+        if value < least:
+            raise ConfigError(f"{flag} must be >= {least}, got {value}")
+
+
 def check_control_rate(hz: float) -> None:
     """Raise :class:`ConfigError` unless ``--control-rate`` [Hz] is a finite number > 0 (whether it divides
     the physics rate is the simulator's check)."""

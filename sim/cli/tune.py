@@ -363,18 +363,11 @@ def tune_files(args: argparse.Namespace, tokens: list[str]) -> TuneFiles:
 
 
 def _check_counts(args: argparse.Namespace) -> None:
-    counts = {
-        "--trials": (args.trials, 1),
-        "--jobs": (args.jobs, 1),
-        "--draws": (args.draws, 1),
-        "--eval-runs": (args.eval_runs, 0),
-        "--seed": (args.seed, 0),
-    }
-    for name, (value, low) in counts.items():
-        if value < low:
-            raise ConfigError(f"{name} must be >= {low}, got {value}")
-    from sim.cli.checks import check_control_rate
+    from sim.cli.checks import check_at_least, check_control_rate, check_seeds
 
+    counts = {"--trials": (args.trials, 1), "--jobs": (args.jobs, 1), "--draws": (args.draws, 1)}
+    check_at_least({**counts, "--eval-runs": (args.eval_runs, 0)})
+    check_seeds(seed=args.seed)
     check_control_rate(args.control_rate)
 
 

@@ -20,11 +20,10 @@ def _span(values: tuple[float, ...]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when a target is missed."""
-    from planning.errors import ConfigError
+    from sim.cli.checks import check_at_least
     from sim.tools.bench.bag import TARGET_MB, TARGET_RATIO, measure
 
-    if args.repeats < 1:
-        raise ConfigError(f"--repeats must be >= 1, got {args.repeats}")
+    check_at_least({"--repeats": (args.repeats, 1)})
     argv = []
     for opt in ("scenario", "robot", "planner", "reference"):
         if getattr(args, opt) is not None:

@@ -26,15 +26,13 @@ def run(args: argparse.Namespace) -> int:
     """Measure and print one row per world as it is done; exit 1 when a target is missed."""
     from planning.errors import ConfigError
     from planning.planners.registry import PLANNERS
+    from sim.cli.checks import check_at_least, check_seeds
     from sim.tools.bench import cold as bench
 
     if args.planner not in PLANNERS:
         raise ConfigError(f"--planner {args.planner!r} is not a planner; choose one of {', '.join(sorted(PLANNERS))}")
-    for name in ("worlds", "repeats"):
-        if getattr(args, name) < 1:
-            raise ConfigError(f"--{name} must be >= 1, got {getattr(args, name)}")
-    if args.seed < 0:
-        raise ConfigError(f"--seed must be >= 0, got {args.seed}")
+    check_at_least({"--worlds": (args.worlds, 1), "--repeats": (args.repeats, 1)})
+    check_seeds(seed=args.seed)
     print(
         f"{args.planner}: a fresh 'nhsim plan' process per new world (wall and CPU from start to exit, its reported "
         f"plan time, the part of it numba spent readying code (its set-up, cached kernels; not counted by the time "

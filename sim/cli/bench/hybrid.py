@@ -15,13 +15,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Measure and print one row per problem as it is done; exit 1 when a target is missed."""
-    from planning.errors import ConfigError
+    from sim.cli.checks import check_at_least
     from sim.tools.bench import hybrid as bench
 
-    for name in ("random", "seeds", "repeats"):
-        low = 0 if name == "random" else 1
-        if getattr(args, name) < low:
-            raise ConfigError(f"--{name} must be >= {low}, got {getattr(args, name)}")
+    check_at_least({"--random": (args.random, 0), "--seeds": (args.seeds, 1), "--repeats": (args.repeats, 1)})
     print(
         f"hybrid-a-star against rrt-star (median length of {args.seeds} seeds, 5000 iterations); "
         f"wall median and CPU least of {args.repeats} runs; clearance {bench.CLEARANCE} m"

@@ -20,12 +20,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when a target is missed."""
-    from planning.errors import ConfigError
     from planning.planners.optim import DEFAULT_DT, DEFAULT_N
+    from sim.cli.checks import check_at_least
     from sim.tools.bench import optim as bench
 
-    if args.repeats < 1:
-        raise ConfigError(f"--repeats must be >= 1, got {args.repeats}")
+    check_at_least({"--repeats": (args.repeats, 1)})
     print(
         f"optim: seed N={bench.SEED_N}, dt={bench.SEED_DT} against default N={DEFAULT_N}, dt={DEFAULT_DT}; "
         f"median of {args.repeats} solves after one warm-up"

@@ -158,6 +158,7 @@ def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when a target is missed, 0 with a note when OMPL C++ is unavailable."""
     from pathlib import Path
 
+    from sim.cli.checks import check_at_least
     from sim.outputs import atomic_path, check_writable
     from sim.tools.bench.ompl_native import build
     from sim.tools.bench.plan import OPTIMAL, measure, problems, wheel_available
@@ -166,8 +167,7 @@ def run(args: argparse.Namespace) -> int:
         (5, args.scenarios or ["disc10"], 0.5) if args.quick else (args.seeds, args.scenarios, args.budget)
     )
     optimal = ("RRTstar",) if args.quick else tuple(args.optimal)
-    if seeds < 1:
-        raise ConfigError(f"--seeds must be >= 1, got {seeds}")
+    check_at_least({"--seeds": (seeds, 1)})
     for flag, value in (("--budget", budget), ("--ttfs-limit", args.ttfs_limit)):
         if not (value > 0 and math.isfinite(value)):
             raise ConfigError(f"{flag} must be a finite number of seconds > 0, got {value:g}")

@@ -27,12 +27,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when the ratio misses the target."""
-    from planning.errors import ConfigError
-    from sim.cli.checks import check_control_rate
+    from sim.cli.checks import check_at_least, check_control_rate
     from sim.tools.bench.sim import TARGET_RATIO, TARGET_RATIO_AMCL, measure, measure_scan
 
-    if args.repeats < 1:
-        raise ConfigError(f"--repeats must be >= 1, got {args.repeats}")
+    check_at_least({"--repeats": (args.repeats, 1)})
     check_control_rate(args.control_rate)
     r = measure(args.robot, args.reference, args.control_rate, args.repeats, args.tracker, args.localiser)
     print(

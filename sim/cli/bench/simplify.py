@@ -25,11 +25,10 @@ def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when a target is missed."""
     import numpy as np
 
-    from planning.errors import ConfigError
+    from sim.cli.checks import check_at_least
     from sim.tools.bench import simplify as bench
 
-    if args.seeds < 1 or args.random_worlds < 0:
-        raise ConfigError("--seeds must be >= 1 and --random-worlds >= 0")
+    check_at_least({"--seeds": (args.seeds, 1), "--random-worlds": (args.random_worlds, 0)})
     print(
         f"simplified plans against rrt-star's: length <= {bench.LENGTH_TARGET}x, cusps <= rrt-star's + "
         f"{bench.CUSP_SLACK}, simplification <= {1e3 * bench.TIME_TARGET_S:g} ms CPU; clearance {bench.CLEARANCE} m"
