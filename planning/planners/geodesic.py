@@ -186,9 +186,17 @@ def reachable(world: World, start: FloatArray, goal: FloatArray, radius: float, 
     distance is 1-Lipschitz, and a centre is at most half a cell's diagonal from the path in its cell),
     so when this is False no such path exists.
     """
+    field, _, at = _from_start(world, start, goal, radius, cell)
+    return bool(np.isfinite(field[at]))
+
+
+def _from_start(
+    world: World, start: FloatArray, goal: FloatArray, radius: float, cell: float
+) -> tuple[FloatArray, tuple[float, float], tuple[int, int]]:
+    """:func:`distance_field` for these ends, and the start's cell."""
     s = np.asarray(start, dtype=float)[:2]
     field, origin = distance_field(world, radius, s, np.asarray(goal, dtype=float)[:2], cell)
-    return bool(np.isfinite(field[_cell_of(s, origin, cell, field.shape)]))
+    return field, origin, _cell_of(s, origin, cell, field.shape)
 
 
 def route(world: World, start: FloatArray, goal: FloatArray, radius: float, cell: float = CELL) -> FloatArray | None:
@@ -206,10 +214,9 @@ def route(world: World, start: FloatArray, goal: FloatArray, radius: float, cell
         reached from the start's.
     """
     s, g = np.asarray(start, dtype=float)[:2], np.asarray(goal, dtype=float)[:2]
-    if not reachable(world, s, g, radius, cell):
+    field, origin, (i, j) = _from_start(world, s, g, radius, cell)
+    if not np.isfinite(field[i, j]):
         return None
-    field, origin = distance_field(world, radius, s, g, cell)  # cached by the call above
-    i, j = _cell_of(s, origin, cell, field.shape)
     cells = _descend(field, i, j)
     centres = np.column_stack([origin[0] + cell * (cells[:, 0] + 0.5), origin[1] + cell * (cells[:, 1] + 0.5)])
     pts = np.vstack([s, centres[1:-1], g]) if cells.shape[0] > 2 else np.vstack([s, g])
