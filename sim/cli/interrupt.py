@@ -27,10 +27,10 @@ from types import FrameType
 #: double free detected``, or by SIGINT).
 SWALLOWING = (f"{os.sep}llvmlite{os.sep}", f"{os.sep}numba{os.sep}")
 #: Finalizers: Python runs them when an object is freed, anywhere, and prints and drops what they raise
-#: ("Exception ignored in: ... __del__"): an interrupt raised in one was lost (``tune``, sent SIGTERM as a
-#: trial's objects were freed, ran on to its last trial). A ``__del__`` method, or a ``weakref.finalize``
-#: callback (called from the standard library's ``weakref`` module).
-FINALIZING = ("__del__",)
+#: ("Exception ignored in: ... __del__"), so an interrupt raised in one was lost and the command ran on.
+#: A ``__del__`` method (its name), or a ``weakref.finalize`` callback (called from the standard
+#: library's ``weakref`` module).
+FINALIZER = "__del__"
 WEAKREF_FILE = f"{os.sep}weakref.py"
 #: How long an interrupt waits before it is tried again [s].
 RETRY_S = 0.01
@@ -43,7 +43,7 @@ _OUTSIDE: list[tuple[FrameType, ...]] = []
 
 def _deferred(frame: FrameType | None) -> bool:
     """Whether an interrupt raised now would cross :data:`SWALLOWING` code or a finalizer
-    (:data:`FINALIZING`), or leave an ``exec`` or ``eval`` of source text: a frame of any of them is on
+    (:data:`FINALIZER`), or leave an ``exec`` or ``eval`` of source text: a frame of any of them is on
     the stack above the block's callers (:data:`_OUTSIDE`; below them are, for instance, ``python -c``'s
     own source text and pytest-xdist's, which the interrupt, caught in the block, never leaves).
 
@@ -61,7 +61,7 @@ def _deferred(frame: FrameType | None) -> bool:
             return True
         if any(part in code.co_filename for part in SWALLOWING):
             return True
-        if code.co_name in FINALIZING or code.co_filename.endswith(WEAKREF_FILE):
+        if code.co_name == FINALIZER or code.co_filename.endswith(WEAKREF_FILE):
             return True
         frame = frame.f_back
     return False
