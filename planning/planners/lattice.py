@@ -14,12 +14,12 @@ so every accepted motion is free by the exact checker's test as well.
 from __future__ import annotations
 
 import heapq
-import time
 
 import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.clock import monotonic
 from planning.collision.compiled import grid_lookup
 from planning.collision.grid import classify_kernel
 from planning.curves.common import mod2pi
@@ -36,13 +36,6 @@ FOUND, EXHAUSTED, ITERATIONS, TIMED_OUT = 0, 1, 2, 3
 
 #: Node states.
 _UNSEEN, _OPEN, _CLOSED = 0, 1, 2
-
-
-@nb.njit(cache=True)
-def _now() -> float:
-    with nb.objmode(t="float64"):
-        t = time.perf_counter()
-    return t
 
 
 def cell_centres(bounds: tuple[float, float, float, float], cell: float) -> tuple[int, int, FloatArray]:
@@ -262,7 +255,7 @@ def search(
     Returns:
         (outcome, terminal node id, expansions, nodes, meta, state, analytic poses, analytic dirs).
     """
-    deadline = _now() + seconds
+    deadline = monotonic() + seconds
     prims, lat, h2d, chk, cover = space
     n = lat[3] * lat[4] * lat[5]
     nodes = np.empty((n, 6))
@@ -307,7 +300,7 @@ def search(
             return FOUND, cid, it, nodes, meta, state, none[0], none[1]
         if it >= max_iterations:
             return ITERATIONS, cid, it, nodes, meta, state, none[0], none[1]
-        if it % 256 == 0 and _now() > deadline:
+        if it % 256 == 0 and monotonic() > deadline:
             return TIMED_OUT, cid, it, nodes, meta, state, none[0], none[1]
         counter = _expand(cid, nodes, meta, state, heap, counter, space, buf)
     return EXHAUSTED, s, it, nodes, meta, state, none[0], none[1]
