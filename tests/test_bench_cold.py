@@ -24,6 +24,9 @@ def test_the_worlds_are_seeded_valid_and_hold_every_kind(tmp_path: Path) -> None
     kinds = [o.kind for o in scenario.world.obstacles]
     assert len(kinds) == 20 and set(kinds) == {"circle", "ellipse", "box", "polygon"}
     assert scenario.world.bounds == (-4.0, 4.0, -4.0, 4.0)
+    (tmp_path / "w.toml").write_text(world_toml(2000, 8.0, 20, 0.6, ("circle", "box", "polygon")))
+    kinds = [o.kind for o in load_scenario(tmp_path / "w.toml").world.obstacles]
+    assert len(kinds) == 20 and set(kinds) == {"circle", "box", "polygon"}
 
 
 def test_the_table_shows_the_simplification_beside_the_reported_time_and_judges_the_targets() -> None:

@@ -3,9 +3,10 @@ plans in a warm process (``nhsim bench cold``).
 
 Per world (a TOML scenario written for it, never planned before): the fresh process's wall and
 CPU time (``resource``'s children accounting) from start to exit, the plan time it reports (the
-collision grid included, and its part ``grid_s``; numba readying the code, ``code_s``: its set-up
-and loading the cached kernels, which the time limit does not count; the path's simplification after
-the plan, ``simplify_time_s``, which every planner reports beside its plan time, not in it; its CPU
+collision grid included, and its part ``grid_s``; numba readying the code, ``code_s``: loading the
+cached kernels, which the time limit does not count (numba's one-time set-up in a process comes
+before any plan's clock, :func:`planning.clock.ready`; the process's wall time holds it); the path's
+simplification after the plan, ``simplify_time_s``, which every planner reports beside its plan time, not in it; its CPU
 time ``cpu_s`` where the planner reports one: on a loaded machine the wall times grow with the load,
 the CPU times hardly), and the same plan warm in this process: first with the code loaded but the
 world new (its grid built inside the timed plan), then fully warm (grid cached), the median of
@@ -88,10 +89,14 @@ class ColdRow:
         return out
 
 
-def world_toml(seed: int, size: float, count: int, scale: float) -> str:
-    """A scenario TOML: a ``size`` x ``size`` m arena with ``count`` obstacles of the four kinds
-    (circles, ellipses, oriented boxes, polygons; about ``scale`` m across) from ``seed``, the start
-    and goal corners kept clear, headings drawn too."""
+#: The obstacle kinds of a scenario TOML.
+KINDS = ("circle", "ellipse", "box", "polygon")
+
+
+def world_toml(seed: int, size: float, count: int, scale: float, kinds: tuple[str, ...] = KINDS) -> str:
+    """A scenario TOML: a ``size`` x ``size`` m arena with ``count`` obstacles of ``kinds`` in turn
+    (default all four: circles, ellipses, oriented boxes, polygons; about ``scale`` m across) from
+    ``seed``, the start and goal corners kept clear, headings drawn too."""
     rng = np.random.default_rng(seed)
     h = size / 2
     ends = np.array([[-h + 0.5, -h + 0.5], [h - 0.5, h - 0.5]])
@@ -102,7 +107,7 @@ def world_toml(seed: int, size: float, count: int, scale: float) -> str:
         r = float(rng.uniform(0.4, 1.0) * scale)
         if np.min(np.hypot(*(ends - np.asarray(c)).T)) < r + 0.45:
             continue
-        kind = ("circle", "ellipse", "box", "polygon")[placed % 4]
+        kind = kinds[placed % len(kinds)]
         angle = float(rng.uniform(0, np.pi))
         lines += ["[[world.obstacles]]", f'type = "{kind}"']
         if kind == "circle":
@@ -139,15 +144,19 @@ def _fresh_process(scenario: Path, planner: str, time_limit: float, out: Path) -
     return wall, cpu, json.loads(out.read_text())
 
 
-def measure(seed: int, size: float, count: int, scale: float, planner: str, time_limit: float, repeats: int) -> ColdRow:
-    """One new world: the cold process, then the same plan warm here (see the module doc)."""
+def measure(
+    seed: int, size: float, count: int, scale: float, planner: str, time_limit: float, repeats: int,
+    kinds: tuple[str, ...] = KINDS,
+) -> ColdRow:  # fmt: skip
+    """One new world (obstacles of ``kinds``): the cold process, then the same plan warm here (see the
+    module doc)."""
     from planning.planners.base import PlanProblem
     from planning.planners.registry import make_planner
     from planning.scenario import load_scenario
 
     with tempfile.TemporaryDirectory(prefix="nhsim-cold-") as tmp:
         path = Path(tmp) / f"cold{seed}.toml"
-        path.write_text(world_toml(seed, size, count, scale))
+        path.write_text(world_toml(seed, size, count, scale, kinds))
         wall, cpu, record = _fresh_process(path, planner, time_limit, Path(tmp) / "plan.json")
         scenario = load_scenario(path)
     problem = PlanProblem.from_scenario(scenario, seed=0, time_limit=time_limit)
