@@ -5,11 +5,13 @@ obstacle at every node (what the field replaced), and a plain-Python broad phase
 each block, the nearest obstacle by a full scan is among the block's candidates.
 """
 
+import threading
 import time
 
 import numpy as np
 import pytest
 
+from planning.collision import field as field_module
 from planning.collision.compiled import BLOCK, _world_distance, field_distance, world_arrays
 from planning.collision.exact import CollisionChecker
 from planning.collision.field import FieldTimeout, distance_field
@@ -177,6 +179,40 @@ def test_signed_distances_equal_a_full_scan_inside_and_outside_the_bounds(world)
     assert np.array_equal(fields.signed_distances(world, pts, 0.05), full)  # builds a field at 5 cm
     assert fields.cached_field(world) is not None
     assert np.array_equal(fields.signed_distances(world, pts, 0.05), full)  # finds it
+
+
+@pytest.mark.parametrize("world", WORLDS[1:3], ids=["8m-20", "crowded"])
+def test_the_field_does_not_depend_on_how_many_threads_build_it(world, monkeypatch):
+    built = {}
+    for n in (1, 3):
+        monkeypatch.setattr(field_module, "threads", lambda n=n: n)
+        field_module._CACHE.clear()
+        built[n] = distance_field(world, 0.02)
+    for name in ("grid", "starts", "members"):
+        np.testing.assert_array_equal(getattr(built[1], name), getattr(built[3], name))
+
+
+def test_shared_work_stops_at_its_deadline_and_on_an_error_in_any_thread(monkeypatch):
+    monkeypatch.setattr(field_module, "threads", lambda: 3)
+    done: list[int] = []
+    field_module._share(lambda i: (time.sleep(0.01), done.append(i)), range(1000), time.perf_counter() + 0.1)
+    assert len(done) < 200 and len(set(done)) == len(done)  # each item at most once, and far from all (10 s)
+    done.clear()
+    field_module._share(done.append, range(500), float("inf"))
+    assert sorted(done) == list(range(500))
+    names: set[str] = set()
+
+    def work(i: int) -> None:
+        names.add(threading.current_thread().name)
+        if i == 40:
+            raise ValueError("item 40")
+        time.sleep(0.001)
+
+    with pytest.raises(ValueError, match="item 40"):
+        field_module._share(work, range(10_000), float("inf"))
+    helpers = names - {threading.main_thread().name}
+    assert len(helpers) == 2  # the work was shared
+    assert not any(t.name in helpers for t in threading.enumerate())  # and the helpers have ended
 
 
 def test_a_passed_deadline_stops_the_build_and_the_planners_time_out_on_it():

@@ -24,7 +24,9 @@ any point inside the grid is then measured against its block's candidates only
 fallback asks on crowded maps.
 
 The field is built a row of blocks at a time, so a build can honour a deadline
-(:class:`FieldTimeout`); finished fields are cached per world and spacing. The deadline is moved
+(:class:`FieldTimeout`), by as many threads as the process has CPUs (at most :data:`MAX_THREADS`;
+the rows' kernel runs without the GIL, and each node's value is the same however many build it);
+finished fields are cached per world and spacing. The deadline is moved
 on by the time numba spends readying the kernels (compiling them once after an install: several
 seconds; loading them in a new process; :mod:`planning.clock`): that time is in the build's reported
 :attr:`DistanceField.seconds` but not charged against the deadline, which bounds the work a world
@@ -33,8 +35,11 @@ takes, not the installation's or the process's.
 
 from __future__ import annotations
 
+import os
+import threading
 import time
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numba as nb
@@ -71,6 +76,8 @@ SUPER = 8
 PRUNE_MARGIN = 1e-9
 #: Finished fields kept (per world and spacing).
 CACHE_SIZE = 8
+#: Most threads that build one field (its block rows, filled in compiled code without the GIL).
+MAX_THREADS = 4
 
 
 class FieldTimeout(NhsimError):
@@ -165,7 +172,8 @@ def signed_distances(world: World, points: NDArray[np.float64], spacing: float) 
 
 
 def _build(world: World, h: float, deadline: float | None) -> DistanceField:
-    """Build the field a row of blocks at a time (see the module doc)."""
+    """Build the field a row of blocks at a time, the rows shared among :func:`threads` threads (see the
+    module doc); the values do not depend on how many."""
     xmin, xmax, ymin, ymax = world.bounds
     nx = int(np.ceil((xmax - xmin) / h)) + 1
     ny = int(np.ceil((ymax - ymin) / h)) + 1
@@ -174,18 +182,72 @@ def _build(world: World, h: float, deadline: float | None) -> DistanceField:
     grid = np.empty((nx, ny))
     nbx, nby = -(-nx // BLOCK), -(-ny // BLOCK)
     counts = np.zeros(nbx * nby, dtype=np.int64)
-    parts = []
     side = BLOCK * SUPER
-    for s0 in range(0, nx, side):
-        tops = superblock_candidates(s0, min(nx, s0 + side), ny, float(xmin), float(ymin), h, w)
-        for i0 in range(s0, min(nx, s0 + side), BLOCK):  # a block row a call: the deadline is checked often
-            if clock.expired():
-                raise FieldTimeout(clock.elapsed(), nx * ny, len(world.obstacles), clock.code())
-            parts.append(fill_rows(grid, float(xmin), float(ymin), h, i0, w, counts, tops))
+    rows = list(range(0, nx, BLOCK))
+    parts: list[IntArray | None] = [None] * len(rows)
+
+    def timeout() -> FieldTimeout:
+        return FieldTimeout(clock.elapsed(), nx * ny, len(world.obstacles), clock.code())
+
+    tops = []
+    for s0 in range(0, nx, side):  # the superblocks' candidates, a column of them a call
+        if clock.expired():
+            raise timeout()
+        tops.append(superblock_candidates(s0, min(nx, s0 + side), ny, float(xmin), float(ymin), h, w))
+
+    def fill(r: int) -> None:
+        parts[r] = fill_rows(grid, float(xmin), float(ymin), h, rows[r], w, counts, tops[rows[r] // side])
+
+    if clock.expired():
+        raise timeout()
+    fill(0)  # here first: numba readies the kernels in the thread whose clock times it
+    until = clock.deadline()  # no code is readied from here on: the other threads read this
+    _share(fill, range(1, len(rows)), until)
+    if any(part is None for part in parts):
+        raise timeout()
     grid.setflags(write=False)
     starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    members = np.concatenate(parts).astype(np.int64) if parts else np.zeros(0, dtype=np.int64)
+    members = np.concatenate(parts).astype(np.int64)  # type: ignore[arg-type]
     return DistanceField(grid, float(xmin), float(ymin), h, starts, members, clock.elapsed())
+
+
+def threads() -> int:
+    """Threads that build a field: the CPUs this process may run on, at most :data:`MAX_THREADS`."""
+    return max(1, min(MAX_THREADS, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1))
+
+
+def _share(work: Callable[[int], None], items: range, until: float) -> None:
+    """``work(i)`` for each item, shared among :func:`threads` threads (this one among them) that each
+    take the next item left, until none is left or ``time.perf_counter()`` passes ``until``; an
+    exception in any ends them all and is raised here (an interrupt of this thread too)."""
+    left = iter(items)
+    lock = threading.Lock()
+    stop = threading.Event()
+    errors: list[BaseException] = []
+
+    def worker() -> None:
+        try:
+            while not stop.is_set() and time.perf_counter() <= until:
+                with lock:
+                    i = next(left, None)
+                if i is None:
+                    return
+                work(i)
+        except BaseException as exc:  # handed to the calling thread
+            errors.append(exc)
+            stop.set()
+
+    helpers = [threading.Thread(target=worker, daemon=True) for _ in range(threads() - 1)]
+    for t in helpers:
+        t.start()
+    try:
+        worker()
+    finally:
+        stop.set()  # the others end after their current row (about a millisecond)
+        for t in helpers:
+            t.join()
+    if errors:
+        raise errors[0]
 
 
 @nb.njit(cache=True)
@@ -267,7 +329,7 @@ def superblock_candidates(
     return flat, offsets
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def fill_rows(
     grid: FloatArray,
     x0: float,
