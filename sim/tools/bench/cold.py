@@ -145,9 +145,15 @@ def _fresh_process(scenario: Path, planner: str, time_limit: float, out: Path) -
 
 
 def measure(
-    seed: int, size: float, count: int, scale: float, planner: str, time_limit: float, repeats: int,
+    seed: int,
+    size: float,
+    count: int,
+    scale: float,
+    planner: str,
+    time_limit: float,
+    repeats: int,
     kinds: tuple[str, ...] = KINDS,
-) -> ColdRow:  # fmt: skip
+) -> ColdRow:
     """One new world (obstacles of ``kinds``): the cold process, then the same plan warm here (see the
     module doc)."""
     from planning.planners.base import PlanProblem
