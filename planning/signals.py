@@ -15,6 +15,12 @@ the time is spent) and delivers those noted so far as it begins. A solve too lon
 ``optim`` planner's IPOPT solve takes seconds) runs in :func:`signals_end_early`: a signal ends it at
 CasADi's next poll, as CasADi means it to, and is acted on again as the solve returns, so it is not
 lost.
+
+A third kind takes them late: a compiled kernel runs no Python code, so the thread that calls it runs
+no signal handler until it returns (Hybrid-A*'s search, one call up to the plan's time limit, took a
+Ctrl-C 2.8 s late on a 2000-obstacle world, and up to the whole limit on a world whose goal it
+cannot reach). :func:`stoppable` runs such a kernel in a helper thread and tells it to stop when the
+calling thread takes the interrupt.
 """
 
 from __future__ import annotations
@@ -133,3 +139,45 @@ def signals_end_early() -> Iterator[None]:
     finally:
         _set(previous)
         _deliver(noted)
+
+
+def stoppable(kernel: Any, *args: Any) -> Any:
+    """``kernel(*args, stop)`` run in a helper thread while this one waits, so that this thread takes
+    SIGINT and SIGTERM at once: the handler's exception sets ``stop[0]``, the kernel ends at its next
+    look at it, and the exception is raised here once the kernel has returned.
+
+    ``kernel`` is a numba dispatcher compiled with ``nogil=True`` whose last argument is ``stop``, a (1,)
+    bool array it reads often (every millisecond or so). numba readies the kernel in this thread first
+    (:meth:`compile` on the arguments' types, which the call then finds), so the time a plan's clock
+    leaves out as readying code is timed where the clock looks (:mod:`planning.clock`). What the kernel
+    raises is raised here.
+    """
+    import numba
+    import numpy as np
+
+    full = (*args, np.zeros(1, dtype=np.bool_))
+    kernel.compile(tuple(numba.typeof(a) for a in full))
+    box: dict[str, Any] = {}
+    done = threading.Event()  # not Thread.join: a join the interrupt lands in may mark a running thread
+    # ended (CPython 3.11's _wait_for_tstate_lock releases the lock it waited on), and a join after it
+    # returns at once
+
+    def run() -> None:
+        try:
+            box["out"] = kernel(*full)
+        except BaseException as exc:  # handed to the calling thread
+            box["error"] = exc
+        finally:
+            done.set()
+
+    threading.Thread(target=run, name=f"nhsim-{getattr(kernel, '__name__', 'kernel')}", daemon=True).start()
+    try:
+        while not done.wait(0.1):
+            pass
+    except BaseException:
+        full[-1][0] = True
+        done.wait()
+        raise
+    if "error" in box:
+        raise box["error"]
+    return box["out"]

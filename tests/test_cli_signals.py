@@ -479,3 +479,97 @@ def test_an_interrupt_landing_in_a_finalizer_is_raised_after_it(finalizer: str) 
         while time.monotonic() - start < 100 * RETRY_S:
             time.sleep(RETRY_S / 10)
     assert time.monotonic() - start < 100 * RETRY_S
+
+
+def _spin_kernels() -> tuple[object, object]:
+    """Two kernels that take a stop flag last: one loops for its seconds unless told to stop, one fails."""
+    import numba
+
+    from planning.clock import monotonic
+
+    @numba.njit(nogil=True)
+    def spin(seconds: float, stop: object) -> int:
+        start = monotonic()
+        n = 0
+        while not stop[0] and monotonic() - start < seconds:  # type: ignore[index]
+            n += 1
+        return n
+
+    @numba.njit(nogil=True)
+    def fails(x: float, stop: object) -> float:
+        if x < 0:
+            raise ValueError("x must be >= 0")
+        return x
+
+    return spin, fails
+
+
+def _helpers() -> list[str]:
+    """The helper threads of ``stoppable`` still running a second on (a returned kernel's thread ends at once)."""
+    for _ in range(100):
+        left = [t.name for t in threading.enumerate() if t.name.startswith("nhsim-")]
+        if not left:
+            break
+        time.sleep(0.01)
+    return left
+
+
+def test_a_kernel_run_stoppable_takes_an_interrupt_at_once_and_returns_or_raises_as_called() -> None:
+    """A compiled kernel holds its thread's signal handlers until it returns: run by ``stoppable`` the
+    interrupt is raised at once, the kernel told to stop, and its helper thread ended."""
+    import _thread
+
+    import numpy as np
+
+    from planning.signals import stoppable
+
+    spin, fails = _spin_kernels()
+    assert stoppable(spin, 0.01) > 0  # compiled (in this thread), run, and its result returned
+    with pytest.raises(ValueError, match="x must be >= 0"):
+        stoppable(fails, -1.0)
+    timer = threading.Timer(0.2, _thread.interrupt_main)
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        start = time.monotonic()
+        stoppable(spin, 60.0)
+    assert time.monotonic() - start < 5.0  # not the kernel's 60 s
+    assert _helpers() == []
+    assert spin(0.0, np.zeros(1, dtype=np.bool_)) >= 0
+
+
+def test_hybrid_a_stars_search_takes_an_interrupt_at_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Hybrid-A*'s search is one compiled call up to the plan's time limit: interrupted 0.3 s into a
+    search that expands every reachable state of a 10 x 10 m world (about 4 s: the goal's room has a
+    door the inscribed disc passes and the footprint does not), the plan raises within the second."""
+    import _thread
+
+    from planning.core.geometry import Pose2D
+    from planning.core.robot import load_robot
+    from planning.core.world import Box, World
+    from planning.planners import hybrid_astar
+    from planning.planners.base import PlanProblem
+    from planning.planners.registry import make_planner
+    from planning.scenario import load_scenario
+
+    planner = make_planner("hybrid-a-star")
+    planner.plan(PlanProblem.from_scenario(load_scenario("nav_map1")))  # the search kernel ready here
+    room = (((8.5, 8.95), (0.9, 0.1)), ((8.5, 8.05), (0.9, 0.1)), ((8.95, 8.5), (0.1, 0.9)),
+            ((8.05, 8.75), (0.1, 0.4)), ((8.05, 8.25), (0.1, 0.4)))  # fmt: skip
+    world = World((0.0, 10.0, 0.0, 10.0), tuple(Box(c, s, 0.0) for c, s in room))
+    problem = PlanProblem(world, load_robot("turtlebot3"), Pose2D(1.0, 1.0, 0.0), Pose2D(8.5, 8.5, 0.0), time_limit=60)
+    real = hybrid_astar.stoppable
+    sent: list[float] = []
+
+    def interrupted_later(*args: object) -> object:
+        def send() -> None:
+            sent.append(time.monotonic())
+            _thread.interrupt_main()
+
+        threading.Timer(0.3, send).start()
+        return real(*args)
+
+    monkeypatch.setattr(hybrid_astar, "stoppable", interrupted_later)
+    with pytest.raises(KeyboardInterrupt):
+        planner.plan(problem)
+    assert sent and time.monotonic() - sent[0] < 1.0  # the search alone would run on for seconds
+    assert _helpers() == []

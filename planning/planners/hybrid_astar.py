@@ -50,6 +50,7 @@ from planning.planners.sampling.extend import LocalPlanner
 from planning.planners.sampling.rrt import simplified
 from planning.planners.sampling.steering import arc_poses, default_turning_radius, place
 from planning.planners.sampling.tree import check_endpoints, grid_timeout, make_checker
+from planning.signals import stoppable
 
 FloatArray = NDArray[np.float64]
 
@@ -274,7 +275,9 @@ class HybridAStar:
         tol = np.array([problem.position_tolerance, problem.heading_tolerance])
         expansion = np.array([cfg.analytic_expansion_ratio, cfg.analytic_expansion_max_length])
         left = clock[0].remaining()
-        out = lattice.search(start, goal, tol, setup.rho, setup.step, space, expansion, cfg.max_iterations, left)
+        out = stoppable(
+            lattice.search, start, goal, tol, setup.rho, setup.step, space, expansion, cfg.max_iterations, left
+        )
         return self._result(problem, setup, out, clock, limit)
 
     def _setup(self, problem: PlanProblem, checker: FastChecker) -> _Setup:

@@ -223,7 +223,7 @@ def _expand(
     return counter
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def search(
     start: FloatArray,
     goal: FloatArray,
@@ -234,6 +234,7 @@ def search(
     expansion: FloatArray,
     max_iterations: int,
     seconds: float,
+    stop: NDArray[np.bool_],
 ) -> tuple:  # type: ignore[type-arg]
     """Hybrid-A* from ``start`` to ``goal`` (see the module doc).
 
@@ -251,6 +252,8 @@ def search(
         expansion: (2,) analytic expansion ratio and largest analytic length [m].
         max_iterations: Expansion budget.
         seconds: Time the search may take [s], from its start (after numba has compiled or loaded it).
+        stop: (1,) flag: the search ends, timed out, within 256 expansions of it being set
+            (:func:`planning.signals.stoppable`).
 
     Returns:
         (outcome, terminal node id, expansions, nodes, meta, state, analytic poses, analytic dirs).
@@ -300,7 +303,7 @@ def search(
             return FOUND, cid, it, nodes, meta, state, none[0], none[1]
         if it >= max_iterations:
             return ITERATIONS, cid, it, nodes, meta, state, none[0], none[1]
-        if it % 256 == 0 and monotonic() > deadline:
+        if it % 256 == 0 and (stop[0] or monotonic() > deadline):
             return TIMED_OUT, cid, it, nodes, meta, state, none[0], none[1]
         counter = _expand(cid, nodes, meta, state, heap, counter, space, buf)
     return EXHAUSTED, s, it, nodes, meta, state, none[0], none[1]
