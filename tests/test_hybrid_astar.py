@@ -241,3 +241,34 @@ def test_bench_rejects_bad_counts(flag, value, capsys):
 
     assert main(["bench", "hybrid", flag, value]) == 2
     assert f"{flag} must be >=" in capsys.readouterr().err
+
+
+def test_a_lattice_larger_than_the_memory_is_refused_naming_the_cell_size_that_fits(monkeypatch):
+    """The search's tables are allocated whole (65 bytes a state): on a 200 x 200 m world at 5 cm they
+    need 75 GB, and the search failed with a MemoryError traceback. The plan now ends infeasible at
+    once, naming the cell size whose tables fit in half the memory, and that cell size plans."""
+    from planning.planners import hybrid_astar
+
+    problem = PlanProblem.from_scenario(load_scenario("nav_map1"))
+    default = make_planner("hybrid-a-star").plan(problem)
+    assert default.status is PlanStatus.SUCCESS
+    monkeypatch.setattr(hybrid_astar, "memory_bytes", lambda: 2_000_000)  # a machine of 2 MB
+    refused = make_planner("hybrid-a-star").plan(problem)
+    assert refused.status is PlanStatus.INFEASIBLE and "search lattice" in refused.reason
+    assert "more than this machine's 0.002 GB of memory" in refused.reason
+    cell = float(refused.reason.split("cell_size = ")[1].split()[0])
+    assert cell > 0.05
+    coarser = make_planner("hybrid-a-star", cell_size=cell).plan(problem)
+    assert coarser.status is PlanStatus.SUCCESS
+
+
+def test_tables_that_cannot_be_allocated_end_the_plan_infeasible(monkeypatch):
+    from planning.planners import hybrid_astar
+
+    def no_memory(*args):
+        raise MemoryError
+
+    monkeypatch.setattr(hybrid_astar, "stoppable", no_memory)
+    result = make_planner("hybrid-a-star").plan(PlanProblem.from_scenario(load_scenario("nav_map1")))
+    assert result.status is PlanStatus.INFEASIBLE
+    assert "could not be allocated" in result.reason and "cell_size = " in result.reason

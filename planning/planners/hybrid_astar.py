@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, fields
@@ -256,6 +257,9 @@ class HybridAStar:
                 f"{cfg.clearance:g} m) on the {cfg.cell_size:g} m grid: the goal is walled off"
             )
             return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=reason, stats=_stats(clock, checker, 0, 0))
+        too_large = _lattice_too_large(problem, setup.lat)
+        if too_large:
+            return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=too_large, stats=_stats(clock, checker, 0, 0))
         p = setup.prims
         dirs = p.directions
         cost = (
@@ -275,9 +279,13 @@ class HybridAStar:
         tol = np.array([problem.position_tolerance, problem.heading_tolerance])
         expansion = np.array([cfg.analytic_expansion_ratio, cfg.analytic_expansion_max_length])
         left = clock[0].remaining()
-        out = stoppable(
-            lattice.search, start, goal, tol, setup.rho, setup.step, space, expansion, cfg.max_iterations, left
-        )
+        try:
+            out = stoppable(
+                lattice.search, start, goal, tol, setup.rho, setup.step, space, expansion, cfg.max_iterations, left
+            )
+        except MemoryError:  # within the machine's memory, yet not to be had
+            reason = _lattice_too_large(problem, setup.lat, available=0)
+            return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=reason, stats=_stats(clock, checker, 0, 0))
         return self._result(problem, setup, out, clock, limit)
 
     def _setup(self, problem: PlanProblem, checker: FastChecker) -> _Setup:
@@ -354,11 +362,52 @@ class HybridAStar:
         return dataclasses.replace(out, stats={**out.stats, "length_m": path_length(out.path)})
 
 
+#: Bytes of the search's tables per lattice state (:func:`planning.planners.lattice.search`: six float64
+#: and two int64 of a node, one int8 of its state). They are allocated whole and touched where the
+#: search goes: a 100 x 100 m world's 2.9e8 states take 19 GB of address space and about 1 GB of memory.
+BYTES_PER_STATE = 6 * 8 + 2 * 8 + 1
+
+
+def memory_bytes() -> int:
+    """This machine's physical memory [bytes] (0 when it cannot be read)."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return 0
+
+
+def _lattice_too_large(
+    problem: PlanProblem, lat: tuple[float, float, float, int, int, int], available: int | None = None
+) -> str:
+    """Why the search's tables over lattice ``lat`` cannot be had, naming the fix ("" when they can): they
+    need more than ``available`` bytes (default: the machine's memory; 0: the allocation failed)."""
+    _, _, cell, nx, ny, bins = lat
+    states = nx * ny * bins
+    need = states * BYTES_PER_STATE
+    memory = memory_bytes()
+    if available is None and (memory == 0 or need <= memory):
+        return ""
+    # cells this much larger need at most half the memory (the tables grow as 1 / cell^2)
+    coarser = cell * np.sqrt(need / (0.5 * memory)) if memory else 2 * cell
+    coarser = float(np.ceil(coarser / 0.05 - 1e-9) * 0.05)
+    have = (
+        f"more than this machine's {memory / 1e9:.3g} GB of memory"
+        if available is None
+        else "which could not be allocated"
+    )
+    return (
+        f"the search lattice of this {problem.world.width:g} x {problem.world.height:g} m world ({nx} x {ny} cells "
+        f"of {cell:g} m, {bins} headings: {states:.3g} states) needs {need / 1e9:.3g} GB of tables, {have}; plan "
+        f"it with larger cells (cell_size = {coarser:g} in a [planners.hybrid-a-star] table of the scenario) or on "
+        f"a smaller world"
+    )
+
+
 def _stats(clock: tuple[PlanClock, float], checker: FastChecker, iterations: int, nodes: int) -> dict[str, object]:
     """time_s (wall: grid, lattice and search), cpu_s (this process's CPU time over the same span: the
     cost without other processes' load), grid_s (the collision grid's part of time_s, its code's readying
-    left out), iterations and nodes, code_s (numba readying the kernels: its set-up, cache loads,
-    compiling; not counted against the time limit); ``clock`` is (the planner's
+    left out), iterations and nodes, code_s (numba readying the kernels: cache loads, compiling; not
+    counted against the time limit); ``clock`` is (the planner's
     :class:`planning.clock.PlanClock`, ``time.process_time()`` at the start)."""
     return {
         "time_s": clock[0].elapsed(),
