@@ -36,3 +36,20 @@ def test_route_around_a_disc_is_clear_and_near_the_tangent_length() -> None:
 def test_blocked_world_returns_none() -> None:
     world = World((0.0, 2.0, 0.0, 1.0), (Box((1.0, 0.5), (0.1, 1.0)),))
     assert grid_path(world, np.array([0.3, 0.5]), np.array([1.7, 0.5]), 0.1) is None
+
+
+def test_a_world_too_large_for_the_spacing_is_sampled_coarser(monkeypatch) -> None:
+    """A 200 x 200 m world at 2 cm would be 1e8 nodes (24 GB and two minutes): at most MAX_CELLS are
+    (40,000 here: a node a metre)."""
+    from planning.planners import gridpath
+
+    monkeypatch.setattr(gridpath, "MAX_CELLS", 40_000)
+    seen: list[int] = []
+    real = gridpath.signed_distances
+    monkeypatch.setattr(gridpath, "signed_distances", lambda w, p, s: (seen.append(len(p)), real(w, p, s))[1])
+    world = World((-100.0, 100.0, -100.0, 100.0), (Circle((0.0, 0.0), 1.0),))
+    path = grid_path(world, np.array([-90.0, -90.0]), np.array([90.0, 90.0]), 0.5)
+    assert path is not None and np.allclose(path[[0, -1]], [[-90, -90], [90, 90]])
+    assert seen[0] <= (np.sqrt(gridpath.MAX_CELLS) + 1) ** 2  # the nodes, both edges included
+    dense = np.vstack([a + np.linspace(0, 1, 400)[:, None] * (b - a) for a, b in itertools.pairwise(path)])
+    assert np.min(world.signed_distance(dense)) > 0.5

@@ -1,7 +1,9 @@
 """Shortest collision-free polyline for a disc robot on an occupancy grid (a warm start for optimisers).
 
-The world is sampled on a square grid; a cell is free when the disc of radius ``clearance`` about
-its centre touches no obstacle or wall (exact signed distance). Dijkstra's algorithm on the
+The world is sampled on a square grid (at most :data:`MAX_CELLS` nodes: a world too large for the
+spacing asked is sampled coarser); a cell is free when the disc of radius ``clearance`` about its
+centre touches no obstacle or wall (exact signed distance, compiled with the distance field's broad
+phase: :func:`planning.collision.field.signed_distances`). Dijkstra's algorithm on the
 16-connected free cells (moves (1,0), (1,1), (2,1) and their symmetric images, each edge checked
 at its midpoint too) gives the shortest route, which is then shortened by dropping every vertex
 whose neighbours see each other through free space.
@@ -14,17 +16,21 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import dijkstra
 
+from planning.collision.field import signed_distances
 from planning.core.world import World
 
 FloatArray = NDArray[np.float64]
 
 _MOVES = ((1, 0), (0, 1), (1, 1), (1, -1), (2, 1), (1, 2), (2, -1), (1, -2))
+#: Most grid nodes (a 20 x 20 m world at the default 2 cm; a 200 x 200 m one at 20 cm took 24 GB
+#: of memory and two minutes at 2 cm).
+MAX_CELLS = 1_000_000
 
 
 def _segment_free(world: World, a: FloatArray, b: FloatArray, clearance: float, step: float) -> bool:
     n = max(2, int(np.ceil(np.hypot(*(b - a)) / step)) + 1)
     pts = a[None, :] + np.linspace(0.0, 1.0, n)[:, None] * (b - a)[None, :]
-    return bool(np.all(world.signed_distance(pts) > clearance))
+    return bool(np.all(signed_distances(world, pts, step) > clearance))
 
 
 def grid_path(
@@ -37,18 +43,20 @@ def grid_path(
         start: (2,) start position [m].
         goal: (2,) goal position [m].
         clearance: Disc radius that must stay clear of obstacles and walls [m].
-        resolution: Grid spacing [m].
+        resolution: Grid spacing [m]; coarser where the world would need more than :data:`MAX_CELLS`
+            nodes.
 
     Returns:
         (K, 2) vertices from start to goal, or None when no free route exists on the grid.
     """
     xmin, xmax, ymin, ymax = world.bounds
+    resolution = max(resolution, float(np.sqrt(world.width * world.height / MAX_CELLS)))
     xs = np.arange(xmin, xmax + 0.5 * resolution, resolution)
     ys = np.arange(ymin, ymax + 0.5 * resolution, resolution)
     nx, ny = xs.size, ys.size
     gx, gy = np.meshgrid(xs, ys, indexing="ij")
     pts = np.column_stack([gx.ravel(), gy.ravel()])
-    free = world.signed_distance(pts) > clearance
+    free = signed_distances(world, pts, resolution) > clearance
     idx = np.arange(nx * ny).reshape(nx, ny)
     rows, cols, weights = [], [], []
     for dx, dy in _MOVES:
@@ -56,7 +64,7 @@ def grid_path(
         b = idx[max(0, dx) : nx - max(0, -dx), max(0, dy) : ny - max(0, -dy)].ravel()
         ok = free[a] & free[b]
         mid = 0.5 * (pts[a[ok]] + pts[b[ok]])
-        good = np.flatnonzero(ok)[world.signed_distance(mid) > clearance]
+        good = np.flatnonzero(ok)[signed_distances(world, mid, resolution) > clearance]
         rows.append(a[good])
         cols.append(b[good])
         weights.append(np.full(good.size, resolution * np.hypot(dx, dy)))
