@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import math
 import os
 import time
 from collections.abc import Callable
@@ -241,6 +242,9 @@ class HybridAStar:
         cfg = self.config
         limit = cfg.time_limit if cfg.time_limit is not None else problem.time_limit
         clock = (PlanClock(limit), time.process_time())
+        too_large = _lattice_too_large(problem, cfg.cell_size, cfg.angle_quantization_bins)
+        if too_large:
+            return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=too_large, stats=_stats(clock, None, 0, 0))
         try:  # the grid counts against the time limit
             checker = make_checker(problem, cfg.shape, cfg.clearance, clock[0].deadline())  # type: ignore[arg-type]
         except FieldTimeout as exc:
@@ -257,9 +261,6 @@ class HybridAStar:
                 f"{cfg.clearance:g} m) on the {cfg.cell_size:g} m grid: the goal is walled off"
             )
             return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=reason, stats=_stats(clock, checker, 0, 0))
-        too_large = _lattice_too_large(problem, setup.lat)
-        if too_large:
-            return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=too_large, stats=_stats(clock, checker, 0, 0))
         p = setup.prims
         dirs = p.directions
         cost = (
@@ -284,7 +285,7 @@ class HybridAStar:
                 lattice.search, start, goal, tol, setup.rho, setup.step, space, expansion, cfg.max_iterations, left
             )
         except MemoryError:  # within the machine's memory, yet not to be had
-            reason = _lattice_too_large(problem, setup.lat, available=0)
+            reason = _lattice_too_large(problem, cfg.cell_size, cfg.angle_quantization_bins, failed=True)
             return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=reason, stats=_stats(clock, checker, 0, 0))
         return self._result(problem, setup, out, clock, limit)
 
@@ -376,25 +377,21 @@ def memory_bytes() -> int:
         return 0
 
 
-def _lattice_too_large(
-    problem: PlanProblem, lat: tuple[float, float, float, int, int, int], available: int | None = None
-) -> str:
-    """Why the search's tables over lattice ``lat`` cannot be had, naming the fix ("" when they can): they
-    need more than ``available`` bytes (default: the machine's memory; 0: the allocation failed)."""
-    _, _, cell, nx, ny, bins = lat
+def _lattice_too_large(problem: PlanProblem, cell: float, bins: int, failed: bool = False) -> str:
+    """Why the search's tables over the world's lattice of ``cell`` [m] cells and ``bins`` headings cannot
+    be had, naming the fix; "" when they can. They cannot when they need more than the machine's memory,
+    or when their allocation ``failed``. (The 2-D heuristic's arrays, tens of bytes a cell, are far
+    smaller: checked first, the lattice covers them.)"""
+    nx, ny = math.ceil(problem.world.width / cell), math.ceil(problem.world.height / cell)
     states = nx * ny * bins
     need = states * BYTES_PER_STATE
     memory = memory_bytes()
-    if available is None and (memory == 0 or need <= memory):
+    if not failed and (memory == 0 or need <= memory):
         return ""
     # cells this much larger need at most half the memory (the tables grow as 1 / cell^2)
     coarser = cell * np.sqrt(need / (0.5 * memory)) if memory else 2 * cell
     coarser = float(np.ceil(coarser / 0.05 - 1e-9) * 0.05)
-    have = (
-        f"more than this machine's {memory / 1e9:.3g} GB of memory"
-        if available is None
-        else "which could not be allocated"
-    )
+    have = "which could not be allocated" if failed else f"more than this machine's {memory / 1e9:.3g} GB of memory"
     return (
         f"the search lattice of this {problem.world.width:g} x {problem.world.height:g} m world ({nx} x {ny} cells "
         f"of {cell:g} m, {bins} headings: {states:.3g} states) needs {need / 1e9:.3g} GB of tables, {have}; plan "
@@ -403,7 +400,9 @@ def _lattice_too_large(
     )
 
 
-def _stats(clock: tuple[PlanClock, float], checker: FastChecker, iterations: int, nodes: int) -> dict[str, object]:
+def _stats(
+    clock: tuple[PlanClock, float], checker: FastChecker | None, iterations: int, nodes: int
+) -> dict[str, object]:
     """time_s (wall: grid, lattice and search), cpu_s (this process's CPU time over the same span: the
     cost without other processes' load), grid_s (the collision grid's part of time_s, its code's readying
     left out), iterations and nodes, code_s (numba readying the kernels: cache loads, compiling; not
@@ -413,7 +412,7 @@ def _stats(clock: tuple[PlanClock, float], checker: FastChecker, iterations: int
         "time_s": clock[0].elapsed(),
         "code_s": clock[0].code(),
         "cpu_s": time.process_time() - clock[1],
-        "grid_s": checker.grid_seconds,
+        "grid_s": 0.0 if checker is None else checker.grid_seconds,
         "iterations": iterations,
         "nodes": nodes,
     }
