@@ -3,6 +3,8 @@ radius kept all along, the analytic shortest length approached from above, waypo
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -68,3 +70,17 @@ def test_compiled_world_distances_equal_the_worlds_own():
     world = load_scenario("farm").world  # circles and ellipses (bisection), walls
     pts = np.random.default_rng(4).uniform(-3.2, 3.2, (5000, 2))
     np.testing.assert_allclose(world_distances(pts, world_arrays(world)), world.signed_distance(pts), atol=1e-12)
+
+
+def test_a_world_too_large_for_the_cell_is_routed_on_larger_cells(monkeypatch):
+    """A 1000 x 1000 km world on 5 cm cells would be 4e14 of them (every sampling planner's simplification
+    failed allocating 2.8 PiB): at most MAX_CELLS are searched."""
+    huge = World((0.0, 1e6, 0.0, 1e6), ())
+    vertices = geodesic.route(huge, np.array([0.15, 0.15]), np.array([0.2, 0.2]), 0.1)
+    assert vertices is not None and np.allclose(vertices[[0, -1]], [[0.15, 0.15], [0.2, 0.2]])
+    monkeypatch.setattr(geodesic, "MAX_CELLS", 10_000)  # a 20 x 20 m world on 20 cm cells
+    world = World((0.0, 20.0, 0.0, 20.0), (Circle((10.0, 10.0), 2.0),))
+    vertices = geodesic.route(world, np.array([1.0, 1.0]), np.array([19.0, 19.0]), 0.3)
+    assert vertices is not None and vertices.shape[0] >= 3  # round the disc
+    dense = np.vstack([a + np.linspace(0, 1, 400)[:, None] * (b - a) for a, b in itertools.pairwise(vertices)])
+    assert np.min(world.signed_distance(dense)) > 0.25  # the radius, less a 20 cm cell's chord's sagitta

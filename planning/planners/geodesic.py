@@ -50,6 +50,9 @@ SEE_MARGIN = 1e-4
 MIN_TURN = 1e-3
 #: Distance fields kept (the most recently used).
 CACHE_SIZE = 16
+#: Most cells of a :func:`route` (a world too large for its cell side is searched on larger cells: a
+#: 200 x 200 m world on 10 cm cells; a 1000 x 1000 km one on 5 cm cells failed allocating 2.8 PiB).
+MAX_CELLS = 4_000_000
 _FIELDS: OrderedDict[tuple[object, ...], FloatArray] = OrderedDict()
 
 
@@ -207,12 +210,14 @@ def route(world: World, start: FloatArray, goal: FloatArray, radius: float, cell
         start: Start position, (2,) or a pose (3,) [m].
         goal: Goal position, (2,) or a pose (3,) [m].
         radius: Radius of the disc about the route [m].
-        cell: Cell side of the search [m].
+        cell: Cell side of the search [m]; larger where the world would need more than
+            :data:`MAX_CELLS` cells.
 
     Returns:
         (M, 2) vertices from ``start`` to ``goal`` (M >= 2), or None when the goal's cell cannot be
         reached from the start's.
     """
+    cell = max(cell, float(np.sqrt(world.width * world.height / MAX_CELLS)))
     s, g = np.asarray(start, dtype=float)[:2], np.asarray(goal, dtype=float)[:2]
     field, origin, (i, j) = _from_start(world, s, g, radius, cell)
     if not np.isfinite(field[i, j]):
