@@ -244,16 +244,14 @@ def search(
         tol: (2,) goal position [m] and heading [rad] tolerance.
         rho: Turning radius [m].
         step: Sample step of the analytic expansion [m].
-        space: The searched space, (prims, lat, h2d, chk, cover): prims = (body (P, K, 3) samples,
-            ends (P, 3), cost (P,), change_extra (P,), turn_class (P,)); lat = (xmin, ymin, cell,
-            nx, ny, bins); h2d (nx, ny) the obstacle heuristic [m]; chk the fast checker's
-            arguments (see :func:`_proven_free`); cover (C, 3) body-frame discs [x, y, r] covering
-            the footprint (see :func:`_covered`).
+        space: (prims, lat, h2d, chk, cover): prims = (body (P, K, 3) samples, ends (P, 3), cost (P,),
+            change_extra (P,), turn_class (P,)); lat = (xmin, ymin, cell, nx, ny, bins); h2d (nx, ny)
+            the obstacle heuristic [m]; chk the fast checker's arguments (:func:`_proven_free`); cover
+            (C, 3) body-frame discs [x, y, r] covering the footprint (:func:`_covered`).
         expansion: (2,) analytic expansion ratio and largest analytic length [m].
         max_iterations: Expansion budget.
         seconds: Time the search may take [s], from its start (after numba has compiled or loaded it).
-        stop: (1,) flag: the search ends, timed out, within 256 expansions of it being set
-            (:func:`planning.signals.stoppable`).
+        stop: (1,) flag: set, the search ends within 256 expansions (:func:`planning.signals.stoppable`).
 
     Returns:
         (outcome, terminal node id, expansions, nodes, meta, state, analytic poses, analytic dirs).
@@ -269,8 +267,7 @@ def search(
     h0 = rs_length(start, goal, rho)
     nodes[s, 0], nodes[s, 1], nodes[s, 2], nodes[s, 3], nodes[s, 5] = start[0], start[1], start[2], 0.0, h0
     nodes[s, 4] = max(h0, h2d[(s // lat[5]) // lat[4], (s // lat[5]) % lat[4]])
-    meta[s, 0], meta[s, 1] = -1, -1
-    state[s] = _OPEN
+    meta[s, 0], meta[s, 1], state[s] = -1, -1, _OPEN
     heap = [(nodes[s, 4], 0, s)]
     # a typed zero, not the literal 0 (for which numba would compile _expand a second time)
     counter: int = np.int64(0)  # type: ignore[assignment]
