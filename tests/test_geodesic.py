@@ -74,11 +74,11 @@ def test_compiled_world_distances_equal_the_worlds_own():
 
 def test_a_world_too_large_for_the_cell_is_routed_on_larger_cells(monkeypatch):
     """A 1000 x 1000 km world on 5 cm cells would be 4e14 of them (every sampling planner's simplification
-    failed allocating 2.8 PiB): at most MAX_CELLS are searched."""
+    failed allocating 2.8 PiB): at most MAX_CELLS are searched (10,000 here)."""
+    monkeypatch.setattr(geodesic, "MAX_CELLS", 10_000)  # a 20 x 20 m world on 20 cm cells
     huge = World((0.0, 1e6, 0.0, 1e6), ())
     vertices = geodesic.route(huge, np.array([0.15, 0.15]), np.array([0.2, 0.2]), 0.1)
     assert vertices is not None and np.allclose(vertices[[0, -1]], [[0.15, 0.15], [0.2, 0.2]])
-    monkeypatch.setattr(geodesic, "MAX_CELLS", 10_000)  # a 20 x 20 m world on 20 cm cells
     world = World((0.0, 20.0, 0.0, 20.0), (Circle((10.0, 10.0), 2.0),))
     vertices = geodesic.route(world, np.array([1.0, 1.0]), np.array([19.0, 19.0]), 0.3)
     assert vertices is not None and vertices.shape[0] >= 3  # round the disc
