@@ -170,6 +170,7 @@ print("COMPILED", len(compiled), compiled)
 """
 
 
+@pytest.mark.slow  # two processes, the first compiling Hybrid-A*'s kernels on a fresh clone
 def test_a_new_process_compiles_nothing_the_disk_cache_holds() -> None:
     """A plan's second process loads every kernel from numba's cache and compiles none: a kernel with an
     object-mode block (``numba.objmode``) is cached without it, and numba compiled that block afresh in

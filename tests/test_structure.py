@@ -155,6 +155,21 @@ def test_no_function_is_longer_than_the_limit() -> None:
     assert not long, f"functions over {MAX_FUNCTION_LINES} lines:\n" + "\n".join(long)
 
 
+def test_no_compiled_kernel_runs_object_mode_code() -> None:
+    """numba caches a kernel without its ``numba.objmode`` blocks and compiles them afresh in every
+    process (Hybrid-A*'s deadline clock cost each cold plan about 40 ms so): compiled code reads the
+    clock through ``planning.clock.monotonic``. ``tests/test_plan_clock.py`` (slow) runs a plan's second
+    process and checks that numba compiles nothing."""
+    found = []
+    for path, tree in _sources().values():
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute) and node.attr in ("objmode", "object_mode"):
+                found.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+            elif isinstance(node, ast.ImportFrom) and any(a.name == "objmode" for a in node.names):
+                found.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    assert not found, "numba object mode in:\n" + "\n".join(found)
+
+
 def _is_table(node: ast.stmt) -> bool:
     value = node.value if isinstance(node, (ast.Assign, ast.AnnAssign, ast.Return, ast.Expr)) else None
     return isinstance(value, (ast.Dict, ast.List, ast.Tuple, ast.Set, ast.Call))
