@@ -573,3 +573,36 @@ def test_hybrid_a_stars_search_takes_an_interrupt_at_once(monkeypatch: pytest.Mo
         planner.plan(problem)
     assert sent and time.monotonic() - sent[0] < 1.0  # the search alone would run on for seconds
     assert _helpers() == []
+
+
+_GL_CONVERSION = """
+import signal
+
+
+class Buffer:
+    @classmethod
+    def from_param(cls, value):  # Python code ctypes runs while it converts a call's argument
+        signal.raise_signal(signal.SIGTERM)
+        return 0
+"""
+
+
+def test_an_interrupt_in_a_ctypes_argument_conversion_of_opengl_is_raised_after_the_call() -> None:
+    """ctypes turns an exception raised while it converts a call's arguments into ``ctypes.ArgumentError``:
+    a SIGTERM landing in PyOpenGL's conversion of MuJoCo's OSMesa buffer ended a render with exit status
+    1 and "ArgumentError: argument 2: KeyboardInterrupt". In OpenGL's code it waits for the call."""
+    import ctypes
+    import os
+
+    from sim.cli.interrupt import sigterm_as_interrupt
+
+    space: dict[str, object] = {}
+    exec(compile(_GL_CONVERSION, f"{os.sep}site-packages{os.sep}OpenGL{os.sep}arrays.py", "exec"), space)
+    labs = ctypes.CDLL(None).labs
+    labs.argtypes, labs.restype = [space["Buffer"]], ctypes.c_long
+    returned: list[int] = []
+    with pytest.raises(KeyboardInterrupt, match="SIGTERM"), sigterm_as_interrupt():
+        returned.append(labs(None))
+        while True:
+            time.sleep(0.001)
+    assert returned == [0]  # the call completed, then the interrupt came

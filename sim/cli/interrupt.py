@@ -24,8 +24,17 @@ from types import FrameType
 #: kernel) or turns it into a SystemError (numba's helpers that compiled code calls, such as the
 #: unpickling of a kernel's constants), and numba's compiler, interrupted in its passes or its imports,
 #: leaves LLVM's objects half built (the command said "interrupted", then died at exit: ``free():
-#: double free detected``, or by SIGINT).
-SWALLOWING = (f"{os.sep}llvmlite{os.sep}", f"{os.sep}numba{os.sep}")
+#: double free detected``, or by SIGINT). And the OpenGL calls made through ctypes (PyOpenGL, and
+#: MuJoCo's OSMesa, EGL and GLFW contexts, which call it): ctypes turns an exception raised while it
+#: converts a call's arguments into ``ctypes.ArgumentError``, so a SIGTERM during a render ended the
+#: command with "ArgumentError: argument 2: KeyboardInterrupt: signal SIGTERM", exit status 1 (2 of 15
+#: renders stopped at random moments under load).
+SWALLOWING = (
+    f"{os.sep}llvmlite{os.sep}",
+    f"{os.sep}numba{os.sep}",
+    f"{os.sep}OpenGL{os.sep}",
+    *(f"{os.sep}mujoco{os.sep}{gl}{os.sep}" for gl in ("osmesa", "egl", "glfw")),
+)
 #: Finalizers: Python runs them when an object is freed, anywhere, and prints and drops what they raise
 #: ("Exception ignored in: ... __del__"), so an interrupt raised in one was lost and the command ran on.
 #: A ``__del__`` method (its name), or a ``weakref.finalize`` callback (called from the standard
