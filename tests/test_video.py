@@ -144,6 +144,35 @@ def test_an_interrupt_as_the_temporary_file_is_created_leaves_nothing(
     assert list(tmp_path.iterdir()) == []
 
 
+def test_an_interrupt_as_ffmpeg_starts_stops_it_and_leaves_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A signal landing inside ``Popen``, once ffmpeg runs and before the writer holds it: raised there,
+    ffmpeg ran on unknown to the writer and, once its input closed, re-created the removed temporary
+    file (4 renders in 30 stopped as soon as the file appeared left it behind, with exit status 130).
+    The interrupt now waits until the writer holds ffmpeg, which it then stops."""
+    import signal
+    import subprocess
+
+    real = subprocess.Popen
+    started: list[subprocess.Popen[bytes]] = []
+
+    def started_then_interrupted(*args: object, **kwargs: object) -> subprocess.Popen[bytes]:
+        started.append(real(*args, **kwargs))  # type: ignore[call-overload]
+        signal.raise_signal(signal.SIGINT)  # Python's own handler: KeyboardInterrupt at once
+        return started[-1]
+
+    monkeypatch.setattr(subprocess, "Popen", started_then_interrupted)
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    with pytest.raises(KeyboardInterrupt), VideoWriter(tmp_path / "x.mp4", 64, 48, 10):
+        pass
+    ffmpeg = started[0]
+    if ffmpeg.stdin is not None:
+        ffmpeg.stdin.close()  # what the garbage collector does to an orphan's pipe
+    assert ffmpeg.wait(timeout=30) != 0  # stopped, not left to finish its file
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_an_unfinished_output_leaves_no_folder_it_made(tmp_path: Path) -> None:
     from sim.outputs import atomic_path, write_json
 

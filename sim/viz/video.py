@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.errors import ConfigError, DependencyError, SimulationError
+from planning.signals import signals_held
 from sim.outputs import atomic_path
 
 Frame = NDArray[np.uint8]
@@ -118,10 +119,12 @@ class VideoWriter:
             tmp = self._stack.enter_context(atomic_path(self.path, overwrite=self.overwrite))
             size = (self.width, self.height)
             cmd = ffmpeg_command(exe, tmp, *size, self.fps, crf=self._crf, preset=self._preset, threads=self._threads)
-            try:
-                self._proc = subprocess.Popen(
-                    cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
-                )
+            try:  # an interrupt while ffmpeg starts waits until it is ours to stop: raised inside Popen, it
+                # left ffmpeg running unknown to us, and ffmpeg re-created the file once it had been removed
+                with signals_held():
+                    self._proc = subprocess.Popen(
+                        cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+                    )
             except OSError as exc:
                 raise DependencyError(f"cannot start ffmpeg ({exc}); reinstall: pip install imageio-ffmpeg") from exc
             self._thread = threading.Thread(target=self._pump, name="mp4-writer", daemon=True)
