@@ -606,3 +606,50 @@ def test_an_interrupt_in_a_ctypes_argument_conversion_of_opengl_is_raised_after_
         while True:
             time.sleep(0.001)
     assert returned == [0]  # the call completed, then the interrupt came
+
+
+def test_an_interrupt_python_drops_in_a_weakref_callback_is_raised_again() -> None:
+    """Python prints and drops what a weakref callback raises; any callback may run anywhere (a SIGTERM
+    landing in importlib's module-lock callback was lost, and ``nhsim simulate`` ran on to its end). The
+    dropped interrupt is raised again a moment later."""
+    import gc
+    import weakref
+
+    from sim.cli.interrupt import sigterm_as_interrupt
+
+    class Thing:
+        pass
+
+    def callback(_ref: object) -> None:  # neither a __del__ nor weakref.finalize's: no frame marks it
+        signal.raise_signal(signal.SIGTERM)
+
+    thing = Thing()
+    ref = weakref.ref(thing, callback)
+    start = time.monotonic()
+    with pytest.raises(KeyboardInterrupt, match="SIGTERM"), sigterm_as_interrupt():
+        del thing  # the callback runs here, takes the signal and raises; Python drops that
+        gc.collect()
+        while time.monotonic() - start < 5.0:
+            time.sleep(0.001)
+    assert ref() is None and time.monotonic() - start < 1.0  # raised again within the second, not lost
+
+
+def test_an_interrupt_during_an_import_waits_for_the_module(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """An interrupt raised while a module is imported left it half initialised, and a C extension's
+    initialisation turned it into an ImportError (``import mujoco`` in ``nhsim simulate``: "ImportError:
+    initialization failed", exit status 1). It now waits for the import, then is raised."""
+    import importlib
+    import sys
+
+    from sim.cli.interrupt import sigterm_as_interrupt
+
+    (tmp_path / "slowmodule.py").write_text(
+        "import signal\nsignal.raise_signal(signal.SIGTERM)\nimport time\ntime.sleep(0.05)\nDONE = True\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "slowmodule", raising=False)
+    with pytest.raises(KeyboardInterrupt, match="SIGTERM"), sigterm_as_interrupt():
+        importlib.import_module("slowmodule")
+        while True:
+            time.sleep(0.001)
+    assert sys.modules["slowmodule"].DONE  # the module was imported whole, then the interrupt came

@@ -18,6 +18,7 @@ import threading
 import time
 from collections.abc import Iterator
 from types import FrameType
+from typing import Any
 
 #: Packages whose Python code an exception raised by a signal handler must not cross: C code calls it
 #: back and drops what it raises (llvmlite's object-cache hooks, while numba compiles or loads a
@@ -41,6 +42,12 @@ SWALLOWING = (
 #: library's ``weakref`` module).
 FINALIZER = "__del__"
 WEAKREF_FILE = f"{os.sep}weakref.py"
+#: The import machinery (``importlib._bootstrap`` and ``_bootstrap_external``, frozen): an interrupt
+#: raised while a module is imported left it half initialised, and a C extension's initialisation
+#: turns it into an ImportError (a SIGTERM 1.4 s into ``nhsim simulate`` ended it with "ImportError:
+#: initialization failed" from ``import mujoco``, exit status 1); importlib's module-lock callbacks
+#: drop it. An interrupt waits for the import to finish (a few tenths of a second at most).
+IMPORTING = "<frozen importlib._bootstrap"
 #: How long an interrupt waits before it is tried again [s].
 RETRY_S = 0.01
 
@@ -51,8 +58,8 @@ _OUTSIDE: list[tuple[FrameType, ...]] = []
 
 
 def _deferred(frame: FrameType | None) -> bool:
-    """Whether an interrupt raised now would cross :data:`SWALLOWING` code or a finalizer
-    (:data:`FINALIZER`), or leave an ``exec`` or ``eval`` of source text: a frame of any of them is on
+    """Whether an interrupt raised now would cross :data:`SWALLOWING` code, an import (:data:`IMPORTING`)
+    or a finalizer (:data:`FINALIZER`), or leave an ``exec`` or ``eval`` of source text: a frame of any of them is on
     the stack above the block's callers (:data:`_OUTSIDE`; below them are, for instance, ``python -c``'s
     own source text and pytest-xdist's, which the interrupt, caught in the block, never leaves).
 
@@ -68,7 +75,7 @@ def _deferred(frame: FrameType | None) -> bool:
         code = frame.f_code
         if code.co_filename == "<string>" and code.co_name == "<module>":
             return True
-        if any(part in code.co_filename for part in SWALLOWING):
+        if any(part in code.co_filename for part in SWALLOWING) or code.co_filename.startswith(IMPORTING):
             return True
         if code.co_name == FINALIZER or code.co_filename.endswith(WEAKREF_FILE):
             return True
@@ -100,14 +107,45 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
         since = _WAITING.setdefault("since", time.monotonic())
         if retry and time.monotonic() - since > NOTICE_S and not _WAITING.get("told"):
             _WAITING["told"] = 1.0
-            print("nhsim: stopping once numba has built the kernel it is compiling; interrupt again to stop at once",
-                  file=sys.stderr, flush=True)  # fmt: skip
-        signal.signal(signal.SIGALRM, lambda _s, _f: _retry(signum))
-        signal.setitimer(signal.ITIMER_REAL, RETRY_S)
+            print("nhsim: stopping once the code running now can be left (numba compiling a kernel, a module being "
+                  "imported); interrupt again to stop at once", file=sys.stderr, flush=True)  # fmt: skip
+        _later(signum)
         return
     _WAITING.clear()
     signal.setitimer(signal.ITIMER_REAL, 0.0)
-    raise KeyboardInterrupt(f"signal {signal.Signals(signum).name}")
+    raise _Interrupt(signum)
+
+
+class _Interrupt(KeyboardInterrupt):
+    """The KeyboardInterrupt a signal raised (its number kept, should Python drop it: :func:`_dropped`)."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(f"signal {signal.Signals(signum).name}")
+        self.signum = signum
+
+
+def _later(signum: int) -> None:
+    """Raise the signal's interrupt again in :data:`RETRY_S` (:func:`_retry`)."""
+    signal.signal(signal.SIGALRM, lambda _s, _f: _retry(signum))
+    signal.setitimer(signal.ITIMER_REAL, RETRY_S)
+
+
+def _dropped(unraisable: Any) -> None:
+    """``sys.unraisablehook`` within the block: an interrupt Python dropped is raised again a moment later.
+
+    Python prints and drops what a finalizer or a weakref callback raises ("Exception ignored in"). The
+    frames of ``__del__`` methods and ``weakref.finalize`` callbacks are known (:func:`_deferred`), but
+    any weakref callback may run anywhere: a SIGTERM 0.42 s into ``nhsim simulate``, retried while
+    importlib's module-lock callback ran (``_get_module_lock.<locals>.cb``), was dropped there, and the
+    command ran on to its end and wrote every output (exit status 0)."""
+    if isinstance(unraisable.exc_value, _Interrupt) and _OUTSIDE:
+        _later(unraisable.exc_value.signum)
+        return
+    _HOOKS[-1](unraisable)
+
+
+#: The ``sys.unraisablehook`` each open block replaced, innermost last.
+_HOOKS: list[Any] = []
 
 
 @contextlib.contextmanager
@@ -127,11 +165,14 @@ def sigterm_as_interrupt() -> Iterator[None]:
     _OUTSIDE.append(tuple(callers))
     alarm = signal.getsignal(signal.SIGALRM)
     previous = {sig: signal.signal(sig, _interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
+    _HOOKS.append(sys.unraisablehook)
+    sys.unraisablehook = _dropped
     try:
         yield
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0.0)
         _WAITING.clear()
         _OUTSIDE.pop()
+        sys.unraisablehook = _HOOKS.pop()
         for sig, handler in (*previous.items(), (signal.SIGALRM, alarm)):
             signal.signal(sig, handler)
