@@ -228,7 +228,7 @@ class FastChecker:
     def __post_init__(self) -> None:
         clock = PlanClock(float("inf"))  # only to time the grid less numba readying its kernels
         w = self.checker.world
-        h = self.spacing if self.spacing is not None else max(0.01, float(np.sqrt(w.width * w.height / MAX_NODES)))
+        h = self.spacing if self.spacing is not None else w.grid_spacing(0.01, MAX_NODES)
         if not h > 0:
             raise ValueError(f"grid spacing must be > 0, got {h}")
         object.__setattr__(self, "_h", float(h))

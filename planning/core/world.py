@@ -336,6 +336,11 @@ class World:
         """Extent along y [m]."""
         return self.bounds[3] - self.bounds[2]
 
+    def grid_spacing(self, finest: float, max_cells: int) -> float:
+        """Spacing [m] of a square grid over the bounds: ``finest``, or coarser where that would need more
+        than ``max_cells`` cells (the collision grid, the 2-D routes)."""
+        return max(finest, float(np.sqrt(self.width * self.height / max_cells)))
+
     def wall_distance(self, points: ArrayLike) -> FloatArray:
         """Distance to the nearest wall, positive inside the bounds [m]. (M,)"""
         p = _points(points)

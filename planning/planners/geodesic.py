@@ -217,7 +217,7 @@ def route(world: World, start: FloatArray, goal: FloatArray, radius: float, cell
         (M, 2) vertices from ``start`` to ``goal`` (M >= 2), or None when the goal's cell cannot be
         reached from the start's.
     """
-    cell = max(cell, float(np.sqrt(world.width * world.height / MAX_CELLS)))
+    cell = world.grid_spacing(cell, MAX_CELLS)
     s, g = np.asarray(start, dtype=float)[:2], np.asarray(goal, dtype=float)[:2]
     field, origin, (i, j) = _from_start(world, s, g, radius, cell)
     if not np.isfinite(field[i, j]):

@@ -50,7 +50,7 @@ def grid_path(
         (K, 2) vertices from start to goal, or None when no free route exists on the grid.
     """
     xmin, xmax, ymin, ymax = world.bounds
-    resolution = max(resolution, float(np.sqrt(world.width * world.height / MAX_CELLS)))
+    resolution = world.grid_spacing(resolution, MAX_CELLS)
     xs = np.arange(xmin, xmax + 0.5 * resolution, resolution)
     ys = np.arange(ymin, ymax + 0.5 * resolution, resolution)
     nx, ny = xs.size, ys.size
