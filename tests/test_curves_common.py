@@ -3,7 +3,17 @@
 import numpy as np
 import pytest
 
-from planning.curves.common import TOL, CurveFamily, check_rho, lands_on, local_goal, mod2pi, pose_pairs
+from planning.curves.common import (
+    TOL,
+    TWO_PI,
+    CurveFamily,
+    check_rho,
+    fmod_2pi,
+    lands_on,
+    local_goal,
+    mod2pi,
+    pose_pairs,
+)
 from planning.curves.dubins import DUBINS, DUBINS_WORDS, dubins_batch
 from planning.curves.reeds_shepp import REEDS_SHEPP, RS_WORDS, reeds_shepp_batch
 from tests.curve_helpers import pose_pairs as random_pairs
@@ -16,6 +26,20 @@ def test_mod2pi_wraps_to_minus_pi_pi() -> None:
     np.testing.assert_allclose(np.cos(w), np.cos(a), atol=1e-12)
     np.testing.assert_allclose(np.sin(w), np.sin(a), atol=1e-12)
     assert mod2pi(3 * np.pi / 2) == pytest.approx(-np.pi / 2, abs=1e-15)
+
+
+def test_fmod_2pi_is_fmod_bit_for_bit() -> None:
+    """The short cuts for |a| < 4 pi give fmod's own result, signed zeros and the edges included."""
+    rng = np.random.default_rng(3)
+    edges = [s * k * TWO_PI for s in (1.0, -1.0) for k in (1.0, 2.0)]
+    near = [np.nextafter(e, t) for e in edges for t in (0.0, np.sign(e) * np.inf)]
+    a = np.concatenate(
+        [rng.uniform(-30.0, 30.0, 20000), rng.normal(0.0, 1e-300, 100), edges, near, [0.0, -0.0, 1e300, -1e300]]
+    )
+    got = np.array([fmod_2pi(float(x)) for x in a])
+    assert np.array_equal(got.view(np.int64), np.fmod(a, TWO_PI).view(np.int64))  # -0.0 is not 0.0 here
+    for x in (np.nan, np.inf, -np.inf):
+        assert np.isnan(fmod_2pi(x))
 
 
 def test_lands_on_takes_headings_modulo_two_pi() -> None:

@@ -5,6 +5,7 @@ import time
 import numpy as np
 import pytest
 
+from planning.collision.compiled import grid_lookup
 from planning.collision.exact import CollisionChecker
 from planning.collision.grid import FastChecker
 from planning.core.geometry import Pose2D
@@ -14,10 +15,10 @@ from planning.curves.reeds_shepp import reeds_shepp_length
 from planning.errors import ConfigError
 from planning.planners import lattice
 from planning.planners.base import PlanProblem, PlanStatus
-from planning.planners.hybrid_astar import footprint_cover, inscribed_radius, motion_primitives
+from planning.planners.hybrid_astar import COVER_SIDE, footprint_cover, inscribed_radius, motion_primitives
 from planning.planners.registry import make_planner
 from planning.planners.sampling.steering import default_turning_radius
-from planning.scenario import load_scenario
+from planning.scenario import load_scenario, random_scenario
 from tests.test_rrt import DISC, _check_path, _problem
 
 ROBOT = load_robot("turtlebot3")
@@ -98,6 +99,47 @@ def test_distance_bounds_hold_the_signed_distance():
     inside = (pts >= 0.0).all(axis=1) & (pts <= 6.0).all(axis=1)
     assert np.all(lo[inside] <= sd[inside]) and np.all(sd[inside] <= hi[inside])
     assert np.all(hi[inside] - lo[inside] == pytest.approx(np.sqrt(2) * 0.01))
+
+
+@pytest.mark.parametrize("seed", [4, 9])
+def test_primitives_from_open_space_are_free_by_every_sample_proof(seed):
+    """The search skips the sample-by-sample proof of a node's primitives where the grid value at the
+    node exceeds _open_beyond: every primitive from there must pass that proof (the same verdict)."""
+    world = random_scenario("turtlebot3", seed).world
+    checker = FastChecker(CollisionChecker(world, ROBOT))
+    chk, cover = checker.proof_arguments(), footprint_cover(ROBOT, COVER_SIDE)
+    prims = motion_primitives(RHO, 0.05, 72, min(0.01, checker.resolution / (1.0 + ROBOT.radius / RHO)))
+    beyond = lattice._open_beyond(prims.body, chk)
+    grid, x0, y0, h = chk[:4]
+    rng = np.random.default_rng(seed)
+    poses = np.column_stack([rng.uniform(-3.0, 3.0, (40000, 2)), rng.uniform(-np.pi, np.pi, 40000)])
+    d = np.array([grid_lookup(grid, x0, y0, h, x, y) for x, y in poses[:, :2]])
+    edge = poses[(d > beyond) & (d < beyond + 0.03)]  # just beyond: where a loose bound would show
+    assert len(edge) > 300
+    buf = np.empty((prims.body.shape[1], 3))
+    for x, y, th in np.vstack([edge, poses[d > beyond][:300]]):
+        for body in prims.body:
+            lattice._place(body, x, y, th, buf)
+            assert lattice._proven_free(buf, chk, cover)
+
+
+def test_reeds_shepp_bound_is_the_length_or_leaves_the_key_as_it_is():
+    rng = np.random.default_rng(5)
+    scratch = np.zeros((2, 5))
+    kinds = set()
+    for _ in range(3000):
+        q, goal = rng.uniform(-3.0, 3.0, 3), rng.uniform(-3.0, 3.0, 3)
+        g = float(rng.uniform(0.0, 5.0))
+        f = g + float(rng.uniform(0.0, 6.0))
+        value, exact = lattice.rs_bound(q, goal, RHO, g, f, scratch)
+        length = lattice.rs_length(q, goal, RHO, scratch)
+        assert length == reeds_shepp_length(q, goal, RHO)[0]
+        if exact:
+            assert value == length
+        else:  # only a bound, which shows the length cannot raise the key
+            assert value >= length and g + value <= f
+        kinds.add(bool(exact))
+    assert kinds == {True, False}
 
 
 def test_open_world_plan_is_the_shortest_reeds_shepp_curve():

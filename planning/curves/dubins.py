@@ -14,7 +14,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.curves.common import CurveFamily, local_goal, verifies
+from planning.curves.common import TWO_PI, CurveFamily, fmod_2pi, local_goal, verifies
 
 FloatArray = NDArray[np.float64]
 
@@ -26,8 +26,8 @@ DUBINS_WORDS = np.array(
 @nb.njit(cache=True, inline="always")
 def _m2pi(a: float) -> float:
     """Angle in [0, 2 pi)."""
-    v = np.fmod(a, 2 * np.pi)
-    return v + 2 * np.pi if v < 0 else v
+    v = fmod_2pi(a)
+    return v + TWO_PI if v < 0 else v
 
 
 @nb.njit(cache=True)

@@ -162,11 +162,14 @@ _FAMILIES = np.array(
 
 
 @nb.njit(cache=True)
-def _formula(f: int, x: float, y: float, phi: float) -> tuple[bool, float, float, float]:
+def _formula(
+    f: int, x: float, y: float, phi: float, sin_phi: float, cos_phi: float
+) -> tuple[bool, float, float, float]:
+    """Formula ``f`` (see :data:`_FAMILIES`) at the goal ``(x, y, phi)``, given ``phi``'s sine and cosine."""
     if f in (0, 2, 5):  # the left turning circle
-        xi, eta = x - np.sin(phi), y - 1.0 + np.cos(phi)
+        xi, eta = x - sin_phi, y - 1.0 + cos_phi
     else:
-        xi, eta = x + np.sin(phi), y - 1.0 - np.cos(phi)
+        xi, eta = x + sin_phi, y - 1.0 - cos_phi
     if f == 0:
         return _lpsplp(xi, eta, phi)
     if f == 1:
@@ -203,42 +206,85 @@ def _layout(k: int, t: float, u: float, v: float, segs: FloatArray) -> None:
         segs[0], segs[1], segs[2], segs[3], segs[4] = t, -_HALF_PI, u, -_HALF_PI, v
 
 
+#: Candidate families in :data:`_FAMILIES`, and how many of them, first, are the CSC words (8.1, 8.2):
+#: the cheapest to solve, whose best verified word bounds the length from above (see :func:`shortest_radii`).
+FAMILIES, CSC_FAMILIES = int(_FAMILIES.shape[0]), 2
+
+
+@nb.njit(cache=True, inline="always")
+def _shortest(
+    x: float, y: float, phi: float, segs: FloatArray, out: FloatArray, first: int, last: int, best: float
+) -> tuple[float, int]:
+    """The shortest verified word to the goal ``(x, y, phi)`` (in its start's frame, turning radii)
+    among families ``first`` to ``last - 1`` that is shorter than ``best``.
+
+    Every candidate (each family time-flipped and reflected: 48 in all) shorter than the best so far
+    is integrated to its end pose and must land on the goal. The result is the shortest verified
+    length whatever the order the families are tried in (a candidate is skipped only when one as
+    short has verified), so solving families ``[0, k)`` and then ``[k, FAMILIES)`` from that best
+    gives the length one pass gives.
+
+    Returns:
+        (its length in turning radii, its index into :data:`RS_WORDS`), or (``best``, -1) when no
+        candidate is shorter; its signed segments are written into ``out`` (5,). ``segs`` (5,) is scratch.
+    """
+    wbest = -1
+    # phi's sine and cosine once per pair: the symmetries only flip phi's sign (sine is odd and cosine
+    # even, exactly, in IEEE arithmetic). Computed per candidate they took a third of the solve.
+    sin_phi, cos_phi = np.sin(phi), np.cos(phi)
+    xb = x * cos_phi + y * sin_phi
+    yb = x * sin_phi - y * cos_phi
+    for f in range(first, last):
+        formula, back, lay, base = _FAMILIES[f, 0], _FAMILIES[f, 1], _FAMILIES[f, 2], _FAMILIES[f, 3]
+        px, py = (xb, yb) if back else (x, y)
+        for sym in range(4):
+            sx = -1.0 if sym & 1 else 1.0  # time flip: drive the word backwards
+            sy = -1.0 if sym & 2 else 1.0  # reflection: swap left and right
+            ok, t, u, v = _formula(formula, sx * px, sy * py, sx * sy * phi, sx * sy * sin_phi, cos_phi)
+            if not ok:
+                continue
+            _layout(lay, t, u, v, segs)
+            length = 0.0
+            for k in range(5):
+                segs[k] *= sx
+                length += abs(segs[k])
+            if length >= best:
+                continue
+            wtype = base + (1 if sy < 0 else 0)
+            if verifies(RS_WORDS[wtype], segs, x, y, phi):
+                best, wbest = length, wtype
+                out[:] = segs
+    return best, wbest
+
+
 @nb.njit(cache=True)
 def _solve(q0: FloatArray, q1: FloatArray, rho: float) -> tuple[FloatArray, NDArray[np.int64], FloatArray]:
-    """Shortest verified words between pose pairs (the :data:`planning.curves.common.Solver` contract).
-
-    Every one of the 48 candidates (11 families, each time-flipped and reflected) that is shorter
-    than the best so far is integrated to its end pose and must land on the goal.
-    """
+    """Shortest verified words between pose pairs (the :data:`planning.curves.common.Solver` contract)."""
     n = max(q0.shape[0], q1.shape[0])
     lengths, types, out_segs = np.full(n, np.inf), np.full(n, -1, dtype=np.int64), np.zeros((n, 5))
     segs = np.zeros(5)
     for i in range(n):
         x, y, phi = local_goal(q0, q1, i, rho)
-        best = np.inf
-        xb = x * np.cos(phi) + y * np.sin(phi)
-        yb = x * np.sin(phi) - y * np.cos(phi)
-        for f in range(_FAMILIES.shape[0]):
-            formula, back, lay, base = _FAMILIES[f, 0], _FAMILIES[f, 1], _FAMILIES[f, 2], _FAMILIES[f, 3]
-            px, py = (xb, yb) if back else (x, y)
-            for sym in range(4):
-                sx = -1.0 if sym & 1 else 1.0  # time flip: drive the word backwards
-                sy = -1.0 if sym & 2 else 1.0  # reflection: swap left and right
-                ok, t, u, v = _formula(formula, sx * px, sy * py, sx * sy * phi)
-                if not ok:
-                    continue
-                _layout(lay, t, u, v, segs)
-                length = 0.0
-                for k in range(5):
-                    segs[k] *= sx
-                    length += abs(segs[k])
-                if length >= best:
-                    continue
-                wtype = base + (1 if sy < 0 else 0)
-                if verifies(RS_WORDS[wtype], segs, x, y, phi):
-                    best, types[i], out_segs[i] = length, wtype, segs
+        best, types[i] = _shortest(x, y, phi, segs, out_segs[i], 0, FAMILIES, np.inf)
         lengths[i] = best * rho  # inf if no candidate verified
     return lengths, types, out_segs
+
+
+@nb.njit(cache=True)
+def shortest_radii(
+    q0: FloatArray, q1: FloatArray, rho: float, scratch: FloatArray, first: int, last: int, best: float
+) -> float:
+    """Length in turning radii of the shortest Reeds–Shepp word from pose ``q0`` (3,) to ``q1`` (3,)
+    among families ``first`` to ``last - 1`` shorter than ``best`` [turning radii] (else ``best``),
+    for compiled callers that need many single lengths without :func:`_solve`'s arrays.
+
+    ``shortest_radii(q0, q1, rho, s, 0, FAMILIES, inf) * rho`` is the length :func:`_solve` gives;
+    ``u = shortest_radii(q0, q1, rho, s, 0, CSC_FAMILIES, inf)`` is an upper bound of it (a sixth of
+    the work), and ``shortest_radii(q0, q1, rho, s, CSC_FAMILIES, FAMILIES, u)`` is then the exact
+    length. ``scratch`` is (2, 5).
+    """
+    x, y, phi = local_goal(q0.reshape(1, 3), q1.reshape(1, 3), 0, rho)
+    return _shortest(x, y, phi, scratch[0], scratch[1], first, last, best)[0]
 
 
 REEDS_SHEPP = CurveFamily("Reeds–Shepp", RS_WORDS, _solve)
