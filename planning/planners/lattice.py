@@ -190,7 +190,7 @@ def _in_goal(x: float, y: float, th: float, goal: FloatArray, tol: FloatArray) -
     return np.hypot(x - goal[0], y - goal[1]) <= tol[0] and abs(mod2pi(th - goal[2])) <= tol[1]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _open_beyond(body: FloatArray, chk: tuple) -> float:  # type: ignore[type-arg]
     """The grid value at a node's position [m] beyond which every primitive from it is proven free
     without checking its samples one by one.
@@ -266,7 +266,7 @@ def _expand(
     return counter
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _tables(
     start: FloatArray,
     goal: FloatArray,
