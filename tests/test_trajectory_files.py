@@ -126,6 +126,31 @@ def test_bad_files_exit_2_and_write_nothing(
     assert not (tmp_path / "renders").exists() or not any((tmp_path / "renders").iterdir())
 
 
+@pytest.mark.parametrize(
+    ("command", "options", "named"),
+    [
+        (["simulate", "--reference", "circle", "--no-video"], ["--scale", "0.01"], "--scale says"),
+        (["simulate", "--no-video"], ["--time-scale", "2", "--offset=1,0,0"], "--time-scale, --offset say"),
+        (["compare", "--reference", "line"], ["--topic", "/plan", "--message", "0"], "--topic, --message say"),
+        (["montecarlo", "--reference", "line", "--runs", "2"], ["--allow-collisions"], "--allow-collisions says"),
+        (["simulate", "--planner", "birrt", "--no-video"], ["--columns", "t,x,y"], "--columns says"),
+    ],
+)
+def test_reading_options_without_a_file_exit_2_instead_of_being_ignored(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    command: list[str],
+    options: list[str],
+    named: str,
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert main([*command, *options, "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert named in err and "--trajectory or --path" in err and "drop" in err
+    assert not (tmp_path / "renders").exists()
+
+
 def test_a_pixel_file_without_scale_is_refused_suggesting_it(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -86,9 +86,10 @@ def _case(args: argparse.Namespace) -> Any:
     """The case of the comparison (the default job when neither a reference nor a planner is given)."""
     from sim.cli.checks import check_seeds, check_time_limit
     from sim.cli.simulate import job_source
-    from sim.cli.trajectory_files import file_given, file_source, file_world
+    from sim.cli.trajectory_files import check_file_options, file_given, file_source, file_world
     from sim.pipeline.case import Case, PlanOptions
 
+    check_file_options(args)
     check_time_limit(args.time_limit)
     check_seeds(seed=args.seed)
     fields = {"seed": args.seed, "planning": PlanOptions(time_limit=args.time_limit)}

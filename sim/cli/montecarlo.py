@@ -89,11 +89,12 @@ def _spec(args: argparse.Namespace) -> Any:
     from control.gains import resolve_gains
     from sim.cli.checks import check_control_rate, check_seeds, check_time_limit
     from sim.cli.simulate import job_source, localiser_fields, parse_build, sensor_overrides
-    from sim.cli.trajectory_files import file_given, file_source, file_world
+    from sim.cli.trajectory_files import check_file_options, file_given, file_source, file_world
     from sim.physics.perturb import PerturbationRange
     from sim.pipeline.case import Case, PlanOptions
     from sim.tools.montecarlo import MonteCarloSpec
 
+    check_file_options(args)
     check_time_limit(args.time_limit)
     check_seeds(seed=args.seed)
     check_control_rate(args.control_rate)

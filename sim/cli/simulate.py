@@ -10,7 +10,7 @@ from typing import Any
 
 from planning.errors import ConfigError
 from sim.cli.job_outputs import RUN_SETTINGS, add_executor_arguments, add_output_arguments
-from sim.cli.trajectory_files import add_file_arguments, file_given, format_import
+from sim.cli.trajectory_files import add_file_arguments, check_file_options, file_given, format_import
 from sim.pipeline.runs import RunKind
 
 #: The scenario of a job that names none: this map for a plan (seed 003's job: the EduMIP plans
@@ -364,6 +364,7 @@ def run(args: argparse.Namespace) -> int:
     check_time_limit(args.time_limit)
     if args.all and args.bag is not None:
         raise ConfigError("--bag writes one job's runs; --all sweeps many jobs: drop one of them")
+    check_file_options(args)
     if args.all and file_given(args):
         raise ConfigError("--all sweeps the built-in scenarios' plans: drop it to track a --trajectory or --path file")
     if args.all:

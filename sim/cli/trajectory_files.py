@@ -90,6 +90,37 @@ def file_given(args: argparse.Namespace) -> bool:
     return getattr(args, "trajectory", None) is not None or getattr(args, "path", None) is not None
 
 
+#: The options that say how to read a file, with their attribute names.
+READING_OPTIONS = (
+    ("--columns", "columns"),
+    ("--scale", "scale"),
+    ("--time-scale", "time_scale"),
+    ("--offset", "offset"),
+    ("--topic", "topic"),
+    ("--message", "message"),
+    ("--allow-collisions", "allow_collisions"),
+)
+
+
+def check_file_options(args: argparse.Namespace) -> None:
+    """Refuse options that read a file when no file is named: they would be ignored without a word.
+
+    Raises:
+        ConfigError: --columns, --scale, --time-scale, --offset, --topic, --message or --allow-collisions
+            without --trajectory or --path.
+    """
+    if file_given(args):
+        return
+    values = ((opt, getattr(args, attr, None)) for opt, attr in READING_OPTIONS)
+    given = [opt for opt, value in values if value is not None and value is not False]  # --message 0 is given
+    if given:
+        raise ConfigError(
+            f"{', '.join(given)} {'says' if len(given) == 1 else 'say'} how to read a --trajectory or --path "
+            "file, and none is named: name the file, or drop "
+            f"{'it' if len(given) == 1 else 'them'}"
+        )
+
+
 def file_options(args: argparse.Namespace) -> list[str]:
     """The options that read the same file the same way again (e.g. in a replay command)."""
     argv = ["--trajectory", str(args.trajectory)] if args.trajectory is not None else ["--path", str(args.path)]
