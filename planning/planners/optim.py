@@ -161,6 +161,7 @@ class _Nlp:
     p_clear: Any
     obstacles: _Obstacles
     verbose: bool
+    deadline: Any  # the solve's iteration callback (see _deadline): set its ``at`` before each solve
 
 
 _CACHE: dict[tuple[Any, ...], _Nlp] = {}
@@ -248,9 +249,49 @@ def _obstacle_constraints(
     return _Obstacles(p_circles, p_ellipses, p_polys, psi)
 
 
+def _deadline(ca: Any, nx: int, ng: int) -> Any:
+    """An IPOPT iteration callback that asks IPOPT to stop (it returns User_Requested_Stop with its
+    last iterate) once ``time.perf_counter()`` passes the callback's ``at``, which each solve sets
+    from its plan's time limit: one limit for the whole plan, warm start and re-solves included.
+    IPOPT's own ``max_cpu_time`` would be one per solve, fixed when the problem is built."""
+
+    class Deadline(ca.Callback):  # type: ignore[misc]
+        def __init__(self) -> None:
+            ca.Callback.__init__(self)
+            self.at = math.inf
+            self.construct("deadline", {})
+
+        def get_n_in(self) -> int:
+            return int(ca.nlpsol_n_out())
+
+        def get_n_out(self) -> int:
+            return 1
+
+        def get_name_in(self, i: int) -> str:
+            return str(ca.nlpsol_out(i))
+
+        def get_name_out(self, i: int) -> str:
+            return "ret"
+
+        def get_sparsity_in(self, i: int) -> Any:
+            name = ca.nlpsol_out(i)
+            if name == "f":
+                return ca.Sparsity.scalar()
+            if name in ("x", "lam_x"):
+                return ca.Sparsity.dense(nx)
+            if name in ("g", "lam_g"):
+                return ca.Sparsity.dense(ng)
+            return ca.Sparsity(0, 0)
+
+        def eval(self, arg: Any) -> list[int]:
+            return [int(time.perf_counter() > self.at)]
+
+    return Deadline()
+
+
 def _build(key: tuple[Any, ...]) -> _Nlp:
     ca = _casadi()
-    n, n_circ, n_ell, poly_k, w_steer, w_smooth, max_iter, verbose, time_limit = key
+    n, n_circ, n_ell, poly_k, w_steer, w_smooth, max_iter, verbose = key
     opti = ca.Opti()
     x = opti.variable(4, n + 1)
     u = opti.variable(2, n)
@@ -272,9 +313,10 @@ def _build(key: tuple[Any, ...]) -> _Nlp:
     du = u[0, 1:] - u[0, :-1]
     opti.minimize(p_dt * (ca.sumsqr(u[0, :]) + w_steer * ca.sumsqr(u[1, :])) + w_smooth * ca.sumsqr(du) / p_dt)
     ipopt = {"print_level": 5 if verbose else 0, "sb": "yes", "max_iter": max_iter, "tol": 1e-8}
-    ipopt["max_cpu_time"] = time_limit
-    opti.solver("ipopt", {"expand": True, "print_time": bool(verbose), "error_on_fail": False}, ipopt)
-    return _Nlp(opti, x, u, p_start, p_goal, p_dt, p_bounds, p_limits, p_l, p_clear, obstacles, verbose)
+    deadline = _deadline(ca, opti.nx, opti.ng)
+    plugin = {"expand": True, "print_time": bool(verbose), "error_on_fail": False, "iteration_callback": deadline}
+    opti.solver("ipopt", plugin, ipopt)
+    return _Nlp(opti, x, u, p_start, p_goal, p_dt, p_bounds, p_limits, p_l, p_clear, obstacles, verbose, deadline)
 
 
 class Optim:
@@ -463,8 +505,7 @@ class Optim:
                 )
                 return self._failure(status, reason, {"time_s": time.perf_counter() - t0})
         obstacles = _ObstacleData.of(problem)
-        limit = float(problem.time_limit)
-        key = (self.N, *obstacles.counts, self.w_steer, self.w_smooth, self.max_iter, self.verbose, limit)
+        key = (self.N, *obstacles.counts, self.w_steer, self.w_smooth, self.max_iter, self.verbose)
         cached = key in _CACHE
         if not cached:
             _CACHE[key] = _build(key)
@@ -478,6 +519,7 @@ class Optim:
         self._set_values(nlp, problem, robot.radius + margin, obstacles, x_init[-1, 2])
         self._warm_start(nlp, x_init, u_init, obstacles)
         t_solve = time.perf_counter()
+        nlp.deadline.at = t0 + float(problem.time_limit)  # the plan's limit, warm start and earlier solves in it
         # CasADi ends a solve at a signal and swallows the interrupt: it is acted on as the solve returns,
         # and held while the results are read (see planning.signals)
         with signals_end_early():
@@ -495,7 +537,9 @@ class Optim:
             return self._failure(PlanStatus.FAILED, why, {"time_s": time.perf_counter() - t0, "init": init_source})
         solve_s = time.perf_counter() - t_solve
         return_status = str(ipopt_stats.get("return_status", "unknown"))
+        late = return_status == "User_Requested_Stop" and time.perf_counter() > nlp.deadline.at
         stats: dict[str, Any] = {
+            "time_limit_reached": late,
             "time_s": time.perf_counter() - t0,
             "solve_time_s": solve_s,
             "build_time_s": t_build if not cached else 0.0,
@@ -585,8 +629,10 @@ class Optim:
         if return_status in _INFEASIBLE:
             status = PlanStatus.INFEASIBLE
             reason += " (the constraints cannot all hold: a longer horizon N*dt, a reachable goal or more room helps)"
-        elif return_status in _TIMEOUT:
+        elif return_status in _TIMEOUT or stats["time_limit_reached"]:
             status = PlanStatus.TIMEOUT
+            if stats["time_limit_reached"]:
+                reason = f"IPOPT stopped at the time limit ({problem.time_limit:g} s, warm start included)"
             reason += " (raise max_iter or the time limit, or warm start from another planner with init=...)"
         else:
             status = PlanStatus.FAILED
