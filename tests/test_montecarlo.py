@@ -104,6 +104,25 @@ def test_a_worker_that_dies_has_its_run_retried_elsewhere(tmp_path: Path) -> Non
         assert marker.exists() and ex.retries >= 1
 
 
+@pytest.mark.slow  # a Dask cluster of two worker processes
+def test_an_interrupt_stops_busy_workers_at_once() -> None:
+    """Dask's close lets a busy worker finish its run for up to 4 s before killing it; an interrupted
+    study abandons its runs, so its workers are killed as soon as the close reaches them."""
+    with pytest.raises(KeyboardInterrupt), DaskExecutor(jobs=2) as ex:
+        pids = [n.pid for n in ex._cluster.workers.values()]  # type: ignore[union-attr]
+        busy = [ex._client.submit(time.sleep, 60.0, pure=False) for _ in range(2)]
+        give_up = time.monotonic() + 30.0
+        while sum(map(len, ex._client.processing().values())) < len(busy) and time.monotonic() < give_up:
+            time.sleep(0.05)
+        time.sleep(0.5)  # both runs under way
+        start = time.monotonic()
+        raise KeyboardInterrupt
+    assert time.monotonic() - start < 2.5  # 4-5 s before
+    for pid in pids:
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)
+
+
 def _die_once(marker: str, item: int) -> int:
     if item == 1 and not os.path.exists(marker):
         Path(marker).write_text("x")

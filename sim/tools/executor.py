@@ -18,10 +18,13 @@ them (batches of runs that were on a worker when it died).
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
+import signal
 import socket
 import struct
+import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TypeVar
@@ -69,14 +72,18 @@ class Executor:
         """Import ``modules`` where the runs execute, before timing or running them (nothing to do here:
         the caller imports them)."""
 
-    def close(self) -> None:
-        """Release workers and connections (nothing for the serial executor)."""
+    def close(self, abandon: bool = False) -> None:
+        """Release workers and connections (nothing for the serial executor).
+
+        Args:
+            abandon: The runs still going are not wanted (an interrupt): stop them at once.
+        """
 
     def __enter__(self) -> Executor:
         return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def __exit__(self, kind: type[BaseException] | None, *exc: object) -> None:
+        self.close(abandon=kind is not None and issubclass(kind, KeyboardInterrupt))
 
 
 def _run_batch(fn: Callable[[Any, T], R], shared: Any, batch: list[T]) -> list[R]:
@@ -159,11 +166,43 @@ class DaskExecutor(Executor):
         for name in modules:
             self._client.run(importlib.import_module, name)
 
-    def close(self) -> None:
-        """Close the client and, if it was started here, the local cluster."""
+    def close(self, abandon: bool = False) -> None:
+        """Close the client and, if it was started here, the local cluster.
+
+        Args:
+            abandon: Kill the local workers' processes as soon as the close reaches them, rather than
+                let each finish its current run: Dask's close waits up to 4 s for a busy worker
+                before it kills it, so an interrupted study took 3-5 s to stop.
+        """
         self._client.close()
-        if self._cluster is not None:
-            self._cluster.close()
+        if self._cluster is None:
+            return
+        killer = _killer(list(self._cluster.workers.values())) if abandon else None
+        self._cluster.close()
+        if killer is not None:
+            killer.join()
+
+
+def _killer(nannies: list[Any], wait_s: float = 2.0) -> threading.Thread:
+    """A started thread that SIGKILLs the worker process of each nanny once the nanny is closing, so
+    it will not start the worker again, or leaves it after ``wait_s`` seconds."""
+    from distributed.core import Status
+
+    pids = {id(n): n.pid for n in nannies}  # a closed nanny forgets its process
+
+    def run() -> None:
+        end = time.monotonic() + wait_s
+        pending = [n for n in nannies if pids[id(n)]]
+        while pending and time.monotonic() < end:
+            for n in [n for n in pending if n.status in (Status.closing, Status.closed)]:
+                pending.remove(n)
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(pids[id(n)], signal.SIGKILL)
+            time.sleep(0.005)
+
+    thread = threading.Thread(target=run, name="nhsim-kill-workers", daemon=True)
+    thread.start()
+    return thread
 
 
 def _advice(address: str) -> str:
