@@ -177,3 +177,24 @@ def test_a_line_is_fitted_to_the_room_of_open_for_every_robot(
 
     unchanged = fitted_reference("line", sc.with_robot("turtlebot3"), tb), make_reference("line", tb, sc.start)
     assert np.array_equal(unchanged[0].pose, unchanged[1].pose)  # a line that fits is left as it was
+
+
+def test_only_the_closed_loop_ending_early_fails_the_command() -> None:
+    """A balancing robot's open loop or dead reckoning that falls (as an open loop's collision) is a
+    comparison, reported on stderr; the closed loop falling, or any run without a closed loop, fails."""
+    from types import SimpleNamespace
+
+    from sim.cli.simulate import ended_early
+    from sim.pipeline.runs import RunKind
+
+    def run(status: str) -> SimpleNamespace:
+        return SimpleNamespace(metrics=SimpleNamespace(status=status))
+
+    fell = "fell at t=12.960 s"
+    runs = {RunKind.CLOSED_LOOP: run("ok"), RunKind.CLOSED_LOOP_ODOMETRY: run(fell), RunKind.OPEN_LOOP: run(fell)}
+    failures, notes = ended_early(runs)
+    assert failures == [] and len(notes) == 2 and all("reported, not judged" in n for n in notes)
+    failures, notes = ended_early({**runs, RunKind.CLOSED_LOOP: run(fell)})
+    assert failures == [f"{RunKind.CLOSED_LOOP}: {fell}"] and len(notes) == 2
+    failures, notes = ended_early({RunKind.OPEN_LOOP: run(fell)})  # the only run: judged
+    assert failures == [f"{RunKind.OPEN_LOOP}: {fell}"] and notes == []
