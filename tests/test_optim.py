@@ -220,3 +220,22 @@ def test_the_time_limit_holds_for_the_whole_plan(tmp_path) -> None:
     assert res.status is PlanStatus.TIMEOUT, res.reason
     assert "time limit (0.5 s" in res.reason and res.stats["time_limit_reached"]
     assert res.stats["time_s"] <= 0.5 + 0.3  # stopped within an iteration or two of the limit
+
+
+@pytest.mark.slow  # two IPOPT solves of a few seconds
+def test_a_local_infeasibility_from_the_grid_route_is_solved_from_a_kinematic_plan(tmp_path) -> None:
+    """On this random world (EduMIP), IPOPT started from the grid's route stops at a point of local
+    infeasibility: that is a failure, not a proof that no plan exists (it was reported INFEASIBLE),
+    and init="auto" then starts again from Hybrid-A*'s plan for the same disc, which it solves."""
+    from planning.core.robot import load_robot
+    from sim.tools.bench.cold import world_toml
+
+    (tmp_path / "w.toml").write_text(world_toml(9804, 7.0, 12, 0.4))
+    scenario = load_scenario(str(tmp_path / "w.toml"))
+    problem = PlanProblem.from_scenario(scenario, robot=load_robot("edumip"), time_limit=30.0)
+    from_route = make_planner("optim", init="grid").plan(problem)
+    assert from_route.status is PlanStatus.FAILED and from_route.stats["ipopt_status"] == "Infeasible_Problem_Detected"
+    assert "does not show that no plan exists" in from_route.reason and "init=hybrid-a-star" in from_route.reason
+    res = make_planner("optim").plan(problem)
+    assert res.success, res.reason
+    assert res.stats["init"] == "hybrid-a-star" and res.stats["dense_disc_clearance"] >= 0.0
