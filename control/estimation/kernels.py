@@ -39,6 +39,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.estimation.odometry import sinc_half
+from planning.curves.common import mod2pi
 
 FloatArray = NDArray[np.float64]
 
@@ -49,8 +50,6 @@ N_PARAMS = 10
 #: Status codes.
 OK, BAD_INCREMENT, BAD_STATE, BAD_INNOVATION, BAD_TIME, BAD_READING = range(6)
 
-TWO_PI = 2.0 * math.pi
-PI = math.pi
 N = 7  # state size (control.estimation.ekf.N_STATE)
 #: First rows of the block's parts (see the module doc) and rows per ring step.
 F_ROW, Q_ROW, TMP_ROW, X_ROW, P_ROW, NU_ROW, RING = 2, 9, 16, 23, 24, 31, 32
@@ -134,11 +133,9 @@ def _ring(mem: FloatArray) -> tuple[int, int]:  # pragma: no cover - compiled
     return RING + cap, RING + 2 * cap
 
 
-@nb.njit(cache=True, inline="always")
-def wrap(a: float) -> float:  # pragma: no cover - compiled
-    """``math.remainder(a, 2 pi)`` (but for exact ties at +-pi, which keep their sign) [rad]."""
-    v = np.fmod(a, TWO_PI)
-    return v - TWO_PI if v > PI else (v + TWO_PI if v < -PI else v)
+#: ``math.remainder(a, 2 pi)`` (but for exact ties at +-pi, which keep their sign) [rad]: the curves'
+#: angle wrap, compiled inline where it is called.
+wrap = mod2pi
 
 
 @nb.njit(cache=True)
