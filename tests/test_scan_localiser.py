@@ -32,6 +32,13 @@ def test_the_turtlebot3_localises_on_its_scans_by_default_and_the_edumip_keeps_i
         Case("open", reference="line", amcl="min_particles=5").localiser_setup(sc)
     with pytest.raises(ConfigError, match="lidar range_max"):
         Case("open", reference="line", lidar="range_max=8").localiser_setup(sc)
+    # with fixes no scan is taken: scanner and localiser settings are refused, not ignored
+    with pytest.raises(ConfigError, match="--lidar needs --localiser amcl"):
+        Case("open", reference="line", localiser="fixes", lidar="beams=180").localiser_setup(sc)
+    with pytest.raises(ConfigError, match=r"--amcl, --initial-pose unknown need --localiser amcl.*drop them"):
+        Case(
+            "open", reference="line", localiser="fixes", amcl="max_particles=100", initial_pose="unknown"
+        ).localiser_setup(sc)
     with pytest.raises(ConfigError, match="unknown localiser 'gps'"):
         Case("open", reference="line", localiser="gps")
     with pytest.raises(ConfigError, match="fix_rate must equal the scan rate"):

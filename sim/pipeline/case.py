@@ -241,7 +241,8 @@ class Case:
 
         Raises:
             ConfigError: amcl (or scanner or localiser settings, or an unknown initial pose) for a robot
-                without a laser scanner, or a bad scanner or localiser setting.
+                without a laser scanner, scanner or localiser settings with the fixes localiser, or a bad
+                scanner or localiser setting.
         """
         lidar = load_lidar_profile(scenario.robot, text=self.lidar or None)
         kind = self.localiser or ("amcl" if lidar is not None else "fixes")
@@ -251,8 +252,13 @@ class Case:
                 "need one (the TurtleBot3's LDS-01); use --localiser fixes"
             )
         if kind == "fixes":
-            if self.amcl or self.initial_pose != "known":
-                raise ConfigError("--amcl and --initial-pose unknown need --localiser amcl")
+            given = [opt for opt, on in (("--lidar", self.lidar), ("--amcl", self.amcl)) if on]
+            given += ["--initial-pose unknown"] if self.initial_pose != "known" else []
+            if given:  # with fixes no scan is taken: the settings would be ignored
+                raise ConfigError(
+                    f"{', '.join(given)} {'needs' if len(given) == 1 else 'need'} --localiser amcl (the fixes "
+                    f"localiser takes no scan): drop {'it' if len(given) == 1 else 'them'}, or use --localiser amcl"
+                )
             return LocaliserSetup()
         amcl = AmclConfig().parse(self.amcl) if self.amcl else AmclConfig()
         return LocaliserSetup("amcl", scenario.world, lidar, amcl, self.initial_pose)
