@@ -83,3 +83,20 @@ def test_single_lengths_and_the_csc_bound():
         upper = shortest_radii(a, b, rho, scratch, 0, CSC_FAMILIES, np.inf)
         assert upper * rho >= want
         assert shortest_radii(a, b, rho, scratch, CSC_FAMILIES, FAMILIES, upper) * rho == want
+
+
+def test_the_compiled_sine_is_odd_and_cosine_even_exactly():
+    """The solver computes phi's sine and cosine once and flips the sine's sign for the reflected and
+    time-flipped candidates: the same values as computing them at -phi only if these hold bit for bit."""
+    import numba as nb
+
+    @nb.njit
+    def pairs(a):
+        out = np.empty((a.size, 4))
+        for i in range(a.size):
+            out[i] = np.sin(a[i]), np.sin(-a[i]), np.cos(a[i]), np.cos(-a[i])
+        return out
+
+    a = np.concatenate([np.random.default_rng(2).uniform(-50.0, 50.0, 200000), [0.0, np.pi, 1e-300, 1e5]])
+    v = pairs(a)
+    assert np.array_equal(v[:, 1], -v[:, 0]) and np.array_equal(v[:, 3], v[:, 2])

@@ -229,8 +229,9 @@ def _shortest(
         candidate is shorter; its signed segments are written into ``out`` (5,). ``segs`` (5,) is scratch.
     """
     wbest = -1
-    # phi's sine and cosine once per pair: the symmetries only flip phi's sign (sine is odd and cosine
-    # even, exactly, in IEEE arithmetic). Computed per candidate they took a third of the solve.
+    # phi's sine and cosine once per pair: the symmetries only flip phi's sign, and the C library's sine
+    # is odd and its cosine even, exactly (tests/test_reeds_shepp.py checks it where the solver runs).
+    # Computed per candidate they took a third of the solve.
     sin_phi, cos_phi = np.sin(phi), np.cos(phi)
     xb = x * cos_phi + y * sin_phi
     yb = x * sin_phi - y * cos_phi
