@@ -222,20 +222,30 @@ def test_the_time_limit_holds_for_the_whole_plan(tmp_path) -> None:
     assert res.stats["time_s"] <= 0.5 + 0.3  # stopped within an iteration or two of the limit
 
 
-@pytest.mark.slow  # two IPOPT solves of a few seconds
-def test_a_local_infeasibility_from_the_grid_route_is_solved_from_a_kinematic_plan(tmp_path) -> None:
+@pytest.mark.slow  # IPOPT solves of a few seconds
+def test_auto_starts_from_a_kinematic_plan_and_a_local_infeasibility_is_a_failure(tmp_path) -> None:
     """On this random world (EduMIP), IPOPT started from the grid's route stops at a point of local
-    infeasibility: that is a failure, not a proof that no plan exists (it was reported INFEASIBLE),
-    and init="auto" then starts again from Hybrid-A*'s plan for the same disc, which it solves."""
+    infeasibility: a failure, not a proof that no plan exists (it was reported INFEASIBLE). init="auto"
+    (Hybrid-A*'s plan for the disc, then the route) solves it, and falls back to the route where
+    IPOPT fails from Hybrid-A*'s plan (another random world)."""
     from planning.core.robot import load_robot
     from sim.tools.bench.cold import world_toml
 
-    (tmp_path / "w.toml").write_text(world_toml(9804, 7.0, 12, 0.4))
-    scenario = load_scenario(str(tmp_path / "w.toml"))
-    problem = PlanProblem.from_scenario(scenario, robot=load_robot("edumip"), time_limit=30.0)
-    from_route = make_planner("optim", init="grid").plan(problem)
+    def problem(seed: int, size: float, count: int, scale: float) -> PlanProblem:
+        (tmp_path / f"w{seed}.toml").write_text(world_toml(seed, size, count, scale))
+        scenario = load_scenario(str(tmp_path / f"w{seed}.toml"))
+        return PlanProblem.from_scenario(scenario, robot=load_robot("edumip"), time_limit=30.0)
+
+    hard = problem(9804, 7.0, 12, 0.4)
+    from_route = make_planner("optim", init="grid").plan(hard)
     assert from_route.status is PlanStatus.FAILED and from_route.stats["ipopt_status"] == "Infeasible_Problem_Detected"
-    assert "does not show that no plan exists" in from_route.reason and "init=hybrid-a-star" in from_route.reason
-    res = make_planner("optim").plan(problem)
+    assert "does not show that no plan exists" in from_route.reason and "init=grid" in from_route.reason
+    res = make_planner("optim").plan(hard)
     assert res.success, res.reason
     assert res.stats["init"] == "hybrid-a-star" and res.stats["dense_disc_clearance"] >= 0.0
+    other = problem(507, 6.0, 11, 0.45)  # IPOPT fails from Hybrid-A*'s plan here, not from the route
+    kinematic = make_planner("optim", init="hybrid-a-star", init_options={"shape": "disc", "clearance": 0.02})
+    assert not kinematic.plan(other).success
+    res = make_planner("optim").plan(other)
+    assert res.success, res.reason
+    assert res.stats["init"] == "grid"
