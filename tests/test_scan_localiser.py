@@ -39,6 +39,9 @@ def test_the_turtlebot3_localises_on_its_scans_by_default_and_the_edumip_keeps_i
         Case(
             "open", reference="line", localiser="fixes", amcl="max_particles=100", initial_pose="unknown"
         ).localiser_setup(sc)
+    # a bare rectangle looks the same from a pose and its half-turn twin: global localisation is refused
+    with pytest.raises(ConfigError, match=r"a bare rectangle of walls.*--initial-pose known"):
+        Case("open", reference="line", initial_pose="unknown").localiser_setup(sc)
     with pytest.raises(ConfigError, match="unknown localiser 'gps'"):
         Case("open", reference="line", localiser="gps")
     with pytest.raises(ConfigError, match="fix_rate must equal the scan rate"):

@@ -241,8 +241,8 @@ class Case:
 
         Raises:
             ConfigError: amcl (or scanner or localiser settings, or an unknown initial pose) for a robot
-                without a laser scanner, scanner or localiser settings with the fixes localiser, or a bad
-                scanner or localiser setting.
+                without a laser scanner, scanner or localiser settings with the fixes localiser, an
+                unknown initial pose in a world without obstacles, or a bad scanner or localiser setting.
         """
         lidar = load_lidar_profile(scenario.robot, text=self.lidar or None)
         kind = self.localiser or ("amcl" if lidar is not None else "fixes")
@@ -260,6 +260,12 @@ class Case:
                     f"localiser takes no scan): drop {'it' if len(given) == 1 else 'them'}, or use --localiser amcl"
                 )
             return LocaliserSetup()
+        if self.initial_pose != "known" and not scenario.world.obstacles:
+            raise ConfigError(
+                f"--initial-pose unknown in {scenario.name!r}, a bare rectangle of walls: its scans look the same "
+                "from a pose and from that pose turned half a turn about the centre, so global localisation "
+                "cannot tell them apart; use a world with obstacles, or --initial-pose known"
+            )
         amcl = AmclConfig().parse(self.amcl) if self.amcl else AmclConfig()
         return LocaliserSetup("amcl", scenario.world, lidar, amcl, self.initial_pose)
 
