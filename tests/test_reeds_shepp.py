@@ -91,12 +91,11 @@ def test_the_compiled_sine_is_odd_and_cosine_even_exactly():
     import numba as nb
 
     @nb.njit
-    def pairs(a):
-        out = np.empty((a.size, 4))
+    def first_asymmetric(a):  # one value at a time, as the solver calls them (no vectorised loop)
         for i in range(a.size):
-            out[i] = np.sin(a[i]), np.sin(-a[i]), np.cos(a[i]), np.cos(-a[i])
-        return out
+            if np.sin(-a[i]) != -np.sin(a[i]) or np.cos(-a[i]) != np.cos(a[i]):
+                return i
+        return -1
 
-    a = np.concatenate([np.random.default_rng(2).uniform(-50.0, 50.0, 200000), [0.0, np.pi, 1e-300, 1e5]])
-    v = pairs(a)
-    assert np.array_equal(v[:, 1], -v[:, 0]) and np.array_equal(v[:, 3], v[:, 2])
+    a = np.concatenate([np.random.default_rng(2).uniform(-50.0, 50.0, 20000), [0.0, np.pi, 1e-300, 1e5]])
+    assert first_asymmetric(a) == -1
