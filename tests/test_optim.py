@@ -249,3 +249,11 @@ def test_auto_starts_from_a_kinematic_plan_and_a_local_infeasibility_is_a_failur
     res = make_planner("optim").plan(other)
     assert res.success, res.reason
     assert res.stats["init"] == "grid"
+
+
+def test_a_warm_start_of_one_pose_is_named_so() -> None:
+    """'open' starts at its goal: sinusoidal steering succeeds with a single pose, which the warm start
+    cannot resample (it used to say the init planner 'ended success' and fell back to a line)."""
+    res = make_planner("optim").plan(PlanProblem.from_scenario(load_scenario("open")))
+    assert res.success, res.reason
+    assert res.stats["init"] == "straight (init planner 'sinusoidal' gave a single pose)"

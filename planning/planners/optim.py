@@ -417,6 +417,8 @@ class Optim:
             res = make_planner(init, **options).plan(problem)
             if res.path.shape[0] >= 2 and res.status in (PlanStatus.SUCCESS, PlanStatus.BOUNDS_VIOLATED):
                 path = res.path
+            elif res.status is PlanStatus.SUCCESS:  # a path of one pose: the start is the goal
+                source = f"straight (init planner {init!r} gave a single pose)"
             else:
                 source = f"straight (init planner {init!r} ended {res.status.value})"
         tau = np.linspace(0.0, 1.0, n + 1)
