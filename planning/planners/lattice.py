@@ -134,10 +134,16 @@ def _proven_free(poses: FloatArray, chk: tuple, cover: FloatArray) -> bool:  # t
     return True
 
 
+#: The solver's family bounds (0, the CSC words' end, all) as an array: read from it they are plain
+#: integers, where the constants would be literals, for each of which numba compiled ``shortest_radii``
+#: again (three versions, 2 s more to compile after an install).
+_ALL = np.array([0, CSC_FAMILIES, FAMILIES], dtype=np.int64)
+
+
 @nb.njit(cache=True, inline="always")
 def rs_length(q: FloatArray, goal: FloatArray, rho: float, scratch: FloatArray) -> float:
     """Reeds–Shepp length [m] from pose ``q`` (3,) to ``goal`` (3,); ``scratch`` (2, 5)."""
-    return shortest_radii(q, goal, rho, scratch, 0, FAMILIES, np.inf) * rho
+    return shortest_radii(q, goal, rho, scratch, _ALL[0], _ALL[2], np.inf) * rho
 
 
 @nb.njit(cache=True, inline="always")
@@ -147,10 +153,10 @@ def rs_bound(
     """The Reeds–Shepp length [m] from ``q`` to ``goal``, or only an upper bound of it when the bound
     already shows ``g + length <= f``: the length could not raise the node's key then, and the best
     CSC word (a sixth of the solve) settles most nodes away from the goal. Returns (value, exact)."""
-    upper = shortest_radii(q, goal, rho, scratch, 0, CSC_FAMILIES, np.inf)
+    upper = shortest_radii(q, goal, rho, scratch, _ALL[0], _ALL[1], np.inf)
     if g + upper * rho <= f:
         return upper * rho, False
-    return shortest_radii(q, goal, rho, scratch, CSC_FAMILIES, FAMILIES, upper) * rho, True
+    return shortest_radii(q, goal, rho, scratch, _ALL[1], _ALL[2], upper) * rho, True
 
 
 @nb.njit(cache=True)
