@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-import math
 import os
 import time
 from collections.abc import Callable
@@ -382,7 +381,7 @@ def _lattice_too_large(problem: PlanProblem, cell: float, bins: int, failed: boo
     be had, naming the fix; "" when they can. They cannot when they need more than the machine's memory,
     or when their allocation ``failed``. (The 2-D heuristic's arrays, tens of bytes a cell, are far
     smaller: checked first, the lattice covers them.)"""
-    nx, ny = math.ceil(problem.world.width / cell), math.ceil(problem.world.height / cell)
+    nx, ny = lattice.cell_counts(problem.world.bounds, cell)
     states = nx * ny * bins
     need = states * BYTES_PER_STATE
     memory = memory_bytes()

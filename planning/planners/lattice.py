@@ -45,12 +45,18 @@ FOUND, EXHAUSTED, ITERATIONS, TIMED_OUT = 0, 1, 2, 3
 _UNSEEN, _OPEN, _CLOSED = 0, 1, 2
 
 
+def cell_counts(bounds: tuple[float, float, float, float], cell: float) -> tuple[int, int]:
+    """How many square cells of side ``cell`` [m] cover ``bounds`` (xmin, xmax, ymin, ymax) along x and y."""
+    xmin, xmax, ymin, ymax = bounds
+    return int(np.ceil((xmax - xmin) / cell)), int(np.ceil((ymax - ymin) / cell))
+
+
 def cell_centres(bounds: tuple[float, float, float, float], cell: float) -> tuple[int, int, FloatArray]:
     """The square cells of side ``cell`` [m] over ``bounds`` (xmin, xmax, ymin, ymax), cell (0, 0) at the
-    lower-left corner: their counts along x and y and their centres, (nx * ny, 2) [m] in (ix, iy) order
-    (row ``ix * ny + iy``), the grid :func:`obstacle_heuristic` searches."""
-    xmin, xmax, ymin, ymax = bounds
-    nx, ny = int(np.ceil((xmax - xmin) / cell)), int(np.ceil((ymax - ymin) / cell))
+    lower-left corner: their counts along x and y (:func:`cell_counts`) and their centres, (nx * ny, 2)
+    [m] in (ix, iy) order (row ``ix * ny + iy``), the grid :func:`obstacle_heuristic` searches."""
+    xmin, _, ymin, _ = bounds
+    nx, ny = cell_counts(bounds, cell)
     cx, cy = np.meshgrid(xmin + cell * (np.arange(nx) + 0.5), ymin + cell * (np.arange(ny) + 0.5), indexing="ij")
     return nx, ny, np.column_stack([cx.ravel(), cy.ravel()])
 

@@ -188,16 +188,15 @@ def _killer(nannies: list[Any], wait_s: float = 2.0) -> threading.Thread:
     it will not start the worker again, or leaves it after ``wait_s`` seconds."""
     from distributed.core import Status
 
-    pids = {id(n): n.pid for n in nannies}  # a closed nanny forgets its process
+    pending = [(n, n.pid) for n in nannies if n.pid]  # the pid read now: a closed nanny forgets its process
 
     def run() -> None:
         end = time.monotonic() + wait_s
-        pending = [n for n in nannies if pids[id(n)]]
         while pending and time.monotonic() < end:
-            for n in [n for n in pending if n.status in (Status.closing, Status.closed)]:
-                pending.remove(n)
+            for n, pid in [(n, pid) for n, pid in pending if n.status in (Status.closing, Status.closed)]:
+                pending.remove((n, pid))
                 with contextlib.suppress(ProcessLookupError):
-                    os.kill(pids[id(n)], signal.SIGKILL)
+                    os.kill(pid, signal.SIGKILL)
             time.sleep(0.005)
 
     thread = threading.Thread(target=run, name="nhsim-kill-workers", daemon=True)
