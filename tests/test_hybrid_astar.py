@@ -173,6 +173,31 @@ def test_builtin_worlds(scenario, robot):
     _check_path(res, prob, RHO)
 
 
+def test_the_tree_holds_every_opened_node_once_rooted_at_the_start():
+    prob = _problem(0)
+    res = make_planner("hybrid-a-star", simplify=False).plan(prob)
+    tree = res.tree
+    assert tree.nodes.shape == (res.stats["nodes"], 3) and tree.parents.shape == (res.stats["nodes"],)
+    roots = np.flatnonzero(tree.parents < 0)
+    np.testing.assert_array_equal(roots, [0])
+    np.testing.assert_array_equal(tree.nodes[0], prob.start.as_array())
+    # every node reaches the root through its parents (no cycle), one node per lattice cell
+    depth = np.zeros(len(tree.parents), dtype=int)
+    for i in range(len(tree.parents)):
+        j, steps = i, 0
+        while tree.parents[j] >= 0 and steps <= len(tree.parents):
+            j, steps = tree.parents[j], steps + 1
+        assert j == 0
+        depth[i] = steps
+    assert depth.max() > 10
+    cells = np.floor(tree.nodes[:, :2] / 0.05).astype(int)
+    bins = np.floor(tree.nodes[:, 2] / (2 * np.pi / 72) + 0.5).astype(int) % 72
+    assert len({(a, b, c) for (a, b), c in zip(cells.tolist(), bins.tolist(), strict=True)}) == len(bins)
+    # the raw path runs through tree nodes, parent to child
+    on_path = {tuple(p) for p in tree.nodes.tolist()}
+    assert sum(tuple(p) in on_path for p in res.path.tolist()) > 10
+
+
 def test_same_problem_same_path_whatever_the_seed():
     a = make_planner("hybrid-a-star").plan(_problem(0))
     b = make_planner("hybrid-a-star").plan(_problem(7))

@@ -10,6 +10,7 @@ from planning.planners.sampling.steering import (
     bicycle_primitives,
     default_turning_radius,
     diffdrive_steer,
+    place,
     se2_metric,
     unicycle_primitives,
 )
@@ -74,3 +75,12 @@ def test_curve_steering():
     assert w.length == pytest.approx(cs.lengths([0, 0, 0], [1, 0.5, 1.0])[0])
     with pytest.raises(ValueError, match="curve kind"):
         CurveSteering("spline", 1.0)  # type: ignore[arg-type]
+
+
+def test_place_at_many_poses_is_place_at_each_bit_for_bit():
+    rng = np.random.default_rng(3)
+    bodies = rng.normal(size=(6, 5, 3))
+    poses = rng.uniform(-4.0, 4.0, size=(6, 3))
+    together = place(bodies, poses[:, None, :])
+    for k in range(6):
+        assert np.array_equal(together[k], place(bodies[k], poses[k]))

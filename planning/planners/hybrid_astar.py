@@ -28,7 +28,6 @@ with the virtual bicycle's radius, as the Reeds–Shepp tree planners do (no tur
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import os
 import time
 from collections.abc import Callable
@@ -327,8 +326,8 @@ class HybridAStar:
         limit: float,
     ) -> PlanResult:
         """The plan result of a finished search (see :func:`planning.planners.lattice.search`)."""
-        outcome, end, its, nodes, meta, state, tail, tail_dirs = out
-        tree, ids = _tree(nodes, meta, state)
+        outcome, end, its, nodes, meta, ids, tail, tail_dirs = out
+        tree = _tree(nodes, meta, ids)
         if outcome != lattice.FOUND:
             gaps = np.hypot(*(nodes[ids, :2] - problem.goal.as_array()[:2]).T)
             end = int(ids[np.argmin(gaps)]) if outcome != lattice.EXHAUSTED else end
@@ -417,12 +416,13 @@ def _stats(
     }
 
 
-def _tree(nodes: FloatArray, meta: NDArray[np.int64], state: NDArray[np.int8]) -> tuple[PlanTree, NDArray[np.int64]]:
-    """The searched nodes as a :class:`PlanTree` (parents by position), and their lattice ids."""
-    ids = np.flatnonzero(state)  # sorted: a parent's position is found by bisection
+def _tree(nodes: FloatArray, meta: NDArray[np.int64], ids: NDArray[np.int64]) -> PlanTree:
+    """The searched nodes ``ids`` (in the order the search opened them) as a :class:`PlanTree`."""
+    position = np.empty(nodes.shape[0], dtype=np.int64)  # read only at the ids written below
+    position[ids] = np.arange(ids.size)
     par = meta[ids, 0]
-    parents = np.where(par >= 0, np.searchsorted(ids, par), -1)
-    return PlanTree(nodes[ids, :3].copy(), parents), ids
+    parents = np.where(par >= 0, position[np.maximum(par, 0)], -1)
+    return PlanTree(nodes[ids, :3].copy(), parents)
 
 
 def _branch(
@@ -433,12 +433,13 @@ def _branch(
     while meta[chain[-1], 0] >= 0:
         chain.append(int(meta[chain[-1], 0]))
     chain.reverse()
-    parts, dparts = [nodes[chain[0], :3][None, :]], [np.ones(1)]
-    for a, b in itertools.pairwise(chain):
-        seg = place(prims.body[meta[b, 1]][1:], nodes[a, :3])
-        seg[-1] = nodes[b, :3]
-        parts.append(seg)
-        dparts.append(np.full(seg.shape[0], prims.directions[meta[b, 1]]))
+    child, parent = np.array(chain[1:], dtype=np.int64), np.array(chain[:-1], dtype=np.int64)
+    prim = meta[child, 1]
+    # each primitive's samples after its first, placed at its parent's pose, all at once
+    segs = place(prims.body[prim, 1:], nodes[parent, None, :3])
+    segs[:, -1] = nodes[child, :3]
+    parts = [nodes[chain[0], :3][None, :], segs.reshape(-1, 3)]
+    dparts = [np.ones(1), np.repeat(prims.directions[prim], segs.shape[1])]
     if tail.shape[0] > 1:
         parts.append(tail[1:])
         dparts.append(tail_dirs[1:])

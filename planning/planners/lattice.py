@@ -233,13 +233,15 @@ def _expand(
     space: tuple,  # type: ignore[type-arg]
     buf: FloatArray,
     open_beyond: float,
+    order: list,  # type: ignore[type-arg]
 ) -> int:
     """Push every collision-free primitive successor of node ``cid`` that improves its cell.
 
     ``nodes[c]`` = (x, y, theta, g, f, h_rs), h_rs -1 until the node is popped, then the Reeds–Shepp
     length to the goal or, where that could not raise f, an upper bound of it (:func:`rs_bound`);
     ``meta[c]`` = (parent id, primitive index); ``space`` as in :func:`search`; ``open_beyond`` from
-    :func:`_open_beyond`.
+    :func:`_open_beyond`; ``order`` the ids of the nodes seen so far, in the order they were first
+    opened (a new node's id is appended).
     Returns the updated push counter (the heap's deterministic tie-break).
     """
     prims, lat, h2d, chk, cover = space
@@ -273,6 +275,8 @@ def _expand(
         nodes[k, 0], nodes[k, 1], nodes[k, 2] = q[0], q[1], q[2]
         nodes[k, 3], nodes[k, 4], nodes[k, 5] = g_new, f, -1.0
         meta[k, 0], meta[k, 1] = cid, p
+        if state[k] == _UNSEEN:
+            order.append(k)
         state[k] = _OPEN
         counter += 1
         heapq.heappush(heap, (f, counter, k))
@@ -300,6 +304,15 @@ def _tables(
     nodes[s, 4] = max(h0, h2d[(s // lat[5]) // lat[4], (s // lat[5]) % lat[4]])
     meta[s, 0], meta[s, 1], state[s] = -1, -1, _OPEN
     return nodes, meta, state, s
+
+
+@nb.njit(cache=True, inline="always")
+def _ids(order: list) -> IntArray:  # type: ignore[type-arg]
+    """The node ids of ``order`` as an array."""
+    ids = np.empty(len(order), dtype=np.int64)
+    for i in range(len(order)):
+        ids[i] = order[i]
+    return ids
 
 
 @nb.njit(cache=True, nogil=True)
@@ -333,7 +346,9 @@ def search(
         stop: (1,) flag: set, the search ends within 256 expansions (:func:`planning.signals.stoppable`).
 
     Returns:
-        (outcome, terminal node id, expansions, nodes, meta, state, analytic poses, analytic dirs).
+        (outcome, terminal node id, expansions, nodes, meta, ids, analytic poses, analytic dirs): ``ids``
+        the ids of every node the search opened (the only rows of ``nodes`` and ``meta`` it wrote), in
+        the order it first opened them, the start first.
     """
     deadline = monotonic() + seconds
     prims, lat, h2d, chk, cover = space
@@ -341,6 +356,7 @@ def search(
     open_beyond = _open_beyond(prims[0], chk)
     nodes, meta, state, s = _tables(start, goal, rho, lat, h2d, scratch)
     heap = [(nodes[s, 4], 0, s)]
+    order = [s]
     # a typed zero, not the literal 0 (for which numba would compile _expand a second time)
     counter: int = np.int64(0)  # type: ignore[assignment]
     it, countdown = 0, 0
@@ -370,12 +386,12 @@ def search(
             countdown = max(1, int(np.floor(h_cells / expansion[0])))
             free, poses, dirs = analytic(q, goal, rho, step, chk, cover)
             if free:
-                return FOUND, cid, it, nodes, meta, state, poses, dirs
+                return FOUND, cid, it, nodes, meta, _ids(order), poses, dirs
         if near:
-            return FOUND, cid, it, nodes, meta, state, none[0], none[1]
+            return FOUND, cid, it, nodes, meta, _ids(order), none[0], none[1]
         if it >= max_iterations:
-            return ITERATIONS, cid, it, nodes, meta, state, none[0], none[1]
+            return ITERATIONS, cid, it, nodes, meta, _ids(order), none[0], none[1]
         if it % 256 == 0 and (stop[0] or monotonic() > deadline):
-            return TIMED_OUT, cid, it, nodes, meta, state, none[0], none[1]
-        counter = _expand(cid, nodes, meta, state, heap, counter, space, buf, open_beyond)
-    return EXHAUSTED, s, it, nodes, meta, state, none[0], none[1]
+            return TIMED_OUT, cid, it, nodes, meta, _ids(order), none[0], none[1]
+        counter = _expand(cid, nodes, meta, state, heap, counter, space, buf, open_beyond, order)
+    return EXHAUSTED, s, it, nodes, meta, _ids(order), none[0], none[1]
