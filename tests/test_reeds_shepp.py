@@ -4,7 +4,14 @@ import numpy as np
 import pytest
 
 from planning.curves.dubins import dubins_length
-from planning.curves.reeds_shepp import CSC_FAMILIES, FAMILIES, reeds_shepp_length, reeds_shepp_path, shortest_radii
+from planning.curves.reeds_shepp import (
+    CSC_FAMILIES,
+    FAMILIES,
+    reeds_shepp_batch,
+    reeds_shepp_length,
+    reeds_shepp_path,
+    shortest_radii,
+)
 from tests.curve_helpers import drive, ompl_distances, pose_pairs, wrap
 
 N = 400
@@ -71,18 +78,20 @@ def test_bad_input():
 
 
 def test_single_lengths_and_the_csc_bound():
-    """shortest_radii gives the batch solver's length bit for bit; the CSC words alone bound it from
-    above, and solving the other families from that bound gives the length again, bit for bit."""
+    """shortest_radii gives the batch solver's length, word and segments bit for bit; the CSC words
+    alone bound the length from above, and solving the other families from that bound gives the length
+    again, bit for bit."""
     q0, q1 = pose_pairs(11, 3000)
     q1[:50] = q0[:50]  # no motion at all
     rho = 0.3
-    exact = reeds_shepp_length(q0, q1, rho)
+    exact, words, segments = reeds_shepp_batch(q0, q1, rho)
     scratch = np.zeros((2, 5))
-    for a, b, want in zip(q0, q1, exact, strict=True):
-        assert shortest_radii(a, b, rho, scratch, 0, FAMILIES, np.inf) * rho == want
-        upper = shortest_radii(a, b, rho, scratch, 0, CSC_FAMILIES, np.inf)
+    for a, b, want, word, segs in zip(q0, q1, exact, words, segments, strict=True):
+        length, index = shortest_radii(a, b, rho, scratch, 0, FAMILIES, np.inf)
+        assert length * rho == want and index == word and (word < 0 or np.array_equal(scratch[1], segs))
+        upper = shortest_radii(a, b, rho, scratch, 0, CSC_FAMILIES, np.inf)[0]
         assert upper * rho >= want
-        assert shortest_radii(a, b, rho, scratch, CSC_FAMILIES, FAMILIES, upper) * rho == want
+        assert shortest_radii(a, b, rho, scratch, CSC_FAMILIES, FAMILIES, upper)[0] * rho == want
 
 
 def test_the_compiled_sine_is_odd_and_cosine_even_exactly():

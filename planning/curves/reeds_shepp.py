@@ -274,18 +274,20 @@ def _solve(q0: FloatArray, q1: FloatArray, rho: float) -> tuple[FloatArray, NDAr
 @nb.njit(cache=True)
 def shortest_radii(
     q0: FloatArray, q1: FloatArray, rho: float, scratch: FloatArray, first: int, last: int, best: float
-) -> float:
+) -> tuple[float, int]:
     """Length in turning radii of the shortest Reeds–Shepp word from pose ``q0`` (3,) to ``q1`` (3,)
     among families ``first`` to ``last - 1`` shorter than ``best`` [turning radii] (else ``best``),
-    for compiled callers that need many single lengths without :func:`_solve`'s arrays.
+    and that word's index into :data:`RS_WORDS` (-1 when none is shorter), its signed segments written
+    into ``scratch[1]`` ((2, 5) scratch): for compiled callers that need many single curves without
+    :func:`_solve`'s arrays.
 
-    ``shortest_radii(q0, q1, rho, s, 0, FAMILIES, inf) * rho`` is the length :func:`_solve` gives;
-    ``u = shortest_radii(q0, q1, rho, s, 0, CSC_FAMILIES, inf)`` is an upper bound of it (a sixth of
-    the work), and ``shortest_radii(q0, q1, rho, s, CSC_FAMILIES, FAMILIES, u)`` is then the exact
-    length. ``scratch`` is (2, 5).
+    ``shortest_radii(q0, q1, rho, s, 0, FAMILIES, inf)`` is the word :func:`_solve` gives, its length
+    times ``rho`` the length it gives; ``u = shortest_radii(q0, q1, rho, s, 0, CSC_FAMILIES, inf)[0]``
+    is an upper bound of that length (a sixth of the work), and ``shortest_radii(q0, q1, rho, s,
+    CSC_FAMILIES, FAMILIES, u)[0]`` is then the exact length.
     """
     x, y, phi = local_goal(q0.reshape(1, 3), q1.reshape(1, 3), 0, rho)
-    return _shortest(x, y, phi, scratch[0], scratch[1], first, last, best)[0]
+    return _shortest(x, y, phi, scratch[0], scratch[1], first, last, best)
 
 
 REEDS_SHEPP = CurveFamily("Reeds–Shepp", RS_WORDS, _solve)

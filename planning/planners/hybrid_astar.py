@@ -417,12 +417,12 @@ def _stats(
 
 
 def _tree(nodes: FloatArray, meta: NDArray[np.int64], ids: NDArray[np.int64]) -> PlanTree:
-    """The searched nodes ``ids`` (in the order the search opened them) as a :class:`PlanTree`."""
-    position = np.empty(nodes.shape[0], dtype=np.int64)  # read only at the ids written below
-    position[ids] = np.arange(ids.size)
+    """The searched nodes ``ids`` as a :class:`PlanTree`, in lattice order (a parent's position is found
+    by bisection: an array of positions over the whole lattice would cost a page fault per node)."""
+    ids = np.sort(ids)
     par = meta[ids, 0]
-    parents = np.where(par >= 0, position[np.maximum(par, 0)], -1)
-    return PlanTree(nodes[ids, :3].copy(), parents)
+    parents = np.where(par >= 0, np.searchsorted(ids, par), -1)
+    return PlanTree(nodes[ids, :3], parents)
 
 
 def _branch(

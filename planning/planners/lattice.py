@@ -30,13 +30,11 @@ from planning.clock import monotonic
 from planning.collision.compiled import grid_lookup
 from planning.collision.grid import classify_kernel
 from planning.curves.common import mod2pi
-from planning.curves.reeds_shepp import CSC_FAMILIES, FAMILIES, REEDS_SHEPP, RS_WORDS, shortest_radii
+from planning.curves.reeds_shepp import CSC_FAMILIES, FAMILIES, RS_WORDS, shortest_radii
 from planning.curves.words import _sample_word
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
-
-_rs_solve = REEDS_SHEPP.solve
 
 #: Search outcomes returned by :func:`search`.
 FOUND, EXHAUSTED, ITERATIONS, TIMED_OUT = 0, 1, 2, 3
@@ -149,7 +147,7 @@ _ALL = np.array([0, CSC_FAMILIES, FAMILIES], dtype=np.int64)
 @nb.njit(cache=True, inline="always")
 def rs_length(q: FloatArray, goal: FloatArray, rho: float, scratch: FloatArray) -> float:
     """Reeds–Shepp length [m] from pose ``q`` (3,) to ``goal`` (3,); ``scratch`` (2, 5)."""
-    return shortest_radii(q, goal, rho, scratch, _ALL[0], _ALL[2], np.inf) * rho
+    return shortest_radii(q, goal, rho, scratch, _ALL[0], _ALL[2], np.inf)[0] * rho
 
 
 @nb.njit(cache=True, inline="always")
@@ -159,10 +157,10 @@ def rs_bound(
     """The Reeds–Shepp length [m] from ``q`` to ``goal``, or only an upper bound of it when the bound
     already shows ``g + length <= f``: the length could not raise the node's key then, and the best
     CSC word (a sixth of the solve) settles most nodes away from the goal. Returns (value, exact)."""
-    upper = shortest_radii(q, goal, rho, scratch, _ALL[0], _ALL[1], np.inf)
+    upper = shortest_radii(q, goal, rho, scratch, _ALL[0], _ALL[1], np.inf)[0]
     if g + upper * rho <= f:
         return upper * rho, False
-    return shortest_radii(q, goal, rho, scratch, _ALL[1], _ALL[2], upper) * rho, True
+    return shortest_radii(q, goal, rho, scratch, _ALL[1], _ALL[2], upper)[0] * rho, True
 
 
 @nb.njit(cache=True)
@@ -176,10 +174,12 @@ def analytic(
 ) -> tuple[bool, FloatArray, FloatArray]:
     """The shortest Reeds–Shepp curve from ``q`` to ``goal`` sampled every ``step`` [m], and
     whether it is proven collision-free. Returns (free, (K, 3) poses, (K,) directions)."""
-    _, types, segs = _rs_solve(q.reshape(1, 3), goal.reshape(1, 3), rho)
-    if types[0] < 0:
+    # the solver the bound uses (one copy of it in the search's code), the word _solve gives
+    scratch = np.empty((2, 5))
+    word = shortest_radii(q, goal, rho, scratch, _ALL[0], _ALL[2], np.inf)[1]
+    if word < 0:
         return False, np.zeros((0, 3)), np.zeros(0)
-    poses, dirs = _sample_word(q, RS_WORDS[types[0]], segs[0], rho, step)
+    poses, dirs = _sample_word(q, RS_WORDS[word], scratch[1], rho, step)
     # Land exactly on the goal (the sampler ends within 1e-9 m of it), keeping the heading continuous.
     poses[-1, 0], poses[-1, 1] = goal[0], goal[1]
     poses[-1, 2] += mod2pi(goal[2] - poses[-1, 2])
