@@ -326,15 +326,16 @@ class HybridAStar:
         limit: float,
     ) -> PlanResult:
         """The plan result of a finished search (see :func:`planning.planners.lattice.search`)."""
-        outcome, end, its, nodes, meta, ids, tail, tail_dirs = out
-        tree = _tree(nodes, meta, ids)
+        outcome, end, its, nodes, meta, tail, tail_dirs = out
+        # the searched nodes in the order the search opened them (the start first), parents by row
+        tree = PlanTree(nodes[:, :3].copy(), meta[:, 0].copy())
         if outcome != lattice.FOUND:
-            gaps = np.hypot(*(nodes[ids, :2] - problem.goal.as_array()[:2]).T)
-            end = int(ids[np.argmin(gaps)]) if outcome != lattice.EXHAUSTED else end
+            gaps = np.hypot(*(nodes[:, :2] - problem.goal.as_array()[:2]).T)
+            end = int(np.argmin(gaps)) if outcome != lattice.EXHAUSTED else end
             tail, tail_dirs = np.zeros((0, 3)), np.zeros(0)
         path, dirs = _branch(nodes, meta, setup.prims, int(end), tail, tail_dirs)
         stats = {
-            **_stats(clock, setup.checker, its, ids.size),
+            **_stats(clock, setup.checker, its, nodes.shape[0]),
             "length_m": path_length(path),
             "analytic": tail.shape[0] > 0,
         }
@@ -362,9 +363,10 @@ class HybridAStar:
 
 
 #: Bytes of the search's tables per lattice state (:func:`planning.planners.lattice.search`: six float64
-#: and two int64 of a node, one int8 of its state). They are allocated whole and touched where the
-#: search goes: a 100 x 100 m world's 2.9e8 states take 19 GB of address space and about 1 GB of memory.
-BYTES_PER_STATE = 6 * 8 + 2 * 8 + 1
+#: and three int64 of a node, one int8 of its state, one int32 of its row). They are allocated whole with
+#: room for a node in every state; the nodes' rows are written in order and the state and row tables
+#: only where the search goes: a 100 x 100 m world's 2.9e8 states take 22 GB of address space.
+BYTES_PER_STATE = 6 * 8 + 3 * 8 + 1 + 4
 
 
 def memory_bytes() -> int:
@@ -414,15 +416,6 @@ def _stats(
         "iterations": iterations,
         "nodes": nodes,
     }
-
-
-def _tree(nodes: FloatArray, meta: NDArray[np.int64], ids: NDArray[np.int64]) -> PlanTree:
-    """The searched nodes ``ids`` as a :class:`PlanTree`, in lattice order (a parent's position is found
-    by bisection: an array of positions over the whole lattice would cost a page fault per node)."""
-    ids = np.sort(ids)
-    par = meta[ids, 0]
-    parents = np.where(par >= 0, np.searchsorted(ids, par), -1)
-    return PlanTree(nodes[ids, :3], parents)
 
 
 def _branch(

@@ -225,25 +225,27 @@ def _open_beyond(body: FloatArray, chk: tuple) -> float:  # type: ignore[type-ar
 @nb.njit(cache=True)
 def _expand(
     cid: int,
-    nodes: FloatArray,
-    meta: IntArray,
-    state: NDArray[np.int8],
+    tables: tuple,  # type: ignore[type-arg]
     heap: list,  # type: ignore[type-arg]
     counter: int,
+    count: int,
     space: tuple,  # type: ignore[type-arg]
     buf: FloatArray,
     open_beyond: float,
-    order: list,  # type: ignore[type-arg]
-) -> int:
+) -> tuple[int, int]:
     """Push every collision-free primitive successor of node ``cid`` that improves its cell.
 
+    ``tables`` = (nodes, meta, state, slot). The nodes are rows in the order they were first opened:
     ``nodes[c]`` = (x, y, theta, g, f, h_rs), h_rs -1 until the node is popped, then the Reeds–Shepp
     length to the goal or, where that could not raise f, an upper bound of it (:func:`rs_bound`);
-    ``meta[c]`` = (parent id, primitive index); ``space`` as in :func:`search`; ``open_beyond`` from
-    :func:`_open_beyond`; ``order`` the ids of the nodes seen so far, in the order they were first
-    opened (a new node's id is appended).
-    Returns the updated push counter (the heap's deterministic tie-break).
+    ``meta[c]`` = (parent's row, primitive index, lattice id). Over the lattice, ``state[k]`` is the
+    state of the node in cell ``k`` and ``slot[k]`` its row (read only where the state is not unseen):
+    the rows are written in order, so a search touches the memory of the nodes it opens, not a page of
+    lattice-wide rows per node. ``count`` is the number of rows; ``space`` as in :func:`search`;
+    ``open_beyond`` from :func:`_open_beyond`.
+    Returns the updated push counter (the heap's deterministic tie-break) and row count.
     """
+    nodes, meta, state, slot = tables
     prims, lat, h2d, chk, cover = space
     body, ends, cost, change_extra, turn_class = prims
     x, y, th, g = nodes[cid, 0], nodes[cid, 1], nodes[cid, 2], nodes[cid, 3]
@@ -257,12 +259,12 @@ def _expand(
         q[1] = y + s * ends[p, 0] + c * ends[p, 1]
         q[2] = mod2pi(th + ends[p, 2])
         k = _cell_id(q[0], q[1], q[2], lat)
-        if k < 0 or k == cid or state[k] == _CLOSED:
+        if k < 0 or k == meta[cid, 2] or state[k] == _CLOSED:
             continue
         g_new = g + cost[p]
         if turn_class[p] != 0 and turn_class[p] != parent_class:
             g_new += change_extra[p]
-        if state[k] == _OPEN and g_new >= nodes[k, 3] - 1e-12:
+        if state[k] == _OPEN and g_new >= nodes[slot[k], 3] - 1e-12:
             continue
         h_grid = h2d[(k // bins) // ny, (k // bins) % ny]
         if not np.isfinite(h_grid):
@@ -272,15 +274,18 @@ def _expand(
             if not _proven_free(buf, chk, cover):
                 continue
         f = g_new + h_grid  # the Reeds–Shepp bound is added when the node is popped (see search)
-        nodes[k, 0], nodes[k, 1], nodes[k, 2] = q[0], q[1], q[2]
-        nodes[k, 3], nodes[k, 4], nodes[k, 5] = g_new, f, -1.0
-        meta[k, 0], meta[k, 1] = cid, p
         if state[k] == _UNSEEN:
-            order.append(k)
+            slot[k] = count
+            meta[count, 2] = k
+            count += 1
+        j = np.int64(slot[k])
+        nodes[j, 0], nodes[j, 1], nodes[j, 2] = q[0], q[1], q[2]
+        nodes[j, 3], nodes[j, 4], nodes[j, 5] = g_new, f, -1.0
+        meta[j, 0], meta[j, 1] = cid, p
         state[k] = _OPEN
         counter += 1
-        heapq.heappush(heap, (f, counter, k))
-    return counter
+        heapq.heappush(heap, (f, counter, j))
+    return counter, count
 
 
 @nb.njit(cache=True, inline="always")
@@ -291,28 +296,21 @@ def _tables(
     lat: tuple,  # type: ignore[type-arg]
     h2d: FloatArray,
     scratch: FloatArray,
-) -> tuple[FloatArray, IntArray, NDArray[np.int8], int]:
-    """The search's tables (nodes, meta and state as in :func:`_expand`, one row per lattice cell)
-    holding the start node open, and the start's cell id."""
+) -> tuple[FloatArray, IntArray, NDArray[np.int8], NDArray[np.int32]]:
+    """The search's tables (nodes, meta, state and slot as in :func:`_expand`; room for a node in every
+    lattice cell, allocated, not written) holding the start node open in row 0."""
     n = lat[3] * lat[4] * lat[5]
     nodes = np.empty((n, 6))
-    meta = np.empty((n, 2), dtype=np.int64)
+    meta = np.empty((n, 3), dtype=np.int64)
     state = np.zeros(n, dtype=np.int8)
-    s = _cell_id(start[0], start[1], start[2], lat)
+    slot = np.empty(n, dtype=np.int32)
+    k = _cell_id(start[0], start[1], start[2], lat)
     h0 = rs_length(start, goal, rho, scratch)
-    nodes[s, 0], nodes[s, 1], nodes[s, 2], nodes[s, 3], nodes[s, 5] = start[0], start[1], start[2], 0.0, h0
-    nodes[s, 4] = max(h0, h2d[(s // lat[5]) // lat[4], (s // lat[5]) % lat[4]])
-    meta[s, 0], meta[s, 1], state[s] = -1, -1, _OPEN
-    return nodes, meta, state, s
-
-
-@nb.njit(cache=True, inline="always")
-def _ids(order: list) -> IntArray:  # type: ignore[type-arg]
-    """The node ids of ``order`` as an array."""
-    ids = np.empty(len(order), dtype=np.int64)
-    for i in range(len(order)):
-        ids[i] = order[i]
-    return ids
+    nodes[0, 0], nodes[0, 1], nodes[0, 2], nodes[0, 3], nodes[0, 5] = start[0], start[1], start[2], 0.0, h0
+    nodes[0, 4] = max(h0, h2d[(k // lat[5]) // lat[4], (k // lat[5]) % lat[4]])
+    meta[0, 0], meta[0, 1], meta[0, 2] = -1, -1, k
+    state[k], slot[k] = _OPEN, 0
+    return nodes, meta, state, slot
 
 
 @nb.njit(cache=True, nogil=True)
@@ -346,24 +344,26 @@ def search(
         stop: (1,) flag: set, the search ends within 256 expansions (:func:`planning.signals.stoppable`).
 
     Returns:
-        (outcome, terminal node id, expansions, nodes, meta, ids, analytic poses, analytic dirs): ``ids``
-        the ids of every node the search opened (the only rows of ``nodes`` and ``meta`` it wrote), in
-        the order it first opened them, the start first.
+        (outcome, terminal node's row, expansions, nodes, meta, analytic poses, analytic dirs): ``nodes``
+        and ``meta`` as in :func:`_expand`, a row per node the search opened, in the order it first
+        opened them (the start's first).
     """
     deadline = monotonic() + seconds
     prims, lat, h2d, chk, cover = space
     buf, scratch = np.empty((prims[0].shape[1], 3)), np.empty((2, 5))
     open_beyond = _open_beyond(prims[0], chk)
-    nodes, meta, state, s = _tables(start, goal, rho, lat, h2d, scratch)
-    heap = [(nodes[s, 4], 0, s)]
-    order = [s]
-    # a typed zero, not the literal 0 (for which numba would compile _expand a second time)
+    tables = _tables(start, goal, rho, lat, h2d, scratch)
+    nodes, meta, state, _ = tables
+    heap = [(nodes[0, 4], 0, 0)]
+    # typed zeros, not the literal 0 (for which numba would compile _expand a second time)
     counter: int = np.int64(0)  # type: ignore[assignment]
+    count: int = np.int64(1)  # type: ignore[assignment]
     it, countdown = 0, 0
     none = (np.zeros((0, 3)), np.zeros(0))
+    outcome, end, poses, dirs = EXHAUSTED, 0, none[0], none[1]
     while heap:
         f, _, cid = heapq.heappop(heap)
-        if state[cid] == _CLOSED or f != nodes[cid, 4]:
+        if state[meta[cid, 2]] == _CLOSED or f != nodes[cid, 4]:
             continue
         exact = True
         if nodes[cid, 5] < 0.0:  # lazily: the Reeds–Shepp bound only for nodes that reach the top
@@ -374,7 +374,7 @@ def search(
                 counter += 1
                 heapq.heappush(heap, (nodes[cid, 4], counter, cid))
                 continue
-        state[cid] = _CLOSED
+        state[meta[cid, 2]] = _CLOSED
         it += 1
         q = nodes[cid, :3].copy()
         near = _in_goal(q[0], q[1], q[2], goal, tol)
@@ -384,14 +384,12 @@ def search(
         if near or (countdown <= 0 and nodes[cid, 5] <= expansion[1]):
             h_cells = (nodes[cid, 4] - nodes[cid, 3]) / lat[2]
             countdown = max(1, int(np.floor(h_cells / expansion[0])))
-            free, poses, dirs = analytic(q, goal, rho, step, chk, cover)
+            free, tail, tail_dirs = analytic(q, goal, rho, step, chk, cover)
             if free:
-                return FOUND, cid, it, nodes, meta, _ids(order), poses, dirs
-        if near:
-            return FOUND, cid, it, nodes, meta, _ids(order), none[0], none[1]
-        if it >= max_iterations:
-            return ITERATIONS, cid, it, nodes, meta, _ids(order), none[0], none[1]
-        if it % 256 == 0 and (stop[0] or monotonic() > deadline):
-            return TIMED_OUT, cid, it, nodes, meta, _ids(order), none[0], none[1]
-        counter = _expand(cid, nodes, meta, state, heap, counter, space, buf, open_beyond, order)
-    return EXHAUSTED, s, it, nodes, meta, _ids(order), none[0], none[1]
+                outcome, end, poses, dirs = FOUND, cid, tail, tail_dirs
+                break
+        if near or it >= max_iterations or (it % 256 == 0 and (stop[0] or monotonic() > deadline)):
+            outcome, end = FOUND if near else ITERATIONS if it >= max_iterations else TIMED_OUT, cid
+            break
+        counter, count = _expand(cid, tables, heap, counter, count, space, buf, open_beyond)
+    return outcome, end, it, nodes[:count], meta[:count], poses, dirs
