@@ -34,6 +34,23 @@ def test_same_verdicts_as_exact(robot, shape, clearance):
         assert fast.motion_free(m) == exact.motion_free(m)
 
 
+def test_poses_the_centre_disc_proves_free_need_no_compiled_call(monkeypatch):
+    import planning.collision.grid as grid
+
+    fast = FastChecker(CollisionChecker(WORLD, load_robot("turtlebot3"), clearance=0.05))
+    calls = []
+    kernel = grid.poses_free_kernel
+    monkeypatch.setattr(grid, "poses_free_kernel", lambda p, chk: calls.append(len(p)) or kernel(p, chk))
+    clear = [[0.6, -0.3, 0.2], [-0.5, 0.5, 2.0]]  # 0.3 m or more from everything
+    assert fast.poses_free(clear).all() and calls == []
+    near = [[0.6, -0.3, 0.2], [1.0, 0.62, 0.0], [0.0, 0.0, 0.0]]  # grazing the circle; on the tiny one
+    assert (
+        fast.poses_free(near).tolist()
+        == CollisionChecker(WORLD, load_robot("turtlebot3"), clearance=0.05).poses_free(near).tolist()
+    )
+    assert calls == [2]  # the two the disc could not prove, in one call
+
+
 def test_tiny_obstacle_inside_footprint_is_caught():
     exact = CollisionChecker(WORLD, load_robot("turtlebot3"))
     fast = FastChecker(exact)

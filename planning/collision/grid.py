@@ -22,6 +22,7 @@ near-margin poses); the grid only saves time.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import cast
 
 import numba as nb
 import numpy as np
@@ -305,9 +306,17 @@ class FastChecker:
     def poses_free(self, poses: ArrayLike) -> BoolArray:
         """(M,) whether each (M, 3) pose keeps the clearance from everything (exact verdict)."""
         p = np.ascontiguousarray(np.atleast_2d(np.asarray(poses, dtype=float)))
-        chk = self.check_arrays()
-        if chk is not None:  # one compiled call (the same verdicts)
-            return poses_free_kernel(p, chk)  # type: ignore[no-any-return]
+        args = self.kernel_args()
+        if args is not None:
+            # The grid's first proof (classify_pose's, the same arithmetic): the centre's disc keeps the
+            # clearance. The poses it proves free need no compiled call: a planner's start and goal
+            # mostly need none, and a new process does not load the compiled checker (10 ms) for them.
+            radius, clearance, tol, disc = args[7:11]
+            out = self.distance_bounds(p)[0] - radius > clearance + (0.0 if disc else tol)
+            rest = np.flatnonzero(~out)
+            if rest.size:  # one compiled call for the others (the same verdicts)
+                out[rest] = poses_free_kernel(np.ascontiguousarray(p[rest]), cast("CheckArrays", self.check_arrays()))
+            return out
         cls = self._classify(p, False)
         out = cls == 1
         und = cls < 0
