@@ -4,6 +4,7 @@ warm (see :mod:`sim.tools.bench.cold`)."""
 from __future__ import annotations
 
 import argparse
+import math
 
 #: Obstacle kinds but ellipses (a world without them reached numba's one-time set-up first inside the
 #: plan, where an ellipse's reached it while the scenario loaded).
@@ -25,6 +26,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the first world (default: 0)")
     p.add_argument("--repeats", type=int, default=3, metavar="N", help="warm plans per world (default: 3)")
     p.add_argument("--no-crowded", action="store_true", help="skip the 2000-obstacle worlds")
+    p.add_argument(
+        "--obstacle-scale",
+        type=float,
+        default=1.0,
+        metavar="F",
+        help="obstacles F times their default size (default: 1; the halls' are about 0.35 m across)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -38,12 +46,16 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--planner {args.planner!r} is not a planner; choose one of {', '.join(sorted(PLANNERS))}")
     check_at_least({"--worlds": (args.worlds, 1), "--repeats": (args.repeats, 1)})
     check_seeds(seed=args.seed)
+    if not (math.isfinite(args.obstacle_scale) and 0.0 < args.obstacle_scale <= 4.0):
+        raise ConfigError(f"--obstacle-scale must be a number in (0, 4], got {args.obstacle_scale!r}")
     print(
         f"{args.planner}: a fresh 'nhsim plan' process per new world (wall and CPU from start to exit, its reported "
         f"plan time, the part of it numba spent readying code (loading cached kernels; not counted by the time "
         f"limit; numba's one-time set-up comes before the plan's clock), the time less it, the grid's part, and "
         f"the path's simplification after the plan, reported beside its time, not in it) against the same plan "
-        f"here: new world with code loaded, then warm (median of {args.repeats}); {bench.load_note()}"
+        f"here: new world with code loaded, then warm (median of {args.repeats}); "
+        + ("" if args.obstacle_scale == 1.0 else f"obstacles {args.obstacle_scale:g} times their default size; ")
+        + bench.load_note()
     )
     bench.warm_up(args.planner)
     rows: list[bench.ColdRow] = []
@@ -52,8 +64,9 @@ def run(args: argparse.Namespace) -> int:
             continue
         for k in range(args.worlds):
             seed = args.seed + 1000 * len(rows) + k
+            scale_f = scale * args.obstacle_scale
             rows.append(
-                bench.measure(seed, size, count, scale, args.planner, limit, args.repeats, kinds or bench.KINDS)
+                bench.measure(seed, size, count, scale_f, args.planner, limit, args.repeats, kinds or bench.KINDS)
             )
             lines = bench.format_rows(rows[-1:])
             if len(rows) == 1:
