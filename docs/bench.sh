@@ -22,6 +22,7 @@ declare -A CMDS=(
     [simplify]="bench simplify"
     [montecarlo]="bench montecarlo"
     [cold]="bench cold"
+    [cold-large]="bench cold --no-crowded --obstacle-scale 2.5 --worlds 3"
     [bag]="bench bag --repeats 5"
 )
 
@@ -31,7 +32,7 @@ stamp() {
 }
 
 names=("$@")
-[ ${#names[@]} -gt 0 ] || names=(sim sim-segmented sim-kanayama sim-rpp sim-amcl track render plan plan-optimal hybrid optim simplify montecarlo cold bag)
+[ ${#names[@]} -gt 0 ] || names=(sim sim-segmented sim-kanayama sim-rpp sim-amcl track render plan plan-optimal hybrid optim simplify montecarlo cold cold-large bag)
 for name in "${names[@]}"; do
     cmd="${CMDS[$name]:-}"
     if [ -z "$cmd" ]; then echo "docs/bench.sh: no benchmark '$name' (known: ${!CMDS[*]})" >&2; exit 2; fi
