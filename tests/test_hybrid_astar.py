@@ -311,8 +311,8 @@ def test_bench_rejects_bad_counts(flag, value, capsys):
 
 
 def test_a_lattice_larger_than_the_memory_is_refused_naming_the_cell_size_that_fits(monkeypatch):
-    """The search's tables are allocated whole (65 bytes a state): on a 200 x 200 m world at 5 cm they
-    need 75 GB, and the search failed with a MemoryError traceback. The plan now ends infeasible at
+    """The search's tables are allocated whole (77 bytes a state): on a 200 x 200 m world at 5 cm they
+    need 89 GB, and the search failed with a MemoryError traceback. The plan now ends infeasible at
     once, naming the cell size whose tables fit in half the memory, and that cell size plans."""
     from planning.planners import hybrid_astar
 
@@ -325,6 +325,18 @@ def test_a_lattice_larger_than_the_memory_is_refused_naming_the_cell_size_that_f
     assert "more than this machine's 0.002 GB of memory" in refused.reason
     cell = float(refused.reason.split("cell_size = ")[1].split()[0])
     assert cell > 0.05
+    coarser = make_planner("hybrid-a-star", cell_size=cell).plan(problem)
+    assert coarser.status is PlanStatus.SUCCESS
+
+
+def test_more_states_than_the_row_table_indexes_are_refused_naming_a_cell_size(monkeypatch):
+    from planning.planners import hybrid_astar
+
+    problem = PlanProblem.from_scenario(load_scenario("nav_map1"))
+    monkeypatch.setattr(hybrid_astar, "MAX_STATES", 10_000)  # as if the table were 14-bit
+    refused = make_planner("hybrid-a-star").plan(problem)
+    assert refused.status is PlanStatus.INFEASIBLE and "32-bit row table" in refused.reason
+    cell = float(refused.reason.split("cell_size = ")[1].split()[0])
     coarser = make_planner("hybrid-a-star", cell_size=cell).plan(problem)
     assert coarser.status is PlanStatus.SUCCESS
 

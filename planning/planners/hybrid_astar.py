@@ -367,6 +367,8 @@ class HybridAStar:
 #: room for a node in every state; the nodes' rows are written in order and the state and row tables
 #: only where the search goes: a 100 x 100 m world's 2.9e8 states take 22 GB of address space.
 BYTES_PER_STATE = 6 * 8 + 3 * 8 + 1 + 4
+#: Most lattice states the search indexes (its table of a cell's row is 32-bit).
+MAX_STATES = 2**31 - 1
 
 
 def memory_bytes() -> int:
@@ -386,12 +388,18 @@ def _lattice_too_large(problem: PlanProblem, cell: float, bins: int, failed: boo
     states = nx * ny * bins
     need = states * BYTES_PER_STATE
     memory = memory_bytes()
-    if not failed and (memory == 0 or need <= memory):
+    if not failed and (memory == 0 or need <= memory) and states <= MAX_STATES:
         return ""
-    # cells this much larger need at most half the memory (the tables grow as 1 / cell^2)
-    coarser = cell * np.sqrt(need / (0.5 * memory)) if memory else 2 * cell
+    # cells this much larger need at most half the memory (the tables grow as 1 / cell^2), and hold at
+    # most half the states the rows' 32-bit table can index
+    coarser = cell * np.sqrt(max(need / (0.5 * memory) if memory else 4.0, states / (0.5 * MAX_STATES)))
     coarser = float(np.ceil(coarser / 0.05 - 1e-9) * 0.05)
-    have = "which could not be allocated" if failed else f"more than this machine's {memory / 1e9:.3g} GB of memory"
+    if failed:
+        have = "which could not be allocated"
+    elif states > MAX_STATES:
+        have = f"more states than the search's 32-bit row table indexes ({MAX_STATES:.3g})"
+    else:
+        have = f"more than this machine's {memory / 1e9:.3g} GB of memory"
     return (
         f"the search lattice of this {problem.world.width:g} x {problem.world.height:g} m world ({nx} x {ny} cells "
         f"of {cell:g} m, {bins} headings: {states:.3g} states) needs {need / 1e9:.3g} GB of tables, {have}; plan "
