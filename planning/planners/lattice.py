@@ -1,9 +1,10 @@
 """Compiled kernels of the Hybrid-A* search (:mod:`planning.planners.hybrid_astar`).
 
 The search lattice is (ix, iy, itheta): square cells of side ``cell`` over the world's bounds and
-``bins`` heading bins. Every lattice cell holds at most one node, indexed by the cell's id
-``(ix * ny + iy) * bins + itheta``, with its continuous pose (Hybrid-A* keeps the exact pose a
-primitive reached, not the cell centre).
+``bins`` heading bins. Every lattice cell holds at most one node, with its continuous pose (Hybrid-A*
+keeps the exact pose a primitive reached, not the cell centre). The cell's id is
+``(ix * ny + iy) * bins + itheta``; the nodes themselves are rows in the order the search opens them,
+and a table over the lattice gives a cell's row (:func:`_expand`).
 
 Collision verdicts come from :func:`planning.collision.grid.classify_kernel` (the fast checker's proofs):
 a motion is accepted only when every one of its samples is *proven* free. The few poses the grid
