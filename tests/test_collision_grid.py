@@ -48,7 +48,9 @@ def test_poses_the_centre_disc_proves_free_need_no_compiled_call(monkeypatch):
         fast.poses_free(near).tolist()
         == CollisionChecker(WORLD, load_robot("turtlebot3"), clearance=0.05).poses_free(near).tolist()
     )
-    assert calls == [2]  # the two the disc could not prove, in one call
+    assert calls == [3]  # the disc could not prove them all: one compiled call for the three
+    many = np.tile(clear, (3, 1))  # more than a few poses: the compiled checker, whatever they are
+    assert fast.poses_free(many).all() and calls == [3, 6]
 
 
 def test_tiny_obstacle_inside_footprint_is_caught():

@@ -21,8 +21,8 @@ near-margin poses); the grid only saves time.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
-from typing import cast
 
 import numba as nb
 import numpy as np
@@ -66,6 +66,9 @@ CheckArrays = tuple[
     RobotArrays,
     FieldArrays,
 ]
+
+#: Most poses :meth:`FastChecker.poses_free` first tries to prove free in Python (its start and goal).
+_FEW = 4
 
 #: Largest number of grid nodes tabulated (the spacing grows beyond 1 cm to stay below it).
 MAX_NODES = 4_000_000
@@ -306,23 +309,34 @@ class FastChecker:
     def poses_free(self, poses: ArrayLike) -> BoolArray:
         """(M,) whether each (M, 3) pose keeps the clearance from everything (exact verdict)."""
         p = np.ascontiguousarray(np.atleast_2d(np.asarray(poses, dtype=float)))
-        args = self.kernel_args()
-        if args is not None:
-            # The grid's first proof (classify_pose's, the same arithmetic): the centre's disc keeps the
-            # clearance. The poses it proves free need no compiled call: a planner's start and goal
-            # mostly need none, and a new process does not load the compiled checker (10 ms) for them.
-            radius, clearance, tol, disc = args[7:11]
-            out = self.distance_bounds(p)[0] - radius > clearance + (0.0 if disc else tol)
-            rest = np.flatnonzero(~out)
-            if rest.size:  # one compiled call for the others (the same verdicts)
-                out[rest] = poses_free_kernel(np.ascontiguousarray(p[rest]), cast("CheckArrays", self.check_arrays()))
-            return out
+        chk = self.check_arrays()
+        if chk is not None:
+            if p.shape[0] <= _FEW and self._disc_proves_free(p, chk):
+                return np.ones(p.shape[0], dtype=bool)
+            return poses_free_kernel(p, chk)  # type: ignore[no-any-return]
         cls = self._classify(p, False)
         out = cls == 1
         und = cls < 0
         if np.any(und):
             out[und] = self._exact(p[und])
         return out
+
+    @staticmethod
+    def _disc_proves_free(p: FloatArray, chk: CheckArrays) -> bool:
+        """Whether the grid's first proof (:func:`classify_pose`'s, the same arithmetic in Python floats:
+        the centre's disc keeps the clearance) shows every one of a few poses free. Then they need no
+        compiled call: a planner's start and goal mostly need none, and a new process does not load the
+        compiled checker (10-14 ms) for them, nor a warm one pay numpy's set-up for two poses."""
+        grid, x0, y0, h = chk[0], chk[1], chk[2], chk[3]
+        radius, clearance, tol, disc = chk[7], chk[8], chk[9], chk[10]
+        e = h / math.sqrt(2.0)
+        margin = clearance if disc else clearance + tol
+        nx, ny = grid.shape
+        for x, y, _ in p.tolist():
+            i, j = math.floor((x - x0) / h + 0.5), math.floor((y - y0) / h + 0.5)
+            if not (0 <= i < nx and 0 <= j < ny and float(grid[i, j]) - e - radius > margin):
+                return False
+        return True
 
     def path_free(self, poses: ArrayLike) -> bool:
         """Whether all (M, 3) poses are free; stops at the first proven collision. The poses must
