@@ -62,9 +62,13 @@ def place(body_poses: FloatArray, pose: ArrayLike) -> FloatArray:
     """Body-frame poses (..., 3) placed at a world pose (3,), or at poses (..., 3) that broadcast
     against them (e.g. (M, K, 3) bodies at (M, 1, 3) poses)."""
     p = np.asarray(pose, dtype=float)
-    x, y, th = p[..., 0], p[..., 1], p[..., 2]
+    if p.ndim == 1:  # one pose (the common call, kept quick: scalars, no broadcasting)
+        x, y, th = p
+        out = np.empty_like(body_poses)
+    else:
+        x, y, th = p[..., 0], p[..., 1], p[..., 2]
+        out = np.empty(np.broadcast_shapes(np.shape(body_poses), p.shape))
     c, s = np.cos(th), np.sin(th)
-    out = np.empty(np.broadcast_shapes(np.shape(body_poses), p.shape))
     out[..., 0] = x + c * body_poses[..., 0] - s * body_poses[..., 1]
     out[..., 1] = y + s * body_poses[..., 0] + c * body_poses[..., 1]
     out[..., 2] = th + body_poses[..., 2]
