@@ -382,7 +382,8 @@ def memory_bytes() -> int:
 def _lattice_too_large(problem: PlanProblem, cell: float, bins: int, failed: bool = False) -> str:
     """Why the search's tables over the world's lattice of ``cell`` [m] cells and ``bins`` headings cannot
     be had, naming the fix; "" when they can. They cannot when they need more than the machine's memory,
-    or when their allocation ``failed``. (The 2-D heuristic's arrays, tens of bytes a cell, are far
+    when the lattice has more states than the search's 32-bit row table indexes (:data:`MAX_STATES`), or
+    when their allocation ``failed``. (The 2-D heuristic's arrays, tens of bytes a cell, are far
     smaller: checked first, the lattice covers them.)"""
     nx, ny = lattice.cell_counts(problem.world.bounds, cell)
     states = nx * ny * bins

@@ -356,7 +356,7 @@ def search(
     tables = _tables(start, goal, rho, lat, h2d, scratch)
     nodes, meta, state, _ = tables
     heap = [(nodes[0, 4], 0, 0)]
-    # typed zeros, not the literal 0 (for which numba would compile _expand a second time)
+    # typed integers, not literals (for each of which numba would compile _expand again)
     counter: int = np.int64(0)  # type: ignore[assignment]
     count: int = np.int64(1)  # type: ignore[assignment]
     it, countdown = 0, 0

@@ -473,7 +473,7 @@ class Optim:
         while True:
             res = sol.result
             if not res.success:
-                if not (starts and self._worth_another_start(sol, problem, t0)):
+                if not (starts and self._worth_another_start(sol, problem, t0, init[0])):
                     return sol
                 init = starts.pop(0)
                 sol = self._solve_with_margin(problem, self.margin + extra, t0, init)
@@ -516,13 +516,14 @@ class Optim:
         return [("hybrid-a-star", {"shape": "disc", "clearance": self.margin + 0.01}), ("grid", {})]
 
     @staticmethod
-    def _worth_another_start(sol: OptimSolution, problem: PlanProblem, t0: float) -> bool:
-        """Whether a failed solve may be tried again from the next warm start: IPOPT itself failed (a
-        local infeasibility or its iteration limit, not the plan's time limit) or the warm start's
-        planner found no path, and time is left."""
+    def _worth_another_start(sol: OptimSolution, problem: PlanProblem, t0: float, init: str) -> bool:
+        """Whether a failed solve from warm start ``init`` may be tried again from the next one: IPOPT
+        itself failed (a local infeasibility or its iteration limit, not the plan's time limit) or the
+        warm start gave no path (IPOPT started from a straight line instead: the solve's ``init`` is
+        then not ``init``), and time is left."""
         stats = sol.result.stats
         ipopt_failed = stats.get("ipopt_status") not in (None, *_SUCCESS) and not stats.get("time_limit_reached")
-        no_start = str(stats.get("init", "")).startswith("straight (init planner")
+        no_start = stats.get("init", init) != init
         return (ipopt_failed or no_start) and time.perf_counter() - t0 < float(problem.time_limit)
 
     def _solve_with_margin(
