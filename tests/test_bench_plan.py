@@ -6,6 +6,9 @@ from __future__ import annotations
 import argparse
 import itertools
 import json
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -22,7 +25,7 @@ from planning.planners.base import PlanProblem
 from planning.planners.sampling.extend import LocalPlanner
 from planning.planners.sampling.tree import make_checker
 from sim.tools.bench.ompl_native import build
-from sim.tools.bench.ompl_native.problem import check_poses, run_planner, write_problem
+from sim.tools.bench.ompl_native.problem import Session, check_poses, run_planner, write_problem
 from sim.tools.bench.plan_problems import CORRIDOR_FACTOR, HARD, problems
 
 MISSING = build.missing()
@@ -161,14 +164,26 @@ def test_hard_problems() -> None:
 
 
 @needs_harness
-def test_measure_races_both_sides(harness: Path) -> None:
+def test_measure_races_both_sides(harness: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """One problem, two seeds through the warm harness session: both sides solve, and on an empty
     world every RRT* path is no shorter than the Reeds–Shepp optimum (the direct curve, less the goal
-    tolerance) and within 25 % of it after 0.3 s (on a loaded machine RRT* gets few iterations)."""
+    tolerance) and within 25 % of it after 0.3 s (on a loaded machine RRT* gets few iterations); every
+    trial of both sides runs on one CPU, and ours gets its CPUs back."""
     from sim.tools.bench.plan import measure
 
     problem = problems(["simple_motion"])[0]
+    mine = os.sched_getaffinity(0)
+    cpus: list[tuple[set[int], set[int]]] = []  # (ours, the harness's) at each of OMPL's trials
+    solve = Session.solve
+
+    def watched(self: Session, *args: object) -> dict[str, float]:
+        cpus.append((os.sched_getaffinity(0), os.sched_getaffinity(self.pid)))
+        return solve(self, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(Session, "solve", watched)
     r = measure(problem, "reeds_shepp", 2, 0.3, 5.0, harness, wheel=False, optimal=("RRTstar", "BITstar"))
+    assert len(cpus) == 6 and all(c == ({max(mine)}, {max(mine)}) for c in cpus), cpus  # the trials on one CPU
+    assert os.sched_getaffinity(0) == mine  # given back
     assert r.ok_ours == (1.0, 1.0) and r.ok_cpp == (1.0, 1.0)
     assert set(r.len_cpp) == {"RRTstar", "BITstar"} and r.success("RRTstar") == r.success("BITstar") == 1.0
     assert all(0 < t < 5.0 for t in r.ttfs_ours + r.ttfs_cpp)
@@ -328,3 +343,26 @@ def test_harness_motions_check_the_poses_ours_do(harness: Path, tmp_path: Path) 
     cpp = check_motions(harness, pf, np.hstack([starts, goals]))
     assert 0.01 < ours.mean() < 0.9
     assert int(np.sum(cpp != ours)) <= max(1, len(ours) // 1000), (int(np.sum(cpp & ~ours)), int(np.sum(~cpp & ours)))
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_setaffinity"), reason="the system cannot pin processes to CPUs")
+def test_one_core_pins_both_processes_and_gives_ours_back() -> None:
+    """``one_core`` puts this process and the other on this process's highest CPU, and restores ours
+    afterwards, also when the block raises."""
+    from sim.tools.bench.plan import one_core
+
+    mine = os.sched_getaffinity(0)
+    child = subprocess.Popen([sys.executable, "-c", "import sys; sys.stdin.read()"], stdin=subprocess.PIPE)
+    try:
+        with pytest.raises(RuntimeError), one_core(child.pid) as cpu:
+            assert cpu == max(mine)
+            assert os.sched_getaffinity(0) == {cpu} == os.sched_getaffinity(child.pid)
+            raise RuntimeError
+        assert os.sched_getaffinity(0) == mine
+        with one_core(None) as cpu:
+            assert os.sched_getaffinity(0) == {cpu}
+        assert os.sched_getaffinity(0) == mine
+    finally:
+        assert child.stdin is not None
+        child.stdin.close()
+        child.wait()

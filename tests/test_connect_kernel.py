@@ -39,9 +39,9 @@ def _problems() -> list[PlanProblem]:
 
 def _python(planner: BiRRT, problem: PlanProblem):
     """The plan with the plain-Python search loop."""
-    local, budget, rng, bad = planner._setup(problem)
+    local, budget, bad = planner._setup(problem)
     assert bad is None
-    return planner._search_python(problem, local, budget, rng)
+    return planner._search_python(problem, local, budget)
 
 
 @pytest.mark.parametrize("steering", ["reeds_shepp", "dubins"])

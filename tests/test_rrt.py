@@ -183,9 +183,9 @@ def _search_until_solved(prob, extra_iterations, **opts):
     from planning.planners.sampling.rrt_star import RRTStar, _Search
 
     planner = RRTStar(**opts)
-    local, _, rng, bad = planner._setup(prob)
+    local, _, bad = planner._setup(prob)
     assert bad is None
-    search = _Search(planner.config, prob, local, rng)
+    search = _Search(planner.config, prob, local, np.random.default_rng(prob.seed))
     it = 0
     while not search.goal_nodes:
         it += 1

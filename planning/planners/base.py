@@ -105,7 +105,7 @@ def _float_array(name: str, value: object, shape: tuple[int | None, ...]) -> Flo
     fits = arr.ndim == len(shape) and all(want in (None, got) for got, want in zip(arr.shape, shape, strict=False))
     expected = ", ".join("any" if want is None else str(want) for want in shape)
     problem = "" if fits else f"must have shape ({expected}) (one row per path pose), got {arr.shape}"
-    if fits and not np.all(np.isfinite(arr)):
+    if fits and not np.isfinite(arr).all():
         problem = "holds non-finite values"
     if problem:
         raise ValueError(f"PlanResult.{name} {problem}")
@@ -165,7 +165,7 @@ class PlanResult:
                 object.__setattr__(self, name, _float_array(name, value, shape))
         if self.raw_path is not None:
             object.__setattr__(self, "raw_path", _float_array("raw_path", self.raw_path, (None, 3)))
-        if self.directions is not None and not np.all(np.abs(self.directions) == 1.0):
+        if self.directions is not None and not (np.abs(self.directions) == 1.0).all():
             raise ValueError("PlanResult.directions must hold +1 (forwards) or -1 (backwards) per pose")
 
     @property

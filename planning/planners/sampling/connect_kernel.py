@@ -347,19 +347,25 @@ class CompiledSearch:
         Raises:
             ValueError: A curve did not verify (non-finite poses).
         """
+        if self._state[3] + 4 > self._uniforms.shape[0]:  # what the kernel would return NEED_UNIFORMS for
+            self._draw(rng)
         while True:
             problem = (self._state, self._uniforms, stop_it, self._bounds, self._geometry)
             out = search_chunk(self._a, self._b, *problem, self._rs, self._steps, self._max_motion, self._chk)
             what = int(out[0])
             if what == NEED_ROOM:
                 self._a, self._b = self._grown(self._a), self._grown(self._b)
-            elif what == NEED_UNIFORMS:  # the unused ones, then the stream's next
-                self._uniforms = np.concatenate([self._uniforms[self._state[3] :], rng.random(UNIFORM_BLOCK)])
-                self._state[3] = 0
+            elif what == NEED_UNIFORMS:
+                self._draw(rng)
             elif what == BAD_CURVE:
                 raise ValueError("a Reeds-Shepp or Dubins curve of the search did not verify (non-finite poses)")
             else:
                 return what, int(out[1]), int(out[2])
+
+    def _draw(self, rng: np.random.Generator) -> None:
+        """Keep the unused uniform numbers and append the stream's next block."""
+        self._uniforms = np.concatenate([self._uniforms[self._state[3] :], rng.random(UNIFORM_BLOCK)])
+        self._state[3] = 0
 
     @staticmethod
     def _grown(tree: TreeArrays) -> TreeArrays:

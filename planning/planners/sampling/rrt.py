@@ -40,6 +40,7 @@ from planning.planners.sampling.tree import (
     Budget,
     Tree,
     check_endpoints,
+    draws,
     goal_gap,
     grid_timeout,
     in_goal,
@@ -132,27 +133,26 @@ class _TreePlanner(Generic[ConfigT]):
     def plan(self, problem: PlanProblem) -> PlanResult:
         """Plan from ``problem.start`` to ``problem.goal``; never raises for an unsolvable problem."""
         try:
-            local, budget, rng, bad = self._setup(problem)
+            local, budget, bad = self._setup(problem)
         except FieldTimeout as exc:  # the time limit passed while the collision grid was built
             return grid_timeout(self.name, exc)
         if bad is not None:
             return bad
-        result = self._search(problem, local, budget, rng)
+        result = self._search(problem, local, budget)
         return simplified(result, local, problem.seed) if self.config.simplify and result.success else result
 
-    def _search(
-        self, problem: PlanProblem, local: LocalPlanner, budget: Budget, rng: np.random.Generator
-    ) -> PlanResult:
-        """The planner's own search, once the end poses are known to be free."""
+    def _search(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult:
+        """The planner's own search, once the end poses are known to be free (its random generator
+        :func:`draws` made when it first needs one)."""
         raise NotImplementedError
 
-    def _setup(self, problem: PlanProblem) -> tuple[LocalPlanner, Budget, np.random.Generator, PlanResult | None]:
-        """The run's local planner, budget and random generator, and an INVALID_START / INVALID_GOAL
-        result when an end pose collides (else None)."""
+    def _setup(self, problem: PlanProblem) -> tuple[LocalPlanner, Budget, PlanResult | None]:
+        """The run's local planner and budget, and an INVALID_START / INVALID_GOAL result when an end
+        pose collides (else None)."""
         cfg = self.config
         budget = Budget(cfg.max_iterations, cfg.time_limit if cfg.time_limit is not None else problem.time_limit)
         local = self._local_planner(problem, budget)
-        return local, budget, np.random.default_rng(problem.seed), check_endpoints(problem, local.checker, self.name)
+        return local, budget, check_endpoints(problem, local.checker, self.name)
 
     def _local_planner(self, problem: PlanProblem, budget: Budget) -> LocalPlanner:
         """The local planner (steering and checker) for the problem's world and robot: the last one
@@ -266,10 +266,9 @@ class RRT(_TreePlanner[TreeConfig]):
     name = "rrt"
     config_class = TreeConfig
 
-    def _search(
-        self, problem: PlanProblem, local: LocalPlanner, budget: Budget, rng: np.random.Generator
-    ) -> PlanResult:
+    def _search(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult:
         """Grow a tree from the start until a node reaches the goal or the budget is spent."""
+        rng = draws(problem)
         goal = problem.goal.as_array()
         tree = Tree(problem.start.as_array())
         it = 0
@@ -317,14 +316,12 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
             return None
         return tree.add(ext[0], i, ext[1], ext[2])
 
-    def _search(
-        self, problem: PlanProblem, local: LocalPlanner, budget: Budget, rng: np.random.Generator
-    ) -> PlanResult:
+    def _search(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult:
         """Grow both trees until they join or the budget is spent: compiled on exact curves
         (:mod:`.connect_kernel`, the same trees and path as :meth:`_search_python`), else in Python."""
         if local.exact and local.check_arrays is not None:
-            return self._search_compiled(problem, local, budget, rng)
-        return self._search_python(problem, local, budget, rng)
+            return self._search_compiled(problem, local, budget)
+        return self._search_python(problem, local, budget)
 
     def _joined_roots(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult | None:
         """The plan when one exact curve joins the start and the goal (the trees are then just their
@@ -336,15 +333,14 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
         roots = PlanTree(np.array([start, goal]), np.array([-1, -1], dtype=np.int64))
         return self._result(PlanStatus.SUCCESS, direct[0], direct[1], "", self._stats(budget, 0, 2), roots)
 
-    def _search_compiled(
-        self, problem: PlanProblem, local: LocalPlanner, budget: Budget, rng: np.random.Generator
-    ) -> PlanResult:
+    def _search_compiled(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult:
         """:meth:`_search_python` on exact curves, its iterations run by :func:`.connect_kernel.search_chunk`
         in chunks (the time limit checked between them, every 16 iterations at first)."""
         cfg = self.config
         joined = self._joined_roots(problem, local, budget)
         if joined is not None:
             return joined
+        rng = draws(problem)  # after the direct curve, which needs none (a plan it solves does not pay for one)
         chk = local.check_arrays
         assert chk is not None and local.rho is not None
         geometry = (local.rho, local.sample_step, local.step_range)
@@ -366,14 +362,13 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
             PlanStatus.TIMEOUT, path, d, reason, self._stats(budget, it, ta.n + tb.n), merge_trees(ta, tb)
         )
 
-    def _search_python(
-        self, problem: PlanProblem, local: LocalPlanner, budget: Budget, rng: np.random.Generator
-    ) -> PlanResult:
+    def _search_python(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult:
         """Grow both trees until they join or the budget is spent, one Python step at a time."""
         cfg = self.config
         joined = self._joined_roots(problem, local, budget)
         if joined is not None:
             return joined
+        rng = draws(problem)  # after the direct curve, which needs none (a plan it solves does not pay for one)
         start, goal = problem.start.as_array(), problem.goal.as_array()
         ta, tb = Tree(start), Tree(goal, backwards=True)
         it = 0

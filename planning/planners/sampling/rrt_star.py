@@ -40,7 +40,7 @@ from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus
 from planning.planners.sampling.extend import LocalPlanner
 from planning.planners.sampling.rrt import TreeConfig, _TreePlanner
-from planning.planners.sampling.tree import Budget, Tree, in_goal, sample_pose
+from planning.planners.sampling.tree import Budget, Tree, draws, in_goal, sample_pose
 
 FloatArray = NDArray[np.float64]
 
@@ -145,15 +145,13 @@ class RRTStar(_TreePlanner[RRTStarConfig]):
     name = "rrt-star"
     config_class = RRTStarConfig
 
-    def _search(
-        self, problem: PlanProblem, local: LocalPlanner, budget: Budget, rng: np.random.Generator
-    ) -> PlanResult:
+    def _search(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult:
         """Grow and rewire until the budget is spent, the cost stops improving (``improvement_tol``) or,
         with ``stop_on_first``, at the first solution."""
         cfg = self.config
         if not local.exact:
             raise ConfigError(f"rrt-star needs exact steering ('reeds_shepp' or 'dubins'), got {cfg.steering!r}")
-        search = _Search(cfg, problem, local, rng)
+        search = _Search(cfg, problem, local, draws(problem))
         run = _Anytime(cfg, budget)
         stop = "budget"
         it = 0

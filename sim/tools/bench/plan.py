@@ -18,12 +18,12 @@ second column through a Python validity callback (slower per check; it flatters 
 ``hybrid-a-star``, when registered, adds its time and length.
 
 Times are wall-clock, per trial, interleaved ours / OMPL per seed (OMPL's in one warm harness
-process per problem). Each timed first path is preceded, on its side, by an untimed solve of at
-most 50 ms (ours on another seed): interleaving makes each side wait for the other, and a trial
-started straight from that wait runs with cold caches, which costs a Python interpreter more than
-the harness (birrt's median on simple_motion 0.58 ms straight from the wait, 0.18 ms otherwise).
-Ours around ``Planner.plan`` (its setup
-included, the world's distance grid built once before timing), OMPL's around
+process per problem), both processes on one CPU while the trials run (:func:`one_core`). Each
+timed first path is preceded, on its side, by an untimed solve of at most 50 ms (ours on another
+seed): interleaving makes each side wait for the other, and a trial started straight from that wait
+runs with cold caches, which costs a Python interpreter more than the harness (birrt's median on
+simple_motion 0.58 ms straight from the wait, 0.18 ms otherwise). Ours around ``Planner.plan`` (its
+setup included, the world's distance grid built once before timing), OMPL's around
 ``SimpleSetup::solve(timedPlannerTerminationCondition(limit))`` (its setup included; no watchdog
 thread, as OMPL's C++ users run it). Lengths: a failed trial counts as infinitely long, so a median
 is finite only when more than half the trials found a path. Targets over the problems: median of
@@ -36,9 +36,10 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import os
 import tempfile
 import time
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -212,6 +213,30 @@ class _Ours:
         return float(self.rstar.plan(problem).stats.get("cost_m", np.nan))
 
 
+@contextlib.contextmanager
+def one_core(other: int | None) -> Iterator[int | None]:
+    """Run this process, and the process ``other`` when given, on one CPU (the highest this process
+    may use) until the block ends, when this process gets its CPUs back; yields that CPU (None where
+    the system cannot pin processes).
+
+    The first-path trials of both sides are timed on it: on a virtual machine each virtual CPU's speed
+    moves on its own (a host's other guests share its cores), so with the two processes on different
+    CPUs one side could be timed on a slowed CPU while the other was not. Both sides are
+    single-threaded and take turns (each waits on the other's pipe), so neither waits for the CPU."""
+    if not hasattr(os, "sched_setaffinity"):
+        yield None
+        return
+    mine = os.sched_getaffinity(0)
+    cpu = max(mine)
+    os.sched_setaffinity(0, {cpu})
+    try:
+        if other is not None:
+            os.sched_setaffinity(other, {cpu})
+        yield cpu
+    finally:
+        os.sched_setaffinity(0, mine)
+
+
 def _hybrid(problem: PlanProblem, repeats: int = 3) -> tuple[float, float]:
     """hybrid-a-star's median wall time [s] and path length [m] (nan, nan when unregistered or failed)."""
     from planning.errors import NhsimError
@@ -270,19 +295,21 @@ def measure(
             pf = write_problem(tmp, problem, checker, space, rho, local.sample_step)
             cpp = stack.enter_context(Session(harness, pf, 1))
         seeded = [type(problem)(**{**problem.__dict__, "seed": seed}) for seed in range(seeds)]
-        for p in seeded:  # interleaved, so a change in the machine's load hits both sides
-            t, ok = ours.first_path(p)
-            rows["t"].append(t)
-            rows["ok"].append(ok)
-            if cpp is not None:
-                rc = cpp.solve("RRTConnect", ttfs_limit, "warm")
-                rows["t_c"].append(rc["time_s"])
-                rows["ok_c"].append(rc["solved"])
-        for p in seeded:  # after the first paths: a 1 s run would leave both sides' caches cold
-            rows["len"].append(ours.length(p))
-            for name in lens:
-                assert cpp is not None
-                lens[name].append(cpp.solve(name, budget)["length_m"])
+        # interleaved on one CPU, so a change in the machine's load or in that CPU's speed hits both sides
+        with one_core(None if cpp is None else cpp.pid):
+            for p in seeded:
+                t, ok = ours.first_path(p)
+                rows["t"].append(t)
+                rows["ok"].append(ok)
+                if cpp is not None:
+                    rc = cpp.solve("RRTConnect", ttfs_limit, "warm")
+                    rows["t_c"].append(rc["time_s"])
+                    rows["ok_c"].append(rc["solved"])
+            for p in seeded:  # after the first paths: a 1 s run would leave both sides' caches cold
+                rows["len"].append(ours.length(p))
+                for name in lens:
+                    assert cpp is not None
+                    lens[name].append(cpp.solve(name, budget)["length_m"])
     out: dict[str, Any] = {
         "ttfs_ours": tuple(rows["t"]),
         "ok_ours": tuple(rows["ok"]),

@@ -171,6 +171,12 @@ class Session:
             self._proc.wait()
             self._proc = None
 
+    @property
+    def pid(self) -> int:
+        """The harness process's id."""
+        assert self._proc is not None, "use Session as `with`"
+        return self._proc.pid
+
     def solve(self, planner: str, limit: float, *flags: str) -> dict[str, float]:
         """One trial: {"solved": 0/1, "time_s", "first_s", "length_m", "last_check_s", "states", "motions",
         "nodes"} (nan where there is none). ``flags``: the harness's (``warm``: an untimed solve of at
