@@ -373,29 +373,29 @@ class CompiledSearch:
         nodes, heads, parents, rows, edge_p, edge_d = (np.concatenate([a, np.empty_like(a)]) for a in tree)
         return nodes, heads, parents, rows, edge_p, edge_d
 
-    def _branch(self, tree: TreeArrays, i: int, backwards: bool) -> tuple[FloatArray, FloatArray]:
-        """:meth:`~.tree.Tree.branch` of node ``i`` (the same poses and directions)."""
-        nodes, _, parents, rows, edge_p, edge_d = tree
-        first, chain = i, []
+    @staticmethod
+    def _spans(tree: TreeArrays, i: int, n: int) -> list[list[int]]:
+        """The edge-store rows [first, end) of node ``i``'s edge, its parent's, ... up to the root's child
+        (the tree has ``n`` nodes)."""
+        up = tree[2][:n].tolist()  # plain ints: a walk over numpy scalars cost more than the poses' copy
+        chain = []
         while i > 0:
             chain.append(i)
-            i = int(parents[i])
-        if not backwards:
-            chain.reverse()
-            first = 0
-        if not chain:
-            return nodes[first][None, :].copy(), np.ones(1)
-        spans = [rows[k] for k in chain]
-        poses = [nodes[first][None, :], *(edge_p[a + 1 : b] for a, b in spans)]
-        dirs = [edge_d[spans[0][0] : spans[0][0] + 1], *(edge_d[a + 1 : b] for a, b in spans)]
-        return np.concatenate(poses), np.concatenate(dirs)
+            i = up[i]
+        return tree[3][chain].tolist() if chain else []
 
     def path(self, a: int, b: int) -> tuple[FloatArray, FloatArray]:
         """Poses (K, 3) and directions (K,) from the start through start-tree node ``a`` and goal-tree
-        node ``b`` (the same pose) to the goal."""
-        pa, da = self._branch(self._a, a, False)
-        pb, db = self._branch(self._b, b, True)
-        return np.concatenate([pa, pb[1:]]), np.concatenate([da, db[1:]])
+        node ``b`` (the same pose) to the goal: the start, then each edge's poses after its first, the
+        start tree's from the root out and the goal tree's (grown backwards, each edge from its node to
+        its parent) from ``b`` in; the first direction is the first edge's (1 when ``a`` is the start)."""
+        sa = self._spans(self._a, a, int(self._state[0]))[::-1]
+        sb = self._spans(self._b, b, int(self._state[1]))
+        pa, da, pb, db = self._a[4], self._a[5], self._b[4], self._b[5]
+        poses = [self._a[0][:1], *(pa[i + 1 : j] for i, j in sa), *(pb[i + 1 : j] for i, j in sb)]
+        first = da[sa[0][0] : sa[0][0] + 1] if sa else np.ones(1)
+        dirs = [first, *(da[i + 1 : j] for i, j in sa), *(db[i + 1 : j] for i, j in sb)]
+        return np.concatenate(poses), np.concatenate(dirs)
 
     def plan_tree(self) -> PlanTree:
         """Both trees as one :class:`~planning.planners.base.PlanTree` (:func:`.tree.merge_trees`'s)."""
@@ -404,8 +404,8 @@ class CompiledSearch:
         par_b[par_b >= 0] += na
         edges = []
         for tree, n in ((self._a, na), (self._b, nb)):
-            rows, edge_p = tree[3], tree[4]
-            edges += [edge_p[rows[i, 0] : rows[i, 1], :2] for i in range(1, n)]
+            edge_p = tree[4]
+            edges += [edge_p[a:b, :2] for a, b in tree[3][1:n].tolist()]
         nodes = np.concatenate([self._a[0][:na], self._b[0][:nb]])
         return PlanTree(nodes, np.concatenate([self._a[2][:na], par_b]), tuple(edges))
 
