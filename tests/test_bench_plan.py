@@ -362,6 +362,11 @@ def test_one_core_pins_both_processes_and_gives_ours_back() -> None:
         with one_core(None) as cpu:
             assert os.sched_getaffinity(0) == {cpu}
         assert os.sched_getaffinity(0) == mine
+        gone = subprocess.Popen([sys.executable, "-c", "pass"])
+        gone.wait()
+        with one_core(gone.pid) as cpu:  # an ended process (its trials report why): ours is still pinned
+            assert os.sched_getaffinity(0) == {cpu}
+        assert os.sched_getaffinity(0) == mine
     finally:
         assert child.stdin is not None
         child.stdin.close()

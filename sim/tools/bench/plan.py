@@ -231,7 +231,8 @@ def one_core(other: int | None) -> Iterator[int | None]:
     os.sched_setaffinity(0, {cpu})
     try:
         if other is not None:
-            os.sched_setaffinity(other, {cpu})
+            with contextlib.suppress(ProcessLookupError):  # it has ended: its first trial says why
+                os.sched_setaffinity(other, {cpu})
         yield cpu
     finally:
         os.sched_setaffinity(0, mine)
