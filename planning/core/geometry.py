@@ -95,8 +95,8 @@ class Pose2D:
 
 
 def _steps(path: FloatArray, theta: FloatArray | None, radius: float) -> FloatArray:
-    d = path[1:, :2] - path[:-1, :2]  # np.diff's numbers, without its per-call cost (a plan's result pays it)
-    step = np.hypot(d[:, 0], d[:, 1])
+    x, y = path[:, 0], path[:, 1]  # np.diff's numbers, without its per-call cost (a plan's result pays it)
+    step = np.hypot(x[1:] - x[:-1], y[1:] - y[:-1])
     if radius and theta is not None:
         step = step + radius * np.abs(np.diff(theta))
     return step  # type: ignore[no-any-return]
