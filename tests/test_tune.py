@@ -491,3 +491,56 @@ def test_an_interrupt_while_optuna_records_a_trial_waits_for_the_record(
     study = optuna.load_study(study_name="t", storage=f"sqlite:///{tmp_path}/study.db")
     assert kicked and [t.state for t in study.trials] == [TrialState.COMPLETE]
     assert not (tmp_path / "gains.toml").exists()
+
+
+def test_a_signal_in_a_trials_storage_calls_acts_at_its_evaluation(tmp_path: Path) -> None:
+    """As ``run_worker`` runs the objective (in a held block): a SIGTERM landing in the middle of the
+    trial's storage calls (here Optuna writing a suggested parameter to SQLite) is held until they are
+    done, and acts as the evaluation begins (the evaluation is never called); the storage is left
+    unlocked, so Optuna records the failed trial at once. Released around the whole objective, the
+    interrupt was raised inside the storage call: the parameter was never written."""
+    from planning.signals import signals_held
+    from sim.tools.tune import objective_fn, tuned_space
+
+    class Evaluator:
+        tracker = ""
+
+        def evaluate(self, params: object) -> Evaluation:
+            raise AssertionError("the evaluation ran although an interrupt was waiting")
+
+    storage = open_storage(f"sqlite:///{tmp_path / 'study.db'}")
+    study = optuna.create_study(study_name="s", storage=storage)
+    backend = storage
+    set_param = type(backend)._set_trial_param
+    landed = []
+
+    def interrupted_write(self: object, *args: object, **kwargs: object) -> None:
+        if not landed:
+            landed.append(True)
+            signal.raise_signal(signal.SIGTERM)  # in the middle of the storage call
+        set_param(self, *args, **kwargs)  # type: ignore[arg-type]
+
+    def interrupt(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        type(backend)._set_trial_param = interrupted_write  # type: ignore[method-assign]
+        trial = study.ask()
+        caught = []
+        try:
+            with signals_held():
+                try:
+                    objective_fn(Evaluator())(trial)  # type: ignore[arg-type]
+                except KeyboardInterrupt:
+                    caught.append("in the objective")
+        except KeyboardInterrupt:  # delivered as the held block ended: the objective never took it
+            caught.append("after the held block")
+    finally:
+        type(backend)._set_trial_param = set_param  # type: ignore[method-assign]
+        signal.signal(signal.SIGTERM, old)
+    assert landed and caught == ["in the objective"]
+    assert set(trial.params) == set(tuned_space("")[1])  # every suggestion was written
+    t0 = time.monotonic()
+    study.tell(trial, state=optuna.trial.TrialState.FAIL)
+    assert time.monotonic() - t0 < 5.0 and study.trials[0].state == optuna.trial.TrialState.FAIL

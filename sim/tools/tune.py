@@ -555,7 +555,12 @@ def objective_fn(evaluator: Evaluator, spec: TuneSpec | None = None) -> Any:
             trial.study.sampler = make_sampler(spec.sampler, spec.seed, trial.number, 0)
         space = tuned_space(evaluator.tracker)[1]
         values = {k: trial.suggest_float(k, lo, hi, log=True) for k, (lo, hi) in space.items()}
-        ev = evaluator.evaluate(make_params(evaluator.tracker, values))
+        # Within run_worker's held block an interrupt acts in the evaluation only (where the time goes), not
+        # in the trial's storage calls around it: one raised inside SQLAlchemy's transaction left the
+        # database locked, and Optuna's record of the failed trial then waited out the lock's timeout and
+        # failed ("database is locked", then "Should not reach"). Outside a held block this runs as it is.
+        with signals_released():
+            ev = evaluator.evaluate(make_params(evaluator.tracker, values))
         for k, v in ev.as_dict().items():
             trial.set_user_attr(k, v)
         return ev.objective
@@ -599,20 +604,17 @@ def run_worker(spec: TuneSpec, n_trials: int, worker: int = 0, callbacks: Sequen
     before = len(study.trials)
     if n_trials > 0:
         stop = MaxTrialsCallback(spec.trials, states=(TrialState.COMPLETE,))
-        objective = objective_fn(evaluator, spec)
-
-        def interruptible(trial: Any) -> float:
-            with signals_released():
-                return objective(trial)
+        objective = objective_fn(evaluator, spec)  # signals released in each trial's evaluation
 
         def between(study: Any, trial: Any) -> None:  # a trial recorded: act on a signal held meanwhile
             with signals_released():
                 pass
 
         # an interrupt acts inside a trial's evaluation (Optuna records the trial as failed and stops) or
-        # between trials, never inside Optuna's own bookkeeping around them (see planning.signals)
+        # between trials, never inside Optuna's own bookkeeping around them nor in the trial's storage
+        # calls (see planning.signals)
         with signals_held():
-            study.optimize(interruptible, n_trials=n_trials, callbacks=[stop, *callbacks, between])
+            study.optimize(objective, n_trials=n_trials, callbacks=[stop, *callbacks, between])
     return len(study.trials) - before
 
 
