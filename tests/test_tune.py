@@ -493,6 +493,7 @@ def test_an_interrupt_while_optuna_records_a_trial_waits_for_the_record(
     assert not (tmp_path / "gains.toml").exists()
 
 
+@pytest.mark.filterwarnings("ignore:Heartbeat of storage is supposed to be used with Study.optimize")
 def test_a_signal_in_a_trials_storage_calls_acts_at_its_evaluation(tmp_path: Path) -> None:
     """As ``run_worker`` runs the objective (in a held block): a SIGTERM landing in the middle of the
     trial's storage calls (here Optuna writing a suggested parameter to SQLite) is held until they are
