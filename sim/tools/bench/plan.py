@@ -219,10 +219,12 @@ def one_core(other: int | None) -> Iterator[int | None]:
     may use) until the block ends, when this process gets its CPUs back; yields that CPU (None where
     the system cannot pin processes).
 
-    The first-path trials of both sides are timed on it: on a virtual machine each virtual CPU's speed
-    moves on its own (a host's other guests share its cores), so with the two processes on different
-    CPUs one side could be timed on a slowed CPU while the other was not. Both sides are
-    single-threaded and take turns (each waits on the other's pipe), so neither waits for the CPU."""
+    Both sides' trials run on it (the first paths and the runs to a budget): on a virtual machine each
+    virtual CPU's speed moves on its own (a host's other guests share its cores), so with the two
+    processes on different CPUs one side could be timed on a slowed CPU while the other was not. Both
+    sides are single-threaded and take turns (each waits on the other's pipe), so neither waits for
+    the CPU. Only the calling thread is pinned (and the threads it starts meanwhile: a distance field
+    built in the block uses one)."""
     if not hasattr(os, "sched_setaffinity"):
         yield None
         return
