@@ -56,6 +56,7 @@ from planning.errors import ConfigError
 from planning.planners import geodesic
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
 from planning.planners.registry import config_from_options
+from planning.planners.sampling.tree import draws
 from planning.planners.simplify import simplify_path
 
 FloatArray = NDArray[np.float64]
@@ -166,7 +167,7 @@ class _Search:
         robot = problem.robot
         self.radius = robot.radius
         self.checker = CollisionChecker(problem.world, robot, shape="disc", clearance=clearance - self.radius)
-        self.rng = np.random.default_rng(problem.seed)
+        self.rng = draws(problem)
         cap = 1024
         self.xy = np.zeros((cap, 2))
         self.cost = np.zeros(cap)
