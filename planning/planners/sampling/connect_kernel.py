@@ -347,7 +347,7 @@ class CompiledSearch:
         Raises:
             ValueError: A curve did not verify (non-finite poses).
         """
-        if self._state[3] + 4 > self._uniforms.shape[0]:  # what the kernel would return NEED_UNIFORMS for
+        if not self._uniforms.size:  # the first block now, not after a kernel call that asks for it
             self._draw(rng)
         while True:
             problem = (self._state, self._uniforms, stop_it, self._bounds, self._geometry)
