@@ -494,7 +494,9 @@ def test_an_interrupt_while_optuna_records_a_trial_waits_for_the_record(
 
 
 @pytest.mark.filterwarnings("ignore:Heartbeat of storage is supposed to be used with Study.optimize")
-def test_a_signal_in_a_trials_storage_calls_acts_at_its_evaluation(tmp_path: Path) -> None:
+def test_a_signal_in_a_trials_storage_calls_acts_at_its_evaluation(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """As ``run_worker`` runs the objective (in a held block): a SIGTERM landing in the middle of the
     trial's storage calls (here Optuna writing a suggested parameter to SQLite) is held until they are
     done, and acts as the evaluation begins (the evaluation is never called); the storage is left
@@ -511,8 +513,7 @@ def test_a_signal_in_a_trials_storage_calls_acts_at_its_evaluation(tmp_path: Pat
 
     storage = open_storage(f"sqlite:///{tmp_path / 'study.db'}")
     study = optuna.create_study(study_name="s", storage=storage)
-    backend = storage
-    set_param = type(backend)._set_trial_param
+    set_param = type(storage)._set_trial_param
     landed = []
 
     def interrupted_write(self: object, *args: object, **kwargs: object) -> None:
@@ -524,9 +525,9 @@ def test_a_signal_in_a_trials_storage_calls_acts_at_its_evaluation(tmp_path: Pat
     def interrupt(signum: int, frame: object) -> None:
         raise KeyboardInterrupt
 
+    monkeypatch.setattr(type(storage), "_set_trial_param", interrupted_write)
     old = signal.signal(signal.SIGTERM, interrupt)
     try:
-        type(backend)._set_trial_param = interrupted_write  # type: ignore[method-assign]
         trial = study.ask()
         caught = []
         try:
@@ -538,7 +539,6 @@ def test_a_signal_in_a_trials_storage_calls_acts_at_its_evaluation(tmp_path: Pat
         except KeyboardInterrupt:  # delivered as the held block ended: the objective never took it
             caught.append("after the held block")
     finally:
-        type(backend)._set_trial_param = set_param  # type: ignore[method-assign]
         signal.signal(signal.SIGTERM, old)
     assert landed and caught == ["in the objective"]
     assert set(trial.params) == set(tuned_space("")[1])  # every suggestion was written
