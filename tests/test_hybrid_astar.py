@@ -17,7 +17,7 @@ from planning.planners import lattice
 from planning.planners.base import PlanProblem, PlanStatus
 from planning.planners.hybrid_astar import COVER_SIDE, footprint_cover, inscribed_radius, motion_primitives
 from planning.planners.registry import make_planner
-from planning.planners.sampling.steering import default_turning_radius
+from planning.planners.sampling.steering import default_turning_radius, place
 from planning.scenario import load_scenario, random_scenario
 from tests.test_rrt import DISC, _check_path, _problem
 
@@ -131,15 +131,31 @@ def test_reeds_shepp_bound_is_the_length_or_leaves_the_key_as_it_is():
         q, goal = rng.uniform(-3.0, 3.0, 3), rng.uniform(-3.0, 3.0, 3)
         g = float(rng.uniform(0.0, 5.0))
         f = g + float(rng.uniform(0.0, 6.0))
-        value, exact = lattice.rs_bound(q, goal, RHO, g, f, scratch)
         length = lattice.rs_length(q, goal, RHO, scratch)
         assert length == reeds_shepp_length(q, goal, RHO)[0]
-        if exact:
-            assert value == length
-        else:  # only a bound, which shows the length cannot raise the key
-            assert value >= length and g + value <= f
-        kinds.add(bool(exact))
-    assert kinds == {True, False}
+        known = length + float(rng.uniform(0.0, 2.0))  # an upper bound the search may have
+        for given in (np.inf, known):
+            value, exact = lattice.rs_bound(q, goal, RHO, g, f, given, scratch)
+            if exact:
+                assert value == length and g + given > f
+            else:  # only a bound, which shows the length cannot raise the key
+                assert value >= length and g + value <= f
+                assert value == given if g + given <= f else value < given
+            kinds.add((bool(exact), value == given))
+    assert kinds == {(True, False), (False, False), (False, True)}
+
+
+def test_a_primitive_raises_the_reeds_shepp_length_by_at_most_its_own_length():
+    # the search bounds a node's length by its parent's plus the primitive's (rs_bound's ``known``)
+    rng = np.random.default_rng(8)
+    prims = motion_primitives(RHO, 0.05, 72, 0.01, interpolate=True)
+    scratch = np.zeros((2, 5))
+    for _ in range(300):
+        parent, goal = rng.uniform(-2.0, 2.0, 3), rng.uniform(-2.0, 2.0, 3)
+        before = lattice.rs_length(parent, goal, RHO, scratch)
+        ends = place(prims.ends, parent[None, :])
+        for end, length in zip(ends, prims.lengths, strict=True):
+            assert lattice.rs_length(end, goal, RHO, scratch) <= before + length + 1e-9
 
 
 def test_open_world_plan_is_the_shortest_reeds_shepp_curve():
