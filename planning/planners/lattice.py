@@ -6,7 +6,7 @@ keeps the exact pose a primitive reached, not the cell centre). The cell's id is
 ``(ix * ny + iy) * bins + itheta``; the nodes themselves are rows in the order the search opens them,
 and a table over the lattice gives a cell's row (:func:`_expand`).
 
-Collision verdicts come from :func:`planning.collision.grid.classify_kernel` (the fast checker's proofs):
+Collision verdicts come from :func:`planning.collision.grid.classify_pose` (the fast checker's proofs):
 a motion is accepted only when every one of its samples is *proven* free. The few poses the grid
 cannot decide (within about two grid spacings of the clearance margin) count as collisions here,
 so every accepted motion is free by the exact checker's test as well.
@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 
 from planning.clock import monotonic
 from planning.collision.compiled import grid_lookup
-from planning.collision.grid import classify_kernel
+from planning.collision.grid import classify_pose
 from planning.curves.common import mod2pi
 from planning.curves.reeds_shepp import CSC_FAMILIES, FAMILIES, RS_WORDS, shortest_radii
 from planning.curves.words import _sample_word
@@ -133,11 +133,7 @@ def _proven_free(poses: FloatArray, chk: tuple, cover: FloatArray) -> bool:  # t
             continue
         if not disc and cover.shape[0] > 0 and _covered(px, py, th, cover, chk):
             continue
-        one = poses[k : k + 1]
-        if (
-            classify_kernel(one, grid, x0, y0, h, boundary, footprint, anchors, radius, clearance, tol, disc, True)[0]
-            != 1
-        ):
+        if classify_pose(px, py, th, grid, x0, y0, h, boundary, footprint, anchors, radius, clearance, tol, disc) != 1:
             return False
     return True
 
