@@ -225,8 +225,8 @@ def _open_beyond(body: FloatArray, chk: tuple) -> float:  # type: ignore[type-ar
     return radius + clearance + tol + h / np.sqrt(2.0) + reach + np.sqrt(2.0) * h + 1e-9
 
 
-# inlined into the search: 0.6-0.8x the search's time on 8 x 8 m worlds of 20 obstacles (the same
-# expansions), for about 0.3 s more to compile the search after an install
+# inlined into the search: 0.58-0.81x the plan's time on 8 x 8 m worlds of 20 obstacles (the same
+# expansions; docs/explanation/cold-start.md), for about 0.3-0.5 s more to compile after an install
 @nb.njit(cache=True, inline="always")
 def _expand(
     cid: int,
