@@ -166,6 +166,19 @@ def rs_bound(
     return shortest_radii(q, goal, rho, scratch, _ALL[1], _ALL[2], upper)[0] * rho, True
 
 
+@nb.njit(cache=True, inline="always")
+def _length_to_try(
+    q: FloatArray, goal: FloatArray, rho: float, known: float, exact: bool, longest: float, scratch: FloatArray
+) -> float:
+    """The Reeds–Shepp length [m] from ``q`` to ``goal`` as far as the analytic expansion's test (is it
+    at most ``longest``?) needs it: ``known`` (the node's bound) when it is ``exact`` or already short
+    enough, or when the straight line to the goal, no longer than any curve, is already too long (1e-9 m
+    covers the solver's rounding); else the whole solve."""
+    if exact or known <= longest or np.hypot(q[0] - goal[0], q[1] - goal[1]) > longest + 1e-9:
+        return known
+    return rs_length(q, goal, rho, scratch)
+
+
 @nb.njit(cache=True)
 def analytic(
     q: FloatArray,
@@ -350,9 +363,8 @@ def search(
         stop: (1,) flag: set, the search ends within 256 expansions (:func:`planning.signals.stoppable`).
 
     Returns:
-        (outcome, terminal node's row, expansions, nodes, meta, analytic poses, analytic dirs): ``nodes``
-        and ``meta`` as in :func:`_expand`, a row per node the search opened, in the order it first
-        opened them (the start's first).
+        (outcome, terminal node's row, expansions, nodes, meta, analytic poses, analytic dirs): ``nodes`` and
+        ``meta`` as in :func:`_expand`, a row per node the search opened, in that order (the start's first).
     """
     deadline = monotonic() + seconds
     prims, lat, h2d, chk, cover = space
@@ -365,8 +377,7 @@ def search(
     counter: int = np.int64(0)  # type: ignore[assignment]
     count: int = np.int64(1)  # type: ignore[assignment]
     it, countdown = 0, 0
-    none = (np.zeros((0, 3)), np.zeros(0))
-    outcome, end, poses, dirs = EXHAUSTED, 0, none[0], none[1]
+    outcome, end, poses, dirs = EXHAUSTED, 0, np.zeros((0, 3)), np.zeros(0)
     while heap:
         f, _, cid = heapq.heappop(heap)
         if state[meta[cid, 2]] == _CLOSED or f != nodes[cid, 4]:
@@ -374,9 +385,8 @@ def search(
         exact = True
         if nodes[cid, 5] < 0.0:  # lazily: the Reeds–Shepp bound only for nodes that reach the top
             g, parent = nodes[cid, 3], meta[cid, 0]
-            # The Reeds–Shepp length is a metric, and the primitive from the parent, reversed, is a
-            # curve of the turning radius at most its cost long: the parent's bound plus that cost
-            # bounds this node's. It settles most nodes of a flood away from the goal.
+            # the length is a metric and the primitive from the parent, reversed, a curve at most its
+            # cost long: the parent's bound plus that cost bounds it (most nodes of a flood settle so)
             via = nodes[parent, 5] + (g - nodes[parent, 3])
             nodes[cid, 5], exact = rs_bound(nodes[cid, :3], goal, rho, g, f, via, scratch)
             if g + nodes[cid, 5] > f:
@@ -389,15 +399,8 @@ def search(
         q = nodes[cid, :3].copy()
         near = _in_goal(q[0], q[1], q[2], goal, tol)
         countdown -= 1
-        # the bound cannot tell whether the curve is short enough to try, unless the straight line
-        # (no longer than any curve) already is too long (1e-9 m covers the solver's rounding)
-        if (
-            countdown <= 0
-            and not exact
-            and nodes[cid, 5] > expansion[1]
-            and np.hypot(q[0] - goal[0], q[1] - goal[1]) <= expansion[1] + 1e-9
-        ):
-            nodes[cid, 5] = rs_length(q, goal, rho, scratch)
+        if countdown <= 0:
+            nodes[cid, 5] = _length_to_try(q, goal, rho, nodes[cid, 5], exact, expansion[1], scratch)
         if near or (countdown <= 0 and nodes[cid, 5] <= expansion[1]):
             h_cells = (nodes[cid, 4] - nodes[cid, 3]) / lat[2]
             countdown = max(1, int(np.floor(h_cells / expansion[0])))
