@@ -149,13 +149,11 @@ def test_a_primitive_raises_the_reeds_shepp_length_by_at_most_its_own_length():
     # the search bounds a node's length by its parent's plus the primitive's (rs_bound's ``known``)
     rng = np.random.default_rng(8)
     prims = motion_primitives(RHO, 0.05, 72, 0.01, interpolate=True)
-    scratch = np.zeros((2, 5))
     for _ in range(300):
         parent, goal = rng.uniform(-2.0, 2.0, 3), rng.uniform(-2.0, 2.0, 3)
-        before = lattice.rs_length(parent, goal, RHO, scratch)
-        ends = place(prims.ends, parent[None, :])
-        for end, length in zip(ends, prims.lengths, strict=True):
-            assert lattice.rs_length(end, goal, RHO, scratch) <= before + length + 1e-9
+        before = reeds_shepp_length(parent, goal, RHO)[0]
+        after = reeds_shepp_length(place(prims.ends, parent[None, :]), goal, RHO)
+        assert np.all(after <= before + prims.lengths + 1e-9)
 
 
 def test_open_world_plan_is_the_shortest_reeds_shepp_curve():
