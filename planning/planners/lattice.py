@@ -14,12 +14,11 @@ so every accepted motion is free by the exact checker's test as well.
 Three short cuts do less work for the very same search (same expansions, same path, bit for bit):
 a node where the grid's distance exceeds :func:`_open_beyond` has its primitives proven free from
 that one value; a popped node's Reeds–Shepp bound stops at its parent's bound plus the primitive's
-length, or else at the CSC words' best, when that already shows the bound cannot raise the node's key
-(:func:`rs_bound`); and the whole curve is solved for an
-analytic expansion only when the straight line to the goal is short enough for one (most nodes are
-farther: 60,000 solves, a quarter of the search's time, on an 8 x 8 m world of large obstacles).
-The first two, with the Reeds–Shepp solver's own speed-up, took 13 % off the search's time over 40
-random 6-8 m worlds and 20-35 % on 8 x 8 m halls of 20 obstacles (docs/explanation/cold-start.md).
+cost, or else at the CSC words' best, when that already shows the bound cannot raise the node's key
+(:func:`rs_bound`); and the analytic expansion's length test solves the whole curve only when the
+straight line to the goal is short enough (:func:`_length_to_try`; most nodes are farther: 60,000
+solves, a quarter of the search's time, on an 8 x 8 m world of large obstacles). Measured in
+docs/explanation/cold-start.md, with the expansion inlined into the search.
 """
 
 from __future__ import annotations
