@@ -84,8 +84,9 @@ def cut_word(
     return (start, kap, seg, starts, counts, pin), True
 
 
-# inlined where called: a word is a tuple of six arrays, and a call per dense pose that passed it
-# cost more than the pose (BiRRT's plans 0.87-0.99x the time inlined, the same trees)
+# word_size and word_pose are inlined where they are called: a word is a tuple of six arrays, and a
+# call per dense pose that passed it cost more than the pose (BiRRT's plans 0.87-0.99x the time
+# inlined, the same trees; docs/benchmarks/ompl-race.md)
 @nb.njit(cache=True, inline="always")
 def word_size(word: CutWord) -> int:
     """Number of dense poses of a cut word (its start and every piece's end)."""
