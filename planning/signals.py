@@ -141,7 +141,34 @@ def signals_end_early() -> Iterator[None]:
         _deliver(noted)
 
 
-def stoppable(kernel: Any, *args: Any) -> Any:
+class KernelRun:
+    """A kernel running in a helper thread (:func:`stoppable`): ``done`` is set when it has ended, with its
+    result in ``out`` or what it raised in ``error``."""
+
+    def __init__(self, kernel: Any, full: tuple[Any, ...]) -> None:
+        import numba
+
+        kernel.compile(tuple(numba.typeof(a) for a in full))  # readied in the calling thread (see stoppable)
+        self.done = threading.Event()  # not Thread.join: a join the interrupt lands in may mark a running
+        # thread ended (CPython 3.11's _wait_for_tstate_lock releases the lock it waited on), and a join
+        # after it returns at once
+        self.out: Any = None
+        self.error: BaseException | None = None
+
+        def run() -> None:
+            try:
+                self.out = kernel(*full)
+            except BaseException as exc:  # handed to the calling thread
+                self.error = exc
+            finally:
+                self.done.set()
+
+        threading.Thread(target=run, name=f"nhsim-{getattr(kernel, '__name__', 'kernel')}", daemon=True).start()
+
+
+def stoppable(
+    kernel: Any, *args: Any, watch: Callable[[KernelRun, Callable[..., KernelRun]], None] | None = None
+) -> Any:
     """``kernel(*args, stop)`` run in a helper thread while this one waits, so that this thread takes
     SIGINT and SIGTERM at once: the handler's exception sets ``stop[0]``, the kernel ends at its next
     look at it, and the exception is raised here once the kernel has returned.
@@ -151,33 +178,36 @@ def stoppable(kernel: Any, *args: Any) -> Any:
     (:meth:`compile` on the arguments' types, which the call then finds), so the time a plan's clock
     leaves out as readying code is timed where the clock looks (:mod:`planning.clock`). What the kernel
     raises is raised here.
+
+    ``watch``, when given, is called from this thread about every millisecond, and once more after every
+    kernel started has ended, with the first kernel's :class:`KernelRun` and ``spawn(kernel, *args)``,
+    which starts another kernel in its own helper thread with the same ``stop`` and returns its run.
+    Returns the first kernel's result, once every kernel started (by then) has ended.
     """
-    import numba
     import numpy as np
 
-    full = (*args, np.zeros(1, dtype=np.bool_))
-    kernel.compile(tuple(numba.typeof(a) for a in full))
-    box: dict[str, Any] = {}
-    done = threading.Event()  # not Thread.join: a join the interrupt lands in may mark a running thread
-    # ended (CPython 3.11's _wait_for_tstate_lock releases the lock it waited on), and a join after it
-    # returns at once
+    stop = np.zeros(1, dtype=np.bool_)
+    runs = [KernelRun(kernel, (*args, stop))]
 
-    def run() -> None:
-        try:
-            box["out"] = kernel(*full)
-        except BaseException as exc:  # handed to the calling thread
-            box["error"] = exc
-        finally:
-            done.set()
+    def spawn(other: Any, *other_args: Any) -> KernelRun:
+        runs.append(KernelRun(other, (*other_args, stop)))
+        return runs[-1]
 
-    threading.Thread(target=run, name=f"nhsim-{getattr(kernel, '__name__', 'kernel')}", daemon=True).start()
     try:
-        while not done.wait(0.1):
-            pass
+        while True:
+            pending = [r for r in runs if not r.done.is_set()]
+            if pending:
+                pending[0].done.wait(0.1 if watch is None else 0.001)
+            if watch is not None:  # called once more after the last has ended: it may start another
+                watch(runs[0], spawn)
+            if all(r.done.is_set() for r in runs):
+                break
     except BaseException:
-        full[-1][0] = True
-        done.wait()
+        stop[0] = True
+        for r in runs:
+            r.done.wait()
         raise
-    if "error" in box:
-        raise box["error"]
-    return box["out"]
+    for r in runs:
+        if r.error is not None:
+            raise r.error
+    return runs[0].out

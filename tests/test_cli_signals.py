@@ -537,6 +537,40 @@ def test_a_kernel_run_stoppable_takes_an_interrupt_at_once_and_returns_or_raises
     assert spin(0.0, np.zeros(1, dtype=np.bool_)) >= 0
 
 
+def test_kernels_a_watch_spawns_run_beside_the_first_and_stop_with_it() -> None:
+    """``stoppable``'s watch is called while the kernels run and may start more; the call returns the
+    first kernel's result once all have ended, raises what any raised, and an interrupt stops them all."""
+    import _thread
+
+    import numpy as np
+
+    from planning.signals import stoppable
+
+    spin, fails = _spin_kernels()
+    spin(0.0, np.zeros(1, dtype=np.bool_))
+    runs: list[object] = []
+
+    def spawn_one(kernel: object, args: tuple[float, ...]) -> object:
+        def watch(first: object, spawn: object) -> None:
+            if not runs:
+                runs.append(spawn(kernel, *args))  # type: ignore[operator]
+
+        return watch
+
+    assert stoppable(spin, 0.05, watch=spawn_one(spin, (0.2,))) > 0
+    assert runs[0].done.is_set() and runs[0].out > 0  # type: ignore[attr-defined]  # waited for, though longer
+    runs.clear()
+    with pytest.raises(ValueError, match="x must be >= 0"):
+        stoppable(spin, 0.01, watch=spawn_one(fails, (-1.0,)))
+    runs.clear()
+    threading.Timer(0.2, _thread.interrupt_main).start()
+    start = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        stoppable(spin, 60.0, watch=spawn_one(spin, (60.0,)))
+    assert time.monotonic() - start < 5.0 and runs[0].done.is_set()  # type: ignore[attr-defined]
+    assert _helpers() == []
+
+
 def test_hybrid_a_stars_search_takes_an_interrupt_at_once(monkeypatch: pytest.MonkeyPatch) -> None:
     """Hybrid-A*'s search is one compiled call up to the plan's time limit: interrupted 0.3 s into a
     search that expands every reachable state of a 10 x 10 m world (about 4 s: the goal's room has a
@@ -551,7 +585,7 @@ def test_hybrid_a_stars_search_takes_an_interrupt_at_once(monkeypatch: pytest.Mo
     from planning.planners.registry import make_planner
     from planning.scenario import load_scenario
 
-    planner = make_planner("hybrid-a-star")
+    planner = make_planner("hybrid-a-star")  # its search from the goal runs out of the room's states at once
     planner.plan(PlanProblem.from_scenario(load_scenario("nav_map1")))  # the search kernel ready here
     room = (((8.5, 8.95), (0.9, 0.1)), ((8.5, 8.05), (0.9, 0.1)), ((8.95, 8.5), (0.1, 0.9)),
             ((8.05, 8.75), (0.1, 0.4)), ((8.05, 8.25), (0.1, 0.4)))  # fmt: skip
@@ -560,13 +594,13 @@ def test_hybrid_a_stars_search_takes_an_interrupt_at_once(monkeypatch: pytest.Mo
     real = hybrid_astar.stoppable
     sent: list[float] = []
 
-    def interrupted_later(*args: object) -> object:
+    def interrupted_later(*args: object, **kwargs: object) -> object:
         def send() -> None:
             sent.append(time.monotonic())
             _thread.interrupt_main()
 
         threading.Timer(0.3, send).start()
-        return real(*args)
+        return real(*args, **kwargs)
 
     monkeypatch.setattr(hybrid_astar, "stoppable", interrupted_later)
     with pytest.raises(KeyboardInterrupt):

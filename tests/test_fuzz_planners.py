@@ -115,6 +115,8 @@ GOOD_OPTIONS: dict[str, dict[str, st.SearchStrategy[Any]]] = {
         "analytic_expansion_max_length": _real(0.0, 5.0),
         "allow_primitive_interpolation": st.booleans(),
         "max_iterations": st.integers(1, 5000),
+        "search_from_goal": st.booleans(),
+        "search_from_goal_after": st.integers(0, 5000),
         "shape": st.sampled_from(["footprint", "disc"]),
         "clearance": _real(0.0, 0.1),
     },

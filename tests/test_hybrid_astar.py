@@ -219,6 +219,38 @@ def test_same_problem_same_path_whatever_the_seed():
     assert a.stats["iterations"] == b.stats["iterations"]
 
 
+@pytest.mark.parametrize("simplify", [False, True])
+def test_the_search_from_the_goal_gives_valid_paths_read_forwards(simplify):
+    """With no head start the search from the goal wins on some worlds: its path, read from the start,
+    is as valid as the other's (exact ends, free, each step along its heading in its direction), and
+    the same on a second run whatever the threads did."""
+    won = 0
+    for k in range(8):
+        robot = ("turtlebot3", "edumip")[k % 2]
+        sc = load_scenario("edumip_map").with_robot(robot) if k == 7 else random_scenario(robot, 40 + k)
+        prob = PlanProblem.from_scenario(sc, time_limit=20.0)
+        planner = make_planner("hybrid-a-star", search_from_goal_after=0, simplify=simplify)
+        res, again = planner.plan(prob), planner.plan(prob)
+        _check_path(res, prob, RHO)
+        assert np.array_equal(res.path, again.path) and np.array_equal(res.directions, again.directions)
+        assert res.stats["search"] == again.stats["search"]
+        if res.stats["search"] == "from the goal":
+            won += 1
+            np.testing.assert_allclose(res.path[-1], prob.goal.as_array(), atol=1e-12)  # the search's root
+            assert res.stats["expansions_from_start"] > res.stats["expansions_from_goal"]
+            alone = make_planner("hybrid-a-star", search_from_goal=False, simplify=simplify).plan(prob)
+            assert "search" not in alone.stats and not np.array_equal(alone.path, res.path)
+    assert won >= 2
+
+
+def test_a_head_start_longer_than_the_search_leaves_its_plan_as_it_was():
+    prob = _problem(0)
+    alone = make_planner("hybrid-a-star", search_from_goal=False).plan(prob)
+    raced = make_planner("hybrid-a-star").plan(prob)
+    assert alone.stats["iterations"] < 16_000 and raced.stats["search"] == "from the start"
+    assert np.array_equal(alone.path, raced.path) and raced.stats["expansions_from_goal"] == 0
+
+
 def test_goal_walled_off_is_infeasible_at_once():
     walls = (Box((5.0, 4.0), (0.1, 2.0)), Box((5.0, 2.0), (0.1, 2.0)), Box((5.5, 5.0), (1.1, 0.1)),
              Box((5.5, 1.0), (1.1, 0.1)))  # fmt: skip
@@ -233,9 +265,15 @@ def test_gap_too_narrow_for_the_body_exhausts_the_lattice():
     # a 0.12 m gap: the inscribed disc (0.08 m) passes, the 0.178 m wide body does not
     walls = (Box((4.0, 1.97), (0.1, 3.94)), Box((4.0, 5.03), (0.1, 1.94)))
     prob = _problem(world=World((0.0, 6.0, 0.0, 6.0), walls), goal=(5.4, 4.0, 0.0))
-    res = make_planner("hybrid-a-star").plan(prob)
-    assert res.status is PlanStatus.INFEASIBLE and "every reachable state" in res.reason
+    res = make_planner("hybrid-a-star", search_from_goal=False).plan(prob)
+    assert res.status is PlanStatus.INFEASIBLE and "search expanded every reachable state" in res.reason
     assert res.path.shape[1] == 3 and res.path.shape[0] >= 1
+    # the search from the goal runs out of states first, but decides nothing: it reaches the start by
+    # the analytic expansion alone, where the other leaves it by any primitive
+    raced = make_planner("hybrid-a-star").plan(prob)
+    assert raced.status is PlanStatus.INFEASIBLE and raced.reason == res.reason
+    assert raced.stats["search"] == "from the start" and raced.stats["iterations"] == res.stats["iterations"]
+    assert 0 < raced.stats["expansions_from_goal"] < res.stats["iterations"] - 16_000
     res = make_planner("hybrid-a-star", max_iterations=50).plan(prob)
     assert res.status is PlanStatus.TIMEOUT and "iteration budget" in res.reason
     assert res.stats["iterations"] == 50
@@ -256,8 +294,8 @@ def test_invalid_start_and_goal_keep_their_status():
     [("angle_quantization_bins", 71), ("angle_quantization_bins", 4), ("angle_quantization_bins", 72.0),
      ("cell_size", 0.0), ("turning_radius", -0.1), ("reverse_penalty", 0.5), ("change_penalty", -1.0),
      ("non_straight_penalty", 0.9), ("analytic_expansion_ratio", 0.0), ("analytic_expansion_max_length", np.inf),
-     ("allow_primitive_interpolation", 1), ("max_iterations", 0), ("time_limit", 0.0), ("shape", "circle"),
-     ("clearance", -0.01)],
+     ("allow_primitive_interpolation", 1), ("max_iterations", 0), ("search_from_goal", 1),
+     ("search_from_goal_after", -1), ("time_limit", 0.0), ("shape", "circle"), ("clearance", -0.01)],
 )  # fmt: skip
 def test_bad_options_name_the_field(field, value):
     with pytest.raises(ConfigError, match=f"hybrid-a-star option {field} must be"):
@@ -358,7 +396,7 @@ def test_more_states_than_the_row_table_indexes_are_refused_naming_a_cell_size(m
 def test_tables_that_cannot_be_allocated_end_the_plan_infeasible(monkeypatch):
     from planning.planners import hybrid_astar
 
-    def no_memory(*args):
+    def no_memory(*args, **kwargs):
         raise MemoryError
 
     monkeypatch.setattr(hybrid_astar, "stoppable", no_memory)

@@ -19,7 +19,13 @@ tolerance) the shortest Reeds–Shepp curve to the goal is tried; when it is col
 longer than ``analytic_expansion_max_length`` it completes the path, which therefore ends exactly
 on the goal pose.
 
-The search is deterministic (no random numbers: ``problem.seed`` is not used). Every motion is
+Once the search has expanded ``search_from_goal_after`` nodes, a second search from the goal towards
+the start (the moves reversed in time) runs beside it on a second thread, and gives the plan when it
+reaches the start in more than that many fewer expansions than the first reaches the goal (a dead end
+the heuristic cannot see from one side may not be there from the other; :class:`_GoalSearch`).
+
+The search is deterministic (no random numbers: ``problem.seed`` is not used; which of the two
+searches gives the plan is decided by their counts, not by the threads' timing). Every motion is
 collision-checked at the exact checker's resolution through the fast checker's proofs (see
 :mod:`planning.planners.lattice`). The planner needs a turning radius > 0: it plans both robots
 with the virtual bicycle's radius, as the Reeds–Shepp tree planners do (no turn in place).
@@ -50,7 +56,7 @@ from planning.planners.sampling.extend import LocalPlanner
 from planning.planners.sampling.rrt import simplified
 from planning.planners.sampling.steering import arc_poses, default_turning_radius, place
 from planning.planners.sampling.tree import check_endpoints, grid_timeout, make_checker
-from planning.signals import stoppable
+from planning.signals import KernelRun, stoppable
 
 FloatArray = NDArray[np.float64]
 
@@ -76,7 +82,13 @@ class HybridAStarConfig:
             ``max(1, h / (ratio * cell))`` expansions (> 0).
         analytic_expansion_max_length: Longest analytic completion [m] (> 0).
         allow_primitive_interpolation: Also use arcs that turn by fewer heading bins.
-        max_iterations: Expansion budget (>= 1).
+        max_iterations: Expansion budget (>= 1), of each search.
+        search_from_goal: Once the search from the start has expanded ``search_from_goal_after`` nodes,
+            also search from the goal (the moves reversed in time, the costs those of the moves they
+            reverse) on a second thread; the search from the goal gives the plan when it reaches the start
+            in more than ``search_from_goal_after`` fewer expansions than the search from the start
+            reaches the goal, which is then stopped (the plan does not depend on the threads' timing).
+        search_from_goal_after: The head start of the search from the start [expansions] (>= 0).
         time_limit: Wall-clock budget [s]; None takes the problem's.
         shape: Collision model, "footprint" or "disc".
         clearance: Margin every pose keeps from obstacles and walls [m] (>= 0).
@@ -95,6 +107,8 @@ class HybridAStarConfig:
     analytic_expansion_max_length: float = 3.0
     allow_primitive_interpolation: bool = False
     max_iterations: int = 1_000_000
+    search_from_goal: bool = True
+    search_from_goal_after: int = 16_000
     time_limit: float | None = None
     shape: str = "footprint"
     clearance: float = 0.0
@@ -130,6 +144,8 @@ _RULES: dict[str, tuple[str, Callable[[Any], bool]]] = {
     "analytic_expansion_max_length": ("a number > 0 [m] (e.g. 3.0)", lambda v: _number(v) and v > 0),
     "allow_primitive_interpolation": ("true or false", lambda v: isinstance(v, bool)),
     "max_iterations": ("an integer >= 1", lambda v: _integer(v) and v >= 1),
+    "search_from_goal": ("true or false", lambda v: isinstance(v, bool)),
+    "search_from_goal_after": ("an integer >= 0 (e.g. 16000)", lambda v: _integer(v) and v >= 0),
     "time_limit": ("None or a number > 0 [s]", lambda v: v is None or (_number(v) and v > 0)),
     "shape": ("'footprint' or 'disc'", lambda v: v in ("footprint", "disc")),
     "clearance": ("a number >= 0 [m]", lambda v: _number(v) and v >= 0),
@@ -224,6 +240,7 @@ class _Setup:
     prims: Primitives
     lat: tuple[float, float, float, int, int, int]
     h2d: FloatArray
+    free: NDArray[np.bool_]
 
 
 class HybridAStar:
@@ -259,17 +276,8 @@ class HybridAStar:
                 f"{cfg.clearance:g} m) on the {cfg.cell_size:g} m grid: the goal is walled off"
             )
             return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=reason, stats=_stats(clock, checker, 0, 0))
-        p = setup.prims
-        dirs = p.directions
-        cost = (
-            p.lengths
-            * np.where(p.steer != 0, cfg.non_straight_penalty, 1.0)
-            * np.where(dirs < 0, cfg.reverse_penalty, 1.0)
-        )
-        change = p.lengths * cfg.change_penalty * np.where(dirs < 0, cfg.reverse_penalty, 1.0)
-        turn_class = np.where(p.steer == 0, 0, np.where(p.steer > 0, 1, 2) + np.where(dirs < 0, 2, 0)).astype(np.int64)
         space = (
-            (p.body, p.ends, cost, change, turn_class),
+            _moves(setup.prims, cfg, 1.0),
             setup.lat,
             setup.h2d,
             setup.checker.proof_arguments(),
@@ -277,15 +285,28 @@ class HybridAStar:
         )
         tol = np.array([problem.position_tolerance, problem.heading_tolerance])
         expansion = np.array([cfg.analytic_expansion_ratio, cfg.analytic_expansion_max_length])
-        left = clock[0].remaining()
+        race = np.array([cfg.max_iterations, 0], dtype=np.int64)  # lowered by the race; the expansions so far
+        args = (
+            start,
+            goal,
+            tol,
+            setup.rho,
+            setup.step,
+            space,
+            expansion,
+            cfg.max_iterations,
+            race,
+            clock[0].remaining(),
+        )
+        other = _GoalSearch(self, setup, args, clock[0]) if cfg.search_from_goal else None
         try:
-            out = stoppable(
-                lattice.search, start, goal, tol, setup.rho, setup.step, space, expansion, cfg.max_iterations, left
-            )
+            out = stoppable(lattice.search, *args, watch=None if other is None else other.watch)
         except MemoryError:  # within the machine's memory, yet not to be had
             reason = _lattice_too_large(problem, cfg.cell_size, cfg.angle_quantization_bins, failed=True)
             return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=reason, stats=_stats(clock, checker, 0, 0))
-        return self._result(problem, setup, out, clock, limit)
+        if other is None or not other.wins(out):
+            return self._result(problem, setup, out, clock, limit, {} if other is None else other.stats(out))
+        return self._result(problem, setup, other.out, clock, limit, other.stats(out))
 
     def _setup(self, problem: PlanProblem, checker: FastChecker) -> _Setup:
         """The turning radius, primitives, lattice and obstacle heuristic of a run."""
@@ -305,11 +326,11 @@ class HybridAStar:
         reach = upper + cell / np.sqrt(2.0)
         free = (reach > inscribed_radius(robot, cfg.shape) + cfg.clearance).reshape(nx, ny)
         lat = (float(xmin), float(ymin), float(cell), nx, ny, int(cfg.angle_quantization_bins))
-        setup = _Setup(checker, float(rho), float(step), prims, lat, np.zeros((nx, ny)))
+        setup = _Setup(checker, float(rho), float(step), prims, lat, np.zeros((nx, ny)), free)
         gi, gj = self._cell(setup, problem.goal.as_array())
         free[gi, gj] = True
         h2d = lattice.obstacle_heuristic(free, gi, gj, float(cell))
-        return _Setup(checker, float(rho), float(step), prims, lat, h2d)
+        return dataclasses.replace(setup, h2d=h2d)
 
     @staticmethod
     def _cell(setup: _Setup, q: FloatArray) -> tuple[int, int]:
@@ -324,18 +345,24 @@ class HybridAStar:
         out: tuple,  # type: ignore[type-arg]
         clock: tuple[PlanClock, float],
         limit: float,
+        race: dict[str, object],
     ) -> PlanResult:
-        """The plan result of a finished search (see :func:`planning.planners.lattice.search`)."""
+        """The plan result of a finished search (see :func:`planning.planners.lattice.search`): the search
+        from the start's, or the search from the goal's when ``race["search"]`` says so (its path then read
+        backwards); ``race`` goes into the stats."""
         outcome, end, its, nodes, meta, tail, tail_dirs = out
-        # the searched nodes in the order the search opened them (the start first), parents by row
+        # the searched nodes in the order the search opened them (its root first), parents by row
         tree = PlanTree(nodes[:, :3].copy(), meta[:, 0].copy())
         if outcome != lattice.FOUND:
             gaps = np.hypot(*(nodes[:, :2] - problem.goal.as_array()[:2]).T)
             end = int(np.argmin(gaps)) if outcome != lattice.EXHAUSTED else end
             tail, tail_dirs = np.zeros((0, 3)), np.zeros(0)
         path, dirs = _branch(nodes, meta, setup.prims, int(end), tail, tail_dirs)
+        if race.get("search") == "from the goal":
+            path, dirs = _read_backwards(path, dirs, problem.start.as_array())
         stats = {
             **_stats(clock, setup.checker, its, nodes.shape[0]),
+            **race,
             "length_m": path_length(path),
             "analytic": tail.shape[0] > 0,
         }
@@ -425,6 +452,106 @@ def _stats(
         "iterations": iterations,
         "nodes": nodes,
     }
+
+
+def _moves(prims: Primitives, cfg: HybridAStarConfig, sense: float) -> tuple[FloatArray, ...]:
+    """The search's moves (body, ends, cost, change_extra, turn_class; :func:`planning.planners.lattice.search`)
+    for a search forwards in time (``sense`` 1) or backwards (-1: from the goal, each primitive then
+    undoes a move driven the other way, whose costs it takes)."""
+    dirs = sense * prims.directions
+    cost = (
+        prims.lengths
+        * np.where(prims.steer != 0, cfg.non_straight_penalty, 1.0)
+        * np.where(dirs < 0, cfg.reverse_penalty, 1.0)
+    )
+    change = prims.lengths * cfg.change_penalty * np.where(dirs < 0, cfg.reverse_penalty, 1.0)
+    turn_class = np.where(prims.steer == 0, 0, np.where(prims.steer > 0, 1, 2) + np.where(dirs < 0, 2, 0))
+    return prims.body, prims.ends, cost, change, turn_class.astype(np.int64)
+
+
+class _GoalSearch:
+    """The search from the goal, raced against the search from the start (``search_from_goal``).
+
+    It starts once the search from the start has expanded ``after`` nodes, on a second thread, towards
+    the start with no tolerance (its path must leave from the start pose itself, which it reaches by
+    the analytic expansion alone). It decides the plan when it reaches the start after B expansions
+    and the search from the start has not ended (reached the goal, or expanded every state it can
+    reach) within ``after + B`` of its own: whichever ends first lowers the other's budget to where it
+    could still win, so both stop at about ``min(F, after + B)`` expansions (F the search from the
+    start's), and the winner is decided by the counts alone, not by which thread came first (the
+    loser's count where it was stopped does depend on the threads' timing). Running out of states, it
+    decides nothing: it may miss the start pose that the other search leaves from by a primitive."""
+
+    def __init__(self, planner: HybridAStar, setup: _Setup, args: tuple[Any, ...], clock: PlanClock) -> None:
+        start, goal, _, rho, step, space, expansion, _, race, _ = args
+        self.after = planner.config.search_from_goal_after
+        self.race, self.clock = race, clock
+        self.setup, self.fixed = setup, (goal, start, np.zeros(2), rho, step, space, expansion)
+        self.budget = np.array([max(0, race[0] - self.after - 1), 0], dtype=np.int64)  # as race, for this one
+        self.moves = _moves(setup.prims, planner.config, -1.0)
+        self.args: tuple[Any, ...] | None = None
+        self.run: KernelRun | None = None
+
+    @property
+    def out(self) -> Any:
+        return None if self.run is None else self.run.out
+
+    def watch(self, first: KernelRun, spawn: Callable[..., KernelRun]) -> None:
+        """:func:`planning.signals.stoppable`'s watch: start this search, and lower the loser's budget."""
+        if first.done.is_set() and _ended(first.out):  # this one wins only below F - after
+            self.budget[0] = min(self.budget[0], max(0, first.out[2] - self.after - 1))
+        if self.run is None:
+            # started even when the first has ended (within its head start, or just past it): the plan
+            # may not depend on whether this thread had started by then
+            count = first.out[2] if first.done.is_set() else self.race[1]  # race[1]: every 256 expansions
+            if count < self.after // 2 or (first.done.is_set() and first.out[0] == lattice.TIMED_OUT):
+                return
+            if self.args is None:
+                self.args = self._args()  # its heuristic made while the first runs, to start at once
+            if count >= self.after and self.budget[0] > 0:
+                budget = int(self.budget[0])
+                self.run = spawn(lattice.search, *self.args, budget, self.budget, self.clock.remaining())
+            return
+        if self.run.done.is_set() and self.run.out[0] == lattice.FOUND:
+            self.race[0] = min(self.race[0], self.after + self.run.out[2])
+
+    def _args(self) -> tuple[Any, ...]:
+        goal, start, tol, rho, step, space, expansion = self.fixed
+        free, (i, j) = self.setup.free.copy(), HybridAStar._cell(self.setup, start)
+        free[i, j] = True  # as the goal's cell is for the search from the start
+        h2d = lattice.obstacle_heuristic(free, i, j, self.setup.lat[2])
+        return goal, start, tol, rho, step, (self.moves, space[1], h2d, space[3], space[4]), expansion
+
+    def wins(self, first: tuple) -> bool:  # type: ignore[type-arg]
+        """Whether this search gives the plan, given the search from the start's result."""
+        if self.out is None or self.out[0] != lattice.FOUND:
+            return False
+        return bool(not _ended(first) or first[2] > self.after + self.out[2])
+
+    def stats(self, first: tuple) -> dict[str, object]:  # type: ignore[type-arg]
+        """Which search gave the plan and how far each went [expansions]."""
+        return {
+            "search": "from the goal" if self.wins(first) else "from the start",
+            "expansions_from_start": int(first[2]),
+            "expansions_from_goal": 0 if self.out is None else int(self.out[2]),
+        }
+
+
+def _ended(out: tuple) -> bool:  # type: ignore[type-arg]
+    """Whether a search's result ends it: the goal reached, or every reachable state expanded."""
+    return bool(out[0] == lattice.FOUND or out[0] == lattice.EXHAUSTED)
+
+
+def _read_backwards(path: FloatArray, dirs: FloatArray, start: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The path of the search from the goal (poses (K, 3) from the goal to the start, and each pose's
+    direction of arrival in that search's time), read from the start to the goal: each move is driven
+    the other way, and the headings are shifted by whole turns to leave from the start's own."""
+    poses = path[::-1].copy()
+    poses[:, 2] -= 2.0 * np.pi * np.round((poses[0, 2] - start[2]) / (2.0 * np.pi))
+    poses[0] = start
+    arrive = -dirs[::-1]  # the move into pose k (from k - 1) is the other search's move out of it
+    out = np.concatenate([arrive[:1], arrive[:-1]]) if arrive.shape[0] > 1 else arrive.copy()
+    return poses, out
 
 
 def _branch(

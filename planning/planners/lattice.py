@@ -331,6 +331,17 @@ def _tables(
     return nodes, meta, state, slot
 
 
+@nb.njit(cache=True, inline="always")
+def _told_to_stop(it: int, race: IntArray, stop: NDArray[np.bool_], deadline: float) -> bool:
+    """Every 256 expansions: ``race[1] = it``, and whether the search must stop, ``it`` having reached
+    ``race[0]`` (which another thread may lower while the search runs: the race of
+    :mod:`planning.planners.hybrid_astar`), ``stop`` set, or the deadline passed."""
+    if it % 256 != 0:
+        return False
+    race[1] = it
+    return it >= race[0] or stop[0] or monotonic() > deadline
+
+
 @nb.njit(cache=True, nogil=True)
 def search(
     start: FloatArray,
@@ -341,23 +352,23 @@ def search(
     space: tuple,  # type: ignore[type-arg]
     expansion: FloatArray,
     max_iterations: int,
+    race: IntArray,
     seconds: float,
     stop: NDArray[np.bool_],
 ) -> tuple:  # type: ignore[type-arg]
     """Hybrid-A* from ``start`` to ``goal`` (see the module doc).
 
     Args:
-        start: (3,) start pose.
-        goal: (3,) goal pose.
+        start, goal: (3,) start and goal poses.
         tol: (2,) goal position [m] and heading [rad] tolerance.
-        rho: Turning radius [m].
-        step: Sample step of the analytic expansion [m].
+        rho, step: Turning radius and the analytic expansion's sample step [m].
         space: (prims, lat, h2d, chk, cover): prims = (body (P, K, 3) samples, ends (P, 3), cost (P,),
             change_extra (P,), turn_class (P,)); lat = (xmin, ymin, cell, nx, ny, bins); h2d (nx, ny)
             the obstacle heuristic [m]; chk the fast checker's arguments (:func:`_proven_free`); cover
             (C, 3) body-frame discs [x, y, r] covering the footprint (:func:`_covered`).
         expansion: (2,) analytic expansion ratio and largest analytic length [m].
         max_iterations: Expansion budget.
+        race: (2,) int64: a budget another thread may lower, and the count so far (:func:`_told_to_stop`).
         seconds: Time the search may take [s], from its start (after numba has compiled or loaded it).
         stop: (1,) flag: set, the search ends within 256 expansions (:func:`planning.signals.stoppable`).
 
@@ -407,8 +418,8 @@ def search(
             if free:
                 outcome, end, poses, dirs = FOUND, cid, tail, tail_dirs
                 break
-        if near or it >= max_iterations or (it % 256 == 0 and (stop[0] or monotonic() > deadline)):
-            outcome, end = FOUND if near else ITERATIONS if it >= max_iterations else TIMED_OUT, cid
+        if near or it >= max_iterations or _told_to_stop(it, race, stop, deadline):
+            outcome, end = FOUND if near else ITERATIONS if it >= min(max_iterations, race[0]) else TIMED_OUT, cid
             break
         counter, count = _expand(cid, tables, heap, counter, count, space, buf, open_beyond)
     return outcome, end, it, nodes[:count], meta[:count], poses, dirs
