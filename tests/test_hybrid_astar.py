@@ -243,6 +243,24 @@ def test_the_search_from_the_goal_gives_valid_paths_read_forwards(simplify):
     assert won >= 2
 
 
+def test_a_dead_end_from_the_start_is_planned_from_the_goal(tmp_path):
+    """An 8 x 8 m world whose search from the start expands 97,257 nodes (a gap the body fits but cannot
+    turn in, where the heuristic leads it) and whose search from the goal 4,594: the race ends at about
+    20,594 of the first's, with the second's plan, and the same plan each time."""
+    from sim.tools.bench.cold import world_toml
+
+    (tmp_path / "w.toml").write_text(world_toml(7227, 8.0, 20, 0.9))
+    prob = PlanProblem.from_scenario(load_scenario(str(tmp_path / "w.toml")), time_limit=30.0)
+    planner = make_planner("hybrid-a-star", simplify=False)
+    res, again = planner.plan(prob), planner.plan(prob)
+    _check_path(res, prob, RHO)
+    assert res.stats["search"] == "from the goal" and res.stats["iterations"] == 4594
+    assert 16_000 + 4594 <= res.stats["expansions_from_start"] < 97_257
+    assert np.array_equal(res.path, again.path)
+    alone = make_planner("hybrid-a-star", simplify=False, search_from_goal=False).plan(prob)
+    assert alone.stats["iterations"] == 97_257 and alone.length() > res.length()
+
+
 def test_a_head_start_longer_than_the_search_leaves_its_plan_as_it_was():
     prob = _problem(0)
     alone = make_planner("hybrid-a-star", search_from_goal=False).plan(prob)
