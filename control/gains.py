@@ -105,7 +105,7 @@ def load_gains_file(path: str | Path) -> GainsFile:
     """
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        text = p.read_text(encoding="utf-8-sig")  # a byte-order mark (Windows editors) is dropped
     except OSError as exc:
         raise ConfigError(f"cannot read gains file {p}: {exc.strerror or exc}") from exc
     except UnicodeDecodeError as exc:

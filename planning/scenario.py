@@ -236,9 +236,14 @@ def load_scenario_file(path: str | Path) -> Scenario:
     """Load and validate a scenario TOML file."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        text = p.read_text(encoding="utf-8-sig")  # a byte-order mark (Windows editors) is dropped
     except OSError as exc:
         raise ScenarioError(f"cannot read scenario file {p}: {exc.strerror or exc}") from exc
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(
+            f"scenario file {p} is not UTF-8 text (byte {exc.start} of the file: {exc.reason}); TOML is UTF-8: "
+            "save it as UTF-8"
+        ) from exc
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

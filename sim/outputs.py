@@ -24,6 +24,26 @@ from planning.signals import signals_held
 Overwrite = bool | Callable[[Path], bool]
 
 
+#: The image formats a figure is written in, by the file's suffix (matplotlib's Agg canvas writes each).
+IMAGE_FORMATS = ("png", "svg", "pdf", "jpg", "jpeg", "tif", "tiff", "webp", "eps")
+
+
+def image_format(path: Path, option: str) -> str:
+    """The format an image written to ``path`` takes, from its suffix.
+
+    Raises:
+        ConfigError: A suffix that is no image format (named with the choices), or none.
+    """
+    fmt = path.suffix.lower().lstrip(".")
+    if fmt not in IMAGE_FORMATS:
+        given = f"suffix '{path.suffix}'" if path.suffix else "no suffix"
+        raise ConfigError(
+            f"{option} {path}: {given}, which names no image format; end the name in "
+            + ", ".join(f".{f}" for f in IMAGE_FORMATS)
+        )
+    return fmt
+
+
 def check_writable(path: Path, *, overwrite: bool) -> None:
     """Check, before any work and without leaving anything behind, that ``path`` can be written.
 

@@ -35,6 +35,20 @@ def test_help_lists_every_registered_planner(capsys):
         assert name in out
 
 
+def test_the_plot_takes_the_format_its_suffix_names_and_refuses_other_names(tmp_path, capsys):
+    for name, head in (("p.svg", b"<?xml"), ("p.pdf", b"%PDF"), ("p.JPG", b"\xff\xd8")):
+        assert (
+            main(["plan", "--scenario", "nav_map1", "--planner", "birrt", "--quiet", "--plot", str(tmp_path / name)])
+            == 0
+        )
+        assert (tmp_path / name).read_bytes()[: len(head)] == head
+    for name, why in (("p.foo", "suffix '.foo'"), ("plot", "no suffix")):
+        assert main(["plan", "--scenario", "nav_map1", "--planner", "birrt", "--plot", str(tmp_path / name)]) == 2
+        err = capsys.readouterr().err
+        assert why in err and "names no image format" in err and ".png, .svg" in err
+        assert not (tmp_path / name).exists()
+
+
 def test_plan_json_and_plot(tmp_path, capsys):
     js, png = tmp_path / "out" / "plan.json", tmp_path / "plan.png"
     argv = ["plan", "--scenario", "edumip_map", "--planner", "c-rrt-star", "--seed", "2", "--json", str(js),

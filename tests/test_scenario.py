@@ -6,7 +6,7 @@ import pytest
 
 from planning.core.world import Box, Circle, Ellipse, Polygon
 from planning.errors import ScenarioError
-from planning.scenario import builtin_scenarios, load_scenario
+from planning.scenario import SCENARIOS_DIR, builtin_scenarios, load_scenario
 
 GOOD = """
 name = "farm"
@@ -113,6 +113,16 @@ def test_invalid_toml_and_missing_files(tmp_path: Path) -> None:
         load_scenario(tmp_path / "nope.toml")
     with pytest.raises(ScenarioError, match=r"unknown scenario 'nope'.*open"):
         load_scenario("nope")
+
+
+def test_a_file_not_in_utf8_is_refused_and_a_byte_order_mark_dropped(tmp_path: Path) -> None:
+    text = (SCENARIOS_DIR / "nav_map1.toml").read_text(encoding="utf-8")
+    for name, data in (("latin1.toml", b'name = "caf\xe9"\n'), ("utf16.toml", text.encode("utf-16"))):
+        (tmp_path / name).write_bytes(data)
+        with pytest.raises(ScenarioError, match=rf"{name} is not UTF-8 text .*save it as UTF-8"):
+            load_scenario(tmp_path / name)
+    (tmp_path / "bom.toml").write_bytes(b"\xef\xbb\xbf" + text.encode("utf-8"))
+    assert load_scenario(tmp_path / "bom.toml").world == load_scenario("nav_map1").world
 
 
 def test_builtin_scenarios_load() -> None:

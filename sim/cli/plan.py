@@ -27,9 +27,10 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="plan a path through a scenario and report status, time, length and clearance",
         description=(
             "Plan from the scenario's start to its goal with one of the registered planners and print "
-            "status, planning time, iterations, path length and minimum clearance (the smallest distance "
-            "between the robot's footprint and any obstacle or wall along the path, a lower bound within "
-            "2.5 mm).\n\n"
+            "status, planning time, iterations, path length and minimum clearance (a lower bound of the "
+            "smallest distance between the robot's footprint and any obstacle or wall along the path: within "
+            "2.5 mm of it where the path passes within the robot's radius of something, else the distance "
+            "of the robot's bounding disc, which may be centimetres less).\n\n"
             f"Planners: {planners}.\n\n"
             "JSON record (--json): status, planner, reason, scenario, robot, seed, time_limit_s, time_s (the "
             "planner's, its collision grid included: stats.grid_s; Hybrid-A* also gives its CPU time, stats.cpu_s; "
@@ -77,7 +78,13 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="return the search's raw path (sampling planners simplify their path by default)",
     )
     p.add_argument("--json", type=Path, default=None, metavar="PATH", help="write the plan record as JSON")
-    p.add_argument("--plot", type=Path, default=None, metavar="PATH", help="write a PNG of world, tree and path")
+    p.add_argument(
+        "--plot",
+        type=Path,
+        default=None,
+        metavar="PATH",
+        help="write an image of world, tree and path, in the format its suffix names (.png, .svg, .pdf, ...)",
+    )
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     p.add_argument("--quiet", action="store_true", help="print only the results")
     return p
@@ -116,13 +123,15 @@ def run(args: argparse.Namespace) -> int:
     from planning.planners.registry import make_planner
     from planning.scenario import load_scenario, scenario_with_robot
     from sim.cli.checks import check_seeds, check_time_limit
-    from sim.outputs import check_writable, write_json
+    from sim.outputs import check_writable, image_format, write_json
 
     check_seeds(seed=args.seed)
     check_time_limit(args.time_limit)
     for out in (args.json, args.plot):
         if out is not None:
             check_writable(out, overwrite=args.overwrite)
+    if args.plot is not None:
+        image_format(args.plot, "--plot")
     if args.json is not None and args.plot is not None and args.json.resolve() == args.plot.resolve():
         raise ConfigError("--json and --plot name the same file; give two different paths")
     scenario = scenario_with_robot(load_scenario(args.scenario), args.robot)

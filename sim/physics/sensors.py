@@ -200,7 +200,9 @@ def read_sensor_table(path: Path) -> dict[str, Any]:
         ConfigError: The file cannot be read or parsed, or has no ``[sensors]`` table.
     """
     try:
-        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+        data = tomllib.loads(Path(path).read_text(encoding="utf-8-sig"))  # a byte-order mark is dropped
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"cannot read sensor settings from {path}: not UTF-8 text; save it as UTF-8") from exc
     except (OSError, tomllib.TOMLDecodeError) as exc:
         raise ConfigError(f"cannot read sensor settings from {path}: {exc}") from exc
     table = data.get("sensors")

@@ -20,7 +20,7 @@ from matplotlib.patches import Polygon as PolygonPatch
 from numpy.typing import NDArray
 
 from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon, World
-from sim.outputs import atomic_path
+from sim.outputs import atomic_path, image_format
 
 
 @dataclass(frozen=True)
@@ -108,7 +108,9 @@ def frame_world(ax: Axes, world: World, paths: Sequence[NDArray[np.float64]] = (
 
 
 def save_figure(fig: Figure, path: str | Path, *, overwrite: bool = False) -> Path:
-    """Write a figure as PNG atomically (never replacing a file unless ``overwrite``)."""
+    """Write a figure atomically (never replacing a file unless ``overwrite``), in the format its suffix
+    names (:func:`sim.outputs.image_format`: PNG for ``.png``)."""
+    fmt = image_format(Path(path), "the figure")
     with atomic_path(path, overwrite=overwrite) as tmp:
-        fig.savefig(tmp, format="png")
+        fig.savefig(tmp, format=fmt)
     return Path(path)
