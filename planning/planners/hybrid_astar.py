@@ -280,7 +280,7 @@ class HybridAStar:
             _moves(setup.prims, cfg, 1.0),
             setup.lat,
             setup.h2d,
-            setup.checker.proof_arguments(),
+            setup.checker.check_arrays(),
             footprint_cover(problem.robot, COVER_SIDE),
         )
         tol = np.array([problem.position_tolerance, problem.heading_tolerance])
