@@ -53,6 +53,27 @@ def test_poses_the_centre_disc_proves_free_need_no_compiled_call(monkeypatch):
     assert fast.poses_free(many).all() and calls == [3, 6]
 
 
+@pytest.mark.parametrize("reach", [0.05, 0.2])
+def test_free_around_a_pose_holds_for_every_pose_within_the_reach(reach):
+    """free_around(pose, reach): every pose whose position is within ``reach``, any heading, is free;
+    and it says so for most poses that far from everything (it is the grid's bound, not a guess)."""
+    robot = load_robot("turtlebot3")
+    exact = CollisionChecker(WORLD, robot, clearance=0.02)
+    fast = FastChecker(exact)
+    rng = np.random.default_rng(3)
+    said, where = 0, rng.uniform(-1.4, 1.4, (400, 2))
+    for x, y in where:
+        if not fast.free_around((x, y, 0.0), reach):
+            continue
+        said += 1
+        a, r = rng.uniform(0, 2 * np.pi, 30), reach * np.sqrt(rng.uniform(0, 1, 30))
+        around = np.column_stack([x + r * np.cos(a), y + r * np.sin(a), rng.uniform(-np.pi, np.pi, 30)])
+        edge = np.column_stack([x + reach * np.cos(a), y + reach * np.sin(a), a])
+        assert exact.poses_free(np.vstack([around, edge])).all()
+    far = exact.clearance_of(np.column_stack([where, np.zeros(400)]))  # the footprint's, heading 0
+    assert said >= 0.5 * np.sum(far > reach + 0.2)
+
+
 def test_tiny_obstacle_inside_footprint_is_caught():
     exact = CollisionChecker(WORLD, load_robot("turtlebot3"))
     fast = FastChecker(exact)

@@ -321,15 +321,26 @@ class FastChecker:
             out[und] = self._exact(p[und])
         return out
 
+    def free_around(self, pose: ArrayLike, reach: float) -> bool:
+        """Whether every pose whose position is within ``reach`` [m] of ``pose``'s is proven free by the
+        grid's first proof (:meth:`_disc_proves_free`), whatever its heading; False when it cannot tell."""
+        chk = self.check_arrays()
+        p = np.atleast_2d(np.asarray(pose, dtype=float))
+        return chk is not None and self._disc_proves_free(p, chk, reach)
+
     @staticmethod
-    def _disc_proves_free(p: FloatArray, chk: CheckArrays) -> bool:
+    def _disc_proves_free(p: FloatArray, chk: CheckArrays, reach: float = 0.0) -> bool:
         """Whether the grid's first proof (:func:`classify_pose`'s, the same arithmetic in Python floats:
         the centre's disc keeps the clearance) shows every one of a few poses free. Then they need no
         compiled call: a planner's start and goal mostly need none, and a new process does not load the
-        compiled checker (10-14 ms) for them, nor a warm one pay numpy's set-up for two poses."""
+        compiled checker (10-14 ms) for them, nor a warm one pay numpy's set-up for two poses. With
+        ``reach`` > 0, every pose within ``reach`` of one: its nearest grid node lies within ``reach + 2 e``
+        of the one's, and the grid holds the signed distance, which is 1-Lipschitz."""
         grid, x0, y0, h = chk[0], chk[1], chk[2], chk[3]
         radius, clearance, tol, disc = chk[7], chk[8], chk[9], chk[10]
         e = h / math.sqrt(2.0)
+        if reach > 0:
+            radius += reach + 2.0 * e
         margin = clearance if disc else clearance + tol
         nx, ny = grid.shape
         for x, y, _ in p.tolist():

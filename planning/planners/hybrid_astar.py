@@ -277,10 +277,10 @@ class HybridAStar:
             )
             return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=reason, stats=_stats(clock, checker, 0, 0))
         space = (
-            _moves(setup.prims, cfg, 1.0),
+            (*_moves(setup.prims, cfg, 1.0), _root_free(setup, start)),
             setup.lat,
             setup.h2d,
-            setup.checker.check_arrays(),
+            setup.checker.proof_arguments(),
             footprint_cover(problem.robot, COVER_SIDE),
         )
         tol = np.array([problem.position_tolerance, problem.heading_tolerance])
@@ -469,6 +469,17 @@ def _moves(prims: Primitives, cfg: HybridAStarConfig, sense: float) -> tuple[Flo
     return prims.body, prims.ends, cost, change, turn_class.astype(np.int64)
 
 
+def _root_free(setup: _Setup, root: FloatArray) -> NDArray[np.bool_]:
+    """(P,) whether each move from ``root`` is free, by the fast checker with its exact fallback: the
+    search proves its other moves by the grid alone, whose undecided poses count as collisions, so that a
+    root a few millimetres from an obstacle would have no move (see :mod:`planning.planners.lattice`)."""
+    body = setup.prims.body
+    if setup.checker.free_around(root, float(np.hypot(body[..., 0], body[..., 1]).max())):
+        return np.ones(body.shape[0], dtype=bool)  # in the open (most roots): no compiled call
+    free = setup.checker.poses_free(place(body.reshape(-1, 3), root))
+    return np.asarray(free.reshape(body.shape[:2]).all(axis=1))
+
+
 class _GoalSearch:
     """The search from the goal, raced against the search from the start (``search_from_goal``).
 
@@ -520,7 +531,8 @@ class _GoalSearch:
         free, (i, j) = self.setup.free.copy(), HybridAStar._cell(self.setup, start)
         free[i, j] = True  # as the goal's cell is for the search from the start
         h2d = lattice.obstacle_heuristic(free, i, j, self.setup.lat[2])
-        return goal, start, tol, rho, step, (self.moves, space[1], h2d, space[3], space[4]), expansion
+        moves = (*self.moves[:5], _root_free(self.setup, goal))
+        return goal, start, tol, rho, step, (moves, space[1], h2d, space[3], space[4]), expansion
 
     def wins(self, first: tuple) -> bool:  # type: ignore[type-arg]
         """Whether this search gives the plan, given the search from the start's result."""
