@@ -181,8 +181,11 @@ def _header(r: TableReader, data: Mapping[str, Any], default_name: str) -> dict[
     if data.get("version", 1) != 1:
         raise r.fail("version", "1 (the only format version this nhsim reads)", data["version"])
     planner = data.get("planner")
-    if planner is not None and not isinstance(planner, str):
-        raise r.fail("planner", "a planner name", planner)
+    if planner is not None:
+        from planning.planners.registry import PLANNERS  # imported here: it loads on first use
+
+        if planner not in PLANNERS:
+            raise r.fail("planner", f"a registered planner name ({', '.join(sorted(PLANNERS))})", planner)
     planner_options = _planner_options(r, data["planners"]) if "planners" in data else {}
     sensors = data.get("sensors", {})
     if not isinstance(sensors, dict) or not all(

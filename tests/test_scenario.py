@@ -159,10 +159,12 @@ def test_planner_options_tables_are_read_and_reach_the_planner(tmp_path: Path) -
         ("[planners.birrt]\ngoal_bias = 2.0\n", r"'planners.birrt'.*goal_bias must be >= 0 and <= 1, got 2.0"),
         ("planners = 3\n", r"field 'planners': expected a table"),
         ("[planners]\nbirrt = 3\n", r"'planners.birrt': expected a table of keyword options"),
+        ('[planners.birrt]\nsteering = "teleport"\n', r"'planners.birrt'.*unknown steering 'teleport': choose"),
+        ('planner = "astar"\n', r"field 'planner': expected a registered planner name \(birrt, .*got 'astar'"),
     ],
 )
 def test_bad_planner_options_name_the_field(tmp_path: Path, table: str, match: str) -> None:
-    text = (table + GOOD) if table.startswith("planners =") else (GOOD + table)
+    text = (table + GOOD) if table.startswith(("planners =", "planner =")) else (GOOD + table)
     path = _write(tmp_path, text)
     with pytest.raises(ScenarioError, match=match) as err:
         load_scenario(path)

@@ -117,3 +117,21 @@ def test_arrays_are_read_only() -> None:
     tr = _circle(n=11)
     with pytest.raises(ValueError):
         tr.pose[0, 0] = 1.0
+
+
+@pytest.mark.parametrize(
+    ("status", "advice"),
+    [("timeout", "try another seed, a longer --time-limit"), ("invalid_start", "move the start into free space"),
+     ("invalid_goal", "move the goal into free space"), ("infeasible", "widen the way to the goal")],
+)  # fmt: skip
+def test_a_failed_plan_names_what_to_try_for_its_status(status, advice):
+    from planning.core.robot import load_robot
+    from planning.core.world import World
+    from planning.planners.base import PlanResult, PlanStatus
+    from planning.trajectory.from_plan import PlanFailedError, checked_trajectory
+
+    failed = PlanResult(PlanStatus(status), "birrt", reason="why")
+    message = rf"status {status}: why; a failed plan has no trajectory \({advice}"
+    with pytest.raises(PlanFailedError, match=message) as err:
+        checked_trajectory(failed, load_robot("turtlebot3"), World((0.0, 1.0, 0.0, 1.0), ()))
+    assert (status == "timeout") == ("another seed" in str(err.value))

@@ -41,7 +41,7 @@ from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import RobotSpec
 from planning.core.world import World
 from planning.errors import NhsimError
-from planning.planners.base import PlanResult
+from planning.planners.base import PlanResult, PlanStatus
 from planning.trajectory.segments import infer_segments
 from planning.trajectory.smoothing import (
     MIN_SPEED,
@@ -480,6 +480,15 @@ def _from_timed(plan: PlanResult, path: FloatArray, build: _Build, force: bool |
     return TrajectoryResult(status, body, reason, build.stats)
 
 
+#: What to try after a failed plan, by its status.
+_FAILED_PLAN_FIX = {
+    PlanStatus.TIMEOUT: "try another seed, a longer --time-limit, or another planner",
+    PlanStatus.INVALID_START: "move the start into free space, or lower the clearance",
+    PlanStatus.INVALID_GOAL: "move the goal into free space, or lower the clearance",
+    PlanStatus.INFEASIBLE: "widen the way to the goal, lower the clearance, or try another planner",
+}
+
+
 def checked_trajectory(
     plan: PlanResult | ArrayLike, robot: RobotSpec, world: World, **options: Any
 ) -> TrajectoryResult:
@@ -491,7 +500,7 @@ def checked_trajectory(
     if isinstance(plan, PlanResult) and not plan.success:
         raise PlanFailedError(
             f"planner {plan.planner!r} ended with status {plan.status.value}: {plan.reason or 'no reason given'}; "
-            f"a failed plan has no trajectory (try another seed, a longer --time-limit, or another planner)"
+            f"a failed plan has no trajectory ({_FAILED_PLAN_FIX.get(plan.status, 'try another planner')})"
         )
     res = make_trajectory(plan, robot, world, **options)
     if not res.success or res.trajectory is None:
