@@ -537,8 +537,10 @@ class Optim:
             dist = float(world.signed_distance(pose.xy)[0])
             if dist < robot.radius:
                 reason = (
-                    f"the robot's disc (radius {robot.radius:.3f} m) at the {label} is {dist:.3f} m from "
-                    "the nearest obstacle or wall; move the pose into free space"
+                    f"the {label}'s centre is {dist:.3f} m from the nearest obstacle or wall, so the robot's "
+                    f"disc (radius {robot.radius:.3f} m), which optim keeps off everything, overlaps it; move "
+                    f"the {label} at least {robot.radius - dist:.3f} m farther away, or plan with another planner "
+                    "(they check the footprint)"
                 )
                 return self._failure(status, reason, {"time_s": time.perf_counter() - t0})
         obstacles = _ObstacleData.of(problem)

@@ -70,7 +70,10 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         type=float,
         default=30.0,
         metavar="S",
-        help="wall-clock budget in seconds; when spent the planner returns TIMEOUT (default: 30)",
+        help=(
+            "wall-clock budget in seconds; when spent the planner returns TIMEOUT, as it does when its "
+            "iteration budget is spent first (the reason says which) (default: 30)"
+        ),
     )
     p.add_argument(
         "--no-simplify",
