@@ -184,7 +184,7 @@ def _header(r: TableReader, data: Mapping[str, Any], default_name: str) -> dict[
     if planner is not None:
         from planning.planners.registry import PLANNERS  # imported here: it loads on first use
 
-        if planner not in PLANNERS:
+        if not isinstance(planner, str) or planner not in PLANNERS:
             raise r.fail("planner", f"a registered planner name ({', '.join(sorted(PLANNERS))})", planner)
     planner_options = _planner_options(r, data["planners"]) if "planners" in data else {}
     sensors = data.get("sensors", {})

@@ -131,11 +131,13 @@ def check_definitions(traj, robot) -> None:  # type: ignore[no-untyped-def]
             sp = np.hypot(*dp.T)
             kap = (dp[:, 0] * ddp[:, 1] - dp[:, 1] * ddp[:, 0]) / np.maximum(sp, 1e-9) ** 3
             ref = w[idx][mid] / np.where(np.abs(v[idx][mid]) > 1e-9, np.abs(v[idx][mid]), 1.0)
-            fast = sp > 0.05
-            assert np.abs(kap[fast] - ref[fast]).max() < 0.05 * max(1.0, np.abs(ref[fast]).max())
+            fast = sp > 0.05  # (a short segment between cusps may never reach it: nothing to compare)
+            if fast.any():
+                assert np.abs(kap[fast] - ref[fast]).max() < 0.05 * max(1.0, np.abs(ref[fast]).max())
             # no curvature jump at ~mm spacing: a jump is one step far above its neighbours' (a steep
             # but continuous ramp, e.g. 0.5 /m per 0.6 mm sample after a cusp, steps evenly)
-            assert np.abs(np.diff(kap[fast], n=2)).max() < 0.5
+            if fast.sum() > 2:
+                assert np.abs(np.diff(kap[fast], n=2)).max() < 0.5
         else:
             assert np.allclose(xy[idx], xy[idx[0]])  # turns in place and holds stay on the spot
 
@@ -369,8 +371,9 @@ def test_sampling_planner_paths_smooth_collision_free_and_continuous(
     traj = res.trajectory
     check_definitions(traj, spec)
     assert footprint_world_clearance(traj, spec, sc.world) > 0.0
-    if planner == "birrt" and not simplify:  # seed 001's connect step drives primitives and straight back: cut
-        assert res.stats["loop_poses_removed"] > 0.5 * plan.path.shape[0]
+    if planner == "birrt" and not simplify:  # its raw path of primitives still drives out and back: cut
+        # (before its connect steps stopped when they no longer closed in, over half the path was such loops)
+        assert res.stats["loop_poses_removed"] > 0
     # the drives keep the planner's travel directions: cusps in the plan are cusps in the trajectory
     d = np.asarray(plan.directions)
     assert res.stats["cusps"] <= int(np.sum(d[1:] != d[:-1]))

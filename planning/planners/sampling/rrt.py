@@ -292,6 +292,17 @@ class RRT(_TreePlanner[TreeConfig]):
         return self._result(PlanStatus.TIMEOUT, path, d, reason, self._stats(budget, it, tree.n), tree.plan_tree())
 
 
+def _closer(local: LocalPlanner, tree: Tree, k: int, before: int, target: FloatArray) -> bool:
+    """Whether node ``k`` of ``tree`` is nearer ``target`` than node ``before`` (the local planner's metric).
+    A connect step of motion primitives that is not has stopped making progress: RRT-Connect's
+    "trapped". Without this stop the greedy steps went on turning back and forth (seed 001's primitives
+    turn 0.15 rad per 0.15 m), and the trees' paths grew to hundreds of metres of shuffling: 1915 m and
+    2528 cusps for a 10 m way through two offset doors, 3.6 s to plan; 22 m and 0.17 s with it."""
+    pair = np.stack([tree.nodes[k], tree.nodes[before]])
+    d = local.metric(pair, target)
+    return bool(d[0] < d[1])
+
+
 @dataclass(frozen=True)
 class BiRRTConfig(TreeConfig):
     """:class:`TreeConfig` with seed 001's defaults: unicycle primitives, 5000 samples, no goal bias."""
@@ -390,7 +401,9 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
                 k_new = self._grow(local, other, k, target)
                 if k_new is None:
                     break
-                k = k_new
+                k, k_old = k_new, k
+                if not local.exact and not _closer(local, other, k, k_old, target):
+                    break  # primitives that no longer close in on the target shuffle in place: trapped
         path, d, _ = self._partial(ta, problem)
         reason = f"{budget.why(it)}; the trees did not meet (partial path from the start tree)"
         return self._result(
