@@ -213,6 +213,14 @@ def _world(r: TableReader, table: Any, base_dir: Path) -> World:
     if not isinstance(obs_list, list):
         raise r.fail("world.obstacles", "an array of tables ([[world.obstacles]])", obs_list)
     obstacles = [_obstacle(r, ot, f"world.obstacles[{i}].") for i, ot in enumerate(obs_list)]
+    for i, ob in enumerate(obstacles):
+        bx0, bx1, by0, by1 = ob.bounding_box()
+        if bx1 <= xmin or bx0 >= xmax or by1 <= ymin or by0 >= ymax:  # it could never be met: a typo?
+            raise ScenarioError(
+                f"{r.where}: field 'world.obstacles[{i}]': this {ob.kind} lies wholly outside the world "
+                f"bounds {[xmin, xmax, ymin, ymax]} (its box spans x {bx0:g}..{bx1:g}, y {by0:g}..{by1:g}); "
+                "move it inside, or remove it"
+            )
     if "map" in table:
         loader = MAP_LOADERS.get("image")
         if loader is None:

@@ -97,6 +97,11 @@ def test_name_defaults_to_the_file_stem(tmp_path: Path) -> None:
             r"field 'robots': expected a list that includes the scenario's own robot 'turtlebot3' \(field 'robot'\)",
         ),
         (("[0.5, 1.0]]", "[1.0, 1.0], [0.0, 1.5], [2.0, 0.2]]"), r"obstacles\[3\].vertices'.*edges 1 and 3 cross"),
+        # an obstacle no pose can meet (a typo in its centre, or in the bounds)
+        (
+            ("center = [1.0, 0.5]", "center = [10.0, 10.0]"),
+            r"'world.obstacles\[0\]': this circle lies wholly outside the world bounds .*move it inside",
+        ),
     ],
 )
 def test_bad_files_fail_with_file_field_and_expectation(tmp_path: Path, edit: tuple[str, str], match: str) -> None:
