@@ -184,6 +184,24 @@ def test_failed_plan_exits_1_with_reason(tmp_path, capsys):
     assert "invalid_start" in capsys.readouterr().out
 
 
+def test_a_partial_paths_length_and_clearance_say_so(tmp_path, capsys):
+    assert main(["plan", "--scenario", "nav_map1", "--planner", "rrt", "--seed", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "partial" not in out and "min clearance" in out
+    scen = tmp_path / "budget.toml"  # three iterations cannot go round the box: a partial path
+    scen.write_text(
+        'robot = "turtlebot3"\n[world]\nbounds = [0.0, 4.0, 0.0, 4.0]\n'
+        '[[world.obstacles]]\ntype = "box"\ncenter = [2.0, 2.0]\nsize = [1.0, 3.0]\n'
+        "[start]\npose = [0.5, 2.0, 0.0]\n[goal]\npose = [3.5, 2.0, 0.0]\n[planners.rrt]\nmax_iterations = 3\n"
+    )
+    assert main(["plan", "--scenario", str(scen), "--planner", "rrt"]) == 1
+    out = capsys.readouterr().out
+    lines = {" ".join(ln.split()[:2]): ln for ln in out.splitlines() if ln.startswith(("status", "path", "min"))}
+    assert lines["status timeout"]
+    assert lines["path length"].endswith("(of the partial path)")
+    assert lines["min clearance"].endswith("(of the partial path)")
+
+
 def test_record_path():
     path = np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.1, 0.0, np.pi / 2], [0.1, 0.05, np.pi / 2]])
     out = record_path(path, radius=0.1)

@@ -158,12 +158,13 @@ def run(args: argparse.Namespace) -> int:
     facts = plan_facts(problem, result, time.perf_counter() - t0)
     status, reason = trusted_status(result.status, result.reason, facts["min_clearance_m"])
     min_clear, iterations = facts["min_clearance_m"], facts["iterations"]
+    partial = "" if status is PlanStatus.SUCCESS or min_clear is None else " (of the partial path)"
     lines = [
         f"status          {status.value}",
         f"time            {facts['time_s']:.3f} s{grid_note(result.stats)}",
         f"iterations      {iterations if iterations is not None else '-'}",
-        f"path length     {facts['length_m']:.3f} m{raw_note(facts)}",
-        f"min clearance   {'-' if min_clear is None else f'{min_clear:.3f} m'}",
+        f"path length     {facts['length_m']:.3f} m{raw_note(facts)}{partial}",
+        f"min clearance   {'-' if min_clear is None else f'{min_clear:.3f} m'}{partial}",
     ]
     if reason:
         lines.append(f"reason          {reason}")
