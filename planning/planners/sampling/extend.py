@@ -38,9 +38,16 @@ from planning.planners.sampling.tree import Tree
 FloatArray = NDArray[np.float64]
 Steering = Literal["bicycle", "unicycle", "diffdrive", "reeds_shepp", "dubins"]
 STEERINGS: tuple[str, ...] = ("bicycle", "unicycle", "diffdrive", "reeds_shepp", "dubins")
+
 Motion = tuple[FloatArray, FloatArray, FloatArray]  # (q_new (3,), poses (K, 3), directions (K,))
 
 _ORDERS: dict[tuple[int, bool], NDArray[np.int64]] = {}
+
+
+def check_steering(name: object) -> None:
+    """Raise a ``ConfigError`` naming the choices unless ``name`` is one of :data:`STEERINGS`."""
+    if not isinstance(name, str) or name not in STEERINGS:
+        raise ConfigError(f"unknown steering {name!r}: choose one of {', '.join(STEERINGS)}")
 
 
 def check_order(n: int, new_first: bool) -> NDArray[np.int64]:
@@ -101,8 +108,7 @@ class LocalPlanner:
     _buf_d: FloatArray = field(init=False, default_factory=lambda: np.empty(1024))
 
     def __post_init__(self) -> None:
-        if self.steering not in STEERINGS:
-            raise ConfigError(f"unknown steering {self.steering!r}: choose one of {', '.join(STEERINGS)}")
+        check_steering(self.steering)
         rho = self.rho if self.rho is not None else default_turning_radius(self.robot)
         if not rho > 0:
             raise ConfigError(f"turning_radius must be > 0 m, got {rho}")

@@ -35,7 +35,7 @@ from planning.planners import geodesic
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
 from planning.planners.registry import config_from_options
 from planning.planners.sampling.connect_kernel import JOINED, CompiledSearch
-from planning.planners.sampling.extend import STEERINGS, LocalPlanner, Motion
+from planning.planners.sampling.extend import LocalPlanner, Motion, check_steering
 from planning.planners.sampling.tree import (
     Budget,
     Tree,
@@ -109,8 +109,7 @@ class TreeConfig:
             "clearance": {"at_least": 0.0},
         }
         check_fields(self, checks)
-        if not isinstance(self.steering, str) or self.steering not in STEERINGS:
-            raise ConfigError(f"unknown steering {self.steering!r}: choose one of {', '.join(STEERINGS)}")
+        check_steering(self.steering)
         if self.shape not in ("footprint", "disc"):
             raise ConfigError(f"shape must be 'footprint' or 'disc', got {self.shape!r}")
 
