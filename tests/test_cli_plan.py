@@ -13,7 +13,7 @@ from planning.core.robot import load_robot
 from planning.planners.registry import PLANNERS
 from planning.scenario import builtin_scenarios, load_scenario
 from sim.cli.main import COMMANDS, build_parser, main
-from sim.cli.plan import path_spacing, record_path
+from sim.cli.plan import path_spacing, raw_note, record_path
 
 KEYS = {
     "status", "planner", "time_s", "iterations", "length_m", "min_clearance_m", "path", "reason", "seed",
@@ -83,6 +83,7 @@ def test_plan_json_and_plot(tmp_path, capsys):
     # simplified: never longer, never more cusps, and the search's own path is the one --no-simplify gives
     assert rec["length_m"] <= rec["raw_length_m"] and rec["cusps"] <= rec["raw_cusps"]
     assert rec["simplify_time_s"] > 0 and rec["stats"]["simplified_cost"] <= rec["stats"]["cost"]
+    assert 0.0 <= rec["stats"]["simplify_code_s"] <= rec["simplify_time_s"]
     raw = tmp_path / "raw.json"
     assert main([*argv[:7], "--no-simplify", "--json", str(raw), "--quiet"]) == 0
     unsimplified = json.loads(raw.read_text())
@@ -256,3 +257,12 @@ def test_a_time_limit_not_above_zero_is_exit_2(command, limit, tmp_path, capsys,
     err = capsys.readouterr().err
     assert "--time-limit" in err and "> 0 s" in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_simplifications_code_loading_is_named_only_when_it_took_a_millisecond():
+    facts = {"simplify_time_s": 0.091, "raw_length_m": 11.9281, "raw_cusps": 1, "cusps": 1}
+    loaded = raw_note(facts, {"simplify_code_s": 0.0474})
+    assert loaded == " (raw 11.928 m, 1 -> 1 cusps, simplified in 91 ms, 47 ms of it loading code)"
+    assert raw_note(facts, {"simplify_code_s": 0.0004}) == " (raw 11.928 m, 1 -> 1 cusps, simplified in 91 ms)"
+    assert raw_note(facts, {}) == raw_note(facts, {"simplify_code_s": 0.0})
+    assert raw_note({**facts, "simplify_time_s": None}, {"simplify_code_s": 0.05}) == ""

@@ -44,7 +44,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
             "(outputs are still written), 2 on bad input.\n\n"
             "The sampling planners return their path simplified (shortcuts with their own steering, fewer "
             "vertices): length_m and cusps are the simplified path's, raw_length_m and raw_cusps the search's "
-            "(equal when nothing was simplified; simplify_time_s is then null); --no-simplify keeps the raw path. "
+            "(equal when nothing was simplified; simplify_time_s is then null; the part of it numba spent loading "
+            "the simplification's kernels in a new process: stats.simplify_code_s); --no-simplify keeps the raw path. "
             "first_path_time_s and first_path_length_m (rrt-star) are its first solution's."
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -163,7 +164,7 @@ def run(args: argparse.Namespace) -> int:
         f"status          {status.value}",
         f"time            {facts['time_s']:.3f} s{grid_note(result.stats)}",
         f"iterations      {iterations if iterations is not None else '-'}",
-        f"path length     {facts['length_m']:.3f} m{raw_note(facts)}{partial}",
+        f"path length     {facts['length_m']:.3f} m{raw_note(facts, result.stats)}{partial}",
         f"min clearance   {'-' if min_clear is None else f'{min_clear:.3f} m'}{partial}",
     ]
     if reason:
@@ -223,13 +224,17 @@ def grid_note(stats: dict[str, Any]) -> str:
     return f" ({', '.join(parts)})" if parts else ""
 
 
-def raw_note(facts: dict[str, Any]) -> str:
-    """`` (raw 12.345 m, 3 -> 1 cusps, simplified in 8 ms)`` when the plan was simplified, else ""."""
+def raw_note(facts: dict[str, Any], stats: dict[str, Any]) -> str:
+    """`` (raw 12.345 m, 3 -> 1 cusps, simplified in 8 ms)`` when the plan was simplified, else "";
+    ``, 5 ms of it loading code`` is added when numba readied the simplification's kernels for a
+    millisecond or more (``stats["simplify_code_s"]``: loading them in a new process)."""
     if facts["simplify_time_s"] is None:
         return ""
+    code = float(stats.get("simplify_code_s", 0.0))
+    loading = f", {1e3 * code:.0f} ms of it loading code" if code >= 0.001 else ""
     return (
         f" (raw {facts['raw_length_m']:.3f} m, {facts['raw_cusps']} -> {facts['cusps']} cusps, "
-        f"simplified in {1e3 * facts['simplify_time_s']:.0f} ms)"
+        f"simplified in {1e3 * facts['simplify_time_s']:.0f} ms{loading})"
     )
 
 
