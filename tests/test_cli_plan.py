@@ -13,7 +13,7 @@ from planning.core.robot import load_robot
 from planning.planners.registry import PLANNERS
 from planning.scenario import builtin_scenarios, load_scenario
 from sim.cli.main import COMMANDS, build_parser, main
-from sim.cli.plan import path_spacing, raw_note, record_path
+from sim.cli.plan import clearance_text, path_spacing, raw_note, record_path
 
 KEYS = {
     "status", "planner", "time_s", "iterations", "length_m", "min_clearance_m", "path", "reason", "seed",
@@ -266,3 +266,9 @@ def test_the_simplifications_code_loading_is_named_only_when_it_took_a_milliseco
     assert raw_note(facts, {"simplify_code_s": 0.0004}) == " (raw 11.928 m, 1 -> 1 cusps, simplified in 91 ms)"
     assert raw_note(facts, {}) == raw_note(facts, {"simplify_code_s": 0.0})
     assert raw_note({**facts, "simplify_time_s": None}, {"simplify_code_s": 0.05}) == ""
+
+
+def test_a_clearance_the_checker_cannot_measure_is_printed_as_a_collision():
+    assert clearance_text(None) == "-"
+    assert clearance_text(0.0123) == "0.012 m" and clearance_text(-0.004) == "-0.004 m"
+    assert clearance_text(float("-inf")).startswith("in collision (an obstacle inside the robot's footprint")

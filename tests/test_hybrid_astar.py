@@ -284,7 +284,8 @@ def test_gap_too_narrow_for_the_body_exhausts_the_lattice():
     walls = (Box((4.0, 1.97), (0.1, 3.94)), Box((4.0, 5.03), (0.1, 1.94)))
     prob = _problem(world=World((0.0, 6.0, 0.0, 6.0), walls), goal=(5.4, 4.0, 0.0))
     res = make_planner("hybrid-a-star", search_from_goal=False).plan(prob)
-    assert res.status is PlanStatus.INFEASIBLE and "search expanded every reachable state" in res.reason
+    assert res.status is PlanStatus.INFEASIBLE and "search expanded every state it could reach" in res.reason
+    assert "0.05 m cells, 72 headings" in res.reason and "try cell_size = 0.025" in res.reason
     assert res.path.shape[1] == 3 and res.path.shape[0] >= 1
     # the search from the goal runs out of states first, but decides nothing: it reaches the start by
     # the analytic expansion alone, where the other leaves it by any primitive
@@ -432,3 +433,15 @@ def test_tables_that_cannot_be_allocated_end_the_plan_infeasible(monkeypatch):
     result = make_planner("hybrid-a-star").plan(PlanProblem.from_scenario(load_scenario("nav_map1")))
     assert result.status is PlanStatus.INFEASIBLE
     assert "could not be allocated" in result.reason and "cell_size = " in result.reason
+
+
+def test_a_gap_the_lattice_misses_is_found_with_the_finer_cells_its_reason_names():
+    # a 0.142 m gap in a wall, the EduMIP's body passes it: no path on 5 cm cells (one pose kept per cell),
+    # a path on the 2.5 cm cells the reason suggests
+    walls = (Box((2.8473, 2.0139), (0.2422, 4.0279)), Box((2.8473, 5.7421), (0.2422, 3.144)))
+    world = World((0.0, 5.6945, 0.0, 7.3141), walls)
+    prob = PlanProblem(world, load_robot("edumip"), Pose2D(2.2132, 1.258, -0.6716), Pose2D(3.597, 6.3417, -1.4287))
+    coarse = make_planner("hybrid-a-star").plan(prob)
+    assert coarse.status is PlanStatus.INFEASIBLE
+    assert "try cell_size = 0.025 in a [planners.hybrid-a-star]" in coarse.reason
+    _check_path(make_planner("hybrid-a-star", cell_size=0.025).plan(prob), prob)  # independent collision check

@@ -56,6 +56,8 @@ def test_solution_satisfies_dynamics_bounds_and_clearance(name: str) -> None:
     # and the nodes keep the requested margin (exact signed distances of planning.core.world).
     assert np.min(world.signed_distance(x[:, :2])) >= robot.radius + planner.margin - 1e-6
     assert np.min(world.signed_distance(res.path[:, :2])) >= robot.radius
+    # the clearance it reports is that one (walls included, as the record's)
+    assert res.stats["min_clearance"] == pytest.approx(np.min(world.signed_distance(res.path[:, :2])) - robot.radius)
     # The dense rollout (independent RK4 at 0.01 s) ends on the goal.
     assert res.stats["final_position_error"] < 1e-4
 

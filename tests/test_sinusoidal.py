@@ -150,7 +150,12 @@ def test_obstacle_in_the_way_is_infeasible_and_one_aside_is_not() -> None:
     res = Sinusoidal().plan(PlanProblem(blocked, robot, start, goal))
     assert res.status is PlanStatus.INFEASIBLE and "obstacle" in res.reason
     aside = World((0.0, 2.0, 0.0, 1.0), (Circle((0.9, 0.9), 0.05),))
-    assert Sinusoidal().plan(PlanProblem(aside, robot, start, goal)).success
+    res = Sinusoidal().plan(PlanProblem(aside, robot, start, goal))
+    assert res.success
+    # the reported clearance is the disc's from obstacles and walls alike: here the wall 0.3 m behind the start
+    # is nearer than the circle (0.4 m from the path)
+    assert res.stats["min_clearance"] == pytest.approx(np.min(aside.signed_distance(res.path[:, :2])) - robot.radius)
+    assert res.stats["min_clearance"] < np.min(aside.obstacle_distance(res.path[:, :2])) - robot.radius
 
 
 def test_same_problem_same_plan() -> None:

@@ -370,13 +370,29 @@ class HybridAStar:
             found = PlanResult(PlanStatus.SUCCESS, self.name, path=path, stats=stats, tree=tree, directions=dirs)
             return self._simplified(problem, setup, found)
         if outcome == lattice.EXHAUSTED:
-            status = PlanStatus.INFEASIBLE
-            reason = f"the lattice search expanded every reachable state ({its}) without reaching the goal"
+            status, reason = PlanStatus.INFEASIBLE, self._exhausted(problem, its)
         else:
             status = PlanStatus.TIMEOUT
             budget = f"iteration budget of {its}" if outcome == lattice.ITERATIONS else f"time budget of {limit:g} s"
             reason = f"{budget} spent; partial path to the expanded node nearest the goal"
         return PlanResult(status, self.name, path=path, reason=reason, stats=stats, tree=tree, directions=dirs)
+
+    def _exhausted(self, problem: PlanProblem, its: int) -> str:
+        """Why a search that expanded every state it could reach found no path, and what may: the lattice
+        keeps one pose per cell, so a way through a gap little wider than the robot may need finer cells
+        (half the size, where the machine has the memory for that lattice)."""
+        cell, bins = self.config.cell_size, self.config.angle_quantization_bins
+        said = (
+            f"the lattice search expanded every state it could reach ({its}) without reaching the goal: no path "
+            f"on this lattice ({cell:g} m cells, {bins} headings, one pose kept per cell), which does not show that "
+            "the robot has none"
+        )
+        if _lattice_too_large(problem, cell / 2, bins):
+            return f"{said}; a finer lattice would need more memory than this machine has: try another planner"
+        return (
+            f"{said}; a gap little wider than the robot may need finer cells: try cell_size = {cell / 2:g} in a "
+            "[planners.hybrid-a-star] table of the scenario, or another planner"
+        )
 
     def _simplified(self, problem: PlanProblem, setup: _Setup, found: PlanResult) -> PlanResult:
         """The lattice's path simplified as the sampling planners' paths are, with Reeds–Shepp curves of

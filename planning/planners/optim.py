@@ -629,7 +629,7 @@ class Optim:
     def _result(
         self, problem: PlanProblem, xv: FloatArray, uv: FloatArray, return_status: str, stats: dict[str, Any]
     ) -> PlanResult:
-        robot, world = problem.robot, problem.world
+        robot = problem.robot
         sub = max(1, math.ceil(self.dt / 0.01 - 1e-9))
         h = self.dt / sub
         u_dense = np.repeat(uv, sub, axis=0)
@@ -652,8 +652,7 @@ class Optim:
             max_abs_phi=float(np.max(np.abs(xv[:, 3]))),
             rollout_drift=float(np.max(np.abs(defect[:, :2]))) if defect.size else 0.0,
         )
-        if world.obstacles:
-            stats["min_clearance"] = float(np.min(world.obstacle_distance(path[:, :2])) - robot.radius)
+        stats["min_clearance"] = dense_clearance(problem, path)  # obstacles and walls, as the record's
         kw: dict[str, Any] = {
             "path": path,
             "times": times,

@@ -476,6 +476,8 @@ class Sinusoidal:
         problems = []
         wall = world.wall_distance(x[:, :2])
         stats["min_wall_clearance"] = float(np.min(wall) - r)
+        # the disc's clearance from obstacles and walls alike, as every planner's stats and the record mean it
+        stats["min_clearance"] = min(stats.get("min_clearance", np.inf), stats["min_wall_clearance"])
         if np.any(wall < r):
             j = int(np.argmax(wall < r))
             problems.append(

@@ -165,7 +165,7 @@ def run(args: argparse.Namespace) -> int:
         f"time            {facts['time_s']:.3f} s{grid_note(result.stats)}",
         f"iterations      {iterations if iterations is not None else '-'}",
         f"path length     {facts['length_m']:.3f} m{raw_note(facts, result.stats)}{partial}",
-        f"min clearance   {'-' if min_clear is None else f'{min_clear:.3f} m'}{partial}",
+        f"min clearance   {clearance_text(min_clear)}{partial}",
     ]
     if reason:
         lines.append(f"reason          {reason}")
@@ -236,6 +236,16 @@ def raw_note(facts: dict[str, Any], stats: dict[str, Any]) -> str:
         f" (raw {facts['raw_length_m']:.3f} m, {facts['raw_cusps']} -> {facts['cusps']} cusps, "
         f"simplified in {1e3 * facts['simplify_time_s']:.0f} ms{loading})"
     )
+
+
+def clearance_text(min_clear: float | None) -> str:
+    """The printed minimum clearance: metres, "-" without a path, and for the checker's -inf (an obstacle
+    inside the footprint, or the footprint outside the world's bounds) words that say so."""
+    if min_clear is None:
+        return "-"
+    if not np.isfinite(min_clear):
+        return "in collision (an obstacle inside the robot's footprint, or the robot outside the bounds)"
+    return f"{min_clear:.3f} m"
 
 
 def trusted_status(status: Any, reason: str, min_clearance: float | None) -> tuple[Any, str]:
