@@ -687,3 +687,16 @@ def test_an_interrupt_during_an_import_waits_for_the_module(tmp_path: Path, monk
         while True:
             time.sleep(0.001)
     assert sys.modules["slowmodule"].DONE  # the module was imported whole, then the interrupt came
+
+
+def test_a_closed_output_pipe_ends_the_command_quietly_with_141():
+    # `nhsim plan ... | head -1`: the reader goes away before the command has printed all its lines
+    cmd = [sys.executable, "-m", "sim", "plan", "--scenario", "farm", "--planner", "hybrid-a-star"]
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert proc.stdout is not None and proc.stderr is not None
+    first = proc.stdout.readline()  # the header line: the command is at work
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 141, err
+    assert first.startswith(b"scenario farm") and "Traceback" not in err and "BrokenPipe" not in err

@@ -18,6 +18,7 @@ import argparse
 import gc
 import importlib
 import importlib.util
+import os
 import re
 import sys
 from collections.abc import Collection, Sequence
@@ -104,7 +105,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     Exit codes: 0 success, 1 a run or check failed (a run failed its checks, a benchmark missed its
     target, a planner ended without a path or its plan could not be made into a trajectory),
     2 bad input (usage or a clear error message), 130 interrupted (Ctrl-C or SIGTERM, handled alike
-    for the whole command: :mod:`sim.cli.interrupt`).
+    for the whole command: :mod:`sim.cli.interrupt`), 141 its standard output closed before it was
+    done (``nhsim plan ... | head -3``: the command stops quietly, as one killed by SIGPIPE would).
     """
     from sim.cli.interrupt import sigterm_as_interrupt
 
@@ -114,6 +116,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         except KeyboardInterrupt:  # before a command was chosen (building the parser, parsing)
             print("nhsim: interrupted", file=sys.stderr)
             return 130
+        except BrokenPipeError:
+            # what is still buffered for the closed pipe goes nowhere, not into a second error at exit
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            return 141
 
 
 def console() -> int:
