@@ -259,3 +259,17 @@ def test_a_warm_start_of_one_pose_is_named_so() -> None:
     res = make_planner("optim").plan(PlanProblem.from_scenario(load_scenario("open")))
     assert res.success, res.reason
     assert res.stats["init"] == "straight (init planner 'sinusoidal' gave a single pose)"
+
+
+def test_a_gap_too_narrow_for_the_warm_starts_disc_is_named_in_the_reason() -> None:
+    # a 0.287 m gap in a wall: the NLP's disc (0.136 m) fits it, with the warm starts' extra centimetre it
+    # does not, and IPOPT fails from the straight line through the wall
+    walls = (Box((2.6255, 1.8391), (0.0665, 3.6781)), Box((2.6255, 5.1964), (0.0665, 2.4617)))
+    world = World((0.0, 5.251, 0.0, 6.4273), walls)
+    problem = PlanProblem(
+        world, load_robot("turtlebot3"), Pose2D(1.0357, 2.8591, -2.0057), Pose2D(3.2131, 2.8661, -2.606)
+    )
+    res = Optim().plan(problem)
+    assert not res.success and res.stats["init"] == "straight (no free route on the grid)"
+    assert "it started from a straight line, no free route on the grid: the disc optim keeps clear" in res.reason
+    assert "(radius 0.136 m" in res.reason and "(hybrid-a-star, rrt) may" in res.reason

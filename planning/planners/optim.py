@@ -474,7 +474,7 @@ class Optim:
             res = sol.result
             if not res.success:
                 if not (starts and self._worth_another_start(sol, problem, t0, init[0])):
-                    return sol
+                    return self._without_warm_start(problem, sol)
                 init = starts.pop(0)
                 sol = self._solve_with_margin(problem, self.margin + extra, t0, init)
                 continue
@@ -514,6 +514,23 @@ class Optim:
         if not problem.world.obstacles:
             return [("sinusoidal", {})]
         return [("hybrid-a-star", {"shape": "disc", "clearance": self.margin + 0.01}), ("grid", {})]
+
+    def _without_warm_start(self, problem: PlanProblem, sol: OptimSolution) -> OptimSolution:
+        """A failed solve, its reason saying so when it started from a straight line because its warm start
+        gave no path (``stats["init"]`` "straight (...)"): with obstacles, most often a gap the robot's disc
+        (the disc the NLP keeps clear, and the warm starts' extra centimetre) does not fit."""
+        res = sol.result
+        source = str(res.stats.get("init", ""))
+        if not source.startswith("straight (") or not problem.world.obstacles:
+            return sol
+        disc = problem.robot.radius + self.margin
+        reason = (
+            f"{res.reason}; it started from a straight line, {source[len('straight (') : -1]}: the disc optim keeps "
+            f"clear (radius {disc:.3f} m, the robot's {problem.robot.radius:.3f} m and the margin) may not pass this "
+            "world's gaps, with the 1 cm the warm starts add; planners that check the footprint itself "
+            "(hybrid-a-star, rrt) may"
+        )
+        return OptimSolution(dataclasses.replace(res, reason=reason), sol.nodes, sol.inputs)
 
     @staticmethod
     def _worth_another_start(sol: OptimSolution, problem: PlanProblem, t0: float, init: str) -> bool:
