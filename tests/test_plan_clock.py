@@ -181,3 +181,14 @@ def test_a_new_process_compiles_nothing_the_disk_cache_holds() -> None:
         out = subprocess.run([sys.executable, "-c", _COMPILES, *argv], capture_output=True, text=True, env=env,
                              cwd=ROOT, check=True)  # fmt: skip
     assert out.stdout.splitlines()[-1] == "COMPILED 0 []"
+
+
+def test_an_iteration_budget_spent_early_says_what_more_time_would_take() -> None:
+    early = Budget(5, time_limit=10.0, planner="birrt")
+    assert early.why(5).startswith("iteration budget of 5 spent in ")
+    assert "of the 10 s time limit (a larger max_iterations in a [planners.birrt] table of the scenario" in early.why(5)
+    assert early.why(3) == "time budget of 10 s spent after 3 iterations"
+    late = Budget(5, time_limit=1e-3, planner="birrt")
+    while late.clock.remaining() > 0:  # the time limit spent too: nothing more to advise
+        pass
+    assert late.why(5) == "iteration budget of 5 spent"

@@ -147,7 +147,8 @@ class _TreePlanner(Generic[ConfigT]):
         """The run's local planner and budget, and an INVALID_START / INVALID_GOAL result when an end
         pose collides (else None)."""
         cfg = self.config
-        budget = Budget(cfg.max_iterations, cfg.time_limit if cfg.time_limit is not None else problem.time_limit)
+        limit = cfg.time_limit if cfg.time_limit is not None else problem.time_limit
+        budget = Budget(cfg.max_iterations, limit, planner=self.name)
         local = self._local_planner(problem, budget)
         return local, budget, check_endpoints(problem, local.checker, self.name)
 

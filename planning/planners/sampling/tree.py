@@ -157,6 +157,7 @@ class Budget:
     time_limit: float
     clock: PlanClock = field(init=False, repr=False)
     grid_s: float = 0.0  # of the time spent, getting the collision grid [s]
+    planner: str = ""  # the planner's registered name, for the advice of :meth:`why`
 
     def __post_init__(self) -> None:
         if self.max_iterations < 1:
@@ -179,10 +180,17 @@ class Budget:
         return iteration >= self.max_iterations or (iteration % 16 == 0 and self.clock.expired())
 
     def why(self, iteration: int) -> str:
-        """Which budget ended the run."""
-        if iteration >= self.max_iterations:
-            return f"iteration budget of {self.max_iterations} spent"
-        return f"time budget of {self.time_limit:g} s spent after {iteration} iterations"
+        """Which budget ended the run; for the iteration budget, with time left, what more time would take."""
+        if iteration < self.max_iterations:
+            return f"time budget of {self.time_limit:g} s spent after {iteration} iterations"
+        said = f"iteration budget of {self.max_iterations} spent"
+        if self.clock.remaining() < 0.1 * self.time_limit:
+            return said
+        table = f"[planners.{self.planner}]" if self.planner else "[planners.NAME]"
+        return (
+            f"{said} in {self.clock.working():.2g} s of the {self.time_limit:g} s time limit (a larger max_iterations "
+            f"in a {table} table of the scenario, or another seed, may find a path)"
+        )
 
 
 def make_checker(problem: PlanProblem, shape: Shape, clearance: float, deadline: float | None = None) -> FastChecker:
