@@ -27,7 +27,7 @@ from planning.core.maps import load_map_table
 from planning.core.robot import MODELS_DIR, ROBOT_FILES, load_robot
 from planning.core.scenario_type import DEFAULT_HEADING_TOLERANCE, DEFAULT_POSITION_TOLERANCE, Scenario
 from planning.core.tables import TableReader
-from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon, World
+from planning.core.world import MIN_FEATURE, Box, Circle, Ellipse, Obstacle, Polygon, World
 from planning.errors import ConfigError, ScenarioError
 
 SCENARIOS_DIR = MODELS_DIR / "scenarios"
@@ -213,20 +213,41 @@ def _world(r: TableReader, table: Any, base_dir: Path) -> World:
     if not isinstance(obs_list, list):
         raise r.fail("world.obstacles", "an array of tables ([[world.obstacles]])", obs_list)
     obstacles = [_obstacle(r, ot, f"world.obstacles[{i}].") for i, ot in enumerate(obs_list)]
+    bounds = (xmin, xmax, ymin, ymax)
     for i, ob in enumerate(obstacles):
-        bx0, bx1, by0, by1 = ob.bounding_box()
-        if bx1 <= xmin or bx0 >= xmax or by1 <= ymin or by0 >= ymax:  # it could never be met: a typo?
+        if _outside(ob, bounds):  # it could never be met: a typo?
+            bx0, bx1, by0, by1 = ob.bounding_box()
             raise ScenarioError(
                 f"{r.where}: field 'world.obstacles[{i}]': this {ob.kind} lies wholly outside the world "
-                f"bounds {[xmin, xmax, ymin, ymax]} (its box spans x {bx0:g}..{bx1:g}, y {by0:g}..{by1:g}); "
+                f"bounds {list(bounds)} (its box spans x {bx0:g}..{bx1:g}, y {by0:g}..{by1:g}); "
                 "move it inside, or remove it"
+            )
+        if ob.min_feature < MIN_FEATURE:
+            raise ScenarioError(
+                f"{r.where}: field 'world.obstacles[{i}]': this {ob.kind} is {ob.min_feature:.3g} m across, "
+                f"less than the {MIN_FEATURE * 1e3:g} mm the collision checker resolves (it samples motions at a "
+                "quarter of the smallest obstacle); make it larger, or remove it"
             )
     if "map" in table:
         loader = MAP_LOADERS.get("image")
         if loader is None:
             raise r.fail("world.map", "no map loader is available in this installation")
-        obstacles.extend(loader(table["map"], base_dir, r.where))
-    return World((xmin, xmax, ymin, ymax), tuple(obstacles))
+        mapped = loader(table["map"], base_dir, r.where)
+        if mapped and all(_outside(ob, bounds) for ob in mapped):
+            raise ScenarioError(
+                f"{r.where}: table 'world.map': every obstacle of the map lies outside the world bounds "
+                f"{list(bounds)} (the map's occupied pixels span x {min(o.bounding_box()[0] for o in mapped):g}.."
+                f"{max(o.bounding_box()[1] for o in mapped):g}, y {min(o.bounding_box()[2] for o in mapped):g}.."
+                f"{max(o.bounding_box()[3] for o in mapped):g}); check its origin and resolution"
+            )
+        obstacles.extend(mapped)
+    return World(bounds, tuple(obstacles))
+
+
+def _outside(ob: Obstacle, bounds: tuple[float, float, float, float]) -> bool:
+    """Whether obstacle ``ob`` lies wholly outside ``bounds`` (xmin, xmax, ymin, ymax): it could never be met."""
+    bx0, bx1, by0, by1 = ob.bounding_box()
+    return bx1 <= bounds[0] or bx0 >= bounds[1] or by1 <= bounds[2] or by0 >= bounds[3]
 
 
 def _check_free(r: TableReader, world: World, label: str, pose: Pose2D) -> None:

@@ -151,6 +151,14 @@ def test_scenario_map_table(tmp_path):
     assert max(o.bounding_box()[3] for o in sc.world.obstacles) == pytest.approx(-0.5 + 4.5)
 
 
+def test_a_map_whose_obstacles_all_lie_outside_the_bounds_is_refused(tmp_path):
+    # an origin or resolution typo: the map's boxes would be silently left out of the world
+    Image.fromarray(edumip_map_image()).save(tmp_path / "map.png")
+    with pytest.raises(ScenarioError, match=r"table 'world.map': every obstacle of the map lies outside") as err:
+        load_scenario_file(_scenario(tmp_path, 'image = "../map.png"\nresolution = 0.01\norigin = [10.0, 10.0]'))
+    assert "check its origin and resolution" in str(err.value)
+
+
 @pytest.mark.parametrize(
     ("table", "message"),
     [

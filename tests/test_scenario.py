@@ -102,6 +102,11 @@ def test_name_defaults_to_the_file_stem(tmp_path: Path) -> None:
             ("center = [1.0, 0.5]", "center = [10.0, 10.0]"),
             r"'world.obstacles\[0\]': this circle lies wholly outside the world bounds .*move it inside",
         ),
+        # an obstacle thinner than the checker resolves: its step would be a quarter of it
+        (
+            ("radius = 0.3", "radius = 1e-9"),
+            r"'world.obstacles\[0\]': this circle is 2e-09 m across, less than the 1 mm",
+        ),
     ],
 )
 def test_bad_files_fail_with_file_field_and_expectation(tmp_path: Path, edit: tuple[str, str], match: str) -> None:

@@ -302,6 +302,12 @@ def _perimeter(v: FloatArray) -> float:
 Obstacle = Circle | Ellipse | Box | Polygon
 
 
+#: Smallest obstacle extent a world takes [m]: the exact collision checker samples motions at a quarter
+#: of the smallest one (:attr:`planning.collision.exact.CollisionChecker.resolution`), and a thinner one
+#: would have it sample a path finer than memory holds (1e-9 m: 10^9 samples a metre).
+MIN_FEATURE = 1e-3
+
+
 @dataclass(frozen=True)
 class World:
     """A rectangular arena with walls on its edges and obstacles inside.
@@ -325,6 +331,13 @@ class World:
             raise ConfigError(f"bounds need xmin < xmax and ymin < ymax, got {b}")
         object.__setattr__(self, "bounds", b)
         object.__setattr__(self, "obstacles", tuple(self.obstacles))
+        for i, ob in enumerate(self.obstacles):
+            if ob.min_feature < MIN_FEATURE:
+                raise ConfigError(
+                    f"obstacle {i} ({ob.kind}) is {ob.min_feature:.3g} m across, less than the "
+                    f"{MIN_FEATURE * 1e3:g} mm the collision checker resolves (it samples motions at a quarter of "
+                    "the smallest obstacle); make it larger, or leave it out"
+                )
 
     @property
     def width(self) -> float:
