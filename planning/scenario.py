@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from planning.core.geometry import Pose2D
+from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.maps import load_map_table
 from planning.core.robot import MODELS_DIR, ROBOT_FILES, load_robot
 from planning.core.scenario_type import DEFAULT_HEADING_TOLERANCE, DEFAULT_POSITION_TOLERANCE, Scenario
@@ -102,8 +102,22 @@ def _planner_options(r: TableReader, table: Any) -> dict[str, dict[str, Any]]:
     return out
 
 
+#: Largest heading a scenario's pose may give [rad]: a larger one is a typo or degrees, not a direction.
+MAX_HEADING = 4.0 * np.pi
+
+
 def _pose(r: TableReader, table: Mapping[str, Any], ctx: str) -> Pose2D:
-    return Pose2D(*r.vector(table, "pose", ctx, 3))
+    """A ``pose = [x, y, theta]`` field, its heading brought into (-pi, pi] (a pose's direction, whatever turn
+    it was written with: 7 rad is 0.717 rad; one already in it is kept as written, bit for bit); one beyond
+    :data:`MAX_HEADING` is refused."""
+    x, y, theta = r.vector(table, "pose", ctx, 3)
+    if abs(theta) > MAX_HEADING:
+        degrees = f"; {theta:g} degrees would be {np.radians(theta):.4g} rad" if abs(theta) <= 720 else ""
+        raise r.fail(f"{ctx}pose", f"[x, y, theta] with theta in radians within +-4 pi{degrees}", table["pose"])
+    if not -np.pi < theta <= np.pi:
+        theta = float(wrap_angle(theta))
+        theta = np.pi if theta == -np.pi else theta
+    return Pose2D(x, y, theta)
 
 
 def parse_scenario(data: Mapping[str, Any], *, where: str, default_name: str, base_dir: Path) -> Scenario:

@@ -244,8 +244,13 @@ def _check_loaded(sc: Scenario, doc: Doc) -> None:
     data = doc.data
     if doc.garble is None:  # a garbled text may still parse, but to a document other than ``data``
         assert list(sc.world.bounds) == data["world"]["bounds"]
-        assert list(sc.start.as_array()) == data["start"]["pose"]
-        assert list(sc.goal.as_array()) == data["goal"]["pose"]
+        for pose, written in ((sc.start, data["start"]["pose"]), (sc.goal, data["goal"]["pose"])):
+            assert [pose.x, pose.y] == written[:2]
+            # the heading's direction, in (-pi, pi]: as written when it was in it already
+            assert -math.pi < pose.theta <= math.pi
+            if -math.pi < written[2] <= math.pi:
+                assert pose.theta == written[2]
+            assert abs(math.remainder(pose.theta - written[2], 2 * math.pi)) < 1e-9
         assert len(sc.world.obstacles) >= len(data["world"].get("obstacles", []))
     numbers = [*sc.world.bounds, *sc.start.as_array(), *sc.goal.as_array(), sc.position_tolerance, sc.heading_tolerance]
     assert all(math.isfinite(v) for v in numbers), numbers

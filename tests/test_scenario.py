@@ -2,6 +2,7 @@
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from planning.core.world import Box, Circle, Ellipse, Polygon
@@ -102,6 +103,9 @@ def test_name_defaults_to_the_file_stem(tmp_path: Path) -> None:
             ("center = [1.0, 0.5]", "center = [10.0, 10.0]"),
             r"'world.obstacles\[0\]': this circle lies wholly outside the world bounds .*move it inside",
         ),
+        # a heading in degrees, or a typo: refused; one within 4 pi is a direction (below)
+        (("pose = [-2.5, -2.5, 0.0]", "pose = [-2.5, -2.5, 90]"), r"'start.pose'.*4 pi; 90 degrees would be 1.571 rad"),
+        (("pose = [2.5, 2.5, 1.57]", "pose = [2.5, 2.5, 1e12]"), r"'goal.pose'.*within \+-4 pi, got"),
         # an obstacle thinner than the checker resolves: its step would be a quarter of it
         (
             ("radius = 0.3", "radius = 1e-9"),
@@ -179,3 +183,13 @@ def test_bad_planner_options_name_the_field(tmp_path: Path, table: str, match: s
     with pytest.raises(ScenarioError, match=match) as err:
         load_scenario(path)
     assert str(path) in str(err.value)
+
+
+def test_headings_are_brought_into_minus_pi_to_pi_and_kept_there_as_written(tmp_path: Path) -> None:
+    sc = load_scenario(_write(tmp_path, GOOD.replace("pose = [-2.5, -2.5, 0.0]", "pose = [-2.5, -2.5, 7.0]")))
+    assert sc.start.theta == pytest.approx(7.0 - 2 * np.pi)
+    sc = load_scenario(_write(tmp_path, GOOD.replace("pose = [-2.5, -2.5, 0.0]", "pose = [-2.5, -2.5, -3.5]")))
+    assert sc.start.theta == pytest.approx(2 * np.pi - 3.5)
+    for written in (np.pi, -np.pi, 1.57, -3.0):  # in (-pi, pi] already, or -pi: pi
+        text = GOOD.replace("pose = [2.5, 2.5, 1.57]", f"pose = [2.5, 2.5, {written!r}]")
+        assert load_scenario(_write(tmp_path, text)).goal.theta == (np.pi if written == -np.pi else written)
