@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from control.estimation import amcl_kernels as K
-from control.estimation.amcl import Amcl, AmclConfig, beam_subset, likelihood_field
+from control.estimation.amcl import GRID_MARGIN, MAX_FIELD_CELLS, Amcl, AmclConfig, beam_subset, likelihood_field
 from planning.core.robot import load_robot
 from planning.core.world import Box, Circle, World
 from planning.errors import ConfigError
@@ -202,3 +202,15 @@ def test_tracks_a_driving_robot_on_exact_scans(scanner: tuple) -> None:
     assert np.sqrt(np.mean(errs_a[:, 0] ** 2)) < 0.01  # the scan's skew over a revolution is what is left
     assert np.sqrt(np.mean(errs_a[:, 1] ** 2)) < math.radians(0.5)
     assert 500 <= amcl.particles.shape[0] <= 2000
+
+
+def test_a_field_larger_than_it_builds_is_refused_before_any_memory_with_the_resolution_that_fits() -> None:
+    # a 1000 x 1000 m world at 0.025 m: 1.6e9 cells (it took all of the machine's memory); refused at once
+    huge = World((-500.0, 500.0, -500.0, 500.0), (Circle((0.0, 0.0), 0.3),))
+    with pytest.raises(
+        ConfigError, match=r"1.6e\+09 cells.*--amcl map_resolution=0.264\) or with the synthetic"
+    ) as err:
+        likelihood_field(huge, 0.025, 2.0)
+    fits = float(str(err.value).split("map_resolution=")[1].split(")")[0])
+    nx = math.ceil((1000.0 + 2 * GRID_MARGIN) / fits) + 1
+    assert nx * nx <= MAX_FIELD_CELLS  # the resolution it names builds

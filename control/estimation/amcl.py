@@ -232,6 +232,11 @@ class LikelihoodField:
     free: FloatArray
 
 
+#: Most cells of the likelihood field (:func:`likelihood_field`): building it takes about 100 bytes a cell
+#: (its tables and their making), so this is about 1.6 GB, a 100 x 100 m world at the default 0.025 m.
+MAX_FIELD_CELLS = 16_000_000
+
+
 @functools.lru_cache(maxsize=8)
 def likelihood_field(world: World, resolution: float, cap: float, clearance: float = 0.1) -> LikelihoodField:
     """The world's signed distance (walls included) on a grid of spacing ``resolution`` [m], reaching
@@ -242,11 +247,23 @@ def likelihood_field(world: World, resolution: float, cap: float, clearance: flo
         resolution: Grid spacing [m].
         cap: Largest distance kept (``laser_likelihood_max_dist``) [m].
         clearance: Free cells are at least this far from obstacles and walls [m].
+
+    Raises:
+        ConfigError: The grid would have more than :data:`MAX_FIELD_CELLS` cells (the message names the
+            coarsest ``map_resolution`` that fits, and the other localiser).
     """
     m = GRID_MARGIN
     xmin, xmax, ymin, ymax = (float(v) for v in np.asarray(world.bounds) + np.array([-m, m, -m, m]))
     nx = math.ceil((xmax - xmin) / resolution) + 1
     ny = math.ceil((ymax - ymin) / resolution) + 1
+    if nx * ny > MAX_FIELD_CELLS:
+        fits = math.ceil(math.sqrt((xmax - xmin) * (ymax - ymin) / (0.9 * MAX_FIELD_CELLS)) * 1000.0) / 1000.0
+        raise ConfigError(
+            f"the scan localiser's likelihood field of this {world.width:g} x {world.height:g} m world at "
+            f"map_resolution {resolution:g} m has {nx * ny:.3g} cells, more than the {MAX_FIELD_CELLS:.3g} it "
+            f"builds (about {100 * nx * ny / 1e9:.3g} GB); localise on a coarser map (--amcl map_resolution={fits:g}) "
+            "or with the synthetic fixes (--localiser fixes)"
+        )
     xx, yy = np.meshgrid(xmin + resolution * np.arange(nx), ymin + resolution * np.arange(ny), indexing="ij")
     pts = np.ascontiguousarray(np.column_stack([xx.ravel(), yy.ravel()]))
     sd = signed_distances(world, pts, resolution).reshape(nx, ny)
