@@ -179,22 +179,29 @@ def test_a_line_is_fitted_to_the_room_of_open_for_every_robot(
     assert np.array_equal(unchanged[0].pose, unchanged[1].pose)  # a line that fits is left as it was
 
 
-def test_only_the_closed_loop_ending_early_fails_the_command() -> None:
-    """A balancing robot's open loop or dead reckoning that falls (as an open loop's collision) is a
-    comparison, reported on stderr; the closed loop falling, or any run without a closed loop, fails."""
+def test_only_the_closed_loop_ending_early_or_colliding_fails_the_command() -> None:
+    """A balancing robot's open loop or dead reckoning that falls, or an open loop that hits something, is a
+    comparison, reported on stderr; the closed loop falling or colliding, or any run without a closed loop,
+    fails."""
     from types import SimpleNamespace
 
-    from sim.cli.simulate import ended_early
+    from sim.cli.simulate import run_verdicts
     from sim.pipeline.runs import RunKind
 
-    def run(status: str) -> SimpleNamespace:
-        return SimpleNamespace(metrics=SimpleNamespace(status=status))
+    def run(status: str, collisions: int = 0) -> SimpleNamespace:
+        return SimpleNamespace(metrics=SimpleNamespace(status=status, collisions=collisions))
 
     fell = "fell at t=12.960 s"
     runs = {RunKind.CLOSED_LOOP: run("ok"), RunKind.CLOSED_LOOP_ODOMETRY: run(fell), RunKind.OPEN_LOOP: run(fell)}
-    failures, notes = ended_early(runs)
+    failures, notes = run_verdicts(runs)
     assert failures == [] and len(notes) == 2 and all("reported, not judged" in n for n in notes)
-    failures, notes = ended_early({**runs, RunKind.CLOSED_LOOP: run(fell)})
+    failures, notes = run_verdicts({**runs, RunKind.CLOSED_LOOP: run(fell)})
     assert failures == [f"{RunKind.CLOSED_LOOP}: {fell}"] and len(notes) == 2
-    failures, notes = ended_early({RunKind.OPEN_LOOP: run(fell)})  # the only run: judged
+    failures, notes = run_verdicts({RunKind.OPEN_LOOP: run(fell)})  # the only run: judged
     assert failures == [f"{RunKind.OPEN_LOOP}: {fell}"] and notes == []
+    # collisions: the closed loop's judged, the open loop's reported beside it and judged alone
+    failures, notes = run_verdicts({RunKind.CLOSED_LOOP: run("ok", 1), RunKind.OPEN_LOOP: run("ok", 4)})
+    assert failures == [f"{RunKind.CLOSED_LOOP} run touched an obstacle (1 time)"]
+    assert notes == [f"{RunKind.OPEN_LOOP} run touched an obstacle (4 times) (a comparison run: reported, not judged)"]
+    failures, notes = run_verdicts({RunKind.OPEN_LOOP: run("ok", 4)})
+    assert failures == [f"{RunKind.OPEN_LOOP} run touched an obstacle (4 times)"] and notes == []

@@ -53,7 +53,8 @@ DESCRIPTION = (
     "when the plan fails or the closed loop ends early (a balancing robot falls, the estimate is lost) "
     "(the missed target, the reason or the fall time on stderr); 2 on bad input. Beside the closed loop "
     "the other runs are comparisons: their collisions, falls or lost estimates are reported on stderr, "
-    "not judged (without a closed loop, every run is judged)."
+    "not judged (without a closed loop, every run's collisions, falls and lost estimates are judged; a "
+    "target is the closed loop's alone)."
 )
 
 
@@ -532,12 +533,10 @@ def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
     for path in write_outputs(result, outputs, record).values():
         if not args.quiet:
             print(f"wrote {path}")
-    failures, notes = ended_early(result.runs)
+    failures, notes = run_verdicts(result.runs)
     for line in notes:
         print(line, file=sys.stderr)
     closed = result.runs.get(RunKind.CLOSED_LOOP)
-    if closed is not None and closed.metrics.collisions > 0:
-        failures.append("closed-loop run touched an obstacle")
     if closed is not None:
         planned = result.source.startswith(("planner:", "file:"))  # a file is tracked and judged as a plan
         failures += missed_targets(closed.metrics, result.scenario, planned=planned)
@@ -547,23 +546,26 @@ def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
     return 0 if clean and not failures else 1
 
 
-def ended_early(runs: Mapping[RunKind, Any]) -> tuple[list[str], list[str]]:
-    """The runs that ended early (a fall, a lost estimate), as lines for stderr: (judged, reported).
+def run_verdicts(runs: Mapping[RunKind, Any]) -> tuple[list[str], list[str]]:
+    """The runs that ended early (a fall, a lost estimate) or touched an obstacle, as lines for stderr:
+    (judged, reported).
 
-    With a closed loop, the other runs (dead reckoning, open loop, ground truth) are comparisons:
-    their ending early is reported, not judged, as an open loop's collision is not. Without one,
-    every run is judged.
+    With a closed loop, the other runs (dead reckoning, open loop, ground truth) are comparisons: what
+    they hit or where they ended early is reported, not judged. Without one, every run is judged.
+    (Targets are the closed loop's: :func:`sim.pipeline.sweep.missed_targets`.)
     """
     judged = [RunKind.CLOSED_LOOP] if RunKind.CLOSED_LOOP in runs else list(runs)
     failures: list[str] = []
     notes: list[str] = []
     for kind, run_ in runs.items():
-        if run_.metrics.status == "ok":
-            continue
+        said = [] if run_.metrics.status == "ok" else [f"{kind}: {run_.metrics.status}"]
+        if run_.metrics.collisions > 0:
+            n = run_.metrics.collisions
+            said.append(f"{kind} run touched an obstacle ({n} time{'s' if n != 1 else ''})")
         if kind in judged:
-            failures.append(f"{kind}: {run_.metrics.status}")
+            failures += said
         else:
-            notes.append(f"{kind}: {run_.metrics.status} (a comparison run: reported, not judged)")
+            notes += [f"{line} (a comparison run: reported, not judged)" for line in said]
     return failures, notes
 
 
