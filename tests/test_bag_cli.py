@@ -68,3 +68,25 @@ def test_a_bag_of_a_sweep_is_refused(
     assert main(["simulate", "--all", "--bag", "b", "--no-video"]) == 2
     assert "--bag writes one job's runs" in capsys.readouterr().err
     assert not (tmp_path / "b").exists()
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["simulate", "--reference", "line", "--runs", "closed_loop", "--no-video", "--quiet"],
+        ["compare", "--reference", "line", "--trackers", "fbl", "--quiet"],
+    ],
+)
+def test_a_file_output_at_the_bags_path_is_refused_before_any_work(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str]
+) -> None:
+    for json_path, bag in (("out.json", "out.json"), ("out/run.json", "out")):  # the same path, or inside it
+        assert main([*argv, "--json", str(tmp_path / json_path), "--bag", str(tmp_path / bag)]) == 2
+        assert f"and --bag {tmp_path / bag} share a path" in capsys.readouterr().err
+        assert list(tmp_path.iterdir()) == []  # nothing run, nothing written
+
+
+def test_compare_refuses_a_video_that_is_not_mp4(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    video = tmp_path / "all.avi"
+    assert main(["compare", "--reference", "line", "--trackers", "fbl", "--quiet", "--video", str(video)]) == 2
+    assert "--video must name an .mp4 file" in capsys.readouterr().err and not video.exists()

@@ -63,6 +63,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 def _outputs(args: argparse.Namespace) -> dict[str, Path]:
     """The files asked for, checked writable before anything runs."""
+    from planning.errors import ConfigError
     from sim.outputs import check_writable
 
     out: dict[str, Path] = {}
@@ -72,12 +73,15 @@ def _outputs(args: argparse.Namespace) -> dict[str, Path]:
         out["paths"], out["errors"] = Path(f"{args.plots}-paths.png"), Path(f"{args.plots}-errors.png")
     if args.video:
         out["video"] = Path(args.video)
+    if args.video and Path(args.video).suffix.lower() != ".mp4":
+        raise ConfigError(f"--video must name an .mp4 file, got {args.video}")
     for path in out.values():
         check_writable(path, overwrite=args.overwrite)
     if args.bag is not None:
-        from sim.io.bag import check_bag_target
+        from sim.io.bag import check_bag_apart, check_bag_target
 
         check_bag_target(args.bag, overwrite=args.overwrite)
+        check_bag_apart(args.bag, out.values())
         out["bag"] = args.bag
     return out
 

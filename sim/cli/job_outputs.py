@@ -275,11 +275,12 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str, own_ro
     json_path = args.json if args.json is not None else base_dir / f"{base}.json"
     bag = getattr(args, "bag", None)
     plan = OutputPlan(stem, video, plots, json_path, settings, args.overwrite, show_progress(args), bag=bag)
+    targets = plan.targets()
     if bag is not None:
-        from sim.io.bag import check_bag_target
+        from sim.io.bag import check_bag_apart, check_bag_target
 
         check_bag_target(bag, overwrite=args.overwrite)
-    targets = plan.targets()
+        check_bag_apart(bag, targets)
     if len({p.resolve() for p in targets}) != len(targets):
         raise ConfigError(f"two outputs share a path: {', '.join(map(str, targets))}; choose distinct names")
     for path in targets:

@@ -15,7 +15,7 @@ import re
 import shutil
 import tempfile
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -85,7 +85,26 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
                 f"cannot replace {path}: it is a folder that holds files but no rosbag2 metadata.yaml, so not a bag "
                 "this command wrote; choose another --bag folder"
             )
-    check_writable(path.parent / f".{path.name}.probe", overwrite=True)
+    probe = path.parent / f".{path.name}.probe"
+    try:
+        check_writable(probe, overwrite=True)
+    except ConfigError as exc:  # named as the bag, not as the probe's file name
+        raise ConfigError(str(exc).replace(str(probe), f"the bag {path}")) from None
+
+
+def check_bag_apart(bag: Path, files: Iterable[Path]) -> None:
+    """Check, before any work, that no file output of the same command is the bag folder or lies inside it.
+
+    Raises:
+        ConfigError: Naming the file and the bag.
+    """
+    folder = Path(bag).resolve()
+    for f in files:
+        target = Path(f).resolve()
+        if target == folder or folder in target.parents:
+            raise ConfigError(
+                f"{f} and --bag {bag} share a path (the bag is a folder of that name); choose distinct names"
+            )
 
 
 def latched_qos() -> Any:
