@@ -323,6 +323,18 @@ def test_the_settings_tag_names_non_default_settings_and_gains_files_by_content(
     assert settings_tag(parse(["simulate", "--gains", str(a)])) != settings_tag(parse(["simulate", "--gains", str(b)]))
 
 
+def test_a_scenario_name_cannot_lead_the_outputs_out_of_their_folder(tmp_path: Path) -> None:
+    from sim.cli.job_outputs import DEFAULT_DIR, file_safe, plan_outputs
+    from sim.cli.main import build_parser
+
+    assert file_safe("../../escaped") == "_.._escaped" and file_safe("ümlaut name") == "ümlaut_name"
+    assert file_safe("edumip_map") == "edumip_map" and file_safe("c-rrt-star") == "c-rrt-star"
+    args = build_parser().parse_args(["simulate", "--no-video"])
+    plan = plan_outputs(args, scenario="../../escaped", source="rrt", own_robot="turtlebot3")
+    assert plan.json == DEFAULT_DIR / "_.._escaped-rrt.json"
+    assert all(p.parent == DEFAULT_DIR for p in plan.targets())
+
+
 def test_the_pitch_plot_is_planned_for_a_balancing_robot(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     from sim.cli.job_outputs import plan_outputs
     from sim.cli.main import build_parser

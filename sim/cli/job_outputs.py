@@ -215,13 +215,21 @@ def settings_tag(args: argparse.Namespace) -> str:
     return hashlib.sha1(json.dumps(changed, sort_keys=True).encode()).hexdigest()[:6]
 
 
+def file_safe(name: str) -> str:
+    """``name`` as one file name's part: letters (any script), digits and ``._+-`` kept, anything else (a
+    path separator, a space, a control character) as ``_``, no leading dot; so a scenario named
+    ``../../x`` writes ``_.._x-...`` in the output folder, not two folders up."""
+    safe = "".join(c if c.isalnum() or c in "._+-" else "_" for c in name).lstrip(".")
+    return safe or "_"
+
+
 def output_stem(args: argparse.Namespace, *, scenario: str, source: str, own_robot: str | None = None) -> str:
     """``<scenario>-<source>[-<robot>][-<tag>]``: the robot when it is not the scenario's own (``own_robot``,
     else the robot of the built-in scenario of that name), the tag (:func:`settings_tag`) when a run
     setting is not at its default."""
     from planning.scenario import load_scenario
 
-    stem = f"{scenario}-{source}"
+    stem = f"{file_safe(scenario)}-{file_safe(source)}"
     robot = getattr(args, "robot", None)
     if robot is not None and robot != (own_robot or load_scenario(scenario).robot):
         stem += f"-{robot}"

@@ -120,10 +120,12 @@ def _spec(args: argparse.Namespace) -> Any:
 
 
 def _paths(args: argparse.Namespace, spec: Any, scenario: str, robot: str, own_robot: str) -> dict[str, Path]:
+    from sim.cli.job_outputs import file_safe
+
     key = spec.key()
     tag = hashlib.sha1(json.dumps(key, sort_keys=True).encode()).hexdigest()[:6]
     source = Path(key["source"].split(":", 1)[1]).stem or "default"  # a file's stem, not its path
-    stem = f"{scenario}-{source}" + (f"-{robot}" if robot != own_robot else "") + f"-mc-{tag}"
+    stem = f"{file_safe(scenario)}-{file_safe(source)}" + (f"-{robot}" if robot != own_robot else "") + f"-mc-{tag}"
     out = {"results": args.results or DEFAULT_DIR / f"{stem}.jsonl", "json": args.json or DEFAULT_DIR / f"{stem}.json"}
     if args.plots:
         base = out["json"]
