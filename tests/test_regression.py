@@ -171,3 +171,17 @@ def test_a_baselines_folder_that_cannot_serve_is_refused_before_any_case_runs(
         assert main(["regress", *args, *case]) == 2
         assert message in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["baselines.txt"]  # nothing written
+
+
+def test_a_suite_with_no_fast_case_refuses_the_default_run_that_would_check_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    suite = tmp_path / "suite.toml"
+    suite.write_text(
+        'cases = [ { scenario = "open", robot = "edumip", reference = "line", tracker = "fbl", seed = 0 } ]\n'
+    )
+    for extra in ([], ["--update"], ["--list"]):
+        assert main(["regress", "--suite", str(suite), "--baselines", str(tmp_path / "bl"), *extra]) == 2
+        assert "none of the suite's 1 case(s) is marked fast = true" in capsys.readouterr().err
+    assert not (tmp_path / "bl").exists()
+    assert len(load_suite(suite).select(all_cases=True)) == 1

@@ -123,7 +123,8 @@ class Suite:
         ``all_cases``, else the fast subset.
 
         Raises:
-            ConfigError: A pattern matches no case.
+            ConfigError: A pattern matches no case, or (the default) none is fast: a run that would
+                check nothing, and pass.
         """
         if patterns:
             out = [c for c in self.cases if any(fnmatch.fnmatchcase(c.name, p) for p in patterns)]
@@ -131,7 +132,13 @@ class Suite:
                 names = ", ".join(c.name for c in self.cases)
                 raise ConfigError(f"--case {','.join(patterns)} matches no case; the suite has: {names}")
             return out
-        return list(self.cases) if all_cases else [c for c in self.cases if c.fast]
+        out = list(self.cases) if all_cases else [c for c in self.cases if c.fast]
+        if not out:
+            raise ConfigError(
+                f"none of the suite's {len(self.cases)} case(s) is marked fast = true, so the default run would check "
+                "nothing; run them all with --all, some with --case PATTERN, or mark the quick ones fast = true"
+            )
+        return out
 
 
 def _case_from_table(entry: Any, where: str) -> Case:
