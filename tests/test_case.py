@@ -56,3 +56,21 @@ def test_a_reference_gets_no_hold_and_a_reference_that_does_not_fit_is_refused()
     assert prepared.trajectory.start_pose == prepared.scenario.start
     with pytest.raises(ScenarioError, match=r"comes within .* of an obstacle or wall"):
         prepare_trajectory(Case("edumip_map", reference="figure8"))
+
+
+def test_a_plan_failed_with_the_trackers_margin_says_so_and_how_to_plan_without_it(tmp_path) -> None:
+    from planning.core.robot import load_robot
+    from planning.trajectory.from_plan import PlanFailedError
+
+    # the start 5 mm from the wall behind it: a valid start, not with the tracker's 1 cm margin
+    rear = -float(load_robot("turtlebot3").footprint[:, 0].min())
+    path = tmp_path / "wall.toml"
+    text = (
+        'robot = "turtlebot3"\n[world]\nbounds = [-1.5, 1.5, -1.0, 1.0]\n'
+        f"[start]\npose = [{-1.5 + rear + 0.005!r}, 0.0, 0.0]\n[goal]\npose = [1.0, 0.0, 0.0]\n"
+    )
+    path.write_text(text)
+    with pytest.raises(PlanFailedError, match=r"it planned keeping 0.01 m .*clearance = 0 in a \[planners.rrt\] table"):
+        prepare_trajectory(Case(str(path), planner="rrt"))
+    path.write_text(text + "[planners.rrt]\nclearance = 0\n")  # as the reason says
+    assert prepare_trajectory(Case(str(path), planner="rrt")).source == "planner:rrt"

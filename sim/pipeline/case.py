@@ -17,6 +17,7 @@ On the command line (``nhsim tune --scenarios``) a case is ``SCENARIO:REFERENCE`
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -395,16 +396,25 @@ def plan_case(case: Case, scenario: Scenario, robot: RobotSpec, *, progress: Pro
     limit = case.planning.time_limit
     problem = PlanProblem.from_scenario(scenario, robot=robot, seed=case.seed, time_limit=limit)
     options = {**scenario.options_for(name), **case.planning.planner_options}
-    if "clearance" in planner_options(name):
-        options.setdefault("clearance", case.planning.clearance)
+    margin = "clearance" in planner_options(name) and "clearance" not in options and case.planning.clearance > 0
+    if margin:
+        options["clearance"] = case.planning.clearance
     solver = make_planner(name, **options)
     if progress is not None:
         progress("plan", 0.0, limit)
     try:
-        return solver.plan(problem)
+        plan = solver.plan(problem)
     finally:
         if progress is not None:
             progress("plan", limit, limit)
+    if margin and not plan.success:  # say what `nhsim plan` (no margin) does not do, and how to match it
+        said = (
+            f"{plan.reason}; it planned keeping {case.planning.clearance:g} m from obstacles and walls, the margin a "
+            f"tracked plan gets (nhsim plan keeps none): clearance = 0 in a [planners.{name}] table of the "
+            "scenario plans without it"
+        )
+        plan = dataclasses.replace(plan, reason=said)
+    return plan
 
 
 def prepare_trajectory(case: Case, *, progress: Progress | None = None) -> PreparedTrajectory:
