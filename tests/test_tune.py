@@ -380,6 +380,14 @@ def test_the_verdict_names_the_better_gains(tuned: list[float], better: str, wor
     ]
 
 
+def test_one_held_out_run_has_no_standard_error_and_no_clear_difference() -> None:
+    c = Comparison(_evaluation([1.0]), _evaluation([0.3]), make_draws(1, 0, held_out=True), ("a",))
+    mean, sem = c.paired_difference()
+    assert mean == pytest.approx(-0.7) and np.isnan(sem)
+    assert c.verdict().endswith("per-run difference -700.000 mm (one run: no standard error, not a clear difference)")
+    assert "±" not in c.verdict() and c.as_dict()["difference_m"]["standard_error"] is None
+
+
 def test_tuned_gains_that_lose_on_held_out_robots_are_not_recommended(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -690,9 +690,9 @@ class Comparison:
 
     def paired_difference(self) -> tuple[float, float]:
         """Mean and standard error of the per-run difference tuned - default of J [m] (the runs
-        pair up: same case, same draw); the standard error is 0 with one run."""
+        pair up: same case, same draw); the standard error is nan with one run (nothing measures the spread)."""
         diff = np.asarray(self.tuned.costs) - np.asarray(self.default.costs)
-        sem = float(diff.std(ddof=1) / math.sqrt(diff.size)) if diff.size > 1 else 0.0
+        sem = float(diff.std(ddof=1) / math.sqrt(diff.size)) if diff.size > 1 else math.nan
         return float(diff.mean()), sem
 
     @property
@@ -709,10 +709,16 @@ class Comparison:
         runs = self.tuned.runs
         if self.better == "neither":
             return f"tuned and default gains score the same on held-out robots ({runs} runs)"
+        said = f"{self.better} gains are better on held-out robots: objective {ratio:.2f}x default; "
+        if math.isnan(sem):
+            return (
+                said + f"per-run difference {mean * 1e3:+.3f} mm (one run: no standard error, not a clear difference)"
+            )
         spread = f"per-run difference {mean * 1e3:+.3f} ± {sem * 1e3:.3f} mm (mean ± standard error, {runs} runs)"
-        clear = abs(mean) > 2.0 * sem
-        return f"{self.better} gains are better on held-out robots: objective {ratio:.2f}x default; {spread}" + (
-            "" if clear else ", within twice its standard error: not a clear difference"
+        return (
+            said
+            + spread
+            + ("" if abs(mean) > 2.0 * sem else ", within twice its standard error: not a clear difference")
         )
 
     def as_dict(self) -> dict[str, Any]:
@@ -729,7 +735,7 @@ class Comparison:
             "ratios": self.ratios(),
             "better": self.better,
             "verdict": self.verdict(),
-            "difference_m": {"mean": mean, "standard_error": sem},
+            "difference_m": {"mean": mean, "standard_error": None if math.isnan(sem) else sem},
             "runs": per_run,
         }
 
