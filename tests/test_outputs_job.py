@@ -346,3 +346,18 @@ def test_the_pitch_plot_is_planned_for_a_balancing_robot(tmp_path: Path, monkeyp
     assert plan.plots["pitch"].name.startswith("open-line-edumip-balancing") and plan.plots["pitch"].name.endswith(
         "-pitch.png"
     )
+
+
+def test_video_options_given_with_no_video_are_named_as_ignored(capsys: pytest.CaptureFixture[str]) -> None:
+    from sim.cli.job_outputs import plan_outputs
+    from sim.cli.main import build_parser
+
+    def note(*extra: str) -> str:
+        args = build_parser().parse_args(["simulate", "--no-video", *extra])
+        plan_outputs(args, scenario="open", source="line", own_robot="turtlebot3")
+        return capsys.readouterr().err
+
+    assert note() == "" and note("--fps", "30", "--camera", "overview") == ""  # the defaults, said again
+    assert note("--fps", "10", "--quality", "high") == (
+        "nhsim: --fps, --quality ignored: they set the video, and --no-video writes none\n"
+    )

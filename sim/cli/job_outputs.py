@@ -103,6 +103,10 @@ def add_executor_arguments(p: argparse.ArgumentParser, *, what: str, default_job
     )
 
 
+#: The video options and their defaults (set otherwise with --no-video, they are named as ignored).
+VIDEO_DEFAULTS: dict[str, Any] = {"fps": 30.0, "size": "640x480", "camera": "overview", "quality": "fast"}
+
+
 def add_output_arguments(p: argparse.ArgumentParser) -> None:
     """Add the video, plot and GL options to a command's parser (no mujoco import)."""
     g = p.add_argument_group(
@@ -134,13 +138,22 @@ def add_output_arguments(p: argparse.ArgumentParser) -> None:
         "--plots", action=argparse.BooleanOptionalAction, default=True, help="write the PNG plots (default: on)"
     )
     g.add_argument(
-        "--fps", type=float, default=30.0, metavar="N", help="video frames per second (default: %(default)g)"
+        "--fps",
+        type=float,
+        default=VIDEO_DEFAULTS["fps"],
+        metavar="N",
+        help="video frames per second (default: %(default)g)",
     )
-    g.add_argument("--size", default="640x480", metavar="WxH", help="video size in pixels, even (default: %(default)s)")
+    g.add_argument(
+        "--size",
+        default=VIDEO_DEFAULTS["size"],
+        metavar="WxH",
+        help="video size in pixels, even (default: %(default)s)",
+    )
     g.add_argument(
         "--camera",
         choices=["overview", "chase"],
-        default="overview",
+        default=VIDEO_DEFAULTS["camera"],
         help=(
             "top-down overview of the whole world, or a chase camera (default: %(default)s); "
             "the close-up inset beside it follows the main robot either way"
@@ -149,7 +162,7 @@ def add_output_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--quality",
         choices=["fast", "high"],
-        default="fast",
+        default=VIDEO_DEFAULTS["quality"],
         help="fast: no shadows or reflections; high: shadows and reflections (about 4x slower) (default: %(default)s)",
     )
     g.add_argument(
@@ -272,6 +285,12 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str, own_ro
             raise ConfigError(f"--video must name an .mp4 file, got {video}")
     elif args.video is not None:
         raise ConfigError("--video and --no-video contradict each other; drop one")
+    else:
+        unused = [f"--{k}" for k, v in VIDEO_DEFAULTS.items() if getattr(args, k, v) != v]
+        if unused:
+            print(
+                f"nhsim: {', '.join(unused)} ignored: they set the video, and --no-video writes none", file=sys.stderr
+            )
     base_dir, base = (args.video.parent, args.video.stem) if args.video is not None else (DEFAULT_DIR, stem)
     names: tuple[str, ...] = (*PLOTS, ESTIMATION_PLOT)  # the estimation plot only where the job gives its estimates
     robot = getattr(args, "robot", None)
