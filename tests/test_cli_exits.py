@@ -205,3 +205,11 @@ def test_only_the_closed_loop_ending_early_or_colliding_fails_the_command() -> N
     assert notes == [f"{RunKind.OPEN_LOOP} run touched an obstacle (4 times) (a comparison run: reported, not judged)"]
     failures, notes = run_verdicts({RunKind.OPEN_LOOP: run("ok", 4)})
     assert failures == [f"{RunKind.OPEN_LOOP} run touched an obstacle (4 times)"] and notes == []
+
+
+def test_an_empty_runs_list_is_refused_not_taken_as_the_default(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    record = tmp_path / "r.json"
+    assert main(["simulate", "--reference", "line", "--no-video", "--json", str(record), "--runs", ""]) == 2
+    assert "--runs '': unknown run ''" in capsys.readouterr().err and not record.exists()

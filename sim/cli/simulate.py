@@ -505,7 +505,7 @@ def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
     from sim.pipeline.simulate import simulate
     from sim.pipeline.sweep import missed_targets
 
-    runs = parse_runs(args.runs) if args.runs else run_choices()[args.tracker]
+    runs = parse_runs(args.runs) if args.runs is not None else run_choices()[args.tracker]
     loaded = load_case_scenario(case)  # a robot the scenario does not list stops here
     case.sensing(loaded)  # so do bad sensor settings
     case.robot_spec(loaded.robot)  # and a bad supply
