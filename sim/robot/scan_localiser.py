@@ -311,7 +311,8 @@ def localiser_schedule(setup: LocaliserSetup, fix_every: int, latency_periods: i
     if fix_every == 0 or abs(fix_every - per_rev) > 1e-6 * per_rev:
         raise ConfigError(
             f"sensor fix_rate must equal the scan rate ({setup.lidar.rate:g} Hz) with --localiser amcl: one fix a "
-            f"revolution; set --sensors fix_rate={setup.lidar.rate:g} (or use --localiser fixes)"
+            f"revolution; set --sensors fix_rate={setup.lidar.rate:g} (or fix_rate = {setup.lidar.rate:g} in the "
+            "[sensors] table of the scenario or sensor profile that sets it), or use --localiser fixes"
         )
     half = max(1, round(0.5 * per_rev))
     if latency_periods < half + 1:
