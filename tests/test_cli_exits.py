@@ -205,6 +205,12 @@ def test_only_the_closed_loop_ending_early_or_colliding_fails_the_command() -> N
     assert notes == [f"{RunKind.OPEN_LOOP} run touched an obstacle (4 times) (a comparison run: reported, not judged)"]
     failures, notes = run_verdicts({RunKind.OPEN_LOOP: run("ok", 4)})
     assert failures == [f"{RunKind.OPEN_LOOP} run touched an obstacle (4 times)"] and notes == []
+    # a file run with --allow-collisions: every run's collisions reported, none judged; a fall still is
+    failures, notes = run_verdicts({RunKind.CLOSED_LOOP: run(fell, 2)}, collisions_judged=False)
+    assert failures == [f"{RunKind.CLOSED_LOOP}: {fell}"]
+    assert notes == [
+        f"{RunKind.CLOSED_LOOP} run touched an obstacle (2 times) (collisions allowed: reported, not judged)"
+    ]
 
 
 def test_an_empty_runs_list_is_refused_not_taken_as_the_default(

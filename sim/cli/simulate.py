@@ -533,7 +533,7 @@ def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
     for path in write_outputs(result, outputs, record).values():
         if not args.quiet:
             print(f"wrote {path}")
-    failures, notes = run_verdicts(result.runs)
+    failures, notes = run_verdicts(result.runs, collisions_judged=not getattr(args, "allow_collisions", False))
     for line in notes:
         print(line, file=sys.stderr)
     closed = result.runs.get(RunKind.CLOSED_LOOP)
@@ -546,26 +546,28 @@ def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
     return 0 if clean and not failures else 1
 
 
-def run_verdicts(runs: Mapping[RunKind, Any]) -> tuple[list[str], list[str]]:
+def run_verdicts(runs: Mapping[RunKind, Any], *, collisions_judged: bool = True) -> tuple[list[str], list[str]]:
     """The runs that ended early (a fall, a lost estimate) or touched an obstacle, as lines for stderr:
     (judged, reported).
 
     With a closed loop, the other runs (dead reckoning, open loop, ground truth) are comparisons: what
     they hit or where they ended early is reported, not judged. Without one, every run is judged.
-    (Targets are the closed loop's: :func:`sim.pipeline.sweep.missed_targets`.)
+    Collisions are only reported when not ``collisions_judged`` (a file run with --allow-collisions,
+    which goes through an obstacle on purpose). (Targets are the closed loop's:
+    :func:`sim.pipeline.sweep.missed_targets`.)
     """
     judged = [RunKind.CLOSED_LOOP] if RunKind.CLOSED_LOOP in runs else list(runs)
     failures: list[str] = []
     notes: list[str] = []
     for kind, run_ in runs.items():
         said = [] if run_.metrics.status == "ok" else [f"{kind}: {run_.metrics.status}"]
-        if run_.metrics.collisions > 0:
-            n = run_.metrics.collisions
-            said.append(f"{kind} run touched an obstacle ({n} time{'s' if n != 1 else ''})")
+        n = run_.metrics.collisions
+        hit = [f"{kind} run touched an obstacle ({n} time{'s' if n != 1 else ''})"] if n > 0 else []
         if kind in judged:
-            failures += said
+            failures += said + (hit if collisions_judged else [])
+            notes += [] if collisions_judged else [f"{line} (collisions allowed: reported, not judged)" for line in hit]
         else:
-            notes += [f"{line} (a comparison run: reported, not judged)" for line in said]
+            notes += [f"{line} (a comparison run: reported, not judged)" for line in said + hit]
     return failures, notes
 
 

@@ -80,7 +80,8 @@ def add_file_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--allow-collisions",
         action="store_true",
-        help="run a file that enters an obstacle or leaves the world anyway (the record says so)",
+        help="run a file that enters an obstacle or leaves the world anyway (the record says so; the runs' "
+        "collisions are then reported, not judged)",
     )
     p.set_defaults(_scenario_default=p.get_default("scenario"))
 
