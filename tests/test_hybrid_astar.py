@@ -283,13 +283,19 @@ def test_gap_too_narrow_for_the_body_exhausts_the_lattice():
     # a 0.12 m gap: the inscribed disc (0.08 m) passes, the 0.178 m wide body does not
     walls = (Box((4.0, 1.97), (0.1, 3.94)), Box((4.0, 5.03), (0.1, 1.94)))
     prob = _problem(world=World((0.0, 6.0, 0.0, 6.0), walls), goal=(5.4, 4.0, 0.0))
-    res = make_planner("hybrid-a-star", search_from_goal=False).plan(prob)
+    res = make_planner("hybrid-a-star", search_from_goal=False, refine_when_exhausted=False).plan(prob)
     assert res.status is PlanStatus.INFEASIBLE and "search expanded every state it could reach" in res.reason
     assert "0.05 m cells, 72 headings" in res.reason and "try cell_size = 0.025" in res.reason
+    # refined (the default): the 2.5 cm lattice is exhausted too, and the reason says both were
+    both = make_planner("hybrid-a-star", search_from_goal=False).plan(prob)
+    assert both.status is PlanStatus.INFEASIBLE and "0.025 m cells, 72 headings" in both.reason
+    assert f"(searched after the 0.05 m lattice was exhausted in {res.stats['iterations']})" in both.reason
+    assert both.stats["coarse"]["iterations"] == res.stats["iterations"] and both.stats["cell_size"] == 0.025
+    assert both.stats["time_s"] > res.stats["time_s"] * 0.5
     assert res.path.shape[1] == 3 and res.path.shape[0] >= 1
     # the search from the goal runs out of states first, but decides nothing: it reaches the start by
     # the analytic expansion alone, where the other leaves it by any primitive
-    raced = make_planner("hybrid-a-star").plan(prob)
+    raced = make_planner("hybrid-a-star", refine_when_exhausted=False).plan(prob)
     assert raced.status is PlanStatus.INFEASIBLE and raced.reason == res.reason
     assert raced.stats["search"] == "from the start" and raced.stats["iterations"] == res.stats["iterations"]
     assert 0 < raced.stats["expansions_from_goal"] < res.stats["iterations"] - 16_000
@@ -441,7 +447,14 @@ def test_a_gap_the_lattice_misses_is_found_with_the_finer_cells_its_reason_names
     walls = (Box((2.8473, 2.0139), (0.2422, 4.0279)), Box((2.8473, 5.7421), (0.2422, 3.144)))
     world = World((0.0, 5.6945, 0.0, 7.3141), walls)
     prob = PlanProblem(world, load_robot("edumip"), Pose2D(2.2132, 1.258, -0.6716), Pose2D(3.597, 6.3417, -1.4287))
-    coarse = make_planner("hybrid-a-star").plan(prob)
+    coarse = make_planner("hybrid-a-star", refine_when_exhausted=False).plan(prob)
     assert coarse.status is PlanStatus.INFEASIBLE
     assert "try cell_size = 0.025 in a [planners.hybrid-a-star]" in coarse.reason
-    _check_path(make_planner("hybrid-a-star", cell_size=0.025).plan(prob), prob)  # independent collision check
+    fine = make_planner("hybrid-a-star", cell_size=0.025).plan(prob)
+    _check_path(fine, prob)  # independent collision check
+    # the default searches the finer lattice itself once the coarse one is exhausted: the same plan
+    refined = make_planner("hybrid-a-star").plan(prob)
+    _check_path(refined, prob)
+    np.testing.assert_array_equal(refined.path, fine.path)
+    assert refined.stats["coarse"] == {"cell_size": 0.05, "iterations": coarse.stats["iterations"],
+                                       "time_s": pytest.approx(coarse.stats["time_s"], rel=10)}  # fmt: skip
