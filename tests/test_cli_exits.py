@@ -219,3 +219,28 @@ def test_an_empty_runs_list_is_refused_not_taken_as_the_default(
     record = tmp_path / "r.json"
     assert main(["simulate", "--reference", "line", "--no-video", "--json", str(record), "--runs", ""]) == 2
     assert "--runs '': unknown run ''" in capsys.readouterr().err and not record.exists()
+
+
+def test_options_the_job_does_not_use_are_named_and_jobs_without_all_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from sim.cli.main import build_parser
+    from sim.cli.simulate import ignored_options
+
+    def notes(*extra: str) -> list[str]:
+        return ignored_options(build_parser().parse_args(["simulate", *extra]))
+
+    assert notes() == [] and notes("--time-limit", "5", "--gains", "3,3") == []  # a plan, tracked closed loop
+    assert notes("--reference", "line", "--time-limit", "5") == [
+        "--time-limit ignored: it is the planner's budget, and this job plans nothing"
+    ]
+    assert notes("--path", "p.csv", "--time-scale", "2") == [
+        "--time-scale ignored: a --path file has no clock (the speed profile times it)"
+    ]
+    assert notes("--tracker", "open-loop", "--gains", "3,3") == [
+        "--gains ignored: the open loop alone feeds nothing back"
+    ]
+    record = tmp_path / "r.json"
+    for where in (["--jobs", "2"], ["--scheduler", "tcp://127.0.0.1:1"]):
+        assert main(["simulate", "--reference", "line", "--no-video", "--json", str(record), *where]) == 2
+        assert "--jobs and --scheduler spread --all's sweep" in capsys.readouterr().err and not record.exists()

@@ -375,7 +375,29 @@ def run(args: argparse.Namespace) -> int:
         from sim.cli.sweep_table import run_all
 
         return run_all(args, gains)
+    if args.jobs is not None or args.scheduler is not None:
+        raise ConfigError("--jobs and --scheduler spread --all's sweep over workers; one job runs here: drop it")
+    for line in ignored_options(args):
+        print(f"nhsim simulate: {line}", file=sys.stderr)
     return _run_job(args, gains, perturbation)
+
+
+def ignored_options(args: argparse.Namespace) -> list[str]:
+    """Options given away from their defaults that the job does not use, as notes: the planner's time limit
+    when nothing is planned (a reference, a file), the time scale of a path (which has no clock), the
+    gains when no run feeds back (the open loop alone)."""
+    from sim.cli.job_outputs import RUN_SETTINGS
+
+    notes = []
+    planned = args.reference is None and not file_given(args)
+    if not planned and args.time_limit != RUN_SETTINGS["time_limit"]:
+        notes.append("--time-limit ignored: it is the planner's budget, and this job plans nothing")
+    if getattr(args, "path", None) is not None and args.time_scale is not None:
+        notes.append("--time-scale ignored: a --path file has no clock (the speed profile times it)")
+    runs = parse_runs(args.runs) if args.runs is not None else run_choices()[args.tracker]
+    if args.gains and runs == (RunKind.OPEN_LOOP,):
+        notes.append("--gains ignored: the open loop alone feeds nothing back")
+    return notes
 
 
 def _case_fields(args: argparse.Namespace, gains: Any, perturbation: Any) -> dict[str, Any]:
