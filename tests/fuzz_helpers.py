@@ -308,7 +308,7 @@ def crowded_worlds(draw: st.DrawFn, min_obstacles: int = 20, max_obstacles: int 
     The obstacles are drawn from a seeded generator (one drawn seed and count: Hypothesis shrinks
     those, not hundreds of coordinates).
     """
-    from planning.core.world import Box, Circle, Ellipse, Polygon, World
+    from planning.core.world import MIN_FEATURE, Box, Circle, Ellipse, Polygon, World
 
     n = draw(st.integers(min_obstacles, max_obstacles), label="obstacles")
     seed = draw(st.integers(0, 2**32 - 1), label="seed")
@@ -334,7 +334,9 @@ def crowded_worlds(draw: st.DrawFn, min_obstacles: int = 20, max_obstacles: int 
             r = a * rng.uniform(0.3, 1.0, k)
             vertices = tuple((c[0] + r[i] * np.cos(phi[i]), c[1] + r[i] * np.sin(phi[i])) for i in range(k))
             try:
-                obstacles.append(Polygon(vertices))
+                poly = Polygon(vertices)
+                # a sliver thinner than a world takes (MIN_FEATURE) is refused as a degenerate draw is
+                obstacles.append(poly if poly.min_feature >= MIN_FEATURE else Circle(c, a))
             except NhsimError:  # a degenerate draw (three nearly collinear vertices): a circle instead
                 obstacles.append(Circle(c, a))
     return World((float(x0), float(x0 + w), float(y0), float(y0 + h)), tuple(obstacles))

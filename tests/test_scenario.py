@@ -109,7 +109,7 @@ def test_name_defaults_to_the_file_stem(tmp_path: Path) -> None:
         # an obstacle thinner than the checker resolves: its step would be a quarter of it
         (
             ("radius = 0.3", "radius = 1e-9"),
-            r"'world.obstacles\[0\]': this circle is 2e-09 m across, less than the 1 mm",
+            r"'world.obstacles\[0\]': this circle is 2e-09 m across, less than the 0.1 mm",
         ),
     ],
 )

@@ -170,9 +170,9 @@ def test_world_walls_and_minimum() -> None:
     assert w.min_feature() == pytest.approx(1.0)
     assert World((0, 1, 0, 1)).obstacle_distance([[0.5, 0.5]])[0] == np.inf
     # thinner than the exact checker resolves (it steps a quarter of the smallest obstacle): refused, named
-    with pytest.raises(ConfigError, match=r"obstacle 1 \(box\) is 0.0005 m across, less than the 1 mm"):
-        World((0, 1, 0, 1), (Circle((0.5, 0.5), 0.1), Box((0.2, 0.2), (0.3, 0.0005))))
-    assert World((0, 1, 0, 1), (Circle((0.5, 0.5), 0.0005),)).min_feature() == pytest.approx(0.001)
+    with pytest.raises(ConfigError, match=r"obstacle 1 \(box\) is 5e-05 m across, less than the 0.1 mm"):
+        World((0, 1, 0, 1), (Circle((0.5, 0.5), 0.1), Box((0.2, 0.2), (0.3, 0.00005))))
+    assert World((0, 1, 0, 1), (Circle((0.5, 0.5), 0.00005),)).min_feature() == pytest.approx(0.0001)
 
 
 @pytest.mark.parametrize(
