@@ -553,3 +553,19 @@ def test_a_signal_in_a_trials_storage_calls_acts_at_its_evaluation(
     t0 = time.monotonic()
     study.tell(trial, state=optuna.trial.TrialState.FAIL)
     assert time.monotonic() - t0 < 5.0 and study.trials[0].state == optuna.trial.TrialState.FAIL
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--robot", "edumip", "--localiser", "amcl"], "robot 'edumip' has no laser scanner"),
+        (["--control-rate", "7"], "control rate 7.0 Hz is not a whole number of 2 ms physics steps"),
+    ],
+)
+def test_bad_input_that_every_run_would_hit_is_exit_2_before_any_study(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str], message: str
+) -> None:
+    # it was scored as failed runs, the study kept the defaults, and the command exited 0
+    assert main(_args(tmp_path, 2, "--eval-runs", "1", *extra)) == 2
+    assert message in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []  # no study, no gains file

@@ -438,11 +438,19 @@ class PreparedCase:
 def prepare_case(case: Case) -> PreparedCase:
     """Prepare a case's trajectory and compile its simulator.
 
+    What would otherwise stop every run of the case is refused here, before any run: a control rate the
+    physics steps cannot hold, sensor settings and a localiser the robot cannot take (so a study that
+    runs the case many times, ``tune``, stops with the error instead of scoring failed runs).
+
     Raises:
-        NhsimError: From :func:`sim.pipeline.case.prepare_trajectory`.
+        NhsimError: From :func:`sim.pipeline.case.prepare_trajectory`; ConfigError for the above.
     """
     prepared = prepare_trajectory(case)
-    return PreparedCase(prepared, simulator_for(prepared))
+    simulator = simulator_for(prepared)
+    simulator.steps_per_control(case.control_rate)
+    case.sensing(prepared.scenario)
+    case.localiser_setup(prepared.scenario)
+    return PreparedCase(prepared, simulator)
 
 
 # ------------------------------------------------------------------------------------------ plans

@@ -272,6 +272,8 @@ class Evaluator:
         try:
             pert, seed = (draw.perturbation, draw.seed) if draw is not None else (None, None)
             run = pc.run(fbl, pert, seed=seed, params=params)
+        except ConfigError:  # bad input, not a failed run (prepare_case refuses what it can foresee)
+            raise
         except NhsimError:
             return FAILURE_COST, None, True
         m = run.metrics
