@@ -369,3 +369,29 @@ def test_more_runs_than_distinct_draws_are_refused(capsys: pytest.CaptureFixture
 
     assert main(["montecarlo", "--reference", "line", "--runs", str(MAX_DRAWS + 1), "--jobs", "1"]) == 2
     assert f"--runs must be at most {MAX_DRAWS}" in capsys.readouterr().err
+
+
+def test_refused_input_leaves_no_results_file_and_outputs_are_checked_before_any_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    base = ["montecarlo", "--scenario", "open", "--reference", "line", "--robot", "edumip", "--jobs", "1", "--quiet"]
+    base += ["--no-plots", "--runs", "1"]
+    # a localiser the robot cannot carry: refused, and no header-only results file left to block the next try
+    assert main([*base, "--results", "q.jsonl", "--json", "q.json", "--localiser", "amcl"]) == 2
+    assert "has no laser scanner" in capsys.readouterr().err and list(tmp_path.iterdir()) == []
+    # two outputs at one path: refused before any run (the summary replaced the runs)
+    assert main([*base, "--results", "same.json", "--json", "same.json"]) == 2
+    assert "two outputs share a path" in capsys.readouterr().err and list(tmp_path.iterdir()) == []
+    # another study's runs: kept without --overwrite, replaced with it
+    assert main([*base, "--results", "r.jsonl", "--json", "a.json", "--seed", "3"]) == 0
+    assert main([*base, "--results", "r.jsonl", "--json", "b.json", "--seed", "4"]) == 2
+    assert "holds the runs of another study (seed: 3 there, 4 here)" in capsys.readouterr().err
+    assert main([*base, "--results", "r.jsonl", "--json", "b.json", "--seed", "4", "--overwrite"]) == 0
+    assert json.loads((tmp_path / "r.jsonl").read_text().splitlines()[0])["key"]["seed"] == 4
+    # a bags folder that holds bags: refused before the study without --overwrite, replaced with it
+    assert main([*base, "--json", "c.json", "--results", "c.jsonl", "--bags", "bags"]) == 0
+    assert (tmp_path / "bags" / "worst-0" / "metadata.yaml").is_file()
+    assert main([*base, "--json", "d.json", "--results", "d.jsonl", "--bags", "bags"]) == 2
+    assert "--bags bags holds bags already (worst-0)" in capsys.readouterr().err and not (tmp_path / "d.json").exists()
+    assert main([*base, "--json", "d.json", "--results", "d.jsonl", "--bags", "bags", "--overwrite"]) == 0

@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from planning.errors import OutputExistsError
+from planning.errors import ConfigError, OutputExistsError
 from sim.cli.job_outputs import DEFAULT_DIR, add_case_arguments, add_executor_arguments
 from sim.cli.simulate import add_localiser_arguments
 from sim.cli.trajectory_files import add_file_arguments, file_options
@@ -137,6 +137,9 @@ def _check_outputs(paths: dict[str, Path], key: dict[str, Any], overwrite: bool)
     """Every output can be written; existing ones must be this study's own (its summary names the key)."""
     from sim.outputs import check_writable
 
+    if len({p.resolve() for p in paths.values()}) != len(paths):
+        shared = ", ".join(f"{name} {path}" for name, path in paths.items())
+        raise ConfigError(f"two outputs share a path ({shared}); choose distinct names")
     summary = paths["json"]
     own = False
     if summary.exists():
@@ -226,11 +229,15 @@ def run(args: argparse.Namespace) -> int:
     own_robot = load_scenario(sc).robot if isinstance(sc, str) else sc.robot
     paths = _paths(args, spec, scenario.name, scenario.robot, own_robot)
     _check_outputs(paths, spec.key(), args.overwrite)
-    if args.bags is not None:  # a folder of bags: each one is checked as it is written
-        from sim.outputs import check_writable
-
-        check_writable(args.bags / "worst-0", overwrite=True)
-    results = ResultsFile(paths["results"], spec.key())
+    if args.bags is not None:
+        _check_bags(args.bags, args.overwrite)
+    try:
+        results = ResultsFile(paths["results"], spec.key())
+    except ConfigError:
+        if not args.overwrite:  # another study's runs, or not a results file: kept
+            raise
+        paths["results"].unlink()  # --overwrite: replaced
+        results = ResultsFile(paths["results"], spec.key())
     if not args.quiet and results.records:
         print(f"resuming: {len(results.records)} runs done in {paths['results']}")
     with make_executor(args.jobs, args.scheduler) as executor, _bar(args, spec.runs) as bar:
@@ -271,6 +278,25 @@ def _write(result: Any, paths: dict[str, Path], record: dict[str, Any], args: ar
         for name, fig in montecarlo_figures(prep.scenario.world, prep.trajectory, result.records, title=title).items():
             save_figure(fig, paths[name], overwrite=True)  # checked above: absent, this study's, or --overwrite
     write_json(paths["json"], record, overwrite=True)
+
+
+def _check_bags(folder: Path, overwrite: bool) -> None:
+    """Before any run: ``--bags`` names a folder that can take new bags, and one holding bags of an
+    earlier study only with ``--overwrite`` (which bags the worst runs will be is known only after)."""
+    from sim.outputs import check_writable
+
+    if folder.exists() and not folder.is_dir():
+        raise ConfigError(f"--bags {folder}: a file of that name exists; give a folder")
+    earlier = sorted(p.name for p in folder.glob("worst-*")) if folder.is_dir() else []
+    if earlier and not overwrite:
+        raise OutputExistsError(
+            f"--bags {folder} holds bags already ({', '.join(earlier[:3])}{', ...' if len(earlier) > 3 else ''}); "
+            "pass --overwrite to replace them, or choose another --bags folder"
+        )
+    try:
+        check_writable(folder / ".bags.probe", overwrite=True)
+    except ConfigError as exc:  # named as the folder, not as the probe's file name
+        raise ConfigError(str(exc).replace(str(folder / ".bags.probe"), f"--bags {folder}")) from None
 
 
 def _worst_bags(result: Any, folder: Path, overwrite: bool) -> list[Path]:

@@ -169,7 +169,8 @@ class ResultsFile:
 
     Opening an existing file checks its key (a file of another study is refused, naming what
     differs) and reads its runs; a last line cut short by a kill is dropped. Each new record is
-    appended, flushed and synced to disk before the next is taken.
+    appended, flushed and synced to disk before the next is taken. A new file is made with the first
+    finished run, so a study refused before any run (bad input, an unreachable scheduler) leaves none.
 
     Args:
         path: The file (JSON lines).
@@ -184,9 +185,6 @@ class ResultsFile:
         self.records: dict[int, dict[str, Any]] = {}
         if self.path.exists():
             self._read()
-        else:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            self._append({"nhsim_montecarlo": RESULTS_VERSION, "key": self.key})
 
     def _read(self) -> None:
         raw = self.path.read_bytes()
@@ -195,7 +193,10 @@ class ResultsFile:
             header = json.loads(lines[0])
             theirs = header["key"]
         except (ValueError, KeyError, TypeError) as exc:
-            raise ConfigError(f"{self.path} is not an nhsim montecarlo results file; choose another --results") from exc
+            raise ConfigError(
+                f"{self.path} is not an nhsim montecarlo results file; choose another --results, or --overwrite to "
+                "replace it"
+            ) from exc
         if theirs != self.key:
             diff = ", ".join(
                 f"{k}: {theirs.get(k)!r} there, {self.key.get(k)!r} here"
@@ -203,7 +204,8 @@ class ResultsFile:
                 if theirs.get(k) != self.key.get(k)
             )
             raise ConfigError(
-                f"{self.path} holds the runs of another study ({diff}); give another --results or the same settings"
+                f"{self.path} holds the runs of another study ({diff}); give another --results, the same settings, "
+                "or --overwrite to replace it"
             )
         good = len(lines[0]) + 1
         for line in lines[1:]:
@@ -227,7 +229,10 @@ class ResultsFile:
             os.fsync(f.fileno())
 
     def add(self, record: dict[str, Any]) -> None:
-        """Store a finished run."""
+        """Store a finished run (the file and its header made with the first)."""
+        if not self.path.exists():
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._append({"nhsim_montecarlo": RESULTS_VERSION, "key": self.key})
         self._append(record)
         self.records[int(record["index"])] = record
 
