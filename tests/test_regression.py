@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 import sim.tools.regress as regress
+from planning.errors import ConfigError
 from sim.cli.main import main
 from sim.pipeline.case import Case
 from sim.tools.regress import Tolerance, check_case, compare, load_suite
@@ -185,3 +186,23 @@ def test_a_suite_with_no_fast_case_refuses_the_default_run_that_would_check_noth
         assert "none of the suite's 1 case(s) is marked fast = true" in capsys.readouterr().err
     assert not (tmp_path / "bl").exists()
     assert len(load_suite(suite).select(all_cases=True)) == 1
+
+
+def test_every_case_pattern_must_match_and_an_empty_one_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    good = SUITE.cases[0].name
+    with pytest.raises(ConfigError, match=r"--case typo\* matches no case"):
+        SUITE.select([good, "typo*"])  # the good one alone would have run, and passed
+    assert [c.name for c in SUITE.select([good])] == [good]
+    for empty in ("", ","):
+        assert main(["regress", "--list", "--case", empty]) == 2
+        assert "--case needs a pattern" in capsys.readouterr().err
+
+
+def test_the_update_hint_names_the_baselines_folder_it_was_given(tmp_path: Path) -> None:
+    from sim.cli.main import build_parser
+    from sim.cli.regress import _with_files
+
+    hint = "case x: no baseline b/x.json; record it with nhsim regress --update --case x"
+    args = build_parser().parse_args(["regress", "--baselines", str(tmp_path), "--suite", "s.toml"])
+    assert _with_files(hint, args).endswith(f"nhsim regress --update --suite s.toml --baselines {tmp_path} --case x")
+    assert _with_files(hint, build_parser().parse_args(["regress"])) == hint

@@ -78,12 +78,15 @@ def format_changes(changes: list[Any]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Execute ``regress``."""
+    from planning.errors import ConfigError
     from sim.tools.executor import make_executor
     from sim.tools.regress import Status, check_task, load_suite
 
     suite = load_suite(args.suite or SUITE_PATH)
     baselines: Path = args.baselines or BASELINE_DIR
     patterns = [p.strip() for arg in (args.case or []) for p in arg.split(",") if p.strip()]
+    if args.case is not None and not patterns:
+        raise ConfigError("--case needs a pattern (a case name or shell wildcards, e.g. 'open-*'); see --list")
     cases = suite.select(patterns, all_cases=args.all)
     if args.list:
         for c in cases:
@@ -119,8 +122,15 @@ def run(args: argparse.Namespace) -> int:
     passed = sum(o.ok for o in outcomes)
     print(f"\n{passed} passed, {len(failed)} failed of {len(outcomes)} case(s)")
     for o in failed:
-        print(f"nhsim regress: {o.status}: {o.message}", file=sys.stderr)
+        print(f"nhsim regress: {o.status}: {_with_files(o.message, args)}", file=sys.stderr)
     return 1 if failed else 0
+
+
+def _with_files(message: str, args: argparse.Namespace) -> str:
+    """A message's ``nhsim regress --update`` hint with the --suite and --baselines this run was given, so
+    that following it records where this run reads (without them it wrote the repository's baselines)."""
+    given = [f"--{name} {value}" for name, value in (("suite", args.suite), ("baselines", args.baselines)) if value]
+    return message.replace("nhsim regress --update", " ".join(["nhsim regress --update", *given]))
 
 
 def check_baselines(baselines: Path, cases: list[Any], *, update: bool) -> None:

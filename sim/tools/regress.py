@@ -123,15 +123,15 @@ class Suite:
         ``all_cases``, else the fast subset.
 
         Raises:
-            ConfigError: A pattern matches no case, or (the default) none is fast: a run that would
-                check nothing, and pass.
+            ConfigError: A pattern that matches no case, or (the default) no fast case: a run that
+                would check less than asked, and pass.
         """
         if patterns:
-            out = [c for c in self.cases if any(fnmatch.fnmatchcase(c.name, p) for p in patterns)]
-            if not out:
+            unmatched = [p for p in patterns if not any(fnmatch.fnmatchcase(c.name, p) for c in self.cases)]
+            if unmatched:  # a typo beside a good pattern would have run less than asked, and passed
                 names = ", ".join(c.name for c in self.cases)
-                raise ConfigError(f"--case {','.join(patterns)} matches no case; the suite has: {names}")
-            return out
+                raise ConfigError(f"--case {','.join(unmatched)} matches no case; the suite has: {names}")
+            return [c for c in self.cases if any(fnmatch.fnmatchcase(c.name, p) for p in patterns)]
         out = list(self.cases) if all_cases else [c for c in self.cases if c.fast]
         if not out:
             raise ConfigError(
