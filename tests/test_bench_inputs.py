@@ -37,3 +37,10 @@ def test_a_bad_count_or_time_is_refused_naming_the_flag(
     assert main(["bench", *argv]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
+
+
+def test_bench_sim_names_the_robot_without_a_scanner_not_a_fix_rate(capsys: pytest.CaptureFixture[str]) -> None:
+    # it checked the open scenario's own robot's scanner, and told the EduMIP's user to set a sensor option
+    assert main(["bench", "sim", "--repeats", "1", "--robot", "edumip", "--localiser", "amcl"]) == 2
+    err = capsys.readouterr().err
+    assert "robot 'edumip' has no laser scanner" in err and "fix_rate" not in err

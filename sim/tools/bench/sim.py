@@ -131,7 +131,8 @@ def measure(
     if localiser != "fixes":
         from sim.pipeline.case import Case
 
-        setup = Case("open", robot=spec.name, reference=reference, localiser=localiser).localiser_setup(scenario)
+        case = Case("open", robot=spec.name, reference=reference, localiser=localiser)
+        setup = case.localiser_setup(replace(scenario, robot=spec.name))  # the robot timed, not the scenario's own
         sensing = replace(sensing, localiser=setup)
 
     def run_closed() -> Any:
