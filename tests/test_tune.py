@@ -569,3 +569,11 @@ def test_bad_input_that_every_run_would_hit_is_exit_2_before_any_study(
     assert main(_args(tmp_path, 2, "--eval-runs", "1", *extra)) == 2
     assert message in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []  # no study, no gains file
+
+
+def test_an_output_over_the_studys_own_database_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    db = tmp_path / "study.db"  # the storage _args gives
+    argv = _args(tmp_path, 1, "--eval-runs", "1")
+    argv[argv.index("--out") + 1] = str(db)
+    assert main([*argv, "--overwrite"]) == 2
+    assert f"{db} is the study's own storage" in capsys.readouterr().err and not db.exists()

@@ -348,6 +348,13 @@ def tune_files(args: argparse.Namespace, tokens: list[str]) -> TuneFiles:
         raise ConfigError(
             f"two outputs would be one file ({', '.join(map(str, paths))}); give --out and --json different paths"
         )
+    if files.storage.startswith("sqlite:///"):  # an output over the study's own database would destroy it
+        db = Path(files.storage.removeprefix("sqlite:///")).resolve()
+        clash = [str(p) for p in paths if p.resolve() == db]
+        if clash:
+            raise ConfigError(
+                f"{clash[0]} is the study's own storage ({files.storage}); give --out, --json or --plots another path"
+            )
     owners = {p: files.owner(p) for p in paths if p.is_file()}
     own = frozenset(p for p, owner in owners.items() if owner == files.stamp())
     for path in paths:
