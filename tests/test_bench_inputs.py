@@ -44,3 +44,10 @@ def test_bench_sim_names_the_robot_without_a_scanner_not_a_fix_rate(capsys: pyte
     assert main(["bench", "sim", "--repeats", "1", "--robot", "edumip", "--localiser", "amcl"]) == 2
     err = capsys.readouterr().err
     assert "robot 'edumip' has no laser scanner" in err and "fix_rate" not in err
+
+
+def test_bench_sim_refuses_a_balancing_robot_its_bare_loop_cannot_replay(capsys: pytest.CaptureFixture[str]) -> None:
+    # the bare loop replayed the tracker's wheel commands without the balance firmware: a falling robot,
+    # faster than the closed loop (ratio 1.23, "passed")
+    assert main(["bench", "sim", "--repeats", "1", "--robot", "edumip-balancing"]) == 2
+    assert "a balancing robot's come from its balance firmware" in capsys.readouterr().err

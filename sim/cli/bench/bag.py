@@ -38,4 +38,5 @@ def run(args: argparse.Namespace) -> int:
     print(f"{'ratio (least)':22}{'':>20}{r.cpu_ratio_min:>24.3f}")
     print(f"{'bag write / without':22}{'':>20}{1.0 + r.write_share:>24.3f}   (1 + the write's CPU share)")
     print(f"bag size {r.size_bytes / 1e6:.2f} MB (target <= {TARGET_MB:g} MB)")
+    print(f"targets {'met' if r.passed else 'missed'}")
     return 0 if r.passed else 1

@@ -42,4 +42,5 @@ def run(args: argparse.Namespace) -> int:
         f"(encoder {r.encoder_cpu_s * ms:.2f} ms); bare / pipeline {r.cpu_ratio:.3f}: the ratio's bound when the "
         "rasteriser keeps every core busy"
     )
+    print(f"targets                  {'met' if r.passed else 'missed'}")
     return 0 if r.passed else 1
