@@ -395,3 +395,10 @@ def test_refused_input_leaves_no_results_file_and_outputs_are_checked_before_any
     assert main([*base, "--json", "d.json", "--results", "d.jsonl", "--bags", "bags"]) == 2
     assert "--bags bags holds bags already (worst-0)" in capsys.readouterr().err and not (tmp_path / "d.json").exists()
     assert main([*base, "--json", "d.json", "--results", "d.jsonl", "--bags", "bags", "--overwrite"]) == 0
+
+
+def test_plan_options_for_a_study_that_plans_nothing_are_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    # they changed the study's key (another results file) and nothing else
+    argv = ["montecarlo", "--scenario", "open", "--reference", "line", "--runs", "1", "--jobs", "1"]
+    assert main([*argv, "--time-limit", "5", "--replan"]) == 2
+    assert "--time-limit, --replan are for a planned study, and this one plans nothing" in capsys.readouterr().err

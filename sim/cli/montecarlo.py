@@ -115,6 +115,13 @@ def _spec(args: argparse.Namespace) -> Any:
         scenario, source = job_source(args.scenario, args.planner, args.reference)
         planner, reference = source.get("planner"), source.get("reference")
         case = Case(scenario, robot=args.robot, planner=planner, reference=reference, **fields)
+    if case.reference is not None or case.trajectory_file is not None:  # a plan option would only change the key
+        given = [opt for opt, on in (("--time-limit", args.time_limit != 30.0), ("--replan", args.replan)) if on]
+        if given:
+            raise ConfigError(
+                f"{', '.join(given)} {'is' if len(given) == 1 else 'are'} for a planned study, and this one plans "
+                "nothing (a reference or a file): drop it"
+            )
     ranges = PerturbationRange.parse(args.perturb_range, others="nominal") if args.perturb_range else None
     return MonteCarloSpec(case, args.runs, ranges, replan=args.replan)
 
