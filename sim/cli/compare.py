@@ -22,8 +22,8 @@ solver failures and overruns of the control period beside it.
 those a tuning study trains on) and prints the means. --params FILE[,FILE] gives tuned parameters:
 the JSON that 'nhsim tune --tracker T' writes, or {"tracker": {"field": value, ...}, ...}.
 
-With no --reference or --planner: seed 003's job, a C-RRT* plan through 'edumip_map' (when that
-planner and scenario are installed; else figure-eight in 'open').
+With no --reference or --planner: the default job (source report 003's), a C-RRT* plan through
+'edumip_map' (when that planner and scenario are installed; else figure-eight in 'open').
 
 Outputs (each only when asked; an existing file is replaced only with --overwrite): --json PATH the
 record (every run), --plots STEM STEM-paths.png (the paths overlaid) and STEM-errors.png (errors

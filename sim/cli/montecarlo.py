@@ -79,7 +79,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     p.add_argument("--plots", action=argparse.BooleanOptionalAction, default=True, help="write the plots (default: on)")
     p.add_argument("--overwrite", action="store_true", help="replace existing outputs of another study")
-    p.add_argument("--quiet", action="store_true", help="print only the table")
+    p.add_argument("--quiet", action="store_true", help="print only the table and the worst runs' replay commands")
     p.add_argument("--gl", choices=["osmesa", "egl", "glfw"], default=None, help=argparse.SUPPRESS)
     return p
 

@@ -14,8 +14,8 @@ from sim.cli.job_outputs import RUN_SETTINGS, add_executor_arguments, add_output
 from sim.cli.trajectory_files import add_file_arguments, check_file_options, file_given, format_import
 from sim.pipeline.runs import RunKind
 
-#: The scenario of a job that names none: this map for a plan (seed 003's job: the EduMIP plans
-#: through it with its planner, C-RRT*), the empty arena for an analytic reference.
+#: The scenario of a job that names none: this map for a plan (the default job, source report 003's: the EduMIP
+#: plans through it with its planner, C-RRT*), the empty arena for an analytic reference.
 DEFAULT_SCENARIO = "edumip_map"
 REFERENCE_SCENARIO = "open"
 #: The reference tracked when neither --planner nor --reference is given and the scenario names no planner.
@@ -31,7 +31,8 @@ DESCRIPTION = (
     f"What runs, one rule: the scenario is --scenario, else '{REFERENCE_SCENARIO}' with --reference, else "
     f"'{DEFAULT_SCENARIO}'; the path is --reference's curve or --planner's plan, else the plan of the "
     f"scenario's own planner, else (the scenario names none) the '{DEFAULT_REFERENCE}' reference. With no "
-    f"arguments: seed 003's job, '{DEFAULT_SCENARIO}' planned with its own planner, smoothed and tracked; "
+    f"arguments: the default job (source report 003's), '{DEFAULT_SCENARIO}' planned with its own planner, "
+    "smoothed and tracked; "
     f"'--scenario farm' plans the farm with its own planner; '--reference circle' tracks a circle in "
     f"'{REFERENCE_SCENARIO}'.\n\n"
     "--planner P plans the scenario with P, smooths the path (piecewise polynomial, speed "

@@ -33,7 +33,8 @@ def run(args: argparse.Namespace) -> int:
     spec = MonteCarloSpec(case, args.runs)
     r = measure(spec, args.workers)
     per = 1.0 / r.runs
-    print(f"{r.runs} runs of {scenario} | {args.robot or 'its robot'} | {source} (3 run kinds each)")
+    what = ", ".join(f"{k} {v}" for k, v in source.items()) or "its own planner"
+    print(f"{r.runs} runs of {scenario} | {args.robot or 'its robot'} | {what} (3 run kinds each)")
     print(f"direct loop, this process   {r.direct_s:>8.2f} s   {r.direct_s * per:.3f} s/run")
     print(f"Dask, one worker            {r.one_worker_s:>8.2f} s   overhead {r.overhead:+.1%} per run "
           f"(target <= {TARGET_OVERHEAD:.0%})")  # fmt: skip
