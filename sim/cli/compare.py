@@ -109,10 +109,17 @@ def _case(args: argparse.Namespace) -> Any:
 def run(args: argparse.Namespace) -> int:
     """Execute ``compare``."""
     from control.base import feedback_trackers
+    from planning.errors import ConfigError
     from sim.tools.compare import check_trackers, compare_trackers, format_table, load_params
 
     names = check_trackers(args.trackers.split(",") if args.trackers is not None else feedback_trackers())
     params = load_params(args.params.split(",")) if args.params else {}
+    unused = sorted(set(params) - set(names))
+    if unused:
+        raise ConfigError(
+            f"--params gives parameters of {', '.join(unused)}, which --trackers {','.join(names)} does not run: "
+            "add it to --trackers, or drop its parameters"
+        )
     outputs = _outputs(args)
     case = _case(args)
 
