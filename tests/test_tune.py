@@ -118,6 +118,7 @@ def test_tuning_is_no_worse_than_the_defaults(tmp_path: Path, capsys: pytest.Cap
     before = {p: p.read_bytes() for p in outputs}
     assert main(_args(tmp_path, 7, "--eval-runs", "0")) == 0
     assert load_gains_file(tmp_path / "gains.toml").provenance["trials"] == 7 == len(_completed(tmp_path))
+    assert load_gains_file(tmp_path / "gains.toml").provenance["tracker"] == "fbl"  # the file names its tracker
     assert json.loads((tmp_path / "gains.json").read_text())["trials"] == 7
     assert all(p.read_bytes() != before[p] for p in outputs)  # the plots show the seventh trial
     with Image.open(tmp_path / "tune-t-history.png") as image:

@@ -582,6 +582,7 @@ def _write_outputs(
 
     provenance: dict[str, Any] = {
         **files.stamp(),
+        "tracker": args.tracker,  # the gains file says which tracker its gains were tuned on
         "objective": float(best.value),
         "trial": best.number,
         "default_objective": default_obj,
@@ -610,7 +611,6 @@ def _write_outputs(
         written.insert(0, files.gains)
     record = {
         **provenance,
-        "tracker": args.tracker,
         "params": asdict(gains),
         "gains": asdict(gains),
         "settings": spec.settings(),
