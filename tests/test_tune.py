@@ -578,3 +578,17 @@ def test_an_output_over_the_studys_own_database_is_refused(tmp_path: Path, capsy
     argv[argv.index("--out") + 1] = str(db)
     assert main([*argv, "--overwrite"]) == 2
     assert f"{db} is the study's own storage" in capsys.readouterr().err and not db.exists()
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--scenarios", "open:line,open:line"], "--scenarios names open:line twice"),
+        (["--study", "a/b"], "--study 'a/b': a study name is letters, digits and . _ -"),
+    ],
+)
+def test_a_case_given_twice_or_a_study_name_that_is_a_path_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str], message: str
+) -> None:
+    assert main([*_args(tmp_path, 1), *extra]) == 2
+    assert message in capsys.readouterr().err and list(tmp_path.iterdir()) == []

@@ -391,6 +391,13 @@ def run(args: argparse.Namespace) -> int:
     tokens = _tokens(args)
     if not tokens:
         raise ConfigError("--scenarios is empty; give cases such as open:figure8,open:circle")
+    twice = sorted({t for t in tokens if tokens.count(t) > 1})
+    if twice:  # the same case twice would weigh it twice in the objective
+        raise ConfigError(f"--scenarios names {', '.join(twice)} twice; give each case once")
+    if args.study is not None and not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9._-]*", args.study):
+        raise ConfigError(
+            f"--study {args.study!r}: a study name is letters, digits and . _ - (it names the study's files)"
+        )
     _check_counts(args)
     from sim.tools.compare import check_trackers
     from sim.tools.tune import tuned_space
