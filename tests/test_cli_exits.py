@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -244,3 +245,14 @@ def test_options_the_job_does_not_use_are_named_and_jobs_without_all_refused(
     for where in (["--jobs", "2"], ["--scheduler", "tcp://127.0.0.1:1"]):
         assert main(["simulate", "--reference", "line", "--no-video", "--json", str(record), *where]) == 2
         assert "--jobs and --scheduler spread --all's sweep" in capsys.readouterr().err and not record.exists()
+
+
+def test_a_fix_one_control_period_late_does_not_crash_the_consistency_measure(tmp_path: Path) -> None:
+    # the first fix was fused while the start pose's covariance was still singular (the robot had not
+    # moved): its NEES divided by zero, a traceback; now that sample judges nothing
+    record = tmp_path / "r.json"
+    argv = ["simulate", "--robot", "edumip", "--reference", "line", "--runs", "closed_loop", "--no-video"]
+    argv += ["--no-plots", "--quiet", "--localiser", "fixes", "--sensors", "fix_latency=0.02", "--json", str(record)]
+    assert main(argv) == 0
+    est = json.loads(record.read_text())["closed_loop"]["estimation"]
+    assert 0.0 < est["nees_in_bound_fraction"] <= 1.0 and est["fixes_used"] > 0

@@ -543,7 +543,8 @@ class PoseEstimator:
     def nees(self, truth: PoseLike) -> float:
         """Normalised estimation error squared of the pose against a true pose (heading error
         wrapped): e^T P^-1 e with e = pose - truth and P :attr:`cov` (see
-        :mod:`control.estimation.consistency`).
+        :mod:`control.estimation.consistency`); NaN while P is singular (a start pose known exactly,
+        before any motion noise has entered it).
 
         Args:
             truth: (3,) true pose [x, y, theta] [m, m, rad].

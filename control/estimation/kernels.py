@@ -460,7 +460,11 @@ def head_pose(
 @nb.njit(cache=True)
 def head_nees(mem: FloatArray, head: int, tx: float, ty: float, tth: float) -> float:  # pragma: no cover - compiled
     """NEES of a block's pose at ring step ``head`` against a true pose (x [m], y [m], theta [rad]),
-    heading error wrapped."""
+    heading error wrapped; NaN where the pose covariance is singular (a pose known exactly in some
+    direction, as a start pose before the robot has moved: no error can be normalised by it)."""
     xs, ps = _ring(mem)
     x, p = mem[xs + head], mem[ps + N * head : ps + N * head + N]
-    return _quadratic(_cofactors(p, 0.0, 0.0), x[0] - tx, x[1] - ty, wrap(x[2] - tth))
+    cof = _cofactors(p, 0.0, 0.0)
+    if not cof[6] > 0.0:
+        return math.nan
+    return _quadratic(cof, x[0] - tx, x[1] - ty, wrap(x[2] - tth))

@@ -328,7 +328,9 @@ class Sensing:
             self.applied.append(j)
         if est.fixes_stale > stale:  # older than the history: never compared with the estimate
             return
-        self.nees.append((k, est.nees(truth)))
+        nees = est.nees(truth)
+        if math.isfinite(nees):  # NaN: a covariance singular in some direction judges nothing
+            self.nees.append((k, nees))
 
     def _deliver_scan(self, j: int, est: PoseEstimator) -> bool:
         """The scan localiser's answer for the revolution centred on period j, fused at j's time with
