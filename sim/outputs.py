@@ -59,7 +59,7 @@ def check_writable(path: Path, *, overwrite: bool) -> None:
     if path.is_dir():
         raise ConfigError(f"cannot write {path}: it is a folder; give a file name")
     _check_absent(path, overwrite=overwrite)
-    _check_folder(path)
+    check_folder_for(path)
 
 
 #: Characters ``tempfile.mkstemp`` puts between its prefix and suffix.
@@ -113,7 +113,7 @@ def _check_absent(path: Path, *, overwrite: bool) -> None:
         raise OutputExistsError(f"{path} exists already; pass --overwrite to replace it, or choose another path")
 
 
-def _check_folder(path: Path) -> None:
+def check_folder_for(path: Path) -> None:
     """``path``'s folder exists and takes new files, or the nearest existing folder above it can hold it.
 
     The test creates and at once removes an empty temporary folder there (permissions alone do not

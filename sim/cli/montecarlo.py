@@ -290,7 +290,7 @@ def _write(result: Any, paths: dict[str, Path], record: dict[str, Any], args: ar
 def _check_bags(folder: Path, overwrite: bool) -> None:
     """Before any run: ``--bags`` names a folder that can take new bags, and one holding bags of an
     earlier study only with ``--overwrite`` (which bags the worst runs will be is known only after)."""
-    from sim.outputs import check_writable
+    from sim.outputs import check_folder_for
 
     if folder.exists() and not folder.is_dir():
         raise ConfigError(f"--bags {folder}: a file of that name exists; give a folder")
@@ -300,10 +300,7 @@ def _check_bags(folder: Path, overwrite: bool) -> None:
             f"--bags {folder} holds bags already ({', '.join(earlier[:3])}{', ...' if len(earlier) > 3 else ''}); "
             "pass --overwrite to replace them, or choose another --bags folder"
         )
-    try:
-        check_writable(folder / ".bags.probe", overwrite=True)
-    except ConfigError as exc:  # named as the folder, not as the probe's file name
-        raise ConfigError(str(exc).replace(str(folder / ".bags.probe"), f"--bags {folder}")) from None
+    check_folder_for(folder / "worst-0")
 
 
 def _worst_bags(result: Any, folder: Path, overwrite: bool) -> list[Path]:

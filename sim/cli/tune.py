@@ -158,6 +158,10 @@ def _add_output_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress display")
 
 
+#: The characters of a study's name (it names the study's files).
+STUDY_CHARS = "A-Za-z0-9_.-"
+
+
 def default_study_name(
     tokens: list[str], robot: str | None, robust: bool, tracker: str = "fbl", localiser: str | None = None
 ) -> str:
@@ -165,7 +169,7 @@ def default_study_name(
     same name)."""
     base = f"{tracker}-" + "_".join(tokens) + (f"-{robot}" if robot else "") + ("-robust" if robust else "")
     base += f"-{localiser}" if localiser else ""
-    name = re.sub(r"[^A-Za-z0-9_.-]+", "-", base)
+    name = re.sub(f"[^{STUDY_CHARS}]+", "-", base)
     if len(name) > 60:
         name = name[:50] + "-" + hashlib.sha1(name.encode()).hexdigest()[:8]
     return name
@@ -394,7 +398,7 @@ def run(args: argparse.Namespace) -> int:
     twice = sorted({t for t in tokens if tokens.count(t) > 1})
     if twice:  # the same case twice would weigh it twice in the objective
         raise ConfigError(f"--scenarios names {', '.join(twice)} twice; give each case once")
-    if args.study is not None and not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9._-]*", args.study):
+    if args.study is not None and not re.fullmatch(f"[A-Za-z0-9][{STUDY_CHARS}]*", args.study):
         raise ConfigError(
             f"--study {args.study!r}: a study name is letters, digits and . _ - (it names the study's files)"
         )

@@ -72,7 +72,7 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
         ConfigError: ``path`` is a file, or a folder that is not a rosbag2 bag (it is never replaced), or
             its parent folder cannot take new files.
     """
-    from sim.outputs import check_writable
+    from sim.outputs import check_folder_for
 
     path = Path(path)
     if path.exists() or path.is_symlink():
@@ -85,11 +85,7 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
                 f"cannot replace {path}: it is a folder that holds files but no rosbag2 metadata.yaml, so not a bag "
                 "this command wrote; choose another --bag folder"
             )
-    probe = path.parent / f".{path.name}.probe"
-    try:
-        check_writable(probe, overwrite=True)
-    except ConfigError as exc:  # named as the bag, not as the probe's file name
-        raise ConfigError(str(exc).replace(str(probe), f"the bag {path}")) from None
+    check_folder_for(path)
 
 
 def check_bag_apart(bag: Path, files: Iterable[Path]) -> None:
