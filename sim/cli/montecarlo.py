@@ -55,7 +55,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         default=None,
         metavar="K=LO:HI,...",
         help="draw each run's perturbation uniformly from these ranges (friction, mass, radius, noise, "
-        "heading_noise, latency; keys left out stay nominal), e.g. radius=0.97:1.03,latency=0:0.02",
+        "heading_noise, latency; keys left out stay nominal; K=V without a range holds V for every run), e.g. "
+        "radius=0.97:1.03,latency=0:0.02",
     )
     p.add_argument("--replan", action="store_true", help="plan each run anew with its own seed")
     p.add_argument("--time-limit", type=float, default=30.0, metavar="S", help="planning budget (default: 30 s)")
