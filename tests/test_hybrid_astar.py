@@ -292,6 +292,10 @@ def test_gap_too_narrow_for_the_body_exhausts_the_lattice():
     assert f"(searched after the 0.05 m lattice was exhausted in {res.stats['iterations']})" in both.reason
     assert both.stats["coarse"]["iterations"] == res.stats["iterations"] and both.stats["cell_size"] == 0.025
     assert both.stats["time_s"] > res.stats["time_s"] * 0.5
+    # a plan's time limit spent in the finer search: the reason names the plan's limit, not what was left
+    short = make_planner("hybrid-a-star", search_from_goal=False, time_limit=0.8).plan(prob)
+    if short.status is PlanStatus.TIMEOUT and "coarse" in short.stats:  # else this machine finished both
+        assert short.reason.startswith("time budget of 0.8 s spent")
     assert res.path.shape[1] == 3 and res.path.shape[0] >= 1
     # the search from the goal runs out of states first, but decides nothing: it reaches the start by
     # the analytic expansion alone, where the other leaves it by any primitive

@@ -278,7 +278,10 @@ class HybridAStar:
         again = HybridAStar(**options)._plan(problem)
         stats = {
             **again.stats,
-            **{k: float(res.stats[k]) + float(again.stats[k]) for k in ("time_s", "code_s", "cpu_s", "grid_s")},
+            # both searches' time (a finer run that ended early, at its grid, reports no CPU time)
+            **{
+                k: float(res.stats[k]) + float(again.stats.get(k, 0.0)) for k in ("time_s", "code_s", "cpu_s", "grid_s")
+            },
             "coarse": {
                 "cell_size": cfg.cell_size,
                 "iterations": res.stats["iterations"],
@@ -286,7 +289,8 @@ class HybridAStar:
             },
             "cell_size": finer,
         }
-        reason = again.reason
+        # the finer search's budget was what was left of the plan's: the reason names the plan's
+        reason = again.reason.replace(f"time budget of {left:g} s", f"time budget of {limit:g} s")
         if again.status is not PlanStatus.SUCCESS:
             reason += f" (searched after the {cfg.cell_size:g} m lattice was exhausted in {res.stats['iterations']})"
         return dataclasses.replace(again, reason=reason, stats=stats)
