@@ -27,7 +27,7 @@ from planning.core.maps import load_map_table
 from planning.core.robot import MODELS_DIR, ROBOT_FILES, load_robot
 from planning.core.scenario_type import DEFAULT_HEADING_TOLERANCE, DEFAULT_POSITION_TOLERANCE, Scenario
 from planning.core.tables import TableReader
-from planning.core.world import MIN_FEATURE, Box, Circle, Ellipse, Obstacle, Polygon, World
+from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon, World, too_thin
 from planning.errors import ConfigError, ScenarioError
 
 SCENARIOS_DIR = MODELS_DIR / "scenarios"
@@ -236,12 +236,8 @@ def _world(r: TableReader, table: Any, base_dir: Path) -> World:
                 f"bounds {list(bounds)} (its box spans x {bx0:g}..{bx1:g}, y {by0:g}..{by1:g}); "
                 "move it inside, or remove it"
             )
-        if ob.min_feature < MIN_FEATURE:
-            raise ScenarioError(
-                f"{r.where}: field 'world.obstacles[{i}]': this {ob.kind} is {ob.min_feature:.3g} m across, "
-                f"less than the {MIN_FEATURE * 1e3:g} mm the collision checker resolves (it samples motions at a "
-                "quarter of the smallest obstacle); make it larger, or remove it"
-            )
+        if too_thin(ob):
+            raise ScenarioError(f"{r.where}: field 'world.obstacles[{i}]': this {ob.kind} {too_thin(ob)}")
     if "map" in table:
         loader = MAP_LOADERS.get("image")
         if loader is None:

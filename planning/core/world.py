@@ -309,6 +309,17 @@ Obstacle = Circle | Ellipse | Box | Polygon
 MIN_FEATURE = 1e-4
 
 
+def too_thin(ob: Obstacle) -> str:
+    """Why ``ob`` is thinner than a world takes (:data:`MIN_FEATURE`), as "is ... across, ...; make it
+    larger, or remove it"; "" when it is not."""
+    if ob.min_feature >= MIN_FEATURE:
+        return ""
+    return (
+        f"is {ob.min_feature:.3g} m across, less than the {MIN_FEATURE * 1e3:g} mm the collision checker resolves "
+        "(it samples motions at a quarter of the smallest obstacle); make it larger, or remove it"
+    )
+
+
 @dataclass(frozen=True)
 class World:
     """A rectangular arena with walls on its edges and obstacles inside.
@@ -333,12 +344,8 @@ class World:
         object.__setattr__(self, "bounds", b)
         object.__setattr__(self, "obstacles", tuple(self.obstacles))
         for i, ob in enumerate(self.obstacles):
-            if ob.min_feature < MIN_FEATURE:
-                raise ConfigError(
-                    f"obstacle {i} ({ob.kind}) is {ob.min_feature:.3g} m across, less than the "
-                    f"{MIN_FEATURE * 1e3:g} mm the collision checker resolves (it samples motions at a quarter of "
-                    "the smallest obstacle); make it larger, or leave it out"
-                )
+            if too_thin(ob):
+                raise ConfigError(f"obstacle {i} ({ob.kind}) {too_thin(ob)}")
 
     @property
     def width(self) -> float:

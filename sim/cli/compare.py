@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from sim.cli.job_outputs import add_case_arguments
+from sim.cli.job_outputs import add_case_arguments, check_video_name
 from sim.cli.trajectory_files import add_file_arguments
 
 DESCRIPTION = """\
@@ -63,7 +63,6 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 def _outputs(args: argparse.Namespace) -> dict[str, Path]:
     """The files asked for, checked writable before anything runs."""
-    from planning.errors import ConfigError
     from sim.outputs import check_writable
 
     out: dict[str, Path] = {}
@@ -73,8 +72,8 @@ def _outputs(args: argparse.Namespace) -> dict[str, Path]:
         out["paths"], out["errors"] = Path(f"{args.plots}-paths.png"), Path(f"{args.plots}-errors.png")
     if args.video:
         out["video"] = Path(args.video)
-    if args.video and Path(args.video).suffix.lower() != ".mp4":
-        raise ConfigError(f"--video must name an .mp4 file, got {args.video}")
+    if args.video:
+        check_video_name(Path(args.video))
     for path in out.values():
         check_writable(path, overwrite=args.overwrite)
     if args.bag is not None:

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from planning.errors import ConfigError, OutputExistsError
-from sim.cli.job_outputs import DEFAULT_DIR, add_case_arguments, add_executor_arguments
+from sim.cli.job_outputs import DEFAULT_DIR, RUN_SETTINGS, add_case_arguments, add_executor_arguments
 from sim.cli.simulate import add_localiser_arguments
 from sim.cli.trajectory_files import add_file_arguments, file_options
 
@@ -59,7 +59,13 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "radius=0.97:1.03,latency=0:0.02",
     )
     p.add_argument("--replan", action="store_true", help="plan each run anew with its own seed")
-    p.add_argument("--time-limit", type=float, default=30.0, metavar="S", help="planning budget (default: 30 s)")
+    p.add_argument(
+        "--time-limit",
+        type=float,
+        default=RUN_SETTINGS["time_limit"],
+        metavar="S",
+        help="planning budget (default: 30 s)",
+    )
     p.add_argument("--build", choices=["as-built", "nominal"], default="as-built", help="draw each run's robot as "
                    "built (default) or drive the robot as drawn every time")  # fmt: skip
     p.add_argument("--gains", default=None, metavar="KP,KD|FILE", help="feedback gains (default: 9,6)")
@@ -117,7 +123,11 @@ def _spec(args: argparse.Namespace) -> Any:
         planner, reference = source.get("planner"), source.get("reference")
         case = Case(scenario, robot=args.robot, planner=planner, reference=reference, **fields)
     if case.reference is not None or case.trajectory_file is not None:  # a plan option would only change the key
-        given = [opt for opt, on in (("--time-limit", args.time_limit != 30.0), ("--replan", args.replan)) if on]
+        given = [
+            opt
+            for opt, on in (("--time-limit", args.time_limit != RUN_SETTINGS["time_limit"]), ("--replan", args.replan))
+            if on
+        ]
         if given:
             raise ConfigError(
                 f"{', '.join(given)} {'is' if len(given) == 1 else 'are'} for a planned study, and this one plans "
@@ -206,7 +216,7 @@ def _base_argv(args: argparse.Namespace, case: Any) -> list[str]:
     if args.robot:
         argv += ["--robot", args.robot]
     for opt, value, default in (
-        ("--time-limit", args.time_limit, 30.0),
+        ("--time-limit", args.time_limit, RUN_SETTINGS["time_limit"]),
         ("--gains", args.gains, None),
         ("--sensors", args.sensors, None),
         ("--control-rate", args.control_rate, 50.0),

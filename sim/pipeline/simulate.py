@@ -448,8 +448,7 @@ def prepare_case(case: Case) -> PreparedCase:
     prepared = prepare_trajectory(case)
     simulator = simulator_for(prepared)
     simulator.steps_per_control(case.control_rate)
-    case.sensing(prepared.scenario)
-    case.localiser_setup(prepared.scenario)
+    case.sensing(prepared.scenario)  # the sensors, and the localiser with them (Case.localiser_setup)
     return PreparedCase(prepared, simulator)
 
 
