@@ -1,8 +1,9 @@
 """Synthetic sensor data for the estimator tests: a differential drive with systematic errors.
 
 The robot drives smooth wheel-speed profiles. Its as-built wheel radii and track width differ from
-the nominal ones by draws from the build tolerances, its wheels slip by white noise, and the truth
-is integrated with exact arcs at ``SUBSTEPS`` sub-steps per control period (the wheel speeds vary
+the nominal ones by draws from the build tolerances, its wheels slip by white noise (and, in a
+scenario with ``cornering_slip``, sideways in turns by a compliance drawn from the EKF's prior),
+and the truth is integrated with exact arcs at ``SUBSTEPS`` sub-steps per control period (the wheel speeds vary
 inside a period, as on a real robot). The sensors see: quantised cumulative encoder counts (floor),
 a gyro reading the period's mean z-rate plus a random-walk bias and white noise, and pose fixes
 measured at sub-step times (so often between control ticks) with Gaussian noise, delivered at the
@@ -36,6 +37,7 @@ class Scenario:
     fix_period: float = 0.2
     latency: float = 0.1
     pose_std0: float = 0.01  # initial pose error std [m] and [rad]
+    cornering_slip: bool = False  # the tyres slip in turns, k drawn from the config's prior
 
 
 @dataclass(frozen=True)
@@ -51,6 +53,7 @@ class Synthetic:
     fixes: list[tuple[float, int, FloatArray]]
     pose0: FloatArray  # (3,) initial estimate (truth + error drawn from cov0)
     cov0: FloatArray  # (3, 3)
+    cornering_slip: float = 0.0  # the tyres' true compliance k [rad s^2/m]
 
 
 def wheel_rates(t: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -77,7 +80,11 @@ def draw(scenario: Scenario, seed: int) -> Synthetic:
     dth = (r_r * roll_r - r_l * roll_l) / b
     cov0 = np.eye(3) * scenario.pose_std0**2
     start = np.array([0.5, -0.3, 0.4])
-    sub = integrate_arcs(start, ds, dth)
+    slip, k_slip = None, 0.0
+    if scenario.cornering_slip:  # its own stream: the other draws stay those of the run without
+        k_slip = cfg.cornering_slip_std * np.random.default_rng([seed, 1]).standard_normal()
+        slip = -k_slip * (ds / h) * (dth / h)  # -k v omega
+    sub = integrate_arcs(start, ds, dth, slip)
     scrub = cfg.position_noise * np.sqrt(np.abs(ds))[:, None] * rng.standard_normal((n, 2))
     sub[1:, :2] += np.cumsum(scrub, axis=0)
     counts_l = np.floor(np.concatenate(([0.0], np.cumsum(enc_l))) * cfg.counts_per_rev / (2 * math.pi))
@@ -105,6 +112,7 @@ def draw(scenario: Scenario, seed: int) -> Synthetic:
         fixes=fixes,
         pose0=sub[0] + rng.multivariate_normal(np.zeros(3), cov0),
         cov0=cov0,
+        cornering_slip=k_slip,
     )
 
 
@@ -140,7 +148,7 @@ def propagate(
     frac: float,
 ) -> None:
     """One compiled prediction of ``est`` (:func:`control.estimation.kernels.propagate`) on a state x
-    (7,) and covariance p (7, 7), in place, over dt [s] with wheel increments (dl, dr) [rad], gyro
+    (N,) and covariance p (N, N), in place, over dt [s] with wheel increments (dl, dr) [rad], gyro
     rate w [rad/s] and the period share frac; its Jacobian and noise are left in ``est._F``, ``est._Q``.
 
     Raises:

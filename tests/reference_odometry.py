@@ -58,13 +58,15 @@ def arc_jacobians(theta: float, ds: float, dtheta: float) -> tuple[FloatArray, F
     return f, j
 
 
-def integrate_arcs(pose0: ArrayLike, ds: ArrayLike, dtheta: ArrayLike) -> FloatArray:
+def integrate_arcs(pose0: ArrayLike, ds: ArrayLike, dtheta: ArrayLike, slip: ArrayLike | None = None) -> FloatArray:
     """Chain arcs from a start pose, vectorised.
 
     Args:
         pose0: (3,) start pose [x, y, theta] [m, m, rad].
         ds: (N,) arc lengths [m].
         dtheta: (N,) heading changes [rad].
+        slip: (N,) slip angles [rad]: each step's chord turned by its angle off the heading (the
+            EKF's cornering slip, :mod:`control.estimation.ekf`); None: none.
 
     Returns:
         (N+1, 3) poses, the first pose0; heading accumulated, not wrapped.
@@ -86,7 +88,7 @@ def integrate_arcs(pose0: ArrayLike, ds: ArrayLike, dtheta: ArrayLike) -> FloatA
     small = np.abs(h) < SERIES_BELOW
     h_safe = np.where(small, 1.0, h)
     c = np.where(small, 1.0 - h * h / 6.0 + h**4 / 120.0, np.sin(h_safe) / h_safe)
-    phi = theta[:-1] + h
+    phi = theta[:-1] + h if slip is None else theta[:-1] + h + np.asarray(slip, dtype=float)
     out = np.empty((d.size + 1, 3))
     out[:, 0] = p0[0] + np.concatenate(([0.0], np.cumsum(d * c * np.cos(phi))))
     out[:, 1] = p0[1] + np.concatenate(([0.0], np.cumsum(d * c * np.sin(phi))))

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from control.estimation import (
+    N_STATE,
     STATE_NAMES,
     EstimatorConfig,
     EstimatorDivergedError,
@@ -158,28 +159,28 @@ def test_noise_free_prediction_is_the_odometry(heading: str) -> None:
 def test_propagation_jacobians_match_finite_differences(heading: str) -> None:
     """F (state) and Q (noise through the input Jacobian) against central differences of the mean."""
     est = PoseEstimator(EstimatorConfig(heading=heading), RADIUS, TRACK)
-    x0 = np.array([0.3, -0.2, 2.9, 0.01, 0.004, -0.003, 0.02])
+    x0 = np.array([0.3, -0.2, 2.9, 0.01, 0.004, -0.003, 0.02, 0.03])  # a cornering slip too
     u = np.array([0.35, 0.5, 0.7])  # dl, dr [rad], gyro [rad/s]
 
     def mean(x: np.ndarray, uu: np.ndarray) -> np.ndarray:
         xx = x.copy()
-        propagate(est, xx, np.zeros((7, 7)), uu[0], uu[1], uu[2], DT, 1.0)
+        propagate(est, xx, np.zeros((N_STATE, N_STATE)), uu[0], uu[1], uu[2], DT, 1.0)
         return xx
 
-    p = np.zeros((7, 7))
+    p = np.zeros((N_STATE, N_STATE))
     x = x0.copy()
     propagate(est, x, p, u[0], u[1], u[2], DT, 1.0)
     f, q = est._F.copy(), est._Q.copy()
     eps = 1e-6
 
     def diff(k: int, of_input: bool) -> np.ndarray:
-        d = np.zeros(3 if of_input else 7)
+        d = np.zeros(3 if of_input else N_STATE)
         d[k] = eps
         hi = mean(x0, u + d) if of_input else mean(x0 + d, u)
         lo = mean(x0, u - d) if of_input else mean(x0 - d, u)
         return (hi - lo) / (2 * eps)  # theta stays near 2.9: no wrap
 
-    np.testing.assert_allclose(f, np.stack([diff(k, False) for k in range(7)], axis=1), atol=1e-8)
+    np.testing.assert_allclose(f, np.stack([diff(k, False) for k in range(N_STATE)], axis=1), atol=1e-8)
     g = np.stack([diff(k, True) for k in range(3)], axis=1)
     cfg = est.config
     quant = (2 * math.pi / cfg.counts_per_rev) ** 2 / 6
@@ -199,9 +200,9 @@ def test_propagated_covariance_is_f_p_ft_plus_q(heading: str) -> None:
     est = PoseEstimator(EstimatorConfig(heading=heading), RADIUS, TRACK)
     rng = np.random.default_rng(4)
     for _ in range(5):
-        a = rng.normal(size=(7, 7))
-        p0 = a @ a.T + 0.1 * np.eye(7)
-        x, p = rng.normal(scale=0.05, size=7), p0.copy()
+        a = rng.normal(size=(N_STATE, N_STATE))
+        p0 = a @ a.T + 0.1 * np.eye(N_STATE)
+        x, p = rng.normal(scale=0.05, size=N_STATE), p0.copy()
         propagate(est, x, p, *rng.uniform(-0.5, 0.5, 2), rng.uniform(-1, 1), DT, rng.uniform(0.2, 1.0))
         f, q = est._F, est._Q
         np.testing.assert_allclose(p, f @ p0 @ f.T + q, rtol=1e-13, atol=1e-15)
@@ -280,6 +281,29 @@ def test_encoder_heading_with_fixes_is_consistent(draws: list[Synthetic]) -> Non
     mean, inside = anees_verdict(monte_carlo(replace(CONFIG, heading="encoders"), draws, True)["nees"])
     assert lo < mean < hi
     assert inside >= 0.85
+
+
+def test_cornering_slip_is_learned_and_keeps_the_filter_consistent() -> None:
+    """Tyres that slip outwards in turns (a compliance drawn from the prior, large here so that it
+    shows: 0.3 rad per m/s^2, up to 50 mrad on this drive): with the slip state the filter stays
+    consistent and learns k from the fixes; without it (a zero prior) the same runs fail the test."""
+    config = replace(CONFIG, cornering_slip_std=0.3)
+    runs = [draw(replace(SCENARIO, config=config, cornering_slip=True), seed) for seed in range(RUNS)]
+    lo, hi = chi2_interval(3, runs=RUNS)
+    mean, inside = anees_verdict(monte_carlo(config, runs, True)["nees"])
+    assert lo < mean < hi
+    assert inside >= 0.85
+    k_err, k_std = [], []
+    for d in runs:
+        est = PoseEstimator(config, RADIUS, TRACK)
+        run(est, d)
+        k_err.append(est.cornering_slip - d.cornering_slip)
+        k_std.append(math.sqrt(est.cov_full[-1, -1]))
+    assert chi2_interval(1, runs=RUNS)[0] < np.mean((np.array(k_err) / k_std) ** 2) < chi2_interval(1, runs=RUNS)[1]
+    assert np.all(np.array(k_std) < 0.3 * config.cornering_slip_std)  # the turns with fixes observe it
+    mean, inside = anees_verdict(monte_carlo(replace(config, cornering_slip_std=0.0), runs, True)["nees"])
+    assert mean > hi
+    assert inside < 0.5
 
 
 # --- delayed fixes -------------------------------------------------------------------------------

@@ -13,18 +13,21 @@ Errors are returned as a status code (:data:`OK`, :data:`BAD_INCREMENT`, :data:`
 :data:`BAD_INNOVATION`) with the time they happened at, and raised by the caller, which words
 the message.
 
-All of a filter's arrays live in one float block of rows of 7 (:func:`allocate`), so that a call
-into compiled code passes one array (a call's cost grows with its arguments, and a period makes
-few calls) and every part is a slice of rows (no reshaping per call). By row:
+All of a filter's arrays live in one float block of rows of :data:`N` (the state's size, 8;
+:func:`allocate`), so that a call into compiled code passes one array (a call's cost grows with its
+arguments, and a period makes few calls) and every part is a slice of rows (no reshaping per call).
+By row:
 
 - 0-1: the filter's constants, flat, indexed by :data:`RADIUS` .. :data:`REJECT` (:func:`parameters`);
-- 2-8: the Jacobian F of the last prediction (identity but where :func:`propagate` writes);
-  9-15: its noise Q (zero likewise); 16-22: a product;
-- 23, 24-30: a replay's state and its covariance; 31: the innovation of the last gated fix
-  (columns 0-2), then the ring's newest step, its number of steps and the newest time [s]
-  (columns :data:`HEAD`, :data:`SIZE`, :data:`TIME`; the head is -1 before a reset);
+- from :data:`F_ROW`, N rows: the Jacobian F of the last prediction (identity but where
+  :func:`propagate` writes); from :data:`Q_ROW`, N rows: its noise Q (zero likewise); from
+  :data:`TMP_ROW`, N rows: a product;
+- :data:`X_ROW`, then N rows from :data:`P_ROW`: a replay's state and its covariance; :data:`NU_ROW`:
+  the innovation of the last gated fix (columns 0-2), then the ring's newest step, its number of
+  steps and the newest time [s] (columns :data:`HEAD`, :data:`SIZE`, :data:`TIME`; the head is -1
+  before a reset);
 - from :data:`RING`, the ring of the last C steps: C rows (time [s], left and right wheel
-  increments [rad], gyro rate [rad/s]), C rows of states, C blocks of 7 rows of covariances.
+  increments [rad], gyro rate [rad/s]), C rows of states, C blocks of N rows of covariances.
 
 :class:`Block` gives the same parts as numpy views, for the Python side.
 """
@@ -50,9 +53,9 @@ N_PARAMS = 10
 #: Status codes.
 OK, BAD_INCREMENT, BAD_STATE, BAD_INNOVATION, BAD_TIME, BAD_READING = range(6)
 
-N = 7  # state size (control.estimation.ekf.N_STATE)
+N = 8  # state size (control.estimation.ekf.N_STATE); a change here must touch sim/robot/sensing.py (predict_period)
 #: First rows of the block's parts (see the module doc) and rows per ring step.
-F_ROW, Q_ROW, TMP_ROW, X_ROW, P_ROW, NU_ROW, RING = 2, 9, 16, 23, 24, 31, 32
+F_ROW, Q_ROW, TMP_ROW, X_ROW, P_ROW, NU_ROW, RING = 2, 2 + N, 2 + 2 * N, 2 + 3 * N, 3 + 3 * N, 3 + 4 * N, 4 + 4 * N
 STEP_ROWS = 2 + N
 #: Columns of row NU_ROW holding the ring's bookkeeping: newest step, number of steps, newest time [s].
 HEAD, SIZE, TIME = 3, 4, 5
@@ -101,8 +104,8 @@ class Block(NamedTuple):
     """Numpy views of a block's parts (see the module doc).
 
     Attributes:
-        prm: (N_PARAMS,) constants. f, q, tmp: (7, 7) F, Q, scratch. nu: (3,) last gated innovation.
-        bt: (C,) step times [s]. bu: (C, 3) step inputs. bx: (C, 7) states. bP: (C, 7, 7) covariances.
+        prm: (N_PARAMS,) constants. f, q, tmp: (N, N) F, Q, scratch. nu: (3,) last gated innovation.
+        bt: (C,) step times [s]. bu: (C, 3) step inputs. bx: (C, N) states. bP: (C, N, N) covariances.
     """
 
     prm: FloatArray
@@ -140,9 +143,9 @@ wrap = mod2pi
 
 @nb.njit(cache=True)
 def _congruence(p: FloatArray, f: FloatArray, q: FloatArray, tmp: FloatArray) -> None:  # pragma: no cover - compiled
-    """p = f p f^T + q in place (all (7, 7); tmp is scratch).
+    """p = f p f^T + q in place (all (N, N); tmp is scratch).
 
-    f is the identity but in rows 0-2, columns 2-6 (above the diagonal): its other rows copy, and
+    f is the identity but in rows 0-2, columns 2 to N - 1 (above the diagonal): its other rows copy, and
     its identity entries add each term once, in the order a full product sums them (the same
     result, bit for bit, with a third of the multiplications).
     """
@@ -179,9 +182,13 @@ def propagate(
     """One prediction over dt [s] with wheel increments (dl, dr) [rad] and gyro rate w [rad/s], in place.
 
     ``frac`` is the share of a stored control period this interval covers (the quantisation
-    variance is shared out by it). Only the non-zero entries of the Jacobian ``f`` (7, 7) and the
-    noise ``q`` (7, 7) are written (the rest stay as set up: f identity, q zero); ``tmp`` (7, 7) is
+    variance is shared out by it). Only the non-zero entries of the Jacobian ``f`` (N, N) and the
+    noise ``q`` (N, N) are written (the rest stay as set up: f identity, q zero); ``tmp`` (N, N) is
     scratch.
+
+    The motion's direction is the chord's, turned by the cornering slip angle ``-k v omega`` (k the
+    state's last component, v = ds / dt, omega = dth / dt; :mod:`control.estimation.ekf`): the
+    position's derivatives by ds and dth (``j0s`` .. ``j1t``) include the angle's, so F and Q do.
 
     Returns:
         OK; BAD_INCREMENT (nothing changed) or BAD_STATE (x and p written) when non-finite.
@@ -205,14 +212,17 @@ def propagate(
         return BAD_INCREMENT
     s_ss = 0.25 * (rl * rl * vl + rr * rr * vr)
     c, dc = sinc_half(dth)
-    phi = th + 0.5 * dth
+    g = -1.0 / (dt * dt) if dt > 0.0 else 0.0  # slip angle = k g ds dth = -k v omega
+    ks = x[7] * g  # d(slip angle) / d(ds dth)
+    phi = th + 0.5 * dth + ks * ds * dth
     cp, sp = math.cos(phi), math.sin(phi)
     a = ds * c
-    j0s, j0t = c * cp, ds * (dc * cp - 0.5 * c * sp)
-    j1s, j1t = c * sp, ds * (dc * sp + 0.5 * c * cp)
+    j0s, j0t = c * cp - a * sp * ks * dth, ds * (dc * cp - 0.5 * c * sp) - a * sp * ks * ds
+    j1s, j1t = c * sp + a * cp * ks * dth, ds * (dc * sp + 0.5 * c * cp) + a * cp * ks * ds
     xn, yn = px + a * cp, py + a * sp
     x[0], x[1], x[2] = xn, yn, wrap(th + dth)
     f[0, 2], f[1, 2] = -a * sp, a * cp
+    f[0, 7], f[1, 7] = -a * sp * g * ds * dth, a * cp * g * ds * dth
     s_em, s_ed = 0.5 * r * (dl + dr), 0.5 * r * (dr - dl)  # d ds / d(e_m, e_d)
     if gyro:  # d dth / d b_g = -dt; e_m, e_d act through ds only
         f[0, 3], f[1, 3], f[2, 3] = -j0t * dt, -j1t * dt, -dt

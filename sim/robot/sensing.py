@@ -64,6 +64,10 @@ def predict_period(
     Returns:
         (status of the step, or PAST_THE_RUN for a period outside 1 .. K - 1; the estimated pose);
         on a failure the pose is NaN and the estimate is not logged.
+
+    numba caches this kernel with the block layout and the prediction of ``kernels`` compiled in, and
+    keys its cache on this file only: a change to the state (its size, ``kernels.N``) or to the
+    prediction must come with a change to this file, or a warm cache keeps the old code.
     """
     if not 0 < k < trace.shape[0]:
         return PAST_THE_RUN, math.nan, math.nan, math.nan
