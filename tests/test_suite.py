@@ -197,3 +197,13 @@ def test_the_docs_snippet_runs() -> None:
     exec(compile(block.code, block.name, "exec"), scope)
     final = scope["timestep"]
     assert final.last() and final.discount == 1.0  # type: ignore[attr-defined]
+
+
+def test_reference_policy_reproduces_simulate_bit_for_bit_on_the_balancing_robot() -> None:
+    """The balancing EduMIP's estimator counts its body's pitch into the wheels' turns: the policy reads
+    the balance loop's estimate from the ``pitch_estimate`` observation, as the simulator's sensing does."""
+    env = suite.load("turn_in_place", "edumip-balancing", "c-rrt-star", seed=0)
+    episode = suite.run_episode(env, suite.reference_policy(env))
+    job = simulate_plan("turn_in_place", planner="c-rrt-star", robot="edumip-balancing", seed=0,
+                        runs=(RunKind.CLOSED_LOOP,))  # fmt: skip
+    _assert_same_run(episode, job.logs[RunKind.CLOSED_LOOP])

@@ -325,8 +325,9 @@ class Simulator:
         report = every if progress is not None else -1  # the next period that reports progress
         if progress is not None:
             progress(0, n_ctrl)
-        observe = sensing.observer(d) if sensing is not None else None
         balance = recorder.balance
+        pitch = None if balance is None else balance.pitch_estimate
+        observe = sensing.observer(d, pitch) if sensing is not None else None
         pose = recorder.pose  # the pose sensors at the last sample
         for k in range(n_ctrl):
             if k == report and progress is not None:

@@ -161,6 +161,11 @@ class BalanceFirmware:
             self.fell_at = float(d.time)
         return self.fell_at is not None
 
+    def pitch_estimate(self) -> float:
+        """The balance loop's own estimate of the body's pitch [rad] (its complementary filter's, after
+        the last update): what the robot's software knows of it."""
+        return float(self.controller.theta)
+
     def drive(self, commands: FloatArray, row: int, qvel: FloatArray, ctrl: FloatArray, wiring: IntArray) -> None:
         """One update, with the signature of :meth:`sim.robot.wheel_firmware.VelocityLoop.drive`: the wheel-speed
         command is row ``row`` of ``commands`` [rad/s] (< 0: row 0); the voltages go into ``ctrl`` at

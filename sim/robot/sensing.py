@@ -43,9 +43,15 @@ FloatArray = NDArray[np.float64]
 TWO_PI = 2.0 * math.pi
 
 #: The record of an estimator loop's period (:func:`predict_period`): the last encoder counts, the
-#: time of period 0 [s], the period [s] and radians per count.
+#: time of period 0 [s], the period [s], radians per count and the last body pitch [rad].
 LOOP_STATE = np.dtype(
-    [("counts", np.int64, (2,)), ("t0", np.float64), ("dt", np.float64), ("rad_per_count", np.float64)]
+    [
+        ("counts", np.int64, (2,)),
+        ("t0", np.float64),
+        ("dt", np.float64),
+        ("rad_per_count", np.float64),
+        ("pitch", np.float64),
+    ]
 )
 #: :func:`predict_period`'s status for a period outside 1 .. the run's last (else the estimator's step status).
 PAST_THE_RUN = -1
@@ -53,13 +59,20 @@ PAST_THE_RUN = -1
 
 @nb.njit(cache=True)
 def predict_period(
-    k: int, left: int, right: int, gyro: float, mem: FloatArray, state: NDArray[np.void], trace: FloatArray
+    k: int,
+    left: int,
+    right: int,
+    gyro: float,
+    pitch: float,
+    mem: FloatArray,
+    state: NDArray[np.void],
+    trace: FloatArray,
 ) -> tuple[int, float, float, float]:  # pragma: no cover - compiled
     """Period k >= 1 of an :class:`EstimatorLoop` in one compiled call: predict the estimator's
     block ``mem`` (:func:`control.estimation.kernels.step`) with the wheels' turns since the last
     period (the counts ``left``, ``right`` against those kept in ``state``, a (1,) array of
-    :data:`LOOP_STATE`) and the gyro's reading [rad/s], and log its pose and variances into row k
-    of ``trace`` (K, 6).
+    :data:`LOOP_STATE`, plus the body's change of ``pitch`` [rad]: see :class:`EstimatorLoop`) and the
+    gyro's reading [rad/s], and log its pose and variances into row k of ``trace`` (K, 6).
 
     Returns:
         (status of the step, or PAST_THE_RUN for a period outside 1 .. K - 1; the estimated pose);
@@ -73,8 +86,12 @@ def predict_period(
         return PAST_THE_RUN, math.nan, math.nan, math.nan
     s = state[0]
     counts, q = s.counts, s.rad_per_count
-    status = kernels.step(mem, s.t0 + k * s.dt, (left - counts[0]) * q, (right - counts[1]) * q, gyro)
-    counts[0], counts[1] = left, right
+    dl, dr = (left - counts[0]) * q, (right - counts[1]) * q
+    tilt = pitch - s.pitch
+    if tilt != 0.0:  # the wheels' turns against the floor (added only when the body pitched)
+        dl, dr = dl + tilt, dr + tilt
+    status = kernels.step(mem, s.t0 + k * s.dt, dl, dr, gyro)
+    counts[0], counts[1], s.pitch = left, right, pitch
     if status != kernels.OK:
         return status, math.nan, math.nan, math.nan
     head = int(mem[kernels.NU_ROW, kernels.HEAD])
@@ -87,6 +104,14 @@ class EstimatorLoop:
     encoder counts and the gyro's reading, corrected with the fixes that arrive, its pose and
     variances logged by period. The simulator's sensing and the control suite's reference policy
     run it.
+
+    The encoders measure each wheel's turn against the body. A robot whose body pitches (the
+    balancing EduMIP leans to stand and to accelerate) turns its wheels against the floor by that
+    plus the body's pitch change: rc_balance's wheel position is ``phi = mean(encoder angles) +
+    theta`` (:mod:`control.balance`). Such a robot's loop is given its own pitch estimate (the balance
+    firmware's, what the robot knows) at each period and adds its change to both wheels' turns;
+    without it, a 0.08 rad lean taken at the start read as 2.7 mm of travel the robot never made.
+    Robots whose pitch is not given (0) are predicted from the encoders alone.
 
     Args:
         robot: The robot as drawn (the estimator's geometry).
@@ -107,24 +132,26 @@ class EstimatorLoop:
         self._state[0]["dt"], self._state[0]["rad_per_count"] = dt, rad_per_count
         self.t0 = 0.0
 
-    def start(self, t0: float, pose: tuple[float, float, float], counts: tuple[int, int]) -> tuple[float, float, float]:
+    def start(
+        self, t0: float, pose: tuple[float, float, float], counts: tuple[int, int], pitch: float = 0.0
+    ) -> tuple[float, float, float]:
         """Period 0 at time ``t0`` [s]: the estimator at a known ``pose`` (the robot placed there),
-        the encoders reading ``counts``. Returns the pose."""
+        the encoders reading ``counts``, the body at ``pitch`` [rad] (see the class doc). Returns the pose."""
         self.t0 = t0
         self.estimator.reset(t0, pose)
-        self._state[0]["t0"], self._state[0]["counts"] = t0, counts
+        self._state[0]["t0"], self._state[0]["counts"], self._state[0]["pitch"] = t0, counts, pitch
         return self.record(0)
 
-    def step(self, k: int, left: int, right: int, gyro: float) -> tuple[float, float, float]:
-        """Period ``k`` >= 1 (:func:`predict_period`) with the encoders' counts and the gyro's
-        reading [rad/s]; returns the estimated pose [m, m, rad].
+    def step(self, k: int, left: int, right: int, gyro: float, pitch: float = 0.0) -> tuple[float, float, float]:
+        """Period ``k`` >= 1 (:func:`predict_period`) with the encoders' counts, the gyro's reading
+        [rad/s] and the body's pitch [rad] (see the class doc); returns the estimated pose [m, m, rad].
 
         Raises:
             IndexError: ``k`` is outside the run's periods.
             EstimatorDivergedError: The estimator diverged.
             EstimatorInputError: A reading was not finite.
         """
-        status, x, y, th = predict_period(k, left, right, gyro, self.estimator.block, self._state, self._trace)
+        status, x, y, th = predict_period(k, left, right, gyro, pitch, self.estimator.block, self._state, self._trace)
         if status != kernels.OK:
             if status == PAST_THE_RUN:
                 raise IndexError(f"control period {k} is outside the run's 1 .. {self._trace.shape[0] - 1}")
@@ -250,6 +277,7 @@ class Sensing:
         self.status = "ok"
         self._k = -1
         self._data: mujoco.MjData | None = None
+        self._pitch: Callable[[], float] | None = None
         self.scans: ScanLocaliser | None = None
         if setup.localiser.kind == "amcl" and self.source is PoseSource.FUSED:
             localiser_schedule(setup.localiser, self.sensors.fix_every, self.sensors.fix_latency_periods, self.dt)
@@ -264,8 +292,12 @@ class Sensing:
                 gyro_error=self.sensors.gyro_error,
             )
 
-    def observer(self, data: mujoco.MjData) -> Callable[[int, tuple[float, float, float]], tuple[float, float, float]]:
-        """:meth:`observe` of a run on ``data`` (its ``MjData``, the same object at every period).
+    def observer(
+        self, data: mujoco.MjData, pitch: Callable[[], float] | None = None
+    ) -> Callable[[int, tuple[float, float, float]], tuple[float, float, float]]:
+        """:meth:`observe` of a run on ``data`` (its ``MjData``, the same object at every period);
+        ``pitch``, for a robot whose body pitches, gives its own estimate of the body's pitch [rad]
+        at each period (:class:`EstimatorLoop`: the wheels' turns against the floor).
 
         Raises:
             ValueError: This run's sensing already reads another ``MjData``.
@@ -273,6 +305,7 @@ class Sensing:
         if self._data is not None and data is not self._data:
             raise ValueError("Sensing.observer: a run's periods must all read the MjData of its period 0")
         self._data = data
+        self._pitch = pitch
         return self.observe
 
     def observe(self, k: int, truth: tuple[float, float, float]) -> tuple[float, float, float]:
@@ -296,7 +329,8 @@ class Sensing:
         self.truth[k] = truth
         if loop is None:
             return truth
-        pose = loop.start(self.t0, truth, (left, right)) if k == 0 else loop.step(k, left, right, gyro)
+        pitch = 0.0 if self._pitch is None else self._pitch()
+        pose = loop.start(self.t0, truth, (left, right), pitch) if k == 0 else loop.step(k, left, right, gyro, pitch)
         if k in self._events:
             self._fix_events(k, truth)
             pose = loop.record(k)

@@ -222,6 +222,7 @@ class TrackingTask(control.Task):  # type: ignore[misc]
             "fix_valid": ((1,), np.float64),
             "fix_age": ((1,), np.float64),
             "time": ((1,), np.float64),
+            "pitch_estimate": ((1,), np.float64),
             "reference": ((5,), np.float64),
             "reference_preview": ((PREVIEW_SAMPLES, 3), np.float64),
             "privileged_true_pose": ((3,), np.float64),
@@ -234,7 +235,9 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         Keys: ``encoder_counts`` (2,) counts; ``gyro_z`` (1,) yaw rate over the last period [rad/s];
         ``accel`` (3,) specific force [m/s^2]; ``fix`` (3,) the localisation fix delivered now
         (x, y, theta) [m, m, rad] with ``fix_valid`` 1.0 (zeros and 0.0 when none arrives) and
-        ``fix_age`` its age [s]; ``time`` trajectory time [s]; ``reference`` (5,) x, y, theta, v,
+        ``fix_age`` its age [s]; ``time`` trajectory time [s]; ``pitch_estimate`` (1,) a balancing
+        robot's own estimate of its body's pitch [rad] (its balance loop's; 0 for the others: the
+        encoders turn with the body, see :class:`sim.robot.sensing.EstimatorLoop`); ``reference`` (5,) x, y, theta, v,
         omega now; ``reference_preview`` (10, 3) poses every 0.1 s ahead; ``privileged_true_pose``
         (3,) the true pose (for learning baselines; a real robot has no such sensor).
         """
@@ -242,7 +245,7 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         t = self.time(ep)
         ref = self.trajectory.sample_many([t])
         ahead = self.trajectory.sample_many(t + PREVIEW_SPACING_S * np.arange(1, PREVIEW_SAMPLES + 1)).pose
-        fix = ep.fix
+        fix, balance = ep.fix, ep.recorder.balance
         assert ep.accel is not None
         return OrderedDict(
             encoder_counts=np.array(ep.counts, dtype=np.int64),
@@ -252,6 +255,7 @@ class TrackingTask(control.Task):  # type: ignore[misc]
             fix_valid=np.array([1.0 if fix is not None else 0.0]),
             fix_age=np.array([ep.fix_age]),
             time=np.array([t]),
+            pitch_estimate=np.array([0.0 if balance is None else balance.pitch_estimate()]),
             reference=np.array([ref.x[0], ref.y[0], ref.theta[0], ref.v[0], ref.omega[0]]),
             reference_preview=np.ascontiguousarray(ahead),
             privileged_true_pose=np.array(ep.recorder.pose),

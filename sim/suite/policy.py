@@ -67,13 +67,14 @@ class ReferencePolicy:
         obs, task, loop = timestep.observation, self.task, self.loop
         t = float(obs["time"][0])
         left, right = (int(c) for c in obs["encoder_counts"])
+        pitch = float(obs["pitch_estimate"][0])
         if timestep.first():
             self._k = 0
-            loop.start(t, tuple(obs["privileged_true_pose"]), (left, right))
+            loop.start(t, tuple(obs["privileged_true_pose"]), (left, right), pitch)
             self.tracker.reset(task.trajectory, task.schedule.dt_ctrl)
         else:
             self._k += 1
-            loop.step(self._k, left, right, float(obs["gyro_z"][0]))
+            loop.step(self._k, left, right, float(obs["gyro_z"][0]), pitch)
         if obs["fix_valid"][0] > 0.0 and self.source is PoseSource.FUSED:
             j = self._k - round(float(obs["fix_age"][0]) * task.control_rate)  # the period it was measured at
             loop.correct(j, tuple(obs["fix"]))
