@@ -124,7 +124,7 @@ def test_the_firmware_reads_with_the_runs_sensor_profile_and_seed() -> None:
 def test_the_estimator_counts_the_body_pitch_into_the_wheels_turns() -> None:
     """A body that leans forward by d_theta over wheels that stay put turns the encoders back by d_theta
     (they measure the wheel against the body): given the pitch, the loop sees no travel; without it,
-    r d_theta backwards (the balancing EduMIP's 0.08 rad lean at the start read as 2.7 mm)."""
+    r d_theta backwards."""
     from control.estimation import EstimatorConfig
     from sim.robot.sensing import EstimatorLoop
 

@@ -275,7 +275,7 @@ class HybridAStar:
         if left <= 0 or _lattice_too_large(problem, finer, cfg.angle_quantization_bins):
             return res
         options = {**dataclasses.asdict(cfg), "cell_size": finer, "refine_when_exhausted": False, "time_limit": left}
-        again = HybridAStar(**options)._plan(problem)
+        again = HybridAStar(**options)._plan(problem, stated_limit=limit)
         stats = {
             **again.stats,
             # both searches' time (a finer run that ended early, at its grid, reports no CPU time)
@@ -289,14 +289,15 @@ class HybridAStar:
             },
             "cell_size": finer,
         }
-        # the finer search's budget was what was left of the plan's: the reason names the plan's
-        reason = again.reason.replace(f"time budget of {left:g} s", f"time budget of {limit:g} s")
+        reason = again.reason
         if again.status is not PlanStatus.SUCCESS:
             reason += f" (searched after the {cfg.cell_size:g} m lattice was exhausted in {res.stats['iterations']})"
         return dataclasses.replace(again, reason=reason, stats=stats)
 
-    def _plan(self, problem: PlanProblem) -> PlanResult:
-        """One search on the configured lattice (see :meth:`plan`)."""
+    def _plan(self, problem: PlanProblem, stated_limit: float | None = None) -> PlanResult:
+        """One search on the configured lattice (see :meth:`plan`); a timeout's reason names
+        ``stated_limit`` [s] when given (a refinement's budget is what was left of the plan's, whose
+        limit the reason names), else the search's own."""
         cfg = self.config
         limit = cfg.time_limit if cfg.time_limit is not None else problem.time_limit
         clock = (PlanClock(limit), time.process_time())
@@ -347,9 +348,10 @@ class HybridAStar:
         except MemoryError:  # within the machine's memory, yet not to be had
             reason = _lattice_too_large(problem, cfg.cell_size, cfg.angle_quantization_bins, failed=True)
             return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=reason, stats=_stats(clock, checker, 0, 0))
+        said = limit if stated_limit is None else stated_limit
         if other is None or not other.wins(out):
-            return self._result(problem, setup, out, clock, limit, {} if other is None else other.stats(out))
-        return self._result(problem, setup, other.out, clock, limit, other.stats(out))
+            return self._result(problem, setup, out, clock, said, {} if other is None else other.stats(out))
+        return self._result(problem, setup, other.out, clock, said, other.stats(out))
 
     def _setup(self, problem: PlanProblem, checker: FastChecker) -> _Setup:
         """The turning radius, primitives, lattice and obstacle heuristic of a run."""
@@ -392,7 +394,7 @@ class HybridAStar:
     ) -> PlanResult:
         """The plan result of a finished search (see :func:`planning.planners.lattice.search`): the search
         from the start's, or the search from the goal's when ``race["search"]`` says so (its path then read
-        backwards); ``race`` goes into the stats."""
+        backwards); ``race`` goes into the stats; ``limit`` [s] is the time limit a timeout's reason names."""
         outcome, end, its, nodes, meta, tail, tail_dirs = out
         # the searched nodes in the order the search opened them (its root first), parents by row
         tree = PlanTree(nodes[:, :3].copy(), meta[:, 0].copy())
