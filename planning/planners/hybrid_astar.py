@@ -443,11 +443,16 @@ class HybridAStar:
     def _simplified(self, problem: PlanProblem, setup: _Setup, found: PlanResult) -> PlanResult:
         """The lattice's path simplified as the sampling planners' paths are, with Reeds–Shepp curves of
         the search's radius and its checker (the raw path kept in ``raw_path``; the stats report both
-        lengths and cusps). Smoothing follows in :mod:`planning.trajectory`, as for every planner."""
+        lengths and cusps). Smoothing follows in :mod:`planning.trajectory`, as for every planner. A
+        backwards metre costs ``reverse_penalty`` forwards metres there too, as in the search: the
+        simplified path does not turn forward stretches round to save a few centimetres backwards
+        (it did, without the weight: a world's 7.13 m path, 0.12 m of it backwards, became 7.03 m, 6.93 m
+        of it backwards)."""
         if not self.config.simplify:
             return found
         local = LocalPlanner("reeds_shepp", problem.robot, setup.checker, rho=setup.rho)
-        out = simplified(found, local, 0)  # deterministic: the same path whatever the problem's seed
+        # deterministic: the same path whatever the problem's seed
+        out = simplified(found, local, 0, reverse_weight=self.config.reverse_penalty)
         return dataclasses.replace(out, stats={**out.stats, "length_m": path_length(out.path)})
 
 

@@ -51,9 +51,10 @@ Interface: ``steer(q_a, q_b)`` returns ``(poses (K, 3), directions (K,))`` dense
 ``checker`` (the first pose ``q_a``, the last ``q_b``; directions of the motion arriving at each pose)
 or None when it cannot join them; ``checker(poses)`` says whether dense poses are collision-free;
 ``cost(poses, directions)`` is the cost of one piece, >= 0 and additive over pieces (default: the
-x-y length); ``distance(qs, q)`` (optional) gives lower bounds of the steered motions' costs between
-(M, 3) and (3,) poses, broadcast either way, no lower than the straight line between their positions
-(the greedy pass asks it only about the vertices that line leaves among the best).
+x-y length; :class:`DirectedLength` weights the backwards metres); ``distance(qs, q)`` (optional)
+gives lower bounds of the steered motions' costs between (M, 3) and (3,) poses, broadcast either way,
+no lower than the straight line between their positions (the greedy pass asks it only about the
+vertices that line leaves among the best).
 """
 
 from __future__ import annotations
@@ -84,13 +85,32 @@ PieceCost = Callable[[FloatArray, FloatArray], float]
 Distance = Callable[[FloatArray, FloatArray], FloatArray]
 
 
-def length_cost(poses: FloatArray, directions: FloatArray) -> float:
-    """The default piece cost: the x-y length of the poses [m] (turns in place cost nothing);
-    :func:`planning.core.geometry.path_length`'s sum, without its checks (it is asked once per
-    shortcut steered)."""
-    if poses.shape[0] < 2:
-        return 0.0
-    return float(np.sum(np.hypot(poses[1:, 0] - poses[:-1, 0], poses[1:, 1] - poses[:-1, 1])))
+@dataclass(frozen=True)
+class DirectedLength:
+    """A piece's x-y length [m], each backwards metre counted ``reverse_weight`` times (>= 1; turns in
+    place cost nothing): additive at any pose, as the plain length is, so the simplifier keeps its
+    running sums and turned stretches with it. :data:`length_cost` (weight 1) is the default; a
+    planner whose search prices reversing (Hybrid-A*'s ``reverse_penalty``) simplifies with its weight,
+    so its path does not trade forward driving for a slightly shorter way backwards."""
+
+    reverse_weight: float = 1.0
+
+    def __call__(self, poses: FloatArray, directions: FloatArray) -> float:
+        """The cost of the piece ``poses`` (K, 3), ``directions`` (K,) of the motion arriving at each
+        (at weight 1 path_length's sum, without its checks: it is asked once per shortcut steered)."""
+        if poses.shape[0] < 2:
+            return 0.0
+        steps = np.hypot(poses[1:, 0] - poses[:-1, 0], poses[1:, 1] - poses[:-1, 1])
+        return float(np.sum(self.weighted(steps, directions)))
+
+    def weighted(self, steps: FloatArray, directions: FloatArray) -> FloatArray:
+        """The (N - 1,) ``steps`` [m] between N poses, each backwards one (``directions`` (N,) < 0 at
+        its end) times the weight."""
+        return steps if self.reverse_weight == 1.0 else steps * np.where(directions[1:] < 0.0, self.reverse_weight, 1.0)
+
+
+#: The default piece cost: the x-y length of the poses [m].
+length_cost = DirectedLength()
 
 
 def count_cusps(directions: FloatArray | None) -> int:
@@ -252,6 +272,7 @@ class _Work:
         self.poses, self.dirs, self.verts = poses, dirs, verts
         self.steer, self.checker, self.cost = fns
         self.arc = cumulative_length(poses) if arc is None else arc
+        self.carc = self._running_cost()
         self.pcost = [self.piece(a, b) for a, b in itertools.pairwise(verts)]
         self.kept = 0
         self.attempts = 0
@@ -259,10 +280,19 @@ class _Work:
         #: checking (the motion between the same two poses is always the same).
         self.collides: set[bytes] = set()
 
+    def _running_cost(self) -> FloatArray | None:
+        """The cost from the first pose to each, for a :class:`DirectedLength` cost (the x-y length's
+        running sums themselves at weight 1); None for other costs."""
+        if not isinstance(self.cost, DirectedLength):
+            return None
+        if self.cost.reverse_weight == 1.0:
+            return self.arc
+        return np.concatenate([[0.0], np.cumsum(self.cost.weighted(np.diff(self.arc), self.dirs))])
+
     def piece(self, a: int, b: int) -> float:
-        """Cost of poses a..b (the x-y length straight from the running sums for the default cost)."""
-        if self.cost is length_cost:
-            return float(self.arc[b] - self.arc[a])
+        """Cost of poses a..b (straight from the running sums for a :class:`DirectedLength` cost)."""
+        if self.carc is not None:
+            return float(self.carc[b] - self.carc[a])
         return self.cost(self.poses[a : b + 1], self.dirs[a : b + 1])
 
     def total(self) -> float:
@@ -378,6 +408,7 @@ class _Work:
         costs = ([pre] if a > verts[k_lo] else []) + [c_new] + ([post] if b < verts[k_hi] else [])
         self.pcost = self.pcost[:k_lo] + costs + self.pcost[k_hi:]
         self.arc = cumulative_length(self.poses)
+        self.carc = self._running_cost()
         self.kept += 1
 
 
@@ -467,8 +498,9 @@ def _turned_pass(w: _Work, cfg: SimplifyConfig, distance: Distance | None) -> bo
     cusp and an end) is driven over the same ground in the opposite direction, heading turned by
     pi, entered from a point up to 0.35 m before it and left to a point up to 0.35 m after it by
     steered motions (2 ``cusp_tries`` per stretch, largest estimated saving first). Only for the
-    default length cost, which is additive at any pose, so the joints need no vertices."""
-    if w.cost is not length_cost or cfg.cusp_tries == 0 or not cfg.turn_stretches:
+    default length cost (or a :class:`DirectedLength`), which is additive at any pose, so the joints
+    need no vertices."""
+    if w.carc is None or cfg.cusp_tries == 0 or not cfg.turn_stretches:
         return False
     spans = np.array([0.0, 0.35])
     changed, k = False, 0

@@ -48,7 +48,7 @@ from planning.planners.sampling.tree import (
     merge_trees,
     sample_pose,
 )
-from planning.planners.simplify import SimplifyConfig, simplify_path
+from planning.planners.simplify import DirectedLength, SimplifyConfig, length_cost, simplify_path
 
 FloatArray = NDArray[np.float64]
 
@@ -219,15 +219,18 @@ class _TreePlanner(Generic[ConfigT]):
         return PlanResult(status, self.name, path=poses, reason=reason, stats=stats, tree=tree, directions=dirs)
 
 
-def simplified(result: PlanResult, local: LocalPlanner, seed: int) -> PlanResult:
+def simplified(result: PlanResult, local: LocalPlanner, seed: int, reverse_weight: float = 1.0) -> PlanResult:
     """A successful tree plan with its path simplified by the local planner's exact curves
-    (the raw path kept in ``raw_path``; stats gain the raw and simplified lengths and cusps)."""
+    (the raw path kept in ``raw_path``; stats gain the raw and simplified lengths and cusps). Its cost
+    is the x-y length, each backwards metre counted ``reverse_weight`` (>= 1) times
+    (:class:`planning.planners.simplify.DirectedLength`: a planner that prices reversing keeps its price)."""
     config = SimplifyConfig(turn_stretches=local.curves.kind == "reeds_shepp")  # Dubins cars drive forwards only
     s = simplify_path(
         result.path,
         result.directions,
         local.steer,
         local.checker.path_free,
+        cost=length_cost if reverse_weight == 1.0 else DirectedLength(reverse_weight),
         distance=local.curves.lengths,
         routes=lambda: curve_routes(local, result.path[0], result.path[-1]),
         config=config,
