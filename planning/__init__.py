@@ -18,7 +18,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from planning.kernel_cache import configure as _configure_kernel_cache
 from planning.lazy import lazy_exports
+
+_configure_kernel_cache()  # numba's cache directory, before any kernel is defined (planning.kernel_cache)
 
 if TYPE_CHECKING:
     from planning.core.geometry import Pose2D as Pose2D

@@ -53,7 +53,7 @@ N_PARAMS = 10
 #: Status codes.
 OK, BAD_INCREMENT, BAD_STATE, BAD_INNOVATION, BAD_TIME, BAD_READING = range(6)
 
-N = 8  # state size (control.estimation.ekf.N_STATE); a change here must touch sim/robot/sensing.py (predict_period)
+N = 8  # state size (control.estimation.ekf.N_STATE)
 #: First rows of the block's parts (see the module doc) and rows per ring step.
 F_ROW, Q_ROW, TMP_ROW, X_ROW, P_ROW, NU_ROW, RING = 2, 2 + N, 2 + 2 * N, 2 + 3 * N, 3 + 3 * N, 3 + 4 * N, 4 + 4 * N
 STEP_ROWS = 2 + N

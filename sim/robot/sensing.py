@@ -78,9 +78,8 @@ def predict_period(
         (status of the step, or PAST_THE_RUN for a period outside 1 .. K - 1; the estimated pose);
         on a failure the pose is NaN and the estimate is not logged.
 
-    numba caches this kernel with the block layout and the prediction of ``kernels`` compiled in, and
-    keys its cache on this file only: a change to the state (its size, ``kernels.N``) or to the
-    prediction must come with a change to this file, or a warm cache keeps the old code.
+    The block layout and the prediction of ``kernels`` are compiled in: numba's cache for this kernel
+    is renewed with theirs (:mod:`planning.kernel_cache`).
     """
     if not 0 < k < trace.shape[0]:
         return PAST_THE_RUN, math.nan, math.nan, math.nan

@@ -1,0 +1,59 @@
+"""numba's cache directory is named by the kernel sources, so an updated callee is never run stale."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from planning import kernel_cache
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_the_kernel_sources_are_the_modules_that_import_numba() -> None:
+    found = {p.relative_to(ROOT).as_posix() for p in kernel_cache.kernel_sources()}
+    # the pair whose stale cache crashed: the EKF's kernels and the sensing loop that compiles them in
+    assert {"control/estimation/kernels.py", "sim/robot/sensing.py", "planning/planners/lattice.py"} <= found
+    assert "planning/kernel_cache.py" not in found and "sim/cli/main.py" not in found
+
+
+def test_the_key_follows_kernel_sources_only(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    for package in kernel_cache.PACKAGES:
+        (tmp_path / package).mkdir()
+    kernel = tmp_path / "control" / "k.py"
+    other = tmp_path / "sim" / "text.py"
+    kernel.write_text("import numba\nN = 7\n")
+    other.write_text("MESSAGE = 'a'\n")
+    monkeypatch.setattr(kernel_cache, "_ROOT", tmp_path)
+    key = kernel_cache.source_key()
+    other.write_text("MESSAGE = 'b'\n")
+    assert kernel_cache.source_key() == key  # a module without kernels leaves the cache alone
+    kernel.write_text("import numba\nN = 8\n")
+    assert kernel_cache.source_key() != key
+
+
+def _cache_dir_in_a_new_process(env: dict[str, str]) -> str:
+    code = "import control.estimation.kernels, numba; print(numba.config.CACHE_DIR)"
+    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=ROOT, capture_output=True, text=True, check=True)
+    return out.stdout.strip()
+
+
+def test_a_process_uses_the_directory_of_its_sources_or_the_one_it_was_given(tmp_path: Path) -> None:
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env.update(PYTHONPATH=str(ROOT), XDG_CACHE_HOME=str(tmp_path / "xdg"))
+    want = tmp_path / "xdg" / "nhsim" / "numba" / kernel_cache.source_key()
+    assert _cache_dir_in_a_new_process(env) == str(want)
+    given = str(tmp_path / "mine")
+    assert _cache_dir_in_a_new_process({**env, "NUMBA_CACHE_DIR": given}) == given
+
+
+def test_old_cache_directories_are_pruned(tmp_path: Path) -> None:
+    for i, name in enumerate(["a", "b", "c", "d"]):
+        (tmp_path / name).mkdir()
+        os.utime(tmp_path / name, (1000 + i, 1000 + i))
+    kernel_cache._prune(tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c", "d"]
