@@ -246,7 +246,8 @@ def test_auto_starts_from_a_kinematic_plan_and_a_local_infeasibility_is_a_failur
     assert res.success, res.reason
     assert res.stats["init"] == "hybrid-a-star" and res.stats["dense_disc_clearance"] >= 0.0
     other = problem(507, 6.0, 11, 0.45)  # IPOPT fails from Hybrid-A*'s plan here, not from the route
-    kinematic = make_planner("optim", init="hybrid-a-star", init_options={"shape": "disc", "clearance": 0.02})
+    options = {"shape": "disc", "clearance": 0.02, "reverse_penalty": 1.0}  # auto's (reversing free, as the NLP)
+    kinematic = make_planner("optim", init="hybrid-a-star", init_options=options)
     assert not kinematic.plan(other).success
     res = make_planner("optim").plan(other)
     assert res.success, res.reason

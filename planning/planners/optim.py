@@ -503,8 +503,13 @@ class Optim:
         before, :meth:`_worth_another_start`), as (init, planner options).
 
         ``init="auto"`` with obstacles starts from Hybrid-A*'s plan for the robot's disc (the disc
-        the NLP keeps clear, plus the margin and 1 cm), then from the grid's route. The route is a
-        polyline a car cannot drive (corners, gaps only a disc takes): on 15 random 6-8 m worlds
+        the NLP keeps clear, plus the margin and 1 cm) with reversing free (``reverse_penalty`` 1), as
+        the NLP's cost has it (even in the speed's sign), then from the grid's route. With Hybrid-A*'s
+        default price of reversing (2), its forward plans led IPOPT to longer optima than the plans it
+        used to simplify with plain length (on 6 of the 12 worlds both solved, 0.5-8 % longer; worlds
+        9820-9834 of ``sim.tools.bench.cold.world_toml``, 15 s); with reversing free, 14 of the 15
+        solved (13 before), as long as before on each world both solved but one (7.93 against 7.35 m).
+        The route is a polyline a car cannot drive (corners, gaps only a disc takes): on 15 random 6-8 m worlds
         (TurtleBot3 and EduMIP, 15 s) IPOPT succeeded from it on 7, from Hybrid-A*'s plan on 14, in
         0.2-4.5 s against 0.6-12 s, never longer but by 0.1 %; the one world Hybrid-A*'s start failed on
         the route solved. Without obstacles, ``auto`` is the sinusoidal steering's path.
@@ -513,7 +518,8 @@ class Optim:
             return [(self.init, self.init_options)]
         if not problem.world.obstacles:
             return [("sinusoidal", {})]
-        return [("hybrid-a-star", {"shape": "disc", "clearance": self.margin + 0.01}), ("grid", {})]
+        kinematic = {"shape": "disc", "clearance": self.margin + 0.01, "reverse_penalty": 1.0}
+        return [("hybrid-a-star", kinematic), ("grid", {})]
 
     def _without_warm_start(self, problem: PlanProblem, sol: OptimSolution) -> OptimSolution:
         """A failed solve, its reason saying so when it started from a straight line because its warm start
