@@ -507,3 +507,15 @@ def test_on_worlds_no_test_tuned_on_every_plan_keeps_the_guarantees(seed):
         assert np.all(exact.poses_free(exact.densify(res.path)))
         assert res.length() <= path_length(raw) + 1e-9
         assert res.stats["cusps"] == count_cusps(res.directions) <= res.stats["raw_cusps"]
+
+
+def test_a_directed_length_weights_the_backwards_metres_and_refuses_a_weight_below_one() -> None:
+    from planning.planners.simplify import DirectedLength
+
+    poses = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 2.0, 0.0], [1.0, 2.0, 1.0]])
+    dirs = np.array([1.0, 1.0, -1.0, -1.0])  # the 2 m step arrives backwards; the turn in place costs nothing
+    assert length_cost(poses, dirs) == pytest.approx(3.0)
+    assert DirectedLength(2.0)(poses, dirs) == pytest.approx(1.0 + 2.0 * 2.0)
+    for bad in (0.5, float("nan"), True):
+        with pytest.raises(ValueError, match="reverse_weight must be a finite number >= 1"):
+            DirectedLength(bad)  # type: ignore[arg-type]

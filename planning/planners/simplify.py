@@ -95,6 +95,12 @@ class DirectedLength:
 
     reverse_weight: float = 1.0
 
+    def __post_init__(self) -> None:
+        w = self.reverse_weight
+        if isinstance(w, bool) or not isinstance(w, (int, float)) or not w >= 1.0 or not np.isfinite(w):
+            # below 1 a curve's length would no longer bound its cost from below (the pruning's premise)
+            raise ValueError(f"DirectedLength.reverse_weight must be a finite number >= 1, got {w!r}")
+
     def __call__(self, poses: FloatArray, directions: FloatArray) -> float:
         """The cost of the piece ``poses`` (K, 3), ``directions`` (K,) of the motion arriving at each
         (at weight 1 path_length's sum, without its checks: it is asked once per shortcut steered)."""
