@@ -236,8 +236,8 @@ def _world(r: TableReader, table: Any, base_dir: Path) -> World:
                 f"bounds {list(bounds)} (its box spans x {bx0:g}..{bx1:g}, y {by0:g}..{by1:g}); "
                 "move it inside, or remove it"
             )
-        if too_thin(ob):
-            raise ScenarioError(f"{r.where}: field 'world.obstacles[{i}]': this {ob.kind} {too_thin(ob)}")
+        if why := too_thin(ob):
+            raise ScenarioError(f"{r.where}: field 'world.obstacles[{i}]': this {ob.kind} {why}")
     if "map" in table:
         loader = MAP_LOADERS.get("image")
         if loader is None:

@@ -11,7 +11,7 @@ import json
 import math
 import os
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -60,6 +60,17 @@ def check_writable(path: Path, *, overwrite: bool) -> None:
         raise ConfigError(f"cannot write {path}: it is a folder; give a file name")
     _check_absent(path, overwrite=overwrite)
     check_folder_for(path)
+
+
+def check_distinct(paths: Iterable[Path]) -> None:
+    """Check, before any work, that no two of a command's outputs are one file.
+
+    Raises:
+        ConfigError: Two of ``paths`` resolve to the same file (the message lists them all).
+    """
+    paths = [Path(p) for p in paths]
+    if len({p.resolve() for p in paths}) != len(paths):
+        raise ConfigError(f"two outputs share a path: {', '.join(map(str, paths))}; choose distinct names")
 
 
 #: Characters ``tempfile.mkstemp`` puts between its prefix and suffix.

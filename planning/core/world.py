@@ -344,8 +344,8 @@ class World:
         object.__setattr__(self, "bounds", b)
         object.__setattr__(self, "obstacles", tuple(self.obstacles))
         for i, ob in enumerate(self.obstacles):
-            if too_thin(ob):
-                raise ConfigError(f"obstacle {i} ({ob.kind}) {too_thin(ob)}")
+            if why := too_thin(ob):
+                raise ConfigError(f"obstacle {i} ({ob.kind}) {why}")
 
     @property
     def width(self) -> float:

@@ -72,8 +72,7 @@ def _outputs(args: argparse.Namespace) -> dict[str, Path]:
         out["paths"], out["errors"] = Path(f"{args.plots}-paths.png"), Path(f"{args.plots}-errors.png")
     if args.video:
         out["video"] = Path(args.video)
-    if args.video:
-        check_video_name(Path(args.video))
+        check_video_name(out["video"])
     for path in out.values():
         check_writable(path, overwrite=args.overwrite)
     if args.bag is not None:

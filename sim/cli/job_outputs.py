@@ -276,7 +276,7 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str, own_ro
         DependencyError: A video was asked for and no OpenGL backend can load.
     """
     from control.design.balance_profile import is_balancing
-    from sim.outputs import check_writable
+    from sim.outputs import check_distinct, check_writable
     from sim.viz.plots.run import ESTIMATION_PLOT, LOCALISER_PLOT, PITCH_PLOT, PLOTS
     from sim.viz.replay import RenderSettings, parse_size
 
@@ -313,8 +313,7 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str, own_ro
 
         check_bag_target(bag, overwrite=args.overwrite)
         check_bag_apart(bag, targets)
-    if len({p.resolve() for p in targets}) != len(targets):
-        raise ConfigError(f"two outputs share a path: {', '.join(map(str, targets))}; choose distinct names")
+    check_distinct(targets)
     for path in targets:
         check_writable(path, overwrite=args.overwrite)
     if video is not None:

@@ -153,11 +153,9 @@ def _paths(args: argparse.Namespace, spec: Any, scenario: str, robot: str, own_r
 
 def _check_outputs(paths: dict[str, Path], key: dict[str, Any], overwrite: bool) -> None:
     """Every output can be written; existing ones must be this study's own (its summary names the key)."""
-    from sim.outputs import check_writable
+    from sim.outputs import check_distinct, check_writable
 
-    if len({p.resolve() for p in paths.values()}) != len(paths):
-        shared = ", ".join(f"{name} {path}" for name, path in paths.items())
-        raise ConfigError(f"two outputs share a path ({shared}); choose distinct names")
+    check_distinct(paths.values())
     summary = paths["json"]
     own = False
     if summary.exists():
