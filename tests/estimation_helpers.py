@@ -38,6 +38,7 @@ class Scenario:
     latency: float = 0.1
     pose_std0: float = 0.01  # initial pose error std [m] and [rad]
     cornering_slip: bool = False  # the tyres slip in turns, k drawn from the config's prior
+    range_errors: bool = False  # the fixes carry a range sensor's errors, drawn from the config's priors
 
 
 @dataclass(frozen=True)
@@ -54,6 +55,16 @@ class Synthetic:
     pose0: FloatArray  # (3,) initial estimate (truth + error drawn from cov0)
     cov0: FloatArray  # (3, 3)
     cornering_slip: float = 0.0  # the tyres' true compliance k [rad s^2/m]
+    range_errors: FloatArray | None = None  # (2,) the true range scale and offset errors [-, m]
+    range_gains: list[FloatArray] | None = None  # each fix's (3, 2) gain on them
+
+
+def range_gain(theta: float) -> FloatArray:
+    """A scan fix's (3, 2) gain on the range errors as a heading-dependent function (the walls in
+    range turn with the robot): 0.9 m per unit of scale along the heading, 0.6 m per metre of
+    offset across it, and a little heading."""
+    c, s = math.cos(theta), math.sin(theta)
+    return np.array([[0.9 * c, -0.6 * s], [0.9 * s, 0.6 * c], [0.1, 0.3]])
 
 
 def wheel_rates(t: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -94,13 +105,19 @@ def draw(scenario: Scenario, seed: int) -> Synthetic:
         ([0.0], np.cumsum(cfg.gyro_bias_walk * math.sqrt(h) * rng.standard_normal(n - 1)))
     )
     rate = dth / h + bias + cfg.gyro_noise_density / math.sqrt(h) * rng.standard_normal(n)
-    fixes = []
+    fixes, gains = [], []
+    errors = None
+    if scenario.range_errors:  # its own stream, as the slip
+        errors = np.random.default_rng([seed, 2]).standard_normal(2) * (cfg.range_scale_std, cfg.range_offset_std)
     every = round(scenario.fix_period / h)
     for i in range(3, n + 1, every):  # measured 3 sub-steps after a tick: between ticks
         t_meas = i * h
         z = sub[i] + rng.standard_normal(3) * (cfg.fix_std_xy, cfg.fix_std_xy, cfg.fix_std_theta)
         tick = math.ceil((t_meas + scenario.latency) / DT - 1e-9)
         if tick <= k:
+            if errors is not None:
+                gains.append(range_gain(float(sub[i, 2])))
+                z = z + gains[-1] @ errors
             fixes.append((t_meas, tick, z))
     return Synthetic(
         t=np.arange(k + 1) * DT,
@@ -113,11 +130,16 @@ def draw(scenario: Scenario, seed: int) -> Synthetic:
         pose0=sub[0] + rng.multivariate_normal(np.zeros(3), cov0),
         cov0=cov0,
         cornering_slip=k_slip,
+        range_errors=errors,
+        range_gains=gains if errors is not None else None,
     )
 
 
-def run(est: PoseEstimator, data: Synthetic, *, fuse: bool = True) -> tuple[FloatArray, FloatArray]:
+def run(est: PoseEstimator, data: Synthetic, *, fuse: bool = True, gains: bool = True) -> tuple[FloatArray, FloatArray]:
     """Run an estimator over a drawn run (it ends in the run's last state).
+
+    Fixes with range errors are fused with their gains; with ``gains`` False, each as independent
+    with the range errors' share (at the config's priors) added to its position variance instead.
 
     Returns:
         The pose estimates (K+1, 3) and their covariances (K+1, 3, 3) at the ticks.
@@ -131,7 +153,14 @@ def run(est: PoseEstimator, data: Synthetic, *, fuse: bool = True) -> tuple[Floa
     for i in range(1, k + 1):
         est.predict(float(data.t[i]), float(data.d_left[i - 1]), float(data.d_right[i - 1]), float(data.gyro[i - 1]))
         while j < len(fixes) and fixes[j][1] == i:
-            est.correct(fixes[j][0], fixes[j][2])
+            g = None if data.range_gains is None else data.range_gains[j]
+            if g is not None and not gains:
+                cfg = est.config
+                share = g @ np.diag([cfg.range_scale_std**2, cfg.range_offset_std**2]) @ g.T
+                sxy = math.sqrt(cfg.fix_std_xy**2 + max(share[0, 0], share[1, 1]))
+                est.correct(fixes[j][0], fixes[j][2], sxy, math.sqrt(cfg.fix_std_theta**2 + share[2, 2]))
+            else:
+                est.correct(fixes[j][0], fixes[j][2], range_gain=g)
             j += 1
         poses[i], covs[i] = est.pose, est.cov
     return poses, covs

@@ -16,9 +16,11 @@ from control.estimation import (
     EstimatorInputError,
     PoseEstimator,
     chi2_interval,
+    kernels,
     nees,
     pose_error,
 )
+from control.estimation.ekf import IRS, ISLIP
 from planning.core.robot import load_robot
 from planning.errors import ConfigError, NhsimError, SimulationError
 from tests.estimation_helpers import DT, RADIUS, TRACK, Scenario, Synthetic, draw, propagate, run, wheel_rates
@@ -121,6 +123,9 @@ def test_bad_calls_raise() -> None:
         est.correct(0.02, (0.0, 0.0))
     with pytest.raises(EstimatorInputError, match="fix noise"):
         est.correct(0.02, (0.0, 0.0, 0.0), std_xy=-1.0)
+    for gain in (np.zeros((2, 3)), np.full((3, 2), math.nan), "wide"):
+        with pytest.raises(EstimatorInputError, match=r"range_gain must be a finite \(3, 2\) array"):
+            est.correct(0.02, (0.0, 0.0, 0.0), range_gain=gain)
     with pytest.raises(ConfigError, match="EstimatorConfig"):
         PoseEstimator({"heading": "gyro"}, RADIUS, TRACK)  # type: ignore[arg-type]
     with pytest.raises(ConfigError, match="track width"):
@@ -159,7 +164,7 @@ def test_noise_free_prediction_is_the_odometry(heading: str) -> None:
 def test_propagation_jacobians_match_finite_differences(heading: str) -> None:
     """F (state) and Q (noise through the input Jacobian) against central differences of the mean."""
     est = PoseEstimator(EstimatorConfig(heading=heading), RADIUS, TRACK)
-    x0 = np.array([0.3, -0.2, 2.9, 0.01, 0.004, -0.003, 0.02, 0.03])  # a cornering slip too
+    x0 = np.array([0.3, -0.2, 2.9, 0.01, 0.004, -0.003, 0.02, 0.03, 0.01, 0.004])  # slip and range errors too
     u = np.array([0.35, 0.5, 0.7])  # dl, dr [rad], gyro [rad/s]
 
     def mean(x: np.ndarray, uu: np.ndarray) -> np.ndarray:
@@ -298,12 +303,73 @@ def test_cornering_slip_is_learned_and_keeps_the_filter_consistent() -> None:
         est = PoseEstimator(config, RADIUS, TRACK)
         run(est, d)
         k_err.append(est.cornering_slip - d.cornering_slip)
-        k_std.append(math.sqrt(est.cov_full[-1, -1]))
+        k_std.append(math.sqrt(est.cov_full[ISLIP, ISLIP]))
     assert chi2_interval(1, runs=RUNS)[0] < np.mean((np.array(k_err) / k_std) ** 2) < chi2_interval(1, runs=RUNS)[1]
     assert np.all(np.array(k_std) < 0.3 * config.cornering_slip_std)  # the turns with fixes observe it
     mean, inside = anees_verdict(monte_carlo(replace(config, cornering_slip_std=0.0), runs, True)["nees"])
     assert mean > hi
     assert inside < 0.5
+
+
+def test_range_sensor_errors_are_learned_and_keep_scan_fixes_consistent() -> None:
+    """Fixes matched from a range sensor's scans share its systematic errors (scale and offset, drawn
+    once per run from the priors, large here so that it shows: up to 10 cm), moved by a gain that turns
+    with the robot: fused with their gains the filter stays consistent and learns the errors; fused as
+    independent, each with the errors' share in its own variance (as a localiser's covariance has it),
+    the same runs fail the test."""
+    config = replace(CONFIG, range_scale_std=0.05, range_offset_std=0.02)
+    runs = [draw(replace(SCENARIO, config=config, range_errors=True), seed) for seed in range(RUNS)]
+    lo, hi = chi2_interval(3, runs=RUNS)
+    verdict = {}
+    for gains in (True, False):
+        nees_runs, err, std = [], [], []
+        for d in runs:
+            est = PoseEstimator(config, RADIUS, TRACK)
+            poses, covs = run(est, d, gains=gains)
+            nees_runs.append(nees(pose_error(poses, d.truth), covs))
+            assert d.range_errors is not None
+            err.append(np.array(est.range_errors) - d.range_errors)
+            std.append(np.sqrt(np.diag(est.cov_full)[IRS:]))
+        verdict[gains] = anees_verdict(np.array(nees_runs))
+        if gains:
+            z2 = np.mean((np.array(err) / np.array(std)) ** 2, axis=0)
+            assert np.all((chi2_interval(1, runs=RUNS)[0] < z2) & (z2 < chi2_interval(1, runs=RUNS)[1])), z2
+            assert np.all(np.array(std) < 0.5 * np.array([config.range_scale_std, config.range_offset_std]))
+    mean, inside = verdict[True]
+    assert lo < mean < hi
+    assert inside >= 0.85
+    mean, inside = verdict[False]
+    assert mean > hi
+    assert inside < 0.5
+
+
+def test_a_fix_with_a_range_gain_is_the_textbook_update() -> None:
+    """The compiled update with H = [I_3 0 G] against numpy's K = P H^T S^-1, x + K nu, P - K S K^T (a
+    dense covariance and state), and with G = 0 the same as a fix without a gain, bit for bit."""
+    rng = np.random.default_rng(5)
+    a = rng.standard_normal((N_STATE, N_STATE))
+    p0 = a @ a.T * 1e-3 + np.eye(N_STATE) * 1e-4
+    x0 = rng.standard_normal(N_STATE) * 0.1
+    g = rng.standard_normal((3, 2))
+    fix = np.array([0.0, 0.1, -0.05, 0.2, 4e-4, 1e-4, *g.ravel()])
+    h = np.zeros((3, N_STATE))
+    h[:, :3], h[:, IRS:] = np.eye(3), g
+    s_mat = h @ p0 @ h.T + np.diag([4e-4, 4e-4, 1e-4])
+    k = p0 @ h.T @ np.linalg.inv(s_mat)
+    nu = fix[1:4] - h @ x0
+    x, p = x0.copy(), p0.copy()
+    status, nis, ok = kernels.fix_update(x, p, fix, kernels.parameters(*([1.0] * 8), 100.0, False), True, np.empty(3))
+    assert status == kernels.OK and ok
+    np.testing.assert_allclose(nis, nu @ np.linalg.solve(s_mat, nu), rtol=1e-10)
+    np.testing.assert_allclose(x, x0 + k @ nu, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(p, p0 - k @ s_mat @ k.T, rtol=0, atol=1e-12)
+    est_a, est_b = PoseEstimator(CONFIG, RADIUS, TRACK), PoseEstimator(CONFIG, RADIUS, TRACK)
+    for est in (est_a, est_b):
+        est.reset(0.0, (0.0, 0.0, 0.0), np.eye(3) * 1e-4)
+        est.predict(0.02, 0.3, 0.35, 0.5)
+    assert est_a.correct(0.02, (0.01, 0.0, 0.02))
+    assert est_b.correct(0.02, (0.01, 0.0, 0.02), range_gain=np.zeros((3, 2)))
+    assert np.array_equal(est_a.state, est_b.state) and np.array_equal(est_a.cov_full, est_b.cov_full)
 
 
 # --- delayed fixes -------------------------------------------------------------------------------

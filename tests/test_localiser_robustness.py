@@ -64,9 +64,12 @@ def test_the_fix_covariance_carries_the_scanners_systematic_error(scan: tuple) -
     f = amcl.field
     pose = POSE.copy()
     ata, used, ssr = K.fit_sensitivity(pose, r, b, amcl.laser, f.signed, f.grid, 0.3, 0.5)
-    cov = amcl._fit_cov(pose, r, b)
+    noise, got_gain, systematic = amcl._fit_cov(pose, r, b)
+    cov = noise + systematic
     white = max(ssr / (used - 3), 1e-8) * np.linalg.inv(ata[:3, :3])
-    gain = np.linalg.solve(ata[:3, :3], ata[:3, 3:])
+    gain = -np.linalg.solve(ata[:3, :3], ata[:3, 3:])  # the pose's change per unit of scale and offset
+    np.testing.assert_allclose(got_gain, gain, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(noise, white, rtol=1e-9, atol=1e-15)
     np.testing.assert_allclose(cov, white + gain @ np.diag([0.03**2, 0.015**2]) @ gain.T, rtol=1e-6, atol=1e-12)
     assert math.sqrt(cov[0, 0] + cov[1, 1]) > 10 * math.sqrt(white[0, 0] + white[1, 1])  # exact scan: no white noise
     assert range_bias(LidarProfile()) == pytest.approx((0.5, 0.015 / 3, 0.05 / 3))  # the band at 3 sigma

@@ -293,6 +293,11 @@ class AmclEstimate:
         particles: Size of the particle set [-].
         spread: Root of the trace of the whole set's (x, y) covariance [m].
         refined: Whether the scan-to-map fit gave the pose.
+        range_gain: (3, 2) the pose's change per unit of the scanner's relative scale error and per
+            metre of its offset (``-(J^T J)^-1 J^T u``, :func:`amcl_kernels.fit_sensitivity`), when the
+            fit gave the pose and the scanner's systematic error is known (``range_bias``); else None.
+        noise_cov: (3, 3) the covariance without the scanner's systematic error, ``cov - range_gain
+            diag(var_scale, var_offset) range_gain^T``, with ``range_gain``; else None.
     """
 
     pose: FloatArray
@@ -300,6 +305,8 @@ class AmclEstimate:
     particles: int
     spread: float
     refined: bool
+    range_gain: FloatArray | None = None
+    noise_cov: FloatArray | None = None
 
 
 class Amcl:
@@ -559,24 +566,27 @@ class Amcl:
         pose, info, used, ssr = best
         pose[2] = math.atan2(math.sin(pose[2]), math.cos(pose[2]))
         if self.range_bias is not None:
-            return AmclEstimate(pose, self._fit_cov(pose, r, b), self.particles.shape[0], spread, True)
+            noise, gain, bias = self._fit_cov(pose, r, b)
+            return AmclEstimate(pose, _psd(noise + bias), self.particles.shape[0], spread, True, gain, _psd(noise))
         # the fit's own covariance s^2 (J^T J)^-1 knows only the scan's white noise, not its systematic
         # error: the larger of it and the cluster's is reported
         s2 = max(ssr / (used - 3), 1e-8)
         cov = np.maximum(s2 * np.linalg.inv(info), cov) if np.all(np.diag(cov) > 0) else cov
         return AmclEstimate(pose, _psd(cov), self.particles.shape[0], spread, True)
 
-    def _fit_cov(self, pose: FloatArray, r: FloatArray, b: FloatArray) -> FloatArray:
-        """The refined pose's covariance: the white noise's ``s^2 (J^T J)^-1`` plus the scanner's
-        systematic error (``range_bias``) carried through the fit (see the module docstring)."""
+    def _fit_cov(self, pose: FloatArray, r: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """The refined pose's covariance in two parts, the white noise's ``s^2 (J^T J)^-1`` and the
+        scanner's systematic error (``range_bias``) carried through the fit (see the module
+        docstring), with the fit's gain: (noise (3, 3), gain (3, 2), systematic (3, 3))."""
         assert self.range_bias is not None
         split, sd_offset, sd_scale = self.range_bias
         ata, used, ssr = K.fit_sensitivity(pose, r, b, self.laser, self.field.signed, self.field.grid,
                                            self.config.refine_gate, split)  # fmt: skip
-        inv = np.linalg.inv(ata[:3, :3])
-        gain = inv @ ata[:3, 3:]
-        cov = max(ssr / max(used - 3, 1), 1e-8) * inv + gain @ np.diag([sd_scale**2, sd_offset**2]) @ gain.T
-        return _psd(cov)
+        inv = np.asarray(np.linalg.inv(ata[:3, :3]), dtype=np.float64)
+        gain: FloatArray = -(inv @ ata[:3, 3:])
+        noise: FloatArray = max(ssr / max(used - 3, 1), 1e-8) * inv
+        systematic: FloatArray = gain @ np.diag([sd_scale**2, sd_offset**2]) @ gain.T
+        return noise, gain, systematic
 
     def spread(self) -> float:
         """Root of the trace of the whole particle set's weighted (x, y) covariance [m]."""

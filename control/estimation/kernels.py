@@ -13,7 +13,7 @@ Errors are returned as a status code (:data:`OK`, :data:`BAD_INCREMENT`, :data:`
 :data:`BAD_INNOVATION`) with the time they happened at, and raised by the caller, which words
 the message.
 
-All of a filter's arrays live in one float block of rows of :data:`N` (the state's size, 8;
+All of a filter's arrays live in one float block of rows of :data:`N` (the state's size, 10;
 :func:`allocate`), so that a call into compiled code passes one array (a call's cost grows with its
 arguments, and a period makes few calls) and every part is a slice of rows (no reshaping per call).
 By row:
@@ -53,7 +53,12 @@ N_PARAMS = 10
 #: Status codes.
 OK, BAD_INCREMENT, BAD_STATE, BAD_INNOVATION, BAD_TIME, BAD_READING = range(6)
 
-N = 8  # state size (control.estimation.ekf.N_STATE)
+N = 10  # state size (control.estimation.ekf.N_STATE)
+#: The range sensor's scale and offset errors in the state (control.estimation.ekf.IRS, IRO).
+IRS, IRO = 8, 9
+#: Columns of a fix: t_meas, z (3), var_xy, var_theta, then from GAIN its (3, 2) gain G row by row.
+GAIN = 6
+FIX_COLS = GAIN + 6
 #: First rows of the block's parts (see the module doc) and rows per ring step.
 F_ROW, Q_ROW, TMP_ROW, X_ROW, P_ROW, NU_ROW, RING = 2, 2 + N, 2 + 2 * N, 2 + 3 * N, 3 + 3 * N, 3 + 4 * N, 4 + 4 * N
 STEP_ROWS = 2 + N
@@ -295,9 +300,10 @@ def step(mem: FloatArray, t: float, dl: float, dr: float, w: float) -> int:  # p
 
 
 @nb.njit(cache=True, inline="always")
-def _cofactors(p: FloatArray, vxy: float, vth: float) -> tuple[float, float, float, float, float, float, float]:
-    """Cofactors (ca, cb, cc, cd, ce, cf) and determinant of S = P[:3, :3] + diag(vxy, vxy, vth)."""
-    a, b, c, d, e, f = p[0, 0] + vxy, p[0, 1], p[0, 2], p[1, 1] + vxy, p[1, 2], p[2, 2] + vth
+def _cofactors(
+    a: float, b: float, c: float, d: float, e: float, f: float
+) -> tuple[float, float, float, float, float, float, float]:
+    """Cofactors (ca, cb, cc, cd, ce, cf) and determinant of the symmetric S = [[a, b, c], [b, d, e], [c, e, f]]."""
     ca, cb, cc = d * f - e * e, c * e - b * f, b * e - c * d
     cd, ce, cf = a * f - c * c, b * c - a * e, a * d - b * b
     return ca, cb, cc, cd, ce, cf, a * ca + b * cb + c * cc
@@ -314,20 +320,39 @@ def _quadratic(cof: tuple[float, float, float, float, float, float, float], n0: 
 def fix_update(
     x: FloatArray, p: FloatArray, fix: FloatArray, prm: FloatArray, gated: bool, nu: FloatArray
 ) -> tuple[int, float, bool]:  # pragma: no cover - compiled
-    """Apply a pose fix (t_meas, z_x, z_y, z_theta, var_xy, var_theta) to (x, p) in place.
+    """Apply a pose fix (a row of :data:`FIX_COLS`: t_meas, z_x, z_y, z_theta, var_xy, var_theta, then
+    the gain G (3, 2) row by row) to (x, p) in place.
 
-    H = [I_3 0], so K = P[:, :3] S^-1 and P - K S K^T = P - K P[:3, :]; S is inverted by
-    cofactors and P re-symmetrised. With ``gated`` the innovation is written to ``nu`` (3,) and an
-    outlier (NIS above the gate, when the filter rejects outliers) is measured but not applied.
+    The fix measures z = (x, y, theta) + G (s, o) + v, (s, o) the range sensor's scale and offset errors
+    (states :data:`IRS`, :data:`IRO`) and v white with variances (var_xy, var_xy, var_theta): H = [I_3 0 G].
+    With PH = P H^T and HP its transpose (taken from P's rows, so that G = 0 gives P[:, :3] and P[:3, :]
+    bit for bit), S = H P H^T + R is inverted by cofactors, K = PH S^-1 and P - K HP is re-symmetrised.
+    With ``gated`` the innovation is written to ``nu`` (3,) and an outlier (NIS above the gate, when the
+    filter rejects outliers) is measured but not applied.
 
     Returns:
         (status: OK or BAD_INNOVATION, NIS, applied).
     """
-    n0, n1, n2 = fix[1] - x[0], fix[2] - x[1], wrap(fix[3] - x[2])
-    cof = _cofactors(p, fix[4], fix[5])
+    hp = np.empty((3, N))
+    ph = np.empty((N, 3))
+    for r in range(3):
+        g0, g1 = fix[GAIN + 2 * r], fix[GAIN + 2 * r + 1]
+        for j in range(N):
+            hp[r, j] = p[r, j] + g0 * p[IRS, j] + g1 * p[IRO, j]
+            ph[j, r] = p[j, r] + g0 * p[j, IRS] + g1 * p[j, IRO]
+    s = np.empty((3, 3))
+    for r in range(3):
+        for c in range(3):
+            s[r, c] = hp[r, c] + fix[GAIN + 2 * c] * hp[r, IRS] + fix[GAIN + 2 * c + 1] * hp[r, IRO]
+    vxy, vth = fix[4], fix[5]
+    cof = _cofactors(s[0, 0] + vxy, s[0, 1], s[0, 2], s[1, 1] + vxy, s[1, 2], s[2, 2] + vth)
     ca, cb, cc, cd, ce, cf, det = cof
     if not det > 0.0:
         return BAD_INNOVATION, math.nan, False
+    n = np.empty(3)
+    for r in range(3):
+        n[r] = fix[1 + r] - (x[r] + fix[GAIN + 2 * r] * x[IRS] + fix[GAIN + 2 * r + 1] * x[IRO])
+    n0, n1, n2 = n[0], n[1], wrap(n[2])
     nis = _quadratic(cof, n0, n1, n2)
     if gated:
         nu[0], nu[1], nu[2] = n0, n1, n2
@@ -336,7 +361,7 @@ def fix_update(
     inv_det = 1.0 / det
     k = np.empty((N, 3))
     for i in range(N):
-        p0, p1, p2 = p[i, 0], p[i, 1], p[i, 2]
+        p0, p1, p2 = ph[i, 0], ph[i, 1], ph[i, 2]
         k[i, 0] = (p0 * ca + p1 * cb + p2 * cc) * inv_det
         k[i, 1] = (p0 * cb + p1 * cd + p2 * ce) * inv_det
         k[i, 2] = (p0 * cc + p1 * ce + p2 * cf) * inv_det
@@ -344,7 +369,7 @@ def fix_update(
     for i in range(N):
         x[i] += k[i, 0] * n0 + k[i, 1] * n1 + k[i, 2] * n2
         for j in range(N):
-            kp[i, j] = k[i, 0] * p[0, j] + k[i, 1] * p[1, j] + k[i, 2] * p[2, j]
+            kp[i, j] = k[i, 0] * hp[0, j] + k[i, 1] * hp[1, j] + k[i, 2] * hp[2, j]
     x[2] = wrap(x[2])
     for i in range(N):
         for j in range(N):
@@ -379,8 +404,8 @@ def replay(
         mem: The filter's block.
         j: Ring index of the newest step at or before the new fix's measurement time.
         head: Ring index of the newest step.
-        stored: (M, 6) fixes already applied and measured after step j, in time order.
-        new: (6,) the new fix (t_meas, z_x, z_y, z_theta, var_xy, var_theta); it is taken after
+        stored: (M, FIX_COLS) fixes already applied and measured after step j, in time order.
+        new: (FIX_COLS,) the new fix (:func:`fix_update`); it is taken after
             stored fixes measured at the same time.
 
     Returns:
@@ -474,7 +499,7 @@ def head_nees(mem: FloatArray, head: int, tx: float, ty: float, tth: float) -> f
     direction, as a start pose before the robot has moved: no error can be normalised by it)."""
     xs, ps = _ring(mem)
     x, p = mem[xs + head], mem[ps + N * head : ps + N * head + N]
-    cof = _cofactors(p, 0.0, 0.0)
+    cof = _cofactors(p[0, 0], p[0, 1], p[0, 2], p[1, 1], p[1, 2], p[2, 2])
     if not cof[6] > 0.0:
         return math.nan
     return _quadratic(cof, x[0] - tx, x[1] - ty, wrap(x[2] - tth))

@@ -6,9 +6,10 @@ fix "measured" at control period ``j`` is the AMCL estimate for the revolution c
 (its beams from periods ``j - h`` to ``j + h``, ``h`` half a revolution, each from the true pose of
 its own instant, interpolated between control periods), with the odometry pose at ``j``; it is
 delivered at period ``j + fix_latency`` (after the revolution has ended) and fused by the EKF at
-its measurement time ``j`` with the localiser's own covariance. AMCL updates only when the
-odometry has moved past ``update_min_d`` or ``update_min_a``: a revolution without an update
-delivers nothing.
+its measurement time ``j`` with the localiser's own covariance (its white part, with the scanner's
+systematic range error as a gain on the EKF's range error states, :mod:`control.estimation.ekf`).
+AMCL updates only when the odometry has moved past ``update_min_d`` or ``update_min_a``: a
+revolution without an update delivers nothing.
 
 The odometry AMCL takes is the robot's ``odom`` frame as the TurtleBot3 publishes it
 (``turtlebot3_node``'s odometry with ``odometry.use_imu: true``, the Burger's setting in
@@ -37,6 +38,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -103,6 +105,24 @@ class LocaliserSetup:
             out["lidar"] = self.lidar.as_dict() if self.lidar is not None else None
             out["amcl"] = self.amcl.as_dict()
         return out
+
+
+class ScanFix(NamedTuple):
+    """A revolution's pose fix for the EKF (:meth:`control.estimation.PoseEstimator.correct`).
+
+    Attributes:
+        pose: (x [m], y [m], theta [rad]).
+        std_xy: Standard deviation of its position (the larger axis) [m], without the scanner's
+            systematic error when ``range_gain`` carries it.
+        std_theta: Of its heading [rad], likewise.
+        range_gain: (3, 2) the pose's change per unit of the scanner's scale error and per metre of
+            its offset (the EKF's states s_r, o_r); None when the particles, not the fit, gave it.
+    """
+
+    pose: tuple[float, float, float]
+    std_xy: float
+    std_theta: float
+    range_gain: FloatArray | None
 
 
 class LocaliserLost(Exception):
@@ -208,9 +228,7 @@ class ScanLocaliser:
         self.odom = np.array([x + ds * c * math.cos(phi), y + ds * c * math.sin(phi), th + dth])
         self.odom_at[k] = self.odom.copy()
 
-    def fix(
-        self, j: int, data: mujoco.MjData, truth: FloatArray, estimate: FloatArray
-    ) -> tuple[tuple[float, float, float], float, float] | None:
+    def fix(self, j: int, data: mujoco.MjData, truth: FloatArray, estimate: FloatArray) -> ScanFix | None:
         """The localiser's answer for the revolution centred on period ``j`` (None if AMCL did not update).
 
         The scan is deskewed first, as the robot can: each beam moved into the frame of the estimated
@@ -223,7 +241,8 @@ class ScanLocaliser:
             estimate: (K, 3) the estimator's poses by period, filled as far.
 
         Returns:
-            The pose, the standard deviations of its position (the larger axis) [m] and heading [rad].
+            The fix (its white noise apart from the scanner's systematic error, which it carries as a
+            gain, when the fit gave it).
 
         Raises:
             LocaliserLost: The estimate is more than :data:`LOST_ERROR` from the truth at ``j``.
@@ -255,9 +274,10 @@ class ScanLocaliser:
             self.lost_at = tj
             raise LocaliserLost(tj, err)
         pose = (float(est.pose[0]), float(est.pose[1]), math.remainder(float(est.pose[2]), 2 * math.pi))
-        sxy = math.sqrt(max(est.cov[0, 0], est.cov[1, 1], 1e-8))
-        sth = math.sqrt(max(est.cov[2, 2], 1e-10))
-        return pose, sxy, sth
+        cov = est.cov if est.noise_cov is None else est.noise_cov
+        sxy = math.sqrt(max(cov[0, 0], cov[1, 1], 1e-8))
+        sth = math.sqrt(max(cov[2, 2], 1e-10))
+        return ScanFix(pose, sxy, sth, est.range_gain)
 
     def heading_error(self, pose: FloatArray, true: FloatArray) -> float:
         """Wrapped heading error [rad]."""

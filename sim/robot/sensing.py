@@ -36,7 +36,7 @@ from planning.core.robot import RobotSpec
 from sim.physics.asbuilt import TOLERANCES
 from sim.physics.runlog import EstimationLog
 from sim.physics.sensors import SensorModel, SensorProfile, SensorReader, load_sensor_profile
-from sim.robot.scan_localiser import LocaliserLost, LocaliserSetup, ScanLocaliser, localiser_schedule
+from sim.robot.scan_localiser import LocaliserLost, LocaliserSetup, ScanLocaliser, localiser_schedule, range_bias
 from sim.robot.sources import PoseSource
 
 FloatArray = NDArray[np.float64]
@@ -194,8 +194,15 @@ class SensingSetup:
         return cls(load_sensor_profile(robot, text=text), seed)
 
     def estimator_config(self, robot: RobotSpec) -> EstimatorConfig:
-        """The EKF's configuration for a robot (the explicit one, or derived from the profile)."""
-        return self.estimator if self.estimator is not None else estimator_config(self.profile, robot.name)
+        """The EKF's configuration for a robot (the explicit one, or derived from the profile and, with
+        scan fixes, the scanner's accuracy: the priors of its range errors, :func:`range_bias`)."""
+        if self.estimator is not None:
+            return self.estimator
+        cfg = estimator_config(self.profile, robot.name)
+        if self.localiser.kind == "amcl" and self.localiser.lidar is not None:
+            _, sd_offset, sd_scale = range_bias(self.localiser.lidar)
+            cfg = replace(cfg, range_scale_std=sd_scale, range_offset_std=sd_offset)
+        return cfg
 
 
 def estimator_config(profile: SensorProfile, robot: str) -> EstimatorConfig:
@@ -384,8 +391,8 @@ class Sensing:
             raise EstimatorDivergedError(str(lost), t=lost.t, reason="localisation lost") from lost
         if got is None:
             return False
-        self.fixes[j] = got[0]
-        if est.correct(self.t0 + j * self.dt, got[0], got[1], got[2]):
+        self.fixes[j] = got.pose
+        if est.correct(self.t0 + j * self.dt, got.pose, got.std_xy, got.std_theta, got.range_gain):
             self.applied.append(j)
         return True
 
