@@ -126,6 +126,11 @@ def test_bad_calls_raise() -> None:
     for gain in (np.zeros((2, 3)), np.full((3, 2), math.nan), "wide"):
         with pytest.raises(EstimatorInputError, match=r"range_gain must be a finite \(3, 2\) array"):
             est.correct(0.02, (0.0, 0.0, 0.0), range_gain=gain)
+    for cov in (np.eye(2), np.diag([1e-4, -1e-4, 1e-4]), [[1e-4, 1e-5, 0], [0, 1e-4, 0], [0, 0, 1e-4]], "cov"):
+        with pytest.raises(EstimatorInputError, match="cov must be a finite, symmetric, positive-definite"):
+            est.correct(0.02, (0.0, 0.0, 0.0), cov=cov)
+    with pytest.raises(EstimatorInputError, match="either as cov or as std_xy and std_theta"):
+        est.correct(0.02, (0.0, 0.0, 0.0), std_xy=0.01, cov=np.eye(3) * 1e-4)
     with pytest.raises(ConfigError, match="EstimatorConfig"):
         PoseEstimator({"heading": "gyro"}, RADIUS, TRACK)  # type: ignore[arg-type]
     with pytest.raises(ConfigError, match="track width"):
@@ -344,17 +349,19 @@ def test_range_sensor_errors_are_learned_and_keep_scan_fixes_consistent() -> Non
 
 
 def test_a_fix_with_a_range_gain_is_the_textbook_update() -> None:
-    """The compiled update with H = [I_3 0 G] against numpy's K = P H^T S^-1, x + K nu, P - K S K^T (a
-    dense covariance and state), and with G = 0 the same as a fix without a gain, bit for bit."""
+    """The compiled update with H = [I_3 0 G] and a full noise covariance R against numpy's
+    K = P H^T S^-1, x + K nu, P - K S K^T (a dense covariance and state); with G = 0 the same as a fix
+    without a gain, and a diagonal R the same as std_xy and std_theta, bit for bit."""
     rng = np.random.default_rng(5)
     a = rng.standard_normal((N_STATE, N_STATE))
     p0 = a @ a.T * 1e-3 + np.eye(N_STATE) * 1e-4
     x0 = rng.standard_normal(N_STATE) * 0.1
     g = rng.standard_normal((3, 2))
-    fix = np.array([0.0, 0.1, -0.05, 0.2, 4e-4, 1e-4, *g.ravel()])
+    r = np.array([[4e-4, 1e-4, -2e-5], [1e-4, 2e-4, 3e-5], [-2e-5, 3e-5, 1e-4]])
+    fix = np.array([0.0, 0.1, -0.05, 0.2, *r[np.triu_indices(3)], *g.ravel()])
     h = np.zeros((3, N_STATE))
     h[:, :3], h[:, IRS:] = np.eye(3), g
-    s_mat = h @ p0 @ h.T + np.diag([4e-4, 4e-4, 1e-4])
+    s_mat = h @ p0 @ h.T + r
     k = p0 @ h.T @ np.linalg.inv(s_mat)
     nu = fix[1:4] - h @ x0
     x, p = x0.copy(), p0.copy()
@@ -363,13 +370,15 @@ def test_a_fix_with_a_range_gain_is_the_textbook_update() -> None:
     np.testing.assert_allclose(nis, nu @ np.linalg.solve(s_mat, nu), rtol=1e-10)
     np.testing.assert_allclose(x, x0 + k @ nu, rtol=0, atol=1e-12)
     np.testing.assert_allclose(p, p0 - k @ s_mat @ k.T, rtol=0, atol=1e-12)
-    est_a, est_b = PoseEstimator(CONFIG, RADIUS, TRACK), PoseEstimator(CONFIG, RADIUS, TRACK)
-    for est in (est_a, est_b):
+    ests = [PoseEstimator(CONFIG, RADIUS, TRACK) for _ in range(3)]
+    for est in ests:
         est.reset(0.0, (0.0, 0.0, 0.0), np.eye(3) * 1e-4)
         est.predict(0.02, 0.3, 0.35, 0.5)
-    assert est_a.correct(0.02, (0.01, 0.0, 0.02))
-    assert est_b.correct(0.02, (0.01, 0.0, 0.02), range_gain=np.zeros((3, 2)))
-    assert np.array_equal(est_a.state, est_b.state) and np.array_equal(est_a.cov_full, est_b.cov_full)
+    assert ests[0].correct(0.02, (0.01, 0.0, 0.02), 0.03, 0.01)
+    assert ests[1].correct(0.02, (0.01, 0.0, 0.02), range_gain=np.zeros((3, 2)), cov=np.diag([9e-4, 9e-4, 1e-4]))
+    assert ests[2].correct(0.02, (0.01, 0.0, 0.02), 0.03, 0.01, range_gain=np.zeros((3, 2)))
+    for est in ests[1:]:
+        assert np.array_equal(est.state, ests[0].state) and np.array_equal(est.cov_full, ests[0].cov_full)
 
 
 # --- delayed fixes -------------------------------------------------------------------------------

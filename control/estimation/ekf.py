@@ -264,7 +264,8 @@ class EstimatorConfig:
 
 #: A pose given as three numbers (x [m], y [m], theta [rad]): a tuple, a list or a (3,) array.
 PoseLike = Sequence[float] | FloatArray
-#: t_meas, z_x, z_y, z_theta, var_xy, var_theta, then the range gain G (3, 2) row by row (kernels.FIX_COLS).
+#: t_meas, z_x, z_y, z_theta, the noise covariance's upper triangle by rows, then the range gain G (3, 2)
+#: row by row (kernels.FIX_COLS).
 Fix = tuple[float, ...]
 #: A fix's range gain when it has none.
 NO_GAIN = (0.0,) * (kernels.FIX_COLS - kernels.GAIN)
@@ -491,6 +492,7 @@ class PoseEstimator:
         std_xy: float | None = None,
         std_theta: float | None = None,
         range_gain: ArrayLike | None = None,
+        cov: ArrayLike | None = None,
     ) -> bool:
         """Fuse a pose fix measured at t_meas (now or earlier), rewinding and re-propagating.
 
@@ -503,16 +505,20 @@ class PoseEstimator:
             range_gain: (3, 2) the fix's change per unit of the range sensor's scale error and per
                 metre of its offset (a scan matched to a map; the module doc's G) [m, m, rad per
                 unit]; None: the fix does not depend on them.
+            cov: (3, 3) the fix's whole noise covariance [m^2, m^2, rad^2 and their products], symmetric
+                positive definite (a localiser's, whose position is surer across a corridor than
+                along it), instead of ``std_xy`` and ``std_theta``.
 
         Returns:
             True if applied; False if rejected as an outlier or older than the history (stale).
 
         Raises:
             EstimatorInputError: Not reset, a fix from the future, a non-finite or misshapen z,
-                or a non-positive noise.
+                a non-positive noise, a cov that is not a covariance, or cov with std_xy or std_theta.
             EstimatorDivergedError: ``max_outliers`` consecutive outliers, or a non-finite state.
         """
         zx, zy, zth, vxy, vth = self._check_fix(t_meas, z, std_xy, std_theta)
+        noise = (vxy, 0.0, 0.0, vxy, 0.0, vth) if cov is None else _check_cov(cov, std_xy, std_theta)
         gain = NO_GAIN if range_gain is None else _check_gain(range_gain)
         if t_meas > self._t:
             if t_meas - self._t > TIME_SLACK:
@@ -520,7 +526,7 @@ class PoseEstimator:
                     f"correct: fix measured at t={t_meas} s is after the last predict ({self._t} s)"
                 )
             t_meas = self._t
-        fix = (float(t_meas), zx, zy, zth, vxy, vth, *gain)
+        fix = (float(t_meas), zx, zy, zth, *noise, *gain)
         result = self._replay(fix)
         if result is None:
             self._stale += 1
@@ -686,3 +692,25 @@ def _check_gain(gain: ArrayLike) -> tuple[float, ...]:
             f"scale error and per metre of its offset), got shape {g.shape}"
         )
     return tuple(float(v) for v in g.ravel())
+
+
+def _check_cov(cov: ArrayLike, std_xy: float | None, std_theta: float | None) -> tuple[float, ...]:
+    """A fix's noise covariance as the upper triangle's six numbers, or an error naming what is wrong."""
+    if std_xy is not None or std_theta is not None:
+        raise EstimatorInputError("correct: give a fix's noise either as cov or as std_xy and std_theta, not both")
+    try:
+        c = np.asarray(cov, dtype=float)
+    except (TypeError, ValueError):
+        c = np.full(0, np.nan)
+    ok = c.shape == (3, 3) and bool(np.isfinite(c).all()) and np.allclose(c, c.T, rtol=1e-9, atol=1e-15)
+    if ok:
+        try:
+            np.linalg.cholesky(c)
+        except np.linalg.LinAlgError:
+            ok = False
+    if not ok:
+        raise EstimatorInputError(
+            f"correct: cov must be a finite, symmetric, positive-definite (3, 3) covariance [m^2, m^2, rad^2], "
+            f"got {np.array2string(c, precision=3) if c.size else repr(cov)}"
+        )
+    return float(c[0, 0]), float(c[0, 1]), float(c[0, 2]), float(c[1, 1]), float(c[1, 2]), float(c[2, 2])

@@ -56,8 +56,10 @@ OK, BAD_INCREMENT, BAD_STATE, BAD_INNOVATION, BAD_TIME, BAD_READING = range(6)
 N = 10  # state size (control.estimation.ekf.N_STATE)
 #: The range sensor's scale and offset errors in the state (control.estimation.ekf.IRS, IRO).
 IRS, IRO = 8, 9
-#: Columns of a fix: t_meas, z (3), var_xy, var_theta, then from GAIN its (3, 2) gain G row by row.
-GAIN = 6
+#: Columns of a fix: t_meas, z (3), from NOISE its noise covariance R (xx, xy, xtheta, yy, ytheta,
+#: thetatheta), then from GAIN its (3, 2) gain G row by row.
+NOISE = 4
+GAIN = NOISE + 6
 FIX_COLS = GAIN + 6
 #: First rows of the block's parts (see the module doc) and rows per ring step.
 F_ROW, Q_ROW, TMP_ROW, X_ROW, P_ROW, NU_ROW, RING = 2, 2 + N, 2 + 2 * N, 2 + 3 * N, 3 + 3 * N, 3 + 4 * N, 4 + 4 * N
@@ -320,11 +322,11 @@ def _quadratic(cof: tuple[float, float, float, float, float, float, float], n0: 
 def fix_update(
     x: FloatArray, p: FloatArray, fix: FloatArray, prm: FloatArray, gated: bool, nu: FloatArray
 ) -> tuple[int, float, bool]:  # pragma: no cover - compiled
-    """Apply a pose fix (a row of :data:`FIX_COLS`: t_meas, z_x, z_y, z_theta, var_xy, var_theta, then
-    the gain G (3, 2) row by row) to (x, p) in place.
+    """Apply a pose fix (a row of :data:`FIX_COLS`: t_meas, z_x, z_y, z_theta, the noise covariance R's
+    upper triangle by rows, then the gain G (3, 2) row by row) to (x, p) in place.
 
     The fix measures z = (x, y, theta) + G (s, o) + v, (s, o) the range sensor's scale and offset errors
-    (states :data:`IRS`, :data:`IRO`) and v white with variances (var_xy, var_xy, var_theta): H = [I_3 0 G].
+    (states :data:`IRS`, :data:`IRO`) and v white with covariance R: H = [I_3 0 G].
     With PH = P H^T and HP its transpose (taken from P's rows, so that G = 0 gives P[:, :3] and P[:3, :]
     bit for bit), S = H P H^T + R is inverted by cofactors, K = PH S^-1 and P - K HP is re-symmetrised.
     With ``gated`` the innovation is written to ``nu`` (3,) and an outlier (NIS above the gate, when the
@@ -344,8 +346,8 @@ def fix_update(
     for r in range(3):
         for c in range(3):
             s[r, c] = hp[r, c] + fix[GAIN + 2 * c] * hp[r, IRS] + fix[GAIN + 2 * c + 1] * hp[r, IRO]
-    vxy, vth = fix[4], fix[5]
-    cof = _cofactors(s[0, 0] + vxy, s[0, 1], s[0, 2], s[1, 1] + vxy, s[1, 2], s[2, 2] + vth)
+    v = fix[NOISE : NOISE + 6]
+    cof = _cofactors(s[0, 0] + v[0], s[0, 1] + v[1], s[0, 2] + v[2], s[1, 1] + v[3], s[1, 2] + v[4], s[2, 2] + v[5])
     ca, cb, cc, cd, ce, cf, det = cof
     if not det > 0.0:
         return BAD_INNOVATION, math.nan, False

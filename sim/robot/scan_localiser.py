@@ -69,6 +69,9 @@ SEARCH_FIT = 0.8
 #: ... as a Gaussian cloud of these standard deviations [m], [rad].
 SEED_STD_XY = 0.05
 SEED_STD_THETA = 0.03
+#: Variances [m^2, m^2, rad^2] added to a fix's covariance, so that the EKF gets a positive-definite
+#: one (a particle cluster's can be singular).
+COV_FLOOR = (1e-8, 1e-8, 1e-10)
 #: Particles kept per update in the log, for the video's cloud.
 CLOUD_KEPT = 200
 #: The sources of the EKF's pose corrections (``--localiser``).
@@ -112,16 +115,14 @@ class ScanFix(NamedTuple):
 
     Attributes:
         pose: (x [m], y [m], theta [rad]).
-        std_xy: Standard deviation of its position (the larger axis) [m], without the scanner's
-            systematic error when ``range_gain`` carries it.
-        std_theta: Of its heading [rad], likewise.
+        cov: (3, 3) its covariance (positive definite), without the scanner's systematic error when
+            ``range_gain`` carries it.
         range_gain: (3, 2) the pose's change per unit of the scanner's scale error and per metre of
             its offset (the EKF's states s_r, o_r); None when the particles, not the fit, gave it.
     """
 
     pose: tuple[float, float, float]
-    std_xy: float
-    std_theta: float
+    cov: FloatArray
     range_gain: FloatArray | None
 
 
@@ -274,10 +275,8 @@ class ScanLocaliser:
             self.lost_at = tj
             raise LocaliserLost(tj, err)
         pose = (float(est.pose[0]), float(est.pose[1]), math.remainder(float(est.pose[2]), 2 * math.pi))
-        cov = est.cov if est.noise_cov is None else est.noise_cov
-        sxy = math.sqrt(max(cov[0, 0], cov[1, 1], 1e-8))
-        sth = math.sqrt(max(cov[2, 2], 1e-10))
-        return ScanFix(pose, sxy, sth, est.range_gain)
+        cov = (est.cov if est.noise_cov is None else est.noise_cov) + np.diag(COV_FLOOR)  # a cluster's may be singular
+        return ScanFix(pose, cov, est.range_gain)
 
     def heading_error(self, pose: FloatArray, true: FloatArray) -> float:
         """Wrapped heading error [rad]."""

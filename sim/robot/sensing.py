@@ -392,7 +392,7 @@ class Sensing:
         if got is None:
             return False
         self.fixes[j] = got.pose
-        if est.correct(self.t0 + j * self.dt, got.pose, got.std_xy, got.std_theta, got.range_gain):
+        if est.correct(self.t0 + j * self.dt, got.pose, range_gain=got.range_gain, cov=got.cov):
             self.applied.append(j)
         return True
 
