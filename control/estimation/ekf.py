@@ -69,8 +69,8 @@ Jacobians with respect to the state and the noise (Thrun, Burgard and Fox, Proba
 Robotics, 2005, secs. 3.3 and 7.4: EKF localisation with the motion model linearised about the
 estimate; the odometry motion model of sec. 5.4 gives the structure of the noise).
 
-Correction with a pose fix z = (x, y, theta) + G (s_r, o_r) + v, v ~ N(0, diag(s_xy^2, s_xy^2,
-s_th^2)), G zero but for scan fixes; the
+Correction with a pose fix z = (x, y, theta) + G (s_r, o_r) + v, v ~ N(0, R), R diag(s_xy^2, s_xy^2,
+s_th^2) or the fix's own covariance (a localiser's), G zero but for scan fixes; the
 heading innovation is wrapped to [-pi, pi]; the covariance update
 P - K S K^T is re-symmetrised after every fix. (Joseph's form, which guards against a gain far
 from optimal, costs twice as much; with fixes of centimetres against a prior of centimetres to
@@ -682,10 +682,7 @@ class PoseEstimator:
 
 def _check_gain(gain: ArrayLike) -> tuple[float, ...]:
     """A fix's range gain as the fix's six numbers, or an error naming what is wrong."""
-    try:
-        g = np.asarray(gain, dtype=float)
-    except (TypeError, ValueError):
-        g = np.full(0, np.nan)
+    g = _float_array(gain)
     if g.shape != (3, 2) or not np.isfinite(g).all():
         raise EstimatorInputError(
             f"correct: range_gain must be a finite (3, 2) array (the fix's change per unit of the range "
@@ -698,10 +695,7 @@ def _check_cov(cov: ArrayLike, std_xy: float | None, std_theta: float | None) ->
     """A fix's noise covariance as the upper triangle's six numbers, or an error naming what is wrong."""
     if std_xy is not None or std_theta is not None:
         raise EstimatorInputError("correct: give a fix's noise either as cov or as std_xy and std_theta, not both")
-    try:
-        c = np.asarray(cov, dtype=float)
-    except (TypeError, ValueError):
-        c = np.full(0, np.nan)
+    c = _float_array(cov)
     ok = c.shape == (3, 3) and bool(np.isfinite(c).all()) and np.allclose(c, c.T, rtol=1e-9, atol=1e-15)
     if ok:
         try:
@@ -714,3 +708,11 @@ def _check_cov(cov: ArrayLike, std_xy: float | None, std_theta: float | None) ->
             f"got {np.array2string(c, precision=3) if c.size else repr(cov)}"
         )
     return float(c[0, 0]), float(c[0, 1]), float(c[0, 2]), float(c[1, 1]), float(c[1, 2]), float(c[2, 2])
+
+
+def _float_array(value: ArrayLike) -> FloatArray:
+    """``value`` as a float array; an empty one when it is not numbers (its check then fails on the shape)."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return np.zeros(0)
