@@ -104,12 +104,20 @@ def resample(particles, weights, offset, order, w_diff, coins, randoms, bins, sh
     return np.array(out)
 
 
-def fit_sensitivity(pose, ranges, bearings, laser, field, grid, gate, split):  # type: ignore[no-untyped-def]
-    """A^T A of the scan-to-map fit at a pose, A = [J, u_scale, u_offset] (central differences)."""
+def beam_weight(z, noise):  # type: ignore[no-untyped-def]
+    """Inverse variance of a range z [m] under noise (split, sd near [m], relative sd far), 1 without."""
+    if noise[1] <= 0 and noise[2] <= 0:
+        return 1.0
+    return 1.0 / max(noise[1] if z < noise[0] else noise[2] * z, 1e-4) ** 2
+
+
+def fit_sensitivity(pose, ranges, bearings, laser, field, grid, gate, split, noise):  # type: ignore[no-untyped-def]
+    """A^T W A of the scan-to-map fit at a pose, A = [J, u_scale, u_offset] (central differences), W the
+    beams' inverse range variances."""
     h = grid[2]
     c, s = math.cos(pose[2]), math.sin(pose[2])
     lx, ly = pose[0] + c * laser[0] - s * laser[1], pose[1] + s * laser[0] + c * laser[1]
-    rows, ds = [], []
+    rows, ds, ws = [], [], []
     for z, bearing in zip(ranges, bearings, strict=True):
         e = np.array([math.cos(pose[2] + laser[2] + bearing), math.sin(pose[2] + laser[2] + bearing)])
         p = np.array([lx, ly]) + z * e
@@ -127,5 +135,6 @@ def fit_sensitivity(pose, ranges, bearings, laser, field, grid, gate, split):  #
         u = [along * z, 0.0] if z >= split else [0.0, along]
         rows.append([grad[0], grad[1], grad[1] * lever[0] - grad[0] * lever[1], *u])
         ds.append(d)
-    a, d_ = np.array(rows).reshape(-1, 5), np.array(ds)
-    return a.T @ a, len(ds), float(d_ @ d_)
+        ws.append(beam_weight(z, noise))
+    a, d_, w = np.array(rows).reshape(-1, 5), np.array(ds), np.array(ws)
+    return a.T @ (w[:, None] * a), len(ds), float(d_ @ (w * d_))

@@ -175,7 +175,9 @@ def test_refinement_recovers_the_pose_from_an_exact_scan(scanner: tuple) -> None
     amcl = Amcl(WORLD, AmclConfig(), [*lidar.offset[:2], 0.0], seed=1)
     f = amcl.field
     r, b = amcl.beams(scan.ranges, 0.12, 3.5, 0.0, scan.angle_increment, every=True)
-    got, _, used, _ = K.refine(pose + np.array([0.06, -0.04, 0.04]), r, b, amcl.laser, f.signed, f.grid, 0.3, 20)
+    got, _, used, _ = K.refine(
+        pose + np.array([0.06, -0.04, 0.04]), r, b, amcl.laser, f.signed, f.grid, 0.3, 20, K.NO_NOISE_MODEL
+    )
     assert used > 300
     np.testing.assert_allclose(got, pose, atol=2e-4)  # the grid's bilinear error
 

@@ -12,15 +12,20 @@ import pytest
 
 from control.estimation import amcl_kernels as K
 from control.estimation.amcl import Amcl, AmclConfig
+from control.estimation.consistency import chi2_interval
+from planning.collision.field import signed_distances
 from planning.core.robot import load_robot
 from planning.core.world import Box, Circle, World
+from planning.scenario import random_scenario
 from sim.physics.lidar import LidarProfile, LidarScanner
 from sim.physics.model import build_model
-from sim.robot.scan_localiser import LocaliserSetup, ScanLocaliser, range_bias
+from sim.robot.scan_localiser import LocaliserSetup, ScanLocaliser, range_bias, range_noise
 
 WORLD = World((-2.0, 2.0, -1.5, 1.5), (Box((1.0, 0.5), (0.4, 0.3), 0.3), Circle((-1.0, -0.5), 0.3)))
 EXACT = LidarProfile(accuracy_near=0, accuracy_far=0, precision_near=0, precision_far=0)
 POSE = np.array([0.1, -0.3, 0.4])
+NOISE = np.array([1.5, 0.01, 0.035])
+RUNS = 80  # static poses of the weighted fit's test  # a weight per beam: 0.01 m below 1.5 m, 3.5 % from there
 
 
 @pytest.fixture(scope="module")
@@ -39,8 +44,8 @@ def test_the_fit_sensitivity_matches_the_reference(scan: tuple) -> None:
     amcl, r, b = scan
     f = amcl.field
     pose = POSE + np.array([0.01, -0.02, 0.01])
-    ata, used, ssr = K.fit_sensitivity(pose, r, b, amcl.laser, f.signed, f.grid, 0.3, 1.5)
-    want = ref.fit_sensitivity(pose, r, b, amcl.laser, f.signed, f.grid, 0.3, 1.5)
+    ata, used, ssr = K.fit_sensitivity(pose, r, b, amcl.laser, f.signed, f.grid, 0.3, 1.5, NOISE)
+    want = ref.fit_sensitivity(pose, r, b, amcl.laser, f.signed, f.grid, 0.3, 1.5, NOISE)
     np.testing.assert_allclose(ata, want[0], rtol=1e-9, atol=1e-9)
     assert (used, ssr) == (want[1], pytest.approx(want[2], rel=1e-9))
     assert used > 300 and np.abs(ata[:3, 4]).max() > 0  # beams both sides of the split (1.5 m here)
@@ -49,10 +54,10 @@ def test_the_fit_sensitivity_matches_the_reference(scan: tuple) -> None:
 def test_the_sensitivity_predicts_how_a_scaled_scan_moves_the_fit(scan: tuple) -> None:
     amcl, r, b = scan
     f = amcl.field
-    ata, _, _ = K.fit_sensitivity(POSE, r, b, amcl.laser, f.signed, f.grid, 0.3, 0.5)
+    ata, _, _ = K.fit_sensitivity(POSE, r, b, amcl.laser, f.signed, f.grid, 0.3, 0.5, K.NO_NOISE_MODEL)
     for k in (0.03, -0.03):
         scaled = np.where(r >= 0.5, r * (1 + k), r)
-        got, _, _, _ = K.refine(POSE.copy(), scaled, b, amcl.laser, f.signed, f.grid, 0.3, 20)
+        got, _, _, _ = K.refine(POSE.copy(), scaled, b, amcl.laser, f.signed, f.grid, 0.3, 20, K.NO_NOISE_MODEL)
         predicted = -np.linalg.solve(ata[:3, :3], ata[:3, 3]) * k
         shift = got - POSE
         assert np.linalg.norm(shift[:2]) > 0.005  # this room does not surround the robot evenly
@@ -63,7 +68,7 @@ def test_the_fix_covariance_carries_the_scanners_systematic_error(scan: tuple) -
     amcl, r, b = scan
     f = amcl.field
     pose = POSE.copy()
-    ata, used, ssr = K.fit_sensitivity(pose, r, b, amcl.laser, f.signed, f.grid, 0.3, 0.5)
+    ata, used, ssr = K.fit_sensitivity(pose, r, b, amcl.laser, f.signed, f.grid, 0.3, 0.5, K.NO_NOISE_MODEL)
     noise, got_gain, systematic = amcl._fit_cov(pose, r, b)
     cov = noise + systematic
     white = max(ssr / (used - 3), 1e-8) * np.linalg.inv(ata[:3, :3])
@@ -94,3 +99,43 @@ def test_a_slipping_wheel_does_not_turn_the_odometry_the_localiser_takes() -> No
         else:  # the encoders' differential: 0.033 x 2 pi 400 / 4096 / 0.16 = 0.127 rad
             assert loc.odom[2] == pytest.approx(0.033 * 2 * math.pi * 400 / 4096 / 0.16, rel=1e-9)
         assert loc.odom[0] > 0.009  # the encoders' distance either way
+
+
+def test_weighing_beams_by_their_precision_makes_the_fit_sharper_and_its_covariance_honest() -> None:
+    """Static poses in a random world, the map and the scanner exact but for the LDS-01's white noise
+    (1 cm near, 3.5 % of the range far): the fit weighted by each beam's inverse variance errs less than
+    the fit weighing all beams alike, and its ``(J^T W J)^-1`` is consistent (mean NEES inside the
+    chi-square bounds), where the unweighted fit's ``s^2 (J^T J)^-1`` is over-confident."""
+    world = random_scenario("turtlebot3", 206).world
+    profile = LidarProfile(accuracy_near=0, accuracy_far=0)
+    model = build_model(load_robot("turtlebot3"), world).model
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    lidar = LidarScanner(model, profile, seed=4)
+    laser = [*lidar.offset[:2], 0.0]
+    fits = {
+        w: Amcl(world, AmclConfig(), laser, seed=1, range_noise=range_noise(profile) if w else None) for w in (0, 1)
+    }
+    rng = np.random.default_rng(7)
+    x0, x1, y0, y1 = world.bounds
+    poses = rng.uniform((x0 + 0.3, y0 + 0.3, -math.pi), (x1 - 0.3, y1 - 0.3, math.pi), (400, 3))
+    poses = poses[signed_distances(world, np.ascontiguousarray(poses[:, :2]), 0.01) > 0.3][:RUNS]
+    err: dict[int, list[np.ndarray]] = {0: [], 1: []}
+    nees_of: dict[int, list[float]] = {0: [], 1: []}
+    for pose in poses:
+        s = lidar.scan(data, 0.0, np.tile(pose, (profile.beams, 1)))
+        for w, amcl in fits.items():
+            r, b = amcl.beams(s.ranges, profile.range_min, profile.range_max, 0.0, s.angle_increment, every=True)
+            f = amcl.field
+            got, info, used, ssr = K.refine(pose.copy(), r, b, amcl.laser, f.signed, f.grid, 0.3, 15, amcl._noise)
+            e = got - pose
+            e[2] = math.remainder(e[2], 2 * math.pi)
+            cov = amcl._white_scale(ssr, used) * np.linalg.inv(info)
+            err[w].append(e)
+            nees_of[w].append(float(e @ np.linalg.solve(cov, e)))
+    rms = {w: float(np.sqrt(np.mean(np.array(err[w])[:, :2] ** 2))) for w in (0, 1)}
+    lo, hi = chi2_interval(3, runs=len(poses))
+    assert len(poses) == RUNS
+    assert rms[1] < 0.75 * rms[0]
+    assert lo < np.mean(nees_of[1]) < hi
+    assert np.mean(nees_of[0]) > hi

@@ -23,8 +23,16 @@ The algorithm of Probabilistic Robotics (Thrun, Burgard, Fox 2005) ch. 8 as Nav2
   Gauss-Newton scan-to-map fit of the used beams' end points to the map's signed distance from
   that mean and from the last estimate moved by the odometry (the fit with more beams within the
   gate, then the smaller residual, wins), over every valid beam (not only the ``max_beams`` subset).
+  Given the scanner's white range noise (``range_noise``: the LDS-01's datasheet precision, an
+  absolute standard deviation near and a relative one beyond the split), each beam is weighted by
+  its inverse variance (the maximum-likelihood fit: a far beam's noise grows with its range, and
+  weighing them all alike let the far ones move the pose; measured on two random worlds' static
+  poses with exact map and scanner but for the noise, the weighted fit's position errors were 4.0
+  and 4.5 mm RMS against 6.8 and 8.3 mm, and its ``(J^T W J)^-1`` consistent, mean NEES 2.8 and 3.0,
+  where the unweighted fit's ``s^2 (J^T J)^-1`` gave 4.5 and 6.2).
   When the fit holds (at least ``max_beams / 2`` beams within ``refine_gate``) its covariance is
-  the white noise's ``s^2 (J^T J)^-1`` (``s^2`` the residual variance) plus, given the scanner's
+  the white noise's ``(J^T W J)^-1`` (times the chi-square per degree of freedom where that is above
+  1; without ``range_noise``, ``W`` = I and the factor is the residual variance ``s^2``) plus, given the scanner's
   systematic range error (``range_bias``: a relative scale error beyond a split range and an
   offset nearer, as the LDS-01's datasheet states its accuracy), that error carried through the
   fit, ``G diag(var_scale, var_offset) G^T`` with ``G = (J^T J)^-1 J^T u`` and ``u`` each beam's
@@ -321,6 +329,9 @@ class Amcl:
         range_bias: The scanner's systematic range error as (split [m], standard deviation of the
             offset below it [m], of the relative scale error from it [-]) for the refined pose's
             covariance; None: the fit's or the cluster's, the larger.
+        range_noise: The scanner's white range noise as (split [m], standard deviation below it [m],
+            relative standard deviation from it [-]): the fit weighs each beam by its inverse variance
+            (:func:`amcl_kernels.beam_weight`); None: every beam alike.
     """
 
     def __init__(
@@ -332,9 +343,12 @@ class Amcl:
         *,
         clearance: float = 0.1,
         range_bias: tuple[float, float, float] | None = None,
+        range_noise: tuple[float, float, float] | None = None,
     ):
         self.config = config
         self.range_bias = range_bias
+        self.range_noise = range_noise
+        self._noise = K.NO_NOISE_MODEL if range_noise is None else np.array(range_noise, dtype=float)
         self.field = likelihood_field(world, config.map_resolution, config.laser_likelihood_max_dist, clearance)
         self.laser = np.asarray(laser, dtype=float).reshape(3)
         self.rng = np.random.default_rng(seed)
@@ -400,7 +414,7 @@ class Amcl:
         best, score = cand[0], (-1, 0.0)
         for i in np.argsort(-w)[:SEARCH_KEPT]:
             pose, _, used, ssr = K.refine(
-                cand[i], ra, ba, self.laser, self.field.signed, self.field.grid, c.refine_gate, 10
+                cand[i], ra, ba, self.laser, self.field.signed, self.field.grid, c.refine_gate, 10, self._noise
             )
             if (used, -ssr) > score:
                 best, score = pose, (used, -ssr)
@@ -555,7 +569,7 @@ class Amcl:
             return AmclEstimate(mean, cov, self.particles.shape[0], spread, False)
         best = None
         for start in (mean,) if prior is None else (mean, prior):
-            fit = K.refine(start, r, b, self.laser, self.field.signed, self.field.grid, c.refine_gate, 10)
+            fit = K.refine(start, r, b, self.laser, self.field.signed, self.field.grid, c.refine_gate, 10, self._noise)
             pose, info, used, ssr = fit
             if used < least or math.hypot(pose[0] - start[0], pose[1] - start[1]) >= 0.5:
                 continue
@@ -568,10 +582,10 @@ class Amcl:
         if self.range_bias is not None:
             noise, gain, bias = self._fit_cov(pose, r, b)
             return AmclEstimate(pose, _psd(noise + bias), self.particles.shape[0], spread, True, gain, _psd(noise))
-        # the fit's own covariance s^2 (J^T J)^-1 knows only the scan's white noise, not its systematic
-        # error: the larger of it and the cluster's is reported
-        s2 = max(ssr / (used - 3), 1e-8)
-        cov = np.maximum(s2 * np.linalg.inv(info), cov) if np.all(np.diag(cov) > 0) else cov
+        # the fit's own covariance knows only the scan's white noise, not its systematic error: the larger
+        # of it and the cluster's is reported
+        fit_cov = self._white_scale(ssr, used) * np.linalg.inv(info)
+        cov = np.maximum(fit_cov, cov) if np.all(np.diag(cov) > 0) else cov
         return AmclEstimate(pose, _psd(cov), self.particles.shape[0], spread, True)
 
     def _fit_cov(self, pose: FloatArray, r: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -581,12 +595,19 @@ class Amcl:
         assert self.range_bias is not None
         split, sd_offset, sd_scale = self.range_bias
         ata, used, ssr = K.fit_sensitivity(pose, r, b, self.laser, self.field.signed, self.field.grid,
-                                           self.config.refine_gate, split)  # fmt: skip
+                                           self.config.refine_gate, split, self._noise)  # fmt: skip
         inv = np.asarray(np.linalg.inv(ata[:3, :3]), dtype=np.float64)
         gain: FloatArray = -(inv @ ata[:3, 3:])
-        noise: FloatArray = max(ssr / max(used - 3, 1), 1e-8) * inv
+        noise: FloatArray = self._white_scale(ssr, used) * inv
         systematic: FloatArray = gain @ np.diag([sd_scale**2, sd_offset**2]) @ gain.T
         return noise, gain, systematic
+
+    def _white_scale(self, ssr: float, used: int) -> float:
+        """The factor of a fit's ``(J^T W J)^-1`` for its white noise: the residuals' variance ``s^2``
+        without a noise model (``W`` = I); with one, 1, or the chi-square per degree of freedom where the
+        residuals are larger than the scanner's noise explains (an unmapped surface within the gate)."""
+        per_dof = ssr / max(used - 3, 1)
+        return max(per_dof, 1e-8) if self.range_noise is None else max(per_dof, 1.0)
 
     def spread(self) -> float:
         """Root of the trace of the whole particle set's weighted (x, y) covariance [m]."""

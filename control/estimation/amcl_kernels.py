@@ -271,6 +271,24 @@ def cluster_estimate(
     return mean, cov, w
 
 
+#: Smallest standard deviation of a range a weight is taken from [m] (a scanner without white noise).
+MIN_RANGE_STD = 1e-4
+#: :func:`beam_weight`'s noise when the scanner's is not known: every beam weighs the same.
+NO_NOISE_MODEL = np.zeros(3)
+
+
+@nb.njit(cache=True, inline="always")
+def beam_weight(z: float, noise: FloatArray) -> float:  # pragma: no cover - compiled
+    """The weight of a beam of range ``z`` [m] in the fit: the inverse variance of its white noise, given as
+    ``noise`` = (split [m], standard deviation below it [m], relative standard deviation from it [-])
+    (the LDS-01's datasheet precision, :mod:`sim.physics.lidar`), at least :data:`MIN_RANGE_STD`; 1 for
+    every beam when both standard deviations are 0 (no noise model: :data:`NO_NOISE_MODEL`)."""
+    if noise[1] <= 0.0 and noise[2] <= 0.0:
+        return 1.0
+    sd = max(noise[1] if z < noise[0] else noise[2] * z, MIN_RANGE_STD)
+    return 1.0 / (sd * sd)
+
+
 @nb.njit(cache=True)
 def refine(
     pose: FloatArray,
@@ -281,8 +299,10 @@ def refine(
     grid: FloatArray,
     gate: float,
     iterations: int,
+    noise: FloatArray,
 ) -> tuple[FloatArray, FloatArray, int, float]:
-    """Scan-to-map refinement: Gauss-Newton on the squared signed map distances of the beams' end points.
+    """Scan-to-map refinement: Gauss-Newton on the squared signed map distances of the beams' end points,
+    each weighted by its range's precision (:func:`beam_weight`; all alike without a noise model).
 
     Beams whose end point is farther than ``gate`` [m] from the map's surfaces (unmapped obstacles,
     or a wrong pose) are left out of each iteration.
@@ -294,10 +314,12 @@ def refine(
         grid: (x0, y0, h, far) of ``field``.
         gate: Largest |distance| of a beam used [m].
         iterations: Most Gauss-Newton steps.
+        noise: (3,) the scanner's white range noise (:func:`beam_weight`).
 
     Returns:
-        (3,) refined pose, (3, 3) the information ``J^T J`` at it, the number of beams in it and the
-        sum of their squared distances [m^2].
+        (3,) refined pose, (3, 3) the information ``J^T W J`` at it, the number of beams in it and the
+        weighted sum of their squared distances (``W`` the weights: the identity without a noise model,
+        then the sum is in m^2; with one, the inverse variances, and the sum is a chi-square).
     """
     x = pose.copy()
     x0, y0, h, far = grid[0], grid[1], grid[2], grid[3]
@@ -323,12 +345,13 @@ def refine(
                 field_at(field, x0, y0, h, far, px, py + 0.5 * h) - field_at(field, x0, y0, h, far, px, py - 0.5 * h)
             ) / h
             jac = (gx, gy, -gx * (py - x[1]) + gy * (px - x[0]))
+            w = beam_weight(ranges[b], noise)
             for i in range(3):
-                g[i] += jac[i] * d
+                g[i] += w * jac[i] * d
                 for j in range(3):
-                    info[i, j] += jac[i] * jac[j]
+                    info[i, j] += w * jac[i] * jac[j]
             used += 1
-            ssr += d * d
+            ssr += w * d * d
         if used < 10 or done:
             break
         step = np.linalg.solve(info + 1e-9 * np.eye(3), g)
@@ -349,6 +372,7 @@ def fit_sensitivity(
     grid: FloatArray,
     gate: float,
     split: float,
+    noise: FloatArray,
 ) -> tuple[FloatArray, int, float]:
     """The scan-to-map fit's information at ``pose``, extended by the scanner's systematic range
     errors: a relative scale error ``k`` (a beam of range ``z`` at or beyond ``split`` [m] reads
@@ -363,11 +387,12 @@ def fit_sensitivity(
 
     Args:
         pose: (3,) the fit's pose.
-        ranges, bearings, laser, field, grid, gate: As :func:`refine`.
+        ranges, bearings, laser, field, grid, gate, noise: As :func:`refine`.
         split: Range [m] from which the error is relative.
 
     Returns:
-        (5, 5) ``A^T A``, the beams used and the sum of their squared distances [m^2].
+        (5, 5) ``A^T W A`` (``W`` the beams' weights, as :func:`refine`'s), the beams used and the
+        weighted sum of their squared distances.
     """
     x0, y0, h, far = grid[0], grid[1], grid[2], grid[3]
     ata = np.zeros((5, 5))
@@ -387,9 +412,10 @@ def fit_sensitivity(
         along = gx * ex + gy * ey
         row[0], row[1], row[2] = gx, gy, -gx * (py - pose[1]) + gy * (px - pose[0])
         row[3], row[4] = (along * ranges[b], 0.0) if ranges[b] >= split else (0.0, along)
+        w = beam_weight(ranges[b], noise)
         for i in range(5):
             for j in range(5):
-                ata[i, j] += row[i] * row[j]
+                ata[i, j] += w * row[i] * row[j]
         used += 1
-        ssr += d * d
+        ssr += w * d * d
     return ata, used, ssr

@@ -22,7 +22,8 @@ prior turn with it (measured on a seeded random world, 40 deg in 2.4 s of scrapi
 Without a gyro error (``gyro_error`` None) the heading is the encoders' differential.
 
 The fix's covariance is the refined pose's with the LDS-01's datasheet accuracy carried through the
-fit (:func:`range_bias`, :class:`control.estimation.amcl.Amcl`), not the particle cloud's.
+fit (:func:`range_bias`, :class:`control.estimation.amcl.Amcl`), not the particle cloud's; the fit
+weighs each beam by the datasheet's precision (:func:`range_noise`).
 
 With ``initial = "unknown"`` the particles start spread over the free space and the robot, standing
 at its start before the run, takes up to :data:`GLOBAL_SCANS` revolutions (forced updates, Nav2's
@@ -164,7 +165,10 @@ class ScanLocaliser:
         assert setup.world is not None and setup.lidar is not None
         self.scanner = LidarScanner(model, setup.lidar, seed)
         laser = (float(self.scanner.offset[0]), float(self.scanner.offset[1]), 0.0)
-        self.amcl = Amcl(setup.world, setup.amcl, laser, seed + SEED_OFFSET, range_bias=range_bias(setup.lidar))
+        self.amcl = Amcl(
+            setup.world, setup.amcl, laser, seed + SEED_OFFSET,
+            range_bias=range_bias(setup.lidar), range_noise=range_noise(setup.lidar),
+        )  # fmt: skip
         self.setup, self.t0, self.dt = setup, t0, dt
         self.half = max(1, round(0.5 * setup.lidar.period / dt))
         self.r, self.track = robot.wheel_radius, robot.track_width
@@ -316,6 +320,12 @@ def range_bias(lidar: LidarProfile) -> tuple[float, float, float]:
     the band a unit's own error fills at :data:`sim.physics.asbuilt.CLIP_SIGMAS` standard deviations
     (:mod:`sim.physics.lidar`)."""
     return lidar.accuracy_split, lidar.accuracy_near / CLIP_SIGMAS, lidar.accuracy_far / CLIP_SIGMAS
+
+
+def range_noise(lidar: LidarProfile) -> tuple[float, float, float]:
+    """The scanner's white range noise as the localiser's fit weighs its beams: (split [m], standard
+    deviation below it [m], relative standard deviation from it [-]), the datasheet's precision."""
+    return lidar.accuracy_split, lidar.precision_near, lidar.precision_far
 
 
 def localiser_schedule(setup: LocaliserSetup, fix_every: int, latency_periods: int, dt: float) -> None:
