@@ -105,7 +105,10 @@ def resample(particles, weights, offset, order, w_diff, coins, randoms, bins, sh
 
 
 def beam_weight(z, noise):  # type: ignore[no-untyped-def]
-    """Inverse variance of a range z [m] under noise (split, sd near [m], relative sd far), 1 without."""
+    """Inverse variance of a range z [m] under noise (split, sd near [m], relative sd far, ambiguous
+    half-width [m]), 1 without; 0 within the half-width of the split."""
+    if abs(z - noise[0]) < noise[3]:
+        return 0.0
     if noise[1] <= 0 and noise[2] <= 0:
         return 1.0
     return 1.0 / max(noise[1] if z < noise[0] else noise[2] * z, 1e-4) ** 2
@@ -122,7 +125,7 @@ def fit_sensitivity(pose, ranges, bearings, laser, field, grid, gate, split, noi
         e = np.array([math.cos(pose[2] + laser[2] + bearing), math.sin(pose[2] + laser[2] + bearing)])
         p = np.array([lx, ly]) + z * e
         d = field_at(field, grid, p[0], p[1])
-        if abs(d) > gate:
+        if abs(d) > gate or beam_weight(z, noise) == 0.0:
             continue
         grad = np.array(
             [

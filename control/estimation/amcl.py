@@ -29,7 +29,9 @@ The algorithm of Probabilistic Robotics (Thrun, Burgard, Fox 2005) ch. 8 as Nav2
   weighing them all alike let the far ones move the pose; measured on two random worlds' static
   poses with exact map and scanner but for the noise, the weighted fit's position errors were 4.0
   and 4.5 mm RMS against 6.8 and 8.3 mm, and its ``(J^T W J)^-1`` consistent, mean NEES 2.8 and 3.0,
-  where the unweighted fit's ``s^2 (J^T J)^-1`` gave 4.5 and 6.2).
+  where the unweighted fit's ``s^2 (J^T J)^-1`` gave 4.5 and 6.2). Beams read within a band about
+  the split of the scanner's systematic error are left out: by the reading alone, their error may be
+  the offset or the scale (:func:`amcl_kernels.beam_weight`).
   When the fit holds (at least ``max_beams / 2`` beams within ``refine_gate``) its covariance is
   the white noise's ``(J^T W J)^-1`` (times the chi-square per degree of freedom where that is above
   1; without ``range_noise``, ``W`` = I and the factor is the residual variance ``s^2``) plus, given the scanner's
@@ -330,7 +332,8 @@ class Amcl:
             offset below it [m], of the relative scale error from it [-]) for the refined pose's
             covariance; None: the fit's or the cluster's, the larger.
         range_noise: The scanner's white range noise as (split [m], standard deviation below it [m],
-            relative standard deviation from it [-]): the fit weighs each beam by its inverse variance
+            relative standard deviation from it [-], half-width of the band about the split whose beams
+            are left out [m]): the fit weighs each beam by its inverse variance
             (:func:`amcl_kernels.beam_weight`); None: every beam alike.
     """
 
@@ -343,7 +346,7 @@ class Amcl:
         *,
         clearance: float = 0.1,
         range_bias: tuple[float, float, float] | None = None,
-        range_noise: tuple[float, float, float] | None = None,
+        range_noise: tuple[float, float, float, float] | None = None,
     ):
         self.config = config
         self.range_bias = range_bias
