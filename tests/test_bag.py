@@ -223,7 +223,9 @@ def _with_scan(result: Any, where: str, ranges: np.ndarray, t: np.ndarray) -> An
             object.__setattr__(log, "estimation", est)
     else:
         fields = ["scan_t", "scan_ranges", "scan_angle_increment", "scan_time_increment", "range_min", "range_max"]
-        loc = dataclasses.make_dataclass("Localiser", fields)(t, ranges, step, 0.2 / 360, 0.12, 3.5)
+        fields += ["t", "cov"]  # no updates: the fixes keep the profile's variances
+        none = (np.zeros(0), np.zeros((0, 3, 3)))
+        loc = dataclasses.make_dataclass("Localiser", fields)(t, ranges, step, 0.2 / 360, 0.12, 3.5, *none)
         est = dataclasses.replace(log.estimation)
         object.__setattr__(est, "localiser", loc)
         object.__setattr__(log, "estimation", est)
@@ -453,3 +455,19 @@ def test_the_imu_noise_is_the_runs_own_seed(job: tuple[Any, Path]) -> None:
 
     assert log.meta["noise_seed"] == setup.seed and n > 100
     np.testing.assert_allclose(gyro(other) - gyro(log), error(setup.seed + 7) - error(setup.seed), atol=1e-12)
+
+
+def test_a_scan_fix_carries_the_localisers_own_covariance(job: tuple[Any, Path]) -> None:
+    """Each ``/RUN/fix`` of a run on the scan localiser is one of its updates, with the update's whole
+    covariance (x, y, yaw and their correlations), not the synthetic fixes' profile variances."""
+    result, path = job
+    loc = result.logs[RunKind.CLOSED_LOOP].estimation.localiser
+    assert loc is not None and loc.t.size > 3
+    _, msgs, _ = read_rosbags(path)
+    fixes = msgs["/closed_loop/fix"]
+    assert len(fixes) == loc.t.size
+    axes = np.ix_([0, 1, 5], [0, 1, 5])
+    for (_, fix), cov, t in zip(fixes, loc.cov, loc.t, strict=True):
+        assert fix.header.stamp.sec + 1e-9 * fix.header.stamp.nanosec == pytest.approx(t, abs=1e-9)
+        np.testing.assert_allclose(np.asarray(fix.pose.covariance).reshape(6, 6)[axes], cov, rtol=1e-12, atol=0)
+    assert any(abs(cov[0, 1]) > 0 for cov in loc.cov)  # correlations are written, not only variances

@@ -337,10 +337,17 @@ def _command_series(log: Any, frame: str) -> Series:
 
 
 def _fix_series(log: Any, std: tuple[float, float]) -> Series:
-    """``RUN/fix``: the localisation fixes at their measurement times, with the profile's variances."""
+    """``RUN/fix``: the localisation fixes at their measurement times, with the scan localiser's own
+    covariance (each fix is one of its updates, as Nav2's ``amcl_pose``) or, for synthetic fixes, the
+    profile's variances."""
     est = log.estimation
     if est is None or est.fix_t.size == 0:
         return np.zeros(0), lambda k: None
+    loc = getattr(est, "localiser", None)
+    if loc is not None and loc.t.size:
+        row = np.clip(np.searchsorted(loc.t, est.fix_t - 1e-9), 0, loc.t.size - 1)
+        if np.allclose(loc.t[row], est.fix_t, rtol=0.0, atol=1e-9):
+            return est.fix_t, lambda k: m.pose_fix(float(est.fix_t[k]), "map", est.fix[k], loc.cov[row[k]])
     var = np.array([std[0] ** 2, std[0] ** 2, std[1] ** 2])
     return est.fix_t, lambda k: m.pose_fix(float(est.fix_t[k]), "map", est.fix[k], var)
 

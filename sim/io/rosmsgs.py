@@ -244,12 +244,15 @@ def twist(v: float, omega: float) -> Any:
 
 
 def planar_covariance(var: FloatArray) -> FloatArray:
-    """(36,) row-major 6x6 covariance with the variances of x, y [m^2] and yaw [rad^2] on its diagonal;
-    z, roll and pitch (which a planar robot does not have) get a large variance, as ROS drivers write."""
-    cov = np.zeros(36)
-    cov[[0, 7, 35]] = var
-    cov[[14, 21, 28]] = 1e6
-    return cov
+    """(36,) row-major 6x6 covariance of a planar pose, given as the variances of x, y [m^2] and yaw
+    [rad^2] (3,) or as their whole covariance (3, 3); z, roll and pitch (which a planar robot does not
+    have) get a large variance, as ROS drivers write."""
+    cov = np.zeros((6, 6))
+    axes = np.array([0, 1, 5])
+    v = np.asarray(var, dtype=float)
+    cov[np.ix_(axes, axes)] = v if v.shape == (3, 3) else np.diag(v)
+    cov[[2, 3, 4], [2, 3, 4]] = 1e6
+    return cov.ravel()
 
 
 def odometry(t: float, frame: str, child: str, p: FloatArray, var: FloatArray, v: float, omega: float) -> Any:
@@ -261,7 +264,7 @@ def odometry(t: float, frame: str, child: str, p: FloatArray, var: FloatArray, v
 
 
 def pose_fix(t: float, frame: str, p: FloatArray, var: FloatArray) -> Any:
-    """``geometry_msgs/PoseWithCovarianceStamped`` of a planar pose with variances (3,)."""
+    """``geometry_msgs/PoseWithCovarianceStamped`` of a planar pose with variances (3,) or a covariance (3, 3)."""
     pwc = msg("geometry_msgs/msg/PoseWithCovariance")(pose=planar_pose(p), covariance=planar_covariance(var))
     return msg(TYPES["fix"])(header=header(t, frame), pose=pwc)
 
