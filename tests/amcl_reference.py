@@ -105,9 +105,9 @@ def resample(particles, weights, offset, order, w_diff, coins, randoms, bins, sh
 
 
 def beam_weight(z, noise):  # type: ignore[no-untyped-def]
-    """Inverse variance of a range z [m] under noise (split, sd near [m], relative sd far, ambiguous
-    half-width [m]), 1 without; 0 within the half-width of the split."""
-    if abs(z - noise[0]) < noise[3]:
+    """Inverse variance of a range z [m] under noise (split, sd near [m], relative sd far, ambiguous band
+    below and above the split [m]), 1 without; 0 within the band."""
+    if noise[0] - noise[3] < z < noise[0] + noise[4]:
         return 0.0
     if noise[1] <= 0 and noise[2] <= 0:
         return 1.0

@@ -24,7 +24,7 @@ from sim.robot.scan_localiser import LocaliserSetup, ScanLocaliser, range_bias, 
 WORLD = World((-2.0, 2.0, -1.5, 1.5), (Box((1.0, 0.5), (0.4, 0.3), 0.3), Circle((-1.0, -0.5), 0.3)))
 EXACT = LidarProfile(accuracy_near=0, accuracy_far=0, precision_near=0, precision_far=0)
 POSE = np.array([0.1, -0.3, 0.4])
-NOISE = np.array([1.5, 0.01, 0.035, 0.05])  # 0.01 m below 1.5 m, 3.5 % from there, no beam 5 cm about it
+NOISE = np.array([1.5, 0.01, 0.035, 0.05, 0.02])  # 0.01 m below 1.5 m, 3.5 % from there, no beam 5 cm below, 2 above
 RUNS = 80  # static poses of the weighted fit's test
 
 
@@ -152,8 +152,8 @@ def test_beams_about_the_split_are_left_out_so_the_gain_predicts_the_fit(scan: t
     measured = np.where(r >= split, r * (1 + k), r + o)
     assert np.sum((r >= split) & (measured < split)) > 20  # beams on the other side of the split
     miss = {}
-    for band in (0.0, split * 0.05 + 0.015):
-        noise = np.array([split, 0.01, 0.035, band])
+    for band in (0.0, split * 0.05):
+        noise = np.array([split, 0.01, 0.035, band, 0.015 if band else 0.0])
         got, _, _, _ = K.refine(POSE.copy(), measured, b, amcl.laser, f.signed, f.grid, 0.3, 20, noise)
         ata, _, _ = K.fit_sensitivity(got, measured, b, amcl.laser, f.signed, f.grid, 0.3, split, noise)
         predicted = -np.linalg.solve(ata[:3, :3], ata[:3, 3:]) @ np.array([k, o])

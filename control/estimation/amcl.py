@@ -332,7 +332,7 @@ class Amcl:
             offset below it [m], of the relative scale error from it [-]) for the refined pose's
             covariance; None: the fit's or the cluster's, the larger.
         range_noise: The scanner's white range noise as (split [m], standard deviation below it [m],
-            relative standard deviation from it [-], half-width of the band about the split whose beams
+            relative standard deviation from it [-], the band below and above the split whose beams
             are left out [m]): the fit weighs each beam by its inverse variance
             (:func:`amcl_kernels.beam_weight`); None: every beam alike.
     """
@@ -346,7 +346,7 @@ class Amcl:
         *,
         clearance: float = 0.1,
         range_bias: tuple[float, float, float] | None = None,
-        range_noise: tuple[float, float, float, float] | None = None,
+        range_noise: tuple[float, float, float, float, float] | None = None,
     ):
         self.config = config
         self.range_bias = range_bias

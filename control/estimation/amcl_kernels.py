@@ -274,23 +274,23 @@ def cluster_estimate(
 #: Smallest standard deviation of a range a weight is taken from [m] (a scanner without white noise).
 MIN_RANGE_STD = 1e-4
 #: :func:`beam_weight`'s noise when the scanner's is not known: every beam weighs the same.
-NO_NOISE_MODEL = np.zeros(4)
+NO_NOISE_MODEL = np.zeros(5)
 
 
 @nb.njit(cache=True, inline="always")
 def beam_weight(z: float, noise: FloatArray) -> float:  # pragma: no cover - compiled
     """The weight of a beam of range ``z`` [m] in the fit: the inverse variance of its white noise, given as
     ``noise`` = (split [m], standard deviation below it [m], relative standard deviation from it [-],
-    half-width of the split's ambiguous band [m]) (the LDS-01's datasheet precision,
+    the split's ambiguous band below and above it [m]) (the LDS-01's datasheet precision,
     :mod:`sim.physics.lidar`), at least :data:`MIN_RANGE_STD`; 1 for every beam when both standard
     deviations are 0 (no noise model: :data:`NO_NOISE_MODEL`).
 
-    0 (the beam is left out) when ``z`` is within the band of the split: the scanner's systematic error
+    0 (the beam is left out) when ``z`` is within the band about the split: the scanner's systematic error
     is an offset below the split and a scale beyond it, decided by the true range, which a reading
     that close cannot tell (a unit reading 5 % short puts a wall 0.52 m away at 0.495 m); such a beam's
     error is the other model's, up to the whole band, and the near beams' weight would let it move the fit.
     """
-    if abs(z - noise[0]) < noise[3]:
+    if noise[0] - noise[3] < z < noise[0] + noise[4]:
         return 0.0
     if noise[1] <= 0.0 and noise[2] <= 0.0:
         return 1.0
@@ -323,7 +323,7 @@ def refine(
         grid: (x0, y0, h, far) of ``field``.
         gate: Largest |distance| of a beam used [m].
         iterations: Most Gauss-Newton steps.
-        noise: (4,) the scanner's white range noise and the split's ambiguous band (:func:`beam_weight`).
+        noise: (5,) the scanner's white range noise and the split's ambiguous band (:func:`beam_weight`).
 
     Returns:
         (3,) refined pose, (3, 3) the information ``J^T W J`` at it, the number of beams in it and the

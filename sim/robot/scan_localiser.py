@@ -322,14 +322,14 @@ def range_bias(lidar: LidarProfile) -> tuple[float, float, float]:
     return lidar.accuracy_split, lidar.accuracy_near / CLIP_SIGMAS, lidar.accuracy_far / CLIP_SIGMAS
 
 
-def range_noise(lidar: LidarProfile) -> tuple[float, float, float, float]:
+def range_noise(lidar: LidarProfile) -> tuple[float, float, float, float, float]:
     """The scanner's white range noise as the localiser's fit weighs its beams: (split [m], standard
     deviation below it [m], relative standard deviation from it [-]), the datasheet's precision, and
-    the half-width of the band about the split whose beams the fit leaves out [m]: a reading there may
-    carry either side's systematic error (:func:`control.estimation.amcl_kernels.beam_weight`), the
-    split moved by the whole band of each."""
-    band = lidar.accuracy_split * lidar.accuracy_far + lidar.accuracy_near
-    return lidar.accuracy_split, lidar.precision_near, lidar.precision_far, band
+    the band below and above the split whose beams the fit leaves out [m]: a reading there may carry
+    either side's systematic error (:func:`control.estimation.amcl_kernels.beam_weight`): a far wall
+    read short by the whole scale band, a near one read long by the whole offset band."""
+    split = lidar.accuracy_split
+    return split, lidar.precision_near, lidar.precision_far, split * lidar.accuracy_far, lidar.accuracy_near
 
 
 def localiser_schedule(setup: LocaliserSetup, fix_every: int, latency_periods: int, dt: float) -> None:
