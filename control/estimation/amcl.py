@@ -37,7 +37,7 @@ The algorithm of Probabilistic Robotics (Thrun, Burgard, Fox 2005) ch. 8 as Nav2
   1; without ``range_noise``, ``W`` = I and the factor is the residual variance ``s^2``) plus, given the scanner's
   systematic range error (``range_bias``: a relative scale error beyond a split range and an
   offset nearer, as the LDS-01's datasheet states its accuracy), that error carried through the
-  fit, ``G diag(var_scale, var_offset) G^T`` with ``G = (J^T J)^-1 J^T u`` and ``u`` each beam's
+  fit, ``G diag(var_scale, var_offset) G^T`` with ``G = -(J^T W J)^-1 J^T W u`` and ``u`` each beam's
   residual change per unit of each error (:func:`amcl_kernels.fit_sensitivity`): the pose moves
   with the scanner's scale where the walls in range do not surround it, and not where they do.
   Without ``range_bias`` the larger of ``s^2 (J^T J)^-1`` and the cluster's covariance stands, the
@@ -304,7 +304,7 @@ class AmclEstimate:
         spread: Root of the trace of the whole set's (x, y) covariance [m].
         refined: Whether the scan-to-map fit gave the pose.
         range_gain: (3, 2) the pose's change per unit of the scanner's relative scale error and per
-            metre of its offset (``-(J^T J)^-1 J^T u``, :func:`amcl_kernels.fit_sensitivity`), when the
+            metre of its offset (``-(J^T W J)^-1 J^T W u``, :func:`amcl_kernels.fit_sensitivity`), when the
             fit gave the pose and the scanner's systematic error is known (``range_bias``); else None.
         noise_cov: (3, 3) the covariance without the scanner's systematic error, ``cov - range_gain
             diag(var_scale, var_offset) range_gain^T``, with ``range_gain``; else None.
@@ -592,9 +592,9 @@ class Amcl:
         return AmclEstimate(pose, _psd(cov), self.particles.shape[0], spread, True)
 
     def _fit_cov(self, pose: FloatArray, r: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """The refined pose's covariance in two parts, the white noise's ``s^2 (J^T J)^-1`` and the
-        scanner's systematic error (``range_bias``) carried through the fit (see the module
-        docstring), with the fit's gain: (noise (3, 3), gain (3, 2), systematic (3, 3))."""
+        """The refined pose's covariance in two parts, the white noise's ``(J^T W J)^-1`` (scaled by
+        :meth:`_white_scale`) and the scanner's systematic error (``range_bias``) carried through the fit
+        (see the module docstring), with the fit's gain: (noise (3, 3), gain (3, 2), systematic (3, 3))."""
         assert self.range_bias is not None
         split, sd_offset, sd_scale = self.range_bias
         ata, used, ssr = K.fit_sensitivity(pose, r, b, self.laser, self.field.signed, self.field.grid,

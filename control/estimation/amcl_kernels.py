@@ -275,6 +275,7 @@ def cluster_estimate(
 MIN_RANGE_STD = 1e-4
 #: :func:`beam_weight`'s noise when the scanner's is not known: every beam weighs the same.
 NO_NOISE_MODEL = np.zeros(5)
+NO_NOISE_MODEL.setflags(write=False)
 
 
 @nb.njit(cache=True, inline="always")
@@ -391,8 +392,8 @@ def fit_sensitivity(
     as :func:`refine` uses them) and their pose Jacobian ``J``, a systematic error moves every end
     point along its beam: ``d_i`` changes by ``u_i = grad d_i . (z_i e_i)`` per unit of ``k`` (far
     beams) or ``grad d_i . e_i`` per metre of ``b`` (near ones), ``e_i`` the beam's direction. With
-    ``A = [J, u_k, u_b]`` (the columns x, y, theta, k, b), the least-squares pose moves by
-    ``-(J^T J)^-1 J^T u`` per unit of each error.
+    ``A = [J, u_k, u_b]`` (the columns x, y, theta, k, b), the (weighted) least-squares pose moves by
+    ``-(J^T W J)^-1 J^T W u`` per unit of each error.
 
     Args:
         pose: (3,) the fit's pose.
