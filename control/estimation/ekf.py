@@ -347,7 +347,7 @@ class PoseEstimator:
             c = np.asarray(cov0, dtype=float)
             if c.shape != (3, 3) or not np.isfinite(c).all():
                 raise EstimatorInputError(f"cov0 must be a finite (3, 3) pose covariance, got shape {c.shape}")
-            if not np.allclose(c, c.T, rtol=1e-9, atol=1e-15) or (np.diag(c) < 0).any():
+            if not _symmetric(c) or (np.diag(c) < 0).any():
                 raise EstimatorInputError("cov0 must be symmetric with a non-negative diagonal [m^2, m^2, rad^2]")
             p[:3, :3] = c
         var_eps = 0.5 * cfg.wheel_radius_rel_std**2  # e_m and e_d from two independent wheel errors
@@ -696,7 +696,7 @@ def _check_cov(cov: ArrayLike, std_xy: float | None, std_theta: float | None) ->
     if std_xy is not None or std_theta is not None:
         raise EstimatorInputError("correct: give a fix's noise either as cov or as std_xy and std_theta, not both")
     c = _float_array(cov)
-    ok = c.shape == (3, 3) and bool(np.isfinite(c).all()) and np.allclose(c, c.T, rtol=1e-9, atol=1e-15)
+    ok = c.shape == (3, 3) and bool(np.isfinite(c).all()) and _symmetric(c)
     if ok:
         try:
             np.linalg.cholesky(c)
@@ -708,6 +708,11 @@ def _check_cov(cov: ArrayLike, std_xy: float | None, std_theta: float | None) ->
             f"got {np.array2string(c, precision=3) if c.size else repr(cov)}"
         )
     return float(c[0, 0]), float(c[0, 1]), float(c[0, 2]), float(c[1, 1]), float(c[1, 2]), float(c[2, 2])
+
+
+def _symmetric(c: FloatArray) -> bool:
+    """Whether a finite square matrix is symmetric (a covariance) up to round-off."""
+    return bool(np.allclose(c, c.T, rtol=1e-9, atol=1e-15))
 
 
 def _float_array(value: ArrayLike) -> FloatArray:
