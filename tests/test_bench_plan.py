@@ -258,6 +258,31 @@ def test_harness_goal_is_our_region(harness: Path, tmp_path: Path) -> None:
             assert np.allclose(end[:2], g[:2], atol=1e-12)
 
 
+@needs_harness
+def test_harness_region_flag_samples_our_region_poses(harness: Path, tmp_path: Path) -> None:
+    """The problem file carries goal_region_poses; with the `region` flag OMPL's goal samples are those
+    poses, so on parallel_park (the direct curve is free) RRT* ends on the shortest curve to one of
+    them, 6 cm shorter than the curve to the goal pose, as rrt-star with region_goal does."""
+    from planning.planners.sampling.tree import goal_region_poses
+
+    problem = problems(["parallel_park"])[0]
+    checker = make_checker(problem, "footprint", 0.0)
+    local = LocalPlanner("reeds_shepp", problem.robot, checker)
+    assert local.rho is not None
+    pf = write_problem(tmp_path, problem, checker, "reeds_shepp", local.rho, local.sample_step)
+    aims = goal_region_poses(problem)
+    line = pf.read_text().split("\nregion ")[1].splitlines()[0].split()
+    assert int(line[0]) == len(aims) and np.array_equal(np.array(line[1:], dtype=float).reshape(-1, 3), aims)
+    start = problem.start.as_array()
+    shortest = reeds_shepp_length(start, aims, local.rho).min()
+    to_pose = reeds_shepp_length(start, problem.goal.as_array(), local.rho)[0]
+    with Session(harness, pf, 4) as s:
+        for planner in ("RRTstar+informed", "BITstar"):
+            t = s.solve(planner, 0.3, "region")
+            assert t["solved"] and shortest - 1e-9 <= t["length_m"] <= shortest + 1e-3 < to_pose - 0.05, planner
+        assert s.solve("RRTConnect", 5.0, "region")["solved"]
+
+
 def test_length_median_counts_failures_and_picks_the_anchor() -> None:
     from sim.tools.bench.plan import PlanBench, length_median, summary
 

@@ -265,7 +265,7 @@ def test_rrt_star_never_stops_before_its_minimum_iterations():
 @pytest.mark.parametrize(
     ("opts", "field"),
     [({"neighbour_pool": 0.5}, "neighbour_pool"), ({"min_iterations": -1}, "min_iterations"),
-     ({"connect_steps": 0}, "connect_steps")],
+     ({"connect_steps": 0}, "connect_steps"), ({"region_tries": 0}, "region_tries")],
 )  # fmt: skip
 def test_rrt_star_rejects_bad_search_options(opts, field):
     from planning.errors import ConfigError
@@ -315,3 +315,59 @@ def test_birrts_connect_steps_stop_when_they_no_longer_close_in():
         res = make_planner("birrt", simplify=False).plan(prob)
         _check_path(res, prob)
         assert res.length() < 40.0 and res.stats["iterations"] < 1000
+
+
+def test_goal_region_poses_lie_in_the_region_and_reach_its_shortest_curve():
+    """The region's poses are in the goal region, the goal pose first, and from random starts the
+    shortest curve to one of them is within 2.5 mm of the shortest to a grid of 60,000 poses of the
+    region (measured: 0.4 mm median, 2.0 mm worst over 300 starts); the goal pose alone is centimetres off."""
+    from planning.planners.sampling.tree import goal_region_poses, in_goal
+
+    prob = _problem(0, world=World((0.0, 6.0, 0.0, 6.0), ()), goal=(3.0, 3.0, 3.1))  # heading edge past pi
+    aims = goal_region_poses(prob)
+    g = prob.goal.as_array()
+    assert np.array_equal(aims[0], g) and len(np.unique(aims, axis=0)) == len(aims)
+    assert all(in_goal(a, prob) for a in aims)
+    r, a, h = np.meshgrid(
+        np.linspace(0.0, prob.position_tolerance, 21),
+        np.linspace(0.0, 2.0 * np.pi, 72, endpoint=False),
+        np.linspace(-prob.heading_tolerance, prob.heading_tolerance, 41),
+        indexing="ij",
+    )
+    grid = np.column_stack([g[0] + (r * np.cos(a)).ravel(), g[1] + (r * np.sin(a)).ravel(), g[2] + h.ravel()])
+    rng = np.random.default_rng(5)
+    gaps, pose_gaps = [], []
+    for _ in range(40):
+        d, b = rng.uniform(0.2, 3.0), rng.uniform(-np.pi, np.pi)
+        s = np.array([g[0] + d * np.cos(b), g[1] + d * np.sin(b), rng.uniform(-np.pi, np.pi)])
+        best = reeds_shepp_length(s, grid, RHO).min()
+        gaps.append(reeds_shepp_length(s, aims, RHO).min() - best)
+        pose_gaps.append(reeds_shepp_length(s, g, RHO)[0] - best)
+    assert min(gaps) >= -1e-9 and max(gaps) <= 2.5e-3
+    assert np.median(pose_gaps) > 0.02
+
+
+def test_rrt_star_region_goal_ends_on_the_shortest_way_into_the_region():
+    """With ``region_goal`` the start that sees the goal takes the shortest curve to the region's poses,
+    a valid path ending inside the region; without it, the curve to the goal pose. Around a disc every
+    edge stays the exact curve from its parent and every cost the sum of its curves."""
+    from planning.planners.sampling.tree import goal_region_poses
+
+    prob = _problem(0, world=World((0.0, 6.0, 0.0, 6.0), ()))
+    aims = goal_region_poses(prob)
+    region = make_planner("rrt-star", max_iterations=50, simplify=False, region_goal=True).plan(prob)
+    pose = make_planner("rrt-star", max_iterations=50, simplify=False).plan(prob)
+    _check_path(region, prob, RHO)
+    shortest = reeds_shepp_length(prob.start.as_array(), aims, RHO).min()
+    assert region.stats["cost_m"] == pytest.approx(shortest, rel=1e-12)
+    assert region.stats["cost_m"] == pytest.approx(path_length(region.path), rel=1e-3)
+    assert region.stats["cost_m"] < pose.stats["cost_m"] - 0.02
+    search = _search_until_solved(_problem(1), 300, region_goal=True)
+    tree = search.tree
+    for i in range(1, tree.n):
+        parent = int(tree.parents[i])
+        curve = reeds_shepp_length(tree.nodes[parent], tree.nodes[i], RHO)[0]
+        assert tree.costs[i] == pytest.approx(tree.costs[parent] + curve, abs=1e-9)
+    on_aims = search.aim_nodes[search.aim_nodes >= 0]
+    assert on_aims.size >= 1 and np.array_equal(tree.nodes[on_aims], aims[search.aim_nodes >= 0])
+    assert search.best == pytest.approx(min(tree.costs[g] for g in search.goal_nodes), abs=0.0)

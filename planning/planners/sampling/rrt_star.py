@@ -13,6 +13,13 @@ goal tree's branch from the meeting pose is then grafted into the RRT* tree (its
 curves too) and the goal tree dropped. A goal region the size of a parking slot is found this way
 where one tree, sampling the goal pose 5 % of the time, almost never reaches it.
 
+Goal region (``region_goal``): a goal connection (each node that could beat the best cost tries its
+exact curve to the goal) aims at the poses spread over the goal region
+(:func:`~planning.planners.sampling.tree.goal_region_poses`), the cheapest free one first, and the
+goal bias samples one of them at random, as OMPL's planners use a goal region's samples; the path
+then ends wherever in the region it is shortest. By default the connections and the goal bias aim at
+the goal pose itself, which leaves the tracker the whole goal tolerance.
+
 Informed sampling (Gammell et al. 2014): once a path of cost c exists, samples are drawn only from
 the x-y ellipse with foci at the start and goal and major axis c + the goal's position tolerance
 (headings uniform). A curve is never shorter than the straight line between its ends, so every
@@ -40,7 +47,7 @@ from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus
 from planning.planners.sampling.extend import LocalPlanner
 from planning.planners.sampling.rrt import TreeConfig, _TreePlanner
-from planning.planners.sampling.tree import Budget, Tree, draws, in_goal, sample_pose
+from planning.planners.sampling.tree import Budget, Tree, draws, goal_region_poses, in_goal, sample_pose
 
 FloatArray = NDArray[np.float64]
 
@@ -70,6 +77,13 @@ class RRTStarConfig(TreeConfig):
             path (see the module doc); 0 never.
         path_sigma: Spread of those samples: normal noise of ``path_sigma`` turning radii in x and y
             and ``path_sigma`` rad in heading.
+        region_goal: Aim each goal connection at the poses of the goal region
+            (:func:`planning.planners.sampling.tree.goal_region_poses`, the cheapest free one) instead of
+            the goal pose alone, so the path may end anywhere in the region (its shortest way in); False
+            ends on the goal pose unless a node lands in the region by itself, which leaves the tracker
+            the goal tolerance.
+        region_tries: With ``region_goal``, the most region poses whose curve is checked per node
+            (cheapest first).
     """
 
     steering: str = "reeds_shepp"
@@ -84,6 +98,8 @@ class RRTStarConfig(TreeConfig):
     connect_steps: int = 50
     path_bias: float = 0.15
     path_sigma: float = 0.5
+    region_goal: bool = False
+    region_tries: int = 3
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -95,6 +111,7 @@ class RRTStarConfig(TreeConfig):
                 "connect_steps": {"integer": True, "at_least": 1},
                 "path_bias": {"at_least": 0.0, "at_most": 1.0},
                 "path_sigma": {"above": 0.0},
+                "region_tries": {"integer": True, "at_least": 1},
             },
         )
         if not self.improvement_tol >= 0.0:
@@ -191,7 +208,9 @@ class _Search:
         self.tree = Tree(self.start)
         self.back: Tree | None = Tree(self.goal, backwards=True) if cfg.goal_tree else None
         self.goal_nodes: list[int] = []
-        self.goal_node: int | None = None  # the node on the goal pose itself
+        # the poses goal connections aim at (the goal pose first) and the node on each (-1: none yet)
+        self.aims = goal_region_poses(problem) if cfg.region_goal else self.goal[None].copy()
+        self.aim_nodes = np.full(len(self.aims), -1, dtype=np.int64)
         self.grafted = False  # whether the first solution came through the goal tree
         self.incumbent = np.zeros(0, dtype=np.int64)  # the best path's nodes (root excluded)
         self.best = np.inf
@@ -231,12 +250,14 @@ class _Search:
         return np.array(out, dtype=np.int64)
 
     def _sample(self, toward_start: bool = False) -> FloatArray:
-        """The goal (or, for the goal tree, the start) with probability ``goal_bias``; once a solution
-        exists, a pose near it with probability ``path_bias``, else one from the informed ellipse;
-        else a uniform pose."""
+        """The goal (with ``region_goal`` one of the aimed poses at random; for the goal tree, the start)
+        with probability ``goal_bias``; once a solution exists, a pose near it with probability
+        ``path_bias``, else one from the informed ellipse; else a uniform pose."""
         cfg, rng = self.cfg, self.rng
         if rng.random() < cfg.goal_bias:
-            return self.start if toward_start else self.goal
+            if toward_start:
+                return self.start
+            return self.goal if len(self.aims) == 1 else self.aims[rng.integers(len(self.aims))]
         if self.incumbent.size and rng.random() < cfg.path_bias:
             return self._near_path()
         if cfg.informed and np.isfinite(self.best):
@@ -263,30 +284,42 @@ class _Search:
 
     def _note(self, j: int) -> None:
         """Record new node ``j`` if it is in the goal region (or on the goal pose)."""
-        if in_goal(self.tree.nodes[j], self.problem):
+        q = self.tree.nodes[j]
+        if in_goal(q, self.problem):
             self.goal_nodes.append(j)
-            if np.array_equal(self.tree.nodes[j], self.goal):
-                self.goal_node = j
+            on = np.flatnonzero(np.all(self.aims == q, axis=1))
+            if on.size:
+                self.aim_nodes[on[0]] = j
 
     def _to_goal(self, j: int) -> None:
-        """Try the exact curve from node ``j`` to the goal pose when it would beat the best cost; if it is
-        free, it becomes the goal node's edge (the goal node is added the first time)."""
-        tree, goal = self.tree, self.goal
+        """Try the exact curves from node ``j`` to the aimed goal poses (the goal pose, or the region's
+        with ``region_goal``) that would beat the best cost, cheapest first (at most ``region_tries``);
+        the first free one becomes the edge of that pose's node (added the first time)."""
+        tree, aims, nodes = self.tree, self.aims, self.aim_nodes
         q, cost = tree.nodes[j], float(tree.costs[j])
-        # below the goal node's own cost too, so j is not its descendant (rewiring may have lowered it)
-        bound = self.best if self.goal_node is None else min(self.best, float(tree.costs[self.goal_node]))
-        if j == self.goal_node or cost + float(np.hypot(*(goal[:2] - q[:2]))) >= bound - 1e-9:
+        # below each aimed node's own cost too, so j is not its descendant (rewiring may have lowered it)
+        bound = np.where(nodes < 0, self.best, np.minimum(self.best, tree.costs[np.maximum(nodes, 0)]))
+        line = np.hypot(aims[:, 0] - q[0], aims[:, 1] - q[1])
+        cand = np.flatnonzero((nodes != j) & (cost + line < bound - 1e-9))
+        if cand.size == 0:
             return
-        through = cost + float(self.local.curves.lengths(q, goal)[0])
-        if through >= bound - 1e-9:
+        through = cost + self.local.curves.lengths(q, aims[cand])
+        tries = 0
+        for o in np.argsort(through, kind="stable"):
+            k = int(cand[o])
+            if through[o] >= bound[k] - 1e-9:
+                continue
+            if tries == self.cfg.region_tries:
+                return
+            tries += 1
+            curve = self.local.connect(q, aims[k])
+            if curve is None:
+                continue
+            if nodes[k] < 0:
+                self._note(tree.add(aims[k].copy(), j, curve[0], curve[1], float(through[o])))
+            else:
+                tree.reparent(int(nodes[k]), j, curve[0], curve[1], float(through[o]))
             return
-        curve = self.local.connect(q, goal)
-        if curve is None:
-            return
-        if self.goal_node is None:
-            self._note(tree.add(goal.copy(), j, curve[0], curve[1], through))
-        else:
-            tree.reparent(self.goal_node, j, curve[0], curve[1], through)
 
     def _connect_step(self, it: int) -> None:
         """birrt's iteration with the RRT* tree as its start tree: odd iterations grow the RRT* tree

@@ -43,6 +43,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help=f"OMPL's optimal planners rrt-star races (default: all of {', '.join(OPTIMAL)})",
     )
     p.add_argument("--budget", type=float, default=1.0, metavar="S", help="RRT* time budget [s] (default: 1)")
+    p.add_argument(
+        "--goal",
+        choices=("region", "pose"),
+        default="region",
+        help="the length race's goal: 'region' (default): rrt-star with region_goal and OMPL's optimal planners "
+        "sampling the same poses of the goal region, so both may end anywhere in it; 'pose': both aim at the "
+        "goal pose (rrt-star's default)",
+    )
     p.add_argument("--ttfs-limit", type=float, default=10.0, metavar="S", help="time limit for first paths [s]")
     p.add_argument("--no-wheel", action="store_true", help="skip OMPL's Python wheel even when installed")
     p.add_argument("--markdown", metavar="PATH", help="also write the tables as Markdown, stamped, to PATH")
@@ -190,14 +198,14 @@ def run(args: argparse.Namespace) -> int:
         print(f"note: OMPL's C++ planners cannot be raced: {why}. Racing {other}; no target is judged.")
     print(
         f"space {args.space}, {seeds} seeds per problem, first paths within {args.ttfs_limit:g} s, RRT* budget "
-        f"{budget:g} s against {', '.join(optimal)}; times are medians over solved trials, lengths medians "
-        "with a failure counted infinitely long"
+        f"{budget:g} s against {', '.join(optimal)} (goal samples: {args.goal}); times are medians over solved "
+        "trials, lengths medians with a failure counted infinitely long"
     )
     heads = {k: h for k, h, _ in TTFS_COLS + LEN_COLS}
     print(f"{_line(heads, TTFS_COLS)}  |{_line(heads, LEN_COLS[1:])}")
     rows = []
     for prob in probs:
-        rows.append(measure(prob, args.space, seeds, budget, args.ttfs_limit, harness, wheel, optimal))
+        rows.append(measure(prob, args.space, seeds, budget, args.ttfs_limit, harness, wheel, optimal, args.goal))
         c = _cells(rows[-1], cpp)
         print(f"{_line(c, TTFS_COLS)}  |{_line(c, LEN_COLS[1:])}  {c['miss']}", flush=True)
     missed, verdict = _verdict(rows) if cpp else (False, [])

@@ -7,7 +7,11 @@ or sample-rejection options and new-state rejection, ``InformedRRTstar``, ``SORR
 ``ABITstar``, ``AITstar``, ``RRTXstatic``, ``RRTsharp``); per problem the best of them (shortest
 median) is the anchor. Both sides plan on a Reeds–Shepp (or Dubins) space with the same turning
 radius and the same goal region: OMPL is given ours (position within the problem's position
-tolerance and heading within its heading tolerance), sampled at the goal pose as ours are.
+tolerance and heading within its heading tolerance). For first paths it is sampled at the goal pose,
+where birrt roots its goal tree; for lengths (``goal="region"``, the default) at the poses of
+:func:`~planning.planners.sampling.tree.goal_region_poses`, which rrt-star's ``region_goal`` aims its
+goal connections at, so both sides may end anywhere in the region (``goal="pose"``: both at the goal
+pose, rrt-star's default).
 
 OMPL runs natively: a C++ harness (``ompl_native/harness.cpp``) compiled against the system's OMPL
 (Debian's ``libompl-dev``, OMPL 1.5) whose validity checker returns :class:`FastChecker`'s verdict for
@@ -181,6 +185,7 @@ class _Ours:
     space: str
     ttfs_limit: float
     budget: float
+    region_goal: bool = False
     birrt: Any = field(init=False)
     rstar: Any = field(init=False)
 
@@ -195,7 +200,8 @@ class _Ours:
         self.warm_birrt = make("birrt", max_iterations=10**7, time_limit=WARM_UP)
         # as OMPL runs RRT*: the whole budget (no anytime early stop)
         whole = {"improvement_tol": 0.0} if "improvement_tol" in planner_options("rrt-star") else {}
-        self.rstar = make("rrt-star", max_iterations=10**8, time_limit=self.budget, **whole)
+        region = {"region_goal": self.region_goal} if self.region_goal else {}
+        self.rstar = make("rrt-star", max_iterations=10**8, time_limit=self.budget, **whole, **region)
 
     def first_path(self, problem: PlanProblem) -> tuple[float, float]:
         """(wall time [s], 1.0 if solved else 0.0) of one birrt run, after an untimed one of at most
@@ -271,6 +277,7 @@ def measure(
     harness: Path | None,
     wheel: bool,
     optimal: tuple[str, ...] = OPTIMAL,
+    goal: str = "region",
 ) -> PlanBench:
     """Race birrt against RRTConnect (first path within ``ttfs_limit`` [s]) and rrt-star against each of
     ``optimal`` (length after ``budget`` [s]) on one problem for ``seeds`` seeds.
@@ -279,6 +286,10 @@ def measure(
         harness: The compiled OMPL C++ harness (None: no C++ columns).
         wheel: Also race OMPL's Python wheel.
         optimal: OMPL's optimal planners to race (names from :data:`OPTIMAL`).
+        goal: The length race's goal samples: "region" (rrt-star's ``region_goal`` and OMPL's goal sampled
+            at the same :func:`~planning.planners.sampling.tree.goal_region_poses`) or "pose" (both at
+            the goal pose). The first-path race always samples the goal pose (birrt roots its goal tree
+            there).
     """
     from planning.planners.sampling.extend import LocalPlanner
     from planning.planners.sampling.tree import make_checker
@@ -287,7 +298,9 @@ def measure(
     checker = make_checker(problem, "footprint", 0.0)  # builds the distance grid (not timed)
     local = LocalPlanner(space, problem.robot, checker)
     rho = float(local.rho if local.rho is not None else np.nan)
-    ours = _Ours(space, ttfs_limit, budget)
+    if goal not in ("region", "pose"):
+        raise ValueError(f"goal must be 'region' or 'pose', got {goal!r}")
+    ours = _Ours(space, ttfs_limit, budget, goal == "region")
     ours.first_path(problem)  # warm-up (compiled kernels loaded)
     rows: dict[str, list[float]] = {k: [] for k in ("t", "ok", "len", "t_c", "ok_c")}
     lens: dict[str, list[float]] = {k: [] for k in optimal} if harness is not None else {}
@@ -312,7 +325,7 @@ def measure(
                 rows["len"].append(ours.length(p))
                 for name in lens:
                     assert cpp is not None
-                    lens[name].append(cpp.solve(name, budget)["length_m"])
+                    lens[name].append(cpp.solve(name, budget, *(("region",) if goal == "region" else ()))["length_m"])
     out: dict[str, Any] = {
         "ttfs_ours": tuple(rows["t"]),
         "ok_ours": tuple(rows["ok"]),

@@ -9,7 +9,9 @@
 // validator that solves each curve once, as OMPL's own does, checks the poses nhsim checks (every
 // segment's end included) in OMPL's bisection order.
 // The goal is nhsim's goal region (position within its tolerance and heading within its tolerance),
-// sampled at the goal pose itself, as nhsim's planners root their goal trees there.
+// sampled at the goal pose itself, as nhsim's planners root their goal trees there; with the `region`
+// flag its samples are the problem file's region poses (nhsim's goal_region_poses), the poses rrt-star
+// with region_goal aims at, so OMPL's planners may end their paths anywhere in the region as ours do.
 // Solves are timed as OMPL's users run them: ss.solve(timedPlannerTerminationCondition(limit)), no
 // watchdog thread (ss.solve(double) starts one for limits of 1 s or more; `watchdog` asks for it).
 // That condition is OMPL's `time::now() > end` on the system clock; here it is the same test on the
@@ -29,7 +31,8 @@
 //                                            last validity check returned (a clock read per check); `range`:
 //                                            set the planner's range [m]; `warm`: first an untimed solve
 //                                            (at most 50 ms), so the timed one does not start cold from
-//                                            the wait on stdin
+//                                            the wait on stdin; `region`: the goal's samples are the
+//                                            problem's region poses, not the goal pose alone
 //   PLANNER: RRTConnect, or an asymptotically optimal one run for LIMIT seconds on path length: RRTstar,
 //            RRTstar+informed, RRTstar+rejection, InformedRRTstar, SORRTstar, BITstar, ABITstar, AITstar,
 //            RRTXstatic, RRTsharp
@@ -182,6 +185,7 @@ struct Problem {
     std::string space = "reeds_shepp";
     double rho = 1, step = 0.01, goal_tolerance = 0.05, heading_tolerance = 0.1;
     double start[3] = {0, 0, 0}, goal[3] = {0, 0, 0};
+    std::vector<double> region;  // poses spread over the goal region, x, y, yaw each (the goal pose first)
 };
 
 std::vector<Pt> read_points(std::istream &in) {
@@ -201,7 +205,7 @@ Problem read_problem(const std::string &path) {
     if (key != "nhsim-ompl-problem") throw std::runtime_error(path + " is not an nhsim problem file");
     int version;
     in >> version;
-    if (version != 2) throw std::runtime_error(path + ": problem format " + std::to_string(version) + ", expected 2");
+    if (version != 3) throw std::runtime_error(path + ": problem format " + std::to_string(version) + ", expected 3");
     while (in >> key) {
         if (key == "bounds") in >> pb.xmin >> pb.xmax >> pb.ymin >> pb.ymax;
         else if (key == "walls") in >> pb.walls;
@@ -215,6 +219,12 @@ Problem read_problem(const std::string &path) {
         else if (key == "grid") in >> pb.nx >> pb.ny >> pb.h >> grid_path;
         else if (key == "space") in >> pb.space >> pb.rho >> pb.step;
         else if (key == "start") in >> pb.start[0] >> pb.start[1] >> pb.start[2];
+        else if (key == "region") {
+            long n;
+            in >> n;
+            pb.region.resize(3 * static_cast<size_t>(n));
+            for (auto &v : pb.region) in >> v;
+        }
         else if (key == "goal")
             in >> pb.goal[0] >> pb.goal[1] >> pb.goal[2] >> pb.goal_tolerance >> pb.heading_tolerance;
         else if (key == "circle" || key == "ellipse" || key == "box" || key == "polygon") {
@@ -440,17 +450,26 @@ void set_pose(ob::State *s, const double *q) {
 }
 
 // nhsim's goal region (planning/planners/sampling/tree.py in_goal): position within `goal_tolerance`
-// and heading within `heading_tolerance` of the goal pose. Its one sample is the goal pose. Its
+// and heading within `heading_tolerance` of the goal pose. Its one sample is the goal pose, or, with
+// `sample_region`, its samples are the problem's region poses in turn (a countable set, as OMPL's
+// informed samplers need: they take maxSampleCount() samples as the foci of their ellipsoids). Its
 // distance is the planar distance to the goal position, its threshold the position tolerance, so
 // OMPL's cost-to-go heuristic (distance less threshold) never exceeds a path's length to the region.
 class RegionGoal : public ob::GoalSampleableRegion {
 public:
-    RegionGoal(const ob::SpaceInformationPtr &si, const Problem &pb) : ob::GoalSampleableRegion(si), pb_(pb) {
+    RegionGoal(const ob::SpaceInformationPtr &si, const Problem &pb, bool sample_region)
+        : ob::GoalSampleableRegion(si), pb_(pb) {
         setThreshold(pb.goal_tolerance);
-        goal_ = si->allocState();
-        set_pose(goal_, pb.goal);
+        if (sample_region && pb.region.empty()) throw std::runtime_error("the problem file has no region poses");
+        const size_t n = sample_region ? pb.region.size() / 3 : 1;
+        for (size_t k = 0; k < n; ++k) {
+            goals_.push_back(si->allocState());
+            set_pose(goals_.back(), sample_region ? &pb.region[3 * k] : pb.goal);
+        }
     }
-    ~RegionGoal() override { si_->freeState(goal_); }
+    ~RegionGoal() override {
+        for (auto *g : goals_) si_->freeState(g);
+    }
 
     double distanceGoal(const ob::State *s) const override {
         const auto *q = s->as<ob::SE2StateSpace::StateType>();
@@ -463,12 +482,13 @@ public:
         if (distance != nullptr) *distance = d;
         return d <= pb_.goal_tolerance && std::fabs(wrap(q->getYaw() - pb_.goal[2])) <= pb_.heading_tolerance;
     }
-    void sampleGoal(ob::State *s) const override { si_->copyState(s, goal_); }
-    unsigned int maxSampleCount() const override { return 1; }
+    void sampleGoal(ob::State *s) const override { si_->copyState(s, goals_[next_++ % goals_.size()]); }
+    unsigned int maxSampleCount() const override { return static_cast<unsigned int>(goals_.size()); }
 
 private:
     const Problem &pb_;
-    ob::State *goal_;
+    std::vector<ob::State *> goals_;
+    mutable size_t next_ = 0;
 };
 
 // The planners raced, by name: RRTConnect, and the asymptotically optimal ones OMPL 1.5 runs on a
@@ -508,7 +528,7 @@ struct Trial {
 };
 
 struct Options {
-    bool watchdog = false, probe = false, warm = false;
+    bool watchdog = false, probe = false, warm = false, region = false;
     double range = 0.0;  // the planner's range [m] when > 0, else its default (0.2 x the space's extent)
 };
 
@@ -541,7 +561,7 @@ Trial solve_once(const Problem &pb, const Checker &chk, const ob::StateSpacePtr 
     ob::ScopedState<> start(space);
     set_pose(start.get(), pb.start);
     ss.setStartState(start);
-    ss.setGoal(std::make_shared<RegionGoal>(si, pb));
+    ss.setGoal(std::make_shared<RegionGoal>(si, pb, opt.region));
     double first = -1.0;
     auto t0 = std::chrono::steady_clock::now();
     auto since = [&t0](std::chrono::steady_clock::time_point t) {
@@ -646,8 +666,9 @@ int serve(const Problem &pb, unsigned seed) {
             if (flag == "watchdog") opt.watchdog = true;
             else if (flag == "probe") opt.probe = true;
             else if (flag == "warm") opt.warm = true;
+            else if (flag == "region") opt.region = true;
             else if (flag.rfind("range=", 0) == 0) opt.range = std::stod(flag.substr(6));
-            else throw std::runtime_error("unknown flag " + flag + ": watchdog, probe, warm or range=METRES");
+            else throw std::runtime_error("unknown flag " + flag + ": watchdog, probe, warm, region or range=METRES");
         }
         if (opt.warm) solve_once(pb, chk, space, planner, std::min(limit, kWarmUp), opt);  // untimed
         print_trial(solve_once(pb, chk, space, planner, limit, opt), "");

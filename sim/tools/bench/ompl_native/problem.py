@@ -21,8 +21,9 @@ from planning.collision.grid import FastChecker
 from planning.core.world import Box, Circle, Ellipse, Polygon
 from planning.errors import DependencyError
 from planning.planners.base import PlanProblem
+from planning.planners.sampling.tree import goal_region_poses
 
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 
 
 def _points(key: str, pts: NDArray[np.float64]) -> str:
@@ -50,7 +51,8 @@ def write_problem(
     Args:
         directory: An existing directory.
         problem: World, start, goal and goal region (position [m] and heading [rad] tolerances: the
-            harness gives OMPL this region, sampled at the goal pose, as nhsim's planners use it).
+            harness gives OMPL this region, sampled at the goal pose, as nhsim's planners use it, or at
+            :func:`goal_region_poses`, written as the ``region`` line).
         checker: The checker whose verdicts the harness reproduces.
         space: "reeds_shepp" or "dubins".
         rho: Turning radius [m].
@@ -79,6 +81,7 @@ def write_problem(
         f"start {float(s.x)!r} {float(s.y)!r} {float(s.theta)!r}",
         f"goal {float(g.x)!r} {float(g.y)!r} {float(g.theta)!r} {float(problem.position_tolerance)!r} "
         f"{float(problem.heading_tolerance)!r}",
+        _points("region", goal_region_poses(problem)),
         *(_obstacle(o) for o in problem.world.obstacles),
     ]
     path = directory / "problem.txt"
