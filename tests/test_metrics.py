@@ -63,6 +63,26 @@ def test_nees_of_no_compared_fix_is_null_and_printed_as_a_dash(
     argv = ["simulate", "--reference", "line", "--runs", "closed_loop", "--sensors", "fix_latency=4"]
     assert main([*argv, "--no-video", "--no-plots", "--json", "r.json"]) == 0
     est = json.loads(Path("r.json").read_text())["closed_loop"]["estimation"]
-    assert est["fixes_used"] == 0 and est["nees_in_bound_fraction"] is None
+    assert est["fixes_used"] == 0 and est["nees_in_bound_fraction"] is None and est["nees_mean"] is None
     row = next(line for line in capsys.readouterr().out.splitlines() if line.startswith("closed_loop "))
     assert row.split()[-3] == "-" and "%" not in row  # the "NEES ok" column
+
+
+def test_the_mean_nees_shows_what_the_share_inside_the_interval_hides() -> None:
+    """NEES values between 4 and 9 are all inside the per-fix 95 % interval (0.22-9.35), so the share
+    inside says 100 %, while their mean (6.5, against 3 for a consistent estimator) shows an estimator
+    over-confident by a factor of two in variance; no delivery compared gives NaN for both."""
+    from sim.physics.runlog import EstimationLog
+
+    def log(nees: np.ndarray) -> EstimationLog:
+        k, m = 4, 0
+        return EstimationLog(
+            source="fused", t=np.arange(k) * 0.02, truth=np.zeros((k, 3)), estimate=np.zeros((k, 3)),
+            variance=np.ones((k, 3)), fix_t=np.zeros(m), fix=np.zeros((m, 3)), fix_applied=np.zeros(m, dtype=bool),
+            nees_t=np.arange(nees.size) * 0.1, nees=nees, nees_bounds=(0.216, 9.348), status="ok", localiser=None,
+        )  # fmt: skip
+
+    over = log(np.linspace(4.0, 9.0, 11))
+    assert over.nees_in_bound_fraction() == 1.0 and over.nees_mean() == pytest.approx(6.5)
+    none = log(np.zeros(0))
+    assert np.isnan(none.nees_in_bound_fraction()) and np.isnan(none.nees_mean())

@@ -159,6 +159,10 @@ class EstimationLog:
         lo, hi = self.nees_bounds
         return float(np.mean((self.nees >= lo) & (self.nees <= hi)))
 
+    def nees_mean(self) -> float:
+        """Mean NEES over the fix deliveries (3 for a consistent estimator of a planar pose; NaN: none)."""
+        return float(np.mean(self.nees)) if self.nees.size else float("nan")
+
 
 @dataclass(frozen=True)
 class RunLog:
