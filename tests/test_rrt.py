@@ -371,3 +371,17 @@ def test_rrt_star_region_goal_ends_on_the_shortest_way_into_the_region():
     on_aims = search.aim_nodes[search.aim_nodes >= 0]
     assert on_aims.size >= 1 and np.array_equal(tree.nodes[on_aims], aims[search.aim_nodes >= 0])
     assert search.best == pytest.approx(min(tree.costs[g] for g in search.goal_nodes), abs=0.0)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_rrt_star_region_goal_plans_valid_paths_on_random_worlds(seed):
+    """Seeded random worlds (nothing was tuned on them): with ``region_goal`` every path is valid by the
+    independent check (collision-free footprint, kinematics, exact curves' curvature), ends in the goal
+    region, and its reported cost is its length."""
+    from planning.scenario import random_scenario
+
+    sc = random_scenario("turtlebot3", 40 + seed)
+    prob = PlanProblem.from_scenario(sc, seed=seed)
+    res = make_planner("rrt-star", max_iterations=800, simplify=False, region_goal=True).plan(prob)
+    _check_path(res, prob, RHO)
+    assert res.stats["cost_m"] == pytest.approx(path_length(res.path), rel=2e-3)
