@@ -13,7 +13,7 @@ from planning.core.robot import load_robot
 from planning.errors import ConfigError
 from planning.trajectory.references import make_reference
 from sim.physics.metrics import compute_metrics
-from sim.physics.model import body_pitch
+from sim.physics.model import body_pitch, rolling_radius
 from sim.physics.perturb import Perturbation
 from sim.physics.simulator import Simulator
 from sim.pipeline.runs import RunKind
@@ -137,7 +137,7 @@ def test_the_estimator_counts_the_body_pitch_into_the_wheels_turns() -> None:
     x_with = with_pitch.step(1, counts, counts, 0.0, pitch=-counts * q)[0]
     x_without = without.step(1, counts, counts, 0.0)[0]
     assert abs(x_with) < 1e-12
-    assert x_without == pytest.approx(robot.wheel_radius * counts * q, rel=1e-9)
+    assert x_without == pytest.approx(rolling_radius(robot) * counts * q, rel=1e-9)
 
 
 def test_the_balancing_robot_estimate_is_consistent_through_a_turn_in_place() -> None:

@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 from control.estimation import EstimatorConfig, EstimatorDivergedError, PoseEstimator, chi2_interval, kernels
 from planning.core.robot import RobotSpec
 from sim.physics.asbuilt import TOLERANCES
+from sim.physics.model import rolling_radius
 from sim.physics.runlog import EstimationLog
 from sim.physics.sensors import SensorModel, SensorProfile, SensorReader, load_sensor_profile
 from sim.robot.scan_localiser import LocaliserLost, LocaliserSetup, ScanLocaliser, localiser_schedule, range_bias
@@ -104,6 +105,13 @@ class EstimatorLoop:
     variances logged by period. The simulator's sensing and the control suite's reference policy
     run it.
 
+    The EKF's nominal wheel radius is the drawing's rolling radius under the robot's weight
+    (:func:`sim.physics.model.rolling_radius`: 0.3-0.4 % below the drawn radius, as a calibration
+    drive on the robot as designed would find it), and its prior on each wheel's error about it is
+    the build tolerance. With the drawn radius, the mean radius error started 2.2 (TurtleBot3) and
+    1.7 (EduMIP) of that prior's sigmas away: the estimate led the truth along the path by 2.5-4 mm
+    and its mean NEES was 5 instead of 3 until the filter learnt the error (docs/explanation/sensors-ekf.md).
+
     The encoders measure each wheel's turn against the body. A robot whose body pitches (the
     balancing EduMIP leans to stand and to accelerate) turns its wheels against the floor by that
     plus the body's pitch change: rc_balance's wheel position is ``phi = mean(encoder angles) +
@@ -114,7 +122,7 @@ class EstimatorLoop:
     Robots whose pitch is not given (0) are predicted from the encoders alone.
 
     Args:
-        robot: The robot as drawn (the estimator's geometry).
+        robot: The robot as drawn (the estimator's geometry: its rolling radius and track).
         config: The estimator's noise model.
         n_periods: Control periods of the run (the estimate is logged at periods 0 .. n_periods).
         dt: The control period [s].
@@ -124,7 +132,7 @@ class EstimatorLoop:
     def __init__(
         self, robot: RobotSpec, config: EstimatorConfig, *, n_periods: int, dt: float, rad_per_count: float
     ) -> None:
-        self.estimator = PoseEstimator.for_robot(robot, config)
+        self.estimator = PoseEstimator(config, rolling_radius(robot), robot.track_width)
         self.dt = dt
         self._trace = np.full((n_periods + 1, 6), np.nan)  # estimate, variances by period
         self.estimate, self.variance = self._trace[:, :3], self._trace[:, 3:]
