@@ -22,7 +22,7 @@ from typing import Any
 import pytest
 
 #: Where the workers' per-kernel compile locks live (one file per kernel, shared by the workers).
-_LOCKS = Path(tempfile.gettempdir()) / f"nhsim-numba-compile-{os.getuid()}"
+LOCKS = Path(tempfile.gettempdir()) / f"nhsim-numba-compile-{os.getuid()}"
 
 
 _HELD: set[str] = set()
@@ -34,8 +34,8 @@ def _kernel_lock(name: str) -> Iterator[None]:
     if name in _HELD:
         yield
         return
-    _LOCKS.mkdir(exist_ok=True)
-    with open(_LOCKS / f"{name}.lock", "w") as handle:
+    LOCKS.mkdir(exist_ok=True)
+    with open(LOCKS / f"{name}.lock", "w") as handle:
         fcntl.flock(handle, fcntl.LOCK_EX)
         _HELD.add(name)
         try:
@@ -45,10 +45,19 @@ def _kernel_lock(name: str) -> Iterator[None]:
             fcntl.flock(handle, fcntl.LOCK_UN)
 
 
+def kernel_lock_name(func: Any) -> str:
+    """The name of the lock the test processes compile ``func`` (a kernel's Python function) under."""
+    return f"{func.__module__}.{func.__qualname__}".replace("<", "_").replace(">", "_")
+
+
 def _compile_once() -> None:
     """Numba's ``Dispatcher.compile`` (which loads a cached kernel or compiles it) under a lock per kernel
     shared by the test processes: a worker that needs a kernel another is compiling loads the other's
-    result when it is written, instead of compiling it too. Results are the same either way."""
+    result when it is written, instead of compiling it too. Results are the same either way. The wait
+    is numba's time as the kernel's own compile is (a ``numba:compiler_lock`` event, which
+    :mod:`planning.clock` leaves out of a planner's time limit): a plan whose worker waited for
+    another's cold compile timed out at its 10 s limit with 55 iterations of work to do."""
+    from numba.core import event
     from numba.core.dispatcher import Dispatcher
 
     compile_ = Dispatcher.compile
@@ -57,7 +66,7 @@ def _compile_once() -> None:
 
     def compile_locked(self: Any, sig: Any) -> Any:
         func = self.py_func
-        with _kernel_lock(f"{func.__module__}.{func.__qualname__}".replace("<", "_").replace(">", "_")):
+        with event.trigger_event("numba:compiler_lock"), _kernel_lock(kernel_lock_name(func)):
             return compile_(self, sig)
 
     compile_locked.nhsim_once = True  # type: ignore[attr-defined]

@@ -51,6 +51,28 @@ def test_compiling_is_timed_and_left_out_of_the_time_limit() -> None:
     assert budget.why(16) == "time budget of 10 s spent after 16 iterations"
 
 
+def test_waiting_for_another_test_process_compiling_a_kernel_is_code_time() -> None:
+    """The test processes compile each kernel under a lock they share (``tests/conftest.py``): a worker
+    that waits while another compiles counts the wait as code time, not against its plan's limit."""
+    from tests.conftest import LOCKS, kernel_lock_name
+
+    kernel = _fresh_kernel()
+    LOCKS.mkdir(exist_ok=True)
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import fcntl, sys, time; f = open(sys.argv[1], 'w'); fcntl.flock(f, fcntl.LOCK_EX); "
+         "print('held', flush=True); time.sleep(1.0)", str(LOCKS / f"{kernel_lock_name(kernel.py_func)}.lock")],
+        stdout=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
+        clock = PlanClock(10.0)
+        kernel(np.arange(3.0))  # type: ignore[operator]
+        assert clock.elapsed() > 0.5  # it waited for the other process
+        assert clock.working() < 0.1  # and the wait is not held against the limit
+    finally:
+        holder.wait(timeout=30)
+
+
 def test_nested_compiles_count_once_and_each_thread_keeps_its_own() -> None:
     import threading
 

@@ -109,8 +109,9 @@ class EstimatorLoop:
     (:func:`sim.physics.model.rolling_radius`: 0.3-0.4 % below the drawn radius, as a calibration
     drive on the robot as designed would find it), and its prior on each wheel's error about it is
     the build tolerance. With the drawn radius, the mean radius error started 2.2 (TurtleBot3) and
-    1.7 (EduMIP) of that prior's sigmas away: the estimate led the truth along the path by 2.5-4 mm
-    and its mean NEES was 5 instead of 3 until the filter learnt the error (docs/explanation/sensors-ekf.md).
+    1.7 (EduMIP) of that prior's sigmas away: the TurtleBot3's estimate led the truth along the path
+    by 2 mm on average and its mean NEES reached 5.5 against 3 until the filter learnt the error
+    (docs/explanation/sensors-ekf.md).
 
     The encoders measure each wheel's turn against the body. A robot whose body pitches (the
     balancing EduMIP leans to stand and to accelerate) turns its wheels against the floor by that
