@@ -71,6 +71,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.base import check_measured_pose, check_period, check_ranges, option_value, ranged
+from planning.casadi_env import casadi_module
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError, DependencyError
 from planning.signals import signals_held
@@ -148,11 +149,7 @@ class _Limits:
 
 
 def _casadi() -> Any:
-    try:
-        import casadi
-    except ImportError as exc:  # pragma: no cover - casadi is a hard dependency
-        raise DependencyError("the 'mpc' tracker needs CasADi: pip install 'casadi>=3.6'") from exc
-    return casadi
+    return casadi_module("the 'mpc' tracker")
 
 
 def _transcribe(p: MPCParams, lim: _Limits) -> tuple[dict[str, Any], FloatArray, FloatArray]:

@@ -274,3 +274,32 @@ def test_a_gap_too_narrow_for_the_warm_starts_disc_is_named_in_the_reason() -> N
     assert not res.success and res.stats["init"] == "straight (no free route on the grid)"
     assert "it started from a straight line, no free route on the grid: the disc optim keeps clear" in res.reason
     assert "(radius 0.136 m" in res.reason and "(hybrid-a-star, rrt) may" in res.reason
+
+
+def test_a_solve_gives_the_same_bits_whatever_the_blas_thread_count() -> None:
+    """CasADi's bundled OpenBLAS runs on one thread once a solver uses it (``planning.casadi_env``):
+    the same plan in this process (its default thread count: one per core) and in a process started
+    with ``OPENBLAS_NUM_THREADS=1`` (as a Dask worker is) has the same length to the last bit. With
+    a thread per core, parking_lot's plan for the balancing EduMIP differed in its last bit."""
+    import os
+    import subprocess
+    import sys
+
+    from planning.casadi_env import blas_threads
+
+    code = (
+        "from planning.core.robot import load_robot\n"
+        "from planning.planners.base import PlanProblem\n"
+        "from planning.planners.registry import make_planner\n"
+        "from planning.scenario import load_scenario\n"
+        "problem = PlanProblem.from_scenario(load_scenario('parking_lot'), robot=load_robot('edumip-balancing'))\n"
+        "print(repr(make_planner('optim').plan(problem).length()))\n"
+    )
+    problem = PlanProblem.from_scenario(load_scenario("parking_lot"), robot=load_robot("edumip-balancing"))
+    here = make_planner("optim").plan(problem).length()
+    assert blas_threads() in (1, None)
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
+    there = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True, timeout=300
+    )
+    assert there.stdout.strip() == repr(here)

@@ -37,11 +37,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import ConvexHull
 
+from planning.casadi_env import casadi_module
 from planning.core.checks import check_number
 from planning.core.geometry import cumulative_length, path_length, wrap_angle
 from planning.core.kinematics import bicycle_to_unicycle
 from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon
-from planning.errors import ConfigError, DependencyError
+from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus
 from planning.planners.gridpath import grid_path
 from planning.planners.registry import PLANNERS, make_planner
@@ -58,11 +59,7 @@ _INFEASIBLE = {"Infeasible_Problem_Detected"}
 
 
 def _casadi() -> Any:
-    try:
-        import casadi
-    except ImportError as exc:  # pragma: no cover - casadi is a hard dependency
-        raise DependencyError("the 'optim' planner needs CasADi: pip install 'casadi>=3.6'") from exc
-    return casadi
+    return casadi_module("the 'optim' planner")
 
 
 def polygon_vertices(obstacle: Obstacle) -> FloatArray:

@@ -1,0 +1,64 @@
+"""CasADi for nhsim's optimisers ('optim' planner, 'mpc' tracker): imported on first use, with the
+OpenBLAS its wheels bundle on one thread, so a solve gives the same bits on every machine.
+
+CasADi's wheels carry their own OpenBLAS (``libcasadi-tp-openblas``), which IPOPT's linear solver
+(MUMPS) calls. By default it runs one thread per core, and the last bits of a solve depend on that
+count: the 'optim' plan of ``parking_lot`` for the balancing EduMIP came out 4.432270348152941 m long
+in a two-core process and 4.432270348152942 m on a Dask worker (whose nanny sets
+``OPENBLAS_NUM_THREADS=1``), so ``nhsim simulate --all --jobs 1`` and ``--jobs 2`` disagreed, and a
+machine with another core count would too. On nhsim's problem sizes one thread costs nothing (that
+plan takes 2.8 s either way).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+from pathlib import Path
+from typing import Any
+
+from planning.errors import DependencyError
+
+#: The OpenBLAS of CasADi's wheels, in the package's folder.
+OPENBLAS_GLOB = "libcasadi-tp-openblas.so*"
+
+
+def casadi_module(user: str) -> Any:
+    """The ``casadi`` module, its bundled OpenBLAS set to one thread (once per process).
+
+    Args:
+        user: What needs it, for the error ("the 'optim' planner").
+
+    Raises:
+        DependencyError: CasADi is not installed.
+    """
+    try:
+        import casadi
+    except ImportError as exc:  # pragma: no cover - casadi is a hard dependency
+        raise DependencyError(f"{user} needs CasADi: pip install 'casadi>=3.6'") from exc
+    _one_thread()
+    return casadi
+
+
+@functools.cache
+def _bundled_openblas() -> Any:
+    """CasADi's bundled OpenBLAS (a ``ctypes.CDLL``), None for a build without one (e.g. one linked
+    against the system's BLAS)."""
+    import casadi
+
+    for path in sorted(Path(casadi.__file__).parent.glob(OPENBLAS_GLOB)):
+        return ctypes.CDLL(str(path))
+    return None
+
+
+@functools.cache
+def _one_thread() -> None:
+    lib = _bundled_openblas()
+    if lib is not None:
+        lib.openblas_set_num_threads(1)
+
+
+def blas_threads() -> int | None:
+    """Threads of CasADi's bundled OpenBLAS in this process (None without it)."""
+    lib = _bundled_openblas()
+    return None if lib is None else int(lib.openblas_get_num_threads())
