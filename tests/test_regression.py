@@ -139,6 +139,13 @@ def test_nondeterminism_fails_loudly(tmp_path: Path, monkeypatch: pytest.MonkeyP
             "duplicate",
         ),
         ('cases = [{ scenario = "open", reference = "line" }]\n[tolerances]\nspeed = { abs = 1 }\n', "not a metric"),
+        # a rate the robot's 2 ms physics cannot keep (the scenario's robot, and a balancing robot's 1 ms)
+        ('cases = [{ scenario = "open", reference = "line", control_rate = 33 }]\n', r"case 1 .*33 Hz.*divides 500 Hz"),
+        (
+            'cases = [{ scenario = "open", reference = "line" },\n'
+            '  { scenario = "open", robot = "edumip-balancing", reference = "line", control_rate = 3000 }]\n',
+            r"case 2 .*3000 Hz is not a whole number of 1 ms",
+        ),
     ],
 )
 def test_bad_suite_files(tmp_path: Path, text: str, match: str) -> None:

@@ -560,7 +560,7 @@ def test_a_signal_in_a_trials_storage_calls_acts_at_its_evaluation(
     ("extra", "message"),
     [
         (["--robot", "edumip", "--localiser", "amcl"], "robot 'edumip' has no laser scanner"),
-        (["--control-rate", "7"], "control rate 7.0 Hz is not a whole number of 2 ms physics steps"),
+        (["--control-rate", "7"], "control rate 7 Hz is not a whole number of 2 ms physics steps"),
     ],
 )
 def test_bad_input_that_every_run_would_hit_is_exit_2_before_any_study(

@@ -8,6 +8,7 @@ shrink with height), and polygons are prisms over the triangles of an ear-clippi
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -16,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.core.geometry import Pose2D
-from planning.core.robot import RobotSpec
+from planning.core.robot import RobotSpec, load_robot
 from planning.core.world import Box, Circle, Ellipse, Polygon, World
 from planning.errors import ModelError
 from sim.physics.motors import apply_supply
@@ -256,6 +257,12 @@ def set_pose(model: mujoco.MjModel, data: mujoco.MjData, pose: Pose2D, *, settle
         data.qvel[:] = 0.0
         data.time = 0.0
     mujoco.mj_forward(model, data)
+
+
+@functools.cache
+def robot_timestep(name: str) -> float:
+    """The physics timestep [s] of a registered robot's model (compiled once per process)."""
+    return float(build_model(load_robot(name)).model.opt.timestep)
 
 
 #: Seconds the body is held level on the floor before :func:`rolling_radius` reads the contacts.

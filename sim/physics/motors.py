@@ -90,6 +90,21 @@ def whole_steps(duration: float, timestep: float) -> int:
     return k if k >= 1 and abs(ratio - k) <= 1e-6 else 0
 
 
+def control_steps(control_rate: float, timestep: float) -> int:
+    """Physics steps of ``timestep`` [s] per control period at ``control_rate`` [Hz].
+
+    Raises:
+        ConfigError: The period is not a whole number of steps; the message names rates that divide.
+    """
+    k = whole_steps(1.0 / control_rate, timestep)
+    if not k:
+        raise ConfigError(
+            f"control rate {control_rate:g} Hz is not a whole number of {timestep * 1e3:g} ms physics steps; "
+            f"choose a rate that divides {1.0 / timestep:g} Hz (e.g. 10, 25, 50, 100)"
+        )
+    return k
+
+
 @dataclass(frozen=True)
 class MotorModel:
     """A wheel motor (at the wheel, gearbox included) and the gains of its firmware velocity loop.

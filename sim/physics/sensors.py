@@ -59,6 +59,7 @@ from control.estimation.kernels import wrap
 from planning.core.robot import MODELS_DIR
 from planning.errors import ConfigError
 from sim.physics.keyvalue import check_number, parse_number, parse_pairs
+from sim.physics.motors import control_steps
 
 if TYPE_CHECKING:
     import mujoco
@@ -322,13 +323,7 @@ class SensorModel:
         self.n_periods = _count(n_periods, "number of control periods", 1, "a run has at least one")
         self.seed = _count(seed, "sensor noise seed", 0, "pass a whole number such as seed=0")
         self.part = _count(part, "sensor part", 0, "0 for the base's sensors, 1 for a balancing robot's firmware")
-        steps = _whole(1.0 / (self.control_rate * self.timestep))
-        if not steps:
-            raise ConfigError(
-                f"control rate {self.control_rate:g} Hz is not a whole number of {self.timestep * 1e3:g} ms physics "
-                f"steps; choose a rate that divides {1.0 / self.timestep:g} Hz (e.g. 10, 25, 50, 100)"
-            )
-        self.steps_per_control = steps
+        self.steps_per_control = control_steps(self.control_rate, self.timestep)
         self.fix_every = self._fix_every()
         periods = self.profile.fix_latency * self.control_rate
         self.fix_latency_periods = _whole(periods) or math.ceil(periods)

@@ -32,7 +32,7 @@ from planning.errors import ConfigError, SimulationError
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import AsBuilt
 from sim.physics.model import BuiltModel, set_pose
-from sim.physics.motors import MotorModel, whole_steps
+from sim.physics.motors import MotorModel, control_steps
 from sim.physics.perturb import Perturbation
 from sim.physics.runlog import Contact, RunLog
 from sim.robot.balance_design import balance_gains
@@ -191,13 +191,7 @@ class Simulator:
 
     def steps_per_control(self, control_rate: float) -> int:
         """Physics steps per control period; raises if the period is not a whole number of steps."""
-        k = whole_steps(1.0 / control_rate, self.model.opt.timestep)
-        if not k:
-            raise ConfigError(
-                f"control rate {control_rate} Hz is not a whole number of {self.model.opt.timestep * 1e3:g} ms "
-                f"physics steps; choose a rate that divides {1.0 / self.model.opt.timestep:g} Hz (e.g. 10, 25, 50, 100)"
-            )
-        return k
+        return control_steps(control_rate, float(self.model.opt.timestep))
 
     def read_pose(self, data: mujoco.MjData) -> tuple[float, float, float]:
         """Pose (x, y, theta) from the position and orientation sensors."""

@@ -40,8 +40,10 @@ from typing import Any
 from control.fbl import FBLGains
 from planning.errors import ConfigError, NhsimError, SimulationError
 from sim.physics.metrics import TrackingMetrics
+from sim.physics.model import robot_timestep
+from sim.physics.motors import control_steps
 from sim.physics.perturb import Perturbation
-from sim.pipeline.case import Case
+from sim.pipeline.case import Case, load_case_scenario
 from sim.pipeline.simulate import prepare_case
 
 #: Metric -> "lower" (higher is worse) or "equal" (any change is a change).
@@ -185,6 +187,11 @@ def load_suite(path: str | Path) -> Suite:
     if not isinstance(entries, list) or not entries:
         raise ConfigError(f"{p}: needs a non-empty 'cases' array of inline tables (before any [table])")
     cases = tuple(_case_from_table(e, f"{p} case {i + 1}") for i, e in enumerate(entries))
+    for i, case in enumerate(cases):
+        try:  # a rate the robot's physics cannot keep is bad input, found before any case runs
+            control_steps(case.control_rate, robot_timestep(case.robot or load_case_scenario(case).robot))
+        except ConfigError as exc:
+            raise ConfigError(f"{p} case {i + 1} ({case.name}): {exc}") from exc
     names = [c.name for c in cases]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
