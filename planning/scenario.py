@@ -15,6 +15,7 @@ problem is reported before anything runs, naming the file, the field and what is
 from __future__ import annotations
 
 import dataclasses
+import re
 import tomllib
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -31,6 +32,8 @@ from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon, World, 
 from planning.errors import ConfigError, ScenarioError
 
 SCENARIOS_DIR = MODELS_DIR / "scenarios"
+#: The name of a generated world (:func:`random_scenario`): ``random`` and its seed.
+_RANDOM_NAME = re.compile(r"random(\d+)")
 
 _TOP_KEYS = {
     "name", "robot", "description", "version", "world", "start", "goal", "planner", "robots", "planners", "sensors",
@@ -300,7 +303,8 @@ def builtin_scenarios() -> list[str]:
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:
-    """Load a built-in scenario by name, or a scenario file by path.
+    """Load a built-in scenario by name, a scenario file by path, or a generated world by its name
+    ``random<N>`` (:func:`random_scenario` of seed N, for the TurtleBot3 and every other robot).
 
     Raises:
         ScenarioError: Unknown name (the message lists the built-in ones) or a bad file.
@@ -314,8 +318,12 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     candidate = SCENARIOS_DIR / f"{text}.toml"
     if candidate.exists():
         return load_scenario_file(candidate)
+    generated = _RANDOM_NAME.fullmatch(text)
+    if generated is not None:
+        return random_scenario("turtlebot3", int(generated.group(1)))
     raise ScenarioError(
-        f"unknown scenario {text!r}: give a path to a .toml file or one of: {', '.join(builtin_scenarios())}"
+        f"unknown scenario {text!r}: give a path to a .toml file, random<N> for the generated world of seed N "
+        f"(e.g. random300), or one of: {', '.join(builtin_scenarios())}"
     )
 
 
@@ -338,7 +346,8 @@ def scenario_with_robot(scenario: Scenario, robot: str | None) -> Scenario:
 def random_scenario(robot: str, seed: int) -> Scenario:
     """A world no scenario was tuned on: a 6 x 6 m arena with seven circles and boxes (radius or
     half-width 0.2-0.5 m) drawn from ``seed``, kept clear of the start corner (-2.4, -2.4) and the
-    goal corner (2.4, 2.4); start and goal headings drawn too. Named ``random<seed>``.
+    goal corner (2.4, 2.4); start and goal headings drawn too. Named ``random<seed>`` (the name
+    :func:`load_scenario` and the commands' ``--scenario`` take), any robot may drive it.
 
     Args:
         robot: Robot name.
@@ -355,5 +364,10 @@ def random_scenario(robot: str, seed: int) -> Scenario:
     start = Pose2D(-2.4, -2.4, float(rng.uniform(-3, 3)))
     goal = Pose2D(2.4, 2.4, float(rng.uniform(-3, 3)))
     return Scenario(
-        name=f"random{seed}", robot=robot, world=World((-3, 3, -3, 3), tuple(obstacles)), start=start, goal=goal
+        name=f"random{seed}",
+        robot=robot,
+        world=World((-3, 3, -3, 3), tuple(obstacles)),
+        start=start,
+        goal=goal,
+        robots=(robot, *(r for r in ROBOT_FILES if r != robot)),
     )

@@ -193,3 +193,19 @@ def test_headings_are_brought_into_minus_pi_to_pi_and_kept_there_as_written(tmp_
     for written in (np.pi, -np.pi, 1.57, -3.0):  # in (-pi, pi] already, or -pi: pi
         text = GOOD.replace("pose = [2.5, 2.5, 1.57]", f"pose = [2.5, 2.5, {written!r}]")
         assert load_scenario(_write(tmp_path, text)).goal.theta == (np.pi if written == -np.pi else written)
+
+
+def test_a_generated_world_loads_by_its_name_for_any_robot() -> None:
+    """``random<N>`` is the generated world of seed N (``random_scenario``), wherever a scenario name is
+    taken; every robot may drive it; a malformed name is an error that says how to write one."""
+    from planning.scenario import random_scenario, scenario_with_robot
+
+    loaded, drawn = load_scenario("random42"), random_scenario("turtlebot3", 42)
+    assert loaded == drawn and loaded.name == "random42" and loaded.robot == "turtlebot3"
+    assert load_scenario("random43").world != loaded.world
+    for robot in ("edumip", "edumip-balancing"):
+        assert scenario_with_robot(loaded, robot).robot == robot
+        assert scenario_with_robot(loaded, robot).world == random_scenario(robot, 42).world
+    for bad in ("random", "random-1", "random4x", "Random4"):
+        with pytest.raises(ScenarioError, match=r"random<N> for the generated world of seed N"):
+            load_scenario(bad)

@@ -54,7 +54,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "--scenario",
         required=True,
         metavar="NAME|PATH",
-        help="built-in scenario name (see 'nhsim scenarios') or path to a scenario .toml",
+        help="built-in scenario name (see 'nhsim scenarios'), random<N> (the generated world of seed N) or path to "
+        "a scenario .toml",
     )
     p.add_argument(
         "--planner", default=None, metavar="P", help=f"planner: {planners} (default: the scenario's planner)"

@@ -148,8 +148,8 @@ def _add_job_arguments(p: argparse.ArgumentParser) -> None:
         "--scenario",
         default=None,
         metavar="NAME|PATH",
-        help=f"built-in scenario name or path to a scenario .toml (default: {DEFAULT_SCENARIO}; {REFERENCE_SCENARIO} "
-        "with --reference)",
+        help=f"built-in scenario name, random<N> (the generated world of seed N) or path to a scenario .toml "
+        f"(default: {DEFAULT_SCENARIO}; {REFERENCE_SCENARIO} with --reference)",
     )
     p.add_argument(
         "--robot",
