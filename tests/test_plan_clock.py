@@ -68,7 +68,7 @@ def test_waiting_for_another_test_process_compiling_a_kernel_is_code_time() -> N
         clock = PlanClock(10.0)
         kernel(np.arange(3.0))  # type: ignore[operator]
         assert clock.elapsed() > 0.5  # it waited for the other process
-        assert clock.working() < 0.1  # and the wait is not held against the limit
+        assert clock.working() < 0.25  # and the wait is not held against the limit (it was all of it)
     finally:
         holder.wait(timeout=30)
 
