@@ -303,3 +303,19 @@ def test_a_solve_gives_the_same_bits_whatever_the_blas_thread_count() -> None:
         [sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True, timeout=300
     )
     assert there.stdout.strip() == repr(here)
+
+
+def test_a_warm_start_whose_solve_keeps_cutting_a_corner_gives_way_to_the_next() -> None:
+    """On the generated world random405 the balancing EduMIP's solve from Hybrid-A*'s plan keeps cutting
+    a corner between nodes however far the margin is raised; ``init="auto"`` then solves from the grid's
+    route instead of failing, and the plan keeps the disc clear between nodes."""
+    from planning.core.robot import load_robot
+
+    problem = PlanProblem.from_scenario(load_scenario("random405"), robot=load_robot("edumip-balancing"))
+    init, options = Optim()._warm_starts(problem)[0]  # auto's first: Hybrid-A*'s plan for the disc
+    assert init == "hybrid-a-star"
+    first = Optim(init=init, init_options=options).plan(problem)
+    assert first.status is PlanStatus.FAILED and "between nodes" in first.reason
+    res = Optim().plan(problem)
+    assert res.status is PlanStatus.SUCCESS and res.stats["init"] == "grid"
+    assert res.stats["dense_disc_clearance"] >= 0.0
