@@ -270,10 +270,15 @@ def test_a_gap_too_narrow_for_the_warm_starts_disc_is_named_in_the_reason() -> N
     problem = PlanProblem(
         world, load_robot("turtlebot3"), Pose2D(1.0357, 2.8591, -2.0057), Pose2D(3.2131, 2.8661, -2.606)
     )
-    res = Optim().plan(problem)
+    res = Optim(dt=0.4).plan(problem)  # a horizon the user fixed (20 s) is kept
     assert not res.success and res.stats["init"] == "straight (no free route on the grid)"
     assert "it started from a straight line, no free route on the grid: the disc optim keeps clear" in res.reason
     assert "(radius 0.136 m" in res.reason and "(hybrid-a-star, rrt) may" in res.reason
+    # with the horizon its own, a failure from every start stretches it: 2.25 times the estimate solves
+    # from the straight line, through the gap the NLP's disc fits
+    stretched = Optim().plan(problem)
+    assert stretched.success and stretched.stats["horizon_stretch"] == 2.25
+    assert stretched.stats["dense_disc_clearance"] >= 0.0 and stretched.stats["min_clearance"] > 0.0
 
 
 def test_a_solve_gives_the_same_bits_whatever_the_blas_thread_count() -> None:
@@ -319,3 +324,19 @@ def test_a_warm_start_whose_solve_keeps_cutting_a_corner_gives_way_to_the_next()
     res = Optim().plan(problem)
     assert res.status is PlanStatus.SUCCESS and res.stats["init"] == "grid"
     assert res.stats["dense_disc_clearance"] >= 0.0
+
+
+def test_a_horizon_too_short_for_the_limits_is_stretched_when_ipopt_fails_from_every_start() -> None:
+    """The horizon estimated from the warm start (its length at the speed limit, its turning at the
+    yaw-rate limit, 1 s) is too short for the EduMIP on the generated world random400: IPOPT fails from
+    every warm start, and the solve succeeds with the horizon 1.5 times as long; a dt the user gives is
+    kept (and fails there)."""
+    from planning.core.robot import load_robot
+
+    problem = PlanProblem.from_scenario(load_scenario("random400"), robot=load_robot("edumip"))
+    res = Optim().plan(problem)
+    assert res.status is PlanStatus.SUCCESS and res.stats["horizon_stretch"] == 1.5
+    assert res.stats["dense_disc_clearance"] >= 0.0
+    fixed = Optim(dt=0.2).plan(problem)
+    assert fixed.status is PlanStatus.FAILED and fixed.stats["horizon_stretch"] == 1.0
+    assert "Infeasible" in fixed.reason and "longer horizon N*dt" in fixed.reason

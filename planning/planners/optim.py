@@ -56,10 +56,18 @@ _BUILTIN_INITS = ("auto", "straight", "grid")
 _SUCCESS = {"Solve_Succeeded", "Solved_To_Acceptable_Level"}
 _TIMEOUT = {"Maximum_CpuTime_Exceeded", "Maximum_Iterations_Exceeded", "Maximum_WallTime_Exceeded"}
 _INFEASIBLE = {"Infeasible_Problem_Detected"}
+#: Stretches of the estimated horizon a solve tries in turn when IPOPT fails from every warm start.
+HORIZON_STRETCH = (1.0, 1.5, 2.25)
 
 
 def _casadi() -> Any:
     return casadi_module("the 'optim' planner")
+
+
+def _ipopt_failed(sol: OptimSolution) -> bool:
+    """IPOPT itself failed the solve (a local infeasibility or its iteration limit), not the time limit."""
+    stats = sol.result.stats
+    return stats.get("ipopt_status") not in (None, *_SUCCESS) and not stats.get("time_limit_reached")
 
 
 def polygon_vertices(obstacle: Obstacle) -> FloatArray:
@@ -390,6 +398,7 @@ class Optim:
             raise ConfigError(f"optim: max_resolves must be an integer >= 0, got {max_resolves!r}")
         self.max_resolves = int(max_resolves)
         self.verbose = bool(verbose)
+        self._stretch = 1.0  # the horizon's stretch over its estimate (solve)
 
     # -- warm start ----------------------------------------------------------------------------
     def _initial_guess(
@@ -442,7 +451,7 @@ class Optim:
                 + turn / problem.robot.max_yaw_rate
                 + 1.0
             )
-            self.dt = max(DEFAULT_DT, need / n)
+            self.dt = max(DEFAULT_DT, self._stretch * need / n)
         u1 = (d[:, 0] * np.cos(xs[:-1, 2]) + d[:, 1] * np.sin(xs[:-1, 2])) / self.dt
         lim = problem.robot.max_speed
         u0 = np.column_stack([np.clip(u1, -lim, lim), np.zeros(n)])
@@ -464,8 +473,26 @@ class Optim:
         start (``init="auto"``'s route after Hybrid-A*'s plan: on the generated world random405 the
         balancing EduMIP's solve from Hybrid-A*'s plan kept cutting a corner by 0.3 mm, the route's solved),
         and is a failure after the last one.
+
+        Without a given ``dt`` the horizon is the warm start's length at the speed limit plus its turning
+        at the yaw-rate limit plus 1 s; the limits on acceleration and the bicycle's curvature at speed
+        can need more. When IPOPT fails from every warm start (locally infeasible or out of iterations,
+        not out of time), the whole is tried again with the horizon stretched by
+        :data:`HORIZON_STRETCH` in turn: on the generated world random400 the EduMIP's plan needs 1.5
+        times the estimate (``stats["horizon_stretch"]``).
         """
         t0 = time.perf_counter()
+        stretches = HORIZON_STRETCH if self.dt_opt is None else (1.0,)
+        for stretch in stretches:
+            self._stretch = stretch
+            sol = self._solve_from_starts(problem, t0)
+            if sol.result.success or not _ipopt_failed(sol) or time.perf_counter() - t0 >= float(problem.time_limit):
+                break
+        sol.result.stats["horizon_stretch"] = self._stretch
+        return sol
+
+    def _solve_from_starts(self, problem: PlanProblem, t0: float) -> OptimSolution:
+        """:meth:`solve` at the current horizon: each warm start in turn, the margin raised as needed."""
         extra, attempt = 0.0, 0
         starts = self._warm_starts(problem)
         init = starts.pop(0)
@@ -548,10 +575,8 @@ class Optim:
         itself failed (a local infeasibility or its iteration limit, not the plan's time limit) or the
         warm start gave no path (IPOPT started from a straight line instead: the solve's ``init`` is
         then not ``init``), and time is left."""
-        stats = sol.result.stats
-        ipopt_failed = stats.get("ipopt_status") not in (None, *_SUCCESS) and not stats.get("time_limit_reached")
-        no_start = stats.get("init", init) != init
-        return (ipopt_failed or no_start) and time.perf_counter() - t0 < float(problem.time_limit)
+        no_start = sol.result.stats.get("init", init) != init
+        return (_ipopt_failed(sol) or no_start) and time.perf_counter() - t0 < float(problem.time_limit)
 
     def _solve_with_margin(
         self, problem: PlanProblem, margin: float, t0: float, init: tuple[str, dict[str, Any]]
