@@ -256,3 +256,37 @@ def test_a_fix_one_control_period_late_does_not_crash_the_consistency_measure(tm
     assert main(argv) == 0
     est = json.loads(record.read_text())["closed_loop"]["estimation"]
     assert 0.0 < est["nees_in_bound_fraction"] <= 1.0 and est["fixes_used"] > 0
+
+
+@pytest.mark.parametrize(
+    ("extra", "named"),
+    [
+        (["--build-seed", "3"], "--build-seed"),
+        (["--perturb", "mass=1.2", "--sensors", "fix_rate=5"], "--perturb, --sensors"),
+        (["--reference", "circle"], "--reference"),
+        (["--localiser", "fixes"], "--localiser"),
+    ],
+)
+def test_simulate_all_refuses_the_options_its_sweep_would_drop(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], extra: list[str], named: str
+) -> None:
+    """``--all`` runs each case as built with its own sensors: an option it would not use is exit 2, named,
+    before any case runs and with nothing written (it ran the whole sweep without it before)."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "--all", *extra, "--no-video", "--json", "all.json"]) == 2
+    err = capsys.readouterr().err
+    assert f"it does not take {named}: drop it" in err
+    assert not any(tmp_path.iterdir())
+
+
+def test_simulate_all_sweeps_the_scenarios_it_is_given(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--all --scenario A,B``: only those (a generated world among them); an unknown name is exit 2."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "--all", "--scenario", "nosuch", "--no-video"]) == 2
+    assert "unknown scenario 'nosuch'" in capsys.readouterr().err
+    args = ["simulate", "--all", "--scenario", "random400,simple_motion", "--robot", "turtlebot3", "--planner", "birrt"]
+    assert main([*args, "--quiet", "--no-video", "--json", "all.json"]) == 0
+    rows = json.loads((tmp_path / "all.json").read_text())["rows"]
+    assert sorted(r["scenario"] for r in rows) == ["random400", "simple_motion"]

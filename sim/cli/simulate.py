@@ -171,7 +171,11 @@ def _add_job_arguments(p: argparse.ArgumentParser) -> None:
         metavar="P",
         help=f"plan the scenario with planner P ({planners}) and track the plan (default: the scenario's planner)",
     )
-    p.add_argument("--all", action="store_true", help="every built-in scenario x applicable planner x robot")
+    p.add_argument(
+        "--all",
+        action="store_true",
+        help="every built-in scenario (or those of --scenario A,B,...) x applicable planner x robot",
+    )
     add_executor_arguments(p, what="the cases of --all", default_jobs="1")
     limit, budget = RUN_SETTINGS["time_limit"], "planning budget (default: %(default)g s)"
     p.add_argument("--time-limit", type=float, default=limit, metavar="S", help=budget)
@@ -373,14 +377,21 @@ def run(args: argparse.Namespace) -> int:
     if args.all and file_given(args):
         raise ConfigError("--all sweeps the built-in scenarios' plans: drop it to track a --trajectory or --path file")
     if args.all:
-        from sim.cli.sweep_table import run_all
+        from sim.cli.sweep_table import check_sweep_options, run_all
 
+        check_sweep_options(args, option_defaults())
         return run_all(args, gains)
     if args.jobs is not None or args.scheduler is not None:
         raise ConfigError("--jobs and --scheduler spread --all's sweep over workers; one job runs here: drop it")
     for line in ignored_options(args):
         print(f"nhsim simulate: {line}", file=sys.stderr)
     return _run_job(args, gains, perturbation)
+
+
+def option_defaults() -> dict[str, Any]:
+    """``simulate``'s options and their defaults, by dest (from its own parser)."""
+    sub = argparse.ArgumentParser().add_subparsers()
+    return {a.dest: a.default for a in add_parser(sub)._actions if a.option_strings and a.dest != "help"}
 
 
 def ignored_options(args: argparse.Namespace) -> list[str]:

@@ -6,6 +6,7 @@ import argparse
 from typing import Any
 
 from planning.core.robot import ROBOT_FILES
+from planning.errors import ConfigError
 from planning.planners.registry import PLANNERS
 from sim.pipeline.runs import RunKind
 from sim.pipeline.sweep import Outcome, Stage, SweepRow
@@ -62,6 +63,51 @@ def _where(row: SweepRow) -> str:
     return f"{row.case.scenario_name}/{row.robot}/{row.case.planner}"
 
 
+#: ``simulate`` options the sweep of ``--all`` takes (by dest; ``--no-video`` and ``--no-plots`` ask for what it does
+#: anyway), see :func:`check_sweep_options`.
+SWEEP_OPTIONS = frozenset(
+    {"scenario", "robot", "planner", "all", "jobs", "scheduler", "time_limit", "gains", "control_rate", "seed", "json",
+     "overwrite", "quiet", "no_video", "plots"}
+)  # fmt: skip
+
+
+def check_sweep_options(args: argparse.Namespace, defaults: dict[str, Any]) -> None:
+    """Refuse the options ``--all`` would not use (each case runs the robot as built with seed 1, its own
+    sensors and localiser, the default runs, no video), naming them: given and silently dropped, a
+    ``--build-seed`` or a ``--perturb`` would read as a sweep it was not.
+
+    Raises:
+        ConfigError: An option away from its default that the sweep does not take.
+    """
+    unused = {d: v for d, v in defaults.items() if d not in SWEEP_OPTIONS}
+    given = sorted(d for d, default in unused.items() if getattr(args, d, default) != default)
+    if given:
+        flags = ", ".join("--" + d.replace("_", "-") for d in given)
+        raise ConfigError(
+            f"--all sweeps every case with the robot as built (build seed 1), its own sensors and localiser, the "
+            f"default runs and no video; it does not take {flags}: drop it, or run one job without --all"
+        )
+
+
+def sweep_scenarios(text: str | None) -> list[str] | None:
+    """``--scenario`` with ``--all``: comma-separated scenario names (built-in, ``random<N>`` or a file) the
+    sweep is limited to; None for every built-in one.
+
+    Raises:
+        ScenarioError: A name that is not a scenario (the message lists the built-in ones).
+    """
+    if text is None:
+        return None
+    from planning.scenario import load_scenario
+
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names:
+        raise ConfigError("--scenario with --all: give one or more scenario names, comma-separated")
+    for name in names:
+        load_scenario(name)
+    return names
+
+
 def run_all(args: argparse.Namespace, gains: Any) -> int:
     """Run the sweep: print the table as rows come, the summary, and write the record with --json."""
     from sim.outputs import check_writable, write_json
@@ -72,7 +118,8 @@ def run_all(args: argparse.Namespace, gains: Any) -> int:
     if args.json is not None:
         check_writable(args.json, overwrite=args.overwrite)
     planning = PlanOptions(time_limit=args.time_limit)
-    cases = sweep_cases(seed=args.seed, gains=gains, control_rate=args.control_rate, planning=planning)
+    scenarios = sweep_scenarios(args.scenario)
+    cases = sweep_cases(scenarios, seed=args.seed, gains=gains, control_rate=args.control_rate, planning=planning)
     if args.robot is not None:
         cases = [c for c in cases if c.robot == args.robot]
     if args.planner is not None:
