@@ -40,6 +40,15 @@ def test_compare_cli_end_to_end(tmp_path: Path) -> None:
     assert (tmp_path / "cmp-paths.png").stat().st_size > 0 and (tmp_path / "cmp-errors.png").stat().st_size > 0
 
 
+def test_compare_cli_says_a_time_limit_is_ignored_when_nothing_is_planned() -> None:
+    """As ``simulate`` says it: a reference plans nothing, so a planning budget changes nothing."""
+    args = ("compare", "--reference", "line", "--trackers", "kanayama", "--runs", "1", "--quiet")
+    r = nhsim(*args, "--time-limit", "5")
+    assert r.returncode == 0, r.stderr
+    assert "--time-limit ignored: it is the planner's budget, and this job plans nothing" in r.stderr
+    assert "ignored" not in nhsim(*args).stderr
+
+
 def test_compare_cli_rejects_unknown_trackers_and_bad_params(tmp_path: Path) -> None:
     r = nhsim("compare", "--reference", "line", "--trackers", "fbl,pid")
     assert r.returncode == 2 and "unknown tracker 'pid'" in r.stderr

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from sim.cli.job_outputs import add_case_arguments, check_video_name
+from sim.cli.job_outputs import RUN_SETTINGS, add_case_arguments, check_video_name
 from sim.cli.trajectory_files import add_file_arguments
 
 DESCRIPTION = """\
@@ -50,7 +50,10 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--trackers", default=None, metavar="A,B,...", help=f"(default: {DEFAULT_TRACKERS})")
     p.add_argument("--runs", type=int, default=1, metavar="N", help="runs per tracker on held-out draws (default: 1)")
     p.add_argument("--seed", type=int, default=0, help="seed of the plan and the noise (default: 0)")
-    p.add_argument("--time-limit", type=float, default=30.0, metavar="S", help="planning budget (default: 30 s)")
+    limit = RUN_SETTINGS["time_limit"]
+    p.add_argument(
+        "--time-limit", type=float, default=limit, metavar="S", help=f"planning budget (default: {limit:g} s)"
+    )
     p.add_argument("--params", default=None, metavar="FILE[,FILE]", help="tuned parameters (JSON)")
     p.add_argument("--json", default=None, metavar="PATH", help="write the record here")
     p.add_argument("--plots", default=None, metavar="STEM", help="write STEM-paths.png and STEM-errors.png")
@@ -120,6 +123,11 @@ def run(args: argparse.Namespace) -> int:
         )
     outputs = _outputs(args)
     case = _case(args)
+    if case.planner is None and args.time_limit != RUN_SETTINGS["time_limit"]:  # as simulate says it
+        print(
+            "nhsim compare: --time-limit ignored: it is the planner's budget, and this job plans nothing",
+            file=sys.stderr,
+        )
 
     def progress(name: str, done: int, total: int) -> None:
         if not args.quiet:
