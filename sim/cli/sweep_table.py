@@ -85,7 +85,8 @@ def check_sweep_options(args: argparse.Namespace, defaults: dict[str, Any]) -> N
         flags = ", ".join("--" + d.replace("_", "-") for d in given)
         raise ConfigError(
             f"--all sweeps every case with the robot as built (build seed 1), its own sensors and localiser, the "
-            f"default runs and no video; it does not take {flags}: drop it, or run one job without --all"
+            f"default runs and no video; it does not take {flags}: drop {'it' if len(given) == 1 else 'them'}, or run "
+            "one job without --all"
         )
 
 
