@@ -145,6 +145,8 @@ def test_for_robot_takes_the_nominal_geometry() -> None:
     est.reset(0.0, (0.0, 0.0, 0.0))
     assert est.calibration == pytest.approx((spec.wheel_radius, spec.wheel_radius, spec.track_width))
     assert len(STATE_NAMES) == est.state.size
+    rolled = PoseEstimator.for_robot(spec, wheel_radius=0.99 * spec.wheel_radius)  # a calibrated radius
+    assert (rolled.nominal_radius, rolled.nominal_track) == (0.99 * spec.wheel_radius, spec.track_width)
 
 
 # --- prediction ----------------------------------------------------------------------------------

@@ -340,7 +340,7 @@ class _PlainSensing:
         self.sensors = SensorModel(setup.profile, control_rate=rate, timestep=float(m.opt.timestep),
                                    n_periods=n + 1, seed=setup.seed)  # fmt: skip
         # the EKF's nominal radius is the rolling radius under load, as the run's loop uses
-        self.est = PoseEstimator(setup.estimator_config(robot), rolling_radius(robot), robot.track_width)
+        self.est = PoseEstimator.for_robot(robot, setup.estimator_config(robot), wheel_radius=rolling_radius(robot))
         self.adr = [int(m.sensor_adr[m.sensor(s).id]) for s in ("wheel_left_pos", "wheel_right_pos")]
         self.q, self.dt = 2.0 * math.pi / setup.profile.encoder_cpr, 1.0 / rate
         self.truth, self.estimate, self.variance = (np.full((n + 1, 3), np.nan) for _ in range(3))

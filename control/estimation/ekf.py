@@ -328,9 +328,15 @@ class PoseEstimator:
         self._stale = 0
 
     @classmethod
-    def for_robot(cls, robot: RobotSpec, config: EstimatorConfig | None = None) -> PoseEstimator:
-        """An estimator for a robot spec's nominal wheel radius and track width (default config)."""
-        return cls(config if config is not None else EstimatorConfig(), robot.wheel_radius, robot.track_width)
+    def for_robot(
+        cls, robot: RobotSpec, config: EstimatorConfig | None = None, *, wheel_radius: float | None = None
+    ) -> PoseEstimator:
+        """An estimator for a robot spec's track width and wheel radius (default config): ``wheel_radius``
+        [m] the radius its odometry multiplies the wheel angles by, when not the drawn one (the
+        simulator's robot software passes the tyre's rolling radius under load,
+        ``sim.physics.model.rolling_radius``)."""
+        radius = robot.wheel_radius if wheel_radius is None else wheel_radius
+        return cls(config if config is not None else EstimatorConfig(), radius, robot.track_width)
 
     def prior_covariance(self, cov0: ArrayLike | None = None) -> FloatArray:
         """The (10, 10) covariance at reset: cov0 for the pose, the config's priors for the rest.

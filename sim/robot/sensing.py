@@ -133,7 +133,7 @@ class EstimatorLoop:
     def __init__(
         self, robot: RobotSpec, config: EstimatorConfig, *, n_periods: int, dt: float, rad_per_count: float
     ) -> None:
-        self.estimator = PoseEstimator(config, rolling_radius(robot), robot.track_width)
+        self.estimator = PoseEstimator.for_robot(robot, config, wheel_radius=rolling_radius(robot))
         self.dt = dt
         self._trace = np.full((n_periods + 1, 6), np.nan)  # estimate, variances by period
         self.estimate, self.variance = self._trace[:, :3], self._trace[:, 3:]
