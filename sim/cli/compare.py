@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from sim.cli.job_outputs import RUN_SETTINGS, add_case_arguments, check_video_name
+from sim.cli.job_outputs import RUN_SETTINGS, add_case_arguments, check_video_name, unused_time_limit
 from sim.cli.trajectory_files import add_file_arguments
 
 DESCRIPTION = """\
@@ -123,11 +123,8 @@ def run(args: argparse.Namespace) -> int:
         )
     outputs = _outputs(args)
     case = _case(args)
-    if case.planner is None and args.time_limit != RUN_SETTINGS["time_limit"]:  # as simulate says it
-        print(
-            "nhsim compare: --time-limit ignored: it is the planner's budget, and this job plans nothing",
-            file=sys.stderr,
-        )
+    for line in unused_time_limit(case.planner is not None, args.time_limit):
+        print(f"nhsim compare: {line}", file=sys.stderr)
 
     def progress(name: str, done: int, total: int) -> None:
         if not args.quiet:

@@ -66,6 +66,14 @@ RUN_SETTINGS: dict[str, Any] = {
 }
 
 
+def unused_time_limit(planned: bool, time_limit: float) -> list[str]:
+    """The note for a ``--time-limit`` given to a job that plans nothing (a reference, a file), as a
+    list of at most one line (``simulate`` and ``compare`` print it on stderr)."""
+    if planned or time_limit == RUN_SETTINGS["time_limit"]:
+        return []
+    return ["--time-limit ignored: it is the planner's budget, and this job plans nothing"]
+
+
 def add_case_arguments(p: argparse.ArgumentParser) -> None:
     """``--scenario``, ``--robot`` and ``--planner`` / ``--reference``, decided by simulate's rule
     (:func:`sim.cli.simulate.job_source`) for commands that run one case (compare, montecarlo)."""

@@ -398,12 +398,9 @@ def ignored_options(args: argparse.Namespace) -> list[str]:
     """Options given away from their defaults that the job does not use, as notes: the planner's time limit
     when nothing is planned (a reference, a file), the time scale of a path (which has no clock), the
     gains when no run feeds back (the open loop alone)."""
-    from sim.cli.job_outputs import RUN_SETTINGS
+    from sim.cli.job_outputs import unused_time_limit
 
-    notes = []
-    planned = args.reference is None and not file_given(args)
-    if not planned and args.time_limit != RUN_SETTINGS["time_limit"]:
-        notes.append("--time-limit ignored: it is the planner's budget, and this job plans nothing")
+    notes = unused_time_limit(args.reference is None and not file_given(args), args.time_limit)
     if getattr(args, "path", None) is not None and args.time_scale is not None:
         notes.append("--time-scale ignored: a --path file has no clock (the speed profile times it)")
     runs = parse_runs(args.runs) if args.runs is not None else run_choices()[args.tracker]
