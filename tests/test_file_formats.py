@@ -35,6 +35,9 @@ def _check_txy(table) -> None:  # type: ignore[no-untyped-def]
         ("a.txt", "% MATLAB export\nT X Y\n0 0 1\n\n0.5 0.1 1.5\n# note\n1 0.3 2.5\n", "text"),
         ("a.dat", "t,x,y\n0,0,1\n0.5,0.1,1.5\n1,0.3,2.5\n", "csv"),
         ("a.csv", "t; x; y\n0;0;1\n0.5;0.1;1.5\n1;0.3;2.5\n", "csv"),
+        ("a.csv", "t;x;y\n0;0;1\n0,5;0,1;1,5\n1;0,3;2,5\n", "csv"),  # a spreadsheet's decimal commas
+        ("a.txt", "t\tx\ty\n0\t0\t1\n0,5\t0,1\t1,5\n1\t0,3\t2,5\n", "tsv"),
+        ("a.csv", "t,x,y,\n0,0,1,\n0.5,0.1,1.5,\n1,0.3,2.5,\n", "csv"),  # every line ended by a comma
     ],
 )
 def test_text_files_with_a_header(tmp_path: Path, name: str, text: str, fmt: str) -> None:
@@ -87,6 +90,30 @@ def test_a_ros_path_gives_positions_yaw_and_stamps(tmp_path: Path, ros1: bool) -
     np.testing.assert_allclose(table.columns["theta"], yaws, atol=1e-12)
     np.testing.assert_allclose(table.columns["t"], [10.0, 10.5, 11.0], atol=1e-9)
     np.testing.assert_array_equal(table.columns["x"], X)
+
+
+def test_a_headerless_file_with_decimal_commas_is_numbers_not_a_header(tmp_path: Path) -> None:
+    table = read_table(_write(tmp_path, "a.txt", "0;0;1\n0,5;0,1;1,5\n1;0,3;2,5\n"), ["t", "x", "y"])
+    _check_txy(table)
+
+
+def test_a_ros_path_with_zero_quaternions_has_no_headings_and_a_cut_off_capture_reads_its_first(
+    tmp_path: Path,
+) -> None:
+    text = _nav_path([0.0, 1.0, 2.0], [(0, 0), (1, 0), (2, 0)])
+    zero = "\n".join(
+        line.split("orientation:")[0] + "orientation: {x: 0, y: 0, z: 0, w: 0}" if "orientation:" in line else line
+        for line in text.splitlines()
+    )
+    table = read_table(_write(tmp_path, "z.yaml", zero + "\n"))  # ROS 1's default quaternion: no heading
+    assert set(table.columns) == {"t", "x", "y"}
+    mixed = text.replace(f"z: {float(np.sin(0.5))!r}, w: {float(np.cos(0.5))!r}", "z: 0.0, w: 0.0")
+    assert mixed != text
+    with pytest.raises(TrajectoryFileError, match=r"poses\[1\] has a zero orientation quaternion \(1 of 3"):
+        read_table(_write(tmp_path, "m.yaml", mixed))
+    cut = text + "header:\n  frame_id: map\nposes:\n- header:\n    stamp: {sec: 3, nan"  # echo stopped mid-message
+    table = read_table(_write(tmp_path, "c.yaml", cut))
+    np.testing.assert_allclose(table.columns["theta"], [0.0, 1.0, 2.0], atol=1e-12)
 
 
 def test_a_ros_path_with_equal_stamps_has_no_time(tmp_path: Path) -> None:

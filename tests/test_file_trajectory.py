@@ -154,6 +154,15 @@ def test_a_file_in_pixels_leaving_the_world_suggests_scale(tmp_path: Path) -> No
         arena_scenario(read_trajectory_file(TrajectoryFile(p, scale=1.0 / 0.3)), ROBOT)
 
 
+def test_a_file_in_metres_a_little_too_large_is_not_told_it_may_be_in_pixels(tmp_path: Path) -> None:
+    t = np.arange(0.0, 30.0 + 1e-9, 0.5)
+    xy = s_curve(t * 20.0 / 30.0)[0] * 1.8  # 3.6 m long in a 3 m wide world: it leaves it, in metres
+    p = write_csv(tmp_path / "m.csv", {"t": t, "x": xy[:, 0], "y": xy[:, 1]})
+    with pytest.raises(TrajectoryFileError, match=r"leaves the world") as info:
+        file_trajectory(read_trajectory_file(TrajectoryFile(p)), ROBOT, WORLD)
+    assert "pixels" not in str(info.value)
+
+
 def test_the_default_arena_holds_the_file_and_the_robot(tmp_path: Path) -> None:
     imp = read_trajectory_file(TrajectoryFile(s_curve_file(tmp_path, 30.0)))
     sc = arena_scenario(imp, ROBOT)

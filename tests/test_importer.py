@@ -12,6 +12,7 @@ import pytest
 from planning.trajectory.file_formats import TrajectoryFileError, table_from_arrays
 from planning.trajectory.importer import (
     DISPLACEMENT_TOLERANCE,
+    HEADING_TOLERANCE,
     TrajectoryFile,
     import_table,
     parse_columns,
@@ -119,6 +120,7 @@ def test_stamps_repeated_at_two_positions_or_going_back_are_errors_naming_the_ro
         ({"x": [0.5, 0.5], "y": [1.0, 1.0]}, False, "two distinct positions"),
         ({"t": [0.0, 1.0], "x": [0.0, 1.0], "y": [0.0, 1.0], "vx": [0.0, 0.0]}, True, "vx and vy come together"),
         ({"t": [0.0, 36000.0], "x": [0.0, 1.0], "y": [0.0, 1.0]}, True, "--time-scale 0.001"),
+        ({"t": [0.0, 2e10], "x": [0.0, 1.0], "y": [0.0, 1.0]}, True, "counts nanoseconds, give --time-scale 1e-09"),
     ],
 )
 def test_missing_columns_and_a_single_position_are_errors(
@@ -127,6 +129,28 @@ def test_missing_columns_and_a_single_position_are_errors(
     p = write_csv(tmp_path / "m.csv", {k: np.array(v) for k, v in columns.items()})
     with pytest.raises(TrajectoryFileError, match=needle):
         read_trajectory_file(TrajectoryFile(p, timed=timed))
+
+
+def test_a_clock_scaled_too_little_is_told_the_scale_that_fits(tmp_path: Path) -> None:
+    p = write_csv(tmp_path / "ns.csv", {"t": np.array([0.0, 2e10]), "x": np.array([0.0, 1.0]), "y": np.zeros(2)})
+    with pytest.raises(TrajectoryFileError, match=r"2e\+07 s at --time-scale 0\.001.*give --time-scale 1e-09"):
+        read_trajectory_file(TrajectoryFile(p, time_scale=0.001))
+    assert read_trajectory_file(TrajectoryFile(p, time_scale=1e-9)).t[-1] == pytest.approx(20.0)
+
+
+@pytest.mark.parametrize("timed", [False, True])
+def test_headings_in_degrees_are_refused_and_unwrapped_radians_beyond_a_turn_are_not(
+    tmp_path: Path, timed: bool
+) -> None:
+    t = np.linspace(0.0, 40.0, 81)
+    ang = 2.0 * np.pi * 1.75 * (10 * (t / 40) ** 3 - 15 * (t / 40) ** 4 + 6 * (t / 40) ** 5)
+    x, y = np.sin(ang), 1.0 - np.cos(ang)
+    cols = {"t": t, "x": x, "y": y}
+    imp = read_trajectory_file(TrajectoryFile(write_csv(tmp_path / "rad.csv", {**cols, "theta": ang}), timed=timed))
+    assert imp.theta is not None and imp.theta.max() == pytest.approx(3.5 * np.pi)  # 1.75 turns, as written
+    deg = write_csv(tmp_path / "deg.csv", {**cols, "theta": np.degrees(ang)})
+    with pytest.raises(TrajectoryFileError, match=r"column theta looks like degrees \(630 at line 82;.*in radians"):
+        read_trajectory_file(TrajectoryFile(deg, timed=timed))
 
 
 def test_wrapped_headings_are_unwrapped(tmp_path: Path) -> None:
@@ -165,6 +189,33 @@ def test_velocities_that_agree_are_kept_and_a_small_error_within_tolerance_too(t
     imp = read_trajectory_file(TrajectoryFile(p))
     assert not imp.report.corrections and imp.curve is not None
     np.testing.assert_allclose(imp.curve(t, 1)[:, 0], vel[:, 0] + 0.0015, atol=1e-12)
+
+
+def test_dense_rows_cannot_hide_rates_that_are_wrong_all_along(tmp_path: Path) -> None:
+    # 20 rows a second: every step is inside the absolute tolerance, so a column of zeros passes each
+    # interval's check; over 10 cm of travel it cannot
+    t = np.arange(0.0, DURATION + 1e-9, 0.05)
+    _, vel, _ = s_curve(t)
+    theta = np.unwrap(np.arctan2(vel[:, 1], vel[:, 0]))
+    theta[0], theta[-1] = theta[1], theta[-2]
+    omega = np.gradient(theta, t)
+    steps = np.hypot(*np.diff(s_curve(t)[0], axis=0).T)
+    assert steps.max() < DISPLACEMENT_TOLERANCE[0] and np.abs(np.diff(theta)).max() < HEADING_TOLERANCE[0]
+    good, _ = quintic_file(tmp_path, step=0.05, theta=theta, v=np.hypot(*vel.T), omega=omega)
+    imp = read_trajectory_file(TrajectoryFile(good))
+    assert not imp.report.corrections and imp.omega is not None
+    zeros = np.zeros_like(t)
+    bad, _ = quintic_file(tmp_path, step=0.05, theta=theta, v=zeros, omega=zeros)
+    imp = read_trajectory_file(TrajectoryFile(bad))
+    assert {f.what for f in imp.report.corrections} == {"speeds v", "yaw rates omega"}
+    assert imp.omega is None and imp.curve is not None
+    np.testing.assert_allclose(imp.curve(t, 1), vel, atol=2e-3)  # the positions' own: no stop at every row
+    assert re.search(r"speeds v disagree with the positions: from line \d+ to line \d+ they move", imp.report.notes[0])
+    # without headings the motion's own: at rest (both ends) it is the nearest moving row's, not arctan2(0, 0)
+    bare, _ = quintic_file(tmp_path, step=0.05, v=zeros, omega=zeros)
+    fixes = {f.what: f for f in read_trajectory_file(TrajectoryFile(bare)).report.corrections}
+    assert set(fixes) == {"speeds v", "yaw rates omega"}
+    assert fixes["yaw rates omega"].difference < 1.1 * np.abs(omega).max()
 
 
 def test_speeds_along_the_heading_are_checked_too(tmp_path: Path) -> None:

@@ -23,7 +23,13 @@ from typing import Any
 
 import numpy as np
 
-from planning.trajectory.file_formats import FileTable, TrajectoryFileError, table_from_arrays
+from planning.trajectory.file_formats import (
+    FileTable,
+    TrajectoryFileError,
+    quaternion_headings,
+    quaternion_yaw,
+    table_from_arrays,
+)
 
 #: File suffixes read as bags (a folder with a ``metadata.yaml`` is one too).
 BAG_SUFFIXES = (".mcap", ".bag", ".db3")
@@ -99,14 +105,6 @@ def _messages(reader: Any, path: Path, topic: str, timed: bool) -> tuple[str, li
     return msgtype, msgs
 
 
-def _yaw(q: Any) -> float:
-    n = float(np.sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w))
-    if n < 1e-9:
-        return float("nan")
-    x, y, z, w = q.x / n, q.y / n, q.z / n, q.w / n
-    return float(np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))
-
-
 def _nanoseconds(stamp: Any) -> int:
     """A stamp as whole nanoseconds (exact: a wall-clock stamp in float seconds keeps only ~0.2 us)."""
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
@@ -117,12 +115,15 @@ def _pose_of(msg: Any, msgtype: str) -> Any:
     return msg.pose.pose if msgtype != "geometry_msgs/msg/PoseStamped" else msg.pose
 
 
-def _columns(poses: list[Any], stamps: list[int]) -> dict[str, Any]:
+def _columns(path: Path, poses: list[Any], stamps: list[int], rows: tuple[str, ...]) -> dict[str, Any]:
     cols = {
         "x": np.array([p.position.x for p in poses], dtype=float),
         "y": np.array([p.position.y for p in poses], dtype=float),
-        "theta": np.array([_yaw(p.orientation) for p in poses], dtype=float),
     }
+    q = [p.orientation for p in poses]
+    theta = quaternion_headings([quaternion_yaw(o.x, o.y, o.z, o.w) for o in q], rows, path)
+    if theta is not None:
+        cols["theta"] = theta
     if len(set(stamps)) > 1:
         cols["t"] = np.array([s - stamps[0] for s in stamps], dtype=float) * 1e-9
     return cols
@@ -132,8 +133,7 @@ def _check_finite(path: Path, cols: dict[str, Any], rows: tuple[str, ...]) -> No
     for name, values in cols.items():
         bad = np.flatnonzero(~np.isfinite(values))
         if bad.size:
-            what = "a zero orientation quaternion" if name == "theta" else f"a non-finite {name}"
-            raise TrajectoryFileError(f"{path}: {rows[bad[0]]} has {what}; fix or drop that pose")
+            raise TrajectoryFileError(f"{path}: {rows[bad[0]]} has a non-finite {name}; fix or drop that pose")
 
 
 def read_bag_table(path: Path, topic: str | None, message: int | None = None, *, timed: bool) -> FileTable:
@@ -171,14 +171,17 @@ def read_bag_table(path: Path, topic: str | None, message: int | None = None, *,
         if not path_msg.poses:
             raise TrajectoryFileError(f"{path}: message {k} of {topic} is an empty path; choose another with --message")
         rows = tuple(f"{topic} message {k} poses[{i}]" for i in range(len(path_msg.poses)))
-        cols = _columns([p.pose for p in path_msg.poses], [_nanoseconds(p.header.stamp) for p in path_msg.poses])
+        stamps = [_nanoseconds(p.header.stamp) for p in path_msg.poses]
+        cols = _columns(path, [p.pose for p in path_msg.poses], stamps, rows)
     else:
         if message is not None:
             raise TrajectoryFileError(f"--message picks one nav_msgs/Path; {topic} carries {_name(msgtype)}: drop it")
         rows = tuple(f"{topic} message {i}" for i in range(len(msgs)))
-        cols = _columns([_pose_of(mm, msgtype) for mm in msgs], [_nanoseconds(mm.header.stamp) for mm in msgs])
+        cols = _columns(
+            path, [_pose_of(mm, msgtype) for mm in msgs], [_nanoseconds(mm.header.stamp) for mm in msgs], rows
+        )
         if msgtype == "nav_msgs/msg/Odometry":
             cols["v"] = np.array([mm.twist.twist.linear.x for mm in msgs], dtype=float)
             cols["omega"] = np.array([mm.twist.twist.angular.z for mm in msgs], dtype=float)
-    _check_finite(path, cols, rows)  # a zero quaternion named as such, before the table's own check
+    _check_finite(path, cols, rows)  # named as a pose of the topic, before the table's own check
     return table_from_arrays(path, cols, f"bag topic {topic}, {_name(msgtype)}", rows)

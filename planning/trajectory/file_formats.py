@@ -43,6 +43,8 @@ __all__ = [
     "FileTable",
     "TrajectoryFileError",
     "parse_column_names",
+    "quaternion_headings",
+    "quaternion_yaw",
     "read_table",
     "table_from_arrays",
 ]
@@ -206,23 +208,23 @@ def _load_json(p: Path, text: str) -> Any:
 def _load_yaml(p: Path, text: str) -> Any:
     import yaml
 
-    try:
-        docs = [d for d in yaml.safe_load_all(text) if d is not None]
+    try:  # the documents one at a time: a capture cut off after its first message still reads
+        for doc in yaml.safe_load_all(text):
+            if doc is not None:
+                return doc
     except yaml.YAMLError as exc:
         raise TrajectoryFileError(f"{p}: not valid YAML: {exc}") from exc
-    if not docs:
-        raise TrajectoryFileError(f"{p}: the YAML file is empty")
-    return docs[0]
+    raise TrajectoryFileError(f"{p}: the YAML file is empty")
 
 
 # ----------------------------------------------------------------------------------------- text
 def _delimiter(suffix: str, first: str) -> str | None:
-    """The cell separator: tab for ``.tsv``; else a comma, tab or semicolon (spreadsheets where the
-    decimal mark is a comma) found in the first content line; else a comma for ``.csv``, whitespace
-    for the rest (None)."""
+    """The cell separator: tab for ``.tsv``; else a tab, semicolon or comma found in the first content line,
+    in that order (a line with a tab or semicolon and a comma is a spreadsheet's whose decimal mark is a
+    comma); else a comma for ``.csv``, whitespace for the rest (None)."""
     if suffix in (".tsv", ".tab"):
         return "\t"
-    found = [d for d in (",", "\t", ";") if d in first]
+    found = [d for d in ("\t", ";", ",") if d in first]
     if found:
         return found[0]
     return "," if suffix == ".csv" else None
@@ -235,9 +237,9 @@ def _split(lines: list[tuple[int, str]], delimiter: str | None) -> list[tuple[in
     return [(n, row) for (n, _), row in zip(lines, cells, strict=True)]  # float() ignores spaces around a number
 
 
-def _is_numeric_row(cells: list[str]) -> bool:
+def _is_numeric_row(cells: list[str], delimiter: str | None) -> bool:
     try:
-        [float(c) for c in cells]
+        [float(c if delimiter == "," else c.replace(",", ".")) for c in cells]
     except ValueError:
         return False
     return True
@@ -253,11 +255,13 @@ def _read_text(p: Path, text: str, columns: Sequence[str] | None) -> FileTable:
         raise TrajectoryFileError(f"{p}: the file holds no rows")
     delimiter = _delimiter(p.suffix.lower(), lines[0][1])
     first = _split(lines[:1], delimiter)[0][1]
-    has_header = not _is_numeric_row(first)
+    has_header = not _is_numeric_row(first, delimiter)
     if columns is not None:
         names = parse_column_names(columns, "--columns")
     elif has_header:
-        names = parse_column_names(first, f"{p}, header (line {lines[0][0]})")
+        trail = delimiter is not None and lines[0][1].endswith(delimiter) and not first[-1].strip()
+        names = parse_column_names(first[:-1] if trail else first, f"{p}, header (line {lines[0][0]})")
+        names = (*names, "") if trail else names
     else:
         raise TrajectoryFileError(
             f"{p}: the first row (line {lines[0][0]}) is numbers, not a header naming the columns: add a header "
@@ -266,12 +270,24 @@ def _read_text(p: Path, text: str, columns: Sequence[str] | None) -> FileTable:
     body = lines[1:] if has_header else lines
     if not body:
         raise TrajectoryFileError(f"{p}: the file holds a header and no rows")
+    if has_header and delimiter is not None and lines[0][1].endswith(delimiter) and names[-1] == "":
+        names = names[:-1]  # every line ended by a separator (a spreadsheet's export): no last column
+        body = [(n, line[: -len(delimiter)] if line.endswith(delimiter) else line) for n, line in body]
+    body = _decimal_commas(body, delimiter)
     values = _plain_numbers(body, delimiter, names) if '"' not in text else None
     if values is None:  # quoted cells, or a row to name: cell by cell
         values = _numbers(p, _split(body, delimiter), names)
     fmt = {",": "csv", ";": "csv", "\t": "tsv", None: "text"}[delimiter]
     arrays = dict(zip([n for n in names if n != SKIP], values.T, strict=True))
     return FileTable(p, fmt, arrays, tuple(f"line {n}" for n, _ in body))
+
+
+def _decimal_commas(body: list[tuple[int, str]], delimiter: str | None) -> list[tuple[int, str]]:
+    """Rows whose cells are separated by tabs, semicolons or spaces with decimal commas (``0,25``), read with
+    decimal points; rows as they are when a comma separates cells or a point is already there."""
+    if delimiter == "," or not any("," in line for _, line in body) or any("." in line for _, line in body):
+        return body
+    return [(n, line.replace(",", ".")) for n, line in body]
 
 
 def _plain_numbers(body: list[tuple[int, str]], delimiter: str | None, names: tuple[str, ...]) -> FloatArray | None:
@@ -379,11 +395,35 @@ def _yaw(pose: Mapping[str, Any], p: Path, where: str) -> float | None:
     if q is None:
         return None
     qx, qy, qz, qw = (_number(_field(q, (k,), p, where), str(p), where, f"orientation.{k}") for k in "xyzw")
+    return quaternion_yaw(qx, qy, qz, qw)
+
+
+def quaternion_yaw(qx: float, qy: float, qz: float, qw: float) -> float:
+    """The yaw of an orientation quaternion [rad]; NaN for a zero quaternion (no orientation given)."""
     norm = np.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
     if norm < 1e-9:
-        raise TrajectoryFileError(f"{p}: {where}: the orientation quaternion is zero; give a unit quaternion")
+        return float("nan")
     qx, qy, qz, qw = qx / norm, qy / norm, qz / norm, qw / norm
     return float(np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz)))
+
+
+def quaternion_headings(yaws: ArrayLike, rows: Sequence[str], where: str | Path) -> FloatArray | None:
+    """Headings from poses' quaternion yaws (:func:`quaternion_yaw`): None when every quaternion is zero (a
+    ROS 1 message's default: the poses give no heading, which then follows the motion).
+
+    Raises:
+        TrajectoryFileError: Some quaternions are zero and others not (the first zero one named).
+    """
+    out = np.asarray(yaws, dtype=float)
+    zero = np.flatnonzero(np.isnan(out))
+    if zero.size == out.size:
+        return None
+    if zero.size:
+        raise TrajectoryFileError(
+            f"{where}: {rows[zero[0]]} has a zero orientation quaternion ({zero.size} of {out.size} poses) while "
+            "others give a heading; give every pose a unit quaternion, or every one zero for no headings"
+        )
+    return out
 
 
 def _nav_path(p: Path, data: Mapping[str, Any]) -> FileTable:
@@ -400,7 +440,9 @@ def _nav_path(p: Path, data: Mapping[str, Any]) -> FileTable:
         stamps.append(_stamp(pose, p, where))
     cols = {"x": np.asarray(xs), "y": np.asarray(ys)}
     if all(y is not None for y in yaws):
-        cols["theta"] = np.asarray(yaws, dtype=float)
+        theta = quaternion_headings(np.array(yaws, dtype=float), rows, p)
+        if theta is not None:
+            cols["theta"] = theta
     if all(s is not None for s in stamps) and len(set(stamps)) > 1:
         cols["t"] = np.asarray(stamps, dtype=float)
     return FileTable(p, "nav_msgs/Path", cols, rows)

@@ -45,6 +45,8 @@ FloatArray = NDArray[np.float64]
 MAX_STRETCH = 2.0
 #: Room between the file's extent (plus the robot's radius) and the walls of a default arena [m].
 ARENA_MARGIN = 0.25
+#: A file read in its own units spanning this many times the world's width or height may be in pixels.
+PIXEL_HINT_FACTOR = 4.0
 #: Largest side of a default arena [m]: a larger file is almost surely not in metres.
 ARENA_MAX = 50.0
 #: The robot of an arena built around a file when none is asked for.
@@ -281,11 +283,12 @@ def _culprit(world: World, xy: FloatArray) -> tuple[bool, str]:
 
 
 def _pixel_hint(imported: ImportedFile, world: World) -> str:
-    """A hint to give --scale when the file was read in its own units and is larger than the world."""
+    """A hint to give --scale when the file was read in its own units and is several times larger than the
+    world (a file in metres that is a little too large is not in pixels)."""
     if imported.source.scale is not None:
         return ""
     span = np.ptp(imported.xy, axis=0)
-    if span[0] <= world.width and span[1] <= world.height:
+    if span[0] <= PIXEL_HINT_FACTOR * world.width and span[1] <= PIXEL_HINT_FACTOR * world.height:
         return ""
     return (
         f"; the file spans {span[0]:.4g} x {span[1]:.4g} units but the world is {world.width:g} x {world.height:g} m: "

@@ -8,11 +8,14 @@ into the scenario's frame), and repairs what real files get wrong:
   given derivatives averaged; repeated or decreasing stamps at *different* positions are an error
   naming the rows. A path's consecutive rows at one pose merge too.
 * **Headings** are unwrapped (jumps of more than pi between rows count as wraps).
-* **Given derivatives** are checked against the positions by the trapezoid rule over every interval:
+* **Given derivatives** are checked against the positions by the trapezoid rule over every interval,
+  and over every span of rows that moves at least a tolerance's reach (so that dense rows, each within
+  the absolute tolerance, cannot hide rates that are wrong all along, such as a column of zeros):
   velocities (``vx, vy``, or ``v`` along the heading) must move the robot as the rows do within
-  :data:`DISPLACEMENT_TOLERANCE` (1 cm + 10 % of the step); accelerations must change the velocities
-  as they do within :data:`VELOCITY_TOLERANCE` (2 cm/s + 10 %); ``omega`` must turn the heading as it
-  turns within :data:`HEADING_TOLERANCE` (0.02 rad + 10 %). A column set that misses anywhere is
+  :data:`DISPLACEMENT_TOLERANCE` (1 cm + 10 % of the step; spans of 10 cm); accelerations must change
+  the velocities as they do within :data:`VELOCITY_TOLERANCE` (2 cm/s + 10 %; spans of 0.2 m/s);
+  ``omega`` must turn the heading as it turns within :data:`HEADING_TOLERANCE` (0.02 rad + 10 %;
+  spans of 0.2 rad). A column set that misses anywhere is
   replaced by the positions' own derivatives, with a note and the largest change. A heading more
   than :data:`HEADING_TO_MOTION` (0.1 rad) off the direction of motion is replaced by it (the
   robot cannot move sideways).
@@ -50,11 +53,11 @@ FloatArray = NDArray[np.float64]
 
 #: Stamps closer than this are one stamp [s] (rows closer than SAME_POSITION are at one position).
 SAME_TIME = 1e-9
-#: (absolute, relative) tolerances of the trapezoid checks: displacement [m], velocity change [m/s],
-#: heading change [rad].
-DISPLACEMENT_TOLERANCE = (0.01, 0.10)
-VELOCITY_TOLERANCE = (0.02, 0.10)
-HEADING_TOLERANCE = (0.02, 0.10)
+#: (absolute, relative, reach) of the trapezoid checks: displacement [m], velocity change [m/s], heading
+#: change [rad]; besides every interval, every span of rows whose changes add up to the reach is checked.
+DISPLACEMENT_TOLERANCE = (0.01, 0.10, 0.10)
+VELOCITY_TOLERANCE = (0.02, 0.10, 0.20)
+HEADING_TOLERANCE = (0.02, 0.10, 0.20)
 #: Largest angle between a given heading and the direction of motion (forwards or backwards) [rad].
 HEADING_TO_MOTION = 0.1
 #: Longest trajectory a file may describe [s]: a longer one almost surely counts milliseconds.
@@ -305,6 +308,8 @@ def import_table(table: FileTable, source: TrajectoryFile) -> ImportedFile:
     """
     report = ImportReport(str(source.path), table.fmt, "trajectory" if source.timed else "path", len(table))
     cols = _required(table, source, report)
+    if "theta" in cols:
+        _refuse_degrees(cols, table.rows, report)
     cols = _to_metres(cols, source)
     rows = table.rows
     if "theta" in cols:
@@ -378,6 +383,33 @@ def _to_metres(cols: dict[str, FloatArray], source: TrajectoryFile) -> dict[str,
         elif any(n in cols for n in names):
             raise TrajectoryFileError(f"columns {names[0]} and {names[1]} come together: give both or neither")
     return out
+
+
+def _refuse_degrees(cols: dict[str, FloatArray], rows: tuple[str, ...], report: ImportReport) -> None:
+    """Refuse headings written in degrees: beyond a turn, and following the direction of motion (forwards
+    or backwards) when read as degrees but not when read as radians."""
+    theta = cols["theta"]
+    if float(np.max(np.abs(theta))) <= 2.0 * np.pi + 1e-9:
+        return
+    d = np.diff(np.column_stack([cols["x"], cols["y"]]), axis=0)
+    moving = np.hypot(d[:, 0], d[:, 1]) > 0.0
+    if not np.any(moving):
+        return
+    motion = np.arctan2(d[moving, 1], d[moving, 0])
+
+    def off(h: FloatArray) -> float:  # median over the moving intervals of the nearer end's angle to the motion
+        ends = np.column_stack([h[:-1][moving], h[1:][moving]]) - motion[:, None]
+        return float(np.median(np.min(np.abs(wrap_angle(2.0 * ends)), axis=1))) / 2.0
+
+    as_rad, as_deg = off(theta), off(np.radians(theta))
+    if as_deg <= 0.1 < as_rad:
+        k = int(np.argmax(np.abs(theta)))
+        raise TrajectoryFileError(
+            f"{report.file}: column theta looks like degrees ({theta[k]:g} at {rows[k]}; read as degrees the "
+            f"headings follow the motion within {as_deg:.2g} rad in the median, read as radians {as_rad:.2g} rad "
+            "off it); give headings in radians (degrees x pi / 180), or leave the column out and the heading "
+            "follows the motion"
+        )
 
 
 def _unwrap(theta: FloatArray, rows: tuple[str, ...], report: ImportReport) -> tuple[FloatArray, int]:
@@ -473,38 +505,59 @@ def _row_direction(direction: FloatArray) -> FloatArray:
 
 
 def _motion_heading(vel: FloatArray, direction: FloatArray) -> FloatArray:
-    """(N,) heading of the motion at each row, backwards where the robot reverses [rad]."""
+    """(N,) heading of the motion at each row, backwards where the robot reverses [rad]; at a row where it
+    is at rest (slower than MOVING_SPEED), the heading of the nearest moving row before it (the first
+    moving row's before any)."""
     s = _row_direction(direction)
-    return np.arctan2(s * vel[:, 1], s * vel[:, 0])
+    heading = np.arctan2(s * vel[:, 1], s * vel[:, 0])
+    moving = np.hypot(vel[:, 0], vel[:, 1]) > MOVING_SPEED
+    if not np.any(moving) or np.all(moving):
+        return heading
+    last = np.maximum.accumulate(np.where(moving, np.arange(heading.size), -1))
+    return heading[np.where(last < 0, int(np.argmax(moving)), last)]
 
 
 class _Check(NamedTuple):
-    """A trapezoid check over every interval of N rows.
+    """A trapezoid check of N rows over every interval and every span of rows that reaches far enough.
 
     Attributes:
-        worst: The interval missing most for its tolerance, or -1 when every interval is within it.
-        change: (N - 1, k) how the rows' values change over each interval.
-        predicted: (N - 1, k) how the rates say they change.
-        miss: (N - 1,) size of the difference (what is checked).
-        allowed: (N - 1,) its tolerance.
+        worst: The span missing most for its tolerance, or -1 when every span is within it.
+        start, end: (M,) the first and last row of each span checked.
+        change: (M, k) how the rows' values change over each span.
+        predicted: (M, k) how the rates say they change.
+        miss: (M,) size of the difference (what is checked).
+        allowed: (M,) its tolerance.
     """
 
     worst: int
+    start: NDArray[np.intp]
+    end: NDArray[np.intp]
     change: FloatArray
     predicted: FloatArray
     miss: FloatArray
     allowed: FloatArray
 
 
-def _miss(t: FloatArray, values: FloatArray, rates: FloatArray, tol: tuple[float, float]) -> _Check:
-    """Trapezoid check of ``rates`` (N, k) against ``values`` (N, k): over each interval the change the
-    rates predict must be within ``tol`` (absolute, relative to the change) of the change of the values."""
-    change = np.diff(values, axis=0)
-    predicted = 0.5 * np.diff(t)[:, None] * (rates[:-1] + rates[1:])
-    miss = np.linalg.norm(change - predicted, axis=1)
+def _miss(t: FloatArray, values: FloatArray, rates: FloatArray, tol: tuple[float, float, float]) -> _Check:
+    """Trapezoid check of ``rates`` (N, k) against ``values`` (N, k): over each interval, and from each row
+    to the first one whose changes add up to ``tol[2]``, the change the rates predict must be within
+    ``tol[:2]`` (absolute, relative to the change) of the change of the values."""
+    step = np.diff(values, axis=0)
+    predicted = np.concatenate(
+        [np.zeros((1, values.shape[1])), np.cumsum(0.5 * np.diff(t)[:, None] * (rates[:-1] + rates[1:]), axis=0)]
+    )
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(step, axis=1))])
+    first = np.arange(len(t) - 1)
+    reach = np.searchsorted(arc, arc[:-1] + tol[2])
+    span = np.flatnonzero((reach > first + 1) & (reach < len(t)))
+    start = np.concatenate([first, span])
+    end = np.concatenate([first + 1, reach[span]])
+    change = values[end] - values[start]
+    pred = predicted[end] - predicted[start]
+    miss = np.linalg.norm(change - pred, axis=1)
     allowed = tol[0] + tol[1] * np.linalg.norm(change, axis=1)
     worst = int(np.argmax(miss / allowed))
-    return _Check(worst if miss[worst] > allowed[worst] else -1, change, predicted, miss, allowed)
+    return _Check(worst if miss[worst] > allowed[worst] else -1, start, end, change, pred, miss, allowed)
 
 
 def _quantity(value: FloatArray, unit: str) -> str:
@@ -531,7 +584,7 @@ def _replace(
     """
     i, unit = check.worst, units[1]
     report.notes.append(
-        f"{what} disagree with the positions: from {rows[i]} to {rows[i + 1]} they {verb} "
+        f"{what} disagree with the positions: from {rows[check.start[i]]} to {rows[check.end[i]]} they {verb} "
         f"{_quantity(check.predicted[i], unit)} but the rows {verb} {_quantity(check.change[i], unit)}, "
         f"{check.miss[i]:.3g} {unit} apart (tolerance {check.allowed[i]:.3g} {unit}); replaced by the positions' own"
     )
@@ -557,10 +610,7 @@ def _timed(
     positions' own; headings and yaw rates checked."""
     t, xy = cols["t"], cols["xy"]
     if t[-1] - t[0] > MAX_DURATION:
-        raise TrajectoryFileError(
-            f"{report.file}: the trajectory lasts {t[-1] - t[0]:.6g} s, more than {MAX_DURATION:g} s: if its clock "
-            "counts milliseconds, give --time-scale 0.001 (seconds per file time unit)"
-        )
+        raise TrajectoryFileError(_too_long(report.file, t[-1] - t[0], source.time_scale or 1.0))
     direction = _directions(cols)
     fit = stretch_fit(t, xy)
     derived = fit(t, 1)
@@ -591,6 +641,18 @@ def _timed(
             _replace(report, "yaw rates omega", rows, check, omega[:, None], own[:, None], ("rad/s", "rad"), "turn")
             omega = None
     return ImportedFile(source, rows, xy, t, theta, direction, curve, omega, report)
+
+
+def _too_long(file: str, span: float, time_scale: float) -> str:
+    """What to say of a file lasting ``span`` seconds (more than MAX_DURATION) at ``time_scale``: the
+    first of milli-, micro- and nanoseconds per file time unit that brings it under the limit."""
+    given = f" at --time-scale {time_scale:g}" if time_scale != 1.0 else ""
+    text = f"{file}: the trajectory lasts {span:.6g} s{given}, more than {MAX_DURATION:g} s"
+    for power, unit in ((3, "milliseconds"), (6, "microseconds"), (9, "nanoseconds")):
+        if span * 10.0**-power <= MAX_DURATION:
+            scale = time_scale * 10.0**-power
+            return f"{text}: if its clock counts {unit}, give --time-scale {scale:g} (seconds per file time unit)"
+    return f"{text}: give --time-scale with the seconds per file time unit, or fix the stamps"
 
 
 def _with_velocities(
