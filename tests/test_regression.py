@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -153,6 +154,172 @@ def test_bad_suite_files(tmp_path: Path, text: str, match: str) -> None:
     path.write_text(text)
     with pytest.raises(regress.ConfigError, match=match):
         load_suite(path)
+
+
+#: A good case's fields, for a suite of one case with a field changed.
+GOOD = {"scenario": '"open"', "robot": '"turtlebot3"', "reference": '"circle"', "tracker": '"fbl"', "seed": "0"}
+
+
+def _one_case(tmp_path: Path, tail: str = "", **fields: str) -> Path:
+    """A suite of one case: :data:`GOOD` with ``fields`` (TOML text; "" drops a field), then ``tail``."""
+    table = ", ".join(f"{k} = {v}" for k, v in {**GOOD, **fields}.items() if v)
+    path = tmp_path / "suite.toml"
+    path.write_text(f"cases = [\n  {{ {table} }},\n]\n{tail}")
+    return path
+
+
+@pytest.mark.parametrize(
+    "name", ["../../evil", "a/b", "sub/../x", "a\\b", "/abs", "", ".hidden", "..", "a b", "a*b", "é", "x" * 201]
+)
+def test_a_case_name_must_be_a_plain_file_name(tmp_path: Path, name: str) -> None:
+    path = _one_case(tmp_path, name=json.dumps(name))
+    with pytest.raises(ConfigError, match=r"case 1 .*name = .*letters, digits, '\.', '_' and '-'") as err:
+        load_suite(path)
+    assert str(path) in str(err.value)
+
+
+def test_a_name_that_would_write_outside_the_baselines_folder_is_refused_and_nothing_written(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    work = tmp_path / "a" / "b"
+    work.mkdir(parents=True)
+    suite = _one_case(work, name='"../../evil"', fast="true")
+    assert main(["regress", "--suite", str(suite), "--baselines", str(work / "bl"), "--update", "--all"]) == 2
+    err = capsys.readouterr().err
+    assert "name = " in err and "Traceback" not in err
+    assert sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*")) == ["a", "a/b", "a/b/suite.toml"]
+
+
+def test_default_names_are_plain_file_names_and_a_scenario_path_needs_a_name(tmp_path: Path) -> None:
+    from planning.scenario import SCENARIOS_DIR
+
+    assert all(regress.NAME_FORM.fullmatch(c.name) for c in SUITE.cases)
+    assert load_suite(_one_case(tmp_path, control_rate="62.5", seed="12")).cases[0].name == (
+        "open-turtlebot3-circle-fbl-s12-62.5hz"
+    )
+    scenario = json.dumps(str(SCENARIOS_DIR / "open.toml"))
+    with pytest.raises(ConfigError, match=r"case 1 .*default name '/.*open\.toml.*give the case a name"):
+        load_suite(_one_case(tmp_path, scenario=scenario))
+    assert load_suite(_one_case(tmp_path, scenario=scenario, name='"open-file"')).cases[0].name == "open-file"
+
+
+#: field -> (TOML value, what the message must say beside ``field = value``); each a typo or a bad value that
+#: once passed loading (or raised a traceback) and failed only when the case ran.
+BAD_FIELDS = {
+    "control_rate_text": ("control_rate", '"fast"', "finite number of Hz > 0"),
+    "control_rate_nan": ("control_rate", "nan", "finite number of Hz > 0"),
+    "control_rate_bool": ("control_rate", "true", "finite number of Hz > 0"),
+    "control_rate_odd": ("control_rate", "33", "divides 500 Hz"),
+    "seed_text": ("seed", '"zero"', "whole number >= 0, e.g. seed = 0"),
+    "seed_fraction": ("seed", "1.5", "whole number >= 0"),
+    "seed_negative": ("seed", "-1", "whole number >= 0"),
+    "build_seed_text": ("build_seed", '"nom"', 'whole number >= 0, e.g. build_seed = 1, or "nominal"'),
+    "build_seed_negative": ("build_seed", "-3", "whole number >= 0"),
+    "fast_text": ("fast", '"yes"', "true or false"),
+    "scenario_typo": ("scenario", '"opne"', "unknown scenario 'opne'.*open"),
+    "scenario_number": ("scenario", "5", 'text in quotes, e.g. scenario = "open"'),
+    "scenario_empty": ("scenario", '""', "must name a built-in scenario"),
+    "robot_typo": ("robot", '"turtlebot"', 'unknown robot; choose one of "turtlebot3"'),
+    "robot_not_in_scenario": ("scenario", '"three_point_turn"', "robot 'edumip' is not one of .*'s robots"),
+    "reference_typo": ("reference", '"circl"', 'unknown reference; choose one of "figure8", "circle", "line"'),
+    "tracker_typo": ("tracker", '"fbll"', 'unknown tracker; choose one of "fbl"'),
+    "localiser_typo": ("localiser", '"amlc"', 'unknown localiser; choose one of "amcl", "fixes"'),
+    "gains_number": ("gains", "9", 'text in quotes, e.g. gains = "9,6"'),
+    "gains_form": ("gains", '"9"', "'KP,KD'"),
+    "perturb_key": ("perturb", '"mas=1"', "keys friction, mass"),
+    "perturb_range": ("perturb", '"mass=100"', r"outside \[0.1, 10\]"),
+    "sensors_key": ("sensors", '"fix_rat=5"', "keys encoder_cpr.*fix_rate"),
+    "sensors_range": ("sensors", '"fix_rate=-1"', 'outside.*e.g. sensors = "fix_rate=5"'),
+    "sensors_number": ("sensors", "5", "text in quotes"),
+}
+
+
+@pytest.mark.parametrize(("key", "value", "says"), BAD_FIELDS.values(), ids=list(BAD_FIELDS))
+def test_a_bad_case_field_is_refused_at_load_naming_file_case_field_and_form(
+    tmp_path: Path, key: str, value: str, says: str
+) -> None:
+    fields = {key: value}
+    if key == "seed":
+        fields["perturb"] = '"noise=0.001"'  # the perturbation's noise is seeded by the case's seed
+    if value == '"three_point_turn"':
+        fields["robot"] = '"edumip"'  # a scenario that does not list the robot
+    path = _one_case(tmp_path, **fields)
+    with pytest.raises(ConfigError) as err:
+        load_suite(path)
+    message = str(err.value)
+    assert message.startswith(f"{path} case 1 (") and f": {key} = {value}: " in message, message
+    assert re.search(says, message), message
+    assert not re.search(r"--[a-z]", message), message  # the suite's fields, not the command line's options
+
+
+def test_a_planned_case_needs_a_planner_the_scenario_lacks_and_labels_are_readable(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=r'planner = "rtt": unknown planner; choose one of .*"rrt"'):
+        load_suite(_one_case(tmp_path, reference="", planner='"rtt"', tracker='"segmented"'))
+    with pytest.raises(ConfigError, match=r'planner = "": scenario \'open\' names no planner; choose one of'):
+        load_suite(_one_case(tmp_path, reference="", planner='""', tracker='"segmented"'))
+    with pytest.raises(ConfigError) as err:
+        load_suite(_one_case(tmp_path, reference=""))
+    message = str(err.value)
+    assert "case 1 (open-turtlebot3-fbl): give exactly one of reference" in message and "None" not in message
+
+
+def test_amcl_needs_a_robot_with_a_laser_scanner(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=r'localiser = "amcl": robot \'edumip\' has no laser scanner.*"fixes"'):
+        load_suite(_one_case(tmp_path, robot='"edumip"', localiser='"amcl"'))
+    assert load_suite(_one_case(tmp_path, localiser='"amcl"')).cases[0].localiser == "amcl"
+
+
+@pytest.mark.parametrize(
+    ("tail", "says"),
+    [
+        ("tolerances = 5\n", r"tolerances = 5: must be a \[tolerances\] table"),
+        ('[tolerances]\nfinal_position_error_m = { abs = "small", rel = 0.1 }\n', 'abs = "small": must be a finite'),
+        ("[tolerances]\nfinal_position_error_m = { abs = true }\n", "abs = true: must be a finite number >= 0"),
+        ("[tolerances]\nfinal_position_error_m = { rel = nan }\n", "rel = nan: must be a finite number >= 0"),
+        ("[tolerances]\nfinal_position_error_m = 3\n", r"final_position_error_m = 3: must be \{ abs = A, rel = R \}"),
+        ("[tolerance]\nfinal_position_error_m = { abs = 1 }\n", "unknown key.*tolerance; a suite file has"),
+    ],
+)
+def test_bad_tolerances_and_unknown_tables_are_refused(tmp_path: Path, tail: str, says: str) -> None:
+    path = _one_case(tmp_path, tail=tail)
+    with pytest.raises(ConfigError, match=says) as err:
+        load_suite(path)
+    assert str(path) in str(err.value)
+
+
+def test_suite_file_encodings(tmp_path: Path) -> None:
+    good = _one_case(tmp_path).read_bytes()
+    path = tmp_path / "suite.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + good)  # a byte-order mark, as Windows editors write
+    assert load_suite(path).cases[0].name == "open-turtlebot3-circle-fbl-s0"
+    path.write_bytes("# café\n".encode("latin-1") + good)
+    with pytest.raises(ConfigError, match=r"suite\.toml: not UTF-8 text \(byte offset 5 is 0xe9\); save .* as UTF-8"):
+        load_suite(path)
+
+
+def test_names_differing_only_in_letter_case_are_duplicates(tmp_path: Path) -> None:
+    path = tmp_path / "suite.toml"
+    path.write_text(
+        'cases = [{ name = "Ab", scenario = "open", reference = "line" }, '
+        '{ name = "aB", scenario = "open", reference = "circle" }]\n'
+    )
+    with pytest.raises(ConfigError, match=r"duplicate case name.*Ab, aB"):
+        load_suite(path)
+
+
+@pytest.mark.parametrize(
+    "fields",
+    [{"control_rate": '"fast"'}, {"control_rate": "nan"}, {"seed": '"zero"', "perturb": '"mass=1.1"'}],
+    ids=["control_rate_text", "control_rate_nan", "seed_text"],
+)
+def test_bad_values_exit_2_without_a_traceback(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], fields: dict[str, str]
+) -> None:
+    path = _one_case(tmp_path, **fields)
+    assert main(["regress", "--suite", str(path), "--baselines", str(tmp_path / "bl"), "--list", "--all"]) == 2
+    err = capsys.readouterr().err
+    assert f"{path} case 1 (open-turtlebot3-circle-fbl): " in err and "Traceback" not in err
+    assert not (tmp_path / "bl").exists()
 
 
 def test_unknown_scenario_case_is_an_error_naming_it(tmp_path: Path) -> None:

@@ -3,7 +3,10 @@
 A suite file (the repository's is ``tests/regression_suite.toml``) lists cases, one line each, in a ``cases`` array of
 inline tables with the fields of :class:`sim.pipeline.case.Case` (scenario, robot, reference or planner,
 tracker, seed, control_rate; optional name, gains "KP,KD", perturb "key=value,...", fast), and a
-``[tolerances]`` table ``metric = { abs = A, rel = R }``.
+``[tolerances]`` table ``metric = { abs = A, rel = R }``. A case's name (given, or made of its fields) is
+its baseline's file name, so a plain one (:data:`NAME_FORM`). Loading checks every field, and what would
+stop every run of a case short of planning (its scenario and robot, control rate, localiser, sensors):
+bad input names the file, the case and the field, before any case runs.
 
 Each case is run twice in one process; the two logs must be bitwise identical
 (:meth:`RunLog.identical_to`) or the case fails as non-deterministic. Its metrics are compared
@@ -28,23 +31,31 @@ import functools
 import json
 import math
 import platform
+import re
 import tomllib
 import zlib
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
 from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+from control.base import TRACKERS
 from control.fbl import FBLGains
+from planning.core.robot import ROBOT_FILES
 from planning.errors import ConfigError, NhsimError, SimulationError
+from planning.planners.registry import PLANNERS
+from planning.trajectory.references import REFERENCES
+from sim.physics.asbuilt import DEFAULT_BUILD_SEED
+from sim.physics.lidar import load_lidar_profile
 from sim.physics.metrics import TrackingMetrics
 from sim.physics.model import robot_timestep
 from sim.physics.motors import control_steps
 from sim.physics.perturb import Perturbation
 from sim.pipeline.case import Case, load_case_scenario
 from sim.pipeline.simulate import prepare_case
+from sim.robot.scan_localiser import LOCALISERS
 
 #: Metric -> "lower" (higher is worse) or "equal" (any change is a change).
 DIRECTIONS: dict[str, str] = {
@@ -143,70 +154,274 @@ class Suite:
         return out
 
 
-def _case_from_table(entry: Any, where: str) -> Case:
+#: Top-level keys of a suite file.
+SUITE_KEYS = ("cases", "tolerances")
+#: Case fields whose value is a registry's name: field -> the registry (its names are the allowed values).
+CHOICES: dict[str, Collection[str]] = {
+    "robot": ROBOT_FILES,
+    "reference": REFERENCES,
+    "planner": PLANNERS,  # or "" for the scenario's own planner
+    "tracker": TRACKERS,
+    "localiser": LOCALISERS,
+}
+#: Case fields that are text, with a valid value of each for messages.
+TEXT_EXAMPLES = {
+    "scenario": "open",
+    "name": "open-turtlebot3-circle-fbl-s0",
+    "gains": "9,6",
+    "perturb": "mass=1.3",
+    "sensors": "fix_rate=10",
+}
+#: A case name: its baseline is ``<name>.json`` in the baselines folder, so it must be a plain file name.
+NAME_FORM = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,199}")
+NAME_RULE = "a name may use letters, digits, '.', '_' and '-' (at most 200), starting with a letter or digit"
+
+
+def _toml(value: Any) -> str:
+    """A value as a suite file writes it (``"text"``, ``true``, ``1.5``, ``nan``)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    return json.dumps(value, default=str, ensure_ascii=False)
+
+
+def _is_number(value: Any) -> bool:
+    """A finite TOML number (an integer or a float; true and false are not numbers)."""
+    return not isinstance(value, bool) and isinstance(value, int | float) and math.isfinite(value)
+
+
+def _as_field(key: str, match: re.Match[str]) -> str:
+    """An option's mention (``match``: its value, if any, in group 1) as ``key = value``, as a suite file
+    writes it (``key = ...`` without a value)."""
+    token = match[1]
+    if token is None:
+        return f"{key} = ..."
+    try:
+        float(token)
+    except ValueError:
+        return f"{key} = {json.dumps(token)}"
+    return f"{key} = {token}"
+
+
+def _suite_terms(message: str) -> str:
+    """A message of a parser the command line shares, its options put as the suite's fields:
+    ``e.g. --sensors fix_rate=5`` -> ``e.g. sensors = "fix_rate=5"``, ``with --robot`` -> ``with robot = ...``."""
+    for key in CASE_KEYS:
+        flag = "--" + key.replace("_", "-")
+        message = re.sub(rf"{flag}(?![\w-])(?: '?([\w.=+@-]+)'?)?", functools.partial(_as_field, key), message)
+    return message
+
+
+def _field_error(where: str, key: str, value: Any, problem: str) -> ConfigError:
+    """The error of a case's bad field: the file, the case, the field as written, and what it must be."""
+    problem = problem.removeprefix(f"--{key} {value!r}: ")  # a parser's echo of the text, said once
+    return ConfigError(f"{where}: {key} = {_toml(value)}: {_suite_terms(problem)}")
+
+
+def _check_name(name: str) -> None:
+    """Raise :class:`ConfigError` unless ``name`` is a plain file name (:data:`NAME_FORM`)."""
+    if not NAME_FORM.fullmatch(name):
+        raise ConfigError(f"not a plain file name for its baseline <name>.json in the baselines folder; {NAME_RULE}")
+
+
+def _checked(key: str, value: Any) -> Any:
+    """A case field's value as :class:`Case` takes it.
+
+    Raises:
+        ConfigError: What the field must be (the caller names the file, the case and the field).
+    """
+    if key in CHOICES:
+        names = CHOICES[key]
+        if not (isinstance(value, str) and (value in names or (key == "planner" and value == ""))):
+            own = ' (or "" for the scenario\'s own planner)' if key == "planner" else ""
+            raise ConfigError(f"unknown {key}; choose one of {', '.join(map(json.dumps, names))}{own}")
+        return value
+    if key in ("seed", "build_seed"):
+        if key == "build_seed" and value == "nominal":
+            return None  # the robot as drawn
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            example = f'{DEFAULT_BUILD_SEED}, or "nominal" for the robot as drawn' if key == "build_seed" else "0"
+            raise ConfigError(f"must be a whole number >= 0, e.g. {key} = {example}")
+        return value
+    if key == "control_rate":
+        if not (_is_number(value) and value > 0):
+            raise ConfigError("must be a finite number of Hz > 0, e.g. control_rate = 50")
+        return float(value)
+    if key == "fast":
+        if not isinstance(value, bool):
+            raise ConfigError("must be true or false (without quotes)")
+        return value
+    if not isinstance(value, str):
+        raise ConfigError(f"must be text in quotes, e.g. {key} = {json.dumps(TEXT_EXAMPLES[key])}")
+    if key == "scenario" and not value.strip():
+        raise ConfigError('must name a built-in scenario, random<N> or a scenario file, e.g. scenario = "open"')
+    if key == "name":
+        _check_name(value)
+    return FBLGains.parse(value) if key == "gains" else value
+
+
+def _label(entry: Any) -> str:
+    """A case as messages name it before it is built: its name, else its fields in short."""
     if not isinstance(entry, dict):
-        raise ConfigError(f"{where}: a case must be an inline table {{ scenario = ..., ... }}, got {entry!r}")
+        return "not a table"
+    if entry.get("name") and isinstance(entry["name"], str):
+        return str(entry["name"])
+    keys = ("scenario", "robot", "reference", "planner", "tracker")
+    return "-".join(str(entry[k]) for k in keys if k in entry) or "no fields"
+
+
+def _case_from_table(entry: Any, where: str) -> Case:
+    """A suite's case table as a :class:`Case`, every field checked (``where`` names the file and the case).
+
+    Raises:
+        ConfigError: A field that is unknown, missing, of the wrong type or not one of its values, naming
+            it and what it must be.
+    """
+    if not isinstance(entry, dict):
+        raise ConfigError(f"{where}: a case must be an inline table {{ scenario = ..., ... }}, got {_toml(entry)}")
     unknown = set(entry) - CASE_KEYS
     if unknown:
         raise ConfigError(f"{where}: unknown case field(s) {', '.join(sorted(unknown))}; allowed: {sorted(CASE_KEYS)}")
     if "scenario" not in entry:
-        raise ConfigError(f"{where}: case {entry!r} has no scenario")
-    fields_ = dict(entry)
-    if "gains" in fields_:
-        fields_["gains"] = FBLGains.parse(str(fields_["gains"]))
+        raise ConfigError(f'{where}: the case has no scenario; add scenario = "..." (e.g. scenario = "open")')
+    if ("reference" in entry) == ("planner" in entry):
+        raise ConfigError(
+            f'{where}: give exactly one of reference = "..." (an analytic path: {", ".join(REFERENCES)}) or '
+            f'planner = "..." (a plan of the scenario: {", ".join(PLANNERS)})'
+        )
+    fields_: dict[str, Any] = {}
+    for key, value in entry.items():
+        try:
+            fields_[key] = _checked(key, value)
+        except ConfigError as exc:
+            raise _field_error(where, key, value, str(exc)) from exc
     if "perturb" in fields_:
-        fields_["perturbation"] = Perturbation.parse(str(fields_.pop("perturb")), seed=int(fields_.get("seed", 0)))
-    if "control_rate" in fields_:
-        fields_["control_rate"] = float(fields_["control_rate"])
-    if fields_.get("build_seed") == "nominal":  # the robot as drawn
-        fields_["build_seed"] = None
+        try:
+            fields_["perturbation"] = Perturbation.parse(fields_.pop("perturb"), seed=fields_.get("seed", 0))
+        except ConfigError as exc:
+            raise _field_error(where, "perturb", entry["perturb"], str(exc)) from exc
     fields_.setdefault("localiser", "fixes")  # the suite's cases run on synthetic fixes unless they name amcl
     try:
-        return Case(**fields_)
-    except TypeError as exc:
-        raise ConfigError(f"{where}: bad case {entry!r}: {exc}") from exc
+        case = Case(**fields_)
+    except (ConfigError, TypeError) as exc:
+        raise ConfigError(f"{where}: {_suite_terms(str(exc))}") from exc
+    try:
+        _check_name(case.name)  # the default one, made of the fields (a scenario given as a path has '/')
+    except ConfigError as exc:
+        raise ConfigError(f'{where}: its default name {case.name!r} is {exc}; give the case a name = "..."') from exc
+    return case
+
+
+def _check_case_runs(case: Case, entry: dict[str, Any], where: str) -> None:
+    """Refuse, as the suite loads, what would stop every run of a case: the run's own checks
+    (:func:`sim.pipeline.simulate.prepare_case`) short of planning.
+
+    Raises:
+        ConfigError: An unknown scenario or one without the robot, no planner, a control rate the robot's
+            physics cannot keep, amcl for a robot without a laser scanner, bad sensor overrides.
+    """
+    try:
+        scenario = load_case_scenario(case)
+    except NhsimError as exc:
+        raise _field_error(where, "scenario", entry["scenario"], str(exc)) from exc
+    if case.planner == "" and scenario.planner is None:
+        names = ", ".join(map(json.dumps, PLANNERS))
+        raise _field_error(where, "planner", "", f"scenario {scenario.name!r} names no planner; choose one of {names}")
+    try:  # a rate the robot's physics cannot keep is bad input, found before any case runs
+        control_steps(case.control_rate, robot_timestep(scenario.robot))
+    except ConfigError as exc:
+        raise _field_error(where, "control_rate", entry.get("control_rate", case.control_rate), str(exc)) from exc
+    if case.localiser == "amcl" and load_lidar_profile(scenario.robot) is None:
+        scanned = ", ".join(r for r in ROBOT_FILES if load_lidar_profile(r) is not None)
+        problem = f'robot {scenario.robot!r} has no laser scanner to localise with; use localiser = "fixes"'
+        raise _field_error(where, "localiser", "amcl", f"{problem}, or a robot with a scanner ({scanned})")
+    try:
+        case.sensing(scenario)  # the sensor overrides over the robot's profile and the scenario's [sensors]
+    except ConfigError as exc:
+        if not case.sensors:
+            raise ConfigError(f"{where}: {_suite_terms(str(exc))}") from exc
+        raise _field_error(where, "sensors", case.sensors, str(exc)) from exc
+
+
+def _read_suite(p: Path) -> dict[str, Any]:
+    """A suite file's TOML (UTF-8; a byte-order mark is dropped).
+
+    Raises:
+        ConfigError: Unreadable, not UTF-8, not TOML, or a key beside ``cases`` and ``[tolerances]``.
+    """
+    try:
+        text = p.read_text(encoding="utf-8-sig")  # a byte-order mark (Windows editors) is dropped
+    except OSError as exc:
+        raise ConfigError(f"cannot read regression suite {p}: {exc.strerror or exc}") from exc
+    except UnicodeDecodeError as exc:
+        raise ConfigError(
+            f"{p}: not UTF-8 text (byte offset {exc.start} is {exc.object[exc.start]:#04x}); "
+            "save the suite file as UTF-8"
+        ) from exc
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{p}: not valid TOML: {exc}") from exc
+    unknown = sorted(set(data) - set(SUITE_KEYS))
+    if unknown:
+        raise ConfigError(
+            f"{p}: unknown key(s) {', '.join(unknown)}; a suite file has a 'cases' array and a [tolerances] table"
+        )
+    return data
+
+
+def _tolerances(p: Path, table: Any) -> dict[str, Tolerance]:
+    """The default tolerances with a suite's ``[tolerances]`` table over them.
+
+    Raises:
+        ConfigError: Not a table, an unknown metric, or a bound that is not a finite number >= 0.
+    """
+    form = "{ abs = A, rel = R }"
+    if not isinstance(table, dict):
+        raise ConfigError(f"{p}: tolerances = {_toml(table)}: must be a [tolerances] table of metric = {form}")
+    tolerances = dict(DEFAULT_TOLERANCES)
+    for metric, spec in table.items():
+        if metric not in DIRECTIONS:
+            raise ConfigError(f"{p}: [tolerances] {metric!r} is not a metric; choose from {', '.join(DIRECTIONS)}")
+        if not (isinstance(spec, dict) and set(spec) <= {"abs", "rel"}):
+            raise ConfigError(f"{p}: [tolerances] {metric} = {_toml(spec)}: must be {form}")
+        for key, bound in spec.items():
+            if not (_is_number(bound) and bound >= 0):
+                raise ConfigError(
+                    f"{p}: [tolerances] {metric} {key} = {_toml(bound)}: must be a finite number >= 0, e.g. "
+                    f"{metric} = {{ abs = 1e-3, rel = 0.1 }}"
+                )
+        tolerances[metric] = Tolerance(float(spec.get("abs", 0.0)), float(spec.get("rel", 0.0)))
+    return tolerances
 
 
 def load_suite(path: str | Path) -> Suite:
-    """Read a suite file.
+    """Read a suite file, checking every case as far as can be without running it.
 
     Args:
         path: The suite's TOML file.
 
     Raises:
-        ConfigError: Unreadable or malformed file, a bad case, duplicate case names.
+        ConfigError: Unreadable or malformed file, a bad case (naming the file, the case's number and
+            name, the field and what it must be), duplicate case names, bad tolerances.
     """
     p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ConfigError(f"cannot read regression suite {p}: {exc.strerror or exc}") from exc
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{p}: not valid TOML: {exc}") from exc
+    data = _read_suite(p)
     entries = data.get("cases")
     if not isinstance(entries, list) or not entries:
         raise ConfigError(f"{p}: needs a non-empty 'cases' array of inline tables (before any [table])")
-    cases = tuple(_case_from_table(e, f"{p} case {i + 1}") for i, e in enumerate(entries))
-    for i, case in enumerate(cases):
-        try:  # a rate the robot's physics cannot keep is bad input, found before any case runs
-            control_steps(case.control_rate, robot_timestep(case.robot or load_case_scenario(case).robot))
-        except ConfigError as exc:
-            raise ConfigError(f"{p} case {i + 1} ({case.name}): {exc}") from exc
-    names = [c.name for c in cases]
-    dup = sorted({n for n in names if names.count(n) > 1})
+    cases = []
+    for i, entry in enumerate(entries):
+        case = _case_from_table(entry, f"{p} case {i + 1} ({_label(entry)})")
+        _check_case_runs(case, entry, f"{p} case {i + 1} ({case.name})")
+        cases.append(case)
+    folded = [c.name.lower() for c in cases]  # names differing only in case share a file where case is folded
+    dup = sorted({c.name for c in cases if folded.count(c.name.lower()) > 1})
     if dup:
-        raise ConfigError(f"{p}: duplicate case name(s) {', '.join(dup)}; give each a distinct name = '...'")
-    tolerances = dict(DEFAULT_TOLERANCES)
-    for metric, spec in data.get("tolerances", {}).items():
-        if metric not in DIRECTIONS:
-            raise ConfigError(f"{p}: [tolerances] {metric!r} is not a metric; choose from {', '.join(DIRECTIONS)}")
-        if not (isinstance(spec, dict) and set(spec) <= {"abs", "rel"}):
-            raise ConfigError(f"{p}: [tolerances] {metric} must be {{ abs = A, rel = R }}, got {spec!r}")
-        tol = Tolerance(float(spec.get("abs", 0.0)), float(spec.get("rel", 0.0)))
-        if tol.abs < 0 or tol.rel < 0 or not (math.isfinite(tol.abs) and math.isfinite(tol.rel)):
-            raise ConfigError(f"{p}: [tolerances] {metric} must be finite and >= 0, got {spec!r}")
-        tolerances[metric] = tol
-    return Suite(cases, tolerances, p)
+        raise ConfigError(
+            f"{p}: duplicate case name(s) {', '.join(dup)}; give each a distinct name = '...' (names differing only "
+            "in letter case would share a baseline file where the file system ignores case)"
+        )
+    return Suite(tuple(cases), _tolerances(p, data.get("tolerances", {})), p)
 
 
 @functools.cache
