@@ -52,6 +52,8 @@ def test_defaults_are_nav2s_and_bad_settings_are_refused() -> None:
         c.parse("particles=100")
     with pytest.raises(ConfigError, match="max_particles=100 is below min_particles=500"):
         c.parse("max_particles=100")
+    with pytest.raises(ConfigError, match=r"max_particles=1000000000000 is above 1,000,000.*at most 1000000"):
+        c.parse("max_particles=1e12")  # not a 22 TB array
     with pytest.raises(ConfigError, match="sigma_hit must be > 0"):
         c.override({"sigma_hit": 0.0})
     assert c.parse("max_particles=1000,refine=0").max_particles == 1000

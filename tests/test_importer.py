@@ -131,6 +131,17 @@ def test_missing_columns_and_a_single_position_are_errors(
         read_trajectory_file(TrajectoryFile(p, timed=timed))
 
 
+@pytest.mark.parametrize(
+    ("scale", "offset"), [(1e300, (0.0, 0.0, 0.0)), (None, (1e300, 0.0, 0.0)), (1e10, (0.0, 0.0, 0.0))]
+)
+def test_positions_scaled_or_moved_out_of_reach_are_refused_without_overflowing(
+    tmp_path: Path, scale: float | None, offset: tuple[float, float, float]
+) -> None:
+    p = write_csv(tmp_path / "a.csv", {"t": np.array([0.0, 1.0]), "x": np.array([0.0, 1.0]), "y": np.zeros(2)})
+    with np.errstate(all="raise"), pytest.raises(TrajectoryFileError, match=r"positions reach .* more than 1e\+09 m"):
+        read_trajectory_file(TrajectoryFile(p, scale=scale, offset=offset))
+
+
 def test_a_clock_scaled_too_little_is_told_the_scale_that_fits(tmp_path: Path) -> None:
     p = write_csv(tmp_path / "ns.csv", {"t": np.array([0.0, 2e10]), "x": np.array([0.0, 1.0]), "y": np.zeros(2)})
     with pytest.raises(TrajectoryFileError, match=r"2e\+07 s at --time-scale 0\.001.*give --time-scale 1e-09"):

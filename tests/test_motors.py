@@ -13,7 +13,7 @@ import pytest
 
 from planning.core.robot import ROBOTS_DIR
 from planning.errors import ConfigError, ModelError
-from sim.physics.motors import MotorModel
+from sim.physics.motors import MIN_CONTROL_RATE, MotorModel, control_steps
 from sim.robot.wheel_firmware import VelocityLoop
 
 MODELS = {"turtlebot3": ROBOTS_DIR / "turtlebot3_burger.xml", "edumip": ROBOTS_DIR / "edumip.xml"}
@@ -171,3 +171,12 @@ def test_a_model_whose_motor_disagrees_is_refused_by_name(tmp_path: Path) -> Non
 def test_bad_parameters_name_the_field(field: str, value: float, match: str) -> None:
     with pytest.raises(ConfigError, match=match):
         dataclasses.replace(_motor("turtlebot3"), **{field: value})
+
+
+@pytest.mark.parametrize("rate", [1e-300, 0.5, 0.999, float("nan")])
+def test_a_control_rate_below_the_floor_is_refused_not_stepped(rate: float) -> None:
+    # 1e-300 Hz is a whole number (5e302) of 2 ms steps in floating point: without the floor the schedule
+    # of a run would loop that many times
+    with pytest.raises(ConfigError, match=rf"below {MIN_CONTROL_RATE:g} Hz.*divides 500 Hz"):
+        control_steps(rate, 0.002)
+    assert control_steps(MIN_CONTROL_RATE, 0.002) == 500 and control_steps(50.0, 0.002) == 10

@@ -84,6 +84,8 @@ SEARCH_KEPT = 20
 GRID_MARGIN = 0.5
 #: A valid ``--amcl`` text, quoted in messages.
 EXAMPLE = "max_particles=1000,refine=0"
+#: Largest particle set a configuration may ask for (a set of that size takes ~50 MB and seconds a scan).
+MAX_PARTICLES = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -161,6 +163,11 @@ class AmclConfig:
         if self.max_particles < self.min_particles:
             raise ConfigError(
                 f"amcl max_particles={self.max_particles} is below min_particles={self.min_particles}; raise it"
+            )
+        if self.max_particles > MAX_PARTICLES:
+            raise ConfigError(
+                f"amcl max_particles={self.max_particles} is above {MAX_PARTICLES:,}: each particle is resampled and "
+                f"scored every scan (Nav2's default is 2000); give at most {MAX_PARTICLES}"
             )
         for name in ("sigma_hit", "pf_err", "map_resolution", "max_beams", "resample_interval"):
             if getattr(self, name) <= 0:

@@ -63,6 +63,9 @@ HEADING_TO_MOTION = 0.1
 #: Longest trajectory a file may describe [s]: a longer one almost surely counts milliseconds.
 MAX_DURATION = 3600.0
 
+#: Farthest a file's position may be from the origin once scaled and moved [m].
+MAX_COORDINATE = 1e9
+
 _DERIVATIVES = ("v", "omega", "vx", "vy", "ax", "ay")
 
 
@@ -367,7 +370,15 @@ def _to_metres(cols: dict[str, FloatArray], source: TrajectoryFile) -> dict[str,
     def turn(u: FloatArray, w: FloatArray, k: float) -> FloatArray:  # (N, 2): (u, w) * k turned by oth
         return np.column_stack([k * (c * u - si * w), k * (si * u + c * w)])
 
-    out: dict[str, FloatArray] = {"xy": turn(cols["x"], cols["y"], s) + np.array([ox, oy])}
+    with np.errstate(over="ignore", invalid="ignore"):
+        out: dict[str, FloatArray] = {"xy": turn(cols["x"], cols["y"], s) + np.array([ox, oy])}
+    far = float(np.max(np.abs(out["xy"]))) if np.all(np.isfinite(out["xy"])) else np.inf
+    if far > MAX_COORDINATE:
+        raise TrajectoryFileError(
+            f"{source.path}: after --scale {s:g} and --offset {ox:g},{oy:g},{oth:g} the file's positions reach "
+            f"{far:.3g} m from the origin, more than {MAX_COORDINATE:g} m: give --scale in metres per file unit and "
+            "an --offset that moves the file next to the world"
+        )
     if "t" in cols:
         out["t"] = cols["t"] * ts
     if "theta" in cols:

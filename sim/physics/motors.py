@@ -83,6 +83,10 @@ NUMERICS = {
 _MATCH = 1e-6
 
 
+#: Lowest control rate [Hz] (a period of at most a second).
+MIN_CONTROL_RATE = 1.0
+
+
 def whole_steps(duration: float, timestep: float) -> int:
     """``duration / timestep`` when that is a whole number >= 1 (to 1e-6), else 0."""
     ratio = duration / timestep
@@ -94,8 +98,14 @@ def control_steps(control_rate: float, timestep: float) -> int:
     """Physics steps of ``timestep`` [s] per control period at ``control_rate`` [Hz].
 
     Raises:
-        ConfigError: The period is not a whole number of steps; the message names rates that divide.
+        ConfigError: A rate below :data:`MIN_CONTROL_RATE`, or a period that is not a whole number of steps;
+            the message names rates that divide.
     """
+    if not control_rate >= MIN_CONTROL_RATE:
+        raise ConfigError(
+            f"control rate {control_rate:g} Hz is below {MIN_CONTROL_RATE:g} Hz: no tracker steers a wheeled robot "
+            f"once a second or less; choose a rate that divides {1.0 / timestep:g} Hz (e.g. 10, 25, 50, 100)"
+        )
     k = whole_steps(1.0 / control_rate, timestep)
     if not k:
         raise ConfigError(
