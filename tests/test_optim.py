@@ -340,3 +340,60 @@ def test_a_horizon_too_short_for_the_limits_is_stretched_when_ipopt_fails_from_e
     fixed = Optim(dt=0.2).plan(problem)
     assert fixed.status is PlanStatus.FAILED and fixed.stats["horizon_stretch"] == 1.0
     assert "Infeasible" in fixed.reason and "longer horizon N*dt" in fixed.reason
+
+
+def _crowded(n: int, size: float, seed: int) -> World:
+    """``n`` small circles and boxes scattered over a ``size`` x ``size`` m world, clear of its corners."""
+    rng = np.random.default_rng(seed)
+    h, obs = size / 2 - 1, []
+    while len(obs) < n:
+        c = (float(rng.uniform(-h, h)), float(rng.uniform(-h, h)))
+        if min(np.hypot(c[0] + h, c[1] + h), np.hypot(c[0] - h, c[1] - h)) < 1.0:
+            continue
+        r = float(rng.uniform(0.03, 0.12))
+        obs.append(Circle(c, r) if rng.random() < 0.5 else Box(c, (2 * r, r), float(rng.uniform(0, 3))))
+    return World((-size / 2, size / 2, -size / 2, size / 2), tuple(obs))
+
+
+def test_a_crowded_world_keeps_the_nlp_to_the_obstacles_near_the_path_and_its_path_clear_of_all() -> None:
+    from planning.planners.optim import MAX_NLP_OBSTACLES, _nlp_obstacles, _ObstacleData
+
+    world = _crowded(120, 8.0, 3)
+    h = 3.0
+    problem = PlanProblem(world, load_robot("turtlebot3"), Pose2D(-h, -h, 0.3), Pose2D(h, h, 1.0), time_limit=20.0)
+    res = make_planner("optim").plan(problem)
+    assert res.status is PlanStatus.SUCCESS, res.reason
+    assert MAX_NLP_OBSTACLES <= res.stats["nlp_obstacles"] < len(world.obstacles)
+    assert float(np.min(world.signed_distance(res.path[:, :2]))) - problem.robot.radius >= 0.0  # every obstacle
+    # the selection: the nearest ones to the positions, in the world's order, and those kept whatever their distance
+    near = np.array([[0.0, 0.0]])
+    dist = np.array([float(o.signed_distance(near)[0]) for o in world.obstacles])
+    chosen = _nlp_obstacles(world, near, frozenset({int(np.argmax(dist))}))
+    assert len(chosen) == MAX_NLP_OBSTACLES and list(chosen) == sorted(chosen) and int(np.argmax(dist)) in chosen
+    assert set(np.argsort(dist)[: MAX_NLP_OBSTACLES - 1]) <= set(chosen)
+    # what a path comes near among those left out
+    data = _ObstacleData.of(problem, near)
+    far = [i for i in range(len(world.obstacles)) if i not in data.indices]
+    target = np.asarray(world.obstacles[far[0]].bounding_box()).reshape(2, 2).mean(axis=1)
+    assert far[0] in data.missed(problem, np.array([target, target + 0.01]), 0.15)
+    assert not data.missed(problem, near, 0.0)
+
+
+def test_a_warm_start_that_spends_the_limit_ends_timeout_without_a_solve() -> None:
+    world = _crowded(400, 30.0, 5)
+    problem = PlanProblem(world, load_robot("turtlebot3"), Pose2D(-14, -14, 0.3), Pose2D(14, 14, 1.0), time_limit=0.3)
+    res = make_planner("optim").plan(problem)
+    assert res.status is PlanStatus.TIMEOUT, res.reason
+    assert "spent before IPOPT could start" in res.reason and "may not pass this world's gaps" not in res.reason
+    assert res.stats["time_s"] < 0.3 + 0.2
+
+
+def test_directions_are_of_the_motion_arriving_at_each_pose() -> None:
+    res = make_planner("optim").plan(PlanProblem.from_scenario(load_scenario("three_point_turn")))
+    assert res.status is PlanStatus.SUCCESS and res.directions is not None
+    step = np.diff(res.path[:, :2], axis=0)
+    along = step[:, 0] * np.cos(res.path[1:, 2]) + step[:, 1] * np.sin(res.path[1:, 2])
+    moving = np.abs(along) > 1e-4
+    assert np.any(res.directions < 0) and np.any(res.directions > 0)  # it reverses
+    np.testing.assert_array_equal(res.directions[1:][moving], np.sign(along[moving]))
+    assert res.directions[0] == res.directions[1]

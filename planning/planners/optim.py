@@ -41,7 +41,7 @@ from planning.casadi_env import casadi_module
 from planning.core.checks import check_number
 from planning.core.geometry import cumulative_length, path_length, wrap_angle
 from planning.core.kinematics import bicycle_to_unicycle
-from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon
+from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon, World
 from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus
 from planning.planners.gridpath import grid_path
@@ -58,6 +58,11 @@ _TIMEOUT = {"Maximum_CpuTime_Exceeded", "Maximum_Iterations_Exceeded", "Maximum_
 _INFEASIBLE = {"Infeasible_Problem_Detected"}
 #: Stretches of the estimated horizon a solve tries in turn when IPOPT fails from every warm start.
 HORIZON_STRETCH = (1.0, 1.5, 2.25)
+#: Most obstacles the NLP keeps clear of (every built-in scenario has at most 31): beyond it, those nearest
+#: the warm start, and any a solution comes near (:meth:`Optim._solve_with_margin`).
+MAX_NLP_OBSTACLES = 32
+#: Solves from one warm start that may add the obstacles a solution came near.
+SELECTION_ROUNDS = 4
 
 
 def _casadi() -> Any:
@@ -174,26 +179,57 @@ _CACHE: dict[tuple[Any, ...], _Nlp] = {}
 
 @dataclass(frozen=True)
 class _ObstacleData:
-    """A world's obstacles as the NLP takes them: circles, ellipses, and boxes and polygons as convex
-    vertex arrays (K, 2) [m]."""
+    """The obstacles the NLP takes (:func:`_nlp_obstacles`): circles, ellipses, and boxes and polygons as
+    convex vertex arrays (K, 2) [m], and their indices among the world's."""
 
     circles: list[Circle]
     ellipses: list[Ellipse]
     polys: list[FloatArray]
+    indices: tuple[int, ...]
 
     @classmethod
-    def of(cls, problem: PlanProblem) -> _ObstacleData:
-        obs = problem.world.obstacles
+    def of(cls, problem: PlanProblem, near: FloatArray, keep: frozenset[int] = frozenset()) -> _ObstacleData:
+        """The world's obstacles, at most :data:`MAX_NLP_OBSTACLES` of them: those nearest ``near`` (M, 2)
+        [m] (the guess's positions), and every one in ``keep``."""
+        idx = _nlp_obstacles(problem.world, near, keep)
+        obs = [problem.world.obstacles[i] for i in idx]
         return cls(
             [o for o in obs if isinstance(o, Circle)],
             [o for o in obs if isinstance(o, Ellipse)],
             [polygon_vertices(o) for o in obs if isinstance(o, (Box, Polygon))],
+            idx,
         )
 
     @property
     def counts(self) -> tuple[int, int, tuple[int, ...]]:
         """What the NLP's shape depends on: circle and ellipse counts, the polygons' vertex counts."""
         return len(self.circles), len(self.ellipses), tuple(v.shape[0] for v in self.polys)
+
+    def missed(self, problem: PlanProblem, path: FloatArray, clear: float) -> frozenset[int]:
+        """The obstacles left out of the NLP that ``path`` (M, 2+) comes within ``clear`` [m] of."""
+        world, taken = problem.world, set(self.indices)
+        out = [i for i in range(len(world.obstacles)) if i not in taken]
+        if not out:
+            return frozenset()
+        xy = np.asarray(path)[:, :2]
+        lo, hi = xy.min(axis=0) - clear, xy.max(axis=0) + clear
+        near = []
+        for i in out:
+            x0, x1, y0, y1 = world.obstacles[i].bounding_box()
+            if x0 <= hi[0] and x1 >= lo[0] and y0 <= hi[1] and y1 >= lo[1]:
+                near.append(i)
+        return frozenset(i for i in near if float(np.min(world.obstacles[i].signed_distance(xy))) < clear)
+
+
+def _nlp_obstacles(world: World, near: FloatArray, keep: frozenset[int]) -> tuple[int, ...]:
+    """Indices of the obstacles the NLP takes, in the world's order: all of them up to
+    :data:`MAX_NLP_OBSTACLES`; beyond it ``keep`` and those nearest the positions ``near`` (M, 2) [m]."""
+    n = len(world.obstacles)
+    if n <= MAX_NLP_OBSTACLES:
+        return tuple(range(n))
+    dist = np.array([float(np.min(o.signed_distance(near))) for o in world.obstacles])
+    dist[list(keep)] = -np.inf
+    return tuple(sorted(int(i) for i in np.argsort(dist, kind="stable")[: max(MAX_NLP_OBSTACLES, len(keep))]))
 
 
 @dataclass(frozen=True)
@@ -558,7 +594,7 @@ class Optim:
         (the disc the NLP keeps clear, and the warm starts' extra centimetre) does not fit."""
         res = sol.result
         source = str(res.stats.get("init", ""))
-        if not source.startswith("straight (") or not problem.world.obstacles:
+        if not source.startswith("straight (") or not problem.world.obstacles or res.status is PlanStatus.TIMEOUT:
             return sol
         disc = problem.robot.radius + self.margin
         reason = (
@@ -581,6 +617,33 @@ class Optim:
     def _solve_with_margin(
         self, problem: PlanProblem, margin: float, t0: float, init: tuple[str, dict[str, Any]]
     ) -> OptimSolution:
+        """One solve from warm start ``init`` with the robot's disc grown by ``margin`` [m]. In a world of more
+        than :data:`MAX_NLP_OBSTACLES` obstacles the NLP holds those nearest the guess; while a solution comes
+        within the disc of one left out, it is solved again from where IPOPT ended with that one added
+        (:data:`SELECTION_ROUNDS` solves at most, within the plan's time limit)."""
+        ends = self._ends_outside_disc(problem, t0)
+        if ends is not None:
+            return ends
+        x_init, u_init, source = self._guess(problem, t0, init)
+        keep: frozenset[int] = frozenset()
+        clear = problem.robot.radius + margin
+        for _ in range(SELECTION_ROUNDS):
+            obstacles = _ObstacleData.of(problem, x_init[:, :2], keep)
+            sol = self._solve_nlp(problem, clear, t0, obstacles, (x_init, u_init, source))
+            if not sol.result.success or sol.nodes is None or sol.inputs is None:
+                break
+            if time.perf_counter() - t0 >= float(problem.time_limit):
+                break
+            missed = obstacles.missed(problem, sol.result.path, clear)
+            if not missed:
+                break
+            keep, x_init, u_init = keep | missed, sol.nodes, sol.inputs
+        sol.result.stats["nlp_obstacles"] = len(obstacles.indices)
+        return sol
+
+    def _ends_outside_disc(self, problem: PlanProblem, t0: float) -> OptimSolution | None:
+        """The failure of a start or goal whose robot disc (the one optim keeps clear) overlaps an obstacle or
+        wall; else None."""
         robot, world = problem.robot, problem.world
         for label, pose, status in (
             ("start", problem.start, PlanStatus.INVALID_START),
@@ -595,21 +658,46 @@ class Optim:
                     "(they check the footprint)"
                 )
                 return self._failure(status, reason, {"time_s": time.perf_counter() - t0})
-        obstacles = _ObstacleData.of(problem)
+        return None
+
+    def _guess(
+        self, problem: PlanProblem, t0: float, init: tuple[str, dict[str, Any]]
+    ) -> tuple[FloatArray, FloatArray, str]:
+        """:meth:`_initial_guess` of warm start ``init``, its planner given what is left of the plan's time."""
+        self.dt = DEFAULT_DT if self.dt_opt is None else self.dt_opt
+        try:
+            left = dataclasses.replace(
+                problem, time_limit=max(1e-3, float(problem.time_limit) - (time.perf_counter() - t0))
+            )
+            return self._initial_guess(left, *init)
+        except ConfigError as exc:
+            raise ConfigError(f"optim: warm start from {init[0]!r} failed: {exc}") from exc
+
+    def _solve_nlp(
+        self,
+        problem: PlanProblem,
+        clear: float,
+        t0: float,
+        obstacles: _ObstacleData,
+        guess: tuple[FloatArray, FloatArray, str],
+    ) -> OptimSolution:
+        """IPOPT from ``guess`` (nodes (N+1, 4), inputs (N, 2), where they came from) on the NLP of
+        ``obstacles``, the robot's disc of radius ``clear`` [m] kept off them, until the plan's time limit."""
+        x_init, u_init, init_source = guess
+        if time.perf_counter() - t0 >= float(problem.time_limit):
+            why = (
+                f"the plan's time limit ({problem.time_limit:g} s) was spent before IPOPT could start (the warm start "
+                f"from {init_source} took it); raise the time limit, or warm start from another planner with init=..."
+            )
+            return self._failure(PlanStatus.TIMEOUT, why, {"time_s": time.perf_counter() - t0, "init": init_source})
+        t_build = time.perf_counter()
         key = (self.N, *obstacles.counts, self.w_steer, self.w_smooth, self.max_iter, self.verbose)
         cached = key in _CACHE
         if not cached:
             _CACHE[key] = _build(key)
         nlp = _CACHE[key]
-        t_build = time.perf_counter() - t0
-        self.dt = DEFAULT_DT if self.dt_opt is None else self.dt_opt
-        try:
-            # a warm-start planner gets what is left of the plan's time
-            left = dataclasses.replace(problem, time_limit=max(1e-3, float(problem.time_limit) - t_build))
-            x_init, u_init, init_source = self._initial_guess(left, *init)
-        except ConfigError as exc:
-            raise ConfigError(f"optim: warm start from {init[0]!r} failed: {exc}") from exc
-        self._set_values(nlp, problem, robot.radius + margin, obstacles, x_init[-1, 2])
+        t_build = time.perf_counter() - t_build
+        self._set_values(nlp, problem, clear, obstacles, x_init[-1, 2])
         self._warm_start(nlp, x_init, u_init, obstacles)
         t_solve = time.perf_counter()
         nlp.deadline.at = t0 + float(problem.time_limit)  # the plan's limit, warm start and earlier solves in it
@@ -689,7 +777,8 @@ class Optim:
         times = np.arange(states.shape[0]) * h
         u_full = np.vstack([u_dense, u_dense[-1:]])
         controls = bicycle_to_unicycle(states, u_full, robot.wheelbase)
-        direction = np.where(u_full[:, 0] < 0, -1.0, 1.0)
+        arriving = np.where(u_dense[:, 0] < 0, -1.0, 1.0)  # the motion arriving at each pose; the first: its own
+        direction = np.concatenate([arriving[:1], arriving])
         path = states[:, :3].copy()
         end = states[-1]
         pos_err = float(np.hypot(end[0] - problem.goal.x, end[1] - problem.goal.y))
