@@ -86,3 +86,15 @@ def test_the_mean_nees_shows_what_the_share_inside_the_interval_hides() -> None:
     assert over.nees_in_bound_fraction() == 1.0 and over.nees_mean() == pytest.approx(6.5)
     none = log(np.zeros(0))
     assert np.isnan(none.nees_in_bound_fraction()) and np.isnan(none.nees_mean())
+
+
+def test_a_record_without_a_scan_localiser_has_none_of_its_fields() -> None:
+    from dataclasses import fields
+
+    from sim.physics.metrics import EstimationMetrics, TrackingMetrics
+
+    est = EstimationMetrics("fused", 0.01, 0.02, 0.01, 0.9, 10, 3.0)
+    out = TrackingMetrics(0.0, 0.0, 0.0, 0.0, 0.0, 0, 0, 0.0, 1.0, estimation=est).as_dict()["estimation"]
+    localiser = {f.name for f in fields(EstimationMetrics)} - set(out)
+    assert "localiser_nees_mean" in localiser and "scans_used" in localiser
+    assert all(v is not None for v in out.values()), out

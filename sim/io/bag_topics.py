@@ -339,9 +339,10 @@ def _command_series(log: Any, frame: str) -> Series:
 def _fix_series(log: Any, std: tuple[float, float]) -> Series:
     """``RUN/fix``: the localisation fixes at their measurement times, with the scan localiser's own
     covariance (each fix is one of its updates, as Nav2's ``amcl_pose``) or, for synthetic fixes, the
-    profile's variances."""
+    profile's variances. None for a dead-reckoning run: its fixes only score its estimate (NEES), it
+    never localised."""
     est = log.estimation
-    if est is None or est.fix_t.size == 0:
+    if est is None or est.fix_t.size == 0 or est.source == "odometry":
         return np.zeros(0), lambda k: None
     loc = getattr(est, "localiser", None)
     if loc is not None and loc.t.size:

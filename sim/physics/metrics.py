@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 from typing import Any
 
 import numpy as np
@@ -162,17 +162,9 @@ class TrackingMetrics:
         return out
 
 
-#: The scan localiser's fields of :class:`EstimationMetrics`, left out of records of runs without one.
-_LOCALISER_KEYS = (
-    "localiser_rmse_m",
-    "localiser_heading_rmse_rad",
-    "localiser_nees_in_bound_fraction",
-    "mean_particles",
-    "scans_used",
-    "localisation_lost",
-    "global_localisation_scans",
-    "global_localisation_converged",
-)
+#: The scan localiser's fields of :class:`EstimationMetrics` (those None without one), left out of records of
+#: runs without one.
+_LOCALISER_KEYS = tuple(f.name for f in fields(EstimationMetrics) if f.default is None)
 
 
 def position_errors(log: RunLog) -> np.ndarray:
