@@ -9,7 +9,9 @@ keyword options for a registered planner in this scenario (e.g. ``[planners.birr
 ``steering = "reeds_shepp"``), checked against that planner's options when the file is read; an
 optional ``[sensors]`` table of numbers overriding the robot's sensor profile (checked by the
 simulator, which knows the profile's keys). Every
-problem is reported before anything runs, naming the file, the field and what is expected.
+problem is reported before anything runs, naming the file, the field and what is expected; a start or
+goal where the robot's footprint overlaps an obstacle or wall is refused when the robot is chosen
+(:func:`scenario_with_robot`: a command may run another robot than the scenario's own).
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from __future__ import annotations
 import dataclasses
 import re
 import tomllib
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -25,10 +27,10 @@ import numpy as np
 
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.maps import load_map_table
-from planning.core.robot import MODELS_DIR, ROBOT_FILES, load_robot
+from planning.core.robot import MODELS_DIR, ROBOT_FILES, RobotSpec, load_robot
 from planning.core.scenario_type import DEFAULT_HEADING_TOLERANCE, DEFAULT_POSITION_TOLERANCE, Scenario
 from planning.core.tables import TableReader
-from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon, World, too_thin
+from planning.core.world import MAX_WORLD_SIDE, Box, Circle, Ellipse, Obstacle, Polygon, World, too_thin
 from planning.errors import ConfigError, ScenarioError
 
 SCENARIOS_DIR = MODELS_DIR / "scenarios"
@@ -150,7 +152,7 @@ def parse_scenario(data: Mapping[str, Any], *, where: str, default_name: str, ba
     htol = r.number(goal_t, "heading_tolerance", "goal.", positive=True, default=DEFAULT_HEADING_TOLERANCE)
     for label, pose in (("start", start), ("goal", goal)):
         _check_free(r, world, label, pose)
-    unmapped = _unmapped(r, data["world"], start, header["robot"])
+    unmapped = _unmapped(r, data["world"], start, header["robot"], world.bounds)
     return Scenario(
         world=world,
         start=start,
@@ -162,12 +164,16 @@ def parse_scenario(data: Mapping[str, Any], *, where: str, default_name: str, ba
     )
 
 
-def _unmapped(r: TableReader, table: Mapping[str, Any], start: Pose2D, robot: str) -> tuple[Obstacle, ...]:
-    """The ``[[world.unmapped]]`` obstacles (physics and the scan only), none touching the robot at its start."""
+def _unmapped(
+    r: TableReader, table: Mapping[str, Any], start: Pose2D, robot: str, bounds: tuple[float, float, float, float]
+) -> tuple[Obstacle, ...]:
+    """The ``[[world.unmapped]]`` obstacles (physics and the scan only), checked as ``[[world.obstacles]]`` are
+    (:func:`_check_obstacles`), none touching the robot at its start."""
     items = table.get("unmapped", [])
     if not isinstance(items, list):
         raise r.fail("world.unmapped", "an array of tables ([[world.unmapped]], shaped as [[world.obstacles]])", items)
     out = tuple(_obstacle(r, ot, f"world.unmapped[{i}].") for i, ot in enumerate(items))
+    _check_obstacles(r, out, "world.unmapped", bounds)
     reach = load_robot(robot).radius
     for i, o in enumerate(out):
         gap = float(o.signed_distance(start.xy)[0])
@@ -195,8 +201,9 @@ def _header(r: TableReader, data: Mapping[str, Any], default_name: str) -> dict[
     description = data.get("description", "")
     if not isinstance(description, str):
         raise r.fail("description", "a string", description)
-    if data.get("version", 1) != 1:
-        raise r.fail("version", "1 (the only format version this nhsim reads)", data["version"])
+    version = data.get("version", 1)
+    if type(version) is not int or version != 1:  # true == 1 and 1.0 == 1 in Python: neither is the integer 1
+        raise r.fail("version", "the integer 1 (the only format version this nhsim reads)", version)
     planner = data.get("planner")
     if planner is not None:
         from planning.planners.registry import PLANNERS  # imported here: it loads on first use
@@ -226,21 +233,16 @@ def _world(r: TableReader, table: Any, base_dir: Path) -> World:
     xmin, xmax, ymin, ymax = r.vector(table, "bounds", "world.", 4)
     if not (xmin < xmax and ymin < ymax):
         raise r.fail("world.bounds", "[xmin, xmax, ymin, ymax] with xmin < xmax and ymin < ymax", table["bounds"])
+    if max(xmax - xmin, ymax - ymin) > MAX_WORLD_SIDE:
+        raise r.fail(
+            "world.bounds", f"[xmin, xmax, ymin, ymax] in metres, at most {MAX_WORLD_SIDE:g} m a side", table["bounds"]
+        )
     obs_list = table.get("obstacles", [])
     if not isinstance(obs_list, list):
         raise r.fail("world.obstacles", "an array of tables ([[world.obstacles]])", obs_list)
     obstacles = [_obstacle(r, ot, f"world.obstacles[{i}].") for i, ot in enumerate(obs_list)]
     bounds = (xmin, xmax, ymin, ymax)
-    for i, ob in enumerate(obstacles):
-        if _outside(ob, bounds):  # it could never be met: a typo?
-            bx0, bx1, by0, by1 = ob.bounding_box()
-            raise ScenarioError(
-                f"{r.where}: field 'world.obstacles[{i}]': this {ob.kind} lies wholly outside the world "
-                f"bounds {list(bounds)} (its box spans x {bx0:g}..{bx1:g}, y {by0:g}..{by1:g}); "
-                "move it inside, or remove it"
-            )
-        if why := too_thin(ob):
-            raise ScenarioError(f"{r.where}: field 'world.obstacles[{i}]': this {ob.kind} {why}")
+    _check_obstacles(r, obstacles, "world.obstacles", bounds)
     if "map" in table:
         loader = MAP_LOADERS.get("image")
         if loader is None:
@@ -255,6 +257,23 @@ def _world(r: TableReader, table: Any, base_dir: Path) -> World:
             )
         obstacles.extend(mapped)
     return World(bounds, tuple(obstacles))
+
+
+def _check_obstacles(
+    r: TableReader, obstacles: Sequence[Obstacle], field_name: str, bounds: tuple[float, float, float, float]
+) -> None:
+    """Refuse an obstacle of the array ``field_name`` (``world.obstacles``, ``world.unmapped``) that lies wholly
+    outside ``bounds`` (it could never be met: a typo?) or is too thin to simulate."""
+    for i, ob in enumerate(obstacles):
+        if _outside(ob, bounds):
+            bx0, bx1, by0, by1 = ob.bounding_box()
+            raise ScenarioError(
+                f"{r.where}: field '{field_name}[{i}]': this {ob.kind} lies wholly outside the world "
+                f"bounds {list(bounds)} (its box spans x {bx0:g}..{bx1:g}, y {by0:g}..{by1:g}); "
+                "move it inside, or remove it"
+            )
+        if why := too_thin(ob):
+            raise ScenarioError(f"{r.where}: field '{field_name}[{i}]': this {ob.kind} {why}")
 
 
 def _outside(ob: Obstacle, bounds: tuple[float, float, float, float]) -> bool:
@@ -327,20 +346,99 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     )
 
 
-def scenario_with_robot(scenario: Scenario, robot: str | None) -> Scenario:
-    """The scenario with ``robot`` (None: its own robot), which must be one the scenario lists.
+def scenario_with_robot(scenario: Scenario, robot: str | None, *, ends: bool = True) -> Scenario:
+    """The scenario with ``robot`` (None: its own robot), which must be one the scenario lists and, with
+    ``ends``, fit at the start and at the goal (:func:`check_ends_fit`).
+
+    Args:
+        scenario: The scenario.
+        robot: The robot to use; None for the scenario's own.
+        ends: Check the start and goal poses (False when they are replaced, e.g. by a trajectory file's).
 
     Raises:
         ConfigError: The scenario's ``robots`` do not list the robot (the message names them).
+        ScenarioError: The robot's footprint overlaps an obstacle or wall at the start or the goal.
     """
-    if robot is None:
-        return scenario
-    if robot not in scenario.robots:
+    if robot is not None and robot not in scenario.robots:
         raise ConfigError(
             f"robot {robot!r} is not one of scenario {scenario.name!r}'s robots ({', '.join(scenario.robots)}): "
             f"choose one of them with --robot, or a scenario that lists {robot}"
         )
-    return scenario.with_robot(robot)
+    chosen = scenario if robot is None else scenario.with_robot(robot)
+    if ends:
+        check_ends_fit(chosen)
+    return chosen
+
+
+def end_clearance(world: World, robot: RobotSpec, pose: Pose2D, *, walls: bool = True) -> float:
+    """The clearance [m] of ``robot``'s footprint at ``pose`` from the obstacles and (with ``walls``) the walls
+    of ``world``: the planners' own test of a start or goal (the footprint model of
+    :class:`planning.collision.exact.CollisionChecker`, no margin). 0 or less is an overlap; -inf an obstacle
+    with a point inside the footprint."""
+    from planning.collision.exact import CollisionChecker  # imported here: compiled code, loaded on first use
+
+    checker = CollisionChecker(world, robot, shape="footprint", walls=walls)
+    return float(checker.clearance_of(pose.as_array()[None, :])[0])
+
+
+def _overlap(world: World, robot: RobotSpec, pose: Pose2D) -> tuple[float, str, float] | None:
+    """What ``robot``'s footprint at ``pose`` overlaps the most: (the footprint's clearance from it [m], the wall
+    or obstacle named, how far the pose must move away from it [m]); None when the footprint is clear."""
+    if float(world.signed_distance(pose.xy)[0]) > robot.radius or end_clearance(world, robot, pose) > 0:
+        return None  # (the footprint lies within the robot's radius of its centre: clear when nothing is nearer)
+    found: list[tuple[float, str, float]] = []
+    walls = end_clearance(World(world.bounds), robot, pose)
+    if walls <= 0:
+        xs, ys = robot.footprint_at(pose.as_array()[None, :])[0].T
+        xmin, xmax, ymin, ymax = world.bounds
+        depth = {f"x = {xmin:g}": xmin - xs.min(), f"x = {xmax:g}": xs.max() - xmax}
+        depth |= {f"y = {ymin:g}": ymin - ys.min(), f"y = {ymax:g}": ys.max() - ymax}
+        order = sorted(depth, key=lambda k: -depth[k])
+        hit = [k for k in order if depth[k] > 0] or order[:1]  # (touching, within the checker's tolerance)
+        found.append((walls, f"the wall{'s' if len(hit) > 1 else ''} {' and '.join(hit)}", -walls))
+    for ob in world.obstacles:
+        centre = float(ob.signed_distance(pose.xy)[0])
+        if centre > robot.radius:
+            continue  # the footprint lies within the robot's radius of its centre
+        clr = end_clearance(World(world.bounds, (ob,)), robot, pose, walls=False)
+        if clr <= 0:
+            bx0, bx1, by0, by1 = ob.bounding_box()
+            what = f"the {ob.kind} at x {bx0:.3g}..{bx1:.3g}, y {by0:.3g}..{by1:.3g}"
+            found.append((clr, what, -clr if np.isfinite(clr) else robot.radius - centre))
+    return min(found, key=lambda f: (f[0], -f[2]), default=None)
+
+
+def scenario_source(scenario: Scenario) -> str:
+    """How messages name where a scenario comes from: its file, else ``scenario 'NAME'`` (a generated world)."""
+    return str(scenario.source) if scenario.source is not None else f"scenario {scenario.name!r}"
+
+
+def check_ends_fit(scenario: Scenario) -> None:
+    """Refuse a scenario whose robot's footprint overlaps an obstacle or wall at the start or the goal (a plan
+    could only fail): the message names the file, the field, the robot, the clearance and how far to move it.
+
+    Raises:
+        ScenarioError: The footprint overlaps something at ``start.pose`` or ``goal.pose``.
+    """
+    robot = load_robot(scenario.robot)
+    where = scenario_source(scenario)
+    for label, pose in (("start", scenario.start), ("goal", scenario.goal)):
+        hit = _overlap(scenario.world, robot, pose)
+        if hit is None:
+            continue
+        clr, what, move = hit
+        if clr == -np.inf:
+            said = f"holds part of {what} (the pose is inside an obstacle for this robot)"
+        else:
+            outside = " (the pose is outside the map)" if float(scenario.world.wall_distance(pose.xy)[0]) <= 0 else ""
+            said = f"overlaps {what} (clearance {clr:.3f} m){outside}"
+        reach = f" (the {robot.name} reaches {robot.radius:.3f} m from its centre)" if clr == -np.inf else ""
+        raise ScenarioError(
+            f"{where}: field '{label}.pose': {[round(v, 6) for v in pose.as_array().tolist()]} is not free for "
+            f"robot {robot.name!r}: its footprint there {said}; move the {label} more than "
+            f"{max(move, 0.001):.3f} m away from "
+            f"{'them' if what.startswith('the walls') else 'it'}{reach}"
+        )
 
 
 def random_scenario(robot: str, seed: int) -> Scenario:

@@ -51,3 +51,39 @@ def test_bench_sim_refuses_a_balancing_robot_its_bare_loop_cannot_replay(capsys:
     # faster than the closed loop (ratio 1.23, "passed")
     assert main(["bench", "sim", "--repeats", "1", "--robot", "edumip-balancing"]) == 2
     assert "a balancing robot's come from its balance firmware" in capsys.readouterr().err
+
+
+def test_bench_plan_scenarios_needs_a_name(capsys: pytest.CaptureFixture[str]) -> None:
+    # ``--scenarios`` with no name ran zero problems and exited 1 with nan ratios
+    with pytest.raises(SystemExit) as stop:
+        main(["bench", "plan", "--scenarios", "--no-wheel"])
+    assert stop.value.code == 2
+    assert "argument --scenarios: expected at least one argument" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("bench", ["optim", "simplify"])
+def test_an_unknown_scenario_is_refused_before_anything_is_printed(
+    bench: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["bench", bench, "--scenarios", "nosuch"]) == 2
+    captured = capsys.readouterr()
+    assert "unknown scenario 'nosuch'" in captured.err and captured.out == ""  # no table header before it
+
+
+@pytest.mark.parametrize(
+    ("given", "said"),
+    [
+        ("bogus", "--mpc-solvers: 'bogus' is not an MPC solver; give SOLVER or SOLVER:QP"),
+        ("rti,sqp:osqp", "--mpc-solvers: 'sqp:osqp' is not an MPC solver; give SOLVER or SOLVER:QP"),
+        (",", "--mpc-solvers ',' names no solver; give e.g. --mpc-solvers rti,sqp:qrqp"),
+    ],
+)
+def test_bench_track_names_its_option_for_an_unknown_mpc_solver(
+    given: str, said: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the message named MPCParams.solver, a field the user never typed
+    assert main(["bench", "track", "--reference", "line", "--trackers", "fbl", "--mpc-solvers", given]) == 2
+    captured = capsys.readouterr()
+    assert said in captured.err and "MPCParams" not in captured.err and captured.out == ""
+    if "not an MPC solver" in said:
+        assert "SOLVER one of rti, sqp, ipopt and QP one of daqp, qrqp" in captured.err

@@ -77,6 +77,46 @@ def test_a_robot_the_scenario_does_not_list_is_exit_2(
     assert list(tmp_path.iterdir()) == []
 
 
+#: docs/how-to/new-scenario.md's yard with its start 1 cm from the wall x = 0: its centre free, its footprint not.
+START_AT_WALL = (
+    'name = "yard"\nrobot = "turtlebot3"\nrobots = ["turtlebot3", "edumip"]\nplanner = "rrt-star"\n'
+    '[world]\nbounds = [0.0, 4.0, 0.0, 3.0]\n[[world.obstacles]]\ntype = "box"\ncenter = [2.0, 1.5]\n'
+    "size = [0.4, 1.2]\n[start]\npose = [0.01, 0.4, 0.0]\n[goal]\npose = [3.6, 2.6, 1.57]\n"
+)
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["plan", "--time-limit", "10", "--json", "out.json"],
+        ["simulate", "--no-video", "--json", "out.json"],
+        ["simulate", "--reference", "line", "--no-video", "--json", "out.json"],
+        ["compare", "--json", "out.json"],
+        ["montecarlo", "--runs", "2"],
+        ["tune", "--trials", "1"],
+    ],
+    ids=lambda argv: "-".join(a for a in argv if not a.endswith(".json"))[:30],
+)
+def test_a_start_the_robots_footprint_overlaps_is_bad_input_for_every_command_that_runs_it(
+    argv: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    scen = tmp_path / "start_wall.toml"
+    scen.write_text(START_AT_WALL)
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    given = ["--scenarios", str(scen)] if argv[0] == "tune" else ["--scenario", str(scen)]
+    assert main([argv[0], *given, *argv[1:], "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert f"{scen}: field 'start.pose'" in err and "robot 'turtlebot3'" in err and "clearance -0.097 m" in err
+    assert "move the start more than 0.097 m away from it" in err and "Traceback" not in err
+    assert list(work.iterdir()) == []  # nothing written
+    if argv[0] == "plan":  # the robot chosen is the one checked: 8 cm from the wall the EduMIP fits, not the TurtleBot3
+        scen.write_text(START_AT_WALL.replace("[0.01, 0.4, 0.0]", "[0.08, 0.4, 0.0]"))
+        assert main(["plan", "--scenario", str(scen), "--planner", "rrt", "--quiet"]) == 2
+        assert main(["plan", "--scenario", str(scen), "--robot", "edumip", "--planner", "rrt", "--quiet"]) == 0
+
+
 def test_a_case_refuses_a_robot_its_scenario_does_not_list() -> None:
     from planning.errors import ConfigError
     from sim.pipeline.case import Case, load_case_scenario
@@ -218,8 +258,12 @@ def test_an_empty_runs_list_is_refused_not_taken_as_the_default(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     record = tmp_path / "r.json"
-    assert main(["simulate", "--reference", "line", "--no-video", "--json", str(record), "--runs", ""]) == 2
-    assert "--runs '': unknown run ''" in capsys.readouterr().err and not record.exists()
+    assert main(["simulate", "--reference", "line", "--no-video", "--json", str(record), "--runs", ","]) == 2
+    assert "--runs ',': unknown run ''" in capsys.readouterr().err and not record.exists()
+    with pytest.raises(SystemExit) as stop:  # an empty value is refused as every option's is
+        main(["simulate", "--reference", "line", "--no-video", "--json", str(record), "--runs", ""])
+    assert stop.value.code == 2 and "argument --runs: the value is empty" in capsys.readouterr().err
+    assert not record.exists()
 
 
 def test_options_the_job_does_not_use_are_named_and_jobs_without_all_refused(
@@ -290,3 +334,130 @@ def test_simulate_all_sweeps_the_scenarios_it_is_given(
     assert main([*args, "--quiet", "--no-video", "--json", "all.json"]) == 0
     rows = json.loads((tmp_path / "all.json").read_text())["rows"]
     assert sorted(r["scenario"] for r in rows) == ["random400", "simple_motion"]
+
+
+def _text_options() -> list[tuple[list[str], str]]:
+    """(the command's words, option) for every option of every command that takes text."""
+    import argparse
+
+    from sim.cli.main import COMMANDS, build_parser
+
+    def walk(parser: argparse.ArgumentParser, words: list[str]) -> list[tuple[list[str], str]]:
+        found = []
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for name, sub in action.choices.items():
+                    found += walk(sub, [*words, name])
+            elif action.option_strings and action.nargs != 0 and action.choices is None:
+                if action.type not in (int, float):
+                    found.append((words, action.option_strings[0]))
+        return found
+
+    return walk(build_parser(COMMANDS), [])
+
+
+def test_an_empty_value_is_refused_by_every_text_option_of_every_command(capsys: pytest.CaptureFixture[str]) -> None:
+    """An empty string was "not given" (``--gains ''``, ``--sensors ''``, ``plan --planner ''`` ran the defaults;
+    ``compare --plots ''`` wrote nothing and said nothing) or the folder '.' (``--json ''``: "cannot write .: it is a
+    folder"); now each is exit 2 naming the option and what to give, before anything runs."""
+    from sim.cli.main import build_parser
+
+    options = _text_options()
+    commands = {words[0] for words, _ in options}
+    assert commands == {"simulate", "compare", "bench", "plan", "tune", "regress", "montecarlo"}  # scenarios has none
+    assert len(options) > 60
+    parser = build_parser()
+    for words, option in options:
+        for value in ("", " "):
+            with pytest.raises(SystemExit) as stop:
+                parser.parse_args([*words, option, value])
+            assert stop.value.code == 2, (words, option)
+            err = capsys.readouterr().err
+            assert f"argument {option}: the value is empty; give " in err, (words, option, err)
+    with pytest.raises(SystemExit):
+        parser.parse_args(["tune", "--scenarios", ""])
+    assert capsys.readouterr().err.endswith("argument --scenarios: the value is empty; give CASE,...\n")  # required
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        pytest.param(["plan", "--scenario", "open", "--planner", ""], id="plan-planner"),
+        pytest.param(["plan", "--scenario", "", "--json", "p.json"], id="plan-scenario"),
+        pytest.param(["plan", "--scenario", "open", "--planner", "birrt", "--json", ""], id="plan-json"),
+        pytest.param(["simulate", "--reference", "line", "--gains", "", "--no-video", "--json", "s.json"], id="gains"),
+        pytest.param(
+            ["simulate", "--reference", "line", "--sensors", "", "--no-video", "--json", "s.json"], id="sensors"
+        ),
+        pytest.param(["compare", "--reference", "line", "--plots", "", "--json", "c.json"], id="compare-plots"),
+        pytest.param(["tune", "--scenarios", "open:line", "--storage", ""], id="tune-storage"),
+    ],
+)
+def test_an_empty_value_stops_the_command_before_it_writes(
+    argv: list[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "the value is empty" in err and "Traceback" not in err and "cannot write ." not in err
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("given", ["folder/", "existing", "existing/", "."])
+def test_compare_plots_takes_a_stem_not_a_folder(
+    given: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--plots /tmp/`` wrote /tmp/-paths.png and /tmp/-errors.png and exited 0."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "existing").mkdir()
+    argv = ["compare", "--reference", "line", "--trackers", "fbl", "--quiet", "--json", "c.json", "--plots", given]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"--plots {given} names a folder; --plots takes a file stem, e.g. renders/cmp" in err
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["existing"]
+
+
+def test_regress_list_checks_its_options_as_a_run_does(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``regress --list`` skipped the option checks: --jobs 0 and --scheduler x listed the cases, exit 0."""
+    import sim.tools.executor as executor
+
+    monkeypatch.setattr(executor, "default_jobs", lambda: 2)  # a machine of two cores: at most 8 workers
+    for extra, said in (
+        (["--jobs", "0"], "--jobs must be >= 1, got 0"),
+        (["--jobs", "9"], "--jobs 9 would start 9 worker processes on the 2 cores this process may use; give at most "
+         "--jobs 8 (4 per core), or run on a Dask cluster with --scheduler ADDRESS"),
+        (["--scheduler", "x"], "--scheduler 'x' is not a scheduler address"),
+    ):  # fmt: skip
+        assert main(["regress", "--list", *extra]) == 2
+        captured = capsys.readouterr()
+        assert said in captured.err and captured.out == ""
+    assert main(["regress", "--list", "--jobs", "8", "--baselines", "/nonexistent-nhsim-baselines"]) == 0
+    assert "(fast)" in capsys.readouterr().out  # listing reads no baseline
+
+
+def test_more_local_workers_than_the_bound_are_refused_before_anything_starts(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``montecarlo --runs 1 --jobs 1000`` started 1000 worker processes; a cluster decides its own."""
+    import sim.tools.executor as executor
+    from planning.errors import ConfigError
+
+    monkeypatch.setattr(executor, "default_jobs", lambda: 2)
+    monkeypatch.setattr(executor, "DaskExecutor", None)  # nothing may start
+    monkeypatch.chdir(tmp_path)
+    base = ["--reference", "line", "--no-video", "--json", "out.json"]
+    for argv in (
+        ["montecarlo", "--runs", "1", *base[:2], "--jobs", "9"],
+        ["simulate", "--all", "--jobs", "9", *base[2:]],
+    ):
+        assert main(argv) == 2
+        assert "give at most --jobs 8 (4 per core)" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+    with pytest.raises(ConfigError, match="--workers 9 would start 9 worker processes"):
+        executor.check_workers(9, "--workers")
+    assert executor.worker_count(None, "tcp://127.0.0.1:8786") is None  # the cluster decides
+    assert executor.worker_count(8) == 8 and executor.worker_count(None, default=1) == 1

@@ -8,6 +8,7 @@ imports), sends the signal and reads the exit status.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -41,9 +42,17 @@ def _read(stream: object, into: list[str]) -> None:
 
 
 def stop_when(
-    args: list[str], cwd: Path, ready: Callable[[str, str], bool], sig: signal.Signals, timeout: float = 300
+    args: list[str],
+    cwd: Path,
+    ready: Callable[[str, str], bool],
+    sig: signal.Signals,
+    timeout: float = 300,
+    *,
+    group: bool = False,
 ) -> Stopped:
-    """Run ``nhsim ARGS`` in ``cwd``, send ``sig`` once ``ready(stdout, stderr)`` holds, and wait."""
+    """Run ``nhsim ARGS`` in ``cwd``, send ``sig`` once ``ready(stdout, stderr)`` holds, and wait. With
+    ``group``, the command runs in a process group of its own and every process of it gets the signal, as
+    a terminal's Ctrl-C reaches every process of the command in the foreground."""
     env = {**os.environ, "PYTHONPATH": str(ROOT), "PYTHONUNBUFFERED": "1", "MUJOCO_GL": "egl"}
     proc = subprocess.Popen(
         [sys.executable, "-X", "importtime", "-m", "sim", *args],
@@ -52,6 +61,7 @@ def stop_when(
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        start_new_session=group,
     )
     out: list[str] = []
     err: list[str] = []
@@ -66,12 +76,18 @@ def stop_when(
             assert proc.poll() is None, f"the command ended before it could be stopped:\n{''.join(out)}{''.join(err)}"
             assert time.monotonic() < deadline, "the command never got to work"
             time.sleep(0.05)
-        proc.send_signal(sig)
+        if group:
+            os.killpg(proc.pid, sig)
+        else:
+            proc.send_signal(sig)
         proc.wait(timeout=120)
     finally:
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+        if group:  # what the command left of its group (nothing, when it closed its workers)
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGKILL)
     for r in readers:
         r.join(timeout=10)
     errors = "".join(line for line in err if not line.startswith("import time:"))
@@ -119,6 +135,43 @@ def test_montecarlo_keeps_its_finished_runs(tmp_path: Path, sig: signal.Signals)
     lines = kept.read_text().splitlines()
     assert len(lines) >= 3 and all(json.loads(line) for line in lines)  # every line whole
     assert not list(results.glob("*.json"))  # no summary of an unfinished study
+
+
+def _processes_in(cwd: Path, marker: str) -> list[int]:
+    """The processes working in ``cwd`` whose command line holds ``marker``."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        try:
+            if entry.name.isdigit() and Path(os.readlink(entry / "cwd")) == cwd:
+                if marker in (entry / "cmdline").read_bytes().decode(errors="replace"):
+                    found.append(int(entry.name))
+        except OSError:  # ended meanwhile, or not ours to read
+            continue
+    return found
+
+
+def test_montecarlo_on_local_workers_says_only_that_it_was_interrupted(tmp_path: Path) -> None:
+    """Ctrl-C reaches every process of the command. Its Dask workers, taking it too, printed their
+    KeyboardInterrupt tracebacks, and Dask logged what the close broke (CommClosedError under a heartbeat
+    or a broadcast, a CancelledError in a nanny, Tornado's "Exception in callback" of an interrupted
+    wait), beside "interrupted": stopped as its workers start and again once they are at work, the
+    command says only that it was interrupted, exits 130 and leaves no worker behind."""
+    workers = tmp_path / "starting"
+    workers.mkdir()
+    args = ["montecarlo", "--scenario", "open", "--reference", "line", "--jobs", "2", "--runs", "8", "--quiet"]
+    args += ["--no-plots", "--results", "r.jsonl", "--json", "s.json"]
+    starting = stop_when(args, workers, lambda out, err: bool(_processes_in(workers, "spawn_main")), signal.SIGINT,
+                         group=True)  # fmt: skip
+    at_work = tmp_path / "at_work"
+    at_work.mkdir()
+    results = at_work / "r.jsonl"
+    a_run_kept = lambda out, err: results.exists() and results.read_text().count("\n") >= 2  # header, a run
+    at_work_stopped = stop_when(args, at_work, a_run_kept, signal.SIGINT, group=True)
+    for stopped, cwd in ((starting, workers), (at_work_stopped, at_work)):
+        assert stopped.returncode == 130, stopped.err
+        assert stopped.err == "nhsim montecarlo: interrupted\n"
+        assert _processes_in(cwd, "spawn_main") == []
+        assert not (cwd / "s.json").exists()
 
 
 @pytest.mark.parametrize("sig", SIGNALS)

@@ -10,7 +10,7 @@ import pytest
 
 from planning.collision.compiled import world_arrays, world_distances
 from planning.core.geometry import densify_path, path_length
-from planning.core.world import Box, Circle, World
+from planning.core.world import MAX_WORLD_SIDE, Box, Circle, World
 from planning.planners import geodesic
 from planning.scenario import load_scenario
 
@@ -73,10 +73,11 @@ def test_compiled_world_distances_equal_the_worlds_own():
 
 
 def test_a_world_too_large_for_the_cell_is_routed_on_larger_cells(monkeypatch):
-    """A 1000 x 1000 km world on 5 cm cells would be 4e14 of them (every sampling planner's simplification
-    failed allocating 2.8 PiB): at most MAX_CELLS are searched (10,000 here)."""
+    """The largest world, 1 x 1 km, on 5 cm cells would be 4e8 of them (a 1000 x 1000 km one, before worlds
+    were limited, made every sampling planner's simplification fail allocating 2.8 PiB): at most MAX_CELLS
+    are searched (10,000 here)."""
     monkeypatch.setattr(geodesic, "MAX_CELLS", 10_000)  # a 20 x 20 m world on 20 cm cells
-    huge = World((0.0, 1e6, 0.0, 1e6), ())
+    huge = World((0.0, MAX_WORLD_SIDE, 0.0, MAX_WORLD_SIDE), ())
     vertices = geodesic.route(huge, np.array([0.15, 0.15]), np.array([0.2, 0.2]), 0.1)
     assert vertices is not None and np.allclose(vertices[[0, -1]], [[0.15, 0.15], [0.2, 0.2]])
     world = World((0.0, 20.0, 0.0, 20.0), (Circle((10.0, 10.0), 2.0),))

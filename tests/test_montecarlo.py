@@ -123,6 +123,34 @@ def test_an_interrupt_stops_busy_workers_at_once() -> None:
             os.kill(pid, 0)
 
 
+def test_only_the_report_of_an_interrupted_dask_wait_is_dropped() -> None:
+    """Interrupted inside ``distributed.utils.sync``, Dask's cancel callback fails on the event loop's thread
+    (``NameError: cannot access free variable 'future'``) and Tornado logged it beside "interrupted": that
+    report alone is dropped; any other error, a NameError elsewhere too, is still logged."""
+    import logging
+    import os.path
+    import sys
+
+    from sim.tools.executor import _CANCEL_REPORTS
+
+    def record(filename: str, name: str, error: type[Exception] = NameError) -> logging.LogRecord:
+        code = compile(f"def {name}():\n    raise {error.__name__}('x')\n", filename, "exec")
+        scope: dict[str, object] = {}
+        exec(code, scope)
+        try:
+            scope[name]()  # type: ignore[operator]
+        except Exception:
+            info = sys.exc_info()
+        return logging.LogRecord("tornado.application", logging.ERROR, filename, 1, "Exception in callback", (), info)
+
+    utils = os.path.join("site-packages", "distributed", "utils.py")
+    assert not _CANCEL_REPORTS.filter(record(utils, "cancel"))
+    assert _CANCEL_REPORTS.filter(record(utils, "cancel", RuntimeError))
+    assert _CANCEL_REPORTS.filter(record(utils, "wait"))
+    assert _CANCEL_REPORTS.filter(record(os.path.join("sim", "tools", "montecarlo.py"), "cancel"))
+    assert _CANCEL_REPORTS.filter(logging.LogRecord("tornado.application", logging.ERROR, "", 1, "plain", (), None))
+
+
 def _die_once(marker: str, item: int) -> int:
     if item == 1 and not os.path.exists(marker):
         Path(marker).write_text("x")

@@ -1,5 +1,6 @@
 """Scenario files: the format, and a clear error for every kind of bad input."""
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -81,6 +82,7 @@ def test_name_defaults_to_the_file_stem(tmp_path: Path) -> None:
         (("radius = 0.3", "radius = -0.3"), r"'world.obstacles\[0\].radius': expected a number > 0"),
         (("radius = 0.3", 'radius = "big"'), r"expected a finite number"),
         (("bounds = [-3.0, 3.0, -3.0, 3.0]", "bounds = [3.0, -3.0, -3.0, 3.0]"), "xmin < xmax"),
+        (("bounds = [-3.0, 3.0, -3.0, 3.0]", "bounds = [-3.0, 1e6, -3.0, 3.0]"), "at most 1000 m a side"),
         (("position_tolerance = 0.05", "position_tolerance = 0"), "expected a number > 0"),
         (("[goal]\npose = [2.5, 2.5, 1.57]", "[goal]"), r"missing field\(s\) 'goal.pose'"),
         (("radius = 0.3", "radius = 0.3\nfoo = 2"), r"unknown key\(s\) 'foo' in \[world.obstacles\[0\]\]"),
@@ -111,6 +113,9 @@ def test_name_defaults_to_the_file_stem(tmp_path: Path) -> None:
             ("radius = 0.3", "radius = 1e-9"),
             r"'world.obstacles\[0\]': this circle is 2e-09 m across, less than the 0.1 mm",
         ),
+        # the format version is the integer 1: true and 1.0 equal 1 in Python, but are not it
+        (('robot = "turtlebot3"', 'robot = "turtlebot3"\nversion = true'), r"field 'version': expected the integer 1"),
+        (('robot = "turtlebot3"', 'robot = "turtlebot3"\nversion = 1.0'), r"field 'version': .*, got 1.0$"),
     ],
 )
 def test_bad_files_fail_with_file_field_and_expectation(tmp_path: Path, edit: tuple[str, str], match: str) -> None:
@@ -209,3 +214,69 @@ def test_a_generated_world_loads_by_its_name_for_any_robot() -> None:
     for bad in ("random", "random-1", "random4x", "Random4"):
         with pytest.raises(ScenarioError, match=r"random<N> for the generated world of seed N"):
             load_scenario(bad)
+
+
+#: The example of docs/how-to/new-scenario.md.
+YARD = """
+name = "yard"
+robot = "turtlebot3"
+robots = ["turtlebot3", "edumip"]
+planner = "rrt-star"
+[world]
+bounds = [0.0, 4.0, 0.0, 3.0]
+[[world.obstacles]]
+type = "box"
+center = [2.0, 1.5]
+size = [0.4, 1.2]
+[start]
+pose = [0.4, 0.4, 0.0]
+[goal]
+pose = [3.6, 2.6, 1.57]
+"""
+
+
+def test_a_start_or_goal_the_robots_footprint_overlaps_is_refused_naming_file_field_robot_and_fix(
+    tmp_path: Path,
+) -> None:
+    from planning.planners.base import PlanProblem
+    from planning.planners.registry import make_planner
+    from planning.scenario import scenario_with_robot
+
+    path = _write(tmp_path, YARD.replace("pose = [0.4, 0.4, 0.0]", "pose = [0.01, 0.4, 0.0]"))
+    sc = load_scenario(path)  # its centre is free: the file itself is sound
+    with pytest.raises(ScenarioError) as err:
+        scenario_with_robot(sc, None)
+    said = str(err.value)
+    assert said.startswith(f"{path}: field 'start.pose': [0.01, 0.4, 0.0] is not free for robot 'turtlebot3'")
+    assert "overlaps the wall x = 0 (clearance -0.097 m); move the start more than 0.097 m away from it" in said
+    # the planners' own clearance, the one number: the API's planner still answers with a status
+    plan = make_planner("rrt").plan(PlanProblem.from_scenario(sc, time_limit=5.0))
+    assert plan.status == "invalid_start" and "clearance -0.097 m" in plan.reason
+    corner = load_scenario(_write(tmp_path, YARD.replace("pose = [3.6, 2.6, 1.57]", "pose = [3.99, 2.99, 1.57]")))
+    with pytest.raises(ScenarioError, match=r"'goal.pose'.*overlaps the walls x = 4 and y = 3 .*away from them$"):
+        scenario_with_robot(corner, None)
+    # the footprint is the robot's: 8 cm from the wall the TurtleBot3's tail is in it, the EduMIP's is not
+    near = load_scenario(_write(tmp_path, YARD.replace("pose = [0.4, 0.4, 0.0]", "pose = [0.08, 0.4, 0.0]")))
+    with pytest.raises(ScenarioError, match=r"robot 'turtlebot3'.*clearance -0.026 m"):
+        scenario_with_robot(near, None)
+    assert scenario_with_robot(near, "edumip").robot == "edumip"
+    assert scenario_with_robot(near, None, ends=False) is near  # ends replaced (a trajectory file's): not checked
+
+
+def test_an_obstacle_inside_the_footprint_is_named_not_an_infinite_clearance(tmp_path: Path) -> None:
+    """A speck (a noisy map's pixel) under the robot, its centre free: the pose is inside an obstacle."""
+    from planning.planners.base import PlanProblem
+    from planning.planners.registry import make_planner
+    from planning.scenario import scenario_with_robot
+
+    speck = '[[world.obstacles]]\ntype = "box"\ncenter = [0.43, 0.42]\nsize = [0.01, 0.01]\n[start]'
+    sc = load_scenario(_write(tmp_path, YARD.replace("[start]", speck)))
+    with pytest.raises(ScenarioError) as err:
+        scenario_with_robot(sc, None)
+    said = str(err.value)
+    assert "'start.pose'" in said and "holds part of the box at x 0.425..0.435, y 0.415..0.425" in said
+    assert "the pose is inside an obstacle for this robot" in said and "inf" not in said
+    assert re.search(r"move the start more than 0\.\d{3} m away from it \(the turtlebot3 reaches 0.126 m", said)
+    plan = make_planner("rrt").plan(PlanProblem.from_scenario(sc, time_limit=5.0))
+    assert plan.status == "invalid_start" and "an obstacle lies inside the robot's footprint" in plan.reason
+    assert "inf" not in plan.reason

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -24,6 +25,7 @@ from sim.physics.sensors import (
     SensorModel,
     SensorProfile,
     load_sensor_profile,
+    read_sensor_file,
     read_sensor_table,
     sensor_profile_path,
 )
@@ -60,12 +62,61 @@ def test_a_file_sensors_table_overrides(tmp_path: Path) -> None:
     f = tmp_path / "s.toml"
     f.write_text("[sensors]\nfix_position_std = 0.001\n", encoding="utf-8")
     assert load_sensor_profile("edumip", table=read_sensor_table(f)).fix_position_std == 0.001
-    f.write_text("[other]\nx = 1\n", encoding="utf-8")
+    f.write_text("", encoding="utf-8")
     with pytest.raises(ConfigError, match=r"no \[sensors\] table"):
         read_sensor_table(f)
     f.write_text("[sensors\n", encoding="utf-8")
     with pytest.raises(ConfigError, match="cannot read"):
         read_sensor_table(f)
+
+
+def test_a_settings_file_holds_a_sensors_and_a_lidar_table_and_nothing_else(tmp_path: Path) -> None:
+    """A ``--sensors FILE`` is laid out as a profile: its ``[lidar]`` table is read, anything else refused."""
+    f = tmp_path / "mine.toml"
+    f.write_text(sensor_profile_path("turtlebot3").read_text(encoding="utf-8").replace("beams = 360", "beams = 3"))
+    tables = read_sensor_file(f)
+    assert tables["lidar"]["beams"] == 3 and tables["sensors"] == read_sensor_table(sensor_profile_path("turtlebot3"))
+    f.write_text("[lidar]\nbeams = 90\n", encoding="utf-8")
+    assert read_sensor_file(f) == {"lidar": {"beams": 90}}
+    for text, what in (("[sensors]\n[lidr]\nbeams = 3\n", "table [lidr]"), ("fix_rate = 5\n", "key 'fix_rate'")):
+        f.write_text(text, encoding="utf-8")
+        with pytest.raises(ConfigError) as err:
+            read_sensor_file(f)
+        assert str(err.value).startswith(f"{f}: {what} is not understood here; a sensor settings file holds only a ")
+        assert "[sensors] table" in str(err.value) and "[lidar] table" in str(err.value)
+    f.write_text("sensors = 5\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match=r": 'sensors' must be a table \(\[sensors\]\), got 5$"):
+        read_sensor_file(f)
+    f.write_text("[sensors]\nfix_rate = true\n", encoding="utf-8")
+    with pytest.raises(ConfigError) as err:
+        read_sensor_file(f)
+    assert str(err.value).startswith(f"{f}: field '[sensors] fix_rate': sensor fix_rate must be a finite number")
+
+
+def test_a_scenario_tables_errors_name_its_file_and_field_not_the_command_line(tmp_path: Path) -> None:
+    scen = tmp_path / "s.toml"
+    where = str(scen)
+    cases = [
+        ({"fix_rate": -1.0}, r"field '\[sensors\] fix_rate': sensor fix_rate=-1.0 is outside .*e\.g\. fix_rate = 5$"),
+        ({"fix_rat": 5.0}, r"field '\[sensors\] fix_rat': unknown key 'fix_rat'; the sensor keys are encoder_cpr"),
+        ({"fix_rate": 3.0}, r"field '\[sensors\] fix_rate': .*16.67 control periods .*e\.g\. fix_rate = 2.5 or 3.125$"),
+    ]
+    for table, match in cases:
+        with pytest.raises(ConfigError, match=match) as err:
+            load_sensor_profile("turtlebot3", table=table, source=where, control_rate=50.0)
+        assert str(err.value).startswith(f"{where}: ") and "--sensors" not in str(err.value)
+    # a rate set on the command line over the table is the command line's to fix (when the run is made)
+    cli = load_sensor_profile("turtlebot3", table={"fix_rate": 4.0}, text="fix_rate=3", source=where, control_rate=50.0)
+    with pytest.raises(ConfigError, match=r"^sensor fix_rate=3 Hz: .*e\.g\. --sensors fix_rate=2.5 or 3.125$"):
+        _model(cli)
+    # through a case, as every command reads it: the scenario's file is named
+    from planning.scenario import load_scenario
+    from sim.pipeline.case import Case
+
+    scen.write_text('[world]\nbounds = [-2.0, 2.0, -2.0, 2.0]\n[start]\npose = [0.0, 0.0, 0.0]\n[goal]\n'
+                    "pose = [1.0, 1.0, 0.0]\n[sensors]\nfix_rate = -1.0\n")  # fmt: skip
+    with pytest.raises(ConfigError, match=rf"^{re.escape(where)}: field '\[sensors\] fix_rate': .*fix_rate = 5$"):
+        Case(str(scen), reference="line", localiser="fixes").sensing(load_scenario(scen))
 
 
 @pytest.mark.parametrize(
@@ -409,3 +460,43 @@ def test_a_runs_sensing_is_the_plain_python_period_bit_for_bit() -> None:
     for k in (n + 1, n + 50, -3):  # past the run's periods (its logs have n + 1 rows), or before it
         with pytest.raises(IndexError, match="outside the run"):
             observe(k, truth)
+
+
+def test_a_settings_files_lidar_table_is_applied_under_the_command_lines_lidar(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--sensors FILE``'s ``[lidar]`` reaches the scanner as ``--lidar`` would, ``--lidar`` on top; what the
+    file holds that cannot be used is bad input (exit 2, nothing written)."""
+    from sim.cli.main import build_parser, main
+    from sim.cli.simulate import localiser_fields, sensor_overrides
+    from sim.pipeline.case import Case, load_case_scenario
+
+    f = tmp_path / "mine.toml"
+    f.write_text("[sensors]\nfix_latency = 0.1\n[lidar]\nbeams = 3\nprecision_far = 0\n", encoding="utf-8")
+
+    def setup(*extra: str) -> Any:
+        args = build_parser(["simulate"]).parse_args(["simulate", "--sensors", str(f), *extra])
+        case = Case("open", reference="line", sensors=sensor_overrides(args.sensors), **localiser_fields(args))
+        return case.sensing(load_case_scenario(case))
+
+    alone = setup()
+    assert alone.localiser.lidar.beams == 3 and alone.localiser.lidar.precision_far == 0.0
+    assert alone.profile.fix_latency == 0.1
+    over = setup("--lidar", "beams=90")
+    assert over.localiser.lidar.beams == 90 and over.localiser.lidar.precision_far == 0.0
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    run = ["simulate", "--sensors", str(f), "--reference", "line", "--no-video", "--quiet"]
+    for text, extra, says in (
+        ("[lidr]\nbeams = 3\n", [], f"{f}: table [lidr] is not understood here"),
+        ("[lidar]\nbeams = 1000\n", [], f"{f}: field '[lidar] beams': lidar beams=1000 is outside [1, 360]"),
+        ("[lidar]\nbeam = 3\n", [], f"{f}: field '[lidar] beam': unknown key; the lidar keys are beams"),
+        ("[lidar]\nbeams = 3\n", ["--localiser", "fixes"], f"{f}: table [lidar]: --localiser fixes takes no scan"),
+        ("[lidar]\nbeams = 3\n", ["--robot", "edumip"], "and a [lidar] table from the --sensors file"),
+    ):
+        f.write_text(text, encoding="utf-8")
+        assert main([*run, *extra]) == 2
+        err = capsys.readouterr().err
+        assert says in err and "Traceback" not in err
+    assert list(work.iterdir()) == []

@@ -239,6 +239,13 @@ def test_workers_never_take_one_waiting_trial_twice(tmp_path: Path) -> None:
         ({"--scenarios": "open:spiral"}, "simulate_plan|spiral"),
         ({"--storage": "sqlite:////nonexistent-nhsim-dir/sub/study.db"}, "cannot open storage"),
         ({"--storage": "nosuchdb://user@host/db"}, "cannot open storage"),
+        # one connection's own database: the study was made in it and not found by the next ('Record does not exist')
+        (
+            {"--storage": "sqlite:///:memory:"},
+            "in-memory SQLite database cannot hold a study.*sqlite:///renders/tune.db",
+        ),
+        ({"--storage": "sqlite://"}, "in-memory SQLite database cannot hold a study"),
+        ({"--jobs": "100000"}, r"--jobs 100000 would start 100000 worker processes .* give at most --jobs \d+"),
         ({"--perturb-range": "grip=1:2"}, "expected comma-separated"),
         ({"--trials": "0"}, "--trials must be >= 1"),
         ({"--draws": "0"}, "--draws must be >= 1"),

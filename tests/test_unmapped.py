@@ -61,3 +61,18 @@ def test_unmapped_obstacles_overlapping_the_start_or_badly_shaped_are_refused(tm
         _load(tmp_path, TEXT.replace("size = [0.3, 0.3]", "size = [0.3, -0.3]"))
     with pytest.raises(ScenarioError, match=r"world\.unmapped"):
         _load(tmp_path, TEXT.replace("[[world.unmapped]]", "[world.unmapped]"))
+
+
+def test_unmapped_obstacles_get_the_checks_mapped_ones_get(tmp_path: Path) -> None:
+    """One no pose can meet (a typo?) and one thinner than the checker resolves are refused when the file is
+    read, naming the file and ``world.unmapped[i]``, as a ``[[world.obstacles]]`` one is."""
+    path = tmp_path / "u.toml"
+    with pytest.raises(ScenarioError) as err:
+        _load(tmp_path, TEXT.replace("center = [0.0, 0.8]", "center = [10.0, 10.0]"))
+    said = str(err.value)
+    assert said.startswith(f"{path}: field 'world.unmapped[0]': this box lies wholly outside the world bounds")
+    assert "move it inside, or remove it" in said
+    with pytest.raises(ScenarioError) as err:
+        _load(tmp_path, TEXT.replace("size = [0.3, 0.3]", "size = [1e-5, 1e-5]"))
+    said = str(err.value)
+    assert said.startswith(f"{path}: field 'world.unmapped[0]': this box is 1e-05 m across, less than the 0.1 mm")

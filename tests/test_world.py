@@ -184,6 +184,7 @@ def test_world_walls_and_minimum() -> None:
         (lambda: Polygon(((0, 0), (1, 1))), "at least 3"),
         (lambda: Polygon(((0, 0), (1, 1), (2, 2))), "zero area"),
         (lambda: World((1, 0, 0, 1)), "xmin < xmax"),
+        (lambda: World((0, 1e6, 0, 1e6)), r"1e\+06 x 1e\+06 m, more than 1000 m a side"),  # 65 GB of tree
     ],
 )
 def test_bad_shapes_are_rejected(ctor: object, match: str) -> None:

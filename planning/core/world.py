@@ -320,6 +320,10 @@ def too_thin(ob: Obstacle) -> str:
     )
 
 
+#: Longest side of a world [m]: the sampling planners' reach and every grid grow with it.
+MAX_WORLD_SIDE = 1000.0
+
+
 @dataclass(frozen=True)
 class World:
     """A rectangular arena with walls on its edges and obstacles inside.
@@ -341,6 +345,11 @@ class World:
             raise ConfigError(f"bounds must be 4 finite numbers [xmin, xmax, ymin, ymax], got {self.bounds}")
         if not (b[0] < b[1] and b[2] < b[3]):
             raise ConfigError(f"bounds need xmin < xmax and ymin < ymax, got {b}")
+        if max(b[1] - b[0], b[3] - b[2]) > MAX_WORLD_SIDE:
+            raise ConfigError(
+                f"bounds span {b[1] - b[0]:g} x {b[3] - b[2]:g} m, more than {MAX_WORLD_SIDE:g} m a side (a "
+                "TurtleBot3 takes 75 minutes to cross that): give bounds in metres around the area the robot drives"
+            )
         object.__setattr__(self, "bounds", b)
         object.__setattr__(self, "obstacles", tuple(self.obstacles))
         for i, ob in enumerate(self.obstacles):

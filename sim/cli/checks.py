@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
+import argparse
 import math
+import os
+from collections.abc import Callable
+from pathlib import Path, PurePath
+from typing import Any
 
 from planning.errors import ConfigError
 
@@ -37,3 +42,48 @@ def check_control_rate(hz: float) -> None:
     the physics rate is the simulator's check)."""
     if not (hz > 0 and math.isfinite(hz)):
         raise ConfigError(f"--control-rate must be a finite number of Hz > 0, got {hz:g}; pass e.g. --control-rate 50")
+
+
+def refuse_blank_values(parser: argparse.ArgumentParser) -> None:
+    """Make every option of ``parser`` (and of its subcommands) that takes text refuse an empty or blank
+    value, naming the option and what to give: ``--gains ''`` was read as "not given" (the defaults ran),
+    ``--json ''`` as the folder ``.``. Options of numbers or choices refuse it already."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in dict.fromkeys(action.choices.values()):
+                refuse_blank_values(sub)
+        elif action.option_strings and action.nargs != 0 and action.choices is None and _takes_text(action.type):
+            action.type = _not_blank(action)
+
+
+def _takes_text(kind: object) -> bool:
+    return kind is None or kind is str or (isinstance(kind, type) and issubclass(kind, PurePath))
+
+
+def _not_blank(action: argparse.Action) -> Callable[[str], Any]:
+    """``action``'s type, refusing a blank value first (argparse reports the message as ``argument --X: ...``)."""
+    convert = action.type if callable(action.type) else str
+    metavar = action.metavar if isinstance(action.metavar, str) else action.dest.upper()
+    leave = "" if action.required else f", or leave {action.option_strings[0]} out"
+
+    def read(text: str) -> Any:
+        if not text.strip():
+            raise argparse.ArgumentTypeError(f"the value is empty; give {metavar}{leave}")
+        return convert(text)
+
+    return read
+
+
+def check_file_stem(stem: str, flag: str, example: str, suffixes: tuple[str, ...]) -> None:
+    """Raise :class:`ConfigError` when ``flag``'s file stem (``STEM`` of ``STEM-paths.png``) names a folder: an
+    existing one, or a path ending in a separator, which would write files named ``-paths.png`` inside it.
+
+    Args:
+        stem: The value given.
+        flag: The option, e.g. ``"--plots"``.
+        example: A stem to suggest, e.g. ``"renders/cmp"``.
+        suffixes: What the command adds to the stem, e.g. ``("-paths.png", "-errors.png")``.
+    """
+    if stem.endswith(("/", os.sep)) or Path(stem).is_dir():
+        made = " and ".join(f"{example}{s}" for s in suffixes)
+        raise ConfigError(f"{flag} {stem} names a folder; {flag} takes a file stem, e.g. {example} (writes {made})")

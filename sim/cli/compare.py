@@ -33,6 +33,8 @@ under its own namespace (/fbl/..., /segmented/...).
 
 Exit status: 0 done, 2 bad input (nothing run), 1 a run failed."""
 
+#: What --plots STEM adds to its stem: the paths overlaid, the errors against time.
+PLOT_SUFFIXES = ("-paths.png", "-errors.png")
 #: What --trackers defaults to: every registered tracker with feedback (control.base.feedback_trackers).
 DEFAULT_TRACKERS = "every registered tracker with feedback (all but open-loop)"
 
@@ -56,7 +58,12 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     p.add_argument("--params", default=None, metavar="FILE[,FILE]", help="tuned parameters (JSON)")
     p.add_argument("--json", default=None, metavar="PATH", help="write the record here")
-    p.add_argument("--plots", default=None, metavar="STEM", help="write STEM-paths.png and STEM-errors.png")
+    p.add_argument(
+        "--plots",
+        default=None,
+        metavar="STEM",
+        help="write STEM-paths.png and STEM-errors.png; STEM is a file stem, e.g. renders/cmp, not a folder",
+    )
     p.add_argument("--video", default=None, metavar="PATH", help="write one MP4 of every tracker here")
     p.add_argument("--bag", type=Path, default=None, metavar="DIR", help="write every tracker's run as a ROS 2 bag")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
@@ -66,14 +73,16 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 def _outputs(args: argparse.Namespace) -> dict[str, Path]:
     """The files asked for, checked writable before anything runs."""
+    from sim.cli.checks import check_file_stem
     from sim.outputs import check_writable
 
     out: dict[str, Path] = {}
-    if args.json:
+    if args.json is not None:
         out["json"] = Path(args.json)
-    if args.plots:
-        out["paths"], out["errors"] = Path(f"{args.plots}-paths.png"), Path(f"{args.plots}-errors.png")
-    if args.video:
+    if args.plots is not None:
+        check_file_stem(args.plots, "--plots", "renders/cmp", PLOT_SUFFIXES)
+        out["paths"], out["errors"] = (Path(f"{args.plots}{suffix}") for suffix in PLOT_SUFFIXES)
+    if args.video is not None:
         out["video"] = Path(args.video)
         check_video_name(out["video"])
     for path in out.values():
@@ -114,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
     from sim.tools.compare import check_trackers, compare_trackers, format_table, load_params
 
     names = check_trackers(args.trackers.split(",") if args.trackers is not None else feedback_trackers())
-    params = load_params(args.params.split(",")) if args.params else {}
+    params = load_params(args.params.split(",")) if args.params is not None else {}
     unused = sorted(set(params) - set(names))
     if unused:
         raise ConfigError(

@@ -94,13 +94,16 @@ def add_case_arguments(p: argparse.ArgumentParser) -> None:
 
 def add_executor_arguments(p: argparse.ArgumentParser, *, what: str, default_jobs: str) -> None:
     """``--jobs J`` / ``--scheduler ADDRESS``: where ``what`` runs (see :mod:`sim.tools.executor`)."""
+    from sim.tools.executor import JOBS_PER_CORE
+
     where = p.add_mutually_exclusive_group()
     where.add_argument(
         "--jobs",
         type=int,
         default=None,
         metavar="J",
-        help=f"run {what} on J local worker processes (Dask; 1: in this process) (default: {default_jobs})",
+        help=f"run {what} on J local worker processes (Dask; 1: in this process; at most {JOBS_PER_CORE} per core) "
+        f"(default: {default_jobs})",
     )
     where.add_argument(
         "--scheduler",

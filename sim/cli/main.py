@@ -90,6 +90,9 @@ def build_parser(commands: Collection[str] | None = None) -> argparse.ArgumentPa
         p = importlib.import_module(module).add_parser(sub)
         p.set_defaults(_module=module)
         assert p.prog.endswith(name)
+    from sim.cli.checks import refuse_blank_values
+
+    refuse_blank_values(parser)  # one rule for every command's text options: empty is no value
     return parser
 
 

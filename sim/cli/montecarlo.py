@@ -234,9 +234,10 @@ def run(args: argparse.Namespace) -> int:
 
     gl.configure(args.gl)
     from sim.pipeline.case import load_case_scenario
-    from sim.tools.executor import make_executor
+    from sim.tools.executor import make_executor, worker_count
     from sim.tools.montecarlo import ResultsFile, run_montecarlo
 
+    worker_count(args.jobs, args.scheduler)
     spec = _spec(args)
     scenario = load_case_scenario(spec.case)  # unknown scenario, a robot it does not list: stop here
     from planning.scenario import load_scenario

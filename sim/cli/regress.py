@@ -79,9 +79,10 @@ def format_changes(changes: list[Any]) -> str:
 def run(args: argparse.Namespace) -> int:
     """Execute ``regress``."""
     from planning.errors import ConfigError
-    from sim.tools.executor import make_executor
+    from sim.tools.executor import make_executor, worker_count
     from sim.tools.regress import Status, check_task, load_suite
 
+    worker_count(args.jobs, args.scheduler, default=1)  # with --list too: one meaning for every option
     suite = load_suite(args.suite or SUITE_PATH)
     baselines: Path = args.baselines or BASELINE_DIR
     patterns = [p.strip() for arg in (args.case or []) for p in arg.split(",") if p.strip()]

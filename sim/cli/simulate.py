@@ -25,9 +25,10 @@ DEFAULT_REFERENCE = "figure8"
 BUILD_SEED_HELP = "1"
 
 DESCRIPTION = (
-    "Run the robot in MuJoCo physics along a reference trajectory, once with the dynamic "
-    "feedback-linearisation tracker (closed loop) and once replaying the reference inputs "
-    "(open loop), and print each run's errors.\n\n"
+    "Run the robot in MuJoCo physics along a reference trajectory three times (--runs): closed loop on the "
+    "EKF's fused estimate (closed_loop), closed loop on dead reckoning (closed_loop_odometry) and replaying "
+    "the reference inputs (open_loop); a reference is tracked by the dynamic feedback-linearisation tracker, "
+    "a plan or a file by the segmented one; print each run's errors.\n\n"
     f"What runs, one rule: the scenario is --scenario, else '{REFERENCE_SCENARIO}' with --reference, else "
     f"'{DEFAULT_SCENARIO}'; the path is --reference's curve or --planner's plan, else the plan of the "
     f"scenario's own planner, else (the scenario names none) the '{DEFAULT_REFERENCE}' reference. With no "
@@ -41,11 +42,13 @@ DESCRIPTION = (
     "obstacle-avoiding planner, and obstacle-free planners where there are no obstacles) for "
     "every robot the scenario lists, and prints one row each.\n\n"
     f"JSON record (--json): per run ({', '.join(repr(str(kind)) for kind in RunKind)}) final_position_error_m, "
-    "final_heading_error_rad, rms_position_error_m, max_position_error_m, collisions, warnings, "
-    "saturation_fraction (a balancing robot's also max_pitch_rad, fell, fall_time_s); plus scenario, "
-    "robot, source, tracker, gains, control_rate_hz, seed and package versions.\n\n"
-    "Outputs: renders/<scenario>-<planner or reference>.mp4 (both runs: closed loop solid, open loop as a "
-    "ghost), PNG plots and a JSON record beside it; an existing file is never replaced without "
+    "final_heading_error_rad, rms_position_error_m, max_position_error_m, final_goal_error_m, collisions, "
+    "warnings, saturation_fraction, duration_s, wheel_contact_loss_fraction, status, estimation (runs on an "
+    "estimator; a balancing robot's also max_pitch_rad, fell, fall_time_s); plus scenario, robot, source, "
+    "tracker, gains, control_rate_hz, seeds, the robot as built, sensors, localiser and package versions "
+    "(every field: docs/reference/run-record.md).\n\n"
+    "Outputs: renders/<scenario>-<planner or reference>.mp4 (every run: closed loop solid, the others as "
+    "ghosts), PNG plots and a JSON record beside it; an existing file is never replaced without "
     "--overwrite (the command stops with an error before running anything).\n\n"
     "Exit status: 0 when every run is clean (no MuJoCo warning, no collision in closed loop) and the "
     "closed loop ends on target (a plan: inside the scenario's goal tolerance of the trajectory's final "
@@ -106,21 +109,63 @@ def parse_build(build: str, build_seed: int | None) -> int | None:
     return DEFAULT_BUILD_SEED if build_seed is None else check_build_seed(build_seed)
 
 
-def sensor_overrides(text: str | None) -> str:
-    """``--sensors``: ``key=value,...`` as given, or a TOML file's ``[sensors]`` table as that text.
+def _sensor_file(text: str | None) -> dict[str, dict[str, Any]] | None:
+    """The tables of ``--sensors FILE`` (:func:`sim.physics.sensors.read_sensor_file`); None when ``text`` is
+    ``key=value,...`` or empty.
 
     Raises:
-        ConfigError: An unreadable file or a file without a ``[sensors]`` table.
+        ConfigError: An unreadable file, one with neither a [sensors] nor a [lidar] table or with anything
+            else, or a bad sensor key or value in it.
     """
-    if not text:
-        return ""
-    path = Path(text)
-    if "=" in text or not (path.suffix == ".toml" or path.exists()):
-        return text
-    from sim.physics.sensors import read_sensor_table
+    path = Path(text or "")
+    if not text or "=" in text or not (path.suffix == ".toml" or path.exists()):
+        return None
+    from sim.physics.sensors import read_sensor_file
 
-    table = read_sensor_table(path)
-    return ",".join(f"{k}={v}" for k, v in table.items())
+    return read_sensor_file(path)
+
+
+def sensor_overrides(text: str | None) -> str:
+    """``--sensors``: ``key=value,...`` as given, or a TOML file's ``[sensors]`` table as that text (its
+    ``[lidar]`` table is :func:`lidar_overrides`').
+
+    Raises:
+        ConfigError: As :func:`_sensor_file`.
+    """
+    tables = _sensor_file(text)
+    if tables is None:
+        return text or ""
+    return ",".join(f"{k}={v}" for k, v in tables.get("sensors", {}).items())
+
+
+def lidar_overrides(sensors: str | None, lidar: str | None, localiser: str | None = None) -> str:
+    """The scanner's settings as ``--lidar`` takes them: the ``[lidar]`` table of a ``--sensors FILE`` (the
+    layout of ``models/sensors/<robot>.toml``), then ``--lidar key=value,...`` over it.
+
+    Raises:
+        ConfigError: A bad key or value in the file's ``[lidar]`` table (naming the file and the field) or
+            in ``--lidar``; a ``[lidar]`` table with ``--localiser fixes``, which takes no scan.
+    """
+    table = (_sensor_file(sensors) or {}).get("lidar")
+    if table is None:
+        return lidar or ""
+    if localiser == "fixes":
+        raise ConfigError(
+            f"{sensors}: table [lidar]: --localiser fixes takes no scan, so the scanner's settings would be ignored; "
+            "remove the [lidar] table from the file, or use --localiser amcl"
+        )
+    from sim.physics.keyvalue import parse_pairs
+    from sim.physics.lidar import EXAMPLE, LIMITS, LidarProfile
+
+    for key, value in table.items():
+        if key not in LIMITS:
+            raise ConfigError(f"{sensors}: field '[lidar] {key}': unknown key; the lidar keys are {', '.join(LIMITS)}")
+        try:
+            LidarProfile(**{key: value})
+        except ConfigError as exc:
+            raise ConfigError(f"{sensors}: field '[lidar] {key}': {exc}") from exc
+    given = parse_pairs(lidar or "", "--lidar", LIMITS, EXAMPLE)
+    return ",".join(f"{k}={v}" for k, v in ({k: str(v) for k, v in table.items()} | given).items())
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
@@ -220,7 +265,8 @@ def _add_run_arguments(p: argparse.ArgumentParser) -> None:
         default=RUN_SETTINGS["sensors"],
         metavar="KEY=VALUE,...|FILE",
         help="override the robot's sensor profile (models/sensors/<robot>.toml), e.g. fix_rate=10,fix_latency=0.05, "
-        "or a TOML file with a [sensors] table (default: the profile as it is)",
+        "or a TOML file laid out as that profile: a [sensors] table and optionally a [lidar] table (the scanner's "
+        "settings, under --lidar) (default: the profile as it is)",
     )
     p.add_argument(
         "--motors",
@@ -244,7 +290,7 @@ def _add_run_arguments(p: argparse.ArgumentParser) -> None:
         default=RUN_SETTINGS["perturb"],
         metavar="KEY=VALUE,...",
         help="perturb physics and loop: friction, mass, radius (scales), noise [m], heading_noise [rad], "
-        "latency [s], e.g. friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02 (noise uses --seed); "
+        "latency [s], e.g. friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02 (noise uses --noise-seed); "
         "a balancing robot also takes push=J@T, an impulse of J N s on its body top at T s (e.g. push=0.05@10) "
         "(default: none)",
     )
@@ -441,8 +487,8 @@ def add_localiser_arguments(p: argparse.ArgumentParser) -> None:
         "--lidar",
         default=RUN_SETTINGS["lidar"],
         metavar="KEY=VALUE,...",
-        help="override the laser scanner's settings ([lidar] in models/sensors/<robot>.toml), e.g. beams=180 "
-        "(default: the profile as it is)",
+        help="override the laser scanner's settings ([lidar] in models/sensors/<robot>.toml, and in a --sensors "
+        "file), e.g. beams=180 (default: the profile as it is)",
     )
     p.add_argument(
         "--amcl",
@@ -461,10 +507,11 @@ def add_localiser_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def localiser_fields(args: argparse.Namespace) -> dict[str, Any]:
-    """The case fields of :func:`add_localiser_arguments`' options."""
+    """The case fields of :func:`add_localiser_arguments`' options (the scanner's settings: ``--lidar`` over the
+    ``[lidar]`` table of a ``--sensors FILE``, :func:`lidar_overrides`)."""
     return {
         "localiser": args.localiser,
-        "lidar": args.lidar or "",
+        "lidar": lidar_overrides(getattr(args, "sensors", None), args.lidar, args.localiser),
         "amcl": args.amcl or "",
         "initial_pose": args.initial_pose,
     }

@@ -114,8 +114,9 @@ def run_all(args: argparse.Namespace, gains: Any) -> int:
     from sim.outputs import check_writable, write_json
     from sim.pipeline.case import PlanOptions
     from sim.pipeline.sweep import run_sweep, sweep_cases, sweep_passed, sweep_record
-    from sim.tools.executor import make_executor
+    from sim.tools.executor import make_executor, worker_count
 
+    worker_count(args.jobs, args.scheduler, default=1)
     if args.json is not None:
         check_writable(args.json, overwrite=args.overwrite)
     planning = PlanOptions(time_limit=args.time_limit)

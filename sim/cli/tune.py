@@ -17,6 +17,7 @@ from typing import Any
 
 from planning.errors import ConfigError
 from sim.cli.simulate import add_localiser_arguments, localiser_fields
+from sim.tools.executor import JOBS_PER_CORE, check_workers
 from sim.tools.tune import GRACE_PERIOD
 
 DESCRIPTION = f"""\
@@ -87,12 +88,19 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument(
         "--trials", type=int, default=30, metavar="N", help="completed trials wanted in the study (default: 30)"
     )
-    p.add_argument("--jobs", type=int, default=1, metavar="J", help="local worker processes (default: 1)")
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=1,
+        metavar="J",
+        help=f"local worker processes, at most {JOBS_PER_CORE} per core (default: 1)",
+    )
     p.add_argument(
         "--storage",
         default=None,
         metavar="URL",
-        help="SQLAlchemy URL of the study storage (default: sqlite:///renders/tune-<study>.db)",
+        help="SQLAlchemy URL of the study storage, a database file or server (not in memory: the workers share "
+        "the study and a rerun resumes it) (default: sqlite:///renders/tune-<study>.db)",
     )
     p.add_argument("--study", default=None, metavar="NAME", help="study name (default: derived from the cases)")
     p.add_argument("--sampler", choices=list(SAMPLERS), default="tpe", help="Optuna sampler (default: tpe)")
@@ -334,6 +342,7 @@ def tune_files(args: argparse.Namespace, tokens: list[str]) -> TuneFiles:
     """
     from planning.errors import OutputExistsError
     from sim.outputs import check_writable
+    from sim.tools.tune import check_storage
 
     study = args.study or default_study_name(
         tokens, args.robot, args.robust, getattr(args, "tracker", "fbl"), getattr(args, "localiser", None)
@@ -347,6 +356,7 @@ def tune_files(args: argparse.Namespace, tokens: list[str]) -> TuneFiles:
         args.plots / f"tune-{study}-importance.png",
         args.json or gains.with_suffix(".json"),
     )
+    check_storage(files.storage)
     paths = (files.gains, files.history, files.importance, files.record)
     if len({p.resolve() for p in paths}) < len(paths):
         raise ConfigError(
@@ -376,8 +386,8 @@ def tune_files(args: argparse.Namespace, tokens: list[str]) -> TuneFiles:
 def _check_counts(args: argparse.Namespace) -> None:
     from sim.cli.checks import check_at_least, check_control_rate, check_seeds
 
-    counts = {"--trials": (args.trials, 1), "--jobs": (args.jobs, 1), "--draws": (args.draws, 1)}
-    check_at_least({**counts, "--eval-runs": (args.eval_runs, 0)})
+    check_at_least({"--trials": (args.trials, 1), "--draws": (args.draws, 1), "--eval-runs": (args.eval_runs, 0)})
+    check_workers(args.jobs)
     check_seeds(seed=args.seed)
     check_control_rate(args.control_rate)
 

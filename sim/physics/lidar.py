@@ -170,7 +170,10 @@ def load_lidar_profile(robot: str, *, text: str | None = None) -> LidarProfile |
     table = data.get("lidar")
     if table is None:
         if text:
-            raise ConfigError(f"robot {robot!r} has no laser scanner ({path} has no [lidar] table); drop --lidar")
+            raise ConfigError(
+                f"robot {robot!r} has no laser scanner ({path} has no [lidar] table); drop --lidar (and a [lidar] "
+                "table from the --sensors file)"
+            )
         return None
     if not isinstance(table, dict):
         raise ConfigError(f"{path}: [lidar] must be a table")

@@ -91,19 +91,36 @@ EXAMPLE = "gyro_noise_density=0,fix_rate=10,fix_latency=0.05"
 WHOLE_TOL = 1e-6
 
 
-def _check_field(name: str, value: object) -> float:
+def _setting(name: str, value: str, source: str | None) -> str:
+    """How a sensor number is set where it was given: ``--sensors name=value`` on the command line, or
+    ``name = value`` in the ``[sensors]`` table of ``source`` (a scenario or settings file)."""
+    return f"--sensors {name}={value}" if source is None else f"{name} = {value}"
+
+
+def _in_table(source: str | None, name: str, message: str) -> str:
+    """``message`` led by the file and the field (``FILE: field '[sensors] fix_rate': ...``) for a number
+    of the ``[sensors]`` table of ``source``; as it is for the command line's (``source`` None)."""
+    return message if source is None else f"{source}: field '[sensors] {name}': {message}"
+
+
+def _check_field(name: str, value: object, source: str | None = None) -> float:
     lo, hi, unit, typical = LIMITS[name]
-    fix = f"give a number in [{lo:g}, {hi:g}], e.g. --sensors {name}={typical}"
-    return check_number(value, name, "sensor", (lo, hi), unit, fix)
+    fix = f"give a number in [{lo:g}, {hi:g}], e.g. {_setting(name, typical, source)}"
+    try:
+        return check_number(value, name, "sensor", (lo, hi), unit, fix)
+    except ConfigError as exc:
+        raise ConfigError(_in_table(source, name, str(exc))) from exc
 
 
-def _check_keys(table: Mapping[str, object], what: str) -> None:
+def _check_table(table: Mapping[str, object], what: str, source: str | None = None) -> None:
+    """Every key of ``table`` a sensor key and every value in its range; ``what`` leads the message of an
+    unknown key when the table is not a file's (``source`` None)."""
     unknown = [k for k in table if k not in LIMITS]
     if unknown:
-        raise ConfigError(
-            f"{what}: unknown key {unknown[0]!r}; the sensor keys are {', '.join(LIMITS)} "
-            f"(see {SENSORS_DIR}/<robot>.toml)"
-        )
+        said = f"unknown key {unknown[0]!r}; the sensor keys are {', '.join(LIMITS)} (see {SENSORS_DIR}/<robot>.toml)"
+        raise ConfigError(_in_table(source, unknown[0], said) if source is not None else f"{what}: {said}")
+    for name, value in table.items():
+        _check_field(name, value, source)
 
 
 @dataclass(frozen=True)
@@ -145,25 +162,33 @@ class SensorProfile:
 
         Args:
             table: Every key of :data:`LIMITS` with its number.
-            what: Where the table comes from, for messages (e.g. the file's path).
+            what: Where the table comes from, for messages (the file's path).
 
         Raises:
-            ConfigError: An unknown or missing key, or a bad value.
+            ConfigError: An unknown or missing key, or a bad value (naming the file and the field).
         """
-        _check_keys(table, what)
+        _check_table(table, what, what)
         missing = [k for k in LIMITS if k not in table]
         if missing:
             raise ConfigError(f"{what}: [sensors] lacks {', '.join(missing)}; give every key of {', '.join(LIMITS)}")
         values: dict[str, Any] = {k: table[k] for k in LIMITS}
         return cls(**values)
 
-    def override(self, table: Mapping[str, object], what: str = "[sensors]") -> SensorProfile:
+    def override(
+        self, table: Mapping[str, object], what: str = "[sensors]", *, source: str | None = None
+    ) -> SensorProfile:
         """This profile with the keys of ``table`` replaced (a scenario's or a file's ``[sensors]``).
+
+        Args:
+            table: Sensor keys and their numbers.
+            what: How messages name the table when it is not a file's.
+            source: The file (or scenario) whose ``[sensors]`` table it is: messages then name it and the
+                field, and say how to set the number there.
 
         Raises:
             ConfigError: An unknown key or a bad value.
         """
-        _check_keys(table, what)
+        _check_table(table, what, source)
         values: dict[str, Any] = {**self.as_dict(), **table}
         return SensorProfile(**values)
 
@@ -194,11 +219,18 @@ def sensor_profile_path(robot: str) -> Path:
     return path
 
 
-def read_sensor_table(path: Path) -> dict[str, Any]:
-    """The ``[sensors]`` table of a TOML file.
+#: The tables of a sensor settings file (``models/sensors/<robot>.toml``, and ``--sensors FILE`` in the same
+#: layout): the sensor numbers, and the laser scanner's settings (read by :mod:`sim.physics.lidar`).
+FILE_TABLES = ("sensors", "lidar")
+
+
+def read_sensor_file(path: Path) -> dict[str, dict[str, Any]]:
+    """The tables of a sensor settings file: ``[sensors]`` (its keys and values checked) and ``[lidar]``, each
+    given only when the file has it.
 
     Raises:
-        ConfigError: The file cannot be read or parsed, or has no ``[sensors]`` table.
+        ConfigError: The file cannot be read or parsed, has neither table, has anything else (the message
+            names it and what a file may hold), or a bad key or value in ``[sensors]`` (naming the field).
     """
     try:
         data = tomllib.loads(Path(path).read_text(encoding="utf-8-sig"))  # a byte-order mark is dropped
@@ -206,14 +238,41 @@ def read_sensor_table(path: Path) -> dict[str, Any]:
         raise ConfigError(f"cannot read sensor settings from {path}: not UTF-8 text; save it as UTF-8") from exc
     except (OSError, tomllib.TOMLDecodeError) as exc:
         raise ConfigError(f"cannot read sensor settings from {path}: {exc}") from exc
-    table = data.get("sensors")
-    if not isinstance(table, dict):
+    allowed = "a [sensors] table (sensor numbers) and a [lidar] table (the laser scanner's settings, as --lidar)"
+    for key, value in data.items():
+        if key not in FILE_TABLES:
+            what = f"table [{key}]" if isinstance(value, dict) else f"key {key!r}"
+            raise ConfigError(
+                f"{path}: {what} is not understood here; a sensor settings file holds only {allowed}: move it into "
+                "one of them, or remove it"
+            )
+        if not isinstance(value, dict):
+            raise ConfigError(f"{path}: {key!r} must be a table ([{key}]), got {value!r}")
+    if not data:
+        raise ConfigError(f"{path} has no [sensors] table; add one with keys such as {EXAMPLE.replace(',', ', ')}")
+    _check_table(data.get("sensors", {}), "[sensors]", str(path))
+    return data
+
+
+def read_sensor_table(path: Path) -> dict[str, Any]:
+    """The ``[sensors]`` table of a sensor settings file (:func:`read_sensor_file`).
+
+    Raises:
+        ConfigError: As :func:`read_sensor_file`, or the file has no ``[sensors]`` table.
+    """
+    table = read_sensor_file(path).get("sensors")
+    if table is None:
         raise ConfigError(f"{path} has no [sensors] table; add one with keys such as {EXAMPLE.replace(',', ', ')}")
     return table
 
 
 def load_sensor_profile(
-    robot: str, *, table: Mapping[str, object] | None = None, text: str | None = None
+    robot: str,
+    *,
+    table: Mapping[str, object] | None = None,
+    text: str | None = None,
+    source: str | None = None,
+    control_rate: float | None = None,
 ) -> SensorProfile:
     """A robot's sensor profile with its overrides applied: first ``table``, then ``text``.
 
@@ -221,6 +280,9 @@ def load_sensor_profile(
         robot: Registry name ("turtlebot3", "edumip").
         table: A ``[sensors]`` table (a scenario's, or :func:`read_sensor_table` of a file).
         text: ``key=value,...`` from ``--sensors``; it wins over ``table``.
+        source: The file (or scenario) ``table`` comes from: its errors name it and the field.
+        control_rate: The runs' control rate [Hz], when known: a fix rate set by ``table`` (and not by
+            ``text``) is checked against it (:func:`fix_period`), its error naming ``source`` and the field.
 
     Raises:
         ConfigError: No profile for the robot, or a bad key or value anywhere.
@@ -228,9 +290,12 @@ def load_sensor_profile(
     path = sensor_profile_path(robot)
     profile = SensorProfile.from_table(read_sensor_table(path), str(path))
     if table:
-        profile = profile.override(table)
+        profile = profile.override(table, source=source)
     if text:
         profile = profile.parse(text)
+    if control_rate is not None and table and "fix_rate" in table:
+        if "fix_rate" not in (parse_pairs(text, "--sensors", LIMITS, EXAMPLE) if text else {}):
+            fix_period(profile.fix_rate, control_rate, source)  # the table's rate: said where it was set
     return profile
 
 
@@ -259,6 +324,42 @@ STREAMS = ("encoder_phase", "gyro_bias", "gyro_white", "gyro_walk", "accel_bias"
 def _short(rate: float) -> bool:
     """True when ``f"{rate:g}"`` reads back as ``rate`` (a rate worth suggesting)."""
     return float(f"{rate:g}") == rate
+
+
+def fix_period(rate: float, control_rate: float, source: str | None = None) -> int:
+    """Control periods between two pose fixes at ``rate`` [Hz] (0 for no pose source), which must be a whole
+    number of periods at ``control_rate`` [Hz] (within :data:`WHOLE_TOL`) and at least one.
+
+    Args:
+        rate: The fix rate [Hz].
+        control_rate: The control rate [Hz].
+        source: The file (or scenario) whose ``[sensors]`` table set the rate; None: the command line.
+
+    Raises:
+        ConfigError: A rate above the control rate, or one whose period is not whole (the message suggests
+            rates that are, set where this one was).
+    """
+    if rate == 0.0:
+        return 0
+    ctrl = control_rate
+    if rate > ctrl * (1.0 + WHOLE_TOL):
+        said = (
+            f"sensor fix_rate={rate:g} Hz is above the control rate {ctrl:g} Hz: a fix is taken at most once per "
+            f"control period; lower it (e.g. {_setting('fix_rate', f'{ctrl:g}', source)}) or raise the control rate"
+        )
+        raise ConfigError(_in_table(source, "fix_rate", said))
+    every = _whole(ctrl / rate)
+    if every is None:
+        ratio = ctrl / rate
+        lower = next(ctrl / m for m in range(math.ceil(ratio), 10**6) if _short(ctrl / m))
+        higher = next(ctrl / m for m in range(math.floor(ratio), 0, -1) if _short(ctrl / m))
+        said = (
+            f"sensor fix_rate={rate:g} Hz: its period is {ratio:.4g} control periods at {ctrl:g} Hz, not a whole "
+            f"number; choose a rate that divides the control rate, e.g. {_setting('fix_rate', f'{lower:g}', source)} "
+            f"or {higher:g}"
+        )
+        raise ConfigError(_in_table(source, "fix_rate", said))
+    return every
 
 
 def _positive(value: float, what: str) -> float:
@@ -324,32 +425,12 @@ class SensorModel:
         self.seed = _count(seed, "sensor noise seed", 0, "pass a whole number such as seed=0")
         self.part = _count(part, "sensor part", 0, "0 for the base's sensors, 1 for a balancing robot's firmware")
         self.steps_per_control = control_steps(self.control_rate, self.timestep)
-        self.fix_every = self._fix_every()
+        self.fix_every = fix_period(self.profile.fix_rate, self.control_rate)
         periods = self.profile.fix_latency * self.control_rate
         self.fix_latency_periods = _whole(periods) or math.ceil(periods)
         self.gyro_white_std = profile.gyro_noise_density * math.sqrt(self.control_rate / 2.0)
         self.accel_white_std = profile.accel_noise_density * math.sqrt(self.control_rate / 2.0)
         self._draw()
-
-    def _fix_every(self) -> int:
-        rate, ctrl = self.profile.fix_rate, self.control_rate
-        if rate == 0.0:
-            return 0
-        if rate > ctrl * (1.0 + WHOLE_TOL):
-            raise ConfigError(
-                f"sensor fix_rate={rate:g} Hz is above the control rate {ctrl:g} Hz: a fix is taken at most once "
-                f"per control period; lower it (e.g. --sensors fix_rate={ctrl:g}) or raise the control rate"
-            )
-        every = _whole(ctrl / rate)
-        if every is None:
-            ratio = ctrl / rate
-            lower = next(ctrl / m for m in range(math.ceil(ratio), 10**6) if _short(ctrl / m))
-            higher = next(ctrl / m for m in range(math.floor(ratio), 0, -1) if _short(ctrl / m))
-            raise ConfigError(
-                f"sensor fix_rate={rate:g} Hz: its period is {ratio:.4g} control periods at {ctrl:g} Hz, not a whole "
-                f"number; choose a rate that divides the control rate, e.g. --sensors fix_rate={lower:g} or {higher:g}"
-            )
-        return every
 
     def _draw(self) -> None:
         p, n = self.profile, self.n_periods

@@ -33,7 +33,7 @@ from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot
 from planning.errors import ConfigError, ScenarioError
 from planning.planners.base import PlanProblem, PlanResult
 from planning.planners.registry import PLANNERS, make_planner, planner_options
-from planning.scenario import Scenario, load_scenario
+from planning.scenario import Scenario, load_scenario, scenario_source
 from planning.scenario import scenario_with_robot as scenario_with_robot  # defined beside load_scenario
 from planning.trajectory.file_trajectory import ARENA_NAME, file_poses, file_trajectory, with_file_ends
 from planning.trajectory.from_plan import checked_trajectory
@@ -222,10 +222,14 @@ class Case:
         the case's overrides, with the case's noise seed (its seed unless set apart) for every noise draw.
 
         Raises:
-            ConfigError: An unknown sensor key or a bad value (naming the field and the fix).
+            ConfigError: An unknown sensor key or a bad value, or a fix rate that is no whole number of control
+                periods (naming the field, the scenario file when its table set it, and the fix).
         """
         table = dict(scenario.sensors)
-        profile = load_sensor_profile(scenario.robot, table=table or None, text=self.sensors or None)
+        where = scenario_source(scenario)
+        profile = load_sensor_profile(
+            scenario.robot, table=table or None, text=self.sensors or None, source=where, control_rate=self.control_rate
+        )
         seed = self.seed if self.noise_seed is None else self.noise_seed
         return SensingSetup(profile, seed, localiser=self.localiser_setup(scenario))
 
@@ -323,14 +327,16 @@ class PreparedTrajectory:
 
 
 def load_case_scenario(case: Case) -> Scenario:
-    """The case's scenario with its robot.
+    """The case's scenario with its robot, which must fit at its start and goal (a trajectory file's case
+    starts and ends where the file does instead: the file is checked against the world when it is read).
 
     Raises:
-        ScenarioError: Unknown scenario (the message lists the built-in ones) or a bad file.
+        ScenarioError: Unknown scenario (the message lists the built-in ones), a bad file, or a start or
+            goal where the robot's footprint overlaps an obstacle or wall.
         ConfigError: The scenario does not list the case's robot.
     """
     sc = case.scenario if isinstance(case.scenario, Scenario) else load_scenario(case.scenario)
-    sc = scenario_with_robot(sc, case.robot)
+    sc = scenario_with_robot(sc, case.robot, ends=case.trajectory_file is None)
     if case.trajectory_file is not None:
         sc = with_file_ends(sc, read_trajectory_file(case.trajectory_file))
     return sc

@@ -20,11 +20,10 @@ from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from typing import Any
 
-from planning.collision.exact import CollisionChecker
 from planning.core.robot import load_robot
 from planning.errors import NhsimError
 from planning.planners.base import PlanResult, PlanStatus
-from planning.scenario import Scenario, builtin_scenarios, load_scenario
+from planning.scenario import Scenario, builtin_scenarios, end_clearance, load_scenario
 from planning.trajectory.from_plan import PlanFailedError
 from sim.physics.metrics import TrackingMetrics
 from sim.pipeline.case import Case, load_case_scenario, plan_case
@@ -175,8 +174,7 @@ def precondition_not_met(scenario: Scenario, plan: PlanResult) -> str | None:
     which = {PlanStatus.INVALID_START: scenario.start, PlanStatus.INVALID_GOAL: scenario.goal}.get(plan.status)
     if which is None:
         return None
-    checker = CollisionChecker(scenario.world, load_robot(scenario.robot), shape="footprint")
-    if float(checker.clearance_of(which.as_array()[None, :])[0]) <= 0.0:
+    if end_clearance(scenario.world, load_robot(scenario.robot), which) <= 0.0:
         return None
     return f"{plan.status.value} by the planner's own clearance rule: {plan.reason}"
 

@@ -5,7 +5,8 @@
 
 - ``--jobs 1``: a plain loop in this process (no Dask, nothing to start);
 - ``--jobs J`` (J > 1): a Dask ``LocalCluster`` of J single-threaded worker processes, started here
-  and closed when the executor closes;
+  and closed when the executor closes (at most :data:`JOBS_PER_CORE` per core: :func:`worker_count`);
+  its workers leave Ctrl-C to this process, and an interrupted close is quiet (:meth:`DaskExecutor.close`);
 - ``--scheduler tcp://host:8786``: an existing Dask cluster (``dask scheduler`` and ``dask worker``
   on any machines that have nhsim installed), with no other change.
 
@@ -36,6 +37,8 @@ R = TypeVar("R")
 
 #: Batches of runs per worker process (see :meth:`DaskExecutor.map_unordered`).
 BATCHES_PER_WORKER = 4
+#: Local worker processes ``--jobs`` may start per core (:func:`max_jobs`).
+JOBS_PER_CORE = 4
 #: Seconds to reach a scheduler before giving up.
 CONNECT_TIMEOUT_S = 10
 #: Largest first message a Dask scheduler is taken to greet with [bytes] (its handshake is ~1 kB).
@@ -110,10 +113,12 @@ class DaskExecutor(Executor):
 
     def __init__(self, jobs: int = 2, address: str | None = None) -> None:
         try:
-            from dask.distributed import Client, LocalCluster
+            from dask.distributed import Client
         except ImportError as exc:  # pragma: no cover - a dependency of the project
             raise DependencyError("Dask distributed is missing: pip install 'dask[distributed]'") from exc
-        self._cluster = None
+        _drop_cancel_reports()
+        self._cluster: Any = None
+        self._client: Any = None
         if address is not None:
             check_scheduler(address, CONNECT_TIMEOUT_S)
             try:
@@ -125,12 +130,45 @@ class DaskExecutor(Executor):
                 ) from exc
             self.where = address
         else:
-            self._cluster = LocalCluster(
-                n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR
-            )
-            self._client = Client(self._cluster)
+            self._start_local(jobs)
             self.where = f"{jobs} local worker processes"
         self.workers = max(1, len(self._client.scheduler_info().get("workers", {})))
+
+    def _start_local(self, jobs: int) -> None:
+        """Start a local cluster of ``jobs`` worker processes that leave Ctrl-C to this process.
+
+        A terminal's Ctrl-C reaches every process of the command; a worker that took it printed its
+        traceback beside the command's "interrupted". The cluster is made with SIGINT blocked in the
+        thread that makes it, so its event loop's thread, and every worker process that thread starts
+        (restarts too), keep it blocked: only this process acts on it, and closes them. The cluster
+        starts without workers (an interrupt is held for that moment, so the cluster is never left
+        half made), then the workers are asked for and waited for: an interrupt then closes them.
+        """
+        from multiprocessing import resource_tracker
+
+        from dask.distributed import Client, LocalCluster
+
+        from planning.signals import signals_held
+
+        # started first, here: starting it unblocks SIGINT in the thread that starts it (it blocks the
+        # signal only for its own start), which would otherwise be the one starting the first worker
+        resource_tracker.ensure_running()
+        with signals_held(), _sigint_blocked():
+            self._cluster = LocalCluster(
+                n_workers=0,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                silence_logs=logging.ERROR,
+                memory_limit=1.0 / jobs,  # each worker's share, as LocalCluster(n_workers=jobs) gives it
+            )
+        try:
+            self._client = Client(self._cluster)
+            self._cluster.scale(jobs)
+            self._client.wait_for_workers(jobs)
+        except BaseException:
+            self.close(abandon=True)
+            raise
 
     def map_unordered(self, fn: Callable[[Any, T], R], items: Sequence[T], shared: Any = None) -> Iterator[tuple[T, R]]:
         """Submit every item, then yield ``(item, result)`` as each finishes; an error in a run is raised here.
@@ -167,20 +205,78 @@ class DaskExecutor(Executor):
             self._client.run(importlib.import_module, name)
 
     def close(self, abandon: bool = False) -> None:
-        """Close the client and, if it was started here, the local cluster.
+        """Close the client, then, if it was started here, the local cluster.
 
         Args:
             abandon: Kill the local workers' processes as soon as the close reaches them, rather than
                 let each finish its current run: Dask's close waits up to 4 s for a busy worker
-                before it kills it, so an interrupted study took 3-5 s to stop.
+                before it kills it, so an interrupted study took 3-5 s to stop. Dask's reports of
+                what that breaks (connections closed under a heartbeat or a broadcast, tasks
+                cancelled) are not shown: the command says it was interrupted.
         """
-        self._client.close()
-        if self._cluster is None:
-            return
-        killer = _killer(list(self._cluster.workers.values())) if abandon else None
-        self._cluster.close()
-        if killer is not None:
-            killer.join()
+        with _logging_off() if abandon else contextlib.nullcontext():
+            if self._client is not None:
+                self._client.close()
+            if self._cluster is None:
+                return
+            killer = _killer(list(self._cluster.workers.values())) if abandon else None
+            self._cluster.close()
+            if killer is not None:
+                killer.join()
+
+
+@contextlib.contextmanager
+def _sigint_blocked() -> Iterator[None]:
+    """SIGINT blocked in this thread within the block (threads and processes started here inherit it);
+    one that came meanwhile is delivered as the block ends. Outside the main thread it does nothing."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+@contextlib.contextmanager
+def _logging_off() -> Iterator[None]:
+    """No log record of this process is emitted within the block (``logging.disable``)."""
+    previous = logging.root.manager.disable
+    logging.disable(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logging.disable(previous)
+
+
+class _SyncCancelReport(logging.Filter):
+    """Drops Tornado's report of the failure of Dask's ``sync`` cancel callback.
+
+    Interrupted while it waits in ``distributed.utils.sync``, the calling thread schedules a callback that
+    cancels the awaited future; when the interrupt came before that future was made, the callback fails
+    with ``NameError: cannot access free variable 'future'`` on the event loop's thread, which Tornado
+    logs as "Exception in callback", beside the command's "interrupted". Only an interrupt schedules
+    that callback, so no report of a run's own error is dropped.
+    """
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        exc = record.exc_info[1] if record.exc_info else None
+        if not isinstance(exc, NameError) or exc.__traceback__ is None:
+            return True
+        tb = exc.__traceback__
+        while tb.tb_next is not None:
+            tb = tb.tb_next
+        code = tb.tb_frame.f_code
+        return not (code.co_name == "cancel" and code.co_filename.endswith(os.path.join("distributed", "utils.py")))
+
+
+_CANCEL_REPORTS = _SyncCancelReport()
+
+
+def _drop_cancel_reports() -> None:
+    """Put :class:`_SyncCancelReport` on Tornado's application logger (once)."""
+    logging.getLogger("tornado.application").addFilter(_CANCEL_REPORTS)
 
 
 def _killer(nannies: list[Any], wait_s: float = 2.0) -> threading.Thread:
@@ -230,15 +326,7 @@ def check_scheduler(address: str, timeout: float) -> None:
         ConfigError: Not an address, nothing reachable, or something other than a Dask scheduler
             answered (naming the address and what answered).
     """
-    from distributed.comm.addressing import get_address_host_port, parse_address
-
-    try:
-        scheme = parse_address(address)[0]
-        host, port = get_address_host_port(address)
-    except ValueError as exc:
-        raise ConfigError(
-            f"--scheduler {address!r} is not a scheduler address ({exc}); give tcp://HOST:PORT, e.g. tcp://127.0.0.1:8786"
-        ) from exc
+    scheme, host, port = scheduler_address(address)
     if scheme != "tcp":
         return
     deadline = time.monotonic() + timeout
@@ -248,6 +336,24 @@ def check_scheduler(address: str, timeout: float) -> None:
     if answer is None:
         return
     raise ConfigError(f"no Dask scheduler at {address}: {answer}; {_advice(address)}")
+
+
+def scheduler_address(address: str) -> tuple[str, str, int]:
+    """``--scheduler``'s address as (scheme, host, port), read as Dask reads it (nothing is contacted).
+
+    Raises:
+        ConfigError: Not an address (naming it and the form to give).
+    """
+    from distributed.comm.addressing import get_address_host_port, parse_address
+
+    try:
+        scheme = parse_address(address)[0]
+        host, port = get_address_host_port(address)
+    except ValueError as exc:
+        raise ConfigError(
+            f"--scheduler {address!r} is not a scheduler address ({exc}); give tcp://HOST:PORT, e.g. tcp://127.0.0.1:8786"
+        ) from exc
+    return scheme, host, port
 
 
 def _connect(address: str, host: str, port: int, deadline: float, timeout: float) -> socket.socket:
@@ -310,8 +416,37 @@ def _greeting(sock: socket.socket, deadline: float, timeout: float) -> str | Non
     return f"the server accepted the connection but sent nothing within {timeout:g} s"
 
 
-def make_executor(jobs: int | None = None, scheduler: str | None = None, *, default: int | None = None) -> Executor:
-    """The executor for ``--jobs`` / ``--scheduler`` (see the module docstring).
+def max_jobs() -> int:
+    """The most local worker processes ``--jobs`` may ask for: :data:`JOBS_PER_CORE` per core this
+    process may use (each run keeps a core busy; more processes only share the cores and the memory)."""
+    return JOBS_PER_CORE * default_jobs()
+
+
+def check_workers(n: int, flag: str = "--jobs", *, elsewhere: str = "") -> int:
+    """``n`` local worker processes, asked for by ``flag``, checked: at least 1, at most :func:`max_jobs`.
+
+    Args:
+        n: Worker processes.
+        flag: The option that asked for them, named in the message.
+        elsewhere: Advice appended to the message about too many (e.g. run on a cluster).
+
+    Raises:
+        ConfigError: ``n`` < 1 or above :func:`max_jobs`, naming ``flag`` and the bound.
+    """
+    if n < 1:
+        raise ConfigError(f"{flag} must be >= 1, got {n}")
+    if n > max_jobs():
+        cores = default_jobs()
+        raise ConfigError(
+            f"{flag} {n} would start {n} worker processes on the {cores} core{'s' if cores != 1 else ''} this "
+            f"process may use; give at most {flag} {max_jobs()} ({JOBS_PER_CORE} per core){elsewhere}"
+        )
+    return n
+
+
+def worker_count(jobs: int | None = None, scheduler: str | None = None, *, default: int | None = None) -> int | None:
+    """Check ``--jobs`` / ``--scheduler`` without starting anything: the local worker processes they ask
+    for, or None for a cluster (its address read, not contacted: :func:`check_scheduler` does that).
 
     Args:
         jobs: Worker processes here, as given (None: not given); 1 runs in this process.
@@ -320,13 +455,26 @@ def make_executor(jobs: int | None = None, scheduler: str | None = None, *, defa
             command's default, so that it never counts as a given ``--jobs``.
 
     Raises:
-        ConfigError: Both given, or ``jobs`` < 1, or an unreachable scheduler.
+        ConfigError: Both given, ``jobs`` outside :func:`check_workers`' bounds (a cluster decides its own
+            workers), or a scheduler address that is no address.
     """
     if scheduler is not None and jobs is not None:
         raise ConfigError("--jobs and --scheduler exclude each other: run here with J processes, or on a cluster")
     if scheduler is not None:
-        return DaskExecutor(address=scheduler)
+        scheduler_address(scheduler)
+        return None
     n = jobs if jobs is not None else default if default is not None else default_jobs()
-    if n < 1:
-        raise ConfigError(f"--jobs must be >= 1, got {n}")
+    return check_workers(n, elsewhere=", or run on a Dask cluster with --scheduler ADDRESS")
+
+
+def make_executor(jobs: int | None = None, scheduler: str | None = None, *, default: int | None = None) -> Executor:
+    """The executor for ``--jobs`` / ``--scheduler`` (see the module docstring), checked by :func:`worker_count`.
+
+    Raises:
+        ConfigError: As :func:`worker_count`, or an unreachable scheduler.
+    """
+    n = worker_count(jobs, scheduler, default=default)
+    if n is None:
+        assert scheduler is not None
+        return DaskExecutor(address=scheduler)
     return Executor() if n == 1 else DaskExecutor(jobs=n)

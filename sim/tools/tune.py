@@ -353,6 +353,31 @@ class TuneSpec:
         return Evaluator(self.cases, self.draws, saturation_weight=self.saturation_weight, tracker=self.tracker)
 
 
+def check_storage(url: str) -> None:
+    """Refuse a storage that cannot keep a study: an in-memory SQLite database (``sqlite://``,
+    ``sqlite:///:memory:``, ``mode=memory``) lives in one connection and dies with it, so the study's
+    workers would not share it, its own second connection would not find it, and no rerun could resume it.
+    (A URL that cannot be read is left to :func:`open_storage`, which names why.)
+
+    Raises:
+        ConfigError: An in-memory database, with a file URL to give instead.
+    """
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
+    try:
+        parsed = make_url(url)
+    except ArgumentError:
+        return
+    memory = parsed.database in (None, "", ":memory:") or parsed.query.get("mode") == "memory"
+    if parsed.get_backend_name() == "sqlite" and memory:
+        raise ConfigError(
+            f"--storage {url!r}: an in-memory SQLite database cannot hold a study: the workers share the study and a "
+            "rerun resumes it, and each connection to memory sees a database of its own that is gone when it "
+            "closes; give a file URL, e.g. sqlite:///renders/tune.db"
+        )
+
+
 def open_storage(url: str) -> Any:
     """An Optuna RDB storage with heartbeats that re-enqueues a dead trial's gains, or a clear error.
 
@@ -362,10 +387,12 @@ def open_storage(url: str) -> Any:
     ``IMMEDIATE`` (see the module's docstring), so one state change never overwrites another.
 
     Raises:
-        ConfigError: The URL is malformed, its driver is missing, or the database cannot be opened.
+        ConfigError: The URL is malformed, its driver is missing, the database cannot be opened, or it is an
+            in-memory database (:func:`check_storage`).
     """
     import optuna
 
+    check_storage(url)
     warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
     sqlite = url.startswith("sqlite")
     engine_kwargs: dict[str, Any] = {}

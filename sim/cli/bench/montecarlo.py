@@ -22,10 +22,12 @@ def run(args: argparse.Namespace) -> int:
     from planning.errors import ConfigError
     from sim.pipeline.case import Case
     from sim.tools.bench.montecarlo import TARGET_OVERHEAD, TARGET_SPEEDUP, measure
+    from sim.tools.executor import check_workers
     from sim.tools.montecarlo import MonteCarloSpec
 
     if args.workers < 2:
         raise ConfigError(f"--workers must be >= 2 to compare with one worker, got {args.workers}")
+    check_workers(args.workers, "--workers")
     from sim.cli.simulate import job_source
 
     scenario, source = job_source(args.scenario, None, args.reference)

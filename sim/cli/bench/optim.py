@@ -21,10 +21,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when a target is missed."""
     from planning.planners.optim import DEFAULT_DT, DEFAULT_N
+    from planning.scenario import load_scenario
     from sim.cli.checks import check_at_least
     from sim.tools.bench import optim as bench
 
     check_at_least({"--repeats": (args.repeats, 1)})
+    for name in args.scenarios:  # an unknown name stops here, before anything is printed
+        load_scenario(name)
     print(
         f"optim: seed N={bench.SEED_N}, dt={bench.SEED_DT} against default N={DEFAULT_N}, dt={DEFAULT_DT}; "
         f"median of {args.repeats} solves after one warm-up"

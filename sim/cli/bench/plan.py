@@ -23,8 +23,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seeds", type=int, default=20, help="seeds (trials) per problem (default: 20)")
     p.add_argument(
         "--scenarios",
-        nargs="*",
+        nargs="+",
         default=None,
+        metavar="NAME",
         help="problem names: built-in scenarios, disc10, corridor, maze, tight_park, random<N> "
         "(default: every built-in scenario whose start is outside its goal region, and the four named)",
     )

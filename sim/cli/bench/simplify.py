@@ -29,6 +29,7 @@ def run(args: argparse.Namespace) -> int:
     from sim.tools.bench import simplify as bench
 
     check_at_least({"--seeds": (args.seeds, 1), "--random-worlds": (args.random_worlds, 0)})
+    scenarios = bench.problems(args.scenarios, args.random_worlds)  # an unknown name stops here, before any print
     print(
         f"simplified plans against rrt-star's: length <= {bench.LENGTH_TARGET}x, cusps <= rrt-star's + "
         f"{bench.CUSP_SLACK}, simplification <= {1e3 * bench.TIME_TARGET_S:g} ms CPU; clearance {bench.CLEARANCE} m"
@@ -39,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
     )
     missed = False
     rows = []
-    for scenario in bench.problems(args.scenarios, args.random_worlds):
+    for scenario in scenarios:
         for seed in range(args.seeds):
             for r in bench.measure_plans(scenario, seed):
                 rows.append(r)

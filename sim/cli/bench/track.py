@@ -26,6 +26,30 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--control-rate", type=float, default=50.0, metavar="HZ")
 
 
+def mpc_solvers(text: str) -> list[str]:
+    """``--mpc-solvers``: the ``SOLVER[:QP]`` entries, each checked as MPC reads it, the message naming the option.
+
+    Raises:
+        ConfigError: No entry, or one MPC does not know (naming it and the valid names).
+    """
+    from control.mpc import QP_SOLVERS, SOLVERS
+    from planning.errors import ConfigError
+    from sim.tools.bench.track import mpc_params
+
+    solvers = [s.strip() for s in text.split(",") if s.strip()]
+    if not solvers:
+        raise ConfigError(f"--mpc-solvers {text!r} names no solver; give e.g. --mpc-solvers rti,sqp:qrqp")
+    for solver in solvers:
+        try:
+            mpc_params(solver)
+        except ConfigError as exc:
+            raise ConfigError(
+                f"--mpc-solvers: {solver!r} is not an MPC solver; give SOLVER or SOLVER:QP, SOLVER one of "
+                f"{', '.join(SOLVERS)} and QP one of {', '.join(QP_SOLVERS)}, e.g. --mpc-solvers rti,sqp:qrqp"
+            ) from exc
+    return solvers
+
+
 def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when a tracker's 95th percentile exceeds the control period."""
     from sim.tools.bench.track import measure
@@ -33,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
 
     trackers = check_trackers(args.trackers.split(",")) if args.trackers is not None else None
     rows = measure(args.robot, args.reference, trackers, control_rate=args.control_rate,
-                   mpc_solvers=[s.strip() for s in args.mpc_solvers.split(",") if s.strip()])  # fmt: skip
+                   mpc_solvers=mpc_solvers(args.mpc_solvers))  # fmt: skip
     period = 1e3 / args.control_rate
     print(f"robot {args.robot}, reference {args.reference}, control {args.control_rate:g} Hz ({period:.1f} ms), "
           "real robot's loop (physics, fused estimate)")  # fmt: skip
