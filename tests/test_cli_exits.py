@@ -405,6 +405,26 @@ def test_an_empty_value_stops_the_command_before_it_writes(
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["plan", "--scenario", "open", "--planner", "sinusoidal", "--json", "out1/"],
+        ["simulate", "--reference", "line", "--no-video", "--json", "rec/"],
+        ["compare", "--reference", "line", "--json", "c/"],
+    ],
+)
+def test_an_output_file_ending_in_a_separator_is_refused_not_written_as_the_folder_name(
+    argv: list[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``plan --json out1/`` wrote a file named out1 (Path drops the separator) and exited 0."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    assert stop.value.code == 2
+    assert "ends in a separator, a folder; give a file name in it" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize("given", ["folder/", "existing", "existing/", "."])
 def test_compare_plots_takes_a_stem_not_a_folder(
     given: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]

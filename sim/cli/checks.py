@@ -61,7 +61,9 @@ def _takes_text(kind: object) -> bool:
 
 
 def _not_blank(action: argparse.Action) -> Callable[[str], Any]:
-    """``action``'s type, refusing a blank value first (argparse reports the message as ``argument --X: ...``)."""
+    """``action``'s type, refusing a blank value first, and for an output file (metavar ``PATH``) a value
+    ending in a separator, which ``Path`` would read as a file named like the folder (argparse reports the
+    message as ``argument --X: ...``)."""
     convert = action.type if callable(action.type) else str
     metavar = action.metavar if isinstance(action.metavar, str) else action.dest.upper()
     leave = "" if action.required else f", or leave {action.option_strings[0]} out"
@@ -69,6 +71,8 @@ def _not_blank(action: argparse.Action) -> Callable[[str], Any]:
     def read(text: str) -> Any:
         if not text.strip():
             raise argparse.ArgumentTypeError(f"the value is empty; give {metavar}{leave}")
+        if metavar == "PATH" and text.endswith(("/", os.sep)):  # an output file: Path() drops the separator
+            raise argparse.ArgumentTypeError(f"{text} ends in a separator, a folder; give a file name in it")
         return convert(text)
 
     return read
