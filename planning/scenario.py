@@ -1,6 +1,6 @@
 """Scenarios: a world, a robot, a start and a goal, loaded from TOML files.
 
-Format version 1 (see README.md): top-level ``name``, ``robot``, ``description``, ``version``;
+Format version 1 (see docs/reference/scenario-format.md): top-level ``name``, ``robot``, ``description``, ``version``;
 tables ``[world]`` (``bounds``, ``[[world.obstacles]]``, ``[[world.unmapped]]``: obstacles shaped as
 ``[[world.obstacles]]`` that exist in physics and in the laser scan but not in the map the planner and the
 localiser use, none within the robot's reach of the start), ``[start]`` (``pose``) and ``[goal]``

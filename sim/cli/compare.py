@@ -15,7 +15,8 @@ Run several trackers on the same trajectory (an analytic reference, or one plan 
 planned once), on the same as-built robot with the same sensor noise, each in the real robot's loop
 (fused estimate), and print one row per tracker: final, RMS and max position error [m], final and
 RMS heading error [rad], effort = integral of (dv/dt)^2 + (domega/dt)^2 over the run, saturation
-fraction, control time per step (mean and 95th percentile, wall clock) [ms] and collisions; MPC's
+fraction, control time per step (mean and 95th percentile of wall clock, and the 95th percentile of CPU time) [ms] and
+collisions; MPC's
 solver failures and overruns of the control period beside it.
 
 --runs N runs every tracker on the same N held-out draws (robots and noise made from --seed, never
