@@ -121,6 +121,8 @@ def test_stamps_repeated_at_two_positions_or_going_back_are_errors_naming_the_ro
         ({"t": [0.0, 1.0], "x": [0.0, 1.0], "y": [0.0, 1.0], "vx": [0.0, 0.0]}, True, "vx and vy come together"),
         ({"t": [0.0, 36000.0], "x": [0.0, 1.0], "y": [0.0, 1.0]}, True, "--time-scale 0.001"),
         ({"t": [0.0, 2e10], "x": [0.0, 1.0], "y": [0.0, 1.0]}, True, "counts nanoseconds, give --time-scale 1e-09"),
+        # 0.1 mm/s all along: a clock in ms read as seconds (tracked, the closed loop ended 11 cm and 2.1 rad off)
+        ({"t": [0.0, 1000.0, 2000.0], "x": [0.0, 0.1, 0.2], "y": [0.0] * 3}, True, "counts as standing.*0.001"),
     ],
 )
 def test_missing_columns_and_a_single_position_are_errors(

@@ -625,6 +625,7 @@ def _timed(
     direction = _directions(cols)
     fit = stretch_fit(t, xy)
     derived = fit(t, 1)
+    _refuse_standing(report.file, t, xy, source.time_scale or 1.0)
     theta = cols.get("theta")
     heading = theta if theta is not None else np.unwrap(_motion_heading(derived, direction))
     curve: PositionCurve = fit
@@ -652,6 +653,22 @@ def _timed(
             _replace(report, "yaw rates omega", rows, check, omega[:, None], own[:, None], ("rad/s", "rad"), "turn")
             omega = None
     return ImportedFile(source, rows, xy, t, theta, direction, curve, omega, report)
+
+
+def _refuse_standing(file: str, t: FloatArray, xy: FloatArray, time_scale: float) -> None:
+    """Refuse a trajectory that never moves faster than MOVING_SPEED between its rows: the robot would count
+    as standing all along (a clock in milliseconds read as seconds makes one)."""
+    step = np.hypot(*np.diff(xy, axis=0).T)
+    dt = np.diff(t)
+    fastest = float(np.max(np.where(dt > 0, step / np.where(dt > 0, dt, 1.0), 0.0)))
+    if fastest >= MOVING_SPEED:
+        return
+    given = f" at --time-scale {time_scale:g}" if time_scale != 1.0 else ""
+    raise TrajectoryFileError(
+        f"{file}: the trajectory moves at {fastest * 1e3:.3g} mm/s at most{given}, slower than the "
+        f"{MOVING_SPEED * 1e3:g} mm/s below which the robot counts as standing: if its clock counts milliseconds, "
+        f"give --time-scale {time_scale * 1e-3:g} (seconds per file time unit)"
+    )
 
 
 def _too_long(file: str, span: float, time_scale: float) -> str:
