@@ -251,3 +251,82 @@ def _crowded_property(world: World) -> None:
 
 
 test_crowded_worlds_fuzz, test_crowded_worlds_fuzz_slow = fast_and_slow(crowded_worlds(), _crowded_property, fast=8)
+
+
+@pytest.mark.parametrize("world", WORLDS, ids=["room", "8m-20", "crowded", "empty"])
+def test_the_least_distance_along_a_polyline_is_the_least_of_every_point_bit_for_bit(world):
+    """``least_distance`` skips the points the 1-Lipschitz bound proves farther than the least so far: its
+    value is the minimum of the distances at every point, bit for bit, with and without a cached field,
+    over random walks that run along, around and into the obstacles, stand still and turn back."""
+    from planning.collision import field as fields
+    from planning.collision.compiled import least_distance, world_distances
+
+    x0, x1, y0, y1 = world.bounds
+    rng = np.random.default_rng(11)
+    walks = []
+    for _ in range(40):
+        steps = rng.normal(0.0, 0.02, (rng.integers(1, 400), 2)) * rng.choice([0.0, 1.0, 5.0], (1, 2))
+        start = [rng.uniform(x0, x1), rng.uniform(y0, y1)]
+        walks.append(np.ascontiguousarray(start + np.cumsum(steps, axis=0)))
+    arrays = world_arrays(world, True)
+    for key in [k for k in fields._CACHE if k[0] == world]:
+        del fields._CACHE[key]
+    checker = CollisionChecker(world, load_robot("turtlebot3"))
+    for with_field in (False, True):
+        if with_field:
+            distance_field(world, 0.05)
+        assert (fields.cached_field(world) is not None) == with_field
+        for pts in walks:
+            full = float(np.min(world_distances(pts, arrays)))
+            assert least_distance(pts, arrays, checker._field()) == full
+            assert checker.least_distance(pts) == full
+    assert checker.least_distance(np.zeros((0, 2))) == np.inf
+
+
+def test_a_scan_of_circles_costs_about_what_a_plain_loop_over_them_does():
+    """Each obstacle's parameters are handed on as numbers: numba counts the references of every array a
+    call takes, and a scan that passed each obstacle its row and the polygon table cost 4.2 us a point
+    for 60 circles, 7 times a plain loop; now 1.0 us, 1.6 times."""
+    import numba as nb
+
+    from planning.collision.compiled import world_distances
+
+    @nb.njit(cache=False)
+    def plain(points: np.ndarray, params: np.ndarray) -> np.ndarray:
+        out = np.empty(points.shape[0])
+        for k in range(points.shape[0]):
+            d = np.inf
+            for j in range(params.shape[0]):
+                d = min(d, np.hypot(points[k, 0] - params[j, 0], points[k, 1] - params[j, 1]) - params[j, 2])
+            out[k] = d
+        return out
+
+    rng = np.random.default_rng(5)
+    world = World(
+        (-25.0, 25.0, -25.0, 25.0),
+        tuple(Circle((x, y), r) for x, y, r in rng.uniform([-24, -24, 0.2], [24, 24, 1.0], (60, 3))),
+    )
+    arrays = world_arrays(world, True)
+    pts = rng.uniform(-25.0, 25.0, (20_000, 2))
+    plain(pts[:2], arrays[3]), world_distances(pts[:2], arrays)
+
+    def best(run) -> float:
+        times = []
+        for _ in range(5):
+            t0 = time.perf_counter()
+            run()
+            times.append(time.perf_counter() - t0)
+        return min(times)
+
+    assert best(lambda: world_distances(pts, arrays)) < 3.0 * best(lambda: plain(pts, arrays[3]))
+
+
+def test_signed_distances_keep_to_a_deadline():
+    from planning.collision import field as fields
+
+    world = random_world(6, 40, 8.0, 0.2)  # never measured before in this process
+    pts = np.random.default_rng(3).uniform(0.0, 8.0, (50_000, 2))
+    with pytest.raises(FieldTimeout, match=r"measuring the world's signed distance \(50000 points") as caught:
+        distance_field(world, 0.05)
+        fields.signed_distances(world, pts, 0.05, deadline=time.perf_counter())
+    assert isinstance(caught.value, TimeoutError)

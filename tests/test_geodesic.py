@@ -85,3 +85,31 @@ def test_a_world_too_large_for_the_cell_is_routed_on_larger_cells(monkeypatch):
     assert vertices is not None and vertices.shape[0] >= 3  # round the disc
     dense = np.vstack([a + np.linspace(0, 1, 400)[:, None] * (b - a) for a, b in itertools.pairwise(vertices)])
     assert np.min(world.signed_distance(dense)) > 0.25  # the radius, less a 20 cm cell's chord's sagitta
+
+
+def test_reachable_is_the_dijkstra_fields_verdict_and_both_keep_to_a_deadline():
+    """``reachable`` floods the cells instead of solving the Dijkstra field (11 ms against 160 ms on a
+    million cells): the same verdict on random worlds and radii, some walled off; and ``reachable`` and
+    ``route`` end at their deadline with a FieldTimeout that says what was under way."""
+    from planning.collision.field import FieldTimeout
+    from planning.scenario import random_scenario
+
+    verdicts = []
+    for seed in range(12):
+        sc = random_scenario("turtlebot3", seed)
+        for radius in (0.1, 0.4, 0.7, 0.9):
+            field, _, at = geodesic._from_start(sc.world, sc.start.xy, sc.goal.xy, radius, 0.05, None)
+            verdicts.append(geodesic.reachable(sc.world, sc.start.xy, sc.goal.xy, radius))
+            assert verdicts[-1] == bool(np.isfinite(field[at]))
+    assert any(verdicts) and not all(verdicts)
+    world = World((0.0, 30.0, 0.0, 30.0), (Circle((15.0, 15.0), 1.0),))  # 360,000 cells, never searched
+    s, g = np.array([1.0, 1.0]), np.array([29.0, 29.0])
+    geodesic.centre_distances(world, 0.05)  # the cells' distances found: the search itself is timed out
+    with pytest.raises(FieldTimeout, match=r"flood fill over 0\.05 m cells \(360000 cells, 1 obstacles\) passed"):
+        geodesic.reachable(world, s, g, 0.3, deadline=0.0)
+    with pytest.raises(FieldTimeout, match=r"Dijkstra over 0\.05 m cells"):
+        geodesic.route(world, s, g, 0.3, deadline=0.0)
+    geodesic.clear_caches()
+    with pytest.raises(FieldTimeout):  # the cells' distances themselves
+        geodesic.reachable(world, s, g, 0.3, deadline=0.0)
+    assert geodesic.reachable(world, s, g, 0.3) and geodesic.route(world, s, g, 0.3) is not None

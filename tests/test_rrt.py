@@ -385,3 +385,18 @@ def test_rrt_star_region_goal_plans_valid_paths_on_random_worlds(seed):
     res = make_planner("rrt-star", max_iterations=800, simplify=False, region_goal=True).plan(prob)
     _check_path(res, prob, RHO)
     assert res.stats["cost_m"] == pytest.approx(path_length(res.path), rel=2e-3)
+
+
+def test_rrt_star_with_its_start_in_the_goal_region_returns_at_once():
+    """A start equal to the goal took 1.0-1.4 s: its first solution cost 0, which no later one improves, and
+    the stall rule measures a relative improvement, so the run went on to its whole budget. Now, as birrt
+    does, the exact curve to the goal pose (free here) or, with ``region_goal``, the start itself."""
+    for goal in ((0.6, 0.6, 0.0), (0.63, 0.6, 0.05)):  # the start itself; inside the goal's tolerance
+        prob = _problem(goal=goal)
+        res = make_planner("rrt-star").plan(prob)
+        assert res.stats["time_s"] - res.stats["code_s"] < 0.05
+        assert res.success and res.stats["iterations"] == 0 and res.stats["stopped_by"] == "start in goal region"
+        np.testing.assert_array_equal(res.path[0], prob.start.as_array())
+        np.testing.assert_allclose(res.path[-1], prob.goal.as_array(), atol=1e-9)
+        region = make_planner("rrt-star", region_goal=True).plan(prob)
+        assert region.success and region.path.tobytes() == prob.start.as_array()[None, :].tobytes()

@@ -4,6 +4,7 @@ plans (collision-free, same ends, never longer, never more cusps, C-RRT*'s cost 
 from __future__ import annotations
 
 import itertools
+import time
 
 import numpy as np
 import pytest
@@ -519,3 +520,63 @@ def test_a_directed_length_weights_the_backwards_metres_and_refuses_a_weight_bel
     for bad in (0.5, float("nan"), True):
         with pytest.raises(ValueError, match="reverse_weight must be a finite number >= 1"):
             DirectedLength(bad)  # type: ignore[arg-type]
+
+
+def test_a_deadline_stops_the_simplification_with_the_path_as_far_as_it_got():
+    """Simplification is anytime: every shortcut kept leaves a whole path. With a checker of 5 ms a motion
+    and a deadline 40 ms away, it stops one motion past it at most, the path free, its ends kept and no
+    costlier, and says so; a deadline already passed returns the input; a routes callable that runs out
+    of time leaves the path simplified as far as it got, with no route."""
+    from planning.collision.field import FieldTimeout
+
+    path, verts, route = _over_the_disc()
+    free = outside_disc(DISC_C, DISC_R)
+    full = simplify_path(path, None, straight, free, vertices=verts, routes=[route], seed=2)
+    assert not full.timed_out and full.stats()["simplify_time_limit_reached"] is False
+
+    def slow(poses: np.ndarray) -> bool:
+        time.sleep(0.005)
+        return free(poses)
+
+    t0 = time.perf_counter()
+    cut = simplify_path(path, None, straight, slow, vertices=verts, routes=[route], seed=2, deadline=t0 + 0.04)
+    assert time.perf_counter() - t0 < 0.04 + 0.03  # the motion under way when it passed, and the assembly
+    assert cut.timed_out and cut.stats()["simplify_time_limit_reached"] is True
+    assert cut.attempts < full.attempts and cut.cost <= cut.raw_cost
+    dense = densify_path(cut.path, 0.001)
+    assert np.min(np.hypot(dense[:, 0] - DISC_C[0], dense[:, 1] - DISC_C[1])) >= DISC_R - 1e-3
+    np.testing.assert_array_equal(cut.path[[0, -1]], path[[0, -1]])
+    late = simplify_path(path, None, straight, free, vertices=verts, routes=[route], deadline=time.perf_counter() - 1)
+    assert late.timed_out and late.shortcuts == 0 and late.path.tobytes() == path.tobytes()
+
+    def out_of_time() -> list[np.ndarray]:
+        raise FieldTimeout(0.1, 1000, 1, what=("the 2-D route", "cells"))
+
+    no_route = simplify_path(path, None, straight, free, vertices=verts, routes=out_of_time, seed=2)
+    alone = simplify_path(path, None, straight, free, vertices=verts, seed=2)
+    assert no_route.timed_out and no_route.route == -1 and no_route.path.tobytes() == alone.path.tobytes()
+
+
+def test_a_tree_plan_is_simplified_within_what_is_left_of_its_time_limit():
+    """rrt, birrt, rrt-star and hybrid-a-star simplify through ``rrt.simplified`` with the plan's clock: a
+    limit already spent leaves the search's path as it was (and says so), one with time left simplifies
+    it the short way round as before."""
+    from planning.clock import PlanClock
+    from planning.planners.base import PlanResult
+    from planning.planners.sampling.rrt import simplified
+
+    problem = _box_problem("turtlebot3", -0.7, 2.3)
+    checker = make_checker(problem, "footprint", 0.01)
+    local = LocalPlanner("reeds_shepp", problem.robot, checker)
+    q = [np.array(v) for v in ([-2, 0, 0], [-1.2, 2.6, 0.6], [0, 2.65, 0], [1.2, 2.6, -0.6], [2, 0, 0])]
+    parts = [local.steer(a, b) for a, b in itertools.pairwise(q)]
+    path = np.vstack([parts[0][0], *(m[0][1:] for m in parts[1:])])
+    dirs = np.concatenate([parts[0][1], *(m[1][1:] for m in parts[1:])])
+    raw = PlanResult(PlanStatus.SUCCESS, "rrt", path=path, directions=dirs, stats={})
+    spent = PlanClock(1e-9)
+    time.sleep(0.001)
+    res = simplified(raw, local, 0, clock=spent)
+    assert res.stats["simplify_time_limit_reached"] is True and res.path.tobytes() == path.tobytes()
+    res = simplified(raw, local, 0, clock=PlanClock(60.0))
+    assert res.stats["simplify_time_limit_reached"] is False
+    assert res.stats["simplify_route"] == 0 and res.length() < over_box(2.3)

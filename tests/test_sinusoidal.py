@@ -168,3 +168,28 @@ def test_same_problem_same_plan() -> None:
 def test_bad_options_raise_config_error(bad: dict[str, float]) -> None:
     with pytest.raises(ConfigError):
         make_planner("sinusoidal", **bad)
+
+
+def test_a_step_no_period_makes_within_the_bounds_is_bounds_violated_not_infeasible() -> None:
+    """On generated worlds the step that moves the fourth chained state finds no amplitude within u1max
+    and the heading's region at any period: the bounds, not obstacles, stop it (it was reported
+    ``infeasible``, which this planner keeps for a path that hits an obstacle)."""
+    from planning.scenario import random_scenario
+
+    for robot in ("turtlebot3", "edumip"):
+        problem = PlanProblem.from_scenario(random_scenario(robot, 604))
+        res = make_planner("sinusoidal").plan(problem)
+        assert res.status is PlanStatus.BOUNDS_VIOLATED, res.reason
+        assert "cannot steer y by 9.05 m within the bounds at any period up to max_period = 120 s" in res.reason
+        assert "no amplitude of u1 within u1max and the heading's region" in res.reason
+    cramped = Sinusoidal(u1max=0.001, max_period=4.0).plan(PlanProblem.from_scenario(load_scenario("simple_motion")))
+    assert cramped.status is PlanStatus.BOUNDS_VIOLATED and "max_period = 4 s" in cramped.reason
+
+
+def test_the_time_limit_ends_the_steering() -> None:
+    from planning.scenario import random_scenario
+
+    problem = PlanProblem.from_scenario(random_scenario("turtlebot3", 601), time_limit=0.02)
+    res = make_planner("sinusoidal").plan(problem)
+    assert res.status is PlanStatus.TIMEOUT and res.reason.startswith("time limit of 0.02 s spent steering piece")
+    assert res.stats["time_s"] < 0.02 + 0.1  # one period's quadrature past it at most

@@ -93,18 +93,6 @@ def _folded(x: float, y: float, cx: float, cy: float, angle: float) -> tuple[flo
 
 
 @nb.njit(cache=True)
-def _ellipse(x: float, y: float, p: FloatArray) -> float:
-    q0, q1 = _folded(x, y, p[0], p[1], p[4])
-    return ellipse_local(q0, q1, p[2], p[3])
-
-
-@nb.njit(cache=True)
-def _box(x: float, y: float, p: FloatArray) -> float:
-    q0, q1 = _folded(x, y, p[0], p[1], p[4])
-    return box_local(q0, q1, p[2], p[3])
-
-
-@nb.njit(cache=True)
 def box_local(q0: float, q1: float, sx: float, sy: float) -> float:
     """Signed distance [m] to the box of full size (sx, sy) [m] of a point (q0, q1) >= 0 in its frame,
     folded into the first quadrant."""
@@ -129,28 +117,27 @@ def polygon_distance(x: float, y: float, v: FloatArray) -> float:
 
 
 @nb.njit(cache=True)
-def obstacle_distance(x: float, y: float, kind: int, p: FloatArray, v: FloatArray) -> float:
-    """Signed distance [m] of (x, y) to one obstacle: ``kind`` and its row ``p`` of :func:`pack_world`'s
-    params, ``v`` its polygon vertices (empty for the other kinds)."""
+def shape_distance(x: float, y: float, kind: int, p0: float, p1: float, p2: float, p3: float, p4: float) -> float:
+    """Signed distance [m] of (x, y) to a circle, ellipse or box: ``kind`` and its row of :func:`pack_world`'s
+    params (p0 .. p4). The row comes as numbers, not as an array: numba counts the references of every
+    array a call is given, and a scan that handed each obstacle its row and the polygon table took
+    4.5 us a point for 60 circles instead of 0.7 us."""
     if kind == CIRCLE:
-        return float(np.hypot(x - p[0], y - p[1]) - p[2])
+        return float(np.hypot(x - p0, y - p1) - p2)
+    q0, q1 = _folded(x, y, p0, p1, p4)
     if kind == ELLIPSE:
-        return _ellipse(x, y, p)
-    if kind == BOX:
-        return _box(x, y, p)
-    return polygon_distance(x, y, v)
+        return ellipse_local(q0, q1, p2, p3)
+    return box_local(q0, q1, p2, p3)
 
 
 @nb.njit(cache=True)
-def _nearer(x: float, y: float, k: int, world: WorldArrays, d: float) -> float:
-    """``min(d, signed distance of (x, y) to obstacle k)`` [m]; an ellipse whose circumscribed circle is
-    farther than ``d`` (by more than :data:`ELLIPSE_SKIP_MARGIN`, far above its distance's 1e-15 m error)
-    is not measured: the minimum is the same, without solving for its closest point."""
-    _, _, kinds, params, verts, offsets = world
-    p = params[k]
-    if kinds[k] == ELLIPSE and np.hypot(x - p[0], y - p[1]) - max(p[2], p[3]) > d + ELLIPSE_SKIP_MARGIN:
+def _nearer(x: float, y: float, kind: int, p0: float, p1: float, p2: float, p3: float, p4: float, d: float) -> float:
+    """``min(d, shape_distance(...))`` [m]; an ellipse whose circumscribed circle is farther than ``d`` (by
+    more than :data:`ELLIPSE_SKIP_MARGIN`, far above its distance's 1e-15 m error) is not measured: the
+    minimum is the same, without solving for its closest point."""
+    if kind == ELLIPSE and np.hypot(x - p0, y - p1) - max(p2, p3) > d + ELLIPSE_SKIP_MARGIN:
         return d
-    return min(d, obstacle_distance(x, y, kinds[k], p, verts[offsets[k] : offsets[k + 1]]))
+    return min(d, shape_distance(x, y, kind, p0, p1, p2, p3, p4))
 
 
 @nb.njit(cache=True)
@@ -161,22 +148,31 @@ def walls_distance(x: float, y: float, world: WorldArrays) -> float:
 
 
 @nb.njit(cache=True)
+def _scan(x: float, y: float, world: WorldArrays, candidates: IntArray, every: bool) -> float:
+    """Signed distance [m] of (x, y) to the walls (if the world has them) and every obstacle (``every``) or
+    the obstacles whose indices are ``candidates``."""
+    _, _, kinds, params, verts, offsets = world
+    d = walls_distance(x, y, world)
+    for m in range(kinds.shape[0] if every else candidates.shape[0]):
+        k = m if every else candidates[m]
+        if kinds[k] == POLYGON:
+            d = min(d, polygon_distance(x, y, verts[offsets[k] : offsets[k + 1]]))
+        else:
+            d = _nearer(x, y, kinds[k], params[k, 0], params[k, 1], params[k, 2], params[k, 3], params[k, 4], d)
+    return d
+
+
+@nb.njit(cache=True)
 def _world_distance(x: float, y: float, world: WorldArrays) -> float:
     """Signed distance of point (x, y) to the nearest obstacle or (with walls) wall [m]."""
-    d = walls_distance(x, y, world)
-    for k in range(world[2].shape[0]):
-        d = _nearer(x, y, k, world, d)
-    return d
+    return _scan(x, y, world, world[2], True)  # (the kinds stand in for the candidates, not read)
 
 
 @nb.njit(cache=True)
 def candidates_distance(x: float, y: float, candidates: IntArray, world: WorldArrays) -> float:
     """Signed distance [m] of (x, y) to the walls (if the world has them) and the obstacles whose
     indices are ``candidates``."""
-    d = walls_distance(x, y, world)
-    for m in range(candidates.shape[0]):
-        d = _nearer(x, y, candidates[m], world, d)
-    return d
+    return _scan(x, y, world, candidates, False)
 
 
 #: Nodes per side of a block of a distance field (:mod:`planning.collision.field`).
@@ -220,6 +216,31 @@ def field_distances(points: FloatArray, world: WorldArrays, field: FieldArrays) 
     for k in range(points.shape[0]):
         out[k] = field_distance(points[k, 0], points[k, 1], world, field)
     return out
+
+
+#: Slack of :func:`least_distance`'s skipping [m]: far above the rounding of its running bound (1e-12 m
+#: over thousands of steps), far below anything geometric.
+LEAST_MARGIN = 1e-9
+
+
+@nb.njit(cache=True)
+def least_distance(points: FloatArray, world: WorldArrays, field: FieldArrays) -> float:
+    """The least :func:`field_distance` [m] over (M, 2) points along a polyline (inf for none): the value of
+    ``np.min(field_distances(points, world, field))``, from the points that could hold it. A signed
+    distance is 1-Lipschitz, so a point at most ``s`` along the polyline from a measured point of distance
+    ``D`` is at least ``D - s`` from everything; while that bound exceeds the least so far (by more than
+    :data:`LEAST_MARGIN`), the point is not measured. A straight 50 m in the open, sampled every 2 cm,
+    is measured at tens of points instead of 2500."""
+    best = np.inf
+    bound = np.inf  # the current point's distance is at least this
+    for k in range(points.shape[0]):
+        if k > 0:
+            bound -= np.hypot(points[k, 0] - points[k - 1, 0], points[k, 1] - points[k - 1, 1])
+        if bound > best + LEAST_MARGIN:
+            continue
+        bound = field_distance(points[k, 0], points[k, 1], world, field)
+        best = min(best, bound)
+    return best
 
 
 @nb.njit(cache=True)

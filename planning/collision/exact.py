@@ -28,7 +28,15 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from planning.collision.compiled import FieldArrays, RobotArrays, clearances_kernel, empty_field, world_arrays
+from planning.collision.compiled import (
+    FieldArrays,
+    RobotArrays,
+    WorldArrays,
+    clearances_kernel,
+    empty_field,
+    least_distance,
+    world_arrays,
+)
 from planning.collision.field import cached_field
 from planning.core.geometry import densify_path
 from planning.core.robot import RobotSpec
@@ -84,6 +92,8 @@ class CollisionChecker:
     walls: bool = True
     _boundary: FloatArray = field(init=False, repr=False, compare=False)
     _anchors: FloatArray = field(init=False, repr=False, compare=False)
+    _world: WorldArrays = field(init=False, repr=False, compare=False)
+    _resolution: float = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if self.shape not in ("disc", "footprint"):
@@ -96,11 +106,15 @@ class CollisionChecker:
         object.__setattr__(self, "_boundary", _boundary_samples(fp.tobytes(), float(self.tolerance)))
         anchors = [_obstacle_anchor(o) for o in self.world.obstacles]
         object.__setattr__(self, "_anchors", np.array(anchors).reshape(-1, 2))
+        # once per checker: finding the packed world hashes it (9 us for 60 obstacles, 0.44 ms for 3000),
+        # and the smallest feature is a scan of every obstacle; both are asked for every motion checked
+        object.__setattr__(self, "_world", world_arrays(self.world, self.walls))
+        object.__setattr__(self, "_resolution", float(min(0.02, self.world.min_feature() / 4.0)))
 
     @property
     def resolution(self) -> float:
         """Largest distance any robot point may move between two checked samples of a motion [m]."""
-        return float(min(0.02, self.world.min_feature() / 4.0))
+        return self._resolution
 
     def clearance_of(self, poses: ArrayLike) -> FloatArray:
         """Lower bound on the distance between the robot and the nearest obstacle or wall [m].
@@ -119,7 +133,15 @@ class CollisionChecker:
             (M,) clearances.
         """
         p = np.ascontiguousarray(np.atleast_2d(np.asarray(poses, dtype=float)))
-        return clearances_kernel(p, world_arrays(self.world, self.walls), self.robot_arrays(), self._field())  # type: ignore[no-any-return]
+        return clearances_kernel(p, self._world, self.robot_arrays(), self._field())  # type: ignore[no-any-return]
+
+    def least_distance(self, points: ArrayLike) -> float:
+        """The world's least signed distance [m] (walls as the checker has them; inf for no points) over
+        (M, 2) points along a polyline: the minimum of the distances at every point, from as few of them
+        as prove it (compiled, :func:`planning.collision.compiled.least_distance`; against the cached
+        distance field's block candidates when there is one)."""
+        p = np.ascontiguousarray(np.asarray(points, dtype=float).reshape(-1, 2))
+        return float(least_distance(p, self._world, self._field()))
 
     def robot_arrays(self) -> RobotArrays:
         """The robot and margins as the compiled kernels take them (boundary samples, footprint, obstacle

@@ -21,22 +21,25 @@ exact steering, collision-checked.
 
 The cells' distances are computed once per world and cell size, the Dijkstra fields cached per
 world, radius, cell and end cells (the benchmark and the Monte Carlo runs plan the same problem
-many times).
+many times). :func:`reachable` needs no field: a flood fill over the same cells. With a ``deadline``
+each step stops when it passes (:class:`planning.collision.field.FieldTimeout`, naming the step), so
+a planner's time limit holds through them.
 """
 
 from __future__ import annotations
 
-import functools
+import time
 from collections import OrderedDict
 
 import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.clock import PlanClock, monotonic
 from planning.collision.compiled import FieldArrays, WorldArrays, empty_field, field_distance, world_arrays
-from planning.collision.field import cached_field, signed_distances
+from planning.collision.field import FieldTimeout, cached_field, signed_distances
 from planning.core.world import World
-from planning.planners.lattice import cell_centres, obstacle_heuristic
+from planning.planners.lattice import bounded_heuristic, cell_centres
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -54,23 +57,37 @@ CACHE_SIZE = 16
 #: 200 x 200 m world on 10 cm cells; a 1000 x 1000 km one on 5 cm cells failed allocating 2.8 PiB).
 MAX_CELLS = 4_000_000
 _FIELDS: OrderedDict[tuple[object, ...], FloatArray] = OrderedDict()
+#: Cell distances kept (per world and cell side; the most recently used).
+CENTRES_CACHE_SIZE = 8
+_CENTRES: OrderedDict[tuple[World, float], FloatArray] = OrderedDict()
 
 
-@functools.lru_cache(maxsize=8)
-def centre_distances(world: World, cell: float) -> FloatArray:
+def centre_distances(world: World, cell: float, deadline: float | None = None) -> FloatArray:
     """(nx, ny) signed distances [m] from the centres of the cells of side ``cell`` over the world's
     bounds (cell (0, 0) at its lower-left corner) to the nearest obstacle or wall: the exact signed
     distance, compiled, with the distance field's broad phase
-    (:func:`planning.collision.field.signed_distances`); cached per world and cell."""
+    (:func:`planning.collision.field.signed_distances`); cached per world and cell.
+
+    Raises:
+        planning.collision.field.FieldTimeout: ``time.perf_counter()`` passed ``deadline`` (None: no limit).
+    """
+    key = (world, float(cell))
+    hit = _CENTRES.get(key)
+    if hit is not None:
+        _CENTRES.move_to_end(key)
+        return hit
     nx, ny, centres = cell_centres(world.bounds, cell)
-    d = signed_distances(world, centres, cell).reshape(nx, ny)
+    d = signed_distances(world, centres, cell, deadline).reshape(nx, ny)
     d.setflags(write=False)
+    _CENTRES[key] = d
+    if len(_CENTRES) > CENTRES_CACHE_SIZE:
+        _CENTRES.popitem(last=False)
     return d  # type: ignore[no-any-return]
 
 
 def clear_caches() -> None:
     """Forget the cached cell distances and distance fields (to time a route computed from nothing)."""
-    centre_distances.cache_clear()
+    _CENTRES.clear()
     _FIELDS.clear()
 
 
@@ -80,8 +97,33 @@ def _cell_of(p: FloatArray, origin: tuple[float, float], cell: float, shape: tup
     return i, j
 
 
+def _cells(
+    world: World, start: FloatArray, goal: FloatArray, cell: float, deadline: float | None
+) -> tuple[FloatArray, tuple[float, float], tuple[int, int], tuple[int, int]]:
+    """The cells' distances (:func:`centre_distances`), the lower-left corner of cell (0, 0) [m], and the
+    start's and the goal's cells."""
+    xmin, _, ymin, _ = world.bounds
+    origin = (float(xmin), float(ymin))
+    centres = centre_distances(world, cell, deadline)  # cached per world and cell
+    return centres, origin, _cell_of(start, origin, cell, centres.shape), _cell_of(goal, origin, cell, centres.shape)
+
+
+def _free(centres: FloatArray, radius: float, ends: tuple[tuple[int, int], ...], cell: float) -> NDArray[np.bool_]:
+    """The cells whose centre keeps ``radius`` off everything, and those within ``radius`` of each of the
+    ``ends``' cells (the ends may sit closer to something than the disc allows)."""
+    free = centres > radius
+    reach = int(np.ceil(radius / cell))
+    for ci, cj in ends:
+        for di in range(-reach, reach + 1):
+            for dj in range(-reach, reach + 1):
+                a, b = ci + di, cj + dj
+                if 0 <= a < free.shape[0] and 0 <= b < free.shape[1] and np.hypot(di, dj) * cell <= radius:
+                    free[a, b] = True
+    return free
+
+
 def distance_field(
-    world: World, radius: float, start: FloatArray, goal: FloatArray, cell: float = CELL
+    world: World, radius: float, start: FloatArray, goal: FloatArray, cell: float = CELL, deadline: float | None = None
 ) -> tuple[FloatArray, tuple[float, float]]:
     """Dijkstra distances [m] to the goal's cell over the cells whose centre keeps ``radius`` off
     everything (:func:`centre_distances`), the cells within ``radius`` of the start and of the goal
@@ -90,31 +132,59 @@ def distance_field(
 
     Returns:
         (nx, ny) distances (inf where unreachable) and the lower-left corner of cell (0, 0) [m].
+
+    Raises:
+        planning.collision.field.FieldTimeout: ``time.perf_counter()`` passed ``deadline`` (None: no limit)
+            before the cells' distances or the Dijkstra were done.
     """
-    xmin, _, ymin, _ = world.bounds
-    origin = (float(xmin), float(ymin))
-    centres = centre_distances(world, cell)  # cached per world and cell
-    shape = centres.shape
-    s, g = _cell_of(start, origin, cell, shape), _cell_of(goal, origin, cell, shape)
+    clock = PlanClock(np.inf if deadline is None else deadline - time.perf_counter())  # less the code readied
+    centres, origin, s, g = _cells(world, start, goal, cell, None if deadline is None else clock.deadline())
     key = (world, cell, radius, s, g)
     hit = _FIELDS.get(key)
     if hit is not None:
         _FIELDS.move_to_end(key)
         return hit, origin
-    free = centres > radius
-    reach = int(np.ceil(radius / cell))
-    for ci, cj in (s, g):
-        for di in range(-reach, reach + 1):
-            for dj in range(-reach, reach + 1):
-                a, b = ci + di, cj + dj
-                if 0 <= a < shape[0] and 0 <= b < shape[1] and np.hypot(di, dj) * cell <= radius:
-                    free[a, b] = True
-    field = obstacle_heuristic(free, g[0], g[1], float(cell))
+    free = _free(centres, radius, (s, g), cell)
+    field, finished = bounded_heuristic(free, g[0], g[1], float(cell), clock.remaining())
+    if not finished:
+        what = (f"the 2-D search for a way {radius:.3f} m off everything, Dijkstra over {cell:g} m cells", "cells")
+        raise FieldTimeout(clock.elapsed(), free.size, len(world.obstacles), clock.code(), what)
     field.setflags(write=False)
     _FIELDS[key] = field
     if len(_FIELDS) > CACHE_SIZE:
         _FIELDS.popitem(last=False)
     return field, origin
+
+
+#: Cells the flood fill of :func:`reachable` visits between two looks at the clock.
+VISITS_PER_CHECK = 65536
+
+
+@nb.njit(cache=True)
+def _connected(free: NDArray[np.bool_], s: tuple[int, int], g: tuple[int, int], seconds: float) -> int:
+    """1 when cell ``s`` is reached from cell ``g`` over the 8-connected ``free`` cells (``g`` itself
+    counted free), 0 when it is not, -1 when ``seconds`` passed first (a flood fill, each cell visited once)."""
+    deadline = monotonic() + seconds
+    nx, ny = free.shape
+    seen = np.zeros((nx, ny), dtype=np.bool_)
+    stack = np.empty(nx * ny, dtype=np.int64)
+    seen[g[0], g[1]] = True
+    stack[0], top, visits = g[0] * ny + g[1], 1, 0
+    while top > 0:
+        visits += 1
+        if visits % VISITS_PER_CHECK == 0 and monotonic() > deadline:
+            return -1
+        top -= 1
+        i, j = stack[top] // ny, stack[top] % ny
+        if i == s[0] and j == s[1]:
+            return 1
+        for a in range(max(0, i - 1), min(nx, i + 2)):
+            for b in range(max(0, j - 1), min(ny, j + 2)):
+                if free[a, b] and not seen[a, b]:
+                    seen[a, b] = True
+                    stack[top] = a * ny + b
+                    top += 1
+    return 0
 
 
 @nb.njit(cache=True)
@@ -180,29 +250,50 @@ def _pull(pts: FloatArray, world: WorldArrays, field: FieldArrays, radius: float
     return np.array(keep, dtype=np.int64)
 
 
-def reachable(world: World, start: FloatArray, goal: FloatArray, radius: float, cell: float = CELL) -> bool:
+def reachable(
+    world: World, start: FloatArray, goal: FloatArray, radius: float, cell: float = CELL, deadline: float | None = None
+) -> bool:
     """Whether the goal's cell can be reached from the start's over the 8-connected cells whose centres
-    keep ``radius`` off everything (the cells near either end counted free, as in :func:`distance_field`).
+    keep ``radius`` off everything (the cells near either end counted free, as in :func:`distance_field`),
+    by a flood fill (the cells :func:`distance_field`'s Dijkstra gives a finite distance, in a tenth
+    of its time).
 
     A proof of the contrary: any continuous path inside the bounds whose points all keep
     ``radius + cell / sqrt(2)`` passes through 8-connected cells whose centres keep ``radius`` (a signed
     distance is 1-Lipschitz, and a centre is at most half a cell's diagonal from the path in its cell),
     so when this is False no such path exists.
+
+    Raises:
+        planning.collision.field.FieldTimeout: ``time.perf_counter()`` passed ``deadline`` (None: no limit).
     """
-    field, _, at = _from_start(world, start, goal, radius, cell)
-    return bool(np.isfinite(field[at]))
+    clock = PlanClock(np.inf if deadline is None else deadline - time.perf_counter())  # less the code readied
+    s, g = np.asarray(start, dtype=float)[:2], np.asarray(goal, dtype=float)[:2]
+    centres, _, si, gi = _cells(world, s, g, cell, None if deadline is None else clock.deadline())
+    free = _free(centres, radius, (si, gi), cell)
+    found = _connected(free, si, gi, clock.remaining())
+    if found < 0:
+        what = (f"the 2-D search for a way {radius:.3f} m off everything, a flood fill over {cell:g} m cells", "cells")
+        raise FieldTimeout(clock.elapsed(), free.size, len(world.obstacles), clock.code(), what)
+    return found == 1
 
 
 def _from_start(
-    world: World, start: FloatArray, goal: FloatArray, radius: float, cell: float
+    world: World, start: FloatArray, goal: FloatArray, radius: float, cell: float, deadline: float | None
 ) -> tuple[FloatArray, tuple[float, float], tuple[int, int]]:
     """:func:`distance_field` for these ends, and the start's cell."""
     s = np.asarray(start, dtype=float)[:2]
-    field, origin = distance_field(world, radius, s, np.asarray(goal, dtype=float)[:2], cell)
+    field, origin = distance_field(world, radius, s, np.asarray(goal, dtype=float)[:2], cell, deadline)
     return field, origin, _cell_of(s, origin, cell, field.shape)
 
 
-def route(world: World, start: FloatArray, goal: FloatArray, radius: float, cell: float = CELL) -> FloatArray | None:
+def route(
+    world: World,
+    start: FloatArray,
+    goal: FloatArray,
+    radius: float,
+    cell: float = CELL,
+    deadline: float | None = None,
+) -> FloatArray | None:
     """The shortest 2-D route for a disc of ``radius`` [m] from ``start`` to ``goal`` (see the module doc).
 
     Args:
@@ -212,14 +303,19 @@ def route(world: World, start: FloatArray, goal: FloatArray, radius: float, cell
         radius: Radius of the disc about the route [m].
         cell: Cell side of the search [m]; larger where the world would need more than
             :data:`MAX_CELLS` cells.
+        deadline: ``time.perf_counter()`` value by which the cells' distances and the Dijkstra must be
+            done (None: no limit; the string-pulling after them is not timed: a few segments).
 
     Returns:
         (M, 2) vertices from ``start`` to ``goal`` (M >= 2), or None when the goal's cell cannot be
         reached from the start's.
+
+    Raises:
+        planning.collision.field.FieldTimeout: The deadline passed.
     """
     cell = world.grid_spacing(cell, MAX_CELLS)
     s, g = np.asarray(start, dtype=float)[:2], np.asarray(goal, dtype=float)[:2]
-    field, origin, (i, j) = _from_start(world, s, g, radius, cell)
+    field, origin, (i, j) = _from_start(world, s, g, radius, cell, deadline)
     if not np.isfinite(field[i, j]):
         return None
     cells = _descend(field, i, j)

@@ -28,6 +28,10 @@ A search that expands every state it can reach without a path is run again on ce
 (``refine_when_exhausted``): the lattice keeps one pose per cell, so a gap little wider than the robot
 can be missed on the coarse one (a 0.142 m gap the EduMIP passes: none on 5 cm cells, a path on 2.5 cm).
 
+The time limit holds for all of a plan: the collision grid, the 2-D heuristic (each built within what
+is left of it, a limit that passes first ending the plan ``TIMEOUT`` before the search, naming what was
+under way), the search, and the simplification after it.
+
 The search is deterministic (no random numbers: ``problem.seed`` is not used; which of the two
 searches gives the plan is decided by their counts, not by the threads' timing). Every motion is
 collision-checked at the exact checker's resolution through the fast checker's proofs (see
@@ -300,26 +304,12 @@ class HybridAStar:
         limit the reason names), else the search's own."""
         cfg = self.config
         limit = cfg.time_limit if cfg.time_limit is not None else problem.time_limit
+        said = limit if stated_limit is None else stated_limit
         clock = (PlanClock(limit), time.process_time())
-        too_large = _lattice_too_large(problem, cfg.cell_size, cfg.angle_quantization_bins)
-        if too_large:
-            return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=too_large, stats=_stats(clock, None, 0, 0))
-        try:  # the grid counts against the time limit
-            checker = make_checker(problem, cfg.shape, cfg.clearance, clock[0].deadline())  # type: ignore[arg-type]
-        except FieldTimeout as exc:
-            return grid_timeout(self.name, exc)
-        bad = check_endpoints(problem, checker, self.name)
-        if bad is not None:
-            return bad
-        setup = self._setup(problem, checker)
+        setup = self._prepare(problem, clock, said)
+        if isinstance(setup, PlanResult):
+            return setup
         start, goal = problem.start.as_array(), problem.goal.as_array()
-        if not np.isfinite(setup.h2d[self._cell(setup, start)]):
-            reason = (
-                "the goal cannot be reached from the start even by the robot's inscribed disc "
-                f"(radius {inscribed_radius(problem.robot, cfg.shape):.3f} m plus the clearance "
-                f"{cfg.clearance:g} m) on the {cfg.cell_size:g} m grid: the goal is walled off"
-            )
-            return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=reason, stats=_stats(clock, checker, 0, 0))
         space = (
             (*_moves(setup.prims, cfg, 1.0), _root_free(setup, start)),
             setup.lat,
@@ -347,14 +337,48 @@ class HybridAStar:
             out = stoppable(lattice.search, *args, watch=None if other is None else other.watch)
         except MemoryError:  # within the machine's memory, yet not to be had
             reason = _lattice_too_large(problem, cfg.cell_size, cfg.angle_quantization_bins, failed=True)
-            return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=reason, stats=_stats(clock, checker, 0, 0))
-        said = limit if stated_limit is None else stated_limit
+            return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=reason, stats=_stats(clock, setup.checker, 0, 0))
         if other is None or not other.wins(out):
             return self._result(problem, setup, out, clock, said, {} if other is None else other.stats(out))
         return self._result(problem, setup, other.out, clock, said, other.stats(out))
 
-    def _setup(self, problem: PlanProblem, checker: FastChecker) -> _Setup:
-        """The turning radius, primitives, lattice and obstacle heuristic of a run."""
+    def _prepare(self, problem: PlanProblem, clock: tuple[PlanClock, float], limit: float) -> _Setup | PlanResult:
+        """What the search needs (the collision grid, the lattice, the 2-D heuristic), built within the time
+        limit, or the result that ends the plan before the search: the lattice too large, an end pose in
+        collision, the goal walled off, or the limit (``limit`` [s], as the reason names it) passed first."""
+        cfg = self.config
+        too_large = _lattice_too_large(problem, cfg.cell_size, cfg.angle_quantization_bins)
+        if too_large:
+            return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=too_large, stats=_stats(clock, None, 0, 0))
+        try:  # the grid counts against the time limit
+            checker = make_checker(problem, cfg.shape, cfg.clearance, clock[0].deadline())  # type: ignore[arg-type]
+        except FieldTimeout as exc:
+            return grid_timeout(self.name, exc)
+        bad = check_endpoints(problem, checker, self.name)
+        if bad is not None:
+            return bad
+        try:
+            setup = self._setup(problem, checker, clock[0])
+        except FieldTimeout as exc:
+            reason = f"time budget of {limit:g} s spent before the search: {exc} (the collision grid took "
+            reason += f"{checker.grid_seconds:.3f} s of it)"
+            return PlanResult(PlanStatus.TIMEOUT, self.name, reason=reason, stats=_stats(clock, checker, 0, 0))
+        if not np.isfinite(setup.h2d[self._cell(setup, problem.start.as_array())]):
+            reason = (
+                "the goal cannot be reached from the start even by the robot's inscribed disc "
+                f"(radius {inscribed_radius(problem.robot, cfg.shape):.3f} m plus the clearance "
+                f"{cfg.clearance:g} m) on the {cfg.cell_size:g} m grid: the goal is walled off"
+            )
+            return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=reason, stats=_stats(clock, checker, 0, 0))
+        return setup
+
+    def _setup(self, problem: PlanProblem, checker: FastChecker, clock: PlanClock) -> _Setup:
+        """The turning radius, primitives, lattice and obstacle heuristic of a run, the heuristic within
+        ``clock``'s time limit.
+
+        Raises:
+            planning.collision.field.FieldTimeout: The time limit passed before the heuristic was done.
+        """
         cfg = self.config
         robot = problem.robot
         rho = cfg.turning_radius if cfg.turning_radius is not None else default_turning_radius(robot)
@@ -365,16 +389,16 @@ class HybridAStar:
         )
         xmin, _, ymin, _ = problem.world.bounds
         cell = cfg.cell_size
-        nx, ny, centres = lattice.cell_centres(problem.world.bounds, cell)
-        _, upper = checker.distance_bounds(centres)
+        nx, ny = lattice.cell_counts(problem.world.bounds, cell)
         # A cell is blocked only when no point of it leaves room for the inscribed disc.
-        reach = upper + cell / np.sqrt(2.0)
-        free = (reach > inscribed_radius(robot, cfg.shape) + cfg.clearance).reshape(nx, ny)
+        need = inscribed_radius(robot, cfg.shape) + cfg.clearance
+        grid, x0, y0, h = checker.proof_arguments()[:4]
+        free = lattice.open_cells(grid, x0, y0, h, (float(xmin), float(ymin), float(cell), nx, ny), need)
         lat = (float(xmin), float(ymin), float(cell), nx, ny, int(cfg.angle_quantization_bins))
         setup = _Setup(checker, float(rho), float(step), prims, lat, np.zeros((nx, ny)), free)
         gi, gj = self._cell(setup, problem.goal.as_array())
         free[gi, gj] = True
-        h2d = lattice.obstacle_heuristic(free, gi, gj, float(cell))
+        h2d = _heuristic(free, (gi, gj), float(cell), clock, len(problem.world.obstacles))
         return dataclasses.replace(setup, h2d=h2d)
 
     @staticmethod
@@ -413,7 +437,7 @@ class HybridAStar:
         }
         if outcome == lattice.FOUND:
             found = PlanResult(PlanStatus.SUCCESS, self.name, path=path, stats=stats, tree=tree, directions=dirs)
-            return self._simplified(problem, setup, found)
+            return self._simplified(problem, setup, found, clock[0])
         if outcome == lattice.EXHAUSTED:
             status, reason = PlanStatus.INFEASIBLE, self._exhausted(problem, its)
             stats["exhausted"] = True
@@ -426,12 +450,14 @@ class HybridAStar:
     def _exhausted(self, problem: PlanProblem, its: int) -> str:
         """Why a search that expanded every state it could reach found no path, and what may: the lattice
         keeps one pose per cell, so a way through a gap little wider than the robot may need finer cells
-        (half the size, where the machine has the memory for that lattice)."""
+        (half the size, where the machine has the memory for that lattice). The status stays ``INFEASIBLE``
+        (no solution this planner can find), the reason leads with what it does not prove."""
         cell, bins = self.config.cell_size, self.config.angle_quantization_bins
         said = (
-            f"the lattice search expanded every state it could reach ({its}) without reaching the goal: no path "
-            f"on this lattice ({cell:g} m cells, {bins} headings, one pose kept per cell), which does not show that "
-            "the robot has none"
+            "no path found, which does not prove that the robot has none: the lattice search expanded every "
+            f"state it could reach ({its}) on {cell:g} m cells, {bins} headings, one pose kept per cell, each "
+            "motion proven free on the collision grid, so a gap up to a centimetre or two wider than the robot "
+            "may not be passed (the resolution limit: docs/explanation/hybrid-astar.md)"
         )
         if _lattice_too_large(problem, cell / 2, bins):
             return f"{said}; a finer lattice would need more memory than this machine has: try another planner"
@@ -440,19 +466,19 @@ class HybridAStar:
             "[planners.hybrid-a-star] table of the scenario, or another planner"
         )
 
-    def _simplified(self, problem: PlanProblem, setup: _Setup, found: PlanResult) -> PlanResult:
+    def _simplified(self, problem: PlanProblem, setup: _Setup, found: PlanResult, clock: PlanClock) -> PlanResult:
         """The lattice's path simplified as the sampling planners' paths are, with Reeds–Shepp curves of
         the search's radius and its checker (the raw path kept in ``raw_path``; the stats report both
         lengths and cusps). Smoothing follows in :mod:`planning.trajectory`, as for every planner. A
         backwards metre costs ``reverse_penalty`` forwards metres there too, as in the search: the
         simplified path does not turn forward stretches round to save a few centimetres backwards
         (it did, without the weight: a world's 7.13 m path, 0.12 m of it backwards, became 7.03 m, 6.93 m
-        of it backwards)."""
+        of it backwards). It runs within what is left of the time limit (``clock``, the plan's)."""
         if not self.config.simplify:
             return found
         local = LocalPlanner("reeds_shepp", problem.robot, setup.checker, rho=setup.rho)
         # deterministic: the same path whatever the problem's seed
-        out = simplified(found, local, 0, reverse_weight=self.config.reverse_penalty)
+        out = simplified(found, local, 0, reverse_weight=self.config.reverse_penalty, clock=clock)
         return dataclasses.replace(out, stats={**out.stats, "length_m": path_length(out.path)})
 
 
@@ -568,6 +594,7 @@ class _GoalSearch:
         self.budget = np.array([max(0, race[0] - self.after - 1), 0], dtype=np.int64)  # as race, for this one
         self.moves = _moves(setup.prims, planner.config, -1.0)
         self.args: tuple[Any, ...] | None = None
+        self.late = False  # whether the time limit passed before its heuristic was made
         self.run: KernelRun | None = None
 
     @property
@@ -584,8 +611,11 @@ class _GoalSearch:
             count = first.out[2] if first.done.is_set() else self.race[1]  # race[1]: every 256 expansions
             if count < self.after // 2 or (first.done.is_set() and first.out[0] == lattice.TIMED_OUT):
                 return
-            if self.args is None:
+            if self.args is None and not self.late:
                 self.args = self._args()  # its heuristic made while the first runs, to start at once
+                self.late = self.args is None  # the time limit passed before its heuristic was done
+            if self.args is None:
+                return
             if count >= self.after and self.budget[0] > 0:
                 budget = int(self.budget[0])
                 self.run = spawn(lattice.search, *self.args, budget, self.budget, self.clock.remaining())
@@ -593,11 +623,16 @@ class _GoalSearch:
         if self.run.done.is_set() and self.run.out[0] == lattice.FOUND:
             self.race[0] = min(self.race[0], self.after + self.run.out[2])
 
-    def _args(self) -> tuple[Any, ...]:
+    def _args(self) -> tuple[Any, ...] | None:
+        """The search's arguments (its heuristic, from the start, made within the time limit), or None
+        when the time limit passed first."""
         goal, start, tol, rho, step, space, expansion = self.fixed
         free, (i, j) = self.setup.free.copy(), HybridAStar._cell(self.setup, start)
         free[i, j] = True  # as the goal's cell is for the search from the start
-        h2d = lattice.obstacle_heuristic(free, i, j, self.setup.lat[2])
+        try:
+            h2d = _heuristic(free, (i, j), self.setup.lat[2], self.clock, 0)
+        except FieldTimeout:
+            return None
         moves = (*self.moves[:5], _root_free(self.setup, goal))
         return goal, start, tol, rho, step, (moves, space[1], h2d, space[3], space[4]), expansion
 
@@ -614,6 +649,23 @@ class _GoalSearch:
             "expansions_from_start": int(first[2]),
             "expansions_from_goal": 0 if self.out is None else int(self.out[2]),
         }
+
+
+def _heuristic(
+    free: NDArray[np.bool_], goal: tuple[int, int], cell: float, clock: PlanClock, obstacles: int
+) -> FloatArray:
+    """The 2-D heuristic (:func:`planning.planners.lattice.bounded_heuristic` from the ``goal`` cell over
+    the ``free`` cells of side ``cell`` [m]) within what is left of ``clock``'s time limit.
+
+    Raises:
+        planning.collision.field.FieldTimeout: The time limit passed first (``obstacles``: the world's, for
+            the message).
+    """
+    h2d, finished = lattice.bounded_heuristic(free, goal[0], goal[1], cell, clock.remaining())
+    if not finished:
+        seconds = clock.elapsed()
+        raise FieldTimeout(seconds, free.size, obstacles, clock.code(), ("building the 2-D heuristic", "cells"))
+    return h2d
 
 
 def _ended(out: tuple) -> bool:  # type: ignore[type-arg]

@@ -47,6 +47,14 @@ tracker happens later (:mod:`planning.trajectory.smoothing`).
 
 The random draws come from ``seed``: the same path and seed give the same result, bit for bit.
 
+With a ``deadline`` the simplification stops when it passes (looked at before every shortcut steered
+and every vertex or cusp the passes consider; the time numba spends readying code is not counted,
+as :mod:`planning.clock` does for the planners), and returns the path as far as it got: every
+shortcut kept leaves a valid path, so what it returns is as good a result as any, only less
+simplified. The routes are not asked for once it has passed; a ``routes`` callable that runs out of
+time itself raises :class:`TimeoutError` (:class:`planning.collision.field.FieldTimeout`), and no
+route is tried. ``SimplifiedPath.timed_out`` says whether the deadline cut it short.
+
 Interface: ``steer(q_a, q_b)`` returns ``(poses (K, 3), directions (K,))`` dense enough for
 ``checker`` (the first pose ``q_a``, the last ``q_b``; directions of the motion arriving at each pose)
 or None when it cannot join them; ``checker(poses)`` says whether dense poses are collision-free;
@@ -68,7 +76,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.clock import code_seconds
+from planning.clock import PlanClock, code_seconds
 from planning.core.geometry import cumulative_length, path_length, path_steps
 from planning.errors import ConfigError
 from planning.trajectory.smoothing import remove_loops
@@ -214,6 +222,7 @@ class SimplifiedPath:
         cpu_s: CPU time of the simplification's thread [s] (what the wall time is on an idle machine).
         code_s: Of ``time_s``, the time numba spent readying the kernels the simplification calls
             (loading them from its disk cache in a new process; 0 once loaded) [s].
+        timed_out: Whether the deadline stopped it before it had done all it would have.
     """
 
     path: FloatArray
@@ -231,10 +240,12 @@ class SimplifiedPath:
     time_s: float
     cpu_s: float
     code_s: float
+    timed_out: bool = False
 
-    def stats(self) -> dict[str, float | int]:
+    def stats(self) -> dict[str, float | int | bool]:
         """The numbers a plan reports: raw and simplified length, cusps and cost, the shortcuts kept
-        and the time (wall, CPU, and the wall time numba spent readying code) [m, s]."""
+        and the time (wall, CPU, and the wall time numba spent readying code) [m, s], and whether the
+        deadline cut it short."""
         return {
             "raw_length_m": self.raw_length,
             "length_m": self.length,
@@ -247,6 +258,7 @@ class SimplifiedPath:
             "simplify_time_s": self.time_s,
             "simplify_cpu_s": self.cpu_s,
             "simplify_code_s": self.code_s,
+            "simplify_time_limit_reached": self.timed_out,
         }
 
 
@@ -264,6 +276,10 @@ def default_vertices(
     return sorted({0, n - 1, *marks.tolist(), *cusp.tolist()} - {n})
 
 
+class _OutOfTime(TimeoutError):
+    """The simplification's deadline passed (raised between shortcuts: the path is whole)."""
+
+
 class _Work:
     """The path being simplified: dense poses, directions, vertices and the cost of each piece."""
 
@@ -274,9 +290,12 @@ class _Work:
         verts: list[int],
         fns: tuple[Steer, Checker, PieceCost],
         arc: FloatArray | None = None,
+        clock: PlanClock | None = None,
     ) -> None:
         self.poses, self.dirs, self.verts = poses, dirs, verts
         self.steer, self.checker, self.cost = fns
+        #: The deadline's clock (None: no deadline), see :meth:`check_time`.
+        self.clock = clock
         self.arc = cumulative_length(poses) if arc is None else arc
         self.carc = self._running_cost()
         self.pcost = [self.piece(a, b) for a, b in itertools.pairwise(verts)]
@@ -294,6 +313,11 @@ class _Work:
         if self.cost.reverse_weight == 1.0:
             return self.arc
         return np.concatenate([[0.0], np.cumsum(self.cost.weighted(np.diff(self.arc), self.dirs))])
+
+    def check_time(self) -> None:
+        """Raise :class:`_OutOfTime` once the deadline has passed."""
+        if self.clock is not None and self.clock.expired():
+            raise _OutOfTime
 
     def piece(self, a: int, b: int) -> float:
         """Cost of poses a..b (straight from the running sums for a :class:`DirectedLength` cost)."""
@@ -357,6 +381,7 @@ class _Work:
         """Replace poses a..b (a < b, dense indices) by the steered motion (driving poses m1..m2 the
         other way round with ``turn = (m1, m2)``, a < m1 < m2 < b) if it passes every test;
         ``known``: the ``distance`` bound already measured (see :meth:`_estimate`)."""
+        self.check_time()
         if b - a < 2:
             return False
         p, verts = self.poses, self.verts
@@ -448,6 +473,7 @@ def _greedy(w: _Work, cfg: SimplifyConfig, distance: Distance | None) -> None:
     later vertices that cannot be among the best)."""
     i = 0
     while i < len(w.verts) - 2 and cfg.greedy_tries > 0:
+        w.check_time()
         a = w.verts[i]
         later = np.asarray(w.verts[i + 2 :])
         saved = np.cumsum(w.pcost[i:])[1:]  # cost from vertex i to each later vertex
@@ -472,6 +498,7 @@ def _cusp_pass(w: _Work, cfg: SimplifyConfig, distance: Distance | None) -> bool
     largest estimated saving first (``cusp_tries`` per cusp)."""
     changed, c = False, 0
     while cfg.cusp_tries > 0:
+        w.check_time()
         flips = np.flatnonzero(w.dirs[2:] != w.dirs[1:-1]) + 1
         flips = flips[flips > c]
         if flips.size == 0:
@@ -511,6 +538,7 @@ def _turned_pass(w: _Work, cfg: SimplifyConfig, distance: Distance | None) -> bo
     spans = np.array([0.0, 0.35])
     changed, k = False, 0
     while True:
+        w.check_time()
         flips = (np.flatnonzero(w.dirs[2:] != w.dirs[1:-1]) + 1).tolist()
         ends = [0, *flips, w.poses.shape[0] - 1]
         if not flips or k >= len(ends) - 1:
@@ -647,30 +675,81 @@ def _route_work(w: _Work, route: FloatArray) -> _Work | None:
     if not w.checker(poses):
         return None
     joints = np.cumsum([0, *(m[0].shape[0] - 1 for m in motions)]).tolist()
-    return _Work(poses, dirs, joints, (w.steer, w.checker, w.cost))
+    return _Work(poses, dirs, joints, (w.steer, w.checker, w.cost), clock=w.clock)
 
 
 def _best_route(
     w: _Work, routes: Sequence[FloatArray], cfg: SimplifyConfig, distance: Distance | None, seed: int
-) -> tuple[_Work, int, int]:
+) -> tuple[_Work, int, int, bool]:
     """The cheapest of the simplified path ``w`` and the paths steered through ``routes`` and
     simplified the same way, among those with no more cusps than ``w``; which one it is (-1: ``w``),
-    and the shortcuts steered on all of them. A route gets one round first and the rest only if it
-    beats the best so far (more rounds only make it cheaper)."""
+    the shortcuts steered on all of them, and whether the deadline stopped it. A route gets one round
+    first and the rest only if it beats the best so far (more rounds only make it cheaper); a route
+    the deadline cut short competes as far as it got (every shortcut kept leaves it whole)."""
     best, chosen, attempts = w, -1, w.attempts
     for k, r in enumerate(routes):
+        if w.clock is not None and w.clock.expired():
+            return best, chosen, attempts, True
         alt = _route_work(w, r)
         if alt is None:
             continue
         rng = np.random.default_rng(seed)
-        _greedy(alt, cfg, distance)
-        more = _rounds(alt, cfg, distance, rng, min(1, cfg.max_rounds))
+        late = False
+        try:
+            _greedy(alt, cfg, distance)
+            more = _rounds(alt, cfg, distance, rng, min(1, cfg.max_rounds))
+        except _OutOfTime:
+            more, late = False, True
         if alt.total() < best.total() - cfg.min_gain and count_cusps(alt.dirs) <= count_cusps(best.dirs):
-            if more:
-                _rounds(alt, cfg, distance, rng, cfg.max_rounds - 1)
+            try:
+                if more:
+                    _rounds(alt, cfg, distance, rng, cfg.max_rounds - 1)
+            except _OutOfTime:
+                late = True
             best, chosen = alt, k
         attempts += alt.attempts
-    return best, chosen, attempts
+        if late:
+            return best, chosen, attempts, True
+    return best, chosen, attempts, False
+
+
+def _simplify(
+    w: _Work,
+    cfg: SimplifyConfig,
+    distance: Distance | None,
+    seed: int,
+    routes: Sequence[FloatArray] | Callable[[], Sequence[FloatArray]],
+) -> tuple[Sequence[FloatArray], bool]:
+    """Steps 2 to 5 of the module doc on ``w``, then the routes to try: those given, or asked of the
+    callable; and whether the deadline passed first (then ``w`` is as far as it got and no route is
+    tried: the deadline, here or in the routes callable)."""
+    try:
+        if w.poses.shape[0] >= 3:
+            _greedy(w, cfg, distance)
+            _rounds(w, cfg, distance, np.random.default_rng(seed), cfg.max_rounds)
+        w.check_time()
+        return ((routes() if callable(routes) else routes) if w.poses.shape[0] >= 3 else ()), False
+    except TimeoutError:
+        return (), True
+
+
+def _inputs(
+    path: FloatArray, directions: FloatArray | None, vertices: Sequence[int] | None, cfg: SimplifyConfig
+) -> tuple[FloatArray, FloatArray, list[int] | None, FloatArray]:
+    """:func:`simplify_path`'s path (N, 3), directions (N,), vertices (with the ends; None: not given) and
+    the path's steps (N - 1,) [m], checked.
+
+    Raises:
+        ValueError: A path that is not (N, 3) finite poses, or directions of another length.
+    """
+    p = np.asarray(path, dtype=float)
+    if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 1 or not np.all(np.isfinite(p)):
+        raise ValueError(f"simplify_path: path must be (N, 3) finite poses with N >= 1, got shape {p.shape}")
+    d = np.ones(p.shape[0]) if directions is None else np.asarray(directions, dtype=float).reshape(-1)
+    if d.size != p.shape[0]:
+        raise ValueError(f"simplify_path: directions must have one entry per pose ({p.shape[0]}), got {d.size}")
+    verts = sorted({0, p.shape[0] - 1, *(int(v) for v in vertices)}) if vertices is not None else None
+    return p, d, verts, path_steps(p)
 
 
 def simplify_path(
@@ -685,6 +764,7 @@ def simplify_path(
     routes: Sequence[FloatArray] | Callable[[], Sequence[FloatArray]] = (),
     config: SimplifyConfig | None = None,
     seed: int = 0,
+    deadline: float | None = None,
 ) -> SimplifiedPath:
     """Simplify a dense path with exact steering (see the module doc).
 
@@ -702,9 +782,12 @@ def simplify_path(
             to its last (e.g. along the obstacle-aware 2-D route, :mod:`planning.planners.geodesic`):
             each one that steers and is collision-free is simplified the same way, and the result is
             the cheapest of all whose cusps are no more than the simplified path's. A callable is
-            asked for them once the input is simplified (its time is counted in the result's).
+            asked for them once the input is simplified (its time is counted in the result's); one
+            that runs out of time raises :class:`TimeoutError`.
         config: Parameters (default :class:`SimplifyConfig`).
         seed: Seed of the random draws.
+        deadline: ``time.perf_counter()`` value at which to stop with the path as far as it got (see the
+            module doc); None: no limit.
 
     Returns:
         The simplified path with its lengths, cusps, costs and the time taken.
@@ -713,29 +796,20 @@ def simplify_path(
         ValueError: A path that is not (N, 3) finite poses, or directions of another length.
     """
     t0, c0, k0 = time.perf_counter(), time.thread_time(), code_seconds()
+    clock = None if deadline is None else PlanClock(deadline - t0)
     cfg = config if config is not None else SimplifyConfig()
-    p = np.asarray(path, dtype=float)
-    if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 1 or not np.all(np.isfinite(p)):
-        raise ValueError(f"simplify_path: path must be (N, 3) finite poses with N >= 1, got shape {p.shape}")
-    d = np.ones(p.shape[0]) if directions is None else np.asarray(directions, dtype=float).reshape(-1)
-    if d.size != p.shape[0]:
-        raise ValueError(f"simplify_path: directions must have one entry per pose ({p.shape[0]}), got {d.size}")
-    verts = sorted({0, p.shape[0] - 1, *(int(v) for v in vertices)}) if vertices is not None else None
-    steps = path_steps(p)
+    p, d, verts, steps = _inputs(path, directions, vertices, cfg)
     arc = np.concatenate([[0.0], np.cumsum(steps)])  # cumulative_length(p), from the same steps
-    raw = _Work(p, d, verts or default_vertices(p, d, cfg, arc), (steer, checker, cost), arc)
+    raw = _Work(p, d, verts or default_vertices(p, d, cfg, arc), (steer, checker, cost), arc, clock)
     raw_cost, raw_len, raw_cusps = raw.total(), float(np.sum(steps)), count_cusps(d)
     w = raw
     if vertices is None:  # loops are cut only where the cost is the path's own (no per-edge terms)
         cut, cut_d = remove_loops(p, d)
         assert cut_d is not None
         if cut.shape[0] < p.shape[0]:
-            w = _Work(cut, cut_d, default_vertices(cut, cut_d, cfg), (steer, checker, cost))
-    if w.poses.shape[0] >= 3:
-        _greedy(w, cfg, distance)
-        _rounds(w, cfg, distance, np.random.default_rng(seed), cfg.max_rounds)
-    ways = (routes() if callable(routes) else routes) if w.poses.shape[0] >= 3 else ()
-    best, chosen, attempts = _best_route(w, ways, cfg, distance, seed)
+            w = _Work(cut, cut_d, default_vertices(cut, cut_d, cfg), (steer, checker, cost), clock=clock)
+    ways, late = _simplify(w, cfg, distance, seed, routes)
+    best, chosen, attempts, later = _best_route(w, ways, cfg, distance, seed)
     return SimplifiedPath(
         best.poses,
         best.dirs,
@@ -752,4 +826,5 @@ def simplify_path(
         time.perf_counter() - t0,
         time.thread_time() - c0,
         code_seconds() - k0,
+        late or later,
     )

@@ -35,8 +35,14 @@ when a step cannot meet them its period is lengthened. The chained states are in
 Simpson quadrature on a fine grid (every state is an explicit integral of known time functions).
 
 Obstacles are not this planner's business: the path is checked against them and a path that
-collides ends as ``INFEASIBLE``. State bounds (the robot's disc inside the world's walls, ``|phi|
-<= phimax``) and input bounds are checked and a violation is reported as ``BOUNDS_VIOLATED``.
+collides ends as ``INFEASIBLE`` (a start or goal whose disc overlaps an obstacle too: the path
+collides at its first or last pose). State bounds (the robot's disc inside the world's walls, ``|phi|
+<= phimax``, the heading within ``max_heading_offset`` of its chart's centre) and input bounds are
+checked and a violation is reported as ``BOUNDS_VIOLATED``: a joined path that leaves them (attached),
+and a step that no period up to ``max_period`` makes within them (no path; the reason names the
+step and the bound its longest period broke). A final state that misses the goal is ``FAILED`` (the
+quadrature's numerical error), and the problem's ``time_limit``, read before every period tried,
+ends the plan as ``TIMEOUT``.
 """
 
 from __future__ import annotations
@@ -151,7 +157,11 @@ class _Segment:
 
 
 class _StepFailed(Exception):
-    pass
+    """A step cannot be made within the bounds (the message says which)."""
+
+
+class _OutOfTime(Exception):
+    """The problem's time limit passed while a step was being steered."""
 
 
 class Sinusoidal:
@@ -208,6 +218,7 @@ class Sinusoidal:
         self.u1max = u1max if u1max is not None else 0.22
         self.phimax = phimax if phimax is not None else 0.6
         self.wmax = math.inf  # the differential drive's yaw-rate limit omega = u1 tan(phi) / l [rad/s]
+        self._deadline = math.inf  # time.perf_counter() value at which the plan's time limit passes
 
     # -- steps ---------------------------------------------------------------------------------
     def _grid(self, period: float) -> FloatArray:
@@ -221,7 +232,7 @@ class Sinusoidal:
         z[:, 1] = phi
         z[:, 2] = z0[2] + cumulative_simpson(m.sigma * np.tan(phi) / self.l * v1, x=t, initial=0.0)
         if np.max(np.abs(z[:, 2])) >= self.alpha_lim + 1e-12:
-            raise _StepFailed("heading leaves the model's region")
+            raise _StepFailed("the heading leaves its chart's region (max_heading_offset)")
         z[:, 3] = z0[3] + cumulative_simpson(m.g(z[:, 2]) * v1, x=t, initial=0.0)
         return z
 
@@ -229,12 +240,15 @@ class Sinusoidal:
         self, m: ChainedModel, t: FloatArray, z: FloatArray, v1: FloatArray, v2: FloatArray, step: str
     ) -> _Segment:
         u1 = m.speed(v1, z[:, 2])
-        if np.max(np.abs(u1)) > self.u1max * (1 + 1e-9) or np.max(np.abs(v2)) > self.u2max * (1 + 1e-9):
-            raise _StepFailed("input bound")
-        if np.max(np.abs(u1 * np.tan(z[:, 1]))) / self.l > self.wmax * (1 + 1e-9):
-            raise _StepFailed("yaw-rate bound")
+        if np.max(np.abs(u1)) > self.u1max * (1 + 1e-9):
+            raise _StepFailed(f"|u1| reaches {np.max(np.abs(u1)):.3g} m/s > u1max {self.u1max:.3g}")
+        if np.max(np.abs(v2)) > self.u2max * (1 + 1e-9):
+            raise _StepFailed(f"|u2| reaches {np.max(np.abs(v2)):.3g} rad/s > u2max {self.u2max:.3g}")
+        yaw = np.max(np.abs(u1 * np.tan(z[:, 1]))) / self.l
+        if yaw > self.wmax * (1 + 1e-9):
+            raise _StepFailed(f"the yaw rate reaches {yaw:.3g} rad/s > the robot's {self.wmax:.3g}")
         if np.max(np.abs(z[:, 1])) > self.phimax * (1 + 1e-9):
-            raise _StepFailed("steering bound")
+            raise _StepFailed(f"|phi| reaches {np.max(np.abs(z[:, 1])):.3g} > phimax {self.phimax:.3g}")
         sl = slice(None, None, _SUB)
         return _Segment(t[sl], z[sl], np.column_stack([v1, v2])[sl], m, step)
 
@@ -242,16 +256,19 @@ class Sinusoidal:
         d = target - z0[0]
         c = math.sqrt(max(1.0 - z0[2] ** 2, 1e-12))
         period = max(self.min_period, 2.0 * abs(d) / (0.98 * self.u1max * c))
+        last = ""
         while period <= self.max_period:
+            self._tick()
             t = self._grid(period)
             w = 2 * math.pi / period
             v1 = d / period * (1.0 - np.cos(w * t))
             try:
                 z = self._integrate(m, z0, t, v1, np.full_like(t, z0[1]))
                 return self._accept(m, t, z, v1, np.zeros_like(t), "z1")
-            except _StepFailed:
+            except _StepFailed as exc:
+                last = str(exc)
                 period *= 1.25
-        raise _StepFailed(f"cannot steer {'y' if m.alternate else 'x'} by {d:.3g} m within u1max")
+        raise _StepFailed(self._cannot(f"{'y' if m.alternate else 'x'} by {d:.3g} m", last))
 
     def _steer_phi(self, m: ChainedModel, z0: FloatArray, target: float) -> _Segment:
         d = target - z0[1]
@@ -269,22 +286,25 @@ class Sinusoidal:
     def _steer_alpha(self, m: ChainedModel, z0: FloatArray, target: float) -> _Segment:
         d = target - z0[2]
         period = self.min_period
+        last = ""
         while period <= self.max_period:
+            self._tick()
             w = 2 * math.pi / period
             amp = min(self.u2max / w, self._phi_amp(z0[1]))
             t = self._grid(period)
             phi = z0[1] + amp * np.sin(w * t)
             gain = simpson(m.sigma * np.tan(phi) / self.l * np.sin(w * t), x=t)  # dalpha per unit a1
             a1 = d / gain
+            last = f"the amplitude of u1 would be {abs(a1):.3g} m/s > u1max {self.u1max:.3g}"
             if abs(a1) <= self.u1max:
                 v1 = a1 * np.sin(w * t)
                 try:
                     z = self._integrate(m, z0, t, v1, phi)
                     return self._accept(m, t, z, v1, amp * w * np.cos(w * t), "alpha")
-                except _StepFailed:
-                    pass
+                except _StepFailed as exc:
+                    last = str(exc)
             period *= 1.25
-        raise _StepFailed(f"cannot steer alpha by {d:.3g} within u1max, u2max and phimax")
+        raise _StepFailed(self._cannot(f"alpha by {d:.3g}", last))
 
     def dz4(self, m: ChainedModel, z0: FloatArray, period: float, a1: float, a2: float) -> float:
         """Change of the fourth chained state over one z4 step (v1 = a1 sin wt, v2 = a2 cos 2wt).
@@ -308,48 +328,73 @@ class Sinusoidal:
     def _steer_z4(self, m: ChainedModel, z0: FloatArray, target: float) -> _Segment:
         d = target - z0[3]
         period = self.min_period
+        last = ""
         while period <= self.max_period:
+            self._tick()
+            last = "no amplitude of u1 within u1max and the heading's region moves it that far"
             w = 2 * math.pi / period
             t = self._grid(period)
             sw = np.sin(w * t)
             amp = min(self.u2max / (2 * w), self._phi_amp(z0[1]))
             for sign in (1.0, -1.0):
                 phi = z0[1] + sign * amp * np.sin(2 * w * t)
-                big_a = cumulative_simpson(m.sigma * np.tan(phi) / self.l * sw, x=t, initial=0.0)
-                # |alpha0 + a1 A(t)| <= alpha_lim bounds a1 (a1 > 0).
-                with np.errstate(divide="ignore"):
-                    lim = np.where(
-                        big_a > 1e-15,
-                        (self.alpha_lim - z0[2]) / big_a,
-                        np.where(big_a < -1e-15, (self.alpha_lim + z0[2]) / -big_a, np.inf),
-                    )
-                amax = min(self.u1max, 0.999 * float(np.min(lim)))
-
-                def h(a1: float, big_a: FloatArray = big_a, sw: FloatArray = sw, t: FloatArray = t) -> float:
-                    return float(a1 * simpson(m.g(z0[2] + a1 * big_a) * sw, x=t)) - d
-
-                grid = np.linspace(0.0, amax, 33)[1:]
-                alpha = z0[2] + grid[:, None] * big_a[None, :]
-                if np.max(np.abs(alpha)) >= 1.0:
-                    continue
-                vals = grid * simpson(m.g(alpha) * sw[None, :], x=t, axis=1) - d
-                prev_a, prev_v = 0.0, -d
-                root = None
-                for a, val in zip(grid, vals, strict=True):
-                    if np.sign(val) != np.sign(prev_v) or val == 0.0:
-                        root = brentq(h, prev_a, a, xtol=1e-15, rtol=4 * np.finfo(float).eps, maxiter=200)
-                        break
-                    prev_a, prev_v = a, val
-                if root is None or abs(h(root)) > self.tolerance:
+                root = self._z4_amplitude(m, z0, t, sw, phi, d)
+                if root is None:
                     continue
                 v1 = root * sw
                 try:
                     z = self._integrate(m, z0, t, v1, phi)
                     return self._accept(m, t, z, v1, sign * amp * 2 * w * np.cos(2 * w * t), "z4")
-                except _StepFailed:
-                    continue
+                except _StepFailed as exc:
+                    last = str(exc)
             period *= 1.25
-        raise _StepFailed(f"cannot steer {'x' if m.alternate else 'y'} by {d:.3g} m within u1max, u2max and phimax")
+        raise _StepFailed(self._cannot(f"{'x' if m.alternate else 'y'} by {d:.3g} m", last))
+
+    def _z4_amplitude(
+        self, m: ChainedModel, z0: FloatArray, t: FloatArray, sw: FloatArray, phi: FloatArray, d: float
+    ) -> float | None:
+        """The amplitude a1 > 0 of ``v1 = a1 sin wt`` (``sw``) that moves the fourth state by ``d`` with the
+        steering ``phi`` over times ``t``, within u1max and the heading's region, found to ``tolerance``
+        (the first sign change of 32 amplitudes, then Brent's method); None when there is none."""
+        big_a = cumulative_simpson(m.sigma * np.tan(phi) / self.l * sw, x=t, initial=0.0)
+        # |alpha0 + a1 A(t)| <= alpha_lim bounds a1 (a1 > 0).
+        with np.errstate(divide="ignore"):
+            lim = np.where(
+                big_a > 1e-15,
+                (self.alpha_lim - z0[2]) / big_a,
+                np.where(big_a < -1e-15, (self.alpha_lim + z0[2]) / -big_a, np.inf),
+            )
+        amax = min(self.u1max, 0.999 * float(np.min(lim)))
+
+        def h(a1: float) -> float:
+            return float(a1 * simpson(m.g(z0[2] + a1 * big_a) * sw, x=t)) - d
+
+        grid = np.linspace(0.0, amax, 33)[1:]
+        alpha = z0[2] + grid[:, None] * big_a[None, :]
+        if np.max(np.abs(alpha)) >= 1.0:
+            return None
+        vals = grid * simpson(m.g(alpha) * sw[None, :], x=t, axis=1) - d
+        prev_a, prev_v = 0.0, -d
+        for a, val in zip(grid, vals, strict=True):
+            if np.sign(val) != np.sign(prev_v) or val == 0.0:
+                try:
+                    root = float(brentq(h, prev_a, a, xtol=1e-15, rtol=4 * np.finfo(float).eps, maxiter=200))
+                except RuntimeError:  # not converged in maxiter: no amplitude at this period
+                    return None
+                return root if abs(h(root)) <= self.tolerance else None
+            prev_a, prev_v = a, val
+        return None
+
+    def _cannot(self, what: str, last: str) -> str:
+        """Why a step could not steer ``what``: no period up to max_period kept the bounds; ``last``: how the
+        longest period tried broke them (empty: none was tried)."""
+        longest = f" (the longest period tried: {last})" if last else ""
+        return f"cannot steer {what} within the bounds at any period up to max_period = {self.max_period:g} s{longest}"
+
+    def _tick(self) -> None:
+        """Raise :class:`_OutOfTime` once the problem's time limit has passed (before each period tried)."""
+        if time.perf_counter() > self._deadline:
+            raise _OutOfTime
 
     def steer_piece(self, state0: FloatArray, state1: FloatArray, m: ChainedModel) -> list[_Segment]:
         """Steer the bicycle from ``state0`` to ``state1`` (both (4,)) in one chart.
@@ -373,6 +418,7 @@ class Sinusoidal:
     def plan(self, problem: PlanProblem) -> PlanResult:
         """Plan from ``problem.start`` to ``problem.goal`` (steering angle 0 at both ends)."""
         t_start = time.perf_counter()
+        self._deadline = t_start + problem.time_limit
         robot = problem.robot
         self.l = robot.wheelbase
         self.u1max = self.u1max_opt if self.u1max_opt is not None else robot.max_speed
@@ -388,20 +434,27 @@ class Sinusoidal:
         models = [model_for(0.5 * (headings[k] + headings[k + 1])) for k in range(n_pieces)]
         segs: list[_Segment] = []
         state = waypoints[0]
+        k = 0
         try:
             for k, m in enumerate(models):
                 piece = self.steer_piece(state, waypoints[k + 1], m)
                 segs.extend(piece)
                 if piece:
                     state = m.from_chained(piece[-1].z[-1])
-        except _StepFailed as exc:
-            return PlanResult(
-                PlanStatus.INFEASIBLE,
-                self.name,
-                reason=f"sinusoidal steering failed: {exc}; raise u1max/u2max or max_period",
-                stats={"time_s": time.perf_counter() - t_start},
+        except _StepFailed as exc:  # the bounds, not obstacles: no step within them
+            status, reason = (
+                PlanStatus.BOUNDS_VIOLATED,
+                (
+                    f"sinusoidal steering of piece {k + 1} of {len(models)}: {exc}; raise u1max, u2max, phimax, "
+                    "max_heading_offset or max_period, or plan with another planner"
+                ),
             )
-        return self._result(problem, segs, models, t_start)
+        except _OutOfTime:
+            status = PlanStatus.TIMEOUT
+            reason = f"time limit of {problem.time_limit:g} s spent steering piece {k + 1} of {len(models)}"
+        else:
+            return self._result(problem, segs, models, t_start)
+        return PlanResult(status, self.name, reason=reason, stats={"time_s": time.perf_counter() - t_start})
 
     def _result(self, problem: PlanProblem, segs: list[_Segment], models: list[ChainedModel], t0: float) -> PlanResult:
         if segs:

@@ -33,14 +33,18 @@ and, because a signed distance is 1-Lipschitz, a segment is accepted only if eve
 ``center_clearance + h / 2``: the whole continuous segment then provably keeps ``center_clearance``.
 
 Budgets: ``max_iterations`` and the problem's ``time_limit``; either ends in ``TIMEOUT`` with the
-path to the node nearest the goal. With the same seed and an iteration budget the plan is
-bit-for-bit identical (a wall-clock limit may cut a run at a different iteration).
+path to the node nearest the goal. The time limit counts the whole run: the 2-D check that some way
+keeps the clearance (a limit that passes during it ends the run before any sample, saying so), the
+sampling, and the simplification, which gets what the sampling left and keeps what it has shortened
+when that passes. With the same seed and an iteration budget the plan is bit-for-bit identical (a
+wall-clock limit may cut a run at a different iteration).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import itertools
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -48,8 +52,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.clock import PlanClock
-from planning.collision.compiled import world_arrays, world_distances
 from planning.collision.exact import CollisionChecker
+from planning.collision.field import FieldTimeout
 from planning.core.checks import check_fields
 from planning.core.geometry import path_length, wrap_angle
 from planning.errors import ConfigError
@@ -68,6 +72,9 @@ PROOF_MAX_CELLS = 1_000_000
 #: What the 2-D route the simplifier tries keeps beyond the axle-centre clearance [m] (the sampled
 #: clearance check asks half a sample spacing, at most 1 cm here, more).
 ROUTE_MARGIN = 0.02
+#: Refining to the budget (``stop_at_goal`` False) with ``simplify``, the share of the time limit the
+#: sampling leaves to the simplification once the goal has joined the tree.
+SIMPLIFY_SHARE = 0.1
 #: Seed 003's axle-centre clearance per robot [m]; other robots keep just their own radius.
 SEED_CLEARANCE: dict[str, float] = {"edumip": 0.40, "edumip-balancing": 0.40}  # the same EduMIP, balancing
 
@@ -98,8 +105,9 @@ class CRRTStarConfig:
             problem's seed), each kept only when it keeps the clearance and lowers the path's cost
             as defined here (length plus one clearance term per segment), and the path along the
             obstacle-aware 2-D route for the axle-centre clearance (straight segments, turns in
-            place) simplified the same way, kept instead when it costs less; False returns the
-            tree's path.
+            place) simplified the same way, kept instead when it costs less, all within what the
+            sampling left of the time limit (:data:`SIMPLIFY_SHARE` of it when refining); False
+            returns the tree's path.
     """
 
     gamma: float = 0.5
@@ -163,6 +171,8 @@ class _Search:
     """One C-RRT* run: the tree in growable arrays and the seed's helper functions."""
 
     def __init__(self, cfg: CRRTStarConfig, problem: PlanProblem, clearance: float) -> None:
+        #: The run's clock, from before anything is built: the time limit counts all of it.
+        self.clock = PlanClock(problem.time_limit)
         self.cfg, self.problem, self.required = cfg, problem, clearance
         robot = problem.robot
         self.radius = robot.radius
@@ -178,7 +188,8 @@ class _Search:
         self.n = 0
         self.rewires = 0
         self.biased = 0
-        self.world_arrays = world_arrays(problem.world, self.checker.walls)
+        #: Seconds the 2-D check that some way keeps the clearance took (:meth:`walled_off`).
+        self.proof_s = 0.0
 
     # -- helpers of Algorithm 1 -------------------------------------------------------------
     def sample_biased(self, prev: FloatArray) -> FloatArray:
@@ -345,11 +356,14 @@ class _Search:
             "center_clearance_m": self.required,
             "waypoints": pts.tolist(),
             "distance_to_goal_m": float(np.hypot(*(pts[-1] - self.problem.goal.xy))),
+            "proof_s": self.proof_s,
         }
         result = PlanResult(
             status, CRRTStar.name, path=path, reason=reason, stats=stats, tree=tree, directions=np.ones(len(path))
         )
-        return self.simplified(result, pts) if self.cfg.simplify and status is PlanStatus.SUCCESS else result
+        if self.cfg.simplify and status is PlanStatus.SUCCESS:
+            return self.simplified(result, pts, limited=True)
+        return result
 
     # -- simplification with the planner's own steering, clearance and cost ------------------------
     def steer(self, qa: FloatArray, qb: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -364,18 +378,18 @@ class _Search:
         poses[-1] = qb
         return poses, np.ones(poses.shape[0])
 
-    def centre_clearance(self, poses: FloatArray) -> FloatArray:
-        """(K,) axle-centre distances of poses to obstacles and walls [m]: the checker's signed distance
-        (its formulas, compiled: :func:`planning.collision.compiled.world_distances`; the simplifier
-        prices the same stretches of path many times)."""
-        return world_distances(np.ascontiguousarray(poses[:, :2], dtype=float), self.world_arrays)  # type: ignore[no-any-return]
+    def least_clearance(self, poses: FloatArray) -> float:
+        """The smallest axle-centre distance of dense poses (K, 3) to obstacles and walls [m]: the
+        checker's signed distance, compiled, from as few of the poses as prove it
+        (:meth:`planning.collision.exact.CollisionChecker.least_distance`; the simplifier prices and
+        checks straight pieces of tens of metres, sampled every 2 cm, many times)."""
+        return self.checker.least_distance(poses[:, :2])
 
     def keeps_clearance(self, poses: FloatArray) -> bool:
         """Whether dense poses keep the axle-centre clearance (the ``segments`` rule: every sample
         farther than the requirement plus half the sample spacing)."""
-        d = self.centre_clearance(poses)
         h = float(np.max(np.hypot(*np.diff(poses[:, :2], axis=0).T))) if poses.shape[0] > 1 else 0.0
-        return bool(np.min(d) - 0.5 * h > self.required)
+        return bool(self.least_clearance(poses) - 0.5 * h > self.required)
 
     def piece_cost(self, poses: FloatArray, directions: FloatArray) -> float:
         """c(Line) of one straight piece: length + rho exp(-sigma d^2), d its smallest axle-centre
@@ -383,19 +397,25 @@ class _Search:
         length = path_length(poses)
         if length == 0.0:
             return 0.0
-        d = float(np.min(self.centre_clearance(poses)))
-        return float(self.edge_cost(np.array(length), np.array(d)))
+        return float(self.edge_cost(np.array(length), np.array(self.least_clearance(poses))))
 
-    def routes(self) -> list[FloatArray]:
+    def routes(self, deadline: float | None = None) -> list[FloatArray]:
         """The obstacle-aware 2-D route from the start to the goal (:mod:`planning.planners.geodesic`)
         for a disc of the axle-centre clearance plus ``ROUTE_MARGIN``, as poses that this planner's
-        steering joins (none when no such route exists): the simplifier's other way round."""
+        steering joins (none when no such route exists): the simplifier's other way round.
+
+        Raises:
+            planning.collision.field.FieldTimeout: ``time.perf_counter()`` passed ``deadline``.
+        """
         p = self.problem
-        vertices = geodesic.route(p.world, p.start.as_array(), p.goal.as_array(), self.required + ROUTE_MARGIN)
+        radius = self.required + ROUTE_MARGIN
+        vertices = geodesic.route(p.world, p.start.as_array(), p.goal.as_array(), radius, deadline=deadline)
         return [] if vertices is None else [geodesic.polyline_waypoints(vertices)]
 
-    def simplified(self, result: PlanResult, pts: FloatArray) -> PlanResult:
-        """``result`` with its path simplified (the raw one kept in ``raw_path``)."""
+    def simplified(self, result: PlanResult, pts: FloatArray, limited: bool = False) -> PlanResult:
+        """``result`` with its path simplified (the raw one kept in ``raw_path``); ``limited``: within what is
+        left of the time limit, stopped with the path as far as it got when it passes."""
+        deadline = self.clock.deadline if limited else lambda: None
         path = result.path
         verts, k = [], 0
         for p in pts:  # the dense index of each waypoint: where its turn in place starts
@@ -409,8 +429,9 @@ class _Search:
             cost=self.piece_cost,
             distance=lambda q0, q1: np.atleast_1d(np.hypot(*(np.atleast_2d(q1)[:, :2] - np.atleast_2d(q0)[:, :2]).T)),
             vertices=verts,
-            routes=self.routes,
+            routes=lambda: self.routes(deadline()),
             seed=self.problem.seed,
+            deadline=deadline(),
         )
         stats = {**result.stats, **s.stats()}  # "cost" stays the tree path's, "simplified_cost" is the result's
         return dataclasses.replace(result, path=s.path, directions=s.directions, raw_path=path, stats=stats)
@@ -418,28 +439,36 @@ class _Search:
     def walled_off(self) -> str | None:
         """Why no path from the start to the goal can keep the axle centre ``required`` off everything,
         when a 2-D search proves it (:func:`planning.planners.geodesic.reachable` at ``required`` less half
-        a cell's diagonal, on cells of 5 cm, then 2 cm and 1 cm while the answer is open); else None."""
+        a cell's diagonal, on cells of 5 cm, then 2 cm and 1 cm while the answer is open); else None. Its
+        wall time goes into ``proof_s``.
+
+        Raises:
+            planning.collision.field.FieldTimeout: The time limit passed before the search was done.
+        """
         p, req = self.problem, self.required
         xmin, xmax, ymin, ymax = p.world.bounds
-        for cell in PROOF_CELLS:
-            if (xmax - xmin) * (ymax - ymin) / cell**2 > PROOF_MAX_CELLS:
-                break
-            proof = req - cell / np.sqrt(2.0) - 1e-9
-            if not geodesic.reachable(p.world, p.start.xy, p.goal.xy, proof, cell):
-                return (
-                    f"no way from the start to the goal keeps the axle centre {req:.3f} m from every obstacle "
-                    f"and wall: a 2-D search over {cell:g} m cells finds the goal walled off even at {proof:.3f} m, "
-                    "which such a way would keep; lower center_clearance, or plan with another planner"
-                )
-            if geodesic.reachable(p.world, p.start.xy, p.goal.xy, req, cell):
-                break  # a way of cells keeps it: search
-        return None
+        t0 = time.perf_counter()
+        try:
+            for cell in PROOF_CELLS:
+                if (xmax - xmin) * (ymax - ymin) / cell**2 > PROOF_MAX_CELLS:
+                    break
+                proof = req - cell / np.sqrt(2.0) - 1e-9
+                if not geodesic.reachable(p.world, p.start.xy, p.goal.xy, proof, cell, self.clock.deadline()):
+                    return (
+                        f"no way from the start to the goal keeps the axle centre {req:.3f} m from every obstacle "
+                        f"and wall: a 2-D search over {cell:g} m cells finds the goal walled off even at "
+                        f"{proof:.3f} m, which such a way would keep; lower center_clearance, or plan with another "
+                        "planner"
+                    )
+                if geodesic.reachable(p.world, p.start.xy, p.goal.xy, req, cell, self.clock.deadline()):
+                    break  # a way of cells keeps it: search
+            return None
+        finally:
+            self.proof_s = time.perf_counter() - t0
 
-    # -- Algorithm 1 ----------------------------------------------------------------------------
-    def run(self) -> PlanResult:
-        clock = PlanClock(self.problem.time_limit)
-        p, cfg = self.problem, self.cfg
-        req = self.required
+    def bad_end(self) -> PlanResult | None:
+        """The INVALID_START / INVALID_GOAL result when the start or the goal is too near something."""
+        p, req = self.problem, self.required
         for label, pose, status in (
             ("start", p.start, PlanStatus.INVALID_START),
             ("goal", p.goal, PlanStatus.INVALID_GOAL),
@@ -450,10 +479,43 @@ class _Search:
                     f"{label} ({pose.x:.3f}, {pose.y:.3f}) is {d:.3f} m from the nearest obstacle or wall; "
                     f"C-RRT* keeps the axle centre {req:.3f} m away: move the {label} or lower center_clearance"
                 )
-                return PlanResult(status, CRRTStar.name, reason=why, stats={"time_s": clock.elapsed()})
-        walled = self.walled_off()
+                return PlanResult(status, CRRTStar.name, reason=why, stats=self.early_stats())
+        return None
+
+    def early_stats(self) -> dict[str, Any]:
+        """The stats of a run that ends before sampling: its time, the code's part of it and the proof's."""
+        return {"time_s": self.clock.elapsed(), "code_s": self.clock.code(), "iterations": 0, "proof_s": self.proof_s}
+
+    # -- Algorithm 1 ----------------------------------------------------------------------------
+    def run(self) -> PlanResult:
+        p, clock = self.problem, self.clock
+        bad = self.bad_end()
+        if bad is not None:
+            return bad
+        try:
+            walled = self.walled_off()
+        except FieldTimeout as exc:
+            reason = (
+                f"no sample drawn: the {p.time_limit:g} s time limit passed after {clock.working():.3f} s while "
+                f"checking whether any way keeps the axle centre {self.required:.3f} m from everything, in "
+                f"{exc.what[0]} ({exc.nodes} {exc.what[1]}, {exc.obstacles} obstacles); a longer time limit lets "
+                "it finish (its tables are kept for the world)"
+            )
+            return PlanResult(PlanStatus.TIMEOUT, CRRTStar.name, reason=reason, stats=self.early_stats())
         if walled is not None:
-            return PlanResult(PlanStatus.INFEASIBLE, CRRTStar.name, reason=walled, stats={"time_s": clock.elapsed()})
+            return PlanResult(PlanStatus.INFEASIBLE, CRRTStar.name, reason=walled, stats=self.early_stats())
+        best_goal, it = self.sample()
+        if best_goal is not None:
+            return self.result(PlanStatus.SUCCESS, best_goal, clock, it)
+        partial = self.result(PlanStatus.TIMEOUT, None, clock, it)
+        return dataclasses.replace(partial, reason=self.why_unreached(it, partial.stats["distance_to_goal_m"]))
+
+    def sample(self) -> tuple[int | None, int]:
+        """Lines 1-27 of Algorithm 1 from the start until the goal joins the tree (with ``stop_at_goal``)
+        or a budget is spent: the goal's node (None: not reached) and the iterations run. Refining
+        (``stop_at_goal`` False) with ``simplify``, it leaves the last :data:`SIMPLIFY_SHARE` of the time
+        limit to the simplification once the goal has joined."""
+        p, cfg, clock = self.problem, self.cfg, self.clock
         goal = p.goal.xy
         self.add(p.start.xy, -1, 0.0, np.inf)
         prev = p.start.xy
@@ -467,7 +529,8 @@ class _Search:
             candidates = []
             if best_goal is not None and cfg.stop_at_goal:
                 break
-            if clock.expired():
+            reserve = SIMPLIFY_SHARE * p.time_limit if best_goal is not None and cfg.simplify else 0.0
+            if clock.remaining() <= reserve:
                 break
             it += 1
             q_rand = self.sample_biased(prev)
@@ -481,12 +544,22 @@ class _Search:
             if new is not None:
                 prev = self.xy[new].copy()
                 candidates = [new]
-        if best_goal is not None:
-            return self.result(PlanStatus.SUCCESS, best_goal, clock, it)
-        spent = f"{it} iterations" if it >= cfg.max_iterations else f"the {p.time_limit:g} s time limit"
-        partial = self.result(PlanStatus.TIMEOUT, None, clock, it)
-        reason = (
+        return best_goal, it
+
+    def why_unreached(self, it: int, gap: float) -> str:
+        """The reason of a run that ended without reaching the goal after ``it`` iterations, its partial
+        path ending ``gap`` [m] from the goal."""
+        cfg, limit = self.cfg, self.problem.time_limit
+        if it >= cfg.max_iterations:
+            spent = f"{it} iterations"
+        elif it == 0:
+            spent = (
+                f"the {limit:g} s time limit, which passed before the first sample (the 2-D check that some way "
+                f"keeps the clearance took {self.proof_s:.3f} s of it)"
+            )
+        else:
+            spent = f"the {limit:g} s time limit ({it} iterations)"
+        return (
             f"no node reached the goal region ({cfg.goal_radius:g} m) with a free straight segment within "
-            f"{spent}; the partial path ends {partial.stats['distance_to_goal_m']:.3f} m from the goal"
+            f"{spent}; the partial path ends {gap:.3f} m from the goal"
         )
-        return dataclasses.replace(partial, reason=reason)

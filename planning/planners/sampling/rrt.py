@@ -27,6 +27,7 @@ from typing import Any, Generic, TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.clock import PlanClock
 from planning.collision.field import FieldTimeout
 from planning.core.checks import check_fields
 from planning.core.geometry import path_length
@@ -136,7 +137,9 @@ class _TreePlanner(Generic[ConfigT]):
         if bad is not None:
             return bad
         result = self._search(problem, local, budget)
-        return simplified(result, local, problem.seed) if self.config.simplify and result.success else result
+        if self.config.simplify and result.success:
+            return simplified(result, local, problem.seed, clock=budget.clock)
+        return result
 
     def _search(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult:
         """The planner's own search, once the end poses are known to be free (its random generator
@@ -219,12 +222,17 @@ class _TreePlanner(Generic[ConfigT]):
         return PlanResult(status, self.name, path=poses, reason=reason, stats=stats, tree=tree, directions=dirs)
 
 
-def simplified(result: PlanResult, local: LocalPlanner, seed: int, reverse_weight: float = 1.0) -> PlanResult:
+def simplified(
+    result: PlanResult, local: LocalPlanner, seed: int, reverse_weight: float = 1.0, clock: PlanClock | None = None
+) -> PlanResult:
     """A successful tree plan with its path simplified by the local planner's exact curves
     (the raw path kept in ``raw_path``; stats gain the raw and simplified lengths and cusps). Its cost
     is the x-y length, each backwards metre counted ``reverse_weight`` (>= 1) times
-    (:class:`planning.planners.simplify.DirectedLength`: a planner that prices reversing keeps its price)."""
+    (:class:`planning.planners.simplify.DirectedLength`: a planner that prices reversing keeps its price).
+    With the planner's ``clock``, within what is left of its time limit (the path as far as it got when
+    the limit passes, ``stats["simplify_time_limit_reached"]``)."""
     config = SimplifyConfig(turn_stretches=local.curves.kind == "reeds_shepp")  # Dubins cars drive forwards only
+    deadline = (lambda: None) if clock is None else clock.deadline
     s = simplify_path(
         result.path,
         result.directions,
@@ -232,9 +240,10 @@ def simplified(result: PlanResult, local: LocalPlanner, seed: int, reverse_weigh
         local.checker.path_free,
         cost=length_cost if reverse_weight == 1.0 else DirectedLength(reverse_weight),
         distance=local.curves.lengths,
-        routes=lambda: curve_routes(local, result.path[0], result.path[-1]),
+        routes=lambda: curve_routes(local, result.path[0], result.path[-1], deadline()),
         config=config,
         seed=seed,
+        deadline=deadline(),
     )
     stats = {**result.stats, **s.stats()}
     return dataclasses.replace(result, path=s.path, directions=s.directions, raw_path=result.path, stats=stats)
@@ -246,16 +255,22 @@ def simplified(result: PlanResult, local: LocalPlanner, seed: int, reverse_weigh
 ROUTE_MARGINS = (0.05, 0.02)
 
 
-def curve_routes(local: LocalPlanner, start: FloatArray, goal: FloatArray) -> list[FloatArray]:
+def curve_routes(
+    local: LocalPlanner, start: FloatArray, goal: FloatArray, deadline: float | None = None
+) -> list[FloatArray]:
     """Waypoints along the obstacle-aware 2-D route from ``start`` to ``goal`` for the local planner's
     curves (:mod:`planning.planners.geodesic`): the route of a disc of the robot's circumscribed
     radius plus the clearance and ``ROUTE_MARGINS[0]``, else of its half-width plus the clearance and
-    ``ROUTE_MARGINS[1]``; none when neither route exists."""
+    ``ROUTE_MARGINS[1]``; none when neither route exists. ``deadline``: as :func:`planning.planners.geodesic.route`'s.
+
+    Raises:
+        planning.collision.field.FieldTimeout: ``time.perf_counter()`` passed ``deadline``.
+    """
     chk = local.checker.checker
     half_width = chk.robot.radius if chk.shape == "disc" else float(np.max(np.abs(chk.robot.footprint[:, 1])))
     assert local.rho is not None
     for size, margin in zip((chk.robot.radius, half_width), ROUTE_MARGINS, strict=True):
-        vertices = geodesic.route(chk.world, start, goal, size + chk.clearance + margin)
+        vertices = geodesic.route(chk.world, start, goal, size + chk.clearance + margin, deadline=deadline)
         if vertices is not None:
             return [geodesic.curve_waypoints(vertices, local.rho)]
     return []

@@ -43,8 +43,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.core.checks import check_fields
+from planning.core.geometry import path_length
 from planning.errors import ConfigError
-from planning.planners.base import PlanProblem, PlanResult, PlanStatus
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
 from planning.planners.sampling.extend import LocalPlanner
 from planning.planners.sampling.rrt import TreeConfig, _TreePlanner
 from planning.planners.sampling.tree import Budget, Tree, draws, goal_region_poses, in_goal, sample_pose
@@ -168,6 +169,8 @@ class RRTStar(_TreePlanner[RRTStarConfig]):
         cfg = self.config
         if not local.exact:
             raise ConfigError(f"rrt-star needs exact steering ('reeds_shepp' or 'dubins'), got {cfg.steering!r}")
+        if in_goal(problem.start.as_array(), problem):
+            return self._start_in_goal(problem, local, budget)
         search = _Search(cfg, problem, local, draws(problem))
         run = _Anytime(cfg, budget)
         stop = "budget"
@@ -197,6 +200,30 @@ class RRTStar(_TreePlanner[RRTStarConfig]):
         path, dirs, _ = self._partial(tree, problem)
         reason = f"{budget.why(it)} without reaching the goal; partial path to the node nearest the goal"
         return self._result(PlanStatus.TIMEOUT, path, dirs, reason, stats, tree.plan_tree())
+
+    def _start_in_goal(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult:
+        """The plan of a start inside the goal region, at once, as birrt's: the exact curve to the goal
+        pose when it is free (the tracker then has the whole goal tolerance), else, or with
+        ``region_goal`` (the path ends wherever in the region it is shortest), the start itself. No path
+        is shorter than the curve to the goal pose, the shortest there is, nor than the start alone:
+        there is nothing to improve."""
+        start, goal = problem.start.as_array(), problem.goal.as_array()
+        direct = None if self.config.region_goal else local.connect(start, goal)
+        path, dirs = direct if direct is not None else (start[None, :].copy(), np.ones(1))
+        nodes = np.vstack([start, goal]) if direct is not None else start[None, :].copy()
+        tree = PlanTree(nodes, np.arange(-1, nodes.shape[0] - 1, dtype=np.int64))
+        length = path_length(path)
+        stats: dict[str, object] = {
+            **self._stats(budget, 0, nodes.shape[0]),
+            "first_solution_s": budget.elapsed(),
+            "first_solution_iteration": 0,
+            "first_length_m": length,
+            "cost_history": [(0, budget.elapsed(), length)],
+            "stopped_by": "start in goal region",
+            "goal_tree_joined": False,
+            "cost_m": length,
+        }
+        return self._result(PlanStatus.SUCCESS, path, dirs, "", stats, tree)
 
 
 class _Search:
