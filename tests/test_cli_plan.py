@@ -266,6 +266,8 @@ def test_the_simplifications_code_loading_is_named_only_when_it_took_a_milliseco
     assert raw_note(facts, {"simplify_code_s": 0.0004}) == " (raw 11.928 m, 1 -> 1 cusps, simplified in 91 ms)"
     assert raw_note(facts, {}) == raw_note(facts, {"simplify_code_s": 0.0})
     assert raw_note({**facts, "simplify_time_s": None}, {"simplify_code_s": 0.05}) == ""
+    cut = raw_note(facts, {"simplify_time_limit_reached": True})
+    assert cut == " (raw 11.928 m, 1 -> 1 cusps, simplified in 91 ms, cut short by the time limit)"
 
 
 def test_a_clearance_the_checker_cannot_measure_is_printed_as_a_collision():

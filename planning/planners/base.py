@@ -25,7 +25,7 @@ class PlanStatus(StrEnum):
     SUCCESS = "success"
     TIMEOUT = "timeout"  # budget (time or iterations) spent; best partial result attached
     INFEASIBLE = "infeasible"  # the problem has no solution the planner can find (reason says why)
-    BOUNDS_VIOLATED = "bounds_violated"  # a path was found but leaves the state or input bounds
+    BOUNDS_VIOLATED = "bounds_violated"  # a path leaves the state or input bounds, or none fits within them
     INVALID_START = "invalid_start"
     INVALID_GOAL = "invalid_goal"
     FAILED = "failed"  # a numerical failure (reason says which)

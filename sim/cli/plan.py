@@ -227,15 +227,17 @@ def grid_note(stats: dict[str, Any]) -> str:
 
 def raw_note(facts: dict[str, Any], stats: dict[str, Any]) -> str:
     """`` (raw 12.345 m, 3 -> 1 cusps, simplified in 8 ms)`` when the plan was simplified, else "";
+    ``, cut short by the time limit`` when the limit stopped the simplification (the path as far as it got);
     ``, 5 ms of it loading code`` is added when numba readied the simplification's kernels for a
     millisecond or more (``stats["simplify_code_s"]``: loading them in a new process)."""
     if facts["simplify_time_s"] is None:
         return ""
     code = float(stats.get("simplify_code_s", 0.0))
     loading = f", {1e3 * code:.0f} ms of it loading code" if code >= 0.001 else ""
+    cut = ", cut short by the time limit" if stats.get("simplify_time_limit_reached") else ""
     return (
         f" (raw {facts['raw_length_m']:.3f} m, {facts['raw_cusps']} -> {facts['cusps']} cusps, "
-        f"simplified in {1e3 * facts['simplify_time_s']:.0f} ms{loading})"
+        f"simplified in {1e3 * facts['simplify_time_s']:.0f} ms{loading}{cut})"
     )
 
 
