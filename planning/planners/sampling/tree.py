@@ -222,7 +222,11 @@ def check_endpoints(problem: PlanProblem, checker: FastChecker, planner: str) ->
         if not ok:
             clr = float(checker.clearance_of(q[None, :])[0])
             # -inf: an obstacle has a point inside the footprint (a pixel of a noisy map under the robot)
-            said = f"clearance {clr:.3f} m" if np.isfinite(clr) else "an obstacle lies inside the robot's footprint"
+            said = (
+                f"clearance {clr:.3f} m, a lower bound"
+                if np.isfinite(clr)
+                else "an obstacle lies inside the robot's footprint"
+            )
             reason = (
                 f"{which} pose ({q[0]:.3f}, {q[1]:.3f}, {q[2]:.3f}) is in collision or closer than the "
                 f"required clearance {checker.checker.clearance:g} m ({said}, "
