@@ -33,7 +33,7 @@ from PIL import Image
 
 from planning.core.scenario_type import Scenario
 from planning.errors import ScenarioError
-from planning.scenario import load_scenario_file
+from planning.scenario import load_scenario_file, scenario_with_robot
 from tests.fuzz_helpers import (
     ANY_VALUE,
     FAST,
@@ -289,10 +289,12 @@ def _run_cli(argv: list[str]) -> int:
 
 
 def cli_property(doc: Doc) -> None:
-    """``plan`` and ``simulate`` on a file the loader refuses exit 2 and write nothing."""
+    """``plan`` and ``simulate`` on a file the loader refuses, or whose start or goal its robot does not
+    fit (:func:`scenario_with_robot`, as the commands check it once the robot is known), exit 2 and write
+    nothing."""
     path = _WORKDIR / "cli.toml"
     path.write_text(doc.text(), encoding="utf-8")
-    _, err = expect_nhsim_errors(lambda: load_scenario_file(path))
+    _, err = expect_nhsim_errors(lambda: scenario_with_robot(load_scenario_file(path), None))
     out = Path(tempfile.mkdtemp(dir=_WORKDIR))
     plan = ["plan", "--scenario", str(path), "--planner", "rrt", "--time-limit", "0.05", "--quiet"]
     code = _run_cli([*plan, "--json", str(out / "plan.json"), "--plot", str(out / "plan.png")])
