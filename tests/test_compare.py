@@ -40,6 +40,20 @@ def test_compare_cli_end_to_end(tmp_path: Path) -> None:
     assert (tmp_path / "cmp-paths.png").stat().st_size > 0 and (tmp_path / "cmp-errors.png").stat().st_size > 0
 
 
+def test_a_run_that_ends_early_is_said_recorded_and_fails_the_command(tmp_path: Path) -> None:
+    """Kanayama's law does not balance the balancing EduMIP: it falls in 0.17 s. The row showed its errors
+    up to the fall as if the run were whole, and the command exited 0."""
+    out = tmp_path / "cmp.json"
+    r = nhsim("compare", "--reference", "line", "--robot", "edumip-balancing", "--trackers", "fbl,kanayama",
+              "--json", str(out), "--quiet")  # fmt: skip
+    assert r.returncode == 1, r.stderr
+    assert "kanayama run 0: ended early: fell at t=" in r.stdout and "fbl run 0" not in r.stdout
+    runs = {name: entry["runs"][0] for name, entry in json.loads(out.read_text())["trackers"].items()}
+    assert runs["fbl"]["status"] == "ok" and runs["fbl"]["fell"] is False
+    assert runs["kanayama"]["fell"] is True and 0 < runs["kanayama"]["fall_time_s"] < 1.0
+    assert runs["kanayama"]["status"].startswith("fell at t=")
+
+
 def test_compare_cli_says_a_time_limit_is_ignored_when_nothing_is_planned() -> None:
     """As ``simulate`` says it: a reference plans nothing, so a planning budget changes nothing."""
     args = ("compare", "--reference", "line", "--trackers", "kanayama", "--runs", "1", "--quiet")

@@ -32,7 +32,8 @@ against time), --video PATH one MP4 with every tracker's robot in its own colour
 solid, the others ghosts), --bag DIR a ROS 2 bag (rosbag2 folder, MCAP) with every tracker's first run
 under its own namespace (/fbl/..., /segmented/...).
 
-Exit status: 0 done, 2 bad input (nothing run), 1 a run failed."""
+Exit status: 0 done, 2 bad input (nothing run), 1 a run ended early (a balancing robot fell, the estimate
+was lost: said below the table and in the record's run "status")."""
 
 #: What --plots STEM adds to its stem: the paths overlaid, the errors against time.
 PLOT_SUFFIXES = ("-paths.png", "-errors.png")
@@ -145,7 +146,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"{p.scenario.name} · {p.robot.name} · {p.source} · {p.trajectory.duration:.1f} s")
     print(format_table(result))
     _write(result, outputs, overwrite=args.overwrite)
-    return 0
+    return 1 if result.ended_early() else 0
 
 
 def _write(result: Any, outputs: dict[str, Path], *, overwrite: bool) -> None:

@@ -137,6 +137,9 @@ class TrackerRun:
         solver: The tracker's own statistics (MPC: solves, failures, overruns, times), or {}.
         log: The run's log (kept for the first draw only: plots and video).
         times: Wall-clock time of each ``command`` [s].
+        status: "ok", or why the run ended early (the robot fell, the estimate was lost).
+        ending: What the record says of how it ended: ``warnings`` and, for a balancing robot, ``fell``,
+            ``fall_time_s`` and ``max_pitch_rad``.
     """
 
     tracker: str
@@ -145,6 +148,8 @@ class TrackerRun:
     solver: dict[str, Any]
     log: RunLog | None = None
     times: tuple[float, ...] = ()
+    status: str = "ok"
+    ending: dict[str, Any] = field(default_factory=dict)
 
 
 def _measure(name: str, draw: int, run: Any, timed: TimedTracker, keep: bool) -> TrackerRun:
@@ -165,7 +170,9 @@ def _measure(name: str, draw: int, run: Any, timed: TimedTracker, keep: bool) ->
     }
     stats = getattr(timed.inner, "stats", None)
     solver = dict(stats()) if callable(stats) else {}
-    return TrackerRun(name, draw, values, solver, run.log if keep else None, tuple(timed.times))
+    ending = {k: v for k, v in m.as_dict().items() if k in ("warnings", "fell", "fall_time_s", "max_pitch_rad")}
+    log = run.log if keep else None
+    return TrackerRun(name, draw, values, solver, log, tuple(timed.times), m.status, ending)
 
 
 @dataclass(frozen=True)
@@ -225,6 +232,10 @@ class Comparison:
             out["solve_p95_ms"] = float(max(r.solver.get("p95_ms", 0.0) for r in runs))
         return out
 
+    def ended_early(self) -> list[TrackerRun]:
+        """The runs that ended before the trajectory did (a fall, a lost estimate)."""
+        return [r for r in self.runs if r.status != "ok"]
+
     def logs(self) -> dict[str, RunLog]:
         """Tracker -> log of the first draw (for plots and the video)."""
         return {r.tracker: r.log for r in self.runs if r.log is not None}
@@ -251,7 +262,10 @@ class Comparison:
                 name: {
                     "params": self.params.get(name, {}),
                     "summary": self.summary(name),
-                    "runs": [{"draw": r.draw, **r.values, "solver": r.solver} for r in self.of(name)],
+                    "runs": [
+                        {"draw": r.draw, **r.values, "status": r.status, **r.ending, "solver": r.solver}
+                        for r in self.of(name)
+                    ],
                 }
                 for name in self.trackers
             },
@@ -325,6 +339,8 @@ def format_table(comparison: Comparison) -> str:
         lines.append(row)
     n = max(len(comparison.draws), 1)
     lines.append(f"(mean of {n} run{'s' if n > 1 else ''} per tracker; collisions summed)")
+    for r in comparison.ended_early():
+        lines.append(f"{r.tracker} run {r.draw}: ended early: {r.status} (its errors are up to then)")
     return "\n".join(lines)
 
 
