@@ -6,6 +6,7 @@ import dataclasses
 import importlib
 import inspect
 import math
+import numbers
 from collections.abc import Callable
 from typing import Any, Protocol, TypeVar
 
@@ -172,7 +173,7 @@ def check_positive_fields(obj: object, names: tuple[str, ...], why: str) -> None
     for name in names:
         value = getattr(obj, name)
         where = f"{type(obj).__name__}.{name}"
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
             raise ConfigError(f"{where} must be a finite number, got {value!r}")
         if value <= 0:
             raise ConfigError(f"{where} must be > 0, got {value!r} ({why})")
@@ -195,7 +196,7 @@ def check_period(tracker: str, dt: float, trajectory: Trajectory) -> float:
         ConfigError: ``dt`` is not a finite number > 0, or so small that the trajectory would span
             more than ``MAX_CONTROL_PERIODS`` control periods (names the tracker).
     """
-    if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not (math.isfinite(dt) and dt > 0):
+    if isinstance(dt, bool) or not isinstance(dt, numbers.Real) or not (math.isfinite(dt) and dt > 0):
         raise ConfigError(
             f"tracker {tracker!r}: reset(dt) needs the control period dt as a finite number of seconds > 0, "
             f"got {dt!r}; pass 1 / control rate, e.g. 0.02 for 50 Hz"

@@ -21,6 +21,7 @@ A gains file holds one gain set and where it came from::
 from __future__ import annotations
 
 import math
+import numbers
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -76,7 +77,7 @@ def parse_gains_toml(text: str, *, where: str = "gains file") -> GainsFile:
                 continue
             raise ConfigError(f"{where}: [gains] has no {key}; add '{key} = <positive number>'")
         value = table[key]
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
             raise ConfigError(f"{where}: [gains] {key} must be a finite number, got {value!r}")
         if value <= 0:
             raise ConfigError(f"{where}: [gains] {key} must be > 0, got {value!r} (the error dynamics need it)")
@@ -88,7 +89,7 @@ def parse_gains_toml(text: str, *, where: str = "gains file") -> GainsFile:
         raise ConfigError(f"{where}: [provenance] study must be a string, got {prov['study']!r}")
     if "objective" in prov:
         obj = prov["objective"]
-        if isinstance(obj, bool) or not isinstance(obj, (int, float)) or not math.isfinite(obj):
+        if isinstance(obj, bool) or not isinstance(obj, numbers.Real) or not math.isfinite(obj):
             raise ConfigError(f"{where}: [provenance] objective must be a finite number, got {obj!r}")
     if "scenarios" in prov:
         sc = prov["scenarios"]

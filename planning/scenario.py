@@ -17,6 +17,7 @@ goal where the robot's footprint overlaps an obstacle or wall is refused when th
 from __future__ import annotations
 
 import dataclasses
+import numbers
 import re
 import tomllib
 from collections.abc import Callable, Mapping, Sequence
@@ -213,7 +214,7 @@ def _header(r: TableReader, data: Mapping[str, Any], default_name: str) -> dict[
     planner_options = _planner_options(r, data["planners"]) if "planners" in data else {}
     sensors = data.get("sensors", {})
     if not isinstance(sensors, dict) or not all(
-        isinstance(v, (int, float)) and not isinstance(v, bool) for v in sensors.values()
+        isinstance(v, numbers.Real) and not isinstance(v, bool) for v in sensors.values()
     ):
         raise r.fail("sensors", "a [sensors] table of numbers overriding the robot's sensor profile", sensors)
     return {

@@ -74,3 +74,57 @@ def test_a_plan_failed_with_the_trackers_margin_says_so_and_how_to_plan_without_
         prepare_trajectory(Case(str(path), planner="rrt"))
     path.write_text(text + "[planners.rrt]\nclearance = 0\n")  # as the reason says
     assert prepare_trajectory(Case(str(path), planner="rrt")).source == "planner:rrt"
+
+
+@pytest.mark.parametrize(
+    ("options", "match"),
+    [
+        ({"time_limit": -1}, r"PlanOptions.time_limit must be > 0 s"),
+        ({"time_limit": "5"}, r"PlanOptions.time_limit must be a finite number"),
+        ({"clearance": float("nan")}, r"PlanOptions.clearance must be a finite number"),
+        ({"clearance": -0.01}, r"PlanOptions.clearance must be >= 0 m"),
+        ({"planner_options": [1, 2]}, r"PlanOptions.planner_options must be a mapping"),
+        ({"smoothing": None}, r"PlanOptions.smoothing must be a mapping"),
+        ({"plan": "x"}, r"PlanOptions.plan must be a PlanResult"),
+    ],
+)
+def test_plan_options_are_checked_when_made(options: dict[str, object], match: str) -> None:
+    from sim.pipeline.case import PlanOptions
+
+    with pytest.raises(ConfigError, match=match):
+        PlanOptions(**options)  # type: ignore[arg-type]
+
+
+def test_a_case_refuses_planning_and_perturbation_of_the_wrong_kind() -> None:
+    with pytest.raises(ConfigError, match=r"planning must be a PlanOptions"):
+        Case("open", reference="line", planning={"time_limit": 1})  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match=r"perturbation must be a Perturbation .*Perturbation.parse"):
+        Case("open", reference="line", perturbation={"mass": 1})  # type: ignore[arg-type]
+
+
+def test_a_ready_plan_must_leave_from_the_scenarios_start_and_end_in_its_goal() -> None:
+    import numpy as np
+
+    from planning.planners.base import PlanResult, PlanStatus
+    from sim.pipeline.case import PlanOptions
+
+    def case(path: list[list[float]]) -> Case:
+        plan = PlanResult(PlanStatus.SUCCESS, "mine", path=np.array(path))
+        return Case("edumip_map", planner="", planning=PlanOptions(plan=plan))  # start (0, 0), goal (5, 5)
+
+    with pytest.raises(ConfigError, match=r"starts at \(2.000, 0.000, 0.000\), 2.000 m .* from scenario 'edumip_map'"):
+        prepare_trajectory(case([[2.0, 0.0, 0.0], [3.0, 0.0, 0.0]]))
+    with pytest.raises(ConfigError, match=r"ends at \(1.000, 1.000, 0.785\), outside scenario 'edumip_map'"):
+        prepare_trajectory(case([[0.0, 0.0, np.pi / 4], [1.0, 1.0, np.pi / 4]]))  # the start's heading is pi/4
+
+
+def test_runs_are_taken_by_their_labels_and_an_empty_or_unknown_list_is_refused() -> None:
+    from sim.pipeline.runs import run_kinds
+
+    assert run_kinds(["closed_loop", RunKind.OPEN_LOOP]) == (RunKind.CLOSED_LOOP, RunKind.OPEN_LOOP)
+    assert run_kinds("closed_loop") == (RunKind.CLOSED_LOOP,)
+    for bad, match in (([], "no run given"), (["closed"], "unknown run 'closed'"), ([1], "unknown run 1")):
+        with pytest.raises(ConfigError, match=match):
+            run_kinds(bad)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="closed_loop given twice"):
+        run_kinds(["closed_loop", "closed_loop"])

@@ -7,6 +7,7 @@ model by :func:`sim.robot.balance_design.design_balance` and checked stable befo
 
 from __future__ import annotations
 
+import numbers
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -93,8 +94,8 @@ def load_balance_profile(robot: str) -> BalanceProfile:
     for table, keys in PROFILE_KEYS.items():
         for key in keys:
             value = data.get(table, {}).get(key)
-            listed = key == "k" and isinstance(value, list) and all(isinstance(x, (int, float)) for x in value)
-            if not (listed or (key != "k" and isinstance(value, (int, float)) and not isinstance(value, bool))):
+            listed = key == "k" and isinstance(value, list) and all(isinstance(x, numbers.Real) for x in value)
+            if not (listed or (key != "k" and isinstance(value, numbers.Real) and not isinstance(value, bool))):
                 kind = "a list of numbers" if key == "k" else "a number"
                 raise ConfigError(f"{path}: [{table}] {key} must be {kind}, got {value!r}")
             values[f"{table}.{key}"] = value

@@ -60,6 +60,7 @@ from __future__ import annotations
 
 import functools
 import math
+import numbers
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields
 from typing import Any
@@ -152,7 +153,7 @@ class AmclConfig:
     def __post_init__(self) -> None:
         for f in fields(self):
             v = getattr(self, f.name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+            if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v) or v < 0:
                 raise ConfigError(f"amcl {f.name} must be a finite number >= 0, got {v!r}; e.g. --amcl {EXAMPLE}")
         for name in ("max_beams", "min_particles", "max_particles", "resample_interval", "refine"):
             if getattr(self, name) != int(getattr(self, name)):

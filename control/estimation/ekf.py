@@ -99,6 +99,7 @@ from __future__ import annotations
 
 import bisect
 import math
+import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass, fields, replace
 
@@ -175,7 +176,7 @@ class EstimatorInputError(NhsimError, ValueError):
 
 def _finite_number(name: str, value: object, *, positive: bool) -> float:
     unit = _UNITS.get(name, "")
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
         raise ConfigError(f"EstimatorConfig.{name} must be a finite number [{unit}], got {value!r}")
     if value < 0 or (positive and value == 0):
         need = "> 0" if positive else ">= 0 (a standard deviation)"
@@ -243,17 +244,19 @@ class EstimatorConfig:
             object.__setattr__(self, name, _finite_number(name, getattr(self, name), positive=False))
         for name, low in (("history_steps", 2), ("max_outliers", 1)):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < low:
                 raise ConfigError(f"EstimatorConfig.{name} must be an integer >= {low}, got {value!r}")
+            object.__setattr__(self, name, int(value))
         gp = self.gate_prob
-        if isinstance(gp, bool) or not isinstance(gp, float) or not 0.0 < gp < 1.0:
+        if isinstance(gp, bool) or not isinstance(gp, numbers.Real) or not 0.0 < float(gp) < 1.0:
             raise ConfigError(f"EstimatorConfig.gate_prob must be a probability in (0, 1), e.g. 0.999, got {gp!r}")
+        object.__setattr__(self, "gate_prob", float(gp))
         if not isinstance(self.reject_outliers, bool):
             raise ConfigError(f"EstimatorConfig.reject_outliers must be True or False, got {self.reject_outliers!r}")
 
     def scaled_process_noise(self, factor: float) -> EstimatorConfig:
         """A copy with every process-noise standard deviation multiplied by factor (>= 0)."""
-        if isinstance(factor, bool) or not isinstance(factor, (int, float)) or not math.isfinite(factor) or factor < 0:
+        if isinstance(factor, bool) or not isinstance(factor, numbers.Real) or not math.isfinite(factor) or factor < 0:
             raise ConfigError(f"scaled_process_noise: factor must be a finite number >= 0, got {factor!r}")
         return replace(self, **{name: getattr(self, name) * factor for name in PROCESS_NOISE_FIELDS})
 

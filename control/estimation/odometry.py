@@ -27,6 +27,7 @@ dead reckoning over many periods live in tests/reference_odometry.py.
 from __future__ import annotations
 
 import math
+import numbers
 
 import numba as nb
 import numpy as np
@@ -70,7 +71,7 @@ def check_geometry(radius: float, track: float) -> None:
         ConfigError: Either is not a finite number > 0 (it names which, with the value).
     """
     for name, value in (("wheel radius", radius), ("track width", track)):
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value) or value <= 0:
             raise ConfigError(f"{name} must be a finite number > 0 [m] (the robot as drawn), got {value!r}")
 
 
@@ -103,6 +104,6 @@ def counts_to_radians(delta_counts: ArrayLike, counts_per_rev: float) -> FloatAr
     Raises:
         ConfigError: counts_per_rev is not a finite positive number.
     """
-    if not (isinstance(counts_per_rev, (int, float)) and math.isfinite(counts_per_rev) and counts_per_rev > 0):
+    if not (isinstance(counts_per_rev, numbers.Real) and math.isfinite(counts_per_rev) and counts_per_rev > 0):
         raise ConfigError(f"counts_per_rev must be a finite number > 0 (e.g. 4096), got {counts_per_rev!r}")
     return np.asarray(delta_counts, dtype=float) * (2.0 * math.pi / counts_per_rev)

@@ -42,6 +42,7 @@ with the virtual bicycle's radius, as the Reeds–Shepp tree planners do (no tur
 from __future__ import annotations
 
 import dataclasses
+import numbers
 import os
 import time
 from collections.abc import Callable
@@ -136,7 +137,7 @@ class HybridAStarConfig:
 
 
 def _number(value: object) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and bool(np.isfinite(value))
+    return isinstance(value, numbers.Real) and not isinstance(value, bool) and bool(np.isfinite(float(value)))
 
 
 def _integer(value: object) -> bool:

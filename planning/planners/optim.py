@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -404,10 +405,10 @@ class Optim:
         if isinstance(N, bool) or not isinstance(N, (int, np.integer)) or N < 2:
             raise ConfigError(f"optim: N must be an integer >= 2, got {N!r}")
         for label, val in (("dt", DEFAULT_DT if dt is None else dt), ("u2max", u2max)):
-            if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
+            if not (isinstance(val, numbers.Real) and math.isfinite(val) and val > 0):
                 raise ConfigError(f"optim: {label} must be a number > 0, got {val!r}")
         for label, val in (("margin", margin), ("w_steer", w_steer), ("w_smooth", w_smooth)):
-            if not (isinstance(val, (int, float)) and math.isfinite(val) and val >= 0):
+            if not (isinstance(val, numbers.Real) and math.isfinite(val) and val >= 0):
                 raise ConfigError(f"optim: {label} must be a number >= 0, got {val!r}")
         if init not in _BUILTIN_INITS and init not in PLANNERS:
             raise ConfigError(

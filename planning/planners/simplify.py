@@ -69,6 +69,7 @@ from __future__ import annotations
 
 import bisect
 import itertools
+import numbers
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -105,7 +106,7 @@ class DirectedLength:
 
     def __post_init__(self) -> None:
         w = self.reverse_weight
-        if isinstance(w, bool) or not isinstance(w, (int, float)) or not w >= 1.0 or not np.isfinite(w):
+        if isinstance(w, bool) or not isinstance(w, numbers.Real) or not w >= 1.0 or not np.isfinite(w):
             # below 1 a curve's length would no longer bound its cost from below (the pruning's premise)
             raise ValueError(f"DirectedLength.reverse_weight must be a finite number >= 1, got {w!r}")
 

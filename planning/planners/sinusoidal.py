@@ -48,6 +48,7 @@ ends the plan as ``TIMEOUT``.
 from __future__ import annotations
 
 import math
+import numbers
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -193,7 +194,7 @@ class Sinusoidal:
         max_heading_offset: float = math.radians(80.0),
     ) -> None:
         for label, val in (("u2max", u2max), ("tolerance", tolerance), ("dt", dt), ("min_period", min_period)):
-            if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
+            if not (isinstance(val, numbers.Real) and math.isfinite(val) and val > 0):
                 raise ConfigError(f"sinusoidal: {label} must be a number > 0, got {val!r}")
         for label, opt in (("u1max", u1max), ("phimax", phimax)):
             if opt is not None and not (math.isfinite(opt) and opt > 0):

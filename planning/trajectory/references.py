@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import numbers
 from collections.abc import Callable
 
 import numpy as np
@@ -115,7 +116,7 @@ def _positive(what: str, value: float | None, default: float) -> float:
     """``value`` (or ``default`` when None) as a float, which must be a finite number > 0 (ConfigError
     naming ``what``)."""
     out = default if value is None else value
-    if isinstance(out, bool) or not isinstance(out, (int, float)) or not (math.isfinite(out) and out > 0):
+    if isinstance(out, bool) or not isinstance(out, numbers.Real) or not (math.isfinite(out) and out > 0):
         raise ConfigError(f"{what} must be a finite number > 0, got {out!r}")
     return float(out)
 

@@ -12,7 +12,7 @@ from typing import Any
 from planning.errors import ConfigError
 from sim.cli.job_outputs import RUN_SETTINGS, add_executor_arguments, add_output_arguments
 from sim.cli.trajectory_files import add_file_arguments, check_file_options, file_given, format_import
-from sim.pipeline.runs import RunKind
+from sim.pipeline.runs import RunKind, run_kinds
 
 #: The scenario of a job that names none: this map for a plan (the default job, source report 003's: the EduMIP
 #: plans through it with its planner, C-RRT*), the empty arena for an analytic reference.
@@ -81,15 +81,10 @@ def parse_runs(text: str) -> tuple[RunKind, ...]:
     Raises:
         ConfigError: An unknown or repeated run kind (the message lists the valid ones).
     """
-    kinds: list[RunKind] = []
-    by_label = {str(k): k for k in RunKind}
-    for part in (p.strip() for p in text.split(",")):
-        if part not in by_label:
-            raise ConfigError(f"--runs {text!r}: unknown run {part!r}; choose from {', '.join(by_label)}")
-        if by_label[part] in kinds:
-            raise ConfigError(f"--runs {text!r}: {part} given twice")
-        kinds.append(by_label[part])
-    return tuple(kinds)
+    try:
+        return run_kinds([p.strip() for p in text.split(",")])
+    except ConfigError as exc:
+        raise ConfigError(f"--runs {text!r}: {exc}") from exc
 
 
 def parse_build(build: str, build_seed: int | None) -> int | None:

@@ -9,6 +9,7 @@ bad key or value and what is expected.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Iterable
 
 from planning.errors import ConfigError
@@ -71,9 +72,9 @@ def check_number(value: object, name: str, what: str, bounds: tuple[float, float
         ConfigError: Not a finite number, or outside ``bounds``.
     """
     tail = f"; {fix}" if fix else ""
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
         raise ConfigError(f"{what} {name} must be a finite number, got {value!r}{tail}")
     lo, hi = bounds
-    if not lo <= value <= hi:
+    if not lo <= float(value) <= hi:
         raise ConfigError(f"{what} {name}={value!r} is outside [{lo:g}, {hi:g}] ({unit}){tail}")
     return float(value)

@@ -55,6 +55,7 @@ own limit numerics must be this rule at its own voltage (checked).
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, fields, replace
 
 import mujoco
@@ -140,11 +141,11 @@ class MotorModel:
     def __post_init__(self) -> None:
         for name in ("battery_voltage", "stall_torque", "no_load_speed", "ki", "period"):
             value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            if not (isinstance(value, numbers.Real) and math.isfinite(value) and float(value) > 0):
                 raise ConfigError(f"MotorModel.{name} must be a finite number > 0, got {value!r}")
         for name in ("kp", "kff"):
             value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+            if not (isinstance(value, numbers.Real) and math.isfinite(value) and float(value) >= 0):
                 raise ConfigError(f"MotorModel.{name} must be a finite number >= 0, got {value!r}")
         if self.max_period() <= 0:
             raise ConfigError(
@@ -321,7 +322,7 @@ class Supply:
     def __post_init__(self) -> None:
         for f in fields(self):
             value = getattr(self, f.name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
                 example = SUPPLY_EXAMPLES.get(f.name, 1.0)
                 raise ConfigError(f"motors: {f.name} must be a number, got {value!r}; give e.g. {f.name}={example:g}")
         v, lo, hi = self.battery_voltage, self.min_voltage, self.max_voltage

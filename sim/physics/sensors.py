@@ -45,6 +45,7 @@ so the parts are independent and part 0 is what it always was.
 from __future__ import annotations
 
 import math
+import numbers
 import tomllib
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass
@@ -363,7 +364,7 @@ def fix_period(rate: float, control_rate: float, source: str | None = None) -> i
 
 
 def _positive(value: float, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not (math.isfinite(value) and value > 0):
         raise ConfigError(f"{what} must be a positive number, got {value!r}")
     return float(value)
 

@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+import math
+import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -73,6 +75,23 @@ class PlanOptions:
     smoothing: Mapping[str, Any] = field(default_factory=dict)
     plan: PlanResult | None = None
     clearance: float = 0.01
+
+    def __post_init__(self) -> None:
+        for name in ("time_limit", "clearance"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+                raise ConfigError(f"PlanOptions.{name} must be a finite number, got {value!r}")
+        if not self.time_limit > 0:
+            raise ConfigError(f"PlanOptions.time_limit must be > 0 s, got {self.time_limit!r}")
+        if not self.clearance >= 0:
+            raise ConfigError(f"PlanOptions.clearance must be >= 0 m (0 plans to the limit), got {self.clearance!r}")
+        for name in ("planner_options", "smoothing"):
+            if not isinstance(getattr(self, name), Mapping):
+                raise ConfigError(
+                    f"PlanOptions.{name} must be a mapping of keyword options, e.g. {{}}, got {getattr(self, name)!r}"
+                )
+        if self.plan is not None and not isinstance(self.plan, PlanResult):
+            raise ConfigError(f"PlanOptions.plan must be a PlanResult (a planner's plan) or None, got {self.plan!r}")
 
 
 @dataclass(frozen=True)
@@ -140,6 +159,13 @@ class Case:
     motors: str = ""
 
     def __post_init__(self) -> None:
+        if not isinstance(self.planning, PlanOptions):
+            raise ConfigError(f"case {self.label}: planning must be a PlanOptions(...), got {self.planning!r}")
+        if self.perturbation is not None and not isinstance(self.perturbation, Perturbation):
+            raise ConfigError(
+                f"case {self.label}: perturbation must be a Perturbation (e.g. Perturbation.parse('mass=1.3')) or "
+                f"None, got {self.perturbation!r}"
+            )
         if self.localiser not in (None, *LOCALISERS):
             raise ConfigError(
                 f"case {self.label}: unknown localiser {self.localiser!r}; choose {', '.join(LOCALISERS)}"
@@ -392,7 +418,7 @@ def plan_case(case: Case, scenario: Scenario, robot: RobotSpec, *, progress: Pro
         ConfigError: No planner given and the scenario names none; unknown planner.
     """
     if case.planning.plan is not None:
-        return case.planning.plan
+        return _ready_plan(case.planning.plan, scenario)
     name = case.planner or scenario.planner
     if name is None:
         raise ConfigError(
@@ -420,6 +446,38 @@ def plan_case(case: Case, scenario: Scenario, robot: RobotSpec, *, progress: Pro
             "scenario plans without it"
         )
         plan = dataclasses.replace(plan, reason=said)
+    return plan
+
+
+def _ready_plan(plan: PlanResult, scenario: Scenario) -> PlanResult:
+    """A plan given ready (``PlanOptions.plan``), checked against the scenario it is to be tracked in: a
+    successful one starts at the scenario's start and ends in its goal region.
+
+    Raises:
+        ConfigError: It starts elsewhere (the robot is placed at the scenario's start) or ends outside the
+            goal region, naming both poses.
+    """
+    if not plan.success or plan.path.shape[0] == 0:
+        return plan
+    first, last, start, goal = plan.path[0], plan.path[-1], scenario.start, scenario.goal
+    off = math.hypot(first[0] - start.x, first[1] - start.y)
+    turned = abs(math.remainder(float(first[2]) - start.theta, math.tau))
+    if off > scenario.position_tolerance or turned > scenario.heading_tolerance:
+        raise ConfigError(
+            f"the ready plan ({plan.planner}) starts at ({first[0]:.3f}, {first[1]:.3f}, {first[2]:.3f}), "
+            f"{off:.3f} m and {turned:.3f} rad from scenario {scenario.name!r}'s start ({start.x:g}, {start.y:g}, "
+            f"{start.theta:g}), where the robot is placed: plan for this scenario (PlanProblem.from_scenario), or "
+            "give the scenario whose start the plan leaves from"
+        )
+    miss = math.hypot(last[0] - goal.x, last[1] - goal.y)
+    if miss > scenario.position_tolerance or abs(math.remainder(float(last[2]) - goal.theta, math.tau)) > (
+        scenario.heading_tolerance
+    ):
+        raise ConfigError(
+            f"the ready plan ({plan.planner}) ends at ({last[0]:.3f}, {last[1]:.3f}, {last[2]:.3f}), outside "
+            f"scenario {scenario.name!r}'s goal region ({goal.x:g}, {goal.y:g}, {goal.theta:g}; "
+            f"{scenario.position_tolerance:g} m, {scenario.heading_tolerance:g} rad): plan for this scenario"
+        )
     return plan
 
 

@@ -6,7 +6,7 @@ in records, logs, plots and progress reports (``"closed_loop"``, ``"open_loop"``
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from enum import StrEnum
 from typing import Any
 
@@ -71,3 +71,25 @@ ALL_RUNS: tuple[RunKind, ...] = tuple(RunKind)
 #: The runs of a job unless told otherwise: the real robot's loop (fused estimate), dead reckoning
 #: and open loop; feedback on the true pose only on request.
 DEFAULT_RUNS: tuple[RunKind, ...] = (RunKind.CLOSED_LOOP, RunKind.CLOSED_LOOP_ODOMETRY, RunKind.OPEN_LOOP)
+
+
+def run_kinds(runs: Iterable[RunKind | str] | str) -> tuple[RunKind, ...]:
+    """Run kinds given as members or their labels (``"closed_loop"``, or one label alone), in order.
+
+    Raises:
+        ConfigError: None given, an unknown or a repeated one (the message lists the valid labels).
+    """
+    from planning.errors import ConfigError
+
+    given = [runs] if isinstance(runs, str) else list(runs)
+    by_label = {str(k): k for k in RunKind}
+    kinds: list[RunKind] = []
+    for run in given:
+        if not isinstance(run, str) or run not in by_label:
+            raise ConfigError(f"unknown run {run!r}; choose from {', '.join(by_label)}")
+        if by_label[run] in kinds:
+            raise ConfigError(f"run {run} given twice")
+        kinds.append(by_label[run])
+    if not kinds:
+        raise ConfigError(f"no run given; choose from {', '.join(by_label)}")
+    return tuple(kinds)

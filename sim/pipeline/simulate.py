@@ -31,7 +31,7 @@ from sim.physics.perturb import Perturbation
 from sim.physics.runlog import RunLog
 from sim.physics.simulator import SimConfig, Simulator
 from sim.pipeline.case import Case, PreparedTrajectory, prepare_trajectory
-from sim.pipeline.runs import DEFAULT_RUNS, Progress, RunKind
+from sim.pipeline.runs import DEFAULT_RUNS, Progress, RunKind, run_kinds
 from sim.robot.sensing import SensingSetup
 
 
@@ -181,7 +181,7 @@ def versions() -> dict[str, str]:
 
 def track(
     prepared: PreparedTrajectory,
-    runs: Iterable[RunKind] = DEFAULT_RUNS,
+    runs: Iterable[RunKind | str] | str = DEFAULT_RUNS,
     *,
     strict: bool = True,
     simulator: Simulator | None = None,
@@ -200,6 +200,7 @@ def track(
     Raises:
         SimulationError: MuJoCo warned (with ``strict``) or a tracker returned a non-finite command.
     """
+    runs = run_kinds(runs)
     case = prepared.case
     config = SimConfig(control_rate=case.control_rate, hold=prepared.hold, strict=strict)
     simulator = simulator or simulator_for(prepared)
@@ -265,7 +266,9 @@ def simulator_for(prepared: PreparedTrajectory) -> Simulator:
     return Simulator(prepared.robot, prepared.scenario.physical_world, prepared.case.as_built(prepared.robot.name))
 
 
-def simulate(case: Case, runs: Iterable[RunKind] = DEFAULT_RUNS, *, progress: Progress | None = None) -> JobResult:
+def simulate(
+    case: Case, runs: Iterable[RunKind | str] | str = DEFAULT_RUNS, *, progress: Progress | None = None
+) -> JobResult:
     """Prepare a case's trajectory and track it (see :func:`track`; MuJoCo warnings raise).
 
     Raises:
@@ -285,7 +288,7 @@ def simulate_reference(
     scenario: str | Scenario = "open",
     *,
     reference: str = "figure8",
-    runs: Iterable[RunKind] = DEFAULT_RUNS,
+    runs: Iterable[RunKind | str] | str = DEFAULT_RUNS,
     progress: Progress | None = None,
     **fields_: Any,
 ) -> JobResult:
@@ -309,7 +312,7 @@ def simulate_plan(
     scenario: str | Scenario,
     *,
     planner: str | None = None,
-    runs: Iterable[RunKind] = DEFAULT_RUNS,
+    runs: Iterable[RunKind | str] | str = DEFAULT_RUNS,
     progress: Progress | None = None,
     **fields_: Any,
 ) -> JobResult:
@@ -340,7 +343,7 @@ def simulate_file(
     source: TrajectoryFile | str | Path,
     scenario: str | Scenario | None = None,
     *,
-    runs: Iterable[RunKind] = DEFAULT_RUNS,
+    runs: Iterable[RunKind | str] | str = DEFAULT_RUNS,
     progress: Progress | None = None,
     **fields_: Any,
 ) -> JobResult:

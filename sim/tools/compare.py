@@ -18,6 +18,7 @@ time) [ms] and the collisions; MPC's solver statistics (failures, overruns).
 from __future__ import annotations
 
 import json
+import numbers
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -294,7 +295,7 @@ def compare_trackers(
         NhsimError: From preparing the trajectory (planning, smoothing).
     """
     names = check_trackers(trackers)
-    if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
+    if isinstance(runs, bool) or not isinstance(runs, numbers.Integral) or runs < 1:
         raise ConfigError(f"--runs must be an integer >= 1, got {runs!r}")
     params = dict(params or {})
     prepared = prepare_trajectory(case)

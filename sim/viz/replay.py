@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import copy
 import math
+import numbers
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -105,8 +106,11 @@ class RenderSettings:
 
     def __post_init__(self) -> None:
         for name, v in (("width", self.width), ("height", self.height)):
-            if not (isinstance(v, int) and 16 <= v <= 4096 and v % 2 == 0):
+            if not (isinstance(v, numbers.Integral) and not isinstance(v, bool) and 16 <= v <= 4096 and v % 2 == 0):
                 raise ConfigError(f"video {name} must be an even number of pixels in [16, 4096], got {v!r}")
+            object.__setattr__(self, name, int(v))  # a numpy integer as a plain one
+        if isinstance(self.fps, bool) or not isinstance(self.fps, numbers.Real):
+            raise ConfigError(f"--fps must be a number of frames/s between 1 and 240, got {self.fps!r}")
         if not (math.isfinite(self.fps) and 1.0 <= self.fps <= 240.0):
             raise ConfigError(f"--fps must be between 1 and 240 frames/s, got {self.fps}")
         if self.camera not in CAMERAS:

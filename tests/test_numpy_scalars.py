@@ -1,0 +1,32 @@
+"""numpy's scalars are numbers: wherever the API takes a Python int or float, np.int64, np.float64 and
+np.float32 work the same (they were refused as "not a finite number" by the configuration checks)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from control.base import make_tracker
+from control.estimation.ekf import EstimatorConfig
+from control.fbl import FBLGains
+from planning.core.geometry import Pose2D
+from planning.core.robot import load_robot
+from planning.errors import ConfigError
+from planning.trajectory.references import make_reference
+from sim.viz.replay import RenderSettings
+
+
+def test_gains_tracker_periods_estimator_and_render_settings_take_numpy_scalars() -> None:
+    assert FBLGains(kp=np.int64(9), kd=np.float32(6.0)) == FBLGains(kp=9.0, kd=6.0)
+    robot = load_robot("turtlebot3")
+    tracker = make_tracker("fbl", robot)
+    tracker.reset(make_reference("line", robot, Pose2D(0.0, 0.0, 0.0)), np.float32(0.02))  # a numpy period
+    cfg = EstimatorConfig(counts_per_rev=np.int64(4096), history_steps=np.int64(64), gate_prob=np.float32(0.99))
+    assert type(cfg.history_steps) is int and type(cfg.gate_prob) is float and cfg.counts_per_rev == 4096.0
+    settings = RenderSettings(width=np.int64(640), height=np.int32(480), fps=np.float64(30.0))
+    assert (type(settings.width), settings.height) == (int, 480)
+    for bad in (True, "640", 641):  # still refused: a bool, text, an odd size
+        with pytest.raises(ConfigError):
+            RenderSettings(width=bad)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="must be a finite number"):
+        FBLGains(kp=np.float64("nan"))
