@@ -159,6 +159,19 @@ def test_unknown_names_list_the_valid_ones() -> None:
         suite.load("moon", "edumip", "figure8")
 
 
+def test_sensor_overrides_reach_the_environment_and_bad_arguments_are_named() -> None:
+    """A message about the sensors' rates says to give ``fix_rate=...``, which suite.load could not take;
+    lists as arguments ended in @cache's TypeError."""
+    env = suite.load("open", "edumip", "line", control_rate=25, sensors="fix_rate=5")
+    assert env.task.sensing.profile.fix_rate == 5.0 and env.control_timestep() == pytest.approx(0.04)
+    with pytest.raises(ConfigError, match="fix_rat"):
+        suite.load("open", "edumip", "line", sensors="fix_rat=5")
+    with pytest.raises(ConfigError, match="control_rate must be a number"):
+        suite.load("open", "edumip", "line", control_rate=[50])  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="build-seed must be an integer"):
+        suite.load("open", "edumip", "line", build_seed=[1])  # type: ignore[arg-type]
+
+
 def test_bad_actions_raise_with_the_spec() -> None:
     env = suite.load("open", "edumip", "circle", seed=0)
     env.reset()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import replace
 from functools import cache
 from typing import Any
@@ -14,7 +15,7 @@ from planning.core.robot import ROBOT_FILES, load_robot
 from planning.errors import ConfigError
 from planning.planners.registry import PLANNERS
 from planning.trajectory.references import REFERENCES
-from sim.physics.asbuilt import DEFAULT_BUILD_SEED
+from sim.physics.asbuilt import DEFAULT_BUILD_SEED, check_build_seed
 from sim.physics.simulator import SimConfig
 from sim.pipeline.case import Case, PreparedTrajectory, load_case_scenario, plan_case, prepare_trajectory
 from sim.pipeline.simulate import simulator_for
@@ -52,7 +53,9 @@ def all_cases() -> tuple[tuple[str, str, str], ...]:
     return tuple((str(c.scenario), str(c.robot), str(c.planner)) for c in sweep_cases())
 
 
-def _case(scenario: str, robot: str, source: str, seed: int, build_seed: int | None, control_rate: float) -> Case:
+def _case(
+    scenario: str, robot: str, source: str, seed: int, build_seed: int | None, control_rate: float, sensors: str = ""
+) -> Case:
     if robot not in ROBOT_FILES:
         raise ConfigError(f"unknown robot {robot!r}; choose one of {', '.join(ROBOT_FILES)}")
     is_reference = source in REFERENCES
@@ -65,6 +68,7 @@ def _case(scenario: str, robot: str, source: str, seed: int, build_seed: int | N
             seed=seed,
             build_seed=build_seed,
             control_rate=control_rate,
+            sensors=sensors,
         )
     raise ConfigError(
         f"unknown source {source!r}: give a planner ({', '.join(sorted(PLANNERS))}) "
@@ -74,10 +78,10 @@ def _case(scenario: str, robot: str, source: str, seed: int, build_seed: int | N
 
 @cache
 def _prepared(
-    scenario: str, robot: str, source: str, seed: int, build_seed: int | None, rate: float
+    scenario: str, robot: str, source: str, seed: int, build_seed: int | None, rate: float, sensors: str
 ) -> PreparedTrajectory:
     """The case's trajectory, planned as ``nhsim simulate --all`` plans it (cached per process)."""
-    case = _case(scenario, robot, source, seed, build_seed, rate)
+    case = _case(scenario, robot, source, seed, build_seed, rate, sensors)
     if case.reference is not None:
         return prepare_trajectory(case)
     sc = load_case_scenario(case)
@@ -96,6 +100,7 @@ def load(
     seed: int | np.random.RandomState | None = 0,
     build_seed: int | None = DEFAULT_BUILD_SEED,
     control_rate: float = 50.0,
+    sensors: str = "",
 ) -> control.Environment:
     """A control-suite environment: the robot as built in the scenario's world, tracking the source's
     trajectory with its own sensors (see :mod:`sim.suite.env`).
@@ -109,6 +114,8 @@ def load(
             as dm_control's own suite takes its ``random`` (:func:`suite_seed`).
         build_seed: Seed of the as-built draw (None: the robot as drawn).
         control_rate: Control periods (environment steps) per second [Hz].
+        sensors: Overrides of the robot's sensor profile, as ``nhsim simulate --sensors`` takes them
+            (``"fix_rate=6.25"``: at 25 Hz the default 10 Hz fixes do not fit a control period).
 
     Raises:
         ConfigError: Unknown robot or source (the message lists the valid ones), a robot the
@@ -117,7 +124,13 @@ def load(
         ScenarioError: Unknown scenario (the message lists the built-in ones).
         TrajectoryError: The plan failed.
     """
-    prepared = _prepared(scenario, robot, source, suite_seed(seed), build_seed, control_rate)
+    if isinstance(control_rate, bool) or not isinstance(control_rate, numbers.Real):
+        raise ConfigError(f"control_rate must be a number of Hz, e.g. 50, got {control_rate!r}")
+    if build_seed is not None:
+        build_seed = check_build_seed(build_seed)
+    if not isinstance(sensors, str):
+        raise ConfigError(f"sensors must be text such as 'fix_rate=5', got {sensors!r}")
+    prepared = _prepared(scenario, robot, source, suite_seed(seed), build_seed, float(control_rate), sensors)
     simulator = simulator_for(prepared)
     SimConfig(control_rate=control_rate, hold=prepared.hold)  # checks the rate and the hold
     task = TrackingTask(
