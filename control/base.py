@@ -131,6 +131,8 @@ def make_tracker(name: str, robot: RobotSpec, **options: Any) -> Tracker:
             it and lists the valid ones) or a bad option value.
     """
     factory = _factory(name)
+    if not isinstance(robot, RobotSpec):
+        raise ConfigError(f"tracker {name!r}: robot must be a RobotSpec (load_robot('turtlebot3')), got {robot!r}")
     valid = tracker_options(name)
     unknown = [key for key in options if key not in valid]
     if unknown:

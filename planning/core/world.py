@@ -351,7 +351,17 @@ class World:
                 "TurtleBot3 takes 75 minutes to cross that): give bounds in metres around the area the robot drives"
             )
         object.__setattr__(self, "bounds", b)
-        object.__setattr__(self, "obstacles", tuple(self.obstacles))
+        try:
+            if isinstance(self.obstacles, Obstacle | str):
+                raise TypeError
+            object.__setattr__(self, "obstacles", tuple(self.obstacles))
+        except TypeError:
+            raise ConfigError(
+                f"obstacles must be a sequence of obstacles (Circle, Ellipse, Box, Polygon), got {self.obstacles!r}"
+            ) from None
+        for i, ob in enumerate(self.obstacles):
+            if not isinstance(ob, Obstacle):
+                raise ConfigError(f"obstacle {i} must be a Circle, Ellipse, Box or Polygon, got {ob!r}")
         for i, ob in enumerate(self.obstacles):
             if why := too_thin(ob):
                 raise ConfigError(f"obstacle {i} ({ob.kind}) {why}")

@@ -76,6 +76,10 @@ class PlanProblem:
         cls, scenario: Scenario, *, robot: RobotSpec | None = None, seed: int = 0, time_limit: float = 30.0
     ) -> PlanProblem:
         """The planning problem a scenario poses."""
+        if not isinstance(scenario, Scenario):
+            raise ConfigError(
+                f"PlanProblem.from_scenario takes a Scenario (load_scenario('edumip_map')), got {scenario!r}"
+            )
         return cls(
             world=scenario.world,
             robot=robot if robot is not None else load_robot(scenario.robot),
@@ -87,6 +91,19 @@ class PlanProblem:
             time_limit=time_limit,
             name=scenario.name,
         )
+
+
+def checked_problem(problem: object) -> PlanProblem:
+    """``problem``, which a planner's ``plan`` takes, checked to be a :class:`PlanProblem`.
+
+    Raises:
+        ConfigError: It is something else (a scenario, None), naming how to make one.
+    """
+    if not isinstance(problem, PlanProblem):
+        raise ConfigError(
+            f"a planner plans a PlanProblem (PlanProblem.from_scenario(load_scenario(NAME))), got {problem!r:.80}"
+        )
+    return problem
 
 
 @dataclass(frozen=True)

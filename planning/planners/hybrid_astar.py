@@ -59,7 +59,7 @@ from planning.core.geometry import path_length, unwrap_heading
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
 from planning.planners import lattice
-from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree, checked_problem
 from planning.planners.registry import config_from_options
 from planning.planners.sampling.extend import LocalPlanner
 from planning.planners.sampling.rrt import simplified
@@ -270,6 +270,7 @@ class HybridAStar:
     def plan(self, problem: PlanProblem) -> PlanResult:
         """Plan from ``problem.start`` to ``problem.goal``; never raises for an unsolvable problem. A lattice
         searched to exhaustion is searched again on cells of half the size (``refine_when_exhausted``)."""
+        problem = checked_problem(problem)
         cfg = self.config
         res = self._plan(problem)
         if not (res.stats.get("exhausted") and cfg.refine_when_exhausted):

@@ -44,7 +44,7 @@ from planning.core.geometry import cumulative_length, path_length, wrap_angle
 from planning.core.kinematics import bicycle_to_unicycle
 from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon, World
 from planning.errors import ConfigError
-from planning.planners.base import PlanProblem, PlanResult, PlanStatus
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus, checked_problem
 from planning.planners.gridpath import grid_path
 from planning.planners.registry import PLANNERS, make_planner
 from planning.signals import signals_end_early, signals_held
@@ -497,6 +497,7 @@ class Optim:
     # -- solving -------------------------------------------------------------------------------
     def plan(self, problem: PlanProblem) -> PlanResult:
         """Solve the NLP for ``problem``; every failure is a status with IPOPT's reason."""
+        problem = checked_problem(problem)
         return self.solve(problem).result
 
     def solve(self, problem: PlanProblem) -> OptimSolution:

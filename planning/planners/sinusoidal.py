@@ -61,7 +61,7 @@ from scipy.optimize import brentq
 from planning.core.checks import check_number
 from planning.core.geometry import wrap_angle
 from planning.errors import ConfigError
-from planning.planners.base import PlanProblem, PlanResult, PlanStatus
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus, checked_problem
 
 FloatArray = NDArray[np.float64]
 
@@ -418,6 +418,7 @@ class Sinusoidal:
     # -- planning ------------------------------------------------------------------------------
     def plan(self, problem: PlanProblem) -> PlanResult:
         """Plan from ``problem.start`` to ``problem.goal`` (steering angle 0 at both ends)."""
+        problem = checked_problem(problem)
         t_start = time.perf_counter()
         self._deadline = t_start + problem.time_limit
         robot = problem.robot

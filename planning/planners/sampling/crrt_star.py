@@ -58,7 +58,7 @@ from planning.core.checks import check_fields
 from planning.core.geometry import path_length, wrap_angle
 from planning.errors import ConfigError
 from planning.planners import geodesic
-from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree, checked_problem
 from planning.planners.registry import config_from_options
 from planning.planners.sampling.tree import draws
 from planning.planners.simplify import simplify_path
@@ -164,6 +164,7 @@ class CRRTStar:
 
     def plan(self, problem: PlanProblem) -> PlanResult:
         """Plan from ``problem.start`` to ``problem.goal``; never raises for an unsolvable problem."""
+        problem = checked_problem(problem)
         return _Search(self.config, problem, self.required_clearance(problem)).run()
 
 

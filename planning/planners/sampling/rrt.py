@@ -33,7 +33,7 @@ from planning.core.checks import check_fields
 from planning.core.geometry import path_length
 from planning.errors import ConfigError
 from planning.planners import geodesic
-from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree, checked_problem
 from planning.planners.registry import config_from_options
 from planning.planners.sampling.connect_kernel import JOINED, CompiledSearch
 from planning.planners.sampling.extend import LocalPlanner, Motion, check_steering
@@ -130,6 +130,7 @@ class _TreePlanner(Generic[ConfigT]):
 
     def plan(self, problem: PlanProblem) -> PlanResult:
         """Plan from ``problem.start`` to ``problem.goal``; never raises for an unsolvable problem."""
+        problem = checked_problem(problem)
         try:
             local, budget, bad = self._setup(problem)
         except FieldTimeout as exc:  # the time limit passed while the collision grid was built

@@ -1,5 +1,6 @@
-"""numpy's scalars are numbers: wherever the API takes a Python int or float, np.int64, np.float64 and
-np.float32 work the same (they were refused as "not a finite number" by the configuration checks)."""
+"""The Python API's inputs: numpy's scalars are numbers (np.int64, np.float64 and np.float32 work wherever
+a Python int or float does; they were refused as "not a finite number"), and an argument of the wrong
+kind is named where it is given (it was an AttributeError deep inside)."""
 
 from __future__ import annotations
 
@@ -30,3 +31,22 @@ def test_gains_tracker_periods_estimator_and_render_settings_take_numpy_scalars(
             RenderSettings(width=bad)  # type: ignore[arg-type]
     with pytest.raises(ConfigError, match="must be a finite number"):
         FBLGains(kp=np.float64("nan"))
+
+
+def test_the_wrong_kind_of_argument_is_named_not_an_attribute_error_deep_inside() -> None:
+    from planning import PlanProblem, load_scenario, make_planner
+    from planning.core.world import Circle, World
+    from planning.planners.registry import PLANNERS
+
+    with pytest.raises(ConfigError, match=r"from_scenario takes a Scenario"):
+        PlanProblem.from_scenario("edumip_map")  # type: ignore[arg-type]
+    scenario = load_scenario("open")
+    for name in PLANNERS:
+        with pytest.raises(ConfigError, match=r"a planner plans a PlanProblem"):
+            make_planner(name).plan(scenario)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match=r"robot must be a RobotSpec"):
+        make_tracker("fbl", "edumip")  # type: ignore[arg-type]
+    for bad in (Circle((1, 1), 0.5), None, [(1, 1, 0.5)]):
+        with pytest.raises(ConfigError, match=r"obstacle"):
+            World((0, 5, 0, 5), bad)  # type: ignore[arg-type]
+    assert len(World((0, 5, 0, 5), (o for o in [Circle((1, 1), 0.5)])).obstacles) == 1  # any iterable
