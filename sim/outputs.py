@@ -121,7 +121,10 @@ def _check_length(path: Path) -> None:
 
 def _check_absent(path: Path, *, overwrite: bool) -> None:
     if path.exists() and not overwrite:
-        raise OutputExistsError(f"{path} exists already; pass --overwrite to replace it, or choose another path")
+        raise OutputExistsError(
+            f"{path} exists already; pass --overwrite to replace it (overwrite=True from Python), or choose "
+            "another path"
+        )
 
 
 def check_folder_for(path: Path) -> None:

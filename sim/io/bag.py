@@ -79,7 +79,10 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
         if not path.is_dir():
             raise ConfigError(f"cannot write the bag {path}: a file of that name exists; choose another --bag folder")
         if not overwrite:
-            raise OutputExistsError(f"{path} exists already; pass --overwrite to replace it, or choose another --bag")
+            raise OutputExistsError(
+                f"{path} exists already; pass --overwrite to replace it (overwrite=True from Python), or choose "
+                "another --bag"
+            )
         if any(path.iterdir()) and not (path / "metadata.yaml").is_file():
             raise ConfigError(
                 f"cannot replace {path}: it is a folder that holds files but no rosbag2 metadata.yaml, so not a bag "
