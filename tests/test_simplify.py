@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from planning.collision.exact import CollisionChecker
+from planning.collision.grid import FastChecker
 from planning.core.geometry import densify_path, path_length
 from planning.core.robot import load_robot
 from planning.errors import ConfigError
@@ -382,12 +383,9 @@ def over_box(high: float) -> float:
     return float(2.0 * np.hypot(2.0, high))
 
 
-def test_a_tree_path_the_long_way_round_a_box_is_simplified_the_short_way():
-    """A search path over the box (Reeds–Shepp curves through waypoints above it): the simplified
-    path goes under it, shorter than any path over it, collision-free by the exact checker."""
-    from planning.planners.base import PlanResult
-    from planning.planners.sampling.rrt import simplified
-
+def _over_the_box() -> tuple[PlanProblem, FastChecker, LocalPlanner, np.ndarray, np.ndarray]:
+    """A search path over the box (Reeds–Shepp curves through waypoints above it): its problem, checker, local
+    planner, poses and directions."""
     problem = _box_problem("turtlebot3", -0.7, 2.3)
     checker = make_checker(problem, "footprint", 0.01)
     local = LocalPlanner("reeds_shepp", problem.robot, checker)
@@ -395,6 +393,16 @@ def test_a_tree_path_the_long_way_round_a_box_is_simplified_the_short_way():
     parts = [local.steer(a, b) for a, b in itertools.pairwise(q)]
     path = np.vstack([parts[0][0], *(m[0][1:] for m in parts[1:])])
     dirs = np.concatenate([parts[0][1], *(m[1][1:] for m in parts[1:])])
+    return problem, checker, local, path, dirs
+
+
+def test_a_tree_path_the_long_way_round_a_box_is_simplified_the_short_way():
+    """A search path over the box (Reeds–Shepp curves through waypoints above it): the simplified
+    path goes under it, shorter than any path over it, collision-free by the exact checker."""
+    from planning.planners.base import PlanResult
+    from planning.planners.sampling.rrt import simplified
+
+    problem, checker, local, path, dirs = _over_the_box()
     assert checker.path_free(path) and path_length(path) > over_box(2.3)
     raw = PlanResult(PlanStatus.SUCCESS, "rrt", path=path, directions=dirs, stats={})
     res = simplified(raw, local, 0)
@@ -565,13 +573,7 @@ def test_a_tree_plan_is_simplified_within_what_is_left_of_its_time_limit():
     from planning.planners.base import PlanResult
     from planning.planners.sampling.rrt import simplified
 
-    problem = _box_problem("turtlebot3", -0.7, 2.3)
-    checker = make_checker(problem, "footprint", 0.01)
-    local = LocalPlanner("reeds_shepp", problem.robot, checker)
-    q = [np.array(v) for v in ([-2, 0, 0], [-1.2, 2.6, 0.6], [0, 2.65, 0], [1.2, 2.6, -0.6], [2, 0, 0])]
-    parts = [local.steer(a, b) for a, b in itertools.pairwise(q)]
-    path = np.vstack([parts[0][0], *(m[0][1:] for m in parts[1:])])
-    dirs = np.concatenate([parts[0][1], *(m[1][1:] for m in parts[1:])])
+    _, _, local, path, dirs = _over_the_box()
     raw = PlanResult(PlanStatus.SUCCESS, "rrt", path=path, directions=dirs, stats={})
     spent = PlanClock(1e-9)
     time.sleep(0.001)

@@ -31,6 +31,7 @@ import dataclasses
 import math
 import numbers
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -215,11 +216,16 @@ class _ObstacleData:
         xy = np.asarray(path)[:, :2]
         lo, hi = xy.min(axis=0) - clear, xy.max(axis=0) + clear
         near = []
-        for i in out:
+        for i in out:  # those whose bounding box reaches the path's
             x0, x1, y0, y1 = world.obstacles[i].bounding_box()
             if x0 <= hi[0] and x1 >= lo[0] and y0 <= hi[1] and y1 >= lo[1]:
                 near.append(i)
-        return frozenset(i for i in near if float(np.min(world.obstacles[i].signed_distance(xy))) < clear)
+        return frozenset(i for i, d in zip(near, _least_distances(world, near, xy), strict=True) if d < clear)
+
+
+def _least_distances(world: World, indices: Sequence[int], points: FloatArray) -> FloatArray:
+    """(len(indices),) each obstacle's least signed distance to ``points`` (M, 2) [m]."""
+    return np.array([float(np.min(world.obstacles[i].signed_distance(points))) for i in indices])
 
 
 def _nlp_obstacles(world: World, near: FloatArray, keep: frozenset[int]) -> tuple[int, ...]:
@@ -228,7 +234,7 @@ def _nlp_obstacles(world: World, near: FloatArray, keep: frozenset[int]) -> tupl
     n = len(world.obstacles)
     if n <= MAX_NLP_OBSTACLES:
         return tuple(range(n))
-    dist = np.array([float(np.min(o.signed_distance(near))) for o in world.obstacles])
+    dist = _least_distances(world, range(n), near)
     dist[list(keep)] = -np.inf
     return tuple(sorted(int(i) for i in np.argsort(dist, kind="stable")[: max(MAX_NLP_OBSTACLES, len(keep))]))
 

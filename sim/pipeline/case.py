@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 from control.base import TRACKERS
 from control.estimation.amcl import AmclConfig
 from control.fbl import FBLGains
+from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot
 from planning.errors import ConfigError, ScenarioError
 from planning.planners.base import PlanProblem, PlanResult
@@ -460,25 +461,28 @@ def _ready_plan(plan: PlanResult, scenario: Scenario) -> PlanResult:
     if not plan.success or plan.path.shape[0] == 0:
         return plan
     first, last, start, goal = plan.path[0], plan.path[-1], scenario.start, scenario.goal
-    off = math.hypot(first[0] - start.x, first[1] - start.y)
-    turned = abs(math.remainder(float(first[2]) - start.theta, math.tau))
-    if off > scenario.position_tolerance or turned > scenario.heading_tolerance:
+    tolerance = (scenario.position_tolerance, scenario.heading_tolerance)
+    off, turned = _pose_gap(first, start)
+    if off > tolerance[0] or turned > tolerance[1]:
         raise ConfigError(
             f"the ready plan ({plan.planner}) starts at ({first[0]:.3f}, {first[1]:.3f}, {first[2]:.3f}), "
             f"{off:.3f} m and {turned:.3f} rad from scenario {scenario.name!r}'s start ({start.x:g}, {start.y:g}, "
             f"{start.theta:g}), where the robot is placed: plan for this scenario (PlanProblem.from_scenario), or "
             "give the scenario whose start the plan leaves from"
         )
-    miss = math.hypot(last[0] - goal.x, last[1] - goal.y)
-    if miss > scenario.position_tolerance or abs(math.remainder(float(last[2]) - goal.theta, math.tau)) > (
-        scenario.heading_tolerance
-    ):
+    miss, missed = _pose_gap(last, goal)
+    if miss > tolerance[0] or missed > tolerance[1]:
         raise ConfigError(
             f"the ready plan ({plan.planner}) ends at ({last[0]:.3f}, {last[1]:.3f}, {last[2]:.3f}), outside "
             f"scenario {scenario.name!r}'s goal region ({goal.x:g}, {goal.y:g}, {goal.theta:g}; "
-            f"{scenario.position_tolerance:g} m, {scenario.heading_tolerance:g} rad): plan for this scenario"
+            f"{tolerance[0]:g} m, {tolerance[1]:g} rad): plan for this scenario"
         )
     return plan
+
+
+def _pose_gap(pose: FloatArray, to: Pose2D) -> tuple[float, float]:
+    """How far a path's pose (3,) is from ``to``: (distance [m], |heading difference| [rad])."""
+    return math.hypot(pose[0] - to.x, pose[1] - to.y), abs(float(wrap_angle(float(pose[2]) - to.theta)))
 
 
 def prepare_trajectory(case: Case, *, progress: Progress | None = None) -> PreparedTrajectory:

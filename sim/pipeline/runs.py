@@ -10,6 +10,7 @@ from collections.abc import Callable, Iterable
 from enum import StrEnum
 from typing import Any
 
+from planning.errors import ConfigError
 from sim.robot.sources import PoseSource
 
 #: Feedback tracker of a case that names none: analytic references are smooth (dynamic feedback
@@ -79,8 +80,6 @@ def run_kinds(runs: Iterable[RunKind | str] | str) -> tuple[RunKind, ...]:
     Raises:
         ConfigError: None given, an unknown or a repeated one (the message lists the valid labels).
     """
-    from planning.errors import ConfigError
-
     given = [runs] if isinstance(runs, str) else list(runs)
     by_label = {str(k): k for k in RunKind}
     kinds: list[RunKind] = []
