@@ -29,9 +29,9 @@ FAST = [
     "320x240",
     "--quiet",
 ]
-#: FAST's stem: the scenario's own robot, and the one non-default run setting (--runs) as the first 6 hex
-#: digits of the SHA-1 of {"runs": ...} as JSON with sorted keys.
-STEM = "open-line-" + hashlib.sha1(json.dumps({"runs": "closed_loop,open_loop"}).encode()).hexdigest()[:6]
+#: FAST's stem: the scenario's own robot, and the one non-default run setting (the runs) as the first 6 hex
+#: digits of the SHA-1 of {"runs": [...]} as JSON with sorted keys.
+STEM = "open-line-" + hashlib.sha1(json.dumps({"runs": ["closed_loop", "open_loop"]}).encode()).hexdigest()[:6]
 
 
 def snapshot(folder: Path) -> dict[str, tuple[bytes, int]]:
@@ -146,14 +146,15 @@ def test_the_estimation_plot_is_planned_beside_the_others(tmp_path: Path, monkey
 
     monkeypatch.chdir(tmp_path)
     args = build_parser().parse_args([*FAST, "--no-video"])
-    plan = plan_outputs(args, scenario="open", own_robot="turtlebot3", source="line")
+    settings = {"runs": ["closed_loop", "open_loop"]}
+    plan = plan_outputs(args, scenario="open", own_robot="turtlebot3", source="line", changed=settings)
     assert list(plan.plots) == ["world", "errors", "commands", "estimation", "localiser"]
     assert plan.plots["estimation"] == Path(f"renders/{STEM}-estimation.png")
     stale = tmp_path / "renders" / f"{STEM}-estimation.png"
     stale.parent.mkdir()
     stale.write_bytes(b"x")
     with pytest.raises(OutputExistsError, match=rf"{STEM}-estimation\.png"):
-        plan_outputs(args, scenario="open", own_robot="turtlebot3", source="line")
+        plan_outputs(args, scenario="open", own_robot="turtlebot3", source="line", changed=settings)
     assert main([*FAST, "--no-video"]) == 2
     assert stale.read_bytes() == b"x"
 
@@ -267,7 +268,7 @@ def test_sigterm_is_an_interrupt_only_inside_the_block() -> None:
 def test_outputs_are_named_by_the_robot_and_the_run_settings(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(tmp_path)
     job = ["simulate", "--reference", "figure8", "--runs", "closed_loop", "--no-video", "--no-plots", "--quiet"]
-    tag = hashlib.sha1(b'{"runs": "closed_loop"}').hexdigest()[:6]
+    tag = hashlib.sha1(b'{"runs": ["closed_loop"]}').hexdigest()[:6]
     assert main([*job, "--robot", "turtlebot3"]) == 0  # the open arena's own robot: no robot in the name
     assert main([*job, "--robot", "edumip"]) == 0  # another robot: its own files, nothing refused
     assert main([*job, "--robot", "edumip"]) == 2  # the same job again is still never overwritten
@@ -296,31 +297,66 @@ def test_a_scenario_file_with_another_robot_is_named_without_looking_it_up_by_na
     assert record.read_text() == "{}"
 
 
-def test_the_settings_tag_names_non_default_settings_and_gains_files_by_content(tmp_path: Path) -> None:
-    from sim.cli.job_outputs import output_stem, settings_tag
+def _job_stem(*extra: str) -> str:
+    """The stem ``simulate`` gives a job on open along figure8 (as :func:`sim.cli.simulate._track_job` does)."""
+    from sim.cli.job_outputs import changed_settings, output_stem
     from sim.cli.main import build_parser
+    from sim.cli.simulate import job_case, parse_runs, run_choices
+    from sim.pipeline.case import load_case_scenario
 
-    def stem(*extra: str) -> str:
-        return output_stem(
-            build_parser().parse_args(["simulate", *extra]),
-            scenario="open",
-            own_robot="turtlebot3",
-            source="figure8",
-        )
+    args = build_parser().parse_args(["simulate", "--scenario", "open", "--reference", "figure8", *extra])
+    case, source = job_case(args)
+    runs = parse_runs(args.runs) if args.runs is not None else run_choices()[args.tracker]
+    settings = changed_settings(args, case, load_case_scenario(case), runs)
+    return output_stem(args, scenario="open", own_robot="turtlebot3", source=source, changed=settings)
 
+
+def test_the_settings_tag_names_non_default_settings_and_gains_files_by_content(tmp_path: Path) -> None:
+    stem = _job_stem
     assert stem() == stem("--robot", "turtlebot3", "--seed", "0", "--control-rate", "50") == "open-figure8"
-    sha = hashlib.sha1(json.dumps({"perturb": "friction=0.6", "seed": 3}, sort_keys=True).encode()).hexdigest()
-    assert stem("--seed", "3", "--perturb", "friction=0.6") == f"open-figure8-{sha[:6]}"
+    tags = {
+        stem(*o)
+        for o in (["--gains", "4,3"], ["--gains", "4,4"], ["--build", "nominal"], ["--tracker", "fbl"], ["--seed", "3"])
+    }
+    assert len(tags) == 5 and all(t.startswith("open-figure8-") and len(t) == len("open-figure8-") + 6 for t in tags)
     assert stem("--robot", "edumip", "--gains", "4,3").startswith("open-figure8-edumip-")
-    tags = {stem(*o) for o in (["--gains", "4,3"], ["--gains", "4,4"], ["--build", "nominal"], ["--tracker", "fbl"])}
-    assert len(tags) == 4
     a, b = tmp_path / "a.toml", tmp_path / "b.toml"
-    a.write_text("[gains]\nkp = 4.0\n")
-    b.write_text("[gains]\nkp = 4.0\n")
-    parse = build_parser().parse_args
-    assert settings_tag(parse(["simulate", "--gains", str(a)])) == settings_tag(parse(["simulate", "--gains", str(b)]))
-    b.write_text("[gains]\nkp = 5.0\n")
-    assert settings_tag(parse(["simulate", "--gains", str(a)])) != settings_tag(parse(["simulate", "--gains", str(b)]))
+    a.write_text("[gains]\nkp = 4.0\nkd = 6.0\n")
+    b.write_text("[gains]\nkd = 6.0\nkp = 4.0  # the same gains, another file\n")
+    assert stem("--gains", str(a)) == stem("--gains", str(b)) == stem("--gains", "4,6")  # kd's default is 6
+    b.write_text("[gains]\nkp = 5.0\nkd = 6.0\n")
+    assert stem("--gains", str(a)) != stem("--gains", str(b))
+
+
+@pytest.mark.parametrize(
+    "restated",
+    [
+        ["--seed", "0", "--noise-seed", "0", "--control-rate", "50.0"],
+        ["--gains", "9,6"],
+        ["--runs", "open_loop,closed_loop_odometry,closed_loop"],
+        ["--tracker", "both"],
+        ["--build", "as-built", "--build-seed", "1"],
+        ["--localiser", "amcl", "--initial-pose", "known"],
+        ["--amcl", "max_particles=2000,min_particles=500", "--lidar", "beams=360"],
+        ["--motors", "battery_voltage=11.1"],
+        ["--perturb", "friction=1.0"],
+        ["--time-limit", "5"],  # a reference plans nothing
+    ],
+)
+def test_a_default_said_again_leaves_the_name_alone(restated: list[str]) -> None:
+    """The tag names what the runs use, not how it was asked for: the defaults given again write the
+    default job's files (and are refused as existing, not written beside them under a new name)."""
+    assert _job_stem(*restated) == "open-figure8"
+
+
+def test_the_tag_names_what_the_runs_use() -> None:
+    from sim.cli.job_outputs import settings_tag
+
+    assert _job_stem("--seed", "3") == _job_stem("--seed", "3", "--noise-seed", "3")
+    assert _job_stem("--amcl", "max_particles=1000") != "open-figure8"
+    assert _job_stem("--localiser", "fixes") != "open-figure8"
+    pert = {"friction": 0.6, "mass": 1.0, "radius": 1.0, "noise": 0.0, "heading_noise": 0.0, "latency": 0.0, "seed": 0}
+    assert _job_stem("--perturb", "friction=0.6") == "open-figure8-" + settings_tag({"perturbation": pert})
 
 
 def test_a_scenario_name_cannot_lead_the_outputs_out_of_their_folder(tmp_path: Path) -> None:
@@ -330,7 +366,7 @@ def test_a_scenario_name_cannot_lead_the_outputs_out_of_their_folder(tmp_path: P
     assert file_safe("../../escaped") == "_.._escaped" and file_safe("ümlaut name") == "ümlaut_name"
     assert file_safe("edumip_map") == "edumip_map" and file_safe("c-rrt-star") == "c-rrt-star"
     args = build_parser().parse_args(["simulate", "--no-video"])
-    plan = plan_outputs(args, scenario="../../escaped", source="rrt", own_robot="turtlebot3")
+    plan = plan_outputs(args, scenario="../../escaped", source="rrt", own_robot="turtlebot3", changed={})
     assert plan.json == DEFAULT_DIR / "_.._escaped-rrt.json"
     assert all(p.parent == DEFAULT_DIR for p in plan.targets())
 
@@ -341,7 +377,7 @@ def test_the_pitch_plot_is_planned_for_a_balancing_robot(tmp_path: Path, monkeyp
 
     monkeypatch.chdir(tmp_path)
     args = build_parser().parse_args([*FAST, "--no-video", "--robot", "edumip-balancing"])
-    plan = plan_outputs(args, scenario="open", source="line")
+    plan = plan_outputs(args, scenario="open", source="line", changed={})
     assert list(plan.plots) == ["world", "errors", "commands", "estimation", "pitch"]
     assert plan.plots["pitch"].name.startswith("open-line-edumip-balancing") and plan.plots["pitch"].name.endswith(
         "-pitch.png"
@@ -354,7 +390,7 @@ def test_video_options_given_with_no_video_are_named_as_ignored(capsys: pytest.C
 
     def note(*extra: str) -> str:
         args = build_parser().parse_args(["simulate", "--no-video", *extra])
-        plan_outputs(args, scenario="open", source="line", own_robot="turtlebot3")
+        plan_outputs(args, scenario="open", source="line", own_robot="turtlebot3", changed={})
         return capsys.readouterr().err
 
     assert note() == "" and note("--fps", "30", "--camera", "overview") == ""  # the defaults, said again

@@ -12,10 +12,10 @@ robot with every run setting at its default::
     renders/S-R.json           run record; its "files" names every file written
 
 The stem names everything that makes a job different (:func:`output_stem`): ``S-R``, then
-``-ROBOT`` when ``--robot`` is not the scenario's own robot, then ``-TAG`` when any of
-:data:`RUN_SETTINGS` is not at its default: TAG is the first 6 hex digits of the SHA-1 of those
-settings as canonical JSON (``{"option": value}`` of the non-default ones, keys sorted, a gains
-or sensors file by its content). ``--video PATH`` moves all of them beside ``PATH`` (named after
+``-ROBOT`` when ``--robot`` is not the scenario's own robot, then ``-TAG`` when the job's runs
+differ from the default job's (:func:`changed_settings`: the settings as the runs use them, so a
+default said again tags nothing): TAG is the first 6 hex digits of the SHA-1 of the settings that
+differ as canonical JSON (keys sorted). ``--video PATH`` moves all of them beside ``PATH`` (named after
 its stem); ``--json PATH`` moves the record. Existing files are never replaced without
 ``--overwrite``: every target (and whether its folder exists or can be created, and takes new
 files) is checked before any physics runs, and the command stops with an error naming the file (no
@@ -31,14 +31,16 @@ import argparse
 import hashlib
 import json
 import sys
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 from planning.errors import ConfigError
 
 DEFAULT_DIR = Path("renders")
-#: Options of ``simulate`` that change the runs, with their defaults; any other value tags the stem.
+#: Options of ``simulate`` that change the runs, with their defaults (the names tag what they resolve to:
+#: :func:`changed_settings`).
 RUN_SETTINGS: dict[str, Any] = {
     "tracker": "both",
     "runs": None,
@@ -220,20 +222,56 @@ def show_progress(args: argparse.Namespace) -> bool:
     return not getattr(args, "quiet", False) and sys.stdout.isatty() and sys.stderr.isatty()
 
 
-def settings_tag(args: argparse.Namespace) -> str:
-    """6 hex digits naming the non-default :data:`RUN_SETTINGS` of ``args`` ("" when all are default).
+def changed_settings(args: argparse.Namespace, case: Any, scenario: Any, runs: Sequence[Any]) -> dict[str, Any]:
+    """The job's settings that differ from those of the default job on the same scenario, robot and path
+    source, as resolved (:meth:`sim.pipeline.case.Case.run_settings`, and the runs as a set): a default said
+    again (``--seed 0``, ``--runs`` listing the default runs, a gains file of the default gains,
+    ``--localiser amcl`` on the TurtleBot3, ``--amcl max_particles=2000``) changes nothing, and two files of
+    the same gains are the same setting.
 
-    The SHA-1 of ``{"option": value}`` of the non-default settings as JSON with sorted keys; a
-    ``--gains`` or ``--sensors`` naming a file counts by the file's content.
+    Args:
+        args: Parsed options (``allow_collisions`` is read; ``--gains`` is ignored by the open loop alone).
+        case: The job's case.
+        scenario: Its loaded scenario.
+        runs: The run kinds it runs.
+
+    Raises:
+        ConfigError: As :meth:`sim.pipeline.case.Case.run_settings`.
     """
-    changed: dict[str, Any] = {}
-    for key, default in RUN_SETTINGS.items():
-        value = getattr(args, key, default)
-        if value == default:
-            continue
-        if key in ("gains", "sensors") and Path(value).is_file():
-            value = {"file": Path(value).read_text(encoding="utf-8")}
-        changed[key] = value
+    from dataclasses import replace
+
+    from planning.trajectory.importer import TrajectoryFile
+    from sim.pipeline.case import Case, PlanOptions
+    from sim.pipeline.runs import DEFAULT_RUNS, RunKind
+
+    file = case.trajectory_file
+    default = replace(
+        case,
+        **{f.name: f.default for f in fields(Case) if f.name in _CASE_SETTINGS and f.default is not MISSING},
+        planning=PlanOptions(),
+        trajectory_file=None if file is None else TrajectoryFile(file.path, timed=file.timed),
+    )
+    mine, base = case.run_settings(scenario), default.run_settings(scenario)
+    changed = {k: v for k, v in mine.items() if v != base[k]}
+    if set(runs) != set(DEFAULT_RUNS):
+        changed["runs"] = sorted(str(k) for k in runs)
+        if set(runs) == {RunKind.OPEN_LOOP}:
+            changed.pop("gains", None)  # nothing is fed back
+    if getattr(args, "allow_collisions", False) and file is None:
+        changed["allow_collisions"] = True
+    return changed
+
+
+#: The :class:`sim.pipeline.case.Case` fields a job's options set (the rest name the job: scenario, robot, source).
+_CASE_SETTINGS = (
+    "tracker", "seed", "control_rate", "gains", "params", "perturbation", "build_seed", "sensors", "noise_seed",
+    "localiser", "lidar", "amcl", "initial_pose", "motors",
+)  # fmt: skip
+
+
+def settings_tag(changed: Mapping[str, Any]) -> str:
+    """6 hex digits naming a job's non-default settings (:func:`changed_settings`; "" when there are none):
+    the start of the SHA-1 of them as JSON with sorted keys."""
     if not changed:
         return ""
     return hashlib.sha1(json.dumps(changed, sort_keys=True).encode()).hexdigest()[:6]
@@ -253,21 +291,30 @@ def file_safe(name: str) -> str:
     return safe or "_"
 
 
-def output_stem(args: argparse.Namespace, *, scenario: str, source: str, own_robot: str | None = None) -> str:
+def output_stem(
+    args: argparse.Namespace, *, scenario: str, source: str, changed: Mapping[str, Any], own_robot: str | None = None
+) -> str:
     """``<scenario>-<source>[-<robot>][-<tag>]``: the robot when it is not the scenario's own (``own_robot``,
-    else the robot of the built-in scenario of that name), the tag (:func:`settings_tag`) when a run
-    setting is not at its default."""
+    else the robot of the built-in scenario of that name), the tag (:func:`settings_tag`) of the job's
+    settings that differ from the default job's (``changed``, :func:`changed_settings`) when there are any."""
     from planning.scenario import load_scenario
 
     stem = f"{file_safe(scenario)}-{file_safe(source)}"
     robot = getattr(args, "robot", None)
     if robot is not None and robot != (own_robot or load_scenario(scenario).robot):
         stem += f"-{robot}"
-    tag = settings_tag(args)
+    tag = settings_tag(changed)
     return f"{stem}-{tag}" if tag else stem
 
 
-def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str, own_robot: str | None = None) -> OutputPlan:
+def plan_outputs(
+    args: argparse.Namespace,
+    *,
+    scenario: str,
+    source: str,
+    changed: Mapping[str, Any],
+    own_robot: str | None = None,
+) -> OutputPlan:
     """Decide every output path and check that none exists (unless --overwrite), before any work.
 
     Call after :func:`sim.viz.gl.configure`: with a video it opens and closes a tiny OpenGL context so
@@ -277,6 +324,8 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str, own_ro
         args: Parsed options (see :func:`add_output_arguments`; also ``json``, ``overwrite``).
         scenario: Scenario name.
         source: Planner or reference name.
+        changed: The job's settings that differ from the default job's (:func:`changed_settings`): they
+            tag the names.
         own_robot: The scenario's own robot (default: that of the built-in scenario named ``scenario``;
             give it for a scenario read from a file or built in memory).
 
@@ -291,7 +340,7 @@ def plan_outputs(args: argparse.Namespace, *, scenario: str, source: str, own_ro
     from sim.viz.plots.run import ESTIMATION_PLOT, LOCALISER_PLOT, PITCH_PLOT, PLOTS
     from sim.viz.replay import RenderSettings, parse_size
 
-    stem = output_stem(args, scenario=scenario, source=source, own_robot=own_robot)
+    stem = output_stem(args, scenario=scenario, source=source, changed=changed, own_robot=own_robot)
     video: Path | None = None
     settings = None
     if not args.no_video:

@@ -336,7 +336,9 @@ def _sensor_line(record: dict[str, Any]) -> str:
     s = record.get("sensors") or {}
     if not s.get("fix_rate"):
         return f"encoders {s.get('encoder_cpr', 0):g}/rev, no localisation fixes"
-    loc = record.get("localiser") or {}
+    loc = record.get("localiser")
+    if loc is None:  # the record has one only when a run localised (closed loop on the fused estimate)
+        return f"encoders {s.get('encoder_cpr', 0):g}/rev, no run localised"
     if loc.get("kind") == "amcl":
         start = "global localisation first" if loc.get("initial") == "unknown" else "from the start pose"
         return (
@@ -401,15 +403,10 @@ def run(args: argparse.Namespace) -> int:
     from sim.viz import gl
 
     gl.configure(args.gl)  # before anything imports mujoco
-    from control.fbl import FBLGains
-    from control.gains import resolve_gains
     from sim.cli.checks import check_control_rate, check_seeds, check_time_limit
-    from sim.physics.perturb import Perturbation
 
     check_seeds(seed=args.seed, noise_seed=args.noise_seed)
-    gains = resolve_gains(args.gains) if args.gains else FBLGains()
-    noise_seed = args.seed if args.noise_seed is None else args.noise_seed
-    perturbation = Perturbation.parse(args.perturb, seed=noise_seed) if args.perturb else None
+    gains, _ = gains_and_perturbation(args)
     check_control_rate(args.control_rate)
     check_time_limit(args.time_limit)
     if args.all and args.bag is not None:
@@ -426,7 +423,23 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--jobs and --scheduler spread --all's sweep over workers; one job runs here: drop it")
     for line in ignored_options(args):
         print(f"nhsim simulate: {line}", file=sys.stderr)
-    return _run_job(args, gains, perturbation)
+    return _track_job(args, *job_case(args))
+
+
+def gains_and_perturbation(args: argparse.Namespace) -> tuple[Any, Any]:
+    """The FBL gains of ``--gains`` (the defaults without it) and the perturbation of ``--perturb`` (None
+    without it; its random draws seeded by the noise seed).
+
+    Raises:
+        ConfigError: Bad gains (or gains file) or perturbation.
+    """
+    from control.fbl import FBLGains
+    from control.gains import resolve_gains
+    from sim.physics.perturb import Perturbation
+
+    noise_seed = args.seed if args.noise_seed is None else args.noise_seed
+    gains = resolve_gains(args.gains) if args.gains else FBLGains()
+    return gains, Perturbation.parse(args.perturb, seed=noise_seed) if args.perturb else None
 
 
 def option_defaults() -> dict[str, Any]:
@@ -545,34 +558,32 @@ def job_source(scenario: str | None, planner: str | None, reference: str | None)
     return scenario, ({"planner": own} if own is not None else {"reference": DEFAULT_REFERENCE})
 
 
-def _run_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
-    """One job: outputs planned, the case prepared and tracked, the table printed, the files written."""
+def job_case(args: argparse.Namespace) -> tuple[Any, str]:
+    """The case one ``simulate`` job runs, and the source that names its outputs (the planner, the
+    reference, or the file's name).
+
+    Raises:
+        NhsimError: Bad options, a bad trajectory file or scenario.
+    """
     from sim.pipeline.case import Case
 
+    fields = _case_fields(args, *gains_and_perturbation(args))
     if file_given(args):
-        return _run_file_job(args, gains, perturbation)
+        from sim.cli.trajectory_files import file_source, file_world
+
+        trajectory = file_source(args)
+        scenario, robot, name = file_world(args, trajectory)
+        return Case(scenario, robot=robot, trajectory_file=trajectory, **fields), name
     scenario, source = job_source(args.scenario, args.planner, args.reference)
-    fields = _case_fields(args, gains, perturbation)
     case = Case(scenario, robot=args.robot, planner=source.get("planner"), reference=source.get("reference"), **fields)
-    return _track_job(args, case, next(iter(source.values())))
-
-
-def _run_file_job(args: argparse.Namespace, gains: Any, perturbation: Any) -> int:
-    """A job on a trajectory or path file (:mod:`sim.cli.trajectory_files`)."""
-    from sim.cli.trajectory_files import file_source, file_world
-    from sim.pipeline.case import Case
-
-    source = file_source(args)
-    scenario, robot, name = file_world(args, source)
-    case = Case(scenario, robot=robot, trajectory_file=source, **_case_fields(args, gains, perturbation))
-    return _track_job(args, case, name)
+    return case, next(iter(source.values()))
 
 
 def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
     """Track a job's case: outputs planned (named after ``source``), the case prepared and tracked, the
     summary and table printed, the files written, judged."""
     from planning.scenario import load_scenario
-    from sim.cli.job_outputs import plan_outputs, write_outputs
+    from sim.cli.job_outputs import changed_settings, plan_outputs, write_outputs
     from sim.cli.progress import JobBars
     from sim.pipeline.case import load_case_scenario
     from sim.pipeline.simulate import simulate
@@ -580,12 +591,11 @@ def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
 
     runs = parse_runs(args.runs) if args.runs is not None else run_choices()[args.tracker]
     loaded = load_case_scenario(case)  # a robot the scenario does not list stops here
-    case.sensing(loaded)  # so do bad sensor settings
-    case.robot_spec(loaded.robot)  # and a bad supply
+    settings = changed_settings(args, case, loaded, runs)  # so do bad sensor settings and a bad supply
     own = None  # the scenario's own robot names the outputs apart from --robot (a file scenario's too)
     if args.robot is not None:
         own = (case.scenario if not isinstance(case.scenario, str) else load_scenario(case.scenario)).robot
-    outputs = plan_outputs(args, scenario=loaded.name, source=source, own_robot=own)
+    outputs = plan_outputs(args, scenario=loaded.name, source=source, changed=settings, own_robot=own)
     with JobBars(outputs.progress) as bars:
         result = simulate(case, runs, progress=bars)
     record = result.record()

@@ -301,6 +301,40 @@ class Case:
         amcl = AmclConfig().parse(self.amcl) if self.amcl else AmclConfig()
         return LocaliserSetup("amcl", scenario.world, lidar, amcl, self.initial_pose)
 
+    def run_settings(self, scenario: Scenario) -> dict[str, Any]:
+        """What the case's runs depend on besides the scenario and the path's source, resolved: the
+        values the runs use (the robot's sensor profile with the overrides applied, the localiser the robot
+        gets by default, the noise seed ``seed`` stands for), not the settings as written, so two ways of
+        asking for the same runs give the same settings. JSON-ready; names as in the run record.
+
+        Raises:
+            ConfigError: As :meth:`sensing` and :meth:`robot_spec`.
+        """
+        sensing = self.sensing(scenario)
+        spec = self.robot_spec(scenario.robot)
+        pert = self.perturbation
+        source, file = self.trajectory_file, None
+        if source is not None:  # how the file is read; the file itself is the source, named apart
+            file = {k: v for k, v in source.as_dict().items() if k not in ("file", "kind")}
+            file.update(scale=source.scale or 1.0, time_scale=source.time_scale or 1.0)
+        return {
+            "tracker": self.feedback_tracker,
+            "params": repr(self.params) if self.params is not None else None,
+            "gains": dataclasses.asdict(self.gains or FBLGains()),
+            "control_rate_hz": float(self.control_rate),
+            "seed": self.seed,
+            "noise_seed": sensing.seed,
+            "build_seed": self.build_seed,
+            "supply": {
+                k: getattr(spec, k) for k in ("battery_voltage", "max_wheel_speed", "max_speed", "max_yaw_rate")
+            },
+            "sensors": sensing.profile.as_dict(),
+            "localiser": sensing.localiser.as_dict(),
+            "perturbation": pert.as_dict() if pert is not None and not pert.is_nominal else None,
+            "time_limit_s": float(self.planning.time_limit) if self.planner is not None else None,
+            "file": file,
+        }
+
     def tracker_for(self, kind: RunKind) -> str:
         """The tracker a run of ``kind`` uses in this case."""
         return kind.tracker or self.feedback_tracker
