@@ -363,7 +363,7 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
 
     def _search_compiled(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult:
         """:meth:`_search_python` on exact curves, its iterations run by :func:`.connect_kernel.search_chunk`
-        in chunks (the time limit checked between them, every 16 iterations at first)."""
+        in chunks (the time limit checked between them, :meth:`.tree.Budget.spent`)."""
         cfg = self.config
         joined = self._joined_roots(problem, local, budget)
         if joined is not None:
@@ -374,15 +374,14 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
         geometry = (local.rho, local.sample_step, local.step_range)
         rs = local.curves.kind == "reeds_shepp"
         search = CompiledSearch(chk, rs, geometry, problem, cfg.goal_bias, cfg.connect_steps)
-        chunk, it = 16, 0
+        it = 0
         while not budget.spent(it):
-            what, a, b = search.run(rng, min(it + chunk, cfg.max_iterations))
+            what, a, b = search.run(rng, min(budget.next_check, cfg.max_iterations))
             it = search.iterations
             if what == JOINED:
                 path, dirs = search.path(a, b)
                 stats = self._stats(budget, it, search.nodes)
                 return self._result(PlanStatus.SUCCESS, path, dirs, "", stats, search.plan_tree())
-            chunk = min(2 * chunk, 256)
         ta, tb = search.trees()
         path, d, _ = self._partial(ta, problem)
         reason = f"{budget.why(it)}; the trees did not meet (partial path from the start tree)"
