@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from control.fbl import FBLGains
-from planning.errors import ConfigError
+from planning.errors import ConfigError, option
 
 GAIN_KEYS = ("kp", "kd", "xi_min")
 
@@ -124,7 +124,10 @@ def resolve_gains(text: str) -> FBLGains:
     if p.suffix == ".toml" or p.exists():
         return load_gains_file(p).gains
     if "," not in text:
-        raise ConfigError(f"--gains {text!r}: neither 'KP,KD' (e.g. 9,6) nor an existing gains file (.toml)")
+        raise ConfigError(
+            f"{option('gains', text, python='resolve_gains({})')}: neither 'KP,KD' (e.g. 9,6) nor an existing gains "
+            "file (.toml)"
+        )
     return FBLGains.parse(text)
 
 

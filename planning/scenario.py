@@ -32,7 +32,7 @@ from planning.core.robot import MODELS_DIR, ROBOT_FILES, RobotSpec, load_robot
 from planning.core.scenario_type import DEFAULT_HEADING_TOLERANCE, DEFAULT_POSITION_TOLERANCE, Scenario
 from planning.core.tables import TableReader
 from planning.core.world import MAX_WORLD_SIDE, Box, Circle, Ellipse, Obstacle, Polygon, World, too_thin
-from planning.errors import ConfigError, ScenarioError
+from planning.errors import ConfigError, ScenarioError, option
 
 SCENARIOS_DIR = MODELS_DIR / "scenarios"
 #: The name of a generated world (:func:`random_scenario`): ``random`` and its seed.
@@ -363,7 +363,7 @@ def scenario_with_robot(scenario: Scenario, robot: str | None, *, ends: bool = T
     if robot is not None and robot not in scenario.robots:
         raise ConfigError(
             f"robot {robot!r} is not one of scenario {scenario.name!r}'s robots ({', '.join(scenario.robots)}): "
-            f"choose one of them with --robot, or a scenario that lists {robot}"
+            f"choose one of them with {option('robot')}, or a scenario that lists {robot}"
         )
     chosen = scenario if robot is None else scenario.with_robot(robot)
     if ends:

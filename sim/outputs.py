@@ -15,7 +15,8 @@ from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
-from planning.errors import ConfigError, OutputExistsError
+from planning.core.checks import check_flag
+from planning.errors import ConfigError, OutputExistsError, option
 from planning.signals import signals_held
 
 #: Whether an existing file may be replaced: a flag, or a question asked of the path each time it is
@@ -49,11 +50,13 @@ def check_writable(path: Path, *, overwrite: bool) -> None:
 
     Raises:
         OutputExistsError: ``path`` exists and overwriting was not asked for.
-        ConfigError: ``path`` is a folder, a file stands where one of its folders should be, its
+        ConfigError: ``overwrite`` is not True or False (a string such as ``"no"`` is refused, not read as
+            true), ``path`` is a folder, a file stands where one of its folders should be, its
             folder (or the nearest existing one above it) does not accept new files, or its name, its
             temporary name (:func:`atomic_path`) or either's whole path is longer than the file
             system takes (NAME_MAX, PATH_MAX).
     """
+    overwrite = check_flag("overwrite", overwrite)
     path = Path(path)
     _check_length(path)
     if path.is_dir():
@@ -122,8 +125,7 @@ def _check_length(path: Path) -> None:
 def _check_absent(path: Path, *, overwrite: bool) -> None:
     if path.exists() and not overwrite:
         raise OutputExistsError(
-            f"{path} exists already; pass --overwrite to replace it (overwrite=True from Python), or choose "
-            "another path"
+            f"{path} exists already; pass {option('overwrite', True)} to replace it, or choose another path"
         )
 
 
@@ -160,7 +162,12 @@ def atomic_path(path: str | Path, *, overwrite: Overwrite = False) -> Iterator[P
     untouched. ``overwrite`` is asked before the work and again before the rename (:data:`Overwrite`).
     """
     target = Path(path)
-    allowed = overwrite if callable(overwrite) else (lambda _: bool(overwrite))
+    allowed: Callable[[Path], bool]
+    if callable(overwrite):
+        allowed = overwrite
+    else:  # a flag, not read for its truth ("no" is true): True or False, else a ConfigError
+        flag = check_flag("overwrite", overwrite)
+        allowed = lambda _: flag
     check_writable(target, overwrite=allowed(target))
     prefix, suffix = _temporary_affixes(target)
     tmp: Path | None = None

@@ -50,3 +50,30 @@ def test_the_wrong_kind_of_argument_is_named_not_an_attribute_error_deep_inside(
         with pytest.raises(ConfigError, match=r"obstacle"):
             World((0, 5, 0, 5), bad)  # type: ignore[arg-type]
     assert len(World((0, 5, 0, 5), (o for o in [Circle((1, 1), 0.5)])).obstacles) == 1  # any iterable
+
+
+def test_a_0d_array_is_refused_by_the_shared_number_checks_with_how_to_pass_it() -> None:
+    """A 0-d numpy array (``np.array(0.5)``, ``np.squeeze`` of one value) is no ``numbers.Real``: the shared
+    checks refused it as "not a finite number, got array(0.5)", which reads as a number. They still refuse it
+    (some twenty modules check numbers inline; taking it in two helpers only would make the API uneven), now
+    saying what it is and to pass float(x). What numpy's own reductions and indexing return are scalars, taken."""
+    from planning.core.checks import check_number
+    from planning.planners.sampling.rrt import TreeConfig
+    from sim.physics.perturb import Perturbation
+
+    arr = np.array([0.25, 0.5])
+    for scalar in (np.float64(0.5)[()], np.mean(arr), arr[1], np.linalg.norm([0.3, 0.4]), np.array(0.5) * 1):
+        assert TreeConfig(goal_bias=scalar).goal_bias == float(scalar) and type(TreeConfig().goal_bias) is float
+        assert Perturbation(friction=scalar).friction == float(scalar)
+    hint = r"got a 0-d numpy array \(array\(0\.5\)\); pass float\(x\)$"
+    for zero_d in (np.array(0.5), np.squeeze(arr[1:])):
+        with pytest.raises(ConfigError, match=r"^goal_bias must be a finite number, " + hint):
+            TreeConfig(goal_bias=zero_d)
+        with pytest.raises(ConfigError, match=r"^perturbation friction must be a finite number, " + hint):
+            Perturbation(friction=zero_d)
+    with pytest.raises(ConfigError, match=r"must be an integer, got a 0-d numpy array \(array\(3\)\); pass int\(x\)$"):
+        TreeConfig(max_iterations=np.array(3))
+    with pytest.raises(ConfigError, match=r"must be an integer, got a 0-d numpy array \(array\(3\.5\)\)$"):
+        check_number("n", np.array(3.5), integer=True)  # no int(x) advice: it would cut 3.5 to 3
+    with pytest.raises(ConfigError, match=r"got array\(\[0\.5\]\)$"):  # a 1-element array stays an array
+        check_number("x", np.array([0.5]))

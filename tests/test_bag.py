@@ -58,7 +58,8 @@ def expected_counts(result: Any) -> dict[str, int]:
         for name in PER_SAMPLE:
             counts[f"/{kind}/{name}"] = log.t.size
         est = log.estimation
-        counts[f"/{kind}/odom"] = est.t.size if est is not None else log.t.size
+        # the control instants from the start through the run's end (here the control rate is the log rate)
+        counts[f"/{kind}/odom"] = log.t.size
         counts[f"/{kind}/robot"] = 1
         if est is not None and est.fix_t.size and est.source != "odometry":  # dead reckoning localises nothing
             counts[f"/{kind}/fix"] = est.fix_t.size
@@ -140,6 +141,22 @@ def test_tf_puts_base_footprint_at_the_true_pose_and_ground_truth_ends_at_the_fi
         joints = msgs[f"/{kind}/joint_states"][-1][1]
         assert list(joints.name) == ["wheel_left_joint", "wheel_right_joint"]
         assert list(joints.velocity) == pytest.approx(list(log.wheel_speed[-1]), abs=0.0)
+
+
+def test_odom_runs_from_the_first_logged_sample_to_the_last_with_tf(job: tuple[Any, Path]) -> None:
+    """Each run's /RUN/odom is stamped at every control instant through the run's end, as /RUN/tf and the
+    other per-sample topics: the estimator's record stops a period early (it runs at the start of each
+    period), and the last sample publishes its last estimate held, as tf's odom -> base_footprint then."""
+    result, path = job
+    _, msgs, _ = read_rosbags(path)
+    for kind, log in result.logs.items():
+        odom, tf = msgs[f"/{kind}/odom"], msgs[f"/{kind}/tf"]
+        assert [t for t, _ in odom] == [round(float(t) * 1e9) for t in log.t], kind
+        rate = float(log.meta["control_rate_hz"])
+        assert len(odom) == round(float(log.t[-1] - log.t[0]) * rate) + 1, kind
+        p, b = odom[-1][1].pose.pose, tf[-1][1].transforms[1].transform
+        assert (p.position.x, p.position.y) == pytest.approx((b.translation.x, b.translation.y), abs=1e-12), kind
+        assert _wrap(_yaw(p.orientation) - _yaw(b.rotation)) == pytest.approx(0.0, abs=1e-12), kind
 
 
 def test_the_mcap_library_reads_the_same_counts_and_final_pose(job: tuple[Any, Path]) -> None:

@@ -95,7 +95,7 @@ def test_the_edumip_keeps_its_fixed_supply() -> None:
     mip = load_robot("edumip")
     assert mip.battery_voltage == 7.4 and Supply.from_model(_model(mip.mjcf)) is None
     assert supplied_robot(mip) is mip
-    with pytest.raises(ConfigError, match=r"fixed supply of 7\.4 V.*drop --motors"):
+    with pytest.raises(ConfigError, match=r'fixed supply of 7\.4 V.*drop --motors \(motors="" from Python\)'):
         supplied_robot(mip, "battery_voltage=7.4")
     assert MotorModel.from_model(build_model(mip).model).battery_voltage == 7.4
 

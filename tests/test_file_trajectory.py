@@ -119,6 +119,7 @@ def test_a_file_through_an_obstacle_is_refused_naming_time_position_and_obstacle
         file_trajectory(imp, ROBOT, world)
     msg = str(info.value)
     assert "enters obstacle 1 (circle about (1.00, 0.30))" in msg and "--allow-collisions" in msg
+    assert "offset=..., scale=..., scenario=..., allow_collisions=True from Python" in msg
     t = float(msg.split("at t = ")[1].split(" s")[0])
     x, y = (float(v) for v in msg.split("at (")[1].split(")")[0].split(", "))
     dense = densify(imp)
@@ -146,11 +147,14 @@ def test_a_file_in_pixels_leaving_the_world_suggests_scale(tmp_path: Path) -> No
     t = np.arange(0.0, 30.0 + 1e-9, 0.5)
     xy = s_curve(t * 20.0 / 30.0)[0] * 100.0  # centimetres
     p = write_csv(tmp_path / "px.csv", {"t": t, "x": xy[:, 0], "y": xy[:, 1]})
-    with pytest.raises(TrajectoryFileError, match=r"leaves the world across the wall y = 1 at t = .*give --scale"):
+    with pytest.raises(
+        TrajectoryFileError,
+        match=r"leaves the world across the wall y = 1 at t = .*e\.g\. --scale 0\.01 \(scale=0\.01 from Python\)",
+    ):
         file_trajectory(read_trajectory_file(TrajectoryFile(p)), ROBOT, WORLD)
     res = file_trajectory(read_trajectory_file(TrajectoryFile(p, scale=0.01)), ROBOT, WORLD)
     assert res.success
-    with pytest.raises(TrajectoryFileError, match=r"more than the 50 m an arena is built for.*--scale"):
+    with pytest.raises(TrajectoryFileError, match=r"more than the 50 m an arena is built for.*--scale 0\.01 \(scale="):
         arena_scenario(read_trajectory_file(TrajectoryFile(p, scale=1.0 / 0.3)), ROBOT)
 
 

@@ -96,7 +96,7 @@ def test_repeated_stamps_at_one_position_merge_and_say_so(tmp_path: Path) -> Non
 @pytest.mark.parametrize(
     ("t", "needles"),
     [
-        ([0.0, 1.0, 1.0, 2.0], ["line 3 -> line 4", "t = 1 s", "--path"]),
+        ([0.0, 1.0, 1.0, 2.0], ["line 3 -> line 4", "t = 1 s", "--path (timed=False from Python)"]),
         ([0.0, 1.0, 0.5, 2.0], ["line 3 -> line 4", "goes back"]),
     ],
 )
@@ -115,12 +115,16 @@ def test_stamps_repeated_at_two_positions_or_going_back_are_errors_naming_the_ro
     [
         ({"t": [0.0, 1.0], "x": [0.0, 1.0]}, True, "no column y"),
         ({"t": [0.0, 1.0], "y": [0.0, 1.0]}, True, "no column x"),
-        ({"x": [0.0, 1.0], "y": [0.0, 1.0]}, True, "use --path"),
+        ({"x": [0.0, 1.0], "y": [0.0, 1.0]}, True, r"use --path \(timed=False from Python\)"),
         ({"t": [0.0, 1.0, 2.0], "x": [0.5, 0.5, 0.5], "y": [1.0, 1.0, 1.0]}, True, "two distinct positions"),
         ({"x": [0.5, 0.5], "y": [1.0, 1.0]}, False, "two distinct positions"),
         ({"t": [0.0, 1.0], "x": [0.0, 1.0], "y": [0.0, 1.0], "vx": [0.0, 0.0]}, True, "vx and vy come together"),
         ({"t": [0.0, 36000.0], "x": [0.0, 1.0], "y": [0.0, 1.0]}, True, "--time-scale 0.001"),
-        ({"t": [0.0, 2e10], "x": [0.0, 1.0], "y": [0.0, 1.0]}, True, "counts nanoseconds, give --time-scale 1e-09"),
+        (
+            {"t": [0.0, 2e10], "x": [0.0, 1.0], "y": [0.0, 1.0]},
+            True,
+            r"nanoseconds, .* --time-scale 1e-09 \(time_scale=1e-09 from Python\)",
+        ),
         # 0.1 mm/s all along: a clock in ms read as seconds (tracked, the closed loop ended 11 cm and 2.1 rad off)
         ({"t": [0.0, 1000.0, 2000.0], "x": [0.0, 0.1, 0.2], "y": [0.0] * 3}, True, "counts as standing.*0.001"),
     ],
@@ -146,7 +150,10 @@ def test_positions_scaled_or_moved_out_of_reach_are_refused_without_overflowing(
 
 def test_a_clock_scaled_too_little_is_told_the_scale_that_fits(tmp_path: Path) -> None:
     p = write_csv(tmp_path / "ns.csv", {"t": np.array([0.0, 2e10]), "x": np.array([0.0, 1.0]), "y": np.zeros(2)})
-    with pytest.raises(TrajectoryFileError, match=r"2e\+07 s at --time-scale 0\.001.*give --time-scale 1e-09"):
+    with pytest.raises(
+        TrajectoryFileError,
+        match=r"2e\+07 s at --time-scale 0\.001 \(time_scale=0\.001 from Python\).*\(time_scale=1e-09 from Python\)",
+    ):
         read_trajectory_file(TrajectoryFile(p, time_scale=0.001))
     assert read_trajectory_file(TrajectoryFile(p, time_scale=1e-9)).t[-1] == pytest.approx(20.0)
 
@@ -289,7 +296,7 @@ def test_option_parsers() -> None:
             parse_offset(bad)
     with pytest.raises(TrajectoryFileError, match="valid names are t, x, y, theta"):
         parse_columns("t,x,z")
-    with pytest.raises(TrajectoryFileError, match="--scale"):
+    with pytest.raises(TrajectoryFileError, match=r"--scale \(scale=\.\.\. from Python\) must be a finite number"):
         TrajectoryFile(Path("a.csv"), scale=0.0)
 
 

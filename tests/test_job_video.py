@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -72,3 +73,18 @@ def test_writing_a_video_builds_no_simulator(tmp_path: Path, monkeypatch: pytest
     facts = write_video(job, tmp_path / "job.mp4", RenderSettings(width=160, height=120, fps=10))
     assert facts["frames"] > 0 and (tmp_path / "job.mp4").stat().st_size > 0
     assert seen == [job.model]
+
+
+@pytest.mark.parametrize("flag", ["no", "False", 0, 1, None])
+def test_write_video_refuses_an_overwrite_that_is_not_true_or_false(tmp_path: Path, flag: object) -> None:
+    """``overwrite="no"`` is truthy: read for its truth it replaced the video; a flag must be True or False."""
+    require_gl()
+    from planning.errors import ConfigError
+    from sim.viz.job_video import write_video
+    from sim.viz.replay import RenderSettings
+
+    out = tmp_path / "job.mp4"
+    out.write_bytes(b"keep me")
+    with pytest.raises(ConfigError, match=re.escape(f"overwrite must be True or False, got {flag!r}")):
+        write_video(_job(BUILD_SEED), out, RenderSettings(width=160, height=120, fps=10), overwrite=flag)  # type: ignore[arg-type]
+    assert out.read_bytes() == b"keep me" and sorted(p.name for p in tmp_path.iterdir()) == ["job.mp4"]

@@ -164,11 +164,11 @@ def test_bad_input_is_refused_clearly(
 ) -> None:
     import sim.tools.executor as executor
 
-    with pytest.raises(ConfigError, match="--runs must be a whole number >= 1"):
+    with pytest.raises(ConfigError, match=r"--runs \(runs=\.\.\. from Python\) must be a whole number >= 1"):
         _spec(runs=0)
     assert main(["montecarlo", "--scenario", "open", "--reference", "line", "--runs", "0", "--jobs", "1"]) == 2
     assert "--runs" in capsys.readouterr().err
-    with pytest.raises(ConfigError, match="--jobs must be >= 1"):
+    with pytest.raises(ConfigError, match=r"--jobs \(jobs=\.\.\. from Python\) must be >= 1"):
         make_executor(0)
     monkeypatch.setattr(executor, "CONNECT_TIMEOUT_S", 1)  # its 10 s, shortened: nothing listens there
     start = time.monotonic()
@@ -396,7 +396,7 @@ def test_more_runs_than_distinct_draws_are_refused(capsys: pytest.CaptureFixture
     from sim.tools.tune import MAX_DRAWS
 
     assert main(["montecarlo", "--reference", "line", "--runs", str(MAX_DRAWS + 1), "--jobs", "1"]) == 2
-    assert f"--runs must be at most {MAX_DRAWS}" in capsys.readouterr().err
+    assert f"--runs (runs=... from Python) must be at most {MAX_DRAWS}" in capsys.readouterr().err
 
 
 def test_refused_input_leaves_no_results_file_and_outputs_are_checked_before_any_run(

@@ -158,6 +158,24 @@ def test_simulate_records_every_run_and_the_robot_it_built(tmp_path: Path) -> No
     assert rec["build_seed"] is None and rec["as_built"]["left_radius_scale"] == 1.0
 
 
+def test_the_record_names_a_localiser_only_when_a_run_localised(tmp_path: Path) -> None:
+    """Only a closed loop on the fused estimate localises: a job of open loop or dead reckoning (whose fixes
+    only score its estimate) leaves the record's ``localiser`` out, as the record leaves out what did not
+    apply, rather than describe the TurtleBot3's AMCL that never ran; nor does simulate's summary."""
+    from sim.pipeline.simulate import simulate_reference
+
+    for runs in (("open_loop",), ("closed_loop_odometry", "closed_loop_truth")):
+        job = simulate_reference("open", reference="line", runs=runs)
+        assert "localiser" not in job.record(), runs
+    job = simulate_reference("open", reference="line", runs=("open_loop", "closed_loop"))
+    assert job.record()["localiser"]["kind"] == "amcl"
+    out = tmp_path / "run.json"
+    r = nhsim("simulate", "--reference", "line", "--runs", "open_loop", "--json", str(out), "--no-video", "--no-plots")
+    assert r.returncode == 0, r.stderr
+    assert "localiser" not in json.loads(out.read_text())
+    assert "no run localised" in r.stdout and "AMCL" not in r.stdout
+
+
 @pytest.mark.parametrize(
     ("args", "needle"),
     [

@@ -250,6 +250,7 @@ def test_a_bad_case_field_is_refused_at_load_naming_file_case_field_and_form(
     assert message.startswith(f"{path} case 1 (") and f": {key} = {value}: " in message, message
     assert re.search(says, message), message
     assert not re.search(r"--[a-z]", message), message  # the suite's fields, not the command line's options
+    assert "from Python" not in message, message  # nor the Python forms beside them
 
 
 def test_a_planned_case_needs_a_planner_the_scenario_lacks_and_labels_are_readable(tmp_path: Path) -> None:
@@ -364,7 +365,7 @@ def test_a_suite_with_no_fast_case_refuses_the_default_run_that_would_check_noth
 
 def test_every_case_pattern_must_match_and_an_empty_one_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
     good = SUITE.cases[0].name
-    with pytest.raises(ConfigError, match=r"--case typo\* matches no case"):
+    with pytest.raises(ConfigError, match=r"--case 'typo\*' \(patterns=\[\"typo\*\"\] from Python\) matches no case"):
         SUITE.select([good, "typo*"])  # the good one alone would have run, and passed
     assert [c.name for c in SUITE.select([good])] == [good]
     with pytest.raises(SystemExit) as info:  # argparse refuses an empty value as it parses

@@ -113,7 +113,7 @@ def test_no_backend_is_one_clear_error(monkeypatch: pytest.MonkeyPatch) -> None:
     m = mujoco.MjModel.from_xml_string("<mujoco><worldbody/></mujoco>")
     with pytest.raises(DependencyError, match="apt-get install libosmesa6") as err:
         SceneRenderer(m, 16, 16)
-    assert "--no-video" in str(err.value)
+    assert "--no-video (no write_video call from Python)" in str(err.value)
     assert SceneRenderer._open == 0
 
 

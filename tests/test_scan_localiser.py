@@ -33,14 +33,22 @@ def test_the_turtlebot3_localises_on_its_scans_by_default_and_the_edumip_keeps_i
     with pytest.raises(ConfigError, match="lidar range_max"):
         Case("open", reference="line", lidar="range_max=8").localiser_setup(sc)
     # with fixes no scan is taken: scanner and localiser settings are refused, not ignored
-    with pytest.raises(ConfigError, match="--lidar needs --localiser amcl"):
+    with pytest.raises(
+        ConfigError,
+        match=r"--lidar \(lidar=\.\.\. from Python\) needs the amcl localiser.*"
+        r'--localiser amcl \(localiser="amcl" from Python\)',
+    ):
         Case("open", reference="line", localiser="fixes", lidar="beams=180").localiser_setup(sc)
-    with pytest.raises(ConfigError, match=r"--amcl, --initial-pose unknown need --localiser amcl.*drop them"):
+    with pytest.raises(
+        ConfigError,
+        match=r'--amcl and --initial-pose unknown \(amcl=\.\.\., initial_pose="unknown" '
+        r"from Python\) need the amcl localiser.*drop them",
+    ):
         Case(
             "open", reference="line", localiser="fixes", amcl="max_particles=100", initial_pose="unknown"
         ).localiser_setup(sc)
     # a bare rectangle looks the same from a pose and its half-turn twin: global localisation is refused
-    with pytest.raises(ConfigError, match=r"a bare rectangle of walls.*--initial-pose known"):
+    with pytest.raises(ConfigError, match=r'a bare rectangle of walls.*--initial-pose known \(initial_pose="known" '):
         Case("open", reference="line", initial_pose="unknown").localiser_setup(sc)
     with pytest.raises(ConfigError, match="unknown localiser 'gps'"):
         Case("open", reference="line", localiser="gps")

@@ -183,3 +183,28 @@ def test_an_unfinished_output_leaves_no_folder_it_made(tmp_path: Path) -> None:
     assert [p.relative_to(tmp_path) for p in tmp_path.rglob("*")] == [Path("renders"), Path("renders/other.json")]
     write_json(tmp_path / "a" / "b" / "y.json", {"done": 1})  # a finished one keeps the folders it made
     assert (tmp_path / "a" / "b" / "y.json").is_file()
+
+
+@pytest.mark.parametrize("flag", ["no", "yes", 0, 1, None, 0.0])
+def test_every_writer_refuses_an_overwrite_that_is_not_true_or_false(tmp_path: Path, flag: object) -> None:
+    """Every output goes through :func:`sim.outputs.atomic_path` (or the bag's own target check), which once
+    read ``overwrite`` for its truth: ``"no"`` replaced the file. A flag is True or False (a numpy bool too)."""
+    from sim.io.bag import check_bag_target
+    from sim.outputs import atomic_path, check_writable, write_json
+
+    out = tmp_path / "v.mp4"
+    out.write_bytes(b"keep me")
+    refused = pytest.raises(ConfigError, match=r"^overwrite must be True or False, got ")
+    with refused:
+        VideoWriter(out, 96, 64, 10.0, overwrite=flag)  # type: ignore[arg-type]
+    with refused:
+        write_json(out, {}, overwrite=flag)  # type: ignore[arg-type]
+    with refused, atomic_path(out, overwrite=flag):  # type: ignore[arg-type]
+        pass
+    with refused:
+        check_writable(out, overwrite=flag)  # type: ignore[arg-type]
+    with refused:
+        check_bag_target(tmp_path / "bag", overwrite=flag)  # type: ignore[arg-type]
+    assert out.read_bytes() == b"keep me" and [p.name for p in tmp_path.iterdir()] == ["v.mp4"]
+    write_json(out, {"kept": False}, overwrite=np.True_)
+    assert out.read_text() == '{\n  "kept": false\n}\n'

@@ -71,7 +71,7 @@ from numpy.typing import ArrayLike, NDArray
 from control.estimation import amcl_kernels as K
 from planning.collision.field import signed_distances
 from planning.core.world import World
-from planning.errors import ConfigError
+from planning.errors import ConfigError, option
 
 FloatArray = NDArray[np.float64]
 
@@ -154,7 +154,9 @@ class AmclConfig:
         for f in fields(self):
             v = getattr(self, f.name)
             if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v) or v < 0:
-                raise ConfigError(f"amcl {f.name} must be a finite number >= 0, got {v!r}; e.g. --amcl {EXAMPLE}")
+                raise ConfigError(
+                    f"amcl {f.name} must be a finite number >= 0, got {v!r}; e.g. {option('amcl', EXAMPLE)}"
+                )
         for name in ("max_beams", "min_particles", "max_particles", "resample_interval", "refine"):
             if getattr(self, name) != int(getattr(self, name)):
                 raise ConfigError(f"amcl {name} must be a whole number, got {getattr(self, name)!r}")
@@ -223,10 +225,10 @@ class AmclConfig:
             try:
                 table[key.strip()] = float(value) if sep else float("nan")
             except ValueError as exc:
-                raise ConfigError(f"--amcl {text!r}: {key.strip()} must be a number, got {value!r}") from exc
+                raise ConfigError(f"{option('amcl', text)}: {key.strip()} must be a number, got {value!r}") from exc
             if not sep:
-                raise ConfigError(f"--amcl {text!r}: expected key=value pairs, e.g. {EXAMPLE}; got {part!r}")
-        return self.override(table, "--amcl")
+                raise ConfigError(f"{option('amcl', text)}: expected key=value pairs, e.g. {EXAMPLE}; got {part!r}")
+        return self.override(table, option("amcl", text))
 
     def as_dict(self) -> dict[str, float]:
         """Plain-dict view for records."""
@@ -279,8 +281,8 @@ def likelihood_field(world: World, resolution: float, cap: float, clearance: flo
         raise ConfigError(
             f"the scan localiser's likelihood field of this {world.width:g} x {world.height:g} m world at "
             f"map_resolution {resolution:g} m has {nx * ny:.3g} cells, more than the {MAX_FIELD_CELLS:.3g} it "
-            f"builds (about {100 * nx * ny / 1e9:.3g} GB); localise on a coarser map (--amcl map_resolution={fits:g}) "
-            "or with the synthetic fixes (--localiser fixes)"
+            f"builds (about {100 * nx * ny / 1e9:.3g} GB); localise on a coarser map, "
+            f"{option('amcl', f'map_resolution={fits:g}')}, or with the synthetic fixes, {option('localiser', 'fixes')}"
         )
     xx, yy = np.meshgrid(xmin + resolution * np.arange(nx), ymin + resolution * np.arange(ny), indexing="ij")
     pts = np.ascontiguousarray(np.column_stack([xx.ravel(), yy.ravel()]))

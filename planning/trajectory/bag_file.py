@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from planning.errors import option
 from planning.trajectory.file_formats import (
     FileTable,
     TrajectoryFileError,
@@ -80,7 +81,8 @@ def _messages(reader: Any, path: Path, topic: str, timed: bool) -> tuple[str, li
     """The topic's type and its deserialised messages, checked."""
     if topic not in reader.topics:
         raise TrajectoryFileError(
-            f"{path}: no topic {topic!r}; the bag has {_topics_text(reader) or 'no topics'}: name one with --topic"
+            f"{path}: no topic {topic!r}; the bag has {_topics_text(reader) or 'no topics'}: name one with "
+            f"{option('topic')}"
         )
     msgtype = reader.topics[topic].msgtype or ""
     wanted = (PATH_TYPE, *MOTION_TYPES) if timed else (PATH_TYPE,)
@@ -89,7 +91,7 @@ def _messages(reader: Any, path: Path, topic: str, timed: bool) -> tuple[str, li
         if timed:
             use = "a nav_msgs/Path, nav_msgs/Odometry or geometry_msgs/PoseStamped topic (e.g. /odom)"
         elif msgtype in MOTION_TYPES:
-            use += f", or read the recorded motion of {topic} with --trajectory"
+            use += f", or read the recorded motion of {topic} with {option('trajectory', python='timed=True')}"
         what = "a path or a recorded motion" if timed else "a path"
         raise TrajectoryFileError(f"{path}: topic {topic} carries {_name(msgtype)}, not {what}; give {use}")
     conns = [c for c in reader.connections if c.topic == topic]
@@ -154,7 +156,8 @@ def read_bag_table(path: Path, topic: str | None, message: int | None = None, *,
     try:
         if topic is None:
             raise TrajectoryFileError(
-                f"{path} is a bag: name the topic to read with --topic; it has {_topics_text(reader) or 'no topics'}"
+                f"{path} is a bag: name the topic to read with {option('topic')}; it has "
+                f"{_topics_text(reader) or 'no topics'}"
             )
         msgtype, msgs = _messages(reader, path, topic, timed)
     finally:
@@ -163,19 +166,23 @@ def read_bag_table(path: Path, topic: str | None, message: int | None = None, *,
         k = len(msgs) - 1 if message is None else message
         if not -len(msgs) <= k < len(msgs):
             raise TrajectoryFileError(
-                f"{path}: --message {message} but topic {topic} holds {len(msgs)} message(s); give 0 to "
+                f"{path}: {option('message', message)} but topic {topic} holds {len(msgs)} message(s); give 0 to "
                 f"{len(msgs) - 1} (or -1 for the last)"
             )
         k %= len(msgs)
         path_msg = msgs[k]
         if not path_msg.poses:
-            raise TrajectoryFileError(f"{path}: message {k} of {topic} is an empty path; choose another with --message")
+            raise TrajectoryFileError(
+                f"{path}: message {k} of {topic} is an empty path; choose another with {option('message')}"
+            )
         rows = tuple(f"{topic} message {k} poses[{i}]" for i in range(len(path_msg.poses)))
         stamps = [_nanoseconds(p.header.stamp) for p in path_msg.poses]
         cols = _columns(path, [p.pose for p in path_msg.poses], stamps, rows)
     else:
         if message is not None:
-            raise TrajectoryFileError(f"--message picks one nav_msgs/Path; {topic} carries {_name(msgtype)}: drop it")
+            raise TrajectoryFileError(
+                f"{option('message')} picks one nav_msgs/Path; {topic} carries {_name(msgtype)}: drop it"
+            )
         rows = tuple(f"{topic} message {i}" for i in range(len(msgs)))
         cols = _columns(
             path, [_pose_of(mm, msgtype) for mm in msgs], [_nanoseconds(mm.header.stamp) for mm in msgs], rows

@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from planning.errors import ConfigError
+from planning.errors import ConfigError, option
 
 FloatArray = NDArray[np.float64]
 
@@ -134,7 +134,7 @@ def parse_column_names(names: Sequence[str], where: str) -> tuple[str, ...]:
 
     Args:
         names: The names (spaces around them and case are ignored).
-        where: How the message names their source (the file, or "--columns").
+        where: How the message names their source (the file, or ``option("columns")``, :func:`~planning.errors.option`).
 
     Raises:
         TrajectoryFileError: An unknown or repeated name (the message lists the valid ones).
@@ -144,7 +144,7 @@ def parse_column_names(names: Sequence[str], where: str) -> tuple[str, ...]:
     if unknown:
         raise TrajectoryFileError(
             f"{where}: unknown column name(s) {', '.join(repr(n) for n in unknown)}; valid names are "
-            f"{_valid_names()} ({SKIP} skips a column); rename them in the header or give --columns"
+            f"{_valid_names()} ({SKIP} skips a column); rename them in the header or give {option('columns')}"
         )
     named = [n for n in out if n != SKIP]
     twice = sorted({n for n in named if named.count(n) > 1})
@@ -190,8 +190,8 @@ def read_table(path: str | Path, columns: Sequence[str] | None = None) -> FileTa
     if suffix in (".json", ".yaml", ".yml"):
         if columns is not None:
             raise TrajectoryFileError(
-                f"{p}: --columns names the columns of a text file; a {suffix[1:].upper()} file names its "
-                "own fields: drop --columns"
+                f"{p}: {option('columns')} names the columns of a text file; a {suffix[1:].upper()} file names "
+                "its own fields: drop it"
             )
         data = _load_json(p, text) if suffix == ".json" else _load_yaml(p, text)
         return _from_document(p, data, "json" if suffix == ".json" else "yaml")
@@ -257,15 +257,16 @@ def _read_text(p: Path, text: str, columns: Sequence[str] | None) -> FileTable:
     first = _split(lines[:1], delimiter)[0][1]
     has_header = not _is_numeric_row(first, delimiter)
     if columns is not None:
-        names = parse_column_names(columns, "--columns")
+        names = parse_column_names(columns, option("columns"))
     elif has_header:
         trail = delimiter is not None and lines[0][1].endswith(delimiter) and not first[-1].strip()
         names = parse_column_names(first[:-1] if trail else first, f"{p}, header (line {lines[0][0]})")
         names = (*names, "") if trail else names
     else:
+        example = option("columns", "t,x,y", python='columns=("t", "x", "y")')
         raise TrajectoryFileError(
             f"{p}: the first row (line {lines[0][0]}) is numbers, not a header naming the columns: add a header "
-            f"or give --columns (e.g. --columns t,x,y; names {_valid_names()}; {SKIP} skips a column)"
+            f"or name the columns, e.g. {example} (names {_valid_names()}; {SKIP} skips a column)"
         )
     body = lines[1:] if has_header else lines
     if not body:
@@ -313,7 +314,7 @@ def _numbers(p: Path, body: list[tuple[int, list[str]]], names: tuple[str, ...])
         if len(cells) != len(names):
             raise TrajectoryFileError(
                 f"{p}: line {n} has {len(cells)} cells but {len(names)} columns are named ({', '.join(names)}); "
-                "give every row the same cells, or name the columns with --columns"
+                f"give every row the same cells, or name the columns with {option('columns')}"
             )
     keep = [j for j, name in enumerate(names) if name != SKIP]
     where = str(p)

@@ -33,6 +33,7 @@ from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import RobotSpec
 from planning.core.scenario_type import Scenario
 from planning.core.world import World
+from planning.errors import option, options
 from planning.planners.base import PlanResult, PlanStatus
 from planning.trajectory.file_formats import TrajectoryFileError
 from planning.trajectory.from_plan import TrajectoryResult, TrajectoryStatus, make_trajectory, time_scales
@@ -283,7 +284,7 @@ def _culprit(world: World, xy: FloatArray) -> tuple[bool, str]:
 
 
 def _pixel_hint(imported: ImportedFile, world: World) -> str:
-    """A hint to give --scale when the file was read in its own units and is several times larger than the
+    """A hint to give a scale when the file was read in its own units and is several times larger than the
     world (a file in metres that is a little too large is not in pixels)."""
     if imported.source.scale is not None:
         return ""
@@ -292,7 +293,8 @@ def _pixel_hint(imported: ImportedFile, world: World) -> str:
         return ""
     return (
         f"; the file spans {span[0]:.4g} x {span[1]:.4g} units but the world is {world.width:g} x {world.height:g} m: "
-        "if its units are pixels (or millimetres), give --scale (metres per unit, e.g. --scale 0.01 for 1 cm per pixel)"
+        f"if its units are pixels (or millimetres), give the metres per unit, e.g. {option('scale', 0.01)} for 1 cm "
+        "per pixel"
     )
 
 
@@ -330,10 +332,11 @@ def check_world(
     what = f"leaves the world across {label}" if wall else f"enters {label}"
     finding = f"{imported.source.path}: the robot {what} {when}, at ({x:.3f}, {y:.3f}) m"
     if imported.source.allow_collisions:
-        return finding + " (run anyway: --allow-collisions)"
+        return finding + f"; run anyway, as {option('allow-collisions', True)} asks"
+    fixes = options("offset", "scale", "scenario", ("allow-collisions", True), conjunction="or")
     raise TrajectoryFileError(
-        finding + _pixel_hint(imported, world) + "; move the file with --offset, scale it with --scale, choose "
-        "another --scenario, or run it anyway with --allow-collisions"
+        f"{finding}{_pixel_hint(imported, world)}; move the file, scale it, choose another world, or run it "
+        f"anyway: {fixes}"
     )
 
 
@@ -389,8 +392,8 @@ def arena_scenario(imported: ImportedFile, robot: RobotSpec) -> Scenario:
         span = np.ptp(xy, axis=0)
         raise TrajectoryFileError(
             f"{imported.source.path}: the file spans {span[0]:.4g} x {span[1]:.4g} m, more than the {ARENA_MAX:g} m "
-            "an arena is built for: if its units are pixels (or millimetres), give --scale (metres per unit, e.g. "
-            "--scale 0.01 for 1 cm per pixel), or give the world with --scenario"
+            f"an arena is built for: if its units are pixels (or millimetres), give the metres per unit, e.g. "
+            f"{option('scale', 0.01)} for 1 cm per pixel, or give the world with {option('scenario')}"
         )
     world = World((float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])))
     sc = Scenario(

@@ -40,7 +40,7 @@ from planning.collision.exact import CollisionChecker
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import RobotSpec
 from planning.core.world import World
-from planning.errors import NhsimError
+from planning.errors import NhsimError, option
 from planning.planners.base import PlanResult, PlanStatus
 from planning.trajectory.segments import infer_segments
 from planning.trajectory.smoothing import (
@@ -482,7 +482,7 @@ def _from_timed(plan: PlanResult, path: FloatArray, build: _Build, force: bool |
 
 #: What to try after a failed plan, by its status.
 _FAILED_PLAN_FIX = {
-    PlanStatus.TIMEOUT: "try another seed, a longer --time-limit, or another planner",
+    PlanStatus.TIMEOUT: f"try another seed, a longer {option('time-limit')}, or another planner",
     PlanStatus.INVALID_START: "move the start into free space, or lower the clearance",
     PlanStatus.INVALID_GOAL: "move the goal into free space, or lower the clearance",
     PlanStatus.INFEASIBLE: "widen the way to the goal, lower the clearance, or try another planner",

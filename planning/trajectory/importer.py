@@ -42,6 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.core.geometry import wrap_angle
+from planning.errors import option, options
 from planning.trajectory.file_formats import FileTable, TrajectoryFileError, parse_column_names, read_table
 from planning.trajectory.row_curves import MOVING_SPEED as MOVING_SPEED
 from planning.trajectory.row_curves import SAME_POSITION as SAME_POSITION
@@ -101,12 +102,11 @@ class TrajectoryFile:
         for name in ("scale", "time_scale"):
             value = getattr(self, name)
             if value is not None and not (np.isfinite(value) and value > 0):
-                flag = "--" + name.replace("_", "-")
-                raise TrajectoryFileError(f"{flag} must be a finite number > 0, got {value}")
+                raise TrajectoryFileError(f"{option(name.replace('_', '-'))} must be a finite number > 0, got {value}")
         if len(self.offset) != 3 or not all(np.isfinite(self.offset)):
-            raise TrajectoryFileError(f"--offset must be three finite numbers X,Y,THETA, got {self.offset}")
+            raise TrajectoryFileError(f"{option('offset')} must be three finite numbers X,Y,THETA, got {self.offset}")
         if self.columns is not None:
-            object.__setattr__(self, "columns", parse_column_names(self.columns, "--columns"))
+            object.__setattr__(self, "columns", parse_column_names(self.columns, option("columns")))
 
     @property
     def name(self) -> str:
@@ -332,10 +332,13 @@ def _read_source(source: TrajectoryFile) -> FileTable:
         return read_table(source.path, source.columns)
     if not is_bag(source.path):
         raise TrajectoryFileError(
-            f"{source.path}: --topic and --message read a bag (.mcap, .bag, .db3 or a rosbag2 folder): drop them"
+            f"{source.path}: {options('topic', 'message')} read a bag (.mcap, .bag, .db3 or a rosbag2 folder): "
+            "drop them"
         )
     if source.columns is not None:
-        raise TrajectoryFileError(f"{source.path}: --columns names a text file's columns; a bag's topic names its own")
+        raise TrajectoryFileError(
+            f"{source.path}: {option('columns')} names a text file's columns; a bag's topic names its own"
+        )
     return read_bag_table(source.path, source.topic, source.message, timed=source.timed)
 
 
@@ -345,10 +348,11 @@ def _required(table: FileTable, source: TrajectoryFile, report: ImportReport) ->
     if source.timed and "t" not in cols:
         missing.insert(0, "t")
     if missing:
-        hint = "; a file without time stamps is a path: use --path" if missing == ["t"] else ""
+        hint = f"; a file without time stamps is a path: use {option('path', python='timed=False')}"
+        hint = hint if missing == ["t"] else ""
         raise TrajectoryFileError(
             f"{table.path}: no column {' or '.join(missing)} (columns: {', '.join(cols) or 'none'}); name it in the "
-            f"header or with --columns{hint}"
+            f"header or with {option('columns')}{hint}"
         )
     if len(table) < 2:
         raise TrajectoryFileError(f"{table.path}: {len(table)} row; a trajectory needs at least two positions")
@@ -374,10 +378,11 @@ def _to_metres(cols: dict[str, FloatArray], source: TrajectoryFile) -> dict[str,
         out: dict[str, FloatArray] = {"xy": turn(cols["x"], cols["y"], s) + np.array([ox, oy])}
     far = float(np.max(np.abs(out["xy"]))) if np.all(np.isfinite(out["xy"])) else np.inf
     if far > MAX_COORDINATE:
+        offset = ("offset", f"{ox:g},{oy:g},{oth:g}", f"offset=({ox:g}, {oy:g}, {oth:g})")
         raise TrajectoryFileError(
-            f"{source.path}: after --scale {s:g} and --offset {ox:g},{oy:g},{oth:g} the file's positions reach "
-            f"{far:.3g} m from the origin, more than {MAX_COORDINATE:g} m: give --scale in metres per file unit and "
-            "an --offset that moves the file next to the world"
+            f"{source.path}: after {options(('scale', s), offset)} the "
+            f"file's positions reach {far:.3g} m from the origin, more than {MAX_COORDINATE:g} m: give the scale in "
+            "metres per file unit and an offset that moves the file next to the world"
         )
     if "t" in cols:
         out["t"] = cols["t"] * ts
@@ -455,7 +460,7 @@ def _merge(
             text = _pairs(rows, clash, lambda i: f"(t = {cols['t'][i]:g} s, {step[i]:.4g} m apart)")
             raise TrajectoryFileError(
                 f"{report.file}: one time stamp at two positions: {text}; a robot is not at two places at once: "
-                "fix the stamps, or use --path to ignore them"
+                f"fix the stamps, or use {option('path', python='timed=False')} to ignore them"
             )
     else:
         turn = np.abs(np.diff(cols["theta"])) if "theta" in cols else np.zeros(step.size)
@@ -661,24 +666,25 @@ def _refuse_standing(file: str, t: FloatArray, xy: FloatArray, time_scale: float
     fastest = float(np.max(np.hypot(*np.diff(xy, axis=0).T) / np.diff(t)))  # merged rows: stamps increase
     if fastest >= MOVING_SPEED:
         return
-    given = f" at --time-scale {time_scale:g}" if time_scale != 1.0 else ""
+    given = f" at {option('time-scale', time_scale)}" if time_scale != 1.0 else ""
     raise TrajectoryFileError(
         f"{file}: the trajectory moves at {fastest * 1e3:.3g} mm/s at most{given}, slower than the "
         f"{MOVING_SPEED * 1e3:g} mm/s below which the robot counts as standing: if its clock counts milliseconds, "
-        f"give --time-scale {time_scale * 1e-3:g} (seconds per file time unit)"
+        f"give the seconds per file time unit, {option('time-scale', time_scale * 1e-3)}"
     )
 
 
 def _too_long(file: str, span: float, time_scale: float) -> str:
     """What to say of a file lasting ``span`` seconds (more than MAX_DURATION) at ``time_scale``: the
     first of milli-, micro- and nanoseconds per file time unit that brings it under the limit."""
-    given = f" at --time-scale {time_scale:g}" if time_scale != 1.0 else ""
+    given = f" at {option('time-scale', time_scale)}" if time_scale != 1.0 else ""
     text = f"{file}: the trajectory lasts {span:.6g} s{given}, more than {MAX_DURATION:g} s"
     for power, unit in ((3, "milliseconds"), (6, "microseconds"), (9, "nanoseconds")):
         if span * 10.0**-power <= MAX_DURATION:
             scale = time_scale * 10.0**-power
-            return f"{text}: if its clock counts {unit}, give --time-scale {scale:g} (seconds per file time unit)"
-    return f"{text}: give --time-scale with the seconds per file time unit, or fix the stamps"
+            fix = f"give the seconds per file time unit, {option('time-scale', scale)}"
+            return f"{text}: if its clock counts {unit}, {fix}"
+    return f"{text}: give the seconds per file time unit with {option('time-scale')}, or fix the stamps"
 
 
 def _with_velocities(

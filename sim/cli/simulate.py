@@ -9,7 +9,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from planning.errors import ConfigError
+from planning.errors import ConfigError, option
 from sim.cli.job_outputs import RUN_SETTINGS, add_executor_arguments, add_output_arguments
 from sim.cli.trajectory_files import add_file_arguments, check_file_options, file_given, format_import
 from sim.pipeline.runs import RunKind, run_kinds
@@ -159,7 +159,7 @@ def lidar_overrides(sensors: str | None, lidar: str | None, localiser: str | Non
             LidarProfile(**{key: value})
         except ConfigError as exc:
             raise ConfigError(f"{sensors}: field '[lidar] {key}': {exc}") from exc
-    given = parse_pairs(lidar or "", "--lidar", LIMITS, EXAMPLE)
+    given = parse_pairs(lidar or "", option("lidar", lidar or ""), LIMITS, EXAMPLE)
     return ",".join(f"{k}={v}" for k, v in ({k: str(v) for k, v in table.items()} | given).items())
 
 

@@ -22,7 +22,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from planning.errors import ConfigError, OutputExistsError
+from planning.core.checks import check_flag
+from planning.errors import ConfigError, OutputExistsError, option
 from planning.signals import signals_held
 from sim.io import bag_topics as bt
 from sim.io import rosmsgs as m
@@ -69,24 +70,28 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
 
     Raises:
         OutputExistsError: ``path`` exists and ``overwrite`` is false.
-        ConfigError: ``path`` is a file, or a folder that is not a rosbag2 bag (it is never replaced), or
-            its parent folder cannot take new files.
+        ConfigError: ``overwrite`` is not True or False, ``path`` is a file, or a folder that is not a rosbag2
+            bag (it is never replaced), or its parent folder cannot take new files.
     """
     from sim.outputs import check_folder_for
 
+    overwrite = check_flag("overwrite", overwrite)
     path = Path(path)
     if path.exists() or path.is_symlink():
         if not path.is_dir():
-            raise ConfigError(f"cannot write the bag {path}: a file of that name exists; choose another --bag folder")
+            raise ConfigError(
+                f"cannot write the bag {path}: a file of that name exists; choose another folder with "
+                f"{option('bag', python='path')}"
+            )
         if not overwrite:
             raise OutputExistsError(
-                f"{path} exists already; pass --overwrite to replace it (overwrite=True from Python), or choose "
-                "another --bag"
+                f"{path} exists already; pass {option('overwrite', True)} to replace it, or choose another folder "
+                f"with {option('bag', python='path')}"
             )
         if any(path.iterdir()) and not (path / "metadata.yaml").is_file():
             raise ConfigError(
                 f"cannot replace {path}: it is a folder that holds files but no rosbag2 metadata.yaml, so not a bag "
-                "this command wrote; choose another --bag folder"
+                f"this command wrote; choose another folder with {option('bag', python='path')}"
             )
     check_folder_for(path)
 

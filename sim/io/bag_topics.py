@@ -242,9 +242,13 @@ def _odom_series(
     log: Any, frames: dict[str, str], wheel: Callable[[FloatArray], tuple[FloatArray, FloatArray]]
 ) -> Series:
     """``RUN/odom``: the estimate (at the control instants, or the logged samples without an
-    estimator) with its variances; the twist from the wheel speeds."""
+    estimator) with its variances; the twist from the wheel speeds. The estimator runs at the start
+    of each control period, so its record ends a period before the run does: the run's last logged
+    sample is published too, with the last estimate held (as ``RUN/tf`` has it then)."""
     est = log.estimation
     t = est.t if est is not None and est.t.size else log.t
+    if t[-1] < log.t[-1] - 1e-9:
+        t = np.append(t, log.t[-1])
     pose, var = estimate_at(log, t)
     v, omega = wheel(t)
     return _odometry(t, frames["odom"], frames["base_footprint"], pose, var, v, omega)

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
-from planning.errors import ConfigError, ModelError
+from planning.errors import ConfigError, ModelError, option
 from sim.physics.keyvalue import check_number
 from sim.physics.model import BuiltModel, build_model
 
@@ -115,12 +115,12 @@ def check_build_seed(value: object) -> int:
     """The build seed as an int.
 
     Raises:
-        ConfigError: Not an integer >= 0 (the message names ``--build-seed`` and the fix).
+        ConfigError: Not an integer >= 0 (the message names ``--build-seed``, ``build_seed`` and the fix).
     """
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
         raise ConfigError(
-            f"--build-seed must be an integer >= 0, got {value!r}; pass a whole number, "
-            f"e.g. --build-seed {DEFAULT_BUILD_SEED}"
+            f"{option('build-seed')} must be an integer >= 0, got {value!r}; pass a whole number, e.g. "
+            f"{DEFAULT_BUILD_SEED}"
         )
     return int(value)
 

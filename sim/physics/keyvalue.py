@@ -12,6 +12,7 @@ import math
 import numbers
 from collections.abc import Iterable
 
+from planning.core.checks import given
 from planning.errors import ConfigError
 
 
@@ -20,7 +21,8 @@ def parse_pairs(text: str, what: str, keys: Iterable[str], example: str) -> dict
 
     Args:
         text: The option's text, e.g. ``"friction=0.6,mass=1.3"``.
-        what: The option's name for messages, e.g. ``"--perturb"``.
+        what: The option with its text as messages lead with it, e.g. ``option("perturb", text)``
+            (:func:`planning.errors.option`).
         keys: The keys allowed.
         example: A valid text, quoted in the message when a part is malformed.
 
@@ -40,11 +42,11 @@ def parse_pairs(text: str, what: str, keys: Iterable[str], example: str) -> dict
         key = key.strip()
         if not sep or key not in allowed:
             raise ConfigError(
-                f"{what} {text!r}: expected comma-separated key=value with keys {', '.join(allowed)} "
+                f"{what}: expected comma-separated key=value with keys {', '.join(allowed)} "
                 f"(e.g. {example}), got {part!r}"
             )
         if key in out:
-            raise ConfigError(f"{what} {text!r}: {key} given twice")
+            raise ConfigError(f"{what}: {key} given twice")
         out[key] = value.strip()
     return out
 
@@ -61,7 +63,7 @@ def check_number(value: object, name: str, what: str, bounds: tuple[float, float
     """A finite number within ``bounds`` (inclusive), as a float.
 
     Args:
-        value: The value to check (bools are refused).
+        value: The value to check (bools and 0-d numpy arrays are refused: see :func:`planning.core.checks.given`).
         name: The field's name for messages.
         what: What the field belongs to, e.g. ``"perturbation"``.
         bounds: (lowest, highest) allowed.
@@ -73,7 +75,7 @@ def check_number(value: object, name: str, what: str, bounds: tuple[float, float
     """
     tail = f"; {fix}" if fix else ""
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-        raise ConfigError(f"{what} {name} must be a finite number, got {value!r}{tail}")
+        raise ConfigError(f"{what} {name} must be a finite number, got {given(value)}{tail}")
     lo, hi = bounds
     if not lo <= float(value) <= hi:
         raise ConfigError(f"{what} {name}={value!r} is outside [{lo:g}, {hi:g}] ({unit}){tail}")

@@ -40,7 +40,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.errors import ConfigError
+from planning.errors import ConfigError, option
 from sim.physics.asbuilt import CLIP_SIGMAS
 from sim.physics.keyvalue import check_number, parse_number, parse_pairs
 from sim.physics.sensors import sensor_profile_path
@@ -99,11 +99,13 @@ class LidarProfile:
 
     def __post_init__(self) -> None:
         for name, (lo, hi, unit) in LIMITS.items():
-            fix = f"give a value in [{lo:g}, {hi:g}], e.g. --lidar {name}={getattr(LidarProfile, name)}"
+            fix = f"give a value in [{lo:g}, {hi:g}], e.g. {option('lidar', f'{name}={getattr(LidarProfile, name)}')}"
             value = check_number(getattr(self, name), name, "lidar", (lo, hi), unit, fix)
             object.__setattr__(self, name, value)
         if self.beams != int(self.beams):
-            raise ConfigError(f"lidar beams must be a whole number, got {self.beams!r}; e.g. --lidar beams=360")
+            raise ConfigError(
+                f"lidar beams must be a whole number, got {self.beams!r}; e.g. {option('lidar', 'beams=360')}"
+            )
         object.__setattr__(self, "beams", int(self.beams))
         if self.range_min >= self.range_max:
             raise ConfigError(
@@ -144,8 +146,9 @@ class LidarProfile:
         Raises:
             ConfigError: Unknown or repeated key, non-numeric or out-of-range value.
         """
-        pairs = parse_pairs(text, "--lidar", LIMITS, EXAMPLE)
-        return self.override({k: parse_number(v, k, f"--lidar {text!r}") for k, v in pairs.items()}, "--lidar")
+        what = option("lidar", text)
+        pairs = parse_pairs(text, what, LIMITS, EXAMPLE)
+        return self.override({k: parse_number(v, k, what) for k, v in pairs.items()}, what)
 
     def as_dict(self) -> dict[str, float]:
         """Plain-dict view for records."""
@@ -170,8 +173,9 @@ def load_lidar_profile(robot: str, *, text: str | None = None) -> LidarProfile |
     table = data.get("lidar")
     if table is None:
         if text:
+            drop = option("lidar", python='lidar=""')
             raise ConfigError(
-                f"robot {robot!r} has no laser scanner ({path} has no [lidar] table); drop --lidar (and a [lidar] "
+                f"robot {robot!r} has no laser scanner ({path} has no [lidar] table); drop {drop} (and a [lidar] "
                 "table from the --sensors file)"
             )
         return None

@@ -63,7 +63,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from planning.core.robot import RobotSpec
-from planning.errors import ConfigError, ModelError
+from planning.errors import ConfigError, ModelError, option
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -375,9 +375,13 @@ class Supply:
                 continue
             key, eq, raw = (x.strip() for x in item.partition("="))
             if not eq:
-                raise ConfigError(f"--motors {text!r}: expected KEY=VALUE, got {item!r} (e.g. battery_voltage=12.6)")
+                raise ConfigError(
+                    f"{option('motors', text)}: expected KEY=VALUE, got {item!r} (e.g. battery_voltage=12.6)"
+                )
             if key not in SUPPLY_KEYS:
-                raise ConfigError(f"--motors: unknown key {key!r}; choose from {', '.join(SUPPLY_KEYS)}")
+                raise ConfigError(
+                    f"{option('motors', text)}: unknown key {key!r}; choose from {', '.join(SUPPLY_KEYS)}"
+                )
             try:
                 changes[key] = float(raw)
             except ValueError:
@@ -426,10 +430,11 @@ def supplied_robot(spec: RobotSpec, overrides: str = "") -> RobotSpec:
     model = mujoco.MjModel.from_xml_path(str(spec.mjcf))
     supply = Supply.from_model(model)
     if supply is None:
+        drop = option("motors", python='motors=""')
         raise ConfigError(
             f"robot {spec.name!r} runs on a fixed supply of {spec.battery_voltage:g} V (its model gives no supply "
             "ratings; the EduMIP's firmware scales its duty cycle by the nominal over the measured battery "
-            "voltage, so its motors see the nominal 7.4 V of its 2-cell pack at any charge): drop --motors"
+            f"voltage, so its motors see the nominal 7.4 V of its 2-cell pack at any charge): drop {drop}"
         )
     motor = MotorModel.from_model(model)
     check_model_limits(spec, motor, supply)

@@ -34,7 +34,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.errors import ConfigError
+from planning.errors import ConfigError, option
 from sim.physics.keyvalue import check_number, parse_number, parse_pairs
 from sim.physics.model import scale_wheels
 
@@ -53,13 +53,18 @@ EXAMPLE = "friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02"
 MAX_PUSH = 1.0
 
 
+def _option(text: str) -> str:
+    """``--perturb TEXT`` as messages lead with it (:func:`planning.errors.option`)."""
+    return option("perturb", text, python="perturbation=Perturbation.parse({})")
+
+
 def parse_push(value: str, text: str) -> tuple[float, float]:
     """``J@t`` -> (impulse [N s], time [s]).
 
     Raises:
         ConfigError: Malformed, non-numeric, |J| > :data:`MAX_PUSH` or t < 0.
     """
-    what = f"--perturb {text!r}"
+    what = _option(text)
     impulse_s, sep, time_s = value.partition("@")
     if not sep:
         raise ConfigError(f"{what}: push must be IMPULSE@TIME in N s and s (e.g. push=0.05@10), got {value!r}")
@@ -112,9 +117,9 @@ class Perturbation:
         Raises:
             ConfigError: Unknown key, repeated key, non-numeric or out-of-range value.
         """
-        pairs = parse_pairs(text, "--perturb", [*LIMITS, "push"], EXAMPLE)
+        pairs = parse_pairs(text, _option(text), [*LIMITS, "push"], EXAMPLE)
         push = parse_push(pairs.pop("push"), text) if "push" in pairs else None
-        return cls(**{k: parse_number(v, k, f"--perturb {text!r}") for k, v in pairs.items()}, seed=seed, push=push)
+        return cls(**{k: parse_number(v, k, _option(text)) for k, v in pairs.items()}, seed=seed, push=push)
 
     @property
     def is_nominal(self) -> bool:
@@ -157,8 +162,9 @@ class Perturbation:
             late.append(f"latency={self.latency:g} delays every command by {self.latency:g} s")
         if late:
             raise ConfigError(
-                f"--perturb {'; '.join(late)}, but the run lasts {horizon:.4g} s: it would never act; give a "
-                f"time below {horizon:.4g} s (or a longer run: a slower reference or a longer trajectory)"
+                f"{option('perturb', python='perturbation')}: {'; '.join(late)}, but the run lasts {horizon:.4g} s: "
+                f"it would never act; give a time below {horizon:.4g} s (or a longer run: a slower reference or a "
+                "longer trajectory)"
             )
 
     def apply_to_model(self, model: mujoco.MjModel) -> mujoco.MjModel:
@@ -228,11 +234,11 @@ class PerturbationRange:
         Raises:
             ConfigError: Unknown key, malformed or out-of-range bounds.
         """
-        what = f"--perturb-range {text!r}"
+        what = option("perturb-range", text, python="PerturbationRange.parse({})")
         out: dict[str, tuple[float, float]] = {}
         if others == "nominal":
             out = {name: (LIMITS[name][2], LIMITS[name][2]) for name in LIMITS}
-        for key, value in parse_pairs(text, "--perturb-range", LIMITS, EXAMPLE).items():
+        for key, value in parse_pairs(text, what, LIMITS, EXAMPLE).items():
             lo_s, sep, hi_s = value.partition(":")
             lo = parse_number(lo_s, key, what)
             out[key] = (lo, parse_number(hi_s, key, what) if sep else lo)

@@ -58,7 +58,7 @@ from numpy.typing import NDArray
 
 from control.estimation.kernels import wrap
 from planning.core.robot import MODELS_DIR
-from planning.errors import ConfigError
+from planning.errors import ConfigError, option
 from sim.physics.keyvalue import check_number, parse_number, parse_pairs
 from sim.physics.motors import control_steps
 
@@ -93,9 +93,10 @@ WHOLE_TOL = 1e-6
 
 
 def _setting(name: str, value: str, source: str | None) -> str:
-    """How a sensor number is set where it was given: ``--sensors name=value`` on the command line, or
-    ``name = value`` in the ``[sensors]`` table of ``source`` (a scenario or settings file)."""
-    return f"--sensors {name}={value}" if source is None else f"{name} = {value}"
+    """How a sensor number is set where it was given: ``--sensors name=value`` on the command line (and
+    ``sensors="name=value"`` from Python), or ``name = value`` in the ``[sensors]`` table of ``source`` (a
+    scenario or settings file)."""
+    return option("sensors", f"{name}={value}") if source is None else f"{name} = {value}"
 
 
 def _in_table(source: str | None, name: str, message: str) -> str:
@@ -199,8 +200,9 @@ class SensorProfile:
         Raises:
             ConfigError: Unknown or repeated key, non-numeric or out-of-range value.
         """
-        pairs = parse_pairs(text, "--sensors", LIMITS, EXAMPLE)
-        return self.override({k: parse_number(v, k, f"--sensors {text!r}") for k, v in pairs.items()}, "--sensors")
+        what = option("sensors", text)
+        pairs = parse_pairs(text, what, LIMITS, EXAMPLE)
+        return self.override({k: parse_number(v, k, what) for k, v in pairs.items()}, what)
 
     def as_dict(self) -> dict[str, float]:
         """Plain-dict view for records."""
@@ -295,7 +297,7 @@ def load_sensor_profile(
     if text:
         profile = profile.parse(text)
     if control_rate is not None and table and "fix_rate" in table:
-        if "fix_rate" not in (parse_pairs(text, "--sensors", LIMITS, EXAMPLE) if text else {}):
+        if "fix_rate" not in (parse_pairs(text, option("sensors", text), LIMITS, EXAMPLE) if text else {}):
             fix_period(profile.fix_rate, control_rate, source)  # the table's rate: said where it was set
     return profile
 
@@ -356,8 +358,8 @@ def fix_period(rate: float, control_rate: float, source: str | None = None) -> i
         higher = next(ctrl / m for m in range(math.floor(ratio), 0, -1) if _short(ctrl / m))
         said = (
             f"sensor fix_rate={rate:g} Hz: its period is {ratio:.4g} control periods at {ctrl:g} Hz, not a whole "
-            f"number; choose a rate that divides the control rate, e.g. {_setting('fix_rate', f'{lower:g}', source)} "
-            f"or {higher:g}"
+            f"number; choose a rate that divides the control rate, {lower:g} or {higher:g} Hz, e.g. "
+            f"{_setting('fix_rate', f'{lower:g}', source)}"
         )
         raise ConfigError(_in_table(source, "fix_rate", said))
     return every

@@ -28,7 +28,7 @@ from control.estimation import EstimatorDivergedError
 from planning.core.geometry import Pose2D
 from planning.core.robot import RobotSpec
 from planning.core.world import World
-from planning.errors import ConfigError, SimulationError
+from planning.errors import ConfigError, SimulationError, option
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import AsBuilt
 from sim.physics.model import BuiltModel, set_pose
@@ -174,9 +174,10 @@ class Simulator:
         push = pert.push if pert is not None else None
         if self.balance is None:
             if push is not None:
+                given = option("perturb", "push", python="perturbation=Perturbation(push=...)")
                 raise ConfigError(
-                    f"--perturb push: robot {self.robot.name!r} does not balance; a push is given to a balancing "
-                    f"robot's body (e.g. --robot edumip-balancing)"
+                    f"{given}: robot {self.robot.name!r} does not balance; a push is given to a balancing robot's "
+                    f"body, e.g. {option('robot', 'edumip-balancing')}"
                 )
             return None
         firmware = self.balance_firmware(m, d, sensing.seed if sensing is not None else 0, command_period, sensing)

@@ -33,7 +33,7 @@ from control.estimation.amcl import AmclConfig
 from control.fbl import FBLGains
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot
-from planning.errors import ConfigError, ScenarioError
+from planning.errors import ConfigError, ScenarioError, option, options
 from planning.planners.base import PlanProblem, PlanResult
 from planning.planners.registry import PLANNERS, make_planner, planner_options
 from planning.scenario import Scenario, load_scenario, scenario_source
@@ -279,24 +279,26 @@ class Case:
         lidar = load_lidar_profile(scenario.robot, text=self.lidar or None)
         kind = self.localiser or ("amcl" if lidar is not None else "fixes")
         if lidar is None and (kind == "amcl" or self.amcl or self.initial_pose != "known"):
+            needs = options(("localiser", "amcl"), "amcl", ("initial-pose", "unknown"))
             raise ConfigError(
-                f"robot {scenario.robot!r} has no laser scanner: --localiser amcl, --amcl and --initial-pose unknown "
-                "need one (the TurtleBot3's LDS-01); use --localiser fixes"
+                f"robot {scenario.robot!r} has no laser scanner: {needs} need one (the TurtleBot3's LDS-01); use "
+                f"{option('localiser', 'fixes')}"
             )
         if kind == "fixes":
-            given = [opt for opt, on in (("--lidar", self.lidar), ("--amcl", self.amcl)) if on]
-            given += ["--initial-pose unknown"] if self.initial_pose != "known" else []
+            given: list[str | tuple[str, str]] = [opt for opt, on in (("lidar", self.lidar), ("amcl", self.amcl)) if on]
+            given += [("initial-pose", "unknown")] if self.initial_pose != "known" else []
             if given:  # with fixes no scan is taken: the settings would be ignored
                 raise ConfigError(
-                    f"{', '.join(given)} {'needs' if len(given) == 1 else 'need'} --localiser amcl (the fixes "
-                    f"localiser takes no scan): drop {'it' if len(given) == 1 else 'them'}, or use --localiser amcl"
+                    f"{options(*given)} {'needs' if len(given) == 1 else 'need'} the amcl localiser (the fixes "
+                    f"localiser takes no scan): drop {'it' if len(given) == 1 else 'them'}, or use "
+                    f"{option('localiser', 'amcl')}"
                 )
             return LocaliserSetup()
         if self.initial_pose != "known" and not scenario.world.obstacles:
             raise ConfigError(
-                f"--initial-pose unknown in {scenario.name!r}, a bare rectangle of walls: its scans look the same "
-                "from a pose and from that pose turned half a turn about the centre, so global localisation "
-                "cannot tell them apart; use a world with obstacles, or --initial-pose known"
+                f"{option('initial-pose', 'unknown')} in {scenario.name!r}, a bare rectangle of walls: its scans look "
+                "the same from a pose and from that pose turned half a turn about the centre, so global localisation "
+                f"cannot tell them apart; use a world with obstacles, or {option('initial-pose', 'known')}"
             )
         amcl = AmclConfig().parse(self.amcl) if self.amcl else AmclConfig()
         return LocaliserSetup("amcl", scenario.world, lidar, amcl, self.initial_pose)
@@ -431,12 +433,12 @@ def check_reference_fits(name: str, trajectory: Trajectory, scenario: Scenario, 
     clearance = scenario.world.signed_distance(trajectory.pose[:, :2])
     if float(clearance.min()) <= robot.radius:
         k = int(clearance.argmin())
+        room = f", e.g. {option('scenario', 'open')}" if scenario.name != "open" else ""
         raise ScenarioError(
             f"reference {name!r} placed at the start of scenario {scenario.name!r} comes within "
             f"{max(float(clearance[k]), 0.0):.3f} m of an obstacle or wall at ({trajectory.pose[k, 0]:.2f}, "
             f"{trajectory.pose[k, 1]:.2f}) but the {robot.name} needs {robot.radius:.3f} m; use a scenario with room "
-            f"for it{' (e.g. --scenario open)' if scenario.name != 'open' else ''}, another reference, or plan a "
-            "path with --planner"
+            f"for it{room}, another reference, or plan a path with {option('planner')}"
         )
 
 
@@ -457,8 +459,8 @@ def plan_case(case: Case, scenario: Scenario, robot: RobotSpec, *, progress: Pro
     name = case.planner or scenario.planner
     if name is None:
         raise ConfigError(
-            f"scenario {scenario.name!r} names no planner; choose one with --planner "
-            f"({', '.join(sorted(PLANNERS)) or 'none registered'})"
+            f"scenario {scenario.name!r} names no planner; choose one with {option('planner')}: "
+            f"{', '.join(sorted(PLANNERS)) or 'none registered'}"
         )
     limit = case.planning.time_limit
     problem = PlanProblem.from_scenario(scenario, robot=robot, seed=case.seed, time_limit=limit)

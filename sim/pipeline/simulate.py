@@ -33,6 +33,7 @@ from sim.physics.simulator import SimConfig, Simulator
 from sim.pipeline.case import Case, PreparedTrajectory, prepare_trajectory
 from sim.pipeline.runs import DEFAULT_RUNS, Progress, RunKind, run_kinds
 from sim.robot.sensing import SensingSetup
+from sim.robot.sources import PoseSource
 
 
 @dataclass(frozen=True)
@@ -155,9 +156,10 @@ class JobResult:
             "as_built": self.build.as_dict(),
             "battery_voltage_v": self.robot.battery_voltage,
             "sensors": self.sensing.profile.as_dict(),
-            "localiser": self.sensing.localiser.as_dict(),
             "versions": versions(),
         }
+        if any(kind.source is PoseSource.FUSED for kind in self.runs):  # only those runs localise
+            rec["localiser"] = self.sensing.localiser.as_dict()
         for kind, run in self.runs.items():
             entry: dict[str, Any] = dict(run.metrics.as_dict())
             entry["tracker"] = run.tracker

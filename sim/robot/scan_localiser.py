@@ -49,7 +49,7 @@ from control.estimation.amcl import Amcl, AmclConfig
 from control.estimation.amcl_kernels import angle_diff
 from planning.core.robot import RobotSpec
 from planning.core.world import World
-from planning.errors import ConfigError
+from planning.errors import ConfigError, option
 from sim.physics.asbuilt import CLIP_SIGMAS
 from sim.physics.lidar import LidarProfile, LidarScanner, beam_poses
 from sim.physics.runlog import LocaliserLog
@@ -342,17 +342,19 @@ def localiser_schedule(setup: LocaliserSetup, fix_every: int, latency_periods: i
     assert setup.lidar is not None
     per_rev = setup.lidar.period / dt
     if fix_every == 0 or abs(fix_every - per_rev) > 1e-6 * per_rev:
+        rate = setup.lidar.rate
         raise ConfigError(
-            f"sensor fix_rate must equal the scan rate ({setup.lidar.rate:g} Hz) with --localiser amcl: one fix a "
-            f"revolution; set --sensors fix_rate={setup.lidar.rate:g} (or fix_rate = {setup.lidar.rate:g} in the "
-            "[sensors] table of the scenario or sensor profile that sets it), or use --localiser fixes"
+            f"sensor fix_rate must equal the scan rate ({rate:g} Hz) with the amcl localiser: one fix a revolution; "
+            f"set {option('sensors', f'fix_rate={rate:g}')} (or fix_rate = {rate:g} in the [sensors] table of the "
+            f"scenario or sensor profile that sets it), or use {option('localiser', 'fixes')}"
         )
     half = max(1, round(0.5 * per_rev))
     if latency_periods < half + 1:
         need = (half + 1) * dt
         raise ConfigError(
             f"sensor fix_latency must be at least half a revolution plus a control period ({need:g} s) with "
-            f"--localiser amcl: a revolution's fix is known only when it has ended; set --sensors fix_latency={need:g}"
+            f"the amcl localiser: a revolution's fix is known only when it has ended; set "
+            f"{option('sensors', f'fix_latency={need:g}')}"
         )
 
 

@@ -30,7 +30,7 @@ import numpy as np
 
 from control.base import TRACKERS, Tracker, make_tracker, tracker_options, tuned_option
 from planning.core.robot import RobotSpec
-from planning.errors import ConfigError
+from planning.errors import ConfigError, option
 from planning.scenario import Scenario
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.metrics import heading_errors
@@ -104,12 +104,12 @@ def check_trackers(names: Sequence[str]) -> tuple[str, ...]:
     """
     names = tuple(n.strip() for n in names if n.strip())
     if not names:
-        raise ConfigError(f"--trackers needs at least one tracker: choose from {', '.join(sorted(TRACKERS))}")
+        raise ConfigError(f"{option('trackers')} needs at least one tracker: choose from {', '.join(sorted(TRACKERS))}")
     for name in names:
         if name not in TRACKERS:
             raise ConfigError(f"unknown tracker {name!r}: choose from {', '.join(sorted(TRACKERS))}")
         if names.count(name) > 1:
-            raise ConfigError(f"--trackers names {name!r} twice; give each tracker once")
+            raise ConfigError(f"{option('trackers')} names {name!r} twice; give each tracker once")
     return names
 
 
@@ -296,7 +296,7 @@ def compare_trackers(
     """
     names = check_trackers(trackers)
     if isinstance(runs, bool) or not isinstance(runs, numbers.Integral) or runs < 1:
-        raise ConfigError(f"--runs must be an integer >= 1, got {runs!r}")
+        raise ConfigError(f"{option('runs')} must be an integer >= 1, got {runs!r}")
     params = dict(params or {})
     prepared = prepare_trajectory(case)
     base = PreparedCase(prepared, simulator_for(prepared))
@@ -357,20 +357,21 @@ def load_params(paths: Sequence[str | Path]) -> dict[str, Any]:
     """
     out: dict[str, Any] = {}
     for path in paths:
+        given = option("params", str(path), python="load_params([{}])")
         try:
             data = json.loads(Path(path).read_text())
         except (OSError, ValueError) as exc:
-            raise ConfigError(f"--params {path}: cannot read it as JSON ({exc})") from exc
+            raise ConfigError(f"{given}: cannot read it as JSON ({exc})") from exc
         if isinstance(data, dict) and "tracker" in data and isinstance(data.get("params"), dict):
             data = {data["tracker"]: data["params"]}
         if not isinstance(data, dict) or not all(isinstance(v, dict) for v in data.values()):
-            raise ConfigError(f"--params {path}: expected {{tracker: {{field: value}}}} or a 'nhsim tune' record")
+            raise ConfigError(f"{given}: expected {{tracker: {{field: value}}}} or a 'nhsim tune' record")
         for name, fields_ in data.items():
             check_trackers([name])
             cls = tuned_option(name)[1]
             valid = list(getattr(cls, "__dataclass_fields__", {}))
             unknown = [k for k in fields_ if k not in valid]
             if unknown:
-                raise ConfigError(f"--params {path}: {name} has no parameter(s) {unknown}; valid: {', '.join(valid)}")
+                raise ConfigError(f"{given}: {name} has no parameter(s) {unknown}; valid: {', '.join(valid)}")
             out[name] = cls(**fields_)
     return out

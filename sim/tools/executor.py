@@ -30,13 +30,15 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TypeVar
 
-from planning.errors import ConfigError, DependencyError
+from planning.errors import ConfigError, DependencyError, option, options
 
 T = TypeVar("T")
 R = TypeVar("R")
 
 #: Batches of runs per worker process (see :meth:`DaskExecutor.map_unordered`).
 BATCHES_PER_WORKER = 4
+#: Running here instead of on a cluster, as messages name it (:func:`planning.errors.option`).
+_LOCAL = option("jobs", "J", python="jobs=J")
 #: Local worker processes ``--jobs`` may start per core (:func:`max_jobs`).
 JOBS_PER_CORE = 4
 #: Seconds to reach a scheduler before giving up.
@@ -126,7 +128,7 @@ class DaskExecutor(Executor):
             except (OSError, TimeoutError) as exc:
                 raise ConfigError(
                     f"cannot reach the Dask scheduler at {address} within {CONNECT_TIMEOUT_S} s ({exc}); start one "
-                    "with 'dask scheduler' and workers with 'dask worker ADDRESS', or run here with --jobs J"
+                    f"with 'dask scheduler' and workers with 'dask worker ADDRESS', or run here with {_LOCAL}"
                 ) from exc
             self.where = address
         else:
@@ -303,7 +305,7 @@ def _killer(nannies: list[Any], wait_s: float = 2.0) -> threading.Thread:
 def _advice(address: str) -> str:
     return (
         f"is {address} a Dask scheduler's port (8786 by default; the dashboard's 8787 is a web page)? Start one with "
-        "'dask scheduler' and workers with 'dask worker ADDRESS', or run here with --jobs J"
+        f"'dask scheduler' and workers with 'dask worker ADDRESS', or run here with {_LOCAL}"
     )
 
 
@@ -351,7 +353,8 @@ def scheduler_address(address: str) -> tuple[str, str, int]:
         host, port = get_address_host_port(address)
     except ValueError as exc:
         raise ConfigError(
-            f"--scheduler {address!r} is not a scheduler address ({exc}); give tcp://HOST:PORT, e.g. tcp://127.0.0.1:8786"
+            f"{option('scheduler', address)} is not a scheduler address ({exc}); give tcp://HOST:PORT, e.g. "
+            "tcp://127.0.0.1:8786"
         ) from exc
     return scheme, host, port
 
@@ -422,24 +425,25 @@ def max_jobs() -> int:
     return JOBS_PER_CORE * default_jobs()
 
 
-def check_workers(n: int, flag: str = "--jobs", *, elsewhere: str = "") -> int:
+def check_workers(n: int, flag: str = "jobs", *, elsewhere: str = "") -> int:
     """``n`` local worker processes, asked for by ``flag``, checked: at least 1, at most :func:`max_jobs`.
 
     Args:
         n: Worker processes.
-        flag: The option that asked for them, named in the message.
+        flag: The option that asked for them (without its dashes; also the Python keyword), named in the
+            message (:func:`planning.errors.option`).
         elsewhere: Advice appended to the message about too many (e.g. run on a cluster).
 
     Raises:
         ConfigError: ``n`` < 1 or above :func:`max_jobs`, naming ``flag`` and the bound.
     """
     if n < 1:
-        raise ConfigError(f"{flag} must be >= 1, got {n}")
+        raise ConfigError(f"{option(flag)} must be >= 1, got {n}")
     if n > max_jobs():
         cores = default_jobs()
         raise ConfigError(
-            f"{flag} {n} would start {n} worker processes on the {cores} core{'s' if cores != 1 else ''} this "
-            f"process may use; give at most {flag} {max_jobs()} ({JOBS_PER_CORE} per core){elsewhere}"
+            f"{option(flag, n)} would start {n} worker processes on the {cores} core{'s' if cores != 1 else ''} this "
+            f"process may use; give at most {max_jobs()} ({JOBS_PER_CORE} per core){elsewhere}"
         )
     return n
 
@@ -459,12 +463,15 @@ def worker_count(jobs: int | None = None, scheduler: str | None = None, *, defau
             workers), or a scheduler address that is no address.
     """
     if scheduler is not None and jobs is not None:
-        raise ConfigError("--jobs and --scheduler exclude each other: run here with J processes, or on a cluster")
+        raise ConfigError(
+            f"{options('jobs', 'scheduler')} exclude each other: run here with J processes, or on a cluster"
+        )
     if scheduler is not None:
         scheduler_address(scheduler)
         return None
     n = jobs if jobs is not None else default if default is not None else default_jobs()
-    return check_workers(n, elsewhere=", or run on a Dask cluster with --scheduler ADDRESS")
+    cluster = option("scheduler", "ADDRESS", python="scheduler=ADDRESS")
+    return check_workers(n, elsewhere=f", or run on a Dask cluster with {cluster}")
 
 
 def make_executor(jobs: int | None = None, scheduler: str | None = None, *, default: int | None = None) -> Executor:

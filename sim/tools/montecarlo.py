@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from planning.errors import ConfigError, NhsimError
+from planning.errors import ConfigError, NhsimError, option
 from planning.trajectory.importer import TrajectoryFile
 from sim.physics.perturb import LIMITS, PerturbationRange
 from sim.pipeline.case import Case, PreparedTrajectory, prepare_trajectory
@@ -71,9 +71,11 @@ class MonteCarloSpec:
 
     def __post_init__(self) -> None:
         if isinstance(self.runs, bool) or not isinstance(self.runs, int) or self.runs < 1:
-            raise ConfigError(f"--runs must be a whole number >= 1, got {self.runs!r}")
+            raise ConfigError(f"{option('runs')} must be a whole number >= 1, got {self.runs!r}")
         if self.runs > MAX_DRAWS:
-            raise ConfigError(f"--runs must be at most {MAX_DRAWS} (distinct robots and noise draws), got {self.runs}")
+            raise ConfigError(
+                f"{option('runs')} must be at most {MAX_DRAWS} (distinct robots and noise draws), got {self.runs}"
+            )
 
     def key(self) -> dict[str, Any]:
         """What makes the study's runs what they are (everything but their number): a results file
@@ -164,6 +166,11 @@ def run_one(shared: tuple[MonteCarloSpec, PreparedTrajectory | None], item: tupl
     return rec
 
 
+#: Another results file, and replacing this one, as :class:`ResultsFile`'s messages name them.
+_RESULTS = option("results", python="path")
+_REPLACE = option("overwrite", True, python="delete it first")
+
+
 class ResultsFile:
     """The runs of one study, one JSON line each after a header line naming the study's key.
 
@@ -194,7 +201,7 @@ class ResultsFile:
             theirs = header["key"]
         except (ValueError, KeyError, TypeError) as exc:
             raise ConfigError(
-                f"{self.path} is not an nhsim montecarlo results file; choose another --results, or --overwrite to "
+                f"{self.path} is not an nhsim montecarlo results file; choose another {_RESULTS}, or {_REPLACE} to "
                 "replace it"
             ) from exc
         if theirs != self.key:
@@ -204,8 +211,8 @@ class ResultsFile:
                 if theirs.get(k) != self.key.get(k)
             )
             raise ConfigError(
-                f"{self.path} holds the runs of another study ({diff}); give another --results, the same settings, "
-                "or --overwrite to replace it"
+                f"{self.path} holds the runs of another study ({diff}); give another {_RESULTS}, the same "
+                f"settings, or {_REPLACE} to replace it"
             )
         good = len(lines[0]) + 1
         for line in lines[1:]:

@@ -44,7 +44,7 @@ from typing import Any
 from control.base import TRACKERS
 from control.fbl import FBLGains
 from planning.core.robot import ROBOT_FILES
-from planning.errors import ConfigError, NhsimError, SimulationError
+from planning.errors import ConfigError, NhsimError, SimulationError, option, without_python
 from planning.planners.registry import PLANNERS
 from planning.trajectory.references import REFERENCES
 from sim.physics.asbuilt import DEFAULT_BUILD_SEED
@@ -143,13 +143,15 @@ class Suite:
             unmatched = [p for p in patterns if not any(fnmatch.fnmatchcase(c.name, p) for c in self.cases)]
             if unmatched:  # a typo beside a good pattern would have run less than asked, and passed
                 names = ", ".join(c.name for c in self.cases)
-                raise ConfigError(f"--case {','.join(unmatched)} matches no case; the suite has: {names}")
+                given = option("case", ",".join(unmatched), python=f"patterns={json.dumps(unmatched)}")
+                raise ConfigError(f"{given} matches no case; the suite has: {names}")
             return [c for c in self.cases if any(fnmatch.fnmatchcase(c.name, p) for p in patterns)]
         out = list(self.cases) if all_cases else [c for c in self.cases if c.fast]
         if not out:
             raise ConfigError(
                 f"none of the suite's {len(self.cases)} case(s) is marked fast = true, so the default run would check "
-                "nothing; run them all with --all, some with --case PATTERN, or mark the quick ones fast = true"
+                f"nothing; run them all with {option('all', True, python='all_cases=True')}, some with "
+                f"{option('case', 'PATTERN', python='patterns=[PATTERN]')}, or mark the quick ones fast = true"
             )
         return out
 
@@ -204,7 +206,9 @@ def _as_field(key: str, match: re.Match[str]) -> str:
 
 def _suite_terms(message: str) -> str:
     """A message of a parser the command line shares, its options put as the suite's fields:
-    ``e.g. --sensors fix_rate=5`` -> ``e.g. sensors = "fix_rate=5"``, ``with --robot`` -> ``with robot = ...``."""
+    ``e.g. --sensors fix_rate=5`` -> ``e.g. sensors = "fix_rate=5"``, ``with --robot`` -> ``with robot = ...``
+    (the Python forms beside the options dropped, :func:`planning.errors.without_python`)."""
+    message = without_python(message)
     for key in CASE_KEYS:
         flag = "--" + key.replace("_", "-")
         message = re.sub(rf"{flag}(?![\w-])(?: '?([\w.=+@-]+)'?)?", functools.partial(_as_field, key), message)
@@ -213,7 +217,9 @@ def _suite_terms(message: str) -> str:
 
 def _field_error(where: str, key: str, value: Any, problem: str) -> ConfigError:
     """The error of a case's bad field: the file, the case, the field as written, and what it must be."""
-    problem = problem.removeprefix(f"--{key} {value!r}: ")  # a parser's echo of the text, said once
+    problem = without_python(problem)
+    if isinstance(value, str):  # a parser's echo of the text, said once
+        problem = problem.removeprefix(without_python(option(key.replace("_", "-"), value)) + ": ")
     return ConfigError(f"{where}: {key} = {_toml(value)}: {_suite_terms(problem)}")
 
 

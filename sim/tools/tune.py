@@ -53,7 +53,7 @@ import numpy as np
 
 from control.base import search_space, tuned_option
 from control.fbl import FBLGains
-from planning.errors import ConfigError, NhsimError
+from planning.errors import ConfigError, NhsimError, option
 from planning.signals import signals_held, signals_released
 
 if TYPE_CHECKING:  # the command line reads SAMPLERS while building its parser, before mujoco may load
@@ -103,6 +103,10 @@ SETTINGS_WAIT_S = 30.0
 SEED_SPACE = 2**31
 #: Most draws of one set: a quarter of the seeds of one parity, so that drawing them stays linear in time.
 MAX_DRAWS = SEED_SPACE // 8
+#: Cases to tune on, as messages suggest them (:func:`planning.errors.option`).
+EXAMPLE_CASES = option(
+    "scenarios", "open:figure8,open:circle", python='cases=[Case.parse("open:figure8"), Case.parse("open:circle")]'
+)
 
 
 @dataclass(frozen=True)
@@ -234,7 +238,7 @@ class Evaluator:
         tracker: str = "",
     ) -> None:
         if not cases:
-            raise ConfigError("no cases to tune on; give --scenarios, e.g. open:figure8,open:circle")
+            raise ConfigError(f"no cases to tune on; give some, e.g. {EXAMPLE_CASES}")
         if not (math.isfinite(saturation_weight) and saturation_weight >= 0):
             raise ConfigError(f"saturation weight must be >= 0, got {saturation_weight}")
         self.cases = tuple(cases)
@@ -335,7 +339,7 @@ class TuneSpec:
         if self.sampler not in SAMPLERS:
             raise ConfigError(f"unknown sampler {self.sampler!r}: choose one of {', '.join(SAMPLERS)}")
         if self.trials < 1:
-            raise ConfigError(f"--trials must be >= 1, got {self.trials}")
+            raise ConfigError(f"{option('trials')} must be >= 1, got {self.trials}")
 
     def settings(self) -> dict[str, Any]:
         """What defines the objective; stored with the study and checked on resume."""
@@ -372,9 +376,9 @@ def check_storage(url: str) -> None:
     memory = parsed.database in (None, "", ":memory:") or parsed.query.get("mode") == "memory"
     if parsed.get_backend_name() == "sqlite" and memory:
         raise ConfigError(
-            f"--storage {url!r}: an in-memory SQLite database cannot hold a study: the workers share the study and a "
-            "rerun resumes it, and each connection to memory sees a database of its own that is gone when it "
-            "closes; give a file URL, e.g. sqlite:///renders/tune.db"
+            f"{option('storage', url)}: an in-memory SQLite database cannot hold a study: the workers share the "
+            "study and a rerun resumes it, and each connection to memory sees a database of its own that is gone "
+            "when it closes; give a file URL, e.g. sqlite:///renders/tune.db"
         )
 
 
@@ -494,7 +498,7 @@ def load_study(spec: TuneSpec, *, worker: int = 0, create: bool = False) -> Any:
         diff = sorted(k for k in set(stored) | set(settings) if stored.get(k) != settings.get(k))
         raise ConfigError(
             f"study {spec.study!r} in {spec.storage!r} was created with other settings ({', '.join(diff)} differ); "
-            f"rerun with the same options to resume it, or choose another --study name"
+            f"rerun with the same options to resume it, or choose another study name, {option('study')}"
         )
     study.sampler = make_sampler(spec.sampler, spec.seed, len(study.trials), worker)
     return study
@@ -780,7 +784,10 @@ def compare(evaluator: Evaluator, tuned: Any, draws: Sequence[Draw]) -> Comparis
         ConfigError: No draws.
     """
     if not draws:
-        raise ConfigError("no held-out draws to compare on; give --eval-runs >= 1")
+        raise ConfigError(
+            "no held-out draws to compare on; give at least one: "
+            + option("eval-runs", 1, python="draws=make_draws(1, seed, held_out=True)")
+        )
     held_out = evaluator.with_draws(draws)
     return Comparison(
         held_out.evaluate(tuned_space(evaluator.tracker)[0]()),

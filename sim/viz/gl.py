@@ -29,17 +29,22 @@ import sys
 from collections.abc import Iterator
 from types import ModuleType
 
-from planning.errors import ConfigError, DependencyError
+from planning.errors import ConfigError, DependencyError, option, options
 
 BACKENDS = ("osmesa", "egl", "glfw")
 
+#: How a Python caller chooses a backend (the command line's ``--gl``), in messages.
+_CONFIGURE = "sim.viz.gl.configure({})"
 #: Backend -> what makes it loadable, for error messages.
 INSTALL_HINTS = {
     "osmesa": "install Mesa's off-screen library: apt-get install libosmesa6",
     "egl": "install EGL with Mesa's drivers: apt-get install libegl1 libgl1-mesa-dri",
-    "glfw": "run under a display (set DISPLAY) or choose a headless backend with --gl osmesa or --gl egl",
+    "glfw": "run under a display (set DISPLAY) or choose a headless backend with "
+    + options(("gl", "osmesa", _CONFIGURE), ("gl", "egl", _CONFIGURE), conjunction="or"),
 }
 
+#: How a Python caller skips the video (the command line's ``--no-video``), in messages.
+_NO_VIDEO = "no write_video call"
 #: MUJOCO_GL value used when no backend can load: MuJoCo imports without GL, physics runs.
 DISABLED = "disable"
 
@@ -225,6 +230,6 @@ def unavailable_message(backend: str, error: BaseException | None = None) -> str
     else:
         head = f"cannot create an OpenGL context with the {backend} backend{cause}"
     return (
-        f"{head}; {INSTALL_HINTS['osmesa']} (or, for --gl egl, {INSTALL_HINTS['egl'].split(': ')[1]}), "
-        "or pass --no-video to skip the video"
+        f"{head}; {INSTALL_HINTS['osmesa']} (or, for {option('gl', 'egl', python=_CONFIGURE)}, "
+        f"{INSTALL_HINTS['egl'].split(': ')[1]}), or skip the video: {option('no-video', True, python=_NO_VIDEO)}"
     )

@@ -68,6 +68,7 @@ def write_video(
     Raises:
         DependencyError: No OpenGL backend can draw here (the message says what to install).
         FileExistsError: ``path`` exists and ``overwrite`` is false.
+        ConfigError: ``overwrite`` is not True or False (``"no"`` is refused, not read as true).
     """
     s = settings or RenderSettings()
     model = model if model is not None else job.model

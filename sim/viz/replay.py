@@ -43,7 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 from PIL import Image, ImageDraw
 
-from planning.errors import ConfigError
+from planning.errors import ConfigError, option
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.metrics import position_errors
 from sim.physics.runlog import RunLog
@@ -110,9 +110,9 @@ class RenderSettings:
                 raise ConfigError(f"video {name} must be an even number of pixels in [16, 4096], got {v!r}")
             object.__setattr__(self, name, int(v))  # a numpy integer as a plain one
         if isinstance(self.fps, bool) or not isinstance(self.fps, numbers.Real):
-            raise ConfigError(f"--fps must be a number of frames/s between 1 and 240, got {self.fps!r}")
+            raise ConfigError(f"{option('fps')} must be a number of frames/s between 1 and 240, got {self.fps!r}")
         if not (math.isfinite(self.fps) and 1.0 <= self.fps <= 240.0):
-            raise ConfigError(f"--fps must be between 1 and 240 frames/s, got {self.fps}")
+            raise ConfigError(f"{option('fps')} must be between 1 and 240 frames/s, got {self.fps}")
         if self.camera not in CAMERAS:
             raise ConfigError(f"unknown camera {self.camera!r}: choose one of {', '.join(CAMERAS)}")
         if self.quality not in QUALITIES:

@@ -19,6 +19,7 @@ from types import TracebackType
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.checks import check_flag
 from planning.errors import ConfigError, DependencyError, SimulationError
 from planning.signals import signals_held
 from sim.outputs import atomic_path
@@ -62,7 +63,8 @@ class VideoWriter:
         width: Frame width [px], even.
         height: Frame height [px], even.
         fps: Frames per second.
-        overwrite: Replace an existing file (else :class:`OutputExistsError` before anything runs).
+        overwrite: Replace an existing file (else :class:`OutputExistsError` before anything runs); True or
+            False (anything else is a ConfigError).
         crf: x264 constant rate factor (lower is better quality, 0-51).
         preset: x264 preset (see :data:`PRESETS`).
         threads: Encoder threads (1 leaves the other core to the renderer on a two-core machine).
@@ -98,7 +100,7 @@ class VideoWriter:
             raise ConfigError(f"crf must be in [0, 51], got {crf}")
         self.path = Path(path)
         self.width, self.height, self.fps = width, height, fps
-        self.overwrite = overwrite
+        self.overwrite = check_flag("overwrite", overwrite)
         self._crf, self._preset, self._threads = crf, preset, threads
         self._free: queue.Queue[Frame] = queue.Queue()
         for _ in range(depth + 2):

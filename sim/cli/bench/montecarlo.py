@@ -27,7 +27,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.workers < 2:
         raise ConfigError(f"--workers must be >= 2 to compare with one worker, got {args.workers}")
-    check_workers(args.workers, "--workers")
+    check_workers(args.workers, "workers")
     from sim.cli.simulate import job_source
 
     scenario, source = job_source(args.scenario, None, args.reference)
