@@ -11,8 +11,9 @@ import pytest
 
 from planning.collision.exact import CollisionChecker
 from planning.collision.grid import FastChecker
-from planning.core.geometry import densify_path, path_length
+from planning.core.geometry import Pose2D, densify_path, path_length
 from planning.core.robot import load_robot
+from planning.core.world import World
 from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanStatus
 from planning.planners.registry import make_planner
@@ -226,6 +227,23 @@ def test_rrt_star_reports_its_first_path_and_stops_when_the_cost_stalls():
     assert full.stats["stopped_by"] == "budget" and full.stats["iterations"] == 1500
     again = make_planner("rrt-star", simplify=False).plan(problem)
     assert again.path.tobytes() == res.path.tobytes()
+
+
+@pytest.mark.parametrize("region_goal", [False, True])
+def test_rrt_star_stops_at_once_when_the_start_sees_the_goal(region_goal: bool) -> None:
+    """The free-space shortest curve to an aimed goal pose is the shortest path there is: once in hand,
+    nothing is left to improve (the search used to run its 500 minimum iterations, then stall out)."""
+    from planning.planners.sampling.tree import goal_region_poses
+
+    for seed, goal in enumerate((Pose2D(3.0, 1.0, 0.5), Pose2D(-3.0, 2.0, 3.0), Pose2D(-2.5, -3.0, -2.0))):
+        problem = PlanProblem(World((-5, 5, -5, 5), ()), load_robot("turtlebot3"), Pose2D(-3, -3, 0), goal, seed=seed)
+        planner = make_planner("rrt-star", simplify=False, region_goal=region_goal)
+        res = planner.plan(problem)
+        aims = goal_region_poses(problem) if region_goal else goal.as_array()[None]
+        curves = LocalPlanner("reeds_shepp", problem.robot, make_checker(problem, "footprint", 0.0)).curves
+        shortest = curves.lengths(problem.start.as_array(), aims).min()
+        assert res.success and res.stats["stopped_by"] == "shortest curve" and res.stats["iterations"] == 1
+        assert res.stats["cost_m"] == pytest.approx(shortest, abs=1e-9)
 
 
 def test_rrt_star_rejects_a_bad_stall_option():
