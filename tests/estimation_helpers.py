@@ -174,14 +174,13 @@ def propagate(
     dr: float,
     w: float,
     dt: float,
-    frac: float,
 ) -> None:
     """One compiled prediction of ``est`` (:func:`control.estimation.kernels.propagate`) on a state x
     (N,) and covariance p (N, N), in place, over dt [s] with wheel increments (dl, dr) [rad], gyro
-    rate w [rad/s] and the period share frac; its Jacobian and noise are left in ``est._F``, ``est._Q``.
+    rate w [rad/s]; its Jacobian and noise are left in ``est._F``, ``est._Q``.
 
     Raises:
         AssertionError: The kernel reports a non-finite state.
     """
-    status = kernels.propagate(x, p, est._F, est._Q, est._tmp, est._prm, dl, dr, w, dt, frac)
+    status = kernels.propagate(x, p, est._F, est._Q, est._tmp, est._prm, dl, dr, w, dt)
     assert status == kernels.OK, status

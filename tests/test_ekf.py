@@ -20,7 +20,7 @@ from control.estimation import (
     nees,
     pose_error,
 )
-from control.estimation.ekf import IRS, ISLIP
+from control.estimation.ekf import IRS, ISLIP, QUANT_PERIOD
 from planning.core.robot import load_robot
 from planning.errors import ConfigError, NhsimError, SimulationError
 from tests.estimation_helpers import DT, RADIUS, TRACK, Scenario, Synthetic, draw, propagate, run, wheel_rates
@@ -176,12 +176,12 @@ def test_propagation_jacobians_match_finite_differences(heading: str) -> None:
 
     def mean(x: np.ndarray, uu: np.ndarray) -> np.ndarray:
         xx = x.copy()
-        propagate(est, xx, np.zeros((N_STATE, N_STATE)), uu[0], uu[1], uu[2], DT, 1.0)
+        propagate(est, xx, np.zeros((N_STATE, N_STATE)), uu[0], uu[1], uu[2], DT)
         return xx
 
     p = np.zeros((N_STATE, N_STATE))
     x = x0.copy()
-    propagate(est, x, p, u[0], u[1], u[2], DT, 1.0)
+    propagate(est, x, p, u[0], u[1], u[2], DT)
     f, q = est._F.copy(), est._Q.copy()
     eps = 1e-6
 
@@ -195,7 +195,7 @@ def test_propagation_jacobians_match_finite_differences(heading: str) -> None:
     np.testing.assert_allclose(f, np.stack([diff(k, False) for k in range(N_STATE)], axis=1), atol=1e-8)
     g = np.stack([diff(k, True) for k in range(3)], axis=1)
     cfg = est.config
-    quant = (2 * math.pi / cfg.counts_per_rev) ** 2 / 6
+    quant = (2 * math.pi / cfg.counts_per_rev) ** 2 / 6 * DT / QUANT_PERIOD  # a density: per second
     var_u = [cfg.wheel_noise**2 * abs(u[0]) + quant, cfg.wheel_noise**2 * abs(u[1]) + quant]
     var_u.append(cfg.gyro_noise_density**2 / DT if heading == "gyro" else 0.0)
     want = g @ np.diag(var_u) @ g.T
@@ -215,7 +215,7 @@ def test_propagated_covariance_is_f_p_ft_plus_q(heading: str) -> None:
         a = rng.normal(size=(N_STATE, N_STATE))
         p0 = a @ a.T + 0.1 * np.eye(N_STATE)
         x, p = rng.normal(scale=0.05, size=N_STATE), p0.copy()
-        propagate(est, x, p, *rng.uniform(-0.5, 0.5, 2), rng.uniform(-1, 1), DT, rng.uniform(0.2, 1.0))
+        propagate(est, x, p, *rng.uniform(-0.5, 0.5, 2), rng.uniform(-1, 1), DT * rng.uniform(0.2, 1.0))
         f, q = est._F, est._Q
         np.testing.assert_allclose(p, f @ p0 @ f.T + q, rtol=1e-13, atol=1e-15)
 

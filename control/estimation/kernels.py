@@ -89,7 +89,7 @@ def parameters(
         position_var: Position noise variance per metre driven [m].
         gyro_var: Gyro white-noise density squared [rad^2/s] (0 with the encoder heading).
         bias_walk_var: Gyro bias walk variance per second [rad^2/s^3] (0 with the encoder heading).
-        quant_var: Encoder quantisation variance of a period's increment [rad^2].
+        quant_var: Encoder quantisation variance per second [rad^2/s] (:data:`control.estimation.ekf.QUANT_PERIOD`).
         gyro: The heading increment comes from the gyro (else from the encoders).
         gate: NIS above which a fix is an outlier.
         reject: Outlier fixes are not applied.
@@ -184,12 +184,11 @@ def propagate(
     dr: float,
     w: float,
     dt: float,
-    frac: float,
 ) -> int:  # pragma: no cover - compiled
     """One prediction over dt [s] with wheel increments (dl, dr) [rad] and gyro rate w [rad/s], in place.
 
-    ``frac`` is the share of a stored control period this interval covers (the quantisation
-    variance is shared out by it). Only the non-zero entries of the Jacobian ``f`` (N, N) and the
+    The encoders' quantisation variance is a density, per second (see ``quant_var`` of
+    :func:`parameters`). Only the non-zero entries of the Jacobian ``f`` (N, N) and the
     noise ``q`` (N, N) are written (the rest stay as set up: f identity, q zero); ``tmp`` (N, N) is
     scratch.
 
@@ -204,8 +203,8 @@ def propagate(
     px, py, th, bg, em, ed, be = x[0], x[1], x[2], x[3], x[4], x[5], x[6]
     rl, rr = r * (1.0 + em - ed), r * (1.0 + em + ed)
     ds = 0.5 * (rl * dl + rr * dr)
-    vl = prm[WHEEL_VAR] * abs(dl) + frac * prm[QUANT_VAR]
-    vr = prm[WHEEL_VAR] * abs(dr) + frac * prm[QUANT_VAR]
+    vl = prm[WHEEL_VAR] * abs(dl) + dt * prm[QUANT_VAR]
+    vr = prm[WHEEL_VAR] * abs(dr) + dt * prm[QUANT_VAR]
     gyro = prm[GYRO] != 0.0
     bb = prm[TRACK] * (1.0 + be)
     if gyro:
@@ -266,7 +265,7 @@ def predict(mem: FloatArray, src: int, dst: int, t: float, dl: float, dr: float,
     x[:] = mem[xs + src]
     p[:, :] = mem[ps + N * src : ps + N * src + N]
     f, q, tmp = mem[F_ROW:Q_ROW], mem[Q_ROW:TMP_ROW], mem[TMP_ROW:X_ROW]
-    status = propagate(x, p, f, q, tmp, mem[:2].reshape(2 * N), dl, dr, w, t - mem[RING + src, 0], 1.0)
+    status = propagate(x, p, f, q, tmp, mem[:2].reshape(2 * N), dl, dr, w, t - mem[RING + src, 0])
     if status == OK:
         u = mem[RING + dst]
         u[0], u[1], u[2], u[3] = t, dl, dr, w
@@ -459,7 +458,7 @@ def _refilter(
                 fi += 1
             if fx[0] > s:
                 frac = (fx[0] - s) / dt
-                status = propagate(x, p, f, q, tmp, prm, dl * frac, dr * frac, w, fx[0] - s, frac)
+                status = propagate(x, p, f, q, tmp, prm, dl * frac, dr * frac, w, fx[0] - s)
                 if status != OK:
                     return status, fx[0], nis, False
                 s = fx[0]
@@ -472,7 +471,7 @@ def _refilter(
                     return OK, fx[0], nis, False
         if t_k > s:
             frac = (t_k - s) / dt
-            status = propagate(x, p, f, q, tmp, prm, dl * frac, dr * frac, w, t_k - s, frac)
+            status = propagate(x, p, f, q, tmp, prm, dl * frac, dr * frac, w, t_k - s)
             if status != OK:
                 return status, t_k, nis, False
         mem[xs + idx] = x

@@ -3,8 +3,9 @@
 
 It replaces the synthetic pose fixes of :class:`sim.robot.sensing.Sensing` on the same schedule: a
 fix "measured" at control period ``j`` is the AMCL estimate for the revolution centred on ``j``
-(its beams from periods ``j - h`` to ``j + h``, ``h`` half a revolution, each from the true pose of
-its own instant, interpolated between control periods), with the odometry pose at ``j``; it is
+(its beams from half a revolution before ``j``'s instant to half a revolution after it, whether or not
+a revolution is an even number of control periods, each from the true pose of its own instant,
+interpolated between control periods), with the odometry pose at ``j``; it is
 delivered at period ``j + fix_latency`` (after the revolution has ended) and fused by the EKF at
 its measurement time ``j`` with the localiser's own covariance (its white part, with the scanner's
 systematic range error as a gain on the EKF's range error states, :mod:`control.estimation.ekf`).
@@ -170,7 +171,10 @@ class ScanLocaliser:
             range_bias=range_bias(setup.lidar), range_noise=range_noise(setup.lidar),
         )  # fmt: skip
         self.setup, self.t0, self.dt = setup, t0, dt
-        self.half = max(1, round(0.5 * setup.lidar.period / dt))
+        # control periods a revolution (a whole number, :func:`localiser_schedule`), and the periods from
+        # its centre to the first at or past either end: the poses its beams are interpolated between
+        self.per_rev = max(1, round(setup.lidar.period / dt))
+        self.half = (self.per_rev + 1) // 2
         self.r, self.track = robot.wheel_radius, robot.track_width
         self.rad_per_count = rad_per_count
         self.odom = np.zeros(3)
@@ -255,7 +259,7 @@ class ScanLocaliser:
         lidar = self.scanner.profile
         ks = np.clip(np.arange(j - self.half, j + self.half + 1), 0, None)
         t = np.asarray(self.t0 + self.dt * np.arange(j - self.half, j + self.half + 1), dtype=float)
-        stamp = t[0]
+        stamp = self.t0 + self.dt * (j - 0.5 * self.per_rev)  # the revolution's start, half of it before j
         times = np.asarray(stamp + lidar.time_increment * np.arange(lidar.beams), dtype=float)
         scan = self.scanner.scan(data, stamp, beam_poses(t, truth[ks], times))
         self.scan_t.append(stamp)
