@@ -221,7 +221,32 @@ def test_the_time_limit_holds_for_the_whole_plan(tmp_path) -> None:
     res = make_planner("optim").plan(problem)
     assert res.status is PlanStatus.TIMEOUT, res.reason
     assert "time limit (0.5 s" in res.reason and res.stats["time_limit_reached"]
-    assert res.stats["time_s"] <= 0.5 + 0.3  # stopped within an iteration or two of the limit
+    # stopped within an iteration or two of the limit, which leaves out numba readying code (planning.clock)
+    assert res.stats["time_s"] - res.stats["code_s"] <= 0.5 + 0.3
+
+
+def test_loading_code_is_not_held_against_the_time_limit() -> None:
+    """As every planner's clock (planning.clock): a new process's first optim plan loads Hybrid-A*'s
+    kernels for its warm start (and imports it); that is reported as code_s inside time_s, and the
+    limit counts the rest. A 0.2 s limit on nav_map1 used to end TIMEOUT before IPOPT started, spent
+    on the loading, in every new process."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    code = (
+        "import json; from planning.scenario import load_scenario; from planning.planners.base import PlanProblem;"
+        "from planning.planners.registry import make_planner;"
+        "p = PlanProblem.from_scenario(load_scenario('nav_map1'), time_limit=30.0);"
+        "r = make_planner('optim').plan(p); print(json.dumps([r.status.value, r.stats['time_s'], r.stats['code_s']]))"
+    )
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=root, check=True)
+    status, time_s, code_s = json.loads(out.stdout.splitlines()[-1])
+    assert status == "success" and 0.01 < code_s < time_s
+    warm = make_planner("optim").plan(PlanProblem.from_scenario(load_scenario("nav_map1"), time_limit=30.0))
+    assert warm.stats["code_s"] < code_s  # loaded once a process
 
 
 @pytest.mark.slow  # IPOPT solves of a few seconds
