@@ -50,6 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.checks import check_fields, check_number
 from planning.errors import ConfigError
 
 FloatArray = NDArray[np.float64]
@@ -91,10 +92,8 @@ class BalanceGains:
             raise ConfigError(
                 f"balance gains k need {len(STATE_NAMES)} numbers ({', '.join(STATE_NAMES)}), got {self.k}"
             )
-        for name in ("rate", "filter_time_constant", "battery_voltage"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise ConfigError(f"balance {name} must be a finite number > 0, got {value!r}")
+        units = {"rate": "Hz", "filter_time_constant": "s", "battery_voltage": "V"}
+        check_fields(self, {name: {"above": 0.0, "unit": unit} for name, unit in units.items()}, "balance ")
         feed = (self.kff, self.lean_per_accel, self.voltage_per_accel, self.wheel_radius)
         if not all(math.isfinite(x) for x in (*self.k, *feed, self.turn_kp, self.turn_ki)):
             raise ConfigError(f"balance gains must be finite numbers, got k={self.k}, feed-forward {feed}")
@@ -120,8 +119,7 @@ class BalanceController:
     def __init__(self, gains: BalanceGains, command_period: float | None = None) -> None:
         self.gains = gains
         period = gains.period if command_period is None else command_period
-        if not (math.isfinite(period) and period > 0):
-            raise ConfigError(f"balance command_period must be a finite number > 0 [s], got {period!r}")
+        check_number("balance command_period", period, above=0.0, unit="s")
         # the ramp spans the command period, to the nearest whole update (at least one)
         self._ramp_updates = max(1, round(period / gains.period))
         self._k = np.asarray(gains.k, dtype=float)

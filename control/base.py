@@ -6,10 +6,10 @@ import dataclasses
 import importlib
 import inspect
 import math
-import numbers
 from collections.abc import Callable
 from typing import Any, Protocol, TypeVar
 
+from planning.core.checks import check_fields, check_number
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError, SimulationError
 from planning.trajectory.trajectory import Trajectory
@@ -172,14 +172,7 @@ def check_positive_fields(obj: object, names: tuple[str, ...], why: str) -> None
         ConfigError: A field is not a number (a bool is not), not finite, or not > 0; the message
             names it, e.g. ``FBLGains.kp``.
     """
-    for name in names:
-        value = getattr(obj, name)
-        where = f"{type(obj).__name__}.{name}"
-        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-            raise ConfigError(f"{where} must be a finite number, got {value!r}")
-        if value <= 0:
-            raise ConfigError(f"{where} must be > 0, got {value!r} ({why})")
-        object.__setattr__(obj, name, float(value))
+    check_fields(obj, {name: {"above": 0.0, "fix": why} for name in names}, f"{type(obj).__name__}.")
 
 
 #: Most control periods a tracker pre-samples its reference at (a day at 10 Hz, 5.6 h at 50 Hz).
@@ -198,11 +191,8 @@ def check_period(tracker: str, dt: float, trajectory: Trajectory) -> float:
         ConfigError: ``dt`` is not a finite number > 0, or so small that the trajectory would span
             more than ``MAX_CONTROL_PERIODS`` control periods (names the tracker).
     """
-    if isinstance(dt, bool) or not isinstance(dt, numbers.Real) or not (math.isfinite(dt) and dt > 0):
-        raise ConfigError(
-            f"tracker {tracker!r}: reset(dt) needs the control period dt as a finite number of seconds > 0, "
-            f"got {dt!r}; pass 1 / control rate, e.g. 0.02 for 50 Hz"
-        )
+    fix = "pass 1 / control rate, e.g. 0.02 for 50 Hz"
+    dt = check_number(f"tracker {tracker!r}: reset(dt)'s control period dt", dt, above=0.0, unit="s", fix=fix)
     periods = trajectory.duration / dt
     if not periods <= MAX_CONTROL_PERIODS:
         raise ConfigError(
@@ -253,19 +243,12 @@ def check_ranges(obj: object) -> None:
             finite, or outside its range; the message names it (``MPCParams.horizon``), the range and
             the unit.
     """
+    limits: dict[str, dict[str, Any]] = {}
     for f in dataclasses.fields(obj):  # type: ignore[arg-type]
-        if "range" not in f.metadata:
-            continue
-        value, (low, high), unit = getattr(obj, f.name), f.metadata["range"], f.metadata["unit"]
-        where, integer = f"{type(obj).__name__}.{f.name}", isinstance(f.default, int)
-        kinds = (int,) if integer else (int, float)
-        if isinstance(value, bool) or not isinstance(value, kinds) or not math.isfinite(value):
-            what = "an integer" if integer else "a finite number"
-            raise ConfigError(f"{where} must be {what} in [{low:g}, {high:g}] {unit}, got {value!r}".rstrip())
-        if not low <= value <= high:
-            raise ConfigError(f"{where} must be in [{low:g}, {high:g}] {unit}, got {value!r}; choose a value in range")
-        if not integer:
-            object.__setattr__(obj, f.name, float(value))
+        if "range" in f.metadata:
+            (low, high), unit, integer = f.metadata["range"], f.metadata["unit"], isinstance(f.default, int)
+            limits[f.name] = dict(at_least=low, at_most=high, unit=unit, integer=integer, fix="choose a value in range")
+    check_fields(obj, limits, f"{type(obj).__name__}.")
 
 
 def search_space(cls: type) -> dict[str, tuple[float, float]]:

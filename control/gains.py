@@ -21,13 +21,13 @@ A gains file holds one gain set and where it came from::
 from __future__ import annotations
 
 import math
-import numbers
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from control.fbl import FBLGains
+from planning.core.checks import check_number
 from planning.errors import ConfigError, option
 
 GAIN_KEYS = ("kp", "kd", "xi_min")
@@ -76,21 +76,14 @@ def parse_gains_toml(text: str, *, where: str = "gains file") -> GainsFile:
             if key == "xi_min":
                 continue
             raise ConfigError(f"{where}: [gains] has no {key}; add '{key} = <positive number>'")
-        value = table[key]
-        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-            raise ConfigError(f"{where}: [gains] {key} must be a finite number, got {value!r}")
-        if value <= 0:
-            raise ConfigError(f"{where}: [gains] {key} must be > 0, got {value!r} (the error dynamics need it)")
-        values[key] = float(value)
+        values[key] = check_number(f"{where}: [gains] {key}", table[key], above=0.0, fix="the error dynamics need it")
     prov = data.get("provenance", {})
     if not isinstance(prov, dict):
         raise ConfigError(f"{where}: provenance must be a table ([provenance]), got {type(prov).__name__}")
     if "study" in prov and not isinstance(prov["study"], str):
         raise ConfigError(f"{where}: [provenance] study must be a string, got {prov['study']!r}")
     if "objective" in prov:
-        obj = prov["objective"]
-        if isinstance(obj, bool) or not isinstance(obj, numbers.Real) or not math.isfinite(obj):
-            raise ConfigError(f"{where}: [provenance] objective must be a finite number, got {obj!r}")
+        check_number(f"{where}: [provenance] objective", prov["objective"])
     if "scenarios" in prov:
         sc = prov["scenarios"]
         if not (isinstance(sc, list) and all(isinstance(s, str) for s in sc)):

@@ -67,11 +67,12 @@ def test_a_0d_array_is_refused_by_the_shared_number_checks_with_how_to_pass_it()
         assert Perturbation(friction=scalar).friction == float(scalar)
     hint = r"got a 0-d numpy array \(array\(0\.5\)\); pass float\(x\)$"
     for zero_d in (np.array(0.5), np.squeeze(arr[1:])):
-        with pytest.raises(ConfigError, match=r"^goal_bias must be a finite number, " + hint):
+        with pytest.raises(ConfigError, match=r"^goal_bias must be a finite number in \[0, 1\], " + hint):
             TreeConfig(goal_bias=zero_d)
-        with pytest.raises(ConfigError, match=r"^perturbation friction must be a finite number, " + hint):
+        friction = r"^perturbation friction must be a finite number in \[0.05, 10\] \(x\), "
+        with pytest.raises(ConfigError, match=friction + hint):
             Perturbation(friction=zero_d)
-    with pytest.raises(ConfigError, match=r"must be an integer, got a 0-d numpy array \(array\(3\)\); pass int\(x\)$"):
+    with pytest.raises(ConfigError, match=r">= 1, got a 0-d numpy array \(array\(3\)\); pass int\(x\)$"):
         TreeConfig(max_iterations=np.array(3))
     with pytest.raises(ConfigError, match=r"must be an integer, got a 0-d numpy array \(array\(3\.5\)\)$"):
         check_number("n", np.array(3.5), integer=True)  # no int(x) advice: it would cut 3.5 to 3

@@ -79,10 +79,10 @@ def test_a_plan_failed_with_the_trackers_margin_says_so_and_how_to_plan_without_
 @pytest.mark.parametrize(
     ("options", "match"),
     [
-        ({"time_limit": -1}, r"PlanOptions.time_limit must be > 0 s"),
+        ({"time_limit": -1}, r"PlanOptions.time_limit must be a finite number > 0 \(s\), got -1"),
         ({"time_limit": "5"}, r"PlanOptions.time_limit must be a finite number"),
         ({"clearance": float("nan")}, r"PlanOptions.clearance must be a finite number"),
-        ({"clearance": -0.01}, r"PlanOptions.clearance must be >= 0 m"),
+        ({"clearance": -0.01}, r"PlanOptions.clearance must be a finite number >= 0 \(m, 0 plans to the limit\), got"),
         ({"planner_options": [1, 2]}, r"PlanOptions.planner_options must be a mapping"),
         ({"smoothing": None}, r"PlanOptions.smoothing must be a mapping"),
         ({"plan": "x"}, r"PlanOptions.plan must be a PlanResult"),

@@ -439,7 +439,7 @@ def test_regress_list_checks_its_options_as_a_run_does(
 
     monkeypatch.setattr(executor, "default_jobs", lambda: 2)  # a machine of two cores: at most 8 workers
     for extra, said in (
-        (["--jobs", "0"], "--jobs (jobs=... from Python) must be >= 1, got 0"),
+        (["--jobs", "0"], "--jobs (jobs=... from Python) must be an integer >= 1, got 0"),
         (["--jobs", "9"], "--jobs 9 (jobs=9 from Python) would start 9 worker processes on the 2 cores this process "
          "may use; give at most 8 (4 per core), or run on a Dask cluster with --scheduler ADDRESS (scheduler=ADDRESS "
          "from Python)"),

@@ -126,10 +126,10 @@ def test_no_overwrite_without_flag(tmp_path, capsys):
         (["--scenario", "edumip_map", "--planner", "nope"], "c-rrt-star"),
         (["--scenario", "no_such_scenario", "--planner", "c-rrt-star"], "unknown scenario"),
         (["--scenario", "edumip_map", "--planner", "c-rrt-star", "--time-limit", "0"], "--time-limit"),
-        (["--scenario", "edumip_map", "--time-limit", "inf"], "--time-limit must be a finite planning budget"),
+        (["--scenario", "edumip_map", "--time-limit", "inf"], "--time-limit must be a finite number > 0 (s, the"),
         (
             ["--scenario", "edumip_map", "--seed", "-1"],
-            "--seed must be a whole number >= 0, got -1; pass e.g. --seed 0",
+            "--seed must be an integer >= 0, got -1; pass e.g. --seed 0",
         ),
         (["--scenario", "open"], "--planner"),
     ],
@@ -142,17 +142,20 @@ def test_bad_input(argv, message, capsys):
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["simulate", "--seed", "-1"], "--seed must be a whole number >= 0, got -1; pass e.g. --seed 0"),
-        (["simulate", "--noise-seed", "-3"], "--noise-seed must be a whole number >= 0, got -3"),
-        (["simulate", "--time-limit", "inf"], "--time-limit must be a finite planning budget > 0 s, got inf"),
-        (["compare", "--seed", "-1"], "--seed must be a whole number >= 0"),
-        (["montecarlo", "--seed", "-1"], "--seed must be a whole number >= 0"),
-        (["montecarlo", "--time-limit", "inf"], "--time-limit must be a finite planning budget"),
-        (["simulate", "--control-rate", "nan"], "--control-rate must be a finite number of Hz > 0, got nan"),
-        (["montecarlo", "--control-rate", "nan"], "--control-rate must be a finite number of Hz > 0, got nan"),
-        (["tune", "--control-rate", "nan"], "--control-rate must be a finite number of Hz > 0, got nan"),
-        (["tune", "--control-rate", "-5"], "--control-rate must be a finite number of Hz > 0, got -5"),
-        (["tune", "--seed", "-1"], "--seed must be a whole number >= 0, got -1; pass e.g. --seed 0"),
+        (["simulate", "--seed", "-1"], "--seed must be an integer >= 0, got -1; pass e.g. --seed 0"),
+        (["simulate", "--noise-seed", "-3"], "--noise-seed must be an integer >= 0, got -3; pass e.g. --noise-seed 0"),
+        (
+            ["simulate", "--time-limit", "inf"],
+            "--time-limit must be a finite number > 0 (s, the planning budget), got inf; pass e.g. --time-limit 30",
+        ),
+        (["compare", "--seed", "-1"], "--seed must be an integer >= 0"),
+        (["montecarlo", "--seed", "-1"], "--seed must be an integer >= 0"),
+        (["montecarlo", "--time-limit", "inf"], "--time-limit must be a finite number > 0 (s, the planning budget)"),
+        (["simulate", "--control-rate", "nan"], "--control-rate must be a finite number > 0 (Hz), got nan"),
+        (["montecarlo", "--control-rate", "nan"], "--control-rate must be a finite number > 0 (Hz), got nan"),
+        (["tune", "--control-rate", "nan"], "--control-rate must be a finite number > 0 (Hz), got nan"),
+        (["tune", "--control-rate", "-5"], "--control-rate must be a finite number > 0 (Hz), got -5.0; pass e.g."),
+        (["tune", "--seed", "-1"], "--seed must be an integer >= 0, got -1; pass e.g. --seed 0"),
     ],
 )
 def test_every_command_names_a_bad_seed_time_limit_or_rate_by_its_flag(argv, message, tmp_path, monkeypatch, capsys):
@@ -255,7 +258,7 @@ def test_a_time_limit_not_above_zero_is_exit_2(command, limit, tmp_path, capsys,
     extra = ["--no-video", "--no-plots"] if command == "simulate" else []
     assert main([*argv, *extra]) == 2
     err = capsys.readouterr().err
-    assert "--time-limit" in err and "> 0 s" in err
+    assert "--time-limit" in err and "> 0 (s" in err
     assert list(tmp_path.iterdir()) == []
 
 

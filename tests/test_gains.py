@@ -32,8 +32,8 @@ def test_xi_min_defaults_and_kp_kd_required() -> None:
     [
         ("[gains\nkp = 1", "not valid TOML"),
         ("kp = 1\nkd = 2\n", "unknown table|missing \\[gains\\]"),
-        ("[gains]\nkp = -1\nkd = 2\n", "kp must be > 0"),
-        ("[gains]\nkp = 1\nkd = 0\n", "kd must be > 0"),
+        ("[gains]\nkp = -1\nkd = 2\n", "kp must be a finite number > 0, got -1; the error dynamics need it"),
+        ("[gains]\nkp = 1\nkd = 0\n", "kd must be a finite number > 0, got 0"),
         ("[gains]\nkp = 'x'\nkd = 2\n", "kp must be a finite number"),
         ("[gains]\nkp = nan\nkd = 2\n", "kp must be a finite number"),
         ("[gains]\nkp = 1\nkd = 2\nki = 3\n", "unknown gain"),

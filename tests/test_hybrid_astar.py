@@ -399,7 +399,7 @@ def test_bench_rejects_bad_counts(flag, value, capsys):
     from sim.cli.main import main
 
     assert main(["bench", "hybrid", flag, value]) == 2
-    assert f"{flag} must be >=" in capsys.readouterr().err
+    assert f"{flag} must be an integer >=" in capsys.readouterr().err
 
 
 def test_a_lattice_larger_than_the_memory_is_refused_naming_the_cell_size_that_fits(monkeypatch):

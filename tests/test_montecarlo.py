@@ -164,11 +164,11 @@ def test_bad_input_is_refused_clearly(
 ) -> None:
     import sim.tools.executor as executor
 
-    with pytest.raises(ConfigError, match=r"--runs \(runs=\.\.\. from Python\) must be a whole number >= 1"):
+    with pytest.raises(ConfigError, match=r"--runs \(runs=\.\.\. from Python\) must be an integer >= 1, got 0"):
         _spec(runs=0)
     assert main(["montecarlo", "--scenario", "open", "--reference", "line", "--runs", "0", "--jobs", "1"]) == 2
     assert "--runs" in capsys.readouterr().err
-    with pytest.raises(ConfigError, match=r"--jobs \(jobs=\.\.\. from Python\) must be >= 1"):
+    with pytest.raises(ConfigError, match=r"--jobs \(jobs=\.\.\. from Python\) must be an integer >= 1"):
         make_executor(0)
     monkeypatch.setattr(executor, "CONNECT_TIMEOUT_S", 1)  # its 10 s, shortened: nothing listens there
     start = time.monotonic()

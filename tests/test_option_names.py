@@ -63,7 +63,7 @@ def test_sim_names_the_case_fields_and_the_function_keywords(tmp_path: Path) -> 
         Perturbation.parse("mas=1")
     with pytest.raises(ConfigError, match=r"^--trackers \(trackers=\.\.\. from Python\) needs at least one"):
         check_trackers([])
-    with pytest.raises(ConfigError, match=r"^--runs \(runs=\.\.\. from Python\) must be a whole number"):
+    with pytest.raises(ConfigError, match=r"^--runs \(runs=\.\.\. from Python\) must be an integer >= 1"):
         MonteCarloSpec(Case("open", reference="line"), 0)
     (tmp_path / "a.json").write_text("{}", encoding="utf-8")
     with pytest.raises(OutputExistsError, match=r"pass --overwrite \(overwrite=True from Python\) to replace it"):

@@ -119,7 +119,8 @@ def test_parse_and_validation() -> None:
     assert p == Perturbation(0.6, 1.3, 1.02, 0.005, 0.0, 0.02, seed=4)
     assert p.label() == "friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02"
     for bad, match in [("grip=2", "expected comma-separated"), ("mass=heavy", "must be a number"),
-                       ("mass=1,mass=2", "given twice"), ("radius=2", "outside"), ("noise=-1", "outside"),
+                       ("mass=1,mass=2", "given twice"), ("radius=2", r"in \[0.5, 1.5\] \(x\), got 2.0"),
+                       ("noise=-1", r"in \[0, 0.5\] \(m\), got -1.0"),
                        ("latency", "expected comma-separated")]:  # fmt: skip
         with pytest.raises(ConfigError, match=match):
             Perturbation.parse(bad)

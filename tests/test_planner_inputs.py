@@ -33,12 +33,12 @@ def _problem(**fields: Any) -> PlanProblem:
 @pytest.mark.parametrize(
     ("fields", "match"),
     [  # a NaN tolerance made rrt report success for start == goal; a negative seed raised numpy's ValueError
-        ({"position_tolerance": math.nan}, r"PlanProblem.position_tolerance must be a finite number, got nan"),
-        ({"heading_tolerance": -0.1}, r"PlanProblem.heading_tolerance must be > 0, got -0.1"),
-        ({"time_limit": 0.0}, r"PlanProblem.time_limit must be > 0, got 0.0"),
-        ({"time_limit": []}, r"PlanProblem.time_limit must be a finite number, got \[\]"),
-        ({"seed": -1}, r"PlanProblem.seed must be >= 0, got -1"),
-        ({"seed": 1.5}, r"PlanProblem.seed must be an integer, got 1.5"),
+        ({"position_tolerance": math.nan}, r"PlanProblem.position_tolerance must be a finite number > 0, got nan"),
+        ({"heading_tolerance": -0.1}, r"PlanProblem.heading_tolerance must be a finite number > 0, got -0.1"),
+        ({"time_limit": 0.0}, r"PlanProblem.time_limit must be a finite number > 0, got 0.0"),
+        ({"time_limit": []}, r"PlanProblem.time_limit must be a finite number > 0, got \[\]"),
+        ({"seed": -1}, r"PlanProblem.seed must be an integer >= 0, got -1"),
+        ({"seed": 1.5}, r"PlanProblem.seed must be an integer >= 0, got 1.5"),
         ({"start": (0.5, 1.0, 0.0)}, r"PlanProblem.start must be a Pose2D, got tuple"),
     ],
 )
@@ -52,7 +52,7 @@ def test_a_bad_problem_field_is_refused_when_the_problem_is_made(fields: dict[st
     [  # these raised ValueError (a NaN or a string), or built a world whose distances are not finite
         (lambda: Pose2D(math.nan, 0.0, 0.0), r"Pose2D.x must be a finite number, got nan"),
         (lambda: World(("a", 1.0, 0.0, 1.0)), r"bounds must be 4 finite numbers"),
-        (lambda: Circle((0.0, 0.0), math.inf), r"circle radius must be a finite number, got inf"),
+        (lambda: Circle((0.0, 0.0), math.inf), r"circle radius must be a finite number > 0, got inf"),
         (lambda: Circle((math.nan, 0.0), 1.0), r"circle center must be two finite numbers"),
         (lambda: Ellipse((0.0, 0.0), (1.0, 0.5), math.nan), r"ellipse angle must be a finite number, got nan"),
         (lambda: Box((0.0, 0.0), (math.inf, 1.0)), r"box size must be two finite numbers"),
@@ -66,18 +66,22 @@ def test_bad_geometry_raises_config_error(make: Any, match: str) -> None:
 @pytest.mark.parametrize(
     ("planner", "options", "match"),
     [  # each of these was accepted and raised TypeError or ValueError while planning (or at once, not an NhsimError)
-        ("rrt-star", {"clearance": {}}, r"clearance must be a finite number, got \{\}"),
-        ("birrt", {"n_speeds": 1.5}, r"n_speeds must be an integer, got 1.5"),
-        ("rrt", {"time_limit": math.nan}, r"time_limit must be a finite number \(or omitted\), got nan"),
+        ("rrt-star", {"clearance": {}}, r"clearance must be a finite number >= 0, got \{\}"),
+        ("birrt", {"n_speeds": 1.5}, r"n_speeds must be an integer >= 1, got 1.5"),
+        ("rrt", {"time_limit": math.nan}, r"time_limit must be a finite number > 0 \(or omitted\), got nan"),
         (
             "rrt",
             {"turning_radius": 1e300, "steering": "dubins"},
-            r"turning_radius must be > 0 and <= 1000, got 1e\+300",
+            r"turning_radius must be a finite number in \(0, 1000\] \(or omitted\), got 1e\+300",
         ),
-        ("rrt", {"primitive_duration": 1e9}, r"primitive_duration must be > 0 and <= 60"),
-        ("optim", {"max_iter": math.nan}, r"optim: max_iter must be an integer, got nan"),
+        (
+            "rrt",
+            {"primitive_duration": 1e9},
+            r"primitive_duration must be a finite number in \(0, 60\], got 1000000000.0",
+        ),
+        ("optim", {"max_iter": math.nan}, r"optim: max_iter must be an integer >= 1, got nan"),
         ("optim", {"init_options": 5}, r"optim: init_options must be a table"),
-        ("sinusoidal", {"max_period": math.nan}, r"sinusoidal: max_period must be a finite number, got nan"),
+        ("sinusoidal", {"max_period": math.nan}, r"sinusoidal: max_period must be a finite number > 0, got nan"),
     ],
 )
 def test_bad_planner_options_are_refused_when_the_planner_is_made(planner: str, options: dict, match: str) -> None:
@@ -86,9 +90,9 @@ def test_bad_planner_options_are_refused_when_the_planner_is_made(planner: str, 
 
 
 def test_a_crrt_star_config_checks_its_types_without_the_registry() -> None:
-    with pytest.raises(ConfigError, match=r"C-RRT\*: gamma must be a finite number, got 'x'"):
+    with pytest.raises(ConfigError, match=r"C-RRT\*: gamma must be a finite number in \[0, 1\], got 'x'"):
         CRRTStarConfig(gamma="x")  # type: ignore[arg-type]
-    with pytest.raises(ConfigError, match=r"C-RRT\*: max_iterations must be an integer, got 2.5"):
+    with pytest.raises(ConfigError, match=r"C-RRT\*: max_iterations must be an integer >= 1, got 2.5"):
         CRRTStarConfig(max_iterations=2.5)  # type: ignore[arg-type]
 
 

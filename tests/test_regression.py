@@ -227,9 +227,9 @@ BAD_FIELDS = {
     "gains_number": ("gains", "9", 'text in quotes, e.g. gains = "9,6"'),
     "gains_form": ("gains", '"9"', "'KP,KD'"),
     "perturb_key": ("perturb", '"mas=1"', "keys friction, mass"),
-    "perturb_range": ("perturb", '"mass=100"', r"outside \[0.1, 10\]"),
+    "perturb_range": ("perturb", '"mass=100"', r"in \[0.1, 10\] \(x\), got 100.0"),
     "sensors_key": ("sensors", '"fix_rat=5"', "keys encoder_cpr.*fix_rate"),
-    "sensors_range": ("sensors", '"fix_rate=-1"', 'outside.*e.g. sensors = "fix_rate=5"'),
+    "sensors_range": ("sensors", '"fix_rate=-1"', 'in \\[0, 1000\\].*got -1.0; e.g. sensors = "fix_rate=5"'),
     "sensors_number": ("sensors", "5", "text in quotes"),
 }
 

@@ -99,7 +99,7 @@ def test_a_non_finite_pose_is_refused_by_every_tracker(name: str, bad: tuple[flo
 @pytest.mark.parametrize("dt", [0.0, -0.02, math.nan, math.inf])
 def test_reset_refuses_a_bad_control_period(name: str, dt: float) -> None:
     robot = load_robot("edumip")
-    with pytest.raises(ConfigError, match=rf"tracker '{name}': reset\(dt\).*> 0, got {dt!r}"):
+    with pytest.raises(ConfigError, match=rf"tracker '{name}': reset\(dt\).*> 0 \(s\), got {dt!r}; pass 1 / control"):
         make_tracker(name, robot).reset(to_trajectory(CUSP_TURN, robot, OPEN), dt)
 
 
@@ -120,7 +120,11 @@ def test_reset_refuses_a_period_too_small_for_the_trajectory(name: str) -> None:
 
 @pytest.mark.parametrize(
     ("field", "value", "message"),
-    [("heading_gain", math.nan, "a finite number"), ("xi_blend", 0.0, "> 0"), ("hold_speed", -0.1, "> 0")],
+    [
+        ("heading_gain", math.nan, "a finite number"),
+        ("xi_blend", 0.0, "a finite number > 0, got 0.0; xi_blend divides"),
+        ("hold_speed", -0.1, "a finite number > 0, got -0.1"),
+    ],
 )
 def test_segmented_params_are_checked(field: str, value: float, message: str) -> None:
     with pytest.raises(ConfigError, match=rf"SegmentedParams\.{field} must be {message}"):

@@ -166,7 +166,7 @@ def test_sensor_overrides_reach_the_environment_and_bad_arguments_are_named() ->
     assert env.task.sensing.profile.fix_rate == 5.0 and env.control_timestep() == pytest.approx(0.04)
     with pytest.raises(ConfigError, match=r'--sensors fix_rat=5 \(sensors="fix_rat=5" from Python\): expected'):
         suite.load("open", "edumip", "line", sensors="fix_rat=5")
-    with pytest.raises(ConfigError, match="control_rate must be a number"):
+    with pytest.raises(ConfigError, match=r"control_rate must be a finite number > 0 \(Hz\), got \[50\]; e\.g\. 50"):
         suite.load("open", "edumip", "line", control_rate=[50])  # type: ignore[arg-type]
     with pytest.raises(ConfigError, match=r"--build-seed \(build_seed=\.\.\. from Python\) must be an integer"):
         suite.load("open", "edumip", "line", build_seed=[1])  # type: ignore[arg-type]

@@ -250,8 +250,8 @@ def test_workers_never_take_one_waiting_trial_twice(tmp_path: Path) -> None:
             r"--jobs 100000 \(jobs=100000 from Python\) would start 100000 worker processes .* give at most \d+",
         ),
         ({"--perturb-range": "grip=1:2"}, "expected comma-separated"),
-        ({"--trials": "0"}, "--trials must be >= 1"),
-        ({"--draws": "0"}, "--draws must be >= 1"),
+        ({"--trials": "0"}, "--trials must be an integer >= 1, got 0"),
+        ({"--draws": "0"}, "--draws must be an integer >= 1, got 0"),
         ({"--perturb-range": "friction=0.5:1.5"}, "--perturb-range is used by --robust only"),
         ({"--json": "OUT/gains.toml"}, "two outputs would be one file"),
     ],
@@ -277,7 +277,7 @@ def test_malformed_gains_file_is_rejected_by_simulate(tmp_path: Path, capsys: py
     bad = tmp_path / "g.toml"
     bad.write_text("[gains]\nkp = 9\nkd = -6\n")
     assert main(["simulate", "--gains", str(bad), "--json", str(tmp_path / "r.json")]) == 2
-    assert "kd must be > 0" in capsys.readouterr().err
+    assert "kd must be a finite number > 0, got -6; the error dynamics need it" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["g.toml"]
 
 

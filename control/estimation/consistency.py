@@ -14,12 +14,12 @@ and cached; nothing here runs per filter step.
 from __future__ import annotations
 
 import math
-import numbers
 from functools import lru_cache
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planning.core.checks import check_number
 from planning.errors import ConfigError
 
 FloatArray = NDArray[np.float64]
@@ -79,8 +79,7 @@ def chi2_interval(dof: int = 3, runs: int = 1, prob: float = 0.95) -> tuple[floa
         ConfigError: dof or runs not a positive integer, or prob outside (0, 1).
     """
     for name, value in (("dof", dof), ("runs", runs)):
-        if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-            raise ConfigError(f"chi2_interval: {name} must be an integer >= 1, got {value!r}")
+        check_number(f"chi2_interval: {name}", value, integer=True, at_least=1)
     if not (isinstance(prob, float) and 0.0 < prob < 1.0):
         raise ConfigError(f"chi2_interval: prob must be a float in (0, 1), e.g. 0.95, got {prob!r}")
     from scipy.stats import chi2
@@ -96,8 +95,7 @@ def chi2_upper(dof: int, prob: float) -> float:
     Raises:
         ConfigError: prob outside (0, 1) or dof not a positive integer.
     """
-    if isinstance(dof, bool) or not isinstance(dof, numbers.Integral) or dof < 1:
-        raise ConfigError(f"chi2_upper: dof must be an integer >= 1, got {dof!r}")
+    check_number("chi2_upper: dof", dof, integer=True, at_least=1)
     if not (isinstance(prob, float) and 0.0 < prob < 1.0):
         raise ConfigError(f"chi2_upper: prob must be a float in (0, 1), e.g. 0.999, got {prob!r}")
     from scipy.stats import chi2

@@ -27,13 +27,12 @@ dead reckoning over many periods live in tests/reference_odometry.py.
 from __future__ import annotations
 
 import math
-import numbers
 
 import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from planning.errors import ConfigError
+from planning.core.checks import check_number
 
 FloatArray = NDArray[np.float64]
 
@@ -71,8 +70,7 @@ def check_geometry(radius: float, track: float) -> None:
         ConfigError: Either is not a finite number > 0 (it names which, with the value).
     """
     for name, value in (("wheel radius", radius), ("track width", track)):
-        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value) or value <= 0:
-            raise ConfigError(f"{name} must be a finite number > 0 [m] (the robot as drawn), got {value!r}")
+        check_number(name, value, above=0.0, unit="m, the robot as drawn")
 
 
 def wheel_to_body(d_left: float, d_right: float, radius: float, track: float) -> tuple[float, float]:
@@ -104,6 +102,5 @@ def counts_to_radians(delta_counts: ArrayLike, counts_per_rev: float) -> FloatAr
     Raises:
         ConfigError: counts_per_rev is not a finite positive number.
     """
-    if not (isinstance(counts_per_rev, numbers.Real) and math.isfinite(counts_per_rev) and counts_per_rev > 0):
-        raise ConfigError(f"counts_per_rev must be a finite number > 0 (e.g. 4096), got {counts_per_rev!r}")
+    counts_per_rev = check_number("counts_per_rev", counts_per_rev, above=0.0, fix="e.g. 4096")
     return np.asarray(delta_counts, dtype=float) * (2.0 * math.pi / counts_per_rev)

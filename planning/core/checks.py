@@ -6,9 +6,7 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Mapping
-from typing import Any
-
-import numpy as np
+from typing import Any, Literal, TypedDict, TypeGuard, Unpack, overload
 
 from planning.errors import ConfigError
 
@@ -19,6 +17,8 @@ def given(value: object, integer: bool = False) -> str:
     ``integer`` field; no advice for one of bools or text, or a float for an integer field). Numbers are not
     read out of arrays: numpy scalars (what indexing, ``np.mean`` or ``np.linalg.norm`` give) are numbers, a
     0-d array is not."""
+    import numpy as np  # here, not at the top: the command line checks its flags before it loads numerics
+
     if not (isinstance(value, np.ndarray) and value.ndim == 0):
         return repr(value)
     cast = "int" if integer else "float"
@@ -26,6 +26,39 @@ def given(value: object, integer: bool = False) -> str:
     return f"a 0-d numpy array ({value!r})" + (f"; pass {cast}(x)" if fits else "")
 
 
+def is_number(value: object, integer: bool = False) -> TypeGuard[float]:
+    """Whether ``value`` is a finite number (an integer with ``integer``): not a bool, nor a 0-d array."""
+    kind = numbers.Integral if integer else numbers.Real
+    return not isinstance(value, bool) and isinstance(value, kind) and math.isfinite(value)  # type: ignore[arg-type]
+
+
+class Limits(TypedDict, total=False):
+    """The keyword arguments of :func:`check_number` besides ``integer`` and ``optional``."""
+
+    above: float | None
+    at_least: float | None
+    at_most: float | None
+    unit: str
+    fix: str
+
+
+@overload
+def check_number(
+    where: str, value: object, *, integer: Literal[True], optional: Literal[False] = False, **limits: Unpack[Limits]
+) -> int: ...
+@overload
+def check_number(
+    where: str,
+    value: object,
+    *,
+    integer: Literal[False] = False,
+    optional: Literal[False] = False,
+    **limits: Unpack[Limits],
+) -> float: ...
+@overload
+def check_number(
+    where: str, value: object, *, integer: bool = False, optional: bool = False, **limits: Unpack[Limits]
+) -> float | int | None: ...
 def check_number(
     where: str,
     value: object,
@@ -35,8 +68,14 @@ def check_number(
     at_most: float | None = None,
     integer: bool = False,
     optional: bool = False,
+    unit: str = "",
+    fix: str = "",
 ) -> float | int | None:
     """``value`` as a float (an int with ``integer``) when it is a finite number in range.
+
+    The one check of a number a user gives: its message names the field, what it must be (the kind, the
+    range and the unit), what was given (:func:`given`) and, with ``fix``, how to put it right, e.g.
+    ``perturbation friction must be a finite number in [0.05, 10] (x), got 50.0; give ...``.
 
     Args:
         where: The field, as the message names it (e.g. ``"rrt: goal_bias"``).
@@ -47,28 +86,35 @@ def check_number(
         at_most: Inclusive upper bound.
         integer: Require an integer.
         optional: Accept None (returned as None).
+        unit: The field's unit, quoted in parentheses after the range; it may say what a value means
+            (``"Hz, 0 for no pose source"``).
+        fix: How to put it right (or why the bound holds), appended after ``"; "``.
 
     Returns:
         The value (None only with ``optional``).
 
     Raises:
-        ConfigError: Not a finite number (an integer with ``integer``), or out of range; the message
-            names ``where``, the range and the value.
+        ConfigError: Not a finite number (an integer with ``integer``), or out of range.
     """
     if value is None and optional:
         return None
-    kind = numbers.Integral if integer else numbers.Real
-    wanted = "an integer" if integer else "a finite number"
-    if isinstance(value, bool) or not isinstance(value, kind) or not math.isfinite(value):
-        raise ConfigError(f"{where} must be {wanted}{' (or omitted)' if optional else ''}, got {given(value, integer)}")
-    number = int(value) if isinstance(value, numbers.Integral) else float(value)  # type: ignore[arg-type]
-    bounds = [(above, ">", number > above if above is not None else True)]
-    bounds += [(at_least, ">=", number >= at_least if at_least is not None else True)]
-    bounds += [(at_most, "<=", number <= at_most if at_most is not None else True)]
-    if not all(ok for _, _, ok in bounds):
-        wanted_range = " and ".join(f"{op} {limit:g}" for limit, op, _ in bounds if limit is not None)
-        raise ConfigError(f"{where} must be {wanted_range}, got {value!r}")
-    return number if integer else float(number)
+    if is_number(value, integer):
+        number = int(value) if isinstance(value, numbers.Integral) else float(value)
+        low_ok = (above is None or number > above) and (at_least is None or number >= at_least)
+        if low_ok and (at_most is None or number <= at_most):
+            return number if integer else float(number)
+    wanted = ["an integer" if integer else "a finite number", _range(above, at_least, at_most)]
+    wanted += [f"({unit})" if unit else "", "(or omitted)" if optional else ""]
+    tail = f"; {fix}" if fix else ""
+    raise ConfigError(f"{where} must be {' '.join(w for w in wanted if w)}, got {given(value, integer)}{tail}")
+
+
+def _range(above: float | None, at_least: float | None, at_most: float | None) -> str:
+    """The bounds as a message says them: ``"> 0"``, ``"in [0, 1]"``, ``"in (0, 60]"`` or ``""`` for none."""
+    if at_most is not None and (above is None) != (at_least is None):
+        return f"in ({above:g}, {at_most:g}]" if above is not None else f"in [{at_least:g}, {at_most:g}]"
+    said = ((">", above), (">=", at_least), ("<=", at_most))
+    return " and ".join(f"{op} {limit:g}" for op, limit in said if limit is not None)
 
 
 def check_flag(where: str, value: object) -> bool:
@@ -80,7 +126,11 @@ def check_flag(where: str, value: object) -> bool:
     Raises:
         ConfigError: Anything else; the message names ``where`` and the value.
     """
-    if isinstance(value, bool | np.bool_):
+    if isinstance(value, bool):
+        return value
+    import numpy as np  # as in given
+
+    if isinstance(value, np.bool_):
         return bool(value)
     raise ConfigError(f"{where} must be True or False, got {value!r}")
 

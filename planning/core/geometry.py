@@ -8,6 +8,7 @@ from typing import overload
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planning.core.checks import check_number
 from planning.errors import ConfigError
 
 FloatArray = NDArray[np.float64]
@@ -55,10 +56,7 @@ class Pose2D:
 
     def __post_init__(self) -> None:
         for name in ("x", "y", "theta"):
-            value = getattr(self, name)
-            if not isinstance(value, (int, float, np.floating, np.integer)) or not np.isfinite(value):
-                raise ConfigError(f"Pose2D.{name} must be a finite number, got {value!r}")
-            object.__setattr__(self, name, float(value))
+            object.__setattr__(self, name, check_number(f"Pose2D.{name}", getattr(self, name)))
 
     @classmethod
     def from_array(cls, values: ArrayLike) -> Pose2D:

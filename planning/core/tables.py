@@ -3,17 +3,11 @@ the field in every error, with what was expected and what was found."""
 
 from __future__ import annotations
 
-import numbers
 from collections.abc import Mapping
 from typing import Any
 
-import numpy as np
-
+from planning.core.checks import is_number
 from planning.errors import ScenarioError
-
-
-def _is_number(value: Any) -> bool:
-    return isinstance(value, numbers.Real) and not isinstance(value, bool) and bool(np.isfinite(float(value)))
 
 
 class TableReader:
@@ -66,7 +60,7 @@ class TableReader:
         if key not in table and default is not None:
             return default
         val = table[key]
-        if not _is_number(val):
+        if not is_number(val):
             raise self.fail(f"{ctx}{key}", "a finite number", val)
         if positive and val <= 0:
             raise self.fail(f"{ctx}{key}", expected or "a number > 0", val)
@@ -77,6 +71,6 @@ class TableReader:
     ) -> tuple[float, ...]:
         """A list of ``n`` finite numbers (``expected`` describes it in the error)."""
         val = table[key]
-        if not isinstance(val, list) or len(val) != n or not all(_is_number(v) for v in val):
+        if not isinstance(val, list) or len(val) != n or not all(is_number(v) for v in val):
             raise self.fail(f"{ctx}{key}", expected or f"a list of {n} finite numbers", val)
         return tuple(float(v) for v in val)

@@ -42,11 +42,10 @@ with the virtual bicycle's radius, as the Reeds–Shepp tree planners do (no tur
 from __future__ import annotations
 
 import dataclasses
-import numbers
 import os
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -55,6 +54,7 @@ from numpy.typing import NDArray
 from planning.clock import PlanClock
 from planning.collision.field import FieldTimeout
 from planning.collision.grid import FastChecker
+from planning.core.checks import check_fields
 from planning.core.geometry import path_length, unwrap_heading
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
@@ -129,45 +129,42 @@ class HybridAStarConfig:
     simplify: bool = True
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            value = getattr(self, f.name)
-            expected = _EXPECTED[f.name]
-            if not _CHECKS[f.name](value):
-                raise ConfigError(f"hybrid-a-star option {f.name} must be {expected}, got {value!r}")
+        check_fields(self, _NUMBERS, "hybrid-a-star option ")
+        for name, (expected, ok) in _RULES.items():
+            value = getattr(self, name)
+            if not ok(value):
+                raise ConfigError(f"hybrid-a-star option {name} must be {expected}, got {value!r}")
 
 
-def _number(value: object) -> bool:
-    return isinstance(value, numbers.Real) and not isinstance(value, bool) and bool(np.isfinite(float(value)))
-
-
-def _integer(value: object) -> bool:
-    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
-
-
+#: The numeric options -> their limits (:func:`planning.core.checks.check_number`), the fix an example.
+_NUMBERS: dict[str, dict[str, Any]] = {
+    "angle_quantization_bins": {"integer": True, "at_least": 8, "fix": "an even number, e.g. 72"},
+    "cell_size": {"above": 0.0, "unit": "m", "fix": "e.g. 0.05"},
+    "turning_radius": {
+        "above": 0.0,
+        "unit": "m",
+        "optional": True,
+        "fix": "Reeds–Shepp curves need a turning radius; plan turns in place with c-rrt-star",
+    },
+    "reverse_penalty": {"at_least": 1.0, "fix": "e.g. 2.0"},
+    "change_penalty": {"at_least": 0.0, "fix": "e.g. 0.0"},
+    "non_straight_penalty": {"at_least": 1.0, "fix": "e.g. 1.2"},
+    "analytic_expansion_ratio": {"above": 0.0, "fix": "e.g. 3.5"},
+    "analytic_expansion_max_length": {"above": 0.0, "unit": "m", "fix": "e.g. 3.0"},
+    "max_iterations": {"integer": True, "at_least": 1},
+    "search_from_goal_after": {"integer": True, "at_least": 0, "fix": "e.g. 16000"},
+    "time_limit": {"above": 0.0, "unit": "s", "optional": True},
+    "clearance": {"at_least": 0.0, "unit": "m"},
+}
+#: The other options (and what the numbers' limits do not say) -> (what it must be, its test).
 _RULES: dict[str, tuple[str, Callable[[Any], bool]]] = {
-    "angle_quantization_bins": ("an even integer >= 8 (e.g. 72)", lambda v: _integer(v) and v >= 8 and v % 2 == 0),
-    "cell_size": ("a number > 0 [m] (e.g. 0.05)", lambda v: _number(v) and v > 0),
-    "turning_radius": (
-        "None or a number > 0 [m] (Reeds–Shepp curves need a turning radius; plan turns in place with c-rrt-star)",
-        lambda v: v is None or (_number(v) and v > 0),
-    ),
-    "reverse_penalty": ("a number >= 1 (e.g. 2.0)", lambda v: _number(v) and v >= 1),
-    "change_penalty": ("a number >= 0 (e.g. 0.0)", lambda v: _number(v) and v >= 0),
-    "non_straight_penalty": ("a number >= 1 (e.g. 1.2)", lambda v: _number(v) and v >= 1),
-    "analytic_expansion_ratio": ("a number > 0 (e.g. 3.5)", lambda v: _number(v) and v > 0),
-    "analytic_expansion_max_length": ("a number > 0 [m] (e.g. 3.0)", lambda v: _number(v) and v > 0),
+    "angle_quantization_bins": ("an even integer >= 8 (e.g. 72)", lambda v: v % 2 == 0),
     "allow_primitive_interpolation": ("true or false", lambda v: isinstance(v, bool)),
-    "max_iterations": ("an integer >= 1", lambda v: _integer(v) and v >= 1),
     "search_from_goal": ("true or false", lambda v: isinstance(v, bool)),
-    "search_from_goal_after": ("an integer >= 0 (e.g. 16000)", lambda v: _integer(v) and v >= 0),
     "refine_when_exhausted": ("true or false", lambda v: isinstance(v, bool)),
-    "time_limit": ("None or a number > 0 [s]", lambda v: v is None or (_number(v) and v > 0)),
     "shape": ("'footprint' or 'disc'", lambda v: v in ("footprint", "disc")),
-    "clearance": ("a number >= 0 [m]", lambda v: _number(v) and v >= 0),
     "simplify": ("true or false", lambda v: isinstance(v, bool)),
 }
-_EXPECTED = {k: v[0] for k, v in _RULES.items()}
-_CHECKS = {k: v[1] for k, v in _RULES.items()}
 
 
 @dataclass(frozen=True)

@@ -69,7 +69,6 @@ from __future__ import annotations
 
 import bisect
 import itertools
-import numbers
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -78,6 +77,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.clock import PlanClock, code_seconds
+from planning.core.checks import check_number
 from planning.core.geometry import cumulative_length, path_length, path_steps
 from planning.errors import ConfigError
 from planning.trajectory.smoothing import remove_loops
@@ -105,10 +105,8 @@ class DirectedLength:
     reverse_weight: float = 1.0
 
     def __post_init__(self) -> None:
-        w = self.reverse_weight
-        if isinstance(w, bool) or not isinstance(w, numbers.Real) or not w >= 1.0 or not np.isfinite(w):
-            # below 1 a curve's length would no longer bound its cost from below (the pruning's premise)
-            raise ValueError(f"DirectedLength.reverse_weight must be a finite number >= 1, got {w!r}")
+        # below 1 a curve's length would no longer bound its cost from below (the pruning's premise)
+        check_number("DirectedLength.reverse_weight", self.reverse_weight, at_least=1.0)
 
     def __call__(self, poses: FloatArray, directions: FloatArray) -> float:
         """The cost of the piece ``poses`` (K, 3), ``directions`` (K,) of the motion arriving at each

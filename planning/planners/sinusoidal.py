@@ -48,7 +48,6 @@ ends the plan as ``TIMEOUT``.
 from __future__ import annotations
 
 import math
-import numbers
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -193,31 +192,25 @@ class Sinusoidal:
         max_period: float = 120.0,
         max_heading_offset: float = math.radians(80.0),
     ) -> None:
-        for label, val in (("u2max", u2max), ("tolerance", tolerance), ("dt", dt), ("min_period", min_period)):
-            if not (isinstance(val, numbers.Real) and math.isfinite(val) and val > 0):
-                raise ConfigError(f"sinusoidal: {label} must be a number > 0, got {val!r}")
-        for label, opt in (("u1max", u1max), ("phimax", phimax)):
-            if opt is not None and not (math.isfinite(opt) and opt > 0):
-                raise ConfigError(f"sinusoidal: {label} must be > 0 (or omitted for the robot's limit), got {opt!r}")
+        self.u2max = check_number("sinusoidal: u2max", u2max, above=0.0)
+        self.tolerance = check_number("sinusoidal: tolerance", tolerance, above=0.0)
+        self.dt = check_number("sinusoidal: dt", dt, above=0.0)
+        self.min_period = check_number("sinusoidal: min_period", min_period, above=0.0)
+        robots = "omit it for the robot's limit"
+        self.u1max_opt = check_number("sinusoidal: u1max", u1max, above=0.0, optional=True, fix=robots)
+        self.phimax_opt = check_number("sinusoidal: phimax", phimax, above=0.0, optional=True, fix=robots)
         if phimax is not None and phimax >= math.pi / 2:
             raise ConfigError(f"sinusoidal: phimax must be < pi/2, got {phimax}")
         if not 0 < max_heading_offset < math.pi / 2:
             raise ConfigError(f"sinusoidal: max_heading_offset must lie in (0, pi/2), got {max_heading_offset}")
-        check_number("sinusoidal: max_period", max_period, above=0.0)
+        self.max_period = check_number("sinusoidal: max_period", max_period, above=0.0)
         if max_period < min_period:
             raise ConfigError(f"sinusoidal: max_period ({max_period}) must be >= min_period ({min_period})")
-        self.u1max_opt = u1max
-        self.u2max = float(u2max)
-        self.phimax_opt = phimax
-        self.tolerance = float(tolerance)
-        self.dt = float(dt)
-        self.min_period = float(min_period)
-        self.max_period = float(max_period)
         self.alpha_lim = math.sin(max_heading_offset)
         # Set per problem by plan(): wheelbase [m] and the effective bounds.
         self.l = 0.1
-        self.u1max = u1max if u1max is not None else 0.22
-        self.phimax = phimax if phimax is not None else 0.6
+        self.u1max = self.u1max_opt if self.u1max_opt is not None else 0.22
+        self.phimax = self.phimax_opt if self.phimax_opt is not None else 0.6
         self.wmax = math.inf  # the differential drive's yaw-rate limit omega = u1 tan(phi) / l [rad/s]
         self._deadline = math.inf  # time.perf_counter() value at which the plan's time limit passes
 

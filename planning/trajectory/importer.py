@@ -41,8 +41,9 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.checks import check_number
 from planning.core.geometry import wrap_angle
-from planning.errors import option, options
+from planning.errors import ConfigError, option, options
 from planning.trajectory.file_formats import FileTable, TrajectoryFileError, parse_column_names, read_table
 from planning.trajectory.row_curves import MOVING_SPEED as MOVING_SPEED
 from planning.trajectory.row_curves import SAME_POSITION as SAME_POSITION
@@ -100,9 +101,10 @@ class TrajectoryFile:
     def __post_init__(self) -> None:
         object.__setattr__(self, "path", Path(self.path))
         for name in ("scale", "time_scale"):
-            value = getattr(self, name)
-            if value is not None and not (np.isfinite(value) and value > 0):
-                raise TrajectoryFileError(f"{option(name.replace('_', '-'))} must be a finite number > 0, got {value}")
+            try:
+                check_number(option(name.replace("_", "-")), getattr(self, name), above=0.0, optional=True)
+            except ConfigError as exc:
+                raise TrajectoryFileError(str(exc)) from exc
         if len(self.offset) != 3 or not all(np.isfinite(self.offset)):
             raise TrajectoryFileError(f"{option('offset')} must be three finite numbers X,Y,THETA, got {self.offset}")
         if self.columns is not None:

@@ -8,13 +8,12 @@ sized and timed from the robot's limits so that speed, yaw rate and acceleration
 from __future__ import annotations
 
 import inspect
-import math
-import numbers
 from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.checks import check_number
 from planning.core.geometry import Pose2D
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
@@ -83,10 +82,8 @@ def _build(
         ConfigError: ``margin`` is not in (0, 1] or ``dt`` [s] is not a finite number > 0, or the
             reference would need more than ``MAX_SAMPLES`` samples.
     """
-    margin = _positive(f"{name} margin", margin, 1.0)
-    if margin > 1.0:
-        raise ConfigError(f"{name} margin must be a fraction of the robot's limits in (0, 1], got {margin}")
-    dt = _positive(f"{name} dt", dt, 0.002)
+    margin = check_number(f"{name} margin", margin, above=0.0, at_most=1.0, unit="a fraction of the robot's limits")
+    dt = check_number(f"{name} dt", dt, above=0.0, unit="s")
     s_grid = np.linspace(0.0, total, 4001)
     p, dp, ddp = curve(s_grid)
     g = np.hypot(dp[:, 0], dp[:, 1])
@@ -115,10 +112,7 @@ def _build(
 def _positive(what: str, value: float | None, default: float) -> float:
     """``value`` (or ``default`` when None) as a float, which must be a finite number > 0 (ConfigError
     naming ``what``)."""
-    out = default if value is None else value
-    if isinstance(out, bool) or not isinstance(out, numbers.Real) or not (math.isfinite(out) and out > 0):
-        raise ConfigError(f"{what} must be a finite number > 0, got {out!r}")
-    return float(out)
+    return check_number(what, default if value is None else value, above=0.0)
 
 
 def line(

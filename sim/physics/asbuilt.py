@@ -28,8 +28,8 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
+from planning.core.checks import check_number
 from planning.errors import ConfigError, ModelError, option
-from sim.physics.keyvalue import check_number
 from sim.physics.model import BuiltModel, build_model
 
 if TYPE_CHECKING:
@@ -117,12 +117,8 @@ def check_build_seed(value: object) -> int:
     Raises:
         ConfigError: Not an integer >= 0 (the message names ``--build-seed``, ``build_seed`` and the fix).
     """
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-        raise ConfigError(
-            f"{option('build-seed')} must be an integer >= 0, got {value!r}; pass a whole number, e.g. "
-            f"{DEFAULT_BUILD_SEED}"
-        )
-    return int(value)
+    fix = f"pass a whole number, e.g. {DEFAULT_BUILD_SEED}"
+    return check_number(option("build-seed"), value, integer=True, at_least=0, fix=fix)
 
 
 def _set_radius(model: mujoco.MjModel, geom: int, radius: float) -> None:
@@ -167,7 +163,7 @@ class AsBuilt:
 
     def __post_init__(self) -> None:
         for name, (lo, hi, _, unit) in LIMITS.items():
-            value = check_number(getattr(self, name), name, "as-built", (lo, hi), unit)
+            value = check_number(f"as-built {name}", getattr(self, name), at_least=lo, at_most=hi, unit=unit)
             object.__setattr__(self, name, value)
         if self.build_seed is not None:
             object.__setattr__(self, "build_seed", check_build_seed(self.build_seed))

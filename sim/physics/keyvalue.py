@@ -1,18 +1,16 @@
 """Parsing and checking of ``key=value,...`` option strings (``--perturb``, ``--sensors``).
 
 The command-line options that change a run's physics or sensors take comma-separated
-``key=value`` pairs; these helpers split such a string, read its numbers and check them against
-a range, raising :class:`~planning.errors.ConfigError` with a message that names the option, the
-bad key or value and what is expected.
+``key=value`` pairs; these helpers split such a string and read its numbers, raising
+:class:`~planning.errors.ConfigError` with a message that names the option, the bad key or value and
+what is expected. A number's range is checked by :func:`planning.core.checks.check_number`.
 """
 
 from __future__ import annotations
 
-import math
-import numbers
 from collections.abc import Iterable
 
-from planning.core.checks import given
+from planning.core import checks
 from planning.errors import ConfigError
 
 
@@ -60,23 +58,6 @@ def parse_number(text: str, key: str, what: str) -> float:
 
 
 def check_number(value: object, name: str, what: str, bounds: tuple[float, float], unit: str, fix: str = "") -> float:
-    """A finite number within ``bounds`` (inclusive), as a float.
-
-    Args:
-        value: The value to check (bools and 0-d numpy arrays are refused: see :func:`planning.core.checks.given`).
-        name: The field's name for messages.
-        what: What the field belongs to, e.g. ``"perturbation"``.
-        bounds: (lowest, highest) allowed.
-        unit: The field's unit, quoted in the message.
-        fix: How to put it right, appended to the message after ``"; "`` when given.
-
-    Raises:
-        ConfigError: Not a finite number, or outside ``bounds``.
-    """
-    tail = f"; {fix}" if fix else ""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-        raise ConfigError(f"{what} {name} must be a finite number, got {given(value)}{tail}")
-    lo, hi = bounds
-    if not lo <= float(value) <= hi:
-        raise ConfigError(f"{what} {name}={value!r} is outside [{lo:g}, {hi:g}] ({unit}){tail}")
-    return float(value)
+    """:func:`planning.core.checks.check_number` of the field ``name`` of ``what`` (``"lidar rate"``) within
+    ``bounds`` (inclusive). Kept for :mod:`sim.physics.lidar`; new code calls the planning one."""
+    return checks.check_number(f"{what} {name}", value, at_least=bounds[0], at_most=bounds[1], unit=unit, fix=fix)

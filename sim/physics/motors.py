@@ -55,13 +55,14 @@ own limit numerics must be this rule at its own voltage (checked).
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass, fields, replace
+from typing import Any
 
 import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planning.core.checks import check_fields
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError, ModelError, option
 
@@ -116,6 +117,18 @@ def control_steps(control_rate: float, timestep: float) -> int:
     return k
 
 
+#: The limits of :class:`MotorModel`'s fields (:func:`planning.core.checks.check_number`).
+_MOTOR_LIMITS: dict[str, dict[str, Any]] = {
+    "battery_voltage": {"above": 0.0, "unit": "V"},
+    "stall_torque": {"above": 0.0, "unit": "N m"},
+    "no_load_speed": {"above": 0.0, "unit": "rad/s"},
+    "ki": {"above": 0.0, "unit": "V/rad"},
+    "period": {"above": 0.0, "unit": "s"},
+    "kp": {"at_least": 0.0, "unit": "V s/rad"},
+    "kff": {"at_least": 0.0, "unit": "V s/rad"},
+}
+
+
 @dataclass(frozen=True)
 class MotorModel:
     """A wheel motor (at the wheel, gearbox included) and the gains of its firmware velocity loop.
@@ -139,14 +152,7 @@ class MotorModel:
     period: float
 
     def __post_init__(self) -> None:
-        for name in ("battery_voltage", "stall_torque", "no_load_speed", "ki", "period"):
-            value = getattr(self, name)
-            if not (isinstance(value, numbers.Real) and math.isfinite(value) and float(value) > 0):
-                raise ConfigError(f"MotorModel.{name} must be a finite number > 0, got {value!r}")
-        for name in ("kp", "kff"):
-            value = getattr(self, name)
-            if not (isinstance(value, numbers.Real) and math.isfinite(value) and float(value) >= 0):
-                raise ConfigError(f"MotorModel.{name} must be a finite number >= 0, got {value!r}")
+        check_fields(self, _MOTOR_LIMITS, "MotorModel.")
         if self.max_period() <= 0:
             raise ConfigError(
                 f"MotorModel.kp = {self.kp:g} V s/rad leaves no stable loop period: 2 kp must be below "
@@ -320,11 +326,11 @@ class Supply:
     speed_cap: float
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            value = getattr(self, f.name)
-            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-                example = SUPPLY_EXAMPLES.get(f.name, 1.0)
-                raise ConfigError(f"motors: {f.name} must be a number, got {value!r}; give e.g. {f.name}={example:g}")
+        limits: dict[str, dict[str, Any]] = {
+            f.name: {"fix": f"give e.g. {f.name}={SUPPLY_EXAMPLES.get(f.name, 1.0):g}"} for f in fields(self)
+        }
+        limits["speed_cap"] |= {"above": 0.0, "unit": "rad/s"}
+        check_fields(self, limits, "motors: ")
         v, lo, hi = self.battery_voltage, self.min_voltage, self.max_voltage
         if not lo <= v <= hi:
             raise ConfigError(
@@ -335,8 +341,6 @@ class Supply:
             raise ConfigError(f"motors: supply_sag must be in [0, battery_voltage) [V], got {self.supply_sag!r}")
         if not 0 <= self.torque_reserve < 1:
             raise ConfigError(f"motors: torque_reserve must be a fraction in [0, 1), got {self.torque_reserve!r}")
-        if not self.speed_cap > 0:
-            raise ConfigError(f"motors: speed_cap must be > 0 [rad/s], got {self.speed_cap!r}")
 
     @classmethod
     def from_model(cls, model: mujoco.MjModel) -> Supply | None:

@@ -34,8 +34,9 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.checks import check_number
 from planning.errors import ConfigError, option
-from sim.physics.keyvalue import check_number, parse_number, parse_pairs
+from sim.physics.keyvalue import parse_number, parse_pairs
 from sim.physics.model import scale_wheels
 
 #: Field -> (lowest allowed, highest allowed, nominal, unit) for validation and help.
@@ -68,15 +69,15 @@ def parse_push(value: str, text: str) -> tuple[float, float]:
     impulse_s, sep, time_s = value.partition("@")
     if not sep:
         raise ConfigError(f"{what}: push must be IMPULSE@TIME in N s and s (e.g. push=0.05@10), got {value!r}")
-    impulse = check_number(parse_number(impulse_s, "push impulse", what), "push impulse", "perturbation",
-                           (-MAX_PUSH, MAX_PUSH), "N s")  # fmt: skip
-    time = check_number(parse_number(time_s, "push time", what), "push time", "perturbation", (0.0, 1e6), "s")
-    return impulse, time
+    impulse = parse_number(impulse_s, "push impulse", what)
+    impulse = check_number("perturbation push impulse", impulse, at_least=-MAX_PUSH, at_most=MAX_PUSH, unit="N s")
+    time = parse_number(time_s, "push time", what)
+    return impulse, check_number("perturbation push time", time, at_least=0.0, at_most=1e6, unit="s")
 
 
 def _check(name: str, value: object) -> float:
     lo, hi, _, unit = LIMITS[name]
-    return check_number(value, name, "perturbation", (lo, hi), unit)
+    return check_number(f"perturbation {name}", value, at_least=lo, at_most=hi, unit=unit)
 
 
 @dataclass(frozen=True)
@@ -106,9 +107,7 @@ class Perturbation:
     def __post_init__(self) -> None:
         for name in LIMITS:
             object.__setattr__(self, name, _check(name, getattr(self, name)))
-        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
-            raise ConfigError(f"perturbation seed must be an integer >= 0, got {self.seed!r}")
-        object.__setattr__(self, "seed", int(self.seed))
+        object.__setattr__(self, "seed", check_number("perturbation seed", self.seed, integer=True, at_least=0))
 
     @classmethod
     def parse(cls, text: str, *, seed: int = 0) -> Perturbation:
@@ -247,8 +246,7 @@ class PerturbationRange:
     def sample(self, n: int, seed: int) -> list[Perturbation]:
         """``n`` perturbations drawn from ``np.random.default_rng(seed)``; each gets its own noise
         seed from the same generator. Same seed, same list."""
-        if n < 0:
-            raise ConfigError(f"number of perturbations must be >= 0, got {n}")
+        check_number("number of perturbations", n, integer=True, at_least=0)
         rng = np.random.default_rng(seed)
         out = []
         for _ in range(n):

@@ -45,7 +45,6 @@ so the parts are independent and part 0 is what it always was.
 from __future__ import annotations
 
 import math
-import numbers
 import tomllib
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass
@@ -57,9 +56,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.estimation.kernels import wrap
+from planning.core.checks import check_number
 from planning.core.robot import MODELS_DIR
 from planning.errors import ConfigError, option
-from sim.physics.keyvalue import check_number, parse_number, parse_pairs
+from sim.physics.keyvalue import parse_number, parse_pairs
 from sim.physics.motors import control_steps
 
 if TYPE_CHECKING:
@@ -107,9 +107,9 @@ def _in_table(source: str | None, name: str, message: str) -> str:
 
 def _check_field(name: str, value: object, source: str | None = None) -> float:
     lo, hi, unit, typical = LIMITS[name]
-    fix = f"give a number in [{lo:g}, {hi:g}], e.g. {_setting(name, typical, source)}"
+    fix = f"e.g. {_setting(name, typical, source)}"
     try:
-        return check_number(value, name, "sensor", (lo, hi), unit, fix)
+        return check_number(f"sensor {name}", value, at_least=lo, at_most=hi, unit=unit, fix=fix)
     except ConfigError as exc:
         raise ConfigError(_in_table(source, name, str(exc))) from exc
 
@@ -365,18 +365,6 @@ def fix_period(rate: float, control_rate: float, source: str | None = None) -> i
     return every
 
 
-def _positive(value: float, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not (math.isfinite(value) and value > 0):
-        raise ConfigError(f"{what} must be a positive number, got {value!r}")
-    return float(value)
-
-
-def _count(value: int, what: str, least: int, fix: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
-        raise ConfigError(f"{what} must be an integer >= {least}, got {value!r}; {fix}")
-    return int(value)
-
-
 def _readonly(a: NDArray[Any]) -> NDArray[Any]:
     a.setflags(write=False)
     return a
@@ -422,11 +410,13 @@ class SensorModel:
         part: int = 0,
     ) -> None:
         self.profile = profile
-        self.control_rate = _positive(control_rate, "control rate [Hz]")
-        self.timestep = _positive(timestep, "physics timestep [s]")
-        self.n_periods = _count(n_periods, "number of control periods", 1, "a run has at least one")
-        self.seed = _count(seed, "sensor noise seed", 0, "pass a whole number such as seed=0")
-        self.part = _count(part, "sensor part", 0, "0 for the base's sensors, 1 for a balancing robot's firmware")
+        self.control_rate = check_number("control rate", control_rate, above=0.0, unit="Hz")
+        self.timestep = check_number("physics timestep", timestep, above=0.0, unit="s")
+        once, seeded = "a run has at least one", "pass a whole number such as seed=0"
+        self.n_periods = check_number("number of control periods", n_periods, integer=True, at_least=1, fix=once)
+        self.seed = check_number("sensor noise seed", seed, integer=True, at_least=0, fix=seeded)
+        parts = "0 for the base's sensors, 1 for a balancing robot's firmware"
+        self.part = check_number("sensor part", part, integer=True, at_least=0, fix=parts)
         self.steps_per_control = control_steps(self.control_rate, self.timestep)
         self.fix_every = fix_period(self.profile.fix_rate, self.control_rate)
         periods = self.profile.fix_latency * self.control_rate

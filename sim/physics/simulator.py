@@ -25,6 +25,7 @@ from control.design.balance_profile import is_balancing, load_balance_profile
 from control.diffdrive import DiffDrive
 from control.dispatch import bind
 from control.estimation import EstimatorDivergedError
+from planning.core.checks import check_number
 from planning.core.geometry import Pose2D
 from planning.core.robot import RobotSpec
 from planning.core.world import World
@@ -98,10 +99,8 @@ class SimConfig:
     strict: bool = True
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.control_rate) and self.control_rate > 0):
-            raise ConfigError(f"control rate must be a positive number of Hz, got {self.control_rate}")
-        if not (math.isfinite(self.hold) and self.hold >= 0):
-            raise ConfigError(f"hold must be >= 0 s, got {self.hold}")
+        check_number("control rate", self.control_rate, above=0.0, unit="Hz")
+        check_number("hold", self.hold, at_least=0.0, unit="s")
 
 
 class Simulator:

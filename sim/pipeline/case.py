@@ -20,7 +20,6 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import math
-import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -31,6 +30,7 @@ from numpy.typing import NDArray
 from control.base import TRACKERS
 from control.estimation.amcl import AmclConfig
 from control.fbl import FBLGains
+from planning.core.checks import check_fields
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot
 from planning.errors import ConfigError, ScenarioError, option, options
@@ -78,14 +78,11 @@ class PlanOptions:
     clearance: float = 0.01
 
     def __post_init__(self) -> None:
-        for name in ("time_limit", "clearance"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-                raise ConfigError(f"PlanOptions.{name} must be a finite number, got {value!r}")
-        if not self.time_limit > 0:
-            raise ConfigError(f"PlanOptions.time_limit must be > 0 s, got {self.time_limit!r}")
-        if not self.clearance >= 0:
-            raise ConfigError(f"PlanOptions.clearance must be >= 0 m (0 plans to the limit), got {self.clearance!r}")
+        limits = {
+            "time_limit": {"above": 0.0, "unit": "s"},
+            "clearance": {"at_least": 0.0, "unit": "m, 0 plans to the limit"},
+        }
+        check_fields(self, limits, "PlanOptions.")
         for name in ("planner_options", "smoothing"):
             if not isinstance(getattr(self, name), Mapping):
                 raise ConfigError(

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import numbers
 from dataclasses import replace
 from functools import cache
 from typing import Any
@@ -11,6 +10,7 @@ import numpy as np
 from dm_control.mujoco.wrapper import core
 from dm_control.rl import control
 
+from planning.core.checks import check_number, is_number
 from planning.core.robot import ROBOT_FILES, load_robot
 from planning.errors import ConfigError
 from planning.planners.registry import PLANNERS
@@ -39,7 +39,7 @@ def suite_seed(seed: Any) -> int:
         return int(np.random.SeedSequence().generate_state(1)[0] >> 1)
     if isinstance(seed, np.random.RandomState):
         return int(seed.randint(2**31 - 1))
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+    if not (is_number(seed, integer=True) and seed >= 0):
         raise ConfigError(
             f"seed must be an integer >= 0, None (a random seed) or a numpy.random.RandomState, as dm_control's "
             f"suite takes; got {seed!r} ({type(seed).__name__})"
@@ -124,13 +124,12 @@ def load(
         ScenarioError: Unknown scenario (the message lists the built-in ones).
         TrajectoryError: The plan failed.
     """
-    if isinstance(control_rate, bool) or not isinstance(control_rate, numbers.Real):
-        raise ConfigError(f"control_rate must be a number of Hz, e.g. 50, got {control_rate!r}")
+    rate = check_number("control_rate", control_rate, above=0.0, unit="Hz", fix="e.g. 50")
     if build_seed is not None:
         build_seed = check_build_seed(build_seed)
     if not isinstance(sensors, str):
         raise ConfigError(f"sensors must be text such as 'fix_rate=5', got {sensors!r}")
-    prepared = _prepared(scenario, robot, source, suite_seed(seed), build_seed, float(control_rate), sensors)
+    prepared = _prepared(scenario, robot, source, suite_seed(seed), build_seed, rate, sensors)
     simulator = simulator_for(prepared)
     SimConfig(control_rate=control_rate, hold=prepared.hold)  # checks the rate and the hold
     task = TrackingTask(

@@ -18,7 +18,6 @@ time) [ms] and the collisions; MPC's solver statistics (failures, overruns).
 from __future__ import annotations
 
 import json
-import numbers
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -29,6 +28,7 @@ import mujoco
 import numpy as np
 
 from control.base import TRACKERS, Tracker, make_tracker, tracker_options, tuned_option
+from planning.core.checks import check_number
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError, option
 from planning.scenario import Scenario
@@ -295,8 +295,7 @@ def compare_trackers(
         NhsimError: From preparing the trajectory (planning, smoothing).
     """
     names = check_trackers(trackers)
-    if isinstance(runs, bool) or not isinstance(runs, numbers.Integral) or runs < 1:
-        raise ConfigError(f"{option('runs')} must be an integer >= 1, got {runs!r}")
+    runs = check_number(option("runs"), runs, integer=True, at_least=1)
     params = dict(params or {})
     prepared = prepare_trajectory(case)
     base = PreparedCase(prepared, simulator_for(prepared))

@@ -30,6 +30,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TypeVar
 
+from planning.core.checks import check_number
 from planning.errors import ConfigError, DependencyError, option, options
 
 T = TypeVar("T")
@@ -437,8 +438,7 @@ def check_workers(n: int, flag: str = "jobs", *, elsewhere: str = "") -> int:
     Raises:
         ConfigError: ``n`` < 1 or above :func:`max_jobs`, naming ``flag`` and the bound.
     """
-    if n < 1:
-        raise ConfigError(f"{option(flag)} must be >= 1, got {n}")
+    n = check_number(option(flag), n, integer=True, at_least=1)
     if n > max_jobs():
         cores = default_jobs()
         raise ConfigError(

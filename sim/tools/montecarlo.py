@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from planning.core.checks import check_number
 from planning.errors import ConfigError, NhsimError, option
 from planning.trajectory.importer import TrajectoryFile
 from sim.physics.perturb import LIMITS, PerturbationRange
@@ -70,8 +71,7 @@ class MonteCarloSpec:
     replan: bool = False
 
     def __post_init__(self) -> None:
-        if isinstance(self.runs, bool) or not isinstance(self.runs, int) or self.runs < 1:
-            raise ConfigError(f"{option('runs')} must be a whole number >= 1, got {self.runs!r}")
+        object.__setattr__(self, "runs", check_number(option("runs"), self.runs, integer=True, at_least=1))
         if self.runs > MAX_DRAWS:
             raise ConfigError(
                 f"{option('runs')} must be at most {MAX_DRAWS} (distinct robots and noise draws), got {self.runs}"

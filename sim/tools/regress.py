@@ -43,6 +43,7 @@ from typing import Any
 
 from control.base import TRACKERS
 from control.fbl import FBLGains
+from planning.core.checks import is_number
 from planning.core.robot import ROBOT_FILES
 from planning.errors import ConfigError, NhsimError, SimulationError, option, without_python
 from planning.planners.registry import PLANNERS
@@ -186,11 +187,6 @@ def _toml(value: Any) -> str:
     return json.dumps(value, default=str, ensure_ascii=False)
 
 
-def _is_number(value: Any) -> bool:
-    """A finite TOML number (an integer or a float; true and false are not numbers)."""
-    return not isinstance(value, bool) and isinstance(value, int | float) and math.isfinite(value)
-
-
 def _as_field(key: str, match: re.Match[str]) -> str:
     """An option's mention (``match``: its value, if any, in group 1) as ``key = value``, as a suite file
     writes it (``key = ...`` without a value)."""
@@ -244,12 +240,12 @@ def _checked(key: str, value: Any) -> Any:
     if key in ("seed", "build_seed"):
         if key == "build_seed" and value == "nominal":
             return None  # the robot as drawn
-        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        if not (is_number(value, integer=True) and value >= 0):
             example = f'{DEFAULT_BUILD_SEED}, or "nominal" for the robot as drawn' if key == "build_seed" else "0"
             raise ConfigError(f"must be a whole number >= 0, e.g. {key} = {example}")
         return value
     if key == "control_rate":
-        if not (_is_number(value) and value > 0):
+        if not (is_number(value) and value > 0):
             raise ConfigError("must be a finite number of Hz > 0, e.g. control_rate = 50")
         return float(value)
     if key == "fast":
@@ -391,7 +387,7 @@ def _tolerances(p: Path, table: Any) -> dict[str, Tolerance]:
         if not (isinstance(spec, dict) and set(spec) <= {"abs", "rel"}):
             raise ConfigError(f"{p}: [tolerances] {metric} = {_toml(spec)}: must be {form}")
         for key, bound in spec.items():
-            if not (_is_number(bound) and bound >= 0):
+            if not (is_number(bound) and bound >= 0):
                 raise ConfigError(
                     f"{p}: [tolerances] {metric} {key} = {_toml(bound)}: must be a finite number >= 0, e.g. "
                     f"{metric} = {{ abs = 1e-3, rel = 0.1 }}"

@@ -53,6 +53,7 @@ import numpy as np
 
 from control.base import search_space, tuned_option
 from control.fbl import FBLGains
+from planning.core.checks import check_number
 from planning.errors import ConfigError, NhsimError, option
 from planning.signals import signals_held, signals_released
 
@@ -148,8 +149,7 @@ def make_draws(
     Raises:
         ConfigError: Negative count, or more than :data:`MAX_DRAWS`.
     """
-    if count < 0:
-        raise ConfigError(f"number of draws must be >= 0, got {count}")
+    check_number("number of draws", count, integer=True, at_least=0)
     if count > MAX_DRAWS:
         raise ConfigError(
             f"number of draws must be at most {MAX_DRAWS} (a quarter of the seeds of one parity), got {count}"
@@ -239,11 +239,9 @@ class Evaluator:
     ) -> None:
         if not cases:
             raise ConfigError(f"no cases to tune on; give some, e.g. {EXAMPLE_CASES}")
-        if not (math.isfinite(saturation_weight) and saturation_weight >= 0):
-            raise ConfigError(f"saturation weight must be >= 0, got {saturation_weight}")
         self.cases = tuple(cases)
         self.draws: tuple[Draw | None, ...] = tuple(draws) if draws else (None,)
-        self.saturation_weight = float(saturation_weight)
+        self.saturation_weight = check_number("saturation weight", saturation_weight, at_least=0.0)
         self.tracker = tracker
         self._prepared: list[PreparedCase] | None = None
         self._builds: dict[tuple[int, int | None], PreparedCase] = {}
@@ -338,8 +336,7 @@ class TuneSpec:
     def __post_init__(self) -> None:
         if self.sampler not in SAMPLERS:
             raise ConfigError(f"unknown sampler {self.sampler!r}: choose one of {', '.join(SAMPLERS)}")
-        if self.trials < 1:
-            raise ConfigError(f"{option('trials')} must be >= 1, got {self.trials}")
+        check_number(option("trials"), self.trials, integer=True, at_least=1)
 
     def settings(self) -> dict[str, Any]:
         """What defines the objective; stored with the study and checked on resume."""

@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import copy
 import math
-import numbers
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -43,6 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 from PIL import Image, ImageDraw
 
+from planning.core.checks import check_number
 from planning.errors import ConfigError, option
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.metrics import position_errors
@@ -105,14 +105,17 @@ class RenderSettings:
     quality: str = "fast"
 
     def __post_init__(self) -> None:
-        for name, v in (("width", self.width), ("height", self.height)):
-            if not (isinstance(v, numbers.Integral) and not isinstance(v, bool) and 16 <= v <= 4096 and v % 2 == 0):
-                raise ConfigError(f"video {name} must be an even number of pixels in [16, 4096], got {v!r}")
-            object.__setattr__(self, name, int(v))  # a numpy integer as a plain one
-        if isinstance(self.fps, bool) or not isinstance(self.fps, numbers.Real):
-            raise ConfigError(f"{option('fps')} must be a number of frames/s between 1 and 240, got {self.fps!r}")
-        if not (math.isfinite(self.fps) and 1.0 <= self.fps <= 240.0):
-            raise ConfigError(f"{option('fps')} must be between 1 and 240 frames/s, got {self.fps}")
+        even = "give an even number (H.264 with yuv420p needs even sizes)"
+        for name in ("width", "height"):
+            where = f"video {name}"
+            v = check_number(
+                where, getattr(self, name), integer=True, at_least=16, at_most=4096, unit="pixels", fix=even
+            )
+            if v % 2:
+                raise ConfigError(f"{where} must be even, got {v}; {even}")
+            object.__setattr__(self, name, v)  # a numpy integer as a plain one
+        fps = check_number(option("fps"), self.fps, at_least=1.0, at_most=240.0, unit="frames/s")
+        object.__setattr__(self, "fps", fps)
         if self.camera not in CAMERAS:
             raise ConfigError(f"unknown camera {self.camera!r}: choose one of {', '.join(CAMERAS)}")
         if self.quality not in QUALITIES:

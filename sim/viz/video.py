@@ -19,7 +19,7 @@ from types import TracebackType
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.core.checks import check_flag
+from planning.core.checks import check_flag, check_number
 from planning.errors import ConfigError, DependencyError, SimulationError
 from planning.signals import signals_held
 from sim.outputs import atomic_path
@@ -92,8 +92,7 @@ class VideoWriter:
     ) -> None:
         if width % 2 or height % 2 or width < 16 or height < 16:
             raise ConfigError(f"H.264 in yuv420p needs an even frame size of at least 16x16, got {width}x{height}")
-        if not fps > 0:
-            raise ConfigError(f"frame rate must be > 0, got {fps}")
+        check_number("frame rate", fps, above=0.0, unit="frames/s")
         if preset not in PRESETS:
             raise ConfigError(f"unknown x264 preset {preset!r}: choose one of {', '.join(PRESETS)}")
         if not 0 <= crf <= 51:

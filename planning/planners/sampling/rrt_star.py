@@ -115,10 +115,9 @@ class RRTStarConfig(TreeConfig):
                 "path_bias": {"at_least": 0.0, "at_most": 1.0},
                 "path_sigma": {"above": 0.0},
                 "region_tries": {"integer": True, "at_least": 1},
+                "improvement_tol": {"at_least": 0.0, "unit": "0 runs the whole budget"},
             },
         )
-        if not self.improvement_tol >= 0.0:
-            raise ConfigError(f"improvement_tol must be >= 0 (0: run the whole budget), got {self.improvement_tol}")
         if self.stall_clock not in ("iterations", "time"):
             raise ConfigError(f"stall_clock must be 'iterations' or 'time', got {self.stall_clock!r}")
 

@@ -4,7 +4,6 @@ warm (see :mod:`sim.tools.bench.cold`)."""
 from __future__ import annotations
 
 import argparse
-import math
 
 #: Obstacle kinds but ellipses (a world without them reached numba's one-time set-up first inside the
 #: plan, where an ellipse's reached it while the scenario loaded).
@@ -37,6 +36,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Measure and print one row per world as it is done; exit 1 when a target is missed."""
+    from planning.core.checks import check_number
     from planning.errors import ConfigError
     from planning.planners.registry import PLANNERS
     from sim.cli.checks import check_at_least, check_seeds
@@ -46,8 +46,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--planner {args.planner!r} is not a planner; choose one of {', '.join(sorted(PLANNERS))}")
     check_at_least({"--worlds": (args.worlds, 1), "--repeats": (args.repeats, 1)})
     check_seeds(seed=args.seed)
-    if not (math.isfinite(args.obstacle_scale) and 0.0 < args.obstacle_scale <= 4.0):
-        raise ConfigError(f"--obstacle-scale must be a number in (0, 4], got {args.obstacle_scale!r}")
+    check_number("--obstacle-scale", args.obstacle_scale, above=0.0, at_most=4.0)
     print(
         f"{args.planner}: a fresh 'nhsim plan' process per new world (wall and CPU from start to exit, its reported "
         f"plan time, the part of it numba spent readying code (loading cached kernels; not counted by the time "

@@ -19,14 +19,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when a target is missed."""
-    from planning.errors import ConfigError
+    from planning.core.checks import check_number
     from sim.pipeline.case import Case
     from sim.tools.bench.montecarlo import TARGET_OVERHEAD, TARGET_SPEEDUP, measure
     from sim.tools.executor import check_workers
     from sim.tools.montecarlo import MonteCarloSpec
 
-    if args.workers < 2:
-        raise ConfigError(f"--workers must be >= 2 to compare with one worker, got {args.workers}")
+    check_number("--workers", args.workers, integer=True, at_least=2, fix="the bench compares them with one worker")
     check_workers(args.workers, "workers")
     from sim.cli.simulate import job_source
 

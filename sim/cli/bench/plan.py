@@ -167,6 +167,7 @@ def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when a target is missed, 0 with a note when OMPL C++ is unavailable."""
     from pathlib import Path
 
+    from planning.core.checks import check_number
     from sim.cli.checks import check_at_least
     from sim.outputs import atomic_path, check_writable
     from sim.tools.bench.ompl_native import build
@@ -178,8 +179,7 @@ def run(args: argparse.Namespace) -> int:
     optimal = ("RRTstar",) if args.quick else tuple(args.optimal)
     check_at_least({"--seeds": (seeds, 1)})
     for flag, value in (("--budget", budget), ("--ttfs-limit", args.ttfs_limit)):
-        if not (value > 0 and math.isfinite(value)):
-            raise ConfigError(f"{flag} must be a finite number of seconds > 0, got {value:g}")
+        check_number(flag, value, above=0.0, unit="s")
     unknown = [n for n in optimal if n not in OPTIMAL]
     if unknown:
         raise ConfigError(

@@ -77,13 +77,12 @@ def measure(scenario: str, repeats: int = 5) -> OptimBench:
     Raises:
         ConfigError: ``repeats`` < 1, or an unknown scenario.
     """
-    from planning.errors import ConfigError
+    from planning.core.checks import check_number
     from planning.planners.base import PlanProblem
     from planning.planners.optim import Optim
     from planning.scenario import load_scenario
 
-    if repeats < 1:
-        raise ConfigError(f"--repeats must be >= 1, got {repeats}")
+    check_number("--repeats", repeats, integer=True, at_least=1)
     problem = PlanProblem.from_scenario(load_scenario(scenario))
     solves = []
     for planner in (Optim(N=SEED_N, dt=SEED_DT), Optim()):

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from planning.core.checks import check_number
 from planning.core.geometry import Pose2D
 from planning.core.robot import RobotSpec, load_robot
 from planning.core.world import Box, Circle, World
@@ -108,8 +109,7 @@ def problems(names: list[str] | None = None, random_worlds: int = 0) -> list[Pla
     """
     from planning.scenario import builtin_scenarios, load_scenario
 
-    if random_worlds < 0:
-        raise ConfigError(f"--random-worlds must be >= 0, got {random_worlds}")
+    check_number("--random-worlds", random_worlds, integer=True, at_least=0)
     builtin = builtin_scenarios()
     extra = [_random_world(s) for s in range(random_worlds)]
     if names is None:
