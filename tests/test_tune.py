@@ -324,6 +324,27 @@ def test_objective_is_the_stated_formula() -> None:
     assert m2 != m  # the build, the noise and the perturbation reached the physics
 
 
+def test_a_run_that_ended_early_is_a_failed_run(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A fall (or a lost estimate) ends a run early, and its errors up to then are small: scored as they
+    were, a gain set whose held-out run fell at 0.6 s showed 0 failures and an objective as good as a
+    whole run's. It fails, as montecarlo counts it."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    from sim.tools.tune import FAILURE_COST
+
+    case = Case.parse(CASE)
+    pc = prepare_case(case)
+    whole = pc.run(FBLGains()).metrics
+    ev = Evaluator([case])
+    cost, _, failed = ev.score(pc, FBLGains(), None)
+    assert not failed and cost < FAILURE_COST
+    fell = dataclasses.replace(whole, status="fell at t=0.595 s")
+    monkeypatch.setattr(type(pc), "run", lambda self, *a, **k: SimpleNamespace(metrics=fell))
+    cost, m, failed = ev.score(pc, FBLGains(), None)
+    assert failed and m is fell and cost >= FAILURE_COST
+
+
 def test_draws_are_fixed_by_the_seed_and_held_out_ones_are_new() -> None:
     train = make_draws(4, 0)
     assert train == make_draws(4, 0) and train != make_draws(4, 1)

@@ -280,7 +280,8 @@ class Evaluator:
             return FAILURE_COST, None, True
         m = run.metrics
         cost = m.rms_position_error_m + m.final_position_error_m + self.saturation_weight * m.saturation_fraction
-        failed = m.collisions > 0 or m.warnings > 0 or not math.isfinite(cost)
+        # a run that ended early (a fall, a lost estimate) scored only its errors up to the end: a failure
+        failed = m.collisions > 0 or m.warnings > 0 or m.status != "ok" or not math.isfinite(cost)
         return (cost if math.isfinite(cost) else 0.0) + (FAILURE_COST if failed else 0.0), m, failed
 
     def evaluate(self, gains: Any) -> Evaluation:
