@@ -112,7 +112,7 @@ def test_the_edumip_circle_estimate_is_consistent_with_its_tyres_cornering_slip(
     heading: the tyres' cornering slip, which the EKF models (its cornering_slip state). Without it the
     position fixes turn the heading estimate toward the motion by more than its own standard deviation
     and the NEES leaves its bounds at most fixes (20 % inside, measured)."""
-    default = SensingSetup.for_robot("edumip", 0).estimator_config(load_robot("edumip"))
+    default = SensingSetup.for_robot("edumip", 0).estimator_config(load_robot("edumip"), 50.0)
     log = _run(PoseSource.FUSED, robot="edumip", estimator=None if slip else replace(default, cornering_slip_std=0.0))
     est = log.estimation
     assert est is not None and log.status == "ok"

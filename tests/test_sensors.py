@@ -405,7 +405,8 @@ class _PlainSensing:
         self.sensors = SensorModel(setup.profile, control_rate=rate, timestep=float(m.opt.timestep),
                                    n_periods=n + 1, seed=setup.seed)  # fmt: skip
         # the EKF's nominal radius is the rolling radius under load, as the run's loop uses
-        self.est = PoseEstimator.for_robot(robot, setup.estimator_config(robot), wheel_radius=rolling_radius(robot))
+        config = setup.estimator_config(robot, rate)
+        self.est = PoseEstimator.for_robot(robot, config, wheel_radius=rolling_radius(robot))
         self.adr = [int(m.sensor_adr[m.sensor(s).id]) for s in ("wheel_left_pos", "wheel_right_pos")]
         self.q, self.dt = 2.0 * math.pi / setup.profile.encoder_cpr, 1.0 / rate
         self.truth, self.estimate, self.variance = (np.full((n + 1, 3), np.nan) for _ in range(3))
@@ -514,3 +515,29 @@ def test_a_settings_files_lidar_table_is_applied_under_the_command_lines_lidar(
         err = capsys.readouterr().err
         assert says in err and "Traceback" not in err
     assert list(work.iterdir()) == []
+
+
+@pytest.mark.parametrize(("rate", "latency"), [(500.0, 0.2), (50.0, 1.5)])
+def test_a_fix_as_late_as_the_profile_delivers_it_is_fused(rate: float, latency: float) -> None:
+    """The EKF fuses a fix at its measurement time, which must still be in its history when the fix arrives:
+    with a fixed 64 periods, 0.2 s of latency at 500 Hz (or 1.5 s at 50 Hz) dropped every fix as stale and
+    the fused run was the dead-reckoning one, silently. The history is sized from the latency; an explicit
+    configuration too short for it is refused."""
+    from planning.core.robot import load_robot
+    from sim.pipeline.runs import RunKind
+    from sim.pipeline.simulate import simulate_reference
+    from sim.robot.sensing import SensingSetup
+
+    robot = load_robot("edumip")
+    setup = SensingSetup.for_robot("edumip", 0, text=f"fix_latency={latency}")
+    lag = round(latency * rate)
+    assert setup.estimator_config(robot, rate).history_steps >= lag + 2 > 64
+    job = simulate_reference(
+        "open", reference="line", robot="edumip", runs=(RunKind.CLOSED_LOOP, RunKind.CLOSED_LOOP_ODOMETRY),
+        control_rate=rate, sensors=f"fix_latency={latency}",
+    )  # fmt: skip
+    fused, odometry = (job.metrics[k].estimation for k in (RunKind.CLOSED_LOOP, RunKind.CLOSED_LOOP_ODOMETRY))
+    assert fused.fixes_used > 0 and fused.position_rmse_m < 0.5 * odometry.position_rmse_m
+    explicit = replace(setup, estimator=setup.estimator_config(robot, 50.0 if rate > 50 else 10.0))
+    with pytest.raises(ConfigError, match=rf"history_steps .* keeps less than the fixes' latency .*>= {lag + 2}"):
+        explicit.estimator_config(robot, rate)

@@ -320,6 +320,13 @@ def _whole(ratio: float) -> int | None:
     return k if abs(ratio - k) <= WHOLE_TOL * max(1.0, abs(ratio)) else None
 
 
+def latency_periods(latency: float, control_rate: float) -> int:
+    """Control periods from a fix's measurement to its delivery: ``latency`` [s] rounded up to a period
+    (a whole number of periods within :data:`WHOLE_TOL` as it is)."""
+    periods = latency * control_rate
+    return _whole(periods) or math.ceil(periods)
+
+
 #: The noise streams, in the order they are spawned from ``np.random.SeedSequence(seed)``.
 STREAMS = ("encoder_phase", "gyro_bias", "gyro_white", "gyro_walk", "accel_bias", "accel_white", "fix")
 
@@ -419,8 +426,7 @@ class SensorModel:
         self.part = check_number("sensor part", part, integer=True, at_least=0, fix=parts)
         self.steps_per_control = control_steps(self.control_rate, self.timestep)
         self.fix_every = fix_period(self.profile.fix_rate, self.control_rate)
-        periods = self.profile.fix_latency * self.control_rate
-        self.fix_latency_periods = _whole(periods) or math.ceil(periods)
+        self.fix_latency_periods = latency_periods(self.profile.fix_latency, self.control_rate)
         self.gyro_white_std = profile.gyro_noise_density * math.sqrt(self.control_rate / 2.0)
         self.accel_white_std = profile.accel_noise_density * math.sqrt(self.control_rate / 2.0)
         self._draw()

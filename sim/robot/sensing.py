@@ -33,10 +33,11 @@ from numpy.typing import NDArray
 
 from control.estimation import EstimatorConfig, EstimatorDivergedError, PoseEstimator, chi2_interval, kernels
 from planning.core.robot import RobotSpec
+from planning.errors import ConfigError
 from sim.physics.asbuilt import TOLERANCES
 from sim.physics.model import rolling_radius
 from sim.physics.runlog import EstimationLog
-from sim.physics.sensors import SensorModel, SensorProfile, SensorReader, load_sensor_profile
+from sim.physics.sensors import SensorModel, SensorProfile, SensorReader, latency_periods, load_sensor_profile
 from sim.robot.scan_localiser import LocaliserLost, LocaliserSetup, ScanLocaliser, localiser_schedule, range_bias
 from sim.robot.sources import PoseSource
 
@@ -202,16 +203,30 @@ class SensingSetup:
         """The robot's own sensor profile (``models/sensors/<robot>.toml``), optionally overridden."""
         return cls(load_sensor_profile(robot, text=text), seed)
 
-    def estimator_config(self, robot: RobotSpec) -> EstimatorConfig:
-        """The EKF's configuration for a robot (the explicit one, or derived from the profile and, with
-        scan fixes, the scanner's accuracy: the priors of its range errors, :func:`range_bias`)."""
+    def estimator_config(self, robot: RobotSpec, control_rate: float) -> EstimatorConfig:
+        """The EKF's configuration for a robot at a control rate [Hz] (the explicit one, or derived from the
+        profile and, with scan fixes, the scanner's accuracy: the priors of its range errors,
+        :func:`range_bias`), its history long enough to take a fix as late as the profile delivers one.
+
+        Raises:
+            ConfigError: An explicit configuration whose history is shorter than the fixes' latency.
+        """
+        lag = latency_periods(self.profile.fix_latency, control_rate) if self.profile.fix_rate > 0 else 0
         if self.estimator is not None:
+            if self.estimator.history_steps <= lag + 1:
+                raise ConfigError(
+                    f"EstimatorConfig.history_steps {self.estimator.history_steps} keeps less than the fixes' "
+                    f"latency ({self.profile.fix_latency:g} s, {lag} periods at {control_rate:g} Hz): every fix "
+                    f"would arrive too late to be fused; give history_steps >= {lag + 2}"
+                )
             return self.estimator
         cfg = estimator_config(self.profile, robot.name)
         if self.localiser.kind == "amcl" and self.localiser.lidar is not None:
             _, sd_offset, sd_scale = range_bias(self.localiser.lidar)
             cfg = replace(cfg, range_scale_std=sd_scale, range_offset_std=sd_offset)
-        return cfg
+        # a fix is fused at its measurement time, which must still be in the history when it arrives: with 64
+        # periods, a 0.2 s latency at 500 Hz (or 1.28 s at 50 Hz) dropped every fix, silently
+        return replace(cfg, history_steps=max(cfg.history_steps, lag + 2))
 
 
 def estimator_config(profile: SensorProfile, robot: str) -> EstimatorConfig:
@@ -274,8 +289,8 @@ class Sensing:
         self._rad_per_count = TWO_PI / setup.profile.encoder_cpr
         self.loop: EstimatorLoop | None = None
         if self.source is not PoseSource.TRUTH:
-            self.loop = EstimatorLoop(robot, setup.estimator_config(robot), n_periods=n_periods, dt=self.dt,
-                                      rad_per_count=self._rad_per_count)  # fmt: skip
+            config = setup.estimator_config(robot, control_rate)
+            self.loop = EstimatorLoop(robot, config, n_periods=n_periods, dt=self.dt, rad_per_count=self._rad_per_count)
         self.estimator = self.loop.estimator if self.loop is not None else None
         self.truth = np.full((n_periods + 1, 3), np.nan)  # true pose by period
         loop = self.loop

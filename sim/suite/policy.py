@@ -56,7 +56,7 @@ class ReferencePolicy:
         options = {"gains": case.gains or FBLGains()} if "gains" in tracker_options(self.tracker_name) else {}
         self.tracker: Tracker = make_tracker(self.tracker_name, robot, **options)
         self.loop = EstimatorLoop(
-            robot, task.sensing.estimator_config(robot), n_periods=task.schedule.n_ctrl,
+            robot, task.sensing.estimator_config(robot, task.control_rate), n_periods=task.schedule.n_ctrl,
             dt=1.0 / task.control_rate, rad_per_count=2.0 * np.pi / task.sensing.profile.encoder_cpr,
         )  # fmt: skip
         self.drive = DiffDrive.from_robot(robot)
