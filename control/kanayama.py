@@ -110,7 +110,7 @@ class KanayamaTracker(PerSegmentTracker):
     heading term for reverse drives is this project's extension.
 
     Args:
-        robot: Limits (max_speed, max_yaw_rate).
+        robot: Limits (max_speed, max_yaw_rate; max_accel, max_yaw_accel smooth the commands).
         params: K_x, K_y, K_theta; None for ``KanayamaParams()``.
         turns: Heading and spot-holding parameters of turns in place and stand-stills (its
             ``xi_blend`` is unused); None for ``SegmentedParams()``.
@@ -120,6 +120,8 @@ class KanayamaTracker(PerSegmentTracker):
     """
 
     name = "kanayama"
+    #: Commands within the robot's acceleration limits (control/switching.py, a velocity smoother).
+    SMOOTHED = True
     #: The option ``nhsim tune --tracker`` tunes, and its dataclass.
     TUNED = ("params", KanayamaParams)
     STATE = STATE

@@ -202,7 +202,7 @@ class RegulatedPurePursuit(PerSegmentTracker):
     R. C. Coulter, "Implementation of the Pure Pursuit Path Tracking Algorithm", CMU-RI-TR-92-01, 1992.
 
     Args:
-        robot: Limits (max_speed, max_yaw_rate).
+        robot: Limits (max_speed, max_yaw_rate; max_accel, max_yaw_accel smooth the commands).
         params: Lookahead and regulation parameters; None for ``RPPParams()``.
         turns: Heading and spot-holding parameters of turns in place and stand-stills (its
             heading_gain also turns to the carrot); None for ``SegmentedParams()``.
@@ -212,6 +212,8 @@ class RegulatedPurePursuit(PerSegmentTracker):
     """
 
     name = "rpp"
+    #: Commands within the robot's acceleration limits (control/switching.py, a velocity smoother).
+    SMOOTHED = True
     #: The option ``nhsim tune --tracker`` tunes, and its dataclass.
     TUNED = ("params", RPPParams)
     STATE = STATE

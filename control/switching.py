@@ -15,7 +15,12 @@ its drives; this module does the rest, in one compiled call per control period (
 * **After the end** the same regulation holds the final pose, so the heading reaches the goal too.
 
 Every command is clamped to the robot's |v| and |omega| limits and is finite (a non-finite
-intermediate becomes a stop); a non-finite time or pose changes nothing and returns
+intermediate becomes a stop). A tracker whose law knows nothing of the robot's dynamics
+(``SMOOTHED``: Kanayama's, RPP) has its command smoothed as Nav2's velocity smoother does between
+controller and base: v and omega move from the last period's command by at most the robot's
+max_accel and max_yaw_accel times the period (:func:`smooth_command`); a balancing robot, which
+first rolls backwards to go forwards, falls under a speed step its balance loop cannot follow.
+A non-finite time or pose changes nothing and returns
 :data:`BAD_POSE` for the tracker to refuse (SimulationError, as every tracker does).
 
 The state is one record (:func:`state_dtype`: the switching's fields below, then the law's own:
@@ -75,7 +80,9 @@ REFERENCE = np.dtype(
 )
 
 #: The switching's own fields of a tracker's state record: the first control instant t0 [s], the
-#: control period dt [s], the robot's limits vmax [m/s] and wmax [rad/s], the regulation's
+#: control period dt [s], the robot's limits vmax [m/s] and wmax [rad/s], the rate limits of the
+#: command amax [m/s^2] and alphamax [rad/s^2] (infinite for a tracker that is not smoothed), the
+#: command of the last period (v_last_cmd [m/s], w_last_cmd [rad/s]), the regulation's
 #: heading_gain [1/s], hold_gain [1/s] (SegmentedParams.along_gain) and hold_speed [m/s], the
 #: final pose (goal_x, goal_y [m], goal_theta [rad]), the segment of the last period (-1 before the
 #: first) and whether the robot was at rest the last period (``rested``: not in a drive).
@@ -84,6 +91,10 @@ SWITCHING_FIELDS: tuple[tuple[str, str], ...] = (
     ("dt", "f8"),
     ("vmax", "f8"),
     ("wmax", "f8"),
+    ("amax", "f8"),
+    ("alphamax", "f8"),
+    ("v_last_cmd", "f8"),
+    ("w_last_cmd", "f8"),
     ("heading_gain", "f8"),
     ("hold_gain", "f8"),
     ("hold_speed", "f8"),
@@ -168,6 +179,20 @@ def clamp_command(v: float, w: float, vmax: float, wmax: float) -> tuple[float, 
 
 
 @nb.njit(cache=True, inline="always")
+def smooth_command(s: Record, v: float, w: float) -> tuple[float, float]:  # pragma: no cover - compiled
+    """(v, w) moved from the last period's command by at most amax dt and alphamax dt (nothing for
+    infinite limits), remembered as the last command."""
+    if s.amax < math.inf:
+        step = s.amax * s.dt
+        v = min(max(v, s.v_last_cmd - step), s.v_last_cmd + step)
+    if s.alphamax < math.inf:
+        step = s.alphamax * s.dt
+        w = min(max(w, s.w_last_cmd - step), s.w_last_cmd + step)
+    s.v_last_cmd, s.w_last_cmd = v, w
+    return v, w
+
+
+@nb.njit(cache=True, inline="always")
 def _hold(
     s: Record, x: float, y: float, theta: float, gx: float, gy: float, gth: float, omega_ref: float
 ) -> tuple[float, float]:  # pragma: no cover - compiled
@@ -216,6 +241,7 @@ def period(
             s.rested = True
         s.segment = r.segment
     v, w = clamp_command(v, w, s.vmax, s.wmax)
+    v, w = smooth_command(s, v, w)
     return OK, v, w
 
 
@@ -234,6 +260,8 @@ class PerSegmentTracker:
 
     name: ClassVar[str] = "per-segment"
     STATE: ClassVar[np.dtype] = state_dtype(())
+    #: Whether the commands are smoothed within the robot's acceleration limits (the module doc).
+    SMOOTHED: ClassVar[bool] = False
     DRIVE: ClassVar[Callable[..., tuple[float, float]]]
     PERIOD: ClassVar[Callable[..., tuple[int, float, float]]]
 
@@ -259,8 +287,10 @@ class PerSegmentTracker:
         state = np.zeros(1, self.STATE)
         r, p = self.robot, self.turns
         goal = trajectory.pose[-1]
+        accel = (r.max_accel, r.max_yaw_accel) if self.SMOOTHED else (math.inf, math.inf)
         values = {
             "t0": trajectory.t[0], "dt": dt, "vmax": r.max_speed, "wmax": r.max_yaw_rate,
+            "amax": accel[0], "alphamax": accel[1], "v_last_cmd": 0.0, "w_last_cmd": 0.0,
             "heading_gain": p.heading_gain, "hold_gain": p.along_gain, "hold_speed": p.hold_speed,
             "goal_x": goal[0], "goal_y": goal[1], "goal_theta": goal[2], "segment": -1, "rested": True,
             **self.law_values(),

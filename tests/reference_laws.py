@@ -60,13 +60,17 @@ class Switcher:
         turns: The switching's parameters.
         drive: ``drive(switcher, k, x, y, theta, enter, rested) -> (v, omega)``; its memory lives on
             the switcher (``switcher.memory``, a dict).
+        smoothed: Whether the commands move by at most the robot's max_accel and max_yaw_accel per
+            second from the last period's (a tracker's ``SMOOTHED``).
     """
 
     def __init__(self, ref: Any, t0: float, dt: float, goal: Sequence[float], robot: Any, turns: SegmentedParams,
-                 drive: Callable[..., tuple[float, float]]) -> None:  # fmt: skip
+                 drive: Callable[..., tuple[float, float]], smoothed: bool = False) -> None:  # fmt: skip
         self.rows = [dict(zip(ref.dtype.names, row.tolist(), strict=True)) for row in ref]
         self.t0, self.dt, self.goal = t0, dt, tuple(goal)
         self.vmax, self.wmax, self.turns, self.drive = robot.max_speed, robot.max_yaw_rate, turns, drive
+        self.accel = (robot.max_accel, robot.max_yaw_accel) if smoothed else None
+        self.last = (0.0, 0.0)
         self.segment, self.rested, self.memory = -1, True, {}  # type: ignore[var-annotated]
 
     def hold(self, x: float, y: float, theta: float, spot: Sequence[float], omega_ref: float) -> tuple[float, float]:
@@ -95,7 +99,13 @@ class Switcher:
             self.segment = r["segment"]
         if not (math.isfinite(v) and math.isfinite(w)):
             v, w = 0.0, 0.0
-        return clamp(v, self.vmax), clamp(w, self.wmax)
+        v, w = clamp(v, self.vmax), clamp(w, self.wmax)
+        if self.accel is not None:
+            (v0, w0), (a, alpha) = self.last, self.accel
+            v = min(max(v, v0 - a * self.dt), v0 + a * self.dt)
+            w = min(max(w, w0 - alpha * self.dt), w0 + alpha * self.dt)
+            self.last = (v, w)
+        return v, w
 
 
 def segmented_drive(gains: FBLGains, params: SegmentedParams) -> Callable[..., tuple[float, float]]:

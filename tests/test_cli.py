@@ -73,6 +73,10 @@ def test_help_documents_the_options() -> None:
     r = nhsim("simulate", "--help")
     for opt in ("--scenario", "--robot", "--reference", "--tracker", "--gains", "--control-rate", "--seed", "--json"):
         assert opt in r.stdout
+    # the rate must divide the robot's physics rate, which is 1000 Hz for the balancing EduMIP (1 ms steps)
+    words = " ".join(r.stdout.split())
+    assert "must divide the robot's physics rate, 500 Hz (edumip-balancing: 1000 Hz)" in words
+    assert "the 500 Hz physics rate" not in words
 
 
 def test_bench_sim_prints_a_ratio() -> None:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -41,16 +42,18 @@ def test_compare_cli_end_to_end(tmp_path: Path) -> None:
 
 
 def test_a_run_that_ends_early_is_said_recorded_and_fails_the_command(tmp_path: Path) -> None:
-    """Kanayama's law does not balance the balancing EduMIP: it falls in 0.17 s. The row showed its errors
-    up to the fall as if the run were whole, and the command exited 0."""
-    out = tmp_path / "cmp.json"
+    """Kanayama's law at its largest gains does not balance the balancing EduMIP: it falls (at its
+    default gains it fell in 0.17 s before its commands were smoothed). The row showed its errors up to
+    the fall as if the run were whole, and the command exited 0."""
+    out, gains = tmp_path / "cmp.json", tmp_path / "gains.json"
+    gains.write_text(json.dumps({"kanayama": {"kx": 100, "ky": 10000, "ktheta": 1000}}))
     r = nhsim("compare", "--reference", "line", "--robot", "edumip-balancing", "--trackers", "fbl,kanayama",
-              "--json", str(out), "--quiet")  # fmt: skip
+              "--params", str(gains), "--json", str(out), "--quiet")  # fmt: skip
     assert r.returncode == 1, r.stderr
     assert "kanayama run 0: ended early: fell at t=" in r.stdout and "fbl run 0" not in r.stdout
     runs = {name: entry["runs"][0] for name, entry in json.loads(out.read_text())["trackers"].items()}
     assert runs["fbl"]["status"] == "ok" and runs["fbl"]["fell"] is False
-    assert runs["kanayama"]["fell"] is True and 0 < runs["kanayama"]["fall_time_s"] < 1.0
+    assert runs["kanayama"]["fell"] is True and 0 < runs["kanayama"]["fall_time_s"] < 9.0
     assert runs["kanayama"]["status"].startswith("fell at t=")
 
 
@@ -173,3 +176,17 @@ def test_compare_takes_a_path_file_as_simulate_reads_it(tmp_path: Path) -> None:
         assert summary["final_m"] < 0.02 and summary["collisions"] == 0
     bad = nhsim("compare", "--path", str(f), "--reference", "line", "--quiet")
     assert bad.returncode == 2 and "drop --planner, --reference" in bad.stderr
+
+
+def test_a_collision_before_the_estimator_diverged_is_said_first() -> None:
+    """Pure pursuit with a 0.33 m lookahead (RPP's defaults before they were scaled to the robot) cuts a
+    corner of a random world into an obstacle; the fixes then disagree with the odometry and the
+    estimator diverges. The status said only "estimator diverged ... or whether the robot was moved",
+    hiding the collision that moved it."""
+    from control.rpp import RPPParams
+
+    case = Case("random701", robot="edumip", planner="hybrid-a-star", seed=0)
+    long_lookahead = RPPParams(lookahead_time=1.5, min_lookahead=0.1, max_lookahead=0.9)
+    (run,) = compare_trackers(case, ["rpp"], params={"rpp": long_lookahead}).of("rpp")
+    assert run.values["collisions"] >= 1
+    assert re.match(r"collided with '\w+' at t=[0-9.]+ s, then estimator diverged at t=", run.status), run.status

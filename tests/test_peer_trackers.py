@@ -249,6 +249,7 @@ def test_rpp_regulates_its_speed_by_curvature_and_near_the_end() -> None:
         rpp.reset(traj, DT)
         state = rpp.state[0]  # type: ignore[index]
         state["segment"], state["near"] = rpp._ref[k]["segment"], k - 5  # mid-drive, the closest point just behind
+        state["amax"] = state["alphamax"] = math.inf  # the law alone, not the smoothing of its commands
         v, w = rpp.command(float(ref.t), *ref.pose)
         speeds[min_radius] = v
         assert w == pytest.approx(v / 0.5, rel=1e-3)  # omega = v kappa on the circle's curvature
@@ -260,6 +261,7 @@ def test_rpp_regulates_its_speed_by_curvature_and_near_the_end() -> None:
     j = len(end._ref) - 40
     late = end._ref[j]
     end.state[0]["segment"], end.state[0]["near"] = late["segment"], j - 5  # type: ignore[index]
+    end.state[0]["amax"] = end.state[0]["alphamax"] = math.inf  # type: ignore[index]
     v, _ = end.command(traj.t[0] + j * DT, late["x"], late["y"], late["theta"])
     left = end._ref[-1]["arc"] - late["arc"]
     assert v == pytest.approx(late["v"] * left / 0.5, rel=0.02)
@@ -328,3 +330,33 @@ def test_peers_track_in_physics(name: str, reference: str, robot_name: str) -> N
         assert m.rms_position_error_m < 0.03 and m.final_position_error_m < 0.06
     else:  # the closed-loop targets of a reference (README): final and RMS within 2 cm
         assert m.rms_position_error_m < 0.02 and m.final_position_error_m < 0.02
+
+
+@pytest.mark.parametrize("name", ["kanayama", "rpp"])
+@pytest.mark.parametrize("robot_name", ["turtlebot3", "edumip-balancing"])
+def test_kanayama_and_rpp_commands_stay_within_the_robots_acceleration_limits(name: str, robot_name: str) -> None:
+    """Neither law knows the robot's dynamics: from a start 5 cm behind and 3 cm beside the reference
+    Kanayama's K_x e_x asked for 0.5 m/s at once, a step the balancing EduMIP (non-minimum phase: it
+    rolls backwards to go forwards) cannot follow, and it fell in 0.17 s. Their commands are smoothed
+    as Nav2's velocity smoother does: v and omega change by at most max_accel and max_yaw_accel per
+    second, from rest at the start."""
+    robot = load_robot(robot_name)
+    traj = make_reference("circle", robot, Pose2D(0.0, 0.0, 0.0))
+    tracker = make_tracker(name, robot)
+    start = np.array([-0.05, 0.03, 0.1])
+    commands, _ = _run(tracker, traj, start)
+    rates = np.abs(np.diff(np.vstack([[0.0, 0.0], commands]), axis=0)) / DT
+    assert rates[:, 0].max() <= robot.max_accel * (1 + 1e-9)
+    assert rates[:, 1].max() <= robot.max_yaw_accel * (1 + 1e-9)
+    assert rates[:, 0].max() == pytest.approx(robot.max_accel)  # the limit was reached: the test tests
+
+
+def test_kanayama_keeps_the_balancing_edumip_up() -> None:
+    """Kanayama's law on the balancing EduMIP's circle, in physics with its sensors: it fell at
+    t = 0.17 s when its commands were not smoothed; it now drives the whole circle."""
+    from sim.pipeline.case import Case
+    from sim.tools.compare import compare_trackers
+
+    result = compare_trackers(Case("open", robot="edumip-balancing", reference="circle", seed=0), ["kanayama"])
+    (run,) = result.of("kanayama")
+    assert run.status == "ok" and run.values["collisions"] == 0

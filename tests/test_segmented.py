@@ -140,7 +140,9 @@ def _python_reference(name: str, tracker: PerSegmentTracker, traj: Trajectory, d
         "rpp": lambda: reference_laws.rpp_drive(opts["params"], tracker.turns),
     }
     t0, goal = float(traj.t[0]), traj.pose[-1].tolist()
-    return reference_laws.Switcher(tracker._ref, t0, dt, goal, tracker.robot, tracker.turns, drives[name]())
+    return reference_laws.Switcher(
+        tracker._ref, t0, dt, goal, tracker.robot, tracker.turns, drives[name](), smoothed=type(tracker).SMOOTHED
+    )
 
 
 @pytest.mark.parametrize("name", ["segmented", "kanayama", "rpp"])
@@ -196,7 +198,7 @@ def test_the_compiled_switching_is_the_python_switching_for_every_registered_law
         return law(record[0], tracker._ref, k, x, y, theta, enter, rested)
 
     t0, goal = float(traj.t[0]), traj.pose[-1].tolist()
-    python = reference_laws.Switcher(tracker._ref, t0, 0.05, goal, robot, tracker.turns, drive)
+    python = reference_laws.Switcher(tracker._ref, t0, 0.05, goal, robot, tracker.turns, drive, type(tracker).SMOOTHED)
     rng = np.random.default_rng(5)
     for k in range(-2, math.ceil(traj.duration / 0.05) + 10):
         t = t0 + k * 0.05

@@ -294,7 +294,8 @@ def _add_run_arguments(p: argparse.ArgumentParser) -> None:
         type=float,
         default=RUN_SETTINGS["control_rate"],
         metavar="HZ",
-        help="tracker rate; must divide the 500 Hz physics rate (default: %(default)g)",
+        help="tracker rate; must divide the robot's physics rate, 500 Hz (edumip-balancing: 1000 Hz) "
+        "(default: %(default)g)",
     )
     seed, every = RUN_SETTINGS["seed"], "seed for every random choice (default: %(default)s)"
     p.add_argument("--seed", type=int, default=seed, metavar="N", help=every)

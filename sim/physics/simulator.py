@@ -582,6 +582,9 @@ class Recorder:
         ref = trajectory.sample_many(t_log).pose
         estimation = sensing.to_log() if sensing is not None else None
         status = sensing.status if sensing is not None else "ok"
+        if status != "ok" and self.contacts:  # a collision moved the robot: say it before what it caused
+            c = self.contacts[0]
+            status = f"collided with {c.obstacle!r} at t={c.t:.3f} s, then {status}"
         fw = self.balance
         if fw is not None and fw.fell_at is not None:
             status = (
