@@ -190,3 +190,16 @@ def test_a_collision_before_the_estimator_diverged_is_said_first() -> None:
     (run,) = compare_trackers(case, ["rpp"], params={"rpp": long_lookahead}).of("rpp")
     assert run.values["collisions"] >= 1
     assert re.match(r"collided with '\w+' at t=[0-9.]+ s, then estimator diverged at t=", run.status), run.status
+
+
+def test_the_references_tracker_on_a_plan_is_said_to_regulate_no_heading() -> None:
+    """fbl is in compare's default set; on a plan it ends 0.1-1.1 rad off its end heading (it regulates none),
+    which the table showed without a word."""
+    from sim.cli.compare import plan_notes
+    from sim.pipeline.case import Case
+
+    plan = Case("nav_map1", planner="hybrid-a-star")
+    (note,) = plan_notes(plan, ["fbl", "segmented"])
+    assert note.startswith("fbl tracks the position along a smooth reference") and "segmented is the tracker" in note
+    assert plan_notes(plan, ["segmented", "mpc"]) == []
+    assert plan_notes(Case("open", reference="figure8"), ["fbl", "segmented"]) == []

@@ -145,8 +145,23 @@ def run(args: argparse.Namespace) -> int:
     p = result.prepared
     print(f"{p.scenario.name} · {p.robot.name} · {p.source} · {p.trajectory.duration:.1f} s")
     print(format_table(result))
+    for line in plan_notes(case, names):
+        print(f"nhsim compare: {line}", file=sys.stderr)
     _write(result, outputs, overwrite=args.overwrite)
     return 1 if result.ended_early() else 0
+
+
+def plan_notes(case: Any, names: list[str]) -> list[str]:
+    """The note for a reference's tracker compared on a plan (or a file): it tracks the position along a
+    smooth reference and regulates no heading at a plan's stops and end, which its row's end heading shows."""
+    from sim.pipeline.runs import PLAN_TRACKER, REFERENCE_TRACKER
+
+    if case.reference is not None or REFERENCE_TRACKER not in names:
+        return []
+    return [
+        f"{REFERENCE_TRACKER} tracks the position along a smooth reference; at a plan's stops and its end it "
+        f"regulates no heading (its end heading shows it): {PLAN_TRACKER} is the tracker made for plans"
+    ]
 
 
 def _write(result: Any, outputs: dict[str, Path], *, overwrite: bool) -> None:
