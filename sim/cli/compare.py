@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -151,7 +152,7 @@ def run(args: argparse.Namespace) -> int:
     return 1 if result.ended_early() else 0
 
 
-def plan_notes(case: Any, names: list[str]) -> list[str]:
+def plan_notes(case: Any, names: Sequence[str]) -> list[str]:
     """The note for a reference's tracker compared on a plan (or a file): it tracks the position along a
     smooth reference and regulates no heading at a plan's stops and end, which its row's end heading shows."""
     from sim.pipeline.runs import PLAN_TRACKER, REFERENCE_TRACKER
