@@ -109,6 +109,7 @@ from numpy.typing import ArrayLike, NDArray
 from control.estimation import kernels
 from control.estimation.consistency import chi2_upper
 from control.estimation.odometry import check_geometry
+from planning.core.checks import check_flag
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError, NhsimError, SimulationError
 
@@ -258,8 +259,7 @@ class EstimatorConfig:
         if isinstance(gp, bool) or not isinstance(gp, numbers.Real) or not 0.0 < float(gp) < 1.0:
             raise ConfigError(f"EstimatorConfig.gate_prob must be a probability in (0, 1), e.g. 0.999, got {gp!r}")
         object.__setattr__(self, "gate_prob", float(gp))
-        if not isinstance(self.reject_outliers, bool):
-            raise ConfigError(f"EstimatorConfig.reject_outliers must be True or False, got {self.reject_outliers!r}")
+        object.__setattr__(self, "reject_outliers", check_flag("EstimatorConfig.reject_outliers", self.reject_outliers))
 
     def scaled_process_noise(self, factor: float) -> EstimatorConfig:
         """A copy with every process-noise standard deviation multiplied by factor (>= 0)."""
