@@ -532,15 +532,16 @@ class Optim:
 
     def _load_code(self, problem: PlanProblem) -> float:
         """Import what the solve runs (CasADi, the warm starts' planners) before its clock starts, as
-        :mod:`planning.clock` leaves numba's loading out of a limit: a new process's first optim plan on
-        nav_map1 spent its whole 0.2 s limit importing Hybrid-A* for its warm start. The seconds it took (0.0
-        once loaded)."""
+        :mod:`planning.clock` leaves numba's loading out of a limit (a new process's first optim plan on
+        nav_map1 spent its whole 0.2 s limit loading Hybrid-A*'s code for its warm start). The seconds it
+        took (0.0 under a millisecond: once loaded)."""
         t = time.perf_counter()
         _casadi()
         for init, _ in self._warm_starts(problem):
             if init in PLANNERS:
                 make_planner(init)
-        return time.perf_counter() - t if time.perf_counter() - t >= 1e-3 else 0.0
+        took = time.perf_counter() - t
+        return took if took >= 1e-3 else 0.0
 
     def _solve_from_starts(self, problem: PlanProblem, clock: PlanClock) -> OptimSolution:
         """:meth:`solve` at the current horizon: each warm start in turn, the margin raised as needed."""
