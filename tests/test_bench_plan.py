@@ -277,8 +277,8 @@ def test_harness_region_flag_samples_our_region_poses(harness: Path, tmp_path: P
     shortest = reeds_shepp_length(start, aims, local.rho).min()
     to_pose = reeds_shepp_length(start, problem.goal.as_array(), local.rho)[0]
     with Session(harness, pf, 4) as s:
-        for planner in ("RRTstar+informed", "BITstar"):
-            t = s.solve(planner, 0.3, "region")
+        for planner in ("RRTstar+informed", "BITstar"):  # 1 s of wall clock: about 0.3 s of CPU converges,
+            t = s.solve(planner, 1.0, "region")  # which a loaded machine (load 9) did not give in 0.3 s
             assert t["solved"] and shortest - 1e-9 <= t["length_m"] <= shortest + 1e-3 < to_pose - 0.05, planner
         assert s.solve("RRTConnect", 5.0, "region")["solved"]
 
