@@ -86,7 +86,7 @@ class RPPParams:
     """
 
     lookahead_time: float = ranged(1.0, 0.01, 10.0, "s", tune=(0.1, 5.0))
-    min_lookahead: float = ranged(0.1, 0.01, 5.0, "m", tune=(0.02, 0.5))
+    min_lookahead: float = ranged(0.1, 0.01, 5.0, "m", tune=(0.02, 0.2))
     max_lookahead: float = ranged(0.2, 0.01, 10.0, "m")
     min_radius: float = ranged(0.3, 0.0, 10.0, "m", tune=(0.01, 2.0))
     min_regulated_speed: float = ranged(0.05, 0.0, 10.0, "m/s")

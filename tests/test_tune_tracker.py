@@ -3,19 +3,21 @@ draws, on a tiny study; its record is what ``nhsim compare --params`` reads."""
 
 from __future__ import annotations
 
+import itertools
 import json
 from pathlib import Path
 
 import optuna
 import pytest
 
-from control.base import search_space
+from control.base import TRACKERS, search_space
 from control.kanayama import KanayamaParams
 from control.mpc import MPCParams
+from planning.errors import ConfigError
 from sim.cli.main import main
 from sim.pipeline.case import Case
 from sim.tools.compare import load_params
-from sim.tools.tune import Evaluator, default_params, make_draws, tuned_space
+from sim.tools.tune import Evaluator, default_params, make_draws, make_params, tuned_space
 
 
 def _args(tmp_path: Path, tracker: str, trials: int) -> list[str]:
@@ -65,3 +67,17 @@ def test_the_same_objective_and_draws_score_any_tracker() -> None:
     assert default.failures == 0 and other.rms_m != default.rms_m  # the parameters reach the tracker
     assert evaluator.evaluate(MPCParams()) == default  # common random numbers: the same draw, the same run
     assert default.objective == pytest.approx(default.rms_m + default.final_m + 0.05 * default.saturation)
+
+
+@pytest.mark.parametrize("tracker", sorted(TRACKERS))
+def test_every_corner_of_a_search_space_is_a_valid_parameter_set(tracker: str) -> None:
+    """A trial may sample any point of the ranges: each corner, the other fields at their defaults,
+    makes valid parameters (RPP's min_lookahead range once reached past the default max_lookahead,
+    and its trials failed with a ConfigError)."""
+    try:
+        cls, space = tuned_space(tracker)
+    except ConfigError:  # nothing to tune (open-loop)
+        return
+    for corner in itertools.product(*space.values()):
+        make_params(tracker, dict(zip(space, corner, strict=True)))
+    assert cls is not None and space
