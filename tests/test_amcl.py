@@ -56,7 +56,8 @@ def test_defaults_are_nav2s_and_bad_settings_are_refused() -> None:
         c.parse("max_particles=1e12")  # not a 22 TB array
     with pytest.raises(ConfigError, match="sigma_hit must be > 0"):
         c.override({"sigma_hit": 0.0})
-    assert c.parse("max_particles=1000,refine=0").max_particles == 1000
+    parsed = c.parse("max_particles=1000,refine=0")
+    assert (parsed.max_particles, parsed.refine) == (1000, 0) and type(parsed.max_particles) is int
     for bad, match in [
         ("z_hit=2", r"z_hit must be a fraction in \[0, 1\], got 2"),
         ("z_hit=0", "z_hit must be > 0"),
@@ -64,6 +65,12 @@ def test_defaults_are_nav2s_and_bad_settings_are_refused() -> None:
         ("pf_err=1.5", "pf_err must be a fraction"),
         ("recovery_alpha_slow=0.1,recovery_alpha_fast=0.001", "recovery_alpha_slow=0.1 must be below"),
         ("recovery_alpha_fast=3", "recovery_alpha_fast must be a fraction"),
+        (
+            "alpha1=-1",
+            r"^amcl alpha1 must be a finite number >= 0, got -1\.0; e\.g\. --amcl max_particles=1000,refine=0 ",
+        ),
+        ("sigma_hit=nan", r"^amcl sigma_hit must be a finite number >= 0, got nan; e\.g\. --amcl max_particles=1000,"),
+        ("max_beams=60.5", r"^amcl max_beams must be an integer >= 0, got 60\.5; e\.g\. --amcl max_particles=1000,"),
     ]:
         with pytest.raises(ConfigError, match=match):
             c.parse(bad)

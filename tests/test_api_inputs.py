@@ -78,3 +78,22 @@ def test_a_0d_array_is_refused_by_the_shared_number_checks_with_how_to_pass_it()
         check_number("n", np.array(3.5), integer=True)  # no int(x) advice: it would cut 3.5 to 3
     with pytest.raises(ConfigError, match=r"got array\(\[0\.5\]\)$"):  # a 1-element array stays an array
         check_number("x", np.array([0.5]))
+
+
+def test_check_number_takes_an_exclusive_upper_bound_and_says_it_as_the_lower_one() -> None:
+    """``below`` is to ``at_most`` what ``above`` is to ``at_least``: a probability in (0, 1) says so."""
+    from planning.core.checks import check_number
+
+    assert check_number("p", 0.5, above=0.0, below=1.0) == 0.5
+    assert check_number("n", np.int64(4), integer=True, at_least=0, below=5) == 4
+    for bad in (0.0, 1.0, 2.0):
+        with pytest.raises(
+            ConfigError, match=rf"^p must be a finite number in \(0, 1\) \(-\), got {bad}; e\.g\. 0\.9$"
+        ):
+            check_number("p", bad, above=0.0, below=1.0, unit="-", fix="e.g. 0.9")
+    with pytest.raises(ConfigError, match=r"^n must be an integer in \[0, 5\), got 5$"):
+        check_number("n", 5, integer=True, at_least=0, below=5)
+    with pytest.raises(ConfigError, match=r"^q must be a finite number < 1, got 1\.0$"):
+        check_number("q", 1.0, below=1.0)
+    with pytest.raises(ConfigError, match=r"^r must be a finite number > 0 and >= 0\.5 and < 1, got 0\.25$"):
+        check_number("r", 0.25, above=0.0, at_least=0.5, below=1.0)

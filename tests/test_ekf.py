@@ -73,15 +73,47 @@ def anees_verdict(nees_runs: np.ndarray) -> tuple[float, float]:
 @pytest.mark.parametrize(
     ("field", "value", "match"),
     [
-        ("wheel_noise", -0.1, "wheel_noise must be >= 0"),
-        ("gyro_noise_density", math.nan, "gyro_noise_density must be a finite number"),
-        ("track_width_std", math.inf, "track_width_std must be a finite number"),
-        ("fix_std_xy", 0.0, "fix_std_xy must be > 0"),
-        ("counts_per_rev", -4096.0, "counts_per_rev must be > 0"),
+        (
+            "wheel_noise",
+            -0.1,
+            r"^EstimatorConfig\.wheel_noise must be a finite number >= 0 \(rad/sqrt\(rad\)\), got -0\.1; "
+            r"a standard deviation is never negative: give its magnitude$",
+        ),
+        (
+            "gyro_noise_density",
+            math.nan,
+            r"^EstimatorConfig\.gyro_noise_density must be a finite number >= 0 \(rad/s/sqrt\(Hz\)\), got nan$",
+        ),
+        (
+            "track_width_std",
+            math.inf,
+            r"^EstimatorConfig\.track_width_std must be a finite number >= 0 \(m\), got inf$",
+        ),
+        (
+            "fix_std_xy",
+            0.0,
+            r"^EstimatorConfig\.fix_std_xy must be a finite number > 0 \(m\), got 0\.0; give its magnitude$",
+        ),
+        (
+            "counts_per_rev",
+            -4096.0,
+            r"^EstimatorConfig\.counts_per_rev must be a finite number > 0 \(counts/rev\), got -4096\.0; "
+            r"give its magnitude$",
+        ),
         ("heading", "compass", "heading must be one of gyro, encoders"),
-        ("history_steps", 1, "history_steps must be an integer >= 2"),
-        ("max_outliers", True, "max_outliers must be an integer"),
-        ("gate_prob", 1.0, "gate_prob must be a probability"),
+        ("history_steps", 1, r"^EstimatorConfig\.history_steps must be an integer >= 2, got 1$"),
+        ("max_outliers", True, r"^EstimatorConfig\.max_outliers must be an integer >= 1, got True$"),
+        (
+            "gate_prob",
+            1.0,
+            r"^EstimatorConfig\.gate_prob must be a finite number in \(0, 1\) \(a probability\), got 1\.0; "
+            r"e\.g\. 0\.999$",
+        ),
+        (
+            "gate_prob",
+            0.0,
+            r"^EstimatorConfig\.gate_prob must be a finite number in \(0, 1\) .*, got 0\.0; e\.g\. 0\.999$",
+        ),
         ("reject_outliers", "yes", "reject_outliers must be True or False"),
     ],
 )
@@ -95,7 +127,7 @@ def test_scaled_process_noise_scales_only_process_noise() -> None:
     assert small.gyro_bias_walk == pytest.approx(0.1 * CONFIG.gyro_bias_walk)
     assert small.wheel_radius_rel_std == pytest.approx(0.1 * CONFIG.wheel_radius_rel_std)
     assert small.fix_std_xy == CONFIG.fix_std_xy
-    with pytest.raises(ConfigError, match="factor"):
+    with pytest.raises(ConfigError, match=r"^scaled_process_noise: factor must be a finite number >= 0, got -1\.0$"):
         CONFIG.scaled_process_noise(-1.0)
 
 

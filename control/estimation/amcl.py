@@ -60,7 +60,6 @@ from __future__ import annotations
 
 import functools
 import math
-import numbers
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields
 from typing import Any
@@ -70,6 +69,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from control.estimation import amcl_kernels as K
 from planning.collision.field import signed_distances
+from planning.core.checks import check_number
 from planning.core.world import World
 from planning.errors import ConfigError, option
 
@@ -85,6 +85,8 @@ SEARCH_KEPT = 20
 GRID_MARGIN = 0.5
 #: A valid ``--amcl`` text, quoted in messages.
 EXAMPLE = "max_particles=1000,refine=0"
+#: The fields that are whole numbers (given as floats by ``--amcl``, stored as ints).
+WHOLE_FIELDS = ("max_beams", "min_particles", "max_particles", "resample_interval", "refine")
 #: Largest particle set a configuration may ask for (a set of that size takes ~50 MB and seconds a scan).
 MAX_PARTICLES = 1_000_000
 
@@ -151,16 +153,13 @@ class AmclConfig:
     roughen_theta: float = 0.05
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v) or v < 0:
-                raise ConfigError(
-                    f"amcl {f.name} must be a finite number >= 0, got {v!r}; e.g. {option('amcl', EXAMPLE)}"
-                )
-        for name in ("max_beams", "min_particles", "max_particles", "resample_interval", "refine"):
-            if getattr(self, name) != int(getattr(self, name)):
-                raise ConfigError(f"amcl {name} must be a whole number, got {getattr(self, name)!r}")
-            object.__setattr__(self, name, int(getattr(self, name)))
+        example = f"e.g. {option('amcl', EXAMPLE)}"
+        for f in fields(self):  # checked, kept as given (a whole-number field is stored as an int below)
+            check_number(f"amcl {f.name}", getattr(self, f.name), at_least=0.0, fix=example)
+        for name in WHOLE_FIELDS:
+            v = getattr(self, name)  # a finite number >= 0: the option's text gives 1000.0, a whole number
+            whole = check_number(f"amcl {name}", int(v) if v == int(v) else v, integer=True, at_least=0, fix=example)
+            object.__setattr__(self, name, whole)
         if self.min_particles < 10:
             raise ConfigError(f"amcl min_particles={self.min_particles} is below 10; give at least 10 (Nav2: 500)")
         if self.max_particles < self.min_particles:

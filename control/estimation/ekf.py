@@ -99,7 +99,6 @@ from __future__ import annotations
 
 import bisect
 import math
-import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass, fields, replace
 
@@ -109,7 +108,7 @@ from numpy.typing import ArrayLike, NDArray
 from control.estimation import kernels
 from control.estimation.consistency import chi2_upper
 from control.estimation.odometry import check_geometry
-from planning.core.checks import check_flag
+from planning.core.checks import check_flag, check_number, is_number
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError, NhsimError, SimulationError
 
@@ -183,13 +182,14 @@ class EstimatorInputError(NhsimError, ValueError):
 
 
 def _finite_number(name: str, value: object, *, positive: bool) -> float:
-    unit = _UNITS.get(name, "")
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-        raise ConfigError(f"EstimatorConfig.{name} must be a finite number [{unit}], got {value!r}")
-    if value < 0 or (positive and value == 0):
-        need = "> 0" if positive else ">= 0 (a standard deviation)"
-        raise ConfigError(f"EstimatorConfig.{name} must be {need} [{unit}], got {value!r}; give its magnitude")
-    return float(value)
+    """``EstimatorConfig.<name>`` as a float (:func:`check_number`, with its unit): > 0 (``positive``) or >= 0
+    (a standard deviation); a number out of range is told to give its magnitude."""
+    fix = ""
+    if is_number(value):  # then only the range can fail
+        fix = "give its magnitude" if positive else "a standard deviation is never negative: give its magnitude"
+    above, at_least = (0.0, None) if positive else (None, 0.0)
+    where = f"EstimatorConfig.{name}"
+    return check_number(where, value, above=above, at_least=at_least, unit=_UNITS.get(name, ""), fix=fix)
 
 
 @dataclass(frozen=True)
@@ -251,20 +251,17 @@ class EstimatorConfig:
         for name in (*PROCESS_NOISE_FIELDS, "range_scale_std", "range_offset_std"):
             object.__setattr__(self, name, _finite_number(name, getattr(self, name), positive=False))
         for name, low in (("history_steps", 2), ("max_outliers", 1)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < low:
-                raise ConfigError(f"EstimatorConfig.{name} must be an integer >= {low}, got {value!r}")
-            object.__setattr__(self, name, int(value))
-        gp = self.gate_prob
-        if isinstance(gp, bool) or not isinstance(gp, numbers.Real) or not 0.0 < float(gp) < 1.0:
-            raise ConfigError(f"EstimatorConfig.gate_prob must be a probability in (0, 1), e.g. 0.999, got {gp!r}")
-        object.__setattr__(self, "gate_prob", float(gp))
+            value = check_number(f"EstimatorConfig.{name}", getattr(self, name), integer=True, at_least=low)
+            object.__setattr__(self, name, value)
+        gp = check_number(
+            "EstimatorConfig.gate_prob", self.gate_prob, above=0.0, below=1.0, unit="a probability", fix="e.g. 0.999"
+        )
+        object.__setattr__(self, "gate_prob", gp)
         object.__setattr__(self, "reject_outliers", check_flag("EstimatorConfig.reject_outliers", self.reject_outliers))
 
     def scaled_process_noise(self, factor: float) -> EstimatorConfig:
         """A copy with every process-noise standard deviation multiplied by factor (>= 0)."""
-        if isinstance(factor, bool) or not isinstance(factor, numbers.Real) or not math.isfinite(factor) or factor < 0:
-            raise ConfigError(f"scaled_process_noise: factor must be a finite number >= 0, got {factor!r}")
+        check_number("scaled_process_noise: factor", factor, at_least=0.0)  # the product takes factor as given
         return replace(self, **{name: getattr(self, name) * factor for name in PROCESS_NOISE_FIELDS})
 
     def as_dict(self) -> dict[str, object]:

@@ -38,6 +38,7 @@ class Limits(TypedDict, total=False):
     above: float | None
     at_least: float | None
     at_most: float | None
+    below: float | None
     unit: str
     fix: str
 
@@ -66,6 +67,7 @@ def check_number(
     above: float | None = None,
     at_least: float | None = None,
     at_most: float | None = None,
+    below: float | None = None,
     integer: bool = False,
     optional: bool = False,
     unit: str = "",
@@ -84,6 +86,7 @@ def check_number(
         above: Exclusive lower bound.
         at_least: Inclusive lower bound.
         at_most: Inclusive upper bound.
+        below: Exclusive upper bound.
         integer: Require an integer.
         optional: Accept None (returned as None).
         unit: The field's unit, quoted in parentheses after the range; it may say what a value means
@@ -101,19 +104,24 @@ def check_number(
     if is_number(value, integer):
         number = int(value) if isinstance(value, numbers.Integral) else float(value)
         low_ok = (above is None or number > above) and (at_least is None or number >= at_least)
-        if low_ok and (at_most is None or number <= at_most):
+        if low_ok and (at_most is None or number <= at_most) and (below is None or number < below):
             return number if integer else float(number)
-    wanted = ["an integer" if integer else "a finite number", _range(above, at_least, at_most)]
+    wanted = ["an integer" if integer else "a finite number", _range(above, at_least, at_most, below)]
     wanted += [f"({unit})" if unit else "", "(or omitted)" if optional else ""]
     tail = f"; {fix}" if fix else ""
     raise ConfigError(f"{where} must be {' '.join(w for w in wanted if w)}, got {given(value, integer)}{tail}")
 
 
-def _range(above: float | None, at_least: float | None, at_most: float | None) -> str:
-    """The bounds as a message says them: ``"> 0"``, ``"in [0, 1]"``, ``"in (0, 60]"`` or ``""`` for none."""
-    if at_most is not None and (above is None) != (at_least is None):
-        return f"in ({above:g}, {at_most:g}]" if above is not None else f"in [{at_least:g}, {at_most:g}]"
-    said = ((">", above), (">=", at_least), ("<=", at_most))
+def _range(above: float | None, at_least: float | None, at_most: float | None, below: float | None = None) -> str:
+    """The bounds as a message says them: ``"> 0"``, ``"< 1"``, ``"in [0, 1]"``, ``"in (0, 60]"``, ``"in (0, 1)"``
+    (one lower and one upper bound), ``">= 0 and < 1 and <= 2"`` (more) or ``""`` for none."""
+    low = [f"({above:g}"] if above is not None else []
+    low += [f"[{at_least:g}"] if at_least is not None else []
+    high = [f"{at_most:g}]"] if at_most is not None else []
+    high += [f"{below:g})"] if below is not None else []
+    if len(low) == 1 and len(high) == 1:
+        return f"in {low[0]}, {high[0]}"
+    said = ((">", above), (">=", at_least), ("<", below), ("<=", at_most))
     return " and ".join(f"{op} {limit:g}" for op, limit in said if limit is not None)
 
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from planning.core import checks
 from planning.errors import ConfigError
 
 
@@ -55,9 +54,3 @@ def parse_number(text: str, key: str, what: str) -> float:
         return float(text)
     except ValueError as exc:
         raise ConfigError(f"{what}: {key} must be a number, got {text!r}") from exc
-
-
-def check_number(value: object, name: str, what: str, bounds: tuple[float, float], unit: str, fix: str = "") -> float:
-    """:func:`planning.core.checks.check_number` of the field ``name`` of ``what`` (``"lidar rate"``) within
-    ``bounds`` (inclusive). Kept for :mod:`sim.physics.lidar`; new code calls the planning one."""
-    return checks.check_number(f"{what} {name}", value, at_least=bounds[0], at_most=bounds[1], unit=unit, fix=fix)

@@ -40,9 +40,10 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.checks import check_number
 from planning.errors import ConfigError, option
 from sim.physics.asbuilt import CLIP_SIGMAS
-from sim.physics.keyvalue import check_number, parse_number, parse_pairs
+from sim.physics.keyvalue import parse_number, parse_pairs
 from sim.physics.sensors import sensor_profile_path
 
 FloatArray = NDArray[np.float64]
@@ -100,7 +101,7 @@ class LidarProfile:
     def __post_init__(self) -> None:
         for name, (lo, hi, unit) in LIMITS.items():
             fix = f"give a value in [{lo:g}, {hi:g}], e.g. {option('lidar', f'{name}={getattr(LidarProfile, name)}')}"
-            value = check_number(getattr(self, name), name, "lidar", (lo, hi), unit, fix)
+            value = check_number(f"lidar {name}", getattr(self, name), at_least=lo, at_most=hi, unit=unit, fix=fix)
             object.__setattr__(self, name, value)
         if self.beams != int(self.beams):
             raise ConfigError(

@@ -54,7 +54,7 @@ from numpy.typing import NDArray
 from planning.clock import PlanClock
 from planning.collision.exact import CollisionChecker
 from planning.collision.field import FieldTimeout
-from planning.core.checks import check_fields
+from planning.core.checks import check_fields, check_flag
 from planning.core.geometry import path_length, wrap_angle
 from planning.errors import ConfigError
 from planning.planners import geodesic
@@ -133,8 +133,7 @@ class CRRTStarConfig:
             "max_iterations": {"integer": True, "at_least": 1},
         }
         check_fields(self, checks, "C-RRT*: ")
-        if not isinstance(self.stop_at_goal, bool):
-            raise ConfigError(f"C-RRT*: stop_at_goal must be true or false, got {self.stop_at_goal!r}")
+        object.__setattr__(self, "stop_at_goal", check_flag("C-RRT*: stop_at_goal", self.stop_at_goal))
 
 
 class CRRTStar:
