@@ -77,8 +77,10 @@ def test_every_tracker_tracks_every_reference(name: str, robot_name: str, refere
         dense = traj.sample_many(np.linspace(traj.t[0], traj.t[-1], 20000))
         off_path = np.hypot(poses[:, None, 0] - dense.x[None, ::4], poses[:, None, 1] - dense.y[None, ::4]).min(axis=1)
         assert off_path.max() < 0.025 and err[-1] < 0.01  # [m]
-    else:
-        assert err.max() < 2e-3 and err[-1] < 1e-4  # [m]
+    else:  # Kanayama's lateral correction fades with the reference's speed, so the offset left as the
+        # figure-eight stops stays: 0.16 mm with its K_y = 32 1/m^2 (0.08 with the paper's 64, which
+        # weaved at the EduMIP's yaw-rate limit in physics: control/kanayama.py)
+        assert err.max() < 2e-3 and err[-1] < (2e-4 if name == "kanayama" else 1e-4)  # [m]
 
 
 @pytest.mark.parametrize("name", sorted(TRACKERS))
