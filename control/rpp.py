@@ -67,7 +67,13 @@ class RPPParams:
 
     With both, every run of the TurtleBot3 and both EduMIPs on random720-759 (hybrid-a-star) and on
     random720-739 (birrt) ends within the 5 cm without contact (tests/test_peer_trackers.py), as do
-    4 held-out as-built robots each on random700-711 (``nhsim compare --runs 4``).
+    4 held-out as-built robots each on random700-711 (``nhsim compare --runs 4``). No cap serves every
+    plan: on random740-779 (birrt) the EduMIP drives random740's 0.8 m/s reverse with the 0.2 m cap
+    faster than its yaw follows (the loop's natural frequency sqrt(2) v / L, 5.7 rad/s) and weaves,
+    ending 0.9 m short, where 0.25 or 0.3 m pass and cut random716's turn instead; the balancing EduMIP
+    grazes an obstacle on random773 with every cap from 0.2 to 0.9 m (39 of 40 each; the TurtleBot3 40).
+    Pure pursuit trades the corner it cuts against the loop's speed; a tracker of the timed reference
+    (segmented, kanayama, mpc) meets both.
 
     Attributes:
         lookahead_time: Lookahead per speed [s] (lookahead_time).
