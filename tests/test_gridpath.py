@@ -53,3 +53,45 @@ def test_a_world_too_large_for_the_spacing_is_sampled_coarser(monkeypatch) -> No
     assert seen[0] <= (np.sqrt(gridpath.MAX_CELLS) + 1) ** 2  # the nodes, both edges included
     dense = np.vstack([a + np.linspace(0, 1, 400)[:, None] * (b - a) for a, b in itertools.pairwise(path)])
     assert np.min(world.signed_distance(dense)) > 0.5
+
+
+def _plain_farthest(world: World, poly: np.ndarray, i: int, clearance: float, step: float) -> int:
+    """The shortcut's scan as first written: from the last vertex back, each segment in full."""
+    from planning.planners.gridpath import _segment_free
+
+    j = poly.shape[0] - 1
+    while j > i + 1 and not _segment_free(world, poly[i], poly[j], clearance, step):
+        j -= 1
+    return j
+
+
+def test_the_thinned_shortcut_scan_is_the_plain_one() -> None:
+    """_farthest_visible tests every segment's thinned samples in one call before any in full; on random
+    clutter and random polylines it picks the vertex the plain scan picks, at every vertex."""
+    from planning.planners.gridpath import _farthest_visible
+
+    rng = np.random.default_rng(3)
+    for _ in range(6):
+        obstacles = tuple(Circle(tuple(rng.uniform(0.5, 5.5, 2)), float(rng.uniform(0.05, 0.4))) for _ in range(12))
+        world = World((0.0, 6.0, 0.0, 6.0), obstacles)
+        poly = rng.uniform(0.2, 5.8, (25, 2))
+        for i in range(poly.shape[0] - 1):
+            for clearance in (0.0, 0.1):
+                plain = _plain_farthest(world, poly, i, clearance, 0.01)
+                assert _farthest_visible(world, poly, i, clearance, 0.01) == plain
+
+
+def test_grid_path_stops_when_its_time_is_spent() -> None:
+    """Told the time is spent before the graph is built, no route; told so during the shortcut, the route
+    found, shortened only up to there (still clear, from start to goal)."""
+    world = World((0.0, 2.0, 0.0, 2.0), (Circle((1.0, 1.0), 0.3),))
+    start, goal = np.array([0.2, 1.0]), np.array([1.8, 1.0])
+    assert grid_path(world, start, goal, 0.1, expired=lambda: True) is None
+    calls = itertools.count()
+    steps = 1 + 8 + 1  # after the distances, after each of the 8 moves, before the search
+    path = grid_path(world, start, goal, 0.1, expired=lambda: next(calls) > steps)
+    full = grid_path(world, start, goal, 0.1)
+    assert path is not None and full is not None and path.shape[0] > full.shape[0]
+    assert np.allclose(path[[0, -1]], [start, goal])
+    dense = np.vstack([a + np.linspace(0, 1, 200)[:, None] * (b - a) for a, b in itertools.pairwise(path)])
+    assert np.min(world.signed_distance(dense)) > 0.1

@@ -445,12 +445,13 @@ class Optim:
         path: FloatArray | None = None
         if init == "grid":
             clear = problem.robot.radius + self.margin + 0.01
-            poly = grid_path(problem.world, problem.start.xy, problem.goal.xy, clear)
+            within = PlanClock(problem.time_limit)  # what is left of the plan's limit (:meth:`_guess`)
+            poly = grid_path(problem.world, problem.start.xy, problem.goal.xy, clear, expired=within.expired)
             if poly is not None and poly.shape[0] >= 2:
                 heading = np.arctan2(np.diff(poly[:, 1]), np.diff(poly[:, 0]))
                 heading = np.unwrap(np.concatenate([[s[2]], heading]))
                 path = np.column_stack([poly, heading])
-            else:
+            elif not within.expired():  # (spent: the plan's clock is too, and the solve says the grid took it)
                 source = "straight (no free route on the grid)"
         elif init != "straight":
             res = make_planner(init, **options).plan(problem)
