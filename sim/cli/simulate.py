@@ -396,7 +396,23 @@ def format_table(record: dict[str, Any]) -> str:
             f"{est_rms:>11} {nees_ok:>7} "
             f"{r['collisions']:>10d} {r['warnings']:>8d}"
         )
-    return "\n".join(lines)
+    return "\n".join(lines + _ended_early(record))
+
+
+def _ended_early(record: dict[str, Any]) -> list[str]:
+    """A line under the table for each run that ended early (a fall, a lost estimate): its row's errors
+    are up to then, which alone would read as a run on target."""
+    lines = []
+    for kind in RunKind:
+        r = record.get(kind)
+        if r is None or r.get("status", "ok") == "ok":
+            continue
+        goal = r.get("final_goal_error_m")
+        lines.append(
+            f"{kind} ended at {r['duration_s']:.1f} s: {str(r['status']).split(': ')[0]}; its errors are up to then"
+            + (f", {goal:.3f} m from the goal" if goal is not None else "")
+        )
+    return lines
 
 
 def run(args: argparse.Namespace) -> int:
