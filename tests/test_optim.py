@@ -415,6 +415,18 @@ def test_a_warm_start_that_spends_the_limit_ends_timeout_without_a_solve() -> No
     assert res.stats["time_s"] < 0.3 + 0.2
 
 
+def test_the_grid_warm_start_stops_at_the_limit_on_a_large_world() -> None:
+    """A 20 x 20 m world is a million grid nodes: the route took 4-8 s without a look at the clock, and
+    optim ended 1.15-1.38 times a 10 s limit where Hybrid-A*'s warm start failed first. The route now
+    looks at the plan's clock between its steps (planning.planners.gridpath)."""
+    world = _crowded(8, 20.0, 2)
+    problem = PlanProblem(world, load_robot("edumip"), Pose2D(-9, -9, 0.3), Pose2D(9, 9, 1.0), time_limit=0.3)
+    res = Optim(init="grid").plan(problem)
+    assert res.status is PlanStatus.TIMEOUT, res.reason
+    assert "the warm start from grid took it" in res.reason
+    assert res.stats["time_s"] - res.stats["code_s"] < 0.3 + 0.6
+
+
 def test_directions_are_of_the_motion_arriving_at_each_pose() -> None:
     res = make_planner("optim").plan(PlanProblem.from_scenario(load_scenario("three_point_turn")))
     assert res.status is PlanStatus.SUCCESS and res.directions is not None
