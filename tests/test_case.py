@@ -62,17 +62,39 @@ def test_a_plan_failed_with_the_trackers_margin_says_so_and_how_to_plan_without_
     from planning.core.robot import load_robot
     from planning.trajectory.from_plan import PlanFailedError
 
-    # the start 5 mm from the wall behind it: a valid start, not with the tracker's 1 cm margin
-    rear = -float(load_robot("turtlebot3").footprint[:, 0].min())
-    path = tmp_path / "wall.toml"
+    # a door 5 mm wider than the robot on each side: passable, not with the tracker's 1 cm margin
+    half = float(load_robot("turtlebot3").footprint[:, 1].max()) + 0.005
+    path = tmp_path / "door.toml"
     text = (
         'robot = "turtlebot3"\n[world]\nbounds = [-1.5, 1.5, -1.0, 1.0]\n'
-        f"[start]\npose = [{-1.5 + rear + 0.005!r}, 0.0, 0.0]\n[goal]\npose = [1.0, 0.0, 0.0]\n"
+        f'[[world.obstacles]]\ntype = "box"\ncenter = [0.0, {(1.0 + half) / 2!r}]\nsize = [0.1, {1.0 - half!r}]\n'
+        f'[[world.obstacles]]\ntype = "box"\ncenter = [0.0, {-(1.0 + half) / 2!r}]\nsize = [0.1, {1.0 - half!r}]\n'
+        "[start]\npose = [-0.45, 0.0, 0.0]\n[goal]\npose = [0.45, 0.0, 0.0]\n[planners.rrt]\nmax_iterations = 2000\n"
     )
     path.write_text(text)
     with pytest.raises(PlanFailedError, match=r"it planned keeping 0.01 m .*clearance = 0 in a \[planners.rrt\] table"):
         prepare_trajectory(Case(str(path), planner="rrt"))
-    path.write_text(text + "[planners.rrt]\nclearance = 0\n")  # as the reason says
+    path.write_text(text + "clearance = 0\n")  # as the reason says
+    assert prepare_trajectory(Case(str(path), planner="rrt")).source == "planner:rrt"
+
+
+def test_a_start_closer_than_the_trackers_margin_lowers_it_to_half_its_clearance(tmp_path) -> None:
+    """The start 5 mm from the wall behind it: ``nhsim plan`` plans it, and simulate refused it for the
+    tracker's 1 cm margin, although the robot stands there. The tracked plan keeps half the start's
+    clearance instead (planning keeps the rest of the margin where the poses have it)."""
+    from planning import PlanProblem, load_scenario
+    from planning.core.robot import load_robot
+    from sim.pipeline.case import tracked_margin
+
+    rear = -float(load_robot("turtlebot3").footprint[:, 0].min())
+    path = tmp_path / "wall.toml"
+    path.write_text(
+        'robot = "turtlebot3"\n[world]\nbounds = [-1.5, 1.5, -1.0, 1.0]\n'
+        f"[start]\npose = [{-1.5 + rear + 0.005!r}, 0.0, 0.0]\n[goal]\npose = [1.0, 0.0, 0.0]\n"
+    )
+    problem = PlanProblem.from_scenario(load_scenario(str(path)))
+    assert 0.0 < tracked_margin(problem, 0.01) < 0.005  # below the start's 5 mm (half a lower bound of it)
+    assert tracked_margin(problem, 0.002) == 0.002  # a margin the poses have is kept
     assert prepare_trajectory(Case(str(path), planner="rrt")).source == "planner:rrt"
 
 

@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 from control.base import TRACKERS
 from control.estimation.amcl import AmclConfig
 from control.fbl import FBLGains
+from planning.collision.exact import CollisionChecker
 from planning.core.checks import check_fields
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot
@@ -68,7 +69,8 @@ class PlanOptions:
         clearance: Margin [m] the plan keeps from obstacles and walls, given to planners that take
             a ``clearance`` option unless the scenario or ``planner_options`` set one. The robot
             follows its plan to a few millimetres, fed by its estimator, so a plan that grazed a
-            parked car by 3 mm had it touch the car; 0 plans to the limit.
+            parked car by 3 mm had it touch the car; 0 plans to the limit. Less where the start or
+            the goal stands closer to something (:func:`tracked_margin`).
     """
 
     time_limit: float = 30.0
@@ -464,7 +466,7 @@ def plan_case(case: Case, scenario: Scenario, robot: RobotSpec, *, progress: Pro
     options = {**scenario.options_for(name), **case.planning.planner_options}
     margin = "clearance" in planner_options(name) and "clearance" not in options and case.planning.clearance > 0
     if margin:
-        options["clearance"] = case.planning.clearance
+        options["clearance"] = tracked_margin(problem, case.planning.clearance)
     solver = make_planner(name, **options)
     if progress is not None:
         progress("plan", 0.0, limit)
@@ -475,12 +477,23 @@ def plan_case(case: Case, scenario: Scenario, robot: RobotSpec, *, progress: Pro
             progress("plan", limit, limit)
     if margin and not plan.success:  # say what `nhsim plan` (no margin) does not do, and how to match it
         said = (
-            f"{plan.reason}; it planned keeping {case.planning.clearance:g} m from obstacles and walls, the margin a "
+            f"{plan.reason}; it planned keeping {options['clearance']:g} m from obstacles and walls, the margin a "
             f"tracked plan gets (nhsim plan keeps none): clearance = 0 in a [planners.{name}] table of the "
             "scenario plans without it"
         )
         plan = dataclasses.replace(plan, reason=said)
     return plan
+
+
+def tracked_margin(problem: PlanProblem, margin: float) -> float:
+    """The margin [m] a tracked plan keeps from obstacles and walls: ``margin``, or half the footprint's
+    clearance (its checker's lower bound) at the start or the goal where the robot stands closer there (it
+    is at the start already and must end at the goal, so a margin those poses lack would refuse a scenario
+    ``nhsim plan`` plans: a start 6 mm from a wall was refused for its 1 cm); 0 where one overlaps (the
+    planner then says so)."""
+    ends = np.array([problem.start.as_array(), problem.goal.as_array()])
+    least = float(CollisionChecker(problem.world, problem.robot).clearance_of(ends).min())
+    return margin if least >= margin else max(0.0, 0.5 * least)
 
 
 def _ready_plan(plan: PlanResult, scenario: Scenario) -> PlanResult:
