@@ -3,7 +3,9 @@
 Per control period, on the current drive's path (the reference positions at the control instants):
 
 1. **Lookahead scaled with speed:** L = clip(|v| * lookahead_time, min_lookahead, max_lookahead),
-   |v| the last speed commanded.
+   |v| the last speed commanded; then no longer than sqrt(8 R max_cut) (at least min_lookahead),
+   R the tightest radius |v_r / omega_r| of the reference in the next L of the drive, so that the
+   corner pure pursuit cuts, about L^2 / (8 R), stays within ``max_cut`` (this project's addition).
 2. **Carrot:** the path is pruned to the point closest to the robot (searched forwards from the
    last one); the carrot is where the path leaves the circle of radius L about the robot
    (interpolated on the crossing path segment); past the drive's end the path is extended along its
@@ -51,29 +53,29 @@ class RPPParams:
 
     The defaults are Nav2's except where its values exceed these small robots (its minimum
     lookahead 0.3 m and minimum regulated speed 0.25 m/s are above a TurtleBot3's 0.125 m tightest
-    reference radius and 0.22 m/s top speed) and the lookahead's two bounds on any one robot's plans:
+    reference radius and 0.22 m/s top speed), ``lookahead_time`` and the bound ``max_cut``, which
+    together keep the lookahead inside two limits (measured in physics with the fused estimate; a
+    run counts when it ends within the worlds' 5 cm goal tolerance without contact or fall):
 
-    - ``max_lookahead`` 0.2 m (Nav2 0.9 m): pure pursuit cuts a turn of radius R by about L^2 / (8 R),
-      and the EduMIP's plans turn as tight as 0.1 m after driving at up to 0.68 m/s. On random700-759
-      (hybrid-a-star) the EduMIP ended within the worlds' 5 cm goal tolerance without contact in 7 of
-      60 runs with Nav2's 0.9 m and 1.5 s, 59 of 60 with 0.3 m (random716 touched an obstacle) and 60
-      of 60 with 0.2 m.
-    - ``lookahead_time`` 1.0 s (Nav2 1.5 s): the lookahead scaled with speed makes the steering loop's
-      time constant about lookahead_time whatever the speed (natural frequency sqrt(2) / lookahead_time),
-      which must stay slower than the robot's yaw can follow (the EduMIPs turn at most 0.5 rad/s and
-      reverse that in 1 s): at 0.6 s the balancing EduMIP weaved about its path with the yaw rate
-      saturated (at 0.6 s and a 0.3 m cap 10 of 20 on random700-719 within the 5 cm; at 0.8 s and the
-      0.2 m cap 43 of 60 on random700-759, at 1.0 s 60 of 60).
+    - Stability, ``lookahead_time`` 1.0 s (Nav2 1.5 s): a lookahead scaled with speed makes the
+      steering loop's natural frequency about sqrt(2) / lookahead_time whatever the speed, and it must
+      stay slower than the robot's yaw can follow (the EduMIPs turn at most 0.5 rad/s and reverse
+      that in 1 s). Shorter, the balancing EduMIP weaved about its path with its yaw rate saturated
+      (43 of 60 counting on random700-759 at 0.8 s with a 0.2 m cap, 60 at 1.0 s); a fixed cap on
+      the lookahead does the same at speed (random740's 0.8 m/s reverse with a 0.2 m cap: 5.7 rad/s).
+    - Accuracy, ``max_cut`` 1 cm: pure pursuit cuts a turn of radius R by about L^2 / (8 R), and the
+      EduMIP's plans turn as tight as 0.1 m after driving at up to 0.68 m/s: with Nav2's bounds alone
+      (0.9 m, 1.5 s) 7 of 60 EduMIP runs counted on random700-759 (hybrid-a-star); no single cap kept
+      both (0.3 m cut random716's turn into an obstacle, 0.2 m weaved on random740). The bound
+      shortens the lookahead only before tight turns, where the reference is slow anyway.
 
-    With both, every run of the TurtleBot3 and both EduMIPs on random720-759 (hybrid-a-star) and on
-    random720-739 (birrt) ends within the 5 cm without contact (tests/test_peer_trackers.py), as do
-    4 held-out as-built robots each on random700-711 (``nhsim compare --runs 4``). No cap serves every
-    plan: on random740-779 (birrt) the EduMIP drives random740's 0.8 m/s reverse with the 0.2 m cap
-    faster than its yaw follows (the loop's natural frequency sqrt(2) v / L, 5.7 rad/s) and weaves,
-    ending 0.9 m short, where 0.25 or 0.3 m pass and cut random716's turn instead; the balancing EduMIP
-    grazes an obstacle on random773 with every cap from 0.2 to 0.9 m (39 of 40 each; the TurtleBot3 40).
-    Pure pursuit trades the corner it cuts against the loop's speed; a tracker of the timed reference
-    (segmented, kanayama, mpc) meets both.
+    With these, every TurtleBot3 and EduMIP run on random700-759 (hybrid-a-star) and random740-779
+    (birrt) counts, 339 of 340 (the balancing EduMIP grazes an obstacle on random773, as it did with
+    every cap from 0.2 to 0.9 m and no bound; with max_cut 5 mm it passes there and weaves on
+    random740); 4 held-out as-built robots each on random700-711 and random740-759 (birrt) count for
+    both EduMIPs (``nhsim compare --runs 4``; tests/test_peer_trackers.py holds a sample and, slow,
+    random720-759). Pure pursuit steers to a point of the path, not of the timed reference: a
+    tracker of the reference (segmented, kanayama, mpc) is closer to it (docs/explanation/trackers.md).
 
     Attributes:
         lookahead_time: Lookahead per speed [s] (lookahead_time).
@@ -89,17 +91,19 @@ class RPPParams:
         along_gain: Gain of the along-track error on the desired speed [1/s] (this project's).
         rotate_angle: Carrot bearing beyond which the robot turns in place [rad]
             (rotate_to_heading_min_angle).
+        max_cut: Corner the lookahead may cut on the tightest turn ahead [m] (this project's; 0: no bound).
     """
 
     lookahead_time: float = ranged(1.0, 0.01, 10.0, "s", tune=(0.1, 5.0))
     min_lookahead: float = ranged(0.1, 0.01, 5.0, "m", tune=(0.02, 0.2))
-    max_lookahead: float = ranged(0.2, 0.01, 10.0, "m")
+    max_lookahead: float = ranged(0.9, 0.01, 10.0, "m")
     min_radius: float = ranged(0.3, 0.0, 10.0, "m", tune=(0.01, 2.0))
     min_regulated_speed: float = ranged(0.05, 0.0, 10.0, "m/s")
     approach_dist: float = ranged(0.2, 0.0, 10.0, "m", tune=(0.01, 1.0))
     min_approach_speed: float = ranged(0.05, 0.0, 10.0, "m/s")
     along_gain: float = ranged(1.0, 0.0, 100.0, "1/s", tune=(0.05, 10.0))
     rotate_angle: float = ranged(0.785, 0.01, math.pi, "rad")
+    max_cut: float = ranged(0.01, 0.0, 1.0, "m, 0: no bound")
 
     def __post_init__(self) -> None:
         check_ranges(self)
@@ -172,6 +176,24 @@ def _carrot(
 
 
 @nb.njit(cache=True)
+def _cut_bound(
+    ref: NDArray[np.void], near: int, end: int, lookahead: float, max_cut: float
+) -> float:  # pragma: no cover - compiled
+    """The lookahead whose corner cut, L^2 / (8 R), is max_cut on the tightest turn of the path's next
+    ``lookahead`` metres from row ``near``."""
+    near = min(near, end - 1)
+    limit = ref[near].arc + lookahead
+    tight = math.inf
+    j = near
+    while j < end and ref[j].arc <= limit:
+        w = abs(ref[j].omega)
+        if w > 1e-9:
+            tight = min(tight, abs(ref[j].v) / w)
+        j += 1
+    return math.sqrt(8.0 * tight * max_cut) if tight < math.inf else math.inf
+
+
+@nb.njit(cache=True)
 def drive(
     s: Record, ref: NDArray[np.void], k: int, x: float, y: float, theta: float, enter: bool, rested: bool
 ) -> tuple[float, float]:  # pragma: no cover - compiled
@@ -185,6 +207,8 @@ def drive(
     if rested:
         s.v_last = 0.0
     lookahead = min(max(abs(s.v_last) * s.lookahead_time, s.min_lookahead), s.max_lookahead)
+    if s.max_cut > 0.0:
+        lookahead = min(lookahead, max(s.min_lookahead, _cut_bound(ref, s.near, end, lookahead, s.max_cut)))
     gx, gy, s.near = _carrot(ref, s.near, end, x, y, lookahead, sgn)
     co, si = math.cos(theta), math.sin(theta)
     xc, yc = co * (gx - x) + si * (gy - y), -si * (gx - x) + co * (gy - y)

@@ -397,10 +397,10 @@ def _plans_tracked(robot: str, worlds: range, planner: str = "hybrid-a-star") ->
 
 @pytest.mark.parametrize("robot", ["edumip", "edumip-balancing"])
 def test_kanayama_and_rpp_track_the_edumips_plans(robot: str) -> None:
-    """Planned worlds where the former defaults failed: RPP's 0.9 m lookahead cut the EduMIP's 0.1 m
-    turns into obstacles (random703, random716); with K_x = 10 1/s Kanayama's law felled the balancing
-    EduMIP on random703 and left it 0.35 m off the goal of random716. Both end within the goal
-    tolerance now."""
+    """Planned worlds where the former defaults failed: RPP's (1.5 s, 0.9 m, no bound on the corner
+    it cuts) cut the EduMIP's 0.1 m turns into obstacles (random703, random716); with K_x = 10 1/s
+    Kanayama's law felled the balancing EduMIP on random703 and left it 0.35 m off the goal of
+    random716. Both end within the goal tolerance now."""
     assert _plans_tracked(robot, range(703, 717, 13)) == []
 
 
