@@ -22,6 +22,7 @@ import os
 import re
 import sys
 from collections.abc import Collection, Sequence
+from typing import NoReturn
 
 from planning.errors import NhsimError, SimulationError
 
@@ -47,6 +48,17 @@ def package_version() -> str:
         return version("nhsim")
     except PackageNotFoundError:
         return "unknown (not installed)"
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, whose "expected one argument" also says how to give a value that starts with
+    '-' (``--gains -1,7`` reads -1,7 as an option; ``--gains=-1,7`` is a value, checked as any)."""
+
+    def error(self, message: str) -> NoReturn:
+        found = re.match(r"argument (--[\w-]+)(?:/\S+)?: expected one argument$", message)
+        if found:
+            message += f" (a value that starts with '-' goes after '=': {found.group(1)}=VALUE)"
+        super().error(message)
 
 
 class _Version(argparse.Action):
@@ -77,7 +89,7 @@ def summary(module: str) -> str:
 def build_parser(commands: Collection[str] | None = None) -> argparse.ArgumentParser:
     """The top-level parser. The commands named in ``commands`` (None: every one) get their full
     parser, built by their module; the others are listed with their :func:`summary` only."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="nhsim",
         description="Plan, track and simulate nonholonomic wheeled robots (TurtleBot3, EduMIP) in MuJoCo.",
     )

@@ -19,7 +19,7 @@ A :class:`Perturbation` changes one run:
   |J| <= 1 N s. Not drawn by ranges.
 
 Command-line syntax (``nhsim simulate --perturb``): comma-separated ``key=value`` with keys
-friction, mass, radius, noise, heading_noise, latency, e.g.
+friction, mass, radius, noise, heading_noise, latency, push, e.g.
 ``friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02``. Ranges (``nhsim tune
 --perturb-range``) use ``key=lo:hi``, e.g. ``friction=0.5:1.5,latency=0:0.04``.
 """
