@@ -183,6 +183,12 @@ def rpp_drive(params: Any, turns: SegmentedParams, patience: int = 4) -> Callabl
         if rested:
             m["v_last"] = 0.0
         look = min(max(abs(m["v_last"]) * p.lookahead_time, p.min_lookahead), p.max_lookahead)
+        if p.max_cut > 0.0:  # the tightest turn of the next `look` metres: its cut L^2 / (8 R) within max_cut
+            first = min(m["near"], end - 1)
+            ahead = [j for j in range(first, end) if sw.rows[j]["arc"] <= sw.rows[first]["arc"] + look]
+            radii = [abs(sw.rows[j]["v"]) / abs(sw.rows[j]["omega"]) for j in ahead if abs(sw.rows[j]["omega"]) > 1e-9]
+            if radii:
+                look = min(look, max(p.min_lookahead, math.sqrt(8.0 * min(radii) * p.max_cut)))
         gx, gy, m["near"] = carrot(sw, m["near"], end, x, y, look, sgn)
         co, si = math.cos(theta), math.sin(theta)
         xc, yc = co * (gx - x) + si * (gy - y), -si * (gx - x) + co * (gy - y)
