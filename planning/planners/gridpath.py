@@ -17,7 +17,7 @@ from collections.abc import Callable
 
 import numpy as np
 import scipy.sparse as sp
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.sparse.csgraph import dijkstra
 
 from planning.collision.field import signed_distances
@@ -33,8 +33,13 @@ MAX_CELLS = 1_000_000
 _THIN = 8
 
 
+def _samples(length: ArrayLike, step: float) -> NDArray[np.int64]:
+    """How many evenly spaced points, both ends included, :func:`_segment_free` tests on a segment."""
+    return np.maximum(2, np.ceil(np.asarray(length) / step).astype(np.int64) + 1)
+
+
 def _segment_free(world: World, a: FloatArray, b: FloatArray, clearance: float, step: float) -> bool:
-    n = max(2, int(np.ceil(np.hypot(*(b - a)) / step)) + 1)
+    n = int(_samples(np.hypot(*(b - a)), step))
     pts = a[None, :] + np.linspace(0.0, 1.0, n)[:, None] * (b - a)[None, :]
     return bool(np.all(signed_distances(world, pts, step) > clearance))
 
@@ -49,14 +54,15 @@ def _farthest_visible(world: World, poly: FloatArray, i: int, clearance: float, 
         return i + 1
     a = poly[i]
     seg = poly[js] - a
-    full = np.maximum(2, np.ceil(np.hypot(seg[:, 0], seg[:, 1]) / step).astype(np.int64) + 1)
+    full = _samples(np.hypot(seg[:, 0], seg[:, 1]), step)
     kept = (full - 2) // _THIN + 2  # samples 0, _THIN, 2 _THIN, ... and the last
+    first = np.cumsum(kept) - kept  # each segment's first thinned sample
     owner = np.repeat(np.arange(js.size), kept)
-    rank = np.arange(owner.size) - np.repeat(np.cumsum(kept) - kept, kept)
+    rank = np.arange(owner.size) - np.repeat(first, kept)
     index = np.where(rank == kept[owner] - 1, full[owner] - 1, rank * _THIN)
     pts = a + (index / (full[owner] - 1))[:, None] * seg[owner]
     clear = (signed_distances(world, pts, step) > clearance).astype(np.int8)
-    seen = np.minimum.reduceat(clear, np.cumsum(kept) - kept).astype(bool)
+    seen = np.minimum.reduceat(clear, first).astype(bool)
     for k in np.flatnonzero(seen)[::-1]:
         if _segment_free(world, a, poly[js[k]], clearance, step):
             return int(js[k])
@@ -67,17 +73,18 @@ def _free_graph(
     world: World,
     pts: FloatArray,
     dist: FloatArray,
+    free: NDArray[np.bool_],
     shape: tuple[int, int],
     clearance: float,
     resolution: float,
     late: Callable[[], bool],
 ) -> sp.csr_matrix | None:
     """The grid's free moves as a sparse graph of lengths (None when ``late`` says the time is spent):
-    both ends clear by more than ``clearance`` [m], and the midpoint too, which is checked only where
-    the ends do not already imply it (the signed distance ``dist`` is 1-Lipschitz)."""
+    both ends clear by more than ``clearance`` [m] (``free``: ``dist > clearance``), and the midpoint
+    too, which is checked only where the ends do not already imply it (the signed distance ``dist`` is
+    1-Lipschitz)."""
     nx, ny = shape
-    grid = dist.reshape(nx, ny)
-    free = grid > clearance
+    grid, free = dist.reshape(nx, ny), free.reshape(nx, ny)
     idx = np.arange(nx * ny, dtype=np.int32).reshape(nx, ny)  # MAX_CELLS fits: half the memory of int64
     rows, cols, weights = [], [], []
     for dx, dy in _MOVES:
@@ -135,7 +142,7 @@ def grid_path(
     free = dist > clearance
     if late():
         return None
-    graph = _free_graph(world, pts, dist, (nx, ny), clearance, resolution, late)
+    graph = _free_graph(world, pts, dist, free, (nx, ny), clearance, resolution, late)
     if graph is None:
         return None
     s = np.asarray(start, dtype=float)
