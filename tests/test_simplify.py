@@ -560,13 +560,19 @@ def test_a_deadline_stops_the_simplification_with_the_path_as_far_as_it_got():
     full = simplify_path(path, None, straight, free, vertices=verts, routes=[route], seed=2)
     assert not full.timed_out and full.stats()["simplify_time_limit_reached"] is False
 
+    begun: list[float] = []
+
     def slow(poses: np.ndarray) -> bool:
+        begun.append(time.perf_counter())
         time.sleep(0.005)
         return free(poses)
 
     t0 = time.perf_counter()
     cut = simplify_path(path, None, straight, slow, vertices=verts, routes=[route], seed=2, deadline=t0 + 0.04)
-    assert time.perf_counter() - t0 < 0.04 + 0.03  # the motion under way when it passed, and the assembly
+    # No motion is checked once the deadline has passed: only the one under way then ends after it (a bound
+    # on the clock itself, 0.04 + 0.03 s, failed when a loaded machine held the process back a while)
+    assert begun and max(begun) <= t0 + 0.04
+    assert time.perf_counter() - t0 < 0.04 + 1.0
     assert cut.timed_out and cut.stats()["simplify_time_limit_reached"] is True
     assert cut.attempts < full.attempts and cut.cost <= cut.raw_cost
     dense = densify_path(cut.path, 0.001)
