@@ -543,6 +543,33 @@ def test_outliers_are_rejected_then_divergence_raises(draws: list[Synthetic]) ->
     assert isinstance(info.value, SimulationError)
 
 
+def test_a_radius_error_beyond_the_prior_widens_the_covariance_instead_of_rejecting_every_fix() -> None:
+    """Accurate fixes (2 mm, one a second) on a robot whose wheels are 5 % larger than the estimator
+    believes (14 standard deviations of its common radius prior): without the widening the
+    drift between fixes grows until every fix is an outlier and the estimator declares divergence;
+    with it, the first outlier that a drift within max_odometry_drift explains is applied after
+    widening, the fixes calibrate the radius and the estimate ends where the robot is."""
+    accurate = replace(CONFIG, fix_std_xy=0.002, fix_std_theta=0.002)
+    data = draw(Scenario(accurate, duration=30.0, fix_period=1.0, latency=0.12), 7)
+    believed = RADIUS / 1.05  # the wheels roll 1.05 x what the estimator's radius says
+
+    def fused(config: EstimatorConfig) -> PoseEstimator:
+        est = PoseEstimator(config, believed, TRACK)
+        run(est, data)
+        return est
+
+    with pytest.raises(EstimatorDivergedError, match="consecutive fixes"):
+        fused(replace(accurate, max_odometry_drift=0.0))
+    est = fused(accurate)
+    assert est.fixes_widened >= 1 and est.fixes_rejected <= 2  # of 30
+    assert np.hypot(*(np.array(est.pose[:2]) - data.truth[-1, :2])) < 0.01
+    common = 0.5 * (est.calibration[0] + est.calibration[1]) / believed - 1.0  # the estimated e_m
+    assert common == pytest.approx(0.05, abs=0.005)
+    assert EstimatorConfig(max_odometry_drift=0.1).max_odometry_drift == 0.1
+    with pytest.raises(ConfigError, match=r"max_odometry_drift must be a finite number in \[0, 1\]"):
+        EstimatorConfig(max_odometry_drift=-0.01)
+
+
 def test_a_good_fix_resets_the_outlier_count(draws: list[Synthetic]) -> None:
     d = draws[3]
     est = fresh(d, replace(CONFIG, max_outliers=2))

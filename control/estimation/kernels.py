@@ -24,8 +24,8 @@ By row:
   :data:`TMP_ROW`, N rows: a product;
 - :data:`X_ROW`, then N rows from :data:`P_ROW`: a replay's state and its covariance; :data:`NU_ROW`:
   the innovation of the last gated fix (columns 0-2), then the ring's newest step, its number of
-  steps and the newest time [s] (columns :data:`HEAD`, :data:`SIZE`, :data:`TIME`; the head is -1
-  before a reset);
+  steps, the newest time [s] and the distance driven [m] (columns :data:`HEAD`, :data:`SIZE`,
+  :data:`TIME`, :data:`ODO`; the head is -1 before a reset);
 - from :data:`RING`, the ring of the last C steps: C rows (time [s], left and right wheel
   increments [rad], gyro rate [rad/s]), C rows of states, C blocks of N rows of covariances.
 
@@ -64,8 +64,9 @@ FIX_COLS = GAIN + 6
 #: First rows of the block's parts (see the module doc) and rows per ring step.
 F_ROW, Q_ROW, TMP_ROW, X_ROW, P_ROW, NU_ROW, RING = 2, 2 + N, 2 + 2 * N, 2 + 3 * N, 3 + 3 * N, 3 + 4 * N, 4 + 4 * N
 STEP_ROWS = 2 + N
-#: Columns of row NU_ROW holding the ring's bookkeeping: newest step, number of steps, newest time [s].
-HEAD, SIZE, TIME = 3, 4, 5
+#: Columns of row NU_ROW holding the ring's bookkeeping: newest step, number of steps, newest time [s],
+#: and the distance the wheels' mean turn has driven since the reset [m] (|r (dl + dr) / 2| summed).
+HEAD, SIZE, TIME, ODO = 3, 4, 5, 6
 
 
 def parameters(
@@ -295,6 +296,7 @@ def step(mem: FloatArray, t: float, dl: float, dr: float, w: float) -> int:  # p
     status = predict(mem, head, dst, t, dl, dr, w)
     if status == OK:
         hdr[HEAD], hdr[TIME] = dst, t
+        hdr[ODO] += 0.5 * mem[RADIUS // N, RADIUS % N] * abs(dl + dr)
         if hdr[SIZE] < cap:
             hdr[SIZE] += 1
     return status

@@ -29,6 +29,9 @@ class EstimationMetrics:
             chi-square interval (about 0.95 for a consistent estimator; NaN, a statistic of nothing,
             without a delivery the estimator compared: none, or all older than its history).
         fixes_used: Fixes the estimator applied.
+        fixes_widened: Of those, outliers applied after widening its covariance: a systematic odometry
+            drift beyond its priors explained them (:mod:`control.estimation.ekf`; the NEES shows
+            what that cost its consistency).
         nees_mean: Mean NEES over those deliveries (3 for a consistent estimator of a planar pose;
             above 3 over-confident, below conservative). The share inside the interval can be 100 %
             with a mean of 5: the per-fix interval (0.22-9.35) is wide; the mean shows the bias.
@@ -52,6 +55,7 @@ class EstimationMetrics:
     nees_in_bound_fraction: float
     fixes_used: int
     nees_mean: float = math.nan
+    fixes_widened: int = 0
     localiser_rmse_m: float | None = None
     localiser_heading_rmse_rad: float | None = None
     localiser_nees_in_bound_fraction: float | None = None
@@ -75,6 +79,7 @@ class EstimationMetrics:
             nees_in_bound_fraction=log.nees_in_bound_fraction(),
             fixes_used=int(np.count_nonzero(log.fix_applied)),
             nees_mean=log.nees_mean(),
+            fixes_widened=log.fixes_widened,
         )
 
 

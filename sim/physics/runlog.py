@@ -119,6 +119,8 @@ class EstimationLog:
         nees_bounds: Two-sided 95 % chi-square interval of the NEES (3 degrees of freedom).
         status: "ok", or why the estimator stopped (the run ended there).
         localiser: The scan localiser's own answers, when one gave the fixes.
+        fixes_widened: Outlier fixes applied after widening the covariance (a systematic odometry
+            drift beyond the priors explained them: :mod:`control.estimation.ekf`).
     """
 
     source: str
@@ -134,6 +136,7 @@ class EstimationLog:
     nees_bounds: tuple[float, float]
     status: str = "ok"
     localiser: LocaliserLog | None = None
+    fixes_widened: int = 0
 
     def __post_init__(self) -> None:
         k, m = self.t.shape[0], self.fix_t.shape[0]

@@ -446,4 +446,5 @@ class Sensing:
             nees_bounds=(float(lo), float(hi)),
             status=self.status,
             localiser=self.scans.to_log() if self.scans is not None else None,
+            fixes_widened=self.estimator.fixes_widened,
         )
