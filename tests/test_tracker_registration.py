@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 import sys
 import types
+from dataclasses import replace
 from typing import Any
 
 import pytest
@@ -43,7 +44,7 @@ def registered(monkeypatch: pytest.MonkeyPatch) -> str:
     """The new tracker registered for one test (the registry restored afterwards)."""
     monkeypatch.setitem(TRACKERS, "p-pose", "")  # undone after the test
     monkeypatch.setattr("control.base.BASELINES", set(BASELINES))
-    register_tracker("p-pose", PoseP)
+    register_tracker("p-pose", PoseP, replace=True)  # over the placeholder above
     return "p-pose"
 
 
@@ -59,6 +60,22 @@ def test_registering_puts_it_in_compare_and_its_runs_track(registered: str) -> N
     assert run.values["collisions"] == 0
     assert run.values["rms_m"] < 0.02 and run.values["final_m"] < 0.02  # a reference's closed-loop targets
     assert set(result.logs()) == {registered, "kanayama"}
+
+
+def test_registering_runs_it_through_the_simulate_api(registered: str) -> None:
+    """Its gains are not FBL gains: a case gives it its own defaults, or the params passed (the FBL gains
+    were given to every tracker with a ``gains`` option, and this one refused them)."""
+    from sim.pipeline.simulate import simulate_reference, tracker_for_run
+
+    result = simulate_reference(
+        "open", reference="circle", robot="turtlebot3", tracker=registered, runs=["closed_loop"]
+    )
+    (run,) = result.runs.values()
+    assert run.tracker == registered and run.metrics.rms_position_error_m < 0.02
+    case, kind, robot = result.prepared.case, run.kind, result.prepared.robot
+    assert tracker_for_run(case, kind, robot).gains == PoseGains()  # type: ignore[attr-defined]
+    tuned = PoseGains(k_along=3.0)
+    assert tracker_for_run(replace(case, params=tuned), kind, robot).gains == tuned  # type: ignore[attr-defined]
 
 
 def test_registering_puts_it_in_bench_track_and_tune(registered: str, monkeypatch: pytest.MonkeyPatch) -> None:

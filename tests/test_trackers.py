@@ -119,7 +119,7 @@ def test_unknown_tracker_and_wrong_option_types_raise() -> None:
 
 def test_a_registered_tracker_is_built_by_name(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setitem(TRACKERS, "fbl-copy", "")  # removed again after the test
-    register_tracker("fbl-copy", "control.fbl:DynamicFBL")
+    register_tracker("fbl-copy", "control.fbl:DynamicFBL", replace=True)  # over the placeholder above
     assert make_tracker("fbl-copy", load_robot("edumip")).name == "fbl"
 
 

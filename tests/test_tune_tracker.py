@@ -24,7 +24,7 @@ def _args(tmp_path: Path, tracker: str, trials: int) -> list[str]:
     return [
         "tune", "--tracker", tracker, "--scenarios", "open:line", "--robot", "turtlebot3", "--trials", str(trials),
         "--storage", f"sqlite:///{tmp_path}/study.db", "--study", "t", "--json", str(tmp_path / "t.json"),
-        "--out", str(tmp_path / "t.toml"), "--plots", str(tmp_path), "--draws", "1", "--eval-runs", "1", "--quiet",
+        "--plots", str(tmp_path), "--draws", "1", "--eval-runs", "1", "--quiet",
     ]  # fmt: skip
 
 

@@ -53,11 +53,12 @@ saved.
 --tracker T tunes another registered tracker (mpc, rpp, kanayama, segmented) with the same objective
 and draws: its parameters over the ranges its dataclass declares (for mpc the weights, not the
 horizon); its defaults are the first trial, the record carries "tracker" and "params" (read by
-'nhsim compare --params'), and a gains file is written only for trackers tuned by their FBL gains.
+'nhsim compare --params'), and a gains file is written only for trackers tuned by their FBL gains
+(e.g. fbl, segmented): for the others --out is refused and --json names the record.
 
 When the tuned gains score worse than the defaults on the held-out draws, the command says so, writes
-the DEFAULT gains to the gains file (its provenance names the tuned gains that lost and their
-held-out numbers) and exits 1.
+the DEFAULT gains to the gains file (the DEFAULT parameters to the record, for a tracker without a
+gains file; the provenance names the tuned gains that lost and their held-out numbers) and exits 1.
 
 Exit status: 0 done, 1 the tuned gains lost to the defaults on held-out draws (the defaults were
 written), 2 bad input (nothing written), 130 interrupted (the study keeps every completed trial;
@@ -146,7 +147,8 @@ def _add_output_arguments(p: argparse.ArgumentParser) -> None:
         type=Path,
         default=None,
         metavar="FILE",
-        help="gains file to write (default: renders/tune-<study>.toml)",
+        help="gains file to write, for trackers tuned by their FBL gains (e.g. fbl, segmented) (default: "
+        "renders/tune-<study>.toml)",
     )
     p.add_argument(
         "--json",
@@ -210,6 +212,33 @@ def _best_value(study: Any) -> float | None:
 
     values = [t.value for t in completed(study)]
     return min(values) if values else None
+
+
+def writes_gains_file(tracker: str) -> bool:
+    """Whether tuning ``tracker`` ("": the FBL's default study) writes a gains file: only FBL gains have
+    one (``nhsim simulate --gains``); every tracker's parameters go to the JSON record."""
+    from control.fbl import FBLGains
+    from sim.tools.tune import tuned_space
+
+    return tuned_space(tracker)[0] is FBLGains
+
+
+def _workers_know(tracker: str, trials: int) -> bool:
+    """Whether worker processes (``--jobs``) know ``tracker``: a built-in tracker or a plugin's, which a fresh
+    process loads too. One registered by the calling program's own code is not (a worker does not run
+    that code): then this says so and the trials run in this process."""
+    from control.base import PLUGIN_GROUP, PLUGIN_VARIABLE, in_every_process, tracker_origin
+
+    if in_every_process(tracker):
+        return True
+    print(
+        f"tune: tracker {tracker!r} is {tracker_origin(tracker)}, which --jobs worker processes do not run: "
+        f"running the {trials} trials in this process. To tune it on workers, make its registration a plugin: "
+        f"an entry point of group {PLUGIN_GROUP} in an installed package, or {PLUGIN_VARIABLE}=your.module "
+        "(docs/how-to/new-tracker.md)",
+        file=sys.stderr,
+    )
+    return False
 
 
 def _run_parallel(spec: Any, shares: list[int], study: Any, progress: _Progress) -> None:
@@ -357,7 +386,8 @@ def tune_files(args: argparse.Namespace, tokens: list[str]) -> TuneFiles:
         args.json or gains.with_suffix(".json"),
     )
     check_storage(files.storage)
-    paths = (files.gains, files.history, files.importance, files.record)
+    written = (files.gains,) if writes_gains_file(getattr(args, "tracker", "fbl").strip()) else ()
+    paths = (*written, files.history, files.importance, files.record)
     if len({p.resolve() for p in paths}) < len(paths):
         raise ConfigError(
             f"two outputs would be one file ({', '.join(map(str, paths))}); give --out and --json different paths"
@@ -417,7 +447,13 @@ def run(args: argparse.Namespace) -> int:
     from sim.tools.tune import tuned_space
 
     tracker = check_trackers([args.tracker])[0]
-    tuned_space(tracker)  # a tracker with nothing to tune stops here
+    cls = tuned_space(tracker)[0]  # a tracker with nothing to tune stops here
+    if args.out is not None and not writes_gains_file(tracker):
+        raise ConfigError(
+            f"--out names the gains file, which holds FBL gains (for 'nhsim simulate --gains'); tracker {tracker!r} "
+            f"is tuned by its {cls.__name__}, which go to the JSON record only: leave --out out and give "
+            "--json FILE (read by 'nhsim compare --params FILE')"
+        )
     fields_ = {"robot": args.robot, "seed": args.seed, "control_rate": args.control_rate, "tracker": tracker}
     fields_ |= localiser_fields(args)
     cases = tuple(Case.parse(t, **fields_) for t in tokens)
@@ -476,6 +512,8 @@ def _optimise(args: argparse.Namespace, spec: Any) -> Any:
         )
     progress = _Progress(args.trials, done, not args.quiet and sys.stderr.isatty())
     shares = split_trials(remaining, args.jobs)
+    if len(shares) > 1 and not _workers_know(spec.tracker or "fbl", remaining):
+        shares = [remaining]
     try:
         if len(shares) == 1:
             run_worker(spec, shares[0], 0, callbacks=[lambda s, t: progress.set(len(completed(s)), _best_value(s))])
@@ -596,7 +634,6 @@ def _write_outputs(
         Whether the tuned gains lost to the defaults on the held-out draws (the gains file then
         holds the default gains; see :func:`recommendation`).
     """
-    from control.fbl import FBLGains
     from control.gains import GainsFile, dump_gains_toml
     from sim.outputs import atomic_path, write_json
     from sim.tools.tune import completed
@@ -626,7 +663,7 @@ def _write_outputs(
     gains, verdict = recommendation(best, comparison, spec.tracker)
     provenance.update(verdict)
     written = [files.record]
-    if isinstance(gains, FBLGains):  # a gains file for 'simulate --gains'; the record serves every tracker
+    if writes_gains_file(spec.tracker):  # a gains file for 'simulate --gains'; the record serves every tracker
         with atomic_path(files.gains, overwrite=files.replaceable(args.overwrite)) as tmp:
             tmp.write_text(dump_gains_toml(GainsFile(gains, provenance)), encoding="utf-8")
         written.insert(0, files.gains)
@@ -642,8 +679,8 @@ def _write_outputs(
     for note in notes:
         print(note, file=sys.stderr)
     print("wrote " + ", ".join([*map(str, written), *plots]))
-    if verdict["recommended"] == "default":
-        print(f"{verdict['note']}: wrote the default gains to {files.gains}", file=sys.stderr)
+    if verdict["recommended"] == "default":  # in the gains file, or else in the record's "params"
+        print(f"{verdict['note']}: wrote the default {type(gains).__name__} to {written[0]}", file=sys.stderr)
     return verdict["recommended"] == "default"
 
 

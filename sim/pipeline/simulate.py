@@ -17,7 +17,7 @@ from typing import Any
 
 import mujoco
 
-from control.base import Tracker, make_tracker, tracker_options, tuned_option
+from control.base import Tracker, make_tracker, option_takes, tuned_option
 from control.fbl import FBLGains
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
@@ -217,14 +217,15 @@ def track(
 
 def tracker_for_run(case: Case, kind: RunKind, robot: RobotSpec) -> Tracker:
     """The tracker a run of ``kind`` uses in ``case``: its registered tracker with the case's FBL gains
-    (if it takes gains) and, for the case's feedback tracker, the case's ``params`` (its tuned option).
+    (if its ``gains`` option is declared to take FBL gains; any other tracker keeps its own defaults)
+    and, for the case's feedback tracker, the case's ``params`` (its tuned option).
 
     Raises:
         ConfigError: The case's params are not of the tracker's tuned type.
     """
     name = case.tracker_for(kind)
     options: dict[str, Any] = {}
-    if "gains" in tracker_options(name):
+    if option_takes(name, "gains", FBLGains):
         options["gains"] = case.gains or FBLGains()
     if case.params is not None and not kind.tracker:
         options[tuned_option(name)[0]] = case.params

@@ -666,11 +666,17 @@ def default_trial(study: Any, tracker: str = "") -> Any | None:
 def worker_process(spec: TuneSpec, n_trials: int, worker: int, retries: int = 5) -> None:
     """Entry point of a worker process (``--jobs``): its own storage connection and sampler.
 
+    It loads the tracker plugins first (:func:`control.base.load_plugins`: the same entry points and
+    ``NHSIM_PLUGINS`` modules as the command that started it), so it knows the trackers they register.
     A storage error (SQLite refuses one of two concurrent writers outright rather than wait) is
     retried up to ``retries`` times with the trials this worker has not finished yet.
     """
     import sqlalchemy.exc
     from optuna.exceptions import StorageInternalError
+
+    from control.base import load_plugins
+
+    load_plugins()
 
     finished = [0]
 

@@ -1,0 +1,302 @@
+"""Registering trackers: what ``register_tracker`` accepts, the plugin hook that brings a user's tracker to
+the ``nhsim`` command (entry points of group ``nhsim.trackers``, ``NHSIM_PLUGINS``) and to ``tune --jobs``
+workers, and ``tune``'s outputs for a tracker without a gains file."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import optuna
+import pytest
+
+from control import base
+from control.base import (
+    BASELINES,
+    BY_CODE,
+    PLUGIN_GROUP,
+    PLUGIN_VARIABLE,
+    TRACKERS,
+    feedback_trackers,
+    in_every_process,
+    make_tracker,
+    option_takes,
+    register_tracker,
+    tracker_origin,
+)
+from control.fbl import DynamicFBL, FBLGains
+from control.kanayama import KanayamaParams
+from control.open_loop import OpenLoop
+from planning.core.robot import load_robot
+from planning.errors import ConfigError
+from sim.cli.main import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+class MyFBL(DynamicFBL):
+    """A tracker of the test's own (the FBL under another name), registered by the test's code."""
+
+
+@pytest.fixture
+def registry(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
+    """The registry as it is now, restored after the test, with its plugins unloaded (the next lookup
+    loads them); the plugin modules the test imported are forgotten again."""
+    monkeypatch.setattr(TRACKERS, "_entries", dict(TRACKERS._entries))
+    monkeypatch.setattr(TRACKERS, "origins", dict(TRACKERS.origins))
+    monkeypatch.setattr(TRACKERS, "plugins", "unloaded")
+    monkeypatch.setattr(base, "BASELINES", set(BASELINES))
+    monkeypatch.delenv(PLUGIN_VARIABLE, raising=False)
+    modules = set(sys.modules)
+    yield
+    for name in set(sys.modules) - modules:
+        if name.startswith("nhsim_test_"):
+            del sys.modules[name]
+
+
+def _package(site: Path, entry_points: dict[str, str], modules: dict[str, str]) -> Path:
+    """An installed package in folder ``site``: its modules and a ``.dist-info`` declaring the entry
+    points of group ``nhsim.trackers`` (as ``pip install`` leaves them)."""
+    site.mkdir(exist_ok=True)
+    for name, code in modules.items():
+        (site / f"{name}.py").write_text(code)
+    info = site / "nhsim_test_plugins-1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: nhsim-test-plugins\nVersion: 1.0\n")
+    lines = "".join(f"{name} = {value}\n" for name, value in entry_points.items())
+    (info / "entry_points.txt").write_text(f"[{PLUGIN_GROUP}]\n{lines}")
+    return site
+
+
+FBL2 = "from control.fbl import DynamicFBL\n\n\nclass FBL2(DynamicFBL):\n    name = 'fbl2'\n"
+REGISTERS = "from control.base import register_tracker\nfrom control.fbl import DynamicFBL\n\n"
+
+
+# ---- register_tracker checks what it is given ------------------------------------------------------------
+@pytest.mark.parametrize("name", ["", "a,b", "a b", "p-pose\n", 123, None])
+def test_a_name_that_cannot_be_given_on_the_command_line_is_refused(registry: None, name: object) -> None:
+    with pytest.raises(ConfigError, match="name must be non-empty text without commas or whitespace"):
+        register_tracker(name, MyFBL)  # type: ignore[arg-type]
+    assert name not in TRACKERS
+
+
+@pytest.mark.parametrize("target", ["mypackage.pose_p", "a:b:c", ":PoseP", "mypackage:", "my package:P", 42, None])
+def test_a_target_that_is_neither_a_factory_nor_module_attr_is_refused(registry: None, target: object) -> None:
+    with pytest.raises(ConfigError, match=r"register_tracker\('x1'\): target") as err:
+        register_tracker("x1", target)  # type: ignore[arg-type]
+    assert "mypackage.pose_p:PoseP" in str(err.value) or "module:attr" in str(err.value)
+    assert "x1" not in TRACKERS
+
+
+def test_a_registered_name_is_replaced_only_when_asked(registry: None) -> None:
+    with pytest.raises(ConfigError, match=r"tracker 'fbl' is already registered \(built in\) as control.fbl:Dyn"):
+        register_tracker("fbl", MyFBL)
+    assert TRACKERS["fbl"] == "control.fbl:DynamicFBL"
+    register_tracker("mine", MyFBL)
+    register_tracker("mine", MyFBL)  # the same again (a plugin module imported twice): nothing replaced
+    with pytest.raises(ConfigError, match=rf"'mine' is already registered \({BY_CODE}\) as .*MyFBL; .*replace=True"):
+        register_tracker("mine", OpenLoop)
+    register_tracker("mine", OpenLoop, baseline=True, replace=True)
+    register_tracker("fbl", MyFBL, replace=True)
+    assert TRACKERS["mine"] is OpenLoop and TRACKERS["fbl"] is MyFBL and "mine" not in feedback_trackers()
+
+
+@pytest.mark.parametrize(
+    ("target", "error"),
+    [
+        ("nhsim_test_no_such_module:Tracker", "ModuleNotFoundError: No module named 'nhsim_test_no_such_module'"),
+        ("control.fbl:NoSuchTracker", "AttributeError: module 'control.fbl' has no attribute 'NoSuchTracker'"),
+        ("control.base:PLUGIN_GROUP", "is not callable"),
+    ],
+)
+def test_a_target_that_fails_to_load_names_the_tracker_and_the_target(registry: None, target: str, error: str) -> None:
+    register_tracker("x1", target)  # imported when first used
+    with pytest.raises(ConfigError) as err:
+        make_tracker("x1", load_robot("turtlebot3"))
+    assert f"tracker 'x1' ({BY_CODE})" in str(err.value) and repr(target) in str(err.value) and error in str(err.value)
+
+
+def test_the_fbl_gains_option_is_known_by_its_declared_type(registry: None) -> None:
+    takes = {name: option_takes(name, "gains", FBLGains) for name in ("fbl", "segmented", "kanayama", "mpc", "rpp")}
+    assert takes == {"fbl": True, "segmented": True, "kanayama": False, "mpc": False, "rpp": False}
+    assert not option_takes("open-loop", "gains", FBLGains)  # no such option
+
+    class Unresolved(DynamicFBL):
+        def __init__(self, robot: object, *, gains: FBLGains | NotDefined | None = None) -> None:  # type: ignore[name-defined] # noqa: F821
+            super().__init__(robot, gains=gains)  # type: ignore[arg-type]
+
+    register_tracker("unresolved", Unresolved)
+    assert option_takes("unresolved", "gains", FBLGains)  # read from the annotation's text
+    assert not option_takes("unresolved", "params", FBLGains)
+
+
+# ---- plugins, in this process ----------------------------------------------------------------------------
+def test_a_module_named_by_the_variable_is_imported_at_the_first_lookup(
+    registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    (tmp_path / "nhsim_test_env_plugin.py").write_text(REGISTERS + "register_tracker('env-fbl', DynamicFBL)\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setenv(PLUGIN_VARIABLE, " nhsim_test_env_plugin, ")
+    assert "nhsim_test_env_plugin" not in sys.modules
+    assert "env-fbl" in feedback_trackers()
+    origin = f"from module 'nhsim_test_env_plugin' named by {PLUGIN_VARIABLE}= nhsim_test_env_plugin, "
+    assert tracker_origin("env-fbl") == origin and in_every_process("env-fbl")
+    assert make_tracker("env-fbl", load_robot("turtlebot3")).name == "fbl"
+
+
+def test_entry_points_register_a_tracker_lazily_or_import_a_module(
+    registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    modules = {"nhsim_test_ep_fbl2": FBL2, "nhsim_test_ep_mod": REGISTERS + "register_tracker('mod-fbl', DynamicFBL)\n"}
+    entry_points = {"fbl2": "nhsim_test_ep_fbl2:FBL2", "mine": "nhsim_test_ep_mod"}
+    monkeypatch.syspath_prepend(str(_package(tmp_path / "site", entry_points, modules)))
+    assert {"fbl2", "mod-fbl"} <= set(feedback_trackers())
+    assert "nhsim_test_ep_fbl2" not in sys.modules  # imported when first used
+    package = f"of group {PLUGIN_GROUP} in nhsim-test-plugins 1.0"
+    assert tracker_origin("fbl2") == f"from entry point 'fbl2 = nhsim_test_ep_fbl2:FBL2' {package}"
+    assert tracker_origin("mod-fbl") == f"from entry point 'mine = nhsim_test_ep_mod' {package}"
+    assert make_tracker("fbl2", load_robot("turtlebot3")).name == "fbl2"
+    assert in_every_process("fbl2") and in_every_process("fbl") and not in_every_process("nobody")
+
+
+@pytest.mark.parametrize(
+    ("plugin", "error"),
+    [
+        ("nhsim_test_missing", "ModuleNotFoundError: No module named 'nhsim_test_missing'"),
+        ("nhsim_test_raises", "RuntimeError: no licence"),
+        ("nhsim_test_clashes", "ConfigError: register_tracker: tracker 'fbl' is already registered (built in)"),
+    ],
+)
+def test_a_plugin_that_fails_is_a_clear_error_of_any_command_that_looks_up_a_tracker(
+    registry: None,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    plugin: str,
+    error: str,
+) -> None:
+    (tmp_path / "nhsim_test_raises.py").write_text("raise RuntimeError('no licence')\n")
+    (tmp_path / "nhsim_test_clashes.py").write_text(
+        REGISTERS + "register_tracker('fbl', type('Other', (DynamicFBL,), {}))\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setenv(PLUGIN_VARIABLE, plugin)
+    assert main(["compare", "--trackers", "fbl", "--reference", "line", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    want = f"nhsim compare: error: tracker plugin failed to load: module {plugin!r} named by {PLUGIN_VARIABLE}={plugin}"
+    assert err.startswith(f"{want}: {error}") and "Traceback" not in err
+    with pytest.raises(ConfigError, match="tracker plugin failed to load"):  # every lookup, not the first only
+        "fbl" in TRACKERS  # noqa: B015
+
+
+def test_the_documented_error_is_the_one_given(registry: None, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(PLUGIN_VARIABLE, "mypackage.trackers")
+    with pytest.raises(ConfigError) as err:
+        feedback_trackers()
+    page = " ".join((ROOT / "docs" / "how-to" / "new-tracker.md").read_text().split())
+    assert f"`nhsim compare: error: {err.value}`" in page
+
+
+# ---- plugins, in the nhsim command -----------------------------------------------------------------------
+def _nhsim(site: Path, *argv: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    """``nhsim ARGV`` in a fresh process that sees the packages installed in ``site``."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")])}
+    env.pop(PLUGIN_VARIABLE, None)
+    return subprocess.run([sys.executable, "-m", "sim", *argv], capture_output=True, text=True, env=env, cwd=cwd)
+
+
+def test_the_command_runs_a_tracker_of_an_installed_entry_point(tmp_path: Path) -> None:
+    site = _package(tmp_path / "site", {"fbl2": "nhsim_test_fbl2:FBL2"}, {"nhsim_test_fbl2": FBL2})
+    argv = ["compare", "--trackers", "fbl2,kanayama", "--scenario", "open", "--reference", "line", "--quiet"]
+    done = _nhsim(site, *argv, "--robot", "turtlebot3", "--json", "c.json", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert [line.split()[0] for line in done.stdout.splitlines()[3:5]] == ["fbl2", "kanayama"]
+    assert list(json.loads((tmp_path / "c.json").read_text())["trackers"]) == ["fbl2", "kanayama"]
+
+
+def test_version_and_help_load_no_plugin_and_a_broken_one_fails_a_lookup_clearly(tmp_path: Path) -> None:
+    marker = tmp_path / "imported"
+    modules = {"nhsim_test_marks": f"open({str(marker)!r}, 'w').close()\n", "nhsim_test_broken": "import nowhere\n"}
+    site = _package(tmp_path / "site", {"marks": "nhsim_test_marks", "broken": "nhsim_test_broken"}, modules)
+    for argv in (["--version"], ["--help"], ["compare", "--help"]):
+        done = _nhsim(site, *argv, cwd=tmp_path)
+        assert done.returncode == 0 and not marker.exists(), (argv, done.stderr)
+    done = _nhsim(site, "compare", "--trackers", "fbl", "--reference", "line", cwd=tmp_path)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert done.stderr.strip() == (
+        "nhsim compare: error: tracker plugin failed to load: entry point 'broken = nhsim_test_broken' of group "
+        "nhsim.trackers in nhsim-test-plugins 1.0: ModuleNotFoundError: No module named 'nowhere'"
+    )
+
+
+# ---- tune --jobs: workers know the tracker, or the trials stay in this process -----------------------------
+def _tune(tmp_path: Path, tracker: str, *extra: str) -> list[str]:
+    return [
+        "tune", "--tracker", tracker, "--scenarios", "open:line", "--robot", "turtlebot3", "--trials", "2",
+        "--storage", f"sqlite:///{tmp_path}/study.db", "--study", "t", "--json", str(tmp_path / "t.json"),
+        "--plots", str(tmp_path), "--draws", "1", "--quiet", *extra,
+    ]  # fmt: skip
+
+
+def test_tune_jobs_runs_a_tracker_registered_by_code_in_this_process(
+    registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Worker processes run none of the caller's code: they failed on the unknown name, and the command
+    said to rerun, which could not help."""
+
+    def no_workers(*args: object) -> None:
+        raise AssertionError("workers started for a tracker they do not know")
+
+    monkeypatch.setattr("sim.cli.tune._run_parallel", no_workers)
+    register_tracker("my-fbl", MyFBL)
+    argv = _tune(tmp_path, "my-fbl", "--jobs", "2", "--eval-runs", "0", "--out", str(tmp_path / "t.toml"))
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert f"tracker 'my-fbl' is {BY_CODE}, which --jobs worker processes do not run: running the 2 trials" in err
+    assert PLUGIN_GROUP in err and PLUGIN_VARIABLE in err
+    study = optuna.load_study(study_name="t", storage=f"sqlite:///{tmp_path}/study.db")
+    assert len(study.get_trials(states=(optuna.trial.TrialState.COMPLETE,))) == 2
+
+
+@pytest.mark.slow  # two tuning worker processes
+def test_tune_workers_load_the_plugins(tmp_path: Path) -> None:
+    site = _package(tmp_path / "site", {"fbl2": "nhsim_test_fbl2:FBL2"}, {"nhsim_test_fbl2": FBL2})
+    done = _nhsim(site, *_tune(tmp_path, "fbl2", "--jobs", "2", "--eval-runs", "0"), cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "in this process" not in done.stderr
+    study = optuna.load_study(study_name="t", storage=f"sqlite:///{tmp_path}/study.db")
+    assert len(study.get_trials(states=(optuna.trial.TrialState.COMPLETE,))) == 2
+
+
+# ---- tune's outputs for a tracker without a gains file ------------------------------------------------------
+def test_tune_refuses_out_for_a_tracker_without_a_gains_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(_tune(tmp_path, "kanayama", "--out", str(tmp_path / "t1.toml"))) == 2
+    err = capsys.readouterr().err
+    assert "--out names the gains file, which holds FBL gains" in err and "give --json FILE" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_tune_says_where_it_wrote_the_default_parameters(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Tuned parameters that lose to the defaults: the defaults go to the record, and the message names it
+    (it named a gains file that was never written)."""
+    import sim.tools.tune as tune
+    from sim.tools.tune import Comparison, Evaluation
+
+    def runs(costs: list[float]) -> Evaluation:
+        return Evaluation(sum(costs) / len(costs), 0.01, 0.02, 0.0, 0, len(costs), tuple(costs))
+
+    monkeypatch.setattr(tune, "compare", lambda ev, tuned, draws: Comparison(runs([1.0]), runs([2.0]), draws, ("a",)))
+    assert main(_tune(tmp_path, "kanayama", "--eval-runs", "1")) == 1
+    err = capsys.readouterr().err
+    note = "worse than the defaults on held-out robots: objective 2.000000 m against 1.000000 m (2.00x)"
+    assert f"{note}: wrote the default KanayamaParams to {tmp_path / 't.json'}" in err
+    assert json.loads((tmp_path / "t.json").read_text())["params"] == json.loads(json.dumps(KanayamaParams().__dict__))
+    assert not list(tmp_path.glob("*.toml"))
