@@ -27,8 +27,9 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from control.base import check_measured_pose, check_period, check_positive_fields, option_value
+from control.base import check_positive_fields, option_value
 from control.dispatch import bind
+from control.inputs import check_command, check_reset
 from control.switching import REFERENCE, clamp_command, reference_table
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
@@ -211,9 +212,9 @@ class DynamicFBL:
         control instants; the gains and the robot's limits are taken as they are now.
 
         Raises:
-            ConfigError: ``dt`` [s] is not a finite number > 0.
+            ConfigError: ``trajectory`` is not a Trajectory, or ``dt`` [s] is not a finite number > 0.
         """
-        dt = check_period(self.name, dt, trajectory)
+        dt = check_reset(self.name, trajectory, dt)
         self._traj = trajectory
         self._ref = reference_table(trajectory, dt, math.ceil(trajectory.duration / dt) + 2)
         g, r = self.gains, self.robot
@@ -233,12 +234,17 @@ class DynamicFBL:
         interpolated from the trajectory.
 
         Raises:
+            ConfigError: An argument is not a number (an array, a text).
             SimulationError: ``t`` or the pose is not finite.
         """
-        status, v, omega = self._period(t, x, y, theta)
+        try:
+            status, v, omega = self._period(t, x, y, theta)
+        except TypeError:  # an argument the compiled period cannot take as a float: named here
+            check_command(self.name, t, x, y, theta)
+            raise
         if status == OK:
             return v, omega
-        check_measured_pose(self.name, t, x, y, theta)  # raises for BAD_POSE
+        check_command(self.name, t, x, y, theta)  # raises for BAD_POSE
         if self._traj is None:
             raise RuntimeError("DynamicFBL.command called before reset")
         return step(self.state, _at(self._traj, t), 0, x, y, theta)

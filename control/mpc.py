@@ -70,7 +70,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from control.base import check_measured_pose, check_period, check_ranges, option_value, ranged
+from control.base import check_ranges, option_value, ranged
+from control.inputs import check_command, check_reset
 from planning.casadi_env import casadi_module
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError, DependencyError
@@ -268,9 +269,9 @@ class MPCTracker:
         first control period starts warm (that solve is not counted).
 
         Raises:
-            ConfigError: ``dt`` [s] is not a finite number > 0.
+            ConfigError: ``trajectory`` is not a Trajectory, or ``dt`` [s] is not a finite number > 0.
         """
-        self._dt = check_period(self.name, dt, trajectory)
+        self._dt = check_reset(self.name, trajectory, dt)
         self._traj = trajectory
         r = self.robot
         self._lim = _Limits(r.max_speed, r.max_yaw_rate, r.max_wheel_speed * r.wheel_radius, r.track_width / 2.0,
@@ -360,9 +361,10 @@ class MPCTracker:
         """Solve, apply the first input (or fall back, see the module doc); record the solve time.
 
         Raises:
+            ConfigError: An argument is not a number (an array, a text).
             SimulationError: ``t`` or the pose is not finite.
         """
-        check_measured_pose(self.name, t, x, y, theta)
+        check_command(self.name, t, x, y, theta)
         start, cpu = time.perf_counter(), time.thread_time()
         inputs = self._solve(t, x, y, theta)
         self.solve_times.append(time.perf_counter() - start)

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from control.base import check_measured_pose, check_period
+from control.inputs import check_command, check_reset
 from planning.core.robot import RobotSpec
 from planning.trajectory.trajectory import Trajectory
 
@@ -39,9 +39,10 @@ class OpenLoop:
         periods starting at t0 + k dt are sampled here, once.
 
         Raises:
-            ConfigError: ``dt`` [s] is not a finite number > 0 (or too small for the trajectory's span).
+            ConfigError: ``trajectory`` is not a Trajectory, or ``dt`` [s] is not a finite number > 0 (or
+                too small for the trajectory's span).
         """
-        self._dt = check_period(self.name, dt, trajectory)
+        self._dt = check_reset(self.name, trajectory, dt)
         self._traj = trajectory
         self._t0 = float(trajectory.t[0])
         starts = self._t0 + self._dt * np.arange(math.ceil(trajectory.duration / dt) + 2)
@@ -53,11 +54,12 @@ class OpenLoop:
         """Reference (v, omega) for the period starting at ``t``; the pose is ignored (but must be finite).
 
         Raises:
+            ConfigError: An argument is not a number (an array, a text), as in every tracker.
             SimulationError: ``t`` or the pose is not finite, as in every tracker.
         """
         if self._traj is None:
             raise RuntimeError("OpenLoop.command called before reset")
-        check_measured_pose(self.name, t, x, y, theta)
+        check_command(self.name, t, x, y, theta)
         k = round((t - self._t0) / self._dt)
         if 0 <= k < len(self._starts) and self._starts[k] == t:  # a control instant: sampled at reset
             return self._commands[k]

@@ -45,9 +45,10 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from control.base import check_measured_pose, check_period, check_positive_fields
+from control.base import check_positive_fields
 from control.dispatch import bind
 from control.estimation.kernels import wrap
+from control.inputs import check_command, check_reset
 from planning.core.robot import RobotSpec
 from planning.trajectory.segments import infer_segments
 from planning.trajectory.trajectory import Trajectory
@@ -280,9 +281,10 @@ class PerSegmentTracker:
         """Start tracking: the reference at every control instant; the parameters as they are now.
 
         Raises:
-            ConfigError: The control period ``dt`` [s] is not a finite number > 0 (or too small).
+            ConfigError: ``trajectory`` is not a Trajectory, or the control period ``dt`` [s] is not a
+                finite number > 0 (or too small).
         """
-        dt = check_period(self.name, dt, trajectory)
+        dt = check_reset(self.name, trajectory, dt)
         self._ref = reference_table(trajectory, dt, math.ceil(trajectory.duration / dt) + 1)
         state = np.zeros(1, self.STATE)
         r, p = self.robot, self.turns
@@ -310,13 +312,18 @@ class PerSegmentTracker:
         """Body command (v [m/s], omega [rad/s]) for the period starting at ``t``: one compiled call.
 
         Raises:
+            ConfigError: An argument is not a number (an array, a text).
             SimulationError: ``t`` or the pose is not finite.
         """
         if self._period is None:
             raise RuntimeError(f"{type(self).__name__}.command called before reset")
-        status, v, w = self._period(t, x, y, theta)
+        try:
+            status, v, w = self._period(t, x, y, theta)
+        except TypeError:  # an argument the compiled period cannot take as a float: named here
+            check_command(self.name, t, x, y, theta)
+            raise
         if status != OK:
-            check_measured_pose(self.name, t, x, y, theta)  # raises
+            check_command(self.name, t, x, y, theta)  # raises
         return v, w
 
 

@@ -26,9 +26,10 @@ from typing import Any
 
 import numpy as np
 
+from planning.core.checks import check_number
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.maps import load_map_table
-from planning.core.robot import MODELS_DIR, ROBOT_FILES, RobotSpec, load_robot
+from planning.core.robot import MODELS_DIR, ROBOT_FILES, RobotSpec, check_robot_name, load_robot
 from planning.core.scenario_type import DEFAULT_HEADING_TOLERANCE, DEFAULT_POSITION_TOLERANCE, Scenario
 from planning.core.tables import TableReader
 from planning.core.world import MAX_WORLD_SIDE, Box, Circle, Ellipse, Obstacle, Polygon, World, too_thin
@@ -449,9 +450,15 @@ def random_scenario(robot: str, seed: int) -> Scenario:
     :func:`load_scenario` and the commands' ``--scenario`` take), any robot may drive it.
 
     Args:
-        robot: Robot name.
-        seed: Seed of the draw; same seed, same world.
+        robot: Robot name (a key of ``ROBOT_FILES``).
+        seed: Seed of the draw, an integer >= 0 (the one ``random<seed>`` names); same seed, same world.
+
+    Raises:
+        ConfigError: An unknown robot (the message lists the names), or a seed that is not an integer >= 0.
     """
+    robot = check_robot_name("random_scenario", robot)
+    fix = "the world random<N> is drawn from seed N, e.g. random_scenario('turtlebot3', 7) is random7"
+    seed = check_number("random_scenario: seed", seed, integer=True, at_least=0, fix=fix)
     rng = np.random.default_rng(1000 + seed)
     obstacles: list[Obstacle] = []
     while len(obstacles) < 7:

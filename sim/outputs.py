@@ -45,6 +45,24 @@ def image_format(path: Path, option: str) -> str:
     return fmt
 
 
+def check_video_name(path: str | Path, what: str = "a video's path") -> None:
+    """Refuse a video file name that does not end in .mp4: the writer (:mod:`sim.viz.video`) makes H.264 in
+    an MP4 container whatever the name, so a ``.avi`` or ``.mkv`` would hold MP4 data under a false name.
+
+    Args:
+        path: The file name.
+        what: What the message calls it (``"--video"`` on the command line).
+
+    Raises:
+        ConfigError: Another suffix, or none.
+    """
+    if Path(path).suffix.lower() != ".mp4":
+        raise ConfigError(
+            f"{what} must name an .mp4 file (the video is H.264 in MP4, the one container written), got {path}; "
+            "end the name in .mp4"
+        )
+
+
 def check_writable(path: Path, *, overwrite: bool) -> None:
     """Check, before any work and without leaving anything behind, that ``path`` can be written.
 

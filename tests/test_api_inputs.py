@@ -97,3 +97,78 @@ def test_check_number_takes_an_exclusive_upper_bound_and_says_it_as_the_lower_on
         check_number("q", 1.0, below=1.0)
     with pytest.raises(ConfigError, match=r"^r must be a finite number > 0 and >= 0\.5 and < 1, got 0\.25$"):
         check_number("r", 0.25, above=0.0, at_least=0.5, below=1.0)
+
+
+def test_to_trajectory_names_a_robot_name_a_nan_and_an_unknown_option() -> None:
+    """A robot's name was "AttributeError: 'str' object has no attribute 'footprint'", a NaN in the path
+    "no usable (N, 3) path (shape (2, 3))", an unknown option a raw TypeError of make_trajectory's."""
+    from planning import load_scenario, to_trajectory
+    from planning.trajectory.from_plan import TrajectoryError, make_trajectory
+
+    robot, world = load_robot("turtlebot3"), load_scenario("open").world
+    path = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    with pytest.raises(ConfigError, match=r"^to_trajectory: robot must be a RobotSpec \(load_robot\('turtlebot3'\)\)"):
+        to_trajectory(path, "turtlebot3", world)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match=r"^to_trajectory: world must be a World"):
+        to_trajectory(path, robot, "open")  # type: ignore[arg-type]
+    bad = path.copy()
+    bad[1, 0] = np.nan
+    with pytest.raises(TrajectoryError, match=r"non-finite values \(NaN or infinite\) in 1 of its 2 poses \(rows 1\)"):
+        to_trajectory(bad, robot, world)
+    with pytest.raises(
+        TrajectoryError, match=r"no usable \(N, 3\) path \(shape \(2, 2\)\); give one row \[x, y, theta\]"
+    ):
+        to_trajectory(path[:, :2], robot, world)
+    with pytest.raises(ConfigError, match=r"^to_trajectory: unknown option\(s\) speed; valid options: goal, .*margin"):
+        to_trajectory(path, robot, world, speed=1.0)
+    with pytest.raises(ConfigError, match=r"robot must be a RobotSpec"):
+        make_trajectory(path, "turtlebot3", world)  # type: ignore[arg-type]
+
+
+def test_a_single_pose_path_is_a_stand_still_of_dwell_as_a_start_that_is_the_goal() -> None:
+    """Documented, not refused: the planners return the start alone, as a success, when it is the goal
+    (``nhsim plan`` reports length 0), and its trajectory is the stand-still there."""
+    from planning import PlanProblem, load_scenario, make_planner, to_trajectory
+
+    robot, scenario = load_robot("turtlebot3"), load_scenario("open")
+    plan = make_planner("rrt").plan(PlanProblem.from_scenario(scenario, robot=robot))
+    assert plan.success and plan.path.shape == (1, 3)
+    for path in (plan, np.zeros((1, 3))):
+        traj = to_trajectory(path, robot, scenario.world, dwell=0.5)
+        assert traj.segment_kinds == ("hold",) and traj.duration == pytest.approx(0.5)
+        assert not np.any(traj.vel)
+
+
+def test_from_flat_densify_and_load_robot_name_a_wrong_argument() -> None:
+    """Were numpy's IndexError / ValueError (from_flat, densify_path) and os's TypeError (load_robot(None))."""
+    from planning import Trajectory, densify_path
+    from planning.errors import ModelError
+
+    t, xy, d = [0.0, 1.0, 2.0], [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]], [[1.0, 0.0]] * 3
+    for args, kwargs, message in [
+        ((t, xy, [1.0, 1.0, 1.0], d), {}, r"from_flat: dxy must have shape \(3, 2\) \(one \[dx/dt, dy/dt\] row"),
+        ((t, xy[:2], d, d), {}, r"from_flat: xy must have shape \(3, 2\) \(one \[x, y\] row per time\), got \(2, 2\)"),
+        ((t, xy, d, d), {"direction": [1, -1]}, r"direction must be \+1 or -1, or an array of one per time \(3,\)"),
+        (([0.0], xy[:1], d[:1], d[:1]), {}, r"t must be a 1-D array of at least 2 times, got shape \(1,\)"),
+    ]:
+        with pytest.raises(ConfigError, match=message):
+            Trajectory.from_flat(*args, **kwargs)
+    assert Trajectory.from_flat(t, xy, d, [[0.0, 0.0]] * 3, direction=[1, 1, 1]).duration == 2.0
+    with pytest.raises(ConfigError, match=r"densify_path needs an \(N, 3\) path of poses \[x, y, theta\], got shape"):
+        densify_path(np.array([[0.0, 0.0], [1.0, 0.0]]), 0.1)
+    with pytest.raises(ModelError, match=r"a robot is named by text: one of edumip, .*turtlebot3 .*got None"):
+        load_robot(None)  # type: ignore[arg-type]
+
+
+def test_random_scenario_takes_integer_seeds_from_0_and_known_robots() -> None:
+    """Seed -1001 was numpy's ValueError, 2.5 a SeedSequence TypeError, True a world named "randomTrue", -3 one
+    named "random-3" that load_scenario refused; an unknown robot was caught only when the world was used."""
+    from planning import load_scenario, random_scenario
+
+    for seed in (-1001, -3, 2.5, True, "3"):
+        with pytest.raises(ConfigError, match=rf"^random_scenario: seed must be an integer >= 0, got {seed!r}; "):
+            random_scenario("edumip", seed)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match=r"^random_scenario: unknown robot 'burger': choose one of edumip, "):
+        random_scenario("burger", 3)
+    drawn = random_scenario("edumip", np.int64(3))
+    assert drawn.name == "random3" and drawn.world == load_scenario("random3").world

@@ -75,6 +75,22 @@ def test_writing_a_video_builds_no_simulator(tmp_path: Path, monkeypatch: pytest
     assert seen == [job.model]
 
 
+def test_write_video_refuses_a_name_that_is_not_mp4_before_drawing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """It wrote MP4 data into "x.avi" (ffmpeg is told ``-f mp4``); now it refuses before drawing anything."""
+    from planning.errors import ConfigError
+    from sim.viz import job_video
+
+    def refuse(*_a: object, **_k: object) -> None:
+        raise AssertionError("write_video drew before checking the name")
+
+    monkeypatch.setattr(job_video, "Replay", refuse)
+    with pytest.raises(ConfigError, match=r"must name an \.mp4 file .*got .*x\.avi; end the name in \.mp4"):
+        job_video.write_video(_job(BUILD_SEED), tmp_path / "out" / "x.avi")
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize("flag", ["no", "False", 0, 1, None])
 def test_write_video_refuses_an_overwrite_that_is_not_true_or_false(tmp_path: Path, flag: object) -> None:
     """``overwrite="no"`` is truthy: read for its truth it replaced the video; a flag must be True or False."""

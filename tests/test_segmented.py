@@ -91,8 +91,41 @@ def test_a_non_finite_pose_is_refused_by_every_tracker(name: str, bad: tuple[flo
     tracker.command(0.0, 0.0, 0.0, 0.0)
     with pytest.raises(SimulationError, match=rf"tracker '{name}' was given a non-finite pose.*at t=0\.100 s"):
         tracker.command(0.1, *bad)
-    with pytest.raises(SimulationError, match=rf"tracker '{name}'.*at t=nan s"):
+    # a NaN time is the caller's clock, not the pose (the message blamed a pose of zeros)
+    with pytest.raises(SimulationError, match=rf"tracker '{name}' was given a non-finite time t=nan s.*clock"):
         tracker.command(math.nan, 0.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize("name", sorted(TRACKERS))
+def test_a_command_argument_that_is_no_number_is_named_by_every_tracker(name: str) -> None:
+    """An array for x was "TypeError: bad argument type for built-in operation" (compiled trackers) or
+    "only 0-dimensional arrays can be converted" (mpc, open-loop)."""
+    robot = load_robot("edumip")
+    tracker = make_tracker(name, robot)
+    tracker.reset(to_trajectory(CUSP_TURN, robot, OPEN), 0.02)
+    for args, field, got in [
+        ((0.0, np.array([0.0, 1.0]), 0.0, 0.0), "x", r"ndarray of shape \(2,\)"),
+        ((None, 0.0, 0.0, 0.0), "t", "None"),
+    ]:
+        with pytest.raises(
+            ConfigError, match=rf"tracker '{name}': command\(t, x, y, theta\)'s {field} must be a number, got {got}"
+        ):
+            tracker.command(*args)  # type: ignore[arg-type]
+    assert all(math.isfinite(c) for c in tracker.command(np.float64(0.02), 0, np.float32(0.0), 0.0))  # numbers
+
+
+@pytest.mark.parametrize("name", sorted(TRACKERS))
+def test_reset_refuses_what_is_not_a_trajectory(name: str) -> None:
+    """None or a path array was "AttributeError: ... has no attribute 'duration'"."""
+    tracker = make_tracker(name, load_robot("edumip"))
+    with pytest.raises(
+        ConfigError, match=rf"tracker '{name}': reset\(trajectory, dt\)'s trajectory must be a Trajectory.*got None$"
+    ):
+        tracker.reset(None, 0.02)  # type: ignore[arg-type]
+    with pytest.raises(
+        ConfigError, match=r"got ndarray of shape \(17, 3\); a path of poses becomes one with to_trajectory"
+    ):
+        tracker.reset(CUSP_TURN[:17], 0.02)  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize("name", sorted(TRACKERS))  # the open-loop player took any dt (0: ZeroDivisionError)

@@ -208,3 +208,14 @@ def test_every_writer_refuses_an_overwrite_that_is_not_true_or_false(tmp_path: P
     assert out.read_bytes() == b"keep me" and [p.name for p in tmp_path.iterdir()] == ["v.mp4"]
     write_json(out, {"kept": False}, overwrite=np.True_)
     assert out.read_text() == '{\n  "kept": false\n}\n'
+
+
+@pytest.mark.parametrize("name", ["v.avi", "v.mkv", "v", "v.mp4.part"])
+def test_a_name_that_is_not_mp4_is_refused_before_anything_is_written(tmp_path: Path, name: str) -> None:
+    """ffmpeg is told ``-f mp4``: "x.avi" held MP4 data under a false name."""
+    with pytest.raises(ConfigError, match=r"^a video's path must name an \.mp4 file \(the video is H\.264 in MP4"):
+        VideoWriter(tmp_path / "sub" / name, 96, 64, 10.0)
+    assert list(tmp_path.iterdir()) == []  # no file, no folder
+    with VideoWriter(tmp_path / "sub" / "V.MP4", 96, 64, 10.0) as w:  # any case; the missing folder is made
+        w.write(synthetic(0))
+    assert (tmp_path / "sub" / "V.MP4").stat().st_size > 0

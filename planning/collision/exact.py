@@ -21,7 +21,9 @@ keeps it in plain numpy, and the tests compare the two bit for bit.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
+import math
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -44,6 +46,10 @@ from planning.core.world import Box, Circle, Ellipse, Polygon, World
 
 FloatArray = NDArray[np.float64]
 Shape = Literal["disc", "footprint"]
+
+#: Footprint boundary sample spacing of :meth:`CollisionChecker.least_clearance`'s refinement [m]: its
+#: value is at most half of it (0.1 mm) below the exact least distance.
+REFINED_TOLERANCE = 2e-4
 
 
 def _obstacle_anchor(obs: Circle | Ellipse | Box | Polygon) -> FloatArray:
@@ -134,6 +140,30 @@ class CollisionChecker:
         """
         p = np.ascontiguousarray(np.atleast_2d(np.asarray(poses, dtype=float)))
         return clearances_kernel(p, self._world, self.robot_arrays(), self._field())  # type: ignore[no-any-return]
+
+    def least_clearance(self, poses: ArrayLike) -> float:
+        """The least clearance of the footprint over (M, 3) poses [m], refined: a lower bound at most
+        ``REFINED_TOLERANCE / 2`` (0.1 mm) below the exact least distance to an obstacle or wall over them.
+
+        :meth:`clearance_of` is within ``tolerance / 2`` (2.5 mm by default) of the truth near
+        something and the bounding disc's distance elsewhere (centimetres less). Here the poses are taken
+        in the order of their :meth:`clearance_of` and each is measured again with the boundary sampled
+        every ``REFINED_TOLERANCE`` m, wherever it is, until the next one's (lower) bound cannot be the
+        least: a handful of poses for a planned path, milliseconds. For the "disc" shape (exact), for no
+        poses (inf) and for an overlap the checker calls -inf, :meth:`clearance_of`'s least as it is.
+        """
+        p = np.atleast_2d(np.asarray(poses, dtype=float))
+        coarse = self.clearance_of(p)
+        if coarse.size == 0 or self.shape == "disc" or not np.isfinite(coarse.min()):
+            return float(coarse.min()) if coarse.size else math.inf
+        # every pose measured by its footprint (an infinite margin), the boundary sampled finely
+        fine = dataclasses.replace(self, tolerance=min(REFINED_TOLERANCE, self.tolerance), clearance=math.inf)
+        best = math.inf
+        for k in np.argsort(coarse, kind="stable"):
+            if coarse[k] >= best:  # its bound, and every later one's, is no less than the least found
+                break
+            best = min(best, max(float(coarse[k]), float(fine.clearance_of(p[k])[0])))
+        return best
 
     def least_distance(self, points: ArrayLike) -> float:
         """The world's least signed distance [m] (walls as the checker has them; inf for no points) over

@@ -175,10 +175,19 @@ def densify_path(path: ArrayLike, spacing: float, *, radius: float = 0.0, slack:
     Returns:
         (N', 3) poses, N' >= N, starting and ending with the given ones, headings unwrapped; a path
         of fewer than two poses comes back as it is.
+
+    Raises:
+        ValueError: ``spacing`` is not > 0.
+        ConfigError: ``path`` holds positions without headings, (N, 2), not (N, 3) poses.
     """
     if not spacing > 0:
         raise ValueError(f"spacing must be > 0 m, got {spacing}")
     p = _as_path(path)
+    if p.shape[1] < 3:
+        raise ConfigError(
+            f"densify_path needs an (N, 3) path of poses [x, y, theta], got shape {p.shape}; for positions alone "
+            "add a heading column (e.g. the direction of travel, np.arctan2 of the steps)"
+        )
     if p.shape[0] < 2:
         return p
     th = np.unwrap(p[:, 2])

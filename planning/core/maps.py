@@ -5,9 +5,11 @@ white). A pixel is an obstacle pixel when its grey level is below ``threshold``.
 grouped into 4-connected regions (``scipy.ndimage.label``) and each region becomes
 
 * ``"box"``: its axis-aligned bounding rectangle (as seed 003 outlines detected obstacles with red
-  dashed boxes), or
+  dashed boxes): the whole extent of the region, so a thin diagonal wall, an L or a disc fills its
+  box (a 6 px line drawn diagonally across 0.44 m becomes a 0.44 x 0.44 m square), or
 * ``"polygon"``: the exact outline of its pixels (a rectilinear polygon along pixel edges; holes
-  inside a region are filled).
+  inside a region are filled): the shape for diagonal walls and any region that is not an upright
+  rectangle.
 
 Placement: the image's bottom-left corner sits at ``origin`` [m] and each pixel is a square of
 side ``resolution`` [m/px]; image rows run downwards, world y upwards, so pixel (row i, column j)
@@ -21,7 +23,7 @@ A scenario names its map in an optional ``[world.map]`` table::
     resolution = 0.01                  # [m/px]
     origin = [0.0, 0.0]                # world position of the bottom-left corner [m] (default)
     threshold = 0.5                    # grey level below which a pixel is an obstacle (default)
-    shape = "box"                      # "box" (default) or "polygon"
+    shape = "box"                      # "box" (default) or "polygon" (diagonal walls, non-rectangles)
 
 The shipped ``models/maps/edumip_map.png`` is :func:`edumip_map_image` written as an 8-bit
 greyscale PNG; regenerate it with

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import math
+import os
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,7 +19,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.errors import ModelError
+from planning.errors import ConfigError, ModelError
 
 FloatArray = NDArray[np.float64]
 
@@ -178,13 +179,46 @@ def _collect_defaults(root: ET.Element) -> dict[str, dict[str, str]]:
 
 
 def robot_path(name: str) -> Path:
-    """The MJCF path of a robot given its registry name, or a path to an MJCF file."""
+    """The MJCF path of a robot given its registry name, or a path to an MJCF file.
+
+    Raises:
+        ModelError: ``name`` is neither a robot name nor the path of an existing .xml file (a name
+            that is no text, such as None, too; the message lists the robot names).
+    """
+    if not isinstance(name, (str, os.PathLike)):
+        raise ModelError(
+            f"a robot is named by text: one of {', '.join(sorted(ROBOT_FILES))} or the path of an MJCF file, "
+            f"got {name!r:.80}"
+        )
     if name in ROBOT_FILES:
         return ROBOTS_DIR / f"{ROBOT_FILES[name]}.xml"
     path = Path(name)
     if path.suffix == ".xml" and path.exists():
         return path
     raise ModelError(f"unknown robot {name!r}: choose one of {', '.join(sorted(ROBOT_FILES))} or give an MJCF path")
+
+
+def check_robot_name(where: str, name: object) -> str:
+    """``name`` when it is a registry name (a key of :data:`ROBOT_FILES`).
+
+    Raises:
+        ConfigError: Anything else; the message names ``where`` and lists the robot names.
+    """
+    if not isinstance(name, str) or name not in ROBOT_FILES:
+        raise ConfigError(f"{where}: unknown robot {name!r:.80}: choose one of {', '.join(sorted(ROBOT_FILES))}")
+    return name
+
+
+def check_robot_spec(where: str, robot: object) -> RobotSpec:
+    """``robot`` when it is a :class:`RobotSpec` (what :func:`load_robot` returns).
+
+    Raises:
+        ConfigError: Anything else, a robot's name too; the message names ``where`` and how to load one.
+    """
+    if not isinstance(robot, RobotSpec):
+        name = robot if isinstance(robot, str) else "turtlebot3"
+        raise ConfigError(f"{where}: robot must be a RobotSpec (load_robot({name!r})), got {robot!r:.80}")
+    return robot
 
 
 def load_robot(name: str) -> RobotSpec:
@@ -197,7 +231,8 @@ def load_robot(name: str) -> RobotSpec:
         The spec.
 
     Raises:
-        ModelError: The file is missing or lacks a required element (named in the message).
+        ModelError: An unknown name (the message lists the robot names), or the file is missing or
+            lacks a required element (named in the message).
     """
     path = robot_path(name)
     try:

@@ -10,9 +10,8 @@ from pathlib import Path
 from typing import Any
 
 from planning.core.geometry import Pose2D
-from planning.core.robot import ROBOT_FILES
+from planning.core.robot import check_robot_name
 from planning.core.world import Obstacle, World
-from planning.errors import ScenarioError
 
 DEFAULT_POSITION_TOLERANCE = 0.05
 DEFAULT_HEADING_TOLERANCE = 0.1
@@ -69,10 +68,12 @@ class Scenario:
             object.__setattr__(self, "robots", (self.robot,))
 
     def with_robot(self, robot: str) -> Scenario:
-        """The same scenario for another robot."""
-        if robot not in ROBOT_FILES:
-            raise ScenarioError(f"unknown robot {robot!r}: choose one of {', '.join(sorted(ROBOT_FILES))}")
-        return dataclasses.replace(self, robot=robot)
+        """The same scenario for another robot.
+
+        Raises:
+            ConfigError: ``robot`` is not a robot name (the message lists them).
+        """
+        return dataclasses.replace(self, robot=check_robot_name("Scenario.with_robot", robot))
 
     def options_for(self, planner: str) -> dict[str, Any]:
         """Keyword options this scenario gives ``planner`` (a copy; empty if none)."""

@@ -27,6 +27,7 @@ for :class:`control.segmented.SegmentedTracker`.
 
 from __future__ import annotations
 
+import inspect
 import itertools
 import time
 from dataclasses import dataclass, field
@@ -38,9 +39,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from planning.collision.exact import CollisionChecker
 from planning.core.geometry import Pose2D, wrap_angle
-from planning.core.robot import RobotSpec
+from planning.core.robot import RobotSpec, check_robot_spec
 from planning.core.world import World
-from planning.errors import NhsimError, option
+from planning.errors import ConfigError, NhsimError, option
 from planning.planners.base import PlanResult, PlanStatus
 from planning.trajectory.segments import infer_segments
 from planning.trajectory.smoothing import (
@@ -146,9 +147,14 @@ def make_trajectory(
 ) -> TrajectoryResult:
     """Turn a plan (or a bare path) into a timed, segment-labelled trajectory.
 
+    A path of one pose, or one that never leaves its first pose (what the planners return, as a
+    success, for a start that is the goal already: ``nhsim plan`` reports it with a length of 0), is no
+    error: it gives a stand-still there of ``dwell`` seconds (at least one sample period), after a turn
+    in place to ``goal``'s heading when that differs.
+
     Args:
         plan: A successful :class:`PlanResult`, or an (N, 3) path of poses [x, y, theta].
-        robot: The robot (limits, footprint).
+        robot: The robot (limits, footprint), a :class:`RobotSpec` (``load_robot(name)``).
         world: The world the path must stay clear in.
         goal: The goal pose: the path is snapped to its position when within ``snap_tolerance`` and
             the trajectory ends with its heading. None: end where and as the path ends.
@@ -169,20 +175,16 @@ def make_trajectory(
             planner's detours).
 
     Returns:
-        The result, with a status; only ``TrajectoryStatus.SUCCESS`` is safe to track.
+        The result, with a status; only ``TrajectoryStatus.SUCCESS`` is safe to track (``INVALID``: no
+        (N, 3) path of finite poses, the reason says which).
+
+    Raises:
+        ConfigError: ``robot`` is not a RobotSpec (a robot's name is not), or ``world`` not a World.
     """
     t_start = time.perf_counter()
+    path, dirs, label, timed = _plan_path(plan, robot, world, directions, name)
     checker = CollisionChecker(world, robot, shape="footprint")
-    if isinstance(plan, PlanResult):
-        path = np.asarray(plan.path, dtype=float)
-        dirs = directions if directions is not None else plan.directions
-        label = name or f"plan:{plan.planner}"
-        timed = plan.times is not None and plan.controls is not None
-    else:
-        path = np.asarray(plan, dtype=float)
-        dirs, label, timed = directions, name or "path", False
-    if path.ndim != 2 or path.shape[0] < 1 or path.shape[1] < 3 or not np.all(np.isfinite(path[:, :3])):
-        reason = f"the plan holds no usable (N, 3) path (shape {path.shape})"
+    if reason := _path_problem(path):
         return TrajectoryResult(TrajectoryStatus.INVALID, None, reason)
     path = path[:, :3].copy()
     if goal is not None and np.hypot(path[-1, 0] - goal.x, path[-1, 1] - goal.y) <= snap_tolerance:
@@ -204,6 +206,40 @@ def make_trajectory(
         result = _from_path(path, dirs, build, corner_angle, max_deviation, keep_loops=keep_loops)
     result.stats["smoothing_time_s"] = time.perf_counter() - t_start
     return result
+
+
+def _plan_path(
+    plan: PlanResult | ArrayLike, robot: object, world: object, directions: ArrayLike | None, name: str | None
+) -> tuple[FloatArray, ArrayLike | None, str, bool]:
+    """A plan's (or a bare path's) path as floats, its directions, the trajectory's label and whether it is
+    timed (see :func:`make_trajectory`), once the robot and the world are checked to be what they must.
+
+    Raises:
+        ConfigError: ``robot`` is not a RobotSpec, or ``world`` not a World.
+    """
+    check_robot_spec("to_trajectory", robot)
+    if not isinstance(world, World):
+        raise ConfigError(f"to_trajectory: world must be a World (load_scenario(name).world), got {world!r:.80}")
+    if isinstance(plan, PlanResult):
+        dirs = directions if directions is not None else plan.directions
+        timed = plan.times is not None and plan.controls is not None
+        return np.asarray(plan.path, dtype=float), dirs, name or f"plan:{plan.planner}", timed
+    return np.asarray(plan, dtype=float), directions, name or "path", False
+
+
+def _path_problem(path: FloatArray) -> str:
+    """Why ``path`` is no path of poses a trajectory can follow: not (N, 3) with N >= 1, or a pose that is not
+    finite; "" when it is one."""
+    if path.ndim != 2 or path.shape[0] < 1 or path.shape[1] < 3:
+        return f"the plan holds no usable (N, 3) path (shape {path.shape}); give one row [x, y, theta] per pose"
+    bad = np.flatnonzero(~np.isfinite(path[:, :3]).all(axis=1))
+    if bad.size:
+        rows = ", ".join(map(str, bad[:5].tolist())) + (", ..." if bad.size > 5 else "")
+        return (
+            f"the plan's path holds non-finite values (NaN or infinite) in {bad.size} of its {path.shape[0]} poses "
+            f"(rows {rows}): every pose [x, y, theta] must be finite"
+        )
+    return ""
 
 
 Piece = tuple[str, TimedSamples]
@@ -495,8 +531,17 @@ def checked_trajectory(
     """:func:`make_trajectory`, raising when there is no usable trajectory.
 
     Raises:
+        ConfigError: An option :func:`make_trajectory` does not take (the message lists those it does), a
+            robot that is not a RobotSpec or a world that is not a World.
         TrajectoryError: The plan failed, or no collision-free trajectory was found.
     """
+    valid = [p.name for p in inspect.signature(make_trajectory).parameters.values() if p.kind is p.KEYWORD_ONLY]
+    unknown = sorted(set(options) - set(valid))
+    if unknown:
+        raise ConfigError(
+            f"to_trajectory: unknown option(s) {', '.join(unknown)}; valid options: {', '.join(valid)} "
+            "(see make_trajectory)"
+        )
     if isinstance(plan, PlanResult) and not plan.success:
         raise PlanFailedError(
             f"planner {plan.planner!r} ended with status {plan.status.value}: {plan.reason or 'no reason given'}; "
@@ -514,13 +559,17 @@ def to_trajectory(plan: PlanResult | ArrayLike, robot: RobotSpec, world: World, 
     """The trajectory of a plan (the one entry point every planner's output goes through).
 
     Args:
-        plan: A successful plan or an (N, 3) path.
-        robot: The robot.
+        plan: A successful plan or an (N, 3) path (one pose, or a start that is the goal: a stand-still,
+            see :func:`make_trajectory`).
+        robot: The robot (``load_robot(name)``).
         world: The world.
         **options: As :func:`make_trajectory`.
 
     Raises:
-        TrajectoryError: The plan failed, or no collision-free trajectory was found.
+        ConfigError: An option make_trajectory does not take, a robot that is no RobotSpec or a world
+            that is no World.
+        TrajectoryError: The plan failed, or no collision-free trajectory was found (a path that is not
+            (N, 3) or holds a NaN too).
     """
     traj = checked_trajectory(plan, robot, world, **options).trajectory
     assert traj is not None

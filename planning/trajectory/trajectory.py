@@ -111,10 +111,13 @@ class TrajectorySamples:
         )
 
 
-def _as_2d(name: str, value: ArrayLike, n: int, cols: int) -> FloatArray:
+def _as_2d(name: str, value: ArrayLike, n: int, cols: int, rows: str = "") -> FloatArray:
+    """``value`` as an (n, cols) float array of finite values, else a ConfigError naming ``Trajectory.<name>``
+    (and, with ``rows``, what its rows hold)."""
     arr = np.asarray(value, dtype=float)
     if arr.shape != (n, cols):
-        raise ConfigError(f"Trajectory.{name} must have shape ({n}, {cols}), got {arr.shape}")
+        said = f" ({rows})" if rows else ""
+        raise ConfigError(f"Trajectory.{name} must have shape ({n}, {cols}){said}, got {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise ConfigError(f"Trajectory.{name} contains non-finite values")
     return arr
@@ -215,12 +218,25 @@ class Trajectory:
 
         Returns:
             The trajectory with v, omega and their derivatives from the exact flat relations.
+
+        Raises:
+            ConfigError: ``t`` is not 1-D with 2 times or more, an array has another shape than its line
+                above says (N from ``t``) or a non-finite value, or the times do not increase (the message
+                names the argument).
         """
         t = np.asarray(t, dtype=float)
-        xy = np.asarray(xy, dtype=float)
-        dxy = np.asarray(dxy, dtype=float)
-        ddxy = np.asarray(ddxy, dtype=float)
-        sgn = np.broadcast_to(np.sign(np.asarray(direction, dtype=float)), t.shape).copy()
+        if t.ndim != 1 or t.size < 2:
+            raise ConfigError(f"Trajectory.from_flat: t must be a 1-D array of at least 2 times, got shape {t.shape}")
+        xy = _as_2d("from_flat: xy", xy, t.size, 2, "one [x, y] row per time")
+        dxy = _as_2d("from_flat: dxy", dxy, t.size, 2, "one [dx/dt, dy/dt] row per time")
+        ddxy = _as_2d("from_flat: ddxy", ddxy, t.size, 2, "one [d2x/dt2, d2y/dt2] row per time")
+        direction = np.asarray(direction, dtype=float)
+        if direction.shape not in ((), t.shape):
+            raise ConfigError(
+                f"Trajectory.from_flat: direction must be +1 or -1, or an array of one per time ({t.size},), "
+                f"got shape {direction.shape}"
+            )
+        sgn = np.broadcast_to(np.sign(direction), t.shape).copy()
         sgn[sgn == 0] = 1.0
         speed = np.hypot(dxy[:, 0], dxy[:, 1])
         moving = speed > 1e-9

@@ -8,7 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from sim.cli.job_outputs import RUN_SETTINGS, add_case_arguments, check_video_name, unused_time_limit
+from sim.cli.job_outputs import RUN_SETTINGS, add_case_arguments, unused_time_limit
 from sim.cli.trajectory_files import add_file_arguments
 
 DESCRIPTION = """\
@@ -77,7 +77,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 def _outputs(args: argparse.Namespace) -> dict[str, Path]:
     """The files asked for, checked writable before anything runs."""
     from sim.cli.checks import check_file_stem
-    from sim.outputs import check_writable
+    from sim.outputs import check_video_name, check_writable
 
     out: dict[str, Path] = {}
     if args.json is not None:
@@ -87,7 +87,7 @@ def _outputs(args: argparse.Namespace) -> dict[str, Path]:
         out["paths"], out["errors"] = (Path(f"{args.plots}{suffix}") for suffix in PLOT_SUFFIXES)
     if args.video is not None:
         out["video"] = Path(args.video)
-        check_video_name(out["video"])
+        check_video_name(out["video"], "--video")
     for path in out.values():
         check_writable(path, overwrite=args.overwrite)
     if args.bag is not None:

@@ -277,12 +277,6 @@ def settings_tag(changed: Mapping[str, Any]) -> str:
     return hashlib.sha1(json.dumps(changed, sort_keys=True).encode()).hexdigest()[:6]
 
 
-def check_video_name(video: Path) -> None:
-    """Refuse a ``--video`` that does not name an .mp4 file (the writer makes H.264 in MP4, whatever the name)."""
-    if Path(video).suffix.lower() != ".mp4":
-        raise ConfigError(f"--video must name an .mp4 file, got {video}")
-
-
 def file_safe(name: str) -> str:
     """``name`` as one file name's part: letters (any script), digits and ``._+-`` kept, anything else (a
     path separator, a space, a control character) as ``_``, no leading dot; so a scenario named
@@ -336,7 +330,7 @@ def plan_outputs(
         DependencyError: A video was asked for and no OpenGL backend can load.
     """
     from control.design.balance_profile import is_balancing
-    from sim.outputs import check_distinct, check_writable
+    from sim.outputs import check_distinct, check_video_name, check_writable
     from sim.viz.plots.run import ESTIMATION_PLOT, LOCALISER_PLOT, PITCH_PLOT, PLOTS
     from sim.viz.replay import RenderSettings, parse_size
 
@@ -347,7 +341,7 @@ def plan_outputs(
         w, h = parse_size(args.size)
         settings = RenderSettings(width=w, height=h, fps=args.fps, camera=args.camera, quality=args.quality)
         video = args.video if args.video is not None else DEFAULT_DIR / f"{stem}.mp4"
-        check_video_name(video)
+        check_video_name(video, "--video")
     elif args.video is not None:
         raise ConfigError("--video and --no-video contradict each other; drop one")
     else:

@@ -55,7 +55,9 @@ def write_video(
 
     Args:
         job: The job (robot, scenario, trajectory and logs).
-        path: The MP4 to write; an existing file is replaced only with ``overwrite``.
+        path: The MP4 to write, its name ending in ``.mp4``; an existing file is replaced only with
+            ``overwrite``; a missing folder is made, as for every output of nhsim
+            (:func:`sim.outputs.atomic_path`), and removed again if the render fails.
         settings: Size, frame rate, camera and look (default: 640x480, 30 frames/s, overview, fast).
         model: The model to draw (default: the job's, the model its runs stepped).
         overwrite: Replace an existing file.
@@ -68,14 +70,16 @@ def write_video(
     Raises:
         DependencyError: No OpenGL backend can draw here (the message says what to install).
         FileExistsError: ``path`` exists and ``overwrite`` is false.
-        ConfigError: ``overwrite`` is not True or False (``"no"`` is refused, not read as true).
+        ConfigError: ``overwrite`` is not True or False (``"no"`` is refused, not read as true), or
+            ``path`` does not end in .mp4 (both before anything is drawn).
     """
     s = settings or RenderSettings()
+    writer = VideoWriter(Path(path), s.width, s.height, s.fps, overwrite=overwrite)  # checks its arguments
     model = model if model is not None else job.model
     replay = Replay(model, job.trajectory, dict(job.logs), s)
     t0 = time.perf_counter()
     with SceneRenderer(model, s.width, s.height, quality=s.quality, max_geom=replay.required_geoms) as renderer:
-        with VideoWriter(Path(path), s.width, s.height, s.fps, overwrite=overwrite) as writer:
+        with writer:
             n = render_frames(replay, renderer, writer, progress=progress)
         backend = renderer.backend
     return {

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from planning.core.checks import check_flag, check_number
 from planning.errors import ConfigError, DependencyError, SimulationError
 from planning.signals import signals_held
-from sim.outputs import atomic_path
+from sim.outputs import atomic_path, check_video_name
 
 Frame = NDArray[np.uint8]
 
@@ -59,7 +59,9 @@ class VideoWriter:
     """Stream RGB frames into an MP4 file; use as a context manager.
 
     Args:
-        path: Final file name (``.mp4``).
+        path: Final file name, ending in ``.mp4`` (the one container written); its folder is made if
+            missing, as for every output (:func:`sim.outputs.atomic_path`), and removed again if the
+            video fails.
         width: Frame width [px], even.
         height: Frame height [px], even.
         fps: Frames per second.
@@ -90,6 +92,7 @@ class VideoWriter:
         threads: int = 1,
         depth: int = 6,
     ) -> None:
+        check_video_name(path)
         if width % 2 or height % 2 or width < 16 or height < 16:
             raise ConfigError(f"H.264 in yuv420p needs an even frame size of at least 16x16, got {width}x{height}")
         check_number("frame rate", fps, above=0.0, unit="frames/s")
