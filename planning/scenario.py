@@ -447,7 +447,8 @@ def random_scenario(robot: str, seed: int) -> Scenario:
     """A world no scenario was tuned on: a 6 x 6 m arena with seven circles and boxes (radius or
     half-width 0.2-0.5 m) drawn from ``seed``, kept clear of the start corner (-2.4, -2.4) and the
     goal corner (2.4, 2.4); start and goal headings drawn too. Named ``random<seed>`` (the name
-    :func:`load_scenario` and the commands' ``--scenario`` take), any robot may drive it.
+    :func:`load_scenario` and the commands' ``--scenario`` take), any robot may drive it; planned by
+    Hybrid-A* unless another planner is chosen (``nhsim simulate --scenario random7`` plans it).
 
     Args:
         robot: Robot name (a key of ``ROBOT_FILES``).
@@ -476,4 +477,5 @@ def random_scenario(robot: str, seed: int) -> Scenario:
         start=start,
         goal=goal,
         robots=(robot, *(r for r in ROBOT_FILES if r != robot)),
+        planner="hybrid-a-star",
     )
