@@ -58,8 +58,10 @@ def expected_counts(result: Any) -> dict[str, int]:
         for name in PER_SAMPLE:
             counts[f"/{kind}/{name}"] = log.t.size
         est = log.estimation
-        # the control instants from the start through the run's end (here the control rate is the log rate)
-        counts[f"/{kind}/odom"] = log.t.size
+        # one estimate per control instant; without an estimator, the logged samples
+        counts[f"/{kind}/odom"] = est.t.size if est is not None else log.t.size
+        if est is not None:  # the truth at every logged sample and every reading of the sensors
+            counts[f"/{kind}/ground_truth/odom"] = np.union1d(ns(log.t), ns(sensed(log, est.t))).size
         counts[f"/{kind}/robot"] = 1
         if est is not None and est.fix_t.size and est.source != "odometry":  # dead reckoning localises nothing
             counts[f"/{kind}/fix"] = est.fix_t.size
@@ -69,6 +71,18 @@ def expected_counts(result: Any) -> dict[str, int]:
     counts["/clock"] = np.unique(np.concatenate([log.t for log in result.logs.values()])).size
     counts.update(dict.fromkeys(ONCE, 1))
     return counts
+
+
+def ns(t: np.ndarray) -> np.ndarray:
+    """Times [s] as a bag's whole nanoseconds."""
+    return np.round(np.asarray(t) * 1e9).astype(np.int64)
+
+
+def sensed(log: Any, t: np.ndarray) -> np.ndarray:
+    """The physics times of what the sensors read at control instants ``t`` (independently of
+    ``sim.io.bag_topics.sensed_at``): MuJoCo's sensors give the state at the start of the last physics
+    step, one timestep before each instant after the first."""
+    return np.where(t > log.t[0] + 1e-9, t - float(log.meta["timestep_s"]), t)
 
 
 def read_rosbags(path: Path) -> tuple[dict[str, str], dict[str, list[tuple[int, Any]]], Any]:
@@ -143,20 +157,34 @@ def test_tf_puts_base_footprint_at_the_true_pose_and_ground_truth_ends_at_the_fi
         assert list(joints.velocity) == pytest.approx(list(log.wheel_speed[-1]), abs=0.0)
 
 
-def test_odom_runs_from_the_first_logged_sample_to_the_last_with_tf(job: tuple[Any, Path]) -> None:
-    """Each run's /RUN/odom is stamped at every control instant through the run's end, as /RUN/tf and the
-    other per-sample topics: the estimator's record stops a period early (it runs at the start of each
-    period), and the last sample publishes its last estimate held, as tf's odom -> base_footprint then."""
+def test_odom_is_stamped_at_its_readings_and_its_error_from_the_bag_is_the_records(job: tuple[Any, Path]) -> None:
+    """Each run's /RUN/odom holds one estimate per control instant, stamped at the physics time of the
+    sensor readings it is based on (one physics step before the instant: MuJoCo's sensors are evaluated
+    at the start of a step), and /RUN/ground_truth/odom has the true pose at that stamp: the error
+    computed from the bag alone, each estimate against the truth at its own stamp, is the record's
+    estimate RMSE (it was 7 % larger with the estimates stamped at the instants, against the truth 2 ms
+    later). tf's odom -> base_footprint at each logged sample is the estimate on the same clock."""
+    from sim.physics.metrics import EstimationMetrics
+
     result, path = job
     _, msgs, _ = read_rosbags(path)
     for kind, log in result.logs.items():
-        odom, tf = msgs[f"/{kind}/odom"], msgs[f"/{kind}/tf"]
-        assert [t for t, _ in odom] == [round(float(t) * 1e9) for t in log.t], kind
-        rate = float(log.meta["control_rate_hz"])
-        assert len(odom) == round(float(log.t[-1] - log.t[0]) * rate) + 1, kind
-        p, b = odom[-1][1].pose.pose, tf[-1][1].transforms[1].transform
-        assert (p.position.x, p.position.y) == pytest.approx((b.translation.x, b.translation.y), abs=1e-12), kind
-        assert _wrap(_yaw(p.orientation) - _yaw(b.rotation)) == pytest.approx(0.0, abs=1e-12), kind
+        est = log.estimation
+        if est is None:
+            continue
+        odom = msgs[f"/{kind}/odom"]
+        assert [t for t, _ in odom] == list(ns(sensed(log, est.t))), kind
+        truth = {t: m.pose.pose for t, m in msgs[f"/{kind}/ground_truth/odom"]}
+        err = [math.hypot(m.pose.pose.position.x - truth[t].position.x, m.pose.pose.position.y - truth[t].position.y)
+               for t, m in odom]  # fmt: skip
+        record = EstimationMetrics.of(est)
+        assert math.sqrt(np.mean(np.square(err))) == pytest.approx(record.position_rmse_m, rel=1e-9, abs=0), kind
+        head = [_wrap(_yaw(m.pose.pose.orientation) - _yaw(truth[t].orientation)) for t, m in odom]
+        assert math.sqrt(np.mean(np.square(head))) == pytest.approx(record.heading_rmse_rad, rel=1e-6), kind
+        at = np.array([t for t, _ in odom]) * 1e-9
+        x = np.array([m.pose.pose.position.x for _, m in odom])
+        tf_x = [m.transforms[1].transform.translation.x for _, m in msgs[f"/{kind}/tf"]]
+        np.testing.assert_allclose(tf_x, np.interp(log.t, at, x), rtol=0, atol=1e-12)
 
 
 def test_the_mcap_library_reads_the_same_counts_and_final_pose(job: tuple[Any, Path]) -> None:
@@ -198,6 +226,27 @@ def test_the_plan_of_a_bag_read_as_a_path_reproduces_the_jobs_trajectory(job: tu
     np.testing.assert_allclose(b.t, a.t, atol=1e-9)
     np.testing.assert_allclose(b.pose, a.pose, atol=1e-9)
     assert again.extra["import"]["format"] == "bag topic /plan, nav_msgs/Path"
+
+
+def test_the_reference_read_back_as_a_trajectory_keeps_its_clock(job: tuple[Any, Path]) -> None:
+    """The job's own /reference (its samples every 20 ms), read with --trajectory semantics, is within the
+    robot's limits: its clock is kept, not re-timed, slowed uniformly only as far as the curve through
+    its rows needs (its spline rings by a few percent at the steps of the acceleration). It was re-timed
+    for an acceleration of 0.70 m/s^2 (limit 0.425) that only the curve had, at rest a row before the
+    stop that falls between two rows."""
+    from planning.trajectory.file_trajectory import file_trajectory
+    from planning.trajectory.importer import read_trajectory_file
+
+    result, path = job
+    imp = read_trajectory_file(TrajectoryFile(path, timed=True, topic="/reference"))
+    res = file_trajectory(imp, result.prepared.robot, result.scenario.world)
+    traj = res.trajectory
+    assert res.success and traj is not None
+    assert imp.report.retimed is False, imp.report.timing
+    assert 1.0 <= imp.report.time_stretch < 1.035
+    assert imp.t is not None
+    at = traj.sample_many(imp.t * imp.report.time_stretch).pose  # where the file is, when
+    assert np.abs(at[:, :2] - imp.xy).max() < 1e-5
 
 
 def test_the_plan_of_a_planned_jobs_bag_reproduces_its_trajectory(tmp_path: Path) -> None:
@@ -267,7 +316,8 @@ def test_a_scan_in_the_run_log_is_published_with_its_frame(job: tuple[Any, Path]
         static = next(reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages() if c.topic == "/tf_static")
     assert len(got) == k
     assert got[3].header.frame_id == "closed_loop/base_scan"
-    assert got[3].header.stamp.sec * 10**9 + got[3].header.stamp.nanosec == round(t[3] * 1e9)
+    lag = float(result.logs[RunKind.CLOSED_LOOP].meta["timestep_s"]) if where == "estimation.localiser" else 0.0
+    assert got[3].header.stamp.sec * 10**9 + got[3].header.stamp.nanosec == round((t[3] - lag) * 1e9)  # cast
     np.testing.assert_array_equal(got[3].ranges, ranges[3].astype(np.float32))
     assert got[0].ranges[5] == np.inf and got[1].ranges[7] == -np.inf
     assert got[0].angle_max == pytest.approx(2 * math.pi * 359 / 360)
@@ -485,7 +535,90 @@ def test_a_scan_fix_carries_the_localisers_own_covariance(job: tuple[Any, Path])
     fixes = msgs["/closed_loop/fix"]
     assert len(fixes) == loc.t.size
     axes = np.ix_([0, 1, 5], [0, 1, 5])
-    for (_, fix), cov, t in zip(fixes, loc.cov, loc.t, strict=True):
+    measured = sensed(result.logs[RunKind.CLOSED_LOOP], loc.t)  # the state a physics step before the instant
+    for (_, fix), cov, t in zip(fixes, loc.cov, measured, strict=True):
         assert fix.header.stamp.sec + 1e-9 * fix.header.stamp.nanosec == pytest.approx(t, abs=1e-9)
         np.testing.assert_allclose(np.asarray(fix.pose.covariance).reshape(6, 6)[axes], cov, rtol=1e-12, atol=0)
     assert any(abs(cov[0, 1]) > 0 for cov in loc.cov)  # correlations are written, not only variances
+
+
+@pytest.mark.parametrize("robot", ["turtlebot3", "edumip", "edumip-balancing"])
+def test_the_imu_frame_is_the_models_imu_site(robot: str) -> None:
+    """``base_link -> imu_link`` in /tf_static is where the robot's model puts its IMU (site ``imu`` on the
+    base body), read from the compiled model: on the TurtleBot3 32 mm behind and 45 mm above the axle,
+    not at base_link (it was the identity)."""
+    import mujoco
+
+    from planning.core.robot import robot_path
+    from sim.io.bag_topics import skeleton, static_transforms
+
+    model = mujoco.MjModel.from_xml_path(str(robot_path(robot)))
+    site = model.site("imu")
+    assert model.body(int(model.site_bodyid[site.id])).name == "base"
+    tfs = {x.child_frame_id: x for x in static_transforms(["run"], skeleton(robot)).transforms}
+    imu = tfs["run/imu_link"]
+    assert imu.header.frame_id == "run/base_link"
+    got = imu.transform.translation
+    np.testing.assert_allclose([got.x, got.y, got.z], site.pos, rtol=0, atol=1e-12)
+    q = imu.transform.rotation
+    np.testing.assert_allclose([q.w, q.x, q.y, q.z], site.quat, rtol=0, atol=1e-12)
+    if robot == "turtlebot3":
+        np.testing.assert_allclose(site.pos, [-0.032, 0.0, 0.045])
+
+
+def _old_bag(folder: Path) -> Path:
+    folder.mkdir()
+    (folder / "metadata.yaml").write_text("old")
+    (folder / "old.mcap").write_text("old messages")
+    return folder
+
+
+def test_a_failed_swap_puts_the_old_bag_back(
+    job: tuple[Any, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """--overwrite moves the old bag aside, then the new one in: when the second move fails the old bag is
+    back under its name (it was left in the work folder and removed with it)."""
+    import os
+
+    result, _ = job
+    target = _old_bag(tmp_path / "b")
+    real = os.replace
+
+    def failing(src: Any, dst: Any) -> None:
+        if Path(dst) == target and Path(src).name != "replaced":  # the new bag moving in
+            raise OSError("disk gone")
+        real(src, dst)
+
+    monkeypatch.setattr(os, "replace", failing)
+    with pytest.raises(OSError, match="disk gone"):
+        write_job_bag(result, target, overwrite=True)
+    assert (target / "metadata.yaml").read_text() == "old" and (target / "old.mcap").read_text() == "old messages"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b"]  # no work folder left
+
+
+def test_an_interrupt_between_the_two_moves_waits_for_the_new_bag(
+    job: tuple[Any, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A Ctrl-C landing after the old bag was moved aside acts once the new one is in place: the bag folder
+    always holds a complete bag (it held neither)."""
+    import os
+    import signal
+
+    result, _ = job
+    target = _old_bag(tmp_path / "b")
+    real = os.replace
+
+    def interrupted(src: Any, dst: Any) -> None:
+        real(src, dst)
+        if Path(src) == target:  # the old bag just moved aside
+            signal.raise_signal(signal.SIGINT)
+
+    monkeypatch.setattr(os, "replace", interrupted)
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    with pytest.raises(KeyboardInterrupt):
+        write_job_bag(result, target, overwrite=True)
+    assert "rosbag2_bagfile_information" in (target / "metadata.yaml").read_text()
+    assert not (target / "old.mcap").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b"]
+    _, msgs, _ = read_rosbags(target)
+    assert {k: len(v) for k, v in msgs.items()} == expected_counts(result)

@@ -244,3 +244,109 @@ def test_a_monte_carlo_study_of_a_bag_folder_is_keyed_by_its_files(tmp_path: Pat
     import hashlib
 
     assert _file_key(TrajectoryFile(single, timed=False))["sha1"] == hashlib.sha1(single.read_bytes()).hexdigest()
+
+
+def _path_bag(path: Path, topics: dict[str, list[list[tuple[float, float, float, float, float]]]]) -> Path:
+    """A rosbag2 folder (MCAP) of nav_msgs/Path messages: topic -> messages, each a list of poses
+    (stamp [s], x, y, quaternion z, w)."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    ty = store.types
+
+    def header(t: float) -> Any:
+        stamp = ty["builtin_interfaces/msg/Time"](sec=int(t), nanosec=round((t % 1) * 1e9))
+        return ty["std_msgs/msg/Header"](stamp=stamp, frame_id="map")
+
+    def pose(t: float, x: float, y: float, qz: float, qw: float) -> Any:
+        q = ty["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=qz, w=qw)
+        p = ty["geometry_msgs/msg/Pose"](position=ty["geometry_msgs/msg/Point"](x=x, y=y, z=0.0), orientation=q)
+        return ty["geometry_msgs/msg/PoseStamped"](header=header(t), pose=p)
+
+    with Writer(path, version=8, storage_plugin=StoragePlugin.MCAP) as w:
+        for topic, messages in topics.items():
+            conn = w.add_connection(topic, "nav_msgs/msg/Path", typestore=store)
+            for k, poses in enumerate(messages):
+                msg = ty["nav_msgs/msg/Path"](header=header(0.0), poses=[pose(*p) for p in poses])
+                w.write(conn, k * 1000, store.serialize_cdr(msg, "nav_msgs/msg/Path"))
+    return path
+
+
+_LINE = [(0.1 * k, 0.25 + 0.1 * k, 0.25, 0.0, 1.0) for k in range(10)]  # stamped 0.1 s apart, heading 0
+_NAN_Q = [*_LINE[:4], (0.4, 0.65, 0.25, math.nan, math.nan), *_LINE[5:]]
+
+
+@pytest.mark.parametrize(
+    ("topics", "timed", "said", "unsaid"),
+    [
+        (
+            {"/plan": [_NAN_Q]},
+            False,
+            "/plan message 0 poses[4] has a non-finite orientation quaternion; fix or drop",
+            "zero",
+        ),
+        (
+            {"/plan": [_LINE[:1]]},
+            False,
+            "message 0 of /plan is a path of one pose, and the robot needs two positions or more to follow; no other "
+            "message or nav_msgs/Path topic of the bag has two poses: record the plan again",
+            "--message",
+        ),
+        ({"/plan": [[]]}, False, "message 0 of /plan is an empty path", "--message"),
+        (
+            {"/plan": [_LINE, []]},
+            False,
+            "choose another with --message (message=... from Python): of messages 0 to 1, 0 hold two poses or more",
+            "",
+        ),
+        ({"/plan": [[]], "/global_plan": [_LINE]}, False, "name another nav_msgs/Path topic with --topic", "--message"),
+        (
+            {"/plan": [[(0.0, *p[1:]) for p in _LINE]]},
+            True,
+            "message 0 of /plan has no clock: its 10 poses all carry the stamp 0 s, so it is a path, not a "
+            "trajectory; track it with --path (timed=False from Python)",
+            "--columns",
+        ),
+    ],
+    ids=["nan quaternion", "one pose", "empty, alone", "empty, another message", "empty, another topic", "untimed"],
+)
+def test_a_bad_path_message_is_named_with_a_fix_that_exists(
+    tmp_path: Path, topics: dict[str, Any], timed: bool, said: str, unsaid: str
+) -> None:
+    from planning.trajectory.file_formats import TrajectoryFileError
+
+    bag = _path_bag(tmp_path / "bag", topics)
+    with pytest.raises(TrajectoryFileError) as err:
+        read_trajectory_file(TrajectoryFile(bag, timed=timed, topic="/plan"))
+    text = str(err.value)
+    assert said in text, text
+    assert not unsaid or unsaid not in text, text
+
+
+def test_a_recorded_motion_of_one_message_is_named_with_a_fix(tmp_path: Path) -> None:
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    from planning.trajectory.file_formats import TrajectoryFileError
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    ty = store.types
+    stamp = ty["builtin_interfaces/msg/Time"](sec=EPOCH, nanosec=0)
+    q = ty["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)
+    p = ty["geometry_msgs/msg/Pose"](position=ty["geometry_msgs/msg/Point"](x=1.0, y=1.0, z=0.0), orientation=q)
+    msg = ty["geometry_msgs/msg/PoseStamped"](header=ty["std_msgs/msg/Header"](stamp=stamp, frame_id="map"), pose=p)
+    with Writer(tmp_path / "bag", version=8, storage_plugin=StoragePlugin.MCAP) as w:
+        conn = w.add_connection("/pose", "geometry_msgs/msg/PoseStamped", typestore=store)
+        w.write(conn, 0, store.serialize_cdr(msg, "geometry_msgs/msg/PoseStamped"))
+    with pytest.raises(TrajectoryFileError, match=r"topic /pose holds one message; a recorded motion needs two"):
+        read_trajectory_file(TrajectoryFile(tmp_path / "bag", timed=True, topic="/pose"))
+
+
+def test_a_one_pose_plan_exits_2_naming_its_topic_and_message(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    bag = _path_bag(tmp_path / "bag", {"/plan": [_LINE[:1]]})
+    err = _exit_2(["--path", str(bag), "--topic", "/plan"], tmp_path, capsys)
+    assert "message 0 of /plan is a path of one pose" in err and "record the plan again" in err

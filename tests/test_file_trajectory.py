@@ -221,3 +221,58 @@ def test_a_cusp_from_the_sign_of_v_drives_forwards_then_backwards(tmp_path: Path
     assert np.all(traj.vel[:first_back, 0] >= 0.0) and np.all(traj.vel[first_back:, 0] <= 0.0)
     np.testing.assert_allclose(traj.pose[-1, :2], [x[-1], y[-1]], atol=1e-9)
     np.testing.assert_allclose(traj.pose[-1, 2], -0.8, atol=1e-3)  # backing along the arc turns it clockwise
+
+
+def _trapezoid_file(tmp_path: Path, share: float) -> tuple[Path, np.ndarray, np.ndarray]:
+    """A straight drive at ``share`` of the acceleration limit: from rest, to 12 cm/s, on, and braking to a
+    stop that falls between two rows (every 0.02 s, as nhsim's /reference is written), then standing.
+
+    Returns:
+        (file, its times (N,), its x (N,)).
+    """
+    a = share * LIMITS.max_accel
+    ramp = 0.12 / a
+    cruise = 1.0
+    stop = 2 * ramp + cruise
+    t = np.arange(0.0, stop + 0.5, 0.02)
+    assert np.min(np.abs(t - stop)) > 0.004  # the stop is no row
+
+    def x_at(s: np.ndarray) -> np.ndarray:
+        up = np.clip(s, 0.0, ramp)
+        on = np.clip(s - ramp, 0.0, cruise)
+        down = np.clip(s - ramp - cruise, 0.0, ramp)
+        return 0.5 * a * up**2 + 0.12 * on + 0.12 * down - 0.5 * a * down**2
+
+    x = x_at(t)
+    return write_csv(tmp_path / "trapezoid.csv", {"t": t, "x": x, "y": np.zeros_like(t)}), t, x
+
+
+def test_a_file_at_the_acceleration_limit_keeps_its_clock(tmp_path: Path) -> None:
+    """The rows' own accelerations are 0.999 of the limit: the clock is kept, not re-timed, slowed
+    uniformly only as far as the curve through the rows needs (a C2 spline rings by about 6 % at every
+    step of the acceleration: 3 % of time), and the file is where it was, when it was, on the
+    slowed clock. Before, the curve was at rest a row before the stop (the braking's last 0.085 mm
+    counted as standing) and braked at twice the limit over the interval before it: re-timed."""
+    path, t, x = _trapezoid_file(tmp_path, 0.999)
+    imp = read_trajectory_file(TrajectoryFile(path))
+    dense = densify(imp)
+    retime, _, stretch = timing_verdict(dense, LIMITS)
+    assert not retime and 1.0 <= stretch < 1.035
+    assert np.max(np.abs(np.gradient(dense.v, dense.t))) <= 1.07 * LIMITS.max_accel  # the ringing, no more
+    assert np.max(np.abs(np.gradient(dense.v_rows, dense.t))) <= 0.999 * LIMITS.max_accel * (1 + 1e-9)
+    res = file_trajectory(imp, ROBOT, WORLD)
+    traj = res.trajectory
+    assert res.success and traj is not None
+    assert imp.report.retimed is False and imp.report.time_stretch == pytest.approx(stretch)
+    np.testing.assert_allclose(traj.sample_many(t * stretch).pose[:, 0], x, atol=1e-9)  # where the file is, when
+
+
+def test_a_file_past_the_acceleration_limit_is_still_retimed(tmp_path: Path) -> None:
+    path, _, _ = _trapezoid_file(tmp_path, 1.2)
+    imp = read_trajectory_file(TrajectoryFile(path))
+    retime, why, _ = timing_verdict(densify(imp), LIMITS)
+    assert retime and why.startswith("its acceleration reaches 0.51 m/s^2")
+    res = file_trajectory(imp, ROBOT, WORLD)
+    traj = res.trajectory
+    assert res.success and traj is not None and imp.report.retimed is True
+    assert np.max(np.abs(np.diff(traj.vel[:, 0]) / np.diff(traj.t))) <= LIMITS.max_accel + 1e-6

@@ -207,3 +207,30 @@ def test_the_cost_of_a_file_grows_linearly_with_its_rows(tmp_path: Path) -> None
     ratio = best[80_000] / best[10_000]
     assert ratio < 8 * 3, f"8x the rows cost {ratio:.1f}x the time (linear: 8x; quadratic: 64x)"
     assert imp.curve.poly.x.size == imp.t.size  # type: ignore[union-attr]  # one polynomial, rows as breaks
+
+
+def test_a_stop_is_where_the_braking_ends_not_where_its_steps_turn_short() -> None:
+    """Rows every 0.02 s of a braking at 0.425 m/s^2 to a stop between two rows, a stand-still, and a start
+    again: the braking's last step (0.085 mm) and the start's first are shorter than SAME_POSITION, so
+    the stand-still's intervals begin one row early and end one row late; the curve's stops are the rows
+    where the motion has ended and where it begins (on the stand-still rows themselves, 1e-9 apart), and
+    its deceleration stays near the rows' (1.27 m/s^2 with the stop a row early)."""
+    a, v0, dt = 0.425, 0.12, 0.02
+    t = np.arange(0.0, 1.2, dt)
+    brake = v0 / a  # 0.2824 s: between the rows 0.28 and 0.30
+    s = np.minimum(t, brake)
+    x = v0 * s - 0.5 * a * s**2
+    restart = 0.8  # and off again from rest, on a row
+    u = np.clip(t - restart, 0.0, None)
+    x = x + 0.5 * a * u**2
+    xy = np.column_stack([x, np.zeros_like(x)])
+    step = np.diff(x)
+    stand = standing(t, xy)
+    first, last = int(np.argmax(stand)), int(len(stand) - 1 - np.argmax(stand[::-1]))
+    assert 0 < step[first] < 1e-4 and 0 < step[last] < 1e-4  # the short steps inside the stand-still
+    rest = stops(t, xy)
+    # the stand-still's intervals are first..last: its stops were rows first and last + 1
+    assert first + 1 in rest and first not in rest  # on to where the braking has ended
+    assert last in rest and last + 1 not in rest  # back to where the start begins
+    accel = stretch_fit(t, xy)(np.linspace(0.16, 1.1, 4701), 2)[:, 0]  # past the start's own stop (it rolls)
+    assert np.max(np.abs(accel)) < 1.1 * a

@@ -12,8 +12,9 @@ A bag is a ROS 2 MCAP file (``.mcap``), a rosbag2 folder (MCAP or sqlite3 storag
 
 The table then goes through :func:`planning.trajectory.importer.read_trajectory_file`'s repairs and
 checks like any other file. Every problem (no such bag, a truncated file or one that is not a bag,
-a topic that is missing, of another type or empty) is a :class:`TrajectoryFileError` naming it and
-the fix.
+a topic that is missing, of another type or empty, a path of fewer than two poses, a trajectory whose
+poses carry no times, a non-finite position or quaternion) is a :class:`TrajectoryFileError` naming it
+(the topic and message) and a fix that exists (another message or topic of the bag, when it has one).
 """
 
 from __future__ import annotations
@@ -122,8 +123,9 @@ def _columns(path: Path, poses: list[Any], stamps: list[int], rows: tuple[str, .
         "x": np.array([p.position.x for p in poses], dtype=float),
         "y": np.array([p.position.y for p in poses], dtype=float),
     }
-    q = [p.orientation for p in poses]
-    theta = quaternion_headings([quaternion_yaw(o.x, o.y, o.z, o.w) for o in q], rows, path)
+    q = np.array([[p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w] for p in poses], dtype=float)
+    _check_finite(path, {**cols, "orientation quaternion": q}, rows)
+    theta = quaternion_headings([quaternion_yaw(*o) for o in q], rows, path)
     if theta is not None:
         cols["theta"] = theta
     if len(set(stamps)) > 1:
@@ -132,10 +134,73 @@ def _columns(path: Path, poses: list[Any], stamps: list[int], rows: tuple[str, .
 
 
 def _check_finite(path: Path, cols: dict[str, Any], rows: tuple[str, ...]) -> None:
+    """Each value of every column (a row's several values: a quaternion) a finite number."""
     for name, values in cols.items():
-        bad = np.flatnonzero(~np.isfinite(values))
+        bad = np.flatnonzero(~np.all(np.isfinite(np.reshape(values, (len(rows), -1))), axis=1))
         if bad.size:
             raise TrajectoryFileError(f"{path}: {rows[bad[0]]} has a non-finite {name}; fix or drop that pose")
+
+
+def _instead(sizes: list[int], k: int, paths: list[str]) -> str:
+    """What to read instead of message ``k`` of a path topic whose messages hold ``sizes`` poses: another
+    message of two poses or more, else another nav_msgs/Path topic of the bag (``paths``), else nothing
+    in this bag."""
+    good = [i for i, n in enumerate(sizes) if n >= 2 and i != k]
+    if good:
+        shown = ", ".join(map(str, good[:5])) + (", ..." if len(good) > 5 else "")
+        last = len(sizes) - 1
+        return f"choose another with {option('message')}: of messages 0 to {last}, {shown} hold two poses or more"
+    if paths:
+        return f"name another nav_msgs/Path topic with {option('topic')}: {', '.join(paths)}"
+    return "no other message or nav_msgs/Path topic of the bag has two poses: record the plan again"
+
+
+def _path_rows(
+    path: Path, topic: str, msgs: list[Any], message: int | None, paths: list[str], timed: bool
+) -> tuple[tuple[str, ...], dict[str, Any]]:
+    """The rows and columns of the path message ``message`` (None: the last) of ``topic``, checked: in
+    range, two poses or more, and for a trajectory (``timed``) poses that carry their times."""
+    k = len(msgs) - 1 if message is None else message
+    if not -len(msgs) <= k < len(msgs):
+        raise TrajectoryFileError(
+            f"{path}: {option('message', message)} but topic {topic} holds {len(msgs)} message(s); give 0 to "
+            f"{len(msgs) - 1} (or -1 for the last)"
+        )
+    k %= len(msgs)
+    poses = msgs[k].poses
+    if len(poses) < 2:
+        what = "an empty path" if not poses else "a path of one pose"
+        raise TrajectoryFileError(
+            f"{path}: message {k} of {topic} is {what}, and the robot needs two positions or more to follow; "
+            f"{_instead([len(m.poses) for m in msgs], k, paths)}"
+        )
+    rows = tuple(f"{topic} message {k} poses[{i}]" for i in range(len(poses)))
+    stamps = [_nanoseconds(p.header.stamp) for p in poses]
+    if timed and len(set(stamps)) == 1:
+        raise TrajectoryFileError(
+            f"{path}: message {k} of {topic} has no clock: its {len(poses)} poses all carry the stamp "
+            f"{stamps[0] * 1e-9:.9g} s, so it is a path, not a trajectory; track it with "
+            f"{option('path', python='timed=False')}, or give a path whose poses carry their times"
+        )
+    return rows, _columns(path, [p.pose for p in poses], stamps, rows)
+
+
+def _motion_rows(path: Path, topic: str, msgs: list[Any], msgtype: str) -> tuple[tuple[str, ...], dict[str, Any]]:
+    """The rows and columns of a recorded motion (every message a row), checked: two messages or more,
+    with a clock."""
+    stamps = [_nanoseconds(mm.header.stamp) for mm in msgs]
+    if len(msgs) < 2 or len(set(stamps)) == 1:
+        what = "one message" if len(msgs) < 2 else f"{len(msgs)} messages all stamped {stamps[0] * 1e-9:.9g} s"
+        raise TrajectoryFileError(
+            f"{path}: topic {topic} holds {what}; a recorded motion needs two messages or more at distinct "
+            f"stamps: record a longer run, or name another topic with {option('topic')}"
+        )
+    rows = tuple(f"{topic} message {i}" for i in range(len(msgs)))
+    cols = _columns(path, [_pose_of(mm, msgtype) for mm in msgs], stamps, rows)
+    if msgtype == "nav_msgs/msg/Odometry":
+        cols["v"] = np.array([mm.twist.twist.linear.x for mm in msgs], dtype=float)
+        cols["omega"] = np.array([mm.twist.twist.angular.z for mm in msgs], dtype=float)
+    return rows, cols
 
 
 def read_bag_table(path: Path, topic: str | None, message: int | None = None, *, timed: bool) -> FileTable:
@@ -149,7 +214,8 @@ def read_bag_table(path: Path, topic: str | None, message: int | None = None, *,
 
     Raises:
         TrajectoryFileError: No bag there, a truncated file or one that is not a bag, no ``topic``, a topic
-            missing, of another type or empty, a ``message`` out of range, a non-finite pose.
+            missing, of another type or empty, a ``message`` out of range or of fewer than two poses, a
+            trajectory without a clock, a non-finite pose. Each names the topic and message and the fix.
     """
     path = Path(path)
     reader = _open(path)
@@ -160,35 +226,16 @@ def read_bag_table(path: Path, topic: str | None, message: int | None = None, *,
                 f"{_topics_text(reader) or 'no topics'}"
             )
         msgtype, msgs = _messages(reader, path, topic, timed)
+        paths = [name for name, info in reader.topics.items() if info.msgtype == PATH_TYPE and name != topic]
     finally:
         reader.close()
     if msgtype == PATH_TYPE:
-        k = len(msgs) - 1 if message is None else message
-        if not -len(msgs) <= k < len(msgs):
-            raise TrajectoryFileError(
-                f"{path}: {option('message', message)} but topic {topic} holds {len(msgs)} message(s); give 0 to "
-                f"{len(msgs) - 1} (or -1 for the last)"
-            )
-        k %= len(msgs)
-        path_msg = msgs[k]
-        if not path_msg.poses:
-            raise TrajectoryFileError(
-                f"{path}: message {k} of {topic} is an empty path; choose another with {option('message')}"
-            )
-        rows = tuple(f"{topic} message {k} poses[{i}]" for i in range(len(path_msg.poses)))
-        stamps = [_nanoseconds(p.header.stamp) for p in path_msg.poses]
-        cols = _columns(path, [p.pose for p in path_msg.poses], stamps, rows)
+        rows, cols = _path_rows(path, topic, msgs, message, paths, timed)
     else:
         if message is not None:
             raise TrajectoryFileError(
                 f"{option('message')} picks one nav_msgs/Path; {topic} carries {_name(msgtype)}: drop it"
             )
-        rows = tuple(f"{topic} message {i}" for i in range(len(msgs)))
-        cols = _columns(
-            path, [_pose_of(mm, msgtype) for mm in msgs], [_nanoseconds(mm.header.stamp) for mm in msgs], rows
-        )
-        if msgtype == "nav_msgs/msg/Odometry":
-            cols["v"] = np.array([mm.twist.twist.linear.x for mm in msgs], dtype=float)
-            cols["omega"] = np.array([mm.twist.twist.angular.z for mm in msgs], dtype=float)
+        rows, cols = _motion_rows(path, topic, msgs, msgtype)
     _check_finite(path, cols, rows)  # named as a pose of the topic, before the table's own check
     return table_from_arrays(path, cols, f"bag topic {topic}, {_name(msgtype)}", rows)

@@ -357,7 +357,10 @@ def _required(table: FileTable, source: TrajectoryFile, report: ImportReport) ->
             f"header or with {option('columns')}{hint}"
         )
     if len(table) < 2:
-        raise TrajectoryFileError(f"{table.path}: {len(table)} row; a trajectory needs at least two positions")
+        rows = f"one row ({table.rows[0]})" if len(table) else "no rows"
+        raise TrajectoryFileError(
+            f"{table.path}: {rows}; a trajectory needs at least two positions: give rows at two positions or more"
+        )
     if not source.timed:
         ignored = [c for c in ("t", *_DERIVATIVES) if c in cols]
         if ignored:
@@ -490,8 +493,8 @@ def _check_distinct(table: FileTable, cols: dict[str, FloatArray]) -> None:
     xy = cols["xy"]
     if float(np.max(np.hypot(*(xy - xy[0]).T))) <= SAME_POSITION:
         raise TrajectoryFileError(
-            f"{table.path}: all {len(table)} rows are at one position ({xy[0, 0]:g}, {xy[0, 1]:g}); a trajectory "
-            "needs at least two distinct positions"
+            f"{table.path}: all {len(table)} rows ({table.rows[0]} to {table.rows[-1]}) are at one position "
+            f"({xy[0, 0]:g}, {xy[0, 1]:g}); a trajectory needs at least two distinct positions: give rows that move"
         )
 
 

@@ -5,7 +5,8 @@ PlotJuggler.
 The topics and frames are those of :mod:`sim.io.bag_topics`; every message is stamped in simulated
 time, and the bag's own clock (the log time of each message) equals its header stamp. The bag is
 written into a temporary folder beside the target and moved into place when complete: an interrupted
-write leaves nothing under the target's name, and an existing bag is replaced only when asked.
+write leaves nothing under the target's name, and an existing bag is replaced only when asked, in one
+step that a signal does not split: the target holds the old bag or the new one, never neither.
 """
 
 from __future__ import annotations
@@ -215,6 +216,23 @@ def _write(topics: list[bt.Topic], folder: Path) -> None:
             writer.write(conns[i], ns, payloads[i][k])
 
 
+def _swap_in(new: Path, path: Path, aside: Path, *, overwrite: bool) -> None:
+    """Move the finished bag ``new`` to ``path``, an existing bag there first moved to ``aside`` (a folder
+    cannot be renamed over a folder that holds files). The two renames are one step: SIGINT and SIGTERM
+    wait until both are done, and when the second fails the old bag goes back, so ``path`` always holds
+    one complete bag, the old or the new (an interrupt acts once the new one is in place)."""
+    with signals_held():
+        if path.exists():
+            check_bag_target(path, overwrite=overwrite)
+            os.replace(path, aside)
+        try:
+            os.replace(new, path)
+        except BaseException:
+            if aside.exists():
+                os.replace(aside, path)
+            raise
+
+
 def write_job_bag(result: Any, path: Path, *, overwrite: bool = False) -> BagSummary:
     """Write a :class:`sim.pipeline.simulate.JobResult`'s runs as a bag (see :func:`write_bag`)."""
     return write_bag(result.prepared, result.logs, path, overwrite=overwrite)
@@ -242,10 +260,7 @@ def write_bag(prepared: Any, logs: Mapping[str, Any], path: Path, *, overwrite: 
             with signals_held():  # an interrupt landing as the folder is made waits until ``work`` names it
                 work = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent))
             _write(topics, work / path.name)
-            if path.exists():
-                check_bag_target(path, overwrite=overwrite)
-                os.replace(path, work / "replaced")
-            os.replace(work / path.name, path)
+            _swap_in(work / path.name, path, work / "replaced", overwrite=overwrite)
         finally:
             if work is not None:
                 shutil.rmtree(work, ignore_errors=True)

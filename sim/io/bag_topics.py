@@ -8,7 +8,11 @@ Frames (REP 105), one tree per run under the run's name (``closed_loop/odom``, .
 
 ``RUN/odom -> RUN/base_footprint`` is what the run's estimator believed (the fused estimate, dead
 reckoning, or the truth for a run fed the true pose); ``map -> RUN/odom`` carries the estimate's
-error, so ``base_footprint`` sits at the true pose in ``map``. ``base_footprint -> base_link`` is the
+error, so ``base_footprint`` sits at the true pose in ``map``. Every message is stamped at the time its
+data was taken: an estimate, a fix or a scan at the time of the sensor readings it is based on (one
+physics step before the control instant: :func:`sensed_at`), and ``ground_truth/odom`` has the true
+pose at those times besides the logged samples, so that an estimate's error against the truth at its
+stamp is the run record's. ``base_footprint -> base_link`` is the
 body's height, pitch and roll from the physics (a balancing robot leans); the wheels turn by their
 joint angles.
 
@@ -45,6 +49,8 @@ OBSTACLE_HEIGHT = 0.25
 ROBOT_HEIGHT = 0.12
 GRAVITY = 9.80665
 WHEELS = ("wheel_left", "wheel_right")
+#: The model's site of the IMU (``RUN/imu_link``).
+IMU_SITE = "imu"
 
 
 @dataclass
@@ -91,28 +97,48 @@ class Skeleton:
         wheels: qpos addresses of the left and right wheel joints.
         wheel_pos: (2, 3) wheel axle centres in the base body [m].
         scan_pos: (3,) the lidar in the base body [m], or None.
+        imu_pos: (3,) the IMU (site :data:`IMU_SITE`) in the base body [m].
+        imu_quat: The IMU's orientation in the base body, ROS (x, y, z, w).
     """
 
     root: int
     wheels: tuple[int, int]
     wheel_pos: FloatArray
     scan_pos: FloatArray | None
+    imu_pos: FloatArray
+    imu_quat: tuple[float, float, float, float]
 
 
 @cache
 def skeleton(robot: str) -> Skeleton:
-    """The joints and fixed frames of a robot's model (loaded once per robot)."""
+    """The joints and fixed frames of a robot's model (loaded once per robot): the wheels, the lidar body
+    ``base_scan`` and the IMU (site :data:`IMU_SITE`; at the base in a model without one), each placed in
+    the base body by the compiled model's kinematics at its reference pose."""
     import mujoco
 
     from planning.core.robot import robot_path
 
     model = mujoco.MjModel.from_xml_path(str(robot_path(robot)))
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
     adr = model.jnt_qposadr
+    root = model.joint("root")
+    base = int(model.jnt_bodyid[root.id])
+
+    def in_base(xpos: FloatArray, xmat: FloatArray) -> tuple[FloatArray, tuple[float, float, float, float]]:
+        turn = data.xmat[base].reshape(3, 3).T
+        wxyz = np.zeros(4)
+        mujoco.mju_mat2Quat(wxyz, (turn @ xmat.reshape(3, 3)).ravel())
+        return turn @ (xpos - data.xpos[base]), ros_quat(wxyz)
+
     wheels = tuple(int(adr[model.joint(f"{w}_joint").id]) for w in WHEELS)
-    wheel_pos = np.array([model.body(w).pos for w in WHEELS], dtype=float)
-    names = {model.body(i).name for i in range(model.nbody)}
-    scan = np.array(model.body("base_scan").pos, dtype=float) if "base_scan" in names else None
-    return Skeleton(int(adr[model.joint("root").id]), (wheels[0], wheels[1]), wheel_pos, scan)
+    wheel_pos = np.array([in_base(data.xpos[b], data.xmat[b])[0] for b in (model.body(w).id for w in WHEELS)])
+    scan, imu_pos, imu_quat = None, np.zeros(3), (0.0, 0.0, 0.0, 1.0)
+    if (b := mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "base_scan")) >= 0:
+        scan = in_base(data.xpos[b], data.xmat[b])[0]
+    if (site := mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, IMU_SITE)) >= 0:
+        imu_pos, imu_quat = in_base(data.site_xpos[site], data.site_xmat[site])
+    return Skeleton(int(adr[root.id]), (wheels[0], wheels[1]), wheel_pos, scan, imu_pos, imu_quat)
 
 
 def ros_quat(wxyz: FloatArray) -> tuple[float, float, float, float]:
@@ -156,17 +182,52 @@ def body_velocity(t: FloatArray, pose: FloatArray) -> tuple[FloatArray, FloatArr
     return np.cos(pose[:, 2]) * dx + np.sin(pose[:, 2]) * dy, dth
 
 
+def sensed_at(log: Any, t: FloatArray) -> FloatArray:
+    """The physics time [s] of the state the run's sensors read at sensing time ``t`` (K,) [s]: the control
+    instants at which the estimator reads them (and the fixes' and the scans' times, which count on the
+    same clock). MuJoCo evaluates the sensors at the start of a physics step, so what they give at a
+    control instant after the first is the state one physics step (``timestep_s``) earlier
+    (:meth:`sim.physics.simulator.Recorder.to_log`); at the first instant they read the start pose, at
+    it. Between the two instants the clock is stretched linearly (a scan's beams there are cast from
+    poses interpolated between those two readings); before the start it is the physics clock."""
+    t = np.asarray(t, dtype=float)
+    t0, lag = float(log.t[0]), float(log.meta.get("timestep_s", 0.0))
+    period = 1.0 / float(log.meta.get("control_rate_hz", 50.0))
+    first = t0 + (t - t0) * (period - lag) / period
+    return np.where(t >= t0 + period, t - lag, np.where(t <= t0, t, first))
+
+
 def estimate_at(log: Any, t: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """What the run's estimator believed at times ``t``: (poses (N, 3), variances (N, 3)); the true
-    pose with zero variance for a run fed the truth."""
+    """What the run's estimator believed at physics times ``t``: (poses (N, 3), variances (N, 3)), its
+    estimates placed at the times of the readings they are based on (:func:`sensed_at`) and interpolated
+    between them; the true pose with zero variance for a run fed the truth."""
     est = log.estimation
     if est is None or est.t.size == 0:
         return log.pose.copy(), np.zeros((t.size, 3))
     e = est.estimate.copy()
     e[:, 2] = np.unwrap(e[:, 2])
-    pose = np.column_stack([np.interp(t, est.t, e[:, k]) for k in range(3)])
-    var = np.column_stack([np.interp(t, est.t, est.variance[:, k]) for k in range(3)])
+    at = sensed_at(log, est.t)
+    pose = np.column_stack([np.interp(t, at, e[:, k]) for k in range(3)])
+    var = np.column_stack([np.interp(t, at, est.variance[:, k]) for k in range(3)])
     return pose, var
+
+
+def true_poses(log: Any) -> tuple[FloatArray, FloatArray]:
+    """(t (N,), poses (N, 3)): the run's true pose at every logged sample and at every instant its sensors
+    were read for the estimator (:func:`sensed_at`; the estimator's record of the truth, ``truth``),
+    in time order, headings unwrapped. Each estimate of ``RUN/odom`` has the truth of its stamp here."""
+    est = log.estimation
+    if est is None or est.t.size == 0:
+        return log.t, log.pose
+    at = sensed_at(log, est.t)
+    logged = np.round(log.t * 1e9)
+    extra = ~np.isin(np.round(at * 1e9), logged) & np.all(np.isfinite(est.truth), axis=1)
+    t = np.concatenate([log.t, at[extra]])
+    pose = np.vstack([log.pose, est.truth[extra]])
+    order = np.argsort(t, kind="stable")
+    t, pose = t[order], pose[order]
+    pose[:, 2] = np.unwrap(pose[:, 2])
+    return t, pose
 
 
 def run_frames(ns: str) -> dict[str, str]:
@@ -241,23 +302,22 @@ def _odometry(
 def _odom_series(
     log: Any, frames: dict[str, str], wheel: Callable[[FloatArray], tuple[FloatArray, FloatArray]]
 ) -> Series:
-    """``RUN/odom``: the estimate (at the control instants, or the logged samples without an
-    estimator) with its variances; the twist from the wheel speeds. The estimator runs at the start
-    of each control period, so its record ends a period before the run does: the run's last logged
-    sample is published too, with the last estimate held (as ``RUN/tf`` has it then)."""
+    """``RUN/odom``: each estimate with its variances, stamped at the time of the readings it is based on
+    (:func:`sensed_at`; the logged samples without an estimator), the twist from the wheel speeds then."""
     est = log.estimation
-    t = est.t if est is not None and est.t.size else log.t
-    if t[-1] < log.t[-1] - 1e-9:
-        t = np.append(t, log.t[-1])
-    pose, var = estimate_at(log, t)
+    if est is None or est.t.size == 0:
+        t, pose, var = log.t, log.pose, np.zeros((log.t.size, 3))
+    else:
+        t, pose, var = sensed_at(log, est.t), est.estimate, est.variance
     v, omega = wheel(t)
     return _odometry(t, frames["odom"], frames["base_footprint"], pose, var, v, omega)
 
 
 def _truth_series(log: Any, frames: dict[str, str]) -> Series:
-    """``RUN/ground_truth/odom``: the true pose and body velocity in ``map``."""
-    v, omega = body_velocity(log.t, log.pose)
-    return _odometry(log.t, "map", frames["base_footprint"], log.pose, np.zeros((log.t.size, 3)), v, omega)
+    """``RUN/ground_truth/odom``: the true pose (:func:`true_poses`) and body velocity in ``map``."""
+    t, pose = true_poses(log)
+    v, omega = body_velocity(t, pose)
+    return _odometry(t, "map", frames["base_footprint"], pose, np.zeros((t.size, 3)), v, omega)
 
 
 def _period_yaw_rates(log: Any, rate: float, n: int) -> FloatArray:
@@ -341,20 +401,21 @@ def _command_series(log: Any, frame: str) -> Series:
 
 
 def _fix_series(log: Any, std: tuple[float, float]) -> Series:
-    """``RUN/fix``: the localisation fixes at their measurement times, with the scan localiser's own
-    covariance (each fix is one of its updates, as Nav2's ``amcl_pose``) or, for synthetic fixes, the
-    profile's variances. None for a dead-reckoning run: its fixes only score its estimate (NEES), it
-    never localised."""
+    """``RUN/fix``: the localisation fixes at their measurement times (:func:`sensed_at`), with the scan
+    localiser's own covariance (each fix is one of its updates, as Nav2's ``amcl_pose``) or, for synthetic
+    fixes, the profile's variances. None for a dead-reckoning run: its fixes only score its estimate
+    (NEES), it never localised."""
     est = log.estimation
     if est is None or est.fix_t.size == 0 or est.source == "odometry":
         return np.zeros(0), lambda k: None
+    at = sensed_at(log, est.fix_t)
     loc = getattr(est, "localiser", None)
     if loc is not None and loc.t.size:
         row = np.clip(np.searchsorted(loc.t, est.fix_t - 1e-9), 0, loc.t.size - 1)
         if np.allclose(loc.t[row], est.fix_t, rtol=0.0, atol=1e-9):
-            return est.fix_t, lambda k: m.pose_fix(float(est.fix_t[k]), "map", est.fix[k], loc.cov[row[k]])
+            return at, lambda k: m.pose_fix(float(at[k]), "map", est.fix[k], loc.cov[row[k]])
     var = np.array([std[0] ** 2, std[0] ** 2, std[1] ** 2])
-    return est.fix_t, lambda k: m.pose_fix(float(est.fix_t[k]), "map", est.fix[k], var)
+    return at, lambda k: m.pose_fix(float(at[k]), "map", est.fix[k], var)
 
 
 @dataclass(frozen=True)
@@ -391,7 +452,8 @@ def scan_of(log: Any) -> Sweeps | None:
     """The run's lidar revolutions, or None: a ``log.scan`` with the fields of :class:`Sweeps` (``t``,
     ``ranges``, ``angle_min``, ...), else the scans the run's scan localiser took
     (``log.estimation.localiser``: ``scan_t``, ``scan_ranges``, ``scan_angle_increment`` from bearing 0,
-    ``scan_time_increment``, ``range_min``, ``range_max``)."""
+    ``scan_time_increment``, ``range_min``, ``range_max``), cast from the poses its sensors read: their
+    stamps on the physics clock (:func:`sensed_at`)."""
     scan = getattr(log, "scan", None)
     if scan is not None:
         return Sweeps(
@@ -406,7 +468,7 @@ def scan_of(log: Any) -> Sweeps | None:
         )
     loc = getattr(log.estimation, "localiser", None) if log.estimation is not None else None
     if loc is not None and np.asarray(loc.scan_t).size:
-        t = np.asarray(loc.scan_t, dtype=float)
+        t = sensed_at(log, np.asarray(loc.scan_t, dtype=float))
         period = float(np.median(np.diff(t))) if t.size > 1 else 0.0
         return Sweeps(
             t,
@@ -481,11 +543,12 @@ def topic(name: str, msgtype: str, times: FloatArray, how: Callable[[int], Any] 
 
 
 def static_transforms(namespaces: list[str], sk: Skeleton) -> Any:
-    """``/tf_static``: each run's IMU at its base, and its lidar where the model has one."""
+    """``/tf_static``: each run's IMU where the model puts it (:func:`skeleton`), and its lidar where the model
+    has one."""
     tfs = []
     for ns in namespaces:
         fr = run_frames(ns)
-        tfs.append(m.transform(0.0, fr["base_link"], fr["imu_link"], np.zeros(3), (0.0, 0.0, 0.0, 1.0)))
+        tfs.append(m.transform(0.0, fr["base_link"], fr["imu_link"], sk.imu_pos, sk.imu_quat))
         if sk.scan_pos is not None:
             tfs.append(m.transform(0.0, fr["base_link"], fr["base_scan"], sk.scan_pos, (0.0, 0.0, 0.0, 1.0)))
     return m.tf_message(tfs)

@@ -1,6 +1,7 @@
 """A 2-D laser scanner (the TurtleBot3's LDS-01) cast in MuJoCo with ``mj_multiRay``.
 
-The scanner turns at ``rate`` revolutions per second and takes ``beams`` samples a revolution,
+The scanner turns at ``rate`` revolutions per second and takes ``beams`` samples a revolution, evenly
+``360 / beams`` degrees apart (1 deg at the LDS-01's 360; 51.4 deg at 7),
 counter-clockwise from the ``lidar`` site's x axis (the ROBOTIS ``base_scan`` frame), one every
 ``1 / (rate * beams)`` seconds: beam ``i`` of a revolution that starts at ``t0`` is measured at
 ``t0 + i / (rate * beams)`` from the pose the robot had then. A turning or driving robot's scan
