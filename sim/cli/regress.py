@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -31,8 +32,12 @@ Adding a case is one line in the suite's 'cases' array, e.g.
   { scenario = "maze", robot = "turtlebot3", planner = "rrt", tracker = "fbl", seed = 1, control_rate = 50 },
 then: nhsim regress --update --case <its name>.
 
-Exit status: 0 every case passed (or --update wrote baselines), 1 a case regressed,
-has no baseline, failed or is not deterministic, 2 bad input."""
+A baseline records the case's definition too: a case whose fields (gains, build seed, sensors, ...) differ
+from the ones its baseline was recorded with fails, naming them. A baseline file that is not one fails its
+case (the others still run); --update replaces it.
+
+Exit status: 0 every case passed (or --update wrote baselines), 1 a case regressed, differs from its
+baseline's definition, has no baseline or an unreadable one, failed or is not deterministic, 2 bad input."""
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
@@ -64,16 +69,27 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 
 def format_changes(changes: list[Any]) -> str:
-    """The table of metrics that moved."""
-    head = f"{'case':<40} {'metric':<24} {'baseline':>13} {'now':>13} {'delta':>11} {'allowed':>9}  status"
+    """The table of metrics that moved, its columns as wide as their longest case name and metric."""
+    cw = max([len("case"), *(len(c.case) for c in changes)])
+    mw = max([len("metric"), *(len(c.metric) for c in changes)])
+    head = f"{'case':<{cw}} {'metric':<{mw}} {'baseline':>13} {'now':>13} {'delta':>11} {'allowed':>9}  status"
     lines = [head, "-" * len(head)]
     for c in changes:
         delta = c.value - c.baseline
         lines.append(
-            f"{c.case:<40} {c.metric:<24} {c.baseline:>13.6g} {c.value:>13.6g} {delta:>+11.3g} {c.allowed:>9.3g}  "
-            f"{c.status}"
+            f"{c.case:<{cw}} {c.metric:<{mw}} {c.baseline:>13.6g} {c.value:>13.6g} {delta:>+11.3g} "
+            f"{c.allowed:>9.3g}  {c.status}"
         )
     return "\n".join(lines)
+
+
+def nothing_moved(outcomes: list[Any]) -> str:
+    """What stands for the table when no metric moved: in how many cases metrics were compared at all."""
+    compared = sum(o.compared for o in outcomes)
+    if not compared:
+        return f"no metric compared: none of the {len(outcomes)} case(s) has a baseline it was compared with"
+    rest = len(outcomes) - compared
+    return f"no metric moved in the {compared} case(s) compared" + (f"; {rest} not compared" if rest else "")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -93,11 +109,11 @@ def run(args: argparse.Namespace) -> int:
         for c in cases:
             print(f"{c.name}{'  (fast)' if c.fast else ''}")
         return 0
-    check_baselines(baselines, cases, update=args.update)
+    read = check_baselines(baselines, cases, update=args.update)
     tty = sys.stderr.isatty()
     done = {}
     with make_executor(args.jobs, args.scheduler, default=1) as executor:
-        for case, outcome in executor.map_unordered(check_task, cases, shared=(baselines, suite.tolerances)):
+        for case, outcome in executor.map_unordered(check_task, cases, shared=(baselines, suite.tolerances, read)):
             done[case.name] = outcome
             if tty:
                 print(f"\r[{len(done)}/{len(cases)}] {case.name:<60}", end="", file=sys.stderr, flush=True)
@@ -106,17 +122,17 @@ def run(args: argparse.Namespace) -> int:
     outcomes = [done[c.name] for c in cases]
 
     moved = [c for o in outcomes for c in o.changes]
-    print(format_changes(moved) if moved else "no metric moved")
+    print(format_changes(moved) if moved else nothing_moved(outcomes))
     print()
     for o in outcomes:
-        compared = o.status in (Status.PASS, Status.FAIL)
-        mode = "" if not compared else (" (bit for bit)" if o.exact else " (tolerances)")
-        print(f"{o.status.upper():<16} {o.case.name}{mode}")
+        print(f"{o.status.upper():<16} {o.case.name}" + (f" ({o.summary})" if o.summary else ""))
 
     if args.update:
-        written = update_baselines(outcomes, baselines)
+        written = update_baselines(outcomes, read)
         print(f"{written} baseline(s) written, {len(outcomes) - written} unchanged or not run")
         bad = [o for o in outcomes if o.status in (Status.ERROR, Status.NONDETERMINISTIC)]
+        for o in bad:
+            print(f"nhsim regress: {o.status}: {o.message}", file=sys.stderr)
         return 1 if bad else 0
 
     failed = [o for o in outcomes if not o.ok]
@@ -134,16 +150,17 @@ def _with_files(message: str, args: argparse.Namespace) -> str:
     return message.replace("nhsim regress --update", " ".join(["nhsim regress --update", *given]))
 
 
-def check_baselines(baselines: Path, cases: list[Any], *, update: bool) -> None:
+def check_baselines(baselines: Path, cases: list[Any], *, update: bool) -> dict[str, Any]:
     """Before any case runs: the baselines folder exists and is a folder (to compare), or its baselines
-    can be written there (``--update``).
+    can be written there (``--update``); returns the cases' baselines as read (:func:`read_baselines`), here,
+    so that no run reads a file and an unreadable one is its case's failure, not the run's.
 
     Raises:
         ConfigError: Naming the folder and the fix.
     """
     from planning.errors import ConfigError
     from sim.outputs import check_writable
-    from sim.tools.regress import baseline_path
+    from sim.tools.regress import baseline_path, read_baselines
 
     if baselines.exists() and not baselines.is_dir():
         raise ConfigError(f"--baselines {baselines} is a file, not a folder; give the folder that holds the baselines")
@@ -155,32 +172,46 @@ def check_baselines(baselines: Path, cases: list[Any], *, update: bool) -> None:
             f"--baselines {baselines} does not exist; give the folder that holds the baselines, or record them "
             f"there with nhsim regress --update --baselines {baselines}"
         )
+    return read_baselines(cases, baselines)
 
 
-def update_baselines(outcomes: list[Any], baselines: Path) -> int:
-    """Rewrite the baselines of the cases measured whose document changed, printing what changed;
-    returns how many were written."""
+def update_baselines(outcomes: list[Any], read: dict[str, Any]) -> int:
+    """Rewrite the baselines of the cases measured whose document changed (``read``: the baselines as read
+    before the runs, by case name), printing what changed; returns how many were written."""
     from sim.outputs import write_json
-    from sim.tools.regress import baseline_document, baseline_path, environment, read_baseline
+    from sim.tools.regress import baseline_document
 
     written = 0
     for o in outcomes:
         if not o.metrics:
             continue
-        path = baseline_path(o.case, baselines)
-        old = read_baseline(path)
-        doc = baseline_document(o.case, dict(o.metrics))
-        if old == doc:
+        old, doc = read[o.case.name], baseline_document(o.case, dict(o.metrics))
+        if old.document == doc:
             continue
-        write_json(path, doc, overwrite=True)
+        write_json(old.path, doc, overwrite=True)
         written += 1
-        if old is None:
-            print(f"new baseline {path}")
-            continue
-        what = [f"{k} {old['metrics'].get(k)!r} -> {v!r}" for k, v in o.metrics.items() if old["metrics"].get(k) != v]
-        if old.get("environment") != environment():
-            what.append(f"environment {old.get('environment')} -> {environment()}")
-        if old.get("case") != doc["case"]:
-            what.append("case fields")
-        print(f"updated {path}: " + ("; ".join(what) or "no change"))
+        if old.problem:
+            print(f"replaced unreadable baseline {old.path} ({old.problem})")
+        elif old.document is None:
+            print(f"new baseline {old.path}")
+        else:
+            print(f"updated {old.path}: " + ("; ".join(baseline_changes(old.document, o)) or "no change"))
     return written
+
+
+def baseline_changes(old: dict[str, Any], outcome: Any) -> list[str]:
+    """What an update changes in a baseline: the metrics that moved, the environment, the case's fields that
+    differ from the ones recorded, and the fields recorded now that the old baseline left out."""
+    from sim.tools.regress import case_record, definition_changes, environment
+
+    what = [f"{k} {old['metrics'].get(k)!r} -> {v!r}" for k, v in outcome.metrics.items() if old["metrics"].get(k) != v]
+    if old.get("environment") != environment():
+        what.append(f"environment {old.get('environment')} -> {environment()}")
+    recorded = old.get("case", {})
+    differs = definition_changes(recorded, outcome.case)
+    if differs:
+        what.append(f"case {', '.join(differs)}")
+    new = [f"{k} = {json.dumps(v)}" for k, v in case_record(outcome.case).items() if k not in recorded]
+    if new:
+        what.append(f"now records {', '.join(new)}")
+    return what

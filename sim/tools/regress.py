@@ -2,7 +2,9 @@
 
 A suite file (the repository's is ``tests/regression_suite.toml``) lists cases, one line each, in a ``cases`` array of
 inline tables with the fields of :class:`sim.pipeline.case.Case` (scenario, robot, reference or planner,
-tracker, seed, control_rate; optional name, gains "KP,KD", perturb "key=value,...", fast), and a
+tracker, seed, control_rate; optional name, gains "KP,KD" or a gains file (as ``nhsim simulate --gains FILE``
+reads it, :func:`control.gains.load_gains_file`; a relative path is relative to the suite file), perturb
+"key=value,...", fast, build_seed, sensors, localiser), and a
 ``[tolerances]`` table ``metric = { abs = A, rel = R }``. A case's name (given, or made of its fields) is
 its baseline's file name, so a plain one (:data:`NAME_FORM`). Loading checks every field, and what would
 stop every run of a case short of planning (its scenario and robot, control rate, localiser, sensors):
@@ -10,7 +12,9 @@ bad input names the file, the case and the field, before any case runs.
 
 Each case is run twice in one process; the two logs must be bitwise identical
 (:meth:`RunLog.identical_to`) or the case fails as non-deterministic. Its metrics are compared
-with ``<baseline dir>/<case>.json``, which records the metrics and the environment (mujoco and
+with ``<baseline dir>/<case>.json``, which records the case's definition (:func:`case_record`: a baseline
+recorded for another definition fails, naming the fields that differ; an older baseline that records fewer
+fields is compared on those), the metrics and the environment (mujoco and
 numpy versions, operating system and machine, and the CPU: vendor, family and model, and the SIMD
 extensions numpy dispatches to -- floating-point results differ in their last bits between, say, an
 AVX-512 and an AVX2 machine running the same wheels):
@@ -22,6 +26,8 @@ AVX-512 and an AVX2 machine running the same wheels):
 
 A planned case plans, smooths and times its scenario through :func:`sim.pipeline.case.prepare_trajectory`.
 The suite file and the baseline directory are arguments: the command line passes the repository's.
+A baseline that cannot be read is its case's failure (:attr:`Status.UNREADABLE`), not the run's: the
+other cases are compared, and ``--update`` replaces it.
 """
 
 from __future__ import annotations
@@ -43,6 +49,7 @@ from typing import Any
 
 from control.base import TRACKERS
 from control.fbl import FBLGains
+from control.gains import load_gains_file, resolve_gains
 from planning.core.checks import is_number
 from planning.core.robot import ROBOT_FILES
 from planning.errors import ConfigError, NhsimError, SimulationError, option, without_python
@@ -225,8 +232,20 @@ def _check_name(name: str) -> None:
         raise ConfigError(f"not a plain file name for its baseline <name>.json in the baselines folder; {NAME_RULE}")
 
 
-def _checked(key: str, value: Any) -> Any:
-    """A case field's value as :class:`Case` takes it.
+def _gains(value: str, folder: Path) -> FBLGains:
+    """A case's gains: ``"KP,KD"`` or a gains file, a relative path relative to ``folder`` (the suite file's).
+
+    Raises:
+        ConfigError: Neither two positive numbers nor a readable, valid gains file.
+    """
+    path = folder / value
+    if path.suffix == ".toml" or path.exists():  # a file, as --gains reads one (its errors name the path)
+        return load_gains_file(path).gains
+    return resolve_gains(value)
+
+
+def _checked(key: str, value: Any, folder: Path = Path()) -> Any:
+    """A case field's value as :class:`Case` takes it (``folder``: where a relative gains file is).
 
     Raises:
         ConfigError: What the field must be (the caller names the file, the case and the field).
@@ -258,21 +277,30 @@ def _checked(key: str, value: Any) -> Any:
         raise ConfigError('must name a built-in scenario, random<N> or a scenario file, e.g. scenario = "open"')
     if key == "name":
         _check_name(value)
-    return FBLGains.parse(value) if key == "gains" else value
+    return _gains(value, folder) if key == "gains" else value
+
+
+#: The fields a case's default name is made of (:meth:`Case._derived_name`).
+NAME_FIELDS = ("scenario", "robot", "reference", "planner", "tracker", "seed", "control_rate")
 
 
 def _label(entry: Any) -> str:
-    """A case as messages name it before it is built: its name, else its fields in short."""
+    """A case as messages name it before it is built: its name (given, or the one its fields make, as
+    :class:`Case` makes it), else, when those fields are bad, the fields in short."""
     if not isinstance(entry, dict):
         return "not a table"
     if entry.get("name") and isinstance(entry["name"], str):
         return str(entry["name"])
-    keys = ("scenario", "robot", "reference", "planner", "tracker")
-    return "-".join(str(entry[k]) for k in keys if k in entry) or "no fields"
+    try:
+        return Case(**{k: _checked(k, entry[k]) for k in NAME_FIELDS if k in entry}).name
+    except (ConfigError, TypeError):  # a bad field of the name: the name it would make is no one's
+        keys = ("scenario", "robot", "reference", "planner", "tracker")
+        return "-".join(str(entry[k]) for k in keys if k in entry) or "no fields"
 
 
-def _case_from_table(entry: Any, where: str) -> Case:
-    """A suite's case table as a :class:`Case`, every field checked (``where`` names the file and the case).
+def _case_from_table(entry: Any, where: str, folder: Path) -> Case:
+    """A suite's case table as a :class:`Case`, every field checked (``where`` names the file and the case;
+    ``folder`` is the suite file's, where a relative gains file is).
 
     Raises:
         ConfigError: A field that is unknown, missing, of the wrong type or not one of its values, naming
@@ -293,7 +321,7 @@ def _case_from_table(entry: Any, where: str) -> Case:
     fields_: dict[str, Any] = {}
     for key, value in entry.items():
         try:
-            fields_[key] = _checked(key, value)
+            fields_[key] = _checked(key, value, folder)
         except ConfigError as exc:
             raise _field_error(where, key, value, str(exc)) from exc
     if "perturb" in fields_:
@@ -413,7 +441,7 @@ def load_suite(path: str | Path) -> Suite:
         raise ConfigError(f"{p}: needs a non-empty 'cases' array of inline tables (before any [table])")
     cases = []
     for i, entry in enumerate(entries):
-        case = _case_from_table(entry, f"{p} case {i + 1} ({_label(entry)})")
+        case = _case_from_table(entry, f"{p} case {i + 1} ({_label(entry)})", p.parent)
         _check_case_runs(case, entry, f"{p} case {i + 1} ({case.name})")
         cases.append(case)
     folded = [c.name.lower() for c in cases]  # names differing only in case share a file where case is folded
@@ -474,8 +502,14 @@ def same_environment(a: dict[str, str], b: dict[str, str]) -> bool:
 
 
 def case_record(case: Case) -> dict[str, Any]:
-    """The case's fields as recorded in its baseline."""
-    return {
+    """The case's definition as its baseline records it, as JSON reads it back: every field of a suite's case
+    that defines the run (not ``fast``), the gains as their values (a gains file's too, so an edit of the file
+    is a change of the case; ``xi_min`` beside ``gains``, which older baselines record as ``[kp, kd]``).
+
+    Baselines recorded before ``build_seed``, ``sensors``, ``localiser`` and ``xi_min`` were lack them:
+    :func:`definition_changes` compares the fields a baseline records.
+    """
+    record = {
         "name": case.name,
         "scenario": case.scenario_name,
         "robot": case.robot,
@@ -485,8 +519,20 @@ def case_record(case: Case) -> dict[str, Any]:
         "seed": case.seed,
         "control_rate": case.control_rate,
         "gains": None if case.gains is None else [case.gains.kp, case.gains.kd],
+        "xi_min": None if case.gains is None else case.gains.xi_min,
         "perturb": None if case.perturbation is None else case.perturbation.label(),
+        "build_seed": case.build_seed,
+        "sensors": case.sensors,
+        "localiser": case.localiser,
     }
+    return dict(json.loads(json.dumps(record)))
+
+
+def definition_changes(recorded: Mapping[str, Any], case: Case) -> list[str]:
+    """How ``case`` differs from the definition its baseline ``recorded`` (:func:`case_record`), as
+    ``field old -> new``, on the fields the baseline records."""
+    now = case_record(case)
+    return [f"{k} {_toml(recorded[k])} -> {_toml(v)}" for k, v in now.items() if k in recorded and recorded[k] != v]
 
 
 def measure_case(case: Case) -> TrackingMetrics:
@@ -577,6 +623,7 @@ class Status(StrEnum):
     PASS = "pass"
     FAIL = "fail"
     MISSING = "missing"  # no baseline
+    UNREADABLE = "unreadable"  # a baseline file that is not one
     ERROR = "error"
     NONDETERMINISTIC = "nondeterministic"
 
@@ -592,6 +639,7 @@ class CheckResult:
         metrics: The metrics measured (empty when not run).
         changes: Metrics that moved against the baseline.
         exact: Compared bit for bit (same environment).
+        differs: How the case's definition differs from its baseline's (``field old -> new``).
     """
 
     case: Case
@@ -600,11 +648,31 @@ class CheckResult:
     metrics: Mapping[str, Any] = field(default_factory=dict)
     changes: tuple[Change, ...] = ()
     exact: bool = True
+    differs: tuple[str, ...] = ()
 
     @property
     def ok(self) -> bool:
         """Passed."""
         return self.status is Status.PASS
+
+    @property
+    def compared(self) -> bool:
+        """Its metrics were compared with a baseline (it passed or failed)."""
+        return self.status in (Status.PASS, Status.FAIL)
+
+    @property
+    def summary(self) -> str:
+        """What the comparison found, for the case's line: how it passed, or what failed it ("" when the case
+        was not compared: its message says why)."""
+        if self.status is Status.PASS:
+            return "bit for bit" if self.exact else "within tolerances"
+        if self.status is not Status.FAIL:
+            return ""
+        parts = [f"case differs: {', '.join(self.differs)}"] if self.differs else []
+        moved = [c.metric for c in self.changes if c.failed]
+        if moved:
+            parts.append(("moved: " if self.exact else "beyond tolerances: ") + ", ".join(moved))
+        return "; ".join(parts)
 
 
 def baseline_path(case: Case, baseline_dir: Path) -> Path:
@@ -612,24 +680,92 @@ def baseline_path(case: Case, baseline_dir: Path) -> Path:
     return Path(baseline_dir) / f"{case.name}.json"
 
 
-def read_baseline(path: Path) -> dict[str, Any] | None:
-    """A baseline file's content, or None if there is none.
+def _metric_value(value: Any) -> bool:
+    """Whether a baseline's metric is one :func:`compare` takes: a number, true or false, or null (NaN)."""
+    return value is None or isinstance(value, (bool, int, float))
 
-    Raises:
-        ConfigError: The file is not a baseline (bad JSON, no metrics).
+
+def _baseline_problem(data: Any) -> str:
+    """Why a baseline file's JSON is not a baseline ("" when it is one)."""
+    if not isinstance(data, dict):
+        return f"a JSON {type(data).__name__}, not an object"
+    if not isinstance(data.get("metrics"), dict):
+        return "no metrics table"
+    bad = [key for key in ("case", "environment") if not isinstance(data.get(key, {}), dict)]
+    if bad:
+        return f"its {', '.join(bad)} not a table"
+    bad = [m for m in DIRECTIONS if not _metric_value(data["metrics"].get(m))]
+    return f"metric(s) {', '.join(bad)} not a number" if bad else ""
+
+
+@dataclass(frozen=True)
+class Baseline:
+    """A case's baseline file as read (:meth:`read`).
+
+    Attributes:
+        path: The file.
+        document: Its content; None when there is no file or it is not a baseline.
+        problem: Why the file is not a baseline ("" when it is one, or there is none).
     """
-    if not path.exists():
-        return None
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ConfigError(f"baseline {path} is unreadable ({exc}); rewrite it with nhsim regress --update") from exc
-    if not isinstance(data, dict) or not isinstance(data.get("metrics"), dict):
-        raise ConfigError(f"baseline {path} has no metrics; rewrite it with nhsim regress --update")
-    return data
+
+    path: Path
+    document: dict[str, Any] | None = None
+    problem: str = ""
+
+    @classmethod
+    def read(cls, path: Path) -> Baseline:
+        """Read a baseline file: its document, no file, or why it is not a baseline (never raises)."""
+        path = Path(path)
+        if not path.exists():
+            return cls(path)
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except json.JSONDecodeError as exc:
+            return cls(path, problem=f"not JSON: {exc}")
+        except (OSError, UnicodeDecodeError) as exc:
+            return cls(path, problem=f"cannot be read: {getattr(exc, 'strerror', None) or exc}")
+        problem = _baseline_problem(data)
+        return cls(path, None if problem else data, problem)
 
 
-def check_case(case: Case, baseline_dir: Path, tolerances: dict[str, Tolerance] | None = None) -> CheckResult:
+def read_baselines(cases: list[Case], baseline_dir: Path) -> dict[str, Baseline]:
+    """The cases' baselines by case name, read before any case runs (where the runs are handed out)."""
+    return {case.name: Baseline.read(baseline_path(case, baseline_dir)) for case in cases}
+
+
+def update_hint(case: Case) -> str:
+    """The command that records a case's baseline (the command line adds the suite and baselines it was given)."""
+    return f"nhsim regress --update --case {case.name}"
+
+
+def judge(case: Case, metrics: dict[str, Any], base: Baseline, tolerances: dict[str, Tolerance]) -> CheckResult:
+    """A measured case's result against its baseline (see the module docstring for the rules)."""
+    if base.problem:
+        problem = f"baseline {base.path} is unreadable ({base.problem}); rewrite it with {update_hint(case)}"
+        return CheckResult(case, Status.UNREADABLE, f"case {case.name}: {problem}", metrics)
+    if base.document is None:
+        hint = f"record it with {update_hint(case)}"
+        return CheckResult(case, Status.MISSING, f"case {case.name}: no baseline {base.path}; {hint}", metrics)
+    exact = same_environment(base.document.get("environment", {}), environment())
+    differs = tuple(definition_changes(base.document.get("case", {}), case))
+    changes = tuple(compare(case.name, metrics, base.document["metrics"], tolerances, exact=exact))
+    failed = [c for c in changes if c.failed]
+    if not (failed or differs):
+        return CheckResult(case, Status.PASS, "", metrics, changes, exact)
+    what = [f"its definition differs from its baseline's: {', '.join(differs)}"] if differs else []
+    if failed:
+        moved = ", ".join(f"{c.metric} {c.status} ({c.baseline:.6g} -> {c.value:.6g})" for c in failed)
+        what.append(f"{moved} [{'bit for bit' if exact else 'with tolerances'}]")
+    message = f"case {case.name}: {'; '.join(what)}; if intended, record it with {update_hint(case)}"
+    return CheckResult(case, Status.FAIL, message, metrics, changes, exact, differs)
+
+
+def check_case(
+    case: Case,
+    baseline_dir: Path,
+    tolerances: dict[str, Tolerance] | None = None,
+    baseline: Baseline | None = None,
+) -> CheckResult:
     """Run a case (twice, for determinism) and compare it with its baseline.
 
     Args:
@@ -637,6 +773,7 @@ def check_case(case: Case, baseline_dir: Path, tolerances: dict[str, Tolerance] 
         baseline_dir: Directory of the baselines (``<case name>.json``).
         tolerances: Metric -> tolerance against a baseline of another environment (default:
             ``DEFAULT_TOLERANCES``).
+        baseline: The case's baseline as read already (:func:`read_baselines`); None: read it here.
     """
     tolerances = tolerances if tolerances is not None else DEFAULT_TOLERANCES
     try:
@@ -646,25 +783,15 @@ def check_case(case: Case, baseline_dir: Path, tolerances: dict[str, Tolerance] 
     except NhsimError as exc:
         msg = str(exc) if case.name in str(exc) else f"case {case.name}: {exc}"
         return CheckResult(case, Status.ERROR, msg)
-    path = baseline_path(case, baseline_dir)
-    base = read_baseline(path)
-    if base is None:
-        hint = f"record it with nhsim regress --update --case {case.name}"
-        return CheckResult(case, Status.MISSING, f"case {case.name}: no baseline {path}; {hint}", metrics)
-    exact = same_environment(base.get("environment", {}), environment())
-    changes = tuple(compare(case.name, metrics, base["metrics"], tolerances, exact=exact))
-    failed = [c for c in changes if c.failed]
-    if failed:
-        what = ", ".join(f"{c.metric} {c.status} ({c.baseline:.6g} -> {c.value:.6g})" for c in failed)
-        mode = "bit for bit" if exact else "with tolerances"
-        hint = "; if intended, record it with nhsim regress --update --case " + case.name
-        return CheckResult(case, Status.FAIL, f"case {case.name}: {what} [{mode}]{hint}", metrics, changes, exact)
-    return CheckResult(case, Status.PASS, "", metrics, changes, exact)
+    base = baseline if baseline is not None else Baseline.read(baseline_path(case, baseline_dir))
+    return judge(case, metrics, base, tolerances)
 
 
-def check_task(shared: tuple[Path, dict[str, Tolerance] | None], case: Case) -> CheckResult:
-    """:func:`check_case` as an executor's task: ``shared`` is (baseline folder, tolerances)."""
-    return check_case(case, *shared)
+def check_task(shared: tuple[Path, dict[str, Tolerance] | None, Mapping[str, Baseline]], case: Case) -> CheckResult:
+    """:func:`check_case` as an executor's task: ``shared`` is (baseline folder, tolerances, the baselines
+    read by case name), so that a task reads no file."""
+    baseline_dir, tolerances, baselines = shared
+    return check_case(case, baseline_dir, tolerances, baselines[case.name])
 
 
 def baseline_document(case: Case, metrics: dict[str, Any]) -> dict[str, Any]:

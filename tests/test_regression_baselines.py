@@ -1,0 +1,196 @@
+"""The regression suite's baselines: unreadable ones, the case definition they record, gains files, the report."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+import sim.cli.regress as cli
+import sim.tools.regress as regress
+from control.fbl import FBLGains
+from planning.errors import ConfigError
+from sim.cli.main import main
+from sim.pipeline.case import Case
+from sim.tools.regress import Change, CheckResult, Status, load_suite
+
+#: Two quick cases (a planted one and another) and their common fields.
+FIELDS = 'scenario = "open", robot = "turtlebot3", tracker = "fbl", seed = 0, fast = true'
+
+
+def _suite(folder: Path, planted: str = "", *, other: bool = True) -> Path:
+    """A suite of the case "planted" (``planted``: more fields) and, with ``other``, the case "other"."""
+    lines = [f'  {{ name = "planted", reference = "circle", {FIELDS}{planted} }},']
+    if other:
+        lines.append(f'  {{ name = "other", reference = "line", {FIELDS} }},')
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "suite.toml"
+    path.write_text("cases = [\n" + "\n".join(lines) + "\n]\n")
+    return path
+
+
+def _regress(suite: Path, baselines: Path, *extra: str) -> int:
+    return main(["regress", "--suite", str(suite), "--baselines", str(baselines), *extra])
+
+
+@pytest.mark.parametrize(
+    ("text", "problem"),
+    [
+        ('{"metrics": ', "not JSON"),
+        ("{}", "no metrics table"),
+        ("[1]", "a JSON list, not an object"),
+        ('{"metrics": {"collisions": "none"}}', "metric(s) collisions not a number"),
+        ('{"metrics": {}, "case": 3}', "its case not a table"),
+    ],
+)
+def test_a_file_that_is_not_a_baseline_is_read_as_its_problem(tmp_path: Path, text: str, problem: str) -> None:
+    path = tmp_path / "x.json"
+    path.write_text(text)
+    read = regress.Baseline.read(path)
+    assert read.document is None and read.problem.startswith(problem)
+    assert regress.Baseline.read(tmp_path / "none.json") == regress.Baseline(tmp_path / "none.json")
+
+
+def test_an_unreadable_baseline_fails_its_case_alone_and_update_replaces_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    suite, bl = _suite(tmp_path), tmp_path / "bl"
+    assert _regress(suite, bl, "--update") == 0
+    (bl / "planted.json").write_text('{"metrics": ')
+    capsys.readouterr()
+
+    assert _regress(suite, bl) == 1  # the case's failure, not the run's (exit 2)
+    out, err = capsys.readouterr()
+    assert "UNREADABLE       planted\n" in out and "PASS             other (bit for bit)" in out
+    assert "1 passed, 1 failed of 2 case(s)" in out
+    hint = f"rewrite it with nhsim regress --update --suite {suite} --baselines {bl} --case planted"
+    assert f"baseline {bl / 'planted.json'} is unreadable (not JSON: " in err and err.rstrip().endswith(hint)
+    assert "Traceback" not in err
+
+    assert _regress(suite, bl, "--update", "--case", "planted") == 0  # the command the hint gives
+    out = capsys.readouterr().out
+    assert f"replaced unreadable baseline {bl / 'planted.json'} (not JSON: " in out
+    assert _regress(suite, bl) == 0
+
+
+def test_an_unreadable_baseline_is_read_before_the_workers_run(
+    tmp_path: Path, capfd: pytest.CaptureFixture[str]
+) -> None:
+    suite, bl = _suite(tmp_path, other=False), tmp_path / "bl"
+    bl.mkdir()
+    (bl / "planted.json").write_text("{}")
+    code = _regress(suite, bl, "--jobs", "2")
+    out, err = capfd.readouterr()
+    assert code == 1, (out, err)
+    assert "UNREADABLE       planted" in out and "is unreadable (no metrics table)" in err, (out, err)
+    assert "Compute Failed" not in err and "ConfigError" not in err, err
+
+
+def test_the_baseline_records_the_case_definition_and_a_change_of_it_is_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    suite, bl = _suite(tmp_path, other=False), tmp_path / "bl"
+    assert _regress(suite, bl, "--update") == 0
+    recorded = json.loads((bl / "planted.json").read_text())["case"]
+    assert {k: recorded[k] for k in ("build_seed", "sensors", "localiser", "xi_min")} == {
+        "build_seed": 1,
+        "sensors": "",
+        "localiser": "fixes",
+        "xi_min": None,
+    }
+    capsys.readouterr()
+
+    moved = _suite(tmp_path, ", build_seed = 5", other=False)
+    assert _regress(moved, bl) == 1
+    out, err = capsys.readouterr()
+    assert "FAIL             planted (case differs: build_seed 1 -> 5; moved: " in out
+    assert "its definition differs from its baseline's: build_seed 1 -> 5;" in err
+    assert _regress(moved, bl, "--update") == 0
+    assert "case build_seed 1 -> 5" in capsys.readouterr().out
+
+
+def test_an_older_baseline_is_compared_on_the_fields_it_records(tmp_path: Path) -> None:
+    suite, bl = _suite(tmp_path, ', build_seed = 5, sensors = "fix_rate=10"', other=False), tmp_path / "bl"
+    assert _regress(suite, bl, "--update") == 0
+    path = bl / "planted.json"
+    doc = json.loads(path.read_text())
+    for key in ("build_seed", "sensors", "localiser", "xi_min"):  # as recorded before these were
+        del doc["case"][key]
+    path.write_text(json.dumps(doc))
+    outcome = regress.check_case(load_suite(suite).cases[0], bl)
+    assert outcome.ok and outcome.differs == (), outcome.message
+    case = load_suite(_suite(tmp_path, other=False)).cases[0]
+    assert regress.definition_changes(doc["case"], case) == []  # what it does not record, it cannot tell
+
+
+def _gains_file(folder: Path, xi_min: float) -> Path:
+    path = folder / "gains" / "tuned.toml"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(f"[gains]\nkp = 8.5\nkd = 2.25\nxi_min = {xi_min}\n[provenance]\nstudy = 'x'\n")
+    return path
+
+
+def test_a_case_takes_a_gains_file_relative_to_the_suite_and_records_its_values(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    gains = _gains_file(tmp_path, 0.0175)
+    suite, bl = _suite(tmp_path, ', gains = "gains/tuned.toml"', other=False), tmp_path / "bl"
+    assert load_suite(suite).cases[0].gains == FBLGains(8.5, 2.25, 0.0175)
+    absolute = _suite(tmp_path / "elsewhere", f", gains = {json.dumps(str(gains))}", other=False)
+    assert load_suite(absolute).cases[0].gains == FBLGains(8.5, 2.25, 0.0175)
+    assert _regress(suite, bl, "--update") == 0
+    recorded = json.loads((bl / "planted.json").read_text())["case"]
+    assert (recorded["gains"], recorded["xi_min"]) == ([8.5, 2.25], 0.0175)
+    capsys.readouterr()
+
+    _gains_file(tmp_path, 0.5)  # the file edited: the case changed
+    assert _regress(suite, bl) == 1
+    assert "case differs: xi_min 0.0175 -> 0.5" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("bad", "says"),
+    [
+        ('gains = "9"', "neither 'KP,KD' (e.g. 9,6) nor an existing gains file"),
+        ('gains = "none.toml"', "cannot read gains file {folder}/none.toml"),
+        ('perturb = "mas=1"', "unknown key 'mas'"),
+    ],
+)
+def test_a_bad_field_names_the_case_by_its_name(tmp_path: Path, bad: str, says: str) -> None:
+    path = tmp_path / "suite.toml"
+    path.write_text(
+        f'cases = [{{ scenario = "open", robot = "edumip", planner = "sinusoidal", tracker = "segmented", '
+        f"seed = 977, control_rate = 50, {bad} }}]\n"
+    )
+    with pytest.raises(ConfigError) as err:
+        load_suite(path)
+    name = "open-edumip-plan-sinusoidal-segmented-s977"  # not open-edumip-sinusoidal-segmented
+    assert str(err.value).startswith(f"{path} case 1 ({name}): {bad}: {says.format(folder=tmp_path)}"), err.value
+
+
+def _change(case: str, metric: str, failed: bool = True) -> Change:
+    return Change(case, metric, 1.0, 2.0, 0.0, "regressed" if failed else "within")
+
+
+def test_the_report_says_what_was_compared_and_what_moved() -> None:
+    case = Case("open", reference="line", name="c")
+    missing = [CheckResult(case, Status.MISSING, "no baseline"), CheckResult(case, Status.UNREADABLE, "bad")]
+    assert cli.nothing_moved(missing) == "no metric compared: none of the 2 case(s) has a baseline it was compared with"
+    passed = CheckResult(case, Status.PASS)
+    assert cli.nothing_moved([passed, *missing]) == "no metric moved in the 1 case(s) compared; 2 not compared"
+    assert passed.summary == "bit for bit"
+    assert CheckResult(case, Status.PASS, exact=False).summary == "within tolerances"
+    changes = (_change("c", "rms_position_error_m"), _change("c", "collisions", failed=False))
+    assert CheckResult(case, Status.FAIL, changes=changes).summary == "moved: rms_position_error_m"
+    fail = CheckResult(case, Status.FAIL, changes=changes, exact=False, differs=("seed 0 -> 1",))
+    assert fail.summary == "case differs: seed 0 -> 1; beyond tolerances: rms_position_error_m"
+    assert missing[0].summary == ""
+
+
+def test_the_table_of_moves_stays_aligned_with_long_names() -> None:
+    long = "random977-edumip-balancing-plan-hybrid-a-star-segmented-s977"  # longer than 40
+    lines = cli.format_changes([_change(long, "estimation_heading_rmse_rad"), _change("c", "fell")]).splitlines()
+    head, rows = lines[0], lines[2:]
+    assert rows[0].index("estimation_heading_rmse_rad") == rows[1].index("fell") == head.index("metric")
+    assert rows[0].index("regressed") == rows[1].index("regressed") == head.index("status")
