@@ -203,3 +203,21 @@ def test_the_references_tracker_on_a_plan_is_said_to_regulate_no_heading() -> No
     assert note.startswith("fbl tracks the position along a smooth reference") and "segmented is the tracker" in note
     assert plan_notes(plan, ["segmented", "mpc"]) == []
     assert plan_notes(Case("open", reference="figure8"), ["fbl", "segmented"]) == []
+
+
+def test_a_gains_file_given_to_params_is_named_as_one(tmp_path: Path) -> None:
+    """``--params`` a gains file (tune's .toml) said only "cannot read it as JSON"."""
+    gains = tmp_path / "u.toml"
+    gains.write_text('[gains]\nkp = 9.0\nkd = 6.0\nxi_min = 0.02\n\n[provenance]\nstudy = "s"\n')
+    with pytest.raises(ConfigError, match=r"this is a gains file \(FBL gains, for --gains: 'nhsim simulate --gains "):
+        load_params([gains])
+    (tmp_path / "u.json").write_text(json.dumps({"tracker": "fbl", "params": {"kp": 9.0}}))
+    with pytest.raises(
+        ConfigError, match=rf"--params takes the JSON record 'nhsim tune' writes with it: {tmp_path}/u\.json"
+    ):
+        load_params([gains])
+    other = tmp_path / "notes.txt"
+    other.write_text("not json")
+    with pytest.raises(ConfigError, match=r"cannot read it as JSON") as caught:
+        load_params([other])
+    assert "gains file" not in str(caught.value)

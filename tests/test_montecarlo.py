@@ -430,3 +430,37 @@ def test_plan_options_for_a_study_that_plans_nothing_are_refused(capsys: pytest.
     argv = ["montecarlo", "--scenario", "open", "--reference", "line", "--runs", "1", "--jobs", "1"]
     assert main([*argv, "--time-limit", "5", "--replan"]) == 2
     assert "--time-limit, --replan are for a planned study, and this one plans nothing" in capsys.readouterr().err
+
+
+def test_the_robot_and_localiser_left_to_the_scenario_are_the_study_that_names_them(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """open's own robot is the TurtleBot3, whose own localiser is amcl: the study that leaves them unsaid is
+    the one that names them (resuming it without --robot was refused: "robot: 'turtlebot3' there, None
+    here"), by its default outputs too; and the results an earlier nhsim keyed so (robot None, no
+    localiser) are this study's."""
+    import hashlib
+
+    monkeypatch.chdir(tmp_path)
+    base = ["montecarlo", "--scenario", "open", "--reference", "line", "--runs", "1", "--jobs", "1", "--quiet"]
+    base += ["--no-plots"]
+    assert main([*base, "--robot", "turtlebot3", "--localiser", "amcl"]) == 0
+    (results,) = Path("renders").glob("*.jsonl")
+    assert main(base) == 0  # resumed: nothing to run
+    summary = results.with_suffix(".json")
+    record = json.loads(summary.read_text())
+    assert list(Path("renders").glob("*.jsonl")) == [results] and record["ran_now"] == 0
+    assert record["key"]["robot"] == "turtlebot3" and record["key"]["localiser"] == "amcl"
+    lines = results.read_text().splitlines(keepends=True)
+    header = json.loads(lines[0])
+    earlier = {k: v for k, v in header["key"].items() if k != "localiser"} | {"robot": None}
+    tag = hashlib.sha1(json.dumps(earlier, sort_keys=True).encode()).hexdigest()[:6]
+    old = results.with_name(f"{results.name.rsplit('-', 1)[0]}-{tag}.jsonl")
+    old.write_text(json.dumps({**header, "key": earlier}) + "\n" + "".join(lines[1:]))
+    old.with_suffix(".json").write_text(json.dumps({**record, "key": earlier}))
+    results.unlink()
+    summary.unlink()
+    assert main(base) == 0  # found where the earlier nhsim put it, and resumed
+    assert json.loads(old.with_suffix(".json").read_text())["ran_now"] == 0 and not results.exists()
+    assert main([*base, "--results", str(old), "--json", "again.json", "--robot", "turtlebot3"]) == 0
+    assert json.loads(Path("again.json").read_text())["ran_now"] == 0

@@ -164,3 +164,15 @@ def test_a_timed_perturbation_outside_the_run_is_refused(
     err = capsys.readouterr().err
     assert "push=0.9@250 comes at 250 s, but the run lasts" in err and "Traceback" not in err
     assert not list(Path(".").rglob("*.json"))
+
+
+def test_an_unknown_range_key_is_named_with_the_closest_key_and_a_range_example() -> None:
+    """``--perturb-range fricton=0.5:1.5`` said only "expected comma-separated key=value ..." with the single
+    values of a --perturb example."""
+    with pytest.raises(ConfigError) as caught:
+        PerturbationRange.parse("fricton=0.5:1.5")
+    message = str(caught.value)
+    assert "unknown key 'fricton' (did you mean 'friction'?)" in message
+    assert "key=lo:hi" in message and "(e.g. friction=0.5:1.5,latency=0:0.04)" in message
+    with pytest.raises(ConfigError, match=r"unknown key 'zzz'; expected comma-separated key=value with keys friction"):
+        Perturbation.parse("zzz=1")  # nothing close: no guess

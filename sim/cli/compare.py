@@ -59,7 +59,12 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument(
         "--time-limit", type=float, default=limit, metavar="S", help=f"planning budget (default: {limit:g} s)"
     )
-    p.add_argument("--params", default=None, metavar="FILE[,FILE]", help="tuned parameters (JSON)")
+    p.add_argument(
+        "--params",
+        default=None,
+        metavar="FILE[,FILE]",
+        help="tuned parameters: the JSON record 'nhsim tune' writes (its .json, not the .toml gains file)",
+    )
     p.add_argument("--json", default=None, metavar="PATH", help="write the record here")
     p.add_argument(
         "--plots",

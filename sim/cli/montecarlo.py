@@ -137,13 +137,19 @@ def _spec(args: argparse.Namespace) -> Any:
     return MonteCarloSpec(case, args.runs, ranges, replan=args.replan)
 
 
-def _paths(args: argparse.Namespace, spec: Any, scenario: str, robot: str, own_robot: str) -> dict[str, Path]:
+def _paths(args: argparse.Namespace, spec: Any, scenario: str) -> dict[str, Path]:
+    """The study's outputs; by default named by its key, or by a key an earlier nhsim gave the same study
+    (:meth:`MonteCarloSpec.earlier_keys`) when only that one's results file exists (resumed where it is)."""
     from sim.cli.job_outputs import file_safe
 
-    key = spec.key()
-    tag = hashlib.sha1(json.dumps(key, sort_keys=True).encode()).hexdigest()[:6]
+    key, robot, own_robot = spec.key(), spec.defaults["robot"], spec.defaults["own_robot"]
     source = Path(key["source"].split(":", 1)[1]).stem or "default"  # a file's stem, not its path
-    stem = f"{file_safe(scenario)}-{file_safe(source)}" + (f"-{robot}" if robot != own_robot else "") + f"-mc-{tag}"
+    start = f"{file_safe(scenario)}-{file_safe(source)}" + (f"-{robot}" if robot != own_robot else "") + "-mc-"
+    stems = [
+        start + hashlib.sha1(json.dumps(k, sort_keys=True).encode()).hexdigest()[:6]
+        for k in (key, *spec.earlier_keys())
+    ]
+    stem = next((s for s in stems if (DEFAULT_DIR / f"{s}.jsonl").exists()), stems[0])
     out = {"results": args.results or DEFAULT_DIR / f"{stem}.jsonl", "json": args.json or DEFAULT_DIR / f"{stem}.json"}
     if args.plots:
         base = out["json"]
@@ -151,8 +157,9 @@ def _paths(args: argparse.Namespace, spec: Any, scenario: str, robot: str, own_r
     return out
 
 
-def _check_outputs(paths: dict[str, Path], key: dict[str, Any], overwrite: bool) -> None:
-    """Every output can be written; existing ones must be this study's own (its summary names the key)."""
+def _check_outputs(paths: dict[str, Path], keys: list[dict[str, Any]], overwrite: bool) -> None:
+    """Every output can be written; existing ones must be this study's own (its summary names one of its
+    ``keys``: the key, or one an earlier nhsim gave it)."""
     from sim.outputs import check_distinct, check_writable
 
     check_distinct(paths.values())
@@ -160,7 +167,7 @@ def _check_outputs(paths: dict[str, Path], key: dict[str, Any], overwrite: bool)
     own = False
     if summary.exists():
         try:
-            own = json.loads(summary.read_text(encoding="utf-8")).get("key") == key
+            own = json.loads(summary.read_text(encoding="utf-8")).get("key") in keys
         except (OSError, ValueError, AttributeError):
             own = False
     for name, path in paths.items():
@@ -240,16 +247,12 @@ def run(args: argparse.Namespace) -> int:
     worker_count(args.jobs, args.scheduler)
     spec = _spec(args)
     scenario = load_case_scenario(spec.case)  # unknown scenario, a robot it does not list: stop here
-    from planning.scenario import load_scenario
-
-    sc = spec.case.scenario
-    own_robot = load_scenario(sc).robot if isinstance(sc, str) else sc.robot
-    paths = _paths(args, spec, scenario.name, scenario.robot, own_robot)
-    _check_outputs(paths, spec.key(), args.overwrite)
+    paths = _paths(args, spec, scenario.name)
+    _check_outputs(paths, [spec.key(), *spec.earlier_keys()], args.overwrite)
     if args.bags is not None:
         _check_bags(args.bags, args.overwrite)
     try:
-        results = ResultsFile(paths["results"], spec.key())
+        results = ResultsFile(paths["results"], spec.key(), spec.earlier_keys())
     except ConfigError:
         if not args.overwrite:  # another study's runs, or not a results file: kept
             raise

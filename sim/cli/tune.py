@@ -37,8 +37,10 @@ The study is kept in an SQLAlchemy storage (default sqlite:///renders/tune-<stud
 the same command resumes it: completed trials count toward --trials and are never repeated, a trial
 a killed worker left running is failed once its heartbeat has been silent for {GRACE_PERIOD} s and its gains
 are evaluated afresh, and the outputs the study wrote before are updated (an existing output that
-names another study, or none, is replaced only with --overwrite); a rerun with other cases, draws
-(--draws, --seed, --robust, --perturb-range) or weights is refused. Any
+names another study, or none, is replaced only with --overwrite); a trial stopped by Ctrl-C or SIGTERM
+is run again, so the resumed study ends as one never interrupted; a rerun with other cases, draws
+(--draws, --seed, --robust, --perturb-range), weights or localiser is refused. Left out, --localiser is
+the robots' own (amcl for the TurtleBot3), and the study is the one that names it. Any
 SQLAlchemy URL works (e.g. postgresql://user:pass@host/db), so workers on several machines can run
 the same command against one study; --jobs runs local worker processes. The default gains are
 always the study's first trial.
@@ -59,10 +61,12 @@ horizon); its defaults are the first trial, the record carries "tracker" and "pa
 When the tuned gains score worse than the defaults on the held-out draws, the command says so, writes
 the DEFAULT gains to the gains file (the DEFAULT parameters to the record, for a tracker without a
 gains file; the provenance names the tuned gains that lost and their held-out numbers) and exits 1.
+When no trial beat the defaults, the held-out draws run them once and the provenance says
+recommended = "default" (the defaults were best).
 
 Exit status: 0 done, 1 the tuned gains lost to the defaults on held-out draws (the defaults were
 written), 2 bad input (nothing written), 130 interrupted (the study keeps every completed trial;
-rerun the command to resume)."""
+rerun the command to resume: the interrupted trial's gains run again)."""
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
@@ -362,9 +366,41 @@ class TuneFiles:
         return {k: stamp[k] for k in ("study", "storage")}
 
 
-def tune_files(args: argparse.Namespace, tokens: list[str]) -> TuneFiles:
+def _default_study(args: argparse.Namespace, tokens: list[str], localiser: str | None) -> tuple[str, str]:
+    """The default study name and storage: named by the cases and the settings, ``localiser`` the one the
+    cases run on (:func:`default_study_name`); or the name an nhsim that did not name the robots' default
+    localiser gave the same study, when the storage holds a study of that name and none of this one (it
+    is resumed where it is)."""
+
+    def named(localiser: str | None) -> tuple[str, str]:
+        name = default_study_name(tokens, args.robot, args.robust, getattr(args, "tracker", "fbl"), localiser)
+        return name, args.storage or f"sqlite:///renders/tune-{name}.db"
+
+    now, earlier = named(localiser), named(getattr(args, "localiser", None))
+    return earlier if earlier != now and _holds(*earlier) and not _holds(*now) else now
+
+
+def _holds(study: str, storage: str) -> bool:
+    """Whether ``storage`` holds a study named ``study`` (an SQLite file that is not there is not opened:
+    that would make it)."""
+    import optuna
+
+    if storage.startswith("sqlite:///") and not Path(storage.removeprefix("sqlite:///")).is_file():
+        return False
+    try:
+        return study in optuna.get_all_study_names(storage)
+    except Exception:  # a storage that cannot be opened: load_study says why
+        return False
+
+
+def tune_files(args: argparse.Namespace, tokens: list[str], localiser: str | None = None) -> TuneFiles:
     """Decide the study name, its storage and the output files, and check none would be replaced
     unless it is an output of this same study (a resumed study updates its own outputs).
+
+    Args:
+        args: The command's options.
+        tokens: The cases, as --scenarios gives them.
+        localiser: The localiser every case runs on (given, or the robots' default); None: each its robot's.
 
     Raises:
         OutputExistsError: An output exists, is not this study's, and --overwrite was not given.
@@ -373,13 +409,11 @@ def tune_files(args: argparse.Namespace, tokens: list[str]) -> TuneFiles:
     from sim.outputs import check_writable
     from sim.tools.tune import check_storage
 
-    study = args.study or default_study_name(
-        tokens, args.robot, args.robust, getattr(args, "tracker", "fbl"), getattr(args, "localiser", None)
-    )
+    study, storage = (args.study, args.storage) if args.study else _default_study(args, tokens, localiser)
     gains = args.out or Path("renders") / f"tune-{study}.toml"
     files = TuneFiles(
         study,
-        args.storage or f"sqlite:///renders/tune-{study}.db",
+        storage or f"sqlite:///renders/tune-{study}.db",
         gains,
         args.plots / f"tune-{study}-history.png",
         args.plots / f"tune-{study}-importance.png",
@@ -429,7 +463,6 @@ def _tokens(args: argparse.Namespace) -> list[str]:
 def run(args: argparse.Namespace) -> int:
     """Execute ``tune``."""
     from sim.physics.perturb import PerturbationRange
-    from sim.pipeline.case import Case
     from sim.tools.tune import TuneSpec, make_draws
 
     tokens = _tokens(args)
@@ -454,13 +487,11 @@ def run(args: argparse.Namespace) -> int:
             f"is tuned by its {cls.__name__}, which go to the JSON record only: leave --out out and give "
             "--json FILE (read by 'nhsim compare --params FILE')"
         )
-    fields_ = {"robot": args.robot, "seed": args.seed, "control_rate": args.control_rate, "tracker": tracker}
-    fields_ |= localiser_fields(args)
-    cases = tuple(Case.parse(t, **fields_) for t in tokens)
+    cases, default = _cases(args, tokens, tracker)
     prange = PerturbationRange.parse(args.perturb_range) if args.perturb_range else PerturbationRange()
     if args.perturb_range and not args.robust:
         raise ConfigError("--perturb-range is used by --robust only; add --robust, or leave --perturb-range out")
-    files = tune_files(args, tokens)
+    files = tune_files(args, tokens, cases[0].localiser)
     perturbations = prange if args.robust else None
     spec = TuneSpec(
         cases,
@@ -474,6 +505,7 @@ def run(args: argparse.Namespace) -> int:
         extra_settings={"robust": args.robust, "control_rate": args.control_rate, "robot": args.robot}
         | cases[0].localiser_options(),  # every case has the same
         tracker="" if tracker == "fbl" else tracker,  # the FBL's studies keep their settings (resumable)
+        defaulted=("localiser",) if default is not None and cases[0].localiser == default else (),
     )
     evaluator = spec.evaluator()
     evaluator.prepared()  # cases are built (and checked) before anything is written
@@ -485,6 +517,26 @@ def run(args: argparse.Namespace) -> int:
     comparison = _held_out(evaluator, held_out, best)
     lost = _write_outputs(args, files, spec, study, best, default_obj, comparison)
     return 1 if lost else 0
+
+
+def _cases(args: argparse.Namespace, tokens: list[str], tracker: str) -> tuple[tuple[Any, ...], str | None]:
+    """The cases, and the localiser their robots run on by default (None when the robots' defaults differ).
+
+    Each case runs on the localiser given or, with none given, on that default, named: a study left to the
+    robots' localiser is the study that names it (its name, its settings). Cases whose robots' defaults
+    differ each keep their robot's.
+    """
+    from dataclasses import replace
+
+    from sim.pipeline.case import Case
+    from sim.tools.tune import robot_localiser
+
+    fields_ = {"robot": args.robot, "seed": args.seed, "control_rate": args.control_rate, "tracker": tracker}
+    cases = tuple(Case.parse(t, **fields_ | localiser_fields(args)) for t in tokens)
+    defaults = {robot_localiser(c) for c in cases}
+    default = defaults.pop() if len(defaults) == 1 else None
+    localiser = args.localiser or default
+    return (tuple(replace(c, localiser=localiser) for c in cases) if localiser else cases), default
 
 
 def _optimise(args: argparse.Namespace, spec: Any) -> Any:
@@ -524,20 +576,40 @@ def _optimise(args: argparse.Namespace, spec: Any) -> Any:
     return study
 
 
-def _not_interrupted(record: logging.LogRecord) -> bool:
-    """Drop Optuna's report of a trial stopped by Ctrl-C or SIGTERM (with its traceback): the command
-    says "interrupted", and the trial is kept as failed in the study."""
-    exc = record.exc_info[1] if record.exc_info else None
-    return not isinstance(exc, KeyboardInterrupt) and "KeyboardInterrupt" not in record.getMessage()
+class _NotInterrupted(logging.Filter):
+    """Drops Optuna's report of a trial stopped by Ctrl-C or SIGTERM: its "Trial N failed with parameters
+    ... KeyboardInterrupt()" (with the traceback) and the "Trial N failed with value None." that follows
+    it. The command says "interrupted", and a resumed study runs the trial's gains again."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.stopped: set[str] = set()  # numbers of the trials whose first report was dropped
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        message = record.getMessage()
+        number = re.match(r"Trial (\d+) failed with", message)
+        exc = record.exc_info[1] if record.exc_info else None
+        if isinstance(exc, KeyboardInterrupt) or "KeyboardInterrupt" in message:
+            if number:
+                self.stopped.add(number.group(1))
+            return False
+        return not (number and number.group(1) in self.stopped and message.startswith(f"{number.group(0)} value"))
+
+
+_not_interrupted = _NotInterrupted()
 
 
 def _settle(study: Any, quiet: bool) -> None:
-    """Before counting what is left: fail the trials a killed worker left running (their gains are
-    enqueued again) and say so; a live worker's running trials are left to it."""
+    """Before counting what is left: enqueue again the gains of the trials an interrupt stopped, fail the
+    trials a killed worker left running (their gains are enqueued again) and say so; a live worker's
+    running trials are left to it."""
     from optuna.trial import TrialState
 
     from sim.tools import tune
 
+    requeued = tune.requeue_interrupted(study)
+    if requeued and not quiet:
+        print(f"trials {_numbers(requeued)} were interrupted: their gains are enqueued again", file=sys.stderr)
     running = [t.number for t in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,))]
     if not running:
         return
@@ -591,7 +663,8 @@ def _held_out(evaluator: Any, draws: tuple[Any, ...], best: Any) -> Any:
     ratio = c.ratios()
     print(f"held-out runs: {c.tuned.runs} ({len(draws)} draws per case: builds and sensor noise no trial met)")
     print(f"{'gains':<14} {'objective [m]':>14} {'rms [m]':>10} {'final [m]':>10} {'saturation':>11} {'failed':>7}")
-    for label, r in (("default", c.default), ("tuned", c.tuned)):
+    rows = [("default", c.default)] if c.defaults_best else [("default", c.default), ("tuned", c.tuned)]
+    for label, r in rows:  # the defaults were best: they ran once, nothing to set them against
         print(
             f"{label:<14} {r.objective:>14.6f} {r.rms_m:>10.6f} {r.final_m:>10.6f} {r.saturation:>11.4f} "
             f"{r.failures:>7d}"
@@ -599,10 +672,11 @@ def _held_out(evaluator: Any, draws: tuple[Any, ...], best: Any) -> Any:
     cells = [
         f"{ratio[k]:.3f}x" if math.isfinite(ratio[k]) else "-" for k in ("objective", "rms", "final", "saturation")
     ]
-    print(
-        f"{'tuned/default':<14} {cells[0]:>14} {cells[1]:>10} {cells[2]:>10} {cells[3]:>11} "
-        f"{c.tuned.failures - c.default.failures:>+7d}"
-    )
+    if not c.defaults_best:
+        print(
+            f"{'tuned/default':<14} {cells[0]:>14} {cells[1]:>10} {cells[2]:>10} {cells[3]:>11} "
+            f"{c.tuned.failures - c.default.failures:>+7d}"
+        )
     print(c.verdict())
     return c
 
@@ -653,7 +727,7 @@ def _write_outputs(
         "robust": args.robust,
         "saturation_weight": args.saturation_weight,
         "control_rate_hz": args.control_rate,
-        "localiser": args.localiser or "robot default",
+        "localiser": spec.cases[0].localiser or "each robot's default",
         **{k: v for k, v in spec.cases[0].localiser_options().items() if k != "localiser"},
     }
     held_out = None if comparison is None else comparison.as_dict()
@@ -681,15 +755,15 @@ def _write_outputs(
     print("wrote " + ", ".join([*map(str, written), *plots]))
     if verdict["recommended"] == "default":  # in the gains file, or else in the record's "params"
         print(f"{verdict['note']}: wrote the default {type(gains).__name__} to {written[0]}", file=sys.stderr)
-    return verdict["recommended"] == "default"
+    return "tuned_gains" in verdict  # the tuned gains lost on held-out robots (not: no trial beat the defaults)
 
 
 def recommendation(best: Any, comparison: Any, tracker: str = "") -> tuple[Any, dict[str, Any]]:
     """The gains to write, and provenance saying which gains they are and why.
 
-    The tuned gains are recommended unless the held-out comparison finds the defaults better; then
-    the default gains are, and the provenance keeps the tuned gains that lost and their held-out
-    objective against the defaults'.
+    The tuned gains are recommended unless they are the defaults (no trial beat them) or the held-out
+    comparison finds the defaults better; then the default gains are, and in the second case the
+    provenance keeps the tuned gains that lost and their held-out objective against the defaults'.
 
     Args:
         best: The study's best trial.
@@ -697,13 +771,17 @@ def recommendation(best: Any, comparison: Any, tracker: str = "") -> tuple[Any, 
         tracker: The tuned tracker ("": the FBL gains).
 
     Returns:
-        (gains, provenance entries: ``recommended`` "tuned" or "default", and when "default" also
-        ``tuned_gains``, ``tuned_held_out_objective``, ``default_held_out_objective`` [m] and ``note``).
+        (gains, provenance entries: ``recommended`` "tuned" or "default", with a ``note`` when "default",
+        and when the tuned gains lost also ``tuned_gains``, ``tuned_held_out_objective`` and
+        ``default_held_out_objective`` [m]).
     """
     from sim.tools.tune import gains_of, tuned_space
 
     tuned = gains_of(best, tracker)
     if comparison is None or comparison.better != "default":
+        if tuned == tuned_space(tracker)[0]():
+            note = f"the defaults were best (trial #{best.number}): no trial beat them on the trial draws"
+            return tuned, {"recommended": "default", "note": note}
         return tuned, {"recommended": "tuned"}
     t, d = comparison.tuned.objective, comparison.default.objective
     note = (

@@ -8,12 +8,13 @@ what is expected. A number's range is checked by :func:`planning.core.checks.che
 
 from __future__ import annotations
 
+import difflib
 from collections.abc import Iterable
 
 from planning.errors import ConfigError
 
 
-def parse_pairs(text: str, what: str, keys: Iterable[str], example: str) -> dict[str, str]:
+def parse_pairs(text: str, what: str, keys: Iterable[str], example: str, form: str = "key=value") -> dict[str, str]:
     """Split ``key=value,...`` into a dict of stripped strings (empty parts are skipped).
 
     Args:
@@ -22,12 +23,14 @@ def parse_pairs(text: str, what: str, keys: Iterable[str], example: str) -> dict
             (:func:`planning.errors.option`).
         keys: The keys allowed.
         example: A valid text, quoted in the message when a part is malformed.
+        form: How a part is written, as the message says it (e.g. ``key=lo:hi`` for ranges).
 
     Returns:
         Key -> value text, in the order given.
 
     Raises:
-        ConfigError: A part without ``=``, an unknown key or a key given twice.
+        ConfigError: A part without ``=``, an unknown key (named, with the allowed key it is closest to) or a
+            key given twice.
     """
     allowed = list(keys)
     out: dict[str, str] = {}
@@ -38,8 +41,9 @@ def parse_pairs(text: str, what: str, keys: Iterable[str], example: str) -> dict
         key, sep, value = part.partition("=")
         key = key.strip()
         if not sep or key not in allowed:
+            unknown = f"unknown key {key!r}{did_you_mean(key, allowed)}; " if sep else ""
             raise ConfigError(
-                f"{what}: expected comma-separated key=value with keys {', '.join(allowed)} "
+                f"{what}: {unknown}expected comma-separated {form} with keys {', '.join(allowed)} "
                 f"(e.g. {example}), got {part!r}"
             )
         if key in out:
@@ -54,3 +58,9 @@ def parse_number(text: str, key: str, what: str) -> float:
         return float(text)
     except ValueError as exc:
         raise ConfigError(f"{what}: {key} must be a number, got {text!r}") from exc
+
+
+def did_you_mean(word: str, choices: Iterable[str]) -> str:
+    """`` (did you mean 'CHOICE'?)`` naming the choice closest to a mistyped ``word``, or "" when none is close."""
+    close = difflib.get_close_matches(word, list(choices), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""

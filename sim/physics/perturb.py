@@ -50,6 +50,8 @@ LIMITS: dict[str, tuple[float, float, float, str]] = {
 }
 #: A valid ``--perturb`` text, quoted when a part is malformed.
 EXAMPLE = "friction=0.6,mass=1.3,radius=1.02,noise=0.005,latency=0.02"
+#: A valid ``--perturb-range`` text, quoted when a part is malformed.
+RANGE_EXAMPLE = "friction=0.5:1.5,latency=0:0.04"
 #: Largest |push| impulse [N s] (five times what topples the balancing EduMIP).
 MAX_PUSH = 1.0
 
@@ -237,7 +239,7 @@ class PerturbationRange:
         out: dict[str, tuple[float, float]] = {}
         if others == "nominal":
             out = {name: (LIMITS[name][2], LIMITS[name][2]) for name in LIMITS}
-        for key, value in parse_pairs(text, what, LIMITS, EXAMPLE).items():
+        for key, value in parse_pairs(text, what, LIMITS, RANGE_EXAMPLE, form="key=lo:hi (or key=value)").items():
             lo_s, sep, hi_s = value.partition(":")
             lo = parse_number(lo_s, key, what)
             out[key] = (lo, parse_number(hi_s, key, what) if sep else lo)

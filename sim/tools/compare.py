@@ -360,7 +360,7 @@ def load_params(paths: Sequence[str | Path]) -> dict[str, Any]:
         try:
             data = json.loads(Path(path).read_text())
         except (OSError, ValueError) as exc:
-            raise ConfigError(f"{given}: cannot read it as JSON ({exc})") from exc
+            raise ConfigError(f"{given}: {_gains_file(Path(path)) or f'cannot read it as JSON ({exc})'}") from exc
         if isinstance(data, dict) and "tracker" in data and isinstance(data.get("params"), dict):
             data = {data["tracker"]: data["params"]}
         if not isinstance(data, dict) or not all(isinstance(v, dict) for v in data.values()):
@@ -374,3 +374,22 @@ def load_params(paths: Sequence[str | Path]) -> dict[str, Any]:
                 raise ConfigError(f"{given}: {name} has no parameter(s) {unknown}; valid: {', '.join(valid)}")
             out[name] = cls(**fields_)
     return out
+
+
+def _gains_file(path: Path) -> str | None:
+    """Why a --params file that is not JSON is refused when it is a gains file (TOML with a ``[gains]``
+    table, as ``nhsim tune`` writes), naming the file --params takes; None for any other file."""
+    import tomllib
+
+    try:
+        table = tomllib.loads(path.read_text(encoding="utf-8")).get("gains")
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return None
+    if not isinstance(table, dict):
+        return None
+    record = path.with_suffix(".json")
+    where = f": {record}, next to it" if record.is_file() else " (its --json; by default this file's name with .json)"
+    return (
+        f"this is a gains file (FBL gains, for --gains: 'nhsim simulate --gains {path}'), not JSON; --params takes "
+        f"the JSON record 'nhsim tune' writes with it{where}"
+    )

@@ -21,8 +21,9 @@ import hashlib
 import json
 import math
 import os
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -30,14 +31,15 @@ import numpy as np
 
 from planning.core.checks import check_number
 from planning.errors import ConfigError, NhsimError, option
+from planning.scenario import Scenario, load_scenario
 from planning.trajectory.importer import TrajectoryFile
 from sim.physics.perturb import LIMITS, PerturbationRange
-from sim.pipeline.case import Case, PreparedTrajectory, prepare_trajectory
+from sim.pipeline.case import Case, PreparedTrajectory, load_case_scenario, prepare_trajectory
 from sim.pipeline.runs import DEFAULT_RUNS
 from sim.pipeline.simulate import track
 from sim.pipeline.sweep import missed_targets
 from sim.tools.executor import Executor
-from sim.tools.tune import MAX_DRAWS, Draw, make_draws
+from sim.tools.tune import MAX_DRAWS, Draw, make_draws, robot_localiser
 
 #: Format version of the results file's header.
 RESULTS_VERSION = 1
@@ -77,13 +79,35 @@ class MonteCarloSpec:
                 f"{option('runs')} must be at most {MAX_DRAWS} (distinct robots and noise draws), got {self.runs}"
             )
 
+    @cached_property
+    def defaults(self) -> dict[str, str]:
+        """What the case leaves to its scenario and robot, resolved: ``robot`` the robot it runs (the
+        scenario's own when not given), ``own_robot`` the scenario's own, ``localiser`` the localiser it
+        runs on (the robot's default when not given) and ``robot_localiser`` the robot's default.
+
+        Raises:
+            ScenarioError, ConfigError: As :func:`sim.pipeline.case.load_case_scenario` and
+                :meth:`sim.pipeline.case.Case.localiser_setup`.
+        """
+        c = self.case
+        scenario = load_case_scenario(c)
+        own = (c.scenario if isinstance(c.scenario, Scenario) else load_scenario(c.scenario)).robot
+        default = robot_localiser(c, scenario)
+        return {
+            "robot": scenario.robot,
+            "own_robot": own,
+            "localiser": c.localiser or default,
+            "robot_localiser": default,
+        }
+
     def key(self) -> dict[str, Any]:
-        """What makes the study's runs what they are (everything but their number): a results file
-        holds the runs of one key."""
+        """What makes the study's runs what they are (everything but their number), the defaults resolved
+        (:attr:`defaults`: a study that leaves the robot or the localiser to the scenario is the one that
+        names them): a results file holds the runs of one key."""
         c = self.case
         return {
             "scenario": str(c.scenario_name),
-            "robot": c.robot,
+            "robot": self.defaults["robot"],
             "source": _source(c),
             "file": None if c.trajectory_file is None else _file_key(c.trajectory_file),
             "tracker": c.feedback_tracker,
@@ -96,7 +120,21 @@ class MonteCarloSpec:
             "ranges": None if self.ranges is None else {k: list(v) for k, v in asdict(self.ranges).items()},
             "replan": self.replan,
             **self.case.localiser_options(),
+            "localiser": self.defaults["localiser"],
         }
+
+    def earlier_keys(self) -> list[dict[str, Any]]:
+        """The keys an nhsim that did not resolve the defaults wrote for this same study (results version 1):
+        the robot None when it is the scenario's own, no localiser when it is the robot's default."""
+        key, d = self.key(), self.defaults
+        robots = [key["robot"], *([None] if d["robot"] == d["own_robot"] else [])]
+        localisers = [key["localiser"], *([None] if d["localiser"] == d["robot_localiser"] else [])]
+        out = []
+        for robot in robots:
+            for localiser in localisers:
+                earlier = {k: v for k, v in key.items() if k != "localiser"} | {"robot": robot}
+                out.append(earlier | ({"localiser": localiser} if localiser is not None else {}))
+        return [k for k in out if k != key]
 
     def draws(self) -> tuple[Draw, ...]:
         """The runs' draws (build seed, noise seed, perturbation)."""
@@ -182,13 +220,16 @@ class ResultsFile:
     Args:
         path: The file (JSON lines).
         key: The study's key (:meth:`MonteCarloSpec.key`).
+        earlier: Keys an earlier nhsim wrote for the same study (:meth:`MonteCarloSpec.earlier_keys`): a file
+            headed by one is this study's too.
 
     Raises:
         ConfigError: The file holds another study, or is not a results file.
     """
 
-    def __init__(self, path: Path, key: Mapping[str, Any]) -> None:
+    def __init__(self, path: Path, key: Mapping[str, Any], earlier: Sequence[Mapping[str, Any]] = ()) -> None:
         self.path, self.key = Path(path), dict(key)
+        self.earlier = [dict(k) for k in earlier]
         self.records: dict[int, dict[str, Any]] = {}
         if self.path.exists():
             self._read()
@@ -204,7 +245,7 @@ class ResultsFile:
                 f"{self.path} is not an nhsim montecarlo results file; choose another {_RESULTS}, or {_REPLACE} to "
                 "replace it"
             ) from exc
-        if theirs != self.key:
+        if theirs != self.key and theirs not in self.earlier:
             diff = ", ".join(
                 f"{k}: {theirs.get(k)!r} there, {self.key.get(k)!r} here"
                 for k in sorted(set(theirs) | set(self.key))

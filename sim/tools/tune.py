@@ -29,7 +29,10 @@ number, the default gains are evaluated once so every study holds an honest "no 
 defaults" comparison. A running trial beats every ``HEARTBEAT_INTERVAL`` seconds; one silent for
 ``GRACE_PERIOD`` seconds belongs to a killed worker: it is failed and its gains are enqueued again
 (:func:`open_storage`, Optuna's ``RetryHeartbeatStaleTrialCallback``), and a resumed study waits for
-such trials before it counts what is left to run (:func:`settle_running`).
+such trials before it counts what is left to run (:func:`settle_running`). A trial an interrupt stopped
+is marked :data:`INTERRUPTED` and its gains are enqueued again on resume (:func:`requeue_interrupted`);
+each trial's proposals are seeded by the number it would have had in a study never interrupted
+(:func:`sampling_number`), so an interrupted and resumed study ends with the trials of one run at once.
 
 Workers in several processes (or machines) share the study through the storage. Every SQLite
 transaction begins ``IMMEDIATE`` (:func:`open_storage`): Optuna reads a trial's state and then
@@ -46,7 +49,7 @@ import math
 import time
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -58,6 +61,7 @@ from planning.errors import ConfigError, NhsimError, option
 from planning.signals import signals_held, signals_released
 
 if TYPE_CHECKING:  # the command line reads SAMPLERS while building its parser, before mujoco may load
+    from planning.scenario import Scenario
     from sim.physics.metrics import TrackingMetrics
     from sim.physics.perturb import Perturbation, PerturbationRange
     from sim.pipeline.case import Case
@@ -96,6 +100,8 @@ HEARTBEAT_INTERVAL = 2
 GRACE_PERIOD = 10
 #: How many times the gains of a trial killed while running are enqueued again.
 MAX_RETRY = 2
+#: User attribute marking a trial an interrupt stopped (:func:`requeue_interrupted` runs its gains again).
+INTERRUPTED = "interrupted"
 #: Attempts to open a storage whose tables another worker is creating at the same moment.
 SCHEMA_ATTEMPTS = 4
 #: Seconds a worker waits for the settings of a study another worker has just created.
@@ -320,7 +326,10 @@ class TuneSpec:
         sampler: Key of ``SAMPLERS``.
         seed: Seed of the sampler (mixed with the trial count and the worker index).
         saturation_weight: ``w_sat`` [m].
+        extra_settings: More settings that define the objective (stored with the others).
         tracker: Tracker whose parameters are tuned ("": the FBL gains, the default study).
+        defaulted: Keys of ``extra_settings`` holding a default an earlier nhsim did not record (the robots'
+            localiser): a study stored without them is this one (:func:`load_study`).
     """
 
     cases: tuple[Case, ...]
@@ -333,6 +342,7 @@ class TuneSpec:
     saturation_weight: float = 0.05
     extra_settings: dict[str, Any] = field(default_factory=dict)
     tracker: str = ""
+    defaulted: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.sampler not in SAMPLERS:
@@ -488,10 +498,13 @@ def load_study(spec: TuneSpec, *, worker: int = 0, create: bool = False) -> Any:
     except Exception as exc:
         raise ConfigError(f"cannot open study {spec.study!r} in {spec.storage!r}: {exc}") from exc
     stored = _stored_settings(study, wait=SETTINGS_WAIT_S if create else 0.0)
+    earlier = {k: v for k, v in settings.items() if k not in spec.defaulted}
     if stored is None:
         if not create:
             raise ConfigError(f"study {spec.study!r} in {spec.storage!r} has no settings; create it with nhsim tune")
         study.set_user_attr("settings", settings)  # a study left without settings by an older version
+    elif stored == earlier != settings:  # an earlier nhsim's record of this study: the defaults now recorded
+        study.set_user_attr("settings", settings)
     elif stored != settings:
         diff = sorted(k for k in set(stored) | set(settings) if stored.get(k) != settings.get(k))
         raise ConfigError(
@@ -508,6 +521,24 @@ def _stored_settings(study: Any, wait: float) -> Any:
     while (stored := study.user_attrs.get("settings")) is None and time.monotonic() < deadline:
         time.sleep(0.1)
     return stored
+
+
+def robot_localiser(case: Case, scenario: Scenario | None = None) -> str:
+    """The localiser the case's robot runs on when the case names none: amcl for a robot with a laser
+    scanner, fixes otherwise (:meth:`~sim.pipeline.case.Case.localiser_setup`).
+
+    Args:
+        case: The case.
+        scenario: Its scenario with its robot; None: loaded (:func:`sim.pipeline.case.load_case_scenario`).
+
+    Raises:
+        ScenarioError, ConfigError: The case's own errors (its scenario, its localiser settings).
+    """
+    from sim.pipeline.case import load_case_scenario
+
+    scenario = load_case_scenario(case) if scenario is None else scenario
+    kind = case.localiser_setup(scenario).kind  # the case as given checked first: its errors are named
+    return kind if case.localiser is None else replace(case, localiser=None).localiser_setup(scenario).kind
 
 
 def default_params(tracker: str = "") -> dict[str, float]:
@@ -564,6 +595,46 @@ def settle_running(study: Any, poll: float = 0.2) -> tuple[list[int], list[int]]
         time.sleep(poll)
 
 
+def retried_trials(study: Any) -> set[int]:
+    """Numbers of the trials whose gains another trial runs again: a killed worker's (failed by its
+    silence and enqueued again by :func:`open_storage`'s callback) or an interrupted one's
+    (:func:`requeue_interrupted`). Optuna's retry records the trial it repeats last in ``retry_history``."""
+    history = (t.system_attrs.get("retry_history") for t in study.get_trials(deepcopy=False))
+    return {int(h[-1]) for h in history if h}
+
+
+def sampling_number(study: Any, number: int) -> int:
+    """The number trial ``number`` would have in a study never interrupted nor killed: its number less the
+    retried trials before it (:func:`retried_trials`), each of which added a trial (its retry) to the
+    study. It seeds the trial's proposals (:func:`objective_fn`), so a study interrupted and resumed
+    proposes the same gains as one run at once."""
+    return number - sum(n < number for n in retried_trials(study))
+
+
+def requeue_interrupted(study: Any) -> list[int]:
+    """Enqueue again the gains of each trial an interrupt stopped (Ctrl-C or SIGTERM in its evaluation:
+    failed, with user attribute :data:`INTERRUPTED`) that no trial runs again yet, as the heartbeat's
+    callback does for a killed worker's trial (:func:`open_storage`): the retry names the trial it
+    repeats, so each is enqueued once. Returns the numbers of the trials enqueued again."""
+    import copy
+
+    import optuna
+    from optuna.trial import TrialState
+
+    retried = retried_trials(study)
+    stopped = [
+        t
+        for t in study.get_trials(deepcopy=False, states=(TrialState.FAIL,))
+        if t.user_attrs.get(INTERRUPTED) and t.number not in retried
+    ]
+    retry = optuna.storages.RetryHeartbeatStaleTrialCallback()  # no limit: an interrupt is no fault of the gains
+    for t in stopped:
+        again = copy.deepcopy(t)
+        again.user_attrs = {k: v for k, v in t.user_attrs.items() if k != INTERRUPTED}
+        retry(study, again)
+    return [t.number for t in stopped]
+
+
 def completed(study: Any) -> list[Any]:
     """The study's completed trials."""
     from optuna.trial import TrialState
@@ -583,15 +654,19 @@ def objective_fn(evaluator: Evaluator, spec: TuneSpec | None = None) -> Any:
     def objective(trial: Any) -> float:
         if spec is not None:
             _claim(trial, spec.trials)
-            trial.study.sampler = make_sampler(spec.sampler, spec.seed, trial.number, 0)
+            trial.study.sampler = make_sampler(spec.sampler, spec.seed, sampling_number(trial.study, trial.number), 0)
         space = tuned_space(evaluator.tracker)[1]
         values = {k: trial.suggest_float(k, lo, hi, log=True) for k, (lo, hi) in space.items()}
         # Within run_worker's held block an interrupt acts in the evaluation only (where the time goes), not
         # in the trial's storage calls around it: one raised inside SQLAlchemy's transaction left the
         # database locked, and Optuna's record of the failed trial then waited out the lock's timeout and
         # failed ("database is locked", then "Should not reach"). Outside a held block this runs as it is.
-        with signals_released():
-            ev = evaluator.evaluate(make_params(evaluator.tracker, values))
+        try:
+            with signals_released():
+                ev = evaluator.evaluate(make_params(evaluator.tracker, values))
+        except KeyboardInterrupt:  # Optuna fails the trial; a resumed study runs its gains again
+            trial.set_user_attr(INTERRUPTED, True)
+            raise
         for k, v in ev.as_dict().items():
             trial.set_user_attr(k, v)
         return ev.objective
@@ -708,12 +783,14 @@ class Comparison:
         tuned: The tuned gains' evaluation.
         draws: The held-out draws (each case ran on each).
         cases: Names of the cases, in the order of the evaluations' per-run costs.
+        defaults_best: The tuned gains are the defaults (no trial beat them): one evaluation stands for both.
     """
 
     default: Evaluation
     tuned: Evaluation
     draws: tuple[Draw, ...]
     cases: tuple[str, ...]
+    defaults_best: bool = False
 
     def ratios(self) -> dict[str, float]:
         """Tuned / default of the objective, RMS, final error and saturation (nan for 0 / 0)."""
@@ -744,6 +821,8 @@ class Comparison:
         ratio = self.ratios()["objective"]
         mean, sem = self.paired_difference()
         runs = self.tuned.runs
+        if self.defaults_best:
+            return f"the defaults were best: no trial beat them; held-out robots ran them alone ({runs} runs)"
         if self.better == "neither":
             return f"tuned and default gains score the same on held-out robots ({runs} runs)"
         said = f"{self.better} gains are better on held-out robots: objective {ratio:.2f}x default; "
@@ -782,7 +861,8 @@ def _ratio(num: float, den: float) -> float:
 
 
 def compare(evaluator: Evaluator, tuned: Any, draws: Sequence[Draw]) -> Comparison:
-    """Run the default and the tuned gains on the evaluator's cases over held-out ``draws``.
+    """Run the default and the tuned gains on the evaluator's cases over held-out ``draws``; when the
+    tuned gains are the defaults (no trial beat them) they run once and stand for both.
 
     Raises:
         ConfigError: No draws.
@@ -793,9 +873,12 @@ def compare(evaluator: Evaluator, tuned: Any, draws: Sequence[Draw]) -> Comparis
             + option("eval-runs", 1, python="draws=make_draws(1, seed, held_out=True)")
         )
     held_out = evaluator.with_draws(draws)
+    default = held_out.evaluate(tuned_space(evaluator.tracker)[0]())
+    same = tuned == tuned_space(evaluator.tracker)[0]()
     return Comparison(
-        held_out.evaluate(tuned_space(evaluator.tracker)[0]()),
-        held_out.evaluate(tuned),
+        default,
+        default if same else held_out.evaluate(tuned),
         tuple(draws),
         tuple(c.name for c in evaluator.cases),
+        defaults_best=same,
     )
