@@ -164,7 +164,10 @@ def test_sensor_overrides_reach_the_environment_and_bad_arguments_are_named() ->
     lists as arguments ended in @cache's TypeError."""
     env = suite.load("open", "edumip", "line", control_rate=25, sensors="fix_rate=5")
     assert env.task.sensing.profile.fix_rate == 5.0 and env.control_timestep() == pytest.approx(0.04)
-    with pytest.raises(ConfigError, match=r'--sensors fix_rat=5 \(sensors="fix_rat=5" from Python\): expected'):
+    typo = (
+        r'--sensors fix_rat=5 \(sensors="fix_rat=5" from Python\): unknown key .fix_rat. \(did you mean .fix_rate.\?\)'
+    )
+    with pytest.raises(ConfigError, match=typo + "; expected"):
         suite.load("open", "edumip", "line", sensors="fix_rat=5")
     with pytest.raises(ConfigError, match=r"control_rate must be a finite number > 0 \(Hz\), got \[50\]; e\.g\. 50"):
         suite.load("open", "edumip", "line", control_rate=[50])  # type: ignore[arg-type]
