@@ -570,6 +570,28 @@ def test_a_radius_error_beyond_the_prior_widens_the_covariance_instead_of_reject
         EstimatorConfig(max_odometry_drift=-0.01)
 
 
+def test_a_lone_outlier_is_rejected_and_the_second_in_a_row_widens(draws: list[Synthetic]) -> None:
+    """Fixes 1 cm off (2 mm fixes, the robot a few decimetres on): a drift within max_odometry_drift
+    explains each, but a lone outlier is more likely the fix's fault: the first is rejected and
+    changes nothing, the second in a row is applied after widening."""
+    d = draws[3]
+    accurate = replace(CONFIG, fix_std_xy=0.002, fix_std_theta=0.002)
+    est, dead = fresh(d, accurate), fresh(d, accurate)
+    off = (0.01, 0.0, 0.0)
+    for tick in range(10, 101, 10):  # fixes on the truth: the estimate is sure to a few millimetres
+        for e in (est, dead):
+            drive(e, d, tick - 10, tick)
+            assert e.correct(float(d.t[tick]), d.truth[tick])
+    drive(est, d, 100, 110)
+    drive(dead, d, 100, 110)
+    assert not est.correct(float(d.t[110]), d.truth[110] + off)
+    assert est.fixes_rejected == 1 and est.fixes_widened == 0
+    np.testing.assert_allclose(est.state, dead.state, atol=0.0)  # the rejected fix changed nothing
+    drive(est, d, 110, 120)
+    assert est.correct(float(d.t[120]), d.truth[120] + off)
+    assert est.fixes_rejected == 1 and est.fixes_widened == 1
+
+
 def test_a_good_fix_resets_the_outlier_count(draws: list[Synthetic]) -> None:
     d = draws[3]
     est = fresh(d, replace(CONFIG, max_outliers=2))

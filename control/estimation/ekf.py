@@ -89,19 +89,20 @@ Divergence: a non-finite state or covariance, or ``max_outliers`` consecutive fi
 normalised innovation squared (NIS) exceeds the chi-square(3) quantile ``gate_prob``, raises
 :class:`EstimatorDivergedError`. With ``reject_outliers`` such fixes are not applied.
 
-Systematic errors beyond the priors: a fix outside the gate whose position innovation a systematic
-odometry error of at most ``max_odometry_drift`` of the distance driven since the last applied fix
-explains (plus three of the fix's standard deviations) is taken as evidence that the odometry's
-systematic error exceeds its prior (a tyre 2 % larger than the software believes, where the prior
-is the build tolerance), not as a wrong fix. Rejecting it would let the drift grow until every
-later fix is rejected too: accurate scan fixes (2-3 mm) on a TurtleBot3 with a 2 % radius error
-were rejected from the fourth on and the run ended "diverged" while the localiser was right to
-2 mm. Such a fix is applied after widening, at its measurement time, the position variances by
-the innovation's square and the common radius error's variance by the square of the drift rate
-it implies (innovation / distance), so that the later fixes calibrate the radius (the widened
-covariance is a bound the filter has not earned: the NEES of such a run says so).
-``fixes_widened`` counts them. A jump no such drift explains (a kidnapped robot, a fix wrongly
-matched) is still an outlier.
+Systematic errors beyond the priors: the second (and every later) fix in a row outside the gate
+whose position innovation a systematic odometry error of at most ``max_odometry_drift`` of the
+distance driven since the last applied fix explains (plus three of the fix's standard deviations)
+is taken as evidence that the odometry's systematic error exceeds its prior (a tyre 2 % larger than
+the software believes, where the prior is the build tolerance), not as a wrong fix. Rejecting it
+would let the drift grow until every later fix is rejected too: accurate scan fixes (2-3 mm) on a
+TurtleBot3 with a 2 % radius error were rejected from the fourth on and the run ended "diverged"
+while the localiser was right to 2 mm. Such a fix is applied after widening, at its measurement
+time, the position variances by the innovation's square and the common radius error's variance by
+that of a uniform error within ``max_odometry_drift``, so that the later fixes calibrate the radius
+(the widened covariance is a bound the filter has not earned: the NEES of such a run says so).
+``fixes_widened`` counts them. A lone outlier is rejected as before (with 2 cm fixes, a chance
+outlier is the fix's noise far more often than the odometry's drift), and a jump no such drift
+explains (a kidnapped robot, a fix wrongly matched) stays an outlier.
 
 Cost: the estimator runs once per control period of a simulation, so its arithmetic (a prediction,
 a fix update, the rewind and the replay) is compiled (:mod:`control.estimation.kernels`) and works
@@ -235,8 +236,8 @@ class EstimatorConfig:
         reject_outliers: Outlier fixes are not applied (they still count towards divergence).
         max_outliers: This many consecutive outlier fixes raise :class:`EstimatorDivergedError`.
         max_odometry_drift: Largest systematic odometry error, relative to the distance driven since
-            the last applied fix, that an outlier fix's position innovation is taken to reveal (the
-            module doc); 0: every outlier is rejected.
+            the last applied fix, that the position innovation of a second outlier fix in a row is
+            taken to reveal (the module doc); 0: every outlier is rejected.
     """
 
     heading: str = "gyro"
@@ -534,7 +535,8 @@ class PoseEstimator:
         return nis, ok
 
     def _widening(self, fix: Fix) -> tuple[float, float] | None:
-        """How far to widen the covariance for an outlier fix whose position innovation (the last
+        """How far to widen the covariance for an outlier fix (the second in a row or later, as the caller
+        asks) whose position innovation (the last
         gated, :attr:`_nu`) a systematic odometry drift of at most ``max_odometry_drift`` of the
         distance driven since the last applied fix explains, with three of the fix's position
         standard deviations: (the innovation's square [m^2], the square of the drift rate it implies
@@ -595,7 +597,7 @@ class PoseEstimator:
             return False
         nis, ok = result
         self._nis.append((fix[0], nis))
-        widen = None if ok else self._widening(fix)
+        widen = None if ok or self._outliers == 0 else self._widening(fix)  # from the second outlier in a row
         if widen is not None:
             widened = self._replay(fix, widen)
             assert widened is not None  # the same step as the first replay's
