@@ -194,3 +194,17 @@ def test_the_table_of_moves_stays_aligned_with_long_names() -> None:
     head, rows = lines[0], lines[2:]
     assert rows[0].index("estimation_heading_rmse_rad") == rows[1].index("fell") == head.index("metric")
     assert rows[0].index("regressed") == rows[1].index("regressed") == head.index("status")
+
+
+def test_gains_for_a_tracker_that_takes_none_are_refused(tmp_path: Path) -> None:
+    """FBL gains go only to trackers that take them: on any other they would change nothing, and a
+    changed gains file would still fail the case as a changed definition."""
+    path = tmp_path / "suite.toml"
+    path.write_text(
+        'cases = [{ scenario = "open", robot = "edumip", reference = "line", tracker = "kanayama", seed = 0, '
+        'control_rate = 50, gains = "9,6" }]\n'
+    )
+    with pytest.raises(ConfigError, match=r"gains = \"9,6\": tracker 'kanayama' takes no FBL gains"):
+        load_suite(path)
+    path.write_text(path.read_text().replace("kanayama", "fbl"))
+    assert load_suite(path).cases[0].gains == FBLGains(9.0, 6.0)

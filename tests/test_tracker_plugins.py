@@ -193,6 +193,22 @@ def test_a_plugin_that_fails_is_a_clear_error_of_any_command_that_looks_up_a_tra
         "fbl" in TRACKERS  # noqa: B015
 
 
+def test_regress_names_a_failing_plugin_as_such_not_as_its_first_case(
+    registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "nhsim_test_raises.py").write_text("raise RuntimeError('no licence')\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setenv(PLUGIN_VARIABLE, "nhsim_test_raises")
+    suite = tmp_path / "suite.toml"
+    suite.write_text(
+        'cases = [{ scenario = "open", robot = "edumip", reference = "line", tracker = "fbl", seed = 0, '
+        "control_rate = 50 }]\n"
+    )
+    assert main(["regress", "--suite", str(suite), "--baselines", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "tracker plugin failed to load: module 'nhsim_test_raises'" in err and "case 1" not in err, err
+
+
 def test_the_documented_error_is_the_one_given(registry: None, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv(PLUGIN_VARIABLE, "mypackage.trackers")
     with pytest.raises(ConfigError) as err:

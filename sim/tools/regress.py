@@ -47,7 +47,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from control.base import TRACKERS
+from control.base import TRACKERS, load_plugins, option_takes
 from control.fbl import FBLGains
 from control.gains import load_gains_file, resolve_gains
 from planning.core.checks import is_number
@@ -353,6 +353,9 @@ def _check_case_runs(case: Case, entry: dict[str, Any], where: str) -> None:
         scenario = load_case_scenario(case)
     except NhsimError as exc:
         raise _field_error(where, "scenario", entry["scenario"], str(exc)) from exc
+    if case.gains is not None and not option_takes(case.tracker, "gains", FBLGains):
+        problem = f"tracker {case.tracker!r} takes no FBL gains: they would change nothing in its runs"
+        raise _field_error(where, "gains", entry["gains"], f"{problem}; drop gains, or use a tracker that takes them")
     if case.planner == "" and scenario.planner is None:
         names = ", ".join(map(json.dumps, PLANNERS))
         raise _field_error(where, "planner", "", f"scenario {scenario.name!r} names no planner; choose one of {names}")
@@ -436,6 +439,7 @@ def load_suite(path: str | Path) -> Suite:
     """
     p = Path(path)
     data = _read_suite(p)
+    load_plugins()  # a plugin that fails is its own error, not the first case's (whose tracker would load it)
     entries = data.get("cases")
     if not isinstance(entries, list) or not entries:
         raise ConfigError(f"{p}: needs a non-empty 'cases' array of inline tables (before any [table])")
