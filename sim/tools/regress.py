@@ -353,7 +353,7 @@ def _check_case_runs(case: Case, entry: dict[str, Any], where: str) -> None:
         scenario = load_case_scenario(case)
     except NhsimError as exc:
         raise _field_error(where, "scenario", entry["scenario"], str(exc)) from exc
-    if case.gains is not None and not option_takes(case.tracker, "gains", FBLGains):
+    if case.gains is not None and case.tracker is not None and not option_takes(case.tracker, "gains", FBLGains):
         problem = f"tracker {case.tracker!r} takes no FBL gains: they would change nothing in its runs"
         raise _field_error(where, "gains", entry["gains"], f"{problem}; drop gains, or use a tracker that takes them")
     if case.planner == "" and scenario.planner is None:
