@@ -8,8 +8,14 @@ differential drive has, all scaled by ``margin`` so that the feedback keeps some
 * wheel speed: ``v (1 + b |kappa| / 2) <= r * wheel_max`` (b track width, r wheel radius);
 * yaw acceleration from curvature change: ``v^2 |dkappa/ds| <= alpha_max``;
 
-then a forward pass (``v_{i+1}^2 <= v_i^2 + 2 a_max ds``) and a backward pass (the same, braking)
-make the speed reachable with bounded acceleration, starting and ending at rest. Between two
+then a forward pass (``v_{i+1}^2 <= v_i^2 + 2 a ds``) and a backward pass (the same, braking)
+make the speed reachable with bounded acceleration, starting and ending at rest. The acceleration
+``a`` of a step is bounded by ``a_max`` and by the yaw acceleration it causes on a curve:
+``domega/dt = v^2 dkappa/ds + kappa a`` (the pointwise bound above keeps only the first term within
+``alpha_max``; speeding up or braking on a curve adds the second), so
+``|a| <= (alpha_max -+ sign(kappa) v^2 dkappa/ds) / |kappa|`` at both ends of the step (:func:`yaw_accel_bound`).
+Without it the references of random worlds reached 1.5-3 times ``alpha_max`` where they sped up
+into or braked out of a turn. Between two
 grid points the acceleration is constant, so time stamps follow exactly
 (``dt = 2 ds / (v_i + v_{i+1})``), and the drive is resampled at a uniform time step with
 ``s(t)`` from the constant-acceleration formula. Heading comes from the path tangent.
@@ -20,6 +26,7 @@ A turn in place gets a trapezoidal (or triangular) yaw-rate profile within ``ome
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -86,7 +93,27 @@ def speed_limit(kappa: FloatArray, dkappa: FloatArray, limits: Limits) -> FloatA
     return v
 
 
-def forward_backward(ds: FloatArray, vmax: FloatArray, accel: float, v0: float = 0.0, v1: float = 0.0) -> FloatArray:
+def yaw_accel_bound(kappa: float, dkappa: float, v: float, yaw_accel: float, way: int) -> float:
+    """The largest |dv/dt| [m/s^2] at a point of curvature ``kappa`` [1/m] (changing by ``dkappa`` [1/m^2]
+    along the path) and speed ``v`` [m/s] that keeps ``|domega/dt| = |v^2 dkappa + kappa dv/dt| <=
+    yaw_accel``, speeding up (``way`` +1) or braking (-1); inf on a straight, 0 where the curvature's
+    change alone takes it all."""
+    k = abs(kappa)
+    if k < 1e-9:
+        return math.inf
+    change = v * v * dkappa * math.copysign(1.0, kappa)  # v^2 dkappa, positive where it adds to kappa's turn
+    return max((yaw_accel - way * change) / k, 0.0)
+
+
+def forward_backward(
+    ds: FloatArray,
+    vmax: FloatArray,
+    accel: float,
+    v0: float = 0.0,
+    v1: float = 0.0,
+    *,
+    turn: tuple[FloatArray, FloatArray, float] | None = None,
+) -> FloatArray:
     """Speeds within a pointwise bound reachable with |acceleration| <= accel.
 
     Args:
@@ -95,19 +122,46 @@ def forward_backward(ds: FloatArray, vmax: FloatArray, accel: float, v0: float =
         accel: Acceleration limit [m/s^2].
         v0: Speed at the start [m/s].
         v1: Speed at the end [m/s].
+        turn: (kappa (M,) [1/m], dkappa/ds (M,) [1/m^2], the yaw acceleration limit [rad/s^2]): each
+            step's acceleration is also bounded by :func:`yaw_accel_bound` at both its ends (:func:`_reach`);
+            None: no such bound.
 
     Returns:
         (M,) speeds: the largest profile below ``vmax`` with v[0] <= v0, v[-1] <= v1 and
-        |v_{i+1}^2 - v_i^2| <= 2 accel ds_i.
+        |v_{i+1}^2 - v_i^2| <= 2 a_i ds_i, a_i the step's bound (``accel``, or less with ``turn``).
     """
     v = np.asarray(vmax, dtype=float).copy()
     v[0] = min(v[0], v0)
     v[-1] = min(v[-1], v1)
     for i in range(ds.size):
-        v[i + 1] = min(v[i + 1], np.sqrt(v[i] ** 2 + 2.0 * accel * ds[i]))
+        v[i + 1] = min(v[i + 1], _reach(v[i], i, i + 1, ds[i], accel, turn, +1))
     for i in range(ds.size - 1, -1, -1):
-        v[i] = min(v[i], np.sqrt(v[i + 1] ** 2 + 2.0 * accel * ds[i]))
+        v[i] = min(v[i], _reach(v[i + 1], i + 1, i, ds[i], accel, turn, -1))
     return v
+
+
+def _reach(
+    v: float, near: int, far: int, ds: float, accel: float, turn: tuple[FloatArray, FloatArray, float] | None, way: int
+) -> float:
+    """The most speed point ``far`` can have, ``ds`` [m] from point ``near`` at speed ``v`` [m/s], speeding up
+    (``way`` +1) or braking (-1) within ``accel`` and, with ``turn``, within the yaw acceleration at both
+    points (:func:`forward_backward`). At the far point the bound depends on the speed being found:
+    ``v_f^2 <= v^2 + 2 ds (alpha - c v_f^2) / |kappa|`` with ``c = way sign(kappa) dkappa``, solved for
+    ``v_f^2`` (where the turn tightens as the speed grows, c > 0: a point whose curvature changes fast must
+    be passed slowly enough to brake or speed up there at all)."""
+    if turn is None:
+        return math.sqrt(v * v + 2.0 * accel * ds)
+    kappa, dkappa, yaw = turn
+    slope = (kappa[far] - kappa[near]) / (ds * (far - near))  # the step's own: a knot's kink is in it
+    near_bound = min(yaw_accel_bound(kappa[near], d, v, yaw, way) for d in (dkappa[near], slope))
+    reach = v * v + 2.0 * ds * min(accel, near_bound)
+    k = abs(kappa[far])
+    if k > 1e-9:
+        tightest = max(way * d * math.copysign(1.0, kappa[far]) for d in (dkappa[far], slope))
+        grows = 1.0 + 2.0 * ds * tightest / k
+        if grows > 0.0:
+            reach = min(reach, (v * v + 2.0 * ds * yaw / k) / grows)
+    return math.sqrt(max(reach, 0.0))
 
 
 @dataclass(frozen=True)
@@ -164,7 +218,10 @@ def time_drive(
     _, _, kappa = curve.geometry(s)
     dkappa = np.gradient(kappa, s)
     step = np.diff(s)
-    v = forward_backward(step, speed_limit(kappa, dkappa, limits), limits.max_accel)
+    slopes = np.abs(np.diff(kappa)) / step  # each step's: a knot of the curve kinks the curvature
+    steepest = np.maximum(np.abs(dkappa), np.maximum(np.append(slopes, 0.0), np.insert(slopes, 0, 0.0)))
+    turn = (kappa, dkappa, limits.max_yaw_accel)
+    v = forward_backward(step, speed_limit(kappa, steepest, limits), limits.max_accel, turn=turn)
     seg_t = 2.0 * step / np.maximum(v[:-1] + v[1:], 1e-12)
     tg = np.concatenate([[0.0], np.cumsum(seg_t)])
     a = (v[1:] ** 2 - v[:-1] ** 2) / (2.0 * step)
