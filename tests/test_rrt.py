@@ -400,3 +400,17 @@ def test_rrt_star_with_its_start_in_the_goal_region_returns_at_once():
         np.testing.assert_allclose(res.path[-1], prob.goal.as_array(), atol=1e-9)
         region = make_planner("rrt-star", region_goal=True).plan(prob)
         assert region.success and region.path.tobytes() == prob.start.as_array()[None, :].tobytes()
+
+
+def test_rrt_star_ends_on_the_goal_pose_once_a_curve_reached_it() -> None:
+    """A slalom through three walls (a held-out world): a node that landed on the goal region's rim by
+    itself was cheaper than the node a curve put on the goal pose, and the plan ended there, 4.9 cm from
+    the goal, though region_goal is off; it ends on the goal pose (the tracker keeps the whole tolerance)."""
+    walls = (Box((1.5, 1.15), (0.1, 2.3)), Box((3.0, 1.85), (0.1, 2.3)), Box((4.5, 1.15), (0.1, 2.3)))
+    problem = PlanProblem(
+        World((0, 6, 0, 3), walls), load_robot("edumip-balancing"), Pose2D(0.5, 0.5, 1.57), Pose2D(5.5, 2.5, 0.0),
+        position_tolerance=0.05, heading_tolerance=0.1, time_limit=8.0, seed=0,
+    )  # fmt: skip
+    res = make_planner("rrt-star").plan(problem)
+    assert res.status is PlanStatus.SUCCESS
+    np.testing.assert_allclose(res.path[-1], [5.5, 2.5, 0.0], atol=1e-9)

@@ -18,7 +18,9 @@ exact curve to the goal) aims at the poses spread over the goal region
 (:func:`~planning.planners.sampling.tree.goal_region_poses`), the cheapest free one first, and the
 goal bias samples one of them at random, as OMPL's planners use a goal region's samples; the path
 then ends wherever in the region it is shortest. By default the connections and the goal bias aim at
-the goal pose itself, which leaves the tracker the whole goal tolerance.
+the goal pose itself, and the plan ends on it once a curve reached it, which leaves the tracker the
+whole goal tolerance (a node that landed in the region by itself ends it only while none has: a search
+stopped before then ends up to the tolerance from the goal pose).
 
 Informed sampling (Gammell et al. 2014): once a path of cost c exists, samples are drawn only from
 the x-y ellipse with foci at the start and goal and major axis c + the goal's position tolerance
@@ -83,8 +85,8 @@ class RRTStarConfig(TreeConfig):
         region_goal: Aim each goal connection at the poses of the goal region
             (:func:`planning.planners.sampling.tree.goal_region_poses`, the cheapest free one) instead of
             the goal pose alone, so the path may end anywhere in the region (its shortest way in); False
-            ends on the goal pose unless a node lands in the region by itself, which leaves the tracker
-            the goal tolerance.
+            ends on the goal pose once a curve reached it (before then, where a node landed in the
+            region by itself), which leaves the tracker the goal tolerance.
         region_tries: With ``region_goal``, the most region poses whose curve is checked per node
             (cheapest first).
     """
@@ -199,7 +201,7 @@ class RRTStar(_TreePlanner[RRTStarConfig]):
             "goal_tree_joined": search.grafted,
         }
         if search.goal_nodes:
-            g = search.best_goal()
+            g = search.final_goal()
             path, dirs = tree.branch(g)
             stats["cost_m"] = float(tree.costs[g])
             return self._result(PlanStatus.SUCCESS, path, dirs, "", stats, tree.plan_tree())
@@ -253,6 +255,15 @@ class _Search:
         nodes = np.asarray(self.goal_nodes)
         costs = self.tree.costs[nodes]
         return int(nodes[costs == costs.min()].min())
+
+    def final_goal(self) -> int:
+        """The goal node the plan ends on: without ``region_goal``, the node on the goal pose once a curve
+        reached it, though a node that landed elsewhere in the region by itself may be cheaper (that one
+        would leave the tracker less of the goal tolerance; it is the end only while no curve reached the
+        goal pose); with it, the cheapest (:meth:`best_goal`)."""
+        if not self.cfg.region_goal and self.aim_nodes[0] >= 0:
+            return int(self.aim_nodes[0])
+        return self.best_goal()
 
     def step(self, it: int) -> bool:
         """Iteration ``it``; returns whether the best cost fell."""
