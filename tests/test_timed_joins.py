@@ -95,3 +95,27 @@ def test_turn_legs_split_at_reversals_beyond_the_tolerance() -> None:
     assert turn_legs(np.array([0.0, 1e-4, 2e-4, 1e-4, 0.5])) == [0, 4]  # a wobble of 0.1 mrad is no reversal
     assert turn_legs(np.array([0.0, -1.0, 2.0, 2.0])) == [0, 1, 3]
     assert turn_legs(np.array([0.3])) == [0]
+
+
+def test_a_timed_plan_ending_beside_the_goal_is_moved_onto_it_gradually() -> None:
+    """A kept timed plan (its samples as they are) whose end is 3 mm beside the goal: moving only the last
+    sample onto the goal made its reference slide 3 mm sideways in one 10 ms period (0.3 m/s, the optim
+    planner's ends); the move is spread over the last second, so no step of the reference moves sideways
+    faster than a few millimetres a second, and it still ends on the goal."""
+    from planning.core.geometry import Pose2D
+    from planning.trajectory.from_plan import SNAP_BLEND
+
+    t = np.arange(0.0, 6.001, 0.01)
+    v = 0.2 * np.minimum(1.0, np.minimum(t, t[-1] - t) / 1.0)  # 1 s ramps, well within the limits
+    x = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
+    path = np.column_stack([x, np.full_like(x, 0.003), np.zeros_like(x)])
+    plan = PlanResult(PlanStatus.SUCCESS, "optim", path, times=t, controls=np.column_stack([v, np.zeros_like(v)]))
+    goal = Pose2D(float(x[-1]), 0.0, 0.0)
+    res = make_trajectory(plan, EDUMIP, World((-1.0, 2.0, -1.0, 1.0), ()), goal=goal, retime=False)
+    traj = res.trajectory
+    assert res.success and traj is not None
+    end = np.searchsorted(traj.t, t[-1] * (res.stats["time_scale"] or 1.0) - 1e-9)
+    np.testing.assert_allclose(traj.pose[end, :2], [goal.x, goal.y], atol=1e-12)
+    sideways = np.abs(np.diff(traj.pose[: end + 1, 1])) / np.diff(traj.t[: end + 1])
+    assert sideways.max() < 2.0 * 0.003 / SNAP_BLEND  # smoothstep: 1.5x the mean rate at its steepest
+    assert np.all(traj.pose[: int(np.searchsorted(traj.t, 4.9)), 1] == 0.003)  # before the last second, as planned
