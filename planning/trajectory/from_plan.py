@@ -188,7 +188,7 @@ def make_trajectory(
         return TrajectoryResult(TrajectoryStatus.INVALID, None, reason)
     path = path[:, :3].copy()
     if goal is not None and np.hypot(path[-1, 0] - goal.x, path[-1, 1] - goal.y) <= snap_tolerance:
-        times = np.asarray(plan.times, dtype=float).reshape(-1) if timed else None  # type: ignore[union-attr]
+        times = np.asarray(plan.times, dtype=float).reshape(-1) if isinstance(plan, PlanResult) and timed else None
         path[:, :2] = snapped(path[:, :2], (goal.x, goal.y), times)
     path_clear = float(checker.clearance_of(checker.densify(path)).min())
     need = clearance if clearance is not None else max(0.0, min(0.01, 0.5 * path_clear))
