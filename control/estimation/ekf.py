@@ -536,11 +536,11 @@ class PoseEstimator:
 
     def _widening(self, fix: Fix) -> tuple[float, float] | None:
         """How far to widen the covariance for an outlier fix (the second in a row or later, as the caller
-        asks) whose position innovation (the last
-        gated, :attr:`_nu`) a systematic odometry drift of at most ``max_odometry_drift`` of the
-        distance driven since the last applied fix explains, with three of the fix's position
-        standard deviations: (the innovation's square [m^2], the square of the drift rate it implies
-        [-]); None when none explains it (module doc)."""
+        asks) whose position innovation (the last gated, :attr:`_nu`) a systematic odometry drift of at
+        most ``max_odometry_drift`` of the distance driven since the last applied fix explains, with three
+        of the fix's position standard deviations: (the innovation's square [m^2], the variance of a
+        uniform common radius error within ``max_odometry_drift`` [-]); None when none explains it (module
+        doc)."""
         bound = self.config.max_odometry_drift
         driven = float(self._hdr[kernels.ODO]) - self._odo_fix
         miss = math.hypot(float(self._nu[0]), float(self._nu[1]))
