@@ -479,7 +479,8 @@ class _Search:
             if not d > req:
                 why = (
                     f"{label} ({pose.x:.3f}, {pose.y:.3f}) is {d:.3f} m from the nearest obstacle or wall; "
-                    f"C-RRT* keeps the axle centre {req:.3f} m away: move the {label} or lower center_clearance"
+                    f"C-RRT* keeps the axle centre more than {req:.3f} m away: move the {label} or lower "
+                    "center_clearance"
                 )
                 return PlanResult(status, CRRTStar.name, reason=why, stats=self.early_stats())
         return None

@@ -8,6 +8,7 @@ import datetime
 import math
 import os
 import subprocess
+from pathlib import Path
 from typing import Any
 
 from planning.errors import ConfigError
@@ -126,8 +127,10 @@ def _verdict(rows: list[Any]) -> tuple[bool, list[str]]:
 
 
 def _commit() -> str:
-    """The checkout's commit (short hash; "unknown" outside a git checkout)."""
-    git = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=False)
+    """The commit of the checkout nhsim runs from (short hash; "unknown" outside a git checkout), whatever the
+    working directory (run from elsewhere, it read "unknown")."""
+    here = Path(__file__).resolve().parent
+    git = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=False, cwd=here)
     return git.stdout.strip() if git.returncode == 0 else "unknown"
 
 
