@@ -92,7 +92,7 @@ def test_sweep_judges_a_balancing_run_by_its_own_targets() -> None:
     from dataclasses import replace
 
     from sim.physics.metrics import TrackingMetrics
-    from sim.pipeline.sweep import met_targets
+    from sim.pipeline.sweep import met_targets, sweep_misses
 
     base = TrackingMetrics(0.01, 0.01, 0.025, 0.05, 0.01, 0, 0, 0.0, 10.0)
     assert not met_targets(base)  # 2.5 cm RMS misses the 2 cm of a skid robot
@@ -101,6 +101,10 @@ def test_sweep_judges_a_balancing_run_by_its_own_targets() -> None:
     assert not met_targets(replace(up, max_pitch_rad=0.36))  # beyond 20 deg
     assert not met_targets(replace(up, rms_position_error_m=0.031))
     assert not met_targets(replace(up, fell=True, fall_time_s=3.0))
+    # the sweep's table names what was missed (it said only "missed a target (see the errors)")
+    assert sweep_misses(replace(up, rms_position_error_m=0.0317)) == ["rms_position_error_m 0.0317 > 0.03"]
+    assert sweep_misses(replace(base, collisions=2)) == ["rms_position_error_m 0.025 > 0.02", "2 contact(s)"]
+    assert sweep_misses(up) == []
 
 
 def test_the_firmware_reads_with_the_runs_sensor_profile_and_seed() -> None:
