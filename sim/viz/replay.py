@@ -107,7 +107,7 @@ class RenderSettings:
     def __post_init__(self) -> None:
         even = "give an even number (H.264 with yuv420p needs even sizes)"
         for name in ("width", "height"):
-            where = f"video {name}"
+            where = f"video {name} (--size WIDTHxHEIGHT; RenderSettings.{name} from Python)"
             v = check_number(
                 where, getattr(self, name), integer=True, at_least=16, at_most=4096, unit="pixels", fix=even
             )

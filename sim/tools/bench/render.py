@@ -103,13 +103,13 @@ def measure(size: str, camera: str, quality: str, frames: int, repeats: int) -> 
     import mujoco
     import numpy as np
 
-    from planning.errors import ConfigError
+    from planning.core.checks import check_number
     from sim.pipeline.runs import RunKind
     from sim.pipeline.simulate import simulate_reference
     from sim.viz.replay import RenderSettings, Replay, SceneRenderer, parse_size
 
-    if frames < 10 or repeats < 1:
-        raise ConfigError("--frames must be >= 10 and --repeats >= 1")
+    check_number("--frames", frames, integer=True, at_least=10, fix="the ratio needs a steady run of frames")
+    check_number("--repeats", repeats, integer=True, at_least=1)
     w, h = parse_size(size)
     settings = RenderSettings(width=w, height=h, camera=camera, quality=quality)
     job = simulate_reference("open")
