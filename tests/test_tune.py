@@ -697,7 +697,7 @@ def test_the_robots_localiser_left_unstated_is_the_study_that_states_it(
     monkeypatch.chdir(tmp_path)
     base = ["tune", "--scenarios", CASE, "--draws", "1", "--eval-runs", "0", "--quiet", "--plots", str(tmp_path)]
     assert main([*base, "--trials", "1"]) == 0
-    name, renders = "fbl-open-line-amcl", tmp_path / "renders"
+    name, renders = "fbl-open-line-turtlebot3-amcl", tmp_path / "renders"
     assert load_gains_file(renders / f"tune-{name}.toml").provenance["localiser"] == "amcl"
     assert main([*base, "--trials", "2", "--localiser", "amcl"]) == 0  # the same study
     study = optuna.load_study(study_name=name, storage=f"sqlite:///renders/tune-{name}.db")
@@ -712,6 +712,36 @@ def test_the_robots_localiser_left_unstated_is_the_study_that_states_it(
     earlier = optuna.load_study(study_name="fbl-open-line", storage="sqlite:///renders/tune-fbl-open-line.db")
     assert len(earlier.get_trials(states=(optuna.trial.TrialState.COMPLETE,))) == 3
     assert earlier.user_attrs["settings"] == settings  # the localiser now recorded
+    assert not (renders / f"tune-{name}.db").exists()
+
+
+@pytest.mark.parametrize("resume", [[], ["--robot", "turtlebot3"]])
+def test_the_scenarios_robot_left_unstated_is_the_study_that_states_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, resume: list[str]
+) -> None:
+    """open's robot is the TurtleBot3: with no --robot the study was another (its name without
+    -turtlebot3, its cases named "default", its robot None) than the one --robot turtlebot3 names, for
+    the same objective, and resuming one as the other was refused. A study an earlier nhsim stored so is
+    resumed, by its name and storage too, with or without --robot."""
+    monkeypatch.chdir(tmp_path)
+    base = ["tune", "--scenarios", CASE, "--draws", "1", "--eval-runs", "0", "--quiet", "--plots", str(tmp_path)]
+    assert main([*base, "--trials", "1"]) == 0
+    name, renders = "fbl-open-line-turtlebot3-amcl", tmp_path / "renders"
+    assert load_gains_file(renders / f"tune-{name}.toml").provenance["robot"] == "turtlebot3"
+    assert main([*base, "--trials", "2", "--robot", "turtlebot3"]) == 0  # the same study
+    study = optuna.load_study(study_name=name, storage=f"sqlite:///renders/tune-{name}.db")
+    assert len(study.get_trials(states=(optuna.trial.TrialState.COMPLETE,))) == 2
+    settings = study.user_attrs["settings"]
+    assert settings["robot"] == "turtlebot3" and settings["cases"] == ["open-turtlebot3-line-fbl-s0"]
+    # The study as the nhsim before made it: named without the robot, its cases and robot without it.
+    study.set_user_attr("settings", settings | {"cases": ["open-default-line-fbl-s0"], "robot": None})
+    with contextlib.closing(sqlite3.connect(renders / f"tune-{name}.db")) as con, con:
+        con.execute("UPDATE studies SET study_name = 'fbl-open-line-amcl'")
+    (renders / f"tune-{name}.db").rename(renders / "tune-fbl-open-line-amcl.db")
+    assert main([*base, "--trials", "3", *resume]) == 0
+    earlier = optuna.load_study(study_name="fbl-open-line-amcl", storage="sqlite:///renders/tune-fbl-open-line-amcl.db")
+    assert len(earlier.get_trials(states=(optuna.trial.TrialState.COMPLETE,))) == 3
+    assert earlier.user_attrs["settings"] == settings  # the robot now recorded
     assert not (renders / f"tune-{name}.db").exists()
 
 

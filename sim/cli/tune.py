@@ -40,7 +40,8 @@ are evaluated afresh, and the outputs the study wrote before are updated (an exi
 names another study, or none, is replaced only with --overwrite); a trial stopped by Ctrl-C or SIGTERM
 is run again, so the resumed study ends as one never interrupted; a rerun with other cases, draws
 (--draws, --seed, --robust, --perturb-range), weights or localiser is refused. Left out, --localiser is
-the robots' own (amcl for the TurtleBot3), and the study is the one that names it. Any
+the robots' own (amcl for the TurtleBot3) and --robot each scenario's own (open's TurtleBot3), and the
+study is the one that names them. Any
 SQLAlchemy URL works (e.g. postgresql://user:pass@host/db), so workers on several machines can run
 the same command against one study; --jobs runs local worker processes. The default gains are
 always the study's first trial.
@@ -366,18 +367,23 @@ class TuneFiles:
         return {k: stamp[k] for k in ("study", "storage")}
 
 
-def _default_study(args: argparse.Namespace, tokens: list[str], localiser: str | None) -> tuple[str, str]:
-    """The default study name and storage: named by the cases and the settings, ``localiser`` the one the
-    cases run on (:func:`default_study_name`); or the name an nhsim that did not name the robots' default
-    localiser gave the same study, when the storage holds a study of that name and none of this one (it
-    is resumed where it is)."""
+def _default_study(
+    args: argparse.Namespace, tokens: list[str], localiser: str | None, robot: str | None, own_robot: bool
+) -> tuple[str, str]:
+    """The default study name and storage: named by the cases and the settings, ``localiser`` and ``robot``
+    the ones the cases run on (:func:`default_study_name`); or the name an nhsim that did not name the
+    robots' default localiser or (``own_robot``) the scenarios' own robot gave the same study, when the
+    storage holds a study of that name and none of this one (it is resumed where it is)."""
 
-    def named(localiser: str | None) -> tuple[str, str]:
-        name = default_study_name(tokens, args.robot, args.robust, getattr(args, "tracker", "fbl"), localiser)
+    def named(robot: str | None, localiser: str | None) -> tuple[str, str]:
+        name = default_study_name(tokens, robot, args.robust, getattr(args, "tracker", "fbl"), localiser)
         return name, args.storage or f"sqlite:///renders/tune-{name}.db"
 
-    now, earlier = named(localiser), named(getattr(args, "localiser", None))
-    return earlier if earlier != now and _holds(*earlier) and not _holds(*now) else now
+    now = named(robot, localiser)
+    given = (getattr(args, "localiser", None), localiser)
+    robots = (robot, None) if own_robot else (robot,)
+    earlier = [named(r, loc) for r in robots for loc in given if named(r, loc) != now]
+    return next((e for e in earlier if _holds(*e)), now) if not _holds(*now) else now
 
 
 def _holds(study: str, storage: str) -> bool:
@@ -393,7 +399,13 @@ def _holds(study: str, storage: str) -> bool:
         return False
 
 
-def tune_files(args: argparse.Namespace, tokens: list[str], localiser: str | None = None) -> TuneFiles:
+def tune_files(
+    args: argparse.Namespace,
+    tokens: list[str],
+    localiser: str | None = None,
+    robot: str | None = None,
+    own_robot: bool = False,
+) -> TuneFiles:
     """Decide the study name, its storage and the output files, and check none would be replaced
     unless it is an output of this same study (a resumed study updates its own outputs).
 
@@ -401,6 +413,8 @@ def tune_files(args: argparse.Namespace, tokens: list[str], localiser: str | Non
         args: The command's options.
         tokens: The cases, as --scenarios gives them.
         localiser: The localiser every case runs on (given, or the robots' default); None: each its robot's.
+        robot: The robot every case runs on (given, or the scenarios' own); None: each its scenario's.
+        own_robot: Whether every case runs on its scenario's own robot (a study named without it is this one).
 
     Raises:
         OutputExistsError: An output exists, is not this study's, and --overwrite was not given.
@@ -409,7 +423,9 @@ def tune_files(args: argparse.Namespace, tokens: list[str], localiser: str | Non
     from sim.outputs import check_writable
     from sim.tools.tune import check_storage
 
-    study, storage = (args.study, args.storage) if args.study else _default_study(args, tokens, localiser)
+    study, storage = (
+        (args.study, args.storage) if args.study else _default_study(args, tokens, localiser, robot, own_robot)
+    )
     gains = args.out or Path("renders") / f"tune-{study}.toml"
     files = TuneFiles(
         study,
@@ -487,11 +503,13 @@ def run(args: argparse.Namespace) -> int:
             f"is tuned by its {cls.__name__}, which go to the JSON record only: leave --out out and give "
             "--json FILE (read by 'nhsim compare --params FILE')"
         )
-    cases, default = _cases(args, tokens, tracker)
+    cases, default, unnamed = _cases(args, tokens, tracker)
+    robots = {c.robot for c in cases}
+    robot = robots.pop() if len(robots) == 1 else None  # every case's robot is named in its name
     prange = PerturbationRange.parse(args.perturb_range) if args.perturb_range else PerturbationRange()
     if args.perturb_range and not args.robust:
         raise ConfigError("--perturb-range is used by --robust only; add --robust, or leave --perturb-range out")
-    files = tune_files(args, tokens, cases[0].localiser)
+    files = tune_files(args, tokens, cases[0].localiser, robot, unnamed is not None)
     perturbations = prange if args.robust else None
     spec = TuneSpec(
         cases,
@@ -502,10 +520,11 @@ def run(args: argparse.Namespace) -> int:
         args.sampler,
         args.seed,
         args.saturation_weight,
-        extra_settings={"robust": args.robust, "control_rate": args.control_rate, "robot": args.robot}
+        extra_settings={"robust": args.robust, "control_rate": args.control_rate, "robot": robot}
         | cases[0].localiser_options(),  # every case has the same
         tracker="" if tracker == "fbl" else tracker,  # the FBL's studies keep their settings (resumable)
         defaulted=("localiser",) if default is not None and cases[0].localiser == default else (),
+        recorded={} if unnamed is None else {"cases": unnamed, "robot": None},  # the scenarios' robots left out
     )
     evaluator = spec.evaluator()
     evaluator.prepared()  # cases are built (and checked) before anything is written
@@ -519,24 +538,34 @@ def run(args: argparse.Namespace) -> int:
     return 1 if lost else 0
 
 
-def _cases(args: argparse.Namespace, tokens: list[str], tracker: str) -> tuple[tuple[Any, ...], str | None]:
-    """The cases, and the localiser their robots run on by default (None when the robots' defaults differ).
+def _cases(
+    args: argparse.Namespace, tokens: list[str], tracker: str
+) -> tuple[tuple[Any, ...], str | None, list[str] | None]:
+    """The cases, the localiser their robots run on by default (None when the robots' defaults differ), and
+    the cases' names with the robot left out, as an earlier nhsim named them (None when a case's robot is
+    not its scenario's own: that study named it).
 
-    Each case runs on the localiser given or, with none given, on that default, named: a study left to the
-    robots' localiser is the study that names it (its name, its settings). Cases whose robots' defaults
-    differ each keep their robot's.
+    Each case runs on the robot given or, with none given, on its scenario's, named; and on the localiser
+    given or, with none given, on that default, named: a study left to the scenario's robot or the robots'
+    localiser is the study that names it (its name, its settings). Cases whose robots' defaults differ
+    each keep their robot's.
     """
     from dataclasses import replace
 
-    from sim.pipeline.case import Case
+    from planning.scenario import load_scenario
+    from sim.pipeline.case import Case, load_case_scenario
     from sim.tools.tune import robot_localiser
 
     fields_ = {"robot": args.robot, "seed": args.seed, "control_rate": args.control_rate, "tracker": tracker}
-    cases = tuple(Case.parse(t, **fields_ | localiser_fields(args)) for t in tokens)
-    defaults = {robot_localiser(c) for c in cases}
+    given = tuple(Case.parse(t, **fields_ | localiser_fields(args)) for t in tokens)
+    scenarios = [load_case_scenario(c) for c in given]  # the case as given checked first: its errors are named
+    cases = tuple(replace(c, robot=sc.robot, name="") for c, sc in zip(given, scenarios, strict=True))
+    defaults = {robot_localiser(c, sc) for c, sc in zip(cases, scenarios, strict=True)}
     default = defaults.pop() if len(defaults) == 1 else None
     localiser = args.localiser or default
-    return (tuple(replace(c, localiser=localiser) for c in cases) if localiser else cases), default
+    named = tuple(replace(c, localiser=localiser) for c in cases) if localiser else cases
+    own = args.robot is None or all(load_scenario(c.scenario_name).robot == args.robot for c in given)
+    return named, default, [replace(c, robot=None, name="").name for c in given] if own else None
 
 
 def _optimise(args: argparse.Namespace, spec: Any) -> Any:
@@ -719,7 +748,7 @@ def _write_outputs(
         "trial": best.number,
         "default_objective": default_obj,
         "scenarios": _tokens(args),
-        "robot": args.robot or "scenario default",
+        "robot": spec.extra_settings["robot"] or "each scenario's",
         "trials": len(completed(study)),
         "sampler": args.sampler,
         "seed": args.seed,

@@ -330,6 +330,8 @@ class TuneSpec:
         tracker: Tracker whose parameters are tuned ("": the FBL gains, the default study).
         defaulted: Keys of ``extra_settings`` holding a default an earlier nhsim did not record (the robots'
             localiser): a study stored without them is this one (:func:`load_study`).
+        recorded: Settings as an earlier nhsim recorded them where this one names a default (the cases
+            named without their scenario's robot, ``robot`` None): a study stored so is this one.
     """
 
     cases: tuple[Case, ...]
@@ -343,6 +345,7 @@ class TuneSpec:
     extra_settings: dict[str, Any] = field(default_factory=dict)
     tracker: str = ""
     defaulted: tuple[str, ...] = ()
+    recorded: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.sampler not in SAMPLERS:
@@ -498,12 +501,11 @@ def load_study(spec: TuneSpec, *, worker: int = 0, create: bool = False) -> Any:
     except Exception as exc:
         raise ConfigError(f"cannot open study {spec.study!r} in {spec.storage!r}: {exc}") from exc
     stored = _stored_settings(study, wait=SETTINGS_WAIT_S if create else 0.0)
-    earlier = {k: v for k, v in settings.items() if k not in spec.defaulted}
     if stored is None:
         if not create:
             raise ConfigError(f"study {spec.study!r} in {spec.storage!r} has no settings; create it with nhsim tune")
         study.set_user_attr("settings", settings)  # a study left without settings by an older version
-    elif stored == earlier != settings:  # an earlier nhsim's record of this study: the defaults now recorded
+    elif stored != settings and stored in _earlier_settings(spec, settings):  # the defaults now recorded
         study.set_user_attr("settings", settings)
     elif stored != settings:
         diff = sorted(k for k in set(stored) | set(settings) if stored.get(k) != settings.get(k))
@@ -513,6 +515,13 @@ def load_study(spec: TuneSpec, *, worker: int = 0, create: bool = False) -> Any:
         )
     study.sampler = make_sampler(spec.sampler, spec.seed, len(study.trials), worker)
     return study
+
+
+def _earlier_settings(spec: TuneSpec, settings: dict[str, Any]) -> list[dict[str, Any]]:
+    """The settings an earlier nhsim stored for the spec's study: without the ``defaulted`` keys, with the
+    ``recorded`` values, or both."""
+    forms = [settings, json.loads(json.dumps(settings | spec.recorded))]
+    return forms + [{k: v for k, v in form.items() if k not in spec.defaulted} for form in forms]
 
 
 def _stored_settings(study: Any, wait: float) -> Any:
