@@ -107,13 +107,14 @@ def load_gains_file(path: str | Path) -> GainsFile:
     return parse_gains_toml(text, where=str(p))
 
 
-def resolve_gains(text: str) -> FBLGains:
-    """Gains from a ``--gains`` argument: ``"KP,KD"`` or the path of a gains file.
+def resolve_gains(text: str, folder: Path | None = None) -> FBLGains:
+    """Gains from a ``--gains`` argument: ``"KP,KD"`` or the path of a gains file (relative to ``folder`` when
+    given, e.g. a regression suite file's; else to the working directory).
 
     Raises:
         ConfigError: Neither two positive numbers nor a readable, valid gains file.
     """
-    p = Path(text)
+    p = Path(text) if folder is None else folder / text
     if p.suffix == ".toml" or p.exists():
         return load_gains_file(p).gains
     if "," not in text:

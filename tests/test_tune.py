@@ -687,6 +687,13 @@ def test_when_the_defaults_are_best_they_are_recommended_and_run_once_held_out(
     assert "tuned/default" not in capsys.readouterr().out
 
 
+def _rename_study(renders: Path, name: str, earlier: str) -> None:
+    """Give study ``name`` (in renders/tune-NAME.db) the name and storage an earlier nhsim gave it."""
+    with contextlib.closing(sqlite3.connect(renders / f"tune-{name}.db")) as con, con:
+        con.execute("UPDATE studies SET study_name = ?", (earlier,))
+    (renders / f"tune-{name}.db").rename(renders / f"tune-{earlier}.db")
+
+
 def test_the_robots_localiser_left_unstated_is_the_study_that_states_it(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -705,9 +712,7 @@ def test_the_robots_localiser_left_unstated_is_the_study_that_states_it(
     # The study as an earlier nhsim made it: named without the localiser, its settings without it.
     settings = study.user_attrs["settings"]
     study.set_user_attr("settings", {k: v for k, v in settings.items() if k != "localiser"})
-    with contextlib.closing(sqlite3.connect(renders / f"tune-{name}.db")) as con, con:
-        con.execute("UPDATE studies SET study_name = 'fbl-open-line'")
-    (renders / f"tune-{name}.db").rename(renders / "tune-fbl-open-line.db")
+    _rename_study(renders, name, "fbl-open-line")
     assert main([*base, "--trials", "3"]) == 0
     earlier = optuna.load_study(study_name="fbl-open-line", storage="sqlite:///renders/tune-fbl-open-line.db")
     assert len(earlier.get_trials(states=(optuna.trial.TrialState.COMPLETE,))) == 3
@@ -735,9 +740,7 @@ def test_the_scenarios_robot_left_unstated_is_the_study_that_states_it(
     assert settings["robot"] == "turtlebot3" and settings["cases"] == ["open-turtlebot3-line-fbl-s0"]
     # The study as the nhsim before made it: named without the robot, its cases and robot without it.
     study.set_user_attr("settings", settings | {"cases": ["open-default-line-fbl-s0"], "robot": None})
-    with contextlib.closing(sqlite3.connect(renders / f"tune-{name}.db")) as con, con:
-        con.execute("UPDATE studies SET study_name = 'fbl-open-line-amcl'")
-    (renders / f"tune-{name}.db").rename(renders / "tune-fbl-open-line-amcl.db")
+    _rename_study(renders, name, "fbl-open-line-amcl")
     assert main([*base, "--trials", "3", *resume]) == 0
     earlier = optuna.load_study(study_name="fbl-open-line-amcl", storage="sqlite:///renders/tune-fbl-open-line-amcl.db")
     assert len(earlier.get_trials(states=(optuna.trial.TrialState.COMPLETE,))) == 3

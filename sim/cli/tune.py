@@ -380,10 +380,12 @@ def _default_study(
         return name, args.storage or f"sqlite:///renders/tune-{name}.db"
 
     now = named(robot, localiser)
+    if _holds(*now):
+        return now
     given = (getattr(args, "localiser", None), localiser)
     robots = (robot, None) if own_robot else (robot,)
-    earlier = [named(r, loc) for r in robots for loc in given if named(r, loc) != now]
-    return next((e for e in earlier if _holds(*e)), now) if not _holds(*now) else now
+    earlier = (named(r, loc) for r in robots for loc in given)
+    return next((e for e in earlier if e != now and _holds(*e)), now)
 
 
 def _holds(study: str, storage: str) -> bool:

@@ -49,7 +49,7 @@ from typing import Any
 
 from control.base import TRACKERS, load_plugins, option_takes
 from control.fbl import FBLGains
-from control.gains import load_gains_file, resolve_gains
+from control.gains import resolve_gains
 from planning.core.checks import is_number
 from planning.core.robot import ROBOT_FILES
 from planning.errors import ConfigError, NhsimError, SimulationError, option, without_python
@@ -232,18 +232,6 @@ def _check_name(name: str) -> None:
         raise ConfigError(f"not a plain file name for its baseline <name>.json in the baselines folder; {NAME_RULE}")
 
 
-def _gains(value: str, folder: Path) -> FBLGains:
-    """A case's gains: ``"KP,KD"`` or a gains file, a relative path relative to ``folder`` (the suite file's).
-
-    Raises:
-        ConfigError: Neither two positive numbers nor a readable, valid gains file.
-    """
-    path = folder / value
-    if path.suffix == ".toml" or path.exists():  # a file, as --gains reads one (its errors name the path)
-        return load_gains_file(path).gains
-    return resolve_gains(value)
-
-
 def _checked(key: str, value: Any, folder: Path = Path()) -> Any:
     """A case field's value as :class:`Case` takes it (``folder``: where a relative gains file is).
 
@@ -277,7 +265,7 @@ def _checked(key: str, value: Any, folder: Path = Path()) -> Any:
         raise ConfigError('must name a built-in scenario, random<N> or a scenario file, e.g. scenario = "open"')
     if key == "name":
         _check_name(value)
-    return _gains(value, folder) if key == "gains" else value
+    return resolve_gains(value, folder) if key == "gains" else value
 
 
 #: The fields a case's default name is made of (:meth:`Case._derived_name`).
