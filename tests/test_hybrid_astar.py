@@ -518,6 +518,19 @@ def test_the_time_limit_holds_for_the_grid_the_heuristic_and_the_search():
         assert "before the search: building the 2-D heuristic (1000000 cells, 12 obstacles)" in res.reason
 
 
+def test_a_limit_passed_while_the_grid_is_built_reads_as_any_other_timeout():
+    """The collision grid's own timeout (4 million nodes in 0.1 ms cannot be had) ends the plan as the
+    heuristic's does: the reason names the budget and what was under way, and the stats carry the CPU
+    time the planner's timing (and the test above, on a loaded machine) reads; they lacked it."""
+    world = World((-25.0, 25.0, -25.0, 25.0), (Circle((0.0, 0.0), 1.0),))
+    problem = PlanProblem(world, ROBOT, Pose2D(-24.0, -24.0, 0.3), Pose2D(24.0, 24.0, 1.0), time_limit=1e-4)
+    res = make_planner("hybrid-a-star").plan(problem)
+    assert res.status is PlanStatus.TIMEOUT, res.reason
+    assert res.reason.startswith("time budget of 0.0001 s spent before the search: building the collision grid")
+    assert {"time_s", "code_s", "cpu_s", "grid_s", "iterations", "nodes"} <= set(res.stats)
+    assert 0.0 <= res.stats["grid_s"] <= res.stats["time_s"] and res.stats["iterations"] == 0
+
+
 def test_a_gap_the_lattice_cannot_prove_is_not_passed_and_the_reason_says_what_that_proves():
     """The TurtleBot3 (0.178 m wide) through gaps in a wall, start and goal on the gap's axis: a gap of
     0.200 m is passed; one of 0.188 m (5 mm a side), which rrt-star and birrt drive straight through, is

@@ -351,8 +351,11 @@ class HybridAStar:
             return PlanResult(PlanStatus.INFEASIBLE, self.name, reason=too_large, stats=_stats(clock, None, 0, 0))
         try:  # the grid counts against the time limit
             checker = make_checker(problem, cfg.shape, cfg.clearance, clock[0].deadline())  # type: ignore[arg-type]
-        except FieldTimeout as exc:
-            return grid_timeout(self.name, exc)
+        except FieldTimeout as exc:  # the grid's timeout as every planner's, with this planner's CPU time
+            out = grid_timeout(self.name, exc)
+            stats = {**out.stats, "cpu_s": time.process_time() - clock[1]}
+            reason = f"time budget of {limit:g} s spent before the search: {exc}"
+            return dataclasses.replace(out, reason=reason, stats=stats)
         bad = check_endpoints(problem, checker, self.name)
         if bad is not None:
             return bad
