@@ -237,14 +237,10 @@ class DynamicFBL:
             ConfigError: An argument is not a number (an array, a text).
             SimulationError: ``t`` or the pose is not finite.
         """
-        try:
-            status, v, omega = self._period(t, x, y, theta)
-        except TypeError:  # an argument the compiled period cannot take as a float: named here
-            check_command(self.name, t, x, y, theta)
-            raise
+        check_command(self.name, t, x, y, theta)  # before the compiled period, which takes a text for a float
+        status, v, omega = self._period(t, x, y, theta)
         if status == OK:
             return v, omega
-        check_command(self.name, t, x, y, theta)  # raises for BAD_POSE
         if self._traj is None:
             raise RuntimeError("DynamicFBL.command called before reset")
         return step(self.state, _at(self._traj, t), 0, x, y, theta)

@@ -317,13 +317,8 @@ class PerSegmentTracker:
         """
         if self._period is None:
             raise RuntimeError(f"{type(self).__name__}.command called before reset")
-        try:
-            status, v, w = self._period(t, x, y, theta)
-        except TypeError:  # an argument the compiled period cannot take as a float: named here
-            check_command(self.name, t, x, y, theta)
-            raise
-        if status != OK:
-            check_command(self.name, t, x, y, theta)  # raises
+        check_command(self.name, t, x, y, theta)  # before the compiled period, which takes a text for a float
+        _, v, w = self._period(t, x, y, theta)  # OK: its BAD_POSE is what the check above has named
         return v, w
 
 

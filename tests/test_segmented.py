@@ -99,13 +99,16 @@ def test_a_non_finite_pose_is_refused_by_every_tracker(name: str, bad: tuple[flo
 @pytest.mark.parametrize("name", sorted(TRACKERS))
 def test_a_command_argument_that_is_no_number_is_named_by_every_tracker(name: str) -> None:
     """An array for x was "TypeError: bad argument type for built-in operation" (compiled trackers) or
-    "only 0-dimensional arrays can be converted" (mpc, open-loop)."""
+    "only 0-dimensional arrays can be converted" (mpc, open-loop); a text or a 0-d array the compiled
+    trackers took as the number it holds, where mpc and open-loop refused it."""
     robot = load_robot("edumip")
     tracker = make_tracker(name, robot)
     tracker.reset(to_trajectory(CUSP_TURN, robot, OPEN), 0.02)
     for args, field, got in [
         ((0.0, np.array([0.0, 1.0]), 0.0, 0.0), "x", r"ndarray of shape \(2,\)"),
         ((None, 0.0, 0.0, 0.0), "t", "None"),
+        (("0.02", 0.0, 0.0, 0.0), "t", "'0.02'"),
+        ((0.02, 0.0, 0.0, np.array(0.0)), "theta", r"a 0-d numpy array \(array\(0\.\)\); pass float\(x\)"),
     ]:
         with pytest.raises(
             ConfigError, match=rf"tracker '{name}': command\(t, x, y, theta\)'s {field} must be a number, got {got}"
