@@ -412,7 +412,8 @@ def test_a_warm_start_that_spends_the_limit_ends_timeout_without_a_solve() -> No
     res = make_planner("optim").plan(problem)
     assert res.status is PlanStatus.TIMEOUT, res.reason
     assert "spent before IPOPT could start" in res.reason and "may not pass this world's gaps" not in res.reason
-    assert res.stats["time_s"] < 0.3 + 0.2
+    # what the limit counts: numba readying code is left out (0.10 s of a 0.50 s first plan in a process)
+    assert res.stats["time_s"] - res.stats["code_s"] < 0.3 + 0.2
 
 
 def test_the_grid_warm_start_stops_at_the_limit_on_a_large_world() -> None:
