@@ -46,6 +46,13 @@ The algorithm of Probabilistic Robotics (Thrun, Burgard, Fox 2005) ch. 8 as Nav2
   as a fix's, it leaves dead reckoning uncorrected; measured on a seeded random world, the
   estimate drifted 4 cm from an accurate localiser into an obstacle.)
 
+Global localisation (nhsim's addition) searches the whole free space for one scan
+(:meth:`Amcl.search`): the likelihood field scores a grid of poses, the best are refined by the fit, and
+each refined pose's beams are also cast through the map (:meth:`Amcl.see_through`: a ray that crosses a
+mapped surface well before its reading says the pose is wrong, which the end points alone cannot). When a
+distinct pose explains the scan about as well as the best (:data:`ALIKE_BEAMS`, :data:`ALIKE_RESIDUAL`),
+the search reports the scan ambiguous with the poses.
+
 The map is the world's own signed distance (:func:`planning.collision.field.signed_distances`,
 the planner's formulas), tabulated once per world on a ``map_resolution`` grid and read bilinearly.
 
@@ -62,7 +69,7 @@ import functools
 import math
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -80,6 +87,22 @@ BIN_XY = 0.5
 BIN_TH = math.radians(10.0)
 #: Poses of a correlative search refined by the scan-to-map fit.
 SEARCH_KEPT = 20
+#: Fewest valid beams (finite, within the range limits) of a scan the localiser takes: fewer cannot fix a
+#: pose (the search refuses them; the scan localiser delivers no fix from such a revolution).
+MIN_BEAMS = 10
+#: Two poses of a search are distinct beyond this distance [m] (global localisation's convergence spread) ...
+DISTINCT_XY = 0.2
+#: ... or this heading difference [rad].
+DISTINCT_THETA = math.radians(20.0)
+#: A distinct pose explains a scan as well as the search's best (the scan is ambiguous) when its agreement
+#: (beams within the fit's gate of the map less beams whose rays cross a mapped surface well before their
+#: reading, :meth:`Amcl.see_through`) is at least this share of the best's ...
+ALIKE_BEAMS = 0.97
+#: ... and its chi-square per beam at most this multiple of the best's. Measured on the first scan of global
+#: localisation (docs/explanation/lidar-amcl.md): a symmetric world's twins 1.000 and 1.00; on the built-in
+#: and random worlds the nearest distinct pose had at most 0.952 of the agreement (nav_map2, its chi-square
+#: per beam 8.1 times the best's), and where its chi-square was within 1.25 times, at most 0.813.
+ALIKE_RESIDUAL = 1.25
 #: The distance field reaches this far beyond the walls [m] (end points of beams that pass a wall
 #: by a little, from a particle a little off, land there).
 GRID_MARGIN = 0.5
@@ -296,6 +319,13 @@ def likelihood_field(world: World, resolution: float, cap: float, clearance: flo
     return LikelihoodField(capped, signed, np.array([xmin, ymin, resolution, cap]), np.ascontiguousarray(free))
 
 
+def scan_returns(ranges: ArrayLike, range_min: float, range_max: float) -> NDArray[np.int64]:
+    """The returns of a scan, (beams,) ranges, or of each of (S, beams) scans: its ranges within
+    (``range_min``, ``range_max``) (REP 117: -inf too close, +inf nothing within range)."""
+    z = np.asarray(ranges, dtype=float)
+    return np.asarray(np.count_nonzero(np.isfinite(z) & (z > range_min) & (z < range_max), axis=-1), dtype=np.int64)
+
+
 def beam_subset(n: int, max_beams: int) -> NDArray[np.int64]:
     """Indices of the beams used of ``n`` (Nav2: every ``(n - 1) // (max_beams - 1)``-th, at least 1)."""
     step = max(1, (n - 1) // (max_beams - 1))
@@ -326,6 +356,51 @@ class AmclEstimate:
     refined: bool
     range_gain: FloatArray | None = None
     noise_cov: FloatArray | None = None
+
+
+class SearchResult(NamedTuple):
+    """A correlative search's answer (:meth:`Amcl.search`).
+
+    Attributes:
+        pose: (3,) the pose that explains the scan best.
+        share: Share of the scan's valid beams within ``refine_gate`` of the map there.
+        poses: (P, 3) the distinct poses that explain it alike (the best first); more than one: ambiguous.
+        rival: (agreement, chi-square per beam) of the best distinct pose after it, as multiples of the
+            best's (None: no other distinct pose among those refined): how near the scan came to ambiguous.
+    """
+
+    pose: FloatArray
+    share: float
+    poses: FloatArray
+    rival: tuple[float, float] | None
+
+    @property
+    def ambiguous(self) -> bool:
+        """Whether distinct poses explain the scan alike."""
+        return self.poses.shape[0] > 1
+
+
+def _distinct(a: FloatArray, b: FloatArray) -> bool:
+    """Whether two poses are farther apart than :data:`DISTINCT_XY` or :data:`DISTINCT_THETA`."""
+    return math.hypot(a[0] - b[0], a[1] - b[1]) > DISTINCT_XY or abs(K.angle_diff(a[2], b[2])) > DISTINCT_THETA
+
+
+def _alike(fits: list[tuple[FloatArray, int, float, int]], share: float) -> SearchResult:
+    """The search's answer from its refined poses ``(pose, agreement, chi-square per beam, beams within the
+    gate)``, best first: the distinct poses whose agreement is at least :data:`ALIKE_BEAMS` of the best's and
+    whose chi-square per beam is at most :data:`ALIKE_RESIDUAL` times its."""
+    best, agree, res, _ = fits[0]
+    poses, rival = [best], None
+    for pose, a, r, _ in fits[1:]:
+        if not _distinct(pose, best):
+            continue
+        if rival is None:
+            rival = (a / agree if agree > 0 else math.nan, r / res if res > 0 else math.inf if r > 0 else 1.0)
+        if a >= ALIKE_BEAMS * agree and r <= ALIKE_RESIDUAL * res and all(_distinct(pose, p) for p in poses):
+            poses.append(pose)
+    out = np.array(poses)
+    out[:, 2] = np.remainder(out[:, 2] + math.pi, 2 * math.pi) - math.pi
+    return SearchResult(out[0].copy(), share, out, rival)
 
 
 class Amcl:
@@ -398,19 +473,24 @@ class Amcl:
 
     def search(
         self, ranges: FloatArray, range_min: float, range_max: float, bearings: FloatArray, *, step: float = 0.2
-    ) -> tuple[FloatArray, float]:
+    ) -> SearchResult:
         """Correlative search of the whole free space for one scan (global localisation's seed): the
         likelihood-field score of poses on a ``step`` grid of free positions x 10 deg headings, the best
-        :data:`SEARCH_KEPT` refined by the scan-to-map fit.
+        :data:`SEARCH_KEPT` refined by the scan-to-map fit, and whether distinct poses explain the scan alike.
+
+        A refined pose is ranked by its agreement (its valid beams within ``refine_gate`` of the map, less
+        the beams whose rays cross a mapped surface well before their reading, :meth:`see_through`), then
+        its chi-square per beam. The scan is ambiguous when a pose farther than :data:`DISTINCT_XY` or
+        :data:`DISTINCT_THETA` from the best has at least :data:`ALIKE_BEAMS` of its agreement and a
+        chi-square per beam within :data:`ALIKE_RESIDUAL` times its: a symmetric world's twins, which no
+        scan taken standing still tells apart. A scan of fewer than :data:`MIN_BEAMS` valid beams is not
+        searched (its answer: the first pose tried, share 0, not ambiguous).
 
         Args:
             ranges: (beams,) the scan's ranges [m].
             range_min, range_max: Its limits [m].
             bearings: (beams,) each beam's bearing [rad].
             step: Grid spacing of the positions tried [m].
-
-        Returns:
-            (3,) the best pose and the share of the valid beams within ``refine_gate`` of the map there.
         """
         c = self.config
         free = self.field.free
@@ -419,18 +499,53 @@ class Amcl:
         cand = np.column_stack([np.repeat(keep, heads.size, axis=0), np.tile(heads, keep.shape[0])])
         r, b = self.beams(ranges, range_min, range_max, 0.0, 0.0, bearings=bearings)
         ra, ba = self.beams(ranges, range_min, range_max, 0.0, 0.0, every=True, bearings=bearings)
-        if ra.size < 10:
-            return cand[0], 0.0
+        if ra.size < MIN_BEAMS:
+            return SearchResult(cand[0], 0.0, cand[:1].copy(), None)
         w = np.ones(cand.shape[0])
         self._sense_weights(cand, w, r, b, min(range_max, c.laser_max_range))
-        best, score = cand[0], (-1, 0.0)
+        fits = []  # (pose, consistent beams, chi-square per beam, beams within the gate)
         for i in np.argsort(-w)[:SEARCH_KEPT]:
             pose, _, used, ssr = K.refine(
                 cand[i], ra, ba, self.laser, self.field.signed, self.field.grid, c.refine_gate, 10, self._noise
             )
-            if (used, -ssr) > score:
-                best, score = pose, (used, -ssr)
-        return best, score[0] / ra.size
+            through = self.see_through(pose, ranges, bearings, range_min, range_max)
+            fits.append((pose, used - through, ssr / max(used, 1), used))
+        fits.sort(key=lambda f: (-f[1], f[2]))
+        return _alike(fits, fits[0][3] / ra.size)
+
+    def see_through(
+        self, pose: FloatArray, ranges: FloatArray, bearings: FloatArray, range_min: float, range_max: float
+    ) -> int:
+        """Beams of a scan whose rays, cast from ``pose``, cross a mapped surface well before their reading
+        (for a beam that read nothing, before the range limit): a scan taken there would have seen that
+        surface (the likelihood field and the fit look at the end points alone). Well before: by more than
+        ``refine_gate`` plus the scanner's error at that range (:meth:`_through_margin`). Beams below
+        ``range_min`` are left out. The map is read at the nearest node of its grid, every grid spacing along
+        each ray."""
+        f, rmax = self.field, min(range_max, self.config.laser_max_range)
+        z = np.asarray(ranges, dtype=float)
+        ok = z > range_min  # NaN and -inf (too close) left out
+        r = np.where(z[ok] < rmax, z[ok], rmax)
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        lx = pose[0] + c * self.laser[0] - s * self.laser[1]
+        ly = pose[1] + s * self.laser[0] + c * self.laser[1]
+        a = pose[2] + self.laser[2] + np.asarray(bearings, dtype=float)[ok]
+        x0, y0, h = f.grid[0], f.grid[1], f.grid[2]
+        t = h * np.arange(1, int(rmax / h) + 1)
+        i = np.clip(np.rint((lx + np.outer(np.cos(a), t) - x0) / h).astype(np.int64), 0, f.signed.shape[0] - 1)
+        j = np.clip(np.rint((ly + np.outer(np.sin(a), t) - y0) / h).astype(np.int64), 0, f.signed.shape[1] - 1)
+        inside = f.signed[i, j] < 0.0
+        hit = np.where(inside.any(axis=1), t[np.argmax(inside, axis=1)], np.inf)
+        return int(np.count_nonzero(hit + self._through_margin(hit) < r))
+
+    def _through_margin(self, d: FloatArray) -> FloatArray:
+        """How much longer than a mapped surface's distance ``d`` [m] a reading may be before its ray counts as
+        crossing the surface [m]: ``refine_gate`` plus the scanner's whole systematic band (3 standard
+        deviations of ``range_bias``'s scale error) and 3 standard deviations of its white noise
+        (``range_noise``) at that range; without them, the LDS-01's (5 % and 3.5 %: 15.5 % of ``d``)."""
+        scale = 0.05 / 3 if self.range_bias is None else self.range_bias[2]
+        white = 0.035 if self.range_noise is None else self.range_noise[2]
+        return np.asarray(self.config.refine_gate + 3.0 * (scale + white) * d, dtype=float)
 
     def _restart(self) -> None:
         n = self.particles.shape[0]

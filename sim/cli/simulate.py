@@ -352,9 +352,12 @@ def _sensor_line(record: dict[str, Any]) -> str:
     )
 
 
-def localiser_line(est: dict[str, Any]) -> str:
-    """The closed loop's scan localiser in one line ("" without one): its accuracy, its particles and,
-    after ``--initial-pose unknown``, how global localisation went."""
+def localiser_line(est: dict[str, Any], status: str = "ok") -> str:
+    """The closed loop's scan localiser in one line ("" without one): its accuracy, its particles, its
+    revolutions without returns and, after ``--initial-pose unknown``, how global localisation went (the
+    run's ``status`` says whether it ended undecided)."""
+    from sim.robot.scan_localiser import AMBIGUOUS
+
     if est.get("scans_used") is None:
         return ""
     rmse, head = est.get("localiser_rmse_m"), est.get("localiser_heading_rmse_rad")
@@ -363,12 +366,18 @@ def localiser_line(est: dict[str, Any]) -> str:
         + (f"{rmse * 100:.1f} cm / {math.degrees(head):.2f} deg" if rmse is not None and head is not None else "-")
         + (f", {est['mean_particles']:.0f} particles on average" if est.get("mean_particles") is not None else "")
     )
+    blind, cast = est.get("scans_without_returns") or 0, est.get("scans_cast") or 0
+    if blind and blind == cast:
+        text += f"; the scanner saw nothing: all {cast} scans without returns (no fix)"
+    elif blind:
+        text += f"; {blind} scans without returns (no fix)"
     if est.get("localisation_lost") is not None:
         text += f"; LOST at t={est['localisation_lost']:.2f} s"
     scans = est.get("global_localisation_scans")
     if scans is not None:
         ok = est.get("global_localisation_converged")
-        text += f"; global localisation {'converged after' if ok else 'did not converge in'} {scans} scans"
+        said = "ambiguous after" if status.startswith(AMBIGUOUS) else "converged after" if ok else "did not converge in"
+        text += f"; global localisation {said} {scans} scans"
     return text
 
 
@@ -627,7 +636,8 @@ def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
         if "import" in record:
             print("\n".join(format_import(record["import"])))
     print(format_table(record))
-    line = localiser_line(record.get(str(RunKind.CLOSED_LOOP), {}).get("estimation") or {})
+    closed = record.get(str(RunKind.CLOSED_LOOP), {})
+    line = localiser_line(closed.get("estimation") or {}, str(closed.get("status", "ok")))
     if line and not args.quiet:
         print(line)
     for path in write_outputs(result, outputs, record).values():

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from control.estimation import chi2_interval
+from control.estimation.amcl import MIN_BEAMS, scan_returns
 from planning.core.geometry import wrap_angle
 from planning.core.robot import RobotSpec
 from planning.trajectory.trajectory import Trajectory
@@ -43,6 +44,9 @@ class EstimationMetrics:
         localiser_nees_mean: Their mean NEES (3 when its covariance is right).
         mean_particles: Mean particle count over its updates.
         scans_used: Its updates (scans that moved the filter).
+        scans_without_returns: Revolutions with fewer returns than the localiser needs
+            (:data:`control.estimation.amcl.MIN_BEAMS` ranges within the scanner's limits): no fix came of them.
+        scans_cast: Revolutions cast while tracking.
         localisation_lost: Time its error passed 0.5 m [s] (the run ended there), or None.
         global_localisation_scans: Revolutions global localisation took (None: start pose known).
         global_localisation_converged: Whether it converged (error < 0.1 m, spread < 0.2 m).
@@ -62,6 +66,8 @@ class EstimationMetrics:
     localiser_nees_mean: float | None = None
     mean_particles: float | None = None
     scans_used: int | None = None
+    scans_without_returns: int | None = None
+    scans_cast: int | None = None
     localisation_lost: float | None = None
     global_localisation_scans: int | None = None
     global_localisation_converged: bool | None = None
@@ -103,6 +109,10 @@ def _localiser_metrics(log: EstimationLog) -> dict[str, Any]:
         "localiser_nees_mean": mean,
         "mean_particles": float(np.mean(loc.particles)) if n else math.nan,
         "scans_used": int(n),
+        "scans_without_returns": int(
+            np.count_nonzero(scan_returns(loc.scan_ranges, loc.range_min, loc.range_max) < MIN_BEAMS)
+        ),
+        "scans_cast": int(loc.scan_t.size),
         "localisation_lost": loc.lost_at,
         "global_localisation_scans": loc.global_scans,
         "global_localisation_converged": loc.global_converged,

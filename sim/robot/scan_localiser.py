@@ -10,7 +10,8 @@ delivered at period ``j + fix_latency`` (after the revolution has ended) and fus
 its measurement time ``j`` with the localiser's own covariance (its white part, with the scanner's
 systematic range error as a gain on the EKF's range error states, :mod:`control.estimation.ekf`).
 AMCL updates only when the odometry has moved past ``update_min_d`` or ``update_min_a``: a
-revolution without an update delivers nothing.
+revolution without an update delivers nothing, nor does one with fewer than
+:data:`control.estimation.amcl.MIN_BEAMS` returns (nothing to match; the record counts them apart).
 
 The odometry AMCL takes is the robot's ``odom`` frame as the TurtleBot3 publishes it
 (``turtlebot3_node``'s odometry with ``odometry.use_imu: true``, the Burger's setting in
@@ -31,8 +32,13 @@ at its start before the run, takes up to :data:`GLOBAL_SCANS` revolutions (force
 ``nomotion_update``) until the particle spread is below :data:`CONVERGED_SPREAD`; each revolution
 until then is also searched over the whole free space (a correlative search,
 :meth:`control.estimation.amcl.Amcl.search`), whose best pose, once it fits the map well
-(:data:`SEARCH_FIT`), seeds the particles; the run then says after how many, and whether the error
-then was below :data:`CONVERGED_ERROR`. A localiser whose error against the truth passes
+(:data:`SEARCH_FIT`) and no distinct pose explains the scan alike, seeds the particles; the run then
+says after how many, and whether the error then was below :data:`CONVERGED_ERROR`. A scan that distinct
+poses explain alike (a symmetric world's twins) seeds nothing, and the particles' spread does not count as
+convergence after it (a cloud gathered on one of the poses is not evidence for it); after
+:data:`AMBIGUOUS_SCANS` such revolutions in a row, or as many without returns, the run ends before tracking
+with the status :data:`AMBIGUOUS`, naming the poses (:class:`LocaliserAmbiguous`). The localiser decides
+from its scans alone; the truth only judges its answer. A localiser whose error against the truth passes
 :data:`LOST_ERROR` ends the run with that status.
 """
 
@@ -46,7 +52,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from control.estimation.amcl import Amcl, AmclConfig
+from control.estimation.amcl import MIN_BEAMS, Amcl, AmclConfig, scan_returns
 from control.estimation.amcl_kernels import angle_diff
 from planning.core.robot import RobotSpec
 from planning.core.world import World
@@ -71,6 +77,12 @@ SEARCH_FIT = 0.8
 #: ... as a Gaussian cloud of these standard deviations [m], [rad].
 SEED_STD_XY = 0.05
 SEED_STD_THETA = 0.03
+#: Global localisation ends undecided after this many revolutions in a row whose search found distinct poses
+#: explaining the scan alike (or that had too few returns to search): standing still, the next revolution
+#: sees the same.
+AMBIGUOUS_SCANS = 3
+#: The status of a run whose global localisation ended undecided.
+AMBIGUOUS = "localisation ambiguous"
 #: Variances [m^2, m^2, rad^2] added to a fix's covariance, so that the EKF gets a positive-definite
 #: one (a particle cluster's can be singular).
 COV_FLOOR = (1e-8, 1e-8, 1e-10)
@@ -134,6 +146,33 @@ class LocaliserLost(Exception):
     def __init__(self, t: float, error: float) -> None:
         super().__init__(f"localisation lost at t={t:.3f} s: the localiser's pose is {error:.2f} m from the truth")
         self.t = t
+
+
+class LocaliserAmbiguous(Exception):
+    """Global localisation cannot choose between poses from its own scans (the run ends before tracking).
+
+    Attributes:
+        scans: Revolutions taken.
+        poses: (P, 3) the distinct poses that explained them alike, or None: the scans had too few returns.
+    """
+
+    def __init__(self, scans: int, poses: FloatArray | None, range_max: float) -> None:
+        fix = f"give the start pose ({option('initial-pose', 'known')})"
+        if poses is None:
+            text = (
+                f"global localisation: the scanner saw nothing within {range_max:g} m in {scans} revolutions at the "
+                f"start (fewer than {MIN_BEAMS} returns each), which every pose that far from the map explains "
+                f"alike; {fix} or start within its range of a wall or obstacle"
+            )
+        else:
+            listed = ", ".join(f"({p[0]:.2f}, {p[1]:.2f}, {math.degrees(p[2]):.0f} deg)" for p in poses)
+            text = (
+                f"global localisation: {poses.shape[0]} poses explain the scans alike ({listed}) in {scans} "
+                f"revolutions at the start; {fix} or a world with a feature that tells them apart"
+            )
+        super().__init__(text)
+        self.scans = scans
+        self.poses = poses
 
 
 class ScanLocaliser:
@@ -200,24 +239,47 @@ class ScanLocaliser:
             self.amcl.reset(truth)
             return
         self.amcl.reset_global()
-        pose = np.tile(np.asarray(truth, dtype=float), (self.scanner.profile.beams, 1))
+        try:
+            self.global_scans, self.global_converged = self._localise(data, truth)
+        except LocaliserAmbiguous as undecided:
+            self.global_scans, self.global_converged = undecided.scans, False
+            raise
+
+    def _localise(self, data: mujoco.MjData, truth: tuple[float, float, float]) -> tuple[int, bool]:
+        """Global localisation, the robot standing at ``truth``: the revolutions taken, and whether the
+        particles converged there (the truth only judges the answer, after it is given).
+
+        Raises:
+            LocaliserAmbiguous: :data:`AMBIGUOUS_SCANS` revolutions in a row had distinct poses explaining
+                them alike, or too few returns to search.
+        """
         lidar = self.scanner.profile
-        seeded = False
+        pose = np.tile(np.asarray(truth, dtype=float), (lidar.beams, 1))
+        limits = (lidar.range_min, lidar.range_max, 0.0, lidar.angle_increment)
+        seeded, blind, alike = False, 0, 0  # revolutions in a row without returns, and ambiguous ones
         for n in range(1, GLOBAL_SCANS + 1):
             scan = self.scanner.scan(data, self.t0 - (GLOBAL_SCANS - n + 1) * lidar.period, pose)
-            limits = (lidar.range_min, lidar.range_max, 0.0, lidar.angle_increment)
+            blind = blind + 1 if scan_returns(scan.ranges, lidar.range_min, lidar.range_max) < MIN_BEAMS else 0
+            if blind >= AMBIGUOUS_SCANS:
+                raise LocaliserAmbiguous(n, None, lidar.range_max)
+            if blind:  # nothing to localise on
+                continue
+            ambiguous = False
             if not seeded:  # a correlative search of the free space seeds the particles once it fits well
-                best, share = self.amcl.search(scan.ranges, lidar.range_min, lidar.range_max, scan.bearings)
-                if share >= SEARCH_FIT:
-                    self.amcl.reset(best, SEED_STD_XY, SEED_STD_THETA)
+                found = self.amcl.search(scan.ranges, lidar.range_min, lidar.range_max, scan.bearings)
+                ambiguous = found.ambiguous
+                alike = alike + 1 if ambiguous else 0
+                if alike >= AMBIGUOUS_SCANS:
+                    raise LocaliserAmbiguous(n, found.poses, lidar.range_max)
+                if not ambiguous and found.share >= SEARCH_FIT:
+                    self.amcl.reset(found.pose, SEED_STD_XY, SEED_STD_THETA)
                     seeded = True
             self.amcl.update(self.odom, scan.ranges, *limits, force=True)
             est = self.amcl.estimate
-            if est is not None and est.spread < CONVERGED_SPREAD:
+            if not ambiguous and est is not None and est.spread < CONVERGED_SPREAD:  # one mode of several is not
                 err = math.hypot(est.pose[0] - truth[0], est.pose[1] - truth[1])
-                self.global_scans, self.global_converged = n, err < CONVERGED_ERROR
-                return
-        self.global_scans, self.global_converged = GLOBAL_SCANS, False
+                return n, err < CONVERGED_ERROR
+        return GLOBAL_SCANS, False
 
     def mark(self, k: int, counts: tuple[int, int], yaw: float | None = None) -> None:
         """The encoder counts and the true heading ``yaw`` [rad] at a fix period ``k``: the odometry
@@ -238,7 +300,8 @@ class ScanLocaliser:
         self.odom_at[k] = self.odom.copy()
 
     def fix(self, j: int, data: mujoco.MjData, truth: FloatArray, estimate: FloatArray) -> ScanFix | None:
-        """The localiser's answer for the revolution centred on period ``j`` (None if AMCL did not update).
+        """The localiser's answer for the revolution centred on period ``j`` (None if AMCL did not update,
+        or the revolution had fewer than :data:`control.estimation.amcl.MIN_BEAMS` returns: nothing to match).
 
         The scan is deskewed first, as the robot can: each beam moved into the frame of the estimated
         pose at ``j`` by the estimator's own poses over the revolution (:func:`deskew`).
@@ -265,6 +328,8 @@ class ScanLocaliser:
         self.scan_t.append(stamp)
         self.scan_ranges.append(scan.ranges)
         odom = self.odom_at.pop(j)
+        if scan_returns(scan.ranges, lidar.range_min, lidar.range_max) < MIN_BEAMS:  # nothing to match: no fix
+            return None
         if not self.amcl.moved_enough(odom):  # AMCL takes no scan until the robot has moved (Nav2's rule)
             return None
         est_poses = beam_poses(t, estimate[ks], times)

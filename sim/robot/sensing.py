@@ -38,7 +38,15 @@ from sim.physics.asbuilt import TOLERANCES
 from sim.physics.model import rolling_radius
 from sim.physics.runlog import EstimationLog
 from sim.physics.sensors import SensorModel, SensorProfile, SensorReader, latency_periods, load_sensor_profile
-from sim.robot.scan_localiser import LocaliserLost, LocaliserSetup, ScanLocaliser, localiser_schedule, range_bias
+from sim.robot.scan_localiser import (
+    AMBIGUOUS,
+    LocaliserAmbiguous,
+    LocaliserLost,
+    LocaliserSetup,
+    ScanLocaliser,
+    localiser_schedule,
+    range_bias,
+)
 from sim.robot.sources import PoseSource
 
 FloatArray = NDArray[np.float64]
@@ -344,16 +352,21 @@ class Sensing:
         run's data bound by :meth:`observer`.
 
         Raises:
-            EstimatorDivergedError: The estimator diverged (the simulator ends the run on it).
+            EstimatorDivergedError: The estimator diverged, or global localisation ended undecided at period 0
+                (reason :data:`sim.robot.scan_localiser.AMBIGUOUS`; the simulator ends the run on it).
             IndexError: ``k`` is outside the run's periods.
         """
         loop, data = self.loop, self._data
         if data is None:
             raise ValueError("Sensing.observe: bind the run's MjData first (Sensing.observer)")
+        undecided = None
         if k == 0:
             left, right, _ = self.reader.start(data, truth[2])
             if self.scans is not None:
-                self.scans.start(data, truth, (left, right))
+                try:
+                    self.scans.start(data, truth, (left, right))
+                except LocaliserAmbiguous as exc:
+                    undecided = exc
         else:
             left, right, gyro = self.reader.read(k, truth[2])
         self._k = k
@@ -362,6 +375,8 @@ class Sensing:
             return truth
         pitch = 0.0 if self._pitch is None else self._pitch()
         pose = loop.start(self.t0, truth, (left, right), pitch) if k == 0 else loop.step(k, left, right, gyro, pitch)
+        if undecided is not None:  # global localisation could not choose a pose: the run ends before tracking
+            raise EstimatorDivergedError(str(undecided), t=self.t0, reason=AMBIGUOUS) from undecided
         if k in self._events:
             self._fix_events(k, truth)
             pose = loop.record(k)
@@ -422,6 +437,9 @@ class Sensing:
 
     def diverged(self, error: EstimatorDivergedError) -> None:
         """Record that the estimator diverged at the current period (the run ends there)."""
+        if error.reason == AMBIGUOUS:  # not a divergence: the localiser never chose a pose
+            self.status = f"{AMBIGUOUS}: {error}"
+            return
         self.status = f"estimator diverged at t={error.t:.3f} s ({error.reason}): {error}"
 
     def to_log(self) -> EstimationLog | None:
