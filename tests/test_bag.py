@@ -16,12 +16,13 @@ import yaml
 
 from planning.errors import ConfigError, OutputExistsError
 from planning.trajectory.importer import TrajectoryFile
+from sim.io import bag_topics as bt
 from sim.io.bag import write_job_bag
 from sim.io.bag_topics import scan_of
 from sim.pipeline.runs import RunKind
 
 RUNS = (RunKind.CLOSED_LOOP, RunKind.CLOSED_LOOP_ODOMETRY, RunKind.OPEN_LOOP)
-PER_SAMPLE = ("tf", "ground_truth/odom", "joint_states", "imu", "cmd_vel", "tracking_error")
+PER_SAMPLE = ("ground_truth/odom", "joint_states", "imu", "cmd_vel", "tracking_error")
 ONCE = ("/tf_static", "/plan", "/reference", "/map", "/obstacles")
 
 
@@ -52,8 +53,9 @@ def _wrap(a: float) -> float:
 
 
 def expected_counts(result: Any) -> dict[str, int]:
-    """Messages per topic as the logs dictate."""
-    counts: dict[str, int] = {}
+    """Messages per topic as the logs dictate (the runs' transforms all on ``/tf``, one message per run and
+    sample: tf2, RViz and Nav2 listen there alone)."""
+    counts: dict[str, int] = {"/tf": sum(log.t.size for log in result.logs.values())}
     for kind, log in result.logs.items():
         for name in PER_SAMPLE:
             counts[f"/{kind}/{name}"] = log.t.size
@@ -83,6 +85,11 @@ def sensed(log: Any, t: np.ndarray) -> np.ndarray:
     ``sim.io.bag_topics.sensed_at``): MuJoCo's sensors give the state at the start of the last physics
     step, one timestep before each instant after the first."""
     return np.where(t > log.t[0] + 1e-9, t - float(log.meta["timestep_s"]), t)
+
+
+def run_tf(msgs: dict[str, list[tuple[int, Any]]], kind: str) -> list[tuple[int, Any]]:
+    """A run's transforms: its messages on ``/tf``, told apart by their frames' prefix."""
+    return [(t, x) for t, x in msgs["/tf"] if x.transforms[0].child_frame_id.startswith(f"{kind}/")]
 
 
 def read_rosbags(path: Path) -> tuple[dict[str, str], dict[str, list[tuple[int, Any]]], Any]:
@@ -116,8 +123,9 @@ def test_rosbags_reads_every_topic_with_the_logs_counts_stamps_and_frames(job: t
         if header is not None and topic not in ONCE:  # each message's stamp is its log time
             stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for _, m in items]
             assert stamps == list(times), topic
-    for kind in result.logs:  # each run's tree: map -> odom -> base_footprint -> base_link -> wheels
-        tf = msgs[f"/{kind}/tf"]
+    for kind in result.logs:  # each run's tree: map -> odom -> base_footprint -> base_link -> wheels; the truth
+        tf = run_tf(msgs, kind)
+        assert len(tf) == result.logs[kind].t.size
         chain = [(x.header.frame_id, x.child_frame_id) for x in tf[0][1].transforms]
         assert chain == [
             ("map", f"{kind}/odom"),
@@ -125,33 +133,48 @@ def test_rosbags_reads_every_topic_with_the_logs_counts_stamps_and_frames(job: t
             (f"{kind}/base_footprint", f"{kind}/base_link"),
             (f"{kind}/base_link", f"{kind}/wheel_left_link"),
             (f"{kind}/base_link", f"{kind}/wheel_right_link"),
+            ("map", f"{kind}/ground_truth/base_footprint"),
+            (f"{kind}/ground_truth/base_footprint", f"{kind}/ground_truth/base_link"),
         ]
     latched = {t for t, q in qos.items() if q and q[0].durability.name == "TRANSIENT_LOCAL"}
     assert latched == {*ONCE, *(f"/{kind}/robot" for kind in result.logs)}
 
 
-def test_tf_puts_base_footprint_at_the_true_pose_and_ground_truth_ends_at_the_final_pose(job: tuple[Any, Path]) -> None:
+def _compose(a: Any, b: Any) -> tuple[float, float, float]:
+    """Two transforms' planar poses composed: ``b`` in ``a``'s child frame, in ``a``'s parent."""
+    ya = _yaw(a.rotation)
+    x = a.translation.x + math.cos(ya) * b.translation.x - math.sin(ya) * b.translation.y
+    y = a.translation.y + math.sin(ya) * b.translation.x + math.cos(ya) * b.translation.y
+    return x, y, ya + _yaw(b.rotation)
+
+
+def test_tf_puts_base_footprint_at_the_belief_and_the_truth_frame_at_the_final_pose(job: tuple[Any, Path]) -> None:
     result, path = job
     _, msgs, _ = read_rosbags(path)
     for kind, log in result.logs.items():
         final = log.pose[-1]
         gt = msgs[f"/{kind}/ground_truth/odom"][-1][1]
-        assert gt.header.frame_id == "map" and gt.child_frame_id == f"{kind}/base_footprint"
+        assert gt.header.frame_id == "map" and gt.child_frame_id == f"{kind}/ground_truth/base_footprint"
         p = gt.pose.pose
         assert (p.position.x, p.position.y) == pytest.approx((final[0], final[1]), abs=1e-12)
         assert _wrap(_yaw(p.orientation) - final[2]) == pytest.approx(0.0, abs=1e-9)
-        # map -> odom -> base_footprint composes to the true pose (the estimate's error is in map -> odom)
-        tfs = msgs[f"/{kind}/tf"][-1][1].transforms
-        a, b = tfs[0].transform, tfs[1].transform
-        ya = _yaw(a.rotation)
-        x = a.translation.x + math.cos(ya) * b.translation.x - math.sin(ya) * b.translation.y
-        y = a.translation.y + math.sin(ya) * b.translation.x + math.cos(ya) * b.translation.y
-        assert (x, y) == pytest.approx((final[0], final[1]), abs=1e-9)
-        assert _wrap(ya + _yaw(b.rotation) - final[2]) == pytest.approx(0.0, abs=1e-9)
+        tfs = run_tf(msgs, kind)[-1][1].transforms
+        truth = tfs[5].transform  # map -> ground_truth/base_footprint: the true pose
+        assert (truth.translation.x, truth.translation.y) == pytest.approx((final[0], final[1]), abs=1e-12)
+        # map -> odom -> base_footprint composes to what the run believed (the truth for the open loop's
+        # start only: it believes nothing, map -> odom the identity, base_footprint its wheel odometry)
+        x, y, yaw = _compose(tfs[0].transform, tfs[1].transform)
+        believed = bt.belief_at(log, log.t[-1:])
+        if believed is None:
+            assert (tfs[0].transform.translation.x, tfs[0].transform.translation.y) == (0.0, 0.0)
+        else:
+            assert (x, y) == pytest.approx((believed[0, 0], believed[0, 1]), abs=1e-9)
+            assert _wrap(yaw - believed[0, 2]) == pytest.approx(0.0, abs=1e-9)
         err = msgs[f"/{kind}/tracking_error"][-1][1].vector
         assert err.x == pytest.approx(float(np.hypot(*(log.pose[-1, :2] - log.ref_pose[-1, :2]))), abs=1e-12)
         robot = msgs[f"/{kind}/robot"][0][1].markers
-        assert {mk.header.frame_id for mk in robot} == {f"{kind}/base_link"} and all(mk.frame_locked for mk in robot)
+        assert {mk.header.frame_id for mk in robot} == {f"{kind}/ground_truth/base_link"}
+        assert all(mk.frame_locked for mk in robot)
         joints = msgs[f"/{kind}/joint_states"][-1][1]
         assert list(joints.name) == ["wheel_left_joint", "wheel_right_joint"]
         assert list(joints.velocity) == pytest.approx(list(log.wheel_speed[-1]), abs=0.0)
@@ -163,7 +186,7 @@ def test_odom_is_stamped_at_its_readings_and_its_error_from_the_bag_is_the_recor
     at the start of a step), and /RUN/ground_truth/odom has the true pose at that stamp: the error
     computed from the bag alone, each estimate against the truth at its own stamp, is the record's
     estimate RMSE (it was 7 % larger with the estimates stamped at the instants, against the truth 2 ms
-    later). tf's odom -> base_footprint at each logged sample is the estimate on the same clock."""
+    later). tf's map -> odom -> base_footprint at each logged sample is the estimate on the same clock."""
     from sim.physics.metrics import EstimationMetrics
 
     result, path = job
@@ -183,8 +206,8 @@ def test_odom_is_stamped_at_its_readings_and_its_error_from_the_bag_is_the_recor
         assert math.sqrt(np.mean(np.square(head))) == pytest.approx(record.heading_rmse_rad, rel=1e-6), kind
         at = np.array([t for t, _ in odom]) * 1e-9
         x = np.array([m.pose.pose.position.x for _, m in odom])
-        tf_x = [m.transforms[1].transform.translation.x for _, m in msgs[f"/{kind}/tf"]]
-        np.testing.assert_allclose(tf_x, np.interp(log.t, at, x), rtol=0, atol=1e-12)
+        tf_x = [_compose(m.transforms[0].transform, m.transforms[1].transform)[0] for _, m in run_tf(msgs, kind)]
+        np.testing.assert_allclose(tf_x, np.interp(log.t, at, x), rtol=0, atol=1e-9)
 
 
 def test_the_mcap_library_reads_the_same_counts_and_final_pose(job: tuple[Any, Path]) -> None:

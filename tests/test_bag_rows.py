@@ -42,9 +42,11 @@ def reference_rows(template: Any, columns: dict[str, np.ndarray], ks: list[int])
 @pytest.fixture(scope="module")
 def topics() -> list[bt.Topic]:
     from sim.io.bag import job_topics
+    from sim.pipeline.runs import RunKind
     from sim.pipeline.simulate import simulate_reference
 
-    job = simulate_reference("open", reference="circle", robot="turtlebot3")
+    runs = (RunKind.CLOSED_LOOP, RunKind.OPEN_LOOP)  # frame names of two lengths on /tf
+    job = simulate_reference("open", reference="circle", robot="turtlebot3", runs=runs)
     return job_topics(job.prepared, job.logs)
 
 
@@ -52,15 +54,21 @@ def test_every_row_topic_matches_rosbags_message_by_message(topics: list[bt.Topi
     batched = [tp for tp in topics if tp.rows is not None]
     kinds = {tp.msgtype for tp in batched}
     assert {m.TYPES[k] for k in ("tf", "odometry", "joints", "imu", "twist", "vector", "clock")} <= kinds
+    tf = next(tp for tp in batched if tp.name == "/tf")
+    assert isinstance(tf.rows, list) and len(tf.rows) == 2  # each run's transforms, one part each
     for tp in batched:
-        template, columns = tp.rows  # type: ignore[misc]
-        n = tp.times.size
-        ks = sorted({0, 1, n // 3, n // 2, n - 2, n - 1})
-        want = reference_rows(pickle.loads(pickle.dumps(template)), columns, ks)
+        parts = tp.rows if isinstance(tp.rows, list) else [tp.rows]
         got = tp.serialized()
-        assert len(got) == n, tp.name
-        for k, w in zip(ks, want, strict=True):
-            assert bytes(got[k]) == w, f"{tp.name} message {k}"
+        assert len(got) == tp.times.size, tp.name
+        first = 0
+        for template, columns in parts:  # type: ignore[misc]
+            n = len(next(iter(columns.values())))
+            ks = sorted({0, 1, n // 3, n // 2, n - 2, n - 1})
+            want = reference_rows(pickle.loads(pickle.dumps(template)), columns, ks)
+            for k, w in zip(ks, want, strict=True):
+                assert bytes(got[first + k]) == w, f"{tp.name} message {first + k}"
+            first += n
+        assert first == tp.times.size, tp.name
 
 
 def test_a_time_before_zero_and_times_past_an_int32_of_nanoseconds() -> None:

@@ -10,15 +10,23 @@ A bag is a ROS 2 MCAP file (``.mcap``), a rosbag2 folder (MCAP or sqlite3 storag
   (a robot's recorded motion): every message is a row, its header stamp the clock (counted from
   the first message); an odometry message's twist gives ``v`` and ``omega``.
 
+The poses' frame (their ``header.frame_id``; a path's poses', which a path header that says another
+frame does not override) goes into the import report: poses in another frame than ``map`` (an ``odom``
+recording) are taken as they are in the scenario's map frame, and the report says so and points to
+``--offset``. Orientation quaternions must have norm 1 within :data:`QUATERNION_TOLERANCE` (tf2 refuses
+others; those within it are normalised).
+
 The table then goes through :func:`planning.trajectory.importer.read_trajectory_file`'s repairs and
 checks like any other file. Every problem (no such bag, a truncated file or one that is not a bag,
 a topic that is missing, of another type or empty, a path of fewer than two poses, a trajectory whose
-poses carry no times, a non-finite position or quaternion) is a :class:`TrajectoryFileError` naming it
-(the topic and message) and a fix that exists (another message or topic of the bag, when it has one).
+poses carry no times, a non-finite position or quaternion, a zero or unnormalised quaternion, poses in
+more than one frame) is a :class:`TrajectoryFileError` naming it (the topic and message) and a fix that
+exists (another message or topic of the bag, when it has one).
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -28,7 +36,6 @@ from planning.errors import option
 from planning.trajectory.file_formats import (
     FileTable,
     TrajectoryFileError,
-    quaternion_headings,
     quaternion_yaw,
     table_from_arrays,
 )
@@ -38,6 +45,12 @@ BAG_SUFFIXES = (".mcap", ".bag", ".db3")
 PATH_TYPE = "nav_msgs/msg/Path"
 #: Types whose messages are each one row of a recorded motion.
 MOTION_TYPES = ("nav_msgs/msg/Odometry", "geometry_msgs/msg/PoseStamped", "geometry_msgs/msg/PoseWithCovarianceStamped")
+#: Largest difference of an orientation quaternion's norm from 1 (within it the quaternion is normalised).
+QUATERNION_TOLERANCE = 1e-3
+#: A quaternion of a smaller norm is zero: no orientation at all.
+ZERO_QUATERNION = 1e-6
+#: The frame the scenario's coordinates are in.
+MAP_FRAME = "map"
 
 
 def is_bag(path: Path) -> bool:
@@ -125,12 +138,62 @@ def _columns(path: Path, poses: list[Any], stamps: list[int], rows: tuple[str, .
     }
     q = np.array([[p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w] for p in poses], dtype=float)
     _check_finite(path, {**cols, "orientation quaternion": q}, rows)
-    theta = quaternion_headings([quaternion_yaw(*o) for o in q], rows, path)
-    if theta is not None:
-        cols["theta"] = theta
+    _check_unit(path, q, rows)
+    cols["theta"] = np.array([quaternion_yaw(*o) for o in q], dtype=float)  # normalised
     if len(set(stamps)) > 1:
         cols["t"] = np.array([s - stamps[0] for s in stamps], dtype=float) * 1e-9
     return cols
+
+
+def _check_unit(path: Path, q: np.ndarray, rows: tuple[str, ...]) -> None:
+    """Each orientation quaternion (N, 4) of norm 1 within :data:`QUATERNION_TOLERANCE`: tf2 refuses an
+    unnormalised one, and a zero one is no rotation at all."""
+    norm = np.linalg.norm(q, axis=1)
+    bad = np.flatnonzero((norm < ZERO_QUATERNION) | (np.abs(norm - 1.0) > QUATERNION_TOLERANCE))
+    if not bad.size:
+        return
+    k = int(bad[0])
+    zero = norm[k] < ZERO_QUATERNION
+    what = "a zero" if zero else f"an unnormalised (norm {norm[k]:.6g})"
+    fix = "normalise it (x, y, z and w divided by their norm)"
+    if zero:
+        fix = "give it the pose's orientation, (0, 0, sin(yaw/2), cos(yaw/2)) for a heading yaw"
+    raise TrajectoryFileError(
+        f"{path}: {rows[k]} has {what} orientation quaternion (x, y, z, w) = ({', '.join(f'{v:g}' for v in q[k])})"
+        f" ({bad.size} of {len(rows)} poses); an orientation is a unit quaternion, norm 1 within "
+        f"{QUATERNION_TOLERANCE:g} (tf2 refuses others): {fix}"
+    )
+
+
+def _one_frame(path: Path, what: str, frames: list[str], rows: tuple[str, ...]) -> str:
+    """The one frame of the rows (named by ``rows``) of ``what``; poses in two frames are refused."""
+    seen = list(dict.fromkeys(frames))
+    if len(seen) > 1:
+        a, b = (rows[frames.index(f)] for f in seen[:2])
+        raise TrajectoryFileError(
+            f"{path}: {what} holds poses in {len(seen)} frames: {a} in {seen[0]!r}, {b} in {seen[1]!r}; one "
+            "trajectory is in one frame: transform the poses into one frame (e.g. with tf2) before recording them, "
+            f"or read another topic with {option('topic')}"
+        )
+    return seen[0] if seen else ""
+
+
+def _frame_notes(frame: str, header: str | None = None) -> tuple[str, ...]:
+    """What the import report says of the poses' ``frame`` (and of a path ``header`` that said another)."""
+    notes = []
+    if header and header != frame:  # an empty header says nothing
+        notes.append(f"the path's header says frame {header!r} but its poses are in {frame!r}: the poses' frame used")
+    if frame.lstrip("/") == MAP_FRAME:
+        notes.append(f"frame {frame!r}: the poses are in the scenario's map frame")
+    elif not frame:
+        notes.append("frame: none given (empty header.frame_id); the poses are taken in the scenario's map frame")
+    else:
+        offset = option("offset", "X,Y,THETA", python="offset=(X, Y, THETA)")
+        notes.append(
+            f"frame {frame!r}, not {MAP_FRAME!r}: the poses are taken as they are in the scenario's map frame (not "
+            f"transformed: the bag's tf is not read); place them with {offset}, the pose of {frame!r} in {MAP_FRAME!r}"
+        )
+    return tuple(notes)
 
 
 def _check_finite(path: Path, cols: dict[str, Any], rows: tuple[str, ...]) -> None:
@@ -157,9 +220,10 @@ def _instead(sizes: list[int], k: int, paths: list[str]) -> str:
 
 def _path_rows(
     path: Path, topic: str, msgs: list[Any], message: int | None, paths: list[str], timed: bool
-) -> tuple[tuple[str, ...], dict[str, Any]]:
-    """The rows and columns of the path message ``message`` (None: the last) of ``topic``, checked: in
-    range, two poses or more, and for a trajectory (``timed``) poses that carry their times."""
+) -> tuple[tuple[str, ...], dict[str, Any], tuple[str, tuple[str, ...]]]:
+    """The rows, columns and (frame, notes) of the path message ``message`` (None: the last) of ``topic``,
+    checked: in range, two poses or more in one frame, and for a trajectory (``timed``) poses that carry
+    their times."""
     k = len(msgs) - 1 if message is None else message
     if not -len(msgs) <= k < len(msgs):
         raise TrajectoryFileError(
@@ -175,6 +239,9 @@ def _path_rows(
             f"{_instead([len(m.poses) for m in msgs], k, paths)}"
         )
     rows = tuple(f"{topic} message {k} poses[{i}]" for i in range(len(poses)))
+    header = msgs[k].header.frame_id
+    frames = [p.header.frame_id or header for p in poses]  # a pose without a frame is in the path's
+    frame = _one_frame(path, f"message {k} of {topic}", frames, rows)
     stamps = [_nanoseconds(p.header.stamp) for p in poses]
     if timed and len(set(stamps)) == 1:
         raise TrajectoryFileError(
@@ -182,12 +249,14 @@ def _path_rows(
             f"{stamps[0] * 1e-9:.9g} s, so it is a path, not a trajectory; track it with "
             f"{option('path', python='timed=False')}, or give a path whose poses carry their times"
         )
-    return rows, _columns(path, [p.pose for p in poses], stamps, rows)
+    return rows, _columns(path, [p.pose for p in poses], stamps, rows), (frame, _frame_notes(frame, header))
 
 
-def _motion_rows(path: Path, topic: str, msgs: list[Any], msgtype: str) -> tuple[tuple[str, ...], dict[str, Any]]:
-    """The rows and columns of a recorded motion (every message a row), checked: two messages or more,
-    with a clock."""
+def _motion_rows(
+    path: Path, topic: str, msgs: list[Any], msgtype: str
+) -> tuple[tuple[str, ...], dict[str, Any], tuple[str, tuple[str, ...]]]:
+    """The rows, columns and (frame, notes) of a recorded motion (every message a row), checked: two
+    messages or more, with a clock, in one frame."""
     stamps = [_nanoseconds(mm.header.stamp) for mm in msgs]
     if len(msgs) < 2 or len(set(stamps)) == 1:
         what = "one message" if len(msgs) < 2 else f"{len(msgs)} messages all stamped {stamps[0] * 1e-9:.9g} s"
@@ -196,11 +265,12 @@ def _motion_rows(path: Path, topic: str, msgs: list[Any], msgtype: str) -> tuple
             f"stamps: record a longer run, or name another topic with {option('topic')}"
         )
     rows = tuple(f"{topic} message {i}" for i in range(len(msgs)))
+    frame = _one_frame(path, f"topic {topic}", [mm.header.frame_id for mm in msgs], rows)
     cols = _columns(path, [_pose_of(mm, msgtype) for mm in msgs], stamps, rows)
     if msgtype == "nav_msgs/msg/Odometry":
         cols["v"] = np.array([mm.twist.twist.linear.x for mm in msgs], dtype=float)
         cols["omega"] = np.array([mm.twist.twist.angular.z for mm in msgs], dtype=float)
-    return rows, cols
+    return rows, cols, (frame, _frame_notes(frame))
 
 
 def read_bag_table(path: Path, topic: str | None, message: int | None = None, *, timed: bool) -> FileTable:
@@ -215,7 +285,8 @@ def read_bag_table(path: Path, topic: str | None, message: int | None = None, *,
     Raises:
         TrajectoryFileError: No bag there, a truncated file or one that is not a bag, no ``topic``, a topic
             missing, of another type or empty, a ``message`` out of range or of fewer than two poses, a
-            trajectory without a clock, a non-finite pose. Each names the topic and message and the fix.
+            trajectory without a clock, a non-finite pose, a zero or unnormalised quaternion, poses in
+            more than one frame. Each names the topic and message and the fix.
     """
     path = Path(path)
     reader = _open(path)
@@ -230,12 +301,13 @@ def read_bag_table(path: Path, topic: str | None, message: int | None = None, *,
     finally:
         reader.close()
     if msgtype == PATH_TYPE:
-        rows, cols = _path_rows(path, topic, msgs, message, paths, timed)
+        rows, cols, (frame, notes) = _path_rows(path, topic, msgs, message, paths, timed)
     else:
         if message is not None:
             raise TrajectoryFileError(
                 f"{option('message')} picks one nav_msgs/Path; {topic} carries {_name(msgtype)}: drop it"
             )
-        rows, cols = _motion_rows(path, topic, msgs, msgtype)
+        rows, cols, (frame, notes) = _motion_rows(path, topic, msgs, msgtype)
     _check_finite(path, cols, rows)  # named as a pose of the topic, before the table's own check
-    return table_from_arrays(path, cols, f"bag topic {topic}, {_name(msgtype)}", rows)
+    table = table_from_arrays(path, cols, f"bag topic {topic}, {_name(msgtype)}", rows)
+    return replace(table, frame=frame, notes=notes)

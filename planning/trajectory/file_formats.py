@@ -69,12 +69,16 @@ class FileTable:
         fmt: "csv", "tsv", "text", "json", "yaml" or "nav_msgs/Path".
         columns: Column name (one of :data:`COLUMNS`) -> (N,) finite values in the file's units.
         rows: (N,) how messages name each row: "line 7", "record 3", "poses[2]".
+        frame: The poses' frame (a bag's ``header.frame_id``; "" when empty), None where the format has none.
+        notes: What reading did that the import report says (a bag's frame).
     """
 
     path: Path
     fmt: str
     columns: dict[str, FloatArray]
     rows: tuple[str, ...]
+    frame: str | None = None
+    notes: tuple[str, ...] = ()
 
     def __len__(self) -> int:
         return len(self.rows)

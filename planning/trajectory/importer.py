@@ -208,6 +208,8 @@ class ImportReport:
         world: The world check's finding ("" when the file stays clear).
         collisions_allowed: The file was run although it collides or leaves the world.
         arena: The world is an arena sized around the file (no scenario given).
+        frame: The frame the poses were recorded in (a bag's ``header.frame_id``, "" when empty), taken as the
+            scenario's map frame; None for a file without frames.
     """
 
     file: str
@@ -224,6 +226,7 @@ class ImportReport:
     world: str = ""
     collisions_allowed: bool = False
     arena: bool = False
+    frame: str | None = None
 
     @property
     def largest_correction(self) -> Correction | None:
@@ -249,6 +252,7 @@ class ImportReport:
             "world": self.world,
             "collisions_allowed": self.collisions_allowed,
             "arena": self.arena,
+            "frame": self.frame,
         }
 
 
@@ -312,6 +316,8 @@ def import_table(table: FileTable, source: TrajectoryFile) -> ImportedFile:
             different positions, fewer than two distinct positions (the rows named).
     """
     report = ImportReport(str(source.path), table.fmt, "trajectory" if source.timed else "path", len(table))
+    report.frame = table.frame
+    report.notes.extend(table.notes)
     cols = _required(table, source, report)
     if "theta" in cols:
         _refuse_degrees(cols, table.rows, report)

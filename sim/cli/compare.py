@@ -82,6 +82,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 def _outputs(args: argparse.Namespace) -> dict[str, Path]:
     """The files asked for, checked writable before anything runs."""
     from sim.cli.checks import check_file_stem
+    from sim.cli.job_outputs import check_apart_from_inputs
     from sim.outputs import check_video_name, check_writable
 
     out: dict[str, Path] = {}
@@ -93,6 +94,7 @@ def _outputs(args: argparse.Namespace) -> dict[str, Path]:
     if args.video is not None:
         out["video"] = Path(args.video)
         check_video_name(out["video"], "--video")
+    check_apart_from_inputs(args, out.values(), args.bag)
     for path in out.values():
         check_writable(path, overwrite=args.overwrite)
     if args.bag is not None:
@@ -189,9 +191,13 @@ def _write(result: Any, outputs: dict[str, Path], *, overwrite: bool) -> None:
         from sim.viz.job_video import write_video
 
         write_video(result.recorded(), outputs["video"], overwrite=overwrite)
-    if "bag" in outputs:
-        from sim.io.bag import write_bag
+    if "bag" in outputs:  # last: a bag that cannot be moved into place leaves the others written, said
+        from sim.io.bag import BagNotPlacedError, write_bag
 
-        write_bag(result.prepared, result.logs(), outputs["bag"], overwrite=overwrite)
+        try:
+            write_bag(result.prepared, result.logs(), outputs["bag"], overwrite=overwrite)
+        except BagNotPlacedError as exc:
+            written = [str(path) for name, path in outputs.items() if name != "bag"]
+            raise BagNotPlacedError(f"{exc}; written: {', '.join(written) or 'nothing else'}") from exc
     for path in outputs.values():
         print(f"wrote {path}")

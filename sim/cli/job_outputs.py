@@ -30,8 +30,9 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import os
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -362,6 +363,7 @@ def plan_outputs(
     bag = getattr(args, "bag", None)
     plan = OutputPlan(stem, video, plots, json_path, settings, args.overwrite, show_progress(args), bag=bag)
     targets = plan.targets()
+    check_apart_from_inputs(args, targets, bag)
     if bag is not None:
         from sim.io.bag import check_bag_apart, check_bag_target
 
@@ -378,6 +380,55 @@ def plan_outputs(
         if reason is not None:
             raise DependencyError(reason)
     return plan
+
+
+#: Options whose value may name a file or folder the command reads (``--params``: files, comma-separated).
+INPUT_OPTIONS = ("trajectory", "path", "scenario", "gains", "sensors", "lidar", "amcl", "params")
+
+
+def input_paths(args: argparse.Namespace) -> list[tuple[str, Path]]:
+    """The files and folders a command reads, each with the option that names it: every value of
+    :data:`INPUT_OPTIONS` that names an existing path (as the commands read it: a scenario, gains or
+    sensor value that names a file is read from it)."""
+    found: list[tuple[str, Path]] = []
+    for name in INPUT_OPTIONS:
+        value = getattr(args, name, None)
+        if not isinstance(value, (str, Path)):
+            continue
+        for part in str(value).split(",") if name == "params" else [str(value)]:
+            if part and os.path.lexists(part):
+                found.append((f"--{name} {part}", Path(part)))
+    return found
+
+
+def check_apart_from_inputs(args: argparse.Namespace, files: Iterable[Path], bag: Path | None = None) -> None:
+    """Check, before any work, that no output overwrites what the command reads (symlinks resolved): a file
+    output is not an input nor inside an input folder (a rosbag2 bag), and the bag folder ``bag`` neither
+    is, contains nor lies inside an input.
+
+    Raises:
+        ConfigError: Naming the output, the input and the fix.
+    """
+    inputs = [(given, path.resolve()) for given, path in input_paths(args)]
+    for out in files:
+        target = Path(out).resolve()
+        for given, source in inputs:
+            if target == source or source in target.parents:
+                where = "is" if target == source else "lies inside"
+                raise ConfigError(
+                    f"the output {out} {where} the input {given}: writing it would change what the command reads; "
+                    "choose another output path"
+                )
+    if bag is None:
+        return
+    folder = Path(bag).resolve()
+    for given, source in inputs:
+        if folder == source or folder in source.parents or source in folder.parents:
+            where = "is" if folder == source else "contains" if folder in source.parents else "lies inside"
+            raise ConfigError(
+                f"--bag {bag} {where} the input {given}: writing the bag would replace or change the recording the "
+                "command reads; choose another --bag folder (or copy the input elsewhere first)"
+            )
 
 
 def render_job_video(result: Any, plan: OutputPlan) -> dict[str, Any]:
@@ -422,6 +473,10 @@ def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict
 
     Returns:
         Output kind ("video", "plot_world", ..., "json") -> path written.
+
+    Raises:
+        BagNotPlacedError: The bag could not be moved into place (:func:`sim.io.bag.write_bag`: the old bag
+            is kept); raised once the other outputs are written, the record saying so in its ``bag``.
     """
     from sim.outputs import write_json
     from sim.viz.plots.draw import save_figure
@@ -443,15 +498,32 @@ def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict
                 continue
             save_figure(figs[name], path, overwrite=plan.overwrite)
             files[f"plot_{name}"] = str(path)
-    if plan.bag is not None:
-        from sim.io.bag import write_job_bag
-
-        record["bag"] = write_job_bag(result, plan.bag, overwrite=plan.overwrite).as_dict()
-        files["bag"] = str(plan.bag)
+    failed = _write_bag(result, plan, record, files)
     files["json"] = str(plan.json)
     record["files"] = dict(files)
     write_json(plan.json, record, overwrite=plan.overwrite)
+    if failed is not None:  # the record, plots and video are written and say so; the old bag is kept
+        from sim.io.bag import BagNotPlacedError
+
+        raise BagNotPlacedError(f"{failed}; written: {', '.join(files.values())}") from failed
     return files
+
+
+def _write_bag(result: Any, plan: OutputPlan, record: dict[str, Any], files: dict[str, str]) -> Exception | None:
+    """Write the job's bag (``plan.bag``) into ``record`` and ``files``; a bag that could not be moved into
+    place (:class:`sim.io.bag.BagNotPlacedError`) is returned, and the record's ``bag`` says why, so that the
+    other outputs are still written."""
+    if plan.bag is None:
+        return None
+    from sim.io.bag import BagNotPlacedError, write_job_bag
+
+    try:
+        record["bag"] = write_job_bag(result, plan.bag, overwrite=plan.overwrite).as_dict()
+    except BagNotPlacedError as exc:
+        record["bag"] = {"path": str(plan.bag), "written": False, "error": str(exc)}
+        return exc
+    files["bag"] = str(plan.bag)
+    return None
 
 
 def _may_scan(args: argparse.Namespace, robot: str | None) -> bool:

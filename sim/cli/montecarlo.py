@@ -11,7 +11,14 @@ from pathlib import Path
 from typing import Any
 
 from planning.errors import ConfigError, OutputExistsError
-from sim.cli.job_outputs import DEFAULT_DIR, RUN_SETTINGS, add_case_arguments, add_executor_arguments
+from sim.cli.job_outputs import (
+    DEFAULT_DIR,
+    RUN_SETTINGS,
+    add_case_arguments,
+    add_executor_arguments,
+    check_apart_from_inputs,
+    input_paths,
+)
 from sim.cli.simulate import add_localiser_arguments
 from sim.cli.trajectory_files import add_file_arguments, file_options
 
@@ -249,8 +256,9 @@ def run(args: argparse.Namespace) -> int:
     scenario = load_case_scenario(spec.case)  # unknown scenario, a robot it does not list: stop here
     paths = _paths(args, spec, scenario.name)
     _check_outputs(paths, [spec.key(), *spec.earlier_keys()], args.overwrite)
+    check_apart_from_inputs(args, paths.values())
     if args.bags is not None:
-        _check_bags(args.bags, args.overwrite)
+        _check_bags(args.bags, args.overwrite, input_paths(args))
     try:
         results = ResultsFile(paths["results"], spec.key(), spec.earlier_keys())
     except ConfigError:
@@ -300,13 +308,23 @@ def _write(result: Any, paths: dict[str, Path], record: dict[str, Any], args: ar
     write_json(paths["json"], record, overwrite=True)
 
 
-def _check_bags(folder: Path, overwrite: bool) -> None:
-    """Before any run: ``--bags`` names a folder that can take new bags, and one holding bags of an
-    earlier study only with ``--overwrite`` (which bags the worst runs will be is known only after)."""
+def _check_bags(folder: Path, overwrite: bool, inputs: list[tuple[str, Path]]) -> None:
+    """Before any run: ``--bags`` names a folder that can take new bags, not an input, inside one or holding
+    one where a bag may go (``worst-*``), and one holding bags of an earlier study only with ``--overwrite``
+    (which bags the worst runs will be is known only after)."""
     from sim.outputs import check_folder_for
 
     if folder.exists() and not folder.is_dir():
         raise ConfigError(f"--bags {folder}: a file of that name exists; give a folder")
+    resolved = folder.resolve()
+    for given, path in inputs:
+        source = path.resolve()
+        inside = resolved in source.parents and source.relative_to(resolved).parts[0].startswith("worst-")
+        if source == resolved or source in resolved.parents or inside:
+            raise ConfigError(
+                f"--bags {folder} {'holds' if inside else 'is or lies inside'} the input {given}: the bags written "
+                "there would replace or change what the study reads; choose another --bags folder"
+            )
     earlier = sorted(p.name for p in folder.glob("worst-*")) if folder.is_dir() else []
     if earlier and not overwrite:
         raise OutputExistsError(

@@ -6,7 +6,9 @@ The topics and frames are those of :mod:`sim.io.bag_topics`; every message is st
 time, and the bag's own clock (the log time of each message) equals its header stamp. The bag is
 written into a temporary folder beside the target and moved into place when complete: an interrupted
 write leaves nothing under the target's name, and an existing bag is replaced only when asked, in one
-step that a signal does not split: the target holds the old bag or the new one, never neither.
+step that a signal does not split: the target holds the old bag or the new one, never neither. Whether
+the old bag can be moved aside (permissions, an immutable or append-only flag, a mount point) is checked
+before any work; a move that fails anyway keeps the old bag and is a :class:`BagNotPlacedError`.
 """
 
 from __future__ import annotations
@@ -14,6 +16,8 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import stat
+import sys
 import tempfile
 import time
 from collections.abc import Callable, Iterable, Mapping
@@ -24,7 +28,7 @@ from typing import Any, Literal
 import numpy as np
 
 from planning.core.checks import check_flag
-from planning.errors import ConfigError, OutputExistsError, option
+from planning.errors import ConfigError, NhsimError, OutputExistsError, option
 from planning.signals import signals_held
 from sim.io import bag_topics as bt
 from sim.io import rosmsgs as m
@@ -32,6 +36,11 @@ from sim.outputs import folder_for
 
 #: Writer settings: rosbag2 metadata version, storage and compression.
 BAG_VERSION: Literal[8] = 8
+
+
+class BagNotPlacedError(NhsimError, OSError):
+    """A finished bag could not be moved into place (the old bag there could not be moved aside, or the
+    new one not moved in): the old bag is kept under its name, the new one removed; the message says why."""
 
 
 @dataclass(frozen=True)
@@ -72,7 +81,8 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
     Raises:
         OutputExistsError: ``path`` exists and ``overwrite`` is false.
         ConfigError: ``overwrite`` is not True or False, ``path`` is a file, or a folder that is not a rosbag2
-            bag (it is never replaced), or its parent folder cannot take new files.
+            bag (it is never replaced), or a bag that could not be moved aside (:func:`_unmovable`: the folder
+            and the fix named), or its parent folder cannot take new files.
     """
     from sim.outputs import check_folder_for
 
@@ -94,7 +104,61 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
                 f"cannot replace {path}: it is a folder that holds files but no rosbag2 metadata.yaml, so not a bag "
                 f"this command wrote; choose another folder with {option('bag', python='path')}"
             )
+        reason = _unmovable(path)
+        if reason:
+            raise ConfigError(
+                f"cannot replace {path}: {reason}, so the old bag cannot be moved aside for the new one; fix that, "
+                f"or choose another folder with {option('bag', python='path')}"
+            )
     check_folder_for(path)
+
+
+#: ``FS_IOC_GETFLAGS`` (Linux) and its immutable and append-only flags (``chattr +i``, ``chattr +a``).
+_GETFLAGS, _IMMUTABLE, _APPEND = 0x80086601, 0x10, 0x20
+
+
+def _inode_flags(folder: Path) -> int:
+    """The inode flags of ``folder`` (Linux; 0 where they cannot be read)."""
+    if not sys.platform.startswith("linux"):
+        return 0
+    import fcntl
+
+    try:
+        fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
+    except OSError:
+        return 0
+    try:
+        return int.from_bytes(fcntl.ioctl(fd, _GETFLAGS, bytes(8))[:4], sys.byteorder)
+    except OSError:  # a file system without inode flags
+        return 0
+    finally:
+        os.close(fd)
+
+
+def _unmovable(path: Path) -> str:
+    """Why the existing bag folder ``path`` cannot be moved into another folder beside it, or "" when
+    nothing shows it: the rename needs write and search permission on its folder, write permission on the
+    bag folder itself (its ``..`` entry changes), no immutable flag on it nor an immutable or append-only
+    flag on its folder, a sticky folder's rename rights, and a bag folder that is no mount point."""
+    parent = path.parent
+    link = path.is_symlink()  # the link is moved, not the folder it names
+    flags = _inode_flags(parent)  # before the permissions: access() refuses writing an immutable inode too
+    if flags & (_IMMUTABLE | _APPEND):
+        what = "immutable" if flags & _IMMUTABLE else "append-only"
+        return f"its folder {parent} is {what} (as root: chattr -i -a {parent})"
+    if not link and _inode_flags(path) & _IMMUTABLE:
+        return f"it is immutable (lsattr -d shows 'i'; as root: chattr -i {path})"
+    if not os.access(parent, os.W_OK | os.X_OK):
+        need = "write and search permission"
+        return f"its folder {parent} lets no entry be renamed (that needs {need}: chmod u+wx {parent})"
+    if not link and not os.access(path, os.W_OK):
+        return f"it is not writable, and a folder moved into another needs that (chmod u+w {path})"
+    info, folder = path.lstat(), parent.stat()
+    if folder.st_mode & stat.S_ISVTX and os.geteuid() not in (0, info.st_uid, folder.st_uid):
+        return f"its folder {parent} is sticky (as /tmp is) and neither it nor {path} is yours: only an owner moves it"
+    if not link and os.path.ismount(path):
+        return "it is a mount point"
+    return ""
 
 
 def check_bag_apart(bag: Path, files: Iterable[Path]) -> None:
@@ -190,7 +254,7 @@ def job_topics(prepared: Any, logs: Mapping[str, Any]) -> list[bt.Topic]:
     ]
     for name, kind, message in once:
         topics.append(bt.Topic(name, m.TYPES[kind], np.zeros(1), _once(message), latched=True))
-    return topics
+    return bt.joined(topics)  # the runs' transforms as one /tf
 
 
 def _write(topics: list[bt.Topic], folder: Path) -> None:
@@ -233,6 +297,26 @@ def _swap_in(new: Path, path: Path, aside: Path, *, overwrite: bool) -> None:
             raise
 
 
+def _not_placed(path: Path, work: Path, exc: BaseException) -> str:
+    """What :class:`BagNotPlacedError` says: why, where the old bag is, and that the new one is removed."""
+    reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+    old = work / "replaced"
+    if old.exists():  # moved aside and not back: it stays there, named
+        kept = f"the old bag could not be moved back either: it is at {old}; move it back to {path}"
+    elif path.exists():
+        kept = f"{path} still holds the old bag"
+    else:
+        kept = f"nothing is at {path}"
+    if isinstance(exc, NhsimError):  # the check made again as the bag moves in: it says why and the fix
+        return f"{exc} (found as the new bag was moved in); {kept}; the new bag was not kept"
+    why = _unmovable(path) if path.exists() else ""
+    fix = f"{path}: {why}" if why else f"check that {path} and its folder can be renamed (permissions, lsattr -d)"
+    return (
+        f"could not put the new bag in place at {path}: {reason}; {kept}; the new bag was not kept: {fix}, then "
+        f"run the command again, or choose another folder with {option('bag', python='path')}"
+    )
+
+
 def write_job_bag(result: Any, path: Path, *, overwrite: bool = False) -> BagSummary:
     """Write a :class:`sim.pipeline.simulate.JobResult`'s runs as a bag (see :func:`write_bag`)."""
     return write_bag(result.prepared, result.logs, path, overwrite=overwrite)
@@ -249,6 +333,7 @@ def write_bag(prepared: Any, logs: Mapping[str, Any], path: Path, *, overwrite: 
 
     Raises:
         OutputExistsError, ConfigError: See :func:`check_bag_target`.
+        BagNotPlacedError: The finished bag could not be moved into place (the old bag is kept).
     """
     start, cpu = time.perf_counter(), time.process_time()
     path = Path(path)
@@ -260,7 +345,14 @@ def write_bag(prepared: Any, logs: Mapping[str, Any], path: Path, *, overwrite: 
             with signals_held():  # an interrupt landing as the folder is made waits until ``work`` names it
                 work = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent))
             _write(topics, work / path.name)
-            _swap_in(work / path.name, path, work / "replaced", overwrite=overwrite)
+            try:
+                _swap_in(work / path.name, path, work / "replaced", overwrite=overwrite)
+            except (OSError, NhsimError) as exc:
+                error = BagNotPlacedError(_not_placed(path, work, exc))
+                if (work / "replaced").exists():  # the old bag, moved aside and not back: kept there, named
+                    shutil.rmtree(work / path.name, ignore_errors=True)
+                    work = None
+                raise error from exc
         finally:
             if work is not None:
                 shutil.rmtree(work, ignore_errors=True)

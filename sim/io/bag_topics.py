@@ -1,27 +1,30 @@
 """What a job's ROS 2 bag holds: its topics, each a list of (time, message), built from the run logs.
 
 Frames (REP 105), one tree per run under the run's name (``closed_loop/odom``, ...) beside the shared
-``map``::
+``map``, every run's transforms on ``/tf`` (:func:`joined`)::
 
     map -> RUN/odom -> RUN/base_footprint -> RUN/base_link -> RUN/wheel_left_link, RUN/wheel_right_link
                                                           \\-> RUN/imu_link, RUN/base_scan (static)
+    map -> RUN/ground_truth/base_footprint -> RUN/ground_truth/base_link
 
-``RUN/odom -> RUN/base_footprint`` is what the run's estimator believed (the fused estimate, dead
-reckoning, or the truth for a run fed the true pose); ``map -> RUN/odom`` carries the estimate's
-error, so ``base_footprint`` sits at the true pose in ``map``. Every message is stamped at the time its
-data was taken: an estimate, a fix or a scan at the time of the sensor readings it is based on (one
-physics step before the control instant: :func:`sensed_at`), and ``ground_truth/odom`` has the true
-pose at those times besides the logged samples, so that an estimate's error against the truth at its
-stamp is the run record's. ``base_footprint -> base_link`` is the
-body's height, pitch and roll from the physics (a balancing robot leans); the wheels turn by their
-joint angles.
+``RUN/odom -> RUN/base_footprint`` is the robot's wheel odometry (its encoders' counts integrated,
+continuous); ``map -> RUN/odom`` is the run's belief composed with the odometry's inverse, so that
+``map -> RUN/base_footprint`` is what the run believed (the fused estimate, dead reckoning, or the
+truth for a run fed the true pose; the open loop believes nothing: ``map -> odom`` the identity).
+``RUN/ground_truth/base_footprint`` is the true pose, where the run's robot marker is drawn. Every
+message is stamped at the time its data was taken: an estimate, a fix or a scan at the time of the
+sensor readings it is based on (one physics step before the control instant: :func:`sensed_at`), and
+``ground_truth/odom`` has the true pose at those times besides the logged samples, so that an
+estimate's error against the truth at its stamp is the run record's. ``base_footprint -> base_link``
+is the body's height, pitch and roll from the physics (a balancing robot leans); the wheels turn by
+their joint angles.
 
-Per run (namespace ``/RUN``): ``tf``, ``odom`` (the estimate with its covariance), ``ground_truth/odom``,
+Per run (namespace ``/RUN``): ``odom`` (what the run believed, with its covariance), ``ground_truth/odom``,
 ``joint_states``, ``imu`` (what the robot's gyro and accelerometer read, their noise included, with the
 sensor profile's covariances), ``cmd_vel``, ``fix`` (the localisation fixes, when the run's sensors give them)
-and ``scan`` (when the run log carries one). Once per job: ``/clock``, ``/tf_static``, ``/plan``,
-``/reference``, ``/map`` and ``/obstacles`` (the map's and, apart, the unmapped ones), the last four and
-``/tf_static`` latched.
+and ``scan`` (when the run log carries one). Once per job: ``/clock``, ``/tf``, ``/tf_static``, ``/plan``,
+``/reference``, ``/map`` (the map's obstacles and the walls) and ``/obstacles`` (the map's and, apart, the
+unmapped ones), the last four and ``/tf_static`` latched.
 """
 
 from __future__ import annotations
@@ -59,16 +62,21 @@ class Topic:
 
     A topic of thousands of messages (one per logged sample) is given as ``rows``: a template message
     and the columns of its fields that vary, serialised all at once
-    (:func:`sim.io.rosmsgs.serialize_rows`); a topic of a few messages (fixes, scans, the latched
-    ones) as ``make``, its messages one at a time.
+    (:func:`sim.io.rosmsgs.serialize_rows`), or several such parts one after the other (messages of
+    different layouts on one topic: each run's transforms on ``/tf``, their frame names of different
+    lengths); a topic of a few messages (fixes, scans, the latched ones) as ``make``, its messages one
+    at a time.
 
     Attributes:
         name: Topic name (absolute).
         msgtype: Full message type, e.g. ``nav_msgs/msg/Odometry``.
-        times: (K,) the messages' times [s], non-decreasing.
+        times: (K,) the messages' times [s], non-decreasing within each part of ``rows``.
         make: Message k of the topic, stamped ``times[k]`` (None when ``rows`` is given).
         latched: Offered with transient-local durability (a late subscriber gets the last message).
-        rows: (template, field path -> (K,) values) (None when ``make`` is given).
+        rows: (template, field path -> values), or a list of them whose messages follow one another
+            (None when ``make`` is given).
+        joins: The job-wide topic this run's messages belong on (``/tf``), gathered there by
+            :func:`joined`; None for a topic of its own.
     """
 
     name: str
@@ -76,16 +84,43 @@ class Topic:
     times: FloatArray
     make: Callable[[int], Any] | None = None
     latched: bool = False
-    rows: Rows | None = None
+    rows: Rows | list[Rows] | None = None
+    joins: str | None = None
 
     def serialized(self) -> list[bytes | memoryview]:
         """The topic's K messages as CDR bytes, in order."""
         if self.rows is not None:
-            data = m.serialize_rows(*self.rows)
-            flat, width = memoryview(data.tobytes()), data.shape[1]
-            return [flat[k * width : (k + 1) * width] for k in range(data.shape[0])]
+            out: list[bytes | memoryview] = []
+            for part in self.rows if isinstance(self.rows, list) else [self.rows]:
+                data = m.serialize_rows(*part)
+                flat, width = memoryview(data.tobytes()), data.shape[1]
+                out += [flat[k * width : (k + 1) * width] for k in range(data.shape[0])]
+            return out
         assert self.make is not None
         return [m.serialize(self.make(k)) for k in range(self.times.size)]
+
+
+def joined(topics: list[Topic]) -> list[Topic]:
+    """The topics with the runs' parts of a job-wide topic (:attr:`Topic.joins`: each run's transforms)
+    gathered into one topic of that name, in the place of the first part, their messages one run after
+    the other (the writer orders them by time)."""
+    parts: dict[str, list[Topic]] = {}
+    for tp in topics:
+        if tp.joins is not None:
+            parts.setdefault(tp.joins, []).append(tp)
+    out: list[Topic] = []
+    for tp in topics:
+        if tp.joins is None:
+            out.append(tp)
+        elif parts[tp.joins][0] is tp:
+            group = parts[tp.joins]
+            rows: list[Rows] = []
+            for g in group:
+                assert g.rows is not None and g.msgtype == tp.msgtype
+                rows += g.rows if isinstance(g.rows, list) else [g.rows]
+            times = np.concatenate([g.times for g in group])
+            out.append(Topic(tp.joins, tp.msgtype, times, latched=tp.latched, rows=rows))
+    return out
 
 
 @dataclass(frozen=True)
@@ -174,12 +209,16 @@ def inverse(a: FloatArray) -> FloatArray:
     return np.column_stack([-c * a[:, 0] - s * a[:, 1], s * a[:, 0] - c * a[:, 1], -a[:, 2]])
 
 
-def body_velocity(t: FloatArray, pose: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """(v, omega) (N,) each: speed along the heading [m/s] and yaw rate [rad/s] of a pose series."""
+def planar_velocity(t: FloatArray, pose: FloatArray) -> FloatArray:
+    """(N, 3) the body-frame velocity (forward [m/s], leftward [m/s], yaw rate [rad/s]) of a pose series:
+    the positions and the heading differentiated in time (second order, uneven spacing allowed) and the
+    velocity turned into the body frame by the heading then. The leftward part is the body's sideways
+    slip (a tyre carries a side force only by slipping: outwards in a turn)."""
     if t.size < 2:
-        return np.zeros(t.size), np.zeros(t.size)
+        return np.zeros((t.size, 3))
     dx, dy, dth = (np.gradient(pose[:, k], t) for k in range(3))
-    return np.cos(pose[:, 2]) * dx + np.sin(pose[:, 2]) * dy, dth
+    c, s = np.cos(pose[:, 2]), np.sin(pose[:, 2])
+    return np.column_stack([c * dx + s * dy, -s * dx + c * dy, dth])
 
 
 def sensed_at(log: Any, t: FloatArray) -> FloatArray:
@@ -231,9 +270,81 @@ def true_poses(log: Any) -> tuple[FloatArray, FloatArray]:
 
 
 def run_frames(ns: str) -> dict[str, str]:
-    """The run's frame names (REP 105, prefixed by the run)."""
-    names = ("odom", "base_footprint", "base_link", "wheel_left_link", "wheel_right_link", "imu_link", "base_scan")
+    """The run's frame names (REP 105, prefixed by the run), and its true pose's (``ground_truth/...``)."""
+    names = (
+        "odom", "base_footprint", "base_link", "wheel_left_link", "wheel_right_link", "imu_link", "base_scan",
+        "ground_truth/base_footprint", "ground_truth/base_link",
+    )  # fmt: skip
     return {n: f"{ns}/{n}" for n in names}
+
+
+def is_open_loop(log: Any) -> bool:
+    """Whether the run drove without feedback (no estimator, no belief of where it is)."""
+    return log.estimation is None and log.meta.get("tracker") == "open-loop"
+
+
+def encoder_turns(log: Any, sk: Skeleton, sensors: Any) -> FloatArray:
+    """(N, 2) each wheel's turn since the start [rad] at the logged samples, as the run's encoders counted
+    it: the logged joint angle quantised as :func:`sim.physics.sensors.encoder_count` does, with the run's
+    own encoder phases (``sensors``: its :class:`sim.physics.sensors.SensorModel`). A balancing robot's
+    wheels turn against the floor by that plus the body's pitch change (its balance firmware's pitch
+    estimate), as the robot's own odometry adds it (:class:`sim.robot.sensing.EstimatorLoop`)."""
+    per_rad = float(sensors.profile.encoder_cpr) / (2.0 * math.pi)
+    counts = np.floor(log.qpos[:, list(sk.wheels)] * per_rad + np.asarray(sensors.encoder_phase))
+    turns = (counts - counts[0]) / per_rad
+    bal = log.balance
+    if bal is not None and bal.t.size:
+        pitch = np.interp(log.t, bal.t, bal.pitch_estimate)
+        turns += (pitch - pitch[0])[:, None]
+    return turns
+
+
+def wheel_odometry(
+    t: FloatArray, turns: FloatArray, start: FloatArray, radius: float, track: float, config: Any
+) -> tuple[FloatArray, FloatArray]:
+    """(N, 3) wheel odometry, the poses reached from ``start`` (3,) by the wheel turns ``turns`` (N, 2) [rad]
+    at times ``t`` (N,) [s] (exact arcs of a differential drive of wheel ``radius`` and ``track`` [m],
+    headings unwrapped), and (N, 3) its variances [m^2, m^2, rad^2] as dead reckoning grows them: the run's
+    estimator (:class:`control.estimation.PoseEstimator`, its noise model ``config``: encoder quantisation,
+    wheel slip, lateral scrub, the build tolerances of the radii and the track) predicting with the same
+    wheel turns, its heading from the encoders, without fixes."""
+    from dataclasses import replace
+
+    from control.estimation.ekf import PoseEstimator
+
+    est = PoseEstimator(replace(config, heading="encoders"), radius, track)
+    n = t.size
+    clock = t[0] + np.concatenate([[0.0], np.cumsum(np.maximum(np.diff(t), 1e-9))])  # increasing
+    pose, var = np.zeros((n, 3)), np.zeros((n, 3))
+    est.reset(float(clock[0]), start)
+    est.record(pose, var, 0)
+    d = np.diff(turns, axis=0)
+    for k in range(1, n):
+        est.predict(float(clock[k]), float(d[k - 1, 0]), float(d[k - 1, 1]))
+        est.record(pose, var, k)
+    pose[:, 2] = np.unwrap(pose[:, 2])
+    return pose, var
+
+
+def twist_variance(wheels: FloatArray, radius: float, track: float, period: float, config: Any) -> FloatArray:
+    """(K, 3, 3) the covariance of (v, vy, omega) [m/s, m/s, rad/s] of a twist from the wheel speeds
+    ``wheels`` (K, 2) [rad/s], as a robot differencing its encoders over a control ``period`` [s] knows it:
+    per wheel the quantisation of two counts (``q^2 / 6`` over the period squared, q = 2 pi / counts per
+    revolution) and the slip's ``wheel_noise^2 |dphi|``, both radii's build tolerance, the track's; the
+    lateral speed, which the wheels do not measure, the lateral scrub's ``position_noise^2 |ds|`` (the
+    estimator's noise model ``config``, :class:`control.estimation.EstimatorConfig`)."""
+    q = 2.0 * math.pi / float(config.counts_per_rev)
+    spin = q * q / 6.0 / period**2 + config.wheel_noise**2 * np.abs(wheels) / period  # (K, 2) [rad^2/s^2]
+    rel2 = config.wheel_radius_rel_std**2 * wheels**2
+    r, b = radius, track
+    v = 0.5 * r * (wheels[:, 0] + wheels[:, 1])
+    omega = r * (wheels[:, 1] - wheels[:, 0]) / b
+    cov = np.zeros((wheels.shape[0], 3, 3))
+    cov[:, 0, 0] = 0.25 * r * r * (spin.sum(axis=1) + rel2.sum(axis=1))
+    cov[:, 1, 1] = config.position_noise**2 * np.abs(v) / period
+    cov[:, 2, 2] = (r / b) ** 2 * (spin.sum(axis=1) + rel2.sum(axis=1)) + (omega * config.track_width_std / b) ** 2
+    cov[:, 0, 2] = cov[:, 2, 0] = 0.5 * r * r / b * (spin[:, 1] - spin[:, 0] + rel2[:, 1] - rel2[:, 0])
+    return cov
 
 
 #: A topic's messages as a template and the columns of its varying fields (see :class:`Topic`).
@@ -257,27 +368,50 @@ def _pose_columns(prefix: str, xyz: FloatArray, q: FloatArray) -> dict[str, Floa
     return cols
 
 
-def _tf_series(log: Any, sk: Skeleton, frames: dict[str, str]) -> Series:
-    """``RUN/tf``: per logged sample map -> odom -> base_footprint -> base_link -> wheels."""
+def _body_tilt(log: Any, sk: Skeleton) -> tuple[FloatArray, FloatArray]:
+    """(lift (N, 3) [m], tilt (N, 4) quaternions (x, y, z, w)): the base body in its footprint frame, its
+    height, pitch and roll from the physics."""
     t, truth = log.t, log.pose
-    est, _ = estimate_at(log, t)
-    map_odom = compose(truth, inverse(est))
     q = log.qpos[:, sk.root + 3 : sk.root + 7]
     yaw_inv = np.column_stack([np.cos(0.5 * truth[:, 2]), np.zeros((t.size, 2)), -np.sin(0.5 * truth[:, 2])])
     tilt = _quat_mul(yaw_inv, q)[:, [1, 2, 3, 0]]  # the body's pitch and roll, in the footprint frame
     rel = log.qpos[:, sk.root : sk.root + 2] - truth[:, :2]
     c, s = np.cos(truth[:, 2]), np.sin(truth[:, 2])
     lift = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1], log.qpos[:, sk.root + 2]])
+    return lift, tilt
+
+
+def belief_at(log: Any, t: FloatArray) -> FloatArray | None:
+    """(N, 3) where the run believed it was at physics times ``t`` (the logged samples): its estimate
+    (:func:`estimate_at`), the truth for a run fed the truth, None for the open loop (no belief)."""
+    if is_open_loop(log):
+        return None
+    return estimate_at(log, t)[0]
+
+
+def _tf_series(log: Any, sk: Skeleton, frames: dict[str, str], odo: FloatArray) -> Series:
+    """The run's part of ``/tf``: per logged sample map -> odom -> base_footprint -> base_link -> wheels
+    (``odom -> base_footprint`` the wheel odometry ``odo`` (N, 3), ``map -> odom`` the belief composed
+    with its inverse: the identity for the open loop), and map -> ground_truth/base_footprint ->
+    ground_truth/base_link (the true pose, and the body's height, pitch and roll)."""
+    t, truth = log.t, log.pose
+    belief = belief_at(log, t)
+    map_odom = np.zeros((t.size, 3)) if belief is None else compose(belief, inverse(odo))
+    lift, tilt = _body_tilt(log, sk)
     half = 0.5 * log.qpos[:, list(sk.wheels)]
     zero, flat = np.zeros(t.size), np.zeros((t.size, 3))
     links = [
         ("map", "odom", np.column_stack([map_odom[:, :2], zero]), yaw_quats(map_odom[:, 2])),
-        ("odom", "base_footprint", np.column_stack([est[:, :2], zero]), yaw_quats(est[:, 2])),
+        ("odom", "base_footprint", np.column_stack([odo[:, :2], zero]), yaw_quats(odo[:, 2])),
         ("base_footprint", "base_link", lift, tilt),
     ]
     for j, wheel in enumerate(("wheel_left_link", "wheel_right_link")):
         spin = np.column_stack([zero, np.sin(half[:, j]), zero, np.cos(half[:, j])])
         links.append(("base_link", wheel, flat + sk.wheel_pos[j], spin))
+    links += [
+        ("map", "ground_truth/base_footprint", np.column_stack([truth[:, :2], zero]), yaw_quats(truth[:, 2])),
+        ("ground_truth/base_footprint", "ground_truth/base_link", lift, tilt),
+    ]
     fr = frames
     msg = m.tf_message([m.transform(0.0, fr.get(a, a), fr[b], (0.0, 0.0, 0.0), (0, 0, 0, 1)) for a, b, _, _ in links])
     cols: dict[str, FloatArray] = {}
@@ -288,36 +422,67 @@ def _tf_series(log: Any, sk: Skeleton, frames: dict[str, str]) -> Series:
 
 
 def _odometry(
-    t: FloatArray, frame: str, child: str, pose: FloatArray, var: FloatArray, v: FloatArray, omega: FloatArray
+    t: FloatArray,
+    frame: str,
+    child: str,
+    pose: FloatArray,
+    var: FloatArray,
+    vel: FloatArray,
+    twist_cov: FloatArray | None = None,
 ) -> Series:
-    """``nav_msgs/Odometry`` at times ``t`` (K,): planar poses (K, 3), their variances (K, 3), body velocity."""
-    msg = m.odometry(0.0, frame, child, pose[0], var[0], v[0], omega[0])
+    """``nav_msgs/Odometry`` at times ``t`` (K,): planar poses (K, 3), their variances (K, 3), the body
+    velocity ``vel`` (K, 3) (forward, leftward, yaw rate) and its covariance (K, 3, 3) (None: zero)."""
+    tv = None if twist_cov is None else twist_cov[0]
+    msg = m.odometry(0.0, frame, child, pose[0], var[0], vel[0, 0], vel[0, 2], vel[0, 1], tv)
     cols = {"header.stamp": t}
     cols.update(_pose_columns("pose.pose", np.column_stack([pose[:, :2], np.zeros(t.size)]), yaw_quats(pose[:, 2])))
     cols.update({f"pose.covariance.{i}": var[:, j] for j, i in enumerate((0, 7, 35))})
-    cols.update({"twist.twist.linear.x": v, "twist.twist.angular.z": omega})
+    cols.update({"twist.twist.linear.x": vel[:, 0], "twist.twist.linear.y": vel[:, 1]})
+    cols["twist.twist.angular.z"] = vel[:, 2]
+    if twist_cov is not None:
+        axes = (0, 1, 5)
+        for a, b in ((0, 0), (1, 1), (2, 2), (0, 2), (2, 0)):
+            cols[f"twist.covariance.{6 * axes[a] + axes[b]}"] = twist_cov[:, a, b]
     return t, (msg, cols)
 
 
-def _odom_series(
-    log: Any, frames: dict[str, str], wheel: Callable[[FloatArray], tuple[FloatArray, FloatArray]]
-) -> Series:
-    """``RUN/odom``: each estimate with its variances, stamped at the time of the readings it is based on
-    (:func:`sensed_at`; the logged samples without an estimator), the twist from the wheel speeds then."""
+@dataclass(frozen=True)
+class Wheels:
+    """A run's wheel odometry at its logged samples and its twist from the wheel speeds.
+
+    Attributes:
+        pose: (N, 3) wheel odometry from the start pose (:func:`wheel_odometry`).
+        variance: (N, 3) its variances as dead reckoning grows them (:func:`wheel_odometry`).
+        twist: The body velocity (K, 3) and its covariance (K, 3, 3) at times (K,) from the wheel speeds.
+    """
+
+    pose: FloatArray
+    variance: FloatArray
+    twist: Callable[[FloatArray], tuple[FloatArray, FloatArray]]
+
+
+def _odom_series(log: Any, frames: dict[str, str], wheels: Wheels) -> Series:
+    """``RUN/odom``: what the run believed. With an estimator each estimate with its variances in ``map``,
+    stamped at the time of the readings it is based on (:func:`sensed_at`); the open loop's wheel odometry
+    in ``RUN/odom`` with the variances dead reckoning gives it; a run fed the truth the true pose in
+    ``map``, exact. The twist from the wheel speeds, with the covariance a robot's encoders give it."""
     est = log.estimation
-    if est is None or est.t.size == 0:
-        t, pose, var = log.t, log.pose, np.zeros((log.t.size, 3))
+    if est is not None and est.t.size:
+        t, pose, var, frame = sensed_at(log, est.t), est.estimate, est.variance, "map"
+    elif is_open_loop(log):
+        t, pose, var, frame = log.t, wheels.pose, wheels.variance, frames["odom"]
     else:
-        t, pose, var = sensed_at(log, est.t), est.estimate, est.variance
-    v, omega = wheel(t)
-    return _odometry(t, frames["odom"], frames["base_footprint"], pose, var, v, omega)
+        t, pose, var, frame = log.t, log.pose, np.zeros((log.t.size, 3)), "map"
+    vel, cov = wheels.twist(t)
+    return _odometry(t, frame, frames["base_footprint"], pose, var, vel, cov)
 
 
 def _truth_series(log: Any, frames: dict[str, str]) -> Series:
-    """``RUN/ground_truth/odom``: the true pose (:func:`true_poses`) and body velocity in ``map``."""
+    """``RUN/ground_truth/odom``: the true pose (:func:`true_poses`) in ``map`` and the body-frame velocity
+    (:func:`planar_velocity`: the positions differentiated, the sideways slip included)."""
     t, pose = true_poses(log)
-    v, omega = body_velocity(t, pose)
-    return _odometry(t, "map", frames["base_footprint"], pose, np.zeros((t.size, 3)), v, omega)
+    vel = planar_velocity(t, pose)
+    return _odometry(t, "map", frames["ground_truth/base_footprint"], pose, np.zeros((t.size, 3)), vel)
 
 
 def _period_yaw_rates(log: Any, rate: float, n: int) -> FloatArray:
@@ -335,29 +500,36 @@ def _period_yaw_rates(log: Any, rate: float, n: int) -> FloatArray:
     return np.diff(heading, prepend=heading[0]) * rate
 
 
-def _imu_series(log: Any, frames: dict[str, str], sensing: Any) -> Series:
-    """``RUN/imu``: what the robot's IMU measured at each logged sample, in period ``k``: the gyro (yaw)
-    the true mean yaw rate over the period plus its bias and white noise, the accelerometer the planar
-    specific force (acceleration along and across the heading, gravity up) plus its bias and white
-    noise, from the run's own noise draws (:class:`sim.physics.sensors.SensorModel`, the run's noise seed).
-    Covariances from the sensor profile: the gyro's z variance is its white noise's plus its bias's,
-    which walks (``gyro_bias_std^2 + gyro_bias_walk^2 t``); x and y, which a yaw gyro does not measure,
-    a large variance; the accelerometer's per axis its white noise's plus its bias's. The orientation is
-    not measured (``orientation_covariance[0] = -1``, as ``sensor_msgs/Imu`` asks)."""
+def run_sensors(log: Any, sensing: Any) -> Any:
+    """The run's own sensor noise (:class:`sim.physics.sensors.SensorModel` of the run's noise seed: a
+    compare draw's own), one control period per logged period."""
     from sim.physics.sensors import SensorModel
 
-    t = log.t
     rate = float(log.meta.get("control_rate_hz", 50.0))
-    k = np.clip(np.round((t - t[0]) * rate).astype(np.int64), 0, None)
-    sensors = SensorModel(
+    k = np.clip(np.round((log.t - log.t[0]) * rate).astype(np.int64), 0, None)
+    return SensorModel(
         sensing.profile,
         control_rate=rate,
         timestep=float(log.meta.get("timestep_s", 1.0 / rate)),
         n_periods=int(k.max()) + 1,
-        seed=int(log.meta.get("noise_seed", sensing.seed)),  # the run's own (a compare draw's)
+        seed=int(log.meta.get("noise_seed", sensing.seed)),
     )
+
+
+def _imu_series(log: Any, frames: dict[str, str], sensing: Any, sensors: Any) -> Series:
+    """``RUN/imu``: what the robot's IMU measured at each logged sample, in period ``k``: the gyro (yaw)
+    the true mean yaw rate over the period plus its bias and white noise, the accelerometer the planar
+    specific force (acceleration along and across the heading, gravity up) plus its bias and white
+    noise, from the run's own noise draws (``sensors``: :func:`run_sensors`).
+    Covariances from the sensor profile: the gyro's z variance is its white noise's plus its bias's,
+    which walks (``gyro_bias_std^2 + gyro_bias_walk^2 t``); x and y, which a yaw gyro does not measure,
+    a large variance; the accelerometer's per axis its white noise's plus its bias's. The orientation is
+    not measured (``orientation_covariance[0] = -1``, as ``sensor_msgs/Imu`` asks)."""
+    t = log.t
+    rate = float(log.meta.get("control_rate_hz", 50.0))
+    k = np.clip(np.round((t - t[0]) * rate).astype(np.int64), 0, None)
     yaw_rate = _period_yaw_rates(log, rate, int(k.max()) + 1)[k]
-    v, omega = body_velocity(t, log.pose)
+    v, _, omega = planar_velocity(t, log.pose).T
     dv = np.gradient(v, t) if t.size > 1 else np.zeros(t.size)
     accel = np.column_stack([dv, v * omega, np.full(t.size, GRAVITY)]) + sensors.accel_bias + sensors.accel_white[k]
     p = sensing.profile
@@ -505,36 +677,56 @@ def _scan_series(log: Any, frames: dict[str, str]) -> Series:
     return stamps, make
 
 
+def run_wheels(log: Any, robot: Any, sk: Skeleton, sensing: Any, sensors: Any) -> Wheels:
+    """The run's wheel odometry (its encoders' turns integrated with the rolling radius the robot's own
+    odometry multiplies them by, :func:`sim.physics.model.rolling_radius`, and the drawn track), from
+    the start pose; its variances for the open loop; the twist from the wheel speeds."""
+    from sim.physics.model import rolling_radius
+
+    r, b = rolling_radius(robot), robot.track_width
+    rate = float(log.meta.get("control_rate_hz", 50.0))
+    config = sensing.estimator_config(robot, rate)
+    turns = encoder_turns(log, sk, sensors)
+    pose, var = wheel_odometry(log.t, turns, log.pose[0], r, b, config)
+
+    def twist(t: FloatArray) -> tuple[FloatArray, FloatArray]:
+        w = np.column_stack([np.interp(t, log.t, log.wheel_speed[:, j]) for j in range(2)])
+        v, omega = 0.5 * r * (w[:, 0] + w[:, 1]), r * (w[:, 1] - w[:, 0]) / b
+        return np.column_stack([v, np.zeros(t.size), omega]), twist_variance(w, r, b, 1.0 / rate, config)
+
+    return Wheels(pose, var, twist)
+
+
 def run_topics(ns: str, log: Any, robot: Any, sk: Skeleton, sensing: Any) -> list[Topic]:
-    """The topics of one run under ``/ns``.
+    """The topics of one run under ``/ns``, and its part of ``/tf`` (:attr:`Topic.joins`).
 
     Args:
         ns: The run's name (its namespace and frame prefix).
         log: Its :class:`sim.physics.runlog.RunLog`.
-        robot: The robot spec (wheel radius and track for the odometry twist).
+        robot: The robot spec (wheel radius and track for the odometry).
         sk: The robot's skeleton.
         sensing: The job's :class:`sim.robot.sensing.SensingSetup` (its sensor profile and noise seed).
     """
     frames = run_frames(ns)
-    r, b = robot.wheel_radius, robot.track_width
-
-    def wheel(t: FloatArray) -> tuple[FloatArray, FloatArray]:
-        wl, wr = (np.interp(t, log.t, log.wheel_speed[:, j]) for j in range(2))
-        return 0.5 * r * (wl + wr), r * (wr - wl) / b
-
+    sensors = run_sensors(log, sensing)
+    wheels = run_wheels(log, robot, sk, sensing, sensors)
     base = frames["base_link"]
     series: list[tuple[str, str, Series]] = [
-        ("tf", "tf", _tf_series(log, sk, frames)),
-        ("odom", "odometry", _odom_series(log, frames, wheel)),
+        ("tf", "tf", _tf_series(log, sk, frames, wheels.pose)),
+        ("odom", "odometry", _odom_series(log, frames, wheels)),
         ("ground_truth/odom", "odometry", _truth_series(log, frames)),
         ("joint_states", "joints", _joints_series(log, sk)),
-        ("imu", "imu", _imu_series(log, frames, sensing)),
+        ("imu", "imu", _imu_series(log, frames, sensing, sensors)),
         ("cmd_vel", "twist", _command_series(log, base)),
         ("tracking_error", "vector", _error_series(log, base)),
         ("fix", "fix", _fix_series(log, (sensing.profile.fix_position_std, sensing.profile.fix_heading_std))),
         ("scan", "scan", _scan_series(log, frames)),
     ]
-    return [topic(f"/{ns}/{name}", m.TYPES[kind], times, how) for name, kind, (times, how) in series if times.size]
+    topics = [topic(f"/{ns}/{name}", m.TYPES[kind], times, how) for name, kind, (times, how) in series if times.size]
+    for tp in topics:
+        if tp.name == f"/{ns}/tf":
+            tp.joins = "/tf"
+    return topics
 
 
 def topic(name: str, msgtype: str, times: FloatArray, how: Callable[[int], Any] | Rows) -> Topic:
@@ -554,31 +746,51 @@ def static_transforms(namespaces: list[str], sk: Skeleton) -> Any:
     return m.tf_message(tfs)
 
 
+def wall_thickness() -> float:
+    """Thickness [m] of the walls the physics puts just outside the world's bounds
+    (:func:`sim.physics.model.build_model`'s default)."""
+    import inspect
+
+    from sim.physics.model import build_model
+
+    return float(inspect.signature(build_model).parameters["wall_thickness"].default)
+
+
+def map_origin(world: World) -> tuple[float, float]:
+    """The lower-left corner of ``/map`` [m]: the world's, moved out by the walls' thickness."""
+    t = wall_thickness()
+    return world.bounds[0] - t, world.bounds[2] - t
+
+
 def occupancy(world: World, resolution: float = MAP_RESOLUTION) -> tuple[float, NDArray[np.int8]]:
-    """The world's obstacles as occupancy (100 inside one, 0 free), rows along y from ``(xmin, ymin)``.
+    """The world's obstacles and its walls as occupancy (100 inside one, 0 free), rows along y from
+    :func:`map_origin`: the grid spans the bounds and the walls around them (:func:`wall_thickness`,
+    outside the bounds), every cell whose centre lies outside the bounds a wall's.
 
     Returns:
         (resolution [m], coarsened for large worlds, (H, W) int8 grid).
     """
     xmin, xmax, ymin, ymax = world.bounds
-    area = (xmax - xmin) * (ymax - ymin)
-    res = max(resolution, math.ceil(math.sqrt(area / MAP_MAX_CELLS) * 1000.0) / 1000.0)
-    w, h = max(1, math.ceil((xmax - xmin) / res)), max(1, math.ceil((ymax - ymin) / res))
-    xs, ys = xmin + (np.arange(w) + 0.5) * res, ymin + (np.arange(h) + 0.5) * res
+    x0, y0 = map_origin(world)
+    width, height = xmax - xmin + 2 * (xmin - x0), ymax - ymin + 2 * (ymin - y0)
+    res = max(resolution, math.ceil(math.sqrt(width * height / MAP_MAX_CELLS) * 1000.0) / 1000.0)
+    w, h = max(1, math.ceil(width / res - 1e-9)), max(1, math.ceil(height / res - 1e-9))
+    xs, ys = x0 + (np.arange(w) + 0.5) * res, y0 + (np.arange(h) + 0.5) * res
     gx, gy = np.meshgrid(xs, ys)
     inside = world.obstacle_distance(np.column_stack([gx.ravel(), gy.ravel()])) <= 0.0
-    return res, np.where(inside, 100, 0).astype(np.int8).reshape(h, w)
+    wall = ((gx < xmin) | (gx > xmax) | (gy < ymin) | (gy > ymax)).ravel()
+    return res, np.where(inside | wall, 100, 0).astype(np.int8).reshape(h, w)
 
 
 def map_message(world: World) -> Any:
-    """``/map``: the occupancy grid of the world (see :func:`occupancy`)."""
+    """``/map``: the occupancy grid of the world and its walls (see :func:`occupancy`)."""
     res, grid = occupancy(world)
     info = m.msg("nav_msgs/msg/MapMetaData")(
         map_load_time=m.stamp(0.0),
         resolution=res,
         width=grid.shape[1],
         height=grid.shape[0],
-        origin=m.pose(world.bounds[0], world.bounds[2], 0.0, (0.0, 0.0, 0.0, 1.0)),
+        origin=m.pose(*map_origin(world), 0.0, (0.0, 0.0, 0.0, 1.0)),
     )
     return m.msg(m.TYPES["grid"])(header=m.header(0.0, "map"), info=info, data=grid.ravel())
 
@@ -630,9 +842,9 @@ def _marker(
 
 
 def robot_markers(ns: str, robot: Any, sk: Skeleton, colour: tuple[float, ...]) -> Any:
-    """``RUN/robot``: the run's robot drawn in its ``base_link`` (a box over the footprint, two wheels),
-    locked to the frame so that it drives with the run's transforms."""
-    frame = run_frames(ns)["base_link"]
+    """``RUN/robot``: the run's robot drawn in its ``ground_truth/base_link`` (a box over the footprint, two
+    wheels), locked to the frame so that it drives where the physics put the robot."""
+    frame = run_frames(ns)["ground_truth/base_link"]
     lo, hi = robot.footprint.min(axis=0), robot.footprint.max(axis=0)
     r, height = robot.wheel_radius, ROBOT_HEIGHT
     body = m.pose(0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * height + 0.005 - r, (0.0, 0.0, 0.0, 1.0))

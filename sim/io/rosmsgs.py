@@ -238,9 +238,10 @@ def tf_message(transforms: list[Any]) -> Any:
     return msg(TYPES["tf"])(transforms=transforms)
 
 
-def twist(v: float, omega: float) -> Any:
-    """``geometry_msgs/Twist`` of a planar body velocity [m/s, rad/s]."""
-    return msg("geometry_msgs/msg/Twist")(linear=vector(v, 0.0, 0.0), angular=vector(0.0, 0.0, omega))
+def twist(v: float, omega: float, vy: float = 0.0) -> Any:
+    """``geometry_msgs/Twist`` of a planar body velocity: forward ``v`` [m/s], yaw rate ``omega`` [rad/s],
+    lateral ``vy`` [m/s]."""
+    return msg("geometry_msgs/msg/Twist")(linear=vector(v, vy, 0.0), angular=vector(0.0, 0.0, omega))
 
 
 def planar_covariance(var: FloatArray) -> FloatArray:
@@ -255,11 +256,24 @@ def planar_covariance(var: FloatArray) -> FloatArray:
     return cov.ravel()
 
 
-def odometry(t: float, frame: str, child: str, p: FloatArray, var: FloatArray, v: float, omega: float) -> Any:
-    """``nav_msgs/Odometry``: planar pose ``p`` with variances ``var`` (3,), body velocity (v, omega)."""
+def odometry(
+    t: float,
+    frame: str,
+    child: str,
+    p: FloatArray,
+    var: FloatArray,
+    v: float,
+    omega: float,
+    vy: float = 0.0,
+    twist_var: FloatArray | None = None,
+) -> Any:
+    """``nav_msgs/Odometry``: planar pose ``p`` with variances ``var`` (3,), body velocity (v, omega, and
+    lateral vy) with the covariance ``twist_var`` of (v, vy, omega) ((3,) variances or (3, 3), laid out as
+    :func:`planar_covariance`; None: all zero, the velocity exact)."""
     cls = msg(TYPES["odometry"])
     pwc = msg("geometry_msgs/msg/PoseWithCovariance")(pose=planar_pose(p), covariance=planar_covariance(var))
-    twc = msg("geometry_msgs/msg/TwistWithCovariance")(twist=twist(v, omega), covariance=np.zeros(36))
+    tcov = np.zeros(36) if twist_var is None else planar_covariance(twist_var)
+    twc = msg("geometry_msgs/msg/TwistWithCovariance")(twist=twist(v, omega, vy), covariance=tcov)
     return cls(header=header(t, frame), child_frame_id=child, pose=pwc, twist=twc)
 
 

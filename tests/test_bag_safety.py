@@ -1,0 +1,361 @@
+"""Bags in and out safely: an existing bag that ``--overwrite`` cannot move aside is refused before any work,
+and a move that fails at the end keeps the old bag and still writes the other outputs; no output may be an
+input (the same bag read and written, a record over its input file); an imported bag's frame is recorded
+(and a frame other than ``map`` said), poses in two frames are refused; a zero or unnormalised orientation
+quaternion is refused, one within the tolerance normalised."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import subprocess
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from planning.trajectory.file_formats import TrajectoryFileError
+from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
+from sim.cli.main import main
+from tests.test_bag_cli import _arc
+from tests.test_bag_read import _LINE, _path_bag
+
+#: A short untimed job on a path file: one run, no video.
+JOB = ["simulate", "--runs", "closed_loop", "--no-video", "--quiet"]
+
+
+def _old_bag(folder: Path) -> Path:
+    folder.mkdir()
+    (folder / "metadata.yaml").write_text("old")
+    (folder / "old.mcap").write_text("old messages")
+    return folder
+
+
+def _kept(folder: Path) -> bool:
+    return (folder / "metadata.yaml").read_text() == "old" and (folder / "old.mcap").read_text() == "old messages"
+
+
+def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    code = main(argv)
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    return code, err
+
+
+# ------------------------------------------------------------------ 1. a bag --overwrite cannot move aside
+def test_a_bag_that_cannot_be_moved_aside_is_refused_before_any_work(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A read-only bag folder (what ``chmod a-w`` does for a normal user; root passes every permission
+    check, so the answer is forced here): exit 2 naming the folder and the fix, nothing run or written."""
+    monkeypatch.chdir(tmp_path)
+    bag = _old_bag(tmp_path / "b")
+    real = os.access
+    monkeypatch.setattr(os, "access", lambda p, mode, **kw: False if Path(p) == bag else real(p, mode, **kw))
+    argv = [*JOB, "--path", str(_arc(tmp_path)), "--bag", str(bag), "--overwrite", "--json", "out/r.json"]
+    code, err = _run(argv, capsys)
+    assert code == 2, err
+    assert f"cannot replace {bag}: it is not writable" in err and f"chmod u+w {bag}" in err
+    assert _kept(bag) and not (tmp_path / "out").exists() and not (tmp_path / "renders").exists()
+
+
+def _chattr(flag: str, path: Path) -> bool:
+    exe = shutil.which("chattr")
+    return exe is not None and subprocess.run([exe, flag, str(path)], capture_output=True).returncode == 0
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="chattr +i needs root")
+def test_an_immutable_bag_is_refused_before_any_work(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    bag = _old_bag(tmp_path / "b")
+    if not _chattr("+i", bag):
+        pytest.skip("the file system takes no immutable flag")
+    try:
+        argv = [*JOB, "--path", str(_arc(tmp_path)), "--bag", str(bag), "--overwrite", "--json", "out/r.json"]
+        code, err = _run(argv, capsys)
+    finally:
+        _chattr("-i", bag)
+    assert code == 2, err
+    assert f"cannot replace {bag}: it is immutable" in err and f"chattr -i {bag}" in err
+    assert _kept(bag) and not (tmp_path / "out").exists() and not (tmp_path / "renders").exists()
+
+
+def test_a_bag_that_fails_to_move_at_the_end_keeps_the_old_one_and_the_other_outputs_are_written(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The check passed, then moving the old bag aside fails (it was made immutable meanwhile): exit 2 naming
+    the folder, the old bag in place, the new one removed (said), the record and plots written, the record's
+    ``bag`` saying why and its ``files`` naming no bag."""
+    monkeypatch.chdir(tmp_path)
+    bag = _old_bag(tmp_path / "b")
+    real = os.replace
+
+    def refused(src: Any, dst: Any) -> None:
+        if Path(src) == bag:
+            raise PermissionError(1, "Operation not permitted", str(src), None, str(dst))
+        real(src, dst)
+
+    monkeypatch.setattr(os, "replace", refused)
+    argv = [*JOB, "--path", str(_arc(tmp_path)), "--bag", str(bag), "--overwrite", "--json", "out/r.json"]
+    code, err = _run(argv, capsys)
+    assert code == 2, err
+    assert f"could not put the new bag in place at {bag}: Operation not permitted; {bag} still holds the old bag" in err
+    assert "the new bag was not kept" in err and "written: renders/" in err and "out/r.json" in err
+    assert _kept(bag) and sorted(p.name for p in tmp_path.iterdir()) == ["arc.csv", "b", "out", "renders"]
+    record = json.loads((tmp_path / "out" / "r.json").read_text())
+    assert record["bag"]["written"] is False and "Operation not permitted" in record["bag"]["error"]
+    assert "bag" not in record["files"]
+    plots = [v for k, v in record["files"].items() if k.startswith("plot_")]
+    assert plots and all((tmp_path / p).is_file() for p in plots)
+
+
+def test_compare_keeps_the_old_bag_and_its_other_outputs_when_the_move_fails(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    bag = _old_bag(tmp_path / "b")
+    real = os.replace
+
+    def refused(src: Any, dst: Any) -> None:
+        if Path(src) == bag:
+            raise PermissionError(1, "Operation not permitted", str(src), None, str(dst))
+        real(src, dst)
+
+    monkeypatch.setattr(os, "replace", refused)
+    argv = ["compare", "--quiet", "--trackers", "fbl", "--path", str(_arc(tmp_path)), "--json", "r.json"]
+    code, err = _run([*argv, "--bag", str(bag), "--overwrite"], capsys)
+    assert code == 2, err
+    assert f"could not put the new bag in place at {bag}" in err and err.rstrip().endswith("written: r.json")
+    assert _kept(bag) and json.loads((tmp_path / "r.json").read_text())
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["arc.csv", "b", "r.json"]
+
+
+# --------------------------------------------------------------------------- 2. outputs apart from inputs
+def _plan_bag(tmp_path: Path) -> Path:
+    return _path_bag(tmp_path / "rec", {"/plan": [_LINE]})
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.mark.parametrize(
+    ("command", "bag", "said"),
+    [
+        (["simulate", "--runs", "closed_loop", "--no-video", "--no-plots"], "{rec}", "is the input"),
+        (["simulate", "--runs", "closed_loop", "--no-video", "--no-plots"], "{link}", "is the input"),
+        (["simulate", "--runs", "closed_loop", "--no-video", "--no-plots"], "{tmp}", "contains the input"),
+        (["simulate", "--runs", "closed_loop", "--no-video", "--no-plots"], "{rec}/inner", "lies inside the input"),
+        (["compare", "--trackers", "fbl"], "{rec}", "is the input"),
+    ],
+    ids=["same", "symlink", "contains", "inside", "compare"],
+)
+def test_a_bag_that_is_contains_or_lies_inside_an_input_is_refused(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    command: list[str],
+    bag: str,
+    said: str,
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    rec = _plan_bag(tmp_path)
+    (tmp_path / "link").symlink_to(rec)
+    before = _files(rec)
+    out = bag.format(rec=rec, link=tmp_path / "link", tmp=tmp_path)
+    argv = [*command, "--quiet", "--path", str(rec), "--topic", "/plan", "--bag", out, "--overwrite"]
+    code, err = _run([*argv, "--json", str(tmp_path / "r.json")], capsys)
+    assert code == 2, err
+    assert f"--bag {out} {said} --path {rec}" in err and "choose another --bag folder" in err
+    assert _files(rec) == before and not (tmp_path / "r.json").exists()
+
+
+@pytest.mark.parametrize(
+    "command",
+    [["simulate", "--runs", "closed_loop", "--no-video", "--no-plots"], ["compare", "--trackers", "fbl"]],
+    ids=["simulate", "compare"],
+)
+def test_a_record_at_an_input_path_or_inside_an_input_bag_is_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], command: list[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    arc = _arc(tmp_path)
+    text = arc.read_text()
+    code, err = _run([*command, "--quiet", "--path", str(arc), "--json", str(arc), "--overwrite"], capsys)
+    assert code == 2, err
+    assert f"the output {arc} is the input --path {arc}" in err and arc.read_text() == text
+    rec = _plan_bag(tmp_path)
+    inside = rec / "r.json"
+    code, err = _run([*command, "--quiet", "--path", str(rec), "--topic", "/plan", "--json", str(inside)], capsys)
+    assert code == 2, err
+    assert f"the output {inside} lies inside the input --path {rec}" in err and not inside.exists()
+
+
+def test_montecarlo_refuses_bags_written_over_its_input(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "worst").mkdir()
+    rec = _path_bag(tmp_path / "worst" / "worst-0", {"/plan": [_LINE]})
+    before = _files(rec)
+    argv = ["montecarlo", "--path", str(rec), "--topic", "/plan", "--runs", "2", "--jobs", "1", "--quiet"]
+    code, err = _run([*argv, "--bags", "worst", "--overwrite"], capsys)
+    assert code == 2, err
+    assert f"--bags worst holds the input --path {rec}" in err and _files(rec) == before
+    assert not (tmp_path / "renders").exists()
+
+
+# ------------------------------------------------------------------------------ 3. and 4. what a bag says
+def _header(ty: Any, t: float, frame: str) -> Any:
+    stamp = ty["builtin_interfaces/msg/Time"](sec=int(t), nanosec=round((t % 1) * 1e9))
+    return ty["std_msgs/msg/Header"](stamp=stamp, frame_id=frame)
+
+
+def _pose(ty: Any, x: float, y: float, q: tuple[float, float, float, float]) -> Any:
+    point = ty["geometry_msgs/msg/Point"](x=x, y=y, z=0.0)
+    return ty["geometry_msgs/msg/Pose"](position=point, orientation=ty["geometry_msgs/msg/Quaternion"](*q))
+
+
+def _unit(yaw: float) -> tuple[float, float, float, float]:
+    return (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
+
+
+def _write(path: Path, topic: str, msgtype: str, msgs: list[Any]) -> Path:
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    with Writer(path, version=8, storage_plugin=StoragePlugin.MCAP) as w:
+        conn = w.add_connection(topic, msgtype, typestore=store)
+        for k, msg in enumerate(msgs):
+            w.write(conn, k * 1000, store.serialize_cdr(msg, msgtype))
+    return path
+
+
+def _types() -> Any:
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(Stores.ROS2_HUMBLE).types
+
+
+def path_bag(path: Path, frames: list[str], header: str = "map", quats: list[Any] | None = None) -> Path:
+    """One nav_msgs/Path on /plan: a 0.9 m line, pose k in ``frames[k]``, its header in ``header``."""
+    ty = _types()
+    quats = quats or [_unit(0.0)] * len(frames)
+    poses = [
+        ty["geometry_msgs/msg/PoseStamped"](header=_header(ty, 0.0, f), pose=_pose(ty, 0.1 * k, 0.25, q))
+        for k, (f, q) in enumerate(zip(frames, quats, strict=True))
+    ]
+    return _write(
+        path, "/plan", "nav_msgs/msg/Path", [ty["nav_msgs/msg/Path"](header=_header(ty, 0.0, header), poses=poses)]
+    )
+
+
+def odom_bag(path: Path, frames: list[str], quats: list[Any] | None = None) -> Path:
+    """nav_msgs/Odometry on /odom, 0.1 s apart along a line at 0.5 m/s, message k in ``frames[k]``."""
+    ty = _types()
+    quats = quats or [_unit(0.0)] * len(frames)
+    vec = ty["geometry_msgs/msg/Vector3"]
+    twist = ty["geometry_msgs/msg/Twist"](linear=vec(x=0.5, y=0.0, z=0.0), angular=vec(x=0.0, y=0.0, z=0.0))
+    msgs = [
+        ty["nav_msgs/msg/Odometry"](
+            header=_header(ty, 0.1 * k, f),
+            child_frame_id="base_footprint",
+            pose=ty["geometry_msgs/msg/PoseWithCovariance"](pose=_pose(ty, 0.05 * k, 0.0, q), covariance=np.zeros(36)),
+            twist=ty["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=np.zeros(36)),
+        )
+        for k, (f, q) in enumerate(zip(frames, quats, strict=True))
+    ]
+    return _write(path, "/odom", "nav_msgs/msg/Odometry", msgs)
+
+
+def test_a_plan_in_map_records_its_frame(tmp_path: Path) -> None:
+    imported = read_trajectory_file(TrajectoryFile(path_bag(tmp_path / "b", ["map"] * 10), timed=False, topic="/plan"))
+    assert imported.report.frame == "map" and imported.report.as_dict()["frame"] == "map"
+    assert not any("--offset" in n for n in imported.report.notes)
+
+
+@pytest.mark.parametrize("kind", ["path", "odometry"])
+def test_poses_in_odom_are_taken_as_map_and_said_with_the_offset_to_use(tmp_path: Path, kind: str) -> None:
+    if kind == "path":
+        source = TrajectoryFile(path_bag(tmp_path / "b", ["odom"] * 10, header="odom"), timed=False, topic="/plan")
+    else:
+        source = TrajectoryFile(odom_bag(tmp_path / "b", ["odom"] * 10), timed=True, topic="/odom")
+    report = read_trajectory_file(source).report
+    assert report.as_dict()["frame"] == "odom"
+    (note,) = [n for n in report.notes if n.startswith("frame")]
+    assert "frame 'odom', not 'map': the poses are taken as they are in the scenario's map frame" in note
+    assert "--offset" in note
+
+
+def test_a_path_whose_header_names_another_frame_uses_its_poses_frame(tmp_path: Path) -> None:
+    bag = path_bag(tmp_path / "b", ["odom"] * 10, header="map")
+    report = read_trajectory_file(TrajectoryFile(bag, timed=False, topic="/plan")).report
+    assert report.frame == "odom"
+    assert "the path's header says frame 'map' but its poses are in 'odom': the poses' frame used" in report.notes
+
+
+def test_the_frame_is_in_the_printed_summary_and_the_record(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    bag = path_bag(tmp_path / "b", ["odom"] * 10, header="odom")
+    argv = ["simulate", "--runs", "closed_loop", "--no-video", "--no-plots", "--path", str(bag), "--topic", "/plan"]
+    assert main([*argv, "--json", "r.json"]) == 0
+    out = capsys.readouterr().out
+    assert "  frame 'odom', not 'map'" in out
+    assert json.loads((tmp_path / "r.json").read_text())["import"]["frame"] == "odom"
+
+
+@pytest.mark.parametrize("kind", ["path", "odometry"])
+def test_poses_in_two_frames_are_refused(tmp_path: Path, kind: str) -> None:
+    frames = ["map"] * 5 + ["odom"] * 5
+    if kind == "path":
+        source = TrajectoryFile(path_bag(tmp_path / "b", frames), timed=False, topic="/plan")
+        said = "message 0 of /plan holds poses in 2 frames: /plan message 0 poses[0] in 'map', /plan message 0 poses[5]"
+    else:
+        source = TrajectoryFile(odom_bag(tmp_path / "b", frames), timed=True, topic="/odom")
+        said = "topic /odom holds poses in 2 frames: /odom message 0 in 'map', /odom message 5 in 'odom'"
+    with pytest.raises(TrajectoryFileError) as err:
+        read_trajectory_file(source)
+    assert said in str(err.value) and "transform the poses into one frame" in str(err.value)
+
+
+@pytest.mark.parametrize(
+    ("q", "said"),
+    [
+        ((0.0, 0.0, 0.0, 0.0), "has a zero orientation quaternion (x, y, z, w) = (0, 0, 0, 0) (10 of 10 poses)"),
+        (
+            (0.0, 0.0, 0.0, 1.01),
+            "has an unnormalised (norm 1.01) orientation quaternion (x, y, z, w) = (0, 0, 0, 1.01)",
+        ),
+    ],
+    ids=["zero", "unnormalised"],
+)
+@pytest.mark.parametrize("kind", ["path", "odometry"])
+def test_a_zero_or_unnormalised_quaternion_is_refused(tmp_path: Path, kind: str, q: Any, said: str) -> None:
+    if kind == "path":
+        source = TrajectoryFile(path_bag(tmp_path / "b", ["map"] * 10, quats=[q] * 10), timed=False, topic="/plan")
+        row = "/plan message 0 poses[0]"
+    else:
+        source = TrajectoryFile(odom_bag(tmp_path / "b", ["map"] * 10, quats=[q] * 10), timed=True, topic="/odom")
+        row = "/odom message 0"
+    with pytest.raises(TrajectoryFileError) as err:
+        read_trajectory_file(source)
+    text = str(err.value)
+    assert f"{row} {said}" in text and "norm 1 within 0.001 (tf2 refuses others)" in text
+    assert ("normalise it" if q[3] else "give it the pose's orientation") in text
+
+
+def test_a_quaternion_within_the_tolerance_is_normalised(tmp_path: Path) -> None:
+    yaw = 0.3
+    x, y, z, w = (1.0 + 5e-4) * np.array(_unit(yaw))
+    bag = path_bag(tmp_path / "b", ["map"] * 10, quats=[(x, y, z, w)] * 10)
+    imported = read_trajectory_file(TrajectoryFile(bag, timed=False, topic="/plan"))
+    assert imported.theta is not None
+    np.testing.assert_allclose(imported.theta, yaw, atol=1e-12)
