@@ -53,3 +53,25 @@ def test_a_postgresql_url_that_cannot_be_opened_is_a_clear_error(
     assert main(args) == 2
     assert "cannot open storage" in capsys.readouterr().err
     assert not (tmp_path / "g.toml").exists()
+
+
+def test_a_bare_postgresql_url_opens_with_the_installed_driver(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``postgresql://`` (the docs' form) is SQLAlchemy 2.1's psycopg 3, which nhsim does not install: it
+    failed "Failed to import DB access module" with psycopg2 installed. Now the installed driver is named,
+    and the failure is the connection's own (nothing listens on port 9)."""
+    pytest.importorskip("psycopg2")
+    from sim.cli.main import main
+    from sim.tools.tune import with_driver
+
+    bare = "postgresql://nobody:pw@127.0.0.1:9/x"
+    named = with_driver(bare)
+    assert named.startswith(("postgresql+psycopg2://", "postgresql://")) and named.endswith("nobody:pw@127.0.0.1:9/x")
+    assert with_driver("postgresql+psycopg2://a@h/d") == "postgresql+psycopg2://a@h/d"
+    assert with_driver("sqlite:///renders/t.db") == "sqlite:///renders/t.db"
+    args = ["tune", "--scenarios", CASE, "--trials", "2", "--storage", bare,
+            "--study", "t", "--out", str(tmp_path / "g.toml"), "--plots", str(tmp_path), "--quiet"]  # fmt: skip
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "cannot open storage 'postgresql://nobody:pw@127.0.0.1:9/x'" in err and "DB access module" not in err

@@ -393,6 +393,29 @@ def check_storage(url: str) -> None:
         )
 
 
+def with_driver(url: str) -> str:
+    """``url`` with a PostgreSQL driver that is installed: a bare ``postgresql://`` is SQLAlchemy's default
+    driver, psycopg 3 from SQLAlchemy 2.1 on, psycopg2 before; where that one is missing and the other
+    installed (nhsim's ``dev`` extra brings psycopg2), the installed one is named. Any other URL, or one
+    naming its driver (``postgresql+psycopg2://``), is returned as given."""
+    import importlib.util
+
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
+    try:
+        parsed = make_url(url)
+    except ArgumentError:
+        return url
+    if parsed.drivername != "postgresql":
+        return url
+    default = parsed.get_dialect().driver  # the module SQLAlchemy would import for the bare name
+    installed = [d for d in ("psycopg", "psycopg2") if importlib.util.find_spec(d) is not None]
+    if default in installed or not installed:
+        return url
+    return parsed.set(drivername=f"postgresql+{installed[0]}").render_as_string(hide_password=False)
+
+
 def open_storage(url: str) -> Any:
     """An Optuna RDB storage with heartbeats that re-enqueues a dead trial's gains, or a clear error.
 
@@ -408,6 +431,7 @@ def open_storage(url: str) -> Any:
     import optuna
 
     check_storage(url)
+    given, url = url, with_driver(url)
     warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
     sqlite = url.startswith("sqlite")
     engine_kwargs: dict[str, Any] = {}
@@ -432,9 +456,9 @@ def open_storage(url: str) -> Any:
                 continue
             reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             raise ConfigError(
-                f"cannot open storage {url!r}: {reason}. Give an SQLAlchemy URL that can be opened, e.g. "
-                f"sqlite:///renders/tune.db (its directory must exist) or postgresql://user:pass@host/db "
-                f"(with its driver installed and the server running)"
+                f"cannot open storage {given!r}: {reason}. Give an SQLAlchemy URL that can be opened, e.g. "
+                f"sqlite:///renders/tune.db (its directory must exist) or postgresql+psycopg2://user:pass@host/db "
+                f"(psycopg2 installed: pip install psycopg2-binary; the server running)"
             ) from exc
     if sqlite:
         _begin_immediate(storage.engine)
