@@ -356,6 +356,19 @@ def test_simulate_all_sweeps_the_scenarios_it_is_given(
     assert sorted(r["scenario"] for r in rows) == ["random400", "simple_motion"]
 
 
+def test_a_sweep_with_gains_says_so_and_records_them(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--all --gains`` ran every case with them, and neither the table nor the record said so."""
+    monkeypatch.chdir(tmp_path)
+    args = ["simulate", "--all", "--scenario", "simple_motion", "--robot", "turtlebot3", "--planner", "birrt"]
+    assert main([*args, "--gains", "10,5", "--no-video", "--json", "all.json"]) == 0
+    assert "gains Kp=10 Kd=5 xi_min=0.02 (--gains 10,5) on every case" in capsys.readouterr().out
+    settings = json.loads((tmp_path / "all.json").read_text())["settings"]
+    assert settings["gains"] == {"kp": 10.0, "kd": 5.0, "xi_min": 0.02} and settings["gains_from"] == "10,5"
+    assert settings["seed"] == 0 and settings["control_rate_hz"] == 50 and settings["time_limit_s"] > 0
+
+
 def _text_options() -> list[tuple[list[str], str]]:
     """(the command's words, option) for every option of every command that takes text."""
     import argparse

@@ -127,7 +127,7 @@ def test_a_planner_precondition_is_not_applicable_but_a_planner_failure_is_a_fai
     assert fail.outcome is Outcome.FAIL and fail.stage is Stage.PLAN and fail.plan_status == "bounds_violated"
     rows = [na, fail]
     rec = sweep_record(rows)
-    assert rec["rows"] == [fail.record()] and rec["not_applicable"] == [na.record()]
+    assert rec["rows"] == [fail.record()] and rec["not_applicable"] == [na.record()] and rec["settings"] == {}
     assert rec["summary"] == {
         "cases": 1,
         "passed": 0,

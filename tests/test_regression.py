@@ -383,3 +383,15 @@ def test_the_update_hint_names_the_baselines_folder_it_was_given(tmp_path: Path)
     args = build_parser().parse_args(["regress", "--baselines", str(tmp_path), "--suite", "s.toml"])
     assert _with_files(hint, args).endswith(f"nhsim regress --update --suite s.toml --baselines {tmp_path} --case x")
     assert _with_files(hint, build_parser().parse_args(["regress"])) == hint
+
+
+def test_the_cases_the_help_shows_load(tmp_path: Path) -> None:
+    """``nhsim regress --help`` shows how to add a case; pasted into a suite, its lines must load (one named
+    a scenario "maze", which is not one)."""
+    from sim.cli.regress import DESCRIPTION
+
+    lines = [line.strip().rstrip(",") for line in DESCRIPTION.splitlines() if line.strip().startswith("{ scenario")]
+    assert len(lines) == 2
+    suite = tmp_path / "suite.toml"
+    suite.write_text("cases = [\n" + ",\n".join(lines) + "\n]\n", encoding="utf-8")
+    assert len(load_suite(suite).cases) == 2

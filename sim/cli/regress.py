@@ -29,7 +29,7 @@ By default the fast subset runs; --all runs every case, --case PATTERN the match
 
 Adding a case is one line in the suite's 'cases' array, e.g.
   { scenario = "open", robot = "edumip", reference = "circle", tracker = "fbl", seed = 0, control_rate = 50 },
-  { scenario = "maze", robot = "turtlebot3", planner = "rrt", tracker = "fbl", seed = 1, control_rate = 50 },
+  { scenario = "farm", robot = "turtlebot3", planner = "rrt", tracker = "fbl", seed = 1, control_rate = 50 },
 then: nhsim regress --update --case <its name>.
 
 A baseline records the case's definition too: a case whose fields (gains, build seed, sensors, ...) differ

@@ -109,6 +109,20 @@ def sweep_scenarios(text: str | None) -> list[str] | None:
     return names
 
 
+def sweep_settings(args: argparse.Namespace, gains: Any) -> dict[str, Any]:
+    """What every case of the sweep ran with, for its record: the seed, the FBL gains (and the ``--gains``
+    they came from, None for the defaults), the control rate and the planners' time limit."""
+    import dataclasses
+
+    return {
+        "seed": args.seed,
+        "gains": dataclasses.asdict(gains),
+        "gains_from": args.gains,
+        "control_rate_hz": args.control_rate,
+        "time_limit_s": args.time_limit,
+    }
+
+
 def run_all(args: argparse.Namespace, gains: Any) -> int:
     """Run the sweep: print the table as rows come, the summary, and write the record with --json."""
     from sim.outputs import check_writable, write_json
@@ -126,15 +140,19 @@ def run_all(args: argparse.Namespace, gains: Any) -> int:
         cases = [c for c in cases if c.robot == args.robot]
     if args.planner is not None:
         cases = [c for c in cases if c.planner == args.planner]
+    settings = sweep_settings(args, gains)
     with make_executor(args.jobs, args.scheduler, default=1) as executor:
         if executor.workers > 1 and not args.quiet:
             print(f"{len(cases)} cases on {executor.where} (rows print as they finish)", flush=True)
+        if args.gains:  # every row ran with them: said before the rows, kept in the record's settings
+            g = settings["gains"]
+            print(f"gains Kp={g['kp']:g} Kd={g['kd']:g} xi_min={g['xi_min']:g} (--gains {args.gains}) on every case")
         print(header(), flush=True)
         show = lambda row: print(format_row(row), flush=True)
         rows = run_sweep(cases, progress=show, mapper=executor.map_unordered)
     print("\n".join(summary(rows)))  # part of the results: printed with --quiet too
     if args.json is not None:
-        write_json(args.json, sweep_record(rows), overwrite=args.overwrite)
+        write_json(args.json, sweep_record(rows, settings), overwrite=args.overwrite)
         if not args.quiet:
             print(f"wrote {args.json}")
     return 0 if sweep_passed(rows) else 1

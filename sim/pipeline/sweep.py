@@ -268,12 +268,14 @@ def sweep_task(shared: object, case: Case) -> SweepRow:
     return sweep_case(case)
 
 
-def sweep_record(rows: list[SweepRow]) -> dict[str, Any]:
-    """The JSON record of a sweep: applicable rows, not-applicable rows apart, and counts, with the
-    targets a row is judged by (``targets``; a balancing robot's row by ``balancing_targets``)."""
+def sweep_record(rows: list[SweepRow], settings: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The JSON record of a sweep: the ``settings`` every case ran with (seed, gains, control rate, time
+    limit: what tells one sweep from another), applicable rows, not-applicable rows apart, and counts, with
+    the targets a row is judged by (``targets``; a balancing robot's row by ``balancing_targets``)."""
     na = [r for r in rows if r.outcome is Outcome.NA]
     applicable = [r for r in rows if r.outcome is not Outcome.NA]
     return {
+        "settings": dict(settings or {}),
         "rows": [r.record() for r in applicable],
         "not_applicable": [r.record() for r in na],
         "summary": {
