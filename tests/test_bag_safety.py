@@ -105,8 +105,8 @@ def test_a_bag_that_fails_to_move_at_the_end_keeps_the_old_one_and_the_other_out
     code, err = _run(argv, capsys)
     assert code == 2, err
     assert f"could not put the new bag in place at {bag}: Operation not permitted; {bag} still holds the old bag" in err
-    assert "the new bag was not kept" in err and "written: renders/" in err and "out/r.json" in err
-    assert _kept(bag) and sorted(p.name for p in tmp_path.iterdir()) == ["arc.csv", "b", "out", "renders"]
+    assert "the new bag was not kept" in err and "written: out/r-world.png" in err and "out/r.json" in err
+    assert _kept(bag) and sorted(p.name for p in tmp_path.iterdir()) == ["arc.csv", "b", "out"]
     record = json.loads((tmp_path / "out" / "r.json").read_text())
     assert record["bag"]["written"] is False and "Operation not permitted" in record["bag"]["error"]
     assert "bag" not in record["files"]

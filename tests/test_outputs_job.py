@@ -113,9 +113,12 @@ def test_custom_paths_and_switches(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     assert sorted(p.name for p in (tmp_path / "renders").iterdir()) == [f"{STEM}.json"]
     record = json.loads((tmp_path / "renders" / f"{STEM}.json").read_text())
     assert record["files"] == {"json": f"renders/{STEM}.json"}
-    # --json moves the record; plots keep their default place
-    assert main([*FAST, "--no-video", "--json", str(tmp_path / "rec.json")]) == 0
-    assert (tmp_path / "rec.json").exists()
+    # with no video, --json moves the record and the plots beside it (they went to ./renders/ whatever --json said)
+    before = sorted(p.name for p in (tmp_path / "renders").iterdir())
+    assert main([*FAST, "--no-video", "--json", str(tmp_path / "out" / "rec.json")]) == 0
+    names = sorted(p.name for p in (tmp_path / "out").iterdir())
+    assert "rec.json" in names and "rec-world.png" in names and all(n.startswith("rec") for n in names)
+    assert sorted(p.name for p in (tmp_path / "renders").iterdir()) == before
 
 
 def test_bad_options_fail_before_running(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -176,7 +179,8 @@ def _tree(folder: Path) -> list[str]:
     [
         (["--video", "/proc/nope/x.mp4"], "cannot write /proc/nope/x.mp4: its folder /proc/nope does not exist"),
         (["--video", "blocker/x.mp4"], "cannot write blocker/x.mp4: blocker is a file, not a folder"),
-        (["--no-video", "--json", "blocker/sub/r.json"], "cannot write blocker/sub/r.json: blocker is a file"),
+        (["--no-video", "--no-plots", "--json", "blocker/sub/r.json"], "cannot write blocker/sub/r.json: blocker is"),
+        (["--no-video", "--json", "blocker/sub/r.json"], "cannot write blocker/sub/r-world.png: blocker is a file"),
         (["--no-video", "--json", "folder"], "cannot write folder: it is a folder"),
         (["--no-video", "--no-plots", "--json", "locked/r.json"], "its folder locked does not accept new files"),
         (["--no-video", "--no-plots", "--json", "n" * 300 + ".json"], "its name is 305 bytes long; at most 255"),

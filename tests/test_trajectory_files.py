@@ -96,6 +96,20 @@ def test_a_ros_path_runs_in_an_arena_around_it(
     assert rec["closed_loop"]["final_position_error_m"] <= 0.02
 
 
+def test_a_ros_path_without_times_given_as_a_trajectory_is_sent_to_the_path_option(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The message pointed to --columns, which a YAML document refuses ("names its own fields")."""
+    lines = ["poses:"] + [
+        f"- pose: {{position: {{x: {x!r}, y: 0.5}}, orientation: {{x: 0, y: 0, z: 0, w: 1}}}}" for x in (0.0, 1.0)
+    ]
+    p = tmp_path / "nav.yaml"
+    p.write_text("\n".join(lines) + "\n")
+    assert main(["simulate", "--trajectory", str(p), "--no-video", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "no column t" in err and "--columns" not in err and "use --path" in err
+
+
 @pytest.mark.parametrize(
     ("text", "extra", "needle"),
     [

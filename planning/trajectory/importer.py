@@ -358,9 +358,13 @@ def _required(table: FileTable, source: TrajectoryFile, report: ImportReport) ->
     if missing:
         hint = f"; a file without time stamps is a path: use {option('path', python='timed=False')}"
         hint = hint if missing == ["t"] else ""
+        named = table.fmt in ("json", "yaml", "nav_msgs/Path")  # a document names its own fields: no --columns
+        where = "give it in each pose" if named else f"name it in the header or with {option('columns')}"
+        if named and missing == ["t"]:  # a document without stamps: a path, for the path option alone
+            where = f"a {table.fmt} whose poses carry no times (or all the same stamp) is a path"
+            hint = f": use {option('path', python='timed=False')}, or give each pose its time"
         raise TrajectoryFileError(
-            f"{table.path}: no column {' or '.join(missing)} (columns: {', '.join(cols) or 'none'}); name it in the "
-            f"header or with {option('columns')}{hint}"
+            f"{table.path}: no column {' or '.join(missing)} (columns: {', '.join(cols) or 'none'}); {where}{hint}"
         )
     if len(table) < 2:
         rows = f"one row ({table.rows[0]})" if len(table) else "no rows"

@@ -136,8 +136,7 @@ def add_output_arguments(p: argparse.ArgumentParser) -> None:
         default=None,
         metavar="PATH",
         help="MP4 to write (default: renders/<scenario>-<planner or reference>[-<robot>][-<tag>].mp4); plots and "
-        "record go "
-        "beside it",
+        "record go beside it (with --no-video, the plots go beside --json when it is given)",
     )
     g.add_argument("--no-video", action="store_true", help="skip the video (no OpenGL needed)")
     g.add_argument(
@@ -351,7 +350,7 @@ def plan_outputs(
             print(
                 f"nhsim: {', '.join(unused)} ignored: they set the video, and --no-video writes none", file=sys.stderr
             )
-    base_dir, base = (args.video.parent, args.video.stem) if args.video is not None else (DEFAULT_DIR, stem)
+    base_dir, base = _plots_beside(args, stem)
     names: tuple[str, ...] = (*PLOTS, ESTIMATION_PLOT)  # the estimation plot only where the job gives its estimates
     robot = getattr(args, "robot", None)
     if _may_scan(args, robot or own_robot):  # the scan localiser's plot where a run used one
@@ -380,6 +379,16 @@ def plan_outputs(
         if reason is not None:
             raise DependencyError(reason)
     return plan
+
+
+def _plots_beside(args: argparse.Namespace, stem: str) -> tuple[Path, str]:
+    """The folder and stem the plots (and a record without --json) are named by: the video's; with no
+    video, --json's when given; else renders/ and the job's ``stem``."""
+    if args.video is not None:
+        return args.video.parent, args.video.stem
+    if args.no_video and args.json is not None:
+        return args.json.parent, args.json.stem
+    return DEFAULT_DIR, stem
 
 
 #: Options whose value may name a file or folder the command reads (``--params``: files, comma-separated).
