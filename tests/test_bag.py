@@ -87,6 +87,19 @@ def sensed(log: Any, t: np.ndarray) -> np.ndarray:
     return np.where(t > log.t[0] + 1e-9, t - float(log.meta["timestep_s"]), t)
 
 
+def tf_chain(kind: str) -> list[tuple[str, str]]:
+    """A run's transforms on ``/tf``, (parent, child) in order: REP 105's chain, then the truth's frames."""
+    return [
+        ("map", f"{kind}/odom"),
+        (f"{kind}/odom", f"{kind}/base_footprint"),
+        (f"{kind}/base_footprint", f"{kind}/base_link"),
+        (f"{kind}/base_link", f"{kind}/wheel_left_link"),
+        (f"{kind}/base_link", f"{kind}/wheel_right_link"),
+        ("map", f"{kind}/ground_truth/base_footprint"),
+        (f"{kind}/ground_truth/base_footprint", f"{kind}/ground_truth/base_link"),
+    ]
+
+
 def run_tf(msgs: dict[str, list[tuple[int, Any]]], kind: str) -> list[tuple[int, Any]]:
     """A run's transforms: its messages on ``/tf``, told apart by their frames' prefix."""
     return [(t, x) for t, x in msgs["/tf"] if x.transforms[0].child_frame_id.startswith(f"{kind}/")]
@@ -127,15 +140,7 @@ def test_rosbags_reads_every_topic_with_the_logs_counts_stamps_and_frames(job: t
         tf = run_tf(msgs, kind)
         assert len(tf) == result.logs[kind].t.size
         chain = [(x.header.frame_id, x.child_frame_id) for x in tf[0][1].transforms]
-        assert chain == [
-            ("map", f"{kind}/odom"),
-            (f"{kind}/odom", f"{kind}/base_footprint"),
-            (f"{kind}/base_footprint", f"{kind}/base_link"),
-            (f"{kind}/base_link", f"{kind}/wheel_left_link"),
-            (f"{kind}/base_link", f"{kind}/wheel_right_link"),
-            ("map", f"{kind}/ground_truth/base_footprint"),
-            (f"{kind}/ground_truth/base_footprint", f"{kind}/ground_truth/base_link"),
-        ]
+        assert chain == tf_chain(kind)
     latched = {t for t, q in qos.items() if q and q[0].durability.name == "TRANSIENT_LOCAL"}
     assert latched == {*ONCE, *(f"/{kind}/robot" for kind in result.logs)}
 

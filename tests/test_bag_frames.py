@@ -13,6 +13,7 @@ import pytest
 
 from sim.io import bag_topics as bt
 from sim.pipeline.runs import RunKind
+from tests.test_bag import tf_chain
 
 RUNS = (RunKind.CLOSED_LOOP, RunKind.CLOSED_LOOP_ODOMETRY, RunKind.OPEN_LOOP, RunKind.CLOSED_LOOP_TRUTH)
 
@@ -67,15 +68,7 @@ def test_every_runs_transforms_are_on_tf(bag: tuple[Any, dict[str, Any]]) -> Non
     for kind, log in job.logs.items():
         t, links = run_tf(msgs, kind)
         np.testing.assert_allclose(t, log.t, atol=1e-9)
-        assert list(links) == [
-            ("map", f"{kind}/odom"),
-            (f"{kind}/odom", f"{kind}/base_footprint"),
-            (f"{kind}/base_footprint", f"{kind}/base_link"),
-            (f"{kind}/base_link", f"{kind}/wheel_left_link"),
-            (f"{kind}/base_link", f"{kind}/wheel_right_link"),
-            ("map", f"{kind}/ground_truth/base_footprint"),
-            (f"{kind}/ground_truth/base_footprint", f"{kind}/ground_truth/base_link"),
-        ]
+        assert list(links) == tf_chain(kind)
         truth = links[("map", f"{kind}/ground_truth/base_footprint")]
         np.testing.assert_allclose(_unwrapped(truth), log.pose, atol=1e-9)
         robot = msgs[f"/{kind}/robot"][0][1].markers  # drawn where the physics put the robot

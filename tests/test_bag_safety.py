@@ -85,14 +85,8 @@ def test_an_immutable_bag_is_refused_before_any_work(
     assert _kept(bag) and not (tmp_path / "out").exists() and not (tmp_path / "renders").exists()
 
 
-def test_a_bag_that_fails_to_move_at_the_end_keeps_the_old_one_and_the_other_outputs_are_written(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
-) -> None:
-    """The check passed, then moving the old bag aside fails (it was made immutable meanwhile): exit 2 naming
-    the folder, the old bag in place, the new one removed (said), the record and plots written, the record's
-    ``bag`` saying why and its ``files`` naming no bag."""
-    monkeypatch.chdir(tmp_path)
-    bag = _old_bag(tmp_path / "b")
+def _refuse_moving(bag: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Make moving ``bag`` fail as an immutable folder's move does (after the check before the run passed)."""
     real = os.replace
 
     def refused(src: Any, dst: Any) -> None:
@@ -101,6 +95,17 @@ def test_a_bag_that_fails_to_move_at_the_end_keeps_the_old_one_and_the_other_out
         real(src, dst)
 
     monkeypatch.setattr(os, "replace", refused)
+
+
+def test_a_bag_that_fails_to_move_at_the_end_keeps_the_old_one_and_the_other_outputs_are_written(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The check passed, then moving the old bag aside fails (it was made immutable meanwhile): exit 2 naming
+    the folder, the old bag in place, the new one removed (said), the record and plots written, the record's
+    ``bag`` saying why and its ``files`` naming no bag."""
+    monkeypatch.chdir(tmp_path)
+    bag = _old_bag(tmp_path / "b")
+    _refuse_moving(bag, monkeypatch)
     argv = [*JOB, "--path", str(_arc(tmp_path)), "--bag", str(bag), "--overwrite", "--json", "out/r.json"]
     code, err = _run(argv, capsys)
     assert code == 2, err
@@ -119,14 +124,7 @@ def test_compare_keeps_the_old_bag_and_its_other_outputs_when_the_move_fails(
 ) -> None:
     monkeypatch.chdir(tmp_path)
     bag = _old_bag(tmp_path / "b")
-    real = os.replace
-
-    def refused(src: Any, dst: Any) -> None:
-        if Path(src) == bag:
-            raise PermissionError(1, "Operation not permitted", str(src), None, str(dst))
-        real(src, dst)
-
-    monkeypatch.setattr(os, "replace", refused)
+    _refuse_moving(bag, monkeypatch)
     argv = ["compare", "--quiet", "--trackers", "fbl", "--path", str(_arc(tmp_path)), "--json", "r.json"]
     code, err = _run([*argv, "--bag", str(bag), "--overwrite"], capsys)
     assert code == 2, err
