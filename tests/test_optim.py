@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -223,6 +224,57 @@ def test_the_time_limit_holds_for_the_whole_plan(tmp_path) -> None:
     assert "time limit (0.5 s" in res.reason and res.stats["time_limit_reached"]
     # stopped within an iteration or two of the limit, which leaves out numba readying code (planning.clock)
     assert res.stats["time_s"] - res.stats["code_s"] <= 0.5 + 0.3
+
+
+def _own_time(res, cpu: float) -> float:
+    """The time a plan held against its limit: by the wall less numba readying code, or by this process's CPU
+    time where a loaded machine's wall clock ran on without it."""
+    return min(res.stats["time_s"] - res.stats["code_s"], cpu)
+
+
+def test_a_new_nlp_shape_is_set_up_only_when_the_time_left_covers_it(monkeypatch) -> None:
+    """A new NLP shape's set-up (building it, CasADi's derivatives, IPOPT's start) runs before IPOPT's first
+    iteration callback, so nothing stopped it: random3031's TurtleBot3 took 0.15 s of a 0.1 s limit, 0.10-0.14 s
+    of 0.05 s. Now a shape whose predicted set-up exceeds what is left ends TIMEOUT before it, naming it; set
+    up once (here under a longer limit), it is kept, and a short limit holds for the solve."""
+    import time
+
+    from planning.planners import optim
+
+    for key in [k for k in optim._CACHE if k[0] == 47]:  # a shape no other test uses, new in this process
+        del optim._CACHE[key]
+    problem = PlanProblem.from_scenario(load_scenario("random3031").with_robot("turtlebot3"), time_limit=0.05)
+    planner = Optim(N=47, init="straight")
+    cpu = time.process_time()
+    res = planner.plan(problem)
+    cpu = time.process_time() - cpu
+    assert res.status is PlanStatus.TIMEOUT, res.reason
+    assert _own_time(res, cpu) <= 0.05 * 1.1 + 0.02, res.stats
+    assert "less than setting IPOPT up for this NLP's new shape is predicted to take" in res.reason
+    assert "N=47, 1 circle, 0 ellipses, 6 polygons" in res.reason and res.stats["setup_predicted_s"] > 0.05
+    done = planner.plan(dataclasses.replace(problem, time_limit=30.0))  # sets the shape up, measured
+    assert done.stats["nlp_cached"] is False and 0.0 < done.stats["build_time_s"] < done.stats["setup_s"]
+    assert optim._SETUP_RATE[0] == pytest.approx(done.stats["setup_s"] / optim._setup_units((47, 1, 0, (4,) * 6)))
+    cpu = time.process_time()
+    res = planner.plan(dataclasses.replace(problem, time_limit=0.02))  # its 41 iterations took 0.09 s
+    cpu = time.process_time() - cpu
+    assert res.stats["nlp_cached"] is True and res.stats["setup_s"] < done.stats["setup_s"]
+    assert res.status is PlanStatus.TIMEOUT and res.stats["time_limit_reached"], res.reason
+    assert _own_time(res, cpu) <= 0.02 * 1.1 + 0.02, res.stats
+
+
+def test_a_set_up_that_overruns_its_prediction_is_named_in_the_timeout(monkeypatch) -> None:
+    from planning.planners import optim
+
+    for key in [k for k in optim._CACHE if k[0] == 46]:
+        del optim._CACHE[key]
+    monkeypatch.setattr(optim, "_SETUP_RATE", [1e-9])  # predicted far too short: the set-up is started
+    problem = PlanProblem.from_scenario(load_scenario("random3031").with_robot("turtlebot3"), time_limit=0.01)
+    res = Optim(N=46, init="straight").plan(problem)
+    assert res.status is PlanStatus.TIMEOUT and res.stats["iterations"] == 0, res.reason
+    assert f"before its first iteration, setting it up took {res.stats['setup_s']:.3f} s" in res.reason
+    assert "(a new NLP shape, predicted 0.000 s)" in res.reason
+    assert optim._SETUP_RATE[0] > 1e-6  # measured
 
 
 def test_loading_code_is_not_held_against_the_time_limit() -> None:

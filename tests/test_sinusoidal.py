@@ -193,3 +193,57 @@ def test_the_time_limit_ends_the_steering() -> None:
     res = make_planner("sinusoidal").plan(problem)
     assert res.status is PlanStatus.TIMEOUT and res.reason.startswith("time limit of 0.02 s spent steering piece")
     assert res.stats["time_s"] < 0.02 + 0.1  # one period's quadrature past it at most
+
+
+def _own_time(res, cpu: float) -> float:
+    """The time a plan held against its limit: by the wall (sinusoidal readies no numba code), or by this
+    process's CPU time where a loaded machine's wall clock ran on without it."""
+    return min(res.stats["time_s"] - res.stats.get("code_s", 0.0), cpu)
+
+
+def test_the_time_limit_holds_inside_a_long_period() -> None:
+    """A lateral move is one step of the fourth chained state; at a 300 s period its grid has 240,001 points,
+    and one period (32 amplitudes scanned per sign, Brent's method, the quadratures) took 0.3-0.5 s with a
+    single look at the clock before it: a 0.05 s limit was overrun by all of it. The clock is now read
+    before each quadrature, block of amplitudes and Brent evaluation."""
+    import time
+
+    world = World((-5.0, 5.0, -5.0, 5.0), ())
+    problem = PlanProblem(
+        world, load_robot("turtlebot3"), Pose2D(0.0, 0.0, 0.0), Pose2D(0.0, 0.3, 0.0), time_limit=0.05
+    )
+    cpu = time.process_time()
+    res = Sinusoidal(min_period=300.0, max_period=300.0).plan(problem)
+    cpu = time.process_time() - cpu
+    assert res.status is PlanStatus.TIMEOUT, res.reason
+    assert res.reason == "time limit of 0.05 s spent steering piece 1 of 1"
+    assert _own_time(res, cpu) <= 0.05 * 1.1 + 0.02, res.stats
+
+
+def test_an_answer_known_only_after_the_limit_is_a_timeout(monkeypatch) -> None:
+    """random3014's EduMIP at 0.5 s once ended ``bounds_violated`` 0.58 s in: its last period began before
+    the limit and failed after it. An answer that comes after the limit, a step no period makes within the
+    bounds or a joined path checked, is ``timeout``; the joined path stays attached, and the reason says what
+    the answer would have been."""
+    import time
+
+    def late(fn):
+        def slow(self, *args):
+            time.sleep(max(0.0, self._deadline - time.perf_counter()) + 0.01)
+            return fn(self, *args)
+
+        return slow
+
+    simple = PlanProblem.from_scenario(load_scenario("simple_motion"), time_limit=0.5)
+    assert Sinusoidal().plan(simple).status is PlanStatus.SUCCESS
+    monkeypatch.setattr(Sinusoidal, "_verdict", late(Sinusoidal._verdict))
+    res = Sinusoidal().plan(simple)
+    assert res.status is PlanStatus.TIMEOUT and res.path is not None and res.path.shape[0] > 1
+    assert res.reason == "time limit of 0.5 s spent before the answer was known (it came after, success)"
+    monkeypatch.undo()
+    cramped = Sinusoidal(u1max=0.001, max_period=4.0)
+    monkeypatch.setattr(Sinusoidal, "_cannot", late(Sinusoidal._cannot))
+    res = cramped.plan(simple)
+    assert res.status is PlanStatus.TIMEOUT and res.path.shape[0] == 0
+    assert res.reason.startswith("time limit of 0.5 s spent before the answer was known (it came after, ")
+    assert "bounds_violated: sinusoidal steering of piece 1 of 1: cannot steer" in res.reason

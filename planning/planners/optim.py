@@ -22,7 +22,9 @@ The horizon ``T = N dt`` is fixed; the decision variables are the states ``X`` (
 
 The NLP is built once per shape (N, obstacle kinds and vertex counts) and cached; start, goal,
 dt, bounds and obstacle data are parameters, so repeated solves only set values and warm starts.
-CasADi expands the graph to SX (``expand=True``) before IPOPT runs.
+CasADi expands the graph to SX (``expand=True``) before IPOPT runs. A new shape's set-up comes before
+IPOPT's first iteration callback, which holds a solve to the plan's time limit, so it is predicted
+(:func:`_setup_units`, :data:`_SETUP_RATE`) and not begun when less than that is left (:meth:`Optim._ready_nlp`).
 """
 
 from __future__ import annotations
@@ -69,6 +71,16 @@ SELECTION_ROUNDS = 4
 
 def _casadi() -> Any:
     return casadi_module("the 'optim' planner")
+
+
+_PLUGIN_LOADED: list[bool] = []
+
+
+def _ipopt_plugin(ca: Any) -> None:
+    """Load CasADi's IPOPT plugin (its shared libraries) once a process."""
+    if not _PLUGIN_LOADED:
+        ca.load_nlpsol("ipopt")
+        _PLUGIN_LOADED.append(True)
 
 
 def _ipopt_failed(sol: OptimSolution) -> bool:
@@ -177,6 +189,25 @@ class _Nlp:
 
 
 _CACHE: dict[tuple[Any, ...], _Nlp] = {}
+
+#: Seconds a new NLP shape's set-up (building the Opti problem, then CasADi's expansion and derivatives and
+#: IPOPT's start up to its first iteration callback) takes per unit of :func:`_setup_units`: the last one
+#: measured in this process; before it, the median of 80 shapes of the generated worlds random3000-3039 (both
+#: robots) on a two-core machine, whose quiet runs measured 61-66 us (under other load up to 130 us).
+_SETUP_RATE = [6.5e-5]
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def _setup_units(key: tuple[Any, ...]) -> float:
+    """The size a set-up's time goes with, of an NLP of cache key ``key``: its constraint rows, an ellipse's
+    counted 2.2 times (its support function), and 100 for what any shape costs. Measured against it, worlds of
+    ellipses, boxes, pentagons and a mix set up at 57-64 us a unit, of 16-32 circles at 46-48 us."""
+    n, n_circ, n_ell, poly_k = key[:4]
+    rows = 4 * n + 8 + 3 * (n + 1) + 4 * n + (n + 1) * (n_circ + sum(poly_k))
+    return float(rows + 2.2 * (n + 1) * n_ell + 100)
 
 
 @dataclass(frozen=True)
@@ -311,6 +342,7 @@ def _deadline(ca: Any) -> Any:
         def __init__(self) -> None:
             ca.Callback.__init__(self)
             self.at = math.inf
+            self.first: float | None = None  # time.perf_counter() at the solve's first callback (iteration 0)
             self.construct("deadline", {})
 
         def get_n_in(self) -> int:
@@ -329,7 +361,10 @@ def _deadline(ca: Any) -> Any:
             return ca.Sparsity.scalar() if ca.nlpsol_out(i) == "f" else ca.Sparsity(0, 0)
 
         def eval(self, arg: Any) -> list[int]:
-            return [int(time.perf_counter() > self.at)]
+            now = time.perf_counter()
+            if self.first is None:
+                self.first = now
+            return [int(now > self.at)]
 
     return Deadline()
 
@@ -532,12 +567,13 @@ class Optim:
         return sol
 
     def _load_code(self, problem: PlanProblem) -> float:
-        """Import what the solve runs (CasADi, the warm starts' planners) before its clock starts, as
-        :mod:`planning.clock` leaves numba's loading out of a limit (a new process's first optim plan on
-        nav_map1 spent its whole 0.2 s limit loading Hybrid-A*'s code for its warm start). The seconds it
-        took (0.0 under a millisecond: once loaded)."""
+        """Import what the solve runs (CasADi and its IPOPT plugin, the warm starts' planners) before its clock
+        starts, as :mod:`planning.clock` leaves numba's loading out of a limit (a new process's first optim plan
+        on nav_map1 spent its whole 0.2 s limit loading Hybrid-A*'s code for its warm start; the plugin's
+        libraries were 2-3 ms of a process's first set-up of an NLP). The seconds it took (0.0 under a
+        millisecond: once loaded)."""
         t = time.perf_counter()
-        _casadi()
+        _ipopt_plugin(_casadi())
         for init, _ in self._warm_starts(problem):
             if init in PLANNERS:
                 make_planner(init)
@@ -627,9 +663,11 @@ class Optim:
         """Whether a failed solve from warm start ``init`` may be tried again from the next one: IPOPT
         itself failed (a local infeasibility or its iteration limit, not the plan's time limit) or the
         warm start gave no path (IPOPT started from a straight line instead: the solve's ``init`` is
-        then not ``init``), and time is left."""
+        then not ``init``), and time is left: not when what was left could not set IPOPT up (the next warm
+        start's solve would need the same set-up, :meth:`_ready_nlp`)."""
         no_start = sol.result.stats.get("init", init) != init
-        return (_ipopt_failed(sol) or no_start) and not clock.expired()
+        short = "setup_predicted_s" in sol.result.stats and "setup_s" not in sol.result.stats
+        return (_ipopt_failed(sol) or no_start) and not short and not clock.expired()
 
     def _solve_with_margin(
         self, problem: PlanProblem, margin: float, clock: PlanClock, init: tuple[str, dict[str, Any]]
@@ -705,17 +743,15 @@ class Optim:
                 f"from {init_source} took it); raise the time limit, or warm start from another planner with init=..."
             )
             return self._failure(PlanStatus.TIMEOUT, why, {"time_s": clock.elapsed(), "init": init_source})
-        t_build = time.perf_counter()
-        key = (self.N, *obstacles.counts, self.w_steer, self.w_smooth, self.max_iter, self.verbose)
-        cached = key in _CACHE
-        if not cached:
-            _CACHE[key] = _build(key)
-        nlp = _CACHE[key]
-        t_build = time.perf_counter() - t_build
+        ready = self._ready_nlp(problem, clock, obstacles, init_source)
+        if isinstance(ready, OptimSolution):
+            return ready
+        nlp, setup = ready
         self._set_values(nlp, problem, clear, obstacles, x_init[-1, 2])
         self._warm_start(nlp, x_init, u_init, obstacles)
         t_solve = time.perf_counter()
         nlp.deadline.at = clock.deadline()  # the plan's limit, warm start and earlier solves in it
+        nlp.deadline.first = None
         # CasADi ends a solve at a signal and swallows the interrupt: it is acted on as the solve returns,
         # and held while the results are read (see planning.signals)
         with signals_end_early():
@@ -732,14 +768,18 @@ class Optim:
             why = f"IPOPT stopped with an error: {exc}"
             return self._failure(PlanStatus.FAILED, why, {"time_s": clock.elapsed(), "init": init_source})
         solve_s = time.perf_counter() - t_solve
+        if nlp.deadline.first is not None:  # IPOPT reached its first iteration: the set-up is measured
+            setup["setup_s"] = setup["build_time_s"] + nlp.deadline.first - t_solve
+            if not setup["nlp_cached"]:
+                _SETUP_RATE[0] = setup["setup_s"] / setup.pop("units")
+        setup.pop("units", None)
         return_status = str(ipopt_stats.get("return_status", "unknown"))
         late = return_status == "User_Requested_Stop" and time.perf_counter() > nlp.deadline.at
         stats: dict[str, Any] = {
             "time_limit_reached": late,
             "time_s": clock.elapsed(),
             "solve_time_s": solve_s,
-            "build_time_s": t_build if not cached else 0.0,
-            "nlp_cached": cached,
+            **setup,
             "ipopt_status": return_status,
             "iterations": int(ipopt_stats.get("iter_count", -1)),
             "N": self.N,
@@ -747,6 +787,45 @@ class Optim:
             "init": init_source,
         }
         return OptimSolution(self._result(problem, xv, uv, return_status, stats), xv, uv)
+
+    def _ready_nlp(
+        self, problem: PlanProblem, clock: PlanClock, obstacles: _ObstacleData, init_source: str
+    ) -> tuple[_Nlp, dict[str, Any]] | OptimSolution:
+        """The NLP of ``obstacles``' shape and the stats of its set-up: the process's own once built, else built
+        now if what is left of the time limit covers the set-up's prediction (:data:`_SETUP_RATE`); if not, the
+        plan's ``TIMEOUT``, naming the set-up. IPOPT's iteration callback, which holds a solve to the limit, is
+        first called after it (0.05-0.15 s for the generated worlds' shapes, 0.4 s for 32 polygons)."""
+        key = (self.N, *obstacles.counts, self.w_steer, self.w_smooth, self.max_iter, self.verbose)
+        if key in _CACHE:
+            return _CACHE[key], {"build_time_s": 0.0, "nlp_cached": True}
+        units = _setup_units(key)
+        predicted = _SETUP_RATE[0] * units
+        left = clock.remaining()
+        if left < predicted:
+            n_circ, n_ell, poly_k = obstacles.counts
+            why = (
+                f"the plan's time limit ({problem.time_limit:g} s) had {left:.3f} s left after the warm start from "
+                f"{init_source} ({clock.working():.3f} s), less than setting IPOPT up for this NLP's new shape is "
+                f"predicted to take ({predicted:.3f} s: N={self.N}, {_count(n_circ, 'circle')}, "
+                f"{_count(n_ell, 'ellipse')}, {_count(len(poly_k), 'polygon')}; a shape set up once is kept for the "
+                "process); raise the time limit"
+            )
+            stats = {
+                "time_s": clock.elapsed(),
+                "init": init_source,
+                "nlp_cached": False,
+                "setup_predicted_s": predicted,
+            }
+            return self._failure(PlanStatus.TIMEOUT, why, stats)
+        t_build = time.perf_counter()
+        _CACHE[key] = _build(key)
+        t_build = time.perf_counter() - t_build
+        return _CACHE[key], {
+            "build_time_s": t_build,
+            "nlp_cached": False,
+            "setup_predicted_s": predicted,
+            "units": units,
+        }
 
     def _set_values(
         self, nlp: _Nlp, problem: PlanProblem, clear: float, obstacles: _ObstacleData, goal_heading: float
@@ -833,6 +912,10 @@ class Optim:
             status = PlanStatus.TIMEOUT
             if stats["time_limit_reached"]:
                 reason = f"IPOPT stopped at the time limit ({problem.time_limit:g} s, warm start included)"
+                if stats["iterations"] == 0 and "setup_s" in stats:
+                    reason += f" before its first iteration, setting it up took {stats['setup_s']:.3f} s"
+                    if "setup_predicted_s" in stats:
+                        reason += f" (a new NLP shape, predicted {stats['setup_predicted_s']:.3f} s)"
             reason += " (raise max_iter or the time limit, or warm start from another planner with init=...)"
         else:
             status = PlanStatus.FAILED

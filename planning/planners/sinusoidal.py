@@ -41,12 +41,15 @@ collides at its first or last pose). State bounds (the robot's disc inside the w
 checked and a violation is reported as ``BOUNDS_VIOLATED``: a joined path that leaves them (attached),
 and a step that no period up to ``max_period`` makes within them (no path; the reason names the
 step and the bound its longest period broke). A final state that misses the goal is ``FAILED`` (the
-quadrature's numerical error), and the problem's ``time_limit``, read before every period tried,
-ends the plan as ``TIMEOUT``.
+quadrature's numerical error). The problem's ``time_limit`` ends the plan as ``TIMEOUT``: the clock is
+read before each quadrature over a step's grid (a few milliseconds at the longest period, 96,001 points),
+each block of the fourth step's amplitudes and each of Brent's evaluations, and an answer known only after
+the limit (a step that no period makes within the bounds, a joined path checked) is ``TIMEOUT`` too.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -67,6 +70,8 @@ FloatArray = NDArray[np.float64]
 #: Hand-off headings between the standard and the alternate model [rad].
 HANDOFFS = (-3 * math.pi / 4, -math.pi / 4, math.pi / 4, 3 * math.pi / 4)
 _SUB = 8  # fine quadrature points per output interval
+#: Most grid points (amplitudes times times) of the fourth step's amplitude scan between looks at the clock.
+_SCAN_POINTS = 1 << 17
 
 
 @dataclass(frozen=True)
@@ -222,11 +227,14 @@ class Sinusoidal:
     def _integrate(self, m: ChainedModel, z0: FloatArray, t: FloatArray, v1: FloatArray, phi: FloatArray) -> FloatArray:
         """Chained states along ``t`` for given v1(t) and phi(t) (fine grid, Simpson quadrature)."""
         z = np.empty((t.size, 4))
+        self._tick()
         z[:, 0] = z0[0] + cumulative_simpson(v1, x=t, initial=0.0)
         z[:, 1] = phi
+        self._tick()
         z[:, 2] = z0[2] + cumulative_simpson(m.sigma * np.tan(phi) / self.l * v1, x=t, initial=0.0)
         if np.max(np.abs(z[:, 2])) >= self.alpha_lim + 1e-12:
             raise _StepFailed("the heading leaves its chart's region (max_heading_offset)")
+        self._tick()
         z[:, 3] = z0[3] + cumulative_simpson(m.g(z[:, 2]) * v1, x=t, initial=0.0)
         return z
 
@@ -267,6 +275,7 @@ class Sinusoidal:
     def _steer_phi(self, m: ChainedModel, z0: FloatArray, target: float) -> _Segment:
         d = target - z0[1]
         period = max(self.min_period, 2.0 * abs(d) / (0.98 * self.u2max))
+        self._tick()
         t = self._grid(period)
         w = 2 * math.pi / period
         v2 = d / period * (1.0 - np.cos(w * t))
@@ -287,6 +296,7 @@ class Sinusoidal:
             amp = min(self.u2max / w, self._phi_amp(z0[1]))
             t = self._grid(period)
             phi = z0[1] + amp * np.sin(w * t)
+            self._tick()
             gain = simpson(m.sigma * np.tan(phi) / self.l * np.sin(w * t), x=t)  # dalpha per unit a1
             a1 = d / gain
             last = f"the amplitude of u1 would be {abs(a1):.3g} m/s > u1max {self.u1max:.3g}"
@@ -350,6 +360,7 @@ class Sinusoidal:
         """The amplitude a1 > 0 of ``v1 = a1 sin wt`` (``sw``) that moves the fourth state by ``d`` with the
         steering ``phi`` over times ``t``, within u1max and the heading's region, found to ``tolerance``
         (the first sign change of 32 amplitudes, then Brent's method); None when there is none."""
+        self._tick()
         big_a = cumulative_simpson(m.sigma * np.tan(phi) / self.l * sw, x=t, initial=0.0)
         # |alpha0 + a1 A(t)| <= alpha_lim bounds a1 (a1 > 0).
         with np.errstate(divide="ignore"):
@@ -361,13 +372,14 @@ class Sinusoidal:
         amax = min(self.u1max, 0.999 * float(np.min(lim)))
 
         def h(a1: float) -> float:
+            self._tick()
             return float(a1 * simpson(m.g(z0[2] + a1 * big_a) * sw, x=t)) - d
 
         grid = np.linspace(0.0, amax, 33)[1:]
-        alpha = z0[2] + grid[:, None] * big_a[None, :]
-        if np.max(np.abs(alpha)) >= 1.0:
+        vals = self._z4_scan(m, z0[2], big_a, sw, t, grid)
+        if vals is None:
             return None
-        vals = grid * simpson(m.g(alpha) * sw[None, :], x=t, axis=1) - d
+        vals -= d
         prev_a, prev_v = 0.0, -d
         for a, val in zip(grid, vals, strict=True):
             if np.sign(val) != np.sign(prev_v) or val == 0.0:
@@ -379,6 +391,23 @@ class Sinusoidal:
             prev_a, prev_v = a, val
         return None
 
+    def _z4_scan(
+        self, m: ChainedModel, alpha0: float, big_a: FloatArray, sw: FloatArray, t: FloatArray, grid: FloatArray
+    ) -> FloatArray | None:
+        """The fourth state's change ``a1 int g(alpha0 + a1 A(t)) sin wt dt`` for each amplitude of ``grid``, in
+        blocks of at most :data:`_SCAN_POINTS` points with a look at the clock before each (row by row the
+        same numbers as all at once); None when one reaches ``|alpha| >= 1``."""
+        rows = max(1, _SCAN_POINTS // t.size)
+        out = np.empty(grid.size)
+        for i in range(0, grid.size, rows):
+            self._tick()
+            block = grid[i : i + rows]
+            alpha = alpha0 + block[:, None] * big_a[None, :]
+            if np.max(np.abs(alpha)) >= 1.0:
+                return None
+            out[i : i + rows] = block * simpson(m.g(alpha) * sw[None, :], x=t, axis=1)
+        return out
+
     def _cannot(self, what: str, last: str) -> str:
         """Why a step could not steer ``what``: no period up to max_period kept the bounds; ``last``: how the
         longest period tried broke them (empty: none was tried)."""
@@ -386,7 +415,8 @@ class Sinusoidal:
         return f"cannot steer {what} within the bounds at any period up to max_period = {self.max_period:g} s{longest}"
 
     def _tick(self) -> None:
-        """Raise :class:`_OutOfTime` once the problem's time limit has passed (before each period tried)."""
+        """Raise :class:`_OutOfTime` once the problem's time limit has passed (before each period tried, each
+        quadrature over its grid, each block of amplitudes scanned and each of Brent's evaluations)."""
         if time.perf_counter() > self._deadline:
             raise _OutOfTime
 
@@ -448,8 +478,19 @@ class Sinusoidal:
             status = PlanStatus.TIMEOUT
             reason = f"time limit of {problem.time_limit:g} s spent steering piece {k + 1} of {len(models)}"
         else:
-            return self._result(problem, segs, models, t_start)
-        return PlanResult(status, self.name, reason=reason, stats={"time_s": time.perf_counter() - t_start})
+            return self._in_time(problem, self._result(problem, segs, models, t_start))
+        return self._in_time(
+            problem, PlanResult(status, self.name, reason=reason, stats={"time_s": time.perf_counter() - t_start})
+        )
+
+    def _in_time(self, problem: PlanProblem, res: PlanResult) -> PlanResult:
+        """``res``, or ``TIMEOUT`` (its path, if any, attached) when its answer came after the time limit: the
+        last period tried, or the joined path's check, ended past it (the reason says what it would have been)."""
+        if res.status is PlanStatus.TIMEOUT or time.perf_counter() <= self._deadline:
+            return res
+        found = res.status.value + (f": {res.reason}" if res.reason else "")
+        reason = f"time limit of {problem.time_limit:g} s spent before the answer was known (it came after, {found})"
+        return dataclasses.replace(res, status=PlanStatus.TIMEOUT, reason=reason)
 
     def _result(self, problem: PlanProblem, segs: list[_Segment], models: list[ChainedModel], t0: float) -> PlanResult:
         if segs:
@@ -476,6 +517,7 @@ class Sinusoidal:
             "max_phi": float(np.max(np.abs(x[:, 3]))),
         }
         status, reason = self._verdict(problem, t, x, controls, stats)
+        stats["time_s"] = time.perf_counter() - t0  # the answer known
         arrays: dict[str, Any] = {
             "path": x[:, :3].copy(),
             "times": t,
