@@ -464,3 +464,24 @@ def test_the_robot_and_localiser_left_to_the_scenario_are_the_study_that_names_t
     assert json.loads(old.with_suffix(".json").read_text())["ran_now"] == 0 and not results.exists()
     assert main([*base, "--results", str(old), "--json", "again.json", "--robot", "turtlebot3"]) == 0
     assert json.loads(Path("again.json").read_text())["ran_now"] == 0
+
+
+def test_runs_made_by_other_code_are_not_resumed_into_this_codes_study(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The study's key is its settings; runs made by other code (a changed planner, speed profile or robot
+    model) under the same settings were resumed as this code's and mixed into its statistics."""
+    monkeypatch.chdir(tmp_path)
+    base = ["montecarlo", "--scenario", "open", "--reference", "line", "--runs", "1", "--jobs", "1", "--quiet"]
+    base += ["--no-plots", "--results", "r.jsonl", "--json", "r.json"]
+    assert main(base) == 0
+    lines = Path("r.jsonl").read_text().splitlines(keepends=True)
+    header = json.loads(lines[0])
+    assert len(header["code"]) == 12
+    Path("r.jsonl").write_text(json.dumps({**header, "code": "0" * 12}) + "\n" + "".join(lines[1:]))
+    capsys.readouterr()
+    assert main([*base[:-1], "r3.json"]) == 2
+    err = capsys.readouterr().err
+    assert "made by other code (digest 000000000000)" in err and "--overwrite" in err
+    assert main([*base[:-1], "r4.json", "--overwrite"]) == 0
+    assert json.loads(Path("r4.json").read_text())["ran_now"] == 1

@@ -17,6 +17,7 @@ A run is replayed bit for bit by ``nhsim simulate`` with its seeds (:func:`repla
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import math
@@ -209,6 +210,23 @@ _RESULTS = option("results", python="path")
 _REPLACE = option("overwrite", True, python="delete it first")
 
 
+#: What makes a run what it is besides its settings: the project's code and models (:func:`code_digest`).
+_CODE_ROOTS = ("planning", "control", "sim", "models")
+
+
+@functools.cache
+def code_digest() -> str:
+    """A 12-hex-digit hash of the project's code and models (every file under :data:`_CODE_ROOTS` but
+    caches, by path and content): two runs of one study's settings are comparable when it is the same."""
+    root = Path(__file__).resolve().parents[2]
+    digest = hashlib.blake2b(digest_size=6)
+    for top in _CODE_ROOTS:
+        for f in sorted((root / top).rglob("*")):
+            if f.is_file() and "__pycache__" not in f.parts and f.suffix != ".pyc":
+                digest.update(f.relative_to(root).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
+    return digest.hexdigest()
+
+
 class ResultsFile:
     """The runs of one study, one JSON line each after a header line naming the study's key.
 
@@ -227,9 +245,12 @@ class ResultsFile:
         ConfigError: The file holds another study, or is not a results file.
     """
 
-    def __init__(self, path: Path, key: Mapping[str, Any], earlier: Sequence[Mapping[str, Any]] = ()) -> None:
+    def __init__(
+        self, path: Path, key: Mapping[str, Any], earlier: Sequence[Mapping[str, Any]] = (), code: str | None = None
+    ) -> None:
         self.path, self.key = Path(path), dict(key)
         self.earlier = [dict(k) for k in earlier]
+        self.code = code_digest() if code is None else code
         self.records: dict[int, dict[str, Any]] = {}
         if self.path.exists():
             self._read()
@@ -254,6 +275,13 @@ class ResultsFile:
             raise ConfigError(
                 f"{self.path} holds the runs of another study ({diff}); give another {_RESULTS}, the same "
                 f"settings, or {_REPLACE} to replace it"
+            )
+        if header.get("code") != self.code:  # the same settings, other code: its runs are not this code's
+            made = f"by other code (digest {header['code']})" if header.get("code") else "before runs named their code"
+            raise ConfigError(
+                f"{self.path} holds runs of this study made {made}, not this nhsim's (digest {self.code}: its "
+                f"planners, trackers, physics and models); runs of both would be mixed: give {_REPLACE} to run the "
+                f"study again, or another {_RESULTS}"
             )
         good = len(lines[0]) + 1
         for line in lines[1:]:
@@ -280,7 +308,7 @@ class ResultsFile:
         """Store a finished run (the file and its header made with the first)."""
         if not self.path.exists():
             self.path.parent.mkdir(parents=True, exist_ok=True)
-            self._append({"nhsim_montecarlo": RESULTS_VERSION, "key": self.key})
+            self._append({"nhsim_montecarlo": RESULTS_VERSION, "key": self.key, "code": self.code})
         self._append(record)
         self.records[int(record["index"])] = record
 
