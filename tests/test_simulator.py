@@ -74,6 +74,24 @@ def test_driving_into_a_wall_is_reported_as_a_collision() -> None:
     assert 0 < log.contacts[0].t < traj.duration
 
 
+@pytest.mark.parametrize("name", ["turtlebot3", "edumip"])
+def test_a_tyre_that_grazes_an_obstacle_beside_the_robot_is_a_collision(name: str) -> None:
+    """The collision tyre is 1 mm wide (it rolls on one line); the tyre itself is 12 mm (EduMIP) or 18 mm
+    (TurtleBot3), and the planners keep all of it clear. Driving with the tyre's outer 3 mm over an obstacle
+    beside it, the thin tyre 2.5 mm (EduMIP) or 5.5 mm (TurtleBot3) clear of it, was "0 collisions"."""
+    robot = load_robot(name)
+    model = Simulator(robot).model
+    tyre, thin = model.geom("wheel_right_tyre"), model.geom("wheel_right_geom")
+    axle = abs(float(model.body("wheel_right").pos[1]))
+    outer, inner = axle + float(tyre.size[1]), axle + float(thin.size[1])
+    edge = outer - 0.003
+    assert edge > inner + 0.002  # the thin tyre stays clear: only the tyre's width can touch
+    world = World((-2, 2, -2, 2), (Box((0.0, -edge - 0.25), (3.0, 0.5)),))
+    sim = Simulator(robot, world)
+    log = sim.run(make_reference("line", robot, Pose2D(-1.0, 0, 0), length=1.0), make_tracker("open-loop", robot))
+    assert log.contacts and log.contacts[0].obstacle == "obstacle_0"
+
+
 def test_control_rate_must_divide_the_physics_rate() -> None:
     robot = load_robot("turtlebot3")
     sim = Simulator(robot)

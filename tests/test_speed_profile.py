@@ -110,10 +110,12 @@ def test_speeding_up_into_and_braking_out_of_a_turn_keeps_the_yaw_acceleration(r
     curve = smooth_drive(seg).curve
     lim = Limits.from_robot(robot)
     smp = time_drive(curve, lim, dt=0.002)
-    assert np.abs(smp.acc[:, 1]).max() <= lim.max_yaw_accel * 1.01
+    assert np.abs(smp.acc[:, 1]).max() <= lim.max_yaw_accel * (1 + 1e-6)
     # the samples' own rate of turn: within the profile's 5 mm grid this spiral's dkappa/ds grows by up to
-    # 17 %, which the bound at the grid's points does not see (measured 1.065 on the EduMIP; 3.1 before)
-    assert np.abs(np.gradient(smp.vel[:, 1], smp.t)).max() <= lim.max_yaw_accel * 1.1
+    # 17 % and jumps at the fit's breaks; the profile bounds each step with the curve's own dkappa/ds there
+    # (measured 1.065 on the EduMIP with the grid's difference quotients, 3.1 before the passes bounded it)
+    assert np.abs(np.gradient(smp.vel[:, 1], smp.t)).max() <= lim.max_yaw_accel * (1 + 1e-3)
+    assert np.abs(np.diff(smp.vel[:, 1]) / np.diff(smp.t)).max() <= lim.max_yaw_accel * (1 + 1e-6)
     assert np.abs(smp.acc[:, 0]).max() <= lim.max_accel * (1 + 1e-9)
     s, _, kappa = curve.length, None, curve.geometry(np.linspace(0, curve.length, 50))[2]
     assert s > 0 and np.abs(kappa).max() > 4.0  # it does turn hard

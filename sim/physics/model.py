@@ -23,6 +23,10 @@ from planning.errors import ModelError
 from sim.physics.motors import apply_supply
 
 OBSTACLE_RGBA = (0.72, 0.36, 0.28, 1.0)
+#: Obstacles' and walls' contact affinity: bit 0 (every collision geom of the robots, MuJoCo's default) and
+#: bit 1, the robots' full-width tyres (contype 2, conaffinity 0 in their MJCF): the tyres touch the
+#: obstacles and the walls, never the floor, where the 1 mm collision tyre rolls alone.
+OBSTACLE_AFFINITY = 3
 WALL_RGBA = (0.55, 0.58, 0.62, 1.0)
 
 
@@ -97,7 +101,8 @@ def _add_prism(
         [np.column_stack([poly, np.zeros(len(poly))]), np.column_stack([poly, np.full(len(poly), height)])]
     )
     spec.add_mesh(name=f"{name}_mesh", uservert=verts.reshape(-1).tolist())
-    body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"{name}_mesh", rgba=list(rgba))
+    mesh = mujoco.mjtGeom.mjGEOM_MESH
+    body.add_geom(name=name, type=mesh, meshname=f"{name}_mesh", rgba=list(rgba), conaffinity=OBSTACLE_AFFINITY)
 
 
 def build_model(
@@ -165,6 +170,7 @@ def _add_obstacles(spec: mujoco.MjSpec, holder: mujoco.MjsBody, world: World, he
                 size=[obs.radius, h / 2, 0],
                 pos=[obs.center[0], obs.center[1], h / 2],
                 rgba=list(OBSTACLE_RGBA),
+                conaffinity=OBSTACLE_AFFINITY,
             )
             names.append(name)
         elif isinstance(obs, Box):
@@ -175,6 +181,7 @@ def _add_obstacles(spec: mujoco.MjSpec, holder: mujoco.MjsBody, world: World, he
                 pos=[obs.center[0], obs.center[1], h / 2],
                 quat=_quat_yaw(obs.angle),
                 rgba=list(OBSTACLE_RGBA),
+                conaffinity=OBSTACLE_AFFINITY,
             )
             names.append(name)
         elif isinstance(obs, Ellipse):
@@ -214,6 +221,7 @@ def _add_walls(holder: mujoco.MjsBody, world: World, height: float, thickness: f
             size=[half[0], half[1], height / 2],
             pos=[pos[0], pos[1], height / 2],
             rgba=list(WALL_RGBA),
+            conaffinity=OBSTACLE_AFFINITY,
         )
     return list(walls)
 
