@@ -70,7 +70,7 @@ def test_a_retimed_plan_turns_within_the_yaw_acceleration_between_the_grid_point
     assert np.abs(np.unwrap(np.arctan2(tangent[:, 1], tangent[:, 0])) - poses[:, 2]).max() < 2e-4
 
 
-def test_the_probe_case_random3021_turtlebot3_optim_keeps_the_yaw_acceleration() -> None:
+def test_random3021_turtlebot3_optim_keeps_the_yaw_acceleration() -> None:
     """The reference of ``nhsim simulate --scenario random3021 --robot turtlebot3 --planner optim``: its
     yaw-rate column stepped at 5.64 rad/s^2 at 1.33 s (v = 0.078 m/s; the TurtleBot3's limit is 4, the
     profile's 3.4), where the plan's curvature fell at 790 /m^2 right after a node the grid saw as 620."""
