@@ -26,6 +26,7 @@ import os
 import re
 import shutil
 import sys
+from collections.abc import Iterable
 from pathlib import Path
 
 #: The packages whose kernel sources name the cache.
@@ -54,14 +55,20 @@ def kernel_sources() -> list[Path]:
     return [path for path, _ in _kernel_texts()]
 
 
-def source_key() -> str:
-    """A 16-hex-digit hash of the kernel sources (their paths within the project and contents)."""
-    digest = hashlib.blake2b(digest_size=8)
-    for path, text in _kernel_texts():
+def files_digest(files: Iterable[tuple[Path, bytes]], size: int) -> str:
+    """A ``2 size``-hex-digit hash of ``(path, contents)`` pairs of the project's files, by their paths within
+    the project and their contents, in the order given."""
+    digest = hashlib.blake2b(digest_size=size)
+    for path, text in files:
         digest.update(path.relative_to(_ROOT).as_posix().encode())
         digest.update(b"\0")
         digest.update(text)
     return digest.hexdigest()
+
+
+def source_key() -> str:
+    """A 16-hex-digit hash of the kernel sources (their paths within the project and contents)."""
+    return files_digest(_kernel_texts(), 8)
 
 
 def cache_root() -> Path:

@@ -687,6 +687,20 @@ def test_when_the_defaults_are_best_they_are_recommended_and_run_once_held_out(
     assert "tuned/default" not in capsys.readouterr().out
 
 
+def _stated_and_unstated(tmp_path: Path, option: str, value: str) -> tuple[list[str], str, Path, optuna.Study]:
+    """Tune open's line once leaving ``--OPTION`` to its default ``value`` and once stating it: one study (its
+    gains file records the value; the second run resumes the first). Returns the command's words without
+    --trials, the study's name, the renders folder and the study, of two completed trials."""
+    base = ["tune", "--scenarios", CASE, "--draws", "1", "--eval-runs", "0", "--quiet", "--plots", str(tmp_path)]
+    assert main([*base, "--trials", "1"]) == 0
+    name, renders = "fbl-open-line-turtlebot3-amcl", tmp_path / "renders"
+    assert load_gains_file(renders / f"tune-{name}.toml").provenance[option] == value
+    assert main([*base, "--trials", "2", f"--{option}", value]) == 0  # the same study
+    study = optuna.load_study(study_name=name, storage=f"sqlite:///renders/tune-{name}.db")
+    assert len(study.get_trials(states=(optuna.trial.TrialState.COMPLETE,))) == 2
+    return base, name, renders, study
+
+
 def _rename_study(renders: Path, name: str, earlier: str) -> None:
     """Give study ``name`` (in renders/tune-NAME.db) the name and storage an earlier nhsim gave it."""
     with contextlib.closing(sqlite3.connect(renders / f"tune-{name}.db")) as con, con:
@@ -702,13 +716,7 @@ def test_the_robots_localiser_left_unstated_is_the_study_that_states_it(
     the same objective, and resuming one as the other was refused. A study an earlier nhsim stored so is
     resumed, by its name and storage too."""
     monkeypatch.chdir(tmp_path)
-    base = ["tune", "--scenarios", CASE, "--draws", "1", "--eval-runs", "0", "--quiet", "--plots", str(tmp_path)]
-    assert main([*base, "--trials", "1"]) == 0
-    name, renders = "fbl-open-line-turtlebot3-amcl", tmp_path / "renders"
-    assert load_gains_file(renders / f"tune-{name}.toml").provenance["localiser"] == "amcl"
-    assert main([*base, "--trials", "2", "--localiser", "amcl"]) == 0  # the same study
-    study = optuna.load_study(study_name=name, storage=f"sqlite:///renders/tune-{name}.db")
-    assert len(study.get_trials(states=(optuna.trial.TrialState.COMPLETE,))) == 2
+    base, name, renders, study = _stated_and_unstated(tmp_path, "localiser", "amcl")
     # The study as an earlier nhsim made it: named without the localiser, its settings without it.
     settings = study.user_attrs["settings"]
     study.set_user_attr("settings", {k: v for k, v in settings.items() if k != "localiser"})
@@ -729,13 +737,7 @@ def test_the_scenarios_robot_left_unstated_is_the_study_that_states_it(
     the same objective, and resuming one as the other was refused. A study an earlier nhsim stored so is
     resumed, by its name and storage too, with or without --robot."""
     monkeypatch.chdir(tmp_path)
-    base = ["tune", "--scenarios", CASE, "--draws", "1", "--eval-runs", "0", "--quiet", "--plots", str(tmp_path)]
-    assert main([*base, "--trials", "1"]) == 0
-    name, renders = "fbl-open-line-turtlebot3-amcl", tmp_path / "renders"
-    assert load_gains_file(renders / f"tune-{name}.toml").provenance["robot"] == "turtlebot3"
-    assert main([*base, "--trials", "2", "--robot", "turtlebot3"]) == 0  # the same study
-    study = optuna.load_study(study_name=name, storage=f"sqlite:///renders/tune-{name}.db")
-    assert len(study.get_trials(states=(optuna.trial.TrialState.COMPLETE,))) == 2
+    base, name, renders, study = _stated_and_unstated(tmp_path, "robot", "turtlebot3")
     settings = study.user_attrs["settings"]
     assert settings["robot"] == "turtlebot3" and settings["cases"] == ["open-turtlebot3-line-fbl-s0"]
     # The study as the nhsim before made it: named without the robot, its cases and robot without it.

@@ -30,6 +30,7 @@ IPOPT's first iteration callback, which holds a solve to the plan's time limit, 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time
 from collections.abc import Sequence
@@ -73,14 +74,10 @@ def _casadi() -> Any:
     return casadi_module("the 'optim' planner")
 
 
-_PLUGIN_LOADED: list[bool] = []
-
-
-def _ipopt_plugin(ca: Any) -> None:
-    """Load CasADi's IPOPT plugin (its shared libraries) once a process."""
-    if not _PLUGIN_LOADED:
-        ca.load_nlpsol("ipopt")
-        _PLUGIN_LOADED.append(True)
+@functools.cache
+def _ipopt_plugin() -> None:
+    """Load CasADi (:func:`_casadi`) and its IPOPT plugin (its shared libraries) once a process."""
+    _casadi().load_nlpsol("ipopt")
 
 
 def _ipopt_failed(sol: OptimSolution) -> bool:
@@ -573,7 +570,7 @@ class Optim:
         libraries were 2-3 ms of a process's first set-up of an NLP). The seconds it took (0.0 under a
         millisecond: once loaded)."""
         t = time.perf_counter()
-        _ipopt_plugin(_casadi())
+        _ipopt_plugin()
         for init, _ in self._warm_starts(problem):
             if init in PLANNERS:
                 make_planner(init)

@@ -218,13 +218,11 @@ _CODE_ROOTS = ("planning", "control", "sim", "models")
 def code_digest() -> str:
     """A 12-hex-digit hash of the project's code and models (every file under :data:`_CODE_ROOTS` but
     caches, by path and content): two runs of one study's settings are comparable when it is the same."""
+    from planning.kernel_cache import files_digest
+
     root = Path(__file__).resolve().parents[2]
-    digest = hashlib.blake2b(digest_size=6)
-    for top in _CODE_ROOTS:
-        for f in sorted((root / top).rglob("*")):
-            if f.is_file() and "__pycache__" not in f.parts and f.suffix != ".pyc":
-                digest.update(f.relative_to(root).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
-    return digest.hexdigest()
+    files = (f for top in _CODE_ROOTS for f in sorted((root / top).rglob("*")))
+    return files_digest(((f, f.read_bytes()) for f in files if f.is_file() and "__pycache__" not in f.parts), 6)
 
 
 class ResultsFile:
