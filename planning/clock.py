@@ -29,6 +29,7 @@ numba compiles afresh in every process (about 40 ms of each cold Hybrid-A* plan)
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 from typing import Any
@@ -125,6 +126,7 @@ class PlanClock:
         #: first clock that found numba not yet set up).
         self.setup_s = ready()
         self.t0 = time.perf_counter()
+        self._cpu0 = time.thread_time()
         self._c0 = code_seconds()
         self._code_seen = 0.0  # :meth:`code` when last read (it only grows)
 
@@ -148,6 +150,19 @@ class PlanClock:
             return False
         self._code_seen = self.code()
         return time.perf_counter() - self.t0 - self._code_seen > self.limit
+
+    def slowdown(self, least_cpu: float = 0.05, most: float = 4.0) -> float:
+        """How much other processes slow this plan now, as wall seconds per second of CPU (1.0 on a quiet
+        machine; 2-3 with two or three times as many busy threads as cores), at most ``most``. Measured on
+        this thread since the start once it has run ``least_cpu`` seconds; before that, the one-minute load
+        average per CPU this process may use. For predicting how long a step that cannot be stopped midway
+        will take on the wall clock."""
+        cpu = time.thread_time() - self._cpu0
+        if cpu >= least_cpu:
+            ratio = self.elapsed() / cpu
+        else:
+            ratio = os.getloadavg()[0] / len(os.sched_getaffinity(0))
+        return min(most, max(1.0, ratio))
 
     def remaining(self) -> float:
         """Seconds of the time limit left (0 when spent)."""

@@ -221,8 +221,10 @@ def test_the_time_limit_holds_for_the_whole_plan(tmp_path) -> None:
     problem = PlanProblem.from_scenario(load_scenario(str(tmp_path / "w.toml")), seed=7005, time_limit=0.5)
     res = make_planner("optim").plan(problem)
     assert res.status is PlanStatus.TIMEOUT, res.reason
-    assert "time limit (0.5 s" in res.reason and res.stats["time_limit_reached"]
-    # stopped within an iteration or two of the limit, which leaves out numba readying code (planning.clock)
+    assert "time limit (0.5 s" in res.reason
+    assert res.stats.get("time_limit_reached") or "predicted to take" in res.reason, res.stats
+    # stopped by the limit, or (on a loaded machine, the NLP's set-up predicted to need more than was left) not
+    # begun; either within an iteration or two of the limit, which leaves out numba readying code (planning.clock)
     assert res.stats["time_s"] - res.stats["code_s"] <= 0.5 + 0.3
 
 
@@ -254,7 +256,8 @@ def test_a_new_nlp_shape_is_set_up_only_when_the_time_left_covers_it(monkeypatch
     assert "N=47, 1 circle, 0 ellipses, 6 polygons" in res.reason and res.stats["setup_predicted_s"] > 0.05
     done = planner.plan(dataclasses.replace(problem, time_limit=30.0))  # sets the shape up, measured
     assert done.stats["nlp_cached"] is False and 0.0 < done.stats["build_time_s"] < done.stats["setup_s"]
-    assert optim._SETUP_RATE[0] == pytest.approx(done.stats["setup_s"] / optim._setup_units((47, 1, 0, (4,) * 6)))
+    assert 0.0 < done.stats["setup_cpu_s"] <= done.stats["setup_s"]  # the set-up's CPU, this thread's
+    assert optim._SETUP_RATE[0] == pytest.approx(done.stats["setup_cpu_s"] / optim._setup_units((47, 1, 0, (4,) * 6)))
     cpu = time.process_time()
     res = planner.plan(dataclasses.replace(problem, time_limit=0.02))  # its 41 iterations took 0.09 s
     cpu = time.process_time() - cpu

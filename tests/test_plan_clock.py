@@ -247,3 +247,25 @@ def test_a_tree_planners_budget_stops_within_one_iteration_and_a_half_percent_of
     overrun = it * step - limit
     assert 0.0 < overrun <= CHECK_SHARE * limit + step + 1e-12
     assert fake.reads <= 2 * (1 / CHECK_SHARE + it / 256 + 16)  # two readings a check, at most every 256
+
+
+def test_the_slowdown_is_wall_seconds_per_cpu_second_or_the_load_per_cpu_before_it_can_tell(monkeypatch) -> None:
+    """A step that cannot be stopped midway (optim's set-up of a new NLP shape) is predicted in CPU seconds
+    and scaled by how much other processes slow the plan now: measured on the plan's own thread once it has
+    run long enough to tell, before that the load average per usable CPU."""
+    import planning.clock as clock_module
+
+    monkeypatch.setattr(clock_module.os, "getloadavg", lambda: (6.0, 1.0, 1.0))
+    monkeypatch.setattr(clock_module.os, "sched_getaffinity", lambda pid: {0, 1})
+    clock = PlanClock(10.0)
+    assert clock.slowdown() == pytest.approx(3.0)  # 6 runnable on 2 CPUs, nothing run yet
+    monkeypatch.setattr(clock_module.os, "getloadavg", lambda: (0.2, 1.0, 1.0))
+    assert clock.slowdown() == 1.0  # never below 1
+    cpu0 = time.thread_time()
+    while time.thread_time() - cpu0 < 0.06:  # 60 ms of this thread's CPU
+        pass
+    time.sleep(0.12)  # wall time without CPU, as a thread waiting for a busy core
+    ratio = clock.elapsed() / (time.thread_time() - clock._cpu0)
+    assert 2.0 < ratio and clock.slowdown() == pytest.approx(min(4.0, ratio), rel=0.05)
+    time.sleep(0.3)
+    assert clock.slowdown() == 4.0  # at most

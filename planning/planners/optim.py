@@ -187,10 +187,11 @@ class _Nlp:
 
 _CACHE: dict[tuple[Any, ...], _Nlp] = {}
 
-#: Seconds a new NLP shape's set-up (building the Opti problem, then CasADi's expansion and derivatives and
-#: IPOPT's start up to its first iteration callback) takes per unit of :func:`_setup_units`: the last one
+#: Seconds of CPU a new NLP shape's set-up (building the Opti problem, then CasADi's expansion and derivatives
+#: and IPOPT's start up to its first iteration callback) takes per unit of :func:`_setup_units`: the last one
 #: measured in this process; before it, the median of 80 shapes of the generated worlds random3000-3039 (both
-#: robots) on a two-core machine, whose quiet runs measured 61-66 us (under other load up to 130 us).
+#: robots) on a two-core machine, whose quiet runs measured 61-66 us of wall time (under other load up to
+#: 130 us: hence the CPU, and the plan's own :meth:`~planning.clock.PlanClock.slowdown` for the wall).
 _SETUP_RATE = [6.5e-5]
 
 
@@ -340,6 +341,7 @@ def _deadline(ca: Any) -> Any:
             ca.Callback.__init__(self)
             self.at = math.inf
             self.first: float | None = None  # time.perf_counter() at the solve's first callback (iteration 0)
+            self.first_cpu = 0.0  # time.thread_time() then
             self.construct("deadline", {})
 
         def get_n_in(self) -> int:
@@ -360,7 +362,7 @@ def _deadline(ca: Any) -> Any:
         def eval(self, arg: Any) -> list[int]:
             now = time.perf_counter()
             if self.first is None:
-                self.first = now
+                self.first, self.first_cpu = now, time.thread_time()
             return [int(now > self.at)]
 
     return Deadline()
@@ -746,7 +748,7 @@ class Optim:
         nlp, setup = ready
         self._set_values(nlp, problem, clear, obstacles, x_init[-1, 2])
         self._warm_start(nlp, x_init, u_init, obstacles)
-        t_solve = time.perf_counter()
+        t_solve, cpu_solve = time.perf_counter(), time.thread_time()
         nlp.deadline.at = clock.deadline()  # the plan's limit, warm start and earlier solves in it
         nlp.deadline.first = None
         # CasADi ends a solve at a signal and swallows the interrupt: it is acted on as the solve returns,
@@ -768,7 +770,9 @@ class Optim:
         if nlp.deadline.first is not None:  # IPOPT reached its first iteration: the set-up is measured
             setup["setup_s"] = setup["build_time_s"] + nlp.deadline.first - t_solve
             if not setup["nlp_cached"]:
-                _SETUP_RATE[0] = setup["setup_s"] / setup.pop("units")
+                setup["setup_cpu_s"] = setup["build_cpu_s"] + nlp.deadline.first_cpu - cpu_solve
+                _SETUP_RATE[0] = setup["setup_cpu_s"] / setup.pop("units")
+        setup.pop("build_cpu_s", None)
         setup.pop("units", None)
         return_status = str(ipopt_stats.get("return_status", "unknown"))
         late = return_status == "User_Requested_Stop" and time.perf_counter() > nlp.deadline.at
@@ -796,7 +800,7 @@ class Optim:
         if key in _CACHE:
             return _CACHE[key], {"build_time_s": 0.0, "nlp_cached": True}
         units = _setup_units(key)
-        predicted = _SETUP_RATE[0] * units
+        predicted = _SETUP_RATE[0] * units * clock.slowdown()
         left = clock.remaining()
         if left < predicted:
             n_circ, n_ell, poly_k = obstacles.counts
@@ -814,11 +818,12 @@ class Optim:
                 "setup_predicted_s": predicted,
             }
             return self._failure(PlanStatus.TIMEOUT, why, stats)
-        t_build = time.perf_counter()
+        t_build, cpu_build = time.perf_counter(), time.thread_time()
         _CACHE[key] = _build(key)
-        t_build = time.perf_counter() - t_build
+        t_build, cpu_build = time.perf_counter() - t_build, time.thread_time() - cpu_build
         return _CACHE[key], {
             "build_time_s": t_build,
+            "build_cpu_s": cpu_build,
             "nlp_cached": False,
             "setup_predicted_s": predicted,
             "units": units,
