@@ -10,6 +10,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+import mujoco
 import numpy as np
 import pytest
 import yaml
@@ -474,6 +475,7 @@ def test_obstacles_not_on_the_map_are_drawn_apart_and_left_off_the_map(job: tupl
     from planning.core.world import Box, Circle
     from sim.io.bag import job_topics
     from sim.io.bag_topics import OBSTACLE_COLOUR, UNMAPPED_COLOUR
+    from sim.physics.model import build_model
 
     result, _ = job
     hidden = (Box((0.4, 0.5), (0.3, 0.2), 0.3), Circle((0.2, -0.4), 0.1))
@@ -486,6 +488,16 @@ def test_obstacles_not_on_the_map_are_drawn_apart_and_left_off_the_map(job: tupl
     assert [(x.id, x.type) for x in unmapped] == [(0, 1), (1, 3)]  # a cube, a cylinder
     assert (unmapped[0].pose.position.x, unmapped[0].pose.position.y) == (0.4, 0.5)
     assert (unmapped[0].scale.x, unmapped[0].scale.y) == (0.3, 0.2) and unmapped[1].scale.x == pytest.approx(0.2)
+    # as tall as the physics builds them (the scanner sees what is drawn): the box's geom's half height
+    built = build_model(result.prepared.robot, dataclasses.replace(scenario.world, obstacles=hidden)).model
+    box = next(
+        g
+        for g in range(built.ngeom)
+        if built.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX and built.geom_size[g][0] == 0.15
+    )
+    assert (
+        unmapped[0].scale.z == pytest.approx(2 * built.geom_size[box][2]) and unmapped[1].scale.z == unmapped[0].scale.z
+    )
     colours = {(x.color.r, x.color.g, x.color.b, x.color.a) for x in unmapped}
     assert colours == {UNMAPPED_COLOUR} and all(
         (x.color.r, x.color.g, x.color.b, x.color.a) == OBSTACLE_COLOUR for x in mapped[:-1]

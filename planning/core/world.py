@@ -322,6 +322,9 @@ def too_thin(ob: Obstacle) -> str:
 
 #: Longest side of a world [m]: the sampling planners' reach and every grid grow with it.
 MAX_WORLD_SIDE = 1000.0
+#: Height of every obstacle and wall of a world as built in physics and drawn in a bag [m]: above the
+#: TurtleBot3's LDS-01 scan plane (0.182 m), so the scanner sees each one (a world has no low obstacles).
+OBSTACLE_HEIGHT = 0.3
 
 
 @dataclass(frozen=True)

@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.core.world import Box, Circle, Ellipse, Polygon, World
+from planning.core.world import OBSTACLE_HEIGHT, Box, Circle, Ellipse, Polygon, World
 from sim.io import rosmsgs as m
 
 FloatArray = NDArray[np.float64]
@@ -46,8 +46,6 @@ FloatArray = NDArray[np.float64]
 #: Edge of a map cell [m] (coarser for large worlds: at most MAP_MAX_CELLS cells).
 MAP_RESOLUTION = 0.02
 MAP_MAX_CELLS = 1_000_000
-#: Height of the obstacle markers [m].
-OBSTACLE_HEIGHT = 0.25
 #: Height of a robot's body marker [m].
 ROBOT_HEIGHT = 0.12
 GRAVITY = 9.80665

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from planning.core.geometry import Pose2D
 from planning.core.robot import RobotSpec, load_robot
-from planning.core.world import Box, Circle, Ellipse, Polygon, World
+from planning.core.world import OBSTACLE_HEIGHT, Box, Circle, Ellipse, Polygon, World
 from planning.errors import ModelError
 from sim.physics.motors import apply_supply
 
@@ -109,8 +109,8 @@ def build_model(
     robot: RobotSpec,
     world: World | None = None,
     *,
-    obstacle_height: float = 0.3,
-    wall_height: float = 0.3,
+    obstacle_height: float = OBSTACLE_HEIGHT,
+    wall_height: float = OBSTACLE_HEIGHT,
     wall_thickness: float = 0.05,
 ) -> BuiltModel:
     """Compile the robot's scene with the world's obstacles and walls.
