@@ -71,6 +71,19 @@ def test_planted_regression_fails_naming_case_and_metric(
     assert main([*args, "--suite", str(_suite(tmp_path, planted))]) == 0
 
 
+def test_a_suite_of_ones_own_keeps_its_baselines_beside_it(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Without --baselines, a suite given with --suite records its baselines in a 'baselines' folder beside it,
+    never in nhsim's own tests/baselines (a user's --update from elsewhere used to write there)."""
+    from sim.cli.regress import BASELINE_DIR
+
+    ours = sorted(p.name for p in BASELINE_DIR.iterdir())
+    assert main(["regress", "--suite", str(_suite(tmp_path)), "--update"]) == 0
+    assert (tmp_path / "baselines" / "planted.json").is_file()
+    assert sorted(p.name for p in BASELINE_DIR.iterdir()) == ours and "planted.json" not in ours
+    assert main(["regress", "--suite", str(_suite(tmp_path))]) == 0  # read back from beside the suite
+    assert "1 passed" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize(
     ("key", "elsewhere"),
     [("platform", "Elsewhere-arm64"), ("cpu", "GenuineIntel family 6 model 143; 40 SIMD features up to AVX512")],

@@ -58,10 +58,21 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="run cases whose name matches PATTERN (shell wildcards; repeatable, or comma-separated)",
     )
     p.add_argument(
-        "--suite", type=Path, default=None, metavar="TOML", help="suite file (default: tests/regression_suite.toml)"
+        "--suite",
+        type=Path,
+        default=None,
+        metavar="TOML",
+        help="suite file (default: tests/regression_suite.toml of nhsim's own checkout, wherever the command runs)",
     )
     p.add_argument(
-        "--baselines", type=Path, default=None, metavar="DIR", help="baseline directory (default: tests/baselines)"
+        "--baselines",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help=(
+            "baseline directory (default: 'baselines' beside the --suite file; without --suite, tests/baselines "
+            "of nhsim's own checkout)"
+        ),
     )
     p.add_argument("--list", action="store_true", help="list the selected cases and exit")
     add_executor_arguments(p, what="the cases", default_jobs="1")
@@ -100,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
 
     worker_count(args.jobs, args.scheduler, default=1)  # with --list too: one meaning for every option
     suite = load_suite(args.suite or SUITE_PATH)
-    baselines: Path = args.baselines or BASELINE_DIR
+    baselines: Path = args.baselines or (args.suite.parent / "baselines" if args.suite else BASELINE_DIR)
     patterns = [p.strip() for arg in (args.case or []) for p in arg.split(",") if p.strip()]
     if args.case is not None and not patterns:
         raise ConfigError("--case needs a pattern (a case name or shell wildcards, e.g. 'open-*'); see --list")
