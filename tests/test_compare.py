@@ -135,6 +135,9 @@ def test_parameter_files(tmp_path: Path) -> None:
     mapping.write_text(json.dumps({"mpc": {"horizn": 10}}))
     with pytest.raises(ConfigError, match=r"mpc has no parameter\(s\) \['horizn'\]; valid: horizon"):
         load_params([mapping])
+    mapping.write_text(json.dumps({"kanayama": {"kx": -5}}))  # out of range: the file that holds it is named
+    with pytest.raises(ConfigError, match=r"--params .*a\.json.*KanayamaParams\.kx must be a finite number in"):
+        load_params([mapping])
     mapping.write_text(json.dumps({"open-loop": {}}))
     with pytest.raises(ConfigError, match="'open-loop' has no parameters to tune"):
         load_params([mapping])

@@ -372,7 +372,10 @@ def load_params(paths: Sequence[str | Path]) -> dict[str, Any]:
             unknown = [k for k in fields_ if k not in valid]
             if unknown:
                 raise ConfigError(f"{given}: {name} has no parameter(s) {unknown}; valid: {', '.join(valid)}")
-            out[name] = cls(**fields_)
+            try:
+                out[name] = cls(**fields_)
+            except ConfigError as exc:  # an out-of-range or ill-typed value: say which file holds it
+                raise ConfigError(f"{given}: {exc}") from exc
     return out
 
 
