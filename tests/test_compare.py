@@ -104,6 +104,11 @@ def test_every_tracker_meets_the_same_robot_and_noise() -> None:
     assert [r.values["final_m"] for r in again.of("open-loop")] == [r.values["final_m"] for r in open_loop]
     assert open_loop[0].values["final_m"] != open_loop[1].values["final_m"]
     assert set(result.logs()) == {"open-loop", "kanayama"}  # the first draw's logs, for plots and the video
+    # printed, one line (it dumped every run's log, 45 kB): the case and each tracker's mean RMS error
+    rms = result.summary("kanayama")["rms_m"] * 1e3
+    assert repr(result).startswith("Comparison(open, turtlebot3, line, 2 run(s) per tracker; RMS open-loop: ")
+    assert f"kanayama: {rms:.2f} mm)" in repr(result) and "\n" not in repr(result) and len(repr(result)) < 200
+    assert "log=" not in repr(result.runs[0]) and "times=" not in repr(result.runs[0])
 
 
 def test_timed_tracker_effort_is_the_integral_of_the_squared_rates() -> None:

@@ -147,8 +147,8 @@ class TrackerRun:
     draw: int
     values: dict[str, float]
     solver: dict[str, Any]
-    log: RunLog | None = None
-    times: tuple[float, ...] = ()
+    log: RunLog | None = field(default=None, repr=False)
+    times: tuple[float, ...] = field(default=(), repr=False)
     status: str = "ok"
     ending: dict[str, Any] = field(default_factory=dict)
 
@@ -214,6 +214,15 @@ class Comparison:
     runs: tuple[TrackerRun, ...]
     params: Mapping[str, dict[str, Any]]
     model: mujoco.MjModel = field(compare=False, repr=False)
+
+    def __repr__(self) -> str:
+        """One line: the case and, per tracker, its runs and mean RMS error (``record()`` holds everything)."""
+        p = self.prepared
+        rms = ", ".join(f"{t}: {self.summary(t)['rms_m'] * 1e3:.2f} mm" for t in self.trackers)
+        return (
+            f"Comparison({p.scenario.name}, {p.robot.name}, {p.trajectory.name}, "
+            f"{max(len(self.draws), 1)} run(s) per tracker; RMS {rms})"
+        )
 
     def of(self, tracker: str) -> list[TrackerRun]:
         """The runs of one tracker, by draw."""
