@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
+import dm_env
 import numpy as np
 import pytest
 from dm_control.rl import control
@@ -223,3 +224,75 @@ def test_reference_policy_reproduces_simulate_bit_for_bit_on_the_balancing_robot
     job = simulate_plan("turn_in_place", planner="c-rrt-star", robot="edumip-balancing", seed=0,
                         runs=(RunKind.CLOSED_LOOP,))  # fmt: skip
     _assert_same_run(episode, job.logs[RunKind.CLOSED_LOOP])
+
+
+def _assert_valid_observation(env: control.Environment, ts: dm_env.TimeStep) -> None:
+    for name, spec in env.observation_spec().items():
+        spec.validate(ts.observation[name])
+        assert np.all(np.isfinite(ts.observation[name])), name
+
+
+def test_a_fall_of_the_balancing_robot_ends_the_episode_with_discount_0() -> None:
+    """Alternating full wheel speeds topple the balancing EduMIP: its balance firmware finds the fall
+    (the test that ends an ``nhsim simulate`` run) at its first update of period 22 and the episode ends
+    with that step, discount 0, instead of running its 928 periods lying on the floor with discount 1."""
+    env = suite.load("open", "edumip-balancing", "circle", seed=0)
+    limit = float(env.action_spec().maximum)
+    ts = env.reset()
+    firmware = env.task.episode.recorder.balance
+    steps = 0
+    while not ts.last():
+        assert firmware.fell_at is None  # the episode did not end before the fall
+        ts = env.step(np.full(2, limit if steps % 2 == 0 else -limit))
+        steps += 1
+    assert firmware.fell_at is not None and ts.discount == 0.0
+    assert steps == 22 < env.task.schedule.n_ctrl == 928 and not env.task.episode.recorder.contacts
+    _assert_valid_observation(env, ts)
+    assert env.task.log().status.startswith("fell at t=0.420 s")
+
+
+def test_a_tipped_skid_edumip_ends_the_episode_with_discount_0() -> None:
+    """Full speed forward from rest tips the skid EduMIP over (its body tilts past 0.85 rad in period 19):
+    the episode ends with discount 0 at period 23, when its chassis lands on the floor, instead of
+    running its 1265 periods on its back with discount 1. It touched no obstacle."""
+    env = suite.load("edumip_map", "edumip", "c-rrt-star", seed=0)
+    m, d = env.physics.model.ptr, env.physics.data.ptr
+
+    def chassis_touches() -> bool:
+        return "chassis" in {m.geom(int(g)).name for g in d.contact.geom[: d.ncon].ravel()}
+
+    ts = env.reset()
+    steps = 0
+    while not ts.last():
+        assert not chassis_touches()  # the episode did not end before the fall
+        ts = env.step(env.action_spec().maximum * np.ones(2))
+        steps += 1
+    assert chassis_touches() and ts.discount == 0.0 and not env.task.episode.recorder.contacts
+    assert steps == 23 < env.task.schedule.n_ctrl == 1265
+    assert d.xmat[m.body("base").id][8] < np.cos(0.85)  # the body's z axis tilted beyond 0.85 rad
+    _assert_valid_observation(env, ts)
+
+
+@pytest.mark.parametrize(
+    ("entry", "steps", "ret"),
+    [
+        (("edumip_map", "edumip", "c-rrt-star"), 1265, 1264.9644007705647),
+        (("open", "edumip-balancing", "circle"), 928, 926.1965358479506),
+    ],
+    ids=["skid", "balancing"],
+)
+def test_a_reference_policy_episode_runs_to_its_time_limit_with_discount_1(
+    entry: tuple[str, str, str], steps: int, ret: float
+) -> None:
+    """The fall test does not fire while the robot tracks: the episode runs every period of the
+    trajectory and its hold with discount 1, its return as measured before episodes ended at a fall."""
+    env = suite.load(*entry, seed=0)
+    policy = suite.reference_policy(env)
+    ts = env.reset()
+    discounts, total = [], 0.0
+    while not ts.last():
+        ts = env.step(policy(ts))
+        discounts.append(ts.discount)
+        total += ts.reward
+    assert len(discounts) == env.task.schedule.n_ctrl == steps and set(discounts) == {1.0}
+    assert total == pytest.approx(ret, rel=1e-12)

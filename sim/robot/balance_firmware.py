@@ -39,6 +39,13 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 
+def touches(d: mujoco.MjData, geom: int) -> bool:
+    """Whether geom ``geom`` is in any of ``d``'s contacts now (the chassis: the robot has fallen; its wheels,
+    skids or caster are all that touch the floor while it stands)."""
+    n = d.ncon
+    return n > 0 and bool(np.any(d.contact.geom[:n] == geom))
+
+
 @dataclass(frozen=True)
 class Push:
     """A horizontal impulse on the top of the body.
@@ -155,8 +162,7 @@ class BalanceFirmware:
         tilt = math.acos(min(1.0, max(-1.0, 1.0 - 2.0 * (q[1] * q[1] + q[2] * q[2]))))
         pitch = abs(float(body_pitch(q)))
         self.max_pitch = max(self.max_pitch, pitch)
-        n = d.ncon
-        touch = n > 0 and bool(np.any(d.contact.geom[:n] == self._chassis))
+        touch = touches(d, self._chassis)
         if self.fell_at is None and (tilt > self.tip_angle or touch):
             self.fell_at = float(d.time)
         return self.fell_at is not None

@@ -8,7 +8,8 @@ IMU's gyro and accelerometer, localisation fixes when they arrive), the referenc
 preview, and, named as privileged, the true pose (for learning baselines, never for the robot's own
 stack). The reward is :func:`dm_control.utils.rewards.tolerance` on the position and heading error
 against the reference; the discount is 1; an episode ends at the trajectory's end plus the final
-hold, or with discount 0 at the first contact with an obstacle (a crash has no future).
+hold, or with discount 0 (a failure: a crash or a fall has no future) at the first contact with an
+obstacle or at the end of the period in which the robot fell (:meth:`TrackingTask.fallen`).
 
 Sensor noise is drawn from the environment's seed: episode ``e`` after construction uses noise seed
 ``seed + e``, so two environments made with the same arguments give the same episodes, and the first
@@ -39,6 +40,7 @@ from sim.physics.runlog import RunLog
 from sim.physics.sensors import SensorModel, SensorReader
 from sim.physics.simulator import PeriodPhysics, Recorder, Schedule, Simulator
 from sim.pipeline.case import PreparedTrajectory
+from sim.robot.balance_firmware import touches
 from sim.robot.sensing import SensingSetup
 
 FloatArray = NDArray[np.float64]
@@ -70,6 +72,7 @@ class Episode:
         fix: The fix delivered now (x, y, theta), or None.
         fix_age: Time from that fix's measurement to now [s].
         measured: Fixes measured so far, by control period.
+        fell: Whether the robot has fallen (:meth:`TrackingTask.fallen`; the episode ends there).
     """
 
     recorder: Recorder
@@ -83,6 +86,7 @@ class Episode:
     fix: tuple[float, float, float] | None = None
     fix_age: float = 0.0
     measured: dict[int, tuple[float, float, float]] = field(default_factory=dict)
+    fell: bool = False
 
 
 class Physics(dm_mujoco.Physics):
@@ -145,6 +149,7 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         )
         m = simulator.model
         self._accel_adr = int(m.sensor_adr[m.sensor("imu_accel").id])
+        self._chassis = m.geom("chassis").id
         self.episodes = 0
         self.episode: Episode | None = None
 
@@ -184,10 +189,28 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         ep.recorder.commands[ep.k + 1] = (v, w, left, right)
 
     def after_step(self, physics: Physics) -> None:
-        """Count the period and take the sensors' readings at its end."""
+        """Count the period, take the sensors' readings at its end and see whether the robot fell."""
         ep = self._current()
         ep.k += 1
-        self._read_sensors(physics.data.ptr)
+        d = physics.data.ptr
+        self._read_sensors(d)
+        ep.fell = ep.fell or self.fallen(ep, d)
+
+    def fallen(self, episode: Episode, d: mujoco.MjData) -> bool:
+        """Whether the robot has fallen, at the end of a period.
+
+        A balancing robot has fallen when its balance firmware says so
+        (:meth:`sim.robot.balance_firmware.BalanceFirmware.fallen`, checked at each of its updates:
+        the body's tilt beyond the profile's ``tip_angle`` or the chassis touching anything), the test
+        that ends an ``nhsim simulate`` run. A robot that does not balance has no tip angle and no
+        such firmware (``simulate`` runs on after it tips): it has fallen when its chassis touches
+        anything, the firmware's other test (its wheels, skids or caster are all that touch the floor
+        while it stands; a contact with an obstacle ends the episode anyway).
+        """
+        balance = episode.recorder.balance
+        if balance is not None:
+            return balance.fell_at is not None
+        return touches(d, self._chassis)
 
     def _current(self) -> Episode:
         if self.episode is None:
@@ -277,9 +300,10 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         return float(r_pos * r_head)
 
     def get_termination(self, physics: Physics) -> float | None:
-        """1.0 at the trajectory's end plus the hold, 0.0 at the first obstacle contact, else None."""
+        """1.0 at the trajectory's end plus the hold; 0.0 (a failure) at the first obstacle contact or
+        at the end of the period in which the robot fell (:meth:`fallen`); else None."""
         ep = self._current()
-        if ep.recorder.contacts:
+        if ep.recorder.contacts or ep.fell:
             return 0.0
         return 1.0 if ep.k >= self.schedule.n_ctrl else None
 
