@@ -29,10 +29,16 @@ class Tracker(Protocol):
     ``factory(robot, **options)`` with keyword-only options (see :func:`make_tracker`).
     """
 
-    name: str
+    @property
+    def name(self) -> str:
+        """The tracker's registered name, e.g. ``"fbl"``. Read-only here, so a class attribute
+        (``name = "p-pose"``, as the built-in trackers set it), an instance attribute or a property
+        all satisfy the protocol under ``mypy --strict``."""
+        ...
 
     def reset(self, trajectory: Trajectory, dt: float) -> None:
-        """Start tracking ``trajectory`` with control period ``dt`` [s]."""
+        """Start tracking ``trajectory`` with control period ``dt`` [s], in (0, 1] (seconds, not milliseconds:
+        0.02 for 50 Hz; :func:`check_period`)."""
         ...
 
     def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
@@ -370,6 +376,10 @@ def check_positive_fields(obj: object, names: tuple[str, ...], why: str) -> None
 
 #: Most control periods a tracker pre-samples its reference at (a day at 10 Hz, 5.6 h at 50 Hz).
 MAX_CONTROL_PERIODS = 1_000_000
+#: Longest control period [s] a tracker's ``reset`` takes: that of the slowest control rate the simulator runs,
+#: 1 Hz (``sim.physics.motors.MIN_CONTROL_RATE``; nhsim itself uses 0.005 to 0.1 s). A longer one is most likely
+#: milliseconds given as seconds (``dt=20`` for 20 ms).
+MAX_CONTROL_PERIOD = 1.0
 
 
 def check_period(tracker: str, dt: float, trajectory: Trajectory) -> float:
@@ -381,11 +391,17 @@ def check_period(tracker: str, dt: float, trajectory: Trajectory) -> float:
         trajectory: The reference the tracker pre-samples at every control instant of its span.
 
     Raises:
-        ConfigError: ``dt`` is not a finite number > 0, or so small that the trajectory would span
-            more than ``MAX_CONTROL_PERIODS`` control periods (names the tracker).
+        ConfigError: ``dt`` is not a finite number > 0, is longer than ``MAX_CONTROL_PERIOD`` (1 s: likely
+            milliseconds given as seconds), or is so small that the trajectory would span more than
+            ``MAX_CONTROL_PERIODS`` control periods (names the tracker).
     """
     fix = "pass 1 / control rate, e.g. 0.02 for 50 Hz"
     dt = check_number(f"tracker {tracker!r}: reset(dt)'s control period dt", dt, above=0.0, unit="s", fix=fix)
+    if dt > MAX_CONTROL_PERIOD:
+        raise ConfigError(
+            f"tracker {tracker!r}: reset(dt)'s control period dt must be at most {MAX_CONTROL_PERIOD:g} s (a control "
+            f"rate of 1 Hz or more), got {dt:g} s; dt is in seconds, not milliseconds: {fix} (not 20)"
+        )
     periods = trajectory.duration / dt
     if not periods <= MAX_CONTROL_PERIODS:
         raise ConfigError(

@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.dispatch import bind
+from planning.core.checks import check_fields
 from planning.core.robot import RobotSpec
 
 
@@ -51,6 +52,9 @@ class DiffDrive:
         wheel_radius: r [m].
         track_width: Distance between the wheels [m].
         max_wheel_speed: |wheel speed| limit [rad/s].
+
+    Raises:
+        ConfigError: A field that is not a finite number > 0 (names it, its unit and where a robot's come from).
     """
 
     wheel_radius: float
@@ -58,9 +62,11 @@ class DiffDrive:
     max_wheel_speed: float
 
     def __post_init__(self) -> None:
-        for name in ("wheel_radius", "track_width", "max_wheel_speed"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"DiffDrive.{name} must be > 0, got {getattr(self, name)}")
+        fix = "DiffDrive.from_robot(load_robot('turtlebot3')) takes a robot's"
+        units = {"wheel_radius": "m", "track_width": "m", "max_wheel_speed": "rad/s"}
+        check_fields(
+            self, {name: {"above": 0.0, "unit": unit, "fix": fix} for name, unit in units.items()}, "DiffDrive."
+        )
 
     @classmethod
     def from_robot(cls, robot: RobotSpec, *, wheel_radius: float | None = None) -> DiffDrive:

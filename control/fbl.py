@@ -195,6 +195,9 @@ class DynamicFBL:
         self.gains = option_value(self.name, "gains", gains, FBLGains())
         self._traj: Trajectory | None = None
         self.state = np.zeros(1, STATE)
+        # Before reset: no control instant (an infinite period, an empty table), so command's compiled period
+        # answers OFF_GRID, dividing by no zero, and command names the missing reset; no check per call.
+        self.state[0]["dt"] = math.inf
         self._ref = np.zeros(0, REFERENCE)  # the law's reference at the control instants
         self._bind()
 
@@ -234,7 +237,7 @@ class DynamicFBL:
         interpolated from the trajectory.
 
         Raises:
-            ConfigError: An argument is not a number (an array, a text).
+            ConfigError: An argument is not a number (an array, a text), or ``reset`` was not called first.
             SimulationError: ``t`` or the pose is not finite.
         """
         check_command(self.name, t, x, y, theta)  # before the compiled period, which takes a text for a float
@@ -242,7 +245,10 @@ class DynamicFBL:
         if status == OK:
             return v, omega
         if self._traj is None:
-            raise RuntimeError("DynamicFBL.command called before reset")
+            raise ConfigError(
+                f"tracker {self.name!r}: command(t, x, y, theta) was called before reset(trajectory, dt); call "
+                "tracker.reset(trajectory, dt) first, with the trajectory to track and the control period [s]"
+            )
         return step(self.state, _at(self._traj, t), 0, x, y, theta)
 
 

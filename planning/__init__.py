@@ -37,6 +37,7 @@ if TYPE_CHECKING:
     from planning.core.world import World as World
     from planning.errors import ConfigError as ConfigError
     from planning.errors import NhsimError as NhsimError
+    from planning.planners.base import Planner as Planner
     from planning.planners.base import PlanProblem as PlanProblem
     from planning.planners.base import PlanResult as PlanResult
     from planning.planners.base import PlanStatus as PlanStatus
@@ -74,6 +75,7 @@ _EXPORTS = {
     "World": "planning.core.world",
     "ConfigError": "planning.errors",
     "NhsimError": "planning.errors",
+    "Planner": "planning.planners.base",
     "PlanProblem": "planning.planners.base",
     "PlanResult": "planning.planners.base",
     "PlanStatus": "planning.planners.base",

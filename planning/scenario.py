@@ -30,7 +30,8 @@ from planning.core.checks import check_number
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.maps import load_map_table
 from planning.core.robot import MODELS_DIR, ROBOT_FILES, RobotSpec, check_robot_name, load_robot
-from planning.core.scenario_type import DEFAULT_HEADING_TOLERANCE, DEFAULT_POSITION_TOLERANCE, Scenario
+from planning.core.scenario_type import DEFAULT_HEADING_TOLERANCE, DEFAULT_POSITION_TOLERANCE
+from planning.core.scenario_type import Scenario as Scenario  # re-exported (planning.Scenario): mypy --strict
 from planning.core.tables import TableReader
 from planning.core.world import MAX_WORLD_SIDE, Box, Circle, Ellipse, Obstacle, Polygon, World, too_thin
 from planning.errors import ConfigError, ScenarioError, option

@@ -172,3 +172,179 @@ def test_random_scenario_takes_integer_seeds_from_0_and_known_robots() -> None:
         random_scenario("burger", 3)
     drawn = random_scenario("edumip", np.int64(3))
     assert drawn.name == "random3" and drawn.world == load_scenario("random3").world
+
+
+# ---- the probe's edge cases (s22): nhsim's own errors, never a Python one from deep inside -----------------------
+
+
+def test_fbl_command_before_reset_is_named_not_a_zero_division() -> None:
+    """It was ``ZeroDivisionError: division by zero`` from the compiled period (its period was still 0)."""
+    tracker = make_tracker("fbl", load_robot("turtlebot3"))
+    for t in (0.0, 5.0, -1.0):
+        with pytest.raises(ConfigError, match=r"^tracker 'fbl': command\(t, x, y, theta\) was called before reset"):
+            tracker.command(t, 0.0, 0.0, 0.0)
+    tracker.reset(make_reference("line", load_robot("turtlebot3"), Pose2D(0.0, 0.0, 0.0)), 0.02)
+    assert all(np.isfinite(tracker.command(0.0, 0.0, 0.0, 0.0)))
+
+
+def test_a_control_period_in_milliseconds_is_refused_by_every_tracker_and_1_s_is_not() -> None:
+    """``reset(ref, dt=20.0)`` (20 ms meant) was accepted. The bound is the simulator's slowest control rate."""
+    from control.base import MAX_CONTROL_PERIOD, TRACKERS
+    from sim.physics.motors import MIN_CONTROL_RATE
+
+    assert MAX_CONTROL_PERIOD == 1.0 / MIN_CONTROL_RATE  # no rate the simulator runs is refused here
+    robot = load_robot("turtlebot3")
+    ref = make_reference("circle", robot, Pose2D(0.0, 0.0, 0.0))
+    for name in TRACKERS:
+        for dt in (20.0, 1.001):
+            with pytest.raises(
+                ConfigError,
+                match=rf"^tracker '{name}': reset\(dt\)'s control period dt must be at most 1 s .*got {dt:g} s; "
+                r"dt is in seconds, not milliseconds: pass 1 / control rate, e.g. 0.02 for 50 Hz",
+            ):
+                make_tracker(name, robot).reset(ref, dt)
+        make_tracker(name, robot).reset(ref, 1.0)  # 1 Hz, the slowest rate: taken
+
+
+def test_densify_path_and_path_length_refuse_with_nhsim_errors() -> None:
+    """``densify_path(p, 0.0)`` was a plain ValueError, a NaN in its path a RuntimeWarning and an array of
+    garbage, ``path_length([1.0, 2.0, 3.0])`` (one pose, flat) a silent 0.0."""
+    import math
+    import warnings
+
+    from planning import densify_path, path_length
+    from planning.core.geometry import path_steps
+
+    p = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    for spacing in (0.0, -1.0, math.nan, math.inf, "0.02"):
+        with pytest.raises(
+            ConfigError, match=r"^densify_path: spacing must be > 0 m \(a finite number\), got .*; e\.g\. 0\.02$"
+        ):
+            densify_path(p, spacing)  # type: ignore[arg-type]
+    assert densify_path(p, np.float32(0.5)).shape == (3, 3) and densify_path(p, 1).shape == (2, 3)  # numbers
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no numpy RuntimeWarning before the error
+        for column in (0, 2):  # a NaN position, a NaN heading
+            bad = np.vstack([p, [[2.0, 0.0, 0.0]]])
+            bad[1, column] = np.nan
+            with pytest.raises(
+                ConfigError,
+                match=r"^densify_path: the path has non-finite values \(NaN or infinite\) in 1 of its 3 "
+                r"poses \(rows 1\); give finite poses$",
+            ):
+                densify_path(bad, 0.1)
+    for flat in ([1.0, 2.0, 3.0], np.zeros(3)):
+        with pytest.raises(
+            ConfigError,
+            match=r"^path_length: path must be an \(N, 2\) or \(N, 3\) array .*got shape \(3,\); a single "
+            r"pose \[x, y, theta\] is the one-row path \[\[x, y, theta\]\]$",
+        ):
+            path_length(flat)
+    assert path_length([[1.0, 2.0, 3.0]]) == 0.0 and path_length([[0, 0], [3, 4]]) == 5.0
+    with pytest.raises(ConfigError, match=r"^path_length: path must be .*\(numbers\), got str"):
+        path_length("0,0;1,1")
+    with pytest.raises(ConfigError, match=r"^path_steps: counting turns \(radius 0.1\) needs \(N, 3\) poses"):
+        path_steps([[0.0, 0.0], [1.0, 0.0]], 0.1)
+
+
+def test_diffdrive_refuses_with_a_config_error_naming_the_field_and_unit() -> None:
+    """Was a plain ValueError (``DiffDrive.wheel_radius must be > 0, got 0.0``); infinity was accepted."""
+    from control.diffdrive import DiffDrive
+
+    for args, field, unit in [((0.0, 0.16, 6.67), "wheel_radius", "m"), ((0.033, -1, 6.67), "track_width", "m")]:
+        with pytest.raises(ConfigError, match=rf"^DiffDrive\.{field} must be a finite number > 0 \({unit}\), got "):
+            DiffDrive(*args)
+    with pytest.raises(ConfigError, match=r"^DiffDrive\.max_wheel_speed must be .* \(rad/s\), got inf; DiffDrive"):
+        DiffDrive(0.033, 0.16, np.inf)
+    assert DiffDrive(0.033, 0.16, np.int64(6)).max_wheel_speed == 6.0
+
+
+def test_pose2d_takes_any_finite_heading_in_radians_and_says_so() -> None:
+    """90 is a valid angle (radians): kept as given; the docstring said no unit in its summary."""
+    assert Pose2D(0, 0, 90).theta == 90.0
+    assert Pose2D.__doc__ is not None and "radians" in Pose2D.__doc__ and "math.radians(90)" in Pose2D.__doc__
+
+
+# ---- planners of your own: register_planner checks what it is given, as register_tracker does ---------------------
+
+
+def test_register_planner_refuses_a_bad_name_target_or_a_taken_name(monkeypatch: pytest.MonkeyPatch) -> None:
+    """It took anything: "noattr" failed later as ``ValueError: not enough values to unpack``, and "rrt" silently
+    replaced the built-in planner."""
+    from planning import make_planner, register_planner
+    from planning.planners.registry import PLANNERS
+    from planning.planners.sampling.rrt import RRT, BiRRT
+
+    for name in ("", "my planner", "a,b", None):
+        with pytest.raises(ConfigError, match=r"^register_planner: name must be non-empty text without commas"):
+            register_planner(name, RRT)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match=r"^register_planner\('x'\): target 'noattr' is not 'package.module:Attr"):
+        register_planner("x", "noattr")
+    with pytest.raises(ConfigError, match=r"^register_planner\('x'\): target must be a planner class .*got int"):
+        register_planner("x", 42)  # type: ignore[arg-type]
+    with pytest.raises(
+        ConfigError,
+        match=r"^register_planner: planner 'rrt' is already registered as planning.planners.sampling.rrt:RRT; "
+        r"choose another name, or pass replace=True to replace it$",
+    ):
+        register_planner("rrt", "mypackage.ttt:TurnDriveTurn")
+    assert PLANNERS["rrt"] == "planning.planners.sampling.rrt:RRT"
+    register_planner("rrt", "planning.planners.sampling.rrt:RRT")  # the same target again: no change
+    monkeypatch.setitem(PLANNERS, "rrt", PLANNERS["rrt"])  # restored after the test
+    register_planner("rrt", BiRRT, replace=True)
+    assert isinstance(make_planner("rrt"), BiRRT)
+
+
+def test_a_planner_that_cannot_be_made_is_a_config_error_naming_it(monkeypatch: pytest.MonkeyPatch) -> None:
+    from planning import make_planner, register_planner
+    from planning.planners.registry import PLANNERS
+
+    monkeypatch.setitem(PLANNERS, "x", "")  # removed after the test
+    for target, message in [
+        ("nosuchpackage.mod:Planner", r"cannot load its factory 'nosuchpackage.mod:Planner': ModuleNotFoundError: "),
+        ("planning.core.geometry:NoSuch", r"cannot load its factory .*: AttributeError: "),
+        ("planning.planners.registry:PLANNERS", r"its factory 'planning.planners.registry:PLANNERS' is not callable"),
+    ]:
+        register_planner("x", target, replace=True)
+        with pytest.raises(ConfigError, match=rf"^planner 'x': {message}"):
+            make_planner("x")
+    register_planner("x", lambda: 0, replace=True)
+    with pytest.raises(
+        ConfigError,
+        match=r"^planner 'x': its factory returned 0 \(int\), which has no plan\(problem\) method; a planner has",
+    ):
+        make_planner("x")
+    PLANNERS["x"] = "noattr"  # set directly, around register_planner's check
+    with pytest.raises(ConfigError, match=r"^planner 'x': its factory 'noattr' is not 'package.module:Attribute'"):
+        make_planner("x")
+
+
+def test_the_new_planner_page_registers_plans_and_simulates_its_planner(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """docs/how-to/new-planner.md's block runs as printed: each print's output is the comment beside it."""
+    import re
+    import sys
+    import types
+
+    from planning import Planner, make_planner
+    from planning.planners.registry import PLANNERS
+    from sim.cli.main import main
+    from tests.doc_blocks import block_of
+
+    block = block_of("docs/how-to/new-planner.md")
+    monkeypatch.setitem(PLANNERS, "turn-drive-turn", "")  # the page's registration is undone after the test
+    module = types.ModuleType("tdt")
+    monkeypatch.setitem(sys.modules, "tdt", module)
+    exec(compile(block.code, block.name, "exec"), module.__dict__)
+    printed = capsys.readouterr().out.splitlines()
+    expected = re.findall(r"^print\(.*\)  # (.*)$", block.code, flags=re.M)
+    assert len(expected) == 3 and printed == expected
+    assert PLANNERS["turn-drive-turn"] is module.TurnDriveTurn
+    planner: Planner = make_planner("turn-drive-turn", spacing=0.05)
+    assert planner.name == "turn-drive-turn"
+    with pytest.raises(ConfigError, match=r"unknown option\(s\) speed for planner 'turn-drive-turn'"):
+        make_planner("turn-drive-turn", speed=1.0)
+    with pytest.raises(ConfigError, match=r"a planner plans a PlanProblem"):
+        planner.plan(module.scenario)
+    assert main(["plan", "--scenario", "simple_motion", "--planner", "turn-drive-turn", "--quiet"]) == 0

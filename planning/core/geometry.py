@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from planning.core.checks import check_number
+from planning.core.checks import check_number, given, is_number
 from planning.errors import ConfigError
 
 FloatArray = NDArray[np.float64]
@@ -42,12 +43,19 @@ def unwrap_heading(theta: ArrayLike) -> FloatArray:
 
 @dataclass(frozen=True)
 class Pose2D:
-    """A planar pose.
+    """A planar pose: a position [m] and a heading [rad].
+
+    The heading is in radians: ``Pose2D(0, 0, math.pi / 2)`` faces +y. ``Pose2D(0, 0, 90)`` is accepted (90 rad
+    is an angle too, about 116.6 degrees after wrapping) but is not a quarter turn: convert degrees with
+    ``math.radians(90)``. The heading is kept as given, not wrapped (:func:`wrap_angle` wraps it).
 
     Attributes:
         x: Position [m].
         y: Position [m].
-        theta: Heading [rad], counter-clockwise from +x.
+        theta: Heading [rad], counter-clockwise from +x; any finite value, not wrapped.
+
+    Raises:
+        ConfigError: A coordinate that is not a finite number.
     """
 
     x: float
@@ -100,10 +108,22 @@ def _steps(path: FloatArray, theta: FloatArray | None, radius: float) -> FloatAr
     return step  # type: ignore[no-any-return]
 
 
-def _as_path(path: ArrayLike) -> FloatArray:
-    p = np.atleast_2d(np.asarray(path, dtype=float))
+def _as_path(path: ArrayLike, caller: str) -> FloatArray:
+    """``path`` as an (N, 2) or (N, 3) float array; the check of the public functions' ``path`` (a numpy
+    attribute or two: the callers' numerics cost far more)."""
+    try:
+        p = np.asarray(path, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(
+            f"{caller}: path must be an (N, 2) or (N, 3) array of positions or poses [x, y, theta] (numbers), "
+            f"got {type(path).__name__}: {exc}"
+        ) from exc
     if p.ndim != 2 or p.shape[1] < 2:
-        raise ValueError(f"a path must be an (N, 2) or (N, 3) array of positions or poses, got shape {p.shape}")
+        one = "; a single pose [x, y, theta] is the one-row path [[x, y, theta]]" if p.ndim == 1 else ""
+        raise ConfigError(
+            f"{caller}: path must be an (N, 2) or (N, 3) array of positions or poses [x, y, theta], one row per "
+            f"point, got shape {p.shape}{one}"
+        )
     return p
 
 
@@ -118,9 +138,12 @@ def path_steps(path: ArrayLike, radius: float = 0.0) -> FloatArray:
     Returns:
         (N - 1,) steps [m] (empty for fewer than two poses).
     """
-    p = _as_path(path)
+    p = _as_path(path, "path_steps")
     if radius and p.shape[1] < 3:
-        raise ValueError(f"counting turns (radius {radius}) needs (N, 3) poses with headings, got shape {p.shape}")
+        raise ConfigError(
+            f"path_steps: counting turns (radius {radius}) needs (N, 3) poses with headings, got shape {p.shape}; "
+            "pass radius=0 to count positions only"
+        )
     return _steps(p, np.unwrap(p[:, 2]) if radius else None, radius)
 
 
@@ -136,8 +159,12 @@ def path_length(path: ArrayLike, radius: float = 0.0) -> float:
 
     Returns:
         The length [m]; 0 for fewer than two poses.
+
+    Raises:
+        ConfigError: ``path`` is not an (N, 2) or (N, 3) array (a single pose ``[x, y, theta]`` is
+            refused: the one-row path is ``[[x, y, theta]]``).
     """
-    p = _as_path(path)
+    p = _as_path(path, "path_length")
     if p.shape[0] < 2:
         return 0.0
     if not radius:
@@ -177,16 +204,24 @@ def densify_path(path: ArrayLike, spacing: float, *, radius: float = 0.0, slack:
         of fewer than two poses comes back as it is.
 
     Raises:
-        ValueError: ``spacing`` is not > 0.
-        ConfigError: ``path`` holds positions without headings, (N, 2), not (N, 3) poses.
+        ConfigError: ``spacing`` is not a finite number > 0; ``path`` is not an (N, 3) array of poses
+            (positions without headings, (N, 2), are named as such) or holds a NaN or an infinity.
     """
-    if not spacing > 0:
-        raise ValueError(f"spacing must be > 0 m, got {spacing}")
-    p = _as_path(path)
+    if type(spacing) is not float or not 0.0 < spacing < math.inf:  # the callers' float, checked in 0.1 us
+        if not (is_number(spacing) and spacing > 0):
+            raise ConfigError(f"densify_path: spacing must be > 0 m (a finite number), got {given(spacing)}; e.g. 0.02")
+        spacing = float(spacing)
+    p = _as_path(path, "densify_path")
     if p.shape[1] < 3:
         raise ConfigError(
             f"densify_path needs an (N, 3) path of poses [x, y, theta], got shape {p.shape}; for positions alone "
             "add a heading column (e.g. the direction of travel, np.arctan2 of the steps)"
+        )
+    if not np.isfinite(p).all():
+        rows = np.flatnonzero(~np.isfinite(p).all(axis=1))
+        raise ConfigError(
+            f"densify_path: the path has non-finite values (NaN or infinite) in {rows.size} of its {len(p)} poses "
+            f"(rows {', '.join(map(str, rows[:10]))}{', ...' if rows.size > 10 else ''}); give finite poses"
         )
     if p.shape[0] < 2:
         return p

@@ -1,16 +1,18 @@
 """The registry of planners by name: what the CLI, the scenario files and the tests enumerate.
 
-A planner is registered as ``"module:factory"``; the module is imported only when the planner is made,
-so listing the planners costs nothing. A factory takes keyword-only options: either named keyword
+A built-in planner is registered as ``"module:factory"``; the module is imported only when the planner is
+made, so listing the planners costs nothing. A factory takes keyword-only options: either named keyword
 parameters, or ``**options`` checked against the fields of the dataclass in its ``config_class``
-attribute.
+attribute. A planner of your own is registered with :func:`register_planner` (docs/how-to/new-planner.md).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import importlib
 import inspect
+import re
 from collections.abc import Callable, Mapping
 from typing import Any, TypeVar
 
@@ -19,8 +21,12 @@ from planning.planners.base import Planner
 
 ConfigT = TypeVar("ConfigT")
 
-#: Planner name -> "module:factory". The factory takes keyword-only options and returns a Planner.
-PLANNERS: dict[str, str] = {
+#: A target given as text: "package.module:attribute" (as :mod:`control.base` takes a tracker's).
+_TARGET = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*(\.[A-Za-z_]\w*)*")
+
+#: Planner name -> its factory, or "module:factory" imported when the planner is first made. The factory takes
+#: keyword-only options and returns a Planner.
+PLANNERS: dict[str, str | Callable[..., Planner]] = {
     "rrt": "planning.planners.sampling.rrt:RRT",
     "birrt": "planning.planners.sampling.rrt:BiRRT",
     "rrt-star": "planning.planners.sampling.rrt_star:RRTStar",
@@ -31,16 +37,74 @@ PLANNERS: dict[str, str] = {
 }
 
 
-def register_planner(name: str, target: str) -> None:
-    """Register a planner factory by import path, e.g. ``"planning.planners.sampling.rrt:RRT"``."""
+def register_planner(name: str, target: str | Callable[..., Planner], *, replace: bool = False) -> None:
+    """Register a planner by name: its factory (a class), or its import path, e.g. ``"mypackage.ttt:TurnDriveTurn"``.
+
+    Registration holds in the running process only: :func:`make_planner`, ``simulate_plan(planner=...)``
+    and ``sim.cli.main.main([...])`` called from it see the planner; the ``nhsim`` command does not (planners
+    have no plugins, docs/how-to/new-planner.md).
+
+    Args:
+        name: The planner's name (``--planner``, a scenario's ``planner``, the run records): non-empty
+            text without commas or whitespace.
+        target: The factory, called as ``factory(**keyword-only options)`` and returning a
+            :class:`~planning.planners.base.Planner`, or "module:attr" (imported when first made).
+        replace: Replace a planner already registered under ``name`` (a built-in one too).
+
+    Raises:
+        ConfigError: A bad name or target, or a name taken by another target without ``replace``.
+    """
+    if not isinstance(name, str) or not name or re.search(r"[,\s]", name):
+        raise ConfigError(
+            f"register_planner: name must be non-empty text without commas or whitespace (it is given as "
+            f"--planner NAME), e.g. 'ttt'; got {name!r}"
+        )
+    if isinstance(target, str) and not _TARGET.fullmatch(target):
+        raise ConfigError(
+            f"register_planner({name!r}): target {target!r} is not 'package.module:Attribute' (the module "
+            "path, a colon, the factory), e.g. 'mypackage.ttt:TurnDriveTurn'; or pass the class itself"
+        )
+    if not isinstance(target, str) and not callable(target):
+        raise ConfigError(
+            f"register_planner({name!r}): target must be a planner class (or factory) or 'module:attr', "
+            f"got {type(target).__name__}"
+        )
+    if not isinstance(replace, bool):
+        raise ConfigError(f"register_planner({name!r}): replace must be True or False")
+    taken = PLANNERS.get(name)  # an empty entry is a placeholder (a test's monkeypatch), no planner
+    if taken and taken != target and not replace:
+        raise ConfigError(
+            f"register_planner: planner {name!r} is already registered as {_target_text(taken)}; choose another "
+            "name, or pass replace=True to replace it"
+        )
     PLANNERS[name] = target
+
+
+def _target_text(target: str | Callable[..., Planner]) -> str:
+    if isinstance(target, str):
+        return target
+    return f"{getattr(target, '__module__', '?')}:{getattr(target, '__qualname__', repr(target))}"
 
 
 def _factory(name: str) -> Callable[..., Planner]:
     if name not in PLANNERS:
         raise ConfigError(f"unknown planner {name!r}: choose one of {', '.join(sorted(PLANNERS)) or '(none)'}")
-    module_name, attr = PLANNERS[name].split(":")
-    return getattr(importlib.import_module(module_name), attr)  # type: ignore[no-any-return]
+    target = PLANNERS[name]
+    if not isinstance(target, str):
+        return target
+    if not _TARGET.fullmatch(target):  # set in PLANNERS directly, not through register_planner
+        raise ConfigError(
+            f"planner {name!r}: its factory {target!r} is not 'package.module:Attribute'; register it with "
+            "register_planner(name, 'mypackage.module:Class') or register_planner(name, Class)"
+        )
+    module_name, attr = target.split(":")
+    try:
+        factory: Any = functools.reduce(getattr, attr.split("."), importlib.import_module(module_name))
+    except Exception as exc:  # whatever importing the module raised
+        raise ConfigError(f"planner {name!r}: cannot load its factory {target!r}: {type(exc).__name__}: {exc}") from exc
+    if not callable(factory):
+        raise ConfigError(f"planner {name!r}: its factory {target!r} is not callable (a class or a function)")
+    return factory  # type: ignore[no-any-return]
 
 
 def planner_options(name: str) -> tuple[str, ...]:
@@ -93,7 +157,8 @@ def make_planner(name: str, **options: Any) -> Planner:
 
     Raises:
         ConfigError: Unknown name (the message lists the valid ones), unknown options (the message
-            lists the valid ones) or option values the planner rejects.
+            lists the valid ones), option values the planner rejects, a factory that cannot be imported
+            or made, or one that makes no planner.
     """
     valid = planner_options(name)
     unknown = sorted(set(options) - set(valid))
@@ -102,6 +167,12 @@ def make_planner(name: str, **options: Any) -> Planner:
             f"unknown option(s) {', '.join(unknown)} for planner {name!r}: valid options are {', '.join(valid)}"
         )
     try:
-        return _factory(name)(**options)
+        planner = _factory(name)(**options)
     except TypeError as exc:
         raise ConfigError(f"planner {name!r}: {exc}") from exc
+    if not callable(getattr(planner, "plan", None)):
+        raise ConfigError(
+            f"planner {name!r}: its factory returned {planner!r:.60} ({type(planner).__name__}), which has no "
+            "plan(problem) method; a planner has a name and plan(problem) -> PlanResult (planning.Planner)"
+        )
+    return planner
