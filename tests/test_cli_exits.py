@@ -265,11 +265,11 @@ def test_the_table_says_under_it_which_run_ended_early() -> None:
         return {**errors, "max_position_error_m": 0.02, "collisions": 0, "warnings": 0, "status": status,
                 "duration_s": duration, "final_goal_error_m": goal}  # fmt: skip
 
-    lost = "estimator diverged at t=32.000 s (localisation lost): localisation lost at t=32.000 s: 0.53 m off"
+    lost = "localisation lost at t=32.000 s: the localiser's pose is 0.53 m from the truth"
     table = format_table({"closed_loop": row(lost, 32.12, 26.953), "open_loop": row("ok", 233.6, 0.4)})
     assert table.splitlines()[-1] == (
-        "closed_loop ended at 32.1 s: estimator diverged at t=32.000 s (localisation lost); its errors are up to "
-        "then, 26.953 m from the goal"
+        "* closed_loop ended at 32.1 s: localisation lost at t=32.000 s; its errors are up to then, 26.953 m from the "
+        "goal"
     )
     assert "open_loop ended" not in table
 

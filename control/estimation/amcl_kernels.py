@@ -429,3 +429,35 @@ def fit_sensitivity(
         used += 1
         ssr += w * d * d
     return ata, used, ssr
+
+
+@nb.njit(cache=True)
+def rays_through(
+    lx: float, ly: float, angles: FloatArray, reach: FloatArray, field: FloatArray, grid: FloatArray, margin: FloatArray
+) -> int:
+    """The rays, cast from the scanner at (``lx``, ``ly``) along ``angles`` [rad], that cross a mapped surface
+    well before their ``reach`` [m]: the first grid node inside a surface (``field`` < 0, read at the nearest
+    node every grid spacing ``t`` along the ray, as :meth:`control.estimation.amcl.Amcl.see_through` reads
+    it) lies at ``t`` with ``t + margin[0] + margin[1] t < reach``. A ray stops at its first such node, or
+    where ``t + margin[0] + margin[1] t`` reaches its ``reach`` (no later node can count).
+
+    Args:
+        grid: (x0, y0, h, far) of ``field``.
+        margin: (gate [m], relative margin [-]).
+    """
+    x0, y0, h = grid[0], grid[1], grid[2]
+    nx, ny = field.shape
+    count = 0
+    for k in range(angles.shape[0]):
+        ca, sa = math.cos(angles[k]), math.sin(angles[k])
+        n = 1
+        t = h
+        while t + margin[0] + margin[1] * t < reach[k]:
+            i = min(max(int(np.rint((lx + ca * t - x0) / h)), 0), nx - 1)
+            j = min(max(int(np.rint((ly + sa * t - y0) / h)), 0), ny - 1)
+            if field[i, j] < 0.0:
+                count += 1
+                break
+            n += 1
+            t = h * n
+    return count

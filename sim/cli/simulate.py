@@ -341,7 +341,10 @@ def _sensor_line(record: dict[str, Any]) -> str:
     if loc is None:  # the record has one only when a run localised (closed loop on the fused estimate)
         return f"encoders {s.get('encoder_cpr', 0):g}/rev, no run localised"
     if loc.get("kind") == "amcl":
-        start = "global localisation first" if loc.get("initial") == "unknown" else "from the start pose"
+        initial = str(loc.get("initial", "known"))
+        start = {"unknown": "global localisation first", "known": "from the start pose"}.get(
+            initial, f"from the pose estimate ({initial})"
+        )
         return (
             f"encoders {s['encoder_cpr']:g}/rev, AMCL on LDS-01 scans ({s['fix_rate']:g} Hz, {start}), "
             f"{s['fix_latency'] * 1e3:g} ms late"
@@ -384,7 +387,7 @@ def localiser_line(est: dict[str, Any], status: str = "ok") -> str:
 def format_table(record: dict[str, Any]) -> str:
     """The metrics table printed by ``simulate``: one row per run in the record (estimation columns
     for runs fed by an estimator: its RMS position error and the share of fixes with a NEES inside
-    the 95 % interval)."""
+    the 95 % interval). A run that ended early is marked ``*``, its reason in a line under the table."""
     head = (
         f"{'run':<21} {'final pos [m]':>13} {'final head [rad]':>16} {'rms pos [m]':>11} {'max pos [m]':>11} "
         f"{'est rms [m]':>11} {'NEES ok':>7} {'collisions':>10} {'warnings':>8}"
@@ -399,8 +402,9 @@ def format_table(record: dict[str, Any]) -> str:
         rmse = est.get("position_rmse_m") if est else None  # None: the estimator diverged (its status says)
         est_rms = f"{rmse:.4f}" if rmse is not None else "-"
         nees_ok = f"{nees:.0%}" if nees is not None else "-"
+        label = f"{kind}*" if r.get("status", "ok") != "ok" else str(kind)
         lines.append(
-            f"{kind:<21} {r['final_position_error_m']:>13.4f} {r['final_heading_error_rad']:>16.4f} "
+            f"{label:<21} {r['final_position_error_m']:>13.4f} {r['final_heading_error_rad']:>16.4f} "
             f"{r['rms_position_error_m']:>11.4f} {r['max_position_error_m']:>11.4f} "
             f"{est_rms:>11} {nees_ok:>7} "
             f"{r['collisions']:>10d} {r['warnings']:>8d}"
@@ -409,8 +413,8 @@ def format_table(record: dict[str, Any]) -> str:
 
 
 def _ended_early(record: dict[str, Any]) -> list[str]:
-    """A line under the table for each run that ended early (a fall, a lost estimate): its row's errors
-    are up to then, which alone would read as a run on target."""
+    """A line under the table for each run that ended early (a fall, a lost estimate, a localiser that lost
+    the robot or never found it): its row's errors are up to then, which alone would read as a run on target."""
     lines = []
     for kind in RunKind:
         r = record.get(kind)
@@ -418,7 +422,7 @@ def _ended_early(record: dict[str, Any]) -> list[str]:
             continue
         goal = r.get("final_goal_error_m")
         lines.append(
-            f"{kind} ended at {r['duration_s']:.1f} s: {str(r['status']).split(': ')[0]}; its errors are up to then"
+            f"* {kind} ended at {r['duration_s']:.1f} s: {str(r['status']).split(': ')[0]}; its errors are up to then"
             + (f", {goal:.3f} m from the goal" if goal is not None else "")
         )
     return lines
@@ -533,11 +537,37 @@ def add_localiser_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--initial-pose",
-        choices=("known", "unknown"),
+        type=initial_pose_option,
         default=RUN_SETTINGS["initial_pose"],
+        metavar="known|unknown|X,Y,THETA",
         help="known: the localiser starts around the start pose; unknown: global localisation over the free space "
-        "before tracking (default: %(default)s)",
+        "before tracking; X,Y,THETA (metres, radians, e.g. 1.2,0.5,0.3): a pose estimate (ROS's '2D Pose "
+        "Estimate'), the particles start around it with Nav2's initial covariance (0.5 m, 0.26 rad) while the robot "
+        "starts at the scenario's start; it must lie inside the walls and outside the obstacles (default: "
+        "%(default)s)",
     )
+
+
+def initial_pose_option(text: str) -> str:
+    """``--initial-pose``'s value: "known", "unknown", or a pose estimate ``X,Y,THETA`` of three finite numbers
+    (its place in the world is checked with the world, :class:`sim.robot.scan_localiser.LocaliserSetup`).
+
+    Raises:
+        argparse.ArgumentTypeError: Anything else (exit 2, naming the forms).
+    """
+    from sim.robot.pose_estimate import INITIAL_POSES, parse_initial_pose  # no MuJoCo: before --gl is applied
+
+    if text in INITIAL_POSES:
+        return text
+    if not text.strip():  # as every text option refuses it (sim.cli.checks.refuse_blank_values)
+        raise argparse.ArgumentTypeError(
+            "the value is empty; give known, unknown or X,Y,THETA, or leave --initial-pose out"
+        )
+    try:
+        parse_initial_pose(text)
+    except ConfigError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
 
 
 def localiser_fields(args: argparse.Namespace) -> dict[str, Any]:

@@ -50,7 +50,8 @@ from sim.physics.motors import supplied_robot
 from sim.physics.perturb import Perturbation
 from sim.physics.sensors import load_sensor_profile
 from sim.pipeline.runs import PLAN_HOLD_S, PLAN_TRACKER, REFERENCE_TRACKER, Progress, RunKind
-from sim.robot.scan_localiser import INITIAL_POSES, LOCALISERS, LocaliserSetup
+from sim.robot.pose_estimate import INITIAL_POSES, parse_initial_pose
+from sim.robot.scan_localiser import LOCALISERS, LocaliserSetup
 from sim.robot.sensing import SensingSetup
 
 FloatArray = NDArray[np.float64]
@@ -171,9 +172,13 @@ class Case:
                 f"case {self.label}: unknown localiser {self.localiser!r}; choose {', '.join(LOCALISERS)}"
             )
         if self.initial_pose not in INITIAL_POSES:
-            raise ConfigError(
-                f"case {self.label}: unknown initial pose {self.initial_pose!r}; choose {', '.join(INITIAL_POSES)}"
-            )
+            try:
+                parse_initial_pose(self.initial_pose)  # a pose estimate; checked against the world with it
+            except ConfigError as exc:
+                raise ConfigError(
+                    f"case {self.label}: unknown initial pose {self.initial_pose!r}: choose known or unknown, or give "
+                    f"a pose estimate X,Y,THETA ({exc})"
+                ) from None
         if self.build_seed is not None:
             check_build_seed(self.build_seed)
         if sum(x is not None for x in (self.reference, self.planner, self.trajectory_file)) != 1:
@@ -277,15 +282,18 @@ class Case:
         """
         lidar = load_lidar_profile(scenario.robot, text=self.lidar or None)
         kind = self.localiser or ("amcl" if lidar is not None else "fixes")
+        initial = ("initial-pose", self.initial_pose)
         if lidar is None and (kind == "amcl" or self.amcl or self.initial_pose != "known"):
-            needs = options(("localiser", "amcl"), "amcl", ("initial-pose", "unknown"))
+            needs = options(
+                ("localiser", "amcl"), "amcl", initial if self.initial_pose != "known" else ("initial-pose", "unknown")
+            )
             raise ConfigError(
                 f"robot {scenario.robot!r} has no laser scanner: {needs} need one (the TurtleBot3's LDS-01); use "
                 f"{option('localiser', 'fixes')}"
             )
         if kind == "fixes":
             given: list[str | tuple[str, str]] = [opt for opt, on in (("lidar", self.lidar), ("amcl", self.amcl)) if on]
-            given += [("initial-pose", "unknown")] if self.initial_pose != "known" else []
+            given += [initial] if self.initial_pose != "known" else []
             if given:  # with fixes no scan is taken: the settings would be ignored
                 raise ConfigError(
                     f"{options(*given)} {'needs' if len(given) == 1 else 'need'} the amcl localiser (the fixes "
@@ -293,7 +301,7 @@ class Case:
                     f"{option('localiser', 'amcl')}"
                 )
             return LocaliserSetup()
-        if self.initial_pose != "known" and not scenario.world.obstacles:
+        if self.initial_pose == "unknown" and not scenario.world.obstacles:  # a pose estimate tells the twins apart
             raise ConfigError(
                 f"{option('initial-pose', 'unknown')} in {scenario.name!r}, a bare rectangle of walls: its scans look "
                 "the same from a pose and from that pose turned half a turn about the centre, so global localisation "

@@ -37,7 +37,11 @@ says after how many, and whether the error then was below :data:`CONVERGED_ERROR
 poses explain alike (a symmetric world's twins) seeds nothing, and the particles' spread does not count as
 convergence after it (a cloud gathered on one of the poses is not evidence for it); after
 :data:`AMBIGUOUS_SCANS` such revolutions in a row, or as many without returns, the run ends before tracking
-with the status :data:`AMBIGUOUS`, naming the poses (:class:`LocaliserAmbiguous`). The localiser decides
+with the status :data:`AMBIGUOUS`, naming the poses (:class:`LocaliserAmbiguous`); after :data:`GLOBAL_SCANS`
+revolutions without converging it ends there too, its message :data:`UNCONVERGED` (:class:`LocaliserUnconverged`:
+tracking from a cloud spread over the map would fuse its guesses). With a pose estimate (``initial`` "X,Y,THETA",
+a ROS user's "2D Pose Estimate") the particles start around it with Nav2's initial covariance, the robot at the
+scenario's start wherever the estimate says. The localiser decides
 from its scans alone; the truth only judges its answer. A localiser whose error against the truth passes
 :data:`LOST_ERROR` ends the run with that status.
 """
@@ -60,6 +64,7 @@ from planning.errors import ConfigError, option
 from sim.physics.asbuilt import CLIP_SIGMAS
 from sim.physics.lidar import LidarProfile, LidarScanner, beam_poses
 from sim.physics.runlog import LocaliserLog
+from sim.robot.pose_estimate import INITIAL_POSES, POSE_EXAMPLE, check_initial_pose, parse_initial_pose
 
 FloatArray = NDArray[np.float64]
 
@@ -90,8 +95,11 @@ COV_FLOOR = (1e-8, 1e-8, 1e-10)
 CLOUD_KEPT = 200
 #: The sources of the EKF's pose corrections (``--localiser``).
 LOCALISERS = ("amcl", "fixes")
-#: How the localiser starts (``--initial-pose``).
-INITIAL_POSES = ("known", "unknown")
+#: The start of the status text (after :data:`AMBIGUOUS`, the run's ending before tracking) and of the message of
+#: a global localisation that did not converge in :data:`GLOBAL_SCANS` revolutions (:class:`LocaliserUnconverged`).
+UNCONVERGED = "global localisation did not converge"
+
+
 #: Offset of the localiser's seeds from the run's noise seed (its own stream).
 SEED_OFFSET = 0x5CA9
 
@@ -105,8 +113,13 @@ class LocaliserSetup:
         world: The map (the scenario's world, unmapped obstacles left out); None with "fixes".
         lidar: The scanner's settings; None with "fixes".
         amcl: The localiser's settings.
-        initial: "known" (particles around the start pose, Nav2's initial covariance) or "unknown"
-            (global localisation before tracking).
+        initial: "known" (particles around the start pose, Nav2's initial covariance), "unknown"
+            (global localisation before tracking), or a pose estimate "X,Y,THETA" [m, m, rad] (particles
+            around it with Nav2's initial covariance, the robot at the scenario's start: a ROS user's
+            "2D Pose Estimate"), which must be finite, inside the world's walls and outside its obstacles.
+
+    Raises:
+        ConfigError: A pose estimate that is malformed, not finite, outside the walls or inside an obstacle.
     """
 
     kind: str = "fixes"
@@ -114,6 +127,17 @@ class LocaliserSetup:
     lidar: LidarProfile | None = None
     amcl: AmclConfig = field(default_factory=AmclConfig)
     initial: str = "known"
+
+    def __post_init__(self) -> None:
+        if self.initial not in INITIAL_POSES:
+            pose = parse_initial_pose(self.initial)
+            if self.world is not None:
+                check_initial_pose(pose, self.world, self.initial)
+
+    @property
+    def initial_pose(self) -> tuple[float, float, float] | None:
+        """The pose estimate the particles start around, or None ("known" or "unknown")."""
+        return None if self.initial in INITIAL_POSES else parse_initial_pose(self.initial)
 
     def as_dict(self) -> dict[str, object]:
         """Plain-dict view for records."""
@@ -140,11 +164,15 @@ class ScanFix(NamedTuple):
     range_gain: FloatArray | None
 
 
+#: The start of the status of a run whose localiser lost the robot (:class:`LocaliserLost`).
+LOST = "localisation lost"
+
+
 class LocaliserLost(Exception):
     """The localiser's error passed :data:`LOST_ERROR` (the run ends)."""
 
     def __init__(self, t: float, error: float) -> None:
-        super().__init__(f"localisation lost at t={t:.3f} s: the localiser's pose is {error:.2f} m from the truth")
+        super().__init__(f"{LOST} at t={t:.3f} s: the localiser's pose is {error:.2f} m from the truth")
         self.t = t
 
 
@@ -173,6 +201,31 @@ class LocaliserAmbiguous(Exception):
         super().__init__(text)
         self.scans = scans
         self.poses = poses
+
+    #: The run's status starts with this (then the message), :meth:`sim.robot.sensing.Sensing.diverged`.
+    status = AMBIGUOUS
+
+
+class LocaliserUnconverged(LocaliserAmbiguous):
+    """Global localisation took :data:`GLOBAL_SCANS` revolutions without the particles gathering (spread below
+    :data:`CONVERGED_SPREAD`) or a search's pose seeding them: the run ends before tracking, as an ambiguous
+    one does (its status :data:`AMBIGUOUS` then the message, which starts :data:`UNCONVERGED`).
+
+    Attributes:
+        spread: The particles' spread after the last revolution [m].
+    """
+
+    def __init__(self, scans: int, spread: float, range_max: float) -> None:
+        super().__init__(scans, None, range_max)
+        self.args = (
+            f"{UNCONVERGED} in {scans} revolutions at the start: no search found a pose that explains the scan "
+            f"(at least {SEARCH_FIT:.0%} of its weighed beams on the map) and the particles stayed {spread:.2f} m "
+            f"apart (converged: below {CONVERGED_SPREAD:g} m); give the start pose "
+            f"({option('initial-pose', 'known')}) or a pose estimate ({option('initial-pose', POSE_EXAMPLE)})",
+        )
+        self.spread = spread
+
+    status = UNCONVERGED  # the message starts with it
 
 
 class ScanLocaliser:
@@ -235,8 +288,9 @@ class ScanLocaliser:
         self.counts = counts
         self.last = (0, float(truth[2]))
         self.odom_at[0] = self.odom.copy()
-        if self.setup.initial == "known":
-            self.amcl.reset(truth)
+        if self.setup.initial != "unknown":  # around the start, or the pose estimate given (Nav2's covariance)
+            estimate = self.setup.initial_pose
+            self.amcl.reset(truth if estimate is None else estimate)
             return
         self.amcl.reset_global()
         try:
@@ -252,6 +306,8 @@ class ScanLocaliser:
         Raises:
             LocaliserAmbiguous: :data:`AMBIGUOUS_SCANS` revolutions in a row had distinct poses explaining
                 them alike, or too few returns to search.
+            LocaliserUnconverged: :data:`GLOBAL_SCANS` revolutions did not gather the particles (tracking
+                from a cloud spread over the map would fuse its guesses).
         """
         lidar = self.scanner.profile
         pose = np.tile(np.asarray(truth, dtype=float), (lidar.beams, 1))
@@ -279,7 +335,8 @@ class ScanLocaliser:
             if not ambiguous and est is not None and est.spread < CONVERGED_SPREAD:  # one mode of several is not
                 err = math.hypot(est.pose[0] - truth[0], est.pose[1] - truth[1])
                 return n, err < CONVERGED_ERROR
-        return GLOBAL_SCANS, False
+        spread = math.nan if self.amcl.estimate is None else self.amcl.estimate.spread
+        raise LocaliserUnconverged(GLOBAL_SCANS, spread, self.scanner.profile.range_max)
 
     def mark(self, k: int, counts: tuple[int, int], yaw: float | None = None) -> None:
         """The encoder counts and the true heading ``yaw`` [rad] at a fix period ``k``: the odometry

@@ -40,6 +40,8 @@ from sim.physics.runlog import EstimationLog
 from sim.physics.sensors import SensorModel, SensorProfile, SensorReader, latency_periods, load_sensor_profile
 from sim.robot.scan_localiser import (
     AMBIGUOUS,
+    LOST,
+    UNCONVERGED,
     LocaliserAmbiguous,
     LocaliserLost,
     LocaliserSetup,
@@ -376,7 +378,7 @@ class Sensing:
         pitch = 0.0 if self._pitch is None else self._pitch()
         pose = loop.start(self.t0, truth, (left, right), pitch) if k == 0 else loop.step(k, left, right, gyro, pitch)
         if undecided is not None:  # global localisation could not choose a pose: the run ends before tracking
-            raise EstimatorDivergedError(str(undecided), t=self.t0, reason=AMBIGUOUS) from undecided
+            raise EstimatorDivergedError(str(undecided), t=self.t0, reason=undecided.status) from undecided
         if k in self._events:
             self._fix_events(k, truth)
             pose = loop.record(k)
@@ -427,7 +429,7 @@ class Sensing:
         try:
             got = self.scans.fix(j, self._data, self.truth, self.estimate)
         except LocaliserLost as lost:
-            raise EstimatorDivergedError(str(lost), t=lost.t, reason="localisation lost") from lost
+            raise EstimatorDivergedError(str(lost), t=lost.t, reason=LOST) from lost
         if got is None:
             return False
         self.fixes[j] = got.pose
@@ -436,11 +438,15 @@ class Sensing:
         return True
 
     def diverged(self, error: EstimatorDivergedError) -> None:
-        """Record that the estimator diverged at the current period (the run ends there)."""
-        if error.reason == AMBIGUOUS:  # not a divergence: the localiser never chose a pose
+        """Record why the run ends at the current period, as what happened: the localiser never chose a pose
+        ("localisation ambiguous: ..."), its global localisation did not converge, or it lost the robot ("localisation
+        lost at t=...": the EKF did not diverge, its corrections were wrong); else the estimator diverged."""
+        if error.reason == AMBIGUOUS:
             self.status = f"{AMBIGUOUS}: {error}"
-            return
-        self.status = f"estimator diverged at t={error.t:.3f} s ({error.reason}): {error}"
+        elif error.reason in (UNCONVERGED, LOST):  # their messages start with it
+            self.status = str(error)
+        else:
+            self.status = f"estimator diverged at t={error.t:.3f} s ({error.reason}): {error}"
 
     def to_log(self) -> EstimationLog | None:
         """The run's estimation record (None when the tracker saw the truth)."""
