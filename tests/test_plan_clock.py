@@ -226,6 +226,9 @@ class _FakeTime:
         self.reads += 1
         return self.now
 
+    def thread_time(self) -> float:  # read once, when a clock starts (PlanClock.slowdown)
+        return 0.0
+
 
 @pytest.mark.parametrize(("step", "limit"), [(5e-3, 0.05), (2e-3, 0.25), (1e-6, 1.0), (2e-5, 0.1)])
 def test_a_tree_planners_budget_stops_within_one_iteration_and_a_half_percent_of_its_limit(
