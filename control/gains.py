@@ -62,6 +62,17 @@ def parse_gains_toml(text: str, *, where: str = "gains file") -> GainsFile:
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{where}: not valid TOML ({exc}); a gains file has a [gains] table with kp, kd") from exc
     unknown = set(data) - {"gains", "provenance"}
+    loose = sorted(k for k in unknown if not isinstance(data[k], dict))  # keys above any table, not tables
+    if loose:
+        one = len(loose) == 1
+        said = f"{', '.join(loose)} {'is a key' if one else 'are keys'} at the top of the file, outside any table"
+        them = "it" if one else "them"
+        if set(loose) <= set(GAIN_KEYS):
+            raise ConfigError(f"{where}: {said}; put {them} under [gains]: write a line '[gains]' above {them}")
+        raise ConfigError(
+            f"{where}: {said}; a gains file holds only the tables [gains] ({', '.join(GAIN_KEYS)}) and [provenance]: "
+            f"move {them} into one, or delete {them}"
+        )
     if unknown:
         raise ConfigError(f"{where}: unknown table(s) {', '.join(sorted(unknown))}; allowed: [gains], [provenance]")
     table = data.get("gains")

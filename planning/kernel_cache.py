@@ -16,18 +16,28 @@ module's change keeps the cache. nhsim's kernels read their constants from their
 from other kernel modules.
 
 :func:`configure` runs when ``planning``, ``control`` or ``sim`` is imported (reading them takes
-about 8 ms), before any of their kernels is defined.
+about 8 ms), before any of their kernels is defined. It only names the directory: the directory is
+made, checked and pruned when numba caches the first kernel (:func:`ready_cache_dir`, through the
+cache locator nhsim installs), so ``nhsim --version`` never touches it. A directory that cannot be
+made or written is said once on stderr with the fix (``XDG_CACHE_HOME``), and that process compiles its
+kernels into a temporary folder instead.
 """
 
 from __future__ import annotations
 
+import atexit
+import functools
 import hashlib
+import importlib
+import logging
 import os
 import re
 import shutil
 import sys
+import tempfile
 from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
 #: The packages whose kernel sources name the cache.
 PACKAGES = ("planning", "control", "sim")
@@ -37,6 +47,8 @@ KEEP = 2
 _IMPORTS_NUMBA = re.compile(rb"^\s*(?:import numba|from numba)\b", re.MULTILINE)
 _ROOT = Path(__file__).resolve().parents[1]
 _DONE = False
+#: The directory :func:`configure` named (None: it named none, or it was given).
+_OURS: str | None = None
 
 
 def _kernel_texts() -> list[tuple[Path, bytes]]:
@@ -79,27 +91,129 @@ def cache_root() -> Path:
 
 def configure() -> None:
     """Point numba's cache at the directory of the current kernel sources (see the module doc), once
-    per process; an explicit ``NUMBA_CACHE_DIR`` is left alone."""
-    global _DONE
+    per process; an explicit ``NUMBA_CACHE_DIR`` is left alone.
+
+    Only names the directory (``NUMBA_CACHE_DIR``) and installs :data:`LOCATOR` (``NUMBA_CACHE_LOCATOR_CLASSES``);
+    the directory itself is first touched when numba caches the first kernel (:func:`ready_cache_dir`), so a
+    command that compiles nothing (``nhsim --version``, ``--help``) never reads or makes it.
+    """
+    global _DONE, _OURS
     if _DONE:
         return
     _DONE = True
     if os.environ.get("NUMBA_CACHE_DIR"):
         return
-    root = cache_root()
-    path = root / source_key()
-    if not path.exists():
-        _prune(root)
-    os.environ["NUMBA_CACHE_DIR"] = str(path)
-    config = sys.modules.get("numba.core.config")
-    if config is not None:  # numba already imported: it read the environment then
-        config.CACHE_DIR = str(path)  # type: ignore[attr-defined]
-
-
-def _prune(root: Path) -> None:
-    """Remove all but the :data:`KEEP` most recently used cache directories under ``root``."""
     try:
-        others = sorted((p for p in root.iterdir() if p.is_dir()), key=lambda p: p.stat().st_mtime, reverse=True)
+        path = str(cache_root() / source_key())
+    except (RuntimeError, KeyError):  # no home folder to be found: ready_cache_dir says so
+        path = ""
+    _OURS = path or None
+    config = sys.modules.get("numba.core.config")  # numba already imported: it read the environment then
+    if path:
+        os.environ["NUMBA_CACHE_DIR"] = path
+        if config is not None:
+            config.CACHE_DIR = path  # type: ignore[attr-defined]
+    if not os.environ.get("NUMBA_CACHE_LOCATOR_CLASSES"):
+        os.environ["NUMBA_CACHE_LOCATOR_CLASSES"] = LOCATOR
+        if config is not None:
+            config.CACHE_LOCATOR_CLASSES = LOCATOR  # type: ignore[attr-defined]
+
+
+def _unusable(path: Path) -> str | None:
+    """Why numba cannot keep kernels in ``path`` (made when missing), or None when it can."""
+    try:
+        new = not path.is_dir()
+        path.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=path).close()  # writable: numba's own test
+    except OSError as exc:
+        why = str(exc.strerror or exc)
+        return f"{why}: {exc.filename}" if exc.filename and str(exc.filename) != str(path) else why
+    if new and _OURS is not None and str(path) == _OURS:
+        _prune(path.parent, current=path)
+    return None
+
+
+@functools.cache
+def ready_cache_dir() -> str:
+    """The directory numba keeps kernels in, checked once per process before the first kernel is cached.
+
+    A directory that cannot be made or written (a read-only or another user's home, ``XDG_CACHE_HOME`` naming a
+    file) is said once on stderr, with the fix, and the process compiles its kernels into a temporary folder,
+    removed at exit: the command runs, its kernels compiled afresh. The directory in use goes into
+    ``NUMBA_CACHE_DIR``, so worker processes started later use it as it is.
+    """
+    given = os.environ.get("NUMBA_CACHE_DIR", "")
+    why = _unusable(Path(given)) if given else "no home folder to keep them in"
+    if why is None:
+        return given
+    where = "XDG_CACHE_HOME" if os.environ.get("XDG_CACHE_HOME") else "HOME"
+    if given and given != _OURS:
+        where = "NUMBA_CACHE_DIR"
+    fix = (
+        "set XDG_CACHE_HOME to a folder you can write (nhsim keeps its kernels in $XDG_CACHE_HOME/nhsim/numba), "
+        "or NUMBA_CACHE_DIR to one"
+    )
+    try:
+        temporary = tempfile.mkdtemp(prefix="nhsim-kernels-")
+    except OSError:
+        temporary = ""
+    if temporary:
+        atexit.register(shutil.rmtree, temporary, ignore_errors=True)
+        os.environ["NUMBA_CACHE_DIR"] = temporary
+    used = "compiles them into a temporary folder, removed at exit" if temporary else "cannot cache them at all"
+    # a library's warning: without logging set up, Python's last-resort handler writes the message to stderr
+    logging.getLogger("nhsim").warning(
+        f"nhsim: cannot keep compiled kernels in {given or 'a cache folder'} ({why}; from {where}); this run {used}, "
+        f"so every kernel is compiled afresh (about a minute of CPU): {fix}"
+    )
+    return temporary or given
+
+
+#: The numba cache locator nhsim installs (``NUMBA_CACHE_LOCATOR_CLASSES``): numba's for ``NUMBA_CACHE_DIR``,
+#: whose directory :func:`ready_cache_dir` checks first.
+LOCATOR = f"{__name__}.KernelCacheLocator"
+
+
+def __getattr__(name: str) -> Any:
+    """``KernelCacheLocator``, made on first use (numba imports this module's name when it caches the first
+    kernel; defining the class needs numba, which ``nhsim --version`` does not import)."""
+    if name == "KernelCacheLocator":
+        return _locator_class()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+@functools.cache
+def _locator_class() -> type:
+    caching: Any = importlib.import_module("numba.core.caching")  # no import line: this module is no kernel source
+    config: Any = importlib.import_module("numba.core.config")
+    base: type = caching.UserProvidedCacheLocator
+
+    class KernelCacheLocator(base):
+        """numba's locator for ``NUMBA_CACHE_DIR``, its directory made ready (:func:`ready_cache_dir`) first."""
+
+        @classmethod
+        def from_function(cls, py_func: Any, py_file: str) -> Any:
+            config.CACHE_DIR = ready_cache_dir()
+            found = super().from_function(py_func, py_file)
+            if found is not None:
+                return found
+            impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl
+            for other in impl._locator_classes:  # none usable: numba's own choice, as without nhsim
+                if other is not caching.UserProvidedCacheLocator:
+                    found = other.from_function(py_func, py_file)
+                    if found is not None:
+                        return found
+            return None
+
+    return KernelCacheLocator
+
+
+def _prune(root: Path, current: Path | None = None) -> None:
+    """Remove all but the :data:`KEEP` most recently used cache directories under ``root`` (besides ``current``)."""
+    try:
+        others = sorted(
+            (p for p in root.iterdir() if p.is_dir() and p != current), key=lambda p: p.stat().st_mtime, reverse=True
+        )
     except OSError:  # no folder yet
         return
     for old in others[KEEP:]:

@@ -31,7 +31,7 @@ def test_xi_min_defaults_and_kp_kd_required() -> None:
     ("text", "match"),
     [
         ("[gains\nkp = 1", "not valid TOML"),
-        ("kp = 1\nkd = 2\n", "unknown table|missing \\[gains\\]"),
+        ("kp = 1\nkd = 2\n", "kd, kp are keys at the top of the file, outside any table; put them under \\[gains\\]"),
         ("[gains]\nkp = -1\nkd = 2\n", "kp must be a finite number > 0, got -1; the error dynamics need it"),
         ("[gains]\nkp = 1\nkd = 0\n", "kd must be a finite number > 0, got 0"),
         ("[gains]\nkp = 'x'\nkd = 2\n", "kp must be a finite number"),

@@ -100,6 +100,11 @@ def read_grey(path: str | Path) -> FloatArray:
     from PIL import Image, UnidentifiedImageError
 
     p = Path(path)
+    if p.is_dir():
+        raise ScenarioError(
+            f"map image {p} is a folder, not an image file; give the PNG or JPEG file's path (relative to the "
+            "scenario file)"
+        )
     if not p.is_file():
         raise ScenarioError(f"map image {p} does not exist; check the path (relative to the scenario file)")
     try:

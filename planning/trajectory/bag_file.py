@@ -14,7 +14,8 @@ The poses' frame (their ``header.frame_id``; a path's poses', which a path heade
 frame does not override) goes into the import report: poses in another frame than ``map`` (an ``odom``
 recording) are taken as they are in the scenario's map frame, and the report says so and points to
 ``--offset``. Orientation quaternions must have norm 1 within :data:`QUATERNION_TOLERANCE` (tf2 refuses
-others; those within it are normalised).
+others; those within it are normalised): the check a YAML path's get too
+(:func:`planning.trajectory.file_formats.quaternion_headings`).
 
 The table then goes through :func:`planning.trajectory.importer.read_trajectory_file`'s repairs and
 checks like any other file. Every problem (no such bag, a truncated file or one that is not a bag,
@@ -33,11 +34,13 @@ from typing import Any
 import numpy as np
 
 from planning.errors import option
+from planning.trajectory.file_formats import QUATERNION_TOLERANCE as QUATERNION_TOLERANCE  # one check: bags, YAML
 from planning.trajectory.file_formats import (
     FileTable,
     TrajectoryFileError,
-    quaternion_yaw,
+    quaternion_headings,
     table_from_arrays,
+    yaml_problem,
 )
 
 #: File suffixes read as bags (a folder with a ``metadata.yaml`` is one too).
@@ -45,10 +48,6 @@ BAG_SUFFIXES = (".mcap", ".bag", ".db3")
 PATH_TYPE = "nav_msgs/msg/Path"
 #: Types whose messages are each one row of a recorded motion.
 MOTION_TYPES = ("nav_msgs/msg/Odometry", "geometry_msgs/msg/PoseStamped", "geometry_msgs/msg/PoseWithCovarianceStamped")
-#: Largest difference of an orientation quaternion's norm from 1 (within it the quaternion is normalised).
-QUATERNION_TOLERANCE = 1e-3
-#: A quaternion of a smaller norm is zero: no orientation at all.
-ZERO_QUATERNION = 1e-6
 #: The frame the scenario's coordinates are in.
 MAP_FRAME = "map"
 
@@ -75,6 +74,8 @@ def _open(path: Path) -> Any:
             f"cannot read bag {path}: the folder has no metadata.yaml, so it is not a rosbag2 bag; give the bag "
             "folder ros2 bag record wrote (or its .mcap file); `ros2 bag reindex` rebuilds a lost metadata.yaml"
         )
+    if path.is_dir():
+        _check_metadata(path / "metadata.yaml")
     reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
     try:
         reader.open()
@@ -85,6 +86,22 @@ def _open(path: Path) -> Any:
             "or `mcap recover`)"
         ) from exc
     return reader
+
+
+def _check_metadata(metadata: Path) -> None:
+    """A rosbag2 folder's ``metadata.yaml`` must be YAML; else one line naming where it breaks and the fix (rosbags'
+    own message quotes PyYAML's several lines)."""
+    import yaml
+
+    try:
+        yaml.safe_load(metadata.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError):  # rosbags says why it cannot read it
+        return
+    except yaml.YAMLError as exc:
+        raise TrajectoryFileError(
+            f"cannot read bag {metadata.parent}: {metadata} is not valid YAML ({yaml_problem(exc)}); fix it there, "
+            "or rebuild it from the bag's storage files with `ros2 bag reindex`"
+        ) from exc
 
 
 def _topics_text(reader: Any) -> str:
@@ -138,31 +155,12 @@ def _columns(path: Path, poses: list[Any], stamps: list[int], rows: tuple[str, .
     }
     q = np.array([[p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w] for p in poses], dtype=float)
     _check_finite(path, {**cols, "orientation quaternion": q}, rows)
-    _check_unit(path, q, rows)
-    cols["theta"] = np.array([quaternion_yaw(*o) for o in q], dtype=float)  # normalised
+    theta = quaternion_headings(q, rows, path)  # unit quaternions (normalised), as a YAML path's
+    assert theta is not None  # a zero quaternion is refused
+    cols["theta"] = theta
     if len(set(stamps)) > 1:
         cols["t"] = np.array([s - stamps[0] for s in stamps], dtype=float) * 1e-9
     return cols
-
-
-def _check_unit(path: Path, q: np.ndarray, rows: tuple[str, ...]) -> None:
-    """Each orientation quaternion (N, 4) of norm 1 within :data:`QUATERNION_TOLERANCE`: tf2 refuses an
-    unnormalised one, and a zero one is no rotation at all."""
-    norm = np.linalg.norm(q, axis=1)
-    bad = np.flatnonzero((norm < ZERO_QUATERNION) | (np.abs(norm - 1.0) > QUATERNION_TOLERANCE))
-    if not bad.size:
-        return
-    k = int(bad[0])
-    zero = norm[k] < ZERO_QUATERNION
-    what = "a zero" if zero else f"an unnormalised (norm {norm[k]:.6g})"
-    fix = "normalise it (x, y, z and w divided by their norm)"
-    if zero:
-        fix = "give it the pose's orientation, (0, 0, sin(yaw/2), cos(yaw/2)) for a heading yaw"
-    raise TrajectoryFileError(
-        f"{path}: {rows[k]} has {what} orientation quaternion (x, y, z, w) = ({', '.join(f'{v:g}' for v in q[k])})"
-        f" ({bad.size} of {len(rows)} poses); an orientation is a unit quaternion, norm 1 within "
-        f"{QUATERNION_TOLERANCE:g} (tf2 refuses others): {fix}"
-    )
 
 
 def _one_frame(path: Path, what: str, frames: list[str], rows: tuple[str, ...]) -> str:

@@ -47,12 +47,17 @@ __all__ = [
     "quaternion_yaw",
     "read_table",
     "table_from_arrays",
+    "yaml_problem",
 ]
 
 #: The column names a file may use, in this order in messages.
 COLUMNS = ("t", "x", "y", "theta", "v", "omega", "vx", "vy", "ax", "ay")
 #: The name that skips a column.
 SKIP = "_"
+#: Largest difference of an orientation quaternion's norm from 1 (within it the quaternion is normalised).
+QUATERNION_TOLERANCE = 1e-3
+#: A quaternion of a smaller norm is zero: no orientation at all.
+ZERO_QUATERNION = 1e-6
 _COMMENTS = ("#", "%", "//")
 
 
@@ -217,8 +222,23 @@ def _load_yaml(p: Path, text: str) -> Any:
             if doc is not None:
                 return doc
     except yaml.YAMLError as exc:
-        raise TrajectoryFileError(f"{p}: not valid YAML: {exc}") from exc
+        raise TrajectoryFileError(
+            f"{p}: not valid YAML ({yaml_problem(exc)}); fix the file there: a nav_msgs/Path as `ros2 topic echo` "
+            "writes it, or a table of columns or records"
+        ) from exc
     raise TrajectoryFileError(f"{p}: the YAML file is empty")
+
+
+def yaml_problem(exc: Exception) -> str:
+    """A PyYAML error in one line: where (line and column, counted from 1) and what, without PyYAML's quoted
+    excerpt of the text: ``line 2, column 1: expected the node content, but found '<stream end>' (while parsing
+    a flow node)``."""
+    mark = getattr(exc, "problem_mark", None)
+    problem, context = getattr(exc, "problem", None), getattr(exc, "context", None)
+    if mark is None or problem is None:  # a reader error (a byte that is not text) or another: its text, one line
+        return " ".join(str(exc).split())
+    where = f"line {mark.line + 1}, column {mark.column + 1}"
+    return f"{where}: {problem}" + (f" ({context})" if context else "")
 
 
 # ----------------------------------------------------------------------------------------- text
@@ -331,6 +351,12 @@ def _numbers(p: Path, body: list[tuple[int, list[str]]], names: tuple[str, ...])
 def _from_document(p: Path, data: Any, fmt: str) -> FileTable:
     if isinstance(data, Mapping) and "poses" in data:
         return _nav_path(p, data)
+    if isinstance(data, Mapping) and "header" in data:  # a message's header; no column is called that
+        raise TrajectoryFileError(
+            f"{p}: has a header but no poses list; a nav_msgs/Path needs one (poses: a list of stamped poses, each "
+            "with pose.position and pose.orientation): give the whole message, as `ros2 topic echo --once /plan` "
+            "writes it, or a table of columns or records"
+        )
     if isinstance(data, Mapping):
         return _from_columns(p, data, fmt)
     if isinstance(data, list):
@@ -395,12 +421,11 @@ def _stamp(pose: Mapping[str, Any], p: Path, where: str) -> float | None:
     return _number(sec, str(p), where, "header.stamp.sec") + 1e-9 * _number(nsec, str(p), where, "header.stamp.nanosec")
 
 
-def _yaw(pose: Mapping[str, Any], p: Path, where: str) -> float | None:
+def _quaternion(pose: Mapping[str, Any], p: Path, where: str) -> list[float] | None:
     q = pose["pose"].get("orientation")
     if q is None:
         return None
-    qx, qy, qz, qw = (_number(_field(q, (k,), p, where), str(p), where, f"orientation.{k}") for k in "xyzw")
-    return quaternion_yaw(qx, qy, qz, qw)
+    return [_number(_field(q, (k,), p, where), str(p), where, f"orientation.{k}") for k in "xyzw"]
 
 
 def quaternion_yaw(qx: float, qy: float, qz: float, qw: float) -> float:
@@ -412,23 +437,41 @@ def quaternion_yaw(qx: float, qy: float, qz: float, qw: float) -> float:
     return float(np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz)))
 
 
-def quaternion_headings(yaws: ArrayLike, rows: Sequence[str], where: str | Path) -> FloatArray | None:
-    """Headings from poses' quaternion yaws (:func:`quaternion_yaw`): None when every quaternion is zero (a
-    ROS 1 message's default: the poses give no heading, which then follows the motion).
+def quaternion_headings(
+    q: ArrayLike, rows: Sequence[str], where: str | Path, *, all_zero: bool = False
+) -> FloatArray | None:
+    """The headings (yaws) of poses' orientation quaternions (N, 4: x, y, z, w), each of norm 1 within
+    :data:`QUATERNION_TOLERANCE` (normalised), as tf2 takes them: the one check of a bag's and a YAML file's.
+
+    Args:
+        q: The quaternions, finite.
+        rows: How messages name each pose.
+        where: The file (and topic) in messages.
+        all_zero: Every quaternion zero means no headings (a ROS 1 message's default, in a YAML capture): None.
 
     Raises:
-        TrajectoryFileError: Some quaternions are zero and others not (the first zero one named).
+        TrajectoryFileError: A zero quaternion (among others that are not) or one whose norm is off 1 by more
+            than the tolerance: the first named, with its values and the fix.
     """
-    out = np.asarray(yaws, dtype=float)
-    zero = np.flatnonzero(np.isnan(out))
-    if zero.size == out.size:
+    quats = np.asarray(q, dtype=float).reshape(-1, 4)
+    norm = np.linalg.norm(quats, axis=1)
+    zero = norm < ZERO_QUATERNION
+    if all_zero and zero.all():
         return None
-    if zero.size:
+    bad = np.flatnonzero(zero | (np.abs(norm - 1.0) > QUATERNION_TOLERANCE))
+    if bad.size:
+        k = int(bad[0])
+        what = "a zero" if zero[k] else f"an unnormalised (norm {norm[k]:.6g})"
+        fix = "normalise it (x, y, z and w divided by their norm)"
+        if zero[k]:
+            fix = "give it the pose's orientation, (0, 0, sin(yaw/2), cos(yaw/2)) for a heading yaw"
+            fix += ", or every pose a zero quaternion for no headings" if all_zero else ""
         raise TrajectoryFileError(
-            f"{where}: {rows[zero[0]]} has a zero orientation quaternion ({zero.size} of {out.size} poses) while "
-            "others give a heading; give every pose a unit quaternion, or every one zero for no headings"
+            f"{where}: {rows[k]} has {what} orientation quaternion (x, y, z, w) = "
+            f"({', '.join(f'{v:g}' for v in quats[k])}) ({bad.size} of {len(rows)} poses); an orientation is a unit "
+            f"quaternion, norm 1 within {QUATERNION_TOLERANCE:g} (tf2 refuses others): {fix}"
         )
-    return out
+    return np.array([quaternion_yaw(*o) for o in quats], dtype=float)
 
 
 def _nav_path(p: Path, data: Mapping[str, Any]) -> FileTable:
@@ -436,16 +479,16 @@ def _nav_path(p: Path, data: Mapping[str, Any]) -> FileTable:
     if not isinstance(poses, list) or not poses:
         raise TrajectoryFileError(f"{p}: poses must be a non-empty list of stamped poses")
     rows = tuple(f"poses[{i}]" for i in range(len(poses)))
-    xs, ys, yaws, stamps = [], [], [], []
+    xs, ys, quats, stamps = [], [], [], []
     for where, pose in zip(rows, poses, strict=True):
         pos = _field(pose, ("pose", "position"), p, where)
         xs.append(_number(_field(pos, ("x",), p, where), str(p), where, "pose.position.x"))
         ys.append(_number(_field(pos, ("y",), p, where), str(p), where, "pose.position.y"))
-        yaws.append(_yaw(pose, p, where))
+        quats.append(_quaternion(pose, p, where))
         stamps.append(_stamp(pose, p, where))
     cols = {"x": np.asarray(xs), "y": np.asarray(ys)}
-    if all(y is not None for y in yaws):
-        theta = quaternion_headings(np.array(yaws, dtype=float), rows, p)
+    if all(q is not None for q in quats):
+        theta = quaternion_headings(np.array(quats, dtype=float), rows, p, all_zero=True)
         if theta is not None:
             cols["theta"] = theta
     if all(s is not None for s in stamps) and len(set(stamps)) > 1:

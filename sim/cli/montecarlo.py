@@ -266,6 +266,8 @@ def run(args: argparse.Namespace) -> int:
             raise
         paths["results"].unlink()  # --overwrite: replaced
         results = ResultsFile(paths["results"], spec.key())
+    for note in results.notes:
+        print(f"note: {note}", file=sys.stderr)
     if not args.quiet and results.records:
         print(f"resuming: {len(results.records)} runs done in {paths['results']}")
     with make_executor(args.jobs, args.scheduler) as executor, _bar(args, spec.runs) as bar:

@@ -55,6 +55,8 @@ METRICS = ("final_position_error_m", "final_heading_error_rad", "rms_position_er
 WORKER_MODULES = ("sim.tools.montecarlo", "sim.physics.simulator", "control.estimation.kernels")
 #: Worst runs listed per run kind (by final position error).
 WORST = 3
+#: What a run record holds for each run kind (:func:`run_one`), read by :func:`statistics` and the plots.
+_ENTRY_KEYS = (*METRICS, "collisions", "success", "path")
 
 
 @dataclass(frozen=True)
@@ -225,12 +227,35 @@ def code_digest() -> str:
     return files_digest(((f, f.read_bytes()) for f in files if f.is_file() and "__pycache__" not in f.parts), 6)
 
 
+#: What every run record has (besides ``runs``, or ``failed`` for a run whose replanning failed).
+_RECORD_KEYS = ("index", "plan_seed", "noise_seed", "build_seed", "perturbation")
+
+
+def _record_problem(rec: Any) -> str:
+    """Why a results line's JSON is not a run record (:func:`run_one`'s); "" when it is one."""
+    if not isinstance(rec, dict):
+        return f"a JSON {type(rec).__name__}, not a run record"
+    missing = [k for k in _RECORD_KEYS if k not in rec]
+    if missing:
+        return f"a record without {', '.join(repr(k) for k in missing)}, not a run record"
+    index = rec["index"]
+    if not isinstance(index, int) or isinstance(index, bool) or index < 0:
+        return f"its index {index!r} is not a run number (an integer >= 0)"
+    runs = rec.get("runs")
+    if "failed" not in rec and not (
+        isinstance(runs, dict) and all(isinstance(e, dict) and set(_ENTRY_KEYS) <= set(e) for e in runs.values())
+    ):
+        return f"run {index} has neither 'failed' nor its runs' metrics ({', '.join(_ENTRY_KEYS)} per run kind)"
+    return ""
+
+
 class ResultsFile:
     """The runs of one study, one JSON line each after a header line naming the study's key.
 
     Opening an existing file checks its key (a file of another study is refused, naming what
-    differs) and reads its runs; a last line cut short by a kill is dropped. Each new record is
-    appended, flushed and synced to disk before the next is taken. A new file is made with the first
+    differs) and reads its runs; a last line cut short by a kill (no newline after it) is dropped, said on
+    stderr, and any other line that is not a run record is refused, naming it (the file is left as it is).
+    Each new record is appended, flushed and synced to disk before the next is taken. A new file is made with the first
     finished run, so a study refused before any run (bad input, an unreachable scheduler) leaves none.
 
     Args:
@@ -240,7 +265,8 @@ class ResultsFile:
             headed by one is this study's too.
 
     Raises:
-        ConfigError: The file holds another study, or is not a results file.
+        ConfigError: The file holds another study, is not a results file, or holds a line that is not a run
+            record (other than a last line cut short).
     """
 
     def __init__(
@@ -250,6 +276,8 @@ class ResultsFile:
         self.earlier = [dict(k) for k in earlier]
         self.code = code_digest() if code is None else code
         self.records: dict[int, dict[str, Any]] = {}
+        #: What reading the file did that the user should hear of (a last line cut short, dropped).
+        self.notes: list[str] = []
         if self.path.exists():
             self._read()
 
@@ -281,20 +309,47 @@ class ResultsFile:
                 f"planners, trackers, physics and models); runs of both would be mixed: give {_REPLACE} to run the "
                 f"study again, or another {_RESULTS}"
             )
-        good = len(lines[0]) + 1
-        for line in lines[1:]:
+        self._read_records(raw, lines)
+
+    def _read_records(self, raw: bytes, lines: list[bytes]) -> None:
+        """The run records after the header. Only the last line may be unreadable, and only when it is cut short
+        (no newline after it: a run killed while appending it): it is dropped (said on stderr) and its run done
+        again. Any other unreadable line is refused, naming it: nothing is dropped or cut from the file."""
+        torn = not raw.endswith(b"\n")
+        for number, line in enumerate(lines[1:], start=2):
             if not line.strip():
-                good += len(line) + 1
                 continue
+            last = number == len(lines)
             try:
                 rec = json.loads(line)
-            except ValueError:  # the last line of a run killed while writing it
-                break
+            except ValueError:
+                if last and torn:
+                    self._drop_torn_line(raw, len(raw) - len(line), number)
+                    return
+                raise self._bad_line(number, "not a JSON record") from None
+            problem = _record_problem(rec)
+            if problem:
+                raise self._bad_line(number, problem)
             self.records[int(rec["index"])] = rec
-            good += len(line) + 1
-        if good < len(raw):
-            with self.path.open("r+b") as f:
-                f.truncate(good)
+        if torn:  # a whole last record without its newline: ended, so that the next record starts a line
+            with self.path.open("ab") as f:
+                f.write(b"\n")
+
+    def _drop_torn_line(self, raw: bytes, start: int, number: int) -> None:
+        with self.path.open("r+b") as f:
+            f.truncate(start)
+        self.notes.append(
+            f"{self.path}: dropped its last line (line {number}, {len(raw) - start} bytes cut short, a run "
+            "interrupted while it was written); that run is done again"
+        )
+
+    def _bad_line(self, number: int, problem: str) -> ConfigError:
+        return ConfigError(
+            f"{self.path}, line {number}: {problem}; the file was changed by something other than nhsim (an "
+            "interrupted write can only cut its last line short), and nothing was removed from it: repair or "
+            f"delete that line (its run is then done again), give another {_RESULTS}, or {_REPLACE} to run the "
+            "whole study again"
+        )
 
     def _append(self, obj: Mapping[str, Any]) -> None:
         with self.path.open("a", encoding="utf-8") as f:

@@ -26,8 +26,9 @@ AVX-512 and an AVX2 machine running the same wheels):
 
 A planned case plans, smooths and times its scenario through :func:`sim.pipeline.case.prepare_trajectory`.
 The suite file and the baseline directory are arguments: the command line passes the repository's.
-A baseline that cannot be read is its case's failure (:attr:`Status.UNREADABLE`), not the run's: the
-other cases are compared, and ``--update`` replaces it.
+A baseline that cannot be read, or holds no value (absent, or null) for a metric its case's run measures, is
+its case's failure (:attr:`Status.UNREADABLE`), not the run's: the other cases are compared, and ``--update``
+replaces it. A metric that is NaN on both sides (a baseline writes NaN as null) has not changed.
 """
 
 from __future__ import annotations
@@ -580,6 +581,11 @@ class Change:
         return self.status != "within"
 
 
+def _is_nan(value: Any) -> bool:
+    """Whether a metric's value is NaN (a float NaN, or null: how a baseline writes one)."""
+    return value is None or (isinstance(value, float) and math.isnan(value))
+
+
 def compare(
     case: str, metrics: dict[str, float], baseline: dict[str, float], tolerances: dict[str, Tolerance], *, exact: bool
 ) -> list[Change]:
@@ -591,9 +597,11 @@ def compare(
             continue
         if new is None or old is None:
             nan = float("nan")
+            if _is_nan(old if new is None else new):  # NaN on both sides: a baseline writes NaN as null
+                continue
             out.append(Change(case, metric, nan if old is None else old, nan if new is None else new, 0.0, "changed"))
             continue
-        if new == old:
+        if new == old or (_is_nan(new) and _is_nan(old)):
             continue
         delta = new - old
         if exact:
@@ -730,10 +738,22 @@ def update_hint(case: Case) -> str:
     return f"nhsim regress --update --case {case.name}"
 
 
+def _unrecorded(metrics: Mapping[str, Any], recorded: Mapping[str, Any]) -> list[str]:
+    """The metrics a run measured (a finite number) that its baseline does not hold: absent or null there. An
+    nhsim's baseline holds every metric its run measured (null only for a value that was not finite, NaN), so a
+    baseline without one was edited, damaged or written by something else: it cannot be compared with."""
+    measured = [m for m in DIRECTIONS if isinstance(metrics.get(m), bool) or is_number(metrics.get(m))]
+    return [m for m in measured if recorded.get(m) is None]
+
+
 def judge(case: Case, metrics: dict[str, Any], base: Baseline, tolerances: dict[str, Tolerance]) -> CheckResult:
     """A measured case's result against its baseline (see the module docstring for the rules)."""
-    if base.problem:
-        problem = f"baseline {base.path} is unreadable ({base.problem}); rewrite it with {update_hint(case)}"
+    problem = base.problem
+    if not problem and base.document is not None:
+        holes = _unrecorded(metrics, base.document["metrics"])
+        problem = f"no value for metric(s) {', '.join(holes)}: missing or null" if holes else ""
+    if problem:
+        problem = f"baseline {base.path} is unreadable ({problem}); rewrite it with {update_hint(case)}"
         return CheckResult(case, Status.UNREADABLE, f"case {case.name}: {problem}", metrics)
     if base.document is None:
         hint = f"record it with {update_hint(case)}"

@@ -87,6 +87,42 @@ def default_backend() -> str:
     return "glfw"
 
 
+#: The MUJOCO_GL values mujoco accepts (``mujoco/rendering/classic/gl_context.py``, as it reads them: lower case,
+#: stripped): its backends, and the words that enable (GLFW) or disable rendering.
+MUJOCO_GL_VALUES = (
+    *BACKENDS,
+    "glx",
+    "",
+    "enable",
+    "enabled",
+    "on",
+    "true",
+    "1",
+    DISABLED,
+    "disabled",
+    "off",
+    "false",
+    "0",
+)
+
+
+def check_environment() -> None:
+    """Refuse a ``MUJOCO_GL`` that mujoco's import would fail on (with a RuntimeError and no fix), before
+    anything imports it.
+
+    Raises:
+        ConfigError: ``MUJOCO_GL`` is set to a value mujoco does not know; the message names the valid ones.
+    """
+    value = os.environ.get("MUJOCO_GL")
+    if value is None or value.strip().lower() in MUJOCO_GL_VALUES or not sys.platform.startswith("linux"):
+        return
+    choose = options(("gl", "osmesa", _CONFIGURE), ("gl", "egl", _CONFIGURE), conjunction="or")
+    raise ConfigError(
+        f"environment variable MUJOCO_GL={value!r} is not a GL backend mujoco knows: set it to one of "
+        f"{', '.join(BACKENDS)} ({DISABLED} for no rendering), or unset it for nhsim's default, or choose with {choose}"
+    )
+
+
 def mujoco_imported() -> bool:
     """Whether ``mujoco`` has been imported in this process already."""
     return "mujoco" in sys.modules
@@ -102,13 +138,16 @@ def configure(backend: str | None = None) -> str:
         The backend in force (see :func:`current_backend`).
 
     Raises:
-        ConfigError: Unknown backend name, or a different backend was asked for after MuJoCo was
+        ConfigError: Unknown backend name, a ``MUJOCO_GL`` mujoco would refuse (:func:`check_environment`;
+            a backend named here replaces it), or a different backend was asked for after MuJoCo was
             imported (MuJoCo reads the choice once).
         DependencyError: The requested backend's library (or display) is missing; the message
             names what to install.
     """
     if backend is not None and backend not in BACKENDS:
         raise ConfigError(f"unknown GL backend {backend!r}: choose one of {', '.join(BACKENDS)}")
+    if backend is None and not mujoco_imported():
+        check_environment()
     if backend is not None:
         reason = backend_missing(backend)
         if reason is not None:

@@ -21,7 +21,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--space", choices=["reeds_shepp", "dubins"], default="reeds_shepp", help="curve space of both sides"
     )
-    p.add_argument("--seeds", type=int, default=20, help="seeds (trials) per problem (default: 20)")
+    p.add_argument("--seeds", type=int, default=None, help="seeds (trials) per problem (default: 20; 5 with --quick)")
     p.add_argument(
         "--scenarios",
         nargs="+",
@@ -40,11 +40,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--optimal",
         nargs="+",
-        default=list(OPTIMAL),
+        default=None,
         metavar="PLANNER",
-        help=f"OMPL's optimal planners rrt-star races (default: all of {', '.join(OPTIMAL)})",
+        help=f"OMPL's optimal planners rrt-star races (default: all of {', '.join(OPTIMAL)}; RRTstar with --quick)",
     )
-    p.add_argument("--budget", type=float, default=1.0, metavar="S", help="RRT* time budget [s] (default: 1)")
+    p.add_argument(
+        "--budget", type=float, default=None, metavar="S", help="RRT* time budget [s] (default: 1; 0.5 with --quick)"
+    )
     p.add_argument(
         "--goal",
         choices=("region", "pose"),
@@ -57,7 +59,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-wheel", action="store_true", help="skip OMPL's Python wheel even when installed")
     p.add_argument("--markdown", metavar="PATH", help="also write the tables as Markdown, stamped, to PATH")
     p.add_argument("--overwrite", action="store_true", help="replace an existing --markdown file")
-    p.add_argument("--quick", action="store_true", help="5 seeds, disc10 only, 0.5 s budget, RRTstar only")
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="a quick run: 5 seeds, disc10 only, 0.5 s budget, RRTstar only (--seeds, --scenarios, --budget and "
+        "--optimal given with it are used instead)",
+    )
 
 
 def _fmt(v: float, spec: str, width: int = 0) -> str:
@@ -166,20 +173,28 @@ def _markdown(rows: list[Any], stamp: str, verdict: list[str], cpp: bool) -> str
     return "\n".join(out + [f"- {v}" for v in verdict]) + "\n"
 
 
-def run(args: argparse.Namespace) -> int:
-    """Measure and print; exit 1 when a target is missed, 0 with a note when OMPL C++ is unavailable."""
-    from pathlib import Path
+#: What ``--quick`` races unless told otherwise: (seeds, problems, budget [s], OMPL planners).
+QUICK: tuple[int, list[str] | None, float, tuple[str, ...] | None] = (5, ["disc10"], 0.5, ("RRTstar",))
+#: The same without ``--quick`` (problems None: every built-in scenario and the named ones; planners None: all).
+FULL: tuple[int, list[str] | None, float, tuple[str, ...] | None] = (20, None, 1.0, None)
 
+
+def settings(args: argparse.Namespace) -> tuple[int, list[str] | None, float, tuple[str, ...]]:
+    """(seeds, problem names, RRT* budget, OMPL planners): the options given, else :data:`QUICK`'s with
+    ``--quick``, else :data:`FULL`'s; each checked alike, given or not.
+
+    Raises:
+        ConfigError: A count or time out of range, an unknown OMPL planner (naming the option).
+    """
     from planning.core.checks import check_number
     from sim.cli.checks import check_at_least
-    from sim.outputs import atomic_path, check_writable
-    from sim.tools.bench.ompl_native import build
-    from sim.tools.bench.plan import OPTIMAL, measure, problems, wheel_available
+    from sim.tools.bench.plan import OPTIMAL
 
-    seeds, names, budget = (
-        (5, args.scenarios or ["disc10"], 0.5) if args.quick else (args.seeds, args.scenarios, args.budget)
-    )
-    optimal = ("RRTstar",) if args.quick else tuple(args.optimal)
+    d_seeds, d_names, d_budget, d_optimal = QUICK if args.quick else FULL
+    seeds: int = d_seeds if args.seeds is None else args.seeds
+    names: list[str] | None = d_names if args.scenarios is None else args.scenarios
+    budget: float = d_budget if args.budget is None else args.budget
+    optimal = tuple(args.optimal or d_optimal or OPTIMAL)
     check_at_least({"--seeds": (seeds, 1)})
     for flag, value in (("--budget", budget), ("--ttfs-limit", args.ttfs_limit)):
         check_number(flag, value, above=0.0, unit="s")
@@ -188,6 +203,18 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(
             f"unknown OMPL planner(s) {', '.join(unknown)} for --optimal: choose from {', '.join(OPTIMAL)}"
         )
+    return seeds, None if names is None else list(names), budget, optimal
+
+
+def run(args: argparse.Namespace) -> int:
+    """Measure and print; exit 1 when a target is missed, 0 with a note when OMPL C++ is unavailable."""
+    from pathlib import Path
+
+    from sim.outputs import atomic_path, check_writable
+    from sim.tools.bench.ompl_native import build
+    from sim.tools.bench.plan import measure, problems, wheel_available
+
+    seeds, names, budget, optimal = settings(args)
     if args.markdown:
         check_writable(Path(args.markdown), overwrite=args.overwrite)
     randoms = args.random_worlds if args.random_worlds is not None else (3 if names is None else 0)
