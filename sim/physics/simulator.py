@@ -582,15 +582,16 @@ class Recorder:
         ref = trajectory.sample_many(t_log).pose
         estimation = sensing.to_log() if sensing is not None else None
         status = sensing.status if sensing is not None else "ok"
-        if status != "ok" and self.contacts:  # a collision moved the robot: say it before what it caused
-            c = self.contacts[0]
-            status = f"collided with {c.obstacle!r} at t={c.t:.3f} s, then {status}"
         fw = self.balance
         if fw is not None and fw.fell_at is not None:
             status = (
                 f"fell at t={self.t0 + fw.fell_at:.3f} s (|tilt| beyond {fw.tip_angle:g} rad or the chassis "
                 "on the floor); the run ended there"
             )
+        ended = np.inf if fw is None or fw.fell_at is None else self.t0 + fw.fell_at
+        first = next((c for c in self.contacts if c.t <= ended), None)  # not one the fall itself made
+        if status != "ok" and first is not None:  # a collision moved the robot: say it before what it caused
+            status = f"collided with {first.obstacle!r} at t={first.t:.3f} s, then {status}"
         return RunLog(
             t_log, pose, qpos, ref, cmd, wcmd, wspd, tuple(self.contacts), self.warnings(), meta,
             estimation=estimation, wheel_off_floor=self._log[:n, 1] > 0.5 if self._has_touch else None,

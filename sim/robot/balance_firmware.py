@@ -39,11 +39,17 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 
-def touches(d: mujoco.MjData, geom: int) -> bool:
-    """Whether geom ``geom`` is in any of ``d``'s contacts now (the chassis: the robot has fallen; its wheels,
-    skids or caster are all that touch the floor while it stands)."""
+def touches(d: mujoco.MjData, geom: int, other: int) -> bool:
+    """Whether geoms ``geom`` and ``other`` are in contact now (the chassis and the floor: the robot has fallen;
+    its wheels, skids or caster are all that touch the floor while it stands, and the chassis brushing an
+    obstacle while upright is a collision, counted as one, not a fall)."""
     n = d.ncon
-    return n > 0 and bool(np.any(d.contact.geom[:n] == geom))
+    if n == 0:
+        return False
+    pairs = d.contact.geom[:n]
+    return bool(
+        np.any(((pairs[:, 0] == geom) & (pairs[:, 1] == other)) | ((pairs[:, 0] == other) & (pairs[:, 1] == geom)))
+    )
 
 
 @dataclass(frozen=True)
@@ -139,7 +145,7 @@ class BalanceFirmware:
         self._wheels = np.array(
             [model.jnt_qposadr[model.joint(n).id] for n in ("wheel_left_joint", "wheel_right_joint")]
         )
-        self._chassis = model.geom("chassis").id
+        self._chassis, self._floor = model.geom("chassis").id, model.geom("floor").id
         self.fell_at: float | None = None
         self.push: Push | None = None  # a push to give the body (set before the run)
         self._pushing = False
@@ -156,13 +162,13 @@ class BalanceFirmware:
         self.controller.reset(theta, phi)
 
     def fallen(self) -> bool:
-        """True when the body tilts beyond the tip angle or the chassis touches anything (first time recorded)."""
+        """True when the body tilts beyond the tip angle or the chassis touches the floor (first time recorded)."""
         d = self.data
         q = d.qpos[self._quat : self._quat + 4]
         tilt = math.acos(min(1.0, max(-1.0, 1.0 - 2.0 * (q[1] * q[1] + q[2] * q[2]))))
         pitch = abs(float(body_pitch(q)))
         self.max_pitch = max(self.max_pitch, pitch)
-        touch = touches(d, self._chassis)
+        touch = touches(d, self._chassis, self._floor)
         if self.fell_at is None and (tilt > self.tip_angle or touch):
             self.fell_at = float(d.time)
         return self.fell_at is not None

@@ -149,7 +149,7 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         )
         m = simulator.model
         self._accel_adr = int(m.sensor_adr[m.sensor("imu_accel").id])
-        self._chassis = m.geom("chassis").id
+        self._chassis, self._floor = m.geom("chassis").id, m.geom("floor").id
         self.episodes = 0
         self.episode: Episode | None = None
 
@@ -201,16 +201,16 @@ class TrackingTask(control.Task):  # type: ignore[misc]
 
         A balancing robot has fallen when its balance firmware says so
         (:meth:`sim.robot.balance_firmware.BalanceFirmware.fallen`, checked at each of its updates:
-        the body's tilt beyond the profile's ``tip_angle`` or the chassis touching anything), the test
+        the body's tilt beyond the profile's ``tip_angle`` or the chassis touching the floor), the test
         that ends an ``nhsim simulate`` run. A robot that does not balance has no tip angle and no
         such firmware (``simulate`` runs on after it tips): it has fallen when its chassis touches
-        anything, the firmware's other test (its wheels, skids or caster are all that touch the floor
+        the floor, the firmware's other test (its wheels, skids or caster are all that touch the floor
         while it stands; a contact with an obstacle ends the episode anyway).
         """
         balance = episode.recorder.balance
         if balance is not None:
             return balance.fell_at is not None
-        return touches(d, self._chassis)
+        return touches(d, self._chassis, self._floor)
 
     def _current(self) -> Episode:
         if self.episode is None:
