@@ -1,7 +1,11 @@
 """Writing outputs safely: to a temporary name beside the target, renamed when complete.
 
 An existing file is never replaced unless ``overwrite`` is true; an interrupted write leaves no
-partial file under the final name.
+partial file under the final name. Only a regular file is replaced (or a symbolic link: the link itself,
+the file it names is left as it is): a folder, a FIFO, a socket or a device is refused, as is a file that
+cannot be renamed over (immutable, append-only, another user's in a sticky folder). A command that writes
+several outputs stages them (:class:`StagedOutputs`): every one written under a temporary name, then all
+moved into place in one step, so an interrupt or a failure leaves the old set whole.
 """
 
 from __future__ import annotations
@@ -10,14 +14,21 @@ import contextlib
 import json
 import math
 import os
+import shutil
+import stat
+import sys
 import tempfile
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
 from planning.core.checks import check_flag
-from planning.errors import ConfigError, OutputExistsError, option
+from planning.errors import ConfigError, NhsimError, OutputExistsError, option
 from planning.signals import signals_held
+
+#: The check of an output that is a folder (a bag: :func:`sim.io.bag.check_bag_target`): raises when the
+#: folder at the path cannot be written or replaced.
+FolderCheck = Callable[..., None]
 
 #: Whether an existing file may be replaced: a flag, or a question asked of the path each time it is
 #: checked (before the work and again just before the rename), for a file another process of the same
@@ -69,33 +80,130 @@ def check_writable(path: Path, *, overwrite: bool) -> None:
     Raises:
         OutputExistsError: ``path`` exists and overwriting was not asked for.
         ConfigError: ``overwrite`` is not True or False (a string such as ``"no"`` is refused, not read as
-            true), ``path`` is a folder, a file stands where one of its folders should be, its
-            folder (or the nearest existing one above it) does not accept new files, or its name, its
-            temporary name (:func:`atomic_path`) or either's whole path is longer than the file
-            system takes (NAME_MAX, PATH_MAX).
+            true), ``path`` is a folder or anything else that is not a regular file (a FIFO, a socket, a
+            device, or a symbolic link to one: :func:`check_regular`), it exists and cannot be renamed over
+            (:func:`unreplaceable`), a file stands where one of its folders should be, its folder (or the
+            nearest existing one above it) does not accept new files, or its name, its temporary name
+            (:func:`atomic_path`) or either's whole path is longer than the file system takes (NAME_MAX,
+            PATH_MAX).
     """
     overwrite = check_flag("overwrite", overwrite)
     path = Path(path)
     _check_length(path)
     if path.is_dir():
         raise ConfigError(f"cannot write {path}: it is a folder; give a file name")
+    check_regular(path)
     _check_absent(path, overwrite=overwrite)
+    if os.path.lexists(path):
+        why = unreplaceable(path)
+        if why:
+            raise ConfigError(f"cannot replace {path}: {why}; fix that, or choose another path")
     check_folder_for(path)
+
+
+#: What a file that is not a regular one is, by its type (:mod:`stat`).
+_KINDS = (
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISSOCK, "a socket"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+)
+
+
+def check_regular(path: Path) -> None:
+    """Refuse an existing ``path`` that is no regular file: an output is written under a temporary name and
+    renamed onto its target, which would put a regular file where a FIFO, a socket or a device (``/dev/null``)
+    stood. A symbolic link is replaced by the output (the file it names is left as it is), unless it names
+    such a file: then it is refused too. A path that does not exist, and a dangling link, pass.
+
+    Raises:
+        ConfigError: Naming the path, what it is and the fix.
+    """
+    try:
+        info = os.lstat(path)
+    except OSError:  # absent (or unreadable: the folder checks say why)
+        return
+    link = stat.S_ISLNK(info.st_mode)
+    if link:
+        try:
+            info = os.stat(path)
+        except OSError:  # a dangling link: the link itself is replaced
+            return
+    if stat.S_ISREG(info.st_mode) or stat.S_ISDIR(info.st_mode):
+        return
+    kind = next((name for test, name in _KINDS if test(info.st_mode)), "not a regular file")
+    what = f"a symbolic link to {kind}" if link else kind
+    raise ConfigError(
+        f"cannot write {path}: it is {what}, and an output is a regular file written beside it and renamed "
+        "onto it, which would replace it; choose another path (a regular file, or one that does not exist)"
+    )
+
+
+#: ``FS_IOC_GETFLAGS`` (Linux) and its immutable and append-only flags (``chattr +i``, ``chattr +a``).
+_GETFLAGS, IMMUTABLE, APPEND_ONLY = 0x80086601, 0x10, 0x20
+
+
+def inode_flags(path: Path) -> int:
+    """The inode flags of the file or folder ``path`` (Linux; 0 where they cannot be read)."""
+    if not sys.platform.startswith("linux"):
+        return 0
+    import fcntl
+
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+    except OSError:
+        return 0
+    try:
+        return int.from_bytes(fcntl.ioctl(fd, _GETFLAGS, bytes(8))[:4], sys.byteorder)
+    except OSError:  # a file system without inode flags
+        return 0
+    finally:
+        os.close(fd)
+
+
+def unreplaceable(path: Path) -> str:
+    """Why the existing file ``path`` cannot be renamed over (or moved aside), or "" when nothing shows it: an
+    immutable or append-only file, or folder, and another user's file in a sticky folder (as in /tmp)."""
+    parent = path.parent
+    flags = inode_flags(parent)
+    if flags & (IMMUTABLE | APPEND_ONLY):
+        what = "immutable" if flags & IMMUTABLE else "append-only"
+        return f"its folder {parent} is {what}, so no entry in it can be replaced (as root: chattr -i -a {parent})"
+    try:
+        info, folder = os.lstat(path), os.stat(parent)
+    except OSError:
+        return ""
+    flags = 0 if stat.S_ISLNK(info.st_mode) else inode_flags(path)
+    if flags & (IMMUTABLE | APPEND_ONLY):
+        what = "immutable" if flags & IMMUTABLE else "append-only"
+        return f"it is {what} (lsattr shows it; as root: chattr -i -a {path})"
+    if folder.st_mode & stat.S_ISVTX and os.geteuid() not in (0, info.st_uid, folder.st_uid):
+        return (
+            f"its folder {parent} is sticky (as /tmp is) and neither it nor {path} is yours: only an owner replaces it"
+        )
+    return ""
 
 
 def check_distinct(paths: Iterable[Path]) -> None:
     """Check, before any work, that no two of a command's outputs are one file.
 
     Raises:
-        ConfigError: Two of ``paths`` resolve to the same file (the message lists them all).
+        ConfigError: Two of ``paths`` resolve to the same file (the message names those two).
     """
-    paths = [Path(p) for p in paths]
-    if len({p.resolve() for p in paths}) != len(paths):
-        raise ConfigError(f"two outputs share a path: {', '.join(map(str, paths))}; choose distinct names")
+    seen: dict[Path, Path] = {}
+    for path in map(Path, paths):
+        first = seen.setdefault(path.resolve(), path)
+        if first is not path:
+            raise ConfigError(f"two outputs share a path: {first} and {path}; choose distinct names")
 
 
 #: Characters ``tempfile.mkstemp`` puts between its prefix and suffix.
 _RANDOM_CHARS = 8
+#: The folder beside a staged output that holds it until every output of the command is written
+#: (:class:`StagedOutputs`): ``.nhsim-outputs-XXXXXXXX.part``, the new outputs in its ``new`` folder.
+_STAGE_PREFIX, _STAGE_SUFFIX = ".nhsim-outputs-", ".part"
+#: Bytes a staged output's path adds to its target's: the staging folder, ``/new/``.
+_STAGE_CHARS = len(_STAGE_PREFIX) + _RANDOM_CHARS + len(_STAGE_SUFFIX) + len("/new/")
 
 
 def _temporary_affixes(target: Path) -> tuple[str, str]:
@@ -132,16 +240,16 @@ def _check_length(path: Path) -> None:
             f"cannot write {path}: its temporary name ({prefix}XXXXXXXX{suffix}, written first and renamed) "
             f"would be {temporary} bytes long; at most {name_max} fit; {fix} ({temporary - name_max} bytes shorter)"
         )
-    longest = whole - name + temporary
+    longest = whole - name + _STAGE_CHARS + temporary  # a staged output's temporary file (StagedOutputs)
     if max(whole, longest) >= path_max:
         raise ConfigError(
-            f"cannot write {path}: its path is {whole} bytes long ({longest} for its temporary file); at most "
+            f"cannot write {path}: its path is {whole} bytes long ({longest} for its temporary files); at most "
             f"{path_max - 1} fit; {fix}, or a shorter folder"
         )
 
 
 def _check_absent(path: Path, *, overwrite: bool) -> None:
-    if path.exists() and not overwrite:
+    if os.path.lexists(path) and not overwrite:  # a dangling link too: replacing it is replacing a file
         raise OutputExistsError(
             f"{path} exists already; pass {option('overwrite', True)} to replace it, or choose another path"
         )
@@ -180,12 +288,8 @@ def atomic_path(path: str | Path, *, overwrite: Overwrite = False) -> Iterator[P
     untouched. ``overwrite`` is asked before the work and again before the rename (:data:`Overwrite`).
     """
     target = Path(path)
-    allowed: Callable[[Path], bool]
-    if callable(overwrite):
-        allowed = overwrite
-    else:  # a flag, not read for its truth ("no" is true): True or False, else a ConfigError
-        flag = check_flag("overwrite", overwrite)
-        allowed = lambda _: flag
+    # a flag is not read for its truth ("no" is true): True or False, else a ConfigError
+    allowed = overwrite if callable(overwrite) else _flag(overwrite)
     check_writable(target, overwrite=allowed(target))
     prefix, suffix = _temporary_affixes(target)
     tmp: Path | None = None
@@ -200,7 +304,12 @@ def atomic_path(path: str | Path, *, overwrite: Overwrite = False) -> Iterator[P
             os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the permissions open() would
             yield tmp
             _check_absent(target, overwrite=allowed(target))
-            os.replace(tmp, target)
+            check_regular(target)
+            try:
+                os.replace(tmp, target)
+            except OSError as exc:
+                kept = f"{target} is unchanged and the new file was removed"
+                raise OutputsNotPlacedError(_not_placed(target, exc, kept)) from exc
         finally:
             if tmp is not None and tmp.exists():
                 tmp.unlink()
@@ -222,6 +331,150 @@ def folder_for(path: Path) -> Iterator[None]:
             except OSError:
                 break
         raise
+
+
+class OutputsNotPlacedError(NhsimError, OSError):
+    """Finished outputs could not be moved into place: every target keeps its old file (or stays absent),
+    the new ones are removed; the message says why and the fix."""
+
+
+def _not_placed(target: Path, exc: OSError, kept: str) -> str:
+    """What :class:`OutputsNotPlacedError` says of ``target``, whose move failed with ``exc``: why, what is
+    ``kept``, and the fix."""
+    reason = exc.strerror or str(exc)
+    why = unreplaceable(target) if os.path.lexists(target) else ""
+    fix = f"{target}: {why}" if why else f"check that {target} and its folder can be renamed (permissions, lsattr -d)"
+    return (
+        f"could not put {target} in place: {reason}; {kept}; fix it ({fix}), then run the command again, or "
+        "choose another path"
+    )
+
+
+class StagedOutputs:
+    """A command's outputs, written under temporary names and moved into place together: all or none.
+
+    Each output is written to :meth:`path`, a path of the target's name in a hidden folder beside it
+    (``.nhsim-outputs-XXXXXXXX.part/new/``); :meth:`commit` then moves every output written into place in one
+    step that SIGINT and SIGTERM wait for, each old file first moved aside into that folder. When a move
+    fails, those done are undone (every old file back under its name) and :class:`OutputsNotPlacedError` says
+    why. :meth:`discard` removes the staging folders (the new outputs when not committed, the old ones when
+    committed) and, when not committed, the folders made for them. Use :func:`staged_outputs`.
+
+    Args:
+        overwrite: Whether an existing target may be replaced (:data:`Overwrite`: asked again at the commit).
+        folders: The targets that are folders (a rosbag2 bag), each with the check made again as it moves in
+            (``check(path, overwrite=...)``: :func:`sim.io.bag.check_bag_target`); the others are files
+            (:func:`check_writable`).
+    """
+
+    def __init__(self, *, overwrite: Overwrite = False, folders: Mapping[Path, FolderCheck] | None = None) -> None:
+        self._allowed = overwrite if callable(overwrite) else _flag(overwrite)
+        self._folders = {Path(os.path.abspath(f)): check for f, check in (folders or {}).items()}
+        self._stages: dict[Path, Path] = {}  # a target's folder (absolute) -> its staging folder
+        self._staged: list[tuple[Path, Path]] = []  # (target, staged path)
+        self._made: list[Path] = []  # folders made for the targets
+        self._kept: set[Path] = set()  # staging folders holding an old output that could not be moved back
+        self.committed = False
+
+    def path(self, target: str | Path) -> Path:
+        """Where to write ``target``: its name in the staging folder beside it (made, with the target's
+        folders, on first use)."""
+        target = Path(target)
+        folder = Path(os.path.abspath(target.parent))
+        stage = self._stages.get(folder)
+        if stage is None:
+            self._made += [p for p in (target.parent, *target.parent.parents) if not p.exists()]
+            target.parent.mkdir(parents=True, exist_ok=True)
+            with signals_held():  # an interrupt landing as the folder is made waits until it is named
+                stage = Path(tempfile.mkdtemp(prefix=_STAGE_PREFIX, suffix=_STAGE_SUFFIX, dir=target.parent))
+                self._stages[folder] = stage
+            (stage / "new").mkdir()
+            (stage / "old").mkdir()
+        staged = stage / "new" / target.name
+        if any(s == staged for _, s in self._staged):
+            raise ConfigError(f"two outputs share a path: {target}; choose distinct names")
+        self._staged.append((target, staged))
+        return staged
+
+    def _check(self, target: Path) -> None:
+        """The target checks made again as the outputs move in (another program may have written meanwhile)."""
+        check = self._folders.get(Path(os.path.abspath(target)), check_writable)
+        check(target, overwrite=self._allowed(target))
+
+    def commit(self) -> list[Path]:
+        """Move every output written into place, in one step SIGINT and SIGTERM wait for; returns the targets.
+
+        Raises:
+            OutputExistsError, ConfigError: A target changed since it was checked (nothing is moved).
+            OutputsNotPlacedError: A move failed: every move done is undone, the old outputs kept.
+        """
+        ready = [(t, s) for t, s in self._staged if os.path.lexists(s)]
+        with signals_held():
+            for target, _ in ready:
+                self._check(target)
+            done: list[tuple[Path, Path, Path | None]] = []
+            current = ready[0][0] if ready else Path()
+            try:
+                for target, staged in ready:
+                    current = target
+                    aside = staged.parent.parent / "old" / staged.name if os.path.lexists(target) else None
+                    if aside is not None:
+                        os.replace(target, aside)
+                    done.append((target, staged, aside))
+                    os.replace(staged, target)
+            except OSError as exc:
+                kept = self._undo(done)
+                raise OutputsNotPlacedError(_not_placed(current, exc, kept)) from exc
+            self.committed = True
+        return [t for t, _ in ready]
+
+    def _undo(self, done: list[tuple[Path, Path, Path | None]]) -> str:
+        """Put back the old outputs of the moves ``done`` (the new ones back into their staging folders); says
+        what is kept where."""
+        lost: list[str] = []
+        for target, staged, aside in reversed(done):
+            try:
+                if not os.path.lexists(staged) and os.path.lexists(target):  # the new one is in place
+                    os.replace(target, staged)
+                if aside is not None:
+                    os.replace(aside, target)
+            except OSError:
+                lost.append(f"the old {target} could not be moved back: it is at {aside}, move it back to {target}")
+                self._kept.add(staged.parent.parent)
+        if lost:
+            return "the other moves were undone, but " + "; ".join(lost)
+        return "no output was replaced: every old file is kept and the new ones were removed"
+
+    def discard(self) -> None:
+        """Remove the staging folders (but one holding an old output that could not be moved back) and, unless
+        committed, the folders made for the outputs that are still empty."""
+        with signals_held():
+            for stage in self._stages.values():
+                if stage not in self._kept:
+                    shutil.rmtree(stage, ignore_errors=True)
+            if not self.committed:
+                for folder in sorted(self._made, key=lambda p: len(p.absolute().parts), reverse=True):
+                    with contextlib.suppress(OSError):
+                        folder.rmdir()
+
+
+def _flag(overwrite: Any) -> Callable[[Path], bool]:
+    flag = check_flag("overwrite", overwrite)
+    return lambda _: flag
+
+
+@contextlib.contextmanager
+def staged_outputs(
+    *, overwrite: Overwrite = False, folders: Mapping[Path, FolderCheck] | None = None
+) -> Iterator[StagedOutputs]:
+    """A :class:`StagedOutputs` committed when the block ends without an error; its staging folders removed
+    either way (on an error or an interrupt, with the new outputs: every old file is left as it was)."""
+    stage = StagedOutputs(overwrite=overwrite, folders=folders)
+    try:
+        yield stage
+        stage.commit()
+    finally:
+        stage.discard()
 
 
 def write_json(path: str | Path, data: Any, *, overwrite: Overwrite = False) -> Path:

@@ -1,5 +1,5 @@
 """Bags in and out safely: an existing bag that ``--overwrite`` cannot move aside is refused before any work,
-and a move that fails at the end keeps the old bag and still writes the other outputs; no output may be an
+and a move that fails at the end keeps the old bag and every other old output (they are one set); no output may be an
 input (the same bag read and written, a record over its input file); an imported bag's frame is recorded
 (and a frame other than ``map`` said), poses in two frames are refused; a zero or unnormalised orientation
 quaternion is refused, one within the tolerance normalised."""
@@ -97,39 +97,35 @@ def _refuse_moving(bag: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(os, "replace", refused)
 
 
-def test_a_bag_that_fails_to_move_at_the_end_keeps_the_old_one_and_the_other_outputs_are_written(
+def test_a_bag_that_fails_to_move_at_the_end_keeps_the_old_one_and_no_other_output_is_replaced(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """The check passed, then moving the old bag aside fails (it was made immutable meanwhile): exit 2 naming
-    the folder, the old bag in place, the new one removed (said), the record and plots written, the record's
-    ``bag`` saying why and its ``files`` naming no bag."""
+    the folder, the old bag in place, and the outputs are one set (:func:`sim.outputs.staged_outputs`): the
+    record and plots are not written either (those moved in before the bag are moved out again), the
+    folder made for them removed, no temporary file left."""
     monkeypatch.chdir(tmp_path)
     bag = _old_bag(tmp_path / "b")
     _refuse_moving(bag, monkeypatch)
     argv = [*JOB, "--path", str(_arc(tmp_path)), "--bag", str(bag), "--overwrite", "--json", "out/r.json"]
     code, err = _run(argv, capsys)
     assert code == 2, err
-    assert f"could not put the new bag in place at {bag}: Operation not permitted; {bag} still holds the old bag" in err
-    assert "the new bag was not kept" in err and "written: out/r-world.png" in err and "out/r.json" in err
-    assert _kept(bag) and sorted(p.name for p in tmp_path.iterdir()) == ["arc.csv", "b", "out"]
-    record = json.loads((tmp_path / "out" / "r.json").read_text())
-    assert record["bag"]["written"] is False and "Operation not permitted" in record["bag"]["error"]
-    assert "bag" not in record["files"]
-    plots = [v for k, v in record["files"].items() if k.startswith("plot_")]
-    assert plots and all((tmp_path / p).is_file() for p in plots)
+    assert f"could not put {bag} in place: Operation not permitted; no output was replaced" in err
+    assert _kept(bag) and sorted(p.name for p in tmp_path.iterdir()) == ["arc.csv", "b"]
 
 
-def test_compare_keeps_the_old_bag_and_its_other_outputs_when_the_move_fails(
+def test_compare_keeps_the_old_bag_and_writes_no_other_output_when_the_move_fails(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     monkeypatch.chdir(tmp_path)
     bag = _old_bag(tmp_path / "b")
+    (tmp_path / "r.json").write_text("old record")
     _refuse_moving(bag, monkeypatch)
     argv = ["compare", "--quiet", "--trackers", "fbl", "--path", str(_arc(tmp_path)), "--json", "r.json"]
     code, err = _run([*argv, "--bag", str(bag), "--overwrite"], capsys)
     assert code == 2, err
-    assert f"could not put the new bag in place at {bag}" in err and err.rstrip().endswith("written: r.json")
-    assert _kept(bag) and json.loads((tmp_path / "r.json").read_text())
+    assert f"could not put {bag} in place" in err and "no output was replaced" in err
+    assert _kept(bag) and (tmp_path / "r.json").read_text() == "old record"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["arc.csv", "b", "r.json"]
 
 

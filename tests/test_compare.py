@@ -50,11 +50,16 @@ def test_a_run_that_ends_early_is_said_recorded_and_fails_the_command(tmp_path: 
     r = nhsim("compare", "--reference", "line", "--robot", "edumip-balancing", "--trackers", "fbl,kanayama",
               "--params", str(gains), "--json", str(out), "--quiet")  # fmt: skip
     assert r.returncode == 1, r.stderr
-    assert "kanayama run 0: ended early: fell at t=" in r.stdout and "fbl run 0" not in r.stdout
+    # it weaves into the east wall, then falls (the chassis brushing the wall is a collision, not the fall)
+    assert "kanayama run 0: ended early: collided with 'wall_east' at t=" in r.stdout and "fbl run 0" not in r.stdout
+    assert ", then fell at t=" in r.stdout
     runs = {name: entry["runs"][0] for name, entry in json.loads(out.read_text())["trackers"].items()}
     assert runs["fbl"]["status"] == "ok" and runs["fbl"]["fell"] is False
     assert runs["kanayama"]["fell"] is True and 0 < runs["kanayama"]["fall_time_s"] < 9.0
-    assert runs["kanayama"]["status"].startswith("fell at t=")
+    assert (
+        runs["kanayama"]["status"].startswith("collided with 'wall_east' at t=")
+        and "then fell at t=" in runs["kanayama"]["status"]
+    )
 
 
 def test_compare_cli_says_a_time_limit_is_ignored_when_nothing_is_planned() -> None:

@@ -237,7 +237,8 @@ def test_sigterm_during_the_render_exits_130_and_leaves_no_file(tmp_path: Path) 
     )
     try:
         deadline = time.monotonic() + 300
-        while not list(tmp_path.glob(".run.*part.mp4")) and proc.poll() is None and time.monotonic() < deadline:
+        rendering = ".nhsim-outputs-*.part/new/.run.*part.mp4"  # the video's temporary file, in the staging folder
+        while not list(tmp_path.glob(rendering)) and proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.05)
         assert proc.poll() is None, (
             f"the render ended before it could be stopped: {proc.stderr.read() if proc.stderr else ''}"

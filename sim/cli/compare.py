@@ -31,7 +31,9 @@ Outputs (each only when asked; an existing file is replaced only with --overwrit
 record (every run), --plots STEM STEM-paths.png (the paths overlaid) and STEM-errors.png (errors
 against time), --video PATH one MP4 with every tracker's robot in its own colour (the first tracker
 solid, the others ghosts), --bag DIR a ROS 2 bag (rosbag2 folder, MCAP) with every tracker's first run
-under its own namespace (/fbl/..., /segmented/...).
+under its own namespace (/fbl/..., /segmented/...). They are written as one set: each under a
+temporary name beside it, then all moved into place together, so an interrupt (or a failure) before
+the end leaves every old file as it was.
 
 Exit status: 0 done, 2 bad input (nothing run), 1 a run ended early (a balancing robot fell, the estimate
 was lost: said below the table and in the record's run "status")."""
@@ -83,7 +85,7 @@ def _outputs(args: argparse.Namespace) -> dict[str, Path]:
     """The files asked for, checked writable before anything runs."""
     from sim.cli.checks import check_file_stem
     from sim.cli.job_outputs import check_apart_from_inputs
-    from sim.outputs import check_video_name, check_writable
+    from sim.outputs import check_distinct, check_video_name, check_writable
 
     out: dict[str, Path] = {}
     if args.json is not None:
@@ -95,6 +97,7 @@ def _outputs(args: argparse.Namespace) -> dict[str, Path]:
         out["video"] = Path(args.video)
         check_video_name(out["video"], "--video")
     check_apart_from_inputs(args, out.values(), args.bag)
+    check_distinct(out.values())
     for path in out.values():
         check_writable(path, overwrite=args.overwrite)
     if args.bag is not None:
@@ -173,31 +176,32 @@ def plan_notes(case: Any, names: Sequence[str]) -> list[str]:
 
 
 def _write(result: Any, outputs: dict[str, Path], *, overwrite: bool) -> None:
-    """Write the record, the plots and the video asked for."""
-    from sim.outputs import write_json
+    """Write the record, the plots, the video and the bag asked for, as one set
+    (:func:`sim.outputs.staged_outputs`): all moved into place together once every one is written, so an
+    interrupt or a failure leaves every old file as it was."""
+    from sim.io.bag import check_bag_target
+    from sim.outputs import staged_outputs, write_json
 
-    if "json" in outputs:
-        write_json(outputs["json"], result.record(), overwrite=overwrite)
-    if "paths" in outputs:
-        from sim.viz.plots.draw import save_figure
-        from sim.viz.plots.run import errors_figure, world_figure
+    bag = outputs.get("bag")
+    with staged_outputs(overwrite=overwrite, folders={bag: check_bag_target} if bag is not None else {}) as stage:
+        if "json" in outputs:
+            write_json(stage.path(outputs["json"]), result.record())
+        if "paths" in outputs:
+            from sim.viz.plots.draw import save_figure
+            from sim.viz.plots.run import errors_figure, world_figure
 
-        p, logs = result.prepared, result.logs()
-        title = f"{p.scenario.name} · {p.robot.name} · {p.source}"
-        paths = world_figure(p.scenario.world, p.trajectory, logs, title=title)
-        save_figure(paths, outputs["paths"], overwrite=overwrite)
-        save_figure(errors_figure(logs, title=title), outputs["errors"], overwrite=overwrite)
-    if "video" in outputs:
-        from sim.viz.job_video import write_video
+            p, logs = result.prepared, result.logs()
+            title = f"{p.scenario.name} · {p.robot.name} · {p.source}"
+            paths = world_figure(p.scenario.world, p.trajectory, logs, title=title)
+            save_figure(paths, stage.path(outputs["paths"]))
+            save_figure(errors_figure(logs, title=title), stage.path(outputs["errors"]))
+        if "video" in outputs:
+            from sim.viz.job_video import write_video
 
-        write_video(result.recorded(), outputs["video"], overwrite=overwrite)
-    if "bag" in outputs:  # last: a bag that cannot be moved into place leaves the others written, said
-        from sim.io.bag import BagNotPlacedError, write_bag
+            write_video(result.recorded(), stage.path(outputs["video"]))
+        if bag is not None:
+            from sim.io.bag import write_bag
 
-        try:
-            write_bag(result.prepared, result.logs(), outputs["bag"], overwrite=overwrite)
-        except BagNotPlacedError as exc:
-            written = [str(path) for name, path in outputs.items() if name != "bag"]
-            raise BagNotPlacedError(f"{exc}; written: {', '.join(written) or 'nothing else'}") from exc
+            write_bag(result.prepared, result.logs(), stage.path(bag))
     for path in outputs.values():
         print(f"wrote {path}")

@@ -18,11 +18,15 @@ default said again tags nothing): TAG is the first 6 hex digits of the SHA-1 of 
 differ as canonical JSON (keys sorted). ``--video PATH`` moves all of them beside ``PATH`` (named after
 its stem); ``--json PATH`` moves the record. Existing files are never replaced without
 ``--overwrite``: every target (and whether its folder exists or can be created, and takes new
-files) is checked before any physics runs, and the command stops with an error naming the file (no
-numbered names).
+files, and whether an existing one is a regular file that can be replaced) is checked before any
+physics runs, and the command stops with an error naming the file (no numbered names). No output may be
+(or lie inside) a file the command reads (:func:`check_apart_from_inputs`: a scenario's file and its map
+image among them).
 
-An interrupt while the files are written (Ctrl-C, or SIGTERM, which ``nhsim`` turns into the same
-KeyboardInterrupt: :mod:`sim.cli.interrupt`) removes the file being written; the command exits 130.
+The outputs are written as one set (:func:`sim.outputs.staged_outputs`): each under a temporary name
+beside its target, then all moved into place together. An interrupt before that (Ctrl-C, or SIGTERM,
+which ``nhsim`` turns into the same KeyboardInterrupt: :mod:`sim.cli.interrupt`) removes every new file
+and leaves every old one as it was; the command exits 130.
 """
 
 from __future__ import annotations
@@ -398,15 +402,51 @@ INPUT_OPTIONS = ("trajectory", "path", "scenario", "gains", "sensors", "lidar", 
 def input_paths(args: argparse.Namespace) -> list[tuple[str, Path]]:
     """The files and folders a command reads, each with the option that names it: every value of
     :data:`INPUT_OPTIONS` that names an existing path (as the commands read it: a scenario, gains or
-    sensor value that names a file is read from it)."""
+    sensor value that names a file is read from it), a scenario's file (a built-in's too) and the map image
+    it reads (:func:`scenario_inputs`), and the scenarios of ``tune``'s cases (``--scenarios``)."""
     found: list[tuple[str, Path]] = []
     for name in INPUT_OPTIONS:
         value = getattr(args, name, None)
         if not isinstance(value, (str, Path)):
             continue
+        if name == "scenario":
+            found += scenario_inputs(f"--scenario {value}", str(value))
+            continue
         for part in str(value).split(",") if name == "params" else [str(value)]:
             if part and os.path.lexists(part):
                 found.append((f"--{name} {part}", Path(part)))
+    cases = getattr(args, "scenarios", None)
+    if isinstance(cases, str):  # tune's SCENARIO[:SOURCE],...
+        for token in cases.split(","):
+            scenario = token.strip().partition(":")[0]
+            if scenario:
+                found += scenario_inputs(f"--scenarios {scenario}", scenario)
+    return found
+
+
+def scenario_inputs(given: str, scenario: str) -> list[tuple[str, Path]]:
+    """The files a scenario value reads, as :func:`planning.scenario.load_scenario` finds them: its TOML file
+    (a path, or a built-in scenario's file) and the map image its ``[world.map]`` table names (relative to the
+    file's folder); ``given`` names the option in messages. A file that cannot be read gives only itself
+    (loading it says what is wrong); a generated world (``random<N>``) reads none."""
+    import tomllib
+
+    from planning.scenario import SCENARIOS_DIR
+
+    path = Path(scenario)
+    if not (path.suffix == ".toml" or os.path.lexists(path)):
+        path = SCENARIOS_DIR / f"{scenario}.toml"
+        given = f"{given} (the file {path})"
+    if not os.path.lexists(path):
+        return []
+    found = [(given, path)]
+    try:
+        image = tomllib.loads(path.read_text(encoding="utf-8-sig"))["world"]["map"]["image"]
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, KeyError, TypeError):
+        return found
+    if isinstance(image, str) and image:
+        image_path = path.parent / image  # an absolute image stays absolute
+        found.append((f"{given} (its map image {os.path.normpath(image_path)})", image_path))
     return found
 
 
@@ -440,8 +480,9 @@ def check_apart_from_inputs(args: argparse.Namespace, files: Iterable[Path], bag
             )
 
 
-def render_job_video(result: Any, plan: OutputPlan) -> dict[str, Any]:
-    """Replay a job's logs into ``plan.video`` with a progress bar; returns facts for the record."""
+def render_job_video(result: Any, plan: OutputPlan, path: Path | None = None) -> dict[str, Any]:
+    """Replay a job's logs into ``path`` (default: ``plan.video``; a staged name for it) with a progress
+    bar; returns facts for the record."""
     from sim.viz.job_video import write_video
     from sim.viz.replay import frame_times
 
@@ -453,9 +494,9 @@ def render_job_video(result: Any, plan: OutputPlan) -> dict[str, Any]:
     try:
         return write_video(
             result,
-            plan.video,
+            plan.video if path is None else path,
             plan.settings,
-            overwrite=plan.overwrite,
+            overwrite=plan.overwrite if path is None else False,
             progress=bar.update if bar is not None else None,
         )
     finally:
@@ -472,8 +513,10 @@ def _progress_bar(total: int, desc: str, enabled: bool) -> Any:
 
 
 def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict[str, str]:
-    """Write the video, the plots and the JSON record of a job (each atomically: a KeyboardInterrupt,
-    which ``nhsim`` also raises on SIGTERM, removes the file being written).
+    """Write the video, the plots, the bag and the JSON record of a job as one set
+    (:func:`sim.outputs.staged_outputs`): each under a temporary name beside its target, then all moved into
+    place in one step. A KeyboardInterrupt (which ``nhsim`` also raises on SIGTERM) or an error before that
+    removes every new file and leaves every old one as it was.
 
     Args:
         result: The :class:`sim.pipeline.simulate.JobResult`.
@@ -484,55 +527,41 @@ def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict
         Output kind ("video", "plot_world", ..., "json") -> path written.
 
     Raises:
-        BagNotPlacedError: The bag could not be moved into place (:func:`sim.io.bag.write_bag`: the old bag
-            is kept); raised once the other outputs are written, the record saying so in its ``bag``.
+        OutputsNotPlacedError: An output could not be moved into place (:class:`sim.outputs.StagedOutputs`:
+            no output is replaced, every old one kept).
     """
-    from sim.outputs import write_json
+    from sim.io.bag import check_bag_target
+    from sim.outputs import staged_outputs, write_json
     from sim.viz.plots.draw import save_figure
     from sim.viz.plots.estimation import series_of_runs
     from sim.viz.plots.run import job_figures
 
     files: dict[str, str] = {}
-    if plan.video is not None:
-        record["video"] = render_job_video(result, plan)
-        files["video"] = str(plan.video)
-    if plan.plots:
-        title = f"{result.scenario.name} | {result.robot.name} | {result.source}"
-        figs = job_figures(
-            result.scenario.world, result.robot, result.trajectory, result.logs, title=title,
-            estimation=series_of_runs(result.logs),
-        )  # fmt: skip
-        for name, path in plan.plots.items():
-            if name not in figs:  # planned (and checked) but not drawn: the job gave no estimates
-                continue
-            save_figure(figs[name], path, overwrite=plan.overwrite)
-            files[f"plot_{name}"] = str(path)
-    failed = _write_bag(result, plan, record, files)
-    files["json"] = str(plan.json)
-    record["files"] = dict(files)
-    write_json(plan.json, record, overwrite=plan.overwrite)
-    if failed is not None:  # the record, plots and video are written and say so; the old bag is kept
-        from sim.io.bag import BagNotPlacedError
+    bag = {plan.bag: check_bag_target} if plan.bag is not None else {}
+    with staged_outputs(overwrite=plan.overwrite, folders=bag) as stage:
+        if plan.video is not None:
+            record["video"] = render_job_video(result, plan, stage.path(plan.video))
+            files["video"] = str(plan.video)
+        if plan.plots:
+            title = f"{result.scenario.name} | {result.robot.name} | {result.source}"
+            figs = job_figures(
+                result.scenario.world, result.robot, result.trajectory, result.logs, title=title,
+                estimation=series_of_runs(result.logs),
+            )  # fmt: skip
+            for name, path in plan.plots.items():
+                if name not in figs:  # planned (and checked) but not drawn: the job gave no estimates
+                    continue
+                save_figure(figs[name], stage.path(path))
+                files[f"plot_{name}"] = str(path)
+        if plan.bag is not None:
+            from sim.io.bag import write_job_bag
 
-        raise BagNotPlacedError(f"{failed}; written: {', '.join(files.values())}") from failed
+            record["bag"] = {**write_job_bag(result, stage.path(plan.bag)).as_dict(), "path": str(plan.bag)}
+            files["bag"] = str(plan.bag)
+        files["json"] = str(plan.json)
+        record["files"] = dict(files)
+        write_json(stage.path(plan.json), record)
     return files
-
-
-def _write_bag(result: Any, plan: OutputPlan, record: dict[str, Any], files: dict[str, str]) -> Exception | None:
-    """Write the job's bag (``plan.bag``) into ``record`` and ``files``; a bag that could not be moved into
-    place (:class:`sim.io.bag.BagNotPlacedError`) is returned, and the record's ``bag`` says why, so that the
-    other outputs are still written."""
-    if plan.bag is None:
-        return None
-    from sim.io.bag import BagNotPlacedError, write_job_bag
-
-    try:
-        record["bag"] = write_job_bag(result, plan.bag, overwrite=plan.overwrite).as_dict()
-    except BagNotPlacedError as exc:
-        record["bag"] = {"path": str(plan.bag), "written": False, "error": str(exc)}
-        return exc
-    files["bag"] = str(plan.bag)
-    return None
 
 
 def _may_scan(args: argparse.Namespace, robot: str | None) -> bool:

@@ -128,18 +128,21 @@ def run(args: argparse.Namespace) -> int:
     from planning.planners.registry import make_planner
     from planning.scenario import load_scenario, scenario_with_robot
     from sim.cli.checks import check_seeds, check_time_limit
-    from sim.outputs import check_writable, image_format, write_json
+    from sim.cli.job_outputs import check_apart_from_inputs
+    from sim.outputs import check_writable, image_format
 
     check_seeds(seed=args.seed)
     check_time_limit(args.time_limit)
-    for out in (args.json, args.plot):
-        if out is not None:
-            check_writable(out, overwrite=args.overwrite)
+    outputs = [out for out in (args.json, args.plot) if out is not None]
+    check_apart_from_inputs(args, outputs)  # the scenario file and its map image are read
+    for out in outputs:
+        check_writable(out, overwrite=args.overwrite)
     if args.plot is not None:
         image_format(args.plot, "--plot")
     if args.json is not None and args.plot is not None and args.json.resolve() == args.plot.resolve():
         raise ConfigError("--json and --plot name the same file; give two different paths")
     scenario = scenario_with_robot(load_scenario(args.scenario), args.robot)
+    check_scenario_sensors(scenario)
     name = args.planner or scenario.planner
     if name is None:
         raise ConfigError(f"scenario {scenario.name!r} names no default planner: pass --planner")
@@ -171,29 +174,56 @@ def run(args: argparse.Namespace) -> int:
     if reason:
         lines.append(f"reason          {reason}")
     print("\n".join(lines))
-    if args.json is not None:
-        record = {
-            "status": status.value,
-            "planner": name,
-            "reason": reason,
-            "scenario": scenario.name,
-            "robot": robot.name,
-            "seed": args.seed,
-            "time_limit_s": args.time_limit,
-            **facts,
-            "stats": {k: v for k, v in result.stats.items() if _jsonable(v)},
-        }
-        write_json(args.json, record, overwrite=args.overwrite)
-        if not args.quiet:
-            print(f"wrote {args.json}")
-    if args.plot is not None:
-        from sim.viz.plots.draw import save_figure
-        from sim.viz.plots.plan import plan_figure
-
-        save_figure(plan_figure(problem, result), args.plot, overwrite=args.overwrite)
-        if not args.quiet:
-            print(f"wrote {args.plot}")
+    record = {
+        "status": status.value,
+        "planner": name,
+        "reason": reason,
+        "scenario": scenario.name,
+        "robot": robot.name,
+        "seed": args.seed,
+        "time_limit_s": args.time_limit,
+        **facts,
+        "stats": {k: v for k, v in result.stats.items() if _jsonable(v)},
+    }
+    _write(args, record, problem, result)
     return 0 if status is PlanStatus.SUCCESS else 1
+
+
+def check_scenario_sensors(scenario: Any) -> None:
+    """Refuse a scenario whose ``[sensors]`` table ``simulate`` would refuse (an unknown key, a bad value), by
+    the same check (:func:`sim.physics.sensors.load_sensor_profile`, as
+    :meth:`sim.pipeline.case.Case.sensing` makes it): a plan uses no sensors, but the file is the same
+    scenario, bad for every command. Whether a fix rate fits the control rate is left to the commands that
+    run a controller (``plan`` has no control rate).
+
+    Raises:
+        ConfigError: Naming the file, the field and the fix.
+    """
+    if not scenario.sensors:
+        return
+    from planning.scenario import scenario_source
+    from sim.physics.sensors import load_sensor_profile
+
+    load_sensor_profile(scenario.robot, table=dict(scenario.sensors), source=scenario_source(scenario))
+
+
+def _write(args: argparse.Namespace, record: dict[str, Any], problem: Any, result: Any) -> None:
+    """Write the JSON record and the plot asked for, as one set (:func:`sim.outputs.staged_outputs`: both
+    moved into place once both are written); print what was written."""
+    from sim.outputs import staged_outputs, write_json
+
+    with staged_outputs(overwrite=args.overwrite) as stage:
+        if args.json is not None:
+            write_json(stage.path(args.json), record)
+        if args.plot is not None:
+            from sim.viz.plots.draw import save_figure
+            from sim.viz.plots.plan import plan_figure
+
+            save_figure(plan_figure(problem, result), stage.path(args.plot))
+    if not args.quiet:
+        for out in (args.json, args.plot):
+            if out is not None:
+                print(f"wrote {out}")
 
 
 def plan_options(name: str, options: dict[str, Any], *, simplify: bool) -> dict[str, Any]:

@@ -188,26 +188,33 @@ def check_baselines(baselines: Path, cases: list[Any], *, update: bool) -> dict[
 
 def update_baselines(outcomes: list[Any], read: dict[str, Any]) -> int:
     """Rewrite the baselines of the cases measured whose document changed (``read``: the baselines as read
-    before the runs, by case name), printing what changed; returns how many were written."""
-    from sim.outputs import write_json
+    before the runs, by case name), as one set (:func:`sim.outputs.staged_outputs`: all moved into place
+    once all are written, or none), printing what changed; returns how many were written.
+
+    Raises:
+        OutputsNotPlacedError: A baseline could not be moved into place (every old baseline is kept).
+    """
+    from sim.outputs import staged_outputs, write_json
     from sim.tools.regress import baseline_document
 
-    written = 0
-    for o in outcomes:
-        if not o.metrics:
-            continue
-        old, doc = read[o.case.name], baseline_document(o.case, dict(o.metrics))
-        if old.document == doc:
-            continue
-        write_json(old.path, doc, overwrite=True)
-        written += 1
-        if old.problem:
-            print(f"replaced unreadable baseline {old.path} ({old.problem})")
-        elif old.document is None:
-            print(f"new baseline {old.path}")
-        else:
-            print(f"updated {old.path}: " + ("; ".join(baseline_changes(old.document, o)) or "no change"))
-    return written
+    said: list[str] = []
+    with staged_outputs(overwrite=True) as stage:
+        for o in outcomes:
+            if not o.metrics:
+                continue
+            old, doc = read[o.case.name], baseline_document(o.case, dict(o.metrics))
+            if old.document == doc:
+                continue
+            write_json(stage.path(old.path), doc)
+            if old.problem:
+                said.append(f"replaced unreadable baseline {old.path} ({old.problem})")
+            elif old.document is None:
+                said.append(f"new baseline {old.path}")
+            else:
+                said.append(f"updated {old.path}: " + ("; ".join(baseline_changes(old.document, o)) or "no change"))
+    for line in said:
+        print(line)
+    return len(said)
 
 
 def baseline_changes(old: dict[str, Any], outcome: Any) -> list[str]:

@@ -420,9 +420,13 @@ def tune_files(
 
     Raises:
         OutputExistsError: An output exists, is not this study's, and --overwrite was not given.
+        ConfigError: Two outputs are one file, an output (or the study's SQLite file) is or lies inside a
+            file the command reads (a case's scenario, its map image: :func:`sim.cli.job_outputs.input_paths`),
+            an output is the study's storage, or cannot be written (:func:`sim.outputs.check_writable`).
     """
     from planning.errors import OutputExistsError
-    from sim.outputs import check_writable
+    from sim.cli.job_outputs import check_apart_from_inputs
+    from sim.outputs import check_distinct, check_writable
     from sim.tools.tune import check_storage
 
     study, storage = (
@@ -440,13 +444,11 @@ def tune_files(
     check_storage(files.storage)
     written = (files.gains,) if writes_gains_file(getattr(args, "tracker", "fbl").strip()) else ()
     paths = (*written, files.history, files.importance, files.record)
-    if len({p.resolve() for p in paths}) < len(paths):
-        raise ConfigError(
-            f"two outputs would be one file ({', '.join(map(str, paths))}); give --out and --json different paths"
-        )
-    if files.storage.startswith("sqlite:///"):  # an output over the study's own database would destroy it
-        db = Path(files.storage.removeprefix("sqlite:///")).resolve()
-        clash = [str(p) for p in paths if p.resolve() == db]
+    check_distinct(paths)
+    db = Path(files.storage.removeprefix("sqlite:///")) if files.storage.startswith("sqlite:///") else None
+    check_apart_from_inputs(args, [*paths, *([db] if db is not None else [])])  # the cases' scenarios, maps
+    if db is not None:  # an output over the study's own database would destroy it
+        clash = [str(p) for p in paths if p.resolve() == db.resolve()]
         if clash:
             raise ConfigError(
                 f"{clash[0]} is the study's own storage ({files.storage}); give --out, --json or --plots another path"

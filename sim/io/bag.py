@@ -17,7 +17,6 @@ import os
 import re
 import shutil
 import stat
-import sys
 import tempfile
 import time
 from collections.abc import Callable, Iterable, Mapping
@@ -32,7 +31,7 @@ from planning.errors import ConfigError, NhsimError, OutputExistsError, option
 from planning.signals import signals_held
 from sim.io import bag_topics as bt
 from sim.io import rosmsgs as m
-from sim.outputs import folder_for
+from sim.outputs import APPEND_ONLY, IMMUTABLE, folder_for, inode_flags
 
 #: Writer settings: rosbag2 metadata version, storage and compression.
 BAG_VERSION: Literal[8] = 8
@@ -113,28 +112,6 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
     check_folder_for(path)
 
 
-#: ``FS_IOC_GETFLAGS`` (Linux) and its immutable and append-only flags (``chattr +i``, ``chattr +a``).
-_GETFLAGS, _IMMUTABLE, _APPEND = 0x80086601, 0x10, 0x20
-
-
-def _inode_flags(folder: Path) -> int:
-    """The inode flags of ``folder`` (Linux; 0 where they cannot be read)."""
-    if not sys.platform.startswith("linux"):
-        return 0
-    import fcntl
-
-    try:
-        fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
-    except OSError:
-        return 0
-    try:
-        return int.from_bytes(fcntl.ioctl(fd, _GETFLAGS, bytes(8))[:4], sys.byteorder)
-    except OSError:  # a file system without inode flags
-        return 0
-    finally:
-        os.close(fd)
-
-
 def _unmovable(path: Path) -> str:
     """Why the existing bag folder ``path`` cannot be moved into another folder beside it, or "" when
     nothing shows it: the rename needs write and search permission on its folder, write permission on the
@@ -142,11 +119,11 @@ def _unmovable(path: Path) -> str:
     flag on its folder, a sticky folder's rename rights, and a bag folder that is no mount point."""
     parent = path.parent
     link = path.is_symlink()  # the link is moved, not the folder it names
-    flags = _inode_flags(parent)  # before the permissions: access() refuses writing an immutable inode too
-    if flags & (_IMMUTABLE | _APPEND):
-        what = "immutable" if flags & _IMMUTABLE else "append-only"
+    flags = inode_flags(parent)  # before the permissions: access() refuses writing an immutable inode too
+    if flags & (IMMUTABLE | APPEND_ONLY):
+        what = "immutable" if flags & IMMUTABLE else "append-only"
         return f"its folder {parent} is {what} (as root: chattr -i -a {parent})"
-    if not link and _inode_flags(path) & _IMMUTABLE:
+    if not link and inode_flags(path) & IMMUTABLE:
         return f"it is immutable (lsattr -d shows 'i'; as root: chattr -i {path})"
     if not os.access(parent, os.W_OK | os.X_OK):
         need = "write and search permission"

@@ -1,0 +1,370 @@
+"""Outputs never replace what they must not: a FIFO, a socket or a device; a file the command reads (its
+scenario, the scenario's map image); a file that cannot be renamed over (refused before any work). A
+command's outputs are one set: an interrupt or a failed move leaves every old file as it was."""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+import shutil
+import socket
+import subprocess
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+
+from planning.errors import ConfigError, OutputExistsError
+from planning.scenario import SCENARIOS_DIR
+from sim.cli.job_outputs import input_paths
+from sim.cli.main import main
+from sim.io.bag import check_bag_target
+from sim.outputs import (
+    OutputsNotPlacedError,
+    atomic_path,
+    check_distinct,
+    check_writable,
+    staged_outputs,
+    write_json,
+)
+from tests.render_helpers import require_gl
+
+#: A quick simulate job: one run, the pose fixes (no scan localiser), no video.
+JOB = ["simulate", "--reference", "line", "--runs", "closed_loop", "--localiser", "fixes", "--quiet"]
+#: Its outputs in ``out/``: the record, the plots beside it, a bag.
+OUTPUTS = ["--no-video", "--json", "out/job.json", "--bag", "out/bag"]
+
+
+def _no_physics(monkeypatch: pytest.MonkeyPatch) -> None:
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the physics ran before the outputs were checked")
+
+    monkeypatch.setattr("sim.pipeline.simulate.simulate", refuse)
+
+
+def _tree(folder: Path) -> dict[str, tuple[bytes, int] | str]:
+    """Every entry under ``folder``: a file's bytes and modification time, a folder as "dir", a FIFO as "fifo"."""
+    found: dict[str, tuple[bytes, int] | str] = {}
+    for path in sorted(folder.rglob("*")):
+        key = str(path.relative_to(folder))
+        if path.is_fifo():
+            found[key] = "fifo"
+        elif path.is_dir():
+            found[key] = "dir"
+        else:
+            found[key] = (path.read_bytes(), path.stat().st_mtime_ns)
+    return found
+
+
+def _temporaries(folder: Path) -> list[Path]:
+    return [p for p in folder.rglob("*") if p.name.startswith(".nhsim-outputs-") or ".part" in p.name]
+
+
+def _map_scenario(folder: Path) -> tuple[Path, Path]:
+    """A copy of edumip_map (a scenario file and the map image it reads) in ``folder``/scen, ``folder``/maps."""
+    (folder / "scen").mkdir(parents=True)
+    (folder / "maps").mkdir()
+    scenario = folder / "scen" / "edumip_map.toml"
+    shutil.copy(SCENARIOS_DIR / "edumip_map.toml", scenario)
+    shutil.copy(SCENARIOS_DIR.parent / "maps" / "edumip_map.png", folder / "maps" / "edumip_map.png")
+    return scenario, folder / "maps" / "edumip_map.png"
+
+
+# ---- what is not a regular file -----------------------------------------------------------------
+
+
+def test_a_fifo_is_refused_even_with_overwrite(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    fifo = tmp_path / "f.json"
+    os.mkfifo(fifo)
+    for overwrite in (False, True):
+        with pytest.raises(ConfigError, match=r"it is a FIFO \(named pipe\)"):
+            check_writable(fifo, overwrite=overwrite)
+    with pytest.raises(ConfigError, match="it is a FIFO"), atomic_path(fifo, overwrite=True) as tmp:
+        tmp.write_text("{}")
+    monkeypatch.chdir(tmp_path)
+    _no_physics(monkeypatch)
+    assert main([*JOB, "--no-video", "--no-plots", "--json", "f.json", "--overwrite"]) == 2
+    assert "cannot write f.json: it is a FIFO" in capsys.readouterr().err
+    assert fifo.is_fifo() and _tree(tmp_path) == {"f.json": "fifo"}
+
+
+def test_a_socket_and_links_to_what_is_no_regular_file_are_refused(tmp_path: Path) -> None:
+    os.mkfifo(tmp_path / "fifo")
+    (tmp_path / "to-fifo.json").symlink_to(tmp_path / "fifo")
+    with pytest.raises(ConfigError, match="it is a symbolic link to a FIFO"):
+        check_writable(tmp_path / "to-fifo.json", overwrite=True)
+    sock = tmp_path / "s.json"
+    if len(os.fsencode(str(sock))) >= 100:
+        pytest.skip("the temporary folder's path is too long for a socket's address")
+    with contextlib.closing(socket.socket(socket.AF_UNIX)) as server:
+        server.bind(str(sock))
+        with pytest.raises(ConfigError, match="it is a socket"):
+            check_writable(sock, overwrite=True)
+        assert sock.is_socket()
+
+
+def test_a_link_to_a_file_is_replaced_by_the_output_and_the_file_it_named_kept(tmp_path: Path) -> None:
+    kept = tmp_path / "kept.json"
+    kept.write_text("old")
+    link = tmp_path / "out.json"
+    link.symlink_to(kept)
+    with pytest.raises(OutputExistsError):
+        write_json(link, {"new": 1})
+    write_json(link, {"new": 1}, overwrite=True)
+    assert not link.is_symlink() and '"new": 1' in link.read_text() and kept.read_text() == "old"
+    dangling = tmp_path / "dangling.json"
+    dangling.symlink_to(tmp_path / "nowhere")
+    with pytest.raises(OutputExistsError):  # a link is an existing file, even one naming nothing
+        write_json(dangling, {})
+    assert dangling.is_symlink()
+
+
+# ---- outputs over inputs ------------------------------------------------------------------------
+
+
+def test_the_scenarios_file_and_its_map_image_are_inputs(tmp_path: Path) -> None:
+    scenario, image = _map_scenario(tmp_path)
+    found = {p.resolve() for _, p in input_paths(argparse.Namespace(scenario=str(scenario)))}
+    assert found == {scenario.resolve(), image.resolve()}
+    builtin = {p.resolve() for _, p in input_paths(argparse.Namespace(scenario="edumip_map"))}
+    assert builtin == {
+        (SCENARIOS_DIR / "edumip_map.toml").resolve(),
+        (SCENARIOS_DIR / "../maps/edumip_map.png").resolve(),
+    }
+    cases = argparse.Namespace(scenarios=f"{scenario}:line, open:circle")
+    assert {p.resolve() for _, p in input_paths(cases)} == {
+        scenario.resolve(),
+        image.resolve(),
+        (SCENARIOS_DIR / "open.toml").resolve(),
+    }
+    assert input_paths(argparse.Namespace(scenario="random3")) == []  # a generated world reads no file
+
+
+@pytest.mark.parametrize("option", ["--json", "--plot"])
+@pytest.mark.parametrize("which", ["scenario", "map"])
+def test_plan_refuses_to_write_over_its_scenario_or_its_map(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], option: str, which: str
+) -> None:
+    scenario, image = _map_scenario(tmp_path)
+    target = scenario if which == "scenario" else image
+    before = _tree(tmp_path)
+    assert main(["plan", "--scenario", str(scenario), option, str(target), "--overwrite", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert f"the output {target} is the input --scenario {scenario}" in err
+    assert ("its map image" in err) == (which == "map")
+    assert _tree(tmp_path) == before
+
+
+def test_simulate_refuses_to_write_over_the_scenarios_map(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    scenario, image = _map_scenario(tmp_path)
+    _no_physics(monkeypatch)
+    before = _tree(tmp_path)
+    argv = [*JOB, "--scenario", str(scenario), "--no-video", "--no-plots", "--json", str(image), "--overwrite"]
+    assert main(argv) == 2
+    assert f"the output {image} is the input --scenario {scenario} (its map image" in capsys.readouterr().err
+    assert _tree(tmp_path) == before
+
+
+@pytest.mark.parametrize("option", ["--out", "--json", "--storage"])
+def test_tune_refuses_to_write_over_a_cases_scenario(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], option: str
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    shutil.copy(SCENARIOS_DIR / "open.toml", tmp_path / "t.toml")
+    argv = ["tune", "--scenarios", "t.toml:line", "--robot", "edumip", "--localiser", "fixes", "--trials", "1"]
+    argv += ["--draws", "1", "--eval-runs", "0", "--overwrite", "--plots", "plots"]
+    given = {"--out": "t.toml", "--json": "t.toml", "--storage": "sqlite:///t.toml"}
+    if option != "--storage":
+        argv += ["--storage", "sqlite:///t.db"]
+    before = _tree(tmp_path)
+    assert main([*argv, option, given[option]]) == 2
+    assert "the output t.toml is the input --scenarios t.toml" in capsys.readouterr().err
+    assert _tree(tmp_path) == before
+
+
+# ---- one check of a scenario's [sensors] --------------------------------------------------------
+
+
+@pytest.mark.parametrize("table", ["fix_rate = -10", "fix_rat = 10"])
+def test_plan_refuses_the_sensor_table_simulate_refuses(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], table: str
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    text = (SCENARIOS_DIR / "open.toml").read_text(encoding="utf-8")
+    Path("s.toml").write_text(f"{text}\n[sensors]\n{table}\n", encoding="utf-8")
+    _no_physics(monkeypatch)
+    assert main([*JOB, "--scenario", "s.toml", "--no-video", "--no-plots", "--json", "r.json"]) == 2
+    simulated = capsys.readouterr().err.removeprefix("nhsim simulate: error: ")
+    assert main(["plan", "--scenario", "s.toml", "--planner", "hybrid-astar", "--json", "p.json", "--quiet"]) == 2
+    planned = capsys.readouterr().err.removeprefix("nhsim plan: error: ")
+    assert "s.toml" in planned and "sensors" in planned and planned == simulated
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
+
+
+# ---- two outputs at one path --------------------------------------------------------------------
+
+
+def test_two_outputs_at_one_path_are_named_alone(tmp_path: Path) -> None:
+    paths = [tmp_path / n for n in ("a.png", "b.png", "sub/../c.json", "d.png", "c.json", "e.png")]
+    with pytest.raises(ConfigError) as err:
+        check_distinct(paths)
+    message = str(err.value)
+    assert f"{tmp_path / 'sub/../c.json'} and {tmp_path / 'c.json'}" in message
+    assert not any(str(tmp_path / n) in message for n in ("a.png", "b.png", "d.png", "e.png"))
+
+
+# ---- files that cannot be renamed over ----------------------------------------------------------
+
+
+@contextlib.contextmanager
+def _immutable(path: Path) -> Iterator[None]:
+    """``path`` made immutable (``chattr +i``) for the block; skips where that cannot be done."""
+    chattr = shutil.which("chattr")
+    if chattr is None or subprocess.run([chattr, "+i", str(path)], capture_output=True).returncode != 0:
+        pytest.skip("chattr +i does not work here")
+    try:
+        yield
+    finally:
+        subprocess.run([chattr, "-i", str(path)], check=True)
+
+
+def test_an_immutable_output_is_refused_before_any_work(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    old = tmp_path / "old.json"
+    old.write_text("old")
+    _no_physics(monkeypatch)
+    with _immutable(old):
+        assert main([*JOB, "--no-video", "--no-plots", "--json", "old.json", "--overwrite"]) == 2
+        assert "cannot replace old.json: it is immutable" in capsys.readouterr().err
+        assert old.read_text() == "old" and _temporaries(tmp_path) == []
+
+
+def _failing_rename(monkeypatch: pytest.MonkeyPatch, path: Path) -> None:
+    """``os.rename`` and ``os.replace`` fail (EPERM) as for an immutable file at ``path``: a move that would
+    take it away or replace it; moving a file to ``path`` where none is succeeds."""
+    for name in ("rename", "replace"):
+        real: Callable[..., None] = getattr(os, name)
+
+        def fake(src: object, dst: object, *, real: Callable[..., None] = real) -> None:
+            away = Path(str(src)).resolve() == path.resolve()
+            if away or (Path(str(dst)).resolve() == path.resolve() and os.path.lexists(path)):
+                raise PermissionError(1, "Operation not permitted", str(dst))
+            real(src, dst)
+
+        monkeypatch.setattr(os, name, fake)
+
+
+def test_a_failed_rename_is_an_error_that_keeps_the_old_file(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    old = tmp_path / "old.json"
+    old.write_text("old")
+    _failing_rename(monkeypatch, old)
+    with pytest.raises(OutputsNotPlacedError, match=f"could not put {old} in place: Operation not permitted"):
+        write_json(old, {"new": 1}, overwrite=True)
+    assert old.read_text() == "old" and _temporaries(tmp_path) == []
+
+
+def test_regress_update_that_cannot_replace_a_baseline_says_so_and_keeps_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    suite, bl = tmp_path / "suite.toml", tmp_path / "bl"
+    fields = 'scenario = "open", robot = "turtlebot3", tracker = "fbl", seed = 0, fast = true'
+    suite.write_text(f'cases = [\n  {{ name = "one", reference = "line", {fields} }},\n]\n')
+    bl.mkdir()
+    baseline = bl / "one.json"
+    baseline.write_text('{"metrics": ')  # unreadable: --update rewrites it
+    argv = ["regress", "--suite", str(suite), "--baselines", str(bl), "--update"]
+    with _immutable(baseline):  # refused before the case runs
+        monkeypatch.setattr("sim.tools.regress.check_task", lambda *a, **k: pytest.fail("the case ran"))
+        assert main(argv) == 2
+        assert f"cannot replace {baseline}: it is immutable" in capsys.readouterr().err
+    monkeypatch.undo()
+    _failing_rename(monkeypatch, baseline)  # a move that fails at the end: a clear error, the old baseline kept
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"could not put {baseline} in place" in err and "Traceback" not in err
+    assert baseline.read_text() == '{"metrics": ' and _temporaries(tmp_path) == []
+
+
+# ---- one set: all or nothing --------------------------------------------------------------------
+
+
+def test_the_staged_set_is_moved_in_together_or_not_at_all(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    a, b, bag = tmp_path / "a.json", tmp_path / "deep" / "b.json", tmp_path / "bag"
+    a.write_text("old a")
+    bag.mkdir()
+    (bag / "metadata.yaml").write_text("old bag")
+    before = _tree(tmp_path)
+
+    def write_all(stage: object) -> None:
+        for path in (a, b):
+            write_json(stage.path(path), {"new": path.name})  # type: ignore[attr-defined]
+        new_bag = stage.path(bag)  # type: ignore[attr-defined]
+        new_bag.mkdir()
+        (new_bag / "metadata.yaml").write_text("new bag")
+
+    with pytest.raises(KeyboardInterrupt), staged_outputs(overwrite=True, folders={bag: check_bag_target}) as stage:
+        write_all(stage)
+        raise KeyboardInterrupt  # before the set is moved in
+    assert _tree(tmp_path) == before  # deep/ made for b.json is gone again
+    with monkeypatch.context() as m:
+        _failing_rename(m, bag)  # the last move fails: the two before it are undone
+        with pytest.raises(OutputsNotPlacedError, match="no output was replaced"):
+            with staged_outputs(overwrite=True, folders={bag: check_bag_target}) as stage:
+                write_all(stage)
+    assert _tree(tmp_path) == before
+    with staged_outputs(overwrite=True, folders={bag: check_bag_target}) as stage:
+        write_all(stage)
+    assert '"new": "a.json"' in a.read_text() and '"new": "b.json"' in b.read_text()
+    assert (bag / "metadata.yaml").read_text() == "new bag" and _temporaries(tmp_path) == []
+    b.unlink()
+    with pytest.raises(OutputExistsError), staged_outputs(overwrite=False) as stage:  # checked again at the end
+        write_json(stage.path(b), {})
+        b.write_text("written meanwhile")
+    assert b.read_text() == "written meanwhile" and _temporaries(tmp_path) == []
+
+
+def _interrupt(*args: object, **kwargs: object) -> None:
+    raise KeyboardInterrupt
+
+
+@pytest.mark.parametrize("video", [False, True])
+def test_an_interrupted_job_keeps_every_old_output(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], video: bool
+) -> None:
+    """The record, the plots, the bag (and the video, written first) of seed 0 survive a run of seed 1
+    interrupted as its outputs are written: none is replaced, no temporary file is left."""
+    if video:
+        require_gl()
+    monkeypatch.chdir(tmp_path)
+    outputs = ["--video", "out/job.mp4", "--fps", "5", "--size", "160x120", *OUTPUTS[1:]] if video else OUTPUTS
+    assert main([*JOB, *outputs]) == 0
+    before = _tree(tmp_path)
+    assert ("out/job.mp4" in before) == video and "out/bag/metadata.yaml" in before
+    # the plots are drawn after the video: the interrupt lands with the new video written
+    monkeypatch.setattr("sim.viz.plots.draw.save_figure", _interrupt)
+    assert main([*JOB, *outputs, "--seed", "1", "--overwrite"]) == 130
+    assert _tree(tmp_path) == before and _temporaries(tmp_path) == []
+    monkeypatch.undo()
+    monkeypatch.chdir(tmp_path)
+    _failing_rename(monkeypatch, tmp_path / "out" / "job.json")  # the last move fails: every move undone
+    assert main([*JOB, *outputs, "--seed", "1", "--overwrite"]) == 2
+    err = capsys.readouterr().err
+    assert "could not put out/job.json in place" in err and "no output was replaced" in err
+    assert _tree(tmp_path) == before and _temporaries(tmp_path) == []
+
+
+def test_an_interrupted_compare_keeps_every_old_output(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    argv = ["compare", "--reference", "line", "--trackers", "fbl", "--json", "c/c.json", "--plots", "c/c", "--quiet"]
+    assert main(argv) == 0
+    before = _tree(tmp_path)
+    monkeypatch.setattr("sim.viz.plots.draw.save_figure", _interrupt)  # the record is written first
+    assert main([*argv, "--seed", "1", "--overwrite"]) == 130
+    assert _tree(tmp_path) == before and _temporaries(tmp_path) == []
