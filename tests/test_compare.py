@@ -23,9 +23,10 @@ from tests.test_cli import nhsim
 
 
 def test_compare_cli_end_to_end(tmp_path: Path) -> None:
+    """(The trackers given space-separated, as a list option reads: only "kanayama,mpc" was taken before.)"""
     out = tmp_path / "cmp.json"
     r = nhsim("compare", "--scenario", "open", "--robot", "turtlebot3", "--reference", "line",
-              "--trackers", "kanayama,mpc", "--runs", "2", "--json", str(out), "--plots", str(tmp_path / "cmp"),
+              "--trackers", "kanayama", "mpc", "--runs", "2", "--json", str(out), "--plots", str(tmp_path / "cmp"),
               "--quiet")  # fmt: skip
     assert r.returncode == 0, r.stderr
     assert "kanayama" in r.stdout and "mpc" in r.stdout and "RMS [m]" in r.stdout and "fail 0" in r.stdout

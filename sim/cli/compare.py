@@ -54,7 +54,13 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     add_case_arguments(p)
     add_file_arguments(p)
-    p.add_argument("--trackers", default=None, metavar="A,B,...", help=f"(default: {DEFAULT_TRACKERS})")
+    p.add_argument(
+        "--trackers",
+        nargs="+",
+        default=None,
+        metavar="T",
+        help=f"the trackers, comma- or space-separated: fbl,mpc or fbl mpc (default: {DEFAULT_TRACKERS})",
+    )
     p.add_argument("--runs", type=int, default=1, metavar="N", help="runs per tracker on held-out draws (default: 1)")
     p.add_argument("--seed", type=int, default=0, help="seed of the plan and the noise (default: 0)")
     limit = RUN_SETTINGS["time_limit"]
@@ -135,7 +141,8 @@ def run(args: argparse.Namespace) -> int:
     from planning.errors import ConfigError
     from sim.tools.compare import check_trackers, compare_trackers, format_table, load_params
 
-    names = check_trackers(args.trackers.split(",") if args.trackers is not None else feedback_trackers())
+    given = None if args.trackers is None else [n for arg in args.trackers for n in arg.split(",")]
+    names = check_trackers(given if given is not None else feedback_trackers())
     params = load_params(args.params.split(",")) if args.params is not None else {}
     unused = sorted(set(params) - set(names))
     if unused:
