@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,6 +11,7 @@ from PIL import Image
 
 from planning.collision.exact import CollisionChecker
 from planning.core.robot import load_robot
+from planning.errors import ConfigError
 from planning.planners.registry import PLANNERS
 from planning.scenario import builtin_scenarios, load_scenario
 from sim.cli.main import COMMANDS, build_parser, main
@@ -300,3 +302,29 @@ def test_the_printed_clearance_is_refined_to_within_0_1_mm_of_the_exact_distance
         build_parser().parse_args(["plan", "--help"])
     help_text = " ".join(capsys.readouterr().out.split())
     assert f"at most {500 * REFINED_TOLERANCE:g} mm below the exact distance" in help_text
+
+
+def test_a_planners_options_are_given_on_the_command_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The planners' failure reasons say which option to raise; a generated world has no file to put it in, and
+    the command had no way to give one. --planner-option KEY=VALUE reads the value as TOML (bare text is text)
+    and the planner checks it."""
+    from sim.cli.checks import planner_option_values
+
+    assert planner_option_values(["max_iter=50", "init=straight", "margin = 0.05", "verbose=false", "s=\"a b\""]) == {
+        "max_iter": 50, "init": "straight", "margin": 0.05, "verbose": False, "s": "a b"
+    }  # fmt: skip
+    for bad, said in (("max_iter", "expected KEY=VALUE"), ("=3", "expected KEY=VALUE")):
+        with pytest.raises(ConfigError, match=said):
+            planner_option_values([bad])
+    with pytest.raises(ConfigError, match="'a' is given twice"):
+        planner_option_values(["a=1", "a=2"])
+    out = tmp_path / "p.json"
+    argv = ["plan", "--scenario", "random8021", "--planner", "optim", "--robot", "edumip", "--quiet"]
+    assert main([*argv, "--planner-option", "max_iter=5", "--planner-option", "init=straight", "--json", str(out)]) == 1
+    rec = json.loads(out.read_text())
+    assert rec["stats"]["iterations"] <= 5 and rec["stats"]["init"].startswith("straight")
+    assert "--planner-option max_iter=" in rec["reason"]  # the advice is one the command can follow
+    assert main([*argv, "--planner-option", "max_itr=5"]) == 2
+    assert "unknown option(s) max_itr for planner 'optim'" in capsys.readouterr().err
+    assert main(["simulate", "--reference", "line", "--planner-option", "a=1", "--no-video"]) == 2
+    assert "planner options (a) are given but nothing is planned" in capsys.readouterr().err

@@ -918,7 +918,10 @@ class Optim:
                     reason += f" before its first iteration, setting it up took {stats['setup_s']:.3f} s"
                     if "setup_predicted_s" in stats:
                         reason += f" (a new NLP shape, predicted {stats['setup_predicted_s']:.3f} s)"
-            reason += " (raise max_iter or the time limit, or warm start from another planner with init=...)"
+            reason += (
+                " (raise max_iter (--planner-option max_iter=6000) or the time limit, or warm start from another"
+                " planner with init=... (--planner-option init=grid))"
+            )
         else:
             status = PlanStatus.FAILED
         return PlanResult(status, self.name, reason=reason, stats=stats, **kw)

@@ -471,7 +471,8 @@ class Sinusoidal:
                 PlanStatus.BOUNDS_VIOLATED,
                 (
                     f"sinusoidal steering of piece {k + 1} of {len(models)}: {exc}; raise u1max, u2max, phimax, "
-                    "max_heading_offset or max_period, or plan with another planner"
+                    "max_heading_offset or max_period (--planner-option u1max=0.5, or a scenario's "
+                    "[planners.sinusoidal] table), or plan with another planner"
                 ),
             )
         except _OutOfTime:

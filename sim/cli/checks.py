@@ -86,3 +86,45 @@ def check_file_stem(stem: str, flag: str, example: str, suffixes: tuple[str, ...
     if stem.endswith(("/", os.sep)) or Path(stem).is_dir():
         made = " and ".join(f"{example}{s}" for s in suffixes)
         raise ConfigError(f"{flag} {stem} names a folder; {flag} takes a file stem, e.g. {example} (writes {made})")
+
+
+#: ``--planner-option``'s form, quoted in its help and messages.
+PLANNER_OPTION_EXAMPLE = "max_iter=500"
+
+
+def add_planner_option_argument(p: argparse.ArgumentParser) -> None:
+    """``--planner-option KEY=VALUE`` (repeatable): a planner's option, over a scenario's ``[planners.<name>]``."""
+    p.add_argument(
+        "--planner-option",
+        action="append",
+        default=None,
+        metavar="KEY=VALUE",
+        help="an option of the planner, over the scenario's [planners.<name>] table; repeatable; the value is read "
+        f'as in TOML (500, 0.25, true, "text"; bare text is text), e.g. --planner-option {PLANNER_OPTION_EXAMPLE} '
+        "(each planner's options: docs/explanation/planners.md)",
+    )
+
+
+def planner_option_values(texts: list[str] | None) -> dict[str, Any]:
+    """The ``--planner-option`` texts as keyword options, each value read as a TOML value (a bare word that is
+    no TOML value is text); the planner checks the names and values when it is made.
+
+    Raises:
+        ConfigError: A text without ``=``, with no key, or a key given twice.
+    """
+    import tomllib
+
+    out: dict[str, Any] = {}
+    for text in texts or []:
+        key, sep, value = (part.strip() for part in text.partition("="))
+        if not sep or not key:
+            raise ConfigError(
+                f"--planner-option {text!r}: expected KEY=VALUE, e.g. --planner-option {PLANNER_OPTION_EXAMPLE}"
+            )
+        if key in out:
+            raise ConfigError(f"--planner-option: {key!r} is given twice; give each option once")
+        try:
+            out[key] = tomllib.loads(f"v = {value}")["v"]
+        except tomllib.TOMLDecodeError:
+            out[key] = value  # a bare word: text (e.g. init=hybrid-a-star)
+    return out

@@ -8,6 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from sim.cli.checks import add_planner_option_argument
 from sim.cli.job_outputs import RUN_SETTINGS, add_case_arguments, unused_time_limit
 from sim.cli.trajectory_files import add_file_arguments
 
@@ -53,6 +54,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_case_arguments(p)
+    add_planner_option_argument(p)
     add_file_arguments(p)
     p.add_argument(
         "--trackers",
@@ -117,7 +119,7 @@ def _outputs(args: argparse.Namespace) -> dict[str, Path]:
 
 def _case(args: argparse.Namespace) -> Any:
     """The case of the comparison (the default job when neither a reference nor a planner is given)."""
-    from sim.cli.checks import check_seeds, check_time_limit
+    from sim.cli.checks import check_seeds, check_time_limit, planner_option_values
     from sim.cli.simulate import job_source
     from sim.cli.trajectory_files import check_file_options, file_given, file_source, file_world
     from sim.pipeline.case import Case, PlanOptions
@@ -125,7 +127,8 @@ def _case(args: argparse.Namespace) -> Any:
     check_file_options(args)
     check_time_limit(args.time_limit)
     check_seeds(seed=args.seed)
-    fields = {"seed": args.seed, "planning": PlanOptions(time_limit=args.time_limit)}
+    options = planner_option_values(args.planner_option)
+    fields = {"seed": args.seed, "planning": PlanOptions(time_limit=args.time_limit, planner_options=options)}
     if file_given(args):  # a trajectory or path file, read and checked as simulate reads it
         tfile = file_source(args)
         world, robot, _ = file_world(args, tfile)

@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.errors import ConfigError
+from sim.cli.checks import add_planner_option_argument
 
 #: Largest motion between consecutive path states in the JSON record [m].
 PATH_SPACING = 0.02
@@ -60,6 +61,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument(
         "--planner", default=None, metavar="P", help=f"planner: {planners} (default: the scenario's planner)"
     )
+    add_planner_option_argument(p)
     p.add_argument(
         "--robot",
         choices=sorted(ROBOT_FILES),
@@ -127,7 +129,7 @@ def run(args: argparse.Namespace) -> int:
     from planning.planners.base import PlanProblem, PlanStatus
     from planning.planners.registry import make_planner
     from planning.scenario import load_scenario, scenario_with_robot
-    from sim.cli.checks import check_seeds, check_time_limit
+    from sim.cli.checks import check_seeds, check_time_limit, planner_option_values
     from sim.cli.job_outputs import check_apart_from_inputs
     from sim.outputs import check_writable, image_format
 
@@ -146,7 +148,8 @@ def run(args: argparse.Namespace) -> int:
     name = args.planner or scenario.planner
     if name is None:
         raise ConfigError(f"scenario {scenario.name!r} names no default planner: pass --planner")
-    planner = make_planner(name, **plan_options(name, scenario.options_for(name), simplify=not args.no_simplify))
+    options = {**scenario.options_for(name), **planner_option_values(args.planner_option)}
+    planner = make_planner(name, **plan_options(name, options, simplify=not args.no_simplify))
     robot = load_robot(scenario.robot)
     problem = PlanProblem.from_scenario(scenario, robot=robot, seed=args.seed, time_limit=args.time_limit)
     if not args.quiet:

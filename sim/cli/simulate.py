@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from planning.errors import ConfigError, option
+from sim.cli.checks import add_planner_option_argument
 from sim.cli.job_outputs import RUN_SETTINGS, add_executor_arguments, add_output_arguments
 from sim.cli.trajectory_files import add_file_arguments, check_file_options, file_given, format_import
 from sim.pipeline.runs import RunKind, run_kinds
@@ -211,6 +212,7 @@ def _add_job_arguments(p: argparse.ArgumentParser) -> None:
         metavar="P",
         help=f"plan the scenario with planner P ({planners}) and track the plan (default: the scenario's planner)",
     )
+    add_planner_option_argument(p)
     p.add_argument(
         "--all",
         action="store_true",
@@ -444,6 +446,8 @@ def run(args: argparse.Namespace) -> int:
     check_file_options(args)
     if args.all and file_given(args):
         raise ConfigError("--all sweeps the built-in scenarios' plans: drop it to track a --trajectory or --path file")
+    if args.all and args.planner_option:
+        raise ConfigError("--planner-option is one planner's: drop it with --all, which runs every planner")
     if args.all:
         from sim.cli.sweep_table import check_sweep_options, run_all
 
@@ -495,6 +499,7 @@ def ignored_options(args: argparse.Namespace) -> list[str]:
 
 def _case_fields(args: argparse.Namespace, gains: Any, perturbation: Any) -> dict[str, Any]:
     """The case fields every job takes from the options (seed, rate, gains, build, sensors, ...)."""
+    from sim.cli.checks import planner_option_values
     from sim.pipeline.case import PlanOptions
 
     return {
@@ -502,7 +507,7 @@ def _case_fields(args: argparse.Namespace, gains: Any, perturbation: Any) -> dic
         "control_rate": args.control_rate,
         "gains": gains,
         "perturbation": perturbation,
-        "planning": PlanOptions(time_limit=args.time_limit),
+        "planning": PlanOptions(time_limit=args.time_limit, planner_options=planner_option_values(args.planner_option)),
         "build_seed": parse_build(args.build, args.build_seed),
         "sensors": sensor_overrides(args.sensors),
         "noise_seed": args.noise_seed,

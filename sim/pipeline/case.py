@@ -185,6 +185,12 @@ class Case:
             raise ConfigError(
                 f"case {self.label}: give exactly one of reference or planner, or a trajectory_file instead of both"
             )
+        if self.planner is None and self.planning.planner_options:
+            given = ", ".join(self.planning.planner_options)
+            raise ConfigError(
+                f"case {self.label}: planner options ({given}) are given but nothing is planned (an analytic "
+                "reference or a file is tracked): drop them (--planner-option), or plan"
+            )
         if self.reference is not None and self.reference not in REFERENCES:
             raise ConfigError(
                 f"case {self.label}: unknown reference {self.reference!r}; choose {', '.join(REFERENCES)}"
