@@ -388,11 +388,12 @@ def localiser_line(est: dict[str, Any], status: str = "ok") -> str:
 
 def format_table(record: dict[str, Any]) -> str:
     """The metrics table printed by ``simulate``: one row per run in the record (estimation columns
-    for runs fed by an estimator: its RMS position error and the share of fixes with a NEES inside
-    the 95 % interval). A run that ended early is marked ``*``, its reason in a line under the table."""
+    for runs fed by an estimator: its RMS position error, the share of fixes with a NEES inside
+    the 95 % interval, and the mean NEES, 3 for a consistent estimator of a planar pose: the share can be
+    high while the mean shows a bias). A run that ended early is marked ``*``, its reason in a line under the table."""
     head = (
         f"{'run':<21} {'final pos [m]':>13} {'final head [rad]':>16} {'rms pos [m]':>11} {'max pos [m]':>11} "
-        f"{'est rms [m]':>11} {'NEES ok':>7} {'collisions':>10} {'warnings':>8}"
+        f"{'est rms [m]':>11} {'NEES ok':>7} {'NEES mean':>9} {'collisions':>10} {'warnings':>8}"
     )
     lines = [head, "-" * len(head)]
     for kind in RunKind:
@@ -404,11 +405,13 @@ def format_table(record: dict[str, Any]) -> str:
         rmse = est.get("position_rmse_m") if est else None  # None: the estimator diverged (its status says)
         est_rms = f"{rmse:.4f}" if rmse is not None else "-"
         nees_ok = f"{nees:.0%}" if nees is not None else "-"
+        mean = est.get("nees_mean") if est else None
+        nees_mean = f"{mean:.2f}" if mean is not None and math.isfinite(mean) else "-"
         label = f"{kind}*" if r.get("status", "ok") != "ok" else str(kind)
         lines.append(
             f"{label:<21} {r['final_position_error_m']:>13.4f} {r['final_heading_error_rad']:>16.4f} "
             f"{r['rms_position_error_m']:>11.4f} {r['max_position_error_m']:>11.4f} "
-            f"{est_rms:>11} {nees_ok:>7} "
+            f"{est_rms:>11} {nees_ok:>7} {nees_mean:>9} "
             f"{r['collisions']:>10d} {r['warnings']:>8d}"
         )
     return "\n".join(lines + _ended_early(record))
