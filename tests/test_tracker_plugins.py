@@ -234,6 +234,26 @@ def test_the_command_runs_a_tracker_of_an_installed_entry_point(tmp_path: Path) 
     assert list(json.loads((tmp_path / "c.json").read_text())["trackers"]) == ["fbl2", "kanayama"]
 
 
+def test_simulate_runs_its_closed_loops_with_any_registered_tracker(tmp_path: Path) -> None:
+    """simulate's --tracker picks the runs (fbl, open-loop, both); a plugin's tracker, or a built-in other than the
+    FBL, could not drive its closed loops: --feedback T now does, and --gains says it is ignored for a law that
+    does not take them."""
+    site = _package(tmp_path / "site", {"fbl2": "nhsim_test_fbl2:FBL2"}, {"nhsim_test_fbl2": FBL2})
+    argv = ["simulate", "--scenario", "open", "--reference", "line", "--robot", "turtlebot3", "--runs", "closed_loop"]
+    done = _nhsim(site, *argv, "--feedback", "fbl2", "--no-video", "--json", "s.json", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert json.loads((tmp_path / "s.json").read_text())["tracker"] == "fbl2"
+    assert "gains Kp=9 Kd=6" in done.stdout.splitlines()[0]  # an FBL: it takes the FBL's gains (TUNED)
+    done = _nhsim(site, *argv, "--feedback", "kanayama", "--gains", "5,3", "--no-video", "--no-plots", cwd=tmp_path)
+    assert done.returncode == 0 and "--gains ignored: tracker kanayama does not use the FBL's gains" in done.stderr
+    assert "tracker kanayama (its own parameters)" in done.stdout.splitlines()[0]
+    done = _nhsim(site, *argv, "--feedback", "fbl3", "--no-video", cwd=tmp_path)
+    assert (
+        done.returncode == 2
+        and "unknown tracker 'fbl3'; choose fbl, kanayama, mpc, open-loop, rpp, segmented, fbl2" in done.stderr
+    )
+
+
 def test_version_and_help_load_no_plugin_and_a_broken_one_fails_a_lookup_clearly(tmp_path: Path) -> None:
     marker = tmp_path / "imported"
     modules = {"nhsim_test_marks": f"open({str(marker)!r}, 'w').close()\n", "nhsim_test_broken": "import nowhere\n"}

@@ -233,7 +233,15 @@ def _add_run_arguments(p: argparse.ArgumentParser) -> None:
         choices=sorted(run_choices()),
         default=RUN_SETTINGS["tracker"],
         help="fbl (closed loop on the fused estimate), open-loop, or both: the default runs, closed loop on the fused "
-        "estimate, closed loop on dead reckoning and open loop (default: %(default)s)",
+        "estimate, closed loop on dead reckoning and open loop (default: %(default)s); the closed loops' law is "
+        "--feedback's",
+    )
+    p.add_argument(
+        "--feedback",
+        default=None,
+        metavar="T",
+        help="the tracker of the closed-loop runs: fbl, segmented, mpc, rpp, kanayama, or one a plugin registers "
+        "(docs/how-to/new-tracker.md) (default: segmented on a plan, fbl on a reference)",
     )
     p.add_argument(
         "--runs",
@@ -451,6 +459,8 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--all sweeps the built-in scenarios' plans: drop it to track a --trajectory or --path file")
     if args.all and args.planner_option:
         raise ConfigError("--planner-option is one planner's: drop it with --all, which runs every planner")
+    if args.all and args.feedback is not None:
+        raise ConfigError("--feedback is one job's: --all tracks every plan with its default tracker; drop one of them")
     if args.all:
         from sim.cli.sweep_table import check_sweep_options, run_all
 
@@ -497,7 +507,23 @@ def ignored_options(args: argparse.Namespace) -> list[str]:
     runs = parse_runs(args.runs) if args.runs is not None else run_choices()[args.tracker]
     if args.gains and runs == (RunKind.OPEN_LOOP,):
         notes.append("--gains ignored: the open loop alone feeds nothing back")
+    elif args.gains and args.feedback is not None and not _takes_fbl_gains(args.feedback):
+        notes.append(
+            f"--gains ignored: tracker {args.feedback} does not use the FBL's gains (give its parameters to nhsim "
+            "compare --params)"
+        )
     return notes
+
+
+def _takes_fbl_gains(tracker: str) -> bool:
+    """Whether ``tracker``'s tuned option is the FBL's ``gains`` (fbl, segmented); False for an unknown one, which
+    the case refuses."""
+    from control.base import tuned_option
+
+    try:
+        return tuned_option(tracker)[0] == "gains"
+    except ConfigError:
+        return False
 
 
 def _case_fields(args: argparse.Namespace, gains: Any, perturbation: Any) -> dict[str, Any]:
@@ -511,6 +537,7 @@ def _case_fields(args: argparse.Namespace, gains: Any, perturbation: Any) -> dic
         "gains": gains,
         "perturbation": perturbation,
         "planning": PlanOptions(time_limit=args.time_limit, planner_options=planner_option_values(args.planner_option)),
+        "tracker": args.feedback,
         "build_seed": parse_build(args.build, args.build_seed),
         "sensors": sensor_overrides(args.sensors),
         "noise_seed": args.noise_seed,
@@ -622,6 +649,14 @@ def job_source(scenario: str | None, planner: str | None, reference: str | None)
     return scenario, ({"planner": own} if own is not None else {"reference": DEFAULT_REFERENCE})
 
 
+def _law_text(tracker: str, gains: Any) -> str:
+    """The closed loops' law in the job's first line: the FBL gains (the fbl and segmented trackers'), or the
+    tracker with its own parameters."""
+    if _takes_fbl_gains(tracker):
+        return f"gains Kp={gains.kp:g} Kd={gains.kd:g}"
+    return f"tracker {tracker} (its own parameters)"
+
+
 def job_case(args: argparse.Namespace) -> tuple[Any, str]:
     """The case one ``simulate`` job runs, and the source that names its outputs (the planner, the
     reference, or the file's name).
@@ -668,7 +703,8 @@ def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
         print(
             f"scenario {result.scenario.name} | robot {result.robot.name} | {result.source} | "
             f"{duration_text(result)} | control {args.control_rate:g} Hz | "
-            f"gains Kp={gains.kp:g} Kd={gains.kd:g}" + (f" | perturbed {perturbation.label()}" if perturbation else "")
+            + _law_text(case.feedback_tracker, gains)
+            + (f" | perturbed {perturbation.label()}" if perturbation else "")
         )
         print(f"{_build_line(record)} | {_sensor_line(record)}")
         if "import" in record:
