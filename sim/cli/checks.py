@@ -101,7 +101,7 @@ def add_planner_option_argument(p: argparse.ArgumentParser) -> None:
         metavar="KEY=VALUE",
         help="an option of the planner, over the scenario's [planners.<name>] table; repeatable; the value is read "
         f'as in TOML (500, 0.25, true, "text"; bare text is text), e.g. --planner-option {PLANNER_OPTION_EXAMPLE} '
-        "(each planner's options: docs/explanation/planners.md)",
+        "(each planner's options: docs/explanation/planners.md) (default: the scenario's own options only)",
     )
 
 
