@@ -13,7 +13,7 @@ import typing
 from collections.abc import Callable, Iterator, MutableMapping
 from typing import Any, Protocol, TypeVar
 
-from planning.core.checks import check_fields, check_number
+from planning.core.checks import check_fields, check_number, check_registration
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError, SimulationError
 from planning.trajectory.trajectory import Trajectory
@@ -56,7 +56,6 @@ PLUGIN_VARIABLE = "NHSIM_PLUGINS"
 #: Who registered a tracker, when no plugin did: nhsim itself, or a call in the running program's own code.
 BUILT_IN, BY_CODE = "built in", "registered by this program's own code"
 #: A target given as text: "package.module:attribute".
-_TARGET = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*(\.[A-Za-z_]\w*)*")
 
 
 class TrackerRegistry(MutableMapping[str, "str | Callable[..., Tracker]"]):
@@ -142,21 +141,14 @@ def register_tracker(
     Raises:
         ConfigError: A bad name or target, or a name taken by another target without ``replace``.
     """
-    if not isinstance(name, str) or not name or re.search(r"[,\s]", name):
-        raise ConfigError(
-            f"register_tracker: name must be non-empty text without commas or whitespace (it is given as "
-            f"--trackers A,B), e.g. 'p-pose'; got {name!r}"
-        )
-    if isinstance(target, str) and not _TARGET.fullmatch(target):
-        raise ConfigError(
-            f"register_tracker({name!r}): target {target!r} is not 'package.module:Attribute' (the module "
-            "path, a colon, the factory), e.g. 'mypackage.pose_p:PoseP'; or pass the class itself"
-        )
-    if not isinstance(target, str) and not callable(target):
-        raise ConfigError(
-            f"register_tracker({name!r}): target must be a tracker class (or factory) or 'module:attr', "
-            f"got {type(target).__name__}"
-        )
+    check_registration(
+        "register_tracker",
+        name,
+        target,
+        kind="tracker",
+        flag="--trackers A,B",
+        examples=("p-pose", "mypackage.pose_p:PoseP"),
+    )
     if not isinstance(baseline, bool) or not isinstance(replace, bool):
         raise ConfigError(f"register_tracker({name!r}): baseline and replace must be True or False")
     if name in TRACKERS and TRACKERS[name] != target and not replace:

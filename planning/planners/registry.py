@@ -12,17 +12,15 @@ import dataclasses
 import functools
 import importlib
 import inspect
-import re
 from collections.abc import Callable, Mapping
 from typing import Any, TypeVar
 
+from planning.core.checks import FACTORY_TARGET, check_registration
 from planning.errors import ConfigError
 from planning.planners.base import Planner
 
 ConfigT = TypeVar("ConfigT")
 
-#: A target given as text: "package.module:attribute" (as :mod:`control.base` takes a tracker's).
-_TARGET = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*(\.[A-Za-z_]\w*)*")
 
 #: Planner name -> its factory, or "module:factory" imported when the planner is first made. The factory takes
 #: keyword-only options and returns a Planner.
@@ -54,21 +52,14 @@ def register_planner(name: str, target: str | Callable[..., Planner], *, replace
     Raises:
         ConfigError: A bad name or target, or a name taken by another target without ``replace``.
     """
-    if not isinstance(name, str) or not name or re.search(r"[,\s]", name):
-        raise ConfigError(
-            f"register_planner: name must be non-empty text without commas or whitespace (it is given as "
-            f"--planner NAME), e.g. 'ttt'; got {name!r}"
-        )
-    if isinstance(target, str) and not _TARGET.fullmatch(target):
-        raise ConfigError(
-            f"register_planner({name!r}): target {target!r} is not 'package.module:Attribute' (the module "
-            "path, a colon, the factory), e.g. 'mypackage.ttt:TurnDriveTurn'; or pass the class itself"
-        )
-    if not isinstance(target, str) and not callable(target):
-        raise ConfigError(
-            f"register_planner({name!r}): target must be a planner class (or factory) or 'module:attr', "
-            f"got {type(target).__name__}"
-        )
+    check_registration(
+        "register_planner",
+        name,
+        target,
+        kind="planner",
+        flag="--planner NAME",
+        examples=("ttt", "mypackage.ttt:TurnDriveTurn"),
+    )
     if not isinstance(replace, bool):
         raise ConfigError(f"register_planner({name!r}): replace must be True or False")
     taken = PLANNERS.get(name)  # an empty entry is a placeholder (a test's monkeypatch), no planner
@@ -92,7 +83,7 @@ def _factory(name: str) -> Callable[..., Planner]:
     target = PLANNERS[name]
     if not isinstance(target, str):
         return target
-    if not _TARGET.fullmatch(target):  # set in PLANNERS directly, not through register_planner
+    if not FACTORY_TARGET.fullmatch(target):  # set in PLANNERS directly, not through register_planner
         raise ConfigError(
             f"planner {name!r}: its factory {target!r} is not 'package.module:Attribute'; register it with "
             "register_planner(name, 'mypackage.module:Class') or register_planner(name, Class)"

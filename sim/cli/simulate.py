@@ -223,11 +223,8 @@ def _add_job_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--time-limit", type=float, default=limit, metavar="S", help=budget)
 
 
-def _add_run_arguments(p: argparse.ArgumentParser) -> None:
-    """How to run it: runs, build, sensors, gains, perturbation, rate, seed, record, verbosity. Defaults
-    are :data:`sim.cli.job_outputs.RUN_SETTINGS` (which also names outputs by the settings that differ)."""
-    from control.fbl import FBLGains
-
+def _add_run_kind_arguments(p: argparse.ArgumentParser) -> None:
+    """Which runs (``--tracker``, ``--runs``) and the closed loops' tracker (``--feedback``)."""
     p.add_argument(
         "--tracker",
         choices=sorted(run_choices()),
@@ -250,6 +247,14 @@ def _add_run_arguments(p: argparse.ArgumentParser) -> None:
         help=f"the runs, overriding --tracker: any of {', '.join(str(k) for k in RunKind)} "
         "(closed_loop_truth feeds the tracker the true pose, for comparison) (default: those of --tracker)",
     )
+
+
+def _add_run_arguments(p: argparse.ArgumentParser) -> None:
+    """How to run it: runs, build, sensors, gains, perturbation, rate, seed, record, verbosity. Defaults
+    are :data:`sim.cli.job_outputs.RUN_SETTINGS` (which also names outputs by the settings that differ)."""
+    from control.fbl import FBLGains
+
+    _add_run_kind_arguments(p)
     p.add_argument(
         "--build",
         choices=["as-built", "nominal"],
