@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import ctypes
 import functools
+import re
 from pathlib import Path
 from typing import Any
 
@@ -43,10 +44,18 @@ def casadi_module(user: str) -> Any:
 @functools.cache
 def _bundled_openblas() -> Any:
     """CasADi's bundled OpenBLAS (a ``ctypes.CDLL``), None for a build without one (e.g. one linked
-    against the system's BLAS)."""
+    against the system's BLAS).
+
+    The wheels carry the library three times as separate files (``.so``, ``.so.0``, ``.so.0.3``, not links).
+    IPOPT's plugin loads the one its soname names (``.so.0``); loading another by its path maps a second copy,
+    whose thread count is not the solver's: a process that solved with IPOPT before setting the count (a test
+    calling CasADi directly first) kept a thread per core, and its plans their last bits. So the copy named
+    like a soname (one version number) is the one taken."""
     import casadi
 
-    for path in sorted(Path(casadi.__file__).parent.glob(OPENBLAS_GLOB)):
+    paths = sorted(Path(casadi.__file__).parent.glob(OPENBLAS_GLOB))
+    sonames = [p for p in paths if re.fullmatch(r".*\.so\.\d+", p.name)]
+    for path in sonames or paths:
         return ctypes.CDLL(str(path))
     return None
 

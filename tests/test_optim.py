@@ -392,6 +392,30 @@ def test_a_solve_gives_the_same_bits_whatever_the_blas_thread_count() -> None:
     assert there.stdout.strip() == repr(here)
 
 
+@pytest.mark.parametrize("ipopt_first", [True, False])
+def test_the_one_thread_is_set_on_the_openblas_ipopt_uses(ipopt_first: bool) -> None:
+    """CasADi's wheels carry their OpenBLAS as three separate files; IPOPT loads the one its soname names. The
+    thread count was set on another copy when IPOPT was loaded first (a test solving with CasADi directly before
+    any optim plan): IPOPT kept a thread per core and the bits test above failed after it in one process."""
+    import subprocess
+    import sys
+
+    solve = (
+        "x = casadi.SX.sym('x'); s = casadi.nlpsol('s', 'ipopt', {'x': x, 'f': (x - 1) ** 2}, "
+        "{'print_time': 0, 'ipopt.print_level': 0, 'ipopt.sb': 'yes'}); s(x0=0)\n"
+    )
+    code = (
+        "import os, casadi\n"
+        + (solve if ipopt_first else "")
+        + "from planning.casadi_env import blas_threads, casadi_module\ncasadi_module('test')\n"
+        + ("" if ipopt_first else solve)
+        + "maps = {l.split()[-1] for l in open(f'/proc/{os.getpid()}/maps') if 'libcasadi-tp-openblas' in l}\n"
+        "print(len(maps), blas_threads())\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
+    assert done.stdout.split() == ["1", "1"]  # one copy mapped, on one thread
+
+
 def test_a_warm_start_whose_solve_keeps_cutting_a_corner_gives_way_to_the_next() -> None:
     """On the generated world random405 the balancing EduMIP's solve from Hybrid-A*'s plan keeps cutting
     a corner between nodes however far the margin is raised; ``init="auto"`` then solves from the grid's
