@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from control.base import check_positive_fields, option_value
 from control.dispatch import bind
-from control.inputs import check_command, check_reset
+from control.inputs import check_command, check_reset, not_reset
 from control.switching import REFERENCE, clamp_command, reference_table
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
@@ -245,10 +245,7 @@ class DynamicFBL:
         if status == OK:
             return v, omega
         if self._traj is None:
-            raise ConfigError(
-                f"tracker {self.name!r}: command(t, x, y, theta) was called before reset(trajectory, dt); call "
-                "tracker.reset(trajectory, dt) first, with the trajectory to track and the control period [s]"
-            )
+            raise not_reset(self.name)
         return step(self.state, _at(self._traj, t), 0, x, y, theta)
 
 

@@ -41,6 +41,14 @@ def check_reset(tracker: str, trajectory: object, dt: object) -> float:
     return check_period(tracker, dt, trajectory)  # type: ignore[arg-type]
 
 
+def not_reset(tracker: str) -> ConfigError:
+    """The error of a tracker's ``command`` called before its ``reset`` (every tracker raises this one)."""
+    return ConfigError(
+        f"tracker {tracker!r}: command(t, x, y, theta) was called before reset(trajectory, dt); call "
+        "tracker.reset(trajectory, dt) first, with the trajectory to track and the control period [s]"
+    )
+
+
 def check_command(tracker: str, t: object, x: object, y: object, theta: object) -> None:
     """Refuse what a tracker's ``command(t, x, y, theta)`` cannot use.
 

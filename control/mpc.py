@@ -71,7 +71,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.base import check_ranges, option_value, ranged
-from control.inputs import check_command, check_reset
+from control.inputs import check_command, check_reset, not_reset
 from planning.casadi_env import casadi_module
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError, DependencyError
@@ -291,7 +291,7 @@ class MPCTracker:
         """(3, N + 1) reference poses at the horizon's instants and (2, N) reference inputs at the
         midpoints of its steps, from ``t``."""
         if self._traj is None:
-            raise RuntimeError("MPCTracker.command called before reset")
+            raise not_reset(self.name)
         n, h = self.params.horizon, self.params.step
         # the horizon's instants, then the midpoints of its steps (a held input is best at its midpoint)
         s = self._traj.sample_many(t + h * np.concatenate([np.arange(n + 1.0), np.arange(n) + 0.5]))
@@ -365,6 +365,8 @@ class MPCTracker:
             SimulationError: ``t`` or the pose is not finite.
         """
         check_command(self.name, t, x, y, theta)
+        if self._traj is None:
+            raise not_reset(self.name)
         start, cpu = time.perf_counter(), time.thread_time()
         inputs = self._solve(t, x, y, theta)
         self.solve_times.append(time.perf_counter() - start)

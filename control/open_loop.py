@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from control.inputs import check_command, check_reset
+from control.inputs import check_command, check_reset, not_reset
 from planning.core.robot import RobotSpec
 from planning.trajectory.trajectory import Trajectory
 
@@ -58,7 +58,7 @@ class OpenLoop:
             SimulationError: ``t`` or the pose is not finite, as in every tracker.
         """
         if self._traj is None:
-            raise RuntimeError("OpenLoop.command called before reset")
+            raise not_reset(self.name)
         check_command(self.name, t, x, y, theta)
         k = round((t - self._t0) / self._dt)
         if 0 <= k < len(self._starts) and self._starts[k] == t:  # a control instant: sampled at reset

@@ -48,7 +48,7 @@ from numpy.typing import NDArray
 from control.base import check_positive_fields
 from control.dispatch import bind
 from control.estimation.kernels import wrap
-from control.inputs import check_command, check_reset
+from control.inputs import check_command, check_reset, not_reset
 from planning.core.robot import RobotSpec
 from planning.trajectory.segments import infer_segments
 from planning.trajectory.trajectory import Trajectory
@@ -316,7 +316,7 @@ class PerSegmentTracker:
             SimulationError: ``t`` or the pose is not finite.
         """
         if self._period is None:
-            raise RuntimeError(f"{type(self).__name__}.command called before reset")
+            raise not_reset(self.name)
         check_command(self.name, t, x, y, theta)  # before the compiled period, which takes a text for a float
         _, v, w = self._period(t, x, y, theta)  # OK: its BAD_POSE is what the check above has named
         return v, w

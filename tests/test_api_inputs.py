@@ -174,7 +174,7 @@ def test_random_scenario_takes_integer_seeds_from_0_and_known_robots() -> None:
     assert drawn.name == "random3" and drawn.world == load_scenario("random3").world
 
 
-# ---- the probe's edge cases (s22): nhsim's own errors, never a Python one from deep inside -----------------------
+# ---- edge cases of the Python API: nhsim's own errors, never a Python one from deep inside -----------------------
 
 
 def test_fbl_command_before_reset_is_named_not_a_zero_division() -> None:
@@ -185,6 +185,16 @@ def test_fbl_command_before_reset_is_named_not_a_zero_division() -> None:
             tracker.command(t, 0.0, 0.0, 0.0)
     tracker.reset(make_reference("line", load_robot("turtlebot3"), Pose2D(0.0, 0.0, 0.0)), 0.02)
     assert all(np.isfinite(tracker.command(0.0, 0.0, 0.0, 0.0)))
+
+
+def test_every_tracker_names_a_command_before_reset_alike() -> None:
+    """mpc raised a bare AssertionError, the others RuntimeErrors of their class names: one nhsim error now."""
+    from control.base import TRACKERS
+
+    for name in sorted(TRACKERS):
+        tracker = make_tracker(name, load_robot("turtlebot3"))
+        with pytest.raises(ConfigError, match=rf"^tracker '{name}': command\(t, x, y, theta\) was called before reset"):
+            tracker.command(0.0, 0.0, 0.0, 0.0)
 
 
 def test_a_control_period_in_milliseconds_is_refused_by_every_tracker_and_1_s_is_not() -> None:
