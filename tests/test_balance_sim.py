@@ -163,3 +163,29 @@ def test_the_chassis_brushing_an_obstacle_is_a_collision_not_a_fall() -> None:
     assert m.collisions > 0 and m.status.startswith("collided with 'obstacle_5' at t=9.670 s, then fell at t=")
     fell = float(m.status.split("then fell at t=")[1].split(" s")[0])
     assert fell > 10.0  # after the robot toppled over the obstacle, not when its chassis first brushed it
+
+
+@pytest.mark.parametrize("robot", ["edumip", "turtlebot3"])
+def test_a_robot_that_does_not_balance_ends_its_run_when_it_lies_on_the_floor(
+    robot: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The balancing robot's firmware ends a run at a fall; a skid robot tipped over ran on to the end of its
+    trajectory, on its back (the dm_control suite ended its episode there). Started tipped on its side, its
+    chassis lands on the floor and the run ends there, said as a fall."""
+    import mujoco
+
+    import sim.physics.simulator as simulator_module
+    from sim.physics.model import set_pose
+    from sim.pipeline.simulate import simulate_reference
+
+    def tipped(model: mujoco.MjModel, data: mujoco.MjData, pose: object, **kw: object) -> None:
+        set_pose(model, data, pose, **kw)  # type: ignore[arg-type]
+        data.qpos[2] += 0.05
+        data.qpos[3:7] = [np.cos(0.8), np.sin(0.8), 0.0, 0.0]  # rolled 1.6 rad about its heading
+        mujoco.mj_forward(model, data)
+
+    monkeypatch.setattr(simulator_module, "set_pose", tipped)
+    job = simulate_reference("open", reference="line", robot=robot, runs=[RunKind.CLOSED_LOOP_TRUTH])
+    m = job.runs[RunKind.CLOSED_LOOP_TRUTH].metrics
+    assert m.status.startswith("fell at t=") and "or the chassis on the floor); the run ended there" in m.status
+    assert m.duration_s < 2.0 < job.prepared.trajectory.duration

@@ -378,3 +378,28 @@ def body_pitch(quat: NDArray[np.float64]) -> NDArray[np.float64]:
     ax, ay, az = 2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)  # body z axis in the world
     yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
     return np.arctan2(np.cos(yaw) * ax + np.sin(yaw) * ay, az)  # type: ignore[no-any-return]
+
+
+def touches(d: mujoco.MjData, geom: int, other: int) -> bool:
+    """Whether geoms ``geom`` and ``other`` are in contact now (the chassis and the floor: the robot has fallen;
+    its wheels, skids or caster are all that touch the floor while it stands, and the chassis brushing an
+    obstacle while upright is a collision, counted as one, not a fall)."""
+    n = d.ncon
+    if n == 0:
+        return False
+    pairs = d.contact.geom[:n]
+    return bool(
+        np.any(((pairs[:, 0] == geom) & (pairs[:, 1] == other)) | ((pairs[:, 0] == other) & (pairs[:, 1] == geom)))
+    )
+
+
+#: The tilt [rad] past which a robot that does not balance has fallen over (its body's z axis from the vertical,
+#: the balancing EduMIP's tip angle): driving, the skid EduMIP tilts up to 0.19 rad on its skids, the TurtleBot3
+#: 0.01 rad; tipped on its side (a TurtleBot3 rests on a wheel and its chassis stays off the floor) it is 1.6.
+TIP_ANGLE = 0.85
+
+
+def tipped_over(d: mujoco.MjData, body: int, chassis: int, floor: int) -> bool:
+    """Whether a robot that does not balance has fallen over: its body ``body`` tilted past :data:`TIP_ANGLE`, or its
+    chassis on the floor (the balancing robot's firmware makes the same test with its own tip angle)."""
+    return bool(d.xmat[body][8] < math.cos(TIP_ANGLE)) or touches(d, chassis, floor)

@@ -32,7 +32,7 @@ from planning.core.world import World
 from planning.errors import ConfigError, SimulationError, option
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import AsBuilt
-from sim.physics.model import BuiltModel, set_pose
+from sim.physics.model import TIP_ANGLE, BuiltModel, set_pose, tipped_over
 from sim.physics.motors import MotorModel, control_steps
 from sim.physics.perturb import Perturbation
 from sim.physics.runlog import Contact, RunLog
@@ -344,8 +344,12 @@ class Simulator:
                     f"tracker {tracker.name!r} returned a non-finite command ({v}, {w}) at t={d.time:.3f} s"
                 )
             pose = advance(k)
-            if balance is not None and balance.fell_at is not None:
-                break  # the robot fell: the run ends here (its status says when)
+            if balance is not None:
+                if balance.fell_at is not None:
+                    break  # the robot fell: the run ends here (its status says when)
+            elif tipped_over(d, *recorder.fall_geoms):  # a robot that does not balance fell over
+                recorder.tipped_at = float(d.time)
+                break
         if progress is not None:
             progress(n_ctrl, n_ctrl)
 
@@ -521,6 +525,10 @@ class Recorder:
         self.command, self.wheel_command = self.commands[:, :2], self.commands[:, 2:]
         self.contacts: list[Contact] = []
         self.balance: BalanceFirmware | None = None  # a balancing robot's firmware (set by the simulator)
+        #: When a robot that does not balance fell over (:func:`sim.physics.model.tipped_over`, at the end of a
+        #: period; the run ended there), else None.
+        self.tipped_at: float | None = None
+        self.fall_geoms = (model.body("base").id, model.geom("chassis").id, model.geom("floor").id)
         self._touching: set[int] = set()
         self._qpos, self._qvel, self._sdata = data.qpos, data.qvel, data.sensordata
         touch = [n for n in ("wheel_left_touch", "wheel_right_touch") if mujoco.mj_name2id(model, SENSOR, n) >= 0]
@@ -583,12 +591,19 @@ class Recorder:
         estimation = sensing.to_log() if sensing is not None else None
         status = sensing.status if sensing is not None else "ok"
         fw = self.balance
+        ended = np.inf
         if fw is not None and fw.fell_at is not None:
+            ended = self.t0 + fw.fell_at
             status = (
-                f"fell at t={self.t0 + fw.fell_at:.3f} s (|tilt| beyond {fw.tip_angle:g} rad or the chassis "
-                "on the floor); the run ended there"
+                f"fell at t={ended:.3f} s (|tilt| beyond {fw.tip_angle:g} rad or the chassis on the floor); the run "
+                "ended there"
             )
-        ended = np.inf if fw is None or fw.fell_at is None else self.t0 + fw.fell_at
+        elif self.tipped_at is not None:
+            ended = self.t0 + self.tipped_at
+            status = (
+                f"fell at t={ended:.3f} s (|tilt| beyond {TIP_ANGLE:g} rad or the chassis on the floor); the run ended "
+                "there"
+            )
         first = next((c for c in self.contacts if c.t <= ended), None)  # not one the fall itself made
         if status != "ok" and first is not None:  # a collision moved the robot: say it before what it caused
             status = f"collided with {first.obstacle!r} at t={first.t:.3f} s, then {status}"

@@ -29,7 +29,7 @@ from planning.core.geometry import Pose2D
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
 from sim.physics.asbuilt import AsBuilt
-from sim.physics.model import body_pitch, build_model, set_pose
+from sim.physics.model import body_pitch, build_model, set_pose, touches
 from sim.physics.motors import whole_steps
 from sim.physics.runlog import BalanceLog
 from sim.physics.sensors import SensorModel, SensorProfile, load_sensor_profile
@@ -37,19 +37,6 @@ from sim.robot.balance_design import balance_gains
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
-
-
-def touches(d: mujoco.MjData, geom: int, other: int) -> bool:
-    """Whether geoms ``geom`` and ``other`` are in contact now (the chassis and the floor: the robot has fallen;
-    its wheels, skids or caster are all that touch the floor while it stands, and the chassis brushing an
-    obstacle while upright is a collision, counted as one, not a fall)."""
-    n = d.ncon
-    if n == 0:
-        return False
-    pairs = d.contact.geom[:n]
-    return bool(
-        np.any(((pairs[:, 0] == geom) & (pairs[:, 1] == other)) | ((pairs[:, 0] == other) & (pairs[:, 1] == geom)))
-    )
 
 
 @dataclass(frozen=True)

@@ -35,12 +35,11 @@ from numpy.typing import NDArray
 from control.diffdrive import DiffDrive
 from planning.core.geometry import Pose2D
 from planning.trajectory.trajectory import Trajectory
-from sim.physics.model import set_pose
+from sim.physics.model import set_pose, tipped_over
 from sim.physics.runlog import RunLog
 from sim.physics.sensors import SensorModel, SensorReader
 from sim.physics.simulator import PeriodPhysics, Recorder, Schedule, Simulator
 from sim.pipeline.case import PreparedTrajectory
-from sim.robot.balance_firmware import touches
 from sim.robot.sensing import SensingSetup
 
 FloatArray = NDArray[np.float64]
@@ -149,7 +148,7 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         )
         m = simulator.model
         self._accel_adr = int(m.sensor_adr[m.sensor("imu_accel").id])
-        self._chassis, self._floor = m.geom("chassis").id, m.geom("floor").id
+        self._fall_geoms = (m.body("base").id, m.geom("chassis").id, m.geom("floor").id)
         self.episodes = 0
         self.episode: Episode | None = None
 
@@ -202,15 +201,16 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         A balancing robot has fallen when its balance firmware says so
         (:meth:`sim.robot.balance_firmware.BalanceFirmware.fallen`, checked at each of its updates:
         the body's tilt beyond the profile's ``tip_angle`` or the chassis touching the floor), the test
-        that ends an ``nhsim simulate`` run. A robot that does not balance has no tip angle and no
-        such firmware (``simulate`` runs on after it tips): it has fallen when its chassis touches
-        the floor, the firmware's other test (its wheels, skids or caster are all that touch the floor
-        while it stands; a contact with an obstacle ends the episode anyway).
+        that ends an ``nhsim simulate`` run. A robot that does not balance has no such firmware: it has
+        fallen when its body tilts past :data:`sim.physics.model.TIP_ANGLE` or its chassis touches the floor
+        (:func:`sim.physics.model.tipped_over`, the test that ends its ``simulate`` run too; its wheels, skids
+        or caster are all that touch the floor while it stands, and a contact with an obstacle ends the
+        episode anyway).
         """
         balance = episode.recorder.balance
         if balance is not None:
             return balance.fell_at is not None
-        return touches(d, self._chassis, self._floor)
+        return tipped_over(d, *self._fall_geoms)
 
     def _current(self) -> Episode:
         if self.episode is None:
