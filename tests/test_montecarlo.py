@@ -485,3 +485,25 @@ def test_runs_made_by_other_code_are_not_resumed_into_this_codes_study(
     assert "made by other code (digest 000000000000)" in err and "--overwrite" in err
     assert main([*base[:-1], "r4.json", "--overwrite"]) == 0
     assert json.loads(Path("r4.json").read_text())["ran_now"] == 1
+
+
+def test_the_record_and_plots_are_written_as_one_set(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The plots were replaced one by one before the record: a record that failed to write left the new plots
+    beside the old record. They are one set now: all moved in, or none."""
+    import sim.outputs
+
+    monkeypatch.chdir(tmp_path)
+    argv = ["montecarlo", "--scenario", "open", "--reference", "line", "--robot", "turtlebot3", "--runs", "2"]
+    argv += ["--seed", "3", "--jobs", "1", "--quiet", "--json", "mc.json", "--results", "mc.jsonl"]
+    assert main(argv) == 0
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.suffix in (".png", ".json")}
+    assert len(before) >= 3  # the record and its plots
+
+    def failing(path: Path, data: object, **kw: object) -> Path:
+        raise OSError(28, "No space left on device", str(path))
+
+    monkeypatch.setattr(sim.outputs, "write_json", failing)
+    with pytest.raises(OSError):
+        main([*argv, "--overwrite", "--runs", "3"])  # another study: other plots
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.suffix in (".png", ".json")} == before
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".nhsim-outputs-")]

@@ -298,16 +298,20 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _write(result: Any, paths: dict[str, Path], record: dict[str, Any], args: argparse.Namespace) -> None:
-    from sim.outputs import write_json
+    """The record and the plots, as one set (:func:`sim.outputs.staged_outputs`: moved into place together, or
+    none of them); each target was checked before the study: absent, this study's, or ``--overwrite``."""
+    from sim.outputs import staged_outputs, write_json
     from sim.viz.plots.draw import save_figure
     from sim.viz.plots.montecarlo import montecarlo_figures
 
-    if args.plots:
-        prep = result.prepared
-        title = f"{prep.scenario.name} | {prep.robot.name} | {prep.source} | {result.spec.runs} runs"
-        for name, fig in montecarlo_figures(prep.scenario.world, prep.trajectory, result.records, title=title).items():
-            save_figure(fig, paths[name], overwrite=True)  # checked above: absent, this study's, or --overwrite
-    write_json(paths["json"], record, overwrite=True)
+    with staged_outputs(overwrite=True) as stage:
+        if args.plots:
+            prep = result.prepared
+            title = f"{prep.scenario.name} | {prep.robot.name} | {prep.source} | {result.spec.runs} runs"
+            figures = montecarlo_figures(prep.scenario.world, prep.trajectory, result.records, title=title)
+            for name, fig in figures.items():
+                save_figure(fig, stage.path(paths[name]))
+        write_json(stage.path(paths["json"]), record)
 
 
 def _check_bags(folder: Path, overwrite: bool, inputs: list[tuple[str, Path]]) -> None:
