@@ -111,6 +111,7 @@ def test_a_localiser_that_loses_the_robot_ends_the_run_with_that_status(monkeypa
     import sim.robot.scan_localiser as scan_localiser
 
     monkeypatch.setattr(scan_localiser, "LOST_ERROR", 1e-4)  # any error counts as lost: the first update ends it
+    monkeypatch.setattr(scan_localiser, "LOST_DISTANCE2", 0.0)  # whatever its covariance says
     res = simulate_reference("open", reference="line", robot="turtlebot3", runs=CLOSED)
     metrics = res.runs[RunKind.CLOSED_LOOP].metrics
     assert metrics.estimation is not None and metrics.estimation.localisation_lost == 0.0

@@ -68,8 +68,13 @@ from sim.robot.pose_estimate import INITIAL_POSES, POSE_EXAMPLE, check_initial_p
 
 FloatArray = NDArray[np.float64]
 
-#: Error against the truth beyond which the localiser counts as lost [m].
+#: Error against the truth beyond which the localiser counts as lost [m] ...
 LOST_ERROR = 0.5
+#: ... when its own covariance does not cover it either: the position error's squared Mahalanobis distance
+#: beyond the chi-square's 99.9 % point for two degrees of freedom. A localiser that says it does not know
+#: where it is (a particle cloud still 0.4 m wide after a pose estimate 0.8 m off) is not lost but unsure; it
+#: is lost when it is sure of a wrong place.
+LOST_DISTANCE2 = 13.8
 #: Global localisation: most revolutions taken standing at the start.
 GLOBAL_SCANS = 40
 #: Converged: particle spread below this [m] ...
@@ -374,7 +379,8 @@ class ScanLocaliser:
             gain, when the fit gave it).
 
         Raises:
-            LocaliserLost: The estimate is more than :data:`LOST_ERROR` from the truth at ``j``.
+            LocaliserLost: The estimate is more than :data:`LOST_ERROR` from the truth at ``j``, further than its
+                covariance says it may be (:data:`LOST_DISTANCE2`).
         """
         lidar = self.scanner.profile
         ks = np.clip(np.arange(j - self.half, j + self.half + 1), 0, None)
@@ -402,8 +408,10 @@ class ScanLocaliser:
         step = max(1, self.amcl.particles.shape[0] // CLOUD_KEPT)
         self.clouds.append(self.amcl.particles[::step][:CLOUD_KEPT].copy())
         if err > LOST_ERROR and self.lost_at is None:
-            self.lost_at = tj
-            raise LocaliserLost(tj, err)
+            e = est.pose[:2] - true[:2]
+            if float(e @ np.linalg.solve(est.cov[:2, :2], e)) > LOST_DISTANCE2:  # sure of a wrong place
+                self.lost_at = tj
+                raise LocaliserLost(tj, err)
         pose = (float(est.pose[0]), float(est.pose[1]), math.remainder(float(est.pose[2]), 2 * math.pi))
         cov = (est.cov if est.noise_cov is None else est.noise_cov) + np.diag(COV_FLOOR)  # a cluster's may be singular
         return ScanFix(pose, cov, est.range_gain)
