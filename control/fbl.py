@@ -27,7 +27,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from control.base import check_positive_fields, option_value
+from control.base import TRACKERS, check_positive_fields, option_takes, option_value
 from control.dispatch import bind
 from control.inputs import check_command, check_reset, not_reset
 from control.switching import REFERENCE, clamp_command, reference_table
@@ -256,3 +256,9 @@ def _at(trajectory: Trajectory, t: float) -> NDArray[np.void]:
     for name in ("x", "y", "dx", "dy", "ddx", "ddy"):
         row[name] = getattr(s, name)
     return row
+
+
+def uses_fbl_gains(name: str) -> bool:
+    """Whether registered tracker ``name`` takes the FBL's gains (its ``gains`` option declared an
+    :class:`FBLGains`: fbl, segmented, an FBL of a plugin); False for any other, an unknown name included."""
+    return name in TRACKERS and option_takes(name, "gains", FBLGains)

@@ -409,6 +409,12 @@ class StagedOutputs:
             OutputsNotPlacedError: A move failed: every move done is undone, the old outputs kept.
         """
         ready = [(t, s) for t, s in self._staged if os.path.lexists(s)]
+        gone = [t for t, s in self._staged if not s.parent.is_dir()]  # its staging folder removed while we ran
+        if gone:
+            raise OutputsNotPlacedError(
+                f"{gone[0]}: its folder was removed (or moved) while the command ran, with the output written into "
+                "it; no output was replaced, every old file is kept: run the command again"
+            )
         with signals_held():
             for target, _ in ready:
                 self._check(target)

@@ -368,3 +368,21 @@ def test_an_interrupted_compare_keeps_every_old_output(tmp_path: Path, monkeypat
     monkeypatch.setattr("sim.viz.plots.draw.save_figure", _interrupt)  # the record is written first
     assert main([*argv, "--seed", "1", "--overwrite"]) == 130
     assert _tree(tmp_path) == before and _temporaries(tmp_path) == []
+
+
+def test_a_folder_removed_while_the_command_ran_is_said_and_nothing_is_replaced(tmp_path: Path) -> None:
+    """The output staged in a folder that was removed meanwhile was skipped without a word: the others moved in
+    and the command said it wrote a file that was not there."""
+    from sim.outputs import OutputsNotPlacedError, StagedOutputs
+
+    kept, gone = tmp_path / "kept" / "r.json", tmp_path / "gone" / "r.json"
+    kept.parent.mkdir()
+    kept.write_text("old")
+    stage = StagedOutputs(overwrite=True)
+    stage.path(kept).write_text("new")
+    stage.path(gone).write_text("new")
+    shutil.rmtree(gone.parent)  # the folder, with the output staged in it
+    with pytest.raises(OutputsNotPlacedError, match=r"gone/r\.json: its folder was removed .* no output was replaced"):
+        stage.commit()
+    stage.discard()
+    assert kept.read_text() == "old" and sorted(p.name for p in kept.parent.iterdir()) == ["r.json"]

@@ -247,6 +247,12 @@ def test_simulate_runs_its_closed_loops_with_any_registered_tracker(tmp_path: Pa
     done = _nhsim(site, *argv, "--feedback", "kanayama", "--gains", "5,3", "--no-video", "--no-plots", cwd=tmp_path)
     assert done.returncode == 0 and "--gains ignored: tracker kanayama does not use the FBL's gains" in done.stderr
     assert "tracker kanayama (its own parameters)" in done.stdout.splitlines()[0]
+    done = _nhsim(site, *argv, "--feedback", "kanayama", "--no-video", "--json", "k.json", cwd=tmp_path)
+    assert done.returncode == 0 and json.loads((tmp_path / "k.json").read_text())["gains"] is None  # not its law's
+    done = _nhsim(site, *argv, "--feedback", "open-loop", "--no-video", cwd=tmp_path)
+    assert done.returncode == 2 and "'open-loop' feeds nothing back" in done.stderr
+    done = _nhsim(site, *argv[:-1], "open_loop", "--feedback", "mpc", "--no-video", "--no-plots", cwd=tmp_path)
+    assert done.returncode == 0 and "--feedback ignored: no run of open_loop feeds back" in done.stderr
     done = _nhsim(site, *argv, "--feedback", "fbl3", "--no-video", cwd=tmp_path)
     assert (
         done.returncode == 2

@@ -101,7 +101,7 @@ def add_planner_option_argument(p: argparse.ArgumentParser) -> None:
         metavar="KEY=VALUE",
         help="an option of the planner, over the scenario's [planners.<name>] table; repeatable; the value is read "
         f'as in TOML (500, 0.25, true, "text"; bare text is text), e.g. --planner-option {PLANNER_OPTION_EXAMPLE} '
-        "(each planner's options: docs/explanation/planners.md) (default: the scenario's own options only)",
+        "for optim (each planner's options: docs/explanation/planners.md) (default: the scenario's own options only)",
     )
 
 
@@ -123,6 +123,8 @@ def planner_option_values(texts: list[str] | None) -> dict[str, Any]:
             )
         if key in out:
             raise ConfigError(f"--planner-option: {key!r} is given twice; give each option once")
+        if key == "time_limit":  # the command's own budget, said in its header and record
+            raise ConfigError(f"--planner-option {text!r}: the planning budget is --time-limit; give --time-limit S")
         try:
             out[key] = tomllib.loads(f"v = {value}")["v"]
         except tomllib.TOMLDecodeError:

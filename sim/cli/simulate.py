@@ -504,15 +504,18 @@ def ignored_options(args: argparse.Namespace) -> list[str]:
     """Options given away from their defaults that the job does not use, as notes: the planner's time limit
     when nothing is planned (a reference, a file), the time scale of a path (which has no clock), the
     gains when no run feeds back (the open loop alone)."""
+    from control.fbl import uses_fbl_gains
     from sim.cli.job_outputs import unused_time_limit
 
     notes = unused_time_limit(args.reference is None and not file_given(args), args.time_limit)
     if getattr(args, "path", None) is not None and args.time_scale is not None:
         notes.append("--time-scale ignored: a --path file has no clock (the speed profile times it)")
     runs = parse_runs(args.runs) if args.runs is not None else run_choices()[args.tracker]
+    if args.feedback is not None and all(kind.tracker for kind in runs):
+        notes.append(f"--feedback ignored: no run of {', '.join(runs)} feeds back")
     if args.gains and runs == (RunKind.OPEN_LOOP,):
         notes.append("--gains ignored: the open loop alone feeds nothing back")
-    elif args.gains and args.feedback is not None and not _takes_fbl_gains(args.feedback):
+    elif args.gains and args.feedback is not None and not uses_fbl_gains(args.feedback):
         notes.append(
             f"--gains ignored: tracker {args.feedback} does not use the FBL's gains (give its parameters to nhsim "
             "compare --params)"
@@ -520,15 +523,20 @@ def ignored_options(args: argparse.Namespace) -> list[str]:
     return notes
 
 
-def _takes_fbl_gains(tracker: str) -> bool:
-    """Whether ``tracker``'s tuned option is the FBL's ``gains`` (fbl, segmented); False for an unknown one, which
-    the case refuses."""
-    from control.base import tuned_option
+def _feedback(name: str | None) -> str | None:
+    """``--feedback``'s tracker: one with feedback (a player without it, "open-loop", is the open loop's run).
 
-    try:
-        return tuned_option(tracker)[0] == "gains"
-    except ConfigError:
-        return False
+    Raises:
+        ConfigError: A tracker without feedback.
+    """
+    from control.base import TRACKERS, feedback_trackers
+
+    if name is not None and name in TRACKERS and name not in feedback_trackers():
+        raise ConfigError(
+            f"--feedback {name}: {name!r} feeds nothing back, so the closed-loop runs would not be closed; its run is "
+            "--runs open_loop (or --tracker open-loop)"
+        )
+    return name
 
 
 def _case_fields(args: argparse.Namespace, gains: Any, perturbation: Any) -> dict[str, Any]:
@@ -542,7 +550,7 @@ def _case_fields(args: argparse.Namespace, gains: Any, perturbation: Any) -> dic
         "gains": gains,
         "perturbation": perturbation,
         "planning": PlanOptions(time_limit=args.time_limit, planner_options=planner_option_values(args.planner_option)),
-        "tracker": args.feedback,
+        "tracker": _feedback(args.feedback),
         "build_seed": parse_build(args.build, args.build_seed),
         "sensors": sensor_overrides(args.sensors),
         "noise_seed": args.noise_seed,
@@ -657,7 +665,9 @@ def job_source(scenario: str | None, planner: str | None, reference: str | None)
 def _law_text(tracker: str, gains: Any) -> str:
     """The closed loops' law in the job's first line: the FBL gains (the fbl and segmented trackers'), or the
     tracker with its own parameters."""
-    if _takes_fbl_gains(tracker):
+    from control.fbl import uses_fbl_gains
+
+    if uses_fbl_gains(tracker):
         return f"gains Kp={gains.kp:g} Kd={gains.kd:g}"
     return f"tracker {tracker} (its own parameters)"
 

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from control.base import TRACKERS
 from control.estimation.amcl import AmclConfig
-from control.fbl import FBLGains
+from control.fbl import FBLGains, uses_fbl_gains
 from planning.collision.exact import CollisionChecker
 from planning.core.checks import check_fields
 from planning.core.geometry import Pose2D, wrap_angle
@@ -335,7 +335,8 @@ class Case:
         return {
             "tracker": self.feedback_tracker,
             "params": repr(self.params) if self.params is not None else None,
-            "gains": dataclasses.asdict(self.gains or FBLGains()),
+            # the FBL's gains where the tracker takes them (None for mpc, rpp, kanayama: their params say theirs)
+            "gains": dataclasses.asdict(self.gains or FBLGains()) if uses_fbl_gains(self.feedback_tracker) else None,
             "control_rate_hz": float(self.control_rate),
             "seed": self.seed,
             "noise_seed": sensing.seed,

@@ -17,8 +17,8 @@ from typing import Any
 
 import mujoco
 
-from control.base import Tracker, make_tracker, option_takes, tuned_option
-from control.fbl import FBLGains
+from control.base import Tracker, make_tracker, tuned_option
+from control.fbl import FBLGains, uses_fbl_gains
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
 from planning.planners.registry import PLANNERS
@@ -148,7 +148,8 @@ class JobResult:
                 "length_m": self.trajectory.path_length(),
             },
             "tracker": main.tracker,
-            "gains": {"kp": gains.kp, "kd": gains.kd, "xi_min": gains.xi_min},
+            # the FBL's gains where the tracker takes them; null for one with its own parameters (mpc, rpp, ...)
+            "gains": {"kp": gains.kp, "kd": gains.kd, "xi_min": gains.xi_min} if uses_fbl_gains(main.tracker) else None,
             "control_rate_hz": self.config.control_rate,
             "seed": self.seed,
             "noise_seed": self.sensing.seed,
@@ -225,7 +226,7 @@ def tracker_for_run(case: Case, kind: RunKind, robot: RobotSpec) -> Tracker:
     """
     name = case.tracker_for(kind)
     options: dict[str, Any] = {}
-    if option_takes(name, "gains", FBLGains):
+    if uses_fbl_gains(name):
         options["gains"] = case.gains or FBLGains()
     if case.params is not None and not kind.tracker:
         options[tuned_option(name)[0]] = case.params
