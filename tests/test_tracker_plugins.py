@@ -235,29 +235,37 @@ def test_the_command_runs_a_tracker_of_an_installed_entry_point(tmp_path: Path) 
 
 
 def test_simulate_runs_its_closed_loops_with_any_registered_tracker(tmp_path: Path) -> None:
-    """simulate's --tracker picks the runs (fbl, open-loop, both); a plugin's tracker, or a built-in other than the
-    FBL, could not drive its closed loops: --feedback T now does, and --gains says it is ignored for a law that
-    does not take them."""
+    """simulate's --tracker picks the runs (fbl, open-loop, both); a plugin's tracker could not drive its closed
+    loops: --feedback T now does (an FBL of a plugin takes the FBL's gains, as its declared option says)."""
     site = _package(tmp_path / "site", {"fbl2": "nhsim_test_fbl2:FBL2"}, {"nhsim_test_fbl2": FBL2})
     argv = ["simulate", "--scenario", "open", "--reference", "line", "--robot", "turtlebot3", "--runs", "closed_loop"]
     done = _nhsim(site, *argv, "--feedback", "fbl2", "--no-video", "--json", "s.json", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert json.loads((tmp_path / "s.json").read_text())["tracker"] == "fbl2"
-    assert "gains Kp=9 Kd=6" in done.stdout.splitlines()[0]  # an FBL: it takes the FBL's gains (TUNED)
-    done = _nhsim(site, *argv, "--feedback", "kanayama", "--gains", "5,3", "--no-video", "--no-plots", cwd=tmp_path)
-    assert done.returncode == 0 and "--gains ignored: tracker kanayama does not use the FBL's gains" in done.stderr
-    assert "tracker kanayama (its own parameters)" in done.stdout.splitlines()[0]
-    done = _nhsim(site, *argv, "--feedback", "kanayama", "--no-video", "--json", "k.json", cwd=tmp_path)
-    assert done.returncode == 0 and json.loads((tmp_path / "k.json").read_text())["gains"] is None  # not its law's
-    done = _nhsim(site, *argv, "--feedback", "open-loop", "--no-video", cwd=tmp_path)
-    assert done.returncode == 2 and "'open-loop' feeds nothing back" in done.stderr
-    done = _nhsim(site, *argv[:-1], "open_loop", "--feedback", "mpc", "--no-video", "--no-plots", cwd=tmp_path)
-    assert done.returncode == 0 and "--feedback ignored: no run of open_loop feeds back" in done.stderr
+    assert "gains Kp=9 Kd=6" in done.stdout.splitlines()[0]
     done = _nhsim(site, *argv, "--feedback", "fbl3", "--no-video", cwd=tmp_path)
     assert (
         done.returncode == 2
         and "unknown tracker 'fbl3'; choose fbl, kanayama, mpc, open-loop, rpp, segmented, fbl2" in done.stderr
     )
+
+
+def test_simulate_feedback_says_what_it_does_not_use(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--gains is said to be ignored by a law that does not take them (and the record's gains are null); a
+    tracker without feedback is refused; --feedback is said to be ignored when no run feeds back."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["simulate", "--scenario", "open", "--reference", "line", "--robot", "turtlebot3", "--no-video"]
+    assert main([*argv, "--runs", "closed_loop", "--feedback", "kanayama", "--gains", "5,3", "--json", "k.json"]) == 0
+    out, err = capsys.readouterr()
+    assert "--gains ignored: tracker kanayama does not use the FBL's gains" in err
+    assert "tracker kanayama (its own parameters)" in out.splitlines()[0]
+    assert json.loads((tmp_path / "k.json").read_text())["gains"] is None  # not its law's
+    assert main([*argv, "--feedback", "open-loop"]) == 2
+    assert "'open-loop' feeds nothing back" in capsys.readouterr().err
+    assert main([*argv, "--runs", "open_loop", "--feedback", "mpc", "--no-plots", "--json", "o.json"]) == 0
+    assert "--feedback ignored: no run of open_loop feeds back" in capsys.readouterr().err
 
 
 def test_version_and_help_load_no_plugin_and_a_broken_one_fails_a_lookup_clearly(tmp_path: Path) -> None:
