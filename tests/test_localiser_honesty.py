@@ -297,3 +297,14 @@ def test_a_pose_estimate_far_off_is_unsure_not_lost(tmp_path: Path) -> None:
     run = json.loads(out.read_text())["closed_loop"]
     assert run["status"] == "ok" and run["final_position_error_m"] < 0.01
     assert run["estimation"]["localiser_rmse_m"] > 0.1  # it was far off at first, and said so
+
+
+def test_a_pose_estimate_for_a_robot_without_a_scanner_names_only_what_was_given(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """It named --localiser amcl and --amcl too, never given, and its advice (--localiser fixes) led to another
+    refusal (the fixes localiser takes no pose estimate): it names what was given and says to drop it."""
+    assert main(["simulate", "--robot", "edumip", "--initial-pose", "1,1,0", "--no-video"]) == 2
+    err = capsys.readouterr().err
+    assert "robot 'edumip' has no laser scanner: --initial-pose 1,1,0 (" in err and "needs one" in err
+    assert "--localiser" not in err and "drop it: the edumip localises from fixes" in err

@@ -290,12 +290,19 @@ class Case:
         kind = self.localiser or ("amcl" if lidar is not None else "fixes")
         initial = ("initial-pose", self.initial_pose)
         if lidar is None and (kind == "amcl" or self.amcl or self.initial_pose != "known"):
-            needs = options(
-                ("localiser", "amcl"), "amcl", initial if self.initial_pose != "known" else ("initial-pose", "unknown")
-            )
+            asked: list[str | tuple[str, str]] = [
+                opt
+                for opt, on in (
+                    (("localiser", "amcl"), kind == "amcl"),
+                    ("amcl", self.amcl),
+                    (initial, self.initial_pose != "known"),
+                )
+                if on
+            ]
+            one = len(asked) == 1
             raise ConfigError(
-                f"robot {scenario.robot!r} has no laser scanner: {needs} need one (the TurtleBot3's LDS-01); use "
-                f"{option('localiser', 'fixes')}"
+                f"robot {scenario.robot!r} has no laser scanner: {options(*asked)} {'needs' if one else 'need'} one "
+                f"(the TurtleBot3's LDS-01); drop {'it' if one else 'them'}: the {scenario.robot} localises from fixes"
             )
         if kind == "fixes":
             given: list[str | tuple[str, str]] = [opt for opt, on in (("lidar", self.lidar), ("amcl", self.amcl)) if on]
