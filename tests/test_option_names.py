@@ -56,9 +56,14 @@ def test_sim_names_the_case_fields_and_the_function_keywords(tmp_path: Path) -> 
 
     edumip = load_scenario("open").with_robot("edumip")
     with pytest.raises(ConfigError) as err:
-        Case("open", reference="line", localiser="amcl").localiser_setup(edumip)
+        Case(
+            "open", reference="line", localiser="amcl", amcl="max_particles=100", initial_pose="unknown"
+        ).localiser_setup(edumip)
     assert 'localiser="amcl", amcl=..., initial_pose="unknown" from Python) need one' in str(err.value)
-    assert str(err.value).endswith('use --localiser fixes (localiser="fixes" from Python)')
+    with pytest.raises(ConfigError) as err:  # only what was given is named
+        Case("open", reference="line", localiser="amcl").localiser_setup(edumip)
+    assert '--localiser amcl (localiser="amcl" from Python) needs one' in str(err.value)
+    assert str(err.value).endswith("drop it: the edumip localises from fixes")  # not another refused option
     with pytest.raises(ConfigError, match=r'^--perturb mas=1 \(perturbation=Perturbation\.parse\("mas=1"\) from'):
         Perturbation.parse("mas=1")
     with pytest.raises(ConfigError, match=r"^--trackers \(trackers=\.\.\. from Python\) needs at least one"):
