@@ -387,10 +387,8 @@ def touches(d: mujoco.MjData, geom: int, other: int) -> bool:
     n = d.ncon
     if n == 0:
         return False
-    pairs = d.contact.geom[:n]
-    return bool(
-        np.any(((pairs[:, 0] == geom) & (pairs[:, 1] == other)) | ((pairs[:, 0] == other) & (pairs[:, 1] == geom)))
-    )
+    pair = {geom, other}  # a handful of contacts, read once per control period: plain Python beats numpy's
+    return any({a, b} == pair for a, b in d.contact.geom[:n].tolist())  # per-call costs (1.5 against 5.7 us)
 
 
 #: The tilt [rad] past which a robot that does not balance has fallen over (its body's z axis from the vertical,
