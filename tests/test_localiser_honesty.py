@@ -308,3 +308,14 @@ def test_a_pose_estimate_for_a_robot_without_a_scanner_names_only_what_was_given
     err = capsys.readouterr().err
     assert "robot 'edumip' has no laser scanner: --initial-pose 1,1,0 (" in err and "needs one" in err
     assert "--localiser" not in err and "drop it: the edumip localises from fixes" in err
+
+
+def test_the_beams_the_fit_weighs_are_those_outside_the_split_band() -> None:
+    """``weighed_beams`` (compiled, what ``Amcl.fitted`` and the search's share count) against the band rule
+    written out: a beam read strictly within (split - below, split + above) is left out."""
+    noise = np.array([0.5, 0.015, 0.035, 0.025, 0.015])  # split, sds below and from it, the band below and above
+    r = np.array([0.12, 0.47, 0.475, 0.476, 0.5, 0.514, 0.515, 0.6, 3.4])
+    split, below, above = noise[0], noise[3], noise[4]
+    expected = int(np.count_nonzero(~((split - below < r) & (r < split + above))))
+    assert K.weighed_beams(r, noise) == expected == 6
+    assert K.weighed_beams(r, np.zeros(5)) == r.size  # no noise model: every beam counts

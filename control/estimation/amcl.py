@@ -546,8 +546,7 @@ class Amcl:
     def fitted(self, r: FloatArray) -> int:
         """How many of the valid beams ``r`` [m] the fit weighs: all but those read within the band about the
         scanner's error split, which it leaves out on purpose (:func:`amcl_kernels.beam_weight`)."""
-        split, below, above = self._noise[0], self._noise[3], self._noise[4]
-        return int(np.count_nonzero(~((split - below < r) & (r < split + above))))
+        return int(K.weighed_beams(np.ascontiguousarray(r, dtype=float), self._noise))
 
     def see_through(
         self, pose: FloatArray, ranges: FloatArray, bearings: FloatArray, range_min: float, range_max: float

@@ -300,6 +300,17 @@ def beam_weight(z: float, noise: FloatArray) -> float:  # pragma: no cover - com
 
 
 @nb.njit(cache=True)
+def weighed_beams(ranges: FloatArray, noise: FloatArray) -> int:  # pragma: no cover - compiled
+    """How many of the beams of ranges ``ranges`` [m] the fit weighs (:func:`beam_weight` above 0: all but those
+    read within the band about the split of the scanner's error)."""
+    n = 0
+    for z in ranges:
+        if beam_weight(z, noise) > 0.0:
+            n += 1
+    return n
+
+
+@nb.njit(cache=True)
 def refine(
     pose: FloatArray,
     ranges: FloatArray,
