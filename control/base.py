@@ -3,17 +3,18 @@
 from __future__ import annotations
 
 import dataclasses
-import functools
-import importlib
 import inspect
 import math
-import os
 import re
 import typing
-from collections.abc import Callable, Iterator, MutableMapping
+from collections.abc import Callable
 from typing import Any, Protocol, TypeVar
 
-from planning.core.checks import check_fields, check_number, check_registration
+from planning.core.checks import check_fields, check_number
+from planning.core.plugins import BUILT_IN as BUILT_IN  # re-exported: who registered a tracker
+from planning.core.plugins import BY_CODE as BY_CODE
+from planning.core.plugins import PLUGIN_VARIABLE as PLUGIN_VARIABLE
+from planning.core.plugins import Registry, check_registration
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError, SimulationError
 from planning.trajectory.trajectory import Trajectory
@@ -50,66 +51,14 @@ class Tracker(Protocol):
 #: ``p-pose = "mypkg.pose_p:PoseP"`` (registered by that name, its module imported when first used), or a
 #: module whose import registers its trackers, ``mypkg = "mypkg.trackers"`` (imported when the plugins load).
 PLUGIN_GROUP = "nhsim.trackers"
-#: Environment variable naming modules (comma-separated) whose import registers trackers, e.g.
-#: ``NHSIM_PLUGINS=mypkg.trackers``; imported after the entry points.
-PLUGIN_VARIABLE = "NHSIM_PLUGINS"
-#: Who registered a tracker, when no plugin did: nhsim itself, or a call in the running program's own code.
-BUILT_IN, BY_CODE = "built in", "registered by this program's own code"
-#: A target given as text: "package.module:attribute".
-
-
-class TrackerRegistry(MutableMapping[str, "str | Callable[..., Tracker]"]):
-    """Tracker name -> its factory, or "module:attr" imported when first used.
-
-    The tracker plugins (:func:`load_plugins`) are loaded on the first lookup of a name, listing or
-    count, so every tool that resolves tracker names sees them, and a command that resolves none
-    (``nhsim --version``, ``nhsim plan``) imports none.
-    """
-
-    def __init__(self, built_in: dict[str, str | Callable[..., Tracker]]) -> None:
-        self._entries = dict(built_in)
-        #: Name -> who registered it (:func:`tracker_origin`).
-        self.origins: dict[str, str] = dict.fromkeys(built_in, BUILT_IN)
-        #: The plugins: "unloaded", "loading" (a plugin registering: no second load) or "loaded".
-        self.plugins = "unloaded"
-        #: The plugin being loaded (its description), while it registers trackers; None otherwise.
-        self.loading: str | None = None
-
-    def _load(self) -> None:
-        if self.plugins == "unloaded":
-            load_plugins()
-
-    def __getitem__(self, name: str) -> str | Callable[..., Tracker]:
-        self._load()
-        return self._entries[name]
-
-    def __contains__(self, name: object) -> bool:
-        self._load()
-        return name in self._entries
-
-    def __iter__(self) -> Iterator[str]:
-        self._load()
-        return iter(self._entries)
-
-    def __len__(self) -> int:
-        self._load()
-        return len(self._entries)
-
-    def __setitem__(self, name: str, target: str | Callable[..., Tracker]) -> None:
-        self._entries[name] = target
-
-    def __delitem__(self, name: str) -> None:
-        del self._entries[name]
-        self.origins.pop(name, None)
-
-    def __repr__(self) -> str:
-        return f"TrackerRegistry({self._entries!r})"
-
 
 #: The registry of trackers by name; the factory is called as factory(robot, **keyword-only options). The CLI
 #: (compare, bench track, tune), the registry-wide tests and the fuzz suite enumerate it: registering a
-#: tracker is all it takes to appear there.
-TRACKERS = TrackerRegistry(
+#: tracker is all it takes to appear there. Its plugins (:mod:`planning.core.plugins`) load at its first
+#: lookup of a name, listing or count, so a command that resolves none (``nhsim --version``) imports none.
+TRACKERS: Registry[Tracker] = Registry(
+    "tracker",
+    PLUGIN_GROUP,
     {
         "fbl": "control.fbl:DynamicFBL",
         "kanayama": "control.kanayama:KanayamaTracker",
@@ -117,7 +66,7 @@ TRACKERS = TrackerRegistry(
         "open-loop": "control.open_loop:OpenLoop",
         "rpp": "control.rpp:RegulatedPurePursuit",
         "segmented": "control.segmented:SegmentedTracker",
-    }
+    },
 )
 
 #: Registered names without feedback (baselines): not compared by default, not held to the robot's limits.
@@ -149,110 +98,39 @@ def register_tracker(
         flag="--trackers A,B",
         examples=("p-pose", "mypackage.pose_p:PoseP"),
     )
-    if not isinstance(baseline, bool) or not isinstance(replace, bool):
-        raise ConfigError(f"register_tracker({name!r}): baseline and replace must be True or False")
-    if name in TRACKERS and TRACKERS[name] != target and not replace:
-        raise ConfigError(
-            f"register_tracker: tracker {name!r} is already registered ({tracker_origin(name)}) as "
-            f"{_target_text(TRACKERS[name])}; choose another name, or pass replace=True to replace it"
-        )
-    TRACKERS[name] = target
-    TRACKERS.origins[name] = f"from {TRACKERS.loading}" if TRACKERS.loading else BY_CODE
+    if not isinstance(baseline, bool):
+        raise ConfigError(f"register_tracker({name!r}): baseline must be True or False")
+    TRACKERS.add("register_tracker", name, target, replace)
     if baseline:
         BASELINES.add(name)
     else:
         BASELINES.discard(name)
 
 
-def _target_text(target: str | Callable[..., Tracker]) -> str:
-    if isinstance(target, str):
-        return target
-    return f"{getattr(target, '__module__', '?')}:{getattr(target, '__qualname__', repr(target))}"
-
-
 def tracker_origin(name: str) -> str:
     """Who registered tracker ``name``: :data:`BUILT_IN`, :data:`BY_CODE` (also a name set in
     :data:`TRACKERS` directly), or "from " the plugin (entry point or :data:`PLUGIN_VARIABLE`'s module)."""
-    return TRACKERS.origins.get(name, BY_CODE)
+    return TRACKERS.origin(name)
 
 
 def in_every_process(name: str) -> bool:
     """Whether a fresh Python process (a worker of ``nhsim tune --jobs``) knows tracker ``name`` too: a
-    built-in tracker or a plugin's; not one registered by a call of the program's own code, which such a
-    process does not make."""
-    return tracker_origin(name) != BY_CODE
+    built-in tracker or a plugin's; not one registered by a call of the program's own code."""
+    return TRACKERS.in_every_process(name)
 
 
 def load_plugins() -> None:
-    """Load the tracker plugins, once per process: first the entry points of group :data:`PLUGIN_GROUP`
-    of the installed packages, then the modules named by :data:`PLUGIN_VARIABLE`.
-
-    Called by the first lookup in :data:`TRACKERS`; a later call does nothing. A plugin that fails leaves
-    the plugins unloaded (the next lookup tries again, and fails the same way).
+    """Load the tracker plugins, once per process (:meth:`planning.core.plugins.Registry.load_plugins`).
 
     Raises:
-        ConfigError: A plugin failed to import or to register (names the plugin, where it was declared
-            and the exception).
+        ConfigError: A plugin failed to import or to register.
     """
-    if TRACKERS.plugins != "unloaded":
-        return
-    TRACKERS.plugins = "loading"
-    try:
-        for source, load in _plugins():
-            TRACKERS.loading = source
-            try:
-                load()
-            except Exception as exc:
-                raise ConfigError(f"tracker plugin failed to load: {source}: {type(exc).__name__}: {exc}") from exc
-    except BaseException:
-        TRACKERS.plugins = "unloaded"
-        raise
-    finally:
-        TRACKERS.loading = None
-    TRACKERS.plugins = "loaded"
-
-
-def _plugins() -> list[tuple[str, Callable[[], Any]]]:
-    """Every plugin: (its description, what loads it)."""
-    from importlib.metadata import entry_points
-
-    found: list[tuple[str, Callable[[], Any]]] = []
-    for ep in entry_points(group=PLUGIN_GROUP):
-        package = f"{ep.dist.name} {ep.dist.version}" if ep.dist is not None else "an installed package"
-        source = f"entry point '{ep.name} = {ep.value}' of group {PLUGIN_GROUP} in {package}"
-        if ep.attr:  # a tracker: registered by the entry point's name, imported when first used
-            found.append((source, functools.partial(register_tracker, ep.name, f"{ep.module}:{ep.attr}")))
-        else:  # a module whose import registers its trackers
-            found.append((source, functools.partial(importlib.import_module, ep.module)))
-    text = os.environ.get(PLUGIN_VARIABLE, "")
-    for module in filter(None, (m.strip() for m in text.split(","))):
-        source = f"module {module!r} named by {PLUGIN_VARIABLE}={text}"
-        found.append((source, functools.partial(importlib.import_module, module)))
-    return found
+    TRACKERS.load_plugins()
 
 
 def feedback_trackers() -> tuple[str, ...]:
     """The registered trackers with feedback (every one but the baselines), in registration order."""
     return tuple(name for name in TRACKERS if name not in BASELINES)
-
-
-def _factory(name: str) -> Callable[..., Tracker]:
-    if name not in TRACKERS:
-        raise ConfigError(f"unknown tracker {name!r}: choose one of {', '.join(sorted(TRACKERS))}")
-    target = TRACKERS[name]
-    if not isinstance(target, str):
-        return target
-    try:
-        module_name, attr = target.split(":")
-        factory: Any = functools.reduce(getattr, attr.split("."), importlib.import_module(module_name))
-    except Exception as exc:  # whatever importing the module raised
-        raise ConfigError(
-            f"tracker {name!r} ({tracker_origin(name)}): cannot load its factory {target!r}: "
-            f"{type(exc).__name__}: {exc}"
-        ) from exc
-    if not callable(factory):
-        raise ConfigError(f"tracker {name!r} ({tracker_origin(name)}): its factory {target!r} is not callable")
-    return factory  # type: ignore[no-any-return]
 
 
 def tracker_factory(name: str) -> Callable[..., Tracker]:
@@ -261,7 +139,7 @@ def tracker_factory(name: str) -> Callable[..., Tracker]:
     Raises:
         ConfigError: Unknown name (lists the valid ones).
     """
-    return _factory(name)
+    return TRACKERS.factory(name)
 
 
 def tracker_options(name: str) -> tuple[str, ...]:
@@ -270,7 +148,7 @@ def tracker_options(name: str) -> tuple[str, ...]:
     Raises:
         ConfigError: Unknown name (lists the valid ones).
     """
-    params = inspect.signature(_factory(name)).parameters.values()
+    params = inspect.signature(TRACKERS.factory(name)).parameters.values()
     return tuple(p.name for p in params if p.kind is inspect.Parameter.KEYWORD_ONLY)
 
 
@@ -282,7 +160,7 @@ def option_takes(name: str, option: str, kind: type) -> bool:
     Raises:
         ConfigError: Unknown name (lists the valid ones).
     """
-    factory = _factory(name)
+    factory = TRACKERS.factory(name)
     param = inspect.signature(factory).parameters.get(option)
     if param is None or param.kind is not inspect.Parameter.KEYWORD_ONLY:
         return False
@@ -302,9 +180,9 @@ def tuned_option(name: str) -> tuple[str, type]:
     Raises:
         ConfigError: Unknown name (lists the valid ones), or a tracker with nothing to tune.
     """
-    tuned = getattr(_factory(name), "TUNED", None)
+    tuned = getattr(TRACKERS.factory(name), "TUNED", None)
     if tuned is None:
-        with_params = [n for n in sorted(TRACKERS) if getattr(_factory(n), "TUNED", None) is not None]
+        with_params = [n for n in sorted(TRACKERS) if getattr(TRACKERS.factory(n), "TUNED", None) is not None]
         raise ConfigError(f"tracker {name!r} has no parameters to tune; choose one of {', '.join(with_params)}")
     return tuned  # type: ignore[no-any-return]
 
@@ -321,7 +199,7 @@ def make_tracker(name: str, robot: RobotSpec, **options: Any) -> Tracker:
         ConfigError: Unknown name (lists the valid ones), an option the tracker does not take (names
             it and lists the valid ones) or a bad option value.
     """
-    factory = _factory(name)
+    factory = TRACKERS.factory(name)
     if not isinstance(robot, RobotSpec):
         raise ConfigError(f"tracker {name!r}: robot must be a RobotSpec (load_robot('turtlebot3')), got {robot!r}")
     valid = tracker_options(name)

@@ -294,19 +294,22 @@ def test_register_planner_refuses_a_bad_name_target_or_a_taken_name(monkeypatch:
         register_planner("x", 42)  # type: ignore[arg-type]
     with pytest.raises(
         ConfigError,
-        match=r"^register_planner: planner 'rrt' is already registered as planning.planners.sampling.rrt:RRT; "
+        match=r"^register_planner: planner 'rrt' is already registered \(built in\) as "
+        r"planning.planners.sampling.rrt:RRT; "
         r"choose another name, or pass replace=True to replace it$",
     ):
         register_planner("rrt", "mypackage.ttt:TurnDriveTurn")
     assert PLANNERS["rrt"] == "planning.planners.sampling.rrt:RRT"
     register_planner("rrt", "planning.planners.sampling.rrt:RRT")  # the same target again: no change
     monkeypatch.setitem(PLANNERS, "rrt", PLANNERS["rrt"])  # restored after the test
+    monkeypatch.setattr(PLANNERS, "origins", dict(PLANNERS.origins))
     register_planner("rrt", BiRRT, replace=True)
     assert isinstance(make_planner("rrt"), BiRRT)
 
 
 def test_a_planner_that_cannot_be_made_is_a_config_error_naming_it(monkeypatch: pytest.MonkeyPatch) -> None:
     from planning import make_planner, register_planner
+    from planning.core.plugins import BY_CODE
     from planning.planners.registry import PLANNERS
 
     monkeypatch.setitem(PLANNERS, "x", "")  # removed after the test
@@ -316,7 +319,7 @@ def test_a_planner_that_cannot_be_made_is_a_config_error_naming_it(monkeypatch: 
         ("planning.planners.registry:PLANNERS", r"its factory 'planning.planners.registry:PLANNERS' is not callable"),
     ]:
         register_planner("x", target, replace=True)
-        with pytest.raises(ConfigError, match=rf"^planner 'x': {message}"):
+        with pytest.raises(ConfigError, match=rf"^planner 'x' \({BY_CODE}\): {message}"):
             make_planner("x")
     register_planner("x", lambda: 0, replace=True)
     with pytest.raises(
@@ -325,7 +328,7 @@ def test_a_planner_that_cannot_be_made_is_a_config_error_naming_it(monkeypatch: 
     ):
         make_planner("x")
     PLANNERS["x"] = "noattr"  # set directly, around register_planner's check
-    with pytest.raises(ConfigError, match=r"^planner 'x': its factory 'noattr' is not 'package.module:Attribute'"):
+    with pytest.raises(ConfigError, match=rf"^planner 'x' \({BY_CODE}\): its factory 'noattr' is not 'package.module"):
         make_planner("x")
 
 

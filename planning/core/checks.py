@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 import numbers
-import re
 from collections.abc import Mapping
 from typing import Any, Literal, TypedDict, TypeGuard, Unpack, overload
 
@@ -157,40 +156,3 @@ def check_fields(obj: object, limits: Mapping[str, Mapping[str, Any]], prefix: s
     """
     for name, kwargs in limits.items():
         object.__setattr__(obj, name, check_number(f"{prefix}{name}", getattr(obj, name), **kwargs))
-
-
-#: A factory given as text: "package.module:attribute" (a tracker's or a planner's, imported when first made).
-FACTORY_TARGET = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*(\.[A-Za-z_]\w*)*")
-
-
-def check_registration(
-    caller: str, name: object, target: object, *, kind: str, flag: str, examples: tuple[str, str]
-) -> None:
-    """What ``register_tracker`` and ``register_planner`` take: a name the command line can give (non-empty text
-    without commas or whitespace) and a factory, or its import path "package.module:Attribute".
-
-    Args:
-        caller: The function, for the messages ("register_tracker").
-        name, target: What it was given.
-        kind: "tracker" or "planner".
-        flag: How the command line gives the name ("--trackers A,B").
-        examples: An example name and module path ("p-pose", "mypackage.pose_p:PoseP").
-
-    Raises:
-        ConfigError: A bad name or target (naming the form and an example).
-    """
-    if not isinstance(name, str) or not name or re.search(r"[,\s]", name):
-        raise ConfigError(
-            f"{caller}: name must be non-empty text without commas or whitespace (it is given as {flag}), e.g. "
-            f"{examples[0]!r}; got {name!r}"
-        )
-    if isinstance(target, str) and not FACTORY_TARGET.fullmatch(target):
-        raise ConfigError(
-            f"{caller}({name!r}): target {target!r} is not 'package.module:Attribute' (the module path, a colon, the "
-            f"factory), e.g. {examples[1]!r}; or pass the class itself"
-        )
-    if not isinstance(target, str) and not callable(target):
-        raise ConfigError(
-            f"{caller}({name!r}): target must be a {kind} class (or factory) or 'module:attr', got "
-            f"{type(target).__name__}"
-        )

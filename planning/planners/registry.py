@@ -1,46 +1,56 @@
 """The registry of planners by name: what the CLI, the scenario files and the tests enumerate.
 
 A built-in planner is registered as ``"module:factory"``; the module is imported only when the planner is
-made, so listing the planners costs nothing. A factory takes keyword-only options: either named keyword
+made, so listing the planners imports none of them. A factory takes keyword-only options: either named keyword
 parameters, or ``**options`` checked against the fields of the dataclass in its ``config_class``
-attribute. A planner of your own is registered with :func:`register_planner` (docs/how-to/new-planner.md).
+attribute. A planner of your own is registered with :func:`register_planner`, or by a plugin
+(:mod:`planning.core.plugins`; docs/how-to/new-planner.md).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import functools
-import importlib
 import inspect
 from collections.abc import Callable, Mapping
 from typing import Any, TypeVar
 
-from planning.core.checks import FACTORY_TARGET, check_registration
+from planning.core.plugins import Registry, check_registration
 from planning.errors import ConfigError
 from planning.planners.base import Planner
 
 ConfigT = TypeVar("ConfigT")
 
 
+#: The entry-point group of planner plugins. An installed package declares in it a planner,
+#: ``ttt = "mypkg.ttt:TurnDriveTurn"`` (registered by that name, its module imported when first made), or a module
+#: whose import registers its planners, ``mypkg = "mypkg.planners"`` (imported when the plugins load).
+PLUGIN_GROUP = "nhsim.planners"
+
 #: Planner name -> its factory, or "module:factory" imported when the planner is first made. The factory takes
-#: keyword-only options and returns a Planner.
-PLANNERS: dict[str, str | Callable[..., Planner]] = {
-    "rrt": "planning.planners.sampling.rrt:RRT",
-    "birrt": "planning.planners.sampling.rrt:BiRRT",
-    "rrt-star": "planning.planners.sampling.rrt_star:RRTStar",
-    "c-rrt-star": "planning.planners.sampling.crrt_star:CRRTStar",
-    "sinusoidal": "planning.planners.sinusoidal:Sinusoidal",
-    "optim": "planning.planners.optim:Optim",
-    "hybrid-a-star": "planning.planners.hybrid_astar:HybridAStar",
-}
+#: keyword-only options and returns a Planner. Its plugins (:mod:`planning.core.plugins`) load at its first
+#: lookup of a name, listing or count.
+PLANNERS: Registry[Planner] = Registry(
+    "planner",
+    PLUGIN_GROUP,
+    {
+        "rrt": "planning.planners.sampling.rrt:RRT",
+        "birrt": "planning.planners.sampling.rrt:BiRRT",
+        "rrt-star": "planning.planners.sampling.rrt_star:RRTStar",
+        "c-rrt-star": "planning.planners.sampling.crrt_star:CRRTStar",
+        "sinusoidal": "planning.planners.sinusoidal:Sinusoidal",
+        "optim": "planning.planners.optim:Optim",
+        "hybrid-a-star": "planning.planners.hybrid_astar:HybridAStar",
+    },
+)
 
 
 def register_planner(name: str, target: str | Callable[..., Planner], *, replace: bool = False) -> None:
     """Register a planner by name: its factory (a class), or its import path, e.g. ``"mypackage.ttt:TurnDriveTurn"``.
 
-    Registration holds in the running process only: :func:`make_planner`, ``simulate_plan(planner=...)``
-    and ``sim.cli.main.main([...])`` called from it see the planner; the ``nhsim`` command does not (planners
-    have no plugins, docs/how-to/new-planner.md).
+    A call registers it in the running process: :func:`make_planner`, ``simulate_plan(planner=...)`` and
+    ``sim.cli.main.main([...])`` called from it see the planner. For the ``nhsim`` command (and fresh worker
+    processes) to see it, make the registration a plugin: an entry point of group :data:`PLUGIN_GROUP` in an
+    installed package, or a module named by ``NHSIM_PLUGINS`` (docs/how-to/new-planner.md).
 
     Args:
         name: The planner's name (``--planner``, a scenario's ``planner``, the run records): non-empty
@@ -60,42 +70,7 @@ def register_planner(name: str, target: str | Callable[..., Planner], *, replace
         flag="--planner NAME",
         examples=("ttt", "mypackage.ttt:TurnDriveTurn"),
     )
-    if not isinstance(replace, bool):
-        raise ConfigError(f"register_planner({name!r}): replace must be True or False")
-    taken = PLANNERS.get(name)  # an empty entry is a placeholder (a test's monkeypatch), no planner
-    if taken and taken != target and not replace:
-        raise ConfigError(
-            f"register_planner: planner {name!r} is already registered as {_target_text(taken)}; choose another "
-            "name, or pass replace=True to replace it"
-        )
-    PLANNERS[name] = target
-
-
-def _target_text(target: str | Callable[..., Planner]) -> str:
-    if isinstance(target, str):
-        return target
-    return f"{getattr(target, '__module__', '?')}:{getattr(target, '__qualname__', repr(target))}"
-
-
-def _factory(name: str) -> Callable[..., Planner]:
-    if name not in PLANNERS:
-        raise ConfigError(f"unknown planner {name!r}: choose one of {', '.join(sorted(PLANNERS)) or '(none)'}")
-    target = PLANNERS[name]
-    if not isinstance(target, str):
-        return target
-    if not FACTORY_TARGET.fullmatch(target):  # set in PLANNERS directly, not through register_planner
-        raise ConfigError(
-            f"planner {name!r}: its factory {target!r} is not 'package.module:Attribute'; register it with "
-            "register_planner(name, 'mypackage.module:Class') or register_planner(name, Class)"
-        )
-    module_name, attr = target.split(":")
-    try:
-        factory: Any = functools.reduce(getattr, attr.split("."), importlib.import_module(module_name))
-    except Exception as exc:  # whatever importing the module raised
-        raise ConfigError(f"planner {name!r}: cannot load its factory {target!r}: {type(exc).__name__}: {exc}") from exc
-    if not callable(factory):
-        raise ConfigError(f"planner {name!r}: its factory {target!r} is not callable (a class or a function)")
-    return factory  # type: ignore[no-any-return]
+    PLANNERS.add("register_planner", name, target, replace)
 
 
 def planner_options(name: str) -> tuple[str, ...]:
@@ -107,7 +82,7 @@ def planner_options(name: str) -> tuple[str, ...]:
     Raises:
         ConfigError: Unknown planner name (the message lists the valid ones).
     """
-    factory = _factory(name)
+    factory = PLANNERS.factory(name)
     params = inspect.signature(factory).parameters.values()
     names = {p.name for p in params if p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)}
     config_class = getattr(factory, "config_class", None)
@@ -158,7 +133,7 @@ def make_planner(name: str, **options: Any) -> Planner:
             f"unknown option(s) {', '.join(unknown)} for planner {name!r}: valid options are {', '.join(valid)}"
         )
     try:
-        planner = _factory(name)(**options)
+        planner = PLANNERS.factory(name)(**options)
     except TypeError as exc:
         raise ConfigError(f"planner {name!r}: {exc}") from exc
     if not callable(getattr(planner, "plan", None)):

@@ -22,7 +22,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     from planning.core.robot import ROBOT_FILES
     from planning.planners.registry import PLANNERS
 
-    planners = ", ".join(sorted(PLANNERS)) or "(none registered)"
+    planners = ", ".join(PLANNERS.built_in()) + ", or one a plugin registers"
     p: argparse.ArgumentParser = sub.add_parser(
         "plan",
         help="plan a path through a scenario and report status, time, length and clearance",

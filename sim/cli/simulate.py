@@ -205,7 +205,7 @@ def _add_job_arguments(p: argparse.ArgumentParser) -> None:
         help="analytic reference placed at the scenario's start pose (default: none, the scenario's planner plans "
         f"the path; {DEFAULT_REFERENCE} when the scenario names no planner)",
     )
-    planners = ", ".join(sorted(PLANNERS)) or "none registered"
+    planners = ", ".join(PLANNERS.built_in()) + ", or one a plugin registers"
     p.add_argument(
         "--planner",
         default=None,

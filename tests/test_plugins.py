@@ -1,11 +1,12 @@
-"""Registering trackers: what ``register_tracker`` accepts, the plugin hook that brings a user's tracker to
-the ``nhsim`` command (entry points of group ``nhsim.trackers``, ``NHSIM_PLUGINS``) and to ``tune --jobs``
-workers, and ``tune``'s outputs for a tracker without a gains file."""
+"""Registering trackers and planners: what ``register_tracker`` accepts, the plugin hook that brings a user's
+tracker or planner to the ``nhsim`` command (entry points of groups ``nhsim.trackers`` and ``nhsim.planners``,
+``NHSIM_PLUGINS``) and to ``tune --jobs`` workers, and ``tune``'s outputs for a tracker without a gains file."""
 
 from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -33,6 +34,8 @@ from control.kanayama import KanayamaParams
 from control.open_loop import OpenLoop
 from planning.core.robot import load_robot
 from planning.errors import ConfigError
+from planning.planners.registry import PLANNERS, make_planner
+from planning.planners.registry import PLUGIN_GROUP as PLANNER_GROUP
 from sim.cli.main import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -44,11 +47,12 @@ class MyFBL(DynamicFBL):
 
 @pytest.fixture
 def registry(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
-    """The registry as it is now, restored after the test, with its plugins unloaded (the next lookup
+    """The registries as they are now, restored after the test, with their plugins unloaded (the next lookup
     loads them); the plugin modules the test imported are forgotten again."""
-    monkeypatch.setattr(TRACKERS, "_entries", dict(TRACKERS._entries))
-    monkeypatch.setattr(TRACKERS, "origins", dict(TRACKERS.origins))
-    monkeypatch.setattr(TRACKERS, "plugins", "unloaded")
+    for registered in (TRACKERS, PLANNERS):
+        monkeypatch.setattr(registered, "_entries", dict(registered._entries))
+        monkeypatch.setattr(registered, "origins", dict(registered.origins))
+        monkeypatch.setattr(registered, "plugins", "unloaded")
     monkeypatch.setattr(base, "BASELINES", set(BASELINES))
     monkeypatch.delenv(PLUGIN_VARIABLE, raising=False)
     modules = set(sys.modules)
@@ -58,9 +62,9 @@ def registry(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
             del sys.modules[name]
 
 
-def _package(site: Path, entry_points: dict[str, str], modules: dict[str, str]) -> Path:
+def _package(site: Path, entry_points: dict[str, str], modules: dict[str, str], group: str = PLUGIN_GROUP) -> Path:
     """An installed package in folder ``site``: its modules and a ``.dist-info`` declaring the entry
-    points of group ``nhsim.trackers`` (as ``pip install`` leaves them)."""
+    points of ``group`` (``nhsim.trackers`` by default; as ``pip install`` leaves them)."""
     site.mkdir(exist_ok=True)
     for name, code in modules.items():
         (site / f"{name}.py").write_text(code)
@@ -68,7 +72,7 @@ def _package(site: Path, entry_points: dict[str, str], modules: dict[str, str]) 
     info.mkdir()
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: nhsim-test-plugins\nVersion: 1.0\n")
     lines = "".join(f"{name} = {value}\n" for name, value in entry_points.items())
-    (info / "entry_points.txt").write_text(f"[{PLUGIN_GROUP}]\n{lines}")
+    (info / "entry_points.txt").write_text(f"[{group}]\n{lines}")
     return site
 
 
@@ -217,6 +221,14 @@ def test_the_documented_error_is_the_one_given(registry: None, monkeypatch: pyte
     assert f"`nhsim compare: error: {err.value}`" in page
 
 
+def test_the_documented_planner_plugin_error_is_the_one_given(registry: None, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(PLUGIN_VARIABLE, "mypackage.planners")
+    with pytest.raises(ConfigError) as err:
+        make_planner("birrt")
+    page = " ".join((ROOT / "docs" / "how-to" / "new-planner.md").read_text().split())
+    assert f"`nhsim plan: error: {err.value}`" in page
+
+
 # ---- plugins, in the nhsim command -----------------------------------------------------------------------
 def _nhsim(site: Path, *argv: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     """``nhsim ARGV`` in a fresh process that sees the packages installed in ``site``."""
@@ -280,6 +292,76 @@ def test_version_and_help_load_no_plugin_and_a_broken_one_fails_a_lookup_clearly
     assert done.stderr.strip() == (
         "nhsim compare: error: tracker plugin failed to load: entry point 'broken = nhsim_test_broken' of group "
         "nhsim.trackers in nhsim-test-plugins 1.0: ModuleNotFoundError: No module named 'nowhere'"
+    )
+
+
+# ---- planner plugins: the same hook, group nhsim.planners ------------------------------------------------
+MINE = "from planning.planners.sampling.rrt import BiRRT\n\n\nclass Mine(BiRRT):\n    name = 'mine'\n"
+REGISTERS_MINE = "from planning import register_planner\n\nregister_planner('mod-mine', 'nhsim_test_mine:Mine')\n"
+BOTH = (
+    REGISTERS
+    + "from planning import register_planner\nfrom planning.planners.sampling.rrt import BiRRT\n\n"
+    + "register_planner('env-birrt', BiRRT)\nregister_tracker('env-fbl', DynamicFBL)\n"
+)
+
+
+def test_planner_entry_points_register_a_planner_lazily_or_import_a_module(
+    registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    modules = {"nhsim_test_mine": MINE, "nhsim_test_pmod": REGISTERS_MINE}
+    entry_points = {"mine": "nhsim_test_mine:Mine", "mod": "nhsim_test_pmod"}
+    monkeypatch.syspath_prepend(str(_package(tmp_path / "site", entry_points, modules, PLANNER_GROUP)))
+    assert {"mine", "mod-mine"} <= set(PLANNERS)
+    assert "nhsim_test_mine" not in sys.modules  # imported when first made
+    package = f"of group {PLANNER_GROUP} in nhsim-test-plugins 1.0"
+    assert PLANNERS.origin("mine") == f"from entry point 'mine = nhsim_test_mine:Mine' {package}"
+    assert PLANNERS.origin("mod-mine") == f"from entry point 'mod = nhsim_test_pmod' {package}"
+    assert PLANNERS.in_every_process("mine") and not PLANNERS.in_every_process("nobody")
+    assert make_planner("mine").name == "mine"
+    assert "mine" not in TRACKERS  # the planners' group registers no tracker
+
+
+def test_one_module_named_by_the_variable_registers_a_planner_and_a_tracker(
+    registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    (tmp_path / "nhsim_test_both.py").write_text(BOTH)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setenv(PLUGIN_VARIABLE, "nhsim_test_both")
+    assert "env-birrt" in PLANNERS  # the planners' lookup imports it; its tracker is registered then too
+    origin = f"from module 'nhsim_test_both' named by {PLUGIN_VARIABLE}=nhsim_test_both"
+    assert PLANNERS.origin("env-birrt") == origin and tracker_origin("env-fbl") == origin
+    assert "env-fbl" in feedback_trackers() and TRACKERS.plugins == PLANNERS.plugins == "loaded"
+
+
+def test_the_command_plans_and_simulates_with_a_planner_of_an_installed_entry_point(tmp_path: Path) -> None:
+    """``nhsim plan --planner P``, ``simulate --planner P`` and a scenario file naming P: the command answered
+    "unknown planner" for any planner it did not ship."""
+    site = _package(tmp_path / "site", {"mine": "nhsim_test_mine:Mine"}, {"nhsim_test_mine": MINE}, PLANNER_GROUP)
+    done = _nhsim(site, "plan", "--scenario", "simple_motion", "--planner", "mine", "--json", "p.json", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert json.loads((tmp_path / "p.json").read_text())["planner"] == "mine"
+    scenario = (ROOT / "models" / "scenarios" / "simple_motion.toml").read_text()
+    (tmp_path / "mine.toml").write_text('planner = "mine"\n' + re.sub(r"(?m)^planner = .*$", "", scenario))
+    argv = ["simulate", "--scenario", "mine.toml", "--runs", "closed_loop", "--no-video", "--json", "s.json"]
+    done = _nhsim(site, *argv, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert json.loads((tmp_path / "s.json").read_text())["source"] == "planner:mine"
+
+
+def test_plan_help_loads_no_planner_plugin_and_a_broken_one_fails_a_plan_clearly(tmp_path: Path) -> None:
+    marker = tmp_path / "imported"
+    modules = {"nhsim_test_marks": f"open({str(marker)!r}, 'w').close()\n", "nhsim_test_broken": "import nowhere\n"}
+    entry_points = {"marks": "nhsim_test_marks", "broken": "nhsim_test_broken"}
+    site = _package(tmp_path / "site", entry_points, modules, PLANNER_GROUP)
+    for argv in (["--version"], ["plan", "--help"], ["simulate", "--help"]):
+        done = _nhsim(site, *argv, cwd=tmp_path)
+        assert done.returncode == 0 and not marker.exists(), (argv, done.stderr)
+    assert "or one a plugin registers" in done.stdout
+    done = _nhsim(site, "plan", "--scenario", "simple_motion", "--planner", "birrt", cwd=tmp_path)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert done.stderr.strip() == (
+        "nhsim plan: error: planner plugin failed to load: entry point 'broken = nhsim_test_broken' of group "
+        "nhsim.planners in nhsim-test-plugins 1.0: ModuleNotFoundError: No module named 'nowhere'"
     )
 
 
