@@ -81,6 +81,16 @@ def test_bad_geometry_raises_config_error(make: Any, match: str) -> None:
         ),
         ("optim", {"max_iter": math.nan}, r"optim: max_iter must be an integer >= 1, got nan"),
         ("optim", {"init_options": 5}, r"optim: init_options must be a table"),
+        (  # were ignored: the straight line takes no options
+            "optim",
+            {"init": "straight", "init_options": {"range": 1}},
+            r"optim: init_options \(range\) are a warm-start planner's options, and init='straight' is none",
+        ),
+        (  # were refused only when the plan ran its warm start
+            "optim",
+            {"init": "birrt", "init_options": {"bogus": 1}},
+            r"optim: init_options: unknown option\(s\) bogus for the warm start's planner 'birrt': valid options are",
+        ),
         ("sinusoidal", {"max_period": math.nan}, r"sinusoidal: max_period must be a finite number > 0, got nan"),
     ],
 )

@@ -50,7 +50,7 @@ from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon, World
 from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, checked_problem
 from planning.planners.gridpath import grid_path
-from planning.planners.registry import PLANNERS, make_planner
+from planning.planners.registry import PLANNERS, make_planner, planner_options
 from planning.signals import signals_end_early, signals_held
 
 FloatArray = NDArray[np.float64]
@@ -398,6 +398,29 @@ def _build(key: tuple[Any, ...]) -> _Nlp:
     return _Nlp(opti, x, u, p_start, p_goal, p_dt, p_bounds, p_limits, p_l, p_clear, obstacles, verbose, deadline)
 
 
+def _check_init_options(init: str, options: dict[str, Any]) -> None:
+    """``init_options`` name options of the warm start's planner (``init`` a registered planner); the built-in
+    warm starts take none. The values are checked when the planner is made, before the plan's clock starts.
+
+    Raises:
+        ConfigError: Options for a built-in warm start, or options the planner does not take (names them).
+    """
+    if not options:
+        return
+    if init in _BUILTIN_INITS:
+        raise ConfigError(
+            f"optim: init_options ({', '.join(sorted(options))}) are a warm-start planner's options, and "
+            f"init={init!r} is none; give init=<planner> (e.g. init='hybrid-a-star') or drop init_options"
+        )
+    valid = planner_options(init)
+    unknown = sorted(set(options) - set(valid))
+    if unknown:
+        raise ConfigError(
+            f"optim: init_options: unknown option(s) {', '.join(unknown)} for the warm start's planner {init!r}: "
+            f"valid options are {', '.join(valid)}"
+        )
+
+
 class Optim:
     """Bicycle-model trajectory optimisation (CasADi Opti + IPOPT).
 
@@ -462,6 +485,7 @@ class Optim:
             raise ConfigError(
                 f"optim: init_options must be a table of the warm-start planner's options, got {init_options!r}"
             )
+        _check_init_options(init, init_options or {})
         self.init = init
         self.init_options = dict(init_options or {})
         self.verbose = bool(verbose)
