@@ -777,3 +777,30 @@ def test_optunas_report_of_an_interrupted_trial_is_dropped_whole() -> None:
         "Trial 7 failed with parameters: {'kp': 2.0} because of the following error: ValueError('x').",
         "Trial 7 failed with value None.",
     ]
+
+
+def test_an_interrupt_while_the_outputs_are_written_leaves_every_old_one(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The gains file, the record and the plots are one set: Ctrl-C while the plots were drawn left the new gains
+    file beside the old record and plots (each file was written atomically, but one at a time)."""
+    import sim.cli.tune as tune_cli
+
+    monkeypatch.chdir(tmp_path)
+    assert main(_args(tmp_path, 2, "--eval-runs", "0", "--draws", "1")) == 0
+    outputs = sorted(p for p in tmp_path.iterdir() if p.suffix in (".toml", ".json", ".png"))
+    assert {p.suffix for p in outputs} == {".toml", ".json", ".png"}, outputs
+    before = {p: p.read_bytes() for p in outputs}
+    save_plots = tune_cli._save_plots
+
+    def interrupted(*args: object) -> object:
+        save_plots(*args)  # type: ignore[arg-type]
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(tune_cli, "_save_plots", interrupted)
+    assert main(_args(tmp_path, 3, "--eval-runs", "0", "--draws", "1")) == 130  # one more trial, then the outputs
+    assert {p: p.read_bytes() for p in outputs} == before
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".nhsim-outputs")]
+    monkeypatch.setattr(tune_cli, "_save_plots", save_plots)
+    assert main(_args(tmp_path, 3, "--eval-runs", "0", "--draws", "1")) == 0
+    assert all(p.read_bytes() != before[p] for p in outputs if p.suffix != ".png")  # the 3-trial study's

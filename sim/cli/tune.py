@@ -270,17 +270,15 @@ def _run_parallel(spec: Any, shares: list[int], study: Any, progress: _Progress)
         )
 
 
-def _save_figure(plt: Any, ax: Any, path: Path, files: TuneFiles, overwrite: bool) -> None:
-    from sim.outputs import atomic_path
-
+def _save_figure(plt: Any, ax: Any, path: Path, files: TuneFiles, stage: Any) -> None:
     fig = ax.get_figure(root=True)
-    with atomic_path(path, overwrite=files.replaceable(overwrite)) as tmp:
-        fig.savefig(tmp, dpi=120, bbox_inches="tight", format="png", metadata=files.stamp())
+    fig.savefig(stage.path(path), dpi=120, bbox_inches="tight", format="png", metadata=files.stamp())
     plt.close(fig)
 
 
-def _save_plots(study: Any, files: TuneFiles, overwrite: bool) -> tuple[list[str], list[str]]:
-    """Write both plots; returns the paths written and notes on plots that could not be drawn."""
+def _save_plots(study: Any, files: TuneFiles, stage: Any) -> tuple[list[str], list[str]]:
+    """Write both plots into ``stage`` (:class:`sim.outputs.StagedOutputs`); returns the paths written and notes
+    on plots that could not be drawn."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -293,7 +291,7 @@ def _save_plots(study: Any, files: TuneFiles, overwrite: bool) -> tuple[list[str
     ax = plot_optimization_history(study)
     ax.set_ylabel("objective [m]")
     ax.set_yscale("log")
-    _save_figure(plt, ax, files.history, files, overwrite)
+    _save_figure(plt, ax, files.history, files, stage)
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", UserWarning)
@@ -302,7 +300,7 @@ def _save_plots(study: Any, files: TuneFiles, overwrite: bool) -> tuple[list[str
     except Exception as exc:  # too few or identical trials
         notes.append(f"no importance plot: {exc}")
     else:
-        _save_figure(plt, ax, files.importance, files, overwrite)
+        _save_figure(plt, ax, files.importance, files, stage)
         written.append(str(files.importance))
     return written, notes
 
@@ -340,7 +338,7 @@ class TuneFiles:
         return overwrite or path in self.own or (path.is_file() and self.owner(path) == self.stamp())
 
     def replaceable(self, overwrite: bool) -> Callable[[Path], bool]:
-        """:meth:`may_replace` as the question :func:`sim.outputs.atomic_path` asks at each check:
+        """:meth:`may_replace` as the question :class:`sim.outputs.StagedOutputs` asks at each check:
         another worker of this study may write the same output while this one works."""
         return lambda path: self.may_replace(path, overwrite)
 
@@ -735,14 +733,16 @@ def _write_outputs(
     default_obj: float,
     comparison: Any,
 ) -> bool:
-    """Write the gains file with its provenance, the JSON record and the plots; print what was written.
+    """Write the gains file with its provenance, the JSON record and the plots, as one set (each under a
+    temporary name, then all moved into place together: an error or an interrupt leaves every old file as it
+    was); print what was written.
 
     Returns:
         Whether the tuned gains lost to the defaults on the held-out draws (the gains file then
         holds the default gains; see :func:`recommendation`).
     """
     from control.gains import GainsFile, dump_gains_toml
-    from sim.outputs import atomic_path, write_json
+    from sim.outputs import staged_outputs, write_json
     from sim.tools.tune import completed
 
     provenance: dict[str, Any] = {
@@ -770,10 +770,6 @@ def _write_outputs(
     gains, verdict = recommendation(best, comparison, spec.tracker)
     provenance.update(verdict)
     written = [files.record]
-    if writes_gains_file(spec.tracker):  # a gains file for 'simulate --gains'; the record serves every tracker
-        with atomic_path(files.gains, overwrite=files.replaceable(args.overwrite)) as tmp:
-            tmp.write_text(dump_gains_toml(GainsFile(gains, provenance)), encoding="utf-8")
-        written.insert(0, files.gains)
     record = {
         **provenance,
         "params": asdict(gains),
@@ -781,8 +777,12 @@ def _write_outputs(
         "settings": spec.settings(),
         "held_out": held_out,
     }
-    write_json(files.record, _finite(record, drop=False), overwrite=files.replaceable(args.overwrite))
-    plots, notes = _save_plots(study, files, args.overwrite)
+    with staged_outputs(overwrite=files.replaceable(args.overwrite)) as stage:  # all or none, as simulate's
+        if writes_gains_file(spec.tracker):  # a gains file for 'simulate --gains'; the record serves every tracker
+            stage.path(files.gains).write_text(dump_gains_toml(GainsFile(gains, provenance)), encoding="utf-8")
+            written.insert(0, files.gains)
+        write_json(stage.path(files.record), _finite(record, drop=False))
+        plots, notes = _save_plots(study, files, stage)
     for note in notes:
         print(note, file=sys.stderr)
     print("wrote " + ", ".join([*map(str, written), *plots]))
