@@ -196,7 +196,7 @@ def _bad_bags(tmp_path: Path) -> dict[str, Path]:
         (
             "no topic given",
             ["--path", "{good}"],
-            "name the topic to read with --topic (topic=... from Python); it has /plan (nav_msgs/Path, 2)",
+            "name the topic to read with --topic; it has /plan (nav_msgs/Path, 2)",
         ),
         ("topic missing", ["--path", "{good}", "--topic", "/odom"], "no topic '/odom'; the bag has /plan"),
         ("wrong type", ["--path", "{good}", "--topic", "/pose"], "carries geometry_msgs/PoseStamped, not a path"),

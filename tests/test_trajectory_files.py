@@ -173,7 +173,8 @@ def test_a_pixel_file_without_scale_is_refused_suggesting_it(
     p = pixel_file(tmp_path)
     assert main(["simulate", "--trajectory", str(p), "--scenario", "world.toml", "--no-video", "--quiet"]) == 2
     err = capsys.readouterr().err
-    assert "leaves the world" in err and "e.g. --scale 0.01 (scale=0.01 from Python)" in err and "px.csv" in err
+    assert "leaves the world" in err and "e.g. --scale 0.01 for 1 cm per pixel" in err and "px.csv" in err
+    assert "from Python" not in err  # the command prints the command-line form only
     assert main(["simulate", "--trajectory", str(p), "--no-video", "--quiet"]) == 2  # no scenario: too big an arena
     assert "--scale" in capsys.readouterr().err
     assert not (tmp_path / "renders").exists() or not any((tmp_path / "renders").iterdir())

@@ -24,7 +24,7 @@ import sys
 from collections.abc import Collection, Sequence
 from typing import NoReturn
 
-from planning.errors import NhsimError, SimulationError
+from planning.errors import NhsimError, SimulationError, without_python
 
 #: Subcommand name -> module path.
 COMMANDS: dict[str, str] = {
@@ -168,13 +168,13 @@ def _main(argv: Sequence[str] | None) -> int:
         mod = importlib.import_module(args._module)
         return int(mod.run(args))
     except SimulationError as exc:
-        print(f"nhsim {args.command}: simulation failed: {exc}", file=sys.stderr)
+        print(f"nhsim {args.command}: simulation failed: {without_python(str(exc))}", file=sys.stderr)
         return 1
     except NhsimError as exc:
         if _failed_plan(exc):  # a failed plan is a failed run, not bad input (as in ``nhsim plan``)
-            print(f"nhsim {args.command}: failed: {exc}", file=sys.stderr)
+            print(f"nhsim {args.command}: failed: {without_python(str(exc))}", file=sys.stderr)
             return 1
-        print(f"nhsim {args.command}: error: {exc}", file=sys.stderr)
+        print(f"nhsim {args.command}: error: {without_python(str(exc))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"nhsim {args.command}: interrupted", file=sys.stderr)
