@@ -1,7 +1,8 @@
 """Scenarios: a world, a robot, a start and a goal, loaded from TOML files.
 
 Format version 1 (see docs/reference/scenario-format.md): top-level ``name``, ``robot``, ``description``, ``version``;
-tables ``[world]`` (``bounds``, ``[[world.obstacles]]``, ``[[world.unmapped]]``: obstacles shaped as
+tables ``[world]`` (``bounds``, ``[[world.obstacles]]`` (each with an optional ``height``, below a laser scanner's
+plane for an obstacle the scan passes over), ``[[world.unmapped]]``: obstacles shaped as
 ``[[world.obstacles]]`` that exist in physics and in the laser scan but not in the map the planner and the
 localiser use, none within the robot's reach of the start), ``[start]`` (``pose``) and ``[goal]``
 (``pose``, ``position_tolerance``, ``heading_tolerance``); optional ``[planners.<name>]`` tables of
@@ -33,7 +34,18 @@ from planning.core.robot import MODELS_DIR, ROBOT_FILES, RobotSpec, check_robot_
 from planning.core.scenario_type import DEFAULT_HEADING_TOLERANCE, DEFAULT_POSITION_TOLERANCE
 from planning.core.scenario_type import Scenario as Scenario  # re-exported (planning.Scenario): mypy --strict
 from planning.core.tables import TableReader
-from planning.core.world import MAX_WORLD_SIDE, Box, Circle, Ellipse, Obstacle, Polygon, World, too_thin
+from planning.core.world import (
+    MAX_OBSTACLE_HEIGHT,
+    MAX_WORLD_SIDE,
+    OBSTACLE_HEIGHT,
+    Box,
+    Circle,
+    Ellipse,
+    Obstacle,
+    Polygon,
+    World,
+    too_thin,
+)
 from planning.errors import ConfigError, ScenarioError, option
 
 SCENARIOS_DIR = MODELS_DIR / "scenarios"
@@ -46,10 +58,10 @@ _TOP_KEYS = {
 _WORLD_KEYS = {"bounds", "obstacles", "map", "unmapped"}
 _OBSTACLE_KEYS: dict[str, tuple[set[str], set[str]]] = {
     # type: (required, optional)
-    "circle": ({"center", "radius"}, set()),
-    "ellipse": ({"center", "radii"}, {"angle"}),
-    "box": ({"center", "size"}, {"angle"}),
-    "polygon": ({"vertices"}, set()),
+    "circle": ({"center", "radius"}, {"height"}),
+    "ellipse": ({"center", "radii"}, {"angle", "height"}),
+    "box": ({"center", "size"}, {"angle", "height"}),
+    "polygon": ({"vertices"}, {"height"}),
 }
 
 #: Hooks that turn a ``[world.map]`` table into obstacles: fn(table, scenario_dir, where) -> obstacles.
@@ -65,27 +77,38 @@ def _obstacle(r: TableReader, table: Mapping[str, Any], ctx: str) -> Obstacle:
     req, opt = _OBSTACLE_KEYS[kind]
     r.keys(table, ctx, req | {"type"}, opt)
     angle = r.number(table, "angle", ctx) if "angle" in table else 0.0
+    height = _height(r, table, ctx)
     cx, cy = r.vector(table, "center", ctx, 2) if "center" in table else (0.0, 0.0)
     if kind == "circle":
-        return Circle((cx, cy), r.number(table, "radius", ctx, positive=True))
+        return Circle((cx, cy), r.number(table, "radius", ctx, positive=True), height)
     if kind == "ellipse":
         a, b = r.vector(table, "radii", ctx, 2)
         if a <= 0 or b <= 0:
             raise r.fail(f"{ctx}radii", "two numbers > 0", [a, b])
-        return Ellipse((cx, cy), (a, b), angle)
+        return Ellipse((cx, cy), (a, b), angle, height)
     if kind == "box":
         sx, sy = r.vector(table, "size", ctx, 2)
         if sx <= 0 or sy <= 0:
             raise r.fail(f"{ctx}size", "two numbers > 0 (full extents)", [sx, sy])
-        return Box((cx, cy), (sx, sy), angle)
+        return Box((cx, cy), (sx, sy), angle, height)
     verts = table["vertices"]
     if not isinstance(verts, list) or len(verts) < 3:
         raise r.fail(f"{ctx}vertices", "a list of at least 3 [x, y] pairs", verts)
     pts = tuple(r.vector({"v": v}, "v", f"{ctx}vertices[{i}].", 2) for i, v in enumerate(verts))
     try:
-        return Polygon(pts)  # type: ignore[arg-type]
+        return Polygon(pts, height)  # type: ignore[arg-type]
     except ValueError as exc:
         raise r.fail(f"{ctx}vertices", f"a simple polygon ({exc})", verts) from exc
+
+
+def _height(r: TableReader, table: Mapping[str, Any], ctx: str) -> float:
+    """An obstacle's ``height`` [m] (:data:`planning.core.world.OBSTACLE_HEIGHT` when not given): one below a laser
+    scanner's plane is passed over by the scan."""
+    expected = f"a height in metres, > 0 and at most {MAX_OBSTACLE_HEIGHT:g}"
+    height = r.number(table, "height", ctx, positive=True, default=OBSTACLE_HEIGHT, expected=expected)
+    if height > MAX_OBSTACLE_HEIGHT:
+        raise r.fail(f"{ctx}height", expected, height)
+    return height
 
 
 def _planner_options(r: TableReader, table: Any) -> dict[str, dict[str, Any]]:

@@ -472,13 +472,13 @@ def test_a_revolution_begun_before_the_run_keeps_its_beams_from_time_zero(
 
 
 def test_obstacles_not_on_the_map_are_drawn_apart_and_left_off_the_map(job: tuple[Any, Path]) -> None:
-    from planning.core.world import Box, Circle
+    from planning.core.world import OBSTACLE_HEIGHT, Box, Circle
     from sim.io.bag import job_topics
     from sim.io.bag_topics import OBSTACLE_COLOUR, UNMAPPED_COLOUR
     from sim.physics.model import build_model
 
     result, _ = job
-    hidden = (Box((0.4, 0.5), (0.3, 0.2), 0.3), Circle((0.2, -0.4), 0.1))
+    hidden = (Box((0.4, 0.5), (0.3, 0.2), 0.3, height=0.1), Circle((0.2, -0.4), 0.1))  # one below the scan plane
     scenario = dataclasses.replace(result.prepared.scenario, unmapped=hidden)
     topics = {tp.name: tp for tp in job_topics(dataclasses.replace(result.prepared, scenario=scenario), result.logs)}
     markers = topics["/obstacles"].make(0).markers  # type: ignore[misc]
@@ -495,9 +495,8 @@ def test_obstacles_not_on_the_map_are_drawn_apart_and_left_off_the_map(job: tupl
         for g in range(built.ngeom)
         if built.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX and built.geom_size[g][0] == 0.15
     )
-    assert (
-        unmapped[0].scale.z == pytest.approx(2 * built.geom_size[box][2]) and unmapped[1].scale.z == unmapped[0].scale.z
-    )
+    assert unmapped[0].scale.z == pytest.approx(2 * built.geom_size[box][2]) == pytest.approx(0.1)
+    assert unmapped[1].scale.z == pytest.approx(OBSTACLE_HEIGHT) and unmapped[1].pose.position.z == OBSTACLE_HEIGHT / 2
     colours = {(x.color.r, x.color.g, x.color.b, x.color.a) for x in unmapped}
     assert colours == {UNMAPPED_COLOUR} and all(
         (x.color.r, x.color.g, x.color.b, x.color.a) == OBSTACLE_COLOUR for x in mapped[:-1]

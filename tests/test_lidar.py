@@ -167,3 +167,45 @@ def test_noise_is_seeded_and_has_the_datasheet_statistics(scene: tuple) -> None:
     assert abs(a.bias_far) <= 1.0
     assert rel.mean() == pytest.approx(a.bias_far * p.accuracy_far, abs=0.002)
     assert rel.std() == pytest.approx(p.precision_far, rel=0.02)
+
+
+def test_the_scan_passes_over_an_obstacle_below_its_plane_and_the_robot_does_not() -> None:
+    """An obstacle's height: one below the LDS-01's plane (0.182 m) is in physics (the robot hits it) but not in
+    the scan, nor in the map the localiser matches scans to (``World.seen_at``); every obstacle was 0.3 m."""
+    low, tall = Box((1.0, 0.0), (0.2, 0.6), height=0.1), Circle((-1.0, 0.0), 0.2, height=0.25)
+    world = World((-2.0, 2.0, -1.5, 1.5), (low, tall))
+    model = build_model(load_robot("turtlebot3"), world).model
+    data = mujoco.MjData(model)
+    box, disc = model.geom("obstacle_0"), model.geom("obstacle_1")
+    tops = [box.pos[2] + box.size[2], disc.pos[2] + disc.size[1]]  # a box's half height, a cylinder's
+    np.testing.assert_allclose(tops, [0.1, 0.25])
+    _place(model, data, (0.0, 0.0, 0.0))
+    lidar = LidarScanner(model, EXACT, seed=1)
+    got = lidar.cast(data, np.zeros((360, 3)))
+    origin = lidar.origins(np.zeros((1, 3)))[0]
+    ahead, behind = got[0], got[180]  # toward the low box (and the east wall past it), toward the disc
+    assert ahead == pytest.approx(2.0 - origin[0], abs=1e-9)  # the wall, over the box
+    assert behind == pytest.approx(origin[0] - (-1.0 + 0.2), abs=1e-9)  # the disc, above the plane
+    assert world.seen_at(lidar.height).obstacles == (tall,) and world.seen_at(0.05) is world
+    _place(model, data, (0.95, 0.0, 0.0))  # the robot on the low box: in contact with it
+    obstacle = model.geom("obstacle_0").id
+    assert any(obstacle in (c.geom1, c.geom2) for c in data.contact[: data.ncon])
+
+
+def test_the_localisers_map_is_what_its_scanner_sees() -> None:
+    """The particles are weighed against a map without the obstacles the scan passes over: with them, every
+    beam that flies over a low box toward the wall behind it would be scored as a miss."""
+    from control.estimation.amcl import AmclConfig, likelihood_field
+    from sim.robot.scan_localiser import LocaliserSetup, ScanLocaliser
+
+    low, tall = Box((1.0, 0.0), (0.2, 0.6), height=0.1), Box((-1.0, 0.0), (0.2, 0.6))
+    world = World((-2.0, 2.0, -1.5, 1.5), (low, tall))
+    robot = load_robot("turtlebot3")
+    model = build_model(robot, world).model
+    config = AmclConfig(max_particles=500)
+    setup = LocaliserSetup("amcl", world, load_lidar_profile("turtlebot3"), config)
+    loc = ScanLocaliser(model, robot, setup, 0, t0=0.0, dt=0.02, rad_per_count=2 * math.pi / 4096)
+    args = (config.map_resolution, config.laser_likelihood_max_dist)
+    seen, full = likelihood_field(World(world.bounds, (tall,)), *args), likelihood_field(world, *args)
+    np.testing.assert_array_equal(loc.amcl.field.capped, seen.capped)
+    assert not np.array_equal(seen.capped, full.capped)

@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from planning.core.world import Box, Circle, Ellipse, Polygon
+from planning.core.world import OBSTACLE_HEIGHT, Box, Circle, Ellipse, Polygon
 from planning.errors import ScenarioError
 from planning.scenario import SCENARIOS_DIR, builtin_scenarios, load_scenario
 
@@ -56,6 +56,14 @@ def test_the_documented_example_loads(tmp_path: Path) -> None:
     assert sc.source is not None
 
 
+def test_an_obstacle_states_its_height_or_stands_above_the_scan_plane(tmp_path: Path) -> None:
+    low = GOOD.replace("angle = 0.0\n", "angle = 0.0\nheight = 0.08\n").replace(
+        "[0.5, 1.0]]", "[0.5, 1.0]]\nheight = 2"
+    )
+    heights = [o.height for o in load_scenario(_write(tmp_path, low)).world.obstacles]
+    assert heights == [OBSTACLE_HEIGHT, OBSTACLE_HEIGHT, 0.08, 2.0]
+
+
 def test_name_defaults_to_the_file_stem(tmp_path: Path) -> None:
     sc = load_scenario(_write(tmp_path, GOOD.replace('name = "farm"\n', "")))
     assert sc.name == "s"
@@ -80,6 +88,9 @@ def test_name_defaults_to_the_file_stem(tmp_path: Path) -> None:
         ),
         (('type = "circle"', 'type = "star"'), r"'world.obstacles\[0\].type': expected one of"),
         (("radius = 0.3", "radius = -0.3"), r"'world.obstacles\[0\].radius': expected a number > 0"),
+        (("radius = 0.3", "radius = 0.3\nheight = 0"), r"'world.obstacles\[0\].height': expected a height in metres"),
+        (("size = [1.0, 0.4]", "size = [1.0, 0.4]\nheight = 30"), r"'world.obstacles\[2\].height': .*at most 10, got"),
+        (("radius = 0.3", 'radius = 0.3\nheight = "low"'), r"'world.obstacles\[0\].height': expected a finite number"),
         (("radius = 0.3", 'radius = "big"'), r"expected a finite number"),
         (("bounds = [-3.0, 3.0, -3.0, 3.0]", "bounds = [3.0, -3.0, -3.0, 3.0]"), "xmin < xmax"),
         (("bounds = [-3.0, 3.0, -3.0, 3.0]", "bounds = [-3.0, 1e6, -3.0, 3.0]"), "at most 1000 m a side"),

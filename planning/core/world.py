@@ -18,6 +18,17 @@ from planning.errors import ConfigError
 
 FloatArray = NDArray[np.float64]
 
+#: Height of an obstacle that states none, and of the walls, as built in physics and drawn in a bag [m]: above
+#: the TurtleBot3's LDS-01 scan plane (0.182 m), so the scanner sees it. A lower obstacle (its ``height``) is
+#: one the scan passes over: physics has it, and the planners, but not the map a localiser matches scans to.
+OBSTACLE_HEIGHT = 0.3
+#: Tallest obstacle a world takes [m].
+MAX_OBSTACLE_HEIGHT = 10.0
+
+
+def _check_height(kind: str, height: object) -> None:
+    check_number(f"{kind} height", height, above=0.0, at_most=MAX_OBSTACLE_HEIGHT)
+
 
 def _points(points: ArrayLike) -> FloatArray:
     p = np.asarray(points, dtype=float)
@@ -50,10 +61,12 @@ class _Folded:
 
     center: tuple[float, float]
     angle: float
+    height: float
     kind: ClassVar[str]
     extents_field: ClassVar[str]
 
     def __post_init__(self) -> None:
+        _check_height(self.kind, self.height)
         extents = getattr(self, self.extents_field)
         _finite_pair(f"{self.kind} center", self.center)
         _finite_pair(f"{self.kind} {self.extents_field}", extents)
@@ -68,13 +81,15 @@ class _Folded:
 
 @dataclass(frozen=True)
 class Circle:
-    """A disc obstacle. center (2,) [m], radius [m]."""
+    """A disc obstacle. center (2,) [m], radius [m], height [m] (:data:`OBSTACLE_HEIGHT`)."""
 
     center: tuple[float, float]
     radius: float
+    height: float = OBSTACLE_HEIGHT
     kind: ClassVar[str] = "circle"
 
     def __post_init__(self) -> None:
+        _check_height(self.kind, self.height)
         _finite_pair("circle center", self.center)
         check_number("circle radius", self.radius, above=0.0)
 
@@ -96,11 +111,12 @@ class Circle:
 
 @dataclass(frozen=True)
 class Ellipse(_Folded):
-    """An ellipse. center (2,) [m], radii (a, b) semi-axes [m], angle of the a-axis [rad]."""
+    """An ellipse. center (2,) [m], radii (a, b) semi-axes [m], angle of the a-axis [rad], height [m]."""
 
     center: tuple[float, float]
     radii: tuple[float, float]
     angle: float = 0.0
+    height: float = OBSTACLE_HEIGHT
     kind: ClassVar[str] = "ellipse"
     extents_field: ClassVar[str] = "radii"
 
@@ -132,11 +148,12 @@ class Ellipse(_Folded):
 
 @dataclass(frozen=True)
 class Box(_Folded):
-    """An oriented rectangle. center (2,) [m], size (full extents) [m], angle [rad]."""
+    """An oriented rectangle. center (2,) [m], size (full extents) [m], angle [rad], height [m]."""
 
     center: tuple[float, float]
     size: tuple[float, float]
     angle: float = 0.0
+    height: float = OBSTACLE_HEIGHT
     kind: ClassVar[str] = "box"
     extents_field: ClassVar[str] = "size"
 
@@ -168,13 +185,15 @@ class Box(_Folded):
 
 @dataclass(frozen=True)
 class Polygon:
-    """A simple polygon (convex or not). vertices (K, 2) [m], K >= 3, no self-intersection."""
+    """A simple polygon (convex or not). vertices (K, 2) [m], K >= 3, no self-intersection; height [m]."""
 
     vertices: tuple[tuple[float, float], ...]
+    height: float = OBSTACLE_HEIGHT
     kind: ClassVar[str] = "polygon"
     _v: FloatArray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
+        _check_height(self.kind, self.height)
         v = np.asarray(self.vertices, dtype=float)
         if v.ndim != 2 or v.shape[1] != 2 or v.shape[0] < 3:
             raise ConfigError(f"polygon needs at least 3 vertices of [x, y], got shape {v.shape}")
@@ -322,9 +341,6 @@ def too_thin(ob: Obstacle) -> str:
 
 #: Longest side of a world [m]: the sampling planners' reach and every grid grow with it.
 MAX_WORLD_SIDE = 1000.0
-#: Height of every obstacle and wall of a world as built in physics and drawn in a bag [m]: above the
-#: TurtleBot3's LDS-01 scan plane (0.182 m), so the scanner sees each one (a world has no low obstacles).
-OBSTACLE_HEIGHT = 0.3
 
 
 @dataclass(frozen=True)
@@ -378,6 +394,13 @@ class World:
     def height(self) -> float:
         """Extent along y [m]."""
         return self.bounds[3] - self.bounds[2]
+
+    def seen_at(self, plane: float) -> World:
+        """The world a planar laser scanner ``plane`` metres above the floor sees, and a map made from its scans
+        holds: the walls and the obstacles that reach above the plane (this world, when every one does). A
+        lower obstacle is passed over by the scan, and is in physics and the planners' world only."""
+        seen = tuple(ob for ob in self.obstacles if ob.height > plane)
+        return self if len(seen) == len(self.obstacles) else World(self.bounds, seen)
 
     def grid_spacing(self, finest: float, max_cells: int) -> float:
         """Spacing [m] of a square grid over the bounds: ``finest``, or coarser where that would need more

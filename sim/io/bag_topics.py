@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.core.world import OBSTACLE_HEIGHT, Box, Circle, Ellipse, Polygon, World
+from planning.core.world import Box, Circle, Ellipse, Polygon, World
 from sim.io import rosmsgs as m
 
 FloatArray = NDArray[np.float64]
@@ -858,10 +858,11 @@ def robot_markers(ns: str, robot: Any, sk: Skeleton, colour: tuple[float, ...]) 
 
 
 def _obstacle_marker(k: int, obs: Any, ns: str, colour: tuple[float, ...]) -> Any | None:
-    """One obstacle as a solid of :data:`OBSTACLE_HEIGHT` (a polygon as its outline), or None (a shape
-    not drawn)."""
+    """One obstacle as a solid of its height (a polygon as its outline at that height), or None (a shape not
+    drawn)."""
+    h = obs.height
     if isinstance(obs, Polygon):
-        pts = [m.point(x, y, OBSTACLE_HEIGHT) for x, y in [*obs.vertices, obs.vertices[0]]]
+        pts = [m.point(x, y, h) for x, y in [*obs.vertices, obs.vertices[0]]]
         return _marker(k, 4, m.pose(0, 0, 0, (0, 0, 0, 1)), (0.02, 0, 0), pts, ns=ns, colour=colour)
     if isinstance(obs, Circle):
         size, angle, kind = (2 * obs.radius, 2 * obs.radius), 0.0, 3
@@ -871,15 +872,15 @@ def _obstacle_marker(k: int, obs: Any, ns: str, colour: tuple[float, ...]) -> An
         size, angle, kind = (obs.size[0], obs.size[1]), obs.angle, 1
     else:
         return None
-    p = m.pose(obs.center[0], obs.center[1], 0.5 * OBSTACLE_HEIGHT, m.yaw_quat(angle))
-    return _marker(k, kind, p, (size[0], size[1], OBSTACLE_HEIGHT), [], ns=ns, colour=colour)
+    p = m.pose(obs.center[0], obs.center[1], 0.5 * h, m.yaw_quat(angle))
+    return _marker(k, kind, p, (size[0], size[1], h), [], ns=ns, colour=colour)
 
 
 def obstacle_markers(world: World, unmapped: Sequence[Any] = ()) -> Any:
     """``/obstacles``: the map's obstacles (namespace ``obstacles``), the world's walls as a line (its last
     id), and the obstacles that are not on the map (namespace ``unmapped``, :data:`UNMAPPED_COLOUR`: in
-    physics and in the scan, unknown to the planner and the localiser), each a solid of
-    :data:`OBSTACLE_HEIGHT` (a polygon as its outline)."""
+    physics and in the scan, unknown to the planner and the localiser), each a solid of its height (a polygon
+    as its outline)."""
     mapped = [_obstacle_marker(k, obs, "obstacles", OBSTACLE_COLOUR) for k, obs in enumerate(world.obstacles)]
     xmin, xmax, ymin, ymax = world.bounds
     walls = [m.point(x, y) for x, y in ((xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax), (xmin, ymin))]

@@ -109,7 +109,6 @@ def build_model(
     robot: RobotSpec,
     world: World | None = None,
     *,
-    obstacle_height: float = OBSTACLE_HEIGHT,
     wall_height: float = OBSTACLE_HEIGHT,
     wall_thickness: float = 0.05,
 ) -> BuiltModel:
@@ -118,7 +117,6 @@ def build_model(
     Args:
         robot: The robot (its scene file is loaded).
         world: Bounds and obstacles; None for the bare scene.
-        obstacle_height: Height of obstacle geoms [m].
         wall_height: Height of the boundary walls [m] (above a laser scanner's plane: the
             TurtleBot3's LDS-01 scans 0.182 m above the floor).
         wall_thickness: Thickness of the walls, placed outside the bounds [m].
@@ -142,7 +140,7 @@ def build_model(
     )
     names: list[str] = []
     if world is not None:
-        names += _add_obstacles(spec, holder, world, obstacle_height)
+        names += _add_obstacles(spec, holder, world)
         names += _add_walls(holder, world, wall_height, wall_thickness)
         xmin, xmax, ymin, ymax = world.bounds
         spec.stat.extent = float(max(xmax - xmin, ymax - ymin))
@@ -157,12 +155,12 @@ def build_model(
     return BuiltModel(model, obstacle_ids, robot_ids, {int(i): n for i, n in zip(obstacle_ids, names, strict=True)})
 
 
-def _add_obstacles(spec: mujoco.MjSpec, holder: mujoco.MjsBody, world: World, height: float) -> list[str]:
-    """Add the world's obstacles as static geoms of ``height`` [m]; returns their geom names in order."""
+def _add_obstacles(spec: mujoco.MjSpec, holder: mujoco.MjsBody, world: World) -> list[str]:
+    """Add the world's obstacles as static geoms, each of its own height [m]; returns their geom names in order."""
     names: list[str] = []
-    h = height
     for i, obs in enumerate(world.obstacles):
         name = f"obstacle_{i}"
+        h = obs.height
         if isinstance(obs, Circle):
             holder.add_geom(
                 name=name,

@@ -115,7 +115,9 @@ class LocaliserSetup:
 
     Attributes:
         kind: "amcl" (LDS-01 scans matched against the map) or "fixes" (synthetic Gaussian fixes).
-        world: The map (the scenario's world, unmapped obstacles left out); None with "fixes".
+        world: The scenario's world (unmapped obstacles left out); None with "fixes". The localiser's map is
+            the part of it its scanner sees (:meth:`planning.core.world.World.seen_at`: no obstacle below the
+            scan plane).
         lidar: The scanner's settings; None with "fixes".
         amcl: The localiser's settings.
         initial: "known" (particles around the start pose, Nav2's initial covariance), "unknown"
@@ -263,8 +265,9 @@ class ScanLocaliser:
         assert setup.world is not None and setup.lidar is not None
         self.scanner = LidarScanner(model, setup.lidar, seed)
         laser = (float(self.scanner.offset[0]), float(self.scanner.offset[1]), 0.0)
+        # the map it matches scans to: what the scanner sees (an obstacle below its plane is not on it)
         self.amcl = Amcl(
-            setup.world, setup.amcl, laser, seed + SEED_OFFSET,
+            setup.world.seen_at(self.scanner.height), setup.amcl, laser, seed + SEED_OFFSET,
             range_bias=range_bias(setup.lidar), range_noise=range_noise(setup.lidar),
         )  # fmt: skip
         self.setup, self.t0, self.dt = setup, t0, dt

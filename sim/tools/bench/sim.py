@@ -220,7 +220,8 @@ def measure_scan(particles: int = 500, revolutions: int = 50) -> ScanBench:
     mujoco.mj_forward(model, data)
     scanner = LidarScanner(model, profile, seed=0)
     cfg = AmclConfig(min_particles=particles, max_particles=particles, update_min_d=0.0, update_min_a=0.0)
-    amcl = Amcl(scenario.world, cfg, (float(scanner.offset[0]), float(scanner.offset[1]), 0.0), seed=0)
+    laser = (float(scanner.offset[0]), float(scanner.offset[1]), 0.0)
+    amcl = Amcl(scenario.world.seen_at(scanner.height), cfg, laser, seed=0)
     start = scenario.start
     pose = np.array([start.x, start.y, start.theta])
     amcl.reset(pose)
