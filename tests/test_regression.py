@@ -362,6 +362,24 @@ def test_a_baselines_folder_that_cannot_serve_is_refused_before_any_case_runs(
     assert sorted(p.name for p in tmp_path.iterdir()) == ["baselines.txt"]  # nothing written
 
 
+def test_a_new_suites_missing_baselines_hint_records_the_suites_own(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The hint for a suite without baselines left out --suite: followed as printed, it recorded nhsim's own
+    suite's baselines into the user's folder."""
+    suite = tmp_path / "my" / "suite.toml"
+    suite.parent.mkdir()
+    suite.write_text(
+        'cases = [ { name = "mine", scenario = "open", robot = "edumip", reference = "line", tracker = "fbl", '
+        "seed = 0, fast = true } ]\n"
+    )
+    assert main(["regress", "--suite", str(suite)]) == 2
+    hint = capsys.readouterr().err.strip().rsplit("record them there with ", 1)[1]
+    assert hint == f"nhsim regress --update --suite {suite}"
+    assert main(hint.split()[1:]) == 0  # followed as printed
+    assert sorted(p.name for p in (tmp_path / "my" / "baselines").iterdir()) == ["mine.json"]
+
+
 def test_a_suite_with_no_fast_case_refuses_the_default_run_that_would_check_nothing(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

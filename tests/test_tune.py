@@ -295,10 +295,14 @@ def test_malformed_gains_file_is_rejected_by_simulate(tmp_path: Path, capsys: py
 def test_resuming_with_other_settings_is_refused(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], change: list[str], differ: str
 ) -> None:
+    """The refusal names the settings that differ and the options that set them (another --seed was said to be
+    "cases, draws differ", naming no option the user gave)."""
     assert main(_args(tmp_path, 1, "--eval-runs", "0", "--draws", "1")) == 0
     assert main([*_args(tmp_path, 2, "--eval-runs", "0", "--draws", "1", *change), "--overwrite"]) == 2
-    listed = re.search(r"other settings \(([^)]*) differ\)", capsys.readouterr().err)
-    assert listed is not None and differ in listed.group(1).split(", ")
+    listed = re.search(r"other settings: (.*) differ;", capsys.readouterr().err)
+    assert listed is not None
+    said = dict(re.findall(r"(\w+) \(set by ([^)]*)\)", listed.group(1)))
+    assert change[0] in said[differ].split(", ")
     assert len(_completed(tmp_path)) == 1
 
 

@@ -120,7 +120,10 @@ def run(args: argparse.Namespace) -> int:
         for c in cases:
             print(f"{c.name}{'  (fast)' if c.fast else ''}")
         return 0
-    read = check_baselines(baselines, cases, update=args.update)
+    try:
+        read = check_baselines(baselines, cases, update=args.update)
+    except ConfigError as exc:
+        raise ConfigError(_with_files(str(exc), args)) from None
     tty = sys.stderr.isatty()
     done = {}
     with make_executor(args.jobs, args.scheduler, default=1) as executor:
@@ -181,7 +184,7 @@ def check_baselines(baselines: Path, cases: list[Any], *, update: bool) -> dict[
     elif not baselines.exists():
         raise ConfigError(
             f"--baselines {baselines} does not exist; give the folder that holds the baselines, or record them "
-            f"there with nhsim regress --update --baselines {baselines}"
+            "there with nhsim regress --update"  # with this run's --suite and --baselines (run: _with_files)
         )
     return read_baselines(cases, baselines)
 

@@ -1,4 +1,4 @@
-"""``nhsim tune``: tune the FBL tracker's gains with Optuna over a set of cases."""
+"""``nhsim tune``: tune a tracker's parameters (the FBL's gains by default) with Optuna over a set of cases."""
 
 from __future__ import annotations
 

@@ -533,12 +533,28 @@ def load_study(spec: TuneSpec, *, worker: int = 0, create: bool = False) -> Any:
         study.set_user_attr("settings", settings)
     elif stored != settings:
         diff = sorted(k for k in set(stored) | set(settings) if stored.get(k) != settings.get(k))
+        said = ", ".join(f"{k} (set by {SETTING_OPTIONS[k]})" if k in SETTING_OPTIONS else k for k in diff)
         raise ConfigError(
-            f"study {spec.study!r} in {spec.storage!r} was created with other settings ({', '.join(diff)} differ); "
+            f"study {spec.study!r} in {spec.storage!r} was created with other settings: {said} differ; "
             f"rerun with the same options to resume it, or choose another study name, {option('study')}"
         )
     study.sampler = make_sampler(spec.sampler, spec.seed, len(study.trials), worker)
     return study
+
+
+#: The options that set each of a study's stored settings (:meth:`TuneSpec.settings`), as a refused resume
+#: names them: the user changed an option, not "draws".
+SETTING_OPTIONS = {
+    "cases": "--scenarios, --robot, --seed and the case options",
+    "draws": "--draws, --seed, --perturb-range",
+    "saturation_weight": "--saturation-weight",
+    "search_space": "the tracker's search space, in this nhsim version",
+    "tracker": "--tracker",
+    "robust": "--robust",
+    "control_rate": "--control-rate",
+    "robot": "--robot",
+    "localiser": "--localiser",
+}
 
 
 def _earlier_settings(spec: TuneSpec, settings: dict[str, Any]) -> list[dict[str, Any]]:
