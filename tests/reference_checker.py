@@ -3,8 +3,8 @@
 
 The same rule (the centre's signed distance less the radius; for the footprint near something, the
 nearest boundary sample's distance less ``tolerance / 2``, or -inf with an obstacle's anchor inside the
-footprint) with every obstacle measured by :mod:`planning.core.world`'s formulas, vectorised over the
-poses.
+footprint or the centre more than ``radius + tolerance`` inside an obstacle or beyond a wall) with every
+obstacle measured by :mod:`planning.core.world`'s formulas, vectorised over the poses.
 """
 
 from __future__ import annotations
@@ -25,9 +25,11 @@ def reference_clearance(checker: CollisionChecker, poses: FloatArray) -> FloatAr
     out = centre - robot.radius
     if checker.shape == "disc":
         return out
-    band = centre <= robot.radius + checker.clearance + checker.tolerance
+    deep = centre < -(robot.radius + checker.tolerance)  # the whole footprint in collision
+    band = (centre <= robot.radius + checker.clearance + checker.tolerance) & ~deep
     if np.any(band):
         out[band] = _footprint_clearance(checker, p[band])
+    out[deep] = -np.inf
     return out
 
 

@@ -150,9 +150,12 @@ def test_clearance_equals_the_plain_reference_with_and_without_a_cached_field(wo
         for o in world.obstacles
         if hasattr(o, "center")
     ]
-    poses = np.vstack([anywhere, np.asarray(near[: 2 * n // 3])])
+    beyond = np.column_stack([rng.uniform(x1 - 0.2, x1 + 3, 40), rng.uniform(y0, y1, 40), rng.uniform(-4, 4, 40)])
+    poses = np.vstack([anywhere, np.asarray(near[: 2 * n // 3]), beyond])  # beyond: across the east wall
     checker = CollisionChecker(world, load_robot("turtlebot3"), shape=shape, clearance=0.05, walls=walls)
     ref = reference_clearance(checker, poses)
+    if walls and shape == "footprint":
+        assert np.any(np.isneginf(ref[-40:]))  # the footprint wholly beyond the wall
     for key in [k for k in fields._CACHE if k[0] == world]:
         del fields._CACHE[key]
     assert np.array_equal(checker.clearance_of(poses), ref)  # no field: every obstacle scanned

@@ -272,7 +272,10 @@ def pose_clearance(
     """``CollisionChecker.clearance_of`` of one pose (x [m], y [m], heading [rad]) [m]: the centre's
     distance less the radius, but for the footprint near something (its centre within ``radius +
     clearance + tolerance``) the nearest boundary sample's distance less ``tolerance / 2``, or -inf
-    with an obstacle's anchor inside the footprint. The other arguments as :func:`exact_free_kernel`'s.
+    with an obstacle's anchor inside the footprint or the whole footprint in collision (the centre more
+    than ``radius + tolerance`` inside an obstacle or beyond a wall: every point of the circumscribed disc
+    is, the distance being 1-Lipschitz; not measured sample by sample, which cost a path far outside the
+    world tens of seconds). The other arguments as :func:`exact_free_kernel`'s.
 
     A boundary sample whose grid bound (the node's distance less ``h / sqrt(2)``) already exceeds
     ``proven_above + tolerance / 2`` is not measured (``np.inf``: every sample is): whether the result
@@ -282,6 +285,8 @@ def pose_clearance(
     e = h / np.sqrt(2.0)
     centre = field_distance(x, y, world, field)
     clr = centre - radius
+    if not disc and centre < -(radius + tol):
+        return -np.inf
     if not disc and centre <= radius + clearance + tol:
         c, s = np.cos(th), np.sin(th)
         sd = np.inf

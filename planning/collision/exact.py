@@ -127,7 +127,9 @@ class CollisionChecker:
 
         Exact for "disc"; within ``tolerance / 2`` below the truth for "footprint" where the robot's
         centre is within ``radius + clearance + tolerance`` of something (elsewhere the centre's
-        distance less the radius: the footprint lies inside that disc). Negative means overlap.
+        distance less the radius: the footprint lies inside that disc). Negative means overlap; -inf an
+        obstacle's anchor inside the footprint, or the whole footprint in collision (its centre more than
+        ``radius + tolerance`` inside an obstacle or beyond a wall).
         Compiled (:func:`planning.collision.compiled.clearances_kernel`); measured against the
         candidates of the world's distance field when one is cached (the same values as a scan of every
         obstacle: a 2000-obstacle world's path in milliseconds).

@@ -277,14 +277,17 @@ def raw_note(facts: dict[str, Any], stats: dict[str, Any]) -> str:
 def clearance_text(min_clear: float | None) -> str:
     """The printed minimum clearance: metres to 0.1 mm and what the number is (a lower bound, at most
     ``REFINED_TOLERANCE / 2`` below the exact distance: :meth:`CollisionChecker.least_clearance`), "-"
-    without a path, and for the checker's -inf (an obstacle inside the footprint, or the footprint outside
-    the world's bounds) words that say so."""
+    without a path, and for the checker's -inf (an obstacle inside the footprint, or the whole footprint
+    inside an obstacle or beyond a wall) words that say so."""
     from planning.collision.exact import REFINED_TOLERANCE
 
     if min_clear is None:
         return "-"
     if not np.isfinite(min_clear):
-        return "in collision (an obstacle inside the robot's footprint, or the robot outside the bounds)"
+        return (
+            "in collision (an obstacle inside the robot's footprint, or the robot wholly inside an obstacle or "
+            "beyond a wall)"
+        )
     return f"{min_clear:.4f} m (a lower bound, at most {500 * REFINED_TOLERANCE:g} mm below the exact distance)"
 
 
