@@ -18,6 +18,7 @@ goal where the robot's footprint overlaps an obstacle or wall is refused when th
 from __future__ import annotations
 
 import dataclasses
+import math
 import numbers
 import re
 import tomllib
@@ -407,6 +408,14 @@ def end_clearance(world: World, robot: RobotSpec, pose: Pose2D, *, walls: bool =
     return float(checker.clearance_of(pose.as_array()[None, :])[0])
 
 
+def _exact_clearance(world: World, robot: RobotSpec, pose: Pose2D) -> float:
+    """The footprint's clearance at ``pose`` to within 0.1 mm below the truth (a message's number; the
+    planners' test, :func:`end_clearance`, errs up to half its checker's tolerance below it) [m]."""
+    from planning.collision.exact import CollisionChecker  # imported here: compiled code, loaded on first use
+
+    return CollisionChecker(world, robot, shape="footprint").least_clearance(pose.as_array()[None, :])
+
+
 def _overlap(world: World, robot: RobotSpec, pose: Pose2D) -> tuple[float, str, float] | None:
     """What ``robot``'s footprint at ``pose`` overlaps the most: (the footprint's clearance from it [m], the wall
     or obstacle named, how far the pose must move away from it [m]); None when the footprint is clear."""
@@ -446,6 +455,8 @@ def check_ends_fit(scenario: Scenario) -> None:
     Raises:
         ScenarioError: The footprint overlaps something at ``start.pose`` or ``goal.pose``.
     """
+    from planning.collision.exact import DEFAULT_TOLERANCE  # imported here: compiled code, loaded on first use
+
     robot = load_robot(scenario.robot)
     where = scenario_source(scenario)
     for label, pose in (("start", scenario.start), ("goal", scenario.goal)):
@@ -453,16 +464,23 @@ def check_ends_fit(scenario: Scenario) -> None:
         if hit is None:
             continue
         clr, what, move = hit
+        exact = _exact_clearance(scenario.world, robot, pose) if clr > -np.inf else -np.inf
         if clr == -np.inf:
             said = f"holds part of {what} (the pose is inside an obstacle for this robot)"
+        elif exact > 0:  # clear, but nearer than the planners' check tells apart from touching
+            said = (
+                f"comes within {1e3 * exact:.1f} mm of {what}, which the planners' collision check does not tell "
+                f"apart from touching (it reads {1e3 * clr:.1f} mm, erring up to {500 * DEFAULT_TOLERANCE:g} mm on "
+                "the safe side)"
+            )
         else:
             outside = " (the pose is outside the map)" if float(scenario.world.wall_distance(pose.xy)[0]) <= 0 else ""
-            said = f"overlaps {what} (clearance {clr:.3f} m){outside}"
+            said = f"overlaps {what} by {-1e3 * exact:.1f} mm (the planners' check reads {clr:.3f} m){outside}"
         reach = f" (the {robot.name} reaches {robot.radius:.3f} m from its centre)" if clr == -np.inf else ""
         raise ScenarioError(
             f"{where}: field '{label}.pose': {[round(v, 6) for v in pose.as_array().tolist()]} is not free for "
             f"robot {robot.name!r}: its footprint there {said}; move the {label} more than "
-            f"{max(move, 0.001):.3f} m away from "
+            f"{math.ceil(max(move, 0.001) * 1e3 - 1e-9) / 1e3:.3f} m away from "
             f"{'them' if what.startswith('the walls') else 'it'}{reach}"
         )
 

@@ -108,7 +108,8 @@ def test_a_start_the_robots_footprint_overlaps_is_bad_input_for_every_command_th
     given = ["--scenarios", str(scen)] if argv[0] == "tune" else ["--scenario", str(scen)]
     assert main([argv[0], *given, *argv[1:], "--quiet"]) == 2
     err = capsys.readouterr().err
-    assert f"{scen}: field 'start.pose'" in err and "robot 'turtlebot3'" in err and "clearance -0.097 m" in err
+    assert f"{scen}: field 'start.pose'" in err and "robot 'turtlebot3'" in err
+    assert "by 94.1 mm (the planners' check reads -0.097 m)" in err
     assert "move the start more than 0.097 m away from it" in err and "Traceback" not in err
     assert list(work.iterdir()) == []  # nothing written
     if argv[0] == "plan":  # the robot chosen is the one checked: 8 cm from the wall the EduMIP fits, not the TurtleBot3

@@ -262,7 +262,8 @@ def test_a_start_or_goal_the_robots_footprint_overlaps_is_refused_naming_file_fi
         scenario_with_robot(sc, None)
     said = str(err.value)
     assert said.startswith(f"{path}: field 'start.pose': [0.01, 0.4, 0.0] is not free for robot 'turtlebot3'")
-    assert "overlaps the wall x = 0 (clearance -0.097 m); move the start more than 0.097 m away from it" in said
+    said_overlap = "overlaps the wall x = 0 by 94.1 mm (the planners' check reads -0.097 m); move the start more than"
+    assert f"{said_overlap} 0.097 m away from it" in said  # the exact overlap, and the planners' number
     # the planners' own clearance, the one number: the API's planner still answers with a status
     plan = make_planner("rrt").plan(PlanProblem.from_scenario(sc, time_limit=5.0))
     assert plan.status == "invalid_start" and "clearance -0.097 m" in plan.reason
@@ -271,10 +272,23 @@ def test_a_start_or_goal_the_robots_footprint_overlaps_is_refused_naming_file_fi
         scenario_with_robot(corner, None)
     # the footprint is the robot's: 8 cm from the wall the TurtleBot3's tail is in it, the EduMIP's is not
     near = load_scenario(_write(tmp_path, YARD.replace("pose = [0.4, 0.4, 0.0]", "pose = [0.08, 0.4, 0.0]")))
-    with pytest.raises(ScenarioError, match=r"robot 'turtlebot3'.*clearance -0.026 m"):
+    with pytest.raises(ScenarioError, match=r"robot 'turtlebot3'.*by 24.1 mm \(the planners' check reads -0.026 m\)"):
         scenario_with_robot(near, None)
     assert scenario_with_robot(near, "edumip").robot == "edumip"
     assert scenario_with_robot(near, None, ends=False) is near  # ends replaced (a trajectory file's): not checked
+
+
+def test_a_pose_clear_by_less_than_the_checks_error_is_refused_as_such_not_as_an_overlap(tmp_path: Path) -> None:
+    """1.9 mm from the wall the footprint is clear, but the planners' check (erring up to 2.5 mm low) reads an
+    overlap: it was refused as "overlaps ... (clearance -0.000 m)"."""
+    from planning.scenario import scenario_with_robot
+
+    sc = load_scenario(_write(tmp_path, YARD.replace("pose = [0.4, 0.4, 0.0]", "pose = [0.106, 0.4, 0.0]")))
+    with pytest.raises(ScenarioError) as err:
+        scenario_with_robot(sc, None)
+    said = str(err.value)
+    assert "comes within 1.9 mm of the wall x = 0, which the planners' collision check does not tell apart" in said
+    assert "it reads -0.5 mm, erring up to 2.5 mm on the safe side" in said and "overlaps" not in said
 
 
 def test_an_obstacle_inside_the_footprint_is_named_not_an_infinite_clearance(tmp_path: Path) -> None:

@@ -50,6 +50,9 @@ Shape = Literal["disc", "footprint"]
 #: Footprint boundary sample spacing of :meth:`CollisionChecker.least_clearance`'s refinement [m]: its
 #: value is at most half of it (0.1 mm) below the exact least distance.
 REFINED_TOLERANCE = 2e-4
+#: The footprint boundary's sample spacing of a checker that states none [m]: its clearances err up to half
+#: of it below the truth.
+DEFAULT_TOLERANCE = 0.005
 
 
 def _obstacle_anchor(obs: Circle | Ellipse | Box | Polygon) -> FloatArray:
@@ -94,7 +97,7 @@ class CollisionChecker:
     robot: RobotSpec
     shape: Shape = "footprint"
     clearance: float = 0.0
-    tolerance: float = 0.005
+    tolerance: float = DEFAULT_TOLERANCE
     walls: bool = True
     _boundary: FloatArray = field(init=False, repr=False, compare=False)
     _anchors: FloatArray = field(init=False, repr=False, compare=False)
