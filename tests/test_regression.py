@@ -1,6 +1,6 @@
 """The physics regression suite: one test per declared case, and the checks of the checker.
 
-Fast cases run by default; the whole suite with ``-m slow`` or ``--all-cases``.
+Fast cases run by default; the whole suite with ``--all-cases`` (``-m slow``: the cases not marked fast).
 """
 
 from __future__ import annotations

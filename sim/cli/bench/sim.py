@@ -11,9 +11,27 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from planning.core.robot import ROBOT_FILES
     from planning.trajectory.references import REFERENCES
 
-    p.add_argument("--robot", choices=list(ROBOT_FILES), default="turtlebot3")
-    p.add_argument("--reference", choices=list(REFERENCES), default="figure8")
-    p.add_argument("--control-rate", type=float, default=50.0, metavar="HZ")
+    p.add_argument(
+        "--robot",
+        choices=list(ROBOT_FILES),
+        default="turtlebot3",
+        help="robot both loops step; not a balancing one, whose wheel voltages come from its balance firmware, "
+        "which the bare loop does not run (default: turtlebot3)",
+    )
+    p.add_argument(
+        "--reference",
+        choices=list(REFERENCES),
+        default="figure8",
+        help="reference the closed loop tracks from the 'open' scenario's start; the bare loop replays its wheel "
+        "commands (default: figure8)",
+    )
+    p.add_argument(
+        "--control-rate",
+        type=float,
+        default=50.0,
+        metavar="HZ",
+        help="tracker rate of the closed loop; its period must be a whole number of physics steps (default: 50)",
+    )
     p.add_argument("--repeats", type=int, default=3, help="best of N for each loop (default: 3)")
     p.add_argument("--tracker", default="fbl", metavar="NAME", help="tracker of the closed loop (default: fbl)")
     p.add_argument(
