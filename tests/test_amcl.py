@@ -225,3 +225,25 @@ def test_a_field_larger_than_it_builds_is_refused_before_any_memory_with_the_res
     fits = float(str(err.value).split("map_resolution=")[1].split()[0])
     nx = math.ceil((1000.0 + 2 * GRID_MARGIN) / fits) + 1
     assert nx * nx <= MAX_FIELD_CELLS  # the resolution it names builds
+
+
+def test_a_scan_without_returns_still_moves_the_particles_by_the_odometry() -> None:
+    """Nav2's AMCL applies its motion model on every scan once the robot has moved enough. A revolution with
+    no beam to weigh (every wall beyond 3.5 m, in a 12 x 12 m arena) was skipped whole: the filter stood still
+    while the robot drove 12 m on, and was 16 m off when the walls came back into range."""
+    amcl = Amcl(World((0.0, 12.0, 0.0, 12.0)), AmclConfig(), (-0.032, 0.0, 0.0), seed=0)
+    amcl.reset([4.0, 4.0, math.pi / 4])
+    assert amcl.predict(np.array([0.0, 0.0, 0.0]))  # the first notes the odometry
+    step = 0.1 * np.array([1.0, 0.0, 0.0])
+    assert not amcl.predict(step)  # 0.1 m: less than update_min_d (0.25 m), as Nav2
+    for k in range(1, 14):  # 3.9 m straight ahead in 0.3 m steps (the odometry's frame), one scan each
+        assert amcl.predict(np.array([0.3 * k, 0.0, 0.0]))
+    est = amcl.estimate
+    assert est is not None and not est.refined
+    heading = np.array([1.0, 1.0]) / math.sqrt(2)
+    moved = amcl.particles[:, :2].mean(axis=0) - 4.0
+    along, aside = float(moved @ heading), float(moved @ [-heading[1], heading[0]])
+    # the cloud went along (its mean a little short of 3.9 m: Nav2's heading noise spreads it over an arc)
+    assert 3.0 < along < 4.0 and abs(aside) < 0.3, (along, aside)
+    assert np.hypot(*(est.pose[:2] - (4.0 + 3.9 * heading))) < 1.5  # its heaviest cluster
+    assert est.cov[0, 0] + est.cov[1, 1] > 0.01 and amcl.updates == 0  # nothing weighed, nothing resampled

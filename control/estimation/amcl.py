@@ -663,12 +663,9 @@ class Amcl:
             jitter = self.rng.standard_normal((self.particles.shape[0], 3))
             self.particles += jitter * [self.config.roughen_xy, self.config.roughen_xy, self.config.roughen_theta]
         prior = None
-        if self.odom_ref is not None:
-            if self.estimate is not None:  # the last estimate moved by the odometry since
-                prior = _moved(self.estimate.pose, self.odom_ref, o)
-            normals = self.rng.standard_normal((self.particles.shape[0], 3))
-            K.motion_update(self.particles, self.odom_ref, o, self.alphas, normals)
-        self.odom_ref = o.copy()
+        if self.odom_ref is not None and self.estimate is not None:  # the last estimate moved by the odometry since
+            prior = _moved(self.estimate.pose, self.odom_ref, o)
+        self._move(o)
         z = np.asarray(ranges, dtype=float)
         limits = (range_min, range_max, angle_min, angle_increment)
         r, b = self.beams(z, *limits, bearings=bearings)
@@ -680,6 +677,37 @@ class Amcl:
         scan = (z, np.asarray(every, dtype=float), range_min, range_max)
         self.estimate = self._estimate(*self.beams(z, *limits, every=True, bearings=bearings), prior, scan)
         return True
+
+    def predict(self, odom: ArrayLike) -> bool:
+        """Move the particles by the odometry since the last update without weighing them: a revolution with no
+        beam to weigh (every surface beyond the scanner's range, in the middle of a large open space). Nav2's
+        AMCL applies its motion model on every scan once the robot has moved enough, whatever the beams; a
+        filter that skipped such scans stood still while the robot drove on (12 m across an empty 12 x 12 m
+        arena), and was then 16 m off. The estimate is the cloud's (its heaviest cluster's mean and covariance).
+
+        Args:
+            odom: (3,) odometry pose at the scan's time.
+
+        Returns:
+            Whether it moved (the robot moved enough since the last update, :meth:`moved_enough`).
+        """
+        if self.particles.shape[0] == 0:
+            raise RuntimeError("the localiser has no particles: call reset() or reset_global() first")
+        o = np.asarray(odom, dtype=float).reshape(3)
+        if not self.moved_enough(o):
+            return False
+        self._move(o)
+        mean, cov, _ = K.cluster_estimate(self.particles, self.weights, self.bins, self.shape)
+        self.estimate = AmclEstimate(mean, cov, self.particles.shape[0], self.spread(), False)
+        return True
+
+    def _move(self, odom: FloatArray) -> None:
+        """The motion update: every particle moved by the odometry from the last update's to ``odom``, with the
+        motion model's noise (``alpha1..4``); the first call only notes the odometry."""
+        if self.odom_ref is not None:
+            normals = self.rng.standard_normal((self.particles.shape[0], 3))
+            K.motion_update(self.particles, self.odom_ref, odom, self.alphas, normals)
+        self.odom_ref = odom.copy()
 
     def _sense_weights(
         self, particles: FloatArray, weights: FloatArray, r: FloatArray, b: FloatArray, rmax: float

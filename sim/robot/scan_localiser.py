@@ -56,7 +56,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from control.estimation.amcl import MIN_BEAMS, Amcl, AmclConfig, scan_returns
+from control.estimation.amcl import MIN_BEAMS, Amcl, AmclConfig, AmclEstimate, scan_returns
 from control.estimation.amcl_kernels import angle_diff
 from planning.core.robot import RobotSpec
 from planning.core.world import World
@@ -395,6 +395,7 @@ class ScanLocaliser:
         self.scan_ranges.append(scan.ranges)
         odom = self.odom_at.pop(j)
         if scan_returns(scan.ranges, lidar.range_min, lidar.range_max) < MIN_BEAMS:  # nothing to match: no fix
+            self.amcl.predict(odom)  # but the particles follow the odometry (Nav2's motion update): no scan used
             return None
         if not self.amcl.moved_enough(odom):  # AMCL takes no scan until the robot has moved (Nav2's rule)
             return None
@@ -402,8 +403,20 @@ class ScanLocaliser:
         ranges, bearings = deskew(scan.ranges, scan.bearings, est_poses, estimate[j], self.amcl.laser)
         limits = (lidar.range_min, lidar.range_max, 0.0, lidar.angle_increment)
         updated = self.amcl.update(odom, ranges, *limits, bearings=bearings)
+        assert updated
+        est = self._record(j, truth)
+        pose = (float(est.pose[0]), float(est.pose[1]), math.remainder(float(est.pose[2]), 2 * math.pi))
+        cov = (est.cov if est.noise_cov is None else est.noise_cov) + np.diag(COV_FLOOR)  # a cluster's may be singular
+        return ScanFix(pose, cov, est.range_gain)
+
+    def _record(self, j: int, truth: FloatArray) -> AmclEstimate:
+        """Log the localiser's estimate after its update at period ``j`` (and a sample of its cloud); returns it.
+
+        Raises:
+            LocaliserLost: As :meth:`fix` says.
+        """
         est = self.amcl.estimate
-        assert updated and est is not None
+        assert est is not None
         tj = self.t0 + self.dt * j
         true = truth[j]
         err = math.hypot(est.pose[0] - true[0], est.pose[1] - true[1])
@@ -415,9 +428,7 @@ class ScanLocaliser:
             if float(e @ np.linalg.solve(est.cov[:2, :2], e)) > LOST_DISTANCE2:  # sure of a wrong place
                 self.lost_at = tj
                 raise LocaliserLost(tj, err)
-        pose = (float(est.pose[0]), float(est.pose[1]), math.remainder(float(est.pose[2]), 2 * math.pi))
-        cov = (est.cov if est.noise_cov is None else est.noise_cov) + np.diag(COV_FLOOR)  # a cluster's may be singular
-        return ScanFix(pose, cov, est.range_gain)
+        return est
 
     def heading_error(self, pose: FloatArray, true: FloatArray) -> float:
         """Wrapped heading error [rad]."""
