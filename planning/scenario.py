@@ -387,9 +387,14 @@ def scenario_with_robot(scenario: Scenario, robot: str | None, *, ends: bool = T
         ScenarioError: The robot's footprint overlaps an obstacle or wall at the start or the goal.
     """
     if robot is not None and robot not in scenario.robots:
+        listed = ", ".join(f'"{r}"' for r in (*scenario.robots, robot))
+        src = scenario.source
+        shipped = src is None or Path(src).resolve().parent == SCENARIOS_DIR.resolve()
+        where = "a copy of the scenario's file (a built-in scenario)" if shipped else f"the scenario file {src}"
         raise ConfigError(
-            f"robot {robot!r} is not one of scenario {scenario.name!r}'s robots ({', '.join(scenario.robots)}): "
-            f"choose one of them with {option('robot')}, or a scenario that lists {robot}"
+            f"robot {robot!r} is not among the robots ({', '.join(scenario.robots)}) that scenario {scenario.name!r} "
+            f"lists (a scenario without a robots key lists its own robot only): choose one of them with "
+            f"{option('robot')}, or add robots = [{listed}] to {where}"
         )
     chosen = scenario if robot is None else scenario.with_robot(robot)
     if ends:

@@ -287,6 +287,31 @@ def test_an_empty_runs_list_is_refused_not_taken_as_the_default(
     assert not record.exists()
 
 
+@pytest.mark.parametrize("tracker", ["mpc", "rpp", "kanayama", "segmented"])
+def test_a_tracker_given_to_tracker_points_at_feedback(
+    tracker: str, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--tracker`` picks the runs; a tracker's name there got argparse's "invalid choice: 'mpc' (choose from
+    'both', 'fbl', 'open-loop')" without a word of ``--feedback mpc``, where the closed loops' tracker is given."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as stop:
+        main(["simulate", "--reference", "line", "--tracker", tracker, "--no-video"])
+    err = capsys.readouterr().err
+    assert stop.value.code == 2 and list(tmp_path.iterdir()) == []
+    assert f"argument --tracker: {tracker!r} is a tracker: --tracker picks the runs (fbl, open-loop, both: " in err
+    assert err.rstrip().endswith(f"to close the loops with {tracker}, give --feedback {tracker}")
+    with pytest.raises(SystemExit) as stop:
+        main(["simulate", "--reference", "line", "--tracker", "mcp", "--no-video"])
+    err = capsys.readouterr().err
+    assert stop.value.code == 2
+    assert "invalid choice: 'mcp' (choose from both, fbl, open-loop); the closed loops' tracker is --feedback T" in err
+    with pytest.raises(SystemExit):
+        main(["simulate", "--help"])
+    said = " ".join(capsys.readouterr().out.split())  # the help, unwrapped
+    assert "--tracker {both,fbl,open-loop} the runs:" in said
+    assert "the closed loops' tracker (mpc, rpp, kanayama, ...) is --feedback T --feedback T" in said
+
+
 def test_options_the_job_does_not_use_are_named_and_jobs_without_all_refused(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -547,3 +547,39 @@ def test_a_gap_the_lattice_cannot_prove_is_not_passed_and_the_reason_says_what_t
     assert res.reason.startswith("no path found, which does not prove that the robot has none")
     assert "resolution limit" in res.reason and "0.025 m cells" in res.reason
     assert make_planner("rrt-star").plan(through(0.188)).success
+
+
+def test_a_gap_below_the_grids_proof_margin_names_a_sampling_planner_and_the_budget_finer_cells_take():
+    """A user's 0.19 m gap for the 0.178 m wide TurtleBot3 (6 mm a side), start and goal on its axis: the 5 cm and
+    2.5 cm lattices are exhausted, and the reason said only "try cell_size = 0.0125"; following it ended in
+    ``timeout``, "iteration budget of 1000000 spent", naming no option and no other planner (1.25 cm was exhausted
+    in 530,486 expansions, 6.25 mm in 4,210,659 with a 10-million budget: finer cells do not pass it). The reason
+    now names the grid's proof margin and planners that pass it, and what finer cells cost; the budget's timeout
+    names max_iterations, and a refined lattice's what cells of half the size cost."""
+    walls = (Box((1.5, 0.4525), (0.05, 0.905)), Box((1.5, 1.5475), (0.05, 0.905)))
+    prob = PlanProblem(World((0.0, 3.0, 0.0, 2.0), walls), load_robot("turtlebot3"), Pose2D(0.5, 1.0, 0.0),
+                       Pose2D(2.5, 1.0, 0.0))  # fmt: skip
+    res = make_planner("hybrid-a-star").plan(prob)
+    assert res.status is PlanStatus.INFEASIBLE and "0.025 m cells" in res.reason
+    assert (
+        "a gap up to about 10 mm a side wider than the robot (the collision grid's proof margin: its 1 cm" in res.reason
+    )
+    assert "may be passed at no cell size: for it, plan with rrt or rrt-star (--planner rrt" in res.reason
+    assert "try cell_size = 0.0125 in a [planners.hybrid-a-star] table" in res.reason
+    assert (
+        f"cells of half the size take up to about 8 times the expansions ({res.stats['iterations']} here" in res.reason
+    )
+    rrt = make_planner("rrt").plan(prob)  # as the reason says
+    assert rrt.status is PlanStatus.SUCCESS
+    short = make_planner("hybrid-a-star", max_iterations=50).plan(prob)
+    assert short.status is PlanStatus.TIMEOUT
+    assert short.reason.startswith("iteration budget of 50 spent on 0.05 m cells; partial path to the expanded node")
+    assert (
+        "(the budget is the max_iterations option: raise it, e.g. --planner-option max_iterations=200" in short.reason
+    )
+    # the coarse lattice exhausted within the budget, the refined one not: what cells of half the size cost
+    refined = make_planner("hybrid-a-star", max_iterations=20_000).plan(prob)
+    assert refined.status is PlanStatus.TIMEOUT and refined.reason.startswith(
+        "iteration budget of 20000 spent on 0.025 m"
+    )
+    assert refined.reason.endswith("; cells of half the size take up to about 8 times the expansions)")

@@ -233,7 +233,11 @@ BAD_FIELDS = {
     "scenario_number": ("scenario", "5", 'text in quotes, e.g. scenario = "open"'),
     "scenario_empty": ("scenario", '""', "must name a built-in scenario"),
     "robot_typo": ("robot", '"turtlebot"', 'unknown robot; choose one of "turtlebot3"'),
-    "robot_not_in_scenario": ("scenario", '"three_point_turn"', "robot 'edumip' is not one of .*'s robots"),
+    "robot_not_in_scenario": (
+        "scenario",
+        '"three_point_turn"',
+        r"robot 'edumip' is not among the robots \(turtlebot3\)",
+    ),
     "reference_typo": ("reference", '"circl"', 'unknown reference; choose one of "figure8", "circle", "line"'),
     "tracker_typo": ("tracker", '"fbll"', 'unknown tracker; choose one of "fbl"'),
     "localiser_typo": ("localiser", '"amlc"', 'unknown localiser; choose one of "amcl", "fixes"'),

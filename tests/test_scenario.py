@@ -308,3 +308,28 @@ def test_an_obstacle_inside_the_footprint_is_named_not_an_infinite_clearance(tmp
     plan = make_planner("rrt").plan(PlanProblem.from_scenario(sc, time_limit=5.0))
     assert plan.status == "invalid_start" and "an obstacle lies inside the robot's footprint" in plan.reason
     assert "inf" not in plan.reason
+
+
+def test_a_robot_a_scenario_file_does_not_list_is_refused_naming_the_robots_line_to_add(tmp_path: Path) -> None:
+    """A file without ``robots`` suits its own robot only; ``--robot edumip`` on one said "scenario
+    'w07_gap_just_wider''s robots (turtlebot3)" (a doubled quote) and not how to list the robot."""
+    from planning.errors import ConfigError
+    from planning.scenario import scenario_with_robot
+
+    text = "[world]\nbounds = [0, 3, 0, 2]\n[start]\npose = [0.5, 1.0, 0.0]\n[goal]\npose = [2.5, 1.0, 0.0]\n"
+    path = tmp_path / "w07_gap_just_wider.toml"
+    path.write_text(text)
+    sc = load_scenario(path)
+    assert sc.robots == ("turtlebot3",)
+    with pytest.raises(ConfigError) as err:
+        scenario_with_robot(sc, "edumip")
+    said = str(err.value)
+    assert said.startswith(
+        "robot 'edumip' is not among the robots (turtlebot3) that scenario 'w07_gap_just_wider' lists"
+    )
+    assert "(a scenario without a robots key lists its own robot only)" in said and "''s" not in said
+    assert said.endswith(f'or add robots = ["turtlebot3", "edumip"] to the scenario file {path}')
+    path.write_text('robots = ["turtlebot3", "edumip"]\n' + text)  # as it says
+    assert scenario_with_robot(load_scenario(path), "edumip").robot == "edumip"
+    with pytest.raises(ConfigError, match=r'add robots = \["turtlebot3", "edumip"\] to a copy of the scenario'):
+        scenario_with_robot(load_scenario("three_point_turn"), "edumip")  # a built-in's file is not to be edited

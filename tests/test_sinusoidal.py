@@ -180,10 +180,56 @@ def test_a_step_no_period_makes_within_the_bounds_is_bounds_violated_not_infeasi
         problem = PlanProblem.from_scenario(random_scenario(robot, 604))
         res = make_planner("sinusoidal").plan(problem)
         assert res.status is PlanStatus.BOUNDS_VIOLATED, res.reason
-        assert "cannot steer y by 9.05 m within the bounds at any period up to max_period = 120 s" in res.reason
+        assert "cannot steer y by 9.05 m within the input limits (u1max, u2max, phimax, the robot's yaw rate) and " \
+            "max_heading_offset at any period up to max_period = 120 s" in res.reason  # fmt: skip
         assert "no amplitude of u1 within u1max and the heading's region" in res.reason
-    cramped = Sinusoidal(u1max=0.001, max_period=4.0).plan(PlanProblem.from_scenario(load_scenario("simple_motion")))
+    simple = PlanProblem.from_scenario(load_scenario("simple_motion"))
+    cramped = Sinusoidal(u1max=0.001, max_period=4.0).plan(simple)
     assert cramped.status is PlanStatus.BOUNDS_VIOLATED and "max_period = 4 s" in cramped.reason
+    # the x step's period follows from the distance and u1max: the reason names it, and that period lets it through
+    slow = Sinusoidal(u1max=0.05, max_period=4.0).plan(simple)
+    assert "; a max_period of at least 40.82 s (or a higher u1max) lets it through, or plan with" in slow.reason
+    assert Sinusoidal(u1max=0.05, max_period=41.0).plan(simple).status is PlanStatus.SUCCESS
+
+
+def test_a_heading_reversal_beyond_the_method_says_so_and_suggests_no_option_that_cannot_help() -> None:
+    """A user's empty 6 x 6 m world, the goal 4 m ahead facing back: piece 2 of 3 (the alternate chart, -45 to
+    -135 deg) must move x by 1.46 m sideways, in one fourth-state step at its end heading, 45 deg off its chart's
+    centre, where no amplitude moves it more than 0.287 m. The reason said "within the bounds" (read as the
+    walls) and advised raising u1max, u2max, phimax, max_heading_offset or max_period: u1max=0.5 and 1.0,
+    u2max=10, max_heading_offset=1.5 and max_period=600 all ended the same. It now says what caps the step,
+    that raising u1max, u2max or max_period does not help, and names planners that plan it."""
+    problem = PlanProblem(
+        World((-3.0, 3.0, -3.0, 3.0), ()), load_robot("turtlebot3"), Pose2D(-2.0, 0.0, 0.0), Pose2D(2.0, 0.0, 3.141593)
+    )
+    res = Sinusoidal().plan(problem)
+    assert res.status is PlanStatus.BOUNDS_VIOLATED
+    assert res.reason.startswith(
+        "sinusoidal steering of piece 2 of 3 (headings -45 to -135 deg): cannot steer x by 1.46 m"
+    )
+    assert "within the input limits (u1max, u2max, phimax, the robot's yaw rate) and max_heading_offset" in res.reason
+    assert "the farthest any amplitude tried moves it is 0.287 m" in res.reason
+    assert "this is a limit of sinusoidal steering, not of the world's walls" in res.reason
+    assert (
+        "45 deg off its chart's centre" in res.reason and "a longer max_period does not move it farther" in res.reason
+    )
+    assert "raise u1max" not in res.reason and "within the bounds" not in res.reason
+    assert res.reason.endswith("plan with hybrid-a-star or rrt-star (--planner hybrid-a-star)")
+    for planner in ("hybrid-a-star", "rrt-star"):  # the planners it names plan it
+        assert make_planner(planner).plan(problem).status is PlanStatus.SUCCESS
+    longer = Sinusoidal(max_period=600.0).plan(problem)  # as it says: the same step, no farther
+    assert longer.status is PlanStatus.BOUNDS_VIOLATED and "x by 1.46 m" in longer.reason and "0.287 m" in longer.reason
+
+
+def test_a_sideways_step_that_u1max_caps_names_the_period_and_it_lets_the_step_through() -> None:
+    problem = PlanProblem(
+        World((-5.0, 5.0, -5.0, 5.0), ()), load_robot("turtlebot3"), Pose2D(0, 0, 0), Pose2D(0, 0.1, 0)
+    )
+    res = Sinusoidal(u1max=0.02, max_period=20.0).plan(problem)
+    assert res.status is PlanStatus.BOUNDS_VIOLATED
+    assert "the farthest any amplitude tried moves it is 0.035 m" in res.reason
+    assert "; a longer max_period or a higher u1max lets it move farther, or plan with hybrid-a-star" in res.reason
+    assert Sinusoidal(u1max=0.02, max_period=40.0).plan(problem).status is PlanStatus.SUCCESS
 
 
 def test_the_time_limit_ends_the_steering() -> None:
@@ -246,4 +292,4 @@ def test_an_answer_known_only_after_the_limit_is_a_timeout(monkeypatch) -> None:
     res = cramped.plan(simple)
     assert res.status is PlanStatus.TIMEOUT and res.path.shape[0] == 0
     assert res.reason.startswith("time limit of 0.5 s spent before the answer was known (it came after, ")
-    assert "bounds_violated: sinusoidal steering of piece 1 of 1: cannot steer" in res.reason
+    assert "bounds_violated: sinusoidal steering of piece 1 of 1 (heading 0 deg): cannot steer" in res.reason

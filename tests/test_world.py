@@ -200,6 +200,10 @@ def test_bad_shapes_are_rejected(ctor: object, match: str) -> None:
         (((0, 0), (2, 0), (2, 2), (0, 2), (3, 1)), r"^edges 1 and 3 cross"),  # signed area 1 m^2
         (((0, 0), (2, 0), (2, 2), (1, 2), (1, 0), (0, 2)), r"^edges 0 and 3 cross"),  # vertex 4 on edge 0
         (((0, 0), (2, 0), (2, 1), (3, 1), (1, 1), (0, 1)), r"^edges 2 and 3 fold back"),
+        # a bow tie: 0.5 m^2 in two lobes whose signed areas cancel; it was refused as "polygon has zero area"
+        (((1.0, 0.5), (2.0, 1.5), (2.0, 0.5), (1.0, 1.5)), r"^edges 0 and 2 cross .*must not intersect itself"),
+        (((0, 0), (1, 1), (2, 2)), r"^polygon has zero area \(its vertices lie on one line\): give vertices that"),
+        (((0, 0), (2, 0), (1, 0)), r"^polygon has zero area \(its vertices lie on one line\)"),  # folds back too
     ],
 )
 def test_degenerate_and_self_intersecting_polygons_are_rejected(

@@ -202,10 +202,11 @@ class Polygon:
         repeat = _repeated_vertex(v)
         if repeat is not None:
             raise ConfigError(f"{repeat}; remove the duplicate vertex")
-        if abs(polygon_area(v)) < 1e-12:
-            raise ConfigError("polygon has zero area")
         crossing = _crossing_edges(v)
-        if crossing is not None:
+        if abs(polygon_area(v)) < 1e-12 and (crossing is None or _collinear(v)):
+            line = "its vertices lie on one line" if _collinear(v) else "it is too thin"
+            raise ConfigError(f"polygon has zero area ({line}): give vertices that enclose an area")
+        if crossing is not None:  # before the area: a bow tie's two lobes have signed areas that cancel
             raise ConfigError(
                 f"{crossing} (edge i runs from vertex i to vertex i+1); a polygon must not intersect itself: "
                 "reorder its vertices or split it into simple polygons"
@@ -259,6 +260,12 @@ def polygon_area(v: FloatArray) -> float:
 def _tolerance(v: FloatArray) -> float:
     """Length below which two vertices of ``v`` count as one [m] (1e-12 of the polygon's scale)."""
     return 1e-12 * max(1.0, float(np.max(np.abs(v))))
+
+
+def _collinear(v: FloatArray) -> bool:
+    """Whether all vertices of ``v`` lie on one line (to 1e-12 of the polygon's extent)."""
+    spread = np.linalg.svd(v - v.mean(axis=0), compute_uv=False)
+    return bool(spread[1] <= 1e-12 * max(1.0, float(spread[0])))
 
 
 def _repeated_vertex(v: FloatArray) -> str | None:

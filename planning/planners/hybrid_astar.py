@@ -255,6 +255,16 @@ class _Setup:
     free: NDArray[np.bool_]
 
 
+#: Up to how many times the expansions a lattice of half the cell size took (5 cm -> 2.5 cm -> 1.25 cm -> 6.25 mm
+#: on a 0.19 m gap for the TurtleBot3: 11,255, 87,898, 530,486, 4,210,659; 31,665 -> 251,154 on a diagonal one).
+REFINE_COST = 8
+#: Where the reasons send a plan this planner cannot find: planners whose checks fall back on the exact formulas.
+SAMPLING = (
+    "rrt or rrt-star (--planner rrt; a larger max_iterations where they run out), whose collision checks fall back "
+    "on the exact formulas"
+)
+
+
 class HybridAStar:
     """Hybrid-A* over (x, y, theta) with Reeds–Shepp completion (see the module doc)."""
 
@@ -294,7 +304,10 @@ class HybridAStar:
         }
         reason = again.reason
         if again.status is not PlanStatus.SUCCESS:
-            reason += f" (searched after the {cfg.cell_size:g} m lattice was exhausted in {res.stats['iterations']})"
+            reason += f" (searched after the {cfg.cell_size:g} m lattice was exhausted in {res.stats['iterations']}"
+            if again.status is PlanStatus.TIMEOUT and "iteration budget" in again.reason:
+                reason += f"; cells of half the size take up to about {REFINE_COST} times the expansions"
+            reason += ")"
         return dataclasses.replace(again, reason=reason, stats=stats)
 
     def _plan(self, problem: PlanProblem, stated_limit: float | None = None) -> PlanResult:
@@ -441,20 +454,35 @@ class HybridAStar:
             found = PlanResult(PlanStatus.SUCCESS, self.name, path=path, stats=stats, tree=tree, directions=dirs)
             return self._simplified(problem, setup, found, clock[0])
         if outcome == lattice.EXHAUSTED:
-            status, reason = PlanStatus.INFEASIBLE, self._exhausted(problem, its)
+            status, reason = PlanStatus.INFEASIBLE, self._exhausted(problem, its, setup.checker)
             stats["exhausted"] = True
         else:
             status = PlanStatus.TIMEOUT
-            budget = f"iteration budget of {its}" if outcome == lattice.ITERATIONS else f"time budget of {limit:g} s"
-            reason = f"{budget} spent; partial path to the expanded node nearest the goal"
+            reason = "partial path to the expanded node nearest the goal"
+            if outcome == lattice.ITERATIONS:
+                reason = (
+                    f"iteration budget of {its} spent on {self.config.cell_size:g} m cells; {reason} (the budget is "
+                    f"the max_iterations option: raise it, e.g. --planner-option max_iterations={4 * its}, or in a "
+                    f"[planners.hybrid-a-star] table of the scenario, or plan with {SAMPLING})"
+                )
+            else:
+                reason = f"time budget of {limit:g} s spent; {reason}"
         return PlanResult(status, self.name, path=path, reason=reason, stats=stats, tree=tree, directions=dirs)
 
-    def _exhausted(self, problem: PlanProblem, its: int) -> str:
-        """Why a search that expanded every state it could reach found no path, and what may: the lattice
-        keeps one pose per cell, so a way through a gap little wider than the robot may need finer cells
-        (half the size, where the machine has the memory for that lattice). The status stays ``INFEASIBLE``
-        (no solution this planner can find), the reason leads with what it does not prove."""
+    def _exhausted(self, problem: PlanProblem, its: int, checker: FastChecker) -> str:
+        """Why a search that expanded every state it could reach found no path, and what may: a sampling
+        planner, for a gap narrower than the collision grid's proof margin (no lattice passes it), and the
+        lattice keeps one pose per cell, so a way through a wider gap may need finer cells (half the size,
+        where the machine has the memory for that lattice, with the larger budget they take). The status stays
+        ``INFEASIBLE`` (no solution this planner can find), the reason leads with what it does not prove."""
         cell, bins = self.config.cell_size, self.config.angle_quantization_bins
+        spacing = checker.proof_arguments()[3]
+        margin = spacing / np.sqrt(2.0) + checker.checker.tolerance / 2
+        narrow = (
+            f"a gap up to about {1000 * margin:.0f} mm a side wider than the robot (the collision grid's proof "
+            f"margin: its {100 * spacing:g} cm spacing / sqrt 2 + half the footprint tolerance, beyond the clearance) "
+            f"may be passed at no cell size: for it, plan with {SAMPLING}"
+        )
         said = (
             "no path found, which does not prove that the robot has none: the lattice search expanded every "
             f"state it could reach ({its}) on {cell:g} m cells, {bins} headings, one pose kept per cell, each "
@@ -462,10 +490,18 @@ class HybridAStar:
             "may not be passed (the resolution limit: docs/explanation/hybrid-astar.md)"
         )
         if _lattice_too_large(problem, cell / 2, bins):
-            return f"{said}; a finer lattice would need more memory than this machine has: try another planner"
+            return f"{said}; {narrow}; a finer lattice would need more memory than this machine has"
+        need = REFINE_COST * its
+        budget = (
+            f"the max_iterations of {self.config.max_iterations} may do"
+            if need <= self.config.max_iterations
+            else f"raise max_iterations to {need} or more"
+        )
         return (
-            f"{said}; a gap little wider than the robot may need finer cells: try cell_size = {cell / 2:g} in a "
-            "[planners.hybrid-a-star] table of the scenario, or another planner"
+            f"{said}; {narrow}; a wider gap may need finer cells: try cell_size = {cell / 2:g} in a "
+            f"[planners.hybrid-a-star] table of the scenario (or --planner-option cell_size={cell / 2:g}); cells of "
+            f"half the size take up to about {REFINE_COST} times the expansions ({its} here: {budget}; and when they "
+            "are exhausted too, the search goes on to cells half as large again: refine_when_exhausted)"
         )
 
     def _simplified(self, problem: PlanProblem, setup: _Setup, found: PlanResult, clock: PlanClock) -> PlanResult:

@@ -40,7 +40,9 @@ collides at its first or last pose). State bounds (the robot's disc inside the w
 <= phimax``, the heading within ``max_heading_offset`` of its chart's centre) and input bounds are
 checked and a violation is reported as ``BOUNDS_VIOLATED``: a joined path that leaves them (attached),
 and a step that no period up to ``max_period`` makes within them (no path; the reason names the
-step and the bound its longest period broke). A final state that misses the goal is ``FAILED`` (the
+step, the bound its longest period broke, and what would make it: a ``max_period`` that would, or another
+planner where the method cannot, e.g. a sideways step at a hand-off heading, :meth:`Sinusoidal._z4_advice`).
+A final state that misses the goal is ``FAILED`` (the
 quadrature's numerical error). The problem's ``time_limit`` ends the plan as ``TIMEOUT``: the clock is
 read before each quadrature over a step's grid (a few milliseconds at the longest period, 96,001 points),
 each block of the fourth step's amplitudes and each of Brent's evaluations, and an answer known only after
@@ -161,8 +163,20 @@ class _Segment:
     step: str
 
 
+#: Where to plan instead when sinusoidal steering cannot make a step (both plan the user's heading reversals).
+_OTHERS = "plan with hybrid-a-star or rrt-star (--planner hybrid-a-star)"
+
+
 class _StepFailed(Exception):
-    """A step cannot be made within the bounds (the message says which)."""
+    """A step cannot be made within the input limits and the heading's region (the message says which).
+
+    Attributes:
+        advice: What would make it, worded for the user: an option that lets the step through, or another planner.
+    """
+
+    def __init__(self, message: str, advice: str = _OTHERS) -> None:
+        super().__init__(message)
+        self.advice = advice
 
 
 class _OutOfTime(Exception):
@@ -270,7 +284,9 @@ class Sinusoidal:
             except _StepFailed as exc:
                 last = str(exc)
                 period *= 1.25
-        raise _StepFailed(self._cannot(f"{'y' if m.alternate else 'x'} by {d:.3g} m", last))
+        need = 2.0 * abs(d) / (0.98 * self.u1max * c)
+        advice = f"a max_period of at least {need:.4g} s (or a higher u1max) lets it through, or {_OTHERS}"
+        raise _StepFailed(self._cannot(f"{'y' if m.alternate else 'x'} by {d:.3g} m", last), advice)
 
     def _steer_phi(self, m: ChainedModel, z0: FloatArray, target: float) -> _Segment:
         d = target - z0[1]
@@ -308,7 +324,8 @@ class Sinusoidal:
                 except _StepFailed as exc:
                     last = str(exc)
             period *= 1.25
-        raise _StepFailed(self._cannot(f"alpha by {d:.3g}", last))
+        advice = f"a longer max_period or a higher u1max lets it turn farther, or {_OTHERS}"
+        raise _StepFailed(self._cannot(f"alpha by {d:.3g}", last), advice)
 
     def dz4(self, m: ChainedModel, z0: FloatArray, period: float, a1: float, a2: float) -> float:
         """Change of the fourth chained state over one z4 step (v1 = a1 sin wt, v2 = a2 cos 2wt).
@@ -333,16 +350,20 @@ class Sinusoidal:
         d = target - z0[3]
         period = self.min_period
         last = ""
+        # the farthest any amplitude tried moves it; whether u1max capped the longest period's; whether an amplitude
+        # found was then refused (u1 = v1 / cos, the yaw rate)
+        reach, speed_bound, rejected = 0.0, False, False
         while period <= self.max_period:
             self._tick()
-            last = "no amplitude of u1 within u1max and the heading's region moves it that far"
             w = 2 * math.pi / period
             t = self._grid(period)
             sw = np.sin(w * t)
             amp = min(self.u2max / (2 * w), self._phi_amp(z0[1]))
+            refused = ""
             for sign in (1.0, -1.0):
                 phi = z0[1] + sign * amp * np.sin(2 * w * t)
-                root = self._z4_amplitude(m, z0, t, sw, phi, d)
+                root, far, speed_bound = self._z4_amplitude(m, z0, t, sw, phi, d)
+                reach = max(reach, far)
                 if root is None:
                     continue
                 v1 = root * sw
@@ -350,16 +371,46 @@ class Sinusoidal:
                     z = self._integrate(m, z0, t, v1, phi)
                     return self._accept(m, t, z, v1, sign * amp * 2 * w * np.cos(2 * w * t), "z4")
                 except _StepFailed as exc:
-                    last = str(exc)
+                    refused = str(exc)
+            rejected = bool(refused)
+            last = refused or (
+                "no amplitude of u1 within u1max and the heading's region moves it that far; the farthest any "
+                f"amplitude tried moves it is {reach:.3g} m"
+            )
             period *= 1.25
-        raise _StepFailed(self._cannot(f"{'x' if m.alternate else 'y'} by {d:.3g} m", last))
+        axis = "x" if m.alternate else "y"
+        advice = _OTHERS if rejected else self._z4_advice(z0, axis, speed_bound)
+        raise _StepFailed(self._cannot(f"{axis} by {d:.3g} m", last), advice)
+
+    def _z4_advice(self, z0: FloatArray, axis: str, speed_bound: bool) -> str:
+        """What would make a fourth-state (sideways) step from chained state ``z0`` that no period made: a longer
+        period when u1max capped the longest one's amplitude, else another planner (the heading's region caps the
+        amplitude, and the step's reach no longer grows with the period: the path keeps its shape, only slower).
+        No other option is named: a higher u1max or u2max moves it a little farther at short periods (0.287 to
+        0.462 m for u1max 0.165 to 1 m/s on a user's heading reversal that needed 1.46 m), not as far as needed
+        on the heading reversals measured."""
+        if speed_bound:
+            return f"a longer max_period or a higher u1max lets it move farther, or {_OTHERS}"
+        off = math.degrees(math.asin(min(1.0, abs(float(z0[2])))))
+        where = (
+            f"{off:.0f} deg off its chart's centre: the farther off, the less the step moves sideways"
+            if off > 1.0
+            else "on its chart's centre"
+        )
+        return (
+            f"this is a limit of sinusoidal steering, not of the world's walls: a piece moves {axis} sideways in one "
+            f"step, at the piece's end heading ({where}), and at the longest periods the heading's region, not u1max, "
+            f"caps that step's amplitude, so a longer max_period does not move it farther; {_OTHERS}"
+        )
 
     def _z4_amplitude(
         self, m: ChainedModel, z0: FloatArray, t: FloatArray, sw: FloatArray, phi: FloatArray, d: float
-    ) -> float | None:
+    ) -> tuple[float | None, float, bool]:
         """The amplitude a1 > 0 of ``v1 = a1 sin wt`` (``sw``) that moves the fourth state by ``d`` with the
         steering ``phi`` over times ``t``, within u1max and the heading's region, found to ``tolerance``
-        (the first sign change of 32 amplitudes, then Brent's method); None when there is none."""
+        (the first sign change of 32 amplitudes, then Brent's method); None when there is none. Also: the
+        farthest the 32 amplitudes move it in ``d``'s direction [m], and whether u1max (not the heading's region)
+        capped them."""
         self._tick()
         big_a = cumulative_simpson(m.sigma * np.tan(phi) / self.l * sw, x=t, initial=0.0)
         # |alpha0 + a1 A(t)| <= alpha_lim bounds a1 (a1 > 0).
@@ -370,6 +421,7 @@ class Sinusoidal:
                 np.where(big_a < -1e-15, (self.alpha_lim + z0[2]) / -big_a, np.inf),
             )
         amax = min(self.u1max, 0.999 * float(np.min(lim)))
+        speed_bound = amax >= self.u1max
 
         def h(a1: float) -> float:
             self._tick()
@@ -378,7 +430,8 @@ class Sinusoidal:
         grid = np.linspace(0.0, amax, 33)[1:]
         vals = self._z4_scan(m, z0[2], big_a, sw, t, grid)
         if vals is None:
-            return None
+            return None, 0.0, speed_bound
+        far = max(0.0, float(np.max(vals * np.sign(d))))
         vals -= d
         prev_a, prev_v = 0.0, -d
         for a, val in zip(grid, vals, strict=True):
@@ -386,10 +439,10 @@ class Sinusoidal:
                 try:
                     root = float(brentq(h, prev_a, a, xtol=1e-15, rtol=4 * np.finfo(float).eps, maxiter=200))
                 except RuntimeError:  # not converged in maxiter: no amplitude at this period
-                    return None
-                return root if abs(h(root)) <= self.tolerance else None
+                    return None, far, speed_bound
+                return (root if abs(h(root)) <= self.tolerance else None), far, speed_bound
             prev_a, prev_v = a, val
-        return None
+        return None, far, speed_bound
 
     def _z4_scan(
         self, m: ChainedModel, alpha0: float, big_a: FloatArray, sw: FloatArray, t: FloatArray, grid: FloatArray
@@ -412,7 +465,10 @@ class Sinusoidal:
         """Why a step could not steer ``what``: no period up to max_period kept the bounds; ``last``: how the
         longest period tried broke them (empty: none was tried)."""
         longest = f" (the longest period tried: {last})" if last else ""
-        return f"cannot steer {what} within the bounds at any period up to max_period = {self.max_period:g} s{longest}"
+        return (
+            f"cannot steer {what} within the input limits (u1max, u2max, phimax, the robot's yaw rate) and "
+            f"max_heading_offset at any period up to max_period = {self.max_period:g} s{longest}"
+        )
 
     def _tick(self) -> None:
         """Raise :class:`_OutOfTime` once the problem's time limit has passed (before each period tried, each
@@ -467,14 +523,10 @@ class Sinusoidal:
                 if piece:
                     state = m.from_chained(piece[-1].z[-1])
         except _StepFailed as exc:  # the bounds, not obstacles: no step within them
-            status, reason = (
-                PlanStatus.BOUNDS_VIOLATED,
-                (
-                    f"sinusoidal steering of piece {k + 1} of {len(models)}: {exc}; raise u1max, u2max, phimax, "
-                    "max_heading_offset or max_period (--planner-option u1max=0.5, or a scenario's "
-                    "[planners.sinusoidal] table), or plan with another planner"
-                ),
-            )
+            h0, h1 = math.degrees(headings[k]), math.degrees(headings[k + 1])
+            turn = f"headings {h0:.0f} to {h1:.0f} deg" if round(h0) != round(h1) else f"heading {h0:.0f} deg"
+            status = PlanStatus.BOUNDS_VIOLATED
+            reason = f"sinusoidal steering of piece {k + 1} of {len(models)} ({turn}): {exc}; {exc.advice}"
         except _OutOfTime:
             status = PlanStatus.TIMEOUT
             reason = f"time limit of {problem.time_limit:g} s spent steering piece {k + 1} of {len(models)}"

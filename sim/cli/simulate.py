@@ -76,6 +76,37 @@ def run_choices() -> dict[str, tuple[RunKind, ...]]:
     }
 
 
+def tracker_runs_option(text: str) -> str:
+    """``--tracker``'s value: one of :func:`run_choices`, which picks the runs. A tracker's name that is not one
+    (mpc, rpp, kanayama, segmented, a plugin's) is refused pointing at ``--feedback``, which picks the closed
+    loops' tracker; any other value, naming the choices and ``--feedback`` too.
+
+    Raises:
+        argparse.ArgumentTypeError: Anything but a choice (exit 2, as argparse's invalid choice).
+    """
+    choices = list(run_choices())  # the closed loop's, the open loop's, both
+    if text in choices:
+        return text
+    picks = (
+        f"--tracker picks the runs ({', '.join(choices)}: the closed loop on the fused estimate, the open loop, or "
+        "the default runs)"
+    )
+    from control.base import feedback_trackers  # no MuJoCo: before --gl is applied
+
+    try:
+        tracker = text in feedback_trackers()
+    except ConfigError:  # a tracker plugin that does not load: the built-in names only
+        tracker = False
+    if tracker:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is a tracker: {picks}; to close the loops with {text}, give --feedback {text}"
+        )
+    named = ", ".join(sorted(choices))
+    raise argparse.ArgumentTypeError(
+        f"invalid choice: {text!r} (choose from {named}); the closed loops' tracker is --feedback T"
+    )
+
+
 def parse_runs(text: str) -> tuple[RunKind, ...]:
     """``--runs`` (comma-separated run kinds, e.g. ``closed_loop,closed_loop_truth``) as run kinds.
 
@@ -227,11 +258,12 @@ def _add_run_kind_arguments(p: argparse.ArgumentParser) -> None:
     """Which runs (``--tracker``, ``--runs``) and the closed loops' tracker (``--feedback``)."""
     p.add_argument(
         "--tracker",
+        type=tracker_runs_option,
         choices=sorted(run_choices()),
         default=RUN_SETTINGS["tracker"],
-        help="fbl (closed loop on the fused estimate), open-loop, or both: the default runs, closed loop on the fused "
-        "estimate, closed loop on dead reckoning and open loop (default: %(default)s); the closed loops' law is "
-        "--feedback's",
+        help="the runs: fbl (closed loop on the fused estimate), open-loop, or both: the default runs, closed loop on "
+        "the fused estimate, closed loop on dead reckoning and open loop (default: %(default)s); the closed loops' "
+        "tracker (mpc, rpp, kanayama, ...) is --feedback T",
     )
     p.add_argument(
         "--feedback",
