@@ -758,3 +758,21 @@ def test_a_closed_output_pipe_ends_the_command_quietly_with_141():
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=120) == 141, err
     assert first.startswith(b"scenario farm") and "Traceback" not in err and "BrokenPipe" not in err
+
+
+def test_a_reader_that_goes_away_leaves_the_commands_outputs_written(tmp_path):
+    """`nhsim simulate ... | head -1`: the command stopped at its next print, and the record and plots it had
+    not written yet were lost (or kept, by the timing of the reader). It now prints nothing more, writes them,
+    and exits 141."""
+    cmd = [sys.executable, "-m", "sim", "simulate", "--scenario", "open", "--reference", "line", "--robot", "edumip"]
+    cmd += ["--runs", "closed_loop", "--json", str(tmp_path / "r.json")]  # and its video and plots in renders/
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen(cmd, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert proc.stdout is not None and proc.stderr is not None
+    first = proc.stdout.readline()  # the first line: the command is at work, its table still to come
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 141, err
+    assert first and "Traceback" not in err and "BrokenPipe" not in err
+    assert json.loads((tmp_path / "r.json").read_text())["closed_loop"]["status"] == "ok"
+    assert sorted(p.suffix for p in (tmp_path / "renders").iterdir()) == [".mp4", ".png", ".png", ".png", ".png"]

@@ -15,14 +15,16 @@ default).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import gc
 import importlib
 import importlib.util
+import io
 import os
 import re
 import sys
 from collections.abc import Collection, Sequence
-from typing import NoReturn
+from typing import NoReturn, TextIO
 
 from planning.errors import NhsimError, SimulationError, without_python
 
@@ -114,6 +116,49 @@ def named_command(argv: Sequence[str]) -> str | None:
     return first if first in COMMANDS else None
 
 
+class _ReaderGone(io.TextIOBase):
+    """The command's standard output: when its reader goes away (``nhsim simulate ... | head -3``), what it
+    prints after goes nowhere, and the command goes on to write its outputs (it stopped at the next print,
+    and the run's record, plots and video were lost or kept by chance). Each write is flushed, so a closed
+    pipe is found at the print that meets it, not at exit."""
+
+    def __init__(self, stream: TextIO) -> None:
+        self.stream = stream
+        #: Whether the reader went away.
+        self.gone = False
+
+    def write(self, text: str) -> int:
+        if not self.gone:
+            try:
+                self.stream.write(text)
+                self.stream.flush()
+            except BrokenPipeError:
+                self._away()
+        return len(text)
+
+    def flush(self) -> None:
+        if not self.gone:
+            try:
+                self.stream.flush()
+            except BrokenPipeError:
+                self._away()
+
+    def _away(self) -> None:
+        self.gone = True
+        with contextlib.suppress(OSError, ValueError):  # what is still buffered goes nowhere, not into an exit error
+            os.dup2(os.open(os.devnull, os.O_WRONLY), self.stream.fileno())
+
+    def isatty(self) -> bool:
+        return not self.gone and self.stream.isatty()
+
+    def fileno(self) -> int:
+        return self.stream.fileno()
+
+    @property
+    def encoding(self) -> str:  # type: ignore[override]
+        return self.stream.encoding
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``nhsim`` console script; returns the process exit code.
 
@@ -121,20 +166,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     target, a planner ended without a path or its plan could not be made into a trajectory),
     2 bad input (usage or a clear error message), 130 interrupted (Ctrl-C or SIGTERM, handled alike
     for the whole command: :mod:`sim.cli.interrupt`), 141 its standard output closed before it was
-    done (``nhsim plan ... | head -3``: the command stops quietly, as one killed by SIGPIPE would).
+    done (``nhsim plan ... | head -3``: the command prints nothing more but does the rest of its work, its
+    outputs written, and then exits as one killed by SIGPIPE would; a failure's own code stands).
     """
     from sim.cli.interrupt import sigterm_as_interrupt
 
-    with sigterm_as_interrupt():
+    out = _ReaderGone(sys.stdout)
+    with sigterm_as_interrupt(), contextlib.redirect_stdout(out):
         try:
-            return _main(argv)
+            code = _main(argv)
         except KeyboardInterrupt:  # before a command was chosen (building the parser, parsing)
             print("nhsim: interrupted", file=sys.stderr)
             return 130
-        except BrokenPipeError:
-            # what is still buffered for the closed pipe goes nowhere, not into a second error at exit
-            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-            return 141
+    return 141 if out.gone and code == 0 else code
 
 
 def console() -> int:
