@@ -33,6 +33,11 @@ class SimulationError(NhsimError):
     """The physics engine reported a problem (a MuJoCo warning, a non-finite state)."""
 
 
+class PlannerError(NhsimError):
+    """A planner failed as code: it raised, or returned something that is not a plan result (a plugin's bug;
+    the commands report it as a failed run, naming the planner)."""
+
+
 class OutputExistsError(NhsimError, FileExistsError):
     """An output file exists already and overwriting was not requested."""
 

@@ -11,7 +11,9 @@ import subprocess
 import sys
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import optuna
 import pytest
 
@@ -432,3 +434,91 @@ def test_tune_says_where_it_wrote_the_default_parameters(
     assert f"{note}: wrote the default KanayamaParams to {tmp_path / 't.json'}" in err
     assert json.loads((tmp_path / "t.json").read_text())["params"] == json.loads(json.dumps(KanayamaParams().__dict__))
     assert not list(tmp_path.glob("*.toml"))
+
+
+# ---- a plugin's planner is checked as the commands run it ----------------------------------------------------
+class _Raises:
+    name = "raises"
+
+    def plan(self, problem: object) -> object:
+        raise RuntimeError("boom")
+
+
+class _Returns:
+    """Returns what its ``kind`` says: None, a one-pose "success" (a path to nowhere) or a straight line."""
+
+    name = "returns"
+
+    def __init__(self, *, kind: str = "none") -> None:
+        self.kind = kind
+
+    def plan(self, problem: Any) -> object:
+        from planning import PlanResult, PlanStatus
+
+        s, g = problem.start, problem.goal
+        poses = {"one": [[s.x, s.y, s.theta]], "line": [[s.x, s.y, s.theta], [g.x, g.y, g.theta]]}
+        if self.kind not in poses:
+            return None
+        return PlanResult(PlanStatus.SUCCESS, self.name, path=np.array(poses[self.kind]), stats={})
+
+
+@pytest.mark.parametrize(
+    ("planner", "argv", "code", "said"),
+    [
+        ("raises", [], 1, f"nhsim plan: failed: planner 'raises' ({BY_CODE}) raised RuntimeError: boom"),
+        ("returns", [], 1, f"nhsim plan: failed: planner 'returns' ({BY_CODE}) returned None (NoneType), not a Plan"),
+    ],
+)
+def test_a_planner_that_raises_or_returns_no_result_is_a_failed_plan_naming_it(
+    registry: None, capsys: pytest.CaptureFixture[str], planner: str, argv: list[str], code: int, said: str
+) -> None:
+    """They were tracebacks (RuntimeError, or AttributeError: 'NoneType' object has no attribute 'path')."""
+    from planning import register_planner
+
+    register_planner("raises", _Raises)
+    register_planner("returns", _Returns)
+    for command in (["plan"], ["simulate", "--no-video", "--runs", "closed_loop"]):
+        assert main([*command, "--scenario", "simple_motion", "--planner", planner, "--quiet", *argv]) == code
+        err = capsys.readouterr().err
+        assert said.replace("nhsim plan", f"nhsim {command[0]}") in err and "Traceback" not in err, err
+
+
+def test_a_planners_success_is_checked_against_the_goal_and_the_obstacles(
+    registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A one-pose "success" was reported as one (exit 0) and tracked as a run that never moved; a straight line
+    through the obstacles was a failure "whose collision check cannot be trusted"."""
+    from planning import register_planner
+
+    monkeypatch.chdir(tmp_path)
+    register_planner("returns", _Returns)
+    argv = ["plan", "--planner", "returns", "--quiet"]
+    assert main([*argv, "--scenario", "simple_motion", "--planner-option", "kind=one", "--json", "one.json"]) == 1
+    record = json.loads((tmp_path / "one.json").read_text())
+    assert (
+        record["status"] == "failed"
+        and "reported success, but its path ends 1.04 m and 0 rad from the goal" in (record["reason"])
+    )
+    assert main([*argv, "--scenario", "edumip_map", "--planner-option", "kind=line"]) == 1
+    assert "reported success, but its path collides (the footprint holds an obstacle)" in capsys.readouterr().out
+    simulate = ["simulate", "--scenario", "simple_motion", "--planner", "returns", "--no-video"]
+    assert main([*simulate, "--runs", "closed_loop", "--planner-option", "kind=one"]) == 1
+
+
+def test_origin_loads_the_plugins_it_answers_for(
+    registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Asked first, before any lookup, it said "registered by this program's own code" for a plugin's planner."""
+    site = _package(tmp_path / "site", {"mine": "nhsim_test_mine:Mine"}, {"nhsim_test_mine": MINE}, PLANNER_GROUP)
+    monkeypatch.syspath_prepend(str(site))
+    assert PLANNERS.plugins == "unloaded"
+    assert PLANNERS.origin("mine").startswith("from entry point 'mine = nhsim_test_mine:Mine'")
+
+
+def test_an_entry_points_taken_name_says_to_rename_the_entry_point(
+    registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    site = _package(tmp_path / "site", {"rrt": "nhsim_test_mine:Mine"}, {"nhsim_test_mine": MINE}, PLANNER_GROUP)
+    monkeypatch.syspath_prepend(str(site))
+    with pytest.raises(ConfigError, match=r"'rrt' is already registered \(built in\).*give the entry point another n"):
+        make_planner("birrt")

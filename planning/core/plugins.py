@@ -129,8 +129,11 @@ class Registry(MutableMapping[str, "str | Callable[..., F]"], Generic[F]):
     def __repr__(self) -> str:
         return f"Registry({self.kind!r}, {self._entries!r})"
 
-    def add(self, caller: str, name: str, target: str | Callable[..., F], replace: bool) -> None:
+    def add(self, caller: str, name: str, target: str | Callable[..., F], replace: bool, fix: str = "") -> None:
         """Register ``target`` under ``name`` (checked already by :func:`check_registration`), noting who did.
+
+        Args:
+            fix: What to do about a taken name (default: choose another, or pass replace=True).
 
         Raises:
             ConfigError: ``name`` is taken by another target and ``replace`` is not True.
@@ -139,9 +142,10 @@ class Registry(MutableMapping[str, "str | Callable[..., F]"], Generic[F]):
             raise ConfigError(f"{caller}({name!r}): replace must be True or False")
         taken = self.get(name)  # an empty entry is a placeholder (a test's monkeypatch), no factory
         if taken and taken != target and not replace:
+            fix = fix or "choose another name, or pass replace=True to replace it"
             raise ConfigError(
                 f"{caller}: {self.kind} {name!r} is already registered ({self.origin(name)}) as {target_text(taken)}; "
-                "choose another name, or pass replace=True to replace it"
+                f"{fix}"
             )
         self._entries[name] = target
         self.origins[name] = f"from {_loading[-1]}" if _loading else BY_CODE
@@ -152,7 +156,8 @@ class Registry(MutableMapping[str, "str | Callable[..., F]"], Generic[F]):
 
     def origin(self, name: str) -> str:
         """Who registered ``name``: :data:`BUILT_IN`, :data:`BY_CODE` (also a name set in the registry directly),
-        or "from " the plugin (entry point or :data:`PLUGIN_VARIABLE`'s module)."""
+        or "from " the plugin (entry point or :data:`PLUGIN_VARIABLE`'s module); the plugins are loaded first."""
+        self._load()
         return self.origins.get(name, BY_CODE)
 
     def in_every_process(self, name: str) -> bool:
@@ -212,7 +217,7 @@ class Registry(MutableMapping[str, "str | Callable[..., F]"], Generic[F]):
     def _register_entry_point(self, name: str, target: str) -> None:
         caller = f"entry point of group {self.group}"
         check_registration(caller, name, target, kind=self.kind, flag="its name", examples=("name", "module:Attr"))
-        self.add(caller, name, target, replace=False)
+        self.add(caller, name, target, replace=False, fix="give the entry point another name in the package's metadata")
 
     def factory(self, name: str) -> Callable[..., F]:
         """The factory registered under ``name``, imported if given as text.

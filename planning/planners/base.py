@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any, Protocol
@@ -14,7 +16,7 @@ from planning.core.geometry import Pose2D, path_length
 from planning.core.robot import RobotSpec, load_robot
 from planning.core.scenario_type import Scenario
 from planning.core.world import World
-from planning.errors import ConfigError
+from planning.errors import ConfigError, NhsimError, PlannerError
 
 FloatArray = NDArray[np.float64]
 
@@ -203,3 +205,62 @@ class Planner(Protocol):
     def plan(self, problem: PlanProblem) -> PlanResult:
         """Plan; never raises for an unsolvable problem, returns a status instead."""
         ...
+
+
+#: How far a successful path's first pose may lie from the start [m, rad]: it is the start (a planner's path
+#: begins where the robot stands; the built-in planners' begin there to the bit).
+START_TOLERANCE = 1e-6
+
+
+def run_planner(planner: Planner, name: str, problem: PlanProblem, origin: str = "") -> PlanResult:
+    """``planner.plan(problem)`` as the commands run it: a planner that raises (but for a ConfigError: bad
+    input it names) or returns something other than a :class:`PlanResult` is a :class:`PlannerError` naming
+    it, and a success is checked against the problem: its path must start at the start and end within the goal
+    tolerances, or the result is ``FAILED`` saying so (a plugin's planner that called a path to nowhere a
+    success was tracked, and the run judged against its own end).
+
+    Args:
+        planner: The planner.
+        name: Its registered name (for the messages).
+        problem: The problem.
+        origin: Who registered it, for the messages (``PLANNERS.origin(name)``; "" to leave out).
+
+    Raises:
+        PlannerError: As above.
+        ConfigError: The planner's own refusal of bad input.
+    """
+    who = f"planner {name!r}" + (f" ({origin})" if origin else "")
+    try:
+        result = planner.plan(problem)
+    except NhsimError:
+        raise
+    except Exception as exc:  # whatever the planner's code raised
+        raise PlannerError(f"{who} raised {type(exc).__name__}: {exc}") from exc
+    if not isinstance(result, PlanResult):
+        raise PlannerError(
+            f"{who} returned {result!r:.60} ({type(result).__name__}), not a PlanResult (planning.PlanResult)"
+        )
+    if not result.success:
+        return result
+    missed = _missed(result.path, problem)
+    if missed:
+        reason = f"{who} reported success, but its path {missed}"
+        return dataclasses.replace(result, status=PlanStatus.FAILED, reason=reason)
+    return result
+
+
+def _missed(path: FloatArray, problem: PlanProblem) -> str:
+    """How a successful ``path`` misses its problem's start or goal ("" when it does not)."""
+    start, end, goal = path[0], path[-1], problem.goal
+    off = float(np.hypot(start[0] - problem.start.x, start[1] - problem.start.y))
+    turned = abs(math.remainder(float(start[2]) - problem.start.theta, 2 * math.pi))
+    if off > START_TOLERANCE or turned > START_TOLERANCE:
+        return f"starts {off:.3g} m and {turned:.3g} rad from the start pose"
+    far = float(np.hypot(end[0] - goal.x, end[1] - goal.y))
+    heading = abs(math.remainder(float(end[2]) - goal.theta, 2 * math.pi))
+    if far > problem.position_tolerance or heading > problem.heading_tolerance:
+        return (
+            f"ends {far:.3g} m and {heading:.3g} rad from the goal (its tolerances: {problem.position_tolerance:g} m, "
+            f"{problem.heading_tolerance:g} rad)"
+        )
+    return ""

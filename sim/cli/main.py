@@ -26,7 +26,7 @@ import sys
 from collections.abc import Collection, Sequence
 from typing import NoReturn, TextIO
 
-from planning.errors import NhsimError, SimulationError, without_python
+from planning.errors import NhsimError, PlannerError, SimulationError, without_python
 
 #: Subcommand name -> module path.
 COMMANDS: dict[str, str] = {
@@ -226,10 +226,11 @@ def _main(argv: Sequence[str] | None) -> int:
 
 
 def _failed_plan(exc: BaseException) -> bool:
-    """Whether ``exc`` is a :class:`planning.trajectory.from_plan.TrajectoryError` (its module is
-    looked up, not imported: an error of that class means it is loaded)."""
+    """Whether ``exc`` is a failed plan, not bad input: a :class:`planning.errors.PlannerError` (a planner's
+    code failed) or a :class:`planning.trajectory.from_plan.TrajectoryError` (its module is looked up, not
+    imported: an error of that class means it is loaded)."""
     module = sys.modules.get("planning.trajectory.from_plan")
-    return module is not None and isinstance(exc, module.TrajectoryError)
+    return isinstance(exc, PlannerError) or (module is not None and isinstance(exc, module.TrajectoryError))
 
 
 if __name__ == "__main__":

@@ -126,8 +126,8 @@ def path_spacing(path: NDArray[np.float64], radius: float) -> float:
 def run(args: argparse.Namespace) -> int:
     """Execute ``plan``."""
     from planning.core.robot import load_robot
-    from planning.planners.base import PlanProblem, PlanStatus
-    from planning.planners.registry import make_planner
+    from planning.planners.base import PlanProblem, PlanStatus, run_planner
+    from planning.planners.registry import PLANNERS, make_planner
     from planning.scenario import load_scenario, scenario_with_robot
     from sim.cli.checks import check_seeds, check_time_limit, planner_option_values
     from sim.cli.job_outputs import check_apart_from_inputs
@@ -162,7 +162,7 @@ def run(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
     with TimedBar("planning", args.time_limit, enabled=show_progress(args)):
-        result = planner.plan(problem)
+        result = run_planner(planner, name, problem, PLANNERS.origin(name))
     facts = plan_facts(problem, result, time.perf_counter() - t0)
     status, reason = trusted_status(result.status, result.reason, facts["min_clearance_m"])
     min_clear, iterations = facts["min_clearance_m"], facts["iterations"]
@@ -292,7 +292,9 @@ def clearance_text(min_clear: float | None) -> str:
 
 
 def trusted_status(status: Any, reason: str, min_clearance: float | None) -> tuple[Any, str]:
-    """The status to report: a success whose path has a non-finite clearance is reported as failed.
+    """The status to report: a success whose path collides (a negative or -inf clearance: an obstacle inside the
+    footprint, or the robot inside one or beyond a wall) or whose clearance is not a number is reported as
+    failed, saying which.
 
     Args:
         status: The planner's PlanStatus.
@@ -304,12 +306,15 @@ def trusted_status(status: Any, reason: str, min_clearance: float | None) -> tup
     """
     from planning.planners.base import PlanStatus
 
-    if status is PlanStatus.SUCCESS and min_clearance is not None and not np.isfinite(min_clearance):
-        return PlanStatus.FAILED, (
-            f"the path's minimum clearance is {min_clearance} (not finite), so its collision check cannot be "
-            "trusted; check the scenario's obstacles"
-        )
-    return status, reason
+    if status is not PlanStatus.SUCCESS or min_clearance is None or min_clearance >= 0:
+        return status, reason
+    if min_clearance < 0:  # -inf included
+        how = f"overlaps by {-1e3 * min_clearance:.1f} mm" if np.isfinite(min_clearance) else "holds an obstacle"
+        return PlanStatus.FAILED, f"the planner reported success, but its path collides (the footprint {how})"
+    return PlanStatus.FAILED, (
+        f"the path's minimum clearance is {min_clearance} (not finite), so its collision check cannot be "
+        "trusted; check the scenario's obstacles"
+    )
 
 
 def plan_facts(problem: Any, result: Any, wall: float) -> dict[str, Any]:

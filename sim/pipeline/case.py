@@ -35,7 +35,7 @@ from planning.core.checks import check_fields
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot
 from planning.errors import ConfigError, ScenarioError, option, options
-from planning.planners.base import PlanProblem, PlanResult
+from planning.planners.base import PlanProblem, PlanResult, run_planner
 from planning.planners.registry import PLANNERS, make_planner, planner_options
 from planning.scenario import Scenario, load_scenario, scenario_source
 from planning.scenario import scenario_with_robot as scenario_with_robot  # defined beside load_scenario
@@ -493,7 +493,7 @@ def plan_case(case: Case, scenario: Scenario, robot: RobotSpec, *, progress: Pro
     if progress is not None:
         progress("plan", 0.0, limit)
     try:
-        plan = solver.plan(problem)
+        plan = run_planner(solver, name, problem, PLANNERS.origin(name))
     finally:
         if progress is not None:
             progress("plan", limit, limit)
