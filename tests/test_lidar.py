@@ -11,7 +11,7 @@ import pytest
 from planning.core.robot import load_robot
 from planning.core.world import Box, Circle, World
 from planning.errors import ConfigError
-from sim.physics.lidar import LidarProfile, LidarScanner, beam_poses, load_lidar_profile
+from sim.physics.lidar import LDS01_PLANE, LidarProfile, LidarScanner, beam_poses, load_lidar_profile
 from sim.physics.model import build_model
 
 WORLD = World((-2.0, 2.0, -1.5, 1.5), (Box((1.0, 0.5), (0.4, 0.3), 0.3), Circle((-1.0, -0.5), 0.3)))
@@ -101,7 +101,7 @@ def test_ranges_match_analytic_distances_to_walls_boxes_and_circles(scene: tuple
     pose = (0.1, -0.2, 0.4)
     _place(model, data, pose)
     lidar = LidarScanner(model, EXACT, seed=1)
-    assert lidar.height == pytest.approx(0.182, abs=1e-6)
+    assert lidar.height == pytest.approx(LDS01_PLANE, abs=1e-6) == pytest.approx(0.182, abs=1e-6)
     poses = np.tile(pose, (360, 1))
     got = lidar.cast(data, poses)
     origin = lidar.origins(poses[:1])[0]

@@ -8,7 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from planning.core.world import Box
+from planning.core.world import Box, World
 from planning.errors import ConfigError
 from planning.scenario import load_scenario, random_scenario
 from sim.pipeline.case import Case
@@ -50,6 +50,10 @@ def test_the_turtlebot3_localises_on_its_scans_by_default_and_the_edumip_keeps_i
     # a bare rectangle looks the same from a pose and its half-turn twin: global localisation is refused
     with pytest.raises(ConfigError, match=r'a bare rectangle of walls.*--initial-pose known \(initial_pose="known" '):
         Case("open", reference="line", initial_pose="unknown").localiser_setup(sc)
+    # and so does one whose every obstacle is below the scan plane: the scanner's world is a bare rectangle
+    low = dataclasses.replace(sc, world=World(sc.world.bounds, (Box((1.0, 1.0), (0.3, 0.3), height=0.1),)))
+    with pytest.raises(ConfigError, match=r"a bare rectangle of walls to the scanner \(its 1 obstacle\(s\) all below"):
+        Case("open", reference="line", initial_pose="unknown").localiser_setup(low)
     with pytest.raises(ConfigError, match="unknown localiser 'gps'"):
         Case("open", reference="line", localiser="gps")
     with pytest.raises(ConfigError, match="fix_rate must equal the scan rate"):

@@ -64,6 +64,10 @@ LIMITS: dict[str, tuple[float, float, str]] = {
 
 #: Longest time spanned by the beams of one ``mj_multiRay`` call [s].
 BATCH_TIME = 0.01
+#: Height of the TurtleBot3's LDS-01 scan plane above the floor [m] (its ``lidar`` site in the MJCF, which
+#: :attr:`LidarScanner.height` reads; ``tests/test_lidar.py`` checks they agree): an obstacle no taller is not
+#: in the scan (:meth:`planning.core.world.World.seen_at`).
+LDS01_PLANE = 0.182
 #: A valid ``--lidar`` text, quoted when a part is malformed.
 EXAMPLE = "beams=180,precision_far=0"
 

@@ -45,7 +45,7 @@ from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
 from planning.trajectory.references import REFERENCES, make_reference
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import DEFAULT_BUILD_SEED, AsBuilt, check_build_seed
-from sim.physics.lidar import load_lidar_profile
+from sim.physics.lidar import LDS01_PLANE, load_lidar_profile
 from sim.physics.motors import supplied_robot
 from sim.physics.perturb import Perturbation
 from sim.physics.sensors import load_sensor_profile
@@ -314,11 +314,18 @@ class Case:
                     f"{option('localiser', 'amcl')}"
                 )
             return LocaliserSetup()
-        if self.initial_pose == "unknown" and not scenario.world.obstacles:  # a pose estimate tells the twins apart
+        seen = scenario.world.seen_at(LDS01_PLANE)  # the scanner's world: its low obstacles are not in the scan
+        if self.initial_pose == "unknown" and not seen.obstacles:  # a pose estimate tells the twins apart
+            low = (
+                f" (its {len(scenario.world.obstacles)} obstacle(s) all below the scan plane)"
+                if scenario.world.obstacles
+                else ""
+            )
             raise ConfigError(
-                f"{option('initial-pose', 'unknown')} in {scenario.name!r}, a bare rectangle of walls: its scans look "
-                "the same from a pose and from that pose turned half a turn about the centre, so global localisation "
-                f"cannot tell them apart; use a world with obstacles, or {option('initial-pose', 'known')}"
+                f"{option('initial-pose', 'unknown')} in {scenario.name!r}, a bare rectangle of walls to the scanner"
+                f"{low}: its scans look the same from a pose and from that pose turned half a turn about the centre, "
+                "so global localisation cannot tell them apart; use a world with obstacles the scan sees, or "
+                f"{option('initial-pose', 'known')}"
             )
         amcl = AmclConfig().parse(self.amcl) if self.amcl else AmclConfig()
         return LocaliserSetup("amcl", scenario.world, lidar, amcl, self.initial_pose)
