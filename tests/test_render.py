@@ -594,3 +594,15 @@ def test_inset_points_at_a_ghost_beyond_it() -> None:
     assert near(purple, bottom) > 20  # the arrowhead
     assert near(purple, top) == 0  # nothing else of it
     assert near(orange, bottom) == 0  # the ghost in view gets none
+
+
+def test_a_bad_video_size_names_the_option_and_only_the_fix_that_applies(capsys: pytest.CaptureFixture[str]) -> None:
+    """--size 10x10 said "video width must be an integer in [16, 4096] (pixels), got 10; give an even number":
+    10 is even, and the command line's error had lost the option's name with the Python form."""
+    from sim.cli.main import main
+
+    assert main(["simulate", "--reference", "line", "--size", "10x10", "--no-plots"]) == 2
+    err = capsys.readouterr().err
+    assert "video width (--size WIDTHxHEIGHT) must be an integer in [16, 4096] (pixels), got 10\n" in err
+    assert main(["simulate", "--reference", "line", "--size", "641x480", "--no-plots"]) == 2
+    assert "video width (--size WIDTHxHEIGHT) must be even, got 641; give an even number" in capsys.readouterr().err

@@ -107,10 +107,8 @@ class RenderSettings:
     def __post_init__(self) -> None:
         even = "give an even number (H.264 with yuv420p needs even sizes)"
         for name in ("width", "height"):
-            where = f"video {name} (--size WIDTHxHEIGHT; RenderSettings.{name} from Python)"
-            v = check_number(
-                where, getattr(self, name), integer=True, at_least=16, at_most=4096, unit="pixels", fix=even
-            )
+            where = f"video {name} ({option('size', 'WIDTHxHEIGHT', python=f'RenderSettings.{name}')})"
+            v = check_number(where, getattr(self, name), integer=True, at_least=16, at_most=4096, unit="pixels")
             if v % 2:
                 raise ConfigError(f"{where} must be even, got {v}; {even}")
             object.__setattr__(self, name, v)  # a numpy integer as a plain one
