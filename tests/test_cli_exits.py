@@ -241,6 +241,10 @@ def test_only_the_closed_loop_ending_early_or_colliding_fails_the_command() -> N
     assert failures == [f"{RunKind.CLOSED_LOOP}: {fell}"] and len(notes) == 2
     failures, notes = run_verdicts({RunKind.OPEN_LOOP: run(fell)})  # the only run: judged
     assert failures == [f"{RunKind.OPEN_LOOP}: {fell}"] and notes == []
+    # a status naming an option (the localiser's advice) is printed in the command-line form only
+    ambiguous = 'localisation ambiguous: give the start pose (--initial-pose known (initial_pose="known" from Python))'
+    failures, _ = run_verdicts({RunKind.CLOSED_LOOP: run(ambiguous)})
+    assert failures == [f"{RunKind.CLOSED_LOOP}: localisation ambiguous: give the start pose (--initial-pose known)"]
     # collisions: the closed loop's judged, the open loop's reported beside it and judged alone
     failures, notes = run_verdicts({RunKind.CLOSED_LOOP: run("ok", 1), RunKind.OPEN_LOOP: run("ok", 4)})
     assert failures == [f"{RunKind.CLOSED_LOOP} run touched an obstacle (1 time)"]
@@ -380,6 +384,51 @@ def test_simulate_all_sweeps_the_scenarios_it_is_given(
     assert main([*args, "--quiet", "--no-video", "--json", "all.json"]) == 0
     rows = json.loads((tmp_path / "all.json").read_text())["rows"]
     assert sorted(r["scenario"] for r in rows) == ["random400", "simple_motion"]
+
+
+def test_simulate_all_sweeps_a_scenario_file_as_read(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--all --scenario FILE``: the file's cases. Each case reloaded the scenario by its name: a file named as
+    no built-in failed every case ("unknown scenario"), and one named as a built-in ran the built-in."""
+    import re
+
+    from planning.scenario import Scenario
+    from sim.pipeline.sweep import sweep_cases
+
+    monkeypatch.chdir(tmp_path)
+    text = (Path(__file__).resolve().parents[1] / "models" / "scenarios" / "simple_motion.toml").read_text()
+    (tmp_path / "mine.toml").write_text(re.sub(r"(?m)^name = .*$", 'name = "my_motion"', text))
+    args = ["simulate", "--all", "--scenario", "mine.toml", "--robot", "turtlebot3", "--planner", "birrt"]
+    assert main([*args, "--quiet", "--no-video", "--json", "all.json"]) == 0, capsys.readouterr()
+    rows = json.loads((tmp_path / "all.json").read_text())["rows"]
+    assert [(r["scenario"], r["planner"], r["outcome"]) for r in rows] == [("my_motion", "birrt", "ok")]
+    goal = "[goal]\npose = [1.4, 0.7, 0.0]"
+    assert goal in text
+    (tmp_path / "copy.toml").write_text(text.replace(goal, "[goal]\npose = [1.2, 0.7, 0.0]"))  # the built-in's name
+    case = sweep_cases(["copy.toml"])[0]
+    assert isinstance(case.scenario, Scenario) and case.scenario.goal.x == 1.2 and case.scenario_name == "simple_motion"
+    assert all(c.scenario == "simple_motion" for c in sweep_cases(["simple_motion"]))  # a name stays a name
+
+
+def test_simulate_all_refuses_a_planner_it_would_not_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--all --planner P`` keeps P's cases: an unknown P, or one that applies to none of the swept scenarios,
+    ran no case and passed (exit 0, "0/0 applicable"); now exit 2, saying why and what to do."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "--all", "--scenario", "simple_motion", "--planner", "nosuch", "--no-video"]) == 2
+    swept = capsys.readouterr().err
+    assert swept.startswith("nhsim simulate: error: unknown planner 'nosuch': choose one of birrt, "), swept
+    argv = ["simulate", "--all", "--scenario", "farm", "--planner", "sinusoidal", "--no-video", "--json", "a.json"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--all --planner sinusoidal: no case to run: sinusoidal does not apply to farm" in err
+    assert "it runs birrt, c-rrt-star, hybrid-a-star, optim, rrt, rrt-star there" in err
+    assert "(nhsim simulate --scenario farm --planner sinusoidal)" in err
+    assert not any(tmp_path.iterdir())
+    assert main(["simulate", "--planner", "nosuch", "--no-video"]) == 2  # the single job's message, the same
+    assert capsys.readouterr().err == swept
 
 
 def test_a_sweep_with_gains_says_so_and_records_them(

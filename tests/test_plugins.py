@@ -335,6 +335,53 @@ def test_one_module_named_by_the_variable_registers_a_planner_and_a_tracker(
     assert "env-fbl" in feedback_trackers() and TRACKERS.plugins == PLANNERS.plugins == "loaded"
 
 
+def test_simulate_all_runs_a_plugins_planner_only_on_a_scenario_naming_it(
+    registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--all --planner P`` for a plugin's P that no swept scenario names ran no case and passed (exit 0); it is
+    refused, saying why and what to do. A scenario file naming P sweeps it."""
+    (tmp_path / "nhsim_test_both.py").write_text(BOTH)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setenv(PLUGIN_VARIABLE, "nhsim_test_both")
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "--all", "--scenario", "simple_motion", "--planner", "env-birrt", "--no-video"]) == 2
+    err = capsys.readouterr().err
+    origin = f"from module 'nhsim_test_both' named by {PLUGIN_VARIABLE}=nhsim_test_both"
+    assert f"no case to run: env-birrt ({origin}) is a plugin's planner, which --all runs only on a scenario" in err
+    assert "(nhsim simulate --scenario simple_motion --planner env-birrt)" in err and "Traceback" not in err
+    scenario = (ROOT / "models" / "scenarios" / "simple_motion.toml").read_text()
+    named = re.sub(r"(?m)^name = .*$", 'name = "env_motion"\nplanner = "env-birrt"', scenario)
+    (tmp_path / "env.toml").write_text(named)
+    argv = ["simulate", "--all", "--scenario", "env.toml", "--robot", "turtlebot3", "--planner", "env-birrt"]
+    assert main([*argv, "--quiet", "--no-video", "--json", "all.json"]) == 0, capsys.readouterr()
+    rows = json.loads((tmp_path / "all.json").read_text())["rows"]
+    assert [(r["scenario"], r["planner"], r["outcome"]) for r in rows] == [("env_motion", "env-birrt", "ok")]
+
+
+def test_scenarios_stops_at_a_failing_planner_plugin_with_one_line(
+    registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``nhsim scenarios`` printed the plugin's error on every row naming a planner (the plugin imported again
+    for each), exit 1; a broken scenario file among those listed keeps its own row."""
+    import planning.scenario
+
+    (tmp_path / "nhsim_test_raises.py").write_text("raise RuntimeError('no licence')\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setenv(PLUGIN_VARIABLE, "nhsim_test_raises")
+    assert main(["scenarios"]) == 2
+    out, err = capsys.readouterr()
+    plugin = f"module 'nhsim_test_raises' named by {PLUGIN_VARIABLE}=nhsim_test_raises: RuntimeError: no licence"
+    assert out == "" and err.splitlines() == [f"nhsim scenarios: error: planner plugin failed to load: {plugin}"]
+    monkeypatch.delenv(PLUGIN_VARIABLE)
+    broken = tmp_path / "broken.toml"
+    broken.write_text("name = \n")
+    monkeypatch.setattr(planning.scenario, "builtin_scenarios", lambda: ["parking_lot", str(broken)])
+    assert main(["scenarios"]) == 1
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[2].startswith("parking_lot ") and "rrt-star" in lines[2]
+    assert lines[3].startswith(f"{broken} error: ") and len(lines) == 4
+
+
 def test_the_command_plans_and_simulates_with_a_planner_of_an_installed_entry_point(tmp_path: Path) -> None:
     """``nhsim plan --planner P``, ``simulate --planner P`` and a scenario file naming P: the command answered
     "unknown planner" for any planner it did not ship."""

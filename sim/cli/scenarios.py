@@ -14,17 +14,25 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         description=(
             "List the scenarios shipped in models/scenarios: name, robots (the default first), world bounds "
             "[xmin, xmax, ymin, ymax] in metres, number of obstacles, default planner and description. "
-            "Any of them can be passed as --scenario NAME. Exit status 1 if one fails to load."
+            "Any of them can be passed as --scenario NAME. Exit status 1 if one fails to load (its row says why); 2 "
+            "if a planner plugin fails to load."
         ),
     )
     return p
 
 
 def scenario_rows() -> list[dict[str, Any]]:
-    """One row per built-in scenario; a scenario that fails to load carries its error instead."""
+    """One row per built-in scenario; a scenario that fails to load carries its error instead.
+
+    Raises:
+        ConfigError: A planner plugin failed to load (the scenarios' planner names are checked against the
+            registry): one error for the command, not the same one on every row that names a planner.
+    """
     from planning.errors import NhsimError
+    from planning.planners.registry import PLANNERS
     from planning.scenario import builtin_scenarios, load_scenario
 
+    PLANNERS.load_plugins()  # what every scenario naming a planner looks up (once per process)
     rows: list[dict[str, Any]] = []
     for name in builtin_scenarios():
         try:

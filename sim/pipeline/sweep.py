@@ -147,15 +147,19 @@ def sweep_cases(scenarios: list[str] | None = None, **fields_: Any) -> list[Case
     the robots it lists × its applicable planners.
 
     Args:
-        scenarios: Scenario names.
+        scenarios: Scenario names (built-in, ``random<N>``) or paths of scenario files.
         **fields_: Further case fields (seed, gains, control_rate, planning).
+
+    A scenario given by name stays a name in its cases; one read from a file goes into them as read (its name
+    is not a built-in's, or is one and would reload the built-in instead of the file).
     """
     cases = []
     for name in scenarios if scenarios is not None else builtin_scenarios():
         sc = load_scenario(name)
+        scenario: str | Scenario = name if name == sc.name else sc
         for robot in sc.robots:
             for planner in applicable_planners(sc):
-                cases.append(Case(sc.name, robot=robot, planner=planner, **fields_))
+                cases.append(Case(scenario, robot=robot, planner=planner, **fields_))
     return cases
 
 
