@@ -91,6 +91,11 @@ def test_bad_geometry_raises_config_error(make: Any, match: str) -> None:
             {"init": "birrt", "init_options": {"bogus": 1}},
             r"optim: init_options: unknown option\(s\) bogus for the warm start's planner 'birrt': valid options are",
         ),
+        (  # its values were checked only when the plan ran its warm start (plan() then raised)
+            "optim",
+            {"init": "rrt", "init_options": {"max_iterations": -5}},
+            r"optim: init_options for the warm start's planner 'rrt': max_iterations must be an integer >= 1, got -5",
+        ),
         ("sinusoidal", {"max_period": math.nan}, r"sinusoidal: max_period must be a finite number > 0, got nan"),
     ],
 )

@@ -403,8 +403,8 @@ def _build(key: tuple[Any, ...]) -> _Nlp:
 
 
 def _check_init_options(init: str, options: dict[str, Any]) -> None:
-    """``init_options`` name options of the warm start's planner (``init`` a registered planner); the built-in
-    warm starts take none. The values are checked when the planner is made, before the plan's clock starts.
+    """``init_options`` are options of the warm start's planner (``init`` a registered planner), checked as that
+    planner checks them when it is made (names and values); the built-in warm starts take none.
 
     Raises:
         ConfigError: Options for a built-in warm start, or options the planner does not take (names them).
@@ -423,6 +423,10 @@ def _check_init_options(init: str, options: dict[str, Any]) -> None:
             f"optim: init_options: unknown option(s) {', '.join(unknown)} for the warm start's planner {init!r}: "
             f"valid options are {', '.join(valid)}"
         )
+    try:
+        make_planner(init, **options)  # its values too, now: plan() returns a status, it does not raise
+    except ConfigError as exc:
+        raise ConfigError(f"optim: init_options for the warm start's planner {init!r}: {exc}") from None
 
 
 class Optim:

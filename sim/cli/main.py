@@ -134,6 +134,8 @@ class _ReaderGone(io.TextIOBase):
                 self.stream.flush()
             except BrokenPipeError:
                 self._away()
+            except ValueError:  # the stream closed (a library that kept this object past the command)
+                self.gone = True
         return len(text)
 
     def flush(self) -> None:
@@ -142,6 +144,8 @@ class _ReaderGone(io.TextIOBase):
                 self.stream.flush()
             except BrokenPipeError:
                 self._away()
+            except ValueError:
+                self.gone = True
 
     def _away(self) -> None:
         self.gone = True
@@ -149,7 +153,10 @@ class _ReaderGone(io.TextIOBase):
             os.dup2(os.open(os.devnull, os.O_WRONLY), self.stream.fileno())
 
     def isatty(self) -> bool:
-        return not self.gone and self.stream.isatty()
+        try:
+            return not self.gone and self.stream.isatty()
+        except ValueError:  # closed
+            return False
 
     def fileno(self) -> int:
         return self.stream.fileno()
