@@ -201,7 +201,7 @@ def densify_path(path: ArrayLike, spacing: float, *, radius: float = 0.0, slack:
 
     Returns:
         (N', 3) poses, N' >= N, starting and ending with the given ones, headings unwrapped; a path
-        of fewer than two poses comes back as it is.
+            of fewer than two poses comes back as it is.
 
     Raises:
         ConfigError: ``spacing`` is not a finite number > 0; ``path`` is not an (N, 3) array of poses

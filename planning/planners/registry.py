@@ -49,8 +49,9 @@ def register_planner(name: str, target: str | Callable[..., Planner], *, replace
 
     A call registers it in the running process: :func:`make_planner`, ``simulate_plan(planner=...)`` and
     ``sim.cli.main.main([...])`` called from it see the planner. For the ``nhsim`` command (and fresh worker
-    processes) to see it, make the registration a plugin: an entry point of group :data:`PLUGIN_GROUP` in an
-    installed package, or a module named by ``NHSIM_PLUGINS`` (docs/how-to/new-planner.md).
+    processes) to see it, make the registration a plugin: an entry point of group ``nhsim.planners``
+    (:data:`PLUGIN_GROUP`) in an installed package, or a module named by ``NHSIM_PLUGINS``
+    (docs/how-to/new-planner.md).
 
     Args:
         name: The planner's name (``--planner``, a scenario's ``planner``, the run records): non-empty

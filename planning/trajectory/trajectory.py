@@ -280,7 +280,7 @@ class Trajectory:
 
         Returns:
             ``(dxy, ddxy)``, each (N, 2): [dx/dt, dy/dt] [m/s] and [d2x/dt2, d2y/dt2] [m/s^2],
-            from xdot = v cos(theta), xddot = vdot cos(theta) - v omega sin(theta) (and alike for y).
+                from xdot = v cos(theta), xddot = vdot cos(theta) - v omega sin(theta) (and alike for y).
         """
         if "dxy" not in self._cache:
             c, s = np.cos(self.pose[:, 2]), np.sin(self.pose[:, 2])

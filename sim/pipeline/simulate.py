@@ -334,7 +334,7 @@ def simulate_plan(
 
     Returns:
         The job; ``source`` is "planner:<name>", ``extra["plan"]`` holds the plan's status and
-        statistics and ``extra["smoothing"]`` the smoothing's.
+            statistics and ``extra["smoothing"]`` the smoothing's.
 
     Raises:
         ConfigError: No planner given and the scenario names none; unknown planner.

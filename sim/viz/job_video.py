@@ -65,7 +65,7 @@ def write_video(
 
     Returns:
         Facts for the run record: frames, fps, size, camera, quality, the close-up's magnification
-        over the world picture, GL backend, seconds taken.
+            over the world picture, GL backend, seconds taken.
 
     Raises:
         DependencyError: No OpenGL backend can draw here (the message says what to install).
