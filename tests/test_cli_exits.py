@@ -429,6 +429,11 @@ def test_simulate_all_refuses_a_planner_it_would_not_run(
     assert not any(tmp_path.iterdir())
     assert main(["simulate", "--planner", "nosuch", "--no-video"]) == 2  # the single job's message, the same
     assert capsys.readouterr().err == swept
+    # a robot no swept scenario lists: it too ran no case and passed
+    assert main(["simulate", "--all", "--scenario", "three_point_turn", "--robot", "edumip", "--no-video"]) == 2
+    assert "--all --robot edumip: no case to run: no scenario swept lists edumip (they list turtlebot3)" in (
+        capsys.readouterr().err
+    )
 
 
 def test_a_sweep_with_gains_says_so_and_records_them(

@@ -137,7 +137,13 @@ def run_all(args: argparse.Namespace, gains: Any) -> int:
     scenarios = sweep_scenarios(args.scenario)
     cases = sweep_cases(scenarios, seed=args.seed, gains=gains, control_rate=args.control_rate, planning=planning)
     if args.robot is not None:
+        listed = {c.robot for c in cases}
         cases = [c for c in cases if c.robot == args.robot]
+        if not cases:  # the sweep ran nothing and passed
+            raise ConfigError(
+                f"--all --robot {args.robot}: no case to run: no scenario swept lists {args.robot} (they list "
+                f"{', '.join(sorted(listed)) or 'none'}); choose one of those, or a scenario whose robots include it"
+            )
     if args.planner is not None:
         cases = [c for c in cases if c.planner == args.planner]
     settings = sweep_settings(args, gains)
