@@ -400,5 +400,7 @@ def test_video_options_given_with_no_video_are_named_as_ignored(capsys: pytest.C
 
     assert note() == "" and note("--fps", "30", "--camera", "overview") == ""  # the defaults, said again
     assert note("--fps", "10", "--quality", "high") == (
-        "nhsim: --fps, --quality ignored: they set the video, and --no-video writes none\n"
+        "nhsim simulate: --fps, --quality ignored: they set the video, and --no-video writes none\n"
     )
+    said = "nhsim simulate: --size ignored: it sets the video, and --no-video writes none\n"
+    assert note("--size", "320x240") == said

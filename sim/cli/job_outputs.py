@@ -351,8 +351,10 @@ def plan_outputs(
     else:
         unused = [f"--{k}" for k, v in VIDEO_DEFAULTS.items() if getattr(args, k, v) != v]
         if unused:
+            they = "they set" if len(unused) > 1 else "it sets"
             print(
-                f"nhsim: {', '.join(unused)} ignored: they set the video, and --no-video writes none", file=sys.stderr
+                f"nhsim {args.command}: {', '.join(unused)} ignored: {they} the video, and --no-video writes none",
+                file=sys.stderr,
             )
     base_dir, base = _plots_beside(args, stem)
     names: tuple[str, ...] = (*PLOTS, ESTIMATION_PLOT)  # the estimation plot only where the job gives its estimates

@@ -673,7 +673,8 @@ def _report_best(study: Any, spec: Any, evaluator: Any) -> tuple[Any, float]:
     dtrial = default_trial(study, spec.tracker)
     default_obj = dtrial.value if dtrial is not None else evaluator.evaluate(cls()).objective
     print(
-        f"study {spec.study}: {len(trials)} completed trials ({spec.storage}), each on {len(spec.draws)} draws per case"
+        f"study {spec.study}: {len(trials)} completed trials ({spec.storage}), each on {len(spec.draws)} "
+        f"draw{'s' if len(spec.draws) != 1 else ''} per case"
     )
     print(
         f"best trial #{best.number}: {' '.join(f'{k}={getattr(tuned, k):.4g}' for k in space)} "
