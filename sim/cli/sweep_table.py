@@ -137,7 +137,7 @@ def run_all(args: argparse.Namespace, gains: Any) -> int:
     scenarios = sweep_scenarios(args.scenario)
     cases = sweep_cases(scenarios, seed=args.seed, gains=gains, control_rate=args.control_rate, planning=planning)
     if args.robot is not None:
-        listed = {c.robot for c in cases}
+        listed = {c.robot for c in cases if c.robot is not None}
         cases = [c for c in cases if c.robot == args.robot]
         if not cases:  # the sweep ran nothing and passed
             raise ConfigError(
