@@ -504,58 +504,12 @@ def run(args: argparse.Namespace) -> int:
         from sim.cli.sweep_table import check_sweep_options, run_all
 
         check_sweep_options(args, option_defaults())
-        check_sweep_planner(args.scenario, args.planner)
         return run_all(args, gains)
     if args.jobs is not None or args.scheduler is not None:
         raise ConfigError("--jobs and --scheduler spread --all's sweep over workers; one job runs here: drop it")
     for line in ignored_options(args):
         print(f"nhsim simulate: {line}", file=sys.stderr)
     return _track_job(args, *job_case(args))
-
-
-def check_sweep_planner(scenarios: str | None, planner: str | None) -> None:
-    """``--all --planner P`` keeps P's cases of the sweep: refuse a P that has none, saying why (without the check
-    the sweep ran no case and passed).
-
-    Args:
-        scenarios: ``--scenario`` (comma-separated), or None for every built-in scenario.
-        planner: ``--planner``, or None (every applicable planner).
-
-    Raises:
-        ConfigError: An unknown planner (the message of a single job's, naming the registered ones), or one that
-            applies to none of the swept scenarios (:func:`sim.pipeline.simulate.applicable_planners`: a plugin's
-            planner applies only to a scenario that names it), naming those it does run and what to do.
-        ScenarioError: An unknown scenario or a bad scenario file.
-    """
-    if planner is None:
-        return
-    from planning.core.plugins import BUILT_IN
-    from planning.planners.registry import PLANNERS
-    from planning.scenario import builtin_scenarios, load_scenario
-    from sim.cli.sweep_table import sweep_scenarios
-    from sim.pipeline.simulate import applicable_planners
-
-    PLANNERS.factory(planner)  # an unknown name: "unknown planner 'P': choose one of ...", as a single job says
-    names = sweep_scenarios(scenarios) or builtin_scenarios()
-    runs = sorted({p for name in names for p in applicable_planners(load_scenario(name))})
-    if planner in runs:
-        return
-    swept = ", ".join(names) if scenarios is not None else "the built-in scenarios"
-    if PLANNERS.origin(planner) != BUILT_IN:
-        why = (
-            f"{planner} ({PLANNERS.origin(planner)}) is a plugin's planner, which --all runs only on a scenario that "
-            f'names it (planner = "{planner}" in its file)'
-        )
-    else:
-        why = (
-            f"{planner} does not apply to {swept} (--all runs a scenario's own planner, the obstacle-avoiding ones, "
-            "and the obstacle-free ones only where there are no obstacles)"
-        )
-    raise ConfigError(
-        f"--all --planner {planner}: no case to run: {why}; it runs {', '.join(runs) or 'none'} there. Run {planner} "
-        f"on one scenario without --all (nhsim simulate --scenario {names[0]} --planner {planner}), or sweep a "
-        f"scenario file whose planner is {planner} (nhsim simulate --all --scenario FILE.toml)"
-    )
 
 
 def gains_and_perturbation(args: argparse.Namespace) -> tuple[Any, Any]:

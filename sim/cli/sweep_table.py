@@ -123,19 +123,64 @@ def sweep_settings(args: argparse.Namespace, gains: Any) -> dict[str, Any]:
     }
 
 
+def check_sweep_planner(planner: str, runs: list[str], names: list[str], given: bool) -> None:
+    """``--all --planner P`` keeps P's cases of the sweep: refuse a P that has none, saying why (without the check
+    the sweep ran no case and passed).
+
+    Args:
+        planner: ``--planner``.
+        runs: The planners the sweep's cases run, sorted.
+        names: The scenarios swept.
+        given: Whether ``--scenario`` named them (else: every built-in scenario).
+
+    Raises:
+        ConfigError: A planner that applies to none of the swept scenarios
+            (:func:`sim.pipeline.simulate.applicable_planners`: a plugin's planner applies only to a scenario that
+            names it), naming those it does run and what to do.
+    """
+    from planning.core.plugins import BUILT_IN
+    from planning.planners.registry import PLANNERS
+
+    if planner in runs:
+        return
+    swept = ", ".join(names) if given else "the built-in scenarios"
+    if PLANNERS.origin(planner) != BUILT_IN:
+        why = (
+            f"{planner} ({PLANNERS.origin(planner)}) is a plugin's planner, which --all runs only on a scenario that "
+            f'names it (planner = "{planner}" in its file)'
+        )
+    else:
+        why = (
+            f"{planner} does not apply to {swept} (--all runs a scenario's own planner, the obstacle-avoiding ones, "
+            "and the obstacle-free ones only where there are no obstacles)"
+        )
+    raise ConfigError(
+        f"--all --planner {planner}: no case to run: {why}; it runs {', '.join(runs) or 'none'} there. Run {planner} "
+        f"on one scenario without --all (nhsim simulate --scenario {names[0]} --planner {planner}), or sweep a "
+        f"scenario file whose planner is {planner} (nhsim simulate --all --scenario FILE.toml)"
+    )
+
+
 def run_all(args: argparse.Namespace, gains: Any) -> int:
     """Run the sweep: print the table as rows come, the summary, and write the record with --json."""
+    from planning.planners.registry import PLANNERS
+    from planning.scenario import builtin_scenarios
     from sim.outputs import check_writable, write_json
     from sim.pipeline.case import PlanOptions
     from sim.pipeline.sweep import run_sweep, sweep_cases, sweep_passed, sweep_record
     from sim.tools.executor import make_executor, worker_count
 
     worker_count(args.jobs, args.scheduler, default=1)
+    if args.planner is not None:
+        PLANNERS.factory(args.planner)  # an unknown name: "unknown planner 'P': choose one of ...", as a job says
     if args.json is not None:
         check_writable(args.json, overwrite=args.overwrite)
     planning = PlanOptions(time_limit=args.time_limit)
     scenarios = sweep_scenarios(args.scenario)
     cases = sweep_cases(scenarios, seed=args.seed, gains=gains, control_rate=args.control_rate, planning=planning)
+    if args.planner is not None:
+        names = scenarios or builtin_scenarios()
+        check_sweep_planner(args.planner, sorted({c.planner for c in cases if c.planner}), names, scenarios is not None)
     if args.robot is not None:
         listed = {c.robot for c in cases if c.robot is not None}
         cases = [c for c in cases if c.robot == args.robot]
