@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any, Protocol
@@ -12,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.core.checks import check_number
-from planning.core.geometry import Pose2D, path_length
+from planning.core.geometry import Pose2D, path_length, wrap_angle
 from planning.core.robot import RobotSpec, load_robot
 from planning.core.scenario_type import Scenario
 from planning.core.world import World
@@ -253,11 +252,11 @@ def _missed(path: FloatArray, problem: PlanProblem) -> str:
     """How a successful ``path`` misses its problem's start or goal ("" when it does not)."""
     start, end, goal = path[0], path[-1], problem.goal
     off = float(np.hypot(start[0] - problem.start.x, start[1] - problem.start.y))
-    turned = abs(math.remainder(float(start[2]) - problem.start.theta, 2 * math.pi))
+    turned = abs(wrap_angle(float(start[2]) - problem.start.theta))
     if off > START_TOLERANCE or turned > START_TOLERANCE:
         return f"starts {off:.3g} m and {turned:.3g} rad from the start pose"
     far = float(np.hypot(end[0] - goal.x, end[1] - goal.y))
-    heading = abs(math.remainder(float(end[2]) - goal.theta, 2 * math.pi))
+    heading = abs(wrap_angle(float(end[2]) - goal.theta))
     if far > problem.position_tolerance or heading > problem.heading_tolerance:
         return (
             f"ends {far:.3g} m and {heading:.3g} rad from the goal (its tolerances: {problem.position_tolerance:g} m, "
