@@ -697,8 +697,7 @@ class Amcl:
         if not self.moved_enough(o):
             return False
         self._move(o)
-        mean, cov, _ = K.cluster_estimate(self.particles, self.weights, self.bins, self.shape)
-        self.estimate = AmclEstimate(mean, cov, self.particles.shape[0], self.spread(), False)
+        self.estimate = self._estimate(np.zeros(0), np.zeros(0))  # no beam to fit: the cloud's
         return True
 
     def _move(self, odom: FloatArray) -> None:
