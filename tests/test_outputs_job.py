@@ -404,3 +404,26 @@ def test_video_options_given_with_no_video_are_named_as_ignored(capsys: pytest.C
     )
     said = "nhsim simulate: --size ignored: it sets the video, and --no-video writes none\n"
     assert note("--size", "320x240") == said
+
+
+def test_write_json_writes_arrays_compactly_and_exactly(tmp_path: Path) -> None:
+    rng = np.random.default_rng(5)
+    path = rng.normal(size=(400, 3))
+    path[7, 1] = np.inf
+    data = {
+        "path": path,
+        "directions": np.array([1, -1, 1], dtype=np.int8),
+        "flags": np.array([True, False]),
+        "deep": {"m": np.eye(2), "row": np.ones((1, 2)), "none": np.zeros((0, 3)), "x": np.float64(2.5)},
+    }
+    text = write_json(tmp_path / "r.json", data).read_text()
+    back = json.loads(text)
+    expect = path.copy().tolist()
+    expect[7][1] = None
+    assert back["path"] == expect  # every float as written by repr: exact
+    assert back["directions"] == [1, -1, 1] and back["flags"] == [True, False]
+    assert back["deep"] == {"m": [[1.0, 0.0], [0.0, 1.0]], "row": [[1.0, 1.0]], "none": [], "x": 2.5}
+    lines = text.splitlines()
+    assert '  "directions": [1, -1, 1],' in lines  # a vector on one line
+    assert sum(line.startswith("    [") for line in lines) == 400  # a matrix one row per line, indented
+    assert "      [1.0, 0.0]," in lines and '    "row": [[1.0, 1.0]],' in lines

@@ -92,6 +92,9 @@ def test_name_defaults_to_the_file_stem(tmp_path: Path) -> None:
         (("size = [1.0, 0.4]", "size = [1.0, 0.4]\nheight = 30"), r"'world.obstacles\[2\].height': .*at most 10, got"),
         (("radius = 0.3", 'radius = 0.3\nheight = "low"'), r"'world.obstacles\[0\].height': expected a finite number"),
         (("radius = 0.3", 'radius = "big"'), r"expected a finite number"),
+        # values echoed as the file spells them
+        (("radius = 0.3", "radius = 0.3\nheight = true"), r"'world.obstacles\[0\].height': .*, got true$"),
+        (("radius = 0.3", "radius = {r = 0.3}"), r"'world.obstacles\[0\].radius': .*, got a table$"),
         (("bounds = [-3.0, 3.0, -3.0, 3.0]", "bounds = [3.0, -3.0, -3.0, 3.0]"), "xmin < xmax"),
         (("bounds = [-3.0, 3.0, -3.0, 3.0]", "bounds = [-3.0, 1e6, -3.0, 3.0]"), "at most 1000 m a side"),
         (("position_tolerance = 0.05", "position_tolerance = 0"), "expected a number > 0"),

@@ -10,6 +10,15 @@ from planning.core.checks import is_number
 from planning.errors import ScenarioError
 
 
+def toml_value(value: Any) -> str:
+    """``value`` as the document spells it: ``true``/``false``, a table as ``a table``, else its repr."""
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, Mapping):
+        return "a table" if value else "an empty table"
+    return repr(value)
+
+
 class TableReader:
     """Reads fields of the tables of one document.
 
@@ -25,7 +34,7 @@ class TableReader:
 
     def fail(self, field_name: str, expected: str, got: Any = None) -> ScenarioError:
         """The error for field ``field_name``: what was expected and (unless None) what was found."""
-        got_txt = "" if got is None else f", got {got!r}"
+        got_txt = "" if got is None else f", got {toml_value(got)}"
         return ScenarioError(f"{self.where}: field '{field_name}': expected {expected}{got_txt}")
 
     def keys(self, table: Any, ctx: str, required: set[str], optional: set[str]) -> None:

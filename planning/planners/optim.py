@@ -498,17 +498,12 @@ class Optim:
         self.init_options = dict(init_options or {})
         self.verbose = bool(verbose)
         self._stretch = 1.0  # the horizon's stretch over its estimate (solve)
+        self._warm_paths: dict[str, tuple[FloatArray | None, str]] = {}  # by warm start, this plan's (solve)
 
     # -- warm start ----------------------------------------------------------------------------
-    def _initial_guess(
-        self, problem: PlanProblem, init: str, options: dict[str, Any]
-    ) -> tuple[FloatArray, FloatArray, str]:
-        """Node states (N+1, 4) and inputs (N, 2) to start IPOPT from, and where they came from
-        (``init`` and ``options``: the warm start and its planner's options, as ``self.init``)."""
-        n = self.N
+    def _warm_path(self, problem: PlanProblem, init: str, options: dict[str, Any]) -> tuple[FloatArray | None, str]:
+        """The path warm start ``init`` gives (None: start from a straight line) and where it came from."""
         s = problem.start.as_array()
-        source = init
-        path: FloatArray | None = None
         if init == "grid":
             clear = problem.robot.radius + self.margin + 0.01
             within = PlanClock(problem.time_limit)  # what is left of the plan's limit (:meth:`_guess`)
@@ -516,17 +511,29 @@ class Optim:
             if poly is not None and poly.shape[0] >= 2:
                 heading = np.arctan2(np.diff(poly[:, 1]), np.diff(poly[:, 0]))
                 heading = np.unwrap(np.concatenate([[s[2]], heading]))
-                path = np.column_stack([poly, heading])
-            elif not within.expired():  # (spent: the plan's clock is too, and the solve says the grid took it)
-                source = "straight (no free route on the grid)"
-        elif init != "straight":
-            res = make_planner(init, **options).plan(problem)
-            if res.path.shape[0] >= 2 and res.status in (PlanStatus.SUCCESS, PlanStatus.BOUNDS_VIOLATED):
-                path = res.path
-            elif res.status is PlanStatus.SUCCESS:  # a path of one pose: the start is the goal
-                source = f"straight (init planner {init!r} gave a single pose)"
-            else:
-                source = f"straight (init planner {init!r} ended {res.status.value})"
+                return np.column_stack([poly, heading]), init
+            if within.expired():  # (spent: the plan's clock is too, and the solve says the grid took it)
+                return None, init
+            return None, "straight (no free route on the grid)"
+        if init == "straight":
+            return None, init
+        res = make_planner(init, **options).plan(problem)
+        if res.path.shape[0] >= 2 and res.status in (PlanStatus.SUCCESS, PlanStatus.BOUNDS_VIOLATED):
+            return res.path, init
+        if res.status is PlanStatus.SUCCESS:  # a path of one pose: the start is the goal
+            return None, f"straight (init planner {init!r} gave a single pose)"
+        return None, f"straight (init planner {init!r} ended {res.status.value})"
+
+    def _initial_guess(
+        self, problem: PlanProblem, init: str, options: dict[str, Any]
+    ) -> tuple[FloatArray, FloatArray, str]:
+        """Node states (N+1, 4) and inputs (N, 2) to start IPOPT from, and where they came from
+        (``init`` and ``options``: the warm start and its planner's options, as ``self.init``)."""
+        n = self.N
+        s = problem.start.as_array()
+        if init not in self._warm_paths:  # one per plan: the margin's re-solves and the stretches reuse it
+            self._warm_paths[init] = self._warm_path(problem, init, options)
+        path, source = self._warm_paths[init]
         tau = np.linspace(0.0, 1.0, n + 1)
         if path is None:
             g = np.array([problem.goal.x, problem.goal.y, s[2] + float(wrap_angle(problem.goal.theta - s[2]))])
@@ -583,6 +590,7 @@ class Optim:
         times the estimate (``stats["horizon_stretch"]``).
         """
         code_s = self._load_code(problem)
+        self._warm_paths = {}
         clock = PlanClock(problem.time_limit)  # numba readying code (Hybrid-A*'s kernels) is not held against it
         stretches = HORIZON_STRETCH if self.dt_opt is None else (1.0,)
         for stretch in stretches:
