@@ -187,5 +187,31 @@ def test_a_robot_that_does_not_balance_ends_its_run_when_it_lies_on_the_floor(
     monkeypatch.setattr(simulator_module, "set_pose", tipped)
     job = simulate_reference("open", reference="line", robot=robot, runs=[RunKind.CLOSED_LOOP_TRUTH])
     m = job.runs[RunKind.CLOSED_LOOP_TRUTH].metrics
-    assert m.status.startswith("fell at t=") and "or the chassis on the floor); the run ended there" in m.status
+    assert m.status.startswith("fell at t=") and "with the chassis on the floor); the run ended there" in m.status
     assert m.duration_s < 2.0 < job.prepared.trajectory.duration
+
+
+def test_a_turtlebot3_dragging_its_tail_against_an_obstacle_has_not_fallen() -> None:
+    """Pitched up against an obstacle it pushes, a TurtleBot3's chassis touches the floor from 0.14 rad: that
+    ended its run as a fall (and its metrics there). Its chassis on the floor is a fall past FLOOR_TILT."""
+    import mujoco
+
+    from planning import World, load_robot
+    from sim.physics.model import FLOOR_TILT, build_model, tipped_over, touches
+
+    m = build_model(load_robot("turtlebot3"), World((-3, 3, -3, 3))).model
+    d = mujoco.MjData(m)
+    geoms = (m.body("base").id, m.geom("chassis").id, m.geom("floor").id)
+
+    def resting(tilt: float) -> bool:
+        """Pitched by ``tilt`` and lowered until its chassis touches the floor: whether it is tipped over."""
+        d.qpos[3:7] = [np.cos(tilt / 2), 0.0, np.sin(tilt / 2), 0.0]
+        for z in np.linspace(0.3, -0.2, 5001):
+            d.qpos[2] = z
+            mujoco.mj_forward(m, d)
+            if touches(d, geoms[1], geoms[2]):
+                return tipped_over(d, *geoms)
+        raise AssertionError(f"the chassis never reached the floor at {tilt} rad")
+
+    assert not resting(0.3) and not resting(FLOOR_TILT - 0.02)
+    assert resting(FLOOR_TILT + 0.02) and resting(0.8)

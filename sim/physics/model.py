@@ -395,7 +395,15 @@ def touches(d: mujoco.MjData, geom: int, other: int) -> bool:
 TIP_ANGLE = 0.85
 
 
+#: The tilt [rad] past which a robot that does not balance, its chassis on the floor, has fallen: below it the
+#: chassis drags on the floor of a robot standing on its wheels, pitched up against an obstacle it pushes (a
+#: TurtleBot3's tail touches the floor from 0.14 rad of pitch: it collided, and drives on).
+FLOOR_TILT = 0.5
+
+
 def tipped_over(d: mujoco.MjData, body: int, chassis: int, floor: int) -> bool:
     """Whether a robot that does not balance has fallen over: its body ``body`` tilted past :data:`TIP_ANGLE`, or its
-    chassis on the floor (the balancing robot's firmware makes the same test with its own tip angle)."""
-    return bool(d.xmat[body][8] < math.cos(TIP_ANGLE)) or touches(d, chassis, floor)
+    chassis on the floor with the body tilted past :data:`FLOOR_TILT` (the balancing robot's firmware makes the
+    same test with its own tip angle)."""
+    up = d.xmat[body][8]  # the cosine of the body's tilt
+    return bool(up < math.cos(TIP_ANGLE)) or (up < math.cos(FLOOR_TILT) and touches(d, chassis, floor))

@@ -32,7 +32,7 @@ from planning.core.world import World
 from planning.errors import ConfigError, SimulationError, option
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import AsBuilt
-from sim.physics.model import TIP_ANGLE, BuiltModel, set_pose, tipped_over
+from sim.physics.model import FLOOR_TILT, TIP_ANGLE, BuiltModel, set_pose, tipped_over
 from sim.physics.motors import MotorModel, control_steps
 from sim.physics.perturb import Perturbation
 from sim.physics.runlog import Contact, RunLog
@@ -601,8 +601,8 @@ class Recorder:
         elif self.tipped_at is not None:
             ended = self.t0 + self.tipped_at
             status = (
-                f"fell at t={ended:.3f} s (|tilt| beyond {TIP_ANGLE:g} rad or the chassis on the floor); the run ended "
-                "there"
+                f"fell at t={ended:.3f} s (|tilt| beyond {TIP_ANGLE:g} rad, or beyond {FLOOR_TILT:g} rad with the chassis "
+                "on the floor); the run ended there"
             )
         first = next((c for c in self.contacts if c.t <= ended), None)  # not one the fall itself made
         if status != "ok" and first is not None:  # a collision moved the robot: say it before what it caused

@@ -202,10 +202,10 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         (:meth:`sim.robot.balance_firmware.BalanceFirmware.fallen`, checked at each of its updates:
         the body's tilt beyond the profile's ``tip_angle`` or the chassis touching the floor), the test
         that ends an ``nhsim simulate`` run. A robot that does not balance has no such firmware: it has
-        fallen when its body tilts past :data:`sim.physics.model.TIP_ANGLE` or its chassis touches the floor
-        (:func:`sim.physics.model.tipped_over`, the test that ends its ``simulate`` run too; its wheels, skids
-        or caster are all that touch the floor while it stands, and a contact with an obstacle ends the
-        episode anyway).
+        fallen when its body tilts past :data:`sim.physics.model.TIP_ANGLE`, or past
+        :data:`sim.physics.model.FLOOR_TILT` with its chassis on the floor (:func:`sim.physics.model.tipped_over`,
+        the test that ends its ``simulate`` run too; its wheels, skids or caster are all that touch the floor
+        while it stands, and a contact with an obstacle ends the episode anyway).
         """
         balance = episode.recorder.balance
         if balance is not None:
