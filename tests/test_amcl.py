@@ -247,3 +247,24 @@ def test_a_scan_without_returns_still_moves_the_particles_by_the_odometry() -> N
     assert 3.0 < along < 4.0 and abs(aside) < 0.3, (along, aside)
     assert np.hypot(*(est.pose[:2] - (4.0 + 3.9 * heading))) < 1.5  # its heaviest cluster
     assert est.cov[0, 0] + est.cov[1, 1] > 0.01 and amcl.updates == 0  # nothing weighed, nothing resampled
+
+
+def test_the_fit_asks_half_of_the_beams_the_particles_weigh_not_more_than_the_scan_has() -> None:
+    """With max_beams above the scan's beams (720 of 360) the fit asked for 360 beams within its gate, every
+    one of the scan's, and did not hold where some beams see nothing (7.0 cm against 0.4 cm at max_beams 60-400
+    in a 3 x 2 m room)."""
+    world = World((-6.0, 6.0, -1.5, 1.5), (Box((1.0, 0.5), (0.4, 0.3), 0.3), Circle((-1.0, -0.5), 0.3)))
+    model = build_model(load_robot("turtlebot3"), world).model
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    lidar = LidarScanner(model, EXACT, seed=3)
+    pose = np.array([0.1, -0.3, 0.4])
+    scan = lidar.scan(data, 0.0, np.tile(pose, (360, 1)))
+    valid = np.isfinite(scan.ranges) & (scan.ranges > 0.12) & (scan.ranges < 3.5)
+    assert 180 < valid.sum() < 360  # some beams see nothing within range
+    for max_beams in (60, 720):
+        amcl = Amcl(world, AmclConfig(max_beams=max_beams), [*lidar.offset[:2], 0.0], seed=1)
+        amcl.reset(pose + np.array([0.03, -0.02, 0.01]))
+        amcl.update(pose, scan.ranges, 0.12, 3.5, 0.0, scan.angle_increment, force=True)
+        assert amcl.estimate is not None and amcl.estimate.refined, max_beams
+        assert math.hypot(*(amcl.estimate.pose[:2] - pose[:2])) < 0.005

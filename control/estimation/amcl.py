@@ -40,7 +40,8 @@ The algorithm of Probabilistic Robotics (Thrun, Burgard, Fox 2005) ch. 8 as Nav2
   cluster's mean and covariance stand (the cloud's own uncertainty, tens of centimetres): a fit from the
   mean of a cloud that has not converged can land on a wrong pose whose end points lie on walls, and its
   ``(J^T W J)^-1`` would report that pose to centimetres.
-  When the fit holds (at least ``max_beams / 2`` beams within ``refine_gate``, and it explains the scan) its
+  When the fit holds (at least half the beams the particles weigh, ``max_beams`` or the scan's own when it has
+  fewer, within ``refine_gate``, and it explains the scan) its
   covariance is the white noise's ``(J^T W J)^-1`` (times the chi-square per degree of freedom where that is above
   1; without ``range_noise``, ``W`` = I and the factor is the residual variance ``s^2``) plus, given the scanner's
   systematic range error (``range_bias``: a relative scale error beyond a split range and an
@@ -759,7 +760,8 @@ class Amcl:
         mean, cov, _ = K.cluster_estimate(self.particles, self.weights, self.bins, self.shape)
         spread = self.spread()
         c = self.config
-        least = max(10, c.max_beams // 2)
+        # half the beams the particles weigh (Nav2's subset: max_beams of the scan's, fewer when it has fewer)
+        least = max(MIN_BEAMS, min(c.max_beams, r.size if scan is None else scan[0].size) // 2)
         cloud = AmclEstimate(mean, cov, self.particles.shape[0], spread, False)
         if not c.refine or r.size < least:
             return cloud
