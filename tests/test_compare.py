@@ -18,7 +18,7 @@ from control.mpc import MPCParams
 from planning.errors import ConfigError
 from sim.pipeline.case import Case
 from sim.tools.bench.track import mpc_params
-from sim.tools.compare import TimedTracker, check_trackers, compare_trackers, load_params
+from sim.tools.compare import TimedTracker, check_trackers, compare_trackers, format_table, load_params
 from tests.test_cli import nhsim
 
 
@@ -30,6 +30,7 @@ def test_compare_cli_end_to_end(tmp_path: Path) -> None:
               "--quiet")  # fmt: skip
     assert r.returncode == 0, r.stderr
     assert "kanayama" in r.stdout and "mpc" in r.stdout and "RMS [m]" in r.stdout and "fail 0" in r.stdout
+    assert "(mean of 2 held-out draws per tracker; collisions summed)" in r.stdout
     rec = json.loads(out.read_text())
     assert rec["runs_per_tracker"] == 2 and len(rec["draws"]) == 2
     for name in ("kanayama", "mpc"):
@@ -84,6 +85,9 @@ def test_compare_cli_rejects_unknown_trackers_and_bad_params(tmp_path: Path) -> 
     other.write_text(json.dumps({"rpp": {"lookahead_time": 0.5}}))
     r = nhsim("compare", "--reference", "line", "--trackers", "kanayama", "--params", str(other))
     assert r.returncode == 2 and "--params gives parameters of rpp, which --trackers kanayama does not run" in r.stderr
+    r = nhsim("compare", "--reference", "line", "--trackers", "fbl", "--plots", str(tmp_path / "x.png"))
+    assert r.returncode == 2 and f"--plots {tmp_path}/x writes {tmp_path}/x-paths.png and" in r.stderr
+    assert not list(tmp_path.glob("x*"))  # it wrote x.png-paths.png
 
 
 @pytest.mark.slow  # every tracker simulated and rendered
@@ -115,6 +119,11 @@ def test_every_tracker_meets_the_same_robot_and_noise() -> None:
     assert repr(result).startswith("Comparison(open, turtlebot3, line, 2 run(s) per tracker; RMS open-loop: ")
     assert f"kanayama: {rms:.2f} mm)" in repr(result) and "\n" not in repr(result) and len(repr(result)) < 200
     assert "log=" not in repr(result.runs[0]) and "times=" not in repr(result.runs[0])
+    # one run is the case's own robot and noise, not the first held-out draw: the table says which
+    alone = compare_trackers(case, ["open-loop"], runs=1)
+    assert alone.of("open-loop")[0].values["final_m"] != open_loop[0].values["final_m"]
+    footer = format_table(alone).splitlines()[-1]
+    assert footer == "(one run per tracker, on the case's own robot and noise: build seed 1, seed 3)"
 
 
 def test_timed_tracker_effort_is_the_integral_of_the_squared_rates() -> None:

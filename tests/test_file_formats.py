@@ -64,7 +64,17 @@ def test_json_as_columns_and_as_records(tmp_path: Path) -> None:
     records = [{"t": t, "x": x, "y": y} for t, x, y in zip(T, X, Y, strict=True)]
     table = read_table(_write(tmp_path, "b.json", json.dumps(records)))
     _check_txy(table)
-    assert table.rows == ("record 0", "record 1", "record 2")
+    assert table.rows == ("record 1 (index 0)", "record 2 (index 1)", "record 3 (index 2)")  # as people count
+    # fields of another tool's records are left out, and said so (they were refused, with advice to give
+    # --columns, which a JSON file refuses)
+    extra = [{**r, "z": 0.0, "frame_id": "map"} for r in records]
+    table = read_table(_write(tmp_path, "c.json", json.dumps(extra)))
+    _check_txy(table)
+    assert table.notes == (
+        f"fields 'z', 'frame_id' ignored (not among {', '.join(COLUMNS)}): rename a field that holds one of these",
+    )
+    table = read_table(_write(tmp_path, "d.json", json.dumps({"t": T, "x": X, "y": Y, "Heading": [0, 0, 0]})))
+    assert set(table.columns) == {"t", "x", "y"} and "fields 'Heading' ignored" in table.notes[0]
 
 
 def _nav_path(yaws: list[float], stamps: list[tuple[int, int]], ros1: bool = False) -> str:
@@ -131,9 +141,16 @@ def test_a_ros_path_with_equal_stamps_has_no_time(tmp_path: Path) -> None:
         ("a.csv", "t,x,y\n0,0,1\n0.5,1\n", None, ["line 3 has 2 cells"]),
         ("a.csv", "0,0,1\n1,1,1\n", None, ["not a header", '--columns t,x,y (columns=("t", "x", "y") from Python)']),
         ("a.csv", "t,x,x\n0,0,1\n", None, ["named twice"]),
-        ("a.json", '{"t": [0, 1], "x": [0, "a"], "y": [0, 1]}', None, ["row 1", "column 'x'"]),
-        ("a.json", '[{"t": 0, "x": 0, "y": 0}, {"t": 1, "x": 1}]', None, ["record 1", "'y'"]),
+        ("a.json", '{"t": [0, 1], "x": [0, "a"], "y": [0, 1]}', None, ["row 2 (index 1), column 'x'"]),
+        ("a.json", '[{"t": 0, "x": 0, "y": 0}, {"t": 1, "x": 1}]', None, ["record 2 (index 1) has no 'y'"]),
         ("a.json", '{"t": [0, 1], "x": [0], "y": [0, 1]}', None, ["differ in length"]),
+        (
+            "a.json",
+            '{"trajectory": [{"t": 0, "x": 0, "y": 0}]}',
+            None,
+            ["none of its fields ('trajectory') is a column"],
+        ),
+        ("a.json", "[{}]", None, ["it has no fields; a JSON file gives the columns (t, x, y,"]),
         ("a.json", '{"t": [0, 1]}', ["t", "x"], ["--columns (columns=... from Python)"]),
         ("a.yaml", "poses:\n- pose: {orientation: {x: 0, y: 0, z: 0, w: 1}}\n", None, ["poses[0]", "pose.position"]),
     ],

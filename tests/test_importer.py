@@ -294,6 +294,11 @@ def test_option_parsers() -> None:
     for bad in ("1,2", "a,b,c", "1,2,inf"):
         with pytest.raises(TrajectoryFileError, match="X,Y,THETA"):
             parse_offset(bad)
+    with pytest.raises(
+        TrajectoryFileError, match=r"THETA is in radians, within \+-4 pi; 90 degrees would be 1.571 rad"
+    ):
+        parse_offset("1,1,90")  # turned the file by 90 rad
+    assert parse_offset("0,0,-6.5") == (0.0, 0.0, -6.5)  # more than a turn, within 4 pi: a direction
     with pytest.raises(TrajectoryFileError, match="valid names are t, x, y, theta"):
         parse_columns("t,x,z")
     with pytest.raises(TrajectoryFileError, match=r"--scale \(scale=\.\.\. from Python\) must be a finite number"):
@@ -327,7 +332,7 @@ def test_arrays_import_as_a_file_of_the_same_rows_does(tmp_path: Path) -> None:
     np.testing.assert_array_equal(from_arrays.curve(t, 1), from_file.curve(t, 1))
     assert from_arrays.rows[3] == "message 1.5" and from_arrays.report.fmt == "arrays"
     bad = {"t": t, "x": np.where(t == 2.0, np.nan, xy[:, 0]), "y": xy[:, 1]}
-    with pytest.raises(TrajectoryFileError, match=r"row 4, column 'x'"):
+    with pytest.raises(TrajectoryFileError, match=r"row 5 \(index 4\), column 'x'"):
         table_from_arrays(p, bad, "arrays")
     with pytest.raises(TrajectoryFileError, match="differ in length"):
         table_from_arrays(p, {"t": t, "x": xy[:-1, 0], "y": xy[:, 1]}, "arrays")

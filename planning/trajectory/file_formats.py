@@ -99,7 +99,7 @@ def table_from_arrays(
         path: The source the messages name (the bag, the file).
         columns: Column name -> (N,) values in the source's units (scaled later, as a file's).
         fmt: How the import report names the format, e.g. "rosbag2 /odom".
-        rows: (N,) how messages name each row ("message 12"); default "row 0", "row 1", ...
+        rows: (N,) how messages name each row ("message 12"); default "row 1 (index 0)", ...
 
     Raises:
         TrajectoryFileError: An unknown or repeated name, a column that is not 1-D or differs in
@@ -122,7 +122,7 @@ def table_from_arrays(
         shown = ", ".join(f"{k}: {v}" for k, v in sizes.items())
         raise TrajectoryFileError(f"{p}: the columns differ in length ({shown}); give every column one value per row")
     n = next(iter(sizes.values()), 0)
-    labels = tuple(rows) if rows is not None else tuple(f"row {i}" for i in range(n))
+    labels = tuple(rows) if rows is not None else _counted("row", n)
     if len(labels) != n:
         raise TrajectoryFileError(f"{p}: {len(labels)} row names for {n} rows")
     for name, arr in arrays.items():
@@ -138,12 +138,13 @@ def _valid_names() -> str:
     return ", ".join(COLUMNS)
 
 
-def parse_column_names(names: Sequence[str], where: str) -> tuple[str, ...]:
+def parse_column_names(names: Sequence[str], where: str, fix: str | None = None) -> tuple[str, ...]:
     """Column names as given (a header or ``--columns``), checked: each one of :data:`COLUMNS` or ``_``.
 
     Args:
         names: The names (spaces around them and case are ignored).
         where: How the message names their source (the file, or ``option("columns")``, :func:`~planning.errors.option`).
+        fix: What the message advises for an unknown name (default: rename it in the header or give ``--columns``).
 
     Raises:
         TrajectoryFileError: An unknown or repeated name (the message lists the valid ones).
@@ -151,9 +152,10 @@ def parse_column_names(names: Sequence[str], where: str) -> tuple[str, ...]:
     out = tuple(str(n).strip().lower() for n in names)
     unknown = [n for n in out if n not in COLUMNS and n != SKIP]
     if unknown:
+        advice = fix if fix is not None else f"rename them in the header or give {option('columns')}"
         raise TrajectoryFileError(
             f"{where}: unknown column name(s) {', '.join(repr(n) for n in unknown)}; valid names are "
-            f"{_valid_names()} ({SKIP} skips a column); rename them in the header or give {option('columns')}"
+            f"{_valid_names()} ({SKIP} skips a column); {advice}"
         )
     named = [n for n in out if n != SKIP]
     twice = sorted({n for n in named if named.count(n) > 1})
@@ -367,10 +369,36 @@ def _from_document(p: Path, data: Any, fmt: str) -> FileTable:
     )
 
 
+def _counted(kind: str, n: int) -> tuple[str, ...]:
+    """How messages name rows 1..n of a JSON document or a caller's arrays: "record 8 (index 7)"."""
+    return tuple(f"{kind} {i + 1} (index {i})" for i in range(n))
+
+
+def _json_fields(p: Path, keys: list[str]) -> tuple[dict[str, str], tuple[str, ...]]:
+    """A JSON document's fields that are columns (field -> column name, checked as a header's) and the note
+    naming the others, which are left out: a record exported by another tool carries fields of its own (z,
+    frame_id, a stamp)."""
+    known = [k for k in keys if str(k).strip().lower() in COLUMNS]
+    if not known:
+        shown = ", ".join(repr(k) for k in keys[:6]) + (", ..." if len(keys) > 6 else "")
+        said = f"none of its fields ({shown}) is a column" if keys else "it has no fields"
+        raise TrajectoryFileError(
+            f"{p}: {said}; a JSON file gives the columns ({_valid_names()}) at its top level: "
+            '{"t": [...], "x": [...], "y": [...]} or [{"t": 0, "x": 0, "y": 0}, ...]'
+        )
+    names = parse_column_names(known, str(p))
+    others = [k for k in keys if k not in known]
+    note = (
+        f"fields {', '.join(repr(k) for k in others)} ignored (not among {_valid_names()}): rename a field that "
+        "holds one of these"
+    )
+    return dict(zip(known, names, strict=True)), (note,) if others else ()
+
+
 def _from_columns(p: Path, data: Mapping[str, Any], fmt: str) -> FileTable:
-    names = parse_column_names(list(data), str(p))
+    fields, notes = _json_fields(p, list(data))
     lengths = {}
-    for key, name in zip(data, names, strict=True):
+    for key, name in fields.items():
         if not isinstance(data[key], list):
             raise TrajectoryFileError(f"{p}: field {key!r} must be a list of numbers, got {type(data[key]).__name__}")
         lengths[name] = len(data[key])
@@ -378,29 +406,27 @@ def _from_columns(p: Path, data: Mapping[str, Any], fmt: str) -> FileTable:
         sizes = ", ".join(f"{k}: {v}" for k, v in lengths.items())
         raise TrajectoryFileError(f"{p}: the columns differ in length ({sizes}); give every column one value per row")
     n = next(iter(lengths.values()), 0)
+    labels = _counted("row", n)
     cols = {
-        name: np.array([_number(v, str(p), f"row {i}", name) for i, v in enumerate(data[key])])
-        for key, name in zip(data, names, strict=True)
-        if name != SKIP
+        name: np.array([_number(v, str(p), labels[i], name) for i, v in enumerate(data[key])])
+        for key, name in fields.items()
     }
-    return FileTable(p, fmt, cols, tuple(f"row {i}" for i in range(n)))
+    return FileTable(p, fmt, cols, labels, notes=notes)
 
 
 def _from_records(p: Path, data: list[Any], fmt: str) -> FileTable:
     if not data or not all(isinstance(r, Mapping) for r in data):
         raise TrajectoryFileError(f'{p}: a list of records must hold one object per row, like {{"t": 0, "x": 0}}')
-    keys = list(dict.fromkeys(k for r in data for k in r))
-    names = parse_column_names(keys, str(p))
-    cols: dict[str, list[float]] = {name: [] for name in names if name != SKIP}
+    fields, notes = _json_fields(p, list(dict.fromkeys(k for r in data for k in r)))
+    labels = _counted("record", len(data))
+    cols: dict[str, list[float]] = {name: [] for name in fields.values()}
     for i, rec in enumerate(data):
-        for key, name in zip(keys, names, strict=True):
-            if name == SKIP:
-                continue
+        for key, name in fields.items():
             if key not in rec:
-                raise TrajectoryFileError(f"{p}: record {i} has no {key!r}; give every record the same fields")
-            cols[name].append(_number(rec[key], str(p), f"record {i}", name))
+                raise TrajectoryFileError(f"{p}: {labels[i]} has no {key!r}; give every record the same fields")
+            cols[name].append(_number(rec[key], str(p), labels[i], name))
     arrays = {k: np.asarray(v, dtype=float) for k, v in cols.items()}
-    return FileTable(p, fmt, arrays, tuple(f"record {i}" for i in range(len(data))))
+    return FileTable(p, fmt, arrays, labels, notes=notes)
 
 
 def _field(node: Any, path: tuple[str, ...], p: Path, where: str) -> Any:

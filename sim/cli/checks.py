@@ -86,6 +86,16 @@ def check_file_stem(stem: str, flag: str, example: str, suffixes: tuple[str, ...
     if stem.endswith(("/", os.sep)) or Path(stem).is_dir():
         made = " and ".join(f"{example}{s}" for s in suffixes)
         raise ConfigError(f"{flag} {stem} names a folder; {flag} takes a file stem, e.g. {example} (writes {made})")
+    from sim.outputs import IMAGE_FORMATS
+
+    suffix = Path(stem).suffix
+    if suffix[1:].lower() in IMAGE_FORMATS:
+        bare = stem[: -len(suffix)]
+        made = " and ".join(f"{bare}{s}" for s in suffixes)
+        raise ConfigError(
+            f"{flag} {stem} ends in a file type; {flag} takes a file stem, the names are made from it: {flag} {bare} "
+            f"writes {made} (it would have written {stem}{suffixes[0]})"
+        )
 
 
 #: ``--planner-option``'s form, quoted in its help and messages.

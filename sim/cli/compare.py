@@ -21,9 +21,11 @@ fraction, control time per step (mean and 95th percentile of wall clock, and the
 collisions; MPC's
 solver failures and overruns of the control period beside it.
 
---runs N runs every tracker on the same N held-out draws (robots and noise made from --seed, never
-those a tuning study trains on) and prints the means. --params FILE[,FILE] gives tuned parameters:
-the JSON that 'nhsim tune --tracker T' writes, or {"tracker": {"field": value, ...}, ...}.
+--runs N (N > 1) runs every tracker on the same N held-out draws (robots and noise made from --seed,
+never those a tuning study trains on) and prints the means; --runs 1, the default, runs each once on the
+case's own robot and noise (the as-built robot of build seed 1 and the noise of --seed, as simulate's
+defaults), not on the first held-out draw. --params FILE[,FILE] gives tuned parameters: the JSON that
+'nhsim tune --tracker T' writes, or {"tracker": {"field": value, ...}, ...}.
 
 With no --reference or --planner: the default job (source report 003's), a C-RRT* plan through
 'edumip_map' (when that planner and scenario are installed; else figure-eight in 'open').
@@ -63,7 +65,13 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         metavar="T",
         help=f"the trackers, comma- or space-separated: fbl,mpc or fbl mpc (default: {DEFAULT_TRACKERS})",
     )
-    p.add_argument("--runs", type=int, default=1, metavar="N", help="runs per tracker on held-out draws (default: 1)")
+    p.add_argument(
+        "--runs",
+        type=int,
+        default=1,
+        metavar="N",
+        help="runs per tracker: N > 1 on N held-out draws; 1 (the default) on the case's own robot and noise",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of the plan and the noise (default: 0)")
     limit = RUN_SETTINGS["time_limit"]
     p.add_argument(

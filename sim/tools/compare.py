@@ -346,8 +346,13 @@ def format_table(comparison: Comparison) -> str:
         if "failures" in s:
             row += f"{'fail ' + str(int(s['failures'])) + ', over ' + str(int(s['overruns'])):>22}"
         lines.append(row)
-    n = max(len(comparison.draws), 1)
-    lines.append(f"(mean of {n} run{'s' if n > 1 else ''} per tracker; collisions summed)")
+    if comparison.draws:
+        lines.append(f"(mean of {len(comparison.draws)} held-out draws per tracker; collisions summed)")
+    else:
+        case = comparison.prepared.case
+        lines.append(
+            f"(one run per tracker, on the case's own robot and noise: build seed {case.build_seed}, seed {case.seed})"
+        )
     for r in comparison.ended_early():
         lines.append(f"{r.tracker} run {r.draw}: ended early: {r.status} (its errors are up to then)")
     return "\n".join(lines)
