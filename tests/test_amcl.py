@@ -63,6 +63,7 @@ def test_defaults_are_nav2s_and_bad_settings_are_refused() -> None:
         ("z_hit=0", "z_hit must be > 0"),
         ("z_hit=0.8", r"z_hit \+ z_rand = 1.3 exceeds 1.*lower one of them"),
         ("pf_err=1.5", "pf_err must be a fraction"),
+        ("laser_likelihood_max_dist=0", "laser_likelihood_max_dist must be > 0"),  # a flat field: 22 cm RMSE
         ("recovery_alpha_slow=0.1,recovery_alpha_fast=0.001", "recovery_alpha_slow=0.1 must be below"),
         ("recovery_alpha_fast=3", "recovery_alpha_fast must be a fraction"),
         (

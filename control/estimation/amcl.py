@@ -220,7 +220,8 @@ class AmclConfig:
                 f"amcl max_particles={self.max_particles} is above {MAX_PARTICLES:,}: each particle is resampled and "
                 f"scored every scan (Nav2's default is 2000); give at most {MAX_PARTICLES}"
             )
-        for name in ("sigma_hit", "pf_err", "map_resolution", "max_beams", "resample_interval"):
+        positive = ("sigma_hit", "pf_err", "pf_z", "map_resolution", "max_beams", "resample_interval")
+        for name in (*positive, "laser_likelihood_max_dist"):
             if getattr(self, name) <= 0:
                 raise ConfigError(f"amcl {name} must be > 0, got {getattr(self, name)!r}")
         if self.max_beams < 2:
