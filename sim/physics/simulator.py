@@ -601,8 +601,8 @@ class Recorder:
         elif self.tipped_at is not None:
             ended = self.t0 + self.tipped_at
             status = (
-                f"fell at t={ended:.3f} s (|tilt| beyond {TIP_ANGLE:g} rad, or beyond {FLOOR_TILT:g} rad with the chassis "
-                "on the floor); the run ended there"
+                f"fell at t={ended:.3f} s (|tilt| beyond {TIP_ANGLE:g} rad, or beyond {FLOOR_TILT:g} rad with the "
+                "chassis on the floor); the run ended there"
             )
         first = next((c for c in self.contacts if c.t <= ended), None)  # not one the fall itself made
         if status != "ok" and first is not None:  # a collision moved the robot: say it before what it caused
