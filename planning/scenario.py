@@ -421,9 +421,10 @@ def _exact_clearance(world: World, robot: RobotSpec, pose: Pose2D) -> float:
     return CollisionChecker(world, robot, shape="footprint").least_clearance(pose.as_array()[None, :])
 
 
-def _overlap(world: World, robot: RobotSpec, pose: Pose2D) -> tuple[float, str, float] | None:
+def footprint_overlap(world: World, robot: RobotSpec, pose: Pose2D) -> tuple[float, str, float] | None:
     """What ``robot``'s footprint at ``pose`` overlaps the most: (the footprint's clearance from it [m], the wall
-    or obstacle named, how far the pose must move away from it [m]); None when the footprint is clear."""
+    or obstacle named, e.g. ``"the wall x = 3"`` or ``"the circle at x 2.7..3.3, y 1.2..1.8"``, how far the pose must
+    move away from it [m]); None when the footprint is clear (by the planners' check, :func:`end_clearance`)."""
     if float(world.signed_distance(pose.xy)[0]) > robot.radius or end_clearance(world, robot, pose) > 0:
         return None  # (the footprint lies within the robot's radius of its centre: clear when nothing is nearer)
     found: list[tuple[float, str, float]] = []
@@ -435,7 +436,8 @@ def _overlap(world: World, robot: RobotSpec, pose: Pose2D) -> tuple[float, str, 
         depth |= {f"y = {ymin:g}": ymin - ys.min(), f"y = {ymax:g}": ys.max() - ymax}
         order = sorted(depth, key=lambda k: -depth[k])
         hit = [k for k in order if depth[k] > 0] or order[:1]  # (touching, within the checker's tolerance)
-        found.append((walls, f"the wall{'s' if len(hit) > 1 else ''} {' and '.join(hit)}", -walls))
+        move = -walls if np.isfinite(walls) else max(depth.values())  # -inf: the whole footprint beyond a wall
+        found.append((walls, f"the wall{'s' if len(hit) > 1 else ''} {' and '.join(hit)}", move))
     for ob in world.obstacles:
         centre = float(ob.signed_distance(pose.xy)[0])
         if centre > robot.radius:
@@ -458,14 +460,17 @@ def check_ends_fit(scenario: Scenario) -> None:
     could only fail): the message names the file, the field, the robot, the clearance and how far to move it.
 
     Raises:
-        ScenarioError: The footprint overlaps something at ``start.pose`` or ``goal.pose``.
+        ScenarioError: The footprint overlaps something at ``start.pose`` or ``goal.pose``, or one of them lies
+            outside the world's bounds.
+        ConfigError: The scenario's robot is not a robot's name (nor an MJCF file's path).
     """
     from planning.collision.exact import DEFAULT_TOLERANCE  # imported here: compiled code, loaded on first use
 
-    robot = load_robot(scenario.robot)
+    robot = _scenario_robot(scenario)
     where = scenario_source(scenario)
     for label, pose in (("start", scenario.start), ("goal", scenario.goal)):
-        hit = _overlap(scenario.world, robot, pose)
+        _check_inside(where, scenario.world, robot, label, pose)
+        hit = footprint_overlap(scenario.world, robot, pose)
         if hit is None:
             continue
         clr, what, move = hit
@@ -479,8 +484,7 @@ def check_ends_fit(scenario: Scenario) -> None:
                 "the safe side)"
             )
         else:
-            outside = " (the pose is outside the map)" if float(scenario.world.wall_distance(pose.xy)[0]) <= 0 else ""
-            said = f"overlaps {what} by {-1e3 * exact:.1f} mm (the planners' check reads {clr:.3f} m){outside}"
+            said = f"overlaps {what} by {-1e3 * exact:.1f} mm (the planners' check reads {clr:.3f} m)"
         reach = f" (the {robot.name} reaches {robot.radius:.3f} m from its centre)" if clr == -np.inf else ""
         raise ScenarioError(
             f"{where}: field '{label}.pose': {[round(v, 6) for v in pose.as_array().tolist()]} is not free for "
@@ -488,6 +492,37 @@ def check_ends_fit(scenario: Scenario) -> None:
             f"{math.ceil(max(move, 0.001) * 1e3 - 1e-9) / 1e3:.3f} m away from "
             f"{'them' if what.startswith('the walls') else 'it'}{reach}"
         )
+
+
+def _scenario_robot(scenario: Scenario) -> RobotSpec:
+    """The scenario's robot, loaded.
+
+    Raises:
+        ConfigError: ``Scenario.robot`` is neither a robot's name nor the path of an MJCF file (the message lists
+            the names).
+    """
+    name = scenario.robot
+    if name not in ROBOT_FILES and not (Path(name).suffix == ".xml" and Path(name).is_file()):
+        check_robot_name(f"{scenario_source(scenario)}: Scenario.robot", name)
+    return load_robot(name)
+
+
+def _check_inside(where: str, world: World, robot: RobotSpec, label: str, pose: Pose2D) -> None:
+    """Refuse a start or goal (``label``) whose position is not inside the world's bounds: the robot would stand
+    outside its walls (beyond the map the planners search).
+
+    Raises:
+        ScenarioError: Naming the field, the pose, the bounds and how far inside to move it.
+    """
+    if float(world.wall_distance(pose.xy)[0]) > 0:
+        return
+    xmin, xmax, ymin, ymax = world.bounds
+    raise ScenarioError(
+        f"{where}: field '{label}.pose': {[round(v, 6) for v in pose.as_array().tolist()]} lies outside the world "
+        f"(the map), whose bounds are x {xmin:g}..{xmax:g}, y {ymin:g}..{ymax:g}: move the "
+        f"{label} inside them, more than {robot.radius:.3f} m from every wall (the {robot.name} reaches that far "
+        "from its centre), or widen the world's bounds"
+    )
 
 
 def random_scenario(robot: str, seed: int) -> Scenario:

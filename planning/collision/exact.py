@@ -161,14 +161,41 @@ class CollisionChecker:
         coarse = self.clearance_of(p)
         if coarse.size == 0 or self.shape == "disc" or not np.isfinite(coarse.min()):
             return float(coarse.min()) if coarse.size else math.inf
-        # every pose measured by its footprint (an infinite margin), the boundary sampled finely
-        fine = dataclasses.replace(self, tolerance=min(REFINED_TOLERANCE, self.tolerance), clearance=math.inf)
+        fine = self._refined()
         best = math.inf
         for k in np.argsort(coarse, kind="stable"):
             if coarse[k] >= best:  # its bound, and every later one's, is no less than the least found
                 break
             best = min(best, max(float(coarse[k]), float(fine.clearance_of(p[k])[0])))
         return best
+
+    def first_overlap(self, poses: ArrayLike) -> tuple[int, float] | None:
+        """The first of (M, 3) ``poses`` whose footprint overlaps an obstacle or wall, and its clearance [m] (-inf:
+        an obstacle inside the footprint, or the footprint wholly in collision); None when every one is clear.
+
+        :meth:`clearance_of` picks the suspects (its bound is below the truth); each is measured again as
+        :meth:`least_clearance` measures, in the poses' order, a few at a time, until one overlaps: a pose
+        that only grazes within the coarse tolerance is not taken for an overlap.
+        """
+        p = np.atleast_2d(np.asarray(poses, dtype=float))
+        coarse = self.clearance_of(p)
+        suspects = np.flatnonzero(coarse < 0)
+        fine = self._refined() if self.shape != "disc" else None
+        for at in range(0, suspects.size, 16):
+            chunk = suspects[at : at + 16]
+            clearance = coarse[chunk].copy()
+            near = np.isfinite(clearance)
+            if fine is not None and near.any():
+                clearance[near] = np.maximum(clearance[near], fine.clearance_of(p[chunk[near]]))
+            hits = np.flatnonzero(clearance < 0)
+            if hits.size:
+                return int(chunk[hits[0]]), float(clearance[hits[0]])
+        return None
+
+    def _refined(self) -> CollisionChecker:
+        """This checker measuring every pose by its footprint (an infinite margin), the boundary sampled every
+        ``REFINED_TOLERANCE`` m."""
+        return dataclasses.replace(self, tolerance=min(REFINED_TOLERANCE, self.tolerance), clearance=math.inf)
 
     def least_distance(self, points: ArrayLike) -> float:
         """The world's least signed distance [m] (walls as the checker has them; inf for no points) over

@@ -4,14 +4,18 @@
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+import numbers
+import os
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from planning.core.checks import check_number, is_number
 from planning.core.geometry import Pose2D
-from planning.core.robot import check_robot_name
+from planning.core.robot import ROBOT_FILES, check_robot_name
 from planning.core.world import Obstacle, World
+from planning.errors import ConfigError
 
 DEFAULT_POSITION_TOLERANCE = 0.05
 DEFAULT_HEADING_TOLERANCE = 0.1
@@ -39,6 +43,12 @@ class Scenario:
         source: The file it was loaded from, if any.
         unmapped: Obstacles that exist in physics and in the laser scan but not in ``world``, the map
             the planner and the localiser use (the ``[[world.unmapped]]`` tables).
+
+    Raises:
+        ConfigError: A field of the wrong type (``start=(1, 1, 0)`` for ``Pose2D(1, 1, 0)``), or a tolerance
+            that is not a finite number > 0 (the message names the field, what was given and the fix). The
+            robot's name is checked where it is loaded (:func:`planning.scenario.check_ends_fit`): a robot
+            read from an MJCF file has its file's name.
     """
 
     name: str
@@ -64,8 +74,43 @@ class Scenario:
         return World(self.world.bounds, self.world.obstacles + tuple(self.unmapped))
 
     def __post_init__(self) -> None:
-        if not self.robots:
-            object.__setattr__(self, "robots", (self.robot,))
+        _check_text("name", self.name)
+        _check_text("robot", self.robot, f"a robot's name, one of {', '.join(sorted(ROBOT_FILES))}")
+        for label, (kind, how) in _KINDS.items():
+            value = getattr(self, label)
+            if not isinstance(value, kind):
+                raise ConfigError(
+                    f"Scenario.{label} must be a {kind.__name__}: pass {_suggested(kind, value) or how}, got "
+                    f"{type(value).__name__} {value!r:.80}"
+                )
+        for label, unit in (("position_tolerance", "m, the goal region's radius"), ("heading_tolerance", "rad")):
+            value = check_number(f"Scenario.{label}", getattr(self, label), above=0.0, unit=unit)
+            object.__setattr__(self, label, value)
+        if not isinstance(self.description, str):
+            raise ConfigError(f"Scenario.description must be a string (free text), got {self.description!r:.80}")
+        if self.planner is not None:
+            _check_text("planner", self.planner, "a planner's name (e.g. 'rrt') or None")
+        robots = _sequence("robots", self.robots, "robot names, e.g. ('turtlebot3', 'edumip')")
+        if not all(isinstance(robot, str) and robot for robot in robots):
+            raise ConfigError(
+                "Scenario.robots must be a tuple of robot names, e.g. ('turtlebot3', 'edumip'), got "
+                f"{self.robots!r:.80}"
+            )
+        object.__setattr__(self, "robots", robots or (self.robot,))
+        _check_tables(self.planner_options, self.sensors)
+        if self.source is not None:
+            if not isinstance(self.source, str | os.PathLike):
+                raise ConfigError(
+                    f"Scenario.source must be the path of the scenario's file or None, got {self.source!r}"
+                )
+            object.__setattr__(self, "source", Path(self.source))
+        unmapped = _sequence("unmapped", self.unmapped, "obstacles (Circle, Ellipse, Box, Polygon)")
+        for i, ob in enumerate(unmapped):
+            if not isinstance(ob, Obstacle):
+                raise ConfigError(
+                    f"Scenario.unmapped[{i}] must be an obstacle (Circle, Ellipse, Box or Polygon), got {ob!r:.80}"
+                )
+        object.__setattr__(self, "unmapped", unmapped)
 
     def with_robot(self, robot: str) -> Scenario:
         """The same scenario for another robot.
@@ -78,3 +123,52 @@ class Scenario:
     def options_for(self, planner: str) -> dict[str, Any]:
         """Keyword options this scenario gives ``planner`` (a copy; empty if none)."""
         return dict(self.planner_options.get(planner, {}))
+
+
+#: The fields of a :class:`Scenario` that are objects of a type, and how to make one.
+_KINDS: dict[str, tuple[type, str]] = {
+    "world": (World, "World((xmin, xmax, ymin, ymax), obstacles)"),
+    "start": (Pose2D, "Pose2D(x, y, theta)"),
+    "goal": (Pose2D, "Pose2D(x, y, theta)"),
+}
+
+
+def _suggested(kind: type, value: object) -> str:
+    """How to pass ``value`` (numbers in a tuple or list) as a ``kind``: ``Pose2D(1, 1, 0)``, ``World((0, 3, 0, 3))``;
+    "" for anything else."""
+    if not isinstance(value, tuple | list) or not all(is_number(v) for v in value):
+        return ""
+    text = ", ".join(repr(v) for v in value)
+    if kind is Pose2D and len(value) == 3:
+        return f"Pose2D({text})"
+    return f"World(({text}))" if kind is World and len(value) == 4 else ""
+
+
+def _check_text(label: str, value: object, expected: str = "a non-empty string") -> None:
+    """Raise a ConfigError naming ``Scenario.<label>`` unless ``value`` is a non-empty string."""
+    if not isinstance(value, str) or not value:
+        raise ConfigError(f"Scenario.{label} must be {expected}, got {value!r:.80}")
+
+
+def _sequence(label: str, value: object, of: str) -> tuple[Any, ...]:
+    """``value`` (a list or tuple) as a tuple, else a ConfigError naming ``Scenario.<label>`` and what it holds."""
+    if not isinstance(value, Sequence) or isinstance(value, str):
+        raise ConfigError(f"Scenario.{label} must be a tuple of {of}, got {value!r:.80}")
+    return tuple(value)
+
+
+def _check_tables(planner_options: object, sensors: object) -> None:
+    """``planner_options`` maps planner names to mappings of options; ``sensors`` maps keys to numbers."""
+    if not isinstance(planner_options, Mapping) or not all(
+        isinstance(k, str) and isinstance(v, Mapping) for k, v in planner_options.items()
+    ):
+        raise ConfigError(
+            "Scenario.planner_options must map planner names to mappings of keyword options, e.g. "
+            f"{{'birrt': {{'steering': 'reeds_shepp'}}}}, got {planner_options!r:.80}"
+        )
+    if not isinstance(sensors, Mapping) or not all(
+        isinstance(k, str) and isinstance(v, numbers.Real) and not isinstance(v, bool) for k, v in sensors.items()
+    ):
+        raise ConfigError(
+            f"Scenario.sensors must map sensor profile keys to numbers, e.g. {{'fix_rate': 5.0}}, got {sensors!r:.80}"
+        )

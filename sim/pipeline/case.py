@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import math
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -31,13 +32,13 @@ from control.base import TRACKERS
 from control.estimation.amcl import AmclConfig
 from control.fbl import FBLGains, uses_fbl_gains
 from planning.collision.exact import CollisionChecker
-from planning.core.checks import check_fields
-from planning.core.geometry import Pose2D, wrap_angle
+from planning.core.checks import check_fields, check_number
+from planning.core.geometry import Pose2D, densify_path, path_steps, wrap_angle
 from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot
 from planning.errors import ConfigError, ScenarioError, option, options
 from planning.planners.base import PlanProblem, PlanResult, run_planner
 from planning.planners.registry import PLANNERS, make_planner, planner_options
-from planning.scenario import Scenario, load_scenario, scenario_source
+from planning.scenario import Scenario, builtin_scenarios, footprint_overlap, load_scenario, scenario_source
 from planning.scenario import scenario_with_robot as scenario_with_robot  # defined beside load_scenario
 from planning.trajectory.file_trajectory import ARENA_NAME, file_poses, file_trajectory, with_file_ends
 from planning.trajectory.from_plan import checked_trajectory
@@ -95,18 +96,41 @@ class PlanOptions:
             raise ConfigError(f"PlanOptions.plan must be a PlanResult (a planner's plan) or None, got {self.plan!r}")
 
 
+def check_case_scenario(where: str, scenario: object) -> str | Scenario:
+    """``scenario`` as a case takes it: a :class:`Scenario`, or text that :func:`load_scenario` reads (a built-in
+    scenario's name, a scenario file's path, ``random<N>``); a path (``pathlib.Path``) is made text.
+
+    Raises:
+        ConfigError: Anything else (None, a number, empty text), naming ``where``, what was given and what to give.
+    """
+    if isinstance(scenario, Scenario):
+        return scenario
+    if isinstance(scenario, os.PathLike):
+        scenario = os.fspath(scenario)
+    if isinstance(scenario, str) and scenario.strip():
+        return scenario
+    raise ConfigError(
+        f"{where} must be a Scenario (load_scenario(NAME), or Scenario(...)), a built-in scenario's name (one of "
+        f"{', '.join(builtin_scenarios())}), the path of a scenario .toml file, or random<N> for the generated world "
+        f"of seed N (e.g. 'random7'), got {scenario!r:.80}"
+    )
+
+
 @dataclass(frozen=True)
 class Case:
     """One seeded job.
 
     Attributes:
-        scenario: Built-in scenario name, path of a scenario file, or a loaded Scenario.
+        scenario: Built-in scenario name, path of a scenario file (text or a ``Path``, kept as text),
+            ``random<N>``, or a loaded Scenario.
         robot: Robot name; None for the scenario's robot.
         reference: Analytic reference name (exclusive with ``planner``).
         planner: Planner name (exclusive with ``reference``); "" for the scenario's planner.
         tracker: Feedback tracker (a key of ``TRACKERS``); None for the source's default
-            (``REFERENCE_TRACKER`` for a reference, ``PLAN_TRACKER`` for a plan).
-        seed: Seed of the job (planner and sensor noise).
+            (``REFERENCE_TRACKER`` for a reference, ``PLAN_TRACKER`` for a plan). One without feedback
+            ("open-loop") makes the case's single run (:attr:`kind`) the open loop; a job of closed-loop
+            runs refuses it (:func:`sim.pipeline.simulate.check_feedback_tracker`).
+        seed: Seed of the job (planner and sensor noise), an integer >= 0.
         control_rate: Tracker rate [Hz].
         gains: FBL gains; None for the defaults.
         params: The feedback tracker's tuned parameters (the value of its tuned option, e.g. an
@@ -160,6 +184,8 @@ class Case:
     motors: str = ""
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "scenario", check_case_scenario("Case.scenario", self.scenario))
+        object.__setattr__(self, "seed", check_number("Case.seed", self.seed, integer=True, at_least=0))
         if not isinstance(self.planning, PlanOptions):
             raise ConfigError(f"case {self.label}: planning must be a PlanOptions(...), got {self.planning!r}")
         if self.perturbation is not None and not isinstance(self.perturbation, Perturbation):
@@ -483,7 +509,7 @@ def plan_case(case: Case, scenario: Scenario, robot: RobotSpec, *, progress: Pro
         ConfigError: No planner given and the scenario names none; unknown planner.
     """
     if case.planning.plan is not None:
-        return _ready_plan(case.planning.plan, scenario)
+        return _ready_plan(case.planning.plan, scenario, robot)
     name = case.planner or scenario.planner
     if name is None:
         raise ConfigError(
@@ -525,13 +551,14 @@ def tracked_margin(problem: PlanProblem, margin: float) -> float:
     return margin if least >= margin else max(0.0, 0.5 * least)
 
 
-def _ready_plan(plan: PlanResult, scenario: Scenario) -> PlanResult:
+def _ready_plan(plan: PlanResult, scenario: Scenario, robot: RobotSpec) -> PlanResult:
     """A plan given ready (``PlanOptions.plan``), checked against the scenario it is to be tracked in: a
-    successful one starts at the scenario's start and ends in its goal region.
+    successful one starts at the scenario's start, ends in its goal region and is free in its world for the
+    robot's footprint (:func:`_check_ready_path`).
 
     Raises:
         ConfigError: It starts elsewhere (the robot is placed at the scenario's start) or ends outside the
-            goal region, naming both poses.
+            goal region, naming both poses; or its path collides (another world's plan, or another robot's).
     """
     if not plan.success or plan.path.shape[0] == 0:
         return plan
@@ -552,7 +579,57 @@ def _ready_plan(plan: PlanResult, scenario: Scenario) -> PlanResult:
             f"scenario {scenario.name!r}'s goal region ({goal.x:g}, {goal.y:g}, {goal.theta:g}; "
             f"{tolerance[0]:g} m, {tolerance[1]:g} rad): plan for this scenario"
         )
+    _check_ready_path(plan, scenario, robot)
     return plan
+
+
+#: Largest step [m] between the poses of a ready plan's path as its collisions are checked (``nhsim plan``
+#: checks its paths so densified: :data:`sim.cli.plan.PATH_SPACING`).
+READY_PATH_SPACING = 0.02
+
+
+def _check_ready_path(plan: PlanResult, scenario: Scenario, robot: RobotSpec) -> None:
+    """Refuse a ready plan whose path (densified to :data:`READY_PATH_SPACING`) collides in the scenario's world
+    (the map the planners plan on) with the robot's footprint: a plan made in another world or for another robot,
+    which no trajectory could follow. A path's poses are measured by the planners' checker (a lower bound within
+    its tolerance of the truth); those it finds overlapping are measured again finely (within 0.1 mm, as
+    ``nhsim plan`` measures a path): milliseconds for thousands of poses.
+
+    Raises:
+        ConfigError: Naming the first colliding pose (its index in ``plan.path``), what it overlaps, and the fix.
+    """
+    path = plan.path
+    dense = densify_path(path, READY_PATH_SPACING, radius=robot.radius, slack=1e-9)
+    found = CollisionChecker(scenario.world, robot, shape="footprint").first_overlap(dense)
+    if found is None:
+        return
+    k, depth = found
+    pose = Pose2D(float(dense[k, 0]), float(dense[k, 1]), float(wrap_angle(float(dense[k, 2]))))
+    hit = footprint_overlap(scenario.world, robot, pose)
+    what = f"overlaps {hit[1]}" if hit is not None else "overlaps an obstacle or a wall"
+    how = f" by {-1e3 * depth:.1f} mm" if np.isfinite(depth) else " (an obstacle lies inside it, or it lies in one)"
+    raise ConfigError(
+        f"the ready plan ({plan.planner}) collides in scenario {scenario.name!r} with robot {robot.name!r}: at "
+        f"({pose.x:.3f}, {pose.y:.3f}, {pose.theta:.3f}), {_path_place(path, dense, k, robot.radius)} of its "
+        f"{path.shape[0]} poses, the {robot.name}'s footprint {what}{how} (a plan made in another world, or for "
+        "another robot?): plan again in this scenario with this robot "
+        f"(PlanProblem.from_scenario(scenario, robot=load_robot({robot.name!r}))), or track the plan in the scenario "
+        "and with the robot it was made for"
+    )
+
+
+def _path_place(path: FloatArray, dense: FloatArray, k: int, radius: float) -> str:
+    """Where pose ``k`` of ``dense`` (``path`` densified, :func:`densify_path` with ``radius``) lies on ``path``:
+    ``"plan.path[i]"``, or ``"between plan.path[i] and plan.path[i + 1]"`` for a pose put in between."""
+    if dense.shape[0] == path.shape[0]:  # nothing was put in between
+        return f"plan.path[{k}]"
+    along = np.concatenate([[0.0], np.cumsum(path_steps(path, radius))])
+    at = float(np.sum(path_steps(dense[: k + 1], radius))) if k > 0 else 0.0
+    nearest = int(np.argmin(np.abs(along - at)))
+    if math.isclose(at, along[nearest], abs_tol=1e-9):
+        return f"plan.path[{nearest}]"
+    i = int(np.clip(np.searchsorted(along, at, side="right") - 1, 0, path.shape[0] - 2))
+    return f"between plan.path[{i}] and plan.path[{i + 1}]"
 
 
 def _pose_gap(pose: FloatArray, to: Pose2D) -> tuple[float, float]:

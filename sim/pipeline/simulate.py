@@ -17,8 +17,9 @@ from typing import Any
 
 import mujoco
 
-from control.base import Tracker, make_tracker, tuned_option
+from control.base import TRACKERS, Tracker, feedback_trackers, make_tracker, tuned_option
 from control.fbl import FBLGains, uses_fbl_gains
+from planning.core.checks import check_number
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
 from planning.planners.registry import PLANNERS
@@ -30,7 +31,7 @@ from sim.physics.metrics import TrackingMetrics, robot_metrics
 from sim.physics.perturb import Perturbation
 from sim.physics.runlog import RunLog
 from sim.physics.simulator import SimConfig, Simulator
-from sim.pipeline.case import Case, PreparedTrajectory, prepare_trajectory
+from sim.pipeline.case import Case, PreparedTrajectory, check_case_scenario, prepare_trajectory
 from sim.pipeline.runs import DEFAULT_RUNS, Progress, RunKind, run_kinds
 from sim.robot.sensing import SensingSetup
 from sim.robot.sources import PoseSource
@@ -201,10 +202,12 @@ def track(
         progress: Told how each run advances (see :data:`sim.pipeline.runs.Progress`); None for silence.
 
     Raises:
+        ConfigError: The case's tracker feeds nothing back and ``runs`` hold a closed loop.
         SimulationError: MuJoCo warned (with ``strict``) or a tracker returned a non-finite command.
     """
     runs = run_kinds(runs)
     case = prepared.case
+    check_feedback_tracker(case, runs)
     config = SimConfig(control_rate=case.control_rate, hold=prepared.hold, strict=strict)
     simulator = simulator or simulator_for(prepared)
     sensing = case.sensing(prepared.scenario)
@@ -214,6 +217,26 @@ def track(
         tracker = tracker_for_run(case, kind, prepared.robot)
         done[kind] = run_tracker(prepared, kind, tracker, simulator, config, sensing, progress=step)
     return JobResult(prepared, done, config, simulator.build, sensing, simulator.run_model(case.perturbation))
+
+
+def check_feedback_tracker(case: Case, runs: Iterable[RunKind]) -> None:
+    """Refuse a case whose tracker, the closed loops' tracker, feeds nothing back (``"open-loop"``) when ``runs``
+    hold a closed loop: that run would be an open loop recorded as a closed one. (Alone, the open loop's run is
+    that tracker's run: a case of the regression suite with ``tracker = "open-loop"`` runs only it.)
+
+    Raises:
+        ConfigError: Naming the tracker, the closed-loop runs, the trackers with feedback and the open loop's run.
+    """
+    name = case.feedback_tracker
+    closed = [str(kind) for kind in runs if not kind.tracker]
+    if closed and name in TRACKERS and name not in feedback_trackers():
+        own = [str(kind) for kind in RunKind if kind.tracker == name]
+        tail = f"{name!r} drives a run of its own: runs={own!r} (one of the default runs)" if own else ""
+        raise ConfigError(
+            f"tracker {name!r} feeds nothing back, so the closed-loop runs ({', '.join(closed)}) would not be closed: "
+            f"tracker is the closed loops' tracker, one of {', '.join(feedback_trackers())} (None: the default)"
+            + (f"; {tail}" if tail else "")
+        )
 
 
 def tracker_for_run(case: Case, kind: RunKind, robot: RobotSpec) -> Tracker:
@@ -276,16 +299,33 @@ def simulate(
     """Prepare a case's trajectory and track it (see :func:`track`; MuJoCo warnings raise).
 
     Raises:
+        ConfigError: The case's tracker feeds nothing back and ``runs`` hold a closed loop
+            (:func:`check_feedback_tracker`), before anything is planned.
         NhsimError: From :func:`sim.pipeline.case.prepare_trajectory` and :func:`track`.
     """
+    runs = run_kinds(runs)
+    check_feedback_tracker(case, runs)  # before the plan: the runs are known
     return track(prepare_trajectory(case, progress=progress), runs, progress=progress)
 
 
-def _case(scenario: str | Scenario, fields_: dict[str, Any], **source: Any) -> Case:
+def _case(where: str, scenario: object, fields_: dict[str, Any], **source: Any) -> Case:
+    """The case ``where`` (a function's name) was given, its scenario and seed checked under that function's name.
+
+    Raises:
+        ConfigError: A scenario that is none (None, a number), a seed that is not an integer >= 0, or a keyword
+            that is not a field of a case.
+    """
+    scenario = check_case_scenario(f"{where}: scenario", scenario)
+    if "seed" in fields_:
+        fix = "the seed of the planner and of the sensor noise; same seed, same job"
+        fields_ = {
+            **fields_,
+            "seed": check_number(f"{where}: seed", fields_["seed"], integer=True, at_least=0, fix=fix),
+        }
     try:
         return Case(scenario, **source, **fields_)
     except TypeError as exc:
-        raise ConfigError(f"{exc}; the fields of a case are those of sim.pipeline.case.Case") from exc
+        raise ConfigError(f"{where}: {exc}; the fields of a case are those of sim.pipeline.case.Case") from exc
 
 
 def simulate_reference(
@@ -309,7 +349,7 @@ def simulate_reference(
     Raises:
         ScenarioError: The reference does not fit in the scenario.
     """
-    return simulate(_case(scenario, fields_, reference=reference), runs, progress=progress)
+    return simulate(_case("simulate_reference", scenario, fields_, reference=reference), runs, progress=progress)
 
 
 def simulate_plan(
@@ -337,10 +377,14 @@ def simulate_plan(
             statistics and ``extra["smoothing"]`` the smoothing's.
 
     Raises:
-        ConfigError: No planner given and the scenario names none; unknown planner.
+        ConfigError: A scenario that is none, a seed that is not an integer >= 0, a tracker without feedback for
+            the closed loops; no planner given and the scenario names none; unknown planner; a ready plan
+            (``planning=PlanOptions(plan=...)``) that does not start at the scenario's start, end in its goal
+            region or keep the robot's footprint clear of its world.
+        ScenarioError: The start or goal lies outside the world or the robot's footprint overlaps something there.
         TrajectoryError: The plan failed or could not be made into a collision-free trajectory.
     """
-    return simulate(_case(scenario, fields_, planner=planner or ""), runs, progress=progress)
+    return simulate(_case("simulate_plan", scenario, fields_, planner=planner or ""), runs, progress=progress)
 
 
 def simulate_file(
@@ -377,7 +421,7 @@ def simulate_file(
     if scenario is None:
         robot = fields_.pop("robot", None) or ARENA_ROBOT
         scenario = arena_scenario(read_trajectory_file(source), load_robot(robot))
-    return simulate(_case(scenario, fields_, trajectory_file=source), runs, progress=progress)
+    return simulate(_case("simulate_file", scenario, fields_, trajectory_file=source), runs, progress=progress)
 
 
 @dataclass(frozen=True)

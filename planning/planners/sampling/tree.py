@@ -248,14 +248,17 @@ def check_endpoints(problem: PlanProblem, checker: FastChecker, planner: str) ->
     ):
         if not ok:
             clr = float(checker.clearance_of(q[None, :])[0])
-            # -inf: an obstacle has a point inside the footprint (a pixel of a noisy map under the robot)
-            said = (
-                f"clearance {clr:.3f} m, a lower bound"
-                if np.isfinite(clr)
-                else "an obstacle lies inside the robot's footprint"
-            )
+            pose = f"{which} pose ({q[0]:.3f}, {q[1]:.3f}, {q[2]:.3f})"
+            if np.isfinite(clr):
+                said = f"clearance {clr:.3f} m, a lower bound"
+            elif float(problem.world.wall_distance(q[:2])[0]) <= 0:  # -inf: wholly in collision, or beyond a wall
+                x0, x1, y0, y1 = problem.world.bounds
+                outside = f"{pose} lies outside the world's bounds (x {x0:g}..{x1:g}, y {y0:g}..{y1:g}): move it inside"
+                return PlanResult(status, planner, reason=outside)
+            else:  # or an obstacle has a point inside the footprint (a pixel of a noisy map under the robot)
+                said = "an obstacle lies inside the robot's footprint, or the footprint inside an obstacle"
             reason = (
-                f"{which} pose ({q[0]:.3f}, {q[1]:.3f}, {q[2]:.3f}) is in collision or closer than the "
+                f"{pose} is in collision or closer than the "
                 f"required clearance {checker.checker.clearance:g} m ({said}, "
                 f"{checker.checker.shape} model): move the {which} or lower the clearance"
             )
