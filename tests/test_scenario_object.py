@@ -238,3 +238,14 @@ def test_a_tree_planner_says_an_end_outside_the_world_is_outside_it(planner: str
         result.reason
         == "goal pose (-2.000, 2.000, 0.000) lies outside the world's bounds (x 0..3, y 0..3): move it inside"
     )
+
+
+def test_a_jobs_gains_are_the_fbls_only_where_its_tracker_takes_them() -> None:
+    """(JobResult.gains gave FBLGains(9, 6) for kanayama, rpp and mpc, whose records say null.)"""
+    from control.fbl import FBLGains
+    from sim.pipeline.simulate import simulate_reference
+
+    own = simulate_reference("open", reference="line", tracker="kanayama", runs=["closed_loop_truth"])
+    assert own.gains is None and own.record()["gains"] is None
+    fbl = simulate_reference("open", reference="line", gains=FBLGains(5.0, 4.0), runs=["closed_loop_truth"])
+    assert fbl.gains == FBLGains(5.0, 4.0) and fbl.record()["gains"]["kp"] == 5.0

@@ -106,9 +106,10 @@ class JobResult:
         return self.case.seed
 
     @property
-    def gains(self) -> FBLGains:
-        """The tracker gains."""
-        return self.case.gains or FBLGains()
+    def gains(self) -> FBLGains | None:
+        """The FBL gains the closed loops ran with; None for a tracker with its own parameters (mpc, rpp, ...),
+        as the record has it."""
+        return self.case.gains or FBLGains() if uses_fbl_gains(self.case.feedback_tracker) else None
 
     @property
     def logs(self) -> dict[str, RunLog]:
@@ -137,7 +138,7 @@ class JobResult:
     def record(self) -> dict[str, Any]:
         """The JSON run record."""
         main = self.runs.get(RunKind.CLOSED_LOOP) or next(iter(self.runs.values()))
-        gains = self.gains
+        gains = self.gains if uses_fbl_gains(main.tracker) else None
         rec: dict[str, Any] = {
             "scenario": self.scenario.name,
             "scenario_file": str(self.scenario.source) if self.scenario.source else None,
@@ -150,7 +151,7 @@ class JobResult:
             },
             "tracker": main.tracker,
             # the FBL's gains where the tracker takes them; null for one with its own parameters (mpc, rpp, ...)
-            "gains": {"kp": gains.kp, "kd": gains.kd, "xi_min": gains.xi_min} if uses_fbl_gains(main.tracker) else None,
+            "gains": None if gains is None else {"kp": gains.kp, "kd": gains.kd, "xi_min": gains.xi_min},
             "control_rate_hz": self.config.control_rate,
             "seed": self.seed,
             "noise_seed": self.sensing.seed,
