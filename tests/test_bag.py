@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import yaml
 
-from planning.errors import ConfigError, OutputExistsError
+from planning.errors import ConfigError, OutputExistsError, without_python
 from planning.trajectory.importer import TrajectoryFile
 from sim.io import bag_topics as bt
 from sim.io.bag import write_job_bag
@@ -242,7 +242,7 @@ def test_the_mcap_library_reads_the_same_counts_and_final_pose(job: tuple[Any, P
     assert t == round(float(log.t[-1]) * 1e9)
     assert (gt.pose.pose.position.x, gt.pose.pose.position.y) == pytest.approx(tuple(log.pose[-1, :2]), abs=1e-12)
     grid = last["/map"][1]
-    assert grid.info.resolution == pytest.approx(0.02) and len(grid.data) == grid.info.width * grid.info.height
+    assert grid.info.resolution == pytest.approx(0.025) and len(grid.data) == grid.info.width * grid.info.height
 
 
 def test_the_plan_of_a_bag_read_as_a_path_reproduces_the_jobs_trajectory(job: tuple[Any, Path]) -> None:
@@ -357,21 +357,76 @@ def test_a_scan_in_the_run_log_is_published_with_its_frame(job: tuple[Any, Path]
 
 def test_an_existing_bag_is_kept_without_overwrite_and_replaced_with_it(job: tuple[Any, Path], tmp_path: Path) -> None:
     result, _ = job
-    target = tmp_path / "b"
-    target.mkdir()
-    (target / "metadata.yaml").write_text("old")
+    target = _old_bag(tmp_path / "b")
     with pytest.raises(OutputExistsError, match="--overwrite"):
         write_job_bag(result, target)
-    assert (target / "metadata.yaml").read_text() == "old"
+    assert (target / "metadata.yaml").read_text() == OLD_META
     write_job_bag(result, target, overwrite=True)
     assert "rosbag2_bagfile_information" in (target / "metadata.yaml").read_text()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["b"]  # no temporary folder left
+    write_job_bag(result, target, overwrite=True)  # the bag just written is one of ours: replaced again
     other = tmp_path / "notes"
     other.mkdir()
     (other / "keep.txt").write_text("mine")
-    with pytest.raises(ConfigError, match="not a bag"):
-        write_job_bag(result, other, overwrite=True)
+    for overwrite in (False, True):  # not "pass --overwrite": it would not replace it either
+        with pytest.raises(ConfigError, match="not a bag") as err:
+            write_job_bag(result, other, overwrite=overwrite)
+        assert "pass --overwrite" not in without_python(str(err.value)) and "move it away" in str(err.value)
     assert (other / "keep.txt").read_text() == "mine"
+
+
+def test_a_written_bag_carries_the_mark_and_lists_its_files(job: tuple[Any, Path]) -> None:
+    """What tells a bag nhsim wrote from any other (:func:`sim.io.bag.not_ours`): the mark in metadata.yaml's
+    custom_data, and nothing in the folder but the metadata and the storage files it lists."""
+    from sim.io.bag import MARK, not_ours
+
+    _, path = job
+    info = yaml.safe_load((path / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert info["custom_data"] == {MARK[0]: MARK[1]}
+    assert sorted(p.name for p in path.iterdir()) == sorted(["metadata.yaml", *info["relative_file_paths"]])
+    assert not_ours(path) == ""
+
+
+@pytest.mark.parametrize(
+    ("meta", "extra", "said"),
+    [
+        (
+            "rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: sqlite3\n  ros_distro: humble\n",
+            {"realbag_0.db3": "precious robot data", "NOTES.txt": "my notes"},
+            "it looks like a bag not written by nhsim (its metadata.yaml has no custom_data mark 'nhsim.writer: nhsim'",
+        ),
+        ("not: [yaml", {"x.mcap": "data"}, "it looks like a bag not written by nhsim"),
+        (
+            "rosbag2_bagfile_information:\n  custom_data:\n    nhsim.writer: other\n  relative_file_paths: [b.mcap]\n",
+            {"b.mcap": "data"},
+            "it looks like a bag not written by nhsim",
+        ),
+        (None, {"NOTES.txt": "my notes"}, "it is a bag nhsim wrote, but it also holds NOTES.txt, which nhsim did not"),
+    ],
+    ids=["ros2-recording", "broken-metadata", "other-mark", "ours-with-notes"],
+)
+def test_a_folder_that_is_not_exactly_a_bag_nhsim_wrote_survives_overwrite(
+    job: tuple[Any, Path], tmp_path: Path, meta: str | None, extra: dict[str, str], said: str
+) -> None:
+    """A robot's recording (its metadata.yaml, .db3 and notes) was deleted by ``--overwrite`` because it held a
+    metadata.yaml; now only a folder marked by nhsim and holding nothing else is replaced."""
+    result, _ = job
+    target = _old_bag(tmp_path / "b") if meta is None else tmp_path / "b"
+    if meta is not None:
+        target.mkdir()
+        (target / "metadata.yaml").write_text(meta)
+    for name, text in extra.items():
+        (target / name).write_text(text)
+    before = {p.name: p.read_text() for p in target.iterdir()}
+    for overwrite in (False, True):
+        with pytest.raises(ConfigError) as err:
+            write_job_bag(result, target, overwrite=overwrite)
+        text = without_python(str(err.value))
+        assert f"cannot write the bag {target}: {said}" in text, text
+        assert "--overwrite replaces only a bag nhsim wrote" in text and "move it away" in text
+        assert "pass --overwrite" not in text
+    assert {p.name: p.read_text() for p in target.iterdir()} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b"]
 
 
 def test_an_interrupted_write_leaves_nothing(
@@ -605,9 +660,17 @@ def test_the_imu_frame_is_the_models_imu_site(robot: str) -> None:
         np.testing.assert_allclose(site.pos, [-0.032, 0.0, 0.045])
 
 
+#: The metadata of an old bag nhsim wrote (its mark, its one storage file), as :func:`sim.io.bag._write` leaves it.
+OLD_META = (
+    "rosbag2_bagfile_information:\n  version: 8\n  custom_data:\n    nhsim.writer: nhsim\n"
+    "  relative_file_paths:\n  - old.mcap\n"
+)
+
+
 def _old_bag(folder: Path) -> Path:
+    """A bag nhsim wrote earlier (marked), which ``--overwrite`` replaces."""
     folder.mkdir()
-    (folder / "metadata.yaml").write_text("old")
+    (folder / "metadata.yaml").write_text(OLD_META)
     (folder / "old.mcap").write_text("old messages")
     return folder
 
@@ -631,7 +694,7 @@ def test_a_failed_swap_puts_the_old_bag_back(
     monkeypatch.setattr(os, "replace", failing)
     with pytest.raises(OSError, match="disk gone"):
         write_job_bag(result, target, overwrite=True)
-    assert (target / "metadata.yaml").read_text() == "old" and (target / "old.mcap").read_text() == "old messages"
+    assert (target / "metadata.yaml").read_text() == OLD_META and (target / "old.mcap").read_text() == "old messages"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["b"]  # no work folder left
 
 
@@ -661,3 +724,84 @@ def test_an_interrupt_between_the_two_moves_waits_for_the_new_bag(
     assert sorted(p.name for p in tmp_path.iterdir()) == ["b"]
     _, msgs, _ = read_rosbags(target)
     assert {k: len(v) for k, v in msgs.items()} == expected_counts(result)
+
+
+#: The probe's room (3 x 2 m, one box 2.2-2.6 x 1.35-1.65 m): every face on the 5 cm lattice of the bounds.
+ROOM = ((0.0, 3.0, 0.0, 2.0), ((2.4, 1.5), (0.4, 0.3)))
+
+
+def _grid(world: Any) -> tuple[np.ndarray, float, float, float]:
+    """``/map`` of ``world`` as (H, W) occupancy, resolution and origin (x, y)."""
+    msg = bt.map_message(world)
+    info = msg.info
+    grid = np.asarray(msg.data, dtype=np.int8).reshape(info.height, info.width)
+    return grid, float(info.resolution), float(info.origin.position.x), float(info.origin.position.y)
+
+
+def test_the_maps_cell_edges_fall_on_the_walls_faces() -> None:
+    """The grid's origin was 0.05 m (the walls' thickness) outside the bounds with 0.02 m cells: each wall face ran
+    through the middle of a cell, and the half-covered cells were drawn as wall (a 1 cm bias). Now the walls are
+    whole cells (0.025 m, the localiser's grid): each face lies between a wall cell and a free one, as does each
+    face of an obstacle on the 5 cm lattice."""
+    from planning.core.world import Box, World
+
+    world = World(ROOM[0], (Box(*ROOM[1]),))
+    grid, res, ox, oy = _grid(world)
+    assert res == pytest.approx(0.025) and (ox, oy) == pytest.approx((-0.05, -0.05), abs=1e-9)
+    col = {x: (x - ox) / res for x in (0.0, 3.0, 2.2, 2.6)}
+    row = {y: (y - oy) / res for y in (0.0, 2.0, 1.35, 1.65)}
+    for edge in (*col.values(), *row.values()):
+        assert edge == pytest.approx(round(edge), abs=1e-6)  # on an edge, not mid-cell
+    mid_y, mid_x = round((1.0 - oy) / res), round((1.0 - ox) / res)  # a row and a column through free space
+    c0, c3, r0, r2 = round(col[0.0]), round(col[3.0]), round(row[0.0]), round(row[2.0])
+    assert (grid[mid_y, c0 - 1], grid[mid_y, c0], grid[mid_y, c3 - 1], grid[mid_y, c3]) == (100, 0, 0, 100)
+    assert (grid[r0 - 1, mid_x], grid[r0, mid_x], grid[r2 - 1, mid_x], grid[r2, mid_x]) == (100, 0, 0, 100)
+    box_y = round((1.5 - oy) / res)  # the box's faces x = 2.2 and 2.6 in its middle row
+    b0, b1 = round(col[2.2]), round(col[2.6])
+    assert (grid[box_y, b0 - 1], grid[box_y, b0], grid[box_y, b1 - 1], grid[box_y, b1]) == (0, 100, 100, 0)
+    box_x, c0, c1 = round((2.4 - ox) / res), round(row[1.35]), round(row[1.65])  # its faces y = 1.35 and 1.65
+    assert (grid[c0 - 1, box_x], grid[c0, box_x], grid[c1 - 1, box_x], grid[c1, box_x]) == (0, 100, 100, 0)
+    assert grid.shape == (80 + 4, 120 + 4)  # 2 wall cells beyond each bound
+    big = World((-1.0, 39.0, 0.5, 40.5))  # coarser cells (a million at most): the walls still whole cells
+    res, pad, w, h = bt.map_layout(big)
+    assert res == pytest.approx(0.041) and pad == 2 and w * h <= bt.MAP_MAX_CELLS
+    assert bt.map_origin(big) == pytest.approx((-1.0 - 2 * res, 0.5 - 2 * res))
+
+
+def _true_range(o: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Distance along rays (N, 2) from ``o`` (N, 2) to the room's walls or box (slabs; axis-aligned)."""
+    (x0, x1, y0, y1), ((cx, cy), (sx, sy)) = ROOM
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tx = np.where(d[:, 0] > 0, (x1 - o[:, 0]) / d[:, 0], (x0 - o[:, 0]) / d[:, 0])
+        ty = np.where(d[:, 1] > 0, (y1 - o[:, 1]) / d[:, 1], (y0 - o[:, 1]) / d[:, 1])
+        walls = np.minimum(np.where(np.isfinite(tx), tx, np.inf), np.where(np.isfinite(ty), ty, np.inf))
+        lo = (np.array([cx - sx / 2, cy - sy / 2]) - o) / d
+        hi = (np.array([cx + sx / 2, cy + sy / 2]) - o) / d
+    near = np.nan_to_num(np.minimum(lo, hi), nan=-np.inf).max(axis=1)
+    far = np.nan_to_num(np.maximum(lo, hi), nan=np.inf).min(axis=1)
+    box = np.where((near <= far) & (near > 0), near, np.inf)
+    return np.minimum(walls, box)
+
+
+def test_ranges_marched_on_the_map_match_the_world_without_bias() -> None:
+    """The probe's check (its mapcheck.py) without the simulation: rays from free points, marched through ``/map``
+    in 0.2 mm steps to the first occupied cell, against the exact distance to the world's faces. With the faces
+    mid-cell the median was -10.5 mm (the walls drawn 1 cm thick); now it is within a fraction of a millimetre."""
+    from planning.core.world import Box, World
+
+    world = World(ROOM[0], (Box(*ROOM[1]),))
+    grid, res, ox, oy = _grid(world)
+    rng = np.random.default_rng(3)
+    o = rng.uniform([0.2, 0.2], [2.0, 1.8], size=(400, 2))
+    a = rng.uniform(-np.pi, np.pi, 400)
+    d = np.column_stack([np.cos(a), np.sin(a)])
+    truth = _true_range(o, d)
+    steps = np.arange(0.0, 4.0, 0.0002)
+    px, py = o[:, :1] + steps * d[:, :1], o[:, 1:] + steps * d[:, 1:]
+    ci, ri = np.floor((px - ox) / res).astype(int), np.floor((py - oy) / res).astype(int)
+    inside = (ci >= 0) & (ci < grid.shape[1]) & (ri >= 0) & (ri < grid.shape[0])
+    hit = ~inside | (grid[np.clip(ri, 0, grid.shape[0] - 1), np.clip(ci, 0, grid.shape[1] - 1)] > 50)
+    marched = steps[np.argmax(hit, axis=1)]
+    err = truth - marched
+    assert abs(float(np.median(err))) < 0.5e-3, np.median(err)
+    assert np.mean(np.abs(err) < 1e-3) > 0.95  # the rays end on the faces themselves (not half a cell short)

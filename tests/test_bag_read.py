@@ -224,11 +224,13 @@ def test_an_existing_bag_folder_stops_the_job_before_it_runs(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.chdir(tmp_path)
+    from tests.test_bag import OLD_META
+
     (tmp_path / "b").mkdir()
-    (tmp_path / "b" / "metadata.yaml").write_text("old")
+    (tmp_path / "b" / "metadata.yaml").write_text(OLD_META)
     err = _exit_2(["--reference", "circle", "--bag", str(tmp_path / "b")], tmp_path, capsys)
     assert "exists already; pass --overwrite" in err
-    assert (tmp_path / "b" / "metadata.yaml").read_text() == "old"
+    assert (tmp_path / "b" / "metadata.yaml").read_text() == OLD_META
 
 
 def test_a_monte_carlo_study_of_a_bag_folder_is_keyed_by_its_files(tmp_path: Path) -> None:

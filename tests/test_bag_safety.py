@@ -1,4 +1,7 @@
-"""Bags in and out safely: an existing bag that ``--overwrite`` cannot move aside is refused before any work,
+"""Bags in and out safely: ``--overwrite`` replaces only a bag nhsim wrote (a robot's recording, a folder of
+notes survive it, and the first refusal does not suggest it); ``nhsim bench bag`` reports a timed command's own
+failure and never reads an earlier command's record; an existing bag that ``--overwrite`` cannot move aside is
+refused before any work,
 and a move that fails at the end keeps the old bag and every other old output (they are one set); no output may be an
 input (the same bag read and written, a record over its input file); an imported bag's frame is recorded
 (and a frame other than ``map`` said), poses in two frames are refused; a zero or unnormalised orientation
@@ -20,6 +23,7 @@ import pytest
 from planning.trajectory.file_formats import TrajectoryFileError
 from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
 from sim.cli.main import main
+from tests.test_bag import OLD_META
 from tests.test_bag_cli import _arc
 from tests.test_bag_read import _LINE, _path_bag
 
@@ -28,14 +32,15 @@ JOB = ["simulate", "--runs", "closed_loop", "--no-video", "--quiet"]
 
 
 def _old_bag(folder: Path) -> Path:
+    """A bag nhsim wrote earlier (marked, its one storage file), which ``--overwrite`` may replace."""
     folder.mkdir()
-    (folder / "metadata.yaml").write_text("old")
+    (folder / "metadata.yaml").write_text(OLD_META)
     (folder / "old.mcap").write_text("old messages")
     return folder
 
 
 def _kept(folder: Path) -> bool:
-    return (folder / "metadata.yaml").read_text() == "old" and (folder / "old.mcap").read_text() == "old messages"
+    return (folder / "metadata.yaml").read_text() == OLD_META and (folder / "old.mcap").read_text() == "old messages"
 
 
 def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
@@ -43,6 +48,134 @@ def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]
     err = capsys.readouterr().err
     assert "Traceback" not in err
     return code, err
+
+
+# ------------------------------------------------------------ 0. only a bag nhsim wrote is replaced
+def _recording(folder: Path) -> dict[str, str]:
+    """A real robot's rosbag2 folder (sqlite3 storage) with the user's notes beside it: its files' texts."""
+    folder.mkdir()
+    files = {
+        "metadata.yaml": "rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: sqlite3\n"
+        "  ros_distro: humble\n  relative_file_paths:\n  - realbag_0.db3\n",
+        "realbag_0.db3": "precious robot data",
+        "NOTES.txt": "my notes",
+    }
+    for name, text in files.items():
+        (folder / name).write_text(text)
+    return files
+
+
+def _texts(folder: Path) -> dict[str, str]:
+    return {p.name: p.read_bytes().decode("latin-1") for p in folder.iterdir()}
+
+
+def test_a_foreign_bag_survives_overwrite(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The probe's finding: ``--bag realbag --overwrite`` deleted a robot's recording and the notes beside it
+    (it held a metadata.yaml). Now: exit 2 before any run, every file intact, the message saying why and what
+    to do; without ``--overwrite`` the message does not suggest it."""
+    monkeypatch.chdir(tmp_path)
+    bag = tmp_path / "realbag"
+    files = _recording(bag)
+    for extra in (["--overwrite"], []):
+        argv = [*JOB, "--path", str(_arc(tmp_path)), "--bag", str(bag), *extra, "--json", "out/r.json"]
+        code, err = _run(argv, capsys)
+        assert code == 2, err
+        assert f"cannot write the bag {bag}: it looks like a bag not written by nhsim (its metadata.yaml has no " in err
+        assert "--overwrite replaces only a bag nhsim wrote, so it is kept: move it away, or choose another " in err
+        assert "pass --overwrite" not in err and "from Python" not in err
+        assert _texts(bag) == files and not (tmp_path / "out").exists()
+
+
+def test_a_folder_that_is_no_bag_is_refused_without_suggesting_overwrite(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--bag notabag`` said "pass --overwrite to replace it", and ``--overwrite`` then refused: the first
+    message gives the reason now."""
+    monkeypatch.chdir(tmp_path)
+    folder = tmp_path / "notabag"
+    folder.mkdir()
+    (folder / "important.txt").write_text("keep")
+    for extra in ([], ["--overwrite"]):
+        argv = [*JOB, "--path", str(_arc(tmp_path)), "--bag", str(folder), *extra, "--json", "out/r.json"]
+        code, err = _run(argv, capsys)
+        assert code == 2, err
+        assert f"cannot write the bag {folder}: it is a folder that holds files but no rosbag2 metadata.yaml" in err
+        assert "pass --overwrite" not in err and "move it away, or choose another folder with --bag" in err
+        assert (folder / "important.txt").read_text() == "keep" and not (tmp_path / "out").exists()
+
+
+def test_a_bag_nhsim_wrote_is_replaced_and_one_given_other_files_is_not(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    bag = tmp_path / "b"
+    argv = [*JOB, "--path", str(_arc(tmp_path)), "--bag", str(bag), "--json", "r.json"]
+    assert _run(argv, capsys)[0] == 0
+    first = _texts(bag)
+    code, err = _run(argv, capsys)  # ours, without --overwrite: the usual advice
+    assert code == 2 and f"{bag} exists already; pass --overwrite to replace it" in err
+    assert _run([*argv, "--overwrite"], capsys)[0] == 0  # ours: replaced
+    assert sorted(_texts(bag)) == sorted(first) and "nhsim.writer: nhsim" in (bag / "metadata.yaml").read_text()
+    (bag / "NOTES.txt").write_text("my notes")  # a user's file put into it: no longer only what nhsim wrote
+    before = _texts(bag)
+    code, err = _run([*argv, "--overwrite"], capsys)
+    assert code == 2 and "it is a bag nhsim wrote, but it also holds NOTES.txt, which nhsim did not write" in err
+    assert _texts(bag) == before
+
+
+# ------------------------------------------------------------ nhsim bench bag: a failed command is said
+def _bench_runs(monkeypatch: pytest.MonkeyPatch, codes: list[int]) -> list[list[str]]:
+    """Make ``nhsim bench bag``'s timed commands end with ``codes`` in turn (a success writes a record with a
+    bag section and the bag folder); returns the commands run."""
+    import sim.tools.bench.bag as bench
+
+    ran: list[list[str]] = []
+
+    def fake(cmd: list[str], **_: Any) -> subprocess.CompletedProcess[str]:
+        ran.append(cmd)
+        code = codes[len(ran) - 1]
+        if code == 0:
+            record = Path(cmd[cmd.index("--json") + 1])
+            bag = {"write_s": 0.1, "write_cpu_s": 0.1, "size_bytes": 10, "duration_s": 1.0, "topics": {}}
+            record.write_text(json.dumps({"bag": bag}))
+            if "--bag" in cmd:
+                Path(cmd[cmd.index("--bag") + 1]).mkdir()
+        stderr = "" if code == 0 else "Traceback (most recent call last):\nNameError: name 'json_safe' is not defined"
+        return subprocess.CompletedProcess(cmd, code, "", stderr)
+
+    monkeypatch.setattr(bench.subprocess, "run", fake)
+    return ran
+
+
+@pytest.mark.parametrize("code", [1, 2, -9])
+def test_bench_bag_says_a_failed_commands_own_error_and_reads_no_stale_record(
+    monkeypatch: pytest.MonkeyPatch, code: int
+) -> None:
+    """The bench treated only exit 2 as a failure and read the record the previous (bag-less) command had left:
+    a crash of the ``--bag`` command ended in ``KeyError: 'bag'``. Any non-zero exit is a failure now, said with
+    the command's own error, and each command writes into a folder of its own."""
+    from planning.errors import NhsimError
+    from sim.tools.bench.bag import measure
+
+    ran = _bench_runs(monkeypatch, [0, code])
+    with pytest.raises(NhsimError) as err:
+        measure(["--reference", "line"], 1)
+    text = str(err.value)
+    assert f"the timed command failed (exit {code}), so nothing was measured: nhsim simulate --reference line" in text
+    assert "NameError: name 'json_safe' is not defined" in text and "--bag" in text
+    records = [cmd[cmd.index("--json") + 1] for cmd in ran]
+    assert len(set(records)) == 2 and "--overwrite" not in ran[1]  # a fresh folder each: nothing to overwrite
+
+
+def test_bench_bag_measures_when_every_command_succeeds(monkeypatch: pytest.MonkeyPatch) -> None:
+    from sim.tools.bench.bag import measure
+
+    ran = _bench_runs(monkeypatch, [0, 0, 0, 0])
+    result = measure(["--reference", "line"], 2)
+    assert len(result.with_s) == 2 == len(result.without_s) and result.size_bytes == 10
+    assert len({cmd[cmd.index("--json") + 1] for cmd in ran}) == 4
 
 
 # ------------------------------------------------------------------ 1. a bag --overwrite cannot move aside

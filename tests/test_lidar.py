@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -13,6 +15,7 @@ from planning.core.world import Box, Circle, World
 from planning.errors import ConfigError
 from sim.physics.lidar import LDS01_PLANE, LidarProfile, LidarScanner, beam_poses, load_lidar_profile
 from sim.physics.model import build_model
+from sim.pipeline.runs import RunKind
 
 WORLD = World((-2.0, 2.0, -1.5, 1.5), (Box((1.0, 0.5), (0.4, 0.3), 0.3), Circle((-1.0, -0.5), 0.3)))
 EXACT = LidarProfile(accuracy_near=0, accuracy_far=0, precision_near=0, precision_far=0)
@@ -209,3 +212,134 @@ def test_the_localisers_map_is_what_its_scanner_sees() -> None:
     seen, full = likelihood_field(World(world.bounds, (tall,)), *args), likelihood_field(world, *args)
     np.testing.assert_array_equal(loc.amcl.field.capped, seen.capped)
     assert not np.array_equal(seen.capped, full.capped)
+
+
+# ------------------------------------------------------------------------ the command line's checks
+ROOM_TOML = """name = "room"
+robot = "turtlebot3"
+[world]
+bounds = [0.0, 3.0, 0.0, 2.0]
+[[world.obstacles]]
+type = "box"
+center = [2.4, 1.5]
+size = [0.4, 0.3]
+[start]
+pose = [1.0, 0.8, 0.3]
+[goal]
+pose = [2.0, 0.6, 0.0]
+"""
+
+
+def _simulate(tmp_path: Path, capsys: pytest.CaptureFixture[str], *extra: str) -> tuple[int, str]:
+    """``nhsim simulate`` on the probe's room (a line reference), outputs in ``tmp_path``: (exit, stderr)."""
+    from sim.cli.main import main
+
+    scenario = tmp_path / "room.toml"
+    scenario.write_text(ROOM_TOML)
+    argv = ["simulate", "--scenario", str(scenario), "--reference", "line", "--no-video", "--no-plots", "--quiet"]
+    try:
+        code = main([*argv, "--json", str(tmp_path / "r.json"), *extra])
+    except SystemExit as exc:  # argparse's refusal of an option's value
+        code = int(exc.code or 0)
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    return code, err
+
+
+@pytest.mark.parametrize(
+    ("text", "said"),
+    [
+        ("accuracy_far=0.2", "lidar accuracy_far must be a finite number in [0, 0.05] (fraction of the range; "),
+        ("accuracy_near=0.05", "lidar accuracy_near must be a finite number in [0, 0.015] (m; "),
+        ("precision_far=0.1", "lidar precision_far must be a finite number in [0, 0.035] (fraction of the range; "),
+        ("precision_near=0.02", "lidar precision_near must be a finite number in [0, 0.01] (m; "),
+    ],
+)
+def test_accuracy_and_precision_beyond_the_datasheet_are_refused(text: str, said: str) -> None:
+    """``accuracy_far=0.2`` (20 % where the datasheet says 5 %) was accepted; the figures are bounds a unit within
+    its datasheet meets, so 0 (calibrated, noise-free) up to the datasheet's figure, as the other fields are."""
+    with pytest.raises(ConfigError) as err:
+        LidarProfile().parse(text)
+    assert str(err.value).startswith(said) and "give a value in [0, " in str(err.value)
+    p = LidarProfile().parse("accuracy_far=0.05,accuracy_near=0.015,precision_far=0.035,precision_near=0.01")
+    assert p == LidarProfile() and EXACT.accuracy_far == 0.0
+
+
+def test_fewer_beams_than_the_localiser_matches_are_refused_when_it_runs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--lidar beams=9`` ran the closed loop on dead reckoning (no revolution reaches MIN_BEAMS returns) and said
+    "the scanner saw nothing: all 57 scans without returns"; it is refused before the run now, naming the minimum.
+    The scanner itself may have fewer beams (a Python caller's profile, a run that takes no scan)."""
+    from control.estimation.amcl import MIN_BEAMS
+    from sim.cli.simulate import check_scan_beams
+    from sim.pipeline.case import Case, load_case_scenario
+
+    code, err = _simulate(tmp_path, capsys, "--runs", "closed_loop", "--lidar", f"beams={MIN_BEAMS - 1}")
+    assert code == 2, err
+    assert f"lidar beams={MIN_BEAMS - 1} (--lidar, or a --sensors file's [lidar] table): the scan localiser " in err
+    assert f"at least {MIN_BEAMS} returns (control.estimation.amcl.MIN_BEAMS)" in err
+    assert f"give --lidar beams={MIN_BEAMS} or more" in err and list(tmp_path.iterdir()) == [tmp_path / "room.toml"]
+    assert LidarProfile(beams=3).beams == 3
+    case = Case(str(tmp_path / "room.toml"), reference="line", lidar="beams=9")
+    scenario = load_case_scenario(case)
+    check_scan_beams(case, scenario, (RunKind.CLOSED_LOOP_ODOMETRY, RunKind.OPEN_LOOP))  # no scan taken: fine
+    check_scan_beams(dataclasses.replace(case, lidar=f"beams={MIN_BEAMS}"), scenario, (RunKind.CLOSED_LOOP,))
+
+
+def test_the_localiser_line_counts_revolutions_below_the_minimum_honestly() -> None:
+    """A revolution that delivers no fix has fewer than MIN_BEAMS returns, not necessarily none: the line says
+    that; and one scan is "1 scan"."""
+    from control.estimation.amcl import MIN_BEAMS
+    from sim.cli.simulate import localiser_line
+
+    est = {"scans_used": 0, "scans_without_returns": 57, "scans_cast": 57}
+    line = localiser_line(est)
+    assert f"all 57 scans with fewer than {MIN_BEAMS} returns, the fewest the localiser matches (no fix)" in line
+    assert "saw nothing" not in line and "without returns" not in line
+    est = {"scans_used": 1, "scans_without_returns": 1, "scans_cast": 5, "global_localisation_scans": 1}
+    est |= {"global_localisation_converged": True, "localiser_rmse_m": 0.01, "localiser_heading_rmse_rad": 0.01}
+    line = localiser_line(est)
+    assert line.startswith("localiser: 1 scan used, RMSE 1.0 cm")
+    assert f"; 1 scan with fewer than {MIN_BEAMS} returns" in line and line.endswith("converged after 1 scan")
+    assert "1 scans" not in line
+
+
+@pytest.mark.parametrize(
+    ("text", "said"),
+    [
+        ("nan,0,0", "--initial-pose nan,0,0: expected three finite numbers; give X,Y,THETA in metres and radians"),
+        (
+            "1,0.8,100",
+            "--initial-pose 1,0.8,100: expected X,Y,THETA with THETA in radians within +-4 pi; 100 degrees would be "
+            "1.745 rad, got 100; give the heading in radians, e.g. --initial-pose 1.2,0.5,0.3",
+        ),
+        ("1,0.8,-1000", "--initial-pose 1,0.8,-1000: expected X,Y,THETA with THETA in radians within +-4 pi, got"),
+        ("unkown", "--initial-pose unkown: not three numbers; give X,Y,THETA"),
+    ],
+)
+def test_a_bad_initial_pose_is_said_in_the_command_lines_words(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, said: str
+) -> None:
+    """The errors quoted the Python API ("(initial_pose=... from Python)"), and a heading of 100 rad was accepted
+    where a scenario file refuses beyond +-4 pi (planning.scenario.MAX_HEADING)."""
+    code, err = _simulate(tmp_path, capsys, f"--initial-pose={text}")
+    assert code == 2 and said in err, err
+    assert "from Python" not in err and not (tmp_path / "r.json").exists()
+
+
+def test_the_initial_pose_keywords_are_taken_in_any_case_and_an_unused_one_is_said() -> None:
+    from sim.cli.main import build_parser
+    from sim.cli.simulate import ignored_options, initial_pose_option
+
+    assert [initial_pose_option(t) for t in ("UNKNOWN", "Known", " unknown ")] == ["unknown", "known", "unknown"]
+    assert initial_pose_option("1,0.8,12.5") == "1,0.8,12.5"  # within 4 pi
+
+    def notes(*extra: str) -> list[str]:
+        return ignored_options(build_parser().parse_args(["simulate", "--reference", "line", *extra]))
+
+    assert notes("--runs", "closed_loop_odometry", "--initial-pose", "UNKNOWN") == [
+        "--initial-pose unknown ignored: no run of closed_loop_odometry localises with scans (only closed_loop, "
+        "on the fused estimate, does)"
+    ]
+    assert notes("--initial-pose", "unknown") == [] and notes("--runs", "closed_loop_odometry") == []

@@ -29,6 +29,7 @@ from sim.outputs import (
     write_json,
 )
 from tests.render_helpers import require_gl
+from tests.test_bag import OLD_META
 
 #: A quick simulate job: one run, the pose fixes (no scan localiser), no video.
 JOB = ["simulate", "--reference", "line", "--runs", "closed_loop", "--localiser", "fixes", "--quiet"]
@@ -299,7 +300,7 @@ def test_the_staged_set_is_moved_in_together_or_not_at_all(tmp_path: Path, monke
     a, b, bag = tmp_path / "a.json", tmp_path / "deep" / "b.json", tmp_path / "bag"
     a.write_text("old a")
     bag.mkdir()
-    (bag / "metadata.yaml").write_text("old bag")
+    (bag / "metadata.yaml").write_text(OLD_META)  # a bag nhsim wrote: --overwrite replaces only those
     before = _tree(tmp_path)
 
     def write_all(stage: object) -> None:

@@ -14,6 +14,7 @@ from sim.cli.checks import add_planner_option_argument
 from sim.cli.job_outputs import RUN_SETTINGS, add_executor_arguments, add_output_arguments
 from sim.cli.trajectory_files import add_file_arguments, check_file_options, file_given, format_import
 from sim.pipeline.runs import RunKind, run_kinds
+from sim.robot.sources import PoseSource
 
 #: The scenario of a job that names none: this map for a plan (the default job, source report 003's: the EduMIP
 #: plans through it with its planner, C-RRT*), the empty arena for an analytic reference.
@@ -404,32 +405,38 @@ def _sensor_line(record: dict[str, Any]) -> str:
     )
 
 
+def _scans(n: int) -> str:
+    """``n`` scans, the noun in the number's form ("1 scan", "3 scans")."""
+    return f"{n} scan{'' if n == 1 else 's'}"
+
+
 def localiser_line(est: dict[str, Any], status: str = "ok") -> str:
     """The closed loop's scan localiser in one line ("" without one): its accuracy, its particles, its
-    revolutions without returns and, after ``--initial-pose unknown``, how global localisation went (the
-    run's ``status`` says whether it ended undecided)."""
+    revolutions with fewer returns than it matches (:data:`control.estimation.amcl.MIN_BEAMS`: no fix came of
+    them) and, after ``--initial-pose unknown``, how global localisation went (the run's ``status`` says whether
+    it ended undecided)."""
+    from control.estimation.amcl import MIN_BEAMS
     from sim.robot.scan_localiser import AMBIGUOUS
 
     if est.get("scans_used") is None:
         return ""
     rmse, head = est.get("localiser_rmse_m"), est.get("localiser_heading_rmse_rad")
     text = (
-        f"localiser: {est['scans_used']} scans used, RMSE "
+        f"localiser: {_scans(est['scans_used'])} used, RMSE "
         + (f"{rmse * 100:.1f} cm / {math.degrees(head):.2f} deg" if rmse is not None and head is not None else "-")
         + (f", {est['mean_particles']:.0f} particles on average" if est.get("mean_particles") is not None else "")
     )
-    blind, cast = est.get("scans_without_returns") or 0, est.get("scans_cast") or 0
-    if blind and blind == cast:
-        text += f"; the scanner saw nothing: all {cast} scans without returns (no fix)"
-    elif blind:
-        text += f"; {blind} scans without returns (no fix)"
+    few, cast = est.get("scans_without_returns") or 0, est.get("scans_cast") or 0
+    if few:  # the record's count: revolutions with fewer than MIN_BEAMS returns, none or a few
+        every = f"all {cast} scans" if few == cast > 1 else _scans(few)
+        text += f"; {every} with fewer than {MIN_BEAMS} returns, the fewest the localiser matches (no fix)"
     if est.get("localisation_lost") is not None:
         text += f"; LOST at t={est['localisation_lost']:.2f} s"
     scans = est.get("global_localisation_scans")
     if scans is not None:
         ok = est.get("global_localisation_converged")
         said = "ambiguous after" if status.startswith(AMBIGUOUS) else "converged after" if ok else "did not converge in"
-        text += f"; global localisation {said} {scans} scans"
+        text += f"; global localisation {said} {_scans(scans)}"
     return text
 
 
@@ -547,6 +554,11 @@ def ignored_options(args: argparse.Namespace) -> list[str]:
     runs = parse_runs(args.runs) if args.runs is not None else run_choices()[args.tracker]
     if args.feedback is not None and all(kind.tracker for kind in runs):
         notes.append(f"--feedback ignored: no run of {', '.join(runs)} feeds back")
+    if args.initial_pose != "known" and not any(localises(kind) for kind in runs):
+        notes.append(
+            f"--initial-pose {args.initial_pose} ignored: no run of {', '.join(runs)} localises with scans (only "
+            f"{RunKind.CLOSED_LOOP}, on the fused estimate, does)"
+        )
     if args.gains and runs == (RunKind.OPEN_LOOP,):
         notes.append("--gains ignored: the open loop alone feeds nothing back")
     elif args.gains and args.feedback is not None and not uses_fbl_gains(args.feedback):
@@ -555,6 +567,36 @@ def ignored_options(args: argparse.Namespace) -> list[str]:
             "compare --params)"
         )
     return notes
+
+
+def localises(kind: RunKind) -> bool:
+    """Whether a run of ``kind`` is corrected by the localiser (fed the fused estimate): the dead-reckoning and
+    true-pose runs take no scan and no fix."""
+    return kind.source is PoseSource.FUSED
+
+
+def check_scan_beams(case: Any, scenario: Any, runs: tuple[RunKind, ...]) -> None:
+    """Refuse a scanner with fewer beams than the scan localiser matches (:data:`control.estimation.amcl.MIN_BEAMS`)
+    when a run localises with it: no revolution could give a fix, and that run would be dead reckoning under the
+    closed loop's name. (A run that takes no scan leaves the setting unused.)
+
+    Raises:
+        ConfigError: Naming the beams, the minimum and the fix.
+    """
+    from control.estimation.amcl import MIN_BEAMS
+
+    if not any(localises(kind) for kind in runs):
+        return
+    setup = case.localiser_setup(scenario)
+    if setup.kind != "amcl" or setup.lidar is None or setup.lidar.beams >= MIN_BEAMS:
+        return
+    beams = setup.lidar.beams
+    raise ConfigError(
+        f"lidar beams={beams} (--lidar, or a --sensors file's [lidar] table): the scan localiser matches a "
+        f"revolution only with at least {MIN_BEAMS} returns (control.estimation.amcl.MIN_BEAMS), so with {beams} "
+        f"beams it would never make a fix and {RunKind.CLOSED_LOOP} would run on dead reckoning; give "
+        f"--lidar beams={MIN_BEAMS} or more (the LDS-01 takes 360)"
+    )
 
 
 def _feedback(name: str | None) -> str | None:
@@ -631,24 +673,33 @@ def add_localiser_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def initial_pose_option(text: str) -> str:
-    """``--initial-pose``'s value: "known", "unknown", or a pose estimate ``X,Y,THETA`` of three finite numbers
-    (its place in the world is checked with the world, :class:`sim.robot.scan_localiser.LocaliserSetup`).
+    """``--initial-pose``'s value: "known" or "unknown" (in any case), or a pose estimate ``X,Y,THETA`` of three
+    finite numbers, the heading within +-4 pi as a scenario's (:data:`planning.scenario.MAX_HEADING`); its place
+    in the world is checked with the world (:class:`sim.robot.scan_localiser.LocaliserSetup`).
 
     Raises:
-        argparse.ArgumentTypeError: Anything else (exit 2, naming the forms).
+        argparse.ArgumentTypeError: Anything else (exit 2, naming the forms; the command line's words only).
     """
-    from sim.robot.pose_estimate import INITIAL_POSES, parse_initial_pose  # no MuJoCo: before --gl is applied
+    from sim.robot.pose_estimate import INITIAL_POSES, POSE_EXAMPLE, parse_initial_pose  # no MuJoCo: before --gl
 
-    if text in INITIAL_POSES:
-        return text
+    if text.strip().lower() in INITIAL_POSES:  # the keywords as the help spells them, but UNKNOWN is meant alike
+        return text.strip().lower()
     if not text.strip():  # as every text option refuses it (sim.cli.checks.refuse_blank_values)
         raise argparse.ArgumentTypeError(
             "the value is empty; give known, unknown or X,Y,THETA, or leave --initial-pose out"
         )
     try:
-        parse_initial_pose(text)
+        theta = parse_initial_pose(text)[2]
     except ConfigError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
+        raise argparse.ArgumentTypeError(without_python(str(exc))) from None
+    from planning.scenario import MAX_HEADING  # the scenario files' bound on a pose's heading
+
+    if abs(theta) > MAX_HEADING:  # as a scenario's pose says it (planning.scenario._pose)
+        degrees = f"; {theta:g} degrees would be {math.radians(theta):.4g} rad" if abs(theta) <= 720 else ""
+        raise argparse.ArgumentTypeError(
+            f"--initial-pose {text}: expected X,Y,THETA with THETA in radians within +-4 pi{degrees}, got {theta:g}; "
+            f"give the heading in radians, e.g. --initial-pose {POSE_EXAMPLE}"
+        )
     return text
 
 
@@ -740,6 +791,7 @@ def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
     runs = parse_runs(args.runs) if args.runs is not None else run_choices()[args.tracker]
     loaded = load_case_scenario(case)  # a robot the scenario does not list stops here
     settings = changed_settings(args, case, loaded, runs)  # so do bad sensor settings and a bad supply
+    check_scan_beams(case, loaded, runs)
     own = None  # the scenario's own robot names the outputs apart from --robot (a file scenario's too)
     if args.robot is not None:
         own = (case.scenario if not isinstance(case.scenario, str) else load_scenario(case.scenario)).robot

@@ -9,6 +9,12 @@ write leaves nothing under the target's name, and an existing bag is replaced on
 step that a signal does not split: the target holds the old bag or the new one, never neither. Whether
 the old bag can be moved aside (permissions, an immutable or append-only flag, a mount point) is checked
 before any work; a move that fails anyway keeps the old bag and is a :class:`BagNotPlacedError`.
+
+Only a bag this program wrote is replaced: its ``metadata.yaml`` carries the mark :data:`MARK` in rosbag2's
+``custom_data`` (written by the same ``rosbags`` writer call as the rest of the metadata, so a bag is marked
+exactly when it is complete), and the folder holds nothing but that file and the storage files it lists. Any
+other folder (a robot's recording, a bag another tool wrote, one of ours with a user's notes added) is refused,
+with ``--overwrite`` too (:func:`not_ours`).
 """
 
 from __future__ import annotations
@@ -35,6 +41,9 @@ from sim.outputs import APPEND_ONLY, IMMUTABLE, folder_for, inode_flags
 
 #: Writer settings: rosbag2 metadata version, storage and compression.
 BAG_VERSION: Literal[8] = 8
+#: The mark of a bag this program wrote: a key and its value in ``metadata.yaml``'s ``custom_data``
+#: (rosbag2's own place for a writer's notes; ``rosbags`` writes it with the rest of the metadata).
+MARK = ("nhsim.writer", "nhsim")
 
 
 class BagNotPlacedError(NhsimError, OSError):
@@ -78,10 +87,11 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
     """Check, before any work, that a bag can be written at ``path`` (a folder to be created).
 
     Raises:
-        OutputExistsError: ``path`` exists and ``overwrite`` is false.
-        ConfigError: ``overwrite`` is not True or False, ``path`` is a file, or a folder that is not a rosbag2
-            bag (it is never replaced), or a bag that could not be moved aside (:func:`_unmovable`: the folder
-            and the fix named), or its parent folder cannot take new files.
+        OutputExistsError: ``path`` is an empty folder or a bag this program wrote, and ``overwrite`` is false.
+        ConfigError: ``overwrite`` is not True or False, ``path`` is a file, or a folder that is not a bag this
+            program wrote (:func:`not_ours`: never replaced, with ``overwrite`` too), or a bag that could not be
+            moved aside (:func:`_unmovable`: the folder and the fix named), or its parent folder cannot take new
+            files.
     """
     from sim.outputs import check_folder_for
 
@@ -93,15 +103,16 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
                 f"cannot write the bag {path}: a file of that name exists; choose another folder with "
                 f"{option('bag', python='path')}"
             )
+        foreign = not_ours(path)
+        if foreign:  # before the --overwrite advice: --overwrite would not replace it either
+            raise ConfigError(
+                f"cannot write the bag {path}: {foreign}; {option('overwrite', True)} replaces only a bag nhsim "
+                f"wrote, so it is kept: move it away, or choose another folder with {option('bag', python='path')}"
+            )
         if not overwrite:
             raise OutputExistsError(
                 f"{path} exists already; pass {option('overwrite', True)} to replace it, or choose another folder "
                 f"with {option('bag', python='path')}"
-            )
-        if any(path.iterdir()) and not (path / "metadata.yaml").is_file():
-            raise ConfigError(
-                f"cannot replace {path}: it is a folder that holds files but no rosbag2 metadata.yaml, so not a bag "
-                f"this command wrote; choose another folder with {option('bag', python='path')}"
             )
         reason = _unmovable(path)
         if reason:
@@ -110,6 +121,47 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
                 f"or choose another folder with {option('bag', python='path')}"
             )
     check_folder_for(path)
+
+
+def not_ours(path: Path) -> str:
+    """Why the existing folder ``path`` is not a bag this program wrote, or "" when it is one (or is empty).
+
+    A bag of ours has :data:`MARK` in its ``metadata.yaml``'s ``custom_data`` and holds nothing but that file
+    and the storage files the metadata lists (``relative_file_paths``).
+    """
+    entries = sorted(p.name for p in path.iterdir())
+    if not entries:
+        return ""
+    meta = path / "metadata.yaml"
+    if not meta.is_file():
+        return "it is a folder that holds files but no rosbag2 metadata.yaml, so it is not a bag"
+    info = _metadata(meta)
+    custom = info.get("custom_data") if info is not None else None
+    key, value = MARK
+    if not isinstance(custom, dict) or custom.get(key) != value:
+        return (
+            f"it looks like a bag not written by nhsim (its metadata.yaml has no custom_data mark '{key}: {value}', "
+            "which nhsim writes into every bag)"
+        )
+    listed = info.get("relative_file_paths") if info is not None else None
+    known = {"metadata.yaml", *(str(f) for f in listed or [])}
+    extra = [name for name in entries if name not in known]
+    if extra:
+        shown = ", ".join(extra[:3]) + (f" and {len(extra) - 3} more" if len(extra) > 3 else "")
+        return f"it is a bag nhsim wrote, but it also holds {shown}, which nhsim did not write"
+    return ""
+
+
+def _metadata(meta: Path) -> dict[str, Any] | None:
+    """The ``rosbag2_bagfile_information`` mapping of a ``metadata.yaml``, or None when it is not one."""
+    import yaml
+
+    try:
+        data = yaml.safe_load(meta.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        return None
+    info = data.get("rosbag2_bagfile_information") if isinstance(data, dict) else None
+    return info if isinstance(info, dict) else None
 
 
 def _unmovable(path: Path) -> str:
@@ -241,6 +293,7 @@ def _write(topics: list[bt.Topic], folder: Path) -> None:
 
     writer = Writer(folder, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
     writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+    writer.set_custom_data(*MARK)  # what check_bag_target looks for before it replaces the bag
     stamps = np.concatenate([np.round(tp.times * 1e9).astype(np.int64) for tp in topics])
     which = np.concatenate([np.full(tp.times.size, i) for i, tp in enumerate(topics)])
     index = np.concatenate([np.arange(tp.times.size) for tp in topics])

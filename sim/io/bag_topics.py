@@ -43,8 +43,11 @@ from sim.io import rosmsgs as m
 
 FloatArray = NDArray[np.float64]
 
-#: Edge of a map cell [m] (coarser for large worlds: at most MAP_MAX_CELLS cells).
-MAP_RESOLUTION = 0.02
+#: Edge of a map cell [m] (coarser for large worlds: at most MAP_MAX_CELLS cells): the scan localiser's own grid
+#: (``AmclConfig.map_resolution``), the physics' walls (0.05 m) two cells thick, and with cell edges on the world's
+#: bounds (:func:`map_layout`) every face on the 5 cm lattice of the bounds lies on a cell edge (at 0.02 m every
+#: wall face ran through the middle of a cell, and a face at an odd centimetre still would).
+MAP_RESOLUTION = 0.025
 MAP_MAX_CELLS = 1_000_000
 #: Height of a robot's body marker [m].
 ROBOT_HEIGHT = 0.12
@@ -754,28 +757,50 @@ def wall_thickness() -> float:
     return float(inspect.signature(build_model).parameters["wall_thickness"].default)
 
 
-def map_origin(world: World) -> tuple[float, float]:
-    """The lower-left corner of ``/map`` [m]: the world's, moved out by the walls' thickness."""
+def map_layout(world: World, resolution: float = MAP_RESOLUTION) -> tuple[float, int, int, int]:
+    """How ``/map``'s cells lie: (resolution [m], walls' cells beyond each bound, columns, rows).
+
+    The grid reaches past the world's bounds by the walls' thickness (:func:`wall_thickness`) rounded up to
+    whole cells, so that cell edges fall on the world's lower bounds (and on its upper ones when the bounds
+    span a whole number of cells): a wall face, and an obstacle face on the grid of the bounds, lies between
+    two cells, not across one. The resolution is coarsened for large worlds (at most :data:`MAP_MAX_CELLS`).
+    """
+    xmin, xmax, ymin, ymax = world.bounds
     t = wall_thickness()
-    return world.bounds[0] - t, world.bounds[2] - t
+    area = (xmax - xmin + 2 * t) * (ymax - ymin + 2 * t)
+    res = max(resolution, math.ceil(math.sqrt(area / MAP_MAX_CELLS) * 1000.0) / 1000.0)
+    pad = math.ceil(t / res - 1e-9)
+    w = max(1, math.ceil((xmax - xmin) / res - 1e-9)) + 2 * pad
+    h = max(1, math.ceil((ymax - ymin) / res - 1e-9)) + 2 * pad
+    return res, pad, w, h
+
+
+def map_origin(world: World) -> tuple[float, float]:
+    """The lower-left corner of ``/map`` [m]: the world's, moved out by the walls' thickness in whole cells
+    (:func:`map_layout`)."""
+    res, pad, _, _ = map_layout(world)
+    return world.bounds[0] - pad * res, world.bounds[2] - pad * res
 
 
 def occupancy(world: World, resolution: float = MAP_RESOLUTION) -> tuple[float, NDArray[np.int8]]:
     """The world's obstacles and its walls as occupancy (100 inside one, 0 free), rows along y from
-    :func:`map_origin`: the grid spans the bounds and the walls around them (:func:`wall_thickness`,
-    outside the bounds), every cell whose centre lies outside the bounds a wall's.
+    :func:`map_origin`: the grid spans the bounds and the walls around them (:func:`map_layout`), a cell
+    occupied when its centre lies inside an obstacle or outside the bounds (the walls'). The cell edges fall
+    on the bounds, so a wall face lies on a cell edge and the map's walls are where the world's are; so does an
+    obstacle's face on the lattice of the bounds (a multiple of 2.5 cm from them at the default resolution). A
+    face midway between two edges runs through a row of centres: those cells, half inside, count as occupied (a
+    planner's safe side), so such a face is drawn up to half a cell out.
 
     Returns:
         (resolution [m], coarsened for large worlds, (H, W) int8 grid).
     """
     xmin, xmax, ymin, ymax = world.bounds
-    x0, y0 = map_origin(world)
-    width, height = xmax - xmin + 2 * (xmin - x0), ymax - ymin + 2 * (ymin - y0)
-    res = max(resolution, math.ceil(math.sqrt(width * height / MAP_MAX_CELLS) * 1000.0) / 1000.0)
-    w, h = max(1, math.ceil(width / res - 1e-9)), max(1, math.ceil(height / res - 1e-9))
-    xs, ys = x0 + (np.arange(w) + 0.5) * res, y0 + (np.arange(h) + 0.5) * res
+    res, pad, w, h = map_layout(world, resolution)
+    # centres counted from the bounds (not from the corner), so that none lands on a face by round-off
+    xs, ys = xmin + (np.arange(w) - pad + 0.5) * res, ymin + (np.arange(h) - pad + 0.5) * res
     gx, gy = np.meshgrid(xs, ys)
-    inside = world.obstacle_distance(np.column_stack([gx.ravel(), gy.ravel()])) <= 0.0
+    centres = np.column_stack([gx.ravel(), gy.ravel()])
+    inside = world.obstacle_distance(centres) <= 1e-9  # a centre on a face (a tie) counts as in
     wall = ((gx < xmin) | (gx > xmax) | (gy < ymin) | (gy > ymax)).ravel()
     return res, np.where(inside | wall, 100, 0).astype(np.int8).reshape(h, w)
 

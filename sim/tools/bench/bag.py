@@ -90,27 +90,29 @@ def _children_cpu() -> float:
 
 
 def _command(argv: list[str], folder: Path, bag: bool) -> tuple[float, float, dict[str, Any]]:
-    """Run ``nhsim simulate ARGV --no-video`` (with ``--bag`` when asked): (wall [s], CPU [s], its record)."""
+    """Run ``nhsim simulate ARGV --no-video`` (with ``--bag`` when asked) with its outputs in ``folder``, which must
+    be new (so no record of an earlier command can be read for this one's): (wall [s], CPU [s], its record).
+
+    Raises:
+        NhsimError: The command failed (any exit status but 0: bad input, a failed run, a crash), naming the
+            command, its exit status and the end of its own error output; or it wrote no record.
+    """
+    folder.mkdir()
     record = folder / "run.json"
-    cmd = [
-        sys.executable,
-        "-m",
-        "sim",
-        "simulate",
-        *argv,
-        "--no-video",
-        "--quiet",
-        "--overwrite",
-        "--json",
-        str(record),
-    ]
+    cmd = [sys.executable, "-m", "sim", "simulate", *argv, "--no-video", "--quiet", "--json", str(record)]
     if bag:
         cmd += ["--bag", str(folder / "bag")]
     cpu, t0 = _children_cpu(), time.perf_counter()
     done = subprocess.run(cmd, capture_output=True, text=True, check=False)
     wall, cpu = time.perf_counter() - t0, _children_cpu() - cpu
-    if done.returncode == 2 or not record.is_file():
-        raise NhsimError(f"{' '.join(cmd[3:])} failed (exit {done.returncode}): {done.stderr.strip()[-500:]}")
+    said = done.stderr.strip()[-1500:] or "no error output"
+    if done.returncode != 0:
+        raise NhsimError(
+            f"the timed command failed (exit {done.returncode}), so nothing was measured: nhsim {' '.join(cmd[3:])}\n"
+            f"{said}\nrun that command alone to see why, and fix it (or give bench bag another job)"
+        )
+    if not record.is_file() or (bag and not (folder / "bag").is_dir()):
+        raise NhsimError(f"nhsim {' '.join(cmd[3:])} exited 0 but wrote no record or no bag in {folder}: {said}")
     return wall, cpu, json.loads(record.read_text(encoding="utf-8"))
 
 
@@ -122,7 +124,7 @@ def measure(argv: list[str], repeats: int) -> BagBench:
     with tempfile.TemporaryDirectory(prefix="nhsim-bench-bag-") as tmp:
         for r in range(repeats):
             for bag in (False, True) if r % 2 == 0 else (True, False):
-                wall, cpu, record = _command(argv, Path(tmp), bag)
+                wall, cpu, record = _command(argv, Path(tmp) / f"{r}-{'bag' if bag else 'plain'}", bag)
                 runs[bag].append((wall, cpu))
                 if bag:
                     last = record["bag"]
