@@ -138,14 +138,24 @@ def _planner_options(r: TableReader, table: Any) -> dict[str, dict[str, Any]]:
 MAX_HEADING = 4.0 * np.pi
 
 
+def heading_beyond(theta: float) -> str:
+    """Why a pose's heading ``theta`` [rad] is refused, "" when it is within :data:`MAX_HEADING`: "in radians within
+    +-4 pi; 90 degrees would be 1.571 rad" (the degrees only for a heading that could be some). A scenario's poses,
+    ``--offset`` and ``--initial-pose`` judge their headings by it."""
+    if abs(theta) <= MAX_HEADING:
+        return ""
+    degrees = f"; {theta:g} degrees would be {np.radians(theta):.4g} rad" if abs(theta) <= 720 else ""
+    return f"in radians within +-4 pi{degrees}"
+
+
 def _pose(r: TableReader, table: Mapping[str, Any], ctx: str) -> Pose2D:
     """A ``pose = [x, y, theta]`` field, its heading brought into (-pi, pi] (a pose's direction, whatever turn
     it was written with: 7 rad is 0.717 rad; one already in it is kept as written, bit for bit); one beyond
     :data:`MAX_HEADING` is refused."""
     x, y, theta = r.vector(table, "pose", ctx, 3)
-    if abs(theta) > MAX_HEADING:
-        degrees = f"; {theta:g} degrees would be {np.radians(theta):.4g} rad" if abs(theta) <= 720 else ""
-        raise r.fail(f"{ctx}pose", f"[x, y, theta] with theta in radians within +-4 pi{degrees}", table["pose"])
+    beyond = heading_beyond(theta)
+    if beyond:
+        raise r.fail(f"{ctx}pose", f"[x, y, theta] with theta {beyond}", table["pose"])
     if not -np.pi < theta <= np.pi:
         theta = float(wrap_angle(theta))
         theta = np.pi if theta == -np.pi else theta

@@ -294,9 +294,7 @@ def test_option_parsers() -> None:
     for bad in ("1,2", "a,b,c", "1,2,inf"):
         with pytest.raises(TrajectoryFileError, match="X,Y,THETA"):
             parse_offset(bad)
-    with pytest.raises(
-        TrajectoryFileError, match=r"THETA is in radians, within \+-4 pi; 90 degrees would be 1.571 rad"
-    ):
+    with pytest.raises(TrajectoryFileError, match=r"THETA is in radians within \+-4 pi; 90 degrees would be 1.571 rad"):
         parse_offset("1,1,90")  # turned the file by 90 rad
     assert parse_offset("0,0,-6.5") == (0.0, 0.0, -6.5)  # more than a turn, within 4 pi: a direction
     with pytest.raises(TrajectoryFileError, match="valid names are t, x, y, theta"):

@@ -311,10 +311,10 @@ def test_the_localiser_line_counts_revolutions_below_the_minimum_honestly() -> N
         ("nan,0,0", "--initial-pose nan,0,0: expected three finite numbers; give X,Y,THETA in metres and radians"),
         (
             "1,0.8,100",
-            "--initial-pose 1,0.8,100: expected X,Y,THETA with THETA in radians within +-4 pi; 100 degrees would be "
-            "1.745 rad, got 100; give the heading in radians, e.g. --initial-pose 1.2,0.5,0.3",
+            "--initial-pose 1,0.8,100: THETA is in radians within +-4 pi; 100 degrees would be 1.745 rad; give "
+            "X,Y,THETA in metres and radians, e.g. --initial-pose 1.2,0.5,0.3",
         ),
-        ("1,0.8,-1000", "--initial-pose 1,0.8,-1000: expected X,Y,THETA with THETA in radians within +-4 pi, got"),
+        ("1,0.8,-1000", "--initial-pose 1,0.8,-1000: THETA is in radians within +-4 pi; give X,Y,THETA"),
         ("unkown", "--initial-pose unkown: not three numbers; give X,Y,THETA"),
     ],
 )
@@ -326,6 +326,15 @@ def test_a_bad_initial_pose_is_said_in_the_command_lines_words(
     code, err = _simulate(tmp_path, capsys, f"--initial-pose={text}")
     assert code == 2 and said in err, err
     assert "from Python" not in err and not (tmp_path / "r.json").exists()
+
+
+def test_a_python_callers_initial_pose_heading_is_judged_as_the_command_lines() -> None:
+    from planning.errors import ConfigError
+    from sim.pipeline.case import Case
+
+    with pytest.raises(ConfigError, match=r"THETA is in radians within \+-4 pi; 100 degrees would be 1.745 rad"):
+        Case("open", robot="turtlebot3", reference="line", initial_pose="1,0.8,100")
+    assert Case("open", robot="turtlebot3", reference="line", initial_pose="1,0.8,-7").initial_pose == "1,0.8,-7"
 
 
 def test_the_initial_pose_keywords_are_taken_in_any_case_and_an_unused_one_is_said() -> None:

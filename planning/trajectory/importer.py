@@ -143,11 +143,11 @@ def parse_offset(text: str) -> tuple[float, float, float]:
         values = ()
     if len(values) != 3 or not all(np.isfinite(values)):
         raise TrajectoryFileError(f"--offset {text!r}: expected X,Y,THETA (metres, metres, radians), e.g. 1.5,0,0.3")
-    from planning.scenario import MAX_HEADING
+    from planning.scenario import heading_beyond
 
-    if abs(values[2]) > MAX_HEADING:  # a typo or degrees, as a scenario's heading is judged
-        deg = f"; {values[2]:g} degrees would be {np.radians(values[2]):.4g} rad" if abs(values[2]) <= 720 else ""
-        raise TrajectoryFileError(f"--offset {text!r}: THETA is in radians, within +-4 pi{deg}")
+    beyond = heading_beyond(values[2])  # a typo or degrees, as a scenario's heading is judged
+    if beyond:
+        raise TrajectoryFileError(f"--offset {text!r}: THETA is {beyond}")
     return values  # type: ignore[return-value]
 
 

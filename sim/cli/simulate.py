@@ -680,7 +680,7 @@ def initial_pose_option(text: str) -> str:
     Raises:
         argparse.ArgumentTypeError: Anything else (exit 2, naming the forms; the command line's words only).
     """
-    from sim.robot.pose_estimate import INITIAL_POSES, POSE_EXAMPLE, parse_initial_pose  # no MuJoCo: before --gl
+    from sim.robot.pose_estimate import INITIAL_POSES, parse_initial_pose  # no MuJoCo: before --gl
 
     if text.strip().lower() in INITIAL_POSES:  # the keywords as the help spells them, but UNKNOWN is meant alike
         return text.strip().lower()
@@ -689,17 +689,9 @@ def initial_pose_option(text: str) -> str:
             "the value is empty; give known, unknown or X,Y,THETA, or leave --initial-pose out"
         )
     try:
-        theta = parse_initial_pose(text)[2]
+        parse_initial_pose(text)  # three finite numbers, the heading within +-4 pi as a scenario's
     except ConfigError as exc:
         raise argparse.ArgumentTypeError(without_python(str(exc))) from None
-    from planning.scenario import MAX_HEADING  # the scenario files' bound on a pose's heading
-
-    if abs(theta) > MAX_HEADING:  # as a scenario's pose says it (planning.scenario._pose)
-        degrees = f"; {theta:g} degrees would be {math.radians(theta):.4g} rad" if abs(theta) <= 720 else ""
-        raise argparse.ArgumentTypeError(
-            f"--initial-pose {text}: expected X,Y,THETA with THETA in radians within +-4 pi{degrees}, got {theta:g}; "
-            f"give the heading in radians, e.g. --initial-pose {POSE_EXAMPLE}"
-        )
     return text
 
 

@@ -22,8 +22,11 @@ def parse_initial_pose(text: str) -> tuple[float, float, float]:
     """A pose estimate ``X,Y,THETA`` [m, m, rad] (``--initial-pose``).
 
     Raises:
-        ConfigError: Not three finite numbers (naming the option and an example).
+        ConfigError: Not three finite numbers, or a heading beyond +-4 pi as a scenario's pose refuses it
+            (:func:`planning.scenario.heading_beyond`: a typo or degrees), naming the option and an example.
     """
+    from planning.scenario import heading_beyond
+
     parts = [p.strip() for p in text.split(",")]
     fix = f"give X,Y,THETA in metres and radians, e.g. {option('initial-pose', POSE_EXAMPLE)}, or known or unknown"
     try:
@@ -32,6 +35,9 @@ def parse_initial_pose(text: str) -> tuple[float, float, float]:
         raise ConfigError(f"{option('initial-pose', text)}: not three numbers; {fix}") from None
     if len(values) != 3 or not all(math.isfinite(v) for v in values):
         raise ConfigError(f"{option('initial-pose', text)}: expected three finite numbers; {fix}")
+    beyond = heading_beyond(values[2])
+    if beyond:
+        raise ConfigError(f"{option('initial-pose', text)}: THETA is {beyond}; {fix}")
     return values[0], values[1], values[2]
 
 
