@@ -352,3 +352,15 @@ def test_the_initial_pose_keywords_are_taken_in_any_case_and_an_unused_one_is_sa
         "on the fused estimate, does)"
     ]
     assert notes("--initial-pose", "unknown") == [] and notes("--runs", "closed_loop_odometry") == []
+
+
+def test_a_scan_rate_between_control_ticks_is_refused_with_the_rates_that_fit(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--lidar rate=4.9`` was refused as "fix_rate must equal the scan rate: set --sensors fix_rate=4.9", which
+    was then refused as not a whole number of control periods: no fix rate could equal it."""
+    code, err = _simulate(tmp_path, capsys, "--runs", "closed_loop", "--lidar", "rate=4.9")
+    assert code == 2 and "lidar rate=4.9 Hz: a revolution is 10.2 control periods at 50 Hz, not a whole number" in err
+    assert err.rstrip().endswith("at a control tick; give --lidar rate=5") and "fix_rate" not in err
+    code, err = _simulate(tmp_path, capsys, "--runs", "closed_loop", "--lidar", "rate=4.9", "--control-rate", "250")
+    assert code == 2 and "give --lidar rate=5.10204 (or 5, 4.90196 Hz)" in err

@@ -503,6 +503,27 @@ def range_noise(lidar: LidarProfile) -> tuple[float, float, float, float, float]
     return split, lidar.precision_near, lidar.precision_far, split * lidar.accuracy_far, lidar.accuracy_near
 
 
+def _rate_between_ticks(rate: float, dt: float) -> str:
+    """The refusal of a scan rate whose revolution is not a whole number of control periods ``dt`` [s]: the
+    localiser's fix is taken at a control tick once a revolution, so the fix rate could not equal it."""
+    from sim.physics.lidar import LIMITS
+
+    low, high, _ = LIMITS["rate"]
+    control = 1.0 / dt
+    periods = range(max(1, math.floor(control / high)), math.ceil(control / low) + 1)
+    fit = [f"{control / n:g}" for n in periods if low - 1e-9 <= control / n <= high + 1e-9]
+    said = (
+        f"give {option('lidar', 'rate=' + fit[0])}" + (f" (or {', '.join(fit[1:])} Hz)" if fit[1:] else "")
+        if fit
+        else f"no rate within the LDS-01's {60 * low:g}-{60 * high:g} rpm fits {control:g} Hz: give "
+        f"{option('control-rate', 50)}, which 5 Hz fits"
+    )
+    return (
+        f"lidar rate={rate:g} Hz: a revolution is {control / rate:.4g} control periods at {control:g} Hz, not a whole "
+        f"number, and the amcl localiser takes its fix once a revolution, at a control tick; {said}"
+    )
+
+
 def localiser_schedule(setup: LocaliserSetup, fix_every: int, latency_periods: int, dt: float) -> None:
     """Check that the fix schedule fits the scanner: one fix per revolution, delivered after it ends.
 
@@ -512,6 +533,8 @@ def localiser_schedule(setup: LocaliserSetup, fix_every: int, latency_periods: i
     """
     assert setup.lidar is not None
     per_rev = setup.lidar.period / dt
+    if abs(per_rev - round(per_rev)) > 1e-6 * per_rev:  # the fix rate, which must equal it, could not either
+        raise ConfigError(_rate_between_ticks(setup.lidar.rate, dt))
     if fix_every == 0 or abs(fix_every - per_rev) > 1e-6 * per_rev:
         rate = setup.lidar.rate
         raise ConfigError(
