@@ -4,6 +4,8 @@ kind is named where it is given (it was an AttributeError deep inside)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -361,3 +363,164 @@ def test_the_new_planner_page_registers_plans_and_simulates_its_planner(
     with pytest.raises(ConfigError, match=r"a planner plans a PlanProblem"):
         planner.plan(module.scenario)
     assert main(["plan", "--scenario", "simple_motion", "--planner", "turn-drive-turn", "--quiet"]) == 0
+
+
+# ---- arguments checked where they are given: a push, smoothing options, robots, worlds, starts, jobs, paths --------
+
+
+def test_a_perturbation_push_is_checked_when_made_like_its_other_fields() -> None:
+    """``Perturbation(push="1,2")`` and ``push=(nan, 0)`` were accepted; the run then failed with
+    ``TypeError: '>=' not supported between instances of 'str' and 'float'`` deep in the physics."""
+    from sim.physics.perturb import Perturbation
+
+    pair = r"^perturbation push must be a pair \(impulse \[N s\], time \[s\]\) or None, got "
+    fix = r"; e\.g\. Perturbation\(push=\(0\.05, 10\.0\)\) \(Perturbation\.parse\('push=0\.05@10'\) reads the "
+    for bad, given in [("1,2", r"'1,2'"), ((0.05,), r"\(0\.05,\)"), (0.05, r"0\.05"), ((0.05, 1.0, 2.0), r"\(0\.05, ")]:
+        with pytest.raises(ConfigError, match=pair + given + (fix if given != r"\(0\.05, " else "")):
+            Perturbation(push=bad)  # type: ignore[arg-type]
+    for bad, message in [
+        ((np.nan, 0.0), r"^perturbation push impulse must be a finite number in \[-1, 1\] \(N s\), got nan$"),
+        ((2.0, 1.0), r"^perturbation push impulse must be a finite number in \[-1, 1\] \(N s\), got 2\.0$"),
+        (("0.05", 1.0), r"^perturbation push impulse must be .*, got '0\.05'$"),
+        ((0.05, -1.0), r"^perturbation push time must be a finite number in \[0, 1e\+06\] \(s\), got -1\.0$"),
+        ((0.05, np.inf), r"^perturbation push time must be .*, got inf$"),
+    ]:
+        with pytest.raises(ConfigError, match=message):
+            Perturbation(push=bad)  # type: ignore[arg-type]
+    for good in ([0.05, 10], np.array([0.05, 10.0]), (np.float32(0.05), np.int64(10))):
+        push = Perturbation(push=good).push  # type: ignore[arg-type]
+        assert push == pytest.approx((0.05, 10.0)) and type(push) is tuple and type(push[1]) is float
+    assert Perturbation.parse("push=-0.05@3").push == (-0.05, 3.0) and Perturbation().push is None
+
+
+def test_smoothing_options_are_checked_on_entry_naming_each() -> None:
+    """``clearance="0.1"`` was a TypeError deep inside the fit, ``dt=-0.01`` "Trajectory.t must be strictly
+    increasing", ``dt=10`` a 5-sample trajectory and ``margin=-1`` a plain ValueError. The options that reach the
+    smoothing (clearance, max_deviation, corner_angle) are checked there; ``check_options`` checks them all."""
+    import inspect
+    import math
+
+    from planning import load_scenario, to_trajectory
+    from planning.trajectory.from_plan import make_trajectory
+    from planning.trajectory.smoothing import MAX_SAMPLE_PERIOD, check_options
+
+    robot, world = load_robot("turtlebot3"), load_scenario("open").world
+    path = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, math.pi / 2]])
+    for options, message in [
+        ({"clearance": "0.1"}, r"clearance must be a finite number >= 0 \(m\), got '0\.1'; the footprint clearance"),
+        ({"clearance": -0.01}, r"clearance must be a finite number >= 0 \(m\), got -0\.01"),
+        ({"max_deviation": 0.0}, r"max_deviation must be a finite number > 0 \(m\), got 0\.0; the distance allowed"),
+        ({"corner_angle": 90}, r"corner_angle must be .* in \[0, 3\.14159\] \(rad\), got 90; for degrees use math"),
+    ]:
+        with pytest.raises(ConfigError, match=r"^to_trajectory: " + message):
+            to_trajectory(path, robot, world, **options)
+    assert to_trajectory(path, robot, world, clearance=None, corner_angle=np.float64(1.0)).duration > 0
+    assert MAX_SAMPLE_PERIOD == 0.1
+    for options, message in [
+        ({"dt": -0.01}, r"dt must be a finite number in \[0\.0001, 0\.1\] \(s\), got -0\.01; the trajectory's sample"),
+        ({"dt": 10}, r"dt must be a finite number in \[0\.0001, 0\.1\] \(s\), got 10; .*collision-checked curve"),
+        ({"dt": 1e-9}, r"dt must be a finite number in \[0\.0001, 0\.1\] \(s\), got 1e-09"),
+        ({"margin": -1}, r"margin must be a finite number in \(0, 1\] \(a fraction of the robot's limits\), got -1"),
+        ({"dwell": "0.3"}, r"dwell must be a finite number in \[0, 60\] \(s\), got '0\.3'"),
+        ({"snap_tolerance": math.nan}, r"snap_tolerance must be a finite number >= 0 \(m\), got nan"),
+        ({"retime": "no"}, r"retime must be True, False or None \(by the plan\), got 'no'"),
+        ({"keep_loops": 1}, r"keep_loops must be True or False, got 1"),
+        ({"goal": (1.0, 1.0, 0.0)}, r"goal must be a Pose2D or None, got \(1\.0, 1\.0, 0\.0\)"),
+        ({"name": 3}, r"name must be text or None, got 3"),
+    ]:
+        with pytest.raises(ConfigError, match=r"^to_trajectory: " + message):
+            check_options(options)
+        with pytest.raises(ConfigError, match=r"^to_trajectory: " + message):
+            to_trajectory(path, robot, world, **options)  # the entry point checks them all
+    params = inspect.signature(make_trajectory).parameters.values()
+    defaults = {p.name: p.default for p in params if p.kind is p.KEYWORD_ONLY}
+    assert check_options(defaults) == defaults  # every default passes
+    given = check_options({"dt": np.float32(0.02), "margin": 1, "retime": np.bool_(True), "speed": 3})
+    assert given == {"dt": pytest.approx(0.02), "margin": 1.0, "retime": True, "speed": 3}  # unknown: the caller's
+    assert type(given["margin"]) is float and type(given["retime"]) is bool
+
+
+def test_references_simulators_and_videos_name_an_argument_of_the_wrong_kind(tmp_path: Path) -> None:
+    """Each was an AttributeError from inside (``'tuple' object has no attribute 'theta'``, ``'str' object has
+    no attribute 'scene'``, ``'tuple' object has no attribute 'obstacles'``, ``'NoneType' object has no attribute
+    'model'``) or pathlib's TypeError (``write_video(job, 5)``)."""
+    from types import SimpleNamespace
+
+    from sim.physics.simulator import Simulator
+    from sim.viz.job_video import write_video
+
+    robot = load_robot("edumip")
+    for start in ((0, 0, 0), np.zeros(3)):
+        with pytest.raises(
+            ConfigError,
+            match=r"^reference 'circle': start must be a Pose2D, got .*; Pose2D\.from_array\(start\) makes one of",
+        ):
+            make_reference("circle", robot, start)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match=r"^reference 'line': start must be a Pose2D, got None; give Pose2D\(x, y"):
+        make_reference("line", robot, None)  # type: ignore[arg-type]
+    with pytest.raises(
+        ConfigError, match=r"^reference 'figure8': robot must be a RobotSpec \(load_robot\('edumip'\)\)"
+    ):
+        make_reference("figure8", "edumip", Pose2D(0.0, 0.0, 0.0))  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match=r"^Simulator: robot must be a RobotSpec \(load_robot\('edumip'\)\), got 'e"):
+        Simulator("edumip")  # type: ignore[arg-type]
+    with pytest.raises(
+        ConfigError,
+        match=r"^Simulator: world must be a World or None \(an empty floor\), got \(0, 1, 0, 1\); give "
+        r"World\(\(0, 1, 0, 1\)\) for bounds alone, or load_scenario\(name\)\.world$",
+    ):
+        Simulator(robot, (0, 1, 0, 1))  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match=r"world must be .*, got 'open'; give load_scenario\('open'\)\.world$"):
+        Simulator(robot, "open")  # type: ignore[arg-type]
+    video = tmp_path / "run.mp4"
+    with pytest.raises(ConfigError, match=r"^write_video: job must be a simulated job \(what simulate_plan, "):
+        write_video(None, video)  # type: ignore[arg-type]
+    job = SimpleNamespace(trajectory=None, logs={}, model=None)  # what the checks look for, no simulation
+    with pytest.raises(ConfigError, match=r"^write_video: path must be a file name ending in \.mp4 .*, got 5; e\.g\."):
+        write_video(job, 5)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match=r"^write_video: settings must be a RenderSettings or None .*, got \(640, "):
+        write_video(job, video, (640, 480))  # type: ignore[arg-type]
+    assert not video.exists() and not any(tmp_path.iterdir())
+
+
+def test_path_length_and_densify_path_refuse_a_bad_radius_shape_nan_or_spacing(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``path_length(p, radius=-1)`` was 0.0, an (N, 4) array was measured, a NaN gave nan, the (N, 2) error
+    named path_steps, and ``densify_path(p, 1e-9)`` was numpy's MemoryError (7.28 TiB)."""
+    import math
+
+    from planning import densify_path, path_length
+    from planning.core import geometry
+    from planning.core.geometry import path_steps
+
+    p = [[0.0, 0.0, 0.0], [1.0, 0.0, 1.0]]
+    radius = r"radius must be a finite number >= 0 \(m\), got {}; the robot's radius, or 0 to count positions only$"
+    for bad, shown in [(-1, "-1"), (math.nan, "nan"), (math.inf, "inf"), ("0.1", "'0.1'")]:
+        for call, name in [(path_length, "path_length"), (path_steps, "path_steps")]:
+            with pytest.raises(ConfigError, match=rf"^{name}: " + radius.format(shown)):
+                call(p, radius=bad)  # type: ignore[arg-type]
+        with pytest.raises(ConfigError, match=r"^densify_path: " + radius.format(shown)):
+            densify_path(p, 0.1, radius=bad)  # type: ignore[arg-type]
+    assert path_length(p, radius=np.float32(0.1)) == pytest.approx(1.1) and path_length(p, radius=0) == 1.0
+    with pytest.raises(
+        ConfigError, match=r"^path_length: path must be .*got shape \(2, 4\); pass path\[:, :3\] for the poses alone$"
+    ):
+        path_length([[0, 0, 0, 0], [3, 4, 0, 0]])
+    nan_row = r"^path_length: the path has non-finite values \(NaN or infinite\) in 1 of its 3 poses \(rows 1\); "
+    for bad, r in [([[0, 0, 0], [math.nan, 0, 0], [1, 1, 1]], 0.0), ([[0, 0, 0], [0, 0, math.inf], [1, 1, 1]], 0.1)]:
+        with pytest.raises(ConfigError, match=nan_row + "give finite poses$"):
+            path_length(bad, radius=r)
+    assert path_length([[0, 0, 0], [0, 0, math.nan], [3, 4, 0]]) == 5.0  # a heading the length does not read
+    with pytest.raises(ConfigError, match=r"^path_length: counting turns \(radius 0\.1\) needs \(N, 3\) poses"):
+        path_length([[0.0, 0.0], [1.0, 0.0]], radius=0.1)
+    with pytest.raises(
+        ConfigError,
+        match=r"^densify_path: spacing 1e-09 m would cut the path's 1000 m into 1e\+12 poses \(at most 10,000,000\); "
+        r"give a larger spacing, at least 0\.00011 m \(e\.g\. 0\.02\)$",
+    ):
+        densify_path([[0, 0, 0], [1000, 0, 0]], 1e-9)
+    with pytest.raises(ConfigError, match=r"^densify_path: spacing 1e-300 m would cut .* into 1e\+303 poses"):
+        densify_path([[0, 0, 0], [1000, 0, 0]], 1e-300)
+    monkeypatch.setattr(geometry, "MAX_DENSE_POSES", 11)  # the bound itself is taken, one more pose is not
+    assert densify_path([[0, 0, 0], [1, 0, 0]], 0.1).shape == (11, 3)
+    with pytest.raises(ConfigError, match=r"into 13 poses \(at most 11\); give a larger spacing, at least 0\.12 m"):
+        densify_path([[0, 0, 0], [1, 0, 0]], 0.09)

@@ -118,13 +118,44 @@ def _as_path(path: ArrayLike, caller: str) -> FloatArray:
             f"{caller}: path must be an (N, 2) or (N, 3) array of positions or poses [x, y, theta] (numbers), "
             f"got {type(path).__name__}: {exc}"
         ) from exc
-    if p.ndim != 2 or p.shape[1] < 2:
+    if p.ndim != 2 or not 2 <= p.shape[1] <= 3:
         one = "; a single pose [x, y, theta] is the one-row path [[x, y, theta]]" if p.ndim == 1 else ""
+        wide = "; pass path[:, :3] for the poses alone" if p.ndim == 2 and p.shape[1] > 3 else ""
         raise ConfigError(
             f"{caller}: path must be an (N, 2) or (N, 3) array of positions or poses [x, y, theta], one row per "
-            f"point, got shape {p.shape}{one}"
+            f"point, got shape {p.shape}{one}{wide}"
         )
     return p
+
+
+def _radius(radius: object, caller: str) -> float:
+    """``radius`` [m] as a float when it is a finite number >= 0 (the callers check a float's range first, in a
+    comparison: the default 0.0 and a robot's radius cost nothing more)."""
+    return check_number(
+        f"{caller}: radius", radius, at_least=0.0, unit="m", fix="the robot's radius, or 0 to count positions only"
+    )
+
+
+def _non_finite(p: FloatArray, caller: str) -> ConfigError:
+    """The error for a path with a NaN or an infinity, naming its first rows."""
+    rows = np.flatnonzero(~np.isfinite(p).all(axis=1))
+    return ConfigError(
+        f"{caller}: the path has non-finite values (NaN or infinite) in {rows.size} of its {len(p)} poses "
+        f"(rows {', '.join(map(str, rows[:10]))}{', ...' if rows.size > 10 else ''}); give finite poses"
+    )
+
+
+def _checked_steps(p: FloatArray, radius: float, caller: str) -> FloatArray:
+    """:func:`path_steps` of a checked path (``caller`` names the public function in messages)."""
+    if radius and p.shape[1] < 3:
+        raise ConfigError(
+            f"{caller}: counting turns (radius {radius:g}) needs (N, 3) poses with headings, got shape {p.shape}; "
+            "pass radius=0 to count positions only"
+        )
+    if not radius:
+        return _steps(p, None, 0.0)
+    with np.errstate(invalid="ignore"):  # an infinite heading: path_length names its row, with no numpy warning
+        return _steps(p, np.unwrap(p[:, 2]), radius)
 
 
 def path_steps(path: ArrayLike, radius: float = 0.0) -> FloatArray:
@@ -132,19 +163,21 @@ def path_steps(path: ArrayLike, radius: float = 0.0) -> FloatArray:
 
     Args:
         path: (N, 2) positions or (N, 3) poses [x, y, theta].
-        radius: R [m]: a heading change dtheta adds R |dtheta| (headings unwrapped; needs poses).
+        radius: R [m], >= 0: a heading change dtheta adds R |dtheta| (headings unwrapped; needs poses).
             0 counts the base origin's travel only.
 
     Returns:
-        (N - 1,) steps [m] (empty for fewer than two poses).
+        (N - 1,) steps [m] (empty for fewer than two poses); a NaN or an infinity in the path gives one
+            in the steps next to it (:func:`path_length` refuses it).
+
+    Raises:
+        ConfigError: ``path`` is not an (N, 2) or (N, 3) array, or ``radius`` is not a finite number >= 0
+            (> 0 with (N, 2) positions: it counts turns).
     """
     p = _as_path(path, "path_steps")
-    if radius and p.shape[1] < 3:
-        raise ConfigError(
-            f"path_steps: counting turns (radius {radius}) needs (N, 3) poses with headings, got shape {p.shape}; "
-            "pass radius=0 to count positions only"
-        )
-    return _steps(p, np.unwrap(p[:, 2]) if radius else None, radius)
+    if type(radius) is not float or not 0.0 <= radius < math.inf:
+        radius = _radius(radius, "path_steps")
+    return _checked_steps(p, radius, "path_steps")
 
 
 def path_length(path: ArrayLike, radius: float = 0.0) -> float:
@@ -155,21 +188,28 @@ def path_length(path: ArrayLike, radius: float = 0.0) -> float:
 
     Args:
         path: (N, 2) positions or (N, 3) poses [x, y, theta].
-        radius: R [m] (see :func:`path_steps`).
+        radius: R [m], >= 0 (see :func:`path_steps`).
 
     Returns:
         The length [m]; 0 for fewer than two poses.
 
     Raises:
         ConfigError: ``path`` is not an (N, 2) or (N, 3) array (a single pose ``[x, y, theta]`` is
-            refused: the one-row path is ``[[x, y, theta]]``).
+            refused: the one-row path is ``[[x, y, theta]]``), or holds a NaN or an infinity where the
+            length reads it (the positions; the headings too with a radius), naming its rows;
+            ``radius`` is not a finite number >= 0 (> 0 with (N, 2) positions).
     """
     p = _as_path(path, "path_length")
+    if type(radius) is not float or not 0.0 <= radius < math.inf:
+        radius = _radius(radius, "path_length")
     if p.shape[0] < 2:
         return 0.0
-    if not radius:
-        return float(_steps(p, None, 0.0).sum())
-    return float(np.sum(path_steps(p, radius)))
+    total = float((_checked_steps(p, radius, "path_length") if radius else _steps(p, None, 0.0)).sum())
+    if not math.isfinite(total):  # checked on the sum: free on a finite path (a planner's, in its hot loop)
+        used = p if radius else p[:, :2]
+        if not np.isfinite(used).all():
+            raise _non_finite(used, "path_length")
+    return total
 
 
 def cumulative_length(path: ArrayLike) -> FloatArray:
@@ -182,6 +222,21 @@ def cumulative_length(path: ArrayLike) -> FloatArray:
         (N,) running sums of the x-y steps, starting at 0.
     """
     return np.concatenate([[0.0], np.cumsum(path_steps(path))])
+
+
+#: Most poses :func:`densify_path` makes (240 MB of them; a 1000 m path every 0.1 mm): a spacing that would
+#: make more is most likely a mistake of units, refused before numpy is asked for the memory.
+MAX_DENSE_POSES = 10_000_000
+
+
+def _too_dense(poses: float, length: float, spacing: float, n: int) -> ConfigError:
+    """The error for a spacing that cuts a path of ``n`` poses, whose steps add up to ``length`` [m], into
+    ``poses`` poses."""
+    least = length / max(MAX_DENSE_POSES - n, 1)  # then at most length / spacing + n poses
+    return ConfigError(
+        f"densify_path: spacing {spacing:g} m would cut the path's {length:.6g} m into {poses:.3g} poses (at most "
+        f"{MAX_DENSE_POSES:,}); give a larger spacing, at least {float(f'{least * 1.05:.2g}'):g} m (e.g. 0.02)"
+    )
 
 
 def densify_path(path: ArrayLike, spacing: float, *, radius: float = 0.0, slack: float = 0.0) -> FloatArray:
@@ -218,17 +273,20 @@ def densify_path(path: ArrayLike, spacing: float, *, radius: float = 0.0, slack:
             "add a heading column (e.g. the direction of travel, np.arctan2 of the steps)"
         )
     if not np.isfinite(p).all():
-        rows = np.flatnonzero(~np.isfinite(p).all(axis=1))
-        raise ConfigError(
-            f"densify_path: the path has non-finite values (NaN or infinite) in {rows.size} of its {len(p)} poses "
-            f"(rows {', '.join(map(str, rows[:10]))}{', ...' if rows.size > 10 else ''}); give finite poses"
-        )
+        raise _non_finite(p, "densify_path")
+    if type(radius) is not float or not 0.0 <= radius < math.inf:
+        radius = _radius(radius, "densify_path")
     if p.shape[0] < 2:
         return p
     th = np.unwrap(p[:, 2])
-    n = np.maximum(1, np.ceil(_steps(p, th, radius) / spacing - slack).astype(int))
+    steps = _steps(p, th, radius)
+    parts = np.maximum(1.0, np.ceil(steps / spacing - slack))
+    poses = float(parts.sum()) + 1.0
+    if not poses <= MAX_DENSE_POSES:  # before numpy is asked for arrays of that size (a NaN too: an overflow)
+        raise _too_dense(poses, float(steps.sum()), spacing, p.shape[0])
+    n = parts.astype(int)
     idx = np.repeat(np.arange(len(n)), n)
-    frac = np.concatenate([np.arange(k) / k for k in n])
+    frac = np.concatenate([np.arange(k) / k for k in n.tolist()])  # Python ints: faster than numpy's, each
     q = np.column_stack([p[:, 0], p[:, 1], th])
     out = q[idx] + frac[:, None] * (q[idx + 1] - q[idx])
     return np.vstack([out, q[-1:]])

@@ -50,6 +50,7 @@ from planning.trajectory.smoothing import (
     SampledCurve,
     SmoothResult,
     SmoothStatus,
+    check_options,
     remove_loops,
     smooth_drive,
     split_path,
@@ -563,6 +564,7 @@ def checked_trajectory(
             f"to_trajectory: unknown option(s) {', '.join(unknown)}; valid options: {', '.join(valid)} "
             "(see make_trajectory)"
         )
+    options = check_options(options)  # each named where it is wrong (a negative dt failed as "t must increase")
     if isinstance(plan, PlanResult) and not plan.success:
         raise PlanFailedError(
             f"planner {plan.planner!r} ended with status {plan.status.value}: {plan.reason or 'no reason given'}; "

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from planning.core.checks import check_number
 from planning.core.geometry import Pose2D
-from planning.core.robot import RobotSpec
+from planning.core.robot import RobotSpec, check_robot_spec
 from planning.errors import ConfigError
 from planning.trajectory.trajectory import Trajectory
 
@@ -109,6 +109,19 @@ def _build(
     return Trajectory.from_flat(t, xy @ rot.T + start.xy, dxy @ rot.T, ddxy @ rot.T, name=name)
 
 
+def _check_placement(name: str, robot: object, start: object) -> None:
+    """Refuse a ``robot`` that is not a RobotSpec or a ``start`` that is not a Pose2D (ConfigError naming the
+    reference and, for a sequence of three numbers, how to make it a pose)."""
+    check_robot_spec(f"reference {name!r}", robot)
+    if not isinstance(start, Pose2D):
+        three = isinstance(start, tuple | list) and len(start) == 3
+        if three or (isinstance(start, np.ndarray) and start.shape == (3,)):
+            fix = "Pose2D.from_array(start) makes one of [x, y, theta]"
+        else:
+            fix = "give Pose2D(x, y, theta), e.g. Pose2D(0.0, 0.0, 0.0)"
+        raise ConfigError(f"reference {name!r}: start must be a Pose2D, got {start!r:.80}; {fix}")
+
+
 def _positive(what: str, value: float | None, default: float) -> float:
     """``value`` (or ``default`` when None) as a float, which must be a finite number > 0 (ConfigError
     naming ``what``)."""
@@ -127,6 +140,7 @@ def line(
         margin: Fraction of each limit to use.
         dt: Sample spacing [s].
     """
+    _check_placement("line", robot, start)
     length = _positive("line length", length, min(3.0, 10.0 * robot.max_speed))
 
     def curve(s: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -155,6 +169,7 @@ def circle(
         margin: Fraction of each limit to use.
         dt: Sample spacing [s].
     """
+    _check_placement("circle", robot, start)
     radius = _positive("circle radius", radius, min(1.0, max(0.5, robot.max_speed / robot.max_yaw_rate)))
 
     def curve(s: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -187,6 +202,7 @@ def figure8(
         margin: Fraction of each limit to use.
         dt: Sample spacing [s].
     """
+    _check_placement("figure8", robot, start)
     a = _positive("figure-eight size", size, float(np.clip(2.0 * robot.max_speed / robot.max_yaw_rate, 0.6, 2.0)))
     c, s_ = np.cos(-np.pi / 4), np.sin(-np.pi / 4)
     rot = np.array([[c, -s_], [s_, c]])  # the lemniscate leaves the origin at 45 degrees
@@ -209,7 +225,8 @@ def make_reference(name: str, robot: RobotSpec, start: Pose2D, **options: float)
 
     Raises:
         ConfigError: Unknown name (lists the valid ones), an option the reference does not take (lists
-            the valid ones) or a bad option value.
+            the valid ones), a bad option value, a robot that is no RobotSpec (``load_robot(name)``) or a
+            start that is no Pose2D (a sequence [x, y, theta] is not one: ``Pose2D.from_array``).
     """
     if name not in REFERENCES:
         raise ConfigError(f"unknown reference {name!r}: choose one of {', '.join(REFERENCES)}")

@@ -30,17 +30,21 @@ segment is reported as failed (:class:`SmoothStatus`).
 from __future__ import annotations
 
 import itertools
+import math
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from planning.collision.exact import CollisionChecker
-from planning.core.geometry import cumulative_length, path_steps, wrap_angle
+from planning.core.checks import check_flag, check_number
+from planning.core.geometry import Pose2D, cumulative_length, path_steps, wrap_angle
+from planning.errors import ConfigError
 
 if TYPE_CHECKING:  # scipy.sparse is loaded where a fit is solved, not by every planner that imports this
     import scipy.sparse
@@ -55,6 +59,82 @@ class SmoothStatus(StrEnum):
     SUCCESS = "success"
     COLLISION = "collision"  # every refinement still touched an obstacle or wall
     DEVIATION = "deviation"  # every refinement strayed too far from the path
+
+
+# ---------------------------------------------------------------------------------------- options
+#: Longest sample period [s] of a trajectory made from a plan (``dt``). A tracker follows the reference
+#: linearly between its samples, along chords of the smoothed curve, which is what is checked against the
+#: world: at 0.1 s and the robots' top speeds on their tightest turns a chord strays less than half a
+#: millimetre from the curve, at 1 s some 3 cm (more than the default 1 cm clearance). It is nhsim's slowest
+#: control period too (10 Hz; the default 0.01 s is finer than its 50 Hz).
+MAX_SAMPLE_PERIOD = 0.1
+#: Shortest sample period [s]: a tenth of the finest physics step (1 ms); finer samples only cost memory.
+MIN_SAMPLE_PERIOD = 1e-4
+#: Longest stand-still between segments (``dwell``) [s].
+MAX_DWELL = 60.0
+
+#: Each number option of :func:`planning.trajectory.from_plan.make_trajectory` (``to_trajectory``'s and
+#: ``PlanOptions.smoothing``'s) -> the keyword arguments of :func:`planning.core.checks.check_number`.
+OPTION_LIMITS: dict[str, dict[str, Any]] = {
+    "margin": {
+        "above": 0.0,
+        "at_most": 1.0,
+        "unit": "a fraction of the robot's limits",
+        "fix": "the share of each limit the reference may use, e.g. 0.85 (the default)",
+    },
+    "dwell": {"at_least": 0.0, "at_most": MAX_DWELL, "unit": "s", "fix": "the stand-still between segments, e.g. 0.3"},
+    "dt": {
+        "at_least": MIN_SAMPLE_PERIOD,
+        "at_most": MAX_SAMPLE_PERIOD,
+        "unit": "s",
+        "fix": "the trajectory's sample period, e.g. 0.01 (the default): a tracker follows straight chords between "
+        "samples, which leave the smoothed, collision-checked curve when they are far apart",
+    },
+    "clearance": {
+        "at_least": 0.0,
+        "unit": "m",
+        "fix": "the footprint clearance kept, e.g. 0.01, or None for the default",
+    },
+    "corner_angle": {"at_least": 0.0, "at_most": math.pi, "unit": "rad", "fix": "for degrees use math.radians(90)"},
+    "snap_tolerance": {"at_least": 0.0, "unit": "m", "fix": "e.g. 0.05 (the default)"},
+    "max_deviation": {"above": 0.0, "unit": "m", "fix": "the distance allowed from the planned path, e.g. 0.05"},
+}
+
+
+def check_option(name: str, value: object) -> float:
+    """A number option of :func:`planning.trajectory.from_plan.make_trajectory` (a key of
+    :data:`OPTION_LIMITS`) as a float, when it is a finite number in its range.
+
+    Raises:
+        ConfigError: Naming the option (``to_trajectory: dt must be ...``), its range and what was given.
+    """
+    return check_number(f"to_trajectory: {name}", value, **OPTION_LIMITS[name])
+
+
+def check_options(options: Mapping[str, Any]) -> dict[str, Any]:
+    """The options of :func:`planning.trajectory.from_plan.make_trajectory` (``to_trajectory(**options)``,
+    ``PlanOptions.smoothing``), each checked on entry: the numbers (:data:`OPTION_LIMITS`; ``clearance`` may
+    be None) as floats, the flags (``keep_loops``; ``retime`` True, False or None), ``goal`` a Pose2D or None
+    and ``name`` text or None. Keys it does not know are left to the caller (which lists the valid ones).
+
+    Raises:
+        ConfigError: An option of the wrong kind or out of its range, named.
+    """
+    out = dict(options)
+    for key, value in options.items():
+        if key in OPTION_LIMITS and not (key == "clearance" and value is None):
+            out[key] = check_option(key, value)
+        elif key == "keep_loops":
+            out[key] = check_flag(f"to_trajectory: {key}", value)
+        elif key == "retime" and value is not None:
+            if not isinstance(value, bool | np.bool_):
+                raise ConfigError(f"to_trajectory: retime must be True, False or None (by the plan), got {value!r:.80}")
+            out[key] = bool(value)
+        elif key == "goal" and value is not None and not isinstance(value, Pose2D):
+            raise ConfigError(f"to_trajectory: goal must be a Pose2D or None, got {value!r:.80}")
+        elif key == "name" and value is not None and not isinstance(value, str):
+            raise ConfigError(f"to_trajectory: name must be text or None, got {value!r:.80}")
+    return out
 
 
 # ---------------------------------------------------------------------------------------- segments
@@ -125,7 +205,9 @@ def split_path(
 
     Raises:
         ValueError: Bad shapes or a path with fewer than 1 pose.
+        ConfigError: ``corner_angle`` is not a number in [0, pi] (named as ``to_trajectory``'s option).
     """
+    corner_angle = check_option("corner_angle", corner_angle)
     steps = _Steps.of(path, min_step)
     th = steps.th
     drives = steps.drives(steps.signs(directions), corner_angle)
@@ -784,7 +866,13 @@ def smooth_drive(
 
     Returns:
         The result; ``status`` says whether it succeeded.
+
+    Raises:
+        ConfigError: ``clearance`` is not a finite number >= 0 or ``max_deviation`` not one > 0 (named as
+            ``to_trajectory``'s options).
     """
+    clearance = check_option("clearance", clearance)
+    max_deviation = check_option("max_deviation", max_deviation)
     if segment.kind != "drive":
         raise ValueError("smooth_drive needs a 'drive' segment")
     pts = segment.points

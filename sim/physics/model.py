@@ -17,9 +17,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.core.geometry import Pose2D
-from planning.core.robot import RobotSpec, load_robot
+from planning.core.robot import RobotSpec, check_robot_spec, load_robot
 from planning.core.world import OBSTACLE_HEIGHT, Box, Circle, Ellipse, Polygon, World
-from planning.errors import ModelError
+from planning.errors import ConfigError, ModelError
 from sim.physics.motors import apply_supply
 
 OBSTACLE_RGBA = (0.72, 0.36, 0.28, 1.0)
@@ -105,6 +105,21 @@ def _add_prism(
     body.add_geom(name=name, type=mesh, meshname=f"{name}_mesh", rgba=list(rgba), conaffinity=OBSTACLE_AFFINITY)
 
 
+def check_scene_arguments(robot: object, world: object) -> None:
+    """Refuse a ``robot`` that is not a :class:`RobotSpec` or a ``world`` that is neither a :class:`World` nor
+    None, with a ConfigError naming the argument of :class:`sim.physics.simulator.Simulator` and how to make one
+    (they were AttributeErrors from inside the model's compilation)."""
+    check_robot_spec("Simulator", robot)
+    if world is not None and not isinstance(world, World):
+        bounds = isinstance(world, tuple | list) and len(world) == 4
+        fix = f"World({world!r}) for bounds alone, or " if bounds else ""
+        name = repr(world) if isinstance(world, str) else "name"
+        raise ConfigError(
+            f"Simulator: world must be a World or None (an empty floor), got {world!r:.80}; give "
+            f"{fix}load_scenario({name}).world"
+        )
+
+
 def build_model(
     robot: RobotSpec,
     world: World | None = None,
@@ -123,7 +138,12 @@ def build_model(
 
     Returns:
         The compiled model and its geom indices.
+
+    Raises:
+        ConfigError: ``robot`` is not a RobotSpec (a robot's name is not), or ``world`` not a World or None
+            (named as :class:`sim.physics.simulator.Simulator`'s arguments, the public way here).
     """
+    check_scene_arguments(robot, world)
     spec = mujoco.MjSpec.from_file(str(robot.scene))
     holder = spec.worldbody.add_body(name="obstacles")
     # One contact sensor counts robot-obstacle contacts in sensordata, so the physics loop needs no

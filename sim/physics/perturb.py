@@ -77,6 +77,25 @@ def parse_push(value: str, text: str) -> tuple[float, float]:
     return impulse, check_number("perturbation push time", time, at_least=0.0, at_most=1e6, unit="s")
 
 
+def check_push(push: object) -> tuple[float, float] | None:
+    """``push`` (None, or a pair (impulse [N s], time [s]): |impulse| <= :data:`MAX_PUSH`, time >= 0) as a
+    tuple of floats.
+
+    Raises:
+        ConfigError: Not None nor a pair (text such as ``"0.05@10"`` is the command line's form), or a part
+            that is not a finite number in its range (named).
+    """
+    if push is None:
+        return None
+    if (isinstance(push, tuple | list) or (isinstance(push, np.ndarray) and push.ndim == 1)) and len(push) == 2:
+        impulse = check_number("perturbation push impulse", push[0], at_least=-MAX_PUSH, at_most=MAX_PUSH, unit="N s")
+        return impulse, check_number("perturbation push time", push[1], at_least=0.0, at_most=1e6, unit="s")
+    raise ConfigError(
+        f"perturbation push must be a pair (impulse [N s], time [s]) or None, got {push!r:.80}; e.g. "
+        "Perturbation(push=(0.05, 10.0)) (Perturbation.parse('push=0.05@10') reads the command line's form)"
+    )
+
+
 def _check(name: str, value: object) -> float:
     lo, hi, _, unit = LIMITS[name]
     return check_number(f"perturbation {name}", value, at_least=lo, at_most=hi, unit=unit)
@@ -110,6 +129,7 @@ class Perturbation:
         for name in LIMITS:
             object.__setattr__(self, name, _check(name, getattr(self, name)))
         object.__setattr__(self, "seed", check_number("perturbation seed", self.seed, integer=True, at_least=0))
+        object.__setattr__(self, "push", check_push(self.push))
 
     @classmethod
     def parse(cls, text: str, *, seed: int = 0) -> Perturbation:

@@ -6,6 +6,7 @@ in its world) through :class:`sim.viz.replay.Replay` into an H.264 MP4, written 
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -14,6 +15,7 @@ from typing import Any, Protocol
 import mujoco
 
 from planning.core.robot import RobotSpec
+from planning.errors import ConfigError
 from planning.scenario import Scenario
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.runlog import RunLog
@@ -70,9 +72,12 @@ def write_video(
     Raises:
         DependencyError: No OpenGL backend can draw here (the message says what to install).
         FileExistsError: ``path`` exists and ``overwrite`` is false.
-        ConfigError: ``overwrite`` is not True or False (``"no"`` is refused, not read as true), or
-            ``path`` does not end in .mp4 (both before anything is drawn).
+        ConfigError: ``overwrite`` is not True or False (``"no"`` is refused, not read as true),
+            ``path`` is not a file name (text or a path) ending in .mp4, ``job`` is not a job (it lacks the
+            trajectory, logs or model), ``settings`` not a RenderSettings or ``model`` not an MjModel (all
+            before anything is drawn).
     """
+    _check_arguments(job, path, settings, model)
     s = settings or RenderSettings()
     writer = VideoWriter(Path(path), s.width, s.height, s.fps, overwrite=overwrite)  # checks its arguments
     model = model if model is not None else job.model
@@ -92,3 +97,27 @@ def write_video(
         "gl_backend": backend,
         "render_seconds": round(time.perf_counter() - t0, 3),
     }
+
+
+def _check_arguments(job: object, path: object, settings: object, model: object) -> None:
+    """Refuse what :func:`write_video` cannot draw or write to, naming the argument (they were an
+    AttributeError or pathlib's TypeError)."""
+    needs = ("trajectory", "logs") + (("model",) if model is None else ())
+    if not all(hasattr(job, name) for name in needs):
+        raise ConfigError(
+            f"write_video: job must be a simulated job (what simulate_plan, simulate_reference or simulate "
+            f"returns), got {job!r:.80}; e.g. job = simulate_plan('edumip_map', planner='c-rrt-star'), then "
+            "write_video(job, 'renders/run.mp4')"
+        )
+    if not isinstance(path, str | os.PathLike):
+        raise ConfigError(
+            f"write_video: path must be a file name ending in .mp4 (text or a pathlib.Path), got {path!r:.80}; "
+            "e.g. 'renders/run.mp4'"
+        )
+    if settings is not None and not isinstance(settings, RenderSettings):
+        raise ConfigError(
+            f"write_video: settings must be a RenderSettings or None (the defaults), got {settings!r:.80}; "
+            "e.g. RenderSettings(width=640, height=480, fps=30)"
+        )
+    if model is not None and not isinstance(model, mujoco.MjModel):
+        raise ConfigError(f"write_video: model must be a mujoco.MjModel or None (the job's), got {model!r:.80}")
