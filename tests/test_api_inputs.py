@@ -144,7 +144,6 @@ def test_a_single_pose_path_is_a_stand_still_of_dwell_as_a_start_that_is_the_goa
 def test_from_flat_densify_and_load_robot_name_a_wrong_argument() -> None:
     """Were numpy's IndexError / ValueError (from_flat, densify_path) and os's TypeError (load_robot(None))."""
     from planning import Trajectory, densify_path
-    from planning.errors import ModelError
 
     t, xy, d = [0.0, 1.0, 2.0], [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]], [[1.0, 0.0]] * 3
     for args, kwargs, message in [
@@ -158,7 +157,7 @@ def test_from_flat_densify_and_load_robot_name_a_wrong_argument() -> None:
     assert Trajectory.from_flat(t, xy, d, [[0.0, 0.0]] * 3, direction=[1, 1, 1]).duration == 2.0
     with pytest.raises(ConfigError, match=r"densify_path needs an \(N, 3\) path of poses \[x, y, theta\], got shape"):
         densify_path(np.array([[0.0, 0.0], [1.0, 0.0]]), 0.1)
-    with pytest.raises(ModelError, match=r"a robot is named by text: one of edumip, .*turtlebot3 .*got None"):
+    with pytest.raises(ConfigError, match=r"a robot is named by text: one of edumip, .*turtlebot3 .*got None"):
         load_robot(None)  # type: ignore[arg-type]
 
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from planning.core.robot import ROBOT_FILES, load_robot
-from planning.errors import ModelError
+from planning.errors import ConfigError, ModelError
 
 
 @pytest.mark.parametrize("name", sorted(ROBOT_FILES))
@@ -46,7 +46,7 @@ def test_limits_in_the_models_are_what_the_motors_sustain() -> None:
 
 
 def test_unknown_robot_names_the_choices() -> None:
-    with pytest.raises(ModelError, match="edumip, edumip-balancing, turtlebot3"):
+    with pytest.raises(ConfigError, match="edumip, edumip-balancing, turtlebot3"):  # a ValueError, as bad input
         load_robot("roomba")
 
 

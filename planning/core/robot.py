@@ -182,11 +182,12 @@ def robot_path(name: str) -> Path:
     """The MJCF path of a robot given its registry name, or a path to an MJCF file.
 
     Raises:
-        ModelError: ``name`` is neither a robot name nor the path of an existing .xml file (a name
-            that is no text, such as None, too; the message lists the robot names).
+        ConfigError: ``name`` is neither a robot name nor the path of an existing .xml file (a name
+            that is no text, such as None, too; the message lists the robot names): bad input, a ValueError as
+            every such mistake (:class:`ModelError` is a model file's own fault).
     """
     if not isinstance(name, (str, os.PathLike)):
-        raise ModelError(
+        raise ConfigError(
             f"a robot is named by text: one of {', '.join(sorted(ROBOT_FILES))} or the path of an MJCF file, "
             f"got {name!r:.80}"
         )
@@ -195,7 +196,7 @@ def robot_path(name: str) -> Path:
     path = Path(name)
     if path.suffix == ".xml" and path.exists():
         return path
-    raise ModelError(f"unknown robot {name!r}: choose one of {', '.join(sorted(ROBOT_FILES))} or give an MJCF path")
+    raise ConfigError(f"unknown robot {name!r}: choose one of {', '.join(sorted(ROBOT_FILES))} or give an MJCF path")
 
 
 def check_robot_name(where: str, name: object) -> str:
@@ -231,8 +232,8 @@ def load_robot(name: str) -> RobotSpec:
         The spec.
 
     Raises:
-        ModelError: An unknown name (the message lists the robot names), or the file is missing or
-            lacks a required element (named in the message).
+        ConfigError: An unknown name (the message lists the robot names).
+        ModelError: The file cannot be read or lacks a required element (named in the message).
     """
     path = robot_path(name)
     try:
