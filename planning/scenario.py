@@ -187,6 +187,9 @@ def parse_scenario(data: Mapping[str, Any], *, where: str, default_name: str, ba
     start, goal = _pose(r, start_t, "start."), _pose(r, goal_t, "goal.")
     ptol = r.number(goal_t, "position_tolerance", "goal.", positive=True, default=DEFAULT_POSITION_TOLERANCE)
     htol = r.number(goal_t, "heading_tolerance", "goal.", positive=True, default=DEFAULT_HEADING_TOLERANCE)
+    if htol > np.pi:  # pi takes any heading: more is degrees, or a typo
+        degrees = f"; {htol:g} degrees would be {np.radians(htol):.4g} rad" if htol <= 360 else ""
+        raise r.fail("goal.heading_tolerance", f"a tolerance in radians, at most pi (any heading){degrees}", htol)
     for label, pose in (("start", start), ("goal", goal)):
         _check_free(r, world, label, pose)
     unmapped = _unmapped(r, data["world"], start, header["robot"], world.bounds)

@@ -34,7 +34,14 @@ def _problem(**fields: Any) -> PlanProblem:
     ("fields", "match"),
     [  # a NaN tolerance made rrt report success for start == goal; a negative seed raised numpy's ValueError
         ({"position_tolerance": math.nan}, r"PlanProblem.position_tolerance must be a finite number > 0, got nan"),
-        ({"heading_tolerance": -0.1}, r"PlanProblem.heading_tolerance must be a finite number > 0, got -0.1"),
+        (
+            {"heading_tolerance": -0.1},
+            r"PlanProblem.heading_tolerance must be a finite number in \(0, 3.14159\] \(rad\), got -0.1",
+        ),
+        (
+            {"heading_tolerance": 180},
+            r"heading_tolerance .*, got 180; pi takes any heading; 180 degrees would be 3.142 rad",
+        ),
         ({"time_limit": 0.0}, r"PlanProblem.time_limit must be a finite number > 0, got 0.0"),
         ({"time_limit": []}, r"PlanProblem.time_limit must be a finite number > 0, got \[\]"),
         ({"seed": -1}, r"PlanProblem.seed must be an integer >= 0, got -1"),

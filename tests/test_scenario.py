@@ -98,6 +98,10 @@ def test_name_defaults_to_the_file_stem(tmp_path: Path) -> None:
         (("bounds = [-3.0, 3.0, -3.0, 3.0]", "bounds = [3.0, -3.0, -3.0, 3.0]"), "xmin < xmax"),
         (("bounds = [-3.0, 3.0, -3.0, 3.0]", "bounds = [-3.0, 1e6, -3.0, 3.0]"), "at most 1000 m a side"),
         (("position_tolerance = 0.05", "position_tolerance = 0"), "expected a number > 0"),
+        (
+            ("heading_tolerance = 0.1", "heading_tolerance = 10"),
+            r"at most pi \(any heading\); 10 degrees would be 0.1745",
+        ),
         (("[goal]\npose = [2.5, 2.5, 1.57]", "[goal]"), r"missing field\(s\) 'goal.pose'"),
         (("radius = 0.3", "radius = 0.3\nfoo = 2"), r"unknown key\(s\) 'foo' in \[world.obstacles\[0\]\]"),
         (("[0.5, 1.0]]", "[1.0, 0.0], [0.5, 1.0]]"), r"'world.obstacles\[3\].vertices'.*vertex 2 repeats vertex 1"),

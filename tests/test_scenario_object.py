@@ -81,7 +81,10 @@ def test_a_footprint_wholly_beyond_the_walls_is_measured_by_how_far_it_sticks_ou
         ({"goal": None}, r"Scenario.goal must be a Pose2D: pass Pose2D\(x, y, theta\), got NoneType None"),
         ({"world": (0, 3, 0, 3)}, r"Scenario.world must be a World: pass World\(\(0, 3, 0, 3\)\), got tuple"),
         ({"position_tolerance": -1}, r"Scenario.position_tolerance must be a finite number > 0 \(m, .*got -1$"),
-        ({"heading_tolerance": "0.1"}, r"Scenario.heading_tolerance must be a finite number > 0 \(rad\), got '0.1'"),
+        (
+            {"heading_tolerance": "0.1"},
+            r"Scenario.heading_tolerance must be a finite number in \(0, 3.14159\] \(rad\), got '0.1'",
+        ),
         ({"robot": None}, r"Scenario.robot must be a robot's name, one of edumip, edumip-balancing, turtlebot3"),
         ({"name": ""}, r"Scenario.name must be a non-empty string, got ''"),
         ({"description": 3}, r"Scenario.description must be a string"),

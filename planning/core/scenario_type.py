@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import numbers
 import os
 from collections.abc import Mapping, Sequence
@@ -83,9 +84,10 @@ class Scenario:
                     f"Scenario.{label} must be a {kind.__name__}: pass {_suggested(kind, value) or how}, got "
                     f"{type(value).__name__} {value!r:.80}"
                 )
-        for label, unit in (("position_tolerance", "m, the goal region's radius"), ("heading_tolerance", "rad")):
-            value = check_number(f"Scenario.{label}", getattr(self, label), above=0.0, unit=unit)
-            object.__setattr__(self, label, value)
+        unit = "m, the goal region's radius"
+        value = check_number("Scenario.position_tolerance", self.position_tolerance, above=0.0, unit=unit)
+        object.__setattr__(self, "position_tolerance", value)
+        object.__setattr__(self, "heading_tolerance", check_heading_tolerance("Scenario", self.heading_tolerance))
         if not isinstance(self.description, str):
             raise ConfigError(f"Scenario.description must be a string (free text), got {self.description!r:.80}")
         if self.planner is not None:
@@ -131,6 +133,18 @@ _KINDS: dict[str, tuple[type, str]] = {
     "start": (Pose2D, "Pose2D(x, y, theta)"),
     "goal": (Pose2D, "Pose2D(x, y, theta)"),
 }
+
+
+def check_heading_tolerance(owner: str, value: object) -> float:
+    """A goal's heading tolerance [rad]: a finite number in (0, pi] (pi takes any heading; more is degrees, or
+    a typo).
+
+    Raises:
+        ConfigError: Naming ``<owner>.heading_tolerance``, the value, and the degrees it could have been.
+    """
+    degrees = f"; {value:g} degrees would be {math.radians(value):.4g} rad" if is_number(value) else ""
+    fix = f"pi takes any heading{degrees}"
+    return check_number(f"{owner}.heading_tolerance", value, above=0.0, at_most=math.pi, unit="rad", fix=fix)
 
 
 def _suggested(kind: type, value: object) -> str:

@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 from planning.core.checks import check_number
 from planning.core.geometry import Pose2D, path_length, wrap_angle
 from planning.core.robot import RobotSpec, load_robot
-from planning.core.scenario_type import Scenario
+from planning.core.scenario_type import Scenario, check_heading_tolerance
 from planning.core.world import World
 from planning.errors import ConfigError, NhsimError, PlannerError
 
@@ -68,8 +68,9 @@ class PlanProblem:
             if not isinstance(getattr(self, label), kind):
                 got = type(getattr(self, label)).__name__
                 raise ConfigError(f"PlanProblem.{label} must be a {kind.__name__}, got {got}")
-        for label in ("position_tolerance", "heading_tolerance", "time_limit"):
+        for label in ("position_tolerance", "time_limit"):
             object.__setattr__(self, label, check_number(f"PlanProblem.{label}", getattr(self, label), above=0.0))
+        object.__setattr__(self, "heading_tolerance", check_heading_tolerance("PlanProblem", self.heading_tolerance))
         object.__setattr__(self, "seed", check_number("PlanProblem.seed", self.seed, integer=True, at_least=0))
 
     @classmethod
