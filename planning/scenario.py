@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from planning.core.checks import check_number
+from planning.core.checks import check_number, degrees_hint
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.maps import load_map_table
 from planning.core.robot import MODELS_DIR, ROBOT_FILES, RobotSpec, check_robot_name, load_robot
@@ -144,8 +144,7 @@ def heading_beyond(theta: float) -> str:
     ``--offset`` and ``--initial-pose`` judge their headings by it."""
     if abs(theta) <= MAX_HEADING:
         return ""
-    degrees = f"; {theta:g} degrees would be {np.radians(theta):.4g} rad" if abs(theta) <= 720 else ""
-    return f"in radians within +-4 pi{degrees}"
+    return f"in radians within +-4 pi{degrees_hint(theta)}"
 
 
 def _pose(r: TableReader, table: Mapping[str, Any], ctx: str) -> Pose2D:
@@ -188,8 +187,8 @@ def parse_scenario(data: Mapping[str, Any], *, where: str, default_name: str, ba
     ptol = r.number(goal_t, "position_tolerance", "goal.", positive=True, default=DEFAULT_POSITION_TOLERANCE)
     htol = r.number(goal_t, "heading_tolerance", "goal.", positive=True, default=DEFAULT_HEADING_TOLERANCE)
     if htol > np.pi:  # pi takes any heading: more is degrees, or a typo
-        degrees = f"; {htol:g} degrees would be {np.radians(htol):.4g} rad" if htol <= 360 else ""
-        raise r.fail("goal.heading_tolerance", f"a tolerance in radians, at most pi (any heading){degrees}", htol)
+        said = f"a tolerance in radians, at most pi (any heading){degrees_hint(htol, 360.0)}"
+        raise r.fail("goal.heading_tolerance", said, htol)
     for label, pose in (("start", start), ("goal", goal)):
         _check_free(r, world, label, pose)
     unmapped = _unmapped(r, data["world"], start, header["robot"], world.bounds)

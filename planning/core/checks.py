@@ -32,6 +32,14 @@ def is_number(value: object, integer: bool = False) -> TypeGuard[float]:
     return not isinstance(value, bool) and isinstance(value, kind) and math.isfinite(value)  # type: ignore[arg-type]
 
 
+def degrees_hint(value: object, largest: float = 720.0) -> str:
+    """``"; 90 degrees would be 1.571 rad"`` for a number of radians that looks like degrees (a finite number at
+    most ``largest`` in size), else "": the hint of a refused angle."""
+    if not is_number(value) or abs(value) > largest:
+        return ""
+    return f"; {value:g} degrees would be {math.radians(value):.4g} rad"
+
+
 class Limits(TypedDict, total=False):
     """The keyword arguments of :func:`check_number` besides ``integer`` and ``optional``."""
 

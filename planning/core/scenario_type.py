@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from planning.core.checks import check_number, is_number
+from planning.core.checks import check_number, degrees_hint, is_number
 from planning.core.geometry import Pose2D
 from planning.core.robot import ROBOT_FILES, check_robot_name
 from planning.core.world import Obstacle, World
@@ -142,8 +142,7 @@ def check_heading_tolerance(owner: str, value: object) -> float:
     Raises:
         ConfigError: Naming ``<owner>.heading_tolerance``, the value, and the degrees it could have been.
     """
-    degrees = f"; {value:g} degrees would be {math.radians(value):.4g} rad" if is_number(value) else ""
-    fix = f"pi takes any heading{degrees}"
+    fix = f"pi takes any heading{degrees_hint(value, 360.0)}"
     return check_number(f"{owner}.heading_tolerance", value, above=0.0, at_most=math.pi, unit="rad", fix=fix)
 
 
