@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -223,6 +224,8 @@ def test_the_time_limit_holds_for_the_whole_plan(tmp_path) -> None:
     assert res.status is PlanStatus.TIMEOUT, res.reason
     assert "time limit (0.5 s" in res.reason
     assert res.stats.get("time_limit_reached") or "predicted to take" in res.reason, res.stats
+    if res.stats.get("time_limit_reached"):  # the advice that helps the EduMIP most: its horizon, with numbers
+        assert re.search(r"--planner-option dt=\d\.\d+ \(the horizon is \d+\.\d s now\) or N=80;", res.reason)
     # stopped by the limit, or (on a loaded machine, the NLP's set-up predicted to need more than was left) not
     # begun; either within an iteration or two of the limit, which leaves out numba readying code (planning.clock)
     assert res.stats["time_s"] - res.stats["code_s"] <= 0.5 + 0.3

@@ -962,9 +962,12 @@ class Optim:
                     reason += f" before its first iteration, setting it up took {stats['setup_s']:.3f} s"
                     if "setup_predicted_s" in stats:
                         reason += f" (a new NLP shape, predicted {stats['setup_predicted_s']:.3f} s)"
+            longer, more = f"{1.5 * self.dt:.2g}", round(1.6 * self.N)
             reason += (
-                " (raise max_iter (--planner-option max_iter=6000) or the time limit, or warm start from another"
-                " planner with init=... (--planner-option init=grid))"
+                f" (a longer horizon or more nodes often solves what more iterations do not: --planner-option "
+                f"dt={longer} (the horizon is {self.N * self.dt:.1f} s now) or N={more}; or raise max_iter "
+                "(--planner-option max_iter=6000) or the time limit, or warm start from another planner with init=... "
+                "(--planner-option init=grid))"
             )
         else:
             status = PlanStatus.FAILED
