@@ -121,7 +121,8 @@ def test_arrays_are_read_only() -> None:
 
 @pytest.mark.parametrize(
     ("status", "advice"),
-    [("timeout", "try another seed, a longer --time-limit"), ("invalid_start", "move the start into free space"),
+    [("timeout", "try another seed, more of the budget the reason says ran out (a longer --time-limit"),
+     ("invalid_start", "move the start into free space"),
      ("invalid_goal", "move the goal into free space"), ("infeasible", "widen the way to the goal")],
 )  # fmt: skip
 def test_a_failed_plan_names_what_to_try_for_its_status(status, advice):

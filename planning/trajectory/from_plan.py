@@ -540,7 +540,10 @@ def _from_timed(plan: PlanResult, path: FloatArray, build: _Build, force: bool |
 
 #: What to try after a failed plan, by its status.
 _FAILED_PLAN_FIX = {
-    PlanStatus.TIMEOUT: f"try another seed, a longer {option('time-limit')}, or another planner",
+    PlanStatus.TIMEOUT: (
+        f"try another seed, more of the budget the reason says ran out (a longer {option('time-limit')}, or a larger "
+        "max_iterations), or another planner"
+    ),
     PlanStatus.INVALID_START: "move the start into free space, or lower the clearance",
     PlanStatus.INVALID_GOAL: "move the goal into free space, or lower the clearance",
     PlanStatus.INFEASIBLE: "widen the way to the goal, lower the clearance, or try another planner",
