@@ -583,3 +583,22 @@ def test_a_gap_below_the_grids_proof_margin_names_a_sampling_planner_and_the_bud
         "iteration budget of 20000 spent on 0.025 m"
     )
     assert refined.reason.endswith("; cells of half the size take up to about 8 times the expansions)")
+
+
+def test_a_start_boxed_in_by_the_grids_proof_margin_names_a_sampling_planner_not_finer_cells():
+    """A TurtleBot3 backed into a dead end 8 cm longer than it, planned with the 1 cm a tracked plan keeps: the
+    lattice expanded 3 states (7 on finer cells) and the reason led with "try cell_size = 0.0125", which failed
+    alike; the way out is a planner whose checks fall back on the exact formulas (rrt-star finds it)."""
+    theta = -0.508396
+    walls = (
+        Box((3.476414, 4.019418), (0.798832, 0.08), theta),
+        Box((3.62249, 4.281553), (0.798832, 0.08), theta),
+        Box((3.933294, 3.936588), (0.08, 0.380088), theta),
+    )
+    world = World((-1.149599, 4.55515, -1.671844, 5.708097), walls)
+    prob = PlanProblem(world, load_robot("turtlebot3"), Pose2D(3.723647, 4.053415, theta), Pose2D(1.8, -1.4, 0.0))
+    res = make_planner("hybrid-a-star", clearance=0.01).plan(prob)
+    assert res.status is PlanStatus.INFEASIBLE and res.stats["iterations"] <= 10, res.stats
+    assert "it could barely leave where it began" in res.reason and "plan with rrt or rrt-star" in res.reason
+    assert "cell_size" not in res.reason
+    assert make_planner("rrt-star", clearance=0.01).plan(prob).success

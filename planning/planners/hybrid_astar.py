@@ -489,6 +489,13 @@ class HybridAStar:
             "motion proven free on the collision grid, so a gap up to a centimetre or two wider than the robot "
             "may not be passed (the resolution limit: docs/explanation/hybrid-astar.md)"
         )
+        if its <= BOXED_IN:  # finer cells box it in as well (a dead end's start: 3 expansions, then 7)
+            return (
+                f"{said}; it could barely leave where it began: no motion from there is proven free on the "
+                f"collision grid, which errs up to about {1000 * margin:.0f} mm on the safe side beyond the "
+                f"clearance kept ({checker.checker.clearance:g} m), so a start or goal that close to obstacles is "
+                f"boxed in at every cell size: plan with {SAMPLING}, or with less clearance"
+            )
         if _lattice_too_large(problem, cell / 2, bins):
             return f"{said}; {narrow}; a finer lattice would need more memory than this machine has"
         need = REFINE_COST * its
@@ -518,6 +525,10 @@ class HybridAStar:
         # deterministic: the same path whatever the problem's seed
         out = simplified(found, local, 0, reverse_weight=self.config.reverse_penalty, clock=clock)
         return dataclasses.replace(out, stats={**out.stats, "length_m": path_length(out.path)})
+
+
+#: Expansions at most of a search that barely left its first pose (:meth:`HybridAStar._exhausted`).
+BOXED_IN = 10
 
 
 #: Bytes of the search's tables per lattice state (:func:`planning.planners.lattice.search`: six float64
