@@ -364,3 +364,22 @@ def test_a_scan_rate_between_control_ticks_is_refused_with_the_rates_that_fit(
     assert err.rstrip().endswith("at a control tick; give --lidar rate=5") and "fix_rate" not in err
     code, err = _simulate(tmp_path, capsys, "--runs", "closed_loop", "--lidar", "rate=4.9", "--control-rate", "250")
     assert code == 2 and "give --lidar rate=5.10204 (or 5, 4.90196 Hz)" in err
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["montecarlo", "--reference", "line", "--robot", "turtlebot3", "--runs", "2"],
+        ["tune", "--scenarios", "open:line", "--robot", "turtlebot3", "--trials", "1"],
+    ],
+)
+def test_montecarlo_and_tune_refuse_fewer_beams_than_the_localiser_matches_as_simulate_does(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, argv: list[str]
+) -> None:
+    from control.estimation.amcl import MIN_BEAMS
+    from sim.cli.main import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main([*argv, "--lidar", f"beams={MIN_BEAMS - 1}"]) == 2
+    assert f"lidar beams={MIN_BEAMS - 1} (--lidar, or a --sensors file's [lidar] table)" in capsys.readouterr().err
+    assert not list(tmp_path.rglob("*.*"))  # nothing written

@@ -102,10 +102,11 @@ def _spec(args: argparse.Namespace) -> Any:
     from control.fbl import FBLGains
     from control.gains import resolve_gains
     from sim.cli.checks import check_control_rate, check_seeds, check_time_limit
-    from sim.cli.simulate import job_source, localiser_fields, parse_build, sensor_overrides
+    from sim.cli.simulate import check_scan_beams, job_source, localiser_fields, parse_build, sensor_overrides
     from sim.cli.trajectory_files import check_file_options, file_given, file_source, file_world
     from sim.physics.perturb import PerturbationRange
-    from sim.pipeline.case import Case, PlanOptions
+    from sim.pipeline.case import Case, PlanOptions, load_case_scenario
+    from sim.pipeline.runs import DEFAULT_RUNS
     from sim.tools.montecarlo import MonteCarloSpec
 
     check_file_options(args)
@@ -140,6 +141,7 @@ def _spec(args: argparse.Namespace) -> Any:
                 f"{', '.join(given)} {'is' if len(given) == 1 else 'are'} for a planned study, and this one plans "
                 "nothing (a reference or a file): drop it"
             )
+    check_scan_beams(case, load_case_scenario(case), DEFAULT_RUNS)  # its closed loop localises, as simulate's
     ranges = PerturbationRange.parse(args.perturb_range, others="nominal") if args.perturb_range else None
     return MonteCarloSpec(case, args.runs, ranges, replan=args.replan)
 

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from planning.errors import ConfigError
-from sim.cli.simulate import add_localiser_arguments, localiser_fields
+from sim.cli.simulate import add_localiser_arguments, check_scan_beams, localiser_fields
 from sim.tools.executor import JOBS_PER_CORE, check_workers
 from sim.tools.tune import GRACE_PERIOD
 
@@ -556,6 +556,7 @@ def _cases(
 
     from planning.scenario import load_scenario
     from sim.pipeline.case import Case, load_case_scenario
+    from sim.pipeline.runs import RunKind
     from sim.tools.tune import robot_localiser
 
     fields_ = {"robot": args.robot, "seed": args.seed, "control_rate": args.control_rate, "tracker": tracker}
@@ -566,6 +567,8 @@ def _cases(
     default = defaults.pop() if len(defaults) == 1 else None
     localiser = args.localiser or default
     named = tuple(replace(c, localiser=localiser) for c in cases) if localiser else cases
+    for case, scenario in zip(named, scenarios, strict=True):  # trials run closed loops on the fused estimate
+        check_scan_beams(case, scenario, (RunKind.CLOSED_LOOP,))
     own = args.robot is None or all(load_scenario(c.scenario_name).robot == args.robot for c in given)
     return named, default, [replace(c, robot=None, name="").name for c in given] if own else None
 
