@@ -31,4 +31,6 @@ def run(args: argparse.Namespace) -> int:
         if len(rows) == 1:
             print(lines[1], flush=True)
     print(bench.format_rows(rows)[-1])
-    return 0 if bench.passed(rows) else 1
+    met = bench.passed(rows)
+    print(f"targets {'met' if met else 'missed'} (judged on each problem's least CPU time, its success and its ratio)")
+    return 0 if met else 1

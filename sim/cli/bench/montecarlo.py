@@ -43,4 +43,5 @@ def run(args: argparse.Namespace) -> int:
           f"(target >= {TARGET_SPEEDUP})")  # fmt: skip
     print(f"local cluster start-up      {r.startup_s:>8.2f} s   (once per command)")
     print(f"records equal to the direct loop's: {'yes' if r.same_records else 'NO'}")
+    print(f"targets {'met' if r.passed else 'missed'}")
     return 0 if r.passed else 1

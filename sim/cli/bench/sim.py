@@ -68,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"bare mj_step loop    {r.bare_steps_per_s:>12,.0f} steps/s")
     print(f"closed-loop run      {r.closed_steps_per_s:>12,.0f} steps/s")
     target = TARGET_RATIO if args.localiser == "fixes" else TARGET_RATIO_AMCL
-    print(f"ratio                {r.ratio:>12.3f}   (target >= {target})")
+    print(f"ratio                {r.ratio:>12.3f}   (by the best wall times)")
     print(f"ratio by CPU time    {r.cpu_ratio:>12.3f}   (the measuring thread's; without other processes' turns)")
     print(f"median pair by CPU   {r.pair_median:>12.3f}   (of the {r.repeats} back-to-back pairs' ratios)")
     print(f"real-time factor     {r.real_time_factor:>12.1f}x  (simulated seconds per wall-clock second, closed loop)")
@@ -79,6 +79,9 @@ def run(args: argparse.Namespace) -> int:
             f"{1e3 * s.localiser_cpu_s:.3f} ms CPU ({s.particles} particles, {s.max_beams} beams; median of "
             f"{s.revolutions}; aim <= 1 ms each)"
         )
-    met = r.ratio >= target
-    print(f"target               {'met' if met else 'missed'}: ratio {r.ratio:.3f} {'>=' if met else '<'} {target}")
+    met = r.judged >= target
+    print(
+        f"target               {'met' if met else 'missed'}: {r.judged:.3f} {'>=' if met else '<'} {target} (the lower "
+        "of the two ratios: a slowed baseline does not flatter the closed loop)"
+    )
     return 0 if met else 1

@@ -95,9 +95,11 @@ def _trajectories(args: argparse.Namespace) -> bool:
             flush=True,
         )
     finite = np.array([x for x in ratios if np.isfinite(x)])
+    unmeasured = len(ratios) - finite.size
+    left = f"; {unmeasured} case(s) with no trajectory to compare, named above, not judged" if unmeasured else ""
     if finite.size:
         print(
             f"sampling planners' trajectory length ratio: median {np.median(finite):.3f}, "
-            f"max {finite.max():.3f} over {finite.size} cases"
+            f"max {finite.max():.3f} over {finite.size} of {len(ratios)} cases{left}"
         )
     return missed

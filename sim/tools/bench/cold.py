@@ -84,9 +84,15 @@ class ColdRow:
             ok = self.process_wall_s <= PROCESS_TARGET_S
             out.append(f"process <= {PROCESS_TARGET_S:g} s {'met' if ok else 'MISSED'}")
         if self.obstacles > 20:
-            ok = self.working_s <= self.time_limit_s * 1.05 and self.status in ("success", "timeout")
-            out.append(f"within the {self.time_limit_s:g} s limit {'met' if ok else 'MISSED'}")
+            ok = self.working_s <= self.time_limit_s * LIMIT_SLACK and self.status in ("success", "timeout")
+            said = f"within the {self.time_limit_s:g} s limit (+{LIMIT_SLACK - 1:.0%}: the last step's check)"
+            out.append(f"{said} {'met' if ok else 'MISSED'}")
         return out
+
+
+#: How far past its time limit a crowded world's plan may end and count as within it: a planner checks its clock
+#: between steps, so it stops after the step that passes the limit (2.023 s of a 2 s limit measured).
+LIMIT_SLACK = 1.05
 
 
 #: The obstacle kinds of a scenario TOML.

@@ -7,7 +7,8 @@ does the same contact work), the
 closed loop runs the whole simulator (sensing, the tracker (FBL unless told) at the control rate, the drive
 mapping, logging, contact checks). Each loop's time includes its start: a new ``MjData`` and the
 robot set down at its start pose (:func:`sim.physics.model.set_pose`, which lets it settle on the
-floor for 0.5 s of physics first), which both do alike. Target: ratio >= 0.8.
+floor for 0.5 s of physics first), which both do alike. Target: ratio >= 0.8, the lower of the ratio by the best
+wall times and the ratio by CPU time (:attr:`SimBench.judged`).
 """
 
 from __future__ import annotations
@@ -87,9 +88,16 @@ class SimBench:
         return self.duration_s / self.closed_s
 
     @property
+    def judged(self) -> float:
+        """The ratio the target judges: the lower of the wall clock's and the CPU time's, so a baseline slowed by
+        another process (bare 108,666 steps/s against 122,000-127,000 in the runs around it: 0.994 by the wall
+        clock, 0.868 by CPU time) cannot flatter the closed loop, nor a loaded closed loop hide behind its CPU."""
+        return min(self.ratio, self.cpu_ratio)
+
+    @property
     def passed(self) -> bool:
-        """The ratio meets ``TARGET_RATIO``."""
-        return self.ratio >= TARGET_RATIO
+        """The judged ratio meets ``TARGET_RATIO``."""
+        return self.judged >= TARGET_RATIO
 
 
 def measure(
