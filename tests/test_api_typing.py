@@ -71,6 +71,7 @@ def test_the_packages_ship_py_typed_and_the_build_includes_it() -> None:
         assert "py.typed" in data.get(package, []), f"pyproject's package-data does not ship {package}/py.typed"
 
 
+@pytest.mark.slow  # mypy --strict over the documented examples: 7 s, kept out of the default run
 def test_mypy_strict_accepts_the_documented_tracker_planner_and_an_api_script(tmp_path: Path) -> None:
     """Run as a user would: the packages found on the path (PYTHONPATH, which mypy treats as installed
     packages, so it reads them only with their ``py.typed``), no nhsim configuration, mypy's cache in tmp."""

@@ -150,6 +150,7 @@ def _processes_in(cwd: Path, marker: str) -> list[int]:
     return found
 
 
+@pytest.mark.slow  # a Dask local cluster started and interrupted: 7.5 s, kept out of the default run
 def test_montecarlo_on_local_workers_says_only_that_it_was_interrupted(tmp_path: Path) -> None:
     """Ctrl-C reaches every process of the command. Its Dask workers, taking it too, printed their
     KeyboardInterrupt tracebacks, and Dask logged what the close broke (CommClosedError under a heartbeat

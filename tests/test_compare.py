@@ -165,6 +165,7 @@ def test_parameter_files(tmp_path: Path) -> None:
         check_trackers(["mpc", "mpc"])
 
 
+@pytest.mark.slow  # every tracker timed: 3 s, kept out of the default run
 def test_bench_track_prints_every_tracker_and_mpc_solve_times() -> None:
     r = nhsim("bench", "track", "--reference", "line", "--trackers", "kanayama,mpc", "--mpc-solvers", "rti,sqp")
     assert r.returncode in (0, 1), r.stderr  # 1: a tracker's 95th percentile ran past the period on this machine

@@ -243,6 +243,7 @@ def test_the_search_from_the_goal_gives_valid_paths_read_forwards(simplify):
     assert won >= 2
 
 
+@pytest.mark.slow  # a race of two lattice searches: 6 s, kept out of the default run
 def test_a_dead_end_from_the_start_is_planned_from_the_goal(tmp_path):
     """An 8 x 8 m world whose search from the start expands 101,608 nodes (a gap the body fits but cannot
     turn in, where the heuristic leads it) and whose search from the goal 12,657: the race ends at about

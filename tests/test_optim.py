@@ -382,6 +382,7 @@ def test_a_gap_too_narrow_for_the_warm_starts_disc_is_named_in_the_reason() -> N
     assert stretched.stats["dense_disc_clearance"] >= 0.0 and stretched.stats["min_clearance"] > 0.0
 
 
+@pytest.mark.slow  # two processes with other BLAS threads: 6 s, kept out of the default run
 def test_a_solve_gives_the_same_bits_whatever_the_blas_thread_count() -> None:
     """CasADi's bundled OpenBLAS runs on one thread once a solver uses it (``planning.casadi_env``):
     the same plan in this process (its default thread count: one per core) and in a process started

@@ -74,6 +74,7 @@ def _beating(tmp_path: Path) -> list[int]:
     return [int(row[0]) for row in _query(tmp_path, sql)]
 
 
+@pytest.mark.slow  # a whole tuning study: 5 s, kept out of the default run
 def test_tuning_is_no_worse_than_the_defaults(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     code = main(_args(tmp_path, 6, "--eval-runs", "2"))
     out = capsys.readouterr().out
@@ -637,6 +638,7 @@ def _ended(path: Path) -> tuple[set[tuple[tuple[str, float], ...]], float, int]:
     return {tuple(sorted(t.params.items())) for t in done}, min(t.value for t in done), len(done)
 
 
+@pytest.mark.slow  # a study run, interrupted and resumed: 5 s, kept out of the default run
 def test_an_interrupted_study_resumed_ends_as_one_never_interrupted(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
