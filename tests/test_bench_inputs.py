@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from sim.cli.main import main
@@ -88,3 +89,37 @@ def test_bench_track_names_its_option_for_an_unknown_mpc_solver(
     assert said in captured.err and "MPCParams" not in captured.err and captured.out == ""
     if "not an MPC solver" in said:
         assert "SOLVER one of rti, sqp, ipopt and QP one of daqp, qrqp" in captured.err
+
+
+def test_bench_sim_judges_the_lower_of_its_wall_and_cpu_ratios() -> None:
+    """A baseline slowed by another process made the wall ratio 0.994 where CPU time said 0.868: the target
+    judged the wall ratio alone, which such interference can only flatter."""
+    from sim.tools.bench.sim import TARGET_RATIO, SimBench
+
+    def bench(bare_s: float, bare_cpu_s: float) -> SimBench:
+        return SimBench("edumip", "line", 50.0, 5, 10_000, 20.0, bare_s, 1.0, bare_cpu_s, 1.0)
+
+    slowed = bench(bare_s=0.994, bare_cpu_s=0.868)
+    assert slowed.ratio == pytest.approx(0.994) and slowed.judged == pytest.approx(0.868)
+    assert bench(0.9, 0.7).judged == pytest.approx(0.7) and not bench(0.9, 0.7).passed  # CPU below the target
+    assert bench(0.7, 0.9).judged == pytest.approx(0.7) and not bench(0.7, 0.9).passed  # wall below it
+    assert bench(0.85, 0.86).passed and TARGET_RATIO == 0.8
+
+
+def test_bench_optim_compares_nothing_against_a_setting_that_did_not_solve(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """nav_map1's seed setting times out at 30 s, and the bench printed "speed-up 675x" against it."""
+    import argparse
+
+    from planning.planners.base import PlanResult, PlanStatus
+    from sim.cli.bench import optim as cli
+    from sim.tools.bench import optim as bench
+
+    path = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    done = bench.Solve(0.04, PlanResult(PlanStatus.SUCCESS, "optim", path=path))
+    stopped = bench.Solve(30.0, PlanResult(PlanStatus.TIMEOUT, "optim", path=path, reason="time limit"))
+    monkeypatch.setattr(bench, "measure", lambda name, repeats: bench.OptimBench(name, stopped, done))
+    assert cli.run(argparse.Namespace(repeats=1, scenarios=["nav_map1"])) == 1
+    out = capsys.readouterr().out
+    assert "not compared: the seed setting ended timeout" in out and "speed-up" not in out
