@@ -276,3 +276,15 @@ def test_a_file_past_the_acceleration_limit_is_still_retimed(tmp_path: Path) -> 
     traj = res.trajectory
     assert res.success and traj is not None and imp.report.retimed is True
     assert np.max(np.abs(np.diff(traj.vel[:, 0]) / np.diff(traj.t))) <= LIMITS.max_accel + 1e-6
+
+
+def test_a_files_smoothing_options_are_checked_where_they_enter(tmp_path: Path) -> None:
+    """A file's trajectory takes the smoothing options to_trajectory takes, checked alike (dt=10 made a
+    trajectory of a few samples; a negative max_deviation failed deep in the fit)."""
+    from planning.errors import ConfigError
+
+    imp = read_trajectory_file(TrajectoryFile(s_curve_file(tmp_path, 30.0)))
+    with pytest.raises(ConfigError, match=r"^to_trajectory: dt must be a finite number in \[0\.0001, 0\.1\]"):
+        file_trajectory(imp, ROBOT, WORLD, dt=10.0)
+    with pytest.raises(ConfigError, match=r"^to_trajectory: max_deviation must be a finite number > 0"):
+        file_trajectory(imp, ROBOT, WORLD, max_deviation=-1.0)

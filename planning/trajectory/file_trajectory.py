@@ -38,6 +38,7 @@ from planning.planners.base import PlanResult, PlanStatus
 from planning.trajectory.file_formats import TrajectoryFileError
 from planning.trajectory.from_plan import TrajectoryResult, TrajectoryStatus, make_trajectory, time_scales
 from planning.trajectory.importer import MOVING_SPEED, ImportedFile
+from planning.trajectory.smoothing import check_options
 from planning.trajectory.speed_profile import Limits
 
 FloatArray = NDArray[np.float64]
@@ -454,6 +455,7 @@ def file_trajectory(imported: ImportedFile, robot: RobotSpec, world: World, **op
     Raises:
         TrajectoryFileError: The file enters an obstacle or leaves the world (see :func:`check_world`).
     """
+    options = check_options(options)  # where the smoothing options enter, as to_trajectory's do
     source, report = imported.source, imported.report
     name = f"file:{source.name}"
     goal = with_file_ends(Scenario("file", robot.name, world, Pose2D(0, 0, 0), Pose2D(0, 0, 0)), imported).goal

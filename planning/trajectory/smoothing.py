@@ -205,9 +205,7 @@ def split_path(
 
     Raises:
         ValueError: Bad shapes or a path with fewer than 1 pose.
-        ConfigError: ``corner_angle`` is not a number in [0, pi] (named as ``to_trajectory``'s option).
     """
-    corner_angle = check_option("corner_angle", corner_angle)
     steps = _Steps.of(path, min_step)
     th = steps.th
     drives = steps.drives(steps.signs(directions), corner_angle)
@@ -867,12 +865,8 @@ def smooth_drive(
     Returns:
         The result; ``status`` says whether it succeeded.
 
-    Raises:
-        ConfigError: ``clearance`` is not a finite number >= 0 or ``max_deviation`` not one > 0 (named as
-            ``to_trajectory``'s options).
+    (``clearance`` and ``max_deviation`` come checked: :func:`check_options`, where the options enter.)
     """
-    clearance = check_option("clearance", clearance)
-    max_deviation = check_option("max_deviation", max_deviation)
     if segment.kind != "drive":
         raise ValueError("smooth_drive needs a 'drive' segment")
     pts = segment.points
