@@ -14,7 +14,6 @@ from sim.cli.checks import add_planner_option_argument
 from sim.cli.job_outputs import RUN_SETTINGS, add_executor_arguments, add_output_arguments
 from sim.cli.trajectory_files import add_file_arguments, check_file_options, file_given, format_import
 from sim.pipeline.runs import RunKind, run_kinds
-from sim.robot.sources import PoseSource
 
 #: The scenario of a job that names none: this map for a plan (the default job, source report 003's: the EduMIP
 #: plans through it with its planner, C-RRT*), the empty arena for an analytic reference.
@@ -554,7 +553,7 @@ def ignored_options(args: argparse.Namespace) -> list[str]:
     runs = parse_runs(args.runs) if args.runs is not None else run_choices()[args.tracker]
     if args.feedback is not None and all(kind.tracker for kind in runs):
         notes.append(f"--feedback ignored: no run of {', '.join(runs)} feeds back")
-    if args.initial_pose != "known" and not any(localises(kind) for kind in runs):
+    if args.initial_pose != "known" and not any(kind.localises for kind in runs):
         notes.append(
             f"--initial-pose {args.initial_pose} ignored: no run of {', '.join(runs)} localises with scans (only "
             f"{RunKind.CLOSED_LOOP}, on the fused estimate, does)"
@@ -569,12 +568,6 @@ def ignored_options(args: argparse.Namespace) -> list[str]:
     return notes
 
 
-def localises(kind: RunKind) -> bool:
-    """Whether a run of ``kind`` is corrected by the localiser (fed the fused estimate): the dead-reckoning and
-    true-pose runs take no scan and no fix."""
-    return kind.source is PoseSource.FUSED
-
-
 def check_scan_beams(case: Any, scenario: Any, runs: tuple[RunKind, ...]) -> None:
     """Refuse a scanner with fewer beams than the scan localiser matches (:data:`control.estimation.amcl.MIN_BEAMS`)
     when a run localises with it: no revolution could give a fix, and that run would be dead reckoning under the
@@ -585,7 +578,7 @@ def check_scan_beams(case: Any, scenario: Any, runs: tuple[RunKind, ...]) -> Non
     """
     from control.estimation.amcl import MIN_BEAMS
 
-    if not any(localises(kind) for kind in runs):
+    if not any(kind.localises for kind in runs):
         return
     setup = case.localiser_setup(scenario)
     if setup.kind != "amcl" or setup.lidar is None or setup.lidar.beams >= MIN_BEAMS:

@@ -54,6 +54,12 @@ class RunKind(StrEnum):
         member.caption = caption
         return member
 
+    @property
+    def localises(self) -> bool:
+        """Whether the run is corrected by the localiser: only one fed the fused estimate takes its scans and fixes
+        (dead reckoning and the true pose take none)."""
+        return self.source is PoseSource.FUSED
+
     #                      label                   tracker      pose source          bar caption
     CLOSED_LOOP          = "closed_loop",          "",          PoseSource.FUSED,    "closed loop"  # fmt: skip
     CLOSED_LOOP_ODOMETRY = "closed_loop_odometry", "",          PoseSource.ODOMETRY, "odometry loop"  # fmt: skip

@@ -34,7 +34,6 @@ from sim.physics.simulator import SimConfig, Simulator
 from sim.pipeline.case import Case, PreparedTrajectory, check_case_scenario, prepare_trajectory
 from sim.pipeline.runs import DEFAULT_RUNS, Progress, RunKind, run_kinds
 from sim.robot.sensing import SensingSetup
-from sim.robot.sources import PoseSource
 
 
 @dataclass(frozen=True)
@@ -161,7 +160,7 @@ class JobResult:
             "sensors": self.sensing.profile.as_dict(),
             "versions": versions(),
         }
-        if any(kind.source is PoseSource.FUSED for kind in self.runs):  # only those runs localise
+        if any(kind.localises for kind in self.runs):
             rec["localiser"] = self.sensing.localiser.as_dict()
         for kind, run in self.runs.items():
             entry: dict[str, Any] = dict(run.metrics.as_dict())
