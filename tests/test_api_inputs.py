@@ -424,7 +424,7 @@ def test_smoothing_options_are_checked_on_entry_naming_each() -> None:
         ({"snap_tolerance": math.nan}, r"snap_tolerance must be a finite number >= 0 \(m\), got nan"),
         ({"retime": "no"}, r"retime must be True, False or None \(by the plan\), got 'no'"),
         ({"keep_loops": 1}, r"keep_loops must be True or False, got 1"),
-        ({"goal": (1.0, 1.0, 0.0)}, r"goal must be a Pose2D or None, got \(1\.0, 1\.0, 0\.0\)"),
+        ({"goal": (1.0, 1.0, 0.0)}, r"goal must be a Pose2D or None: pass Pose2D\(1\.0, 1\.0, 0\.0\), got tuple"),
         ({"name": 3}, r"name must be text or None, got 3"),
     ]:
         with pytest.raises(ConfigError, match=r"^to_trajectory: " + message):
@@ -449,13 +449,12 @@ def test_references_simulators_and_videos_name_an_argument_of_the_wrong_kind(tmp
     from sim.viz.job_video import write_video
 
     robot = load_robot("edumip")
-    for start in ((0, 0, 0), np.zeros(3)):
-        with pytest.raises(
-            ConfigError,
-            match=r"^reference 'circle': start must be a Pose2D, got .*; Pose2D\.from_array\(start\) makes one of",
-        ):
+    for start, fix in (((0, 0, 0), r"Pose2D\(0, 0, 0\), got tuple"), (np.zeros(3), r"Pose2D\.from_array\(values\)")):
+        with pytest.raises(ConfigError, match=r"^reference 'circle': start must be a Pose2D: pass " + fix):
             make_reference("circle", robot, start)  # type: ignore[arg-type]
-    with pytest.raises(ConfigError, match=r"^reference 'line': start must be a Pose2D, got None; give Pose2D\(x, y"):
+    with pytest.raises(
+        ConfigError, match=r"^reference 'line': start must be a Pose2D: pass Pose2D\(x, y, theta\), got"
+    ):
         make_reference("line", robot, None)  # type: ignore[arg-type]
     with pytest.raises(
         ConfigError, match=r"^reference 'figure8': robot must be a RobotSpec \(load_robot\('edumip'\)\)"
@@ -465,11 +464,11 @@ def test_references_simulators_and_videos_name_an_argument_of_the_wrong_kind(tmp
         Simulator("edumip")  # type: ignore[arg-type]
     with pytest.raises(
         ConfigError,
-        match=r"^Simulator: world must be a World or None \(an empty floor\), got \(0, 1, 0, 1\); give "
-        r"World\(\(0, 1, 0, 1\)\) for bounds alone, or load_scenario\(name\)\.world$",
+        match=r"^Simulator: world must be a World or None \(an empty floor\): pass World\(\(0, 1, 0, 1\)\) for bounds "
+        r"alone, got tuple \(0, 1, 0, 1\)$",
     ):
         Simulator(robot, (0, 1, 0, 1))  # type: ignore[arg-type]
-    with pytest.raises(ConfigError, match=r"world must be .*, got 'open'; give load_scenario\('open'\)\.world$"):
+    with pytest.raises(ConfigError, match=r"world must be .*: pass load_scenario\('open'\)\.world, got str 'open'$"):
         Simulator(robot, "open")  # type: ignore[arg-type]
     video = tmp_path / "run.mp4"
     with pytest.raises(ConfigError, match=r"^write_video: job must be a simulated job \(what simulate_plan, "):

@@ -46,7 +46,12 @@ def _problem(**fields: Any) -> PlanProblem:
         ({"time_limit": []}, r"PlanProblem.time_limit must be a finite number > 0, got \[\]"),
         ({"seed": -1}, r"PlanProblem.seed must be an integer >= 0, got -1"),
         ({"seed": 1.5}, r"PlanProblem.seed must be an integer >= 0, got 1.5"),
-        ({"start": (0.5, 1.0, 0.0)}, r"PlanProblem.start must be a Pose2D, got tuple"),
+        ({"start": (0.5, 1.0, 0.0)}, r"PlanProblem.start must be a Pose2D: pass Pose2D\(0\.5, 1\.0, 0\.0\), got tuple"),
+        ({"robot": "edumip"}, r"^PlanProblem: robot must be a RobotSpec \(load_robot\('edumip'\)\), got 'edumip'$"),
+        (
+            {"world": None},
+            r"^PlanProblem.world must be a World: pass World\(\(xmin, xmax, ymin, ymax\), obstacles\), or ",
+        ),
     ],
 )
 def test_a_bad_problem_field_is_refused_when_the_problem_is_made(fields: dict[str, Any], match: str) -> None:

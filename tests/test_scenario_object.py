@@ -79,7 +79,10 @@ def test_a_footprint_wholly_beyond_the_walls_is_measured_by_how_far_it_sticks_ou
     [
         ({"start": (1, 1, 0)}, r"Scenario.start must be a Pose2D: pass Pose2D\(1, 1, 0\), got tuple \(1, 1, 0\)"),
         ({"goal": None}, r"Scenario.goal must be a Pose2D: pass Pose2D\(x, y, theta\), got NoneType None"),
-        ({"world": (0, 3, 0, 3)}, r"Scenario.world must be a World: pass World\(\(0, 3, 0, 3\)\), got tuple"),
+        (
+            {"world": (0, 3, 0, 3)},
+            r"Scenario.world must be a World: pass World\(\(0, 3, 0, 3\)\) for bounds alone, got tuple",
+        ),
         ({"position_tolerance": -1}, r"Scenario.position_tolerance must be a finite number > 0 \(m, .*got -1$"),
         (
             {"heading_tolerance": "0.1"},

@@ -40,6 +40,20 @@ def degrees_hint(value: object, largest: float = 720.0) -> str:
     return f"; {value:g} degrees would be {math.radians(value):.4g} rad"
 
 
+def refuse_kind(where: str, kind: str, value: object, fix: str) -> ConfigError:
+    """The error for an argument of the wrong type: ``<where> must be <kind>: pass <fix>, got <type> <value>``
+    (what :func:`planning.core.geometry.check_pose` and :func:`planning.core.world.check_world` raise)."""
+    return ConfigError(f"{where} must be {kind}: pass {fix}, got {type(value).__name__} {value!r:.80}")
+
+
+def numbers_text(value: object, count: int) -> str:
+    """``"1, 1, 0"`` for a tuple or list of ``count`` numbers (a pose or bounds spelled as numbers), else "":
+    what a refused argument's advice quotes back."""
+    if not isinstance(value, tuple | list) or len(value) != count or not all(is_number(v) for v in value):
+        return ""
+    return ", ".join(repr(v) for v in value)
+
+
 class Limits(TypedDict, total=False):
     """The keyword arguments of :func:`check_number` besides ``integer`` and ``optional``."""
 

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import overload
+from typing import Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from planning.core.checks import check_number, given, is_number
+from planning.core.checks import check_number, given, is_number, numbers_text, refuse_kind
 from planning.errors import ConfigError
 
 FloatArray = NDArray[np.float64]
@@ -90,6 +90,28 @@ class Pose2D:
     def heading_error_to(self, other: Pose2D) -> float:
         """Absolute wrapped heading difference [rad]."""
         return abs(wrap_angle(self.theta - other.theta))
+
+
+@overload
+def check_pose(where: str, value: object, *, optional: Literal[False] = False) -> Pose2D: ...
+@overload
+def check_pose(where: str, value: object, *, optional: bool) -> Pose2D | None: ...
+def check_pose(where: str, value: object, *, optional: bool = False) -> Pose2D | None:
+    """``value`` when it is a :class:`Pose2D` (or None, where ``optional``).
+
+    Raises:
+        ConfigError: Anything else, naming ``where``, what was given and how to make a pose of it
+            (``Pose2D(1, 1, 0)`` for three numbers, ``Pose2D.from_array`` for an array of three).
+    """
+    if isinstance(value, Pose2D) or (optional and value is None):
+        return value
+    if text := numbers_text(value, 3):
+        fix = f"Pose2D({text})"
+    elif isinstance(value, np.ndarray) and value.shape == (3,):
+        fix = "Pose2D.from_array(values), which takes [x, y, theta]"
+    else:
+        fix = "Pose2D(x, y, theta)"
+    raise refuse_kind(where, "a Pose2D or None" if optional else "a Pose2D", value, fix)
 
 
 # ---------------------------------------------------------------------------------------- paths

@@ -12,10 +12,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from planning.core.checks import check_number, degrees_hint, is_number
-from planning.core.geometry import Pose2D
+from planning.core.checks import check_number, degrees_hint
+from planning.core.geometry import Pose2D, check_pose
 from planning.core.robot import ROBOT_FILES, check_robot_name
-from planning.core.world import Obstacle, World
+from planning.core.world import Obstacle, World, check_world
 from planning.errors import ConfigError
 
 DEFAULT_POSITION_TOLERANCE = 0.05
@@ -77,13 +77,9 @@ class Scenario:
     def __post_init__(self) -> None:
         _check_text("name", self.name)
         _check_text("robot", self.robot, f"a robot's name, one of {', '.join(sorted(ROBOT_FILES))}")
-        for label, (kind, how) in _KINDS.items():
-            value = getattr(self, label)
-            if not isinstance(value, kind):
-                raise ConfigError(
-                    f"Scenario.{label} must be a {kind.__name__}: pass {_suggested(kind, value) or how}, got "
-                    f"{type(value).__name__} {value!r:.80}"
-                )
+        check_world("Scenario.world", self.world)
+        check_pose("Scenario.start", self.start)
+        check_pose("Scenario.goal", self.goal)
         unit = "m, the goal region's radius"
         value = check_number("Scenario.position_tolerance", self.position_tolerance, above=0.0, unit=unit)
         object.__setattr__(self, "position_tolerance", value)
@@ -127,14 +123,6 @@ class Scenario:
         return dict(self.planner_options.get(planner, {}))
 
 
-#: The fields of a :class:`Scenario` that are objects of a type, and how to make one.
-_KINDS: dict[str, tuple[type, str]] = {
-    "world": (World, "World((xmin, xmax, ymin, ymax), obstacles)"),
-    "start": (Pose2D, "Pose2D(x, y, theta)"),
-    "goal": (Pose2D, "Pose2D(x, y, theta)"),
-}
-
-
 def check_heading_tolerance(owner: str, value: object) -> float:
     """A goal's heading tolerance [rad]: a finite number in (0, pi] (pi takes any heading; more is degrees, or
     a typo).
@@ -144,17 +132,6 @@ def check_heading_tolerance(owner: str, value: object) -> float:
     """
     fix = f"pi takes any heading{degrees_hint(value, 360.0)}"
     return check_number(f"{owner}.heading_tolerance", value, above=0.0, at_most=math.pi, unit="rad", fix=fix)
-
-
-def _suggested(kind: type, value: object) -> str:
-    """How to pass ``value`` (numbers in a tuple or list) as a ``kind``: ``Pose2D(1, 1, 0)``, ``World((0, 3, 0, 3))``;
-    "" for anything else."""
-    if not isinstance(value, tuple | list) or not all(is_number(v) for v in value):
-        return ""
-    text = ", ".join(repr(v) for v in value)
-    if kind is Pose2D and len(value) == 3:
-        return f"Pose2D({text})"
-    return f"World(({text}))" if kind is World and len(value) == 4 else ""
 
 
 def _check_text(label: str, value: object, expected: str = "a non-empty string") -> None:

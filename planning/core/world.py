@@ -8,12 +8,12 @@ Eberly's closest-point equation, solved to about 1e-15 m: :mod:`planning.core.el
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import ClassVar, Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from planning.core.checks import check_number
+from planning.core.checks import check_number, numbers_text, refuse_kind
 from planning.errors import ConfigError
 
 FloatArray = NDArray[np.float64]
@@ -440,3 +440,26 @@ class World:
     def min_feature(self) -> float:
         """Smallest extent among the obstacles [m] (inf without obstacles)."""
         return min((o.min_feature for o in self.obstacles), default=float("inf"))
+
+
+@overload
+def check_world(where: str, value: object, *, none: Literal[""] = "") -> World: ...
+@overload
+def check_world(where: str, value: object, *, none: str) -> World | None: ...
+def check_world(where: str, value: object, *, none: str = "") -> World | None:
+    """``value`` when it is a :class:`World` (or None, where ``none`` says what None stands for, as "an empty
+    floor" does for a simulator).
+
+    Raises:
+        ConfigError: Anything else, naming ``where``, what was given and how to make a world of it
+            (``World((0, 3, 0, 3))`` for four numbers, ``load_scenario('open').world`` for a scenario's name).
+    """
+    if isinstance(value, World) or (none and value is None):
+        return value
+    if text := numbers_text(value, 4):
+        fix = f"World(({text})) for bounds alone"
+    elif isinstance(value, str):
+        fix = f"load_scenario({value!r}).world"
+    else:
+        fix = "World((xmin, xmax, ymin, ymax), obstacles), or load_scenario(name).world"
+    raise refuse_kind(where, f"a World or None ({none})" if none else "a World", value, fix)

@@ -11,10 +11,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.core.checks import check_number
-from planning.core.geometry import Pose2D, path_length, wrap_angle
-from planning.core.robot import RobotSpec, load_robot
+from planning.core.geometry import Pose2D, check_pose, path_length, wrap_angle
+from planning.core.robot import RobotSpec, check_robot_spec, load_robot
 from planning.core.scenario_type import Scenario, check_heading_tolerance
-from planning.core.world import World
+from planning.core.world import World, check_world
 from planning.errors import ConfigError, NhsimError, PlannerError
 
 FloatArray = NDArray[np.float64]
@@ -63,11 +63,10 @@ class PlanProblem:
     name: str = "problem"
 
     def __post_init__(self) -> None:
-        kinds = {"world": World, "robot": RobotSpec, "start": Pose2D, "goal": Pose2D}
-        for label, kind in kinds.items():
-            if not isinstance(getattr(self, label), kind):
-                got = type(getattr(self, label)).__name__
-                raise ConfigError(f"PlanProblem.{label} must be a {kind.__name__}, got {got}")
+        check_world("PlanProblem.world", self.world)
+        check_robot_spec("PlanProblem", self.robot)
+        check_pose("PlanProblem.start", self.start)
+        check_pose("PlanProblem.goal", self.goal)
         for label in ("position_tolerance", "time_limit"):
             object.__setattr__(self, label, check_number(f"PlanProblem.{label}", getattr(self, label), above=0.0))
         object.__setattr__(self, "heading_tolerance", check_heading_tolerance("PlanProblem", self.heading_tolerance))

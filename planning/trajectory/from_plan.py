@@ -40,7 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 from planning.collision.exact import CollisionChecker
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import RobotSpec, check_robot_spec
-from planning.core.world import World
+from planning.core.world import World, check_world
 from planning.errors import ConfigError, NhsimError, option
 from planning.planners.base import PlanResult, PlanStatus
 from planning.trajectory.segments import infer_segments
@@ -240,8 +240,7 @@ def _plan_path(
         ConfigError: ``robot`` is not a RobotSpec, or ``world`` not a World.
     """
     check_robot_spec("to_trajectory", robot)
-    if not isinstance(world, World):
-        raise ConfigError(f"to_trajectory: world must be a World (load_scenario(name).world), got {world!r:.80}")
+    check_world("to_trajectory: world", world)
     if isinstance(plan, PlanResult):
         dirs = directions if directions is not None else plan.directions
         timed = plan.times is not None and plan.controls is not None

@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.core.checks import check_number
-from planning.core.geometry import Pose2D
+from planning.core.geometry import Pose2D, check_pose
 from planning.core.robot import RobotSpec, check_robot_spec
 from planning.errors import ConfigError
 from planning.trajectory.trajectory import Trajectory
@@ -111,15 +111,9 @@ def _build(
 
 def _check_placement(name: str, robot: object, start: object) -> None:
     """Refuse a ``robot`` that is not a RobotSpec or a ``start`` that is not a Pose2D (ConfigError naming the
-    reference and, for a sequence of three numbers, how to make it a pose)."""
+    reference and how to make one)."""
     check_robot_spec(f"reference {name!r}", robot)
-    if not isinstance(start, Pose2D):
-        three = isinstance(start, tuple | list) and len(start) == 3
-        if three or (isinstance(start, np.ndarray) and start.shape == (3,)):
-            fix = "Pose2D.from_array(start) makes one of [x, y, theta]"
-        else:
-            fix = "give Pose2D(x, y, theta), e.g. Pose2D(0.0, 0.0, 0.0)"
-        raise ConfigError(f"reference {name!r}: start must be a Pose2D, got {start!r:.80}; {fix}")
+    check_pose(f"reference {name!r}: start", start)
 
 
 def _positive(what: str, value: float | None, default: float) -> float:

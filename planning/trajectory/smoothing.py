@@ -43,7 +43,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from planning.collision.exact import CollisionChecker
 from planning.core.checks import check_flag, check_number
-from planning.core.geometry import Pose2D, cumulative_length, path_steps, wrap_angle
+from planning.core.geometry import check_pose, cumulative_length, path_steps, wrap_angle
 from planning.errors import ConfigError
 
 if TYPE_CHECKING:  # scipy.sparse is loaded where a fit is solved, not by every planner that imports this
@@ -130,8 +130,8 @@ def check_options(options: Mapping[str, Any]) -> dict[str, Any]:
             if not isinstance(value, bool | np.bool_):
                 raise ConfigError(f"to_trajectory: retime must be True, False or None (by the plan), got {value!r:.80}")
             out[key] = bool(value)
-        elif key == "goal" and value is not None and not isinstance(value, Pose2D):
-            raise ConfigError(f"to_trajectory: goal must be a Pose2D or None, got {value!r:.80}")
+        elif key == "goal":
+            check_pose("to_trajectory: goal", value, optional=True)
         elif key == "name" and value is not None and not isinstance(value, str):
             raise ConfigError(f"to_trajectory: name must be text or None, got {value!r:.80}")
     return out

@@ -18,8 +18,8 @@ from numpy.typing import NDArray
 
 from planning.core.geometry import Pose2D
 from planning.core.robot import RobotSpec, check_robot_spec, load_robot
-from planning.core.world import OBSTACLE_HEIGHT, Box, Circle, Ellipse, Polygon, World
-from planning.errors import ConfigError, ModelError
+from planning.core.world import OBSTACLE_HEIGHT, Box, Circle, Ellipse, Polygon, World, check_world
+from planning.errors import ModelError
 from sim.physics.motors import apply_supply
 
 OBSTACLE_RGBA = (0.72, 0.36, 0.28, 1.0)
@@ -110,14 +110,7 @@ def check_scene_arguments(robot: object, world: object) -> None:
     None, with a ConfigError naming the argument of :class:`sim.physics.simulator.Simulator` and how to make one
     (they were AttributeErrors from inside the model's compilation)."""
     check_robot_spec("Simulator", robot)
-    if world is not None and not isinstance(world, World):
-        bounds = isinstance(world, tuple | list) and len(world) == 4
-        fix = f"World({world!r}) for bounds alone, or " if bounds else ""
-        name = repr(world) if isinstance(world, str) else "name"
-        raise ConfigError(
-            f"Simulator: world must be a World or None (an empty floor), got {world!r:.80}; give "
-            f"{fix}load_scenario({name}).world"
-        )
+    check_world("Simulator: world", world, none="an empty floor")
 
 
 def build_model(
