@@ -286,10 +286,10 @@ def test_the_least_distance_along_a_polyline_is_the_least_of_every_point_bit_for
     assert checker.least_distance(np.zeros((0, 2))) == np.inf
 
 
-def test_a_scan_of_circles_costs_about_what_a_plain_loop_over_them_does():
-    """Each obstacle's parameters are handed on as numbers: numba counts the references of every array a
-    call takes, and a scan that passed each obstacle its row and the polygon table cost 4.2 us a point
-    for 60 circles, 7 times a plain loop; now 1.0 us, 1.6 times."""
+def test_a_scan_of_circles_is_the_plain_loop_over_them():
+    """The compiled scan over 60 circles gives, at 20,000 points, what a plain loop over the circles' centres
+    and radii gives. (Each obstacle's parameters are handed on as numbers, not as its row and the polygon
+    table, whose reference counting cost a scan 7 times the plain loop; that is a speed, not asserted here.)"""
     import numba as nb
 
     from planning.collision.compiled import world_distances
@@ -310,18 +310,9 @@ def test_a_scan_of_circles_costs_about_what_a_plain_loop_over_them_does():
         tuple(Circle((x, y), r) for x, y, r in rng.uniform([-24, -24, 0.2], [24, 24, 1.0], (60, 3))),
     )
     arrays = world_arrays(world, True)
-    pts = rng.uniform(-25.0, 25.0, (20_000, 2))
-    plain(pts[:2], arrays[3]), world_distances(pts[:2], arrays)
-
-    def best(run) -> float:
-        times = []
-        for _ in range(5):
-            t0 = time.perf_counter()
-            run()
-            times.append(time.perf_counter() - t0)
-        return min(times)
-
-    assert best(lambda: world_distances(pts, arrays)) < 3.0 * best(lambda: plain(pts, arrays[3]))
+    pts = rng.uniform(-24.0, 24.0, (20_000, 2))
+    walls = np.min(np.column_stack([pts[:, 0] + 25, 25 - pts[:, 0], pts[:, 1] + 25, 25 - pts[:, 1]]), axis=1)
+    np.testing.assert_allclose(world_distances(pts, arrays), np.minimum(plain(pts, arrays[3]), walls), atol=1e-12)
 
 
 def test_signed_distances_keep_to_a_deadline():
