@@ -14,7 +14,12 @@ def test_a_valid_result_keeps_its_arrays() -> None:
         PlanStatus.SUCCESS, "p", path=PATH, times=t, controls=np.ones((5, 2)), directions=-np.ones(5),
         states=np.zeros((5, 4)),
     )  # fmt: skip
-    assert res.path is PATH and res.times is t  # float arrays are kept as they are, not copied
+    # float arrays are kept as they are, not copied, behind read-only views: the result is frozen, and an edit
+    # of its path would reach every record holding it (the job's trajectory, its JSON, its bag)
+    assert np.shares_memory(res.path, PATH) and res.times is not None and np.shares_memory(res.times, t)
+    assert not res.path.flags.writeable and not res.times.flags.writeable and PATH.flags.writeable
+    with pytest.raises(ValueError, match="read-only"):
+        res.path[0, 0] = 5.0
     assert res.success and res.length() == pytest.approx(1.0, abs=1e-15)
 
 

@@ -127,7 +127,9 @@ def _float_array(name: str, value: object, shape: tuple[int | None, ...]) -> Flo
         problem = "holds non-finite values"
     if problem:
         raise ValueError(f"PlanResult.{name} {problem}")
-    return arr
+    view = arr.view()  # read-only, as the frozen result is: a caller's edit would reach every record holding it
+    view.flags.writeable = False
+    return view
 
 
 @dataclass(frozen=True)
