@@ -184,6 +184,13 @@ def test_tf_puts_base_footprint_at_the_belief_and_the_truth_frame_at_the_final_p
         joints = msgs[f"/{kind}/joint_states"][-1][1]
         assert list(joints.name) == ["wheel_left_joint", "wheel_right_joint"]
         assert list(joints.velocity) == pytest.approx(list(log.wheel_speed[-1]), abs=0.0)
+        # the angles as the encoders read them: whole counts, within one count below the true angle
+        prepared = result.prepared
+        per_rad = prepared.case.sensing(prepared.scenario).profile.encoder_cpr / (2 * np.pi)
+        counts = np.array([m.position for _, m in msgs[f"/{kind}/joint_states"]]) * per_rad
+        np.testing.assert_allclose(counts, np.round(counts), rtol=0, atol=1e-6)
+        true = log.qpos[:, list(bt.skeleton(prepared.robot.name).wheels)] * per_rad
+        assert np.all((true - counts > -1.0) & (true - counts < 1.0)) and np.any(np.abs(true - counts) > 1e-3)
 
 
 def test_odom_is_stamped_at_its_readings_and_its_error_from_the_bag_is_the_records(job: tuple[Any, Path]) -> None:

@@ -284,14 +284,21 @@ def is_open_loop(log: Any) -> bool:
     return log.estimation is None and log.meta.get("tracker") == "open-loop"
 
 
+def encoder_counts(log: Any, sk: Skeleton, sensors: Any) -> tuple[FloatArray, float]:
+    """(N, 2) each wheel's encoder count at the logged samples (its joint angle counted as
+    :func:`sim.physics.sensors.encoder_count` does, with the run's own encoder phases), and the counts per
+    radian."""
+    per_rad = float(sensors.profile.encoder_cpr) / (2.0 * math.pi)
+    return np.floor(log.qpos[:, list(sk.wheels)] * per_rad + np.asarray(sensors.encoder_phase)), per_rad
+
+
 def encoder_turns(log: Any, sk: Skeleton, sensors: Any) -> FloatArray:
     """(N, 2) each wheel's turn since the start [rad] at the logged samples, as the run's encoders counted
     it: the logged joint angle quantised as :func:`sim.physics.sensors.encoder_count` does, with the run's
     own encoder phases (``sensors``: its :class:`sim.physics.sensors.SensorModel`). A balancing robot's
     wheels turn against the floor by that plus the body's pitch change (its balance firmware's pitch
     estimate), as the robot's own odometry adds it (:class:`sim.robot.sensing.EstimatorLoop`)."""
-    per_rad = float(sensors.profile.encoder_cpr) / (2.0 * math.pi)
-    counts = np.floor(log.qpos[:, list(sk.wheels)] * per_rad + np.asarray(sensors.encoder_phase))
+    counts, per_rad = encoder_counts(log, sk, sensors)
     turns = (counts - counts[0]) / per_rad
     bal = log.balance
     if bal is not None and bal.t.size:
@@ -556,9 +563,12 @@ def _error_series(log: Any, frame: str) -> Series:
     return log.t, (msg, {"header.stamp": log.t, "vector.x": dist, "vector.y": head})
 
 
-def _joints_series(log: Any, sk: Skeleton) -> Series:
-    """``RUN/joint_states``: the wheels' angles [rad] and speeds [rad/s]."""
-    t, angles, speeds = log.t, log.qpos[:, list(sk.wheels)], log.wheel_speed
+def _joints_series(log: Any, sk: Skeleton, sensors: Any) -> Series:
+    """``RUN/joint_states``: the wheels' angles [rad] as their encoders read them (whole counts, as a robot's
+    driver publishes them; the true angles turn the wheels in ``tf``) and their measured speeds [rad/s]."""
+    t, speeds = log.t, log.wheel_speed
+    counts, per_rad = encoder_counts(log, sk, sensors)
+    angles = counts / per_rad
     msg = m.joint_state(0.0, ["wheel_left_joint", "wheel_right_joint"], angles[0], speeds[0])
     cols = {"header.stamp": t}
     for j in range(2):
@@ -716,7 +726,7 @@ def run_topics(ns: str, log: Any, robot: Any, sk: Skeleton, sensing: Any) -> lis
         ("tf", "tf", _tf_series(log, sk, frames, wheels.pose)),
         ("odom", "odometry", _odom_series(log, frames, wheels)),
         ("ground_truth/odom", "odometry", _truth_series(log, frames)),
-        ("joint_states", "joints", _joints_series(log, sk)),
+        ("joint_states", "joints", _joints_series(log, sk, sensors)),
         ("imu", "imu", _imu_series(log, frames, sensing, sensors)),
         ("cmd_vel", "twist", _command_series(log, base)),
         ("tracking_error", "vector", _error_series(log, base)),
