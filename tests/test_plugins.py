@@ -534,7 +534,9 @@ def test_a_planners_success_is_checked_against_the_goal_and_the_obstacles(
     registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """A one-pose "success" was reported as one (exit 0) and tracked as a run that never moved; a straight line
-    through the obstacles was a failure "whose collision check cannot be trusted"."""
+    through the obstacles was a failure "whose collision check cannot be trusted", and ``simulate`` went on to
+    smooth it and failed as "could not be smoothed ... plan with more clearance", naming neither the planner nor
+    the collision."""
     from planning import register_planner
 
     monkeypatch.chdir(tmp_path)
@@ -547,8 +549,15 @@ def test_a_planners_success_is_checked_against_the_goal_and_the_obstacles(
         and "reported success, but its path ends 1.04 m and 0 rad from the goal" in (record["reason"])
     )
     assert main([*argv, "--scenario", "edumip_map", "--planner-option", "kind=line"]) == 1
-    assert "reported success, but its path collides (the footprint holds an obstacle)" in capsys.readouterr().out
+    said = r"planner 'returns' \(.*\) reported success, but its path collides "
+    said += r"at \(\d\.\d{3}, \d\.\d{3}, -?\d\.\d{3}\), "
+    said += r"(between )?plan\.path\[\d+\].* of its 2 poses, the edumip's footprint overlaps the \w+ at x"
+    assert re.search(said, capsys.readouterr().out)
     simulate = ["simulate", "--scenario", "simple_motion", "--planner", "returns", "--no-video"]
+    line = ["--scenario", "edumip_map", "--runs", "closed_loop", "--no-plots", "--planner-option", "kind=line"]
+    assert main(["simulate", "--planner", "returns", "--no-video", *line]) == 1
+    out = capsys.readouterr()
+    assert re.search(said, out.out + out.err) and "smoothed" not in out.out + out.err
     assert main([*simulate, "--runs", "closed_loop", "--planner-option", "kind=one"]) == 1
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import time
 from pathlib import Path
 from typing import Any
@@ -292,9 +293,8 @@ def clearance_text(min_clear: float | None) -> str:
 
 
 def trusted_status(status: Any, reason: str, min_clearance: float | None) -> tuple[Any, str]:
-    """The status to report: a success whose path collides (a negative or -inf clearance: an obstacle inside the
-    footprint, or the robot inside one or beyond a wall) or whose clearance is not a number is reported as
-    failed, saying which.
+    """The status to report: a success whose clearance is not a number is reported as failed (a success whose
+    path collides is already one: :func:`planning.planners.base.run_planner` checks it).
 
     Args:
         status: The planner's PlanStatus.
@@ -306,11 +306,8 @@ def trusted_status(status: Any, reason: str, min_clearance: float | None) -> tup
     """
     from planning.planners.base import PlanStatus
 
-    if status is not PlanStatus.SUCCESS or min_clearance is None or min_clearance >= 0:
+    if status is not PlanStatus.SUCCESS or min_clearance is None or not math.isnan(min_clearance):
         return status, reason
-    if min_clearance < 0:  # -inf included
-        how = f"overlaps by {-1e3 * min_clearance:.1f} mm" if np.isfinite(min_clearance) else "holds an obstacle"
-        return PlanStatus.FAILED, f"the planner reported success, but its path collides (the footprint {how})"
     return PlanStatus.FAILED, (
         f"the path's minimum clearance is {min_clearance} (not finite), so its collision check cannot be "
         "trusted; check the scenario's obstacles"

@@ -33,12 +33,12 @@ from control.estimation.amcl import AmclConfig
 from control.fbl import FBLGains, uses_fbl_gains
 from planning.collision.exact import CollisionChecker
 from planning.core.checks import check_fields, check_number
-from planning.core.geometry import Pose2D, densify_path, path_steps, wrap_angle
+from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot
 from planning.errors import ConfigError, ScenarioError, option, options
-from planning.planners.base import PlanProblem, PlanResult, run_planner
+from planning.planners.base import PlanProblem, PlanResult, path_collision, run_planner
 from planning.planners.registry import PLANNERS, make_planner, planner_options
-from planning.scenario import Scenario, builtin_scenarios, footprint_overlap, load_scenario, scenario_source
+from planning.scenario import Scenario, builtin_scenarios, load_scenario, scenario_source
 from planning.scenario import scenario_with_robot as scenario_with_robot  # defined beside load_scenario
 from planning.trajectory.file_trajectory import ARENA_NAME, file_poses, file_trajectory, with_file_ends
 from planning.trajectory.from_plan import checked_trajectory
@@ -583,53 +583,23 @@ def _ready_plan(plan: PlanResult, scenario: Scenario, robot: RobotSpec) -> PlanR
     return plan
 
 
-#: Largest step [m] between the poses of a ready plan's path as its collisions are checked (``nhsim plan``
-#: checks its paths so densified: :data:`sim.cli.plan.PATH_SPACING`).
-READY_PATH_SPACING = 0.02
-
-
 def _check_ready_path(plan: PlanResult, scenario: Scenario, robot: RobotSpec) -> None:
-    """Refuse a ready plan whose path (densified to :data:`READY_PATH_SPACING`) collides in the scenario's world
-    (the map the planners plan on) with the robot's footprint: a plan made in another world or for another robot,
-    which no trajectory could follow. A path's poses are measured by the planners' checker (a lower bound within
-    its tolerance of the truth); those it finds overlapping are measured again finely (within 0.1 mm, as
-    ``nhsim plan`` measures a path): milliseconds for thousands of poses.
+    """Refuse a ready plan whose path collides in the scenario's world (the map the planners plan on) with the
+    robot's footprint (:func:`planning.planners.base.path_collision`): a plan made in another world or for another
+    robot, which no trajectory could follow.
 
     Raises:
         ConfigError: Naming the first colliding pose (its index in ``plan.path``), what it overlaps, and the fix.
     """
-    path = plan.path
-    dense = densify_path(path, READY_PATH_SPACING, radius=robot.radius, slack=1e-9)
-    found = CollisionChecker(scenario.world, robot, shape="footprint").first_overlap(dense)
-    if found is None:
+    found = path_collision(plan.path, scenario.world, robot)
+    if not found:
         return
-    k, depth = found
-    pose = Pose2D(float(dense[k, 0]), float(dense[k, 1]), float(wrap_angle(float(dense[k, 2]))))
-    hit = footprint_overlap(scenario.world, robot, pose)
-    what = f"overlaps {hit[1]}" if hit is not None else "overlaps an obstacle or a wall"
-    how = f" by {-1e3 * depth:.1f} mm" if np.isfinite(depth) else " (an obstacle lies inside it, or it lies in one)"
     raise ConfigError(
-        f"the ready plan ({plan.planner}) collides in scenario {scenario.name!r} with robot {robot.name!r}: at "
-        f"({pose.x:.3f}, {pose.y:.3f}, {pose.theta:.3f}), {_path_place(path, dense, k, robot.radius)} of its "
-        f"{path.shape[0]} poses, the {robot.name}'s footprint {what}{how} (a plan made in another world, or for "
-        "another robot?): plan again in this scenario with this robot "
+        f"the ready plan ({plan.planner}) collides in scenario {scenario.name!r} with robot {robot.name!r}: {found} (a "
+        "plan made in another world, or for another robot?): plan again in this scenario with this robot "
         f"(PlanProblem.from_scenario(scenario, robot=load_robot({robot.name!r}))), or track the plan in the scenario "
         "and with the robot it was made for"
     )
-
-
-def _path_place(path: FloatArray, dense: FloatArray, k: int, radius: float) -> str:
-    """Where pose ``k`` of ``dense`` (``path`` densified, :func:`densify_path` with ``radius``) lies on ``path``:
-    ``"plan.path[i]"``, or ``"between plan.path[i] and plan.path[i + 1]"`` for a pose put in between."""
-    if dense.shape[0] == path.shape[0]:  # nothing was put in between
-        return f"plan.path[{k}]"
-    along = np.concatenate([[0.0], np.cumsum(path_steps(path, radius))])
-    at = float(np.sum(path_steps(dense[: k + 1], radius))) if k > 0 else 0.0
-    nearest = int(np.argmin(np.abs(along - at)))
-    if math.isclose(at, along[nearest], abs_tol=1e-9):
-        return f"plan.path[{nearest}]"
-    i = int(np.clip(np.searchsorted(along, at, side="right") - 1, 0, path.shape[0] - 2))
-    return f"between plan.path[{i}] and plan.path[{i + 1}]"
 
 
 def _pose_gap(pose: FloatArray, to: Pose2D) -> tuple[float, float]:
