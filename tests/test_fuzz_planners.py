@@ -250,4 +250,5 @@ test_planners_fast, test_planners_slow = fast_and_slow(planner_cases(), planner_
 def test_every_planner_and_its_options_are_drawn() -> None:
     """The strategy knows every registered planner's options (a new option or planner fails here)."""
     for name in PLANNERS:
+        assert name in GOOD_OPTIONS, f"add {name!r} to GOOD_OPTIONS: its options and good values for them ({{}}: none)"
         assert set(GOOD_OPTIONS[name]) <= set(planner_options(name)), name

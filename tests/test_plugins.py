@@ -258,10 +258,10 @@ def test_simulate_runs_its_closed_loops_with_any_registered_tracker(tmp_path: Pa
     assert json.loads((tmp_path / "s.json").read_text())["tracker"] == "fbl2"
     assert "gains Kp=9 Kd=6" in done.stdout.splitlines()[0]
     done = _nhsim(site, *argv, "--feedback", "fbl3", "--no-video", cwd=tmp_path)
-    assert (
-        done.returncode == 2
-        and "unknown tracker 'fbl3'; choose fbl, kanayama, mpc, open-loop, rpp, segmented, fbl2" in done.stderr
-    )
+    from control.base import TRACKERS
+
+    choose = ", ".join([*TRACKERS.built_in(), "fbl2"])  # the built-in ones sorted, then the plugin's
+    assert done.returncode == 2 and f"unknown tracker 'fbl3'; choose {choose}" in done.stderr
 
 
 def test_simulate_feedback_says_what_it_does_not_use(

@@ -198,6 +198,9 @@ class Sinusoidal:
     """
 
     name = "sinusoidal"
+    #: It plans in an empty world (its paths are checked afterwards): ``simulate --all`` runs it on scenarios
+    #: without obstacles only.
+    ignores_obstacles = True
 
     def __init__(
         self,

@@ -504,29 +504,29 @@ def prepare_case(case: Case) -> PreparedCase:
 
 
 # ------------------------------------------------------------------------------------------ plans
-#: Planners that solve any scenario (they avoid obstacles); they apply to every scenario with a goal.
-GENERAL_PLANNERS = ("rrt", "birrt", "rrt-star", "c-rrt-star", "optim", "hybrid-a-star")
-#: Planners that ignore obstacles; they apply to scenarios without obstacles.
-OBSTACLE_FREE_PLANNERS = ("sinusoidal",)
-
-
 def applicable_planners(scenario: Scenario) -> list[str]:
     """The registered planners that apply to a scenario (the rule ``simulate --all`` uses).
 
-    A planner applies when the scenario names it (its ``planner`` field), when it is a general,
-    obstacle-avoiding planner (``GENERAL_PLANNERS``), or when it ignores obstacles
-    (``OBSTACLE_FREE_PLANNERS``) and the scenario has none. A scenario whose goal is its start
-    (same position and heading, e.g. ``open``, the arena for analytic references) has nothing to
-    plan and gets no planner.
+    A planner applies when the scenario names it (its ``planner`` field), or when it is built in (one of
+    ``planning.planners.registry.PLANNERS``' own entries) and avoids obstacles or the scenario has none: a
+    planner whose factory says ``ignores_obstacles = True`` (sinusoidal steering) plans obstacle-free scenarios
+    only. A plugin's planner applies only where a scenario names it. A scenario whose goal is its start (same
+    position and heading, e.g. ``open``, the arena for analytic references) has nothing to plan and gets no
+    planner.
     """
     if scenario.start.distance_to(scenario.goal) < 1e-9 and scenario.start.heading_error_to(scenario.goal) < 1e-9:
         return []
+    built_in = set(PLANNERS.built_in())
     names = []
     for name in sorted(PLANNERS):
-        if (
-            name == scenario.planner
-            or name in GENERAL_PLANNERS
-            or (name in OBSTACLE_FREE_PLANNERS and not scenario.world.obstacles)
-        ):
+        if name == scenario.planner:
+            names.append(name)
+        elif name in built_in and not (scenario.world.obstacles and ignores_obstacles(name)):
             names.append(name)
     return names
+
+
+def ignores_obstacles(planner: str) -> bool:
+    """Whether a registered planner plans as if the world were empty (its factory's ``ignores_obstacles``
+    attribute; False without one)."""
+    return bool(getattr(PLANNERS.factory(planner), "ignores_obstacles", False))
