@@ -58,6 +58,22 @@ def test_model_missing_a_limit_is_reported(tmp_path) -> None:  # type: ignore[no
         load_robot(str(bad))
 
 
+def test_a_robot_without_its_scene_file_is_reported(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """A robot file copied for a variant without its ``<stem>_scene.xml`` failed inside MuJoCo's parser
+    (``ValueError: ParseXML: Error opening file``)."""
+    from sim.physics.model import build_model
+
+    mine = tmp_path / "big_bot.xml"
+    mine.write_text(load_robot("turtlebot3").mjcf.read_text())
+    robot = load_robot(str(mine))
+    said = r"robot 'big_bot' has no scene file .*big_bot_scene\.xml .*: copy .*turtlebot3_burger_scene\.xml beside it"
+    with pytest.raises(ModelError, match=said):
+        build_model(robot)
+    scene = load_robot("turtlebot3").scene.read_text().replace("turtlebot3_burger.xml", "big_bot.xml")
+    (tmp_path / "big_bot_scene.xml").write_text(scene)
+    assert build_model(robot).model.nbody == build_model(load_robot("turtlebot3")).model.nbody
+
+
 def _inside(poly: np.ndarray, pts: np.ndarray, tol: float) -> np.ndarray:
     """Whether points lie inside a convex counter-clockwise polygon, within ``tol`` [m]."""
     a, b = poly, np.roll(poly, -1, axis=0)

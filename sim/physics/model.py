@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.core.geometry import Pose2D
-from planning.core.robot import RobotSpec, check_robot_spec, load_robot
+from planning.core.robot import ROBOTS_DIR, RobotSpec, check_robot_spec, load_robot
 from planning.core.world import OBSTACLE_HEIGHT, Box, Circle, Ellipse, Polygon, World, check_world
 from planning.errors import ModelError
 from sim.physics.motors import apply_supply
@@ -137,6 +137,12 @@ def build_model(
             (named as :class:`sim.physics.simulator.Simulator`'s arguments, the public way here).
     """
     check_scene_arguments(robot, world)
+    if not robot.scene.is_file():
+        raise ModelError(
+            f"robot {robot.name!r} has no scene file {robot.scene} (the floor and light, which include "
+            f"{robot.mjcf.name}): copy {ROBOTS_DIR / 'turtlebot3_burger_scene.xml'} beside it and make its <include> "
+            f"name {robot.mjcf.name}"
+        )
     spec = mujoco.MjSpec.from_file(str(robot.scene))
     holder = spec.worldbody.add_body(name="obstacles")
     # One contact sensor counts robot-obstacle contacts in sensordata, so the physics loop needs no
