@@ -309,9 +309,76 @@ def ranged(default: float, low: float, high: float, unit: str, *, tune: tuple[fl
         low: Smallest valid value.
         high: Largest valid value.
         unit: Unit for messages, e.g. "1/s" ("" for a pure number).
-        tune: (low, high) searched log-uniformly by ``nhsim tune --tracker``; None: not tuned.
+        tune: (a, b) searched log-uniformly by ``nhsim tune --tracker``; None: not tuned. The search is
+            log-uniform, so 0 < a < b; the range lies within [low, high] and holds the default (the
+            defaults are the study's first trial); an integer parameter is not tuned.
+
+    Raises:
+        ConfigError: A ``tune`` range that cannot be searched (:func:`check_search_range`); the message
+            names the call, as the field's name is not known here (:func:`search_space` names it).
     """
+    if tune is not None:
+        call = f"ranged({default!r}, {low!r}, {high!r}, {unit!r}, tune={tune!r})"
+        tune = check_search_range(call, default, (low, high), tune)
     return dataclasses.field(default=default, metadata={"range": (low, high), "unit": unit, "tune": tune})
+
+
+def check_search_range(name: str, default: Any, valid: tuple[float, float], tune: Any) -> tuple[float, float]:
+    """A tuned parameter's search range ``tune``, checked: ``nhsim tune`` samples it log-uniformly and runs
+    the default first, so Optuna would refuse (with a traceback, in the study's first trial) a low end of 0
+    or a default outside it.
+
+    Args:
+        name: What the message names, e.g. ``"PoseGains.k_along"``.
+        default: The parameter's default (an int: an integer parameter, which is not tuned).
+        valid: Its valid range [low, high].
+        tune: The search range, (a, b).
+
+    Returns:
+        (a, b) as floats.
+
+    Raises:
+        ConfigError: ``tune`` is not two finite numbers with 0 < a < b within ``valid``, ``default`` is not in
+            [a, b], or the parameter is an integer; the message names ``name`` and the fix.
+    """
+    fix = "the search is log-uniform: give tune=(a, b) with 0 < a < b"
+    pair = tuple(tune) if isinstance(tune, (tuple, list)) else ()
+    if len(pair) != 2 or not all(_real(v) and math.isfinite(v) for v in pair):
+        raise ConfigError(f"{name}: tune must be two finite numbers (a, b), got {tune!r}; {fix}")
+    a, b = float(pair[0]), float(pair[1])
+    if not 0.0 < a < b:
+        example = f", e.g. tune=({b / 100:g}, {b:g})" if b > 0 else ""
+        raise ConfigError(f"{name}: cannot search tune=({a:g}, {b:g}); {fix}{example}")
+    low, high = valid
+    if a < low or b > high:
+        inside = (max(a, low), min(b, high))
+        example = f", e.g. tune=({inside[0]:g}, {inside[1]:g})" if inside[0] < inside[1] else ""
+        raise ConfigError(
+            f"{name}: tune=({a:g}, {b:g}) reaches outside the valid range [{low:g}, {high:g}]; give a search range "
+            f"within it{example} ({fix})"
+        )
+    if isinstance(default, int) and not isinstance(default, bool):
+        raise ConfigError(
+            f"{name}: an integer parameter cannot be tuned (the search draws real numbers); leave tune= out, or "
+            "make it a float parameter with a float default"
+        )
+    first = "nhsim tune runs the defaults as its first trial"
+    if not (_real(default) and default > 0):
+        raise ConfigError(
+            f"{name}: the default {default!r} lies outside every search range and {first}; the search is "
+            "log-uniform (tune=(a, b) with 0 < a < b), so give a default > 0 inside tune=(a, b), or leave tune= out"
+        )
+    if not a <= default <= b:
+        raise ConfigError(
+            f"{name}: the default {default!r} lies outside tune=({a:g}, {b:g}) and {first}; widen the search range "
+            f"to hold it, e.g. tune=({min(a, default):g}, {max(b, default):g}), or change the default"
+        )
+    return a, b
+
+
+def _real(value: Any) -> bool:
+    """Whether ``value`` is a real number (not a bool)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def check_ranges(obj: object) -> None:
@@ -331,5 +398,19 @@ def check_ranges(obj: object) -> None:
 
 
 def search_space(cls: type) -> dict[str, tuple[float, float]]:
-    """The tuned fields of a parameter dataclass and their search ranges (see :func:`ranged`)."""
-    return {f.name: f.metadata["tune"] for f in dataclasses.fields(cls) if f.metadata.get("tune") is not None}
+    """The tuned fields of a parameter dataclass and their search ranges (see :func:`ranged`), each checked
+    (:func:`check_search_range`, naming the field); {} when no field is tuned.
+
+    Raises:
+        ConfigError: ``cls`` is not a dataclass, or a tuned field's search range cannot be searched.
+    """
+    if not (isinstance(cls, type) and dataclasses.is_dataclass(cls)):
+        raise ConfigError(
+            f"the parameters to tune must be a dataclass whose tuned fields are ranged(..., tune=(a, b)), got {cls!r}"
+        )
+    space: dict[str, tuple[float, float]] = {}
+    for f in dataclasses.fields(cls):
+        if f.metadata.get("tune") is not None:
+            valid = f.metadata.get("range", (-math.inf, math.inf))
+            space[f.name] = check_search_range(f"{cls.__name__}.{f.name}", f.default, valid, f.metadata["tune"])
+    return space

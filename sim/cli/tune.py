@@ -39,7 +39,8 @@ a killed worker left running is failed once its heartbeat has been silent for {G
 are evaluated afresh, and the outputs the study wrote before are updated (an existing output that
 names another study, or none, is replaced only with --overwrite); a trial stopped by Ctrl-C or SIGTERM
 is run again, so the resumed study ends as one never interrupted; a rerun with other cases, draws
-(--draws, --seed, --robust, --perturb-range), weights or localiser is refused. Left out, --localiser is
+(--draws, --seed, --robust, --perturb-range), weights or localiser is refused, unless every trial of
+the study failed (nothing to resume: it is made anew). Left out, --localiser is
 the robots' own (amcl for the TurtleBot3) and --robot each scenario's own (open's TurtleBot3), and the
 study is the one that names them. Any
 SQLAlchemy URL works (e.g. postgresql://user:pass@host/db), so workers on several machines can run
@@ -54,10 +55,11 @@ and costs) to a JSON file, and plots of the optimisation history and the paramet
 saved.
 
 --tracker T tunes another registered tracker (mpc, rpp, kanayama, segmented) with the same objective
-and draws: its parameters over the ranges its dataclass declares (for mpc the weights, not the
-horizon); its defaults are the first trial, the record carries "tracker" and "params" (read by
-'nhsim compare --params'), and a gains file is written only for trackers tuned by their FBL gains
-(e.g. fbl, segmented): for the others --out is refused and --json names the record.
+and draws: its parameters over the ranges its dataclass declares, log-uniformly (for mpc the weights,
+not the horizon; a tracker that declares none is refused); its defaults are the first trial, the
+record carries "tracker" and "params" (read by 'nhsim compare --params'), and a gains file is written
+only for trackers tuned by their FBL gains (e.g. fbl, segmented): for the others --out is refused and
+--json names the record.
 
 When the tuned gains score worse than the defaults on the held-out draws, the command says so, writes
 the DEFAULT gains to the gains file (the DEFAULT parameters to the record, for a tracker without a

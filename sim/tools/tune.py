@@ -43,6 +43,7 @@ trial and the second would die telling a trial the first had completed.
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import json
 import math
@@ -79,10 +80,22 @@ def tuned_space(tracker: str = "") -> tuple[type, dict[str, tuple[float, float]]
     the ranges its fields declare (:func:`control.base.ranged`).
 
     Raises:
-        ConfigError: An unknown tracker (lists the registered ones) or one with nothing to tune.
+        ConfigError: An unknown tracker (lists the registered ones), one with nothing to tune (no ``TUNED``, or
+            a ``TUNED`` dataclass without a tuned field), or a search range that cannot be searched (names the
+            field: :func:`control.base.search_space`).
     """
     cls = tuned_option(tracker)[1] if tracker else FBLGains
-    return cls, (SEARCH_SPACE if cls is FBLGains else search_space(cls))
+    try:
+        space = SEARCH_SPACE if cls is FBLGains else search_space(cls)
+    except ConfigError as exc:
+        raise ConfigError(f"tracker {tracker!r}: {exc}") from exc
+    if not space:
+        raise ConfigError(
+            f"tracker {tracker!r} has nothing to tune: no field of its {getattr(cls, '__name__', cls)} declares a "
+            "search range; declare one on each field to tune, ranged(default, low, high, unit, tune=(a, b)) with "
+            "0 < a < b (searched log-uniformly, docs/how-to/new-tracker.md)"
+        )
+    return cls, space
 
 
 def make_params(tracker: str, values: dict[str, float]) -> Any:
@@ -497,9 +510,12 @@ def make_sampler(name: str, seed: int, n_existing: int, worker: int) -> Any:
 def load_study(spec: TuneSpec, *, worker: int = 0, create: bool = False) -> Any:
     """Open (or create) the spec's study with a sampler for this worker.
 
-    With ``create``, the worker whose creation of the study succeeds (the storage refuses a second
-    study of one name, so one worker does, whichever the database) enqueues the default gains and
-    then stores the settings; a worker that finds the study made waits for its settings, so it
+    With ``create``, a study stored with other settings that holds nothing a resume would keep (its every
+    trial failed: e.g. an earlier nhsim's study whose search range Optuna refused in its first trial) is
+    deleted and created anew, so rerunning with the fixed settings does not find it in the way
+    (:func:`_holds_nothing`). With ``create``, the worker whose creation of the study succeeds (the storage
+    refuses a second study of one name, so one worker does, whichever the database) enqueues the default gains
+    and then stores the settings; a worker that finds the study made waits for its settings, so it
     never sees a new study without its default trial (:func:`ensure_default_trial`).
 
     Raises:
@@ -531,6 +547,10 @@ def load_study(spec: TuneSpec, *, worker: int = 0, create: bool = False) -> Any:
         study.set_user_attr("settings", settings)  # a study left without settings by an older version
     elif stored != settings and stored in _earlier_settings(spec, settings):  # the defaults now recorded
         study.set_user_attr("settings", settings)
+    elif stored != settings and create and _holds_nothing(study):  # never usable: made anew, with these settings
+        with contextlib.suppress(KeyError):  # another worker replaced it first
+            optuna.delete_study(study_name=spec.study, storage=storage)
+        return load_study(spec, worker=worker, create=True)
     elif stored != settings:
         diff = sorted(k for k in set(stored) | set(settings) if stored.get(k) != settings.get(k))
         said = ", ".join(f"{k} (set by {SETTING_OPTIONS[k]})" if k in SETTING_OPTIONS else k for k in diff)
@@ -555,6 +575,15 @@ SETTING_OPTIONS = {
     "robot": "--robot",
     "localiser": "--localiser",
 }
+
+
+def _holds_nothing(study: Any) -> bool:
+    """Whether a study holds trials and every one failed: none completed (nothing to resume), none running
+    or waiting (no worker at work in it; a new study holds its waiting default trial)."""
+    from optuna.trial import TrialState
+
+    trials = study.get_trials(deepcopy=False)
+    return bool(trials) and all(t.state == TrialState.FAIL for t in trials)
 
 
 def _earlier_settings(spec: TuneSpec, settings: dict[str, Any]) -> list[dict[str, Any]]:
