@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import pytest
+
 from planning.scenario import load_scenario
 from sim.tools.bench.cold import ColdRow, format_rows, world_toml
 
@@ -42,3 +44,33 @@ def test_the_table_shows_the_simplification_beside_the_reported_time_and_judges_
         crowded.working_s == 2.2 - 0.15
         and "within the 2 s limit (+5%: the last step's check) met" in format_rows([crowded])[1]
     )
+
+
+def test_a_fresh_process_keeps_the_users_path_and_a_failure_says_why(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The cold process ran with PYTHONPATH replaced by the repository's, so a plugin set up as the how-tos teach
+    could not load; its error output was thrown away and the bench died reading a record never written
+    (FileNotFoundError)."""
+    from planning.errors import NhsimError
+    from sim.tools.bench.cold import _fresh_process
+
+    (tmp_path / "straight_plugin.py").write_text(
+        "import numpy as np\n"
+        "from planning import PlanResult, PlanStatus, register_planner\n\n\n"
+        "class Straight:\n"
+        "    name = 'straight'\n\n"
+        "    def plan(self, problem):\n"
+        "        s, g = problem.start, problem.goal\n"
+        "        path = np.array([[s.x, s.y, s.theta], [g.x, g.y, g.theta]])\n"
+        "        return PlanResult(PlanStatus.SUCCESS, self.name, path=path, stats={})\n\n\n"
+        "register_planner('straight', Straight)\n"
+    )
+    (tmp_path / "w.toml").write_text(world_toml(2000, 8.0, 0, 0.6))
+    monkeypatch.setenv("PYTHONPATH", str(tmp_path))
+    monkeypatch.setenv("NHSIM_PLUGINS", "straight_plugin")
+    wall, cpu, record = _fresh_process(tmp_path / "w.toml", "straight", 1.0, tmp_path / "plan.json")
+    assert record["planner"] == "straight" and record["status"] == "success" and wall > 0 and cpu > 0
+    monkeypatch.setenv("NHSIM_PLUGINS", "no_such_plugin")
+    with pytest.raises(NhsimError, match=r"(?s)failed \(exit 2\) and wrote no record.*no_such_plugin"):
+        _fresh_process(tmp_path / "w.toml", "straight", 1.0, tmp_path / "other.json")

@@ -31,6 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
+from planning.errors import NhsimError
+
 #: Largest plan time a fresh process may report on worlds up to 8 x 8 m with up to 20 obstacles [s].
 REPORTED_TARGET_S = 0.2
 #: Largest wall time of a whole ``nhsim plan`` process for a plan taking at most 0.1 s warm [s].
@@ -136,17 +138,29 @@ def world_toml(seed: int, size: float, count: int, scale: float, kinds: tuple[st
 
 
 def _fresh_process(scenario: Path, planner: str, time_limit: float, out: Path) -> tuple[float, float, dict]:  # type: ignore[type-arg]
-    """Wall and CPU time [s] of one ``python -m sim plan`` process on ``scenario``, and its JSON record."""
-    root = Path(__file__).resolve().parents[3]  # the repository whose code this process runs
-    env = {**os.environ, "PYTHONPATH": str(root)}
+    """Wall and CPU time [s] of one ``python -m sim plan`` process on ``scenario``, and its JSON record.
+
+    Raises:
+        NhsimError: The process wrote no record (bad input, a plugin that would not load, a crash: any exit
+            status but 0 and 1, a failed plan's), naming the command, its exit status and the end of its error
+            output.
+    """
+    root = Path(__file__).resolve().parents[3]  # the repository whose code this process runs, first on the path
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (str(root), os.environ.get("PYTHONPATH")) if p)}
     cmd = [sys.executable, "-m", "sim", "plan", "--scenario", str(scenario), "--planner", planner]
     cmd += ["--time-limit", repr(time_limit), "--json", str(out), "--overwrite", "--quiet"]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    subprocess.run(cmd, env=env, cwd=root, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False)
+    done = subprocess.run(cmd, env=env, cwd=root, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, check=False)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    if done.returncode not in (0, 1) or not out.is_file():
+        said = done.stderr.decode(errors="replace").strip()[-1500:] or "no error output"
+        raise NhsimError(
+            f"the timed process failed (exit {done.returncode}) and wrote no record, so nothing was measured: "
+            f"nhsim {' '.join(cmd[3:])}\n{said}\nrun that command alone to see why"
+        )
     return wall, cpu, json.loads(out.read_text())
 
 
