@@ -350,9 +350,13 @@ def test_the_new_planner_page_registers_plans_and_simulates_its_planner(
     monkeypatch.setitem(PLANNERS, "turn-drive-turn", "")  # the page's registration is undone after the test
     module = types.ModuleType("tdt")
     monkeypatch.setitem(sys.modules, "tdt", module)
+    exec(compile(block.code, block.name, "exec"), module.__dict__)  # imported: it registers, and prints nothing
+    assert PLANNERS["turn-drive-turn"] is module.TurnDriveTurn and capsys.readouterr().out == ""
+    monkeypatch.setitem(PLANNERS, "turn-drive-turn", "")
+    module = types.ModuleType("__main__")  # run as a script (python mypackage/tdt.py)
     exec(compile(block.code, block.name, "exec"), module.__dict__)
     printed = capsys.readouterr().out.splitlines()
-    expected = re.findall(r"^print\(.*\)  # (.*)$", block.code, flags=re.M)
+    expected = re.findall(r"^    print\(.*\)  # (.*)$", block.code, flags=re.M)
     assert len(expected) == 3 and printed == expected
     assert PLANNERS["turn-drive-turn"] is module.TurnDriveTurn
     planner: Planner = make_planner("turn-drive-turn", spacing=0.05)

@@ -578,3 +578,27 @@ def test_an_entry_points_taken_name_says_to_rename_the_entry_point(
     monkeypatch.syspath_prepend(str(site))
     with pytest.raises(ConfigError, match=r"'rrt' is already registered \(built in\).*give the entry point another n"):
         make_planner("birrt")
+
+
+def test_a_module_that_registers_its_own_class_under_its_import_path_name_is_the_same_entry(
+    registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A planner registered by its import path (an entry point, ``register_planner(name, "pkg.mod:Class")``) whose
+    module also registers the class on import (as docs/how-to/new-planner.md's module does, for NHSIM_PLUGINS)
+    was refused when first made: "planner 'tdt' is already registered ... as nhsim_test_tdt:TDT"."""
+    from planning import make_planner, register_planner
+
+    (tmp_path / "nhsim_test_tdt.py").write_text(
+        "from planning import register_planner\n\n\n"
+        "class TDT:\n"
+        "    name = 'tdt'\n\n"
+        "    def plan(self, problem):\n"
+        "        raise NotImplementedError\n\n\n"
+        "register_planner('tdt', TDT)\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    register_planner("tdt", "nhsim_test_tdt:TDT")
+    assert make_planner("tdt").name == "tdt" and PLANNERS.origin("tdt") == BY_CODE
+    (tmp_path / "nhsim_test_other.py").write_text("class TDT:\n    name = 'tdt'\n")
+    with pytest.raises(ConfigError, match=r"planner 'tdt' is already registered .* as nhsim_test_tdt:TDT"):
+        register_planner("tdt", "nhsim_test_other:TDT")

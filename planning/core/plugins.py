@@ -81,6 +81,13 @@ def target_text(target: object) -> str:
     return f"{getattr(target, '__module__', '?')}:{getattr(target, '__qualname__', repr(target))}"
 
 
+def _import_path(target: object) -> str:
+    """A registry target as ``"module:attr"``: the text itself, or where a class or function is defined."""
+    if isinstance(target, str):
+        return target
+    return f"{getattr(target, '__module__', '')}:{getattr(target, '__qualname__', '')}"
+
+
 class Registry(MutableMapping[str, "str | Callable[..., F]"], Generic[F]):
     """Name -> factory, or "module:attr" imported when first made; its plugins load at the first lookup.
 
@@ -141,6 +148,8 @@ class Registry(MutableMapping[str, "str | Callable[..., F]"], Generic[F]):
         if not isinstance(replace, bool):
             raise ConfigError(f"{caller}({name!r}): replace must be True or False")
         taken = self.get(name)  # an empty entry is a placeholder (a test's monkeypatch), no factory
+        if taken and taken != target and _import_path(taken) == _import_path(target):
+            return  # the class its import path names, registered by its module's import: the same entry
         if taken and taken != target and not replace:
             fix = fix or "choose another name, or pass replace=True to replace it"
             raise ConfigError(
