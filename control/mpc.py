@@ -379,9 +379,7 @@ class MPCTracker:
             u = inputs[0]
         vmax, wmax = self.robot.max_speed, self.robot.max_yaw_rate
         v, w = min(max(float(u[0]), -vmax), vmax), min(max(float(u[1]), -wmax), wmax)
-        if not (math.isfinite(v) and math.isfinite(w)):
-            v, w = 0.0, 0.0
-        self._u = np.array([v, w])
+        self._u = np.array([v, w])  # finite: the solver's inputs are checked, else the fallback is used
         return v, w
 
     def stats(self) -> dict[str, float | int]:

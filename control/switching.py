@@ -14,8 +14,11 @@ its drives; this module does the rest, in one compiled call per control period (
   v = along_gain * (along-heading position error), bounded by hold_speed, holds the spot.
 * **After the end** the same regulation holds the final pose, so the heading reaches the goal too.
 
-Every command is clamped to the robot's |v| and |omega| limits and is finite (a non-finite
-intermediate becomes a stop). A tracker whose law knows nothing of the robot's dynamics
+Every command is clamped to the robot's |v| and |omega| limits. A non-finite command of the law
+(NaN or infinite: a division by a vanishing speed, an overflow) is no stop: it is returned as it is,
+unclamped and unsmoothed, and the simulator stops the run on it as on any tracker's, with a
+SimulationError naming the tracker and the time (sim/physics/simulator.py: one rule for every
+tracker). A tracker whose law knows nothing of the robot's dynamics
 (``SMOOTHED``: Kanayama's, RPP) has its command smoothed as Nav2's velocity smoother does between
 controller and base: v and omega move from the last period's command by at most the robot's
 max_accel and max_yaw_accel times the period (:func:`smooth_command`); a balancing robot, which
@@ -173,9 +176,10 @@ def reference_table(trajectory: Trajectory, dt: float, rows: int) -> NDArray[np.
 
 @nb.njit(cache=True, inline="always")
 def clamp_command(v: float, w: float, vmax: float, wmax: float) -> tuple[float, float]:  # pragma: no cover - compiled
-    """A non-finite command becomes a stop; then |v| <= vmax [m/s], |w| <= wmax [rad/s]."""
+    """|v| <= vmax [m/s], |w| <= wmax [rad/s]; a non-finite command is returned as it is (not a stop, nor an
+    infinity turned into full speed), for the caller to refuse: the simulator stops the run on it."""
     if not (math.isfinite(v) and math.isfinite(w)):
-        v, w = 0.0, 0.0
+        return v, w
     return (-vmax if v < -vmax else (vmax if v > vmax else v)), (-wmax if w < -wmax else (wmax if w > wmax else w))
 
 
@@ -208,8 +212,9 @@ def _hold(
 def period(
     state: NDArray[np.void], ref: NDArray[np.void], t: float, x: float, y: float, theta: float, drive: Callable
 ) -> tuple[int, float, float]:  # pragma: no cover - compiled
-    """One control period of a per-segment tracker (the module doc): (OK, v, omega), clamped; or
-    (BAD_POSE, nan, nan) for a non-finite time or pose, nothing changed.
+    """One control period of a per-segment tracker (the module doc): (OK, v, omega), clamped (a non-finite
+    command of the law as it is, the last command unchanged); or (BAD_POSE, nan, nan) for a non-finite time
+    or pose, nothing changed.
 
     Args:
         state: (1,) the tracker's state record (:func:`state_dtype`), updated in place.
@@ -242,7 +247,8 @@ def period(
             s.rested = True
         s.segment = r.segment
     v, w = clamp_command(v, w, s.vmax, s.wmax)
-    v, w = smooth_command(s, v, w)
+    if math.isfinite(v) and math.isfinite(w):  # else the law's fault, passed on for the simulator to refuse
+        v, w = smooth_command(s, v, w)
     return OK, v, w
 
 
@@ -309,7 +315,8 @@ class PerSegmentTracker:
         return -1 if self.state is None else int(self.state[0]["segment"])
 
     def command(self, t: float, x: float, y: float, theta: float) -> tuple[float, float]:
-        """Body command (v [m/s], omega [rad/s]) for the period starting at ``t``: one compiled call.
+        """Body command (v [m/s], omega [rad/s]) for the period starting at ``t``: one compiled call. A
+        non-finite command of the law is returned as it is: the simulator stops the run on it (the module doc).
 
         Raises:
             ConfigError: An argument is not a number (an array, a text).

@@ -98,7 +98,7 @@ class Switcher:
                 self.rested = True
             self.segment = r["segment"]
         if not (math.isfinite(v) and math.isfinite(w)):
-            v, w = 0.0, 0.0
+            return v, w  # the law's fault, passed on unclamped for the simulator to refuse
         v, w = clamp(v, self.vmax), clamp(w, self.wmax)
         if self.accel is not None:
             (v0, w0), (a, alpha) = self.last, self.accel

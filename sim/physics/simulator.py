@@ -20,7 +20,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from control.base import Tracker
+from control.base import TRACKERS, Tracker
 from control.design.balance_profile import is_balancing, load_balance_profile
 from control.diffdrive import DiffDrive
 from control.dispatch import bind
@@ -29,7 +29,7 @@ from planning.core.checks import check_number
 from planning.core.geometry import Pose2D
 from planning.core.robot import RobotSpec
 from planning.core.world import World
-from planning.errors import ConfigError, SimulationError, option
+from planning.errors import ConfigError, NhsimError, SimulationError, option
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import AsBuilt
 from sim.physics.model import FLOOR_TILT, TIP_ANGLE, BuiltModel, set_pose, tipped_over
@@ -251,7 +251,9 @@ class Simulator:
             The log; a run whose estimator diverged ends there, with its ``status`` saying why.
 
         Raises:
-            SimulationError: MuJoCo warned (with ``config.strict``); the message lists the warnings.
+            SimulationError: MuJoCo warned (with ``config.strict``); the message lists the warnings. The
+                tracker returned a non-finite command, or its ``command`` raised an exception that is not an
+                NhsimError (chained; an NhsimError is raised as it is): the message names the tracker and t.
             ConfigError: A timed perturbation outside the run (:meth:`Perturbation.check_within`).
         """
         cfg = config or SimConfig()
@@ -338,10 +340,19 @@ class Simulator:
                 x, y, th = pose
             if noise is not None:
                 x, y, th = x + noise[k, 0], y + noise[k, 1], th + noise[k, 2]
-            v, w = command(t0 + k * dt_ctrl, x, y, th)
+            t = t0 + k * dt_ctrl
+            try:
+                out = command(t, x, y, th)
+            except NhsimError:  # the tracker's own refusal: its message says what went wrong
+                raise
+            except Exception as exc:  # whatever the tracker's code raised (a plugin's bug): one line, chained
+                raise tracker_failed(tracker, t, exc) from exc
+            v, w = out
             if not write(k + 1, v, w):  # commands[k + 1] = [v, w, left, right], if finite
                 raise SimulationError(
-                    f"tracker {tracker.name!r} returned a non-finite command ({v}, {w}) at t={d.time:.3f} s"
+                    f"tracker {tracker.name!r} returned a non-finite command ({v}, {w}) at t={t:.3f} s: a command "
+                    "must be two finite numbers (v [m/s], omega [rad/s]); fix the tracker's law (e.g. a division "
+                    "by a vanishing speed or distance)"
                 )
             pose = advance(k)
             if balance is not None:
@@ -352,6 +363,20 @@ class Simulator:
                 break
         if progress is not None:
             progress(n_ctrl, n_ctrl)
+
+
+def tracker_failed(tracker: Tracker, t: float, exc: Exception) -> SimulationError:
+    """The error of a run whose tracker's ``command`` raised ``exc`` (not an NhsimError) at time ``t`` [s]: it
+    names the tracker, who registered it (when registered: built in, a plugin, the program's own code), the
+    time, and the exception's type and message, on one line (the caller chains ``exc`` to it)."""
+    name = tracker.name
+    origin = TRACKERS.origins.get(name) if isinstance(name, str) else None  # a tracker made by hand has none
+    who = f"tracker {name!r}" + (f" ({origin})" if origin else "")
+    said = " ".join(str(exc).split())  # one line, as the command line prints it
+    return SimulationError(
+        f"{who} raised {type(exc).__name__} in command(t, x, y, theta) at t={t:.3f} s: {said}; fix the tracker's "
+        "command (the exception is chained to this error, as __cause__, with its traceback)"
+    )
 
 
 class PeriodPhysics:
