@@ -212,3 +212,21 @@ def test_a_trackers_exception_fails_compare_with_one_line(
         "AttributeError in command(t, x, y, theta) at t=0.500 s: "
     ), err
     assert err.count("\n") == 1 and "Traceback" not in err
+
+
+class BadReset(Boom):
+    """A tracker whose ``reset`` fails (a plugin's bug in reading the trajectory)."""
+
+    def reset(self, trajectory: Trajectory, dt: float) -> None:
+        raise IndexError("index 3 is out of bounds for axis 0 with size 3")
+
+
+def test_a_trackers_reset_that_raises_is_one_error_naming_it(line: tuple[Simulator, Trajectory]) -> None:
+    simulator, trajectory = line
+    with pytest.raises(SimulationError) as info:
+        simulator.run(trajectory, BadReset(simulator.robot))
+    assert isinstance(info.value.__cause__, IndexError)
+    assert str(info.value) == (
+        "tracker 'boom' raised IndexError in reset(trajectory, dt): index 3 is out of bounds for axis 0 with size 3; "
+        "fix the tracker's reset (the exception is chained to this error, as __cause__, with its traceback)"
+    )

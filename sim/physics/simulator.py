@@ -269,7 +269,12 @@ class Simulator:
             self.steps_per_control(cfg.control_rate), float(m.opt.timestep), trajectory.duration + cfg.hold, delay
         )
         noise = pert.sensor_noise(schedule.n_ctrl) if pert is not None else None
-        tracker.reset(trajectory, schedule.dt_ctrl)
+        try:
+            tracker.reset(trajectory, schedule.dt_ctrl)
+        except NhsimError:  # the tracker's own refusal (a trajectory it cannot track): its message says why
+            raise
+        except Exception as exc:  # whatever the tracker's code raised
+            raise tracker_failed(tracker, "reset(trajectory, dt)", exc) from exc
         recorder = Recorder(self, m, d, schedule, float(trajectory.t[0]))
         recorder.balance = self.balance_for_run(m, d, pert, sensing, schedule.dt_ctrl)
         sensed = None
@@ -346,7 +351,7 @@ class Simulator:
             except NhsimError:  # the tracker's own refusal: its message says what went wrong
                 raise
             except Exception as exc:  # whatever the tracker's code raised (a plugin's bug): one line, chained
-                raise tracker_failed(tracker, t, exc) from exc
+                raise tracker_failed(tracker, f"command(t, x, y, theta) at t={t:.3f} s", exc) from exc
             v, w = out
             if not write(k + 1, v, w):  # commands[k + 1] = [v, w, left, right], if finite
                 raise SimulationError(
@@ -365,17 +370,18 @@ class Simulator:
             progress(n_ctrl, n_ctrl)
 
 
-def tracker_failed(tracker: Tracker, t: float, exc: Exception) -> SimulationError:
-    """The error of a run whose tracker's ``command`` raised ``exc`` (not an NhsimError) at time ``t`` [s]: it
-    names the tracker, who registered it (when registered: built in, a plugin, the program's own code), the
-    time, and the exception's type and message, on one line (the caller chains ``exc`` to it)."""
+def tracker_failed(tracker: Tracker, call: str, exc: Exception) -> SimulationError:
+    """The error of a run whose tracker raised ``exc`` (not an NhsimError) in ``call`` (its ``reset``, or its
+    ``command`` at a time): it names the tracker, who registered it (when registered: built in, a plugin, the
+    program's own code), the call, and the exception's type and message, on one line (the caller chains ``exc``
+    to it)."""
     name = tracker.name
     origin = TRACKERS.origins.get(name) if isinstance(name, str) else None  # a tracker made by hand has none
     who = f"tracker {name!r}" + (f" ({origin})" if origin else "")
     said = " ".join(str(exc).split())  # one line, as the command line prints it
     return SimulationError(
-        f"{who} raised {type(exc).__name__} in command(t, x, y, theta) at t={t:.3f} s: {said}; fix the tracker's "
-        "command (the exception is chained to this error, as __cause__, with its traceback)"
+        f"{who} raised {type(exc).__name__} in {call}: {said}; fix the tracker's {call.split('(')[0]} (the "
+        "exception is chained to this error, as __cause__, with its traceback)"
     )
 
 
