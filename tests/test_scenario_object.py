@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from planning.collision.overlap import footprint_overlap
 from planning.core.geometry import Pose2D
 from planning.core.robot import ROBOT_FILES, load_robot
 from planning.core.world import Box, Circle, World
@@ -23,7 +24,6 @@ from planning.scenario import (
     Scenario,
     builtin_scenarios,
     check_ends_fit,
-    footprint_overlap,
     load_scenario,
     random_scenario,
 )
@@ -248,7 +248,7 @@ def test_a_tree_planner_says_an_end_outside_the_world_is_outside_it(planner: str
 
 def test_a_jobs_gains_are_the_fbls_only_where_its_tracker_takes_them() -> None:
     """(JobResult.gains gave FBLGains(9, 6) for kanayama, rpp and mpc, whose records say null.)"""
-    from control.fbl import FBLGains
+    from control.gains import FBLGains
     from sim.pipeline.simulate import simulate_reference
 
     own = simulate_reference("open", reference="line", tracker="kanayama", runs=["closed_loop_truth"])

@@ -265,7 +265,7 @@ def path_collision(path: FloatArray, world: World, robot: RobotSpec) -> str:
     its tolerance of the truth); those it finds overlapping are measured again finely (within 0.1 mm, as ``nhsim
     plan`` measures a path): milliseconds for thousands of poses."""
     from planning.collision.exact import CollisionChecker
-    from planning.scenario import footprint_overlap
+    from planning.collision.overlap import footprint_overlap
 
     if path.shape[0] == 0:
         return ""

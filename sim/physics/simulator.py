@@ -239,9 +239,8 @@ class Simulator:
             meta: Extra fields for the log's ``meta``.
             perturbation: Friction, mass, wheel radius, pose noise and latency changes (see
                 :mod:`sim.physics.perturb`); None or nominal runs the model as built.
-            progress: Called with (control periods done, total) when the run starts, about
-                at most :data:`PROGRESS_UPDATES` times during it, and with (total, total) at the end
-                (e.g. to drive a progress bar); None costs nothing.
+            progress: Called with (control periods done, total) at the start, at most about
+                :data:`PROGRESS_UPDATES` times during the run and at the end; None costs nothing.
             source: Where the tracker's pose comes from: the fused estimate, dead reckoning or the
                 truth (see :mod:`sim.robot.sensing`).
             sensing: The sensors and the estimator (default: the robot's sensor profile, seed 0);
@@ -251,9 +250,8 @@ class Simulator:
             The log; a run whose estimator diverged ends there, with its ``status`` saying why.
 
         Raises:
-            SimulationError: MuJoCo warned (with ``config.strict``); the message lists the warnings. The
-                tracker returned a non-finite command, or its ``command`` raised an exception that is not an
-                NhsimError (chained; an NhsimError is raised as it is): the message names the tracker and t.
+            SimulationError: MuJoCo warned (with ``config.strict``), listing the warnings; the tracker returned a
+                non-finite command, or raised other than an NhsimError (chained), naming it and the time.
             ConfigError: A timed perturbation outside the run (:meth:`Perturbation.check_within`).
         """
         cfg = config or SimConfig()
@@ -269,12 +267,7 @@ class Simulator:
             self.steps_per_control(cfg.control_rate), float(m.opt.timestep), trajectory.duration + cfg.hold, delay
         )
         noise = pert.sensor_noise(schedule.n_ctrl) if pert is not None else None
-        try:
-            tracker.reset(trajectory, schedule.dt_ctrl)
-        except NhsimError:  # the tracker's own refusal (a trajectory it cannot track): its message says why
-            raise
-        except Exception as exc:  # whatever the tracker's code raised
-            raise tracker_failed(tracker, "reset(trajectory, dt)", exc) from exc
+        reset_tracker(tracker, trajectory, schedule.dt_ctrl)
         recorder = Recorder(self, m, d, schedule, float(trajectory.t[0]))
         recorder.balance = self.balance_for_run(m, d, pert, sensing, schedule.dt_ctrl)
         sensed = None
@@ -368,6 +361,17 @@ class Simulator:
                 break
         if progress is not None:
             progress(n_ctrl, n_ctrl)
+
+
+def reset_tracker(tracker: Tracker, trajectory: Trajectory, dt: float) -> None:
+    """``tracker.reset(trajectory, dt)``; an exception of the tracker's own code (not an NhsimError, its refusal
+    of a trajectory it cannot track) is a SimulationError naming it (:func:`tracker_failed`)."""
+    try:
+        tracker.reset(trajectory, dt)
+    except NhsimError:
+        raise
+    except Exception as exc:  # whatever the tracker's code raised
+        raise tracker_failed(tracker, "reset(trajectory, dt)", exc) from exc
 
 
 def tracker_failed(tracker: Tracker, call: str, exc: Exception) -> SimulationError:

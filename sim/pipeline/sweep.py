@@ -20,10 +20,11 @@ from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from typing import Any
 
+from planning.collision.overlap import end_clearance
 from planning.core.robot import load_robot
 from planning.errors import NhsimError
 from planning.planners.base import PlanResult, PlanStatus
-from planning.scenario import Scenario, builtin_scenarios, end_clearance, load_scenario
+from planning.scenario import Scenario, builtin_scenarios, load_scenario
 from planning.trajectory.from_plan import PlanFailedError
 from sim.physics.metrics import TrackingMetrics
 from sim.pipeline.case import Case, load_case_scenario, plan_case
