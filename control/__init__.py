@@ -29,7 +29,7 @@ if TYPE_CHECKING:
     from control.base import tracker_options as tracker_options
     from control.diffdrive import DiffDrive as DiffDrive
     from control.fbl import DynamicFBL as DynamicFBL
-    from control.fbl import FBLGains as FBLGains
+    from control.gains import FBLGains as FBLGains
     from control.gains import GainsFile as GainsFile
     from control.gains import load_gains_file as load_gains_file
     from control.gains import resolve_gains as resolve_gains
@@ -48,7 +48,7 @@ _EXPORTS = {
     "tracker_options": "control.base",
     "DiffDrive": "control.diffdrive",
     "DynamicFBL": "control.fbl",
-    "FBLGains": "control.fbl",
+    "FBLGains": "control.gains",
     "GainsFile": "control.gains",
     "load_gains_file": "control.gains",
     "resolve_gains": "control.gains",

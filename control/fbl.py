@@ -21,57 +21,18 @@ command is ever non-finite.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from control.base import TRACKERS, check_positive_fields, option_takes, option_value
+from control.base import TRACKERS, option_takes, option_value
 from control.dispatch import bind
+from control.gains import FBLGains
 from control.inputs import check_command, check_reset, not_reset
 from control.switching import REFERENCE, clamp_command, reference_table
 from planning.core.robot import RobotSpec
-from planning.errors import ConfigError
 from planning.trajectory.trajectory import Trajectory
-
-
-@dataclass(frozen=True)
-class FBLGains:
-    """Gains of the dynamic feedback-linearisation tracker.
-
-    Attributes:
-        kp: Position error gain Kp [1/s^2].
-        kd: Velocity error gain Kd [1/s].
-        xi_min: Smallest |xi| used in the division [m/s] (singularity guard).
-    """
-
-    kp: float = 9.0
-    kd: float = 6.0
-    xi_min: float = 0.02
-
-    def __post_init__(self) -> None:
-        check_positive_fields(self, ("kp", "kd", "xi_min"), "the error dynamics need Kp, Kd > 0")
-
-    @classmethod
-    def parse(cls, text: str) -> FBLGains:
-        """Parse ``"KP,KD"`` (as given to ``--gains``).
-
-        Raises:
-            ConfigError: Not two comma-separated positive numbers.
-        """
-        bad = ConfigError(f"gains must be 'KP,KD' (two positive finite numbers, e.g. 9,6), got {text!r}")
-        parts = [p.strip() for p in text.split(",")]
-        if len(parts) != 2:
-            raise bad
-        try:
-            kp, kd = float(parts[0]), float(parts[1])
-        except ValueError as exc:
-            raise bad from exc
-        for name, gain in (("KP", kp), ("KD", kd)):
-            if not (math.isfinite(gain) and gain > 0):
-                raise ConfigError(f"{bad}: {name} = {gain:g} is not")
-        return cls(kp=kp, kd=kd)
 
 
 @nb.njit(cache=True)

@@ -1,4 +1,4 @@
-"""Gains files: FBL tracker gains with their provenance, as TOML.
+"""The FBL tracker's gains (:class:`FBLGains`, its parameters) and their files, with their provenance, as TOML.
 
 A gains file holds one gain set and where it came from::
 
@@ -26,9 +26,48 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from control.fbl import FBLGains
+from control.base import check_positive_fields
 from planning.core.checks import check_number
 from planning.errors import ConfigError, option
+
+
+@dataclass(frozen=True)
+class FBLGains:
+    """Gains of the dynamic feedback-linearisation tracker.
+
+    Attributes:
+        kp: Position error gain Kp [1/s^2].
+        kd: Velocity error gain Kd [1/s].
+        xi_min: Smallest |xi| used in the division [m/s] (singularity guard).
+    """
+
+    kp: float = 9.0
+    kd: float = 6.0
+    xi_min: float = 0.02
+
+    def __post_init__(self) -> None:
+        check_positive_fields(self, ("kp", "kd", "xi_min"), "the error dynamics need Kp, Kd > 0")
+
+    @classmethod
+    def parse(cls, text: str) -> FBLGains:
+        """Parse ``"KP,KD"`` (as given to ``--gains``).
+
+        Raises:
+            ConfigError: Not two comma-separated positive numbers.
+        """
+        bad = ConfigError(f"gains must be 'KP,KD' (two positive finite numbers, e.g. 9,6), got {text!r}")
+        parts = [p.strip() for p in text.split(",")]
+        if len(parts) != 2:
+            raise bad
+        try:
+            kp, kd = float(parts[0]), float(parts[1])
+        except ValueError as exc:
+            raise bad from exc
+        for name, gain in (("KP", kp), ("KD", kd)):
+            if not (math.isfinite(gain) and gain > 0):
+                raise ConfigError(f"{bad}: {name} = {gain:g} is not")
+        return cls(kp=kp, kd=kd)
+
 
 GAIN_KEYS = ("kp", "kd", "xi_min")
 

@@ -22,7 +22,8 @@ from numpy.typing import NDArray
 
 from control.base import option_value
 from control.estimation.kernels import wrap
-from control.fbl import XI_FLOOR, FBLGains, fbl_law_kernel, xi_period
+from control.fbl import XI_FLOOR, fbl_law_kernel, xi_period
+from control.gains import FBLGains
 from control.switching import PerSegmentTracker, Record, SegmentedParams, period, state_dtype
 from planning.core.robot import RobotSpec
 

@@ -11,7 +11,8 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from control.fbl import XI_FLOOR, FBLGains
+from control.fbl import XI_FLOOR
+from control.gains import FBLGains
 from control.kanayama import KanayamaParams
 from control.switching import SegmentedParams
 

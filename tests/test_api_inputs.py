@@ -11,7 +11,7 @@ import pytest
 
 from control.base import make_tracker
 from control.estimation.ekf import EstimatorConfig
-from control.fbl import FBLGains
+from control.gains import FBLGains
 from planning.core.geometry import Pose2D
 from planning.core.robot import load_robot
 from planning.errors import ConfigError

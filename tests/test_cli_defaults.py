@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from control.fbl import FBLGains
+from control.gains import FBLGains
 from planning.errors import ConfigError
 from sim.cli import simulate
 from sim.cli.job_outputs import RUN_SETTINGS

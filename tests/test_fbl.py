@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from control.fbl import DynamicFBL, FBLGains, fbl_law_kernel
+from control.fbl import DynamicFBL, fbl_law_kernel
+from control.gains import FBLGains
 from planning.core.geometry import Pose2D
 from planning.core.kinematics import rk4_step, unicycle_rhs
 from planning.core.robot import load_robot

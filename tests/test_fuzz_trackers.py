@@ -25,7 +25,7 @@ from hypothesis import event
 from hypothesis import strategies as st
 
 from control.base import TRACKERS, feedback_trackers, make_tracker, tracker_factory, tracker_options
-from control.fbl import FBLGains
+from control.gains import FBLGains
 from control.segmented import SegmentedParams
 from planning.core.geometry import Pose2D
 from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot

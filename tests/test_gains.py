@@ -6,8 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from control.fbl import FBLGains
-from control.gains import GainsFile, dump_gains_toml, load_gains_file, parse_gains_toml, resolve_gains
+from control.gains import FBLGains, GainsFile, dump_gains_toml, load_gains_file, parse_gains_toml, resolve_gains
 from planning.errors import ConfigError
 from sim.cli.main import main
 

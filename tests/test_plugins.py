@@ -31,7 +31,8 @@ from control.base import (
     register_tracker,
     tracker_origin,
 )
-from control.fbl import DynamicFBL, FBLGains
+from control.fbl import DynamicFBL
+from control.gains import FBLGains
 from control.kanayama import KanayamaParams
 from control.open_loop import OpenLoop
 from planning.core.robot import load_robot

@@ -9,7 +9,7 @@ import pytest
 
 import sim.cli.regress as cli
 import sim.tools.regress as regress
-from control.fbl import FBLGains
+from control.gains import FBLGains
 from planning.errors import ConfigError
 from sim.cli.main import main
 from sim.pipeline.case import Case

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from control.base import make_tracker
-from control.fbl import FBLGains
+from control.gains import FBLGains
 from planning.core.geometry import Pose2D
 from planning.core.robot import load_robot
 from planning.core.world import Box, World

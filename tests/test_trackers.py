@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from control.base import TRACKERS, check_positive_fields, make_tracker, register_tracker, tracker_options
-from control.fbl import FBLGains
+from control.gains import FBLGains
 from control.segmented import SegmentedParams
 from planning.core.geometry import Pose2D
 from planning.core.robot import load_robot

@@ -18,8 +18,7 @@ import optuna
 import pytest
 from PIL import Image
 
-from control.fbl import FBLGains
-from control.gains import load_gains_file
+from control.gains import FBLGains, load_gains_file
 from sim.cli.main import main
 from sim.cli.tune import default_study_name
 from sim.physics.asbuilt import check_build_seed

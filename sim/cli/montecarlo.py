@@ -99,8 +99,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 
 def _spec(args: argparse.Namespace) -> Any:
-    from control.fbl import FBLGains
-    from control.gains import resolve_gains
+    from control.gains import FBLGains, resolve_gains
     from sim.cli.checks import check_control_rate, check_seeds, check_time_limit
     from sim.cli.simulate import check_scan_beams, job_source, localiser_fields, parse_build, sensor_overrides
     from sim.cli.trajectory_files import check_file_options, file_given, file_source, file_world

@@ -286,7 +286,7 @@ def _add_run_kind_arguments(p: argparse.ArgumentParser) -> None:
 def _add_run_arguments(p: argparse.ArgumentParser) -> None:
     """How to run it: runs, build, sensors, gains, perturbation, rate, seed, record, verbosity. Defaults
     are :data:`sim.cli.job_outputs.RUN_SETTINGS` (which also names outputs by the settings that differ)."""
-    from control.fbl import FBLGains
+    from control.gains import FBLGains
 
     _add_run_kind_arguments(p)
     p.add_argument(
@@ -525,8 +525,7 @@ def gains_and_perturbation(args: argparse.Namespace) -> tuple[Any, Any]:
     Raises:
         ConfigError: Bad gains (or gains file) or perturbation.
     """
-    from control.fbl import FBLGains
-    from control.gains import resolve_gains
+    from control.gains import FBLGains, resolve_gains
     from sim.physics.perturb import Perturbation
 
     noise_seed = args.seed if args.noise_seed is None else args.noise_seed

@@ -224,7 +224,7 @@ def _best_value(study: Any) -> float | None:
 def writes_gains_file(tracker: str) -> bool:
     """Whether tuning ``tracker`` ("": the FBL's default study) writes a gains file: only FBL gains have
     one (``nhsim simulate --gains``); every tracker's parameters go to the JSON record."""
-    from control.fbl import FBLGains
+    from control.gains import FBLGains
     from sim.tools.tune import tuned_space
 
     return tuned_space(tracker)[0] is FBLGains

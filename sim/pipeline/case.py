@@ -30,7 +30,8 @@ from numpy.typing import NDArray
 
 from control.base import TRACKERS
 from control.estimation.amcl import AmclConfig
-from control.fbl import FBLGains, uses_fbl_gains
+from control.fbl import uses_fbl_gains
+from control.gains import FBLGains
 from planning.collision.exact import CollisionChecker
 from planning.core.checks import check_fields, check_number
 from planning.core.geometry import Pose2D, wrap_angle

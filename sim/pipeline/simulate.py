@@ -18,7 +18,8 @@ from typing import Any
 import mujoco
 
 from control.base import TRACKERS, Tracker, feedback_trackers, make_tracker, tuned_option
-from control.fbl import FBLGains, uses_fbl_gains
+from control.fbl import uses_fbl_gains
+from control.gains import FBLGains
 from planning.core.checks import check_number
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError

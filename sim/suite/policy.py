@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from control.base import Tracker, make_tracker, tracker_options
 from control.diffdrive import DiffDrive
-from control.fbl import FBLGains
+from control.gains import FBLGains
 from sim.physics.metrics import TrackingMetrics, robot_metrics
 from sim.physics.runlog import RunLog
 from sim.pipeline.runs import RunKind

@@ -49,8 +49,7 @@ from pathlib import Path
 from typing import Any
 
 from control.base import TRACKERS, load_plugins, option_takes
-from control.fbl import FBLGains
-from control.gains import resolve_gains
+from control.gains import FBLGains, resolve_gains
 from planning.core.checks import is_number
 from planning.core.robot import ROBOT_FILES
 from planning.errors import ConfigError, NhsimError, SimulationError, option, without_python

@@ -56,7 +56,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from control.base import search_space, tuned_option
-from control.fbl import FBLGains
+from control.gains import FBLGains
 from planning.core.checks import check_number
 from planning.errors import ConfigError, NhsimError, option
 from planning.signals import signals_held, signals_released
