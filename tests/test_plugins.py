@@ -603,3 +603,25 @@ def test_a_module_that_registers_its_own_class_under_its_import_path_name_is_the
     (tmp_path / "nhsim_test_other.py").write_text("class TDT:\n    name = 'tdt'\n")
     with pytest.raises(ConfigError, match=r"planner 'tdt' is already registered .* as nhsim_test_tdt:TDT"):
         register_planner("tdt", "nhsim_test_other:TDT")
+
+
+def test_a_failing_plugin_is_named_first_when_another_registrys_plugin_loads_it(
+    registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A planner lookup imported a good plugin module whose tracker registration loaded the tracker plugins, of
+    which a bad one failed: the message led with "planner plugin failed to load: module 'nhsim_test_good' ...",
+    an innocent module, and named the culprit only at the end of the line."""
+    from planning.planners.registry import make_planner
+
+    (tmp_path / "nhsim_test_good.py").write_text(
+        "from control import register_tracker\nfrom control.fbl import DynamicFBL\n\n\n"
+        "class Mine(DynamicFBL):\n    name = 'mine'\n\n\nregister_tracker('mine', Mine)\n"
+    )
+    (tmp_path / "nhsim_test_bad.py").write_text("raise RuntimeError('case 7')\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setenv(PLUGIN_VARIABLE, "nhsim_test_good,nhsim_test_bad")
+    with pytest.raises(ConfigError) as info:
+        make_planner("rrt")
+    said = str(info.value)
+    assert said.startswith("tracker plugin failed to load: module 'nhsim_test_bad' named by"), said
+    assert "RuntimeError: case 7" in said and "nhsim_test_good" not in said.split("named by")[0], said

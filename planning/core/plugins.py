@@ -81,6 +81,10 @@ def target_text(target: object) -> str:
     return f"{getattr(target, '__module__', '?')}:{getattr(target, '__qualname__', repr(target))}"
 
 
+class PluginLoadError(ConfigError):
+    """A plugin failed to import or to register: the message names it, where it was declared and the exception."""
+
+
 def _import_path(target: object) -> str:
     """A registry target as ``"module:attr"``: the text itself, or where a class or function is defined."""
     if isinstance(target, str):
@@ -194,9 +198,11 @@ class Registry(MutableMapping[str, "str | Callable[..., F]"], Generic[F]):
                 _loading.append(source)
                 try:
                     load()
+                except PluginLoadError:  # another registry's plugin, loaded by this one's import: named there
+                    raise
                 except Exception as exc:
                     failed = f"{self.kind} plugin failed to load: {source}: {type(exc).__name__}: {exc}"
-                    raise ConfigError(failed) from exc
+                    raise PluginLoadError(failed) from exc
                 finally:
                     _loading.pop()
         except BaseException:
