@@ -283,6 +283,7 @@ def test_register_planner_refuses_a_bad_name_target_or_a_taken_name(monkeypatch:
     """It took anything: "noattr" failed later as ``ValueError: not enough values to unpack``, and "rrt" silently
     replaced the built-in planner."""
     from planning import make_planner, register_planner
+    from planning.core.plugins import BUILT_IN
     from planning.planners.registry import PLANNERS
     from planning.planners.sampling.rrt import RRT, BiRRT
 
@@ -302,6 +303,7 @@ def test_register_planner_refuses_a_bad_name_target_or_a_taken_name(monkeypatch:
         register_planner("rrt", "mypackage.ttt:TurnDriveTurn")
     assert PLANNERS["rrt"] == "planning.planners.sampling.rrt:RRT"
     register_planner("rrt", "planning.planners.sampling.rrt:RRT")  # the same target again: no change
+    assert PLANNERS.origin("rrt") == BUILT_IN  # not even of who registered it (simulate --all runs built-in ones)
     monkeypatch.setitem(PLANNERS, "rrt", PLANNERS["rrt"])  # restored after the test
     monkeypatch.setattr(PLANNERS, "origins", dict(PLANNERS.origins))
     register_planner("rrt", BiRRT, replace=True)

@@ -152,9 +152,10 @@ class Registry(MutableMapping[str, "str | Callable[..., F]"], Generic[F]):
         if not isinstance(replace, bool):
             raise ConfigError(f"{caller}({name!r}): replace must be True or False")
         taken = self.get(name)  # an empty entry is a placeholder (a test's monkeypatch), no factory
-        if taken and taken != target and _import_path(taken) == _import_path(target):
-            return  # the class its import path names, registered by its module's import: the same entry
-        if taken and taken != target and not replace:
+        named = isinstance(taken, str) != isinstance(target, str) and _import_path(taken) == _import_path(target)
+        if taken and (taken == target or named):
+            return  # no change (nor of who registered it): the same target, or the class its import path names
+        if taken and not replace:
             fix = fix or "choose another name, or pass replace=True to replace it"
             raise ConfigError(
                 f"{caller}: {self.kind} {name!r} is already registered ({self.origin(name)}) as {target_text(taken)}; "
