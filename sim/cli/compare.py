@@ -27,7 +27,7 @@ case's own robot and noise (the as-built robot of build seed 1 and the noise of 
 defaults), not on the first held-out draw. --params FILE[,FILE] gives tuned parameters: the JSON that
 'nhsim tune --tracker T' writes, or {"tracker": {"field": value, ...}, ...}.
 
-With no --reference or --planner: the default job (source report 003's), a C-RRT* plan through
+With no --reference or --planner: the default job (the EduMIP planning report's), a C-RRT* plan through
 'edumip_map' (when that planner and scenario are installed; else figure-eight in 'open').
 
 Outputs (each only when asked; an existing file is replaced only with --overwrite): --json PATH the

@@ -15,7 +15,7 @@ from sim.cli.job_outputs import RUN_SETTINGS, add_executor_arguments, add_output
 from sim.cli.trajectory_files import add_file_arguments, check_file_options, file_given, format_import
 from sim.pipeline.runs import RunKind, run_kinds
 
-#: The scenario of a job that names none: this map for a plan (the default job, source report 003's: the EduMIP
+#: The scenario of a job that names none: this map for a plan (the default job, the EduMIP planning report's: the EduMIP
 #: plans through it with its planner, C-RRT*), the empty arena for an analytic reference.
 DEFAULT_SCENARIO = "edumip_map"
 REFERENCE_SCENARIO = "open"
@@ -33,7 +33,7 @@ DESCRIPTION = (
     f"What runs, one rule: the scenario is --scenario, else '{REFERENCE_SCENARIO}' with --reference, else "
     f"'{DEFAULT_SCENARIO}'; the path is --reference's curve or --planner's plan, else the plan of the "
     f"scenario's own planner, else (the scenario names none) the '{DEFAULT_REFERENCE}' reference. With no "
-    f"arguments: the default job (source report 003's), '{DEFAULT_SCENARIO}' planned with its own planner, "
+    f"arguments: the default job (the EduMIP planning report's), '{DEFAULT_SCENARIO}' planned with its own planner, "
     "smoothed and tracked; "
     f"'--scenario farm' plans the farm with its own planner; '--reference circle' tracks a circle in "
     f"'{REFERENCE_SCENARIO}'.\n\n"
