@@ -149,6 +149,7 @@ def test_obstacle_in_the_way_is_infeasible_and_one_aside_is_not() -> None:
     blocked = World((0.0, 2.0, 0.0, 1.0), (Circle((0.9, 0.5), 0.1),))
     res = Sinusoidal().plan(PlanProblem(blocked, robot, start, goal))
     assert res.status is PlanStatus.INFEASIBLE and "obstacle" in res.reason
+    assert "instead: 'rrt-star', 'birrt' or 'hybrid-a-star'" in res.reason  # planners that avoid them
     aside = World((0.0, 2.0, 0.0, 1.0), (Circle((0.9, 0.9), 0.05),))
     res = Sinusoidal().plan(PlanProblem(aside, robot, start, goal))
     assert res.success

@@ -616,8 +616,9 @@ class Sinusoidal:
             if d[i] < r:
                 return PlanStatus.INFEASIBLE, (
                     f"sinusoidal steering does not avoid obstacles and its path hits one at t = {t[i]:.2f} s "
-                    f"({d[i] - r:.3f} m clearance for the robot's radius {r:.3f} m); plan with 'optim' or an RRT "
-                    "planner instead"
+                    f"({d[i] - r:.3f} m clearance for the robot's radius {r:.3f} m); plan with a planner that "
+                    "avoids them instead: 'rrt-star', 'birrt' or 'hybrid-a-star' (or 'optim', which keeps the robot's "
+                    "disc clear of them and may refuse a start or goal closer than its radius)"
                 )
         problems = []
         wall = world.wall_distance(x[:, :2])
