@@ -1,4 +1,4 @@
-"""Dynamic feedback linearisation for trajectory tracking of a unicycle (seed report 003, III).
+"""Dynamic feedback linearisation for trajectory tracking of a unicycle (the EduMIP planning report, III).
 
 Output y = (x, y). Differentiating twice gives
 
@@ -74,12 +74,12 @@ def xi_period(
 ) -> tuple[float, float]:  # pragma: no cover - compiled
     """The FBL's discretisation of one control period: (v, the next xi).
 
-    xi integrates xi_dot over the period (u1 <- u1 + u1_dot dt, seed report 003, III) and stays
-    within the speed limit |u1| <= vmax; along a drive of known direction (``sign`` +1 forwards, -1
-    backwards) within that direction's side, sign * xi in [XI_FLOOR, vmax], so a drive never
-    reverses and the law keeps dividing by a speed of the drive's sign; ``sign`` 0 (a reference
-    without a direction) bounds xi by +-vmax only. The command v is xi at the period's midpoint,
-    xi + xi_dot dt / 2, before the caller clamps it.
+    xi integrates xi_dot over the period (u1 <- u1 + u1_dot dt, the EduMIP planning report, III) and
+    stays within the speed limit |u1| <= vmax; along a drive of known direction (``sign`` +1
+    forwards, -1 backwards) within that direction's side, sign * xi in [XI_FLOOR, vmax], so a drive
+    never reverses and the law keeps dividing by a speed of the drive's sign; ``sign`` 0 (a
+    reference without a direction) bounds xi by +-vmax only. The command v is xi at the period's
+    midpoint, xi + xi_dot dt / 2, before the caller clamps it.
 
     Args:
         xi: The compensator state [m/s].
@@ -133,11 +133,11 @@ def _period(
 class DynamicFBL:
     """Dynamic feedback-linearisation tracker with explicit state xi (see the module doc).
 
-    Source: seed report 003 (EduMIP planning and tracking), section III: the compensator xi = v and
-    the virtual input w = yddot_d - Kp e - Kd edot; the law and its singularity at xi = 0 as in
-    G. Oriolo, A. De Luca, M. Vendittelli, "WMR control via dynamic feedback linearization: design,
-    implementation, and experimental validation", IEEE Trans. Control Systems Technology 10(6),
-    835-852, 2002.
+    Source: the EduMIP planning report (Trajectory planning and control for the EduMIP), section III:
+    the compensator xi = v and the virtual input w = yddot_d - Kp e - Kd edot; the law and its
+    singularity at xi = 0 as in G. Oriolo, A. De Luca, M. Vendittelli, "WMR control via dynamic
+    feedback linearization: design, implementation, and experimental validation", IEEE Trans.
+    Control Systems Technology 10(6), 835-852, 2002.
 
     Args:
         robot: Limits (max_speed, max_yaw_rate) the commands are saturated to.

@@ -17,8 +17,9 @@ class OpenLoop:
     Each command is the reference input averaged over the coming control period (sampled at its
     midpoint), which is the best a zero-order hold can do without feedback.
 
-    Source: seed report 000 (TurtleBot nonholonomic control), its simulation results: plans executed
-    open loop drift from the desired poses because nothing corrects the error. Takes no options.
+    Source: the TurtleBot planning report (TurtleBot nonholonomic control), its simulation results:
+    plans executed open loop drift from the desired poses because nothing corrects the error. Takes
+    no options.
 
     Args:
         robot: The robot (kept for the interface; the reference is played as it is).

@@ -2,8 +2,8 @@
 
 Dynamic feedback linearisation (control/fbl.py) divides by its compensator state xi = v, so it is
 singular where the reference stops: at every cusp, at every turn in place, at the start and at the
-goal. This tracker drives the seed's FBL along each drive of a planned trajectory and leaves turns
-in place, stand-stills and the end to the segment switching (control/switching.py):
+goal. This tracker drives the EduMIP planning report's FBL along each drive of a planned trajectory
+and leaves turns in place, stand-stills and the end to the segment switching (control/switching.py):
 
 * On entering a drive, xi is re-initialised to the reference speed, with the drive's sign (so the
   singularity guard and the law act in the drive's direction even from rest), and it is kept on that
@@ -60,11 +60,11 @@ def _period(
 class SegmentedTracker(PerSegmentTracker):
     """Per-segment FBL tracker (see the module doc).
 
-    Source: the drives use the dynamic feedback linearisation of seed report 003, section III
-    (:class:`control.fbl.DynamicFBL`), whose singularity at v = 0 (G. Oriolo, A. De Luca,
-    M. Vendittelli, IEEE Trans. Control Systems Technology 10(6), 2002) is why cusps and turns in
-    place switch law; the switching, the low-speed blend and the heading regulation are this
-    project's design (README, "control/segmented.py").
+    Source: the drives use the dynamic feedback linearisation of the EduMIP planning report,
+    section III (:class:`control.fbl.DynamicFBL`), whose singularity at v = 0 (G. Oriolo,
+    A. De Luca, M. Vendittelli, IEEE Trans. Control Systems Technology 10(6), 2002) is why cusps and
+    turns in place switch law; the switching, the low-speed blend and the heading regulation are
+    this project's design (README, "control/segmented.py").
 
     Args:
         robot: Limits (max_speed, max_yaw_rate).

@@ -1,4 +1,4 @@
-"""C-RRT* (seed 003) on the EduMIP map: goal reached, clearance kept, cost decomposition, determinism."""
+"""C-RRT* (the EduMIP planning report) on its map: goal reached, clearance kept, cost decomposition, determinism."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from planning.planners.sampling.crrt_star import CRRTStar, CRRTStarConfig, _Sear
 from planning.scenario import load_scenario
 
 SEEDS = range(6)
-CLEARANCE = 0.40  # seed 003: no obstacle within 40 cm of the EduMIP's axle centre
+CLEARANCE = 0.40  # the EduMIP planning report: no obstacle within 40 cm of the EduMIP's axle centre
 
 
 @pytest.fixture(scope="module")
@@ -84,7 +84,7 @@ def test_cost_decomposition(results, seed):
     pts = np.asarray(res.stats["waypoints"])
     d_planner = np.asarray(res.stats["edge_clearances_m"])
     lengths = np.hypot(*np.diff(pts, axis=0).T)
-    # the reported cost is exactly the sum of the seed's edge costs along the returned path
+    # the reported cost is exactly the sum of the EduMIP planning report's edge costs along the returned path
     own = np.sum(lengths + cfg.rho * np.exp(-cfg.sigma * d_planner**2))
     assert res.stats["cost"] == pytest.approx(own, rel=0, abs=1e-9)
     # independent clearances: the planner samples every <= 2 cm, so its d is within 1 cm above the truth

@@ -115,8 +115,9 @@ def test_one_registered_planner_end_to_end(case: Case) -> None:
 
 
 def test_a_planner_precondition_is_not_applicable_but_a_planner_failure_is_a_failure() -> None:
-    # C-RRT* keeps the EduMIP's axle centre 0.40 m from walls (seed 003); simple_motion starts
-    # 0.40 m from two walls, which the EduMIP's footprint clears easily: the planner does not apply.
+    # C-RRT* keeps the EduMIP's axle centre 0.40 m from walls (the EduMIP planning report);
+    # simple_motion starts 0.40 m from two walls, which the EduMIP's footprint clears easily: the
+    # planner does not apply.
     na = sweep_case(Case("simple_motion", robot="edumip", planner="c-rrt-star"))
     assert na.outcome is Outcome.NA and na.stage is Stage.PRECONDITION and not na.success
     assert na.plan_status == "invalid_start" and "0.40" in na.reason

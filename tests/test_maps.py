@@ -43,7 +43,7 @@ def test_edumip_map_boxes_match_drawn_rectangles():
     drawn = sorted(EDUMIP_MAP_OBSTACLES.values(), key=lambda b: (b[0], -b[2]))
     for (x0, x1, y0, y1), (a0, a1, b0, b1) in zip(found, drawn, strict=True):
         assert max(abs(x0 - a0), abs(x1 - a1), abs(y0 - b0), abs(y1 - b1)) <= PX + 1e-9
-    # the seed's numbering: O1 leftmost, O2..O4 on the right from top to bottom
+    # the EduMIP planning report's numbering: O1 leftmost, O2..O4 on the right from top to bottom
     o = EDUMIP_MAP_OBSTACLES
     assert o["O1"][1] < min(o[k][0] for k in ("O2", "O3", "O4"))
     assert o["O2"][2] > o["O3"][3] and o["O3"][2] > o["O4"][3]

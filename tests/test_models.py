@@ -417,11 +417,11 @@ def _chattering_samples(log: RunLog, tol: float = 0.5) -> int:
 
 
 def test_the_default_job_runs_without_wheel_chatter() -> None:
-    """The EduMIP on seed 003's map, every run: the wheels follow their commands smoothly, including
-    the stop at the end (with stiff velocity servos the body rocked on its skids with the wheels
-    chattering at +-2 rad/s around a zero command, 37 % of the closed-loop samples). The as-built
-    open-loop robot drifts into an obstacle; after its first contact a stalled or climbing wheel is
-    the collision's doing, so that run is checked up to the contact."""
+    """The EduMIP on the EduMIP planning report's map, every run: the wheels follow their commands
+    smoothly, including the stop at the end (with stiff velocity servos the body rocked on its skids
+    with the wheels chattering at +-2 rad/s around a zero command, 37 % of the closed-loop samples).
+    The as-built open-loop robot drifts into an obstacle; after its first contact a stalled or
+    climbing wheel is the collision's doing, so that run is checked up to the contact."""
     from sim.pipeline.simulate import simulate_plan
 
     job = simulate_plan(load_scenario("edumip_map"), planner="c-rrt-star", seed=0)

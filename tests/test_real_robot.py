@@ -44,7 +44,7 @@ def nhsim(*args: str) -> subprocess.CompletedProcess[str]:
 
 @pytest.fixture(scope="module")
 def default_job():  # type: ignore[no-untyped-def]
-    """The default job (seed 003's plan through its map, the EduMIP as built by the default seed)."""
+    """The default job (the EduMIP planning report's plan through its map, the EduMIP as built by the default seed)."""
     return simulate_plan("edumip_map", planner="c-rrt-star", seed=0)
 
 

@@ -35,9 +35,10 @@ def test_spec_matches_the_compiled_model(name: str) -> None:
 
 
 def test_limits_in_the_models_are_what_the_motors_sustain() -> None:
-    """The EduMIP keeps seed 003's limits; the TurtleBot3's advertised 0.22 m/s and 2.84 rad/s are
-    above its XL430s' 57 rpm no-load speed (0.197 m/s on a 33 mm wheel), so its limits are what the
-    motors sustain with margin: 5.0 rad/s at the wheel (see the model's comments)."""
+    """The EduMIP keeps the EduMIP planning report's limits; the TurtleBot3's advertised 0.22 m/s
+    and 2.84 rad/s are above its XL430s' 57 rpm no-load speed (0.197 m/s on a 33 mm wheel), so its
+    limits are what the motors sustain with margin: 5.0 rad/s at the wheel (see the model's
+    comments)."""
     tb3, mip = load_robot("turtlebot3"), load_robot("edumip")
     assert (tb3.wheel_radius, tb3.track_width, tb3.max_wheel_speed) == (0.033, 0.16, 5.0)
     assert (tb3.max_speed, tb3.max_yaw_rate) == (0.165, 2.06)

@@ -305,9 +305,9 @@ def test_check_order_is_ompl_bisection_and_keeps_verdicts() -> None:
 
 
 def test_birrts_connect_steps_stop_when_they_no_longer_close_in():
-    """Two offset 3.2 m walls with 0.8 m doors, and a turn about: seed 001's primitives turn 0.15 rad per
-    0.15 m, and connect steps that went on after they stopped closing in on their target shuffled back
-    and forth (raw paths of 92-1915 m, up to 2528 cusps, for a way of 10 m)."""
+    """Two offset 3.2 m walls with 0.8 m doors, and a turn about: the fruit-farm report's primitives
+    turn 0.15 rad per 0.15 m, and connect steps that went on after they stopped closing in on their
+    target shuffled back and forth (raw paths of 92-1915 m, up to 2528 cusps, for a way of 10 m)."""
     walls = (Box((2.7, 1.6), (0.2, 3.2)), Box((5.3, 2.4), (0.2, 3.2)))
     world = World((0.0, 8.0, 0.0, 4.0), walls)
     for seed in range(4):

@@ -51,7 +51,7 @@ def test_farm_is_seed_001():
     assert kinds == {Circle, Ellipse}
     assert len(sc.world.obstacles) == 13
     np.testing.assert_allclose(sc.start.as_array(), [-1.0, -1.0, np.pi / 4])
-    # the seed's goal (2.5, 2) is 0.10 m from tree7, inside the TurtleBot3's disc: moved back along y = 2
+    # the fruit-farm report's goal (2.5, 2) is 0.10 m from tree7, inside the TurtleBot3's disc: moved back along y = 2
     np.testing.assert_allclose(sc.goal.as_array(), [2.15, 2.0, 0.0])
     assert (sc.position_tolerance, sc.heading_tolerance) == (0.02, 0.1)
     tree7 = [o for o in sc.world.obstacles if isinstance(o, Circle) and o.center == (2.7, 2.0)]

@@ -88,7 +88,7 @@ class CollisionChecker:
         world: Bounds and obstacles.
         robot: The robot (footprint and radius).
         shape: "disc" or "footprint".
-        clearance: Extra margin every pose must keep [m] (e.g. 0.4 for seed 003's EduMIP).
+        clearance: Extra margin every pose must keep [m] (e.g. 0.4 for the EduMIP of the EduMIP planning report).
         tolerance: Footprint boundary sample spacing [m]; see the module doc.
         walls: Whether the world's bounds count as walls.
     """

@@ -4,9 +4,10 @@ A map image is read as grey levels in [0, 1] (0 black, 1 white; transparent pixe
 white). A pixel is an obstacle pixel when its grey level is below ``threshold``. Obstacle pixels are
 grouped into 4-connected regions (``scipy.ndimage.label``) and each region becomes
 
-* ``"box"``: its axis-aligned bounding rectangle (as seed 003 outlines detected obstacles with red
-  dashed boxes): the whole extent of the region, so a thin diagonal wall, an L or a disc fills its
-  box (a 6 px line drawn diagonally across 0.44 m becomes a 0.44 x 0.44 m square), or
+* ``"box"``: its axis-aligned bounding rectangle (as the EduMIP planning report outlines detected
+  obstacles with red dashed boxes): the whole extent of the region, so a thin diagonal wall, an L or
+  a disc fills its box (a 6 px line drawn diagonally across 0.44 m becomes a 0.44 x 0.44 m
+  square), or
 * ``"polygon"``: the exact outline of its pixels (a rectilinear polygon along pixel edges; holes
   inside a region are filled): the shape for diagonal walls and any region that is not an upright
   rectangle.
@@ -57,9 +58,9 @@ MAP_BYTES_PER_PIXEL = 13
 _MAP_REQUIRED = {"image", "resolution"}
 _MAP_OPTIONAL = {"origin", "threshold", "shape"}
 
-#: Seed 003's map: 5 x 5 m at 1 cm per pixel (500 x 500 px), four obstacles. O1 is the leftmost;
-#: O2, O3, O4 lie on the right from top to bottom. Rectangles as (x0, x1, y0, y1) in metres within
-#: the map (origin at its bottom-left corner); every edge lies on a pixel edge.
+#: The EduMIP planning report's map: 5 x 5 m at 1 cm per pixel (500 x 500 px), four obstacles. O1 is
+#: the leftmost; O2, O3, O4 lie on the right from top to bottom. Rectangles as (x0, x1, y0, y1) in
+#: metres within the map (origin at its bottom-left corner); every edge lies on a pixel edge.
 EDUMIP_MAP_SIZE_PX = 500
 EDUMIP_MAP_RESOLUTION = 0.01
 EDUMIP_MAP_OBSTACLES: dict[str, tuple[float, float, float, float]] = {
@@ -71,7 +72,7 @@ EDUMIP_MAP_OBSTACLES: dict[str, tuple[float, float, float, float]] = {
 
 
 def edumip_map_image() -> NDArray[np.uint8]:
-    """The EduMIP map (seed 003) as an 8-bit greyscale image: black obstacles on white.
+    """The EduMIP map (the EduMIP planning report) as an 8-bit greyscale image: black obstacles on white.
 
     Returns:
         (500, 500) uint8 array, row 0 at the top (image convention).

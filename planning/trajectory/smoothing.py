@@ -1,4 +1,4 @@
-"""Piecewise constrained polynomial smoothing of a planned path (seed report 003, section II-B).
+"""Piecewise constrained polynomial smoothing of a planned path (the EduMIP planning report, section II-B).
 
 A planner's path is a sequence of poses. It is first split into *segments* (:func:`split_path`):
 drives (forwards or backwards) separated by cusps, where the direction of travel flips, and
@@ -8,18 +8,19 @@ length of the path points (a close approximation of arc length), so vertical seg
 backtracking are represented as easily as anything else; the curve is resampled by its true arc
 length later (:class:`SmoothCurve`).
 
-The fit follows the seed: the curve passes through fix points (the drive's two ends) and satisfies
-derivative constraints (the end tangents, zero end curvature, and position, tangent and curvature
-continuity between neighbouring pieces: C0, C1 and C2), and fits all path points by least squares.
-The seed solves this in two steps, ``p = p^c + p^s``: ``p^c`` satisfies the constraints ``A p = b``,
-and ``p^s`` then fits the residual of the points. Taken literally, an unconstrained ``p^s`` breaks
-the constraints again (it is fitted to the points alone). The two steps are right when ``p^s`` is
-restricted to the null space of ``A``; that is exactly the equality-constrained least-squares
-problem ``min |B p - y|^2 subject to A p = b``, solved here in one sparse solve of its KKT system
-``[[B^T B, A^T], [A, 0]] [p; mu] = [B^T y; b]`` (linear in the number of pieces, where a dense null
-space would be cubic). Every constraint holds to rounding, and all pieces of all coordinates are
-fitted together, so continuity is exact rather than imposed piece by piece. A small penalty on the
-third derivative keeps pieces with few points well posed and free of wiggles.
+The fit follows the EduMIP planning report: the curve passes through fix points (the drive's two
+ends) and satisfies derivative constraints (the end tangents, zero end curvature, and position,
+tangent and curvature continuity between neighbouring pieces: C0, C1 and C2), and fits all path
+points by least squares. The report solves this in two steps, ``p = p^c + p^s``: ``p^c`` satisfies
+the constraints ``A p = b``, and ``p^s`` then fits the residual of the points. Taken literally, an
+unconstrained ``p^s`` breaks the constraints again (it is fitted to the points alone). The two steps
+are right when ``p^s`` is restricted to the null space of ``A``; that is exactly the
+equality-constrained least-squares problem ``min |B p - y|^2 subject to A p = b``, solved here in
+one sparse solve of its KKT system ``[[B^T B, A^T], [A, 0]] [p; mu] = [B^T y; b]`` (linear in the
+number of pieces, where a dense null space would be cubic). Every constraint holds to rounding, and
+all pieces of all coordinates are fitted together, so continuity is exact rather than imposed piece
+by piece. A small penalty on the third derivative keeps pieces with few points well posed and free
+of wiggles.
 
 The smoothed drive is checked against the world with the robot's footprint
 (:class:`planning.collision.exact.CollisionChecker`) and against its distance from the input path; when
@@ -495,7 +496,7 @@ def fit_piecewise(
     continuity: int = 2,
     penalty: float = 1e-6,
 ) -> PiecewisePolynomial:
-    """Constrained least-squares fit of a piecewise polynomial through points (seed 003, II-B).
+    """Constrained least-squares fit of a piecewise polynomial through points (the EduMIP planning report, II-B).
 
     Fix points: the first and last point. Derivative constraints: dp/du at the ends equal to the
     given tangents (unit vectors, so the curve starts and ends at unit parametric speed), d2p/du2 = 0
@@ -504,7 +505,7 @@ def fit_piecewise(
     integral of |d3p/du3|^2 (Gauss-Legendre quadrature, 3 nodes per piece).
 
     Solved exactly through the KKT system of the equality-constrained least-squares problem (the
-    seed's ``p = p^c + p^s`` with ``p^s`` kept in the null space of the constraints); see the module
+    report's ``p = p^c + p^s`` with ``p^s`` kept in the null space of the constraints); see the module
     doc.
 
     Args:

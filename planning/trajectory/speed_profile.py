@@ -1,6 +1,6 @@
 """Curvature-limited speed profiles and the timed samples of drives and turns in place.
 
-Seed report 003 (II-B) assigns each point of the smoothed path the speed
+The EduMIP planning report (II-B) assigns each point of the smoothed path the speed
 ``v = min(sqrt(a_max / kappa), v_max)``. Here the same bound is joined by the other limits a
 differential drive has, all scaled by ``margin`` so that the feedback keeps some authority:
 
@@ -84,7 +84,7 @@ class Limits:
 
 
 def speed_limit(kappa: FloatArray, dkappa: FloatArray, limits: Limits) -> FloatArray:
-    """Pointwise speed bound from curvature (seed 003's formula and the drive's limits).
+    """Pointwise speed bound from curvature (the EduMIP planning report's formula and the drive's limits).
 
     Args:
         kappa: (M,) curvature [1/m].

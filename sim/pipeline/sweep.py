@@ -5,11 +5,11 @@ scenario lists (``robots``). The library returns the rows; ``nhsim simulate --al
 
 Every row has an :class:`Outcome`: OK (every closed-loop target met), FAIL, or NA (not applicable).
 A case is NA only when the planner rejects the start or goal by a precondition of its own
-(``INVALID_START`` / ``INVALID_GOAL``, e.g. C-RRT*'s 0.40 m centre clearance for the EduMIP, seed
-003's rule) while that pose is free for the robot's footprint: the planner does not apply to the
-scenario. Such rows are reported apart and not counted. Every other planner status (a timeout,
-``BOUNDS_VIOLATED``, ``INFEASIBLE``, a colliding timed plan), a smoothing failure or a missed target
-is a failure of that case.
+(``INVALID_START`` / ``INVALID_GOAL``, e.g. C-RRT*'s 0.40 m centre clearance for the EduMIP, the
+EduMIP planning report's rule) while that pose is free for the robot's footprint: the planner does
+not apply to the scenario. Such rows are reported apart and not counted. Every other planner status
+(a timeout, ``BOUNDS_VIOLATED``, ``INFEASIBLE``, a colliding timed plan), a smoothing failure or a
+missed target is a failure of that case.
 """
 
 from __future__ import annotations

@@ -1,16 +1,17 @@
-"""C-RRT*: seed 003's customised RRT* for the EduMIP (straight segments, biased sampling, clearance cost).
+"""C-RRT*: the EduMIP planning report's customised RRT* (straight segments, biased sampling, clearance cost).
 
 The planner grows a tree of positions joined by straight segments (the EduMIP turns in place about
-its axle centre, so any polyline is drivable) exactly as seed 003's Algorithms 1, 2 and 5:
+its axle centre, so any polyline is drivable) exactly as the EduMIP planning report's Algorithms
+1, 2 and 5:
 
 1. ``SampleBiased`` (Algorithm 2): a uniform sample ``(x, y, theta)`` in the world bounds; with
    probability ``gamma`` it is replaced by a sample in the quadrant toward the goal as seen from
    the previous node ``q_prev`` (the node added last): ``x`` between ``x_prev`` and the bound on the
    goal's side, likewise ``y``, and ``theta`` in that quadrant's range (e.g. goal up and right:
    ``x in [x_prev, x_max]``, ``y in [y_prev, y_max]``, ``theta in [0, pi/2]``). When the goal is level
-   with ``q_prev`` in x or y no quadrant applies and the uniform sample stays, as in the seed. The
-   sample's heading does not enter the straight-line tree (the seed recomputes headings along the
-   path); it is drawn so the random stream follows the seed's sampler.
+   with ``q_prev`` in x or y no quadrant applies and the uniform sample stays, as in the report. The
+   sample's heading does not enter the straight-line tree (the report recomputes headings along the
+   path); it is drawn so the random stream follows the report's sampler.
 2. ``Near``: the node nearest to the sample in (x, y); ``Steer``: move from it toward the sample by
    at most ``max_step``.
 3. ``CollisionFree`` (Algorithm 3): the straight segment and both ends keep the clearance (below).
@@ -23,13 +24,14 @@ its axle centre, so any polyline is drivable) exactly as seed 003's Algorithms 1
    goal is free: the goal joins the tree (choosing its parent like any node) and the path is read
    back from the goal through the parents (Algorithm 5).
 
-Clearance ("40 cm" in seed 003): the EduMIP turns about its axle centre and is 40 cm long, and the
-seed requires every checked point to have no obstacle within a 40 cm radius. Here that means: the
-axle centre (the base origin) stays at least ``center_clearance`` = 0.40 m from every obstacle and
-wall, all along every segment. It is checked with :class:`planning.collision.exact.CollisionChecker` in
-``shape="disc"`` with ``clearance = center_clearance - robot.radius`` (the disc's radius plus that
-clearance is exactly 0.40 m). Segments are sampled at spacing ``h`` <= the checker's resolution
-and, because a signed distance is 1-Lipschitz, a segment is accepted only if every sample keeps
+Clearance ("40 cm" in the EduMIP planning report): the EduMIP turns about its axle centre and is
+40 cm long, and the report requires every checked point to have no obstacle within a 40 cm radius.
+Here that means: the axle centre (the base origin) stays at least ``center_clearance`` = 0.40 m
+from every obstacle and wall, all along every segment. It is checked with
+:class:`planning.collision.exact.CollisionChecker` in ``shape="disc"`` with
+``clearance = center_clearance - robot.radius`` (the disc's radius plus that clearance is exactly
+0.40 m). Segments are sampled at spacing ``h`` <= the checker's resolution and, because a signed
+distance is 1-Lipschitz, a segment is accepted only if every sample keeps
 ``center_clearance + h / 2``: the whole continuous segment then provably keeps ``center_clearance``.
 
 Budgets: ``max_iterations`` and the problem's ``time_limit``; either ends in ``TIMEOUT`` with the
@@ -77,18 +79,18 @@ NO_ROUTE_S = 0.3
 #: Refining to the budget (``stop_at_goal`` False) with ``simplify``, the share of the time limit the
 #: sampling leaves to the simplification once the goal has joined the tree.
 SIMPLIFY_SHARE = 0.1
-#: Seed 003's axle-centre clearance per robot [m]; other robots keep just their own radius.
+#: The EduMIP planning report's axle-centre clearance per robot [m]; other robots keep just their own radius.
 SEED_CLEARANCE: dict[str, float] = {"edumip": 0.40, "edumip-balancing": 0.40}  # the same EduMIP, balancing
 
 
 @dataclass(frozen=True)
 class CRRTStarConfig:
-    """C-RRT* parameters. Seed 003 gives the algorithm and the 40 cm clearance; it leaves gamma,
-    the step, R, rho and sigma to the user ("tuned through experiments"), so these are documented
-    choices for its 5 x 5 m map.
+    """C-RRT* parameters. The EduMIP planning report gives the algorithm and the 40 cm clearance; it
+    leaves gamma, the step, R, rho and sigma to the user ("tuned through experiments"), so these are
+    documented choices for its 5 x 5 m map.
 
     Attributes:
-        gamma: Probability of a goal-quadrant sample (Algorithm 2), in [0, 1]; the seed draws it as
+        gamma: Probability of a goal-quadrant sample (Algorithm 2), in [0, 1]; the report draws it as
             ``10 * gamma`` ones in ten, so tenths reproduce it exactly. 0.5: half the samples point
             at the goal, half keep the tree exploring.
         max_step: Longest edge Steer makes [m]; 0.25 m, a twentieth of the map's side.
@@ -98,10 +100,11 @@ class CRRTStarConfig:
         sigma: Decay of the clearance term [1/m^2]; 5: the term is 0.45 rho at d = 0.4 m and
             0.04 rho at 0.8 m, so it pushes the path off the 40 cm limit toward mid-corridor.
         center_clearance: Distance the axle centre keeps from obstacles and walls [m]; None: the
-            seed's 0.40 m for the EduMIP, the robot's own radius for other robots.
+            report's 0.40 m for the EduMIP, the robot's own radius for other robots.
         max_iterations: Sampling iterations before ``TIMEOUT``.
-        stop_at_goal: Stop at the first node that reaches the goal region (the seed). If False, keep
-            sampling to the iteration or time budget and return the cheapest goal connection.
+        stop_at_goal: Stop at the first node that reaches the goal region (as the report does). If
+            False, keep sampling to the iteration or time budget and return the cheapest goal
+            connection.
         simplify: Return the path simplified by straight shortcuts between its states (turns in
             place at the vertices, :func:`planning.planners.simplify.simplify_path` seeded by the
             problem's seed), each kept only when it keeps the clearance and lowers the path's cost
@@ -139,7 +142,7 @@ class CRRTStarConfig:
 
 
 class CRRTStar:
-    """Seed 003's C-RRT* (see the module doc).
+    """The EduMIP planning report's C-RRT* (see the module doc).
 
     Args:
         config: Parameters; keyword options override its fields (``CRRTStar(gamma=0.3)``).
@@ -170,7 +173,7 @@ class CRRTStar:
 
 
 class _Search:
-    """One C-RRT* run: the tree in growable arrays and the seed's helper functions."""
+    """One C-RRT* run: the tree in growable arrays and the report's helper functions."""
 
     def __init__(self, cfg: CRRTStarConfig, problem: PlanProblem, clearance: float) -> None:
         #: The run's clock, from before anything is built: the time limit counts all of it.
@@ -203,7 +206,7 @@ class _Search:
             return q
         gx, gy = self.problem.goal.x, self.problem.goal.y
         px, py = prev
-        if gx == px or gy == py:  # the seed's strict comparisons: no quadrant, the uniform sample stays
+        if gx == px or gy == py:  # the report's strict comparisons: no quadrant, the uniform sample stays
             return q
         r = self.rng.random(3)
         x = px + r[0] * (xmax - px) if gx > px else px - r[0] * (px - xmin)
@@ -274,7 +277,7 @@ class _Search:
         length = np.sqrt(d2[near])
         through = self.cost[near] + self.edge_cost(length, d)
         through[~free] = np.inf
-        # q_near first, then any strictly cheaper neighbour (the seed's loop, ties to q_near)
+        # q_near first, then any strictly cheaper neighbour (the report's loop, ties to q_near)
         k_near = int(np.flatnonzero(near == nearest)[0])
         best = int(np.argmin(through))
         if not through[best] < through[k_near]:

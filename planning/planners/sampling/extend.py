@@ -80,8 +80,8 @@ class LocalPlanner:
     """Steering plus collision checking for one planning run.
 
     Args:
-        steering: "bicycle" (seed 000), "unicycle" (seed 001), "diffdrive" (seed 002),
-            "reeds_shepp" or "dubins".
+        steering: "bicycle" (the TurtleBot planning report), "unicycle" (the fruit-farm report),
+            "diffdrive" (the parking-lot report), "reeds_shepp" or "dubins".
         robot: The robot.
         checker: Collision checker.
         rho: Turning radius of the exact curves [m] (default: the virtual bicycle's).
@@ -134,7 +134,8 @@ class LocalPlanner:
         return self.steering in ("reeds_shepp", "dubins")
 
     def metric(self, nodes: FloatArray, q: FloatArray) -> FloatArray:
-        """Nearest-node distance for this steering (seed 002's for diffdrive, seed 000's otherwise)."""
+        """Nearest-node distance for this steering (the parking-lot report's for diffdrive, the TurtleBot
+        planning report's otherwise)."""
         return diffdrive_metric(nodes, q) if self.steering == "diffdrive" else se2_metric(nodes, q)
 
     def nearest(self, tree: Tree, q: FloatArray) -> int:

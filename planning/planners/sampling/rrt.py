@@ -1,9 +1,9 @@
-"""RRT (seed 000) and bidirectional RRT with a connect step (seed 001).
+"""RRT (the TurtleBot planning report) and bidirectional RRT with a connect step (the fruit-farm report).
 
 ``rrt``: goal bias 0.05, nearest node by the (x, y, cos theta, sin theta) metric, extension by the
 motion primitive whose end lands closest to the sample (the 60 bicycle primitives by default);
 once a new node comes within ``goal_connect_radius`` of the goal, an exact Reeds–Shepp (or Dubins)
-curve to the goal is tried as the final plan (seed 000, step 8).
+curve to the goal is tried as the final plan (the TurtleBot planning report, step 8).
 
 ``birrt``: two trees, one from the start and one grown backwards from the goal, alternately
 extended toward uniform samples; after each extension the other tree runs a connect step toward
@@ -12,8 +12,8 @@ a shared pose, the connect step's last extension ending on the node (as OMPL's R
 across a longer gap is tried, which would be checked along its whole length); with primitives they
 join by an exact curve once within ``goal_connect_radius``.
 Every joining curve runs from the start-tree node to the goal-tree node (never reversed), so a
-Dubins join cannot turn into a reversed, infeasible U-turn. Seed 001's default: 5000 samples
-with the unicycle primitives.
+Dubins join cannot turn into a reversed, infeasible U-turn. The fruit-farm report's default: 5000
+samples with the unicycle primitives.
 """
 
 from __future__ import annotations
@@ -278,7 +278,7 @@ def curve_routes(
 
 
 class RRT(_TreePlanner[TreeConfig]):
-    """Seed 000's goal-biased RRT with motion primitives (see the module doc)."""
+    """The TurtleBot planning report's goal-biased RRT with motion primitives (see the module doc)."""
 
     name = "rrt"
     config_class = TreeConfig
@@ -314,9 +314,10 @@ class RRT(_TreePlanner[TreeConfig]):
 def _closer(local: LocalPlanner, tree: Tree, k: int, before: int, target: FloatArray) -> bool:
     """Whether node ``k`` of ``tree`` is nearer ``target`` than node ``before`` (the local planner's metric).
     A connect step of motion primitives that is not has stopped making progress: RRT-Connect's
-    "trapped". Without this stop the greedy steps went on turning back and forth (seed 001's primitives
-    turn 0.15 rad per 0.15 m), and the trees' paths grew to hundreds of metres of shuffling: 1915 m and
-    2528 cusps for a 10 m way through two offset doors, 3.6 s to plan; 22 m and 0.17 s with it."""
+    "trapped". Without this stop the greedy steps went on turning back and forth (the fruit-farm
+    report's primitives turn 0.15 rad per 0.15 m), and the trees' paths grew to hundreds of metres
+    of shuffling: 1915 m and 2528 cusps for a 10 m way through two offset doors, 3.6 s to plan; 22 m
+    and 0.17 s with it."""
     pair = np.stack([tree.nodes[k], tree.nodes[before]])
     d = local.metric(pair, target)
     return bool(d[0] < d[1])
@@ -324,7 +325,7 @@ def _closer(local: LocalPlanner, tree: Tree, k: int, before: int, target: FloatA
 
 @dataclass(frozen=True)
 class BiRRTConfig(TreeConfig):
-    """:class:`TreeConfig` with seed 001's defaults: unicycle primitives, 5000 samples, no goal bias."""
+    """:class:`TreeConfig` with the fruit-farm report's defaults: unicycle primitives, 5000 samples, no goal bias."""
 
     steering: str = "unicycle"
     goal_bias: float = 0.0

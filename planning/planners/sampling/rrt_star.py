@@ -1,4 +1,4 @@
-"""RRT* with exact steering (seed 002): choose-parent and rewire along Reeds–Shepp (or Dubins) curves.
+"""RRT* with exact steering (the parking-lot report): choose-parent and rewire along Reeds–Shepp (or Dubins) curves.
 
 Every edge is the exact shortest curve from its parent's pose to its node's pose, stored densely.
 A node's pose never changes; rewiring replaces only the rewired node's own edge by the exact curve

@@ -1,13 +1,13 @@
-"""Local steering for the random-tree planners: the seeds' motion primitives and exact curves.
+"""Local steering for the random-tree planners: the reports' motion primitives and exact curves.
 
-* :func:`bicycle_primitives`: seed 000's 60 primitives, steering straight / full left / full
-  right, each at 20 speeds evenly spaced over [-max_speed, max_speed] (zero excluded), held for
-  ``duration``. The steering angle is reduced where ``|v| tan(phi) / l`` would exceed the robot's
-  yaw-rate limit, so every primitive is drivable. Arcs are exact.
-* :func:`unicycle_primitives`: seed 001's six primitives, v = +-0.15 m/s, omega in {-0.15, 0,
-  0.15} rad/s, integrated by RK4 with step 0.05 s for 100 steps.
-* :func:`diffdrive_steer`: seed 002's least-squares wheel speeds toward a sample over a 1 s drive,
-  clipped to the wheel, speed and yaw-rate limits.
+* :func:`bicycle_primitives`: the TurtleBot planning report's 60 primitives, steering straight /
+  full left / full right, each at 20 speeds evenly spaced over [-max_speed, max_speed] (zero
+  excluded), held for ``duration``. The steering angle is reduced where ``|v| tan(phi) / l`` would
+  exceed the robot's yaw-rate limit, so every primitive is drivable. Arcs are exact.
+* :func:`unicycle_primitives`: the fruit-farm report's six primitives, v = +-0.15 m/s, omega in
+  {-0.15, 0, 0.15} rad/s, integrated by RK4 with step 0.05 s for 100 steps.
+* :func:`diffdrive_steer`: the parking-lot report's least-squares wheel speeds toward a sample over
+  a 1 s drive, clipped to the wheel, speed and yaw-rate limits.
 * :class:`CurveSteering`: exact two-point steering by Dubins (forward only) or Reeds–Shepp curves.
 
 Primitives are stored once in the body frame; the unicycle and bicycle are invariant under
@@ -38,7 +38,7 @@ SAMPLE_STEP = 0.01
 
 @nb.njit(cache=True)
 def se2_metric(nodes: FloatArray, q: FloatArray) -> FloatArray:
-    """Seed 000's distance on (x, y, cos theta, sin theta), compiled, over many nodes.
+    """The TurtleBot planning report's distance on (x, y, cos theta, sin theta), compiled, over many nodes.
 
     Args:
         nodes: (N, 3) poses.
@@ -113,7 +113,7 @@ class PrimitiveSet:
 
 
 def bicycle_primitives(robot: RobotSpec, *, n_speeds: int = 20, duration: float = 1.0) -> PrimitiveSet:
-    """Seed 000's straight/left/right x ``n_speeds`` speeds primitives (60 by default).
+    """The TurtleBot planning report's straight/left/right x ``n_speeds`` speeds primitives (60 by default).
 
     Args:
         robot: Speed and yaw-rate limits, virtual wheelbase and steering bound.
@@ -141,7 +141,7 @@ def bicycle_primitives(robot: RobotSpec, *, n_speeds: int = 20, duration: float 
 def unicycle_primitives(
     *, speed: float = 0.15, yaw_rate: float = 0.15, dt: float = 0.05, steps: int = 100
 ) -> PrimitiveSet:
-    """Seed 001's six primitives: v in {+speed, -speed} x omega in {-yaw_rate, 0, +yaw_rate},
+    """The fruit-farm report's six primitives: v in {+speed, -speed} x omega in {-yaw_rate, 0, +yaw_rate},
     each integrated by RK4 with step ``dt`` for ``steps`` steps."""
     if not (speed > 0 and dt > 0 and steps >= 1):
         raise ValueError(f"need speed > 0, dt > 0, steps >= 1, got {speed}, {dt}, {steps}")
@@ -156,13 +156,13 @@ def unicycle_primitives(
 
 
 def diffdrive_metric(nodes: FloatArray, q: FloatArray) -> FloatArray:
-    """Seed 002's nearest-node metric: L2 on (x, y, theta) with the heading difference wrapped."""
+    """The parking-lot report's nearest-node metric: L2 on (x, y, theta) with the heading difference wrapped."""
     dth = wrap_angle(nodes[:, 2] - q[2])
     return np.sqrt((nodes[:, 0] - q[0]) ** 2 + (nodes[:, 1] - q[1]) ** 2 + dth * dth)  # type: ignore[no-any-return]
 
 
 def diffdrive_steer(q_near: ArrayLike, q_target: ArrayLike, robot: RobotSpec, *, duration: float = 1.0) -> FloatArray:
-    """Seed 002's drive policy: least-squares wheel speeds toward a sample, driven for ``duration``.
+    """The parking-lot report's drive policy: least-squares wheel speeds toward a sample, driven for ``duration``.
 
     Minimises (v T cos th - dx)^2 + (v T sin th - dy)^2 + (omega T - dth)^2 over (v, omega), i.e.
     over the wheel speeds (u_l, u_r) with v = r (u_l + u_r) / 2 and omega = r (u_r - u_l) / L;

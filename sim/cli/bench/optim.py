@@ -1,5 +1,5 @@
-"""``nhsim bench optim``: the optim planner at the seed's resolution against its default (see
-:mod:`sim.tools.bench.optim`)."""
+"""``nhsim bench optim``: the optim planner at the TurtleBot planning report's resolution against its
+default (see :mod:`sim.tools.bench.optim`)."""
 
 from __future__ import annotations
 

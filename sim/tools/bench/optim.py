@@ -1,11 +1,12 @@
-"""The optimisation planner at the seed's resolution against its default (``nhsim bench optim``).
+"""The optimisation planner at the TurtleBot planning report's resolution against its default
+(``nhsim bench optim``).
 
-Parallel park and navigation map 1 are each solved with N = 1000, dt = 0.01 (the seed's setting)
+Parallel park and navigation map 1 are each solved with N = 1000, dt = 0.01 (the report's setting)
 and with the planner's default N and dt (same horizon), repeatedly, after one untimed solve that
 builds and caches each NLP. Measured per scenario: median wall time of ``plan()`` for each setting
 and their ratio, the rolled-out final state's error against the goal for each, and the path lengths.
 Targets: default >= 10x faster, its final position within 1 mm of the goal, its path length within
-5 % of the seed setting's.
+5 % of the report setting's.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ class OptimBench:
 
     Attributes:
         scenario: Scenario name.
-        seed: The seed's setting (N = 1000, dt = 0.01).
+        seed: The TurtleBot planning report's setting (N = 1000, dt = 0.01).
         default: The planner's default setting.
     """
 
@@ -45,12 +46,12 @@ class OptimBench:
 
     @property
     def speedup(self) -> float:
-        """Seed time over default time."""
+        """The report setting's time over the default's."""
         return self.seed.median_s / self.default.median_s
 
     @property
     def length_rel(self) -> float:
-        """|default length / seed length - 1| (inf for an empty seed path)."""
+        """|default length / report setting's length - 1| (inf for an empty path at the report's setting)."""
         seed_len = self.seed.result.length()
         return abs(self.default.result.length() / seed_len - 1.0) if seed_len > 0 else float("inf")
 
