@@ -123,4 +123,4 @@ def test_bench_optim_compares_nothing_against_a_setting_that_did_not_solve(
     monkeypatch.setattr(bench, "measure", lambda name, repeats: bench.OptimBench(name, stopped, done))
     assert cli.run(argparse.Namespace(repeats=1, scenarios=["nav_map1"])) == 1
     out = capsys.readouterr().out
-    assert "not compared: the seed setting ended timeout" in out and "speed-up" not in out
+    assert "not compared: the report setting ended timeout" in out and "speed-up" not in out

@@ -74,7 +74,7 @@ def test_yaw_rate_limit_holds_between_nodes() -> None:
     assert np.max(np.abs(res.controls[:, 1])) <= robot.max_yaw_rate + 1e-6
 
 
-def test_seed_resolution_and_default_reach_the_same_goal() -> None:
+def test_the_reports_resolution_and_the_default_reach_the_same_goal() -> None:
     problem = PlanProblem.from_scenario(load_scenario("parallel_park"))
     fine = Optim(N=1000, dt=0.01).plan(problem)
     coarse = Optim().plan(problem)

@@ -14,7 +14,7 @@ from planning.scenario import builtin_scenarios, load_scenario
 NAMES = builtin_scenarios()
 
 
-def test_the_seed_scenarios_ship():
+def test_the_reports_scenarios_ship():
     assert {"farm", "parking_lot", "edumip_map"} <= set(NAMES)
 
 
@@ -44,7 +44,7 @@ def test_the_balancing_edumip_goes_wherever_the_edumip_goes():
     assert "three_point_turn" not in with_balancing  # a bicycle's manoeuvre: the TurtleBot3's only
 
 
-def test_farm_is_seed_001():
+def test_farm_is_the_fruit_farm_reports():
     sc = load_scenario("farm")
     assert sc.world.bounds == (-3.0, 3.0, -3.0, 3.0)
     kinds = {type(o) for o in sc.world.obstacles}
@@ -81,7 +81,7 @@ def test_parking_goal_is_an_empty_bay_between_parked_cars():
     assert g.heading_error_to(type(g)(0.0, 0.0, np.pi / 2)) < 1e-12  # nose-in, toward the wall
 
 
-def test_edumip_map_is_seed_003():
+def test_edumip_map_is_the_edumip_planning_reports():
     sc = load_scenario("edumip_map")
     assert sc.robot == "edumip"
     assert len(sc.world.obstacles) == 4

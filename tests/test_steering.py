@@ -35,7 +35,7 @@ def test_bicycle_primitives_match_rk4_and_limits(name):
     assert steps.max() <= 0.01 + 1e-12
 
 
-def test_unicycle_primitives_seed_001():
+def test_unicycle_primitives_of_the_fruit_farm_report():
     prims = unicycle_primitives()
     assert prims.poses.shape == (6, 101, 3)
     assert prims.duration == pytest.approx(5.0)

@@ -20,7 +20,7 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
     ),
     "optim": (
         "sim.cli.bench.optim",
-        "optim planner: seed N=1000, dt=0.01 against the default (time, final error, length)",
+        "optim planner: the report's N=1000, dt=0.01 against the default (time, final error, length)",
     ),
     "hybrid": (
         "sim.cli.bench.hybrid",

@@ -29,7 +29,8 @@ def run(args: argparse.Namespace) -> int:
     for name in args.scenarios:  # an unknown name stops here, before anything is printed
         load_scenario(name)
     print(
-        f"optim: seed N={bench.SEED_N}, dt={bench.SEED_DT} against default N={DEFAULT_N}, dt={DEFAULT_DT}; "
+        f"optim: the report's N={bench.SEED_N}, dt={bench.SEED_DT} (the TurtleBot planning report) against default "
+        f"N={DEFAULT_N}, dt={DEFAULT_DT}; "
         f"median of {args.repeats} solves after one warm-up"
     )
     ok = True
@@ -41,14 +42,14 @@ def run(args: argparse.Namespace) -> int:
             f"  {'setting':<8} {'status':<10} {'median s':>9} {'iters':>6} {'final pos err m':>16} "
             f"{'final head err rad':>19} {'length m':>9}"
         )
-        for label, solve in (("seed", r.seed), ("default", r.default)):
+        for label, solve in (("report", r.seed), ("default", r.default)):
             res = solve.result
             print(
                 f"  {label:<8} {res.status.value:<10} {solve.median_s:>9.4f} {res.stats.get('iterations', -1):>6} "
                 f"{res.stats.get('final_position_error', nan):>16.2e} "
                 f"{res.stats.get('final_heading_error', nan):>19.2e} {res.length():>9.4f}"
             )
-        failed = [(label, solve.result.status.value) for label, solve in (("seed", r.seed), ("default", r.default))]
+        failed = [(label, solve.result.status.value) for label, solve in (("report", r.seed), ("default", r.default))]
         failed = [(label, status) for label, status in failed if status != "success"]
         if failed:  # a ratio to a run that did not solve is no measurement: its time is the limit's
             ended = " and ".join(f"the {label} setting ended {status}" for label, status in failed)
