@@ -86,6 +86,23 @@ def test_a_results_file_of_another_study_is_refused(serial: dict[str, object]) -
         ResultsFile(Path(str(serial["path"])), ranged.key())
 
 
+def test_a_replaced_results_file_stays_until_the_first_new_run(serial: dict[str, object], tmp_path: Path) -> None:
+    """``montecarlo --overwrite`` deleted the other study's results file at its start, seconds before its first run
+    was written: an interrupt or a failure in between left no results file at all."""
+    theirs = tmp_path / "r.jsonl"
+    theirs.write_bytes(Path(str(serial["path"])).read_bytes())
+    before = theirs.read_bytes()
+    other = MonteCarloSpec(Case("open", robot="turtlebot3", reference="line", seed=4), 3)
+    results = ResultsFile(theirs, other.key(), replacing=True)  # not read: another study's runs
+    assert results.records == {} and theirs.read_bytes() == before  # kept until a run of this study ends
+    first = json.loads(before.splitlines()[1])  # a run record, stored as this study's first
+    results.add(first)
+    header, *lines = theirs.read_text().splitlines()
+    assert json.loads(header)["key"] == other.key() and [json.loads(x) for x in lines] == [first]
+    assert [p.name for p in tmp_path.iterdir()] == ["r.jsonl"]  # no staging file left
+    assert sorted(ResultsFile(theirs, other.key()).records) == [first["index"]]
+
+
 def test_perturbations_are_drawn_from_the_ranges_only() -> None:
     spec = _spec(runs=20, ranges=PerturbationRange.parse("radius=0.97:1.03,latency=0:0.02", others="nominal"))
     draws = spec.draws()

@@ -265,8 +265,7 @@ def run(args: argparse.Namespace) -> int:
     except ConfigError:
         if not args.overwrite:  # another study's runs, or not a results file: kept
             raise
-        paths["results"].unlink()  # --overwrite: replaced
-        results = ResultsFile(paths["results"], spec.key())
+        results = ResultsFile(paths["results"], spec.key(), replacing=True)  # kept until this study's first run
     for note in results.notes:
         print(f"note: {note}", file=sys.stderr)
     if not args.quiet and results.records:

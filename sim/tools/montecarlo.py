@@ -17,11 +17,13 @@ A run is replayed bit for bit by ``nhsim simulate`` with its seeds (:func:`repla
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import json
 import math
 import os
+import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
 from functools import cached_property
@@ -256,13 +258,16 @@ class ResultsFile:
     differs) and reads its runs; a last line cut short by a kill (no newline after it) is dropped, said on
     stderr, and any other line that is not a run record is refused, naming it (the file is left as it is).
     Each new record is appended, flushed and synced to disk before the next is taken. A new file is made with the first
-    finished run, so a study refused before any run (bad input, an unreachable scheduler) leaves none.
+    finished run, so a study refused before any run (bad input, an unreachable scheduler) leaves none; a file it
+    replaces (``replacing``) stays as it was until then, and is then replaced at once (renamed over).
 
     Args:
         path: The file (JSON lines).
         key: The study's key (:meth:`MonteCarloSpec.key`).
         earlier: Keys an earlier nhsim wrote for the same study (:meth:`MonteCarloSpec.earlier_keys`): a file
             headed by one is this study's too.
+        replacing: The file at ``path`` (another study's, or no results file: ``--overwrite``) is not read, and is
+            replaced by this study's with its first finished run.
 
     Raises:
         ConfigError: The file holds another study, is not a results file, or holds a line that is not a run
@@ -270,7 +275,13 @@ class ResultsFile:
     """
 
     def __init__(
-        self, path: Path, key: Mapping[str, Any], earlier: Sequence[Mapping[str, Any]] = (), code: str | None = None
+        self,
+        path: Path,
+        key: Mapping[str, Any],
+        earlier: Sequence[Mapping[str, Any]] = (),
+        code: str | None = None,
+        *,
+        replacing: bool = False,
     ) -> None:
         self.path, self.key = Path(path), dict(key)
         self.earlier = [dict(k) for k in earlier]
@@ -278,7 +289,8 @@ class ResultsFile:
         self.records: dict[int, dict[str, Any]] = {}
         #: What reading the file did that the user should hear of (a last line cut short, dropped).
         self.notes: list[str] = []
-        if self.path.exists():
+        self.replacing = replacing and self.path.exists()
+        if self.path.exists() and not self.replacing:
             self._read()
 
     def _read(self) -> None:
@@ -358,12 +370,31 @@ class ResultsFile:
             os.fsync(f.fileno())
 
     def add(self, record: dict[str, Any]) -> None:
-        """Store a finished run (the file and its header made with the first)."""
-        if not self.path.exists():
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            self._append({"nhsim_montecarlo": RESULTS_VERSION, "key": self.key, "code": self.code})
-        self._append(record)
+        """Store a finished run (the file and its header made with the first; a file replaced, renamed over)."""
+        header = {"nhsim_montecarlo": RESULTS_VERSION, "key": self.key, "code": self.code}
+        if self.replacing:
+            self._replace_with(header, record)
+        else:
+            if not self.path.exists():
+                self.path.parent.mkdir(parents=True, exist_ok=True)
+                self._append(header)
+            self._append(record)
         self.records[int(record["index"])] = record
+
+    def _replace_with(self, *lines: Mapping[str, Any]) -> None:
+        """The file replaced by ``lines`` at once: written beside it, synced, and renamed over it."""
+        fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".part", dir=self.path.parent)
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as f:
+                f.writelines(json.dumps(obj, allow_nan=False) + "\n" for obj in lines)
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, self.path)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            raise
+        self.replacing = False
 
 
 @dataclass(frozen=True)
