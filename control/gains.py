@@ -65,7 +65,7 @@ class FBLGains:
             raise bad from exc
         for name, gain in (("KP", kp), ("KD", kd)):
             if not (math.isfinite(gain) and gain > 0):
-                raise ConfigError(f"{bad}: {name} = {gain:g} is not")
+                raise ConfigError(f"{bad}: {name} = {gain:g} is not a positive finite number")
         return cls(kp=kp, kd=kd)
 
 

@@ -63,7 +63,7 @@ def test_bad_gains_and_scenarios_are_clear_errors(tmp_path: Path) -> None:
     r = nhsim("simulate", "--gains", "-1,7")
     assert r.returncode == 2 and "expected one argument" in r.stderr and "--gains=VALUE" in r.stderr
     r = nhsim("simulate", "--gains=-1,7")
-    assert r.returncode == 2 and "KP = -1 is not" in r.stderr
+    assert r.returncode == 2 and "KP = -1 is not a positive finite number" in r.stderr
     r = nhsim("simulate", "--scenario", "no-such-scenario")
     assert r.returncode == 2 and "unknown scenario" in r.stderr
     bad = tmp_path / "bad.toml"

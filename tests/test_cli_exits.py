@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import errno
+import io
 import json
+import re
+import sys
 from pathlib import Path
 
 import pytest
@@ -587,3 +591,61 @@ def test_more_local_workers_than_the_bound_are_refused_before_anything_starts(
         executor.check_workers(9, "workers")
     assert executor.worker_count(None, "tcp://127.0.0.1:8786") is None  # the cluster decides
     assert executor.worker_count(8) == 8 and executor.worker_count(None, default=1) == 1
+
+
+class _Full(io.StringIO):
+    """A standard output on a full disk: every write fails as ``>/dev/full`` does."""
+
+    def write(self, text: str) -> int:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+
+def test_a_standard_output_that_cannot_be_written_loses_the_report_not_the_outputs(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``nhsim plan ... >/dev/full`` ended in a traceback at its first print, before writing its outputs; with
+    the standard output closed (``>&-``, sys.stdout None) it failed inside a library asking isatty()."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["plan", "--scenario", "simple_motion", "--planner", "rrt", "--time-limit", "5"]
+    for stdout, why in ((_Full(), r"could not be written \(No space left on device\)"), (None, r"was closed")):
+        monkeypatch.setattr(sys, "stdout", stdout)
+        name = f"p{len(list(tmp_path.iterdir()))}.json"
+        assert main([*argv, "--json", name]) == 1
+        err = capsys.readouterr().err
+        assert re.fullmatch(
+            rf"nhsim: (its standard output|there is no standard output).*{why}.*outputs were written.*\n", err
+        )
+        assert json.loads((tmp_path / name).read_text())["status"] == "success"
+
+
+def test_text_the_standard_output_cannot_encode_is_escaped_not_a_closed_pipe(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """With an ASCII standard output, printing a non-ASCII file name raised UnicodeEncodeError, taken for a
+    closed pipe: the command exited 141 and dropped the rest of its report."""
+    monkeypatch.chdir(tmp_path)
+    raw = io.BytesIO()
+    monkeypatch.setattr(sys, "stdout", io.TextIOWrapper(raw, encoding="ascii"))
+    assert main(["plan", "--scenario", "simple_motion", "--planner", "rrt", "--json", "plän.json"]) == 0
+    sys.stdout.flush()
+    assert raw.getvalue().decode("ascii").splitlines()[-1] == r"wrote pl\xe4n.json"
+    assert (tmp_path / "plän.json").is_file()
+
+
+def test_a_full_disk_while_writing_is_one_line_exit_1(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import sim.cli.scenarios as command
+
+    def full(args: object) -> int:
+        raise OSError(errno.ENOSPC, "No space left on device", "renders/x.json")
+
+    monkeypatch.setattr(command, "run", full)
+    assert main(["scenarios"]) == 1
+    assert capsys.readouterr().err == (
+        "nhsim scenarios: failed: could not write renders/x.json: No space left on device; what it had written "
+        "before is kept: free space (or give a path on another disk) and run it again\n"
+    )
+    monkeypatch.setattr(command, "run", lambda args: (_ for _ in ()).throw(OSError(errno.ENOENT, "gone", "y")))
+    with pytest.raises(FileNotFoundError):  # not a full disk: a fault of the program, with its traceback
+        main(["scenarios"])

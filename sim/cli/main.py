@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import gc
 import importlib
 import importlib.util
@@ -120,50 +121,67 @@ class _ReaderGone(io.TextIOBase):
     """The command's standard output: when its reader goes away (``nhsim simulate ... | head -3``), what it
     prints after goes nowhere, and the command goes on to write its outputs (it stopped at the next print,
     and the run's record, plots and video were lost or kept by chance). Each write is flushed, so a closed
-    pipe is found at the print that meets it, not at exit."""
+    pipe is found at the print that meets it, not at exit. A standard output that cannot be written for
+    another reason (a full disk, ``>/dev/full``; none at all, ``>&-``) is the same for the command, which
+    then ends with status 1 once its outputs are written (:attr:`failed` says why); text the output's
+    encoding cannot hold (``PYTHONIOENCODING=ascii``) is written with backslash escapes."""
 
-    def __init__(self, stream: TextIO) -> None:
+    def __init__(self, stream: TextIO | None) -> None:
         self.stream = stream
-        #: Whether the reader went away.
-        self.gone = False
+        #: Whether the reader went away (or there is no standard output).
+        self.gone = stream is None
+        #: Why the standard output could not be written, other than a reader gone ("" when it could).
+        self.failed = "" if stream is not None else "there is no standard output (it was closed)"
 
     def write(self, text: str) -> int:
-        if not self.gone:
+        if not self.gone and self.stream is not None:
             try:
-                self.stream.write(text)
+                try:
+                    self.stream.write(text)
+                except UnicodeEncodeError:
+                    encoding = self.stream.encoding or "ascii"
+                    self.stream.write(text.encode(encoding, "backslashreplace").decode(encoding))
                 self.stream.flush()
             except BrokenPipeError:
+                self._away()
+            except OSError as exc:  # a full disk, an I/O error: nothing more can be printed
+                self.failed = f"its standard output could not be written ({exc.strerror or exc})"
                 self._away()
             except ValueError:  # the stream closed (a library that kept this object past the command)
                 self.gone = True
         return len(text)
 
     def flush(self) -> None:
-        if not self.gone:
+        if not self.gone and self.stream is not None:
             try:
                 self.stream.flush()
             except BrokenPipeError:
+                self._away()
+            except OSError as exc:
+                self.failed = f"its standard output could not be written ({exc.strerror or exc})"
                 self._away()
             except ValueError:
                 self.gone = True
 
     def _away(self) -> None:
         self.gone = True
-        with contextlib.suppress(OSError, ValueError):  # what is still buffered goes nowhere, not into an exit error
-            os.dup2(os.open(os.devnull, os.O_WRONLY), self.stream.fileno())
+        with contextlib.suppress(OSError, ValueError, AttributeError):  # what is still buffered goes nowhere
+            os.dup2(os.open(os.devnull, os.O_WRONLY), self.stream.fileno())  # type: ignore[union-attr]
 
     def isatty(self) -> bool:
         try:
-            return not self.gone and self.stream.isatty()
+            return not self.gone and self.stream is not None and self.stream.isatty()
         except ValueError:  # closed
             return False
 
     def fileno(self) -> int:
+        if self.stream is None:
+            raise io.UnsupportedOperation("there is no standard output")
         return self.stream.fileno()
 
     @property
     def encoding(self) -> str:  # type: ignore[override]
-        return self.stream.encoding
+        return self.stream.encoding if self.stream is not None else "utf-8"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -185,6 +203,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         except KeyboardInterrupt:  # before a command was chosen (building the parser, parsing)
             print("nhsim: interrupted", file=sys.stderr)
             return 130
+        except SystemExit as exc:  # argparse's --help, --version or usage error: printed, or not
+            if out.failed and exc.code in (0, None):
+                print(f"nhsim: {out.failed}", file=sys.stderr)
+                raise SystemExit(1) from None
+            raise
+    if out.failed and code == 0:
+        print(f"nhsim: {out.failed}; the command's outputs were written, its printed report was lost", file=sys.stderr)
+        return 1
     return 141 if out.gone and code == 0 else code
 
 
@@ -230,6 +256,22 @@ def _main(argv: Sequence[str] | None) -> int:
     except KeyboardInterrupt:
         print(f"nhsim {args.command}: interrupted", file=sys.stderr)
         return 130
+    except OSError as exc:
+        if exc.errno not in WRITE_FAILURES:
+            raise
+        what = f" {exc.filename}" if exc.filename else ""
+        print(
+            f"nhsim {args.command}: failed: could not write{what}: {exc.strerror}; what it had written before is "
+            "kept: free space (or give a path on another disk) and run it again",
+            file=sys.stderr,
+        )
+        return 1
+
+
+#: Why a file could not be written that is the machine's, not the command's input: a full disk or quota, a file too
+#: large, an I/O error (one line, exit status 1, as a failed run; a path that cannot be written at all is bad
+#: input, refused before the run).
+WRITE_FAILURES = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO})
 
 
 def _failed_plan(exc: BaseException) -> bool:
