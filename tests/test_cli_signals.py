@@ -777,3 +777,25 @@ def test_a_reader_that_goes_away_leaves_the_commands_outputs_written(tmp_path):
     assert first and "Traceback" not in err and "BrokenPipe" not in err
     assert json.loads((tmp_path / "r.json").read_text())["closed_loop"]["status"] == "ok"
     assert sorted(p.suffix for p in (tmp_path / "renders").iterdir()) == [".mp4", ".png", ".png", ".png", ".png"]
+
+
+def test_an_interrupted_command_ignores_further_signals_while_it_exits(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A second SIGTERM 0.1-0.3 s after the first, while an interrupted command removed what it left (the slow
+    exit, partly in Python's finalisation, which restores SIGTERM's default), ended it with 143, not 130."""
+    import signal
+
+    import sim.cli.main as cli
+
+    before = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        monkeypatch.setattr(cli, "main", lambda: 130)
+        assert cli.console() == 130
+        assert all(signal.getsignal(sig) == signal.SIG_IGN for sig in before)
+        monkeypatch.setattr(cli, "main", lambda: 0)
+        for sig, handler in before.items():
+            signal.signal(sig, handler)
+        monkeypatch.setattr(cli.gc, "freeze", lambda: None)
+        assert cli.console() == 0 and all(signal.getsignal(sig) == before[sig] for sig in before)
+    finally:
+        for sig, handler in before.items():
+            signal.signal(sig, handler)

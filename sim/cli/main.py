@@ -23,6 +23,7 @@ import importlib.util
 import io
 import os
 import re
+import signal
 import sys
 from collections.abc import Collection, Sequence
 from typing import NoReturn, TextIO
@@ -222,11 +223,15 @@ def console() -> int:
     every object numba and the libraries made (about 0.15 s after a plan, more than the plan of a
     small world) only to free memory the process is about to return anyway. An interrupted command
     (130) exits the slow way: what it left half done may still hold a temporary file that only its
-    collection removes. Tests call :func:`main`, which leaves the collector alone.
+    collection removes, and a further Ctrl-C or SIGTERM meanwhile is ignored (the status stays 130). Tests
+    call :func:`main`, which leaves the collector and the signals alone.
     """
     code = main()
     if code != 130:
         gc.freeze()
+    else:  # interrupted: another Ctrl-C or SIGTERM while it exits the slow way (removing what it left) changes
+        for sig in (signal.SIGINT, signal.SIGTERM):  # nothing: ignored, as Python's finalisation keeps it, the
+            signal.signal(sig, signal.SIG_IGN)  # status stays 130 (SIGTERM's default ended it with 143)
     return code
 
 
