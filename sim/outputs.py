@@ -399,9 +399,16 @@ class StagedOutputs:
         return staged
 
     def _check(self, target: Path) -> None:
-        """The target checks made again as the outputs move in (another program may have written meanwhile)."""
+        """The target checks made again as the outputs move in (another program may have written meanwhile: the
+        refusal then says so, as the command had checked the target before it ran)."""
         check = self._folders.get(Path(os.path.abspath(target)), check_writable)
-        check(target, overwrite=self._allowed(target))
+        try:
+            check(target, overwrite=self._allowed(target))
+        except OutputExistsError as exc:
+            raise OutputExistsError(
+                f"{exc} (it was written while this command ran, by another one writing the same outputs?); this "
+                "command's outputs were not placed"
+            ) from None
 
     def commit(self) -> list[Path]:
         """Move every output written into place, in one step SIGINT and SIGTERM wait for; returns the targets.

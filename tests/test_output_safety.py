@@ -387,3 +387,19 @@ def test_a_folder_removed_while_the_command_ran_is_said_and_nothing_is_replaced(
         stage.commit()
     stage.discard()
     assert kept.read_text() == "old" and sorted(p.name for p in kept.parent.iterdir()) == ["r.json"]
+
+
+def test_a_target_another_command_wrote_meanwhile_is_refused_saying_so(tmp_path: Path) -> None:
+    """Two identical commands started together: the one that finished second ran to its end and was refused as
+    if the file had been there before ("exists already"), which it had checked it was not."""
+    from planning.errors import OutputExistsError
+    from sim.outputs import StagedOutputs
+
+    target = tmp_path / "r.json"
+    stage = StagedOutputs(overwrite=False)
+    stage.path(target).write_text("mine")
+    target.write_text("theirs")  # the other command's, placed first
+    with pytest.raises(OutputExistsError, match=r"r\.json exists already; .*written while this command ran"):
+        stage.commit()
+    stage.discard()
+    assert target.read_text() == "theirs" and sorted(p.name for p in tmp_path.iterdir()) == ["r.json"]
