@@ -498,6 +498,7 @@ def test_an_empty_value_is_refused_by_every_text_option_of_every_command(capsys:
 
 EMPTY = "the value is empty"
 FOLDER = "ends in a separator, a folder; give a file name in it"
+DASH = "'-' is no file: the outputs are written to files"
 
 
 @pytest.mark.parametrize(
@@ -520,6 +521,9 @@ FOLDER = "ends in a separator, a folder; give a file name in it"
         ),
         pytest.param(["simulate", "--reference", "line", "--no-video", "--json", "rec/"], FOLDER, id="simulate-folder"),
         pytest.param(["compare", "--reference", "line", "--json", "c/"], FOLDER, id="compare-folder"),
+        # ``plan --json -`` wrote a file named '-', where '-' commonly means the standard output
+        pytest.param(["plan", "--scenario", "open", "--planner", "sinusoidal", "--json", "-"], DASH, id="plan-dash"),
+        pytest.param(["simulate", "--reference", "line", "--no-video", "--json", "-"], DASH, id="simulate-dash"),
     ],
 )
 def test_an_empty_value_or_a_folder_for_a_file_stops_the_command_before_it_writes(
