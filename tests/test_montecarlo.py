@@ -100,6 +100,9 @@ def test_a_replaced_results_file_stays_until_the_first_new_run(serial: dict[str,
     header, *lines = theirs.read_text().splitlines()
     assert json.loads(header)["key"] == other.key() and [json.loads(x) for x in lines] == [first]
     assert [p.name for p in tmp_path.iterdir()] == ["r.jsonl"]  # no staging file left
+    umask = os.umask(0)
+    os.umask(umask)
+    assert theirs.stat().st_mode & 0o777 == 0o666 & ~umask  # as open() makes a file, not mkstemp's 0600
     assert sorted(ResultsFile(theirs, other.key()).records) == [first["index"]]
 
 

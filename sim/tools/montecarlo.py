@@ -17,13 +17,11 @@ A run is replayed bit for bit by ``nhsim simulate`` with its seeds (:func:`repla
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import hashlib
 import json
 import math
 import os
-import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
 from functools import cached_property
@@ -36,6 +34,7 @@ from planning.core.checks import check_number
 from planning.errors import ConfigError, NhsimError, option
 from planning.scenario import Scenario, load_scenario
 from planning.trajectory.importer import TrajectoryFile
+from sim.outputs import atomic_path
 from sim.physics.perturb import LIMITS, PerturbationRange
 from sim.pipeline.case import Case, PreparedTrajectory, load_case_scenario, prepare_trajectory
 from sim.pipeline.runs import DEFAULT_RUNS
@@ -383,17 +382,10 @@ class ResultsFile:
 
     def _replace_with(self, *lines: Mapping[str, Any]) -> None:
         """The file replaced by ``lines`` at once: written beside it, synced, and renamed over it."""
-        fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".part", dir=self.path.parent)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as f:
-                f.writelines(json.dumps(obj, allow_nan=False) + "\n" for obj in lines)
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, self.path)
-        except BaseException:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
-            raise
+        with atomic_path(self.path, overwrite=True) as tmp, tmp.open("w", encoding="utf-8") as f:
+            f.writelines(json.dumps(obj, allow_nan=False) + "\n" for obj in lines)
+            f.flush()
+            os.fsync(f.fileno())
         self.replacing = False
 
 
