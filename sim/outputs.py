@@ -19,6 +19,7 @@ import shutil
 import stat
 import sys
 import tempfile
+import time
 import uuid
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from pathlib import Path
@@ -352,6 +353,35 @@ def _not_placed(target: Path, exc: OSError, kept: str) -> str:
     )
 
 
+#: How old [s] a staging folder left beside the outputs must be before a later command removes it: a command's
+#: staging folder lives from its first output written to its commit (seconds, minutes for a long video).
+STALE_STAGE_S = 24 * 3600.0
+
+
+def _sweep_stale_stages(folder: Path) -> None:
+    """Remove the staging folders a killed command left in ``folder`` (SIGKILL, a lost terminal's SIGHUP: no
+    cleanup ran): those untouched for :data:`STALE_STAGE_S` whose ``old`` folder is empty. One holding an old
+    output (a commit killed midway: the only copy of a replaced file) is kept, as is anything that is not one."""
+    now = time.time()
+    try:
+        found = [p for p in folder.iterdir() if p.name.startswith(_STAGE_PREFIX) and p.name.endswith(_STAGE_SUFFIX)]
+    except OSError:
+        return
+    for stage in found:
+        parts = [stage, stage / "new", stage / "old"]
+        try:
+            if any(now - p.lstat().st_mtime < STALE_STAGE_S for p in parts if os.path.lexists(p)):
+                continue
+            old = stage / "old"
+            if stage.is_symlink() or not stage.is_dir():
+                continue
+            if os.path.lexists(old) and (old.is_symlink() or not old.is_dir() or any(old.iterdir())):
+                continue
+        except OSError:
+            continue
+        shutil.rmtree(stage, ignore_errors=True)
+
+
 class StagedOutputs:
     """A command's outputs, written under temporary names and moved into place together: all or none.
 
@@ -387,6 +417,7 @@ class StagedOutputs:
         if stage is None:
             self._made += [p for p in (target.parent, *target.parent.parents) if not p.exists()]
             target.parent.mkdir(parents=True, exist_ok=True)
+            _sweep_stale_stages(target.parent)
             with signals_held():  # an interrupt landing as the folder is made waits until it is named
                 stage = Path(tempfile.mkdtemp(prefix=_STAGE_PREFIX, suffix=_STAGE_SUFFIX, dir=target.parent))
                 self._stages[folder] = stage

@@ -403,3 +403,41 @@ def test_a_target_another_command_wrote_meanwhile_is_refused_saying_so(tmp_path:
         stage.commit()
     stage.discard()
     assert target.read_text() == "theirs" and sorted(p.name for p in tmp_path.iterdir()) == ["r.json"]
+
+
+def test_a_killed_commands_staging_folders_are_swept_when_stale_unless_they_hold_an_old_output(
+    tmp_path: Path,
+) -> None:
+    """SIGKILL or a lost terminal's SIGHUP left hidden ``.nhsim-outputs-*.part`` folders (up to 2 MB each) that no
+    later run removed. A later command staging in that folder removes those untouched for a day whose ``old``
+    folder is empty; one holding an old output (a commit killed midway: the only copy of a replaced file), a
+    recent one (another command's, at work) and anything else are kept."""
+    import os
+
+    from sim.outputs import STALE_STAGE_S, StagedOutputs
+
+    def stage(name: str, old: bool, age: float) -> Path:
+        folder = tmp_path / f".nhsim-outputs-{name}.part"
+        (folder / "new").mkdir(parents=True)
+        (folder / "new" / "run.mp4").write_bytes(b"x" * 100)
+        (folder / "old").mkdir()
+        if old:
+            (folder / "old" / "run.json").write_text("the only copy")
+        for p in (folder / "new" / "run.mp4", folder / "new", folder / "old", folder):
+            os.utime(p, (0, os.stat(p).st_mtime - age))
+        return folder
+
+    stale, holding, recent = (
+        stage("stale0001", False, 2 * STALE_STAGE_S),
+        stage("holds001", True, 2 * STALE_STAGE_S),
+        stage("recent01", False, 60.0),
+    )
+    other = tmp_path / ".nhsim-outputs-notmine"  # not a staging folder's name
+    other.mkdir()
+    os.utime(other, (0, 0))
+    outputs = StagedOutputs(overwrite=False)
+    outputs.path(tmp_path / "r.json").write_text("{}")
+    outputs.commit()
+    outputs.discard()
+    assert not stale.exists() and holding.exists() and recent.exists() and other.exists()
+    assert (holding / "old" / "run.json").read_text() == "the only copy" and (tmp_path / "r.json").read_text() == "{}"
