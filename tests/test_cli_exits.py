@@ -653,3 +653,15 @@ def test_a_full_disk_while_writing_is_one_line_exit_1(
     monkeypatch.setattr(command, "run", lambda args: (_ for _ in ()).throw(OSError(errno.ENOENT, "gone", "y")))
     with pytest.raises(FileNotFoundError):  # not a full disk: a fault of the program, with its traceback
         main(["scenarios"])
+
+
+@pytest.mark.parametrize(
+    "argv", [["simulate", "--seed", "nan"], ["montecarlo", "--scenario", "open"], ["bogus"], ["plan", "--gains", "1"]]
+)
+def test_a_usage_error_is_one_line(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    """argparse printed the whole usage (6-21 lines) before its error: a usage error is one line now, as every
+    other refusal of bad input (``--help`` shows the usage)."""
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    err = capsys.readouterr().err
+    assert stop.value.code == 2 and len(err.splitlines()) == 1 and ": error: " in err, err

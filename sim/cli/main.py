@@ -55,14 +55,15 @@ def package_version() -> str:
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse's parser, whose "expected one argument" also says how to give a value that starts with
-    '-' (``--gains -1,7`` reads -1,7 as an option; ``--gains=-1,7`` is a value, checked as any)."""
+    """argparse's parser, whose usage errors are one line, as nhsim's own (argparse printed the whole usage, up to
+    21 lines, before it; ``--help`` shows it); its "expected one argument" also says how to give a value that
+    starts with '-' (``--gains -1,7`` reads -1,7 as an option; ``--gains=-1,7`` is a value)."""
 
     def error(self, message: str) -> NoReturn:
         found = re.match(r"argument (--[\w-]+)(?:/\S+)?: expected one argument$", message)
         if found:
             message += f" (a value that starts with '-' goes after '=': {found.group(1)}=VALUE)"
-        super().error(message)
+        self.exit(2, f"{self.prog}: error: {message}\n")
 
 
 class _Version(argparse.Action):
