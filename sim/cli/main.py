@@ -63,6 +63,9 @@ class _Parser(argparse.ArgumentParser):
         found = re.match(r"argument (--[\w-]+)(?:/\S+)?: expected one argument$", message)
         if found:
             message += f" (a value that starts with '-' goes after '=': {found.group(1)}=VALUE)"
+        kind = re.search(r": invalid (int|float) value: '.*'$", message)
+        if kind:  # argparse names the type alone
+            message += "; give a whole number, e.g. 3" if kind.group(1) == "int" else "; give a number, e.g. 0.5"
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
