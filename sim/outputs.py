@@ -209,6 +209,14 @@ _STAGE_PREFIX, _STAGE_SUFFIX = ".nhsim-outputs-", ".part"
 _STAGE_CHARS = len(_STAGE_PREFIX) + _RANDOM_CHARS + len(_STAGE_SUFFIX) + len("/new/")
 
 
+def shown(path: str | Path) -> str:
+    """``path`` as a message shows it: a staged output's path (in a hidden staging folder,
+    :class:`StagedOutputs`) as its target's, which is what the user named."""
+    sep = re.escape(os.sep)
+    staged = rf"(^|{sep}){re.escape(_STAGE_PREFIX)}[^{sep}]+{re.escape(_STAGE_SUFFIX)}{sep}new{sep}"
+    return re.sub(staged, r"\1", str(path))
+
+
 def _temporary_affixes(target: Path) -> tuple[str, str]:
     """The prefix and suffix of :func:`atomic_path`'s temporary file beside ``target``."""
     return f".{target.stem}.", f".part{target.suffix}"

@@ -441,3 +441,17 @@ def test_a_killed_commands_staging_folders_are_swept_when_stale_unless_they_hold
     outputs.discard()
     assert not stale.exists() and holding.exists() and recent.exists() and other.exists()
     assert (holding / "old" / "run.json").read_text() == "the only copy" and (tmp_path / "r.json").read_text() == "{}"
+
+
+def test_a_staged_outputs_path_is_shown_as_its_target(tmp_path: Path) -> None:
+    """A full disk during video encoding named the hidden staging path (``renders/.nhsim-outputs-XXXXXXXX.part/new/
+    v.mp4``), a file the user never named."""
+    from sim.outputs import StagedOutputs, shown
+
+    stage = StagedOutputs(overwrite=False)
+    try:
+        staged = stage.path(tmp_path / "renders" / "v.mp4")
+        assert ".nhsim-outputs-" in str(staged) and shown(staged) == str(tmp_path / "renders" / "v.mp4")
+    finally:
+        stage.discard()
+    assert shown("/a/b/v.mp4") == "/a/b/v.mp4" and shown(".nhsim-outputs-x1.part/new/v.mp4") == "v.mp4"

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from planning.core.checks import check_flag, check_number
 from planning.errors import ConfigError, DependencyError, SimulationError
 from planning.signals import signals_held
-from sim.outputs import atomic_path, check_video_name
+from sim.outputs import atomic_path, check_video_name, shown
 
 Frame = NDArray[np.uint8]
 
@@ -227,4 +227,16 @@ class VideoWriter:
         if self._proc is None:
             raise RuntimeError("VideoWriter is not open: use it in a with-statement")
         if self._error is not None:
-            raise SimulationError(f"ffmpeg stopped while writing {self.path}: {self._error}")
+            raise SimulationError(f"ffmpeg stopped while writing {shown(self.path)}: {self._why()}")
+
+    def _why(self) -> str:
+        """Why ffmpeg stopped taking frames: the end of its own error output once it has exited (a full disk
+        says "No space left on device" there), else the error the frames' pipe gave (a broken pipe)."""
+        proc = self._proc
+        if proc is not None and proc.stderr is not None:
+            with contextlib.suppress(subprocess.TimeoutExpired, OSError, ValueError):
+                proc.wait(timeout=2.0)
+                lines = proc.stderr.read().decode(errors="replace").strip().splitlines()
+                if lines:
+                    return f"{lines[-1].strip()} (ffmpeg's last words); check free disk space"
+        return str(self._error)
