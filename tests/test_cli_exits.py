@@ -617,7 +617,7 @@ def test_a_standard_output_that_cannot_be_written_loses_the_report_not_the_outpu
         assert main([*argv, "--json", name]) == 1
         err = capsys.readouterr().err
         assert re.fullmatch(
-            rf"nhsim: (its standard output|there is no standard output).*{why}.*outputs were written.*\n", err
+            rf"nhsim: (its standard output|there is no standard output).*{why}.*files were written.*\n", err
         )
         assert json.loads((tmp_path / name).read_text())["status"] == "success"
 

@@ -214,7 +214,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 raise SystemExit(1) from None
             raise
     if out.failed and code == 0:
-        print(f"nhsim: {out.failed}; the command's outputs were written, its printed report was lost", file=sys.stderr)
+        print(f"nhsim: {out.failed}; its files were written, its printed report was lost", file=sys.stderr)
         return 1
     return 141 if out.gone and code == 0 else code
 
