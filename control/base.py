@@ -10,7 +10,7 @@ import typing
 from collections.abc import Callable
 from typing import Any, Protocol, TypeVar
 
-from planning.core.checks import check_fields, check_number
+from planning.core.checks import check_fields, check_number, is_number
 from planning.core.plugins import BUILT_IN as BUILT_IN  # re-exported: who registered a tracker
 from planning.core.plugins import BY_CODE as BY_CODE
 from planning.core.plugins import PLUGIN_VARIABLE as PLUGIN_VARIABLE
@@ -343,7 +343,7 @@ def check_search_range(name: str, default: Any, valid: tuple[float, float], tune
     """
     fix = "the search is log-uniform: give tune=(a, b) with 0 < a < b"
     pair = tuple(tune) if isinstance(tune, (tuple, list)) else ()
-    if len(pair) != 2 or not all(_real(v) and math.isfinite(v) for v in pair):
+    if len(pair) != 2 or not all(is_number(v) for v in pair):
         raise ConfigError(f"{name}: tune must be two finite numbers (a, b), got {tune!r}; {fix}")
     a, b = float(pair[0]), float(pair[1])
     if not 0.0 < a < b:
@@ -363,7 +363,7 @@ def check_search_range(name: str, default: Any, valid: tuple[float, float], tune
             "make it a float parameter with a float default"
         )
     first = "nhsim tune runs the defaults as its first trial"
-    if not (_real(default) and default > 0):
+    if not (is_number(default) and default > 0):
         raise ConfigError(
             f"{name}: the default {default!r} lies outside every search range and {first}; the search is "
             "log-uniform (tune=(a, b) with 0 < a < b), so give a default > 0 inside tune=(a, b), or leave tune= out"
@@ -374,11 +374,6 @@ def check_search_range(name: str, default: Any, valid: tuple[float, float], tune
             f"to hold it, e.g. tune=({min(a, default):g}, {max(b, default):g}), or change the default"
         )
     return a, b
-
-
-def _real(value: Any) -> bool:
-    """Whether ``value`` is a real number (not a bool)."""
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def check_ranges(obj: object) -> None:
