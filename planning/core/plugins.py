@@ -85,13 +85,6 @@ class PluginLoadError(ConfigError):
     """A plugin failed to import or to register: the message names it, where it was declared and the exception."""
 
 
-def _import_path(target: object) -> str:
-    """A registry target as ``"module:attr"``: the text itself, or where a class or function is defined."""
-    if isinstance(target, str):
-        return target
-    return f"{getattr(target, '__module__', '')}:{getattr(target, '__qualname__', '')}"
-
-
 class Registry(MutableMapping[str, "str | Callable[..., F]"], Generic[F]):
     """Name -> factory, or "module:attr" imported when first made; its plugins load at the first lookup.
 
@@ -152,7 +145,7 @@ class Registry(MutableMapping[str, "str | Callable[..., F]"], Generic[F]):
         if not isinstance(replace, bool):
             raise ConfigError(f"{caller}({name!r}): replace must be True or False")
         taken = self.get(name)  # an empty entry is a placeholder (a test's monkeypatch), no factory
-        named = isinstance(taken, str) != isinstance(target, str) and _import_path(taken) == _import_path(target)
+        named = isinstance(taken, str) != isinstance(target, str) and target_text(taken) == target_text(target)
         if taken and (taken == target or named):
             return  # no change (nor of who registered it): the same target, or the class its import path names
         if taken and not replace:
