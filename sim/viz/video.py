@@ -184,7 +184,7 @@ class VideoWriter:
         rc = self._proc.wait()
         if rc != 0 or self._error is not None:
             raise SimulationError(
-                f"ffmpeg failed writing {self.path} (exit {rc}): {err.strip() or self._error}; "
+                f"ffmpeg failed writing {shown(self.path)} (exit {rc}): {err.strip() or self._error}; "
                 "check the frame size and free disk space"
             )
 
