@@ -28,6 +28,7 @@ from sim.pipeline.simulate import simulate_plan
 from sim.robot import scan_localiser as SL
 from sim.robot.scan_localiser import GLOBAL_SCANS, LocaliserSetup, LocaliserUnconverged, ScanLocaliser
 
+CLOSED = [RunKind.CLOSED_LOOP]
 #: A wrong start on nav_map2: truth + (0.45 m, 0, 0.35 rad), inside Nav2's own initial sigma.
 OFFSET = (0.45, 0.0, 0.35)
 
@@ -185,6 +186,38 @@ def test_a_pose_estimate_starts_the_particles_there_with_nav2s_covariance() -> N
     assert p.shape[0] == AmclConfig().max_particles and loc.global_scans is None
     assert np.allclose(p.mean(axis=0), (0.6, 0.9, 1.0), atol=0.05)
     assert np.allclose(p.std(axis=0), (0.5, 0.5, math.pi / 12), rtol=0.1)
+
+
+def test_a_pose_estimate_is_what_the_robot_believes_and_a_wrong_one_shows() -> None:
+    """A "2D Pose Estimate" resets the pose the robot believes (Nav2's AMCL drives map -> odom), not only the
+    particles: the EKF starts at the estimate with the particles' initial covariance. Before, the EKF started
+    at the true start, exactly, and ignored the fixes the wrong estimate gave: from a pose 1 m off on farm the
+    closed loop reported an estimate 3.6 mm RMS off and reached its goal. Now it believes the estimate,
+    drives by it, and the run ends lost; 0.2 m and 0.19 rad off (inside Nav2's sigma) the fixes correct it and the run
+    reaches its goal."""
+    sc = load_scenario("farm")
+    nav2 = (0.5**2, 0.5**2, (math.pi / 12) ** 2)
+    for given, ends in [((-0.8, -1.0, 0.6), "ok"), ((-1.0, 0.0, 0.785), "localisation lost at t=")]:
+        assert math.dist(given[:2], (sc.start.x, sc.start.y)) > 0.19
+        res = simulate_plan(sc, robot="turtlebot3", runs=CLOSED, initial_pose=",".join(map(str, given)))
+        run = res.runs[RunKind.CLOSED_LOOP]
+        est = run.log.estimation
+        assert est is not None
+        assert np.allclose(est.estimate[0], given) and np.allclose(est.variance[0], nav2)
+        assert run.metrics.status.startswith(ends)
+    assert run.metrics.final_position_error_m > 0.3
+
+
+def test_global_localisation_hands_the_ekf_its_answer_not_the_truth() -> None:
+    """After global localisation the EKF starts at the localiser's estimate with its covariance (before: at the
+    true start, exactly, whatever the localiser had found)."""
+    res = simulate_plan("nav_map1", robot="turtlebot3", runs=CLOSED, initial_pose="unknown")
+    run = res.runs[RunKind.CLOSED_LOOP]
+    est = run.log.estimation
+    assert est is not None
+    assert not np.allclose(est.estimate[0], est.truth[0], atol=1e-6)
+    assert np.hypot(*(est.estimate[0, :2] - est.truth[0, :2])) < 0.1 and est.variance[0, 0] > 1e-6
+    assert run.metrics.status == "ok"
 
 
 @pytest.mark.parametrize(

@@ -41,7 +41,8 @@ with the status :data:`AMBIGUOUS`, naming the poses (:class:`LocaliserAmbiguous`
 revolutions without converging it ends there too, its message :data:`UNCONVERGED` (:class:`LocaliserUnconverged`:
 tracking from a cloud spread over the map would fuse its guesses). With a pose estimate (``initial`` "X,Y,THETA",
 a ROS user's "2D Pose Estimate") the particles start around it with Nav2's initial covariance, the robot at the
-scenario's start wherever the estimate says. The localiser decides
+scenario's start wherever the estimate says; the EKF starts where the localiser says (:meth:`ScanLocaliser.belief`).
+The localiser decides
 from its scans alone; the truth only judges its answer. A localiser whose error against the truth passes
 :data:`LOST_ERROR` ends the run with that status.
 """
@@ -325,6 +326,21 @@ class ScanLocaliser:
         except LocaliserAmbiguous as undecided:
             self.global_scans, self.global_converged = undecided.scans, False
             raise
+
+    def belief(self, truth: tuple[float, float, float]) -> tuple[tuple[float, float, float], FloatArray | None]:
+        """Where the EKF starts after :meth:`start` (``truth``: the robot's start): at the start, exactly, when it
+        is known; at the pose estimate given, with the particles' initial covariance (Nav2's, as a "2D Pose
+        Estimate" resets AMCL and the pose the robot believes); after global localisation, at the localiser's
+        estimate and its covariance. The robot believes what it was told or found, not where it stands."""
+        c = self.amcl.config
+        estimate = self.setup.initial_pose
+        if estimate is not None:
+            return estimate, np.diag([c.initial_std_xy**2, c.initial_std_xy**2, c.initial_std_theta**2])
+        found = self.amcl.estimate if self.setup.initial == "unknown" else None
+        if found is None:
+            return truth, None
+        pose = (float(found.pose[0]), float(found.pose[1]), math.remainder(float(found.pose[2]), 2 * math.pi))
+        return pose, found.cov + np.diag(COV_FLOOR)
 
     def _localise(self, data: mujoco.MjData, truth: tuple[float, float, float]) -> tuple[int, bool]:
         """Global localisation, the robot standing at ``truth``: the revolutions taken, and whether the

@@ -153,12 +153,18 @@ class EstimatorLoop:
         self.t0 = 0.0
 
     def start(
-        self, t0: float, pose: tuple[float, float, float], counts: tuple[int, int], pitch: float = 0.0
+        self,
+        t0: float,
+        pose: tuple[float, float, float],
+        counts: tuple[int, int],
+        pitch: float = 0.0,
+        cov0: FloatArray | None = None,
     ) -> tuple[float, float, float]:
-        """Period 0 at time ``t0`` [s]: the estimator at a known ``pose`` (the robot placed there),
-        the encoders reading ``counts``, the body at ``pitch`` [rad] (see the class doc). Returns the pose."""
+        """Period 0 at time ``t0`` [s]: the estimator at ``pose`` with covariance ``cov0`` (None: a known pose,
+        the robot placed there), the encoders reading ``counts``, the body at ``pitch`` [rad] (see the class
+        doc). Returns the pose."""
         self.t0 = t0
-        self.estimator.reset(t0, pose)
+        self.estimator.reset(t0, pose, cov0)
         self._state[0]["t0"], self._state[0]["counts"], self._state[0]["pitch"] = t0, counts, pitch
         return self.record(0)
 
@@ -361,12 +367,13 @@ class Sensing:
         loop, data = self.loop, self._data
         if data is None:
             raise ValueError("Sensing.observe: bind the run's MjData first (Sensing.observer)")
-        undecided = None
+        undecided, believed, cov0 = None, truth, None
         if k == 0:
             left, right, _ = self.reader.start(data, truth[2])
             if self.scans is not None:
                 try:
                     self.scans.start(data, truth, (left, right))
+                    believed, cov0 = self.scans.belief(truth)
                 except LocaliserAmbiguous as exc:
                     undecided = exc
         else:
@@ -376,7 +383,10 @@ class Sensing:
         if loop is None:
             return truth
         pitch = 0.0 if self._pitch is None else self._pitch()
-        pose = loop.start(self.t0, truth, (left, right), pitch) if k == 0 else loop.step(k, left, right, gyro, pitch)
+        if k == 0:
+            pose = loop.start(self.t0, believed, (left, right), pitch, cov0)
+        else:
+            pose = loop.step(k, left, right, gyro, pitch)
         if undecided is not None:  # global localisation could not choose a pose: the run ends before tracking
             raise EstimatorDivergedError(str(undecided), t=self.t0, reason=undecided.status) from undecided
         if k in self._events:
