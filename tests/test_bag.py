@@ -359,7 +359,7 @@ def test_a_scan_in_the_run_log_is_published_with_its_frame(job: tuple[Any, Path]
     assert got[0].angle_max == pytest.approx(2 * math.pi * 359 / 360)
     assert got[0].scan_time == pytest.approx(0.2) and got[0].range_max == pytest.approx(3.5)
     scan_tf = [x for x in static.transforms if x.child_frame_id == "closed_loop/base_scan"]
-    assert len(scan_tf) == 1 and scan_tf[0].transform.translation.z == pytest.approx(0.149)
+    assert len(scan_tf) == 1 and scan_tf[0].transform.translation.z == pytest.approx(0.172)  # the URDF's
 
 
 def test_an_existing_bag_is_kept_without_overwrite_and_replaced_with_it(job: tuple[Any, Path], tmp_path: Path) -> None:
@@ -647,7 +647,7 @@ def test_a_scan_fix_carries_the_localisers_own_covariance(job: tuple[Any, Path])
 def test_the_imu_frame_is_the_models_imu_site(robot: str) -> None:
     """``base_link -> imu_link`` in /tf_static is where the robot's model puts its IMU (site ``imu`` on the
     base body), read from the compiled model: on the TurtleBot3 32 mm behind and 45 mm above the axle,
-    not at base_link (it was the identity)."""
+    68 mm above base_link (the URDF's), not at base_link (it was the identity)."""
     import mujoco
 
     from planning.core.robot import robot_path
@@ -660,11 +660,50 @@ def test_the_imu_frame_is_the_models_imu_site(robot: str) -> None:
     imu = tfs["run/imu_link"]
     assert imu.header.frame_id == "run/base_link"
     got = imu.transform.translation
-    np.testing.assert_allclose([got.x, got.y, got.z], site.pos, rtol=0, atol=1e-12)
+    link = model.site("base_link").pos if robot == "turtlebot3" else np.zeros(3)
+    np.testing.assert_allclose([got.x, got.y, got.z], site.pos - link, rtol=0, atol=1e-12)
     q = imu.transform.rotation
     np.testing.assert_allclose([q.w, q.x, q.y, q.z], site.quat, rtol=0, atol=1e-12)
     if robot == "turtlebot3":
         np.testing.assert_allclose(site.pos, [-0.032, 0.0, 0.045])
+
+
+#: The TurtleBot3 Burger's fixed frames in ROBOTIS's turtlebot3_description (urdf/turtlebot3_burger.urdf):
+#: each joint's origin in its parent, base_footprint -> base_link and base_link -> the others [m].
+URDF_FRAMES = {
+    "base_link": (0.0, 0.0, 0.010),
+    "imu_link": (-0.032, 0.0, 0.068),
+    "base_scan": (-0.032, 0.0, 0.172),
+    "wheel_left_link": (0.0, 0.08, 0.023),
+    "wheel_right_link": (0.0, -0.08, 0.023),
+}
+
+
+def test_the_turtlebot3s_frames_are_its_urdfs(job: tuple[Any, Path]) -> None:
+    """A bag played beside ``robot_state_publisher`` and the TurtleBot3's URDF must not contradict it: its
+    base_link was the model's base body, at the axle, 33 mm above the floor (URDF: 10 mm), so base_scan sat
+    149 mm above it (URDF: 172 mm) and the IMU 45 mm (68 mm). The static frames and, on the floor,
+    base_footprint -> base_link are the URDF's to the millimetre (the tyres' sink and the body's pitch)."""
+    from sim.io.bag_topics import skeleton, static_transforms
+
+    sk = skeleton("turtlebot3")
+    tfs = {x.child_frame_id: x.transform.translation for x in static_transforms(["run"], sk).transforms}
+    for name in ("imu_link", "base_scan"):
+        got = tfs[f"run/{name}"]
+        np.testing.assert_allclose([got.x, got.y, got.z], URDF_FRAMES[name], atol=1e-9)
+    np.testing.assert_allclose(sk.wheel_pos, [URDF_FRAMES["wheel_left_link"], URDF_FRAMES["wheel_right_link"]])
+    _, msgs, _ = read_rosbags(job[1])
+    lifts = np.array(
+        [
+            (tf.transform.translation.x, tf.transform.translation.z)
+            for _, x in run_tf(msgs, "closed_loop")
+            for tf in x.transforms
+            if tf.child_frame_id == "closed_loop/base_link"
+        ]
+    )
+    assert lifts.shape[0] > 100
+    np.testing.assert_allclose(lifts[:, 1], URDF_FRAMES["base_link"][2], atol=1.5e-3)
+    np.testing.assert_allclose(lifts[:, 0], 0.0, atol=1.5e-3)
 
 
 #: The metadata of an old bag nhsim wrote (its mark, its one storage file), as :func:`sim.io.bag._write` leaves it.

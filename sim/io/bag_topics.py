@@ -55,6 +55,8 @@ GRAVITY = 9.80665
 WHEELS = ("wheel_left", "wheel_right")
 #: The model's site of the IMU (``RUN/imu_link``).
 IMU_SITE = "imu"
+#: The model's site of ROS's ``base_link`` (``RUN/base_link``; the base body's origin in a model without one).
+LINK_SITE = "base_link"
 
 
 @dataclass
@@ -131,10 +133,13 @@ class Skeleton:
     Attributes:
         root: qpos address of the free joint (position then w, x, y, z quaternion).
         wheels: qpos addresses of the left and right wheel joints.
-        wheel_pos: (2, 3) wheel axle centres in the base body [m].
-        scan_pos: (3,) the lidar in the base body [m], or None.
-        imu_pos: (3,) the IMU (site :data:`IMU_SITE`) in the base body [m].
-        imu_quat: The IMU's orientation in the base body, ROS (x, y, z, w).
+        wheel_pos: (2, 3) wheel axle centres in ``base_link`` [m].
+        scan_pos: (3,) the lidar in ``base_link`` [m], or None.
+        imu_pos: (3,) the IMU (site :data:`IMU_SITE`) in ``base_link`` [m].
+        imu_quat: The IMU's orientation in ``base_link``, ROS (x, y, z, w).
+        link: (3,) ``base_link``'s origin in the base body [m]: the model's site :data:`LINK_SITE` (the
+            TurtleBot3's URDF puts it 0.010 m above the floor, 0.023 m below the axle), the base body's
+            origin in a model without one.
     """
 
     root: int
@@ -143,13 +148,14 @@ class Skeleton:
     scan_pos: FloatArray | None
     imu_pos: FloatArray
     imu_quat: tuple[float, float, float, float]
+    link: FloatArray
 
 
 @cache
 def skeleton(robot: str) -> Skeleton:
     """The joints and fixed frames of a robot's model (loaded once per robot): the wheels, the lidar body
-    ``base_scan`` and the IMU (site :data:`IMU_SITE`; at the base in a model without one), each placed in
-    the base body by the compiled model's kinematics at its reference pose."""
+    ``base_scan`` and the IMU (site :data:`IMU_SITE`; at ``base_link`` in a model without one), each placed
+    in ``base_link`` (:attr:`Skeleton.link`) by the compiled model's kinematics at its reference pose."""
     import mujoco
 
     from planning.core.robot import robot_path
@@ -161,20 +167,24 @@ def skeleton(robot: str) -> Skeleton:
     root = model.joint("root")
     base = int(model.jnt_bodyid[root.id])
 
-    def in_base(xpos: FloatArray, xmat: FloatArray) -> tuple[FloatArray, tuple[float, float, float, float]]:
-        turn = data.xmat[base].reshape(3, 3).T
+    turn = data.xmat[base].reshape(3, 3).T
+    link = np.zeros(3)
+    if (s := mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, LINK_SITE)) >= 0:
+        link = turn @ (data.site_xpos[s] - data.xpos[base])
+
+    def in_link(xpos: FloatArray, xmat: FloatArray) -> tuple[FloatArray, tuple[float, float, float, float]]:
         wxyz = np.zeros(4)
         mujoco.mju_mat2Quat(wxyz, (turn @ xmat.reshape(3, 3)).ravel())
-        return turn @ (xpos - data.xpos[base]), ros_quat(wxyz)
+        return turn @ (xpos - data.xpos[base]) - link, ros_quat(wxyz)
 
     wheels = tuple(int(adr[model.joint(f"{w}_joint").id]) for w in WHEELS)
-    wheel_pos = np.array([in_base(data.xpos[b], data.xmat[b])[0] for b in (model.body(w).id for w in WHEELS)])
-    scan, imu_pos, imu_quat = None, np.zeros(3), (0.0, 0.0, 0.0, 1.0)
+    wheel_pos = np.array([in_link(data.xpos[b], data.xmat[b])[0] for b in (model.body(w).id for w in WHEELS)])
+    scan, imu_pos, imu_quat = None, -link, (0.0, 0.0, 0.0, 1.0)
     if (b := mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "base_scan")) >= 0:
-        scan = in_base(data.xpos[b], data.xmat[b])[0]
+        scan = in_link(data.xpos[b], data.xmat[b])[0]
     if (site := mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, IMU_SITE)) >= 0:
-        imu_pos, imu_quat = in_base(data.site_xpos[site], data.site_xmat[site])
-    return Skeleton(int(adr[root.id]), (wheels[0], wheels[1]), wheel_pos, scan, imu_pos, imu_quat)
+        imu_pos, imu_quat = in_link(data.site_xpos[site], data.site_xmat[site])
+    return Skeleton(int(adr[root.id]), (wheels[0], wheels[1]), wheel_pos, scan, imu_pos, imu_quat, link)
 
 
 def ros_quat(wxyz: FloatArray) -> tuple[float, float, float, float]:
@@ -377,16 +387,21 @@ def _pose_columns(prefix: str, xyz: FloatArray, q: FloatArray) -> dict[str, Floa
 
 
 def _body_tilt(log: Any, sk: Skeleton) -> tuple[FloatArray, FloatArray]:
-    """(lift (N, 3) [m], tilt (N, 4) quaternions (x, y, z, w)): the base body in its footprint frame, its
-    height, pitch and roll from the physics."""
+    """(lift (N, 3) [m], tilt (N, 4) quaternions (x, y, z, w)): ``base_link`` in its footprint frame, its
+    height, pitch and roll from the physics (the base body's, ``base_link`` fixed to it at
+    :attr:`Skeleton.link`)."""
     t, truth = log.t, log.pose
     q = log.qpos[:, sk.root + 3 : sk.root + 7]
     yaw_inv = np.column_stack([np.cos(0.5 * truth[:, 2]), np.zeros((t.size, 2)), -np.sin(0.5 * truth[:, 2])])
-    tilt = _quat_mul(yaw_inv, q)[:, [1, 2, 3, 0]]  # the body's pitch and roll, in the footprint frame
+    wxyz = _quat_mul(yaw_inv, q)  # the body's pitch and roll, in the footprint frame
     rel = log.qpos[:, sk.root : sk.root + 2] - truth[:, :2]
     c, s = np.cos(truth[:, 2]), np.sin(truth[:, 2])
     lift = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1], log.qpos[:, sk.root + 2]])
-    return lift, tilt
+    offset = np.zeros((t.size, 4))
+    offset[:, 1:] = sk.link
+    conj = wxyz * [1.0, -1.0, -1.0, -1.0]
+    lift += _quat_mul(_quat_mul(wxyz, offset), conj)[:, 1:]  # base_link's origin, turned with the body
+    return lift, wxyz[:, [1, 2, 3, 0]]
 
 
 def belief_at(log: Any, t: FloatArray) -> FloatArray | None:
@@ -880,7 +895,8 @@ def robot_markers(ns: str, robot: Any, sk: Skeleton, colour: tuple[float, ...]) 
     frame = run_frames(ns)["ground_truth/base_link"]
     lo, hi = robot.footprint.min(axis=0), robot.footprint.max(axis=0)
     r, height = robot.wheel_radius, ROBOT_HEIGHT
-    body = m.pose(0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * height + 0.005 - r, (0.0, 0.0, 0.0, 1.0))
+    floor = -r - float(sk.link[2])  # the floor under the axle, in base_link
+    body = m.pose(0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * height + 0.005 + floor, (0.0, 0.0, 0.0, 1.0))
     size = (float(hi[0] - lo[0]), float(hi[1] - lo[1]), height)
     markers = [_marker(0, 1, body, size, [], frame=frame, ns=ns, colour=colour)]
     axle = (math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5))  # a cylinder's axis turned from z onto y
