@@ -34,6 +34,7 @@ def test_defaults_are_nav2s_and_bad_settings_are_refused() -> None:
         "sigma_hit": 0.2,
         "laser_likelihood_max_dist": 2.0,
         "laser_max_range": 100.0,
+        "laser_min_range": -1.0,
         "max_beams": 60,
         "min_particles": 500,
         "max_particles": 2000,
@@ -77,6 +78,32 @@ def test_defaults_are_nav2s_and_bad_settings_are_refused() -> None:
             c.parse(bad)
     assert c.parse("z_hit=0.95,z_rand=0.05,recovery_alpha_slow=0.001,recovery_alpha_fast=0.1").z_hit == 0.95
     assert beam_subset(360, 60).size == 60 and beam_subset(360, 60)[1] == 6  # Nav2's step (360 - 1) // 59
+
+
+def test_a_nav2_block_is_taken_key_by_key_or_refused_with_the_reason() -> None:
+    """A Nav2 ``amcl:`` block carries over: laser_min_range (which was refused as unknown) leaves out the beams
+    at or below it (-1.0, Nav2's default, the scan's own range_min); a Nav2 key of another model or of ROS's
+    plumbing is refused naming why, not listed as a typo."""
+    c = AmclConfig()
+    amcl = Amcl(World((0.0, 4.0, 0.0, 4.0)), c.parse("laser_min_range=0.5"), (0.0, 0.0, 0.0), seed=0)
+    ranges = np.array([0.11, 0.3, 0.5, 0.51, 2.0, 3.6, np.inf])
+    r, _ = amcl.beams(ranges, 0.12, 3.5, 0.0, 0.1, every=True)
+    assert r.tolist() == [0.51, 2.0]
+    plain = Amcl(World((0.0, 4.0, 0.0, 4.0)), c.parse("laser_min_range=-1"), (0.0, 0.0, 0.0), seed=0)
+    assert plain.beams(ranges, 0.12, 3.5, 0.0, 0.1, every=True)[0].tolist() == [0.3, 0.5, 0.51, 2.0]
+    assert c.range_limits(0.12, 3.5) == (0.12, 3.5)
+    with pytest.raises(ConfigError, match="laser_min_range=200 is not below laser_max_range=100"):
+        c.parse("laser_min_range=200")
+    for key, says in [
+        ("z_max", "Nav2's beam model"),
+        ("lambda_short", "Nav2's beam model"),
+        ("do_beamskip", "beam skipping"),
+        ("alpha5", "differential drive"),
+        ("initial_pose", "--initial-pose X,Y,THETA"),
+        ("transform_tolerance", "ROS plumbing"),
+    ]:
+        with pytest.raises(ConfigError, match=rf"'{key}' is not taken: .*{says}"):
+            c.parse(f"{key}=1")
 
 
 def test_motion_model_matches_reference() -> None:

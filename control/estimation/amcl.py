@@ -12,7 +12,8 @@ The algorithm of Probabilistic Robotics (Thrun, Burgard, Fox 2005) ch. 8 as Nav2
   obstacle or wall, capped at ``laser_likelihood_max_dist``, read at the nearest node of the
   ``map_resolution`` grid as Nav2 reads its map's cell (``pz^3`` is tabulated there once). Beams
   at or beyond the range limit (``min(laser_max_range, the scan's range_max)``) or at or below the
-  scan's ``range_min`` (REP 117 infinities among them) are left out, as Nav2 does.
+  scan's ``range_min`` (or ``laser_min_range``, when above it; REP 117 infinities among them) are left out,
+  as Nav2 does.
 - **Resampling**: low-variance (table 4.4) with the set's size chosen by KLD sampling (Fox 2003;
   bins of 0.5 m x 0.5 m x 10 deg, ``pf_err``, ``pf_z``, between ``min_particles`` and
   ``max_particles``), every ``resample_interval`` updates.
@@ -66,7 +67,7 @@ The map is the world's own signed distance (:func:`planning.collision.field.sign
 the planner's formulas), tabulated once per world on a ``map_resolution`` grid and read bilinearly.
 
 Defaults are Nav2's (``nav2_bringup/params/nav2_params.yaml``, ``amcl``): alpha1-4 0.2,
-laser_likelihood_max_dist 2.0, laser_max_range 100.0, max_beams 60, min/max_particles 500/2000,
+laser_likelihood_max_dist 2.0, laser_max_range 100.0, laser_min_range -1.0, max_beams 60, min/max_particles 500/2000,
 pf_err 0.05, pf_z 0.99, recovery_alpha_slow/fast 0.0, resample_interval 1, sigma_hit 0.2,
 update_min_a 0.2, update_min_d 0.25, z_hit 0.5, z_rand 0.5; its initial covariance (AMCL's
 ``initial_cov_xx/yy/aa`` defaults) 0.25 m^2, 0.25 m^2, (pi/12)^2 rad^2.
@@ -135,6 +136,41 @@ GRID_MARGIN = 0.5
 #: A valid ``--amcl`` text, quoted in messages.
 EXAMPLE = "max_particles=1000,refine=0"
 #: The fields that are whole numbers (given as floats by ``--amcl``, stored as ints).
+#: Nav2 AMCL parameters (``nav2_amcl``'s ``amcl`` block) that nhsim's localiser does not take, and why: an
+#: ``amcl:`` block copied from a Nav2 configuration is refused key by key with the reason, not as a typo.
+NAV2_ONLY = {
+    **dict.fromkeys(
+        ("z_max", "z_short", "lambda_short"),
+        "a weight of Nav2's beam model; nhsim's AMCL is its likelihood_field model (z_hit, z_rand, sigma_hit)",
+    ),
+    "laser_model_type": "nhsim's AMCL is Nav2's likelihood_field model, the only one it has; leave it out",
+    **dict.fromkeys(
+        ("do_beamskip", "beam_skip_distance", "beam_skip_threshold", "beam_skip_error_threshold"),
+        "beam skipping (off in Nav2's defaults) is not implemented; leave it out",
+    ),
+    "alpha5": "the omnidirectional motion model's; the robots are differential drive (Nav2's alpha1-alpha4)",
+    "robot_model_type": "the robots are differential drive (nav2_amcl::DifferentialMotionModel); leave it out",
+    **dict.fromkeys(
+        ("set_initial_pose", "initial_pose", "always_reset_initial_pose"),
+        "give the pose estimate with --initial-pose X,Y,THETA",
+    ),
+    **dict.fromkeys(
+        (
+            "base_frame_id",
+            "global_frame_id",
+            "odom_frame_id",
+            "scan_topic",
+            "map_topic",
+            "tf_broadcast",
+            "transform_tolerance",
+            "save_pose_rate",
+            "first_map_only",
+            "use_sim_time",
+            "introspection_mode",
+        ),
+        "ROS plumbing with no part in the simulation; leave it out",
+    ),
+}
 WHOLE_FIELDS = ("max_beams", "min_particles", "max_particles", "resample_interval", "refine")
 #: Largest particle set a configuration may ask for (a set of that size takes ~50 MB and seconds a scan).
 MAX_PARTICLES = 1_000_000
@@ -154,6 +190,8 @@ class AmclConfig:
         sigma_hit: Standard deviation of the hit component [m].
         laser_likelihood_max_dist: Cap of the map distance [m].
         laser_max_range: Longest range used [m] (the scan's own limit applies too).
+        laser_min_range: Shortest range used [m]: beams at or below it are left out; 0 or less (Nav2's -1.0)
+            uses the scan's own ``range_min``, which applies anyway.
         max_beams: Beams used per scan [-].
         min_particles: Smallest set [-] (>= 10).
         max_particles: Largest set [-].
@@ -183,6 +221,7 @@ class AmclConfig:
     sigma_hit: float = 0.2
     laser_likelihood_max_dist: float = 2.0
     laser_max_range: float = 100.0
+    laser_min_range: float = -1.0
     max_beams: int = 60
     min_particles: int = 500
     max_particles: int = 2000
@@ -204,7 +243,8 @@ class AmclConfig:
     def __post_init__(self) -> None:
         example = f"e.g. {option('amcl', EXAMPLE)}"
         for f in fields(self):  # checked, kept as given (a whole-number field is stored as an int below)
-            check_number(f"amcl {f.name}", getattr(self, f.name), at_least=0.0, fix=example)
+            low = None if f.name == "laser_min_range" else 0.0  # Nav2's -1.0: the scan's own
+            check_number(f"amcl {f.name}", getattr(self, f.name), at_least=low, fix=example)
         for name in WHOLE_FIELDS:
             v = getattr(self, name)  # a finite number >= 0: the option's text gives 1000.0, a whole number
             whole = check_number(f"amcl {name}", int(v) if v == int(v) else v, integer=True, at_least=0, fix=example)
@@ -226,6 +266,11 @@ class AmclConfig:
                 raise ConfigError(f"amcl {name} must be > 0, got {getattr(self, name)!r}")
         if self.max_beams < 2:
             raise ConfigError(f"amcl max_beams must be at least 2, got {self.max_beams}")
+        if self.laser_min_range >= self.laser_max_range:
+            raise ConfigError(
+                f"amcl laser_min_range={self.laser_min_range:g} is not below laser_max_range={self.laser_max_range:g}: "
+                "no beam would be used; lower it (-1 uses the scan's own range_min, Nav2's default)"
+            )
         if self.refine not in (0, 1):
             raise ConfigError(f"amcl refine must be 0 or 1, got {self.refine}")
         self._check_fractions()
@@ -249,6 +294,11 @@ class AmclConfig:
                 "of the likelihood against the fast one; e.g. 0.001 and 0.1), or 0 to turn recovery off"
             )
 
+    def range_limits(self, range_min: float, range_max: float) -> tuple[float, float]:
+        """The ranges the sensor model uses, exclusive, from a scan's limits [m]: within its own, and within
+        ``laser_min_range`` (when above 0) and ``laser_max_range`` (Nav2's rule)."""
+        return max(range_min, self.laser_min_range), min(range_max, self.laser_max_range)
+
     def override(self, table: Mapping[str, object], what: str = "[amcl]") -> AmclConfig:
         """This configuration with the keys of ``table`` replaced.
 
@@ -257,6 +307,8 @@ class AmclConfig:
         """
         names = [f.name for f in fields(self)]
         unknown = [k for k in table if k not in names]
+        if unknown and unknown[0] in NAV2_ONLY:
+            raise ConfigError(f"{what}: {unknown[0]!r} is not taken: {NAV2_ONLY[unknown[0]]}")
         if unknown:
             raise ConfigError(f"{what}: unknown localiser key {unknown[0]!r}; the keys are {', '.join(names)}")
         values: dict[str, Any] = {**asdict(self), **table}
@@ -534,7 +586,7 @@ class Amcl:
         if ra.size < MIN_BEAMS:
             return SearchResult(cand[0], 0.0, cand[:1].copy(), None)
         w = np.ones(cand.shape[0])
-        self._sense_weights(cand, w, r, b, min(range_max, c.laser_max_range))
+        self._sense_weights(cand, w, r, b, c.range_limits(range_min, range_max)[1])
         fits = []  # (pose, consistent beams, chi-square per beam, beams within the gate)
         for i in np.argsort(-w)[:SEARCH_KEPT]:
             pose, _, used, ssr = K.refine(
@@ -559,9 +611,9 @@ class Amcl:
         ``refine_gate`` plus the scanner's error at that range (:meth:`_through_margin`). Beams below
         ``range_min`` are left out. The map is read at the nearest node of its grid, every grid spacing along
         each ray."""
-        f, rmax = self.field, min(range_max, self.config.laser_max_range)
+        f, (rmin, rmax) = self.field, self.config.range_limits(range_min, range_max)
         z = np.asarray(ranges, dtype=float)
-        ok = z > range_min  # NaN and -inf (too close) left out
+        ok = z > rmin  # NaN and -inf (too close) left out
         r = np.ascontiguousarray(np.where(z[ok] < rmax, z[ok], rmax))
         c, s = math.cos(pose[2]), math.sin(pose[2])
         lx = pose[0] + c * self.laser[0] - s * self.laser[1]
@@ -603,7 +655,7 @@ class Amcl:
         bearings: FloatArray | None = None,
     ) -> tuple[FloatArray, FloatArray]:
         """The beams the sensor model uses: Nav2's subset (or, with ``every``, all: the refinement's), within
-        (range_min, min(range_max, laser_max_range)).
+        (:meth:`AmclConfig.range_limits`).
 
         Args:
             bearings: (beams,) each beam's bearing [rad], given instead of ``angle_min + i * angle_increment``
@@ -614,8 +666,8 @@ class Amcl:
         """
         idx = np.arange(ranges.size) if every else beam_subset(ranges.size, self.config.max_beams)
         r = ranges[idx]
-        rmax = min(range_max, self.config.laser_max_range)
-        ok = np.isfinite(r) & (r > range_min) & (r < rmax)
+        rmin, rmax = self.config.range_limits(range_min, range_max)
+        ok = np.isfinite(r) & (r > rmin) & (r < rmax)
         b = angle_min + angle_increment * idx[ok] if bearings is None else np.asarray(bearings, dtype=float)[idx[ok]]
         return np.ascontiguousarray(r[ok]), np.ascontiguousarray(b)
 
@@ -671,7 +723,7 @@ class Amcl:
         z = np.asarray(ranges, dtype=float)
         limits = (range_min, range_max, angle_min, angle_increment)
         r, b = self.beams(z, *limits, bearings=bearings)
-        self._sense(r, b, min(range_max, self.config.laser_max_range))
+        self._sense(r, b, self.config.range_limits(range_min, range_max)[1])
         self.updates += 1
         if self.updates % self.config.resample_interval == 0:
             self._resample()
