@@ -11,7 +11,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--size", default="640x480", metavar="WxH", help="frame size (default: 640x480)")
     p.add_argument("--quality", choices=["fast", "high"], default="fast", help="render look (default: fast)")
     p.add_argument("--camera", choices=["overview", "chase"], default="overview", help="camera (default: overview)")
-    p.add_argument("--frames", type=int, default=300, metavar="N", help="frames per loop (default: 300)")
+    p.add_argument("--frames", type=int, default=300, metavar="N", help="frames per loop, at least 100 (default: 300)")
     p.add_argument("--repeats", type=int, default=3, metavar="N", help="alternating rounds, best counts (default: 3)")
     p.add_argument("--gl", choices=["osmesa", "egl", "glfw"], default=None, help="OpenGL backend")
 
