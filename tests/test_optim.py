@@ -536,3 +536,43 @@ def test_directions_are_of_the_motion_arriving_at_each_pose() -> None:
     assert np.any(res.directions < 0) and np.any(res.directions > 0)  # it reverses
     np.testing.assert_array_equal(res.directions[1:][moving], np.sign(along[moving]))
     assert res.directions[0] == res.directions[1]
+
+
+def _corridor(width: float, start_x: float = 0.3) -> PlanProblem:
+    """The EduMIP reversing 1.8 m down a corridor of walls ``width`` wide (the world itself), as a user's
+    scenario does."""
+    robot = load_robot("edumip")
+    world = World((0.0, 2.4, 0.0, width))
+    mid = 0.5 * width
+    return PlanProblem(world, robot, Pose2D(2.1, mid, 0.0), Pose2D(start_x, mid, 0.0), time_limit=5.0)
+
+
+def test_an_end_closer_than_the_disc_and_its_margin_is_refused_with_advice_that_works() -> None:
+    """The check left out the margin optim keeps at every node: a corridor 3 cm wider than the EduMIP's
+    disc (0.071 m from its centreline to the walls, the disc 0.0655 m and the margin 0.01 m) failed after the
+    solve with CasADi's "Opti::stats ... not solved", and a start moved 11 mm as the advice said still failed.
+    Now the start is refused before any solve, naming the margin; the margin it names plans the corridor."""
+    problem = _corridor(0.142)
+    res = Optim(N=40).plan(problem)
+    assert res.status == PlanStatus.INVALID_START, res.reason
+    m = re.search(r"give a margin below ([0-9.]+) m \(margin=\.\.\.\)", res.reason)
+    assert m and "the robot's radius 0.0655 m and the margin 0.0100 m" in res.reason, res.reason
+    fits = Optim(N=40, margin=float(m.group(1)) - 5e-4).plan(problem)
+    assert fits.status == PlanStatus.SUCCESS, fits.reason
+
+
+def test_a_solve_that_casadi_refuses_says_casadis_reason() -> None:
+    """CasADi raises on an ill-posed problem before IPOPT runs; reading the stats then raised "not solved",
+    which was given as the reason. The reason is the solve's own error's last line."""
+    import casadi as ca
+
+    from planning.planners.optim import casadi_reason
+
+    opti = ca.Opti()
+    x = opti.variable()
+    opti.minimize(x**2)
+    opti.subject_to(opti.bounded(0.0755, x, 0.0665))
+    opti.solver("ipopt", {"print_time": False}, {"print_level": 0, "sb": "yes"})
+    with pytest.raises(RuntimeError) as raised:
+        opti.solve_limited()
+    assert casadi_reason(raised.value).startswith("Ill-posed problem detected"), str(raised.value)

@@ -429,6 +429,12 @@ def _check_init_options(init: str, options: dict[str, Any]) -> None:
         raise ConfigError(f"optim: init_options for the warm start's planner {init!r}: {exc}") from None
 
 
+def casadi_reason(exc: BaseException) -> str:
+    """The cause a CasADi error ends with (its last line; the lines before it are CasADi's call stack)."""
+    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+    return lines[-1] if lines else type(exc).__name__
+
+
 class Optim:
     """Bicycle-model trajectory optimisation (CasADi Opti + IPOPT).
 
@@ -716,12 +722,12 @@ class Optim:
         than :data:`MAX_NLP_OBSTACLES` obstacles the NLP holds those nearest the guess; while a solution comes
         within the disc of one left out, it is solved again from where IPOPT ended with that one added
         (:data:`SELECTION_ROUNDS` solves at most, within the plan's time limit)."""
-        ends = self._ends_outside_disc(problem, clock)
+        clear = problem.robot.radius + margin
+        ends = self._ends_outside_disc(problem, clock, margin)
         if ends is not None:
             return ends
         x_init, u_init, source = self._guess(problem, clock, init)
         keep: frozenset[int] = frozenset()
-        clear = problem.robot.radius + margin
         for _ in range(SELECTION_ROUNDS):
             obstacles = _ObstacleData.of(problem, x_init[:, :2], keep)
             sol = self._solve_nlp(problem, clear, clock, obstacles, (x_init, u_init, source))
@@ -736,23 +742,36 @@ class Optim:
         sol.result.stats["nlp_obstacles"] = len(obstacles.indices)
         return sol
 
-    def _ends_outside_disc(self, problem: PlanProblem, clock: PlanClock) -> OptimSolution | None:
-        """The failure of a start or goal whose robot disc (the one optim keeps clear) overlaps an obstacle or
-        wall; else None."""
+    def _ends_outside_disc(self, problem: PlanProblem, clock: PlanClock, margin: float) -> OptimSolution | None:
+        """The failure of a start or goal whose robot disc grown by ``margin`` (the disc optim keeps clear, at
+        every node, the first and last too) overlaps an obstacle or wall; else None. With the margin raised
+        past the one given (:meth:`_solve_from_starts`' re-solves) it is a failed plan, not a bad end."""
         robot, world = problem.robot, problem.world
+        clear = robot.radius + margin
         for label, pose, status in (
             ("start", problem.start, PlanStatus.INVALID_START),
             ("goal", problem.goal, PlanStatus.INVALID_GOAL),
         ):
             dist = float(world.signed_distance(pose.xy)[0])
-            if dist < robot.radius:
+            if dist >= clear:
+                continue
+            disc = (
+                f"the {label}'s centre is {dist:.4f} m from the nearest obstacle or wall, so the disc optim keeps "
+                f"off everything (the robot's radius {robot.radius:.4f} m and the margin {margin:.4f} m) overlaps it"
+            )
+            if margin > self.margin:
                 reason = (
-                    f"the {label}'s centre is {dist:.3f} m from the nearest obstacle or wall, so the robot's "
-                    f"disc (radius {robot.radius:.3f} m), which optim keeps off everything, overlaps it; move "
-                    f"the {label} at least {robot.radius - dist:.3f} m farther away, or plan with another planner "
-                    "(they check the footprint)"
+                    f"{disc}: the margin was raised from {self.margin:.4f} m because the path between nodes came "
+                    "too close to an obstacle; use more nodes (N) or a shorter dt"
                 )
-                return self._failure(status, reason, {"time_s": clock.elapsed()})
+                return self._failure(PlanStatus.FAILED, reason, {"time_s": clock.elapsed()})
+            room = dist - robot.radius
+            lower = f", give a margin below {room:.4f} m (margin=...)" if room > 0 else ""
+            reason = (
+                f"{disc}; move the {label} at least {clear - dist:.4f} m farther away{lower}, or plan with another "
+                "planner (they check the footprint)"
+            )
+            return self._failure(status, reason, {"time_s": clock.elapsed()})
         return None
 
     def _guess(
@@ -794,18 +813,19 @@ class Optim:
         nlp.deadline.first = None
         # CasADi ends a solve at a signal and swallows the interrupt: it is acted on as the solve returns,
         # and held while the results are read (see planning.signals)
+        failed: RuntimeError | None = None
         with signals_end_early():
             try:
                 nlp.opti.solve_limited()
-            except RuntimeError:
-                pass  # a failed solve raises; its status and last iterate are read below
+            except RuntimeError as exc:
+                failed = exc  # a failed solve raises; its status and last iterate are read below
         try:
             with signals_held():
                 ipopt_stats = nlp.opti.stats()
                 xv = np.asarray(nlp.opti.debug.value(nlp.x)).T
                 uv = np.asarray(nlp.opti.debug.value(nlp.u)).T.reshape(self.N, 2)
-        except RuntimeError as exc:
-            why = f"IPOPT stopped with an error: {exc}"
+        except RuntimeError as exc:  # no solve to read: the solve's own error says why, not the reading's
+            why = f"IPOPT stopped with an error: {casadi_reason(failed or exc)}"
             return self._failure(PlanStatus.FAILED, why, {"time_s": clock.elapsed(), "init": init_source})
         solve_s = time.perf_counter() - t_solve
         if nlp.deadline.first is not None:  # IPOPT reached its first iteration: the set-up is measured
