@@ -204,8 +204,9 @@ def test_invalid_start_and_goal(scenario):
     bad = Pose2D(2.0, 2.85, 0.0)  # 0.35 m from the box: free for the body, inside the 40 cm clearance
     good = Pose2D(0.6, 0.6, 0.0)
     res = CRRTStar().plan(PlanProblem(world, robot, bad, good))
-    assert res.status is PlanStatus.INVALID_START and "0.350 m" in res.reason
-    assert "keeps the axle centre more than 0.400 m away" in res.reason  # a start at exactly 0.400 m is refused too
+    assert res.status is PlanStatus.INVALID_START and "0.3500 m" in res.reason
+    # strictly: a start at exactly 0.400 m is refused too, which the message says (both numbers read 0.4000)
+    assert "keeps the axle centre strictly more than 0.4000 m away" in res.reason
     res = CRRTStar().plan(PlanProblem(world, robot, good, bad))
     assert res.status is PlanStatus.INVALID_GOAL and "goal" in res.reason
     # the same pose is fine with a smaller clearance

@@ -1,11 +1,13 @@
 """RRT, BiRRT and RRT*: valid paths checked independently, determinism, budgets, known failures."""
 
 import itertools
+import math
+import re
 
 import numpy as np
 import pytest
 
-from planning.core.geometry import Pose2D, path_length
+from planning.core.geometry import Pose2D, path_length, wrap_angle
 from planning.core.robot import load_robot
 from planning.core.world import Box, Circle, World
 from planning.curves.reeds_shepp import reeds_shepp_length
@@ -144,6 +146,19 @@ def test_unreachable_goal_ends_in_timeout(name, opts):
     assert "budget" in res.reason and res.path.shape[1] == 3
     res = make_planner(name, max_iterations=10**9, time_limit=0.3, **opts).plan(prob)
     assert res.status is PlanStatus.TIMEOUT and res.stats["time_s"] < 1.5
+
+
+def test_rrts_partial_path_says_how_far_its_heading_is_from_the_goals():
+    """A goal facing back down a corridor too narrow to turn in: rrt's nearest node was 0.011 m away and its
+    reason said only that, its heading pi off. The reason names both."""
+    world = World((0.0, 3.0, 0.0, 0.208))
+    prob = PlanProblem(world, load_robot("turtlebot3"), Pose2D(0.3, 0.104, 0.0), Pose2D(2.5, 0.104, math.pi))
+    res = make_planner("rrt", max_iterations=3000, time_limit=10.0).plan(prob)
+    assert res.status is PlanStatus.TIMEOUT
+    m = re.search(r"nearest the goal \(([0-9.]+) m away, its heading ([0-9.]+) rad off the goal.s\)", res.reason)
+    assert m, res.reason
+    turn = abs(wrap_angle(float(res.path[-1, 2]) - math.pi))
+    assert float(m.group(2)) == pytest.approx(turn, abs=0.006) and turn > 2.5
 
 
 def test_bad_options():

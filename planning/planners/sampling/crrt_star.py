@@ -481,8 +481,8 @@ class _Search:
             d = float(self.checker.clearance_of(pose.as_array()[None, :])[0]) + p.robot.radius
             if not d > req:
                 why = (
-                    f"{label} ({pose.x:.3f}, {pose.y:.3f}) is {d:.3f} m from the nearest obstacle or wall; "
-                    f"C-RRT* keeps the axle centre more than {req:.3f} m away: move the {label} or lower "
+                    f"{label} ({pose.x:.3f}, {pose.y:.3f}) is {d:.4f} m from the nearest obstacle or wall; "
+                    f"C-RRT* keeps the axle centre strictly more than {req:.4f} m away: move the {label} or lower "
                     "center_clearance"
                 )
                 return PlanResult(status, CRRTStar.name, reason=why, stats=self.early_stats())

@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 from planning.clock import PlanClock
 from planning.collision.field import FieldTimeout
 from planning.core.checks import check_fields
-from planning.core.geometry import path_length
+from planning.core.geometry import path_length, wrap_angle
 from planning.errors import ConfigError
 from planning.planners import geodesic
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree, checked_problem
@@ -307,7 +307,11 @@ class RRT(_TreePlanner[TreeConfig]):
                 stats = self._stats(budget, it, tree.n)
                 return self._result(PlanStatus.SUCCESS, path, d, "", stats, tree.plan_tree())
         path, d, gap = self._partial(tree, problem)
-        reason = f"{budget.why(it)}; partial path to the node nearest the goal ({gap:.3f} m away)"
+        turn = abs(wrap_angle(float(path[-1, 2]) - problem.goal.theta))
+        reason = (
+            f"{budget.why(it)}; partial path to the node nearest the goal ({gap:.3f} m away, its heading "
+            f"{turn:.2f} rad off the goal's)"
+        )
         return self._result(PlanStatus.TIMEOUT, path, d, reason, self._stats(budget, it, tree.n), tree.plan_tree())
 
 
