@@ -31,7 +31,7 @@ def test_a_failed_plan_exits_1_from_simulate_as_from_plan(
     capsys.readouterr()
     assert main(["simulate", *common, "--no-video", "--no-plots"]) == 1
     err = capsys.readouterr().err
-    assert "invalid_start" in err and "0.400 m" in err and "error:" not in err
+    assert "invalid_start" in err and "0.4000 m" in err and "error:" not in err
 
 
 def test_a_closed_loop_off_its_reference_exits_1_naming_the_target(

@@ -187,7 +187,7 @@ def test_failed_plan_exits_1_with_reason(tmp_path, capsys):
     js = tmp_path / "p.json"
     assert main(["plan", "--scenario", str(scen), "--planner", "c-rrt-star", "--json", str(js), "--quiet"]) == 1
     rec = json.loads(js.read_text())
-    assert rec["status"] == "invalid_start" and "0.400 m" in rec["reason"]
+    assert rec["status"] == "invalid_start" and "0.4000 m" in rec["reason"]
     assert rec["path"] == [] and rec["min_clearance_m"] is None
     assert "invalid_start" in capsys.readouterr().out
 
