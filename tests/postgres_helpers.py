@@ -57,9 +57,37 @@ def _start(bindir: Path, data: Path, sock: Path, run: dict[str, Any]) -> int:
     raise AssertionError("unreachable")
 
 
+class Server:
+    """A running throw-away server: its SQLAlchemy URL (psycopg2 driver), and :meth:`stop` and :meth:`start` to
+    take it away and bring it back on the same port (a study's database lost mid-study, then back)."""
+
+    def __init__(self, bindir: Path, data: Path, sock: Path, port: int, database: str) -> None:
+        self.bindir, self.data, self.sock, self.port = bindir, data, sock, port
+        self.url = f"postgresql+psycopg2://nhsim@127.0.0.1:{port}/{database}"
+
+    def stop(self) -> None:
+        """Stop the server now (``pg_ctl -m fast``: its clients' connections are closed)."""
+        stop = [str(self.bindir / "pg_ctl"), "-D", str(self.data), "-m", "fast", "-w", "stop"]
+        subprocess.run(_as_server_user(stop), check=True, capture_output=True, timeout=120)
+
+    def start(self) -> None:
+        """Start it again, on its port."""
+        opts = f"-p {self.port} -k {self.sock} -c listen_addresses=127.0.0.1 -c fsync=off"
+        log = str(self.sock / "log")
+        start = [str(self.bindir / "pg_ctl"), "-D", str(self.data), "-l", log, "-o", opts, "-w", "start"]
+        subprocess.run(_as_server_user(start), check=True, capture_output=True, timeout=120)
+
+
 @contextlib.contextmanager
 def postgres_server(database: str = "nhsim") -> Iterator[str]:
-    """Start a server with a database; yield its SQLAlchemy URL (psycopg2 driver).
+    """Start a server with a database; yield its SQLAlchemy URL (psycopg2 driver)."""
+    with postgres_cluster(database) as server:
+        yield server.url
+
+
+@contextlib.contextmanager
+def postgres_cluster(database: str = "nhsim") -> Iterator[Server]:
+    """Start a server with a database; yield it (:class:`Server`).
 
     The cluster lives in a folder of its own under the system's temporary folder (pytest's are
     private to their owner, and the server runs as ``postgres`` when the tests run as root)."""
@@ -87,7 +115,7 @@ def postgres_server(database: str = "nhsim") -> Iterator[str]:
         subprocess.run(_as_server_user(initdb), **run)
         port = _start(bindir, data, sock, run)
         subprocess.run([str(bindir / "createdb"), "-h", "127.0.0.1", "-p", str(port), "-U", "nhsim", database], **run)
-        yield f"postgresql+psycopg2://nhsim@127.0.0.1:{port}/{database}"
+        yield Server(bindir, data, sock, port, database)
     finally:
         if (data / "postmaster.pid").exists():
             subprocess.run(_as_server_user([str(bindir / "pg_ctl"), "-D", str(data), "-m", "immediate", "stop"]),

@@ -23,6 +23,8 @@ from pathlib import Path
 
 import pytest
 
+from sim.cli.tune import STOP_WAIT_S
+
 ROOT = Path(__file__).resolve().parents[1]
 SIGNALS = [signal.SIGTERM, pytest.param(signal.SIGINT, marks=pytest.mark.slow)]
 
@@ -213,6 +215,53 @@ def test_tune_keeps_its_completed_trials(tmp_path: Path, sig: signal.Signals) ->
     with sqlite3.connect(db) as con:
         assert con.execute("SELECT count(*) FROM trials WHERE state = 'COMPLETE'").fetchone()[0] >= 1
     assert not (tmp_path / "renders").exists() or not list((tmp_path / "renders").iterdir())
+
+
+#: Each signal to the command alone; Ctrl-C to every process of the command (a terminal's), as ``group``.
+TUNE_WORKER_STOPS = [
+    (signal.SIGTERM, False),
+    pytest.param(signal.SIGINT, False, marks=pytest.mark.slow),
+    pytest.param(signal.SIGINT, True, marks=pytest.mark.slow),
+]
+
+
+@pytest.mark.parametrize(("sig", "group"), TUNE_WORKER_STOPS)
+def test_tune_on_workers_stops_them_as_it_stops_alone(tmp_path: Path, sig: signal.Signals, group: bool) -> None:
+    """``tune --jobs 2``: SIGINT or SIGTERM to the command left its workers running every remaining trial (then
+    exit 130, nothing written), and a terminal's Ctrl-C (to every process of the command) printed the workers'
+    KeyboardInterrupt tracebacks. The workers stop within about a second, their trials recorded as interrupted
+    (as --jobs 1 records its own: a rerun runs their gains again), the command says only "interrupted"."""
+    db = tmp_path / "study.db"
+
+    def complete(state: str) -> int:
+        try:
+            with contextlib.closing(sqlite3.connect(f"file:{db}?mode=ro", uri=True, timeout=1.0)) as con:
+                return int(con.execute("SELECT count(*) FROM trials WHERE state = ?", (state,)).fetchone()[0])
+        except sqlite3.Error:
+            return 0
+
+    signalled: list[float] = []
+
+    def at_work(out: str, err: str) -> bool:
+        ready = db.exists() and complete("COMPLETE") >= 2 and len(_processes_in(tmp_path, "spawn_main")) == 2
+        signalled.extend([time.monotonic()] if ready else [])
+        return ready
+
+    args = ["tune", "--scenarios", "open:circle", "--draws", "1", "--trials", "30", "--eval-runs", "1", "--jobs", "2"]
+    args += ["--storage", f"sqlite:///{db}", "--study", "s", "--quiet", "--out", "g.toml", "--plots", "."]
+    stopped = stop_when(args, tmp_path, at_work, sig, group=group)
+    took = time.monotonic() - signalled[0]
+    assert_interrupted(stopped, "tune", tmp_path)
+    assert stopped.err == "nhsim tune: interrupted\n"
+    # stopped, not run to their end: a worker still running STOP_WAIT_S after the command's SIGTERM is killed
+    # (their own stop takes about a second; the 28 trials left would take a minute)
+    assert took < STOP_WAIT_S + 5.0, f"the command took {took:.1f} s to stop"
+    assert _processes_in(tmp_path, "spawn_main") == []
+    assert complete("RUNNING") == 0 and complete("COMPLETE") < 30
+    with contextlib.closing(sqlite3.connect(db)) as con:
+        interrupted = con.execute("SELECT count(*) FROM trial_user_attributes WHERE key = 'interrupted'").fetchone()[0]
+    assert interrupted >= 1  # the trials the workers were evaluating
+    assert not (tmp_path / "g.toml").exists() and not (tmp_path / "g.json").exists()
 
 
 @pytest.mark.parametrize("sig", SIGNALS)

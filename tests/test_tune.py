@@ -19,6 +19,7 @@ import pytest
 from PIL import Image
 
 from control.gains import FBLGains, load_gains_file
+from planning.errors import OutputExistsError
 from sim.cli.main import main
 from sim.cli.tune import default_study_name
 from sim.physics.asbuilt import check_build_seed
@@ -809,3 +810,106 @@ def test_an_interrupt_while_the_outputs_are_written_leaves_every_old_one(
     monkeypatch.setattr(tune_cli, "_save_plots", save_plots)
     assert main(_args(tmp_path, 3, "--eval-runs", "0", "--draws", "1")) == 0
     assert all(p.read_bytes() != before[p] for p in outputs if p.suffix != ".png")  # the 3-trial study's
+
+
+def _files_args(tmp_path: Path, storage: str, **extra: object) -> object:
+    import argparse
+
+    fields = {"study": "pg", "storage": storage, "out": tmp_path / "g.toml", "plots": tmp_path, "json": None}
+    return argparse.Namespace(**fields, overwrite=False, tracker="fbl", scenarios=CASE, **extra)
+
+
+PG = "postgresql://nhsim:S3cretPW@127.0.0.1:55432/nhsim_tune"
+
+
+@pytest.mark.parametrize(
+    "spelling",
+    [
+        "postgresql+psycopg2://nhsim@127.0.0.1:55432/nhsim_tune",  # another driver, no password
+        "postgresql://nhsim:OtherPW@127.0.0.1:55432/nhsim_tune",  # a changed password
+        "postgresql://nhsim:***@127.0.0.1:55432/nhsim_tune",  # as the outputs now show it
+    ],
+)
+def test_the_studys_outputs_are_its_own_whatever_spelling_of_its_url_reaches_it(tmp_path: Path, spelling: str) -> None:
+    """The same study through another spelling of its URL was refused: "holds the outputs of study 'pg' in
+    '...', not of study 'pg' in '...'". Backend, host, port, database and user are compared, not the driver
+    nor the password; another database, host, port or user is another study's."""
+    from sim.cli.tune import tune_files
+
+    (tmp_path / "g.toml").write_text(f'[gains]\nkp = 9.0\n[provenance]\nstudy = "pg"\nstorage = "{PG}"\n')
+    files = tune_files(_files_args(tmp_path, spelling), [CASE])  # type: ignore[arg-type]
+    assert tmp_path / "g.toml" in files.own
+    others = ["nhsim@127.0.0.1:55432/other_db", "nhsim@10.0.0.9:55432/nhsim_tune", "nhsim@127.0.0.1/nhsim_tune"]
+    for other in [*others, "admin@127.0.0.1:55432/nhsim_tune"]:  # another database, host, port (5432), user
+        with pytest.raises(OutputExistsError):
+            tune_files(_files_args(tmp_path, f"postgresql://{other}"), [CASE])  # type: ignore[arg-type]
+
+
+def test_the_storages_password_is_never_shown_nor_written(tmp_path: Path) -> None:
+    """The --storage URL's password was printed and written to every output (the stamp of the gains file, the
+    record, the plots) and to the "holds the outputs of" refusal. It is masked, by SQLAlchemy."""
+    from sim.cli.tune import tune_files
+    from sim.tools.tune import same_storage, shown_url
+
+    assert shown_url(PG) == "postgresql://nhsim:***@127.0.0.1:55432/nhsim_tune"
+    assert shown_url("sqlite:///renders/a%20b.db") == "sqlite:///renders/a%20b.db"  # no password: as given
+    assert same_storage("postgresql://u@h/d", "postgresql+psycopg2://u:pw@h:5432/d")
+    files = tune_files(_files_args(tmp_path, PG), [CASE])  # type: ignore[arg-type]
+    assert files.storage == PG  # still the URL that connects
+    assert files.stamp() == {"study": "pg", "storage": "postgresql://nhsim:***@127.0.0.1:55432/nhsim_tune"}
+    (tmp_path / "g.toml").write_text(f'[gains]\nkp = 9.0\n[provenance]\nstudy = "another"\nstorage = "{PG}"\n')
+    with pytest.raises(OutputExistsError) as refused:
+        tune_files(_files_args(tmp_path, PG), [CASE])  # type: ignore[arg-type]
+    assert "S3cretPW" not in str(refused.value) and "nhsim:***@" in str(refused.value)
+
+
+def test_a_study_resumed_with_another_sampler_says_which_samplers_made_its_trials(tmp_path: Path) -> None:
+    """A TPE study resumed with --sampler random was written sampler = "random", though most of its trials came
+    from TPE. Optuna lets any sampler continue a study; the provenance names each sampler and its trials (the
+    default gains' trial, given, is no sampler's)."""
+    assert main(_args(tmp_path, 3, "--eval-runs", "0", "--draws", "1")) == 0
+    assert load_gains_file(tmp_path / "gains.toml").provenance["sampler"] == "tpe"
+    assert "sampler_trials" not in load_gains_file(tmp_path / "gains.toml").provenance
+    assert main(_args(tmp_path, 5, "--eval-runs", "0", "--draws", "1", "--sampler", "random")) in (0, 1)
+    provenance = load_gains_file(tmp_path / "gains.toml").provenance
+    assert provenance["sampler"] == "tpe + random"
+    assert provenance["sampler_trials"] == {"tpe": 2, "random": 2}
+    record = json.loads((tmp_path / "gains.json").read_text())
+    assert record["sampler"] == "tpe + random" and record["sampler_trials"] == {"tpe": 2, "random": 2}
+
+
+def _workers_of(pid: int) -> list[int]:
+    """The ``--jobs`` worker processes of process ``pid``."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        try:
+            if entry.name.isdigit() and int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1]) == pid:
+                if b"spawn_main" in (entry / "cmdline").read_bytes():
+                    found.append(int(entry.name))
+        except (OSError, ValueError, IndexError):
+            continue
+    return found
+
+
+def test_a_killed_worker_is_a_failure_not_bad_input(tmp_path: Path) -> None:
+    """A worker killed (SIGKILL) ended the command with exit status 2, which means bad input. It is a failure
+    that is not the input's: exit status 1, one line naming how the worker ended and saying a rerun resumes."""
+    args = _args(tmp_path, 10, "--eval-runs", "0", "--draws", "1", "--jobs", "2")
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    pipe = subprocess.PIPE
+    proc = subprocess.Popen([sys.executable, "-m", "sim", *args], env=env, stdout=pipe, stderr=pipe, text=True)
+    deadline = time.monotonic() + 120
+    try:
+        while not (_completed_so_far(tmp_path) >= 1 and len(_workers_of(proc.pid)) == 2):
+            assert proc.poll() is None and time.monotonic() < deadline, "no worker completed a trial"
+            time.sleep(0.05)
+        os.kill(_workers_of(proc.pid)[0], signal.SIGKILL)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 1, err
+    assert err.startswith("nhsim tune: failed: 1 of 2 tuning worker processes ended early (killed by SIGKILL)"), err
+    assert "rerun the same command to resume it" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "gains.toml").exists()

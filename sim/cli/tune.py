@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import hashlib
 import logging
 import math
 import re
 import sys
+import threading
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -18,7 +20,7 @@ from typing import Any
 from planning.errors import ConfigError
 from sim.cli.simulate import add_localiser_arguments, check_scan_beams, localiser_fields
 from sim.tools.executor import JOBS_PER_CORE, check_workers
-from sim.tools.tune import GRACE_PERIOD
+from sim.tools.tune import GRACE_PERIOD, UNRECORDED
 
 DESCRIPTION = f"""\
 Tune the feedback-linearisation tracker's gains (Kp, Kd, xi_min) with Optuna (TPE by default) over
@@ -44,7 +46,12 @@ the study failed (nothing to resume: it is made anew). Left out, --localiser is
 the robots' own (amcl for the TurtleBot3) and --robot each scenario's own (open's TurtleBot3), and the
 study is the one that names them. Any
 SQLAlchemy URL works (e.g. postgresql://user:pass@host/db), so workers on several machines can run
-the same command against one study; --jobs runs local worker processes. The default gains are
+the same command against one study; --jobs runs local worker processes (Ctrl-C or SIGTERM stops them
+with the command, their trials as --jobs 1 leaves its own). The URL's password is shown and written as
+*** (messages, gains file, record, plots), and the outputs are the study's whatever spelling of its URL
+reaches the same database (another driver, another password). --sampler may change on resume, as
+Optuna allows (the new sampler learns from every trial): the provenance names each sampler that
+proposed trials (sampler = "tpe + random", with sampler_trials counting them). The default gains are
 always the study's first trial.
 
 At the end the tuned and the default gains are run on --eval-runs held-out draws per case (other
@@ -68,8 +75,12 @@ When no trial beat the defaults, the held-out draws run them once and the proven
 recommended = "default" (the defaults were best).
 
 Exit status: 0 done, 1 the tuned gains lost to the defaults on held-out draws (the defaults were
-written), 2 bad input (nothing written), 130 interrupted (the study keeps every completed trial;
-rerun the command to resume: the interrupted trial's gains run again)."""
+written), or the study could not go on for a cause that is not the input: the connection to its
+storage was lost once open (a database server stopped) or a worker process died (killed); one line
+says which, nothing is written, and the study keeps every completed trial: rerun the same command to
+resume it. 2 bad input (nothing written; a storage that cannot be opened at the start among it), 130
+interrupted (the study keeps every completed trial; rerun the command to resume: the interrupted
+trials' gains run again)."""
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
@@ -111,7 +122,12 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "the study and a rerun resumes it) (default: sqlite:///renders/tune-<study>.db)",
     )
     p.add_argument("--study", default=None, metavar="NAME", help="study name (default: derived from the cases)")
-    p.add_argument("--sampler", choices=list(SAMPLERS), default="tpe", help="Optuna sampler (default: tpe)")
+    p.add_argument(
+        "--sampler",
+        choices=list(SAMPLERS),
+        default="tpe",
+        help="Optuna sampler (default: tpe; a resumed study may take another)",
+    )
     p.add_argument("--robot", choices=list(ROBOT_FILES), default=None, help="robot (default: each scenario's)")
     p.add_argument("--control-rate", type=float, default=50.0, metavar="HZ", help="tracker rate (default: 50)")
     add_localiser_arguments(p)
@@ -248,28 +264,164 @@ def _workers_know(tracker: str, trials: int) -> bool:
     return False
 
 
-def _run_parallel(spec: Any, shares: list[int], study: Any, progress: _Progress) -> None:
-    import multiprocessing as mp
+#: Exit statuses of a worker process (``--jobs``) that an interrupt stopped (SIGTERM from the command: its trial
+#: is recorded as interrupted, as with --jobs 1), or that lost the connection to the study's storage.
+WORKER_INTERRUPTED = 130
+WORKER_LOST_STORAGE = 75  # EX_TEMPFAIL
+#: How long the command waits for its stopped workers to record their interrupted trials and end [s]; one still
+#: running then is killed (its trial, silent, is failed and its gains enqueued again on resume).
+STOP_WAIT_S = 10.0
 
-    from sim.tools.tune import completed, worker_process
+
+def _run_parallel(spec: Any, shares: list[int], study: Any, progress: _Progress) -> None:
+    """Run the trials on worker processes, one per share, until every worker has ended.
+
+    The workers start with SIGINT blocked, so a terminal's Ctrl-C, which reaches every process of the
+    command, reaches only this one; an interrupt (Ctrl-C or SIGTERM) or an error here stops them
+    (:func:`_stop_workers`) before it goes on.
+
+    Raises:
+        TuneFailure: A worker lost the connection to the study's storage, or ended early otherwise (killed).
+    """
+    import multiprocessing as mp
+    from multiprocessing import resource_tracker
+
+    from sim.tools.tune import completed
 
     ctx = mp.get_context("spawn")
-    procs = [ctx.Process(target=worker_process, args=(spec, n, i + 1)) for i, n in enumerate(shares)]
-    for proc in procs:
-        proc.start()
+    resource_tracker.ensure_running()  # started first: starting it unblocks SIGINT in the thread that starts it
+    procs: list[Any] = []
     try:
+        with _sigint_blocked():  # inherited by the workers: Ctrl-C is this process's to act on
+            for i, n in enumerate(shares):
+                procs.append(ctx.Process(target=_worker, args=(spec, n, i + 1)))
+                procs[-1].start()
         while any(proc.is_alive() for proc in procs):
             time.sleep(0.5)
             progress.set(len(completed(study)), _best_value(study))
-    finally:
+    except BaseException:
+        _stop_workers(procs)
+        raise
+    for proc in procs:
+        proc.join()
+    _check_workers_ended(spec, [proc.exitcode for proc in procs])
+
+
+def _check_workers_ended(spec: Any, codes: list[int | None]) -> None:
+    """Raise :class:`sim.tools.tune.TuneFailure` when a worker did not end well, naming how it ended."""
+    from sim.tools.tune import TuneFailure, lost_storage_message
+
+    if WORKER_LOST_STORAGE in codes:
+        raise TuneFailure(lost_storage_message(spec.storage))
+    bad = [code for code in codes if code != 0]
+    if not bad:
+        return
+    raise TuneFailure(
+        f"{len(bad)} of {len(codes)} tuning worker processes ended early ({'; '.join(map(_ended, bad))}); the "
+        "study keeps its completed trials: rerun the same command to resume it"
+    )
+
+
+def _ended(code: int | None) -> str:
+    """How a worker process that ended with exit code ``code`` (multiprocessing's: -N killed by signal N) ended."""
+    import signal
+
+    if code is not None and code < 0 and -code in signal.valid_signals():
+        return f"killed by {signal.Signals(-code).name}"
+    return "interrupted by SIGTERM" if code == WORKER_INTERRUPTED else f"exit status {code}"
+
+
+def _stop_workers(procs: list[Any]) -> None:
+    """Stop the workers still running: each takes SIGTERM as an interrupt (its trial being evaluated is recorded
+    as interrupted and run again on resume, as with --jobs 1) and ends; one still running after
+    :data:`STOP_WAIT_S` is killed. A further Ctrl-C or SIGTERM meanwhile is acted on once they are stopped."""
+    from planning.signals import signals_held
+
+    with signals_held():
         for proc in procs:
-            proc.join()
-    bad = [proc.exitcode for proc in procs if proc.exitcode != 0]
-    if bad:
-        raise ConfigError(
-            f"{len(bad)} tuning worker(s) failed (exit codes {bad}); the study keeps its completed trials, rerun "
-            "the command to resume"
-        )
+            if proc.is_alive():
+                proc.terminate()
+        deadline = time.monotonic() + STOP_WAIT_S
+        for proc in procs:
+            proc.join(max(0.0, deadline - time.monotonic()))
+            if proc.is_alive():
+                proc.kill()
+                proc.join()
+
+
+@contextlib.contextmanager
+def _sigint_blocked() -> Iterator[None]:
+    """SIGINT blocked in this thread within the block (processes started here inherit it); one that came meanwhile
+    is delivered as the block ends. Outside the main thread it does nothing."""
+    import signal
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+def _worker(spec: Any, n_trials: int, worker: int) -> None:
+    """Entry point of a worker process (``--jobs``, :func:`sim.tools.tune.worker_process`). SIGTERM (the command
+    stopping it) is taken as an interrupt, as the command takes it (:func:`sim.cli.interrupt.sigterm_as_interrupt`):
+    the trial being evaluated is recorded as interrupted and the worker ends with :data:`WORKER_INTERRUPTED`,
+    saying nothing (the command says "interrupted"); a lost connection to the study's storage ends it with
+    :data:`WORKER_LOST_STORAGE`, saying nothing either (the command says it, once)."""
+    from sim.cli.interrupt import sigterm_as_interrupt
+    from sim.tools.tune import TuneFailure, worker_process
+
+    _quiet_optuna()
+    with sigterm_as_interrupt():
+        try:
+            with _storage_kept(spec.storage):
+                worker_process(spec, n_trials, worker)
+        except KeyboardInterrupt:
+            sys.exit(WORKER_INTERRUPTED)
+        except TuneFailure:
+            sys.exit(WORKER_LOST_STORAGE)
+
+
+@contextlib.contextmanager
+def _storage_kept(storage: str) -> Iterator[None]:
+    """Within the block, an error of the study's storage (its database server stopped, the network to it lost) is
+    a :class:`sim.tools.tune.TuneFailure` saying so in one line, the URL's password hidden; the report of Optuna's
+    heartbeat thread, which dies of it too, is not shown."""
+    from sim.tools.tune import TuneFailure, lost_connection, lost_storage_message
+
+    previous = threading.excepthook
+
+    def hook(args: Any) -> None:
+        if args.exc_value is None or lost_connection(args.exc_value) is None:
+            previous(args)
+
+    threading.excepthook = hook
+    try:
+        yield
+    except TuneFailure:
+        raise
+    except Exception as exc:
+        reason = lost_connection(exc)
+        if reason is None:
+            raise
+        raise TuneFailure(lost_storage_message(storage, reason)) from exc
+    finally:
+        threading.excepthook = previous
+
+
+def _quiet_optuna() -> None:
+    """Optuna says only warnings, without its report of a trial an interrupt stopped (:class:`_NotInterrupted`)
+    and its experimental-feature warnings."""
+    import optuna
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    for handler in logging.getLogger("optuna").handlers:  # its trials' loggers pass records up to these
+        if _not_interrupted not in handler.filters:
+            handler.addFilter(_not_interrupted)
+    warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
 
 
 def _save_figure(plt: Any, ax: Any, path: Path, files: TuneFiles, stage: Any) -> None:
@@ -331,13 +483,23 @@ class TuneFiles:
     own: frozenset[Path] = frozenset()
 
     def stamp(self) -> dict[str, str]:
-        """The study and storage, as every output records them (provenance, record, PNG text)."""
-        return {"study": self.study, "storage": self.storage}
+        """The study and storage, as every output records them (provenance, record, PNG text): the storage's
+        password, if any, masked (:func:`sim.tools.tune.shown_url`)."""
+        from sim.tools.tune import shown_url
+
+        return {"study": self.study, "storage": shown_url(self.storage)}
+
+    def names_this_study(self, owner: dict[str, str] | None) -> bool:
+        """Whether an output's ``owner`` (:meth:`owner`) is this study: the same name in the same database,
+        however its URL was spelt (another driver, a password or none: :func:`sim.tools.tune.same_storage`)."""
+        from sim.tools.tune import same_storage
+
+        return owner is not None and owner["study"] == self.study and same_storage(owner["storage"], self.storage)
 
     def may_replace(self, path: Path, overwrite: bool) -> bool:
         """Whether ``path`` may be replaced: --overwrite, or an output of this study, when this run
         began or now (another worker of the same study, started together, wrote it meanwhile)."""
-        return overwrite or path in self.own or (path.is_file() and self.owner(path) == self.stamp())
+        return overwrite or path in self.own or (path.is_file() and self.names_this_study(self.owner(path)))
 
     def replaceable(self, overwrite: bool) -> Callable[[Path], bool]:
         """:meth:`may_replace` as the question :class:`sim.outputs.StagedOutputs` asks at each check:
@@ -427,7 +589,7 @@ def tune_files(
     from planning.errors import OutputExistsError
     from sim.cli.job_outputs import check_apart_from_inputs
     from sim.outputs import check_distinct, check_writable
-    from sim.tools.tune import check_storage
+    from sim.tools.tune import check_storage, shown_url
 
     study, storage = (
         (args.study, args.storage) if args.study else _default_study(args, tokens, localiser, robot, own_robot)
@@ -454,14 +616,14 @@ def tune_files(
                 f"{clash[0]} is the study's own storage ({files.storage}); give --out, --json or --plots another path"
             )
     owners = {p: files.owner(p) for p in paths if p.is_file()}
-    own = frozenset(p for p, owner in owners.items() if owner == files.stamp())
+    own = frozenset(p for p, owner in owners.items() if files.names_this_study(owner))
     for path in paths:
         owner = owners.get(path)
         if owner is not None and path not in own and not args.overwrite:
             raise OutputExistsError(
-                f"{path} holds the outputs of study {owner['study']!r} in {owner['storage']!r}, not of study "
-                f"{study!r} in {files.storage!r}; pass --overwrite to replace it, or choose other output paths "
-                "(--out, --json, --plots)"
+                f"{path} holds the outputs of study {owner['study']!r} in {shown_url(owner['storage'])!r}, not of "
+                f"study {study!r} in {shown_url(files.storage)!r}; pass --overwrite to replace it, or choose other "
+                "output paths (--out, --json, --plots)"
             )
         check_writable(path, overwrite=args.overwrite or path in own)
     return replace(files, own=own)
@@ -481,7 +643,18 @@ def _tokens(args: argparse.Namespace) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Execute ``tune``."""
+    """Execute ``tune``; a study that could not go on (its storage lost, a worker killed:
+    :class:`sim.tools.tune.TuneFailure`) is said in one line, exit status 1."""
+    from sim.tools.tune import TuneFailure
+
+    try:
+        return _run(args)
+    except TuneFailure as exc:
+        print(f"nhsim tune: failed: {exc}", file=sys.stderr)
+        return 1
+
+
+def _run(args: argparse.Namespace) -> int:
     from sim.physics.perturb import PerturbationRange
     from sim.tools.tune import TuneSpec, make_draws
 
@@ -535,10 +708,11 @@ def run(args: argparse.Namespace) -> int:
     if args.storage is None:
         Path("renders").mkdir(exist_ok=True)
     study = _optimise(args, spec)
-    best, default_obj = _report_best(study, spec, evaluator)
-    held_out = make_draws(args.eval_runs, args.seed, held_out=True, perturbations=perturbations)
-    comparison = _held_out(evaluator, held_out, best)
-    lost = _write_outputs(args, files, spec, study, best, default_obj, comparison)
+    with _storage_kept(spec.storage):  # the best trial and the plots read the study
+        best, default_obj = _report_best(study, spec, evaluator)
+        held_out = make_draws(args.eval_runs, args.seed, held_out=True, perturbations=perturbations)
+        comparison = _held_out(evaluator, held_out, best)
+        lost = _write_outputs(args, files, spec, study, best, default_obj, comparison)
     return 1 if lost else 0
 
 
@@ -577,15 +751,19 @@ def _cases(
 
 def _optimise(args: argparse.Namespace, spec: Any) -> Any:
     """Open (or create) the study and run the trials it still lacks, on one or more workers."""
-    import optuna
+    from sim.tools.tune import load_study
 
-    from sim.tools.tune import completed, ensure_default_trial, load_study, run_worker, split_trials
+    _quiet_optuna()
+    study = load_study(spec, create=True)  # a storage that cannot be opened is bad input (exit 2), said here
+    with _storage_kept(spec.storage):  # lost once open: a failure (exit 1), the study resumed by a rerun
+        _run_trials(args, spec, study)
+    return study
 
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
-    for handler in logging.getLogger("optuna").handlers:  # its trials' loggers pass records up to these
-        handler.addFilter(_not_interrupted)
-    warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
-    study = load_study(spec, create=True)
+
+def _run_trials(args: argparse.Namespace, spec: Any, study: Any) -> None:
+    """Run the trials the study still lacks, on one or more workers."""
+    from sim.tools.tune import completed, ensure_default_trial, run_worker, shown_url, split_trials
+
     _settle(study, args.quiet)
     done = len(completed(study))
     remaining = max(args.trials - done, 0)
@@ -594,8 +772,8 @@ def _optimise(args: argparse.Namespace, spec: Any) -> Any:
     if not args.quiet:
         workers = f" on {args.jobs} workers" if args.jobs > 1 and remaining > 1 else ""
         print(
-            f"study {spec.study} in {spec.storage}: {done} of {args.trials} trials complete, running {remaining}"
-            f"{workers}",
+            f"study {spec.study} in {shown_url(spec.storage)}: {done} of {args.trials} trials complete, running "
+            f"{remaining}{workers}",
             file=sys.stderr,
         )
     progress = _Progress(args.trials, done, not args.quiet and sys.stderr.isatty())
@@ -609,7 +787,6 @@ def _optimise(args: argparse.Namespace, spec: Any) -> Any:
             _run_parallel(spec, shares, study, progress)
     finally:
         progress.close()
-    return study
 
 
 class _NotInterrupted(logging.Filter):
@@ -669,7 +846,7 @@ def _numbers(numbers: list[int]) -> str:
 
 def _report_best(study: Any, spec: Any, evaluator: Any) -> tuple[Any, float]:
     """Print the best trial against the default gains; returns it and the defaults' objective."""
-    from sim.tools.tune import completed, default_trial, gains_of, tuned_space
+    from sim.tools.tune import completed, default_trial, gains_of, shown_url, tuned_space
 
     trials = completed(study)
     best = min(trials, key=lambda t: (t.value, t.number))
@@ -678,7 +855,7 @@ def _report_best(study: Any, spec: Any, evaluator: Any) -> tuple[Any, float]:
     dtrial = default_trial(study, spec.tracker)
     default_obj = dtrial.value if dtrial is not None else evaluator.evaluate(cls()).objective
     print(
-        f"study {spec.study}: {len(trials)} completed trials ({spec.storage}), each on {len(spec.draws)} "
+        f"study {spec.study}: {len(trials)} completed trials ({shown_url(spec.storage)}), each on {len(spec.draws)} "
         f"draw{'s' if len(spec.draws) != 1 else ''} per case"
     )
     print(
@@ -749,8 +926,9 @@ def _write_outputs(
     """
     from control.gains import GainsFile, dump_gains_toml
     from sim.outputs import staged_outputs, write_json
-    from sim.tools.tune import completed
+    from sim.tools.tune import completed, samplers_of
 
+    made = samplers_of(completed(study))  # a study resumed with another --sampler holds trials of each
     provenance: dict[str, Any] = {
         **files.stamp(),
         "tracker": args.tracker,  # the gains file says which tracker its gains were tuned on
@@ -760,7 +938,8 @@ def _write_outputs(
         "scenarios": _tokens(args),
         "robot": spec.extra_settings["robot"] or "each scenario's",
         "trials": len(completed(study)),
-        "sampler": args.sampler,
+        "sampler": " + ".join(made) if set(made) - {UNRECORDED} else args.sampler,
+        **({"sampler_trials": made} if len(made) > 1 else {}),
         "seed": args.seed,
         "draws": args.draws,
         "robust": args.robust,

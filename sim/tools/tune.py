@@ -113,6 +113,10 @@ HEARTBEAT_INTERVAL = 2
 GRACE_PERIOD = 10
 #: How many times the gains of a trial killed while running are enqueued again.
 MAX_RETRY = 2
+#: User attribute naming the sampler (a key of ``SAMPLERS``) that proposed a trial's gains (:func:`samplers_of`).
+SAMPLER = "sampler"
+#: What :func:`samplers_of` counts a trial under whose sampler was not recorded (an earlier nhsim's).
+UNRECORDED = "unrecorded"
 #: User attribute marking a trial an interrupt stopped (:func:`requeue_interrupted` runs its gains again).
 INTERRUPTED = "interrupted"
 #: Attempts to open a storage whose tables another worker is creating at the same moment.
@@ -429,6 +433,87 @@ def with_driver(url: str) -> str:
     return parsed.set(drivername=f"postgresql+{installed[0]}").render_as_string(hide_password=False)
 
 
+def shown_url(url: str) -> str:
+    """``url`` as it is shown and written (messages, outputs): its password, if any, masked ``***`` by SQLAlchemy
+    (``make_url(url).render_as_string(hide_password=True)``). A URL without a password, or one SQLAlchemy cannot
+    read, is returned as given. The study is still opened with the URL itself."""
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
+    try:
+        parsed = make_url(url)
+    except ArgumentError:
+        return url
+    return url if parsed.password is None else parsed.render_as_string(hide_password=True)
+
+
+#: The port a server listens on when its URL names none, by backend.
+DEFAULT_PORTS = {"postgresql": 5432, "mysql": 3306, "mariadb": 3306, "mssql": 1433, "oracle": 1521}
+
+
+def same_storage(a: str, b: str) -> bool:
+    """Whether two storage URLs (as given, or as :func:`shown_url` shows them) reach the same database: the same
+    backend (whatever the driver: ``postgresql`` is ``postgresql+psycopg2``), host, port (left out: the backend's
+    default), database and user; the password and the query options are not compared. URLs SQLAlchemy cannot read
+    are the same when they are equal."""
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
+    def where(url: str) -> tuple[Any, ...]:
+        u = make_url(url)
+        backend = u.get_backend_name()
+        return backend, u.host, u.port or DEFAULT_PORTS.get(backend), u.database, u.username
+
+    try:
+        return a == b or where(a) == where(b)
+    except ArgumentError:
+        return False
+
+
+class TuneFailure(NhsimError):
+    """The study could not go on for a cause that is not the command's input: the connection to its storage's
+    database was lost (a server stopped), or a worker process died. The study keeps its completed trials: the
+    same command, rerun, resumes it."""
+
+
+def lost_connection(exc: BaseException) -> str | None:
+    """Why the storage's database failed under ``exc``, when it did: the first line of the database error found
+    in ``exc`` or what it was raised from or while handling (SQLAlchemy's ``OperationalError`` or
+    ``InterfaceError``, Optuna's ``StorageInternalError``; Optuna itself fails with an ``UnboundLocalError``
+    when it cannot record a trial); None when none is there."""
+    import sqlalchemy.exc
+    from optuna.exceptions import StorageInternalError
+
+    found: BaseException | None = None
+    seen: set[int] = set()
+    todo: list[BaseException | None] = [exc]
+    while todo:
+        e = todo.pop()
+        if e is None or id(e) in seen:
+            continue
+        seen.add(id(e))
+        if isinstance(e, (sqlalchemy.exc.OperationalError, sqlalchemy.exc.InterfaceError)):
+            found = e.orig if isinstance(e.orig, BaseException) else e
+            break
+        if isinstance(e, StorageInternalError) and found is None:
+            found = e
+        todo += [e.__context__, e.__cause__]
+    if found is None:
+        return None
+    lines = [line.strip() for line in str(found).splitlines() if line.strip()]
+    return lines[0] if lines else type(found).__name__
+
+
+def lost_storage_message(url: str, reason: str | None = None) -> str:
+    """The one line saying the connection to the study's storage ``url`` (shown: :func:`shown_url`) was lost and
+    that rerunning the same command resumes the study."""
+    why = f" ({reason})" if reason else ""
+    return (
+        f"lost the connection to the study's storage {shown_url(url)}{why}; the study keeps its completed trials: "
+        "once the database is reachable again, rerun the same command to resume it"
+    )
+
+
 def open_storage(url: str) -> Any:
     """An Optuna RDB storage with heartbeats that re-enqueues a dead trial's gains, or a clear error.
 
@@ -469,7 +554,7 @@ def open_storage(url: str) -> Any:
                 continue
             reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             raise ConfigError(
-                f"cannot open storage {given!r}: {reason}. Give an SQLAlchemy URL that can be opened, e.g. "
+                f"cannot open storage {shown_url(given)!r}: {reason}. Give an SQLAlchemy URL that can be opened, e.g. "
                 f"sqlite:///renders/tune.db (its directory must exist) or postgresql+psycopg2://user:pass@host/db "
                 f"(psycopg2 installed: pip install psycopg2-binary; the server running)"
             ) from exc
@@ -539,11 +624,13 @@ def load_study(spec: TuneSpec, *, worker: int = 0, create: bool = False) -> Any:
     except ConfigError:
         raise
     except Exception as exc:
-        raise ConfigError(f"cannot open study {spec.study!r} in {spec.storage!r}: {exc}") from exc
+        raise ConfigError(f"cannot open study {spec.study!r} in {shown_url(spec.storage)!r}: {exc}") from exc
     stored = _stored_settings(study, wait=SETTINGS_WAIT_S if create else 0.0)
     if stored is None:
         if not create:
-            raise ConfigError(f"study {spec.study!r} in {spec.storage!r} has no settings; create it with nhsim tune")
+            raise ConfigError(
+                f"study {spec.study!r} in {shown_url(spec.storage)!r} has no settings; create it with nhsim tune"
+            )
         study.set_user_attr("settings", settings)  # a study left without settings by an older version
     elif stored != settings and stored in _earlier_settings(spec, settings):  # the defaults now recorded
         study.set_user_attr("settings", settings)
@@ -555,7 +642,7 @@ def load_study(spec: TuneSpec, *, worker: int = 0, create: bool = False) -> Any:
         diff = sorted(k for k in set(stored) | set(settings) if stored.get(k) != settings.get(k))
         said = ", ".join(f"{k} (set by {SETTING_OPTIONS[k]})" if k in SETTING_OPTIONS else k for k in diff)
         raise ConfigError(
-            f"study {spec.study!r} in {spec.storage!r} was created with other settings: {said} differ; "
+            f"study {spec.study!r} in {shown_url(spec.storage)!r} was created with other settings: {said} differ; "
             f"rerun with the same options to resume it, or choose another study name, {option('study')}"
         )
     study.sampler = make_sampler(spec.sampler, spec.seed, len(study.trials), worker)
@@ -713,6 +800,19 @@ def requeue_interrupted(study: Any) -> list[int]:
     return [t.number for t in stopped]
 
 
+def samplers_of(trials: Sequence[Any]) -> dict[str, int]:
+    """How many of ``trials`` each sampler proposed (their :data:`SAMPLER` attribute), in the order the samplers
+    were first used; a study resumed with another ``--sampler`` holds trials of each. The default gains' trial
+    (given, proposed by none) is left out; a trial an nhsim that did not record its sampler proposed counts as
+    :data:`UNRECORDED`."""
+    counts: dict[str, int] = {}
+    for t in sorted(trials, key=lambda t: t.number):
+        if not t.user_attrs.get("default_gains"):
+            name = str(t.user_attrs.get(SAMPLER, UNRECORDED))
+            counts[name] = counts.get(name, 0) + 1
+    return counts
+
+
 def completed(study: Any) -> list[Any]:
     """The study's completed trials."""
     from optuna.trial import TrialState
@@ -735,6 +835,8 @@ def objective_fn(evaluator: Evaluator, spec: TuneSpec | None = None) -> Any:
             trial.study.sampler = make_sampler(spec.sampler, spec.seed, sampling_number(trial.study, trial.number), 0)
         space = tuned_space(evaluator.tracker)[1]
         values = {k: trial.suggest_float(k, lo, hi, log=True) for k, (lo, hi) in space.items()}
+        if spec is not None and not {SAMPLER, "default_gains"} & set(trial.user_attrs):  # proposed here, not given
+            trial.set_user_attr(SAMPLER, spec.sampler)  # a retry keeps the attributes of the trial it repeats
         # Within run_worker's held block an interrupt acts in the evaluation only (where the time goes), not
         # in the trial's storage calls around it: one raised inside SQLAlchemy's transaction left the
         # database locked, and Optuna's record of the failed trial then waited out the lock's timeout and
