@@ -152,6 +152,10 @@ def test_parameter_files(tmp_path: Path) -> None:
     tune_record.write_text(json.dumps({"tracker": "kanayama", "params": {"kx": 3.0, "ky": 40.0, "ktheta": 9.0}}))
     params = load_params([mapping, tune_record])
     assert params == {"mpc": MPCParams(horizon=10, q_position=50.0), "kanayama": KanayamaParams(3.0, 40.0, 9.0)}
+    # field by field: a later file's kd does not drop an earlier file's kp (the first file was dropped whole)
+    later = tmp_path / "c.json"
+    later.write_text(json.dumps({"kanayama": {"ky": 20.0}}))
+    assert load_params([tune_record, later])["kanayama"] == KanayamaParams(3.0, 20.0, 9.0)
     mapping.write_text(json.dumps({"mpc": {"horizn": 10}}))
     with pytest.raises(ConfigError, match=r"mpc has no parameter\(s\) \['horizn'\]; valid: horizon"):
         load_params([mapping])
@@ -192,9 +196,12 @@ def test_compare_takes_a_path_file_as_simulate_reads_it(tmp_path: Path) -> None:
     f = tmp_path / "nav.csv"
     f.write_text("x,y\n" + "\n".join(f"{x!r},0.5" for x in np.linspace(-1.0, 0.0, 11).tolist()) + "\n")
     out = tmp_path / "cmp.json"
-    r = nhsim("compare", "--path", str(f), "--trackers", "segmented,kanayama", "--json", str(out), "--quiet")
+    r = nhsim("compare", "--path", str(f), "--trackers", "segmented,kanayama", "--json", str(out), "--offset=0.5,0,0")
     assert r.returncode == 0, r.stderr
     rec = json.loads(out.read_text())
+    # what was read and how, said and recorded as simulate does (the record kept only "file:nav" before)
+    assert f"import {f} (csv, path): 11 rows read" in r.stdout
+    assert rec["import"]["file"] == str(f) and rec["import"]["offset"] == [0.5, 0.0, 0.0] and "smoothing" in rec
     for name in ("segmented", "kanayama"):
         summary = rec["trackers"][name]["summary"]
         assert summary["final_m"] < 0.02 and summary["collisions"] == 0

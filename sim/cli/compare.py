@@ -25,7 +25,9 @@ solver failures and overruns of the control period beside it.
 never those a tuning study trains on) and prints the means; --runs 1, the default, runs each once on the
 case's own robot and noise (the as-built robot of build seed 1 and the noise of --seed, as simulate's
 defaults), not on the first held-out draw. --params FILE[,FILE] gives tuned parameters: the JSON that
-'nhsim tune --tracker T' writes, or {"tracker": {"field": value, ...}, ...}.
+'nhsim tune --tracker T' writes, or {"tracker": {"field": value, ...}, ...}; a later file's field
+overrides an earlier one's, field by field. A trajectory read from a file (--path, --trajectory) is said
+and recorded as simulate says it (the record's "import").
 
 With no --reference or --planner: the default job (the EduMIP planning report's), a C-RRT* plan through
 'edumip_map' (when that planner and scenario are installed; else figure-eight in 'open').
@@ -150,6 +152,7 @@ def run(args: argparse.Namespace) -> int:
     """Execute ``compare``."""
     from control.base import feedback_trackers
     from planning.errors import ConfigError
+    from sim.cli.trajectory_files import format_import
     from sim.tools.compare import check_trackers, compare_trackers, format_table, load_params
 
     given = None if args.trackers is None else [n for arg in args.trackers for n in arg.split(",")]
@@ -173,6 +176,8 @@ def run(args: argparse.Namespace) -> int:
     result = compare_trackers(case, names, runs=args.runs, params=params, progress=progress)
     p = result.prepared
     print(f"{p.scenario.name} · {p.robot.name} · {p.source} · {p.trajectory.duration:.1f} s")
+    if "import" in p.extra and not args.quiet:  # what was read from the file and repaired, as simulate says it
+        print("\n".join(format_import(p.extra["import"])))
     print(format_table(result))
     for line in plan_notes(case, names):
         print(f"nhsim compare: {line}", file=sys.stderr)

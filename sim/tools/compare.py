@@ -264,6 +264,7 @@ class Comparison:
             "robot": p.robot.name,
             "source": p.source,
             "trajectory": {"name": p.trajectory.name, "duration_s": p.trajectory.duration},
+            **p.extra,  # what the trajectory came from: the plan, the file's import, the smoothing
             "seed": p.case.seed,
             "build_seed": p.case.build_seed,
             "runs_per_tracker": max(len(self.draws), 1),
@@ -362,12 +363,14 @@ def load_params(paths: Sequence[str | Path]) -> dict[str, Any]:
     """Tuned parameters by tracker from JSON files, as each tracker's tuned dataclass.
 
     A file is either what ``nhsim tune --tracker T`` writes (``{"tracker": T, "params": {...}}``)
-    or a mapping ``{tracker: {field: value, ...}, ...}``; later files override earlier ones.
+    or a mapping ``{tracker: {field: value, ...}, ...}``; a later file's field overrides an earlier one's,
+    field by field (``{"fbl": {"kp": 4}}`` then ``{"fbl": {"kd": 2}}`` gives both).
 
     Raises:
         ConfigError: An unreadable file, an unknown tracker, a tracker with nothing to tune, or an
             unknown or out-of-range field (the message names the valid ones or the range).
     """
+    fields_by: dict[str, dict[str, Any]] = {}
     out: dict[str, Any] = {}
     for path in paths:
         given = option("params", str(path), python="load_params([{}])")
@@ -386,8 +389,9 @@ def load_params(paths: Sequence[str | Path]) -> dict[str, Any]:
             unknown = [k for k in fields_ if k not in valid]
             if unknown:
                 raise ConfigError(f"{given}: {name} has no parameter(s) {unknown}; valid: {', '.join(valid)}")
+            fields_by[name] = {**fields_by.get(name, {}), **fields_}
             try:
-                out[name] = cls(**fields_)
+                out[name] = cls(**fields_by[name])
             except ConfigError as exc:  # an out-of-range or ill-typed value: say which file holds it
                 raise ConfigError(f"{given}: {exc}") from exc
     return out
