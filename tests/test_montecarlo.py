@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import threading
 import time
 from pathlib import Path
 
@@ -84,6 +85,50 @@ def test_a_results_file_of_another_study_is_refused(serial: dict[str, object]) -
     ranged = _spec(ranges=PerturbationRange.parse("radius=0.97:1.03", others="nominal"))
     with pytest.raises(ConfigError, match="ranges: None there"):
         ResultsFile(Path(str(serial["path"])), ranged.key())
+
+
+def test_a_hand_edited_run_record_is_refused_naming_the_file_and_line(
+    serial: dict[str, object], tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Valid JSON is not enough: a record with a run kind deleted was read as a run whose kind was not measured (its
+    success counted as a failure: 50 % for 75 %), and a record whose noise seed was changed was kept, its edited
+    seed printed in the worst runs' replay commands. A line must be the run of this study its index names."""
+    monkeypatch.chdir(tmp_path)
+    spec = _spec()
+    header, *lines = Path(str(serial["path"])).read_text().splitlines(keepends=True)
+    argv = ["montecarlo", "--scenario", "open", "--robot", "turtlebot3", "--reference", "line", "--seed", "3"]
+    argv += ["--runs", "3", "--jobs", "1", "--quiet", "--no-plots", "--results", "r.jsonl", "--json", "r.json"]
+    from sim.cli.montecarlo import _spec as cli_spec
+
+    header = json.dumps({**json.loads(header), "key": cli_spec(build_argv(argv)).key()}) + "\n"  # the command's key
+    path = tmp_path / "r.jsonl"
+    second = json.loads(lines[1])
+    index, kinds = second["index"], ", ".join(second["runs"])
+    no_open_loop = {**second, "runs": {k: v for k, v in second["runs"].items() if k != "open_loop"}}
+    other_seed = {**second, "noise_seed": second["noise_seed"] + 2}
+    for edited, problem in (
+        (no_open_loop, f"run {index} has no 'open_loop' run, while every run of a study drives {kinds}"),
+        (other_seed, f"run {index} is not this study's run {index}: its noise_seed {other_seed['noise_seed']} "),
+    ):
+        path.write_text(header + lines[0] + json.dumps(edited) + "\n" + lines[2])
+        before = path.read_bytes()
+        with pytest.raises(ConfigError) as err:
+            ResultsFile(path, json.loads(header)["key"], seeds=spec.record_seeds())
+        assert str(err.value).startswith(f"{path}, line 3: {problem}"), str(err.value)
+        assert main(argv) == 2
+        said = capsys.readouterr().err
+        assert said.startswith(f"nhsim montecarlo: error: r.jsonl, line 3: {problem}") and said.count("\n") == 1
+        assert path.read_bytes() == before and not (tmp_path / "r.json").exists()
+    path.write_text(header + "".join(lines))  # the runs as nhsim wrote them: resumed, nothing to run
+    assert main(argv) == 0
+    assert json.loads((tmp_path / "r.json").read_text())["ran_now"] == 0
+
+
+def test_the_seeds_of_a_study_with_perturbations_are_read_back_as_its_own(tmp_path: Path) -> None:
+    spec = _spec(runs=1, ranges=PerturbationRange.parse("radius=0.97:1.03,latency=0:0.02", others="nominal"))
+    result = run_montecarlo(spec, Executor(), ResultsFile(tmp_path / "p.jsonl", spec.key()))
+    reread = ResultsFile(tmp_path / "p.jsonl", spec.key(), seeds=spec.record_seeds())
+    assert reread.records[0] == result.records[0] and reread.records[0]["perturbation"]["radius"] != 1.0
 
 
 def test_a_replaced_results_file_stays_until_the_first_new_run(serial: dict[str, object], tmp_path: Path) -> None:
@@ -300,6 +345,8 @@ def test_replan_plans_each_run_with_its_own_seed(tmp_path: Path) -> None:
     for rec, draw in zip(result.records, spec.draws(), strict=True):
         assert rec["plan_seed"] == rec["noise_seed"] == draw.seed != spec.case.seed
         assert rec["runs"]["closed_loop"]["success"]
+    reread = ResultsFile(tmp_path / "r.jsonl", spec.key(), seeds=spec.record_seeds())  # its seeds: the study's
+    assert [reread.records[i] for i in range(2)] == result.records
     once = MonteCarloSpec(spec.case, 2)
     assert once.key() != spec.key()  # replanned runs are another study
     assert all(
@@ -390,19 +437,13 @@ def test_a_silent_server_at_the_scheduler_address_fails_in_the_promised_time(
 @pytest.mark.slow  # a Dask cluster of worker processes
 def test_simulate_all_and_regress_run_on_a_scheduler_without_jobs(capsys: pytest.CaptureFixture[str]) -> None:
     """``--scheduler`` alone: the commands' own default of one process is not a given ``--jobs``."""
-    import logging
-
-    from dask.distributed import LocalCluster
-
     cases = ["--case", "open-turtlebot3-line-fbl-s0,open-turtlebot3-line-open-loop-s0"]
     assert main(["regress", *cases]) == 0
     serial = capsys.readouterr().out
     sweep = ["simulate", "--all", "--robot", "turtlebot3", "--planner", "sinusoidal", "--quiet"]
     assert main(sweep) == 0
     serial_sweep = capsys.readouterr().out
-    with LocalCluster(
-        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR
-    ) as cluster:
+    with _scheduler(workers=1) as cluster:  # type: ignore[attr-defined]
         assert main(["regress", *cases, "--scheduler", cluster.scheduler_address]) == 0
         assert capsys.readouterr().out == serial
         assert main([*sweep, "--scheduler", cluster.scheduler_address]) == 0
@@ -526,3 +567,180 @@ def test_the_record_and_plots_are_written_as_one_set(tmp_path: Path, monkeypatch
     assert main([*argv, "--overwrite", "--runs", "3"]) == 1  # another study: other plots; one line, a full disk
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.suffix in (".png", ".json")} == before
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".nhsim-outputs-")]
+
+
+# ------------------------------------------------------------------------------- a cluster of the user's, set up badly
+#: A ``dask worker`` whose environment lacks nhsim: importing ``sim`` fails as it does where nhsim is not installed.
+_WORKER_WITHOUT_NHSIM = """
+import sys
+
+class NoNhsim:
+    def find_spec(self, name, path=None, target=None):
+        if name.split(".")[0] == "sim":
+            raise ModuleNotFoundError(f"No module named {name!r}", name=name)
+
+sys.meta_path.insert(0, NoNhsim())
+from distributed.cli.dask_worker import main
+main()
+"""
+
+
+def _scheduler(workers: int = 0, processes: bool = True) -> object:
+    """A scheduler in this process (and ``workers`` in-process workers), as ``dask scheduler`` serves one."""
+    import logging
+
+    from dask.distributed import LocalCluster
+
+    from sim.tools.executor import LOCAL_SCHEDULER
+
+    return LocalCluster(
+        n_workers=workers,
+        threads_per_worker=1,
+        processes=processes,
+        protocol="tcp://",
+        silence_logs=logging.ERROR,
+        **LOCAL_SCHEDULER,  # type: ignore[arg-type]
+    )
+
+
+def test_workers_that_cannot_import_nhsim_are_refused_in_one_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """They ended the command with Dask's 51-line traceback of ``ModuleNotFoundError: No module named 'sim'``, exit
+    status 1 (a failed run): a cluster set up badly is bad input, said in one line with the fix."""
+    import subprocess
+    import sys
+
+    from dask.distributed import Client
+
+    monkeypatch.chdir(tmp_path)
+    with _scheduler() as cluster:  # type: ignore[attr-defined]
+        address = cluster.scheduler_address
+        worker = subprocess.Popen(
+            [sys.executable, "-c", _WORKER_WITHOUT_NHSIM, address, "--nthreads", "1", "--no-nanny", "--no-dashboard"],
+            stderr=subprocess.DEVNULL,
+        )
+        try:
+            with Client(address) as client:
+                client.wait_for_workers(1, timeout=30)
+            argv = ["montecarlo", "--reference", "line", "--runs", "2", "--quiet", "--no-plots", "--scheduler", address]
+            assert main(argv) == 2
+        finally:
+            worker.kill()
+            worker.wait()
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    assert err.startswith(f"nhsim montecarlo: error: the workers at {address} cannot import nhsim's sim.")
+    assert "(No module named 'sim')" in err and "in each worker's environment" in err and "--jobs J" in err
+    assert not list(tmp_path.iterdir())  # nothing written
+
+
+def _times_ten(shared: object, item: int) -> int:
+    time.sleep(0.2)  # long enough for the executor to see the worker at work
+    return item * 10
+
+
+def test_a_cluster_without_workers_says_so_once_and_waits_for_one(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A scheduler without a worker (none started yet, or its last one killed) made the runs wait forever in
+    silence. The wait is said once, and the runs go on when a worker connects: no deadline ends them."""
+    import sim.tools.executor as executor
+
+    monkeypatch.setattr(executor, "NO_WORKER_S", 0.3)
+    monkeypatch.setattr(executor, "WORKER_CHECK_S", 0.05)
+    said: list[str] = []
+    with _scheduler(processes=False) as cluster:  # type: ignore[attr-defined]
+        address = cluster.scheduler_address
+
+        def notify(message: str) -> None:
+            said.append(message)
+            if message.startswith("no worker"):
+                time.sleep(0.5)  # the wait is said once, not on every look
+                cluster.scale(1)  # the user starts a worker
+
+        late = threading.Timer(15.0, cluster.scale, args=(1,))  # a worker anyway: a silent wait fails, not hangs
+        late.start()
+        try:
+            with DaskExecutor(address=address, notify=notify, kept="finished runs are kept") as ex:
+                assert dict(ex.map_unordered(_times_ten, [1, 2, 3])) == {1: 10, 2: 20, 3: 30}
+        finally:
+            late.cancel()
+    assert said == [
+        f"no worker is connected to {address}; the runs wait for one: start one with 'dask worker {address}' where "
+        "nhsim is installed, or press Ctrl-C to stop: finished runs are kept",
+        f"1 worker connected to {address}: the runs go on",
+    ]
+
+
+def test_montecarlo_on_a_cluster_without_workers_says_it_waits_on_stderr(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import sys
+
+    import sim.tools.executor as executor
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(executor, "NO_WORKER_S", 0.2)
+    monkeypatch.setattr(executor, "WORKER_CHECK_S", 0.05)
+    with _scheduler(processes=False) as cluster:  # type: ignore[attr-defined]
+        captured = sys.stderr
+
+        class Stderr:  # starts a worker once the command has said it waits for one
+            def write(self, text: str) -> int:
+                if "no worker is connected" in text:
+                    cluster.scale(1)
+                return captured.write(text)
+
+            def flush(self) -> None:
+                captured.flush()
+
+        monkeypatch.setattr(sys, "stderr", Stderr())
+        argv = ["montecarlo", "--scenario", "open", "--reference", "line", "--runs", "1", "--quiet", "--no-plots"]
+        argv += ["--results", "r.jsonl", "--json", "r.json", "--scheduler", cluster.scheduler_address]
+        late = threading.Timer(30.0, cluster.scale, args=(1,))  # a worker anyway: a silent wait fails, not hangs
+        late.start()
+        try:
+            assert main(argv) == 0
+        finally:
+            late.cancel()
+    err = capsys.readouterr().err
+    assert err.startswith(f"nhsim montecarlo: no worker is connected to {cluster.scheduler_address}; the runs wait")
+    assert err.splitlines()[0].endswith("the finished runs are kept in r.jsonl, and the same command resumes")
+    assert json.loads(Path("r.json").read_text())["ran_now"] == 1
+
+
+def test_the_local_cluster_serves_no_dashboard_and_leaves_port_8787_alone(capfd: pytest.CaptureFixture[str]) -> None:
+    """``dashboard_address=None`` is Dask's default port, not "none": the local cluster's scheduler served its
+    dashboard on 127.0.0.1:8787, and when that port was taken warned (even with --quiet) "Port 8787 is already
+    in use" in four lines."""
+    import socket
+    import warnings
+
+    holder = socket.socket()
+    try:
+        holder.bind(("127.0.0.1", 8787))  # taken here, unless something else holds it already
+        holder.listen()
+    except OSError:
+        pass
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            with DaskExecutor(jobs=1) as ex:
+                http = ex._cluster.scheduler.http_server  # type: ignore[union-attr]
+                status = _http_status(f"http://127.0.0.1:{http.port}/status")
+    finally:
+        holder.close()
+    assert http.port != 8787 and http.address == "127.0.0.1"  # a free port of the loopback interface
+    assert status == 404  # no dashboard page (nor Dask's page asking for bokeh, which serves it)
+    assert not [w for w in caught if "8787" in str(w.message)]
+    assert "8787" not in capfd.readouterr().err
+
+
+def _http_status(url: str) -> int:
+    import urllib.error
+    import urllib.request
+
+    try:
+        with urllib.request.urlopen(url, timeout=10) as reply:
+            return int(reply.status)
+    except urllib.error.HTTPError as exc:
+        return exc.code

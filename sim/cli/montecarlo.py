@@ -261,7 +261,7 @@ def run(args: argparse.Namespace) -> int:
     if args.bags is not None:
         _check_bags(args.bags, args.overwrite, input_paths(args))
     try:
-        results = ResultsFile(paths["results"], spec.key(), spec.earlier_keys())
+        results = ResultsFile(paths["results"], spec.key(), spec.earlier_keys(), seeds=spec.record_seeds())
     except ConfigError:
         if not args.overwrite:  # another study's runs, or not a results file: kept
             raise
@@ -270,7 +270,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"note: {note}", file=sys.stderr)
     if not args.quiet and results.records:
         print(f"resuming: {len(results.records)} runs done in {paths['results']}")
-    with make_executor(args.jobs, args.scheduler) as executor, _bar(args, spec.runs) as bar:
+    kept = f"the finished runs are kept in {paths['results']}, and the same command resumes"
+    with _bar(args, spec.runs) as bar, make_executor(args.jobs, args.scheduler, notify=bar.say, kept=kept) as executor:
         if not args.quiet:
             what = f"{scenario.name} | {scenario.robot} | {spec.key()['source']}"
             print(f"{spec.runs} runs of {what} on {executor.where}")
@@ -359,21 +360,31 @@ def _worst_bags(result: Any, folder: Path, overwrite: bool) -> list[Path]:
 
 
 class _bar:
-    """A progress bar of runs done (on a terminal, without --quiet); a no-op otherwise."""
+    """A progress bar of runs done (on a terminal, without --quiet), drawn from the first count (once the
+    workers are there); a no-op otherwise. It also says the executor's notes (:meth:`say`)."""
 
     def __init__(self, args: argparse.Namespace, total: int) -> None:
         from sim.cli.job_outputs import show_progress
 
         self._bar: Any = None
-        if show_progress(args):
-            from tqdm import tqdm
-
-            self._bar = tqdm(total=total, desc="runs", unit="run", dynamic_ncols=True, file=sys.stderr)
+        self._show, self._total = show_progress(args), total
 
     def __call__(self, done: int, total: int) -> None:
+        if self._bar is None and self._show:
+            from tqdm import tqdm
+
+            self._bar = tqdm(total=self._total, desc="runs", unit="run", dynamic_ncols=True, file=sys.stderr)
         if self._bar is not None:
             self._bar.n = done
             self._bar.refresh()
+
+    def say(self, message: str) -> None:
+        """``message`` on stderr, as the command's (above the bar, which is drawn again below it)."""
+        line = f"nhsim montecarlo: {message}"
+        if self._bar is not None:
+            self._bar.write(line, file=sys.stderr)
+        else:
+            print(line, file=sys.stderr, flush=True)
 
     def __enter__(self) -> _bar:
         return self

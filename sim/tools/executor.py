@@ -8,7 +8,9 @@
   and closed when the executor closes (at most :data:`JOBS_PER_CORE` per core: :func:`worker_count`);
   its workers leave Ctrl-C to this process, and an interrupted close is quiet (:meth:`DaskExecutor.close`);
 - ``--scheduler tcp://host:8786``: an existing Dask cluster (``dask scheduler`` and ``dask worker``
-  on any machines that have nhsim installed), with no other change.
+  on any machines that have nhsim installed), with no other change. Workers that cannot import nhsim are
+  refused with one line (:class:`~planning.errors.DependencyError`); while no worker is connected the runs
+  wait for one, and the wait is said once (``notify``), not ended: workers may be started after the command.
 
 Runs are submitted at once and their results yielded as they finish (``as_completed``), each
 paired with its item, so the caller can store every result the moment it exists. Runs are pure
@@ -46,6 +48,19 @@ JOBS_PER_CORE = 4
 CONNECT_TIMEOUT_S = 10
 #: Largest first message a Dask scheduler is taken to greet with [bytes] (its handshake is ~1 kB).
 MAX_GREETING_BYTES = 1 << 20
+#: Seconds a cluster may have no worker, runs waiting, before the wait is said (a worker restarting is quiet).
+NO_WORKER_S = 5.0
+#: Seconds between two looks at a cluster's workers while runs wait.
+WORKER_CHECK_S = 1.0
+#: The local cluster's scheduler serves no dashboard. Its HTTP server (health, metrics) always starts: on
+#: ``dashboard_address=None`` Dask binds it to port 8787, warning "Port 8787 is already in use" (and taking
+#: another) when something holds that port; here it takes a free port of the loopback interface.
+LOCAL_SCHEDULER = {"dashboard_address": "127.0.0.1:0", "scheduler_kwargs": {"dashboard": False}}
+
+
+def _warn(message: str) -> None:
+    """The default ``notify``: a library's warning, on stderr when logging is not set up."""
+    logging.getLogger("nhsim").warning("nhsim: %s", message)
 
 
 def default_jobs() -> int:
@@ -108,13 +123,24 @@ class DaskExecutor(Executor):
     Args:
         jobs: Worker processes of a local cluster (ignored with an address).
         address: A running scheduler, e.g. ``tcp://host:8786``.
+        notify: Told, in one line, what the user should hear of while runs wait: a cluster without a
+            worker for :data:`NO_WORKER_S` seconds, and a worker connected after that (default: a warning
+            of the ``nhsim`` logger).
+        kept: What an interrupt keeps, said with the wait (e.g. "finished runs are kept").
 
     Raises:
         DependencyError: Dask distributed is not installed.
         ConfigError: The scheduler cannot be reached within :data:`CONNECT_TIMEOUT_S` seconds.
     """
 
-    def __init__(self, jobs: int = 2, address: str | None = None) -> None:
+    def __init__(
+        self,
+        jobs: int = 2,
+        address: str | None = None,
+        *,
+        notify: Callable[[str], None] | None = None,
+        kept: str = "",
+    ) -> None:
         try:
             from dask.distributed import Client
         except ImportError as exc:  # pragma: no cover - a dependency of the project
@@ -122,6 +148,8 @@ class DaskExecutor(Executor):
         _drop_cancel_reports()
         self._cluster: Any = None
         self._client: Any = None
+        self._notify = notify or _warn
+        self._kept = kept
         if address is not None:
             check_scheduler(address, CONNECT_TIMEOUT_S)
             try:
@@ -161,9 +189,9 @@ class DaskExecutor(Executor):
                 n_workers=0,
                 threads_per_worker=1,
                 processes=True,
-                dashboard_address=None,
                 silence_logs=logging.ERROR,
                 memory_limit=1.0 / jobs,  # each worker's share, as LocalCluster(n_workers=jobs) gives it
+                **LOCAL_SCHEDULER,
             )
         try:
             self._client = Client(self._cluster)
@@ -178,7 +206,8 @@ class DaskExecutor(Executor):
 
         Items go in batches of about a quarter of an even share per worker (:data:`BATCHES_PER_WORKER`
         batches each), so the scheduler's cost per task is paid once per batch while the last batches
-        still even out the workers' loads; a batch's results are yielded as soon as it is done.
+        still even out the workers' loads; a batch's results are yielded as soon as it is done. On a
+        cluster of the user's, a wait without any worker is said (:meth:`_watch_workers`).
         """
         from dask.distributed import as_completed
 
@@ -193,19 +222,87 @@ class DaskExecutor(Executor):
         futures = [client.submit(_run_batch, fn, shared, batch, pure=False) for batch in batches]
         batch_of = {f.key: batch for f, batch in zip(futures, batches, strict=True)}
         try:
-            for future in as_completed(futures):
-                yield from zip(batch_of[future.key], future.result(), strict=True)
+            with self._watching():
+                for future in as_completed(futures):
+                    yield from zip(batch_of[future.key], future.result(), strict=True)
             self.retries += int(client.run_on_scheduler(_suspicious, keys=list(batch_of)))
         finally:
             client.cancel(futures)
 
     def preload(self, *modules: str) -> None:
         """Import ``modules`` on every worker now (MuJoCo, numba's compiled kernels), so a worker's
-        first run is not slowed by its imports."""
+        first run is not slowed by its imports (a cluster without workers yet: nothing to do).
+
+        Raises:
+            DependencyError: A worker cannot import one of them (nhsim is not installed where it runs), naming
+                the workers, the import's error and the fix, in one line.
+        """
         import importlib
 
         for name in modules:
-            self._client.run(importlib.import_module, name)
+            got = self._client.run(importlib.import_module, name, on_error="return")
+            failed = {worker: exc for worker, exc in sorted(got.items()) if isinstance(exc, BaseException)}
+            if failed:
+                which = "the workers" if len(failed) == len(got) else f"{len(failed)} of the {len(got)} workers"
+                if len(failed) < len(got):
+                    which += f" ({', '.join(failed)})"
+                raise DependencyError(self._cannot_import(name, str(next(iter(failed.values()))), which))
+
+    def _cannot_import(self, module: str, why: str, which: str) -> str:
+        """The one line that refuses workers that cannot import ``module`` (nhsim's)."""
+        remote = self._cluster is None
+        fix = (
+            f"install nhsim (this version, with its dependencies) in each worker's environment and start its "
+            f"workers there ('dask worker {self.where}'), or run here with {_LOCAL}"
+            if remote
+            else "reinstall nhsim in this environment"
+        )
+        return f"{which} at {self.where} cannot import nhsim's {module} ({why}): {fix}"
+
+    @contextlib.contextmanager
+    def _watching(self) -> Iterator[None]:
+        """Within the block, on a cluster of the user's, a thread says a wait without any worker
+        (:meth:`_watch_workers`); a local cluster restarts its own workers."""
+        if self._cluster is not None:
+            yield
+            return
+        stop = threading.Event()
+        thread = threading.Thread(target=self._watch_workers, args=(stop,), name="nhsim-watch-workers", daemon=True)
+        thread.start()
+        try:
+            yield
+        finally:
+            stop.set()
+            thread.join(timeout=2 * WORKER_CHECK_S)
+
+    def _watch_workers(self, stop: threading.Event) -> None:
+        """Until ``stop``: look at the scheduler's workers every :data:`WORKER_CHECK_S` seconds; once it has had
+        none for :data:`NO_WORKER_S` seconds, say so (once), and say when a worker connects after that.
+
+        Runs wait for a worker as long as it takes, as a batch queue holds a job until its resources come: a
+        deadline would end a study that would go on when a worker comes back (started after the command, or
+        restarted after a crash), and Ctrl-C stops it at any moment, finished runs kept.
+        """
+        since: float | None = None  # when the scheduler was first seen without a worker
+        said = False
+        while not stop.wait(WORKER_CHECK_S):
+            try:
+                workers = len(self._client.nthreads())
+            except Exception:  # the client closing, the scheduler gone: for the runs' own wait to report
+                return
+            if workers:
+                if said:
+                    self._notify(f"{workers} worker{'s' * (workers > 1)} connected to {self.where}: the runs go on")
+                since, said = None, False
+            elif since is None:
+                since = time.monotonic()
+            elif not said and time.monotonic() - since >= NO_WORKER_S:
+                kept = f": {self._kept}" if self._kept else ""
+                self._notify(
+                    f"no worker is connected to {self.where}; the runs wait for one: start one with 'dask worker "
+                    f"{self.where}' where nhsim is installed, or press Ctrl-C to stop{kept}"
+                )
+                said = True
 
     def close(self, abandon: bool = False) -> None:
         """Close the client, then, if it was started here, the local cluster.
@@ -474,8 +571,16 @@ def worker_count(jobs: int | None = None, scheduler: str | None = None, *, defau
     return check_workers(n, elsewhere=f", or run on a Dask cluster with {cluster}")
 
 
-def make_executor(jobs: int | None = None, scheduler: str | None = None, *, default: int | None = None) -> Executor:
-    """The executor for ``--jobs`` / ``--scheduler`` (see the module docstring), checked by :func:`worker_count`.
+def make_executor(
+    jobs: int | None = None,
+    scheduler: str | None = None,
+    *,
+    default: int | None = None,
+    notify: Callable[[str], None] | None = None,
+    kept: str = "",
+) -> Executor:
+    """The executor for ``--jobs`` / ``--scheduler`` (see the module docstring), checked by :func:`worker_count`;
+    ``notify`` and ``kept`` as :class:`DaskExecutor` takes them.
 
     Raises:
         ConfigError: As :func:`worker_count`, or an unreachable scheduler.
@@ -483,5 +588,5 @@ def make_executor(jobs: int | None = None, scheduler: str | None = None, *, defa
     n = worker_count(jobs, scheduler, default=default)
     if n is None:
         assert scheduler is not None
-        return DaskExecutor(address=scheduler)
-    return Executor() if n == 1 else DaskExecutor(jobs=n)
+        return DaskExecutor(address=scheduler, notify=notify, kept=kept)
+    return Executor() if n == 1 else DaskExecutor(jobs=n, notify=notify, kept=kept)

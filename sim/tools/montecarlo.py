@@ -144,6 +144,11 @@ class MonteCarloSpec:
         """The runs' draws (build seed, noise seed, perturbation)."""
         return make_draws(self.runs, self.case.seed, perturbations=self.ranges)
 
+    def record_seeds(self) -> list[dict[str, Any]]:
+        """What the record of each run (by index) names of it besides its metrics, as read back from a results
+        file: its plan, noise and build seeds and its perturbation (:func:`run_one`'s fields)."""
+        return [json.loads(json.dumps(_run_fields(self.case_of(d), d))) for d in self.draws()]
+
     def case_of(self, draw: Draw) -> Case:
         """The case a run drives: the study's, on the draw's robot, noise and perturbation."""
         pert = None if draw.perturbation is None else replace(draw.perturbation, seed=draw.seed)
@@ -169,6 +174,16 @@ def _file_key(tfile: TrajectoryFile) -> dict[str, Any]:
     return {**tfile.as_dict(), "sha1": digest}
 
 
+def _run_fields(case: Case, draw: Draw) -> dict[str, Any]:
+    """A run's seeds and perturbation, as its record names them (``case``: :meth:`MonteCarloSpec.case_of` the draw)."""
+    return {
+        "plan_seed": case.seed,
+        "noise_seed": draw.seed,
+        "build_seed": case.build_seed,
+        "perturbation": None if case.perturbation is None else case.perturbation.as_dict(),
+    }
+
+
 def run_one(shared: tuple[MonteCarloSpec, PreparedTrajectory | None], item: tuple[int, Draw]) -> dict[str, Any]:
     """Run ``i`` of a study (every run kind) as its record; the work of one executor task.
 
@@ -179,13 +194,7 @@ def run_one(shared: tuple[MonteCarloSpec, PreparedTrajectory | None], item: tupl
     spec, prepared = shared
     index, draw = item
     case = spec.case_of(draw)
-    rec: dict[str, Any] = {
-        "index": index,
-        "plan_seed": case.seed,
-        "noise_seed": draw.seed,
-        "build_seed": case.build_seed,
-        "perturbation": None if case.perturbation is None else case.perturbation.as_dict(),
-    }
+    rec: dict[str, Any] = {"index": index, **_run_fields(case, draw)}
     try:
         prep = prepare_trajectory(case) if prepared is None else replace(prepared, case=case)
     except NhsimError as exc:  # a replanned run whose plan failed: every kind failed
@@ -243,11 +252,27 @@ def _record_problem(rec: Any) -> str:
     if not isinstance(index, int) or isinstance(index, bool) or index < 0:
         return f"its index {index!r} is not a run number (an integer >= 0)"
     runs = rec.get("runs")
-    if "failed" not in rec and not (
-        isinstance(runs, dict) and all(isinstance(e, dict) and set(_ENTRY_KEYS) <= set(e) for e in runs.values())
-    ):
+    if "failed" in rec:
+        return ""
+    if not (isinstance(runs, dict) and all(isinstance(e, dict) and set(_ENTRY_KEYS) <= set(e) for e in runs.values())):
         return f"run {index} has neither 'failed' nor its runs' metrics ({', '.join(_ENTRY_KEYS)} per run kind)"
+    kinds = [str(k) for k in DEFAULT_RUNS]
+    missing, other = [k for k in kinds if k not in runs], [k for k in runs if k not in kinds]
+    if missing or other:
+        what = f"has no {', '.join(map(repr, missing))} run" if missing else f"has a run {', '.join(map(repr, other))}"
+        return f"run {index} {what}, while every run of a study drives {', '.join(kinds)}"
     return ""
+
+
+def _seeds_problem(rec: Mapping[str, Any], seeds: Sequence[Mapping[str, Any]]) -> str:
+    """Why a run record is not the run of this study its index names (``seeds``: :meth:`MonteCarloSpec.record_seeds`,
+    by index); "" when it is, or when its index is beyond them (a larger study's run, checked when that one is run)."""
+    index = rec["index"]
+    if index >= len(seeds):
+        return ""
+    wrong = [k for k, v in seeds[index].items() if rec[k] != v]
+    said = ", ".join(f"{k} {rec[k]!r} (this study's is {seeds[index][k]!r})" for k in wrong)
+    return f"run {index} is not this study's run {index}: its {said}" if wrong else ""
 
 
 class ResultsFile:
@@ -255,7 +280,9 @@ class ResultsFile:
 
     Opening an existing file checks its key (a file of another study is refused, naming what
     differs) and reads its runs; a last line cut short by a kill (no newline after it) is dropped, said on
-    stderr, and any other line that is not a run record is refused, naming it (the file is left as it is).
+    stderr, and any other line that is not a run record of this study (not JSON, a field or a run kind
+    missing, seeds other than those the study derives for its index) is refused, naming it (the file is left
+    as it is).
     Each new record is appended, flushed and synced to disk before the next is taken. A new file is made with the first
     finished run, so a study refused before any run (bad input, an unreachable scheduler) leaves none; a file it
     replaces (``replacing``) stays as it was until then, and is then replaced at once (renamed over).
@@ -267,6 +294,9 @@ class ResultsFile:
             headed by one is this study's too.
         replacing: The file at ``path`` (another study's, or no results file: ``--overwrite``) is not read, and is
             replaced by this study's with its first finished run.
+        seeds: What the study's runs' records name of them, by index (:meth:`MonteCarloSpec.record_seeds`): a
+            measured record whose seeds or perturbation differ from its index's is refused (none given: unchecked).
+            A record of a failed plan (``failed``: no metrics, no replay command) is not checked.
 
     Raises:
         ConfigError: The file holds another study, is not a results file, or holds a line that is not a run
@@ -281,8 +311,10 @@ class ResultsFile:
         code: str | None = None,
         *,
         replacing: bool = False,
+        seeds: Sequence[Mapping[str, Any]] = (),
     ) -> None:
         self.path, self.key = Path(path), dict(key)
+        self.seeds = list(seeds)
         self.earlier = [dict(k) for k in earlier]
         self.code = code_digest() if code is None else code
         self.records: dict[int, dict[str, Any]] = {}
@@ -338,7 +370,7 @@ class ResultsFile:
                     self._drop_torn_line(raw, len(raw) - len(line), number)
                     return
                 raise self._bad_line(number, "not a JSON record") from None
-            problem = _record_problem(rec)
+            problem = _record_problem(rec) or ("failed" not in rec and _seeds_problem(rec, self.seeds))
             if problem:
                 raise self._bad_line(number, problem)
             self.records[int(rec["index"])] = rec
