@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -20,9 +21,11 @@ Run the declared regression suite (tests/regression_suite.toml: scenarios x robo
 planners x trackers, seeded) and compare each case's metrics with its baseline in tests/baselines/.
 Each case runs twice in one process and must be bitwise identical (determinism guard).
 
-Against a baseline recorded with the same mujoco, numpy and platform every metric must be equal bit
-for bit; against one recorded elsewhere a metric may get worse by at most its tolerance
-(abs + rel * |baseline|, from the suite's [tolerances]). A table lists every metric that moved.
+Every metric the baseline records is compared. Against a baseline recorded with the same mujoco, numpy
+and platform every metric must be equal bit for bit; against one recorded elsewhere a number may get worse
+by at most its tolerance (abs + rel * |baseline|, from the suite's [tolerances] or the built-in ones; 0 for
+any other metric) and text (status) must be equal. A value that is not finite beside one fails. A table
+lists every metric that moved.
 
 By default the fast subset runs; --all runs every case, --case PATTERN the matching ones.
 --update rewrites the baselines of the cases run (only when asked) and prints what changed.
@@ -80,17 +83,18 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 
 def format_changes(changes: list[Any]) -> str:
-    """The table of metrics that moved, its columns as wide as their longest case name and metric."""
+    """The table of metrics that moved, its columns as wide as their longest case name, metric and value (two
+    different numbers never shown alike: :func:`sim.tools.regress.show_values`)."""
+    shown = [c.shown for c in changes]
     cw = max([len("case"), *(len(c.case) for c in changes)])
     mw = max([len("metric"), *(len(c.metric) for c in changes)])
-    head = f"{'case':<{cw}} {'metric':<{mw}} {'baseline':>13} {'now':>13} {'delta':>11} {'allowed':>9}  status"
+    vw = max([13, *(len(v) for pair in shown for v in pair)])
+    head = f"{'case':<{cw}} {'metric':<{mw}} {'baseline':>{vw}} {'now':>{vw}} {'delta':>11} {'allowed':>9}  status"
     lines = [head, "-" * len(head)]
-    for c in changes:
-        delta = c.value - c.baseline
-        lines.append(
-            f"{c.case:<{cw}} {c.metric:<{mw}} {c.baseline:>13.6g} {c.value:>13.6g} {delta:>+11.3g} "
-            f"{c.allowed:>9.3g}  {c.status}"
-        )
+    for c, (old, new) in zip(changes, shown, strict=True):
+        delta = "-" if c.delta is None or not math.isfinite(c.delta) else f"{c.delta:+.3g}"
+        row = f"{c.case:<{cw}} {c.metric:<{mw}} {old:>{vw}} {new:>{vw}} {delta:>11} {c.allowed:>9.3g}"
+        lines.append(f"{row}  {c.status}")
     return "\n".join(lines)
 
 
@@ -197,42 +201,54 @@ def update_baselines(outcomes: list[Any], read: dict[str, Any]) -> int:
     Raises:
         OutputsNotPlacedError: A baseline could not be moved into place (every old baseline is kept).
     """
-    from sim.outputs import staged_outputs, write_json
-    from sim.tools.regress import baseline_document
+    from sim.outputs import json_safe, staged_outputs, write_json
+    from sim.tools.regress import baseline_document, baseline_problem
 
     said: list[str] = []
     with staged_outputs(overwrite=True) as stage:
         for o in outcomes:
             if not o.metrics:
                 continue
-            old, doc = read[o.case.name], baseline_document(o.case, dict(o.metrics))
+            old, doc = read[o.case.name], json_safe(baseline_document(o.case, dict(o.metrics)))  # as written
             if old.document == doc:
                 continue
             write_json(stage.path(old.path), doc)
-            if old.problem:
-                said.append(f"replaced unreadable baseline {old.path} ({old.problem})")
+            problem = baseline_problem(old, o.metrics)  # not a baseline, or one without a metric the run measured
+            if problem:
+                said.append(f"replaced unreadable baseline {old.path} ({problem})")
             elif old.document is None:
                 said.append(f"new baseline {old.path}")
             else:
-                said.append(f"updated {old.path}: " + ("; ".join(baseline_changes(old.document, o)) or "no change"))
+                what = baseline_changes(old.document, o, doc)
+                said.append(f"updated {old.path}: " + ("; ".join(what) or "rewritten, no value changed"))
     for line in said:
         print(line)
     return len(said)
 
 
-def baseline_changes(old: dict[str, Any], outcome: Any) -> list[str]:
-    """What an update changes in a baseline: the metrics that moved, the environment, the case's fields that
-    differ from the ones recorded, and the fields recorded now that the old baseline left out."""
-    from sim.tools.regress import case_record, definition_changes, environment
+def baseline_changes(old: dict[str, Any], outcome: Any, new: dict[str, Any]) -> list[str]:
+    """What an update changes in a baseline (``new``: the document written): the metrics that moved, those it no
+    longer records, the environment, the case's fields that differ from the ones recorded, the fields recorded
+    now that the old baseline left out, and the ones it held that the new one drops."""
+    from sim.tools.regress import definition_changes, environment, show_values
 
-    what = [f"{k} {old['metrics'].get(k)!r} -> {v!r}" for k, v in outcome.metrics.items() if old["metrics"].get(k) != v]
+    metrics = new["metrics"]
+    moved = [k for k, v in metrics.items() if k not in old["metrics"] or old["metrics"][k] != v]
+    what = [f"{k} {' -> '.join(show_values(old['metrics'].get(k), metrics[k]))}" for k in moved]
+    gone = [f"{k} ({show_values(v, None)[0]})" for k, v in old["metrics"].items() if k not in metrics]
+    if gone:
+        what.append(f"no longer records metric(s) {', '.join(gone)}")
     if old.get("environment") != environment():
         what.append(f"environment {old.get('environment')} -> {environment()}")
     recorded = old.get("case", {})
     differs = definition_changes(recorded, outcome.case)
     if differs:
         what.append(f"case {', '.join(differs)}")
-    new = [f"{k} = {json.dumps(v)}" for k, v in case_record(outcome.case).items() if k not in recorded]
-    if new:
-        what.append(f"now records {', '.join(new)}")
+    added = [f"{k} = {json.dumps(v)}" for k, v in new["case"].items() if k not in recorded]
+    if added:
+        what.append(f"now records {', '.join(added)}")
+    dropped = [f"case field {k}" for k in recorded if k not in new["case"]]
+    dropped += [f"field {k}" for k in old if k not in new]
+    if dropped:
+        what.append(f"removed {', '.join(dropped)}")
     return what

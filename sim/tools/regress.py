@@ -29,6 +29,12 @@ The suite file and the baseline directory are arguments: the command line passes
 A baseline that cannot be read, or holds no value (absent, or null) for a metric its case's run measures, is
 its case's failure (:attr:`Status.UNREADABLE`), not the run's: the other cases are compared, and ``--update``
 replaces it. A metric that is NaN on both sides (a baseline writes NaN as null) has not changed.
+
+Every metric a baseline or the run records is compared, not only those of :data:`DIRECTIONS` (any other
+number: any change is a change, within its tolerance, 0 unless the suite names it); text (``status``,
+``estimation_source``) must be equal in every environment. A value that is not finite (NaN, infinite) where the
+other side has a value fails (``"not finite"``), and a baseline that holds one as a number (``NaN``,
+``Infinity``: nhsim writes NaN as null) is unreadable.
 """
 
 from __future__ import annotations
@@ -42,11 +48,11 @@ import re
 import tomllib
 import zlib
 from collections.abc import Collection, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from enum import StrEnum
 from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeGuard, get_type_hints
 
 from control.base import TRACKERS, load_plugins, option_takes
 from control.gains import FBLGains, resolve_gains
@@ -57,7 +63,7 @@ from planning.planners.registry import PLANNERS
 from planning.trajectory.references import REFERENCES
 from sim.physics.asbuilt import DEFAULT_BUILD_SEED
 from sim.physics.lidar import load_lidar_profile
-from sim.physics.metrics import TrackingMetrics
+from sim.physics.metrics import EstimationMetrics, TrackingMetrics
 from sim.physics.model import robot_timestep
 from sim.physics.motors import control_steps
 from sim.physics.perturb import Perturbation
@@ -82,6 +88,40 @@ DIRECTIONS: dict[str, str] = {
     "max_pitch_rad": "lower",  # a balancing robot's (absent for the others)
     "fell": "lower",  # a balancing robot's: True (1) where it stood (0) is a regression
 }
+#: Every metric a run records (:func:`flat_metrics`): :class:`TrackingMetrics`' fields, the estimator's as
+#: ``estimation_<name>``.
+METRICS: tuple[str, ...] = (
+    *(f.name for f in fields(TrackingMetrics) if f.name != "estimation"),
+    *(f"estimation_{f.name}" for f in fields(EstimationMetrics)),
+)
+#: The metrics that are text ("ok", "fused"): equal in every environment, no tolerance.
+TEXT_METRICS: tuple[str, ...] = tuple(
+    m
+    for m, hint in (
+        *get_type_hints(TrackingMetrics).items(),
+        *((f"estimation_{k}", v) for k, v in get_type_hints(EstimationMetrics).items()),
+    )
+    if hint is str
+)
+#: Metrics whose null in a baseline is a value, not a hole: a statistic of nothing (NaN, written null: the
+#: estimator's NEES without a fix compared, the scan localiser's without an update) or an event that did not
+#: happen (None: no fall, never lost, start pose known). A run that now has a number there changed; for any
+#: other metric the run measures, a null (or absent) value makes the baseline unreadable.
+NULLABLE_METRICS = frozenset(
+    {
+        "fall_time_s",
+        "estimation_nees_in_bound_fraction",
+        "estimation_nees_mean",
+        "estimation_localiser_rmse_m",
+        "estimation_localiser_heading_rmse_rad",
+        "estimation_localiser_nees_in_bound_fraction",
+        "estimation_localiser_nees_mean",
+        "estimation_mean_particles",
+        "estimation_localisation_lost",
+        "estimation_global_localisation_scans",
+        "estimation_global_localisation_converged",
+    }
+)
 #: Fields a suite's case table may have.
 CASE_KEYS = {
     "scenario",
@@ -400,9 +440,15 @@ def _tolerances(p: Path, table: Any) -> dict[str, Tolerance]:
     if not isinstance(table, dict):
         raise ConfigError(f"{p}: tolerances = {_toml(table)}: must be a [tolerances] table of metric = {form}")
     tolerances = dict(DEFAULT_TOLERANCES)
+    numeric = [m for m in METRICS if m not in TEXT_METRICS]
     for metric, spec in table.items():
-        if metric not in DIRECTIONS:
-            raise ConfigError(f"{p}: [tolerances] {metric!r} is not a metric; choose from {', '.join(DIRECTIONS)}")
+        if metric in TEXT_METRICS:
+            raise ConfigError(
+                f"{p}: [tolerances] {metric!r} is text, which must be equal in every environment: a tolerance bounds "
+                f"a number's move; drop the entry"
+            )
+        if metric not in numeric:
+            raise ConfigError(f"{p}: [tolerances] {metric!r} is not a metric; choose from {', '.join(numeric)}")
         if not (isinstance(spec, dict) and set(spec) <= {"abs", "rel"}):
             raise ConfigError(f"{p}: [tolerances] {metric} = {_toml(spec)}: must be {form}")
         for key, bound in spec.items():
@@ -561,16 +607,16 @@ class Change:
     Attributes:
         case: Case name.
         metric: Metric name.
-        baseline: Baseline value.
-        value: New value.
-        allowed: Allowed move (0 in the same environment).
-        status: "regressed", "improved", "changed" (failures) or "within" (moved inside tolerance).
+        baseline: Baseline value (None: none recorded, or null).
+        value: New value (None: none measured).
+        allowed: Allowed move (0 in the same environment, and for text).
+        status: "regressed", "improved", "changed", "not finite" (failures) or "within" (moved inside tolerance).
     """
 
     case: str
     metric: str
-    baseline: float
-    value: float
+    baseline: Any
+    value: Any
     allowed: float
     status: str
 
@@ -579,41 +625,103 @@ class Change:
         """Whether this change fails the case."""
         return self.status != "within"
 
+    @property
+    def delta(self) -> float | None:
+        """Now minus baseline, for two numbers (None otherwise)."""
+        if _is_number(self.value) and _is_number(self.baseline):
+            return float(self.value - self.baseline)
+        return None
+
+    @property
+    def shown(self) -> tuple[str, str]:
+        """The baseline and the new value as text, with as many digits as tell them apart (:func:`show_values`)."""
+        return show_values(self.baseline, self.value)
+
+
+def _show(value: Any, digits: int | None = 6) -> str:
+    """A metric's value as text: a number to ``digits`` significant digits (None: Python's shortest form that
+    reads back as the same number), text quoted, true or false, none."""
+    if value is None:
+        return "none"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return repr(value) if digits is None else f"{value:.{digits}g}"
+    return json.dumps(value, default=str, ensure_ascii=False)
+
+
+def show_values(old: Any, new: Any) -> tuple[str, str]:
+    """Two values of a metric as text, short (6 significant digits) unless that shows two different numbers
+    alike: then each as Python's shortest form that reads back as itself (up to 17 significant digits)."""
+    short = _show(old), _show(new)
+    if short[0] == short[1] and old != new:
+        return _show(old, None), _show(new, None)
+    return short
+
+
+def _is_number(value: Any) -> TypeGuard[float]:
+    """Whether a metric's value is a number (an int, a float or a bool, which compares as 0 or 1)."""
+    return isinstance(value, (bool, int, float))
+
 
 def _is_nan(value: Any) -> bool:
     """Whether a metric's value is NaN (a float NaN, or null: how a baseline writes one)."""
     return value is None or (isinstance(value, float) and math.isnan(value))
 
 
+def _not_finite(value: Any) -> bool:
+    """Whether a metric's value is a number that is not finite (NaN, infinite)."""
+    return isinstance(value, float) and not math.isfinite(value)
+
+
+def _compared(metrics: Mapping[str, Any], baseline: Mapping[str, Any]) -> list[str]:
+    """The metrics to compare: every one the run measures, then every other one the baseline records."""
+    return [*metrics, *(m for m in baseline if m not in metrics)]
+
+
 def compare(
-    case: str, metrics: dict[str, float], baseline: dict[str, float], tolerances: dict[str, Tolerance], *, exact: bool
+    case: str,
+    metrics: Mapping[str, Any],
+    baseline: Mapping[str, Any],
+    tolerances: Mapping[str, Tolerance],
+    *,
+    exact: bool,
 ) -> list[Change]:
-    """Metrics that differ from the baseline (see the module docstring for the rules)."""
+    """Metrics that differ from the baseline (see the module docstring for the rules): every metric the run
+    measures or the baseline records, absent as None."""
     out = []
-    for metric, direction in DIRECTIONS.items():
+    for metric in _compared(metrics, baseline):
         new, old = metrics.get(metric), baseline.get(metric)
-        if new is None and old is None:  # a metric the run does not have (no estimator in open loop)
+        if _is_nan(new) and _is_nan(old):  # nothing on either side, or NaN on both: a baseline writes NaN as null
             continue
-        if new is None or old is None:
-            nan = float("nan")
-            if _is_nan(old if new is None else new):  # NaN on both sides: a baseline writes NaN as null
-                continue
-            out.append(Change(case, metric, nan if old is None else old, nan if new is None else new, 0.0, "changed"))
+        if _not_finite(new) or _not_finite(old):  # beside a value: never within a tolerance, nor an improvement
+            out.append(Change(case, metric, old, new, 0.0, "not finite"))
             continue
-        if new == old or (_is_nan(new) and _is_nan(old)):
+        if new == old and type(new) is type(old):
             continue
-        delta = new - old
-        if exact:
-            allowed = 0.0
-            status = "changed" if direction == "equal" else ("regressed" if delta > 0 else "improved")
-        else:
-            allowed = tolerances.get(metric, Tolerance()).allowed(old)
-            if direction == "equal":
-                status = "changed" if abs(delta) > allowed else "within"
-            else:
-                status = "regressed" if delta > allowed else "within"
-        out.append(Change(case, metric, float(old), float(new), allowed, status))
+        if not (_is_number(new) and _is_number(old)):  # text, or a value on one side only: equal everywhere
+            out.append(Change(case, metric, old, new, 0.0, "changed"))
+            continue
+        if new == old:  # 1 and 1.0, or true and 1: the same number
+            continue
+        out.append(_moved(case, metric, new, old, tolerances.get(metric, Tolerance()), exact=exact))
     return out
+
+
+def _moved(case: str, metric: str, new: float, old: float, tolerance: Tolerance, *, exact: bool) -> Change:
+    """The change of a number that moved: against the same environment's baseline any move fails; against
+    another's, within ``tolerance`` (a metric of :data:`DIRECTIONS` "lower" may fall any amount)."""
+    delta = float(new - old)
+    direction = DIRECTIONS.get(metric, "equal")
+    if exact:
+        status = "changed" if direction == "equal" else ("regressed" if delta > 0 else "improved")
+        return Change(case, metric, old, new, 0.0, status)
+    allowed = tolerance.allowed(old)
+    if direction == "equal":
+        status = "changed" if abs(delta) > allowed else "within"
+    else:
+        status = "regressed" if delta > allowed else "within"
+    return Change(case, metric, old, new, allowed, status)
 
 
 class Status(StrEnum):
@@ -679,9 +787,19 @@ def baseline_path(case: Case, baseline_dir: Path) -> Path:
     return Path(baseline_dir) / f"{case.name}.json"
 
 
-def _metric_value(value: Any) -> bool:
-    """Whether a baseline's metric is one :func:`compare` takes: a number, true or false, or null (NaN)."""
-    return value is None or isinstance(value, (bool, int, float))
+def _metric_kind(metric: str, value: Any) -> str:
+    """What a baseline's metric ``value`` should be and is not ("" when it is one :func:`compare` takes): a
+    number (true, false), or null, for a number; text, or null, for text; a finite number (NaN is written null)."""
+    if value is None:
+        return ""
+    if metric in TEXT_METRICS:
+        return "" if isinstance(value, str) else "not text"
+    if metric in METRICS:
+        if not _is_number(value):
+            return "not a number"
+    elif not isinstance(value, (bool, int, float, str)):
+        return "not a number or text"
+    return "not finite (a baseline writes NaN as null, and holds no infinity)" if _not_finite(value) else ""
 
 
 def _baseline_problem(data: Any) -> str:
@@ -693,8 +811,12 @@ def _baseline_problem(data: Any) -> str:
     bad = [key for key in ("case", "environment") if not isinstance(data.get(key, {}), dict)]
     if bad:
         return f"its {', '.join(bad)} not a table"
-    bad = [m for m in DIRECTIONS if not _metric_value(data["metrics"].get(m))]
-    return f"metric(s) {', '.join(bad)} not a number" if bad else ""
+    kinds: dict[str, list[str]] = {}
+    for metric, value in data["metrics"].items():
+        kind = _metric_kind(metric, value)
+        if kind:
+            kinds.setdefault(kind, []).append(metric)
+    return "; ".join(f"metric(s) {', '.join(names)} {kind}" for kind, names in kinds.items())
 
 
 @dataclass(frozen=True)
@@ -738,19 +860,26 @@ def update_hint(case: Case) -> str:
 
 
 def _unrecorded(metrics: Mapping[str, Any], recorded: Mapping[str, Any]) -> list[str]:
-    """The metrics a run measured (a finite number) that its baseline does not hold: absent or null there. An
-    nhsim's baseline holds every metric its run measured (null only for a value that was not finite, NaN), so a
-    baseline without one was edited, damaged or written by something else: it cannot be compared with."""
-    measured = [m for m in DIRECTIONS if isinstance(metrics.get(m), bool) or is_number(metrics.get(m))]
-    return [m for m in measured if recorded.get(m) is None]
+    """The metrics a run measured (a finite number, true or false, text) that its baseline does not hold: absent
+    there, or null where null is not one of the metric's values (:data:`NULLABLE_METRICS`). An nhsim's baseline
+    holds every metric its run measured (null only for a value that was not finite, NaN), so a baseline without
+    one was edited, damaged or written by something else: it cannot be compared with."""
+    measured = [m for m, v in metrics.items() if v is not None and not _not_finite(v)]
+    return [m for m in measured if m not in recorded or (recorded[m] is None and m not in NULLABLE_METRICS)]
+
+
+def baseline_problem(base: Baseline, metrics: Mapping[str, Any]) -> str:
+    """Why ``base`` cannot be compared with a run that measured ``metrics`` ("" when it can, or there is none):
+    it is not a baseline (:attr:`Baseline.problem`), or it holds no value for a metric the run measured."""
+    if base.problem or base.document is None:
+        return base.problem
+    holes = _unrecorded(metrics, base.document["metrics"])
+    return f"no value for metric(s) {', '.join(holes)}: missing or null" if holes else ""
 
 
 def judge(case: Case, metrics: dict[str, Any], base: Baseline, tolerances: dict[str, Tolerance]) -> CheckResult:
     """A measured case's result against its baseline (see the module docstring for the rules)."""
-    problem = base.problem
-    if not problem and base.document is not None:
-        holes = _unrecorded(metrics, base.document["metrics"])
-        problem = f"no value for metric(s) {', '.join(holes)}: missing or null" if holes else ""
+    problem = baseline_problem(base, metrics)
     if problem:
         problem = f"baseline {base.path} is unreadable ({problem}); rewrite it with {update_hint(case)}"
         return CheckResult(case, Status.UNREADABLE, f"case {case.name}: {problem}", metrics)
@@ -765,7 +894,7 @@ def judge(case: Case, metrics: dict[str, Any], base: Baseline, tolerances: dict[
         return CheckResult(case, Status.PASS, "", metrics, changes, exact)
     what = [f"its definition differs from its baseline's: {', '.join(differs)}"] if differs else []
     if failed:
-        moved = ", ".join(f"{c.metric} {c.status} ({c.baseline:.6g} -> {c.value:.6g})" for c in failed)
+        moved = ", ".join(f"{c.metric} {c.status} ({' -> '.join(c.shown)})" for c in failed)
         what.append(f"{moved} [{'bit for bit' if exact else 'with tolerances'}]")
     message = f"case {case.name}: {'; '.join(what)}; if intended, record it with {update_hint(case)}"
     return CheckResult(case, Status.FAIL, message, metrics, changes, exact, differs)
