@@ -167,3 +167,40 @@ def test_bad_files_are_errors_naming_row_and_column(
 def test_a_missing_file_is_an_error_naming_it(tmp_path: Path) -> None:
     with pytest.raises(TrajectoryFileError, match=r"nothing\.csv"):
         read_table(tmp_path / "nothing.csv")
+
+
+@pytest.mark.parametrize(
+    ("name", "text"),
+    [
+        ("traj.toml", "t = [0.0, 1.0]\nx = [0.0, 1.0]\ny = [0.0, 0.0]\n"),
+        ("p.xml", "<path><pose t='0' x='0' y='0'/></path>\n"),
+        ("book.xlsx", "PK\x03\x04"),
+    ],
+)
+def test_an_unsupported_suffix_is_refused_naming_the_formats_read(tmp_path: Path, name: str, text: str) -> None:
+    # parsed as a text table, a .toml file gave "unknown column name(s) 't = [0.0', ..." and dozens more
+    with pytest.raises(TrajectoryFileError) as info:
+        read_table(_write(tmp_path, name, text))
+    message = str(info.value)
+    assert f"a {Path(name).suffix} file is not a format read here" in message
+    assert all(s in message for s in (".csv", ".txt", "no suffix", ".json", ".yaml", ".mcap")), message
+    assert "unknown column" not in message and "\n" not in message
+    assert read_table(_write(tmp_path, "plain", "t,x,y\n0,0,1\n0.5,0.1,1.5\n1,0.3,2.5\n")).fmt == "csv"
+
+
+def test_columns_that_contradict_the_header_are_refused_and_their_advice_fits(tmp_path: Path) -> None:
+    p = _write(tmp_path, "a.csv", "t,x,y\n0,0,1\n0.5,0.1,1.5\n1,0.3,2.5\n")
+    with pytest.raises(TrajectoryFileError) as info:  # x and y were swapped without a word
+        read_table(p, ["t", "y", "x"])
+    assert str(info.value) == (
+        f"{p}: the columns given (t,y,x) contradict the file's header (line 1: t,x,y): column 2 is 'y', the header "
+        "says 'x'; drop --columns (columns=... from Python) to read the header's names, or correct the header"
+    )
+    _check_txy(read_table(p, ["t", "x", "y"]))  # the same names, and skips, agree with it
+    assert set(read_table(p, ["t", "x", "_"]).columns) == {"t", "x"}
+    headed = _write(tmp_path, "b.csv", "T [s],x [m],y [m]\n0,0,1\n0.5,0.1,1.5\n1,0.3,2.5\n")
+    _check_txy(read_table(headed, ["t", "x", "y"]))  # a header of other names is what --columns is for
+    with pytest.raises(TrajectoryFileError) as info:  # it said "or name the columns with --columns": they were
+        read_table(p, ["t", "x"])
+    assert "line 2 has 3 cells but 2 columns are named (t, x); name every cell with --columns" in str(info.value)
+    assert "or name the columns" not in str(info.value)

@@ -288,3 +288,33 @@ def test_a_files_smoothing_options_are_checked_where_they_enter(tmp_path: Path) 
         file_trajectory(imp, ROBOT, WORLD, dt=10.0)
     with pytest.raises(ConfigError, match=r"^to_trajectory: max_deviation must be a finite number > 0"):
         file_trajectory(imp, ROBOT, WORLD, max_deviation=-1.0)
+
+
+def test_a_recorded_robot_settling_within_the_noise_floor_stands_still(tmp_path: Path) -> None:
+    """An /odom recording's settling at the goal, as nhsim's own bag has it: a rest-to-rest drive of 1 m along
+    x, then 2 s of a localiser's corrections (0.2-0.6 mm every 0.2 s, any direction) and encoder ticks of
+    0.025 mm back and forth. Read back, every correction was a turn (65 rad/s) and every tick a cusp: 7 cusps
+    and a clock re-timed x37. Within the noise floor the robot stands."""
+    rng = np.random.default_rng(3)
+    t_drive = np.arange(0.0, 10.0, 0.02)
+    u = t_drive / 10.0
+    x_drive = 10 * u**3 - 15 * u**4 + 6 * u**5  # 1 m, at rest at both ends
+    t_settle = np.arange(10.0, 12.0 + 1e-9, 0.02)
+    jumps = np.zeros((t_settle.size, 2))
+    every = np.arange(5, t_settle.size, 10)  # a fix every 0.2 s
+    angle = rng.uniform(-np.pi, np.pi, every.size)
+    size = rng.uniform(2e-4, 6e-4, every.size)
+    jumps[every] = np.column_stack([size * np.cos(angle), size * np.sin(angle)])
+    ticks = 2.5e-5 * rng.integers(-1, 2, t_settle.size)
+    settle = np.cumsum(jumps, axis=0) + np.column_stack([ticks, np.zeros_like(ticks)])
+    settle = 0.5 * (settle - settle.mean(axis=0))  # about the goal, within 1 mm
+    xy = np.vstack([np.column_stack([x_drive, np.zeros_like(x_drive)]), np.array([1.0, 0.0]) + settle])
+    t = np.concatenate([t_drive, t_settle])
+    assert np.ptp(settle[:, 0]) < 1e-3 and np.ptp(settle[:, 1]) < 1e-3
+    p = write_csv(tmp_path / "odom.csv", {"t": t, "x": xy[:, 0], "y": xy[:, 1], "theta": np.zeros_like(t)})
+    dense = densify(read_trajectory_file(TrajectoryFile(p)))
+    signs = np.sign(dense.v[np.abs(dense.v) > 1e-4])
+    assert int(np.sum(signs[1:] != signs[:-1])) == 0  # no cusp
+    assert np.all(dense.v[dense.t > 10.1] == 0.0) and np.abs(dense.omega).max() < 0.05  # no turn
+    retime, why, stretch = timing_verdict(dense, LIMITS)
+    assert not retime and stretch < 1.5, why  # the drive's own speed, not the settling

@@ -173,6 +173,46 @@ def test_headings_in_degrees_are_refused_and_unwrapped_radians_beyond_a_turn_are
         read_trajectory_file(TrajectoryFile(deg, timed=timed))
 
 
+def _line_file(tmp_path: Path, name: str, direction: float, theta: np.ndarray | float, back: bool = False) -> Path:
+    """2 m along ``direction`` [rad] in 21 rows 0.5 s apart (and back again with ``back``), headings ``theta``."""
+    s = np.linspace(0.0, 2.0, 21)
+    s = np.concatenate([s, s[-2::-1]]) if back else s
+    t = 0.5 * np.arange(s.size)
+    cols = {"t": t, "x": np.round(s * np.cos(direction), 6), "y": np.round(s * np.sin(direction), 6)}
+    return write_csv(tmp_path / name, {**cols, "theta": np.broadcast_to(theta, t.shape).astype(float)})
+
+
+@pytest.mark.parametrize("timed", [False, True])
+def test_headings_in_degrees_within_two_pi_are_refused_and_radians_near_the_x_axis_are_not(
+    tmp_path: Path, timed: bool
+) -> None:
+    # a gentle 2 m curve, heading 0..5 (degrees): read as radians it had 2 cusps and was re-timed x91
+    t = np.linspace(0.0, 10.0, 21)
+    heading = np.radians(np.linspace(0.0, 5.0, 21))
+    x = np.concatenate([[0.0], np.cumsum(0.1 * np.cos(0.5 * (heading[1:] + heading[:-1])))])
+    y = np.concatenate([[0.0], np.cumsum(0.1 * np.sin(0.5 * (heading[1:] + heading[:-1])))])
+    curve = {"t": t, "x": np.round(x, 6), "y": np.round(y, 6)}
+    refused = {
+        "curve": write_csv(tmp_path / "curve.csv", {**curve, "theta": np.degrees(heading)}),
+        "straight at 3 degrees": _line_file(tmp_path, "line.csv", np.radians(3.0), 3.0),  # was driven in reverse
+        "out and back": _line_file(tmp_path, "back.csv", np.radians(3.0), 3.0, back=True),
+    }
+    for p in refused.values():
+        with pytest.raises(TrajectoryFileError, match=r"column theta looks like degrees \(.*all within 2 pi;.*radians"):
+            read_trajectory_file(TrajectoryFile(p, timed=timed))
+    kept = {
+        "the curve in radians": write_csv(tmp_path / "curve_rad.csv", {**curve, "theta": heading}),
+        "heading 3 rad, backwards": _line_file(tmp_path, "rev.csv", 3.0 - np.pi, 3.0),
+        "heading pi, back and forth": _line_file(tmp_path, "revb.csv", 0.0, np.pi, back=True),
+        "radians biased 0.2 rad": _line_file(tmp_path, "bias.csv", 0.0, 0.2),  # replaced, not taken for degrees
+    }
+    for name, p in kept.items():
+        imp = read_trajectory_file(TrajectoryFile(p, timed=timed))
+        assert imp.theta is not None, name
+        if name != "radians biased 0.2 rad":
+            assert not imp.report.corrections, name
+
+
 def test_wrapped_headings_are_unwrapped(tmp_path: Path) -> None:
     t = np.linspace(0.0, 40.0, 81)
     s = t / 40.0
@@ -336,3 +376,13 @@ def test_arrays_import_as_a_file_of_the_same_rows_does(tmp_path: Path) -> None:
         table_from_arrays(p, {"t": t, "x": xy[:-1, 0], "y": xy[:, 1]}, "arrays")
     with pytest.raises(TrajectoryFileError, match="unknown column"):
         table_from_arrays(p, {"t": t, "x": xy[:, 0], "z": xy[:, 1]}, "arrays")
+
+
+def test_a_missing_column_under_columns_is_to_be_named_there(tmp_path: Path) -> None:
+    p = tmp_path / "h.csv"
+    p.write_text("t,x,y\n0,0,0\n1,1,0\n")
+    with pytest.raises(TrajectoryFileError) as info:  # it said "name it in the header or with --columns"
+        read_trajectory_file(TrajectoryFile(p, columns=("_", "x", "y")))
+    assert "no column t (columns: x, y); name it with --columns (columns=... from Python), which names" in str(
+        info.value
+    )

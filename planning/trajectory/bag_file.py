@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from planning.errors import option
+from planning.trajectory.file_formats import BAG_SUFFIXES as BAG_SUFFIXES  # one list: the formats' message too
 from planning.trajectory.file_formats import QUATERNION_TOLERANCE as QUATERNION_TOLERANCE  # one check: bags, YAML
 from planning.trajectory.file_formats import (
     FileTable,
@@ -43,8 +44,6 @@ from planning.trajectory.file_formats import (
     yaml_problem,
 )
 
-#: File suffixes read as bags (a folder with a ``metadata.yaml`` is one too).
-BAG_SUFFIXES = (".mcap", ".bag", ".db3")
 PATH_TYPE = "nav_msgs/msg/Path"
 #: Types whose messages are each one row of a recorded motion.
 MOTION_TYPES = ("nav_msgs/msg/Odometry", "geometry_msgs/msg/PoseStamped", "geometry_msgs/msg/PoseWithCovarianceStamped")

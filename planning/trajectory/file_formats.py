@@ -2,10 +2,11 @@
 
 Formats (chosen by the file's suffix):
 
-* **Text** (``.csv``, ``.tsv``, anything else): comma-, tab-, semicolon- or whitespace-separated cells, one row
-  per line; lines starting with ``#``, ``%`` or ``//`` and blank lines are skipped. The first row
-  names the columns (a header), or ``columns`` does (then a header row, if any, is skipped). ``_``
-  skips a column.
+* **Text** (``.csv``, ``.tsv``, ``.tab``, ``.txt``, ``.dat``, ``.log`` or no suffix: :data:`TEXT_SUFFIXES`):
+  comma-, tab-, semicolon- or whitespace-separated cells, one row per line; lines starting with ``#``, ``%``
+  or ``//`` and blank lines are skipped. The first row names the columns (a header), or ``columns`` does
+  (then a header row, if any, is skipped; a header of valid names that ``columns`` contradicts is an
+  error). ``_`` skips a column.
 * **JSON** (``.json``): ``{"t": [...], "x": [...], ...}`` (one list per column) or a list of records
   ``[{"t": 0, "x": 0.1, ...}, ...]``.
 * **YAML** (``.yaml``, ``.yml``): a ROS ``nav_msgs/Path`` as ``ros2 topic echo`` (or ``rostopic echo``)
@@ -13,6 +14,9 @@ Formats (chosen by the file's suffix):
   heading is its yaw) and ``poses[].header.stamp`` (``sec``/``nanosec`` or ``secs``/``nsecs``; stamps
   that are all equal give no time column); or the same two layouts as JSON. The first document of
   a multi-document file is read.
+
+Any other suffix (a ``.toml``, ``.xml`` or spreadsheet file) is refused, naming those read here: parsed as a
+text table it gave dozens of junk column names.
 
 Column names: :data:`COLUMNS` (t [s], x, y [length], theta [rad], v [length/s], omega [rad/s],
 vx, vy [length/s], ax, ay [length/s^2]); units are whatever the file uses, scaled later
@@ -59,6 +63,11 @@ QUATERNION_TOLERANCE = 1e-3
 #: A quaternion of a smaller norm is zero: no orientation at all.
 ZERO_QUATERNION = 1e-6
 _COMMENTS = ("#", "%", "//")
+#: Suffixes read as text tables ("": none); JSON and YAML are :data:`DOCUMENT_SUFFIXES`.
+TEXT_SUFFIXES = ("", ".csv", ".tsv", ".tab", ".txt", ".dat", ".log")
+DOCUMENT_SUFFIXES = (".json", ".yaml", ".yml")
+#: File suffixes read as bags (:mod:`planning.trajectory.bag_file`; a folder with a ``metadata.yaml`` is one too).
+BAG_SUFFIXES = (".mcap", ".bag", ".db3")
 
 
 class TrajectoryFileError(ConfigError):
@@ -192,13 +201,19 @@ def read_table(path: str | Path, columns: Sequence[str] | None = None) -> FileTa
             with the wrong number of cells, a non-numeric cell (row and column named).
     """
     p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix not in TEXT_SUFFIXES + DOCUMENT_SUFFIXES:
+        raise TrajectoryFileError(
+            f"{p}: a {suffix} file is not a format read here; convert it to a text table ("
+            f"{', '.join(s for s in TEXT_SUFFIXES if s)} or no suffix), {', '.join(DOCUMENT_SUFFIXES)} or a ROS bag "
+            f"({', '.join(BAG_SUFFIXES)} or a rosbag2 folder)"
+        )
     try:
         text = p.read_text(encoding="utf-8-sig")  # a byte-order mark (Windows exports) is dropped
     except (OSError, UnicodeDecodeError) as exc:
         why = "not UTF-8 text" if isinstance(exc, UnicodeDecodeError) else (exc.strerror or str(exc))
         raise TrajectoryFileError(f"cannot read trajectory file {p}: {why}") from exc
-    suffix = p.suffix.lower()
-    if suffix in (".json", ".yaml", ".yml"):
+    if suffix in DOCUMENT_SUFFIXES:
         if columns is not None:
             raise TrajectoryFileError(
                 f"{p}: {option('columns')} names the columns of a text file; a {suffix[1:].upper()} file names "
@@ -284,6 +299,8 @@ def _read_text(p: Path, text: str, columns: Sequence[str] | None) -> FileTable:
     has_header = not _is_numeric_row(first, delimiter)
     if columns is not None:
         names = parse_column_names(columns, option("columns"))
+        if has_header:
+            _check_header_agrees(p, lines[0][0], first, names)
     elif has_header:
         trail = delimiter is not None and lines[0][1].endswith(delimiter) and not first[-1].strip()
         names = parse_column_names(first[:-1] if trail else first, f"{p}, header (line {lines[0][0]})")
@@ -303,7 +320,7 @@ def _read_text(p: Path, text: str, columns: Sequence[str] | None) -> FileTable:
     body = _decimal_commas(body, delimiter)
     values = _plain_numbers(body, delimiter, names) if '"' not in text else None
     if values is None:  # quoted cells, or a row to name: cell by cell
-        values = _numbers(p, _split(body, delimiter), names)
+        values = _numbers(p, _split(body, delimiter), names, columns is not None)
     fmt = {",": "csv", ";": "csv", "\t": "tsv", None: "text"}[delimiter]
     arrays = dict(zip([n for n in names if n != SKIP], values.T, strict=True))
     return FileTable(p, fmt, arrays, tuple(f"line {n}" for n, _ in body))
@@ -333,14 +350,35 @@ def _plain_numbers(body: list[tuple[int, str]], delimiter: str | None, names: tu
     return values
 
 
-def _numbers(p: Path, body: list[tuple[int, list[str]]], names: tuple[str, ...]) -> FloatArray:
+def _check_header_agrees(p: Path, line: int, header: list[str], names: tuple[str, ...]) -> None:
+    """Refuse ``--columns`` that name a column other than a header of valid names does (``_`` on either side
+    agrees with anything): ``t,y,x`` over a header ``t,x,y`` would swap x and y without a word. A header
+    of other names (``time,px,py``) is what ``--columns`` is for, and is skipped silently."""
+    try:
+        own = parse_column_names(header, "header")
+    except TrajectoryFileError:
+        return
+    clash = [k for k, (a, b) in enumerate(zip(own, names, strict=False)) if SKIP not in (a, b) and a != b]
+    if clash:
+        k = clash[0]
+        raise TrajectoryFileError(
+            f"{p}: the columns given ({','.join(names)}) contradict the file's header (line {line}: {','.join(own)}): "
+            f"column {k + 1} is {names[k]!r}, the header says {own[k]!r}; drop {option('columns')} to read the "
+            "header's names, or correct the header"
+        )
+
+
+def _numbers(p: Path, body: list[tuple[int, list[str]]], names: tuple[str, ...], given: bool) -> FloatArray:
     """(rows, named columns) values of a text file's cells; a row with the wrong number of cells, or a
-    cell that is not a finite number, is an error naming its line (and column)."""
+    cell that is not a finite number, is an error naming its line (and column). ``given``: the names are
+    ``--columns`` (the advice is then to name every cell there)."""
     for n, cells in body:
         if len(cells) != len(names):
+            fix = f"give every row the same cells, or name the columns with {option('columns')}"
+            if given:
+                fix = f"name every cell with {option('columns')} ({SKIP} skips one), or give every row the same cells"
             raise TrajectoryFileError(
-                f"{p}: line {n} has {len(cells)} cells but {len(names)} columns are named ({', '.join(names)}); "
-                f"give every row the same cells, or name the columns with {option('columns')}"
+                f"{p}: line {n} has {len(cells)} cells but {len(names)} columns are named ({', '.join(names)}); {fix}"
             )
     keep = [j for j, name in enumerate(names) if name != SKIP]
     where = str(p)

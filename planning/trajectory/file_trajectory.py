@@ -3,9 +3,10 @@
 A **timed** file is sampled every ``dt`` from its interpolant: positions and their derivatives, the
 heading along the motion where the robot moves (the direction of the curve's chord over
 :data:`HEADING_LENGTH` of path and :data:`HEADING_WINDOW` of time, within one drive, continued along
-the path near a drive's ends, where the motion is too short to resolve it) and, where it stands, the file's
-own headings (their turn in place; shifted to meet the motion's heading at both ends) or a turn from
-the arriving to the leaving heading. Then it goes through the stage every timed plan goes through
+the path near a drive's ends, where the motion is too short to resolve it; a robot that stays within
+:data:`NOISE_FLOOR` for :data:`SETTLE_TIME`, a recording's settling, stands with a speed of 0) and, where
+it stands, the file's own headings (their turn in place; shifted to meet the motion's heading at both
+ends) or a turn from the arriving to the leaving heading. Then it goes through the stage every timed plan goes through
 (:func:`planning.trajectory.from_plan.make_trajectory`): segments from the sign of v, its own samples
 kept (slowed uniformly, by at most :data:`MAX_STRETCH`, when it exceeds a limit) or re-timed from
 rest to rest by the speed profile, with the reason: it starts or ends moving, it accelerates beyond
@@ -27,6 +28,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
 from planning.collision.exact import CollisionChecker
 from planning.core.geometry import Pose2D, wrap_angle
@@ -65,6 +67,13 @@ HEADING_WINDOW = 0.1
 HEADING_LENGTH = 0.005
 #: Turn [rad] at a row of an untimed file above which the robot arrives and leaves with two headings.
 TURN_EPS = 1e-9
+#: The noise floor of a recorded motion [m]: a robot whose samples stay within it (the diagonal of their
+#: bounding box) for SETTLE_TIME stands (:func:`_settled`). nhsim's own /odom read back from its bag settles
+#: at the goal with fix corrections of 0.2-0.6 mm every 0.2 s and encoder ticks of 0.025 mm, the ground
+#: truth rocking by 0.1-0.3 mm; every one was a speed sign flip (a cusp) or a turn in place (65 rad/s).
+NOISE_FLOOR = 1e-3
+#: How long a stay within NOISE_FLOOR must last to stand [s]: a mean speed below MOVING_SPEED.
+SETTLE_TIME = NOISE_FLOOR / MOVING_SPEED
 
 
 @dataclass(frozen=True)
@@ -97,13 +106,16 @@ def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
     k = np.clip(np.searchsorted(imported.t, tg, side="right") - 1, 0, imported.direction.size - 1)
     sgn = imported.direction[k]
     moving = _steady(_steady(speed > MOVING_SPEED, tg, False), tg, True)
-    moving = _creeping(moving, tg, imported.curve(tg, 0))
+    xy = imported.curve(tg, 0)
+    settled = _settled(tg, xy)
+    moving = _creeping(moving, tg, xy) & ~settled
     heading = _motion_headings(imported, tg, moving, sgn)
     heading = _standing_headings(imported, tg, heading, moving)
     heading = np.unwrap(heading)
-    pose = np.column_stack([imported.curve(tg, 0), heading])
-    v = sgn * speed
-    return DenseFile(tg - t0, pose, v, np.gradient(heading, tg), row_speeds(imported, tg, v))
+    pose = np.column_stack([xy, heading])
+    v = np.where(settled, 0.0, sgn * speed)
+    v_rows = np.where(settled, 0.0, row_speeds(imported, tg, v))
+    return DenseFile(tg - t0, pose, v, np.gradient(heading, tg), v_rows)
 
 
 def row_speeds(imported: ImportedFile, tg: FloatArray, v: FloatArray) -> FloatArray:
@@ -132,6 +144,40 @@ def _steady(mask: NDArray[np.bool_], tg: FloatArray, value: bool) -> NDArray[np.
     np.add.at(mark, a[short], 1)
     np.add.at(mark, b[short], -1)
     return np.where(np.cumsum(mark)[:-1] > 0, value, mask)
+
+
+def _settled(tg: FloatArray, xy: FloatArray) -> NDArray[np.bool_]:
+    """(M,) whether each sample stands still within the noise floor: it lies in a window of SETTLE_TIME whose
+    samples all stay within NOISE_FLOOR (the diagonal of their bounding box), or in the file's last
+    SETTLE_TIME from a settled sample on when the rest stays within it (the file ends before a whole window).
+
+    Sub-millimetre motion is a recording's noise, not a motion to follow: a localiser's corrections and a
+    settling robot's rocking, each step a direction of its own, made cusps of every sign flip and turns in
+    place of every sideways correction. Samples ``DT`` apart (the last interval may be shorter).
+
+    Args:
+        tg: (M,) times [s].
+        xy: (M, 2) positions [m].
+    """
+    m = tg.size
+    if m < 2 or tg[-1] - tg[0] < SETTLE_TIME:
+        return np.zeros(m, dtype=bool)
+    n = min(round(SETTLE_TIME / float(np.median(np.diff(tg)))) + 1, m)
+    shift = -(n // 2)  # window [i, i + n): the filters' origin moved to its start
+    box = [maximum_filter1d(c, n, origin=shift) - minimum_filter1d(c, n, origin=shift) for c in xy.T]
+    ok = np.hypot(*box) <= NOISE_FLOOR
+    ok[m - n + 1 :] = False  # windows that run past the end (the filters repeat the last sample)
+    start = np.flatnonzero(ok)
+    mark = np.zeros(m + 1, dtype=np.int64)
+    np.add.at(mark, start, 1)
+    np.add.at(mark, np.minimum(start + n, m), -1)
+    settled = np.cumsum(mark)[:-1] > 0
+    tail = np.arange(max(m - n + 1, 0), m)  # windows cut by the end: from a settled sample on, if within it
+    lo, hi = np.minimum.accumulate(xy[::-1])[::-1], np.maximum.accumulate(xy[::-1])[::-1]
+    fits = settled[tail] & (np.hypot(*(hi[tail] - lo[tail]).T) <= NOISE_FLOOR)
+    if np.any(fits):
+        settled[tail[int(np.argmax(fits))] :] = True
+    return settled
 
 
 def _creeping(moving: NDArray[np.bool_], tg: FloatArray, xy: FloatArray) -> NDArray[np.bool_]:

@@ -365,6 +365,8 @@ def _required(table: FileTable, source: TrajectoryFile, report: ImportReport) ->
         hint = hint if missing == ["t"] else ""
         named = table.fmt in ("json", "yaml", "nav_msgs/Path")  # a document names its own fields: no --columns
         where = "give it in each pose" if named else f"name it in the header or with {option('columns')}"
+        if source.columns is not None and not named:
+            where = f"name it with {option('columns')}, which names every column (the header's names are not read)"
         if named and missing == ["t"]:  # a document without stamps: a path, for the path option alone
             where = f"a {table.fmt} whose poses carry no times (or all the same stamp) is a path"
             hint = f": use {option('path', python='timed=False')}, or give each pose its time"
@@ -422,11 +424,13 @@ def _to_metres(cols: dict[str, FloatArray], source: TrajectoryFile) -> dict[str,
 
 
 def _refuse_degrees(cols: dict[str, FloatArray], rows: tuple[str, ...], report: ImportReport) -> None:
-    """Refuse headings written in degrees: beyond a turn, and following the direction of motion (forwards
-    or backwards) when read as degrees but not when read as radians."""
+    """Refuse headings written in degrees: following the direction of motion (forwards or backwards, in the
+    median over the intervals that move) within HEADING_TO_MOTION when read as degrees but not when read
+    as radians, and either beyond a turn or (all within 2 pi, so all within 0.11 rad of the x axis as
+    degrees) explaining the motion's direction better than headings of zero would: a file in radians
+    along the x axis (forwards, or backwards at about pi) agrees as radians, and its headings read as
+    degrees say no more than zeros do (a constant bias of a radian file is not taken for degrees)."""
     theta = cols["theta"]
-    if float(np.max(np.abs(theta))) <= 2.0 * np.pi + 1e-9:
-        return
     d = np.diff(np.column_stack([cols["x"], cols["y"]]), axis=0)
     moving = np.hypot(d[:, 0], d[:, 1]) > 0.0
     if not np.any(moving):
@@ -438,14 +442,19 @@ def _refuse_degrees(cols: dict[str, FloatArray], rows: tuple[str, ...], report: 
         return float(np.median(np.min(np.abs(wrap_angle(2.0 * ends)), axis=1))) / 2.0
 
     as_rad, as_deg = off(theta), off(np.radians(theta))
-    if as_deg <= 0.1 < as_rad:
-        k = int(np.argmax(np.abs(theta)))
-        raise TrajectoryFileError(
-            f"{report.file}: column theta looks like degrees ({theta[k]:g} at {rows[k]}; read as degrees the "
-            f"headings follow the motion within {as_deg:.2g} rad in the median, read as radians {as_rad:.2g} rad "
-            "off it); give headings in radians (degrees x pi / 180), or leave the column out and the heading "
-            "follows the motion"
-        )
+    if not as_deg <= HEADING_TO_MOTION < as_rad:
+        return
+    beyond = float(np.max(np.abs(theta))) > 2.0 * np.pi + 1e-9
+    if not beyond and as_deg >= 0.5 * off(np.zeros_like(theta)):
+        return
+    k = int(np.argmax(np.abs(theta)))
+    within = "" if beyond else ", all within 2 pi"
+    raise TrajectoryFileError(
+        f"{report.file}: column theta looks like degrees ({theta[k]:g} at {rows[k]}{within}; read as degrees the "
+        f"headings follow the motion within {as_deg:.2g} rad in the median, read as radians {as_rad:.2g} rad "
+        "off it); give headings in radians (degrees x pi / 180), or leave the column out and the heading "
+        "follows the motion"
+    )
 
 
 def _unwrap(theta: FloatArray, rows: tuple[str, ...], report: ImportReport) -> tuple[FloatArray, int]:
