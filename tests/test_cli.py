@@ -55,6 +55,9 @@ def test_json_is_never_silently_overwritten(tmp_path: Path) -> None:
 
 
 def test_bad_gains_and_scenarios_are_clear_errors(tmp_path: Path) -> None:
+    """(In this process: refusals before any run, six of them.)"""
+    from tests.cli_helpers import nhsim_here as nhsim
+
     r = nhsim("simulate", "--gains", "1,-2")
     assert r.returncode == 2 and "KD = -2 is not" in r.stderr
     r = nhsim("simulate", "--gains", "fast")

@@ -19,7 +19,7 @@ from planning.errors import ConfigError
 from sim.pipeline.case import Case
 from sim.tools.bench.track import mpc_params
 from sim.tools.compare import TimedTracker, check_trackers, compare_trackers, format_table, load_params
-from tests.test_cli import nhsim
+from tests.cli_helpers import nhsim_here as nhsim
 
 
 def test_compare_cli_end_to_end(tmp_path: Path) -> None:

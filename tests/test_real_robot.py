@@ -4,7 +4,6 @@ what each run kind shows (open loop drifts, dead reckoning drifts less, the fuse
 from __future__ import annotations
 
 import json
-import subprocess
 from dataclasses import replace
 from pathlib import Path
 
@@ -22,24 +21,9 @@ from sim.pipeline.runs import RunKind
 from sim.pipeline.simulate import simulate_plan
 from sim.robot.sensing import SensingSetup
 from sim.robot.sources import PoseSource
+from tests.cli_helpers import nhsim_here as nhsim
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def nhsim(*args: str) -> subprocess.CompletedProcess[str]:
-    """``nhsim ARGS`` run in this process (its exit status and what it printed)."""
-    import contextlib
-    import io
-
-    from sim.cli.main import main
-
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            code = main(list(args))
-        except SystemExit as exc:  # a usage error (argparse exits 2)
-            code = int(exc.code or 0)
-    return subprocess.CompletedProcess(["nhsim", *args], code, out.getvalue(), err.getvalue())
 
 
 @pytest.fixture(scope="module")
