@@ -191,7 +191,7 @@ def make_trajectory(
     if goal is not None and np.hypot(path[-1, 0] - goal.x, path[-1, 1] - goal.y) <= snap_tolerance:
         times = np.asarray(plan.times, dtype=float).reshape(-1) if isinstance(plan, PlanResult) and timed else None
         path[:, :2] = snapped(path[:, :2], (goal.x, goal.y), times)
-    path_clear = float(checker.clearance_of(checker.densify(path)).min())
+    path_clear = checker.least_clearance(checker.densify(path))  # clearance_of: centimetres low away from things
     need = clearance if clearance is not None else max(0.0, min(0.01, 0.5 * path_clear))
     stats: dict[str, Any] = {
         "input_points": int(path.shape[0]),

@@ -895,7 +895,7 @@ def smooth_drive(
         # the parametric speed must stay near 1: a collapsing derivative means a kink or a loop
         sp = np.hypot(*poly(curve.u_table, 1).T)
         ok_shape = dev <= max_deviation and float(sp.min()) > MIN_SPEED
-        clear = float(checker.clearance_of(checker.densify(poses)).min()) if checker is not None else np.inf
+        clear = checker.least_clearance(checker.densify(poses)) if checker is not None else np.inf
         ok_clear = clear > clearance
         status = (
             SmoothStatus.SUCCESS

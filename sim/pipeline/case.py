@@ -548,7 +548,7 @@ def tracked_margin(problem: PlanProblem, margin: float) -> float:
     ``nhsim plan`` plans: a start 6 mm from a wall was refused for its 1 cm); 0 where one overlaps (the
     planner then says so)."""
     ends = np.array([problem.start.as_array(), problem.goal.as_array()])
-    least = float(CollisionChecker(problem.world, problem.robot).clearance_of(ends).min())
+    least = CollisionChecker(problem.world, problem.robot).least_clearance(ends)
     return margin if least >= margin else max(0.0, 0.5 * least)
 
 
