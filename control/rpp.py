@@ -263,6 +263,9 @@ class RegulatedPurePursuit(PerSegmentTracker):
     name = "rpp"
     #: Commands within the robot's acceleration limits (control/switching.py, a velocity smoother).
     SMOOTHED = True
+    #: It follows the path, not the reference's clock: on a timed reference, which has no hold of final
+    #: regulation, it trails and ends short (2-5 cm on the built-in references; nhsim simulate says so).
+    FOLLOWS_CLOCK = False
     #: The option ``nhsim tune --tracker`` tunes, and its dataclass.
     TUNED = ("params", RPPParams)
     STATE = STATE

@@ -226,15 +226,31 @@ def test_a_collision_before_the_estimator_diverged_is_said_first() -> None:
 
 def test_the_references_tracker_on_a_plan_is_said_to_regulate_no_heading() -> None:
     """fbl is in compare's default set; on a plan it ends 0.1-1.1 rad off its end heading (it regulates none),
-    which the table showed without a word."""
-    from sim.cli.compare import plan_notes
-    from sim.pipeline.case import Case
+    which the table showed without a word. rpp follows a path, not a clock: on a timed reference it ends 2-5 cm
+    short and simulate failed it without a word (simulate now says both, as compare does)."""
+    from sim.cli.job_outputs import tracker_notes
 
-    plan = Case("nav_map1", planner="hybrid-a-star")
-    (note,) = plan_notes(plan, ["fbl", "segmented"])
+    (note,) = tracker_notes(False, ["fbl", "segmented"])
     assert note.startswith("fbl tracks the position along a smooth reference") and "segmented is the tracker" in note
-    assert plan_notes(plan, ["segmented", "mpc"]) == []
-    assert plan_notes(Case("open", reference="figure8"), ["fbl", "segmented"]) == []
+    assert tracker_notes(False, ["segmented", "mpc", "rpp"]) == []
+    assert tracker_notes(True, ["fbl", "segmented"]) == []
+    (lag,) = tracker_notes(True, ["fbl", "rpp"])
+    assert lag.startswith("rpp follows the reference's path, not its clock") and "2 cm target" in lag
+
+
+def test_simulate_says_when_its_tracker_is_not_made_for_the_trajectory(tmp_path: Path) -> None:
+    """The notes come before the run (each job here is then refused at once, its --json taken)."""
+    taken = tmp_path / "taken.json"
+    taken.write_text("{}")
+    args = ("--runs", "closed_loop", "--no-video", "--no-plots", "--json", str(taken))
+    lag = nhsim("simulate", "--reference", "line", "--feedback", "rpp", *args)
+    assert "nhsim simulate: rpp follows the reference's path, not its clock" in lag.stderr, lag.stderr
+    plan = nhsim("simulate", "--scenario", "parallel_park", "--planner", "birrt", "--feedback", "fbl", *args)
+    assert "nhsim simulate: fbl tracks the position along a smooth reference" in plan.stderr, plan.stderr
+    for job in (("--scenario", "parallel_park", "--planner", "birrt"), ("--reference", "figure8", "--feedback", "fbl")):
+        own = nhsim("simulate", *job, *args)  # each tracker on what it is made for: nothing said but the refusal
+        assert own.returncode == 2 and own.stderr.startswith("nhsim simulate: error:"), own.stderr
+    assert lag.returncode == plan.returncode == 2
 
 
 def test_a_gains_file_given_to_params_is_named_as_one(tmp_path: Path) -> None:

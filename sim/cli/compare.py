@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from sim.cli.checks import add_planner_option_argument
-from sim.cli.job_outputs import RUN_SETTINGS, add_case_arguments, unused_time_limit
+from sim.cli.job_outputs import RUN_SETTINGS, add_case_arguments, tracker_notes, unused_time_limit
 from sim.cli.trajectory_files import add_file_arguments
 
 DESCRIPTION = """\
@@ -179,23 +178,10 @@ def run(args: argparse.Namespace) -> int:
     if "import" in p.extra and not args.quiet:  # what was read from the file and repaired, as simulate says it
         print("\n".join(format_import(p.extra["import"])))
     print(format_table(result))
-    for line in plan_notes(case, names):
+    for line in tracker_notes(case.reference is not None, names):
         print(f"nhsim compare: {line}", file=sys.stderr)
     _write(result, outputs, overwrite=args.overwrite)
     return 1 if result.ended_early() else 0
-
-
-def plan_notes(case: Any, names: Sequence[str]) -> list[str]:
-    """The note for a reference's tracker compared on a plan (or a file): it tracks the position along a
-    smooth reference and regulates no heading at a plan's stops and end, which its row's end heading shows."""
-    from sim.pipeline.runs import PLAN_TRACKER, REFERENCE_TRACKER
-
-    if case.reference is not None or REFERENCE_TRACKER not in names:
-        return []
-    return [
-        f"{REFERENCE_TRACKER} tracks the position along a smooth reference; at a plan's stops and its end it "
-        f"regulates no heading (its end heading shows it): {PLAN_TRACKER} is the tracker made for plans"
-    ]
 
 
 def _write(result: Any, outputs: dict[str, Path], *, overwrite: bool) -> None:

@@ -81,6 +81,30 @@ def unused_time_limit(planned: bool, time_limit: float) -> list[str]:
     return ["--time-limit ignored: it is the planner's budget, and this job plans nothing"]
 
 
+def tracker_notes(on_reference: bool, trackers: Sequence[str]) -> list[str]:
+    """Notes for trackers given a trajectory they are not made for (``simulate`` and ``compare`` print them on
+    stderr): the reference's tracker on a plan or a file, which regulates no heading at its stops and end, and
+    a tracker that follows the path, not the clock (a tracker class's ``FOLLOWS_CLOCK = False``: rpp), on a
+    timed reference, which has no hold of final regulation to catch up in."""
+    from control.base import TRACKERS
+    from sim.pipeline.runs import PLAN_TRACKER, REFERENCE_TRACKER
+
+    notes = []
+    if not on_reference and REFERENCE_TRACKER in trackers:
+        notes.append(
+            f"{REFERENCE_TRACKER} tracks the position along a smooth reference; at a plan's stops and its end it "
+            f"regulates no heading (its end heading shows it): {PLAN_TRACKER} is the tracker made for plans"
+        )
+    lagging = [t for t in trackers if t in TRACKERS and not getattr(TRACKERS.factory(t), "FOLLOWS_CLOCK", True)]
+    if on_reference and lagging:
+        notes.append(
+            f"{', '.join(lagging)} follows the reference's path, not its clock: it trails a timed reference and is "
+            "still short where the reference ends (2-5 cm on the built-in references), which the 2 cm target "
+            "counts; a plan gets a hold of final regulation to arrive in"
+        )
+    return notes
+
+
 def add_case_arguments(p: argparse.ArgumentParser) -> None:
     """``--scenario``, ``--robot`` and ``--planner`` / ``--reference``, decided by simulate's rule
     (:func:`sim.cli.simulate.job_source`) for commands that run one case (compare, montecarlo)."""

@@ -11,7 +11,7 @@ from typing import Any
 
 from planning.errors import ConfigError, option, without_python
 from sim.cli.checks import add_planner_option_argument
-from sim.cli.job_outputs import RUN_SETTINGS, add_executor_arguments, add_output_arguments
+from sim.cli.job_outputs import RUN_SETTINGS, add_executor_arguments, add_output_arguments, tracker_notes
 from sim.cli.trajectory_files import add_file_arguments, check_file_options, file_given, format_import
 from sim.pipeline.runs import RunKind, run_kinds
 
@@ -515,7 +515,12 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--jobs and --scheduler spread --all's sweep over workers; one job runs here: drop it")
     for line in ignored_options(args):
         print(f"nhsim simulate: {line}", file=sys.stderr)
-    return _track_job(args, *job_case(args))
+    case, source = job_case(args)
+    runs = parse_runs(args.runs) if args.runs is not None else run_choices()[args.tracker]
+    if not all(kind.tracker for kind in runs):  # a run feeds back: its tracker, on this trajectory
+        for line in tracker_notes(case.reference is not None, [case.feedback_tracker]):
+            print(f"nhsim simulate: {line}", file=sys.stderr)
+    return _track_job(args, case, source)
 
 
 def gains_and_perturbation(args: argparse.Namespace) -> tuple[Any, Any]:
