@@ -838,6 +838,17 @@ class SmoothResult:
         return self.status is SmoothStatus.SUCCESS
 
 
+def _clearance(checker: CollisionChecker | None, poses: FloatArray, need: float) -> float:
+    """The footprint's least clearance over ``poses`` [m] as far as deciding ``> need`` requires: the checker's
+    bound when it clears ``need`` already, else the measured clearance (``least_clearance``: the bound is up to
+    centimetres low away from things, which failed curves that kept their clearance). inf without a checker."""
+    if checker is None:
+        return float("inf")
+    dense = checker.densify(poses)
+    bound = float(checker.clearance_of(dense).min())
+    return bound if bound > need else checker.least_clearance(dense)
+
+
 def smooth_drive(
     segment: PathSegment,
     checker: CollisionChecker | None = None,
@@ -895,7 +906,7 @@ def smooth_drive(
         # the parametric speed must stay near 1: a collapsing derivative means a kink or a loop
         sp = np.hypot(*poly(curve.u_table, 1).T)
         ok_shape = dev <= max_deviation and float(sp.min()) > MIN_SPEED
-        clear = checker.least_clearance(checker.densify(poses)) if checker is not None else np.inf
+        clear = _clearance(checker, poses, clearance)
         ok_clear = clear > clearance
         status = (
             SmoothStatus.SUCCESS
