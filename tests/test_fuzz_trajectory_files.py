@@ -74,7 +74,7 @@ def import_property(f: TimedFile) -> None:
     event("re-timed" if imported.report.retimed else "timing kept")  # type: ignore[attr-defined]
 
 
-test_import_fast, test_import_slow = fast_and_slow(timed_files(), import_property, fast=40)
+test_import_fast, test_import_slow = fast_and_slow(timed_files(), import_property, fast=20)
 
 
 def _run_cli(argv: list[str], where: Path) -> tuple[int, str]:

@@ -153,7 +153,7 @@ def test_rrts_partial_path_says_how_far_its_heading_is_from_the_goals():
     reason said only that, its heading pi off. The reason names both."""
     world = World((0.0, 3.0, 0.0, 0.208))
     prob = PlanProblem(world, load_robot("turtlebot3"), Pose2D(0.3, 0.104, 0.0), Pose2D(2.5, 0.104, math.pi))
-    res = make_planner("rrt", max_iterations=3000, time_limit=10.0).plan(prob)
+    res = make_planner("rrt", max_iterations=1000, time_limit=10.0).plan(prob)
     assert res.status is PlanStatus.TIMEOUT
     m = re.search(r"nearest the goal \(([0-9.]+) m away, its heading ([0-9.]+) rad off the goal.s\)", res.reason)
     assert m, res.reason

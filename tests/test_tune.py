@@ -734,7 +734,7 @@ def test_the_robots_localiser_left_unstated_is_the_study_that_states_it(
     assert not (renders / f"tune-{name}.db").exists()
 
 
-@pytest.mark.parametrize("resume", [[], ["--robot", "turtlebot3"]])
+@pytest.mark.parametrize("resume", [[], pytest.param(["--robot", "turtlebot3"], marks=pytest.mark.slow)])
 def test_the_scenarios_robot_left_unstated_is_the_study_that_states_it(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, resume: list[str]
 ) -> None:
@@ -891,6 +891,7 @@ def _workers_of(pid: int) -> list[int]:
     return found
 
 
+@pytest.mark.slow  # a real worker killed mid-study: 7 s
 def test_a_killed_worker_is_a_failure_not_bad_input(tmp_path: Path) -> None:
     """A worker killed (SIGKILL) ended the command with exit status 2, which means bad input. It is a failure
     that is not the input's: exit status 1, one line naming how the worker ended and saying a rerun resumes."""

@@ -92,7 +92,8 @@ def _completed(url: str, study: str) -> int:
         return 0
 
 
-@pytest.mark.parametrize("jobs", [1, pytest.param(2, marks=pytest.mark.slow)])
+@pytest.mark.slow  # a server stopped and started again: 7 s
+@pytest.mark.parametrize("jobs", [1, 2])
 def test_a_database_lost_mid_study_is_one_line_and_a_rerun_resumes(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, jobs: int
 ) -> None:
@@ -137,6 +138,7 @@ def test_a_database_lost_mid_study_is_one_line_and_a_rerun_resumes(
         assert _completed(server.url, "lost") == done + 1
 
 
+@pytest.mark.slow  # the default run checks it on SQLite (test_tune.py); here on a server, 4 s
 def test_the_password_is_hidden_and_another_spelling_reaches_the_same_study(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
