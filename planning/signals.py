@@ -92,6 +92,21 @@ def signals_held() -> Iterator[None]:
 
 
 @contextlib.contextmanager
+def sigint_blocked() -> Iterator[None]:
+    """SIGINT blocked in this thread within the block (threads and processes started here inherit it): a
+    terminal's Ctrl-C, which reaches every process of a command, is then the command's alone to act on. One that
+    came meanwhile is delivered as the block ends. Outside the main thread it does nothing."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+@contextlib.contextmanager
 def signals_released() -> Iterator[None]:
     """Inside :func:`signals_held`: the handlers it replaced act again within this block, and the
     signals it noted so far are delivered to them as the block begins; on leaving, they are held

@@ -286,13 +286,14 @@ def _run_parallel(spec: Any, shares: list[int], study: Any, progress: _Progress)
     import multiprocessing as mp
     from multiprocessing import resource_tracker
 
+    from planning.signals import sigint_blocked
     from sim.tools.tune import completed
 
     ctx = mp.get_context("spawn")
     resource_tracker.ensure_running()  # started first: starting it unblocks SIGINT in the thread that starts it
     procs: list[Any] = []
     try:
-        with _sigint_blocked():  # inherited by the workers: Ctrl-C is this process's to act on
+        with sigint_blocked():  # inherited by the workers: Ctrl-C is this process's to act on
             for i, n in enumerate(shares):
                 procs.append(ctx.Process(target=_worker, args=(spec, n, i + 1)))
                 procs[-1].start()
@@ -347,22 +348,6 @@ def _stop_workers(procs: list[Any]) -> None:
             if proc.is_alive():
                 proc.kill()
                 proc.join()
-
-
-@contextlib.contextmanager
-def _sigint_blocked() -> Iterator[None]:
-    """SIGINT blocked in this thread within the block (processes started here inherit it); one that came meanwhile
-    is delivered as the block ends. Outside the main thread it does nothing."""
-    import signal
-
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _worker(spec: Any, n_trials: int, worker: int) -> None:

@@ -179,12 +179,12 @@ class DaskExecutor(Executor):
 
         from dask.distributed import Client, LocalCluster
 
-        from planning.signals import signals_held
+        from planning.signals import sigint_blocked, signals_held
 
         # started first, here: starting it unblocks SIGINT in the thread that starts it (it blocks the
         # signal only for its own start), which would otherwise be the one starting the first worker
         resource_tracker.ensure_running()
-        with signals_held(), _sigint_blocked():
+        with signals_held(), sigint_blocked():
             self._cluster = LocalCluster(
                 n_workers=0,
                 threads_per_worker=1,
@@ -323,20 +323,6 @@ class DaskExecutor(Executor):
             self._cluster.close()
             if killer is not None:
                 killer.join()
-
-
-@contextlib.contextmanager
-def _sigint_blocked() -> Iterator[None]:
-    """SIGINT blocked in this thread within the block (threads and processes started here inherit it);
-    one that came meanwhile is delivered as the block ends. Outside the main thread it does nothing."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 @contextlib.contextmanager
