@@ -809,6 +809,7 @@ def test_a_closed_output_pipe_ends_the_command_quietly_with_141():
     assert first.startswith(b"scenario farm") and "Traceback" not in err and "BrokenPipe" not in err
 
 
+@pytest.mark.slow  # whole commands in subprocesses; 4 s
 def test_a_reader_that_goes_away_leaves_the_commands_outputs_written(tmp_path):
     """`nhsim simulate ... | head -1`: the command stopped at its next print, and the record and plots it had
     not written yet were lost (or kept, by the timing of the reader). It now prints nothing more, writes them,

@@ -280,6 +280,7 @@ def test_goal_walled_off_is_infeasible_at_once():
     assert res.stats["iterations"] == 0 and time.perf_counter() - t0 < 1.0
 
 
+@pytest.mark.slow  # the whole lattice searched; 3 s
 def test_gap_too_narrow_for_the_body_exhausts_the_lattice():
     # a 0.12 m gap: the inscribed disc (0.08 m) passes, the 0.178 m wide body does not
     walls = (Box((4.0, 1.97), (0.1, 3.94)), Box((4.0, 5.03), (0.1, 1.94)))

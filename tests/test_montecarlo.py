@@ -161,6 +161,7 @@ def test_perturbations_are_drawn_from_the_ranges_only() -> None:
     assert _spec(runs=5).draws() == _spec(runs=8).draws()[:5]
 
 
+@pytest.mark.slow  # a local cluster with a worker killed; 4 s
 def test_a_worker_that_dies_has_its_run_retried_elsewhere(tmp_path: Path) -> None:
     marker = tmp_path / "died"
     with DaskExecutor(jobs=2) as ex:

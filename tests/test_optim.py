@@ -363,6 +363,7 @@ def test_a_warm_start_of_one_pose_is_named_so() -> None:
     assert res.stats["init"] == "straight (init planner 'sinusoidal' gave a single pose)"
 
 
+@pytest.mark.slow  # a message's wording; 4 s
 def test_a_gap_too_narrow_for_the_warm_starts_disc_is_named_in_the_reason() -> None:
     # a 0.287 m gap in a wall: the NLP's disc (0.136 m) fits it, with the warm starts' extra centimetre it
     # does not, and IPOPT fails from the straight line through the wall

@@ -335,7 +335,7 @@ def _interrupt(*args: object, **kwargs: object) -> None:
     raise KeyboardInterrupt
 
 
-@pytest.mark.parametrize("video", [False, True])
+@pytest.mark.parametrize("video", [False, pytest.param(True, marks=pytest.mark.slow)])
 def test_an_interrupted_job_keeps_every_old_output(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], video: bool
 ) -> None:

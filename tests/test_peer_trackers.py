@@ -186,7 +186,8 @@ def test_every_mpc_solver_tracks(solver: str) -> None:
     assert _errors(traj, poses)[-1] < 1e-3 and tracker.stats()["failures"] == 0
 
 
-@pytest.mark.parametrize("robot_name", ["turtlebot3", pytest.param("edumip", marks=pytest.mark.slow)])
+@pytest.mark.slow  # two MPC solvers on a figure eight; 7 s
+@pytest.mark.parametrize("robot_name", ["turtlebot3", "edumip"])
 def test_the_real_time_iteration_tracks_a_figure_eight_as_the_converged_sqp_does(robot_name: str) -> None:
     robot = load_robot(robot_name)
     traj = make_reference("figure8", robot, Pose2D(0.0, 0.0, 0.0))

@@ -74,6 +74,7 @@ def test_an_unreadable_baseline_fails_its_case_alone_and_update_replaces_it(
     assert _regress(suite, bl) == 0
 
 
+@pytest.mark.slow  # a local cluster; 3 s
 def test_an_unreadable_baseline_is_read_before_the_workers_run(
     tmp_path: Path, capfd: pytest.CaptureFixture[str]
 ) -> None:

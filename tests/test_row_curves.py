@@ -127,6 +127,7 @@ def test_a_dense_slow_file_is_the_same_curve_as_a_coarse_one(tmp_path: Path) -> 
     assert np.abs(dense.pose[moving, 2] - coarse.pose[moving, 2]).max() < 0.002
 
 
+@pytest.mark.slow  # two long files simulated; 3 s
 def test_a_slow_file_keeps_its_clock_dense_or_coarse(tmp_path: Path) -> None:
     """The slow arc (1 cm/s, 1.9 cm/s at most) is well within the robot's limits: every 0.01 s and every
     0.1 s its own 100 s clock is kept, and both give the same trajectory. Near its ends, where it moves at

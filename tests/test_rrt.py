@@ -332,6 +332,7 @@ def test_birrts_connect_steps_stop_when_they_no_longer_close_in():
         assert res.length() < 40.0 and res.stats["iterations"] < 1000
 
 
+@pytest.mark.slow  # 62,000 region poses; 3 s
 def test_goal_region_poses_lie_in_the_region_and_reach_its_shortest_curve():
     """The region's poses are in the goal region, the goal pose first, and from random starts the
     shortest curve to one of them is within 2.5 mm of the shortest to a grid of 60,000 poses of the

@@ -193,6 +193,7 @@ def test_a_step_no_period_makes_within_the_bounds_is_bounds_violated_not_infeasi
     assert Sinusoidal(u1max=0.05, max_period=41.0).plan(simple).status is PlanStatus.SUCCESS
 
 
+@pytest.mark.slow  # a message's advice; 3 s
 def test_a_heading_reversal_beyond_the_method_says_so_and_suggests_no_option_that_cannot_help() -> None:
     """A user's empty 6 x 6 m world, the goal 4 m ahead facing back: piece 2 of 3 (the alternate chart, -45 to
     -135 deg) must move x by 1.46 m sideways, in one fourth-state step at its end heading, 45 deg off its chart's

@@ -863,6 +863,7 @@ def test_the_storages_password_is_never_shown_nor_written(tmp_path: Path) -> Non
     assert "S3cretPW" not in str(refused.value) and "nhsim:***@" in str(refused.value)
 
 
+@pytest.mark.slow  # two studies; 2 s
 def test_a_study_resumed_with_another_sampler_says_which_samplers_made_its_trials(tmp_path: Path) -> None:
     """A TPE study resumed with --sampler random was written sampler = "random", though most of its trials came
     from TPE. Optuna lets any sampler continue a study; the provenance names each sampler and its trials (the
