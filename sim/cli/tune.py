@@ -398,15 +398,26 @@ def _storage_kept(storage: str) -> Iterator[None]:
 
 
 def _quiet_optuna() -> None:
-    """Optuna says only warnings, without its report of a trial an interrupt stopped (:class:`_NotInterrupted`)
-    and its experimental-feature warnings."""
+    """Optuna says only warnings, without its report of a trial an interrupt stopped (:class:`_NotInterrupted`),
+    its retry of a query on a lost database connection (:func:`_not_lost_connection`) and its experimental-feature
+    warnings."""
     import optuna
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     for handler in logging.getLogger("optuna").handlers:  # its trials' loggers pass records up to these
-        if _not_interrupted not in handler.filters:
-            handler.addFilter(_not_interrupted)
+        for quiet in (_not_interrupted, _not_lost_connection):
+            if quiet not in handler.filters:
+                handler.addFilter(quiet)
     warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
+
+
+def _not_lost_connection(record: logging.LogRecord) -> bool:
+    """False for Optuna's "Caught an error from sqlalchemy: ... Falling back to a slower alternative." when the
+    error is the database's connection (a server stopped): Optuna takes any OperationalError for a query with too
+    many variables and retries it, the retry fails on the same connection, and the command says the lost
+    connection once (:func:`sim.tools.tune.lost_storage_message`). Its other retries are still said."""
+    message = record.getMessage()
+    return not (message.startswith("Caught an error from sqlalchemy") and "connection" in message)
 
 
 def _save_figure(plt: Any, ax: Any, path: Path, files: TuneFiles, stage: Any) -> None:
