@@ -28,6 +28,7 @@ from sim.pipeline import simulate
 from sim.pipeline.case import Case
 from sim.pipeline.simulate import prepare_case
 from sim.tools.tune import Comparison, Evaluation, Evaluator, make_draws, open_storage, split_trials
+from tests.cli_helpers import nhsim_meanwhile
 
 CASE = "open:line"  # the cheapest reference: 12 s simulated, ~0.3 s a run
 DRAWS = 2  # robots per case in the tests' studies
@@ -897,21 +898,13 @@ def test_a_killed_worker_is_a_failure_not_bad_input(tmp_path: Path) -> None:
     """A worker killed (SIGKILL) ended the command with exit status 2, which means bad input. It is a failure
     that is not the input's: exit status 1, one line naming how the worker ended and saying a rerun resumes."""
     args = _args(tmp_path, 10, "--eval-runs", "0", "--draws", "1", "--jobs", "2")
-    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
-    pipe = subprocess.PIPE
-    proc = subprocess.Popen([sys.executable, "-m", "sim", *args], env=env, stdout=pipe, stderr=pipe, text=True)
-    deadline = time.monotonic() + 120
-    try:
-        while not (_completed_so_far(tmp_path) >= 1 and len(_workers_of(proc.pid)) == 2):
-            assert proc.poll() is None and time.monotonic() < deadline, "no worker completed a trial"
-            time.sleep(0.05)
-        os.kill(_workers_of(proc.pid)[0], signal.SIGKILL)
-        _, err = proc.communicate(timeout=120)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    assert proc.returncode == 1, err
+    r = nhsim_meanwhile(
+        args,
+        lambda proc: _completed_so_far(tmp_path) >= 1 and len(_workers_of(proc.pid)) == 2,  # a worker done a trial
+        lambda proc: os.kill(_workers_of(proc.pid)[0], signal.SIGKILL),
+    )
+    err = r.stderr
+    assert r.returncode == 1, err
     assert err.startswith("nhsim tune: failed: 1 of 2 tuning worker processes ended early (killed by SIGKILL)"), err
     assert "rerun the same command to resume it" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "gains.toml").exists()

@@ -6,13 +6,13 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import optuna
 import pytest
 
 from control.gains import load_gains_file
+from tests.cli_helpers import nhsim_meanwhile
 from tests.postgres_helpers import postgres_cluster, postgres_server
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -103,24 +103,16 @@ def test_a_database_lost_mid_study_is_one_line_and_a_rerun_resumes(
     With the server back, the same command resumes the study."""
     with postgres_cluster() as server:
         url = server.url.replace("nhsim@", "nhsim:S3cretPW@")  # trust authentication takes any password
-        args = [sys.executable, "-m", "sim", "tune", "--scenarios", CASE, "--draws", "1", "--storage", url,
-                "--study", "lost", "--out", str(tmp_path / "g.toml"), "--plots", str(tmp_path), "--quiet",
-                "--eval-runs", "0", "--jobs", str(jobs)]  # fmt: skip
-        env = {**os.environ, "PYTHONPATH": str(ROOT)}
-        pipe = subprocess.PIPE
-        proc = subprocess.Popen([*args, "--trials", "200"], cwd=tmp_path, env=env, stdout=pipe, stderr=pipe, text=True)
-        try:
-            deadline = time.monotonic() + 120
-            while _completed(server.url, "lost") < 2:
-                assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()[1]
-                time.sleep(0.1)
-            server.stop()
-            _, err = proc.communicate(timeout=120)
-        finally:
-            if proc.poll() is None:
-                proc.kill()
-                proc.wait()
-        assert proc.returncode == 1, err
+        args = ["tune", "--scenarios", CASE, "--draws", "1", "--storage", url, "--study", "lost", "--quiet"]
+        args += ["--out", str(tmp_path / "g.toml"), "--plots", str(tmp_path), "--eval-runs", "0", "--jobs", str(jobs)]
+        lost = nhsim_meanwhile(
+            [*args, "--trials", "200"],
+            lambda _: _completed(server.url, "lost") >= 2,
+            lambda _: server.stop(),
+            cwd=tmp_path,
+        )
+        err = lost.stderr
+        assert lost.returncode == 1, err
         shown = server.url.replace("nhsim@", "nhsim:***@")
         assert err.startswith(f"nhsim tune: failed: lost the connection to the study's storage {shown} ("), err
         assert err.strip().endswith("rerun the same command to resume it") and len(err.strip().splitlines()) == 1
@@ -134,7 +126,7 @@ def test_a_database_lost_mid_study_is_one_line_and_a_rerun_resumes(
         monkeypatch.setattr(tune, "HEARTBEAT_INTERVAL", 1)
         monkeypatch.setattr(tune, "GRACE_PERIOD", 2)
         monkeypatch.chdir(tmp_path)
-        assert main([*args[3:], "--trials", str(done + 1)]) in (0, 1)
+        assert main([*args, "--trials", str(done + 1)]) in (0, 1)
         assert _completed(server.url, "lost") == done + 1
 
 
