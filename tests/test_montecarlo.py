@@ -113,7 +113,7 @@ def test_a_hand_edited_run_record_is_refused_naming_the_file_and_line(
         path.write_text(header + lines[0] + json.dumps(edited) + "\n" + lines[2])
         before = path.read_bytes()
         with pytest.raises(ConfigError) as err:
-            ResultsFile(path, json.loads(header)["key"], seeds=spec.record_seeds())
+            ResultsFile(path, json.loads(header)["key"], seeds=spec.record_seeds)
         assert str(err.value).startswith(f"{path}, line 3: {problem}"), str(err.value)
         assert main(argv) == 2
         said = capsys.readouterr().err
@@ -127,7 +127,7 @@ def test_a_hand_edited_run_record_is_refused_naming_the_file_and_line(
 def test_the_seeds_of_a_study_with_perturbations_are_read_back_as_its_own(tmp_path: Path) -> None:
     spec = _spec(runs=1, ranges=PerturbationRange.parse("radius=0.97:1.03,latency=0:0.02", others="nominal"))
     result = run_montecarlo(spec, Executor(), ResultsFile(tmp_path / "p.jsonl", spec.key()))
-    reread = ResultsFile(tmp_path / "p.jsonl", spec.key(), seeds=spec.record_seeds())
+    reread = ResultsFile(tmp_path / "p.jsonl", spec.key(), seeds=spec.record_seeds)
     assert reread.records[0] == result.records[0] and reread.records[0]["perturbation"]["radius"] != 1.0
 
 
@@ -346,7 +346,7 @@ def test_replan_plans_each_run_with_its_own_seed(tmp_path: Path) -> None:
     for rec, draw in zip(result.records, spec.draws(), strict=True):
         assert rec["plan_seed"] == rec["noise_seed"] == draw.seed != spec.case.seed
         assert rec["runs"]["closed_loop"]["success"]
-    reread = ResultsFile(tmp_path / "r.jsonl", spec.key(), seeds=spec.record_seeds())  # its seeds: the study's
+    reread = ResultsFile(tmp_path / "r.jsonl", spec.key(), seeds=spec.record_seeds)  # its seeds: the study's
     assert [reread.records[i] for i in range(2)] == result.records
     once = MonteCarloSpec(spec.case, 2)
     assert once.key() != spec.key()  # replanned runs are another study

@@ -24,9 +24,10 @@ KEY = {"scenario": "open", "seed": 0}
 
 
 # ------------------------------------------------------------------------------------- montecarlo results
-def _record(index: int) -> str:
-    rec = {"index": index, "plan_seed": 0, "noise_seed": index, "build_seed": None, "perturbation": None}
-    return json.dumps({**rec, "failed": "PlanError: none"})
+def _record(index: int, seeds: list[dict[str, Any]] | None = None) -> str:
+    """A failed plan's record of run ``index`` (with ``seeds``, a study's :meth:`record_seeds`, its seeds)."""
+    rec = {"plan_seed": 0, "noise_seed": index, "build_seed": None, "perturbation": None}
+    return json.dumps({"index": index, **(rec if seeds is None else seeds[index]), "failed": "PlanError: none"})
 
 
 def _results(tmp_path: Path, lines: list[str], end: str = "\n") -> Path:
@@ -87,16 +88,22 @@ def test_montecarlo_refuses_a_damaged_results_file_with_status_2(
     monkeypatch.chdir(tmp_path)
     argv = ["montecarlo", "--reference", "line", "--localiser", "fixes", "--jobs", "1", "--runs", "3"]
     argv += ["--results", "d.jsonl", "--json", "d.json", "--quiet", "--no-plots"]
-    key = _spec(build_parser().parse_args(argv)).key()
-    header = json.dumps({"nhsim_montecarlo": 1, "key": key, "code": code_digest()})
-    (tmp_path / "d.jsonl").write_text("\n".join([header, _record(0), '{"broken": 1,', _record(2)]) + "\n")
-    before = (tmp_path / "d.jsonl").read_bytes()
-    assert main(argv) == 2
-    err = capsys.readouterr().err
-    assert err.startswith("nhsim montecarlo: error: d.jsonl, line 3: not a JSON record;") and "Traceback" not in err
-    assert (tmp_path / "d.jsonl").read_bytes() == before and not (tmp_path / "d.json").exists()
+    spec = _spec(build_parser().parse_args(argv))
+    header = json.dumps({"nhsim_montecarlo": 1, "key": spec.key(), "code": code_digest()})
+    seeds = spec.record_seeds()
+    for lines, problem in (
+        ([_record(0, seeds), '{"broken": 1,', _record(2, seeds)], "line 3: not a JSON record;"),
+        # a failed plan's record names its seeds as a measured one does: one edited is not this study's run
+        ([_record(0, seeds), _record(1)], "line 3: run 1 is not this study's run 1: its noise_seed 1 (this study's"),
+    ):
+        (tmp_path / "d.jsonl").write_text("\n".join([header, *lines]) + "\n")
+        before = (tmp_path / "d.jsonl").read_bytes()
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"nhsim montecarlo: error: d.jsonl, {problem}") and "Traceback" not in err, err
+        assert (tmp_path / "d.jsonl").read_bytes() == before and not (tmp_path / "d.json").exists()
     # a last line cut short (an interrupted append) is dropped, said, and its run done again
-    (tmp_path / "d.jsonl").write_text("\n".join([header, _record(0), _record(1), _record(2)[:20]]))
+    (tmp_path / "d.jsonl").write_text("\n".join([header, _record(0, seeds), _record(1, seeds), _record(2)[:20]]))
     assert main(argv) == 0
     assert "note: d.jsonl: dropped its last line (line 4, 20 bytes cut short" in capsys.readouterr().err
 

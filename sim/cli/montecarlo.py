@@ -261,7 +261,7 @@ def run(args: argparse.Namespace) -> int:
     if args.bags is not None:
         _check_bags(args.bags, args.overwrite, input_paths(args))
     try:
-        results = ResultsFile(paths["results"], spec.key(), spec.earlier_keys(), seeds=spec.record_seeds())
+        results = ResultsFile(paths["results"], spec.key(), spec.earlier_keys(), seeds=spec.record_seeds)
     except ConfigError:
         if not args.overwrite:  # another study's runs, or not a results file: kept
             raise

@@ -294,9 +294,9 @@ class ResultsFile:
             headed by one is this study's too.
         replacing: The file at ``path`` (another study's, or no results file: ``--overwrite``) is not read, and is
             replaced by this study's with its first finished run.
-        seeds: What the study's runs' records name of them, by index (:meth:`MonteCarloSpec.record_seeds`): a
-            measured record whose seeds or perturbation differ from its index's is refused (none given: unchecked).
-            A record of a failed plan (``failed``: no metrics, no replay command) is not checked.
+        seeds: What the study's runs' records name of them, by index (:meth:`MonteCarloSpec.record_seeds`, called
+            only when there is a file to read): a record whose seeds or perturbation differ from its index's, a
+            failed plan's included, is refused (none given: unchecked).
 
     Raises:
         ConfigError: The file holds another study, is not a results file, or holds a line that is not a run
@@ -311,10 +311,10 @@ class ResultsFile:
         code: str | None = None,
         *,
         replacing: bool = False,
-        seeds: Sequence[Mapping[str, Any]] = (),
+        seeds: Callable[[], Sequence[Mapping[str, Any]]] | None = None,
     ) -> None:
         self.path, self.key = Path(path), dict(key)
-        self.seeds = list(seeds)
+        self._seeds = seeds
         self.earlier = [dict(k) for k in earlier]
         self.code = code_digest() if code is None else code
         self.records: dict[int, dict[str, Any]] = {}
@@ -359,6 +359,7 @@ class ResultsFile:
         (no newline after it: a run killed while appending it): it is dropped (said on stderr) and its run done
         again. Any other unreadable line is refused, naming it: nothing is dropped or cut from the file."""
         torn = not raw.endswith(b"\n")
+        seeds = [] if self._seeds is None else self._seeds()
         for number, line in enumerate(lines[1:], start=2):
             if not line.strip():
                 continue
@@ -370,7 +371,7 @@ class ResultsFile:
                     self._drop_torn_line(raw, len(raw) - len(line), number)
                     return
                 raise self._bad_line(number, "not a JSON record") from None
-            problem = _record_problem(rec) or ("failed" not in rec and _seeds_problem(rec, self.seeds))
+            problem = _record_problem(rec) or _seeds_problem(rec, seeds)
             if problem:
                 raise self._bad_line(number, problem)
             self.records[int(rec["index"])] = rec
