@@ -6,15 +6,17 @@ never a mock, and compare with the serial loop: equal statistics, bit for bit.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import socket
 import threading
 import time
 from pathlib import Path
 
 import pytest
 
-from planning.errors import ConfigError
+from planning.errors import ConfigError, SimulationError
 from sim.cli.main import main
 from sim.physics.perturb import PerturbationRange
 from sim.pipeline.case import Case
@@ -634,6 +636,73 @@ def test_workers_that_cannot_import_nhsim_are_refused_in_one_line(
     assert err.startswith(f"nhsim montecarlo: error: the workers at {address} cannot import nhsim's sim.")
     assert "(No module named 'sim')" in err and "in each worker's environment" in err and "--jobs J" in err
     assert not list(tmp_path.iterdir())  # nothing written
+
+
+def test_a_scheduler_that_cannot_import_nhsim_is_refused_in_one_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The scheduler reads every run's task: one started where nhsim is not installed ended the command with Dask's
+    traceback of "Error during deserialization of the task graph", exit status 1, its workers having nhsim."""
+    import subprocess
+    import sys
+
+    from dask.distributed import Client
+
+    monkeypatch.chdir(tmp_path)
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    scheduler_cli = _WORKER_WITHOUT_NHSIM.replace("dask_worker", "dask_scheduler")
+    scheduler = subprocess.Popen(
+        [sys.executable, "-c", scheduler_cli, "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
+        stderr=subprocess.DEVNULL,
+    )
+    worker = None
+    try:
+        for _ in range(300):  # until it listens
+            with contextlib.suppress(OSError), socket.create_connection(("127.0.0.1", port), timeout=1):
+                break
+            time.sleep(0.1)
+        worker = subprocess.Popen(  # a worker where nhsim is installed
+            [sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1", "--no-nanny"],
+            stderr=subprocess.DEVNULL,
+        )
+        with Client(address) as client:
+            client.wait_for_workers(1, timeout=60)
+        argv = ["montecarlo", "--reference", "line", "--runs", "2", "--quiet", "--no-plots", "--scheduler", address]
+        assert main(argv) == 2
+    finally:
+        for proc in (worker, scheduler):
+            if proc is not None:
+                proc.kill()
+                proc.wait()
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    assert err.startswith(f"nhsim montecarlo: error: the scheduler at {address} cannot import nhsim's sim."), err
+    assert "(No module named 'sim')" in err and "in the scheduler's environment and start it there" in err
+    assert not list(tmp_path.iterdir())  # nothing written
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+def test_runs_on_which_workers_keep_dying_end_in_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    """A batch whose workers died as often as the scheduler allows (a worker out of memory, or one that joined late
+    where nhsim is not installed, dying on its first run) ended the command with Dask's KilledWorker traceback."""
+    import operator
+
+    import dask
+
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}), _scheduler(workers=1) as cluster:  # type: ignore[attr-defined]
+        address = cluster.scheduler_address
+        with DaskExecutor(address=address, kept="finished runs are kept") as ex:
+            with pytest.raises(SimulationError) as err:
+                list(ex.map_unordered(operator.call, [3], shared=os._exit))  # the worker's process ends: os._exit(3)
+    said = str(err.value)
+    assert said.startswith(f"1 worker at {address} died running the same runs (Dask's KilledWorker; the last"), said
+    assert "where nhsim is not installed" in said and said.endswith("see the workers' logs; finished runs are kept")
 
 
 def _times_ten(shared: object, item: int) -> int:

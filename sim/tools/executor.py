@@ -33,7 +33,7 @@ from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TypeVar
 
 from planning.core.checks import check_number
-from planning.errors import ConfigError, DependencyError, option, options
+from planning.errors import ConfigError, DependencyError, SimulationError, option, options
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -224,10 +224,33 @@ class DaskExecutor(Executor):
         try:
             with self._watching():
                 for future in as_completed(futures):
-                    yield from zip(batch_of[future.key], future.result(), strict=True)
+                    yield from zip(batch_of[future.key], self._result(future), strict=True)
             self.retries += int(client.run_on_scheduler(_suspicious, keys=list(batch_of)))
         finally:
             client.cancel(futures)
+
+    def _result(self, future: Any) -> Any:
+        """A batch's results; a batch on which too many workers died ends the runs in one line, not Dask's traceback.
+
+        Raises:
+            SimulationError: The batch was on as many workers as the scheduler allows to die with it
+                (``distributed.scheduler.allowed-failures``, default 3) and each died: out of memory, killed, or a
+                worker whose environment lacks nhsim (it dies on its first run: a worker is checked when the runs
+                start, not when it joins later).
+        """
+        from dask.distributed import KilledWorker
+
+        try:
+            return future.result()
+        except KilledWorker as exc:
+            kept = f"; {self._kept}" if self._kept else ""
+            n = exc.allowed_failures + 1
+            raise SimulationError(
+                f"{n} worker{'s' * (n > 1)} at {self.where} died running the same runs (Dask's "
+                f"KilledWorker; the last, {exc.last_worker.address}): a worker out of memory or killed, or one started "
+                "where nhsim is not installed (a worker is checked when the runs start, not when it joins later): see "
+                f"the workers' logs{kept}"
+            ) from exc
 
     def preload(self, *modules: str) -> None:
         """Import ``modules`` on every worker now (MuJoCo, numba's compiled kernels), so a worker's
@@ -240,6 +263,11 @@ class DaskExecutor(Executor):
         import importlib
 
         for name in modules:
+            if self._cluster is None:  # the scheduler reads every run's task: nhsim must be where it runs too
+                try:
+                    self._client.run_on_scheduler(importlib.import_module, name)
+                except Exception as exc:
+                    raise DependencyError(self._cannot_import(name, str(exc), "the scheduler")) from exc
             got = self._client.run(importlib.import_module, name, on_error="return")
             failed = {worker: exc for worker, exc in sorted(got.items()) if isinstance(exc, BaseException)}
             if failed:
@@ -249,12 +277,15 @@ class DaskExecutor(Executor):
                 raise DependencyError(self._cannot_import(name, str(next(iter(failed.values()))), which))
 
     def _cannot_import(self, module: str, why: str, which: str) -> str:
-        """The one line that refuses workers that cannot import ``module`` (nhsim's)."""
-        remote = self._cluster is None
+        """The one line that refuses workers (or ``which`` "the scheduler") that cannot import ``module`` (nhsim's)."""
+        where = (
+            "the scheduler's environment and start it there ('dask scheduler')"
+            if which == "the scheduler"
+            else f"each worker's environment and start its workers there ('dask worker {self.where}')"
+        )
         fix = (
-            f"install nhsim (this version, with its dependencies) in each worker's environment and start its "
-            f"workers there ('dask worker {self.where}'), or run here with {_LOCAL}"
-            if remote
+            f"install nhsim (this version, with its dependencies) in {where}, or run here with {_LOCAL}"
+            if self._cluster is None
             else "reinstall nhsim in this environment"
         )
         return f"{which} at {self.where} cannot import nhsim's {module} ({why}): {fix}"
