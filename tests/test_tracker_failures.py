@@ -230,3 +230,50 @@ def test_a_trackers_reset_that_raises_is_one_error_naming_it(line: tuple[Simulat
         "tracker 'boom' raised IndexError in reset(trajectory, dt): index 3 is out of bounds for axis 0 with size 3; "
         "fix the tracker's reset (the exception is chained to this error, as __cause__, with its traceback)"
     )
+
+
+class Returns:
+    """A tracker whose ``command`` returns ``out`` from ``after`` s on (the reference's inputs before)."""
+
+    name = "returns"
+
+    def __init__(self, out: object, after: float = 0.0) -> None:
+        self.out, self.after = out, after
+        self._traj: Trajectory | None = None
+
+    def reset(self, trajectory: Trajectory, dt: float) -> None:
+        self._traj = trajectory
+
+    def command(self, t: float, x: float, y: float, theta: float) -> Any:
+        assert self._traj is not None
+        if t >= self.after:
+            return self.out
+        s = self._traj.sample_many(np.array([t]))
+        return float(s.v[0]), float(s.omega[0])
+
+
+@pytest.mark.parametrize(
+    ("out", "after", "shown"),
+    [
+        (None, 0.0, "None (NoneType)"),
+        ((0.1, 0.0, 0.0), 0.0, "(0.1, 0.0, 0.0) (tuple)"),
+        ((0.1 + 0j, 0.0), 0.0, "((0.1+0j), 0.0) (tuple)"),
+        (("0.1", "0.0"), 0.0, "('0.1', '0.0') (tuple)"),
+        (0.1, 0.5, "0.1 (float)"),
+    ],
+    ids=["none", "three", "complex", "text", "one-number-later"],
+)
+def test_a_command_that_is_not_two_numbers_stops_the_run_naming_what_it_returned(
+    line: tuple[Simulator, Trajectory], out: object, after: float, shown: str
+) -> None:
+    """A tracker returning None, three numbers or complex ones ended in a traceback of the unpacking or of the
+    compiled call ("bad argument type for built-in operation"); one returning text was driven as numbers."""
+    simulator, trajectory = line
+    with pytest.raises(SimulationError) as info:
+        simulator.run(trajectory, Returns(out, after), SimConfig(control_rate=1.0 / DT))
+    t = math.ceil(after / DT - 1e-9) * DT
+    assert str(info.value) == (
+        f"tracker 'returns' returned {shown} from command(t, x, y, theta) at t={t:.3f} s: a command must be two "
+        "real numbers (v [m/s], omega [rad/s]), e.g. a tuple of floats; fix the tracker's command"
+    )
+    assert isinstance(info.value.__cause__, TypeError | ValueError)

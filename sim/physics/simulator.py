@@ -345,8 +345,14 @@ class Simulator:
                 raise
             except Exception as exc:  # whatever the tracker's code raised (a plugin's bug): one line, chained
                 raise tracker_failed(tracker, f"command(t, x, y, theta) at t={t:.3f} s", exc) from exc
-            v, w = out
-            if not write(k + 1, v, w):  # commands[k + 1] = [v, w, left, right], if finite
+            try:
+                v, w = out
+                if k == 0 and (isinstance(v, str | bytes) or isinstance(w, str | bytes)):
+                    raise TypeError("text, not numbers")  # numba's conversion would read it as numbers
+                written = write(k + 1, v, w)  # commands[k + 1] = [v, w, left, right], if finite
+            except (TypeError, ValueError) as exc:
+                raise not_a_command(tracker, out, t) from exc
+            if not written:
                 raise SimulationError(
                     f"tracker {tracker.name!r} returned a non-finite command ({v}, {w}) at t={t:.3f} s: a command "
                     "must be two finite numbers (v [m/s], omega [rad/s]); fix the tracker's law (e.g. a division "
@@ -361,6 +367,17 @@ class Simulator:
                 break
         if progress is not None:
             progress(n_ctrl, n_ctrl)
+
+
+def not_a_command(tracker: Tracker, out: object, t: float) -> SimulationError:
+    """The error of a run whose tracker's ``command`` returned ``out`` at ``t``, which is not two numbers."""
+    shown = " ".join(repr(out).split())
+    shown = shown if len(shown) <= 60 else shown[:57] + "..."
+    return SimulationError(
+        f"tracker {tracker.name!r} returned {shown} ({type(out).__name__}) from command(t, x, y, theta) at "
+        f"t={t:.3f} s: a command must be two real numbers (v [m/s], omega [rad/s]), e.g. a tuple of floats; fix "
+        "the tracker's command"
+    )
 
 
 def reset_tracker(tracker: Tracker, trajectory: Trajectory, dt: float) -> None:
