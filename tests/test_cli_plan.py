@@ -330,3 +330,29 @@ def test_a_planners_options_are_given_on_the_command_line(tmp_path: Path, capsys
     assert "unknown option(s) max_itr for planner 'optim'" in capsys.readouterr().err
     assert main(["simulate", "--reference", "line", "--planner-option", "a=1", "--no-video"]) == 2
     assert "planner options (a) are given but nothing is planned" in capsys.readouterr().err
+
+
+def test_a_plan_that_overruns_its_time_limit_is_said(tmp_path, capsys, monkeypatch):
+    """A planner that does not stop on time (a plugin's) was reported "success, time 5.171 s" under a 1 s limit."""
+    import time
+
+    from planning.planners.sinusoidal import Sinusoidal
+
+    real = Sinusoidal.plan
+
+    def slow(self, problem):
+        time.sleep(0.4)
+        return real(self, problem)
+
+    js = tmp_path / "p.json"
+    argv = ["plan", "--scenario", "parallel_park", "--planner", "sinusoidal", "--quiet", "--json", str(js)]
+    assert main([*argv, "--time-limit", "1"]) == 0  # within its limit: nothing said
+    assert "note" not in capsys.readouterr().out and "overran_s" not in json.loads(js.read_text())["stats"]
+    monkeypatch.setattr(Sinusoidal, "plan", slow)
+    assert main([*argv, "--time-limit", "0.2", "--overwrite"]) == 0  # over 1.25 x 0.2 + 0.1 s
+    line = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("note"))
+    spent = json.loads(js.read_text())["stats"]["overran_s"]
+    assert spent >= 0.4 and line == (
+        f"note            planner 'sinusoidal' took {spent:.3f} s (loading code apart), over its time limit of 0.2 s: "
+        "a planner stops within problem.time_limit"
+    )

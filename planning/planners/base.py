@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any, Protocol
@@ -232,6 +233,7 @@ def run_planner(planner: Planner, name: str, problem: PlanProblem, origin: str =
         ConfigError: The planner's own refusal of bad input.
     """
     who = f"planner {name!r}" + (f" ({origin})" if origin else "")
+    started = time.perf_counter()
     try:
         result = planner.plan(problem)
     except NhsimError:
@@ -242,6 +244,9 @@ def run_planner(planner: Planner, name: str, problem: PlanProblem, origin: str =
         raise PlannerError(
             f"{who} returned {result!r:.60} ({type(result).__name__}), not a PlanResult (planning.PlanResult)"
         )
+    spent = time.perf_counter() - started - float(result.stats.get("code_s", 0.0))  # numba's loading: not held
+    if spent > OVERRUN_FACTOR * problem.time_limit + OVERRUN_SLACK_S:
+        result.stats["overran_s"] = spent  # said by the commands (a planner that does not stop on time)
     if not result.success:
         return result
     missed = _missed(result.path, problem)
@@ -252,6 +257,11 @@ def run_planner(planner: Planner, name: str, problem: PlanProblem, origin: str =
         return dataclasses.replace(result, status=PlanStatus.FAILED, reason=reason)
     return result
 
+
+#: A plan whose wall time (numba's loading of its code apart) exceeds its time limit by this factor plus
+#: :data:`OVERRUN_SLACK_S` is said to have overrun it (``stats["overran_s"]``, :func:`run_planner`).
+OVERRUN_FACTOR = 1.25
+OVERRUN_SLACK_S = 0.1
 
 #: Largest step [m] between a path's poses as its collisions are checked (``nhsim plan`` records its paths so
 #: densified, :data:`sim.cli.plan.PATH_SPACING`).

@@ -177,6 +177,11 @@ def run(args: argparse.Namespace) -> int:
     ]
     if reason:
         lines.append(f"reason          {reason}")
+    if "overran_s" in result.stats:  # a planner of a plugin's that does not stop on time
+        lines.append(
+            f"note            planner {name!r} took {result.stats['overran_s']:.3f} s (loading code apart), over "
+            f"its time limit of {args.time_limit:g} s: a planner stops within problem.time_limit"
+        )
     print("\n".join(lines))
     record = {
         "status": status.value,
