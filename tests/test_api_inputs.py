@@ -5,6 +5,7 @@ kind is named where it is given (it was an AttributeError deep inside)."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -528,3 +529,27 @@ def test_path_length_and_densify_path_refuse_a_bad_radius_shape_nan_or_spacing(m
     assert densify_path([[0, 0, 0], [1, 0, 0]], 0.1).shape == (11, 3)
     with pytest.raises(ConfigError, match=r"into 13 poses \(at most 11\); give a larger spacing, at least 0\.12 m"):
         densify_path([[0, 0, 0], [1, 0, 0]], 0.09)
+
+
+@pytest.mark.parametrize(
+    ("keywords", "said"),
+    [
+        ({"feedback": "fbl"}, "unknown keyword 'feedback' (did you mean 'tracker'?); "),
+        ({"trackr": "fbl"}, "unknown keyword 'trackr' (did you mean 'tracker'?); "),
+        ({"time_limit": 3.0}, "unknown keyword 'time_limit' (did you mean planning=PlanOptions(time_limit=...)?); "),
+        ({"colour": 1, "sead": 2}, "unknown keywords 'colour', 'sead' (did you mean 'seed'?); "),
+    ],
+)
+def test_a_keyword_that_is_no_field_of_a_case_is_named_with_the_field_meant(
+    keywords: dict[str, Any], said: str
+) -> None:
+    """``simulate_plan(..., feedback="stanley")`` (the command line's --feedback) said only "Case.__init__() got an
+    unexpected keyword argument 'feedback'"."""
+    from sim import simulate_plan
+
+    with pytest.raises(ConfigError) as err:
+        simulate_plan("parallel_park", **keywords)
+    assert str(err.value).startswith(f"simulate_plan: {said}the keywords are the fields of a case"), str(err.value)
+    fields = "robot, reference, planner, tracker, seed, control_rate, gains, perturbation, name, params, fast"
+    more = "planning, build_seed, sensors, noise_seed, trajectory_file, localiser, lidar, amcl, initial_pose, motors"
+    assert str(err.value).endswith(f": {fields}, {more}")

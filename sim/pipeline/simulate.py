@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import platform
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -323,10 +323,35 @@ def _case(where: str, scenario: object, fields_: dict[str, Any], **source: Any) 
             **fields_,
             "seed": check_number(f"{where}: seed", fields_["seed"], integer=True, at_least=0, fix=fix),
         }
+    unknown = [k for k in fields_ if k not in CASE_FIELDS]
+    if unknown:
+        said = ", ".join(f"{k!r}{_field_hint(k)}" for k in unknown)
+        raise ConfigError(
+            f"{where}: unknown keyword{'s' * (len(unknown) > 1)} {said}; the keywords are the fields of a case "
+            f"(sim.pipeline.case.Case): {', '.join(f for f in CASE_FIELDS if f != 'scenario')}"
+        )
     try:
         return Case(scenario, **source, **fields_)
     except TypeError as exc:
         raise ConfigError(f"{where}: {exc}; the fields of a case are those of sim.pipeline.case.Case") from exc
+
+
+#: The fields of a case, the keywords of :func:`simulate_plan` and its kin.
+CASE_FIELDS = tuple(f.name for f in fields(Case))
+#: The ``nhsim simulate`` options whose case field has another name.
+_CLI_NAMES = {"feedback": "tracker", "time_limit": "planning=PlanOptions(time_limit=...)"}
+
+
+def _field_hint(name: str) -> str:
+    """`` (did you mean 'tracker'?)`` for a keyword that is (or is close to) a field's or a command-line option's name
+    (``feedback``, ``nhsim simulate --feedback``: the field ``tracker``)."""
+    import difflib
+
+    close = [name] if name in _CLI_NAMES else difflib.get_close_matches(name, [*CASE_FIELDS, *_CLI_NAMES], n=1)
+    if not close:
+        return ""
+    meant = _CLI_NAMES.get(close[0], close[0])
+    return f" (did you mean {meant}?)" if meant.endswith(")") else f" (did you mean {meant!r}?)"
 
 
 def simulate_reference(
