@@ -280,6 +280,43 @@ def test_the_localiser_is_part_of_the_study_and_of_its_replays(tmp_path: Path, m
     assert records["amcl"]["key"] != records["fixes"]["key"] and records["fixes"]["key"]["localiser"] == "fixes"
 
 
+def test_a_study_of_another_tracker_is_its_own_and_replays_on_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """montecarlo had no --feedback: only the FBL could be studied from the command line (no mpc, rpp, kanayama, nor a
+    plugin's tracker), though simulate and compare run them all."""
+    monkeypatch.chdir(tmp_path)
+    base = ["montecarlo", "--scenario", "open", "--reference", "line", "--robot", "turtlebot3", "--runs", "1"]
+    base += ["--localiser", "fixes", "--jobs", "1", "--quiet", "--no-plots"]
+    records = {}
+    for name, extra in (("fbl", []), ("kanayama", ["--feedback", "kanayama"])):
+        assert main([*base, *extra, "--json", f"{name}.json", "--results", f"{name}.jsonl"]) == 0
+        records[name] = json.loads((tmp_path / f"{name}.json").read_text())
+    assert records["fbl"]["key"]["tracker"] == "fbl" and records["kanayama"]["key"]["tracker"] == "kanayama"
+    assert records["fbl"]["statistics"] != records["kanayama"]["statistics"]  # another law drove the closed loops
+    from sim.tools.montecarlo import replay_options
+
+    worst = records["kanayama"]["statistics"]["closed_loop"]["worst"][0]
+    replay = ["simulate", *records["kanayama"]["replay_base"], *replay_options(worst), "--no-video", "--no-plots"]
+    feedback = records["kanayama"]["replay_base"].index("--feedback")
+    assert (
+        records["kanayama"]["replay_base"][feedback + 1] == "kanayama"
+        and "--feedback" not in records["fbl"]["replay_base"]
+    )
+    assert main([*replay, "--quiet", "--json", "replay.json"]) == 0
+    rec = json.loads((tmp_path / "replay.json").read_text())
+    assert rec["closed_loop"]["final_position_error_m"] == worst["final_position_error_m"]  # bit for bit
+    capsys.readouterr()
+    for extra, said in (
+        (["--feedback", "mpc", "--gains", "3,2"], "--gains: tracker mpc does not use the FBL's gains; drop --gains"),
+        (["--feedback", "open-loop"], "the open loop is a run of every study already (open_loop)"),
+    ):
+        assert main([*base, *extra, "--json", "bad.json", "--results", "bad.jsonl"]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("nhsim montecarlo: error: ") and said in err and err.count("\n") == 1, err
+    assert not (tmp_path / "bad.jsonl").exists()
+
+
 def test_statistics_of_no_measured_run_are_nan_not_errors() -> None:
     stats = statistics([{"index": 0, "plan_seed": 1, "noise_seed": 1, "build_seed": 1, "failed": "plan"}])
     assert stats["plan_failures"] == 1 and stats["closed_loop"]["success_rate"] == 0.0

@@ -19,7 +19,7 @@ from sim.cli.job_outputs import (
     check_apart_from_inputs,
     input_paths,
 )
-from sim.cli.simulate import add_localiser_arguments
+from sim.cli.simulate import add_feedback_argument, add_localiser_arguments
 from sim.cli.trajectory_files import add_file_arguments, file_options
 
 DESCRIPTION = """\
@@ -75,7 +75,10 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     p.add_argument("--build", choices=["as-built", "nominal"], default="as-built", help="draw each run's robot as "
                    "built (default) or drive the robot as drawn every time")  # fmt: skip
-    p.add_argument("--gains", default=None, metavar="KP,KD|FILE", help="feedback gains (default: 9,6)")
+    add_feedback_argument(p)
+    p.add_argument(
+        "--gains", default=None, metavar="KP,KD|FILE", help="the FBL's gains (fbl, segmented) (default: 9,6)"
+    )
     p.add_argument("--sensors", default=None, metavar="KEY=VALUE,...|FILE", help="sensor profile overrides")
     p.add_argument("--control-rate", type=float, default=50.0, metavar="HZ", help="tracker rate (default: 50)")
     add_localiser_arguments(p)
@@ -99,9 +102,17 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 
 def _spec(args: argparse.Namespace) -> Any:
+    from control.fbl import uses_fbl_gains
     from control.gains import FBLGains, resolve_gains
     from sim.cli.checks import check_control_rate, check_seeds, check_time_limit
-    from sim.cli.simulate import check_scan_beams, job_source, localiser_fields, parse_build, sensor_overrides
+    from sim.cli.simulate import (
+        check_scan_beams,
+        feedback_option,
+        job_source,
+        localiser_fields,
+        parse_build,
+        sensor_overrides,
+    )
     from sim.cli.trajectory_files import check_file_options, file_given, file_source, file_world
     from sim.physics.perturb import PerturbationRange
     from sim.pipeline.case import Case, PlanOptions, load_case_scenario
@@ -115,6 +126,7 @@ def _spec(args: argparse.Namespace) -> Any:
     fields = {
         "seed": args.seed,
         "control_rate": args.control_rate,
+        "tracker": feedback_option(args.feedback, "the open loop is a run of every study already (open_loop)"),
         "gains": resolve_gains(args.gains) if args.gains else FBLGains(),
         "planning": PlanOptions(time_limit=args.time_limit),
         "build_seed": parse_build(args.build, None),
@@ -140,6 +152,11 @@ def _spec(args: argparse.Namespace) -> Any:
                 f"{', '.join(given)} {'is' if len(given) == 1 else 'are'} for a planned study, and this one plans "
                 "nothing (a reference or a file): drop it"
             )
+    if args.gains and not uses_fbl_gains(case.feedback_tracker):  # a study of gains that change nothing
+        raise ConfigError(
+            f"--gains: tracker {case.feedback_tracker} does not use the FBL's gains; drop --gains (its own parameters "
+            "are compared by nhsim compare --params)"
+        )
     check_scan_beams(case, load_case_scenario(case), DEFAULT_RUNS)  # its closed loop localises, as simulate's
     ranges = PerturbationRange.parse(args.perturb_range, others="nominal") if args.perturb_range else None
     return MonteCarloSpec(case, args.runs, ranges, replan=args.replan)
@@ -230,6 +247,7 @@ def _base_argv(args: argparse.Namespace, case: Any) -> list[str]:
         argv += ["--robot", args.robot]
     for opt, value, default in (
         ("--time-limit", args.time_limit, RUN_SETTINGS["time_limit"]),
+        ("--feedback", args.feedback, None),
         ("--gains", args.gains, None),
         ("--sensors", args.sensors, None),
         ("--control-rate", args.control_rate, 50.0),

@@ -267,19 +267,24 @@ def _add_run_kind_arguments(p: argparse.ArgumentParser) -> None:
         "the fused estimate, closed loop on dead reckoning and open loop (default: %(default)s); the closed loops' "
         "tracker (mpc, rpp, kanayama, ...) is --feedback T",
     )
-    p.add_argument(
-        "--feedback",
-        default=None,
-        metavar="T",
-        help="the tracker of the closed-loop runs: fbl, segmented, mpc, rpp, kanayama, or one a plugin registers "
-        "(docs/how-to/new-tracker.md) (default: segmented on a plan, fbl on a reference)",
-    )
+    add_feedback_argument(p)
     p.add_argument(
         "--runs",
         default=RUN_SETTINGS["runs"],
         metavar="KIND,...",
         help=f"the runs, overriding --tracker: any of {', '.join(str(k) for k in RunKind)} "
         "(closed_loop_truth feeds the tracker the true pose, for comparison) (default: those of --tracker)",
+    )
+
+
+def add_feedback_argument(p: argparse.ArgumentParser) -> None:
+    """``--feedback T``: the closed loops' tracker (:func:`feedback_option` checks it)."""
+    p.add_argument(
+        "--feedback",
+        default=None,
+        metavar="T",
+        help="the tracker of the closed-loop runs: fbl, segmented, mpc, rpp, kanayama, or one a plugin registers "
+        "(docs/how-to/new-tracker.md) (default: segmented on a plan, fbl on a reference)",
     )
 
 
@@ -596,8 +601,11 @@ def check_scan_beams(case: Any, scenario: Any, runs: tuple[RunKind, ...]) -> Non
     )
 
 
-def _feedback(name: str | None) -> str | None:
-    """``--feedback``'s tracker: one with feedback (a player without it, "open-loop", is the open loop's run).
+def feedback_option(
+    name: str | None, open_loop: str = "its run is --runs open_loop (or --tracker open-loop)"
+) -> str | None:
+    """``--feedback``'s tracker: one with feedback (a player without it, "open-loop", is the open loop's run,
+    ``open_loop`` says where a command has it).
 
     Raises:
         ConfigError: A tracker without feedback.
@@ -606,8 +614,7 @@ def _feedback(name: str | None) -> str | None:
 
     if name is not None and name in TRACKERS and name not in feedback_trackers():
         raise ConfigError(
-            f"--feedback {name}: {name!r} feeds nothing back, so the closed-loop runs would not be closed; its run is "
-            "--runs open_loop (or --tracker open-loop)"
+            f"--feedback {name}: {name!r} feeds nothing back, so the closed-loop runs would not be closed; {open_loop}"
         )
     return name
 
@@ -623,7 +630,7 @@ def _case_fields(args: argparse.Namespace, gains: Any, perturbation: Any) -> dic
         "gains": gains,
         "perturbation": perturbation,
         "planning": PlanOptions(time_limit=args.time_limit, planner_options=planner_option_values(args.planner_option)),
-        "tracker": _feedback(args.feedback),
+        "tracker": feedback_option(args.feedback),
         "build_seed": parse_build(args.build, args.build_seed),
         "sensors": sensor_overrides(args.sensors),
         "noise_seed": args.noise_seed,
