@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+import difflib
 import inspect
 import math
 import re
@@ -14,7 +16,7 @@ from planning.core.checks import check_fields, check_number, is_number
 from planning.core.plugins import BUILT_IN as BUILT_IN  # re-exported: who registered a tracker
 from planning.core.plugins import BY_CODE as BY_CODE
 from planning.core.plugins import PLUGIN_VARIABLE as PLUGIN_VARIABLE
-from planning.core.plugins import Registry, check_registration
+from planning.core.plugins import RegistrationError, Registry, check_registration
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError, SimulationError
 from planning.trajectory.trajectory import Trajectory
@@ -88,7 +90,8 @@ def register_tracker(
         replace: Replace a tracker already registered under ``name`` (a built-in one too).
 
     Raises:
-        ConfigError: A bad name or target, or a name taken by another target without ``replace``.
+        ConfigError: A bad name or target, a factory whose ``TUNED`` names an option it does not take
+            (:func:`check_tuned`), or a name taken by another target without ``replace``.
     """
     check_registration(
         "register_tracker",
@@ -99,12 +102,53 @@ def register_tracker(
         examples=("p-pose", "mypackage.pose_p:PoseP"),
     )
     if not isinstance(baseline, bool):
-        raise ConfigError(f"register_tracker({name!r}): baseline must be True or False")
+        raise RegistrationError(f"register_tracker({name!r}): baseline must be True or False", "tracker")
+    if not isinstance(target, str):
+        check_tuned(f"register_tracker({name!r})", target)
     TRACKERS.add("register_tracker", name, target, replace)
     if baseline:
         BASELINES.add(name)
     else:
         BASELINES.discard(name)
+
+
+def check_tuned(what: str, factory: Callable[..., Any]) -> None:
+    """A tracker factory's ``TUNED = (option, dataclass)`` (what ``nhsim tune --tracker`` tunes), checked: a pair
+    whose option is one of the factory's keyword options. None (or no ``TUNED``): nothing to tune.
+
+    Args:
+        what: Who is checked, for the message ("register_tracker('p-pose')").
+        factory: The tracker's factory (class).
+
+    Raises:
+        RegistrationError: ``TUNED`` is not a pair (option name, dataclass), or names an option the factory does
+            not take (the message names it, the options it takes and the likeliest one).
+    """
+    tuned = getattr(factory, "TUNED", None)
+    if tuned is None:
+        return
+    if not (isinstance(tuned, tuple) and len(tuned) == 2 and isinstance(tuned[0], str)):
+        raise RegistrationError(
+            f"{what}: TUNED must be the pair (option, dataclass) that nhsim tune tunes, e.g. ('gains', PoseGains); got "
+            f"{tuned!r:.80}",
+            "tracker",
+        )
+    try:
+        params = inspect.signature(factory).parameters.values()
+    except (TypeError, ValueError):  # a factory whose signature cannot be read: checked when made
+        return
+    options = [p.name for p in params if p.kind is inspect.Parameter.KEYWORD_ONLY]
+    option, cls = tuned
+    if option not in options:
+        shown = getattr(cls, "__name__", repr(cls))
+        near = difflib.get_close_matches(option, options, n=1) or options[:1]
+        fix = f"name the option it is given as, e.g. TUNED = ({near[0]!r}, {shown})" if near else "give it one"
+        raise RegistrationError(
+            f"{what}: TUNED = ({option!r}, {shown}) names option {option!r}, which "
+            f"{getattr(factory, '__qualname__', factory)!s} does not take (its keyword options: "
+            f"{', '.join(options) or 'none'}); {fix}",
+            "tracker",
+        )
 
 
 def tracker_origin(name: str) -> str:
@@ -178,9 +222,13 @@ def tuned_option(name: str) -> tuple[str, type]:
     ``("params", MPCParams)``.
 
     Raises:
-        ConfigError: Unknown name (lists the valid ones), or a tracker with nothing to tune.
+        ConfigError: Unknown name (lists the valid ones), a tracker with nothing to tune, or a ``TUNED`` naming
+            an option the tracker does not take (:func:`check_tuned`).
     """
-    tuned = getattr(TRACKERS.factory(name), "TUNED", None)
+    factory = TRACKERS.factory(name)
+    tuned = getattr(factory, "TUNED", None)
+    if tuned is not None:  # registered by its import path (or set directly): checked as register_tracker does
+        check_tuned(f"tracker {name!r} ({TRACKERS.origin(name)})", factory)
     if tuned is None:
         with_params = [n for n in sorted(TRACKERS) if getattr(TRACKERS.factory(n), "TUNED", None) is not None]
         raise ConfigError(f"tracker {name!r} has no parameters to tune; choose one of {', '.join(with_params)}")
@@ -197,7 +245,8 @@ def make_tracker(name: str, robot: RobotSpec, **options: Any) -> Tracker:
 
     Raises:
         ConfigError: Unknown name (lists the valid ones), an option the tracker does not take (names
-            it and lists the valid ones) or a bad option value.
+            it and lists the valid ones) or a bad option value (a parameter dataclass's :func:`ranged` field out of
+            its range too: :func:`check_option_ranges`).
     """
     factory = TRACKERS.factory(name)
     if not isinstance(robot, RobotSpec):
@@ -209,6 +258,8 @@ def make_tracker(name: str, robot: RobotSpec, **options: Any) -> Tracker:
             f"tracker {name!r}: unknown option(s) {', '.join(map(repr, unknown))}; "
             f"valid options: {', '.join(valid) or '(none)'}"
         )
+    for option, value in options.items():
+        check_option_ranges(name, option, value)
     return factory(robot, **options)
 
 
@@ -216,7 +267,8 @@ def option_value(tracker: str, option: str, value: T | None, default: T) -> T:
     """A tracker option checked to be of its default's type; None gives the default.
 
     Raises:
-        ConfigError: ``value`` is neither None nor of the default's type.
+        ConfigError: ``value`` is neither None nor of the default's type, or is a parameter dataclass with a
+            :func:`ranged` field out of its range (:func:`check_option_ranges`).
     """
     if value is None:
         return default
@@ -226,7 +278,27 @@ def option_value(tracker: str, option: str, value: T | None, default: T) -> T:
             f"tracker {tracker!r}: option {option} must be an instance of {kind.__name__} (e.g. {default!r}), "
             f"or None for that default; got {type(value).__name__}"
         )
+    check_option_ranges(tracker, option, value)
     return value
+
+
+def check_option_ranges(tracker: str, option: str, value: object) -> None:
+    """Check a tracker option's :func:`ranged` fields (a parameter dataclass's) against their ranges, whether or
+    not its ``__post_init__`` calls :func:`check_ranges` (a misspelt ``__post_init__`` is never called). The
+    value itself is left as it is (checked on a copy). Anything else passes.
+
+    Raises:
+        ConfigError: A ranged field is not a number, not finite or out of its range (names the tracker, the option
+            and the field, e.g. ``tracker 'p-pose': option gains: PoseGains.k_along must be ...``).
+    """
+    if not dataclasses.is_dataclass(value) or isinstance(value, type):
+        return
+    if not any("range" in f.metadata for f in dataclasses.fields(value)):
+        return
+    try:
+        check_ranges(copy.copy(value))
+    except ConfigError as exc:
+        raise ConfigError(f"tracker {tracker!r}: option {option}: {exc}") from exc
 
 
 def check_positive_fields(obj: object, names: tuple[str, ...], why: str) -> None:

@@ -287,11 +287,14 @@ def test_a_study_of_another_tracker_is_its_own_and_replays_on_it(
     plugin's tracker), though simulate and compare run them all."""
     monkeypatch.chdir(tmp_path)
     base = ["montecarlo", "--scenario", "open", "--reference", "line", "--robot", "turtlebot3", "--runs", "1"]
-    base += ["--localiser", "fixes", "--jobs", "1", "--quiet", "--no-plots"]
+    base += ["--localiser", "fixes", "--jobs", "1", "--no-plots"]
     records = {}
-    for name, extra in (("fbl", []), ("kanayama", ["--feedback", "kanayama"])):
+    for name, extra in (("fbl", []), ("kanayama", ["--feedback", "kanayama", "--quiet"])):
         assert main([*base, *extra, "--json", f"{name}.json", "--results", f"{name}.jsonl"]) == 0
         records[name] = json.loads((tmp_path / f"{name}.json").read_text())
+        if name == "fbl":  # the study's every output, its results file too
+            said = capsys.readouterr().out.splitlines()
+            assert said[-2:] == ["wrote fbl.jsonl (1 run appended)", "wrote fbl.json"], said[-3:]
     assert records["fbl"]["key"]["tracker"] == "fbl" and records["kanayama"]["key"]["tracker"] == "kanayama"
     assert records["fbl"]["statistics"] != records["kanayama"]["statistics"]  # another law drove the closed loops
     from sim.tools.montecarlo import replay_options
@@ -303,6 +306,7 @@ def test_a_study_of_another_tracker_is_its_own_and_replays_on_it(
         records["kanayama"]["replay_base"][feedback + 1] == "kanayama"
         and "--feedback" not in records["fbl"]["replay_base"]
     )
+    replay = [arg for arg in replay if arg != "--quiet"]
     assert main([*replay, "--quiet", "--json", "replay.json"]) == 0
     rec = json.loads((tmp_path / "replay.json").read_text())
     assert rec["closed_loop"]["final_position_error_m"] == worst["final_position_error_m"]  # bit for bit
@@ -311,7 +315,7 @@ def test_a_study_of_another_tracker_is_its_own_and_replays_on_it(
         (["--feedback", "mpc", "--gains", "3,2"], "--gains: tracker mpc does not use the FBL's gains; drop --gains"),
         (["--feedback", "open-loop"], "the open loop is a run of every study already (open_loop)"),
     ):
-        assert main([*base, *extra, "--json", "bad.json", "--results", "bad.jsonl"]) == 2
+        assert main([*base, *extra, "--quiet", "--json", "bad.json", "--results", "bad.jsonl"]) == 2
         err = capsys.readouterr().err
         assert err.startswith("nhsim montecarlo: error: ") and said in err and err.count("\n") == 1, err
     assert not (tmp_path / "bad.jsonl").exists()

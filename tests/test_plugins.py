@@ -171,11 +171,15 @@ def test_entry_points_register_a_tracker_lazily_or_import_a_module(
 
 
 @pytest.mark.parametrize(
-    ("plugin", "error"),
+    ("plugin", "label", "error"),
     [
-        ("nhsim_test_missing", "ModuleNotFoundError: No module named 'nhsim_test_missing'"),
-        ("nhsim_test_raises", "RuntimeError: no licence"),
-        ("nhsim_test_clashes", "ConfigError: register_tracker: tracker 'fbl' is already registered (built in)"),
+        ("nhsim_test_missing", "plugin", "ModuleNotFoundError: No module named 'nhsim_test_missing'"),
+        ("nhsim_test_raises", "plugin", "RuntimeError: no licence"),
+        (
+            "nhsim_test_clashes",
+            "tracker plugin",
+            "ConfigError: register_tracker: tracker 'fbl' is already registered (built in)",
+        ),
     ],
 )
 def test_a_plugin_that_fails_is_a_clear_error_of_any_command_that_looks_up_a_tracker(
@@ -184,8 +188,11 @@ def test_a_plugin_that_fails_is_a_clear_error_of_any_command_that_looks_up_a_tra
     monkeypatch: pytest.MonkeyPatch,
     capsys: pytest.CaptureFixture[str],
     plugin: str,
+    label: str,
     error: str,
 ) -> None:
+    """A module named by the variable serves every registry: its failure is a plugin's, and a registry's only when
+    that registry refused what it registered."""
     (tmp_path / "nhsim_test_raises.py").write_text("raise RuntimeError('no licence')\n")
     (tmp_path / "nhsim_test_clashes.py").write_text(
         REGISTERS + "register_tracker('fbl', type('Other', (DynamicFBL,), {}))\n"
@@ -194,9 +201,9 @@ def test_a_plugin_that_fails_is_a_clear_error_of_any_command_that_looks_up_a_tra
     monkeypatch.setenv(PLUGIN_VARIABLE, plugin)
     assert main(["compare", "--trackers", "fbl", "--reference", "line", "--quiet"]) == 2
     err = capsys.readouterr().err
-    want = f"nhsim compare: error: tracker plugin failed to load: module {plugin!r} named by {PLUGIN_VARIABLE}={plugin}"
+    want = f"nhsim compare: error: {label} failed to load: module {plugin!r} named by {PLUGIN_VARIABLE}={plugin}"
     assert err.startswith(f"{want}: {error}") and "Traceback" not in err
-    with pytest.raises(ConfigError, match="tracker plugin failed to load"):  # every lookup, not the first only
+    with pytest.raises(ConfigError, match=f"^{label} failed to load"):  # every lookup, not the first only
         "fbl" in TRACKERS  # noqa: B015
 
 
@@ -213,7 +220,7 @@ def test_regress_names_a_failing_plugin_as_such_not_as_its_first_case(
     )
     assert main(["regress", "--suite", str(suite), "--baselines", str(tmp_path)]) == 2
     err = capsys.readouterr().err
-    assert "tracker plugin failed to load: module 'nhsim_test_raises'" in err and "case 1" not in err, err
+    assert "error: plugin failed to load: module 'nhsim_test_raises'" in err and "case 1" not in err, err
 
 
 def test_the_documented_error_is_the_one_given(registry: None, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -372,7 +379,7 @@ def test_scenarios_stops_at_a_failing_planner_plugin_with_one_line(
     assert main(["scenarios"]) == 2
     out, err = capsys.readouterr()
     plugin = f"module 'nhsim_test_raises' named by {PLUGIN_VARIABLE}=nhsim_test_raises: RuntimeError: no licence"
-    assert out == "" and err.splitlines() == [f"nhsim scenarios: error: planner plugin failed to load: {plugin}"]
+    assert out == "" and err.splitlines() == [f"nhsim scenarios: error: plugin failed to load: {plugin}"]
     monkeypatch.delenv(PLUGIN_VARIABLE)
     broken = tmp_path / "broken.toml"
     broken.write_text("name = \n")
@@ -623,5 +630,129 @@ def test_a_failing_plugin_is_named_first_when_another_registrys_plugin_loads_it(
     with pytest.raises(ConfigError) as info:
         make_planner("rrt")
     said = str(info.value)
-    assert said.startswith("tracker plugin failed to load: module 'nhsim_test_bad' named by"), said
+    assert said.startswith("plugin failed to load: module 'nhsim_test_bad' named by"), said
     assert "RuntimeError: case 7" in said and "nhsim_test_good" not in said.split("named by")[0], said
+
+
+# ---- which plugin failed, and by which registry ---------------------------------------------------------------
+PLANS_RRT = "from planning import register_planner\nfrom planning.planners.sampling.rrt import BiRRT\n\n"
+PLANS_RRT += "register_planner('rrt', type('Other', (BiRRT,), {}))\n"
+FIRST = (
+    "from control import register_tracker\nfrom control.fbl import DynamicFBL\nfrom planning import register_planner\n"
+    "from planning.planners.sampling.rrt import BiRRT\n\n\nclass First(DynamicFBL):\n    pass\n\n\n"
+    "register_planner('first-birrt', BiRRT)\nregister_tracker('shared', First)\n"
+)
+SECOND = REGISTERS + "\n\nclass Second(DynamicFBL):\n    pass\n\n\nregister_tracker('shared', Second)\n"
+
+
+def test_a_plugins_refused_registration_is_named_by_the_registry_that_refused_it(
+    registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A plugin whose register_planner("rrt", ...) collided made ``compare`` (a tracker lookup) say "tracker plugin
+    failed to load": the label was that of whichever registry loaded the plugins first."""
+    (tmp_path / "nhsim_test_plans_rrt.py").write_text(PLANS_RRT)
+    (tmp_path / "nhsim_test_clashes.py").write_text(
+        REGISTERS + "register_tracker('fbl', type('Other', (DynamicFBL,), {}))\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setenv(PLUGIN_VARIABLE, "nhsim_test_plans_rrt")
+    assert main(["compare", "--trackers", "fbl", "--reference", "line", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("nhsim compare: error: planner plugin failed to load: module 'nhsim_test_plans_rrt'"), err
+    assert "ConfigError: register_planner: planner 'rrt' is already registered (built in)" in err
+    monkeypatch.setenv(PLUGIN_VARIABLE, "nhsim_test_clashes")
+    with pytest.raises(ConfigError, match=r"^tracker plugin failed to load: module 'nhsim_test_clashes'"):
+        make_planner("birrt")  # a planner lookup, a tracker's refusal
+
+
+@pytest.mark.parametrize("lookup", ["planner", "tracker"])
+def test_of_two_plugins_registering_one_name_the_later_one_named_is_refused(
+    registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, lookup: str
+) -> None:
+    """The first module's registration of a planner loaded the tracker plugins in the middle of its import: the
+    second module registered "shared" before the first did, and the first was blamed (as by a planner plugin)."""
+    (tmp_path / "nhsim_test_first.py").write_text(FIRST)
+    (tmp_path / "nhsim_test_second.py").write_text(SECOND)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setenv(PLUGIN_VARIABLE, "nhsim_test_first,nhsim_test_second")
+    with pytest.raises(ConfigError) as info:
+        make_planner("birrt") if lookup == "planner" else make_tracker("fbl", load_robot("turtlebot3"))
+    said = str(info.value)
+    assert said.startswith("tracker plugin failed to load: module 'nhsim_test_second' named by"), said
+    first = f"module 'nhsim_test_first' named by {PLUGIN_VARIABLE}=nhsim_test_first,nhsim_test_second"
+    assert f"tracker 'shared' is already registered (from {first}) as nhsim_test_first:First" in said, said
+
+
+# ---- the registries are edited through register_*, not directly -------------------------------------------------
+def test_a_built_in_or_a_plugins_entry_is_not_replaced_or_removed_directly(
+    registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``PLANNERS["rrt"] = X``, ``del`` and ``clear()`` went around the duplicate-name check register_* makes."""
+    (tmp_path / "nhsim_test_env_plugin.py").write_text(REGISTERS + "register_tracker('env-fbl', DynamicFBL)\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setenv(PLUGIN_VARIABLE, "nhsim_test_env_plugin")
+    for registered, name, kind in ((PLANNERS, "rrt", "planner"), (TRACKERS, "fbl", "tracker")):
+        before = registered[name]
+        fix = rf"register_{kind}\('{name}', target, replace=True\) replaces it"
+        with pytest.raises(ConfigError, match=rf"^{kind} '{name}' is registered \(built in\) as .*replaced.*; {fix}$"):
+            registered[name] = "mypackage.mine:Mine"
+        with pytest.raises(ConfigError, match=rf"cannot be removed directly in the registry; {fix}"):
+            del registered[name]
+        with pytest.raises(ConfigError, match="cannot be removed directly"):
+            registered.clear()
+        with pytest.raises(ConfigError, match="cannot be removed directly"):
+            registered.pop(name)
+        assert registered[name] == before and registered.origin(name) == "built in"
+    with pytest.raises(ConfigError, match=r"^tracker 'env-fbl' is registered \(from module 'nhsim_test_env_plugin'"):
+        TRACKERS["env-fbl"] = MyFBL
+    TRACKERS["mine"] = MyFBL  # a new name, and one this program's own code set: as register_tracker would
+    TRACKERS["mine"] = OpenLoop
+    assert TRACKERS.origin("mine") == BY_CODE
+    del TRACKERS["mine"]
+    assert "mine" not in TRACKERS and TRACKERS["env-fbl"] is DynamicFBL
+
+
+# ---- montecarlo's code digest covers the plugins --------------------------------------------------------------
+def test_the_code_digest_covers_the_plugins_source(
+    registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """montecarlo hashed nhsim's own code only: a plugin's planner edited, the same command read the old runs back
+    as this code's (the same table, nothing rerun). The digest is taken with the plugins loaded."""
+    from sim.tools import montecarlo
+
+    package = tmp_path / "nhsim_test_pkg"
+    package.mkdir()
+    (package / "__init__.py").write_text("")
+    (package / "plugin.py").write_text("from nhsim_test_pkg import planners  # noqa: F401\n")
+    planner = "from planning import register_planner\nfrom planning.planners.sampling.rrt import BiRRT\n\n\n"
+    planner += "class Mine(BiRRT):\n    name = 'mine'\n\n\nregister_planner('mine', Mine)\n"
+    (package / "planners.py").write_text(planner)
+    own = montecarlo.code_digest()  # no plugin named: nhsim's own code
+    for registered in (PLANNERS, TRACKERS):
+        registered.plugins = "unloaded"  # a fresh process (the fixture restores it)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setenv(PLUGIN_VARIABLE, "nhsim_test_pkg.plugin")
+    with_plugin = montecarlo.code_digest()  # loads the plugins first
+    assert PLANNERS.plugins == "loaded" and PLANNERS.origin("mine").startswith("from module 'nhsim_test_pkg.plugin'")
+    assert with_plugin != own
+    files = {"nhsim_test_pkg/__init__.py", "nhsim_test_pkg/planners.py", "nhsim_test_pkg/plugin.py"}
+    assert files <= {name for _, name in montecarlo.plugin_files()}  # the plugin's whole package
+    (package / "planners.py").write_text(planner.replace("name = 'mine'", "name = 'mine'  # edited"))
+    montecarlo._digest.cache_clear()  # a new process: the files read again
+    assert montecarlo.code_digest() not in (own, with_plugin)
+    for name in [m for m in sys.modules if m.startswith("nhsim_test_pkg")]:
+        del sys.modules[name]
+
+
+def test_an_unknown_name_says_how_a_plugins_is_registered(registry: None) -> None:
+    """A planner of a plugin not loaded was "unknown planner 'line-turn': choose one of birrt, ...", not saying
+    that a plugin's is named in NHSIM_PLUGINS or installed with an entry point."""
+    with pytest.raises(ConfigError) as planner:
+        make_planner("line-turn")
+    with pytest.raises(ConfigError) as tracker:
+        make_tracker("line-turn", load_robot("turtlebot3"))
+    for info, kind, group in ((planner, "planner", PLANNER_GROUP), (tracker, "tracker", PLUGIN_GROUP)):
+        said = str(info.value)
+        assert said.startswith(f"unknown {kind} 'line-turn': choose one of "), said
+        assert f"name its module in {PLUGIN_VARIABLE} (e.g. {PLUGIN_VARIABLE}=mypackage.{kind}s)" in said, said
+        assert f"an entry point of group {group}" in said and "\n" not in said, said

@@ -7,7 +7,8 @@ from __future__ import annotations
 import math
 import sys
 import types
-from dataclasses import replace
+from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -16,11 +17,18 @@ from hypothesis import HealthCheck, given, settings
 from control.base import (
     BASELINES,
     TRACKERS,
+    check_ranges,
     feedback_trackers,
+    make_tracker,
+    option_value,
+    ranged,
     register_tracker,
     search_space,
     tuned_option,
 )
+from control.switching import PerSegmentTracker, SegmentedParams
+from planning.core.robot import RobotSpec, load_robot
+from planning.errors import ConfigError
 from tests.doc_blocks import block_of
 
 
@@ -121,3 +129,97 @@ def test_the_fuzz_suite_draws_it(registered: str) -> None:
 
     fuzz()
     assert seen and set(seen) == {registered}
+
+
+# ---- what register_tracker and make_tracker check of the tracker's parameters -----------------------------
+class TunesGain(PoseP):
+    """``TUNED`` names "gain", an option it does not take (its option is ``gains``)."""
+
+    TUNED = ("gain", PoseGains)
+
+
+def test_a_tuned_option_the_tracker_does_not_take_is_refused_at_registration(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """It was accepted, and ``nhsim tune`` failed inside the study's first Optuna trial (a traceback, then the
+    error) and left the study's database behind, although exit status 2 says nothing was written."""
+    from sim.cli.main import main
+
+    said = (
+        r"TUNED = \('gain', PoseGains\) names option 'gain', which TunesGain does not take \(its keyword options: "
+        r"gains, turns\); name the option it is given as, e.g. TUNED = \('gains', PoseGains\)$"
+    )
+    with pytest.raises(ConfigError, match=rf"^register_tracker\('tunes-gain'\): {said}"):
+        register_tracker("tunes-gain", TunesGain)
+    assert "tunes-gain" not in TRACKERS
+    module = types.ModuleType("nhsim_test_tunes_gain")
+    module.TunesGain = TunesGain  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, module.__name__, module)
+    monkeypatch.setitem(TRACKERS, "tunes-gain", "")  # undone after the test
+    register_tracker("tunes-gain", "nhsim_test_tunes_gain:TunesGain", replace=True)  # imported when first used
+    with pytest.raises(ConfigError, match=rf"^tracker 'tunes-gain' \(.*\): {said}"):
+        tuned_option("tunes-gain")
+    argv = ["tune", "--tracker", "tunes-gain", "--scenarios", "open:line", "--robot", "turtlebot3", "--trials", "2"]
+    argv += [
+        "--storage",
+        f"sqlite:///{tmp_path}/study.db",
+        "--json",
+        str(tmp_path / "t.json"),
+        "--plots",
+        str(tmp_path),
+    ]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "names option 'gain'" in err and "Traceback" not in err, err
+    assert list(tmp_path.iterdir()) == []  # no study database
+
+
+@dataclass(frozen=True)
+class LooseGains:
+    """PoseGains whose check is never called: ``__post_inti__`` is a typo of ``__post_init__``."""
+
+    k_along: float = ranged(2.0, 0.01, 50.0, "1/s", tune=(0.2, 20.0))
+    k_lateral: float = ranged(20.0, 0.01, 1000.0, "1/m^2", tune=(1.0, 200.0))
+    k_heading: float = ranged(3.0, 0.01, 50.0, "1/s", tune=(0.2, 20.0))
+
+    def __post_inti__(self) -> None:
+        check_ranges(self)
+
+
+class Loose(PoseP):
+    """The pose controller on :class:`LooseGains`, taken with ``option_value``."""
+
+    TUNED = ("gains", LooseGains)
+
+    def __init__(self, robot: RobotSpec, *, gains: LooseGains | None = None, turns: SegmentedParams | None = None):
+        self.gains = option_value(self.name, "gains", gains, LooseGains())  # type: ignore[arg-type]
+        PerSegmentTracker.__init__(self, robot, option_value(self.name, "turns", turns, SegmentedParams()))
+
+
+class Raw(Loose):
+    """The same, keeping its gains as given (no ``option_value``)."""
+
+    def __init__(self, robot: RobotSpec, *, gains: LooseGains | None = None, turns: SegmentedParams | None = None):
+        self.gains = gains or LooseGains()  # type: ignore[assignment]
+        PerSegmentTracker.__init__(self, robot, SegmentedParams())
+
+
+@pytest.mark.parametrize("field", ["k_along", "k_heading"])
+@pytest.mark.parametrize("bad", [-5.0, math.nan, 1e6])
+def test_gains_out_of_their_ranges_are_refused_though_the_dataclass_checks_nothing(
+    monkeypatch: pytest.MonkeyPatch, field: str, bad: float
+) -> None:
+    """nhsim knows the ranges from ``ranged()``: a gains dataclass whose ``__post_init__`` is misspelt made a
+    tracker with k_along = -5 or NaN."""
+    gains = LooseGains(**{field: bad})  # the dataclass takes it
+    robot = load_robot("turtlebot3")
+    said = rf"^tracker '(loose|raw)': option gains: LooseGains\.{field} must be a finite number in \[0\.01, 50\]"
+    for name, factory in (("loose", Loose), ("raw", Raw)):
+        monkeypatch.setitem(TRACKERS, name, "")  # undone after the test
+        register_tracker(name, factory, replace=True)
+        with pytest.raises(ConfigError, match=said):
+            make_tracker(name, robot, gains=gains)
+    with pytest.raises(ConfigError, match=said.replace("(loose|raw)", "p-pose")):  # made directly: option_value
+        Loose(robot, gains=gains)
+    assert getattr(gains, field) is bad or math.isnan(getattr(gains, field))  # the value itself left as it was
+    assert make_tracker("loose", robot, gains=LooseGains(k_along=3.0)).gains == LooseGains(k_along=3.0)  # type: ignore[attr-defined]

@@ -12,7 +12,13 @@ plugin, so that the ``nhsim`` command and fresh worker processes know its names 
   comma-separated), imported after the entry points; one module may register planners and trackers.
 
 A registry loads its plugins at the first lookup of a name, listing or count, once per process: a command that
-looks up no name (``nhsim --version``) imports none.
+looks up no name (``nhsim --version``) imports none. The modules named by :data:`PLUGIN_VARIABLE` serve every
+registry and are imported one after the other, in the order named, once: a registry looked up while one of them
+is being imported (it registers a tracker) joins that pass instead of importing the others in the middle of it,
+so of two plugins registering one name the later one named is refused, naming the earlier.
+
+A registry is edited through ``register_planner`` / ``register_tracker`` (which refuse a taken name). Set
+directly (``PLANNERS["rrt"] = X``, ``del``), it refuses to replace or remove a built-in entry or a plugin's.
 """
 
 from __future__ import annotations
@@ -21,6 +27,7 @@ import functools
 import importlib
 import os
 import re
+import weakref
 from collections.abc import Callable, Iterator, MutableMapping
 from typing import Any, Generic, TypeVar
 
@@ -37,8 +44,27 @@ BUILT_IN, BY_CODE = "built in", "registered by this program's own code"
 FACTORY_TARGET = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*(\.[A-Za-z_]\w*)*")
 
 #: The plugins being loaded, innermost last (a plugin's import may look up another registry, which then
-#: loads its own): a name registered meanwhile is said to come from the innermost one.
+#: loads its entry points): a name registered meanwhile is said to come from the innermost one.
 _loading: list[str] = []
+#: Every registry made (:func:`plugin_modules` reads their entries).
+_registries: list[weakref.ref[Registry[Any]]] = []
+#: The registries waiting for the pass over :data:`PLUGIN_VARIABLE`'s modules in progress (None: none is).
+_variable_pass: list[Registry[Any]] | None = None
+#: The plugin modules loaded, in order (an entry point's module, a module named by :data:`PLUGIN_VARIABLE`).
+_loaded_modules: dict[str, None] = {}
+
+
+class RegistrationError(ConfigError):
+    """``register_planner`` / ``register_tracker`` (or an entry point) refused what it was given.
+
+    Args:
+        message: What was wrong and the fix.
+        kind: The registry that refused it, "planner" or "tracker" (a plugin's failure names it).
+    """
+
+    def __init__(self, message: str, kind: str) -> None:
+        super().__init__(message)
+        self.kind = kind
 
 
 def check_registration(
@@ -58,19 +84,22 @@ def check_registration(
         ConfigError: A bad name or target (naming the form and an example).
     """
     if not isinstance(name, str) or not name or re.search(r"[,\s]", name):
-        raise ConfigError(
+        raise RegistrationError(
             f"{caller}: name must be non-empty text without commas or whitespace (it is given as {flag}), e.g. "
-            f"{examples[0]!r}; got {name!r}"
+            f"{examples[0]!r}; got {name!r}",
+            kind,
         )
     if isinstance(target, str) and not FACTORY_TARGET.fullmatch(target):
-        raise ConfigError(
+        raise RegistrationError(
             f"{caller}({name!r}): target {target!r} is not 'package.module:Attribute' (the module path, a colon, the "
-            f"factory), e.g. {examples[1]!r}; or pass the class itself"
+            f"factory), e.g. {examples[1]!r}; or pass the class itself",
+            kind,
         )
     if not isinstance(target, str) and not callable(target):
-        raise ConfigError(
+        raise RegistrationError(
             f"{caller}({name!r}): target must be a {kind} class (or factory) or 'module:attr', got "
-            f"{type(target).__name__}"
+            f"{type(target).__name__}",
+            kind,
         )
 
 
@@ -85,8 +114,84 @@ class PluginLoadError(ConfigError):
     """A plugin failed to import or to register: the message names it, where it was declared and the exception."""
 
 
+def _failure(kind: str, source: str, exc: Exception) -> PluginLoadError:
+    """The error of a plugin that failed: named by the registry whose registration refused it (else by its entry
+    point's group; a module named by :data:`PLUGIN_VARIABLE` serves every registry), and by itself."""
+    kind = exc.kind if isinstance(exc, RegistrationError) else kind
+    what = type(exc).__name__ if not isinstance(exc, RegistrationError) else "ConfigError"
+    label = f"{kind} plugin" if kind else "plugin"
+    return PluginLoadError(f"{label} failed to load: {source}: {what}: {exc}")
+
+
+def _load_one(kind: str, source: str, module: str, load: Callable[[], Any]) -> None:
+    """Load one plugin (``module``: its module, recorded when loaded), naming it if it fails."""
+    _loading.append(source)
+    try:
+        load()
+    except PluginLoadError:  # another registry's plugin, loaded by this one's import: named there
+        raise
+    except Exception as exc:
+        raise _failure(kind, source, exc) from exc
+    finally:
+        _loading.pop()
+    _loaded_modules[module] = None
+
+
+def _variable_modules() -> list[tuple[str, str]]:
+    """The modules named by :data:`PLUGIN_VARIABLE`: (module, its description)."""
+    text = os.environ.get(PLUGIN_VARIABLE, "")
+    modules = filter(None, (m.strip() for m in text.split(",")))
+    return [(module, f"module {module!r} named by {PLUGIN_VARIABLE}={text}") for module in modules]
+
+
+def _load_variable_modules(registry: Registry[Any]) -> None:
+    """Import the modules named by :data:`PLUGIN_VARIABLE` in order, then mark ``registry`` (and every registry
+    that joined the pass meanwhile) loaded; while a pass is in progress (a module's import looked ``registry``
+    up), ``registry`` joins it instead. A module imported already is not imported again (its registrations
+    stand). A failure leaves every registry of the pass unloaded."""
+    global _variable_pass
+    if _variable_pass is not None:
+        _variable_pass.append(registry)
+        return
+    _variable_pass = waiting = [registry]
+    try:
+        for module, source in _variable_modules():
+            _load_one("", source, module, functools.partial(importlib.import_module, module))
+    except BaseException:
+        for each in waiting:
+            each.plugins = "unloaded"
+        raise
+    finally:
+        _variable_pass = None
+    for each in waiting:
+        each.plugins = "loaded"
+
+
+def module_of(target: object) -> str:
+    """The module of a registered target: that of its import path, or the factory's ``__module__``."""
+    return target_text(target).split(":")[0]
+
+
+def plugin_modules() -> list[str]:
+    """The modules whose code the registries run besides nhsim's own, sorted: every plugin module loaded (an
+    entry point's, one named by :data:`PLUGIN_VARIABLE`) and the module of every factory not built in (a
+    plugin's, or one the program's own code registered). Loads no plugin."""
+    names = set(_loaded_modules)
+    for ref in _registries:
+        registry = ref()
+        if registry is not None:
+            added = (t for n, t in registry._entries.items() if t and registry.origins.get(n) != BUILT_IN)
+            names.update(module_of(target) for target in added)
+    return sorted(names - {"?"})
+
+
 class Registry(MutableMapping[str, "str | Callable[..., F]"], Generic[F]):
     """Name -> factory, or "module:attr" imported when first made; its plugins load at the first lookup.
+
+    Edited through :meth:`add` (``register_planner`` / ``register_tracker``); set directly (``registry[name] =
+    target``, ``del registry[name]``: a test's monkeypatch), it takes a new name, a placeholder "" and the built-in
+    target restored, and replaces or removes an entry the program's own code registered, but refuses to replace or
+    remove a built-in entry or a plugin's (the duplicate-name check ``register_*`` makes).
 
     Args:
         kind: What it holds, for the messages: "planner" or "tracker".
@@ -97,11 +202,13 @@ class Registry(MutableMapping[str, "str | Callable[..., F]"], Generic[F]):
     def __init__(self, kind: str, group: str, built_in: dict[str, str | Callable[..., F]]) -> None:
         self.kind = kind
         self.group = group
+        self._built_in = dict(built_in)
         self._entries = dict(built_in)
         #: Name -> who registered it (:meth:`origin`).
         self.origins: dict[str, str] = dict.fromkeys(built_in, BUILT_IN)
         #: The plugins: "unloaded", "loading" (a plugin registering: no second load) or "loaded".
         self.plugins = "unloaded"
+        _registries.append(weakref.ref(self))
 
     def _load(self) -> None:
         if self.plugins == "unloaded":
@@ -123,12 +230,36 @@ class Registry(MutableMapping[str, "str | Callable[..., F]"], Generic[F]):
         self._load()
         return len(self._entries)
 
+    def _refuse_direct(self, name: str, what: str) -> None:
+        """Refuse setting or removing ``name`` directly when it is a built-in entry or a plugin's."""
+        origin = self.origins.get(name, BY_CODE)
+        if self._entries.get(name) and origin != BY_CODE:
+            raise RegistrationError(
+                f"{self.kind} {name!r} is registered ({origin}) as {target_text(self._entries[name])} and cannot be "
+                f"{what} directly in the registry; register_{self.kind}({name!r}, target, replace=True) replaces it",
+                self.kind,
+            )
+
     def __setitem__(self, name: str, target: str | Callable[..., F]) -> None:
+        built_in = name in self._built_in and target_text(target) == target_text(self._built_in[name])
+        if target and not built_in and self._entries.get(name) != target:
+            self._refuse_direct(name, "replaced")
+        same = self._entries.get(name) == target and name in self.origins
         self._entries[name] = target
+        if not same:  # the same target again keeps who registered it
+            self.origins[name] = BUILT_IN if built_in else f"from {_loading[-1]}" if _loading else BY_CODE
 
     def __delitem__(self, name: str) -> None:
+        self._refuse_direct(name, "removed")
         del self._entries[name]
         self.origins.pop(name, None)
+
+    def clear(self) -> None:
+        """Refused when the registry holds a built-in entry or a plugin's (:meth:`__delitem__`)."""
+        for name in list(self._entries):
+            self._refuse_direct(name, "removed")
+        self._entries.clear()
+        self.origins.clear()
 
     def __repr__(self) -> str:
         return f"Registry({self.kind!r}, {self._entries!r})"
@@ -140,19 +271,20 @@ class Registry(MutableMapping[str, "str | Callable[..., F]"], Generic[F]):
             fix: What to do about a taken name (default: choose another, or pass replace=True).
 
         Raises:
-            ConfigError: ``name`` is taken by another target and ``replace`` is not True.
+            RegistrationError: ``name`` is taken by another target and ``replace`` is not True.
         """
         if not isinstance(replace, bool):
-            raise ConfigError(f"{caller}({name!r}): replace must be True or False")
+            raise RegistrationError(f"{caller}({name!r}): replace must be True or False", self.kind)
         taken = self.get(name)  # an empty entry is a placeholder (a test's monkeypatch), no factory
         named = isinstance(taken, str) != isinstance(target, str) and target_text(taken) == target_text(target)
         if taken and (taken == target or named):
             return  # no change (nor of who registered it): the same target, or the class its import path names
         if taken and not replace:
             fix = fix or "choose another name, or pass replace=True to replace it"
-            raise ConfigError(
+            raise RegistrationError(
                 f"{caller}: {self.kind} {name!r} is already registered ({self.origin(name)}) as {target_text(taken)}; "
-                f"{fix}"
+                f"{fix}",
+                self.kind,
             )
         self._entries[name] = target
         self.origins[name] = f"from {_loading[-1]}" if _loading else BY_CODE
@@ -174,53 +306,40 @@ class Registry(MutableMapping[str, "str | Callable[..., F]"], Generic[F]):
 
     def load_plugins(self) -> None:
         """Load the plugins, once per process: first the entry points of :attr:`group` of the installed
-        packages, then the modules named by :data:`PLUGIN_VARIABLE` (a module another registry imported already
-        is not imported again: its registrations stand).
+        packages, then the modules named by :data:`PLUGIN_VARIABLE` (:func:`_load_variable_modules`: shared by
+        the registries, imported once, in order).
 
         Called by the first lookup; a later call does nothing. A plugin that fails leaves the plugins unloaded
         (the next lookup tries again, and fails the same way).
 
         Raises:
-            ConfigError: A plugin failed to import or to register (names the plugin, where it was declared and
-                the exception).
+            PluginLoadError: A plugin failed to import or to register (names the plugin, where it was declared,
+                the registry that refused it and the exception).
         """
         if self.plugins != "unloaded":
             return
         self.plugins = "loading"
         try:
-            for source, load in self._plugins():
-                _loading.append(source)
-                try:
-                    load()
-                except PluginLoadError:  # another registry's plugin, loaded by this one's import: named there
-                    raise
-                except Exception as exc:
-                    failed = f"{self.kind} plugin failed to load: {source}: {type(exc).__name__}: {exc}"
-                    raise PluginLoadError(failed) from exc
-                finally:
-                    _loading.pop()
+            for source, module, load in self._entry_points():
+                _load_one(self.kind, source, module, load)
         except BaseException:
             self.plugins = "unloaded"
             raise
-        self.plugins = "loaded"
+        _load_variable_modules(self)
 
-    def _plugins(self) -> list[tuple[str, Callable[[], Any]]]:
-        """Every plugin: (its description, what loads it)."""
+    def _entry_points(self) -> list[tuple[str, str, Callable[[], Any]]]:
+        """The entry points of :attr:`group`: (its description, its module, what loads it)."""
         from importlib.metadata import entry_points
 
-        found: list[tuple[str, Callable[[], Any]]] = []
+        found: list[tuple[str, str, Callable[[], Any]]] = []
         for ep in entry_points(group=self.group):
             package = f"{ep.dist.name} {ep.dist.version}" if ep.dist is not None else "an installed package"
             source = f"entry point '{ep.name} = {ep.value}' of group {self.group} in {package}"
             if ep.attr:  # a factory: registered by the entry point's name, imported when first made
                 register = functools.partial(self._register_entry_point, ep.name, f"{ep.module}:{ep.attr}")
-                found.append((source, register))
+                found.append((source, ep.module, register))
             else:  # a module whose import registers what it will
-                found.append((source, functools.partial(importlib.import_module, ep.module)))
-        text = os.environ.get(PLUGIN_VARIABLE, "")
-        for module in filter(None, (m.strip() for m in text.split(","))):
-            source = f"module {module!r} named by {PLUGIN_VARIABLE}={text}"
-            found.append((source, functools.partial(importlib.import_module, module)))
+                found.append((source, ep.module, functools.partial(importlib.import_module, ep.module)))
         return found
 
     def _register_entry_point(self, name: str, target: str) -> None:
@@ -228,15 +347,26 @@ class Registry(MutableMapping[str, "str | Callable[..., F]"], Generic[F]):
         check_registration(caller, name, target, kind=self.kind, flag="its name", examples=("name", "module:Attr"))
         self.add(caller, name, target, replace=False, fix="give the entry point another name in the package's metadata")
 
+    def unknown_hint(self) -> str:
+        """What to say of a name that is not registered, after the valid ones: a plugin's is registered only once
+        the plugin is found (for the messages that refuse an unknown name)."""
+        return (
+            f"a plugin's {self.kind} is known once its plugin loads: name its module in {PLUGIN_VARIABLE} (e.g. "
+            f"{PLUGIN_VARIABLE}=mypackage.{self.kind}s), or install its package with an entry point of group "
+            f"{self.group}"
+        )
+
     def factory(self, name: str) -> Callable[..., F]:
         """The factory registered under ``name``, imported if given as text.
 
         Raises:
-            ConfigError: Unknown name (lists the valid ones), or a target that cannot be imported or is not
+            ConfigError: Unknown name (lists the valid ones and how a plugin's is registered), or a target that
+                cannot be imported or is not
                 callable (names the entry, who registered it and the exception).
         """
         if name not in self:
-            raise ConfigError(f"unknown {self.kind} {name!r}: choose one of {', '.join(sorted(self)) or '(none)'}")
+            choose = f"choose one of {', '.join(sorted(self)) or '(none)'}"
+            raise ConfigError(f"unknown {self.kind} {name!r}: {choose}; {self.unknown_hint()}")
         target = self[name]
         if not isinstance(target, str):
             return target

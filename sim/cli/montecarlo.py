@@ -313,6 +313,8 @@ def run(args: argparse.Namespace) -> int:
         for name, path in paths.items():
             if name != "results":
                 print(f"wrote {path}")
+            elif result.ran:  # the runs' results, appended one by one as they finished
+                print(f"wrote {path} ({result.ran} run{'s' * (result.ran > 1)} appended)")
     return 0
 
 
