@@ -70,6 +70,15 @@ _OBSTACLE_KEYS: dict[str, tuple[set[str], set[str]]] = {
 MAP_LOADERS: dict[str, Callable[[Mapping[str, Any], Path, str], list[Obstacle]]] = {"image": load_map_table}
 
 
+def _unknown_planner(r: TableReader, field_name: str, got: Any) -> ScenarioError:
+    """The error of a planner field naming no registered planner: the registered ones (a plugin's too) and how a
+    plugin's planner is registered."""
+    from planning.planners.registry import PLANNERS  # imported here: it loads on first use
+
+    expected = f"a registered planner name ({', '.join(sorted(PLANNERS))})"
+    return ScenarioError(f"{r.fail(field_name, expected, got)}; {PLANNERS.unknown_hint()}")
+
+
 def _obstacle(r: TableReader, table: Mapping[str, Any], ctx: str) -> Obstacle:
     if not isinstance(table, Mapping) or "type" not in table:
         raise r.fail(f"{ctx}type", f"one of {', '.join(_OBSTACLE_KEYS)}")
@@ -122,7 +131,7 @@ def _planner_options(r: TableReader, table: Any) -> dict[str, dict[str, Any]]:
     out: dict[str, dict[str, Any]] = {}
     for name, opts in table.items():
         if name not in PLANNERS:
-            raise r.fail(f"planners.{name}", f"a registered planner name ({', '.join(sorted(PLANNERS))})", name)
+            raise _unknown_planner(r, f"planners.{name}", name)
         if not isinstance(opts, Mapping):
             raise r.fail(f"planners.{name}", "a table of keyword options", opts)
         try:
@@ -249,7 +258,7 @@ def _header(r: TableReader, data: Mapping[str, Any], default_name: str) -> dict[
         from planning.planners.registry import PLANNERS  # imported here: it loads on first use
 
         if not isinstance(planner, str) or planner not in PLANNERS:
-            raise r.fail("planner", f"a registered planner name ({', '.join(sorted(PLANNERS))})", planner)
+            raise _unknown_planner(r, "planner", planner)
     planner_options = _planner_options(r, data["planners"]) if "planners" in data else {}
     sensors = data.get("sensors", {})
     if not isinstance(sensors, dict) or not all(

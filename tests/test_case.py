@@ -35,7 +35,7 @@ def test_each_run_kind_gets_its_tracker() -> None:
         ({"reference": "line", "planner": "rrt"}, "exactly one of reference or planner"),
         ({}, "exactly one of reference or planner"),
         ({"reference": "spiral"}, "unknown reference 'spiral'"),
-        ({"reference": "line", "tracker": "pid"}, "unknown tracker 'pid'"),
+        ({"reference": "line", "tracker": "pid"}, "unknown tracker 'pid'; choose .*; a plugin's tracker is known once"),
         ({"reference": "line", "robot": "roomba"}, "unknown robot 'roomba'"),
     ],
 )

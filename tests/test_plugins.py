@@ -232,7 +232,7 @@ def test_the_documented_error_is_the_one_given(registry: None, monkeypatch: pyte
 
 
 def test_the_documented_planner_plugin_error_is_the_one_given(registry: None, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv(PLUGIN_VARIABLE, "mypackage.planners")
+    monkeypatch.setenv(PLUGIN_VARIABLE, "mypackage.tdt")
     with pytest.raises(ConfigError) as err:
         make_planner("birrt")
     page = " ".join((ROOT / "docs" / "how-to" / "new-planner.md").read_text().split())

@@ -197,7 +197,12 @@ def test_planner_options_tables_are_read_and_reach_the_planner(tmp_path: Path) -
         ("planners = 3\n", r"field 'planners': expected a table"),
         ("[planners]\nbirrt = 3\n", r"'planners.birrt': expected a table of keyword options"),
         ('[planners.birrt]\nsteering = "teleport"\n', r"'planners.birrt'.*unknown steering 'teleport': choose"),
-        ('planner = "astar"\n', r"field 'planner': expected a registered planner name \(birrt, .*got 'astar'"),
+        (
+            'planner = "astar"\n',
+            r"field 'planner': expected a registered planner name \(birrt, .*got 'astar'; a "
+            r"plugin's planner is known once its plugin loads: name its module in NHSIM_PLUGINS",
+        ),
+        ("[planners.astar]\nx = 1\n", r"'planners.astar': expected .*got 'astar'; a plugin's planner is known once"),
     ],
 )
 def test_bad_planner_options_name_the_field(tmp_path: Path, table: str, match: str) -> None:

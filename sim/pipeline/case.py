@@ -223,7 +223,10 @@ class Case:
                 f"case {self.label}: unknown reference {self.reference!r}; choose {', '.join(REFERENCES)}"
             )
         if self.tracker is not None and self.tracker not in TRACKERS:
-            raise ConfigError(f"case {self.label}: unknown tracker {self.tracker!r}; choose {', '.join(TRACKERS)}")
+            raise ConfigError(
+                f"case {self.label}: unknown tracker {self.tracker!r}; choose {', '.join(TRACKERS)}; "
+                f"{TRACKERS.unknown_hint()}"
+            )
         if self.robot is not None and self.robot not in ROBOT_FILES:
             raise ConfigError(f"case {self.label}: unknown robot {self.robot!r}; choose {', '.join(ROBOT_FILES)}")
         if not self.name:

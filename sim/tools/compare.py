@@ -107,7 +107,9 @@ def check_trackers(names: Sequence[str]) -> tuple[str, ...]:
         raise ConfigError(f"{option('trackers')} needs at least one tracker: choose from {', '.join(sorted(TRACKERS))}")
     for name in names:
         if name not in TRACKERS:
-            raise ConfigError(f"unknown tracker {name!r}: choose from {', '.join(sorted(TRACKERS))}")
+            raise ConfigError(
+                f"unknown tracker {name!r}: choose from {', '.join(sorted(TRACKERS))}; {TRACKERS.unknown_hint()}"
+            )
         if names.count(name) > 1:
             raise ConfigError(f"{option('trackers')} names {name!r} twice; give each tracker once")
     return names
