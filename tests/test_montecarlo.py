@@ -135,18 +135,25 @@ def test_the_seeds_of_a_study_with_perturbations_are_read_back_as_its_own(tmp_pa
 
 def test_a_replaced_results_file_stays_until_the_first_new_run(serial: dict[str, object], tmp_path: Path) -> None:
     """``montecarlo --overwrite`` deleted the other study's results file at its start, seconds before its first run
-    was written: an interrupt or a failure in between left no results file at all."""
+    was written: an interrupt or a failure in between left no results file at all. Then, once replaced, an
+    interrupt left the new study's runs beside the old study's summary and plots."""
     theirs = tmp_path / "r.jsonl"
     theirs.write_bytes(Path(str(serial["path"])).read_bytes())
     before = theirs.read_bytes()
+    summary, plot = tmp_path / "r.json", tmp_path / "r-cdf.png"  # the other study's, made from its runs
+    summary.write_text("{}")
+    plot.write_bytes(b"png")
     other = MonteCarloSpec(Case("open", robot="turtlebot3", reference="line", seed=4), 3)
-    results = ResultsFile(theirs, other.key(), replacing=True)  # not read: another study's runs
+    results = ResultsFile(theirs, other.key(), replacing=True, outdated=[summary, plot])  # not read: another study's
     assert results.records == {} and theirs.read_bytes() == before  # kept until a run of this study ends
+    assert summary.exists() and plot.exists()  # and so are its summary and plots
     first = json.loads(before.splitlines()[1])  # a run record, stored as this study's first
     results.add(first)
     header, *lines = theirs.read_text().splitlines()
     assert json.loads(header)["key"] == other.key() and [json.loads(x) for x in lines] == [first]
-    assert [p.name for p in tmp_path.iterdir()] == ["r.jsonl"]  # no staging file left
+    # gone with the runs they describe: an interrupt from now on leaves this study's runs alone, resumable, where it
+    # left them beside the other study's statistics and plots
+    assert [p.name for p in tmp_path.iterdir()] == ["r.jsonl"]  # no staging file left either
     umask = os.umask(0)
     os.umask(umask)
     assert theirs.stat().st_mode & 0o777 == 0o666 & ~umask  # as open() makes a file, not mkstemp's 0600

@@ -283,7 +283,8 @@ def run(args: argparse.Namespace) -> int:
     except ConfigError:
         if not args.overwrite:  # another study's runs, or not a results file: kept
             raise
-        results = ResultsFile(paths["results"], spec.key(), replacing=True)  # kept until this study's first run
+        outdated = [path for name, path in paths.items() if name != "results"]  # the other study's summary, plots
+        results = ResultsFile(paths["results"], spec.key(), replacing=True, outdated=outdated)  # kept until a run
     for note in results.notes:
         print(f"note: {note}", file=sys.stderr)
     if not args.quiet and results.records:

@@ -360,6 +360,9 @@ class ResultsFile:
             headed by one is this study's too.
         replacing: The file at ``path`` (another study's, or no results file: ``--overwrite``) is not read, and is
             replaced by this study's with its first finished run.
+        outdated: The outputs made from the file ``replacing`` replaces (its study's summary and plots), removed as
+            it is replaced (in one step an interrupt waits for): an interrupted study then leaves its own runs,
+            not beside another study's summary.
         seeds: What the study's runs' records name of them, by index (:meth:`MonteCarloSpec.record_seeds`, called
             only when there is a file to read): a record whose seeds or perturbation differ from its index's, a
             failed plan's included, is refused (none given: unchecked).
@@ -378,8 +381,10 @@ class ResultsFile:
         *,
         replacing: bool = False,
         seeds: Callable[[], Sequence[Mapping[str, Any]]] | None = None,
+        outdated: Sequence[Path] = (),
     ) -> None:
         self.path, self.key = Path(path), dict(key)
+        self.outdated = [Path(p) for p in outdated]
         self._seeds = seeds
         self.earlier = [dict(k) for k in earlier]
         self.code = code_digest() if code is None else code
@@ -480,11 +485,17 @@ class ResultsFile:
         self.records[int(record["index"])] = record
 
     def _replace_with(self, *lines: Mapping[str, Any]) -> None:
-        """The file replaced by ``lines`` at once: written beside it, synced, and renamed over it."""
-        with atomic_path(self.path, overwrite=True) as tmp, tmp.open("w", encoding="utf-8") as f:
-            f.writelines(json.dumps(obj, allow_nan=False) + "\n" for obj in lines)
-            f.flush()
-            os.fsync(f.fileno())
+        """The file replaced by ``lines`` at once: written beside it, synced, and renamed over it; the outputs made
+        from the old one (:attr:`outdated`) removed with it."""
+        from planning.signals import signals_held
+
+        with signals_held():
+            with atomic_path(self.path, overwrite=True) as tmp, tmp.open("w", encoding="utf-8") as f:
+                f.writelines(json.dumps(obj, allow_nan=False) + "\n" for obj in lines)
+                f.flush()
+                os.fsync(f.fileno())
+            for path in self.outdated:
+                path.unlink(missing_ok=True)
         self.replacing = False
 
 
