@@ -269,3 +269,20 @@ def test_a_gains_file_given_to_params_is_named_as_one(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match=r"cannot read it as JSON") as caught:
         load_params([other])
     assert "gains file" not in str(caught.value)
+
+
+def test_the_record_names_every_trackers_parameters_as_it_ran() -> None:
+    """A tracker run at its defaults was recorded with ``params: {}``: the record did not say which gains ran (the
+    defaults change between versions). Given ones are recorded as given, the others' defaults as they ran."""
+    from control.gains import FBLGains
+
+    case = Case("open", robot="edumip", reference="line")
+    given = {"kanayama": KanayamaParams(kx=2.0, ky=30.0, ktheta=10.0)}
+    cmp = compare_trackers(case, ["fbl", "kanayama", "open-loop"], params=given)
+    params = cmp.record()["trackers"]
+    assert params["fbl"]["params"] == {"kp": FBLGains().kp, "kd": FBLGains().kd, "xi_min": FBLGains().xi_min}
+    assert params["kanayama"]["params"] == {"kx": 2.0, "ky": 30.0, "ktheta": 10.0}
+    assert params["open-loop"]["params"] == {}  # nothing to tune
+    defaults = compare_trackers(case, ["kanayama"]).record()["trackers"]["kanayama"]["params"]
+    own = KanayamaParams()
+    assert defaults == {"kx": own.kx, "ky": own.ky, "ktheta": own.ktheta}

@@ -206,7 +206,8 @@ class Comparison:
         trackers: Tracker names, in the order given.
         draws: The draws (empty: the case's own robot and noise, one run per tracker).
         runs: Every run, trackers outer, draws inner.
-        params: Tuned parameters given per tracker (as plain dicts).
+        params: Each tracker's tuned parameters as it ran (as plain dicts): those given, else its defaults for the
+            robot (the value of its tuned option the tracker holds, ``TUNED``); empty for a tracker with none.
         model: The compiled model the first draw's runs stepped (what the video draws).
     """
 
@@ -313,6 +314,7 @@ def compare_trackers(
     base = PreparedCase(prepared, simulator_for(prepared))
     draws = make_draws(runs, case.seed, held_out=True) if runs > 1 else ()
     done: list[TrackerRun] = []
+    ran: dict[str, dict[str, Any]] = {}  # each tracker's parameters as it ran
     model = None  # the first draw's, for the video
     for index, draw in enumerate(draws or (None,)):
         pc = base if draw is None else base.with_build(draw.build_seed)
@@ -322,15 +324,28 @@ def compare_trackers(
         config = SimConfig(control_rate=this.control_rate, hold=prepared.hold, strict=False)
         sensing = this.sensing(prepared.scenario)
         for name in names:
-            timed = TimedTracker(tracker_with(name, prepared.robot, params.get(name)))
+            tracker = tracker_with(name, prepared.robot, params.get(name))
+            ran.setdefault(name, _params_of(name, tracker))
+            timed = TimedTracker(tracker)
             run = run_tracker(prepared_i, RunKind.CLOSED_LOOP, timed, pc.simulator, config, sensing)
             done.append(_measure(name, index, run, timed, keep=index == 0))
             if progress is not None:
                 progress(name, index + 1, max(runs, 1))
     ordered = tuple(r for name in names for r in done if r.tracker == name)
-    plain = {name: _plain(value) for name, value in params.items()}
     assert model is not None  # there is at least one draw
-    return Comparison(prepared, names, tuple(draws), ordered, plain, model)
+    return Comparison(prepared, names, tuple(draws), ordered, ran, model)
+
+
+def _params_of(name: str, tracker: Tracker) -> dict[str, Any]:
+    """The tuned parameters ``tracker`` (registered as ``name``) runs with: the value of its tuned option it holds
+    under the option's name (as nhsim's trackers do), as a plain dict; {} for a tracker with nothing to tune or one
+    that holds them elsewhere."""
+    tuned = getattr(TRACKERS.factory(name), "TUNED", None)
+    if tuned is None:
+        return {}
+    option, kind = tuned
+    value = getattr(tracker, option, None)
+    return _plain(value) if isinstance(value, kind) else {}
 
 
 def _plain(params: Any) -> dict[str, Any]:
