@@ -11,6 +11,7 @@ moved into place in one step, so an interrupt or a failure leaves the old set wh
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import math
 import os
@@ -187,17 +188,29 @@ def unreplaceable(path: Path) -> str:
     return ""
 
 
-def check_distinct(paths: Iterable[Path]) -> None:
+def check_distinct(paths: Iterable[Path] | Mapping[str, Path]) -> None:
     """Check, before any work, that no two of a command's outputs are one file.
+
+    Args:
+        paths: The outputs' paths, or each output's name (its option: ``"--json"``, ``"--video"``) -> its path,
+            so that the message names the two outputs.
 
     Raises:
         ConfigError: Two of ``paths`` resolve to the same file (the message names those two).
     """
-    seen: dict[Path, Path] = {}
-    for path in map(Path, paths):
-        first = seen.setdefault(path.resolve(), path)
-        if first is not path:
-            raise ConfigError(f"two outputs share a path: {first} and {path}; choose distinct names")
+    named = list(paths.items()) if isinstance(paths, Mapping) else [("", p) for p in paths]
+    seen: dict[Path, tuple[str, Path]] = {}
+    for name, path in ((n, Path(p)) for n, p in named):
+        first_name, first = seen.setdefault(path.resolve(), (name, path))
+        if first is path:
+            continue
+        if name and first_name:
+            both = f"{first_name} and {name} both name {first}" + (f" (as {path})" if str(path) != str(first) else "")
+        elif str(path) != str(first):
+            both = f"{first} and {path} are one file"
+        else:
+            both = f"{path} is given for two of them"
+        raise ConfigError(f"two outputs share a path: {both}; choose distinct names")
 
 
 #: Characters ``tempfile.mkstemp`` puts between its prefix and suffix.
@@ -313,7 +326,8 @@ def atomic_path(path: str | Path, *, overwrite: Overwrite = False) -> Iterator[P
             umask = os.umask(0)
             os.umask(umask)
             os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the permissions open() would
-            yield tmp
+            with naming(target):
+                yield tmp
             _check_absent(target, overwrite=allowed(target))
             check_regular(target)
             try:
@@ -367,9 +381,10 @@ STALE_STAGE_S = 24 * 3600.0
 
 
 def _sweep_stale_stages(folder: Path) -> None:
-    """Remove the staging folders a killed command left in ``folder`` (SIGKILL, a lost terminal's SIGHUP: no
-    cleanup ran): those untouched for :data:`STALE_STAGE_S` whose ``old`` folder is empty. One holding an old
-    output (a commit killed midway: the only copy of a replaced file) is kept, as is anything that is not one."""
+    """Remove the staging folders a killed command left in ``folder`` (SIGKILL, a power loss: no cleanup ran;
+    SIGHUP is an interrupt, :mod:`sim.cli.interrupt`): those untouched for :data:`STALE_STAGE_S` whose ``old``
+    folder is empty. One holding an old output (a commit killed midway: the only copy of a replaced file) is
+    kept, as is anything that is not one."""
     now = time.time()
     try:
         found = [p for p in folder.iterdir() if p.name.startswith(_STAGE_PREFIX) and p.name.endswith(_STAGE_SUFFIX)]
@@ -415,6 +430,8 @@ class StagedOutputs:
         self._made: list[Path] = []  # folders made for the targets
         self._kept: set[Path] = set()  # staging folders holding an old output that could not be moved back
         self.committed = False
+        #: The target :meth:`path` was last asked for: the output being written (None before the first).
+        self.latest: Path | None = None
 
     def path(self, target: str | Path) -> Path:
         """Where to write ``target``: its name in the staging folder beside it (made, with the target's
@@ -432,8 +449,9 @@ class StagedOutputs:
             (stage / "new").mkdir()
             (stage / "old").mkdir()
         staged = stage / "new" / target.name
+        self.latest = target
         if any(s == staged for _, s in self._staged):
-            raise ConfigError(f"two outputs share a path: {target}; choose distinct names")
+            raise ConfigError(f"two outputs share a path: {target} is given for two of them; choose distinct names")
         self._staged.append((target, staged))
         return staged
 
@@ -512,6 +530,29 @@ class StagedOutputs:
                         folder.rmdir()
 
 
+#: Errors of a write that only a write gives (a full disk or quota, a file too large): one raised without a file
+#: name (by ``write()`` or ``close()``: matplotlib's, ``Path.write_text``) is given the output's (:func:`naming`).
+UNNAMED_WRITE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
+
+
+@contextlib.contextmanager
+def naming(path: Path) -> Iterator[None]:
+    """Within the block, ``path`` is being written: an OSError of :data:`UNNAMED_WRITE_ERRNOS` that names no
+    file is given ``path`` as its file name, so the error says which output the disk could not take (as
+    :func:`shown`: a staged output's path is its target's for the user)."""
+    try:
+        yield
+    except OSError as exc:
+        name_unnamed(exc, path)
+        raise
+
+
+def name_unnamed(exc: OSError, path: Path) -> None:
+    """Give ``exc`` the file name ``path`` when it names none and is a write's error (:data:`UNNAMED_WRITE_ERRNOS`)."""
+    if exc.filename is None and exc.errno in UNNAMED_WRITE_ERRNOS and not isinstance(exc, NhsimError):
+        exc.filename = str(path)
+
+
 def _flag(overwrite: Any) -> Callable[[Path], bool]:
     flag = check_flag("overwrite", overwrite)
     return lambda _: flag
@@ -525,7 +566,12 @@ def staged_outputs(
     either way (on an error or an interrupt, with the new outputs: every old file is left as it was)."""
     stage = StagedOutputs(overwrite=overwrite, folders=folders)
     try:
-        yield stage
+        try:
+            yield stage
+        except OSError as exc:  # a full disk met writing the output last asked for: the error names it
+            if stage.latest is not None:
+                name_unnamed(exc, stage.latest)
+            raise
         stage.commit()
     finally:
         stage.discard()

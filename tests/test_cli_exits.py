@@ -647,8 +647,8 @@ def test_a_full_disk_while_writing_is_one_line_exit_1(
     monkeypatch.setattr(command, "run", full)
     assert main(["scenarios"]) == 1
     assert capsys.readouterr().err == (
-        "nhsim scenarios: failed: could not write renders/x.json: No space left on device; what it had written "
-        "before is kept: free space (or give a path on another disk) and run it again\n"
+        "nhsim scenarios: failed: could not write renders/x.json: No space left on device; no output was written or "
+        "replaced: free space (or give a path on another disk) and run it again\n"
     )
     monkeypatch.setattr(command, "run", lambda args: (_ for _ in ()).throw(OSError(errno.ENOENT, "gone", "y")))
     with pytest.raises(FileNotFoundError):  # not a full disk: a fault of the program, with its traceback

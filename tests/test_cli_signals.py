@@ -314,7 +314,7 @@ def test_plan_stops_inside_an_ipopt_solve(tmp_path: Path, sig: signal.Signals) -
 @pytest.mark.parametrize("sig", SIGNALS)
 def test_bench_stops(tmp_path: Path, sig: signal.Signals) -> None:
     stopped = stop_when(["bench", "sim", "--repeats", "50"], tmp_path, imported_then("mujoco", 1.5), sig)
-    assert_interrupted(stopped, "bench", tmp_path)
+    assert_interrupted(stopped, "bench sim", tmp_path)  # the benchmark named, as its errors name it
 
 
 @pytest.mark.parametrize("mode", ["bare", "held", "end_early"])
@@ -848,3 +848,18 @@ def test_an_interrupted_command_ignores_further_signals_while_it_exits(monkeypat
     finally:
         for sig, handler in before.items():
             signal.signal(sig, handler)
+
+
+@pytest.mark.slow  # a simulation with its video, stopped while it encodes: 6 s
+def test_a_hangup_while_encoding_is_an_interrupt_leaving_no_staging_folder(tmp_path: Path) -> None:
+    """SIGHUP (a closed terminal, a dropped ssh connection) ended the command with 129, saying nothing, and left
+    ``.nhsim-outputs-XXXX.part/new/.v.XXXX.part.mp4`` for a later command to sweep a day later."""
+
+    def encoding(out: str, err: str) -> bool:
+        return bool(list(tmp_path.glob(".nhsim-outputs-*.part/new/.v.*.part.mp4")))
+
+    args = ["simulate", "--reference", "line", "--video", "v.mp4", "--overwrite", "--no-plots", "--json", "r.json"]
+    args += ["--gl", os.environ["MUJOCO_GL"]]  # the tests' backend (stop_when sets MUJOCO_GL, not PyOpenGL's)
+    stopped = stop_when(args, tmp_path, encoding, signal.SIGHUP)
+    assert_interrupted(stopped, "simulate", tmp_path)
+    assert list(tmp_path.iterdir()) == []

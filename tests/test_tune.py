@@ -257,7 +257,10 @@ def test_workers_never_take_one_waiting_trial_twice(tmp_path: Path) -> None:
         ({"--trials": "0"}, "--trials must be an integer >= 1, got 0"),
         ({"--draws": "0"}, "--draws must be an integer >= 1, got 0"),
         ({"--perturb-range": "friction=0.5:1.5"}, "--perturb-range is used by --robust only"),
-        ({"--json": "OUT/gains.toml"}, r"two outputs share a path: \S*gains.toml and \S*gains.toml; choose distinct"),
+        (
+            {"--json": "OUT/gains.toml"},
+            r"--out \(the gains\) and --json \(the record\) both name \S*gains.toml; choose distinct names",
+        ),
     ],
 )
 def test_bad_input_is_a_clear_error_and_writes_nothing(

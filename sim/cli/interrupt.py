@@ -1,11 +1,13 @@
-"""SIGTERM handled as Ctrl-C for the whole of a command.
+"""SIGTERM and SIGHUP handled as Ctrl-C for the whole of a command.
 
 ``timeout``, job schedulers, ``kill`` and container runtimes stop a process with SIGTERM; Python's
 default for it ends the process at once (exit status 143), skipping the cleanup a Ctrl-C gets:
 removing a file being written, closing worker processes, keeping the runs already finished and
 saying so. :func:`sigterm_as_interrupt` makes SIGTERM raise KeyboardInterrupt, as SIGINT does, so
 both take the same path and ``nhsim`` exits 130 with its "interrupted" message (the README's
-exit-status contract). :func:`sim.cli.main.main` holds it around every command.
+exit-status contract). SIGHUP (a closed terminal, a dropped ssh connection) is handled as SIGTERM
+(:func:`_hangup`): its default ended the command with 129 and left a half-written video in its hidden
+staging folder. :func:`sim.cli.main.main` holds it around every command.
 """
 
 from __future__ import annotations
@@ -116,6 +118,21 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
     raise _Interrupt(signum)
 
 
+def _hangup(signum: int, frame: FrameType | None) -> None:
+    """SIGHUP, handled as SIGTERM is: by :func:`_interrupt`, or, where a block has put another handler in
+    SIGTERM's place (:func:`planning.signals.signals_held` notes SIGINT and SIGTERM only, to act on them as
+    it ends), by that handler, as a SIGTERM. Ignored where SIGTERM is."""
+    handler = signal.getsignal(signal.SIGTERM)
+    if handler is _interrupt or not (callable(handler) or handler == signal.SIG_IGN):
+        _interrupt(signum, frame)
+    elif callable(handler):
+        handler(signal.SIGTERM, frame)
+
+
+#: The signals :func:`sigterm_as_interrupt` stops a command on, each with its handler.
+STOPPING = ((signal.SIGINT, _interrupt), (signal.SIGTERM, _interrupt), (signal.SIGHUP, _hangup))
+
+
 class _Interrupt(KeyboardInterrupt):
     """The KeyboardInterrupt a signal raised (its number kept, should Python drop it: :func:`_dropped`)."""
 
@@ -150,7 +167,8 @@ _HOOKS: list[Any] = []
 
 @contextlib.contextmanager
 def sigterm_as_interrupt() -> Iterator[None]:
-    """Within the block SIGTERM raises KeyboardInterrupt, as SIGINT does, and neither is lost inside a
+    """Within the block SIGTERM and SIGHUP (unless ignored, as ``nohup`` leaves it) raise KeyboardInterrupt,
+    as SIGINT does, and none is lost inside a
     C callback that would drop it nor raised inside numba's compiler or its runtime helpers (it is
     raised when they have returned: :func:`_deferred`); the previous handlers are restored on leaving.
     Outside the main thread (where no handler can be set) it does nothing."""
@@ -164,7 +182,11 @@ def sigterm_as_interrupt() -> Iterator[None]:
         frame = frame.f_back
     _OUTSIDE.append(tuple(callers))
     alarm = signal.getsignal(signal.SIGALRM)
-    previous = {sig: signal.signal(sig, _interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
+    previous = {
+        sig: signal.signal(sig, handler)
+        for sig, handler in STOPPING
+        if sig != signal.SIGHUP or signal.getsignal(sig) != signal.SIG_IGN  # ``nohup``: a hangup is ignored
+    }
     _HOOKS.append(sys.unraisablehook)
     sys.unraisablehook = _dropped
     try:

@@ -194,7 +194,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     Exit codes: 0 success, 1 a run or check failed (a run failed its checks, a benchmark missed its
     target, a planner ended without a path or its plan could not be made into a trajectory),
-    2 bad input (usage or a clear error message), 130 interrupted (Ctrl-C or SIGTERM, handled alike
+    2 bad input (usage or a clear error message), 130 interrupted (Ctrl-C, SIGTERM or SIGHUP, handled alike
     for the whole command: :mod:`sim.cli.interrupt`), 141 its standard output closed before it was
     done (``nhsim plan ... | head -3``: the command prints nothing more but does the rest of its work, its
     outputs written, and then exits as one killed by SIGPIPE would; a failure's own code stands).
@@ -206,7 +206,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             code = _main(argv)
         except KeyboardInterrupt:  # before a command was chosen (building the parser, parsing)
-            print("nhsim: interrupted", file=sys.stderr)
+            say_interrupted("nhsim: interrupted")
             return 130
         except SystemExit as exc:  # argparse's --help, --version or usage error: printed, or not
             if out.failed and exc.code in (0, None):
@@ -227,16 +227,30 @@ def console() -> int:
     every object numba and the libraries made (about 0.15 s after a plan, more than the plan of a
     small world) only to free memory the process is about to return anyway. An interrupted command
     (130) exits the slow way: what it left half done may still hold a temporary file that only its
-    collection removes, and a further Ctrl-C or SIGTERM meanwhile is ignored (the status stays 130). Tests
+    collection removes, and a further Ctrl-C, SIGTERM or SIGHUP meanwhile is ignored (the status stays 130). Tests
     call :func:`main`, which leaves the collector and the signals alone.
     """
     code = main()
     if code != 130:
         gc.freeze()
-    else:  # interrupted: another Ctrl-C or SIGTERM while it exits the slow way (removing what it left) changes
-        for sig in (signal.SIGINT, signal.SIGTERM):  # nothing: ignored, as Python's finalisation keeps it, the
-            signal.signal(sig, signal.SIG_IGN)  # status stays 130 (SIGTERM's default ended it with 143)
+    else:  # interrupted: another Ctrl-C, SIGTERM or SIGHUP while it exits the slow way (removing what it left)
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):  # changes nothing: ignored, as Python's
+            signal.signal(sig, signal.SIG_IGN)  # finalisation keeps it, the status stays 130 (SIGTERM's default
+            # ended it with 143, SIGHUP's with 129)
     return code
+
+
+def say_interrupted(text: str) -> None:
+    """Print ``text`` on stderr, where it may fail: a terminal that hung up (its SIGHUP is an interrupt) takes
+    no more writes (EIO). Then the text is lost, and stderr is pointed at /dev/null, so that neither this
+    print nor Python's flush at exit turns the status 130 into 1 or 120."""
+    try:
+        print(text, file=sys.stderr, flush=True)
+    except (OSError, ValueError):
+        with contextlib.suppress(OSError, ValueError, AttributeError):
+            null = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(null, sys.stderr.fileno())
+            os.close(null)
 
 
 def _main(argv: Sequence[str] | None) -> int:
@@ -247,6 +261,7 @@ def _main(argv: Sequence[str] | None) -> int:
     if not getattr(args, "command", None):
         parser.print_help()
         return 2
+    name = " ".join(filter(None, (args.command, getattr(args, "benchmark", None))))  # ``bench render``
     try:
         from sim.viz import gl
 
@@ -254,27 +269,45 @@ def _main(argv: Sequence[str] | None) -> int:
         mod = importlib.import_module(args._module)
         return int(mod.run(args))
     except SimulationError as exc:
-        print(f"nhsim {args.command}: simulation failed: {without_python(str(exc))}", file=sys.stderr)
+        print(f"nhsim {name}: simulation failed: {without_python(str(exc))}", file=sys.stderr)
         return 1
     except NhsimError as exc:
         if _failed_plan(exc):  # a failed plan is a failed run, not bad input (as in ``nhsim plan``)
-            print(f"nhsim {args.command}: failed: {without_python(str(exc))}", file=sys.stderr)
+            print(f"nhsim {name}: failed: {without_python(str(exc))}", file=sys.stderr)
             return 1
-        print(f"nhsim {args.command}: error: {without_python(str(exc))}", file=sys.stderr)
+        print(f"nhsim {name}: error: {without_python(str(exc))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"nhsim {args.command}: interrupted", file=sys.stderr)
+        say_interrupted(f"nhsim {name}: interrupted")
         return 130
     except OSError as exc:
         if exc.errno not in WRITE_FAILURES:
             raise
-        what = f" {exc.filename}" if exc.filename else ""
-        print(
-            f"nhsim {args.command}: failed: could not write{what}: {exc.strerror}; what it had written before is "
-            "kept: free space (or give a path on another disk) and run it again",
-            file=sys.stderr,
-        )
+        print(f"nhsim {name}: failed: {could_not_write(exc, args.command)}", file=sys.stderr)
         return 1
+
+
+def could_not_write(exc: OSError, command: str = "") -> str:
+    """What a full disk (or quota, a file too large, an I/O error: :data:`WRITE_FAILURES`) met while writing
+    says: the file (as the user named it: a staged output's path is shown as its target's,
+    :func:`sim.outputs.shown`), why, what is left, and the fix. Outputs are written under temporary names and
+    placed only once complete, so none was written or replaced; ``command``'s incremental record (:data:`KEPT`)
+    keeps what it held."""
+    from sim.outputs import shown
+
+    what = f" {shown(os.fsdecode(exc.filename))}" if exc.filename else ""
+    kept = f" ({KEPT[command]})" if command in KEPT else ""
+    return (
+        f"could not write{what}: {exc.strerror or exc}; no output was written or replaced{kept}: free space (or "
+        "give a path on another disk) and run it again"
+    )
+
+
+#: What a command that records as it goes keeps when a write fails (:func:`could_not_write`).
+KEPT = {
+    "montecarlo": "the runs already in its results file are kept, and the same command resumes",
+    "tune": "the trials already in its study are kept, and the same command resumes",
+}
 
 
 #: Why a file could not be written that is the machine's, not the command's input: a full disk or quota, a file too

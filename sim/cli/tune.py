@@ -602,7 +602,14 @@ def tune_files(
     check_storage(files.storage)
     written = (files.gains,) if writes_gains_file(getattr(args, "tracker", "fbl").strip()) else ()
     paths = (*written, files.history, files.importance, files.record)
-    check_distinct(paths)
+    check_distinct(
+        {
+            **({"--out (the gains)": files.gains} if written else {}),
+            "--plots (the history plot)": files.history,
+            "--plots (the importance plot)": files.importance,
+            "--json (the record)": files.record,
+        }
+    )
     db = Path(files.storage.removeprefix("sqlite:///")) if files.storage.startswith("sqlite:///") else None
     check_apart_from_inputs(args, [*paths, *([db] if db is not None else [])])  # the cases' scenarios, maps
     if db is not None:  # an output over the study's own database would destroy it
@@ -818,26 +825,39 @@ def _settle(study: Any, quiet: bool) -> None:
 
     requeued = tune.requeue_interrupted(study)
     if requeued and not quiet:
-        print(f"trials {_numbers(requeued)} were interrupted: their gains are enqueued again", file=sys.stderr)
+        again = ("was interrupted: its gains are enqueued again", "were interrupted: their gains are enqueued again")
+        print(_trials(requeued, *again), file=sys.stderr)
     running = [t.number for t in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,))]
     if not running:
         return
     if not quiet:
         wait = tune.GRACE_PERIOD + tune.HEARTBEAT_INTERVAL + 1
+        waiting = (
+            f"is running: waiting up to {wait} s for its heartbeat",
+            f"are running: waiting up to {wait} s for their heartbeats",
+        )
         print(
-            f"trials {_numbers(running)} are running: waiting up to {wait} s for their heartbeats "
-            "(a killed worker's trial is failed and its gains evaluated afresh)",
+            f"{_trials(running, *waiting)} (a killed worker's trial is failed and its gains evaluated afresh)",
             file=sys.stderr,
         )
     failed, alive = tune.settle_running(study)
     if not quiet and failed:
-        print(f"trials {_numbers(failed)} were left by a killed worker: failed, gains enqueued again", file=sys.stderr)
+        left = (
+            "was left by a killed worker: failed, its gains enqueued again",
+            "were left by a killed worker: failed, gains enqueued again",
+        )
+        print(_trials(failed, *left), file=sys.stderr)
     if not quiet and alive:
-        print(f"trials {_numbers(alive)} are still beating: left to their workers", file=sys.stderr)
+        beating = ("is still beating: left to its worker", "are still beating: left to their workers")
+        print(_trials(alive, *beating), file=sys.stderr)
 
 
-def _numbers(numbers: list[int]) -> str:
-    return ", ".join(f"#{n}" for n in numbers)
+def _trials(numbers: list[int], one: str, many: str) -> str:
+    """``trial #3 ONE``, or ``trials #3, #5 MANY``: the trials ``numbers`` and what is said of them, in the
+    singular for one."""
+    if len(numbers) == 1:
+        return f"trial #{numbers[0]} {one}"
+    return f"trials {', '.join(f'#{n}' for n in numbers)} {many}"
 
 
 def _report_best(study: Any, spec: Any, evaluator: Any) -> tuple[Any, float]:

@@ -10,6 +10,8 @@ render leaves nothing under the final name.
 from __future__ import annotations
 
 import contextlib
+import errno
+import os
 import queue
 import subprocess
 import threading
@@ -28,6 +30,18 @@ Frame = NDArray[np.uint8]
 
 #: x264 presets accepted by :class:`VideoWriter` (faster ones leave more CPU for rendering).
 PRESETS = ("ultrafast", "superfast", "veryfast", "faster", "fast", "medium", "slow")
+
+#: The errors of a write that ffmpeg reports in the C library's words (``strerror``): a full disk or quota, a
+#: file too large, an I/O error. The video's writer raises them as the OSError any other write raises, naming
+#: the file, so the command says "could not write FILE" for the video as for its other outputs (exit status 1).
+WRITE_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO)
+
+
+def write_failure(said: str, path: Path) -> OSError | None:
+    """The OSError of the write that failed, when ffmpeg's error output ``said`` names one of
+    :data:`WRITE_ERRNOS` (writing ``path``); else None."""
+    code = next((c for c in WRITE_ERRNOS if os.strerror(c) in said), None)
+    return None if code is None else OSError(code, os.strerror(code), str(path))
 
 
 def ffmpeg_exe() -> str:
@@ -183,6 +197,9 @@ class VideoWriter:
         err = self._proc.stderr.read().decode(errors="replace") if self._proc.stderr else ""
         rc = self._proc.wait()
         if rc != 0 or self._error is not None:
+            failure = write_failure(err, self.path)
+            if failure is not None:
+                raise failure
             raise SimulationError(
                 f"ffmpeg failed writing {shown(self.path)} (exit {rc}): {err.strip() or self._error}; "
                 "check the frame size and free disk space"
@@ -227,16 +244,21 @@ class VideoWriter:
         if self._proc is None:
             raise RuntimeError("VideoWriter is not open: use it in a with-statement")
         if self._error is not None:
-            raise SimulationError(f"ffmpeg stopped while writing {shown(self.path)}: {self._why()}")
+            said = self._said()
+            failure = write_failure(said, self.path)  # a full disk: the write failed, not the simulation
+            if failure is not None:
+                raise failure from self._error
+            last = said.splitlines()[-1].strip() if said else ""
+            why = f"{last} (ffmpeg's last words); check free disk space" if last else str(self._error)
+            raise SimulationError(f"ffmpeg stopped while writing {shown(self.path)}: {why}")
 
-    def _why(self) -> str:
-        """Why ffmpeg stopped taking frames: the end of its own error output once it has exited (a full disk
-        says "No space left on device" there), else the error the frames' pipe gave (a broken pipe)."""
+    def _said(self) -> str:
+        """Why ffmpeg stopped taking frames: its own error output once it has exited (a full disk says "No space
+        left on device" there, not always on its last line), or "" (then the error the frames' pipe gave says
+        it)."""
         proc = self._proc
         if proc is not None and proc.stderr is not None:
             with contextlib.suppress(subprocess.TimeoutExpired, OSError, ValueError):
                 proc.wait(timeout=2.0)
-                lines = proc.stderr.read().decode(errors="replace").strip().splitlines()
-                if lines:
-                    return f"{lines[-1].strip()} (ffmpeg's last words); check free disk space"
-        return str(self._error)
+                return proc.stderr.read().decode(errors="replace").strip()
+        return ""

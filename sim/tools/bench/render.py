@@ -25,6 +25,7 @@ hardly moved by other processes' load.
 from __future__ import annotations
 
 import resource
+import shutil
 import tempfile
 import time
 from dataclasses import dataclass
@@ -157,21 +158,26 @@ def _cpu(who: int) -> float:
 
 def _pipeline(model: Any, job: Any, settings: Any, renderer: Any, n: int) -> tuple[float, float, float]:
     """Wall time, CPU time (the encoder's included) and the encoder's CPU time [s] of a new replay (its
-    set-up counts) drawing and encoding ``n`` frames to a deleted MP4."""
+    set-up counts) drawing and encoding ``n`` frames to a deleted MP4, in a temporary folder removed however
+    the pipeline ends (an interrupt, an error: ``bench`` leaves nothing behind)."""
+    from planning.signals import signals_held
     from sim.viz.replay import Replay
     from sim.viz.video import VideoWriter
 
-    tmpdir = Path(tempfile.mkdtemp(prefix="nhsim-bench-"))
-    out = tmpdir / "bench.mp4"
-    t0, c0, e0 = time.perf_counter(), _cpu(resource.RUSAGE_SELF), _cpu(resource.RUSAGE_CHILDREN)
-    rp = Replay(model, job.trajectory, job.logs, settings)
-    with VideoWriter(out, settings.width, settings.height, settings.fps, overwrite=True) as writer:
-        for k in range(n):
-            buf = writer.frame_buffer()
-            rp.render_frame(renderer, k, buf)
-            writer.submit(buf)
-    dt, enc = time.perf_counter() - t0, _cpu(resource.RUSAGE_CHILDREN) - e0  # ffmpeg is reaped on close
-    cpu = _cpu(resource.RUSAGE_SELF) - c0 + enc
-    out.unlink()
-    tmpdir.rmdir()
+    with signals_held():  # an interrupt landing as the folder is made waits until it is named
+        tmpdir = Path(tempfile.mkdtemp(prefix="nhsim-bench-"))
+    try:
+        out = tmpdir / "bench.mp4"
+        t0, c0, e0 = time.perf_counter(), _cpu(resource.RUSAGE_SELF), _cpu(resource.RUSAGE_CHILDREN)
+        rp = Replay(model, job.trajectory, job.logs, settings)
+        with VideoWriter(out, settings.width, settings.height, settings.fps, overwrite=True) as writer:
+            for k in range(n):
+                buf = writer.frame_buffer()
+                rp.render_frame(renderer, k, buf)
+                writer.submit(buf)
+        dt, enc = time.perf_counter() - t0, _cpu(resource.RUSAGE_CHILDREN) - e0  # ffmpeg is reaped on close
+        cpu = _cpu(resource.RUSAGE_SELF) - c0 + enc
+    finally:
+        with signals_held():  # removed whole: an interrupt waits until it is gone
+            shutil.rmtree(tmpdir, ignore_errors=True)
     return dt, cpu, enc
