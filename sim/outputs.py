@@ -432,11 +432,31 @@ class StagedOutputs:
         self.committed = False
         #: The target :meth:`path` was last asked for: the output being written (None before the first).
         self.latest: Path | None = None
+        self._retired: list[tuple[Path, Path]] = []  # (target, its never-written staged name): :meth:`retire`
 
     def path(self, target: str | Path) -> Path:
         """Where to write ``target``: its name in the staging folder beside it (made, with the target's
         folders, on first use)."""
         target = Path(target)
+        staged = self._stage_for(target) / "new" / target.name
+        self.latest = target
+        if any(s == staged for _, s in self._staged):
+            raise ConfigError(f"two outputs share a path: {target} is given for two of them; choose distinct names")
+        self._staged.append((target, staged))
+        return staged
+
+    def retire(self, target: str | Path) -> None:
+        """Remove ``target`` with the commit: an output of the set being replaced that the new set does not write
+        again (a plot of a run kind it has not). It is moved aside as a replaced output is, and put back if the
+        commit is undone; nothing happens to it if the outputs are not committed."""
+        target = Path(target)
+        staged = self._stage_for(target) / "new" / target.name  # never written: the commit only moves it aside
+        if any(s == staged for _, s in self._staged):
+            raise ConfigError(f"{target} is both written and removed by this command; choose distinct names")
+        self._retired.append((target, staged))
+
+    def _stage_for(self, target: Path) -> Path:
+        """The staging folder beside ``target`` (made, with the target's folders, on first use)."""
         folder = Path(os.path.abspath(target.parent))
         stage = self._stages.get(folder)
         if stage is None:
@@ -448,12 +468,7 @@ class StagedOutputs:
                 self._stages[folder] = stage
             (stage / "new").mkdir()
             (stage / "old").mkdir()
-        staged = stage / "new" / target.name
-        self.latest = target
-        if any(s == staged for _, s in self._staged):
-            raise ConfigError(f"two outputs share a path: {target} is given for two of them; choose distinct names")
-        self._staged.append((target, staged))
-        return staged
+        return stage
 
     def _check(self, target: Path) -> None:
         """The target checks made again as the outputs move in (another program may have written meanwhile: the
@@ -494,6 +509,12 @@ class StagedOutputs:
                         os.replace(target, aside)
                     done.append((target, staged, aside))
                     os.replace(staged, target)
+                for target, staged in self._retired:
+                    current = target
+                    if os.path.lexists(target):
+                        aside = staged.parent.parent / "old" / staged.name
+                        os.replace(target, aside)
+                        done.append((target, staged, aside))
             except OSError as exc:
                 kept = self._undo(done)
                 raise OutputsNotPlacedError(_not_placed(current, exc, kept)) from exc

@@ -455,3 +455,48 @@ def test_a_staged_outputs_path_is_shown_as_its_target(tmp_path: Path) -> None:
     finally:
         stage.discard()
     assert shown("/a/b/v.mp4") == "/a/b/v.mp4" and shown(".nhsim-outputs-x1.part/new/v.mp4") == "v.mp4"
+
+
+def test_a_retired_output_goes_with_the_commit_and_comes_back_with_its_undo(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    record, plot, last = tmp_path / "a.json", tmp_path / "a-localiser.png", tmp_path / "z.json"
+    record.write_text("old record")
+    plot.write_text("old plot")
+    last.write_text("old z")
+    before = _tree(tmp_path)
+    with pytest.raises(KeyboardInterrupt), staged_outputs(overwrite=True) as stage:
+        write_json(stage.path(record), {"new": 1})
+        stage.retire(plot)
+        raise KeyboardInterrupt  # not committed: nothing retired
+    assert _tree(tmp_path) == before
+    with monkeypatch.context() as m:
+        _failing_rename(m, plot)  # the retirement fails after the record moved in: the record's move is undone
+        with pytest.raises(OutputsNotPlacedError, match="no output was replaced"), staged_outputs(overwrite=True) as st:
+            write_json(st.path(record), {"new": 1})
+            st.retire(plot)
+    assert _tree(tmp_path) == before
+    with staged_outputs(overwrite=True) as stage:
+        write_json(stage.path(record), {"new": 1})
+        stage.retire(plot)
+        stage.retire(tmp_path / "never-there.png")  # nothing to remove: nothing done
+    assert not plot.exists() and '"new": 1' in record.read_text() and _temporaries(tmp_path) == []
+    with pytest.raises(ConfigError, match="both written and removed"), staged_outputs(overwrite=True) as stage:
+        write_json(stage.path(last), {})
+        stage.retire(last)
+
+
+def test_overwrite_replaces_a_records_whole_set_of_plots(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """--overwrite replaced the record and the plots the new job drew, and left the others of the old set beside
+    them: an EduMIP's record with the TurtleBot3 run's localiser plot; with --no-plots, every old plot."""
+    monkeypatch.chdir(tmp_path)
+    job = ["simulate", "--reference", "line", "--no-video", "--json", "x/a.json", "--quiet"]
+    assert main(job) == 0
+    plots = {p.name for p in (tmp_path / "x").glob("*.png")}
+    assert "a-localiser.png" in plots  # the TurtleBot3 localises with its scans
+    keep = tmp_path / "x" / "a-notes.png"  # a file of the user's that the record does not list
+    keep.write_text("mine")
+    assert main([*job, "--robot", "edumip", "--overwrite"]) == 0
+    assert {p.name for p in (tmp_path / "x").glob("*.png")} == plots - {"a-localiser.png"} | {"a-notes.png"}
+    assert main([*job, "--robot", "edumip", "--overwrite", "--no-plots"]) == 0
+    assert sorted(p.name for p in (tmp_path / "x").iterdir()) == ["a-notes.png", "a.json"]

@@ -239,6 +239,9 @@ class OutputPlan:
     progress: bool
     extra: dict[str, Any] = field(default_factory=dict)
     bag: Path | None = None
+    #: The plots of the record ``json`` replaces (``--overwrite``: :func:`replaced_plots`); those this job does not
+    #: write again are removed with its commit (a TurtleBot3's localiser plot beside an EduMIP's record).
+    replaced_plots: list[Path] = field(default_factory=list)
 
     def targets(self) -> list[Path]:
         """Every file the job will write."""
@@ -357,7 +360,6 @@ def plan_outputs(
         OutputExistsError: A target exists and --overwrite was not given.
         DependencyError: A video was asked for and no OpenGL backend can load.
     """
-    from control.design.balance_profile import is_balancing
     from sim.outputs import check_distinct, check_video_name, check_writable
     from sim.viz.plots.run import ESTIMATION_PLOT, LOCALISER_PLOT, PITCH_PLOT, PLOTS
     from sim.viz.replay import RenderSettings, parse_size
@@ -381,16 +383,14 @@ def plan_outputs(
                 file=sys.stderr,
             )
     base_dir, base = _plots_beside(args, stem)
-    names: tuple[str, ...] = (*PLOTS, ESTIMATION_PLOT)  # the estimation plot only where the job gives its estimates
-    robot = getattr(args, "robot", None)
-    if _may_scan(args, robot or own_robot):  # the scan localiser's plot where a run used one
-        names = (*names, LOCALISER_PLOT)
-    if robot is not None and is_balancing(robot):  # a balancing robot's runs also plot their pitch
-        names = (*names, PITCH_PLOT)
-    plots = {name: base_dir / f"{base}-{name}.png" for name in names} if args.plots else {}
+    plots = {name: base_dir / f"{base}-{name}.png" for name in _plot_names(args, own_robot)} if args.plots else {}
     json_path = args.json if args.json is not None else base_dir / f"{base}.json"
     bag = getattr(args, "bag", None)
-    plan = OutputPlan(stem, video, plots, json_path, settings, args.overwrite, show_progress(args), bag=bag)
+    every = (*PLOTS, ESTIMATION_PLOT, LOCALISER_PLOT, PITCH_PLOT)  # of the set --overwrite replaces: its plots
+    replaced = replaced_plots(json_path, [base_dir / f"{base}-{name}.png" for name in every]) if args.overwrite else []
+    plan = OutputPlan(
+        stem, video, plots, json_path, settings, args.overwrite, show_progress(args), bag=bag, replaced_plots=replaced
+    )
     targets = plan.targets()
     check_apart_from_inputs(args, targets, bag)
     if bag is not None:
@@ -409,6 +409,35 @@ def plan_outputs(
         if reason is not None:
             raise DependencyError(reason)
     return plan
+
+
+def _plot_names(args: argparse.Namespace, own_robot: str | None) -> tuple[str, ...]:
+    """The plots a job may draw: every job's, the estimation plot (drawn where the job gives its estimates), the
+    scan localiser's where a run may use one, the pitch's for a balancing robot given by --robot."""
+    from control.design.balance_profile import is_balancing
+    from sim.viz.plots.run import ESTIMATION_PLOT, LOCALISER_PLOT, PITCH_PLOT, PLOTS
+
+    names: tuple[str, ...] = (*PLOTS, ESTIMATION_PLOT)
+    robot = getattr(args, "robot", None)
+    if _may_scan(args, robot or own_robot):
+        names = (*names, LOCALISER_PLOT)
+    if robot is not None and is_balancing(robot):
+        names = (*names, PITCH_PLOT)
+    return names
+
+
+def replaced_plots(record: Path, candidates: Sequence[Path]) -> list[Path]:
+    """The ``candidates`` (the plots a job of this record's name may write) that the nhsim record at ``record``
+    lists among its files and that exist: the plots of the set a job with ``--overwrite`` replaces. A file that is
+    not such a record, or one written from another folder (its relative paths name other files), gives none."""
+    if not record.is_file():  # none, or no regular file (a FIFO would block the read: refused later)
+        return []
+    try:
+        files = json.loads(record.read_text(encoding="utf-8")).get("files", {})
+        listed = {os.path.abspath(path) for kind, path in files.items() if str(kind).startswith("plot_")}
+    except (OSError, ValueError, AttributeError, TypeError):
+        return []
+    return [p for p in candidates if os.path.abspath(p) in listed and p.is_file()]
 
 
 def _plots_beside(args: argparse.Namespace, stem: str) -> tuple[Path, str]:
@@ -587,6 +616,9 @@ def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict
         files["json"] = str(plan.json)
         record["files"] = dict(files)
         write_json(stage.path(plan.json), record)
+        for path in plan.replaced_plots:  # the replaced set's plots this set has not (another robot, --no-plots)
+            if str(path) not in files.values():
+                stage.retire(path)
     return files
 
 
