@@ -142,12 +142,18 @@ def test_the_fbl_gains_option_is_known_by_its_declared_type(registry: None) -> N
 
 
 # ---- plugins, in this process ----------------------------------------------------------------------------
+def _env_plugin(folder: Path, monkeypatch: pytest.MonkeyPatch, variable: str) -> None:
+    """A plugin module ``nhsim_test_env_plugin`` in ``folder`` (on the path) registering the tracker 'env-fbl', and
+    NHSIM_PLUGINS set to ``variable``."""
+    (folder / "nhsim_test_env_plugin.py").write_text(REGISTERS + "register_tracker('env-fbl', DynamicFBL)\n")
+    monkeypatch.syspath_prepend(str(folder))
+    monkeypatch.setenv(PLUGIN_VARIABLE, variable)
+
+
 def test_a_module_named_by_the_variable_is_imported_at_the_first_lookup(
     registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    (tmp_path / "nhsim_test_env_plugin.py").write_text(REGISTERS + "register_tracker('env-fbl', DynamicFBL)\n")
-    monkeypatch.syspath_prepend(str(tmp_path))
-    monkeypatch.setenv(PLUGIN_VARIABLE, " nhsim_test_env_plugin, ")
+    _env_plugin(tmp_path, monkeypatch, " nhsim_test_env_plugin, ")
     assert "nhsim_test_env_plugin" not in sys.modules
     assert "env-fbl" in feedback_trackers()
     origin = f"from module 'nhsim_test_env_plugin' named by {PLUGIN_VARIABLE}= nhsim_test_env_plugin, "
@@ -688,9 +694,7 @@ def test_a_built_in_or_a_plugins_entry_is_not_replaced_or_removed_directly(
     registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """``PLANNERS["rrt"] = X``, ``del`` and ``clear()`` went around the duplicate-name check register_* makes."""
-    (tmp_path / "nhsim_test_env_plugin.py").write_text(REGISTERS + "register_tracker('env-fbl', DynamicFBL)\n")
-    monkeypatch.syspath_prepend(str(tmp_path))
-    monkeypatch.setenv(PLUGIN_VARIABLE, "nhsim_test_env_plugin")
+    _env_plugin(tmp_path, monkeypatch, "nhsim_test_env_plugin")
     for registered, name, kind in ((PLANNERS, "rrt", "planner"), (TRACKERS, "fbl", "tracker")):
         before = registered[name]
         fix = rf"register_{kind}\('{name}', target, replace=True\) replaces it"
