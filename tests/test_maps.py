@@ -209,3 +209,75 @@ def test_a_huge_map_in_a_scenario_is_exit_2(tmp_path, capsys):
     assert main(["plan", "--scenario", str(scenario), "--planner", "c-rrt-star", "--quiet"]) == 2
     err = capsys.readouterr().err
     assert "world.map.image" in err and "20000 x 20000 px" in err and "Traceback" not in err
+
+
+def _inside(obstacles: list, mask_shape: tuple[int, int], res: float, origin: tuple[float, float]) -> np.ndarray:
+    """Which pixel centres of an image of ``mask_shape`` lie inside any of ``obstacles`` (row 0 at the top)."""
+    rows, cols = np.indices(mask_shape)
+    x = origin[0] + (cols.ravel() + 0.5) * res
+    y = origin[1] + (mask_shape[0] - rows.ravel() - 0.5) * res
+    centres = np.column_stack([x, y])
+    inside = np.zeros(len(centres), dtype=bool)
+    for obstacle in obstacles:
+        inside |= obstacle.signed_distance(centres) < 0
+    return inside.reshape(mask_shape)
+
+
+@pytest.mark.parametrize("shape", ["polygon", "box"])
+def test_the_walls_around_a_room_leave_the_room_free(shape: str) -> None:
+    """A map saved by a SLAM tool: walls all round and inside. The ring of walls is one region; its holes were
+    filled (and box mode took its bounding box), so the whole room became one obstacle and no start was free."""
+    mask = np.zeros((80, 120), dtype=bool)
+    mask[:2], mask[-2:], mask[:, :2], mask[:, -2:] = True, True, True, True  # the walls all round
+    mask[20:60, 60:62] = True  # an inner wall joined to nothing
+    mask[40:80, 30:32] = True  # a wall from the south wall, part of the ring
+    obstacles = obstacles_from_mask(mask, 0.05, (0.0, 0.0), shape)  # type: ignore[arg-type]
+    np.testing.assert_array_equal(_inside(obstacles, mask.shape, 0.05, (0.0, 0.0)), mask)
+    assert len(obstacles) <= 8  # a few pieces, not a piece per pixel row
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("shape", ["polygon", "box"])
+def test_obstacles_cover_a_masks_pixels_exactly_but_holes_no_robot_fits_in(seed: int, shape: str) -> None:
+    """Random masks (blobs, rings, rooms within rooms): every pixel centre is inside a polygon exactly when its
+    pixel is occupied, or lies in an enclosed hole of at most MAX_FILLED_HOLE_M2 (filled, unless a cut through a
+    larger hole opened it); boxes cover every occupied pixel (a region's bounding box, but a region enclosing a
+    larger hole: its rows' runs, exact)."""
+    from scipy import ndimage
+
+    from planning.core.maps import MAX_FILLED_HOLE_M2
+
+    rng = np.random.default_rng(seed)
+    res = 0.02
+    mask = ndimage.binary_opening(rng.random((60, 70)) < 0.45, iterations=1)
+    for _ in range(3):  # rectangular rings of walls, some nested, some crossing
+        r0, c0 = rng.integers(0, 40), rng.integers(0, 50)
+        r1, c1 = r0 + rng.integers(8, 20), c0 + rng.integers(8, 20)
+        mask[r0:r1, [c0, c1 - 1]] = True
+        mask[[r0, r1 - 1], c0:c1] = True
+    filled = ndimage.binary_fill_holes(mask)
+    holes, n = ndimage.label(filled & ~mask)
+    sizes = np.bincount(holes.ravel(), minlength=n + 1)
+    small = np.isin(holes, np.flatnonzero(sizes * res**2 <= MAX_FILLED_HOLE_M2)) & (holes > 0)
+    assert (~small & filled & ~mask).any()  # some hole a robot fits in, kept free
+    obstacles = obstacles_from_mask(mask, res, (1.0, -2.0), shape)  # type: ignore[arg-type]
+    inside = _inside(obstacles, mask.shape, res, (1.0, -2.0))
+    if shape == "polygon":  # a small hole that a cut opened may stay free: a robot fits in neither
+        np.testing.assert_array_equal(inside & ~small, mask)
+    else:
+        assert inside[mask].all()
+
+
+@pytest.mark.parametrize("suffix", [".png", ".pgm"])
+def test_a_16_bit_maps_grey_walls_are_walls(tmp_path: Path, suffix: str) -> None:
+    """16-bit PNG and PGM maps: Pillow's conversion to 8 bits clipped every value above 255 of 65535 to white, so a
+    wall drawn in dark grey (12000) vanished, and plans drove through it."""
+    grey = np.full((40, 60), 65535, dtype=np.uint16)
+    grey[:, 28:32] = 12000  # a wall at 18 % grey
+    grey[5:10, 5:10] = 40000  # 61 %: free at the default threshold (0.5)
+    path = tmp_path / f"wall16{suffix}"
+    Image.fromarray(grey).save(path)
+    levels = read_grey(path)
+    np.testing.assert_allclose(levels, grey / 65535.0)
+    (wall,) = load_image_obstacles(path, 0.05)
+    assert wall.bounding_box() == pytest.approx((1.4, 1.6, 0.0, 2.0))  # x from 28 to 32 px, the whole height

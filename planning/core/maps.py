@@ -34,6 +34,7 @@ Image.fromarray(m()).save('models/maps/edumip_map.png')"``.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
@@ -115,15 +116,27 @@ def read_grey(path: str | Path) -> FloatArray:
             if im.mode in ("RGBA", "LA", "PA") or (im.mode == "P" and "transparency" in im.info):
                 rgba = im.convert("RGBA")
                 white = Image.new("RGBA", rgba.size, (255, 255, 255, 255))
-                im2 = Image.alpha_composite(white, rgba)
+                grey = np.asarray(Image.alpha_composite(white, rgba).convert("L"), dtype=float) / 255.0
+            elif im.mode == "I" or im.mode.startswith("I;16"):  # 16 bits a pixel (Pillow scales a PGM's maxval)
+                grey = _sixteen_bit(p, np.asarray(im, dtype=float))
             else:
-                im2 = im
-            grey = np.asarray(im2.convert("L"), dtype=float) / 255.0
+                grey = np.asarray(im.convert("L"), dtype=float) / 255.0
     except (UnidentifiedImageError, OSError, ValueError) as exc:
         raise ScenarioError(f"map image {p} is not a readable PNG/JPEG image: {exc}") from exc
     if grey.ndim != 2 or grey.size == 0:
         raise ScenarioError(f"map image {p} has no pixels")
     return grey
+
+
+def _sixteen_bit(p: Path, pixels: FloatArray) -> FloatArray:
+    """Grey levels in [0, 1] of a 16-bit image's ``pixels`` (0..65535: a 16-bit PNG, a PGM of maxval above 255 as
+    Pillow reads it). Pillow's conversion to 8 bits clips them at 255 instead of scaling: every pixel above 255 of
+    65535 read as white, and a wall drawn in a dark grey vanished from the map."""
+    if pixels.size and (pixels.min() < 0 or pixels.max() > 65535):
+        raise ScenarioError(
+            f"map image {p} has pixel values outside 0..65535 (a 32-bit image); save it with 8 or 16 bits a pixel"
+        )
+    return pixels / 65535.0
 
 
 def _open_header(p: Path) -> Any:
@@ -225,7 +238,9 @@ def obstacles_from_mask(
         shape: "box" (axis-aligned bounding rectangle per region) or "polygon" (exact outline).
 
     Returns:
-        One obstacle per 4-connected region, ordered by the region's label (row-major scan order).
+        One obstacle per 4-connected region, ordered by the region's label (row-major scan order); a region that
+        encloses free space a robot fits in (the walls around a room) gives several, which leave it free
+        (:func:`_without_holes`).
     """
     if not resolution > 0:
         raise ValueError(f"resolution must be > 0 m/px, got {resolution}")
@@ -233,27 +248,80 @@ def obstacles_from_mask(
         raise ValueError(f"shape must be 'box' or 'polygon', got {shape!r}")
     from scipy import ndimage  # loaded when a map image is read
 
-    labels, count = ndimage.label(mask)
+    labels, _ = ndimage.label(mask)
     h = mask.shape[0]
     ox, oy = float(origin[0]), float(origin[1])
+    most = max(0, math.floor(MAX_FILLED_HOLE_M2 / resolution**2 + 1e-9))  # pixels of a hole no robot fits in
     out: list[Obstacle] = []
     for k, sl in enumerate(ndimage.find_objects(labels), start=1):
         if sl is None:
             continue
-        rs, cs = sl
-        if shape == "box":
-            x0, x1 = ox + cs.start * resolution, ox + cs.stop * resolution
-            y0, y1 = oy + (h - rs.stop) * resolution, oy + (h - rs.start) * resolution
-            out.append(Box((0.5 * (x0 + x1), 0.5 * (y0 + y1)), (x1 - x0, y1 - y0)))
-        else:
-            local = labels[sl] == k
-            verts = _outline(local)
-            # local corners -> world: column offset cs.start, rows counted from the bottom of the slice
-            wx = ox + (verts[:, 0] + cs.start) * resolution
-            wy = oy + (verts[:, 1] + (h - rs.stop)) * resolution
-            out.append(Polygon(tuple((float(a), float(b)) for a, b in zip(wx, wy, strict=True))))
-    assert len(out) == count
+        for piece, r0, c0 in _without_holes(labels[sl] == k, most, boxes=shape == "box"):
+            rows, cols = piece.shape
+            top, left = sl[0].start + r0, sl[1].start + c0  # the piece's first row and column in the image
+            if shape == "box":
+                x0, x1 = ox + left * resolution, ox + (left + cols) * resolution
+                y0, y1 = oy + (h - top - rows) * resolution, oy + (h - top) * resolution
+                out.append(Box((0.5 * (x0 + x1), 0.5 * (y0 + y1)), (x1 - x0, y1 - y0)))
+            else:
+                verts = _outline(piece)
+                # piece corners -> world: column offset ``left``, rows counted from the bottom of the piece
+                wx = ox + (verts[:, 0] + left) * resolution
+                wy = oy + (verts[:, 1] + (h - top - rows)) * resolution
+                out.append(Polygon(tuple((float(a), float(b)) for a, b in zip(wx, wy, strict=True))))
     return out
+
+
+#: Largest area [m^2] of free space enclosed by one obstacle region that is filled into it (no robot's footprint
+#: fits: the EduMIP's covers 0.014 m^2): a larger one (the room inside a map's walls) is kept free.
+MAX_FILLED_HOLE_M2 = 0.01
+
+
+def _without_holes(region: NDArray[np.bool_], most: int, *, boxes: bool) -> list[tuple[NDArray[np.bool_], int, int]]:
+    """``region`` (one 4-connected region) as pieces that enclose no free space, each (its pixels, its first row,
+    its first column within ``region``): holes of at most ``most`` pixels are filled in; a region enclosing a larger
+    one (the walls around a room) is cut through that hole, recursively, into pieces whose outlines are exact
+    (the halves share the column cut through: obstacles may overlap); with ``boxes``, into the rectangles of its
+    rows' runs instead (a piece's bounding box would cover the hole again)."""
+    from scipy import ndimage  # loaded when a map image is read
+
+    holes, n = ndimage.label(ndimage.binary_fill_holes(region) & ~region)
+    sizes = np.bincount(holes.ravel(), minlength=n + 1)[1:]
+    if n == 0 or sizes.max() <= most:
+        return [(region | (holes > 0), 0, 0)]
+    if boxes:
+        return _row_run_boxes(region | np.isin(holes, np.flatnonzero(sizes <= most) + 1))
+    cols = np.sort(np.nonzero(holes == int(np.argmax(sizes)) + 1)[1])
+    c = int(cols[cols.size // 2])  # a column through the largest hole
+    out = []
+    for half, first in ((region[:, : c + 1], 0), (region[:, c:], c)):
+        parts, _ = ndimage.label(half)
+        for j, sl in enumerate(ndimage.find_objects(parts), start=1):
+            if sl is None:
+                continue
+            for piece, r0, c0 in _without_holes(parts[sl] == j, most, boxes=False):
+                out.append((piece, sl[0].start + r0, first + sl[1].start + c0))
+    return out
+
+
+def _row_run_boxes(region: NDArray[np.bool_]) -> list[tuple[NDArray[np.bool_], int, int]]:
+    """``region`` covered exactly by rectangles: each row's runs of pixels, a run continued by the same run in the
+    rows below merged with them; each (an all-True block, its first row, its first column)."""
+    rects: list[tuple[NDArray[np.bool_], int, int]] = []
+    open_runs: dict[tuple[int, int], int] = {}  # (first column, end column) -> first row
+    rows = region.shape[0]
+    for i in range(rows + 1):
+        line = np.zeros(region.shape[1] + 2, dtype=np.int8)
+        if i < rows:
+            line[1:-1] = region[i]
+        edges = np.flatnonzero(np.diff(line))
+        runs = set(zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True))
+        for run in [r for r in open_runs if r not in runs]:
+            start = open_runs.pop(run)
+            rects.append((np.ones((i - start, run[1] - run[0]), dtype=bool), start, run[0]))
+        for run in runs - open_runs.keys():
+            open_runs[run] = i
+    return rects
 
 
 def load_image_obstacles(
