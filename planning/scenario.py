@@ -88,6 +88,8 @@ def _obstacle(r: TableReader, table: Mapping[str, Any], ctx: str) -> Obstacle:
     req, opt = _OBSTACLE_KEYS[kind]
     r.keys(table, ctx, req | {"type"}, opt)
     angle = r.number(table, "angle", ctx) if "angle" in table else 0.0
+    if heading_beyond(angle):  # 45 was meant as degrees, 1e300 as nothing: refused as a pose's heading is
+        raise r.fail(f"{ctx}angle", f"the rotation {heading_beyond(angle)}", angle)
     height = _height(r, table, ctx)
     cx, cy = r.vector(table, "center", ctx, 2) if "center" in table else (0.0, 0.0)
     if kind == "circle":

@@ -126,6 +126,9 @@ def test_name_defaults_to_the_file_stem(tmp_path: Path) -> None:
         # a heading in degrees, or a typo: refused; one within 4 pi is a direction (below)
         (("pose = [-2.5, -2.5, 0.0]", "pose = [-2.5, -2.5, 90]"), r"'start.pose'.*4 pi; 90 degrees would be 1.571 rad"),
         (("pose = [2.5, 2.5, 1.57]", "pose = [2.5, 2.5, 1e12]"), r"'goal.pose'.*within \+-4 pi, got"),
+        # an obstacle's rotation likewise (it was taken as radians: 45 turned a box by 2578 degrees)
+        (("angle = 0.3", "angle = 45"), r"'world.obstacles\[1\].angle': .*rotation in radians .*45 degrees would be"),
+        (("angle = 0.0", "angle = 1e300"), r"'world.obstacles\[2\].angle': expected the rotation in radians within"),
         # an obstacle thinner than the checker resolves: its step would be a quarter of it
         (
             ("radius = 0.3", "radius = 1e-9"),
