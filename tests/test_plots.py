@@ -221,3 +221,15 @@ def test_job_figures_add_the_estimation_figure_when_given(tmp_path: Path) -> Non
     figs = job_figures(job.scenario.world, job.robot, job.trajectory, job.logs, estimation=_estimation())
     assert tuple(figs) == (*PLOTS, ESTIMATION_PLOT, LOCALISER_PLOT)
     png_is_nontrivial(save_figure(figs[ESTIMATION_PLOT], tmp_path / "estimation.png"))
+
+
+@pytest.mark.parametrize("bounds", [(0.0, 5.0, 0.0, 4.0), (0.0, 12.0, 0.0, 2.0), (0.0, 2.0, 0.0, 9.0)])
+def test_a_saved_world_plot_cuts_nothing_at_its_edges(tmp_path: Path, bounds: tuple[float, ...]) -> None:
+    """parking_lot's 5 x 4 m world: the y label was cut at the left edge and the legend at the right ("odometry
+    feedbac"), the fixed figure size, the equal axes and the legend beside them not fitting together."""
+    job = short_job()
+    world = World(bounds, (Circle((1.0, 1.0), 0.2),))  # type: ignore[arg-type]
+    out = save_figure(world_figure(world, job.trajectory, job.logs, title="a world"), tmp_path / "w.png")
+    img = np.asarray(Image.open(out).convert("L"))
+    edges = np.concatenate([img[0], img[-1], img[:, 0], img[:, -1]])
+    assert edges.min() > 240  # white all round: every label, the legend and the title inside the image

@@ -606,3 +606,27 @@ def test_a_bad_video_size_names_the_option_and_only_the_fix_that_applies(capsys:
     assert "video width (--size WIDTHxHEIGHT) must be an integer in [16, 4096] (pixels), got 10\n" in err
     assert main(["simulate", "--reference", "line", "--size", "641x480", "--no-plots"]) == 2
     assert "video width (--size WIDTHxHEIGHT) must be even, got 641; give an even number" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("size", [(320, 240), (480, 360), (480, 480), (640, 640), (640, 480), (1280, 160)])
+def test_the_panels_text_fits_its_panel(size: tuple[int, int]) -> None:
+    """At 320 x 240 and 480 x 360 "odometry feedback (ghost)" ran past the frame's right edge (the font followed
+    the height, the panel the width); at 1280 x 160 the close-up took the whole panel and no text was shown."""
+    from sim.physics.simulator import Simulator
+    from sim.viz.panel import MIN_FONT_PX
+
+    width, height = size
+    job = short_job()
+    logs = spread_runs(Simulator(job.robot, job.scenario.world).model)  # four runs: the panel's longest names
+    _, replay = _replay_of(logs, width, height, fps=10.0)
+    panel = replay.panel
+    x0, y0, x1, y1 = replay.layout.text
+    assert len(panel.labels) == 2 + 2 * len(replay.tracks) >= 8
+    frame = np.zeros((height, width, 3), np.uint8)
+    panel.draw(replay.n_frames - 1, frame)
+    text = frame[y0:y1, x0:x1].astype(int)
+    ink = np.abs(text - text[0, 0]).sum(axis=2) > 60  # anything but the panel's background
+    if size == (1280, 160):  # too low for every line at the smallest font: the lines that fit are shown
+        assert panel.font.size == MIN_FONT_PX and ink[: y1 - y0 - 3].any()
+        return
+    assert ink.any() and not ink[:, -4:].any() and not ink[-3:].any()  # inside, clear of the right and the bottom

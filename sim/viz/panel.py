@@ -60,7 +60,7 @@ class FrameLayout:
         width on the right."""
         panel = max(1, round(PANEL_FRACTION * width))
         left = width - panel
-        side = min(panel, height)
+        side = min(panel, 2 * height // 3)  # a third of the height at least for the text (a wide, low frame)
         return FrameLayout(width, height, (0, 0, left, height), (left, 0, width, side), (left, side, width, height))
 
     @staticmethod
@@ -133,6 +133,24 @@ class Glyphs:
             x += cw
 
 
+#: Smallest font of the panel's text [px]: a frame too small for it clips the text rather than shrink it further.
+MIN_FONT_PX = 7
+
+
+def fitting_font(texts: Sequence[str], width: int, height: int, pad: int, layout: FrameLayout) -> Any:
+    """The panel's font: 1/34 of the frame's height (10 px at least), made smaller until every one of ``texts``
+    (a line each, ``pad`` px from the edges) fits in the ``width`` x ``height`` text panel, down to
+    :data:`MIN_FONT_PX` (at 320 x 240 "odometry feedback (ghost)" ran past the frame's edge)."""
+    size = max(10, round(layout.height / 34))
+    while True:
+        font = load_font(size)
+        line_h = int(font.getbbox("Ag")[3]) + 3
+        wide = max(float(font.getlength(text)) for text in texts) if texts else 0.0
+        if size <= MIN_FONT_PX or (pad + wide <= width - pad and pad + len(texts) * line_h <= height):
+            return font
+        size -= 1
+
+
 class TextPanel:
     """The text of a video: the clock, the close-up's magnification, each run's name and error.
 
@@ -148,16 +166,24 @@ class TextPanel:
         self.times = times
         w, h = FrameLayout.size(layout.text)
         self.rect = layout.text
-        self.font = load_font(max(10, round(layout.height / 34)))
-        self.line_h = int(self.font.getbbox("Ag")[3]) + 3
+        # each field as wide as its longest number with every digit an 8 (digits share one width)
+        lines: list[tuple[str, tuple[int, int, int], str, str]] = [
+            ("t = ", TEXT_RGB, widest(f"{float(times[-1] - times[0]):.2f}"), " s"),
+            (f"close-up x{magnification:.1f}", (150, 155, 165), "", ""),
+        ]
+        for i, tr in enumerate(self.tracks):
+            rgb = run_rgb(tr.rgba)
+            lines.append((tr.name if i == 0 else f"{tr.name} (ghost)", rgb, "", ""))
+            lines.append(("  error ", rgb, widest(f"{float(np.max(tr.err)):.3f}"), " m"))
         pad = 6
+        self.font = fitting_font(["".join((label, worst, unit)) for label, _, worst, unit in lines], w, h, pad, layout)
+        self.line_h = int(self.font.getbbox("Ag")[3]) + 3
         img = Image.new("RGB", (w, h), PANEL_RGB)
         draw = ImageDraw.Draw(img)
         self.fields: list[tuple[Rect, Glyphs]] = []
         #: The text of each line but its number.
         self.labels: list[str] = []
-
-        def line(row: int, label: str, rgb: tuple[int, int, int], worst: str = "", unit: str = "") -> None:
+        for row, (label, rgb, worst, unit) in enumerate(lines):
             y = pad + row * self.line_h
             self.labels.append(label)
             draw.text((pad, y), label, fill=rgb, font=self.font)
@@ -167,15 +193,6 @@ class TextPanel:
                 x1 = x0 + glyphs.width(worst)
                 draw.text((x1, y), unit, fill=rgb, font=self.font)
                 self.fields.append(((x0, y, x1, y + self.line_h), glyphs))
-
-        # each field as wide as its longest number with every digit an 8 (digits share one width)
-        clock = f"{float(times[-1] - times[0]):.2f}"
-        line(0, "t = ", TEXT_RGB, widest(clock), " s")
-        line(1, f"close-up x{magnification:.1f}", (150, 155, 165))
-        for i, tr in enumerate(self.tracks):
-            rgb = run_rgb(tr.rgba)
-            line(2 + 2 * i, tr.name if i == 0 else f"{tr.name} (ghost)", rgb)
-            line(3 + 2 * i, "  error ", rgb, widest(f"{float(np.max(tr.err)):.3f}"), " m")
         self.image: Frame = np.asarray(img).copy()
 
     def texts(self, k: int) -> list[str]:

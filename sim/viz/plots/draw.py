@@ -112,5 +112,5 @@ def save_figure(fig: Figure, path: str | Path, *, overwrite: bool = False) -> Pa
     names (:func:`sim.outputs.image_format`: PNG for ``.png``)."""
     fmt = image_format(Path(path), "the figure")
     with atomic_path(path, overwrite=overwrite) as tmp:
-        fig.savefig(tmp, format=fmt)
+        fig.savefig(tmp, format=fmt, bbox_inches="tight", pad_inches=0.1)  # nothing cut at the edges
     return Path(path)
