@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from planning.errors import ConfigError, DependencyError
+from sim.physics.runlog import RunLog
 from sim.viz import gl
 from sim.viz.renderer import SceneRenderer
 from sim.viz.replay import (
@@ -146,6 +147,7 @@ assert "MUJOCO_GL" not in os.environ and "mujoco" not in sys.modules, "importing
 import sim.physics.simulator  # imports mujoco, which picks GLFW
 import mujoco
 from planning.errors import DependencyError
+from sim.physics.runlog import RunLog
 from sim.viz import gl
 from sim.viz.renderer import SceneRenderer
 xml = '<mujoco><worldbody><light pos="0 0 3"/><geom type="box" size=".2 .2 .2" rgba="1 0 0 1"/></worldbody></mujoco>'
@@ -630,3 +632,39 @@ def test_the_panels_text_fits_its_panel(size: tuple[int, int]) -> None:
         assert panel.font.size == MIN_FONT_PX and ink[: y1 - y0 - 3].any()
         return
     assert ink.any() and not ink[:, -4:].any() and not ink[-3:].any()  # inside, clear of the right and the bottom
+
+
+def _ended_early(log: RunLog, keep: int) -> RunLog:
+    """``log`` cut after its first ``keep`` samples, as a run that fell there logs it."""
+    from dataclasses import replace
+
+    cut = {name: array[:keep] for name, array in log.arrays().items()}
+    t_end = float(log.t[keep - 1])
+    return replace(log, **cut, estimation=None, wheel_off_floor=None, status=f"fell at t={t_end:.3f} s")
+
+
+def test_a_run_that_ended_early_is_said_in_the_video_and_the_plot() -> None:
+    """A ghost whose run fell stood still while the panel went on printing its error, with no word that the run
+    was over; its path in the world plot just stopped."""
+    from sim.viz.plots.run import world_figure
+
+    job = short_job()
+    logs = dict(job.logs)
+    ended = _ended_early(logs["open_loop"], len(logs["open_loop"]) // 2)
+    logs["open_loop"] = ended
+    _, replay = _replay_of(logs, 640, 480, fps=10.0)
+    panel = replay.panel
+    ((rect, t_end, _),) = panel.endings
+    assert t_end == ended.t[-1]
+    shown = []
+    for k in range(replay.n_frames):
+        frame = np.zeros((480, 640, 3), np.uint8)
+        panel.draw(k, frame)
+        x0, y0 = replay.layout.text[:2]
+        line = frame[y0 + rect[1] : y0 + rect[3], x0 + rect[0] : x0 + rect[2]].astype(int)
+        shown.append(bool((np.abs(line - line[0, 0]).sum(axis=2) > 60).any()))
+    assert shown == [bool(t >= t_end) for t in replay.times] and any(shown) and not all(shown)
+    ax = world_figure(job.scenario.world, job.trajectory, logs).axes[0]
+    (mark,) = [ln for ln in ax.lines if "ended at" in ln.get_label()]
+    assert mark.get_label() == f"open loop ended at t = {ended.t[-1] - ended.t[0]:.2f} s"
+    np.testing.assert_array_equal(np.ravel(mark.get_xydata()), ended.pose[-1, :2])

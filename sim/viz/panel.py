@@ -171,10 +171,14 @@ class TextPanel:
             ("t = ", TEXT_RGB, widest(f"{float(times[-1] - times[0]):.2f}"), " s"),
             (f"close-up x{magnification:.1f}", (150, 155, 165), "", ""),
         ]
+        ends: dict[int, float] = {}  # the line saying a run ended early -> when it did [s]
         for i, tr in enumerate(self.tracks):
             rgb = run_rgb(tr.rgba)
             lines.append((tr.name if i == 0 else f"{tr.name} (ghost)", rgb, "", ""))
             lines.append(("  error ", rgb, widest(f"{float(np.max(tr.err)):.3f}"), " m"))
+            if tr.ended is not None:  # shown from then on: the ghost stands still, its run over
+                ends[len(lines)] = tr.ended
+                lines.append((f"  ended at t = {tr.ended - float(times[0]):.2f} s", rgb, "", ""))
         pad = 6
         self.font = fitting_font(["".join((label, worst, unit)) for label, _, worst, unit in lines], w, h, pad, layout)
         self.line_h = int(self.font.getbbox("Ag")[3]) + 3
@@ -194,6 +198,12 @@ class TextPanel:
                 draw.text((x1, y), unit, fill=rgb, font=self.font)
                 self.fields.append(((x0, y, x1, y + self.line_h), glyphs))
         self.image: Frame = np.asarray(img).copy()
+        #: Each "ended at" line: its rectangle in the panel, when it shows [s], its pixels.
+        self.endings: list[tuple[Rect, float, Frame]] = []
+        for row, t_end in ends.items():
+            rect = (0, pad + row * self.line_h, w, min(h, pad + (row + 1) * self.line_h))
+            self.endings.append((rect, t_end, region(self.image, rect).copy()))
+            region(self.image, rect)[:] = PANEL_RGB
 
     def texts(self, k: int) -> list[str]:
         """The numbers frame ``k`` prints: its simulation time [s] (from the first frame's) to 0.01 s,
@@ -206,4 +216,6 @@ class TextPanel:
         """Stamp frame ``k``'s numbers and copy the text into ``frame``."""
         for (field, glyphs), text in zip(self.fields, self.texts(k), strict=True):
             glyphs.stamp(self.image, field, text)
+        for rect, t_end, pixels in self.endings:
+            region(self.image, rect)[:] = pixels if self.times[k] >= t_end else PANEL_RGB
         np.copyto(region(frame, self.rect), self.image)

@@ -281,6 +281,7 @@ class Replay:
             trail_keep=decimate_path(xy, spacing),
             rgba=style.rgba,
             name=style.name,
+            ended=float(log.t[-1]) if log.status != "ok" else None,
         )
 
     @property

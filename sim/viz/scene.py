@@ -102,6 +102,8 @@ class Track:
         trail_keep: Decimated log indices the trail is drawn through.
         rgba: Colour of its trail (and of its ghost).
         name: Name in the video's text.
+        ended: When the run ended early [s] (it fell, or its estimator diverged: its log's last sample), None for
+            a run that went on to the end.
     """
 
     label: str
@@ -112,6 +114,7 @@ class Track:
     trail_keep: NDArray[np.int64]
     rgba: tuple[float, ...]
     name: str
+    ended: float | None = None
 
 
 def light_gain(model: mujoco.MjModel) -> FloatArray:

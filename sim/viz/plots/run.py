@@ -73,6 +73,9 @@ def world_figure(world: World, trajectory: Trajectory, logs: Mapping[str, RunLog
     for label, log in logs.items():
         name, color, ls = styles[label]
         ax.plot(log.pose[:, 0], log.pose[:, 1], color=color, ls=ls, lw=1.4, label=name)
+        if log.status != "ok":  # where the run ended early (it fell, its estimator diverged)
+            ended = f"{name} ended at t = {log.t[-1] - log.t[0]:.2f} s"
+            ax.plot(*log.pose[-1, :2], "X", color=color, mec="k", mew=0.6, ms=9, ls="none", label=ended)
     ax.plot(*ref[0, :2], "o", color="k", ms=6, label="start")
     ax.plot(*ref[-1, :2], "*", color="k", ms=10, label="end of reference")
     frame_world(ax, world, [ref[:, :2]] + [log.pose[:, :2] for log in logs.values()])
