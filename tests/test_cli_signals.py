@@ -218,8 +218,8 @@ def test_tune_keeps_its_completed_trials(tmp_path: Path, sig: signal.Signals) ->
 
 
 #: Each signal to the command alone; Ctrl-C to every process of the command (a terminal's), as ``group``.
-TUNE_WORKER_STOPS = [
-    (signal.SIGTERM, False),
+TUNE_WORKER_STOPS = [  # all slow (worker processes; tune alone stops by test_tune_keeps_its_completed_trials)
+    pytest.param(signal.SIGTERM, False, marks=pytest.mark.slow),
     pytest.param(signal.SIGINT, False, marks=pytest.mark.slow),
     pytest.param(signal.SIGINT, True, marks=pytest.mark.slow),
 ]

@@ -599,6 +599,7 @@ def test_runs_made_by_other_code_are_not_resumed_into_this_codes_study(
     assert json.loads(Path("r4.json").read_text())["ran_now"] == 1
 
 
+@pytest.mark.slow  # 3 s; the staged set itself: tests/test_output_safety.py
 def test_the_record_and_plots_are_written_as_one_set(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """The plots were replaced one by one before the record: a record that failed to write left the new plots
     beside the old record. They are one set now: all moved in, or none."""

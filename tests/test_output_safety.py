@@ -486,6 +486,7 @@ def test_a_retired_output_goes_with_the_commit_and_comes_back_with_its_undo(
         stage.retire(last)
 
 
+@pytest.mark.slow  # 3 s, three jobs; StagedOutputs.retire itself is tested above
 def test_overwrite_replaces_a_records_whole_set_of_plots(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """--overwrite replaced the record and the plots the new job drew, and left the others of the old set beside
     them: an EduMIP's record with the TurtleBot3 run's localiser plot; with --no-plots, every old plot."""

@@ -38,10 +38,10 @@ def _off_path(traj: Trajectory, poses: np.ndarray) -> np.ndarray:
 
 
 def _peer_cases() -> list[object]:
-    """Every peer on both references and robots; the MPC's EduMIP runs (a CasADi solve a period) in the
-    slow suite only."""
+    """Every peer on both references and robots; the MPC's runs (a CasADi solve a period) in the slow suite only
+    (the default run tracks the figure eight with it in tests/test_trackers.py)."""
     return [
-        pytest.param(name, reference, robot, marks=[pytest.mark.slow] if (name, robot) == ("mpc", "edumip") else [])
+        pytest.param(name, reference, robot, marks=[pytest.mark.slow] if name == "mpc" else [])
         for name in PEERS
         for reference in ("circle", "figure8")
         for robot in ("turtlebot3", "edumip")

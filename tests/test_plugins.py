@@ -262,6 +262,7 @@ def test_the_command_runs_a_tracker_of_an_installed_entry_point(tmp_path: Path) 
     assert list(json.loads((tmp_path / "c.json").read_text())["trackers"]) == ["fbl2", "kanayama"]
 
 
+@pytest.mark.slow  # 4 s; compare and simulate run a registered tracker in test_tracker_registration.py
 def test_simulate_runs_its_closed_loops_with_any_registered_tracker(tmp_path: Path) -> None:
     """simulate's --tracker picks the runs (fbl, open-loop, both); a plugin's tracker could not drive its closed
     loops: --feedback T now does (an FBL of a plugin takes the FBL's gains, as its declared option says)."""
@@ -396,6 +397,7 @@ def test_scenarios_stops_at_a_failing_planner_plugin_with_one_line(
     assert lines[3].startswith(f"{broken} error: ") and len(lines) == 4
 
 
+@pytest.mark.slow  # 4 s: installs a package; an installed tracker's entry point stays in the default run
 def test_the_command_plans_and_simulates_with_a_planner_of_an_installed_entry_point(tmp_path: Path) -> None:
     """``nhsim plan --planner P``, ``simulate --planner P`` and a scenario file naming P: the command answered
     "unknown planner" for any planner it did not ship."""

@@ -48,7 +48,9 @@ def _suite(tmp_path: Path, extra: str = "") -> Path:
     return path
 
 
-@pytest.mark.parametrize("planted", [', gains = "0.5,0.5"', ', perturb = "radius=1.03"'])
+@pytest.mark.parametrize(
+    "planted", [', gains = "0.5,0.5"', pytest.param(', perturb = "radius=1.03"', marks=pytest.mark.slow)]
+)
 def test_planted_regression_fails_naming_case_and_metric(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], planted: str
 ) -> None:
@@ -86,7 +88,10 @@ def test_a_suite_of_ones_own_keeps_its_baselines_beside_it(tmp_path: Path, capsy
 
 @pytest.mark.parametrize(
     ("key", "elsewhere"),
-    [("platform", "Elsewhere-arm64"), ("cpu", "GenuineIntel family 6 model 143; 40 SIMD features up to AVX512")],
+    [
+        ("platform", "Elsewhere-arm64"),
+        pytest.param("cpu", "GenuineIntel family 6 model 143; 40 SIMD features up to AVX512", marks=pytest.mark.slow),
+    ],
 )
 def test_other_environment_compares_with_tolerances(tmp_path: Path, key: str, elsewhere: str) -> None:
     base_dir = tmp_path / "baselines"

@@ -718,6 +718,7 @@ def _rename_study(renders: Path, name: str, earlier: str) -> None:
     (renders / f"tune-{name}.db").rename(renders / f"tune-{earlier}.db")
 
 
+@pytest.mark.slow  # 3 s; the scenario's robot left unstated, its sibling, stays in the default run
 def test_the_robots_localiser_left_unstated_is_the_study_that_states_it(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -789,6 +790,7 @@ def test_optunas_report_of_an_interrupted_trial_is_dropped_whole() -> None:
     ]
 
 
+@pytest.mark.slow  # 2 s; the staged outputs' interrupt: tests/test_output_safety.py
 def test_an_interrupt_while_the_outputs_are_written_leaves_every_old_one(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
