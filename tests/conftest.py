@@ -73,6 +73,13 @@ def _compile_once() -> None:
     Dispatcher.compile = compile_locked  # type: ignore[method-assign]
 
 
+def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
+    """``-n auto``: a worker per core this process may use, and one more. On a cold kernel cache a worker that
+    needs a kernel another is compiling waits for it (:func:`_compile_once`); the extra worker keeps the cores
+    busy meanwhile (a fresh clone's default run on two cores, 2026-12-06: 4:41 with three workers, 4:58 with two)."""
+    return len(os.sched_getaffinity(0)) + 1
+
+
 def pytest_addoption(parser: pytest.Parser) -> None:
     parser.addoption("--all-cases", action="store_true", default=False, help="run every test, slow ones too")
 
