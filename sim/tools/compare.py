@@ -325,7 +325,7 @@ def compare_trackers(
         sensing = this.sensing(prepared.scenario)
         for name in names:
             tracker = tracker_with(name, prepared.robot, params.get(name))
-            ran.setdefault(name, _params_of(name, tracker))
+            ran.setdefault(name, _params_of(name, tracker) or _plain(params.get(name)))  # else those given
             timed = TimedTracker(tracker)
             run = run_tracker(prepared_i, RunKind.CLOSED_LOOP, timed, pc.simulator, config, sensing)
             done.append(_measure(name, index, run, timed, keep=index == 0))
