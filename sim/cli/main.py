@@ -29,6 +29,7 @@ from collections.abc import Collection, Sequence
 from typing import NoReturn, TextIO
 
 from planning.errors import NhsimError, PlannerError, SimulationError, without_python
+from sim.outputs import UNNAMED_WRITE_ERRNOS
 
 #: Subcommand name -> module path.
 COMMANDS: dict[str, str] = {
@@ -311,9 +312,9 @@ KEPT = {
 
 
 #: Why a file could not be written that is the machine's, not the command's input: a full disk or quota, a file too
-#: large, an I/O error (one line, exit status 1, as a failed run; a path that cannot be written at all is bad
-#: input, refused before the run).
-WRITE_FAILURES = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO})
+#: large (the write errors the outputs name, :data:`sim.outputs.UNNAMED_WRITE_ERRNOS`), an I/O error (one line, exit
+#: status 1, as a failed run; a path that cannot be written at all is bad input, refused before the run).
+WRITE_FAILURES = frozenset({errno.EIO}) | UNNAMED_WRITE_ERRNOS
 
 
 def _failed_plan(exc: BaseException) -> bool:
