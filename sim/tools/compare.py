@@ -325,7 +325,8 @@ def compare_trackers(
         sensing = this.sensing(prepared.scenario)
         for name in names:
             tracker = tracker_with(name, prepared.robot, params.get(name))
-            ran.setdefault(name, _params_of(name, tracker) or _plain(params.get(name)))  # else those given
+            if name not in ran:  # as the first draw's tracker holds them, else those given
+                ran[name] = _params_of(name, tracker) or _plain(params.get(name))
             timed = TimedTracker(tracker)
             run = run_tracker(prepared_i, RunKind.CLOSED_LOOP, timed, pc.simulator, config, sensing)
             done.append(_measure(name, index, run, timed, keep=index == 0))
