@@ -28,6 +28,8 @@ if TYPE_CHECKING:
     from planning.core.geometry import densify_path as densify_path
     from planning.core.geometry import path_length as path_length
     from planning.core.geometry import wrap_angle as wrap_angle
+    from planning.core.nav2_map import map_yaml_obstacles as map_yaml_obstacles
+    from planning.core.nav2_map import read_map_yaml as read_map_yaml
     from planning.core.robot import RobotSpec as RobotSpec
     from planning.core.robot import load_robot as load_robot
     from planning.core.world import Box as Box
@@ -66,6 +68,8 @@ _EXPORTS = {
     "densify_path": "planning.core.geometry",
     "path_length": "planning.core.geometry",
     "wrap_angle": "planning.core.geometry",
+    "read_map_yaml": "planning.core.nav2_map",
+    "map_yaml_obstacles": "planning.core.nav2_map",
     "RobotSpec": "planning.core.robot",
     "load_robot": "planning.core.robot",
     "Box": "planning.core.world",

@@ -31,7 +31,8 @@ import numpy as np
 from planning.collision.overlap import footprint_overlap
 from planning.core.checks import check_number, degrees_hint
 from planning.core.geometry import Pose2D, wrap_angle
-from planning.core.maps import load_map_table
+from planning.core.maps import MapObstacles, load_map_table
+from planning.core.nav2_map import load_map_yaml_table
 from planning.core.robot import MODELS_DIR, ROBOT_FILES, RobotSpec, check_robot_name, load_robot
 from planning.core.scenario_type import DEFAULT_HEADING_TOLERANCE, DEFAULT_POSITION_TOLERANCE
 from planning.core.scenario_type import Scenario as Scenario  # re-exported (planning.Scenario): mypy --strict
@@ -66,8 +67,12 @@ _OBSTACLE_KEYS: dict[str, tuple[set[str], set[str]]] = {
     "polygon": ({"vertices"}, {"height"}),
 }
 
-#: Hooks that turn a ``[world.map]`` table into obstacles: fn(table, scenario_dir, where) -> obstacles.
-MAP_LOADERS: dict[str, Callable[[Mapping[str, Any], Path, str], list[Obstacle]]] = {"image": load_map_table}
+#: Hooks that turn a ``[world.map]`` table into obstacles: fn(table, scenario_dir, where) -> (obstacles, the
+#: extent the map covers). "yaml" reads a table with a ``yaml`` field (a ROS map YAML), "image" any other.
+MAP_LOADERS: dict[str, Callable[[Mapping[str, Any], Path, str], MapObstacles]] = {
+    "image": load_map_table,
+    "yaml": load_map_yaml_table,
+}
 
 
 def _unknown_planner(r: TableReader, field_name: str, got: Any) -> ScenarioError:
@@ -279,12 +284,24 @@ def _header(r: TableReader, data: Mapping[str, Any], default_name: str) -> dict[
 
 
 def _world(r: TableReader, table: Any, base_dir: Path) -> World:
-    """The ``[world]`` table: bounds, obstacles and the obstacles of a ``[world.map]``."""
-    r.keys(table, "world.", {"bounds"}, _WORLD_KEYS)
-    xmin, xmax, ymin, ymax = r.vector(table, "bounds", "world.", 4)
+    """The ``[world]`` table: bounds (the map's extent when a ``[world.map]`` is given without them), obstacles and
+    the obstacles of a ``[world.map]``."""
+    r.keys(table, "world.", set(), _WORLD_KEYS)
+    mapped, extent = _map(r, table["map"], base_dir) if "map" in table else ([], None)
+    if "bounds" in table:
+        xmin, xmax, ymin, ymax = r.vector(table, "bounds", "world.", 4)
+    elif extent is None:
+        raise ScenarioError(f"{r.where}: missing field(s) 'world.bounds'")
+    else:
+        xmin, xmax, ymin, ymax = extent
     if not (xmin < xmax and ymin < ymax):
-        raise r.fail("world.bounds", "[xmin, xmax, ymin, ymax] with xmin < xmax and ymin < ymax", table["bounds"])
+        raise r.fail("world.bounds", "[xmin, xmax, ymin, ymax] with xmin < xmax and ymin < ymax", table.get("bounds"))
     if max(xmax - xmin, ymax - ymin) > MAX_WORLD_SIDE:
+        if "bounds" not in table:
+            raise ScenarioError(
+                f"{r.where}: table 'world.map': the map covers {xmax - xmin:g} x {ymax - ymin:g} m, more than "
+                f"{MAX_WORLD_SIDE:g} m a side: give 'world.bounds' [xmin, xmax, ymin, ymax] of the part the robot uses"
+            )
         raise r.fail(
             "world.bounds", f"[xmin, xmax, ymin, ymax] in metres, at most {MAX_WORLD_SIDE:g} m a side", table["bounds"]
         )
@@ -294,20 +311,24 @@ def _world(r: TableReader, table: Any, base_dir: Path) -> World:
     obstacles = [_obstacle(r, ot, f"world.obstacles[{i}].") for i, ot in enumerate(obs_list)]
     bounds = (xmin, xmax, ymin, ymax)
     _check_obstacles(r, obstacles, "world.obstacles", bounds)
-    if "map" in table:
-        loader = MAP_LOADERS.get("image")
-        if loader is None:
-            raise r.fail("world.map", "no map loader is available in this installation")
-        mapped = loader(table["map"], base_dir, r.where)
-        if mapped and all(_outside(ob, bounds) for ob in mapped):
-            raise ScenarioError(
-                f"{r.where}: table 'world.map': every obstacle of the map lies outside the world bounds "
-                f"{list(bounds)} (the map's occupied pixels span x {min(o.bounding_box()[0] for o in mapped):g}.."
-                f"{max(o.bounding_box()[1] for o in mapped):g}, y {min(o.bounding_box()[2] for o in mapped):g}.."
-                f"{max(o.bounding_box()[3] for o in mapped):g}); check its origin and resolution"
-            )
-        obstacles.extend(mapped)
-    return World(bounds, tuple(obstacles))
+    if mapped and all(_outside(ob, bounds) for ob in mapped):
+        raise ScenarioError(
+            f"{r.where}: table 'world.map': every obstacle of the map lies outside the world bounds "
+            f"{list(bounds)} (the map's occupied pixels span x {min(o.bounding_box()[0] for o in mapped):g}.."
+            f"{max(o.bounding_box()[1] for o in mapped):g}, y {min(o.bounding_box()[2] for o in mapped):g}.."
+            f"{max(o.bounding_box()[3] for o in mapped):g}); check its origin and resolution"
+        )
+    return World(bounds, (*obstacles, *mapped))
+
+
+def _map(r: TableReader, table: Any, base_dir: Path) -> MapObstacles:
+    """A ``[world.map]`` table's obstacles and extent, by the loader of its kind: a map YAML's with ``yaml``, an
+    image's otherwise."""
+    kind = "yaml" if isinstance(table, Mapping) and "yaml" in table else "image"
+    loader = MAP_LOADERS.get(kind)
+    if loader is None:
+        raise r.fail("world.map", f"a map of a kind this installation reads ({', '.join(sorted(MAP_LOADERS))})")
+    return loader(table, base_dir, r.where)
 
 
 def _check_obstacles(

@@ -34,8 +34,9 @@ Image.fromarray(m()).save('models/maps/edumip_map.png')"``.
 
 from __future__ import annotations
 
+import contextlib
 import math
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any, Literal
 
@@ -99,7 +100,41 @@ def read_grey(path: str | Path) -> FloatArray:
     Raises:
         ScenarioError: The file is missing or is not a readable image.
     """
-    from PIL import Image, UnidentifiedImageError
+    from PIL import Image
+
+    with decoded_image(path) as (p, im):
+        if has_alpha(im):
+            rgba = im.convert("RGBA")
+            white = Image.new("RGBA", rgba.size, (255, 255, 255, 255))
+            grey = np.asarray(Image.alpha_composite(white, rgba).convert("L"), dtype=float) / 255.0
+        elif is_sixteen_bit(im):  # 16 bits a pixel (Pillow scales a PGM's maxval)
+            grey = sixteen_bit(p, np.asarray(im, dtype=float))
+        else:
+            grey = np.asarray(im.convert("L"), dtype=float) / 255.0
+    if grey.ndim != 2 or grey.size == 0:
+        raise ScenarioError(f"map image {p} has no pixels")
+    return grey
+
+
+def has_alpha(im: Any) -> bool:
+    """Whether the Pillow image ``im`` has an alpha channel (or a palette with a transparent entry)."""
+    return bool(im.mode in ("RGBA", "LA", "PA") or (im.mode == "P" and "transparency" in im.info))
+
+
+def is_sixteen_bit(im: Any) -> bool:
+    """Whether the Pillow image ``im`` has more than 8 bits a pixel (a 16-bit PNG, a PGM of maxval above 255)."""
+    return bool(im.mode == "I" or im.mode.startswith("I;16"))
+
+
+@contextlib.contextmanager
+def decoded_image(path: str | Path) -> Iterator[tuple[Path, Any]]:
+    """``(path, image)``: the map image file decoded by Pillow, its size checked first (:func:`_check_map_size`).
+    Errors raised while the caller reads its pixels are reported as the file's.
+
+    Raises:
+        ScenarioError: The file is missing, is a folder, is too large, or is not a readable image.
+    """
+    from PIL import UnidentifiedImageError
 
     p = Path(path)
     if p.is_dir():
@@ -113,22 +148,12 @@ def read_grey(path: str | Path) -> FloatArray:
         with _open_header(p) as im:
             _check_map_size(p, im.size)
             im.load()
-            if im.mode in ("RGBA", "LA", "PA") or (im.mode == "P" and "transparency" in im.info):
-                rgba = im.convert("RGBA")
-                white = Image.new("RGBA", rgba.size, (255, 255, 255, 255))
-                grey = np.asarray(Image.alpha_composite(white, rgba).convert("L"), dtype=float) / 255.0
-            elif im.mode == "I" or im.mode.startswith("I;16"):  # 16 bits a pixel (Pillow scales a PGM's maxval)
-                grey = _sixteen_bit(p, np.asarray(im, dtype=float))
-            else:
-                grey = np.asarray(im.convert("L"), dtype=float) / 255.0
+            yield p, im
     except (UnidentifiedImageError, OSError, ValueError) as exc:
         raise ScenarioError(f"map image {p} is not a readable PNG/JPEG image: {exc}") from exc
-    if grey.ndim != 2 or grey.size == 0:
-        raise ScenarioError(f"map image {p} has no pixels")
-    return grey
 
 
-def _sixteen_bit(p: Path, pixels: FloatArray) -> FloatArray:
+def sixteen_bit(p: Path, pixels: FloatArray) -> FloatArray:
     """Grey levels in [0, 1] of a 16-bit image's ``pixels`` (0..65535: a 16-bit PNG, a PGM of maxval above 255 as
     Pillow reads it). Pillow's conversion to 8 bits clips them at 255 instead of scaling: every pixel above 255 of
     65535 read as white, and a wall drawn in a dark grey vanished from the map."""
@@ -348,8 +373,20 @@ def load_image_obstacles(
     return obstacles_from_mask(read_grey(path) < threshold, resolution, origin, shape)
 
 
-def load_map_table(table: Mapping[str, Any], base_dir: Path, where: str) -> list[Obstacle]:
-    """The ``[world.map]`` loader registered as ``MAP_LOADERS["image"]``.
+#: A ``[world.map]`` table's obstacles and the extent its image covers in the world, (xmin, xmax, ymin, ymax) [m].
+MapObstacles = tuple[list[Obstacle], tuple[float, float, float, float]]
+
+
+def map_shape(r: TableReader, table: Mapping[str, Any], ctx: str) -> MapShape:
+    """A map table's ``shape`` field: "box" (the default) or "polygon"."""
+    shape = table.get("shape", "box")
+    if shape not in ("box", "polygon"):
+        raise r.fail(f"{ctx}shape", "'box' or 'polygon'", shape)
+    return shape  # type: ignore[no-any-return]
+
+
+def load_map_table(table: Mapping[str, Any], base_dir: Path, where: str) -> MapObstacles:
+    """The ``[world.map]`` loader of a map image, ``MAP_LOADERS["image"]``.
 
     Args:
         table: The parsed ``[world.map]`` table.
@@ -357,7 +394,7 @@ def load_map_table(table: Mapping[str, Any], base_dir: Path, where: str) -> list
         where: How to name the scenario in errors.
 
     Returns:
-        The map's obstacles.
+        The map's obstacles, and the extent of its image in the world.
 
     Raises:
         ScenarioError: Unknown or missing keys, bad values, a missing or unreadable image.
@@ -372,14 +409,15 @@ def load_map_table(table: Mapping[str, Any], base_dir: Path, where: str) -> list
     threshold = r.number(table, "threshold", ctx, default=0.5)
     if not 0.0 < threshold <= 1.0:
         raise r.fail(f"{ctx}threshold", "a grey level in (0, 1] (0 black, 1 white)", threshold)
-    origin: tuple[float, ...] = (0.0, 0.0)
+    ox, oy = 0.0, 0.0
     if "origin" in table:
-        origin = r.vector(table, "origin", ctx, 2, expected="[x, y] of the image's bottom-left corner [m]")
-    shape = table.get("shape", "box")
-    if shape not in ("box", "polygon"):
-        raise r.fail(f"{ctx}shape", "'box' or 'polygon'", shape)
+        ox, oy = r.vector(table, "origin", ctx, 2, expected="[x, y] of the image's bottom-left corner [m]")
+    shape = map_shape(r, table, ctx)
     path = Path(image) if Path(image).is_absolute() else base_dir / image
     try:
-        return load_image_obstacles(path, resolution, (origin[0], origin[1]), threshold, shape)
+        grey = read_grey(path)
     except ScenarioError as exc:
         raise ScenarioError(f"{where}: field 'world.map.image': {exc}") from exc
+    h, w = grey.shape
+    extent = (ox, ox + w * resolution, oy, oy + h * resolution)
+    return obstacles_from_mask(grey < threshold, resolution, (ox, oy), shape), extent
