@@ -246,11 +246,15 @@ def test_the_documented_planner_plugin_error_is_the_one_given(registry: None, mo
 
 
 # ---- plugins, in the nhsim command -----------------------------------------------------------------------
-def _nhsim(site: Path, *argv: str, cwd: Path) -> subprocess.CompletedProcess[str]:
-    """``nhsim ARGV`` in a fresh process that sees the packages installed in ``site``."""
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")])}
-    env.pop(PLUGIN_VARIABLE, None)
-    return subprocess.run([sys.executable, "-m", "sim", *argv], capture_output=True, text=True, env=env, cwd=cwd)
+def _nhsim(site: Path, *argv: str, cwd: Path, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+    """``nhsim ARGV`` in a fresh process that sees the packages installed in ``site`` (``env`` added to this
+    process's environment, less NHSIM_PLUGINS and NHSIM_TRACEBACK)."""
+    inherited = {k: v for k, v in os.environ.items() if k not in (PLUGIN_VARIABLE, "NHSIM_TRACEBACK")}
+    path = os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")])
+    environment = inherited | {"PYTHONPATH": path} | (env or {})
+    return subprocess.run(
+        [sys.executable, "-m", "sim", *argv], capture_output=True, text=True, env=environment, cwd=cwd
+    )
 
 
 def test_the_command_runs_a_tracker_of_an_installed_entry_point(tmp_path: Path) -> None:
@@ -308,7 +312,8 @@ def test_version_and_help_load_no_plugin_and_a_broken_one_fails_a_lookup_clearly
     assert done.returncode == 2 and "Traceback" not in done.stderr
     assert done.stderr.strip() == (
         "nhsim compare: error: tracker plugin failed to load: entry point 'broken = nhsim_test_broken' of group "
-        "nhsim.trackers in nhsim-test-plugins 1.0: ModuleNotFoundError: No module named 'nowhere'"
+        "nhsim.trackers in nhsim-test-plugins 1.0: ModuleNotFoundError: No module named 'nowhere' (NHSIM_TRACEBACK=1 "
+        "prints the ModuleNotFoundError's traceback)"
     )
 
 
@@ -386,7 +391,8 @@ def test_scenarios_stops_at_a_failing_planner_plugin_with_one_line(
     assert main(["scenarios"]) == 2
     out, err = capsys.readouterr()
     plugin = f"module 'nhsim_test_raises' named by {PLUGIN_VARIABLE}=nhsim_test_raises: RuntimeError: no licence"
-    assert out == "" and err.splitlines() == [f"nhsim scenarios: error: plugin failed to load: {plugin}"]
+    hint = "(NHSIM_TRACEBACK=1 prints the RuntimeError's traceback)"
+    assert out == "" and err.splitlines() == [f"nhsim scenarios: error: plugin failed to load: {plugin} {hint}"]
     monkeypatch.delenv(PLUGIN_VARIABLE)
     broken = tmp_path / "broken.toml"
     broken.write_text("name = \n")
@@ -426,8 +432,15 @@ def test_plan_help_loads_no_planner_plugin_and_a_broken_one_fails_a_plan_clearly
     assert done.returncode == 2 and "Traceback" not in done.stderr
     assert done.stderr.strip() == (
         "nhsim plan: error: planner plugin failed to load: entry point 'broken = nhsim_test_broken' of group "
-        "nhsim.planners in nhsim-test-plugins 1.0: ModuleNotFoundError: No module named 'nowhere'"
+        "nhsim.planners in nhsim-test-plugins 1.0: ModuleNotFoundError: No module named 'nowhere' (NHSIM_TRACEBACK=1 "
+        "prints the ModuleNotFoundError's traceback)"
     )
+    argv = ["plan", "--scenario", "simple_motion", "--planner", "birrt"]
+    traced = _nhsim(site, *argv, cwd=tmp_path, env={"NHSIM_TRACEBACK": "1"})
+    lines = traced.stderr.splitlines()
+    assert traced.returncode == 2 and lines[0] == done.stderr.strip().split(" (NHSIM_TRACEBACK")[0]
+    assert lines[1] == "Traceback (most recent call last):" and 'nhsim_test_broken.py", line 1' in traced.stderr
+    assert lines[-1] == "ModuleNotFoundError: No module named 'nowhere'"
 
 
 # ---- tune --jobs: workers know the tracker, or the trials stay in this process -----------------------------

@@ -270,13 +270,13 @@ def _main(argv: Sequence[str] | None) -> int:
         mod = importlib.import_module(args._module)
         return int(mod.run(args))
     except SimulationError as exc:
-        print(f"nhsim {name}: simulation failed: {without_python(str(exc))}", file=sys.stderr)
+        _say_failure(f"nhsim {name}: simulation failed: {without_python(str(exc))}", exc)
         return 1
     except NhsimError as exc:
         if _failed_plan(exc):  # a failed plan is a failed run, not bad input (as in ``nhsim plan``)
-            print(f"nhsim {name}: failed: {without_python(str(exc))}", file=sys.stderr)
+            _say_failure(f"nhsim {name}: failed: {without_python(str(exc))}", exc)
             return 1
-        print(f"nhsim {name}: error: {without_python(str(exc))}", file=sys.stderr)
+        _say_failure(f"nhsim {name}: error: {without_python(str(exc))}", exc)
         return 2
     except KeyboardInterrupt:
         say_interrupted(f"nhsim {name}: interrupted")
@@ -286,6 +286,27 @@ def _main(argv: Sequence[str] | None) -> int:
             raise
         print(f"nhsim {name}: failed: {could_not_write(exc, args.command)}", file=sys.stderr)
         return 1
+
+
+#: Set to 1, a command that fails because code it ran raised an exception of its own (a plugin's planner or tracker,
+#: a library nhsim calls) prints that exception's traceback after its one-line error.
+TRACEBACK_ENV = "NHSIM_TRACEBACK"
+
+
+def _say_failure(line: str, exc: NhsimError) -> None:
+    """Print a command's one-line error ``line`` for ``exc`` on stderr. When ``exc`` was raised from another
+    exception than nhsim's own (``raise ... from``: a plugin's planner raised, say), the line says how to see where,
+    and with :data:`TRACEBACK_ENV` set that exception's traceback follows it."""
+    cause = exc.__cause__
+    if cause is None or isinstance(cause, NhsimError):
+        print(line, file=sys.stderr)
+    elif os.environ.get(TRACEBACK_ENV, "") in ("", "0"):
+        print(f"{line} ({TRACEBACK_ENV}=1 prints the {type(cause).__name__}'s traceback)", file=sys.stderr)
+    else:
+        import traceback
+
+        print(line, file=sys.stderr)
+        traceback.print_exception(cause, file=sys.stderr)
 
 
 def could_not_write(exc: OSError, command: str = "") -> str:
