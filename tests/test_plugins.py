@@ -775,3 +775,19 @@ def test_an_unknown_name_says_how_a_plugins_is_registered(registry: None) -> Non
         assert said.startswith(f"unknown {kind} 'line-turn': choose one of "), said
         assert f"name its module in {PLUGIN_VARIABLE} (e.g. {PLUGIN_VARIABLE}=mypackage.{kind}s)" in said, said
         assert f"an entry point of group {group}" in said and "\n" not in said, said
+
+
+def test_montecarlos_replay_commands_carry_the_plugins_it_was_given(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A study of a plugin's tracker printed replay commands without NHSIM_PLUGINS: run as printed, they failed
+    ("unknown tracker") or, for a plugin overriding nothing, replayed without it."""
+    import shlex
+
+    from sim.cli.montecarlo import _replay_line
+
+    worst = {"index": 3, "plan_seed": 7, "build_seed": 11, "noise_seed": 13}
+    monkeypatch.delenv(PLUGIN_VARIABLE, raising=False)
+    plain = _replay_line(["--scenario", "open", "--feedback", "p-pose"], worst)
+    assert shlex.split(plain)[:2] == ["nhsim", "simulate"]
+    monkeypatch.setenv(PLUGIN_VARIABLE, "my pkg.trackers")
+    line = _replay_line(["--scenario", "open", "--feedback", "p-pose"], worst)
+    assert shlex.split(line) == [f"{PLUGIN_VARIABLE}=my pkg.trackers", *shlex.split(plain)]

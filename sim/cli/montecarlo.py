@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import os
 import shlex
 import sys
 from pathlib import Path
@@ -229,10 +230,15 @@ def format_table(stats: dict[str, Any]) -> str:
 
 
 def _replay_line(argv_base: list[str], worst: dict[str, Any]) -> str:
+    """The command that replays run ``worst``; with the plugins this process was given by NHSIM_PLUGINS (a plugin's
+    planner or tracker, whose code the study's key digests), as the variable's assignment before it."""
+    from planning.core.plugins import PLUGIN_VARIABLE
     from sim.tools.montecarlo import replay_options
 
+    plugins = os.environ.get(PLUGIN_VARIABLE, "").strip()
+    env = [f"{PLUGIN_VARIABLE}={shlex.quote(plugins)}"] if plugins else []
     cmd = ["nhsim", "simulate", *argv_base, *replay_options(worst), "--no-video"]
-    return " ".join(shlex.quote(c) for c in cmd)
+    return " ".join([*env, *(shlex.quote(c) for c in cmd)])
 
 
 def _base_argv(args: argparse.Namespace, case: Any) -> list[str]:
