@@ -46,6 +46,27 @@ def test_roundtrip_h264_yuv420p(tmp_path: Path) -> None:
     assert not list(tmp_path.glob(".*part*")), "temporary file left behind"
 
 
+def test_colours_play_as_drawn_in_a_player_that_decodes_hd_as_bt709(tmp_path: Path) -> None:
+    """The stream was converted with BT.601's matrix and left untagged; browsers decode such an HD stream with
+    BT.709's, and pure green played as (0, 215, 0). Converted with BT.709's and tagged so, every decoder agrees."""
+    import subprocess
+
+    colours = [(0, 255, 0), (0, 0, 255), (255, 0, 0), (48, 112, 192), (230, 230, 230)]
+    out = tmp_path / "c.mp4"
+    with VideoWriter(out, 64, 48, 10.0) as w:
+        for colour in colours:
+            w.write(np.full((48, 64, 3), colour, np.uint8))
+    exe = imageio_ffmpeg.get_ffmpeg_exe()
+    probe = subprocess.run([exe, "-hide_banner", "-i", str(out)], capture_output=True, text=True).stderr
+    assert "yuv420p(tv, bt709, progressive)" in probe
+    for matrix in ("null", "scale=in_color_matrix=bt709"):  # as tagged; as a browser assumes for HD
+        cmd = [exe, "-hide_banner", "-loglevel", "error", "-i", str(out), "-vf", matrix, "-f", "rawvideo"]
+        raw = subprocess.run([*cmd, "-pix_fmt", "rgb24", "-"], capture_output=True, check=True).stdout
+        frames = np.frombuffer(raw, np.uint8).reshape(-1, 48, 64, 3).astype(int)
+        for frame, colour in zip(frames, colours, strict=True):
+            assert np.abs(frame[20:28, 28:36] - colour).max() <= 6, (matrix, colour, frame[24, 32])
+
+
 def test_encodes_while_frames_arrive(tmp_path: Path) -> None:
     """The writer thread hands frames to ffmpeg before the context exits."""
     out = tmp_path / "v.mp4"
@@ -102,7 +123,7 @@ def test_rejects_wrong_frame_shape(tmp_path: Path) -> None:
 def test_command_is_browser_playable() -> None:
     cmd = ffmpeg_command("ffmpeg", Path("x.mp4"), 640, 480, 30.0, crf=23, preset="veryfast", threads=1)
     joined = " ".join(cmd)
-    assert "-c:v libx264" in joined and "-pix_fmt yuv420p" in joined and "+faststart" in joined
+    assert "-c:v libx264" in joined and "format=yuv420p" in joined and "+faststart" in joined
     assert "-s 640x480" in joined and "-r 30" in joined
 
 
