@@ -81,11 +81,11 @@ def test_default_outputs_then_no_clobber(tmp_path: Path, monkeypatch: pytest.Mon
     )
     record = json.loads((renders / f"{stem}.json").read_text())
     assert sorted(Path(p).name for p in record["files"].values()) == names  # names every file written
-    # the video: decodes, H.264 yuv420p, one frame per 1/fps of simulated time, right size, not blank
+    # the video: decodes, H.264 yuv420p, one frame per 1/fps of simulated time and the end's, right size, not blank
     meta, frames = decode(renders / f"{stem}.mp4")
     assert meta["codec"] == "h264" and meta["pix_fmt"].startswith("yuv420p")
     duration = record["closed_loop"]["duration_s"]
-    assert frames.shape == (round(duration * 5), 240, 320, 3)
+    assert frames.shape == (round(duration * 5) + 1, 240, 320, 3)
     assert record["video"]["frames"] == frames.shape[0]
     assert record["video"]["inset_magnification"] > 1.0  # the close-up is larger than the overview
     assert frames.std() > 5.0

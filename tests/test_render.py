@@ -42,11 +42,12 @@ from tests.render_helpers import require_gl, short_job, spread_runs
 
 def test_frame_times_follow_simulation_time() -> None:
     t = frame_times(0.0, 20.0, 30.0)
-    assert t.size == 600  # a 20 s run at 30 frames/s
+    assert t.size == 601  # a 20 s run at 30 frames/s, and its end
     np.testing.assert_allclose(np.diff(t), 1 / 30, rtol=0, atol=1e-12)
-    assert t[0] == 0.0
-    assert frame_times(2.5, 2.5, 30.0).size == 1
-    assert frame_times(1.0, 4.3, 10.0).size == 33
+    assert t[0] == 0.0 and t[-1] == 20.0  # the last frame shows the end (it showed 20 - 1/30 s)
+    assert frame_times(2.5, 2.5, 30.0).tolist() == [2.5]
+    odd = frame_times(1.0, 4.32, 10.0)
+    assert odd.size == 34 and odd[-1] == 4.32 and np.all(np.diff(odd) > 0)
 
 
 def test_nearest_samples_matches_brute_force() -> None:
@@ -247,7 +248,7 @@ def test_replay_frames_and_ghost() -> None:
     settings = RenderSettings(width=160, height=120, fps=10.0)
     replay = Replay(model, job.trajectory, job.logs, settings)
     duration = job.logs["closed_loop"].t[-1] - job.logs["closed_loop"].t[0]
-    assert replay.n_frames == round(duration * 10.0)
+    assert replay.n_frames == round(duration * 10.0) + 1
     sink = ListSink(160, 120)
     with SceneRenderer(model, 160, 120, max_geom=replay.required_geoms) as r:
         assert render_frames(replay, r, sink) == replay.n_frames
@@ -556,8 +557,9 @@ def test_clock_prints_each_frames_own_time() -> None:
     panel: TextPanel = replay.panel
     clocks = [panel.texts(k)[0] for k in range(replay.n_frames)]
     assert clocks[:5] == ["0.00", "0.03", "0.07", "0.10", "0.13"]
+    end = replay.times[-1]  # the run's end (test_frame_times_follow_simulation_time)
     for k, text in enumerate(clocks):
-        assert text == f"{k / 30.0:.2f}"
+        assert text == f"{k / 30.0 if k < replay.n_frames - 1 else end:.2f}"  # the last frame: the run's end
         for tr, err in zip(replay.tracks, panel.texts(k)[1:], strict=True):
             assert err == f"{tr.err[tr.idx[k]]:.3f}"
     frames = []

@@ -146,14 +146,19 @@ def parse_size(text: str) -> tuple[int, int]:
 def frame_times(t_start: float, t_end: float, fps: float) -> FloatArray:
     """Simulation times shown by the frames of a video of ``[t_start, t_end]``.
 
-    Frame ``k`` shows ``t_start + k / fps`` and is on screen for ``1 / fps``, so the video lasts
-    as long as the run: ``round((t_end - t_start) * fps)`` frames (at least one).
+    Frame ``k`` shows ``t_start + k / fps`` and is on screen for ``1 / fps``, and the last frame shows the run's
+    end, ``t_end`` (where its final errors are measured): ``round((t_end - t_start) * fps) + 1`` frames, so the
+    video lasts as long as the run and one frame more.
 
     Returns:
-        (n,) times [s].
+        (n,) times [s], increasing (one time, ``t_start``, for an empty run).
     """
-    n = max(1, round((t_end - t_start) * fps))
-    return t_start + np.arange(n) / fps
+    n = round((t_end - t_start) * fps)
+    if n <= 0:
+        return np.array([t_start])
+    times = t_start + np.arange(n + 1) / fps
+    times[-1] = t_end
+    return times
 
 
 def nearest_samples(t: FloatArray, times: FloatArray) -> NDArray[np.int64]:
