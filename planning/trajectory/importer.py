@@ -41,7 +41,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.core.checks import check_number
+from planning.core.checks import check_flag, check_number
 from planning.core.geometry import wrap_angle
 from planning.errors import ConfigError, option, options
 from planning.trajectory.file_formats import FileTable, TrajectoryFileError, parse_column_names, read_table
@@ -100,6 +100,11 @@ class TrajectoryFile:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "path", Path(self.path))
+        for name in ("timed", "allow_collisions"):  # "no" would read as true
+            try:
+                object.__setattr__(self, name, check_flag(f"TrajectoryFile.{name}", getattr(self, name)))
+            except ConfigError as exc:
+                raise TrajectoryFileError(str(exc)) from exc
         for name in ("scale", "time_scale"):
             try:
                 check_number(option(name.replace("_", "-")), getattr(self, name), above=0.0, optional=True)

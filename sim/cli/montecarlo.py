@@ -134,6 +134,12 @@ def _spec(args: argparse.Namespace) -> Any:
         "sensors": sensor_overrides(args.sensors),
         **localiser_fields(args),
     }
+    tracker = fields["tracker"]  # None: the source's default, an FBL
+    if args.gains and tracker is not None and not uses_fbl_gains(tracker):  # a study of gains that change nothing
+        raise ConfigError(
+            f"--gains: tracker {tracker} does not use the FBL's gains; drop --gains (its own parameters are compared "
+            "by nhsim compare --params)"
+        )
     if file_given(args):  # a trajectory or path file, read and checked as simulate reads it
         tfile = file_source(args)
         world, robot, _ = file_world(args, tfile)
@@ -153,11 +159,6 @@ def _spec(args: argparse.Namespace) -> Any:
                 f"{', '.join(given)} {'is' if len(given) == 1 else 'are'} for a planned study, and this one plans "
                 "nothing (a reference or a file): drop it"
             )
-    if args.gains and not uses_fbl_gains(case.feedback_tracker):  # a study of gains that change nothing
-        raise ConfigError(
-            f"--gains: tracker {case.feedback_tracker} does not use the FBL's gains; drop --gains (its own parameters "
-            "are compared by nhsim compare --params)"
-        )
     check_scan_beams(case, load_case_scenario(case), DEFAULT_RUNS)  # its closed loop localises, as simulate's
     ranges = PerturbationRange.parse(args.perturb_range, others="nominal") if args.perturb_range else None
     return MonteCarloSpec(case, args.runs, ranges, replan=args.replan)

@@ -620,17 +620,20 @@ def feedback_option(
 
 
 def _case_fields(args: argparse.Namespace, gains: Any, perturbation: Any) -> dict[str, Any]:
-    """The case fields every job takes from the options (seed, rate, gains, build, sensors, ...)."""
+    """The case fields every job takes from the options (seed, rate, gains, build, sensors, ...); the gains only for a
+    tracker that takes them (--gains with another is ignored, as :func:`ignored_options` notes)."""
+    from control.fbl import uses_fbl_gains
     from sim.cli.checks import planner_option_values
     from sim.pipeline.case import PlanOptions
 
+    tracker = feedback_option(args.feedback)
     return {
         "seed": args.seed,
         "control_rate": args.control_rate,
-        "gains": gains,
+        "gains": gains if tracker is None or uses_fbl_gains(tracker) else None,
         "perturbation": perturbation,
         "planning": PlanOptions(time_limit=args.time_limit, planner_options=planner_option_values(args.planner_option)),
-        "tracker": feedback_option(args.feedback),
+        "tracker": tracker,
         "build_seed": parse_build(args.build, args.build_seed),
         "sensors": sensor_overrides(args.sensors),
         "noise_seed": args.noise_seed,

@@ -33,7 +33,7 @@ from control.estimation.amcl import AmclConfig
 from control.fbl import uses_fbl_gains
 from control.gains import FBLGains
 from planning.collision.exact import CollisionChecker
-from planning.core.checks import check_fields, check_number
+from planning.core.checks import check_fields, check_flag, check_number
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot
 from planning.errors import ConfigError, ScenarioError, option, options
@@ -187,6 +187,9 @@ class Case:
     def __post_init__(self) -> None:
         object.__setattr__(self, "scenario", check_case_scenario("Case.scenario", self.scenario))
         object.__setattr__(self, "seed", check_number("Case.seed", self.seed, integer=True, at_least=0))
+        rate = check_number("Case.control_rate", self.control_rate, above=0.0, unit="Hz", fix="e.g. 50.0")
+        object.__setattr__(self, "control_rate", rate)
+        object.__setattr__(self, "fast", check_flag("Case.fast", self.fast))
         if not isinstance(self.planning, PlanOptions):
             raise ConfigError(f"case {self.label}: planning must be a PlanOptions(...), got {self.planning!r}")
         if self.perturbation is not None and not isinstance(self.perturbation, Perturbation):
@@ -229,8 +232,47 @@ class Case:
             )
         if self.robot is not None and self.robot not in ROBOT_FILES:
             raise ConfigError(f"case {self.label}: unknown robot {self.robot!r}; choose {', '.join(ROBOT_FILES)}")
+        self._check_gains()
         if not self.name:
             object.__setattr__(self, "name", self._derived_name())
+
+    def _check_gains(self) -> None:
+        """The FBL gains are given once: as ``gains``, or as ``params`` for a tracker whose tuned option they are
+        (fbl, segmented), not both with different values; gains other than the defaults are refused for a tracker
+        that takes none (they would change nothing)."""
+        if self.gains is not None and not isinstance(self.gains, FBLGains):
+            raise ConfigError(f"case {self.label}: gains must be FBLGains(kp=..., kd=...) or None, got {self.gains!r}")
+        name = self.feedback_tracker
+        if not uses_fbl_gains(name):
+            if self.gains is not None and self.gains != FBLGains():
+                kind = getattr(TRACKERS.factory(name), "TUNED", None)
+                own = f"params={kind[1].__name__}(...)" if kind is not None else "none it takes"
+                raise ConfigError(
+                    f"case {self.label}: gains {self.gains} are given, but tracker {name!r} does not use the FBL's "
+                    f"gains, so they would change nothing: drop them (its own parameters: {own})"
+                )
+            return
+        if self._params_are_gains and self.gains is not None and self.gains != self.params:
+            raise ConfigError(
+                f"case {self.label}: tracker {name!r} is given two sets of FBL gains, gains={self.gains} and "
+                f"params={self.params} (its tuned parameters are its gains): give them once, as gains=FBLGains(...)"
+            )
+
+    @property
+    def fbl_gains(self) -> FBLGains | None:
+        """The FBL gains the case's feedback runs use: ``params`` when they are the tracker's gains (its tuned
+        option), else ``gains`` or the defaults; None for a tracker that takes none (mpc, rpp, kanayama)."""
+        if not uses_fbl_gains(self.feedback_tracker):
+            return None
+        if self._params_are_gains:
+            return self.params  # type: ignore[no-any-return]
+        return self.gains or FBLGains()
+
+    @property
+    def _params_are_gains(self) -> bool:
+        """Whether ``params`` holds FBL gains given as the feedback tracker's tuned option."""
+        tuned = getattr(TRACKERS.factory(self.feedback_tracker), "TUNED", None)
+        return isinstance(self.params, FBLGains) and tuned is not None and tuned[0] == "gains"
 
     def _derived_name(self) -> str:
         what = self.reference if self.reference is not None else f"plan-{self.planner or 'default'}"
@@ -380,7 +422,7 @@ class Case:
             "tracker": self.feedback_tracker,
             "params": repr(self.params) if self.params is not None else None,
             # the FBL's gains where the tracker takes them (None for mpc, rpp, kanayama: their params say theirs)
-            "gains": dataclasses.asdict(self.gains or FBLGains()) if uses_fbl_gains(self.feedback_tracker) else None,
+            "gains": None if (gains := self.fbl_gains) is None else dataclasses.asdict(gains),
             "control_rate_hz": float(self.control_rate),
             "seed": self.seed,
             "noise_seed": sensing.seed,

@@ -13,6 +13,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, fields, replace
 from importlib import metadata
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
 import mujoco
@@ -46,12 +47,15 @@ class Run:
         tracker: Tracker name used.
         log: What the engine did.
         metrics: How well it followed the trajectory.
+        params: The tracker's tuned parameters as it ran, field -> value (:func:`tracker_params`); empty for a
+            tracker with nothing to tune (the open loop).
     """
 
     kind: RunKind
     tracker: str
     log: RunLog
     metrics: TrackingMetrics
+    params: Mapping[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -74,6 +78,21 @@ class JobResult:
     build: AsBuilt
     sensing: SensingSetup
     model: mujoco.MjModel = field(compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if not self.runs:
+            raise ConfigError("a JobResult holds at least one run; runs is empty")
+        object.__setattr__(self, "runs", MappingProxyType(dict(self.runs)))  # read-only, as the result is
+
+    def __getstate__(self) -> dict[str, Any]:  # a read-only mapping does not pickle; its dict does
+        return {**self.__dict__, "runs": dict(self.runs)}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state, runs=MappingProxyType(state["runs"]))
+
+    def __repr__(self) -> str:
+        runs = ", ".join(f"{kind}: {run.metrics.final_position_error_m:.4f} m" for kind, run in self.runs.items())
+        return f"JobResult({self.case.name!r}, source={self.source!r}, final errors {{{runs}}})"
 
     @property
     def case(self) -> Case:
@@ -109,7 +128,7 @@ class JobResult:
     def gains(self) -> FBLGains | None:
         """The FBL gains the closed loops ran with; None for a tracker with its own parameters (mpc, rpp, ...),
         as the record has it."""
-        return self.case.gains or FBLGains() if uses_fbl_gains(self.case.feedback_tracker) else None
+        return self.case.fbl_gains
 
     @property
     def logs(self) -> dict[str, RunLog]:
@@ -152,6 +171,8 @@ class JobResult:
             "tracker": main.tracker,
             # the FBL's gains where the tracker takes them; null for one with its own parameters (mpc, rpp, ...)
             "gains": None if gains is None else {"kp": gains.kp, "kd": gains.kd, "xi_min": gains.xi_min},
+            # the tracker's tuned parameters as it ran (its gains for an FBL); null for one with nothing to tune
+            "params": dict(main.params) or None,
             "control_rate_hz": self.config.control_rate,
             "seed": self.seed,
             "noise_seed": self.sensing.seed,
@@ -251,7 +272,7 @@ def tracker_for_run(case: Case, kind: RunKind, robot: RobotSpec) -> Tracker:
     name = case.tracker_for(kind)
     options: dict[str, Any] = {}
     if uses_fbl_gains(name):
-        options["gains"] = case.gains or FBLGains()
+        options["gains"] = case.fbl_gains or FBLGains()
     if case.params is not None and not kind.tracker:
         options[tuned_option(name)[0]] = case.params
     return make_tracker(name, robot, **options)
@@ -286,7 +307,26 @@ def run_tracker(
         sensing=sensing,
     )
     metrics = robot_metrics(log, prepared.trajectory, robot)
-    return Run(kind, case.tracker_for(kind), log, metrics)
+    name = case.tracker_for(kind)
+    return Run(kind, name, log, metrics, tracker_params(name, tracker))
+
+
+def tracker_params(name: str, tracker: Tracker) -> dict[str, Any]:
+    """The tuned parameters ``tracker`` (registered as ``name``) runs with: the value of its tuned option it holds
+    under the option's name (as nhsim's trackers do), as a dict of its fields; {} for a tracker with nothing to tune
+    or one that holds them elsewhere."""
+    tuned = getattr(TRACKERS.factory(name), "TUNED", None)
+    if tuned is None:
+        return {}
+    option, kind = tuned
+    value = getattr(tracker, option, None)
+    return plain_params(value) if isinstance(value, kind) else {}
+
+
+def plain_params(params: Any) -> dict[str, Any]:
+    """A parameter dataclass as a dict of its fields."""
+    names = getattr(params, "__dataclass_fields__", {})
+    return {k: getattr(params, k) for k in names}
 
 
 def simulator_for(prepared: PreparedTrajectory) -> Simulator:

@@ -38,7 +38,7 @@ from sim.physics.runlog import RunLog
 from sim.physics.simulator import SimConfig
 from sim.pipeline.case import Case, PreparedTrajectory, prepare_trajectory
 from sim.pipeline.runs import RunKind
-from sim.pipeline.simulate import PreparedCase, run_tracker, simulator_for
+from sim.pipeline.simulate import PreparedCase, plain_params, run_tracker, simulator_for, tracker_params
 from sim.tools.tune import Draw, make_draws
 
 #: Per-run quantities of a comparison, in table order: key -> (column title, format).
@@ -326,7 +326,7 @@ def compare_trackers(
         for name in names:
             tracker = tracker_with(name, prepared.robot, params.get(name))
             if name not in ran:  # as the first draw's tracker holds them, else those given
-                ran[name] = _params_of(name, tracker) or _plain(params.get(name))
+                ran[name] = tracker_params(name, tracker) or plain_params(params.get(name))
             timed = TimedTracker(tracker)
             run = run_tracker(prepared_i, RunKind.CLOSED_LOOP, timed, pc.simulator, config, sensing)
             done.append(_measure(name, index, run, timed, keep=index == 0))
@@ -335,24 +335,6 @@ def compare_trackers(
     ordered = tuple(r for name in names for r in done if r.tracker == name)
     assert model is not None  # there is at least one draw
     return Comparison(prepared, names, tuple(draws), ordered, ran, model)
-
-
-def _params_of(name: str, tracker: Tracker) -> dict[str, Any]:
-    """The tuned parameters ``tracker`` (registered as ``name``) runs with: the value of its tuned option it holds
-    under the option's name (as nhsim's trackers do), as a plain dict; {} for a tracker with nothing to tune or one
-    that holds them elsewhere."""
-    tuned = getattr(TRACKERS.factory(name), "TUNED", None)
-    if tuned is None:
-        return {}
-    option, kind = tuned
-    value = getattr(tracker, option, None)
-    return _plain(value) if isinstance(value, kind) else {}
-
-
-def _plain(params: Any) -> dict[str, Any]:
-    """A parameter dataclass as a dict of its fields."""
-    fields = getattr(params, "__dataclass_fields__", {})
-    return {k: getattr(params, k) for k in fields}
 
 
 def format_table(comparison: Comparison) -> str:

@@ -1,0 +1,84 @@
+"""A job's case takes each setting once and as what it is, and its record says what ran: the FBL gains given as
+gains or as the tracker's params, a tracker's own parameters, flags, the control rate."""
+
+from __future__ import annotations
+
+import pickle
+from pathlib import Path
+
+import pytest
+
+from control.gains import FBLGains
+from control.kanayama import KanayamaParams
+from planning.errors import ConfigError
+from planning.trajectory.importer import TrajectoryFile
+from sim.pipeline.case import Case
+from sim.pipeline.simulate import simulate_reference
+
+SHORT = {"reference": "line", "runs": ["closed_loop"]}
+
+
+def test_the_fbls_gains_given_as_its_params_are_the_gains_it_ran_and_recorded() -> None:
+    """params=FBLGains(kp=30) ran kp=30 while job.gains and the record said kp=9 (the defaults); with gains=kp 5
+    beside it, kp 30 ran and the record said 5."""
+    as_params = simulate_reference("open", tracker="fbl", params=FBLGains(kp=30.0), **SHORT)  # type: ignore[arg-type]
+    as_gains = simulate_reference("open", tracker="fbl", gains=FBLGains(kp=30.0), **SHORT)  # type: ignore[arg-type]
+    default = simulate_reference("open", tracker="fbl", **SHORT)  # type: ignore[arg-type]
+    metric = "rms_position_error_m"
+    assert as_params.metrics["closed_loop"].as_dict()[metric] == as_gains.metrics["closed_loop"].as_dict()[metric]
+    assert as_params.metrics["closed_loop"].as_dict()[metric] != default.metrics["closed_loop"].as_dict()[metric]
+    for job in (as_params, as_gains):
+        record = job.record()
+        assert job.gains == FBLGains(kp=30.0) and record["gains"]["kp"] == 30.0 and record["params"]["kp"] == 30.0
+    assert default.record()["params"] == {"kp": 9.0, "kd": 6.0, "xi_min": 0.02}
+    with pytest.raises(ConfigError, match=r"two sets of FBL gains.*give them once"):
+        Case("open", reference="line", tracker="fbl", params=FBLGains(kp=30.0), gains=FBLGains(kp=5.0))
+    same = Case("open", reference="line", tracker="fbl", params=FBLGains(kp=30.0), gains=FBLGains(kp=30.0))
+    assert same.fbl_gains == FBLGains(kp=30.0)
+
+
+def test_a_trackers_own_parameters_are_recorded_and_fbl_gains_it_ignores_are_refused() -> None:
+    """kanayama's params left no trace in the record (a run that could not be reproduced from it); FBL gains given
+    to mpc, rpp or kanayama were dropped without a word."""
+    params = KanayamaParams(kx=1.0, ky=5.0, ktheta=2.0)
+    job = simulate_reference("open", tracker="kanayama", params=params, **SHORT)  # type: ignore[arg-type]
+    assert job.record()["params"] == {"kx": 1.0, "ky": 5.0, "ktheta": 2.0} and job.record()["gains"] is None
+    assert job.runs["closed_loop"].params == {"kx": 1.0, "ky": 5.0, "ktheta": 2.0}
+    for tracker, own in (("mpc", "MPCParams"), ("rpp", "RPPParams"), ("kanayama", "KanayamaParams")):
+        with pytest.raises(ConfigError, match=rf"does not use the FBL's gains.*params={own}\(\.\.\.\)"):
+            Case("open", reference="line", tracker=tracker, gains=FBLGains(kp=30.0, kd=2.0))
+        assert Case("open", reference="line", tracker=tracker, gains=FBLGains()).fbl_gains is None  # the defaults
+    open_loop = simulate_reference("open", reference="line", runs=["open_loop"])
+    assert open_loop.record()["params"] is None
+
+
+@pytest.mark.parametrize(
+    ("fields", "message"),
+    [
+        ({"fast": "no"}, "Case.fast must be True or False, got 'no'"),
+        ({"control_rate": "50"}, r"Case.control_rate must be a finite number > 0 \(Hz\), got '50'"),
+        ({"control_rate": [50]}, "Case.control_rate must be a finite number"),
+        ({"control_rate": True}, "Case.control_rate must be a finite number"),
+        ({"control_rate": 0.0}, "Case.control_rate must be a finite number > 0"),
+        ({"gains": (9.0, 6.0)}, r"gains must be FBLGains\(kp=..., kd=...\) or None"),
+    ],
+)
+def test_case_fields_of_the_wrong_kind_are_refused_naming_them(fields: dict[str, object], message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        Case("open", reference="line", **fields)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("field", ["allow_collisions", "timed"])
+def test_a_trajectory_files_flags_take_no_text(field: str) -> None:
+    """allow_collisions="no" ran a file through an obstacle: text read as true."""
+    with pytest.raises(ConfigError, match=f"TrajectoryFile.{field} must be True or False, got 'no'"):
+        TrajectoryFile(Path("path.csv"), **{field: "no"})  # type: ignore[arg-type]
+
+
+def test_a_jobs_runs_are_read_only_its_repr_short_and_it_pickles() -> None:
+    job = simulate_reference("open", **SHORT)  # type: ignore[arg-type]
+    with pytest.raises((TypeError, AttributeError)):
+        job.runs.pop("closed_loop")  # type: ignore[attr-defined]
+    assert len(repr(job)) < 200 and "closed_loop" in repr(job)
+    again = pickle.loads(pickle.dumps(job))
+    assert again.record()["closed_loop"] == job.record()["closed_loop"]
