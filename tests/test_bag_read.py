@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from planning.trajectory.bag_file import read_bag_table
+from planning.trajectory.file_formats import TrajectoryFileError
 from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
 from sim.cli.main import main
 
@@ -99,9 +100,10 @@ def test_a_recorded_motion_keeps_its_clock_through_the_import(tmp_path: Path) ->
     assert imported.report.rows_read == t.size
 
 
-def _rosbags_bag(path: Path, *, ros1: bool) -> Path:
+def _rosbags_bag(path: Path, *, ros1: bool, logged: list[int] | None = None, second_type: bool = False) -> Path:
     """The arc as nav_msgs/Odometry on /odom (with its twist), written by rosbags as a sqlite3 rosbag2
-    folder or a ROS 1 bag."""
+    folder or a ROS 1 bag; ``logged``: the order the messages are logged in (their stamps unchanged);
+    ``second_type``: a geometry_msgs/PoseStamped publisher on /odom too."""
     from rosbags.typesys import Stores, get_typestore
 
     store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
@@ -141,8 +143,12 @@ def _rosbags_bag(path: Path, *, ros1: bool) -> Path:
 
     with Writer(path, version=8, storage_plugin=StoragePlugin.SQLITE3) as w2:
         conn = w2.add_connection("/odom", "nav_msgs/msg/Odometry", typestore=store)
-        for ns, msg in msgs:
-            w2.write(conn, EPOCH * 10**9 + ns, store.serialize_cdr(msg, "nav_msgs/msg/Odometry"))
+        for k, i in enumerate(logged or range(len(msgs))):  # logged at the k-th message's time, stamped its own
+            w2.write(conn, EPOCH * 10**9 + msgs[k][0], store.serialize_cdr(msgs[i][1], "nav_msgs/msg/Odometry"))
+        if second_type:
+            other = w2.add_connection("/odom", "geometry_msgs/msg/PoseStamped", typestore=store)
+            pose = ty["geometry_msgs/msg/PoseStamped"](header=msgs[0][1].header, pose=msgs[0][1].pose.pose)
+            w2.write(other, EPOCH * 10**9, store.serialize_cdr(pose, "geometry_msgs/msg/PoseStamped"))
     return path
 
 
@@ -159,6 +165,28 @@ def test_odometry_from_a_sqlite3_folder_or_a_ros1_bag(tmp_path: Path, ros1: bool
 
 
 # ------------------------------------------------------------------------------------------ bad input
+def test_messages_logged_out_of_their_stamps_order_are_read_in_it(tmp_path: Path) -> None:
+    """Two messages logged swapped (two publishers, a network) were refused as "time goes back" with a fix for a
+    text file (sort the rows), and when the first logged was not the earliest the times shown were negative."""
+    t, poses = arc()
+    for logged in ([0, 1, 2, 4, 3, *range(5, t.size)], [1, 0, *range(2, t.size)]):
+        imported = read_trajectory_file(
+            TrajectoryFile(_rosbags_bag(tmp_path / f"odom{logged[0]}", ros1=False, logged=logged), topic="/odom")
+        )
+        assert imported.t is not None
+        np.testing.assert_allclose(imported.t, t, atol=2e-9)
+        np.testing.assert_allclose(imported.xy, poses[:, :2], atol=1e-12)
+        assert "2 messages of /odom were logged out of their stamps' order" in " ".join(imported.report.notes)
+
+
+def test_a_topic_of_two_types_is_named_with_both(tmp_path: Path) -> None:
+    """rosbags gives a topic of two types no type: the error said "carries , not a path" and named as the fix the
+    topic given."""
+    bag = _rosbags_bag(tmp_path / "odom", ros1=False, second_type=True)
+    with pytest.raises(TrajectoryFileError, match=r"carries 2 types \(geometry_msgs/PoseStamped, nav_msgs/Odometry\)"):
+        read_trajectory_file(TrajectoryFile(bag, topic="/odom"))
+
+
 def _exit_2(argv: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> str:
     assert main(["simulate", *argv, "--no-video", "--json", str(tmp_path / "out" / "r.json")]) == 2
     err = capsys.readouterr().err

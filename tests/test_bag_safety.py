@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from planning.errors import ConfigError
 from planning.trajectory.file_formats import TrajectoryFileError
 from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
 from sim.cli.main import main
@@ -486,3 +487,14 @@ def test_a_quaternion_within_the_tolerance_is_normalised(tmp_path: Path) -> None
     imported = read_trajectory_file(TrajectoryFile(bag, timed=False, topic="/plan"))
     assert imported.theta is not None
     np.testing.assert_allclose(imported.theta, yaw, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["run.mcap", "run.db3", "RUN.MCAP", "run.bag"])
+def test_a_bag_named_as_a_file_is_refused_naming_the_folder_to_give(tmp_path: Path, name: str) -> None:
+    """--bag run.mcap made a folder run.mcap holding run.mcap.mcap, which a viewer opening "run.mcap" met as a
+    folder."""
+    from sim.io.bag import check_bag_target
+
+    with pytest.raises(ConfigError, match=r"(?i)a ROS 2 bag is a folder .* give the folder's name, e\.g\. --bag .*run"):
+        check_bag_target(tmp_path / name, overwrite=False)
+    assert list(tmp_path.iterdir()) == []

@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import shutil
 import socket
 import threading
 import time
@@ -532,9 +533,14 @@ def test_refused_input_leaves_no_results_file_and_outputs_are_checked_before_any
     # a bags folder that holds bags: refused before the study without --overwrite, replaced with it
     assert main([*base, "--json", "c.json", "--results", "c.jsonl", "--bags", "bags"]) == 0
     assert (tmp_path / "bags" / "worst-0" / "metadata.yaml").is_file()
+    shutil.copytree(tmp_path / "bags" / "worst-0", tmp_path / "bags" / "worst-7")  # a larger study's worst run
+    (tmp_path / "bags" / "worst-0.check").write_text("a user's notes")  # a file, not a bag
     assert main([*base, "--json", "d.json", "--results", "d.jsonl", "--bags", "bags"]) == 2
-    assert "--bags bags holds bags already (worst-0)" in capsys.readouterr().err and not (tmp_path / "d.json").exists()
+    err = capsys.readouterr().err
+    assert "--bags bags holds bags already (worst-0, worst-7)" in err and not (tmp_path / "d.json").exists()
     assert main([*base, "--json", "d.json", "--results", "d.jsonl", "--bags", "bags", "--overwrite"]) == 0
+    # the earlier study's bags the new one did not replace are gone with it (they were not its worst runs)
+    assert sorted(p.name for p in (tmp_path / "bags").iterdir()) == ["worst-0", "worst-0.check"]
 
 
 def test_plan_options_for_a_study_that_plans_nothing_are_refused(capsys: pytest.CaptureFixture[str]) -> None:

@@ -115,6 +115,13 @@ def _messages(reader: Any, path: Path, topic: str, timed: bool) -> tuple[str, li
             f"{option('topic')}"
         )
     msgtype = reader.topics[topic].msgtype or ""
+    types = sorted({_name(c.msgtype) for c in reader.connections if c.topic == topic})
+    if len(types) > 1:  # rosbags gives such a topic no type
+        raise TrajectoryFileError(
+            f"{path}: topic {topic} carries {len(types)} types ({', '.join(types)}) from different publishers; a "
+            "file is read from one: record them on topics of their own (remap one), or split the bag "
+            "(ros2 bag convert) and give the part of one type"
+        )
     wanted = (PATH_TYPE, *MOTION_TYPES) if timed else (PATH_TYPE,)
     if msgtype not in wanted:
         use = "a nav_msgs/Path topic (e.g. /plan)"
@@ -261,13 +268,20 @@ def _motion_rows(
             f"{path}: topic {topic} holds {what}; a recorded motion needs two messages or more at distinct "
             f"stamps: record a longer run, or name another topic with {option('topic')}"
         )
-    rows = tuple(f"{topic} message {i}" for i in range(len(msgs)))
+    # messages are logged as they arrive, which two publishers or a network may reorder: read by their stamps
+    order = sorted(range(len(msgs)), key=stamps.__getitem__)
+    moved = sum(k != i for k, i in enumerate(order))
+    msgs, stamps = [msgs[i] for i in order], [stamps[i] for i in order]
+    rows = tuple(f"{topic} message {i}" for i in order)
     frame = _one_frame(path, f"topic {topic}", [mm.header.frame_id for mm in msgs], rows)
     cols = _columns(path, [_pose_of(mm, msgtype) for mm in msgs], stamps, rows)
     if msgtype == "nav_msgs/msg/Odometry":
         cols["v"] = np.array([mm.twist.twist.linear.x for mm in msgs], dtype=float)
         cols["omega"] = np.array([mm.twist.twist.angular.z for mm in msgs], dtype=float)
-    return rows, cols, (frame, _frame_notes(frame))
+    notes = _frame_notes(frame)
+    if moved:
+        notes += (f"{moved} messages of {topic} were logged out of their stamps' order: read in the stamps' order",)
+    return rows, cols, (frame, notes)
 
 
 def read_bag_table(path: Path, topic: str | None, message: int | None = None, *, timed: bool) -> FileTable:

@@ -7,6 +7,7 @@ import hashlib
 import json
 import os
 import shlex
+import shutil
 import sys
 from pathlib import Path
 from typing import Any
@@ -360,7 +361,7 @@ def _check_bags(folder: Path, overwrite: bool, inputs: list[tuple[str, Path]]) -
                 f"--bags {folder} {'holds' if inside else 'is or lies inside'} the input {given}: the bags written "
                 "there would replace or change what the study reads; choose another --bags folder"
             )
-    earlier = sorted(p.name for p in folder.glob("worst-*")) if folder.is_dir() else []
+    earlier = sorted(p.name for p in _earlier_bags(folder))
     if earlier and not overwrite:
         raise OutputExistsError(
             f"--bags {folder} holds bags already ({', '.join(earlier[:3])}{', ...' if len(earlier) > 3 else ''}); "
@@ -379,12 +380,23 @@ def _worst_bags(result: Any, folder: Path, overwrite: bool) -> list[Path]:
     from sim.pipeline.simulate import track
 
     spec, draws, out = result.spec, result.spec.draws(), []
+    earlier = _earlier_bags(folder)
     for worst in result.stats.get("closed_loop", {}).get("worst", []):
         case = spec.case_of(draws[worst["index"]])
         prep = prepare_trajectory(case) if spec.replan else replace(result.prepared, case=case)
         job = track(prep, DEFAULT_RUNS, strict=False)
         out.append(write_job_bag(job, folder / f"worst-{worst['index']}", overwrite=overwrite).path)
+    for stale in set(earlier) - {path.resolve() for path in out}:  # an earlier study's worst runs, not this one's
+        shutil.rmtree(stale)
     return out
+
+
+def _earlier_bags(folder: Path) -> list[Path]:
+    """The bags nhsim wrote in ``folder`` as a study's worst runs (``worst-<index>`` folders; other files kept)."""
+    from sim.io.bag import not_ours
+
+    found = folder.glob("worst-*") if folder.is_dir() else []
+    return sorted(p.resolve() for p in found if p.is_dir() and not p.is_symlink() and not not_ours(p))
 
 
 class _bar:

@@ -83,6 +83,10 @@ class BagSummary:
         }
 
 
+#: Names of a bag's files, not of the folder a ROS 2 bag is (an MCAP or sqlite3 storage file, a ROS 1 bag).
+BAG_FILE_SUFFIXES = (".mcap", ".db3", ".bag")
+
+
 def check_bag_target(path: Path, *, overwrite: bool) -> None:
     """Check, before any work, that a bag can be written at ``path`` (a folder to be created).
 
@@ -97,6 +101,12 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
 
     overwrite = check_flag("overwrite", overwrite)
     path = Path(path)
+    if path.suffix.lower() in BAG_FILE_SUFFIXES:
+        folder = str(path.with_suffix(""))
+        raise ConfigError(
+            f"cannot write the bag {path}: a ROS 2 bag is a folder (its metadata.yaml beside its storage file), and "
+            f"{path.name} names a file; give the folder's name, e.g. {option('bag', folder, python='path')}"
+        )
     if path.exists() or path.is_symlink():
         if not path.is_dir():
             raise ConfigError(
