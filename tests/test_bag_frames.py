@@ -203,3 +203,26 @@ def test_the_map_has_the_walls_and_the_scans_land_on_it(bag: tuple[Any, dict[str
         near.append(far[row, col] <= 0.03 + 0.05 * r[i])  # the LDS-01's accuracy: 5 % of the range
     hits = np.concatenate(near)
     assert hits.size > 1000 and hits.mean() > 0.85  # 0.91 (none without the walls)
+
+
+def test_the_wheel_links_are_the_urdfs_rolled_frames_turned_by_the_joints(bag: tuple[Any, dict[str, Any]]) -> None:
+    """The TurtleBot3 URDF's wheel joints roll their frames by -1.57 rad about x and turn them about their z: the
+    wheel links were turned about y alone (the roll missing), so ROBOTIS's wheel meshes lay flat in RViz."""
+    from scipy.spatial.transform import Rotation
+
+    job, msgs = bag
+    kind = RunKind.CLOSED_LOOP
+    log = job.logs[kind]
+    wheels = bt.skeleton("turtlebot3").wheels
+    rotations = {"left": [], "right": []}
+    for _, x in msgs["/tf"]:
+        for tf in x.transforms:
+            for side in rotations:
+                if tf.child_frame_id == f"{kind}/wheel_{side}_link":
+                    r = tf.transform.rotation
+                    rotations[side].append([r.x, r.y, r.z, r.w])
+    for j, side in enumerate(("left", "right")):
+        got = Rotation.from_quat(np.array(rotations[side]))
+        # robot_state_publisher: the joint's origin (rpy -1.57 0 0), then the angle about the joint's axis (0 0 1)
+        urdf = Rotation.from_euler("x", -1.57) * Rotation.from_rotvec(np.outer(log.qpos[:, wheels[j]], [0, 0, 1]))
+        assert np.max((got.inv() * urdf).magnitude()) < 1e-9

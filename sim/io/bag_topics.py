@@ -16,8 +16,8 @@ message is stamped at the time its data was taken: an estimate, a fix or a scan 
 sensor readings it is based on (one physics step before the control instant: :func:`sensed_at`), and
 ``ground_truth/odom`` has the true pose at those times besides the logged samples, so that an
 estimate's error against the truth at its stamp is the run record's. ``base_footprint -> base_link``
-is the body's height, pitch and roll from the physics (a balancing robot leans); the wheels turn by
-their joint angles.
+is the body's height, pitch and roll from the physics (a balancing robot leans); the wheel links are
+the TurtleBot3 URDF's (rolled by -1.57 rad about x) turned by their joint angles about their z.
 
 Per run (namespace ``/RUN``): ``odom`` (what the run believed, with its covariance), ``ground_truth/odom``,
 ``joint_states``, ``imu`` (what the robot's gyro and accelerometer read, their noise included, with the
@@ -53,6 +53,10 @@ MAP_MAX_CELLS = 1_000_000
 ROBOT_HEIGHT = 0.12
 GRAVITY = 9.80665
 WHEELS = ("wheel_left", "wheel_right")
+#: A wheel link's fixed roll in base_link, (w, x, y, z): the TurtleBot3 URDF's ``wheel_*_joint`` roll their frames by
+#: ``rpy="-1.57 0 0"`` and turn the wheels about the rolled frames' z (base_link's y, to 0.8 mrad), so that ROBOTIS's
+#: wheel meshes stand upright.
+WHEEL_ROLL = np.array([np.cos(-0.785), np.sin(-0.785), 0.0, 0.0])
 #: The model's site of the IMU (``RUN/imu_link``).
 IMU_SITE = "imu"
 #: The model's site of ROS's ``base_link`` (``RUN/base_link``; the base body's origin in a model without one).
@@ -429,8 +433,9 @@ def _tf_series(log: Any, sk: Skeleton, frames: dict[str, str], odo: FloatArray) 
         ("base_footprint", "base_link", lift, tilt),
     ]
     for j, wheel in enumerate(("wheel_left_link", "wheel_right_link")):
-        spin = np.column_stack([zero, np.sin(half[:, j]), zero, np.cos(half[:, j])])
-        links.append(("base_link", wheel, flat + sk.wheel_pos[j], spin))
+        spin = np.column_stack([np.cos(half[:, j]), zero, zero, np.sin(half[:, j])])  # (w, x, y, z) about the z
+        wxyz = _quat_mul(np.tile(WHEEL_ROLL, (t.size, 1)), spin)  # of the rolled frame, as robot_state_publisher
+        links.append(("base_link", wheel, flat + sk.wheel_pos[j], wxyz[:, [1, 2, 3, 0]]))
     links += [
         ("map", "ground_truth/base_footprint", np.column_stack([truth[:, :2], zero]), yaw_quats(truth[:, 2])),
         ("ground_truth/base_footprint", "ground_truth/base_link", lift, tilt),
