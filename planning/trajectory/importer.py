@@ -653,12 +653,48 @@ def _replace(
     )
 
 
+#: A recording's stamps are read on a steady clock when they scatter about one by at most this fraction of its
+#: period (rms), and none by half a period or more.
+JITTER_RMS_FRACTION = 0.3
+#: Scatter [s] below which stamps are a steady clock's already (a float's rounding, a text file's digits).
+STEADY_CLOCK = 1e-6
+
+
+def steady_clock(t: FloatArray, report: ImportReport) -> FloatArray:
+    """The stamps ``t`` (N,) [s] of a recording made at a steady rate, read on that clock: each at its tick of the
+    clock fitted to them (least squares over the tick numbers, so a dropped message leaves its gap), when they
+    scatter about it by at most :data:`JITTER_RMS_FRACTION` of its period rms and none by half a period; else as
+    they are (a file timed otherwise: a planner's knots, an event-driven log).
+
+    A driver stamps its messages when it gets to them, a few milliseconds late or early: 3 ms of scatter on a
+    30 Hz odometry made speed steps of 10 % between rows and accelerations the motion never had, so the file was
+    re-timed instead of keeping its clock. The note says the scatter and the clock's rate."""
+    if t.size < 10:
+        return t
+    # ticks from one stamp to the next: one, or more where messages were dropped (a stamp late by most of a period
+    # and the next one early still make one tick; a clock that is not steady fails the scatter's test below)
+    steps = np.maximum(1.0, np.rint(np.diff(t) / np.median(np.diff(t))))
+    ticks = np.concatenate([[0.0], np.cumsum(steps)])
+    basis = np.column_stack([np.ones_like(ticks), ticks])
+    (start, step), *_ = np.linalg.lstsq(basis, t, rcond=None)
+    scatter = t - (start + step * ticks)
+    rms, worst = float(np.sqrt(np.mean(scatter**2))), float(np.max(np.abs(scatter)))
+    if worst < STEADY_CLOCK or rms > JITTER_RMS_FRACTION * step or worst >= 0.5 * step:
+        return t
+    report.notes.append(
+        f"time stamps scattered by {rms * 1e3:.3g} ms rms (at most {worst * 1e3:.3g} ms) about a steady "
+        f"{1.0 / step:.4g} Hz clock: read on that clock (differentiated, the scatter made accelerations the motion "
+        "did not have)"
+    )
+    return np.asarray(start + step * ticks)
+
+
 def _timed(
     source: TrajectoryFile, rows: tuple[str, ...], cols: dict[str, FloatArray], report: ImportReport
 ) -> ImportedFile:
     """A timed file's interpolant: given derivatives where they agree with the positions, else the
     positions' own; headings and yaw rates checked."""
-    t, xy = cols["t"], cols["xy"]
+    t, xy = steady_clock(cols["t"], report), cols["xy"]
     if t[-1] - t[0] > MAX_DURATION:
         raise TrajectoryFileError(_too_long(report.file, t[-1] - t[0], source.time_scale or 1.0))
     direction = _directions(cols)
