@@ -41,11 +41,13 @@ def test_scattered_stamps_with_a_dropped_message_are_read_on_their_clock() -> No
     assert re.search(r"about a steady 30(\.0\d)? Hz clock: read on that clock", report.notes[0])
 
 
-@pytest.mark.parametrize("kind", ["steady", "irregular", "too few"])
+@pytest.mark.parametrize("kind", ["steady", "steady, its last row early", "irregular", "too few"])
 def test_stamps_of_no_scattered_steady_clock_are_kept(kind: str) -> None:
     rng = np.random.default_rng(5)
     if kind == "steady":
         stamps = np.arange(200) / RATE
+    elif kind == "steady, its last row early":  # a reference sampled every 20 ms to its end, 13 ms after the last
+        stamps = np.append(np.arange(200) * 0.02, 199 * 0.02 + 0.013)
     elif kind == "irregular":  # an event-driven log: intervals of 0.5 to 1.5 periods, a random walk off any clock
         stamps = np.cumsum(rng.uniform(0.5, 1.5, 200)) / RATE
     else:

@@ -671,9 +671,12 @@ def steady_clock(t: FloatArray, report: ImportReport) -> FloatArray:
     re-timed instead of keeping its clock. The note says the scatter and the clock's rate."""
     if t.size < 10:
         return t
+    intervals = np.diff(t)
+    if np.median(np.abs(intervals - np.median(intervals))) < STEADY_CLOCK:  # most on a clock already: an interval
+        return t  # off it (a last row at the motion's end, a pause) is the file's own
     # ticks from one stamp to the next: one, or more where messages were dropped (a stamp late by most of a period
     # and the next one early still make one tick; a clock that is not steady fails the scatter's test below)
-    steps = np.maximum(1.0, np.rint(np.diff(t) / np.median(np.diff(t))))
+    steps = np.maximum(1.0, np.rint(intervals / np.median(intervals)))
     ticks = np.concatenate([[0.0], np.cumsum(steps)])
     basis = np.column_stack([np.ones_like(ticks), ticks])
     (start, step), *_ = np.linalg.lstsq(basis, t, rcond=None)
