@@ -47,6 +47,7 @@ from planning.core.world import (
     Obstacle,
     Polygon,
     World,
+    lies_outside,
     too_thin,
 )
 from planning.errors import ConfigError, ScenarioError, option
@@ -318,6 +319,7 @@ def _world(r: TableReader, table: Any, base_dir: Path) -> World:
             f"{max(o.bounding_box()[1] for o in mapped):g}, y {min(o.bounding_box()[2] for o in mapped):g}.."
             f"{max(o.bounding_box()[3] for o in mapped):g}); check its origin and resolution"
         )
+    mapped = [ob for ob in mapped if not _outside(ob, bounds)]  # the map's part beyond the walls: cropped
     return World(bounds, (*obstacles, *mapped))
 
 
@@ -350,8 +352,7 @@ def _check_obstacles(
 
 def _outside(ob: Obstacle, bounds: tuple[float, float, float, float]) -> bool:
     """Whether obstacle ``ob`` lies wholly outside ``bounds`` (xmin, xmax, ymin, ymax): it could never be met."""
-    bx0, bx1, by0, by1 = ob.bounding_box()
-    return bx1 <= bounds[0] or bx0 >= bounds[1] or by1 <= bounds[2] or by0 >= bounds[3]
+    return bool(lies_outside(ob, bounds))
 
 
 def _check_free(r: TableReader, world: World, label: str, pose: Pose2D) -> None:

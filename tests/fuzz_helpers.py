@@ -308,7 +308,7 @@ def crowded_worlds(draw: st.DrawFn, min_obstacles: int = 20, max_obstacles: int 
     The obstacles are drawn from a seeded generator (one drawn seed and count: Hypothesis shrinks
     those, not hundreds of coordinates).
     """
-    from planning.core.world import MIN_FEATURE, Box, Circle, Ellipse, Polygon, World
+    from planning.core.world import MIN_FEATURE, Box, Circle, Ellipse, Polygon, World, lies_outside
 
     n = draw(st.integers(min_obstacles, max_obstacles), label="obstacles")
     seed = draw(st.integers(0, 2**32 - 1), label="seed")
@@ -339,4 +339,5 @@ def crowded_worlds(draw: st.DrawFn, min_obstacles: int = 20, max_obstacles: int 
                 obstacles.append(poly if poly.min_feature >= MIN_FEATURE else Circle(c, a))
             except NhsimError:  # a degenerate draw (three nearly collinear vertices): a circle instead
                 obstacles.append(Circle(c, a))
-    return World((float(x0), float(x0 + w), float(y0), float(y0 + h)), tuple(obstacles))
+    bounds = (float(x0), float(x0 + w), float(y0), float(y0 + h))
+    return World(bounds, tuple(ob for ob in obstacles if not lies_outside(ob, bounds)))  # a world takes none beyond

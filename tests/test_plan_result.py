@@ -14,9 +14,9 @@ def test_a_valid_result_keeps_its_arrays() -> None:
         PlanStatus.SUCCESS, "p", path=PATH, times=t, controls=np.ones((5, 2)), directions=-np.ones(5),
         states=np.zeros((5, 4)),
     )  # fmt: skip
-    # float arrays are kept as they are, not copied, behind read-only views: the result is frozen, and an edit
-    # of its path would reach every record holding it (the job's trajectory, its JSON, its bag)
-    assert np.shares_memory(res.path, PATH) and res.times is not None and np.shares_memory(res.times, t)
+    # the result's own read-only copies: it is frozen, and an edit of its path (or of the caller's array, re-used
+    # for the next plan) would reach every record holding it (the job's trajectory, its JSON, its bag)
+    assert not np.shares_memory(res.path, PATH) and res.times is not None and not np.shares_memory(res.times, t)
     assert not res.path.flags.writeable and not res.times.flags.writeable and PATH.flags.writeable
     with pytest.raises(ValueError, match="read-only"):
         res.path[0, 0] = 5.0

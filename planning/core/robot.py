@@ -13,7 +13,7 @@ import functools
 import math
 import os
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
@@ -34,9 +34,13 @@ ROBOT_FILES: dict[str, str] = {
 }
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class RobotSpec:
     """What planners and trackers know about a differential-drive robot.
+
+    Two specs are equal when every field is (the footprint's vertices compared exactly,
+    ``np.array_equal``): ``load_robot(name)`` twice gives equal specs. A spec hashes by its scalar fields,
+    so equal specs hash alike and it can key a dict or a cache.
 
     Attributes:
         name: Registry name ("turtlebot3", "edumip").
@@ -77,6 +81,18 @@ class RobotSpec:
     mass: float = 0.0
     footprint_pitch: float = 0.0
     battery_voltage: float = 0.0
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, RobotSpec) or other.__class__ is not self.__class__:
+            return NotImplemented
+        return self._scalars() == other._scalars() and np.array_equal(self.footprint, other.footprint)
+
+    def __hash__(self) -> int:
+        return hash(self._scalars())
+
+    def _scalars(self) -> tuple[object, ...]:
+        """Every field but the footprint (an array: compared apart, and left out of the hash)."""
+        return tuple(getattr(self, f.name) for f in fields(self) if f.name != "footprint")
 
     @functools.cached_property
     def radius(self) -> float:

@@ -10,6 +10,7 @@ import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
 from planning.core.checks import check_number, degrees_hint
@@ -38,9 +39,11 @@ class Scenario:
         planner: The planner this scenario is meant for by default, if any.
         robots: Robots the scenario suits (defaults to ``(robot,)``).
         planner_options: Planner name -> keyword options for that planner in this scenario (the
-            ``[planners.<name>]`` tables).
+            ``[planners.<name>]`` tables); a read-only copy of the mappings given, so an edit of those after
+            the scenario was checked does not reach it.
         sensors: Overrides of the robot's sensor profile in this scenario (the ``[sensors]`` table,
-            e.g. ``fix_rate = 5.0``); its keys are checked by the simulator against the profile.
+            e.g. ``fix_rate = 5.0``); its keys are checked by the simulator against the profile. A read-only
+            copy, as ``planner_options``.
         source: The file it was loaded from, if any.
         unmapped: Obstacles that exist in physics and in the laser scan but not in ``world``, the map
             the planner and the localiser use (the ``[[world.unmapped]]`` tables).
@@ -96,6 +99,9 @@ class Scenario:
             )
         object.__setattr__(self, "robots", robots or (self.robot,))
         _check_tables(self.planner_options, self.sensors)
+        options = {name: MappingProxyType(dict(table)) for name, table in self.planner_options.items()}
+        object.__setattr__(self, "planner_options", MappingProxyType(options))
+        object.__setattr__(self, "sensors", MappingProxyType(dict(self.sensors)))
         if self.source is not None:
             if not isinstance(self.source, str | os.PathLike):
                 raise ConfigError(
@@ -109,6 +115,16 @@ class Scenario:
                     f"Scenario.unmapped[{i}] must be an obstacle (Circle, Ellipse, Box or Polygon), got {ob!r:.80}"
                 )
         object.__setattr__(self, "unmapped", unmapped)
+
+    def __getstate__(self) -> dict[str, Any]:  # a read-only mapping does not pickle; its dict does
+        options = {name: dict(table) for name, table in self.planner_options.items()}
+        return {**self.__dict__, "planner_options": options, "sensors": dict(self.sensors)}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        options = {name: MappingProxyType(table) for name, table in state["planner_options"].items()}
+        self.__dict__.update(
+            state, planner_options=MappingProxyType(options), sensors=MappingProxyType(state["sensors"])
+        )
 
     def with_robot(self, robot: str) -> Scenario:
         """The same scenario for another robot.

@@ -346,6 +346,19 @@ def too_thin(ob: Obstacle) -> str:
     )
 
 
+def lies_outside(ob: Obstacle, bounds: tuple[float, float, float, float]) -> str:
+    """Why ``ob`` cannot be in a world of ``bounds`` (xmin, xmax, ymin, ymax) [m], as "lies wholly outside the
+    world bounds ...; move it inside, or remove it" (it could never be met: a typo, centimetres for metres?); ""
+    when some of it lies inside (its bounding box overlaps the bounds)."""
+    bx0, bx1, by0, by1 = ob.bounding_box()
+    if not (bx1 <= bounds[0] or bx0 >= bounds[1] or by1 <= bounds[2] or by0 >= bounds[3]):
+        return ""
+    return (
+        f"lies wholly outside the world bounds {list(bounds)} (its box spans x {bx0:g}..{bx1:g}, y {by0:g}..{by1:g}); "
+        "move it inside, or remove it"
+    )
+
+
 #: Longest side of a world [m]: the sampling planners' reach and every grid grow with it.
 MAX_WORLD_SIDE = 1000.0
 
@@ -356,7 +369,12 @@ class World:
 
     Attributes:
         bounds: (xmin, xmax, ymin, ymax) [m].
-        obstacles: The obstacles.
+        obstacles: The obstacles, each at least partly inside the bounds.
+
+    Raises:
+        ConfigError: Bounds that are not 4 finite numbers with xmin < xmax and ymin < ymax (at most
+            :data:`MAX_WORLD_SIDE` a side), or an obstacle that is not one, lies wholly outside the bounds
+            (:func:`lies_outside`) or is too thin (:func:`too_thin`); the message names the obstacle's index.
     """
 
     bounds: tuple[float, float, float, float]
@@ -389,7 +407,7 @@ class World:
             if not isinstance(ob, Obstacle):
                 raise ConfigError(f"obstacle {i} must be a Circle, Ellipse, Box or Polygon, got {ob!r}")
         for i, ob in enumerate(self.obstacles):
-            if why := too_thin(ob):
+            if why := lies_outside(ob, b) or too_thin(ob):
                 raise ConfigError(f"obstacle {i} ({ob.kind}) {why}")
 
     @property

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 import time
 from dataclasses import dataclass, field
 from enum import StrEnum
@@ -36,7 +37,8 @@ class PlanStatus(StrEnum):
 
 @dataclass(frozen=True)
 class PlanProblem:
-    """What a planner is asked to solve.
+    """What a planner is asked to solve. Problems compare and hash by value (the robot's footprint too:
+    :class:`~planning.core.robot.RobotSpec`), so one made twice from a scenario equals itself.
 
     Attributes:
         world: Bounds and obstacles.
@@ -109,19 +111,58 @@ def checked_problem(problem: object) -> PlanProblem:
     return problem
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class PlanTree:
     """A search tree for plotting: nodes (M, 3) poses, parent index per node (-1 at roots),
-    and optionally the dense edge curves (list of (k, 2) arrays)."""
+    and optionally the dense edge curves (list of (k, 2) arrays).
+
+    Trees are equal when their arrays are (:func:`same_value`); a tree holds arrays, so it is not hashable.
+    """
 
     nodes: FloatArray
     parents: NDArray[np.int64]
     edges: tuple[FloatArray, ...] = ()
 
+    __hash__ = None  # type: ignore[assignment]
+
+    def __eq__(self, other: object) -> bool:
+        return same_fields(self, other)
+
+    def __repr__(self) -> str:
+        return f"PlanTree({np.shape(self.nodes)[0]} nodes, {len(self.edges)} edges)"
+
+
+def same_value(a: Any, b: Any) -> bool:
+    """Whether two field values are equal: arrays element by element (NaN equal to NaN, shapes too), tuples,
+    lists and dicts item by item, anything else by ``==`` (a value whose ``==`` is not a truth is not equal)."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        try:
+            return bool(np.array_equal(a, b, equal_nan=True))
+        except TypeError:  # NaN has no meaning for text or objects
+            return bool(np.array_equal(a, b))
+    if isinstance(a, (tuple, list)) and isinstance(b, (tuple, list)):
+        return type(a) is type(b) and len(a) == len(b) and all(same_value(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(same_value(a[k], b[k]) for k in a)
+    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
+        return True
+    try:
+        return bool(a == b)
+    except (TypeError, ValueError):
+        return False
+
+
+def same_fields(a: Any, b: Any) -> bool:
+    """``a == b`` for two dataclasses of one class, field by field with :func:`same_value` (the fields that
+    compare); ``NotImplemented`` when ``b`` is of another class."""
+    if b.__class__ is not a.__class__:
+        return NotImplemented
+    return all(same_value(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a) if f.compare)
+
 
 def _float_array(name: str, value: object, shape: tuple[int | None, ...]) -> FloatArray:
     """``value`` as a finite float array of ``shape`` (None: any size), else ValueError naming the field."""
-    arr = np.asarray(value, dtype=float)
+    arr = np.array(value, dtype=float)  # the result's own copy: the caller's buffer may be re-used
     fits = arr.ndim == len(shape) and all(want in (None, got) for got, want in zip(arr.shape, shape, strict=False))
     expected = ", ".join("any" if want is None else str(want) for want in shape)
     problem = "" if fits else f"must have shape ({expected}) (one row per path pose), got {arr.shape}"
@@ -129,14 +170,18 @@ def _float_array(name: str, value: object, shape: tuple[int | None, ...]) -> Flo
         problem = "holds non-finite values"
     if problem:
         raise ValueError(f"PlanResult.{name} {problem}")
-    view = arr.view()  # read-only, as the frozen result is: a caller's edit would reach every record holding it
-    view.flags.writeable = False
-    return view
+    arr.flags.writeable = False  # read-only, as the frozen result is: an edit would reach every record holding it
+    return arr
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class PlanResult:
     """The outcome of a planning attempt; failure is a status with a reason, never ``None``.
+
+    The arrays are the result's own read-only copies (a caller's later edit of the arrays it gave cannot
+    change the result). Results are equal when every field is (:func:`same_value`: arrays element by element,
+    the stats item by item); a result's stats are a dict the commands add to, so it is not hashable. Its repr is
+    one short line (status, planner, the path's size and length, time, reason), not its arrays.
 
     Attributes:
         status: How it ended.
@@ -189,6 +234,27 @@ class PlanResult:
             object.__setattr__(self, "raw_path", _float_array("raw_path", self.raw_path, (None, 3)))
         if self.directions is not None and not (np.abs(self.directions) == 1.0).all():
             raise ValueError("PlanResult.directions must hold +1 (forwards) or -1 (backwards) per pose")
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __eq__(self, other: object) -> bool:
+        return same_fields(self, other)
+
+    def __repr__(self) -> str:
+        parts = [self.status.value, f"planner={self.planner!r}", f"path={self.path.shape[0]} poses"]
+        if self.path.shape[0]:
+            parts.append(f"length={self.length():.3f} m")
+        if isinstance(time_s := self.stats.get("time_s"), numbers.Real):
+            parts.append(f"time_s={float(time_s):.3f}")
+        timed = [name for name in ("times", "states", "raw_path") if getattr(self, name) is not None]
+        if timed:
+            parts.append(f"with {', '.join(timed)}")
+        if self.tree is not None:
+            parts.append(f"tree of {np.shape(self.tree.nodes)[0]} nodes")
+        if self.reason:
+            reason = self.reason if len(self.reason) <= 80 else self.reason[:77] + "..."
+            parts.append(f"reason={reason!r}")
+        return f"PlanResult({', '.join(parts)})"
 
     @property
     def success(self) -> bool:

@@ -114,7 +114,7 @@ class TrajectorySamples:
 def _as_2d(name: str, value: ArrayLike, n: int, cols: int, rows: str = "") -> FloatArray:
     """``value`` as an (n, cols) float array of finite values, else a ConfigError naming ``Trajectory.<name>``
     (and, with ``rows``, what its rows hold)."""
-    arr = np.asarray(value, dtype=float)
+    arr = np.array(value, dtype=float)  # a copy: the trajectory's arrays are its own
     if arr.shape != (n, cols):
         said = f" ({rows})" if rows else ""
         raise ConfigError(f"Trajectory.{name} must have shape ({n}, {cols}){said}, got {arr.shape}")
@@ -123,11 +123,15 @@ def _as_2d(name: str, value: ArrayLike, n: int, cols: int, rows: str = "") -> Fl
     return arr
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Trajectory:
     """A reference trajectory sampled at N instants.
 
-    The heading column is stored unwrapped (continuous), so interpolation never jumps by 2*pi.
+    The heading column is stored unwrapped (continuous), so interpolation never jumps by 2*pi. The arrays are
+    the trajectory's own read-only copies: the caller's arrays stay as they were (writeable), and a later edit
+    of them does not reach the trajectory. Trajectories are equal when their names, segment kinds and arrays
+    are (``np.array_equal``); the hash is of the name, the size and the span, so equal ones hash alike. The repr
+    is one short line (name, samples, span, segments), not the arrays.
 
     Attributes:
         t: (N,) strictly increasing times [s].
@@ -155,7 +159,7 @@ class Trajectory:
     _cache: dict[str, FloatArray] = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        t = np.asarray(self.t, dtype=float)
+        t = np.array(self.t, dtype=float)
         if t.ndim != 1 or t.size < 2:
             raise ConfigError(f"Trajectory.t must be a 1-D array of at least 2 times, got shape {t.shape}")
         if not np.all(np.isfinite(t)):
@@ -166,7 +170,7 @@ class Trajectory:
             bad = int(np.argmax(np.diff(t) <= 0.0))
             raise ConfigError(f"Trajectory.t must be strictly increasing; t[{bad + 1}] <= t[{bad}]")
         n = t.size
-        pose = _as_2d("pose", self.pose, n, 3).copy()
+        pose = _as_2d("pose", self.pose, n, 3)
         pose[:, 2] = np.unwrap(pose[:, 2])
         object.__setattr__(self, "t", t)
         object.__setattr__(self, "pose", pose)
@@ -190,6 +194,28 @@ class Trajectory:
             seg.setflags(write=False)
             object.__setattr__(self, "segments", seg)
             object.__setattr__(self, "segment_kinds", kinds)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Trajectory) or other.__class__ is not self.__class__:
+            return NotImplemented
+        if (self.name, tuple(self.segment_kinds)) != (other.name, tuple(other.segment_kinds)):
+            return False
+        mine, theirs = (self.t, self.pose, self.vel, self.acc), (other.t, other.pose, other.vel, other.acc)
+        if not all(np.array_equal(a, b) for a, b in zip(mine, theirs, strict=True)):
+            return False
+        if self.segments is None or other.segments is None:
+            return self.segments is other.segments
+        return np.array_equal(self.segments, other.segments)
+
+    def __hash__(self) -> int:
+        return hash((self.name, self.t.size, float(self.t[0]), float(self.t[-1])))
+
+    def __repr__(self) -> str:
+        segments = "" if self.segments is None else f", {len(self.segment_kinds)} segments"
+        return (
+            f"Trajectory({self.name!r}, {self.t.size} samples, t {float(self.t[0]):g}..{float(self.t[-1]):g} s, "
+            f"{self.path_length():.3f} m{segments})"
+        )
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -312,11 +338,22 @@ class Trajectory:
             The reference at the M times, one (M,) array per quantity.
 
         Raises:
-            ConfigError: ``times`` is not 1-D.
+            ConfigError: ``times`` is not 1-D, or holds a time that is not finite (NaN or infinite: the
+                caller's clock is at fault; the message names the first such time and its index).
         """
         tq_asked = np.array(times, dtype=float)
         if tq_asked.ndim != 1:
             raise ConfigError(f"Trajectory.sample_many: times must be a 1-D array (M,), got shape {tq_asked.shape}")
+        if not np.isfinite(tq_asked).all():
+            k = int(np.argmin(np.isfinite(tq_asked)))
+            raise ConfigError(
+                f"Trajectory.sample_many was given a non-finite time times[{k}]={tq_asked[k]} s: the reference is "
+                "sampled at finite times [s]; the caller's clock is at fault"
+            )
+        return self._interpolate(tq_asked)
+
+    def _interpolate(self, tq_asked: FloatArray) -> TrajectorySamples:
+        """:meth:`sample_many` at (M,) finite times [s] (a new array, made read-only here)."""
         tq_asked.setflags(write=False)
         tq = np.clip(tq_asked, self.t[0], self.t[-1])
         table = self._table()
@@ -328,8 +365,21 @@ class Trajectory:
         return TrajectorySamples(tq_asked, *rows)
 
     def sample(self, t: float) -> TrajectorySample:
-        """Interpolate the reference at one time (clamped to the span)."""
-        return self.sample_many(np.array([t])).at(0)
+        """Interpolate the reference at one time (clamped to the span).
+
+        Raises:
+            ConfigError: ``t`` is not finite (NaN or infinite: the caller's clock is at fault).
+        """
+        try:
+            finite = math.isfinite(t)
+        except TypeError:  # not one number: sample_many says what it cannot use
+            return self.sample_many(np.array([t])).at(0)
+        if not finite:
+            raise ConfigError(
+                f"Trajectory.sample was given a non-finite time t={t} s: the reference is sampled at a finite "
+                "time [s]; the caller's clock is at fault"
+            )
+        return self._interpolate(np.array([t], dtype=float)).at(0)
 
     def path_length(self) -> float:
         """Length of the x-y path [m]."""
