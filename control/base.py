@@ -87,7 +87,9 @@ def register_tracker(
             (imported when first used).
         baseline: A player without feedback (like "open-loop"): left out of ``compare``'s default set
             and not held to the robot's limits by the tests.
-        replace: Replace a tracker already registered under ``name`` (a built-in one too).
+        replace: Replace a tracker already registered under ``name`` (a built-in one too). Not needed for a
+            redefinition of the registered class (the same module and qualified name: a notebook cell that
+            defines and registers it, run again), which replaces it (:func:`planning.core.plugins.redefines`).
 
     Raises:
         ConfigError: A bad name or target, a factory whose ``TUNED`` names an option it does not take

@@ -14,14 +14,19 @@ A gains file holds one gain set and where it came from::
     scenarios = ["open:figure8", "open:circle"]
 
 ``[gains]`` is required with ``kp`` and ``kd``; ``xi_min`` defaults to the tracker's default.
-``[provenance]`` is free-form (strings, numbers, booleans, lists and tables of those) but its
-``study`` must be a string, ``objective`` a finite number and ``scenarios`` a list of strings.
+``[provenance]`` is free-form (strings, finite numbers, booleans, dates and times, lists and tables of
+those) but its ``study`` must be a string, ``objective`` a finite number and ``scenarios`` a list of
+strings. What :func:`dump_gains_toml` writes, :func:`parse_gains_toml` reads back equal (a tuple as a list).
 """
 
 from __future__ import annotations
 
+import datetime
 import math
+import numbers
+import re
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -71,6 +76,11 @@ class FBLGains:
 
 GAIN_KEYS = ("kp", "kd", "xi_min")
 
+#: A key TOML takes bare (unquoted).
+BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+#: What a provenance value may be besides text, numbers, lists and tables: TOML's dates and times.
+TOML_TIMES = (datetime.datetime, datetime.date, datetime.time)
+
 
 @dataclass(frozen=True)
 class GainsFile:
@@ -78,11 +88,74 @@ class GainsFile:
 
     Attributes:
         gains: The FBL gains.
-        provenance: Study name, objective value, scenarios and whatever else the writer recorded.
+        provenance: Study name, objective value, scenarios and whatever else the writer recorded: a dict with text
+            keys whose values are what a TOML file holds (text, booleans, integers, finite floats, dates and times,
+            lists and dicts of those), so that :func:`dump_gains_toml` can write it.
+
+    Raises:
+        ConfigError: ``gains`` is not an :class:`FBLGains`, or ``provenance`` is not such a dict (the message names
+            the entry and what it holds).
     """
 
     gains: FBLGains
     provenance: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.gains, FBLGains):
+            shown = "FBLGains(kp=9.0, kd=6.0)"
+            if isinstance(self.gains, Mapping) and all(isinstance(k, str) and k.isidentifier() for k in self.gains):
+                shown = f"FBLGains({', '.join(f'{k}={v!r}' for k, v in self.gains.items())})"
+            raise ConfigError(
+                f"GainsFile.gains must be an FBLGains: pass {shown}, got {type(self.gains).__name__} {self.gains!r:.80}"
+            )
+        if not isinstance(self.provenance, Mapping):
+            raise ConfigError(
+                "GainsFile.provenance must be a dict of what the gains came from, e.g. {'study': 'fbl-figure8'}, got "
+                f"{type(self.provenance).__name__} {self.provenance!r:.80}"
+            )
+        check_provenance("GainsFile.provenance", self.provenance)
+        object.__setattr__(self, "provenance", dict(self.provenance))
+
+
+def check_provenance(where: str, value: object) -> None:
+    """Refuse a provenance entry a TOML file cannot hold (:func:`dump_gains_toml` writes every other): a key that is
+    not text, text that is not Unicode (a lone surrogate), a non-finite number, None or any other object.
+
+    Args:
+        where: The entry, as the message names it (``GainsFile.provenance['note']``).
+        value: What it holds (a table is checked entry by entry, a list item by item).
+
+    Raises:
+        ConfigError: Naming the first entry that cannot be written, what it holds and what it may hold.
+    """
+    if isinstance(value, Mapping):
+        for key, item in value.items():
+            if not isinstance(key, str):
+                raise ConfigError(f"{where}: the key {key!r:.80} must be text (a TOML key), got {type(key).__name__}")
+            check_provenance(f"{where}[{key!r}]", item)
+        return
+    if isinstance(value, list | tuple):
+        for i, item in enumerate(value):
+            check_provenance(f"{where}[{i}]", item)
+        return
+    wrong = ""
+    if isinstance(value, str):
+        try:
+            value.encode("utf-8")
+        except UnicodeEncodeError:
+            wrong = "text that is not Unicode (a lone surrogate), which no TOML file holds"
+    elif isinstance(value, numbers.Real) and not isinstance(value, numbers.Integral):
+        if not math.isfinite(value):
+            wrong = f"the non-finite number {value!r}"
+    elif isinstance(value, datetime.time) and value.tzinfo is not None:
+        wrong = f"the time {value.isoformat()} with an offset, which TOML's times (local ones) have not"
+    elif not isinstance(value, (bool, numbers.Integral, *TOML_TIMES)):
+        wrong = f"{type(value).__name__} {value!r:.80}"
+    if wrong:
+        raise ConfigError(
+            f"{where} holds {wrong}; a gains file's provenance holds text, booleans, integers, finite numbers, dates "
+            "and times, and lists and tables of those"
+        )
 
 
 def parse_gains_toml(text: str, *, where: str = "gains file") -> GainsFile:
@@ -138,6 +211,7 @@ def parse_gains_toml(text: str, *, where: str = "gains file") -> GainsFile:
         sc = prov["scenarios"]
         if not (isinstance(sc, list) and all(isinstance(s, str) for s in sc)):
             raise ConfigError(f"{where}: [provenance] scenarios must be a list of strings, got {sc!r}")
+    check_provenance(f"{where}: provenance", prov)
     return GainsFile(FBLGains(**values), dict(prov))
 
 
@@ -175,30 +249,63 @@ def resolve_gains(text: str, folder: Path | None = None) -> FBLGains:
     return FBLGains.parse(text)
 
 
+#: The escapes of a TOML basic string besides ``\\uXXXX``, which writes every other control character.
+TOML_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+
+
+def toml_string(text: str) -> str:
+    """``text`` as a TOML basic string: quoted, with the quote, the backslash and every control character
+    (U+0000 to U+001F, U+007F) escaped, as TOML requires (a raw one is an invalid file)."""
+    out = []
+    for ch in text:
+        if ch in TOML_ESCAPES:
+            out.append(TOML_ESCAPES[ch])
+        elif ch < " " or ch == "\x7f":
+            out.append(f"\\u{ord(ch):04X}")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
+
+
 def _toml_value(value: Any) -> str:
+    """A provenance value (checked: :func:`check_provenance`) as TOML."""
     if isinstance(value, bool):
         return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        if not math.isfinite(value):
+    if isinstance(value, numbers.Integral):
+        return str(int(value))
+    if isinstance(value, numbers.Real):
+        number = float(value)
+        if not math.isfinite(number):
             raise ConfigError(f"cannot write a non-finite number {value!r} to a gains file")
-        return repr(value)
+        return repr(number)
     if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
-    if isinstance(value, (list, tuple)):
+        return toml_string(value)
+    if isinstance(value, TOML_TIMES):
+        return value.isoformat()
+    if isinstance(value, list | tuple):
         return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    if isinstance(value, dict):
+    if isinstance(value, Mapping):
         return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items()) + " }"
     raise ConfigError(f"cannot write a {type(value).__name__} to a gains file")
 
 
 def _toml_key(key: str) -> str:
-    return key if key.replace("_", "").replace("-", "").isalnum() else _toml_value(key)
+    """A key as TOML writes it: bare when it is only ASCII letters, digits, ``_`` and ``-``, else quoted."""
+    return key if BARE_KEY.fullmatch(key) else toml_string(key)
 
 
 def dump_gains_toml(gains_file: GainsFile) -> str:
-    """TOML text of a gains file; :func:`parse_gains_toml` reads it back exactly (floats by repr)."""
+    """TOML text of a gains file; :func:`parse_gains_toml` reads it back exactly (floats by repr, text with TOML's
+    escapes: a quote, a backslash or a control character in a provenance string or key reads back as written).
+
+    Raises:
+        ConfigError: ``gains_file`` is not a :class:`GainsFile`.
+    """
+    if not isinstance(gains_file, GainsFile):
+        raise ConfigError(
+            f"dump_gains_toml: gains_file must be a GainsFile: pass GainsFile(FBLGains(...), provenance), got "
+            f"{type(gains_file).__name__} {gains_file!r:.80}"
+        )
     g = gains_file.gains
     lines = [
         "# nhsim FBL tracker gains (read by: nhsim simulate --gains FILE)",

@@ -26,7 +26,8 @@ def test_a_well_formed_log_is_kept_as_given() -> None:
     series = _series()
     log = RunLog(**series)
     assert len(log) == 4
-    assert all(log.arrays()[k] is v for k, v in series.items())
+    assert all(np.shares_memory(log.arrays()[k], v) for k, v in series.items())  # read-only views, not copies
+    assert all(v.flags.writeable and not log.arrays()[k].flags.writeable for k, v in series.items())
     assert log.identical_to(RunLog(**{k: v.copy() for k, v in series.items()}))
 
 

@@ -110,6 +110,17 @@ def target_text(target: object) -> str:
     return f"{getattr(target, '__module__', '?')}:{getattr(target, '__qualname__', repr(target))}"
 
 
+def redefines(taken: object, target: object) -> bool:
+    """Whether factory ``target`` is a redefinition of the registered factory ``taken``: another object of the same
+    module and qualified name, as a notebook cell run again (unchanged or edited) or a module reloaded makes of a
+    class. Registering it under the name replaces the old one without ``replace=True``: that is the one
+    definition the name stands for. Import paths (text) are compared as they are, never as redefinitions."""
+    if isinstance(taken, str) or isinstance(target, str) or taken is target:
+        return False
+    old, new = ((getattr(f, "__module__", None), getattr(f, "__qualname__", None)) for f in (taken, target))
+    return None not in old and old == new
+
+
 class PluginLoadError(ConfigError):
     """A plugin failed to import or to register: the message names it, where it was declared and the exception."""
 
@@ -267,6 +278,9 @@ class Registry(MutableMapping[str, "str | Callable[..., F]"], Generic[F]):
     def add(self, caller: str, name: str, target: str | Callable[..., F], replace: bool, fix: str = "") -> None:
         """Register ``target`` under ``name`` (checked already by :func:`check_registration`), noting who did.
 
+        The same target again changes nothing; a redefinition of the registered factory (:func:`redefines`: a
+        notebook cell or a module run again) replaces it, keeping who registered it.
+
         Args:
             fix: What to do about a taken name (default: choose another, or pass replace=True).
 
@@ -279,6 +293,9 @@ class Registry(MutableMapping[str, "str | Callable[..., F]"], Generic[F]):
         named = isinstance(taken, str) != isinstance(target, str) and target_text(taken) == target_text(target)
         if taken and (taken == target or named):
             return  # no change (nor of who registered it): the same target, or the class its import path names
+        if taken and redefines(taken, target):
+            self._entries[name] = target
+            return
         if taken and not replace:
             fix = fix or "choose another name, or pass replace=True to replace it"
             raise RegistrationError(

@@ -58,7 +58,9 @@ def register_planner(name: str, target: str | Callable[..., Planner], *, replace
             text without commas or whitespace.
         target: The factory, called as ``factory(**keyword-only options)`` and returning a
             :class:`~planning.planners.base.Planner`, or "module:attr" (imported when first made).
-        replace: Replace a planner already registered under ``name`` (a built-in one too).
+        replace: Replace a planner already registered under ``name`` (a built-in one too). Not needed for a
+            redefinition of the registered class (the same module and qualified name: a notebook cell that
+            defines and registers it, run again), which replaces it (:func:`planning.core.plugins.redefines`).
 
     Raises:
         ConfigError: A bad name or target, or a name taken by another target without ``replace``.

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -24,6 +25,37 @@ WIDTHS: dict[str, int | None] = {
 }
 
 
+#: Longest status a :class:`RunLog`'s repr quotes [characters] (a collision then a fall says more).
+REPR_STATUS = 80
+
+
+def freeze_arrays(log: object) -> None:
+    """Hold the numpy arrays among a frozen log dataclass's fields as read-only views, as the log itself is frozen
+    (as a :class:`~planning.trajectory.trajectory.Trajectory`'s are): an edit through the log would reach every
+    record, plot and video made of the run. Views, not copies (a long run's log is large), and the arrays given
+    stay as they were (the simulator gives each log arrays of its own)."""
+    for f in dataclasses.fields(log):  # type: ignore[arg-type]
+        value = getattr(log, f.name)
+        if isinstance(value, np.ndarray) and value.flags.writeable:
+            view = value.view()
+            view.flags.writeable = False
+            object.__setattr__(log, f.name, view)
+
+
+class ReadOnlyArrays:
+    """A frozen log whose arrays stay read-only in its copies too: a pickled one (a worker process's run) and a
+    deep copy come back with writeable arrays, which :meth:`__setstate__` makes read-only again."""
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        freeze_arrays(self)
+
+
+def _cut(text: str, most: int) -> str:
+    """``text`` cut to ``most`` characters, "..." marking a cut."""
+    return text if len(text) <= most else text[: most - 3] + "..."
+
+
 @dataclass(frozen=True)
 class Contact:
     """A robot-obstacle contact seen in the log: time [s] and obstacle geom name."""
@@ -33,7 +65,7 @@ class Contact:
 
 
 @dataclass(frozen=True)
-class BalanceLog:
+class BalanceLog(ReadOnlyArrays):
     """What a balancing robot's balance loop did.
 
     Attributes:
@@ -48,9 +80,12 @@ class BalanceLog:
     pitch_setpoint: FloatArray
     fell_at: float | None = None
 
+    def __post_init__(self) -> None:
+        freeze_arrays(self)
+
 
 @dataclass(frozen=True)
-class LocaliserLog:
+class LocaliserLog(ReadOnlyArrays):
     """What a scan localiser (AMCL on LDS-01 scans) answered, against the truth, and the scans it took.
 
     Attributes:
@@ -91,6 +126,9 @@ class LocaliserLog:
     global_converged: bool | None = None
     laser: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
+    def __post_init__(self) -> None:
+        freeze_arrays(self)
+
     def errors(self) -> FloatArray:
         """(L,) position error of each update [m]."""
         return np.asarray(np.hypot(*(self.pose[:, :2] - self.truth[:, :2]).T), dtype=float)
@@ -101,7 +139,7 @@ class LocaliserLog:
 
 
 @dataclass(frozen=True)
-class EstimationLog:
+class EstimationLog(ReadOnlyArrays):
     """What a run's estimator believed, per control period, against the truth.
 
     Attributes:
@@ -145,6 +183,7 @@ class EstimationLog:
         for name, want in shapes.items():
             if getattr(self, name).shape != want:
                 raise ValueError(f"EstimationLog.{name} must have shape {want}, got {getattr(self, name).shape}")
+        freeze_arrays(self)
 
     def position_errors(self) -> FloatArray:
         """(K,) distance between the estimate and the truth [m]."""
@@ -167,13 +206,14 @@ class EstimationLog:
         return float(np.mean(self.nees)) if self.nees.size else float("nan")
 
 
-@dataclass(frozen=True)
-class RunLog:
+@dataclass(frozen=True, repr=False)
+class RunLog(ReadOnlyArrays):
     """What one run did, sampled at the log rate (at least the control rate).
 
     Checks itself on construction: every series has N rows (``t`` is (N,), N >= 1) and the stated
     columns (ValueError naming the series otherwise), and every value is finite (SimulationError:
-    the run diverged).
+    the run diverged). Its arrays are then read-only (:func:`freeze_arrays`), as the log is frozen; its
+    repr is one short line (the series are read from the fields, or :meth:`arrays`).
 
     Attributes:
         t: (N,) times [s] (increasing, except where MuJoCo reset an unstable run and its clock).
@@ -228,6 +268,17 @@ class RunLog:
 
         if self.wheel_off_floor is not None and self.wheel_off_floor.shape != (n,):
             raise ValueError(f"RunLog.wheel_off_floor must be (N,) with N = {n}, got {self.wheel_off_floor.shape}")
+        freeze_arrays(self)
+
+    def __repr__(self) -> str:
+        """One line: who ran what (the tracker, the trajectory and the robot, from :attr:`meta`), the samples, the
+        time span and the status (cut at :data:`REPR_STATUS` characters)."""
+        m = self.meta
+        label = _cut(f"{m.get('tracker', '?')} on {m.get('trajectory', '?')}", 60)
+        robot = f", {_cut(m['robot'], 40)}" if isinstance(m.get("robot"), str) else ""
+        t0, t1 = float(self.t[0]), float(self.t[-1])
+        said = _cut(self.status, REPR_STATUS)
+        return f"RunLog({label!r}{robot}, {self.t.size} samples, t {t0:g}..{t1:g} s, status={said!r})"
 
     def __len__(self) -> int:
         return int(self.t.size)

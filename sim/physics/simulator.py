@@ -11,7 +11,7 @@ the measured wheel speeds every ``nhsim_motor_period`` (10 ms), on a grid fixed 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -25,10 +25,10 @@ from control.design.balance_profile import is_balancing, load_balance_profile
 from control.diffdrive import DiffDrive
 from control.dispatch import bind
 from control.estimation import EstimatorDivergedError
-from planning.core.checks import check_number
-from planning.core.geometry import Pose2D
-from planning.core.robot import RobotSpec
-from planning.core.world import World
+from planning.core.checks import check_flag, check_number, is_number, refuse_kind
+from planning.core.geometry import Pose2D, check_pose
+from planning.core.robot import RobotSpec, check_robot_spec
+from planning.core.world import World, check_world
 from planning.errors import ConfigError, NhsimError, SimulationError, option
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import AsBuilt
@@ -91,7 +91,8 @@ class SimConfig:
         control_rate: Tracker calls per second [Hz]; the control period must be a whole number of
             physics steps.
         hold: Extra time simulated after the trajectory ends [s] (the reference holds its end).
-        strict: Raise :class:`SimulationError` when MuJoCo warns (the log is attached).
+        strict: Raise :class:`SimulationError` when MuJoCo warns (the log is attached); True or False
+            (anything else is a ConfigError: ``"no"`` would read as true).
     """
 
     control_rate: float = 50.0
@@ -101,6 +102,7 @@ class SimConfig:
     def __post_init__(self) -> None:
         check_number("control rate", self.control_rate, above=0.0, unit="Hz")
         check_number("hold", self.hold, at_least=0.0, unit="s")
+        object.__setattr__(self, "strict", check_flag("SimConfig.strict", self.strict))
 
 
 class Simulator:
@@ -112,12 +114,16 @@ class Simulator:
         world: Obstacles and walls to add; None for an empty floor.
         build: The robot as built (wheel radii, track, friction, mass, centre of mass; see
             :mod:`sim.physics.asbuilt`); None or nominal simulates the drawing.
+
+    Raises:
+        ConfigError: An argument of the wrong type (a robot's name for its spec, a seed for a build), naming it,
+            what was given and what to pass.
     """
 
     def __init__(self, robot: RobotSpec, world: World | None = None, build: AsBuilt | None = None) -> None:
-        self.robot = robot
-        self.world = world
-        self.build = build if build is not None else AsBuilt.nominal()
+        self.robot = check_robot_spec("Simulator", robot)
+        self.world = check_world("Simulator: world", world, none="an empty floor")
+        self.build = check_as_built(robot, build)
         self.built: BuiltModel = self.build.compile(robot, world)
         self.model = self.built.model
         m = self.model
@@ -252,16 +258,18 @@ class Simulator:
         Raises:
             SimulationError: MuJoCo warned (with ``config.strict``), listing the warnings; the tracker returned a
                 non-finite command, or raised other than an NhsimError (chained), naming it and the time.
-            ConfigError: A timed perturbation outside the run (:meth:`Perturbation.check_within`).
+            ConfigError: An argument of the wrong type, or a start outside the world's walls or inside an obstacle
+                (:meth:`_check_run`); a timed perturbation outside the run (:meth:`Perturbation.check_within`).
         """
-        cfg = config or SimConfig()
+        args = (trajectory, tracker, config, start, drive, meta, perturbation, progress, source, sensing)
+        cfg, placed, source = self._check_run(*args)
         pert = perturbation if perturbation is not None and not perturbation.is_nominal else None
         if pert is not None:
             pert.check_within(trajectory.duration + cfg.hold)  # before any physics
         m = self.run_model(pert)
         d = mujoco.MjData(m)
         # a balancing robot starts upright at once: left alone to settle, it would topple
-        set_pose(m, d, start or trajectory.start_pose, **({"settle": 0.0} if self.balance is not None else {}))
+        set_pose(m, d, placed, **({"settle": 0.0} if self.balance is not None else {}))
         delay = pert.latency_steps(m.opt.timestep) if pert is not None else 0
         schedule = Schedule.make(
             self.steps_per_control(cfg.control_rate), float(m.opt.timestep), trajectory.duration + cfg.hold, delay
@@ -271,16 +279,35 @@ class Simulator:
         recorder = Recorder(self, m, d, schedule, float(trajectory.t[0]))
         recorder.balance = self.balance_for_run(m, d, pert, sensing, schedule.dt_ctrl)
         sensed = None
-        if PoseSource(source) is not PoseSource.TRUTH:
+        if source is not PoseSource.TRUTH:
             setup = sensing if sensing is not None else SensingSetup.for_robot(self.robot.name)
-            sensed = Sensing(m, self.robot, PoseSource(source), setup, n_periods=schedule.n_ctrl,
+            sensed = Sensing(m, self.robot, source, setup, n_periods=schedule.n_ctrl,
                              control_rate=cfg.control_rate, t0=recorder.t0)  # fmt: skip
         self._control_loop(recorder, tracker, drive or DiffDrive.from_robot(self.robot), noise, progress, sensed)
+        info = self._run_meta(trajectory, tracker, cfg, float(m.opt.timestep), pert, meta)
+        log = recorder.to_log(trajectory, info, sensed)
+        if log.warnings and cfg.strict:
+            err = SimulationError(f"MuJoCo warned during the run: {'; '.join(log.warnings)}")
+            err.log = log  # type: ignore[attr-defined]
+            raise err
+        return log
+
+    def _run_meta(
+        self,
+        trajectory: Trajectory,
+        tracker: Tracker,
+        cfg: SimConfig,
+        timestep: float,
+        pert: Perturbation | None,
+        meta: Mapping[str, Any] | None,
+    ) -> dict[str, Any]:
+        """A run's log ``meta``: the robot, tracker, rates and trajectory (the balance loop's rate and the
+        perturbation where there are), then the caller's ``meta``."""
         info: dict[str, Any] = {
             "robot": self.robot.name,
             "tracker": tracker.name,
             "control_rate_hz": cfg.control_rate,
-            "timestep_s": float(m.opt.timestep),
+            "timestep_s": timestep,
             "trajectory": trajectory.name,
         }
         if self.balance is not None:
@@ -288,12 +315,61 @@ class Simulator:
         if pert is not None:
             info["perturbation"] = pert.as_dict()
         info.update(meta or {})
-        log = recorder.to_log(trajectory, info, sensed)
-        if log.warnings and cfg.strict:
-            err = SimulationError(f"MuJoCo warned during the run: {'; '.join(log.warnings)}")
-            err.log = log  # type: ignore[attr-defined]
-            raise err
-        return log
+        return info
+
+    def _check_run(
+        self,
+        trajectory: object,
+        tracker: object,
+        config: object,
+        start: object = None,
+        drive: object = None,
+        meta: object = None,
+        perturbation: object = None,
+        progress: object = None,
+        source: object = PoseSource.TRUTH,
+        sensing: object = None,
+    ) -> tuple[SimConfig, Pose2D, PoseSource]:
+        """The arguments of :meth:`run`, checked once before any physics (the control loop checks nothing):
+        its settings, the pose the robot is placed at and the pose source.
+
+        Raises:
+            ConfigError: An argument of the wrong type (a tracker's name for a tracker, a dict for a
+                :class:`SimConfig`, a tuple for a start pose), naming it, what was given and what to pass; a start
+                (``start``, else the trajectory's first pose) outside the world's walls or inside an obstacle
+                (:func:`check_start`).
+        """
+        if not isinstance(trajectory, Trajectory):
+            fix = "make_reference(name, robot, start), or to_trajectory(plan, robot, world) for a plan"
+            raise refuse_kind("Simulator.run: trajectory", "a Trajectory", trajectory, fix)
+        if not (hasattr(tracker, "name") and all(callable(getattr(tracker, f, None)) for f in ("reset", "command"))):
+            name = tracker if isinstance(tracker, str) else "fbl"
+            kind = "a Tracker (an object with a name, reset(trajectory, dt) and command(t, x, y, theta))"
+            raise refuse_kind("Simulator.run: tracker", kind, tracker, f"make_tracker({name!r}, robot)")
+        if config is not None and not isinstance(config, SimConfig):
+            fix = "SimConfig(control_rate=50.0)"
+            if isinstance(config, Mapping) and all(isinstance(k, str) and k.isidentifier() for k in config):
+                fix = f"SimConfig({', '.join(f'{k}={v!r}' for k, v in config.items())})"
+            raise refuse_kind("Simulator.run: config", "a SimConfig or None (the defaults)", config, fix)
+        placed = check_pose("Simulator.run: start", start, optional=True)
+        if placed is None:
+            placed = trajectory.start_pose
+        check_start(self.world, placed, "start" if start is not None else "the trajectory's first pose")
+        kinds: tuple[tuple[str, object, type, str], ...] = (
+            ("drive", drive, DiffDrive, "DiffDrive.from_robot(robot)"),
+            ("meta", meta, Mapping, "a dict of extra fields, e.g. {'seed': 0}"),
+            ("perturbation", perturbation, Perturbation, "Perturbation(mass=1.3), or Perturbation.parse('mass=1.3')"),
+            ("sensing", sensing, SensingSetup, f"SensingSetup.for_robot({self.robot.name!r})"),
+        )
+        for argument, value, cls, fix in kinds:
+            if value is not None and not isinstance(value, cls):
+                raise refuse_kind(f"Simulator.run: {argument}", f"a {cls.__name__} or None", value, fix)
+        if progress is not None and not callable(progress):
+            raise refuse_kind("Simulator.run: progress", "a callable or None", progress, "a function (done, total)")
+        if not isinstance(source, str) or source not in tuple(PoseSource):
+            said = ", ".join(f"PoseSource.{s.name} ({s.value!r})" for s in PoseSource)
+            raise refuse_kind("Simulator.run: source", "a PoseSource", source, f"one of {said}")
+        return config or SimConfig(), placed, PoseSource(source)
 
     def _control_loop(
         self,
@@ -378,6 +454,43 @@ def not_a_command(tracker: Tracker, out: object, t: float) -> SimulationError:
         f"t={t:.3f} s: a command must be two real numbers (v [m/s], omega [rad/s]), e.g. a tuple of floats; fix "
         "the tracker's command"
     )
+
+
+def check_as_built(robot: RobotSpec, build: object) -> AsBuilt:
+    """``build`` when it is an :class:`AsBuilt`; None gives the robot as drawn (:meth:`AsBuilt.nominal`).
+
+    Raises:
+        ConfigError: Anything else, naming the argument and what to pass (``AsBuilt.draw(name, seed)`` for a seed).
+    """
+    if build is None:
+        return AsBuilt.nominal()
+    if isinstance(build, AsBuilt):
+        return build
+    if is_number(build, integer=True) and build >= 0:
+        fix = f"AsBuilt.draw({robot.name!r}, {build!r}) for the build of seed {build}"
+    else:
+        fix = f"AsBuilt.draw({robot.name!r}, seed), or None for the robot as drawn"
+    raise refuse_kind("Simulator: build", "an AsBuilt or None (the robot as drawn)", build, fix)
+
+
+def check_start(world: World | None, pose: Pose2D, what: str) -> None:
+    """Refuse a start pose (``what`` names it) whose position lies outside the world's walls: the robot would be
+    placed beyond them, and the run would say nothing of it. None (an empty floor) has none. A start in an obstacle
+    is the caller's to refuse (a scenario's is; a file run with ``allow_collisions`` may start in one).
+
+    Raises:
+        ConfigError: Naming the pose, the bounds and the fix.
+    """
+    if world is None:
+        return
+    xy = np.array([[pose.x, pose.y]])
+    if not float(world.wall_distance(xy)[0]) > 0.0:
+        xmin, xmax, ymin, ymax = world.bounds
+        raise ConfigError(
+            f"Simulator.run: {what} ({pose.x:g}, {pose.y:g}, {pose.theta:g}) lies outside the world's walls (x "
+            f"{xmin:g}..{xmax:g}, y {ymin:g}..{ymax:g} m): give a start inside them (start=Pose2D(x, y, theta)), or "
+            "a world whose bounds hold it"
+        )
 
 
 def reset_tracker(tracker: Tracker, trajectory: Trajectory, dt: float) -> None:

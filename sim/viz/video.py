@@ -196,15 +196,27 @@ class VideoWriter:
                 self._free.put(frame)
 
     def _finish(self) -> None:
+        """Send the end of the frames, wait for ffmpeg and close its pipes, whatever happens (an open one is a
+        ResourceWarning, its file descriptor held until the garbage collector runs).
+
+        Raises:
+            OSError: ffmpeg reported a failed write (a full disk, :func:`write_failure`).
+            SimulationError: ffmpeg failed otherwise, or the frames' pipe broke.
+        """
         assert self._proc is not None and self._thread is not None
-        self._todo.put(None)
-        self._thread.join()
-        stdin = self._proc.stdin
-        assert stdin is not None
-        with contextlib.suppress(BrokenPipeError, OSError):
-            stdin.close()
-        err = self._proc.stderr.read().decode(errors="replace") if self._proc.stderr else ""
-        rc = self._proc.wait()
+        proc = self._proc
+        try:
+            self._todo.put(None)
+            self._thread.join()
+            with contextlib.suppress(BrokenPipeError, OSError):
+                if proc.stdin is not None:
+                    proc.stdin.close()
+            err = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
+        except BaseException:  # an interrupt: ffmpeg is stopped first (a pipe it still fills could block a close)
+            self._abort()
+            raise
+        self._close_pipes()
+        rc = proc.wait()
         if rc != 0 or self._error is not None:
             failure = write_failure(err, self.path)
             if failure is not None:
@@ -225,10 +237,16 @@ class VideoWriter:
         if self._proc is not None:
             with contextlib.suppress(Exception):
                 self._proc.wait(timeout=5.0)
-            for stream in (self._proc.stdin, self._proc.stderr):
-                if stream is not None:
-                    with contextlib.suppress(Exception):
-                        stream.close()
+        self._close_pipes()
+
+    def _close_pipes(self) -> None:
+        """Close ffmpeg's stdin and stderr pipes (again: harmless), each whether or not the other closed."""
+        if self._proc is None:
+            return
+        for stream in (self._proc.stdin, self._proc.stderr):
+            if stream is not None:
+                with contextlib.suppress(Exception):
+                    stream.close()
 
     # ---- frames ---------------------------------------------------------------------------------
     def frame_buffer(self) -> Frame:
