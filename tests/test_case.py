@@ -8,7 +8,7 @@ import pytest
 
 from planning.errors import ConfigError, ScenarioError
 from sim.cli.progress import TITLES
-from sim.pipeline.case import Case, prepare_trajectory
+from sim.pipeline.case import Case, PlanOptions, prepare_trajectory
 from sim.pipeline.runs import PLAN_TRACKER, REFERENCE_TRACKER, RunKind
 
 
@@ -96,6 +96,27 @@ def test_a_start_closer_than_the_trackers_margin_lowers_it_to_half_its_clearance
     assert 0.0 < tracked_margin(problem, 0.01) < 0.005  # below the start's 5 mm (half a lower bound of it)
     assert tracked_margin(problem, 0.002) == 0.002  # a margin the poses have is kept
     assert prepare_trajectory(Case(str(path), planner="rrt")).source == "planner:rrt"
+
+
+@pytest.mark.parametrize("gap", [0.003, 0.011, 0.012])
+@pytest.mark.parametrize("planner", ["hybrid-a-star", "rrt-star"])
+def test_a_goal_the_planners_check_holds_closer_than_the_margin_is_planned_to_with_less(
+    tmp_path, gap: float, planner: str
+) -> None:
+    """A goal 11 or 12 mm from a box behind it: the exact check gave it the 1 cm margin, the planner's own (a lower
+    bound, 9 mm) refused it as closer than that, and simulate failed where nhsim plan plans; 3 mm: half the
+    margin, refused the same way. The margin is halved until the planner takes the goal."""
+    from planning.core.robot import load_robot
+
+    rear = -float(load_robot("turtlebot3").footprint[:, 0].min())
+    path = tmp_path / "bay.toml"
+    path.write_text(
+        'robot = "turtlebot3"\n[world]\nbounds = [0.0, 3.0, 0.0, 2.0]\n[[world.obstacles]]\ntype = "box"\n'
+        f"center = [{2.4 - rear - gap - 0.15!r}, 1.0]\nsize = [0.3, 0.6]\n"
+        "[start]\npose = [0.6, 1.0, 0.0]\n[goal]\npose = [2.4, 1.0, 0.0]\n"
+    )
+    prepared = prepare_trajectory(Case(str(path), planner=planner, planning=PlanOptions(time_limit=20.0)))
+    assert prepared.source == f"planner:{planner}"
 
 
 @pytest.mark.parametrize(

@@ -10,7 +10,7 @@ from scipy.integrate import solve_ivp
 
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import load_robot
-from planning.core.world import Circle, World
+from planning.core.world import Box, Circle, World
 from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanStatus
 from planning.planners.registry import make_planner
@@ -295,3 +295,17 @@ def test_an_answer_known_only_after_the_limit_is_a_timeout(monkeypatch) -> None:
     assert res.status is PlanStatus.TIMEOUT and res.path.shape[0] == 0
     assert res.reason.startswith("time limit of 0.5 s spent before the answer was known (it came after, ")
     assert "bounds_violated: sinusoidal steering of piece 1 of 1 (heading 0 deg): cannot steer" in res.reason
+
+
+def test_a_corridor_the_footprint_fits_and_the_disc_does_not_is_planned() -> None:
+    """A straight corridor of two boxes 0.24 m apart: the TurtleBot3's footprint (0.178 m across) clears its sides
+    by 3 cm, its bounding disc (0.253 m) does not; the exactly straight path was refused as "its path hits one"."""
+    robot = load_robot("turtlebot3")
+    start, goal = Pose2D(0.4, 0.6, 0.0), Pose2D(3.6, 0.6, 0.0)
+    world = World((0.0, 4.0, 0.0, 1.2), (Box((2.0, 0.97), (2.0, 0.5)), Box((2.0, 0.23), (2.0, 0.5))))
+    res = Sinusoidal().plan(PlanProblem(world, robot, start, goal))
+    assert res.success, res.reason
+    np.testing.assert_allclose(res.path[:, 1], 0.6, atol=1e-9)
+    narrower = World((0.0, 4.0, 0.0, 1.2), (Box((2.0, 0.93), (2.0, 0.5)), Box((2.0, 0.27), (2.0, 0.5))))  # 0.16 m
+    res = Sinusoidal().plan(PlanProblem(narrower, robot, start, goal))
+    assert res.status is PlanStatus.INFEASIBLE and "footprint overlaps the box" in res.reason

@@ -21,6 +21,7 @@ import dataclasses
 import inspect
 import math
 import os
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -37,7 +38,7 @@ from planning.core.checks import check_fields, check_flag, check_number
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot
 from planning.errors import ConfigError, ScenarioError, option, options
-from planning.planners.base import PlanProblem, PlanResult, path_collision, run_planner
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus, path_collision, run_planner
 from planning.planners.registry import PLANNERS, make_planner, planner_options
 from planning.scenario import Scenario, builtin_scenarios, load_scenario, scenario_source
 from planning.scenario import scenario_with_robot as scenario_with_robot  # defined beside load_scenario
@@ -568,11 +569,10 @@ def plan_case(case: Case, scenario: Scenario, robot: RobotSpec, *, progress: Pro
     margin = "clearance" in planner_options(name) and "clearance" not in options and case.planning.clearance > 0
     if margin:
         options["clearance"] = tracked_margin(problem, case.planning.clearance)
-    solver = make_planner(name, **options)
     if progress is not None:
         progress("plan", 0.0, limit)
     try:
-        plan = run_planner(solver, name, problem, PLANNERS.origin(name))
+        plan = _plan_with_margin(name, options, problem, margin)
     finally:
         if progress is not None:
             progress("plan", limit, limit)
@@ -584,6 +584,28 @@ def plan_case(case: Case, scenario: Scenario, robot: RobotSpec, *, progress: Pro
         )
         plan = dataclasses.replace(plan, reason=said)
     return plan
+
+
+#: Smallest margin [m] a plan refused at its start or goal is tried again with before none (:func:`_plan_with_margin`).
+LEAST_MARGIN = 0.0005
+
+
+def _plan_with_margin(name: str, options: dict[str, Any], problem: PlanProblem, margin: bool) -> PlanResult:
+    """The planner's result, and with a tracked margin (``options["clearance"]``) that the planner finds the start
+    or the goal closer than (its own check, a lower bound of their clearance, can read a few millimetres less than
+    the exact one :func:`tracked_margin` took: a goal 11 mm from a box was refused for a 10 mm margin), the result
+    with the margin halved until they keep it (none below :data:`LEAST_MARGIN`), within what is left of the time
+    limit; ``options["clearance"]`` is then the margin planned with."""
+    started = time.perf_counter()
+    ends = (PlanStatus.INVALID_START, PlanStatus.INVALID_GOAL)
+    while True:
+        plan = run_planner(make_planner(name, **options), name, problem, PLANNERS.origin(name))
+        left = problem.time_limit - (time.perf_counter() - started)
+        if not (margin and plan.status in ends and options["clearance"] > 0.0 and left > 0.0):
+            return plan
+        halved = 0.5 * options["clearance"]
+        options["clearance"] = halved if halved >= LEAST_MARGIN else 0.0
+        problem = dataclasses.replace(problem, time_limit=left)
 
 
 def tracked_margin(problem: PlanProblem, margin: float) -> float:
