@@ -74,7 +74,8 @@ class PlanOptions:
             a ``clearance`` option unless the scenario or ``planner_options`` set one. The robot
             follows its plan to a few millimetres, fed by its estimator, so a plan that grazed a
             parked car by 3 mm had it touch the car; 0 plans to the limit. Less where the start or
-            the goal stands closer to something (:func:`tracked_margin`).
+            the goal stands closer to something (:func:`tracked_margin`), and halved while the planner's own
+            check finds them closer than it (:func:`_plan_with_margin`).
     """
 
     time_limit: float = 30.0
