@@ -33,7 +33,7 @@ from control.base import TRACKERS
 from control.estimation.amcl import AmclConfig
 from control.fbl import uses_fbl_gains
 from control.gains import FBLGains
-from planning.collision.exact import CollisionChecker
+from planning.collision.exact import DEFAULT_TOLERANCE, CollisionChecker
 from planning.core.checks import check_fields, check_flag, check_number
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot
@@ -568,12 +568,13 @@ def plan_case(case: Case, scenario: Scenario, robot: RobotSpec, *, progress: Pro
     problem = PlanProblem.from_scenario(scenario, robot=robot, seed=case.seed, time_limit=limit)
     options = {**scenario.options_for(name), **case.planning.planner_options}
     margin = "clearance" in planner_options(name) and "clearance" not in options and case.planning.clearance > 0
+    least = end_clearance(problem) if margin else math.inf
     if margin:
-        options["clearance"] = tracked_margin(problem, case.planning.clearance)
+        options["clearance"] = tracked_margin(problem, case.planning.clearance, least)
     if progress is not None:
         progress("plan", 0.0, limit)
     try:
-        plan = _plan_with_margin(name, options, problem, margin)
+        plan = _plan_with_margin(name, options, problem, least)
     finally:
         if progress is not None:
             progress("plan", limit, limit)
@@ -591,32 +592,41 @@ def plan_case(case: Case, scenario: Scenario, robot: RobotSpec, *, progress: Pro
 LEAST_MARGIN = 0.0005
 
 
-def _plan_with_margin(name: str, options: dict[str, Any], problem: PlanProblem, margin: bool) -> PlanResult:
-    """The planner's result, and with a tracked margin (``options["clearance"]``) that the planner finds the start
-    or the goal closer than (its own check, a lower bound of their clearance, can read a few millimetres less than
-    the exact one :func:`tracked_margin` took: a goal 11 mm from a box was refused for a 10 mm margin), the result
-    with the margin halved until they keep it (none below :data:`LEAST_MARGIN`), within what is left of the time
-    limit; ``options["clearance"]`` is then the margin planned with."""
+def _plan_with_margin(name: str, options: dict[str, Any], problem: PlanProblem, least: float) -> PlanResult:
+    """The planner's result; and where the planner refuses the start or the goal while their exact clearance
+    ``least`` [m] (:func:`end_clearance`) is within its check's error of the tracked margin ``options["clearance"]``
+    (its check, a lower bound, reads up to half :data:`DEFAULT_TOLERANCE` less: a goal 11 mm from a box was refused
+    for a 10 mm margin), the result with the margin halved until they keep it (none below :data:`LEAST_MARGIN`),
+    within what is left of the time limit; ``options["clearance"]`` is then the margin planned with. A refusal for
+    another reason (a planner's own rule) is returned as it is."""
     started = time.perf_counter()
     ends = (PlanStatus.INVALID_START, PlanStatus.INVALID_GOAL)
     while True:
         plan = run_planner(make_planner(name, **options), name, problem, PLANNERS.origin(name))
         left = problem.time_limit - (time.perf_counter() - started)
-        if not (margin and plan.status in ends and options["clearance"] > 0.0 and left > 0.0):
+        margin = options.get("clearance", 0.0)
+        near = least < margin + 0.5 * DEFAULT_TOLERANCE  # the planner's reading may fall below the margin
+        if not (plan.status in ends and near and margin > 0.0 and left > 0.0):
             return plan
         halved = 0.5 * options["clearance"]
         options["clearance"] = halved if halved >= LEAST_MARGIN else 0.0
         problem = dataclasses.replace(problem, time_limit=left)
 
 
-def tracked_margin(problem: PlanProblem, margin: float) -> float:
+def end_clearance(problem: PlanProblem) -> float:
+    """The least clearance [m] of the robot's footprint at the start and the goal (the exact checker's lower bound,
+    within its tolerance of the truth)."""
+    ends = np.array([problem.start.as_array(), problem.goal.as_array()])
+    return float(CollisionChecker(problem.world, problem.robot).least_clearance(ends))
+
+
+def tracked_margin(problem: PlanProblem, margin: float, least: float | None = None) -> float:
     """The margin [m] a tracked plan keeps from obstacles and walls: ``margin``, or half the footprint's
     clearance (its checker's lower bound) at the start or the goal where the robot stands closer there (it
     is at the start already and must end at the goal, so a margin those poses lack would refuse a scenario
     ``nhsim plan`` plans: a start 6 mm from a wall was refused for its 1 cm); 0 where one overlaps (the
-    planner then says so)."""
-    ends = np.array([problem.start.as_array(), problem.goal.as_array()])
-    least = CollisionChecker(problem.world, problem.robot).least_clearance(ends)
+    planner then says so). ``least``: :func:`end_clearance`, when known."""
+    least = end_clearance(problem) if least is None else least
     return margin if least >= margin else max(0.0, 0.5 * least)
 
 
