@@ -5,6 +5,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -92,13 +94,16 @@ def test_bench_sim_prints_a_ratio() -> None:
     assert "ratio" in r.stdout and r.returncode in (0, 1)
 
 
-def test_header_prints_the_simulated_time_of_the_runs(tmp_path: Path) -> None:
+def test_header_prints_the_simulated_time_of_the_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """A planned job simulates its trajectory and then a hold of final regulation: the header's time is
     the runs' logged duration (not the trajectory's alone), and names both parts."""
     import re
 
+    from tests.cli_helpers import nhsim_here
+
+    monkeypatch.chdir(tmp_path)
     out = tmp_path / "run.json"
-    r = nhsim("simulate", "--json", str(out), "--no-video", "--no-plots")
+    r = nhsim_here("simulate", "--json", str(out), "--no-video", "--no-plots")
     assert r.returncode in (0, 1), r.stderr
     rec = json.loads(out.read_text())
     header = r.stdout.splitlines()[0]

@@ -13,6 +13,7 @@ from tests.test_cli import nhsim
 ROOT = Path(__file__).resolve().parents[1]
 
 
+@pytest.mark.slow  # a page's number, run as its command says (5 s): with the other docs numbers in the slow suites
 def test_the_balancing_edumip_circle_ends_where_the_trackers_page_says(tmp_path: Path) -> None:
     """The page said the circle ended 1.4 mm but 0.083 rad off on the balancing EduMIP (a number from
     before the EKF modelled the tyres' cornering slip); its command gives 1.0 mm and 0.011 rad."""
