@@ -26,6 +26,8 @@ kernels into a temporary folder instead.
 from __future__ import annotations
 
 import atexit
+import contextlib
+import fcntl
 import functools
 import hashlib
 import importlib
@@ -35,7 +37,8 @@ import re
 import shutil
 import sys
 import tempfile
-from collections.abc import Iterable
+import threading
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -194,6 +197,7 @@ def _locator_class() -> type:
         @classmethod
         def from_function(cls, py_func: Any, py_file: str) -> Any:
             config.CACHE_DIR = ready_cache_dir()
+            compile_once()  # before the kernel's first compile
             found = super().from_function(py_func, py_file)
             if found is not None:
                 return found
@@ -218,3 +222,66 @@ def _prune(root: Path, current: Path | None = None) -> None:
         return
     for old in others[KEEP:]:
         shutil.rmtree(old, ignore_errors=True)
+
+
+#: The kernels this thread holds the compile lock of (a kernel compiles the kernels it calls inside its own compile).
+_HELD = threading.local()
+
+
+def lock_folder() -> Path:
+    """Where the processes sharing a kernel cache keep its kernels' compile locks: ``compile-locks`` in the cache
+    directory (``NUMBA_CACHE_DIR``, which worker and child processes inherit), else in the temporary folder."""
+    return Path(os.environ.get("NUMBA_CACHE_DIR") or tempfile.gettempdir()) / "compile-locks"
+
+
+def kernel_lock_name(func: Any) -> str:
+    """The name of the lock kernel ``func`` (its Python function) compiles under."""
+    return f"{func.__module__}.{func.__qualname__}".replace("<", "_").replace(">", "_")
+
+
+@contextlib.contextmanager
+def kernel_lock(name: str) -> Iterator[None]:
+    """An exclusive lock on kernel ``name`` among the processes sharing the kernel cache (re-entered freely by the
+    thread holding it); none where no lock file can be made (each process then compiles on its own, as numba does)."""
+    held: set[str] = _HELD.__dict__.setdefault("names", set())
+    if name in held:
+        yield
+        return
+    try:
+        folder = lock_folder()
+        folder.mkdir(exist_ok=True)
+        handle = open(folder / f"{name}.lock", "a")
+    except OSError:
+        yield
+        return
+    with handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        held.add(name)
+        try:
+            yield
+        finally:
+            held.discard(name)
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def compile_once() -> None:
+    """numba's ``Dispatcher.compile`` (which loads a cached kernel or compiles it) under a lock per kernel shared by
+    the processes that use one kernel cache: a process that needs a kernel another is compiling loads the other's
+    result once it is written instead of compiling it too. A cold cache met by several processes at once (the
+    workers of ``montecarlo --jobs`` or ``tune --jobs``, commands run side by side, the test workers and the
+    commands they start) compiled each kernel in each of them. The results are the same either way. The wait is
+    numba's time, as the compile itself is (a ``numba:compiler_lock`` event, which :mod:`planning.clock` leaves out
+    of a planner's time limit). Installed once per process, when the first cached kernel is defined."""
+    event: Any = importlib.import_module("numba.core.event")  # no import line: this module is no kernel source
+    Dispatcher: Any = importlib.import_module("numba.core.dispatcher").Dispatcher
+
+    compile_ = Dispatcher.compile
+    if getattr(compile_, "nhsim_once", False):
+        return
+
+    def compile_locked(self: Any, sig: Any) -> Any:
+        with event.trigger_event("numba:compiler_lock"), kernel_lock(kernel_lock_name(self.py_func)):
+            return compile_(self, sig)
+
+    compile_locked.nhsim_once = True  # type: ignore[attr-defined]
+    Dispatcher.compile = compile_locked

@@ -57,3 +57,23 @@ def test_old_cache_directories_are_pruned(tmp_path: Path) -> None:
         os.utime(tmp_path / name, (1000 + i, 1000 + i))
     kernel_cache._prune(tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c", "d"]
+
+
+def test_processes_sharing_a_cache_compile_each_kernel_once(tmp_path: Path) -> None:
+    """Commands run side by side on a cold cache (montecarlo's and tune's workers, the test workers and the
+    commands they start) each compiled every kernel: a process defining nhsim's first cached kernel installs the
+    per-kernel compile lock, and one that needs a kernel another holds the lock of waits, then loads it."""
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env.update(PYTHONPATH=str(ROOT), NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    code = (
+        "import time, numpy as np\n"
+        "from numba.core.dispatcher import Dispatcher\n"
+        "import control.fbl as fbl\n"  # a kernel module: its cached kernels are defined on import
+        "assert getattr(Dispatcher.compile, 'nhsim_once', False)\n"
+        "from planning.kernel_cache import kernel_lock_name, lock_folder\n"
+        "kernel = next(v for v in vars(fbl).values() if isinstance(v, Dispatcher))\n"
+        "print(lock_folder() / (kernel_lock_name(kernel.py_func) + '.lock'))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=ROOT, capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().startswith(str(tmp_path / "cache" / "compile-locks"))

@@ -52,11 +52,13 @@ def test_compiling_is_timed_and_left_out_of_the_time_limit() -> None:
 
 
 def test_waiting_for_another_test_process_compiling_a_kernel_is_code_time() -> None:
-    """The test processes compile each kernel under a lock they share (``tests/conftest.py``): a worker
-    that waits while another compiles counts the wait as code time, not against its plan's limit."""
-    from tests.conftest import LOCKS, kernel_lock_name
+    """The processes sharing a kernel cache compile each kernel under a lock they share
+    (``planning.kernel_cache.compile_once``): a process that waits while another compiles counts the wait as code
+    time, not against its plan's limit."""
+    from planning.kernel_cache import kernel_lock_name, lock_folder
 
     kernel = _fresh_kernel()
+    LOCKS = lock_folder()
     LOCKS.mkdir(exist_ok=True)
     holder = subprocess.Popen(
         [sys.executable, "-c", "import fcntl, sys, time; f = open(sys.argv[1], 'w'); fcntl.flock(f, fcntl.LOCK_EX); "
