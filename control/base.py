@@ -217,24 +217,35 @@ def option_takes(name: str, option: str, kind: type) -> bool:
     return declared is kind or kind in typing.get_args(declared)
 
 
-def tuned_option(name: str) -> tuple[str, type]:
-    """The option of a registered tracker that ``nhsim tune --tracker`` tunes, and its dataclass.
+def tuned_or_none(name: str) -> tuple[str, type] | None:
+    """The option of a registered tracker that ``nhsim tune --tracker`` tunes, and its dataclass; None for a
+    tracker with nothing to tune.
 
     A tracker declares it as the class attribute ``TUNED = (option, dataclass)``, e.g.
     ``("params", MPCParams)``.
 
     Raises:
-        ConfigError: Unknown name (lists the valid ones), a tracker with nothing to tune, or a ``TUNED`` naming
-            an option the tracker does not take (:func:`check_tuned`).
+        ConfigError: Unknown name (lists the valid ones), or a ``TUNED`` naming an option the tracker does not take
+            (:func:`check_tuned`).
     """
     factory = TRACKERS.factory(name)
     tuned = getattr(factory, "TUNED", None)
     if tuned is not None:  # registered by its import path (or set directly): checked as register_tracker does
         check_tuned(f"tracker {name!r} ({TRACKERS.origin(name)})", factory)
+    return tuned  # type: ignore[no-any-return]
+
+
+def tuned_option(name: str) -> tuple[str, type]:
+    """:func:`tuned_or_none` of a tracker that has parameters to tune.
+
+    Raises:
+        ConfigError: As :func:`tuned_or_none`, and a tracker with nothing to tune (naming those that have).
+    """
+    tuned = tuned_or_none(name)
     if tuned is None:
         with_params = [n for n in sorted(TRACKERS) if getattr(TRACKERS.factory(n), "TUNED", None) is not None]
         raise ConfigError(f"tracker {name!r} has no parameters to tune; choose one of {', '.join(with_params)}")
-    return tuned  # type: ignore[no-any-return]
+    return tuned
 
 
 def make_tracker(name: str, robot: RobotSpec, **options: Any) -> Tracker:

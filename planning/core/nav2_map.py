@@ -36,6 +36,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.checks import is_number
 from planning.core.maps import (
     MapObstacles,
     MapShape,
@@ -83,7 +84,7 @@ def _fail(path: Path, field: str, expected: str, got: Any) -> ScenarioError:
 
 def _number(path: Path, doc: dict[str, Any], key: str) -> float:
     value = doc[key]
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+    if not is_number(value):
         raise _fail(path, key, "a finite number", value)
     return float(value)
 
@@ -131,7 +132,7 @@ def read_map_yaml(path: str | Path) -> MapYaml:
     if resolution <= 0:
         raise _fail(p, "resolution", "a pixel size > 0 [m/px]", resolution)
     origin = doc["origin"]
-    if not (isinstance(origin, list) and len(origin) == 3 and all(_finite(v) for v in origin)):
+    if not (isinstance(origin, list) and len(origin) == 3 and all(is_number(v) for v in origin)):
         raise _fail(p, "origin", "[x, y, yaw] of the image's bottom-left corner [m, m, rad]", origin)
     occupied, free = _number(p, doc, "occupied_thresh"), _number(p, doc, "free_thresh")
     if not 0.0 <= free < occupied <= 1.0:
@@ -148,10 +149,6 @@ def read_map_yaml(path: str | Path) -> MapYaml:
     image_path = Path(image) if Path(image).is_absolute() else p.parent / image
     x, y, yaw = (float(v) for v in origin)
     return MapYaml(p, image_path, resolution, (x, y, yaw), occupied, free, bool(negate), mode)
-
-
-def _finite(value: object) -> bool:
-    return not isinstance(value, bool) and isinstance(value, int | float) and math.isfinite(value)
 
 
 def _shade(m: MapYaml) -> tuple[FloatArray, NDArray[np.bool_] | None]:

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from control.base import TRACKERS
+from control.base import TRACKERS, tuned_or_none
 from control.estimation.amcl import AmclConfig
 from control.fbl import uses_fbl_gains
 from control.gains import FBLGains
@@ -247,7 +247,7 @@ class Case:
         name = self.feedback_tracker
         if not uses_fbl_gains(name):
             if self.gains is not None and self.gains != FBLGains():
-                kind = getattr(TRACKERS.factory(name), "TUNED", None)
+                kind = tuned_or_none(name)
                 own = f"params={kind[1].__name__}(...)" if kind is not None else "none it takes"
                 raise ConfigError(
                     f"case {self.label}: gains {self.gains} are given, but tracker {name!r} does not use the FBL's "
@@ -273,7 +273,7 @@ class Case:
     @property
     def _params_are_gains(self) -> bool:
         """Whether ``params`` holds FBL gains given as the feedback tracker's tuned option."""
-        tuned = getattr(TRACKERS.factory(self.feedback_tracker), "TUNED", None)
+        tuned = tuned_or_none(self.feedback_tracker)
         return isinstance(self.params, FBLGains) and tuned is not None and tuned[0] == "gains"
 
     def _derived_name(self) -> str:
@@ -608,8 +608,7 @@ def _plan_with_margin(name: str, options: dict[str, Any], problem: PlanProblem, 
         near = least < margin + 0.5 * DEFAULT_TOLERANCE  # the planner's reading may fall below the margin
         if not (plan.status in ends and near and margin > 0.0 and left > 0.0):
             return plan
-        halved = 0.5 * options["clearance"]
-        options["clearance"] = halved if halved >= LEAST_MARGIN else 0.0
+        options["clearance"] = 0.5 * margin if 0.5 * margin >= LEAST_MARGIN else 0.0
         problem = dataclasses.replace(problem, time_limit=left)
 
 

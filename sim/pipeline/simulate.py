@@ -18,7 +18,7 @@ from typing import Any
 
 import mujoco
 
-from control.base import TRACKERS, Tracker, feedback_trackers, make_tracker, tuned_option
+from control.base import TRACKERS, Tracker, feedback_trackers, make_tracker, tuned_option, tuned_or_none
 from control.fbl import uses_fbl_gains
 from control.gains import FBLGains
 from planning.core.checks import check_number
@@ -315,7 +315,7 @@ def tracker_params(name: str, tracker: Tracker) -> dict[str, Any]:
     """The tuned parameters ``tracker`` (registered as ``name``) runs with: the value of its tuned option it holds
     under the option's name (as nhsim's trackers do), as a dict of its fields; {} for a tracker with nothing to tune
     or one that holds them elsewhere."""
-    tuned = getattr(TRACKERS.factory(name), "TUNED", None)
+    tuned = tuned_or_none(name)
     if tuned is None:
         return {}
     option, kind = tuned
