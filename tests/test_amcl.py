@@ -12,6 +12,7 @@ import pytest
 
 from control.estimation import amcl_kernels as K
 from control.estimation.amcl import GRID_MARGIN, MAX_FIELD_CELLS, Amcl, AmclConfig, beam_subset, likelihood_field
+from planning.core.arrays import kernel_input
 from planning.core.robot import load_robot
 from planning.core.world import Box, Circle, World
 from planning.errors import ConfigError
@@ -213,7 +214,15 @@ def test_refinement_recovers_the_pose_from_an_exact_scan(scanner: tuple) -> None
     f = amcl.field
     r, b = amcl.beams(scan.ranges, 0.12, 3.5, 0.0, scan.angle_increment, every=True)
     got, _, used, _ = K.refine(
-        pose + np.array([0.06, -0.04, 0.04]), r, b, amcl.laser, f.signed, f.grid, 0.3, 20, K.NO_NOISE_MODEL
+        pose + np.array([0.06, -0.04, 0.04]),
+        r,
+        b,
+        amcl.laser,
+        f.signed,
+        f.grid,
+        0.3,
+        20,
+        kernel_input(K.NO_NOISE_MODEL),
     )
     assert used > 300
     np.testing.assert_allclose(got, pose, atol=2e-4)  # the grid's bilinear error

@@ -14,6 +14,7 @@ from control.estimation import amcl_kernels as K
 from control.estimation.amcl import Amcl, AmclConfig
 from control.estimation.consistency import chi2_interval
 from planning.collision.field import signed_distances
+from planning.core.arrays import kernel_input
 from planning.core.robot import load_robot
 from planning.core.world import Box, Circle, World
 from planning.scenario import random_scenario
@@ -54,10 +55,12 @@ def test_the_fit_sensitivity_matches_the_reference(scan: tuple) -> None:
 def test_the_sensitivity_predicts_how_a_scaled_scan_moves_the_fit(scan: tuple) -> None:
     amcl, r, b = scan
     f = amcl.field
-    ata, _, _ = K.fit_sensitivity(POSE, r, b, amcl.laser, f.signed, f.grid, 0.3, 0.5, K.NO_NOISE_MODEL)
+    ata, _, _ = K.fit_sensitivity(POSE, r, b, amcl.laser, f.signed, f.grid, 0.3, 0.5, kernel_input(K.NO_NOISE_MODEL))
     for k in (0.03, -0.03):
         scaled = np.where(r >= 0.5, r * (1 + k), r)
-        got, _, _, _ = K.refine(POSE.copy(), scaled, b, amcl.laser, f.signed, f.grid, 0.3, 20, K.NO_NOISE_MODEL)
+        got, _, _, _ = K.refine(
+            POSE.copy(), scaled, b, amcl.laser, f.signed, f.grid, 0.3, 20, kernel_input(K.NO_NOISE_MODEL)
+        )
         predicted = -np.linalg.solve(ata[:3, :3], ata[:3, 3]) * k
         shift = got - POSE
         assert np.linalg.norm(shift[:2]) > 0.005  # this room does not surround the robot evenly
@@ -68,7 +71,9 @@ def test_the_fix_covariance_carries_the_scanners_systematic_error(scan: tuple) -
     amcl, r, b = scan
     f = amcl.field
     pose = POSE.copy()
-    ata, used, ssr = K.fit_sensitivity(pose, r, b, amcl.laser, f.signed, f.grid, 0.3, 0.5, K.NO_NOISE_MODEL)
+    ata, used, ssr = K.fit_sensitivity(
+        pose, r, b, amcl.laser, f.signed, f.grid, 0.3, 0.5, kernel_input(K.NO_NOISE_MODEL)
+    )
     noise, got_gain, systematic = amcl._fit_cov(pose, r, b)
     cov = noise + systematic
     white = max(ssr / (used - 3), 1e-8) * np.linalg.inv(ata[:3, :3])

@@ -1,5 +1,7 @@
 """The kinematic spec read from the MJCF agrees with what MuJoCo compiles from the same file."""
 
+import dataclasses
+
 import mujoco
 import numpy as np
 import pytest
@@ -135,3 +137,24 @@ def test_convex_hull_is_qhulls_for_every_footprint_and_random_points():
         assert sorted(map(tuple, ours)) == sorted(map(tuple, ref)), k
         area = 0.5 * np.sum(ours[:, 0] * np.roll(ours[:, 1], -1) - np.roll(ours[:, 0], -1) * ours[:, 1])
         assert area > 0  # counter-clockwise
+
+
+def test_a_model_is_parsed_once_per_text_and_its_spec_shared_read_only(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """Loading a robot (its MJCF parsed, its footprint's hull over every pitch sample) cost every scenario,
+    checker and run that named one; the same text now gives the same spec, and an edited file a new one."""
+    spec = load_robot("edumip")
+    assert load_robot("edumip") is spec
+    assert not spec.footprint.flags.writeable
+    with pytest.raises(ValueError, match="read-only"):
+        spec.footprint[0, 0] = 1.0
+    mine = tmp_path / "bot.xml"
+    text = spec.mjcf.read_text()
+    mine.write_text(text)
+    first = load_robot(str(mine))
+    assert first == dataclasses.replace(spec, name="bot", mjcf=mine, scene=mine.with_name("bot_scene.xml"))
+    faster = text.replace('name="nhsim_max_linear_speed" data="', 'name="nhsim_max_linear_speed" data="1')
+    assert faster != text
+    mine.write_text(faster)  # written at once: the same modification time, at the clock's grain
+    assert load_robot(str(mine)).max_speed > first.max_speed
+    mine.write_text(text)
+    assert load_robot(str(mine)) is first

@@ -86,6 +86,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from control.estimation import amcl_kernels as K
 from planning.collision.field import signed_distances
+from planning.core.arrays import kernel_input
 from planning.core.checks import check_number
 from planning.core.world import World
 from planning.errors import ConfigError, option
@@ -519,7 +520,7 @@ class Amcl:
         self.config = config
         self.range_bias = range_bias
         self.range_noise = range_noise
-        self._noise = K.NO_NOISE_MODEL if range_noise is None else np.array(range_noise, dtype=float)
+        self._noise = kernel_input(K.NO_NOISE_MODEL if range_noise is None else range_noise)
         self.field = likelihood_field(world, config.map_resolution, config.laser_likelihood_max_dist, clearance)
         self.laser = np.asarray(laser, dtype=float).reshape(3)
         self.rng = np.random.default_rng(seed)

@@ -40,6 +40,7 @@ from planning.collision.compiled import (
     world_arrays,
 )
 from planning.collision.field import cached_field
+from planning.core.arrays import kernel_input
 from planning.core.geometry import densify_path
 from planning.core.robot import RobotSpec
 from planning.core.world import Box, Circle, Ellipse, Polygon, World
@@ -100,6 +101,7 @@ class CollisionChecker:
     tolerance: float = DEFAULT_TOLERANCE
     walls: bool = True
     _boundary: FloatArray = field(init=False, repr=False, compare=False)
+    _footprint: FloatArray = field(init=False, repr=False, compare=False)
     _anchors: FloatArray = field(init=False, repr=False, compare=False)
     _world: WorldArrays = field(init=False, repr=False, compare=False)
     _resolution: float = field(init=False, repr=False, compare=False)
@@ -111,7 +113,10 @@ class CollisionChecker:
             raise ValueError(f"tolerance must be > 0, got {self.tolerance}")
         if self.clearance < 0:
             raise ValueError(f"clearance must be >= 0, got {self.clearance}")
-        fp = np.ascontiguousarray(self.robot.footprint, dtype=np.float64)
+        # a writable copy whether or not the spec's is read-only (load_robot's are): the kernels see one
+        # array type, and compile once
+        fp = np.array(self.robot.footprint, dtype=np.float64, order="C")
+        object.__setattr__(self, "_footprint", fp)
         object.__setattr__(self, "_boundary", _boundary_samples(fp.tobytes(), float(self.tolerance)))
         anchors = [_obstacle_anchor(o) for o in self.world.obstacles]
         object.__setattr__(self, "_anchors", np.array(anchors).reshape(-1, 2))
@@ -143,7 +148,7 @@ class CollisionChecker:
         Returns:
             (M,) clearances.
         """
-        p = np.ascontiguousarray(np.atleast_2d(np.asarray(poses, dtype=float)))
+        p = kernel_input(np.atleast_2d(np.asarray(poses, dtype=float)))
         return clearances_kernel(p, self._world, self.robot_arrays(), self._field())  # type: ignore[no-any-return]
 
     def least_clearance(self, poses: ArrayLike) -> float:
@@ -208,9 +213,8 @@ class CollisionChecker:
     def robot_arrays(self) -> RobotArrays:
         """The robot and margins as the compiled kernels take them (boundary samples, footprint, obstacle
         anchors, radius, clearance, tolerance, disc shape)."""
-        fp = np.ascontiguousarray(self.robot.footprint, dtype=float)
         margins = (float(self.robot.radius), float(self.clearance), float(self.tolerance), self.shape == "disc")
-        return (self._boundary, fp, self._anchors, *margins)
+        return (self._boundary, self._footprint, self._anchors, *margins)
 
     def _field(self) -> FieldArrays:
         """The world's cached distance field (its block candidates speed the scan), else none; never

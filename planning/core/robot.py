@@ -250,11 +250,24 @@ def load_robot(name: str) -> RobotSpec:
     Raises:
         ConfigError: An unknown name (the message lists the robot names).
         ModelError: The file cannot be read or lacks a required element (named in the message).
+
+    The file is read each time, and parsed once per text: loading the same text again gives the same spec
+    (a frozen value with a read-only footprint, shared).
     """
     path = robot_path(name)
     try:
-        root = ET.parse(path).getroot()
-    except (OSError, ET.ParseError) as exc:
+        text = path.read_bytes()
+    except OSError as exc:
+        raise ModelError(f"cannot read robot model {path}: {exc}") from exc
+    return _parse_robot(path, text)
+
+
+@functools.lru_cache(maxsize=64)
+def _parse_robot(path: Path, text: bytes) -> RobotSpec:
+    """:func:`load_robot` of ``text``, the file at ``path`` (the spec depends on nothing else)."""
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError as exc:
         raise ModelError(f"cannot read robot model {path}: {exc}") from exc
     numerics = {n.get("name"): n.get("data") for n in root.iter("numeric")}
 
@@ -332,8 +345,9 @@ def _footprint(bodies: dict[str | None, ET.Element], defaults: dict[str, dict[st
     for wheel in ("wheel_left", "wheel_right"):
         off = _floats(bodies[wheel].get("pos"), 3, f"{wheel} pos")
         points.extend(_geom_outline(g, defaults, off) for g in bodies[wheel].findall("geom"))
-    allpts = np.vstack(points)
-    return convex_hull(allpts)
+    hull = convex_hull(np.vstack(points))
+    hull.setflags(write=False)  # a spec is a shared value (load_robot's cache)
+    return hull
 
 
 def convex_hull(points: FloatArray) -> FloatArray:

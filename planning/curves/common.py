@@ -16,6 +16,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planning.core.arrays import kernel_input
 from planning.curves.words import Word, make_word, word_endpoint
 
 FloatArray = NDArray[np.float64]
@@ -106,7 +107,7 @@ def pose_pairs(q0: ArrayLike, q1: ArrayLike) -> tuple[FloatArray, FloatArray]:
         raise ValueError(f"poses must have shape (N, 3) or (3,), got {a.shape} and {b.shape}")
     if a.shape[0] != b.shape[0] and 1 not in (a.shape[0], b.shape[0]):
         raise ValueError(f"pose counts must match or one be 1, got {a.shape[0]} and {b.shape[0]}")
-    return np.ascontiguousarray(a), np.ascontiguousarray(b)
+    return kernel_input(a), kernel_input(b)
 
 
 def check_rho(rho: float) -> None:

@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from planning.collision.exact import CollisionChecker
+from planning.core.arrays import kernel_input
 from planning.core.checks import check_flag, check_number
 from planning.core.geometry import check_pose, cumulative_length, path_steps, wrap_angle
 from planning.errors import ConfigError
@@ -429,7 +430,7 @@ def remove_loops(
     dirs = None if directions is None else np.asarray(directions, dtype=float).reshape(-1)
     if dirs is not None and dirs.size != p.shape[0]:
         raise ValueError(f"directions must have one entry per pose ({p.shape[0]}), got {dirs.size}")
-    idx = _loop_cut(np.ascontiguousarray(p[:, :3]), float(tolerance))
+    idx = _loop_cut(kernel_input(p[:, :3]), float(tolerance))
     # the step into a kept pose is the input's step into it, so its arriving direction is unchanged
     return p[idx], None if dirs is None else dirs[idx]
 

@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.collision.grid import CheckArrays, FastChecker
+from planning.core.arrays import kernel_input
 from planning.core.robot import RobotSpec
 from planning.curves.words import Word
 from planning.errors import ConfigError
@@ -158,7 +159,7 @@ class LocalPlanner:
     def _steer(self, q0: FloatArray, q1: FloatArray, max_len: float, keep_end: bool) -> tuple[FloatArray, FloatArray]:
         """Samples of the exact curve ``q0`` -> ``q1`` at the checking step, end pose pinned, cut to
         ``max_len`` of chords from the start (or, ``keep_end``, from the end); see :mod:`.fastcurve`."""
-        a, b = np.ascontiguousarray(q0, dtype=float), np.ascontiguousarray(q1, dtype=float)
+        a, b = kernel_input(q0), kernel_input(q1)
         assert self.rho is not None  # set in __post_init__
         poses, dirs, ok = steer_kernel(
             self.curves.kind == "reeds_shepp", a, b, self.rho, self.sample_step, max_len, keep_end
@@ -178,7 +179,7 @@ class LocalPlanner:
         """The samples of :meth:`_steer` if there are ``min_poses`` or more and all are free (checked in
         :func:`check_order`, the new end first: ``poses[0]`` with ``keep_end``, else ``poses[-1]``;
         :func:`.connect_kernel.steer_free`), else None."""
-        a, b = np.ascontiguousarray(q0, dtype=float), np.ascontiguousarray(q1, dtype=float)
+        a, b = kernel_input(q0), kernel_input(q1)
         if self._check is None:
             poses, dirs = self._steer(a, b, max_len, keep_end)
             return (poses, dirs) if poses.shape[0] >= min_poses and self.checker.path_free(poses) else None
