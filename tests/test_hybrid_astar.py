@@ -516,8 +516,10 @@ def test_the_time_limit_holds_for_the_grid_the_heuristic_and_the_search():
     own = min(res.stats["time_s"] - res.stats["code_s"], res.stats["cpu_s"])
     assert own <= 0.12 * 1.05 + 0.01, (res.reason, res.stats)
     assert res.reason.startswith("time budget of 0.12 s spent")
-    if res.stats["iterations"] == 0:  # this machine built the grid in time: the heuristic is named
-        assert "before the search: building the 2-D heuristic (1000000 cells, 12 obstacles)" in res.reason
+    if res.stats["iterations"] == 0:  # stopped before the search, in the heuristic (or, on a machine too
+        # loaded to build even the grid in time, in the grid): the stage is named
+        stages = ("the 2-D heuristic (1000000 cells, 12 obstacles)", "the collision grid (4004001 nodes, 12 obstacles)")
+        assert any(f"before the search: building {stage}" in res.reason for stage in stages), res.reason
 
 
 def test_a_limit_passed_while_the_grid_is_built_reads_as_any_other_timeout():
