@@ -94,17 +94,26 @@ class Topic:
     rows: Rows | list[Rows] | None = None
     joins: str | None = None
 
-    def serialized(self) -> list[bytes | memoryview]:
-        """The topic's K messages as CDR bytes, in order."""
-        if self.rows is not None:
-            out: list[bytes | memoryview] = []
-            for part in self.rows if isinstance(self.rows, list) else [self.rows]:
-                data = m.serialize_rows(*part)
+    def serialized(self, which: NDArray[np.int64] | None = None) -> list[bytes | memoryview]:
+        """Messages ``which`` (ascending indices into :attr:`times`; None: all) as CDR bytes, in that order: a
+        bag is written a stretch of time at a time (:func:`sim.io.bag._write`), never holding every message."""
+        if which is None:
+            which = np.arange(self.times.size)
+        if self.rows is None:
+            assert self.make is not None
+            return [m.serialize(self.make(int(k))) for k in which]
+        out: list[bytes | memoryview] = []
+        start = 0
+        for template, columns in self.rows if isinstance(self.rows, list) else [self.rows]:
+            size = len(next(iter(columns.values()))) if columns else 0
+            lo, hi = np.searchsorted(which, [start, start + size])
+            if hi > lo:
+                local = which[lo:hi] - start
+                data = m.serialize_rows(template, {path: np.asarray(v)[local] for path, v in columns.items()})
                 flat, width = memoryview(data.tobytes()), data.shape[1]
                 out += [flat[k * width : (k + 1) * width] for k in range(data.shape[0])]
-            return out
-        assert self.make is not None
-        return [m.serialize(self.make(k)) for k in range(self.times.size)]
+            start += size
+        return out
 
 
 def joined(topics: list[Topic]) -> list[Topic]:
