@@ -5,13 +5,14 @@ and the fix, nothing written, no traceback."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
-from planning.trajectory.bag_file import read_bag_table
+from planning.trajectory.bag_file import TF_TOPICS, read_bag_table
 from planning.trajectory.file_formats import TrajectoryFileError
 from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
 from sim.cli.main import main
@@ -100,13 +101,28 @@ def test_a_recorded_motion_keeps_its_clock_through_the_import(tmp_path: Path) ->
     assert imported.report.rows_read == t.size
 
 
-def _rosbags_bag(path: Path, *, ros1: bool, logged: list[int] | None = None, second_type: bool = False) -> Path:
+#: A transform on a bag's /tf or /tf_static: (stamp [s], parent, child, x, y, yaw).
+Transform = tuple[float, str, str, float, float, float]
+
+
+def _rosbags_bag(
+    path: Path,
+    *,
+    ros1: bool,
+    logged: list[int] | None = None,
+    second_type: bool = False,
+    tf: Sequence[Transform] = (),
+    tf_static: Sequence[Transform] = (),
+) -> Path:
     """The arc as nav_msgs/Odometry on /odom (with its twist), written by rosbags as a sqlite3 rosbag2
     folder or a ROS 1 bag; ``logged``: the order the messages are logged in (their stamps unchanged);
-    ``second_type``: a geometry_msgs/PoseStamped publisher on /odom too."""
-    from rosbags.typesys import Stores, get_typestore
+    ``second_type``: a geometry_msgs/PoseStamped publisher on /odom too; ``tf``, ``tf_static``: transforms,
+    one message each."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    if "tf2_msgs/msg/TFMessage" not in store.types:  # ROS 1 Noetic's store lacks it: tf2_msgs/TFMessage's text
+        store.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms", "tf2_msgs/msg/TFMessage"))
     ty = store.types
     t, poses = arc()
     speed = 0.5 * np.pi / t[-1]
@@ -131,6 +147,21 @@ def _rosbags_bag(path: Path, *, ros1: bool, logged: list[int] | None = None, sec
                 ),
             )
         )
+    transforms = []
+    for topic, given in (("/tf", tf), ("/tf_static", tf_static)):
+        for tk, parent, child, x, y, yaw in given:
+            stamp = ty["builtin_interfaces/msg/Time"](sec=EPOCH + int(tk), nanosec=round((tk % 1) * 1e9))
+            head = {"stamp": stamp, "frame_id": ("/" if ros1 else "") + parent, **({"seq": 0} if ros1 else {})}
+            vec, quat = ty["geometry_msgs/msg/Vector3"], ty["geometry_msgs/msg/Quaternion"]
+            one = ty["geometry_msgs/msg/TransformStamped"](
+                header=ty["std_msgs/msg/Header"](**head),
+                child_frame_id=child,
+                transform=ty["geometry_msgs/msg/Transform"](
+                    translation=vec(x=x, y=y, z=0.0),
+                    rotation=quat(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2)),
+                ),
+            )
+            transforms.append((topic, int(tk * 1e9), ty["tf2_msgs/msg/TFMessage"](transforms=[one])))
     if ros1:
         from rosbags.rosbag1 import Writer as Writer1
 
@@ -138,6 +169,11 @@ def _rosbags_bag(path: Path, *, ros1: bool, logged: list[int] | None = None, sec
             conn = w1.add_connection("/odom", "nav_msgs/msg/Odometry", typestore=store)
             for ns, msg in msgs:
                 w1.write(conn, EPOCH * 10**9 + ns, store.serialize_ros1(msg, "nav_msgs/msg/Odometry"))
+            conns1 = {
+                t: w1.add_connection(t, "tf2_msgs/msg/TFMessage", typestore=store) for t in TF_TOPICS if transforms
+            }
+            for topic, ns, msg in transforms:
+                w1.write(conns1[topic], EPOCH * 10**9 + ns, store.serialize_ros1(msg, "tf2_msgs/msg/TFMessage"))
         return path
     from rosbags.rosbag2 import StoragePlugin, Writer
 
@@ -145,6 +181,10 @@ def _rosbags_bag(path: Path, *, ros1: bool, logged: list[int] | None = None, sec
         conn = w2.add_connection("/odom", "nav_msgs/msg/Odometry", typestore=store)
         for k, i in enumerate(logged or range(len(msgs))):  # logged at the k-th message's time, stamped its own
             w2.write(conn, EPOCH * 10**9 + msgs[k][0], store.serialize_cdr(msgs[i][1], "nav_msgs/msg/Odometry"))
+        if transforms:
+            conns2 = {topic: w2.add_connection(topic, "tf2_msgs/msg/TFMessage", typestore=store) for topic in TF_TOPICS}
+            for topic, ns, msg in transforms:
+                w2.write(conns2[topic], EPOCH * 10**9 + ns, store.serialize_cdr(msg, "tf2_msgs/msg/TFMessage"))
         if second_type:
             other = w2.add_connection("/odom", "geometry_msgs/msg/PoseStamped", typestore=store)
             pose = ty["geometry_msgs/msg/PoseStamped"](header=msgs[0][1].header, pose=msgs[0][1].pose.pose)
@@ -162,6 +202,62 @@ def test_odometry_from_a_sqlite3_folder_or_a_ros1_bag(tmp_path: Path, ros1: bool
     np.testing.assert_allclose(table.columns["omega"], 0.5 * np.pi / t[-1])
     imported = read_trajectory_file(TrajectoryFile(bag, timed=True, topic="/odom"))
     assert imported.report.corrections == []  # its twist agrees with its poses: kept
+
+
+def _moved(pose: np.ndarray, x: float, y: float, yaw: float) -> np.ndarray:
+    """(N, 3) poses moved by the planar transform (x, y, yaw)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.column_stack([x + c * pose[:, 0] - s * pose[:, 1], y + s * pose[:, 0] + c * pose[:, 1], pose[:, 2] + yaw])
+
+
+@pytest.mark.parametrize("ros1", [False, True], ids=["rosbag2-sqlite3", "ros1-bag"])
+def test_poses_in_odom_are_placed_in_map_by_the_bags_transforms_at_their_stamps(tmp_path: Path, ros1: bool) -> None:
+    """A recording in ``odom`` was taken as if in ``map``; the bag's AMCL-style ``map -> site`` (static) and
+    ``site -> odom`` (moving, from 2 s) place each pose as tf2 would at its stamp: between two transforms
+    linearly, before the first by the first (counted in the report)."""
+    t, poses = arc()
+    site = (1.0, -0.5, 0.2)
+    moving = [(2.0, 0.3, 0.1, -0.4), (6.0, 0.5, 0.05, -0.3)]  # AMCL correcting the odometry's drift
+    bag = _rosbags_bag(
+        tmp_path / ("odom.bag" if ros1 else "odom"),
+        ros1=ros1,
+        tf_static=[(0.0, "map", "site", *site)],
+        tf=[(tk, "site", "odom", x, y, yaw) for tk, x, y, yaw in moving],
+    )
+    table = read_bag_table(bag, "/odom", timed=True)
+    at = np.column_stack([np.interp(t, [m[0] for m in moving], [m[j] for m in moving]) for j in (1, 2, 3)])
+    want = np.array([_moved(_moved(p[None], *a), *site)[0] for p, a in zip(poses, at, strict=True)])
+    got = np.column_stack([table.columns[k] for k in ("x", "y", "theta")])
+    np.testing.assert_allclose(got, want, atol=1e-9)
+    before, after = int(np.sum(t < 2.0)), int(np.sum(t > 6.0))
+    assert before > 0 and after > 0
+    (note,) = [n for n in table.notes if n.startswith("frame 'odom'")]
+    assert note == (
+        "frame 'odom': the poses are placed in 'map' by the bag's transforms (map -> site -> odom, at each pose's "
+        f"stamp; {before + after} of {t.size} poses lie beyond the transforms' stamps, placed by the nearest)"
+    )
+    imported = read_trajectory_file(TrajectoryFile(bag, timed=True, topic="/odom"))
+    np.testing.assert_allclose(imported.xy, want[:, :2], atol=1e-9)
+    assert note in imported.report.notes
+
+
+def test_without_a_chain_to_map_the_poses_stay_and_the_report_says_why(tmp_path: Path) -> None:
+    """Transforms that do not reach ``odom`` from ``map`` (another branch of the tree, a frame given two parents)
+    leave the poses as they were read, with the offset to use."""
+    _, poses = arc()
+    bag = _rosbags_bag(
+        tmp_path / "odom",
+        ros1=False,
+        tf=[
+            (0.0, "map", "other", 1.0, 1.0, 0.0),
+            (0.0, "site", "odom", 1.0, 0.0, 0.0),
+            (1.0, "map", "odom", 1.0, 0.0, 0.0),
+        ],
+    )
+    table = read_bag_table(bag, "/odom", timed=True)
+    np.testing.assert_allclose(table.columns["x"], poses[:, 0], atol=1e-12)
+    (note,) = [n for n in table.notes if n.startswith("frame 'odom'")]
+    assert "hold no chain of transforms from 'map' to 'odom'" in note and "--offset" in note
 
 
 # ------------------------------------------------------------------------------------------ bad input

@@ -11,10 +11,15 @@ A bag is a ROS 2 MCAP file (``.mcap``), a rosbag2 folder (MCAP or sqlite3 storag
   the first message); an odometry message's twist gives ``v`` and ``omega``.
 
 The poses' frame (their ``header.frame_id``; a path's poses', which a path header that says another
-frame does not override) goes into the import report: poses in another frame than ``map`` (an ``odom``
-recording) are taken as they are in the scenario's map frame, and the report says so and points to
-``--offset``. Orientation quaternions must have norm 1 within :data:`QUATERNION_TOLERANCE` (tf2 refuses
-others; those within it are normalised): the check a YAML path's get too
+frame does not override) goes into the import report. Poses in another frame than ``map`` (an ``odom``
+recording) are placed in ``map`` by the bag's transforms (:func:`place_in_map`): the chain from ``map``
+down to their frame on ``/tf`` and ``/tf_static`` (AMCL's ``map -> odom``), each pose by the
+transforms at its own stamp, a moving one interpolated between its stamps as tf2 does. Where tf2
+would refuse to extrapolate (a pose stamped before the first transform, as the start of a run before
+AMCL's first), the nearest transform is used and the report counts those poses. A bag without that
+chain leaves the poses as they are, and the report says so and points to ``--offset``. Orientation
+quaternions must have norm 1 within :data:`QUATERNION_TOLERANCE` (tf2 refuses others; those within it
+are normalised): the check a YAML path's get too
 (:func:`planning.trajectory.file_formats.quaternion_headings`).
 
 The table then goes through :func:`planning.trajectory.importer.read_trajectory_file`'s repairs and
@@ -27,11 +32,13 @@ exists (another message or topic of the bag, when it has one).
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
+from numpy.typing import NDArray
 
 from planning.errors import option
 from planning.trajectory.file_formats import BAG_SUFFIXES as BAG_SUFFIXES  # one list: the formats' message too
@@ -49,6 +56,11 @@ PATH_TYPE = "nav_msgs/msg/Path"
 MOTION_TYPES = ("nav_msgs/msg/Odometry", "geometry_msgs/msg/PoseStamped", "geometry_msgs/msg/PoseWithCovarianceStamped")
 #: The frame the scenario's coordinates are in.
 MAP_FRAME = "map"
+#: The topics and the type of a bag's transforms.
+TF_TOPICS = ("/tf", "/tf_static")
+TF_TYPE = "tf2_msgs/msg/TFMessage"
+#: The longest chain of transforms followed from a frame up to ``map``.
+MAX_TF_HOPS = 16
 
 
 def is_bag(path: Path) -> bool:
@@ -182,8 +194,9 @@ def _one_frame(path: Path, what: str, frames: list[str], rows: tuple[str, ...]) 
     return seen[0] if seen else ""
 
 
-def _frame_notes(frame: str, header: str | None = None) -> tuple[str, ...]:
-    """What the import report says of the poses' ``frame`` (and of a path ``header`` that said another)."""
+def _frame_notes(frame: str, header: str | None = None, placed: str | None = None) -> tuple[str, ...]:
+    """What the import report says of the poses' ``frame`` (and of a path ``header`` that said another), and
+    ``placed``, how the bag's transforms placed them in ``map`` (:func:`place_in_map`; None: they did not)."""
     notes = []
     if header and header != frame:  # an empty header says nothing
         notes.append(f"the path's header says frame {header!r} but its poses are in {frame!r}: the poses' frame used")
@@ -191,13 +204,109 @@ def _frame_notes(frame: str, header: str | None = None) -> tuple[str, ...]:
         notes.append(f"frame {frame!r}: the poses are in the scenario's map frame")
     elif not frame:
         notes.append("frame: none given (empty header.frame_id); the poses are taken in the scenario's map frame")
+    elif placed is not None:
+        notes.append(f"frame {frame!r}: the poses are placed in {MAP_FRAME!r} by the bag's transforms ({placed})")
     else:
         offset = option("offset", "X,Y,THETA", python="offset=(X, Y, THETA)")
         notes.append(
-            f"frame {frame!r}, not {MAP_FRAME!r}: the poses are taken as they are in the scenario's map frame (not "
-            f"transformed: the bag's tf is not read); place them with {offset}, the pose of {frame!r} in {MAP_FRAME!r}"
+            f"frame {frame!r}, not {MAP_FRAME!r}: the poses are taken as they are in the scenario's map frame (the "
+            f"bag's /tf and /tf_static hold no chain of transforms from {MAP_FRAME!r} to {frame!r}); place them with "
+            f"{offset}, the pose of {frame!r} in {MAP_FRAME!r}"
         )
     return tuple(notes)
+
+
+class Hop(NamedTuple):
+    """A frame's transform from its parent in a bag: planar (x, y, yaw), over time or static.
+
+    Attributes:
+        parent: The parent frame (no leading ``/``).
+        static: From ``/tf_static``: the same at every time.
+        stamps: (K,) increasing stamps [ns].
+        pose: (K, 3) the transform at each stamp: the frame's origin in the parent [m] and its yaw [rad],
+            unwrapped along the stamps.
+    """
+
+    parent: str
+    static: bool
+    stamps: NDArray[np.int64]
+    pose: NDArray[np.float64]
+
+    def at(self, stamps: NDArray[np.int64]) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+        """(N, 3) the transform at ``stamps`` [ns] (stamp 0, tf2's "latest": the last), linear between the
+        stamps and held beyond them; and which stamps lay beyond them."""
+        q = np.where(stamps == 0, self.stamps[-1], stamps)
+        if self.static or self.stamps.size == 1:
+            return np.tile(self.pose[-1], (q.size, 1)), np.zeros(q.size, dtype=bool)
+        out = np.column_stack([np.interp(q, self.stamps, self.pose[:, j]) for j in range(3)])
+        return out, (q < self.stamps[0]) | (q > self.stamps[-1])
+
+
+def read_transforms(reader: Any, path: Path) -> dict[str, Hop]:
+    """Each frame's transform from its parent on the bag's ``/tf`` and ``/tf_static`` (frame names without a
+    leading ``/``), planar: the yaw of the rotation. Transforms with a non-finite value are dropped (tf2 drops
+    them); a frame given two parents (which tf2 would follow one at a time) is left out."""
+    conns = [c for c in reader.connections if c.topic in TF_TOPICS and _name(c.msgtype) == _name(TF_TYPE)]
+    if not conns:  # (rosbags reads every connection when given none)
+        return {}
+    seen: dict[str, tuple[str, bool, list[tuple[int, float, float, float]]]] = {}
+    parents: dict[str, set[str]] = {}
+    try:
+        for conn, _, raw in reader.messages(connections=conns):
+            for tr in reader.deserialize(raw, conn.msgtype).transforms:
+                child, parent = tr.child_frame_id.lstrip("/"), tr.header.frame_id.lstrip("/")
+                v, q = tr.transform.translation, tr.transform.rotation
+                yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+                if not all(math.isfinite(value) for value in (v.x, v.y, yaw)):
+                    continue
+                parents.setdefault(child, set()).add(parent)
+                seen.setdefault(child, (parent, conn.topic == "/tf_static", []))[2].append(
+                    (_nanoseconds(tr.header.stamp), v.x, v.y, yaw)
+                )
+    except Exception as exc:  # a chunk that ends early or fails to decompress
+        raise TrajectoryFileError(
+            f"cannot read the transforms (/tf, /tf_static) of bag {path}: {exc}; the bag is truncated or damaged (try "
+            "`ros2 bag reindex` or `mcap recover`)"
+        ) from exc
+    hops = {}
+    for child, (parent, static, rows) in seen.items():
+        if len(parents[child]) > 1:
+            continue
+        table = np.array(sorted(rows), dtype=float)
+        stamps = table[:, 0].astype(np.int64)
+        last = np.append(stamps[1:] != stamps[:-1], True)  # of one stamp given twice, the later
+        pose = table[last, 1:]
+        pose[:, 2] = np.unwrap(pose[:, 2])
+        hops[child] = Hop(parent, static, stamps[last], pose)
+    return hops
+
+
+def place_in_map(hops: dict[str, Hop], frame: str, stamps: NDArray[np.int64], columns: dict[str, Any]) -> str | None:
+    """Move the poses in ``columns`` (``x``, ``y``, ``theta``), in ``frame`` at ``stamps`` [ns], into ``map``
+    along the chain of ``hops`` from ``map`` down to ``frame``, each pose by the transforms at its stamp;
+    return what was done, for the report, or None (``columns`` unchanged) when no such chain exists."""
+    chain: list[str] = [frame.lstrip("/")]
+    while chain[-1] != MAP_FRAME:
+        hop = hops.get(chain[-1])
+        if hop is None or len(chain) > MAX_TF_HOPS or hop.parent in chain:
+            return None
+        chain.append(hop.parent)
+    x, y, a = np.zeros(stamps.size), np.zeros(stamps.size), np.zeros(stamps.size)  # frame in map, built upwards
+    held = np.zeros(stamps.size, dtype=bool)
+    for child in chain[:-1]:
+        pose, beyond = hops[child].at(stamps)
+        hx, hy, ha = pose.T
+        c, s = np.cos(ha), np.sin(ha)
+        x, y, a = hx + c * x - s * y, hy + s * x + c * y, ha + a
+        held |= beyond
+    px, py = np.asarray(columns["x"], dtype=float), np.asarray(columns["y"], dtype=float)
+    columns["x"] = x + np.cos(a) * px - np.sin(a) * py
+    columns["y"] = y + np.sin(a) * px + np.cos(a) * py
+    columns["theta"] = np.asarray(columns["theta"], dtype=float) + a
+    said = " -> ".join(reversed(chain)) + ", at each pose's stamp"
+    if held.any():
+        said += f"; {int(held.sum())} of {stamps.size} poses lie beyond the transforms' stamps, placed by the nearest"
+    return said
 
 
 def _check_finite(path: Path, cols: dict[str, Any], rows: tuple[str, ...]) -> None:
@@ -222,12 +331,21 @@ def _instead(sizes: list[int], k: int, paths: list[str]) -> str:
     return "no other message or nav_msgs/Path topic of the bag has two poses: record the plan again"
 
 
-def _path_rows(
-    path: Path, topic: str, msgs: list[Any], message: int | None, paths: list[str], timed: bool
-) -> tuple[tuple[str, ...], dict[str, Any], tuple[str, tuple[str, ...]]]:
-    """The rows, columns and (frame, notes) of the path message ``message`` (None: the last) of ``topic``,
-    checked: in range, two poses or more in one frame, and for a trajectory (``timed``) poses that carry
-    their times."""
+class _Rows(NamedTuple):
+    """A topic read: its rows' names, its columns, the poses' frame, the header frame of a path (None for a
+    motion), the poses' stamps [ns] and notes for the report."""
+
+    rows: tuple[str, ...]
+    columns: dict[str, Any]
+    frame: str
+    header: str | None
+    stamps: list[int]
+    notes: tuple[str, ...] = ()
+
+
+def _path_rows(path: Path, topic: str, msgs: list[Any], message: int | None, paths: list[str], timed: bool) -> _Rows:
+    """The path message ``message`` (None: the last) of ``topic``, checked: in range, two poses or more in one
+    frame, and for a trajectory (``timed``) poses that carry their times."""
     k = len(msgs) - 1 if message is None else message
     if not -len(msgs) <= k < len(msgs):
         raise TrajectoryFileError(
@@ -253,14 +371,11 @@ def _path_rows(
             f"{stamps[0] * 1e-9:.9g} s, so it is a path, not a trajectory; track it with "
             f"{option('path', python='timed=False')}, or give a path whose poses carry their times"
         )
-    return rows, _columns(path, [p.pose for p in poses], stamps, rows), (frame, _frame_notes(frame, header))
+    return _Rows(rows, _columns(path, [p.pose for p in poses], stamps, rows), frame, header, stamps)
 
 
-def _motion_rows(
-    path: Path, topic: str, msgs: list[Any], msgtype: str
-) -> tuple[tuple[str, ...], dict[str, Any], tuple[str, tuple[str, ...]]]:
-    """The rows, columns and (frame, notes) of a recorded motion (every message a row), checked: two
-    messages or more, with a clock, in one frame."""
+def _motion_rows(path: Path, topic: str, msgs: list[Any], msgtype: str) -> _Rows:
+    """A recorded motion (every message a row), checked: two messages or more, with a clock, in one frame."""
     stamps = [_nanoseconds(mm.header.stamp) for mm in msgs]
     if len(msgs) < 2 or len(set(stamps)) == 1:
         what = "one message" if len(msgs) < 2 else f"{len(msgs)} messages all stamped {stamps[0] * 1e-9:.9g} s"
@@ -278,10 +393,10 @@ def _motion_rows(
     if msgtype == "nav_msgs/msg/Odometry":
         cols["v"] = np.array([mm.twist.twist.linear.x for mm in msgs], dtype=float)
         cols["omega"] = np.array([mm.twist.twist.angular.z for mm in msgs], dtype=float)
-    notes = _frame_notes(frame)
+    notes: tuple[str, ...] = ()
     if moved:
-        notes += (f"{moved} messages of {topic} were logged out of their stamps' order: read in the stamps' order",)
-    return rows, cols, (frame, notes)
+        notes = (f"{moved} messages of {topic} were logged out of their stamps' order: read in the stamps' order",)
+    return _Rows(rows, cols, frame, None, stamps, notes)
 
 
 def read_bag_table(path: Path, topic: str | None, message: int | None = None, *, timed: bool) -> FileTable:
@@ -309,16 +424,19 @@ def read_bag_table(path: Path, topic: str | None, message: int | None = None, *,
             )
         msgtype, msgs = _messages(reader, path, topic, timed)
         paths = [name for name, info in reader.topics.items() if info.msgtype == PATH_TYPE and name != topic]
+        if msgtype == PATH_TYPE:
+            got = _path_rows(path, topic, msgs, message, paths, timed)
+        else:
+            if message is not None:
+                raise TrajectoryFileError(
+                    f"{option('message')} picks one nav_msgs/Path; {topic} carries {_name(msgtype)}: drop it"
+                )
+            got = _motion_rows(path, topic, msgs, msgtype)
+        placed = None
+        if got.frame.lstrip("/") not in ("", MAP_FRAME):
+            placed = place_in_map(read_transforms(reader, path), got.frame, np.array(got.stamps), got.columns)
     finally:
         reader.close()
-    if msgtype == PATH_TYPE:
-        rows, cols, (frame, notes) = _path_rows(path, topic, msgs, message, paths, timed)
-    else:
-        if message is not None:
-            raise TrajectoryFileError(
-                f"{option('message')} picks one nav_msgs/Path; {topic} carries {_name(msgtype)}: drop it"
-            )
-        rows, cols, (frame, notes) = _motion_rows(path, topic, msgs, msgtype)
-    _check_finite(path, cols, rows)  # named as a pose of the topic, before the table's own check
-    table = table_from_arrays(path, cols, f"bag topic {topic}, {_name(msgtype)}", rows)
-    return replace(table, frame=frame, notes=notes)
+    _check_finite(path, got.columns, got.rows)  # named as a pose of the topic, before the table's own check
+    table = table_from_arrays(path, got.columns, f"bag topic {topic}, {_name(msgtype)}", got.rows)
+    return replace(table, frame=got.frame, notes=_frame_notes(got.frame, got.header, placed) + got.notes)

@@ -218,8 +218,9 @@ class ImportReport:
         world: The world check's finding ("" when the file stays clear).
         collisions_allowed: The file was run although it collides or leaves the world.
         arena: The world is an arena sized around the file (no scenario given).
-        frame: The frame the poses were recorded in (a bag's ``header.frame_id``, "" when empty), taken as the
-            scenario's map frame; None for a file without frames.
+        frame: The frame the poses were recorded in (a bag's ``header.frame_id``, "" when empty): placed in the
+            scenario's map frame by the bag's transforms where it has a chain of them from ``map``, else taken
+            as the map frame (the notes say which); None for a file without frames.
     """
 
     file: str
