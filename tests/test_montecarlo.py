@@ -749,6 +749,8 @@ def test_runs_on_which_workers_keep_dying_end_in_one_line(capsys: pytest.Capture
     import operator
 
     import dask
+    import distributed  # noqa: F401  (its defaults in dask's config first: set() of a key not there yet removes
+    # the whole "distributed" table on leaving, and the next LocalCluster of this process failed with KeyError)
 
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}), _scheduler(workers=1) as cluster:  # type: ignore[attr-defined]
         address = cluster.scheduler_address
