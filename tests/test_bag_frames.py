@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from planning.core.geometry import compose_poses
 from sim.io import bag_topics as bt
 from sim.pipeline.runs import RunKind
 from tests.test_bag import tf_chain
@@ -92,7 +93,7 @@ def test_odom_is_continuous_wheel_odometry_and_map_to_odom_carries_the_correctio
         assert np.all(step <= 0.5 * r * (turned + 2 * count) * 1.01), kind
         assert np.all(np.abs(np.diff(odo[:, 2])) <= r * (turned + 2 * count) / b * 1.01), kind
         map_odom = links[("map", f"{kind}/odom")]
-        believed = bt.compose(map_odom, odo)
+        believed = compose_poses(map_odom, odo)
         odom = msgs[f"/{kind}/odom"]
         at = np.array([t for t, _ in odom]) * 1e-9
         pose = _unwrapped(np.array([[x.pose.pose.position.x, x.pose.pose.position.y, _yaw(x.pose.pose.orientation)]

@@ -41,6 +41,20 @@ def unwrap_heading(theta: ArrayLike) -> FloatArray:
     return np.unwrap(np.asarray(theta, dtype=float))
 
 
+def compose_poses(a: FloatArray, b: FloatArray) -> FloatArray:
+    """Planar poses a ∘ b (N, 3): b expressed in a's frame, brought into a's parent."""
+    c, s = np.cos(a[:, 2]), np.sin(a[:, 2])
+    return np.column_stack(
+        [a[:, 0] + c * b[:, 0] - s * b[:, 1], a[:, 1] + s * b[:, 0] + c * b[:, 1], a[:, 2] + b[:, 2]]
+    )
+
+
+def invert_poses(a: FloatArray) -> FloatArray:
+    """Planar poses a⁻¹ (N, 3)."""
+    c, s = np.cos(a[:, 2]), np.sin(a[:, 2])
+    return np.column_stack([-c * a[:, 0] - s * a[:, 1], s * a[:, 0] - c * a[:, 1], -a[:, 2]])
+
+
 @dataclass(frozen=True)
 class Pose2D:
     """A planar pose: a position [m] and a heading [rad].

@@ -40,6 +40,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.geometry import compose_poses
 from planning.errors import option
 from planning.trajectory.file_formats import BAG_SUFFIXES as BAG_SUFFIXES  # one list: the formats' message too
 from planning.trajectory.file_formats import QUATERNION_TOLERANCE as QUATERNION_TOLERANCE  # one check: bags, YAML
@@ -47,6 +48,7 @@ from planning.trajectory.file_formats import (
     FileTable,
     TrajectoryFileError,
     quaternion_headings,
+    quaternion_yaw,
     table_from_arrays,
     yaml_problem,
 )
@@ -256,7 +258,7 @@ def read_transforms(reader: Any, path: Path) -> dict[str, Hop]:
             for tr in reader.deserialize(raw, conn.msgtype).transforms:
                 child, parent = tr.child_frame_id.lstrip("/"), tr.header.frame_id.lstrip("/")
                 v, q = tr.transform.translation, tr.transform.rotation
-                yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+                yaw = quaternion_yaw(q.x, q.y, q.z, q.w)  # NaN for a zero quaternion: dropped below
                 if not all(math.isfinite(value) for value in (v.x, v.y, yaw)):
                     continue
                 parents.setdefault(child, set()).add(parent)
@@ -291,18 +293,14 @@ def place_in_map(hops: dict[str, Hop], frame: str, stamps: NDArray[np.int64], co
         if hop is None or len(chain) > MAX_TF_HOPS or hop.parent in chain:
             return None
         chain.append(hop.parent)
-    x, y, a = np.zeros(stamps.size), np.zeros(stamps.size), np.zeros(stamps.size)  # frame in map, built upwards
+    frame_in_map = np.zeros((stamps.size, 3))  # built upwards, one parent at a time
     held = np.zeros(stamps.size, dtype=bool)
     for child in chain[:-1]:
         pose, beyond = hops[child].at(stamps)
-        hx, hy, ha = pose.T
-        c, s = np.cos(ha), np.sin(ha)
-        x, y, a = hx + c * x - s * y, hy + s * x + c * y, ha + a
+        frame_in_map = compose_poses(pose, frame_in_map)
         held |= beyond
-    px, py = np.asarray(columns["x"], dtype=float), np.asarray(columns["y"], dtype=float)
-    columns["x"] = x + np.cos(a) * px - np.sin(a) * py
-    columns["y"] = y + np.sin(a) * px + np.cos(a) * py
-    columns["theta"] = np.asarray(columns["theta"], dtype=float) + a
+    poses = np.column_stack([np.asarray(columns[k], dtype=float) for k in ("x", "y", "theta")])
+    columns["x"], columns["y"], columns["theta"] = compose_poses(frame_in_map, poses).T
     said = " -> ".join(reversed(chain)) + ", at each pose's stamp"
     if held.any():
         said += f"; {int(held.sum())} of {stamps.size} poses lie beyond the transforms' stamps, placed by the nearest"

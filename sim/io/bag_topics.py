@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.geometry import compose_poses, invert_poses
 from planning.core.world import Box, Circle, Ellipse, Polygon, World
 from sim.io import rosmsgs as m
 
@@ -217,20 +218,6 @@ def _quat_mul(a: FloatArray, b: FloatArray) -> FloatArray:
             w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
         ]
     )
-
-
-def compose(a: FloatArray, b: FloatArray) -> FloatArray:
-    """Planar poses a ∘ b (N, 3): b expressed in a's frame, brought into a's parent."""
-    c, s = np.cos(a[:, 2]), np.sin(a[:, 2])
-    return np.column_stack(
-        [a[:, 0] + c * b[:, 0] - s * b[:, 1], a[:, 1] + s * b[:, 0] + c * b[:, 1], a[:, 2] + b[:, 2]]
-    )
-
-
-def inverse(a: FloatArray) -> FloatArray:
-    """Planar poses a⁻¹ (N, 3)."""
-    c, s = np.cos(a[:, 2]), np.sin(a[:, 2])
-    return np.column_stack([-c * a[:, 0] - s * a[:, 1], s * a[:, 0] - c * a[:, 1], -a[:, 2]])
 
 
 def planar_velocity(t: FloatArray, pose: FloatArray) -> FloatArray:
@@ -432,7 +419,7 @@ def _tf_series(log: Any, sk: Skeleton, frames: dict[str, str], odo: FloatArray) 
     ground_truth/base_link (the true pose, and the body's height, pitch and roll)."""
     t, truth = log.t, log.pose
     belief = belief_at(log, t)
-    map_odom = np.zeros((t.size, 3)) if belief is None else compose(belief, inverse(odo))
+    map_odom = np.zeros((t.size, 3)) if belief is None else compose_poses(belief, invert_poses(odo))
     lift, tilt = _body_tilt(log, sk)
     half = 0.5 * log.qpos[:, list(sk.wheels)]
     zero, flat = np.zeros(t.size), np.zeros((t.size, 3))
