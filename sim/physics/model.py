@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass
 
 import mujoco
+import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
@@ -251,6 +252,12 @@ def _has_ancestor(model: mujoco.MjModel, body: int, ancestor: int) -> bool:
     return False
 
 
+@nb.njit(cache=True)
+def yaw_from_quat(w: float, x: float, y: float, z: float) -> float:
+    """Heading [rad] of a unit quaternion (rotation about z of the body x-axis)."""
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
 def set_pose(model: mujoco.MjModel, data: mujoco.MjData, pose: Pose2D, *, settle: float = 0.5) -> None:
     """Place the robot's free joint at a planar pose, at rest on the floor.
 
@@ -274,7 +281,7 @@ def set_pose(model: mujoco.MjModel, data: mujoco.MjData, pose: Pose2D, *, settle
         data.ctrl[:] = 0.0
         mujoco.mj_step(model, data, nstep=max(1, round(settle / model.opt.timestep)))
         w, x, y, z = data.qpos[adr + 3 : adr + 7]
-        drift = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)) - pose.theta
+        drift = yaw_from_quat(w, x, y, z) - pose.theta
         turn = np.empty(4)
         mujoco.mju_mulQuat(turn, np.array(_quat_yaw(-drift)), data.qpos[adr + 3 : adr + 7].copy())
         data.qpos[adr + 3 : adr + 7] = turn

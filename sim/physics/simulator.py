@@ -32,7 +32,7 @@ from planning.core.world import World, check_world
 from planning.errors import ConfigError, NhsimError, SimulationError, option
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import AsBuilt
-from sim.physics.model import FLOOR_TILT, TIP_ANGLE, BuiltModel, set_pose, tipped_over
+from sim.physics.model import FLOOR_TILT, TIP_ANGLE, BuiltModel, set_pose, tipped_over, yaw_from_quat
 from sim.physics.motors import MotorModel, control_steps
 from sim.physics.perturb import Perturbation
 from sim.physics.runlog import Contact, RunLog
@@ -51,12 +51,6 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 WARNING_NAMES = {int(v): k for k, v in mujoco.mjtWarning.__members__.items() if k != "mjNWARNING"}
-
-
-@nb.njit(cache=True)
-def yaw_from_quat(w: float, x: float, y: float, z: float) -> float:
-    """Heading [rad] of a unit quaternion (rotation about z of the body x-axis)."""
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
 #: Indices into a run's sensor address array (see :func:`_sample`), then the log's next row.
