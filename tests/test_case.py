@@ -6,10 +6,12 @@ import dataclasses
 
 import pytest
 
+from planning import PlanProblem, load_scenario, make_planner
 from planning.errors import ConfigError, ScenarioError
 from sim.cli.progress import TITLES
 from sim.pipeline.case import Case, PlanOptions, prepare_trajectory
 from sim.pipeline.runs import PLAN_TRACKER, REFERENCE_TRACKER, RunKind
+from sim.pipeline.simulate import simulate_plan
 
 
 def test_a_case_names_itself_as_the_suite_baselines_do() -> None:
@@ -171,3 +173,16 @@ def test_runs_are_taken_by_their_labels_and_an_empty_or_unknown_list_is_refused(
             run_kinds(bad)  # type: ignore[arg-type]
     with pytest.raises(ConfigError, match="closed_loop given twice"):
         run_kinds(["closed_loop", "closed_loop"])
+
+
+def test_a_ready_plan_is_refused_beside_another_planner_a_reference_or_a_file() -> None:
+    plan = make_planner("rrt").plan(PlanProblem.from_scenario(load_scenario("simple_motion"), seed=0))
+    assert plan.success
+    assert Case("simple_motion", planner="", planning=PlanOptions(plan=plan)).planning.plan is plan
+    assert Case("simple_motion", planner="rrt", planning=PlanOptions(plan=plan)).planning.plan is plan
+    with pytest.raises(ConfigError, match=r"made by 'rrt', but planner 'birrt' is named.*planner=''"):
+        Case("simple_motion", planner="birrt", planning=PlanOptions(plan=plan))
+    with pytest.raises(ConfigError, match=r"ready plan .* but reference is what would be tracked"):
+        Case("simple_motion", reference="circle", planning=PlanOptions(plan=plan))
+    with pytest.raises(ConfigError, match=r"planner 'birrt' is named"):
+        simulate_plan("simple_motion", planner="birrt", planning=PlanOptions(plan=plan))

@@ -223,6 +223,7 @@ class Case:
                 f"case {self.label}: planner options ({given}) are given but nothing is planned (an analytic "
                 "reference or a file is tracked): drop them (--planner-option), or plan"
             )
+        self._check_ready_plan()
         if self.reference is not None and self.reference not in REFERENCES:
             raise ConfigError(
                 f"case {self.label}: unknown reference {self.reference!r}; choose {', '.join(REFERENCES)}"
@@ -237,6 +238,31 @@ class Case:
         self._check_gains()
         if not self.name:
             object.__setattr__(self, "name", self._derived_name())
+
+    def with_plan(self, plan: PlanResult, scenario: Scenario) -> Case:
+        """This case on its loaded ``scenario`` with ``plan`` (made for it) as its ready plan, the name kept."""
+        return dataclasses.replace(
+            self, scenario=scenario, planner="", planning=dataclasses.replace(self.planning, plan=plan)
+        )
+
+    def _check_ready_plan(self) -> None:
+        """A ready plan (``planning.plan``) is tracked as it is: refused beside a reference or a file (which would be
+        tracked instead of it), and beside a planner other than the one that made it (which would never plan)."""
+        plan = self.planning.plan
+        if plan is None:
+            return
+        if self.planner is None:
+            tracked = "reference" if self.reference is not None else "trajectory_file"
+            raise ConfigError(
+                f"case {self.label}: a ready plan (PlanOptions(plan=...)) is given, but {tracked} is what would be "
+                f"tracked: drop the plan, or give planner='' to track it"
+            )
+        if self.planner and self.planner != plan.planner:
+            raise ConfigError(
+                f"case {self.label}: the ready plan (PlanOptions(plan=...)) was made by {plan.planner!r}, but planner "
+                f"{self.planner!r} is named; a ready plan is tracked as it is, not planned again: give planner='' (or "
+                f"{plan.planner!r}) to track it, or drop the plan to plan with {self.planner!r}"
+            )
 
     def _check_gains(self) -> None:
         """The FBL gains are given once: as ``gains``, or as ``params`` for a tracker whose tuned option they are

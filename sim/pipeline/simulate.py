@@ -445,8 +445,9 @@ def simulate_plan(
     Raises:
         ConfigError: A scenario that is none, a seed that is not an integer >= 0, a tracker without feedback for
             the closed loops; no planner given and the scenario names none; unknown planner; a ready plan
-            (``planning=PlanOptions(plan=...)``) that does not start at the scenario's start, end in its goal
-            region or keep the robot's footprint clear of its world.
+            (``planning=PlanOptions(plan=...)``) beside a ``planner`` other than the one that made it, or one that
+            does not start at the scenario's start, end in its goal region or keep the robot's footprint clear of
+            its world.
         ScenarioError: The start or goal lies outside the world or the robot's footprint overlaps something there.
         TrajectoryError: The plan failed or could not be made into a collision-free trajectory.
     """

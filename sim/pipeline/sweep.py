@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any
 
@@ -216,7 +216,7 @@ def sweep_case(case: Case) -> SweepRow:
         na = precondition_not_met(sc, plan)
         if na is not None:
             return SweepRow(case, Outcome.NA, Stage.PRECONDITION, na, status, plan.stats.get("time_s"))
-        job = simulate(replace(case, scenario=sc, planning=replace(case.planning, plan=plan)))
+        job = simulate(case.with_plan(plan, sc))
     except PlanFailedError as exc:
         return SweepRow(case, Outcome.FAIL, Stage.PLAN, str(exc), status)
     except NhsimError as exc:

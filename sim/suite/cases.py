@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
 from functools import cache
 from typing import Any
 
@@ -89,7 +88,7 @@ def _prepared(
     why = precondition_not_met(sc, plan)
     if why is not None:
         raise NotApplicableError(f"planner {case.planner!r} does not apply to {sc.name} with the {sc.robot}: {why}")
-    return prepare_trajectory(replace(case, scenario=sc, planning=replace(case.planning, plan=plan)))
+    return prepare_trajectory(case.with_plan(plan, sc))
 
 
 def load(
