@@ -9,7 +9,9 @@ of ``planning``, ``control`` and ``sim`` that imports numba: a change to any of 
 directory (every kernel compiles afresh once, about a minute of CPU over a test run), and a checkout
 left as it is keeps its cache. The directory is ``$XDG_CACHE_HOME/nhsim/numba/<hash>`` (``~/.cache``
 without XDG_CACHE_HOME); the two most recent others are kept, older ones removed when a new one is
-started. A ``NUMBA_CACHE_DIR`` given in the environment is used as it is.
+started. A ``NUMBA_CACHE_DIR`` given in the environment is used as it is. Within it, nhsim's kernel files are
+kept by their folder in the project (numba names a file's folder by its absolute path), so a second clone or
+worktree of the same sources loads the kernels the first compiled.
 
 A kernel that reads a constant from a module that does not import numba is not covered: such a
 module's change keeps the cache. nhsim's kernels read their constants from their own modules or
@@ -209,7 +211,25 @@ def _locator_class() -> type:
                         return found
             return None
 
+        @classmethod
+        def get_suitable_cache_subpath(cls, py_file: str) -> str:
+            """nhsim's own kernel files by their place in the project (numba names a file's folder by its absolute
+            path): the directory is named by the kernel sources, so every checkout of them shares its kernels."""
+            return _project_subpath(py_file) or super().get_suitable_cache_subpath(py_file)
+
     return KernelCacheLocator
+
+
+def _project_subpath(py_file: str) -> str | None:
+    """``py_file``'s folder within the project, as one folder name (``control_estimation``), for a file of
+    :data:`PACKAGES`; None for any other file (a plugin's kernels keep numba's folder, named by their absolute path)."""
+    try:
+        relative = Path(py_file).resolve().relative_to(_ROOT)
+    except (OSError, ValueError):
+        return None
+    if len(relative.parts) < 2 or relative.parts[0] not in PACKAGES:
+        return None
+    return "_".join(relative.parent.parts)
 
 
 def _prune(root: Path, current: Path | None = None) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -77,3 +78,35 @@ def test_processes_sharing_a_cache_compile_each_kernel_once(tmp_path: Path) -> N
     out = subprocess.run([sys.executable, "-c", code], env=env, cwd=ROOT, capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip().startswith(str(tmp_path / "cache" / "compile-locks"))
+
+
+def test_another_checkout_of_the_same_kernel_sources_loads_their_kernels(tmp_path: Path) -> None:
+    """numba names a kernel file's cache folder by its absolute path, so a second clone or worktree of the same
+    sources compiled every kernel again; nhsim's own files are kept by their place in the project."""
+    copy = tmp_path / "checkout"
+    for package in kernel_cache.PACKAGES:
+        shutil.copytree(ROOT / package, copy / package, ignore=shutil.ignore_patterns("__pycache__"))
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "NUMBA_CACHE_LOCATOR_CLASSES")}
+    env["XDG_CACHE_HOME"] = str(tmp_path / "xdg")
+    code = (
+        "import planning.core.ellipse as e, numpy as np\n"
+        "e.ellipse_distances(np.zeros(1), np.zeros(1), 1.0, 2.0)\n"
+        "print(e.__file__, e.ellipse_distances.stats.cache_hits.most_common(1), e.ellipse_distances._cache.cache_path)"
+    )
+    runs = []
+    for where in (ROOT, copy):
+        done = subprocess.run(
+            [sys.executable, "-c", code],
+            env={**env, "PYTHONPATH": str(where)},
+            cwd=where,
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        assert done.returncode == 0, done.stderr
+        runs.append(done.stdout.split(" ", 1))
+    (first_file, first), (second_file, second) = runs
+    assert first_file.startswith(str(ROOT)) and second_file.startswith(str(copy))
+    folder = tmp_path / "xdg" / "nhsim" / "numba" / kernel_cache.source_key() / "planning_core"
+    assert first.startswith("[]") and first.strip().endswith(str(folder))  # compiled in the first checkout
+    assert second.startswith("[((") and ", 1)]" in second and second.strip().endswith(str(folder))  # loaded
