@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 import signal
+from collections.abc import Iterator
 
 import pytest
 
@@ -56,3 +57,20 @@ LONGEST_FIRST = (
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     rank = {name: k for k, name in enumerate(LONGEST_FIRST)}
     items.sort(key=lambda item: rank.get(item.path.name, len(rank)))  # stable: the rest keep their order
+
+
+#: The signals whose handlers the commands set (:mod:`sim.cli.interrupt`) and a test may change.
+STOPPING_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGALRM)
+
+
+@pytest.fixture(autouse=True)
+def _signal_handlers_kept() -> Iterator[None]:
+    """Fail a test that leaves a stopping signal's handler changed (restoring it first): the processes a worker
+    starts later inherit an ignored signal, and a hangup test on the same worker saw its command ignore SIGHUP
+    as under ``nohup`` and run to its end."""
+    before = {sig: signal.getsignal(sig) for sig in STOPPING_SIGNALS}
+    yield
+    changed = [sig.name for sig in STOPPING_SIGNALS if signal.getsignal(sig) != before[sig]]
+    for sig, handler in before.items():
+        signal.signal(sig, handler)
+    assert not changed, f"the test left the handlers of {', '.join(changed)} changed"

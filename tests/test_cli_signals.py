@@ -72,16 +72,31 @@ def stop_when(
     ]
     for r in readers:
         r.start()
+
+    def send(what: signal.Signals) -> None:
+        if group:
+            os.killpg(proc.pid, what)
+        else:
+            proc.send_signal(what)
+
     try:
         deadline = time.monotonic() + timeout
-        while not ready("".join(out), "".join(err)):
+        while True:
+            while not ready("".join(out), "".join(err)):
+                assert proc.poll() is None, (
+                    f"the command ended before it could be stopped:\n{''.join(out)}{''.join(err)}"
+                )
+                assert time.monotonic() < deadline, "the command never got to work"
+                time.sleep(0.05)
+            # frozen while the state is looked at again, so the signal lands in the state seen (a loaded machine
+            # could let the command run on, even to its end, between a look and the signal)
+            send(signal.SIGSTOP)
             assert proc.poll() is None, f"the command ended before it could be stopped:\n{''.join(out)}{''.join(err)}"
-            assert time.monotonic() < deadline, "the command never got to work"
-            time.sleep(0.05)
-        if group:
-            os.killpg(proc.pid, sig)
-        else:
-            proc.send_signal(sig)
+            if ready("".join(out), "".join(err)):
+                break
+            send(signal.SIGCONT)
+        send(sig)
+        send(signal.SIGCONT)
         proc.wait(timeout=120)
     finally:
         if proc.poll() is None:
@@ -835,7 +850,7 @@ def test_an_interrupted_command_ignores_further_signals_while_it_exits(monkeypat
 
     import sim.cli.main as cli
 
-    before = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    before = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
     try:
         monkeypatch.setattr(cli, "main", lambda: 130)
         assert cli.console() == 130
