@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,8 +16,8 @@ from planning.core.kinematics import bicycle_rhs
 from planning.core.robot import load_robot
 from planning.core.world import Box, Circle, Ellipse, Polygon, World
 from planning.errors import ConfigError
-from planning.planners.base import PlanProblem, PlanStatus
-from planning.planners.optim import DEFAULT_DT, DEFAULT_N, Optim, polygon_vertices
+from planning.planners.base import PlanProblem, PlanStatus, run_planner
+from planning.planners.optim import DEFAULT_DT, DEFAULT_N, NODE_SPACING, Optim, polygon_vertices
 from planning.planners.registry import make_planner
 from planning.scenario import load_scenario
 
@@ -577,3 +578,36 @@ def test_a_solve_that_casadi_refuses_says_casadis_reason() -> None:
     with pytest.raises(RuntimeError) as raised:
         opti.solve_limited()
     assert casadi_reason(raised.value).startswith("Ill-posed problem detected"), str(raised.value)
+
+
+def test_a_long_way_gets_a_node_per_node_spacing_unless_n_is_given() -> None:
+    """50 nodes over a 27 m way through 60 obstacles (0.55 m apart) left IPOPT infeasible or out of time."""
+    robot = load_robot("turtlebot3")
+
+    def nodes(planner: Optim, length: float) -> int:
+        world = World((-1.0, length + 1.0, -1.0, 1.0), ())
+        problem = PlanProblem(world, robot, Pose2D(0.0, 0.0, 0.0), Pose2D(length, 0.0, 0.0))
+        x, u, _ = planner._initial_guess(problem, "straight", {})
+        assert x.shape[0] == u.shape[0] + 1 == planner.N + 1
+        return planner.N
+
+    assert nodes(Optim(), 5.0) == DEFAULT_N  # every built-in scenario's way is shorter than 10 m
+    assert nodes(Optim(), 10.0) == DEFAULT_N
+    assert nodes(Optim(), 27.1) == math.ceil(27.1 / NODE_SPACING) == 136
+    assert nodes(Optim(N=60), 27.1) == 60  # as given
+    reused = Optim()
+    assert nodes(reused, 27.1) == 136 and nodes(reused, 5.0) == DEFAULT_N  # per plan, not kept
+
+
+@pytest.mark.slow  # two 20 x 20 m worlds of 60 obstacles: 3 s each
+@pytest.mark.parametrize("seed", [2, 3])
+def test_a_20_m_world_of_60_obstacles_is_solved_with_a_node_per_node_spacing(tmp_path: Path, seed: int) -> None:
+    # with 50 nodes both ran out of the 30 s
+    from sim.tools.bench.cold import world_toml
+
+    path = tmp_path / "w.toml"
+    path.write_text(world_toml(seed, 20.0, 60, 0.8))
+    problem = PlanProblem.from_scenario(load_scenario(str(path)), robot=load_robot("turtlebot3"), time_limit=30.0)
+    res = run_planner(Optim(), "optim", problem)  # checked: ends in the goal, no collision
+    assert res.success, res.reason
+    assert res.stats["N"] > DEFAULT_N and res.stats["dense_disc_clearance"] >= 0.0
