@@ -59,9 +59,10 @@ DEFAULT_N = 50
 DEFAULT_DT = 0.2
 #: Longest spacing [m] of the nodes along the warm start's path when N is not given: a long way gets more than
 #: :data:`DEFAULT_N` nodes. The constraints hold at the nodes, and 50 nodes over a 27 m way through 60 obstacles
-#: (0.55 m apart) left IPOPT locally infeasible or out of time on 6 of 9 worlds of 12-20 m; one node per 0.2 m
-#: solved 7 of the 9 (TurtleBot3 in 2-3 s). Ways up to 10 m (every built-in scenario, the 6 x 6 m random
-#: worlds) keep their 50.
+#: (0.55 m apart) left IPOPT out of time on two of four 20 x 20 m worlds of 60 obstacles
+#: (:func:`sim.tools.bench.cold.world_toml` seeds 1-4, size 20, 60 obstacles, scale 0.8; TurtleBot3); one node
+#: per 0.2 m solves all four in 2-6 s. Ways up to 10 m (every built-in scenario, the 6 x 6 m random worlds) keep
+#: their 50.
 NODE_SPACING = 0.2
 _BUILTIN_INITS = ("auto", "straight", "grid")
 _SUCCESS = {"Solve_Succeeded", "Solved_To_Acceptable_Level"}
