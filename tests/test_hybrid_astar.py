@@ -606,3 +606,16 @@ def test_a_start_boxed_in_by_the_grids_proof_margin_names_a_sampling_planner_not
     assert "it could barely leave where it began" in res.reason and "plan with rrt or rrt-star" in res.reason
     assert "cell_size" not in res.reason
     assert make_planner("rrt-star", clearance=0.01).plan(prob).success
+
+
+def test_a_budget_spent_on_a_wide_world_names_coarser_cells_and_a_narrow_one_does_not() -> None:
+    """A 50 x 50 m world of 15 obstacles spent the 1,000,000 expansions on 0.05 m cells and the reason named only a
+    larger budget and the sampling planners; 0.1 m cells plan it in under a second."""
+    robot = load_robot("turtlebot3")
+    wide = PlanProblem(World((-25.0, 25.0, -25.0, 25.0), ()), robot, Pose2D(-24.0, -24.0, 2.0), Pose2D(24.0, 24.0, 0.0))
+    narrow = PlanProblem(World((-3.0, 3.0, -3.0, 3.0), ()), robot, Pose2D(-2.4, -2.4, 2.0), Pose2D(2.4, 2.4, 0.0))
+    for problem, hint in ((wide, True), (narrow, False)):
+        res = make_planner("hybrid-a-star", max_iterations=50).plan(problem)
+        assert res.status is PlanStatus.TIMEOUT and res.reason.startswith("iteration budget of 50 spent")
+        said = "or coarser cells for a world this wide, e.g. --planner-option cell_size=0.1, or plan with" in res.reason
+        assert said is hint, res.reason
