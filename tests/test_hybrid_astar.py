@@ -336,7 +336,7 @@ def test_invalid_start_and_goal_keep_their_status():
     [("angle_quantization_bins", 71), ("angle_quantization_bins", 4), ("angle_quantization_bins", 72.0),
      ("cell_size", 0.0), ("turning_radius", -0.1), ("reverse_penalty", 0.5), ("change_penalty", -1.0),
      ("non_straight_penalty", 0.9), ("analytic_expansion_ratio", 0.0), ("analytic_expansion_max_length", np.inf),
-     ("allow_primitive_interpolation", 1), ("max_iterations", 0), ("search_from_goal", 1),
+     ("allow_primitive_interpolation", 1), ("max_iterations", 0), ("search_from_goal", 1), ("coarsen_when_spent", 1),
      ("search_from_goal_after", -1), ("time_limit", 0.0), ("shape", "circle"), ("clearance", -0.01)],
 )  # fmt: skip
 def test_bad_options_name_the_field(field, value):
@@ -615,7 +615,28 @@ def test_a_budget_spent_on_a_wide_world_names_coarser_cells_and_a_narrow_one_doe
     wide = PlanProblem(World((-25.0, 25.0, -25.0, 25.0), ()), robot, Pose2D(-24.0, -24.0, 2.0), Pose2D(24.0, 24.0, 0.0))
     narrow = PlanProblem(World((-3.0, 3.0, -3.0, 3.0), ()), robot, Pose2D(-2.4, -2.4, 2.0), Pose2D(2.4, 2.4, 0.0))
     for problem, hint in ((wide, True), (narrow, False)):
-        res = make_planner("hybrid-a-star", max_iterations=50).plan(problem)
+        res = make_planner("hybrid-a-star", max_iterations=50, coarsen_when_spent=False).plan(problem)
         assert res.status is PlanStatus.TIMEOUT and res.reason.startswith("iteration budget of 50 spent")
         said = "or coarser cells for a world this wide, e.g. --planner-option cell_size=0.1, or plan with" in res.reason
         assert said is hint, res.reason
+
+
+def test_a_budget_spent_on_a_wide_world_is_searched_again_on_cells_twice_the_size() -> None:
+    """A 30 x 30 m world: 200,000 expansions are spent on 0.05 m cells (the TurtleBot3's primitives turn by 30
+    degrees there), 110,456 reach the goal on 0.1 m ones; the plan says so and counts both searches' time."""
+    wide = PlanProblem(
+        World((-15.0, 15.0, -15.0, 15.0), ()),
+        load_robot("turtlebot3"),
+        Pose2D(-14.0, -14.0, 2.0),
+        Pose2D(14.0, 14.0, 0.0),
+    )
+    res = make_planner("hybrid-a-star", max_iterations=200_000).plan(wide)
+    assert res.status is PlanStatus.SUCCESS, res.reason
+    assert res.stats["cell_size"] == 0.1 and res.stats["fine"]["cell_size"] == 0.05
+    assert res.stats["fine"]["iterations"] == 200_000 and res.stats["time_s"] > res.stats["fine"]["time_s"]
+    alone = make_planner("hybrid-a-star", max_iterations=200_000, coarsen_when_spent=False).plan(wide)
+    assert alone.status is PlanStatus.TIMEOUT and "cell_size=0.1" in alone.reason
+    # a second search that spends its budget too says where the first spent its own
+    both = make_planner("hybrid-a-star", max_iterations=50).plan(wide)
+    assert both.status is PlanStatus.TIMEOUT and both.reason.startswith("iteration budget of 50 spent on 0.1 m cells")
+    assert both.reason.endswith("(searched after the budget was spent on 0.05 m cells)")

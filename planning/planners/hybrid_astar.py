@@ -27,6 +27,9 @@ the heuristic cannot see from one side may not be there from the other; :class:`
 A search that expands every state it can reach without a path is run again on cells of half the size
 (``refine_when_exhausted``): the lattice keeps one pose per cell, so a gap little wider than the robot
 can be missed on the coarse one (a 0.142 m gap the EduMIP passes: none on 5 cm cells, a path on 2.5 cm).
+One that spends its iteration budget on a world more than :data:`WIDE_WORLD_CELLS` cells across is run again
+on cells twice the size (``coarsen_when_spent``; a 50 x 50 m world: 1,000,000 expansions spent in 3.6 s on
+5 cm cells, a plan in 0.9 s on 10 cm ones).
 
 The time limit holds for all of a plan: the collision grid, the 2-D heuristic (each built within what
 is left of it, a limit that passes first ending the plan ``TIMEOUT`` before the search, naming what was
@@ -105,6 +108,10 @@ class HybridAStarConfig:
             once more on cells of half the size (the lattice keeps one pose per cell, so a gap little
             wider than the robot can be missed), within what is left of the time limit and where the
             machine has the memory for that lattice.
+        coarsen_when_spent: When the search spends its iteration budget on a world more than
+            :data:`WIDE_WORLD_CELLS` cells across, search once more on cells twice the size, within what is
+            left of the time limit (on 0.05 m cells the TurtleBot3's primitives turn by 30 degrees, and over
+            tens of metres A* fills the wide region where a zigzag of them costs less than the way found).
         time_limit: Wall-clock budget [s]; None takes the problem's.
         shape: Collision model, "footprint" or "disc".
         clearance: Margin every pose keeps from obstacles and walls [m] (>= 0).
@@ -126,6 +133,7 @@ class HybridAStarConfig:
     search_from_goal: bool = True
     search_from_goal_after: int = 16_000
     refine_when_exhausted: bool = True
+    coarsen_when_spent: bool = True
     time_limit: float | None = None
     shape: str = "footprint"
     clearance: float = 0.0
@@ -165,6 +173,7 @@ _RULES: dict[str, tuple[str, Callable[[Any], bool]]] = {
     "allow_primitive_interpolation": ("true or false", lambda v: isinstance(v, bool)),
     "search_from_goal": ("true or false", lambda v: isinstance(v, bool)),
     "refine_when_exhausted": ("true or false", lambda v: isinstance(v, bool)),
+    "coarsen_when_spent": ("true or false", lambda v: isinstance(v, bool)),
     "shape": ("'footprint' or 'disc'", lambda v: v in ("footprint", "disc")),
     "simplify": ("true or false", lambda v: isinstance(v, bool)),
 }
@@ -279,38 +288,58 @@ class HybridAStar:
 
     def plan(self, problem: PlanProblem) -> PlanResult:
         """Plan from ``problem.start`` to ``problem.goal``; never raises for an unsolvable problem. A lattice
-        searched to exhaustion is searched again on cells of half the size (``refine_when_exhausted``)."""
+        searched to exhaustion is searched again on cells of half the size (``refine_when_exhausted``), one whose
+        budget was spent on a wide world on cells twice the size (``coarsen_when_spent``)."""
         problem = checked_problem(problem)
         cfg = self.config
         res = self._plan(problem)
-        if not (res.stats.get("exhausted") and cfg.refine_when_exhausted):
-            return res
+        if res.stats.get("exhausted") and cfg.refine_when_exhausted:
+            if _lattice_too_large(problem, cfg.cell_size / 2, cfg.angle_quantization_bins):
+                return res
+            return self._again(problem, res, cfg.cell_size / 2)
+        if res.stats.get("budget_spent") and cfg.coarsen_when_spent and _wide(problem, cfg.cell_size):
+            return self._again(problem, res, 2 * cfg.cell_size)
+        return res
+
+    def _again(self, problem: PlanProblem, res: PlanResult, cell: float) -> PlanResult:
+        """The search on cells of side ``cell`` after ``res``'s on the configured ones, within what is left of the
+        time limit (``res`` itself when nothing is), the times of both in its stats and the first's in
+        ``stats["coarse"]`` (refined) or ``stats["fine"]`` (coarsened)."""
+        cfg = self.config
         limit = cfg.time_limit if cfg.time_limit is not None else problem.time_limit
         left = limit - (float(res.stats["time_s"]) - float(res.stats["code_s"]))  # what the limit counts
-        finer = cfg.cell_size / 2
-        if left <= 0 or _lattice_too_large(problem, finer, cfg.angle_quantization_bins):
+        if left <= 0:
             return res
-        options = {**dataclasses.asdict(cfg), "cell_size": finer, "refine_when_exhausted": False, "time_limit": left}
+        options = {
+            **dataclasses.asdict(cfg),
+            "cell_size": cell,
+            "refine_when_exhausted": False,
+            "coarsen_when_spent": False,
+            "time_limit": left,
+        }
         again = HybridAStar(**options)._plan(problem, stated_limit=limit)
+        refined = cell < cfg.cell_size
         stats = {
             **again.stats,
-            # both searches' time (a finer run that ended early, at its grid, reports no CPU time)
+            # both searches' time (a second run that ended early, at its grid, reports no CPU time)
             **{
                 k: float(res.stats[k]) + float(again.stats.get(k, 0.0)) for k in ("time_s", "code_s", "cpu_s", "grid_s")
             },
-            "coarse": {
+            "coarse" if refined else "fine": {
                 "cell_size": cfg.cell_size,
                 "iterations": res.stats["iterations"],
                 "time_s": res.stats["time_s"],
             },
-            "cell_size": finer,
+            "cell_size": cell,
         }
         reason = again.reason
-        if again.status is not PlanStatus.SUCCESS:
+        if again.status is not PlanStatus.SUCCESS and refined:
             reason += f" (searched after the {cfg.cell_size:g} m lattice was exhausted in {res.stats['iterations']}"
             if again.status is PlanStatus.TIMEOUT and "iteration budget" in again.reason:
                 reason += f"; cells of half the size take up to about {REFINE_COST} times the expansions"
             reason += ")"
+        elif again.status is not PlanStatus.SUCCESS:
+            reason += f" (searched after the budget was spent on {cfg.cell_size:g} m cells)"
         return dataclasses.replace(again, reason=reason, stats=stats)
 
     def _plan(self, problem: PlanProblem, stated_limit: float | None = None) -> PlanResult:
@@ -463,6 +492,7 @@ class HybridAStar:
             status = PlanStatus.TIMEOUT
             reason = "partial path to the expanded node nearest the goal"
             if outcome == lattice.ITERATIONS:
+                stats["budget_spent"] = True
                 reason = (
                     f"iteration budget of {its} spent on {self.config.cell_size:g} m cells; {reason} (the budget is "
                     f"the max_iterations option: raise it, e.g. --planner-option max_iterations={4 * its}, or in a "
@@ -477,9 +507,8 @@ class HybridAStar:
         :data:`WIDE_WORLD_CELLS` cells across ("" otherwise): a 50 x 50 m world of 15 obstacles spent 1,000,000
         expansions on 0.05 m cells (the TurtleBot3's primitives turn by 30 degrees there, and the search fills the
         region where a zigzag of them costs less than the best way found), and planned in 0.9 s on 0.1 m cells."""
-        xmin, xmax, ymin, ymax = problem.world.bounds
         cell = self.config.cell_size
-        if max(xmax - xmin, ymax - ymin) / cell <= WIDE_WORLD_CELLS:
+        if not _wide(problem, cell):
             return ""
         return f"; or coarser cells for a world this wide, e.g. --planner-option cell_size={2 * cell:g}"
 
@@ -560,6 +589,12 @@ def memory_bytes() -> int:
         return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
     except (ValueError, OSError, AttributeError):
         return 0
+
+
+def _wide(problem: PlanProblem, cell: float) -> bool:
+    """Whether the world is more than :data:`WIDE_WORLD_CELLS` cells of side ``cell`` [m] across."""
+    xmin, xmax, ymin, ymax = problem.world.bounds
+    return max(xmax - xmin, ymax - ymin) / cell > WIDE_WORLD_CELLS
 
 
 def _lattice_too_large(problem: PlanProblem, cell: float, bins: int, failed: bool = False) -> str:
