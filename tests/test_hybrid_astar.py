@@ -1,6 +1,7 @@
 """Hybrid-A*: primitives and heuristic against closed forms, valid and repeatable plans, statuses, options."""
 
 import time
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -624,12 +625,7 @@ def test_a_budget_spent_on_a_wide_world_names_coarser_cells_and_a_narrow_one_doe
 def test_a_budget_spent_on_a_wide_world_is_searched_again_on_cells_twice_the_size() -> None:
     """A 30 x 30 m world: 200,000 expansions are spent on 0.05 m cells (the TurtleBot3's primitives turn by 30
     degrees there), 110,456 reach the goal on 0.1 m ones; the plan says so and counts both searches' time."""
-    wide = PlanProblem(
-        World((-15.0, 15.0, -15.0, 15.0), ()),
-        load_robot("turtlebot3"),
-        Pose2D(-14.0, -14.0, 2.0),
-        Pose2D(14.0, 14.0, 0.0),
-    )
+    wide = _wide_empty_world()
     res = make_planner("hybrid-a-star", max_iterations=200_000).plan(wide)
     assert res.status is PlanStatus.SUCCESS, res.reason
     assert res.stats["cell_size"] == 0.1 and res.stats["fine"]["cell_size"] == 0.05
@@ -640,3 +636,31 @@ def test_a_budget_spent_on_a_wide_world_is_searched_again_on_cells_twice_the_siz
     both = make_planner("hybrid-a-star", max_iterations=50).plan(wide)
     assert both.status is PlanStatus.TIMEOUT and both.reason.startswith("iteration budget of 50 spent on 0.1 m cells")
     assert both.reason.endswith("(searched after the budget was spent on 0.05 m cells)")
+
+
+def test_coarser_cells_that_are_exhausted_leave_the_fine_searchs_timeout(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Coarse cells can miss a gap the fine ones pass: their exhaustion is no proof, so the plan stays the fine
+    search's timeout (not infeasible), saying what the coarse search found, with both searches' time."""
+    from planning.planners import hybrid_astar
+
+    wide = _wide_empty_world()
+    real = hybrid_astar.HybridAStar._plan
+
+    def exhausted_when_coarse(self, problem, stated_limit=None):  # type: ignore[no-untyped-def]
+        res = real(self, problem, stated_limit)
+        if self.config.cell_size == 0.1:
+            stats = {**res.stats, "exhausted": True, "iterations": 7}
+            return replace(res, status=PlanStatus.INFEASIBLE, reason="exhausted", stats=stats)
+        return res
+
+    monkeypatch.setattr(hybrid_astar.HybridAStar, "_plan", exhausted_when_coarse)
+    res = make_planner("hybrid-a-star", max_iterations=50).plan(wide)
+    assert res.status is PlanStatus.TIMEOUT and res.stats["iterations"] == 50 and "fine" not in res.stats
+    assert res.reason.startswith("iteration budget of 50 spent on 0.05 m cells")
+    assert res.reason.endswith(" (cells of 0.1 m were searched after it and exhausted in 7)")
+
+
+def _wide_empty_world() -> PlanProblem:
+    """A 30 x 30 m empty world, start and goal in opposite corners: 600 cells of 0.05 m across."""
+    start, goal = Pose2D(-14.0, -14.0, 2.0), Pose2D(14.0, 14.0, 0.0)
+    return PlanProblem(World((-15.0, 15.0, -15.0, 15.0), ()), load_robot("turtlebot3"), start, goal)

@@ -319,12 +319,16 @@ class HybridAStar:
         }
         again = HybridAStar(**options)._plan(problem, stated_limit=limit)
         refined = cell < cfg.cell_size
+        # both searches' time (a second run that ended early, at its grid, reports no CPU time)
+        times = {
+            k: float(res.stats[k]) + float(again.stats.get(k, 0.0)) for k in ("time_s", "code_s", "cpu_s", "grid_s")
+        }
+        if not refined and again.stats.get("exhausted"):  # coarse cells can miss a gap: the fine search's timeout
+            said = f" (cells of {cell:g} m were searched after it and exhausted in {again.stats['iterations']})"
+            return dataclasses.replace(res, reason=res.reason + said, stats={**res.stats, **times})
         stats = {
             **again.stats,
-            # both searches' time (a second run that ended early, at its grid, reports no CPU time)
-            **{
-                k: float(res.stats[k]) + float(again.stats.get(k, 0.0)) for k in ("time_s", "code_s", "cpu_s", "grid_s")
-            },
+            **times,
             "coarse" if refined else "fine": {
                 "cell_size": cfg.cell_size,
                 "iterations": res.stats["iterations"],
