@@ -75,8 +75,9 @@ FloatArray = NDArray[np.float64]
 
 #: Largest cell side [m] of the discs that cover the footprint for the fast collision proof.
 COVER_SIDE = 0.05
-#: A world more than this many lattice cells across gets the hint of coarser cells when the search spends its
-#: iteration budget (:meth:`HybridAStar._coarser`).
+#: A world more than this many lattice cells across is searched again on cells twice the size when the search spends
+#: its iteration budget (``coarsen_when_spent``), and the reason of a spent budget names coarser cells
+#: (:meth:`HybridAStar._coarser`).
 WIDE_WORLD_CELLS = 400
 
 
@@ -508,9 +509,7 @@ class HybridAStar:
 
     def _coarser(self, problem: PlanProblem) -> str:
         """The hint of coarser cells for a search that spent its budget on a world of more than
-        :data:`WIDE_WORLD_CELLS` cells across ("" otherwise): a 50 x 50 m world of 15 obstacles spent 1,000,000
-        expansions on 0.05 m cells (the TurtleBot3's primitives turn by 30 degrees there, and the search fills the
-        region where a zigzag of them costs less than the best way found), and planned in 0.9 s on 0.1 m cells."""
+        :data:`WIDE_WORLD_CELLS` cells across ("" otherwise; why they help: ``coarsen_when_spent``)."""
         cell = self.config.cell_size
         if not _wide(problem, cell):
             return ""
