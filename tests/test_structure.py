@@ -170,6 +170,41 @@ def test_no_compiled_kernel_runs_object_mode_code() -> None:
     assert not found, "numba object mode in:\n" + "\n".join(found)
 
 
+def _scalar(node: ast.expr) -> bool:
+    """A number, a negated one, or a named constant (``np.nan``, ``math.inf``)."""
+    if isinstance(node, ast.UnaryOp):
+        return _scalar(node.operand)
+    return (isinstance(node, ast.Constant) and isinstance(node.value, (int, float, bool))) or (
+        isinstance(node, ast.Attribute) and node.attr in ("nan", "inf", "pi", "e")
+    )
+
+
+def _compiled(node: ast.FunctionDef) -> bool:
+    return any("njit" in ast.unparse(d) for d in node.decorator_list)
+
+
+def test_no_compiled_kernel_copies_an_array_by_slice_assignment() -> None:
+    """``dst[a:b] = src`` in a kernel makes numba compile its shape-mismatch error's message formatting, 4-5 s
+    in each process that compiles such a kernel afresh (``planning.core.arrays``): kernels copy arrays with
+    ``copy_into`` and ``copy_rows_into``, and give a slice only a number (or fill it with ``.fill(x)``).
+    What this cannot see, an array given to one row (``dst[i] = row``), is the same cost; the same helpers."""
+    found = []
+    for path, tree in _sources().values():
+        for fn in ast.walk(tree):
+            if not (isinstance(fn, ast.FunctionDef) and _compiled(fn)):
+                continue
+            for node in ast.walk(fn):
+                if not isinstance(node, ast.Assign) or _scalar(node.value):
+                    continue
+                targets = [t for tgt in node.targets for t in (tgt.elts if isinstance(tgt, ast.Tuple) else [tgt])]
+                if any(
+                    isinstance(t, ast.Subscript) and any(isinstance(n, ast.Slice) for n in ast.walk(t.slice))
+                    for t in targets
+                ):
+                    found.append(f"{path.relative_to(ROOT)}:{node.lineno} {ast.unparse(node)}")
+    assert not found, "slice assignments of arrays in kernels:\n" + "\n".join(found)
+
+
 def _is_table(node: ast.stmt) -> bool:
     value = node.value if isinstance(node, (ast.Assign, ast.AnnAssign, ast.Return, ast.Expr)) else None
     return isinstance(value, (ast.Dict, ast.List, ast.Tuple, ast.Set, ast.Call))

@@ -13,6 +13,8 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.arrays import copy_into
+
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
@@ -211,9 +213,9 @@ def resample(
     least = int(kld[2])
     while count < m_max:
         if w_diff > 0.0 and coins[count] < w_diff:
-            out[count] = randoms[count]
+            copy_into(out[count], randoms[count])
         else:
-            out[count] = particles[idx[order[count]]]
+            copy_into(out[count], particles[idx[order[count]]])
         b = bin_index(out[count, 0], out[count, 1], out[count, 2], bins, shape)
         if not seen[b]:
             seen[b] = True

@@ -42,6 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.estimation.odometry import sinc_half
+from planning.core.arrays import copy_into, copy_rows_into
 from planning.curves.common import mod2pi
 
 FloatArray = NDArray[np.float64]
@@ -157,7 +158,7 @@ def _congruence(p: FloatArray, f: FloatArray, q: FloatArray, tmp: FloatArray) ->
     its identity entries add each term once, in the order a full product sums them (the same
     result, bit for bit, with a third of the multiplications).
     """
-    tmp[:, :] = p
+    copy_rows_into(tmp, p)
     for i in range(3):  # tmp = f p
         for k in range(N):
             s = p[i, k]
@@ -263,8 +264,8 @@ def predict(mem: FloatArray, src: int, dst: int, t: float, dl: float, dr: float,
     """
     xs, ps = _ring(mem)
     x, p = mem[xs + dst], mem[ps + N * dst : ps + N * dst + N]
-    x[:] = mem[xs + src]
-    p[:, :] = mem[ps + N * src : ps + N * src + N]
+    copy_into(x, mem[xs + src])
+    copy_rows_into(p, mem[ps + N * src : ps + N * src + N])
     f, q, tmp = mem[F_ROW:Q_ROW], mem[Q_ROW:TMP_ROW], mem[TMP_ROW:X_ROW]
     status = propagate(x, p, f, q, tmp, mem[:2].reshape(2 * N), dl, dr, w, t - mem[RING + src, 0])
     if status == OK:
@@ -431,16 +432,16 @@ def _refilter(
     xs, ps = _ring(mem)
     cap = xs - RING
     t_prev = mem[RING + j, 0]
-    x[:] = mem[xs + j]
-    p[:, :] = mem[ps + N * j : ps + N * j + N]
+    copy_into(x, mem[xs + j])
+    copy_rows_into(p, mem[ps + N * j : ps + N * j + N])
     done = new[0] <= t_prev  # measured exactly at step j
     nis = math.nan
     if done:
         status, nis, ok = fix_update(x, p, new, prm, done, nu)  # done is True: a run-time bool, one compile
         if status != OK or not ok:
             return status, new[0], nis, False
-        mem[xs + j] = x
-        mem[ps + N * j : ps + N * j + N] = p
+        copy_into(mem[xs + j], x)
+        copy_rows_into(mem[ps + N * j : ps + N * j + N], p)
     idx, fi, m = j, 0, stored.shape[0]
     while idx != head:
         idx = idx + 1 if idx + 1 < cap else 0
@@ -476,8 +477,8 @@ def _refilter(
             status = propagate(x, p, f, q, tmp, prm, dl * frac, dr * frac, w, t_k - s)
             if status != OK:
                 return status, t_k, nis, False
-        mem[xs + idx] = x
-        mem[ps + N * idx : ps + N * idx + N] = p
+        copy_into(mem[xs + idx], x)
+        copy_rows_into(mem[ps + N * idx : ps + N * idx + N], p)
         t_prev = t_k
     return OK, 0.0, nis, True
 

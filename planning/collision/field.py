@@ -62,6 +62,7 @@ from planning.collision.compiled import (
     walls_distance,
     world_arrays,
 )
+from planning.core.arrays import copy_into
 from planning.core.world import World
 from planning.errors import NhsimError
 
@@ -391,9 +392,9 @@ def fill_rows(
         counts[(i0 // BLOCK) * nby + bj0 // BLOCK] = mine.shape[0]
         if used + mine.shape[0] > out.shape[0]:
             grown = np.empty(2 * out.shape[0] + mine.shape[0], dtype=np.int64)
-            grown[:used] = out[:used]
+            copy_into(grown[:used], out[:used])
             out = grown
-        out[used : used + mine.shape[0]] = mine
+        copy_into(out[used : used + mine.shape[0]], mine)
         used += mine.shape[0]
         fill_block(grid, i0, bj0, x0, y0, h, mine, world)
     return out[:used].copy()

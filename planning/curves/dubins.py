@@ -14,6 +14,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.arrays import copy_into
 from planning.curves.common import TWO_PI, CurveFamily, fmod_2pi, local_goal, verifies
 
 FloatArray = NDArray[np.float64]
@@ -95,7 +96,8 @@ def _solve(q0: FloatArray, q1: FloatArray, rho: float) -> tuple[FloatArray, NDAr
                 continue
             cand[0], cand[1], cand[2] = t, p, q
             if verifies(DUBINS_WORDS[k], cand, x, y, phi):
-                best, types[i], segs[i] = t + p + q, k, cand
+                best, types[i] = t + p + q, k
+                copy_into(segs[i], cand)
         lengths[i] = best * rho  # inf if no candidate verified
     return lengths, types, segs
 

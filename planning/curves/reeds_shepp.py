@@ -13,6 +13,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.arrays import copy_into
 from planning.curves.common import CurveFamily, local_goal, mod2pi, verifies
 
 FloatArray = NDArray[np.float64]
@@ -254,7 +255,7 @@ def _shortest(
             wtype = base + (1 if sy < 0 else 0)
             if verifies(RS_WORDS[wtype], segs, x, y, phi):
                 best, wbest = length, wtype
-                out[:] = segs
+                copy_into(out, segs)
     return best, wbest
 
 

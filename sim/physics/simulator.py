@@ -25,6 +25,7 @@ from control.design.balance_profile import is_balancing, load_balance_profile
 from control.diffdrive import DiffDrive
 from control.dispatch import bind
 from control.estimation import EstimatorDivergedError
+from planning.core.arrays import copy_into
 from planning.core.checks import check_flag, check_number, is_number, refuse_kind
 from planning.core.geometry import Pose2D, check_pose
 from planning.core.robot import RobotSpec, check_robot_spec
@@ -70,8 +71,8 @@ def _sample(
     row[0] = time
     tl, tr = adr[ADR_TOUCH_L], adr[ADR_TOUCH_R]
     row[1] = 1.0 if tl >= 0 and (sdata[tl] <= 0.0 or sdata[tr] <= 0.0) else 0.0
-    row[2 : 2 + nq] = qpos
-    row[2 + nq :] = qvel
+    copy_into(row[2 : 2 + nq], qpos)
+    copy_into(row[2 + nq :], qvel)
     p, q = adr[ADR_POS], adr[ADR_QUAT]
     yaw = yaw_from_quat(sdata[q], sdata[q + 1], sdata[q + 2], sdata[q + 3])
     return sdata[adr[ADR_CONTACT]] > 0.0, sdata[p], sdata[p + 1], yaw

@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 from planning.collision.compiled import exact_pose_free
 from planning.collision.grid import CheckArrays, classify_pose
+from planning.core.arrays import copy_into, copy_rows_into
 from planning.planners.base import PlanProblem, PlanTree
 from planning.planners.sampling.fastcurve import CutWord, cut_word, word_pose, word_size
 from planning.planners.sampling.tree import Tree
@@ -172,8 +173,8 @@ def _grow(
     nodes[n, 0], nodes[n, 1], nodes[n, 2] = p[k, 0], p[k, 1], p[k, 2]
     headings[n, 0], headings[n, 1] = np.cos(nodes[n, 2]), np.sin(nodes[n, 2])
     parents[n] = i
-    edge_p[fill : fill + m] = p[:m]
-    edge_d[fill : fill + m] = d[:m]
+    copy_rows_into(edge_p[fill : fill + m], p[:m])
+    copy_into(edge_d[fill : fill + m], d[:m])
     edge_rows[n, 0], edge_rows[n, 1] = fill, fill + m
     return m
 
