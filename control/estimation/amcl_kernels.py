@@ -313,6 +313,37 @@ def weighed_beams(ranges: FloatArray, noise: FloatArray) -> int:  # pragma: no c
 
 
 @nb.njit(cache=True)
+def _solve3(a: FloatArray, ridge: float, b: FloatArray) -> FloatArray:  # pragma: no cover - compiled
+    """``x`` of ``(a + ridge I) x = b`` for a (3, 3) ``a``: Gaussian elimination with partial pivoting, as
+    LAPACK's ``gesv`` (``np.linalg.solve``) does it; numba's ``np.linalg.solve`` copies ``b`` by a slice
+    assignment, whose error message took seconds to compile in every new process (``planning.core.arrays``)."""
+    m = np.empty((3, 4))
+    for i in range(3):
+        for j in range(3):
+            m[i, j] = a[i, j] + (ridge if i == j else 0.0)
+        m[i, 3] = b[i]
+    for c in range(3):
+        p = c
+        for r in range(c + 1, 3):
+            if abs(m[r, c]) > abs(m[p, c]):
+                p = r
+        if p != c:
+            for j in range(4):
+                m[c, j], m[p, j] = m[p, j], m[c, j]
+        for r in range(c + 1, 3):
+            f = m[r, c] / m[c, c]
+            for j in range(c, 4):
+                m[r, j] -= f * m[c, j]
+    x = np.empty(3)
+    for i in range(2, -1, -1):
+        s = m[i, 3]
+        for j in range(i + 1, 3):
+            s -= m[i, j] * x[j]
+        x[i] = s / m[i, i]
+    return x
+
+
+@nb.njit(cache=True)
 def refine(
     pose: FloatArray,
     ranges: FloatArray,
@@ -377,7 +408,7 @@ def refine(
             ssr += w * d * d
         if used < 10 or done:
             break
-        step = np.linalg.solve(info + 1e-9 * np.eye(3), g)
+        step = _solve3(info, 1e-9, g)
         x -= step
         done = abs(step[0]) + abs(step[1]) < 1e-5 and abs(step[2]) < 1e-5
         if _ == iterations - 1:
