@@ -333,7 +333,8 @@ def test_auto_starts_from_a_kinematic_plan_and_a_local_infeasibility_is_a_failur
     infeasibility: a failure, not a proof that no plan exists (it was reported INFEASIBLE). init="auto"
     (Hybrid-A*'s plan for the disc, then the route) solves it, and falls back to the route where
     IPOPT fails from Hybrid-A*'s plan with the estimated horizon (another random world: alone, that warm
-    start solves only with the horizon stretched)."""
+    start solves only with the horizon stretched). The worlds were found with IPOPT's own barrier update,
+    which these plans keep (``mu_strategy="monotone"``): the default's solves both from the route."""
     from planning.core.robot import load_robot
     from sim.tools.bench.cold import world_toml
 
@@ -343,18 +344,18 @@ def test_auto_starts_from_a_kinematic_plan_and_a_local_infeasibility_is_a_failur
         return PlanProblem.from_scenario(scenario, robot=load_robot("edumip"), time_limit=30.0)
 
     hard = problem(9804, 7.0, 12, 0.4)
-    from_route = make_planner("optim", init="grid").plan(hard)
+    from_route = make_planner("optim", init="grid", mu_strategy="monotone").plan(hard)
     assert from_route.status is PlanStatus.FAILED and from_route.stats["ipopt_status"] == "Infeasible_Problem_Detected"
     assert "does not show that no plan exists" in from_route.reason and "init=grid" in from_route.reason
-    res = make_planner("optim").plan(hard)
+    res = make_planner("optim", mu_strategy="monotone").plan(hard)
     assert res.success, res.reason
     assert res.stats["init"] == "hybrid-a-star" and res.stats["dense_disc_clearance"] >= 0.0
     other = problem(507, 6.0, 11, 0.45)  # IPOPT fails from Hybrid-A*'s plan here, not from the route
     options = {"shape": "disc", "clearance": 0.02, "reverse_penalty": 1.0}  # auto's (reversing free, as the NLP)
-    kinematic = make_planner("optim", init="hybrid-a-star", init_options=options)
+    kinematic = make_planner("optim", init="hybrid-a-star", init_options=options, mu_strategy="monotone")
     alone = kinematic.plan(other)  # with the estimated horizon it fails; it solves only stretched 1.5 times
     assert alone.success and alone.stats["horizon_stretch"] == 1.5 and alone.stats["init"] == "hybrid-a-star"
-    res = make_planner("optim").plan(other)
+    res = make_planner("optim", mu_strategy="monotone").plan(other)
     assert res.success, res.reason
     assert res.stats["init"] == "grid"
 
@@ -370,19 +371,20 @@ def test_a_warm_start_of_one_pose_is_named_so() -> None:
 @pytest.mark.slow  # a message's wording; 4 s
 def test_a_gap_too_narrow_for_the_warm_starts_disc_is_named_in_the_reason() -> None:
     # a 0.287 m gap in a wall: the NLP's disc (0.136 m) fits it, with the warm starts' extra centimetre it
-    # does not, and IPOPT fails from the straight line through the wall
+    # does not, and IPOPT fails from the straight line through the wall with its own barrier update (the
+    # default's, adaptive, passes the gap from there)
     walls = (Box((2.6255, 1.8391), (0.0665, 3.6781)), Box((2.6255, 5.1964), (0.0665, 2.4617)))
     world = World((0.0, 5.251, 0.0, 6.4273), walls)
     problem = PlanProblem(
         world, load_robot("turtlebot3"), Pose2D(1.0357, 2.8591, -2.0057), Pose2D(3.2131, 2.8661, -2.606)
     )
-    res = Optim(dt=0.4).plan(problem)  # a horizon the user fixed (20 s) is kept
+    res = Optim(dt=0.4, mu_strategy="monotone").plan(problem)  # a horizon the user fixed (20 s) is kept
     assert not res.success and res.stats["init"] == "straight (no free route on the grid)"
     assert "it started from a straight line, no free route on the grid: the disc optim keeps clear" in res.reason
     assert "(radius 0.136 m" in res.reason and "(hybrid-a-star, rrt) may" in res.reason
     # with the horizon its own, a failure from every start stretches it: 2.25 times the estimate solves
     # from the straight line, through the gap the NLP's disc fits
-    stretched = Optim().plan(problem)
+    stretched = Optim(mu_strategy="monotone").plan(problem)
     assert stretched.success and stretched.stats["horizon_stretch"] == 2.25
     assert stretched.stats["dense_disc_clearance"] >= 0.0 and stretched.stats["min_clearance"] > 0.0
 
@@ -444,15 +446,16 @@ def test_the_one_thread_is_set_on_the_openblas_ipopt_uses(ipopt_first: bool) -> 
 def test_a_warm_start_whose_solve_keeps_cutting_a_corner_gives_way_to_the_next() -> None:
     """On the generated world random405 the balancing EduMIP's solve from Hybrid-A*'s plan keeps cutting
     a corner between nodes however far the margin is raised; ``init="auto"`` then solves from the grid's
-    route instead of failing, and the plan keeps the disc clear between nodes."""
+    route instead of failing, and the plan keeps the disc clear between nodes. Found with IPOPT's own barrier
+    update (``mu_strategy="monotone"``): with the default's the first solve keeps the disc clear."""
     from planning.core.robot import load_robot
 
     problem = PlanProblem.from_scenario(load_scenario("random405"), robot=load_robot("edumip-balancing"))
     init, options = Optim()._warm_starts(problem)[0]  # auto's first: Hybrid-A*'s plan for the disc
     assert init == "hybrid-a-star"
-    first = Optim(init=init, init_options=options).plan(problem)
+    first = Optim(init=init, init_options=options, mu_strategy="monotone").plan(problem)
     assert first.status is PlanStatus.FAILED and "between nodes" in first.reason
-    res = Optim().plan(problem)
+    res = Optim(mu_strategy="monotone").plan(problem)
     assert res.status is PlanStatus.SUCCESS and res.stats["init"] == "grid"
     assert res.stats["dense_disc_clearance"] >= 0.0
 
@@ -619,3 +622,13 @@ def test_a_20_m_world_of_60_obstacles_is_solved_with_a_node_per_node_spacing(tmp
     res = run_planner(Optim(), "optim", problem)  # checked: ends in the goal, no collision
     assert res.success, res.reason
     assert res.stats["N"] > DEFAULT_N and res.stats["dense_disc_clearance"] >= 0.0
+
+
+def test_ipopts_barrier_update_is_an_option_and_a_wrong_one_is_refused() -> None:
+    assert Optim().mu_strategy == "adaptive"
+    with pytest.raises(ConfigError, match="mu_strategy must be one of adaptive, monotone"):
+        Optim(mu_strategy="probing")
+    problem = PlanProblem.from_scenario(load_scenario("parallel_park"))
+    for strategy in ("adaptive", "monotone"):  # each its own NLP (the option is fixed when IPOPT is set up)
+        res = Optim(mu_strategy=strategy).plan(problem)
+        assert res.success, res.reason

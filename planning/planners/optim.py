@@ -70,6 +70,18 @@ _TIMEOUT = {"Maximum_CpuTime_Exceeded", "Maximum_Iterations_Exceeded", "Maximum_
 _INFEASIBLE = {"Infeasible_Problem_Detected"}
 #: Stretches of the estimated horizon a solve tries in turn when IPOPT fails from every warm start.
 HORIZON_STRETCH = (1.0, 1.5, 2.25)
+#: IPOPT's barrier parameter update, ``mu_strategy``: ``"adaptive"`` (Nocedal, Waechter and Waltz's
+#: quality-function rule) rather than IPOPT's default monotone decrease. Measured with both in one process, per
+#: world (plans only, 30 s limit, 2026-12-06): on the generated worlds random5000-5039, three robots each, both
+#: solved all 120, adaptive in 36.9 s together against 50.8 s (each 0.86 of the time in the median, lengths
+#: equal in the median, 0.98-1.04 apart at most); on 12 larger generated worlds (12-50 m, 15-80 obstacles) with
+#: three robots each, adaptive solved 29 of 36 against 26, losing none, in 336 s against 433 s (0.81 of the time
+#: in the median of the 26 both solved, lengths 0.98-1.01 apart). The EduMIPs gain most: their yaw-rate limit at
+#: speed makes the NLP tight (300 iterations with the default where the TurtleBot3 took 30). ``mu_strategy``
+#: chooses it per planner.
+IPOPT_MU_STRATEGY = "adaptive"
+#: The values of ``mu_strategy`` IPOPT takes.
+MU_STRATEGIES = ("adaptive", "monotone")
 #: Most obstacles the NLP keeps clear of (every built-in scenario has at most 31): beyond it, those nearest
 #: the warm start, and any a solution comes near (:meth:`Optim._solve_with_margin`).
 MAX_NLP_OBSTACLES = 32
@@ -376,9 +388,9 @@ def _deadline(ca: Any) -> Any:
             return ca.Sparsity.scalar() if ca.nlpsol_out(i) == "f" else ca.Sparsity(0, 0)
 
         def eval(self, arg: Any) -> list[int]:
-            now = time.perf_counter()
+            cpu, now = time.thread_time(), time.perf_counter()  # the CPU read first: never more than the wall time
             if self.first is None:
-                self.first, self.first_cpu = now, time.thread_time()
+                self.first, self.first_cpu = now, cpu
             return [int(now > self.at)]
 
     return Deadline()
@@ -386,7 +398,7 @@ def _deadline(ca: Any) -> Any:
 
 def _build(key: tuple[Any, ...]) -> _Nlp:
     ca = _casadi()
-    n, n_circ, n_ell, poly_k, w_steer, w_smooth, max_iter, verbose = key
+    n, n_circ, n_ell, poly_k, w_steer, w_smooth, max_iter, verbose, mu_strategy = key
     opti = ca.Opti()
     x = opti.variable(4, n + 1)
     u = opti.variable(2, n)
@@ -407,7 +419,13 @@ def _build(key: tuple[Any, ...]) -> _Nlp:
     obstacles = _obstacle_constraints(ca, opti, x, p_clear, n_circ, n_ell, poly_k)
     du = u[0, 1:] - u[0, :-1]
     opti.minimize(p_dt * (ca.sumsqr(u[0, :]) + w_steer * ca.sumsqr(u[1, :])) + w_smooth * ca.sumsqr(du) / p_dt)
-    ipopt = {"print_level": 5 if verbose else 0, "sb": "yes", "max_iter": max_iter, "tol": 1e-8}
+    ipopt = {
+        "print_level": 5 if verbose else 0,
+        "sb": "yes",
+        "max_iter": max_iter,
+        "tol": 1e-8,
+        "mu_strategy": mu_strategy,
+    }
     deadline = _deadline(ca)
     plugin = {"expand": True, "print_time": bool(verbose), "error_on_fail": False, "iteration_callback": deadline}
     opti.solver("ipopt", plugin, ipopt)
@@ -470,6 +488,8 @@ class Optim:
         w_steer: Weight of u2^2 in the cost.
         w_smooth: Weight of the u1 increments in the cost.
         max_iter: IPOPT iteration limit.
+        mu_strategy: IPOPT's barrier parameter update, "adaptive" (:data:`IPOPT_MU_STRATEGY`) or "monotone"
+            (IPOPT's own default).
         max_resolves: Re-solves with a larger margin when the dense rollout cuts an obstacle
             between nodes (see :meth:`solve`).
         verbose: Let IPOPT print.
@@ -489,6 +509,7 @@ class Optim:
         w_steer: float = 0.01,
         w_smooth: float = 0.01,
         max_iter: int = 3000,
+        mu_strategy: str = IPOPT_MU_STRATEGY,
         max_resolves: int = 3,
         verbose: bool = False,
     ) -> None:
@@ -503,6 +524,12 @@ class Optim:
         self.w_smooth = check_number("optim: w_smooth", w_smooth, at_least=0.0)
         self.max_iter = check_number("optim: max_iter", max_iter, integer=True, at_least=1)
         self.max_resolves = check_number("optim: max_resolves", max_resolves, integer=True, at_least=0)
+        if mu_strategy not in MU_STRATEGIES:
+            raise ConfigError(
+                f"optim: mu_strategy must be one of {', '.join(MU_STRATEGIES)} (IPOPT's barrier parameter "
+                f"update), got {mu_strategy!r}"
+            )
+        self.mu_strategy = mu_strategy
         if init not in _BUILTIN_INITS and init not in PLANNERS:
             raise ConfigError(
                 f"optim: init {init!r} is neither one of {', '.join(_BUILTIN_INITS)} nor a registered planner "
@@ -893,7 +920,7 @@ class Optim:
         now if what is left of the time limit covers the set-up's prediction (:data:`_SETUP_RATE`); if not, the
         plan's ``TIMEOUT``, naming the set-up. IPOPT's iteration callback, which holds a solve to the limit, is
         first called after it (0.05-0.15 s for the generated worlds' shapes, 0.4 s for 32 polygons)."""
-        key = (self.N, *obstacles.counts, self.w_steer, self.w_smooth, self.max_iter, self.verbose)
+        key = (self.N, *obstacles.counts, self.w_steer, self.w_smooth, self.max_iter, self.verbose, self.mu_strategy)
         if key in _CACHE:
             return _CACHE[key], {"build_time_s": 0.0, "nlp_cached": True}
         units = _setup_units(key)
@@ -917,7 +944,8 @@ class Optim:
             return self._failure(PlanStatus.TIMEOUT, why, stats)
         t_build, cpu_build = time.perf_counter(), time.thread_time()
         _CACHE[key] = _build(key)
-        t_build, cpu_build = time.perf_counter() - t_build, time.thread_time() - cpu_build
+        cpu_build = time.thread_time() - cpu_build  # the CPU read inside the wall time's reads: never more than it
+        t_build = time.perf_counter() - t_build
         return _CACHE[key], {
             "build_time_s": t_build,
             "build_cpu_s": cpu_build,
