@@ -388,10 +388,11 @@ def _deadline(ca: Any) -> Any:
             return ca.Sparsity.scalar() if ca.nlpsol_out(i) == "f" else ca.Sparsity(0, 0)
 
         def eval(self, arg: Any) -> list[int]:
-            cpu, now = time.thread_time(), time.perf_counter()  # the CPU read first: never more than the wall time
-            if self.first is None:
-                self.first, self.first_cpu = now, cpu
-            return [int(now > self.at)]
+            if self.first is None:  # the CPU read first: the set-up's CPU time is never more than its wall time
+                self.first_cpu = time.thread_time()
+                self.first = time.perf_counter()
+                return [int(self.first > self.at)]
+            return [int(time.perf_counter() > self.at)]
 
     return Deadline()
 
