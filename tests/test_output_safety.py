@@ -13,6 +13,7 @@ import subprocess
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from planning.errors import ConfigError, OutputExistsError
@@ -142,6 +143,51 @@ def test_the_scenarios_file_and_its_map_image_are_inputs(tmp_path: Path) -> None
         (SCENARIOS_DIR / "open.toml").resolve(),
     }
     assert input_paths(argparse.Namespace(scenario="random3")) == []  # a generated world reads no file
+
+
+def _map_yaml_scenario(folder: Path) -> tuple[Path, Path, Path]:
+    """A scenario in ``folder``/scen whose world is a ROS map YAML in ``folder``/maps naming an image beside
+    it in ``folder``/maps/img: (scenario, YAML, image)."""
+    from PIL import Image
+
+    for sub in ("scen", "maps", "maps/img"):
+        (folder / sub).mkdir()
+    pixels = np.full((60, 60), 254, np.uint8)
+    pixels[20:30, 25:35] = 0  # one obstacle
+    Image.fromarray(pixels).save(folder / "maps" / "img" / "m.pgm")
+    (folder / "maps" / "m.yaml").write_text(
+        "image: img/m.pgm\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
+        "occupied_thresh: 0.65\nfree_thresh: 0.196\n",
+        encoding="utf-8",
+    )
+    scenario = folder / "scen" / "s.toml"
+    scenario.write_text(
+        'name = "yaml_map"\nrobot = "turtlebot3"\nplanner = "hybrid-a-star"\n\n[world]\n\n[world.map]\n'
+        'yaml = "../maps/m.yaml"\n\n[start]\npose = [0.4, 0.4, 0.0]\n\n[goal]\npose = [2.5, 2.5, 0.0]\n',
+        encoding="utf-8",
+    )
+    return scenario, folder / "maps" / "m.yaml", folder / "maps" / "img" / "m.pgm"
+
+
+@pytest.mark.parametrize("which", ["yaml", "image"])
+@pytest.mark.parametrize("command", ["plan", "simulate"])
+def test_no_output_writes_over_the_scenarios_map_yaml_or_the_image_it_names(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], which: str, command: str
+) -> None:
+    scenario, yaml_path, image = _map_yaml_scenario(tmp_path)
+    found = {p.resolve() for _, p in input_paths(argparse.Namespace(scenario=str(scenario)))}
+    assert found == {scenario.resolve(), yaml_path.resolve(), image.resolve()}
+    _no_physics(monkeypatch)
+    target = yaml_path if which == "yaml" else image
+    before = _tree(tmp_path)
+    argv = ["plan", "--scenario", str(scenario), "--quiet"]
+    if command == "simulate":
+        argv = [*JOB, "--scenario", str(scenario), "--no-video", "--no-plots"]
+    assert main([*argv, "--json", str(target), "--overwrite"]) == 2
+    err = capsys.readouterr().err
+    assert f"the output {target} is the input --scenario {scenario}" in err
+    assert ("map YAML" in err) and (("the image its map YAML" in err) == (which == "image"))
+    assert _tree(tmp_path) == before
 
 
 @pytest.mark.parametrize("option", ["--json", "--plot"])

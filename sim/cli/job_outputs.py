@@ -35,6 +35,7 @@ import argparse
 import hashlib
 import json
 import os
+import stat
 import sys
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import MISSING, dataclass, field, fields
@@ -481,9 +482,11 @@ def input_paths(args: argparse.Namespace) -> list[tuple[str, Path]]:
 
 def scenario_inputs(given: str, scenario: str) -> list[tuple[str, Path]]:
     """The files a scenario value reads, as :func:`planning.scenario.load_scenario` finds them: its TOML file
-    (a path, or a built-in scenario's file) and the map image its ``[world.map]`` table names (relative to the
-    file's folder); ``given`` names the option in messages. A file that cannot be read gives only itself
-    (loading it says what is wrong); a generated world (``random<N>``) reads none."""
+    (a path, or a built-in scenario's file) and what its ``[world.map]`` table reads (relative to the file's
+    folder): the map image it names, or the ROS map YAML it names and the image that YAML names (relative to
+    the YAML's folder); ``given`` names the option in messages. A file that cannot be read gives only itself
+    (loading it says what is wrong), and so does one that is not a regular file (a pipe is read once, by the
+    loader); a generated world (``random<N>``) reads none."""
     import tomllib
 
     from planning.scenario import SCENARIOS_DIR
@@ -496,13 +499,34 @@ def scenario_inputs(given: str, scenario: str) -> list[tuple[str, Path]]:
         return []
     found = [(given, path)]
     try:
-        image = tomllib.loads(path.read_text(encoding="utf-8-sig"))["world"]["map"]["image"]
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, KeyError, TypeError):
+        if not stat.S_ISREG(path.stat().st_mode):
+            return found
+        table = tomllib.loads(path.read_text(encoding="utf-8-sig"))["world"]["map"]
+        named = {key: table.get(key) for key in ("image", "yaml")}
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, KeyError, TypeError, AttributeError):
         return found
-    if isinstance(image, str) and image:
-        image_path = path.parent / image  # an absolute image stays absolute
-        found.append((f"{given} (its map image {os.path.normpath(image_path)})", image_path))
+    for key, what in (("image", "map image"), ("yaml", "map YAML")):
+        if isinstance(named[key], str) and named[key]:
+            read = path.parent / named[key]  # an absolute path stays absolute
+            found.append((f"{given} (its {what} {os.path.normpath(read)})", read))
+            if key == "yaml":
+                found += _map_yaml_image(f"{given} (the image its map YAML {os.path.normpath(read)} names", read)
     return found
+
+
+def _map_yaml_image(given: str, yaml_path: Path) -> list[tuple[str, Path]]:
+    """The image a ROS map YAML names (as the scenario's loader reads it), or nothing where the YAML cannot
+    be read or is not a regular file (loading the scenario says what is wrong)."""
+    from planning.core.nav2_map import read_map_yaml
+    from planning.errors import ScenarioError
+
+    try:
+        if not stat.S_ISREG(yaml_path.stat().st_mode):
+            return []
+        image = read_map_yaml(yaml_path).image
+    except (OSError, ScenarioError):
+        return []
+    return [(f"{given}, {os.path.normpath(image)})", image)]
 
 
 def check_apart_from_inputs(args: argparse.Namespace, files: Iterable[Path], bag: Path | None = None) -> None:
