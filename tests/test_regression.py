@@ -208,17 +208,22 @@ def test_a_name_that_would_write_outside_the_baselines_folder_is_refused_and_not
     assert sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*")) == ["a", "a/b", "a/b/suite.toml"]
 
 
-def test_default_names_are_plain_file_names_and_a_scenario_path_needs_a_name(tmp_path: Path) -> None:
+def test_default_names_are_plain_file_names_and_a_scenario_file_is_named_by_its_scenario(tmp_path: Path) -> None:
     from planning.scenario import SCENARIOS_DIR
 
     assert all(regress.NAME_FORM.fullmatch(c.name) for c in SUITE.cases)
     assert load_suite(_one_case(tmp_path, control_rate="62.5", seed="12")).cases[0].name == (
         "open-turtlebot3-circle-fbl-s12-62.5hz"
     )
-    scenario = json.dumps(str(SCENARIOS_DIR / "open.toml"))
-    with pytest.raises(ConfigError, match=r"case 1 .*default name '/.*open\.toml.*give the case a name"):
-        load_suite(_one_case(tmp_path, scenario=scenario))
-    assert load_suite(_one_case(tmp_path, scenario=scenario, name='"open-file"')).cases[0].name == "open-file"
+    text = (SCENARIOS_DIR / "open.toml").read_text(encoding="utf-8").replace('name = "open"', 'name = "yard"')
+    (tmp_path / "yard file.toml").write_text(text, encoding="utf-8")
+    for given in (json.dumps(str(tmp_path / "yard file.toml")), '"yard file.toml"'):  # absolute, or the suite's
+        assert load_suite(_one_case(tmp_path, scenario=given)).cases[0].name.startswith("yard-turtlebot3-circle")
+    odd = text.replace('name = "yard"', 'name = "yard/2"')
+    (tmp_path / "odd.toml").write_text(odd, encoding="utf-8")
+    with pytest.raises(ConfigError, match=r"case 1 .*default name 'yard/2-.*give the case a name"):
+        load_suite(_one_case(tmp_path, scenario='"odd.toml"'))
+    assert load_suite(_one_case(tmp_path, scenario='"odd.toml"', name='"odd"')).cases[0].name == "odd"
 
 
 #: field -> (TOML value, what the message must say beside ``field = value``); each a typo or a bad value that

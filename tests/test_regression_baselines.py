@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -50,6 +51,24 @@ def test_a_file_that_is_not_a_baseline_is_read_as_its_problem(tmp_path: Path, te
     read = regress.Baseline.read(path)
     assert read.document is None and read.problem.startswith(problem)
     assert regress.Baseline.read(tmp_path / "none.json") == regress.Baseline(tmp_path / "none.json")
+
+
+def test_a_folder_where_a_baseline_goes_is_refused_naming_the_folder_as_the_fix(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A folder under a case's baseline name fails its case, and --update refuses it before any run: the
+    fix is moving the folder (no option names the file), then recording the baseline."""
+    suite, bl = _suite(tmp_path, other=False), tmp_path / "bl"
+    (bl / "planted.json").mkdir(parents=True)
+    assert _regress(suite, bl) == 1
+    err = capsys.readouterr().err
+    assert f"(it is a folder, where the case's baseline file goes; move or remove {bl / 'planted.json'}); " in err
+    assert err.rstrip().endswith(
+        f"then record it with nhsim regress --update --suite {suite} --baselines {bl} --case planted"
+    )
+    assert _regress(suite, bl, "--update") == 2
+    assert f"case planted's baseline {bl / 'planted.json'} is a folder; move or remove it" in capsys.readouterr().err
+    assert (bl / "planted.json").is_dir()
 
 
 def test_an_unreadable_baseline_fails_its_case_alone_and_update_replaces_it(
@@ -148,6 +167,41 @@ def test_a_case_takes_a_gains_file_relative_to_the_suite_and_records_its_values(
     _gains_file(tmp_path, 0.5)  # the file edited: the case changed
     assert _regress(suite, bl) == 1
     assert "case differs: xi_min 0.0175 -> 0.5" in capsys.readouterr().out
+
+
+def test_a_cases_scenario_file_is_relative_to_the_suite_as_its_gains_file_is(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A suite that keeps its own scenario files beside it runs from any folder: a relative scenario path is
+    the suite file's, as a gains file's is; a built-in name stays one; the baseline records the scenario's
+    name, not where it was found."""
+    from planning.scenario import SCENARIOS_DIR, Scenario
+
+    folder = tmp_path / "rs" / "sub"
+    folder.mkdir(parents=True)
+    (folder / "yard.toml").write_text(
+        (SCENARIOS_DIR / "open.toml").read_text(encoding="utf-8").replace('name = "open"', 'name = "yard"')
+    )
+    _gains_file(folder, 0.0175)
+    suite = folder / "suite.toml"
+    suite.write_text(
+        'cases = [{ name = "mine", scenario = "yard.toml", robot = "turtlebot3", reference = "line", '
+        'tracker = "fbl", seed = 0, control_rate = 50, gains = "gains/tuned.toml" },\n'
+        '  { name = "builtin", scenario = "open", robot = "turtlebot3", reference = "line", tracker = "fbl", '
+        "seed = 0, control_rate = 50 }]\n"
+    )
+    for cwd in (tmp_path, folder, tmp_path / "rs"):
+        monkeypatch.chdir(cwd)
+        mine, builtin = load_suite(os.path.relpath(suite, cwd)).cases
+        assert isinstance(mine.scenario, Scenario) and mine.scenario.source is not None
+        assert mine.scenario.source.resolve() == (folder / "yard.toml").resolve()
+        assert mine.gains == FBLGains(8.5, 2.25, 0.0175)
+        assert regress.case_record(mine)["scenario"] == "yard"
+        assert builtin.scenario == "open"
+    bad = tmp_path / "bad.toml"
+    bad.write_text(suite.read_text().replace('"yard.toml"', '"nowhere/yard.toml"'))
+    with pytest.raises(ConfigError, match=f"scenario file {tmp_path}/nowhere/yard.toml does not exist"):
+        load_suite(bad)
 
 
 @pytest.mark.parametrize(

@@ -184,7 +184,10 @@ def check_baselines(baselines: Path, cases: list[Any], *, update: bool) -> dict[
         raise ConfigError(f"--baselines {baselines} is a file, not a folder; give the folder that holds the baselines")
     if update:
         for case in cases:
-            check_writable(baseline_path(case, baselines), overwrite=True)
+            path = baseline_path(case, baselines)
+            if path.is_dir():  # the file's name is the case's: the folder must go
+                raise ConfigError(f"case {case.name}'s baseline {path} is a folder; move or remove it, then update")
+            check_writable(path, overwrite=True)
     elif not baselines.exists():
         raise ConfigError(
             f"--baselines {baselines} does not exist; give the folder that holds the baselines, or record them "

@@ -3,7 +3,8 @@
 A suite file (the repository's is ``tests/regression_suite.toml``) lists cases, one line each, in a ``cases`` array of
 inline tables with the fields of :class:`sim.pipeline.case.Case` (scenario, robot, reference or planner,
 tracker, seed, control_rate; optional name, gains "KP,KD" or a gains file (as ``nhsim simulate --gains FILE``
-reads it, :func:`control.gains.load_gains_file`; a relative path is relative to the suite file), perturb
+reads it, :func:`control.gains.load_gains_file`; a relative path is relative to the suite file, as a scenario
+file's is), perturb
 "key=value,...", fast, build_seed, sensors, localiser), and a
 ``[tolerances]`` table ``metric = { abs = A, rel = R }``. A case's name (given, or made of its fields) is
 its baseline's file name, so a plain one (:data:`NAME_FORM`). Loading checks every field, and what would
@@ -60,6 +61,7 @@ from planning.core.checks import is_number
 from planning.core.robot import ROBOT_FILES
 from planning.errors import ConfigError, NhsimError, SimulationError, option, without_python
 from planning.planners.registry import PLANNERS
+from planning.scenario import Scenario, load_scenario
 from planning.trajectory.references import REFERENCES
 from sim.physics.asbuilt import DEFAULT_BUILD_SEED
 from sim.physics.lidar import load_lidar_profile
@@ -273,7 +275,8 @@ def _check_name(name: str) -> None:
 
 
 def _checked(key: str, value: Any, folder: Path = Path()) -> Any:
-    """A case field's value as :class:`Case` takes it (``folder``: where a relative gains file is).
+    """A case field's value as :class:`Case` takes it (``folder``: the suite file's, where a relative gains or
+    scenario file is).
 
     Raises:
         ConfigError: What the field must be (the caller names the file, the case and the field).
@@ -305,7 +308,24 @@ def _checked(key: str, value: Any, folder: Path = Path()) -> Any:
         raise ConfigError('must name a built-in scenario, random<N> or a scenario file, e.g. scenario = "open"')
     if key == "name":
         _check_name(value)
+    if key == "scenario":
+        return _scenario_in_suite(value, folder)
     return resolve_gains(value, folder) if key == "gains" else value
+
+
+def _scenario_in_suite(value: str, folder: Path) -> str | Scenario:
+    """A case's scenario: a scenario file (a path ending in ``.toml``, or one naming a file) is read from the
+    suite file's ``folder`` when relative (as a gains file is, so a suite and its files move together and run
+    from any folder), and the case holds it as read, so its default name and its baseline's record name it
+    by the scenario's name, not by where it was found; a built-in name or ``random<N>`` stays as written.
+
+    Raises:
+        ConfigError: The file does not exist or is not a scenario (the loader's message).
+    """
+    p = Path(value)
+    if not (p.suffix == ".toml" or (folder / p).exists()):
+        return value
+    return load_scenario(p if p.is_absolute() else folder / p)
 
 
 #: The fields a case's default name is made of (:meth:`Case._derived_name`).
@@ -328,7 +348,7 @@ def _label(entry: Any) -> str:
 
 def _case_from_table(entry: Any, where: str, folder: Path) -> Case:
     """A suite's case table as a :class:`Case`, every field checked (``where`` names the file and the case;
-    ``folder`` is the suite file's, where a relative gains file is).
+    ``folder`` is the suite file's, where a relative gains or scenario file is).
 
     Raises:
         ConfigError: A field that is unknown, missing, of the wrong type or not one of its values, naming
@@ -363,7 +383,7 @@ def _case_from_table(entry: Any, where: str, folder: Path) -> Case:
     except (ConfigError, TypeError) as exc:
         raise ConfigError(f"{where}: {_suite_terms(str(exc))}") from exc
     try:
-        _check_name(case.name)  # the default one, made of the fields (a scenario given as a path has '/')
+        _check_name(case.name)  # the default one, made of the fields (a scenario's name may not be plain)
     except ConfigError as exc:
         raise ConfigError(f'{where}: its default name {case.name!r} is {exc}; give the case a name = "..."') from exc
     return case
@@ -839,6 +859,8 @@ class Baseline:
         path = Path(path)
         if not path.exists():
             return cls(path)
+        if path.is_dir():  # --update cannot write a file over it either: the fix is the user's
+            return cls(path, problem=f"it is a folder, where the case's baseline file goes; move or remove {path}")
         try:
             data = json.loads(path.read_text(encoding="utf-8"))
         except json.JSONDecodeError as exc:
@@ -881,7 +903,8 @@ def judge(case: Case, metrics: dict[str, Any], base: Baseline, tolerances: dict[
     """A measured case's result against its baseline (see the module docstring for the rules)."""
     problem = baseline_problem(base, metrics)
     if problem:
-        problem = f"baseline {base.path} is unreadable ({problem}); rewrite it with {update_hint(case)}"
+        fix = "then record it" if base.path.is_dir() else "rewrite it"
+        problem = f"baseline {base.path} is unreadable ({problem}); {fix} with {update_hint(case)}"
         return CheckResult(case, Status.UNREADABLE, f"case {case.name}: {problem}", metrics)
     if base.document is None:
         hint = f"record it with {update_hint(case)}"
