@@ -667,3 +667,28 @@ def test_a_usage_error_is_one_line(argv: list[str], capsys: pytest.CaptureFixtur
     assert stop.value.code == 2 and len(err.splitlines()) == 1 and ": error: " in err, err
     if "--seed" in argv:  # argparse's type error names the type alone: the fix is said too
         assert err.endswith("argument --seed: invalid int value: 'nan'; give a whole number, e.g. 3\n"), err
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "says"),
+    [
+        ("bad.toml", b"name = \n", "not valid TOML"),
+        ("latin1.toml", b'name = "caf\xe9"\n', "UTF-8"),
+        ("gains.toml", None, "gains"),
+    ],
+)
+def test_a_file_that_cannot_be_read_gets_no_traceback_hint(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str, content: bytes | None, says: str
+) -> None:
+    """Reading a user's file failing (bad TOML, not UTF-8, a folder) is said in the line; the hint that
+    NHSIM_TRACEBACK=1 prints a traceback is for exceptions of code nhsim runs (a plugin), not for those."""
+    path = tmp_path / name
+    if content is None:
+        path.mkdir()
+        argv = ["simulate", "--reference", "line", "--gains", str(path), "--no-video", "--no-plots"]
+    else:
+        path.write_bytes(content)
+        argv = ["plan", "--scenario", str(path)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert says in err and "Traceback" not in err and "NHSIM_TRACEBACK" not in err, err

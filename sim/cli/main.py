@@ -298,15 +298,29 @@ def _say_failure(line: str, exc: NhsimError) -> None:
     exception than nhsim's own (``raise ... from``: a plugin's planner raised, say), the line says how to see where,
     and with :data:`TRACEBACK_ENV` set that exception's traceback follows it."""
     cause = exc.__cause__
-    if cause is None or isinstance(cause, NhsimError):
+    quiet = os.environ.get(TRACEBACK_ENV, "") in ("", "0")
+    if cause is None or isinstance(cause, NhsimError) or (quiet and _input_failure(cause)):
         print(line, file=sys.stderr)
-    elif os.environ.get(TRACEBACK_ENV, "") in ("", "0"):
+    elif quiet:
         print(f"{line} ({TRACEBACK_ENV}=1 prints the {type(cause).__name__}'s traceback)", file=sys.stderr)
     else:
         import traceback
 
         print(line, file=sys.stderr)
         traceback.print_exception(cause, file=sys.stderr)
+
+
+def _input_failure(cause: BaseException) -> bool:
+    """Whether ``cause`` is reading a user's file failing (missing, unreadable, not UTF-8, not valid TOML, JSON
+    or YAML): the line says what and where, and a traceback of the reader would tell the user nothing more."""
+    import json
+    import tomllib
+
+    readers: tuple[type[BaseException], ...] = (OSError, UnicodeError, tomllib.TOMLDecodeError, json.JSONDecodeError)
+    yaml = sys.modules.get("yaml")  # loaded only where a YAML file was read
+    if yaml is not None:
+        readers += (yaml.YAMLError,)
+    return isinstance(cause, readers)
 
 
 def could_not_write(exc: OSError, command: str = "") -> str:
