@@ -256,7 +256,7 @@ def _check_length(path: Path) -> None:
     name = len(os.fsencode(path.name))
     temporary = len(os.fsencode(prefix + suffix)) + _RANDOM_CHARS
     whole = len(os.fsencode(str(path)))
-    fix = "choose a shorter name (--video, --json, --plots ... take a path)"
+    fix = "give this output a shorter name (the option that names it takes a path)"
     if name > name_max:
         raise ConfigError(f"cannot write {path}: its name is {name} bytes long; at most {name_max} fit; {fix}")
     if temporary > name_max:
