@@ -380,10 +380,13 @@ def test_simulate_all_refuses_the_options_its_sweep_would_drop(
 def test_simulate_all_sweeps_the_scenarios_it_is_given(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """``--all --scenario A,B``: only those (a generated world among them); an unknown name is exit 2."""
+    """``--all --scenario A,B``: only those (a generated world among them); an unknown name, or one given
+    twice (its cases would run twice), is exit 2."""
     monkeypatch.chdir(tmp_path)
     assert main(["simulate", "--all", "--scenario", "nosuch", "--no-video"]) == 2
     assert "unknown scenario 'nosuch'" in capsys.readouterr().err
+    assert main(["simulate", "--all", "--scenario", "farm, random4,farm,random4", "--no-video"]) == 2
+    assert "--scenario with --all names farm, random4 twice; give each scenario once" in capsys.readouterr().err
     args = ["simulate", "--all", "--scenario", "random400,simple_motion", "--robot", "turtlebot3", "--planner", "birrt"]
     assert main([*args, "--quiet", "--no-video", "--json", "all.json"]) == 0
     rows = json.loads((tmp_path / "all.json").read_text())["rows"]

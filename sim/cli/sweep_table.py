@@ -96,6 +96,7 @@ def sweep_scenarios(text: str | None) -> list[str] | None:
 
     Raises:
         ScenarioError: A name that is not a scenario (the message lists the built-in ones).
+        ConfigError: No name, or a name given twice.
     """
     if text is None:
         return None
@@ -104,6 +105,9 @@ def sweep_scenarios(text: str | None) -> list[str] | None:
     names = [n.strip() for n in text.split(",") if n.strip()]
     if not names:
         raise ConfigError("--scenario with --all: give one or more scenario names, comma-separated")
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:  # each of its cases would run, and print its row, twice
+        raise ConfigError(f"--scenario with --all names {', '.join(twice)} twice; give each scenario once")
     for name in names:
         load_scenario(name)
     return names
