@@ -33,6 +33,7 @@ from typing import Any
 
 from control.base import check_positive_fields
 from planning.core.checks import check_number
+from planning.core.files import read_input_text
 from planning.errors import ConfigError, option
 
 
@@ -223,7 +224,7 @@ def load_gains_file(path: str | Path) -> GainsFile:
     """
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8-sig")  # a byte-order mark (Windows editors) is dropped
+        text = read_input_text(p)  # once (a pipe cannot be read again); a byte-order mark is dropped
     except OSError as exc:
         raise ConfigError(f"cannot read gains file {p}: {exc.strerror or exc}") from exc
     except UnicodeDecodeError as exc:

@@ -30,6 +30,7 @@ import numpy as np
 
 from planning.collision.overlap import footprint_overlap
 from planning.core.checks import check_number, degrees_hint
+from planning.core.files import descriptor_path, read_input_text
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.maps import MapObstacles, load_map_table
 from planning.core.nav2_map import load_map_yaml_table
@@ -373,7 +374,7 @@ def load_scenario_file(path: str | Path) -> Scenario:
     """Load and validate a scenario TOML file."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8-sig")  # a byte-order mark (Windows editors) is dropped
+        text = read_input_text(p)  # once (a pipe cannot be read again); a byte-order mark is dropped
     except OSError as exc:
         raise ScenarioError(f"cannot read scenario file {p}: {exc.strerror or exc}") from exc
     except UnicodeDecodeError as exc:
@@ -385,8 +386,27 @@ def load_scenario_file(path: str | Path) -> Scenario:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{p}: not valid TOML: {exc}") from exc
+    if descriptor_path(p):
+        _refuse_relative_map(data, p)
     sc = parse_scenario(data, where=str(p), default_name=p.stem, base_dir=p.parent)
     return dataclasses.replace(sc, source=p)
+
+
+def _refuse_relative_map(data: Mapping[str, Any], p: Path) -> None:
+    """Refuse a relative path in the ``[world.map]`` table of a scenario read from a pipe in ``/dev`` (bash's
+    ``<(...)`` gives ``/dev/fd/N``): it would be looked for in ``/dev/fd``, not beside the scenario's file."""
+    world = data.get("world")
+    table = world.get("map") if isinstance(world, Mapping) else None
+    if not isinstance(table, Mapping):
+        return
+    for key, what in (("image", "map image"), ("yaml", "map YAML")):
+        name = table.get(key)
+        if isinstance(name, str) and name and not Path(name).is_absolute():
+            raise ScenarioError(
+                f"{p}: field 'world.map.{key}': the {what} {name!r} is relative to the scenario file's folder, but "
+                f"the scenario comes from a pipe ({p}, e.g. bash's <(...)), whose folder {p.parent} is not the "
+                f"scenario's; give the scenario as a file (its path), or the {what}'s absolute path"
+            )
 
 
 def builtin_scenarios() -> list[str]:

@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from planning.core.files import is_pipe
 from planning.errors import ConfigError, OutputExistsError
 from sim.cli.job_outputs import (
     DEFAULT_DIR,
@@ -243,6 +244,22 @@ def _replay_line(argv_base: list[str], worst: dict[str, Any]) -> str:
     return " ".join([*env, *(shlex.quote(c) for c in cmd)])
 
 
+def _pipe_notes(args: argparse.Namespace) -> list[str]:
+    """Notes for the replay commands' options that name a pipe (bash's ``<(...)``): read once, gone after this
+    command, so a replay must be given the content as a file."""
+    named = [(opt, getattr(args, opt.removeprefix("--").replace("-", "_"), None)) for opt in _FILE_OPTIONS]
+    return [
+        f"{opt} {value} was a pipe, read once: to replay a run, save what it gave to a file and give that file's "
+        f"path in place of {value}"
+        for opt, value in named
+        if isinstance(value, str) and is_pipe(value)
+    ]
+
+
+#: The options of a replay command that may name a file.
+_FILE_OPTIONS = ("--scenario", "--gains", "--sensors", "--trajectory", "--path")
+
+
 def _base_argv(args: argparse.Namespace, case: Any) -> list[str]:
     """The ``simulate`` options of the study's case (the seeds are per run)."""
     if case.trajectory_file is not None:  # the file's own options; its world is --scenario's or an arena
@@ -310,6 +327,8 @@ def run(args: argparse.Namespace) -> int:
     for worst in closed.get("worst", []):
         err = worst["final_position_error_m"]
         print(f"worst closed loop #{worst['index']} ({err:.4f} m): {_replay_line(base, worst)}")
+    for line in _pipe_notes(args) if closed.get("worst") else []:
+        print(f"nhsim montecarlo: {line}", file=sys.stderr)
     if result.retries:
         print(f"{result.retries} runs were run again after their worker died")
     record = {"key": spec.key(), "runs": spec.runs, "ran_now": result.ran, "retries": result.retries}

@@ -639,6 +639,21 @@ def _check_counts(args: argparse.Namespace) -> None:
     check_workers(args.jobs)
     check_seeds(seed=args.seed)
     check_control_rate(args.control_rate)
+    _check_pipes(args)
+
+
+def _check_pipes(args: argparse.Namespace) -> None:
+    """Refuse a scenario of ``--scenarios`` that is a pipe (bash's ``<(...)``) with ``--jobs`` above 1: this process
+    reads it once, and the worker processes, which load their cases' scenarios themselves, cannot."""
+    from planning.core.files import is_pipe
+
+    piped = [s for s in (t.partition(":")[0] for t in _tokens(args)) if is_pipe(s)]
+    if piped and args.jobs > 1:
+        raise ConfigError(
+            f"--scenarios {piped[0]}: this is a pipe (e.g. bash's <(...)), which only this process can read, once; "
+            f"the --jobs {args.jobs} worker processes load the scenario themselves: give the scenario as a file (its "
+            "path), or --jobs 1"
+        )
 
 
 def _tokens(args: argparse.Namespace) -> list[str]:

@@ -57,6 +57,7 @@ from numpy.typing import NDArray
 
 from control.estimation.kernels import wrap
 from planning.core.checks import check_number
+from planning.core.files import read_input_text
 from planning.core.robot import MODELS_DIR
 from planning.errors import ConfigError, option
 from sim.physics.keyvalue import parse_number, parse_pairs
@@ -236,7 +237,7 @@ def read_sensor_file(path: Path) -> dict[str, dict[str, Any]]:
             names it and what a file may hold), or a bad key or value in ``[sensors]`` (naming the field).
     """
     try:
-        data = tomllib.loads(Path(path).read_text(encoding="utf-8-sig"))  # a byte-order mark is dropped
+        data = tomllib.loads(read_input_text(path))  # read once (a pipe cannot be read again); a BOM is dropped
     except UnicodeDecodeError as exc:
         raise ConfigError(f"cannot read sensor settings from {path}: not UTF-8 text; save it as UTF-8") from exc
     except (OSError, tomllib.TOMLDecodeError) as exc:

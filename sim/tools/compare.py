@@ -29,6 +29,7 @@ import numpy as np
 
 from control.base import TRACKERS, Tracker, make_tracker, tracker_options, tuned_option
 from planning.core.checks import check_number
+from planning.core.files import read_input
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError, option
 from planning.scenario import Scenario
@@ -375,9 +376,13 @@ def load_params(paths: Sequence[str | Path]) -> dict[str, Any]:
     for path in paths:
         given = option("params", str(path), python="load_params([{}])")
         try:
-            data = json.loads(Path(path).read_text())
-        except (OSError, ValueError) as exc:
-            raise ConfigError(f"{given}: {_gains_file(Path(path)) or f'cannot read it as JSON ({exc})'}") from exc
+            raw = read_input(path)  # once: a pipe cannot be read again (a gains file is told from these bytes)
+        except OSError as exc:
+            raise ConfigError(f"{given}: cannot read it ({exc.strerror or exc}); check the path") from exc
+        try:
+            data = json.loads(raw)
+        except ValueError as exc:
+            raise ConfigError(f"{given}: {_gains_file(Path(path), raw) or f'cannot read it as JSON ({exc})'}") from exc
         if isinstance(data, dict) and "tracker" in data and isinstance(data.get("params"), dict):
             data = {data["tracker"]: data["params"]}
         if not isinstance(data, dict) or not all(isinstance(v, dict) for v in data.values()):
@@ -397,13 +402,13 @@ def load_params(paths: Sequence[str | Path]) -> dict[str, Any]:
     return out
 
 
-def _gains_file(path: Path) -> str | None:
-    """Why a --params file that is not JSON is refused when it is a gains file (TOML with a ``[gains]``
-    table, as ``nhsim tune`` writes), naming the file --params takes; None for any other file."""
+def _gains_file(path: Path, raw: bytes) -> str | None:
+    """Why the --params file ``path`` (its bytes ``raw``), not JSON, is refused when it is a gains file (TOML
+    with a ``[gains]`` table, as ``nhsim tune`` writes), naming the file --params takes; None for any other file."""
     import tomllib
 
     try:
-        table = tomllib.loads(path.read_text(encoding="utf-8")).get("gains")
+        table = tomllib.loads(raw.decode("utf-8")).get("gains")
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
         return None
     if not isinstance(table, dict):
