@@ -10,7 +10,10 @@ ends) or a turn from the arriving to the leaving heading. Then it goes through t
 (:func:`planning.trajectory.from_plan.make_trajectory`): segments from the sign of v, its own samples
 kept (slowed uniformly, by at most :data:`MAX_STRETCH`, when it exceeds a limit) or re-timed from
 rest to rest by the speed profile, with the reason: it starts or ends moving, it accelerates beyond
-the robot's limits, or keeping its clock would take more than ``MAX_STRETCH`` times as long.
+the robot's limits, or keeping its clock would take more than ``MAX_STRETCH`` times as long. A file
+shorter than ``MIN_SAMPLES * dt`` is sampled ``MIN_SAMPLES`` times over its span, so that a clock far too
+fast (seconds read as milliseconds) is judged by its speed; re-timed, such a file's poses are taken on
+its clock slowed to a robot's pace (:func:`paced`), where its heading can be resolved.
 
 An **untimed** path goes the way of a planner's path: loops cut, split at cusps and corners, each
 drive fitted by piecewise polynomials and timed by the speed profile.
@@ -28,6 +31,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.interpolate import PPoly
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
 from planning.collision.exact import CollisionChecker
@@ -39,7 +43,7 @@ from planning.errors import option, options
 from planning.planners.base import PlanResult, PlanStatus
 from planning.trajectory.file_formats import TrajectoryFileError
 from planning.trajectory.from_plan import TrajectoryResult, TrajectoryStatus, make_trajectory, time_scales
-from planning.trajectory.importer import MOVING_SPEED, ImportedFile
+from planning.trajectory.importer import MOVING_SPEED, ImportedFile, PositionCurve
 from planning.trajectory.smoothing import check_options
 from planning.trajectory.speed_profile import Limits
 
@@ -51,6 +55,17 @@ MAX_STRETCH = 2.0
 #: uniformly by the square root of it at most): the rows of a trajectory written at the limit differ
 #: by their rounding (nhsim's own /reference reads 3e-7 above it), which re-timing would not be.
 ROUNDING = 1e-3
+#: Speed [m/s] above which a timed file's rows move faster than a robot's clock would (the fastest robot here goes
+#: 0.8 m/s, and a clock more than MAX_STRETCH times too fast is not kept): such a file (a clock in seconds read as
+#: milliseconds) is re-timed, and its poses are sampled on its clock slowed until its rows move at PACE_SPEED at
+#: most (:func:`paced`). On its own clock a motion of a fraction of a second was shorter than the time windows its
+#: heading is taken over: a quarter circle of 1 m radius in 0.2 s drove along its chord, and ended with the chord's
+#: heading, 5 cm off its end.
+FAST_CLOCK = 2.0
+PACE_SPEED = 1.0
+#: A re-timed file that keeping its clock would slow by this factor or more is said to have a clock that may
+#: not count seconds (a robot's recording is not a hundred times too fast for it).
+CLOCK_HINT = 100.0
 #: Room between the file's extent (plus the robot's radius) and the walls of a default arena [m].
 ARENA_MARGIN = 0.25
 #: A file read in its own units spanning this many times the world's width or height may be in pixels.
@@ -61,6 +76,10 @@ ARENA_MAX = 50.0
 ARENA_ROBOT = "turtlebot3"
 #: Sample period of a timed file's samples [s].
 DT = 0.01
+#: Fewest sample intervals of a timed file: one lasting less than ``MIN_SAMPLES * DT`` is sampled that many
+#: times over its span, not every DT. At DT, a file of 10 ms or less (a clock in seconds read as milliseconds)
+#: was two samples, both at rest: its speed, between them, was never judged against the robot's limits.
+MIN_SAMPLES = 20
 #: Least time [s] and path [m] over which a timed file's direction of motion is taken (its heading
 #: where it moves).
 HEADING_WINDOW = 0.1
@@ -97,10 +116,15 @@ class DenseFile:
 
 
 def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
-    """Sample a timed file every ``dt`` (see the module doc)."""
+    """Sample a timed file every ``dt``, or :data:`MIN_SAMPLES` times over a shorter span (see the module doc)."""
     assert imported.t is not None and imported.curve is not None
     t0, t1 = float(imported.t[0]), float(imported.t[-1])
-    tg = np.append(np.arange(t0, t1, dt), t1) if (t1 - t0) % dt > 1e-9 else np.arange(t0, t1 + 0.5 * dt, dt)
+    if t1 - t0 < MIN_SAMPLES * dt:
+        tg = np.linspace(t0, t1, MIN_SAMPLES + 1)
+    elif (t1 - t0) % dt > 1e-9:
+        tg = np.append(np.arange(t0, t1, dt), t1)
+    else:
+        tg = np.arange(t0, t1 + 0.5 * dt, dt)
     d = imported.curve(tg, 1)
     speed = np.hypot(d[:, 0], d[:, 1])
     k = np.clip(np.searchsorted(imported.t, tg, side="right") - 1, 0, imported.direction.size - 1)
@@ -343,6 +367,17 @@ def timing_verdict(dense: DenseFile, limits: Limits) -> tuple[bool, str, float]:
     return False, "within the robot's limits", 1.0
 
 
+def _clock_hint(dense: DenseFile, limits: Limits, time_scale: float | None) -> str:
+    """What to add to the reason of a re-timed file whose clock, kept, would be slowed CLOCK_HINT times or more:
+    that its time unit may not be seconds (a clock in seconds read as milliseconds; a wrong ``--time-scale``)."""
+    rest = np.zeros_like(dense.v)
+    if time_scales(dense.v, dense.omega, rest, rest, limits)[0] < CLOCK_HINT:  # as timing_verdict's speed scale
+        return ""
+    if time_scale is None or time_scale == 1.0:
+        return f"; if its stamps are not in seconds, give the seconds per file time unit with {option('time-scale')}"
+    return f"; check {option('time-scale', time_scale)}, the seconds per file time unit"
+
+
 # ------------------------------------------------------------------------------------ the world
 def _culprit(world: World, xy: FloatArray) -> tuple[bool, str]:
     """What a robot at ``xy`` (2,) runs into: (a wall?, its description), the nearest by its centre."""
@@ -440,9 +475,28 @@ def path_poses(imported: ImportedFile) -> FloatArray:
     return np.column_stack([xy[rows], np.unwrap(heading)])
 
 
+def paced(imported: ImportedFile) -> tuple[ImportedFile, float]:
+    """A timed file whose rows move faster than FAST_CLOCK, on its clock slowed by the factor that brings them
+    to PACE_SPEED at most (its times, curve and yaw rates scaled), and that factor; else the file as it is, 1.
+
+    The shape of the motion (positions, headings, stops) is the file's, sampled where its heading can be taken:
+    only the poses of such a file are used (it is re-timed), never its clock."""
+    assert imported.t is not None and imported.curve is not None
+    fastest = float(np.max(np.hypot(*np.diff(imported.xy, axis=0).T) / np.diff(imported.t)))
+    if fastest <= FAST_CLOCK:
+        return imported, 1.0
+    k = fastest / PACE_SPEED
+    poly = imported.curve.poly
+    order = poly.c.shape[0] - 1
+    coefficients = poly.c / k ** (order - np.arange(order + 1, dtype=float)).reshape(-1, *([1] * (poly.c.ndim - 1)))
+    curve = PositionCurve(PPoly.construct_fast(coefficients, poly.x * k))
+    omega = imported.omega / k if imported.omega is not None else None
+    return dataclasses.replace(imported, t=imported.t * k, curve=curve, omega=omega), k
+
+
 def file_poses(imported: ImportedFile) -> FloatArray:
-    """(M, 3) poses along the file: a trajectory's dense samples, a path's rows."""
-    return densify(imported).pose if imported.source.timed else path_poses(imported)
+    """(M, 3) poses along the file: a trajectory's dense samples (of a fast one, :func:`paced`), a path's rows."""
+    return densify(paced(imported)[0]).pose if imported.source.timed else path_poses(imported)
 
 
 def with_file_ends(scenario: Scenario, imported: ImportedFile) -> Scenario:
@@ -507,8 +561,14 @@ def file_trajectory(imported: ImportedFile, robot: RobotSpec, world: World, **op
     goal = with_file_ends(Scenario("file", robot.name, world, Pose2D(0, 0, 0), Pose2D(0, 0, 0)), imported).goal
     if source.timed:
         dense = densify(imported)
-        report.world = check_world(imported, dense.pose, dense.t, world, robot)
-        retime, why, _ = timing_verdict(dense, Limits.from_robot(robot, options.get("margin", 0.85)))
+        limits = Limits.from_robot(robot, options.get("margin", 0.85))
+        retime, why, _ = timing_verdict(dense, limits)
+        why += _clock_hint(dense, limits, source.time_scale) if retime else ""
+        k = 1.0
+        if retime:  # its clock is not kept: a fast file's poses from its clock slowed k times
+            slow, k = paced(imported)
+            dense = densify(slow) if k != 1.0 else dense
+        report.world = check_world(imported, dense.pose, dense.t / k, world, robot)
         plan = PlanResult(
             PlanStatus.SUCCESS, name, dense.pose, times=dense.t, controls=np.column_stack([dense.v, dense.omega])
         )

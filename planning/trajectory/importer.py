@@ -64,6 +64,9 @@ HEADING_TOLERANCE = (0.02, 0.10, 0.20)
 HEADING_TO_MOTION = 0.1
 #: Longest trajectory a file may describe [s]: a longer one almost surely counts milliseconds.
 MAX_DURATION = 3600.0
+#: Shortest trajectory a file may describe [s]: a shorter one is almost surely read in the wrong time unit (a
+#: file of 10 ms or so is read and re-timed, as every file too fast for the robot).
+MIN_DURATION = 1e-6
 
 #: Farthest a file's position may be from the origin once scaled and moved [m].
 MAX_COORDINATE = 1e9
@@ -336,6 +339,8 @@ def import_table(table: FileTable, source: TrajectoryFile) -> ImportedFile:
     rows = table.rows
     if "theta" in cols:
         cols["theta"], report.headings_unwrapped = _unwrap(cols["theta"], rows, report)
+    if source.timed:
+        _refuse_instant(report.file, cols["t"], source.time_scale or 1.0)
     rows, cols = _merge(rows, cols, source.timed, report)
     _check_distinct(table, cols)
     if not source.timed:
@@ -745,6 +750,22 @@ def _refuse_standing(file: str, t: FloatArray, xy: FloatArray, time_scale: float
         f"{file}: the trajectory moves at {fastest * 1e3:.3g} mm/s at most{given}, slower than the "
         f"{MOVING_SPEED * 1e3:g} mm/s below which the robot counts as standing: if its clock counts milliseconds, "
         f"give the seconds per file time unit, {option('time-scale', time_scale * 1e-3)}"
+    )
+
+
+def _refuse_instant(file: str, t: FloatArray, time_scale: float) -> None:
+    """Refuse a trajectory whose stamps differ but span less than MIN_DURATION: read in seconds, its clock
+    is in other units (``--time-scale`` too small, or stamps that are not times)."""
+    span = float(np.max(t) - np.min(t))
+    if span == 0.0 or span >= MIN_DURATION:  # one stamp for all rows: the merge names the rows
+        return
+    given = f" at {option('time-scale', time_scale)}" if time_scale != 1.0 else ""
+    fix = f"give the seconds per file time unit with {option('time-scale')}"
+    if time_scale != 1.0:
+        fix = f"check {option('time-scale', time_scale)}: it is the seconds per file time unit (1 for seconds)"
+    raise TrajectoryFileError(
+        f"{file}: the trajectory lasts {span:.3g} s{given}, less than {MIN_DURATION:g} s: its clock is not in "
+        f"seconds: {fix}, or fix the stamps"
     )
 
 
