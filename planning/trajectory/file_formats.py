@@ -15,6 +15,10 @@ Formats (chosen by the file's suffix):
   that are all equal give no time column); or the same two layouts as JSON. The first document of
   a multi-document file is read.
 
+A file is read in one read and parsed from memory (:func:`planning.core.files.read_input`): a pipe (bash's
+``<(command)``, a FIFO) works, read again by the same process from the bytes kept. ``-`` (standard input) is
+refused naming the fix: the file is read more than once and named again by a replay command.
+
 Any other suffix (a ``.toml``, ``.xml`` or spreadsheet file) is refused, naming those read here: parsed as a
 text table it gave dozens of junk column names.
 
@@ -37,6 +41,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planning.core.files import read_input_text
 from planning.errors import ConfigError, option
 
 FloatArray = NDArray[np.float64]
@@ -201,6 +206,12 @@ def read_table(path: str | Path, columns: Sequence[str] | None = None) -> FileTa
             with the wrong number of cells, a non-numeric cell (row and column named).
     """
     p = Path(path)
+    if str(path) == "-":
+        raise TrajectoryFileError(
+            "- (standard input) is not read as a trajectory or path file: the file is read more than once (its "
+            "world, then its run; a replay command names it again); give its path, or a pipe's, e.g. "
+            "<(command) in bash"
+        )
     suffix = p.suffix.lower()
     if suffix not in TEXT_SUFFIXES + DOCUMENT_SUFFIXES:
         raise TrajectoryFileError(
@@ -209,7 +220,7 @@ def read_table(path: str | Path, columns: Sequence[str] | None = None) -> FileTa
             f"({', '.join(BAG_SUFFIXES)} or a rosbag2 folder)"
         )
     try:
-        text = p.read_text(encoding="utf-8-sig")  # a byte-order mark (Windows exports) is dropped
+        text = read_input_text(p)  # once (a pipe cannot be read again); a byte-order mark (Windows exports) is dropped
     except (OSError, UnicodeDecodeError) as exc:
         why = "not UTF-8 text" if isinstance(exc, UnicodeDecodeError) else (exc.strerror or str(exc))
         raise TrajectoryFileError(f"cannot read trajectory file {p}: {why}") from exc
