@@ -167,3 +167,22 @@ def test_simulate_takes_gains_and_sensors_from_pipes(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stderr
     record = json.loads((tmp_path / "run.json").read_text())
     assert record["gains"]["kp"] == 9.5 and record["sensors"]["fix_rate"] == 5.0
+
+
+def test_no_output_writes_over_the_map_image_a_piped_scenario_names(
+    pipe: Pipe, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A piped scenario's map image (an absolute path: a pipe's folder is not the scenario's) is an input no
+    output may overwrite, as a scenario file's is: the check reads the pipe once, and the loader gets those bytes."""
+    from sim.cli.main import main
+
+    image = tmp_path / "map.png"
+    image.write_bytes((ROOT / "models" / "maps" / "edumip_map.png").read_bytes())
+    text = (SCENARIOS_DIR / "edumip_map.toml").read_text(encoding="utf-8")
+    text = text.replace('"../maps/edumip_map.png"', json.dumps(str(image)))
+    assert str(image) in text
+    scenario = pipe(text.encode())
+    before = image.read_bytes()
+    assert main(["plan", "--scenario", str(scenario), "--plot", str(image), "--overwrite", "--quiet"]) == 2
+    assert f"the output {image} is the input --scenario {scenario} (its map image" in capsys.readouterr().err
+    assert image.read_bytes() == before

@@ -485,10 +485,11 @@ def scenario_inputs(given: str, scenario: str) -> list[tuple[str, Path]]:
     (a path, or a built-in scenario's file) and what its ``[world.map]`` table reads (relative to the file's
     folder): the map image it names, or the ROS map YAML it names and the image that YAML names (relative to
     the YAML's folder); ``given`` names the option in messages. A file that cannot be read gives only itself
-    (loading it says what is wrong), and so does one that is not a regular file (a pipe is read once, by the
-    loader); a generated world (``random<N>``) reads none."""
+    (loading it says what is wrong); a pipe is read once (:func:`planning.core.files.read_input`); a generated
+    world (``random<N>``) reads none."""
     import tomllib
 
+    from planning.core.files import read_input_text
     from planning.scenario import SCENARIOS_DIR
 
     path = Path(scenario)
@@ -499,9 +500,7 @@ def scenario_inputs(given: str, scenario: str) -> list[tuple[str, Path]]:
         return []
     found = [(given, path)]
     try:
-        if not stat.S_ISREG(path.stat().st_mode):
-            return found
-        table = tomllib.loads(path.read_text(encoding="utf-8-sig"))["world"]["map"]
+        table = tomllib.loads(read_input_text(path))["world"]["map"]  # a pipe: the loader gets these bytes again
         named = {key: table.get(key) for key in ("image", "yaml")}
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, KeyError, TypeError, AttributeError):
         return found
