@@ -8,7 +8,8 @@ Formats (chosen by the file's suffix):
   (then a header row, if any, is skipped; a header of valid names that ``columns`` contradicts is an
   error). ``_`` skips a column.
 * **JSON** (``.json``): ``{"t": [...], "x": [...], ...}`` (one list per column) or a list of records
-  ``[{"t": 0, "x": 0.1, ...}, ...]``.
+  ``[{"t": 0, "x": 0.1, ...}, ...]``; or nhsim's own plan record (``nhsim plan --json``, known by its fields
+  :data:`PLAN_RECORD_FIELDS`): its ``path`` of [x, y, theta] states, a path (the headings keep its reversing).
 * **YAML** (``.yaml``, ``.yml``): a ROS ``nav_msgs/Path`` as ``ros2 topic echo`` (or ``rostopic echo``)
   writes it: ``poses[].pose.position`` (x, y), ``poses[].pose.orientation`` (a quaternion: the
   heading is its yaw) and ``poses[].header.stamp`` (``sec``/``nanosec`` or ``secs``/``nsecs``; stamps
@@ -48,6 +49,7 @@ FloatArray = NDArray[np.float64]
 
 __all__ = [
     "COLUMNS",
+    "PLAN_RECORD",
     "SKIP",
     "FileTable",
     "TrajectoryFileError",
@@ -399,9 +401,17 @@ def _numbers(p: Path, body: list[tuple[int, list[str]]], names: tuple[str, ...],
 
 
 # ------------------------------------------------------------------------------- JSON and YAML
+#: The fields by which a JSON document is nhsim's own plan record (``nhsim plan --json``).
+PLAN_RECORD_FIELDS = ("path", "planner", "status", "scenario")
+#: The format an nhsim plan record is named by.
+PLAN_RECORD = "nhsim plan record"
+
+
 def _from_document(p: Path, data: Any, fmt: str) -> FileTable:
     if isinstance(data, Mapping) and "poses" in data:
         return _nav_path(p, data)
+    if isinstance(data, Mapping) and all(k in data for k in PLAN_RECORD_FIELDS):
+        return _plan_record(p, data)
     if isinstance(data, Mapping) and "header" in data:  # a message's header; no column is called that
         raise TrajectoryFileError(
             f"{p}: has a header but no poses list; a nav_msgs/Path needs one (poses: a list of stamped poses, each "
@@ -569,3 +579,28 @@ def _nav_path(p: Path, data: Mapping[str, Any]) -> FileTable:
     if all(s is not None for s in stamps) and len(set(stamps)) > 1:
         cols["t"] = np.asarray(stamps, dtype=float)
     return FileTable(p, "nav_msgs/Path", cols, rows)
+
+
+def _plan_record(p: Path, data: Mapping[str, Any]) -> FileTable:
+    """The path of nhsim's own plan record (``nhsim plan --json``): its ``path``, a list of [x, y, theta] states,
+    as columns x, y, theta (the headings keep its directions of travel: reversing, and its turns in place)."""
+    status, reason = data.get("status"), data.get("reason") or ""
+    if status != "success":
+        raise TrajectoryFileError(
+            f"{p}: an nhsim plan record whose plan did not succeed (status {status!r}{': ' + reason if reason else ''})"
+            f": its path does not reach the goal; plan again (another seed, a longer {option('time-limit')}, another "
+            "planner) and give the new record"
+        )
+    states = data["path"]
+    if not isinstance(states, list) or not all(isinstance(q, list) and len(q) == 3 for q in states):
+        raise TrajectoryFileError(
+            f"{p}: an nhsim plan record's path must be a list of [x, y, theta] states; write it again with "
+            "`nhsim plan --json`"
+        )
+    rows = tuple(f"path[{i}]" for i in range(len(states)))
+    cols = {
+        name: np.array([_number(q[j], str(p), row, name) for q, row in zip(states, rows, strict=True)], dtype=float)
+        for j, name in enumerate(("x", "y", "theta"))
+    }
+    note = f"an nhsim plan record ({data['planner']} on {data['scenario']}): its path read as x, y, theta"
+    return FileTable(p, PLAN_RECORD, cols, rows, notes=(note,))

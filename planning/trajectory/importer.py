@@ -44,7 +44,13 @@ from numpy.typing import NDArray
 from planning.core.checks import check_flag, check_number
 from planning.core.geometry import wrap_angle
 from planning.errors import ConfigError, option, options
-from planning.trajectory.file_formats import FileTable, TrajectoryFileError, parse_column_names, read_table
+from planning.trajectory.file_formats import (
+    PLAN_RECORD,
+    FileTable,
+    TrajectoryFileError,
+    parse_column_names,
+    read_table,
+)
 from planning.trajectory.row_curves import MOVING_SPEED as MOVING_SPEED
 from planning.trajectory.row_curves import SAME_POSITION as SAME_POSITION
 from planning.trajectory.row_curves import PositionCurve as PositionCurve
@@ -374,13 +380,16 @@ def _required(table: FileTable, source: TrajectoryFile, report: ImportReport) ->
     if missing:
         hint = f"; a file without time stamps is a path: use {option('path', python='timed=False')}"
         hint = hint if missing == ["t"] else ""
-        named = table.fmt in ("json", "yaml", "nav_msgs/Path")  # a document names its own fields: no --columns
+        named = table.fmt in ("json", "yaml", "nav_msgs/Path", PLAN_RECORD)  # a document names its fields: no --columns
         where = "give it in each pose" if named else f"name it in the header or with {option('columns')}"
         if source.columns is not None and not named:
             where = f"name it with {option('columns')}, which names every column (the header's names are not read)"
         if named and missing == ["t"]:  # a document without stamps: a path, for the path option alone
             where = f"a {table.fmt} whose poses carry no times (or all the same stamp) is a path"
             hint = f": use {option('path', python='timed=False')}, or give each pose its time"
+        if table.fmt == PLAN_RECORD and missing == ["t"]:
+            where = f"an {PLAN_RECORD} holds a path, without times: use {option('path', python='timed=False')}"
+            hint = " (it is timed by the robot's limits, as the planner's path is)"
         raise TrajectoryFileError(
             f"{table.path}: no column {' or '.join(missing)} (columns: {', '.join(cols) or 'none'}); {where}{hint}"
         )

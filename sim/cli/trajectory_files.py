@@ -16,12 +16,13 @@ if TYPE_CHECKING:
 
 HELP = (
     "Track your own trajectory (timed) or path (untimed) from a file: CSV, TSV or whitespace-separated text with "
-    'a header row naming the columns (or --columns), JSON ({"t": [...], "x": [...]} or a list of records), or '
-    "a ROS nav_msgs/Path as YAML. Columns: t, x, y, theta, v, omega, vx, vy, ax, ay (_ skips one). Repeated "
-    "stamps at one position merge, headings are unwrapped, given derivatives that disagree with the positions "
-    "are replaced, and a timed file keeps its clock when it is within the robot's limits (else it is re-timed): "
-    "the summary and the record's 'import' say what was done. The world is --scenario's (the file must stay "
-    "clear of its obstacles and walls) or, without one, an empty arena around the file."
+    'a header row naming the columns (or --columns), JSON ({"t": [...], "x": [...]}, a list of records, or the '
+    "record nhsim plan --json writes, as a path), or a ROS nav_msgs/Path as YAML. Columns: t, x, y, theta, v, "
+    "omega, vx, vy, ax, ay (_ skips one). Repeated stamps at one position merge, headings are unwrapped, given "
+    "derivatives that disagree with the positions are replaced, and a timed file keeps its clock when it is "
+    "within the robot's limits (else it is re-timed): the summary and the record's 'import' say what was done. "
+    "The world is --scenario's (the file must stay clear of its obstacles and walls) or, without one, an empty "
+    "arena around the file."
 )
 
 
