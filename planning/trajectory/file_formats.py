@@ -6,7 +6,8 @@ Formats (chosen by the file's suffix):
   comma-, tab-, semicolon- or whitespace-separated cells, one row per line; lines starting with ``#``, ``%``
   or ``//`` and blank lines are skipped. The first row names the columns (a header), or ``columns`` does
   (then a header row, if any, is skipped; a header of valid names that ``columns`` contradicts is an
-  error). ``_`` skips a column.
+  error). ``_`` skips a column. A header that is valid but for an unnamed first column (pandas' index) or
+  units after its names (``t [s]``) is refused with the ``columns`` that read it (units are not read).
 * **JSON** (``.json``): ``{"t": [...], "x": [...], ...}`` (one list per column) or a list of records
   ``[{"t": 0, "x": 0.1, ...}, ...]``; or nhsim's own plan record (``nhsim plan --json``, known by its fields
   :data:`PLAN_RECORD_FIELDS`): its ``path`` of [x, y, theta] states, a path (the headings keep its reversing).
@@ -34,6 +35,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -223,9 +225,12 @@ def read_table(path: str | Path, columns: Sequence[str] | None = None) -> FileTa
         )
     try:
         text = read_input_text(p)  # once (a pipe cannot be read again); a byte-order mark (Windows exports) is dropped
-    except (OSError, UnicodeDecodeError) as exc:
-        why = "not UTF-8 text" if isinstance(exc, UnicodeDecodeError) else (exc.strerror or str(exc))
-        raise TrajectoryFileError(f"cannot read trajectory file {p}: {why}") from exc
+    except OSError as exc:
+        raise TrajectoryFileError(f"cannot read trajectory file {p}: {exc.strerror or exc}") from exc
+    except UnicodeDecodeError as exc:
+        raise TrajectoryFileError(
+            f"trajectory file {p} is not UTF-8 text (byte {exc.start} of the file: {exc.reason}); save it as UTF-8"
+        ) from exc
     if suffix in DOCUMENT_SUFFIXES:
         if columns is not None:
             raise TrajectoryFileError(
@@ -316,7 +321,8 @@ def _read_text(p: Path, text: str, columns: Sequence[str] | None) -> FileTable:
             _check_header_agrees(p, lines[0][0], first, names)
     elif has_header:
         trail = delimiter is not None and lines[0][1].endswith(delimiter) and not first[-1].strip()
-        names = parse_column_names(first[:-1] if trail else first, f"{p}, header (line {lines[0][0]})")
+        header = first[:-1] if trail else first
+        names = parse_column_names(header, f"{p}, header (line {lines[0][0]})", _header_fix(header))
         names = (*names, "") if trail else names
     else:
         example = option("columns", "t,x,y", python='columns=("t", "x", "y")')
@@ -337,6 +343,33 @@ def _read_text(p: Path, text: str, columns: Sequence[str] | None) -> FileTable:
     fmt = {",": "csv", ";": "csv", "\t": "tsv", None: "text"}[delimiter]
     arrays = dict(zip([n for n in names if n != SKIP], values.T, strict=True))
     return FileTable(p, fmt, arrays, tuple(f"line {n}" for n, _ in body))
+
+
+#: A unit after a column's name in a header: ``t [s]``, ``x (m)``.
+_UNIT = re.compile(r"^(?P<name>[^\[\](){}]*?)\s*[\[({](?P<unit>[^\[\](){}]*)[\])}]$")
+
+
+def _header_fix(header: list[str]) -> str | None:
+    """The advice for a header whose names are valid once an unnamed first column (pandas' index) is skipped and
+    units after the names (``t [s]``) are dropped: the ``--columns`` that reads it, saying why; None for another
+    header (the default advice). Units are not read: values are in the file's units (``--scale``, ``--time-scale``)."""
+    names = [c.strip() for c in header]
+    given = [
+        SKIP if not n and k == 0 else (m.group("name") if (m := _UNIT.match(n)) else n) for k, n in enumerate(names)
+    ]
+    if given == names or any(g.strip().lower() not in (*COLUMNS, SKIP) for g in given):
+        return None
+    why = []
+    if not names[0]:
+        why.append("the unnamed first column (a pandas index, written by to_csv without index=False) is skipped by _")
+    units = [m.group("unit") for n in names if (m := _UNIT.match(n))]
+    if units:
+        why.append(
+            f"units in the header ({', '.join(units)}) are not read: the values are taken in the file's units, "
+            f"metres and seconds unless {option('scale')} and {option('time-scale')} say otherwise"
+        )
+    example = ",".join(g.strip().lower() for g in given)
+    return f"name the columns with {option('columns', example)}: {'; '.join(why)}"
 
 
 def _decimal_commas(body: list[tuple[int, str]], delimiter: str | None) -> list[tuple[int, str]]:
@@ -433,7 +466,7 @@ def _counted(kind: str, n: int) -> tuple[str, ...]:
     return tuple(f"{kind} {i + 1} (index {i})" for i in range(n))
 
 
-def _json_fields(p: Path, keys: list[str]) -> tuple[dict[str, str], tuple[str, ...]]:
+def _json_fields(p: Path, keys: list[str], fmt: str) -> tuple[dict[str, str], tuple[str, ...]]:
     """A JSON document's fields that are columns (field -> column name, checked as a header's) and the note
     naming the others, which are left out: a record exported by another tool carries fields of its own (z,
     frame_id, a stamp)."""
@@ -442,7 +475,7 @@ def _json_fields(p: Path, keys: list[str]) -> tuple[dict[str, str], tuple[str, .
         shown = ", ".join(repr(k) for k in keys[:6]) + (", ..." if len(keys) > 6 else "")
         said = f"none of its fields ({shown}) is a column" if keys else "it has no fields"
         raise TrajectoryFileError(
-            f"{p}: {said}; a JSON file gives the columns ({_valid_names()}) at its top level: "
+            f"{p}: {said}; a {fmt.upper()} file gives the columns ({_valid_names()}) at its top level: "
             '{"t": [...], "x": [...], "y": [...]} or [{"t": 0, "x": 0, "y": 0}, ...]'
         )
     names = parse_column_names(known, str(p))
@@ -455,7 +488,7 @@ def _json_fields(p: Path, keys: list[str]) -> tuple[dict[str, str], tuple[str, .
 
 
 def _from_columns(p: Path, data: Mapping[str, Any], fmt: str) -> FileTable:
-    fields, notes = _json_fields(p, list(data))
+    fields, notes = _json_fields(p, list(data), fmt)
     lengths = {}
     for key, name in fields.items():
         if not isinstance(data[key], list):
@@ -474,9 +507,13 @@ def _from_columns(p: Path, data: Mapping[str, Any], fmt: str) -> FileTable:
 
 
 def _from_records(p: Path, data: list[Any], fmt: str) -> FileTable:
-    if not data or not all(isinstance(r, Mapping) for r in data):
+    if not data:
+        raise TrajectoryFileError(
+            f'{p}: the file holds no rows (an empty list); give one record per row: [{{"t": 0, "x": 0, "y": 0}}, ...]'
+        )
+    if not all(isinstance(r, Mapping) for r in data):
         raise TrajectoryFileError(f'{p}: a list of records must hold one object per row, like {{"t": 0, "x": 0}}')
-    fields, notes = _json_fields(p, list(dict.fromkeys(k for r in data for k in r)))
+    fields, notes = _json_fields(p, list(dict.fromkeys(k for r in data for k in r)), fmt)
     labels = _counted("record", len(data))
     cols: dict[str, list[float]] = {name: [] for name in fields.values()}
     for i, rec in enumerate(data):
