@@ -81,6 +81,29 @@ def test_a_killed_study_resumed_ends_with_the_same_statistics(serial: dict[str, 
     assert [json.loads(x)["index"] for x in path.read_text().splitlines()[1:]] == [0, 1, 2]
 
 
+def test_an_edited_scenario_file_is_another_study(tmp_path: Path) -> None:
+    """A study's key holds a digest of its scenario as read: the world edited under the same name and path is
+    another study (its runs would have been mixed with the old world's on resume, as an edited trajectory file's
+    are not); the digest is of the scenario, not of where it was read (a copy of a built-in has the built-in's)."""
+    from planning.scenario import SCENARIOS_DIR
+
+    def key(path: Path | str) -> dict[str, object]:
+        return MonteCarloSpec(Case(str(path), robot="turtlebot3", reference="line", seed=3), 3).key()
+
+    mine = tmp_path / "parking_lot.toml"
+    shutil.copy(SCENARIOS_DIR / "parking_lot.toml", mine)
+    before = key(mine)
+    assert before["world"] == key("parking_lot")["world"]
+    text = mine.read_text(encoding="utf-8")
+    assert "center = [1.2, 0.3]" in text
+    mine.write_text(text.replace("center = [1.2, 0.3]", "center = [1.21, 0.3]"), encoding="utf-8")
+    after = key(mine)
+    assert {k for k in before if before[k] != after[k]} == {"world"}
+    (tmp_path / "runs.jsonl").write_text(json.dumps({"key": before, "code": "x"}) + "\n")
+    with pytest.raises(ConfigError, match=r"another study .*world: "):
+        ResultsFile(tmp_path / "runs.jsonl", after)
+
+
 def test_a_results_file_of_another_study_is_refused(serial: dict[str, object]) -> None:
     other = MonteCarloSpec(Case("open", robot="turtlebot3", reference="line", seed=4), 3)
     with pytest.raises(ConfigError, match=r"another study \(seed: 3 there, 4 here\)"):

@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from planning.core.checks import check_number
+from planning.core.files import read_input
 from planning.errors import ConfigError, NhsimError, option
 from planning.scenario import Scenario, load_scenario
 from planning.trajectory.importer import TrajectoryFile
@@ -87,7 +88,9 @@ class MonteCarloSpec:
     def defaults(self) -> dict[str, str]:
         """What the case leaves to its scenario and robot, resolved: ``robot`` the robot it runs (the
         scenario's own when not given), ``own_robot`` the scenario's own, ``localiser`` the localiser it
-        runs on (the robot's default when not given) and ``robot_localiser`` the robot's default.
+        runs on (the robot's default when not given), ``robot_localiser`` the robot's default, and ``world`` a
+        digest of the scenario as read (its world, ends, tolerances and tables, not where it was read from: a
+        scenario file edited since is another study, as an edited trajectory file is).
 
         Raises:
             ScenarioError, ConfigError: As :func:`sim.pipeline.case.load_case_scenario` and
@@ -102,6 +105,7 @@ class MonteCarloSpec:
             "own_robot": own,
             "localiser": c.localiser or default,
             "robot_localiser": default,
+            "world": hashlib.sha1(repr(replace(scenario, source=None)).encode()).hexdigest(),
         }
 
     def key(self) -> dict[str, Any]:
@@ -114,6 +118,7 @@ class MonteCarloSpec:
             "robot": self.defaults["robot"],
             "source": _source(c),
             "file": None if c.trajectory_file is None else _file_key(c.trajectory_file),
+            "world": self.defaults["world"],
             "tracker": c.feedback_tracker,
             "seed": c.seed,
             "control_rate": c.control_rate,
@@ -170,7 +175,7 @@ def _file_key(tfile: TrajectoryFile) -> dict[str, Any]:
     folder: its files' contents in name order)."""
     path = Path(tfile.path)
     files = sorted(f for f in path.rglob("*") if f.is_file()) if path.is_dir() else [path]
-    digest = hashlib.sha1(b"".join(f.read_bytes() for f in files)).hexdigest()
+    digest = hashlib.sha1(b"".join(read_input(f) for f in files)).hexdigest()  # a pipe: the bytes it gave
     return {**tfile.as_dict(), "sha1": digest}
 
 
