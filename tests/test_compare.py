@@ -81,6 +81,10 @@ def test_compare_cli_rejects_unknown_trackers_and_bad_params(tmp_path: Path) -> 
     bad.write_text(json.dumps({"mpc": {"horizon": 1}}))
     r = nhsim("compare", "--reference", "line", "--trackers", "mpc", "--params", str(bad))
     assert r.returncode == 2 and "MPCParams.horizon must be an integer in [2, 200] (steps), got 1" in r.stderr
+    r = nhsim("compare", "--reference", "line", "--trackers", "mpc", "--params", f"{bad},")  # a trailing comma
+    assert r.returncode == 2 and "MPCParams.horizon must be" in r.stderr and "Is a directory" not in r.stderr
+    r = nhsim("compare", "--reference", "line", "--trackers", "mpc", "--params", ",")
+    assert r.returncode == 2 and "--params names no file; give one or more JSON files" in r.stderr
     other = tmp_path / "rpp.json"  # parameters of a tracker the comparison does not run: were ignored
     other.write_text(json.dumps({"rpp": {"lookahead_time": 0.5}}))
     r = nhsim("compare", "--reference", "line", "--trackers", "kanayama", "--params", str(other))

@@ -156,7 +156,10 @@ def run(args: argparse.Namespace) -> int:
 
     given = None if args.trackers is None else [n for arg in args.trackers for n in arg.split(",")]
     names = check_trackers(given if given is not None else feedback_trackers())
-    params = load_params(args.params.split(",")) if args.params is not None else {}
+    files = [] if args.params is None else [p.strip() for p in args.params.split(",") if p.strip()]
+    if args.params is not None and not files:
+        raise ConfigError("--params names no file; give one or more JSON files, comma-separated (FILE[,FILE...])")
+    params = load_params(files)
     unused = sorted(set(params) - set(names))
     if unused:
         raise ConfigError(
