@@ -68,8 +68,16 @@ _BUILTIN_INITS = ("auto", "straight", "grid")
 _SUCCESS = {"Solve_Succeeded", "Solved_To_Acceptable_Level"}
 _TIMEOUT = {"Maximum_CpuTime_Exceeded", "Maximum_Iterations_Exceeded", "Maximum_WallTime_Exceeded"}
 _INFEASIBLE = {"Infeasible_Problem_Detected"}
-#: Stretches of the estimated horizon a solve tries in turn when IPOPT fails from every warm start.
-HORIZON_STRETCH = (1.0, 1.5, 2.25)
+#: Stretches of the estimated horizon (the warm start at the speed and yaw-rate limits, plus 1 s) a solve tries in
+#: turn, the next when IPOPT fails from every warm start. The first leaves a quarter more than the estimate: at the
+#: estimate itself the EduMIPs' solves on larger worlds ran out of time where a little slack solves them in seconds.
+#: Measured in one process per setting (plans only, 30 s limit, the adaptive barrier update, 2026-12-06): on eight
+#: 8-12 m worlds of 15-35 obstacles (:func:`sim.tools.bench.cold.world_toml` seeds 8101-8108) and random5000-5011,
+#: three robots each, first stretch 1.0: 57 of 60 solved in 168 s; 1.25: 60 of 60 in 70 s; 1.5: 59 of 60 in 86 s.
+#: On eight 14-20 m worlds of 40-60 obstacles (seeds 1-4: 20 m, 60, scale 0.8; 11, 12: 15 m, 40, 0.7; 13: 14 m,
+#: 50, 0.5; 14: 16 m, 45, 0.9): 16, 18 and 18 of 24 (1.25 losing none that 1.0 solved; 1.5 lost one), 323, 285
+#: and 306 s. Lengths moved by less than 1 % in the median.
+HORIZON_STRETCH = (1.25, 1.875, 2.8125)
 #: IPOPT's barrier parameter update, ``mu_strategy``: ``"adaptive"`` (Nocedal, Waechter and Waltz's
 #: quality-function rule) rather than IPOPT's default monotone decrease. Measured with both in one process, per
 #: world (plans only, 30 s limit, 2026-12-06): on the generated worlds random5000-5039, three robots each, both
@@ -642,12 +650,11 @@ class Optim:
         balancing EduMIP's solve from Hybrid-A*'s plan kept cutting a corner by 0.3 mm, the route's solved),
         and is a failure after the last one.
 
-        Without a given ``dt`` the horizon is the warm start's length at the speed limit plus its turning
-        at the yaw-rate limit plus 1 s; the limits on acceleration and the bicycle's curvature at speed
-        can need more. When IPOPT fails from every warm start (locally infeasible or out of iterations,
-        not out of time), the whole is tried again with the horizon stretched by
-        :data:`HORIZON_STRETCH` in turn: on the generated world random400 the EduMIP's plan needs 1.5
-        times the estimate (``stats["horizon_stretch"]``).
+        Without a given ``dt`` the horizon is estimated as the warm start's length at the speed limit plus its
+        turning at the yaw-rate limit plus 1 s, and stretched by the first of :data:`HORIZON_STRETCH`; the
+        limits on acceleration and the bicycle's curvature at speed can need more. When IPOPT fails from every
+        warm start (locally infeasible or out of iterations, not out of time), the whole is tried again with
+        the next stretches in turn (``stats["horizon_stretch"]``).
 
         ``stats["time_s"]`` is the whole call's, from its start: the loading of code before the plan's clock
         starts (:meth:`_load_code`, numba's set-up: ``stats["code_s"]``, not held against the time limit) too.
