@@ -370,6 +370,10 @@ def _check_free(r: TableReader, world: World, label: str, pose: Pose2D) -> None:
         )
 
 
+#: The name of a scenario read from a pipe (bash's ``<(...)``: ``/dev/fd/N``) that gives none itself.
+PIPED_NAME = "piped"
+
+
 def load_scenario_file(path: str | Path) -> Scenario:
     """Load and validate a scenario TOML file."""
     p = Path(path)
@@ -386,9 +390,12 @@ def load_scenario_file(path: str | Path) -> Scenario:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{p}: not valid TOML: {exc}") from exc
-    if descriptor_path(p):
+    piped = descriptor_path(p)
+    if piped:
         _refuse_relative_map(data, p)
-    sc = parse_scenario(data, where=str(p), default_name=p.stem, base_dir=p.parent)
+    # a piped scenario without a name is not named by its descriptor's number (outputs renders/63-...)
+    name = PIPED_NAME if piped else p.stem
+    sc = parse_scenario(data, where=str(p), default_name=name, base_dir=p.parent)
     return dataclasses.replace(sc, source=p)
 
 

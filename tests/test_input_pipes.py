@@ -80,6 +80,9 @@ def test_a_scenario_from_a_pipe_loads_again_as_the_commands_load_it(pipe: Pipe, 
     for path in (pipe(text), fifo(text, "yard.toml")):
         first, second = load_scenario(path), load_scenario(str(path))
         assert first.world == second.world and second.name == "parking_lot"
+    unnamed = b"\n".join(line for line in text.splitlines() if not line.startswith(b"name = "))
+    assert load_scenario(pipe(unnamed)).name == "piped"  # not '63', the descriptor's number
+    assert load_scenario(fifo(unnamed, "lot.toml")).name == "lot"  # a FIFO in a folder: its own name
 
 
 def test_a_map_image_relative_to_a_pipes_folder_is_refused_naming_the_fix(pipe: Pipe) -> None:
