@@ -13,7 +13,9 @@ from __future__ import annotations
 
 import os
 import signal
-from collections.abc import Iterator
+import threading
+from collections.abc import Callable, Iterator
+from pathlib import Path
 
 import pytest
 
@@ -74,3 +76,50 @@ def _signal_handlers_kept() -> Iterator[None]:
     for sig, handler in before.items():
         signal.signal(sig, handler)
     assert not changed, f"the test left the handlers of {', '.join(changed)} changed"
+
+
+@pytest.fixture
+def pipe() -> Iterator[Callable[[bytes], Path]]:
+    """A factory of ``/dev/fd/N`` paths of pipes holding given bytes, their write ends closed: a second read of
+    one finds it empty, as bash's ``<(...)`` after its first read."""
+    opened: list[int] = []
+
+    def make(data: bytes) -> Path:
+        r, w = os.pipe()
+        os.write(w, data)
+        os.close(w)
+        opened.append(r)
+        return Path(f"/dev/fd/{r}")
+
+    yield make
+    for fd in opened:
+        os.close(fd)
+
+
+@pytest.fixture
+def fifo(tmp_path: Path) -> Iterator[Callable[..., Path]]:
+    """A factory of FIFOs (``mkfifo``; ``make(data, name=None)``, in ``tmp_path``) a writer thread fills once; a
+    later reader finds it empty (the writer gone, as a used ``<(...)`` is) rather than waiting."""
+    stop = threading.Event()
+    threads: list[threading.Thread] = []
+
+    def serve(path: Path, data: bytes) -> None:
+        with open(path, "wb") as f:  # waits for the first reader
+            f.write(data)
+        while not stop.is_set():  # later readers: an empty pipe
+            try:
+                os.close(os.open(path, os.O_WRONLY | os.O_NONBLOCK))
+            except OSError:  # no reader now
+                stop.wait(0.005)
+
+    def make(data: bytes, name: str | None = None) -> Path:
+        path = tmp_path / (name or f"fifo{len(threads)}")
+        os.mkfifo(path)
+        threads.append(threading.Thread(target=serve, args=(path, data), daemon=True))
+        threads[-1].start()
+        return path
+
+    yield make
+    stop.set()
+    for t in threads:
+        t.join(5)

@@ -11,8 +11,7 @@ import json
 import os
 import subprocess
 import sys
-import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -27,52 +26,6 @@ GAINS = b"[gains]\nkp = 9.5\nkd = 6.5\n"
 SENSORS = b"[sensors]\nfix_rate = 5\n\n[lidar]\nbeams = 180\n"
 Pipe = Callable[[bytes], Path]
 Fifo = Callable[[bytes, str], Path]
-
-
-@pytest.fixture
-def pipe() -> Iterator[Pipe]:
-    """A factory of ``/dev/fd/N`` paths of pipes holding given bytes (their write ends closed: a second read
-    of one finds it empty, as bash's ``<(...)`` after the first read)."""
-    opened: list[int] = []
-
-    def make(data: bytes) -> Path:
-        r, w = os.pipe()
-        os.write(w, data)
-        os.close(w)
-        opened.append(r)
-        return Path(f"/dev/fd/{r}")
-
-    yield make
-    for fd in opened:
-        os.close(fd)
-
-
-@pytest.fixture
-def fifo(tmp_path: Path) -> Iterator[Fifo]:
-    """A factory of FIFOs (``mkfifo``) a writer thread fills once; a later reader finds it empty (no hang)."""
-    stop = threading.Event()
-    threads: list[threading.Thread] = []
-
-    def serve(path: Path, data: bytes) -> None:
-        with open(path, "wb") as f:  # waits for the first reader
-            f.write(data)
-        while not stop.is_set():  # a later reader: an empty pipe (the writer gone), as a used <(...) is
-            try:
-                os.close(os.open(path, os.O_WRONLY | os.O_NONBLOCK))
-            except OSError:  # no reader now
-                stop.wait(0.005)
-
-    def make(data: bytes, name: str) -> Path:
-        path = tmp_path / name
-        os.mkfifo(path)
-        threads.append(threading.Thread(target=serve, args=(path, data), daemon=True))
-        threads[-1].start()
-        return path
-
-    yield make
-    stop.set()
-    for t in threads:
-        t.join(5)
 
 
 def test_a_scenario_from_a_pipe_loads_again_as_the_commands_load_it(pipe: Pipe, fifo: Fifo) -> None:

@@ -6,9 +6,7 @@ naming the fix."""
 from __future__ import annotations
 
 import json
-import os
-import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -18,52 +16,6 @@ from sim.cli.main import main
 
 ROWS = b"t,x,y\n0,0,0\n5,0.5,0\n10,1.0,0\n"
 Source = Callable[[bytes], Path]
-
-
-@pytest.fixture
-def pipe() -> Iterator[Source]:
-    """``/dev/fd/N`` paths of pipes holding given bytes, their write ends closed: a second read finds them
-    empty, as bash's ``<(...)`` after its first read."""
-    opened: list[int] = []
-
-    def make(data: bytes) -> Path:
-        r, w = os.pipe()
-        os.write(w, data)
-        os.close(w)
-        opened.append(r)
-        return Path(f"/dev/fd/{r}")
-
-    yield make
-    for fd in opened:
-        os.close(fd)
-
-
-@pytest.fixture
-def fifo(tmp_path: Path) -> Iterator[Source]:
-    """FIFOs (``mkfifo``) a writer thread fills once; a later reader finds it empty rather than waiting."""
-    stop = threading.Event()
-    threads: list[threading.Thread] = []
-
-    def serve(path: Path, data: bytes) -> None:
-        with open(path, "wb") as f:  # waits for the first reader
-            f.write(data)
-        while not stop.is_set():  # later readers: the writer gone, an empty pipe
-            try:
-                os.close(os.open(path, os.O_WRONLY | os.O_NONBLOCK))
-            except OSError:
-                stop.wait(0.005)
-
-    def make(data: bytes) -> Path:
-        path = tmp_path / f"fifo{len(threads)}"
-        os.mkfifo(path)
-        threads.append(threading.Thread(target=serve, args=(path, data), daemon=True))
-        threads[-1].start()
-        return path
-
-    yield make
-    stop.set()
-    for t in threads:
-        t.join(5)
 
 
 @pytest.mark.parametrize("kind", ["pipe", "fifo"])
