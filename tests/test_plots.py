@@ -233,3 +233,24 @@ def test_a_saved_world_plot_cuts_nothing_at_its_edges(tmp_path: Path, bounds: tu
     img = np.asarray(Image.open(out).convert("L"))
     edges = np.concatenate([img[0], img[-1], img[:, 0], img[:, -1]])
     assert edges.min() > 240  # white all round: every label, the legend and the title inside the image
+
+
+def test_a_name_the_font_lacks_is_drawn_without_a_warning_per_glyph(tmp_path: Path) -> None:
+    """A scenario named in characters DejaVu Sans lacks (CJK): the plan figure is laid out and saved (a box per
+    missing glyph) without matplotlib's warning per glyph on stderr, which a user saw six lines of."""
+    import dataclasses
+    import warnings
+
+    from planning.planners.base import PlanProblem
+    from planning.planners.registry import make_planner
+    from planning.scenario import load_scenario
+    from sim.viz.plots.plan import plan_figure
+
+    scenario = dataclasses.replace(load_scenario("simple_motion"), name="停车场 \U00018089")
+    problem = PlanProblem.from_scenario(scenario)
+    result = make_planner("birrt").plan(problem)
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        save_figure(plan_figure(problem, result), tmp_path / "plan.png")
+    assert not [w for w in seen if "missing from font" in str(w.message)], [str(w.message) for w in seen]
+    png_is_nontrivial(tmp_path / "plan.png")

@@ -5,7 +5,9 @@ Figures are built with matplotlib's object API on the Agg canvas (no display, no
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import contextlib
+import warnings
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -107,10 +109,25 @@ def frame_world(ax: Axes, world: World, paths: Sequence[NDArray[np.float64]] = (
     ax.set_ylabel("y [m]")
 
 
+@contextlib.contextmanager
+def any_glyphs() -> Iterator[None]:
+    """Lay out or draw text whose characters the font may lack (a scenario named in CJK, say: DejaVu Sans has
+    none) without matplotlib's warning per missing glyph on stderr: the figure shows a box for each."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=r"Glyph \d+ .* missing from font", category=UserWarning)
+        yield
+
+
+def tight(fig: Figure) -> None:
+    """``fig.tight_layout()`` (:func:`any_glyphs`)."""
+    with any_glyphs():
+        fig.tight_layout()
+
+
 def save_figure(fig: Figure, path: str | Path, *, overwrite: bool = False) -> Path:
     """Write a figure atomically (never replacing a file unless ``overwrite``), in the format its suffix
-    names (:func:`sim.outputs.image_format`: PNG for ``.png``)."""
+    names (:func:`sim.outputs.image_format`: PNG for ``.png``; :func:`any_glyphs`)."""
     fmt = image_format(Path(path), "the figure")
-    with atomic_path(path, overwrite=overwrite) as tmp:
+    with atomic_path(path, overwrite=overwrite) as tmp, any_glyphs():
         fig.savefig(tmp, format=fmt, bbox_inches="tight", pad_inches=0.1)  # nothing cut at the edges
     return Path(path)

@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 from planning.core.geometry import wrap_angle
 from planning.errors import ConfigError
 from sim.physics.runlog import RunLog
+from sim.viz.plots.draw import tight
 from sim.viz.scene import run_styles
 
 FloatArray = NDArray[np.float64]
@@ -114,7 +115,7 @@ def estimation_figure(
         ax.legend(loc="best", fontsize=7)
     axes[-1].set_xlabel("time [s]")
     axes[0].set_title(title or "estimates against the true pose")
-    fig.tight_layout()
+    tight(fig)
     return fig
 
 

@@ -12,7 +12,7 @@ from matplotlib.figure import Figure
 
 from planning.core.world import World
 from planning.trajectory.trajectory import Trajectory
-from sim.viz.plots.draw import RUN_WORLD, draw_world
+from sim.viz.plots.draw import RUN_WORLD, draw_world, tight
 from sim.viz.plots.run import REFERENCE_COLOR
 from sim.viz.scene import run_styles
 
@@ -57,7 +57,7 @@ def fan_figure(
         ax.grid(True, alpha=0.3)
     if title:
         fig.suptitle(title, fontsize=11)
-    fig.tight_layout()
+    tight(fig)
     return fig
 
 
@@ -80,7 +80,7 @@ def cdf_figure(records: Sequence[Mapping[str, Any]], *, title: str = "") -> Figu
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(loc="lower right", fontsize=8)
     ax.set_title(title or "final position error, CDF")
-    fig.tight_layout()
+    tight(fig)
     return fig
 
 

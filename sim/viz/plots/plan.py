@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from planning.core.geometry import path_length
 from planning.core.world import World
 from planning.planners.base import PlanProblem, PlanResult, PlanTree
-from sim.viz.plots.draw import PLAN_WORLD, draw_world, frame_world
+from sim.viz.plots.draw import PLAN_WORLD, draw_world, frame_world, tight
 
 
 def plan_figure(
@@ -65,7 +65,7 @@ def plan_figure(
     ax.set_title(title or f"{result.planner} on {problem.name}: {result.status.value}, path {length:.2f} m{was}")
     if grid is not None:
         _draw_timeline(fig, grid, result)
-    fig.tight_layout()
+    tight(fig)
     return fig
 
 

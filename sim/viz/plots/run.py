@@ -30,7 +30,7 @@ from planning.trajectory.trajectory import Trajectory
 from sim.physics.metrics import heading_errors, position_errors
 from sim.physics.model import body_pitch
 from sim.physics.runlog import RunLog
-from sim.viz.plots.draw import RUN_WORLD, draw_world, frame_world
+from sim.viz.plots.draw import RUN_WORLD, draw_world, frame_world, tight
 from sim.viz.plots.estimation import EstimationSeries, estimation_figure
 from sim.viz.scene import run_styles
 
@@ -83,7 +83,7 @@ def world_figure(world: World, trajectory: Trajectory, logs: Mapping[str, RunLog
     # the legend beside the arena, so it covers none of it
     ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, fontsize=8)
     ax.set_title(title or "paths")
-    fig.tight_layout()
+    tight(fig)
     return fig
 
 
@@ -94,7 +94,7 @@ def _finish(fig: Figure, ax: Any, labels: tuple[str, str], title: str, fontsize:
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize=fontsize)
     ax.set_title(title)
-    fig.tight_layout()
+    tight(fig)
     return fig
 
 
@@ -115,7 +115,7 @@ def errors_figure(logs: Mapping[str, RunLog], *, title: str = "") -> Figure:
         ax.grid(True, alpha=0.3)
         ax.legend(loc="best", fontsize=8)
     ax_p.set_title(title or "tracking errors")
-    fig.tight_layout()
+    tight(fig)
     return fig
 
 
@@ -150,7 +150,7 @@ def commands_figure(logs: Mapping[str, RunLog], robot: RobotSpec, *, title: str 
         ax.legend(loc="best", fontsize=7)
     ax_wh.set_xlabel("time [s]")
     ax_v.set_title(title or "commands against limits")
-    fig.tight_layout()
+    tight(fig)
     return fig
 
 
