@@ -306,3 +306,12 @@ def test_a_baseline_without_values_for_the_runs_metrics_is_unreadable_not_change
     same = judge(case, {**run, "rms_position_error_m": math.nan}, base, {})
     assert same.status is not Status.UNREADABLE
     assert not [c for c in same.changes if c.metric == "rms_position_error_m"]  # NaN, written null: not a change
+
+
+def test_a_benchmark_verdict_reads_apart_from_its_target() -> None:
+    """A median just above its target printed to the target's digits read '0.990 (target <= 0.99) MISSED'."""
+    from sim.cli.bench.plan import against
+
+    assert against(0.9903, 0.99, 3) == "0.9903" and against(0.99, 0.99, 3) == "0.990"
+    assert against(0.981, 0.99, 3) == "0.981" and against(1.0049, 1.0, 2) == "1.005"
+    assert against(float("inf"), 1.0, 2) == "inf" and against(float("nan"), 1.0, 2) == "-"
