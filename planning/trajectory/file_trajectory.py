@@ -43,7 +43,7 @@ from planning.errors import option, options
 from planning.planners.base import PlanResult, PlanStatus
 from planning.trajectory.file_formats import TrajectoryFileError
 from planning.trajectory.from_plan import TrajectoryResult, TrajectoryStatus, make_trajectory, time_scales
-from planning.trajectory.importer import MOVING_SPEED, ImportedFile, PositionCurve
+from planning.trajectory.importer import MOVING_SPEED, ImportedFile, PositionCurve, time_unit_fix
 from planning.trajectory.smoothing import check_options
 from planning.trajectory.speed_profile import Limits
 
@@ -373,9 +373,8 @@ def _clock_hint(dense: DenseFile, limits: Limits, time_scale: float | None) -> s
     rest = np.zeros_like(dense.v)
     if time_scales(dense.v, dense.omega, rest, rest, limits)[0] < CLOCK_HINT:  # as timing_verdict's speed scale
         return ""
-    if time_scale is None or time_scale == 1.0:
-        return f"; if its stamps are not in seconds, give the seconds per file time unit with {option('time-scale')}"
-    return f"; check {option('time-scale', time_scale)}, the seconds per file time unit"
+    given = time_scale is not None and time_scale != 1.0
+    return f"; {'' if given else 'if its stamps are not in seconds, '}{time_unit_fix(time_scale)}"
 
 
 # ------------------------------------------------------------------------------------ the world

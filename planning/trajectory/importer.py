@@ -769,13 +769,18 @@ def _refuse_instant(file: str, t: FloatArray, time_scale: float) -> None:
     if span == 0.0 or span >= MIN_DURATION:  # one stamp for all rows: the merge names the rows
         return
     given = f" at {option('time-scale', time_scale)}" if time_scale != 1.0 else ""
-    fix = f"give the seconds per file time unit with {option('time-scale')}"
-    if time_scale != 1.0:
-        fix = f"check {option('time-scale', time_scale)}: it is the seconds per file time unit (1 for seconds)"
     raise TrajectoryFileError(
         f"{file}: the trajectory lasts {span:.3g} s{given}, less than {MIN_DURATION:g} s: its clock is not in "
-        f"seconds: {fix}, or fix the stamps"
+        f"seconds: {time_unit_fix(time_scale)}, or fix the stamps"
     )
+
+
+def time_unit_fix(time_scale: float | None) -> str:
+    """The fix for a file whose clock seems not to count seconds: give ``--time-scale``, or check the one given
+    (``time_scale``; None or 1: none given)."""
+    if time_scale is None or time_scale == 1.0:
+        return f"give the seconds per file time unit with {option('time-scale')}"
+    return f"check {option('time-scale', time_scale)}: it is the seconds per file time unit (1 for seconds)"
 
 
 def _too_long(file: str, span: float, time_scale: float) -> str:
