@@ -399,16 +399,23 @@ def load_scenario_file(path: str | Path) -> Scenario:
     return dataclasses.replace(sc, source=p)
 
 
-def _refuse_relative_map(data: Mapping[str, Any], p: Path) -> None:
-    """Refuse a relative path in the ``[world.map]`` table of a scenario read from a pipe in ``/dev`` (bash's
-    ``<(...)`` gives ``/dev/fd/N``): it would be looked for in ``/dev/fd``, not beside the scenario's file."""
+def map_files(data: Mapping[str, Any]) -> list[tuple[str, str, str]]:
+    """The files a scenario's parsed TOML ``data`` names in its ``[world.map]`` table, as (key, what, path as
+    written): its map image (``image``) or ROS map YAML (``yaml``); none where the table is absent or malformed
+    (loading the scenario says what is wrong)."""
     world = data.get("world")
     table = world.get("map") if isinstance(world, Mapping) else None
     if not isinstance(table, Mapping):
-        return
-    for key, what in (("image", "map image"), ("yaml", "map YAML")):
-        name = table.get(key)
-        if isinstance(name, str) and name and not Path(name).is_absolute():
+        return []
+    named = [(key, what, table.get(key)) for key, what in (("image", "map image"), ("yaml", "map YAML"))]
+    return [(key, what, name) for key, what, name in named if isinstance(name, str) and name]
+
+
+def _refuse_relative_map(data: Mapping[str, Any], p: Path) -> None:
+    """Refuse a relative path in the ``[world.map]`` table of a scenario read from a pipe in ``/dev`` (bash's
+    ``<(...)`` gives ``/dev/fd/N``): it would be looked for in ``/dev/fd``, not beside the scenario's file."""
+    for key, what, name in map_files(data):
+        if not Path(name).is_absolute():
             raise ScenarioError(
                 f"{p}: field 'world.map.{key}': the {what} {name!r} is relative to the scenario file's folder, but "
                 f"the scenario comes from a pipe ({p}, e.g. bash's <(...)), whose folder {p.parent} is not the "

@@ -490,7 +490,7 @@ def scenario_inputs(given: str, scenario: str) -> list[tuple[str, Path]]:
     import tomllib
 
     from planning.core.files import read_input_text
-    from planning.scenario import SCENARIOS_DIR
+    from planning.scenario import SCENARIOS_DIR, map_files
 
     path = Path(scenario)
     if not (path.suffix == ".toml" or os.path.lexists(path)):
@@ -500,16 +500,14 @@ def scenario_inputs(given: str, scenario: str) -> list[tuple[str, Path]]:
         return []
     found = [(given, path)]
     try:
-        table = tomllib.loads(read_input_text(path))["world"]["map"]  # a pipe: the loader gets these bytes again
-        named = {key: table.get(key) for key in ("image", "yaml")}
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, KeyError, TypeError, AttributeError):
+        data = tomllib.loads(read_input_text(path))  # a pipe: the loader gets these bytes again
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
         return found
-    for key, what in (("image", "map image"), ("yaml", "map YAML")):
-        if isinstance(named[key], str) and named[key]:
-            read = path.parent / named[key]  # an absolute path stays absolute
-            found.append((f"{given} (its {what} {os.path.normpath(read)})", read))
-            if key == "yaml":
-                found += _map_yaml_image(f"{given} (the image its map YAML {os.path.normpath(read)} names", read)
+    for key, what, name in map_files(data):
+        read = path.parent / name  # an absolute path stays absolute
+        found.append((f"{given} (its {what} {os.path.normpath(read)})", read))
+        if key == "yaml":
+            found += _map_yaml_image(f"{given} (the image its map YAML {os.path.normpath(read)} names", read)
     return found
 
 

@@ -409,7 +409,7 @@ def _gains_file(path: Path, raw: bytes) -> str | None:
 
     try:
         table = tomllib.loads(raw.decode("utf-8")).get("gains")
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError):
         return None
     if not isinstance(table, dict):
         return None
