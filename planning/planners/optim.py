@@ -566,7 +566,7 @@ class Optim:
 
             clear = problem.robot.radius + self.margin + 0.01
             within = PlanClock(problem.time_limit)  # what is left of the plan's limit (:meth:`_guess`)
-            poly = grid_path(problem.world, problem.start.xy, problem.goal.xy, clear, expired=within.expired)
+            poly = grid_path(problem.world, problem.start.xy, problem.goal.xy, clear, clock=within)
             if poly is not None and poly.shape[0] >= 2:
                 heading = np.arctan2(np.diff(poly[:, 1]), np.diff(poly[:, 0]))
                 heading = np.unwrap(np.concatenate([[s[2]], heading]))
