@@ -1,6 +1,8 @@
 """The kinematic spec read from the MJCF agrees with what MuJoCo compiles from the same file."""
 
 import dataclasses
+import re
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -152,9 +154,61 @@ def test_a_model_is_parsed_once_per_text_and_its_spec_shared_read_only(tmp_path)
     mine.write_text(text)
     first = load_robot(str(mine))
     assert first == dataclasses.replace(spec, name="bot", mjcf=mine, scene=mine.with_name("bot_scene.xml"))
-    faster = text.replace('name="nhsim_max_linear_speed" data="', 'name="nhsim_max_linear_speed" data="1')
-    assert faster != text
-    mine.write_text(faster)  # written at once: the same modification time, at the clock's grain
-    assert load_robot(str(mine)).max_speed > first.max_speed
+    slower = text.replace('name="nhsim_max_linear_speed" data="0.8"', 'name="nhsim_max_linear_speed" data="0.7"')
+    assert slower != text
+    mine.write_text(slower)  # written at once: the same modification time, at the clock's grain
+    assert load_robot(str(mine)).max_speed < first.max_speed
     mine.write_text(text)
     assert load_robot(str(mine)) is first
+
+
+@pytest.mark.parametrize(
+    ("change", "named"),
+    [
+        ({"wheel_radius": -0.03}, "wheel_radius"),
+        ({"max_speed": -1.0}, r"max_speed \(nhsim_max_linear_speed\)"),
+        ({"max_speed": float("nan")}, "max_speed"),
+        ({"max_accel": 0.0}, r"max_accel \(nhsim_max_linear_accel\)"),
+        ({"track_width": 0.0}, "track_width"),
+        ({"max_steering": 2.0}, "max_steering"),
+        ({"footprint": np.zeros((0, 2))}, "footprint"),
+        ({"max_speed": 0.2}, "beyond what the wheels reach"),
+        ({"max_yaw_rate": 2.1}, "beyond what the wheels reach"),
+    ],
+)
+def test_a_spec_refuses_a_number_no_robot_has(change: dict[str, object], named: str) -> None:
+    """A spec's numbers were never checked: a negative wheel radius or speed made a planner ask numpy for 1.49 PiB,
+    a NaN speed ended in a speed profile's int(NaN), a zero track was planned and tracked."""
+    with pytest.raises(ConfigError, match=named):
+        dataclasses.replace(load_robot("turtlebot3"), **change)
+
+
+@pytest.mark.parametrize(
+    ("numeric", "value", "named"),
+    [
+        ("max_linear_speed", "1e9", r"max_speed \(nhsim_max_linear_speed\) must be a finite number in \(0, 50\]"),
+        ("max_linear_speed", "-0.26", "nhsim_max_linear_speed"),
+        ("max_angular_speed", "0", "nhsim_max_angular_speed"),
+        ("max_linear_speed", "fast", "numbers separated by spaces, got 'fast'"),
+    ],
+)
+def test_a_model_file_with_such_a_number_is_refused_naming_file_and_numeric(
+    tmp_path: Path, numeric: str, value: str, named: str
+) -> None:
+    text = load_robot("turtlebot3").mjcf.read_text()
+    mine = tmp_path / "waffle.xml"
+    edited = re.sub(rf'(name="nhsim_{numeric}" data=")[^"]*', rf"\g<1>{value}", text)
+    assert edited != text
+    mine.write_text(edited)
+    with pytest.raises(ModelError, match=named) as caught:
+        load_robot(str(mine))
+    assert str(mine) in str(caught.value)
+
+
+def test_a_robot_path_that_is_no_file_says_so(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=r"'.*nope\.xml' does not exist: give the path of a robot's MJCF file"):
+        load_robot(str(tmp_path / "nope.xml"))
+    with pytest.raises(ConfigError, match="is a folder"):
+        load_robot(str(tmp_path) + "/")
+    with pytest.raises(ConfigError, match="unknown robot 'nope'"):
+        load_robot("nope")

@@ -82,6 +82,10 @@ class RobotSpec:
     footprint_pitch: float = 0.0
     battery_voltage: float = 0.0
 
+    def __post_init__(self) -> None:
+        """Check every number (:func:`check_spec`): a spec is the planners' and trackers' word on the robot."""
+        check_spec(self)
+
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, RobotSpec) or other.__class__ is not self.__class__:
             return NotImplemented
@@ -114,10 +118,80 @@ class RobotSpec:
         return np.stack([p[:, :1] + c * fx - s * fy, p[:, 1:2] + s * fx + c * fy], axis=-1)
 
 
+#: A spec's numbers and the model numeric each is read from (:func:`load_robot`), as a message names them.
+NUMERICS: dict[str, str] = {
+    "max_speed": "nhsim_max_linear_speed",
+    "max_yaw_rate": "nhsim_max_angular_speed",
+    "max_accel": "nhsim_max_linear_accel",
+    "max_yaw_accel": "nhsim_max_angular_accel",
+    "max_wheel_speed": "nhsim_max_wheel_speed",
+    "wheelbase": "nhsim_wheelbase",
+    "max_steering": "nhsim_max_steering_angle",
+    "footprint_pitch": "nhsim_footprint_pitch",
+    "battery_voltage": "nhsim_motor_battery_voltage",
+    "wheel_radius": "the size of geom 'wheel_left_geom'",
+    "track_width": "the y distance between bodies 'wheel_left' and 'wheel_right'",
+}
+#: Bounds of a spec's numbers beyond any wheeled robot's (0.165 m/s and 5 rad/s for the TurtleBot3): a speed of
+#: 1e9 m/s made a turning radius whose curves asked for 745 GiB.
+_CEILINGS: dict[str, tuple[float, str]] = {
+    "wheel_radius": (2.0, "m"),
+    "track_width": (10.0, "m"),
+    "max_speed": (50.0, "m/s"),
+    "max_yaw_rate": (100.0, "rad/s"),
+    "max_accel": (1000.0, "m/s^2"),
+    "max_yaw_accel": (10000.0, "rad/s^2"),
+    "max_wheel_speed": (1000.0, "rad/s"),
+    "wheelbase": (10.0, "m"),
+}
+
+
+def check_spec(spec: RobotSpec) -> None:
+    """Raise unless every number of ``spec`` is one a differential-drive robot has.
+
+    Each of :data:`_CEILINGS` is a finite number above 0 and at most its ceiling; the steering bound in (0, pi/2)
+    [rad]; the footprint's pitch in [0, pi/2), the battery's voltage at least 0, the mass at least 0; the footprint
+    (K >= 3, 2) finite; and the speed limits within the wheels' reach: ``max_speed <= r max_wheel_speed`` and
+    ``max_yaw_rate <= 2 r max_wheel_speed / track`` (1e-9 of slack for a decimal rounded down).
+
+    Raises:
+        ConfigError: The first number that is not (named, with the model numeric it is read from).
+    """
+    from planning.core.checks import check_number
+
+    def where(name: str) -> str:
+        return f"robot {spec.name!r}: {name} ({NUMERICS[name]})" if name in NUMERICS else f"robot {spec.name!r}: {name}"
+
+    for name, (ceiling, unit) in _CEILINGS.items():
+        check_number(where(name), getattr(spec, name), above=0.0, at_most=ceiling, unit=unit)
+    check_number(where("max_steering"), spec.max_steering, above=0.0, below=math.pi / 2, unit="rad")
+    check_number(where("footprint_pitch"), spec.footprint_pitch, at_least=0.0, below=math.pi / 2, unit="rad")
+    check_number(where("battery_voltage"), spec.battery_voltage, at_least=0.0, unit="V, 0 when not given")
+    check_number(where("mass"), spec.mass, at_least=0.0, unit="kg")
+    hull = np.asarray(spec.footprint)
+    if hull.ndim != 2 or hull.shape[0] < 3 or hull.shape[1] != 2 or not np.all(np.isfinite(hull)):
+        raise ConfigError(
+            f"robot {spec.name!r}: the footprint must be (K >= 3, 2) finite vertices [m], got an array of shape "
+            f"{hull.shape}; give the base's and the wheels' geoms in the model"
+        )
+    reach = spec.wheel_radius * spec.max_wheel_speed
+    for name, most in (("max_speed", reach), ("max_yaw_rate", 2.0 * reach / spec.track_width)):
+        if getattr(spec, name) > most * (1.0 + 1e-9):
+            raise ConfigError(
+                f"{where(name)} = {getattr(spec, name):g} is beyond what the wheels reach at max_wheel_speed "
+                f"({spec.max_wheel_speed:g} rad/s on a radius of {spec.wheel_radius:g} m, a track of "
+                f"{spec.track_width:g} m: {most:.6g}); lower it, or raise nhsim_max_wheel_speed if the motors "
+                "sustain more"
+            )
+
+
 def _floats(text: str | None, n: int | None = None, what: str = "") -> FloatArray:
     if text is None:
         raise ModelError(f"missing attribute {what}")
-    vals = np.array([float(x) for x in text.split()])
+    try:
+        vals = np.array([float(x) for x in text.split()])
+    except ValueError:
+        raise ModelError(f"{what} must be numbers separated by spaces, got {text!r:.80}") from None
     if n is not None and vals.size != n:
         raise ModelError(f"{what} needs {n} numbers, got {text!r}")
     return vals
@@ -210,8 +284,14 @@ def robot_path(name: str) -> Path:
     if name in ROBOT_FILES:
         return ROBOTS_DIR / f"{ROBOT_FILES[name]}.xml"
     path = Path(name)
-    if path.suffix == ".xml" and path.exists():
+    if path.suffix == ".xml" and path.is_file():
         return path
+    if path.suffix == ".xml" or os.sep in str(name):
+        what = "is a folder" if path.is_dir() else "does not exist" if not path.exists() else "is not an .xml file"
+        raise ConfigError(
+            f"robot model {str(name)!r} {what}: give the path of a robot's MJCF file, or one of "
+            f"{', '.join(sorted(ROBOT_FILES))}"
+        )
     raise ConfigError(f"unknown robot {name!r}: choose one of {', '.join(sorted(ROBOT_FILES))} or give an MJCF path")
 
 
@@ -275,7 +355,10 @@ def _parse_robot(path: Path, text: bytes) -> RobotSpec:
         full = f"nhsim_{key}"
         if full not in numerics:
             raise ModelError(f"{path}: <custom><numeric name={full!r}> is missing")
-        return float(_floats(numerics[full], 1, full)[0])
+        try:
+            return float(_floats(numerics[full], 1, full)[0])
+        except ModelError as exc:
+            raise ModelError(f"{path}: <numeric name={full!r}>: {exc}") from None
 
     bodies = {b.get("name"): b for b in root.iter("body")}
     for required in ("base", "wheel_left", "wheel_right"):
@@ -297,24 +380,28 @@ def _parse_robot(path: Path, text: bytes) -> RobotSpec:
             mass += float(_geom_attrs(g, defaults).get("mass", 0) or 0)
     stem = path.stem
     inv = {v: k for k, v in ROBOT_FILES.items()}
-    return RobotSpec(
-        name=inv.get(stem, stem),
-        mjcf=path,
-        scene=path.with_name(f"{stem}_scene.xml"),
-        wheel_radius=wheel_radius,
-        track_width=track,
-        max_speed=numeric("max_linear_speed"),
-        max_yaw_rate=numeric("max_angular_speed"),
-        max_accel=numeric("max_linear_accel"),
-        max_yaw_accel=numeric("max_angular_accel"),
-        max_wheel_speed=numeric("max_wheel_speed"),
-        wheelbase=numeric("wheelbase"),
-        max_steering=numeric("max_steering_angle"),
-        footprint=hull,
-        mass=mass,
-        footprint_pitch=pitch,
-        battery_voltage=numeric("motor_battery_voltage") if "nhsim_motor_battery_voltage" in numerics else 0.0,
-    )
+    try:
+        spec = RobotSpec(
+            name=inv.get(stem, stem),
+            mjcf=path,
+            scene=path.with_name(f"{stem}_scene.xml"),
+            wheel_radius=wheel_radius,
+            track_width=track,
+            max_speed=numeric("max_linear_speed"),
+            max_yaw_rate=numeric("max_angular_speed"),
+            max_accel=numeric("max_linear_accel"),
+            max_yaw_accel=numeric("max_angular_accel"),
+            max_wheel_speed=numeric("max_wheel_speed"),
+            wheelbase=numeric("wheelbase"),
+            max_steering=numeric("max_steering_angle"),
+            footprint=hull,
+            mass=mass,
+            footprint_pitch=pitch,
+            battery_voltage=numeric("motor_battery_voltage") if "nhsim_motor_battery_voltage" in numerics else 0.0,
+        )
+    except ConfigError as exc:  # a number no robot has (check_spec)
+        raise ModelError(f"{path}: {exc}") from None
+    return spec
 
 
 def _wheels(
