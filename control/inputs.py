@@ -35,7 +35,8 @@ def check_reset(tracker: str, trajectory: object, dt: object) -> float:
         fix = "; a path of poses becomes one with to_trajectory(path, robot, world)" if path else ""
         raise ConfigError(
             f"tracker {tracker!r}: reset(trajectory, dt)'s trajectory must be a Trajectory (from "
-            f"to_trajectory(plan, robot, world), make_reference(name, robot, start) or file_trajectory(path)), "
+            f"to_trajectory(plan, robot, world), make_reference(name, robot, start) or "
+            "file_trajectory(read_trajectory_file(path), robot, world).trajectory), "
             f"got {_described(trajectory)}{fix}"
         )
     return check_period(tracker, dt, trajectory)  # type: ignore[arg-type]

@@ -318,3 +318,18 @@ def test_a_recorded_robot_settling_within_the_noise_floor_stands_still(tmp_path:
     assert np.all(dense.v[dense.t > 10.1] == 0.0) and np.abs(dense.omega).max() < 0.05  # no turn
     retime, why, stretch = timing_verdict(dense, LIMITS)
     assert not retime and stretch < 1.5, why  # the drive's own speed, not the settling
+
+
+def test_a_path_given_where_a_file_as_read_goes_is_read_or_named(tmp_path: Path) -> None:
+    """``read_trajectory_file('ok.csv')`` raised AttributeError ('str' object has no attribute 'topic'), and
+    ``file_trajectory('ok.csv', ...)`` another; a tracker's error advised ``file_trajectory(path)``."""
+    from planning.errors import ConfigError
+
+    p = s_curve_file(tmp_path, 30.0)
+    as_text = read_trajectory_file(str(p))
+    np.testing.assert_array_equal(as_text.xy, read_trajectory_file(TrajectoryFile(p)).xy)
+    assert file_trajectory(read_trajectory_file(p), ROBOT, WORLD).trajectory is not None
+    with pytest.raises(ConfigError, match=r"file_trajectory\(read_trajectory_file\(path\), robot, world\)"):
+        file_trajectory(str(p), ROBOT, WORLD)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="takes a TrajectoryFile or a path, got int"):
+        read_trajectory_file(3)  # type: ignore[arg-type]

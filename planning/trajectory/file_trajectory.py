@@ -39,7 +39,7 @@ from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import RobotSpec
 from planning.core.scenario_type import Scenario
 from planning.core.world import World
-from planning.errors import option, options
+from planning.errors import ConfigError, option, options
 from planning.planners.base import PlanResult, PlanStatus
 from planning.trajectory.file_formats import TrajectoryFileError
 from planning.trajectory.from_plan import TrajectoryResult, TrajectoryStatus, make_trajectory, time_scales
@@ -553,7 +553,13 @@ def file_trajectory(imported: ImportedFile, robot: RobotSpec, world: World, **op
 
     Raises:
         TrajectoryFileError: The file enters an obstacle or leaves the world (see :func:`check_world`).
+        ConfigError: ``imported`` is not a file as read (a path: read it first).
     """
+    if not isinstance(imported, ImportedFile):
+        raise ConfigError(
+            f"file_trajectory takes a file as read, got {type(imported).__name__}: "
+            "file_trajectory(read_trajectory_file(path), robot, world).trajectory is a path's Trajectory"
+        )
     options = check_options(options)  # where the smoothing options enter, as to_trajectory's do
     source, report = imported.source, imported.report
     name = f"file:{source.name}"

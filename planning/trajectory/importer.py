@@ -33,6 +33,7 @@ steps with :func:`import_table`. The cost is linear in the rows.
 
 from __future__ import annotations
 
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -304,15 +305,27 @@ class ImportedFile:
 
 
 # ------------------------------------------------------------------------------------ reading
-def read_trajectory_file(source: TrajectoryFile) -> ImportedFile:
+def read_trajectory_file(source: TrajectoryFile | str | os.PathLike[str]) -> ImportedFile:
     """Read a file (text, JSON, YAML, or a bag's topic), bring it into metres and seconds and repair it
     (see the module doc).
 
+    Args:
+        source: The file and how to read it; a path alone reads a timed trajectory with its header's columns
+            (``TrajectoryFile(path)``; a path of untimed poses is ``TrajectoryFile(path, timed=False)``).
+
     Raises:
+        ConfigError: ``source`` is neither a TrajectoryFile nor a path.
         TrajectoryFileError: Unreadable file, unknown columns, missing x or y (or t for a trajectory),
             a non-numeric cell, stamps that go back or repeat at different positions, fewer than
             two distinct positions.
     """
+    if isinstance(source, (str, os.PathLike)):
+        source = TrajectoryFile(Path(source))
+    if not isinstance(source, TrajectoryFile):
+        raise ConfigError(
+            f"read_trajectory_file takes a TrajectoryFile or a path, got {type(source).__name__}: "
+            "read_trajectory_file(TrajectoryFile(path, timed=False)) for a path of untimed poses"
+        )
     return import_table(_read_source(source), source)
 
 
