@@ -137,3 +137,16 @@ def test_sinusoidal_judges_a_start_that_is_already_the_goal(world: World, status
     assert res.status is status and reason in res.reason
     free = make_planner("sinusoidal").plan(_problem(start=Pose2D(1.0, 1.0, 0.3), goal=Pose2D(1.0, 1.0, 0.3)))
     assert free.success and free.path.shape == (1, 3)
+
+
+@pytest.mark.parametrize("which", ["start", "goal"])
+@pytest.mark.parametrize("planner", ["sinusoidal", "rrt", "birrt", "rrt-star", "c-rrt-star", "hybrid-a-star", "optim"])
+def test_an_end_outside_the_world_is_refused_alike_by_every_planner(planner: str, which: str) -> None:
+    """The sinusoidal steering reported BOUNDS_VIOLATED ("cannot steer y by -9.3 m within the input limits") for a
+    start outside the world, where the contract (docs/how-to/new-planner.md) asks INVALID_START; C-RRT* and optim
+    said the start was "-8.8000 m from the nearest obstacle or wall"."""
+    res = make_planner(planner).plan(_problem(**{which: Pose2D(10.0, 10.0, 0.0)}))
+    assert res.status is (PlanStatus.INVALID_START if which == "start" else PlanStatus.INVALID_GOAL)
+    assert res.reason == (
+        f"{which} pose (10.000, 10.000, 0.000) lies outside the world's bounds (x 0..3, y 0..2): move it inside"
+    )

@@ -111,6 +111,23 @@ def checked_problem(problem: object) -> PlanProblem:
     return problem
 
 
+def end_outside(problem: PlanProblem, planner: str, stats: dict[str, Any] | None = None) -> PlanResult | None:
+    """The ``INVALID_START`` / ``INVALID_GOAL`` result of a start or goal whose position lies outside the world's
+    bounds (on a wall counts as outside), said alike by every planner; None when both lie inside."""
+    x0, x1, y0, y1 = problem.world.bounds
+    for which, pose, status in (
+        ("start", problem.start, PlanStatus.INVALID_START),
+        ("goal", problem.goal, PlanStatus.INVALID_GOAL),
+    ):
+        if float(problem.world.wall_distance(pose.xy)[0]) <= 0.0:
+            reason = (
+                f"{which} pose ({pose.x:.3f}, {pose.y:.3f}, {pose.theta:.3f}) lies outside the world's bounds "
+                f"(x {x0:g}..{x1:g}, y {y0:g}..{y1:g}): move it inside"
+            )
+            return PlanResult(status, planner, reason=reason, stats=dict(stats or {}))
+    return None
+
+
 @dataclass(frozen=True, eq=False)
 class PlanTree:
     """A search tree for plotting: nodes (M, 3) poses, parent index per node (-1 at roots),

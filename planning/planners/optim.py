@@ -49,7 +49,7 @@ from planning.core.geometry import cumulative_length, path_length, wrap_angle
 from planning.core.kinematics import bicycle_to_unicycle
 from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon, World
 from planning.errors import ConfigError
-from planning.planners.base import PlanProblem, PlanResult, PlanStatus, checked_problem
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus, checked_problem, end_outside
 from planning.planners.registry import PLANNERS, make_planner, planner_options
 from planning.signals import signals_end_early, signals_held
 
@@ -815,6 +815,9 @@ class Optim:
         """The failure of a start or goal whose robot disc grown by ``margin`` (the disc optim keeps clear, at
         every node, the first and last too) overlaps an obstacle or wall; else None. With the margin raised
         past the one given (:meth:`_solve_from_starts`' re-solves) it is a failed plan, not a bad end."""
+        outside = end_outside(problem, self.name, {"time_s": clock.elapsed()})
+        if outside is not None:
+            return OptimSolution(outside)
         robot, world = problem.robot, problem.world
         clear = robot.radius + margin
         for label, pose, status in (

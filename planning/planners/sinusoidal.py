@@ -66,7 +66,14 @@ from planning.core.checks import check_number
 from planning.core.geometry import wrap_angle
 from planning.core.world import MAX_WORLD_SIDE, World
 from planning.errors import ConfigError
-from planning.planners.base import PlanProblem, PlanResult, PlanStatus, checked_problem, path_collision
+from planning.planners.base import (
+    PlanProblem,
+    PlanResult,
+    PlanStatus,
+    checked_problem,
+    end_outside,
+    path_collision,
+)
 
 FloatArray = NDArray[np.float64]
 
@@ -503,6 +510,10 @@ class Sinusoidal:
         """Plan from ``problem.start`` to ``problem.goal`` (steering angle 0 at both ends)."""
         problem = checked_problem(problem)
         t_start = time.perf_counter()
+        outside = end_outside(problem, self.name)
+        if outside is not None:
+            outside.stats["time_s"] = time.perf_counter() - t_start
+            return outside
         self._deadline = t_start + problem.time_limit
         robot = problem.robot
         self.l = robot.wheelbase

@@ -60,7 +60,7 @@ from planning.core.checks import check_fields, check_flag
 from planning.core.geometry import path_length, wrap_angle
 from planning.errors import ConfigError
 from planning.planners import geodesic
-from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree, checked_problem
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree, checked_problem, end_outside
 from planning.planners.registry import config_from_options
 from planning.planners.sampling.tree import draws
 from planning.planners.simplify import simplify_path
@@ -474,6 +474,9 @@ class _Search:
     def bad_end(self) -> PlanResult | None:
         """The INVALID_START / INVALID_GOAL result when the start or the goal is too near something."""
         p, req = self.problem, self.required
+        outside = end_outside(p, CRRTStar.name, self.early_stats())
+        if outside is not None:
+            return outside
         for label, pose, status in (
             ("start", p.start, PlanStatus.INVALID_START),
             ("goal", p.goal, PlanStatus.INVALID_GOAL),

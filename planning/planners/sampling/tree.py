@@ -19,7 +19,7 @@ from planning.clock import PlanClock
 from planning.collision.exact import CollisionChecker, Shape
 from planning.collision.field import FieldTimeout
 from planning.collision.grid import FastChecker
-from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
+from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree, end_outside
 
 FloatArray = NDArray[np.float64]
 Metric = Callable[[FloatArray, FloatArray], FloatArray]
@@ -239,7 +239,11 @@ def grid_timeout(planner: str, exc: FieldTimeout) -> PlanResult:
 
 
 def check_endpoints(problem: PlanProblem, checker: FastChecker, planner: str) -> PlanResult | None:
-    """An INVALID_START / INVALID_GOAL result if the start or goal pose collides, else None."""
+    """An INVALID_START / INVALID_GOAL result if the start or goal pose lies outside the world or collides, else
+    None."""
+    outside = end_outside(problem, planner)
+    if outside is not None:
+        return outside
     ends = np.array([problem.start.as_array(), problem.goal.as_array()])
     free = checker.poses_free(ends)  # both in one call
     for which, q, ok, status in (
@@ -251,11 +255,7 @@ def check_endpoints(problem: PlanProblem, checker: FastChecker, planner: str) ->
             pose = f"{which} pose ({q[0]:.3f}, {q[1]:.3f}, {q[2]:.3f})"
             if np.isfinite(clr):
                 said = f"clearance {clr:.3f} m, a lower bound"
-            elif float(problem.world.wall_distance(q[:2])[0]) <= 0:  # -inf: wholly in collision, or beyond a wall
-                x0, x1, y0, y1 = problem.world.bounds
-                outside = f"{pose} lies outside the world's bounds (x {x0:g}..{x1:g}, y {y0:g}..{y1:g}): move it inside"
-                return PlanResult(status, planner, reason=outside)
-            else:  # or an obstacle has a point inside the footprint (a pixel of a noisy map under the robot)
+            else:  # -inf: an obstacle has a point inside the footprint (a pixel of a noisy map under the robot)
                 said = "an obstacle lies inside the robot's footprint, or the footprint inside an obstacle"
             reason = (
                 f"{pose} is in collision or closer than the "
