@@ -146,20 +146,34 @@ def test_a_laws_non_finite_command_stops_the_run_naming_the_tracker_and_the_time
     ), str(info.value)
 
 
-def test_a_registered_per_segment_trackers_nan_fails_compare_with_one_line(
-    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+def test_a_registered_per_segment_trackers_nan_fails_its_own_row_of_compare(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Any
 ) -> None:
-    """``nhsim compare`` exits 1 with one line, where it exited 0 on the stop the switching made of the NaN."""
+    """``nhsim compare`` exits 1 naming the tracker, the time and the command, where it exited 0 on the stop the
+    switching made of the NaN; and the other trackers are still compared (one tracker's failure dropped every
+    row: ``compare: simulation failed`` and nothing else)."""
+    import json
+
     from sim.cli.main import main
 
     name = _registered(monkeypatch, BadLaw.name, BadLaw)
-    assert main(["compare", "--reference", "line", "--trackers", name, "--quiet"]) == 1
-    err = capsys.readouterr().err
+    record = tmp_path / "c.json"
+    argv = ["compare", "--reference", "line", "--trackers", f"fbl,{name}", "--quiet", "--json", str(record)]
+    assert main(argv) == 1
+    out, err = capsys.readouterr()
     t = _first_instant_beyond(make_reference("line", load_robot("turtlebot3"), Pose2D(0.0, 0.0, 0.0)))
-    assert err.startswith(
-        f"nhsim compare: simulation failed: tracker 'bad-law' returned a non-finite command (nan, nan) at t={t:.3f} s: "
-    ), err
-    assert err.count("\n") == 1 and "Traceback" not in err
+    why = f"tracker 'bad-law' returned a non-finite command (nan, nan) at t={t:.3f} s: "
+    assert f"bad-law run 0: failed: {why}" in out, out
+    rows = {line.split()[0]: line.split()[1:] for line in out.splitlines() if line.startswith(("fbl ", "bad-law  "))}
+    assert err.startswith(f"nhsim compare: simulation failed: {why}") and err.count("\n") == 1, err
+    assert rows["bad-law"][0] == "failed" and float(rows["fbl"][0]) < 0.05, out  # fbl's final error [m]
+    assert "Traceback" not in err
+    trackers = json.loads(record.read_text())["trackers"]
+    assert trackers["bad-law"]["summary"] == {"failed_runs": 1.0}
+    assert trackers["bad-law"]["runs"][0]["status"] == "failed" and trackers["bad-law"]["runs"][0]["error"].startswith(
+        why
+    )
+    assert trackers["fbl"]["runs"][0]["status"] == "ok"
 
 
 def test_a_trackers_python_exception_is_one_error_naming_it_the_time_and_the_exception(

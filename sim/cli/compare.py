@@ -40,7 +40,8 @@ temporary name beside it, then all moved into place together, so an interrupt (o
 the end leaves every old file as it was.
 
 Exit status: 0 done, 2 bad input (nothing run), 1 a run ended early (a balancing robot fell, the estimate
-was lost: said below the table and in the record's run "status")."""
+was lost) or failed (a tracker's command was not finite or raised: the other trackers are still compared):
+said below the table and in the record's run "status"."""
 
 #: What --plots STEM adds to its stem: the paths overlaid, the errors against time.
 PLOT_SUFFIXES = ("-paths.png", "-errors.png")
@@ -184,6 +185,9 @@ def run(args: argparse.Namespace) -> int:
     for line in tracker_notes(case.reference is not None, names):
         print(f"nhsim compare: {line}", file=sys.stderr)
     _write(result, outputs, overwrite=args.overwrite)
+    failed = [r.exception for r in result.runs if r.exception is not None]
+    if failed:  # the table and the files hold every tracker's runs; the first failure is the command's error line
+        raise failed[0]
     return 1 if result.ended_early() else 0
 
 

@@ -31,7 +31,7 @@ from control.base import TRACKERS, Tracker, make_tracker, tracker_options, tuned
 from planning.core.checks import check_number
 from planning.core.files import read_input
 from planning.core.robot import RobotSpec
-from planning.errors import ConfigError, option
+from planning.errors import ConfigError, SimulationError, option
 from planning.scenario import Scenario
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.metrics import heading_errors
@@ -137,13 +137,15 @@ class TrackerRun:
     Attributes:
         tracker: Tracker name.
         draw: Index of the draw.
-        values: The per-run quantities by :data:`COLUMNS` key.
+        values: The per-run quantities by :data:`COLUMNS` key ({} for a run that failed).
         solver: The tracker's own statistics (MPC: solves, failures, overruns, times), or {}.
         log: The run's log (kept for the first draw only: plots and video).
         times: Wall-clock time of each ``command`` [s].
-        status: "ok", or why the run ended early (the robot fell, the estimate was lost).
+        status: "ok", why the run ended early (the robot fell, the estimate was lost), or "failed" (the tracker's
+            command was not finite or raised, the physics failed: :class:`~planning.errors.SimulationError`).
         ending: What the record says of how it ended: ``warnings`` and, for a balancing robot, ``fell``,
-            ``fall_time_s`` and ``max_pitch_rad``.
+            ``fall_time_s`` and ``max_pitch_rad``; ``error`` for a failed run.
+        exception: A failed run's error (its ``__cause__`` the tracker's own exception, if any).
     """
 
     tracker: str
@@ -154,6 +156,7 @@ class TrackerRun:
     times: tuple[float, ...] = field(default=(), repr=False)
     status: str = "ok"
     ending: dict[str, Any] = field(default_factory=dict)
+    exception: SimulationError | None = field(default=None, repr=False, compare=False)
 
 
 def _measure(name: str, draw: int, run: Any, timed: TimedTracker, keep: bool) -> TrackerRun:
@@ -222,7 +225,10 @@ class Comparison:
     def __repr__(self) -> str:
         """One line: the case and, per tracker, its runs and mean RMS error (``record()`` holds everything)."""
         p = self.prepared
-        rms = ", ".join(f"{t}: {self.summary(t)['rms_m'] * 1e3:.2f} mm" for t in self.trackers)
+        rms = ", ".join(
+            f"{t}: {self.summary(t)['rms_m'] * 1e3:.2f} mm" if "rms_m" in self.summary(t) else f"{t}: failed"
+            for t in self.trackers
+        )
         return (
             f"Comparison({p.scenario.name}, {p.robot.name}, {p.trajectory.name}, "
             f"{max(len(self.draws), 1)} run(s) per tracker; RMS {rms})"
@@ -233,10 +239,16 @@ class Comparison:
         return [r for r in self.runs if r.tracker == tracker]
 
     def summary(self, tracker: str) -> dict[str, float]:
-        """Mean of each quantity over the tracker's runs (collisions summed), the RMS error's standard
-        deviation, and the solver's failures and overruns summed."""
-        runs = self.of(tracker)
+        """Mean of each quantity over the tracker's runs that did not fail (collisions summed), the RMS error's
+        standard deviation, the solver's failures and overruns summed, and ``failed_runs`` when some failed
+        (only that when every one did)."""
+        runs = [r for r in self.of(tracker) if r.values]
+        failed = len(self.of(tracker)) - len(runs)
+        if not runs:
+            return {"failed_runs": float(failed)}
         out = {k: float(np.mean([r.values[k] for r in runs])) for k in COLUMNS}
+        if failed:
+            out["failed_runs"] = float(failed)
         out["collisions"] = float(sum(r.values["collisions"] for r in runs))
         out["rms_m_std"] = float(np.std([r.values["rms_m"] for r in runs], ddof=1)) if len(runs) > 1 else 0.0
         for key in ("failures", "overruns"):
@@ -247,7 +259,7 @@ class Comparison:
         return out
 
     def ended_early(self) -> list[TrackerRun]:
-        """The runs that ended before the trajectory did (a fall, a lost estimate)."""
+        """The runs that ended before the trajectory did (a fall, a lost estimate) or failed."""
         return [r for r in self.runs if r.status != "ok"]
 
     def logs(self) -> dict[str, RunLog]:
@@ -306,7 +318,8 @@ def compare_trackers(
 
     Raises:
         ConfigError: Unknown or repeated trackers, runs < 1, parameters of the wrong type.
-        NhsimError: From preparing the trajectory (planning, smoothing).
+        NhsimError: From preparing the trajectory (planning, smoothing); a tracker's run that fails
+            (:class:`~planning.errors.SimulationError`) is kept as ``failed`` and the others run on.
     """
     names = check_trackers(trackers)
     runs = check_number(option("runs"), runs, integer=True, at_least=1)
@@ -329,8 +342,12 @@ def compare_trackers(
             if name not in ran:  # as the first draw's tracker holds them, else those given
                 ran[name] = tracker_params(name, tracker) or plain_params(params.get(name))
             timed = TimedTracker(tracker)
-            run = run_tracker(prepared_i, RunKind.CLOSED_LOOP, timed, pc.simulator, config, sensing)
-            done.append(_measure(name, index, run, timed, keep=index == 0))
+            try:
+                run = run_tracker(prepared_i, RunKind.CLOSED_LOOP, timed, pc.simulator, config, sensing)
+            except SimulationError as exc:  # this tracker's run: the others are still compared
+                done.append(TrackerRun(name, index, {}, {}, status="failed", ending={"error": str(exc)}, exception=exc))
+            else:
+                done.append(_measure(name, index, run, timed, keep=index == 0))
             if progress is not None:
                 progress(name, index + 1, max(runs, 1))
     ordered = tuple(r for name in names for r in done if r.tracker == name)
@@ -344,7 +361,9 @@ def format_table(comparison: Comparison) -> str:
     lines = [head, "-" * len(head)]
     for name in comparison.trackers:
         s = comparison.summary(name)
-        row = f"{name:<10}" + "".join(f"{fmt.format(s[k]):>14}" for k, (_, fmt) in COLUMNS.items())
+        row = f"{name:<10}" + "".join(
+            f"{fmt.format(s[k]) if k in s else 'failed':>14}" for k, (_, fmt) in COLUMNS.items()
+        )
         if "failures" in s:
             row += f"{'fail ' + str(int(s['failures'])) + ', over ' + str(int(s['overruns'])):>22}"
         lines.append(row)
@@ -356,7 +375,10 @@ def format_table(comparison: Comparison) -> str:
             f"(one run per tracker, on the case's own robot and noise: build seed {case.build_seed}, seed {case.seed})"
         )
     for r in comparison.ended_early():
-        lines.append(f"{r.tracker} run {r.draw}: ended early: {r.status} (its errors are up to then)")
+        if r.status == "failed":
+            lines.append(f"{r.tracker} run {r.draw}: failed: {r.ending['error']}")
+        else:
+            lines.append(f"{r.tracker} run {r.draw}: ended early: {r.status} (its errors are up to then)")
     return "\n".join(lines)
 
 
