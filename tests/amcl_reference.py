@@ -114,25 +114,54 @@ def beam_weight(z, noise):  # type: ignore[no-untyped-def]
     return 1.0 / max(noise[1] if z < noise[0] else noise[2] * z, 1e-4) ** 2
 
 
+def _gradient(field, grid, p):  # type: ignore[no-untyped-def]
+    h = grid[2]
+    return np.array(
+        [
+            (field_at(field, grid, p[0] + h / 2, p[1]) - field_at(field, grid, p[0] - h / 2, p[1])) / h,
+            (field_at(field, grid, p[0], p[1] + h / 2) - field_at(field, grid, p[0], p[1] - h / 2)) / h,
+        ]
+    )
+
+
+def beam_residual(field, grid, p, e, gate):  # type: ignore[no-untyped-def]
+    """(used, residual, normal) of a beam ending at p along e: the map distance where p lies in front of a surface
+    facing the ray; else the point-to-plane distance from where the ray, walked back in half-spacing steps (at
+    most 2 gate), left the solid, the unit gradient there its normal (which must face the ray)."""
+    d = field_at(field, grid, p[0], p[1])
+    grad = _gradient(field, grid, p)
+    if d >= 0 and grad @ e <= 0:
+        return abs(d) <= gate, d, grad
+    ts = [0.0]
+    values = [d]
+    while ts[-1] < 2 * gate:
+        ts.append(len(ts) * grid[2] / 2)
+        q = p - ts[-1] * e
+        values.append(field_at(field, grid, q[0], q[1]))
+        if values[-1] > 0 and any(v <= 0 for v in values[:-1]):
+            t0, t1, v0, v1 = ts[-2], ts[-1], values[-2], values[-1]
+            back = t0 + (t1 - t0) * (0 - v0) / (v1 - v0)
+            n = _gradient(field, grid, p - back * e)
+            if np.hypot(*n) < 0.5:
+                return False, 0.0, n
+            n = n / np.hypot(*n)
+            r = float(n @ (back * e))
+            return bool(n @ e < 0 and abs(r) <= gate), r, n
+    return False, 0.0, grad
+
+
 def fit_sensitivity(pose, ranges, bearings, laser, field, grid, gate, split, noise):  # type: ignore[no-untyped-def]
     """A^T W A of the scan-to-map fit at a pose, A = [J, u_scale, u_offset] (central differences), W the
     beams' inverse range variances."""
-    h = grid[2]
     c, s = math.cos(pose[2]), math.sin(pose[2])
     lx, ly = pose[0] + c * laser[0] - s * laser[1], pose[1] + s * laser[0] + c * laser[1]
     rows, ds, ws = [], [], []
     for z, bearing in zip(ranges, bearings, strict=True):
         e = np.array([math.cos(pose[2] + laser[2] + bearing), math.sin(pose[2] + laser[2] + bearing)])
         p = np.array([lx, ly]) + z * e
-        d = field_at(field, grid, p[0], p[1])
-        if abs(d) > gate or beam_weight(z, noise) == 0.0:
+        used, d, grad = beam_residual(field, grid, p, e, gate)
+        if not used or beam_weight(z, noise) == 0.0:
             continue
-        grad = np.array(
-            [
-                (field_at(field, grid, p[0] + h / 2, p[1]) - field_at(field, grid, p[0] - h / 2, p[1])) / h,
-                (field_at(field, grid, p[0], p[1] + h / 2) - field_at(field, grid, p[0], p[1] - h / 2)) / h,
-            ]
-        )
         lever = p - np.asarray(pose[:2], dtype=float)
         along = float(grad @ e)
         u = [along * z, 0.0] if z >= split else [0.0, along]

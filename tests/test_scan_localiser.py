@@ -163,16 +163,17 @@ def test_global_localisation_converges_within_20_scans_in_a_world_that_is_not_sy
 @pytest.mark.parametrize("seed", [206, 209])
 def test_scan_fixes_sharing_the_scanners_range_error_keep_the_fused_estimate_consistent(seed: int) -> None:
     """On sparse random worlds the LDS-01's systematic range error (drawn once for the run) moves every
-    fix the same way, by as much as the localiser's whole error (22-28 mm here); the EKF carries it
-    as two states with the datasheet's priors, so the fused estimate stays consistent and beats its
-    fixes (fused as independent fixes, NEES was inside its bounds at 15 % and 79 % of the fixes)."""
+    fix the same way, by as much as the localiser's whole error (15 and 18 mm here: 16 and 19 before the fit
+    measured each end point from the surface its ray meets); the EKF carries it as two states with the
+    datasheet's priors, so the fused estimate stays consistent and beats its fixes (fused as independent fixes,
+    NEES was inside its bounds at 15 % and 79 % of the fixes)."""
     res = simulate_plan(
         random_scenario("turtlebot3", seed), planner="hybrid-a-star", robot="turtlebot3", seed=seed,
         build_seed=seed + 11, runs=CLOSED,
     )  # fmt: skip
     est = res.runs[RunKind.CLOSED_LOOP].metrics.estimation
     assert est is not None and est.localiser_rmse_m is not None and est.nees_in_bound_fraction is not None
-    assert est.localiser_rmse_m > 0.015  # the scanner's error shows in its fixes
+    assert est.localiser_rmse_m > 0.012  # the scanner's error shows in its fixes (6 mm on a calibrated unit, seed 206)
     assert est.nees_in_bound_fraction >= 0.85
     assert est.position_rmse_m < 0.4 * est.localiser_rmse_m
 

@@ -21,9 +21,10 @@ The algorithm of Probabilistic Robotics (Thrun, Burgard, Fox 2005) ch. 8 as Nav2
   w_slow)`` (augmented MCL, table 8.3; ``recovery_alpha_slow``, ``recovery_alpha_fast``, 0 = off).
 - **Estimate**: the weighted mean and covariance of the heaviest cluster (the particles within one
   bin of the bin of most weight), then, with ``refine`` on (nhsim's addition; Nav2 has none), a
-  Gauss-Newton scan-to-map fit of the used beams' end points to the map's signed distance from
-  that mean and from the last estimate moved by the odometry (the fit with more beams within the
-  gate, then the smaller residual, wins), over every valid beam (not only the ``max_beams`` subset).
+  Gauss-Newton scan-to-map fit of the used beams' end points to the map's signed distance (from the
+  surface each beam's ray meets: :func:`amcl_kernels.beam_residual`) from that mean and from the last
+  estimate moved by the odometry (the fit with more beams within the gate, then the smaller residual,
+  wins), over every valid beam (not only the ``max_beams`` subset).
   Given the scanner's white range noise (``range_noise``: the LDS-01's datasheet precision, an
   absolute standard deviation near and a relative one beyond the split), each beam is weighted by
   its inverse variance (the maximum-likelihood fit: a far beam's noise grows with its range, and
@@ -262,9 +263,14 @@ class AmclConfig:
                 f"scored every scan (Nav2's default is 2000); give at most {MAX_PARTICLES}"
             )
         positive = ("sigma_hit", "pf_err", "pf_z", "map_resolution", "max_beams", "resample_interval")
-        for name in (*positive, "laser_likelihood_max_dist"):
+        for name in (*positive, "laser_likelihood_max_dist", "laser_max_range"):
             if getattr(self, name) <= 0:
                 raise ConfigError(f"amcl {name} must be > 0, got {getattr(self, name)!r}")
+        if self.map_resolution > MAX_MAP_RESOLUTION:
+            raise ConfigError(
+                f"amcl map_resolution must be at most {MAX_MAP_RESOLUTION:g} m (the likelihood field's grid; Nav2's "
+                f"maps are 0.05 m), got {self.map_resolution:g}"
+            )
         if self.max_beams < 2:
             raise ConfigError(f"amcl max_beams must be at least 2, got {self.max_beams}")
         if self.laser_min_range >= self.laser_max_range:
@@ -327,6 +333,8 @@ class AmclConfig:
             try:
                 table[key.strip()] = float(value) if sep else float("nan")
             except ValueError as exc:
+                if key.strip() not in {f.name for f in fields(self)}:  # a key not taken: say so, whatever its value
+                    self.override({key.strip(): value}, option("amcl", text))
                 raise ConfigError(f"{option('amcl', text)}: {key.strip()} must be a number, got {value!r}") from exc
             if not sep:
                 raise ConfigError(f"{option('amcl', text)}: expected key=value pairs, e.g. {EXAMPLE}; got {part!r}")
@@ -354,6 +362,9 @@ class LikelihoodField:
     free: FloatArray
 
 
+#: Coarsest ``map_resolution`` [m]: a grid coarser than the robot (0.1 m of free space kept about each free cell)
+#: has nothing to localise in (``map_resolution=10`` said only that the map had no free space).
+MAX_MAP_RESOLUTION = 0.5
 #: Most cells of the likelihood field (:func:`likelihood_field`): building it takes about 100 bytes a cell
 #: (its tables and their making), so this is about 1.6 GB, a 100 x 100 m world at the default 0.025 m.
 MAX_FIELD_CELLS = 16_000_000

@@ -141,6 +141,16 @@ class LocaliserSetup:
             pose = parse_initial_pose(self.initial)
             if self.world is not None:
                 check_initial_pose(pose, self.world, self.initial)
+        if self.lidar is not None:
+            low, high = self.amcl.range_limits(self.lidar.range_min, self.lidar.range_max)
+            if not low < high:
+                c = self.amcl
+                raise ConfigError(
+                    f"amcl laser_min_range={c.laser_min_range:g} and laser_max_range={c.laser_max_range:g} leave no "
+                    f"range of the scanner's {self.lidar.range_min:g}-{self.lidar.range_max:g} m to use: no beam "
+                    "would be weighed; keep laser_min_range below the scanner's range_max (-1 uses the scan's own "
+                    "range_min, Nav2's default) and laser_max_range above its range_min"
+                )
 
     @property
     def initial_pose(self) -> tuple[float, float, float] | None:
