@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from pathlib import Path
 
 import mujoco
@@ -11,7 +12,7 @@ import numpy as np
 import pytest
 
 from planning.core.robot import load_robot
-from planning.errors import ConfigError
+from planning.errors import ConfigError, ModelError
 from planning.trajectory.references import make_reference
 from sim.physics.model import build_model
 from sim.physics.motors import MotorModel, Supply, apply_supply, check_model_limits, supplied_robot
@@ -141,3 +142,21 @@ def test_a_charged_pack_tracks_a_plan_at_the_firmware_cap_and_a_nominal_one_cann
     nominal = _line_run(case, fast, 11.1)
     assert nominal["final_position_error_m"] > 0.04  # measured 5.5 cm behind (12.6 V: 6 mm)
     assert nominal["max_position_error_m"] > 5 * charged["max_position_error_m"]  # 13.5 cm against 1.2 cm
+
+
+def test_a_model_whose_limits_its_motors_do_not_sustain_is_refused_by_the_simulator(tmp_path: Path) -> None:
+    """A TurtleBot3 Waffle's published limits (0.26 m/s, 7.88 rad/s at the wheel) on the Burger's XL430 motors at
+    11.1 V (which sustain 5.0 rad/s) ran with 86 % of its commands saturated, 18.5 cm off at the end, status ok."""
+    from sim.physics.simulator import Simulator
+
+    text = load_robot("turtlebot3").mjcf.read_text()
+    numbers = {"max_wheel_speed": "7.88", "max_linear_speed": "0.26", "max_angular_speed": "1.81"}
+    for key, value in numbers.items():
+        text = re.sub(rf'(name="nhsim_{key}" data=")[^"]*', rf"\g<1>{value}", text)
+    (tmp_path / "waffle.xml").write_text(text)
+    scene = load_robot("turtlebot3").scene.read_text().replace("turtlebot3_burger.xml", "waffle.xml")
+    (tmp_path / "waffle_scene.xml").write_text(scene)
+    waffle = load_robot(str(tmp_path / "waffle.xml"))
+    with pytest.raises(ModelError, match=r"max_wheel_speed = 7.88, the rule gives 5.0; .*give the motors"):
+        Simulator(waffle)
+    assert Simulator(supplied_robot(load_robot("turtlebot3"), "battery_voltage=12.6")).robot.max_speed == 0.191

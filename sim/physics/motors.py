@@ -462,7 +462,11 @@ def check_model_limits(spec: RobotSpec, motor: MotorModel, supply: Supply) -> No
     want = speed_limits(motor, supply, spec.wheel_radius, spec.track_width)
     wrong = [f"{k} = {getattr(spec, k)!r}, the rule gives {v!r}" for k, v in want.items() if getattr(spec, k) != v]
     if wrong:
-        raise ModelError(f"{spec.mjcf}: the speed limits are not those of its supply: {'; '.join(wrong)}")
+        raise ModelError(
+            f"{spec.mjcf}: the speed limits are not those its motors sustain on its supply: {'; '.join(wrong)}; write "
+            "the rule's values (nhsim_max_wheel_speed, nhsim_max_linear_speed, nhsim_max_angular_speed), or give the "
+            "motors and supply that sustain yours (the nhsim_motor_* numerics)"
+        )
 
 
 def apply_supply(model: mujoco.MjModel, voltage: float) -> None:

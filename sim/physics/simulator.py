@@ -28,13 +28,13 @@ from control.estimation import EstimatorDivergedError
 from planning.core.arrays import copy_into
 from planning.core.checks import check_flag, check_number, is_number, refuse_kind
 from planning.core.geometry import Pose2D, check_pose
-from planning.core.robot import RobotSpec, check_robot_spec
+from planning.core.robot import RobotSpec, check_robot_spec, load_robot
 from planning.core.world import World, check_world
 from planning.errors import ConfigError, NhsimError, SimulationError, option
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import AsBuilt
 from sim.physics.model import FLOOR_TILT, TIP_ANGLE, BuiltModel, set_pose, tipped_over, yaw_from_quat
-from sim.physics.motors import MotorModel, control_steps
+from sim.physics.motors import MotorModel, Supply, check_model_limits, control_steps
 from sim.physics.perturb import Perturbation
 from sim.physics.runlog import Contact, RunLog
 from sim.robot.balance_design import balance_gains
@@ -113,6 +113,8 @@ class Simulator:
     Raises:
         ConfigError: An argument of the wrong type (a robot's name for its spec, a seed for a build), naming it,
             what was given and what to pass.
+        ModelError: The speed limits of a model file's own spec are not those its motors sustain on its supply
+            (:func:`sim.physics.motors.check_model_limits`; a model with supply ratings).
     """
 
     def __init__(self, robot: RobotSpec, world: World | None = None, build: AsBuilt | None = None) -> None:
@@ -131,6 +133,9 @@ class Simulator:
         self._act_l = m.actuator("wheel_left_motor").id
         self._act_r = m.actuator("wheel_right_motor").id
         self.motors = MotorModel.from_model(m)
+        supply = Supply.from_model(m)
+        if supply is not None and robot == load_robot(str(robot.mjcf)):  # the file's own spec, not a supply's
+            check_model_limits(robot, self.motors, supply)  # a user's model claiming more than its motors give
         # A balancing robot's firmware is its balance loop, its gains checked stable before any run.
         self.balance = balance_gains(robot.name) if is_balancing(robot.name) else None
         self._is_obstacle = np.zeros(m.ngeom, dtype=bool)
