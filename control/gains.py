@@ -237,8 +237,13 @@ def resolve_gains(text: str, folder: Path | None = None) -> FBLGains:
     given, e.g. a regression suite file's; else to the working directory).
 
     Raises:
-        ConfigError: Neither two positive numbers nor a readable, valid gains file.
+        ConfigError: Neither two positive numbers nor a readable, valid gains file (nor text at all).
     """
+    if not isinstance(text, str):
+        raise ConfigError(
+            f"resolve_gains takes text, 'KP,KD' (e.g. '9,6') or a gains file's path, got {text!r:.80}; "
+            "FBLGains(kp=9, kd=6) makes gains without text"
+        )
     p = Path(text) if folder is None else folder / text
     if p.suffix == ".toml" or p.exists():
         return load_gains_file(p).gains

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from planning.collision.overlap import footprint_overlap
-from planning.core.checks import check_number, degrees_hint
+from planning.core.checks import check_number, degrees_hint, heading_beyond
 from planning.core.files import descriptor_path, read_input_text
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.maps import MapObstacles, load_map_table
@@ -153,19 +153,6 @@ def _planner_options(r: TableReader, table: Any) -> dict[str, dict[str, Any]]:
     return out
 
 
-#: Largest heading a scenario's pose may give [rad]: a larger one is a typo or degrees, not a direction.
-MAX_HEADING = 4.0 * np.pi
-
-
-def heading_beyond(theta: float) -> str:
-    """Why a pose's heading ``theta`` [rad] is refused, "" when it is within :data:`MAX_HEADING`: "in radians within
-    +-4 pi; 90 degrees would be 1.571 rad" (the degrees only for a heading that could be some). A scenario's poses,
-    ``--offset`` and ``--initial-pose`` judge their headings by it."""
-    if abs(theta) <= MAX_HEADING:
-        return ""
-    return f"in radians within +-4 pi{degrees_hint(theta)}"
-
-
 def _pose(r: TableReader, table: Mapping[str, Any], ctx: str) -> Pose2D:
     """A ``pose = [x, y, theta]`` field, its heading brought into (-pi, pi] (a pose's direction, whatever turn
     it was written with: 7 rad is 0.717 rad; one already in it is kept as written, bit for bit); one beyond
@@ -270,10 +257,11 @@ def _header(r: TableReader, data: Mapping[str, Any], default_name: str) -> dict[
             raise _unknown_planner(r, "planner", planner)
     planner_options = _planner_options(r, data["planners"]) if "planners" in data else {}
     sensors = data.get("sensors", {})
-    if not isinstance(sensors, dict) or not all(
-        isinstance(v, numbers.Real) and not isinstance(v, bool) for v in sensors.values()
-    ):
+    if not isinstance(sensors, dict):
         raise r.fail("sensors", "a [sensors] table of numbers overriding the robot's sensor profile", sensors)
+    for key, value in sensors.items():
+        if not isinstance(value, numbers.Real) or isinstance(value, bool):
+            raise r.fail(f"sensors.{key}", 'a number (e.g. fix_rate = 5, not "5")', value)
     return {
         "sensors": {k: float(v) for k, v in sensors.items()},
         "name": name,
@@ -437,6 +425,11 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     """
     text = str(name_or_path)
     p = Path(text)
+    if not text.strip() or p.is_dir():
+        what = "an empty name" if not text.strip() else f"the folder {text!r}"
+        raise ScenarioError(
+            f"a scenario is a built-in name, random<N> or a .toml file, got {what}; e.g. load_scenario('edumip_map')"
+        )
     if p.suffix == ".toml" or p.exists():
         if not p.exists():
             raise ScenarioError(f"scenario file {p} does not exist")

@@ -1,6 +1,7 @@
 """The Python API's inputs: numpy's scalars are numbers (np.int64, np.float64 and np.float32 work wherever
 a Python int or float does; they were refused as "not a finite number"), and an argument of the wrong
-kind is named where it is given (it was an AttributeError deep inside)."""
+kind is named where it is given (it was an AttributeError deep inside), as are a scenario's own files' bad
+values."""
 
 from __future__ import annotations
 
@@ -11,11 +12,16 @@ import numpy as np
 import pytest
 
 from control.base import make_tracker
+from control.estimation.amcl import AmclConfig
 from control.estimation.ekf import EstimatorConfig
-from control.gains import FBLGains
+from control.gains import FBLGains, resolve_gains
 from planning.core.geometry import Pose2D
+from planning.core.nav2_map import read_map_yaml
 from planning.core.robot import load_robot
-from planning.errors import ConfigError
+from planning.core.world import World
+from planning.errors import ConfigError, ScenarioError
+from planning.scenario import load_scenario
+from planning.trajectory.from_plan import TrajectoryError, to_trajectory
 from planning.trajectory.references import make_reference
 from sim.viz.replay import RenderSettings
 
@@ -553,3 +559,93 @@ def test_a_keyword_that_is_no_field_of_a_case_is_named_with_the_field_meant(
     fields = "robot, reference, planner, tracker, seed, control_rate, gains, perturbation, name, params, fast"
     more = "planning, build_seed, sensors, noise_seed, trajectory_file, localiser, lidar, amcl, initial_pose, motors"
     assert str(err.value).endswith(f": {fields}, {more}")
+
+
+# ---- found by a probe of the API and a scenario's files (each raised something else, or ran on, before) ----
+TB3 = load_robot("turtlebot3")
+
+
+def test_a_path_that_is_no_numbers_is_named() -> None:  # ValueError: could not convert string to float
+    with pytest.raises(ConfigError, match=r"to_trajectory takes a PlanResult or an \(N, 3\) path of poses"):
+        to_trajectory("abc", TB3, World((0.0, 2.0, 0.0, 1.2)))  # type: ignore[arg-type]
+
+
+def test_a_path_that_leaves_the_world_says_so() -> None:
+    """It said "could not be smoothed: collision after 5 refinements (clearance -inf m ...)"."""
+    path = np.array([[0.4, 0.4, 0.0], [5.0, 0.4, 0.0]])
+    with pytest.raises(TrajectoryError, match=r"leaves the world's bounds \(x 0..2, y 0..1.2\) at \(5.00, 0.40\)"):
+        to_trajectory(path, TB3, World((0.0, 2.0, 0.0, 1.2)))
+
+
+def test_a_time_that_is_no_number_is_named() -> None:  # ValueError from numpy
+    trajectory = make_reference("line", TB3, Pose2D(0.0, 0.0, 0.0))
+    with pytest.raises(ConfigError, match=r"times must be numbers \[s\], got \['a'\]"):
+        trajectory.sample("a")  # type: ignore[arg-type]
+
+
+def test_gains_that_are_no_text_are_named() -> None:  # TypeError from pathlib
+    with pytest.raises(ConfigError, match=r"resolve_gains takes text, 'KP,KD'.*FBLGains\(kp=9, kd=6\)"):
+        resolve_gains(None)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("name", ["", " ", "."])
+def test_a_scenario_named_by_nothing_or_a_folder_says_so(name: str) -> None:
+    """It said "cannot read scenario file .: Is a directory"."""
+    with pytest.raises(ScenarioError, match=r"a scenario is a built-in name, random<N> or a \.toml file"):
+        load_scenario(name)
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("laser_max_range=0", "amcl laser_max_range must be > 0"),  # ran, with a numpy divide-by-zero warning
+        ("map_resolution=10", "amcl map_resolution must be at most 0.5 m"),  # "the map has no free space ..."
+        ("base_frame_id=x", "'base_frame_id' is not taken: ROS plumbing"),  # "base_frame_id must be a number"
+    ],
+)
+def test_localiser_settings_that_cannot_work_are_refused(text: str, match: str) -> None:
+    with pytest.raises(ConfigError, match=match):
+        AmclConfig().parse(text)
+
+
+def test_localiser_ranges_beyond_the_scanners_are_refused() -> None:
+    """laser_min_range=5 above the LDS-01's 3.5 m ran, weighing no beam: "7 scans used, RMSE 21.7 cm"."""
+    from sim.physics.lidar import LidarProfile
+    from sim.robot.scan_localiser import LocaliserSetup
+
+    world = World((0.0, 3.0, 0.0, 3.0))
+    with pytest.raises(ConfigError, match=r"leave no range of the scanner's 0.12-3.5 m to use"):
+        LocaliserSetup("amcl", world, LidarProfile(), AmclConfig().parse("laser_min_range=5"))
+    LocaliserSetup("amcl", world, LidarProfile(), AmclConfig().parse("laser_min_range=3"))
+
+
+def _map(tmp_path: Path, origin: str) -> Path:
+    (tmp_path / "m.pgm").write_bytes(b"P5\n2 2\n255\n" + bytes([254, 254, 0, 254]))
+    path = tmp_path / "m.yaml"
+    path.write_text(f"image: m.pgm\nresolution: 0.05\norigin: {origin}\noccupied_thresh: 0.65\nfree_thresh: 0.25\n")
+    return path
+
+
+def test_a_map_origin_yaw_in_degrees_is_refused(tmp_path: Path) -> None:  # 90 was taken as radians
+    with pytest.raises(ScenarioError, match=r"field 'origin': .*the yaw in radians within \+-4 pi; 90 degrees"):
+        read_map_yaml(_map(tmp_path, "[0.0, 0.0, 90]"))
+    assert read_map_yaml(_map(tmp_path, "[0.0, 0.0, 1.5708]")).origin[2] == 1.5708
+
+
+def test_an_image_given_as_the_map_yaml_says_where_an_image_goes(tmp_path: Path) -> None:
+    """It said "cannot be read: 'utf-8' codec can't decode byte 0x89"."""
+    png = tmp_path / "m.png"
+    png.write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(32))
+    with pytest.raises(
+        ScenarioError, match=r"is not text .*an image itself goes in the scenario's \[world.map\] table"
+    ):
+        read_map_yaml(png)
+
+
+def test_a_sensor_value_of_the_wrong_type_is_named(tmp_path: Path) -> None:
+    """It said "expected a [sensors] table of numbers ..., got a table"."""
+    text = (Path(__file__).resolve().parents[1] / "models/scenarios/open.toml").read_text()
+    path = tmp_path / "s.toml"
+    path.write_text(text + '\n[sensors]\nfix_rate = "5"\n')
+    with pytest.raises(ScenarioError, match=r"field 'sensors.fix_rate': expected a number \(e.g. fix_rate = 5"):
+        load_scenario(path)

@@ -322,7 +322,7 @@ def test_a_bad_initial_pose_is_said_in_the_command_lines_words(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, said: str
 ) -> None:
     """The errors quoted the Python API ("(initial_pose=... from Python)"), and a heading of 100 rad was accepted
-    where a scenario file refuses beyond +-4 pi (planning.scenario.MAX_HEADING)."""
+    where a scenario file refuses beyond +-4 pi (planning.core.checks.MAX_HEADING)."""
     code, err = _simulate(tmp_path, capsys, f"--initial-pose={text}")
     assert code == 2 and said in err, err
     assert "from Python" not in err and not (tmp_path / "r.json").exists()

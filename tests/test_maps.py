@@ -163,7 +163,7 @@ def test_a_map_whose_obstacles_all_lie_outside_the_bounds_is_refused(tmp_path):
     ("table", "message"),
     [
         ('image = "../nope.png"\nresolution = 0.01', "does not exist"),
-        ('image = "../bad.png"\nresolution = 0.01', "not a readable PNG/JPEG"),
+        ('image = "../bad.png"\nresolution = 0.01', r"not a readable image \(PNG, JPEG or PGM\)"),
         ('image = "../map.png"\nresolution = -0.01', "world.map.resolution"),
         ('image = "../map.png"\nresolution = 0.01\nthreshold = 2.0', "world.map.threshold"),
         ('image = "../map.png"\nresolution = 0.01\norigin = [1.0]', "world.map.origin"),

@@ -255,3 +255,11 @@ def test_a_jobs_gains_are_the_fbls_only_where_its_tracker_takes_them() -> None:
     assert own.gains is None and own.record()["gains"] is None
     fbl = simulate_reference("open", reference="line", gains=FBLGains(5.0, 4.0), runs=["closed_loop_truth"])
     assert fbl.gains == FBLGains(5.0, 4.0) and fbl.record()["gains"]["kp"] == 5.0
+
+
+def test_robots_must_list_the_scenarios_own_robot() -> None:
+    """As a scenario file's ``robots`` must: a Scenario made in Python with robots=("edumip",) and its robot the
+    TurtleBot3 was run on the TurtleBot3 without a word."""
+    with pytest.raises(ConfigError, match=r"Scenario.robots \('turtlebot3',\) must include the scenario's own robot"):
+        _scenario(robots=("turtlebot3",))
+    assert _scenario(robots=("edumip", "turtlebot3")).robots == ("edumip", "turtlebot3")

@@ -40,6 +40,20 @@ def degrees_hint(value: object, largest: float = 720.0) -> str:
     return f"; {value:g} degrees would be {math.radians(value):.4g} rad"
 
 
+#: Largest heading a pose (a scenario's, a map's origin, an option's) may give [rad]: a larger one is a typo or
+#: degrees, not a direction.
+MAX_HEADING = 4.0 * math.pi
+
+
+def heading_beyond(theta: float) -> str:
+    """Why a pose's heading ``theta`` [rad] is refused, "" when it is within :data:`MAX_HEADING`: "in radians within
+    +-4 pi; 90 degrees would be 1.571 rad" (the degrees only for a heading that could be some). A scenario's poses,
+    ``--offset``, ``--initial-pose`` and a ROS map's origin judge their headings by it."""
+    if abs(theta) <= MAX_HEADING:
+        return ""
+    return f"in radians within +-4 pi{degrees_hint(theta)}"
+
+
 def refuse_kind(where: str, kind: str, value: object, fix: str) -> ConfigError:
     """The error for an argument of the wrong type: ``<where> must be <kind>: pass <fix>, got <type> <value>``
     (what :func:`planning.core.geometry.check_pose` and :func:`planning.core.world.check_world` raise)."""

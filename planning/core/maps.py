@@ -150,7 +150,7 @@ def decoded_image(path: str | Path) -> Iterator[tuple[Path, Any]]:
             im.load()
             yield p, im
     except (UnidentifiedImageError, OSError, ValueError) as exc:
-        raise ScenarioError(f"map image {p} is not a readable PNG/JPEG image: {exc}") from exc
+        raise ScenarioError(f"map image {p} is not a readable image (PNG, JPEG or PGM): {exc}") from exc
 
 
 def sixteen_bit(p: Path, pixels: FloatArray) -> FloatArray:

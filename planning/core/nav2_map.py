@@ -36,7 +36,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.core.checks import is_number
+from planning.core.checks import heading_beyond, is_number
 from planning.core.maps import (
     MapObstacles,
     MapShape,
@@ -98,7 +98,12 @@ def _parse(path: Path) -> dict[str, Any]:
         raise ScenarioError(f"map YAML {path} {what}; give the map's .yaml file (relative to the scenario file)")
     try:
         doc = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as exc:
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(
+            f"map YAML {path} is not text ({exc.reason} at byte {exc.start}): give the map's .yaml file, which names "
+            "its image (an image itself goes in the scenario's [world.map] table as image = ...)"
+        ) from exc
+    except OSError as exc:
         raise ScenarioError(f"map YAML {path} cannot be read: {exc}") from exc
     except yaml.YAMLError as exc:
         raise ScenarioError(f"map YAML {path} is not valid YAML: {exc}") from exc
@@ -134,6 +139,8 @@ def read_map_yaml(path: str | Path) -> MapYaml:
     origin = doc["origin"]
     if not (isinstance(origin, list) and len(origin) == 3 and all(is_number(v) for v in origin)):
         raise _fail(p, "origin", "[x, y, yaw] of the image's bottom-left corner [m, m, rad]", origin)
+    if heading_beyond(float(origin[2])):  # 100 rad, or 90 meant as degrees: refused as a scenario's heading is
+        raise _fail(p, "origin", f"[x, y, yaw], the yaw {heading_beyond(float(origin[2]))}", origin)
     occupied, free = _number(p, doc, "occupied_thresh"), _number(p, doc, "free_thresh")
     if not 0.0 <= free < occupied <= 1.0:
         raise ScenarioError(

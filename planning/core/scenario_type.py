@@ -98,6 +98,11 @@ class Scenario:
                 f"{self.robots!r:.80}"
             )
         object.__setattr__(self, "robots", robots or (self.robot,))
+        if self.robot not in self.robots:  # as a scenario file's robots must list its robot
+            raise ConfigError(
+                f"Scenario.robots {self.robots!r:.80} must include the scenario's own robot {self.robot!r} "
+                "(Scenario.robot): add it, or leave robots out for the robot alone"
+            )
         _check_tables(self.planner_options, self.sensors)
         options = {name: MappingProxyType(dict(table)) for name, table in self.planner_options.items()}
         object.__setattr__(self, "planner_options", MappingProxyType(options))
@@ -127,12 +132,15 @@ class Scenario:
         )
 
     def with_robot(self, robot: str) -> Scenario:
-        """The same scenario for another robot.
+        """The same scenario for another robot, which its ``robots`` then list (added last when they did not: the
+        caller chose it; :func:`planning.scenario.scenario_with_robot` is the check that they list it).
 
         Raises:
             ConfigError: ``robot`` is not a robot name (the message lists them).
         """
-        return dataclasses.replace(self, robot=check_robot_name("Scenario.with_robot", robot))
+        name = check_robot_name("Scenario.with_robot", robot)
+        robots = self.robots if name in self.robots else (*self.robots, name)
+        return dataclasses.replace(self, robot=name, robots=robots)
 
     def options_for(self, planner: str) -> dict[str, Any]:
         """Keyword options this scenario gives ``planner`` (a copy; empty if none)."""

@@ -237,7 +237,7 @@ def _plan_path(
     timed (see :func:`make_trajectory`), once the robot and the world are checked to be what they must.
 
     Raises:
-        ConfigError: ``robot`` is not a RobotSpec, or ``world`` not a World.
+        ConfigError: ``robot`` is not a RobotSpec, ``world`` not a World, or ``plan`` no numbers.
     """
     check_robot_spec("to_trajectory", robot)
     check_world("to_trajectory: world", world)
@@ -245,7 +245,13 @@ def _plan_path(
         dirs = directions if directions is not None else plan.directions
         timed = plan.times is not None and plan.controls is not None
         return np.asarray(plan.path, dtype=float), dirs, name or f"plan:{plan.planner}", timed
-    return np.asarray(plan, dtype=float), directions, name or "path", False
+    try:
+        path = np.asarray(plan, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigError(
+            f"to_trajectory takes a PlanResult or an (N, 3) path of poses [x, y, theta], got {plan!r:.80}"
+        ) from None
+    return path, directions, name or "path", False
 
 
 def _path_problem(path: FloatArray) -> str:
@@ -355,6 +361,15 @@ def _from_path(
 
 def _smoothing_failure(seg: PathSegment, res: SmoothResult, build: _Build, max_deviation: float) -> str:
     at = seg.points[0]
+    world = build.checker.world
+    out = np.flatnonzero(world.wall_distance(seg.points[:, :2]) <= 0.0)
+    if out.size:  # no smoothing makes a path that leaves the world a drive inside it
+        x, y = seg.points[out[0], :2]
+        x0, x1, y0, y1 = world.bounds
+        return (
+            f"the drive from ({at[0]:.2f}, {at[1]:.2f}) leaves the world's bounds (x {x0:g}..{x1:g}, y {y0:g}..{y1:g}) "
+            f"at ({x:.2f}, {y:.2f}): every pose of a path must lie inside the world"
+        )
     if res.status is SmoothStatus.DEVIATION and res.max_deviation <= max_deviation:
         return (
             f"the drive from ({at[0]:.2f}, {at[1]:.2f}) could not be smoothed: after {res.attempts} refinements "

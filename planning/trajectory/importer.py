@@ -158,7 +158,7 @@ def parse_offset(text: str) -> tuple[float, float, float]:
         values = ()
     if len(values) != 3 or not all(np.isfinite(values)):
         raise TrajectoryFileError(f"--offset {text!r}: expected X,Y,THETA (metres, metres, radians), e.g. 1.5,0,0.3")
-    from planning.scenario import heading_beyond
+    from planning.core.checks import heading_beyond
 
     beyond = heading_beyond(values[2])  # a typo or degrees, as a scenario's heading is judged
     if beyond:

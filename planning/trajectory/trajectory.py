@@ -338,10 +338,13 @@ class Trajectory:
             The reference at the M times, one (M,) array per quantity.
 
         Raises:
-            ConfigError: ``times`` is not 1-D, or holds a time that is not finite (NaN or infinite: the
+            ConfigError: ``times`` is not 1-D numbers, or holds a time that is not finite (NaN or infinite: the
                 caller's clock is at fault; the message names the first such time and its index).
         """
-        tq_asked = np.array(times, dtype=float)
+        try:
+            tq_asked = np.array(times, dtype=float)
+        except (TypeError, ValueError):
+            raise ConfigError(f"Trajectory.sample_many: times must be numbers [s], got {times!r:.80}") from None
         if tq_asked.ndim != 1:
             raise ConfigError(f"Trajectory.sample_many: times must be a 1-D array (M,), got shape {tq_asked.shape}")
         if not np.isfinite(tq_asked).all():
@@ -373,7 +376,7 @@ class Trajectory:
         try:
             finite = math.isfinite(t)
         except TypeError:  # not one number: sample_many says what it cannot use
-            return self.sample_many(np.array([t])).at(0)
+            return self.sample_many([t]).at(0)
         if not finite:
             raise ConfigError(
                 f"Trajectory.sample was given a non-finite time t={t} s: the reference is sampled at a finite "

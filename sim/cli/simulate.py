@@ -681,7 +681,7 @@ def add_localiser_arguments(p: argparse.ArgumentParser) -> None:
 
 def initial_pose_option(text: str) -> str:
     """``--initial-pose``'s value: "known" or "unknown" (in any case), or a pose estimate ``X,Y,THETA`` of three
-    finite numbers, the heading within +-4 pi as a scenario's (:data:`planning.scenario.MAX_HEADING`); its place
+    finite numbers, the heading within +-4 pi as a scenario's (:data:`planning.core.checks.MAX_HEADING`); its place
     in the world is checked with the world (:class:`sim.robot.scan_localiser.LocaliserSetup`).
 
     Raises:

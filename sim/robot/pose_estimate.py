@@ -23,9 +23,9 @@ def parse_initial_pose(text: str) -> tuple[float, float, float]:
 
     Raises:
         ConfigError: Not three finite numbers, or a heading beyond +-4 pi as a scenario's pose refuses it
-            (:func:`planning.scenario.heading_beyond`: a typo or degrees), naming the option and an example.
+            (:func:`planning.core.checks.heading_beyond`: a typo or degrees), naming the option and an example.
     """
-    from planning.scenario import heading_beyond
+    from planning.core.checks import heading_beyond
 
     parts = [p.strip() for p in text.split(",")]
     fix = f"give X,Y,THETA in metres and radians, e.g. {option('initial-pose', POSE_EXAMPLE)}, or known or unknown"

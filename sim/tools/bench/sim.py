@@ -140,7 +140,7 @@ def measure(
         from sim.pipeline.case import Case
 
         case = Case("open", robot=spec.name, reference=reference, localiser=localiser)
-        setup = case.localiser_setup(replace(scenario, robot=spec.name))  # the robot timed, not the scenario's own
+        setup = case.localiser_setup(scenario.with_robot(spec.name))  # the robot timed, not the scenario's own
         sensing = replace(sensing, localiser=setup)
 
     def run_closed() -> Any:
