@@ -288,7 +288,8 @@ def test_a_planned_case_needs_a_planner_the_scenario_lacks_and_labels_are_readab
     with pytest.raises(ConfigError) as err:
         load_suite(_one_case(tmp_path, reference=""))
     message = str(err.value)
-    assert "case 1 (open-turtlebot3-fbl): give exactly one of reference" in message and "None" not in message
+    assert "case 1 (open-turtlebot3-plan-default-fbl-s0): give exactly one of reference" in message
+    assert "None" not in message
 
 
 def test_amcl_needs_a_robot_with_a_laser_scanner(tmp_path: Path) -> None:
@@ -336,17 +337,22 @@ def test_names_differing_only_in_letter_case_are_duplicates(tmp_path: Path) -> N
 
 
 @pytest.mark.parametrize(
-    "fields",
-    [{"control_rate": '"fast"'}, {"control_rate": "nan"}, {"seed": '"zero"', "perturb": '"mass=1.1"'}],
+    ("fields", "label"),
+    [
+        ({"control_rate": '"fast"'}, "open-turtlebot3-circle-fbl-s0-fasthz"),
+        ({"control_rate": "nan"}, "open-turtlebot3-circle-fbl-s0-nanhz"),
+        ({"seed": '"zero"', "perturb": '"mass=1.1"'}, "open-turtlebot3-circle-fbl-szero"),
+    ],
     ids=["control_rate_text", "control_rate_nan", "seed_text"],
 )
 def test_bad_values_exit_2_without_a_traceback(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], fields: dict[str, str]
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], fields: dict[str, str], label: str
 ) -> None:
+    """The case is labelled by the naming rule its good fields would follow (case_name), its bad value as written."""
     path = _one_case(tmp_path, **fields)
     assert main(["regress", "--suite", str(path), "--baselines", str(tmp_path / "bl"), "--list", "--all"]) == 2
     err = capsys.readouterr().err
-    assert f"{path} case 1 (open-turtlebot3-circle-fbl): " in err and "Traceback" not in err
+    assert f"{path} case 1 ({label}): " in err and "Traceback" not in err
     assert not (tmp_path / "bl").exists()
 
 
@@ -440,3 +446,17 @@ def test_the_cases_the_help_shows_load(tmp_path: Path) -> None:
     suite = tmp_path / "suite.toml"
     suite.write_text("cases = [\n" + ",\n".join(lines) + "\n]\n", encoding="utf-8")
     assert len(load_suite(suite).cases) == 2
+
+
+def test_a_case_of_an_unregistered_tracker_is_named_as_list_names_it(tmp_path: Path) -> None:
+    """Without its plugin, a case was called 'simple_motion-turtlebot3-turn-drive-turn-p-pose' where ``--list`` (the
+    plugins loaded) calls it 'simple_motion-turtlebot3-plan-turn-drive-turn-p-pose-s0'; and the message did not say a
+    plugin may register the planner."""
+    path = tmp_path / "suite.toml"
+    fields = ['scenario = "simple_motion"', 'robot = "turtlebot3"', 'planner = "turn-drive-turn"', 'tracker = "p-pose"']
+    path.write_text("[[cases]]\n" + "\n".join(fields) + "\n")
+    with pytest.raises(ConfigError) as err:
+        load_suite(path)
+    message = str(err.value)
+    assert f"{path} case 1 (simple_motion-turtlebot3-plan-turn-drive-turn-p-pose-s0): " in message, message
+    assert "or one a plugin registers (NHSIM_PLUGINS=module)" in message

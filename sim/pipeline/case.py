@@ -303,15 +303,9 @@ class Case:
         return isinstance(self.params, FBLGains) and tuned is not None and tuned[0] == "gains"
 
     def _derived_name(self) -> str:
-        what = self.reference if self.reference is not None else f"plan-{self.planner or 'default'}"
-        if self.trajectory_file is not None:
-            what = f"file-{self.trajectory_file.name}"
-        parts = [self.scenario_name, self.robot or "default", what, self.feedback_tracker, f"s{self.seed}"]
-        if self.noise_seed is not None:
-            parts.append(f"n{self.noise_seed}")
-        if self.control_rate != 50.0:
-            parts.append(f"{self.control_rate:g}hz")
-        return "-".join(parts)
+        file = None if self.trajectory_file is None else self.trajectory_file.name
+        fields = (self.robot, self.reference, self.planner, self.feedback_tracker, self.seed)
+        return case_name(self.scenario_name, *fields, self.noise_seed, self.control_rate, file)
 
     @property
     def scenario_name(self) -> str:
@@ -515,6 +509,31 @@ class PreparedTrajectory:
     hold: float = 0.0
     extra: Mapping[str, Any] = field(default_factory=dict)
     path: FloatArray | None = None
+
+
+def case_name(
+    scenario: str,
+    robot: str | None,
+    reference: str | None,
+    planner: str | None,
+    tracker: str,
+    seed: object,
+    noise_seed: object = None,
+    control_rate: object = 50.0,
+    trajectory_file: str | None = None,
+) -> str:
+    """The name a case without one is given (:attr:`Case.name`): scenario, robot, what it tracks, the tracker, the
+    seed, then the noise seed and the control rate where not the default. Also for a suite's case whose fields do
+    not make a case (an unregistered tracker), so its messages name it as ``--list`` does."""
+    what = reference if reference is not None else f"plan-{planner or 'default'}"
+    if trajectory_file is not None:
+        what = f"file-{trajectory_file}"
+    parts = [scenario, robot or "default", what, tracker, f"s{seed}"]
+    if noise_seed is not None:
+        parts.append(f"n{noise_seed}")
+    if control_rate != 50.0:
+        parts.append(f"{control_rate:g}hz" if isinstance(control_rate, (int, float)) else f"{control_rate}hz")
+    return "-".join(parts)
 
 
 def load_case_scenario(case: Case) -> Scenario:

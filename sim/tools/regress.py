@@ -58,6 +58,7 @@ from typing import Any, TypeGuard, get_type_hints
 from control.base import TRACKERS, load_plugins, option_takes
 from control.gains import FBLGains, resolve_gains
 from planning.core.checks import is_number
+from planning.core.plugins import PLUGIN_VARIABLE
 from planning.core.robot import ROBOT_FILES
 from planning.errors import ConfigError, NhsimError, SimulationError, option, without_python
 from planning.planners.registry import PLANNERS
@@ -69,7 +70,8 @@ from sim.physics.metrics import EstimationMetrics, TrackingMetrics
 from sim.physics.model import robot_timestep
 from sim.physics.motors import control_steps
 from sim.physics.perturb import Perturbation
-from sim.pipeline.case import Case, load_case_scenario
+from sim.pipeline.case import Case, case_name, load_case_scenario
+from sim.pipeline.runs import PLAN_TRACKER, REFERENCE_TRACKER
 from sim.pipeline.simulate import prepare_case
 from sim.robot.scan_localiser import LOCALISERS
 
@@ -285,7 +287,8 @@ def _checked(key: str, value: Any, folder: Path = Path()) -> Any:
         names = CHOICES[key]
         if not (isinstance(value, str) and (value in names or (key == "planner" and value == ""))):
             own = ' (or "" for the scenario\'s own planner)' if key == "planner" else ""
-            raise ConfigError(f"unknown {key}; choose one of {', '.join(map(json.dumps, names))}{own}")
+            plugin = f", or one a plugin registers ({PLUGIN_VARIABLE}=module)" if key in ("planner", "tracker") else ""
+            raise ConfigError(f"unknown {key}; choose one of {', '.join(map(json.dumps, names))}{own}{plugin}")
         return value
     if key in ("seed", "build_seed"):
         if key == "build_seed" and value == "nominal":
@@ -341,9 +344,11 @@ def _label(entry: Any) -> str:
         return str(entry["name"])
     try:
         return Case(**{k: _checked(k, entry[k]) for k in NAME_FIELDS if k in entry}).name
-    except (ConfigError, TypeError):  # a bad field of the name: the name it would make is no one's
-        keys = ("scenario", "robot", "reference", "planner", "tracker")
-        return "-".join(str(entry[k]) for k in keys if k in entry) or "no fields"
+    except (ConfigError, TypeError):  # a bad field (an unregistered tracker): the name as the fields make it
+        reference, planner = entry.get("reference"), entry.get("planner")
+        tracker = entry.get("tracker") or (REFERENCE_TRACKER if reference is not None else PLAN_TRACKER)
+        fields = (entry.get("robot"), reference, planner, str(tracker), entry.get("seed", 0))
+        return case_name(str(entry.get("scenario", "")), *fields, None, entry.get("control_rate", 50.0))
 
 
 def _case_from_table(entry: Any, where: str, folder: Path) -> Case:
