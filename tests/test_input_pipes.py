@@ -13,6 +13,7 @@ import subprocess
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -142,3 +143,33 @@ def test_no_output_writes_over_the_map_image_a_piped_scenario_names(
     assert main(["plan", "--scenario", str(scenario), "--plot", str(image), "--overwrite", "--quiet"]) == 2
     assert f"the output {image} is the input --scenario {scenario} (its map image" in capsys.readouterr().err
     assert image.read_bytes() == before
+
+
+@pytest.mark.parametrize("device", ["/dev/zero", "/dev/full", "/dev/null"])
+def test_a_device_given_as_an_input_is_refused_unread(device: str, capsys: pytest.CaptureFixture[str]) -> None:
+    """``regress --suite /dev/zero`` read zeros until the kernel stopped the process at 22 GB."""
+    from planning.core.files import read_input
+    from sim.cli.main import main
+
+    with pytest.raises(OSError, match="a device, not a file: give a file, or a pipe such as <"):
+        read_input(device)
+    assert main(["regress", "--suite", device, "--list", "--all"]) == 2
+    assert f"cannot read regression suite {device}: a device, not a file" in capsys.readouterr().err
+
+
+def test_montecarlo_does_not_read_a_device_given_as_its_summary(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``montecarlo --json /dev/full`` read the "old summary" to see whether it was the study's own: zeros without end,
+    22 GB; it is refused as an output now, unread."""
+    from sim.cli.montecarlo import _check_outputs
+
+    real = Path.read_text
+
+    def read_text(self: Path, *args: Any, **kwargs: Any) -> str:
+        assert not str(self).startswith("/dev/"), f"read {self}"
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "read_text", read_text)
+    with pytest.raises(ConfigError, match="cannot write /dev/full: it is a character device"):
+        _check_outputs({"results": tmp_path / "r.jsonl", "json": Path("/dev/full")}, [], overwrite=False)

@@ -10,6 +10,7 @@ process gives them again. A regular file is read anew each time (an edited file 
 
 from __future__ import annotations
 
+import errno
 import os
 import stat
 import threading
@@ -46,10 +47,13 @@ def read_input(path: str | Path) -> bytes:
     once, its later reads in this process given the same bytes (see the module's text).
 
     Raises:
-        OSError: The file cannot be read (missing, a folder, no permission).
+        OSError: The file cannot be read (missing, a folder, no permission), or is a device (``/dev/zero`` gave
+            bytes without end: a suite or a study read it until the machine ran out of memory).
     """
     name = os.fspath(path)
     info = os.stat(name)
+    if stat.S_ISCHR(info.st_mode) or stat.S_ISBLK(info.st_mode):
+        raise OSError(errno.EINVAL, "a device, not a file: give a file, or a pipe such as <(command)", name)
     if stat.S_ISREG(info.st_mode) or stat.S_ISDIR(info.st_mode):  # a folder: open() says it is one
         with open(name, "rb") as f:
             return f.read()

@@ -194,7 +194,7 @@ def _check_outputs(paths: dict[str, Path], keys: list[dict[str, Any]], overwrite
     check_distinct(paths.values())
     summary = paths["json"]
     own = False
-    if summary.exists():
+    if summary.is_file():  # a device or a pipe is not read (/dev/full gave bytes until memory ran out): refused below
         try:
             own = json.loads(summary.read_text(encoding="utf-8")).get("key") in keys
         except (OSError, ValueError, AttributeError):

@@ -58,6 +58,7 @@ from typing import Any, TypeGuard, get_type_hints
 from control.base import TRACKERS, load_plugins, option_takes
 from control.gains import FBLGains, resolve_gains
 from planning.core.checks import is_number
+from planning.core.files import read_input_text
 from planning.core.plugins import PLUGIN_VARIABLE
 from planning.core.robot import ROBOT_FILES
 from planning.errors import ConfigError, NhsimError, SimulationError, option, without_python
@@ -435,7 +436,7 @@ def _read_suite(p: Path) -> dict[str, Any]:
         ConfigError: Unreadable, not UTF-8, not TOML, or a key beside ``cases`` and ``[tolerances]``.
     """
     try:
-        text = p.read_text(encoding="utf-8-sig")  # a byte-order mark (Windows editors) is dropped
+        text = read_input_text(p)  # one read (a pipe; a device refused); a byte-order mark (Windows editors) is dropped
     except OSError as exc:
         raise ConfigError(f"cannot read regression suite {p}: {exc.strerror or exc}") from exc
     except UnicodeDecodeError as exc:
