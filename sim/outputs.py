@@ -93,7 +93,7 @@ def check_writable(path: Path, *, overwrite: bool) -> None:
     """
     overwrite = check_flag("overwrite", overwrite)
     path = Path(path)
-    _check_length(path)
+    check_length(path)
     if path.is_dir():
         raise ConfigError(f"cannot write {path}: it is a folder; give a file name")
     check_regular(path)
@@ -249,8 +249,13 @@ def _limits(path: Path) -> tuple[int, int]:
         folder = folder.parent
 
 
-def _check_length(path: Path) -> None:
-    """The name, the temporary name and both whole paths fit the file system's limits."""
+def check_length(path: Path) -> None:
+    """The name, the temporary name and both whole paths fit the file system's limits (a command looking at a
+    path before :func:`check_writable` does: a name too long makes ``is_file`` raise).
+
+    Raises:
+        ConfigError: Naming the length, the limit and the fix.
+    """
     name_max, path_max = _limits(path)
     prefix, suffix = _temporary_affixes(path)
     name = len(os.fsencode(path.name))

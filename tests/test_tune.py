@@ -932,3 +932,15 @@ def test_a_trial_left_running_before_its_first_heartbeat_is_failed_and_retried_o
     assert (failed, alive) == ([lost.number], [])
     states = [t.state for t in study.get_trials(deepcopy=False)]
     assert states == [optuna.trial.TrialState.FAIL, optuna.trial.TrialState.WAITING]  # its gains enqueued again
+
+
+def test_an_output_name_too_long_is_refused_before_any_trial(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--out`` of a 257-byte name raised OSError [Errno 36] from is_file (exit 1, a traceback)."""
+    args = _args(tmp_path, 1)
+    args[args.index("--out") + 1] = str(tmp_path / ("b" * 252 + ".toml"))
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "its name is 257 bytes long; at most 255 fit" in err and "Traceback" not in err
+    assert not (tmp_path / "study.db").exists()

@@ -584,7 +584,7 @@ def tune_files(
     """
     from planning.errors import OutputExistsError
     from sim.cli.job_outputs import check_apart_from_inputs
-    from sim.outputs import check_distinct, check_writable
+    from sim.outputs import check_distinct, check_length, check_writable
     from sim.tools.tune import check_storage, shown_url
 
     study, storage = (
@@ -618,6 +618,8 @@ def tune_files(
             raise ConfigError(
                 f"{clash[0]} is the study's own storage ({files.storage}); give --out, --json or --plots another path"
             )
+    for path in paths:
+        check_length(path)  # before is_file, which a name too long makes raise
     owners = {p: files.owner(p) for p in paths if p.is_file()}
     own = frozenset(p for p, owner in owners.items() if files.names_this_study(owner))
     for path in paths:
