@@ -222,6 +222,30 @@ def test_an_interrupt_stops_busy_workers_at_once() -> None:
             os.kill(pid, 0)
 
 
+@pytest.mark.slow  # a Dask cluster of one worker process
+def test_an_interrupt_during_the_close_of_idle_workers_waits_for_it(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A Ctrl-C just as a study's last run finished cut Dask's close of its idle workers short, and the command took
+    10.3 s to exit (Dask's finalisers waiting for the close). The close is held through now (under a second), then
+    the interrupt acts."""
+    import signal
+
+    from distributed.core import Status
+
+    ex = DaskExecutor(jobs=1)
+    cluster = ex._cluster
+    assert cluster is not None
+    real = cluster.close
+
+    def close(*args: object, **kwargs: object) -> object:
+        os.kill(os.getpid(), signal.SIGINT)  # the interrupt arrives as the close begins
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(cluster, "close", close)
+    with pytest.raises(KeyboardInterrupt):
+        ex.close()
+    assert cluster.status == Status.closed and not cluster.workers
+
+
 def test_only_the_report_of_an_interrupted_dask_wait_is_dropped() -> None:
     """Interrupted inside ``distributed.utils.sync``, Dask's cancel callback fails on the event loop's thread
     (``NameError: cannot access free variable 'future'``) and Tornado logged it beside "interrupted": that

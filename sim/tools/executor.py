@@ -104,7 +104,7 @@ class Executor:
         return self
 
     def __exit__(self, kind: type[BaseException] | None, *exc: object) -> None:
-        self.close(abandon=kind is not None and issubclass(kind, KeyboardInterrupt))
+        self.close(abandon=kind is not None)  # an interrupt, or a run's error: the runs still going are not wanted
 
 
 def _run_batch(fn: Callable[[Any, T], R], shared: Any, batch: list[T]) -> list[R]:
@@ -345,7 +345,11 @@ class DaskExecutor(Executor):
                 what that breaks (connections closed under a heartbeat or a broadcast, tasks
                 cancelled) are not shown: the command says it was interrupted.
         """
-        with _logging_off() if abandon else contextlib.nullcontext():
+        from planning.signals import signals_held
+
+        # A close of idle workers takes a fraction of a second; an interrupt that cut it short left Dask's
+        # own finalisers to wait 10 s for it. So an interrupt during it is acted on once it is done.
+        with _logging_off() if abandon else signals_held():
             if self._client is not None:
                 self._client.close()
             if self._cluster is None:
