@@ -14,6 +14,7 @@ import socket
 import threading
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -22,7 +23,7 @@ from sim.cli.main import main
 from sim.physics.perturb import PerturbationRange
 from sim.pipeline.case import Case
 from sim.tools.executor import DaskExecutor, Executor, make_executor
-from sim.tools.montecarlo import MonteCarloSpec, ResultsFile, run_montecarlo, statistics
+from sim.tools.montecarlo import MonteCarloSpec, ResultsFile, partial_path, run_montecarlo, statistics
 
 CASE = Case("open", robot="turtlebot3", reference="line", seed=3)
 
@@ -157,31 +158,61 @@ def test_the_seeds_of_a_study_with_perturbations_are_read_back_as_its_own(tmp_pa
     assert reread.records[0] == result.records[0] and reread.records[0]["perturbation"]["radius"] != 1.0
 
 
-def test_a_replaced_results_file_stays_until_the_first_new_run(serial: dict[str, object], tmp_path: Path) -> None:
-    """``montecarlo --overwrite`` deleted the other study's results file at its start, seconds before its first run
-    was written: an interrupt or a failure in between left no results file at all. Then, once replaced, an
-    interrupt left the new study's runs beside the old study's summary and plots."""
+def test_a_replaced_results_file_stays_until_the_study_is_written(serial: dict[str, object], tmp_path: Path) -> None:
+    """``montecarlo --overwrite`` deleted the other study's results file at its start; later it replaced it, and the
+    other study's summary and plots, with its first run: an interrupt then lost them, where the outputs are
+    promised to be written as one set, or not at all. Now the runs go to ``NAME.partial`` beside it, and are resumed
+    from there; the file is replaced when the study is written (sim.cli.montecarlo)."""
     theirs = tmp_path / "r.jsonl"
     theirs.write_bytes(Path(str(serial["path"])).read_bytes())
     before = theirs.read_bytes()
-    summary, plot = tmp_path / "r.json", tmp_path / "r-cdf.png"  # the other study's, made from its runs
-    summary.write_text("{}")
-    plot.write_bytes(b"png")
     other = MonteCarloSpec(Case("open", robot="turtlebot3", reference="line", seed=4), 3)
-    results = ResultsFile(theirs, other.key(), replacing=True, outdated=[summary, plot])  # not read: another study's
-    assert results.records == {} and theirs.read_bytes() == before  # kept until a run of this study ends
-    assert summary.exists() and plot.exists()  # and so are its summary and plots
+    results = ResultsFile(theirs, other.key(), replacing=True)  # not read: another study's
+    assert results.records == {} and results.file == partial_path(theirs) == tmp_path / "r.jsonl.partial"
     first = json.loads(before.splitlines()[1])  # a run record, stored as this study's first
     results.add(first)
-    header, *lines = theirs.read_text().splitlines()
+    assert theirs.read_bytes() == before  # the other study's runs stay
+    header, *lines = results.file.read_text().splitlines()
     assert json.loads(header)["key"] == other.key() and [json.loads(x) for x in lines] == [first]
-    # gone with the runs they describe: an interrupt from now on leaves this study's runs alone, resumable, where it
-    # left them beside the other study's statistics and plots
-    assert [p.name for p in tmp_path.iterdir()] == ["r.jsonl"]  # no staging file left either
-    umask = os.umask(0)
-    os.umask(umask)
-    assert theirs.stat().st_mode & 0o777 == 0o666 & ~umask  # as open() makes a file, not mkstemp's 0600
-    assert sorted(ResultsFile(theirs, other.key()).records) == [first["index"]]
+    again = ResultsFile(theirs, other.key(), replacing=True)  # the same command after an interrupt: resumed
+    assert sorted(again.records) == [first["index"]] and again.file == results.file
+    third = MonteCarloSpec(Case("open", robot="turtlebot3", reference="line", seed=5), 3)
+    assert ResultsFile(theirs, third.key(), replacing=True).records == {}  # another study's partial runs: replaced
+    assert not results.file.exists() and theirs.read_bytes() == before
+
+
+def test_an_interrupted_overwrite_leaves_the_old_study_whole_and_resumes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import sim.tools.montecarlo as mc
+
+    monkeypatch.chdir(tmp_path)
+    argv = ["montecarlo", "--scenario", "open", "--reference", "line", "--robot", "edumip", "--jobs", "1", "--quiet"]
+    argv += ["--results", "r.jsonl", "--json", "s.json", "--runs", "2"]
+    assert main([*argv, "--seed", "3"]) == 0
+    old = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    assert sorted(old) == ["r.jsonl", "s-cdf.png", "s-fan.png", "s.json"]
+    real, ran = mc.run_one, []
+
+    def interrupted(shared: Any, item: Any) -> Any:
+        if ran:
+            raise KeyboardInterrupt  # Ctrl-C during the new study's second run
+        ran.append(item)
+        return real(shared, item)
+
+    monkeypatch.setattr(mc, "run_one", interrupted)
+    assert main([*argv, "--seed", "4", "--overwrite"]) == 130
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.name in old} == old  # all of the old study
+    assert len((tmp_path / "r.jsonl.partial").read_text().splitlines()) == 2  # the header and the run finished
+    capsys.readouterr()
+    assert main([*argv, "--seed", "4"]) == 2  # without --overwrite: refused (the other study's summary first)
+    assert main([*argv[:-4], "--json", "t.json", "--runs", "2", "--seed", "4"]) == 2  # the runs waiting are named
+    assert "(runs of a study that replaces it wait in r.jsonl.partial)" in capsys.readouterr().err
+    monkeypatch.setattr(mc, "run_one", real)
+    assert main([*argv, "--seed", "4", "--overwrite"]) == 0  # resumed: one run left
+    assert json.loads((tmp_path / "s.json").read_text())["ran_now"] == 1
+    assert json.loads((tmp_path / "r.jsonl").read_text().splitlines()[0])["key"]["seed"] == 4
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(old)  # the partial file in place, no other left
 
 
 def test_perturbations_are_drawn_from_the_ranges_only() -> None:

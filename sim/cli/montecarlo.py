@@ -293,7 +293,7 @@ def run(args: argparse.Namespace) -> int:
     gl.configure(args.gl)
     from sim.pipeline.case import load_case_scenario
     from sim.tools.executor import make_executor, worker_count
-    from sim.tools.montecarlo import ResultsFile, run_montecarlo
+    from sim.tools.montecarlo import ResultsFile, partial_path, run_montecarlo
 
     worker_count(args.jobs, args.scheduler)
     spec = _spec(args)
@@ -305,16 +305,19 @@ def run(args: argparse.Namespace) -> int:
         _check_bags(args.bags, args.overwrite, input_paths(args))
     try:
         results = ResultsFile(paths["results"], spec.key(), spec.earlier_keys(), seeds=spec.record_seeds)
-    except ConfigError:
+    except ConfigError as exc:
         if not args.overwrite:  # another study's runs, or not a results file: kept
+            waiting = partial_path(paths["results"])
+            if waiting.exists():  # this command's runs of an earlier --overwrite, interrupted
+                raise ConfigError(f"{exc} (runs of a study that replaces it wait in {waiting})") from exc
             raise
-        outdated = [path for name, path in paths.items() if name != "results"]  # the other study's summary, plots
-        results = ResultsFile(paths["results"], spec.key(), replacing=True, outdated=outdated)  # kept until a run
+        # the other study's runs, summary and plots kept until this one is written (its runs in NAME.partial)
+        results = ResultsFile(paths["results"], spec.key(), replacing=True, seeds=spec.record_seeds)
     for note in results.notes:
         print(f"note: {note}", file=sys.stderr)
     if not args.quiet and results.records:
-        print(f"resuming: {len(results.records)} runs done in {paths['results']}")
-    kept = f"the finished runs are kept in {paths['results']}, and the same command resumes"
+        print(f"resuming: {len(results.records)} runs done in {results.file}")
+    kept = f"the finished runs are kept in {results.file}, and the same command resumes"
     with _bar(args, spec.runs) as bar, make_executor(args.jobs, args.scheduler, notify=bar.say, kept=kept) as executor:
         if not args.quiet:
             what = f"{scenario.name} | {scenario.robot} | {spec.key()['source']}"
@@ -333,7 +336,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"{result.retries} runs were run again after their worker died")
     record = {"key": spec.key(), "runs": spec.runs, "ran_now": result.ran, "retries": result.retries}
     record.update(statistics=stats, results=str(paths["results"]), replay_base=base)
-    _write(result, paths, record, args)
+    _write(result, paths, record, args, results)
     bags = _worst_bags(result, args.bags, args.overwrite) if args.bags is not None else []
     if not args.quiet:
         for bag in bags:
@@ -346,14 +349,19 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write(result: Any, paths: dict[str, Path], record: dict[str, Any], args: argparse.Namespace) -> None:
+def _write(result: Any, paths: dict[str, Path], record: dict[str, Any], args: argparse.Namespace, results: Any) -> None:
     """The record and the plots, as one set (:func:`sim.outputs.staged_outputs`: moved into place together, or
-    none of them); each target was checked before the study: absent, this study's, or ``--overwrite``."""
+    none of them); each target was checked before the study: absent, this study's, or ``--overwrite``. A study that
+    replaces another's results file moves its runs (``results.file``, the partial sibling) over it in the same set."""
+    import shutil
+
     from sim.outputs import staged_outputs, write_json
     from sim.viz.plots.draw import save_figure
     from sim.viz.plots.montecarlo import montecarlo_figures
 
     with staged_outputs(overwrite=True) as stage:
+        if results.replacing:  # copied in (an interrupt of the set leaves the partial runs to resume from)
+            shutil.copyfile(results.file, stage.path(paths["results"]))
         if args.plots:
             prep = result.prepared
             title = f"{prep.scenario.name} | {prep.robot.name} | {prep.source} | {result.spec.runs} runs"
@@ -361,6 +369,8 @@ def _write(result: Any, paths: dict[str, Path], record: dict[str, Any], args: ar
             for name, fig in figures.items():
                 save_figure(fig, stage.path(paths[name]))
         write_json(stage.path(paths["json"]), record)
+    if results.replacing:
+        results.file.unlink()  # in place now, as this study's results file
 
 
 def _check_bags(folder: Path, overwrite: bool, inputs: list[tuple[str, Path]]) -> None:

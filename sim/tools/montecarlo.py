@@ -35,7 +35,6 @@ from planning.core.files import read_input
 from planning.errors import ConfigError, NhsimError, option
 from planning.scenario import Scenario, load_scenario
 from planning.trajectory.importer import TrajectoryFile
-from sim.outputs import atomic_path
 from sim.physics.perturb import LIMITS, PerturbationRange
 from sim.pipeline.case import Case, PreparedTrajectory, load_case_scenario, prepare_trajectory
 from sim.pipeline.runs import DEFAULT_RUNS
@@ -355,19 +354,19 @@ class ResultsFile:
     missing, seeds other than those the study derives for its index) is refused, naming it (the file is left
     as it is).
     Each new record is appended, flushed and synced to disk before the next is taken. A new file is made with the first
-    finished run, so a study refused before any run (bad input, an unreachable scheduler) leaves none; a file it
-    replaces (``replacing``) stays as it was until then, and is then replaced at once (renamed over).
+    finished run, so a study refused before any run (bad input, an unreachable scheduler) leaves none. A file of
+    another study it replaces (``replacing``: ``--overwrite``) stays as it was, with its summary and plots, until
+    the study is done: the runs go to :attr:`file`, the sibling ``NAME.partial`` (:func:`partial_path`), resumed
+    from there by the same command, and moved over ``path`` with the new summary and plots as one set
+    (``sim.cli.montecarlo``). An interrupt or a failure before then leaves every old file as it was.
 
     Args:
         path: The file (JSON lines).
         key: The study's key (:meth:`MonteCarloSpec.key`).
         earlier: Keys an earlier nhsim wrote for the same study (:meth:`MonteCarloSpec.earlier_keys`): a file
             headed by one is this study's too.
-        replacing: The file at ``path`` (another study's, or no results file: ``--overwrite``) is not read, and is
-            replaced by this study's with its first finished run.
-        outdated: The outputs made from the file ``replacing`` replaces (its study's summary and plots), removed as
-            it is replaced (in one step an interrupt waits for): an interrupted study then leaves its own runs,
-            not beside another study's summary.
+        replacing: The file at ``path`` (another study's, or no results file: ``--overwrite``) is not read; this
+            study's runs go to (and resume from) :func:`partial_path` of it until the study is written.
         seeds: What the study's runs' records name of them, by index (:meth:`MonteCarloSpec.record_seeds`, called
             only when there is a file to read): a record whose seeds or perturbation differ from its index's, a
             failed plan's included, is refused (none given: unchecked).
@@ -386,10 +385,8 @@ class ResultsFile:
         *,
         replacing: bool = False,
         seeds: Callable[[], Sequence[Mapping[str, Any]]] | None = None,
-        outdated: Sequence[Path] = (),
     ) -> None:
         self.path, self.key = Path(path), dict(key)
-        self.outdated = [Path(p) for p in outdated]
         self._seeds = seeds
         self.earlier = [dict(k) for k in earlier]
         self.code = code_digest() if code is None else code
@@ -397,18 +394,27 @@ class ResultsFile:
         #: What reading the file did that the user should hear of (a last line cut short, dropped).
         self.notes: list[str] = []
         self.replacing = replacing and self.path.exists()
-        if self.path.exists() and not self.replacing:
-            self._read()
+        #: The file the runs are read from and appended to: ``path``, or its partial sibling while it replaces it.
+        self.file = partial_path(self.path) if self.replacing else self.path
+        if self.file.exists():
+            try:
+                self._read()
+            except ConfigError:
+                if not self.replacing:
+                    raise
+                self.file.unlink()  # another study's partial runs, or none: --overwrite replaces them too
+                self.records.clear()
+                self.notes.clear()
 
     def _read(self) -> None:
-        raw = self.path.read_bytes()
+        raw = self.file.read_bytes()
         lines = raw.split(b"\n")
         try:
             header = json.loads(lines[0])
             theirs = header["key"]
         except (ValueError, KeyError, TypeError) as exc:
             raise ConfigError(
-                f"{self.path} is not an nhsim montecarlo results file; choose another {_RESULTS}, or {_REPLACE} to "
+                f"{self.file} is not an nhsim montecarlo results file; choose another {_RESULTS}, or {_REPLACE} to "
                 "replace it"
             ) from exc
         if theirs != self.key and theirs not in self.earlier:
@@ -418,13 +424,13 @@ class ResultsFile:
                 if theirs.get(k) != self.key.get(k)
             )
             raise ConfigError(
-                f"{self.path} holds the runs of another study ({diff}); give another {_RESULTS}, the same "
+                f"{self.file} holds the runs of another study ({diff}); give another {_RESULTS}, the same "
                 f"settings, or {_REPLACE} to replace it"
             )
         if header.get("code") != self.code:  # the same settings, other code: its runs are not this code's
             made = f"by other code (digest {header['code']})" if header.get("code") else "before runs named their code"
             raise ConfigError(
-                f"{self.path} holds runs of this study made {made}, not this nhsim's (digest {self.code}: its "
+                f"{self.file} holds runs of this study made {made}, not this nhsim's (digest {self.code}: its "
                 f"planners, trackers, physics and models); runs of both would be mixed: give {_REPLACE} to run the "
                 f"study again, or another {_RESULTS}"
             )
@@ -452,56 +458,44 @@ class ResultsFile:
                 raise self._bad_line(number, problem)
             self.records[int(rec["index"])] = rec
         if torn:  # a whole last record without its newline: ended, so that the next record starts a line
-            with self.path.open("ab") as f:
+            with self.file.open("ab") as f:
                 f.write(b"\n")
 
     def _drop_torn_line(self, raw: bytes, start: int, number: int) -> None:
-        with self.path.open("r+b") as f:
+        with self.file.open("r+b") as f:
             f.truncate(start)
         self.notes.append(
-            f"{self.path}: dropped its last line (line {number}, {len(raw) - start} bytes cut short, a run "
+            f"{self.file}: dropped its last line (line {number}, {len(raw) - start} bytes cut short, a run "
             "interrupted while it was written); that run is done again"
         )
 
     def _bad_line(self, number: int, problem: str) -> ConfigError:
         return ConfigError(
-            f"{self.path}, line {number}: {problem}; the file was changed by something other than nhsim (an "
+            f"{self.file}, line {number}: {problem}; the file was changed by something other than nhsim (an "
             "interrupted write can only cut its last line short), and nothing was removed from it: repair or "
             f"delete that line (its run is then done again), give another {_RESULTS}, or {_REPLACE} to run the "
             "whole study again"
         )
 
     def _append(self, obj: Mapping[str, Any]) -> None:
-        with self.path.open("a", encoding="utf-8") as f:
+        with self.file.open("a", encoding="utf-8") as f:
             f.write(json.dumps(obj, allow_nan=False) + "\n")
             f.flush()
             os.fsync(f.fileno())
 
     def add(self, record: dict[str, Any]) -> None:
-        """Store a finished run (the file and its header made with the first; a file replaced, renamed over)."""
-        header = {"nhsim_montecarlo": RESULTS_VERSION, "key": self.key, "code": self.code}
-        if self.replacing:
-            self._replace_with(header, record)
-        else:
-            if not self.path.exists():
-                self.path.parent.mkdir(parents=True, exist_ok=True)
-                self._append(header)
-            self._append(record)
+        """Store a finished run (the file and its header made with the first)."""
+        if not self.file.exists():
+            self.file.parent.mkdir(parents=True, exist_ok=True)
+            self._append({"nhsim_montecarlo": RESULTS_VERSION, "key": self.key, "code": self.code})
+        self._append(record)
         self.records[int(record["index"])] = record
 
-    def _replace_with(self, *lines: Mapping[str, Any]) -> None:
-        """The file replaced by ``lines`` at once: written beside it, synced, and renamed over it; the outputs made
-        from the old one (:attr:`outdated`) removed with it."""
-        from planning.signals import signals_held
 
-        with signals_held():
-            with atomic_path(self.path, overwrite=True) as tmp, tmp.open("w", encoding="utf-8") as f:
-                f.writelines(json.dumps(obj, allow_nan=False) + "\n" for obj in lines)
-                f.flush()
-                os.fsync(f.fileno())
-            for path in self.outdated:
-                path.unlink(missing_ok=True)
-        self.replacing = False
+def partial_path(path: Path) -> Path:
+    """Where a study that replaces another's results file ``path`` keeps its runs until it is written: ``NAME.partial``
+    beside it."""
+    return path.with_name(path.name + ".partial")
 
 
 @dataclass(frozen=True)
