@@ -315,3 +315,23 @@ def test_a_benchmark_verdict_reads_apart_from_its_target() -> None:
     assert against(0.9903, 0.99, 3) == "0.9903" and against(0.99, 0.99, 3) == "0.990"
     assert against(0.981, 0.99, 3) == "0.981" and against(1.0049, 1.0, 2) == "1.005"
     assert against(float("inf"), 1.0, 2) == "inf" and against(float("nan"), 1.0, 2) == "-"
+
+
+def test_a_full_disk_while_appending_a_run_names_the_results_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A full disk under the results file said "could not write: No space left on device", naming no file."""
+    from sim.cli.main import could_not_write
+
+    results = ResultsFile(tmp_path / "mc.jsonl", KEY, code="c0de")
+
+    def full(fd: int) -> None:
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(os, "fsync", full)
+    with pytest.raises(OSError) as err:
+        results.add(json.loads(_record(0)))
+    assert err.value.filename == str(tmp_path / "mc.jsonl")
+    assert could_not_write(err.value, "montecarlo").startswith(
+        f"could not write {tmp_path / 'mc.jsonl'}: No space left"
+    )

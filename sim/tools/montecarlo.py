@@ -478,10 +478,15 @@ class ResultsFile:
         )
 
     def _append(self, obj: Mapping[str, Any]) -> None:
-        with self.file.open("a", encoding="utf-8") as f:
-            f.write(json.dumps(obj, allow_nan=False) + "\n")
-            f.flush()
-            os.fsync(f.fileno())
+        try:
+            with self.file.open("a", encoding="utf-8") as f:
+                f.write(json.dumps(obj, allow_nan=False) + "\n")
+                f.flush()
+                os.fsync(f.fileno())
+        except OSError as exc:  # a write's error names no file: this one is named (could not write FILE)
+            if exc.filename is not None:
+                raise
+            raise OSError(exc.errno, exc.strerror, str(self.file)) from exc
 
     def add(self, record: dict[str, Any]) -> None:
         """Store a finished run (the file and its header made with the first)."""
