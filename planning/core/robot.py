@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.checks import check_number
 from planning.errors import ConfigError, ModelError
 
 FloatArray = NDArray[np.float64]
@@ -157,8 +158,6 @@ def check_spec(spec: RobotSpec) -> None:
     Raises:
         ConfigError: The first number that is not (named, with the model numeric it is read from).
     """
-    from planning.core.checks import check_number
-
     def where(name: str) -> str:
         return f"robot {spec.name!r}: {name} ({NUMERICS[name]})" if name in NUMERICS else f"robot {spec.name!r}: {name}"
 
