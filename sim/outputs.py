@@ -215,6 +215,10 @@ def check_distinct(paths: Iterable[Path] | Mapping[str, Path]) -> None:
 
 #: Characters ``tempfile.mkstemp`` puts between its prefix and suffix.
 _RANDOM_CHARS = 8
+#: The outputs this process has moved into place (:meth:`StagedOutputs.commit`), in order: an interrupt acted on
+#: after a commit (held through it) says what was written, so a command saying "interrupted" is not taken to have
+#: written nothing (``regress --update`` had replaced every baseline).
+PLACED: list[Path] = []
 #: The folder beside a staged output that holds it until every output of the command is written
 #: (:class:`StagedOutputs`): ``.nhsim-outputs-XXXXXXXX.part``, the new outputs in its ``new`` folder.
 _STAGE_PREFIX, _STAGE_SUFFIX = ".nhsim-outputs-", ".part"
@@ -524,6 +528,7 @@ class StagedOutputs:
                 kept = self._undo(done)
                 raise OutputsNotPlacedError(_not_placed(current, exc, kept)) from exc
             self.committed = True
+            PLACED.extend(t for t, _ in ready)
         return [t for t, _ in ready]
 
     def _undo(self, done: list[tuple[Path, Path, Path | None]]) -> str:

@@ -876,3 +876,32 @@ def test_a_hangup_while_encoding_is_an_interrupt_leaving_no_staging_folder(tmp_p
     stopped = stop_when(args, tmp_path, encoding, signal.SIGHUP)
     assert_interrupted(stopped, "simulate", tmp_path)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_interrupt_after_the_outputs_are_placed_says_what_was_written(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """An interrupt held through the placing of the outputs acts after it: ``regress --update`` then said
+    "interrupted" (exit 130) of baselines it had all replaced, and printed none of its "updated" lines."""
+    from sim.cli.main import main
+    from sim.outputs import StagedOutputs
+
+    real = StagedOutputs.commit
+
+    def then_interrupted(self: StagedOutputs) -> list[Path]:
+        real(self)
+        raise KeyboardInterrupt  # the Ctrl-C that came during the placing, delivered as it ends
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(StagedOutputs, "commit", then_interrupted)
+    assert main(["plan", "--scenario", "simple_motion", "--planner", "rrt", "--json", "p.json"]) == 130
+    assert capsys.readouterr().err.strip() == "nhsim plan: interrupted, after writing p.json"
+    assert (tmp_path / "p.json").is_file()
+    import sim.cli.plan
+
+    def interrupted(args: object) -> int:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sim.cli.plan, "run", interrupted)  # the next command writes nothing: nothing said of it
+    assert main(["plan", "--scenario", "simple_motion", "--planner", "rrt"]) == 130
+    assert capsys.readouterr().err.strip() == "nhsim plan: interrupted"

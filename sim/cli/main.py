@@ -241,6 +241,16 @@ def console() -> int:
     return code
 
 
+def _after_writing() -> str:
+    """What an interrupt's line adds when outputs were already placed (:data:`sim.outputs.PLACED`): ", after writing
+    A, B and N more"; "" when none was (outputs are placed in one step the interrupt waits for)."""
+    placed = sys.modules["sim.outputs"].PLACED if "sim.outputs" in sys.modules else []
+    if not placed:
+        return ""
+    names = ", ".join(str(p) for p in placed[:3]) + (f" and {len(placed) - 3} more" if len(placed) > 3 else "")
+    return f", after writing {names}"
+
+
 def say_interrupted(text: str) -> None:
     """Print ``text`` on stderr, where it may fail: a terminal that hung up (its SIGHUP is an interrupt) takes
     no more writes (EIO). Then the text is lost, and stderr is pointed at /dev/null, so that neither this
@@ -263,6 +273,8 @@ def _main(argv: Sequence[str] | None) -> int:
         parser.print_help()
         return 2
     name = " ".join(filter(None, (args.command, getattr(args, "benchmark", None))))  # ``bench render``
+    if "sim.outputs" in sys.modules:  # a program running several commands: this one's outputs only
+        sys.modules["sim.outputs"].PLACED.clear()
     try:
         from sim.viz import gl
 
@@ -279,7 +291,7 @@ def _main(argv: Sequence[str] | None) -> int:
         _say_failure(f"nhsim {name}: error: {without_python(str(exc))}", exc)
         return 2
     except KeyboardInterrupt:
-        say_interrupted(f"nhsim {name}: interrupted")
+        say_interrupted(f"nhsim {name}: interrupted{_after_writing()}")
         return 130
     except OSError as exc:
         if exc.errno not in WRITE_FAILURES:
