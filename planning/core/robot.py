@@ -158,6 +158,7 @@ def check_spec(spec: RobotSpec) -> None:
     Raises:
         ConfigError: The first number that is not (named, with the model numeric it is read from).
     """
+
     def where(name: str) -> str:
         return f"robot {spec.name!r}: {name} ({NUMERICS[name]})" if name in NUMERICS else f"robot {spec.name!r}: {name}"
 
