@@ -213,13 +213,16 @@ def test_a_trackers_own_nhsim_error_passes_as_it_is(line: tuple[Simulator, Traje
 
 
 def test_a_trackers_exception_fails_compare_with_one_line(
-    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Any
 ) -> None:
-    """One line, as a failing planner's, not a traceback."""
+    """One line, as a failing planner's, not a traceback; with no run but failed ones, no output is written (the plots
+    said "nothing to render", exit 2)."""
     from sim.cli.main import main
 
     _registered(monkeypatch, "boom", Boom)
-    assert main(["compare", "--reference", "line", "--trackers", "boom", "--quiet"]) == 1
+    record = tmp_path / "c.json"
+    assert main(["compare", "--reference", "line", "--trackers", "boom", "--quiet", "--json", str(record)]) == 1
+    assert not record.exists()
     err = capsys.readouterr().err
     assert err.startswith(
         "nhsim compare: simulation failed: tracker 'boom' (registered by this program's own code) raised "

@@ -184,9 +184,10 @@ def run(args: argparse.Namespace) -> int:
     print(format_table(result))
     for line in tracker_notes(case.reference is not None, names):
         print(f"nhsim compare: {line}", file=sys.stderr)
-    _write(result, outputs, overwrite=args.overwrite)
     failed = [r.exception for r in result.runs if r.exception is not None]
-    if failed:  # the table and the files hold every tracker's runs; the first failure is the command's error line
+    if len(failed) < len(result.runs):  # the files hold every run; with none but failed runs, there is nothing
+        _write(result, outputs, overwrite=args.overwrite)
+    if failed:  # the first failure is the command's error line
         raise failed[0]
     return 1 if result.ended_early() else 0
 
