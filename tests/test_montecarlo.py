@@ -564,6 +564,22 @@ def test_a_silent_server_at_the_scheduler_address_fails_in_the_promised_time(
     assert "accepted the connection but sent nothing within 2 s" in err
 
 
+def test_a_refused_scheduler_is_waited_for_saying_so(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], short_connect: float
+) -> None:
+    """Refused connections are retried to the deadline (a scheduler still starting refuses them), 10 s by default,
+    without a word; a wait past a second says so."""
+    import socket
+
+    monkeypatch.chdir(tmp_path)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]  # closed again: nothing listens there
+    err = _scheduler_refused(f"tcp://127.0.0.1:{port}", capsys, short_connect)
+    assert f"waiting for the Dask scheduler at tcp://127.0.0.1:{port} (Connection refused), up to 2 s" in err
+    assert err.count("waiting for") == 1 and f"cannot reach the Dask scheduler at tcp://127.0.0.1:{port}" in err
+
+
 @pytest.mark.slow  # a Dask cluster of worker processes
 def test_simulate_all_and_regress_run_on_a_scheduler_without_jobs(capsys: pytest.CaptureFixture[str]) -> None:
     """``--scheduler`` alone: the commands' own default of one process is not a given ``--jobs``."""

@@ -151,7 +151,7 @@ class DaskExecutor(Executor):
         self._notify = notify or _warn
         self._kept = kept
         if address is not None:
-            check_scheduler(address, CONNECT_TIMEOUT_S)
+            check_scheduler(address, CONNECT_TIMEOUT_S, self._notify)
             try:
                 self._client = Client(address, timeout=CONNECT_TIMEOUT_S)
             except (OSError, TimeoutError) as exc:
@@ -428,7 +428,7 @@ def _advice(address: str) -> str:
     )
 
 
-def check_scheduler(address: str, timeout: float) -> None:
+def check_scheduler(address: str, timeout: float, notify: Callable[[str], None] | None = None) -> None:
     """Check that a Dask scheduler answers at ``address`` within ``timeout`` seconds, before Dask's
     client connects: the client's handshake waits without a deadline for a silent server and reads
     any other server's reply as the length of a Dask message (an HTTP reply asks for exabytes).
@@ -442,6 +442,8 @@ def check_scheduler(address: str, timeout: float) -> None:
     Args:
         address: ``tcp://HOST:PORT`` or ``HOST:PORT`` (Dask's address forms).
         timeout: Seconds for all of it.
+        notify: Told once when refused connections have been retried for a second (the wait goes on to the
+            deadline, as a scheduler still starting refuses them): a wait past a second says so.
 
     Raises:
         ConfigError: Not an address, nothing reachable, or something other than a Dask scheduler
@@ -451,7 +453,7 @@ def check_scheduler(address: str, timeout: float) -> None:
     if scheme != "tcp":
         return
     deadline = time.monotonic() + timeout
-    sock = _connect(address, host, port, deadline, timeout)
+    sock = _connect(address, host, port, deadline, timeout, notify)
     with sock:
         answer = _greeting(sock, deadline, timeout)
     if answer is None:
@@ -478,8 +480,12 @@ def scheduler_address(address: str) -> tuple[str, str, int]:
     return scheme, host, port
 
 
-def _connect(address: str, host: str, port: int, deadline: float, timeout: float) -> socket.socket:
-    """A TCP connection to ``host:port``, retried until ``deadline`` while refused."""
+def _connect(
+    address: str, host: str, port: int, deadline: float, timeout: float, notify: Callable[[str], None] | None = None
+) -> socket.socket:
+    """A TCP connection to ``host:port``, retried until ``deadline`` while refused (``notify`` told once, after a
+    second of it)."""
+    said_at = time.monotonic() + 1.0
     while True:
         try:
             return socket.create_connection((host, port), timeout=max(0.01, deadline - time.monotonic()))
@@ -490,6 +496,9 @@ def _connect(address: str, host: str, port: int, deadline: float, timeout: float
                 raise ConfigError(
                     f"cannot reach the Dask scheduler at {address} within {timeout:g} s ({exc}); {_advice(address)}"
                 ) from exc
+            if notify is not None and time.monotonic() >= said_at:
+                notify(f"waiting for the Dask scheduler at {address} ({exc.strerror or exc}), up to {timeout:g} s")
+                notify = None
             time.sleep(0.1)
 
 
