@@ -184,7 +184,8 @@ def test_unreachable_goal_times_out_on_iterations():
     assert "1500 iterations" in res.reason
     # the door is 1 mm too narrow, which the proof's 1 cm cells cannot show: the reason says no route keeps
     # the clearance and a millimetre, and what to do; a run cut short where a route exists says nothing of it
-    assert "a 2-D route search finds no way keeping the axle centre 0.401 m" in res.reason
+    assert "a 2-D route search over 0.01 m cells finds no way keeping the axle centre 0.401 m" in res.reason
+    assert "passes a pinch with under 8 mm to spare" in res.reason  # a millimetre and half a cell's diagonal
     assert "lower center_clearance, or plan with hybrid-a-star or rrt-star" in res.reason
     short = CRRTStar(max_iterations=5).plan(_enclosed_goal_problem(door=0.86, time_limit=60.0))
     assert short.status is PlanStatus.TIMEOUT and "route" not in short.reason

@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import math
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -76,6 +77,11 @@ PROOF_MAX_CELLS = 1_000_000
 ROUTE_MARGIN = 0.02
 #: Longest a run that did not reach the goal spends looking for a 2-D route to say none exists [s].
 NO_ROUTE_S = 0.3
+#: Cell side of that search [m] (coarser where the world would need more cells than a route takes): a way between
+#: cell centres is missed when it keeps the clearance by less than half a cell's diagonal, said in the reason (with
+#: the planners' 5 cm cells a 0.26 m corridor, 2.5 mm wider than the TurtleBot3 needs, was said to pass "a pinch with
+#: under a millimetre to spare").
+NO_ROUTE_CELL = 0.01
 #: Refining to the budget (``stop_at_goal`` False) with ``simplify``, the share of the time limit the
 #: sampling leaves to the simplification once the goal has joined the tree.
 SIMPLIFY_SHARE = 0.1
@@ -574,20 +580,23 @@ class _Search:
         )
 
     def _no_route(self) -> str:
-        """What a run that did not reach the goal may add: that no 2-D route keeps the clearance and a
-        millimetre (the feasibility check's 1 cm cells leave open whether a way narrower than a cell
-        exists; the sampler almost never lands in one: random worlds 1005, 1012 and 1014 for the EduMIP),
-        with what to do; "" when one does, or when looking would take longer than :data:`NO_ROUTE_S`."""
+        """What a run that did not reach the goal may add: that no 2-D route over :data:`NO_ROUTE_CELL` cells keeps
+        the clearance and a millimetre (a way between cell centres, keeping the clearance by less than half a cell's
+        diagonal, is not seen; the sampler almost never lands in such a pinch: random worlds 1005, 1012 and 1014 for
+        the EduMIP), with what to do; "" when one does, or when looking would take longer than :data:`NO_ROUTE_S`."""
         p, radius = self.problem, self.required + 1e-3
+        cell = p.world.grid_spacing(NO_ROUTE_CELL, geodesic.MAX_CELLS)
         try:
             deadline = time.perf_counter() + NO_ROUTE_S
-            way = geodesic.route(p.world, p.start.as_array(), p.goal.as_array(), radius, deadline=deadline)
+            way = geodesic.route(p.world, p.start.as_array(), p.goal.as_array(), radius, cell, deadline=deadline)
         except FieldTimeout:
             return ""
         if way is not None:
             return ""
+        spare = 1e-3 + cell * math.sqrt(0.5)  # the millimetre asked, and half a cell's diagonal
         return (
-            f"; a 2-D route search finds no way keeping the axle centre {radius:.3f} m from every obstacle and "
-            "wall either: a way that keeps the clearance, if any, passes a pinch with under a millimetre to spare, "
-            "where samples almost never land; lower center_clearance, or plan with hybrid-a-star or rrt-star"
+            f"; a 2-D route search over {cell:g} m cells finds no way keeping the axle centre {radius:.4g} m from "
+            f"every obstacle and wall either: a way that keeps the clearance, if any, passes a pinch with under "
+            f"{spare * 1000:.0f} mm to spare, where samples almost never land; lower center_clearance, or plan with "
+            "hybrid-a-star or rrt-star"
         )
