@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from planning.collision.overlap import footprint_overlap
+from planning.collision.overlap import footprint_overlaps
 from planning.core.checks import check_number, degrees_hint, heading_beyond
 from planning.core.files import descriptor_path, read_input_text
 from planning.core.geometry import Pose2D, wrap_angle
@@ -504,10 +504,10 @@ def check_ends_fit(scenario: Scenario) -> None:
     where = scenario_source(scenario)
     for label, pose in (("start", scenario.start), ("goal", scenario.goal)):
         _check_inside(where, scenario.world, robot, label, pose)
-        hit = footprint_overlap(scenario.world, robot, pose)
-        if hit is None:
+        hits = footprint_overlaps(scenario.world, robot, pose)
+        if not hits:
             continue
-        clr, what, move = hit
+        clr, what, move = min(hits, key=lambda f: (f[0], -f[2]))
         exact = _exact_clearance(scenario.world, robot, pose) if clr > -np.inf else -np.inf
         if clr == -np.inf:
             said = f"holds part of {what} (the pose is inside an obstacle for this robot)"
@@ -520,12 +520,25 @@ def check_ends_fit(scenario: Scenario) -> None:
         else:
             said = f"overlaps {what} by {-1e3 * exact:.1f} mm (the planners' check reads {clr:.3f} m)"
         reach = f" (the {robot.name} reaches {robot.radius:.3f} m from its centre)" if clr == -np.inf else ""
+        if len(hits) > 1:  # moved away from one it may meet another (a slot narrower than the robot): no distance
+            others = " and ".join(h[1] for h in hits if h[1] != what)
+            raise ScenarioError(
+                f"{where}: field '{label}.pose': {[round(v, 6) for v in pose.as_array().tolist()]} is not free for "
+                f"robot {robot.name!r}: its footprint there {said}, and overlaps {others} too; move the {label} "
+                f"clear of all of them (the {robot.name}'s footprint is {_footprint_size(robot)}), or turn it"
+            )
         raise ScenarioError(
             f"{where}: field '{label}.pose': {[round(v, 6) for v in pose.as_array().tolist()]} is not free for "
             f"robot {robot.name!r}: its footprint there {said}; move the {label} more than "
             f"{math.ceil(max(move, 0.001) * 1e3 - 1e-9) / 1e3:.3f} m away from "
             f"{'them' if what.startswith('the walls') else 'it'}{reach}"
         )
+
+
+def _footprint_size(robot: RobotSpec) -> str:
+    """The footprint's extent, as a message says it: "0.178 m across, 0.152 m long"."""
+    (x0, y0), (x1, y1) = robot.footprint.min(axis=0), robot.footprint.max(axis=0)
+    return f"{y1 - y0:.3f} m across, {x1 - x0:.3f} m long"
 
 
 def _scenario_robot(scenario: Scenario) -> RobotSpec:

@@ -348,3 +348,33 @@ def test_a_robot_a_scenario_file_does_not_list_is_refused_naming_the_robots_line
     assert scenario_with_robot(load_scenario(path), "edumip").robot == "edumip"
     with pytest.raises(ConfigError, match=r'add robots = \["turtlebot3", "edumip"\] to a copy of the scenario'):
         scenario_with_robot(load_scenario("three_point_turn"), "edumip")  # a built-in's file is not to be edited
+
+
+def test_a_pose_in_a_slot_narrower_than_the_robot_names_both_sides(tmp_path: Path) -> None:
+    """The advice named the nearer box alone ("move the goal more than 0.012 m away from it"), which put the
+    footprint on the other one: the slot (0.16 m) is narrower than the TurtleBot3 (0.178 m across)."""
+    from planning.scenario import scenario_with_robot
+
+    text = """name = "slot"
+[world]
+bounds = [0.0, 3.5, 0.0, 2.0]
+[[world.obstacles]]
+type = "box"
+center = [2.5, 0.46]
+size = [1.0, 0.92]
+[[world.obstacles]]
+type = "box"
+center = [2.5, 1.54]
+size = [1.0, 0.92]
+[start]
+pose = [0.5, 1.0, 0.0]
+[goal]
+pose = [2.8, 1.0, 3.14159]
+"""
+    with pytest.raises(ScenarioError) as err:
+        scenario_with_robot(load_scenario(_write(tmp_path, text)), None)
+    said = str(err.value)
+    assert "overlaps the box at x 2..3, y 0..0.92 by" in said
+    assert "and overlaps the box at x 2..3, y 1.08..2 too" in said
+    fix = "move the goal clear of all of them (the turtlebot3's footprint is 0.178 m across, 0.144 m long), or turn it"
+    assert said.endswith(fix)

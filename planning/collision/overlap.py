@@ -25,8 +25,14 @@ def footprint_overlap(world: World, robot: RobotSpec, pose: Pose2D) -> tuple[flo
     """What ``robot``'s footprint at ``pose`` overlaps the most: (the footprint's clearance from it [m], the wall
     or obstacle named, e.g. ``"the wall x = 3"`` or ``"the circle at x 2.7..3.3, y 1.2..1.8"``, how far the pose must
     move away from it [m]); None when the footprint is clear (by the planners' check, :func:`end_clearance`)."""
+    return min(footprint_overlaps(world, robot, pose), key=lambda f: (f[0], -f[2]), default=None)
+
+
+def footprint_overlaps(world: World, robot: RobotSpec, pose: Pose2D) -> list[tuple[float, str, float]]:
+    """Everything ``robot``'s footprint at ``pose`` overlaps, each as :func:`footprint_overlap` gives the worst:
+    the walls as one, then each obstacle; empty when the footprint is clear."""
     if float(world.signed_distance(pose.xy)[0]) > robot.radius or end_clearance(world, robot, pose) > 0:
-        return None  # (the footprint lies within the robot's radius of its centre: clear when nothing is nearer)
+        return []  # (the footprint lies within the robot's radius of its centre: clear when nothing is nearer)
     found: list[tuple[float, str, float]] = []
     walls = end_clearance(World(world.bounds), robot, pose)
     if walls <= 0:
@@ -47,4 +53,4 @@ def footprint_overlap(world: World, robot: RobotSpec, pose: Pose2D) -> tuple[flo
             bx0, bx1, by0, by1 = ob.bounding_box()
             what = f"the {ob.kind} at x {bx0:.3g}..{bx1:.3g}, y {by0:.3g}..{by1:.3g}"
             found.append((clr, what, -clr if np.isfinite(clr) else robot.radius - centre))
-    return min(found, key=lambda f: (f[0], -f[2]), default=None)
+    return found
