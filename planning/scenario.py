@@ -49,6 +49,7 @@ from planning.core.world import (
     Polygon,
     World,
     lies_outside,
+    span,
     too_thin,
 )
 from planning.errors import ConfigError, ScenarioError, option
@@ -328,14 +329,7 @@ def _check_obstacles(
     """Refuse an obstacle of the array ``field_name`` (``world.obstacles``, ``world.unmapped``) that lies wholly
     outside ``bounds`` (it could never be met: a typo?) or is too thin to simulate."""
     for i, ob in enumerate(obstacles):
-        if _outside(ob, bounds):
-            bx0, bx1, by0, by1 = ob.bounding_box()
-            raise ScenarioError(
-                f"{r.where}: field '{field_name}[{i}]': this {ob.kind} lies wholly outside the world "
-                f"bounds {list(bounds)} (its box spans x {bx0:g}..{bx1:g}, y {by0:g}..{by1:g}); "
-                "move it inside, or remove it"
-            )
-        if why := too_thin(ob):
+        if why := lies_outside(ob, bounds) or too_thin(ob):
             raise ScenarioError(f"{r.where}: field '{field_name}[{i}]': this {ob.kind} {why}")
 
 
@@ -520,17 +514,18 @@ def check_ends_fit(scenario: Scenario) -> None:
         else:
             said = f"overlaps {what} by {-1e3 * exact:.1f} mm (the planners' check reads {clr:.3f} m)"
         reach = f" (the {robot.name} reaches {robot.radius:.3f} m from its centre)" if clr == -np.inf else ""
+        head = (
+            f"{where}: field '{label}.pose': {[round(v, 6) for v in pose.as_array().tolist()]} is not free for "
+            f"robot {robot.name!r}: its footprint there {said}"
+        )
         if len(hits) > 1:  # moved away from one it may meet another (a slot narrower than the robot): no distance
             others = " and ".join(h[1] for h in hits if h[1] != what)
             raise ScenarioError(
-                f"{where}: field '{label}.pose': {[round(v, 6) for v in pose.as_array().tolist()]} is not free for "
-                f"robot {robot.name!r}: its footprint there {said}, and overlaps {others} too; move the {label} "
-                f"clear of all of them (the {robot.name}'s footprint is {_footprint_size(robot)}), or turn it"
+                f"{head}, and overlaps {others} too; move the {label} clear of all of them (the {robot.name}'s "
+                f"footprint is {_footprint_size(robot)}), or turn it"
             )
         raise ScenarioError(
-            f"{where}: field '{label}.pose': {[round(v, 6) for v in pose.as_array().tolist()]} is not free for "
-            f"robot {robot.name!r}: its footprint there {said}; move the {label} more than "
-            f"{math.ceil(max(move, 0.001) * 1e3 - 1e-9) / 1e3:.3f} m away from "
+            f"{head}; move the {label} more than {math.ceil(max(move, 0.001) * 1e3 - 1e-9) / 1e3:.3f} m away from "
             f"{'them' if what.startswith('the walls') else 'it'}{reach}"
         )
 
@@ -563,10 +558,9 @@ def _check_inside(where: str, world: World, robot: RobotSpec, label: str, pose: 
     """
     if float(world.wall_distance(pose.xy)[0]) > 0:
         return
-    xmin, xmax, ymin, ymax = world.bounds
     raise ScenarioError(
         f"{where}: field '{label}.pose': {[round(v, 6) for v in pose.as_array().tolist()]} lies outside the world "
-        f"(the map), whose bounds are x {xmin:g}..{xmax:g}, y {ymin:g}..{ymax:g}: move the "
+        f"(the map), whose bounds are {span(*world.bounds)}: move the "
         f"{label} inside them, more than {robot.radius:.3f} m from every wall (the {robot.name} reaches that far "
         "from its centre), or widen the world's bounds"
     )

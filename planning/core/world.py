@@ -346,6 +346,11 @@ def too_thin(ob: Obstacle) -> str:
     )
 
 
+def span(xmin: float, xmax: float, ymin: float, ymax: float) -> str:
+    """A box [m] as a message says it: "x 0..2, y 0..1.2"."""
+    return f"x {xmin:g}..{xmax:g}, y {ymin:g}..{ymax:g}"
+
+
 def lies_outside(ob: Obstacle, bounds: tuple[float, float, float, float]) -> str:
     """Why ``ob`` cannot be in a world of ``bounds`` (xmin, xmax, ymin, ymax) [m], as "lies wholly outside the
     world bounds ...; move it inside, or remove it" (it could never be met: a typo, centimetres for metres?); ""
@@ -354,7 +359,7 @@ def lies_outside(ob: Obstacle, bounds: tuple[float, float, float, float]) -> str
     if not (bx1 <= bounds[0] or bx0 >= bounds[1] or by1 <= bounds[2] or by0 >= bounds[3]):
         return ""
     return (
-        f"lies wholly outside the world bounds {list(bounds)} (its box spans x {bx0:g}..{bx1:g}, y {by0:g}..{by1:g}); "
+        f"lies wholly outside the world bounds {list(bounds)} (its box spans {span(bx0, bx1, by0, by1)}); "
         "move it inside, or remove it"
     )
 

@@ -17,7 +17,7 @@ from planning.core.checks import check_number
 from planning.core.geometry import Pose2D, check_pose, densify_path, path_length, path_steps, wrap_angle
 from planning.core.robot import RobotSpec, check_robot_spec, load_robot
 from planning.core.scenario_type import Scenario, check_heading_tolerance
-from planning.core.world import World, check_world
+from planning.core.world import World, check_world, span
 from planning.errors import ConfigError, NhsimError, PlannerError
 
 FloatArray = NDArray[np.float64]
@@ -114,7 +114,6 @@ def checked_problem(problem: object) -> PlanProblem:
 def end_outside(problem: PlanProblem, planner: str, stats: dict[str, Any] | None = None) -> PlanResult | None:
     """The ``INVALID_START`` / ``INVALID_GOAL`` result of a start or goal whose position lies outside the world's
     bounds (on a wall counts as outside), said alike by every planner; None when both lie inside."""
-    x0, x1, y0, y1 = problem.world.bounds
     for which, pose, status in (
         ("start", problem.start, PlanStatus.INVALID_START),
         ("goal", problem.goal, PlanStatus.INVALID_GOAL),
@@ -122,7 +121,7 @@ def end_outside(problem: PlanProblem, planner: str, stats: dict[str, Any] | None
         if float(problem.world.wall_distance(pose.xy)[0]) <= 0.0:
             reason = (
                 f"{which} pose ({pose.x:.3f}, {pose.y:.3f}, {pose.theta:.3f}) lies outside the world's bounds "
-                f"(x {x0:g}..{x1:g}, y {y0:g}..{y1:g}): move it inside"
+                f"({span(*problem.world.bounds)}): move it inside"
             )
             return PlanResult(status, planner, reason=reason, stats=dict(stats or {}))
     return None

@@ -40,7 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 from planning.collision.exact import CollisionChecker
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import RobotSpec, check_robot_spec
-from planning.core.world import World, check_world
+from planning.core.world import World, check_world, span
 from planning.errors import ConfigError, NhsimError, option
 from planning.planners.base import PlanResult, PlanStatus
 from planning.trajectory.segments import infer_segments
@@ -365,9 +365,8 @@ def _smoothing_failure(seg: PathSegment, res: SmoothResult, build: _Build, max_d
     out = np.flatnonzero(world.wall_distance(seg.points[:, :2]) <= 0.0)
     if out.size:  # no smoothing makes a path that leaves the world a drive inside it
         x, y = seg.points[out[0], :2]
-        x0, x1, y0, y1 = world.bounds
         return (
-            f"the drive from ({at[0]:.2f}, {at[1]:.2f}) leaves the world's bounds (x {x0:g}..{x1:g}, y {y0:g}..{y1:g}) "
+            f"the drive from ({at[0]:.2f}, {at[1]:.2f}) leaves the world's bounds ({span(*world.bounds)}) "
             f"at ({x:.2f}, {y:.2f}): every pose of a path must lie inside the world"
         )
     if res.status is SmoothStatus.DEVIATION and res.max_deviation <= max_deviation:
