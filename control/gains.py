@@ -75,6 +75,45 @@ class FBLGains:
         return cls(kp=kp, kd=kd)
 
 
+def check_sampled_stability(gains: FBLGains, control_rate: float, where: str) -> None:
+    """Raise :class:`ConfigError` unless ``gains`` keep the FBL's error dynamics stable at ``control_rate`` [Hz].
+
+    The linearised error of each axis is a double integrator driven by an acceleration held for a control period
+    T (e'' = -Kp e - Kd e'); sampled, its characteristic polynomial is z^2 + (T Kd + T^2 Kp / 2 - 2) z + 1 - T Kd +
+    T^2 Kp / 2, whose roots lie inside the unit circle (Jury's test) only when Kd < 2 / T and Kp < 2 Kd / T. Beyond,
+    the tracker diverges whatever the robot (``--gains 1000,1`` at 50 Hz ended as "estimator diverged").
+
+    Args:
+        gains: The gains.
+        control_rate: The rate the tracker runs at [Hz].
+        where: What gave them, for the message (``"--gains 1000,1"``).
+    """
+    most_kd = 2.0 * control_rate
+    most_kp = 2.0 * gains.kd * control_rate
+    if gains.kd < most_kd and gains.kp < most_kp:
+        return
+    raise UnstableGainsError(
+        where,
+        f"FBL gains Kp={gains.kp:g}, Kd={gains.kd:g} make the error dynamics unstable at the control rate "
+        f"{control_rate:g} Hz (held for a period, they need Kd < 2 x rate = {most_kd:g} /s and Kp < 2 x Kd x rate = "
+        f"{most_kp:g} /s^2); lower Kp, raise Kd within its bound, or raise the control rate (the defaults are "
+        f"Kp={FBLGains().kp:g}, Kd={FBLGains().kd:g})",
+    )
+
+
+class UnstableGainsError(ConfigError):
+    """FBL gains the control rate cannot keep stable (:func:`check_sampled_stability`).
+
+    Args:
+        where: What gave them.
+        problem: What is wrong and the fix (the message is ``where: problem``).
+    """
+
+    def __init__(self, where: str, problem: str) -> None:
+        super().__init__(f"{where}: {problem}")
+        self.problem = problem
+
+
 GAIN_KEYS = ("kp", "kd", "xi_min")
 
 #: A key TOML takes bare (unquoted).

@@ -32,6 +32,7 @@ if TYPE_CHECKING:
     from planning.core.nav2_map import read_map_yaml as read_map_yaml
     from planning.core.robot import RobotSpec as RobotSpec
     from planning.core.robot import load_robot as load_robot
+    from planning.core.robot import register_robot as register_robot
     from planning.core.world import Box as Box
     from planning.core.world import Circle as Circle
     from planning.core.world import Ellipse as Ellipse
@@ -72,6 +73,7 @@ _EXPORTS = {
     "map_yaml_obstacles": "planning.core.nav2_map",
     "RobotSpec": "planning.core.robot",
     "load_robot": "planning.core.robot",
+    "register_robot": "planning.core.robot",
     "Box": "planning.core.world",
     "Circle": "planning.core.world",
     "Ellipse": "planning.core.world",

@@ -34,7 +34,7 @@ from planning.core.files import descriptor_path, read_input_text
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.maps import MapObstacles, load_map_table
 from planning.core.nav2_map import load_map_yaml_table
-from planning.core.robot import MODELS_DIR, ROBOT_FILES, RobotSpec, check_robot_name, load_robot
+from planning.core.robot import MODELS_DIR, ROBOTS, RobotSpec, check_robot_name, load_robot, robot_names
 from planning.core.scenario_type import DEFAULT_HEADING_TOLERANCE, DEFAULT_POSITION_TOLERANCE
 from planning.core.scenario_type import Scenario as Scenario  # re-exported (planning.Scenario): mypy --strict
 from planning.core.tables import TableReader
@@ -237,11 +237,11 @@ def _header(r: TableReader, data: Mapping[str, Any], default_name: str) -> dict[
     if not isinstance(name, str) or not name:
         raise r.fail("name", "a non-empty string", name)
     robot = data.get("robot", "turtlebot3")
-    if not isinstance(robot, str) or robot not in ROBOT_FILES:
-        raise r.fail("robot", f"one of {', '.join(sorted(ROBOT_FILES))}", robot)
+    if not isinstance(robot, str) or robot not in ROBOTS:
+        raise r.fail("robot", f"one of {robot_names()} ({ROBOTS.unknown_hint()})", robot)
     robots = data.get("robots", [robot])
-    if not isinstance(robots, list) or not all(isinstance(x, str) and x in ROBOT_FILES for x in robots) or not robots:
-        raise r.fail("robots", f"a list of robot names from {', '.join(sorted(ROBOT_FILES))}", robots)
+    if not isinstance(robots, list) or not all(isinstance(x, str) and x in ROBOTS for x in robots) or not robots:
+        raise r.fail("robots", f"a list of robot names from {robot_names()} ({ROBOTS.unknown_hint()})", robots)
     if robot not in robots:
         raise r.fail("robots", f"a list that includes the scenario's own robot {robot!r} (field 'robot')", robots)
     description = data.get("description", "")
@@ -544,7 +544,7 @@ def _scenario_robot(scenario: Scenario) -> RobotSpec:
             the names).
     """
     name = scenario.robot
-    if name not in ROBOT_FILES and not (Path(name).suffix == ".xml" and Path(name).is_file()):
+    if name not in ROBOTS and not (Path(name).suffix == ".xml" and Path(name).is_file()):
         check_robot_name(f"{scenario_source(scenario)}: Scenario.robot", name)
     return load_robot(name)
 
@@ -574,7 +574,7 @@ def random_scenario(robot: str, seed: int) -> Scenario:
     Hybrid-A* unless another planner is chosen (``nhsim simulate --scenario random7`` plans it).
 
     Args:
-        robot: Robot name (a key of ``ROBOT_FILES``).
+        robot: Robot name (a key of :data:`planning.core.robot.ROBOTS`).
         seed: Seed of the draw, an integer >= 0 (the one ``random<seed>`` names); same seed, same world.
 
     Raises:
@@ -599,6 +599,6 @@ def random_scenario(robot: str, seed: int) -> Scenario:
         world=World((-3, 3, -3, 3), tuple(obstacles)),
         start=start,
         goal=goal,
-        robots=(robot, *(r for r in ROBOT_FILES if r != robot)),
+        robots=(robot, *(r for r in ROBOTS if r != robot)),
         planner="hybrid-a-star",
     )

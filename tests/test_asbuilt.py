@@ -189,7 +189,11 @@ def test_a_bad_build_seed_names_the_option_and_the_fix(seed: object) -> None:
 
 
 def test_bad_builds_and_models_are_refused() -> None:
-    with pytest.raises(ConfigError, match="no build tolerances for robot 'r2d2': choose one of turtlebot3, edumip"):
+    with pytest.raises(
+        ConfigError,
+        match=r"no build tolerances for robot 'r2d2' \(robots with them: turtlebot3, edumip, edumip-balancing\): "
+        r"run it as drawn, --build nominal",
+    ):
         AsBuilt.draw("r2d2", 1)
     with pytest.raises(ConfigError, match=r"as-built left_radius_scale must be .* in \[0.8, 1.2\] \(x\), got 1.5"):
         AsBuilt(left_radius_scale=1.5)

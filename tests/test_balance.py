@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -217,3 +218,39 @@ def test_the_firmware_reads_through_the_one_sensor_model(monkeypatch: pytest.Mon
             [encoder_count(a, c, p) for a, p in zip(angles, whole.encoder_phase, strict=True)], abs=1e-6
         )
     assert sensors.noise.n_periods == 56  # 7 doubled three times
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "says"),
+    [
+        (
+            "k = [-49.3772, -4.98288, -1.97834, -1.37833, -0.746242]",
+            "k = [-49.3772, -4.98288, -1.97834, -1.37833]",
+            r"\[gains\] k must be 5 finite gains, one per state \(theta, theta_dot, phi_error, phi_dot_error, "
+            r"phi_error_integral\), got \[-49.3772, .*\]; design them with sim.robot.balance_design.design_balance",
+        ),
+        (
+            "tip_angle = 0.85",
+            "tip_angle = 5",
+            r"\[balance\] tip_angle must be a finite number in \(0, 1.5708\] \(rad\)",
+        ),
+        ("max_lean = 0.0698", "max_lean = 0.9", r"\[balance\] max_lean must be a finite number in \(0, 0.85\)"),
+        ("rate = 200.0", "rate = 0", r"\[balance\] rate must be a finite number > 0 \(Hz\), got 0"),
+        ("theta_max = 0.0524", "theta_max = nan", r"\[weights\] theta_max must be a finite number > 0"),
+        ("ki = 2.5", "ki = -1", r"\[turn\] ki must be a finite number >= 0"),
+    ],
+)
+def test_a_profile_number_out_of_range_is_refused_naming_the_file_and_key(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, old: str, new: str, says: str
+) -> None:
+    """A gain vector of four (five states) ended in numpy's 'operands could not be broadcast'; a tip angle of 5 rad
+    (beyond the floor) was taken."""
+    from control.design import balance_profile
+
+    text = (balance_profile.BALANCE_DIR / f"{NAME}.toml").read_text()
+    assert old in text
+    (tmp_path / f"{NAME}.toml").write_text(text.replace(old, new))
+    monkeypatch.setattr(balance_profile, "BALANCE_DIR", tmp_path)
+    with pytest.raises(ConfigError, match=says) as err:
+        load_balance_profile(NAME)
+    assert str(err.value).startswith(str(tmp_path / f"{NAME}.toml")), err.value

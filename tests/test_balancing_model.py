@@ -10,7 +10,7 @@ import pytest
 
 from control.design.balance_profile import load_balance_profile
 from planning.core.geometry import Pose2D
-from planning.core.robot import ROBOT_FILES, load_robot
+from planning.core.robot import ROBOTS, load_robot
 from sim.physics.model import build_model, set_pose
 from sim.physics.sensors import load_sensor_profile
 
@@ -24,7 +24,7 @@ def models() -> tuple[mujoco.MjModel, mujoco.MjModel]:
 
 def test_registered_and_loaded() -> None:
     spec = load_robot(NAME)
-    assert NAME in ROBOT_FILES
+    assert NAME in ROBOTS
     assert spec.name == NAME and spec.scene.is_file()
     assert spec.wheel_radius == pytest.approx(0.034) and spec.track_width == pytest.approx(0.10)
     assert spec.mass == pytest.approx(0.180 + 2 * 0.027)  # [B]: body and two wheels

@@ -279,6 +279,21 @@ def test_record_and_nees_read_the_newest_estimate(draws: list[Synthetic]) -> Non
     assert want > 0
 
 
+def test_a_pose_known_to_under_a_micrometre_in_some_direction_judges_nothing() -> None:
+    """At 10 Hz the EduMIP's first fix arrived one period after the start, when the estimate's lateral position still
+    followed its heading to 1e-17 m^2: an error of 1.8e-9 m in that direction made a NEES of 1.2e15 and the run's
+    NEES mean 7e12 beside 92 % of samples in bounds. A covariance whose smallest eigenvalue is under
+    kernels.NEES_RESOLUTION^2 now gives NaN (no sample); the run's mean is a chi-square(3) mean again."""
+    from sim.pipeline.simulate import simulate_reference
+
+    est = PoseEstimator.for_robot(load_robot("turtlebot3"), EstimatorConfig())
+    assert math.isnan(est.nees((0.0, 0.0, 0.0)))  # the start: known exactly
+    result = simulate_reference("open", reference="circle", robot="edumip", control_rate=10, runs=["closed_loop"])
+    log = result.logs["closed_loop"].estimation
+    assert log is not None and log.nees_t[0] == pytest.approx(0.2)  # the delivery at 0.1 s judged nothing
+    assert 1.0 < log.nees_mean() < 6.0 and log.nees.max() < 100.0
+
+
 # --- accuracy and consistency over a Monte Carlo -------------------------------------------------
 
 

@@ -25,7 +25,7 @@ from hypothesis import strategies as st
 
 from planning.collision.exact import CollisionChecker
 from planning.core.geometry import Pose2D, densify_path, wrap_angle
-from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot
+from planning.core.robot import ROBOTS, RobotSpec, load_robot
 from planning.core.world import Box, Circle, Ellipse, Polygon, World
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus
 from planning.planners.registry import PLANNERS, make_planner, planner_options
@@ -195,7 +195,7 @@ def planner_cases(draw: st.DrawFn) -> PlannerCase:
         "time_limit": maybe_bad(_real(0.01, 0.1), BAD_NUMBER, 32),
     }
     return PlannerCase(
-        planner, options, draw(st.sampled_from(sorted(ROBOT_FILES))), bounds, draw(obstacles(bounds)), start, goal,
+        planner, options, draw(st.sampled_from(sorted(ROBOTS))), bounds, draw(obstacles(bounds)), start, goal,
         draw(st.fixed_dictionaries(problem)),
     )  # fmt: skip
 

@@ -28,7 +28,7 @@ from control.base import TRACKERS, feedback_trackers, make_tracker, tracker_fact
 from control.gains import FBLGains
 from control.segmented import SegmentedParams
 from planning.core.geometry import Pose2D
-from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot
+from planning.core.robot import ROBOTS, RobotSpec, load_robot
 from planning.errors import SimulationError
 from planning.trajectory.references import REFERENCES, make_reference
 from planning.trajectory.trajectory import SEGMENT_KINDS, Trajectory
@@ -157,7 +157,7 @@ def tracker_cases(draw: st.DrawFn) -> TrackerCase:
         pose = [draw(maybe_bad(coordinate(-50, 50), st.one_of(NON_FINITE, st.just(1e200)), 20)) for _ in range(3)]
         calls.append((t, *pose))
     return TrackerCase(
-        tracker, draw(st.sampled_from(sorted(ROBOT_FILES))), build, dt, draw(_options(tracker)), calls, describe
+        tracker, draw(st.sampled_from(sorted(ROBOTS))), build, dt, draw(_options(tracker)), calls, describe
     )
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from control.gains import FBLGains, GainsFile, dump_gains_toml, load_gains_file, parse_gains_toml, resolve_gains
@@ -80,3 +81,38 @@ def test_simulate_rejects_malformed_gains_file(tmp_path: Path, capsys: pytest.Ca
     err = capsys.readouterr().err
     assert "bad.toml" in err and "no kd" in err
     assert not out.exists()
+
+
+def test_gains_the_sampled_error_dynamics_cannot_keep_are_refused() -> None:
+    """--gains 1000,1 ran and ended as "estimator diverged", blaming the wheels or the fixes; --gains 1e308,1e308 as a
+    non-finite command, blaming the tracker's law. The held acceleration makes the sampled error dynamics unstable
+    beyond Kd < 2 / T and Kp < 2 Kd / T (Jury's test): checked against the double integrator itself here."""
+    from control.gains import check_sampled_stability
+    from sim.pipeline.case import Case
+
+    def stable(kp: float, kd: float, rate: float) -> bool:
+        t = 1.0 / rate
+        a = np.array([[1.0, t], [0.0, 1.0]]) - np.outer([t * t / 2, t], [kp, kd])
+        return bool(np.max(np.abs(np.linalg.eigvals(a))) < 1.0)
+
+    for kp, kd, rate in [
+        (9, 6, 50),
+        (1000, 1, 50),
+        (99, 1, 50),
+        (101, 1, 50),
+        (10, 99, 50),
+        (10, 101, 50),
+        (39, 5, 4),
+        (41, 5, 4),
+    ]:
+        try:
+            check_sampled_stability(FBLGains(kp=kp, kd=kd), rate, "test")
+            refused = False
+        except ConfigError:
+            refused = True
+        assert refused is not stable(kp, kd, rate), (kp, kd, rate)
+    with pytest.raises(
+        ConfigError, match=r"case open:circle: FBL gains Kp=1e\+308, Kd=1e\+308 make the error dynamics"
+    ):
+        Case("open", reference="circle", gains=FBLGains(kp=1e308, kd=1e308))
+    assert Case("open", reference="circle", gains=FBLGains(kp=500, kd=1), control_rate=500).gains is not None

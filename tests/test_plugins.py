@@ -40,6 +40,7 @@ from planning.errors import ConfigError
 from planning.planners.registry import PLANNERS, make_planner
 from planning.planners.registry import PLUGIN_GROUP as PLANNER_GROUP
 from sim.cli.main import main
+from tests.registry_helpers import isolated
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -52,17 +53,9 @@ class MyFBL(DynamicFBL):
 def registry(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
     """The registries as they are now, restored after the test, with their plugins unloaded (the next lookup
     loads them); the plugin modules the test imported are forgotten again."""
-    for registered in (TRACKERS, PLANNERS):
-        monkeypatch.setattr(registered, "_entries", dict(registered._entries))
-        monkeypatch.setattr(registered, "origins", dict(registered.origins))
-        monkeypatch.setattr(registered, "plugins", "unloaded")
     monkeypatch.setattr(base, "BASELINES", set(BASELINES))
-    monkeypatch.delenv(PLUGIN_VARIABLE, raising=False)
-    modules = set(sys.modules)
-    yield
-    for name in set(sys.modules) - modules:
-        if name.startswith("nhsim_test_"):
-            del sys.modules[name]
+    with isolated(monkeypatch, (TRACKERS, PLANNERS), "unloaded"):
+        yield
 
 
 def _package(site: Path, entry_points: dict[str, str], modules: dict[str, str], group: str = PLUGIN_GROUP) -> Path:

@@ -212,7 +212,8 @@ def test_default_names_are_plain_file_names_and_a_scenario_file_is_named_by_its_
     from planning.scenario import SCENARIOS_DIR
 
     assert all(regress.NAME_FORM.fullmatch(c.name) for c in SUITE.cases)
-    assert load_suite(_one_case(tmp_path, control_rate="62.5", seed="12")).cases[0].name == (
+    fixes = '"fix_rate=6.25"'  # 5 Hz, the profile's, is no whole number of periods at 62.5 Hz
+    assert load_suite(_one_case(tmp_path, control_rate="62.5", seed="12", sensors=fixes)).cases[0].name == (
         "open-turtlebot3-circle-fbl-s12-62.5hz"
     )
     text = (SCENARIOS_DIR / "open.toml").read_text(encoding="utf-8").replace('name = "open"', 'name = "yard"')
@@ -253,6 +254,7 @@ BAD_FIELDS = {
     "localiser_typo": ("localiser", '"amlc"', 'unknown localiser; choose one of "amcl", "fixes"'),
     "gains_number": ("gains", "9", 'text in quotes, e.g. gains = "9,6"'),
     "gains_form": ("gains", '"9"', "'KP,KD'"),
+    "gains_unstable": ("gains", '"1000,1"', r"unstable at the control rate 50 Hz .*Kp < 2 x Kd x rate = 100 /s\^2"),
     "perturb_key": ("perturb", '"mas=1"', "keys friction, mass"),
     "perturb_range": ("perturb", '"mass=100"', r"in \[0.1, 10\] \(x\), got 100.0"),
     "sensors_key": ("sensors", '"fix_rat=5"', "keys encoder_cpr.*fix_rate"),
@@ -290,6 +292,19 @@ def test_a_planned_case_needs_a_planner_the_scenario_lacks_and_labels_are_readab
     message = str(err.value)
     assert "case 1 (open-turtlebot3-plan-default-fbl-s0): give exactly one of reference" in message
     assert "None" not in message
+
+
+def test_a_control_rate_the_robots_own_fixes_do_not_divide_is_refused_at_load(tmp_path: Path) -> None:
+    """The EduMIP's profile takes fixes at 10 Hz: control_rate = 25 loaded (and listed) and failed when the case ran,
+    its fix given as the command line's option."""
+    path = _one_case(tmp_path, robot='"edumip"', control_rate="25")
+    with pytest.raises(ConfigError) as err:
+        load_suite(path)
+    message = str(err.value)
+    assert message.startswith(f"{path} case 1 (") and "robot 'edumip' takes pose fixes at 10 Hz" in message, message
+    assert 'e.g. sensors = "fix_rate=6.25"; or give a control rate that is a multiple of 10 Hz' in message, message
+    assert not re.search(r"--[a-z]", message) and "from Python" not in message, message
+    assert load_suite(_one_case(tmp_path, robot='"edumip"', control_rate="25", sensors='"fix_rate=12.5"')).cases
 
 
 def test_amcl_needs_a_robot_with_a_laser_scanner(tmp_path: Path) -> None:
@@ -373,7 +388,7 @@ def test_a_baselines_folder_that_cannot_serve_is_refused_before_any_case_runs(
     a_file = tmp_path / "baselines.txt"
     a_file.write_text("x")
     for args, message in [
-        (["--baselines", str(tmp_path / "none")], "does not exist; give the folder that holds the baselines"),
+        (["--baselines", str(tmp_path / "none")], "none does not exist (--baselines, by default the folder baselines "),
         (["--baselines", str(a_file)], "is a file, not a folder"),
         (["--update", "--baselines", str(a_file / "sub")], "cannot write"),
     ]:

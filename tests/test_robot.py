@@ -8,11 +8,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from planning.core.robot import ROBOT_FILES, load_robot
+from planning.core.robot import ROBOTS, load_robot
 from planning.errors import ConfigError, ModelError
 
 
-@pytest.mark.parametrize("name", sorted(ROBOT_FILES))
+@pytest.mark.parametrize("name", sorted(ROBOTS))
 def test_spec_matches_the_compiled_model(name: str) -> None:
     spec = load_robot(name)
     m = mujoco.MjModel.from_xml_path(str(spec.scene))
@@ -127,9 +127,9 @@ def test_convex_hull_is_qhulls_for_every_footprint_and_random_points():
 
     from scipy.spatial import ConvexHull
 
-    from planning.core.robot import ROBOT_FILES, convex_hull, load_robot
+    from planning.core.robot import ROBOTS, convex_hull, load_robot
 
-    for name in ROBOT_FILES:
+    for name in ROBOTS:
         fp = load_robot(name).footprint
         np.testing.assert_array_equal(convex_hull(fp), fp)  # a hull is its own hull, in the same order
     rng = np.random.default_rng(0)

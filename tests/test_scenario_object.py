@@ -16,7 +16,7 @@ import pytest
 
 from planning.collision.overlap import footprint_overlap
 from planning.core.geometry import Pose2D
-from planning.core.robot import ROBOT_FILES, load_robot
+from planning.core.robot import ROBOTS, load_robot
 from planning.core.world import Box, Circle, World
 from planning.errors import ConfigError, ScenarioError
 from planning.planners.base import PlanResult, PlanStatus
@@ -130,7 +130,7 @@ def test_every_built_in_and_generated_scenario_still_builds() -> None:
     for name in builtin_scenarios():
         sc = load_scenario(name)
         assert dataclasses.replace(sc) == sc
-    for robot in ROBOT_FILES:
+    for robot in ROBOTS:
         assert random_scenario(robot, 3).robot == robot
     assert load_scenario("random5").name == "random5"
 

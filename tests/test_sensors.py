@@ -112,11 +112,21 @@ def test_a_scenario_tables_errors_name_its_file_and_field_not_the_command_line(t
         with pytest.raises(ConfigError, match=match) as err:
             load_sensor_profile("turtlebot3", table=table, source=where, control_rate=50.0)
         assert str(err.value).startswith(f"{where}: ") and "--sensors" not in str(err.value)
-    # a rate set on the command line over the table is the command line's to fix (when the run is made)
-    cli = load_sensor_profile("turtlebot3", table={"fix_rate": 4.0}, text="fix_rate=3", source=where, control_rate=50.0)
+    # a rate set on the command line over the table is the command line's to fix
     fix = r'2.5 or 3.125 Hz, e\.g\. --sensors fix_rate=2.5 \(sensors="fix_rate=2.5" from Python\)$'
     with pytest.raises(ConfigError, match=rf"^sensor fix_rate=3 Hz: .*{fix}"):
-        _model(cli)
+        load_sensor_profile("turtlebot3", table={"fix_rate": 4.0}, text="fix_rate=3", source=where, control_rate=50.0)
+    cli = load_sensor_profile("turtlebot3", table={"fix_rate": 4.0}, text="fix_rate=3")  # no rate to check against
+    with pytest.raises(ConfigError, match=rf"^sensor fix_rate=3 Hz: .*{fix}"):
+        _model(cli)  # ... until the run is made
+    # the robot's own profile's rate: said to be its, the fix an override or a control rate it divides
+    with pytest.raises(
+        ConfigError,
+        match=r"^robot 'edumip' takes pose fixes at 10 Hz \(fix_rate in its sensor "
+        r"profile .*edumip.toml\), which a control rate of 25 Hz does not keep: .*e\.g\. --sensors "
+        r"fix_rate=6.25 .*; or give a control rate that is a multiple of 10 Hz \(--control-rate",
+    ):
+        load_sensor_profile("edumip", control_rate=25.0)
     # through a case, as every command reads it: the scenario's file is named
     from planning.scenario import load_scenario
     from sim.pipeline.case import Case
@@ -156,7 +166,7 @@ def test_bad_tables_and_robots_are_refused() -> None:
         TB3.override({"fix_rate": True})
     with pytest.raises(ConfigError, match=r"lacks fix_latency; give every key"):
         SensorProfile.from_table({k: v for k, v in TB3.as_dict().items() if k != "fix_latency"}, "t.toml")
-    with pytest.raises(ConfigError, match=r"no sensor profile for robot 'r2d2': choose one of edumip, turtlebot3"):
+    with pytest.raises(ConfigError, match=r"unknown robot 'r2d2': choose one of edumip, edumip-balancing, turtlebot3;"):
         load_sensor_profile("r2d2")
 
 

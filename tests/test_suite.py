@@ -152,7 +152,7 @@ def test_episodes_after_the_first_draw_new_noise() -> None:
 
 
 def test_unknown_names_list_the_valid_ones() -> None:
-    with pytest.raises(ConfigError, match="turtlebot3, edumip"):
+    with pytest.raises(ConfigError, match="unknown robot 'roomba': choose one of edumip, edumip-balancing, turtlebot3"):
         suite.load("open", "roomba", "figure8")
     with pytest.raises(ConfigError, match=r"c-rrt-star.*figure8"):
         suite.load("open", "edumip", "astar")

@@ -7,12 +7,14 @@ model by :func:`sim.robot.balance_design.design_balance` and checked stable befo
 
 from __future__ import annotations
 
+import math
 import numbers
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from planning.core.checks import check_number
 from planning.core.robot import MODELS_DIR
 from planning.errors import ConfigError
 
@@ -79,11 +81,46 @@ def balance_profile_path(robot: str) -> Path:
     return path
 
 
+#: The profile's numbers and their ranges (the keyword arguments of :func:`check_number`, and the unit): a
+#: tip angle beyond a quarter turn is the body lying on the floor, a lean allowed at or beyond it a fall.
+_RANGES: dict[str, dict[str, Any]] = {
+    "balance.rate": {"above": 0.0, "unit": "Hz"},
+    "balance.filter_time_constant": {"above": 0.0, "unit": "s"},
+    "balance.tip_angle": {"above": 0.0, "at_most": math.pi / 2, "unit": "rad"},
+    **{f"weights.{key}": {"above": 0.0} for key in PROFILE_KEYS["weights"]},
+    "turn.kp": {"at_least": 0.0, "unit": "V s/rad"},
+    "turn.ki": {"at_least": 0.0, "unit": "V/rad"},
+    "gains.lean_per_accel": {"unit": "rad per m/s^2"},
+    "gains.voltage_per_accel": {"unit": "V per m/s^2"},
+}
+
+
+def _check_values(path: Path, values: dict[str, Any]) -> None:
+    """Raise :class:`ConfigError` naming the file, the table and the key of the first number out of its range
+    (:data:`_RANGES`; the lean below the tip angle, and ``k`` one finite gain per state of
+    :data:`control.balance.STATE_NAMES`)."""
+    from control.balance import STATE_NAMES
+
+    for name, limits in _RANGES.items():
+        table, key = name.split(".")
+        check_number(f"{path}: [{table}] {key}", values[name], **limits)
+    tip = values["balance.tip_angle"]
+    check_number(
+        f"{path}: [balance] max_lean", values["balance.max_lean"], above=0.0, below=tip, unit="rad, below tip_angle"
+    )
+    k = values["gains.k"]
+    if len(k) != len(STATE_NAMES) or not all(math.isfinite(x) for x in k):
+        raise ConfigError(
+            f"{path}: [gains] k must be {len(STATE_NAMES)} finite gains, one per state ({', '.join(STATE_NAMES)}), got "
+            f"{k!r:.120}; design them with sim.robot.balance_design.design_balance"
+        )
+
+
 def load_balance_profile(robot: str) -> BalanceProfile:
     """Read a balancing robot's profile.
 
     Raises:
-        ConfigError: No profile, or a table or key is missing or not a number (named).
+        ConfigError: No profile, or a table or key is missing, not a number or out of its range (named).
     """
     path = balance_profile_path(robot)
     try:
@@ -99,6 +136,7 @@ def load_balance_profile(robot: str) -> BalanceProfile:
                 kind = "a list of numbers" if key == "k" else "a number"
                 raise ConfigError(f"{path}: [{table}] {key} must be {kind}, got {value!r}")
             values[f"{table}.{key}"] = value
+    _check_values(path, values)
     w = PROFILE_KEYS["weights"]
     return BalanceProfile(
         rate=float(values["balance.rate"]),

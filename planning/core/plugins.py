@@ -1,11 +1,12 @@
-"""Registries of named factories (the planners, the trackers) and the plugins that add to them.
+"""Registries of named factories (the planners, the trackers, the robots) and the plugins that add to them.
 
 A registry maps a name (``--planner``, ``--trackers``, a scenario's ``planner``, the run records) to a factory,
 or to its import path "package.module:Attribute", imported when first made. Code adds to it with
 ``register_planner`` / ``register_tracker``; an installed package or a module on ``sys.path`` adds to it as a
 plugin, so that the ``nhsim`` command and fresh worker processes know its names too:
 
-* an entry point of the registry's group (``nhsim.planners``, ``nhsim.trackers``) in an installed package:
+* an entry point of the registry's group (``nhsim.planners``, ``nhsim.trackers``, ``nhsim.robots``) in an
+  installed package:
   ``ttt = "mypkg.ttt:TurnDriveTurn"`` registers that factory under the entry point's name (imported when first
   made), ``mypkg = "mypkg.plugins"`` imports a module whose import registers what it will;
 * a module named by the environment variable :data:`PLUGIN_VARIABLE` (``NHSIM_PLUGINS=mypkg.plugins``,
@@ -107,6 +108,8 @@ def target_text(target: object) -> str:
     """A registered target as text: the import path given, or a factory's "module:qualname"."""
     if isinstance(target, str):
         return target
+    if isinstance(getattr(target, "registry_text", None), str):  # a value that says what it is (a robot's files)
+        return str(target.registry_text)  # type: ignore[attr-defined]
     return f"{getattr(target, '__module__', '?')}:{getattr(target, '__qualname__', repr(target))}"
 
 
@@ -180,7 +183,7 @@ def _load_variable_modules(registry: Registry[Any]) -> None:
 
 def module_of(target: object) -> str:
     """The module of a registered target: that of its import path, or the factory's ``__module__``."""
-    return target_text(target).split(":")[0]
+    return target.split(":")[0] if isinstance(target, str) else str(getattr(target, "__module__", "?"))
 
 
 def plugin_modules() -> list[str]:

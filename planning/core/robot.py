@@ -20,19 +20,137 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.core.checks import check_number
+from planning.core.plugins import Registry, check_registration
 from planning.errors import ConfigError, ModelError
 
 FloatArray = NDArray[np.float64]
 
 MODELS_DIR = Path(__file__).resolve().parents[2] / "models"
 ROBOTS_DIR = MODELS_DIR / "robots"
+SENSORS_DIR = MODELS_DIR / "sensors"
 
-#: Robot names accepted everywhere, mapped to their MJCF file stems.
-ROBOT_FILES: dict[str, str] = {
-    "turtlebot3": "turtlebot3_burger",
-    "edumip": "edumip",
-    "edumip-balancing": "edumip_balancing",
-}
+
+@dataclass(frozen=True)
+class RobotFiles:
+    """The files a robot is made of: what :func:`register_robot` registers under the robot's name.
+
+    Attributes:
+        mjcf: Its MJCF model (the bodies, geoms and ``nhsim_*`` numerics :func:`load_robot` reads;
+            docs/how-to/new-robot.md). Its scene, ``<stem>_scene.xml`` beside it, includes it with a floor and a
+            light.
+        sensors: Its sensor settings file: a ``[sensors]`` table (:mod:`sim.physics.sensors`: encoders, IMU, pose
+            fixes) and, for a laser scanner, a ``[lidar]`` one (``models/sensors/turtlebot3.toml`` is one).
+
+    A value is its own factory (the registries hold factories): calling it returns it.
+    """
+
+    mjcf: Path
+    sensors: Path
+
+    def __call__(self) -> RobotFiles:
+        return self
+
+    @property
+    def registry_text(self) -> str:
+        """How a message shows the registration: the model's path."""
+        return f"{self.mjcf} (sensors {self.sensors})"
+
+
+#: The entry-point group of robot plugins: ``mypkg = "mypkg.robots"`` names a module whose import registers
+#: robots (:func:`register_robot`); ``kobuki = "mypkg.robots:KOBUKI"`` registers a :class:`RobotFiles`
+#: under the entry point's name.
+PLUGIN_GROUP = "nhsim.robots"
+
+#: Robot name -> its files (:class:`RobotFiles`), the names accepted everywhere (``--robot``, a scenario's
+#: ``robot``, the run records). Its plugins (:mod:`planning.core.plugins`) load at its first lookup of a name,
+#: listing or count.
+ROBOTS: Registry[RobotFiles] = Registry(
+    "robot",
+    PLUGIN_GROUP,
+    {
+        "turtlebot3": RobotFiles(ROBOTS_DIR / "turtlebot3_burger.xml", SENSORS_DIR / "turtlebot3.toml"),
+        "edumip": RobotFiles(ROBOTS_DIR / "edumip.xml", SENSORS_DIR / "edumip.toml"),
+        # the balancing EduMIP carries the EduMIP's sensors
+        "edumip-balancing": RobotFiles(ROBOTS_DIR / "edumip_balancing.xml", SENSORS_DIR / "edumip.toml"),
+    },
+)
+
+
+def register_robot(
+    name: str, mjcf: str | os.PathLike[str], *, sensors: str | os.PathLike[str], replace: bool = False
+) -> None:
+    """Register a robot of your own by name: its MJCF model and its sensor settings file.
+
+    A call registers it in the running process (:func:`load_robot`, a :class:`~planning.scenario.Scenario`'s
+    ``robot``, ``sim.cli.main.main([...])`` called from it). For the ``nhsim`` command and fresh worker
+    processes to know it, make the registration a plugin: a module named by ``NHSIM_PLUGINS`` or an entry point
+    of group ``nhsim.robots`` (:data:`PLUGIN_GROUP`) in an installed package (docs/how-to/new-robot.md). Its
+    build tolerances (``--build as-built``, the default) are ``sim.physics.asbuilt.TOLERANCES[name]``, set by the
+    same module; without them it runs as drawn only (``--build nominal``).
+
+    Args:
+        name: The robot's name: non-empty text without commas or whitespace.
+        mjcf: Its MJCF file, read now: a model :func:`load_robot` refuses is refused here, naming what is
+            wrong; its scene, ``<stem>_scene.xml`` (a floor and a light, including the model), must be beside it.
+        sensors: Its sensor settings file: ``[sensors]`` and, with a laser scanner, ``[lidar]`` (the layout of
+            ``models/sensors/turtlebot3.toml``; its numbers are checked when a run reads them).
+        replace: Replace a robot registered under ``name`` already (a built-in one too).
+
+    Raises:
+        ConfigError: A bad name, a missing file, or a name taken by other files without ``replace``.
+        ModelError: The model is not one :func:`load_robot` reads, or has no scene file beside it.
+    """
+    check_registration("register_robot", name, RobotFiles, kind="robot", flag="--robot NAME", examples=("kobuki", ""))
+    files = RobotFiles(_existing(name, "mjcf", mjcf, ".xml"), _existing(name, "sensors", sensors, ".toml"))
+    spec = _parse_robot(name, files.mjcf, files.mjcf.read_bytes())
+    check_scene(spec)
+    ROBOTS.add("register_robot", name, files, replace)
+
+
+def check_scene(robot: RobotSpec) -> None:
+    """Raise :class:`ModelError` unless the robot's scene file (:attr:`RobotSpec.scene`) exists, naming the file
+    to copy."""
+    if not robot.scene.is_file():
+        raise ModelError(
+            f"robot {robot.name!r} has no scene file {robot.scene} (the floor and light, which include "
+            f"{robot.mjcf.name}): copy {ROBOTS_DIR / 'turtlebot3_burger_scene.xml'} beside it and make its <include> "
+            f"name {robot.mjcf.name}"
+        )
+
+
+def _existing(name: str, what: str, path: object, suffix: str) -> Path:
+    """``path`` as an absolute Path when it names an existing ``suffix`` file (for :func:`register_robot`)."""
+    if not isinstance(path, (str, os.PathLike)) or not str(path):
+        raise ConfigError(f"register_robot({name!r}): {what} must be the path of a {suffix} file, got {path!r:.80}")
+    found = Path(path).expanduser().resolve()
+    if not found.is_file() or found.suffix != suffix:
+        what_is = (
+            "is a folder" if found.is_dir() else "does not exist" if not found.exists() else f"is not a {suffix} file"
+        )
+        raise ConfigError(
+            f"register_robot({name!r}): {what} {str(path)!r} {what_is}; give the path of its {suffix} file"
+        )
+    return found
+
+
+def robot_files(name: str) -> RobotFiles:
+    """The files of the robot registered as ``name``.
+
+    Raises:
+        ConfigError: Unknown name (listing the robots, and how a plugin's is registered).
+    """
+    files = ROBOTS.factory(name)()
+    if not isinstance(files, RobotFiles):
+        raise ConfigError(
+            f"robot {name!r} ({ROBOTS.origin(name)}) is registered as {files!r:.80}, not RobotFiles(mjcf, sensors); "
+            "register it with register_robot(name, 'path/robot.xml', sensors=...)"
+        )
+    return files
+
+
+def robot_names() -> str:
+    """The robots' names, sorted and comma-separated, for the messages that list them (the plugins loaded)."""
+    return ", ".join(sorted(ROBOTS))
 
 
 @dataclass(frozen=True, eq=False)
@@ -269,7 +387,7 @@ def _collect_defaults(root: ET.Element) -> dict[str, dict[str, str]]:
 
 
 def robot_path(name: str) -> Path:
-    """The MJCF path of a robot given its registry name, or a path to an MJCF file.
+    """The MJCF path of a robot given its registered name (:data:`ROBOTS`), or a path to an MJCF file.
 
     Raises:
         ConfigError: ``name`` is neither a robot name nor the path of an existing .xml file (a name
@@ -278,31 +396,34 @@ def robot_path(name: str) -> Path:
     """
     if not isinstance(name, (str, os.PathLike)):
         raise ConfigError(
-            f"a robot is named by text: one of {', '.join(sorted(ROBOT_FILES))} or the path of an MJCF file, "
-            f"got {name!r:.80}"
+            f"a robot is named by text: one of {robot_names()} or the path of an MJCF file, got {name!r:.80}"
         )
-    if name in ROBOT_FILES:
-        return ROBOTS_DIR / f"{ROBOT_FILES[name]}.xml"
+    if isinstance(name, str) and name in ROBOTS:
+        return robot_files(name).mjcf
     path = Path(name)
     if path.suffix == ".xml" and path.is_file():
         return path
     if path.suffix == ".xml" or os.sep in str(name):
         what = "is a folder" if path.is_dir() else "does not exist" if not path.exists() else "is not an .xml file"
         raise ConfigError(
-            f"robot model {str(name)!r} {what}: give the path of a robot's MJCF file, or one of "
-            f"{', '.join(sorted(ROBOT_FILES))}"
+            f"robot model {str(name)!r} {what}: give the path of a robot's MJCF file, or one of {robot_names()}"
         )
-    raise ConfigError(f"unknown robot {name!r}: choose one of {', '.join(sorted(ROBOT_FILES))} or give an MJCF path")
+    raise ConfigError(
+        f"unknown robot {name!r}: choose one of {robot_names()} or give an MJCF path; {ROBOTS.unknown_hint()}"
+    )
 
 
 def check_robot_name(where: str, name: object) -> str:
-    """``name`` when it is a registry name (a key of :data:`ROBOT_FILES`).
+    """``name`` when it is a registered robot's name (:data:`ROBOTS`).
 
     Raises:
-        ConfigError: Anything else; the message names ``where`` and lists the robot names.
+        ConfigError: Anything else; the message names ``where``, lists the robot names and says how a plugin's
+            robot is registered.
     """
-    if not isinstance(name, str) or name not in ROBOT_FILES:
-        raise ConfigError(f"{where}: unknown robot {name!r:.80}: choose one of {', '.join(sorted(ROBOT_FILES))}")
+    if not isinstance(name, str) or name not in ROBOTS:
+        raise ConfigError(
+            f"{where}: unknown robot {name!r:.80}: choose one of {robot_names()}; {ROBOTS.unknown_hint()}"
+        )
     return name
 
 
@@ -322,7 +443,9 @@ def load_robot(name: str) -> RobotSpec:
     """Read a robot's kinematic specification from its MJCF file.
 
     Args:
-        name: "turtlebot3", "edumip", or a path to an MJCF file with the same element names.
+        name: A registered robot's name ("turtlebot3", "edumip", "edumip-balancing", or one registered by
+            :func:`register_robot`), or the path of an MJCF file with the same element names (the spec is named
+            by the registered robot whose model it is, else by the file's stem).
 
     Returns:
         The spec.
@@ -339,11 +462,20 @@ def load_robot(name: str) -> RobotSpec:
         text = path.read_bytes()
     except OSError as exc:
         raise ModelError(f"cannot read robot model {path}: {exc}") from exc
-    return _parse_robot(path, text)
+    return _parse_robot(_registered_name(name, path), path, text)
+
+
+def _registered_name(name: str, path: Path) -> str:
+    """The name a spec read from ``path`` goes by: ``name`` when registered, else that of the registered robot
+    whose model ``path`` is (a built-in model's path names the built-in robot), else the file's stem."""
+    if isinstance(name, str) and name in ROBOTS:
+        return name
+    resolved = path.resolve()
+    return next((n for n in ROBOTS if robot_files(n).mjcf.resolve() == resolved), path.stem)
 
 
 @functools.lru_cache(maxsize=64)
-def _parse_robot(path: Path, text: bytes) -> RobotSpec:
+def _parse_robot(name: str, path: Path, text: bytes) -> RobotSpec:
     """:func:`load_robot` of ``text``, the file at ``path`` (the spec depends on nothing else)."""
     try:
         root = ET.fromstring(text)
@@ -378,13 +510,11 @@ def _parse_robot(path: Path, text: bytes) -> RobotSpec:
             continue
         for g in body.findall("geom"):
             mass += float(_geom_attrs(g, defaults).get("mass", 0) or 0)
-    stem = path.stem
-    inv = {v: k for k, v in ROBOT_FILES.items()}
     try:
         spec = RobotSpec(
-            name=inv.get(stem, stem),
+            name=name,
             mjcf=path,
-            scene=path.with_name(f"{stem}_scene.xml"),
+            scene=path.with_name(f"{path.stem}_scene.xml"),
             wheel_radius=wheel_radius,
             track_width=track,
             max_speed=numeric("max_linear_speed"),

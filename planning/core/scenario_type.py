@@ -15,7 +15,7 @@ from typing import Any
 
 from planning.core.checks import check_number, degrees_hint
 from planning.core.geometry import Pose2D, check_pose
-from planning.core.robot import ROBOT_FILES, check_robot_name
+from planning.core.robot import ROBOTS, check_robot_name
 from planning.core.world import Obstacle, World, check_world
 from planning.errors import ConfigError
 
@@ -79,7 +79,7 @@ class Scenario:
 
     def __post_init__(self) -> None:
         _check_text("name", self.name)
-        _check_text("robot", self.robot, f"a robot's name, one of {', '.join(sorted(ROBOT_FILES))}")
+        _check_text("robot", self.robot, f"a robot's name, one of {', '.join(ROBOTS.built_in())} or a plugin's")
         check_world("Scenario.world", self.world)
         check_pose("Scenario.start", self.start)
         check_pose("Scenario.goal", self.goal)

@@ -146,3 +146,35 @@ def planner_option_values(texts: list[str] | None) -> dict[str, Any]:
         except tomllib.TOMLDecodeError:
             out[key] = value  # a bare word: text (e.g. init=hybrid-a-star)
     return out
+
+
+def robot_name(text: str) -> str:
+    """``--robot``'s value when it names a registered robot (the plugins' too: they load when a ``--robot`` is
+    given, not for ``--help``).
+
+    Raises:
+        argparse.ArgumentTypeError: Any other (exit 2), listing the robots and how a plugin's is registered.
+    """
+    from planning.core.robot import ROBOTS, robot_names
+
+    if not text.strip():
+        raise argparse.ArgumentTypeError("the value is empty; give R, or leave --robot out")
+    if text not in ROBOTS:
+        raise argparse.ArgumentTypeError(
+            f"unknown robot {text!r}: choose one of {robot_names()}; {ROBOTS.unknown_hint()}"
+        )
+    return text
+
+
+def add_robot_argument(p: argparse.ArgumentParser, help: str, default: str | None = None) -> None:
+    """``--robot NAME`` (checked by :func:`robot_name`); its help lists the built-in robots without loading a
+    plugin, and says a plugin's is accepted too."""
+    from planning.core.robot import ROBOTS
+
+    p.add_argument(
+        "--robot",
+        type=robot_name,
+        default=default,
+        metavar="R",
+        help=f"{help}; R: {', '.join(ROBOTS.built_in())} or a plugin's robot (docs/how-to/new-robot.md)",
+    )

@@ -109,8 +109,8 @@ def tracker_notes(on_reference: bool, trackers: Sequence[str]) -> list[str]:
 def add_case_arguments(p: argparse.ArgumentParser) -> None:
     """``--scenario``, ``--robot`` and ``--planner`` / ``--reference``, decided by simulate's rule
     (:func:`sim.cli.simulate.job_source`) for commands that run one case (compare, montecarlo)."""
-    from planning.core.robot import ROBOT_FILES
     from planning.trajectory.references import REFERENCES
+    from sim.cli.checks import add_robot_argument
 
     p.add_argument(
         "--scenario",
@@ -118,7 +118,7 @@ def add_case_arguments(p: argparse.ArgumentParser) -> None:
         metavar="NAME|PATH",
         help="scenario (default: as simulate's: edumip_map; open with --reference)",
     )
-    p.add_argument("--robot", choices=list(ROBOT_FILES), default=None, help="robot (default: the scenario's)")
+    add_robot_argument(p, "robot (default: the scenario's)")
     src = p.add_mutually_exclusive_group()
     src.add_argument("--planner", default=None, metavar="P", help="plan with P (default: the scenario's planner)")
     src.add_argument("--reference", choices=list(REFERENCES), default=None, help="track an analytic reference")
@@ -211,7 +211,7 @@ def add_output_arguments(p: argparse.ArgumentParser) -> None:
         "--gl",
         choices=["osmesa", "egl", "glfw"],
         default=None,
-        help="OpenGL backend (default: MUJOCO_GL, else osmesa without a display, else egl)",
+        help="OpenGL backend (default: MUJOCO_GL, else glfw with a display, else osmesa, else egl)",
     )
 
 

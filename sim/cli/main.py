@@ -290,8 +290,8 @@ def _main(argv: Sequence[str] | None) -> int:
             return 1
         _say_failure(f"nhsim {name}: error: {without_python(str(exc))}", exc)
         return 2
-    except KeyboardInterrupt:
-        say_interrupted(f"nhsim {name}: interrupted{_after_writing()}")
+    except KeyboardInterrupt as exc:  # a command may say what it kept and how to go on (``nhsim_note``)
+        say_interrupted(f"nhsim {name}: interrupted{getattr(exc, 'nhsim_note', '')}{_after_writing()}")
         return 130
     except OSError as exc:
         if exc.errno not in WRITE_FAILURES:

@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.errors import ConfigError
-from sim.cli.checks import add_planner_option_argument
+from sim.cli.checks import add_planner_option_argument, add_robot_argument
 
 #: Largest motion between consecutive path states in the JSON record [m].
 PATH_SPACING = 0.02
@@ -20,7 +20,6 @@ PATH_SPACING = 0.02
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Register the ``plan`` subcommand."""
-    from planning.core.robot import ROBOT_FILES
     from planning.planners.registry import PLANNERS
 
     planners = ", ".join(PLANNERS.built_in()) + ", or one a plugin registers"
@@ -63,11 +62,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "--planner", default=None, metavar="P", help=f"planner: {planners} (default: the scenario's planner)"
     )
     add_planner_option_argument(p)
-    p.add_argument(
-        "--robot",
-        choices=sorted(ROBOT_FILES),
-        default=None,
-        help="robot, overriding the scenario's: one of the robots it lists (default: the scenario's robot)",
+    add_robot_argument(
+        p, "robot, overriding the scenario's: one of the robots it lists (default: the scenario's robot)"
     )
     p.add_argument("--seed", type=int, default=0, metavar="N", help="random seed; same seed, same plan (default: 0)")
     p.add_argument(

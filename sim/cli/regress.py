@@ -190,8 +190,9 @@ def check_baselines(baselines: Path, cases: list[Any], *, update: bool) -> dict[
             check_writable(path, overwrite=True)
     elif not baselines.exists():
         raise ConfigError(
-            f"--baselines {baselines} does not exist; give the folder that holds the baselines, or record them "
-            "there with nhsim regress --update"  # with this run's --suite and --baselines (run: _with_files)
+            f"the baselines folder {baselines} does not exist (--baselines, by default the folder baselines beside the "
+            "suite file); give the folder that holds the baselines, or record them there with nhsim regress --update"
+            # with this run's --suite and --baselines (run: _with_files)
         )
     return read_baselines(cases, baselines)
 

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from planning.errors import ConfigError, option, without_python
-from sim.cli.checks import add_planner_option_argument
+from sim.cli.checks import add_planner_option_argument, add_robot_argument
 from sim.cli.job_outputs import RUN_SETTINGS, add_executor_arguments, add_output_arguments, tracker_notes
 from sim.cli.trajectory_files import add_file_arguments, check_file_options, file_given, format_import
 from sim.pipeline.runs import RunKind, run_kinds
@@ -214,7 +214,6 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 def _add_job_arguments(p: argparse.ArgumentParser) -> None:
     """What to run: scenario, robot, reference or planner, the sweep."""
-    from planning.core.robot import ROBOT_FILES
     from planning.planners.registry import PLANNERS
     from planning.trajectory.references import REFERENCES
 
@@ -225,11 +224,8 @@ def _add_job_arguments(p: argparse.ArgumentParser) -> None:
         help=f"built-in scenario name, random<N> (the generated world of seed N) or path to a scenario .toml "
         f"(default: {DEFAULT_SCENARIO}; {REFERENCE_SCENARIO} with --reference)",
     )
-    p.add_argument(
-        "--robot",
-        choices=list(ROBOT_FILES),
-        default=None,
-        help="robot, overriding the scenario's: one of the robots it lists (default: the scenario's robot)",
+    add_robot_argument(
+        p, "robot, overriding the scenario's: one of the robots it lists (default: the scenario's robot)"
     )
     p.add_argument(
         "--reference",

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from planning.core.robot import ROBOT_FILES
+from planning.core.robot import ROBOTS
 from planning.errors import ConfigError
 from planning.planners.registry import PLANNERS
 from sim.pipeline.runs import RunKind
@@ -13,7 +13,7 @@ from sim.pipeline.sweep import Outcome, Stage, SweepRow
 
 NAN = float("nan")
 #: Widths of the robot and planner columns: the longest name of each ("edumip-balancing", "hybrid-a-star").
-ROBOT_WIDTH = max(map(len, ROBOT_FILES))
+ROBOT_WIDTH = max(map(len, ROBOTS.built_in()))
 PLANNER_WIDTH = max(map(len, PLANNERS))
 
 

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from planning.errors import ConfigError
+from sim.cli.checks import add_robot_argument
 from sim.cli.simulate import add_localiser_arguments, check_scan_beams, localiser_fields
 from sim.tools.executor import JOBS_PER_CORE, check_workers
 from sim.tools.tune import GRACE_PERIOD, UNRECORDED
@@ -85,7 +86,6 @@ trials' gains run again)."""
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Register the ``tune`` subcommand."""
-    from planning.core.robot import ROBOT_FILES
     from sim.tools.tune import SAMPLERS
 
     p: argparse.ArgumentParser = sub.add_parser(
@@ -128,7 +128,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         default="tpe",
         help="Optuna sampler (default: tpe; a resumed study may take another)",
     )
-    p.add_argument("--robot", choices=list(ROBOT_FILES), default=None, help="robot (default: each scenario's)")
+    add_robot_argument(p, "robot (default: each scenario's)")
     p.add_argument("--control-rate", type=float, default=50.0, metavar="HZ", help="tracker rate (default: 50)")
     add_localiser_arguments(p)
     p.add_argument(
@@ -805,6 +805,14 @@ def _run_trials(args: argparse.Namespace, spec: Any, study: Any) -> None:
             run_worker(spec, shares[0], 0, callbacks=[lambda s, t: progress.set(len(completed(s)), _best_value(s))])
         elif shares:
             _run_parallel(spec, shares, study, progress)
+    except KeyboardInterrupt as exc:  # what is kept, and how to go on, said with the command's "interrupted"
+        with contextlib.suppress(Exception):  # a storage that cannot answer now: "interrupted" alone
+            kept = len(completed(study))
+            exc.nhsim_note = (  # type: ignore[attr-defined]
+                f": the study keeps its {kept} completed trial{'s' if kept != 1 else ''} of {args.trials} in "
+                f"{shown_url(spec.storage)}; the same command resumes it"
+            )
+        raise
     finally:
         progress.close()
 

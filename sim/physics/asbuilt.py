@@ -187,7 +187,12 @@ class AsBuilt:
         """
         seed = check_build_seed(build_seed)
         if robot_name not in TOLERANCES:
-            raise ConfigError(f"no build tolerances for robot {robot_name!r}: choose one of {', '.join(TOLERANCES)}")
+            raise ConfigError(
+                f"no build tolerances for robot {robot_name!r} (robots with them: {', '.join(TOLERANCES)}): run it as "
+                f"drawn, {option('build', 'nominal', python='build_seed=None')}, or give its tolerances where it is "
+                f"registered, sim.physics.asbuilt.TOLERANCES[{robot_name!r}] = BuildTolerance(radius=..., ...) "
+                "(docs/how-to/new-robot.md)"
+            )
         tol = TOLERANCES[robot_name]
         rng = np.random.default_rng([seed, zlib.crc32(robot_name.encode())])
         z = np.clip(rng.standard_normal(7), -CLIP_SIGMAS, CLIP_SIGMAS).tolist()

@@ -18,9 +18,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.core.geometry import Pose2D
-from planning.core.robot import ROBOTS_DIR, RobotSpec, check_robot_spec, load_robot
+from planning.core.robot import ROBOTS_DIR, RobotSpec, check_robot_spec, check_scene, load_robot
 from planning.core.world import OBSTACLE_HEIGHT, Box, Circle, Ellipse, Polygon, World, check_world
 from planning.errors import ModelError
+from planning.signals import signals_held
 from sim.physics.motors import apply_supply
 
 OBSTACLE_RGBA = (0.72, 0.36, 0.28, 1.0)
@@ -114,6 +115,63 @@ def check_scene_arguments(robot: object, world: object) -> None:
     check_world("Simulator: world", world, none="an empty floor")
 
 
+#: What the simulator reads from a robot's model by name (a model of one's own needs them too), by kind.
+NAMED_ELEMENTS: dict[str, tuple[str, ...]] = {
+    "joint": ("root", "wheel_left_joint", "wheel_right_joint"),
+    "actuator": ("wheel_left_motor", "wheel_right_motor"),
+    "sensor": ("base_pos", "base_quat", "wheel_left_vel", "wheel_right_vel", "wheel_left_pos", "wheel_right_pos"),
+}
+
+
+def check_named_elements(robot: RobotSpec, model: mujoco.MjModel) -> None:
+    """Raise :class:`ModelError` unless the compiled model has every element of :data:`NAMED_ELEMENTS`, naming
+    the model file and every one it lacks (a model of one's own that misses one failed deep inside a run)."""
+    kinds = {
+        "joint": mujoco.mjtObj.mjOBJ_JOINT,
+        "actuator": mujoco.mjtObj.mjOBJ_ACTUATOR,
+        "sensor": mujoco.mjtObj.mjOBJ_SENSOR,
+    }
+    missing = [
+        f"{kind} {name!r}"
+        for kind, names in NAMED_ELEMENTS.items()
+        for name in names
+        if mujoco.mj_name2id(model, kinds[kind], name) < 0
+    ]
+    if missing:
+        raise ModelError(
+            f"{robot.mjcf}: robot {robot.name!r} lacks {', '.join(missing)}, which the simulator reads by name; give "
+            f"them as {ROBOTS_DIR / 'turtlebot3_burger.xml'} does (docs/how-to/new-robot.md)"
+        )
+
+
+def _compile_scene(
+    robot: RobotSpec, world: World | None, wall_height: float, wall_thickness: float
+) -> tuple[mujoco.MjModel, list[str]]:
+    """:func:`build_model`'s compiled scene and the names of the obstacles and walls it added, in order."""
+    spec = mujoco.MjSpec.from_file(str(robot.scene))
+    holder = spec.worldbody.add_body(name="obstacles")
+    # One contact sensor counts robot-obstacle contacts in sensordata, so the physics loop needs no
+    # Python scan of the contact list unless something is touching. intprm = [data, reduce, num]:
+    # data bit 0 = "found", no reduction, one slot.
+    spec.add_sensor(
+        name="obstacle_contact",
+        type=mujoco.mjtSensor.mjSENS_CONTACT,
+        objtype=mujoco.mjtObj.mjOBJ_XBODY,
+        objname="base",
+        reftype=mujoco.mjtObj.mjOBJ_BODY,
+        refname="obstacles",
+        intprm=[1, 0, 1],
+    )
+    names: list[str] = []
+    if world is not None:
+        names += _add_obstacles(spec, holder, world)
+        names += _add_walls(holder, world, wall_height, wall_thickness)
+        xmin, xmax, ymin, ymax = world.bounds
+        spec.stat.extent = float(max(xmax - xmin, ymax - ymin))
+        spec.stat.center = [(xmin + xmax) / 2, (ymin + ymax) / 2, 0.0]
+    return spec.compile(), names
+
+
 def build_model(
     robot: RobotSpec,
     world: World | None = None,
@@ -138,34 +196,10 @@ def build_model(
             (named as :class:`sim.physics.simulator.Simulator`'s arguments, the public way here).
     """
     check_scene_arguments(robot, world)
-    if not robot.scene.is_file():
-        raise ModelError(
-            f"robot {robot.name!r} has no scene file {robot.scene} (the floor and light, which include "
-            f"{robot.mjcf.name}): copy {ROBOTS_DIR / 'turtlebot3_burger_scene.xml'} beside it and make its <include> "
-            f"name {robot.mjcf.name}"
-        )
-    spec = mujoco.MjSpec.from_file(str(robot.scene))
-    holder = spec.worldbody.add_body(name="obstacles")
-    # One contact sensor counts robot-obstacle contacts in sensordata, so the physics loop needs no
-    # Python scan of the contact list unless something is touching. intprm = [data, reduce, num]:
-    # data bit 0 = "found", no reduction, one slot.
-    spec.add_sensor(
-        name="obstacle_contact",
-        type=mujoco.mjtSensor.mjSENS_CONTACT,
-        objtype=mujoco.mjtObj.mjOBJ_XBODY,
-        objname="base",
-        reftype=mujoco.mjtObj.mjOBJ_BODY,
-        refname="obstacles",
-        intprm=[1, 0, 1],
-    )
-    names: list[str] = []
-    if world is not None:
-        names += _add_obstacles(spec, holder, world)
-        names += _add_walls(holder, world, wall_height, wall_thickness)
-        xmin, xmax, ymin, ymax = world.bounds
-        spec.stat.extent = float(max(xmax - xmin, ymax - ymin))
-        spec.stat.center = [(xmin + xmax) / 2, (ymin + ymax) / 2, 0.0]
-    model = spec.compile()
+    check_scene(robot)
+    with signals_held():  # an interrupt inside a binding's argument conversion became its TypeError: it waits
+        model, names = _compile_scene(robot, world, wall_height, wall_thickness)
+    check_named_elements(robot, model)
     if robot.battery_voltage > 0:
         apply_supply(model, robot.battery_voltage)  # the run's battery (nothing at the model's own)
     obstacle_ids = np.array([model.geom(n).id for n in names], dtype=np.int64)

@@ -58,7 +58,7 @@ from numpy.typing import NDArray
 from control.estimation.kernels import wrap
 from planning.core.checks import check_number
 from planning.core.files import read_input_text
-from planning.core.robot import MODELS_DIR
+from planning.core.robot import SENSORS_DIR, robot_files
 from planning.errors import ConfigError, option
 from sim.physics.keyvalue import parse_number, parse_pairs
 from sim.physics.motors import control_steps
@@ -68,9 +68,6 @@ if TYPE_CHECKING:
 
 FloatArray = NDArray[np.float64]
 
-SENSORS_DIR = MODELS_DIR / "sensors"
-#: Robots that share another robot's sensors: the balancing EduMIP carries the EduMIP's.
-SHARED_PROFILES: dict[str, str] = {"edumip-balancing": "edumip"}
 
 #: Field -> (lowest allowed, highest allowed, unit, a typical value quoted in messages).
 LIMITS: dict[str, tuple[float, float, str, str]] = {
@@ -211,16 +208,13 @@ class SensorProfile:
 
 
 def sensor_profile_path(robot: str) -> Path:
-    """The profile file of a robot, ``models/sensors/<robot>.toml`` (or the one it shares, :data:`SHARED_PROFILES`).
+    """The sensor settings file of a robot (:attr:`planning.core.robot.RobotFiles.sensors`: the built-in robots'
+    are ``models/sensors/<robot>.toml``; the balancing EduMIP shares the EduMIP's).
 
     Raises:
-        ConfigError: No profile for that robot (the message lists those there are).
+        ConfigError: Unknown robot (the message lists the robots).
     """
-    path = SENSORS_DIR / f"{SHARED_PROFILES.get(robot, robot)}.toml"
-    if not path.is_file():
-        known = ", ".join(sorted(p.stem for p in SENSORS_DIR.glob("*.toml")))
-        raise ConfigError(f"no sensor profile for robot {robot!r}: choose one of {known} or add {path}")
-    return path
+    return robot_files(robot).sensors
 
 
 #: The tables of a sensor settings file (``models/sensors/<robot>.toml``, and ``--sensors FILE`` in the same
@@ -285,8 +279,9 @@ def load_sensor_profile(
         table: A ``[sensors]`` table (a scenario's, or :func:`read_sensor_table` of a file).
         text: ``key=value,...`` from ``--sensors``; it wins over ``table``.
         source: The file (or scenario) ``table`` comes from: its errors name it and the field.
-        control_rate: The runs' control rate [Hz], when known: a fix rate set by ``table`` (and not by
-            ``text``) is checked against it (:func:`fix_period`), its error naming ``source`` and the field.
+        control_rate: The runs' control rate [Hz], when known: the fix rate is checked against it
+            (:func:`fix_period`), its error said where the rate was set (``text``, ``table``'s ``source`` and
+            field, or the robot's profile).
 
     Raises:
         ConfigError: No profile for the robot, or a bad key or value anywhere.
@@ -297,10 +292,36 @@ def load_sensor_profile(
         profile = profile.override(table, source=source)
     if text:
         profile = profile.parse(text)
-    if control_rate is not None and table and "fix_rate" in table:
-        if "fix_rate" not in (parse_pairs(text, option("sensors", text), LIMITS, EXAMPLE) if text else {}):
-            fix_period(profile.fix_rate, control_rate, source)  # the table's rate: said where it was set
+    if control_rate is not None:
+        _check_fix_rate(robot, path, profile.fix_rate, control_rate, table, text, source)
     return profile
+
+
+def _check_fix_rate(
+    robot: str,
+    path: Path,
+    rate: float,
+    control_rate: float,
+    table: Mapping[str, object] | None,
+    text: str | None,
+    source: str | None,
+) -> None:
+    """:func:`fix_period` of the profile's fix rate, its error said where the rate was set: by ``--sensors``, by
+    the ``[sensors]`` table of ``source``, or by the robot's own profile (at ``path``: the fix is an override on
+    the command line, or a control rate its fixes divide)."""
+    if text and "fix_rate" in parse_pairs(text, option("sensors", text), LIMITS, EXAMPLE):
+        fix_period(rate, control_rate)
+    elif table and "fix_rate" in table:
+        fix_period(rate, control_rate, source)  # the table's rate: said where it was set
+    else:
+        try:
+            fix_period(rate, control_rate)
+        except ConfigError as exc:
+            raise ConfigError(
+                f"robot {robot!r} takes pose fixes at {rate:g} Hz (fix_rate in its sensor profile {path}), which a "
+                f"control rate of {control_rate:g} Hz does not keep: {exc}; or give a control rate that is a multiple "
+                f"of {rate:g} Hz ({option('control-rate')})"
+            ) from None
 
 
 @nb.njit(cache=True, inline="always")

@@ -32,11 +32,11 @@ from numpy.typing import NDArray
 from control.base import TRACKERS, tuned_or_none
 from control.estimation.amcl import AmclConfig
 from control.fbl import uses_fbl_gains
-from control.gains import FBLGains
+from control.gains import FBLGains, check_sampled_stability
 from planning.collision.exact import DEFAULT_TOLERANCE, CollisionChecker
 from planning.core.checks import check_fields, check_flag, check_number
 from planning.core.geometry import Pose2D, wrap_angle
-from planning.core.robot import ROBOT_FILES, RobotSpec, load_robot
+from planning.core.robot import RobotSpec, check_robot_name, load_robot
 from planning.errors import ConfigError, ScenarioError, option, options
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, path_collision, run_planner
 from planning.planners.registry import PLANNERS, make_planner, planner_options
@@ -233,8 +233,8 @@ class Case:
                 f"case {self.label}: unknown tracker {self.tracker!r}; choose {', '.join(TRACKERS)}; "
                 f"{TRACKERS.unknown_hint()}"
             )
-        if self.robot is not None and self.robot not in ROBOT_FILES:
-            raise ConfigError(f"case {self.label}: unknown robot {self.robot!r}; choose {', '.join(ROBOT_FILES)}")
+        if self.robot is not None:
+            check_robot_name(f"case {self.label}", self.robot)
         self._check_gains()
         if not self.name:
             object.__setattr__(self, "name", self._derived_name())
@@ -285,6 +285,9 @@ class Case:
                 f"case {self.label}: tracker {name!r} is given two sets of FBL gains, gains={self.gains} and "
                 f"params={self.params} (its tuned parameters are its gains): give them once, as gains=FBLGains(...)"
             )
+        given = self.params if self._params_are_gains else self.gains
+        if given is not None:
+            check_sampled_stability(given, self.control_rate, f"case {self.label}")
 
     @property
     def fbl_gains(self) -> FBLGains | None:

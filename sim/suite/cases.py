@@ -10,7 +10,7 @@ from dm_control.mujoco.wrapper import core
 from dm_control.rl import control
 
 from planning.core.checks import check_number, is_number
-from planning.core.robot import ROBOT_FILES, load_robot
+from planning.core.robot import check_robot_name, load_robot
 from planning.errors import ConfigError
 from planning.planners.registry import PLANNERS
 from planning.trajectory.references import REFERENCES
@@ -55,8 +55,7 @@ def all_cases() -> tuple[tuple[str, str, str], ...]:
 def _case(
     scenario: str, robot: str, source: str, seed: int, build_seed: int | None, control_rate: float, sensors: str = ""
 ) -> Case:
-    if robot not in ROBOT_FILES:
-        raise ConfigError(f"unknown robot {robot!r}; choose one of {', '.join(ROBOT_FILES)}")
+    check_robot_name("sim.suite", robot)
     is_reference = source in REFERENCES
     if is_reference or source in PLANNERS:
         return Case(

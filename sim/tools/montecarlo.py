@@ -232,8 +232,9 @@ _CODE_ROOTS = ("planning", "control", "sim", "models")
 
 def code_digest() -> str:
     """A 12-hex-digit hash of the code the runs run: the project's code and models (every file under
-    :data:`_CODE_ROOTS` but caches, by path and content) and the source of the planners and trackers added to the
-    registries (:func:`plugin_files`: the plugins, loaded first, and what the program's own code registered): two
+    :data:`_CODE_ROOTS` but caches, by path and content), the source of the planners and trackers added to the
+    registries (:func:`plugin_files`: the plugins, loaded first, and what the program's own code registered) and
+    the files of the robots added (:func:`robot_model_files`): two
     runs of one study's settings are comparable when it is the same. The project's part is hashed once per
     process, the others once per set of files."""
     from control.base import TRACKERS
@@ -241,7 +242,7 @@ def code_digest() -> str:
 
     PLANNERS.load_plugins()  # what the runs may run: the plugins registered by the time the digest is taken
     TRACKERS.load_plugins()
-    return _digest(_project_digest(), tuple(plugin_files()))
+    return _digest(_project_digest(), tuple(plugin_files() + robot_model_files()))
 
 
 @functools.cache
@@ -289,6 +290,21 @@ def plugin_files() -> list[tuple[Path, str]]:
         if origin and not folders and Path(origin).is_file():
             found[Path(origin)] = Path(origin).name if module == top else module
     return sorted(found.items(), key=lambda item: item[1])
+
+
+def robot_model_files() -> list[tuple[Path, str]]:
+    """The files of the robots registered besides nhsim's own (:func:`planning.core.robot.register_robot`: a
+    plugin's, or the program's own code's): each one's model, scene and sensor settings, as (file, a name that
+    says whose), sorted by name. A changed model or profile makes other runs."""
+    from planning.core.robot import ROBOTS, robot_files
+
+    found: dict[str, Path] = {}
+    for name in sorted(set(ROBOTS) - set(ROBOTS.built_in())):
+        files = robot_files(name)
+        scene = files.mjcf.with_name(f"{files.mjcf.stem}_scene.xml")
+        for kind, path in (("model", files.mjcf), ("scene", scene), ("sensors", files.sensors)):
+            found[f"robot {name} {kind}"] = path
+    return [(path, label) for label, path in sorted(found.items()) if path.is_file()]
 
 
 def _located(module: str) -> tuple[str | None, list[str]]:

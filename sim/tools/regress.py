@@ -56,11 +56,11 @@ from pathlib import Path
 from typing import Any, TypeGuard, get_type_hints
 
 from control.base import TRACKERS, load_plugins, option_takes
-from control.gains import FBLGains, resolve_gains
+from control.gains import FBLGains, UnstableGainsError, resolve_gains
 from planning.core.checks import is_number
 from planning.core.files import read_input_text
 from planning.core.plugins import PLUGIN_VARIABLE
-from planning.core.robot import ROBOT_FILES
+from planning.core.robot import ROBOTS
 from planning.errors import ConfigError, NhsimError, SimulationError, option, without_python
 from planning.planners.registry import PLANNERS
 from planning.scenario import Scenario, load_scenario
@@ -213,7 +213,7 @@ class Suite:
 SUITE_KEYS = ("cases", "tolerances")
 #: Case fields whose value is a registry's name: field -> the registry (its names are the allowed values).
 CHOICES: dict[str, Collection[str]] = {
-    "robot": ROBOT_FILES,
+    "robot": ROBOTS,
     "reference": REFERENCES,
     "planner": PLANNERS,  # or "" for the scenario's own planner
     "tracker": TRACKERS,
@@ -386,6 +386,8 @@ def _case_from_table(entry: Any, where: str, folder: Path) -> Case:
     fields_.setdefault("localiser", "fixes")  # the suite's cases run on synthetic fixes unless they name amcl
     try:
         case = Case(**fields_)
+    except UnstableGainsError as exc:
+        raise _field_error(where, "gains", entry.get("gains"), exc.problem) from exc
     except (ConfigError, TypeError) as exc:
         raise ConfigError(f"{where}: {_suite_terms(str(exc))}") from exc
     try:
@@ -418,7 +420,7 @@ def _check_case_runs(case: Case, entry: dict[str, Any], where: str) -> None:
     except ConfigError as exc:
         raise _field_error(where, "control_rate", entry.get("control_rate", case.control_rate), str(exc)) from exc
     if case.localiser == "amcl" and load_lidar_profile(scenario.robot) is None:
-        scanned = ", ".join(r for r in ROBOT_FILES if load_lidar_profile(r) is not None)
+        scanned = ", ".join(r for r in ROBOTS if load_lidar_profile(r) is not None)
         problem = f'robot {scenario.robot!r} has no laser scanner to localise with; use localiser = "fixes"'
         raise _field_error(where, "localiser", "amcl", f"{problem}, or a robot with a scanner ({scanned})")
     try:

@@ -7,13 +7,13 @@ import argparse
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Options of the benchmark."""
-    from planning.core.robot import ROBOT_FILES
     from planning.trajectory.references import REFERENCES
+    from sim.cli.checks import add_robot_argument
 
     p.add_argument("--runs", type=int, default=32, metavar="N", help="runs of the study (default: 32)")
     p.add_argument("--workers", type=int, default=2, metavar="J", help="worker processes (default: 2)")
     p.add_argument("--scenario", default=None, metavar="NAME", help="scenario (default: as simulate's, edumip_map)")
-    p.add_argument("--robot", choices=list(ROBOT_FILES), default=None, help="robot (default: the scenario's)")
+    add_robot_argument(p, "robot (default: the scenario's)")
     p.add_argument("--reference", choices=list(REFERENCES), default=None, help="reference (default: the plan)")
 
 

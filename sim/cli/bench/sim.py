@@ -8,15 +8,14 @@ import argparse
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Options of the benchmark."""
-    from planning.core.robot import ROBOT_FILES
     from planning.trajectory.references import REFERENCES
+    from sim.cli.checks import add_robot_argument
 
-    p.add_argument(
-        "--robot",
-        choices=list(ROBOT_FILES),
-        default="turtlebot3",
-        help="robot both loops step; not a balancing one, whose wheel voltages come from its balance firmware, "
-        "which the bare loop does not run (default: turtlebot3)",
+    add_robot_argument(
+        p,
+        "robot both loops step; not a balancing one, whose wheel voltages come from its balance firmware, which the "
+        "bare loop does not run (default: turtlebot3)",
+        "turtlebot3",
     )
     p.add_argument(
         "--reference",

@@ -8,10 +8,10 @@ import argparse
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Options of the benchmark."""
-    from planning.core.robot import ROBOT_FILES
     from planning.trajectory.references import REFERENCES
+    from sim.cli.checks import add_robot_argument
 
-    p.add_argument("--robot", choices=list(ROBOT_FILES), default="turtlebot3")
+    add_robot_argument(p, "robot (default: turtlebot3)", "turtlebot3")
     p.add_argument("--reference", choices=list(REFERENCES), default="figure8")
     p.add_argument(
         "--trackers", default=None, metavar="A,B,...", help="(default: every registered tracker with feedback)"

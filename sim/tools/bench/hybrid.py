@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from planning.core.geometry import Pose2D
-from planning.core.robot import ROBOT_FILES, load_robot
+from planning.core.robot import ROBOTS, load_robot
 from planning.core.world import Box, Circle, World
 from planning.planners.base import PlanProblem
 from planning.planners.registry import make_planner
@@ -105,7 +105,7 @@ def passed(rows: list[HybridRow]) -> bool:
 
 def format_rows(rows: list[HybridRow]) -> list[str]:
     """The table: one line per problem, then the worst time and ratio against the targets."""
-    rw = max(map(len, ROBOT_FILES)) + 2  # the longest robot name ("edumip-balancing") and a gap
+    rw = max(map(len, ROBOTS.built_in())) + 2  # the longest robot name ("edumip-balancing") and a gap
     lines = [f"{'world':<18}{'robot':<{rw}}{'status':<10}{'wall ms':>9}{'cpu ms':>9}{'exp':>7}{'length':>9}"
              f"{'rrt*':>9}{'ratio':>8}"]  # fmt: skip
     for r in rows:
