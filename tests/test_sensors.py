@@ -551,3 +551,20 @@ def test_a_fix_as_late_as_the_profile_delivers_it_is_fused(rate: float, latency:
     explicit = replace(setup, estimator=setup.estimator_config(robot, 50.0 if rate > 50 else 10.0))
     with pytest.raises(ConfigError, match=rf"history_steps .* keeps less than the fixes' latency .*>= {lag + 2}"):
         explicit.estimator_config(robot, rate)
+
+
+def test_the_control_rates_a_message_suggests_run_every_built_in_robot() -> None:
+    """A rate below 1 Hz or off the physics steps was told "e.g. 10, 25, 50, 100"; 25 Hz was then refused on the
+    EduMIP, whose 10 Hz fixes are 2.5 of its periods."""
+    import re
+
+    from planning.core.robot import ROBOTS
+    from sim.physics import motors
+    from sim.physics.model import robot_timestep
+
+    rates = [float(r) for r in re.findall(r"\d+", motors._RATES)]
+    assert rates == [10.0, 20.0, 50.0, 100.0]
+    for robot in ROBOTS.built_in():
+        for rate in rates:
+            assert motors.control_steps(rate, robot_timestep(robot)) >= 1
+            load_sensor_profile(robot, control_rate=rate)  # its own fixes a whole number of periods

@@ -96,6 +96,11 @@ def whole_steps(duration: float, timestep: float) -> int:
     return k if k >= 1 and abs(ratio - k) <= 1e-6 else 0
 
 
+#: Control rates a message suggests: each divides the robots' physics rates and is a whole number of periods of the
+#: built-in robots' pose fixes (5 and 10 Hz; 25 Hz, suggested once, is not of the EduMIP's).
+_RATES = "(e.g. 10, 20, 50 or 100 Hz)"
+
+
 def control_steps(control_rate: float, timestep: float) -> int:
     """Physics steps of ``timestep`` [s] per control period at ``control_rate`` [Hz].
 
@@ -106,13 +111,13 @@ def control_steps(control_rate: float, timestep: float) -> int:
     if not control_rate >= MIN_CONTROL_RATE:
         raise ConfigError(
             f"control rate {control_rate:g} Hz is below {MIN_CONTROL_RATE:g} Hz: no tracker steers a wheeled robot "
-            f"once a second or less; choose a rate that divides {1.0 / timestep:g} Hz (e.g. 10, 25, 50, 100)"
+            f"once a second or less; choose a rate that divides {1.0 / timestep:g} Hz {_RATES}"
         )
     k = whole_steps(1.0 / control_rate, timestep)
     if not k:
         raise ConfigError(
             f"control rate {control_rate:g} Hz is not a whole number of {timestep * 1e3:g} ms physics steps; "
-            f"choose a rate that divides {1.0 / timestep:g} Hz (e.g. 10, 25, 50, 100)"
+            f"choose a rate that divides {1.0 / timestep:g} Hz {_RATES}"
         )
     return k
 
