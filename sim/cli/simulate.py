@@ -344,7 +344,8 @@ def _add_run_arguments(p: argparse.ArgumentParser) -> None:
         type=float,
         default=RUN_SETTINGS["control_rate"],
         metavar="HZ",
-        help="tracker rate; must divide the robot's physics rate, 500 Hz (edumip-balancing: 1000 Hz) "
+        help="tracker rate; must divide the robot's physics rate, 500 Hz (edumip-balancing: 1000 Hz), and be a "
+        "multiple of its pose fixes' rate (the TurtleBot3's 5 Hz, the EduMIP's 10 Hz; --sensors fix_rate=F changes it) "
         "(default: %(default)g)",
     )
     seed, every = RUN_SETTINGS["seed"], "seed for every random choice (default: %(default)s)"
