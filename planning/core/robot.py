@@ -100,6 +100,7 @@ def register_robot(
         ConfigError: A bad name, a missing file, or a name taken by other files without ``replace``.
         ModelError: The model is not one :func:`load_robot` reads, or has no scene file beside it.
     """
+    # the name as the other registries check theirs (the target checked is the files' type, callable as a factory)
     check_registration("register_robot", name, RobotFiles, kind="robot", flag="--robot NAME", examples=("kobuki", ""))
     files = RobotFiles(_existing(name, "mjcf", mjcf, ".xml"), _existing(name, "sensors", sensors, ".toml"))
     spec = _parse_robot(name, files.mjcf, files.mjcf.read_bytes())
@@ -476,7 +477,8 @@ def _registered_name(name: str, path: Path) -> str:
 
 @functools.lru_cache(maxsize=64)
 def _parse_robot(name: str, path: Path, text: bytes) -> RobotSpec:
-    """:func:`load_robot` of ``text``, the file at ``path`` (the spec depends on nothing else)."""
+    """:func:`load_robot` of ``text``, the file at ``path``, for the robot ``name`` (the spec depends on nothing
+    else)."""
     try:
         root = ET.fromstring(text)
     except ET.ParseError as exc:
