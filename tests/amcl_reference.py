@@ -170,3 +170,19 @@ def fit_sensitivity(pose, ranges, bearings, laser, field, grid, gate, split, noi
         ws.append(beam_weight(z, noise))
     a, d_, w = np.array(rows).reshape(-1, 5), np.array(ds), np.array(ws)
     return a.T @ (w[:, None] * a), len(ds), float(d_ @ (w * d_))
+
+
+def fit_cost(pose, ranges, bearings, laser, field, grid, gate, noise):  # type: ignore[no-untyped-def]
+    """The scan-to-map fit's objective at a pose: each weighed beam's w d^2, or w gate^2 with no surface within
+    the gate (a truncated quadratic)."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    origin = np.array([pose[0] + c * laser[0] - s * laser[1], pose[1] + s * laser[0] + c * laser[1]])
+    cost = 0.0
+    for z, bearing in zip(ranges, bearings, strict=True):
+        w = beam_weight(z, noise)
+        if w == 0.0:
+            continue
+        e = np.array([math.cos(pose[2] + laser[2] + bearing), math.sin(pose[2] + laser[2] + bearing)])
+        ok, d, _ = beam_residual(field, grid, origin + z * e, e, gate)
+        cost += w * (d * d if ok else gate * gate)
+    return cost

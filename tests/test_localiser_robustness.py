@@ -214,7 +214,7 @@ def test_thin_walls_fit_as_well_as_thick_ones() -> None:
     assert rms[0] < 1.4 * rms[1] and thin.max() < 0.03, (rms, thin.max())
 
 
-def test_the_fit_sensitivity_matches_the_reference_on_thin_walls() -> None:
+def test_the_fit_sensitivity_and_objective_match_the_reference_on_thin_walls() -> None:
     """The walk back along a ray (end points inside a wall, past it, at the seam of a wall and the world's edge)
     as the plain-Python reference does it."""
     _, scans = _fit_errors(_walled_room(0.05), seeds=3)
@@ -225,3 +225,6 @@ def test_the_fit_sensitivity_matches_the_reference_on_thin_walls() -> None:
         np.testing.assert_allclose(ata, want[0], rtol=1e-9, atol=1e-6)
         assert (used, ssr) == (want[1], pytest.approx(want[2], rel=1e-9))
         assert used > 250
+        for moved in (pose, pose + np.array([0.2, -0.1, 0.05])):  # the fit's objective there, some beams gated out
+            cost = K.fit_cost(moved, r, b, amcl.laser, f.signed, f.grid, 0.3, amcl._noise)
+            assert cost == pytest.approx(ref.fit_cost(moved, r, b, amcl.laser, f.signed, f.grid, 0.3, amcl._noise))

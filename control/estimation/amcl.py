@@ -23,8 +23,8 @@ The algorithm of Probabilistic Robotics (Thrun, Burgard, Fox 2005) ch. 8 as Nav2
   bin of the bin of most weight), then, with ``refine`` on (nhsim's addition; Nav2 has none), a
   Gauss-Newton scan-to-map fit of the used beams' end points to the map's signed distance (from the
   surface each beam's ray meets: :func:`amcl_kernels.beam_residual`) from that mean and from the last
-  estimate moved by the odometry (the fit with more beams within the gate, then the smaller residual,
-  wins), over every valid beam (not only the ``max_beams`` subset).
+  estimate moved by the odometry (the fit whose objective, a truncated quadratic of every weighed beam,
+  :func:`amcl_kernels.fit_cost`, is smaller wins), over every valid beam (not only the ``max_beams`` subset).
   Given the scanner's white range noise (``range_noise``: the LDS-01's datasheet precision, an
   absolute standard deviation near and a relative one beyond the split), each beam is weighted by
   its inverse variance (the maximum-likelihood fit: a far beam's noise grows with its range, and
@@ -830,14 +830,15 @@ class Amcl:
         cloud = AmclEstimate(mean, cov, self.particles.shape[0], spread, False)
         if not c.refine or r.size < least:
             return cloud
-        best = None
+        best, best_cost = None, math.inf
         for start in (mean,) if prior is None else (mean, prior):
             fit = K.refine(start, r, b, self.laser, self.field.signed, self.field.grid, c.refine_gate, 10, self._noise)
             pose, info, used, ssr = fit
             if used < least or math.hypot(pose[0] - start[0], pose[1] - start[1]) >= 0.5:
                 continue
-            if np.linalg.cond(info) < 1e8 and (best is None or (used, -ssr) > (best[2], -best[3])):
-                best = fit
+            cost = K.fit_cost(pose, r, b, self.laser, self.field.signed, self.field.grid, c.refine_gate, self._noise)
+            if np.linalg.cond(info) < 1e8 and cost < best_cost:  # the fit's own objective, every beam in it
+                best, best_cost = fit, cost
         if best is None:
             return cloud
         # on from where it stopped: a fit started far off (an unconverged cloud) may not have settled in its steps

@@ -132,15 +132,30 @@ def closed_loop_targets(scenario: Scenario, *, planned: bool) -> dict[str, float
     return {k: v for k, v in TARGETS.items() if k != "final_heading_error_rad"}
 
 
+#: Share of a run's scans with too few returns to match beyond which a miss is said to be its localiser's.
+STARVED_SHARE = 0.25
+
+
 def missed_targets(metrics: TrackingMetrics, scenario: Scenario, *, planned: bool) -> list[str]:
-    """One line per target (:func:`closed_loop_targets`) the closed loop's metrics missed; [] when all met."""
+    """One line per target (:func:`closed_loop_targets`) the closed loop's metrics missed; [] when all met. A run
+    whose scan localiser could match few of its scans (more than :data:`STARVED_SHARE` with too few returns: the
+    world's surfaces beyond the scanner's range) says so on one more line, with the way to run without it."""
     values = metrics.as_dict()
-    return [
+    missed = [
         f"closed-loop run missed its target: {key} = {values[key]:.4g} > {bound:g}"
         + (" (the scenario's goal tolerance)" if planned else "")
         for key, bound in closed_loop_targets(scenario, planned=planned).items()
         if not values[key] <= bound
     ]
+    est = metrics.estimation
+    blind, cast = (est.scans_without_returns, est.scans_cast) if est is not None else (None, None)
+    if missed and blind and cast and blind > STARVED_SHARE * cast:
+        missed.append(
+            f"its scan localiser had too few returns to match in {blind} of its {cast} scans (the walls and obstacles "
+            f"beyond the scanner's range for much of the run): it cannot hold the pose in this world; "
+            "--localiser fixes runs on pose fixes instead, or give the world features within range"
+        )
+    return missed
 
 
 def sweep_cases(scenarios: list[str] | None = None, **fields_: Any) -> list[Case]:
