@@ -223,3 +223,56 @@ def test_a_model_without_what_the_simulator_reads_is_refused_naming_each(robots:
         f"{model.resolve()}: robot 'slowbot' lacks actuator 'wheel_right_motor', sensor 'wheel_left_pos', which the "
         f"simulator reads by name; give them as {ROBOTS_DIR / 'turtlebot3_burger.xml'} does (docs/how-to/new-robot.md)"
     )
+
+
+def test_a_scene_that_does_not_include_its_robots_model_is_refused_when_registered(
+    robots: None, tmp_path: Path
+) -> None:
+    """A scene copied and left including the Burger's file simulated the Burger where it found that file, and
+    failed with MuJoCo's raw "XML Error: Error opening file" where it did not."""
+    model, sensors = _robot(tmp_path)
+    scene = tmp_path / "slowbot_scene.xml"
+    scene.write_text(scene.read_text().replace('file="slowbot.xml"', 'file="turtlebot3_burger.xml"'))
+    with pytest.raises(ModelError) as err:
+        register_robot("slowbot", model, sensors=sensors)
+    assert str(err.value) == (
+        f"robot 'slowbot''s scene file {scene.resolve()} includes turtlebot3_burger.xml, not its model slowbot.xml: "
+        'make its <include file="slowbot.xml"/>'
+    )
+    assert "slowbot" not in ROBOTS
+
+
+def test_a_scanner_without_its_site_and_a_partial_supply_are_said_naming_the_fix(robots: None, tmp_path: Path) -> None:
+    """A robot with a [lidar] table and no 'lidar' site was a KeyError traceback; a model with some of the supply's
+    ratings said "give all or none" without naming them or the file."""
+    from sim.physics.lidar import LidarScanner
+    from sim.physics.model import build_model
+    from sim.physics.simulator import Simulator
+
+    model, sensors = _robot(tmp_path)
+    model.write_text(model.read_text().replace('<site name="lidar"', '<site name="scanner"'))
+    register_robot("slowbot", model, sensors=sensors)
+    profile = load_lidar_profile("slowbot")
+    assert profile is not None
+    with pytest.raises(ModelError, match=r"has no site 'lidar', where the scan plane is: give one on the scanner's"):
+        LidarScanner(build_model(load_robot("slowbot")).model, profile, seed=0)
+    other, _ = _robot(tmp_path / "partial", "partial")
+    text = other.read_text()
+    start = text.index('<numeric name="nhsim_motor_speed_cap"')
+    other.write_text(text[:start] + text[text.index("/>", start) + 2 :])
+    register_robot("partial", other, sensors=sensors)
+    with pytest.raises(ModelError) as err:
+        Simulator(load_robot("partial"))
+    said = str(err.value)
+    assert said.startswith(f"{other.resolve()}: model supply numerics: nhsim_motor_speed_cap missing beside "), said
+    assert "or none but nhsim_motor_battery_voltage (a fixed supply, its limits not checked)" in said
+
+
+def test_a_plugin_that_fails_is_said_as_itself_by_robot(tmp_path: Path) -> None:
+    """--robot looked a failing plugin's robot up inside argparse, which said only "invalid robot_name value:
+    'kobuki'" of its error (a duplicate registration, a model the rule refuses, a misspelled module)."""
+    (tmp_path / "nhsim_test_robots.py").write_text("raise RuntimeError('no licence')\n")
+    done = _nhsim(tmp_path, "simulate", "--scenario", "random3", "--robot", "kobuki")
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert "argument --robot: plugin failed to load: module 'nhsim_test_robots' named by NHSIM_PLUGINS" in done.stderr
+    assert "RuntimeError: no licence" in done.stderr and "invalid robot_name value" not in done.stderr

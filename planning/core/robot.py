@@ -109,13 +109,25 @@ def register_robot(
 
 
 def check_scene(robot: RobotSpec) -> None:
-    """Raise :class:`ModelError` unless the robot's scene file (:attr:`RobotSpec.scene`) exists, naming the file
-    to copy."""
+    """Raise :class:`ModelError` unless the robot's scene file (:attr:`RobotSpec.scene`) exists and includes the
+    robot's model, naming the file to copy or the ``<include>`` to write (a scene left including the Burger
+    simulated the Burger, or failed to open a file that was not there)."""
+    copy = f"copy {ROBOTS_DIR / 'turtlebot3_burger_scene.xml'} beside it and make its <include> name {robot.mjcf.name}"
     if not robot.scene.is_file():
         raise ModelError(
             f"robot {robot.name!r} has no scene file {robot.scene} (the floor and light, which include "
-            f"{robot.mjcf.name}): copy {ROBOTS_DIR / 'turtlebot3_burger_scene.xml'} beside it and make its <include> "
-            f"name {robot.mjcf.name}"
+            f"{robot.mjcf.name}): {copy}"
+        )
+    try:
+        included = [e.get("file", "") for e in ET.parse(robot.scene).getroot().iter("include")]
+    except (OSError, ET.ParseError) as exc:
+        raise ModelError(f"cannot read robot {robot.name!r}'s scene file {robot.scene}: {exc}") from exc
+    here = robot.scene.parent
+    if not any((here / name).resolve() == robot.mjcf.resolve() for name in included if name):
+        said = ", ".join(included) if any(included) else "no file"
+        raise ModelError(
+            f"robot {robot.name!r}'s scene file {robot.scene} includes {said}, not its model {robot.mjcf.name}: make "
+            f'its <include file="{robot.mjcf.name}"/>'
         )
 
 

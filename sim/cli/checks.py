@@ -159,7 +159,11 @@ def robot_name(text: str) -> str:
 
     if not text.strip():
         raise argparse.ArgumentTypeError("the value is empty; give R, or leave --robot out")
-    if text not in ROBOTS:
+    try:
+        known = text in ROBOTS  # loads the plugins: one that fails is said as itself, not as a bad value
+    except ConfigError as exc:  # argparse would say "invalid robot_name value" of a ValueError
+        raise argparse.ArgumentTypeError(str(exc)) from exc
+    if not known:
         raise argparse.ArgumentTypeError(
             f"unknown robot {text!r}: choose one of {robot_names()}; {ROBOTS.unknown_hint()}"
         )

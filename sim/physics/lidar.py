@@ -43,7 +43,7 @@ from numpy.typing import NDArray
 
 from planning.core.checks import check_number
 from planning.core.robot import robot_files
-from planning.errors import ConfigError, option
+from planning.errors import ConfigError, ModelError, option
 from sim.physics.asbuilt import CLIP_SIGMAS
 from sim.physics.keyvalue import parse_number, parse_pairs
 
@@ -263,7 +263,13 @@ class LidarScanner:
     ) -> None:
         self.model = model
         self.profile = profile
-        sid = model.site(site).id
+        sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site)
+        if sid < 0:
+            raise ModelError(
+                f"the robot has a laser scanner (a [lidar] table in its sensor settings) but its model has no site "
+                f"{site!r}, where the scan plane is: give one on the scanner's body, as models/robots/"
+                "turtlebot3_burger.xml does, or drop the [lidar] table"
+            )
         self.root = int(model.body_rootid[model.site_bodyid[sid]])
         data = mujoco.MjData(model)
         mujoco.mj_kinematics(model, data)

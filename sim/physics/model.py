@@ -119,7 +119,16 @@ def check_scene_arguments(robot: object, world: object) -> None:
 NAMED_ELEMENTS: dict[str, tuple[str, ...]] = {
     "joint": ("root", "wheel_left_joint", "wheel_right_joint"),
     "actuator": ("wheel_left_motor", "wheel_right_motor"),
-    "sensor": ("base_pos", "base_quat", "wheel_left_vel", "wheel_right_vel", "wheel_left_pos", "wheel_right_pos"),
+    "sensor": (
+        "base_pos",
+        "base_quat",
+        "wheel_left_vel",
+        "wheel_right_vel",
+        "wheel_left_pos",
+        "wheel_right_pos",
+        "wheel_left_touch",  # each tyre's floor contact: without them a wheel off the floor read as never
+        "wheel_right_touch",
+    ),
 }
 
 
@@ -198,7 +207,10 @@ def build_model(
     check_scene_arguments(robot, world)
     check_scene(robot)
     with signals_held():  # an interrupt inside a binding's argument conversion became its TypeError: it waits
-        model, names = _compile_scene(robot, world, wall_height, wall_thickness)
+        try:
+            model, names = _compile_scene(robot, world, wall_height, wall_thickness)
+        except ValueError as exc:  # MuJoCo's XML or compile error: the robot's own files are at fault
+            raise ModelError(f"robot {robot.name!r}: MuJoCo cannot load its scene {robot.scene}: {exc}") from None
     check_named_elements(robot, model)
     if robot.battery_voltage > 0:
         apply_supply(model, robot.battery_voltage)  # the run's battery (nothing at the model's own)

@@ -365,7 +365,12 @@ class Supply:
             return None
         missing = [SUPPLY_NUMERICS[k] for k in SUPPLY_NUMERICS if k not in values]
         if missing:
-            raise ModelError(f"model supply numerics: {', '.join(missing)} missing (give all or none)")
+            given = ", ".join(SUPPLY_NUMERICS[k] for k in SUPPLY_NUMERICS if k in values)
+            raise ModelError(
+                f"model supply numerics: {', '.join(missing)} missing beside {given}: give all of "
+                f"{', '.join(SUPPLY_NUMERICS.values())} (the supply's ratings, which the speed limits are checked "
+                "against), or none but nhsim_motor_battery_voltage (a fixed supply, its limits not checked)"
+            )
         try:
             return cls(**values)
         except ConfigError as exc:

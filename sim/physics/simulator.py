@@ -30,7 +30,7 @@ from planning.core.checks import check_flag, check_number, is_number, refuse_kin
 from planning.core.geometry import Pose2D, check_pose
 from planning.core.robot import RobotSpec, check_robot_spec, load_robot
 from planning.core.world import World, check_world
-from planning.errors import ConfigError, NhsimError, SimulationError, option
+from planning.errors import ConfigError, ModelError, NhsimError, SimulationError, option
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import AsBuilt
 from sim.physics.model import FLOOR_TILT, TIP_ANGLE, BuiltModel, set_pose, tipped_over, yaw_from_quat
@@ -133,7 +133,10 @@ class Simulator:
         self._act_l = m.actuator("wheel_left_motor").id
         self._act_r = m.actuator("wheel_right_motor").id
         self.motors = MotorModel.from_model(m)
-        supply = Supply.from_model(m)
+        try:
+            supply = Supply.from_model(m)
+        except ModelError as exc:
+            raise ModelError(f"{robot.mjcf}: {exc}") from None
         if supply is not None and robot == load_robot(str(robot.mjcf)):  # the file's own spec, not a supply's
             check_model_limits(robot, self.motors, supply)  # a user's model claiming more than its motors give
         # A balancing robot's firmware is its balance loop, its gains checked stable before any run.
