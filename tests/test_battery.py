@@ -75,7 +75,10 @@ def test_the_limits_follow_the_voltage_up_to_the_firmware_cap() -> None:
 @pytest.mark.parametrize(
     ("text", "match"),
     [
-        ("battery_voltage=0", "battery_voltage = 0 V is outside the 6.5-12.6 V"),
+        (
+            "battery_voltage=0",
+            "battery_voltage = 0 V is outside the 6.5-12.6 V .*e.g. battery_voltage=12.6, the highest",
+        ),
         ("battery_voltage=-11.1", "battery_voltage = -11.1 V is outside"),
         ("battery_voltage=14.8", "battery_voltage = 14.8 V is outside"),
         ("battery_voltage=full", "battery_voltage must be a number, got 'full'"),

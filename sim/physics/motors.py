@@ -340,7 +340,7 @@ class Supply:
         if not lo <= v <= hi:
             raise ConfigError(
                 f"motors: battery_voltage = {v:g} V is outside the {lo:g}-{hi:g} V the motors are rated for; give a "
-                f"voltage in that range (e.g. battery_voltage=12.6 for a charged 3-cell pack)"
+                f"voltage in that range (e.g. battery_voltage={hi:g}, the highest)"
             )
         if not 0 <= self.supply_sag < v:
             raise ConfigError(f"motors: supply_sag must be in [0, battery_voltage) [V], got {self.supply_sag!r}")
