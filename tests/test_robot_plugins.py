@@ -276,3 +276,29 @@ def test_a_plugin_that_fails_is_said_as_itself_by_robot(tmp_path: Path) -> None:
     assert done.returncode == 2 and "Traceback" not in done.stderr
     assert "argument --robot: plugin failed to load: module 'nhsim_test_robots' named by NHSIM_PLUGINS" in done.stderr
     assert "RuntimeError: no licence" in done.stderr and "invalid robot_name value" not in done.stderr
+
+
+def test_a_robots_own_odometry_noise_is_given_in_its_sensor_settings(robots: None, tmp_path: Path) -> None:
+    """A robot faster than the built-in ones had their odometry noise in its estimator and no way to give its own
+    (a Kobuki-like base's NEES mean 6.3): its sensor settings file takes an [estimator] table."""
+    from sim.cli.simulate import sensor_overrides
+    from sim.robot.sensing import SensingSetup
+
+    model, sensors = _robot(tmp_path)
+    sensors.write_text(sensors.read_text() + "\n[estimator]\nwheel_noise = 0.004\nposition_noise = 0.003\n")
+    register_robot("slowbot", model, sensors=sensors)
+    config = SensingSetup.for_robot("slowbot").estimator_config(load_robot("slowbot"), 50.0)
+    burger = SensingSetup.for_robot("turtlebot3").estimator_config(load_robot("turtlebot3"), 50.0)
+    assert (config.wheel_noise, config.position_noise) == (0.004, 0.003)
+    assert (burger.wheel_noise, burger.position_noise) == (2e-3, 1e-3)  # the built-in robots' as before
+    assert config.cornering_slip_std == burger.cornering_slip_std  # what the table does not give stays
+    sensors.write_text(sensors.read_text().replace("wheel_noise = 0.004", "wheel_nois = 0.004"))
+    with pytest.raises(
+        ConfigError,
+        match=r"slowbot_sensors.toml: field '\[estimator\] wheel_nois': unknown key; the "
+        r"estimator keys are wheel_noise, position_noise, cornering_slip_std, max_odometry_drift",
+    ):
+        SensingSetup.for_robot("slowbot").estimator_config(load_robot("slowbot"), 50.0)
+    sensors.write_text(sensors.read_text().replace("wheel_nois = 0.004", "wheel_noise = 0.004"))
+    with pytest.raises(ConfigError, match=r"--sensors .*slowbot_sensors.toml: its \[estimator\] table is a robot's"):
+        sensor_overrides(str(sensors))  # not an override of a run: the robot's own

@@ -151,7 +151,13 @@ def _sensor_file(text: str | None) -> dict[str, dict[str, Any]] | None:
         return None
     from sim.physics.sensors import read_sensor_file
 
-    return read_sensor_file(path)
+    tables = read_sensor_file(path)
+    if "estimator" in tables:
+        raise ConfigError(
+            f"--sensors {path}: its [estimator] table is a robot's own (its odometry's noise): give it in the sensor "
+            "settings file the robot is registered with (docs/how-to/new-robot.md), or remove it here"
+        )
+    return tables
 
 
 def sensor_overrides(text: str | None) -> str:

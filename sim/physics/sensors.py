@@ -218,8 +218,12 @@ def sensor_profile_path(robot: str) -> Path:
 
 
 #: The tables of a sensor settings file (``models/sensors/<robot>.toml``, and ``--sensors FILE`` in the same
-#: layout): the sensor numbers, and the laser scanner's settings (read by :mod:`sim.physics.lidar`).
-FILE_TABLES = ("sensors", "lidar")
+#: layout): the sensor numbers, the laser scanner's settings (read by :mod:`sim.physics.lidar`) and, in a robot's
+#: own file, its odometry's noise as the estimator models it (:data:`ESTIMATOR_KEYS`).
+FILE_TABLES = ("sensors", "lidar", "estimator")
+#: What a robot's ``[estimator]`` table may set (:class:`control.estimation.EstimatorConfig` fields that describe the
+#: robot's odometry, not its sensors, which the profile gives, nor its builds, which its tolerances give).
+ESTIMATOR_KEYS = ("wheel_noise", "position_noise", "cornering_slip_std", "max_odometry_drift")
 
 
 def read_sensor_file(path: Path) -> dict[str, dict[str, Any]]:
@@ -236,7 +240,10 @@ def read_sensor_file(path: Path) -> dict[str, dict[str, Any]]:
         raise ConfigError(f"cannot read sensor settings from {path}: not UTF-8 text; save it as UTF-8") from exc
     except (OSError, tomllib.TOMLDecodeError) as exc:
         raise ConfigError(f"cannot read sensor settings from {path}: {exc}") from exc
-    allowed = "a [sensors] table (sensor numbers) and a [lidar] table (the laser scanner's settings, as --lidar)"
+    allowed = (
+        "a [sensors] table (sensor numbers), a [lidar] table (the laser scanner's settings, as --lidar) and, for a "
+        f"robot's own file, an [estimator] table ({', '.join(ESTIMATOR_KEYS)})"
+    )
     for key, value in data.items():
         if key not in FILE_TABLES:
             what = f"table [{key}]" if isinstance(value, dict) else f"key {key!r}"
@@ -249,7 +256,22 @@ def read_sensor_file(path: Path) -> dict[str, dict[str, Any]]:
     if not data:
         raise ConfigError(f"{path} has no [sensors] table; add one with keys such as {EXAMPLE.replace(',', ', ')}")
     _check_table(data.get("sensors", {}), "[sensors]", str(path))
+    for key, value in data.get("estimator", {}).items():
+        if key not in ESTIMATOR_KEYS:
+            raise ConfigError(
+                f"{path}: field '[estimator] {key}': unknown key; the estimator keys are {', '.join(ESTIMATOR_KEYS)}"
+            )
+        check_number(f"{path}: field '[estimator] {key}'", value, at_least=0.0)
     return data
+
+
+def robot_estimator_table(robot: str) -> dict[str, float]:
+    """The ``[estimator]`` table of a robot's own sensor settings file (:func:`read_sensor_file`), {} without one.
+
+    Raises:
+        ConfigError: As :func:`read_sensor_file`.
+    """
+    return {k: float(v) for k, v in read_sensor_file(sensor_profile_path(robot)).get("estimator", {}).items()}
 
 
 def read_sensor_table(path: Path) -> dict[str, Any]:

@@ -37,7 +37,15 @@ from planning.errors import ConfigError
 from sim.physics.asbuilt import TOLERANCES
 from sim.physics.model import rolling_radius
 from sim.physics.runlog import EstimationLog
-from sim.physics.sensors import SensorModel, SensorProfile, SensorReader, latency_periods, load_sensor_profile
+from sim.physics.sensors import (
+    SensorModel,
+    SensorProfile,
+    SensorReader,
+    latency_periods,
+    load_sensor_profile,
+    robot_estimator_table,
+    sensor_profile_path,
+)
 from sim.robot.scan_localiser import (
     AMBIGUOUS,
     LOST,
@@ -262,6 +270,12 @@ def estimator_config(profile: SensorProfile, robot: str) -> EstimatorConfig:
     tol = TOLERANCES.get(robot)
     if tol is not None:
         cfg = replace(cfg, wheel_radius_rel_std=max(tol.radius, 1e-6), track_width_std=max(tol.track, 1e-6))
+    own = robot_estimator_table(robot)  # a robot's own odometry noise, from its sensor settings file
+    if own:
+        try:
+            cfg = replace(cfg, **own)  # type: ignore[arg-type]  # ESTIMATOR_KEYS: float fields only
+        except ConfigError as exc:
+            raise ConfigError(f"{sensor_profile_path(robot)}: [estimator]: {exc}") from None
     return cfg
 
 
