@@ -163,3 +163,21 @@ def test_a_model_whose_limits_its_motors_do_not_sustain_is_refused_by_the_simula
     with pytest.raises(ModelError, match=r"max_wheel_speed = 7.88, the rule gives 5.0; .*give the motors"):
         Simulator(waffle)
     assert Simulator(supplied_robot(load_robot("turtlebot3"), "battery_voltage=12.6")).robot.max_speed == 0.191
+
+
+def test_limits_below_the_rule_are_a_firmware_cap_kept_on_any_supply(tmp_path: Path) -> None:
+    """A model's turning limit below what its motors sustain (a Kobuki-like base's firmware caps it at 3.14 rad/s
+    where its motors give 6.08) was refused as "not those its motors sustain"; it is a cap of the robot's firmware,
+    which a higher voltage does not lift (the other limits still follow the rule)."""
+    from sim.physics.simulator import Simulator
+
+    text = load_robot("turtlebot3").mjcf.read_text()
+    (tmp_path / "capped.xml").write_text(re.sub(r'(name="nhsim_max_angular_speed" data=")[^"]*', r"\g<1>1.5", text))
+    scene = load_robot("turtlebot3").scene.read_text().replace("turtlebot3_burger.xml", "capped.xml")
+    (tmp_path / "capped_scene.xml").write_text(scene)
+    capped = load_robot(str(tmp_path / "capped.xml"))
+    assert Simulator(capped).robot.max_yaw_rate == 1.5  # accepted as it is
+    charged = supplied_robot(capped, "battery_voltage=12.6")
+    assert (charged.max_yaw_rate, charged.max_speed, charged.max_wheel_speed) == (1.5, 0.191, 5.8)  # cap kept
+    burger = supplied_robot(load_robot("turtlebot3"), "battery_voltage=12.6")
+    assert (burger.max_yaw_rate, burger.max_speed) == (2.39, 0.191)  # the rule's, where the model sets no cap

@@ -445,37 +445,46 @@ def supplied_robot(spec: RobotSpec, overrides: str = "") -> RobotSpec:
     supply = Supply.from_model(model)
     if supply is None:
         drop = option("motors", python='motors=""')
+        why = (
+            "; the EduMIP's firmware scales its duty cycle by the nominal over the measured battery voltage, so its "
+            "motors see the nominal 7.4 V of its 2-cell pack at any charge"
+            if spec.name.startswith("edumip")
+            else ""
+        )
         raise ConfigError(
             f"robot {spec.name!r} runs on a fixed supply of {spec.battery_voltage:g} V (its model gives no supply "
-            "ratings; the EduMIP's firmware scales its duty cycle by the nominal over the measured battery "
-            f"voltage, so its motors see the nominal 7.4 V of its 2-cell pack at any charge): drop {drop}"
+            f"ratings{why}): drop {drop}"
         )
     motor = MotorModel.from_model(model)
     check_model_limits(spec, motor, supply)
+    own = speed_limits(motor, supply, spec.wheel_radius, spec.track_width)
     new = supply.with_overrides(overrides)
     limits = speed_limits(motor, new, spec.wheel_radius, spec.track_width)
+    # a limit the model sets below the rule at its own supply is its firmware's cap, kept on any supply
+    capped = {k: min(v, getattr(spec, k)) if getattr(spec, k) < own[k] else v for k, v in limits.items()}
     return replace(
         spec,
         battery_voltage=new.battery_voltage,
-        max_wheel_speed=limits["max_wheel_speed"],
-        max_speed=limits["max_speed"],
-        max_yaw_rate=limits["max_yaw_rate"],
+        max_wheel_speed=capped["max_wheel_speed"],
+        max_speed=capped["max_speed"],
+        max_yaw_rate=capped["max_yaw_rate"],
     )
 
 
 def check_model_limits(spec: RobotSpec, motor: MotorModel, supply: Supply) -> None:
-    """Raise unless the model's limit numerics (``spec``'s) are :func:`speed_limits` at its own supply.
+    """Raise unless the model's limit numerics (``spec``'s) are at most :func:`speed_limits` at its own supply (a
+    limit below the rule is a cap of the robot's firmware, which the motors sustain).
 
     Raises:
-        ModelError: A limit differs (named, with the rule's value).
+        ModelError: A limit above the rule's (named, with the rule's value).
     """
     want = speed_limits(motor, supply, spec.wheel_radius, spec.track_width)
-    wrong = [f"{k} = {getattr(spec, k)!r}, the rule gives {v!r}" for k, v in want.items() if getattr(spec, k) != v]
+    wrong = [f"{k} = {getattr(spec, k)!r}, the rule gives {v!r}" for k, v in want.items() if getattr(spec, k) > v]
     if wrong:
         raise ModelError(
-            f"{spec.mjcf}: the speed limits are not those its motors sustain on its supply: {'; '.join(wrong)}; write "
-            "the rule's values (nhsim_max_wheel_speed, nhsim_max_linear_speed, nhsim_max_angular_speed), or give the "
-            "motors and supply that sustain yours (the nhsim_motor_* numerics)"
+            f"{spec.mjcf}: the speed limits are beyond what its motors sustain on its supply: {'; '.join(wrong)}; "
+            "write the rule's values (nhsim_max_wheel_speed, nhsim_max_linear_speed, nhsim_max_angular_speed) or "
+            "lower ones (a firmware cap), or give the motors and supply that sustain yours (the nhsim_motor_* numerics)"
         )
 
 
