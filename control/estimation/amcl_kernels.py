@@ -401,6 +401,39 @@ def beam_residual(
     return False, 0.0, 0.0, 0.0
 
 
+@nb.njit(cache=True, inline="always")
+def _laser_origin(pose: FloatArray, laser: FloatArray) -> tuple[float, float]:  # pragma: no cover - compiled
+    """Where the scanner sits at ``pose`` (x [m], y [m], theta [rad]), ``laser`` its (x, y, yaw) on the robot [m]."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    return pose[0] + c * laser[0] - s * laser[1], pose[1] + s * laser[0] + c * laser[1]
+
+
+@nb.njit(cache=True, inline="always")
+def _beam_fit(
+    pose: FloatArray,
+    lx: float,
+    ly: float,
+    z: float,
+    bearing: float,
+    laser: FloatArray,
+    field: FloatArray,
+    grid: FloatArray,
+    gate: float,
+    noise: FloatArray,
+) -> tuple[float, bool, float, float, float, float, float]:  # pragma: no cover - compiled
+    """One beam of range ``z`` at ``bearing`` in the scan-to-map fit at ``pose``, the scanner at (``lx``, ``ly``):
+    (its weight, :func:`beam_weight`; then :func:`beam_residual`'s used, residual and normal; its end point), the
+    weight 0 for a beam the fit leaves out (the rest then 0)."""
+    w = beam_weight(z, noise)
+    if w == 0.0:
+        return 0.0, False, 0.0, 0.0, 0.0, 0.0, 0.0
+    a = pose[2] + laser[2] + bearing
+    ex, ey = math.cos(a), math.sin(a)
+    px, py = lx + z * ex, ly + z * ey
+    ok, d, gx, gy = beam_residual(field, grid, px, py, ex, ey, gate)
+    return w, ok, d, gx, gy, px, py
+
+
 @nb.njit(cache=True)
 def refine(
     pose: FloatArray,
@@ -442,17 +475,10 @@ def refine(
         info[:] = 0.0
         g = np.zeros(3)
         used, ssr = 0, 0.0
-        c, s = math.cos(x[2]), math.sin(x[2])
-        lx, ly = x[0] + c * laser[0] - s * laser[1], x[1] + s * laser[0] + c * laser[1]
+        lx, ly = _laser_origin(x, laser)
         for b in range(ranges.shape[0]):
-            w = beam_weight(ranges[b], noise)
-            if w == 0.0:
-                continue
-            a = x[2] + laser[2] + bearings[b]
-            ex, ey = math.cos(a), math.sin(a)
-            px, py = lx + ranges[b] * ex, ly + ranges[b] * ey
-            ok, d, gx, gy = beam_residual(field, grid, px, py, ex, ey, gate)
-            if not ok:
+            w, ok, d, gx, gy, px, py = _beam_fit(x, lx, ly, ranges[b], bearings[b], laser, field, grid, gate, noise)
+            if w == 0.0 or not ok:
                 continue
             jac = (gx, gy, -gx * (py - x[1]) + gy * (px - x[0]))
             for i in range(3):
@@ -490,17 +516,12 @@ def fit_cost(
     Args:
         pose, ranges, bearings, laser, field, grid, gate, noise: As :func:`refine`.
     """
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    lx, ly = pose[0] + c * laser[0] - s * laser[1], pose[1] + s * laser[0] + c * laser[1]
+    lx, ly = _laser_origin(pose, laser)
     cost = 0.0
     for b in range(ranges.shape[0]):
-        w = beam_weight(ranges[b], noise)
-        if w == 0.0:
-            continue
-        a = pose[2] + laser[2] + bearings[b]
-        ex, ey = math.cos(a), math.sin(a)
-        ok, d, _, _ = beam_residual(field, grid, lx + ranges[b] * ex, ly + ranges[b] * ey, ex, ey, gate)
-        cost += w * (d * d if ok else gate * gate)
+        w, ok, d, _, _, _, _ = _beam_fit(pose, lx, ly, ranges[b], bearings[b], laser, field, grid, gate, noise)
+        if w > 0.0:
+            cost += w * (d * d if ok else gate * gate)
     return cost
 
 
