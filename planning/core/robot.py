@@ -51,9 +51,19 @@ class RobotFiles:
         return self
 
     @property
+    def scene(self) -> Path:
+        """Its scene file (:func:`scene_path`)."""
+        return scene_path(self.mjcf)
+
+    @property
     def registry_text(self) -> str:
         """How a message shows the registration: the model's path."""
         return f"{self.mjcf} (sensors {self.sensors})"
+
+
+def scene_path(mjcf: Path) -> Path:
+    """The scene file of a robot's model: ``<stem>_scene.xml`` beside it (the floor and light, including it)."""
+    return mjcf.with_name(f"{mjcf.stem}_scene.xml")
 
 
 #: The entry-point group of robot plugins: ``mypkg = "mypkg.robots"`` names a module whose import registers
@@ -430,13 +440,12 @@ def check_robot_name(where: str, name: object) -> str:
     """``name`` when it is a registered robot's name (:data:`ROBOTS`).
 
     Raises:
-        ConfigError: Anything else; the message names ``where``, lists the robot names and says how a plugin's
-            robot is registered.
+        ConfigError: Anything else; the message names ``where`` (when given), lists the robot names and says how a
+            plugin's robot is registered.
     """
     if not isinstance(name, str) or name not in ROBOTS:
-        raise ConfigError(
-            f"{where}: unknown robot {name!r:.80}: choose one of {robot_names()}; {ROBOTS.unknown_hint()}"
-        )
+        said = f"unknown robot {name!r:.80}: choose one of {robot_names()}; {ROBOTS.unknown_hint()}"
+        raise ConfigError(f"{where}: {said}" if where else said)
     return name
 
 
@@ -528,7 +537,7 @@ def _parse_robot(name: str, path: Path, text: bytes) -> RobotSpec:
         spec = RobotSpec(
             name=name,
             mjcf=path,
-            scene=path.with_name(f"{path.stem}_scene.xml"),
+            scene=scene_path(path),
             wheel_radius=wheel_radius,
             track_width=track,
             max_speed=numeric("max_linear_speed"),

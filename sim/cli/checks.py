@@ -155,19 +155,14 @@ def robot_name(text: str) -> str:
     Raises:
         argparse.ArgumentTypeError: Any other (exit 2), listing the robots and how a plugin's is registered.
     """
-    from planning.core.robot import ROBOTS, robot_names
+    from planning.core.robot import check_robot_name
 
     if not text.strip():
         raise argparse.ArgumentTypeError("the value is empty; give R, or leave --robot out")
-    try:
-        known = text in ROBOTS  # loads the plugins: one that fails is said as itself, not as a bad value
-    except ConfigError as exc:  # argparse would say "invalid robot_name value" of a ValueError
+    try:  # loads the plugins: one that fails is said as itself (argparse says "invalid robot_name value" of others)
+        return check_robot_name("", text)
+    except ConfigError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from exc
-    if not known:
-        raise argparse.ArgumentTypeError(
-            f"unknown robot {text!r}: choose one of {robot_names()}; {ROBOTS.unknown_hint()}"
-        )
-    return text
 
 
 def add_robot_argument(p: argparse.ArgumentParser, help: str, default: str | None = None) -> None:

@@ -42,10 +42,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.core.checks import check_number
-from planning.core.robot import robot_files
 from planning.errors import ConfigError, ModelError, option
 from sim.physics.asbuilt import CLIP_SIGMAS
 from sim.physics.keyvalue import parse_number, parse_pairs
+from sim.physics.sensors import sensor_profile_path
 
 FloatArray = NDArray[np.float64]
 
@@ -173,7 +173,7 @@ def load_lidar_profile(robot: str, *, text: str | None = None) -> LidarProfile |
     Raises:
         ConfigError: A bad key or value, or ``text`` given for a robot without a scanner.
     """
-    path = robot_files(robot).sensors
+    path = sensor_profile_path(robot)
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, tomllib.TOMLDecodeError) as exc:

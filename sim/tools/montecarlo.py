@@ -301,8 +301,7 @@ def robot_model_files() -> list[tuple[Path, str]]:
     found: dict[str, Path] = {}
     for name in sorted(set(ROBOTS) - set(ROBOTS.built_in())):
         files = robot_files(name)
-        scene = files.mjcf.with_name(f"{files.mjcf.stem}_scene.xml")
-        for kind, path in (("model", files.mjcf), ("scene", scene), ("sensors", files.sensors)):
+        for kind, path in (("model", files.mjcf), ("scene", files.scene), ("sensors", files.sensors)):
             found[f"robot {name} {kind}"] = path
     return [(path, label) for label, path in sorted(found.items()) if path.is_file()]
 
