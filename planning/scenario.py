@@ -31,7 +31,7 @@ import numpy as np
 from planning.collision.overlap import footprint_overlaps
 from planning.core.checks import check_number, degrees_hint, heading_beyond
 from planning.core.files import descriptor_path, read_input_text
-from planning.core.geometry import Pose2D, wrap_angle
+from planning.core.geometry import Pose2D, heading_in_turn
 from planning.core.maps import MapObstacles, load_map_table
 from planning.core.nav2_map import load_map_yaml_table
 from planning.core.robot import MODELS_DIR, ROBOTS, RobotSpec, check_robot_name, load_robot, robot_names
@@ -155,17 +155,13 @@ def _planner_options(r: TableReader, table: Any) -> dict[str, dict[str, Any]]:
 
 
 def _pose(r: TableReader, table: Mapping[str, Any], ctx: str) -> Pose2D:
-    """A ``pose = [x, y, theta]`` field, its heading brought into (-pi, pi] (a pose's direction, whatever turn
-    it was written with: 7 rad is 0.717 rad; one already in it is kept as written, bit for bit); one beyond
+    """A ``pose = [x, y, theta]`` field, its heading brought into (-pi, pi] (:func:`heading_in_turn`); one beyond
     :data:`MAX_HEADING` is refused."""
     x, y, theta = r.vector(table, "pose", ctx, 3)
     beyond = heading_beyond(theta)
     if beyond:
         raise r.fail(f"{ctx}pose", f"[x, y, theta] with theta {beyond}", table["pose"])
-    if not -np.pi < theta <= np.pi:
-        theta = float(wrap_angle(theta))
-        theta = np.pi if theta == -np.pi else theta
-    return Pose2D(x, y, theta)
+    return Pose2D(x, y, heading_in_turn(theta))
 
 
 def parse_scenario(data: Mapping[str, Any], *, where: str, default_name: str, base_dir: Path) -> Scenario:
@@ -220,15 +216,26 @@ def _unmapped(
         raise r.fail("world.unmapped", "an array of tables ([[world.unmapped]], shaped as [[world.obstacles]])", items)
     out = tuple(_obstacle(r, ot, f"world.unmapped[{i}].") for i, ot in enumerate(items))
     _check_obstacles(r, out, "world.unmapped", bounds)
-    reach = load_robot(robot).radius
-    for i, o in enumerate(out):
-        gap = float(o.signed_distance(start.xy)[0])
-        if gap <= reach:
-            raise ScenarioError(
-                f"{r.where}: field 'world.unmapped[{i}]' ({o.kind}) overlaps the robot at its start "
-                f"({gap:.3f} m from start.pose, the robot reaches {reach:.3f} m); move it away from the start"
-            )
+    _check_unmapped_clear(f"{r.where}: field 'world.unmapped", out, start, load_robot(robot))
     return out
+
+
+def _check_unmapped_clear(where: str, unmapped: tuple[Obstacle, ...], start: Pose2D, robot: RobotSpec) -> None:
+    """Refuse an unmapped obstacle within the robot's reach of its start: physics would start the run in a
+    collision (the planners and the localiser do not know it is there). ``where`` leads the message, the
+    obstacle's index and ``']'`` follow it (``"FILE: field 'world.unmapped"`` or ``"Scenario.unmapped"``).
+
+    Raises:
+        ScenarioError: Naming the obstacle, its distance from the start and the robot's reach.
+    """
+    for i, o in enumerate(unmapped):
+        gap = float(o.signed_distance(start.xy)[0])
+        if gap <= robot.radius:
+            quote = "'" if where.endswith("'world.unmapped") else ""
+            raise ScenarioError(
+                f"{where}[{i}]{quote} ({o.kind}) overlaps the robot at its start ({gap:.3f} m from start.pose, "
+                f"the {robot.name} reaches {robot.radius:.3f} m); move it away from the start"
+            )
 
 
 def _header(r: TableReader, data: Mapping[str, Any], default_name: str) -> dict[str, Any]:
@@ -450,7 +457,8 @@ def scenario_with_robot(scenario: Scenario, robot: str | None, *, ends: bool = T
         ends: Check the start and goal poses (False when they are replaced, e.g. by a trajectory file's).
 
     Raises:
-        ConfigError: The scenario's ``robots`` do not list the robot (the message names them).
+        ConfigError: The scenario's ``robots`` do not list the robot (the message names them), or its planner or
+            a table of its ``planner_options`` names no registered planner.
         ScenarioError: The robot's footprint overlaps an obstacle or wall at the start or the goal.
     """
     if robot is not None and robot not in scenario.robots:
@@ -464,9 +472,32 @@ def scenario_with_robot(scenario: Scenario, robot: str | None, *, ends: bool = T
             f"{option('robot')}, or add robots = [{listed}] to {where}"
         )
     chosen = scenario if robot is None else scenario.with_robot(robot)
+    _check_planners(chosen.planner, chosen.planner_options)
     if ends:
         check_ends_fit(chosen)
     return chosen
+
+
+def _check_planners(planner: str | None, planner_options: Mapping[str, object]) -> None:
+    """The planner and the planners ``planner_options`` names are registered ones (a plugin's too), as a
+    scenario file's must be (a :class:`Scenario` made in Python is checked here, where it is used: the scenario
+    type is below the planners): a misspelt name would be ignored.
+
+    Raises:
+        ConfigError: Naming the field, the name and the registered planners.
+    """
+    names = [("Scenario.planner", planner)] if planner is not None else []
+    names += [(f"Scenario.planner_options[{name!r}]", name) for name in planner_options]
+    if not names:
+        return
+    from planning.planners.registry import PLANNERS  # imported here: it loads on first use
+
+    for where, name in names:
+        if name not in PLANNERS:
+            raise ConfigError(
+                f"{where}: {name!r} is not a registered planner ({', '.join(sorted(PLANNERS))}); "
+                f"{PLANNERS.unknown_hint()}"
+            )
 
 
 def _exact_clearance(world: World, robot: RobotSpec, pose: Pose2D) -> float:
@@ -489,13 +520,15 @@ def check_ends_fit(scenario: Scenario) -> None:
 
     Raises:
         ScenarioError: The footprint overlaps something at ``start.pose`` or ``goal.pose``, or one of them lies
-            outside the world's bounds.
+            outside the world's bounds, or an unmapped obstacle is within the robot's reach of its start.
         ConfigError: The scenario's robot is not a robot's name (nor an MJCF file's path).
     """
     from planning.collision.exact import DEFAULT_TOLERANCE  # imported here: compiled code, loaded on first use
 
     robot = _scenario_robot(scenario)
     where = scenario_source(scenario)
+    field = f"{where}: field 'world.unmapped" if scenario.source is not None else f"{where}: Scenario.unmapped"
+    _check_unmapped_clear(field, scenario.unmapped, scenario.start, robot)
     for label, pose in (("start", scenario.start), ("goal", scenario.goal)):
         _check_inside(where, scenario.world, robot, label, pose)
         hits = footprint_overlaps(scenario.world, robot, pose)

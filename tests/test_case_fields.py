@@ -82,3 +82,38 @@ def test_a_jobs_runs_are_read_only_its_repr_short_and_it_pickles() -> None:
     assert len(repr(job)) < 200 and "closed_loop" in repr(job)
     again = pickle.loads(pickle.dumps(job))
     assert again.record()["closed_loop"] == job.record()["closed_loop"]
+
+
+@pytest.mark.parametrize(
+    ("name", "value", "said"),
+    [
+        (
+            "sensors",
+            {"fix_rate": 5},
+            r"sensors must be text of key=value pairs, e\.g\. sensors='fix_rate=5' or a sensor",
+        ),
+        ("lidar", {"beams": 180, "range_max": 3.5}, r"lidar must be text .*lidar='beams=180,range_max=3\.5', got dict"),
+        ("amcl", ["particles=500"], r"amcl must be text of key=value pairs, e\.g\. amcl='key=value,\.\.\.', got list"),
+        ("motors", None, r"motors must be text of key=value pairs.*got NoneType None"),
+    ],
+)
+def test_settings_given_as_a_mapping_are_refused_naming_their_text(name: str, value: object, said: str) -> None:
+    """``sensors={'fix_rate': 5}`` was taken, then failed after the plan with "'dict' object has no attribute
+    'split'" deep in the parser."""
+    with pytest.raises(ConfigError, match=said):
+        Case("open", reference="line", **{name: value})  # type: ignore[arg-type]
+
+
+def test_a_sensor_settings_file_is_taken_from_python_as_on_the_command_line(tmp_path: Path) -> None:
+    """``Case(sensors=PATH)`` reads the file as ``--sensors FILE`` does (the error said to pass it so, and then
+    refused it as text without '='): its [sensors] table is the case's sensors, its [lidar] table the scanner's
+    settings under the case's own ``lidar``; the case records the numbers, not the path."""
+    f = tmp_path / "mine.toml"
+    f.write_text("[sensors]\nfix_rate = 10\n\n[lidar]\nbeams = 180\nrange_max = 3.0\n")
+    case = Case("open", reference="line", robot="turtlebot3", sensors=f, lidar="beams=90")  # type: ignore[arg-type]
+    assert (case.sensors, case.lidar) == ("fix_rate=10", "beams=90,range_max=3.0")
+    assert Case("open", reference="line", robot="turtlebot3", sensors=str(f)).lidar == "beams=180,range_max=3.0"
+    with pytest.raises(ConfigError, match=r"--localiser fixes takes no scan"):
+        Case("open", reference="line", robot="turtlebot3", sensors=str(f), localiser="fixes")
+    with pytest.raises(ConfigError, match=r"cannot read sensor settings from .*missing\.toml"):
+        Case("open", reference="line", sensors=str(tmp_path / "missing.toml"))

@@ -300,5 +300,6 @@ def test_a_robots_own_odometry_noise_is_given_in_its_sensor_settings(robots: Non
     ):
         SensingSetup.for_robot("slowbot").estimator_config(load_robot("slowbot"), 50.0)
     sensors.write_text(sensors.read_text().replace("wheel_nois = 0.004", "wheel_noise = 0.004"))
-    with pytest.raises(ConfigError, match=r"--sensors .*slowbot_sensors.toml: its \[estimator\] table is a robot's"):
+    said = r"--sensors .*slowbot_sensors.toml \(sensors=\".*\" from Python\): its \[estimator\] table is a robot's"
+    with pytest.raises(ConfigError, match=said):
         sensor_overrides(str(sensors))  # not an override of a run: the robot's own

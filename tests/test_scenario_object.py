@@ -263,3 +263,43 @@ def test_robots_must_list_the_scenarios_own_robot() -> None:
     with pytest.raises(ConfigError, match=r"Scenario.robots \('turtlebot3',\) must include the scenario's own robot"):
         _scenario(robots=("turtlebot3",))
     assert _scenario(robots=("edumip", "turtlebot3")).robots == ("edumip", "turtlebot3")
+
+
+# ------------------------------------------------------------------ checked as a scenario file's fields are
+def test_an_unmapped_obstacle_at_the_start_is_refused_as_a_files_is() -> None:
+    """An unmapped obstacle over the robot at its start was refused in a file, but a Scenario made in Python ran
+    on: the run began in a collision and its estimator diverged."""
+    scenario = _scenario(unmapped=(Circle((1.0, 1.05), 0.1),))
+    said = (
+        r"scenario 'x': Scenario.unmapped\[0\] \(circle\) overlaps the robot at its start \(-0.050 m from "
+        r"start.pose, the edumip reaches 0.\d+ m\); move it away from the start"
+    )
+    with pytest.raises(ScenarioError, match=said):
+        check_ends_fit(scenario)
+    with pytest.raises(ScenarioError, match=said):
+        simulate_plan(scenario, planner="rrt", runs=["closed_loop"])
+
+
+@pytest.mark.parametrize(
+    ("fields", "said"),
+    [
+        ({"planner": "rrt_star"}, r"Scenario.planner: 'rrt_star' is not a registered planner \(.*rrt-star"),
+        ({"planner_options": {"birt": {}}}, r"Scenario.planner_options\['birt'\]: 'birt' is not a registered"),
+    ],
+)
+def test_a_planner_name_that_is_not_registered_is_refused_not_ignored(fields: dict[str, Any], said: str) -> None:
+    """A misspelt planner in ``planner_options`` was ignored (its options never reached the planner) where a
+    scenario file's is refused."""
+    with pytest.raises(ConfigError, match=said):
+        simulate_plan(_scenario(**fields), planner="rrt", runs=["closed_loop"])
+
+
+def test_a_heading_beyond_four_pi_is_refused_and_one_within_is_brought_into_one_turn() -> None:
+    """A goal heading of 100 rad (degrees, or a typo) was taken and tracked; a file's is refused. One within
+    +-4 pi is the direction it names, as in a file: 7 rad is 7 - 2 pi."""
+    with pytest.raises(ConfigError, match=r"Scenario.goal's heading must be in radians within \+-4 pi.*, got 100"):
+        _scenario(goal=Pose2D(2.0, 2.0, 100.0))
+    assert _scenario(goal=Pose2D(2.0, 2.0, 7.0)).goal.theta == pytest.approx(7.0 - 2 * math.pi, abs=1e-15)
+    assert _scenario(start=Pose2D(1.0, 1.0, -math.pi)).start.theta == math.pi
+    kept = 3.0000000000000004
+    assert _scenario(start=Pose2D(1.0, 1.0, kept)).start.theta == kept  # within one turn: kept bit for bit

@@ -493,8 +493,9 @@ def test_a_settings_files_lidar_table_is_applied_under_the_command_lines_lidar(
     """``--sensors FILE``'s ``[lidar]`` reaches the scanner as ``--lidar`` would, ``--lidar`` on top; what the
     file holds that cannot be used is bad input (exit 2, nothing written)."""
     from sim.cli.main import build_parser, main
-    from sim.cli.simulate import localiser_fields, sensor_overrides
+    from sim.cli.simulate import localiser_fields
     from sim.pipeline.case import Case, load_case_scenario
+    from sim.pipeline.sensor_settings import sensor_overrides
 
     f = tmp_path / "mine.toml"
     f.write_text("[sensors]\nfix_latency = 0.1\n[lidar]\nbeams = 3\nprecision_far = 0\n", encoding="utf-8")

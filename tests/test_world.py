@@ -217,3 +217,33 @@ def test_polygon_orientation_is_normalised() -> None:
     cw = Polygon(((0, 0), (0, 1), (1, 1), (1, 0)))
     assert polygon_area(cw.array) > 0
     assert cw.signed_distance([[0.5, 0.5]])[0] == pytest.approx(-0.5)
+
+
+@pytest.mark.parametrize(
+    "shape",
+    [
+        Circle(np.array([1, 1]), np.float64(0.2)),
+        Box([2, 1.5], [0.4, 0.4], np.float32(0.3)),
+        Ellipse([3, 2], np.array([0.3, 0.2])),
+        Polygon([[1, 2], [2, 2], [1.5, 2.5]], height=1),
+    ],
+    ids=lambda s: s.kind,
+)
+def test_shapes_given_lists_or_arrays_store_tuples_of_floats_and_plan(shape: object) -> None:
+    """A shape made of lists or numpy values keeps tuples of floats: it, its world and the collision checker
+    built from it (which hashes the world) work as a shape made of tuples does (lists were kept as given, and
+    every planner then raised 'unhashable type: list')."""
+    from planning import PlanProblem, Pose2D, load_robot, make_planner
+
+    def floats(value: object) -> bool:
+        if isinstance(value, tuple):
+            return all(floats(v) for v in value)
+        return type(value) is float
+
+    names = ("center", "size", "radii", "radius", "angle", "vertices", "height")
+    fields = {name: getattr(shape, name) for name in names if hasattr(shape, name)}
+    assert len(fields) >= 2 and all(floats(v) for v in fields.values()), fields
+    world = World((0, 4, 0, 3), (shape,))  # type: ignore[arg-type]
+    assert hash(world) == hash(World((0, 4, 0, 3), (shape,)))  # type: ignore[arg-type]
+    problem = PlanProblem(world, load_robot("turtlebot3"), Pose2D(0.4, 0.4, 0), Pose2D(3.6, 0.4, 0), seed=0)
+    assert make_planner("birrt").plan(problem).success

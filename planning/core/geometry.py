@@ -36,6 +36,15 @@ def wrap_angle(angle: float | FloatArray) -> float | FloatArray:
     return wrapped
 
 
+def heading_in_turn(theta: float) -> float:
+    """A pose's heading brought into (-pi, pi] (its direction, whatever turn it was written with: 7 rad is 0.717
+    rad); one already in it is kept as written, bit for bit. How a scenario holds its start and goal."""
+    if -np.pi < theta <= np.pi:
+        return theta
+    wrapped = wrap_angle(theta)
+    return float(np.pi) if wrapped == -np.pi else wrapped
+
+
 def unwrap_heading(theta: ArrayLike) -> FloatArray:
     """Remove 2*pi jumps from a heading sequence (N,) [rad]."""
     return np.unwrap(np.asarray(theta, dtype=float))

@@ -13,8 +13,8 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from planning.core.checks import check_number, degrees_hint
-from planning.core.geometry import Pose2D, check_pose
+from planning.core.checks import check_number, degrees_hint, heading_beyond
+from planning.core.geometry import Pose2D, check_pose, heading_in_turn
 from planning.core.robot import ROBOTS, check_robot_name
 from planning.core.world import Obstacle, World, check_world
 from planning.errors import ConfigError
@@ -49,10 +49,12 @@ class Scenario:
             the planner and the localiser use (the ``[[world.unmapped]]`` tables).
 
     Raises:
-        ConfigError: A field of the wrong type (``start=(1, 1, 0)`` for ``Pose2D(1, 1, 0)``), or a tolerance
-            that is not a finite number > 0 (the message names the field, what was given and the fix). The
-            robot's name is checked where it is loaded (:func:`planning.scenario.check_ends_fit`): a robot
-            read from an MJCF file has its file's name.
+        ConfigError: A field of the wrong type (``start=(1, 1, 0)`` for ``Pose2D(1, 1, 0)``), a tolerance
+            that is not a finite number > 0, or a start or goal heading beyond +-4 pi (degrees, or a typo; one
+            within it is brought into (-pi, pi], as a scenario file's is); the message names the field, what
+            was given and the fix. The robot's name, the planners named and the unmapped obstacles' distance
+            from the start are checked where the scenario is used (:func:`planning.scenario.scenario_with_robot`,
+            :func:`planning.scenario.check_ends_fit`): a robot read from an MJCF file has its file's name.
     """
 
     name: str
@@ -81,8 +83,8 @@ class Scenario:
         _check_text("name", self.name)
         _check_text("robot", self.robot, f"a robot's name, one of {', '.join(ROBOTS.built_in())} or a plugin's")
         check_world("Scenario.world", self.world)
-        check_pose("Scenario.start", self.start)
-        check_pose("Scenario.goal", self.goal)
+        for label in ("start", "goal"):
+            object.__setattr__(self, label, _end_pose(label, getattr(self, label)))
         unit = "m, the goal region's radius"
         value = check_number("Scenario.position_tolerance", self.position_tolerance, above=0.0, unit=unit)
         object.__setattr__(self, "position_tolerance", value)
@@ -156,6 +158,16 @@ def check_heading_tolerance(owner: str, value: object) -> float:
     """
     fix = f"pi takes any heading{degrees_hint(value, 360.0)}"
     return check_number(f"{owner}.heading_tolerance", value, above=0.0, at_most=math.pi, unit="rad", fix=fix)
+
+
+def _end_pose(label: str, value: object) -> Pose2D:
+    """``Scenario.start`` or ``.goal`` checked as a scenario file's pose is: a :class:`Pose2D` whose heading is
+    within :data:`planning.core.checks.MAX_HEADING` (more is degrees, or a typo), brought into (-pi, pi]."""
+    pose = check_pose(f"Scenario.{label}", value)
+    if why := heading_beyond(pose.theta):
+        raise ConfigError(f"Scenario.{label}'s heading must be {why}, got {pose.theta!r}")
+    theta = heading_in_turn(pose.theta)
+    return pose if theta == pose.theta else Pose2D(pose.x, pose.y, theta)
 
 
 def _check_text(label: str, value: object, expected: str = "a non-empty string") -> None:

@@ -8,7 +8,7 @@ Eberly's closest-point equation, solved to about 1e-15 m: :mod:`planning.core.el
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import ClassVar, Literal, overload
+from typing import Any, ClassVar, Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -26,8 +26,10 @@ OBSTACLE_HEIGHT = 0.3
 MAX_OBSTACLE_HEIGHT = 10.0
 
 
-def _check_height(kind: str, height: object) -> None:
-    check_number(f"{kind} height", height, above=0.0, at_most=MAX_OBSTACLE_HEIGHT)
+def _check_height(shape: Any) -> None:
+    """Check a shape's height and store it as a float."""
+    height = check_number(f"{shape.kind} height", shape.height, above=0.0, at_most=MAX_OBSTACLE_HEIGHT)
+    object.__setattr__(shape, "height", height)
 
 
 def _points(points: ArrayLike) -> FloatArray:
@@ -39,14 +41,16 @@ def _points(points: ArrayLike) -> FloatArray:
     return p
 
 
-def _finite_pair(where: str, value: object) -> None:
-    """Raise ConfigError unless ``value`` is two finite numbers (``where`` names the field)."""
+def _finite_pair(where: str, value: object) -> tuple[float, float]:
+    """``value`` as a tuple of two floats (a list or an array given is stored so: a shape is hashable and its
+    world with it), else ConfigError naming the field ``where``."""
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
         arr = np.full(1, np.nan)
     if arr.shape != (2,) or not np.all(np.isfinite(arr)):
         raise ConfigError(f"{where} must be two finite numbers, got {value!r}")
+    return float(arr[0]), float(arr[1])
 
 
 def _to_local(p: FloatArray, center: FloatArray, angle: float) -> FloatArray:
@@ -66,13 +70,13 @@ class _Folded:
     extents_field: ClassVar[str]
 
     def __post_init__(self) -> None:
-        _check_height(self.kind, self.height)
-        extents = getattr(self, self.extents_field)
-        _finite_pair(f"{self.kind} center", self.center)
-        _finite_pair(f"{self.kind} {self.extents_field}", extents)
+        _check_height(self)
+        object.__setattr__(self, "center", _finite_pair(f"{self.kind} center", self.center))
+        extents = _finite_pair(f"{self.kind} {self.extents_field}", getattr(self, self.extents_field))
         if not (extents[0] > 0 and extents[1] > 0):
             raise ConfigError(f"{self.kind} {self.extents_field} must be > 0, got {extents}")
-        check_number(f"{self.kind} angle", self.angle)
+        object.__setattr__(self, self.extents_field, extents)
+        object.__setattr__(self, "angle", check_number(f"{self.kind} angle", self.angle))
 
     def _folded(self, points: ArrayLike) -> FloatArray:
         """(M, 2) points in the shape's frame, folded into its first quadrant (absolute coordinates)."""
@@ -89,9 +93,9 @@ class Circle:
     kind: ClassVar[str] = "circle"
 
     def __post_init__(self) -> None:
-        _check_height(self.kind, self.height)
-        _finite_pair("circle center", self.center)
-        check_number("circle radius", self.radius, above=0.0)
+        _check_height(self)
+        object.__setattr__(self, "center", _finite_pair("circle center", self.center))
+        object.__setattr__(self, "radius", check_number("circle radius", self.radius, above=0.0))
 
     def signed_distance(self, points: ArrayLike) -> FloatArray:
         """Signed distance of (M, 2) points [m]."""
@@ -193,7 +197,7 @@ class Polygon:
     _v: FloatArray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        _check_height(self.kind, self.height)
+        _check_height(self)
         v = np.asarray(self.vertices, dtype=float)
         if v.ndim != 2 or v.shape[1] != 2 or v.shape[0] < 3:
             raise ConfigError(f"polygon needs at least 3 vertices of [x, y], got shape {v.shape}")
@@ -211,6 +215,7 @@ class Polygon:
                 f"{crossing} (edge i runs from vertex i to vertex i+1); a polygon must not intersect itself: "
                 "reorder its vertices or split it into simple polygons"
             )
+        object.__setattr__(self, "vertices", tuple((float(x), float(y)) for x, y in v))  # hashable, as given
         if polygon_area(v) < 0:
             v = v[::-1].copy()
         object.__setattr__(self, "_v", v)

@@ -114,12 +114,12 @@ def _spec(args: argparse.Namespace) -> Any:
         job_source,
         localiser_fields,
         parse_build,
-        sensor_overrides,
     )
     from sim.cli.trajectory_files import check_file_options, file_given, file_source, file_world
     from sim.physics.perturb import PerturbationRange
     from sim.pipeline.case import Case, PlanOptions, load_case_scenario
     from sim.pipeline.runs import DEFAULT_RUNS
+    from sim.pipeline.sensor_settings import sensor_overrides
     from sim.tools.montecarlo import MonteCarloSpec
 
     check_file_options(args)

@@ -9,11 +9,12 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from planning.errors import ConfigError, option, without_python
+from planning.errors import ConfigError, without_python
 from sim.cli.checks import add_planner_option_argument, add_robot_argument
 from sim.cli.job_outputs import RUN_SETTINGS, add_executor_arguments, add_output_arguments, tracker_notes
 from sim.cli.trajectory_files import add_file_arguments, check_file_options, file_given, format_import
 from sim.pipeline.runs import RunKind, run_kinds
+from sim.pipeline.sensor_settings import lidar_overrides, sensor_overrides
 
 #: The scenario of a job that names none: this map for a plan (the default job, the EduMIP planning report's: the EduMIP
 #: plans through it with its planner, C-RRT*), the empty arena for an analytic reference.
@@ -136,71 +137,6 @@ def parse_build(build: str, build_seed: int | None) -> int | None:
             )
         return None
     return DEFAULT_BUILD_SEED if build_seed is None else check_build_seed(build_seed)
-
-
-def _sensor_file(text: str | None) -> dict[str, dict[str, Any]] | None:
-    """The tables of ``--sensors FILE`` (:func:`sim.physics.sensors.read_sensor_file`); None when ``text`` is
-    ``key=value,...`` or empty.
-
-    Raises:
-        ConfigError: An unreadable file, one with neither a [sensors] nor a [lidar] table or with anything
-            else, or a bad sensor key or value in it.
-    """
-    path = Path(text or "")
-    if not text or "=" in text or not (path.suffix == ".toml" or path.exists()):
-        return None
-    from sim.physics.sensors import read_sensor_file
-
-    tables = read_sensor_file(path)
-    if "estimator" in tables:
-        raise ConfigError(
-            f"--sensors {path}: its [estimator] table is a robot's own (its odometry's noise): give it in the sensor "
-            "settings file the robot is registered with (docs/how-to/new-robot.md), or remove it here"
-        )
-    return tables
-
-
-def sensor_overrides(text: str | None) -> str:
-    """``--sensors``: ``key=value,...`` as given, or a TOML file's ``[sensors]`` table as that text (its
-    ``[lidar]`` table is :func:`lidar_overrides`').
-
-    Raises:
-        ConfigError: As :func:`_sensor_file`.
-    """
-    tables = _sensor_file(text)
-    if tables is None:
-        return text or ""
-    return ",".join(f"{k}={v}" for k, v in tables.get("sensors", {}).items())
-
-
-def lidar_overrides(sensors: str | None, lidar: str | None, localiser: str | None = None) -> str:
-    """The scanner's settings as ``--lidar`` takes them: the ``[lidar]`` table of a ``--sensors FILE`` (the
-    layout of ``models/sensors/<robot>.toml``), then ``--lidar key=value,...`` over it.
-
-    Raises:
-        ConfigError: A bad key or value in the file's ``[lidar]`` table (naming the file and the field) or
-            in ``--lidar``; a ``[lidar]`` table with ``--localiser fixes``, which takes no scan.
-    """
-    table = (_sensor_file(sensors) or {}).get("lidar")
-    if table is None:
-        return lidar or ""
-    if localiser == "fixes":
-        raise ConfigError(
-            f"{sensors}: table [lidar]: --localiser fixes takes no scan, so the scanner's settings would be ignored; "
-            "remove the [lidar] table from the file, or use --localiser amcl"
-        )
-    from sim.physics.keyvalue import parse_pairs
-    from sim.physics.lidar import EXAMPLE, LIMITS, LidarProfile
-
-    for key, value in table.items():
-        if key not in LIMITS:
-            raise ConfigError(f"{sensors}: field '[lidar] {key}': unknown key; the lidar keys are {', '.join(LIMITS)}")
-        try:
-            LidarProfile(**{key: value})
-        except ConfigError as exc:
-            raise ConfigError(f"{sensors}: field '[lidar] {key}': {exc}") from exc
-    given = parse_pairs(lidar or "", option("lidar", lidar or ""), LIMITS, EXAMPLE)
-    return ",".join(f"{k}={v}" for k, v in ({k: str(v) for k, v in table.items()} | given).items())
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:

@@ -53,6 +53,7 @@ from sim.physics.motors import supplied_robot
 from sim.physics.perturb import Perturbation
 from sim.physics.sensors import load_sensor_profile
 from sim.pipeline.runs import PLAN_HOLD_S, PLAN_TRACKER, REFERENCE_TRACKER, Progress, RunKind
+from sim.pipeline.sensor_settings import lidar_overrides, sensor_overrides
 from sim.robot.pose_estimate import INITIAL_POSES, parse_initial_pose
 from sim.robot.scan_localiser import LOCALISERS, LocaliserSetup
 from sim.robot.sensing import SensingSetup
@@ -199,6 +200,7 @@ class Case:
                 f"case {self.label}: perturbation must be a Perturbation (e.g. Perturbation.parse('mass=1.3')) or "
                 f"None, got {self.perturbation!r}"
             )
+        self._settings_text()
         if self.localiser not in (None, *LOCALISERS):
             raise ConfigError(
                 f"case {self.label}: unknown localiser {self.localiser!r}; choose {', '.join(LOCALISERS)}"
@@ -244,6 +246,26 @@ class Case:
         return dataclasses.replace(
             self, scenario=scenario, planner="", planning=dataclasses.replace(self.planning, plan=plan)
         )
+
+    def _settings_text(self) -> None:
+        """``sensors``, ``lidar``, ``amcl`` and ``motors`` are ``key=value,...`` text (a mapping is refused naming the
+        text it stands for); ``sensors`` may be a sensor settings file's path instead (``--sensors FILE``), whose
+        ``[sensors]`` and ``[lidar]`` tables become the case's text (``lidar`` given here over the file's)."""
+        for name in ("sensors", "lidar", "amcl", "motors"):
+            value = getattr(self, name)
+            if isinstance(value, os.PathLike) and name == "sensors":
+                object.__setattr__(self, name, os.fspath(value))
+            elif not isinstance(value, str):
+                text = ",".join(f"{k}={v}" for k, v in value.items()) if isinstance(value, Mapping) else "key=value,..."
+                raise ConfigError(
+                    f"case {self.label}: {name} must be text of key=value pairs, e.g. {name}={text!r}"
+                    + (" or a sensor settings file's path" if name == "sensors" else "")
+                    + f", got {type(value).__name__} {value!r:.80}"
+                )
+        if self.sensors:
+            lidar = lidar_overrides(self.sensors, self.lidar, self.localiser)  # the file's [lidar], then ours
+            object.__setattr__(self, "sensors", sensor_overrides(self.sensors))
+            object.__setattr__(self, "lidar", lidar)
 
     def _check_ready_plan(self) -> None:
         """A ready plan (``planning.plan``) is tracked as it is: refused beside a reference or a file (which would be
