@@ -117,3 +117,31 @@ def test_a_sensor_settings_file_is_taken_from_python_as_on_the_command_line(tmp_
         Case("open", reference="line", robot="turtlebot3", sensors=str(f), localiser="fixes")
     with pytest.raises(ConfigError, match=r"cannot read sensor settings from .*missing\.toml"):
         Case("open", reference="line", sensors=str(tmp_path / "missing.toml"))
+
+
+def test_track_refuses_a_simulator_that_is_not_the_cases() -> None:
+    """A simulator of another world ran on silently (and its run was recorded as the case's), a nominal one
+    replaced the case's as-built robot, and one of another robot failed naming a missing 'lidar' site."""
+    from planning.core.robot import load_robot
+    from planning.core.world import Box, World
+    from sim.physics.asbuilt import AsBuilt
+    from sim.physics.simulator import Simulator
+    from sim.pipeline.case import prepare_trajectory
+    from sim.pipeline.simulate import simulator_for, track
+
+    prepared = prepare_trajectory(Case("open", reference="line", robot="edumip"))
+    world = prepared.scenario.physical_world
+    edumip = prepared.robot
+    other = World(world.bounds, (Box((2.0, 1.5), (0.4, 0.4)),))
+    cases = [
+        (Simulator(edumip, other, prepared.case.as_built("edumip")), r"its world \(not the scenario's"),
+        (Simulator(edumip, world, AsBuilt.nominal()), r"its build \(the robot as built"),
+        (Simulator(load_robot("turtlebot3"), world), r"its robot \(turtlebot3, not the case's edumip\); its build"),
+    ]
+    for simulator, said in cases:
+        with pytest.raises(ConfigError, match=rf"track: the simulator given is not the case's: {said}.*simulator_for"):
+            track(prepared, ["closed_loop"], simulator=simulator)
+    with pytest.raises(ConfigError, match=r"simulator must be a Simulator or None"):
+        track(prepared, ["closed_loop"], simulator="sim")  # type: ignore[arg-type]
+    job = track(prepared, ["closed_loop"], simulator=simulator_for(prepared))
+    assert job.runs["closed_loop"].metrics.final_position_error_m < 0.05

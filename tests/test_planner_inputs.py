@@ -126,12 +126,13 @@ def test_a_crrt_star_config_checks_its_types_without_the_registry() -> None:
 @pytest.mark.parametrize(
     ("world", "status", "reason"),
     [
-        (World((0.0, 2.0, 0.0, 2.0)), PlanStatus.BOUNDS_VIOLATED, "leaves the world bounds"),
-        (World((-2.0, 2.0, 0.0, 2.0), (Circle((0.1, 1.0), 0.3),)), PlanStatus.INFEASIBLE, "hits one"),
+        (World((0.0, 2.0, 0.0, 2.0)), PlanStatus.INVALID_START, "in collision with the wall x = 0"),
+        (World((-2.0, 2.0, 0.0, 2.0), (Circle((0.1, 1.0), 0.3),)), PlanStatus.INVALID_START, "with the circle at"),
     ],
 )
 def test_sinusoidal_judges_a_start_that_is_already_the_goal(world: World, status: PlanStatus, reason: str) -> None:
-    """Start = goal on a wall or in an obstacle: the one-pose path used to be returned as a success unchecked."""
+    """Start = goal on a wall or in an obstacle: the one-pose path used to be returned as a success unchecked; it is
+    an invalid start, as every planner's is."""
     at = Pose2D(0.01, 1.0, 0.0)
     res = make_planner("sinusoidal").plan(_problem(world=world, start=at, goal=at))
     assert res.status is status and reason in res.reason

@@ -102,6 +102,14 @@ def test_control_rate_must_divide_the_physics_rate() -> None:
         SimConfig(control_rate=-1)
 
 
+@pytest.mark.parametrize("hold", [3600.5, 1e9, -1.0])
+def test_a_hold_beyond_an_hour_is_refused_as_a_unit_slip(hold: float) -> None:
+    """``SimConfig(hold=1e5)`` was taken and ran on for hours (60 s of hold take 0.6 s to run)."""
+    with pytest.raises(ConfigError, match=r"SimConfig.hold must be a finite number in \[0, 3600\] \(s\)"):
+        SimConfig(hold=hold)
+    assert SimConfig(hold=3600.0).hold == 3600.0
+
+
 def test_seed_rate_of_10_hz_still_tracks() -> None:
     res = simulate_reference("open", reference="circle", runs=(RunKind.CLOSED_LOOP,), control_rate=10.0)
     assert res.metrics["closed_loop"].final_position_error_m < 0.05
@@ -152,3 +160,11 @@ def test_the_period_plan_is_the_step_by_step_schedule(k_ctrl: int, k_fw: int, de
     assert updates == [(i, max((i - delay) // k_ctrl + 1, 0)) for i in range(0, steps, k_fw)]
     assert samples == list(range(sched.k_log, steps + 1, sched.k_log))
     assert len(samples) == sched.n_log - 1
+
+
+def test_a_tracker_made_for_another_robot_is_refused() -> None:
+    """An FBL made for the EduMIP (its wheel geometry and limits) drove a TurtleBot3 without a word."""
+    robot = load_robot("turtlebot3")
+    traj = make_reference("line", robot, Pose2D(0, 0, 0))
+    with pytest.raises(ConfigError, match=r"tracker 'fbl' was made for robot 'edumip', but this simulator runs"):
+        Simulator(robot).run(traj, make_tracker("fbl", load_robot("edumip")))

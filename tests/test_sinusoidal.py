@@ -136,7 +136,7 @@ def test_crossing_ninety_degrees_uses_the_handoff() -> None:
 
 def test_bounds_violation_is_reported() -> None:
     sc = load_scenario("parallel_park")
-    tight = World((0.9, 1.1, 0.3, 1.0))
+    tight = World((0.7, 1.3, 0.25, 1.05))  # both ends free; the manoeuvre swings 0.32 m ahead of them
     res = Sinusoidal().plan(PlanProblem(tight, load_robot("turtlebot3"), sc.start, sc.goal))
     assert res.status is PlanStatus.BOUNDS_VIOLATED
     assert "world bounds" in res.reason
@@ -309,3 +309,15 @@ def test_a_corridor_the_footprint_fits_and_the_disc_does_not_is_planned() -> Non
     narrower = World((0.0, 4.0, 0.0, 1.2), (Box((2.0, 0.93), (2.0, 0.5)), Box((2.0, 0.27), (2.0, 0.5))))  # 0.16 m
     res = Sinusoidal().plan(PlanProblem(narrower, robot, start, goal))
     assert res.status is PlanStatus.INFEASIBLE and "footprint overlaps the box" in res.reason
+
+
+def test_a_start_or_goal_in_collision_is_invalid_before_any_steering() -> None:
+    """A start inside a box and a goal far off were answered BOUNDS_VIOLATED ("cannot steer y by 0.584 m ...")
+    where the planners' contract is INVALID_START; the reason names what the footprint overlaps."""
+    robot = load_robot("turtlebot3")
+    world = World((0.0, 4.0, 0.0, 3.0), (Box((2.0, 1.5), (0.6, 0.6)),))
+    res = Sinusoidal().plan(PlanProblem(world, robot, Pose2D(2.0, 1.5, 0.0), Pose2D(3.5, 2.5, 0.0)))
+    assert res.status is PlanStatus.INVALID_START, res.reason
+    assert "start pose (2.000, 1.500, 0.000) is in collision with the box at x 1.7..2.3, y 1.2..1.8" in res.reason
+    res = Sinusoidal().plan(PlanProblem(world, robot, Pose2D(0.5, 0.5, 0.0), Pose2D(1.75, 1.5, 0.0)))
+    assert res.status is PlanStatus.INVALID_GOAL and "overlaps it by 92.5 mm; move the goal 0.093 m" in res.reason

@@ -127,6 +127,28 @@ def end_outside(problem: PlanProblem, planner: str, stats: dict[str, Any] | None
     return None
 
 
+def end_overlaps(problem: PlanProblem, planner: str, stats: dict[str, Any] | None = None) -> PlanResult | None:
+    """The ``INVALID_START`` / ``INVALID_GOAL`` result of a start or goal pose the robot's footprint cannot take
+    (:func:`planning.collision.overlap.footprint_overlap`: the reason names what it overlaps and how far to move),
+    for a planner that does not check its ends with a collision grid of its own; None when both are free."""
+    from planning.collision.overlap import footprint_overlap  # imported here: compiled code, loaded on first use
+
+    for which, pose, status in (
+        ("start", problem.start, PlanStatus.INVALID_START),
+        ("goal", problem.goal, PlanStatus.INVALID_GOAL),
+    ):
+        hit = footprint_overlap(problem.world, problem.robot, pose)
+        if hit is not None:
+            clearance, what, move = hit
+            said = "holds part of it" if clearance == -math.inf else f"overlaps it by {-1e3 * clearance:.1f} mm"
+            reason = (
+                f"{which} pose ({pose.x:.3f}, {pose.y:.3f}, {pose.theta:.3f}) is in collision with {what}: the "
+                f"{problem.robot.name}'s footprint there {said}; move the {which} {max(move, 0.001):.3f} m away from it"
+            )
+            return PlanResult(status, planner, reason=reason, stats=dict(stats or {}))
+    return None
+
+
 @dataclass(frozen=True, eq=False)
 class PlanTree:
     """A search tree for plotting: nodes (M, 3) poses, parent index per node (-1 at roots),

@@ -34,14 +34,14 @@ robot's yaw-rate limit (``|u1 tan(phi) / l|``);
 when a step cannot meet them its period is lengthened. The chained states are integrated by
 Simpson quadrature on a fine grid (every state is an explicit integral of known time functions).
 
-Obstacles are not this planner's business: the path is checked against them and a path that
-collides ends as ``INFEASIBLE`` (a start or goal whose disc overlaps an obstacle too: the path
-collides at its first or last pose). State bounds (the robot's disc inside the world's walls, ``|phi|
-<= phimax``, the heading within ``max_heading_offset`` of its chart's centre) and input bounds are
-checked and a violation is reported as ``BOUNDS_VIOLATED``: a joined path that leaves them (attached),
-and a step that no period up to ``max_period`` makes within them (no path; the reason names the
-step, the bound its longest period broke, and what would make it: a ``max_period`` that would, or another
-planner where the method cannot, e.g. a sideways step at a hand-off heading, :meth:`Sinusoidal._z4_advice`).
+Obstacles are not this planner's business: the path is checked against them and a path that collides ends as
+``INFEASIBLE``; a start or goal the footprint cannot take is ``INVALID_START`` or ``INVALID_GOAL`` before any
+steering (:func:`planning.planners.base.end_overlaps`). State bounds (the robot's disc inside the world's walls,
+``|phi| <= phimax``, the heading within ``max_heading_offset`` of its chart's centre) and input bounds are
+checked and a violation is reported as ``BOUNDS_VIOLATED``: a joined path that leaves them (attached), and a
+step that no period up to ``max_period`` makes within them (no path; the reason names the step, the bound its
+longest period broke, and what would make it: a ``max_period`` that would, or another planner where the method
+cannot, e.g. a sideways step at a hand-off heading, :meth:`Sinusoidal._z4_advice`).
 A final state that misses the goal is ``FAILED`` (the
 quadrature's numerical error). The problem's ``time_limit`` ends the plan as ``TIMEOUT``: the clock is
 read before each quadrature over a step's grid (a few milliseconds at the longest period, 96,001 points),
@@ -72,6 +72,7 @@ from planning.planners.base import (
     PlanStatus,
     checked_problem,
     end_outside,
+    end_overlaps,
     path_collision,
 )
 
@@ -510,10 +511,10 @@ class Sinusoidal:
         """Plan from ``problem.start`` to ``problem.goal`` (steering angle 0 at both ends)."""
         problem = checked_problem(problem)
         t_start = time.perf_counter()
-        outside = end_outside(problem, self.name)
-        if outside is not None:
-            outside.stats["time_s"] = time.perf_counter() - t_start
-            return outside
+        bad_end = end_outside(problem, self.name) or end_overlaps(problem, self.name)
+        if bad_end is not None:
+            bad_end.stats["time_s"] = time.perf_counter() - t_start
+            return bad_end
         self._deadline = t_start + problem.time_limit
         robot = problem.robot
         self.l = robot.wheelbase

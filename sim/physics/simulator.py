@@ -78,6 +78,10 @@ def _sample(
     return sdata[adr[ADR_CONTACT]] > 0.0, sdata[p], sdata[p + 1], yaw
 
 
+#: Longest hold after a trajectory's end [s] (:class:`SimConfig`): more is a unit slip, and would run for hours.
+MAX_HOLD = 3600.0
+
+
 @dataclass(frozen=True)
 class SimConfig:
     """Settings of a run.
@@ -85,7 +89,8 @@ class SimConfig:
     Attributes:
         control_rate: Tracker calls per second [Hz]; the control period must be a whole number of
             physics steps.
-        hold: Extra time simulated after the trajectory ends [s] (the reference holds its end).
+        hold: Extra time simulated after the trajectory ends [s] (the reference holds its end), at most
+            :data:`MAX_HOLD`.
         strict: Raise :class:`SimulationError` when MuJoCo warns (the log is attached); True or False
             (anything else is a ConfigError: ``"no"`` would read as true).
     """
@@ -96,7 +101,8 @@ class SimConfig:
 
     def __post_init__(self) -> None:
         check_number("control rate", self.control_rate, above=0.0, unit="Hz")
-        check_number("hold", self.hold, at_least=0.0, unit="s")
+        fix = "give the seconds to settle after the trajectory's end (a few: an hour of physics takes minutes to run)"
+        check_number("SimConfig.hold", self.hold, at_least=0.0, at_most=MAX_HOLD, unit="s", fix=fix)
         object.__setattr__(self, "strict", check_flag("SimConfig.strict", self.strict))
 
 
@@ -261,8 +267,9 @@ class Simulator:
         Raises:
             SimulationError: MuJoCo warned (with ``config.strict``), listing the warnings; the tracker returned a
                 non-finite command, or raised other than an NhsimError (chained), naming it and the time.
-            ConfigError: An argument of the wrong type, or a start outside the world's walls or inside an obstacle
-                (:meth:`_check_run`); a timed perturbation outside the run (:meth:`Perturbation.check_within`).
+            ConfigError: An argument of the wrong type, or a start outside the world's walls (:meth:`_check_run`;
+                a start in an obstacle is run, its contact counted from the first step: a caller refuses it where it
+                must, as a scenario does); a timed perturbation outside the run (:meth:`Perturbation.check_within`).
         """
         args = (trajectory, tracker, config, start, drive, meta, perturbation, progress, source, sensing)
         cfg, placed, source = self._check_run(*args)
@@ -338,9 +345,9 @@ class Simulator:
 
         Raises:
             ConfigError: An argument of the wrong type (a tracker's name for a tracker, a dict for a
-                :class:`SimConfig`, a tuple for a start pose), naming it, what was given and what to pass; a start
-                (``start``, else the trajectory's first pose) outside the world's walls or inside an obstacle
-                (:func:`check_start`).
+                :class:`SimConfig`, a tuple for a start pose), naming it, what was given and what to pass; a
+                tracker made for another robot (its ``robot``'s name not this simulator's); a start
+                (``start``, else the trajectory's first pose) outside the world's walls (:func:`check_start`).
         """
         if not isinstance(trajectory, Trajectory):
             fix = "make_reference(name, robot, start), or to_trajectory(plan, robot, world) for a plan"
@@ -349,6 +356,12 @@ class Simulator:
             name = tracker if isinstance(tracker, str) else "fbl"
             kind = "a Tracker (an object with a name, reset(trajectory, dt) and command(t, x, y, theta))"
             raise refuse_kind("Simulator.run: tracker", kind, tracker, f"make_tracker({name!r}, robot)")
+        made_for = getattr(getattr(tracker, "robot", None), "name", self.robot.name)
+        if made_for != self.robot.name:  # its wheel geometry and limits are another robot's
+            raise ConfigError(
+                f"Simulator.run: tracker {tracker.name!r} was made for robot {made_for!r}, but this simulator runs "
+                f"{self.robot.name!r}: make it for this one, make_tracker({tracker.name!r}, simulator.robot)"
+            )
         if config is not None and not isinstance(config, SimConfig):
             fix = "SimConfig(control_rate=50.0)"
             if isinstance(config, Mapping) and all(isinstance(k, str) and k.isidentifier() for k in config):

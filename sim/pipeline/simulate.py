@@ -231,6 +231,8 @@ def track(
     case = prepared.case
     check_feedback_tracker(case, runs)
     config = SimConfig(control_rate=case.control_rate, hold=prepared.hold, strict=strict)
+    if simulator is not None:
+        _check_simulator(simulator, prepared)
     simulator = simulator or simulator_for(prepared)
     sensing = case.sensing(prepared.scenario)
     done: dict[RunKind, Run] = {}
@@ -327,6 +329,39 @@ def plain_params(params: Any) -> dict[str, Any]:
     """A parameter dataclass as a dict of its fields."""
     names = getattr(params, "__dataclass_fields__", {})
     return {k: getattr(params, k) for k in names}
+
+
+def _check_simulator(simulator: Any, prepared: PreparedTrajectory) -> None:
+    """Refuse a simulator given to :func:`track` that is not the case's: another robot, world or build would be
+    tracked and recorded as the case's.
+
+    Raises:
+        ConfigError: Naming what differs and the fix (``simulator_for(prepared)``, or None to build it).
+    """
+    fix = "pass simulator_for(prepared), or simulator=None to have it built"
+    if not all(hasattr(simulator, name) for name in ("robot", "world", "build", "run")):  # a Simulator's fields
+        raise ConfigError(f"track: simulator must be a Simulator or None ({fix}), got {simulator!r:.80}")
+    build = prepared.case.as_built(prepared.robot.name)
+    differs = [
+        what
+        for what, same in (
+            (
+                f"its robot ({simulator.robot.name}, not the case's {prepared.robot.name})",
+                simulator.robot == prepared.robot,
+            ),
+            (
+                "its world (not the scenario's, unmapped obstacles included)",
+                simulator.world == prepared.scenario.physical_world,
+            ),
+            (
+                "its build (the robot as built: the case's build_seed draws it, None the nominal)",
+                simulator.build == build,
+            ),
+        )
+        if not same
+    ]
+    if differs:
+        raise ConfigError(f"track: the simulator given is not the case's: {'; '.join(differs)}; {fix}")
 
 
 def simulator_for(prepared: PreparedTrajectory) -> Simulator:
