@@ -257,6 +257,11 @@ def test_without_a_chain_to_map_the_poses_stay_and_the_report_says_why(tmp_path:
     table = read_bag_table(bag, "/odom", timed=True)
     np.testing.assert_allclose(table.columns["x"], poses[:, 0], atol=1e-12)
     (note,) = [n for n in table.notes if n.startswith("frame 'odom'")]
+    # the chain is there, but odom has two parents: said as such (it read "no chain of transforms")
+    assert "the bag's /tf gives 'odom' 2 parents ('map' and 'site'), whose transforms are not followed" in note
+    assert "--offset" in note
+    elsewhere = _rosbags_bag(tmp_path / "other", ros1=False, tf=[(0.0, "map", "other", 1.0, 1.0, 0.0)])
+    (note,) = [n for n in read_bag_table(elsewhere, "/odom", timed=True).notes if n.startswith("frame 'odom'")]
     assert "hold no chain of transforms from 'map' to 'odom'" in note and "--offset" in note
 
 
@@ -314,6 +319,7 @@ def _bad_bags(tmp_path: Path) -> dict[str, Path]:
     ("case", "argv", "said"),
     [
         ("missing", ["--path", "{tmp}/nowhere.mcap", "--topic", "/plan"], "no such file or folder"),
+        ("missing folder", ["--path", "{tmp}/no_such_bag", "--topic", "/plan"], "no_such_bag: no such file or folder"),
         ("cut", ["--path", "{cut}", "--topic", "/plan"], "truncated or not a bag"),
         ("text", ["--path", "{text}", "--topic", "/plan"], "truncated or not a bag"),
         ("folder", ["--path", "{folder}", "--topic", "/plan"], "no metadata.yaml"),
@@ -476,3 +482,21 @@ def test_a_one_pose_plan_exits_2_naming_its_topic_and_message(
     bag = _path_bag(tmp_path / "bag", {"/plan": [_LINE[:1]]})
     err = _exit_2(["--path", str(bag), "--topic", "/plan"], tmp_path, capsys)
     assert "message 0 of /plan is a path of one pose" in err and "record the plan again" in err
+
+
+def test_a_navfn_path_of_identity_orientations_is_driven_forwards(tmp_path: Path) -> None:
+    """Nav2's NavFn planner leaves every pose's orientation the identity but the last (the goal's): taken as headings
+    they had a westward leg driven in reverse, silently, or the L's end refused as folding back. Unset, the headings
+    are the motion's, said in a note; a path along +x with identity orientations keeps them (they agree)."""
+    north = [(0.0, 1.0, 1.0 + 0.1 * k, 0.0, 1.0) for k in range(10)]
+    west = [(0.0, 1.0 - 0.1 * k, 1.9, 0.0, 1.0) for k in range(1, 10)]
+    goal = (0.0, 0.0, 1.9, 1.0, 0.0)  # facing west (yaw pi): the goal's orientation on the last pose
+    bag = _path_bag(tmp_path / "navfn", {"/plan": [north + west + [goal]]})
+    table = read_bag_table(bag, "/plan", message=None, timed=False)
+    assert "theta" not in table.columns
+    assert any(n.startswith("orientations: poses[0..18] carry the identity quaternion") for n in table.notes)
+    imported = read_trajectory_file(TrajectoryFile(bag, topic="/plan", timed=False))
+    assert (imported.direction > 0).all()  # forwards throughout
+    east = _path_bag(tmp_path / "east", {"/plan": [[(0.0, 0.5 + 0.1 * k, 1.0, 0.0, 1.0) for k in range(10)]]})
+    table = read_bag_table(east, "/plan", message=None, timed=False)
+    assert "theta" in table.columns and not any(n.startswith("orientations") for n in table.notes)

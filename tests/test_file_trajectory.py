@@ -82,11 +82,27 @@ def test_a_file_that_starts_moving_is_retimed_from_rest_with_the_reason(tmp_path
 
 
 def test_a_file_that_jumps_to_speed_is_retimed_naming_its_acceleration(tmp_path: Path) -> None:
-    t = np.arange(0.0, 4.0 + 1e-9, 0.2)
-    x = np.concatenate([[0.0, 0.0], 0.14 * 0.2 * np.arange(1, t.size - 1)])  # rest, then 14 cm/s at once
+    t = np.arange(0.0, 4.0 + 1e-9, 0.05)
+    x = np.concatenate([[0.0, 0.0], 0.14 * 0.05 * np.arange(1, t.size - 1)])  # rest, then 14 cm/s at once
     imp = read_trajectory_file(TrajectoryFile(write_csv(tmp_path / "j.csv", {"t": t, "x": x, "y": 0 * t})))
     retime, why, _ = timing_verdict(densify(imp), LIMITS)
-    assert retime and why.startswith("its acceleration reaches") and "limit 0.425 m/s^2" in why
+    assert retime and why.startswith("its acceleration reaches 2.8 m/s^2 at t = 0.0") and "limit 0.425 m/s^2" in why
+
+
+@pytest.mark.parametrize("rows", [0.2, 1 / 30])
+def test_a_file_moving_at_its_ends_is_retimed_saying_so_not_naming_an_acceleration_it_never_had(
+    tmp_path: Path, rows: float
+) -> None:
+    """A steady 0.1 m/s file without velocities, cut from a longer recording: its speed meets the rest it is taken
+    to start and end at within half an interval, and the reason named that as the file's acceleration ("reaches
+    2 m/s^2 at t = 599.98 s"), pointing at data that never accelerated."""
+    t = np.arange(0.0, 4.0 + 1e-9, rows)
+    imp = read_trajectory_file(TrajectoryFile(write_csv(tmp_path / "s.csv", {"t": t, "x": 0.1 * t, "y": 0 * t})))
+    retime, why, _ = timing_verdict(densify(imp), LIMITS)
+    assert retime and why == (
+        "it starts and ends moving (+0.100 m/s over its first rows, +0.100 m/s over its last rows), and a file "
+        "without velocities is taken to start and end at rest, as the robot does"
+    )
 
 
 def test_a_turn_in_place_in_a_timed_file_follows_its_headings(tmp_path: Path) -> None:

@@ -96,6 +96,22 @@ def test_a_ros_path_runs_in_an_arena_around_it(
     assert rec["closed_loop"]["final_position_error_m"] <= 0.02
 
 
+def test_a_ros_path_of_identity_orientations_running_west_is_read_as_unset(tmp_path: Path) -> None:
+    """Nav2's NavFn leaves the orientations the identity (yaw 0): a westward path dumped to YAML was driven in
+    reverse; its orientations are unset, the headings the motion's, as a bag's."""
+    from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
+
+    lines = ["poses:"] + [
+        f"- pose: {{position: {{x: {x!r}, y: 0.5}}, orientation: {{x: 0, y: 0, z: 0, w: 1}}}}"
+        for x in np.linspace(0.0, -1.0, 11).tolist()
+    ]
+    p = tmp_path / "nav.yaml"
+    p.write_text("\n".join(lines) + "\n")
+    imported = read_trajectory_file(TrajectoryFile(p, timed=False))
+    assert (imported.direction > 0).all() and imported.theta is None
+    assert any(n.startswith("orientations: poses[0..9] carry the identity") for n in imported.report.notes)
+
+
 def test_a_ros_path_without_times_given_as_a_trajectory_is_sent_to_the_path_option(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -50,6 +50,7 @@ from planning.trajectory.file_formats import (
     quaternion_headings,
     quaternion_yaw,
     table_from_arrays,
+    unset_orientations,
     yaml_problem,
 )
 
@@ -196,9 +197,10 @@ def _one_frame(path: Path, what: str, frames: list[str], rows: tuple[str, ...]) 
     return seen[0] if seen else ""
 
 
-def _frame_notes(frame: str, header: str | None = None, placed: str | None = None) -> tuple[str, ...]:
+def _frame_notes(frame: str, header: str | None, placed: str | None, unplaced: str) -> tuple[str, ...]:
     """What the import report says of the poses' ``frame`` (and of a path ``header`` that said another), and
-    ``placed``, how the bag's transforms placed them in ``map`` (:func:`place_in_map`; None: they did not)."""
+    ``placed``, how the bag's transforms placed them in ``map`` (:func:`place_in_map`; None: they did not, for the
+    reason ``unplaced``, :meth:`Transforms.unplaced`)."""
     notes = []
     if header and header != frame:  # an empty header says nothing
         notes.append(f"the path's header says frame {header!r} but its poses are in {frame!r}: the poses' frame used")
@@ -211,9 +213,9 @@ def _frame_notes(frame: str, header: str | None = None, placed: str | None = Non
     else:
         offset = option("offset", "X,Y,THETA", python="offset=(X, Y, THETA)")
         notes.append(
-            f"frame {frame!r}, not {MAP_FRAME!r}: the poses are taken as they are in the scenario's map frame (the "
-            f"bag's /tf and /tf_static hold no chain of transforms from {MAP_FRAME!r} to {frame!r}); place them with "
-            f"{offset}, the pose of {frame!r} in {MAP_FRAME!r}"
+            f"frame {frame!r}, not {MAP_FRAME!r}: the poses are taken as they are in the scenario's map frame "
+            f"({unplaced}); "
+            f"place them with {offset}, the pose of {frame!r} in {MAP_FRAME!r}"
         )
     return tuple(notes)
 
@@ -244,13 +246,37 @@ class Hop(NamedTuple):
         return out, (q < self.stamps[0]) | (q > self.stamps[-1])
 
 
-def read_transforms(reader: Any, path: Path) -> dict[str, Hop]:
+class Transforms(NamedTuple):
+    """A bag's transforms: each frame's :class:`Hop` from its one parent, and the frames given more than one parent
+    (frame -> its parents, sorted), which are not followed."""
+
+    hops: dict[str, Hop]
+    ambiguous: dict[str, tuple[str, ...]]
+
+    def unplaced(self, frame: str) -> str:
+        """Why no chain leads from ``map`` to ``frame`` (for the import report)."""
+        at = frame.lstrip("/")
+        for _ in range(MAX_TF_HOPS):
+            if at in self.ambiguous:
+                parents = " and ".join(repr(p) for p in self.ambiguous[at])
+                return (
+                    f"the bag's /tf gives {at!r} {len(self.ambiguous[at])} parents ({parents}), whose transforms "
+                    f"are not followed one at a time as tf2 would: no chain from {MAP_FRAME!r} to {frame!r} is taken"
+                )
+            hop = self.hops.get(at)
+            if hop is None or hop.parent == MAP_FRAME:
+                break
+            at = hop.parent
+        return f"the bag's /tf and /tf_static hold no chain of transforms from {MAP_FRAME!r} to {frame!r}"
+
+
+def read_transforms(reader: Any, path: Path) -> Transforms:
     """Each frame's transform from its parent on the bag's ``/tf`` and ``/tf_static`` (frame names without a
     leading ``/``), planar: the yaw of the rotation. Transforms with a non-finite value are dropped (tf2 drops
-    them); a frame given two parents (which tf2 would follow one at a time) is left out."""
+    them); a frame given two parents (which tf2 would follow one at a time) is left out of the hops and named."""
     conns = [c for c in reader.connections if c.topic in TF_TOPICS and _name(c.msgtype) == _name(TF_TYPE)]
     if not conns:  # (rosbags reads every connection when given none)
-        return {}
+        return Transforms({}, {})
     seen: dict[str, tuple[str, bool, list[tuple[int, float, float, float]]]] = {}
     parents: dict[str, set[str]] = {}
     try:
@@ -271,8 +297,9 @@ def read_transforms(reader: Any, path: Path) -> dict[str, Hop]:
             "`ros2 bag reindex` or `mcap recover`)"
         ) from exc
     hops = {}
+    ambiguous = {child: tuple(sorted(ps)) for child, ps in parents.items() if len(ps) > 1}
     for child, (parent, static, rows) in seen.items():
-        if len(parents[child]) > 1:
+        if child in ambiguous:
             continue
         table = np.array(sorted(rows), dtype=float)
         stamps = table[:, 0].astype(np.int64)
@@ -280,7 +307,7 @@ def read_transforms(reader: Any, path: Path) -> dict[str, Hop]:
         pose = table[last, 1:]
         pose[:, 2] = np.unwrap(pose[:, 2])
         hops[child] = Hop(parent, static, stamps[last], pose)
-    return hops
+    return Transforms(hops, ambiguous)
 
 
 def place_in_map(hops: dict[str, Hop], frame: str, stamps: NDArray[np.int64], columns: dict[str, Any]) -> str | None:
@@ -369,7 +396,12 @@ def _path_rows(path: Path, topic: str, msgs: list[Any], message: int | None, pat
             f"{stamps[0] * 1e-9:.9g} s, so it is a path, not a trajectory; track it with "
             f"{option('path', python='timed=False')}, or give a path whose poses carry their times"
         )
-    return _Rows(rows, _columns(path, [p.pose for p in poses], stamps, rows), frame, header, stamps)
+    cols = _columns(path, [p.pose for p in poses], stamps, rows)
+    quats = [(o.x, o.y, o.z, o.w) for o in (p.pose.orientation for p in poses)]
+    unset = unset_orientations(np.array(quats, dtype=float), cols["x"], cols["y"])
+    if unset:
+        del cols["theta"]
+    return _Rows(rows, cols, frame, header, stamps, unset)
 
 
 def _motion_rows(path: Path, topic: str, msgs: list[Any], msgtype: str) -> _Rows:
@@ -430,11 +462,14 @@ def read_bag_table(path: Path, topic: str | None, message: int | None = None, *,
                     f"{option('message')} picks one nav_msgs/Path; {topic} carries {_name(msgtype)}: drop it"
                 )
             got = _motion_rows(path, topic, msgs, msgtype)
-        placed = None
+        placed: str | None = None
+        unplaced = ""
         if got.frame.lstrip("/") not in ("", MAP_FRAME):
-            placed = place_in_map(read_transforms(reader, path), got.frame, np.array(got.stamps), got.columns)
+            tf = read_transforms(reader, path)
+            placed = place_in_map(tf.hops, got.frame, np.array(got.stamps), got.columns)
+            unplaced = tf.unplaced(got.frame) if placed is None else ""
     finally:
         reader.close()
     _check_finite(path, got.columns, got.rows)  # named as a pose of the topic, before the table's own check
     table = table_from_arrays(path, got.columns, f"bag topic {topic}, {_name(msgtype)}", got.rows)
-    return replace(table, frame=got.frame, notes=_frame_notes(got.frame, got.header, placed) + got.notes)
+    return replace(table, frame=got.frame, notes=_frame_notes(got.frame, got.header, placed, unplaced) + got.notes)

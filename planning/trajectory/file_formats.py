@@ -596,6 +596,29 @@ def quaternion_headings(
     return np.array([quaternion_yaw(*o) for o in quats], dtype=float)
 
 
+#: Largest angle between a step of a path and the heading (0 rad) its identity orientations give before they are
+#: taken as unset (:func:`unset_orientations`) [rad].
+UNSET_HEADING_TO_MOTION = 0.1
+
+
+def unset_orientations(quats: FloatArray, x: FloatArray, y: FloatArray) -> tuple[str, ...]:
+    """A note when a nav_msgs/Path's orientations (N, 4: x, y, z, w) are unset, else (): every pose but the last
+    has the identity orientation (Nav2's NavFn planner leaves them so, giving the goal's orientation to the last
+    pose alone) while the path moves off the heading that gives (0 rad) somewhere, so taken as headings they would
+    have a westward leg driven in reverse. The caller then takes its headings from the motion."""
+    if len(quats) < 2 or not (quats[:-1] == (0.0, 0.0, 0.0, 1.0)).all():
+        return ()
+    dx, dy = np.diff(x), np.diff(y)
+    moving = np.hypot(dx, dy) > 0.0
+    if not np.any(np.abs(np.arctan2(dy[moving], dx[moving])) > UNSET_HEADING_TO_MOTION):
+        return ()  # the identity agrees with the motion (a path heading along +x): nothing to say
+    return (
+        f"orientations: poses[0..{len(quats) - 2}] carry the identity quaternion and the path does not run along "
+        "+x, so they are unset (as Nav2's NavFn planner leaves them), not headings: the headings are the motion's, "
+        "forwards (the last pose's orientation, the goal's, is not used)",
+    )
+
+
 def _nav_path(p: Path, data: Mapping[str, Any]) -> FileTable:
     poses = data["poses"]
     if not isinstance(poses, list) or not poses:
@@ -608,14 +631,16 @@ def _nav_path(p: Path, data: Mapping[str, Any]) -> FileTable:
         ys.append(_number(_field(pos, ("y",), p, where), str(p), where, "pose.position.y"))
         quats.append(_quaternion(pose, p, where))
         stamps.append(_stamp(pose, p, where))
-    cols = {"x": np.asarray(xs), "y": np.asarray(ys)}
+    cols = {"x": np.asarray(xs, dtype=float), "y": np.asarray(ys, dtype=float)}
+    notes: tuple[str, ...] = ()
     if all(q is not None for q in quats):
         theta = quaternion_headings(np.array(quats, dtype=float), rows, p, all_zero=True)
-        if theta is not None:
+        notes = unset_orientations(np.array(quats, dtype=float), cols["x"], cols["y"]) if theta is not None else ()
+        if theta is not None and not notes:
             cols["theta"] = theta
     if all(s is not None for s in stamps) and len(set(stamps)) > 1:
         cols["t"] = np.asarray(stamps, dtype=float)
-    return FileTable(p, "nav_msgs/Path", cols, rows)
+    return FileTable(p, "nav_msgs/Path", cols, rows, notes=notes)
 
 
 def _plan_record(p: Path, data: Mapping[str, Any]) -> FileTable:

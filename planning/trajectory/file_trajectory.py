@@ -106,6 +106,8 @@ class DenseFile:
         omega: (M,) yaw rate [rad/s].
         v_rows: (M,) the signed speed the rows themselves give (:func:`row_speeds`): what the file's
             acceleration is judged by (:func:`timing_verdict`).
+        end_rows: ((time [s], speed [m/s]) of the middle of the first interval of rows, the same of the last):
+            where ``v_rows`` leaves and meets the speeds at the file's ends.
     """
 
     t: FloatArray
@@ -113,6 +115,7 @@ class DenseFile:
     v: FloatArray
     omega: FloatArray
     v_rows: FloatArray
+    end_rows: tuple[tuple[float, float], tuple[float, float]] = ((0.0, 0.0), (0.0, 0.0))
 
 
 def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
@@ -139,7 +142,11 @@ def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
     pose = np.column_stack([xy, heading])
     v = np.where(settled, 0.0, sgn * speed)
     v_rows = np.where(settled, 0.0, row_speeds(imported, tg, v))
-    return DenseFile(tg - t0, pose, v, np.gradient(heading, tg), v_rows)
+    mids = 0.5 * (imported.t[[0, -2]] + imported.t[[1, -1]]) - t0
+    step = np.hypot(*(imported.xy[[1, -1]] - imported.xy[[0, -2]]).T) / np.diff(imported.t)[[0, -1]]
+    ends = step * imported.direction[[0, -1]]  # the rows' own speeds over the first and last intervals
+    end_rows = ((float(mids[0]), float(ends[0])), (float(mids[1]), float(ends[1])))
+    return DenseFile(tg - t0, pose, v, np.gradient(heading, tg), v_rows, end_rows)
 
 
 def row_speeds(imported: ImportedFile, tg: FloatArray, v: FloatArray) -> FloatArray:
@@ -332,6 +339,11 @@ def _standing_headings(
     return out
 
 
+#: What a file moving at an end is told (:func:`timing_verdict`): its rows' speed there, without velocities given,
+#: meets rest within half an interval, an acceleration no robot has.
+AT_REST = ", and a file without velocities is taken to start and end at rest, as the robot does"
+
+
 def timing_verdict(dense: DenseFile, limits: Limits) -> tuple[bool, str, float]:
     """Whether a timed file must be re-timed, why (or how its clock is kept), and the stretch kept.
 
@@ -351,6 +363,17 @@ def timing_verdict(dense: DenseFile, limits: Limits) -> tuple[bool, str, float]:
         end, value = ("starts", v[0]) if abs(v[0]) > 1e-3 else ("ends", v[-1])
         return True, f"it {end} moving ({value:+.3f} m/s) and the robot starts and ends at rest", 1.0
     if accel_scale > max(speed_scale, np.sqrt(1.0 + ROUNDING)):
+        (t_first, v_first), (t_last, v_last) = dense.end_rows
+        moving = [(end, f"{v:+.3f} m/s over its {rows} rows") for end, v, rows in
+                  (("starts", v_first, "first"), ("ends", v_last, "last")) if abs(v) > MOVING_SPEED]  # fmt: skip
+        # where the gradient reads only the rows' own speeds: both neighbours between the ends' interval middles
+        inside = np.zeros(t.size, dtype=bool)
+        inside[1:-1] = (t[:-2] >= t_first) & (t[2:] <= t_last)
+        if moving:  # what the rows themselves do, the rest met at the ends left out
+            dv, dw = np.where(inside, dv, 0.0), np.where(inside, dw, 0.0)
+            if time_scales(v, w, dv, dw, limits)[1] <= max(speed_scale, np.sqrt(1.0 + ROUNDING)):
+                ends, speeds = " and ".join(m[0] for m in moving), ", ".join(m[1] for m in moving)
+                return True, f"it {ends} moving ({speeds}){AT_REST}", 1.0
         ka, kw = int(np.argmax(np.abs(dv))), int(np.argmax(np.abs(dw)))
         if abs(dv[ka]) / limits.max_accel >= abs(dw[kw]) / limits.max_yaw_accel:
             what, k, peak, unit, limit = "acceleration", ka, abs(dv[ka]), "m/s^2", limits.max_accel

@@ -374,6 +374,8 @@ def _read_source(source: TrajectoryFile) -> FileTable:
     if source.topic is None and source.message is None and not is_bag(source.path):
         return read_table(source.path, source.columns)
     if not is_bag(source.path):
+        if not Path(source.path).exists():  # a mistyped bag folder: say so, not that the options do not apply
+            raise TrajectoryFileError(f"cannot read bag {source.path}: no such file or folder; check the path")
         raise TrajectoryFileError(
             f"{source.path}: {options('topic', 'message')} read a bag (.mcap, .bag, .db3 or a rosbag2 folder): "
             "drop them"
