@@ -107,7 +107,8 @@ class DenseFile:
         v_rows: (M,) the signed speed the rows themselves give (:func:`row_speeds`): what the file's
             acceleration is judged by (:func:`timing_verdict`).
         end_rows: ((time [s], speed [m/s]) of the middle of the first interval of rows, the same of the last):
-            where ``v_rows`` leaves and meets the speeds at the file's ends.
+            where ``v_rows`` leaves and meets the speeds at the file's ends (speeds 0 for a file that gives its
+            velocities: it says itself where it rests).
     """
 
     t: FloatArray
@@ -144,7 +145,7 @@ def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
     v_rows = np.where(settled, 0.0, row_speeds(imported, tg, v))
     mids = 0.5 * (imported.t[[0, -2]] + imported.t[[1, -1]]) - t0
     step = np.hypot(*(imported.xy[[1, -1]] - imported.xy[[0, -2]]).T) / np.diff(imported.t)[[0, -1]]
-    ends = step * imported.direction[[0, -1]]  # the rows' own speeds over the first and last intervals
+    ends = step * imported.direction[[0, -1]] * (not imported.velocities)  # given velocities say where it rests
     end_rows = ((float(mids[0]), float(ends[0])), (float(mids[1]), float(ends[1])))
     return DenseFile(tg - t0, pose, v, np.gradient(heading, tg), v_rows, end_rows)
 
@@ -364,8 +365,8 @@ def timing_verdict(dense: DenseFile, limits: Limits) -> tuple[bool, str, float]:
         return True, f"it {end} moving ({value:+.3f} m/s) and the robot starts and ends at rest", 1.0
     if accel_scale > max(speed_scale, np.sqrt(1.0 + ROUNDING)):
         (t_first, v_first), (t_last, v_last) = dense.end_rows
-        moving = [(end, f"{v:+.3f} m/s over its {rows} rows") for end, v, rows in
-                  (("starts", v_first, "first"), ("ends", v_last, "last")) if abs(v) > MOVING_SPEED]  # fmt: skip
+        ends_at = (("starts", v_first, "first"), ("ends", v_last, "last"))
+        moving = [(end, f"{v:+.3f} m/s over its {rows} rows") for end, v, rows in ends_at if abs(v) > MOVING_SPEED]
         # where the gradient reads only the rows' own speeds: both neighbours between the ends' interval middles
         inside = np.zeros(t.size, dtype=bool)
         inside[1:-1] = (t[:-2] >= t_first) & (t[2:] <= t_last)

@@ -291,6 +291,7 @@ class ImportedFile:
         curve: Position interpolant in time (a timed file), or None.
         omega: (N,) checked yaw rates [rad/s] to interpolate the headings with, or None.
         report: What was read and repaired.
+        velocities: ``curve`` passes through the file's own velocities (else it starts and ends at rest).
     """
 
     source: TrajectoryFile
@@ -302,6 +303,7 @@ class ImportedFile:
     curve: PositionCurve | None
     omega: FloatArray | None
     report: ImportReport
+    velocities: bool = False
 
 
 # ------------------------------------------------------------------------------------ reading
@@ -737,7 +739,7 @@ def _timed(
     theta = cols.get("theta")
     heading = theta if theta is not None else np.unwrap(_motion_heading(derived, direction))
     curve: PositionCurve = fit
-    given, what = None, ""
+    given, what, velocities = None, "", False
     if "vxy" in cols:
         given, what = cols["vxy"], "velocities (vx, vy)"
     elif "v" in cols:
@@ -748,6 +750,7 @@ def _timed(
             _replace(report, what, rows, check, given, derived, ("m/s", "m"), "move")
         else:
             curve = _with_velocities(t, xy, given, cols.get("axy"), rows, report)
+            velocities = True
     elif "axy" in cols:
         report.notes.append("accelerations (ax, ay) unused: the file gives no velocities to go with them")
     used_vel = curve(t, 1)
@@ -760,7 +763,7 @@ def _timed(
             own = np.gradient(heading, t)
             _replace(report, "yaw rates omega", rows, check, omega[:, None], own[:, None], ("rad/s", "rad"), "turn")
             omega = None
-    return ImportedFile(source, rows, xy, t, theta, direction, curve, omega, report)
+    return ImportedFile(source, rows, xy, t, theta, direction, curve, omega, report, velocities)
 
 
 def _refuse_standing(file: str, t: FloatArray, xy: FloatArray, time_scale: float) -> None:
