@@ -41,6 +41,7 @@ from planning.core.tables import TableReader
 from planning.core.world import (
     MAX_OBSTACLE_HEIGHT,
     MAX_WORLD_SIDE,
+    MIN_FEATURE,
     OBSTACLE_HEIGHT,
     Box,
     Circle,
@@ -193,7 +194,7 @@ def parse_scenario(data: Mapping[str, Any], *, where: str, default_name: str, ba
         said = f"a tolerance in radians, at most pi (any heading){degrees_hint(htol, 360.0)}"
         raise r.fail("goal.heading_tolerance", said, htol)
     for label, pose in (("start", start), ("goal", goal)):
-        _check_free(r, world, label, pose)
+        _check_free(r, world, label, pose, data["world"])
     unmapped = _unmapped(r, data["world"], start, header["robot"], world.bounds)
     return Scenario(
         world=world,
@@ -317,6 +318,13 @@ def _world(r: TableReader, table: Any, base_dir: Path) -> World:
             f"{max(o.bounding_box()[3] for o in mapped):g}); check its origin and resolution"
         )
     mapped = [ob for ob in mapped if not _outside(ob, bounds)]  # the map's part beyond the walls: cropped
+    for k, ob in enumerate(mapped):  # a pixel the collision checker cannot resolve: a resolution of 1e-5 m
+        if ob.min_feature < MIN_FEATURE:
+            raise ScenarioError(
+                f"{r.where}: table 'world.map': obstacle {k} of the map ({ob.kind}) is {ob.min_feature:.3g} m across, "
+                f"less than the {MIN_FEATURE * 1e3:g} mm the collision checker resolves: check the map's resolution "
+                "(metres a pixel)"
+            )
     return World(bounds, (*obstacles, *mapped))
 
 
@@ -345,18 +353,26 @@ def _outside(ob: Obstacle, bounds: tuple[float, float, float, float]) -> bool:
     return bool(lies_outside(ob, bounds))
 
 
-def _check_free(r: TableReader, world: World, label: str, pose: Pose2D) -> None:
-    """The start or goal lies inside the bounds and outside every obstacle."""
+def _check_free(r: TableReader, world: World, label: str, pose: Pose2D, table: Mapping[str, Any]) -> None:
+    """The start or goal lies inside the bounds and outside every obstacle (of ``[[world.obstacles]]``, then of the
+    ``[world.map]``, as ``table``, the ``[world]`` table, gives them)."""
     xmin, xmax, ymin, ymax = world.bounds
     if not (xmin < pose.x < xmax and ymin < pose.y < ymax):
         inside = f"a position inside the world bounds {list(world.bounds)}"
         raise r.fail(f"{label}.pose", inside, pose.as_array().tolist())
     if float(world.obstacle_distance(pose.xy)[0]) <= 0:
         idx = int(np.argmin([o.signed_distance(pose.xy)[0] for o in world.obstacles]))
-        raise ScenarioError(
-            f"{r.where}: field '{label}.pose': {pose.as_array().tolist()} lies inside "
-            f"world.obstacles[{idx}] ({world.obstacles[idx].kind}); move it into free space"
-        )
+        given = len(table.get("obstacles", []))
+        what, fix = f"world.obstacles[{idx}] ({world.obstacles[idx].kind})", "move it into free space"
+        if idx >= given:  # one of the map's
+            what = f"obstacle {idx - given} of the map (table 'world.map', a {world.obstacles[idx].kind})"
+            if world.obstacles[idx].kind == "box":
+                what += (
+                    ': with shape "box" a region of the map\'s occupied cells is its bounding box, which covers the '
+                    "free cells around a wall that is not an upright rectangle"
+                )
+                fix = f'give the map shape = "polygon" (its exact cells), or {fix}'
+        raise ScenarioError(f"{r.where}: field '{label}.pose': {pose.as_array().tolist()} lies inside {what}; {fix}")
 
 
 #: The name of a scenario read from a pipe (bash's ``<(...)``: ``/dev/fd/N``) that gives none itself.

@@ -281,3 +281,39 @@ def test_a_16_bit_maps_grey_walls_are_walls(tmp_path: Path, suffix: str) -> None
     np.testing.assert_allclose(levels, grey / 65535.0)
     (wall,) = load_image_obstacles(path, 0.05)
     assert wall.bounding_box() == pytest.approx((1.4, 1.6, 0.0, 2.0))  # x from 28 to 32 px, the whole height
+
+
+#: An obstacle of ROBOTIS's turtlebot3_navigation2 map (its pixels, 1 occupied): its outline's staircase corners lie
+#: three at a time on a diagonal, where ear clipping emitted a triangle of no area ("qhull error") and the
+#: published map could not be simulated.
+_TB3_OBSTACLE = """
+0000000110000
+0000000011000
+0001000001000
+0001100011000
+0001110111000
+0000111110000
+"""
+
+
+def _staircase_mask() -> np.ndarray:
+    rows = [[c == "1" for c in line] for line in _TB3_OBSTACLE.split()]
+    return np.pad(np.array(rows, dtype=bool), 3)
+
+
+def test_a_pixel_outline_is_triangulated_whole_and_built_in_physics() -> None:
+    """Every triangle of a staircase outline has area, they cover the polygon exactly, and MuJoCo builds the
+    world (a zero-area triangle was "qhull error", a partial triangulation left walls out of physics)."""
+    from planning.core.robot import load_robot
+    from planning.core.world import World
+    from sim.physics.model import build_model, triangulate
+
+    obstacles = obstacles_from_mask(_staircase_mask(), 0.05, (0.0, 0.0), "polygon")
+    assert obstacles and all(isinstance(o, Polygon) for o in obstacles)
+    for ob in obstacles:
+        tris = triangulate(ob.array)  # type: ignore[union-attr]
+        areas = [abs(polygon_area(t)) for t in tris]
+        assert min(areas) > 1e-9 and sum(areas) == pytest.approx(abs(polygon_area(ob.array)), rel=1e-12)  # type: ignore[union-attr]
+    world = World((-1.0, 3.0, -1.0, 3.0), tuple(obstacles))
+    built = build_model(load_robot("turtlebot3"), world)
+    assert len(built.obstacle_geoms) >= sum(len(o.array) - 2 for o in obstacles) // 2  # type: ignore[union-attr]

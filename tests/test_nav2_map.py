@@ -182,7 +182,23 @@ def test_a_scenario_on_a_map_yaml_takes_the_maps_extent_and_plans(tmp_path: Path
             'yaml = "map.yaml"',
             "image: gone.pgm\nresolution: 0.05\norigin: [0, 0, 0]\noccupied_thresh: 0.65\n"
             "free_thresh: 0.25\nmode: trinary\n",
-            "map image .*gone.pgm does not exist",
+            "map image .*gone.pgm does not exist; check the path \\(relative to the map YAML .*map.yaml\\)",
+        ),
+        (
+            'yaml = "map.yaml"',
+            "image: map.pgm\nresolution: 0.05\nresolution: 0.5\norigin: [0, 0, 0]\noccupied_thresh: 0.65\n"
+            "free_thresh: 0.25\n",
+            "field 'resolution' is given twice \\(again on line 3\\); YAML keys are unique",
+        ),
+        (
+            'yaml = "map.yaml"',
+            "image: map.pgm\nresolution: 0.05\norigin: [0, 0, 0]\noccupied_thresh: 1.0\nfree_thresh: 0.25\n",
+            "'occupied_thresh' 1: no pixel's occupancy is above it.*give 0.99 for black walls",
+        ),
+        (
+            'yaml = "map.yaml"',
+            "image: map.pgm\nresolution: 0.00001\norigin: [0, 0, 0]\noccupied_thresh: 0.65\nfree_thresh: 0.25\n",
+            "table 'world.map': obstacle 1 of the map \\(polygon\\) is 6e-05 m across.*check the map's resolution",
         ),
         (
             'yaml = "map.yaml"',
@@ -213,3 +229,25 @@ def test_a_map_too_large_for_a_world_asks_for_bounds(tmp_path: Path) -> None:
     path = _scenario(tmp_path, 'yaml = "map.yaml"', bounds="bounds = [0, 3, 0, 3]")
     with pytest.raises(ScenarioError, match="outside the world bounds"):  # the walls lie beyond 3 m
         load_scenario_file(path)
+
+
+def test_a_map_mode_is_read_whatever_its_case(tmp_path: Path) -> None:
+    """map_server lower-cases ``mode`` (map_mode_from_string): "Trinary" was refused."""
+    path = _write_map(tmp_path, _room(), mode="Trinary")
+    assert read_map_yaml(path).mode == "trinary"
+
+
+def test_a_room_whose_walls_have_a_door_gap_is_its_cells_by_default(tmp_path: Path) -> None:
+    """A ROS map's walls with a gap are one region that encloses nothing: its bounding box, the image default, was
+    the whole room, and a start inside it was refused as "inside world.obstacles[0] (box)". A map YAML's obstacles
+    are its exact cells by default; asked for boxes, the refusal says why and names the polygon shape."""
+    room = _room()
+    room[6 + 20 : 6 + 24, 6 : 6 + 2] = 254  # a door in the west wall
+    _write_map(tmp_path, room, ox=-0.5, oy=-0.5)
+    scenario = load_scenario_file(_scenario(tmp_path, 'yaml = "map.yaml"'))
+    assert all(ob.kind == "polygon" for ob in scenario.world.obstacles)
+    with pytest.raises(ScenarioError) as refused:
+        load_scenario_file(_scenario(tmp_path, 'yaml = "map.yaml"\nshape = "box"'))
+    said = str(refused.value)
+    assert "lies inside obstacle 0 of the map (table 'world.map', a box): with shape \"box\" a region" in said
+    assert said.endswith('give the map shape = "polygon" (its exact cells), or move it into free space')

@@ -127,9 +127,14 @@ def is_sixteen_bit(im: Any) -> bool:
 
 
 @contextlib.contextmanager
-def decoded_image(path: str | Path) -> Iterator[tuple[Path, Any]]:
+def decoded_image(path: str | Path, relative_to: str = "the scenario file") -> Iterator[tuple[Path, Any]]:
     """``(path, image)``: the map image file decoded by Pillow, its size checked first (:func:`_check_map_size`).
     Errors raised while the caller reads its pixels are reported as the file's.
+
+    Args:
+        path: The image file.
+        relative_to: What a relative path was resolved against, as the messages say it (a map YAML's image is
+            relative to the YAML).
 
     Raises:
         ScenarioError: The file is missing, is a folder, is too large, or is not a readable image.
@@ -139,11 +144,11 @@ def decoded_image(path: str | Path) -> Iterator[tuple[Path, Any]]:
     p = Path(path)
     if p.is_dir():
         raise ScenarioError(
-            f"map image {p} is a folder, not an image file; give the PNG or JPEG file's path (relative to the "
-            "scenario file)"
+            f"map image {p} is a folder, not an image file; give the PNG or JPEG file's path (relative to "
+            f"{relative_to})"
         )
     if not p.is_file():
-        raise ScenarioError(f"map image {p} does not exist; check the path (relative to the scenario file)")
+        raise ScenarioError(f"map image {p} does not exist; check the path (relative to {relative_to})")
     try:
         with _open_header(p) as im:
             _check_map_size(p, im.size)
@@ -377,9 +382,10 @@ def load_image_obstacles(
 MapObstacles = tuple[list[Obstacle], tuple[float, float, float, float]]
 
 
-def map_shape(r: TableReader, table: Mapping[str, Any], ctx: str) -> MapShape:
-    """A map table's ``shape`` field: "box" (the default) or "polygon"."""
-    shape = table.get("shape", "box")
+def map_shape(r: TableReader, table: Mapping[str, Any], ctx: str, default: MapShape = "box") -> MapShape:
+    """A map table's ``shape`` field: "box" or "polygon" (``default`` when it gives none: an image's "box", a ROS
+    map's "polygon", :func:`planning.core.nav2_map.load_map_yaml_table`)."""
+    shape = table.get("shape", default)
     if shape not in ("box", "polygon"):
         raise r.fail(f"{ctx}shape", "'box' or 'polygon'", shape)
     return shape  # type: ignore[no-any-return]

@@ -12,9 +12,12 @@ The YAML's fields are read as Nav2's ``nav2_map_server`` reads them (``map_io.cp
 
 A pixel's shade is the mean of its red, green and blue levels in [0, 1] (and, in trinary mode, of its alpha too),
 its occupancy ``1 - shade`` (``shade`` when negated). In trinary mode a pixel of occupancy above ``occupied_thresh``
-is occupied (100), below ``free_thresh`` free (0), else unknown (-1); scale mode makes a pixel that is not opaque
-unknown and maps occupancies between the thresholds to 1..99; raw mode takes ``round(255 shade)`` as the cell's
-value (0..100, else unknown). :func:`occupancy_grid` gives these cells as map_server serves them on ``/map``.
+is occupied (100), below ``free_thresh`` free (0), else unknown (-1), as Humble's map_server compares them (Jazzy's
+and later ones, since Nav2 #5071, take a pixel exactly at a threshold as past it: the same cells but for such
+pixels; ``occupied_thresh: 1``, where the two differ wholly, is refused naming 0.99); scale mode makes a pixel that
+is not opaque unknown and maps occupancies between the thresholds to 1..99; raw mode takes ``round(255 shade)`` as
+the cell's value (0..100, else unknown). :func:`occupancy_grid` gives these cells as map_server serves them on
+``/map``.
 
 The obstacles are the cells Nav2's costmap takes as lethal with its default ``lethal_cost_threshold`` (100), and,
 with ``unknown = "obstacle"``, the unknown cells as well (Nav2's planners plan through unknown space by default,
@@ -31,7 +34,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -89,6 +92,28 @@ def _number(path: Path, doc: dict[str, Any], key: str) -> float:
     return float(value)
 
 
+class _GivenTwice(Exception):
+    """A key given twice in one mapping of a map YAML."""
+
+
+def _unique_keys_loader() -> Any:
+    """PyYAML's safe loader refusing a key given twice in one mapping (YAML requires keys to be unique; a second
+    ``resolution`` silently won, a map ten times its size)."""
+    import yaml
+
+    class UniqueKeys(yaml.SafeLoader):
+        def construct_mapping(self, node: Any, deep: bool = False) -> dict[Any, Any]:
+            seen: set[Any] = set()
+            for key_node, _ in node.value:
+                key = self.construct_object(key_node, deep=deep)
+                if key in seen:
+                    raise _GivenTwice(f"field {key!r} is given twice (again on line {key_node.start_mark.line + 1})")
+                seen.add(key)
+            return super().construct_mapping(node, deep=deep)  # type: ignore[no-any-return]
+
+    return UniqueKeys
+
+
 def _parse(path: Path) -> dict[str, Any]:
     """The YAML file's top-level mapping (map_server's own error cases named as such)."""
     import yaml  # loaded when a map YAML is read
@@ -97,7 +122,7 @@ def _parse(path: Path) -> dict[str, Any]:
         what = "is a folder" if path.is_dir() else "does not exist"
         raise ScenarioError(f"map YAML {path} {what}; give the map's .yaml file (relative to the scenario file)")
     try:
-        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
+        doc = yaml.load(path.read_text(encoding="utf-8"), Loader=_unique_keys_loader())
     except UnicodeDecodeError as exc:
         raise ScenarioError(
             f"map YAML {path} is not text ({exc.reason} at byte {exc.start}): give the map's .yaml file, which names "
@@ -107,6 +132,8 @@ def _parse(path: Path) -> dict[str, Any]:
         raise ScenarioError(f"map YAML {path} cannot be read: {exc}") from exc
     except yaml.YAMLError as exc:
         raise ScenarioError(f"map YAML {path} is not valid YAML: {exc}") from exc
+    except _GivenTwice as exc:
+        raise ScenarioError(f"map YAML {path}: {exc}; YAML keys are unique: keep the one meant") from None
     if not isinstance(doc, dict):
         raise ScenarioError(
             f"map YAML {path} holds {type(doc).__name__}, not a map's fields (image, resolution, origin, negate, "
@@ -150,19 +177,26 @@ def read_map_yaml(path: str | Path) -> MapYaml:
     negate = doc.get("negate", 0)
     if negate not in (0, 1):  # True and False are 1 and 0
         raise _fail(p, "negate", "0 or 1", negate)
-    mode = doc.get("mode", "trinary")
+    if occupied >= 1.0 and doc.get("mode", "trinary") != "raw":  # no shade's occupancy is above 1
+        raise ScenarioError(
+            f"map YAML {p}: field 'occupied_thresh' 1: no pixel's occupancy is above it, so Humble's map_server reads "
+            "no cell as occupied (as here), while Jazzy's and later ones (>=) read black ones: give 0.99 for "
+            "black walls"
+        )
+    given = doc.get("mode", "trinary")
+    mode = given.lower() if isinstance(given, str) else given  # map_server's map_mode_from_string lower-cases it
     if mode not in _MODES:
-        raise _fail(p, "mode", " or ".join(repr(m) for m in _MODES), mode)
+        raise _fail(p, "mode", " or ".join(repr(m) for m in _MODES), given)
     image_path = Path(image) if Path(image).is_absolute() else p.parent / image
     x, y, yaw = (float(v) for v in origin)
-    return MapYaml(p, image_path, resolution, (x, y, yaw), occupied, free, bool(negate), mode)
+    return MapYaml(p, image_path, resolution, (x, y, yaw), occupied, free, bool(negate), cast(MapMode, mode))
 
 
 def _shade(m: MapYaml) -> tuple[FloatArray, NDArray[np.bool_] | None]:
     """(H, W) shades in [0, 1] of the map's image as map_server computes them (row 0 at the top): the sum of a
     pixel's red, green and blue levels (and its alpha in trinary mode) over their count, over the largest level;
     and where the image is opaque (None: it has no alpha channel)."""
-    with decoded_image(m.image) as (p, im):
+    with decoded_image(m.image, f"the map YAML {m.path}") as (p, im):
         if is_sixteen_bit(im):
             return sixteen_bit(p, np.asarray(im, dtype=float)), None
         if im.mode in ("1", "L"):
@@ -216,14 +250,21 @@ def _placed(ob: Obstacle, origin: tuple[float, float, float]) -> Obstacle:
     return Polygon(tuple((float(x), float(y)) for x, y in _turned(ob.array, origin)), ob.height)
 
 
-def map_yaml_obstacles(m: MapYaml, *, unknown: Unknown = "free", shape: MapShape = "box") -> MapObstacles:
+#: A ROS map's obstacles by default: the exact outlines of its occupied cells, the cells map_server serves as
+#: occupied (a region's bounding box, an image's default, would cover the free cells around every wall that is not
+#: an upright rectangle: a room's walls with a door gap are one region whose box is the room).
+YAML_SHAPE: MapShape = "polygon"
+
+
+def map_yaml_obstacles(m: MapYaml, *, unknown: Unknown = "free", shape: MapShape = YAML_SHAPE) -> MapObstacles:
     """The map's obstacles (see the module docstring) and the extent its image covers in the world
     (:func:`map_extent`).
 
     Args:
         m: The map (:func:`read_map_yaml`).
         unknown: "free" (Nav2's planners' default) or "obstacle": what unknown cells are.
-        shape: "box" or "polygon", as for an image map (:func:`planning.core.maps.obstacles_from_mask`).
+        shape: "polygon" (the default, :data:`YAML_SHAPE`) or "box", as for an image map
+            (:func:`planning.core.maps.obstacles_from_mask`).
     """
     if unknown not in ("free", "obstacle"):
         raise ValueError(f"unknown must be 'free' or 'obstacle', got {unknown!r}")
@@ -240,7 +281,7 @@ def map_yaml_obstacles(m: MapYaml, *, unknown: Unknown = "free", shape: MapShape
 
 def load_map_yaml_table(table: Mapping[str, Any], base_dir: Path, where: str) -> MapObstacles:
     """The ``[world.map]`` loader of a map YAML, ``MAP_LOADERS["yaml"]``: ``yaml`` (the file, relative to the
-    scenario file), ``unknown`` ("free" or "obstacle") and ``shape`` ("box" or "polygon").
+    scenario file), ``unknown`` ("free" or "obstacle") and ``shape`` ("polygon", the default, or "box").
 
     Raises:
         ScenarioError: Unknown, missing or bad fields; fields the YAML gives itself; a bad YAML or image.
@@ -259,7 +300,7 @@ def load_map_yaml_table(table: Mapping[str, Any], base_dir: Path, where: str) ->
     unknown = table.get("unknown", "free")
     if unknown not in ("free", "obstacle"):
         raise r.fail(f"{ctx}unknown", "'free' (plan through unknown cells, as Nav2 does) or 'obstacle'", unknown)
-    shape = map_shape(r, table, ctx)
+    shape = map_shape(r, table, ctx, YAML_SHAPE)
     path = Path(name) if Path(name).is_absolute() else base_dir / name
     try:
         return map_yaml_obstacles(read_map_yaml(path), unknown=unknown, shape=shape)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import math
+import re
 from dataclasses import dataclass
 
 import mujoco
@@ -19,7 +20,7 @@ from numpy.typing import NDArray
 
 from planning.core.geometry import Pose2D
 from planning.core.robot import ROBOTS_DIR, RobotSpec, check_robot_spec, check_scene, load_robot
-from planning.core.world import OBSTACLE_HEIGHT, Box, Circle, Ellipse, Polygon, World, check_world
+from planning.core.world import OBSTACLE_HEIGHT, Box, Circle, Ellipse, Polygon, World, check_world, polygon_area
 from planning.errors import ModelError
 from planning.signals import signals_held
 from sim.physics.motors import apply_supply
@@ -49,42 +50,38 @@ class BuiltModel:
     obstacle_names: dict[int, str]
 
 
-def triangulate(vertices: NDArray[np.float64]) -> list[NDArray[np.float64]]:
-    """Ear-clipping triangulation of a simple counter-clockwise polygon.
+#: Smallest triangle a polygon obstacle is built of, as a share of the polygon's area: a thinner one (three
+#: vertices along a staircase's diagonal) is not a solid MuJoCo can hull ("qhull error", "coplanar vertices").
+MIN_TRIANGLE_SHARE = 1e-9
+
+
+def triangulate(vertices: NDArray[np.float64], name: str = "polygon") -> list[NDArray[np.float64]]:
+    """Triangles covering a simple polygon exactly (earcut: collinear and touching vertices handled), each
+    (3, 2), counter-clockwise; triangles of no area left out.
 
     Args:
-        vertices: (K, 2) polygon, counter-clockwise.
+        vertices: (K, 2) polygon.
+        name: The obstacle, as messages name it.
 
-    Returns:
-        K - 2 triangles, each (3, 2).
+    Raises:
+        ModelError: The triangles do not cover the polygon's area (a part of the obstacle would be missing
+            from physics while the planners and the map have it), naming the obstacle.
     """
-    idx = list(range(len(vertices)))
-    v = vertices
-    tris: list[NDArray[np.float64]] = []
+    import mapbox_earcut  # compiled triangulation, loaded when a polygon obstacle is built
 
-    def cross(o: int, a: int, b: int) -> float:
-        return float((v[a, 0] - v[o, 0]) * (v[b, 1] - v[o, 1]) - (v[a, 1] - v[o, 1]) * (v[b, 0] - v[o, 0]))
-
-    def inside(p: int, a: int, b: int, c: int) -> bool:
-        return cross(a, b, p) >= 0 and cross(b, c, p) >= 0 and cross(c, a, p) >= 0
-
-    guard = 0
-    while len(idx) > 3 and guard < 10000:
-        guard += 1
-        for k in range(len(idx)):
-            a, b, c = idx[k - 1], idx[k], idx[(k + 1) % len(idx)]
-            if cross(a, b, c) <= 1e-12:
-                continue
-            if any(inside(p, a, b, c) for p in idx if p not in (a, b, c)):
-                continue
-            tris.append(v[[a, b, c]])
-            idx.pop(k)
-            break
-        else:
-            break
-    if len(idx) == 3:
-        tris.append(v[idx])
-    return tris
+    v = np.ascontiguousarray(vertices, dtype=np.float64)
+    idx = mapbox_earcut.triangulate_float64(v, np.array([len(v)], dtype=np.uint32)).reshape(-1, 3)
+    tris = v[idx]  # (M, 3, 2)
+    d1, d2 = tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
+    area = 0.5 * (d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
+    tris[area < 0] = tris[area < 0][:, ::-1]
+    whole = abs(polygon_area(v))
+    if not math.isclose(float(np.abs(area).sum()), whole, rel_tol=1e-9, abs_tol=1e-15):
+        raise ModelError(
+            f"{name}: its triangles cover {np.abs(area).sum():.6g} m^2 of its {whole:.6g} m^2: the polygon is not "
+            'simple (it touches or crosses itself); give it as two polygons, or its map as shape = "box"'
+        )
+    return list(tris[np.abs(area) > MIN_TRIANGLE_SHARE * whole])
 
 
 def _quat_yaw(theta: float) -> list[float]:
@@ -209,7 +206,12 @@ def build_model(
     with signals_held():  # an interrupt inside a binding's argument conversion became its TypeError: it waits
         try:
             model, names = _compile_scene(robot, world, wall_height, wall_thickness)
-        except ValueError as exc:  # MuJoCo's XML or compile error: the robot's own files are at fault
+        except ValueError as exc:  # MuJoCo's XML or compile error: the robot's own files, or a world's obstacle
+            if (hit := re.search(r"obstacle_(\d+)", str(exc))) is not None and world is not None:
+                k = int(hit.group(1))
+                raise ModelError(
+                    f"MuJoCo cannot build world obstacle {k} ({world.obstacles[k].kind}) in physics: {exc}"
+                ) from None
             raise ModelError(f"robot {robot.name!r}: MuJoCo cannot load its scene {robot.scene}: {exc}") from None
     check_named_elements(robot, model)
     if robot.battery_voltage > 0:
@@ -259,7 +261,7 @@ def _add_obstacles(spec: mujoco.MjSpec, holder: mujoco.MjsBody, world: World) ->
             _add_prism(spec, holder, name, poly, h, OBSTACLE_RGBA)
             names.append(name)
         elif isinstance(obs, Polygon):
-            for k, tri in enumerate(triangulate(obs.array)):
+            for k, tri in enumerate(triangulate(obs.array, f"world obstacle {i} (a polygon)")):
                 piece = f"{name}_{k}"
                 _add_prism(spec, holder, piece, tri, h, OBSTACLE_RGBA)
                 names.append(piece)
