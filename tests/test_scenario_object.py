@@ -45,6 +45,14 @@ def _scenario(**fields: Any) -> Scenario:
     return Scenario(**(given | fields))
 
 
+def _refused_where_checked_and_where_run(scenario: Scenario, said: str) -> None:
+    """``scenario`` refused with ``said`` by :func:`check_ends_fit` and by ``simulate_plan`` alike."""
+    with pytest.raises(ScenarioError, match=said):
+        check_ends_fit(scenario)
+    with pytest.raises(ScenarioError, match=said):
+        simulate_plan(scenario, planner="rrt", runs=["closed_loop"])
+
+
 # ------------------------------------------------------------------ 1. a start or goal outside the world
 @pytest.mark.parametrize(("label", "pose"), [("start", Pose2D(5.0, 5.0, 0.0)), ("goal", Pose2D(-1.0, 2.0, 0.0))])
 def test_a_start_or_goal_outside_the_world_is_refused_as_such_not_with_an_overflow(label: str, pose: Pose2D) -> None:
@@ -53,10 +61,7 @@ def test_a_start_or_goal_outside_the_world_is_refused_as_such_not_with_an_overfl
         rf"scenario 'x': field '{label}.pose': \[{pose.x}, {pose.y}, 0.0\] lies outside the world \(the map\), whose "
         rf"bounds are x 0..3, y 0..3: move the {label} inside them, more than 0.066 m from every wall"
     )
-    with pytest.raises(ScenarioError, match=said):
-        check_ends_fit(scenario)
-    with pytest.raises(ScenarioError, match=said):
-        simulate_plan(scenario, planner="rrt", runs=["closed_loop"])
+    _refused_where_checked_and_where_run(scenario, said)
 
 
 def test_a_pose_just_beyond_a_wall_is_outside_and_one_just_inside_overlaps_the_wall() -> None:
@@ -274,10 +279,7 @@ def test_an_unmapped_obstacle_at_the_start_is_refused_as_a_files_is() -> None:
         r"scenario 'x': Scenario.unmapped\[0\] \(circle\) overlaps the robot at its start \(-0.050 m from "
         r"start.pose, the edumip reaches 0.\d+ m\); move it away from the start"
     )
-    with pytest.raises(ScenarioError, match=said):
-        check_ends_fit(scenario)
-    with pytest.raises(ScenarioError, match=said):
-        simulate_plan(scenario, planner="rrt", runs=["closed_loop"])
+    _refused_where_checked_and_where_run(scenario, said)
 
 
 @pytest.mark.parametrize(
