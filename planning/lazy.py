@@ -17,7 +17,10 @@ from typing import Any
 
 
 def lazy_exports(
-    package: str, exports: Mapping[str, str], namespace: dict[str, Any]
+    package: str,
+    exports: Mapping[str, str],
+    namespace: dict[str, Any],
+    before: Callable[[], object] | None = None,
 ) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
     """The module ``__getattr__`` and ``__dir__`` of a package whose public names load lazily.
 
@@ -25,6 +28,8 @@ def lazy_exports(
         package: The package's name (``__name__``), for messages.
         exports: Public name -> the module that defines it.
         namespace: The package's ``globals()``: a loaded name is kept there, so it loads once.
+        before: Called before a public name's module is first imported (``sim`` chooses MuJoCo's GL backend,
+            which MuJoCo and dm_control read once, when first imported).
 
     Returns:
         ``(__getattr__, __dir__)``; ``__getattr__`` raises AttributeError naming the public names for
@@ -35,6 +40,8 @@ def lazy_exports(
     def __getattr__(name: str) -> Any:
         if name not in exports:
             raise AttributeError(f"module {package!r} has no attribute {name!r}; its public names are {public}")
+        if before is not None:
+            before()
         value = getattr(importlib.import_module(exports[name]), name)
         namespace[name] = value
         return value

@@ -68,4 +68,16 @@ _EXPORTS = {
 }
 
 __all__ = sorted(_EXPORTS)
-__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
+
+
+def _choose_gl() -> None:
+    """Choose MuJoCo's GL backend as the command line does (the headless default unless ``MUJOCO_GL`` says
+    otherwise) before a public name imports MuJoCo: dm_control reads the choice when first imported, so a suite
+    environment made after ``from sim import simulate_plan`` could not render headless (:mod:`sim.suite`)."""
+    from sim.viz import gl
+
+    if not gl.mujoco_imported():
+        gl.configure(None)
+
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals(), before=_choose_gl)

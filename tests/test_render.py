@@ -670,3 +670,27 @@ def test_a_run_that_ended_early_is_said_in_the_video_and_the_plot() -> None:
     (mark,) = [ln for ln in ax.lines if "ended at" in ln.get_label()]
     assert mark.get_label() == f"open loop ended at t = {ended.t[-1] - ended.t[0]:.2f} s"
     np.testing.assert_array_equal(np.ravel(mark.get_xydata()), ended.pose[-1, :2])
+
+
+#: A suite environment rendered after ``from sim import ...``, in a fresh interpreter without MUJOCO_GL or a display.
+SUITE_AFTER_SIM = """
+from sim import simulate_plan  # loads MuJoCo: before, it picked GLFW, which dm_control then kept
+from sim import suite
+env = suite.load("open", "edumip", "circle", seed=0)
+env.reset()
+print(*env.physics.render(48, 64).shape)
+env.physics.free()
+"""
+
+
+def test_a_suite_environment_renders_headless_after_sims_own_names_were_loaded() -> None:
+    """``from sim import simulate_plan`` before ``sim.suite`` left dm_control on GLFW: rendering failed with "an
+    OpenGL platform library has not been loaded" where ``sim.suite`` alone renders headless."""
+    if not sys.platform.startswith("linux") or gl.default_backend() == gl.DISABLED:
+        pytest.skip("no headless OpenGL here")
+    env = {
+        k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM", "DISPLAY", "WAYLAND_DISPLAY")
+    }
+    env["PYTHONPATH"] = str(Path(__file__).resolve().parents[1])
+    out = subprocess.run([sys.executable, "-c", SUITE_AFTER_SIM], env=env, capture_output=True, text=True)
+    assert out.returncode == 0 and out.stdout.split() == ["48", "64", "3"], out.stdout + out.stderr

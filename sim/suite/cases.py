@@ -67,6 +67,7 @@ def _case(
             build_seed=build_seed,
             control_rate=control_rate,
             sensors=sensors,
+            localiser="fixes",  # the observations carry pose fixes, not laser scans: the estimator is set for them
         )
     raise ConfigError(
         f"unknown source {source!r}: give a planner ({', '.join(sorted(PLANNERS))}) "
