@@ -254,3 +254,32 @@ def test_a_profile_number_out_of_range_is_refused_naming_the_file_and_key(
     with pytest.raises(ConfigError, match=says) as err:
         load_balance_profile(NAME)
     assert str(err.value).startswith(str(tmp_path / f"{NAME}.toml")), err.value
+
+
+@pytest.mark.parametrize(
+    ("edit", "said"),
+    [
+        (
+            {"voltage_max": 0.1},
+            r"\[gains\] are not what its \[weights\] and \[balance\] rate design on the robot: k\[0\]",
+        ),
+        ({"lean_per_accel": -10.0}, r"lean_per_accel -10 \(designed 0.207\d*\)"),
+        ({"rate": 100.0}, r"\[gains\] are not what its \[weights\] and \[balance\] rate design"),
+        ({"rate": 300.0}, r"\[balance\] rate 300 Hz: its period is not a whole number of the model's 1 ms physics"),
+    ],
+)
+def test_a_profile_edited_without_its_gains_is_refused_naming_the_design(
+    monkeypatch: pytest.MonkeyPatch, edit: dict[str, float], said: str
+) -> None:
+    """A weight or the rate edited and the stored gains left ran the old gains without a word (voltage_max 0.1 gave
+    the baseline's numbers, lean_per_accel -10 a fall at 0.36 s); a rate of 300 Hz was "balance period 0.00333333 s
+    is not a whole number of 0.001 s physics steps", naming neither file nor key."""
+    import sim.robot.balance_design as design
+
+    edited = replace(load_balance_profile(NAME), **edit)
+    monkeypatch.setattr(design, "load_balance_profile", lambda robot: edited)
+    with pytest.raises(ConfigError, match=said) as refused:
+        balance_gains(NAME)
+    assert "edumip-balancing.toml" in str(refused.value)
+    if "rate 300" not in said:
+        assert "design_report('edumip-balancing')" in str(refused.value)

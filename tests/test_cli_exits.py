@@ -71,6 +71,32 @@ def test_a_plan_is_held_to_the_scenario_goal_tolerance() -> None:
     assert missed_targets(turned, sc, planned=False) == []  # type: ignore[arg-type]
 
 
+def test_a_balancing_robot_pitched_beyond_its_footprints_bound_misses_its_target() -> None:
+    """A push that pitched the balancing EduMIP to 35.5 deg ended exit 0 without a word, where ``--all`` judges a
+    20 deg bound (the planners' footprint holds the body pitched that far); the table did not show the pitch."""
+    import math
+    from types import SimpleNamespace
+
+    from planning.scenario import load_scenario
+    from sim.cli.simulate import format_table
+    from sim.pipeline.sweep import BALANCING_TARGETS, missed_targets
+
+    sc = load_scenario("edumip_map")
+    on_goal = {"final_position_error_m": 0.0, "final_heading_error_rad": 0.0}
+    for pitch, misses in ((0.619, True), (BALANCING_TARGETS["max_pitch_rad"], False), (None, False)):
+        metrics = SimpleNamespace(estimation=None, as_dict=lambda p=pitch: {**on_goal, "max_pitch_rad": p})
+        lines = missed_targets(metrics, sc, planned=True)  # type: ignore[arg-type]
+        assert lines == (
+            ["closed-loop run missed its target: max_pitch_rad = 0.619 > 0.3491 (20 deg: the planners' footprint "
+             "holds the body pitched that far, not more)"] if misses else []
+        )  # fmt: skip
+    row = {"final_position_error_m": 0.0, "final_heading_error_rad": 0.0, "rms_position_error_m": 0.0,
+           "max_position_error_m": 0.0, "collisions": 0, "warnings": 0}  # fmt: skip
+    table = format_table({"closed_loop": {**row, "max_pitch_rad": math.radians(35.5)}, "open_loop": row})
+    assert table.splitlines()[-1] == "max pitch: closed_loop 35.5 deg"
+    assert "max pitch" not in format_table({"closed_loop": row})
+
+
 def test_a_miss_of_a_run_whose_scan_localiser_was_starved_says_so_and_the_way_round() -> None:
     """An empty 8 x 9 m room, its walls beyond the LDS-01's 3.5 m most of the way: the TurtleBot3 ended 9.4 cm off
     its goal, and the failure said only that. Now a run whose scans had too few returns to match in more than a

@@ -176,3 +176,25 @@ def test_an_unknown_range_key_is_named_with_the_closest_key_and_a_range_example(
     assert "key=lo:hi" in message and "(e.g. friction=0.5:1.5,latency=0:0.04)" in message
     with pytest.raises(ConfigError, match=r"unknown key 'zzz'; expected comma-separated key=value with keys friction"):
         Perturbation.parse("zzz=1")  # nothing close: no guess
+
+
+def test_a_push_in_the_runs_last_control_period_is_taken() -> None:
+    """A run lasts its whole control periods (27.18 s where the trajectory and hold give 27.16 s), but a push between
+    the two was refused as coming after the run's end."""
+    from control.base import make_tracker
+    from planning.core.geometry import Pose2D
+    from planning.core.robot import load_robot
+    from planning.trajectory.references import make_reference
+    from sim.physics.simulator import Schedule, SimConfig, Simulator
+
+    assert Schedule.make(10, 0.002, 1.005).duration == pytest.approx(1.02)
+    robot = load_robot("edumip-balancing")
+    sim = Simulator(robot)
+    traj = make_reference("line", robot, Pose2D(0.0, 0.0, 0.0), length=0.1)
+    config = SimConfig(control_rate=50.0, hold=0.0101)  # the horizon ends inside a control period
+    horizon = traj.duration + config.hold
+    lasts = Schedule.make(sim.steps_per_control(50.0), float(sim.model.opt.timestep), horizon).duration
+    assert lasts > horizon + 1e-3
+    late = Perturbation.parse(f"push=0.01@{0.5 * (horizon + lasts):.6f}")
+    log = sim.run(traj, make_tracker("fbl", robot), config, perturbation=late)
+    assert log.t[-1] == pytest.approx(lasts)

@@ -411,7 +411,15 @@ def format_table(record: dict[str, Any]) -> str:
             f"{est_rms:>11} {nees_ok:>7} {nees_mean:>9} "
             f"{r['collisions']:>10d} {r['warnings']:>8d}"
         )
-    return "\n".join(lines + _ended_early(record))
+    return "\n".join(lines + _ended_early(record) + _pitches(record))
+
+
+def _pitches(record: dict[str, Any]) -> list[str]:
+    """A balancing robot's largest pitch per run, a line under the table ([] for another robot)."""
+    pitched = [(kind, r["max_pitch_rad"]) for kind in RunKind if (r := record.get(kind)) and r.get("max_pitch_rad")]
+    if not pitched:
+        return []
+    return ["max pitch: " + ", ".join(f"{kind} {math.degrees(p):.1f} deg" for kind, p in pitched)]
 
 
 def _ended_early(record: dict[str, Any]) -> list[str]:

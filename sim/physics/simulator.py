@@ -274,8 +274,9 @@ class Simulator:
         args = (trajectory, tracker, config, start, drive, meta, perturbation, progress, source, sensing)
         cfg, placed, source = self._check_run(*args)
         pert = perturbation if perturbation is not None and not perturbation.is_nominal else None
-        if pert is not None:
-            pert.check_within(trajectory.duration + cfg.hold)  # before any physics
+        if pert is not None:  # before any physics, against the run's whole control periods
+            k_ctrl, step = self.steps_per_control(cfg.control_rate), float(self.model.opt.timestep)
+            pert.check_within(Schedule.make(k_ctrl, step, trajectory.duration + cfg.hold).duration)
         m = self.run_model(pert)
         d = mujoco.MjData(m)
         # a balancing robot starts upright at once: left alone to settle, it would topple
@@ -638,6 +639,11 @@ class Schedule:
         dt_ctrl = k_ctrl * timestep
         n_ctrl = math.ceil(horizon / dt_ctrl - 1e-9)
         return cls(k_ctrl, chunks, k_ctrl // chunks, n_ctrl, delay, dt_ctrl)
+
+    @property
+    def duration(self) -> float:
+        """How long the run lasts: its whole control periods [s]."""
+        return self.n_ctrl * self.dt_ctrl
 
     def plan(self, k_fw: int) -> tuple[tuple[tuple[bool, int, int, bool], ...], ...]:
         """The physics chunks of the control periods, with the motor firmware updated every ``k_fw``

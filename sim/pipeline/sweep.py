@@ -137,7 +137,8 @@ STARVED_SHARE = 0.25
 
 
 def missed_targets(metrics: TrackingMetrics, scenario: Scenario, *, planned: bool) -> list[str]:
-    """One line per target (:func:`closed_loop_targets`) the closed loop's metrics missed; [] when all met. A run
+    """One line per target (:func:`closed_loop_targets`, and a balancing robot's pitch within
+    ``BALANCING_TARGETS``' bound) the closed loop's metrics missed; [] when all met. A run
     whose scan localiser could match few of its scans (more than :data:`STARVED_SHARE` with too few returns: the
     world's surfaces beyond the scanner's range) says so on one more line, with the way to run without it."""
     values = metrics.as_dict()
@@ -147,6 +148,12 @@ def missed_targets(metrics: TrackingMetrics, scenario: Scenario, *, planned: boo
         for key, bound in closed_loop_targets(scenario, planned=planned).items()
         if not values[key] <= bound
     ]
+    pitch, bound = values.get("max_pitch_rad"), BALANCING_TARGETS["max_pitch_rad"]
+    if pitch is not None and not pitch <= bound:  # a balancing robot's body (None for the others)
+        missed.append(
+            f"closed-loop run missed its target: max_pitch_rad = {pitch:.4g} > {bound:.4g} ({math.degrees(bound):g} "
+            "deg: the planners' footprint holds the body pitched that far, not more)"
+        )
     est = metrics.estimation
     blind, cast = (est.scans_without_returns, est.scans_cast) if est is not None else (None, None)
     if missed and blind and cast and blind > STARVED_SHARE * cast:

@@ -18,11 +18,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.balance import STATE_NAMES, BalanceGains
-from control.design.balance_profile import load_balance_profile
+from control.design.balance_profile import BalanceProfile, load_balance_profile
 from control.design.lqr import check_closed_loop, lqr_gains
 from planning.core.robot import load_robot
+from planning.errors import ConfigError
 from sim.physics.model import build_model
-from sim.physics.motors import MotorModel
+from sim.physics.motors import MotorModel, whole_steps
 from sim.physics.sagittal import SagittalParams, sagittal_model
 
 FloatArray = NDArray[np.float64]
@@ -71,10 +72,24 @@ def design_balance(robot: str, model: mujoco.MjModel | None = None) -> BalanceDe
 
 
 @functools.lru_cache(maxsize=8)
-def _drawing_plant(robot: str, rate: float) -> tuple[FloatArray, FloatArray, MotorModel, SagittalParams]:
+def _drawing_plant(robot: str, prof: BalanceProfile) -> tuple[FloatArray, FloatArray, MotorModel, SagittalParams]:
+    """The robot as drawn, linearised upright over one balance period of its profile.
+
+    Raises:
+        ConfigError: The profile's rate has no whole number of the model's physics steps a period (naming the
+            file, the key and rates that have).
+    """
     spec = load_robot(robot)
     model = build_model(spec).model
-    a, b = sagittal_model(model, spec.wheel_radius, 1.0 / rate)
+    step = float(model.opt.timestep)
+    if not whole_steps(1.0 / prof.rate, step):
+        fits = [f"{r:g}" for r in (100.0, 200.0, 250.0, 500.0, 1000.0) if whole_steps(1.0 / r, step)]
+        raise ConfigError(
+            f"{prof.path}: [balance] rate {prof.rate:g} Hz: its period is not a whole number of the model's "
+            f"{step * 1e3:g} ms physics steps; choose a rate whose period is, e.g. {', '.join(fits)} Hz (and design "
+            "the gains for it: sim.robot.balance_design.design_report)"
+        )
+    a, b = sagittal_model(model, spec.wheel_radius, 1.0 / prof.rate)
     return a, b, MotorModel.from_model(model), SagittalParams.from_model(model)
 
 
@@ -88,7 +103,9 @@ def balance_gains(robot: str, k: tuple[float, ...] | None = None) -> BalanceGain
     """
     prof = load_balance_profile(robot)
     gains = prof.k if k is None else tuple(float(x) for x in k)
-    a, b, motor, params = _drawing_plant(robot, prof.rate)
+    a, b, motor, params = _drawing_plant(robot, prof)
+    if k is None:
+        _check_designed(robot, prof, lqr_gains(a, b, prof.maxima, prof.voltage_max).ravel(), params)
     check_closed_loop(a, b, gains)
     return BalanceGains(
         rate=prof.rate,
@@ -101,6 +118,31 @@ def balance_gains(robot: str, k: tuple[float, ...] | None = None) -> BalanceGain
         lean_per_accel=prof.lean_per_accel * params.wheel_radius,
         voltage_per_accel=prof.voltage_per_accel * params.wheel_radius,
         wheel_radius=params.wheel_radius,
+    )
+
+
+#: How far a profile's stored gains may differ from its design (relative): the printed lines' digits.
+DESIGN_RTOL = 1e-4
+
+
+def _check_designed(robot: str, prof: BalanceProfile, k: FloatArray, params: SagittalParams) -> None:
+    """Refuse a profile whose ``[gains]`` are not what its ``[weights]`` and ``[balance] rate`` design on the robot
+    as drawn (a weight or the rate edited, the gains left: the edit would be silently ignored).
+
+    Raises:
+        ConfigError: Naming the file, the gains that differ and how to print the designed ones.
+    """
+    stored = np.array([*prof.k, prof.lean_per_accel, prof.voltage_per_accel])
+    designed = np.array([*k, params.lean_per_accel, params.voltage_per_accel])
+    if np.allclose(stored, designed, rtol=DESIGN_RTOL, atol=0.0):
+        return
+    names = [*(f"k[{i}]" for i in range(len(k))), "lean_per_accel", "voltage_per_accel"]
+    pairs = zip(names, stored, designed, strict=True)
+    off = [f"{n} {a:.6g} (designed {d:.6g})" for n, a, d in pairs if not math.isclose(a, d, rel_tol=DESIGN_RTOL)]
+    raise ConfigError(
+        f"{prof.path}: [gains] are not what its [weights] and [balance] rate design on the robot: {'; '.join(off)}; "
+        f'put the designed lines in [gains] (python -c "from sim.robot.balance_design import design_report; '
+        f"print(design_report('{robot}'))\")"
     )
 
 
