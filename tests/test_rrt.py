@@ -430,3 +430,41 @@ def test_rrt_star_ends_on_the_goal_pose_once_a_curve_reached_it() -> None:
     res = make_planner("rrt-star").plan(problem)
     assert res.status is PlanStatus.SUCCESS
     np.testing.assert_allclose(res.path[-1], [5.5, 2.5, 0.0], atol=1e-9)
+
+
+def _clutter(seed: int, n: int = 220) -> World:
+    """A 4 x 4 m floor of small circles (1.5-4 cm), the held-out world where birrt's unicycle trees filled with
+    copies of five poses."""
+    rng = np.random.default_rng(seed)
+    xs, ys, rs = rng.uniform(0.2, 3.8, n), rng.uniform(0.2, 3.8, n), rng.uniform(0.015, 0.04, n)
+    discs = [Circle((float(x), float(y)), float(r)) for x, y, r in zip(xs, ys, rs, strict=True)]
+    clear = [d for d in discs if min(d.signed_distance([[0.4, 0.4], [3.6, 3.6]])) > 0.2]
+    return World((0.0, 4.0, 0.0, 4.0), tuple(clear))
+
+
+@pytest.mark.parametrize("name", ["rrt", "birrt"])
+def test_primitive_trees_hold_each_pose_once(name: str) -> None:
+    """A primitive and its reverse land on the node they left; added again, such copies filled birrt's trees
+    (2502 nodes, 5 poses) and its partial path went back and forth over them (581 m, 154,901 poses, in a 4 x 4 m
+    world; 12 s of wall time for a 1.5 s plan, checking its clearance)."""
+    start, goal = Pose2D(0.35, 0.35, 0.0), Pose2D(3.65, 3.65, math.pi / 2)
+    problem = PlanProblem(_clutter(5), load_robot("edumip"), start, goal, seed=0)  # 752 nodes, 4 poses; rrt 617 of 856
+    result = make_planner(name, max_iterations=1500).plan(problem)
+    tree = result.tree
+    assert tree is not None
+    poses = np.round(np.asarray(tree.nodes), 9)
+    assert len(np.unique(poses, axis=0)) == len(poses)
+    assert path_length(result.path) < 60.0  # a partial path goes somewhere, once
+
+
+def test_birrt_whose_roots_cannot_grow_says_so_at_once() -> None:
+    """Start and goal in bays shorter than every unicycle primitive (0.75 m) and the direct curve blocked: birrt
+    spent 37,923 iterations with its two roots alone and told the user to raise max_iterations."""
+    world = World((0.0, 1.6, 0.0, 0.8), (Box((0.8, 0.4), (0.2, 0.3)),))
+    problem = PlanProblem(world, load_robot("turtlebot3"), Pose2D(0.3, 0.4, 0.0), Pose2D(1.3, 0.4, 0.0), seed=0)
+    result = make_planner("birrt").plan(problem)
+    assert result.status is PlanStatus.INFEASIBLE and result.stats["iterations"] == 0
+    assert "motion primitives from the start and goal collides, so the trees cannot grow" in result.reason
+    assert "steering='reeds_shepp'" in result.reason
+    assert make_planner("rrt", steering="unicycle").plan(problem).status is PlanStatus.INFEASIBLE
+    assert make_planner("birrt", steering="reeds_shepp").plan(problem).status is not PlanStatus.INFEASIBLE

@@ -76,6 +76,12 @@ def check_order(n: int, new_first: bool) -> NDArray[np.int64]:
     return order
 
 
+#: Nearest-node distance within which a primitive's end is a node its tree has: a primitive and its reverse land on
+#: the node they left, and added again such copies filled a tree (2502 nodes, 5 poses; a partial path of 581 m in a
+#: 4 x 4 m world, every pose repeated).
+SAME_NODE = 1e-9
+
+
 @dataclass
 class LocalPlanner:
     """Steering plus collision checking for one planning run.
@@ -198,8 +204,11 @@ class LocalPlanner:
         """The exact curve from ``q_a`` (start side) to ``q_b`` (goal side) if collision-free."""
         return self._checked(q_a, q_b, np.inf, False)  # ends exactly on q_b
 
-    def extend(self, q_from: FloatArray, q_to: FloatArray, backwards: bool = False) -> Motion | None:
-        """A collision-free motion from ``q_from`` toward ``q_to`` (see the module doc), or None."""
+    def extend(
+        self, q_from: FloatArray, q_to: FloatArray, backwards: bool = False, tree: Tree | None = None
+    ) -> Motion | None:
+        """A collision-free motion from ``q_from`` toward ``q_to`` (see the module doc), or None. With ``tree``,
+        a primitive that ends on one of its nodes is passed over for the next (:data:`SAME_NODE`)."""
         if self.exact:
             return self._extend_curve(q_from, q_to, backwards)
         if self.steering == "diffdrive":
@@ -211,9 +220,21 @@ class LocalPlanner:
                 return None
             v_sign = 1.0 if np.dot(poses[-1, :2] - poses[0, :2], [np.cos(q_from[2]), np.sin(q_from[2])]) >= 0 else -1.0
             return dense[-1].copy(), dense, np.full(dense.shape[0], v_sign)
-        return self._extend_primitive(q_from, q_to, backwards)
+        return self._extend_primitive(q_from, q_to, backwards, tree)
 
-    def _extend_primitive(self, q_from: FloatArray, q_to: FloatArray, backwards: bool) -> Motion | None:
+    @property
+    def primitives(self) -> int:
+        """How many motion primitives steer (0 for exact curves and diffdrive steering)."""
+        return len(self._dense) if self.steering in ("bicycle", "unicycle") else 0
+
+    def boxed_in(self, q: FloatArray, backwards: bool = False) -> bool:
+        """Whether every motion primitive from ``q`` (into it, ``backwards``) collides: a tree rooted there
+        cannot grow, whatever it samples (False for other steering)."""
+        return bool(self.primitives) and self._extend_primitive(q, q, backwards, None) is None
+
+    def _extend_primitive(
+        self, q_from: FloatArray, q_to: FloatArray, backwards: bool, tree: Tree | None
+    ) -> Motion | None:
         c, s = np.cos(q_from[2]), np.sin(q_from[2])
         ends = np.empty_like(self._ends)
         if backwards:
@@ -239,6 +260,8 @@ class LocalPlanner:
             d = self._dirs[p]
             if self.checker.path_free(poses):
                 q_new = poses[0].copy() if backwards else poses[-1].copy()
+                if tree is not None and self.tree_distances(tree, q_new).min() <= SAME_NODE:
+                    continue  # back where the tree has been (a primitive and its reverse): no new node
                 return q_new, poses, np.full(poses.shape[0], d)
         return None
 

@@ -193,7 +193,7 @@ class _TreePlanner(Generic[ConfigT]):
         (None when every motion collides)."""
         q_rand = self._sample(rng, problem.goal.as_array(), problem)
         i = local.nearest(tree, q_rand)
-        ext = local.extend(tree.nodes[i], q_rand)
+        ext = local.extend(tree.nodes[i], q_rand, tree=tree)
         return None if ext is None else (i, ext)
 
     @staticmethod
@@ -285,6 +285,9 @@ class RRT(_TreePlanner[TreeConfig]):
 
     def _search(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult:
         """Grow a tree from the start until a node reaches the goal or the budget is spent."""
+        boxed = boxed_in(self.name, local, problem, budget, ("start",))
+        if boxed is not None:
+            return boxed
         rng = draws(problem)
         goal = problem.goal.as_array()
         tree = Tree(problem.start.as_array())
@@ -313,6 +316,26 @@ class RRT(_TreePlanner[TreeConfig]):
             f"{turn:.2f} rad off the goal's)"
         )
         return self._result(PlanStatus.TIMEOUT, path, d, reason, self._stats(budget, it, tree.n), tree.plan_tree())
+
+
+def boxed_in(
+    planner: str, local: LocalPlanner, problem: PlanProblem, budget: Budget, roots: tuple[str, ...]
+) -> PlanResult | None:
+    """The INFEASIBLE result of a search whose trees cannot grow: every motion primitive from each of its ``roots``
+    ("start", and for a tree grown back from it "goal") collides, so no number of iterations or seed finds a path
+    (the search spent its whole budget with the roots alone); None when one of them can grow."""
+    ends = {"start": (problem.start, False), "goal": (problem.goal, True)}
+    if not all(local.boxed_in(ends[r][0].as_array(), ends[r][1]) for r in roots):
+        return None
+    which = " and ".join(roots)
+    reason = (
+        f"every one of the {local.primitives} {local.steering} motion primitives from the {which} collides, so the "
+        f"tree{'s' if len(roots) > 1 else ''} cannot grow: plan with steering='reeds_shepp' (exact curves of any "
+        "length, --planner-option steering=reeds_shepp), or another planner (hybrid-a-star, rrt-star)"
+    )
+    stats = {"time_s": budget.clock.elapsed(), "code_s": budget.clock.code(), "grid_s": budget.grid_s,
+             "iterations": 0, "nodes": len(roots)}  # fmt: skip
+    return PlanResult(PlanStatus.INFEASIBLE, planner, reason=reason, stats=stats)
 
 
 def _closer(local: LocalPlanner, tree: Tree, k: int, before: int, target: FloatArray) -> bool:
@@ -344,7 +367,7 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
     config_class = BiRRTConfig
 
     def _grow(self, local: LocalPlanner, tree: Tree, i: int, target: FloatArray) -> int | None:
-        ext = local.extend(tree.nodes[i], target, backwards=tree.backwards)
+        ext = local.extend(tree.nodes[i], target, backwards=tree.backwards, tree=tree)
         if ext is None:
             return None
         return tree.add(ext[0], i, ext[1], ext[2])
@@ -400,6 +423,9 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
         joined = self._joined_roots(problem, local, budget)
         if joined is not None:
             return joined
+        boxed = boxed_in(self.name, local, problem, budget, ("start", "goal"))
+        if boxed is not None:
+            return boxed
         rng = draws(problem)  # after the direct curve, which needs none (a plan it solves does not pay for one)
         start, goal = problem.start.as_array(), problem.goal.as_array()
         ta, tb = Tree(start), Tree(goal, backwards=True)
