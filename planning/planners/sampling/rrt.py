@@ -285,7 +285,7 @@ class RRT(_TreePlanner[TreeConfig]):
 
     def _search(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult:
         """Grow a tree from the start until a node reaches the goal or the budget is spent."""
-        boxed = boxed_in(self.name, local, problem, budget, ("start",))
+        boxed = boxed_in(self.name, local, problem, self._stats(budget, 0, 1), ("start",))
         if boxed is not None:
             return boxed
         rng = draws(problem)
@@ -319,7 +319,7 @@ class RRT(_TreePlanner[TreeConfig]):
 
 
 def boxed_in(
-    planner: str, local: LocalPlanner, problem: PlanProblem, budget: Budget, roots: tuple[str, ...]
+    planner: str, local: LocalPlanner, problem: PlanProblem, stats: dict[str, object], roots: tuple[str, ...]
 ) -> PlanResult | None:
     """The INFEASIBLE result of a search whose trees cannot grow: every motion primitive from each of its ``roots``
     ("start", and for a tree grown back from it "goal") collides, so no number of iterations or seed finds a path
@@ -333,8 +333,6 @@ def boxed_in(
         f"tree{'s' if len(roots) > 1 else ''} cannot grow: plan with steering='reeds_shepp' (exact curves of any "
         "length, --planner-option steering=reeds_shepp), or another planner (hybrid-a-star, rrt-star)"
     )
-    stats = {"time_s": budget.clock.elapsed(), "code_s": budget.clock.code(), "grid_s": budget.grid_s,
-             "iterations": 0, "nodes": len(roots)}  # fmt: skip
     return PlanResult(PlanStatus.INFEASIBLE, planner, reason=reason, stats=stats)
 
 
@@ -423,7 +421,7 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
         joined = self._joined_roots(problem, local, budget)
         if joined is not None:
             return joined
-        boxed = boxed_in(self.name, local, problem, budget, ("start", "goal"))
+        boxed = boxed_in(self.name, local, problem, self._stats(budget, 0, 2), ("start", "goal"))
         if boxed is not None:
             return boxed
         rng = draws(problem)  # after the direct curve, which needs none (a plan it solves does not pay for one)
