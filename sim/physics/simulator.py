@@ -274,17 +274,15 @@ class Simulator:
         args = (trajectory, tracker, config, start, drive, meta, perturbation, progress, source, sensing)
         cfg, placed, source = self._check_run(*args)
         pert = perturbation if perturbation is not None and not perturbation.is_nominal else None
+        step = float(self.model.opt.timestep)  # a perturbed model's too
+        delay = pert.latency_steps(step) if pert is not None else 0
+        schedule = Schedule.make(self.steps_per_control(cfg.control_rate), step, trajectory.duration + cfg.hold, delay)
         if pert is not None:  # before any physics, against the run's whole control periods
-            k_ctrl, step = self.steps_per_control(cfg.control_rate), float(self.model.opt.timestep)
-            pert.check_within(Schedule.make(k_ctrl, step, trajectory.duration + cfg.hold).duration)
+            pert.check_within(schedule.duration)
         m = self.run_model(pert)
         d = mujoco.MjData(m)
         # a balancing robot starts upright at once: left alone to settle, it would topple
         set_pose(m, d, placed, **({"settle": 0.0} if self.balance is not None else {}))
-        delay = pert.latency_steps(m.opt.timestep) if pert is not None else 0
-        schedule = Schedule.make(
-            self.steps_per_control(cfg.control_rate), float(m.opt.timestep), trajectory.duration + cfg.hold, delay
-        )
         noise = pert.sensor_noise(schedule.n_ctrl) if pert is not None else None
         reset_tracker(tracker, trajectory, schedule.dt_ctrl)
         recorder = Recorder(self, m, d, schedule, float(trajectory.t[0]))
