@@ -114,6 +114,20 @@ def test_a_results_file_of_another_study_is_refused(serial: dict[str, object]) -
         ResultsFile(Path(str(serial["path"])), ranged.key())
 
 
+def test_a_study_never_runs_a_robot_or_noise_that_tune_trains_on() -> None:
+    """montecarlo's run i was tune's training draw i of the same seed (both 0 by default): a study of tuned gains ran
+    on the very robots and noise they were tuned on. Its runs are now the held-out draws compare takes."""
+    from sim.tools.tune import make_draws
+
+    for seed in (0, 7):
+        study = MonteCarloSpec(Case("open", reference="line", seed=seed), 50).draws()
+        training = make_draws(200, seed)
+        assert study == make_draws(50, seed, held_out=True)
+        assert not {d.build_seed for d in study} & {d.build_seed for d in training}
+        assert not {d.seed for d in study} & {d.seed for d in training}
+    assert _spec().key()["draws"] == "held-out"  # results made by an nhsim that drew the training set: another study
+
+
 def test_a_hand_edited_run_record_is_refused_naming_the_file_and_line(
     serial: dict[str, object], tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -348,6 +362,29 @@ def test_the_cli_runs_resumes_and_replays_a_run_bit_for_bit(tmp_path: Path, monk
     assert main([*replay, "--json", "replay.json"]) in (0, 1)
     rec = json.loads((tmp_path / "replay.json").read_text())
     assert rec["closed_loop"]["final_position_error_m"] == worst["final_position_error_m"]
+
+
+def test_a_replay_names_the_studys_gains_not_the_file_they_came_from(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The replay commands named ``--gains FILE``: a gains file rewritten after the study (a resumed tune rewrites
+    its --out) made the "bit for bit" replay run other gains. They now name the gains themselves."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "g.toml").write_text("[gains]\nkp = 7.123456789\nkd = 4.5\n")
+    argv = ["montecarlo", "--scenario", "open", "--reference", "line", "--robot", "turtlebot3", "--runs", "1"]
+    argv += ["--localiser", "fixes", "--jobs", "1", "--quiet", "--no-plots", "--json", "mc.json"]
+    assert main([*argv, "--results", "mc.jsonl", "--gains", "g.toml"]) == 0
+    rec = json.loads((tmp_path / "mc.json").read_text())
+    base = rec["replay_base"]
+    assert base[base.index("--gains") + 1] == "7.123456789,4.5"
+    (tmp_path / "g.toml").write_text("[gains]\nkp = 1.0\nkd = 1.0\n")  # the file changes after the study
+    from sim.tools.montecarlo import replay_options
+
+    worst = rec["statistics"]["closed_loop"]["worst"][0]
+    replay = ["simulate", *base, *replay_options(worst), "--no-video", "--no-plots", "--quiet", "--json", "r.json"]
+    assert main(replay) == 0
+    again = json.loads((tmp_path / "r.json").read_text())
+    assert again["closed_loop"]["final_position_error_m"] == worst["final_position_error_m"]
 
 
 def test_the_localiser_is_part_of_the_study_and_of_its_replays(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -637,6 +674,28 @@ def test_refused_input_leaves_no_results_file_and_outputs_are_checked_before_any
     assert sorted(p.name for p in (tmp_path / "bags").iterdir()) == ["worst-0", "worst-0.check"]
 
 
+def test_a_results_file_of_ones_own_keeps_the_default_studys_summary_and_plots(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--results`` elsewhere named its summary and plots after the study's key, in renders/: a second run of the
+    same study into another results file replaced the first one's summary (its statistics of 2 runs said 1) and
+    plots, without --overwrite. They now go beside the results file given, and a summary of the same study's
+    other results file is not this run's to replace."""
+    monkeypatch.chdir(tmp_path)
+    base = ["montecarlo", "--scenario", "open", "--reference", "line", "--robot", "edumip", "--jobs", "1", "--quiet"]
+    base += ["--no-plots", "--seed", "5"]
+    assert main([*base, "--runs", "2"]) == 0
+    (default,) = (tmp_path / "renders").glob("*-mc-*.json")
+    before = default.read_bytes()
+    assert main([*base, "--runs", "1", "--results", "mine/r.jsonl"]) == 0
+    assert default.read_bytes() == before and json.loads(before)["statistics"]["closed_loop"]["runs"] == 2
+    mine = json.loads((tmp_path / "mine" / "r.json").read_text())
+    assert mine["results"] == "mine/r.jsonl" and mine["statistics"]["closed_loop"]["runs"] == 1
+    # the default summary given as --json for another results file: another run's statistics, refused
+    assert main([*base, "--runs", "1", "--results", "mine/r.jsonl", "--json", str(default)]) == 2
+    assert "it is not this study's output" in capsys.readouterr().err and default.read_bytes() == before
+
+
 def test_plan_options_for_a_study_that_plans_nothing_are_refused(capsys: pytest.CaptureFixture[str]) -> None:
     # they changed the study's key (another results file) and nothing else
     argv = ["montecarlo", "--scenario", "open", "--reference", "line", "--runs", "1", "--jobs", "1"]
@@ -669,7 +728,7 @@ def test_the_robot_and_localiser_left_to_the_scenario_are_the_study_that_names_t
     tag = hashlib.sha1(json.dumps(earlier, sort_keys=True).encode()).hexdigest()[:6]
     old = results.with_name(f"{results.name.rsplit('-', 1)[0]}-{tag}.jsonl")
     old.write_text(json.dumps({**header, "key": earlier}) + "\n" + "".join(lines[1:]))
-    old.with_suffix(".json").write_text(json.dumps({**record, "key": earlier}))
+    old.with_suffix(".json").write_text(json.dumps({**record, "key": earlier, "results": str(old)}))
     results.unlink()
     summary.unlink()
     assert main(base) == 0  # found where the earlier nhsim put it, and resumed

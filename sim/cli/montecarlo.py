@@ -87,8 +87,21 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     add_localiser_arguments(p)
     add_executor_arguments(p, what="the runs", default_jobs="one per core")
     add_file_arguments(p)
-    p.add_argument("--results", type=Path, default=None, metavar="PATH", help="results file (JSON lines)")
-    p.add_argument("--json", type=Path, default=None, metavar="PATH", help="statistics record")
+    p.add_argument(
+        "--results",
+        type=Path,
+        default=None,
+        metavar="PATH",
+        help="results file (JSON lines; default: renders/<scenario>-<source>[-<robot>]-mc-<study>.jsonl)",
+    )
+    p.add_argument(
+        "--json",
+        type=Path,
+        default=None,
+        metavar="PATH",
+        help="statistics record, the plots beside it as <name>-fan.png and <name>-cdf.png (default: the results "
+        "file's path with .json)",
+    )
     p.add_argument(
         "--bags",
         type=Path,
@@ -179,16 +192,26 @@ def _paths(args: argparse.Namespace, spec: Any, scenario: str) -> dict[str, Path
         for k in (key, *spec.earlier_keys())
     ]
     stem = next((s for s in stems if (DEFAULT_DIR / f"{s}.jsonl").exists()), stems[0])
-    out = {"results": args.results or DEFAULT_DIR / f"{stem}.jsonl", "json": args.json or DEFAULT_DIR / f"{stem}.json"}
+    results = args.results or DEFAULT_DIR / f"{stem}.jsonl"
+    out = {"results": results, "json": args.json or _summary_beside(results)}
     if args.plots:
         base = out["json"]
         out.update({name: base.with_name(f"{base.stem}-{name}.png") for name in ("fan", "cdf")})
     return out
 
 
+def _summary_beside(results: Path) -> Path:
+    """The summary's default path: the results file's with ``.json`` (``-summary.json`` for a ``.json`` one), so
+    that a study given its own ``--results`` keeps its summary and plots beside it, not over the default study's."""
+    if results.suffix == ".json":
+        return results.with_name(f"{results.stem}-summary.json")
+    return results.with_suffix(".json")
+
+
 def _check_outputs(paths: dict[str, Path], keys: list[dict[str, Any]], overwrite: bool) -> None:
-    """Every output can be written; existing ones must be this study's own (its summary names one of its
-    ``keys``: the key, or one an earlier nhsim gave it)."""
+    """Every output can be written; existing ones must be this study's own: its summary names one of its
+    ``keys`` (the key, or one an earlier nhsim gave it) and this results file (the same study's statistics of
+    another results file are another run's outputs)."""
     from sim.outputs import check_distinct, check_writable
 
     check_distinct(paths.values())
@@ -196,8 +219,9 @@ def _check_outputs(paths: dict[str, Path], keys: list[dict[str, Any]], overwrite
     own = False
     if summary.is_file():  # a device or a pipe is not read (/dev/full gave bytes until memory ran out): refused below
         try:
-            own = json.loads(summary.read_text(encoding="utf-8")).get("key") in keys
-        except (OSError, ValueError, AttributeError):
+            doc = json.loads(summary.read_text(encoding="utf-8"))
+            own = doc.get("key") in keys and Path(doc.get("results")).resolve() == paths["results"].resolve()
+        except (OSError, ValueError, AttributeError, TypeError):
             own = False
     for name, path in paths.items():
         if name == "results":
@@ -260,6 +284,17 @@ def _pipe_notes(args: argparse.Namespace) -> list[str]:
 _FILE_OPTIONS = ("--scenario", "--gains", "--sensors", "--trajectory", "--path")
 
 
+def _gains_text(given: str | None, gains: Any) -> str | None:
+    """``--gains`` for the replay commands: the study's gains as numbers (a gains file may be rewritten after the
+    study, by a resumed tune for one, and the replay would run other gains), the file where they cannot say it
+    all (a guard other than the default)."""
+    from control.gains import FBLGains
+
+    if given is None or gains is None or gains.xi_min != FBLGains().xi_min:
+        return given
+    return f"{gains.kp!r},{gains.kd!r}"
+
+
 def _base_argv(args: argparse.Namespace, case: Any) -> list[str]:
     """The ``simulate`` options of the study's case (the seeds are per run)."""
     if case.trajectory_file is not None:  # the file's own options; its world is --scenario's or an arena
@@ -273,7 +308,7 @@ def _base_argv(args: argparse.Namespace, case: Any) -> list[str]:
     for opt, value, default in (
         ("--time-limit", args.time_limit, RUN_SETTINGS["time_limit"]),
         ("--feedback", args.feedback, None),
-        ("--gains", args.gains, None),
+        ("--gains", _gains_text(args.gains, case.gains), None),
         ("--sensors", args.sensors, None),
         ("--control-rate", args.control_rate, 50.0),
         ("--localiser", args.localiser, None),

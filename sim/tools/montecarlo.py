@@ -2,11 +2,11 @@
 
 Run ``i`` of a study drives the case's trajectory (planned once from the study's seed, or per run with
 ``replan``) on its own :class:`~sim.tools.tune.Draw`: an as-built robot (build seed), a sensor noise
-seed and, with ranges, a perturbation drawn from them (:func:`sim.tools.tune.make_draws`: the first
-N draws of a larger study are those of a smaller one). Each run drives every run kind
-(:data:`sim.pipeline.runs.DEFAULT_RUNS`: fused feedback, odometry feedback, open loop) and is kept as
-one JSON record, keyed by its index and seeds, appended to the results file the moment it finishes
-(:class:`ResultsFile`). The statistics (:func:`statistics`) are computed from the records sorted by
+seed and, with ranges, a perturbation drawn from them (:func:`sim.tools.tune.make_draws`, its held-out set:
+never a training draw of ``nhsim tune``; the first N draws of a larger study are those of a smaller one).
+Each run drives every run kind (:data:`sim.pipeline.runs.DEFAULT_RUNS`: fused feedback, odometry feedback,
+open loop) and is kept as one JSON record, keyed by its index and seeds, appended to the results file the
+moment it finishes (:class:`ResultsFile`). The statistics (:func:`statistics`) are computed from the records sorted by
 index, so a study killed and resumed (the same command: done runs are skipped) ends with exactly the
 statistics of one never interrupted, on any number of workers.
 
@@ -127,6 +127,7 @@ class MonteCarloSpec:
             "time_limit": c.planning.time_limit,
             "ranges": None if self.ranges is None else {k: list(v) for k, v in asdict(self.ranges).items()},
             "replan": self.replan,
+            "draws": "held-out",
             **self.case.localiser_options(),
             "localiser": self.defaults["localiser"],
         }
@@ -145,8 +146,11 @@ class MonteCarloSpec:
         return [k for k in out if k != key]
 
     def draws(self) -> tuple[Draw, ...]:
-        """The runs' draws (build seed, noise seed, perturbation)."""
-        return make_draws(self.runs, self.case.seed, perturbations=self.ranges)
+        """The runs' draws (build seed, noise seed, perturbation): the held-out draws of the study's seed, as
+        ``compare --runs`` takes them, so that a study of tuned gains never runs a robot or a noise sequence the
+        gains were tuned on (``nhsim tune`` trains on the other set; an earlier nhsim took this one, hence the
+        key's ``draws``)."""
+        return make_draws(self.runs, self.case.seed, held_out=True, perturbations=self.ranges)
 
     def record_seeds(self) -> list[dict[str, Any]]:
         """What the record of each run (by index) names of it besides its metrics, as read back from a results
