@@ -508,6 +508,25 @@ def test_draws_take_time_linear_in_their_count() -> None:
     assert len({d.build_seed for d in draws}) == len({d.seed for d in draws}) == 100_000
 
 
+@pytest.mark.parametrize(
+    ("cases", "said"),
+    [
+        ("parallel_park", "names no planner; choose one with SCENARIO:PLANNER in --scenarios: birrt"),
+        ("parallel_park:figure8", "e.g. open:figure8 in --scenarios, another reference, or plan a path with SCENARIO"),
+    ],
+)
+def test_a_cases_error_speaks_of_the_token_not_of_options_tune_lacks(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], cases: str, said: str
+) -> None:
+    """A case without a planner was told to "choose one with --planner", an option tune does not have (it was
+    refused as an unrecognized argument): tune's cases take their planner in the token."""
+    argv = ["tune", "--scenarios", cases, "--trials", "1", "--storage", f"sqlite:///{tmp_path / 't.db'}"]
+    assert main([*argv, "--out", str(tmp_path / "g.toml"), "--plots", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert said in err and "--planner" not in err and "--scenario " not in err, err
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_more_draws_than_seeds_are_refused() -> None:
     from planning.errors import ConfigError
     from sim.tools.tune import MAX_DRAWS
@@ -858,6 +877,7 @@ PG = "postgresql://nhsim:S3cretPW@127.0.0.1:55432/nhsim_tune"
         "postgresql+psycopg2://nhsim@127.0.0.1:55432/nhsim_tune",  # another driver, no password
         "postgresql://nhsim:OtherPW@127.0.0.1:55432/nhsim_tune",  # a changed password
         "postgresql://nhsim:***@127.0.0.1:55432/nhsim_tune",  # as the outputs now show it
+        "postgresql://nhsim@localhost:55432/nhsim_tune",  # the loopback by name
     ],
 )
 def test_the_studys_outputs_are_its_own_whatever_spelling_of_its_url_reaches_it(tmp_path: Path, spelling: str) -> None:
@@ -873,6 +893,29 @@ def test_the_studys_outputs_are_its_own_whatever_spelling_of_its_url_reaches_it(
     for other in [*others, "admin@127.0.0.1:55432/nhsim_tune"]:  # another database, host, port (5432), user
         with pytest.raises(OutputExistsError):
             tune_files(_files_args(tmp_path, f"postgresql://{other}"), [CASE])  # type: ignore[arg-type]
+
+
+def test_an_sqlite_study_is_its_file_whatever_folder_or_spelling_names_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Outputs named their SQLite storage by the URL as given: from another folder, the same relative URL (another
+    file, another study) was taken for this study, whose outputs it then replaced without --overwrite; and the same
+    file spelt absolute, or with ./, was refused as another storage. Outputs now record the file's absolute path."""
+    from sim.cli.tune import tune_files
+
+    here, there = tmp_path / "here", tmp_path / "there"
+    (here / "renders").mkdir(parents=True)
+    there.mkdir()
+    monkeypatch.chdir(here)
+    files = tune_files(_files_args(here, "sqlite:///renders/t.db"), [CASE])  # type: ignore[arg-type]
+    stamp = files.stamp()
+    assert stamp["storage"] == f"sqlite:///{here / 'renders' / 't.db'}"
+    (here / "g.toml").write_text(f'[gains]\nkp = 9.0\n[provenance]\nstudy = "pg"\nstorage = "{stamp["storage"]}"\n')
+    for spelling in ("sqlite:///renders/t.db", "sqlite:///./renders/t.db", f"sqlite:///{here}/renders/../renders/t.db"):
+        assert here / "g.toml" in tune_files(_files_args(here, spelling), [CASE]).own  # type: ignore[arg-type]
+    monkeypatch.chdir(there)  # the same text from another folder: another file
+    with pytest.raises(OutputExistsError, match="holds the outputs of study 'pg' in 'sqlite:////"):
+        tune_files(_files_args(here, "sqlite:///renders/t.db"), [CASE])  # type: ignore[arg-type]
 
 
 def test_the_storages_password_is_never_shown_nor_written(tmp_path: Path) -> None:

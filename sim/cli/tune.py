@@ -17,7 +17,7 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from planning.errors import ConfigError
+from planning.errors import ConfigError, without_python
 from sim.cli.checks import add_robot_argument
 from sim.cli.simulate import add_localiser_arguments, check_scan_beams, localiser_fields
 from sim.tools.executor import JOBS_PER_CORE, check_workers
@@ -50,7 +50,8 @@ SQLAlchemy URL works (e.g. postgresql://user:pass@host/db), so workers on severa
 the same command against one study; --jobs runs local worker processes (Ctrl-C or SIGTERM stops them
 with the command, their trials as --jobs 1 leaves its own). The URL's password is shown and written as
 *** (messages, gains file, record, plots), and the outputs are the study's whatever spelling of its URL
-reaches the same database (another driver, another password). --sampler may change on resume, as
+reaches the same database (another driver, another password, localhost or 127.0.0.1, an SQLite file's path
+relative or absolute; the outputs record an SQLite file by its absolute path). --sampler may change on resume, as
 Optuna allows (the new sampler learns from every trial): the provenance names each sampler that
 proposed trials (sampler = "tpe + random", with sampler_trials counting them). The default gains are
 always the study's first trial.
@@ -480,10 +481,11 @@ class TuneFiles:
 
     def stamp(self) -> dict[str, str]:
         """The study and storage, as every output records them (provenance, record, PNG text): the storage's
-        password, if any, masked (:func:`sim.tools.tune.shown_url`)."""
-        from sim.tools.tune import shown_url
+        password, if any, masked (:func:`sim.tools.tune.shown_url`), an SQLite file by its absolute path (a relative
+        one read from another folder would be another file: :func:`sim.tools.tune.absolute_storage`)."""
+        from sim.tools.tune import absolute_storage, shown_url
 
-        return {"study": self.study, "storage": shown_url(self.storage)}
+        return {"study": self.study, "storage": shown_url(absolute_storage(self.storage))}
 
     def names_this_study(self, owner: dict[str, str] | None) -> bool:
         """Whether an output's ``owner`` (:meth:`owner`) is this study: the same name in the same database,
@@ -724,7 +726,10 @@ def _run(args: argparse.Namespace) -> int:
         recorded={} if unnamed is None else {"cases": unnamed, "robot": None},  # the scenarios' robots left out
     )
     evaluator = spec.evaluator()
-    evaluator.prepared()  # cases are built (and checked) before anything is written
+    try:
+        evaluator.prepared()  # cases are built (and checked) before anything is written
+    except ConfigError as exc:  # a ScenarioError too: said as --scenarios takes a case
+        raise type(exc)(in_case_tokens(without_python(str(exc)))) from exc
     if args.storage is None:
         Path("renders").mkdir(exist_ok=True)
     study = _optimise(args, spec)
@@ -734,6 +739,13 @@ def _run(args: argparse.Namespace) -> int:
         comparison = _held_out(evaluator, held_out, best)
         lost = _write_outputs(args, files, spec, study, best, default_obj, comparison)
     return 1 if lost else 0
+
+
+def in_case_tokens(message: str) -> str:
+    """A case's error as ``--scenarios`` takes the case: its planner and reference are written into the token
+    (``SCENARIO:PLANNER``, ``open:figure8``), and tune has no ``--planner`` or ``--scenario``."""
+    message = re.sub(r"--scenario (\S+?)(?=[,;:]|$| )", r"\1:figure8 in --scenarios", message)
+    return re.sub(r"--planner\b", "SCENARIO:PLANNER in --scenarios", message)
 
 
 def _cases(

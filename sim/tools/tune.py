@@ -47,6 +47,7 @@ import contextlib
 import importlib
 import json
 import math
+import os
 import time
 import warnings
 from collections.abc import Sequence
@@ -452,18 +453,40 @@ def shown_url(url: str) -> str:
 DEFAULT_PORTS = {"postgresql": 5432, "mysql": 3306, "mariadb": 3306, "mssql": 1433, "oracle": 1521}
 
 
+#: Names of this machine's loopback interface: one server, however a URL spells it.
+LOOPBACK = frozenset({"localhost", "127.0.0.1", "::1", "[::1]"})
+
+
+def absolute_storage(url: str) -> str:
+    """``url`` with an SQLite database file's path made absolute and normal (``sqlite:///renders/x.db`` from
+    ``/home/me`` is ``sqlite:////home/me/renders/x.db``): what outputs record, so that the storage they name is the
+    same file whatever folder reads them. Other URLs (and those SQLAlchemy cannot read) are returned as given."""
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
+    try:
+        u = make_url(url)
+    except ArgumentError:
+        return url
+    if u.get_backend_name() != "sqlite" or not u.database or u.database == ":memory:" or u.database.startswith("file:"):
+        return url
+    return u.set(database=os.path.realpath(u.database)).render_as_string(hide_password=False)
+
+
 def same_storage(a: str, b: str) -> bool:
     """Whether two storage URLs (as given, or as :func:`shown_url` shows them) reach the same database: the same
-    backend (whatever the driver: ``postgresql`` is ``postgresql+psycopg2``), host, port (left out: the backend's
-    default), database and user; the password and the query options are not compared. URLs SQLAlchemy cannot read
-    are the same when they are equal."""
+    backend (whatever the driver: ``postgresql`` is ``postgresql+psycopg2``), host (``localhost``, ``127.0.0.1`` and
+    ``::1`` are one), port (left out: the backend's default), database (an SQLite file by its absolute path, a
+    relative one from the working folder: :func:`absolute_storage`) and user; the password and the query options
+    are not compared. URLs SQLAlchemy cannot read are the same when they are equal."""
     from sqlalchemy.engine import make_url
     from sqlalchemy.exc import ArgumentError
 
     def where(url: str) -> tuple[Any, ...]:
-        u = make_url(url)
+        u = make_url(absolute_storage(url))
         backend = u.get_backend_name()
-        return backend, u.host, u.port or DEFAULT_PORTS.get(backend), u.database, u.username
+        host = "localhost" if u.host in LOOPBACK else u.host
+        return backend, host, u.port or DEFAULT_PORTS.get(backend), u.database, u.username
 
     try:
         return a == b or where(a) == where(b)
