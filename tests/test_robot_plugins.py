@@ -9,6 +9,7 @@ import os
 import subprocess
 import sys
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -99,7 +100,7 @@ def test_a_registration_is_checked_when_made(robots: None, tmp_path: Path) -> No
         register_robot("bare", unscened, sensors=sensors)
     broken = tmp_path / "broken.xml"
     broken.write_text(model.read_text().replace('name="nhsim_wheelbase"', 'name="nhsim_wheel_base"'))
-    with pytest.raises(ModelError, match=r"broken.xml: <custom><numeric name='nhsim_wheelbase'> is missing"):
+    with pytest.raises(ModelError, match=r"broken.xml: the model lacks <custom><numeric name='nhsim_wheelbase'>;"):
         register_robot("broken", broken, sensors=sensors)
     assert "bare" not in ROBOTS and "broken" not in ROBOTS
 
@@ -210,18 +211,35 @@ def test_the_command_simulates_a_plugins_robot(tmp_path: Path) -> None:
 
 def test_a_model_without_what_the_simulator_reads_is_refused_naming_each(robots: None, tmp_path: Path) -> None:
     """A model of one's own without an element the simulator reads by name failed inside a run with MuJoCo's
-    KeyError ("Invalid name 'wheel_right_motor'")."""
-    from sim.physics.simulator import Simulator
+    KeyError ("Invalid name 'wheel_right_motor'"); then it was refused when a run first built it, and a missing
+    numeric when registered, one name at a time. register_robot now names every one it lacks."""
+    import re
+
+    import mujoco
+
+    from sim.physics.model import check_named_elements
 
     model, sensors = _robot(tmp_path)
     text = model.read_text().replace('name="wheel_right_motor"', 'name="wheel_r_motor"')
-    model.write_text(text.replace('<jointpos name="wheel_left_pos"', '<jointpos name="wheel_l_pos"'))
-    register_robot("slowbot", model, sensors=sensors)
+    text = text.replace('<jointpos name="wheel_left_pos"', '<jointpos name="wheel_l_pos"')
+    text = re.sub(r"\s*<touch name=\"wheel_(left|right)_touch\"[^>]*/>", "", text)
+    model.write_text(text.replace('name="nhsim_wheelbase"', 'name="nhsim_wheel_base"'))
     with pytest.raises(ModelError) as err:
-        Simulator(load_robot("slowbot"))
+        register_robot("slowbot", model, sensors=sensors)
     assert str(err.value) == (
-        f"{model.resolve()}: robot 'slowbot' lacks actuator 'wheel_right_motor', sensor 'wheel_left_pos', which the "
-        f"simulator reads by name; give them as {ROBOTS_DIR / 'turtlebot3_burger.xml'} does (docs/how-to/new-robot.md)"
+        f"{model.resolve()}: the model lacks <custom><numeric name='nhsim_wheelbase'>, actuator 'wheel_right_motor', "
+        "sensor 'wheel_left_pos', sensor 'wheel_left_touch', sensor 'wheel_right_touch'; give them as "
+        f"{ROBOTS_DIR / 'turtlebot3_burger.xml'} does (docs/how-to/new-robot.md)"
+    )
+    assert "slowbot" not in ROBOTS
+    # a model whose names come from files it includes is checked when compiled, by the same table
+    compiled = mujoco.MjModel.from_xml_string(text)
+    with pytest.raises(ModelError) as err:
+        check_named_elements(replace(load_robot("turtlebot3"), name="slowbot", mjcf=model), compiled)
+    assert str(err.value) == (
+        f"{model}: robot 'slowbot' lacks actuator 'wheel_right_motor', sensor 'wheel_left_pos', sensor "
+        "'wheel_left_touch', sensor 'wheel_right_touch', which the simulator reads by name; give them as "
+        f"{ROBOTS_DIR / 'turtlebot3_burger.xml'} does (docs/how-to/new-robot.md)"
     )
 
 

@@ -505,6 +505,7 @@ def _parse_robot(name: str, path: Path, text: bytes) -> RobotSpec:
     except ET.ParseError as exc:
         raise ModelError(f"cannot read robot model {path}: {exc}") from exc
     numerics = {n.get("name"): n.get("data") for n in root.iter("numeric")}
+    _check_required(path, root, numerics)
 
     def numeric(key: str) -> float:
         full = f"nhsim_{key}"
@@ -516,9 +517,6 @@ def _parse_robot(name: str, path: Path, text: bytes) -> RobotSpec:
             raise ModelError(f"{path}: <numeric name={full!r}>: {exc}") from None
 
     bodies = {b.get("name"): b for b in root.iter("body")}
-    for required in ("base", "wheel_left", "wheel_right"):
-        if required not in bodies:
-            raise ModelError(f"{path}: body {required!r} is missing")
     defaults = _collect_defaults(root)
     wheel_radius, track = _wheels(path, root, bodies, defaults)
     pitch = numeric("footprint_pitch") if "nhsim_footprint_pitch" in numerics else 0.0
@@ -555,6 +553,55 @@ def _parse_robot(name: str, path: Path, text: bytes) -> RobotSpec:
     except ConfigError as exc:  # a number no robot has (check_spec)
         raise ModelError(f"{path}: {exc}") from None
     return spec
+
+
+#: The numerics a model must give (``nhsim_`` before each); the others have defaults.
+REQUIRED_NUMERICS = (
+    "max_linear_speed",
+    "max_angular_speed",
+    "max_linear_accel",
+    "max_angular_accel",
+    "max_wheel_speed",
+    "wheelbase",
+    "max_steering_angle",
+)
+#: What the simulator reads from a robot's model by name (a model of one's own needs them too), by kind.
+NAMED_ELEMENTS: dict[str, tuple[str, ...]] = {
+    "joint": ("root", "wheel_left_joint", "wheel_right_joint"),
+    "actuator": ("wheel_left_motor", "wheel_right_motor"),
+    "sensor": (
+        "base_pos",
+        "base_quat",
+        "wheel_left_vel",
+        "wheel_right_vel",
+        "wheel_left_pos",
+        "wheel_right_pos",
+        "wheel_left_touch",  # each tyre's floor contact: without them a wheel off the floor read as never
+        "wheel_right_touch",
+    ),
+}
+
+
+def _check_required(path: Path, root: ET.Element, numerics: dict[str | None, str | None]) -> None:
+    """Raise :class:`ModelError` naming every body, geom, numeric, joint, actuator and sensor the model lacks, at
+    once (one at a time, a model of one's own took a run per missing name). A model that includes other files has
+    its joints, actuators and sensors checked when it is compiled (``sim.physics.model.check_named_elements``)."""
+    bodies = {e.get("name") for e in root.iter("body")}
+    missing = [f"body {b!r}" for b in ("base", "wheel_left", "wheel_right") if b not in bodies]
+    missing += [] if any(g.get("name") == "wheel_left_geom" for g in root.iter("geom")) else ["geom 'wheel_left_geom'"]
+    missing += [f"<custom><numeric name='nhsim_{k}'>" for k in REQUIRED_NUMERICS if f"nhsim_{k}" not in numerics]
+    if root.find(".//include") is None:
+        by_kind = {
+            "joint": {e.get("name") for e in root.iter() if e.tag in ("joint", "freejoint")},
+            "actuator": {e.get("name") for a in root.iter("actuator") for e in a},
+            "sensor": {e.get("name") for t in root.iter("sensor") for e in t},
+        }
+        missing += [f"{kind} {n!r}" for kind, want in NAMED_ELEMENTS.items() for n in want if n not in by_kind[kind]]
+    if missing:
+        raise ModelError(
+            f"{path}: the model lacks {', '.join(missing)}; give them as {ROBOTS_DIR / 'turtlebot3_burger.xml'} does "
+            "(docs/how-to/new-robot.md)"
+        )
 
 
 def _wheels(

@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.core.geometry import Pose2D
-from planning.core.robot import ROBOTS_DIR, RobotSpec, check_robot_spec, check_scene, load_robot
+from planning.core.robot import NAMED_ELEMENTS, ROBOTS_DIR, RobotSpec, check_robot_spec, check_scene, load_robot
 from planning.core.world import OBSTACLE_HEIGHT, Box, Circle, Ellipse, Polygon, World, check_world, polygon_area
 from planning.errors import ModelError
 from planning.signals import signals_held
@@ -110,23 +110,6 @@ def check_scene_arguments(robot: object, world: object) -> None:
     (they were AttributeErrors from inside the model's compilation)."""
     check_robot_spec("Simulator", robot)
     check_world("Simulator: world", world, none="an empty floor")
-
-
-#: What the simulator reads from a robot's model by name (a model of one's own needs them too), by kind.
-NAMED_ELEMENTS: dict[str, tuple[str, ...]] = {
-    "joint": ("root", "wheel_left_joint", "wheel_right_joint"),
-    "actuator": ("wheel_left_motor", "wheel_right_motor"),
-    "sensor": (
-        "base_pos",
-        "base_quat",
-        "wheel_left_vel",
-        "wheel_right_vel",
-        "wheel_left_pos",
-        "wheel_right_pos",
-        "wheel_left_touch",  # each tyre's floor contact: without them a wheel off the floor read as never
-        "wheel_right_touch",
-    ),
-}
 
 
 def check_named_elements(robot: RobotSpec, model: mujoco.MjModel) -> None:
