@@ -92,6 +92,42 @@ def test_a_tyre_that_grazes_an_obstacle_beside_the_robot_is_a_collision(name: st
     assert log.contacts and log.contacts[0].obstacle == "obstacle_0"
 
 
+@pytest.mark.parametrize("offset", [-0.0386, -0.0378, -0.0366, 0.3])
+def test_a_touch_between_two_log_samples_is_a_collision(offset: float, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The contact sensor was read at the log's samples only (every 20 ms): an EduMIP driving a line past the
+    corner of a box touched it for 6 ms and recorded no collision, and a run that touched it three times recorded
+    two. Every touch the physics makes, looked for after every step, is a collision of the log, when it began
+    (the last line drives into the box, at full speed from a metre away: the gate that spares the look away from
+    obstacles is on when it arrives)."""
+    import mujoco
+
+    from planning.trajectory.trajectory import Trajectory
+
+    robot = load_robot("edumip")
+    world = World((-1.0, 3.0, -1.0, 1.0), (Box((1.0, 0.3), (0.4, 0.4), angle=0.785398),))
+    sim = Simulator(robot, world)
+    spells: list[float] = []  # when each touch began, seen after every physics step
+    touching = [False]
+    step = mujoco.mj_step
+
+    def each_step(m: mujoco.MjModel, d: mujoco.MjData, nstep: int = 1) -> None:
+        for _ in range(nstep):
+            step(m, d)
+            now = bool(sim.touching(d))
+            if now and not touching[0]:
+                spells.append(float(d.time))
+            touching[0] = now
+
+    monkeypatch.setattr(mujoco, "mj_step", each_step)
+    t = np.arange(0.0, 2.0 / 0.68 + 0.005, 0.01)
+    xy = np.column_stack([0.68 * t, np.full_like(t, offset)])
+    traj = Trajectory.from_flat(t, xy, np.column_stack([np.full_like(t, 0.68), 0 * t]), np.zeros_like(xy))
+    log = sim.run(traj, make_tracker("fbl", robot))
+    assert spells, "the line should touch the box's corner"
+    assert [c.t for c in log.contacts] == pytest.approx(spells, abs=1e-9)
+    assert {c.obstacle for c in log.contacts} == {"obstacle_0"}
+
+
 def test_control_rate_must_divide_the_physics_rate() -> None:
     robot = load_robot("turtlebot3")
     sim = Simulator(robot)
