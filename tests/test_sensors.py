@@ -554,6 +554,16 @@ def test_a_fix_as_late_as_the_profile_delivers_it_is_fused(rate: float, latency:
         explicit.estimator_config(robot, rate)
 
 
+def test_the_rates_suggested_for_a_model_of_other_steps_are_whole_steps_there() -> None:
+    """A model of 20 ms steps was told to choose "e.g. 10, 20, 50 or 100 Hz" when 100 Hz was refused: the
+    suggestions were fixed. They are those that divide its physics rate."""
+    from sim.physics import motors
+
+    with pytest.raises(ConfigError, match=r"divides 50 Hz \(e\.g\. 10 or 50 Hz\)$"):
+        motors.control_steps(100.0, 0.02)
+    assert motors.suggested_rates(0.03) == "(e.g. 8.33333, 16.6667 or 33.3333 Hz)"  # none of 10..100 is whole
+
+
 def test_the_control_rates_a_message_suggests_run_every_built_in_robot() -> None:
     """A rate below 1 Hz or off the physics steps was told "e.g. 10, 25, 50, 100"; 25 Hz was then refused on the
     EduMIP, whose 10 Hz fixes are 2.5 of its periods."""
@@ -563,7 +573,7 @@ def test_the_control_rates_a_message_suggests_run_every_built_in_robot() -> None
     from sim.physics import motors
     from sim.physics.model import robot_timestep
 
-    rates = [float(r) for r in re.findall(r"\d+", motors._RATES)]
+    rates = [float(r) for r in re.findall(r"\d+", motors.suggested_rates(0.002))]
     assert rates == [10.0, 20.0, 50.0, 100.0]
     for robot in ROBOTS.built_in():
         for rate in rates:

@@ -96,9 +96,22 @@ def whole_steps(duration: float, timestep: float) -> int:
     return k if k >= 1 and abs(ratio - k) <= 1e-6 else 0
 
 
-#: Control rates a message suggests: each divides the robots' physics rates and is a whole number of periods of the
-#: built-in robots' pose fixes (5 and 10 Hz; 25 Hz, suggested once, is not of the EduMIP's).
-_RATES = "(e.g. 10, 20, 50 or 100 Hz)"
+#: Control rates a message suggests, those of them that divide the model's physics rate (:func:`suggested_rates`):
+#: each divides the built-in robots' physics rates and is a whole number of periods of their pose fixes (5 and
+#: 10 Hz; 25 Hz, suggested once, is not of the EduMIP's).
+RATES = (10, 20, 50, 100)
+
+
+def suggested_rates(timestep: float) -> str:
+    """The rates of :data:`RATES` a period of whole ``timestep`` [s] steps takes, as a message suggests them
+    (``"(e.g. 10 or 50 Hz)"`` on 20 ms steps: 20 and 100 Hz are not whole steps there); the physics rate and its
+    halves when none of them is."""
+    fits: list[float] = [r for r in RATES if whole_steps(1.0 / r, timestep)]
+    if not fits:
+        rate = 1.0 / timestep
+        fits = [rate / k for k in (4, 2, 1) if rate / k >= MIN_CONTROL_RATE]
+    said = [f"{r:g}" for r in fits]
+    return f"(e.g. {', '.join(said[:-1])} or {said[-1]} Hz)" if len(said) > 1 else f"(e.g. {said[0]} Hz)"
 
 
 def control_steps(control_rate: float, timestep: float) -> int:
@@ -111,13 +124,13 @@ def control_steps(control_rate: float, timestep: float) -> int:
     if not control_rate >= MIN_CONTROL_RATE:
         raise ConfigError(
             f"control rate {control_rate:g} Hz is below {MIN_CONTROL_RATE:g} Hz: no tracker steers a wheeled robot "
-            f"once a second or less; choose a rate that divides {1.0 / timestep:g} Hz {_RATES}"
+            f"once a second or less; choose a rate that divides {1.0 / timestep:g} Hz {suggested_rates(timestep)}"
         )
     k = whole_steps(1.0 / control_rate, timestep)
     if not k:
         raise ConfigError(
             f"control rate {control_rate:g} Hz is not a whole number of {timestep * 1e3:g} ms physics steps; "
-            f"choose a rate that divides {1.0 / timestep:g} Hz {_RATES}"
+            f"choose a rate that divides {1.0 / timestep:g} Hz {suggested_rates(timestep)}"
         )
     return k
 
