@@ -30,21 +30,30 @@ RUN: dict[str, Any] = {
     "estimation_nees_mean": 2.0141998305057003,
     "estimation_fixes_used": 70,
 }
-#: A baseline of that run edited: none of these is in :data:`sim.tools.regress.DIRECTIONS`.
+#: A baseline of that run edited: text, a number without a direction (the NEES mean), one better high (the NEES in
+#: bound) and one better low, each beyond its tolerance.
 EDITED = {
     "status": "diverged",
     "estimation_source": "odometry",
     "estimation_nees_mean": 99.0,
-    "estimation_nees_in_bound_fraction": 0.1,
-    "estimation_final_position_error_m": 0.5,
+    "estimation_nees_in_bound_fraction": 0.99,
+    "estimation_final_position_error_m": 0.00005,
+}
+#: How the run is judged against that baseline, in any environment.
+JUDGED = {
+    "status": "changed",
+    "estimation_source": "changed",
+    "estimation_nees_mean": "changed",
+    "estimation_nees_in_bound_fraction": "regressed",
+    "estimation_final_position_error_m": "regressed",
 }
 
 
 @pytest.mark.parametrize("exact", [True, False], ids=["same environment", "another environment"])
 def test_every_metric_a_baseline_records_is_judged(exact: bool) -> None:
-    """Text must be equal in every environment; a number without a tolerance may not move at all."""
+    """Text must be equal in every environment; every number is judged, by its direction and its tolerance."""
     changes = compare("c", RUN, {**RUN, **EDITED}, DEFAULT_TOLERANCES, exact=exact)
-    assert {c.metric: (c.status, c.failed) for c in changes} == {m: ("changed", True) for m in EDITED}
+    assert {c.metric: (c.status, c.failed) for c in changes} == {m: (s, True) for m, s in JUDGED.items()}
     assert compare("c", RUN, dict(RUN), DEFAULT_TOLERANCES, exact=exact) == []
     recorded_only = compare("c", RUN, {**RUN, "max_pitch_rad": 0.1, "note": "x"}, {}, exact=exact)
     assert [(c.metric, c.baseline, c.value, c.failed) for c in recorded_only] == [
