@@ -1,5 +1,8 @@
 """Closed loop against open loop in MuJoCo physics, determinism, collisions and rates."""
 
+from collections.abc import Iterator
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -151,11 +154,28 @@ def test_seed_rate_of_10_hz_still_tracks() -> None:
     assert res.metrics["closed_loop"].final_position_error_m < 0.05
 
 
-def test_a_mujoco_warning_fails_the_run_loudly_and_keeps_the_log() -> None:
+@pytest.fixture
+def mujocos_own_handler() -> Iterator[None]:
+    """No warning handler set, as in a process that imported no dm_control (which sets one); restored after."""
+    import mujoco
+
+    before = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(None)
+    yield
+    mujoco.set_mju_user_warning(before)
+
+
+def test_a_mujoco_warning_fails_the_run_loudly_and_keeps_the_log(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, mujocos_own_handler: None
+) -> None:
+    """... and is said as a Python warning: MuJoCo's own handler printed it to stdout and appended it to
+    MUJOCO_LOG.TXT in the working folder, where a refused command left it behind."""
     import mujoco
 
     from planning.errors import SimulationError
+    from sim.physics.model import MujocoWarning
 
+    monkeypatch.chdir(tmp_path)
     robot = load_robot("turtlebot3")
     sim = Simulator(robot)
     m = sim.model  # make the wheel servos absurdly stiff under explicit Euler: physics blows up
@@ -164,12 +184,30 @@ def test_a_mujoco_warning_fails_the_run_loudly_and_keeps_the_log() -> None:
     m.actuator_biasprm[:, 2] = -1e7
     m.actuator_forcerange[:] = [-1e9, 1e9]
     traj = make_reference("line", robot, Pose2D(0, 0, 0))
-    with pytest.raises(SimulationError, match="mjWARN_BADQACC") as err:
+    with (
+        pytest.raises(SimulationError, match="mjWARN_BADQACC") as err,
+        pytest.warns(MujocoWarning, match="MuJoCo: Nan, Inf or huge value in QACC"),
+    ):
         sim.run(traj, make_tracker("fbl", robot))
     log = err.value.log  # type: ignore[attr-defined]
     assert log.warnings and len(log) > 1
-    relaxed = sim.run(traj, make_tracker("fbl", robot), SimConfig(strict=False))
+    assert list(tmp_path.iterdir()) == []  # no MUJOCO_LOG.TXT
+    with pytest.warns(MujocoWarning):
+        relaxed = sim.run(traj, make_tracker("fbl", robot), SimConfig(strict=False))
     assert relaxed.warnings
+
+
+def test_the_command_says_a_mujoco_warning_in_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    """The nhsim command prints MuJoCo's warning as a line of its own, not Python's file and code line."""
+    from sim.cli.main import _one_line_mujoco
+    from sim.physics.model import MujocoWarning
+
+    others: list[object] = []
+    show = _one_line_mujoco(lambda *args, **kwargs: others.append(args))
+    show(MujocoWarning("MuJoCo: Nan, Inf or huge value in QACC at DOF 4."), MujocoWarning, "model.py", 335)
+    assert capsys.readouterr().err == "nhsim: MuJoCo: Nan, Inf or huge value in QACC at DOF 4.\n" and not others
+    show(UserWarning("another"), UserWarning, "x.py", 1)
+    assert len(others) == 1  # any other warning as Python says it
 
 
 @pytest.mark.parametrize(

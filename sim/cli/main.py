@@ -25,8 +25,9 @@ import os
 import re
 import signal
 import sys
+import warnings
 from collections.abc import Collection, Sequence
-from typing import NoReturn, TextIO
+from typing import Any, NoReturn, TextIO
 
 from planning.errors import NhsimError, PlannerError, SimulationError, without_python
 from sim.outputs import UNNAMED_WRITE_ERRNOS
@@ -231,6 +232,7 @@ def console() -> int:
     collection removes, and a further Ctrl-C, SIGTERM or SIGHUP meanwhile is ignored (the status stays 130). Tests
     call :func:`main`, which leaves the collector and the signals alone.
     """
+    warnings.showwarning = _one_line_mujoco(warnings.showwarning)
     code = main()
     if code != 130:
         gc.freeze()
@@ -239,6 +241,19 @@ def console() -> int:
             signal.signal(sig, signal.SIG_IGN)  # finalisation keeps it, the status stays 130 (SIGTERM's default
             # ended it with 143, SIGHUP's with 129)
     return code
+
+
+def _one_line_mujoco(show: Any) -> Any:
+    """``warnings.showwarning`` saying a MuJoCo warning (``sim.physics.model.MujocoWarning``, named here without
+    importing MuJoCo) as one line of the command's, ``nhsim: MuJoCo: ...``, without Python's file and code line."""
+
+    def showwarning(message: Any, category: type[Warning], *args: Any, **kwargs: Any) -> None:
+        if category.__name__ == "MujocoWarning":
+            print(f"nhsim: {message}", file=sys.stderr)
+        else:
+            show(message, category, *args, **kwargs)
+
+    return showwarning
 
 
 def _after_writing() -> str:

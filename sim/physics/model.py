@@ -11,6 +11,7 @@ from __future__ import annotations
 import functools
 import math
 import re
+import warnings
 from dataclasses import dataclass
 
 import mujoco
@@ -161,6 +162,26 @@ def _compile_scene(
     return spec.compile(), names
 
 
+class MujocoWarning(RuntimeWarning):
+    """A warning MuJoCo gave (an unstable simulation, a buffer too small), as Python's ``warnings`` say it."""
+
+
+def _warn(message: str) -> None:
+    try:
+        warnings.warn(f"MuJoCo: {message}", MujocoWarning, stacklevel=2)
+    except MujocoWarning:  # warnings made errors (-W error): not raised through MuJoCo's C; the run counts it
+        pass
+
+
+def route_mujoco_warnings() -> None:
+    """Have MuJoCo's warnings said through Python's ``warnings`` (:class:`MujocoWarning`, on stderr, filterable),
+    unless a handler of one's own is set: MuJoCo's default prints them to stdout and appends them to
+    ``MUJOCO_LOG.TXT`` in the working folder, which a refused command then left behind. A run still counts
+    them in its ``warnings`` metric (``data.warning``)."""
+    if mujoco.get_mju_user_warning() is None:
+        mujoco.set_mju_user_warning(_warn)
+
+
 def build_model(
     robot: RobotSpec,
     world: World | None = None,
@@ -186,6 +207,7 @@ def build_model(
     """
     check_scene_arguments(robot, world)
     check_scene(robot)
+    route_mujoco_warnings()
     with signals_held():  # an interrupt inside a binding's argument conversion became its TypeError: it waits
         try:
             model, names = _compile_scene(robot, world, wall_height, wall_thickness)
