@@ -83,7 +83,16 @@ def test_a_suite_of_ones_own_keeps_its_baselines_beside_it(tmp_path: Path, capsy
     assert (tmp_path / "baselines" / "planted.json").is_file()
     assert sorted(p.name for p in BASELINE_DIR.iterdir()) == ours and "planted.json" not in ours
     assert main(["regress", "--suite", str(_suite(tmp_path))]) == 0  # read back from beside the suite
-    assert "1 passed" in capsys.readouterr().out
+    said = capsys.readouterr()
+    assert "1 passed" in said.out and "note" not in said.err
+    # a case renamed: its old baseline is never read again, and the run says so (and keeps it)
+    (tmp_path / "baselines" / "planted.json").rename(tmp_path / "baselines" / "old-name.json")
+    (tmp_path / "baselines" / "notes.txt").write_text("not a baseline")
+    assert main(["regress", "--suite", str(_suite(tmp_path)), "--update"]) == 0
+    assert main(["regress", "--suite", str(_suite(tmp_path))]) == 0
+    err = capsys.readouterr().err
+    assert "holds 1 baseline(s) no case of the suite names: old-name.json (a renamed or removed case's" in err
+    assert (tmp_path / "baselines" / "old-name.json").is_file()
 
 
 @pytest.mark.parametrize(
