@@ -68,15 +68,31 @@ def random_world(seed: int, n: int, size: float, scale: float) -> World:
     return World((0.0, size, 0.0, size), tuple(obstacles))
 
 
+def skyline(x0: float, x1: float, y: float, n: int, cell: float, seed: int) -> Polygon:
+    """A map's outline: ``n`` columns between ``x0`` and ``x1`` [m] whose tops and bottoms, snapped to ``cell`` [m],
+    step up and down around ``y`` (a rectilinear, non-convex polygon of ``4 n`` vertices, as a map's wall region
+    gives)."""
+    rng = np.random.default_rng(seed)
+    xs = np.round(np.linspace(x0, x1, n + 1) / cell) * cell
+    top = np.round((y + rng.uniform(0.1, 1.0, n)) / cell) * cell
+    bottom = np.round((y - rng.uniform(0.1, 1.0, n)) / cell) * cell
+    upper = [(float(xs[k + e]), float(top[k])) for k in range(n) for e in (0, 1)]
+    lower = [(float(xs[k + 1 - e]), float(bottom[k])) for k in reversed(range(n)) for e in (0, 1)]
+    ring = upper + lower
+    return Polygon(tuple(q for k, q in enumerate(ring) if q != ring[k - 1]))  # equal steps joined
+
+
 WORLDS = [
     random_world(0, 8, 6.0, 0.4),  # a room with furniture
     random_world(1, 20, 8.0, 0.3),
     random_world(2, 300, 5.0, 0.05),  # crowded: poles and fruits
     World((-1.0, 1.5, -0.5, 0.7), ()),  # walls only, sides not a whole number of blocks
+    # outlines of hundreds of vertices: their distance measured with a broad phase over their edges
+    World((0.0, 4.0, 0.0, 3.0), (skyline(0.2, 2.6, 1.5, 90, 0.02, 3), skyline(2.9, 3.8, 1.4, 20, 0.02, 4))),
 ]
 
 
-@pytest.mark.parametrize("world", WORLDS, ids=["room", "8m-20", "crowded", "empty"])
+@pytest.mark.parametrize("world", WORLDS, ids=["room", "8m-20", "crowded", "empty", "map-outlines"])
 def test_field_equals_the_plain_formulas_at_every_node(world):
     h = 0.02 if len(world.obstacles) < 100 else 0.05
     field = distance_field(world, h)
@@ -165,7 +181,7 @@ def test_clearance_equals_the_plain_reference_with_and_without_a_cached_field(wo
     assert np.array_equal(checker.poses_free(poses), ref > checker.clearance)
 
 
-@pytest.mark.parametrize("world", WORLDS, ids=["room", "8m-20", "crowded", "empty"])
+@pytest.mark.parametrize("world", WORLDS, ids=["room", "8m-20", "crowded", "empty", "map-outlines"])
 def test_signed_distances_equal_a_full_scan_inside_and_outside_the_bounds(world):
     """``field.signed_distances`` (the block candidates of the cached field, else of one it builds)
     against the compiled scan of every obstacle, bit for bit, at points inside the bounds and up to
@@ -256,7 +272,7 @@ def _crowded_property(world: World) -> None:
 test_crowded_worlds_fuzz, test_crowded_worlds_fuzz_slow = fast_and_slow(crowded_worlds(), _crowded_property, fast=8)
 
 
-@pytest.mark.parametrize("world", WORLDS, ids=["room", "8m-20", "crowded", "empty"])
+@pytest.mark.parametrize("world", WORLDS, ids=["room", "8m-20", "crowded", "empty", "map-outlines"])
 def test_the_least_distance_along_a_polyline_is_the_least_of_every_point_bit_for_bit(world):
     """``least_distance`` skips the points the 1-Lipschitz bound proves farther than the least so far: its
     value is the minimum of the distances at every point, bit for bit, with and without a cached field,

@@ -76,6 +76,9 @@ SUPER = 8
 PRUNE_MARGIN = 1e-9
 #: Finished fields kept (per world and spacing).
 CACHE_SIZE = 8
+#: Vertices beyond which a polygon's distance over a block is measured with a broad phase over its edges
+#: (:func:`polygon_block`); a few are measured at every node, as a full scan does.
+EDGE_PRUNE_VERTICES = 16
 #: Most threads that build one field (its block rows, filled in compiled code without the GIL).
 MAX_THREADS = 4
 #: Points :func:`signed_distances` measures between two looks at its deadline (a few milliseconds
@@ -326,6 +329,9 @@ def fill_block(
         kind, p = kinds[k], params[k]
         cx, cy, c, s = p[0], p[1], np.cos(p[4]), np.sin(p[4])
         v = verts[offsets[k] : offsets[k + 1]]
+        if kind == POLYGON and v.shape[0] > EDGE_PRUNE_VERTICES:
+            polygon_block(grid, i0, i1, j0, j1, x0, y0, h, v)
+            continue
         for i in range(i0, i1):
             x = x0 + i * h
             for j in range(j0, j1):
@@ -334,7 +340,7 @@ def fill_block(
                 if kind == CIRCLE:
                     grid[i, j] = min(grid[i, j], np.hypot(d0, d1) - p[2])
                 elif kind == POLYGON:
-                    grid[i, j] = min(grid[i, j], polygon_distance(x, y, v))
+                    grid[i, j] = min(grid[i, j], polygon_distance(x, y, v))  # a few vertices (else below)
                 elif kind == BOX:
                     q0, q1 = abs(c * d0 + s * d1), abs(-s * d0 + c * d1)
                     grid[i, j] = min(grid[i, j], box_local(q0, q1, p[2], p[3]))
@@ -342,6 +348,65 @@ def fill_block(
                     # (farther ones are not measured, as in a full scan: they cannot be the nearest)
                     q0, q1 = abs(c * d0 + s * d1), abs(-s * d0 + c * d1)
                     grid[i, j] = min(grid[i, j], ellipse_local(q0, q1, p[2], p[3]))
+
+
+@nb.njit(cache=True)
+def polygon_block(
+    grid: FloatArray, i0: int, i1: int, j0: int, j1: int, x0: float, y0: float, h: float, v: FloatArray
+) -> None:
+    """``grid[i0:i1, j0:j1]``'s minimum with the signed distance of the polygon of (K, 2) vertices ``v``: the
+    values :func:`planning.collision.compiled.polygon_distance` gives at each node, bit for bit, with a broad
+    phase over the polygon's edges (a map's wall outline has a thousand: every node measuring every edge took
+    most of a published map's grid).
+
+    * The block's nodes lie within ``r`` of its centre ``c``. An edge farther from ``c`` than the nearest edge by
+      more than ``2 r`` is nearer than it at none of them (each distance is 1-Lipschitz), so the nodes' minimum
+      over the edges kept is the minimum over all, the same numbers compared.
+    * Inside or outside: where the nearest edge is farther from ``c`` than ``r``, no node is on the other side of
+      the outline from ``c``, and all take ``c``'s even-odd count; elsewhere each row of nodes counts the
+      crossings of its ``y``, computed once a row by the expression ``polygon_distance`` evaluates per node.
+    """
+    n = v.shape[0]
+    cx, cy = x0 + 0.5 * (i0 + i1 - 1) * h, y0 + 0.5 * (j0 + j1 - 1) * h
+    r = 0.5 * h * np.hypot(i1 - 1 - i0, j1 - 1 - j0)
+    to_centre = np.empty(n)
+    nearest, crossings = np.inf, 0
+    for e in range(n):
+        ax, ay, bx, by = v[e, 0], v[e, 1], v[(e + 1) % n, 0], v[(e + 1) % n, 1]
+        ab0, ab1 = bx - ax, by - ay
+        t = min(max(((cx - ax) * ab0 + (cy - ay) * ab1) / (ab0 * ab0 + ab1 * ab1), 0.0), 1.0)
+        to_centre[e] = np.hypot(cx - (ax + t * ab0), cy - (ay + t * ab1))
+        nearest = min(nearest, to_centre[e])
+        if (ay > cy) != (by > cy) and cx < ax + (cy - ay) * ab0 / (by - ay):
+            crossings += 1
+    kept = np.flatnonzero(to_centre <= nearest + 2.0 * r + PRUNE_MARGIN)
+    one_side = nearest > r + PRUNE_MARGIN
+    across = np.empty(n)
+    for j in range(j0, j1):
+        y = y0 + j * h
+        m = 0
+        if not one_side:  # this row's crossings of the outline
+            for e in range(n):
+                ax, ay, by = v[e, 0], v[e, 1], v[(e + 1) % n, 1]
+                if (ay > y) != (by > y):
+                    across[m] = ax + (y - ay) * (v[(e + 1) % n, 0] - ax) / (by - ay)
+                    m += 1
+        for i in range(i0, i1):
+            x = x0 + i * h
+            dist = np.inf
+            for q in range(kept.shape[0]):
+                e = kept[q]
+                ax, ay, bx, by = v[e, 0], v[e, 1], v[(e + 1) % n, 0], v[(e + 1) % n, 1]
+                ab0, ab1 = bx - ax, by - ay
+                t = min(max(((x - ax) * ab0 + (y - ay) * ab1) / (ab0 * ab0 + ab1 * ab1), 0.0), 1.0)
+                dist = min(dist, np.hypot(x - (ax + t * ab0), y - (ay + t * ab1)))
+            count = crossings
+            if not one_side:
+                count = 0
+                for q in range(m):
+                    if x < across[q]:
+                        count += 1
+            grid[i, j] = min(grid[i, j], -dist if count % 2 == 1 else dist)
 
 
 @nb.njit(cache=True)
