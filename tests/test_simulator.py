@@ -1,5 +1,7 @@
 """Closed loop against open loop in MuJoCo physics, determinism, collisions and rates."""
 
+import re
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -129,6 +131,41 @@ def test_a_touch_between_two_log_samples_is_a_collision(offset: float, monkeypat
     assert spells, "the line should touch the box's corner"
     assert [c.t for c in log.contacts] == pytest.approx(spells, abs=1e-9)
     assert {c.obstacle for c in log.contacts} == {"obstacle_0"}
+
+
+def _line(speed: float, *, jump: float = 0.0, poses_move: bool = True) -> object:
+    from planning.trajectory.trajectory import Trajectory
+
+    t = np.arange(0.0, 4.0, 0.01)
+    x = speed * t if poses_move else np.zeros_like(t)
+    xy = np.column_stack([x, np.where(t >= 2.0, jump, 0.0)])
+    vel = np.column_stack([np.full_like(t, speed), 0 * t])
+    return Trajectory(t, np.column_stack([xy, 0 * t]), vel, np.zeros_like(vel), name="hand-built")
+
+
+@pytest.mark.parametrize(
+    ("trajectory", "said"),
+    [
+        (_line(0.5), "its inputs are beyond the turtlebot3's limits (at t=0.00 s v=0.500 m/s"),
+        (_line(0.1, jump=0.5), "its poses do not follow its velocities (at t=1.99 s the pose moves 0.500 m"),
+        (_line(0.1, poses_move=False), "its poses do not follow its velocities"),
+    ],
+    ids=["three times too fast", "a jump", "standing poses, moving inputs"],
+)
+def test_a_trajectory_the_robot_cannot_follow_is_run_and_said(trajectory: object, said: str) -> None:
+    """A hand-built trajectory at three times the TurtleBot3's speed, or with a 0.5 m jump, ran with status "ok" and
+    nothing said (only saturation_fraction = 0.998 hinted at the first). It runs as given, with a warning saying
+    what the robot cannot follow; what nhsim times itself (a reference here) says nothing."""
+    from sim.physics.simulator import InfeasibleReferenceWarning
+
+    robot = load_robot("turtlebot3")
+    sim = Simulator(robot)
+    with pytest.warns(InfeasibleReferenceWarning, match=re.escape(said)):
+        log = sim.run(trajectory, make_tracker("fbl", robot))  # type: ignore[arg-type]
+    assert len(log) > 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", InfeasibleReferenceWarning)
+        sim.run(make_reference("figure8", robot, Pose2D(0, 0, 0)), make_tracker("fbl", robot))
 
 
 def test_control_rate_must_divide_the_physics_rate() -> None:

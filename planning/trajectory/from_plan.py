@@ -475,6 +475,46 @@ def time_scales(v: FloatArray, w: FloatArray, dv: FloatArray, dw: FloatArray, li
     return speed_scale, accel_scale
 
 
+#: How far a trajectory's poses may stray from where its velocities take them before :func:`infeasibility` says so:
+#: in one sample [m], and over the whole trajectory [m] plus a share of its length.
+POSE_STRAY_STEP, POSE_STRAY_TOTAL, POSE_STRAY_SHARE = 0.01, 0.05, 0.05
+
+
+def infeasibility(trajectory: Trajectory, robot: RobotSpec) -> str:
+    """What in ``trajectory`` the robot cannot follow, as a sentence ("" for nothing): inputs beyond its limits
+    (speed, yaw rate, wheel speed: the commands saturate; :func:`time_scales` at the robot's own limits), or
+    poses its velocities do not lead to (a jump, or headings that contradict the motion: the tracker follows
+    the velocities while the errors are measured against the poses). Trajectories nhsim times (plans,
+    references, imported files) have neither; a hand-built one may."""
+    said = []
+    v, w = trajectory.vel[:, 0], trajectory.vel[:, 1]
+    dv, dw = trajectory.acc[:, 0], trajectory.acc[:, 1]
+    speed, accel = time_scales(v, w, dv, dw, Limits.from_robot(robot, margin=1.0))
+    if speed > 1.0 + 1e-6:
+        k = int(np.argmax(np.abs(v) / robot.max_speed + np.abs(w) / robot.max_yaw_rate))
+        said.append(
+            f"its inputs are beyond the {robot.name}'s limits (at t={trajectory.t[k]:.2f} s v={v[k]:.3f} m/s, "
+            f"omega={w[k]:.3f} rad/s; the limits {robot.max_speed:g} m/s and {robot.max_yaw_rate:g} rad/s): the "
+            f"wheels saturate; slow it by x{speed:.2f} at least"
+        )
+    elif accel > 1.0 + 1e-6:
+        said.append(f"its accelerations are beyond the {robot.name}'s limits: slow it by x{accel:.2f} at least")
+    dt, mid = np.diff(trajectory.t), trajectory.pose[:-1, 2] + 0.5 * np.diff(trajectory.pose[:, 2])
+    step = 0.5 * (v[:-1] + v[1:]) * dt
+    moved = np.diff(trajectory.pose[:, :2], axis=0)
+    stray = np.hypot(moved[:, 0] - step * np.cos(mid), moved[:, 1] - step * np.sin(mid))
+    length = float(np.sum(np.hypot(moved[:, 0], moved[:, 1])))
+    if stray.max() > POSE_STRAY_STEP or stray.sum() > POSE_STRAY_TOTAL + POSE_STRAY_SHARE * length:
+        k = int(np.argmax(stray))
+        said.append(
+            f"its poses do not follow its velocities (at t={trajectory.t[k]:.2f} s the pose moves "
+            f"{float(np.hypot(*moved[k])):.3f} m where v and theta take it {abs(float(step[k])):.3f} m; "
+            f"{float(stray.sum()):.3f} m apart in all): a jump, or headings or speeds that contradict the motion, "
+            "which the tracker follows by the velocities while the errors are measured against the poses"
+        )
+    return "; ".join(said)
+
+
 def _end_at_goal(body: Trajectory, end: FloatArray, build: _Build) -> Trajectory:
     """``body`` followed by a turn in place at the plan's ``end`` pose (3,) to the goal heading (when it
     differs) and a final stand-still."""

@@ -12,6 +12,7 @@ the measured wheel speeds every ``nhsim_motor_period`` (10 ms), on a grid fixed 
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -32,6 +33,7 @@ from planning.core.geometry import Pose2D, check_pose
 from planning.core.robot import RobotSpec, check_robot_spec, load_robot
 from planning.core.world import World, check_world
 from planning.errors import ConfigError, ModelError, NhsimError, SimulationError, option
+from planning.trajectory.from_plan import infeasibility
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import AsBuilt
 from sim.physics.model import FLOOR_TILT, TIP_ANGLE, BuiltModel, set_pose, tipped_over, yaw_from_quat
@@ -96,6 +98,11 @@ def _sample(
             near[0] = 1.0
             break
     return x, y, yaw
+
+
+class InfeasibleReferenceWarning(UserWarning):
+    """A trajectory given to :meth:`Simulator.run` asks for more than the robot can do (its wheels saturate), or its
+    poses do not follow its velocities: the run goes on, as given, and its errors show the consequence."""
 
 
 #: Slack [m] beyond the robot's reach within which an obstacle makes the physics look for contacts after every
@@ -288,6 +295,10 @@ class Simulator:
         Returns:
             The log; a run whose estimator diverged ends there, with its ``status`` saying why.
 
+        Warns:
+            InfeasibleReferenceWarning: The trajectory asks for more than the robot can do, or its poses do not
+                follow its velocities (:func:`planning.trajectory.from_plan.infeasibility`); it is run as given.
+
         Raises:
             SimulationError: MuJoCo warned (with ``config.strict``), listing the warnings; the tracker returned a
                 non-finite command, or raised other than an NhsimError (chained), naming it and the time.
@@ -297,6 +308,10 @@ class Simulator:
         """
         args = (trajectory, tracker, config, start, drive, meta, perturbation, progress, source, sensing)
         cfg, placed, source = self._check_run(*args)
+        if why := infeasibility(trajectory, self.robot):  # run as given (a study of saturation may want it), said
+            warnings.warn(
+                f"Simulator.run: trajectory {trajectory.name!r}: {why}", InfeasibleReferenceWarning, stacklevel=2
+            )
         pert = perturbation if perturbation is not None and not perturbation.is_nominal else None
         step = float(self.model.opt.timestep)  # a perturbed model's too
         delay = pert.latency_steps(step) if pert is not None else 0
