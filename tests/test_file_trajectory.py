@@ -89,6 +89,17 @@ def test_a_file_that_jumps_to_speed_is_retimed_naming_its_acceleration(tmp_path:
     assert retime and why.startswith("its acceleration reaches 2.8 m/s^2 at t = 0.0") and "limit 0.425 m/s^2" in why
 
 
+def test_a_file_too_fast_to_keep_its_clock_names_where(tmp_path: Path) -> None:
+    """A file with a 0.5 m sideways jump between two rows was re-timed "would slow it x61.5", not saying where:
+    the reason now names its fastest sample, the jump's time."""
+    t = np.round(np.arange(0.0, 4.0 + 1e-9, 0.1), 10)
+    y = np.where(t >= 2.0, 0.5, 0.0)
+    imp = read_trajectory_file(TrajectoryFile(write_csv(tmp_path / "j.csv", {"t": t, "x": 0.01 * t / 0.1, "y": y})))
+    retime, why, _ = timing_verdict(densify(imp), LIMITS)
+    assert retime and "would slow it x" in why and "its fastest: v " in why
+    assert 1.9 <= float(why.split("at t = ")[1].split(" s")[0]) <= 2.0, why
+
+
 @pytest.mark.parametrize("rows", [0.2, 1 / 30])
 def test_a_file_moving_at_its_ends_is_retimed_saying_so_not_naming_an_acceleration_it_never_had(
     tmp_path: Path, rows: float

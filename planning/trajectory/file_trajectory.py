@@ -383,7 +383,9 @@ def timing_verdict(dense: DenseFile, limits: Limits) -> tuple[bool, str, float]:
         return True, f"its {what} reaches {peak:.3g} {unit} at t = {t[k]:.2f} s (limit {limit:.3g} {unit})", 1.0
     if speed_scale > MAX_STRETCH:
         why = f"keeping its clock within the speed and yaw-rate limits would slow it x{speed_scale:.3g}"
-        return True, f"{why} (more than x{MAX_STRETCH:g})", 1.0
+        k = int(np.argmax(np.abs(v) / limits.max_speed + np.abs(w) / limits.max_yaw_rate))  # where: a jump's rows
+        at = f"v {v[k]:+.3g} m/s, omega {w[k]:+.3g} rad/s at t = {t[k]:.2f} s"
+        return True, f"{why} (more than x{MAX_STRETCH:g}; its fastest: {at})", 1.0
     stretch = max(speed_scale, curve_scale)  # as make_trajectory slows a kept clock
     if stretch > 1.0 + 1e-9:
         which = "speed and yaw-rate" if speed_scale >= curve_scale else "acceleration"
