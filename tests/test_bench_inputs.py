@@ -107,6 +107,31 @@ def test_bench_sim_judges_the_lower_of_its_wall_and_cpu_ratios() -> None:
     assert bench(0.85, 0.86).passed and TARGET_RATIO == 0.8
 
 
+def test_bench_optim_races_both_resolutions_over_one_horizon(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The report's setting was N = 1000, dt = 0.01 (10 s) whatever the scenario, while the default fits its
+    horizon to it (17.8 s on nav_map1): the two solved different problems. The report's resolution now covers
+    the default's horizon."""
+    import planning.planners.optim as optim
+    from planning.planners.base import PlanResult, PlanStatus
+    from sim.tools.bench import optim as bench
+
+    made: list[dict[str, float]] = []
+
+    class Fake:
+        def __init__(self, **settings: float) -> None:
+            made.append(settings)
+            self.stats = {"N": settings.get("N", 50), "dt": settings.get("dt", 0.35515)}
+
+        def plan(self, problem: object) -> PlanResult:
+            path = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+            return PlanResult(PlanStatus.SUCCESS, "optim", path=path, stats=dict(self.stats))
+
+    monkeypatch.setattr(optim, "Optim", Fake)
+    r = bench.measure("nav_map1", repeats=1)
+    assert made == [{}, {"N": 1776, "dt": 0.01}]  # the default first, then its horizon at dt = 0.01
+    assert r.seed.result.stats["N"] * r.seed.result.stats["dt"] == pytest.approx(17.76)
+
+
 def test_bench_optim_compares_nothing_against_a_setting_that_did_not_solve(
     capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:

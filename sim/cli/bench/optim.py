@@ -20,7 +20,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when a target is missed."""
-    from planning.planners.optim import DEFAULT_DT, DEFAULT_N
     from planning.scenario import load_scenario
     from sim.cli.checks import check_at_least
     from sim.tools.bench import optim as bench
@@ -29,9 +28,9 @@ def run(args: argparse.Namespace) -> int:
     for name in args.scenarios:  # an unknown name stops here, before anything is printed
         load_scenario(name)
     print(
-        f"optim: the report's N={bench.SEED_N}, dt={bench.SEED_DT} (the TurtleBot planning report) against default "
-        f"N={DEFAULT_N}, dt={DEFAULT_DT}; "
-        f"median of {args.repeats} solves after one warm-up"
+        f"optim: the report's resolution, dt={bench.SEED_DT} (the TurtleBot planning report: N={bench.SEED_N} over "
+        f"10 s), against the default's N and dt, over the horizon the default fits to the scenario; median of "
+        f"{args.repeats} solves after one warm-up"
     )
     ok = True
     nan = float("nan")
@@ -39,13 +38,15 @@ def run(args: argparse.Namespace) -> int:
         r = bench.measure(name, args.repeats)
         print(f"\n{name}")
         print(
-            f"  {'setting':<8} {'status':<10} {'median s':>9} {'iters':>6} {'final pos err m':>16} "
-            f"{'final head err rad':>19} {'length m':>9}"
+            f"  {'setting':<8} {'N':>5} {'dt s':>7} {'status':<10} {'median s':>9} {'iters':>6} "
+            f"{'final pos err m':>16} {'final head err rad':>19} {'length m':>9}"
         )
         for label, solve in (("report", r.seed), ("default", r.default)):
             res = solve.result
+            n, dt = res.stats.get("N", -1), res.stats.get("dt", nan)
             print(
-                f"  {label:<8} {res.status.value:<10} {solve.median_s:>9.4f} {res.stats.get('iterations', -1):>6} "
+                f"  {label:<8} {n:>5} {dt:>7.4f} {res.status.value:<10} {solve.median_s:>9.4f} "
+                f"{res.stats.get('iterations', -1):>6} "
                 f"{res.stats.get('final_position_error', nan):>16.2e} "
                 f"{res.stats.get('final_heading_error', nan):>19.2e} {res.length():>9.4f}"
             )
