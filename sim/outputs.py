@@ -188,6 +188,21 @@ def unreplaceable(path: Path) -> str:
     return ""
 
 
+def resolved(path: Path | str) -> Path:
+    """``Path(path).resolve()``, a loop of symbolic links said as bad input (Python 3.11 raises a RuntimeError, 3.13
+    an OSError: either ended a command with a traceback and status 1).
+
+    Raises:
+        ConfigError: ``path`` leads into a loop of symbolic links.
+    """
+    try:
+        return Path(path).resolve()
+    except (RuntimeError, OSError) as exc:
+        raise ConfigError(
+            f"{path}: a loop of symbolic links ({exc}); choose another path, or point the link at a file"
+        ) from None
+
+
 def check_distinct(paths: Iterable[Path] | Mapping[str, Path]) -> None:
     """Check, before any work, that no two of a command's outputs are one file.
 
@@ -201,7 +216,7 @@ def check_distinct(paths: Iterable[Path] | Mapping[str, Path]) -> None:
     named = list(paths.items()) if isinstance(paths, Mapping) else [("", p) for p in paths]
     seen: dict[Path, tuple[str, Path]] = {}
     for name, path in ((n, Path(p)) for n, p in named):
-        first_name, first = seen.setdefault(path.resolve(), (name, path))
+        first_name, first = seen.setdefault(resolved(path), (name, path))
         if first is path:
             continue
         if name and first_name:

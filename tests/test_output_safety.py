@@ -108,6 +108,30 @@ def test_a_socket_and_links_to_what_is_no_regular_file_are_refused(tmp_path: Pat
         assert sock.is_socket()
 
 
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["plan", "--scenario", "farm", "--json", "loop"],
+        ["simulate", "--reference", "line", "--no-video", "--json", "loop"],
+        ["compare", "--reference", "line", "--trackers", "fbl", "--json", "loop"],
+        ["montecarlo", "--reference", "line", "--runs", "1", "--results", "loop"],
+        ["tune", "--scenarios", "open:line", "--out", "loop"],
+    ],
+    ids=["plan", "simulate", "compare", "montecarlo", "tune"],
+)
+def test_an_output_in_a_loop_of_links_is_bad_input_said_as_such(
+    argv: list[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A link that names itself given as an output ended every command with Python's "RuntimeError: Symlink loop"
+    traceback and status 1."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "loop").symlink_to("loop")
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "loop: a loop of symbolic links" in err and "choose another path" in err and "Traceback" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["loop"]
+
+
 def test_a_link_to_a_file_is_replaced_by_the_output_and_the_file_it_named_kept(tmp_path: Path) -> None:
     kept = tmp_path / "kept.json"
     kept.write_text("old")

@@ -534,9 +534,11 @@ def check_apart_from_inputs(args: argparse.Namespace, files: Iterable[Path], bag
     Raises:
         ConfigError: Naming the output, the input and the fix.
     """
-    inputs = [(given, path.resolve()) for given, path in input_paths(args)]
+    from sim.outputs import resolved
+
+    inputs = [(given, resolved(path)) for given, path in input_paths(args)]
     for out in files:
-        target = Path(out).resolve()
+        target = resolved(out)
         for given, source in inputs:
             if target == source or source in target.parents:
                 where = "is" if target == source else "lies inside"
@@ -546,7 +548,7 @@ def check_apart_from_inputs(args: argparse.Namespace, files: Iterable[Path], bag
                 )
     if bag is None:
         return
-    folder = Path(bag).resolve()
+    folder = resolved(bag)
     for given, source in inputs:
         if folder == source or folder in source.parents or source in folder.parents:
             where = "is" if folder == source else "contains" if folder in source.parents else "lies inside"

@@ -212,7 +212,7 @@ def _check_outputs(paths: dict[str, Path], keys: list[dict[str, Any]], overwrite
     """Every output can be written; existing ones must be this study's own: its summary names one of its
     ``keys`` (the key, or one an earlier nhsim gave it) and this results file (the same study's statistics of
     another results file are another run's outputs)."""
-    from sim.outputs import check_distinct, check_writable
+    from sim.outputs import check_distinct, check_writable, resolved
 
     check_distinct(paths.values())
     summary = paths["json"]
@@ -220,8 +220,8 @@ def _check_outputs(paths: dict[str, Path], keys: list[dict[str, Any]], overwrite
     if summary.is_file():  # a device or a pipe is not read (/dev/full gave bytes until memory ran out): refused below
         try:
             doc = json.loads(summary.read_text(encoding="utf-8"))
-            own = doc.get("key") in keys and Path(doc.get("results")).resolve() == paths["results"].resolve()
-        except (OSError, ValueError, AttributeError, TypeError):
+            own = doc.get("key") in keys and Path(doc.get("results")).resolve() == resolved(paths["results"])
+        except (OSError, ValueError, AttributeError, TypeError, RuntimeError):  # a loop of links: not its own
             own = False
     for name, path in paths.items():
         if name == "results":
@@ -412,15 +412,15 @@ def _check_bags(folder: Path, overwrite: bool, inputs: list[tuple[str, Path]]) -
     """Before any run: ``--bags`` names a folder that can take new bags, not an input, inside one or holding
     one where a bag may go (``worst-*``), and one holding bags of an earlier study only with ``--overwrite``
     (which bags the worst runs will be is known only after)."""
-    from sim.outputs import check_folder_for
+    from sim.outputs import check_folder_for, resolved
 
     if folder.exists() and not folder.is_dir():
         raise ConfigError(f"--bags {folder}: a file of that name exists; give a folder")
-    resolved = folder.resolve()
+    here = resolved(folder)
     for given, path in inputs:
-        source = path.resolve()
-        inside = resolved in source.parents and source.relative_to(resolved).parts[0].startswith("worst-")
-        if source == resolved or source in resolved.parents or inside:
+        source = resolved(path)
+        inside = here in source.parents and source.relative_to(here).parts[0].startswith("worst-")
+        if source == here or source in here.parents or inside:
             raise ConfigError(
                 f"--bags {folder} {'holds' if inside else 'is or lies inside'} the input {given}: the bags written "
                 "there would replace or change what the study reads; choose another --bags folder"

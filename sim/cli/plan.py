@@ -128,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
     from planning.scenario import load_scenario, scenario_with_robot
     from sim.cli.checks import check_seeds, check_time_limit, planner_option_values
     from sim.cli.job_outputs import check_apart_from_inputs
-    from sim.outputs import check_writable, image_format
+    from sim.outputs import check_writable, image_format, resolved
 
     check_seeds(seed=args.seed)
     check_time_limit(args.time_limit)
@@ -138,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
         check_writable(out, overwrite=args.overwrite)
     if args.plot is not None:
         image_format(args.plot, "--plot")
-    if args.json is not None and args.plot is not None and args.json.resolve() == args.plot.resolve():
+    if args.json is not None and args.plot is not None and resolved(args.json) == resolved(args.plot):
         raise ConfigError("--json and --plot name the same file; give two different paths")
     scenario = scenario_with_robot(load_scenario(args.scenario), args.robot)
     check_scenario_sensors(scenario)

@@ -586,7 +586,7 @@ def tune_files(
     """
     from planning.errors import OutputExistsError
     from sim.cli.job_outputs import check_apart_from_inputs
-    from sim.outputs import check_distinct, check_length, check_writable
+    from sim.outputs import check_distinct, check_length, check_writable, resolved
     from sim.tools.tune import check_storage, shown_url
 
     study, storage = (
@@ -615,7 +615,7 @@ def tune_files(
     db = Path(files.storage.removeprefix("sqlite:///")) if files.storage.startswith("sqlite:///") else None
     check_apart_from_inputs(args, [*paths, *([db] if db is not None else [])])  # the cases' scenarios, maps
     if db is not None:  # an output over the study's own database would destroy it
-        clash = [str(p) for p in paths if p.resolve() == db.resolve()]
+        clash = [str(p) for p in paths if resolved(p) == resolved(db)]
         if clash:
             raise ConfigError(
                 f"{clash[0]} is the study's own storage ({files.storage}); give --out, --json or --plots another path"
