@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from PIL import Image
 
 from planning.core.nav2_map import MapYaml, map_yaml_obstacles, occupancy_grid, read_map_yaml
@@ -235,6 +236,15 @@ def test_a_map_mode_is_read_whatever_its_case(tmp_path: Path) -> None:
     """map_server lower-cases ``mode`` (map_mode_from_string): "Trinary" was refused."""
     path = _write_map(tmp_path, _room(), mode="Trinary")
     assert read_map_yaml(path).mode == "trinary"
+
+
+def test_a_number_with_an_exponent_is_read_as_map_server_reads_it(tmp_path: Path) -> None:
+    """``resolution: 1e-2`` (a float to YAML 1.2 and to map_server's yaml-cpp) was refused as "expected a finite
+    number, got '1e-2'": PyYAML's YAML 1.1 rules read an exponent without a decimal point as text."""
+    path = _write_map(tmp_path, _room(), resolution="5e-2", free="196e-3")
+    m = read_map_yaml(path)
+    assert (m.resolution, m.free_thresh) == (0.05, 0.196)
+    assert yaml.safe_load("a: 1e-2") == {"a": "1e-2"}  # PyYAML's own loader left as it is
 
 
 def test_a_room_whose_walls_have_a_door_gap_is_its_cells_by_default(tmp_path: Path) -> None:

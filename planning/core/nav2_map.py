@@ -31,6 +31,7 @@ leave out ``[world] bounds``: the world is then the map's extent.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -96,9 +97,15 @@ class _GivenTwice(Exception):
     """A key given twice in one mapping of a map YAML."""
 
 
+#: A float as YAML 1.2 (and yaml-cpp, which map_server reads with) writes one: an exponent without a decimal point
+#: (``1e-2``) too, which PyYAML's YAML 1.1 rules read as text.
+_FLOAT_12 = re.compile(r"^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)$")
+
+
 def _unique_keys_loader() -> Any:
     """PyYAML's safe loader refusing a key given twice in one mapping (YAML requires keys to be unique; a second
-    ``resolution`` silently won, a map ten times its size)."""
+    ``resolution`` silently won, a map ten times its size), and reading ``resolution: 1e-2`` as the number map_server
+    reads (:data:`_FLOAT_12`; it was refused as "not a finite number")."""
     import yaml
 
     class UniqueKeys(yaml.SafeLoader):
@@ -111,6 +118,9 @@ def _unique_keys_loader() -> Any:
                 seen.add(key)
             return super().construct_mapping(node, deep=deep)  # type: ignore[no-any-return]
 
+    # the resolvers copied, lists too: PyYAML's add_implicit_resolver appends to the list the SafeLoader shares
+    UniqueKeys.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+    UniqueKeys.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT_12, list("-+0123456789."))
     return UniqueKeys
 
 
