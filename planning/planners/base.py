@@ -13,6 +13,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.clock import ready
 from planning.core.checks import check_number
 from planning.core.geometry import Pose2D, check_pose, densify_path, path_length, path_steps, wrap_angle
 from planning.core.robot import RobotSpec, check_robot_spec, load_robot
@@ -337,6 +338,7 @@ def run_planner(planner: Planner, name: str, problem: PlanProblem, origin: str =
         ConfigError: The planner's own refusal of bad input.
     """
     who = f"planner {name!r}" + (f" ({origin})" if origin else "")
+    ready()  # numba's one-time set-up in this process (0.3 s): before the planner's clock, as its own clock takes it
     started = time.perf_counter()
     try:
         result = planner.plan(problem)
