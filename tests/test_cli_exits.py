@@ -748,3 +748,22 @@ def test_a_file_that_cannot_be_read_gets_no_traceback_hint(
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert says in err and "Traceback" not in err and "NHSIM_TRACEBACK" not in err, err
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["simulate", "--reference", "line", "--no-video", "--over"],
+        ["plan", "--scenario", "farm", "--js", "p.json"],
+        ["bench", "sim", "--rep", "1"],
+    ],
+)
+def test_options_are_not_abbreviated(
+    argv: list[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """argparse took --over for --overwrite (the one switch that lets a file be replaced), --js for --json: an
+    option is given in full or refused, before anything runs."""
+    monkeypatch.chdir(tmp_path)  # what a command taking them would write lands here
+    with pytest.raises(SystemExit) as ended:
+        main(argv)
+    assert ended.value.code == 2 and "unrecognized arguments" in capsys.readouterr().err

@@ -59,7 +59,13 @@ def package_version() -> str:
 class _Parser(argparse.ArgumentParser):
     """argparse's parser, whose usage errors are one line, as nhsim's own (argparse printed the whole usage, up to
     21 lines, before it; ``--help`` shows it); its "expected one argument" also says how to give a value that
-    starts with '-' (``--gains -1,7`` reads -1,7 as an option; ``--gains=-1,7`` is a value)."""
+    starts with '-' (``--gains -1,7`` reads -1,7 as an option; ``--gains=-1,7`` is a value). Options are not
+    abbreviated (argparse took ``--over`` for ``--overwrite``, the one switch that lets a file be replaced): every
+    command's parser is this class, made without abbreviations."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
         found = re.match(r"argument (--[\w-]+)(?:/\S+)?: expected one argument$", message)
