@@ -171,8 +171,8 @@ def test_a_start_the_robots_footprint_overlaps_is_bad_input_for_every_command_th
     assert list(work.iterdir()) == []  # nothing written
     if argv[0] == "plan":  # the robot chosen is the one checked: 8 cm from the wall the EduMIP fits, not the TurtleBot3
         scen.write_text(START_AT_WALL.replace("[0.01, 0.4, 0.0]", "[0.08, 0.4, 0.0]"))
-        assert main(["plan", "--scenario", str(scen), "--planner", "rrt", "--quiet"]) == 2
-        assert main(["plan", "--scenario", str(scen), "--robot", "edumip", "--planner", "rrt", "--quiet"]) == 0
+        assert main(["plan", "--scenario", str(scen), "--planner", "birrt", "--quiet"]) == 2
+        assert main(["plan", "--scenario", str(scen), "--robot", "edumip", "--planner", "birrt", "--quiet"]) == 0
 
 
 def test_a_case_refuses_a_robot_its_scenario_does_not_list() -> None:

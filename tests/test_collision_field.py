@@ -94,7 +94,8 @@ WORLDS = [
 
 @pytest.mark.parametrize("world", WORLDS, ids=["room", "8m-20", "crowded", "empty", "map-outlines"])
 def test_field_equals_the_plain_formulas_at_every_node(world):
-    h = 0.02 if len(world.obstacles) < 100 else 0.05
+    outlines = any(len(getattr(o, "vertices", ())) > 16 for o in world.obstacles)  # plain formulas: slow on them
+    h = 0.02 if len(world.obstacles) < 100 and not outlines else 0.05
     field = distance_field(world, h)
     ref = reference_grid(world, h)
     assert field.grid.shape == ref.shape
