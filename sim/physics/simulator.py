@@ -1,9 +1,9 @@
 """The physics loop: a tracker drives the wheel joints of a robot in MuJoCo, and everything is logged.
 
 Physics steps at the model's timestep (2 ms); the tracker is called at the control rate and physics
-advances ``mj_step`` by ``mj_step`` in between, the obstacle contact sensor looked at after each (a touch
-between two log samples is counted), so the Python controller costs once per control period. The log is
-written every ``log_steps`` physics steps
+advances with ``mj_step(m, d, nstep=k)`` in between, so the Python controller costs once per control period;
+within reach of an obstacle it advances one ``mj_step`` at a time, the obstacle contact sensor read after each,
+so that a touch between two log samples is counted. The log is written every ``log_steps`` physics steps
 (at least at the control rate, at most every 20 ms). The wheels are DC motors: the motors' firmware
 velocity loop (:mod:`sim.physics.motors`) turns the wheel-speed command in force into voltages from
 the measured wheel speeds every ``nhsim_motor_period`` (10 ms), on a grid fixed from the start.
