@@ -17,7 +17,7 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from planning.errors import ConfigError, without_python
+from planning.errors import ConfigError, ScenarioError, without_python
 from sim.cli.checks import add_robot_argument
 from sim.cli.simulate import add_localiser_arguments, check_scan_beams, localiser_fields
 from sim.tools.executor import JOBS_PER_CORE, check_workers
@@ -728,8 +728,9 @@ def _run(args: argparse.Namespace) -> int:
     evaluator = spec.evaluator()
     try:
         evaluator.prepared()  # cases are built (and checked) before anything is written
-    except ConfigError as exc:  # a ScenarioError too: said as --scenarios takes a case
-        raise type(exc)(in_case_tokens(without_python(str(exc)))) from exc
+    except ConfigError as exc:  # said as --scenarios takes a case (a scenario's error stays one)
+        kind = ScenarioError if isinstance(exc, ScenarioError) else ConfigError
+        raise kind(in_case_tokens(without_python(str(exc)))) from exc
     if args.storage is None:
         Path("renders").mkdir(exist_ok=True)
     study = _optimise(args, spec)
