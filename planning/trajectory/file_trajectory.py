@@ -42,7 +42,13 @@ from planning.core.world import World
 from planning.errors import ConfigError, option, options
 from planning.planners.base import PlanResult, PlanStatus
 from planning.trajectory.file_formats import TrajectoryFileError
-from planning.trajectory.from_plan import TrajectoryResult, TrajectoryStatus, make_trajectory, time_scales
+from planning.trajectory.from_plan import (
+    TrajectoryResult,
+    TrajectoryStatus,
+    fastest_sample,
+    make_trajectory,
+    time_scales,
+)
 from planning.trajectory.importer import MOVING_SPEED, ImportedFile, PositionCurve, time_unit_fix
 from planning.trajectory.smoothing import check_options
 from planning.trajectory.speed_profile import Limits
@@ -383,7 +389,7 @@ def timing_verdict(dense: DenseFile, limits: Limits) -> tuple[bool, str, float]:
         return True, f"its {what} reaches {peak:.3g} {unit} at t = {t[k]:.2f} s (limit {limit:.3g} {unit})", 1.0
     if speed_scale > MAX_STRETCH:
         why = f"keeping its clock within the speed and yaw-rate limits would slow it x{speed_scale:.3g}"
-        k = int(np.argmax(np.abs(v) / limits.max_speed + np.abs(w) / limits.max_yaw_rate))  # where: a jump's rows
+        k = fastest_sample(v, w, limits)  # where: a jump's rows
         at = f"v {v[k]:+.3g} m/s, omega {w[k]:+.3g} rad/s at t = {t[k]:.2f} s"
         return True, f"{why} (more than x{MAX_STRETCH:g}; its fastest: {at})", 1.0
     stretch = max(speed_scale, curve_scale)  # as make_trajectory slows a kept clock

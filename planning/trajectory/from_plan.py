@@ -489,9 +489,10 @@ def infeasibility(trajectory: Trajectory, robot: RobotSpec) -> str:
     said = []
     v, w = trajectory.vel[:, 0], trajectory.vel[:, 1]
     dv, dw = trajectory.acc[:, 0], trajectory.acc[:, 1]
-    speed, accel = time_scales(v, w, dv, dw, Limits.from_robot(robot, margin=1.0))
+    limits = Limits.from_robot(robot, margin=1.0)
+    speed, accel = time_scales(v, w, dv, dw, limits)
     if speed > 1.0 + 1e-6:
-        k = int(np.argmax(np.abs(v) / robot.max_speed + np.abs(w) / robot.max_yaw_rate))
+        k = fastest_sample(v, w, limits)
         said.append(
             f"its inputs are beyond the {robot.name}'s limits (at t={trajectory.t[k]:.2f} s v={v[k]:.3f} m/s, "
             f"omega={w[k]:.3f} rad/s; the limits {robot.max_speed:g} m/s and {robot.max_yaw_rate:g} rad/s): the "
@@ -513,6 +514,12 @@ def infeasibility(trajectory: Trajectory, robot: RobotSpec) -> str:
             "which the tracker follows by the velocities while the errors are measured against the poses"
         )
     return "; ".join(said)
+
+
+def fastest_sample(v: FloatArray, w: FloatArray, limits: Limits) -> int:
+    """Index of the sample whose speed and yaw rate (v, w (N,)) ask most of ``limits`` together: where a
+    trajectory too fast for them is said to be so."""
+    return int(np.argmax(np.abs(v) / limits.max_speed + np.abs(w) / limits.max_yaw_rate))
 
 
 def _end_at_goal(body: Trajectory, end: FloatArray, build: _Build) -> Trajectory:

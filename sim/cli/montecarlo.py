@@ -220,8 +220,8 @@ def _check_outputs(paths: dict[str, Path], keys: list[dict[str, Any]], overwrite
     if summary.is_file():  # a device or a pipe is not read (/dev/full gave bytes until memory ran out): refused below
         try:
             doc = json.loads(summary.read_text(encoding="utf-8"))
-            own = doc.get("key") in keys and Path(doc.get("results")).resolve() == resolved(paths["results"])
-        except (OSError, ValueError, AttributeError, TypeError, RuntimeError):  # a loop of links: not its own
+            own = doc.get("key") in keys and resolved(doc.get("results")) == resolved(paths["results"])
+        except (OSError, ValueError, AttributeError, TypeError):  # a loop of links (ConfigError): not its own
             own = False
     for name, path in paths.items():
         if name == "results":
