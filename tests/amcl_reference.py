@@ -34,7 +34,7 @@ def motion_update(particles, old, new, alphas, normals):  # type: ignore[no-unty
 
 
 def field_at(field, grid, x, y):  # type: ignore[no-untyped-def]
-    x0, y0, h, far = grid
+    x0, y0, h, far = grid[:4]
     fx, fy = (x - x0) / h, (y - y0) / h
     nx, ny = field.shape
     if not (0 <= fx <= nx - 1 and 0 <= fy <= ny - 1):
@@ -52,7 +52,7 @@ def field_at(field, grid, x, y):  # type: ignore[no-untyped-def]
 def likelihood(particles, ranges, bearings, laser, field, grid, model):  # type: ignore[no-untyped-def]
     """p = 1 + sum pz^3 per particle, d at the grid node nearest to each end point (cap off the grid)."""
     z_hit, z_rand, sigma, rmax = model
-    x0, y0, h, cap = grid
+    x0, y0, h, cap = grid[:4]
     out = []
     for x, y, th in particles:
         lx = x + math.cos(th) * laser[0] - math.sin(th) * laser[1]

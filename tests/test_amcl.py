@@ -129,7 +129,7 @@ def test_motion_model_matches_reference() -> None:
 
 def test_likelihood_field_is_the_worlds_distance_and_the_sensor_model_matches_reference() -> None:
     f = likelihood_field(WORLD, 0.05, 2.0)
-    x0, y0, h, cap = f.grid
+    x0, y0, h, cap = f.grid[:4]
     i, j = np.meshgrid(np.arange(f.signed.shape[0]), np.arange(f.signed.shape[1]), indexing="ij")
     pts = np.column_stack([x0 + h * i.ravel(), y0 + h * j.ravel()])
     sd = WORLD.signed_distance(pts).reshape(f.signed.shape)
@@ -213,7 +213,7 @@ def test_refinement_recovers_the_pose_from_an_exact_scan(scanner: tuple) -> None
     amcl = Amcl(WORLD, AmclConfig(), [*lidar.offset[:2], 0.0], seed=1)
     f = amcl.field
     r, b = amcl.beams(scan.ranges, 0.12, 3.5, 0.0, scan.angle_increment, every=True)
-    got, _, used, _ = K.refine(
+    got, _, _, used, _, _ = K.refine(
         pose + np.array([0.06, -0.04, 0.04]),
         r,
         b,
@@ -226,6 +226,30 @@ def test_refinement_recovers_the_pose_from_an_exact_scan(scanner: tuple) -> None
     )
     assert used > 300
     np.testing.assert_allclose(got, pose, atol=2e-4)  # the grid's bilinear error
+
+
+def test_resume_is_refine_from_the_fits_pose(scanner: tuple) -> None:
+    """``resume`` skips the pass a fit already holds: the same state as refining from its pose again, bit for bit,
+    whether the first fit converged or ran out of steps (and the objective is ``fit_cost``'s at the pose)."""
+    data, lidar = scanner
+    rng = np.random.default_rng(4)
+    amcl = Amcl(WORLD, AmclConfig(), [*lidar.offset[:2], 0.0], seed=1)
+    f = amcl.field
+    for k in range(12):
+        pose = np.array([0.1, -0.3, 0.4]) + rng.normal(0.0, [0.1, 0.1, 0.05])
+        scan = lidar.scan(data, 0.0, np.tile(pose, (360, 1)))
+        r, b = amcl.beams(scan.ranges, 0.12, 3.5, 0.0, scan.angle_increment, every=True)
+        args = (r, b, amcl.laser, f.signed, f.grid, 0.3)
+        start = pose + rng.normal(0.0, [0.08, 0.08, 0.05])
+        fit = K.refine(start, *args, 1 + k % 4, kernel_input(K.NO_NOISE_MODEL))  # 1-4 steps: some stop short
+        kept = [np.copy(a) if isinstance(a, np.ndarray) else a for a in fit]
+        again = K.refine(fit[0], *args, 10, kernel_input(K.NO_NOISE_MODEL))
+        got = K.resume(fit, *args, 10, kernel_input(K.NO_NOISE_MODEL))
+        for a, b_ in zip(got, again, strict=True):
+            np.testing.assert_array_equal(a, b_)
+        for a, b_ in zip(fit, kept, strict=True):
+            np.testing.assert_array_equal(a, b_)  # the fit given is left as it was
+        assert fit[5] == K.fit_cost(fit[0], *args, kernel_input(K.NO_NOISE_MODEL))
 
 
 def test_tracks_a_driving_robot_on_exact_scans(scanner: tuple) -> None:
@@ -351,7 +375,8 @@ def test_of_the_two_fits_the_one_the_scan_explains_better_is_taken() -> None:
         assert abs(wrong[0][1] - truth[1]) > 0.3 and abs(right[0][1] - truth[1]) < 0.1  # two fits, far apart
         costs = [K.fit_cost(fit[0], r, b, amcl.laser, f.signed, f.grid, 0.3, amcl._noise) for fit in fits]
         assert costs[1] < costs[0], seed
-        more_beams_wrong += (wrong[2], -wrong[3]) > (right[2], -right[3])
+        assert [fit[5] for fit in fits] == costs  # refine's objective at its pose, bit for bit
+        more_beams_wrong += (wrong[3], -wrong[4]) > (right[3], -right[4])
         amcl.reset(cloud, std_xy=0.05, std_theta=0.02)  # the cloud about the wrong mean, the last estimate right
         est = amcl._estimate(
             r, b, prior=truth + np.array([0.002, 0.005, 0.0]), scan=(scan.ranges, scan.bearings, 0.12, 3.5)

@@ -124,6 +124,36 @@ def test_rays_through_matches_casting_every_node() -> None:
         assert K.rays_through(lx, ly, np.ascontiguousarray(a), r, f.signed, f.grid, margin) == want
 
 
+@pytest.mark.parametrize("world", ["random511", "random733", "nav_map2"])
+def test_rays_through_skips_only_nodes_that_cannot_count(world: str) -> None:
+    """With the field's slope bound (grid[4]) a ray skips the nodes its last value says are outside: every ray's
+    verdict is the one reading every node gives (grid without the bound), on the map's field and on fields whose
+    slope is not 1 (scaled, and with noise added), from poses inside obstacles and beyond the walls too."""
+    from control.estimation.amcl import likelihood_field
+
+    f = likelihood_field(load_scenario(world).world, 0.025, 2.0)
+    rng = np.random.default_rng(7)
+    x0, y0, h = f.grid[:3]
+    span = (np.array(f.signed.shape) - 1) * h
+    noisy = f.signed + rng.normal(0.0, 0.01, f.signed.shape)
+    for field in (f.signed, 3.0 * f.signed, 0.25 * f.signed, noisy):
+        field = np.ascontiguousarray(field)
+        bounded = np.array([*f.grid[:4], K.field_slope(field, h)])
+        every = np.array(f.grid[:4])
+        counted = 0
+        for _ in range(40):
+            lx, ly = x0 - 0.3 + rng.uniform(0, span[0] + 0.6), y0 - 0.3 + rng.uniform(0, span[1] + 0.6)
+            a = rng.uniform(-math.pi, math.pi, 60)
+            reach = rng.uniform(0.05, 4.0, 60)
+            margin = np.array([rng.uniform(0.0, 0.3), rng.uniform(0.0, 0.2)])
+            for k in range(60):
+                one = (lx, ly, a[k : k + 1], reach[k : k + 1], field)
+                want = K.rays_through(*one, every, margin)
+                assert K.rays_through(*one, bounded, margin) == want, (world, lx, ly, a[k], reach[k])
+                counted += want
+        assert counted > 100  # rays that do cross a surface were among them
+
+
 def test_global_localisation_on_edumip_map_counts_only_the_beams_the_fit_weighs() -> None:
     """The start is 0.5 m from two walls: 78 of its 306 readings fall in the band about the scanner's error
     split that the fit leaves out, and counting them held the search's share at 0.745-0.769, below the 0.8

@@ -58,7 +58,7 @@ def test_the_sensitivity_predicts_how_a_scaled_scan_moves_the_fit(scan: tuple) -
     ata, _, _ = K.fit_sensitivity(POSE, r, b, amcl.laser, f.signed, f.grid, 0.3, 0.5, kernel_input(K.NO_NOISE_MODEL))
     for k in (0.03, -0.03):
         scaled = np.where(r >= 0.5, r * (1 + k), r)
-        got, _, _, _ = K.refine(
+        got, *_ = K.refine(
             POSE.copy(), scaled, b, amcl.laser, f.signed, f.grid, 0.3, 20, kernel_input(K.NO_NOISE_MODEL)
         )
         predicted = -np.linalg.solve(ata[:3, :3], ata[:3, 3]) * k
@@ -132,7 +132,7 @@ def test_weighing_beams_by_their_precision_makes_the_fit_sharper_and_its_covaria
         for w, amcl in fits.items():
             r, b = amcl.beams(s.ranges, profile.range_min, profile.range_max, 0.0, s.angle_increment, every=True)
             f = amcl.field
-            got, info, used, ssr = K.refine(pose.copy(), r, b, amcl.laser, f.signed, f.grid, 0.3, 15, amcl._noise)
+            got, info, _, used, ssr, _ = K.refine(pose.copy(), r, b, amcl.laser, f.signed, f.grid, 0.3, 15, amcl._noise)
             e = got - pose
             e[2] = math.remainder(e[2], 2 * math.pi)
             cov = amcl._white_scale(ssr, used) * np.linalg.inv(info)
@@ -159,7 +159,7 @@ def test_beams_about_the_split_are_left_out_so_the_gain_predicts_the_fit(scan: t
     miss = {}
     for band in (0.0, split * 0.05):
         noise = np.array([split, 0.01, 0.035, band, 0.015 if band else 0.0])
-        got, _, _, _ = K.refine(POSE.copy(), measured, b, amcl.laser, f.signed, f.grid, 0.3, 20, noise)
+        got, *_ = K.refine(POSE.copy(), measured, b, amcl.laser, f.signed, f.grid, 0.3, 20, noise)
         ata, _, _ = K.fit_sensitivity(got, measured, b, amcl.laser, f.signed, f.grid, 0.3, split, noise)
         predicted = -np.linalg.solve(ata[:3, :3], ata[:3, 3:]) @ np.array([k, o])
         miss[band] = float(np.hypot(*(got - POSE - predicted)[:2]))
@@ -195,7 +195,7 @@ def _fit_errors(
         amcl = Amcl(world, AmclConfig(), [*lidar.offset[:2], 0.0], seed=1)
         r, b = amcl.beams(s.ranges, 0.12, 3.5, 0.0, s.angle_increment, every=True)
         f = amcl.field
-        got, _, _, _ = K.refine(pose.copy(), r, b, amcl.laser, f.signed, f.grid, 0.3, 20, amcl._noise)
+        got, *_ = K.refine(pose.copy(), r, b, amcl.laser, f.signed, f.grid, 0.3, 20, amcl._noise)
         errors.append(float(np.hypot(*(got - pose)[:2])))
         scans.append((amcl, pose, r, b))
     return np.array(errors), scans

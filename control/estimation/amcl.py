@@ -24,7 +24,8 @@ The algorithm of Probabilistic Robotics (Thrun, Burgard, Fox 2005) ch. 8 as Nav2
   Gauss-Newton scan-to-map fit of the used beams' end points to the map's signed distance (from the
   surface each beam's ray meets: :func:`amcl_kernels.beam_residual`) from that mean and from the last
   estimate moved by the odometry (the fit whose objective, a truncated quadratic of every weighed beam,
-  :func:`amcl_kernels.fit_cost`, is smaller wins), over every valid beam (not only the ``max_beams`` subset).
+  :func:`amcl_kernels.fit_cost`, is smaller wins; :func:`amcl_kernels.refine` gives it at its pose), over every
+  valid beam (not only the ``max_beams`` subset).
   Given the scanner's white range noise (``range_noise``: the LDS-01's datasheet precision, an
   absolute standard deviation near and a relative one beyond the split), each beam is weighted by
   its inverse variance (the maximum-likelihood fit: a far beam's noise grows with its range, and
@@ -352,7 +353,8 @@ class LikelihoodField:
     Attributes:
         capped: (nx, ny) ``min(max(sd, 0), cap)``: the likelihood model's distance [m].
         signed: (nx, ny) ``clip(sd, -cap, cap)``: the refinement's signed distance [m].
-        grid: (x0, y0, h, cap): origin [m], spacing [m], and the value outside the grid.
+        grid: (x0, y0, h, cap, slope): origin [m], spacing [m], the value outside the grid, and the bound on
+            ``signed``'s change per metre (:func:`amcl_kernels.field_slope`).
         free: (F, 2) centres of the cells at least ``clearance`` from every obstacle and wall.
     """
 
@@ -405,9 +407,10 @@ def likelihood_field(world: World, resolution: float, cap: float, clearance: flo
     free = pts[sd.ravel() >= clearance]
     if free.shape[0] == 0:
         raise ConfigError(f"the map has no free space {clearance} m from its obstacles and walls to localise in")
-    for a in (capped, signed, free):
+    grid = np.array([xmin, ymin, resolution, cap, K.field_slope(signed, resolution)])
+    for a in (capped, signed, free, grid):
         a.setflags(write=False)
-    return LikelihoodField(capped, signed, np.array([xmin, ymin, resolution, cap]), np.ascontiguousarray(free))
+    return LikelihoodField(capped, signed, grid, np.ascontiguousarray(free))
 
 
 def scan_returns(ranges: ArrayLike, range_min: float, range_max: float) -> NDArray[np.int64]:
@@ -601,7 +604,7 @@ class Amcl:
         self._sense_weights(cand, w, r, b, c.range_limits(range_min, range_max)[1])
         fits = []  # (pose, consistent beams, chi-square per beam, beams within the gate)
         for i in np.argsort(-w)[:SEARCH_KEPT]:
-            pose, _, used, ssr = K.refine(
+            pose, _, _, used, ssr, _ = K.refine(
                 cand[i], ra, ba, self.laser, self.field.signed, self.field.grid, c.refine_gate, 10, self._noise
             )
             through = self.see_through(pose, ranges, bearings, range_min, range_max)
@@ -830,20 +833,19 @@ class Amcl:
         cloud = AmclEstimate(mean, cov, self.particles.shape[0], spread, False)
         if not c.refine or r.size < least:
             return cloud
-        best, best_cost = None, math.inf
+        best: K.Fit | None = None
+        scan_map = (r, b, self.laser, self.field.signed, self.field.grid, c.refine_gate, 10, self._noise)
         for start in (mean,) if prior is None else (mean, prior):
-            fit = K.refine(start, r, b, self.laser, self.field.signed, self.field.grid, c.refine_gate, 10, self._noise)
-            pose, info, used, ssr = fit
+            fit = K.refine(start, *scan_map)
+            pose, info, _, used, _, cost = fit
             if used < least or math.hypot(pose[0] - start[0], pose[1] - start[1]) >= 0.5:
                 continue
-            cost = K.fit_cost(pose, r, b, self.laser, self.field.signed, self.field.grid, c.refine_gate, self._noise)
-            if np.linalg.cond(info) < 1e8 and cost < best_cost:  # the fit's own objective, every beam in it
-                best, best_cost = fit, cost
+            if np.linalg.cond(info) < 1e8 and (best is None or cost < best[5]):  # the fit's objective, every beam
+                best = fit
         if best is None:
             return cloud
         # on from where it stopped: a fit started far off (an unconverged cloud) may not have settled in its steps
-        best = K.refine(best[0], r, b, self.laser, self.field.signed, self.field.grid, c.refine_gate, 10, self._noise)
-        pose, info, used, ssr = best
+        pose, info, _, used, ssr, _ = K.resume(best, *scan_map)
         pose[2] = math.atan2(math.sin(pose[2]), math.cos(pose[2]))
         agreement = self.agreement(pose, used, r, scan)
         if agreement[0] < FIX_SHARE or agreement[1] > FIX_THROUGH:  # the fit does not explain the scan

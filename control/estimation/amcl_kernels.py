@@ -434,6 +434,81 @@ def _beam_fit(
     return w, ok, d, gx, gy, px, py
 
 
+@nb.njit(cache=True, inline="always")
+def _fit_pass(
+    x: FloatArray,
+    ranges: FloatArray,
+    bearings: FloatArray,
+    laser: FloatArray,
+    field: FloatArray,
+    grid: FloatArray,
+    gate: float,
+    noise: FloatArray,
+    info: FloatArray,
+    g: FloatArray,
+) -> tuple[int, float, float]:  # pragma: no cover - compiled
+    """One pass of the scan-to-map fit over the beams at ``x``: ``J^T W J`` into ``info`` and ``J^T W d`` into ``g``
+    (both overwritten); returns (beams within the gate, their ``sum w d^2``, the whole objective :func:`fit_cost`)."""
+    info[:] = 0.0
+    g[:] = 0.0
+    used, ssr, cost = 0, 0.0, 0.0
+    lx, ly = _laser_origin(x, laser)
+    for b in range(ranges.shape[0]):
+        w, ok, d, gx, gy, px, py = _beam_fit(x, lx, ly, ranges[b], bearings[b], laser, field, grid, gate, noise)
+        if w == 0.0:
+            continue
+        cost += w * (d * d if ok else gate * gate)
+        if not ok:
+            continue
+        jac = (gx, gy, -gx * (py - x[1]) + gy * (px - x[0]))
+        for i in range(3):
+            g[i] += w * jac[i] * d
+            for j in range(3):
+                info[i, j] += w * jac[i] * jac[j]
+        used += 1
+        ssr += w * d * d
+    return used, ssr, cost
+
+
+#: A scan-to-map fit's state after :func:`refine`: (pose (3,), ``J^T W J`` (3, 3) and ``J^T W d`` (3,) at it, the
+#: beams within the gate, their ``sum w d^2``, the objective :func:`fit_cost` at the pose).
+Fit = tuple[FloatArray, FloatArray, FloatArray, int, float, float]
+
+
+@nb.njit(cache=True)
+def _descend(
+    x: FloatArray,
+    info: FloatArray,
+    g: FloatArray,
+    used: int,
+    ssr: float,
+    cost: float,
+    ranges: FloatArray,
+    bearings: FloatArray,
+    laser: FloatArray,
+    field: FloatArray,
+    grid: FloatArray,
+    gate: float,
+    iterations: int,
+    noise: FloatArray,
+) -> Fit:  # pragma: no cover - compiled
+    """Gauss-Newton steps from ``x``, whose pass (:func:`_fit_pass`) gave ``info``, ``g``, ``used``, ``ssr`` and
+    ``cost``: at most ``iterations``, fewer once a step moves less than 1e-5 (m and rad); every array updated in
+    place. The state returned is the last pass's, at the pose returned."""
+    done = iterations <= 0
+    for k in range(iterations + 1):
+        if k > 0:
+            used, ssr, cost = _fit_pass(x, ranges, bearings, laser, field, grid, gate, noise, info, g)
+        if used < 10 or done:
+            break
+        step = _solve3(info, 1e-9, g)
+        x -= step
+        done = abs(step[0]) + abs(step[1]) < 1e-5 and abs(step[2]) < 1e-5
+        if k == iterations - 1:
+            done = True
+    return x, info, g, used, ssr, cost
+
+
 @nb.njit(cache=True)
 def refine(
     pose: FloatArray,
@@ -445,7 +520,7 @@ def refine(
     gate: float,
     iterations: int,
     noise: FloatArray,
-) -> tuple[FloatArray, FloatArray, int, float]:
+) -> Fit:
     """Scan-to-map refinement: Gauss-Newton on the squared signed map distances of the beams' end points from the
     surfaces their rays meet (:func:`beam_residual`), each weighted by its range's precision (:func:`beam_weight`;
     all alike without a noise model).
@@ -457,44 +532,41 @@ def refine(
         pose: (3,) starting pose.
         ranges, bearings, laser: As :func:`likelihood_update`.
         field: (nx, ny) signed distance to the nearest obstacle or wall, negative inside [m].
-        grid: (x0, y0, h, far) of ``field``.
+        grid: (x0, y0, h, far[, slope]) of ``field`` (:func:`field_slope`).
         gate: Largest |distance| of a beam used [m].
         iterations: Most Gauss-Newton steps.
         noise: (5,) the scanner's white range noise and the split's ambiguous band (:func:`beam_weight`).
 
     Returns:
-        (3,) refined pose, (3, 3) the information ``J^T W J`` at it, the number of beams in it and the
-        weighted sum of their squared distances (``W`` the weights: the identity without a noise model,
-        then the sum is in m^2; with one, the inverse variances, and the sum is a chi-square).
+        The fit (:data:`Fit`): the refined pose, the information ``J^T W J`` and ``J^T W d`` at it, the number of
+        beams in it, the weighted sum of their squared distances (``W`` the weights: the identity without a noise
+        model, then the sum is in m^2; with one, the inverse variances, and the sum is a chi-square) and the
+        objective there (:func:`fit_cost`). :func:`resume` takes it further.
     """
     x = pose.copy()
-    info = np.zeros((3, 3))
-    used, ssr = 0, 0.0
-    done = iterations <= 0
-    for _ in range(iterations + 1):
-        info[:] = 0.0
-        g = np.zeros(3)
-        used, ssr = 0, 0.0
-        lx, ly = _laser_origin(x, laser)
-        for b in range(ranges.shape[0]):
-            w, ok, d, gx, gy, px, py = _beam_fit(x, lx, ly, ranges[b], bearings[b], laser, field, grid, gate, noise)
-            if w == 0.0 or not ok:
-                continue
-            jac = (gx, gy, -gx * (py - x[1]) + gy * (px - x[0]))
-            for i in range(3):
-                g[i] += w * jac[i] * d
-                for j in range(3):
-                    info[i, j] += w * jac[i] * jac[j]
-            used += 1
-            ssr += w * d * d
-        if used < 10 or done:
-            break
-        step = _solve3(info, 1e-9, g)
-        x -= step
-        done = abs(step[0]) + abs(step[1]) < 1e-5 and abs(step[2]) < 1e-5
-        if _ == iterations - 1:
-            done = True
-    return x, info, used, ssr
+    info, g = np.zeros((3, 3)), np.zeros(3)
+    used, ssr, cost = _fit_pass(x, ranges, bearings, laser, field, grid, gate, noise, info, g)
+    return _descend(x, info, g, used, ssr, cost, ranges, bearings, laser, field, grid, gate, iterations, noise)
+
+
+@nb.njit(cache=True)
+def resume(
+    fit: Fit,
+    ranges: FloatArray,
+    bearings: FloatArray,
+    laser: FloatArray,
+    field: FloatArray,
+    grid: FloatArray,
+    gate: float,
+    iterations: int,
+    noise: FloatArray,
+) -> Fit:  # pragma: no cover - compiled
+    """:func:`refine` started at a fit's pose, of the same scan, without repeating the pass at it that the fit
+    already holds: the same result, bit for bit, one pass sooner (``fit`` is left as it is)."""
+    x, info, g, used, ssr, cost = fit
+    return _descend(
+        x.copy(), info.copy(), g.copy(), used, ssr, cost, ranges, bearings, laser, field, grid, gate, iterations, noise
+    )
 
 
 @nb.njit(cache=True)
@@ -510,19 +582,14 @@ def fit_cost(
 ) -> float:  # pragma: no cover - compiled
     """The objective :func:`refine` minimises at ``pose``, whole: each weighed beam's ``w d^2`` (:func:`beam_weight`,
     :func:`beam_residual`), or ``w gate^2`` for one with no surface within ``gate`` (a truncated quadratic, the
-    gated fit's robust loss). Two fits of one scan are compared by it: by the beams within the gate alone, one
-    beam more outweighed a residual three times larger (a pose 0.5 m along a wall, chosen over the right one).
+    gated fit's robust loss). Two fits of one scan are compared by it (:func:`refine` gives it at its pose): by the
+    beams within the gate alone, one beam more outweighed a residual three times larger (a pose 0.5 m along a wall,
+    chosen over the right one).
 
     Args:
         pose, ranges, bearings, laser, field, grid, gate, noise: As :func:`refine`.
     """
-    lx, ly = _laser_origin(pose, laser)
-    cost = 0.0
-    for b in range(ranges.shape[0]):
-        w, ok, d, _, _, _, _ = _beam_fit(pose, lx, ly, ranges[b], bearings[b], laser, field, grid, gate, noise)
-        if w > 0.0:
-            cost += w * (d * d if ok else gate * gate)
-    return cost
+    return _fit_pass(pose, ranges, bearings, laser, field, grid, gate, noise, np.zeros((3, 3)), np.zeros(3))[2]
 
 
 @nb.njit(cache=True)
@@ -584,6 +651,15 @@ def fit_sensitivity(
     return ata, used, ssr
 
 
+def field_slope(field: FloatArray, h: float) -> float:
+    """The largest change of a distance grid between two neighbouring nodes, per metre (1 for an exact distance
+    field, up to rounding; made a little larger, so that rounding cannot make it too small): between two nodes
+    ``di``, ``dj`` apart the values differ by at most ``slope h (|di| + |dj|)``, which lets :func:`rays_through`
+    skip the nodes that cannot be inside a surface yet."""
+    steps = [np.abs(np.diff(field, axis=a)).max(initial=0.0) for a in (0, 1)]
+    return float(max(steps)) / h * (1.0 + 1e-9) + 1e-12
+
+
 @nb.njit(cache=True)
 def rays_through(
     lx: float, ly: float, angles: FloatArray, reach: FloatArray, field: FloatArray, grid: FloatArray, margin: FloatArray
@@ -592,25 +668,33 @@ def rays_through(
     well before their ``reach`` [m]: the first grid node inside a surface (``field`` < 0, read at the nearest
     node every grid spacing ``t`` along the ray, as :meth:`control.estimation.amcl.Amcl.see_through` reads
     it) lies at ``t`` with ``t + margin[0] + margin[1] t < reach``. A ray stops at its first such node, or
-    where ``t + margin[0] + margin[1] t`` reaches its ``reach`` (no later node can count).
+    where ``t + margin[0] + margin[1] t`` reaches its ``reach`` (no later node can count). With the grid's slope
+    bound given (``grid[4]``, :func:`field_slope`) the nodes that cannot be inside yet, by the last value read, are
+    not read: the same count, bit for bit, as reading every node (``tests/test_localiser_honesty.py``).
 
     Args:
-        grid: (x0, y0, h, far) of ``field``.
+        grid: (x0, y0, h, far[, slope]) of ``field``.
         margin: (gate [m], relative margin [-]).
     """
     x0, y0, h = grid[0], grid[1], grid[2]
+    per_node = grid[4] * h if grid.shape[0] > 4 else math.inf  # most change between neighbouring nodes
     nx, ny = field.shape
     count = 0
     for k in range(angles.shape[0]):
         ca, sa = math.cos(angles[k]), math.sin(angles[k])
+        along = abs(ca) + abs(sa)
         n = 1
         t = h
         while t + margin[0] + margin[1] * t < reach[k]:
             i = min(max(int(np.rint((lx + ca * t - x0) / h)), 0), nx - 1)
             j = min(max(int(np.rint((ly + sa * t - y0) / h)), 0), ny - 1)
-            if field[i, j] < 0.0:
+            v = field[i, j]
+            if v < 0.0:
                 count += 1
                 break
-            n += 1
+            # m nodes on are at most (along m + 2) neighbour steps away (each rounding to the nearest node adds
+            # one); their value stays >= 0 while that many steps' change is below v: skip them
+            m = (v - 1e-9) / per_node - 2.0
+            n += 1 + (int(m / along) - 1 if m > along else 0)
             t = h * n
     return count
