@@ -22,8 +22,12 @@ IntArray = NDArray[np.int64]
 @nb.njit(cache=True)
 def angle_diff(a: float, b: float) -> float:
     """``a - b`` wrapped to [-pi, pi] (Nav2 amcl's ``angle_diff``) [rad]."""
-    a = math.atan2(math.sin(a), math.cos(a))
-    b = math.atan2(math.sin(b), math.cos(b))
+    return _wrapped_diff(math.atan2(math.sin(a), math.cos(a)), math.atan2(math.sin(b), math.cos(b)))
+
+
+@nb.njit(cache=True, inline="always")
+def _wrapped_diff(a: float, b: float) -> float:
+    """:func:`angle_diff` of two angles already wrapped to [-pi, pi] [rad]."""
     d1 = a - b
     d2 = 2.0 * math.pi - abs(d1)
     if d1 > 0:
@@ -154,10 +158,15 @@ def kld_limit(k: int, err: float, z: float, least: int, most: int) -> int:
 @nb.njit(cache=True)
 def bin_index(x: float, y: float, th: float, bins: FloatArray, shape: IntArray) -> int:
     """Flat index of a pose's histogram bin: (x0, y0, size_xy, size_th) in ``bins``, grid ``shape``."""
+    return _bin_of(x, y, math.atan2(math.sin(th), math.cos(th)), bins, shape)
+
+
+@nb.njit(cache=True, inline="always")
+def _bin_of(x: float, y: float, wrapped: float, bins: FloatArray, shape: IntArray) -> int:
+    """:func:`bin_index` of a pose whose heading is already wrapped to [-pi, pi]."""
     i = min(max(math.floor((x - bins[0]) / bins[2]), 0), shape[0] - 1)
     j = min(max(math.floor((y - bins[1]) / bins[2]), 0), shape[1] - 1)
-    t = math.atan2(math.sin(th), math.cos(th)) + math.pi
-    m = min(math.floor(t / bins[3]), shape[2] - 1)
+    m = min(math.floor((wrapped + math.pi) / bins[3]), shape[2] - 1)
     return (i * shape[1] + j) * shape[2] + m
 
 
@@ -240,8 +249,13 @@ def cluster_estimate(
     mass = np.zeros(nb_)
     n = particles.shape[0]
     which = np.empty(n, dtype=np.int64)
+    # each heading's sine, cosine and wrapped value, computed once (bin_index's, the mean's and angle_diff's alike)
+    sin, cos, wrapped = np.empty(n), np.empty(n), np.empty(n)
     for k in range(n):
-        which[k] = bin_index(particles[k, 0], particles[k, 1], particles[k, 2], bins, shape)
+        th = particles[k, 2]
+        sin[k], cos[k] = math.sin(th), math.cos(th)
+        wrapped[k] = math.atan2(sin[k], cos[k])
+        which[k] = _bin_of(particles[k, 0], particles[k, 1], wrapped[k], bins, shape)
         mass[which[k]] += weights[k]
     best = int(np.argmax(mass))
     bt, bj, bi = best % shape[2], (best // shape[2]) % shape[1], best // (shape[1] * shape[2])
@@ -258,14 +272,15 @@ def cluster_estimate(
             w += wk
             sx += wk * particles[k, 0]
             sy += wk * particles[k, 1]
-            sc += wk * math.cos(particles[k, 2])
-            ss += wk * math.sin(particles[k, 2])
+            sc += wk * cos[k]
+            ss += wk * sin[k]
     mean = np.array([sx / w, sy / w, math.atan2(ss, sc)])
     cov = np.zeros((3, 3))
+    mean_wrapped = math.atan2(math.sin(mean[2]), math.cos(mean[2]))
     for k in range(n):
         if inside[k]:
             e0, e1 = particles[k, 0] - mean[0], particles[k, 1] - mean[1]
-            e2 = angle_diff(particles[k, 2], mean[2])
+            e2 = _wrapped_diff(wrapped[k], mean_wrapped)  # angle_diff(particles[k, 2], mean[2])
             e = (e0, e1, e2)
             for a in range(3):
                 for b in range(3):

@@ -287,6 +287,14 @@ class LidarScanner:
         n = profile.beams
         self._geomid = np.empty(n, dtype=np.int32)
         self._dist = np.empty(n)
+        self._vec = np.zeros((n, 3))
+        self._heading = profile.angle_increment * np.arange(n)
+        # each batch's beams: (its middle beam, its rays' directions, their geom ids and distances: views, written
+        # in place by each revolution's cast)
+        self._batches = [
+            ((a + b - 1) // 2, self._vec[a:b].reshape(-1), self._geomid[a:b], self._dist[a:b], b - a)
+            for a, b in ((a, min(n, a + self.batch)) for a in range(0, n, self.batch))
+        ]
 
     def origins(self, poses: FloatArray) -> FloatArray:
         """(N, 3) scanner positions for (N, 3) planar poses (x, y, theta) of the robot's base [m]."""
@@ -311,28 +319,12 @@ class LidarScanner:
         if poses.shape != (n, 3):
             raise ValueError(f"poses must have shape ({n}, 3), got {poses.shape}")
         origin = self.origins(poses)
-        heading = poses[:, 2] + self.profile.angle_increment * np.arange(n)
-        vec = np.zeros((n, 3))
+        heading = poses[:, 2] + self._heading
+        vec = self._vec
         vec[:, 0], vec[:, 1] = np.cos(heading), np.sin(heading)
-        cutoff = 2.0 * self.profile.range_max
-        for a in range(0, n, self.batch):
-            b = min(n, a + self.batch)
-            pnt = origin[(a + b - 1) // 2]
-            geomid, dist = self._geomid[a:b], self._dist[a:b]
-            mujoco.mj_multiRay(
-                self.model,
-                data,
-                pnt,
-                vec[a:b].reshape(-1),
-                self._geomgroup,
-                1,
-                self.root,
-                geomid,
-                dist,
-                None,
-                b - a,
-                cutoff,
-            )
+        cutoff, model, group, root, ray = 2.0 * self.profile.range_max, self.model, self._geomgroup, self.root, 1
+        for middle, rays, geomid, dist, count in self._batches:
+            mujoco.mj_multiRay(model, data, origin[middle], rays, group, ray, root, geomid, dist, None, count, cutoff)
         out = self._dist.copy()
         out[self._geomid < 0] = np.inf
         return out
