@@ -561,7 +561,7 @@ def test_a_keyword_that_is_no_field_of_a_case_is_named_with_the_field_meant(
     assert str(err.value).endswith(f": {fields}, {more}")
 
 
-# ---- found by a probe of the API and a scenario's files (each raised something else, or ran on, before) ----
+# ---- the API's and a scenario file's edges (each raised something else, or ran on, before) -----------
 TB3 = load_robot("turtlebot3")
 
 

@@ -55,7 +55,7 @@ def line_log(simulator: Simulator, robot: RobotSpec, line: Trajectory) -> RunLog
     return simulator.run(line, make_tracker("fbl", robot))
 
 
-# ---- item 1: the simulator checks its arguments -----------------------------------------------------------------
+# ---- the simulator checks its arguments -----------------------------------------------------------------
 @pytest.mark.parametrize(
     ("call", "said"),
     [
@@ -152,7 +152,7 @@ def test_a_run_from_a_free_start_still_runs(line_log: RunLog) -> None:
     assert line_log.pose[0, 0] == pytest.approx(0.5, abs=0.01)
 
 
-# ---- item 2: SimConfig's flag is True or False -------------------------------------------------------------------
+# ---- SimConfig's flag is True or False -------------------------------------------------------------------
 @pytest.mark.parametrize("value", ["no", "false", 0, 1, None, "True"])
 def test_sim_config_strict_refuses_what_is_not_true_or_false(value: object) -> None:
     """``SimConfig(strict="no").strict`` was "no", which a run reads as true."""
@@ -166,7 +166,7 @@ def test_sim_config_strict_takes_a_bool_and_a_numpy_bool() -> None:
     assert SimConfig().strict is True
 
 
-# ---- item 3: the video writer closes ffmpeg's pipes --------------------------------------------------------------
+# ---- the video writer closes ffmpeg's pipes --------------------------------------------------------------
 def _frames(writer: VideoWriter, count: int) -> None:
     for k in range(count):
         writer.write(np.full((32, 32, 3), 10 * k, np.uint8))
@@ -198,7 +198,7 @@ def test_a_failed_or_interrupted_video_leaves_no_pipe_open(tmp_path: Path) -> No
         assert _pipes_closed(writer) and not (tmp_path / "v.mp4").exists()
 
 
-# ---- item 4: a run log's arrays are read-only and its repr short -------------------------------------------------
+# ---- a run log's arrays are read-only and its repr short -------------------------------------------------
 def _series(n: int) -> dict[str, Any]:
     rng = np.random.default_rng(0)
     return {
@@ -257,7 +257,7 @@ def test_a_run_logs_repr_is_one_short_line() -> None:
     assert repr(RunLog(**_series(3))) == "RunLog('? on ?', 3 samples, t 0..0.04 s, status='ok')"
 
 
-# ---- item 5: gains files are checked, and read back what they wrote ----------------------------------------------
+# ---- gains files are checked, and read back what they wrote ----------------------------------------------
 HOSTILE = [
     "a\tb\x01c",
     "\x00\x08\x0b\x0e\x1f\x7f",
@@ -321,7 +321,7 @@ def test_a_gains_files_provenance_that_no_file_holds_is_refused_naming_the_file(
         parse_gains_toml("[gains]\nkp = 1\nkd = 2\n[provenance]\nx = nan\n", where="g.toml")
 
 
-# ---- item 6: a registration run again (a notebook cell) ----------------------------------------------------------
+# ---- a registration run again (a notebook cell) ----------------------------------------------------------
 @pytest.fixture
 def registries(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
     """The registries as they are now, restored after the test."""

@@ -507,7 +507,7 @@ def test_an_interrupt_as_the_work_folder_is_made_leaves_nothing(
         write_job_bag(result, tmp_path / "cut")
     assert list(tmp_path.iterdir()) == []
 
-    def work_then_interrupted(*args: Any, **kwargs: Any) -> str:  # the work folder's, not the probe's
+    def work_then_interrupted(*args: Any, **kwargs: Any) -> str:  # the work folder's, not the checker's
         return made_then_interrupted(*args, **kwargs) if kwargs.get("suffix") == ".part" else real(*args, **kwargs)
 
     monkeypatch.setattr(tempfile, "mkdtemp", work_then_interrupted)
@@ -800,7 +800,7 @@ def test_an_interrupt_between_the_two_moves_waits_for_the_new_bag(
     assert {k: len(v) for k, v in msgs.items()} == expected_counts(result)
 
 
-#: The probe's room (3 x 2 m, one box 2.2-2.6 x 1.35-1.65 m): every face on the 5 cm lattice of the bounds.
+#: A room (3 x 2 m, one box 2.2-2.6 x 1.35-1.65 m): every face on the 5 cm lattice of the bounds.
 ROOM = ((0.0, 3.0, 0.0, 2.0), ((2.4, 1.5), (0.4, 0.3)))
 
 
@@ -858,7 +858,7 @@ def _true_range(o: np.ndarray, d: np.ndarray) -> np.ndarray:
 
 
 def test_ranges_marched_on_the_map_match_the_world_without_bias() -> None:
-    """The probe's check (its mapcheck.py) without the simulation: rays from free points, marched through ``/map``
+    """An independent check of the map without the simulation: rays from free points, marched through ``/map``
     in 0.2 mm steps to the first occupied cell, against the exact distance to the world's faces. With the faces
     mid-cell the median was -10.5 mm (the walls drawn 1 cm thick); now it is within a fraction of a millimetre."""
     from planning.core.world import Box, World

@@ -73,7 +73,7 @@ def _texts(folder: Path) -> dict[str, str]:
 def test_a_foreign_bag_survives_overwrite(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """The probe's finding: ``--bag realbag --overwrite`` deleted a robot's recording and the notes beside it
+    """``--bag realbag --overwrite`` deleted a robot's recording and the notes beside it
     (it held a metadata.yaml). Now: exit 2 before any run, every file intact, the message saying why and what
     to do; without ``--overwrite`` the message does not suggest it."""
     monkeypatch.chdir(tmp_path)

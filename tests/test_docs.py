@@ -36,6 +36,40 @@ def test_the_site_builds_strictly(tmp_path: Path) -> None:
     assert "nhsim simulate" in cli and "--overwrite" in cli
     # links work from disk: pages link to .html files, not to folders a browser cannot open
     assert 'href="tutorials/first-run.html"' in (site / "index.html").read_text()
+    assert not list(_misrendered(site))
+
+
+#: The HTML elements the site's pages are made of (Markdown's, the theme's, mkdocstrings'): any other tag in a
+#: page is text the browser hides (a placeholder such as ``<robot>`` written bare).
+HTML_TAGS = set(
+    "a abbr article aside b blockquote body br button code col colgroup dd del details div dl dt em figcaption "
+    "figure footer form h1 h2 h3 h4 h5 h6 head header hr html i img input kbd label li link main meta nav ol option "
+    "p path pre script section select small span strong style sub summary sup svg table tbody td textarea tfoot th "
+    "thead title tr u ul".split()
+)
+
+
+def _misrendered(site: Path) -> list[str]:
+    """What the built pages show other than their Markdown says: an emphasis opened by an unescaped asterisk inside a
+    word (``RRT* ... Hybrid-A*`` set in italics, the asterisks gone), an unknown tag (a bare ``<name>``), or a
+    Markdown table left as literal ``| ... |`` lines (no blank line before it)."""
+    found = []
+    for page in sorted(site.rglob("*.html")):
+        if {"assets", "search"} & set(page.relative_to(site).parts):
+            continue
+        html = page.read_text(encoding="utf-8")
+        body = re.sub(r"<(pre|code|script|style)\b.*?</\1>", "", html, flags=re.S)  # code is shown as written
+        where = page.relative_to(site)
+        found += [f"{where}: emphasis after {m.group(0)[:40]!r}" for m in re.finditer(r"\w<(em|strong)>", body)]
+        found += [
+            f"{where}: hidden <{m.group(1)}>"
+            for m in re.finditer(r"<([a-zA-Z][\w-]*)[\s/>]", body)
+            if m.group(1).lower() not in HTML_TAGS
+        ]
+        found += [
+            f"{where}: literal table row {m.group(0)[:60]!r}" for m in re.finditer(r"<p>\| [^|<]+ \| [^|<]+ \|", body)
+        ]
+    return found
 
 
 def _every_option(parser: argparse.ArgumentParser, prefix: str = "nhsim") -> list[tuple[str, str]]:

@@ -54,7 +54,7 @@ def test_parallel_park_by_hand_with_a_cusp_in_physics() -> None:
 def test_the_balancing_edumip_takes_cusps_and_turns_in_place_through_its_balance_loop() -> None:
     # forwards, a turn in place, backwards (a cusp), a turn in place. A balancing robot cannot stop or
     # turn on skids: every stop, turn and change of direction goes through the balance loop's lean
-    # (issue 15's targets: BALANCING_TARGETS, no fall)
+    # (the balancing targets: BALANCING_TARGETS, no fall)
     sc = load_scenario("parallel_park")  # (1.0, 0.8, 0) -> (1.0, 0.5, 0)
     q = np.pi / 4
     path = np.array([[1.0, 0.8, 0.0], [1.3, 0.8, 0.0], [1.3, 0.8, q], [1.0, 0.5, q], [1.0, 0.5, 0.0]])

@@ -231,7 +231,7 @@ pose = [2.0, 0.6, 0.0]
 
 
 def _simulate(tmp_path: Path, capsys: pytest.CaptureFixture[str], *extra: str) -> tuple[int, str]:
-    """``nhsim simulate`` on the probe's room (a line reference), outputs in ``tmp_path``: (exit, stderr)."""
+    """``nhsim simulate`` on a small room (a line reference), outputs in ``tmp_path``: (exit, stderr)."""
     from sim.cli.main import main
 
     scenario = tmp_path / "room.toml"

@@ -472,7 +472,7 @@ def test_sweep_cases_on_two_workers_give_the_serial_rows() -> None:
 
 
 def test_a_path_file_runs_as_a_study_resumes_and_replays(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """``--path`` (issue 19's files) as simulate reads it: an arena around the file, every run judged
+    """``--path`` (published trajectory files) as simulate reads it: an arena around the file, every run judged
     as a plan; the replay command reads the file again and gives the same run."""
     import numpy as np
 

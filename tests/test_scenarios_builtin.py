@@ -35,7 +35,7 @@ def test_loads_with_free_start_and_goal(name):
 
 
 def test_the_balancing_edumip_goes_wherever_the_edumip_goes():
-    # issue 15: `nhsim scenarios` lists the balancing EduMIP where the EduMIP applies (the same wheels,
+    # `nhsim scenarios` lists the balancing EduMIP where the EduMIP applies (the same wheels,
     # motors and sensors; only the skids differ), and nowhere else
     with_edumip = {n for n in NAMES if "edumip" in load_scenario(n).robots}
     with_balancing = {n for n in NAMES if "edumip-balancing" in load_scenario(n).robots}

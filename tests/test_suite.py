@@ -102,7 +102,7 @@ def test_all_is_the_sweep_matrix() -> None:
     assert len(suite.ALL) == len(cases) == len(set(suite.ALL))
     assert {(c.scenario, c.robot, c.planner) for c in cases} == set(suite.ALL)
     assert ("edumip_map", "edumip", "c-rrt-star") in suite.ALL
-    # the balancing EduMIP has every case the skid EduMIP has (issue 15): 58 + 2 x 51 entries
+    # the balancing EduMIP has every case the skid EduMIP has: 58 + 2 x 51 entries
     per_robot = {r: {(s, p) for s, rr, p in suite.ALL if rr == r} for r in ("turtlebot3", "edumip", "edumip-balancing")}
     assert per_robot["edumip-balancing"] == per_robot["edumip"]
     assert [len(v) for v in per_robot.values()] == [58, 51, 51] and len(suite.ALL) == 160

@@ -691,7 +691,7 @@ def test_an_interrupted_study_resumed_ends_as_one_never_interrupted(
 ) -> None:
     """Ctrl-C in a trial's evaluation, then the same command: the trial's gains run again (once) and every
     later trial proposes what it would have, so the study ends with the trials and the best of one never
-    interrupted. The trial stayed failed and its gains never ran (in the probe it was the uninterrupted
+    interrupted. Before, the trial stayed failed and its gains never ran (they were the uninterrupted
     study's best)."""
     trials = 12  # past the sampler's 10 random start-up trials: TPE's proposals are compared too
     whole, cut = tmp_path / "whole", tmp_path / "cut"

@@ -22,12 +22,15 @@ def _subparsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentP
 
 
 def _escape(text: str) -> str:
+    """Help text as Markdown that shows it as written: a placeholder such as ``<robot>`` is not an HTML tag, an
+    asterisk (``RRT*``) opens no emphasis, and a table cell's bars and brackets stay text."""
+    text = text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace("*", "\\*")
     return text.replace("|", "\\|").replace("[", "\\[").replace("]", "\\]").replace("\n", " ")
 
 
-def _option_rows(parser: argparse.ArgumentParser) -> list[str]:
+def _option_rows(actions: list[argparse.Action]) -> list[str]:
     rows = []
-    for action in parser._actions:
+    for action in actions:
         if isinstance(action, argparse._SubParsersAction | argparse._HelpAction) or action.help == argparse.SUPPRESS:
             continue
         names = ", ".join(f"`{s}`" for s in action.option_strings) or f"`{action.dest}`"
@@ -43,15 +46,36 @@ def _option_rows(parser: argparse.ArgumentParser) -> list[str]:
     return rows
 
 
+def _text(text: str, parser: argparse.ArgumentParser) -> list[str]:
+    """A description or epilog as ``--help`` prints it: where the parser keeps its lines
+    (``RawDescriptionHelpFormatter``), each paragraph with indented lines (an example) kept line for line in a code
+    block and the others as paragraphs; else one paragraph."""
+    if not issubclass(parser.formatter_class, argparse.RawDescriptionHelpFormatter):
+        return [_escape(text.strip()), ""]
+    out = []
+    for para in re.split(r"\n\s*\n", text.strip("\n")):
+        lines = para.split("\n")
+        if any(line[:1].isspace() for line in lines):
+            out += ["```text", para, "```", ""]
+        else:
+            out += [_escape(" ".join(line.strip() for line in lines)), ""]
+    return out
+
+
 def _section(name: str, parser: argparse.ArgumentParser, depth: int) -> list[str]:
     os.environ["COLUMNS"] = "110"
     usage = parser.format_usage().strip()
     out = [f"{'#' * depth} `{name}`", ""]
     if parser.description:
-        out += [parser.description.strip(), ""]
+        out += _text(parser.description, parser)
     out += ["```", re.sub(r"^usage: ", "", usage), "```", ""]
-    rows = _option_rows(parser)
-    if rows:
+    groups = [(g, _option_rows(g._group_actions)) for g in parser._action_groups]
+    groups = [(g, rows) for g, rows in groups if rows]
+    for group, rows in groups:
+        if len(groups) > 1:  # --help's groups, with their titles and descriptions
+            out += [f"**{_escape(group.title or '')}**", ""]
+            if group.description:
+                out += _text(group.description, parser)
         out += ["| option | value | what it does |", "|---|---|---|", *rows, ""]
     if parser.epilog:
         out += ["```", parser.epilog.strip(), "```", ""]

@@ -168,7 +168,7 @@ def make_trajectory(
         corner_angle: Corners sharper than this become stop-turn-go [rad].
         snap_tolerance: Largest distance from the path's end to ``goal`` that is closed [m].
         max_deviation: Largest distance from the smoothed path to the input path [m].
-        name: Trajectory name (default "plan:<planner>" or "path").
+        name: Trajectory name (default ``"plan:<planner>"`` or ``"path"``).
         retime: A timed plan only: True re-times it from rest to rest, False keeps its samples (slowed
             uniformly to the limits), None decides by the rule above (the module doc).
         keep_loops: A bare path only: drive the stretches that return to a pose already visited (a route

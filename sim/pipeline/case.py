@@ -518,7 +518,7 @@ class PreparedTrajectory:
         scenario: The scenario (with the case's robot).
         robot: The robot spec.
         trajectory: The reference the trackers follow.
-        source: "reference:<name>" or "planner:<name>".
+        source: ``"reference:<name>"`` or ``"planner:<name>"``.
         hold: Time simulated after the trajectory ends [s] (final regulation of planned cases).
         extra: Record fields of the stage: a plan's ``plan`` status and statistics and its
             ``smoothing`` statistics; empty for a reference.

@@ -116,7 +116,7 @@ class JobResult:
 
     @property
     def source(self) -> str:
-        """ "reference:<name>" or "planner:<name>"."""
+        """``"reference:<name>"`` or ``"planner:<name>"``."""
         return self.prepared.source
 
     @property
@@ -474,7 +474,7 @@ def simulate_plan(
             or a ready plan).
 
     Returns:
-        The job; ``source`` is "planner:<name>", ``extra["plan"]`` holds the plan's status and
+        The job; ``source`` is ``"planner:<name>"``, ``extra["plan"]`` holds the plan's status and
             statistics and ``extra["smoothing"]`` the smoothing's.
 
     Raises:
@@ -508,7 +508,7 @@ def simulate_file(
         **fields_: Further :class:`~sim.pipeline.case.Case` fields (robot, seed, gains, ...).
 
     Returns:
-        The job; ``source`` is "file:<stem>", ``extra["import"]`` says what was read and repaired.
+        The job; ``source`` is ``"file:<stem>"``, ``extra["import"]`` says what was read and repaired.
 
     Raises:
         TrajectoryFileError: The file cannot be read or used, or it enters an obstacle or leaves the

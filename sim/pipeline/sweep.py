@@ -33,7 +33,7 @@ from sim.pipeline.simulate import applicable_planners, simulate
 
 #: What a closed-loop run must reach to count as a success in the table.
 TARGETS = {"final_position_error_m": 0.02, "final_heading_error_rad": 0.05, "rms_position_error_m": 0.02}
-#: A balancing robot's targets (issue 15): RMS 3 cm, its forward motion waiting on a lean, and
+#: A balancing robot's targets: RMS 3 cm, its forward motion waiting on a lean, and
 #: |pitch| <= 20 deg; and it must not fall.
 BALANCING_TARGETS = {**TARGETS, "rms_position_error_m": 0.03, "max_pitch_rad": math.radians(20.0)}
 

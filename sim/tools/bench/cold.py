@@ -10,7 +10,7 @@ simplification after the plan, ``simplify_time_s``, which every planner reports 
 time ``cpu_s`` where the planner reports one: on a loaded machine the wall times grow with the load,
 the CPU times hardly), and the same plan warm in this process: first with the code loaded but the
 world new (its grid built inside the timed plan), then fully warm (grid cached), the median of
-``repeats`` runs. Targets (issue 27):
+``repeats`` runs. Targets:
 the cold process reports at most :data:`REPORTED_TARGET_S` on worlds up to 8 x 8 m with up to 20
 obstacles, and ends within :data:`PROCESS_TARGET_S` of wall time for a plan taking at most 0.1 s
 warm; a crowded world (2000 obstacles) plans within its ``--time-limit``, grid included (the time the

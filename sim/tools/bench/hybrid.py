@@ -4,7 +4,7 @@ random seeded worlds (``nhsim bench hybrid [--random N] [--seeds N]``).
 Per problem: Hybrid-A*'s status, median wall time and least process (CPU) time over ``repeats``
 runs (the world's distance grid built before timing, as in ``nhsim bench plan``), expansions and
 length; rrt-star's median length over ``seeds`` seeds at its default budget (5000 iterations), and
-the ratio. Both plan with the 1 cm clearance ``nhsim simulate`` gives planners. Targets (issue 14):
+the ratio. Both plan with the 1 cm clearance ``nhsim simulate`` gives planners. Targets:
 time <= 0.2 s, length <= 1.1x rrt-star's.
 """
 

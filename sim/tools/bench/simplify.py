@@ -6,7 +6,7 @@ no planner was tuned on), all planned with the 1 cm clearance that simulate jobs
 ``rrt-star`` runs at its default budget (anytime: it stops when its cost stalls) and ``birrt`` and
 ``rrt`` with their defaults, all simplified (the default) and with the same seed.
 
-Targets (issue 14): simplified birrt and rrt paths within ``LENGTH_TARGET`` x rrt-star's length, with
+Targets: simplified birrt and rrt paths within ``LENGTH_TARGET`` x rrt-star's length, with
 no more cusps than rrt-star's plus ``CUSP_SLACK``, for at most ``TIME_TARGET_S`` of simplification
 (CPU time of the simplifying thread: what the wall time is on an idle machine; the wall time is
 printed beside it; the obstacle-aware 2-D route the simplifier tries is computed anew for every row,
