@@ -558,6 +558,46 @@ def test_outliers_are_rejected_then_divergence_raises(draws: list[Synthetic]) ->
     assert isinstance(info.value, SimulationError)
 
 
+def test_fixes_that_agree_on_the_estimates_offset_move_it_there(draws: list[Synthetic]) -> None:
+    """The robot carried a metre away (or started a metre from where the estimate began): the localiser's fixes
+    all say so, the first two are rejected and the third, agreeing with them, moves the estimate to the robot
+    (Nav2's AMCL relocalising), instead of five rejections ending the run; the later fixes are then in the gate.
+    Without ``relocalise_after`` (0) the same fixes raise as before."""
+    d = draws[3]
+    kidnapped = np.array([1.0, 0.0, 0.0])
+    est = fresh(d)
+    applied = []
+    for tick in (20, 40, 60, 80, 100):
+        drive(est, d, tick - 20, tick)
+        applied.append(est.correct(float(d.t[tick]), d.truth[tick] + kidnapped))
+    assert applied == [False, False, True, True, True]
+    assert est.relocalisations == 1 and est.fixes_rejected == 2 and est.fixes_widened == 1
+    assert math.hypot(*(est.pose[:2] - (d.truth[100, :2] + kidnapped[:2]))) < 0.05
+    never = fresh(d, replace(CONFIG, relocalise_after=0))
+    with pytest.raises(EstimatorDivergedError, match="5 consecutive fixes"):
+        for tick in (20, 40, 60, 80, 100):
+            drive(never, d, tick - 20, tick)
+            never.correct(float(d.t[tick]), d.truth[tick] + kidnapped)
+
+
+def test_outliers_that_disagree_do_not_move_the_estimate(draws: list[Synthetic]) -> None:
+    """Wild fixes that each put the robot somewhere else (a metre ahead, then behind, then aside) say nothing
+    about where it is: they stay outliers and the fifth raises."""
+    d = draws[3]
+    est = fresh(d)
+    jumps = [(1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0), (1.0, 1.0, 0.0)]
+    with pytest.raises(EstimatorDivergedError, match="5 consecutive fixes"):
+        for k, jump in enumerate(jumps):
+            drive(est, d, 20 * k, 20 * (k + 1))
+            assert not est.correct(float(d.t[20 * (k + 1)]), d.truth[20 * (k + 1)] + jump)
+    assert est.relocalisations == 0
+
+
+def test_relocalise_after_one_is_refused() -> None:
+    with pytest.raises(ConfigError, match=r"relocalise_after must be 0 \(never\) or at least 2"):
+        EstimatorConfig(relocalise_after=1)
+
+
 def test_a_radius_error_beyond_the_prior_widens_the_covariance_instead_of_rejecting_every_fix() -> None:
     """Accurate fixes (2 mm, one a second) on a robot whose wheels are 5 % larger than the estimator
     believes (14 standard deviations of its common radius prior): without the widening the

@@ -183,16 +183,17 @@ def test_a_wheel_radius_two_percent_off_does_not_end_the_scan_loop(monkeypatch: 
     example of the docs): the scan fixes, right to a few millimetres, reveal a drift six times the
     EKF's prior on the common radius error. Rejecting them as outliers ended the run "estimator
     diverged" at 20 s while the localiser was right; widening the covariance for a fix a drift within
-    ``max_odometry_drift`` explains lets the fixes calibrate the radius and the run reach its goal."""
+    ``max_odometry_drift`` explains lets the fixes calibrate the radius and the run reach its goal. (Without it,
+    and without relocalisation, it still ends so.)"""
     from sim.physics.perturb import Perturbation
     from sim.robot import sensing
 
-    def run(drift: float | None) -> Run:
+    plain = sensing.estimator_config
+
+    def run(drift: float | None, relocalise: int = 3) -> Run:
         if drift is not None:
-            plain = sensing.estimator_config
-            monkeypatch.setattr(
-                sensing, "estimator_config", lambda *a: dataclasses.replace(plain(*a), max_odometry_drift=drift)
-            )
+            changed = {"max_odometry_drift": drift, "relocalise_after": relocalise}
+            monkeypatch.setattr(sensing, "estimator_config", lambda *a: dataclasses.replace(plain(*a), **changed))
         return simulate_plan(
             random_scenario("turtlebot3", 900), planner="hybrid-a-star", robot="turtlebot3", runs=CLOSED,
             perturbation=Perturbation(radius=1.02),
@@ -202,4 +203,7 @@ def test_a_wheel_radius_two_percent_off_does_not_end_the_scan_loop(monkeypatch: 
     est = widening.metrics.estimation
     assert widening.metrics.status == "ok" and widening.metrics.final_position_error_m < 0.02
     assert est is not None and est.fixes_widened >= 1 and est.localisation_lost is None
-    assert run(0.0).metrics.status.startswith("estimator diverged")
+    assert run(0.0, relocalise=0).metrics.status.startswith("estimator diverged")
+    # without the widening, fixes that agree on the drift's offset move the estimate instead (relocalisation)
+    moved = run(0.0).metrics
+    assert moved.status == "ok" and moved.estimation is not None and moved.estimation.fixes_widened >= 1

@@ -104,6 +104,17 @@ that of a uniform error within ``max_odometry_drift``, so that the later fixes c
 outlier is the fix's noise far more often than the odometry's drift), and a jump no such drift
 explains (a kidnapped robot, a fix wrongly matched) stays an outlier.
 
+A wrong estimate: ``relocalise_after`` outlier fixes in a row (3 by default) that agree with each other on the
+estimate's offset (each innovation the same within three standard deviations of the two fixes' noise, the drift
+bound and the turn of a heading offset over the distance driven between them) say that the estimate, not the
+fixes, is wrong: it started from a wrong pose (``--initial-pose`` a metre off, while the scan localiser found the
+robot within seconds), or the robot was moved. The last of them is applied after widening the position and
+heading variances at its measurement time by its innovation's squares, which moves the estimate to the fixes,
+as Nav2's AMCL moves ``map -> odom`` when it relocalises; a scan localiser that is confidently wrong is the
+localiser's failure, which the simulation reports against the truth. Until then the fixes were rejected; a run
+of fixes that do not agree, one wild match among them, still ends in divergence after ``max_outliers``.
+``relocalisations`` counts them (``fixes_widened`` includes them).
+
 Cost: the estimator runs once per control period of a simulation, so its arithmetic (a prediction,
 a fix update, the rewind and the replay) is compiled (:mod:`control.estimation.kernels`) and works
 in place on arrays allocated once per estimator; Python only checks the inputs and keeps the
@@ -238,6 +249,9 @@ class EstimatorConfig:
         max_odometry_drift: Largest systematic odometry error, relative to the distance driven since
             the last applied fix, that the position innovation of a second outlier fix in a row is
             taken to reveal (the module doc); 0: every outlier is rejected.
+        relocalise_after: This many consecutive outlier fixes that agree with each other (the same offset
+            of the estimate, within their noise and the drift) move the estimate to them (the module doc);
+            0 never, nor when it is not below ``max_outliers`` (that many raise first).
     """
 
     heading: str = "gyro"
@@ -259,6 +273,7 @@ class EstimatorConfig:
     reject_outliers: bool = True
     max_outliers: int = 5
     max_odometry_drift: float = 0.05
+    relocalise_after: int = 3
 
     def __post_init__(self) -> None:
         if self.heading not in HEADING_SOURCES:
@@ -282,6 +297,16 @@ class EstimatorConfig:
         )  # fmt: skip
         object.__setattr__(self, "max_odometry_drift", drift)
         object.__setattr__(self, "reject_outliers", check_flag("EstimatorConfig.reject_outliers", self.reject_outliers))
+        after = check_number(
+            "EstimatorConfig.relocalise_after", self.relocalise_after, integer=True, at_least=0,
+            fix="e.g. 3; 0 never relocalises",
+        )  # fmt: skip
+        if after == 1:
+            raise ConfigError(
+                "EstimatorConfig.relocalise_after must be 0 (never) or at least 2: one outlier agrees with no other; "
+                "e.g. relocalise_after=3"
+            )
+        object.__setattr__(self, "relocalise_after", after)
 
     def scaled_process_noise(self, factor: float) -> EstimatorConfig:
         """A copy with every process-noise standard deviation multiplied by factor (>= 0)."""
@@ -357,7 +382,10 @@ class PoseEstimator:
         self._outliers = 0
         self._rejected = 0
         self._stale = 0
-        self._widened = 0
+        self._widened = self._relocalised = 0
+        #: The current run of consecutive outliers: (innovation x, y, theta, position and heading variance of the
+        #: fix, odometry distance then) each (:meth:`_relocalising`).
+        self._streak: list[tuple[float, float, float, float, float, float]] = []
         self._odo_fix = 0.0  # the distance driven when the last fix was applied [m]
 
     @classmethod
@@ -423,8 +451,9 @@ class PoseEstimator:
         hdr[kernels.HEAD], hdr[kernels.SIZE], hdr[kernels.TIME], hdr[kernels.ODO] = 0, 1, t0, 0.0
         self._fixes.clear()
         self._nis.clear()
-        self._outliers = self._rejected = self._stale = self._widened = 0
+        self._outliers = self._rejected = self._stale = self._widened = self._relocalised = 0
         self._odo_fix = 0.0
+        self._streak.clear()
 
     def predict(self, t: float, d_left: float, d_right: float, gyro_z: float | None = None) -> None:
         """Advance to time t with the wheel increments since the last call.
@@ -503,12 +532,12 @@ class PoseEstimator:
             reason="non-finite",
         )
 
-    def _replay(self, new: Fix, widen: tuple[float, float] | None = None) -> tuple[float, bool] | None:
+    def _replay(self, new: Fix, widen: tuple[float, float, float] | None = None) -> tuple[float, bool] | None:
         """Rewind to the newest step at or before the new fix's measurement time, apply the fix there
         and re-filter to now with the stored later fixes (:func:`control.estimation.kernels.rewind`
         and :func:`~control.estimation.kernels.replay`); with ``widen`` (position variance [m^2],
-        common radius error variance [-]) that step's covariance is widened first (:meth:`_widening`),
-        and kept only if the fix is then applied.
+        common radius error variance [-], heading variance [rad^2]) that step's covariance is widened first
+        (:meth:`_widening`, :meth:`_relocalising`), and kept only if the fix is then applied.
 
         Returns:
             (NIS of the new fix, whether it was applied); None when the fix is older than the
@@ -526,6 +555,7 @@ class PoseEstimator:
             self._bP[j, IX, IX] += widen[0]
             self._bP[j, IY, IY] += widen[0]
             self._bP[j, IEM, IEM] += widen[1]
+            self._bP[j, ITH, ITH] += widen[2]
         status, t_bad, nis, ok, finite = kernels.replay(self._mem, j, self._head, stored, np.array(new))
         if status != kernels.OK:
             self._diverged(status, t_bad)
@@ -534,7 +564,7 @@ class PoseEstimator:
         self._finite = finite
         return nis, ok
 
-    def _widening(self, fix: Fix) -> tuple[float, float] | None:
+    def _widening(self, fix: Fix) -> tuple[float, float, float] | None:
         """How far to widen the covariance for an outlier fix (the second in a row or later, as the caller
         asks) whose position innovation (the last gated, :attr:`_nu`) a systematic odometry drift of at
         most ``max_odometry_drift`` of the distance driven since the last applied fix explains, with three
@@ -547,7 +577,28 @@ class PoseEstimator:
         fix_std = math.sqrt(max(fix[kernels.NOISE], fix[kernels.NOISE + 3]))
         if not (bound > 0.0 and driven > 0.0 and miss <= bound * driven + 3.0 * fix_std):
             return None
-        return miss * miss, bound * bound / 3.0
+        return miss * miss, bound * bound / 3.0, 0.0
+
+    def _relocalising(self, fix: Fix) -> tuple[float, float, float] | None:
+        """How far to widen the covariance to move the estimate to an outlier fix that the ``relocalise_after - 1``
+        outliers before it, in a row, agree with: each one's innovation (the estimate's offset from its fix) the
+        same as this one's within three standard deviations of the two fixes' noise, plus the drift
+        (``max_odometry_drift``) and the turn of a heading offset (its innovation's heading times the distance
+        driven) between them. Then the estimate, not the fixes, is wrong (started from a wrong pose, or moved by
+        hand), and the localiser has said so a number of times: (the innovation's position and heading squared
+        [m^2, rad^2], no radius widening). None otherwise; the outlier joins the streak (module doc)."""
+        nx, ny, nth = (float(v) for v in self._nu)
+        vxy, vth = max(fix[kernels.NOISE], fix[kernels.NOISE + 3]), fix[kernels.NOISE + 5]
+        odo = float(self._hdr[kernels.ODO])
+        need = self.config.relocalise_after
+        agree = 0 < need < self.config.max_outliers and len(self._streak) + 1 >= need
+        for px, py, pth, pvxy, pvth, podo in self._streak[-(need - 1) :] if agree else ():
+            driven = odo - podo
+            reach = 3.0 * math.sqrt(vxy + pvxy) + (self.config.max_odometry_drift + abs(nth)) * driven
+            agree = agree and math.hypot(nx - px, ny - py) <= reach
+            agree = agree and abs(math.remainder(nth - pth, 2 * math.pi)) <= 3.0 * math.sqrt(vth + pvth)
+        self._streak.append((nx, ny, nth, vxy, vth, odo))
+        return (nx * nx + ny * ny, 0.0, nth * nth) if agree else None
 
     def correct(
         self,
@@ -604,6 +655,12 @@ class PoseEstimator:
             nis_after, ok = widened
             self._widened += ok
             nis = nis_after if ok else nis
+        if not ok and (widen := self._relocalising(fix)) is not None:
+            moved = self._replay(fix, widen)
+            assert moved is not None
+            nis_after, ok = moved
+            self._relocalised += ok
+            nis = nis_after if ok else nis
         if ok:
             bisect.insort_right(self._fixes, fix, key=_fix_key)
             self._odo_fix = float(self._hdr[kernels.ODO])
@@ -635,6 +692,7 @@ class PoseEstimator:
     def _count_outlier(self, t_meas: float, nis: float) -> None:
         if not nis > self._gate:
             self._outliers = 0
+            self._streak.clear()
             return
         self._outliers += 1
         if self._outliers >= self.config.max_outliers:
@@ -752,8 +810,14 @@ class PoseEstimator:
     @property
     def fixes_widened(self) -> int:
         """Outlier fixes applied after widening the covariance: a systematic odometry drift within
-        ``max_odometry_drift`` explained them (the module doc)."""
-        return self._widened
+        ``max_odometry_drift`` explained them, or the estimate moved to them (:attr:`relocalisations`; the
+        module doc)."""
+        return self._widened + self._relocalised
+
+    @property
+    def relocalisations(self) -> int:
+        """Times the estimate moved to the fixes: ``relocalise_after`` outliers in a row agreed on its offset."""
+        return self._relocalised
 
     @property
     def fixes_stale(self) -> int:
