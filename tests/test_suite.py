@@ -53,7 +53,7 @@ def _check_entry(entry: tuple[str, str, str]) -> None:
     env = _load(entry)
     # specs valid
     aspec = env.action_spec()
-    assert isinstance(aspec, specs.BoundedArray) and aspec.shape == (2,)
+    assert isinstance(aspec, specs.BoundedArray) and aspec.shape == aspec.minimum.shape == aspec.maximum.shape == (2,)
     assert np.all(np.isfinite(aspec.minimum)) and np.all(aspec.minimum < aspec.maximum)
     ospec = env.observation_spec()
     first = env.reset()
@@ -249,7 +249,7 @@ def test_a_fall_of_the_balancing_robot_ends_the_episode_with_discount_0() -> Non
     (the test that ends an ``nhsim simulate`` run) at its first update of period 22 and the episode ends
     with that step, discount 0, instead of running its 928 periods lying on the floor with discount 1."""
     env = suite.load("open", "edumip-balancing", "circle", seed=0)
-    limit = float(env.action_spec().maximum)
+    limit = float(env.action_spec().maximum[0])
     ts = env.reset()
     firmware = env.task.episode.recorder.balance
     steps = 0
@@ -308,3 +308,25 @@ def test_a_reference_policy_episode_runs_to_its_time_limit_with_discount_1(
         total += ts.reward
     assert len(discounts) == env.task.schedule.n_ctrl == steps and set(discounts) == {1.0}
     assert total == pytest.approx(ret, rel=1e-12)
+
+
+def test_an_episode_is_not_rewound_through_mujocos_state_alone() -> None:
+    """``physics.set_state`` rewound MuJoCo but not the episode (its firmware, sensors, log and reference clock):
+    the reward went on scoring a later point and a replay drifted by millimetres; ``physics.copy()`` stepped into
+    "reset the environment". Both are refused during an episode, naming the replay that works: the same seed and
+    the same actions give the same episode, bit for bit."""
+    actions = [np.array([2.0, 2.5]), np.array([1.0, -1.0]), np.array([3.0, 3.0])] * 10
+    poses = []
+    for _ in range(2):
+        env = suite.load("open", "turtlebot3", "figure8", seed=3)
+        env.reset()
+        for a in actions:
+            ts = env.step(a)
+        poses.append((np.array(ts.observation["privileged_true_pose"]), ts.reward))
+        with pytest.raises(RuntimeError, match=r"cannot be rewound or copied .*the same seed, reset it and step the"):
+            env.physics.set_state(env.physics.get_state())
+        with pytest.raises(RuntimeError, match="cannot be rewound or copied"):
+            env.physics.copy()
+        assert repr(env.task.log()).startswith("RunLog('agent on ")  # whose actions ran ("?" before)
+    np.testing.assert_array_equal(poses[0][0], poses[1][0])
+    assert poses[0][1] == poses[1][1]

@@ -88,6 +88,14 @@ class Episode:
     fell: bool = False
 
 
+#: Why an episode cannot be rewound or copied by MuJoCo's state alone, and what replays one instead.
+_NO_REWIND = (
+    "an nhsim episode cannot be rewound or copied through MuJoCo's state: its motor firmware, sensor noise, log and "
+    "reference clock live in the task; to replay from a point, load the environment with the same seed, reset it "
+    "and step the same actions (an episode is deterministic for its seed), or run a second environment beside it"
+)
+
+
 class Physics(dm_mujoco.Physics):
     """nhsim's composed model (robot as built, in the scenario's world) as a dm_control Physics.
 
@@ -100,6 +108,27 @@ class Physics(dm_mujoco.Physics):
     def begin(self, episode: Episode) -> None:
         """Start stepping an episode's control periods."""
         self.episode = episode
+
+    def set_state(self, physics_state: Any, sig: Any = None) -> None:
+        """MuJoCo's state, restored only outside an episode: an episode's motor firmware, sensor draws, log and
+        reference clock live in its task, not in MuJoCo's state, so restoring that alone would carry the rest on
+        from where they were (the reward scored against a later point of the reference, the poses off by
+        millimetres on replay).
+
+        Raises:
+            RuntimeError: An episode is running (the message says how to replay from a point instead).
+        """
+        if self.episode is not None:
+            raise RuntimeError(_NO_REWIND)
+        super().set_state(physics_state, sig)
+
+    def copy(self, share_model: bool = False) -> Physics:
+        """Refused: a copy would step without its episode (see :meth:`set_state`).
+
+        Raises:
+            RuntimeError: Always (the message says how to replay from a point instead).
+        """
+        raise RuntimeError(_NO_REWIND)
 
     def step(self, nstep: int = 1) -> None:
         """Advance one control period (``nstep`` physics steps of it), raising
@@ -143,8 +172,9 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         self.schedule = Schedule.make(self.k_ctrl, float(simulator.model.opt.timestep), self.trajectory.duration + hold)
         self.drive = DiffDrive.from_robot(prepared.robot)
         limit = simulator.motors.no_load_speed
+        bound = np.full(2, float(limit))  # one bound per wheel, as dm_control's own suites give them
         self._action_spec = specs.BoundedArray(
-            (2,), np.float64, minimum=-limit, maximum=limit, name="wheel_speeds_rad_s"
+            (2,), np.float64, minimum=-bound, maximum=bound, name="wheel_speeds_rad_s"
         )
         m = simulator.model
         self._accel_adr = int(m.sensor_adr[m.sensor("imu_accel").id])
@@ -310,5 +340,10 @@ class TrackingTask(control.Task):  # type: ignore[misc]
     def log(self) -> RunLog:
         """The current episode so far as a run log (what :func:`sim.physics.metrics.compute_metrics` measures)."""
         ep = self._current()
-        meta = {"robot": self.prepared.robot.name, "trajectory": self.trajectory.name, "environment": "sim.suite"}
+        meta = {
+            "robot": self.prepared.robot.name,
+            "trajectory": self.trajectory.name,
+            "environment": "sim.suite",
+            "tracker": "agent",  # the actions came from the environment's caller
+        }
         return ep.recorder.to_log(self.trajectory, meta)
