@@ -579,8 +579,10 @@ def test_a_path_that_leaves_the_world_says_so() -> None:
 
 def test_a_time_that_is_no_number_is_named() -> None:  # ValueError from numpy
     trajectory = make_reference("line", TB3, Pose2D(0.0, 0.0, 0.0))
-    with pytest.raises(ConfigError, match=r"times must be numbers \[s\], got \['a'\]"):
+    with pytest.raises(ConfigError, match=r"Trajectory.sample: the time must be a number \[s\], got str 'a'"):
         trajectory.sample("a")  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match=r"Trajectory.sample: the time must be a number \[s\], got NoneType"):
+        trajectory.sample(None)  # type: ignore[arg-type]
 
 
 def test_gains_that_are_no_text_are_named() -> None:  # TypeError from pathlib
@@ -649,3 +651,24 @@ def test_a_sensor_value_of_the_wrong_type_is_named(tmp_path: Path) -> None:
     path.write_text(text + '\n[sensors]\nfix_rate = "5"\n')
     with pytest.raises(ScenarioError, match=r"field 'sensors.fix_rate': expected a number \(e.g. fix_rate = 5"):
         load_scenario(path)
+
+
+def test_track_and_simulate_name_what_they_take() -> None:
+    """``sim.track('x')`` and ``sim.simulate('x')`` raised AttributeError from deep inside."""
+    import sim
+
+    with pytest.raises(
+        ConfigError, match=r"track: prepared must be a PreparedTrajectory, got str .*prepare_trajectory"
+    ):
+        sim.track("farm")  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match=r"simulate: case must be a Case, got str .*simulate_plan\('farm'\)"):
+        sim.simulate("farm")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("bad", [[], [1.0], np.zeros(3)])
+def test_trajectory_sample_takes_one_time(bad: object) -> None:
+    """``sample([])`` blamed sample_many and a shape (1, 0) it made itself."""
+    traj = make_reference("circle", load_robot("edumip"), Pose2D(0.0, 0.0, 0.0))
+    with pytest.raises(ConfigError, match=r"Trajectory.sample takes one time \[s\].*sample_many\(times\)"):
+        traj.sample(bad)  # type: ignore[arg-type]
+    np.testing.assert_array_equal(traj.sample(np.float64(1.0)).pose, traj.sample(1).pose)  # any one number

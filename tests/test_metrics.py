@@ -8,9 +8,11 @@ import pytest
 from control.diffdrive import DiffDrive
 from planning.core.geometry import Pose2D
 from planning.core.robot import load_robot
+from planning.errors import ConfigError
 from planning.trajectory.references import line
 from sim.physics.metrics import compute_metrics
 from sim.physics.runlog import RunLog
+from sim.pipeline.runs import RunKind
 
 
 def test_saturation_counts_the_wheel_limit_as_well_as_the_body_limits() -> None:
@@ -29,7 +31,8 @@ def test_saturation_counts_the_wheel_limit_as_well_as_the_body_limits() -> None:
     assert np.abs(wheels[2]).max() == pytest.approx(robot.max_wheel_speed)
     assert np.abs(wheels[[0, 3]]).max() < robot.max_wheel_speed
     n = len(asked)
-    pose = np.zeros((n, 3))
+    traj = line(robot, Pose2D(0, 0, 0))
+    pose = traj.sample_many(np.arange(n) * 0.02).pose  # on the reference: its log as a run of that line
     log = RunLog(
         t=np.arange(n) * 0.02,
         pose=pose,
@@ -41,7 +44,7 @@ def test_saturation_counts_the_wheel_limit_as_well_as_the_body_limits() -> None:
     )
     m = compute_metrics(
         log,
-        line(robot, Pose2D(0, 0, 0)),
+        traj,
         max_speed=robot.max_speed,
         max_yaw_rate=robot.max_yaw_rate,
         max_wheel_speed=robot.max_wheel_speed,
@@ -109,3 +112,25 @@ def test_a_record_without_a_scan_localiser_has_none_of_its_fields() -> None:
     localiser = {f.name for f in fields(EstimationMetrics)} - set(out)
     assert "localiser_nees_mean" in localiser and "scans_used" in localiser
     assert all(v is not None for v in out.values()), out
+
+
+def test_compute_metrics_refuses_what_it_cannot_measure() -> None:
+    """A run measured against another trajectory than its own (a circle's log against a line: the same start, the
+    same numbers but the goal's before), a limit that is not a positive number, or a log that is none."""
+    from sim import simulate_reference
+
+    robot = load_robot("edumip")
+    job = simulate_reference("open", reference="circle", robot="edumip", runs=["open_loop"])
+    log, traj = job.runs[RunKind.OPEN_LOOP].log, job.prepared.trajectory
+    limits = {"max_speed": robot.max_speed, "max_yaw_rate": robot.max_yaw_rate, "max_wheel_speed": 10.0}
+    own = job.runs[RunKind.OPEN_LOOP].metrics
+    assert compute_metrics(log, traj, **limits).rms_position_error_m == own.rms_position_error_m  # its own: measured
+    with pytest.raises(ConfigError, match="was not run on this trajectory"):
+        compute_metrics(log, line(robot, Pose2D(0, 0, 0)), **limits)
+    for bad in (-1.0, float("nan"), 0.0):
+        with pytest.raises(ConfigError, match="max_speed"):
+            compute_metrics(log, traj, **{**limits, "max_speed": bad})
+    with pytest.raises(ConfigError, match="log must be a RunLog"):
+        compute_metrics(None, traj, **limits)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="trajectory must be"):
+        compute_metrics(log, "circle", **limits)  # type: ignore[arg-type]

@@ -375,8 +375,16 @@ class Trajectory:
         """
         try:
             finite = math.isfinite(t)
-        except TypeError:  # not one number: sample_many says what it cannot use
-            return self.sample_many([t]).at(0)
+        except TypeError:  # not one number
+            if t is None or isinstance(t, str | bytes):
+                what = f"{type(t).__name__} {t!r:.60}"
+                raise ConfigError(f"Trajectory.sample: the time must be a number [s], got {what}") from None
+            if np.ndim(t) != 0:
+                raise ConfigError(
+                    f"Trajectory.sample takes one time [s], got {type(t).__name__} {t!r:.60}; for several times "
+                    "call Trajectory.sample_many(times)"
+                ) from None
+            return self.sample_many([t]).at(0)  # a number of another kind: sample_many says what it cannot use
         if not finite:
             raise ConfigError(
                 f"Trajectory.sample was given a non-finite time t={t} s: the reference is sampled at a finite "

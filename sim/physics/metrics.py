@@ -10,8 +10,10 @@ import numpy as np
 
 from control.estimation import chi2_interval
 from control.estimation.amcl import MIN_BEAMS, scan_returns
+from planning.core.checks import check_number
 from planning.core.geometry import wrap_angle
 from planning.core.robot import RobotSpec
+from planning.errors import ConfigError
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.model import body_pitch
 from sim.physics.runlog import EstimationLog, RunLog
@@ -123,6 +125,11 @@ def _localiser_metrics(log: EstimationLog) -> dict[str, Any]:
 class TrackingMetrics:
     """How well a run followed its reference.
 
+    A run that ended early (``status`` not "ok": a balancing robot fell, the estimate was lost) is measured up to
+    its end: its final errors are against the reference at that moment, not the goal, so a small
+    ``final_position_error_m`` there is no success; ``final_goal_error_m`` is the distance to the goal and
+    ``status`` says why it ended (as ``nhsim simulate`` marks such a row with an asterisk and a note).
+
     Attributes:
         final_position_error_m: |p - p_ref| at the end of the run [m].
         final_heading_error_rad: |wrap(theta - theta_ref)| at the end [rad].
@@ -223,7 +230,13 @@ def compute_metrics(
         max_speed: |v| limit, for the saturation share [m/s].
         max_yaw_rate: |omega| limit [rad/s].
         max_wheel_speed: |wheel speed| limit, for the saturation share [rad/s].
+
+    Raises:
+        ConfigError: ``log`` is not a run log or ``trajectory`` not a trajectory, a limit is not a positive number,
+            or the log's reference is not ``trajectory`` (the errors are the log's against its own reference).
     """
+    limits = {"max_speed": max_speed, "max_yaw_rate": max_yaw_rate, "max_wheel_speed": max_wheel_speed}
+    _check_metric_inputs(log, trajectory, limits)
     err = position_errors(log)
     herr = heading_errors(log)
     final = trajectory.final_pose
@@ -243,6 +256,28 @@ def compute_metrics(
         estimation=EstimationMetrics.of(log.estimation) if log.estimation is not None else None,
         **balance_metrics(log),
     )
+
+
+def _check_metric_inputs(log: object, trajectory: object, limits: dict[str, float]) -> None:
+    """:func:`compute_metrics`'s checks (see there): the types, the limits, and that the log's reference poses at a
+    dozen of its times are ``trajectory``'s there (held at its end), to 1 um."""
+    if not isinstance(log, RunLog):
+        raise ConfigError(f"compute_metrics: log must be a RunLog (a run's log, Run.log), got {type(log).__name__}")
+    if not isinstance(trajectory, Trajectory):
+        raise ConfigError(
+            f"compute_metrics: trajectory must be the run's Trajectory (JobResult.prepared.trajectory), got "
+            f"{type(trajectory).__name__}"
+        )
+    for name, value in limits.items():
+        check_number(f"compute_metrics: {name}", value, above=0.0, fix="the robot's limit (its RobotSpec's)")
+    rows = np.unique(np.linspace(0, log.t.size - 1, 12).round().astype(int))
+    want = trajectory.sample_many(np.minimum(log.t[rows], trajectory.duration)).pose[:, :2]
+    off = float(np.max(np.hypot(*(want - log.ref_pose[rows, :2]).T)))
+    if off > 1e-6:
+        raise ConfigError(
+            f"compute_metrics: the log was not run on this trajectory (its reference is {off:.3g} m from the "
+            f"trajectory's pose at the same time): give the trajectory the run tracked, {log!r:.80}"
+        )
 
 
 def balance_metrics(log: RunLog) -> dict[str, Any]:

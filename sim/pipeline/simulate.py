@@ -224,9 +224,15 @@ def track(
         progress: Told how each run advances (see :data:`sim.pipeline.runs.Progress`); None for silence.
 
     Raises:
-        ConfigError: The case's tracker feeds nothing back and ``runs`` hold a closed loop.
+        ConfigError: ``prepared`` is not a prepared trajectory, or the case's tracker feeds nothing back and ``runs``
+            hold a closed loop.
         SimulationError: MuJoCo warned (with ``strict``) or a tracker returned a non-finite command.
     """
+    if not isinstance(prepared, PreparedTrajectory):
+        raise ConfigError(
+            f"track: prepared must be a PreparedTrajectory, got {type(prepared).__name__} {prepared!r:.60}; make one "
+            "with sim.pipeline.case.prepare_trajectory(case), or call simulate(case) to prepare and track at once"
+        )
     runs = run_kinds(runs)
     case = prepared.case
     check_feedback_tracker(case, runs)
@@ -375,10 +381,15 @@ def simulate(
     """Prepare a case's trajectory and track it (see :func:`track`; MuJoCo warnings raise).
 
     Raises:
-        ConfigError: The case's tracker feeds nothing back and ``runs`` hold a closed loop
+        ConfigError: ``case`` is not a case, or its tracker feeds nothing back and ``runs`` hold a closed loop
             (:func:`check_feedback_tracker`), before anything is planned.
         NhsimError: From :func:`sim.pipeline.case.prepare_trajectory` and :func:`track`.
     """
+    if not isinstance(case, Case):
+        raise ConfigError(
+            f"simulate: case must be a Case, got {type(case).__name__} {case!r:.60}; e.g. simulate(Case('farm')), or "
+            "simulate_plan('farm') / simulate_reference('open', reference='circle') with a scenario's name"
+        )
     runs = run_kinds(runs)
     check_feedback_tracker(case, runs)  # before the plan: the runs are known
     return track(prepare_trajectory(case, progress=progress), runs, progress=progress)
