@@ -13,7 +13,7 @@ import pytest
 from planning.core.robot import load_robot
 from planning.core.world import Box, Circle, World
 from planning.errors import ConfigError
-from sim.physics.lidar import LDS01_PLANE, LidarProfile, LidarScanner, beam_poses, load_lidar_profile
+from sim.physics.lidar import LDS01_PLANE, LidarProfile, LidarScanner, beam_poses, load_lidar_profile, unit_errors
 from sim.physics.model import build_model
 from sim.pipeline.runs import RunKind
 
@@ -170,6 +170,12 @@ def test_noise_is_seeded_and_has_the_datasheet_statistics(scene: tuple) -> None:
     assert abs(a.bias_far) <= 1.0
     assert rel.mean() == pytest.approx(a.bias_far * p.accuracy_far, abs=0.002)
     assert rel.std() == pytest.approx(p.precision_far, rel=0.02)
+    # the run record's lidar_unit is this unit's draw (the far scale measured above, the near offset as drawn)
+    assert unit_errors(p, 7) == {
+        "offset_near_m": a.bias_near * p.accuracy_near,
+        "scale_far": a.bias_far * p.accuracy_far,
+    }
+    assert unit_errors(p, 8) != unit_errors(p, 7)
 
 
 def test_the_scan_passes_over_an_obstacle_below_its_plane_and_the_robot_does_not() -> None:
@@ -253,6 +259,8 @@ def _simulate(tmp_path: Path, capsys: pytest.CaptureFixture[str], *extra: str) -
         ("accuracy_near=0.05", "lidar accuracy_near must be a finite number in [0, 0.015] (m; "),
         ("precision_far=0.1", "lidar precision_far must be a finite number in [0, 0.035] (fraction of the range; "),
         ("precision_near=0.02", "lidar precision_near must be a finite number in [0, 0.01] (m; "),
+        # the near figures out to 3.5 m: a unit five times as precise as the datasheet's
+        ("accuracy_split=3.5", "lidar accuracy_split must be a finite number in [0.5, 0.5] (m; the LDS-01's figures"),
     ],
 )
 def test_accuracy_and_precision_beyond_the_datasheet_are_refused(text: str, said: str) -> None:
@@ -260,7 +268,7 @@ def test_accuracy_and_precision_beyond_the_datasheet_are_refused(text: str, said
     its datasheet meets, so 0 (calibrated, noise-free) up to the datasheet's figure, as the other fields are."""
     with pytest.raises(ConfigError) as err:
         LidarProfile().parse(text)
-    assert str(err.value).startswith(said) and "give a value in [0, " in str(err.value)
+    assert str(err.value).startswith(said) and "give a value in [0" in str(err.value)
     p = LidarProfile().parse("accuracy_far=0.05,accuracy_near=0.015,precision_far=0.035,precision_near=0.01")
     assert p == LidarProfile() and EXACT.accuracy_far == 0.0
 

@@ -222,12 +222,16 @@ def _quat_mul(a: FloatArray, b: FloatArray) -> FloatArray:
 
 def planar_velocity(t: FloatArray, pose: FloatArray) -> FloatArray:
     """(N, 3) the body-frame velocity (forward [m/s], leftward [m/s], yaw rate [rad/s]) of a pose series:
-    the positions and the heading differentiated in time (second order, uneven spacing allowed) and the
-    velocity turned into the body frame by the heading then. The leftward part is the body's sideways
+    the positions and the heading differentiated in time (second order, uneven spacing allowed, the ends too: a
+    robot starting from rest reads 0 at its first sample, where a first-order end read the first interval's mean)
+    and the velocity turned into the body frame by the heading then. The leftward part is the body's sideways
     slip (a tyre carries a side force only by slipping: outwards in a turn)."""
     if t.size < 2:
         return np.zeros((t.size, 3))
-    dx, dy, dth = (np.gradient(pose[:, k], t) for k in range(3))
+    if t.size > 2:
+        dx, dy, dth = (np.gradient(pose[:, k], t, edge_order=2) for k in range(3))
+    else:
+        dx, dy, dth = (np.gradient(pose[:, k], t) for k in range(3))
     c, s = np.cos(pose[:, 2]), np.sin(pose[:, 2])
     return np.column_stack([c * dx + s * dy, -s * dx + c * dy, dth])
 

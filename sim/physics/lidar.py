@@ -61,7 +61,7 @@ LIMITS: dict[str, tuple[float, float, str]] = {
     "accuracy_far": (0.0, 0.05, "fraction of the range; the LDS-01 is accurate to 5 % from 0.5 m, 0 a calibrated unit"),
     "precision_near": (0.0, 0.01, "m; the LDS-01's precision is 10 mm below 0.5 m, 0 a noise-free unit"),
     "precision_far": (0.0, 0.035, "fraction of the range; the LDS-01's precision is 3.5 % from 0.5 m, 0 noise-free"),
-    "accuracy_split": (0.0, 3.5, "m"),
+    "accuracy_split": (0.5, 0.5, "m; the LDS-01's figures change from absolute to relative at 0.5 m"),
 }
 
 #: Longest time spanned by the beams of one ``mj_multiRay`` call [s].
@@ -241,6 +241,23 @@ def _other_bodies_below(model: mujoco.MjModel, root: int, height: float) -> None
                 raise ValueError(f"geom {name!r} of the robot reaches the scan plane; bodyexclude would not skip it")
 
 
+def _unit_draws(seed: int) -> tuple[tuple[float, float], np.random.Generator]:
+    """A run's scanner unit from its noise seed: its systematic errors as fractions of the datasheet's accuracy
+    (near, far; each within [-1, 1]) and the generator of its white noise (:data:`STREAMS`)."""
+    seq = np.random.SeedSequence([int(seed), LIDAR_KEY]).spawn(len(STREAMS))
+    accuracy, precision = (np.random.default_rng(s) for s in seq)
+    near, far = (float(v) for v in np.clip(accuracy.standard_normal(2), -CLIP_SIGMAS, CLIP_SIGMAS) / CLIP_SIGMAS)
+    return (near, far), precision
+
+
+def unit_errors(profile: LidarProfile, seed: int) -> dict[str, float]:
+    """The systematic range errors of the unit a run with noise seed ``seed`` has (the draw
+    :class:`LidarScanner` makes): ``offset_near_m``, added below ``accuracy_split`` [m], and ``scale_far``, the
+    relative error from it [-] (the run record's ``localiser.lidar_unit``)."""
+    (near, far), _ = _unit_draws(seed)
+    return {"offset_near_m": near * profile.accuracy_near, "scale_far": far * profile.accuracy_far}
+
+
 class LidarScanner:
     """Casts a scanner's revolutions in a compiled model (see the module docstring).
 
@@ -279,10 +296,7 @@ class LidarScanner:
         self.height = float(data.site_xpos[sid, 2])
         _other_bodies_below(model, self.root, self.height)
         self.batch = max(1, int(batch_time / profile.time_increment + 1e-9))
-        seq = np.random.SeedSequence([int(seed), LIDAR_KEY]).spawn(len(STREAMS))
-        accuracy, self._precision = (np.random.default_rng(s) for s in seq)
-        u = np.clip(accuracy.standard_normal(2), -CLIP_SIGMAS, CLIP_SIGMAS) / CLIP_SIGMAS
-        self.bias_near, self.bias_far = (float(v) for v in u)
+        (self.bias_near, self.bias_far), self._precision = _unit_draws(seed)
         self._geomgroup = np.ones(6, dtype=np.uint8)
         n = profile.beams
         self._geomid = np.empty(n, dtype=np.int32)

@@ -478,7 +478,7 @@ class Case:
                 k: getattr(spec, k) for k in ("battery_voltage", "max_wheel_speed", "max_speed", "max_yaw_rate")
             },
             "sensors": sensing.profile.as_dict(),
-            "localiser": sensing.localiser.as_dict(),
+            "localiser": sensing.localiser.as_dict(sensing.seed),
             "perturbation": pert.as_dict() if pert is not None and not pert.is_nominal else None,
             "time_limit_s": float(self.planning.time_limit) if self.planner is not None else None,
             "file": file,

@@ -63,7 +63,7 @@ from planning.core.robot import RobotSpec
 from planning.core.world import World
 from planning.errors import ConfigError, option
 from sim.physics.asbuilt import CLIP_SIGMAS
-from sim.physics.lidar import LidarProfile, LidarScanner, beam_poses
+from sim.physics.lidar import LidarProfile, LidarScanner, beam_poses, unit_errors
 from sim.physics.runlog import LocaliserLog
 from sim.robot.pose_estimate import INITIAL_POSES, POSE_EXAMPLE, check_initial_pose, parse_initial_pose
 
@@ -157,12 +157,15 @@ class LocaliserSetup:
         """The pose estimate the particles start around, or None ("known" or "unknown")."""
         return None if self.initial in INITIAL_POSES else parse_initial_pose(self.initial)
 
-    def as_dict(self) -> dict[str, object]:
-        """Plain-dict view for records."""
+    def as_dict(self, seed: int | None = None) -> dict[str, object]:
+        """Plain-dict view for records; given the run's noise seed, with the scan localiser also the systematic
+        errors of the scanner unit it draws (``lidar_unit``, :func:`sim.physics.lidar.unit_errors`)."""
         out: dict[str, object] = {"kind": self.kind, "initial": self.initial}
         if self.kind == "amcl":
             out["lidar"] = self.lidar.as_dict() if self.lidar is not None else None
             out["amcl"] = self.amcl.as_dict()
+            if seed is not None and self.lidar is not None:
+                out["lidar_unit"] = unit_errors(self.lidar, seed)
         return out
 
 
