@@ -217,3 +217,18 @@ def test_a_turtlebot3_dragging_its_tail_against_an_obstacle_has_not_fallen() -> 
 
     assert not resting(0.3) and not resting(FLOOR_TILT - 0.02)
     assert resting(FLOOR_TILT + 0.02) and resting(0.8)
+
+
+def test_the_as_built_line_of_a_balancing_robot_says_its_centre_of_mass() -> None:
+    """What a balancing body leans by (its centre of mass off the axle), its mass and its tyres' grip were in the
+    record but not in the header: the skid robot's line stays as it was."""
+    from sim.cli.simulate import _build_line
+
+    built = {"left_radius_scale": 1.0014, "right_radius_scale": 1.0013, "track_change": -0.0016}
+    built |= {"com_offset_x": -0.0048, "base_mass_scale": 1.040, "tyre_friction_scale": 0.952}
+    balancing = {"build_seed": 1, "as_built": built, "closed_loop": {"max_pitch_rad": 0.2}}
+    assert _build_line(balancing).endswith(
+        "centre of mass -4.8 mm ahead of the axle, body mass x1.040, tyre friction x0.952"
+    )
+    skid = {"build_seed": 1, "as_built": built, "closed_loop": {"rms_position_error_m": 0.01}}
+    assert _build_line(skid) == "as built (seed 1): wheels 1.0014/1.0013 x r, track -1.6 mm"

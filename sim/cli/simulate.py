@@ -320,10 +320,17 @@ def _build_line(record: dict[str, Any]) -> str:
     b = record.get("as_built") or {}
     if record.get("build_seed") is None:
         return "built as drawn (--build nominal)"
-    return (
+    line = (
         f"as built (seed {record['build_seed']}): wheels {b['left_radius_scale']:.4f}/{b['right_radius_scale']:.4f} "
         f"x r, track {b['track_change'] * 1e3:+.1f} mm"
     )
+    balances = any(isinstance(v, dict) and "max_pitch_rad" in v for v in record.values())  # a run's metrics say
+    if "com_offset_x" in b and balances:  # what a balancing body leans by, and what holds it
+        line += (
+            f", centre of mass {b['com_offset_x'] * 1e3:+.1f} mm ahead of the axle, body mass "
+            f"x{b['base_mass_scale']:.3f}, tyre friction x{b['tyre_friction_scale']:.3f}"
+        )
+    return line
 
 
 def _sensor_line(record: dict[str, Any]) -> str:

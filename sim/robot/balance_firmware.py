@@ -157,7 +157,7 @@ class BalanceFirmware:
         self.max_pitch = max(self.max_pitch, pitch)
         touch = touches(d, self._chassis, self._floor)
         if self.fell_at is None and (tilt > self.tip_angle or touch):
-            self.fell_at = float(d.time)
+            self.fell_at = round(float(d.time), 9)  # MuJoCo's clock sums its steps: 3.09, not 3.0899999999997707
         return self.fell_at is not None
 
     def pitch_estimate(self) -> float:
