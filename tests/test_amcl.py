@@ -244,7 +244,7 @@ def test_resume_is_refine_from_the_fits_pose(scanner: tuple) -> None:
         fit = K.refine(start, *args, 1 + k % 4, kernel_input(K.NO_NOISE_MODEL))  # 1-4 steps: some stop short
         kept = [np.copy(a) if isinstance(a, np.ndarray) else a for a in fit]
         again = K.refine(fit[0], *args, 10, kernel_input(K.NO_NOISE_MODEL))
-        got = K.resume(fit, *args, 10, kernel_input(K.NO_NOISE_MODEL))
+        got = K.resume(fit, *args, 10, kernel_input(K.NO_NOISE_MODEL), K.WHOLE)
         for a, b_ in zip(got, again, strict=True):
             np.testing.assert_array_equal(a, b_)
         for a, b_ in zip(fit, kept, strict=True):
@@ -383,3 +383,43 @@ def test_of_the_two_fits_the_one_the_scan_explains_better_is_taken() -> None:
         )
         assert est.refined and math.hypot(*(est.pose[:2] - truth[:2])) < 0.1, (seed, est.pose)  # the scanner's bias
     assert more_beams_wrong >= 1  # the draws include one the old ranking got wrong
+
+
+def test_a_corridor_fixes_the_position_across_it_and_the_heading_not_along_it() -> None:
+    """Between two long walls, with both ends out of the scanner's reach, a scan fixes the position across the
+    corridor and the heading, nothing along it: the fit's information is singular there, and the whole fit was
+    dropped for the cloud's estimate (16 cm across, 7.7 deg). The fit within the directions the scan fixes
+    (``observed_directions``) gives those to the scan's precision, holds the cloud's mean along the corridor, and
+    reports the cloud's spread there and the fit's across: a covariance as long and thin as the corridor."""
+    from control.estimation.amcl import observed_directions
+    from sim.robot.scan_localiser import range_bias, range_noise
+
+    corridor = World((0.0, 12.0, 0.0, 1.2), ())
+    model = build_model(load_robot("turtlebot3"), corridor).model
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    profile = LidarProfile()
+    rng = np.random.default_rng(5)
+    for seed in range(6):
+        truth = np.array([rng.uniform(4.5, 7.5), rng.uniform(0.45, 0.75), rng.normal(0.0, 0.05)])
+        lidar = LidarScanner(model, profile, seed=seed)
+        scan = lidar.scan(data, 0.0, np.tile(truth, (360, 1)))
+        amcl = Amcl(corridor, AmclConfig(), [*lidar.offset[:2], 0.0], seed=seed, range_bias=range_bias(profile),
+                    range_noise=range_noise(profile))  # fmt: skip
+        cloud = truth + np.array([0.3, 0.08, 0.06])  # the cloud 30 cm along, 8 cm across and 3.4 deg off
+        amcl.reset(cloud, std_xy=0.15, std_theta=0.05)
+        r, b = amcl.beams(scan.ranges, 0.12, 3.5, 0.0, scan.angle_increment, every=True)
+        f = amcl.field
+        info = K.refine(truth, r, b, amcl.laser, f.signed, f.grid, 0.3, 0, amcl._noise)[1]
+        basis = observed_directions(info)
+        assert basis is not None and np.count_nonzero(np.any(basis != 0.0, axis=0)) == 2
+        assert np.allclose(np.abs(basis[0]), 0.0, atol=1e-6)  # nothing along x is observed
+        est = amcl._estimate(r, b, scan=(scan.ranges, scan.bearings, 0.12, 3.5))
+        assert est.refined, seed
+        assert abs(est.pose[1] - truth[1]) < 0.01 and abs(est.pose[2] - truth[2]) < 0.005, (seed, est.pose, truth)
+        mean = K.cluster_estimate(amcl.particles, amcl.weights, amcl.bins, amcl.shape)[0]
+        assert est.pose[0] == pytest.approx(mean[0], abs=1e-9)  # held along the corridor, where the cloud put it
+        sd = np.sqrt(np.diag(est.cov))
+        assert sd[0] > 0.05 and sd[1] < 0.01 and sd[2] < 0.01, sd
+    # a scan that fixes every direction keeps the whole fit
+    assert observed_directions(np.diag([4.0, 3.0, 2.0])) is None

@@ -74,7 +74,7 @@ def test_the_fix_covariance_carries_the_scanners_systematic_error(scan: tuple) -
     ata, used, ssr = K.fit_sensitivity(
         pose, r, b, amcl.laser, f.signed, f.grid, 0.3, 0.5, kernel_input(K.NO_NOISE_MODEL)
     )
-    noise, got_gain, systematic = amcl._fit_cov(pose, r, b)
+    noise, got_gain, systematic = amcl._fit_cov(pose, r, b, K.WHOLE)
     cov = noise + systematic
     white = max(ssr / (used - 3), 1e-8) * np.linalg.inv(ata[:3, :3])
     gain = -np.linalg.solve(ata[:3, :3], ata[:3, 3:])  # the pose's change per unit of scale and offset

@@ -490,6 +490,33 @@ def _fit_pass(
 Fit = tuple[FloatArray, FloatArray, FloatArray, int, float, float]
 
 
+#: The basis of a fit free in every direction (:func:`refine`).
+WHOLE = np.eye(3)
+WHOLE.setflags(write=False)
+
+
+@nb.njit(cache=True, inline="always")
+def _step(info: FloatArray, g: FloatArray, basis: FloatArray) -> FloatArray:  # pragma: no cover - compiled
+    """The Gauss-Newton step within the span of ``basis``'s columns (orthonormal; a zero column: a direction held):
+    ``B (B^T info B)^-1 B^T g``, a held direction's row and column of ``B^T info B`` replaced by the identity's.
+    With the identity as basis, the products are exact: the plain step ``info^-1 g``, bit for bit."""
+    m, h = np.empty((3, 3)), np.empty(3)
+    for i in range(3):
+        h[i] = basis[0, i] * g[0] + basis[1, i] * g[1] + basis[2, i] * g[2]
+        for j in range(3):
+            acc = 0.0
+            for a in range(3):
+                acc += basis[a, i] * (info[a, 0] * basis[0, j] + info[a, 1] * basis[1, j] + info[a, 2] * basis[2, j])
+            m[i, j] = acc
+    for i in range(3):
+        if basis[0, i] == 0.0 and basis[1, i] == 0.0 and basis[2, i] == 0.0:
+            m[i, :] = 0.0
+            m[:, i] = 0.0
+            m[i, i] = 1.0
+    z = _solve3(m, 1e-9, h)
+    return basis @ z
+
+
 @nb.njit(cache=True)
 def _descend(
     x: FloatArray,
@@ -506,17 +533,19 @@ def _descend(
     gate: float,
     iterations: int,
     noise: FloatArray,
+    basis: FloatArray,
 ) -> Fit:  # pragma: no cover - compiled
     """Gauss-Newton steps from ``x``, whose pass (:func:`_fit_pass`) gave ``info``, ``g``, ``used``, ``ssr`` and
-    ``cost``: at most ``iterations``, fewer once a step moves less than 1e-5 (m and rad); every array updated in
-    place. The state returned is the last pass's, at the pose returned."""
+    ``cost``, within the span of ``basis`` (:func:`_step`): at most ``iterations``, fewer once a step moves less
+    than 1e-5 (m and rad); every array updated in place. The state returned is the last pass's, at the pose
+    returned."""
     done = iterations <= 0
     for k in range(iterations + 1):
         if k > 0:
             used, ssr, cost = _fit_pass(x, ranges, bearings, laser, field, grid, gate, noise, info, g)
         if used < 10 or done:
             break
-        step = _solve3(info, 1e-9, g)
+        step = _step(info, g, basis)
         x -= step
         done = abs(step[0]) + abs(step[1]) < 1e-5 and abs(step[2]) < 1e-5
         if k == iterations - 1:
@@ -558,10 +587,29 @@ def refine(
         model, then the sum is in m^2; with one, the inverse variances, and the sum is a chi-square) and the
         objective there (:func:`fit_cost`). :func:`resume` takes it further.
     """
+    return refine_within(pose, ranges, bearings, laser, field, grid, gate, iterations, noise, WHOLE)
+
+
+@nb.njit(cache=True)
+def refine_within(
+    pose: FloatArray,
+    ranges: FloatArray,
+    bearings: FloatArray,
+    laser: FloatArray,
+    field: FloatArray,
+    grid: FloatArray,
+    gate: float,
+    iterations: int,
+    noise: FloatArray,
+    basis: FloatArray,
+) -> Fit:  # pragma: no cover - compiled
+    """:func:`refine` moving the pose only within the span of ``basis``'s orthonormal columns (a zero column
+    holds a direction where it starts): the fit of a scan that fixes some directions only (a corridor's walls:
+    across it and the heading, not along it). :data:`WHOLE` is :func:`refine` itself."""
     x = pose.copy()
     info, g = np.zeros((3, 3)), np.zeros(3)
     used, ssr, cost = _fit_pass(x, ranges, bearings, laser, field, grid, gate, noise, info, g)
-    return _descend(x, info, g, used, ssr, cost, ranges, bearings, laser, field, grid, gate, iterations, noise)
+    return _descend(x, info, g, used, ssr, cost, ranges, bearings, laser, field, grid, gate, iterations, noise, basis)
 
 
 @nb.njit(cache=True)
@@ -575,13 +623,15 @@ def resume(
     gate: float,
     iterations: int,
     noise: FloatArray,
+    basis: FloatArray,
 ) -> Fit:  # pragma: no cover - compiled
-    """:func:`refine` started at a fit's pose, of the same scan, without repeating the pass at it that the fit
-    already holds: the same result, bit for bit, one pass sooner (``fit`` is left as it is)."""
+    """:func:`refine_within` started at a fit's pose, of the same scan, without repeating the pass at it that the
+    fit already holds: the same result, bit for bit, one pass sooner (``fit`` is left as it is)."""
     x, info, g, used, ssr, cost = fit
     return _descend(
-        x.copy(), info.copy(), g.copy(), used, ssr, cost, ranges, bearings, laser, field, grid, gate, iterations, noise
-    )
+        x.copy(), info.copy(), g.copy(), used, ssr, cost, ranges, bearings, laser, field, grid, gate, iterations,
+        noise, basis,
+    )  # fmt: skip
 
 
 @nb.njit(cache=True)
