@@ -63,7 +63,9 @@ def test_compiled_search_grows_the_python_loops_trees(steering):
 
 
 def test_compiled_search_stops_at_its_iteration_budget():
-    wall = World((0.0, 3.0, 0.0, 2.0), (Box((1.5, 1.0), (0.1, 2.0)),))  # no way through
+    # no way through: the slit (0.12 m) passes the robot's inscribed disc (so no 2-D proof ends the search early),
+    # not the robot (0.178 m wide)
+    wall = World((0.0, 3.0, 0.0, 2.0), (Box((1.5, 0.47), (0.1, 0.94)), Box((1.5, 1.53), (0.1, 0.94))))
     p = PlanProblem(wall, ROBOT, Pose2D(0.4, 1.0, 0.0), Pose2D(2.6, 1.0, 0.0), time_limit=600.0)
     planner = make_planner("birrt", steering="reeds_shepp", simplify=False, max_iterations=300)
     fast, ref = planner.plan(p), _python(planner, p)

@@ -10,13 +10,13 @@ from planning.collision.compiled import grid_lookup
 from planning.collision.exact import CollisionChecker
 from planning.collision.grid import FastChecker
 from planning.core.geometry import Pose2D
-from planning.core.robot import load_robot
+from planning.core.robot import inscribed_radius, load_robot
 from planning.core.world import Box, Circle, World
 from planning.curves.reeds_shepp import reeds_shepp_length
 from planning.errors import ConfigError
 from planning.planners import lattice
 from planning.planners.base import PlanProblem, PlanStatus
-from planning.planners.hybrid_astar import COVER_SIDE, footprint_cover, inscribed_radius, motion_primitives
+from planning.planners.hybrid_astar import COVER_SIDE, footprint_cover, motion_primitives
 from planning.planners.registry import make_planner
 from planning.planners.sampling.steering import default_turning_radius, place
 from planning.scenario import load_scenario, random_scenario

@@ -138,7 +138,9 @@ def test_invalid_start_and_goal():
 
 @pytest.mark.parametrize(("name", "opts"), [("rrt", {}), ("birrt", {}), ("rrt-star", {})])
 def test_unreachable_goal_ends_in_timeout(name, opts):
-    walls = (Box((4.5, 3.0), (0.1, 6.0)),)  # the goal side is sealed off
+    """A wall with a slit the robot's inscribed disc passes and the robot does not: nothing proves the goal
+    unreachable, and the search ends at its budget (a sealed wall is proved, above)."""
+    walls = (Box((4.5, 1.47), (0.1, 2.94)), Box((4.5, 4.53), (0.1, 2.94)))  # a 0.12 m slit at y = 3
     world = World((0.0, 6.0, 0.0, 6.0), walls)
     prob = _problem(world=world, goal=(5.4, 3.0, 0.0))
     res = make_planner(name, max_iterations=400, time_limit=10.0, **opts).plan(prob)
@@ -146,6 +148,11 @@ def test_unreachable_goal_ends_in_timeout(name, opts):
     assert "budget" in res.reason and res.path.shape[1] == 3
     res = make_planner(name, max_iterations=10**9, time_limit=0.3, **opts).plan(prob)
     assert res.status is PlanStatus.TIMEOUT and res.stats["time_s"] < 1.5
+    sealed = World((0.0, 6.0, 0.0, 6.0), (Box((4.5, 3.0), (0.1, 6.0)),))
+    res = make_planner(name, max_iterations=400, time_limit=10.0, **opts).plan(
+        _problem(world=sealed, goal=(5.4, 3.0, 0.0))
+    )
+    assert res.status is PlanStatus.INFEASIBLE and "walled off" in res.reason and res.path.shape[1] == 3
 
 
 def test_rrts_partial_path_says_how_far_its_heading_is_from_the_goals():
@@ -468,3 +475,29 @@ def test_birrt_whose_roots_cannot_grow_says_so_at_once() -> None:
     assert "steering='reeds_shepp'" in result.reason
     assert make_planner("rrt", steering="unicycle").plan(problem).status is PlanStatus.INFEASIBLE
     assert make_planner("birrt", steering="reeds_shepp").plan(problem).status is not PlanStatus.INFEASIBLE
+
+
+WALLED = World(  # the goal inside four walls, no way in
+    (0.0, 4.0, 0.0, 4.0),
+    (
+        Box((2.8, 2.0), (1.8, 0.1)),
+        Box((2.8, 3.6), (1.8, 0.1)),
+        Box((2.0, 2.8), (0.1, 1.8)),
+        Box((3.6, 2.8), (0.1, 1.8)),
+    ),
+)
+
+
+@pytest.mark.parametrize("name", ["rrt", "birrt", "rrt-star"])
+def test_a_walled_off_goal_is_proved_infeasible_not_a_timeout(name):
+    """The goal walled in: the tree planners spent their whole limit and said "timeout ... a larger max_iterations
+    or another seed may find a path" (rrt 5 s of 5). A quarter into the budget without a path they now try the 2-D
+    proof Hybrid-A* and C-RRT* make before searching: infeasible, saying why, well within the limit."""
+    problem = _problem(world=WALLED, start=(0.5, 0.5, 0.0), goal=(2.8, 2.8, 0.0), time_limit=4.0)
+    result = make_planner(name).plan(problem)
+    assert result.status is PlanStatus.INFEASIBLE, result.reason
+    assert "2-D search" in result.reason and "walled off" in result.reason and "may find a path" not in result.reason
+    assert result.stats["time_s"] - result.stats.get("code_s", 0.0) < 0.5 * 4.0  # a quarter, and the proof
+    # an open door: the same planner still finds its path (the proof, if it runs, proves nothing)
+    door = World(WALLED.bounds, (*WALLED.obstacles[1:], Box((3.1, 2.0), (1.2, 0.1))))
+    assert make_planner(name).plan(_problem(world=door, start=(0.5, 0.5, 0.0), goal=(2.8, 2.8, 0.0))).success

@@ -288,6 +288,18 @@ _CEILINGS: dict[str, tuple[float, str]] = {
 }
 
 
+def inscribed_radius(robot: RobotSpec, shape: str) -> float:
+    """Radius [m] of the largest disc about the base origin inside the robot (its footprint, or the disc): what
+    every pose of any collision-free path keeps off everything, which a 2-D search can prove impossible."""
+    if shape == "disc":
+        return float(robot.radius)
+    a = robot.footprint
+    b = np.roll(a, -1, axis=0)
+    edge = b - a
+    cross = np.abs(edge[:, 0] * a[:, 1] - edge[:, 1] * a[:, 0])
+    return float(np.min(cross / np.hypot(edge[:, 0], edge[:, 1])))
+
+
 def check_spec(spec: RobotSpec) -> None:
     """Raise unless every number of ``spec`` is one a differential-drive robot has.
 

@@ -277,6 +277,36 @@ def reachable(
     return found == 1
 
 
+#: Cell sides [m] :func:`walled_off` tries, coarse to fine, while the answer is open.
+PROOF_CELLS = (0.05, 0.02, 0.01)
+#: Most cells a proof of :func:`walled_off` searches (a finer one is not tried in a larger world).
+PROOF_MAX_CELLS = 1_000_000
+
+
+def walled_off(
+    world: World, start: FloatArray, goal: FloatArray, radius: float, deadline: float | None = None
+) -> tuple[float, float] | None:
+    """A proof that no way from the start to the goal keeps ``radius`` [m] off every obstacle and wall: the cell side
+    and the radius (``radius`` less half the cell's diagonal) at which :func:`reachable` finds the goal walled off,
+    on cells of 5 cm, then 2 cm and 1 cm while the answer is open (none finer than :data:`PROOF_MAX_CELLS` cells
+    over the world); None when no such proof is found (a way of cells keeps ``radius``, or the finest grid could
+    not tell).
+
+    Raises:
+        planning.collision.field.FieldTimeout: ``time.perf_counter()`` passed ``deadline`` first.
+    """
+    xmin, xmax, ymin, ymax = world.bounds
+    for cell in PROOF_CELLS:
+        if (xmax - xmin) * (ymax - ymin) / cell**2 > PROOF_MAX_CELLS:
+            break
+        proof = radius - cell / np.sqrt(2.0) - 1e-9
+        if not reachable(world, start, goal, proof, cell, deadline):
+            return cell, proof
+        if reachable(world, start, goal, radius, cell, deadline):
+            break  # a way of cells keeps it
+    return None
+
+
 def _from_start(
     world: World, start: FloatArray, goal: FloatArray, radius: float, cell: float, deadline: float | None
 ) -> tuple[FloatArray, tuple[float, float], tuple[int, int]]:

@@ -59,7 +59,7 @@ from planning.collision.field import FieldTimeout
 from planning.collision.grid import FastChecker
 from planning.core.checks import check_fields
 from planning.core.geometry import path_length, unwrap_heading
-from planning.core.robot import RobotSpec
+from planning.core.robot import RobotSpec, inscribed_radius
 from planning.errors import ConfigError
 from planning.planners import lattice
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree, checked_problem
@@ -242,17 +242,6 @@ def footprint_cover(robot: RobotSpec, side: float) -> FloatArray:
     size = (hi - lo) / n
     cx, cy = np.meshgrid(lo[0] + size[0] * (np.arange(n[0]) + 0.5), lo[1] + size[1] * (np.arange(n[1]) + 0.5))
     return np.column_stack([cx.ravel(), cy.ravel(), np.full(cx.size, 0.5 * float(np.hypot(*size)))])
-
-
-def inscribed_radius(robot: RobotSpec, shape: str) -> float:
-    """Radius [m] of the largest disc about the base origin inside the robot (its footprint, or the disc)."""
-    if shape == "disc":
-        return float(robot.radius)
-    a = robot.footprint
-    b = np.roll(a, -1, axis=0)
-    edge = b - a
-    cross = np.abs(edge[:, 0] * a[:, 1] - edge[:, 1] * a[:, 0])
-    return float(np.min(cross / np.hypot(edge[:, 0], edge[:, 1])))
 
 
 @dataclass(frozen=True)

@@ -68,10 +68,6 @@ from planning.planners.simplify import simplify_path
 
 FloatArray = NDArray[np.float64]
 
-#: Cell sides [m] of the 2-D searches that may prove a problem has no way keeping the clearance, coarse
-#: first (see :meth:`_Search.walled_off`), and the most cells one of them may have.
-PROOF_CELLS = (0.05, 0.02, 0.01)
-PROOF_MAX_CELLS = 1_000_000
 #: What the 2-D route the simplifier tries keeps beyond the axle-centre clearance [m] (the sampled
 #: clearance check asks half a sample spacing, at most 1 cm here, more).
 ROUTE_MARGIN = 0.02
@@ -449,33 +445,26 @@ class _Search:
 
     def walled_off(self) -> str | None:
         """Why no path from the start to the goal can keep the axle centre ``required`` off everything,
-        when a 2-D search proves it (:func:`planning.planners.geodesic.reachable` at ``required`` less half
-        a cell's diagonal, on cells of 5 cm, then 2 cm and 1 cm while the answer is open); else None. Its
-        wall time goes into ``proof_s``.
+        when a 2-D search proves it (:func:`planning.planners.geodesic.walled_off`); else None. Its wall time goes
+        into ``proof_s``.
 
         Raises:
             planning.collision.field.FieldTimeout: The time limit passed before the search was done.
         """
         p, req = self.problem, self.required
-        xmin, xmax, ymin, ymax = p.world.bounds
         t0 = time.perf_counter()
         try:
-            for cell in PROOF_CELLS:
-                if (xmax - xmin) * (ymax - ymin) / cell**2 > PROOF_MAX_CELLS:
-                    break
-                proof = req - cell / np.sqrt(2.0) - 1e-9
-                if not geodesic.reachable(p.world, p.start.xy, p.goal.xy, proof, cell, self.clock.deadline()):
-                    return (
-                        f"no way from the start to the goal keeps the axle centre {req:.3f} m from every obstacle "
-                        f"and wall: a 2-D search over {cell:g} m cells finds the goal walled off even at "
-                        f"{proof:.3f} m, which such a way would keep; lower center_clearance, or plan with another "
-                        "planner"
-                    )
-                if geodesic.reachable(p.world, p.start.xy, p.goal.xy, req, cell, self.clock.deadline()):
-                    break  # a way of cells keeps it: search
-            return None
+            proved = geodesic.walled_off(p.world, p.start.xy, p.goal.xy, req, self.clock.deadline())
         finally:
             self.proof_s = time.perf_counter() - t0
+        if proved is None:
+            return None
+        cell, proof = proved
+        return (
+            f"no way from the start to the goal keeps the axle centre {req:.3f} m from every obstacle and wall: a 2-D "
+            f"search over {cell:g} m cells finds the goal walled off even at {proof:.3f} m, which such a way would "
+            "keep; lower center_clearance, or plan with another planner"
+        )
 
     def bad_end(self) -> PlanResult | None:
         """The INVALID_START / INVALID_GOAL result when the start or the goal is too near something."""

@@ -48,6 +48,7 @@ from planning.planners.sampling.tree import (
     make_checker,
     merge_trees,
     sample_pose,
+    walled_off_proof,
 )
 from planning.planners.simplify import DirectedLength, SimplifyConfig, length_cost, simplify_path
 
@@ -153,6 +154,7 @@ class _TreePlanner(Generic[ConfigT]):
         cfg = self.config
         limit = cfg.time_limit if cfg.time_limit is not None else problem.time_limit
         budget = Budget(cfg.max_iterations, limit, planner=self.name)
+        budget.proof = walled_off_proof(problem, cfg.shape, cfg.clearance)  # type: ignore[arg-type]
         local = self._local_planner(problem, budget)
         return local, budget, check_endpoints(problem, local.checker, self.name)
 
@@ -315,7 +317,7 @@ class RRT(_TreePlanner[TreeConfig]):
             f"{budget.why(it)}; partial path to the node nearest the goal ({gap:.3f} m away, its heading "
             f"{turn:.2f} rad off the goal's)"
         )
-        return self._result(PlanStatus.TIMEOUT, path, d, reason, self._stats(budget, it, tree.n), tree.plan_tree())
+        return self._result(budget.status, path, d, reason, self._stats(budget, it, tree.n), tree.plan_tree())
 
 
 def boxed_in(
@@ -411,9 +413,7 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
         ta, tb = search.trees()
         path, d, _ = self._partial(ta, problem)
         reason = f"{budget.why(it)}; the trees did not meet (partial path from the start tree)"
-        return self._result(
-            PlanStatus.TIMEOUT, path, d, reason, self._stats(budget, it, ta.n + tb.n), merge_trees(ta, tb)
-        )
+        return self._result(budget.status, path, d, reason, self._stats(budget, it, ta.n + tb.n), merge_trees(ta, tb))
 
     def _search_python(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult:
         """Grow both trees until they join or the budget is spent, one Python step at a time."""
@@ -453,9 +453,7 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
                     break  # primitives that no longer close in on the target shuffle in place: trapped
         path, d, _ = self._partial(ta, problem)
         reason = f"{budget.why(it)}; the trees did not meet (partial path from the start tree)"
-        return self._result(
-            PlanStatus.TIMEOUT, path, d, reason, self._stats(budget, it, ta.n + tb.n), merge_trees(ta, tb)
-        )
+        return self._result(budget.status, path, d, reason, self._stats(budget, it, ta.n + tb.n), merge_trees(ta, tb))
 
     def _joined(
         self, ta: Tree, tb: Tree, a: int, b: int, bridge: tuple[FloatArray, FloatArray] | None, budget: Budget, it: int

@@ -186,6 +186,7 @@ class RRTStar(_TreePlanner[RRTStarConfig]):
                 stop = "converged"
                 break
             if search.step(it):
+                budget.proof = None  # a path: nothing to prove
                 run.improved(it, search.best)
                 if cfg.stop_on_first:
                     stop = "first solution"
@@ -207,7 +208,7 @@ class RRTStar(_TreePlanner[RRTStarConfig]):
             return self._result(PlanStatus.SUCCESS, path, dirs, "", stats, tree.plan_tree())
         path, dirs, _ = self._partial(tree, problem)
         reason = f"{budget.why(it)} without reaching the goal; partial path to the node nearest the goal"
-        return self._result(PlanStatus.TIMEOUT, path, dirs, reason, stats, tree.plan_tree())
+        return self._result(budget.status, path, dirs, reason, stats, tree.plan_tree())
 
     def _start_in_goal(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult:
         """The plan of a start inside the goal region, at once, as birrt's: the exact curve to the goal

@@ -150,6 +150,9 @@ def merge_trees(a: Tree, b: Tree) -> PlanTree:
 
 #: The share of a tree planner's time limit between readings of its clock (:meth:`Budget.spent`).
 CHECK_SHARE = 0.005
+#: The share of its budget (time or iterations) a tree planner spends without a path before it tries to prove
+#: the goal walled off (:attr:`Budget.proof`): a plan that finds its path sooner never pays for the proof.
+PROOF_AFTER = 0.25
 
 
 @dataclass
@@ -165,6 +168,11 @@ class Budget:
     #: The first iteration at which :meth:`spent` reads the clock again.
     next_check: int = field(default=0, init=False)
     _last: tuple[int, float] = field(default=(0, 0.0), init=False, repr=False)  # iteration, time of the last reading
+    #: Tried once, with the deadline, when :data:`PROOF_AFTER` of the budget is spent and the planner has not
+    #: cleared it (set to None on its first path): why the goal is walled off, or None when that is not proved.
+    proof: Callable[[float], str | None] | None = field(default=None, repr=False)
+    #: What :attr:`proof` proved: the run ends there, :attr:`status` INFEASIBLE.
+    walled: str | None = field(default=None, init=False)
 
     def __post_init__(self) -> None:
         if self.max_iterations < 1:
@@ -197,6 +205,10 @@ class Budget:
         if self.clock.expired():
             return True
         now = self.clock.elapsed()
+        if self.proof is not None and (
+            iteration >= PROOF_AFTER * self.max_iterations or self.clock.working() >= PROOF_AFTER * self.time_limit
+        ):
+            return self._try_proof()
         done, then = self._last
         stride = 4
         if iteration > done and now > then:
@@ -206,8 +218,28 @@ class Budget:
         self._last = (iteration, now)
         return False
 
+    def _try_proof(self) -> bool:
+        """Run :attr:`proof` (once) within the time limit: whether the run ends (the goal proved walled off, or the
+        limit passed while proving)."""
+        proof, self.proof = self.proof, None
+        assert proof is not None
+        try:
+            self.walled = proof(self.deadline)
+        except FieldTimeout:
+            return True
+        return self.walled is not None or self.clock.expired()
+
+    @property
+    def status(self) -> PlanStatus:
+        """How a run that spent this budget without a path ends: INFEASIBLE when :attr:`proof` proved the goal walled
+        off, else TIMEOUT."""
+        return PlanStatus.INFEASIBLE if self.walled is not None else PlanStatus.TIMEOUT
+
     def why(self, iteration: int) -> str:
-        """Which budget ended the run; for the iteration budget, with time left, what more time would take."""
+        """Which budget ended the run; for the iteration budget, with time left, what more time would take; the
+        proof, when the goal was proved walled off."""
+        if self.walled is not None:
+            return f"{self.walled} (proved after {iteration} iterations)"
         if iteration < self.max_iterations:
             return f"time budget of {self.time_limit:g} s spent after {iteration} iterations"
         said = f"iteration budget of {self.max_iterations} spent"
@@ -218,6 +250,29 @@ class Budget:
             f"{said} in {self.clock.working():.2g} s of the {self.time_limit:g} s time limit (a larger max_iterations "
             f"in a {table} table of the scenario, or another seed, may find a path)"
         )
+
+
+def walled_off_proof(problem: PlanProblem, shape: Shape, clearance: float) -> Callable[[float], str | None]:
+    """A tree planner's :attr:`Budget.proof`: by the deadline given, why no collision-free path reaches the goal,
+    when a 2-D search proves it for the robot's inscribed disc (:func:`planning.core.robot.inscribed_radius`) kept
+    ``clearance`` off everything (:func:`planning.planners.geodesic.walled_off`), else None."""
+
+    def prove(deadline: float) -> str | None:
+        from planning.core.robot import inscribed_radius
+        from planning.planners.geodesic import walled_off
+
+        disc = inscribed_radius(problem.robot, shape)
+        proved = walled_off(problem.world, problem.start.xy, problem.goal.xy, disc + clearance, deadline)
+        if proved is None:
+            return None
+        cell, at = proved
+        return (
+            f"no path reaches the goal: every pose of one keeps the robot's inscribed disc (radius {disc:.3f} m) "
+            f"and the clearance ({clearance:g} m) off every obstacle and wall, and a 2-D search over {cell:g} m "
+            f"cells finds the goal walled off even at {at:.3f} m; move the goal or the start, or open a way to it"
+        )
+
+    return prove
 
 
 def make_checker(problem: PlanProblem, shape: Shape, clearance: float, deadline: float | None = None) -> FastChecker:
