@@ -643,3 +643,16 @@ def test_ipopts_barrier_update_is_an_option_and_a_wrong_one_is_refused() -> None
     for strategy in ("adaptive", "monotone"):  # each its own NLP (the option is fixed when IPOPT is set up)
         res = Optim(mu_strategy=strategy).plan(problem)
         assert res.success, res.reason
+
+
+def test_a_failed_solves_partial_path_starts_at_the_start() -> None:
+    """The start inside a U, the goal outside: IPOPT gives up on an iterate whose first state is not the start
+    (it lay on the U's far side, 0.78 m off, and its clearance was reported as the partial path's). The partial
+    path is rolled out from the start itself."""
+    u = Polygon(((1.0, 1.0), (3.0, 1.0), (3.0, 3.0), (1.0, 3.0), (1.0, 2.6), (2.6, 2.6), (2.6, 1.4), (1.0, 1.4)))
+    world = World((0.0, 5.0, 0.0, 5.0), (u,))
+    problem = PlanProblem(world, load_robot("edumip"), Pose2D(2.3, 2.0, 0.0), Pose2D(4.2, 1.0, -1.57), time_limit=8.0)
+    result = make_planner("optim").plan(problem)
+    assert not result.success
+    assert result.path is not None
+    np.testing.assert_array_equal(result.path[0], [2.3, 2.0, 0.0])

@@ -1005,7 +1005,8 @@ class Optim:
         sub = max(1, math.ceil(self.dt / 0.01 - 1e-9))
         h = self.dt / sub
         u_dense = np.repeat(uv, sub, axis=0)
-        x0 = np.ascontiguousarray(xv[0], dtype=float)
+        # from the start itself (the NLP's start state): an iterate IPOPT gave up on need not begin there
+        x0 = np.array([problem.start.x, problem.start.y, problem.start.theta, 0.0])
         states = bicycle_rollout(x0, np.ascontiguousarray(u_dense, dtype=float), h, robot.wheelbase)
         times = np.arange(states.shape[0]) * h
         u_full = np.vstack([u_dense, u_dense[-1:]])
