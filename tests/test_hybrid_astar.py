@@ -547,10 +547,14 @@ def test_a_gap_the_lattice_cannot_prove_is_not_passed_and_the_reason_says_what_t
         return PlanProblem(World((-2.0, 2.0, -2.0, 2.0), walls), ROBOT, Pose2D(-1.0, 0.0, 0.0), Pose2D(1.0, 0.0, 0.0))
 
     assert make_planner("hybrid-a-star").plan(through(0.200)).success
-    res = make_planner("hybrid-a-star").plan(through(0.188))
+    res = make_planner("hybrid-a-star", refine_when_exhausted=False, cell_size=0.025).plan(through(0.188))
     assert res.status is PlanStatus.INFEASIBLE
     assert res.reason.startswith("no path found, which does not prove that the robot has none")
     assert "resolution limit" in res.reason and "0.025 m cells" in res.reason
+    # refined by itself down to 1.25 cm cells, the search spends its iterations there: not passed either
+    res = make_planner("hybrid-a-star").plan(through(0.188))
+    assert res.status is PlanStatus.TIMEOUT and res.reason.startswith("iteration budget of 1000000 spent on 0.0125 m")
+    assert "(searched after the 0.025 m lattice was exhausted in" in res.reason
     assert make_planner("rrt-star").plan(through(0.188)).success
 
 
@@ -564,13 +568,14 @@ def test_a_gap_below_the_grids_proof_margin_names_a_sampling_planner_and_the_bud
     walls = (Box((1.5, 0.4525), (0.05, 0.905)), Box((1.5, 1.5475), (0.05, 0.905)))
     prob = PlanProblem(World((0.0, 3.0, 0.0, 2.0), walls), load_robot("turtlebot3"), Pose2D(0.5, 1.0, 0.0),
                        Pose2D(2.5, 1.0, 0.0))  # fmt: skip
-    res = make_planner("hybrid-a-star").plan(prob)
-    assert res.status is PlanStatus.INFEASIBLE and "0.025 m cells" in res.reason
+    res = make_planner("hybrid-a-star").plan(prob)  # 5, 2.5 and 1.25 cm cells exhausted
+    assert res.status is PlanStatus.INFEASIBLE and "0.0125 m cells" in res.reason
+    assert res.reason.endswith("(searched after the 0.025 m lattice was exhausted in 87898)")
     assert (
         "a gap up to about 10 mm a side wider than the robot (the collision grid's proof margin: its 1 cm" in res.reason
     )
     assert "may be passed at no cell size: for it, plan with rrt or rrt-star (--planner rrt" in res.reason
-    assert "try cell_size = 0.0125 in a [planners.hybrid-a-star] table" in res.reason
+    assert "try cell_size = 0.00625 in a [planners.hybrid-a-star] table" in res.reason
     assert (
         f"cells of half the size take up to about 8 times the expansions ({res.stats['iterations']} here" in res.reason
     )
@@ -664,3 +669,16 @@ def _wide_empty_world() -> PlanProblem:
     """A 30 x 30 m empty world, start and goal in opposite corners: 600 cells of 0.05 m across."""
     start, goal = Pose2D(-14.0, -14.0, 2.0), Pose2D(14.0, 14.0, 0.0)
     return PlanProblem(World((-15.0, 15.0, -15.0, 15.0), ()), load_robot("turtlebot3"), start, goal)
+
+
+def test_an_exhausted_lattice_is_refined_while_time_is_left():
+    """A 0.20 m gap in a 0.2 m thick wall, 3.5 cm off the line from start to goal, for the 0.178 m TurtleBot3:
+    the 5 and 2.5 cm lattices are exhausted, and the plan ended there, infeasible, with most of its limit left;
+    the 1.25 cm lattice passes it."""
+    walls = (Box((2.0, 0.6675), (0.2, 1.335)), Box((2.0, 2.2675), (0.2, 1.465)))
+    prob = PlanProblem(World((0.0, 4.0, 0.0, 3.0), walls), ROBOT, Pose2D(0.6, 1.5, 0.0), Pose2D(3.4, 1.5, 0.0))
+    res = make_planner("hybrid-a-star").plan(prob)
+    assert res.success, res.reason
+    assert res.stats["cell_size"] == 0.0125 and res.stats["coarse"]["cell_size"] == 0.025
+    once = make_planner("hybrid-a-star", cell_size=0.05, refine_when_exhausted=False).plan(prob)
+    assert once.status is PlanStatus.INFEASIBLE  # the default lattice alone does not pass it

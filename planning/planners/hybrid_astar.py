@@ -25,8 +25,10 @@ reaches the start in more than that many fewer expansions than the first reaches
 the heuristic cannot see from one side may not be there from the other; :class:`_GoalSearch`).
 
 A search that expands every state it can reach without a path is run again on cells of half the size
-(``refine_when_exhausted``): the lattice keeps one pose per cell, so a gap little wider than the robot
-can be missed on the coarse one (a 0.142 m gap the EduMIP passes: none on 5 cm cells, a path on 2.5 cm).
+(``refine_when_exhausted``), and again while exhausted, down to 1.25 cm cells (:data:`FINEST_REFINED_CELL`):
+the lattice keeps one pose per cell, so a gap little wider than the robot can be missed on the coarse one (a
+0.142 m gap the EduMIP passes: none on 5 cm cells, a path on 2.5 cm; a 0.20 m one for the 0.178 m TurtleBot3
+met off its axis: none on 5 or 2.5 cm, a path on 1.25 cm).
 One that spends its iteration budget on a world more than :data:`WIDE_WORLD_CELLS` cells across is run again
 on cells twice the size (``coarsen_when_spent``; a 50 x 50 m world: 1,000,000 expansions spent in 3.6 s on
 5 cm cells, a plan in 0.9 s on 10 cm ones).
@@ -106,9 +108,10 @@ class HybridAStarConfig:
             reaches the goal, which is then stopped (the plan does not depend on the threads' timing).
         search_from_goal_after: The head start of the search from the start [expansions] (>= 0).
         refine_when_exhausted: When the search expands every state it can reach without a path, search
-            once more on cells of half the size (the lattice keeps one pose per cell, so a gap little
-            wider than the robot can be missed), within what is left of the time limit and where the
-            machine has the memory for that lattice.
+            again on cells of half the size (the lattice keeps one pose per cell, so a gap little wider than
+            the robot can be missed), and again while that is exhausted, down to :data:`FINEST_REFINED_CELL`
+            (at least once), within what is left of the time limit and where the machine has the memory for
+            that lattice.
         coarsen_when_spent: When the search spends its iteration budget on a world more than
             :data:`WIDE_WORLD_CELLS` cells across, search once more on cells twice the size, within what is
             left of the time limit (on 0.05 m cells the TurtleBot3's primitives turn by 30 degrees, and over
@@ -257,6 +260,10 @@ class _Setup:
     free: NDArray[np.bool_]
 
 
+#: The finest cells [m] an exhausted search refines to by itself (``refine_when_exhausted``; at least one halving of
+#: the configured cells): near the collision grid's 1 cm spacing, below which a lattice gains little (its proof
+#: margin, about a centimetre a side, bounds the gaps any cell size passes).
+FINEST_REFINED_CELL = 0.0125
 #: Up to how many times the expansions a lattice of half the cell size took (5 cm -> 2.5 cm -> 1.25 cm -> 6.25 mm
 #: on a 0.19 m gap for the TurtleBot3: 11,255, 87,898, 530,486, 4,210,659; 31,665 -> 251,154 on a diagonal one).
 REFINE_COST = 8
@@ -284,16 +291,26 @@ class HybridAStar:
         cfg = self.config
         res = self._plan(problem)
         if res.stats.get("exhausted") and cfg.refine_when_exhausted:
-            if _lattice_too_large(problem, cfg.cell_size / 2, cfg.angle_quantization_bins):
-                return res
-            return self._again(problem, res, cfg.cell_size / 2)
+            cell, finest = cfg.cell_size, min(FINEST_REFINED_CELL, cfg.cell_size / 2)
+            # halved again while exhausted, time is left and the lattice fits (a 0.20 m gap for the 0.178 m
+            # TurtleBot3 exhausts 5 and 2.5 cm cells and is found on 1.25 cm ones in 0.07 s)
+            while (
+                res.stats.get("exhausted")
+                and cell / 2 >= finest - 1e-12
+                and not _lattice_too_large(problem, cell / 2, cfg.angle_quantization_bins)
+            ):
+                finer = self._again(problem, res, cell / 2, cell)
+                if finer is res:  # no time left
+                    break
+                res, cell = finer, cell / 2
+            return res
         if res.stats.get("budget_spent") and cfg.coarsen_when_spent and _wide(problem, cfg.cell_size):
-            return self._again(problem, res, 2 * cfg.cell_size)
+            return self._again(problem, res, 2 * cfg.cell_size, cfg.cell_size)
         return res
 
-    def _again(self, problem: PlanProblem, res: PlanResult, cell: float) -> PlanResult:
-        """The search on cells of side ``cell`` after ``res``'s on the configured ones, within what is left of the
-        time limit (``res`` itself when nothing is), the times of both in its stats and the first's in
+    def _again(self, problem: PlanProblem, res: PlanResult, cell: float, before: float) -> PlanResult:
+        """The search on cells of side ``cell`` after ``res``'s on cells of side ``before``, within what is left of
+        the time limit (``res`` itself when nothing is), the times of both in its stats and the first's in
         ``stats["coarse"]`` (refined) or ``stats["fine"]`` (coarsened)."""
         cfg = self.config
         limit = cfg.time_limit if cfg.time_limit is not None else problem.time_limit
@@ -308,7 +325,7 @@ class HybridAStar:
             "time_limit": left,
         }
         again = HybridAStar(**options)._plan(problem, stated_limit=limit)
-        refined = cell < cfg.cell_size
+        refined = cell < before
         # both searches' time (a second run that ended early, at its grid, reports no CPU time)
         times = {
             k: float(res.stats[k]) + float(again.stats.get(k, 0.0)) for k in ("time_s", "code_s", "cpu_s", "grid_s")
@@ -320,7 +337,7 @@ class HybridAStar:
             **again.stats,
             **times,
             "coarse" if refined else "fine": {
-                "cell_size": cfg.cell_size,
+                "cell_size": before,
                 "iterations": res.stats["iterations"],
                 "time_s": res.stats["time_s"],
             },
@@ -328,12 +345,12 @@ class HybridAStar:
         }
         reason = again.reason
         if again.status is not PlanStatus.SUCCESS and refined:
-            reason += f" (searched after the {cfg.cell_size:g} m lattice was exhausted in {res.stats['iterations']}"
+            reason += f" (searched after the {before:g} m lattice was exhausted in {res.stats['iterations']}"
             if again.status is PlanStatus.TIMEOUT and "iteration budget" in again.reason:
                 reason += f"; cells of half the size take up to about {REFINE_COST} times the expansions"
             reason += ")"
         elif again.status is not PlanStatus.SUCCESS:
-            reason += f" (searched after the budget was spent on {cfg.cell_size:g} m cells)"
+            reason += f" (searched after the budget was spent on {before:g} m cells)"
         return dataclasses.replace(again, reason=reason, stats=stats)
 
     def _plan(self, problem: PlanProblem, stated_limit: float | None = None) -> PlanResult:
