@@ -886,8 +886,8 @@ class Amcl:
                 best = fit
         if best is not None:
             return best, K.WHOLE
-        at_mean = K.refine(mean, *scan_map[:6], 0, scan_map[7])[1]  # the information the scan gives there
-        basis = observed_directions(at_mean)
+        _, at_mean, _, near, _, _ = K.refine(mean, *scan_map[:6], 0, scan_map[7])  # what the scan gives there
+        basis = None if near < least else observed_directions(at_mean)  # too few beams: not a corridor, lost
         if basis is None:
             return None
         fit = K.refine_within(mean, *scan_map, basis)
