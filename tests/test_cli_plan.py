@@ -20,7 +20,7 @@ from sim.cli.plan import clearance_text, path_spacing, raw_note, record_path
 KEYS = {
     "status", "planner", "time_s", "iterations", "length_m", "min_clearance_m", "path", "reason", "seed",
     "scenario", "robot", "time_limit_s", "goal_position_error_m", "goal_heading_error_rad", "path_spacing_m", "stats",
-    "raw_length_m", "cusps", "raw_cusps", "simplify_time_s", "first_path_time_s", "first_path_length_m",
+    "raw_length_m", "cusps", "raw_cusps", "simplify_time_s", "first_path_time_s", "first_path_length_m", "path_collides",
 }  # fmt: skip
 
 
@@ -82,6 +82,7 @@ def test_plan_json_and_plot(tmp_path, capsys):
     assert rec["min_clearance_m"] == pytest.approx(checker.least_clearance(path), abs=1e-12)
     assert rec["min_clearance_m"] >= checker.clearance_of(path).min()
     assert rec["min_clearance_m"] >= 0.40 - robot.radius  # C-RRT*'s axle-centre clearance minus the body
+    assert rec["path_collides"] is False
     with Image.open(png) as im:
         assert im.format == "PNG" and im.size[0] > 300
     # simplified: never longer, never more cusps, and the search's own path is the one --no-simplify gives
@@ -188,7 +189,7 @@ def test_failed_plan_exits_1_with_reason(tmp_path, capsys):
     assert main(["plan", "--scenario", str(scen), "--planner", "c-rrt-star", "--json", str(js), "--quiet"]) == 1
     rec = json.loads(js.read_text())
     assert rec["status"] == "invalid_start" and "0.4000 m" in rec["reason"]
-    assert rec["path"] == [] and rec["min_clearance_m"] is None
+    assert rec["path"] == [] and rec["min_clearance_m"] is None and rec["path_collides"] is None
     assert "invalid_start" in capsys.readouterr().out
 
 
@@ -405,3 +406,17 @@ def test_a_dense_path_along_a_wall_is_measured_as_pose_by_pose(seed: int) -> Non
     want = _least_one_by_one(checker, poses)
     assert (checker.clearance_of(poses) < want).sum() > 64  # the middle tier is used
     assert checker.least_clearance(poses) == want
+
+
+def test_a_partial_path_through_a_wall_says_it_collides(tmp_path, monkeypatch):
+    """optim's partial path from a start inside a U runs through the U's wall: its clearance is -inf, which JSON
+    writes as null, the same as "no path"; path_collides says which."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "u.toml").write_text(
+        'robot = "edumip"\n[world]\nbounds = [0.0, 5.0, 0.0, 5.0]\n[[world.obstacles]]\ntype = "polygon"\n'
+        "vertices = [[1.0, 1.0], [3.0, 1.0], [3.0, 3.0], [1.0, 3.0], [1.0, 2.6], [2.6, 2.6], [2.6, 1.4], [1.0, 1.4]]\n"
+        "[start]\npose = [2.3, 2.0, 0.0]\n[goal]\npose = [4.2, 1.0, -1.57]\n"
+    )
+    assert main(["plan", "--scenario", "u.toml", "--planner", "optim", "--json", "p.json", "--quiet"]) == 1
+    rec = json.loads((tmp_path / "p.json").read_text())
+    assert rec["status"] == "failed" and rec["path"] and rec["min_clearance_m"] is None and rec["path_collides"]

@@ -38,7 +38,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
             "numba readying the planner's kernels (compiling them once after an install, loading them in a new "
             "process) is in it but not held against the time limit: stats.code_s), "
             "iterations, length_m, raw_length_m, cusps, raw_cusps, simplify_time_s, first_path_time_s, "
-            "first_path_length_m, min_clearance_m, goal_position_error_m, goal_heading_error_rad, "
+            "first_path_length_m, min_clearance_m (null with no path, or where the path collides: "
+            "path_collides), path_collides, goal_position_error_m, goal_heading_error_rad, "
             f"path_spacing_m, path (a list of [x, y, theta] states at most {PATH_SPACING * 100:g} cm apart "
             "along the motion, counting a turn in place as the robot's radius times the angle), stats.\n\n"
             "Exit status: 0 when the plan succeeded, 1 when the planner ended in another status "
@@ -326,8 +327,8 @@ def plan_facts(problem: Any, result: Any, wall: float) -> dict[str, Any]:
     Returns:
         time_s, iterations, length_m, raw_length_m, cusps, raw_cusps, simplify_time_s (None when
         not simplified), first_path_time_s, first_path_length_m (None unless the planner reports
-        them), min_clearance_m (:meth:`CollisionChecker.least_clearance` of the path's states),
-        goal_position_error_m,
+        them), min_clearance_m (:meth:`CollisionChecker.least_clearance` of the path's states, -inf where
+        they overlap something), path_collides (whether they do; None without a path), goal_position_error_m,
         goal_heading_error_rad (None without a path), path_spacing_m and path (densified states).
     """
     from planning.collision.exact import CollisionChecker
@@ -356,6 +357,8 @@ def plan_facts(problem: Any, result: Any, wall: float) -> dict[str, Any]:
         "first_path_time_s": stats.get("first_solution_s"),
         "first_path_length_m": stats.get("first_length_m"),
         "min_clearance_m": min_clear,
+        # an overlap has no clearance to give (-inf, null in JSON): said, not left to read as "no path"
+        "path_collides": None if min_clear is None else bool(min_clear < 0.0),
         "goal_position_error_m": goal_pos,
         "goal_heading_error_rad": goal_head,
         "path_spacing_m": path_spacing(path, robot.radius),
