@@ -20,7 +20,8 @@ from sim.cli.plan import clearance_text, path_spacing, raw_note, record_path
 KEYS = {
     "status", "planner", "time_s", "iterations", "length_m", "min_clearance_m", "path", "reason", "seed",
     "scenario", "robot", "time_limit_s", "goal_position_error_m", "goal_heading_error_rad", "path_spacing_m", "stats",
-    "raw_length_m", "cusps", "raw_cusps", "simplify_time_s", "first_path_time_s", "first_path_length_m", "path_collides",
+    "raw_length_m", "cusps", "raw_cusps", "simplify_time_s", "first_path_time_s", "first_path_length_m",
+    "path_collides",
 }  # fmt: skip
 
 
