@@ -672,3 +672,13 @@ def test_trajectory_sample_takes_one_time(bad: object) -> None:
     with pytest.raises(ConfigError, match=r"Trajectory.sample takes one time \[s\].*sample_many\(times\)"):
         traj.sample(bad)  # type: ignore[arg-type]
     np.testing.assert_array_equal(traj.sample(np.float64(1.0)).pose, traj.sample(1).pose)  # any one number
+
+
+def test_wrap_angle_names_what_it_takes() -> None:
+    """``wrap_angle('x')`` raised numpy's "could not convert string to float"."""
+    from planning.core.geometry import wrap_angle
+
+    for bad in ("x", None, {"a": 1}):
+        with pytest.raises(ConfigError, match=r"wrap_angle takes angles in radians \(numbers\), got"):
+            wrap_angle(bad)  # type: ignore[arg-type]
+    assert wrap_angle(7.0) == pytest.approx(7.0 - 2 * np.pi)

@@ -28,9 +28,20 @@ def wrap_angle(angle: float | FloatArray) -> float | FloatArray:
         angle: Angle(s) [rad], scalar or array of any shape.
 
     Returns:
-        The wrapped angle(s), same shape and type as the input.
+        The wrapped angle(s), same shape and type as the input (NaN stays NaN: no angle to wrap).
+
+    Raises:
+        ConfigError: ``angle`` is not numbers (a string, None).
     """
-    wrapped = np.mod(np.asarray(angle, dtype=float) + np.pi, 2.0 * np.pi) - np.pi
+    try:
+        if angle is None:  # numpy reads it as NaN
+            raise TypeError
+        a = np.asarray(angle, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigError(
+            f"wrap_angle takes angles in radians (numbers), got {type(angle).__name__} {angle!r:.60}"
+        ) from None
+    wrapped = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
     if np.ndim(wrapped) == 0:
         return float(wrapped)
     return wrapped
