@@ -501,3 +501,18 @@ def test_a_walled_off_goal_is_proved_infeasible_not_a_timeout(name):
     # an open door: the same planner still finds its path (the proof, if it runs, proves nothing)
     door = World(WALLED.bounds, (*WALLED.obstacles[1:], Box((3.1, 2.0), (1.2, 0.1))))
     assert make_planner(name).plan(_problem(world=door, start=(0.5, 0.5, 0.0), goal=(2.8, 2.8, 0.0))).success
+
+
+def test_a_goal_walled_in_but_within_tolerance_of_a_reachable_place_is_not_proved_walled_off():
+    """The goal inside a closed ring the robot fits in but cannot enter, its tolerance (0.25 m) reaching outside
+    the ring: the tree planners may end anywhere within it, and rrt-star does. The proof asked whether the goal's
+    own cell was reachable and called the problem infeasible a quarter into the budget."""
+    ring = (Box((1.9625, 0.88), (0.235, 0.02)), Box((1.9625, 1.12), (0.235, 0.02)),
+            Box((1.855, 1.0), (0.02, 0.26)), Box((2.07, 1.0), (0.02, 0.26)))  # fmt: skip
+    world = World((0.0, 3.0, 0.0, 2.0), ring)
+    for seed in (0, 1):
+        problem = PlanProblem(world, ROBOT, Pose2D(0.5, 1.0, 0.0), Pose2D(1.98, 1.0, 0.0), seed=seed, time_limit=8.0,
+                              position_tolerance=0.25, heading_tolerance=math.pi)  # fmt: skip
+        result = make_planner("rrt-star").plan(problem)
+        assert result.success, (seed, result.reason)
+        assert 0.15 < math.hypot(result.path[-1, 0] - 1.98, result.path[-1, 1] - 1.0) <= 0.25  # outside the ring

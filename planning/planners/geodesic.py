@@ -161,26 +161,27 @@ VISITS_PER_CHECK = 65536
 
 
 @nb.njit(cache=True)
-def _connected(free: NDArray[np.bool_], s: tuple[int, int], g: tuple[int, int], seconds: float) -> int:
-    """1 when cell ``s`` is reached from cell ``g`` over the 8-connected ``free`` cells (``g`` itself
-    counted free), 0 when it is not, -1 when ``seconds`` passed first (a flood fill, each cell visited once)."""
+def _connected(free: NDArray[np.bool_], s: tuple[int, int], target: NDArray[np.bool_], seconds: float) -> int:
+    """1 when a ``target`` cell is reached from cell ``s`` over the 8-connected ``free`` cells (the targets
+    themselves counted free), 0 when none is, -1 when ``seconds`` passed first (a flood fill, each cell visited
+    once)."""
     deadline = monotonic() + seconds
     nx, ny = free.shape
     seen = np.zeros((nx, ny), dtype=np.bool_)
     stack = np.empty(nx * ny, dtype=np.int64)
-    seen[g[0], g[1]] = True
-    stack[0], top, visits = g[0] * ny + g[1], 1, 0
+    seen[s[0], s[1]] = True
+    stack[0], top, visits = s[0] * ny + s[1], 1, 0
     while top > 0:
         visits += 1
         if visits % VISITS_PER_CHECK == 0 and monotonic() > deadline:
             return -1
         top -= 1
         i, j = stack[top] // ny, stack[top] % ny
-        if i == s[0] and j == s[1]:
+        if target[i, j]:
             return 1
         for a in range(max(0, i - 1), min(nx, i + 2)):
             for b in range(max(0, j - 1), min(ny, j + 2)):
-                if free[a, b] and not seen[a, b]:
+                if (free[a, b] or target[a, b]) and not seen[a, b]:
                     seen[a, b] = True
                     stack[top] = a * ny + b
                     top += 1
@@ -251,26 +252,39 @@ def _pull(pts: FloatArray, world: WorldArrays, field: FieldArrays, radius: float
 
 
 def reachable(
-    world: World, start: FloatArray, goal: FloatArray, radius: float, cell: float = CELL, deadline: float | None = None
+    world: World,
+    start: FloatArray,
+    goal: FloatArray,
+    radius: float,
+    cell: float = CELL,
+    deadline: float | None = None,
+    goal_radius: float = 0.0,
 ) -> bool:
-    """Whether the goal's cell can be reached from the start's over the 8-connected cells whose centres
-    keep ``radius`` off everything (the cells near either end counted free, as in :func:`distance_field`),
-    by a flood fill (the cells :func:`distance_field`'s Dijkstra gives a finite distance, in a tenth
-    of its time).
+    """Whether the goal's cell, or with ``goal_radius`` [m] any cell that holds a point within it of the goal,
+    can be reached from the start's over the 8-connected cells whose centres keep ``radius`` off everything (the
+    cells near either end counted free, as in :func:`distance_field`), by a flood fill (the cells
+    :func:`distance_field`'s Dijkstra gives a finite distance, in a tenth of its time).
 
     A proof of the contrary: any continuous path inside the bounds whose points all keep
     ``radius + cell / sqrt(2)`` passes through 8-connected cells whose centres keep ``radius`` (a signed
     distance is 1-Lipschitz, and a centre is at most half a cell's diagonal from the path in its cell),
-    so when this is False no such path exists.
+    so when this is False no such path exists to the goal, nor to any point within ``goal_radius`` of it (a
+    planner that ends anywhere in its goal tolerance).
 
     Raises:
         planning.collision.field.FieldTimeout: ``time.perf_counter()`` passed ``deadline`` (None: no limit).
     """
     clock = PlanClock(np.inf if deadline is None else deadline - time.perf_counter())  # less the code readied
     s, g = np.asarray(start, dtype=float)[:2], np.asarray(goal, dtype=float)[:2]
-    centres, _, si, gi = _cells(world, s, g, cell, None if deadline is None else clock.deadline())
+    centres, origin, si, gi = _cells(world, s, g, cell, None if deadline is None else clock.deadline())
     free = _free(centres, radius, (si, gi), cell)
-    found = _connected(free, si, gi, clock.remaining())
+    target = np.zeros(free.shape, dtype=np.bool_)
+    target[gi] = True
+    if goal_radius > 0.0:  # every cell a point within goal_radius of the goal may lie in: its centre that near
+        x = origin[0] + cell * (np.arange(free.shape[0]) + 0.5)
+        y = origin[1] + cell * (np.arange(free.shape[1]) + 0.5)
+        target |= np.hypot(*np.meshgrid(x - g[0], y - g[1], indexing="ij")) <= goal_radius + cell / np.sqrt(2.0)
+    found = _connected(free, si, target, clock.remaining())
     if found < 0:
         what = (f"the 2-D search for a way {radius:.3f} m off everything, a flood fill over {cell:g} m cells", "cells")
         raise FieldTimeout(clock.elapsed(), free.size, len(world.obstacles), clock.code(), what)
@@ -284,13 +298,18 @@ PROOF_MAX_CELLS = 1_000_000
 
 
 def walled_off(
-    world: World, start: FloatArray, goal: FloatArray, radius: float, deadline: float | None = None
+    world: World,
+    start: FloatArray,
+    goal: FloatArray,
+    radius: float,
+    deadline: float | None = None,
+    goal_radius: float = 0.0,
 ) -> tuple[float, float] | None:
-    """A proof that no way from the start to the goal keeps ``radius`` [m] off every obstacle and wall: the cell side
-    and the radius (``radius`` less half the cell's diagonal) at which :func:`reachable` finds the goal walled off,
-    on cells of 5 cm, then 2 cm and 1 cm while the answer is open (none finer than :data:`PROOF_MAX_CELLS` cells
-    over the world); None when no such proof is found (a way of cells keeps ``radius``, or the finest grid could
-    not tell).
+    """A proof that no way from the start to the goal, or to any point within ``goal_radius`` [m] of it (a goal
+    tolerance), keeps ``radius`` [m] off every obstacle and wall: the cell side and the radius (``radius`` less
+    half the cell's diagonal) at which :func:`reachable` finds them walled off, on cells of 5 cm, then 2 cm and
+    1 cm while the answer is open (none finer than :data:`PROOF_MAX_CELLS` cells over the world); None when no
+    such proof is found (a way of cells keeps ``radius``, or the finest grid could not tell).
 
     Raises:
         planning.collision.field.FieldTimeout: ``time.perf_counter()`` passed ``deadline`` first.
@@ -300,9 +319,9 @@ def walled_off(
         if (xmax - xmin) * (ymax - ymin) / cell**2 > PROOF_MAX_CELLS:
             break
         proof = radius - cell / np.sqrt(2.0) - 1e-9
-        if not reachable(world, start, goal, proof, cell, deadline):
+        if not reachable(world, start, goal, proof, cell, deadline, goal_radius):
             return cell, proof
-        if reachable(world, start, goal, radius, cell, deadline):
+        if reachable(world, start, goal, radius, cell, deadline, goal_radius):
             break  # a way of cells keeps it
     return None
 

@@ -261,15 +261,16 @@ def walled_off_proof(problem: PlanProblem, shape: Shape, clearance: float) -> Ca
         from planning.core.robot import inscribed_radius
         from planning.planners.geodesic import walled_off
 
-        disc = inscribed_radius(problem.robot, shape)
-        proved = walled_off(problem.world, problem.start.xy, problem.goal.xy, disc + clearance, deadline)
+        disc, tol = inscribed_radius(problem.robot, shape), problem.position_tolerance
+        proved = walled_off(problem.world, problem.start.xy, problem.goal.xy, disc + clearance, deadline, tol)
         if proved is None:
             return None
         cell, at = proved
         return (
             f"no path reaches the goal: every pose of one keeps the robot's inscribed disc (radius {disc:.3f} m) "
             f"and the clearance ({clearance:g} m) off every obstacle and wall, and a 2-D search over {cell:g} m "
-            f"cells finds the goal walled off even at {at:.3f} m; move the goal or the start, or open a way to it"
+            f"cells finds every point within the goal tolerance ({tol:g} m) walled off even at {at:.3f} m; move the "
+            "goal or the start, or open a way to it"
         )
 
     return prove
