@@ -20,7 +20,7 @@ from control.estimation import (
     nees,
     pose_error,
 )
-from control.estimation.ekf import IRS, ISLIP, QUANT_PERIOD
+from control.estimation.ekf import IRS, ISLIP, QUANT_PERIOD, RELOCALISE_MAX_NIS
 from planning.core.robot import load_robot
 from planning.errors import ConfigError, NhsimError, SimulationError
 from tests.estimation_helpers import DT, RADIUS, TRACK, Scenario, Synthetic, draw, propagate, run, wheel_rates
@@ -558,39 +558,72 @@ def test_outliers_are_rejected_then_divergence_raises(draws: list[Synthetic]) ->
     assert isinstance(info.value, SimulationError)
 
 
+def _believing(d: Synthetic, config: EstimatorConfig) -> tuple[PoseEstimator, int]:
+    """An estimator told the robot starts 0.8 m from where it does (Nav2's initial covariance), after four of the
+    localiser's fixes from its spread cloud about that wrong pose: (it, the tick it is at)."""
+    est = PoseEstimator(config, RADIUS, TRACK)
+    est.reset(0.0, np.asarray(d.pose0) + np.array([0.8, 0.0, 0.0]), np.diag([0.25, 0.25, 0.07]))
+    for tick in (10, 20, 30, 40):
+        drive(est, d, tick - 10, tick)
+        assert est.correct(float(d.t[tick]), d.truth[tick] + np.array([0.8, 0.0, 0.0]), std_xy=0.4, std_theta=0.2)
+    return est, 40
+
+
 def test_fixes_that_agree_on_the_estimates_offset_move_it_there(draws: list[Synthetic]) -> None:
-    """The robot carried a metre away (or started a metre from where the estimate began): the localiser's fixes
-    all say so, the first two are rejected and the third, agreeing with them, moves the estimate to the robot
-    (Nav2's AMCL relocalising), instead of five rejections ending the run; the later fixes are then in the gate.
-    Without ``relocalise_after`` (0) the same fixes raise as before."""
+    """Told the robot stands 0.8 m from where it does (a wrong initial pose, Nav2's initial covariance), the
+    estimator follows the localiser's first answers (its spread cloud about that pose, 0.4 m); the localiser then
+    finds the robot (1 cm fixes) and the estimate, sure of it to about 0.19 m, rejects them (NIS 18.7, above the
+    gate of 16.3): five ended the run "diverged". The third that agrees with the two before it moves the estimate
+    to them, and the later ones are in the gate. Without ``relocalise_after`` (0) the same fixes raise as before."""
     d = draws[3]
-    kidnapped = np.array([1.0, 0.0, 0.0])
-    est = fresh(d)
+    est, tick = _believing(d, CONFIG)
     applied = []
-    for tick in (20, 40, 60, 80, 100):
-        drive(est, d, tick - 20, tick)
-        applied.append(est.correct(float(d.t[tick]), d.truth[tick] + kidnapped))
+    for _ in range(5):
+        drive(est, d, tick, tick + 10)
+        tick += 10
+        applied.append(est.correct(float(d.t[tick]), d.truth[tick], std_xy=0.01, std_theta=0.005))
     assert applied == [False, False, True, True, True]
-    assert est.relocalisations == 1 and est.fixes_rejected == 2 and est.fixes_widened == 1
-    assert math.hypot(*(est.pose[:2] - (d.truth[100, :2] + kidnapped[:2]))) < 0.05
-    never = fresh(d, replace(CONFIG, relocalise_after=0))
+    assert est.relocalisations == 1 and est.fixes_rejected == 2 and est.fixes_widened == 0
+    assert math.hypot(*(np.asarray(est.pose[:2]) - d.truth[tick, :2])) < 0.02
+    never, tick = _believing(d, replace(CONFIG, relocalise_after=0))
     with pytest.raises(EstimatorDivergedError, match="5 consecutive fixes"):
-        for tick in (20, 40, 60, 80, 100):
-            drive(never, d, tick - 20, tick)
-            never.correct(float(d.t[tick]), d.truth[tick] + kidnapped)
+        for _ in range(5):
+            drive(never, d, tick, tick + 10)
+            tick += 10
+            never.correct(float(d.t[tick]), d.truth[tick], std_xy=0.01, std_theta=0.005)
+
+
+def test_fixes_far_beyond_a_sure_estimate_are_not_followed_however_well_they_agree(draws: list[Synthetic]) -> None:
+    """A localiser biased by unmapped obstacles: every fix 0.44 m off a right estimate (sure of it to millimetres),
+    all agreeing (NIS about 3000). Following them would move a right estimate to a wrong place with the run's
+    status "ok"; the run ends "diverged" instead, as before relocalisation (a kidnapped robot alike)."""
+    d = draws[3]
+    est = fresh(d)
+    for tick in (10, 20, 30, 40):  # the localiser right
+        drive(est, d, tick - 10, tick)
+        est.correct(float(d.t[tick]), d.truth[tick], std_xy=0.01, std_theta=0.005)
+    tick, bias = 40, np.array([0.0, 0.44, 0.0])
+    with pytest.raises(EstimatorDivergedError, match="5 consecutive fixes"):
+        for _ in range(5):
+            drive(est, d, tick, tick + 10)
+            tick += 10
+            assert not est.correct(float(d.t[tick]), d.truth[tick] + bias, std_xy=0.01, std_theta=0.005)
+    assert est.relocalisations == 0 and est.nis_history[-1, 1] > RELOCALISE_MAX_NIS
 
 
 def test_outliers_that_disagree_do_not_move_the_estimate(draws: list[Synthetic]) -> None:
-    """Wild fixes that each put the robot somewhere else (a metre ahead, then behind, then aside) say nothing
-    about where it is: they stay outliers and the fifth raises."""
+    """The estimate as unsure as when relocalising (above), but fixes that put the robot half a metre apart from
+    one another (the truth, then 0.5 m aside, alternately): they do not agree on where the estimate is wrong, stay
+    outliers, and the fifth raises."""
     d = draws[3]
-    est = fresh(d)
-    jumps = [(1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0), (1.0, 1.0, 0.0)]
+    est, tick = _believing(d, CONFIG)
     with pytest.raises(EstimatorDivergedError, match="5 consecutive fixes"):
-        for k, jump in enumerate(jumps):
-            drive(est, d, 20 * k, 20 * (k + 1))
-            assert not est.correct(float(d.t[20 * (k + 1)]), d.truth[20 * (k + 1)] + jump)
-    assert est.relocalisations == 0
+        for k in range(5):
+            drive(est, d, tick, tick + 10)
+            tick += 10
+            aside = np.array([0.0, 0.5 * (k % 2), 0.0])
+            assert not est.correct(float(d.t[tick]), d.truth[tick] + aside, std_xy=0.01, std_theta=0.005)
+    assert est.relocalisations == 0 and est.nis_history[-1, 1] < RELOCALISE_MAX_NIS  # near enough, but apart
 
 
 def test_relocalise_after_one_is_refused() -> None:

@@ -106,14 +106,15 @@ explains (a kidnapped robot, a fix wrongly matched) stays an outlier.
 
 A wrong estimate: ``relocalise_after`` outlier fixes in a row (3 by default) that agree with each other on the
 estimate's offset (each innovation the same within three standard deviations of the two fixes' noise, the drift
-bound and the turn of a heading offset over the distance driven between them) say that the estimate, not the
-fixes, is wrong: it started from a wrong pose (``--initial-pose`` a metre off, while the scan localiser found the
-robot within seconds), or the robot was moved. The last of them is applied after widening the position and
-heading variances at its measurement time by its innovation's squares, which moves the estimate to the fixes,
-as Nav2's AMCL moves ``map -> odom`` when it relocalises; a scan localiser that is confidently wrong is the
-localiser's failure, which the simulation reports against the truth. Until then the fixes were rejected; a run
-of fixes that do not agree, one wild match among them, still ends in divergence after ``max_outliers``.
-``relocalisations`` counts them (``fixes_widened`` includes them).
+bound and the turn of a heading offset over the distance driven between them), each within 10 standard
+deviations of the estimate (NIS at most :data:`RELOCALISE_MAX_NIS`: an estimate too sure of itself, not one sure of
+another place), say that the estimate, not the fixes, is wrong: it started from a wrong pose (``--initial-pose`` a
+metre off, while the scan localiser found the robot within seconds). The last of them is applied after widening
+the position and heading variances at its measurement time by its innovation's squares, which moves the estimate
+to the fixes, as Nav2's AMCL moves ``map -> odom`` when it relocalises. Fixes far beyond the estimate's
+uncertainty are not followed however well they agree (a kidnapped robot, or a localiser biased by unmapped
+obstacles: 0.44 m off a right estimate at NIS ~3000): after ``max_outliers`` the run ends "diverged", as before.
+``relocalisations`` counts the moves (the run record's ``relocalisations``; ``fixes_widened`` counts the drift's).
 
 Cost: the estimator runs once per control period of a simulation, so its arithmetic (a prediction,
 a fix update, the rewind and the replay) is compiled (:mod:`control.estimation.kernels`) and works
@@ -143,6 +144,11 @@ FloatArray = NDArray[np.float64]
 #: Size of the state vector and the index of each component.
 N_STATE = 10
 IX, IY, ITH, IBG, IEM, IED, IBETA, ISLIP, IRS, IRO = range(N_STATE)
+#: The largest NIS of an outlier fix that may move the estimate with the ones agreeing with it (``relocalise_after``):
+#: within 10 of its standard deviations the estimate was too sure of itself (a wrong initial pose a metre off, the
+#: localiser's fixes at NIS 17-20); beyond, it is sure of another place, one of the two is wrong, and the run says so
+#: (a localiser biased by unmapped obstacles, fixes 0.44 m off a right estimate at NIS ~3000, ended "diverged").
+RELOCALISE_MAX_NIS = 100.0
 #: Names of the state components, in order.
 STATE_NAMES = (
     "x", "y", "theta", "gyro_bias", "radius_mean_err", "radius_diff_err", "track_err", "cornering_slip",
@@ -384,8 +390,8 @@ class PoseEstimator:
         self._stale = 0
         self._widened = self._relocalised = 0
         #: The current run of consecutive outliers: (innovation x, y, theta, position and heading variance of the
-        #: fix, odometry distance then) each (:meth:`_relocalising`).
-        self._streak: list[tuple[float, float, float, float, float, float]] = []
+        #: fix, odometry distance then, its NIS) each (:meth:`_relocalising`).
+        self._streak: list[tuple[float, float, float, float, float, float, float]] = []
         self._odo_fix = 0.0  # the distance driven when the last fix was applied [m]
 
     @classmethod
@@ -579,25 +585,26 @@ class PoseEstimator:
             return None
         return miss * miss, bound * bound / 3.0, 0.0
 
-    def _relocalising(self, fix: Fix) -> tuple[float, float, float] | None:
+    def _relocalising(self, fix: Fix, nis: float) -> tuple[float, float, float] | None:
         """How far to widen the covariance to move the estimate to an outlier fix that the ``relocalise_after - 1``
         outliers before it, in a row, agree with: each one's innovation (the estimate's offset from its fix) the
         same as this one's within three standard deviations of the two fixes' noise, plus the drift
         (``max_odometry_drift``) and the turn of a heading offset (its innovation's heading times the distance
-        driven) between them. Then the estimate, not the fixes, is wrong (started from a wrong pose, or moved by
-        hand), and the localiser has said so a number of times: (the innovation's position and heading squared
-        [m^2, rad^2], no radius widening). None otherwise; the outlier joins the streak (module doc)."""
+        driven) between them, and each one's NIS at most :data:`RELOCALISE_MAX_NIS`. Then the estimate, not the
+        fixes, is wrong (it started from a wrong pose), and the localiser has said so a number of times: (the
+        innovation's position and heading squared [m^2, rad^2], no radius widening). None otherwise; the outlier
+        joins the streak (module doc)."""
         nx, ny, nth = (float(v) for v in self._nu)
         vxy, vth = max(fix[kernels.NOISE], fix[kernels.NOISE + 3]), fix[kernels.NOISE + 5]
         odo = float(self._hdr[kernels.ODO])
         need = self.config.relocalise_after
-        agree = 0 < need < self.config.max_outliers and len(self._streak) + 1 >= need
-        for px, py, pth, pvxy, pvth, podo in self._streak[-(need - 1) :] if agree else ():
+        agree = 0 < need < self.config.max_outliers and len(self._streak) + 1 >= need and nis <= RELOCALISE_MAX_NIS
+        for px, py, pth, pvxy, pvth, podo, pnis in self._streak[-(need - 1) :] if agree else ():
             driven = odo - podo
             reach = 3.0 * math.sqrt(vxy + pvxy) + (self.config.max_odometry_drift + abs(nth)) * driven
-            agree = agree and math.hypot(nx - px, ny - py) <= reach
+            agree = agree and math.hypot(nx - px, ny - py) <= reach and pnis <= RELOCALISE_MAX_NIS
             agree = agree and abs(math.remainder(nth - pth, 2 * math.pi)) <= 3.0 * math.sqrt(vth + pvth)
-        self._streak.append((nx, ny, nth, vxy, vth, odo))
+        self._streak.append((nx, ny, nth, vxy, vth, odo, nis))
         return (nx * nx + ny * ny, 0.0, nth * nth) if agree else None
 
     def correct(
@@ -655,7 +662,7 @@ class PoseEstimator:
             nis_after, ok = widened
             self._widened += ok
             nis = nis_after if ok else nis
-        if not ok and (widen := self._relocalising(fix)) is not None:
+        if not ok and (widen := self._relocalising(fix, nis)) is not None:
             moved = self._replay(fix, widen)
             assert moved is not None
             nis_after, ok = moved
@@ -810,9 +817,8 @@ class PoseEstimator:
     @property
     def fixes_widened(self) -> int:
         """Outlier fixes applied after widening the covariance: a systematic odometry drift within
-        ``max_odometry_drift`` explained them, or the estimate moved to them (:attr:`relocalisations`; the
-        module doc)."""
-        return self._widened + self._relocalised
+        ``max_odometry_drift`` explained them (the module doc)."""
+        return self._widened
 
     @property
     def relocalisations(self) -> int:

@@ -35,6 +35,8 @@ class EstimationMetrics:
         fixes_widened: Of those, outliers applied after widening its covariance: a systematic odometry
             drift beyond its priors explained them (:mod:`control.estimation.ekf`; the NEES shows
             what that cost its consistency).
+        relocalisations: Times the estimate moved to outlier fixes that agreed on its offset (a wrong initial
+            pose the localiser corrected; :mod:`control.estimation.ekf`): the run went on from there.
         nees_mean: Mean NEES over those deliveries (3 for a consistent estimator of a planar pose;
             above 3 over-confident, below conservative). The share inside the interval can be 100 %
             with a mean of 5: the per-fix interval (0.22-9.35) is wide; the mean shows the bias.
@@ -62,6 +64,7 @@ class EstimationMetrics:
     fixes_used: int
     nees_mean: float = math.nan
     fixes_widened: int = 0
+    relocalisations: int = 0
     localiser_rmse_m: float | None = None
     localiser_heading_rmse_rad: float | None = None
     localiser_nees_in_bound_fraction: float | None = None
@@ -88,6 +91,7 @@ class EstimationMetrics:
             fixes_used=int(np.count_nonzero(log.fix_applied)),
             nees_mean=log.nees_mean(),
             fixes_widened=log.fixes_widened,
+            relocalisations=log.relocalisations,
         )
 
 

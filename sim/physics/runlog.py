@@ -159,6 +159,8 @@ class EstimationLog(ReadOnlyArrays):
         localiser: The scan localiser's own answers, when one gave the fixes.
         fixes_widened: Outlier fixes applied after widening the covariance (a systematic odometry
             drift beyond the priors explained them: :mod:`control.estimation.ekf`).
+        relocalisations: Times the estimate moved to outlier fixes that agreed on its offset
+            (:mod:`control.estimation.ekf`).
     """
 
     source: str
@@ -175,6 +177,7 @@ class EstimationLog(ReadOnlyArrays):
     status: str = "ok"
     localiser: LocaliserLog | None = None
     fixes_widened: int = 0
+    relocalisations: int = 0
 
     def __post_init__(self) -> None:
         k, m = self.t.shape[0], self.fix_t.shape[0]

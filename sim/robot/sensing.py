@@ -495,4 +495,5 @@ class Sensing:
             status=self.status,
             localiser=self.scans.to_log() if self.scans is not None else None,
             fixes_widened=self.estimator.fixes_widened,
+            relocalisations=self.estimator.relocalisations,
         )

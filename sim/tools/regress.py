@@ -202,6 +202,7 @@ DEFAULT_TOLERANCES: dict[str, Tolerance] = {
     "estimation_nees_mean": Tolerance(0.1, 0.1),
     "estimation_fixes_used": Tolerance(2, 0.02),
     "estimation_fixes_widened": Tolerance(2, 0.05),
+    "estimation_relocalisations": Tolerance(1, 0),
     "estimation_localiser_rmse_m": Tolerance(5e-4, 0.1),
     "estimation_localiser_heading_rmse_rad": Tolerance(2e-3, 0.1),
     "estimation_localiser_nees_in_bound_fraction": Tolerance(0.05, 0),
