@@ -678,3 +678,17 @@ def test_an_exhausted_lattice_is_refined_while_time_is_left():
     assert res.stats["cell_size"] == 0.0125 and res.stats["coarse"]["cell_size"] == 0.025
     once = make_planner("hybrid-a-star", cell_size=0.05, refine_when_exhausted=False).plan(prob)
     assert once.status is PlanStatus.INFEASIBLE  # the default lattice alone does not pass it
+
+
+def test_an_exhausted_lattice_with_no_time_left_to_refine_is_a_timeout(monkeypatch):
+    """The 5 cm lattice exhausted, and the limit spent before the 2.5 cm one could run: the plan said
+    ``infeasible`` at one limit and ``timeout`` at a longer one for the same problem; the limit ended it."""
+    from planning.planners.hybrid_astar import HybridAStar
+
+    walls = (Box((2.0, 0.6675), (0.2, 1.335)), Box((2.0, 2.2675), (0.2, 1.465)))
+    prob = PlanProblem(World((0.0, 4.0, 0.0, 3.0), walls), ROBOT, Pose2D(0.6, 1.5, 0.0), Pose2D(3.4, 1.5, 0.0))
+    monkeypatch.setattr(HybridAStar, "_again", lambda self, problem, res, cell, before: res)  # as with no time left
+    res = make_planner("hybrid-a-star").plan(prob)
+    assert res.status is PlanStatus.TIMEOUT
+    assert res.reason.endswith("; the time limit left no time to search cells of 0.025 m")
+    assert res.reason.startswith("no path found, which does not prove")  # what the 5 cm lattice found, kept

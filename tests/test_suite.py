@@ -9,6 +9,8 @@ the valid choices or the spec.
 
 from __future__ import annotations
 
+import copy
+import pickle
 from collections.abc import Iterator
 
 import dm_env
@@ -310,6 +312,14 @@ def test_a_reference_policy_episode_runs_to_its_time_limit_with_discount_1(
     assert total == pytest.approx(ret, rel=1e-12)
 
 
+def test_before_the_first_episode_the_physics_copies_and_restores() -> None:
+    env = suite.load("open", "turtlebot3", "figure8", seed=3)
+    state = env.physics.get_state()
+    env.physics.set_state(state)
+    twin = env.physics.copy()
+    np.testing.assert_array_equal(twin.get_state(), state)
+
+
 def test_an_episode_is_not_rewound_through_mujocos_state_alone() -> None:
     """``physics.set_state`` rewound MuJoCo but not the episode (its firmware, sensors, log and reference clock):
     the reward went on scoring a later point and a replay drifted by millimetres; ``physics.copy()`` stepped into
@@ -327,6 +337,9 @@ def test_an_episode_is_not_rewound_through_mujocos_state_alone() -> None:
             env.physics.set_state(env.physics.get_state())
         with pytest.raises(RuntimeError, match="cannot be rewound or copied"):
             env.physics.copy()
+        for copier in (copy.copy, copy.deepcopy, pickle.dumps):  # dm_control's __getstate__: no way around it
+            with pytest.raises(RuntimeError, match="cannot be rewound or copied"):
+                copier(env.physics)
         assert repr(env.task.log()).startswith("RunLog('agent on ")  # whose actions ran ("?" before)
     np.testing.assert_array_equal(poses[0][0], poses[1][0])
     assert poses[0][1] == poses[1][1]

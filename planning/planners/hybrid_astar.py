@@ -300,8 +300,9 @@ class HybridAStar:
                 and not _lattice_too_large(problem, cell / 2, cfg.angle_quantization_bins)
             ):
                 finer = self._again(problem, res, cell / 2, cell)
-                if finer is res:  # no time left
-                    break
+                if finer is res:  # no time left for the finer cells: the limit, not the lattice, ended the plan
+                    why = f"{res.reason}; the time limit left no time to search cells of {cell / 2:g} m"
+                    return dataclasses.replace(res, status=PlanStatus.TIMEOUT, reason=why)
                 res, cell = finer, cell / 2
             return res
         if res.stats.get("budget_spent") and cfg.coarsen_when_spent and _wide(problem, cfg.cell_size):

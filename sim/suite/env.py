@@ -110,25 +110,39 @@ class Physics(dm_mujoco.Physics):
         self.episode = episode
 
     def set_state(self, physics_state: Any, sig: Any = None) -> None:
-        """MuJoCo's state, restored only outside an episode: an episode's motor firmware, sensor draws, log and
+        """MuJoCo's state, restored only before the first episode: an episode's motor firmware, sensor draws, log and
         reference clock live in its task, not in MuJoCo's state, so restoring that alone would carry the rest on
         from where they were (the reward scored against a later point of the reference, the poses off by
-        millimetres on replay).
+        millimetres on replay). An ended episode stays the physics' until the next reset, which begins another.
 
         Raises:
-            RuntimeError: An episode is running (the message says how to replay from a point instead).
+            RuntimeError: An episode has begun (the message says how to replay from a point instead).
         """
         if self.episode is not None:
             raise RuntimeError(_NO_REWIND)
         super().set_state(physics_state, sig)
 
     def copy(self, share_model: bool = False) -> Physics:
-        """Refused: a copy would step without its episode (see :meth:`set_state`).
+        """dm_control's copy, refused once an episode has begun (until the next reset it would step without the
+        episode, see :meth:`set_state`); ``copy.copy``, ``copy.deepcopy`` and pickling alike (:meth:`__getstate__`).
 
         Raises:
-            RuntimeError: Always (the message says how to replay from a point instead).
+            RuntimeError: An episode has begun (the message says how to replay from a point instead).
         """
-        raise RuntimeError(_NO_REWIND)
+        if self.episode is not None:
+            raise RuntimeError(_NO_REWIND)
+        copied: Physics = super().copy(share_model)
+        return copied
+
+    def __getstate__(self) -> Any:
+        """MuJoCo's data, as dm_control pickles and copies a Physics; refused once an episode has begun.
+
+        Raises:
+            RuntimeError: An episode has begun.
+        """
+        if self.episode is not None:
+            raise RuntimeError(_NO_REWIND)
+        return super().__getstate__()
 
     def step(self, nstep: int = 1) -> None:
         """Advance one control period (``nstep`` physics steps of it), raising
