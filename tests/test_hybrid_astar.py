@@ -1,5 +1,6 @@
 """Hybrid-A*: primitives and heuristic against closed forms, valid and repeatable plans, statuses, options."""
 
+import dataclasses
 import time
 from dataclasses import replace
 
@@ -692,3 +693,11 @@ def test_an_exhausted_lattice_with_no_time_left_to_refine_is_a_timeout(monkeypat
     assert res.status is PlanStatus.TIMEOUT
     assert res.reason.endswith("; the time limit left no time to search cells of 0.025 m")
     assert res.reason.startswith("no path found, which does not prove")  # what the 5 cm lattice found, kept
+
+
+def test_the_inscribed_disc_of_a_robot_whose_origin_is_outside_its_outline_is_none():
+    """A plugin's footprint that does not hold its base origin: no disc about the origin is inside the robot, and
+    the walled-off proofs (Hybrid-A*'s, the tree planners') must not assume one (0, a point)."""
+    shifted = dataclasses.replace(ROBOT, footprint=ROBOT.footprint + np.array([0.5, 0.0]))
+    assert inscribed_radius(shifted, "footprint") == 0.0
+    assert inscribed_radius(ROBOT, "footprint") == pytest.approx(0.040, abs=1e-9)

@@ -296,8 +296,10 @@ def inscribed_radius(robot: RobotSpec, shape: str) -> float:
     a = robot.footprint
     b = np.roll(a, -1, axis=0)
     edge = b - a
-    cross = np.abs(edge[:, 0] * a[:, 1] - edge[:, 1] * a[:, 0])
-    return float(np.min(cross / np.hypot(edge[:, 0], edge[:, 1])))
+    cross = edge[:, 0] * a[:, 1] - edge[:, 1] * a[:, 0]  # one sign on every edge: the origin is inside (convex)
+    if not (np.all(cross > 0.0) or np.all(cross < 0.0)):
+        return 0.0  # the origin on or outside the outline (a plugin's robot): no disc about it is inside
+    return float(np.min(np.abs(cross) / np.hypot(edge[:, 0], edge[:, 1])))
 
 
 def check_spec(spec: RobotSpec) -> None:
