@@ -70,11 +70,14 @@ def test_json_as_columns_and_as_records(tmp_path: Path) -> None:
     extra = [{**r, "z": 0.0, "frame_id": "map"} for r in records]
     table = read_table(_write(tmp_path, "c.json", json.dumps(extra)))
     _check_txy(table)
-    assert table.notes == (
-        f"fields 'z', 'frame_id' ignored (not among {', '.join(COLUMNS)}): rename a field that holds one of these",
+    assert len(table.notes) == 1 and table.notes[0].startswith(
+        f"fields 'z', 'frame_id' ignored (not among {', '.join(COLUMNS)} (also time for t,"
     )
+    assert table.notes[0].endswith("): rename a field that holds one of these")
     table = read_table(_write(tmp_path, "d.json", json.dumps({"t": T, "x": X, "y": Y, "Heading": [0, 0, 0]})))
-    assert set(table.columns) == {"t", "x", "y"} and "fields 'Heading' ignored" in table.notes[0]
+    assert set(table.columns) == {"t", "x", "y", "theta"} and not table.notes  # another tool's name for theta
+    table = read_table(_write(tmp_path, "e.json", json.dumps({"t": T, "x": X, "y": Y, "Bearing": [0, 0, 0]})))
+    assert set(table.columns) == {"t", "x", "y"} and "fields 'Bearing' ignored" in table.notes[0]
 
 
 def _nav_path(yaws: list[float], stamps: list[tuple[int, int]], ros1: bool = False) -> str:

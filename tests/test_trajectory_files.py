@@ -358,3 +358,37 @@ def test_a_route_driven_twice_keeps_both_laps(tmp_path: Path) -> None:
     res = file_trajectory(imported, robot, arena_scenario(imported, robot).world)
     assert res.success and res.stats["loop_poses_removed"] == 0
     assert res.stats["length_m"] == pytest.approx(4.0 * np.pi, rel=0.005)  # two laps of a 1 m circle
+
+
+def test_a_clock_in_milliseconds_read_as_seconds_is_said_where_the_file_still_moves(tmp_path: Path) -> None:
+    """3 s of 2 m/s written with a millisecond clock: read as seconds it moves at 2 mm/s for 50 min, above the
+    1 mm/s of a standing robot and under the hour a file may last, so it ran silently as that; it runs, saying so."""
+    from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
+
+    p = tmp_path / "ms.csv"
+    p.write_text("t,x,y\n" + "".join(f"{a},{a / 1000 * 2:.4f},0\n" for a in range(0, 3001, 100)))
+    notes = read_trajectory_file(TrajectoryFile(p, timed=True)).report.notes
+    assert any("moves at 2 mm/s at most over 50 min: if its clock counts milliseconds" in n for n in notes), notes
+    fine = read_trajectory_file(TrajectoryFile(p, timed=True, time_scale=0.001)).report.notes
+    assert not any("clock counts milliseconds" in n for n in fine)
+
+
+def test_other_tools_names_of_time_and_heading_are_read(tmp_path: Path) -> None:
+    """A web tool's ``{"timestamp", "x", "y", "yaw"}`` records: both fields were dropped and the error said the file
+    had no times, sending the user to --path (which throws the clock away). time, timestamp and stamp read as t,
+    yaw and heading as theta, in a CSV header too; a file naming one column twice is still refused."""
+    from planning.trajectory.file_formats import TrajectoryFileError
+    from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
+
+    rows = [{"timestamp": float(k), "x": 0.1 * k, "y": 0.0, "yaw": 0.0} for k in range(4)]
+    p = tmp_path / "web.json"
+    p.write_text(json.dumps(rows))
+    imported = read_trajectory_file(TrajectoryFile(p, timed=True))
+    np.testing.assert_allclose(imported.t, [0.0, 1.0, 2.0, 3.0])
+    assert imported.theta is not None and not any("ignored" in n for n in imported.report.notes)
+    csv = tmp_path / "h.csv"
+    csv.write_text("Time,X,Y,Heading\n0,0,0,0\n1,0.1,0,0\n2,0.2,0,0\n")
+    assert read_trajectory_file(TrajectoryFile(csv, timed=True)).theta is not None
+    csv.write_text("t,timestamp,x,y\n0,0,0,0\n1,1,0.1,0\n")
+    with pytest.raises(TrajectoryFileError, match="column.s. t named twice"):
+        read_trajectory_file(TrajectoryFile(csv, timed=True))

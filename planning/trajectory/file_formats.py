@@ -152,12 +152,23 @@ def table_from_arrays(
     return FileTable(p, fmt, arrays, labels)
 
 
+#: Other tools' names of columns, read as these (a web tool's {"timestamp", "x", "y", "yaw"} records).
+ALIASES = {"time": "t", "timestamp": "t", "stamp": "t", "yaw": "theta", "heading": "theta"}
+
+
 def _valid_names() -> str:
-    return ", ".join(COLUMNS)
+    return ", ".join(COLUMNS) + f" (also {', '.join(f'{a} for {c}' for a, c in ALIASES.items())})"
+
+
+def column_of(name: object) -> str:
+    """The column a header's or a field's ``name`` gives (spaces around it and case ignored, :data:`ALIASES` read)."""
+    n = str(name).strip().lower()
+    return ALIASES.get(n, n)
 
 
 def parse_column_names(names: Sequence[str], where: str, fix: str | None = None) -> tuple[str, ...]:
-    """Column names as given (a header or ``--columns``), checked: each one of :data:`COLUMNS` or ``_``.
+    """Column names as given (a header or ``--columns``), checked: each one of :data:`COLUMNS` (or an alias of one,
+    :data:`ALIASES`) or ``_``.
 
     Args:
         names: The names (spaces around them and case are ignored).
@@ -167,7 +178,7 @@ def parse_column_names(names: Sequence[str], where: str, fix: str | None = None)
     Raises:
         TrajectoryFileError: An unknown or repeated name (the message lists the valid ones).
     """
-    out = tuple(str(n).strip().lower() for n in names)
+    out = tuple(column_of(n) for n in names)
     unknown = [n for n in out if n not in COLUMNS and n != SKIP]
     if unknown:
         advice = fix if fix is not None else f"rename them in the header or give {option('columns')}"
@@ -470,7 +481,7 @@ def _json_fields(p: Path, keys: list[str], fmt: str) -> tuple[dict[str, str], tu
     """A JSON document's fields that are columns (field -> column name, checked as a header's) and the note
     naming the others, which are left out: a record exported by another tool carries fields of its own (z,
     frame_id, a stamp)."""
-    known = [k for k in keys if str(k).strip().lower() in COLUMNS]
+    known = [k for k in keys if column_of(k) in COLUMNS]
     if not known:
         shown = ", ".join(repr(k) for k in keys[:6]) + (", ..." if len(keys) > 6 else "")
         said = f"none of its fields ({shown}) is a column" if keys else "it has no fields"

@@ -71,6 +71,8 @@ HEADING_TOLERANCE = (0.02, 0.10, 0.20)
 HEADING_TO_MOTION = 0.1
 #: Longest trajectory a file may describe [s]: a longer one almost surely counts milliseconds.
 MAX_DURATION = 3600.0
+#: A trajectory never faster than this [m/s] and longer than CRAWL_DURATION [s] gets a note on its time unit.
+CRAWL_SPEED, CRAWL_DURATION = 0.01, 600.0
 #: Shortest trajectory a file may describe [s]: a shorter one is almost surely read in the wrong time unit (a
 #: file of 10 ms or so is read and re-timed, as every file too fast for the robot).
 MIN_DURATION = 1e-6
@@ -736,6 +738,7 @@ def _timed(
     fit = stretch_fit(t, xy)
     derived = fit(t, 1)
     _refuse_standing(report.file, t, xy, source.time_scale or 1.0)
+    _note_crawling(report, t, xy, source.time_scale or 1.0)
     theta = cols.get("theta")
     heading = theta if theta is not None else np.unwrap(_motion_heading(derived, direction))
     curve: PositionCurve = fit
@@ -777,6 +780,20 @@ def _refuse_standing(file: str, t: FloatArray, xy: FloatArray, time_scale: float
         f"{file}: the trajectory moves at {fastest * 1e3:.3g} mm/s at most{given}, slower than the "
         f"{MOVING_SPEED * 1e3:g} mm/s below which the robot counts as standing: if its clock counts milliseconds, "
         f"give the seconds per file time unit, {option('time-scale', time_scale * 1e-3)}"
+    )
+
+
+def _note_crawling(report: ImportReport, t: FloatArray, xy: FloatArray, time_scale: float) -> None:
+    """Say so when a trajectory never moves faster than :data:`CRAWL_SPEED` and lasts more than
+    :data:`CRAWL_DURATION`: a robot hardly drives so, and a clock in milliseconds read as seconds makes one of a
+    file of a few seconds at metres a second (it runs, as the file says, but not silently)."""
+    fastest = float(np.max(np.hypot(*np.diff(xy, axis=0).T) / np.diff(t)))
+    span = float(t[-1] - t[0])
+    if fastest >= CRAWL_SPEED or span <= CRAWL_DURATION:
+        return
+    report.notes.append(
+        f"the trajectory moves at {fastest * 1e3:.3g} mm/s at most over {span / 60:.3g} min: if its clock counts "
+        f"milliseconds, give the seconds per file time unit, {option('time-scale', time_scale * 1e-3)}"
     )
 
 
