@@ -390,5 +390,5 @@ def test_other_tools_names_of_time_and_heading_are_read(tmp_path: Path) -> None:
     csv.write_text("Time,X,Y,Heading\n0,0,0,0\n1,0.1,0,0\n2,0.2,0,0\n")
     assert read_trajectory_file(TrajectoryFile(csv, timed=True)).theta is not None
     csv.write_text("t,timestamp,x,y\n0,0,0,0\n1,1,0.1,0\n")
-    with pytest.raises(TrajectoryFileError, match="column.s. t named twice"):
+    with pytest.raises(TrajectoryFileError, match=r"column\(s\) t named twice"):
         read_trajectory_file(TrajectoryFile(csv, timed=True))
