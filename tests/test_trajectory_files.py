@@ -392,3 +392,15 @@ def test_other_tools_names_of_time_and_heading_are_read(tmp_path: Path) -> None:
     csv.write_text("t,timestamp,x,y\n0,0,0,0\n1,1,0.1,0\n")
     with pytest.raises(TrajectoryFileError, match=r"column\(s\) t named twice"):
         read_trajectory_file(TrajectoryFile(csv, timed=True))
+
+
+def test_a_file_of_nul_bytes_is_said_to_be_no_text(tmp_path: Path) -> None:
+    """2000 zero bytes are valid UTF-8: the error echoed them as an 8 KB "unknown column name"."""
+    from planning.trajectory.file_formats import TrajectoryFileError
+    from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
+
+    p = tmp_path / "zeros.csv"
+    p.write_bytes(bytes(2000))
+    with pytest.raises(TrajectoryFileError, match=r"is not text \(it holds NUL bytes, from character 0\)") as err:
+        read_trajectory_file(TrajectoryFile(p, timed=True))
+    assert len(str(err.value)) < 300

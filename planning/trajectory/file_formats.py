@@ -242,6 +242,11 @@ def read_table(path: str | Path, columns: Sequence[str] | None = None) -> FileTa
         raise TrajectoryFileError(
             f"trajectory file {p} is not UTF-8 text (byte {exc.start} of the file: {exc.reason}); save it as UTF-8"
         ) from exc
+    if "\x00" in text:  # valid UTF-8, but no text file holds a NUL (a binary file, zeros, a UTF-16 one)
+        raise TrajectoryFileError(
+            f"trajectory file {p} is not text (it holds NUL bytes, from character {text.index(chr(0))}); give a text "
+            "table, JSON or YAML saved as UTF-8, or a ROS bag"
+        )
     if suffix in DOCUMENT_SUFFIXES:
         if columns is not None:
             raise TrajectoryFileError(
