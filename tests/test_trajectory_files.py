@@ -404,3 +404,18 @@ def test_a_file_of_nul_bytes_is_said_to_be_no_text(tmp_path: Path) -> None:
     with pytest.raises(TrajectoryFileError, match=r"is not text \(it holds NUL bytes, from character 0\)") as err:
         read_trajectory_file(TrajectoryFile(p, timed=True))
     assert len(str(err.value)) < 300
+
+
+def test_a_header_written_as_a_comment_is_pointed_at(tmp_path: Path) -> None:
+    """numpy's ``savetxt(header="t,x,y")`` writes ``# t,x,y``: the error said to add a header."""
+    from planning.trajectory.file_formats import TrajectoryFileError
+    from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
+
+    p = tmp_path / "np.csv"
+    np.savetxt(p, np.column_stack([np.arange(5.0), 0.1 * np.arange(5.0), np.zeros(5)]), delimiter=",", header="t,x,y")
+    with pytest.raises(TrajectoryFileError, match=r"line 1 names them but is a comment \('# t,x,y'\): drop its '#'"):
+        read_trajectory_file(TrajectoryFile(p, timed=True))
+    p.write_text("# a comment\n0,0,0\n1,0.1,0\n")  # a comment that names no columns: no such hint
+    with pytest.raises(TrajectoryFileError) as err:
+        read_trajectory_file(TrajectoryFile(p, timed=True))
+    assert "is a comment" not in str(err.value)

@@ -320,6 +320,18 @@ def _is_numeric_row(cells: list[str], delimiter: str | None) -> bool:
     return True
 
 
+def _commented_header(text: str, first: int, delimiter: str | None) -> str:
+    """The hint for a header written as a comment above the first row (numpy's ``savetxt(header=...)`` writes
+    ``# t,x,y``): "" when the comment line just before it does not name columns."""
+    above = text.splitlines()[first - 2].strip() if first >= 2 else ""
+    if not above.startswith(_COMMENTS):
+        return ""
+    cells = above.lstrip("#%/ ").split(delimiter) if delimiter else above.lstrip("#%/ ").split()
+    if not cells or not all(column_of(c) in COLUMNS or c.strip() == SKIP for c in cells):
+        return ""
+    return f"; line {first - 1} names them but is a comment ({above!r}): drop its {above[0]!r}"
+
+
 def _read_text(p: Path, text: str, columns: Sequence[str] | None) -> FileTable:
     lines = []
     for n, raw in enumerate(text.splitlines(), start=1):
@@ -345,6 +357,7 @@ def _read_text(p: Path, text: str, columns: Sequence[str] | None) -> FileTable:
         raise TrajectoryFileError(
             f"{p}: the first row (line {lines[0][0]}) is numbers, not a header naming the columns: add a header "
             f"or name the columns, e.g. {example} (names {_valid_names()}; {SKIP} skips a column)"
+            f"{_commented_header(text, lines[0][0], delimiter)}"
         )
     body = lines[1:] if has_header else lines
     if not body:
