@@ -419,3 +419,14 @@ def test_a_header_written_as_a_comment_is_pointed_at(tmp_path: Path) -> None:
     with pytest.raises(TrajectoryFileError) as err:
         read_trajectory_file(TrajectoryFile(p, timed=True))
     assert "is a comment" not in str(err.value)
+
+
+def test_records_under_a_poses_key_are_read_as_records(tmp_path: Path) -> None:
+    """A web tool's ``{"poses": [{"x", "y", "theta"}, ...]}`` was refused as a nav_msgs/Path without pose.position."""
+    from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
+
+    p = tmp_path / "web.json"
+    p.write_text(json.dumps({"poses": [{"x": 0.1 * k, "y": 0.0, "theta": 0.0} for k in range(5)]}))
+    imported = read_trajectory_file(TrajectoryFile(p, timed=False))
+    np.testing.assert_allclose(imported.xy[:, 0], 0.1 * np.arange(5))
+    assert imported.theta is not None

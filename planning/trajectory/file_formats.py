@@ -652,6 +652,8 @@ def _nav_path(p: Path, data: Mapping[str, Any]) -> FileTable:
     poses = data["poses"]
     if not isinstance(poses, list) or not poses:
         raise TrajectoryFileError(f"{p}: poses must be a non-empty list of stamped poses")
+    if all(isinstance(r, Mapping) and "pose" not in r and any(column_of(k) in COLUMNS for k in r) for r in poses):
+        return _from_records(p, poses, "json")  # a web tool's {"poses": [{"x": .., "y": .., "theta": ..}, ...]}
     rows = tuple(f"poses[{i}]" for i in range(len(poses)))
     xs, ys, quats, stamps = [], [], [], []
     for where, pose in zip(rows, poses, strict=True):
