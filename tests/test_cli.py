@@ -64,11 +64,14 @@ def test_bad_gains_and_scenarios_are_clear_errors(tmp_path: Path) -> None:
     assert r.returncode == 2 and "KD = -2 is not" in r.stderr
     r = nhsim("simulate", "--gains", "fast")
     assert r.returncode == 2 and "KP,KD" in r.stderr
-    # a value starting with '-' is read as an option by argparse: the message says how to give it
+    # numbers starting with a minus are a value, as argparse reads -1.4 (--initial-pose -1.4,-2.4,1.2 alike) ...
     r = nhsim("simulate", "--gains", "-1,7")
-    assert r.returncode == 2 and "expected one argument" in r.stderr and "--gains=VALUE" in r.stderr
+    assert r.returncode == 2 and "KP = -1 is not a positive finite number" in r.stderr
     r = nhsim("simulate", "--gains=-1,7")
     assert r.returncode == 2 and "KP = -1 is not a positive finite number" in r.stderr
+    # ... any other value starting with '-' is read as an option by argparse: the message says how to give it
+    r = nhsim("simulate", "--gains", "-fast")
+    assert r.returncode == 2 and "expected one argument" in r.stderr and "--gains=VALUE" in r.stderr
     r = nhsim("simulate", "--scenario", "no-such-scenario")
     assert r.returncode == 2 and "unknown scenario" in r.stderr
     bad = tmp_path / "bad.toml"

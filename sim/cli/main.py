@@ -56,16 +56,24 @@ def package_version() -> str:
         return "unknown (not installed)"
 
 
+#: One number or several, comma-separated, the first negative: what a value of nhsim's options looks like.
+_NEGATIVE_NUMBERS = re.compile(r"^-\d*\.?\d+(?:[eE][-+]?\d+)?(?:,\s*[-+]?\d*\.?\d+(?:[eE][-+]?\d+)?)*$")
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse's parser, whose usage errors are one line, as nhsim's own (argparse printed the whole usage, up to
-    21 lines, before it; ``--help`` shows it); its "expected one argument" also says how to give a value that
-    starts with '-' (``--gains -1,7`` reads -1,7 as an option; ``--gains=-1,7`` is a value). Options are not
+    21 lines, before it; ``--help`` shows it); numbers that start with a minus are a value (``--initial-pose
+    -1.4,-2.4,1.2``, ``--gains -1,7``), and its "expected one argument" says how to give any other value that starts
+    with '-' (``--scenario=-odd.toml``). Options are not
     abbreviated (argparse took ``--over`` for ``--overwrite``, the one switch that lets a file be replaced): every
     command's parser is this class, made without abbreviations."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         kwargs.setdefault("allow_abbrev", False)
         super().__init__(*args, **kwargs)
+        # a value of numbers that starts with a minus is a value, not an option: --initial-pose -1.4,-2.4,1.2 and
+        # --offset -1,0,0 as argparse reads -1.4 (nhsim has no option that looks like a number)
+        self._negative_number_matcher = _NEGATIVE_NUMBERS
 
     def error(self, message: str) -> NoReturn:
         found = re.match(r"argument (--[\w-]+)(?:/\S+)?: expected one argument$", message)
