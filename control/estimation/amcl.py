@@ -860,7 +860,7 @@ class Amcl:
             )  # fmt: skip
         # the fit's own covariance knows only the scan's white noise, not its systematic error: the larger
         # of it and the cluster's is reported
-        fit_cov = self._white_scale(ssr, used) * (np.linalg.inv(info) if whole else _within(basis, info))
+        fit_cov = self._white_scale(ssr, used) * _within(basis, info)
         if not whole:
             return AmclEstimate(pose, _psd(fit_cov + held), self.particles.shape[0], spread, True, agreement=agreement)
         cov = np.maximum(fit_cov, cov) if np.all(np.diag(cov) > 0) else cov
@@ -917,8 +917,7 @@ class Amcl:
         split, sd_offset, sd_scale = self.range_bias
         ata, used, ssr = K.fit_sensitivity(pose, r, b, self.laser, self.field.signed, self.field.grid,
                                            self.config.refine_gate, split, self._noise)  # fmt: skip
-        whole = basis is K.WHOLE
-        inv = np.asarray(np.linalg.inv(ata[:3, :3]) if whole else _within(basis, ata[:3, :3]), dtype=np.float64)
+        inv = _within(basis, ata[:3, :3])
         gain: FloatArray = -(inv @ ata[:3, 3:])
         noise: FloatArray = self._white_scale(ssr, used) * inv
         systematic: FloatArray = gain @ np.diag([sd_scale**2, sd_offset**2]) @ gain.T
@@ -961,7 +960,9 @@ def observed_directions(info: FloatArray) -> FloatArray | None:
 
 def _within(basis: FloatArray, a: FloatArray) -> FloatArray:
     """``B (B^T a B)^-1 B^T`` over ``basis``'s non-zero columns ``B``: ``a``'s inverse within the directions a
-    partial fit moved in (0 across the others)."""
+    partial fit moved in (0 across the others); for a whole fit (:data:`amcl_kernels.WHOLE`), ``a``'s inverse."""
+    if basis is K.WHOLE:
+        return np.asarray(np.linalg.inv(a), dtype=np.float64)
     cols = basis[:, np.any(basis != 0.0, axis=0)]
     return np.asarray(cols @ np.linalg.inv(cols.T @ a @ cols) @ cols.T, dtype=np.float64)
 

@@ -49,7 +49,13 @@ from planning.trajectory.from_plan import (
     make_trajectory,
     time_scales,
 )
-from planning.trajectory.importer import MOVING_SPEED, ImportedFile, PositionCurve, time_unit_fix
+from planning.trajectory.importer import (
+    MOVING_SPEED,
+    ImportedFile,
+    PositionCurve,
+    fastest_row_speed,
+    time_unit_fix,
+)
 from planning.trajectory.smoothing import check_options
 from planning.trajectory.speed_profile import Limits
 
@@ -513,7 +519,7 @@ def paced(imported: ImportedFile) -> tuple[ImportedFile, float]:
     The shape of the motion (positions, headings, stops) is the file's, sampled where its heading can be taken:
     only the poses of such a file are used (it is re-timed), never its clock."""
     assert imported.t is not None and imported.curve is not None
-    fastest = float(np.max(np.hypot(*np.diff(imported.xy, axis=0).T) / np.diff(imported.t)))
+    fastest = fastest_row_speed(imported.t, imported.xy)
     if fastest <= FAST_CLOCK:
         return imported, 1.0
     k = fastest / PACE_SPEED

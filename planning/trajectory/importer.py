@@ -737,8 +737,9 @@ def _timed(
     direction = _directions(cols)
     fit = stretch_fit(t, xy)
     derived = fit(t, 1)
-    _refuse_standing(report.file, t, xy, source.time_scale or 1.0)
-    _note_crawling(report, t, xy, source.time_scale or 1.0)
+    fastest = fastest_row_speed(t, xy)
+    _refuse_standing(report.file, fastest, source.time_scale or 1.0)
+    _note_crawling(report, fastest, float(t[-1] - t[0]), source.time_scale or 1.0)
     theta = cols.get("theta")
     heading = theta if theta is not None else np.unwrap(_motion_heading(derived, direction))
     curve: PositionCurve = fit
@@ -769,10 +770,15 @@ def _timed(
     return ImportedFile(source, rows, xy, t, theta, direction, curve, omega, report, velocities)
 
 
-def _refuse_standing(file: str, t: FloatArray, xy: FloatArray, time_scale: float) -> None:
-    """Refuse a trajectory that never moves faster than MOVING_SPEED between its rows: the robot would count
-    as standing all along (a clock in milliseconds read as seconds makes one)."""
-    fastest = float(np.max(np.hypot(*np.diff(xy, axis=0).T) / np.diff(t)))  # merged rows: stamps increase
+def fastest_row_speed(t: FloatArray, xy: FloatArray) -> float:
+    """The fastest speed between two consecutive rows of a timed file [m/s] (its rows merged: stamps increase)."""
+    return float(np.max(np.hypot(*np.diff(xy, axis=0).T) / np.diff(t)))
+
+
+def _refuse_standing(file: str, fastest: float, time_scale: float) -> None:
+    """Refuse a trajectory that never moves faster than MOVING_SPEED between its rows (``fastest``,
+    :func:`fastest_row_speed`): the robot would count as standing all along (a clock in milliseconds read as seconds
+    makes one)."""
     if fastest >= MOVING_SPEED:
         return
     given = f" at {option('time-scale', time_scale)}" if time_scale != 1.0 else ""
@@ -783,12 +789,11 @@ def _refuse_standing(file: str, t: FloatArray, xy: FloatArray, time_scale: float
     )
 
 
-def _note_crawling(report: ImportReport, t: FloatArray, xy: FloatArray, time_scale: float) -> None:
-    """Say so when a trajectory never moves faster than :data:`CRAWL_SPEED` and lasts more than
-    :data:`CRAWL_DURATION`: a robot hardly drives so, and a clock in milliseconds read as seconds makes one of a
-    file of a few seconds at metres a second (it runs, as the file says, but not silently)."""
-    fastest = float(np.max(np.hypot(*np.diff(xy, axis=0).T) / np.diff(t)))
-    span = float(t[-1] - t[0])
+def _note_crawling(report: ImportReport, fastest: float, span: float, time_scale: float) -> None:
+    """Say so when a trajectory never moves faster than :data:`CRAWL_SPEED` between its rows (``fastest``) and
+    lasts more than :data:`CRAWL_DURATION` (``span`` [s]): a robot hardly drives so, and a clock in milliseconds
+    read as seconds makes one of a file of a few seconds at metres a second (it runs, as the file says, but not
+    silently)."""
     if fastest >= CRAWL_SPEED or span <= CRAWL_DURATION:
         return
     report.notes.append(
