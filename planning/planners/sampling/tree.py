@@ -205,8 +205,9 @@ class Budget:
         if self.clock.expired():
             return True
         now = self.clock.elapsed()
+        late = PROOF_AFTER * self.time_limit  # the working time counts; it is at most ``now``, read already
         if self.proof is not None and (
-            iteration >= PROOF_AFTER * self.max_iterations or self.clock.working() >= PROOF_AFTER * self.time_limit
+            iteration >= PROOF_AFTER * self.max_iterations or (now >= late and self.clock.working() >= late)
         ):
             return self._try_proof()
         done, then = self._last
