@@ -336,15 +336,19 @@ def test_a_planners_options_are_given_on_the_command_line(tmp_path: Path, capsys
 
 def test_a_fresh_process_s_first_tree_plan_is_not_said_to_overrun_its_limit(tmp_path):
     """In a new process, rrt under a 0.1 s limit was said to take 0.41-0.44 s, "over its time limit": numba's one-time
-    set-up (0.3 s), before the planner's clock started, was counted as the planner's. It is the process's."""
+    set-up (0.3 s), before the planner's clock started, was counted as the planner's. It is the process's.
+
+    Whether rrt finds the path within 0.1 s depends on the machine's load (a loaded two-core machine's fresh process
+    ran out of time): either way, the run must end on time and not be said to overrun."""
     import subprocess
     import sys
 
     js = tmp_path / "p.json"
     argv = ["plan", "--scenario", "nav_map1", "--planner", "rrt", "--time-limit", "0.1", "--quiet", "--json", str(js)]
     done = subprocess.run([sys.executable, "-m", "sim", *argv], capture_output=True, text=True, timeout=120)
-    assert done.returncode == 0, done.stderr
-    assert "over its time limit" not in done.stdout and "overran_s" not in json.loads(js.read_text())["stats"]
+    record = json.loads(js.read_text())
+    assert (done.returncode, record["status"]) in ((0, "success"), (1, "timeout")), (done.stdout, done.stderr)
+    assert "over its time limit" not in done.stdout and "overran_s" not in record["stats"]
 
 
 def test_a_plan_that_overruns_its_time_limit_is_said(tmp_path, capsys, monkeypatch):
