@@ -80,3 +80,48 @@ def test_kernel_input_copies_only_what_is_not_already_a_writable_contiguous_arra
         out = kernel_input(given)
         assert out.flags.writeable and out.flags.c_contiguous and out.dtype == np.float64
         assert np.array_equal(out, np.asarray(given, dtype=float)) and not np.shares_memory(out, mine)
+
+
+_LOCALISER_CALLS = """
+import mujoco
+import numpy as np
+from numba.core.dispatcher import Dispatcher
+
+from control.estimation import amcl_kernels as K
+from control.estimation.amcl import Amcl, AmclConfig
+from planning.core.robot import load_robot
+from planning.core.world import World
+from sim.physics.model import build_model
+from sim.physics.lidar import LidarProfile, LidarScanner
+
+corridor, room = World((0.0, 12.0, 0.0, 1.2), ()), World((0.0, 3.0, 0.0, 2.5), ())
+for world, truth in ((corridor, (6.0, 0.6, 0.02)), (room, (1.2, 1.0, 0.3))):
+    model = build_model(load_robot("turtlebot3"), world).model
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    lidar = LidarScanner(model, LidarProfile(), seed=0)
+    scan = lidar.scan(data, 0.0, np.tile(truth, (360, 1)))
+    amcl = Amcl(world, AmclConfig(), [*lidar.offset[:2], 0.0], seed=0)
+    amcl.reset(np.add(truth, (0.1, 0.03, 0.02)), std_xy=0.1, std_theta=0.03)
+    r, b = amcl.beams(scan.ranges, 0.12, 3.5, 0.0, scan.angle_increment, every=True)
+    est = amcl._estimate(r, b, scan=(scan.ranges, scan.bearings, 0.12, 3.5))
+    print("refined", int(est.refined))
+for kernel in (K.refine, K.refine_within, K.resume, K.rays_through):
+    assert isinstance(kernel, Dispatcher)
+    print(kernel.py_func.__name__, len(kernel.signatures))
+"""
+
+
+def test_the_localisers_fits_compile_once_whole_or_within_a_corridors_directions() -> None:
+    """A fresh process localises in a corridor (the fit within the directions the scan fixes) and in a room (the whole
+    fit): each fitting kernel the Python side calls has one type. The whole fit's basis (a constant, read-only) and a
+    corridor's (computed, writable) gave ``resume`` two."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run(
+        [sys.executable, "-c", _LOCALISER_CALLS], env=env, cwd=ROOT, capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.split("\n")
+    assert lines.count("refined 1") == 2, done.stdout  # both fits ran: the corridor's within, the room's whole
+    counts = dict(line.split() for line in lines if line and not line.startswith("refined"))
+    assert counts == {"refine": "1", "refine_within": "1", "resume": "1", "rays_through": "1"}, counts

@@ -950,12 +950,15 @@ OBSERVED_SHARE = 1e-6
 def observed_directions(info: FloatArray) -> FloatArray | None:
     """The directions of the pose a scan fixes, as orthonormal columns of a (3, 3) basis (a zero column for each
     it does not): the eigenvectors of the fit's information ``J^T W J`` whose eigenvalue is at least
-    :data:`OBSERVED_SHARE` of the largest. None when it fixes all three or none (nothing to hold apart)."""
+    :data:`OBSERVED_SHARE` of the largest, read-only (as :data:`amcl_kernels.WHOLE`). None when it fixes all three or
+    none (nothing to hold apart)."""
     w, v = np.linalg.eigh(0.5 * (info + info.T))
     keep = w >= OBSERVED_SHARE * max(float(w[-1]), 0.0)
     if keep.all() or not keep.any() or not w[-1] > 0.0:
         return None
-    return np.ascontiguousarray(v * keep)
+    basis = np.ascontiguousarray(v * keep)
+    basis.flags.writeable = False  # as amcl_kernels.WHOLE is: the fitting kernels compile for one basis type
+    return basis
 
 
 def _within(basis: FloatArray, a: FloatArray) -> FloatArray:

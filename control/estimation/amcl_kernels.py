@@ -466,7 +466,10 @@ def _fit_pass(
     (both overwritten); returns (beams within the gate, their ``sum w d^2``, the whole objective :func:`fit_cost`)."""
     info[:] = 0.0
     g[:] = 0.0
-    used, ssr, cost = 0, 0.0, 0.0
+    # an int64 from the start: a literal 0 had numba type the inlined pass's callers' calls with it first, and
+    # compile _descend once more for that type
+    used: int = np.int64(0)  # type: ignore[assignment]
+    ssr, cost = 0.0, 0.0
     lx, ly = _laser_origin(x, laser)
     for b in range(ranges.shape[0]):
         w, ok, d, gx, gy, px, py = _beam_fit(x, lx, ly, ranges[b], bearings[b], laser, field, grid, gate, noise)
