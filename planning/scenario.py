@@ -437,11 +437,21 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     """Load a built-in scenario by name, a scenario file by path, or a generated world by its name
     ``random<N>`` (:func:`random_scenario` of seed N, for the TurtleBot3 and every other robot).
 
+    A bare name (no folder, no suffix) that is a built-in one or ``random<N>`` is that scenario wherever the command
+    runs: a file or folder of that name in the working directory is not looked at (give it as ``./open`` to load it).
+
     Raises:
         ScenarioError: Unknown name (the message lists the built-in ones) or a bad file.
     """
     text = str(name_or_path)
     p = Path(text)
+    bare = isinstance(name_or_path, str) and p.name == text and not p.suffix
+    candidate = SCENARIOS_DIR / f"{text}.toml"
+    if bare and candidate.exists():
+        return load_scenario_file(candidate)
+    generated = _RANDOM_NAME.fullmatch(text) if bare else None
+    if generated is not None:
+        return random_scenario("turtlebot3", int(generated.group(1)))
     if not text.strip() or p.is_dir():
         what = "an empty name" if not text.strip() else f"the folder {text!r}"
         raise ScenarioError(
@@ -451,12 +461,6 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
         if not p.exists():
             raise ScenarioError(f"scenario file {p} does not exist")
         return load_scenario_file(p)
-    candidate = SCENARIOS_DIR / f"{text}.toml"
-    if candidate.exists():
-        return load_scenario_file(candidate)
-    generated = _RANDOM_NAME.fullmatch(text)
-    if generated is not None:
-        return random_scenario("turtlebot3", int(generated.group(1)))
     raise ScenarioError(
         f"unknown scenario {text!r}: give a path to a .toml file, random<N> for the generated world of seed N "
         f"(e.g. random300), or one of: {', '.join(builtin_scenarios())}"

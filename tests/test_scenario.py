@@ -378,3 +378,24 @@ pose = [2.8, 1.0, 3.14159]
     assert "and overlaps the box at x 2..3, y 1.08..2 too" in said
     fix = "move the goal clear of all of them (the turtlebot3's footprint is 0.178 m across, 0.144 m long), or turn it"
     assert said.endswith(fix)
+
+
+def test_a_built_in_name_is_the_built_in_scenario_whatever_the_working_directory_holds(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A folder ``open`` (or an empty file ``farm``) in the working directory made ``--scenario open`` and the
+    regression suite's own cases refuse "the folder 'open'" or read the empty file: a bare built-in name, or
+    random<N>, is the built-in scenario; the local file is loaded when given as a path."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "open").mkdir()
+    (tmp_path / "farm").write_text("")
+    (tmp_path / "random4").write_text("")
+    assert load_scenario("open") == load_scenario(SCENARIOS_DIR / "open.toml")
+    assert load_scenario("farm") == load_scenario(SCENARIOS_DIR / "farm.toml")
+    assert load_scenario("random4").name == "random4"
+    with pytest.raises(ScenarioError, match="missing field"):
+        load_scenario("./farm")  # a path: the file itself
+    with pytest.raises(ScenarioError, match="the folder"):
+        load_scenario("./open")
+    with pytest.raises(ScenarioError, match="missing field"):
+        load_scenario(Path("farm"))  # a Path is a file's
