@@ -173,6 +173,14 @@ def test_parameter_files(tmp_path: Path) -> None:
         check_trackers(["mpc", "mpc"])
 
 
+def test_trackers_given_as_a_string_are_names_not_letters() -> None:
+    """``compare_trackers(case, "fbl")`` refused "unknown tracker 'f'": the string was iterated letter by letter."""
+    assert check_trackers("fbl") == ("fbl",)
+    assert check_trackers("fbl, mpc") == ("fbl", "mpc")
+    with pytest.raises(ConfigError, match="unknown tracker 'fb'"):
+        check_trackers("fb")
+
+
 @pytest.mark.slow  # every tracker timed: 3 s, kept out of the default run
 def test_bench_track_prints_every_tracker_and_mpc_solve_times() -> None:
     r = nhsim("bench", "track", "--reference", "line", "--trackers", "kanayama,mpc", "--mpc-solvers", "rti,sqp")

@@ -42,6 +42,10 @@ def _regress(suite: Path, baselines: Path, *extra: str) -> int:
         ("{}", "no metrics table"),
         ("[1]", "a JSON list, not an object"),
         ('{"metrics": {"collisions": "none"}}', "metric(s) collisions not a number"),
+        # a boolean for a number passed (false compared as 0 collisions), or read "improved (true -> 0.0028)"
+        ('{"metrics": {"collisions": false}}', "metric(s) collisions not a number"),
+        ('{"metrics": {"final_position_error_m": true}}', "metric(s) final_position_error_m not a number"),
+        ('{"metrics": {"fell": 0}}', "metric(s) fell not true or false"),
         ('{"metrics": {}, "case": 3}', "its case not a table"),
     ],
 )

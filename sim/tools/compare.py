@@ -98,11 +98,14 @@ class TimedTracker:
 
 
 def check_trackers(names: Sequence[str]) -> tuple[str, ...]:
-    """The tracker names, checked: registered, none twice, at least one.
+    """The tracker names, checked: registered, none twice, at least one. A string is one name, or several
+    comma-separated (as ``--trackers`` takes them): ``"fbl"`` was iterated as the trackers 'f', 'b' and 'l'.
 
     Raises:
         ConfigError: An empty list, an unknown name (lists the registered ones) or a repeated one.
     """
+    if isinstance(names, str):
+        names = names.split(",")
     names = tuple(n.strip() for n in names if n.strip())
     if not names:
         raise ConfigError(f"{option('trackers')} needs at least one tracker: choose from {', '.join(sorted(TRACKERS))}")
@@ -311,7 +314,7 @@ def compare_trackers(
 
     Args:
         case: The case (scenario, robot, reference or planner, seed, build seed, control rate).
-        trackers: Registered tracker names.
+        trackers: Registered tracker names (a string: one, or several comma-separated).
         runs: Runs per tracker (1: the case's own draw; N > 1: N held-out draws).
         params: Tracker -> its tuned parameters (the dataclass of its tuned option); others default.
         progress: Told (tracker, runs done, runs total) after each run.

@@ -119,6 +119,16 @@ TEXT_METRICS: tuple[str, ...] = tuple(
     )
     if hint is str
 )
+#: The metrics that are true or false (a fall, a converged global localisation): any other numeric metric's baseline
+#: value is a number, not a boolean.
+BOOL_METRICS: frozenset[str] = frozenset(
+    m
+    for m, hint in (
+        *get_type_hints(TrackingMetrics).items(),
+        *((f"estimation_{k}", v) for k, v in get_type_hints(EstimationMetrics).items()),
+    )
+    if hint in (bool, bool | None)
+)
 #: Metrics whose null in a baseline is a value, not a hole: a statistic of nothing (NaN, written null: the
 #: estimator's NEES without a fix compared, the scan localiser's without an update) or an event that did not
 #: happen (None: no fall, never lost, start pose known). A run that now has a number there changed; for any
@@ -859,14 +869,17 @@ def baseline_path(case: Case, baseline_dir: Path) -> Path:
 
 
 def _metric_kind(metric: str, value: Any) -> str:
-    """What a baseline's metric ``value`` should be and is not ("" when it is one :func:`compare` takes): a
-    number (true, false), or null, for a number; text, or null, for text; a finite number (NaN is written null)."""
+    """What a baseline's metric ``value`` should be and is not ("" when it is one :func:`compare` takes): true or
+    false, or null, for a boolean metric (:data:`BOOL_METRICS`); a number, not a boolean, or null, for another
+    number; text, or null, for text; a finite number (NaN is written null)."""
     if value is None:
         return ""
     if metric in TEXT_METRICS:
         return "" if isinstance(value, str) else "not text"
+    if metric in BOOL_METRICS:
+        return "" if isinstance(value, bool) else "not true or false"
     if metric in METRICS:
-        if not _is_number(value):
+        if not _is_number(value) or isinstance(value, bool):
             return "not a number"
     elif not isinstance(value, (bool, int, float, str)):
         return "not a number or text"
