@@ -234,17 +234,23 @@ def test_a_mujoco_warning_fails_the_run_loudly_and_keeps_the_log(
     assert relaxed.warnings
 
 
-def test_the_command_says_a_mujoco_warning_in_one_line(capsys: pytest.CaptureFixture[str]) -> None:
-    """The nhsim command prints MuJoCo's warning as a line of its own, not Python's file and code line."""
-    from sim.cli.main import _one_line_mujoco
+def test_the_command_says_its_own_warnings_in_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    """The nhsim command prints MuJoCo's warning, and its own (a reference beyond the robot's limits was printed with
+    Python's file and code line, ``simulate.py:306: InfeasibleReferenceWarning: ...  log = simulator.run(``), as a
+    line of its own; a library's warning as Python says it."""
+    from sim.cli.main import _one_line_own
     from sim.physics.model import MujocoWarning
+    from sim.physics.simulator import InfeasibleReferenceWarning
 
     others: list[object] = []
-    show = _one_line_mujoco(lambda *args, **kwargs: others.append(args))
+    show = _one_line_own(lambda *args, **kwargs: others.append(args))
     show(MujocoWarning("MuJoCo: Nan, Inf or huge value in QACC at DOF 4."), MujocoWarning, "model.py", 335)
     assert capsys.readouterr().err == "nhsim: MuJoCo: Nan, Inf or huge value in QACC at DOF 4.\n" and not others
+    show(InfeasibleReferenceWarning("beyond the limits"), InfeasibleReferenceWarning, "simulate.py", 306)
+    assert capsys.readouterr().err == "nhsim: beyond the limits\n" and not others
     show(UserWarning("another"), UserWarning, "x.py", 1)
-    assert len(others) == 1  # any other warning as Python says it
+    show(RuntimeWarning("numpy's"), np.exceptions.ComplexWarning, "y.py", 2)
+    assert len(others) == 2  # a library's warning as Python says it
 
 
 @pytest.mark.parametrize(

@@ -246,7 +246,7 @@ def console() -> int:
     collection removes, and a further Ctrl-C, SIGTERM or SIGHUP meanwhile is ignored (the status stays 130). Tests
     call :func:`main`, which leaves the collector and the signals alone.
     """
-    warnings.showwarning = _one_line_mujoco(warnings.showwarning)
+    warnings.showwarning = _one_line_own(warnings.showwarning)
     code = main()
     if code != 130:
         gc.freeze()
@@ -257,12 +257,17 @@ def console() -> int:
     return code
 
 
-def _one_line_mujoco(show: Any) -> Any:
-    """``warnings.showwarning`` saying a MuJoCo warning (``sim.physics.model.MujocoWarning``, named here without
-    importing MuJoCo) as one line of the command's, ``nhsim: MuJoCo: ...``, without Python's file and code line."""
+#: The packages whose warnings the command says as its own lines (``nhsim: ...``).
+OWN_PACKAGES = ("sim", "planning", "control", "models")
+
+
+def _one_line_own(show: Any) -> Any:
+    """``warnings.showwarning`` saying a warning of nhsim's own (a class defined in :data:`OWN_PACKAGES`: a MuJoCo
+    warning, ``sim.physics.model.MujocoWarning``, a reference beyond the robot's limits, ...) as one line of the
+    command's, ``nhsim: ...``, without Python's file and code line; a library's as Python says it."""
 
     def showwarning(message: Any, category: type[Warning], *args: Any, **kwargs: Any) -> None:
-        if category.__name__ == "MujocoWarning":
+        if category.__module__.split(".")[0] in OWN_PACKAGES:
             print(f"nhsim: {message}", file=sys.stderr)
         else:
             show(message, category, *args, **kwargs)
