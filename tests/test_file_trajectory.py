@@ -347,6 +347,41 @@ def test_a_recorded_robot_settling_within_the_noise_floor_stands_still(tmp_path:
     assert not retime and stretch < 1.5, why  # the drive's own speed, not the settling
 
 
+@pytest.mark.parametrize("rock", [0.3e-3, 1.0e-3])
+def test_a_recording_that_rocks_as_it_turns_in_place_keeps_its_headings(tmp_path: Path, rock: float) -> None:
+    """A balancing EduMIP's odometry read back from its own bag: it drives 1 m, then turns in place by 0.3 rad at
+    its goal while it rocks fore and aft (here by +-``rock`` at 4 Hz, drifting 2 mm), its wheel speed ``v`` flipping
+    sign every eighth of a second, and its position moves by a localiser's fixes. Each short rock was taken for a
+    drive with the direction of its chord: the heading flipped by pi from one to the next (157 rad/s), a heading
+    note said "off by 3.142 rad", and the run was re-timed to 370 times its length. Rocking goes nowhere: the
+    file's headings are kept there."""
+    t_drive = np.arange(0.0, 10.0, 0.02)
+    u = t_drive / 10.0
+    x_drive = 10 * u**3 - 15 * u**4 + 6 * u**5  # 1 m, at rest at both ends
+    t_turn = np.arange(10.0, 13.0 + 1e-9, 0.02)
+    w = np.clip((t_turn - 10.0) / 2.0, 0.0, 1.0)
+    th_turn = 0.3 * (0.5 - 0.5 * np.cos(np.pi * w))  # 0 -> 0.3 rad over 2 s, then still
+    along = rock * np.sin(2 * np.pi * 4.0 * (t_turn - 10.0)) + 2e-3 * w  # fore and aft, and a drift
+    xy_turn = np.array([1.0, 0.0]) + along[:, None] * np.column_stack([np.cos(th_turn), np.sin(th_turn)])
+    rng = np.random.default_rng(7)  # and a localiser's fixes, 0.2-0.6 mm any way every 0.1 s, which v knows nothing of
+    fixes = np.zeros_like(xy_turn)
+    angle, size = rng.uniform(-np.pi, np.pi, fixes[::5].shape[0]), rng.uniform(2e-4, 6e-4, fixes[::5].shape[0])
+    fixes[::5] = np.column_stack([size * np.cos(angle), size * np.sin(angle)])
+    xy_turn += np.cumsum(fixes, axis=0) - np.cumsum(fixes, axis=0).mean(axis=0)
+    t = np.concatenate([t_drive, t_turn])
+    xy = np.vstack([np.column_stack([x_drive, np.zeros_like(x_drive)]), xy_turn])
+    theta = np.concatenate([np.zeros_like(t_drive), th_turn])
+    v = np.concatenate([np.gradient(x_drive, t_drive), np.gradient(along, t_turn)])
+    p = write_csv(tmp_path / "odom.csv", {"t": t, "x": xy[:, 0], "y": xy[:, 1], "theta": theta, "v": v})
+    imp = read_trajectory_file(TrajectoryFile(p))
+    dense = densify(imp)
+    given = np.interp(dense.t, t, theta)
+    assert np.abs(dense.pose[:, 2] - given).max() < 0.02  # no flip, no turn of its own
+    assert np.abs(dense.omega).max() < 0.5
+    file_trajectory(imp, ROBOT, World((-0.5, 2.5, -1.0, 1.0)))
+    assert not [f for f in imp.report.corrections if f.what == "headings theta"]
+
+
 def test_a_path_given_where_a_file_as_read_goes_is_read_or_named(tmp_path: Path) -> None:
     """``read_trajectory_file('ok.csv')`` raised AttributeError ('str' object has no attribute 'topic'), and
     ``file_trajectory('ok.csv', ...)`` another; a tracker's error advised ``file_trajectory(path)``."""

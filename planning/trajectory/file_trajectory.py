@@ -1,12 +1,15 @@
 """A repaired trajectory or path file (:mod:`planning.trajectory.importer`) as a trajectory in a world.
 
-A **timed** file is sampled every ``dt`` from its interpolant: positions and their derivatives, the
-heading along the motion where the robot moves (the direction of the curve's chord over
-:data:`HEADING_LENGTH` of path and :data:`HEADING_WINDOW` of time, within one drive, continued along
-the path near a drive's ends, where the motion is too short to resolve it; a robot that stays within
-:data:`NOISE_FLOOR` for :data:`SETTLE_TIME`, a recording's settling, stands with a speed of 0) and, where
-it stands, the file's own headings (their turn in place; shifted to meet the motion's heading at both
-ends) or a turn from the arriving to the leaving heading. Then it goes through the stage every timed plan goes through
+A **timed** file is sampled every ``dt`` from its interpolant: positions and their derivatives, and
+headings. The motion's direction is the direction of the curve's chord over :data:`HEADING_LENGTH` of
+path and :data:`HEADING_WINDOW` of time, within one drive, where the motion resolves it (a robot that stays
+within :data:`NOISE_FLOOR` for :data:`SETTLE_TIME`, a recording's settling, stands with a speed of 0). A
+file that gives headings keeps them where they are within
+:data:`~planning.trajectory.importer.HEADING_TO_MOTION` of the resolved motion, is turned to within it
+where they are not, and carries that turn smoothly between (:func:`_kept_headings`); a file without
+headings takes the motion's where the robot moves, continued along the path near a drive's ends, and
+where it stands a turn from the arriving to the leaving heading. Then it goes through the stage every timed plan
+goes through
 (:func:`planning.trajectory.from_plan.make_trajectory`): segments from the sign of v, its own samples
 kept (slowed uniformly, by at most :data:`MAX_STRETCH`, when it exceeds a limit) or re-timed from
 rest to rest by the speed profile, with the reason: it starts or ends moving, it accelerates beyond
@@ -50,7 +53,9 @@ from planning.trajectory.from_plan import (
     time_scales,
 )
 from planning.trajectory.importer import (
+    HEADING_TO_MOTION,
     MOVING_SPEED,
+    Correction,
     ImportedFile,
     PositionCurve,
     fastest_row_speed,
@@ -121,6 +126,8 @@ class DenseFile:
         end_rows: ((time [s], speed [m/s]) of the middle of the first interval of rows, the same of the last):
             where ``v_rows`` leaves and meets the speeds at the file's ends (speeds 0 for a file that gives its
             velocities: it says itself where it rests).
+        turned: (M,) how far the file's own headings were turned toward the motion where it resolves a direction
+            [rad] (0 elsewhere; :func:`_kept_headings`), None for a file without headings.
     """
 
     t: FloatArray
@@ -129,6 +136,7 @@ class DenseFile:
     omega: FloatArray
     v_rows: FloatArray
     end_rows: tuple[tuple[float, float], tuple[float, float]] = ((0.0, 0.0), (0.0, 0.0))
+    turned: FloatArray | None = None
 
 
 def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
@@ -149,8 +157,13 @@ def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
     xy = imported.curve(tg, 0)
     settled = _settled(tg, xy)
     moving = _creeping(moving, tg, xy) & ~settled
-    heading = _motion_headings(imported, tg, moving, sgn)
-    heading = _standing_headings(imported, tg, heading, moving)
+    heading, resolved = _motion_headings(imported, tg, moving, sgn)
+    own = _given_heading(imported, tg)
+    turned = None
+    if own is None:
+        heading = _standing_headings(tg, heading, moving)
+    else:
+        heading, turned = _kept_headings(tg, own, heading, resolved & moving)
     heading = np.unwrap(heading)
     pose = np.column_stack([xy, heading])
     v = np.where(settled, 0.0, sgn * speed)
@@ -159,7 +172,7 @@ def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
     step = np.hypot(*(imported.xy[[1, -1]] - imported.xy[[0, -2]]).T) / np.diff(imported.t)[[0, -1]]
     ends = step * imported.direction[[0, -1]] * (not imported.velocities)  # given velocities say where it rests
     end_rows = ((float(mids[0]), float(ends[0])), (float(mids[1]), float(ends[1])))
-    return DenseFile(tg - t0, pose, v, np.gradient(heading, tg), v_rows, end_rows)
+    return DenseFile(tg - t0, pose, v, np.gradient(heading, tg), v_rows, end_rows, turned)
 
 
 def row_speeds(imported: ImportedFile, tg: FloatArray, v: FloatArray) -> FloatArray:
@@ -252,14 +265,18 @@ def _creeping(moving: NDArray[np.bool_], tg: FloatArray, xy: FloatArray) -> NDAr
     return moving | (np.cumsum(mark)[:-1] > 0)
 
 
-def _motion_headings(imported: ImportedFile, tg: FloatArray, moving: NDArray[np.bool_], sgn: FloatArray) -> FloatArray:
+def _motion_headings(
+    imported: ImportedFile, tg: FloatArray, moving: NDArray[np.bool_], sgn: FloatArray
+) -> tuple[FloatArray, NDArray[np.bool_]]:
     """(M,) heading of the motion at times tg (M,) [rad], backwards where ``sgn`` is -1, at the moving
-    samples (the others are placeholders that :func:`_standing_headings` replaces).
+    samples (the others are placeholders that :func:`_standing_headings` replaces), and (M,) where the motion
+    resolves it (below).
 
     Where the motion **resolves** it: the direction of the curve's chord about each time over at least
     HEADING_LENGTH of path (or what HEADING_WINDOW of time covers, if more), symmetric in path, each end
     of it the mean position over HEADING_WINDOW about it, all inside the sample's own drive (moving
-    samples of one travel direction). Over a window rather than at an instant: a file's rounding,
+    samples of one travel direction), the chord at least half that path (a wobble back and forth, a recording's
+    rocking, goes nowhere: its chord points anywhere). Over a window rather than at an instant: a file's rounding,
     differentiated between rows 0.01 s apart, turns the direction of a slow motion by tenths of a radian
     from row to row (1 um of rounding at 1 mm/s); over 5 mm of path the same rounding turns it by less
     than a milliradian, and the means keep one row's rounding from jerking the heading as the chord
@@ -289,6 +306,7 @@ def _motion_headings(imported: ImportedFile, tg: FloatArray, moving: NDArray[np.
     w = 0.5 * HEADING_WINDOW  # each end of the chord: the mean position over HEADING_WINDOW about it
     resolved = (s - half >= s[starts[run]]) & (s + half <= s[ends[run]]) & (ta - w >= lo) & (tb + w <= hi)
     chord = imported.curve.mean(tb - w, tb + w) - imported.curve.mean(ta - w, ta + w)
+    resolved &= np.hypot(chord[:, 0], chord[:, 1]) >= half  # it went somewhere: not a wobble back and forth
     whole = ~np.isin(run, run[resolved])  # drives without a resolved chord: the whole drive's
     chord[whole] = imported.curve(hi[whole], 0) - imported.curve(lo[whole], 0)
     flat = np.hypot(chord[:, 0], chord[:, 1]) == 0.0  # a run of one sample: its velocity
@@ -296,7 +314,7 @@ def _motion_headings(imported: ImportedFile, tg: FloatArray, moving: NDArray[np.
     heading = np.arctan2(sgn * chord[:, 1], sgn * chord[:, 0])
     idx = np.flatnonzero(resolved)
     if idx.size == 0:
-        return heading
+        return heading, resolved
     first = np.full(starts.size, -1)
     last = np.full(starts.size, -1)
     first[run[idx[::-1]]] = idx[::-1]  # the last write wins: the first resolved sample of each drive
@@ -314,7 +332,7 @@ def _motion_headings(imported: ImportedFile, tg: FloatArray, moving: NDArray[np.
         with np.errstate(divide="ignore", invalid="ignore"):
             curvature = np.where(span != 0.0, wrap_angle(heading[far] - heading[k]) / span, 0.0)
         heading[out] = heading[k] + curvature * (s[out] - s[k])
-    return heading
+    return heading, resolved
 
 
 def _given_heading(imported: ImportedFile, tg: FloatArray) -> FloatArray | None:
@@ -329,27 +347,64 @@ def _given_heading(imported: ImportedFile, tg: FloatArray) -> FloatArray | None:
     return np.asarray(PchipInterpolator(imported.t, imported.theta)(tg))
 
 
-def _standing_headings(
-    imported: ImportedFile, tg: FloatArray, heading: FloatArray, moving: NDArray[np.bool_]
-) -> FloatArray:
-    """Headings while standing: the file's own (shifted to meet the motion at both ends), else a turn
-    from the arriving heading to the leaving one."""
+def _standing_headings(tg: FloatArray, heading: FloatArray, moving: NDArray[np.bool_]) -> FloatArray:
+    """Headings while standing, for a file without headings: a turn from the arriving heading to the leaving one
+    (zero where it never moves)."""
     if not np.any(moving):
-        given = _given_heading(imported, tg)
-        return given if given is not None else np.zeros_like(tg)
-    own = _given_heading(imported, tg)
+        return np.zeros_like(tg)
     out = heading.copy()
     edges = np.flatnonzero(np.diff(np.concatenate([[1], moving.astype(int), [1]])))
     for a, b in zip(edges[::2], edges[1::2], strict=True):  # standing runs [a, b)
         before, after = (a - 1 if a > 0 else b), (b if b < tg.size else a - 1)
         h0, h1 = heading[before], heading[after]
         w = (tg[a:b] - tg[a]) / max(tg[b - 1] - tg[a], 1e-12)
-        if own is None:
-            out[a:b] = h0 + w * wrap_angle(h1 - h0)
-        else:
-            d0, d1 = wrap_angle(h0 - own[before]), wrap_angle(h1 - own[after])
-            out[a:b] = own[a:b] + d0 + w * (d1 - d0)
+        out[a:b] = h0 + w * wrap_angle(h1 - h0)
     return out
+
+
+def _kept_headings(
+    tg: FloatArray, own: FloatArray, motion: FloatArray, resolved: NDArray[np.bool_]
+) -> tuple[FloatArray, FloatArray]:
+    """Headings for a file that gives them (``own``, (M,) at times ``tg``): its own, turned toward the motion's
+    (``motion``) where the motion resolves a direction (``resolved``) and they are more than HEADING_TO_MOTION apart,
+    by the excess (the robot cannot move sideways); elsewhere (standing, turning in place, a drive's first and
+    last millimetres, a wobble too short to resolve a direction) by the turn of the resolved samples about it,
+    linear in time between them (constant before the first and after the last), so that the heading never jumps;
+    and (M,) the turn at the resolved samples (0 elsewhere).
+
+    A file within the tolerance keeps its headings as they are. Taking the motion's direction wherever the robot
+    moved made a recording's own wobble its turns: a balancing EduMIP's odometry, read back from its bag, rocks by
+    tenths of a millimetre as it stops, reverses and turns in place, every short chord pointed elsewhere, and the
+    heading flipped by pi between them (yaw rates of 157 rad/s; the run was re-timed to 370 times its length)."""
+    turned = np.zeros_like(own)
+    idx = np.flatnonzero(resolved)
+    if idx.size == 0:
+        return own, turned
+    d = np.unwrap(wrap_angle(motion[idx] - own[idx]))  # one branch: no interpolation across a wrap
+    turned[idx] = np.sign(d) * np.maximum(np.abs(d) - HEADING_TO_MOTION, 0.0)
+    return np.asarray(own + np.interp(tg, tg[idx], turned[idx])), turned
+
+
+def _note_turned(imported: ImportedFile, dense: DenseFile) -> None:
+    """Say in the file's report how far :func:`densify` turned its headings toward the motion (more than
+    HEADING_TO_MOTION off it where the motion resolves a direction), at most, and at which sample (named by the row
+    nearest it; the file's heading there, between rows, as the value given)."""
+    if dense.turned is None or not np.any(dense.turned):
+        return
+    assert imported.t is not None and imported.theta is not None
+    k = int(np.argmax(np.abs(dense.turned)))
+    turn = float(dense.turned[k])
+    row = int(np.argmin(np.abs(imported.t - (imported.t[0] + dense.t[k]))))  # the row nearest the sample
+    off = abs(turn) + HEADING_TO_MOTION
+    imported.report.notes.append(
+        f"headings disagree with the direction of motion by up to {off:.3f} rad (near {imported.rows[row]}; "
+        f"tolerance {HEADING_TO_MOTION:g} rad): where the motion resolves a direction, the heading is turned to "
+        "within the tolerance of it"
+    )
+    given = float(dense.pose[k, 2] - turn)  # the file's heading at the sample
+    imported.report.corrections.append(
+        Correction("headings theta", imported.rows[row], (given,), (given + turn,), off, HEADING_TO_MOTION, "rad")
+    )
 
 
 #: What a file moving at an end is told (:func:`timing_verdict`): its rows' speed there, without velocities given,
@@ -604,6 +659,7 @@ def file_trajectory(imported: ImportedFile, robot: RobotSpec, world: World, **op
     goal = with_file_ends(Scenario("file", robot.name, world, Pose2D(0, 0, 0), Pose2D(0, 0, 0)), imported).goal
     if source.timed:
         dense = densify(imported)
+        _note_turned(imported, dense)
         limits = Limits.from_robot(robot, options.get("margin", 0.85))
         retime, why, _ = timing_verdict(dense, limits)
         why += _clock_hint(dense, limits, source.time_scale) if retime else ""

@@ -17,8 +17,9 @@ into the scenario's frame), and repairs what real files get wrong:
   ``omega`` must turn the heading as it turns within :data:`HEADING_TOLERANCE` (0.02 rad + 10 %;
   spans of 0.2 rad). A column set that misses anywhere is
   replaced by the positions' own derivatives, with a note and the largest change. A heading more
-  than :data:`HEADING_TO_MOTION` (0.1 rad) off the direction of motion is replaced by it (the
-  robot cannot move sideways).
+  than :data:`HEADING_TO_MOTION` (0.1 rad) off the direction of motion, where the motion resolves
+  one, is turned to within that of it when the file becomes a trajectory (the robot cannot move
+  sideways: :func:`planning.trajectory.file_trajectory.densify`, which notes it); one within it is kept.
 
 The positions' own derivatives come from one curve through all rows
 (:func:`planning.trajectory.row_curves.stretch_fit`): a cubic spline at rest at the stops (the file's
@@ -757,9 +758,6 @@ def _timed(
             velocities = True
     elif "axy" in cols:
         report.notes.append("accelerations (ax, ay) unused: the file gives no velocities to go with them")
-    used_vel = curve(t, 1)
-    if theta is not None:
-        _check_heading(theta, _motion_heading(used_vel, direction), used_vel, rows, report)
     omega = cols.get("omega")
     if omega is not None:
         check = _miss(t, heading[:, None], omega[:, None], HEADING_TOLERANCE)
@@ -854,29 +852,3 @@ def _with_velocities(
         _replace(report, "accelerations (ax, ay)", rows, check, acc, cubic(t, 2), ("m/s^2", "m/s"), verb)
         return cubic
     return hermite_curve(t, xy, vel, acc)
-
-
-def _check_heading(
-    theta: FloatArray, motion: FloatArray, vel: FloatArray, rows: tuple[str, ...], report: ImportReport
-) -> None:
-    """Note given headings off the direction of motion by more than HEADING_TO_MOTION where it moves."""
-    moving = np.hypot(vel[:, 0], vel[:, 1]) > MOVING_SPEED
-    off = np.where(moving, np.abs(wrap_angle(theta - motion)), 0.0)
-    k = int(np.argmax(off))
-    if off[k] <= HEADING_TO_MOTION:
-        return
-    report.notes.append(
-        f"headings disagree with the direction of motion by up to {off[k]:.3f} rad ({rows[k]}; tolerance "
-        f"{HEADING_TO_MOTION:g} rad): the heading follows the motion where the robot moves"
-    )
-    report.corrections.append(
-        Correction(
-            "headings theta",
-            rows[k],
-            (float(theta[k]),),
-            (float(theta[k] - wrap_angle(theta[k] - motion[k])),),
-            float(off[k]),
-            HEADING_TO_MOTION,
-            "rad",
-        )
-    )
