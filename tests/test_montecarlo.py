@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 import shutil
 import socket
@@ -133,7 +134,9 @@ def test_a_hand_edited_run_record_is_refused_naming_the_file_and_line(
 ) -> None:
     """Valid JSON is not enough: a record with a run kind deleted was read as a run whose kind was not measured (its
     success counted as a failure: 50 % for 75 %), and a record whose noise seed was changed was kept, its edited
-    seed printed in the worst runs' replay commands. A line must be the run of this study its index names."""
+    seed printed in the worst runs' replay commands. A line must be the run of this study its index names. Its
+    fields must be of their types: a metric "abc" or null ended the command in a traceback, NaN gave null
+    percentiles without a word, and "yes" was a success."""
     monkeypatch.chdir(tmp_path)
     spec = _spec()
     header, *lines = Path(str(serial["path"])).read_text().splitlines(keepends=True)
@@ -147,9 +150,22 @@ def test_a_hand_edited_run_record_is_refused_naming_the_file_and_line(
     index, kinds = second["index"], ", ".join(second["runs"])
     no_open_loop = {**second, "runs": {k: v for k, v in second["runs"].items() if k != "open_loop"}}
     other_seed = {**second, "noise_seed": second["noise_seed"] + 2}
+
+    def closed(**fields: object) -> dict[str, Any]:
+        return {**second, "runs": {**second["runs"], "closed_loop": {**second["runs"]["closed_loop"], **fields}}}
+
+    final, build = f"run {index}: closed_loop final_position_error_m must be a finite number >= 0", second["build_seed"]
     for edited, problem in (
         (no_open_loop, f"run {index} has no 'open_loop' run, while every run of a study drives {kinds}"),
         (other_seed, f"run {index} is not this study's run {index}: its noise_seed {other_seed['noise_seed']} "),
+        (closed(final_position_error_m="abc"), f"{final}, got 'abc';"),
+        (closed(final_position_error_m=None), f"{final}, got None;"),
+        (closed(final_position_error_m=math.nan), f"{final}, got nan;"),
+        (closed(final_position_error_m=True), f"{final}, got True;"),
+        (closed(collisions="x"), f"run {index}: closed_loop collisions must be an integer >= 0, got 'x';"),
+        (closed(success="yes"), f"run {index}: closed_loop success must be True or False, got 'yes';"),
+        (closed(path=[[0.0, "x"]]), f"run {index}: closed_loop path must be a list of [x, y] points"),
+        ({**second, "build_seed": float(build)}, f"run {index}: build_seed must be an integer >= 0, got {build}.0;"),
     ):
         path.write_text(header + lines[0] + json.dumps(edited) + "\n" + lines[2])
         before = path.read_bytes()
@@ -163,6 +179,30 @@ def test_a_hand_edited_run_record_is_refused_naming_the_file_and_line(
     path.write_text(header + "".join(lines))  # the runs as nhsim wrote them: resumed, nothing to run
     assert main(argv) == 0
     assert json.loads((tmp_path / "r.json").read_text())["ran_now"] == 0
+
+
+def test_a_run_on_two_lines_is_read_once_or_refused_when_they_differ(serial: dict[str, object], tmp_path: Path) -> None:
+    """Two commands of one study run at once each append every run; a run's line copied and edited was read too:
+    the later line won, without a word. The same record twice is read once (said); two that differ are refused."""
+    spec = _spec()
+    header, *lines = Path(str(serial["path"])).read_text().splitlines(keepends=True)
+    path = tmp_path / "r.jsonl"
+    path.write_text(header + "".join(lines) + "".join(lines))
+    results = ResultsFile(path, spec.key(), seeds=spec.record_seeds)
+    assert [results.records[i] for i in range(3)] == serial["records"]
+    assert results.notes == [
+        f"{path}: 3 lines (5, 6, 7) repeat runs of earlier lines, the same records (as two commands of this study "
+        "run at once write them); each run is read once"
+    ]
+    second = json.loads(lines[1])
+    flipped = not second["runs"]["open_loop"]["success"]
+    other = {**second, "runs": {**second["runs"], "open_loop": {**second["runs"]["open_loop"], "success": flipped}}}
+    path.write_text(header + "".join(lines) + json.dumps(other) + "\n")
+    before = path.read_bytes()
+    with pytest.raises(ConfigError) as err:
+        ResultsFile(path, spec.key(), seeds=spec.record_seeds)
+    assert str(err.value).startswith(f"{path}, line 5: run 1 is on line 3 already, with other values; ")
+    assert path.read_bytes() == before
 
 
 def test_the_seeds_of_a_study_with_perturbations_are_read_back_as_its_own(tmp_path: Path) -> None:

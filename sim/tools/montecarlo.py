@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from planning.core.checks import check_number
+from planning.core.checks import check_flag, check_number, is_number
 from planning.core.files import read_input
 from planning.errors import ConfigError, NhsimError, option
 from planning.scenario import Scenario, load_scenario
@@ -57,7 +57,7 @@ WORKER_MODULES = ("sim.tools.montecarlo", "sim.physics.simulator", "control.esti
 #: Worst runs listed per run kind (by final position error).
 WORST = 3
 #: What a run record holds for each run kind (:func:`run_one`), read by :func:`statistics` and the plots.
-_ENTRY_KEYS = (*METRICS, "collisions", "success", "path")
+_ENTRY_KEYS = (*METRICS, "collisions", "warnings", "status", "success", "path")
 
 
 @dataclass(frozen=True)
@@ -331,7 +331,8 @@ _RECORD_KEYS = ("index", "plan_seed", "noise_seed", "build_seed", "perturbation"
 
 
 def _record_problem(rec: Any) -> str:
-    """Why a results line's JSON is not a run record (:func:`run_one`'s); "" when it is one."""
+    """Why a results line's JSON is not a run record (:func:`run_one`'s); "" when it is one: every field there, of
+    its type (:func:`_fields_problem`)."""
     if not isinstance(rec, dict):
         return f"a JSON {type(rec).__name__}, not a run record"
     missing = [k for k in _RECORD_KEYS if k not in rec]
@@ -342,7 +343,7 @@ def _record_problem(rec: Any) -> str:
         return f"its index {index!r} is not a run number (an integer >= 0)"
     runs = rec.get("runs")
     if "failed" in rec:
-        return ""
+        return _fields_problem(rec, {})
     if not (isinstance(runs, dict) and all(isinstance(e, dict) and set(_ENTRY_KEYS) <= set(e) for e in runs.values())):
         return f"run {index} has neither 'failed' nor its runs' metrics ({', '.join(_ENTRY_KEYS)} per run kind)"
     kinds = [str(k) for k in DEFAULT_RUNS]
@@ -350,16 +351,52 @@ def _record_problem(rec: Any) -> str:
     if missing or other:
         what = f"has no {', '.join(map(repr, missing))} run" if missing else f"has a run {', '.join(map(repr, other))}"
         return f"run {index} {what}, while every run of a study drives {', '.join(kinds)}"
-    return ""
+    return _fields_problem(rec, runs)
+
+
+def _fields_problem(rec: Mapping[str, Any], runs: Mapping[str, Mapping[str, Any]]) -> str:
+    """Why a run record's fields (all there) are not of the types :func:`run_one` writes, naming the first such
+    field; "" when they are: seeds integers >= 0 (the build seed or null), the perturbation an object or null,
+    ``failed`` text, and per run kind its metrics finite numbers >= 0 (a bool, null or NaN is none), its counts
+    integers >= 0, its status text, its success true or false and its path [x, y] points (``runs``)."""
+    index = rec["index"]
+    try:
+        for name in ("plan_seed", "noise_seed", "build_seed"):
+            if rec[name] is not None or name != "build_seed":  # None: the nominal robot
+                check_number(f"run {index}: {name}", rec[name], integer=True, at_least=0)
+        for kind, entry in runs.items():
+            for name in METRICS:
+                check_number(f"run {index}: {kind} {name}", entry[name], at_least=0)
+            for name in ("collisions", "warnings"):
+                check_number(f"run {index}: {kind} {name}", entry[name], integer=True, at_least=0)
+            check_flag(f"run {index}: {kind} success", entry["success"])
+    except ConfigError as exc:
+        return str(exc)
+    texts = [("failed", rec["failed"])] if "failed" in rec else []
+    texts += [(f"{kind} status", entry["status"]) for kind, entry in runs.items()]
+    wrong = [f"run {index}: {name} must be text, got {v!r:.80}" for name, v in texts if not isinstance(v, str)]
+    if rec["perturbation"] is not None and not isinstance(rec["perturbation"], dict):
+        wrong.append(f"run {index}: perturbation must be an object or null, got {rec['perturbation']!r:.80}")
+    for kind, entry in runs.items():
+        path = entry["path"]
+        if not (isinstance(path, list) and path and all(_is_point(p) for p in path)):
+            wrong.append(f"run {index}: {kind} path must be a list of [x, y] points (finite numbers), got {path!r:.80}")
+    return wrong[0] if wrong else ""
+
+
+def _is_point(value: object) -> bool:
+    """Whether ``value`` is a path's point as a record writes it: [x, y], two finite numbers."""
+    return isinstance(value, list) and len(value) == 2 and all(is_number(v) for v in value)
 
 
 def _seeds_problem(rec: Mapping[str, Any], seeds: Sequence[Mapping[str, Any]]) -> str:
     """Why a run record is not the run of this study its index names (``seeds``: :meth:`MonteCarloSpec.record_seeds`,
-    by index); "" when it is, or when its index is beyond them (a larger study's run, checked when that one is run)."""
+    by index); "" when it is, or when its index is beyond them (a larger study's run, checked when that one is run).
+    Compared as JSON, of their types too: a perturbation's ``true`` is not its 1.0, nor a seed's 7.0 its 7."""
     index = rec["index"]
     if index >= len(seeds):
         return ""
-    wrong = [k for k, v in seeds[index].items() if rec[k] != v]
+    wrong = [k for k, v in seeds[index].items() if json.dumps(rec[k], sort_keys=True) != json.dumps(v, sort_keys=True)]
     said = ", ".join(f"{k} {rec[k]!r} (this study's is {seeds[index][k]!r})" for k in wrong)
     return f"run {index} is not this study's run {index}: its {said}" if wrong else ""
 
@@ -370,8 +407,9 @@ class ResultsFile:
     Opening an existing file checks its key (a file of another study is refused, naming what
     differs) and reads its runs; a last line cut short by a kill (no newline after it) is dropped, said on
     stderr, and any other line that is not a run record of this study (not JSON, a field or a run kind
-    missing, seeds other than those the study derives for its index) is refused, naming it (the file is left
-    as it is).
+    missing, a field of another type, seeds other than those the study derives for its index) is refused, naming
+    it (the file is left as it is). A run on two lines is read once when they are the same record (said on stderr),
+    refused when they differ.
     Each new record is appended, flushed and synced to disk before the next is taken. A new file is made with the first
     finished run, so a study refused before any run (bad input, an unreachable scheduler) leaves none. A file of
     another study it replaces (``replacing``: ``--overwrite``) stays as it was, with its summary and plots, until
@@ -458,9 +496,13 @@ class ResultsFile:
     def _read_records(self, raw: bytes, lines: list[bytes]) -> None:
         """The run records after the header. Only the last line may be unreadable, and only when it is cut short
         (no newline after it: a run killed while appending it): it is dropped (said on stderr) and its run done
-        again. Any other unreadable line is refused, naming it: nothing is dropped or cut from the file."""
+        again. Any other unreadable line is refused, naming it: nothing is dropped or cut from the file. A run
+        on two lines (two commands of the study run at once each append every run) is read once, said on stderr,
+        when the lines are the same record; two records of one run that differ are refused, naming both lines."""
         torn = not raw.endswith(b"\n")
         seeds = [] if self._seeds is None else self._seeds()
+        first: dict[int, int] = {}  # the line of each run read
+        repeats: list[int] = []
         for number, line in enumerate(lines[1:], start=2):
             if not line.strip():
                 continue
@@ -470,12 +512,26 @@ class ResultsFile:
             except ValueError:
                 if last and torn:
                     self._drop_torn_line(raw, len(raw) - len(line), number)
-                    return
+                    torn = False  # the file ends with the newline before that line now
+                    break
                 raise self._bad_line(number, "not a JSON record") from None
             problem = _record_problem(rec) or _seeds_problem(rec, seeds)
             if problem:
                 raise self._bad_line(number, problem)
-            self.records[int(rec["index"])] = rec
+            index = int(rec["index"])
+            if index in first and rec != self.records[index]:
+                raise self._bad_line(number, f"run {index} is on line {first[index]} already, with other values")
+            if index in first:
+                repeats.append(number)
+                continue
+            first[index] = number
+            self.records[index] = rec
+        if repeats:
+            said = ", ".join(map(str, repeats[:5])) + (", ..." if len(repeats) > 5 else "")
+            self.notes.append(
+                f"{self.file}: {len(repeats)} line{'s' * (len(repeats) > 1)} ({said}) repeat runs of earlier lines, "
+                "the same records (as two commands of this study run at once write them); each run is read once"
+            )
         if torn:  # a whole last record without its newline: ended, so that the next record starts a line
             with self.file.open("ab") as f:
                 f.write(b"\n")
