@@ -386,6 +386,31 @@ def test_bad_input_is_refused_clearly(
     assert not list(tmp_path.iterdir())
 
 
+def test_a_bad_sensors_value_is_refused_before_any_worker_starts(
+    tmp_path: Path, capfd: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--sensors fix_rate=abc`` was read first in the workers: the cluster started, the study line was printed and
+    each worker logged the error's traceback before the command's own line. A sensors file and --lidar were
+    refused up front already; the values of --sensors KEY=VALUE now are too."""
+    import sim.tools.executor as executor
+
+    def started(*args: object, **kwargs: object) -> Executor:
+        raise AssertionError("an executor was started for a study refused as bad input")
+
+    monkeypatch.setattr(executor, "make_executor", started)
+    monkeypatch.chdir(tmp_path)
+    argv = ["montecarlo", "--scenario", "open", "--reference", "line", "--runs", "3", "--jobs", "2", "--no-plots"]
+    for sensors, said in (
+        ("fix_rate=abc", "--sensors fix_rate=abc: fix_rate must be a number, got 'abc'"),
+        ("fix_rate=-1", "sensor fix_rate must be a finite number in [0, 1000]"),
+        ("fix_rate=7", "sensor fix_rate=7 Hz: its period is 7.143 control periods at 50 Hz, not a whole number"),
+    ):
+        assert main([*argv, "--sensors", sensors]) == 2
+        out, err = capfd.readouterr()
+        assert out == "" and err.startswith(f"nhsim montecarlo: error: {said}") and err.count("\n") == 1, err
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_the_cli_runs_resumes_and_replays_a_run_bit_for_bit(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(tmp_path)
     argv = ["montecarlo", "--scenario", "open", "--reference", "line", "--robot", "turtlebot3", "--runs", "2"]

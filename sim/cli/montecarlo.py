@@ -174,7 +174,9 @@ def _spec(args: argparse.Namespace) -> Any:
                 f"{', '.join(given)} {'is' if len(given) == 1 else 'are'} for a planned study, and this one plans "
                 "nothing (a reference or a file): drop it"
             )
-    check_scan_beams(case, load_case_scenario(case), DEFAULT_RUNS)  # its closed loop localises, as simulate's
+    loaded = load_case_scenario(case)
+    case.sensing(loaded)  # --sensors KEY=VALUE's values, read by each run: refused here, not in every worker
+    check_scan_beams(case, loaded, DEFAULT_RUNS)  # its closed loop localises, as simulate's
     ranges = PerturbationRange.parse(args.perturb_range, others="nominal") if args.perturb_range else None
     return MonteCarloSpec(case, args.runs, ranges, replan=args.replan)
 
