@@ -555,6 +555,8 @@ def test_an_empty_value_is_refused_by_every_text_option_of_every_command(capsys:
 EMPTY = "the value is empty"
 FOLDER = "ends in a separator, a folder; give a file name in it"
 DASH = "'-' is no file: the outputs are written to files"
+DOT = "names a folder; give a file name in it"
+MC = ["montecarlo", "--reference", "line", "--runs", "1", "--jobs", "1"]
 
 
 @pytest.mark.parametrize(
@@ -577,6 +579,12 @@ DASH = "'-' is no file: the outputs are written to files"
         ),
         pytest.param(["simulate", "--reference", "line", "--no-video", "--json", "rec/"], FOLDER, id="simulate-folder"),
         pytest.param(["compare", "--reference", "line", "--json", "c/"], FOLDER, id="compare-folder"),
+        # ``montecarlo --results .`` (or ``--json .``) ended in a traceback: PosixPath('.') has an empty name (its
+        # summary and plots are named after it); ``--json rec/.`` wrote a file named rec (Path drops the ".")
+        pytest.param([*MC, "--results", "."], DOT, id="montecarlo-results-dot"),
+        pytest.param([*MC, "--json", "."], DOT, id="montecarlo-json-dot"),
+        pytest.param([*MC, "--results", "runs/.."], DOT, id="montecarlo-results-dotdot"),
+        pytest.param(["simulate", "--reference", "line", "--no-video", "--json", "rec/."], DOT, id="simulate-dot"),
         # ``plan --json -`` wrote a file named '-', where '-' commonly means the standard output
         pytest.param(["plan", "--scenario", "open", "--planner", "sinusoidal", "--json", "-"], DASH, id="plan-dash"),
         pytest.param(["simulate", "--reference", "line", "--no-video", "--json", "-"], DASH, id="simulate-dash"),

@@ -57,9 +57,10 @@ def _takes_text(kind: object) -> bool:
 
 def _not_blank(action: argparse.Action) -> Callable[[str], Any]:
     """``action``'s type, refusing a blank value first, and for an output file (metavar ``PATH``) a value
-    ending in a separator, which ``Path`` would read as a file named like the folder, and ``-``, which
-    commonly means the standard output (it wrote a file named '-'; argparse reports the message as
-    ``argument --X: ...``)."""
+    ending in a separator, which ``Path`` would read as a file named like the folder, one ending in ``.`` or
+    ``..`` (a folder: ``sub/.`` was read as a file ``sub``, and ``.`` has no name to put a sibling's suffix on),
+    and ``-``, which commonly means the standard output (it wrote a file named '-'; argparse reports the message
+    as ``argument --X: ...``)."""
     convert = action.type if callable(action.type) else str
     metavar = action.metavar if isinstance(action.metavar, str) else action.dest.upper()
     leave = "" if action.required else f", or leave {action.option_strings[0]} out"
@@ -69,6 +70,8 @@ def _not_blank(action: argparse.Action) -> Callable[[str], Any]:
             raise argparse.ArgumentTypeError(f"the value is empty; give {metavar}{leave}")
         if metavar == "PATH" and text.endswith(("/", os.sep)):  # an output file: Path() drops the separator
             raise argparse.ArgumentTypeError(f"{text} ends in a separator, a folder; give a file name in it")
+        if metavar == "PATH" and text.replace(os.sep, "/").rsplit("/", 1)[-1] in (".", ".."):  # Path() drops a "."
+            raise argparse.ArgumentTypeError(f"{text} names a folder; give a file name in it")
         if metavar == "PATH" and text == "-":  # an output file: not the standard output, which has the report
             raise argparse.ArgumentTypeError(
                 "'-' is no file: the outputs are written to files (the standard output has the report); give a "
