@@ -106,13 +106,16 @@ def test_an_edited_scenario_file_is_another_study(tmp_path: Path) -> None:
         ResultsFile(tmp_path / "runs.jsonl", after)
 
 
-def test_a_results_file_of_another_study_is_refused(serial: dict[str, object]) -> None:
+def test_a_results_file_of_another_study_is_refused(serial: dict[str, object], tmp_path: Path) -> None:
     other = MonteCarloSpec(Case("open", robot="turtlebot3", reference="line", seed=4), 3)
     with pytest.raises(ConfigError, match=r"another study \(seed: 3 there, 4 here\)"):
         ResultsFile(Path(str(serial["path"])), other.key())
     ranged = _spec(ranges=PerturbationRange.parse("radius=0.97:1.03", others="nominal"))
     with pytest.raises(ConfigError, match="ranges: None there"):
         ResultsFile(Path(str(serial["path"])), ranged.key())
+    (tmp_path / "odd.jsonl").write_text(json.dumps({"key": "open", "code": "x"}) + "\n")  # no object: AttributeError
+    with pytest.raises(ConfigError, match=r"odd\.jsonl is not an nhsim montecarlo results file; choose another"):
+        ResultsFile(tmp_path / "odd.jsonl", other.key())
 
 
 def test_a_study_never_runs_a_robot_or_noise_that_tune_trains_on() -> None:
@@ -259,9 +262,12 @@ def test_an_interrupted_overwrite_leaves_the_old_study_whole_and_resumes(
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.name in old} == old  # all of the old study
     assert len((tmp_path / "r.jsonl.partial").read_text().splitlines()) == 2  # the header and the run finished
     capsys.readouterr()
-    assert main([*argv, "--seed", "4"]) == 2  # without --overwrite: refused (the other study's summary first)
+    waiting = "(runs of a study that replaces it wait in r.jsonl.partial)"
+    assert main([*argv, "--seed", "4"]) == 2  # without --overwrite: refused, what differs said before the summary
+    said = "another study (seed: 3 there, 4 here); give another --results, the same settings, or --overwrite to "
+    assert f"{said}replace it {waiting}\n" in capsys.readouterr().err
     assert main([*argv[:-4], "--json", "t.json", "--runs", "2", "--seed", "4"]) == 2  # the runs waiting are named
-    assert "(runs of a study that replaces it wait in r.jsonl.partial)" in capsys.readouterr().err
+    assert waiting in capsys.readouterr().err
     monkeypatch.setattr(mc, "run_one", real)
     assert main([*argv, "--seed", "4", "--overwrite"]) == 0  # resumed: one run left
     assert json.loads((tmp_path / "s.json").read_text())["ran_now"] == 1
@@ -737,6 +743,27 @@ def test_refused_input_leaves_no_results_file_and_outputs_are_checked_before_any
     assert main([*base, "--json", "d.json", "--results", "d.jsonl", "--bags", "bags", "--overwrite"]) == 0
     # the earlier study's bags the new one did not replace are gone with it (they were not its worst runs)
     assert sorted(p.name for p in (tmp_path / "bags").iterdir()) == ["worst-0", "worst-0.check"]
+
+
+def test_another_studys_results_file_is_refused_naming_what_differs_before_its_summary(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The same command with one setting changed and ``--results`` alone (its summary and plots beside it, the
+    other study's too) was refused for the summary: "r.json exists already; pass --overwrite ... (it is not this
+    study's output)"; what differs was said only with --json elsewhere. It is said first now."""
+    monkeypatch.chdir(tmp_path)
+    base = ["montecarlo", "--scenario", "open", "--reference", "line", "--robot", "edumip", "--jobs", "1", "--quiet"]
+    base += ["--runs", "1", "--results", "r.jsonl"]
+    assert main([*base, "--seed", "3"]) == 0
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    assert sorted(before) == ["r-cdf.png", "r-fan.png", "r.json", "r.jsonl"]
+    capsys.readouterr()
+    assert main([*base, "--seed", "4"]) == 2
+    assert capsys.readouterr().err == (
+        "nhsim montecarlo: error: r.jsonl holds the runs of another study (seed: 3 there, 4 here); give another "
+        "--results, the same settings, or --overwrite to replace it\n"
+    )
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
 
 
 def test_a_results_file_of_ones_own_keeps_the_default_studys_summary_and_plots(

@@ -10,7 +10,7 @@ import shlex
 import shutil
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from planning.core.files import is_pipe
 from planning.errors import ConfigError, OutputExistsError
@@ -330,12 +330,17 @@ def run(args: argparse.Namespace) -> int:
     gl.configure(args.gl)
     from sim.pipeline.case import load_case_scenario
     from sim.tools.executor import make_executor, worker_count
-    from sim.tools.montecarlo import ResultsFile, partial_path, run_montecarlo
+    from sim.tools.montecarlo import ResultsFile, check_study, run_montecarlo
 
     worker_count(args.jobs, args.scheduler)
     spec = _spec(args)
     scenario = load_case_scenario(spec.case)  # unknown scenario, a robot it does not list: stop here
     paths = _paths(args, spec, scenario.name)
+    if not args.overwrite:  # another study's runs: what differs, said before its summary is refused as not ours
+        try:
+            check_study(paths["results"], spec.key(), spec.earlier_keys())
+        except ConfigError as exc:
+            _refuse_kept(exc, paths["results"])
     _check_outputs(paths, [spec.key(), *spec.earlier_keys()], args.overwrite)
     check_apart_from_inputs(args, paths.values())
     if args.bags is not None:
@@ -344,10 +349,7 @@ def run(args: argparse.Namespace) -> int:
         results = ResultsFile(paths["results"], spec.key(), spec.earlier_keys(), seeds=spec.record_seeds)
     except ConfigError as exc:
         if not args.overwrite:  # another study's runs, or not a results file: kept
-            waiting = partial_path(paths["results"])
-            if waiting.exists():  # this command's runs of an earlier --overwrite, interrupted
-                raise ConfigError(f"{exc} (runs of a study that replaces it wait in {waiting})") from exc
-            raise
+            _refuse_kept(exc, paths["results"])
         # the other study's runs, summary and plots kept until this one is written (its runs in NAME.partial)
         results = ResultsFile(paths["results"], spec.key(), replacing=True, seeds=spec.record_seeds)
     for note in results.notes:
@@ -384,6 +386,18 @@ def run(args: argparse.Namespace) -> int:
             elif result.ran:  # the runs' results, appended one by one as they finished
                 print(f"wrote {path} ({result.ran} run{'s' * (result.ran > 1)} appended)")
     return 0
+
+
+def _refuse_kept(exc: ConfigError, results: Path) -> NoReturn:
+    """Raise ``exc``, the refusal of a results file kept without ``--overwrite`` (another study's, or no results
+    file), naming the runs of a study that replaces it when they wait in its partial sibling (this command's runs
+    of an earlier ``--overwrite``, interrupted)."""
+    from sim.tools.montecarlo import partial_path
+
+    waiting = partial_path(results)
+    if waiting.exists():
+        raise ConfigError(f"{exc} (runs of a study that replaces it wait in {waiting})") from exc
+    raise exc
 
 
 def _write(result: Any, paths: dict[str, Path], record: dict[str, Any], args: argparse.Namespace, results: Any) -> None:

@@ -468,22 +468,14 @@ class ResultsFile:
         lines = raw.split(b"\n")
         try:
             header = json.loads(lines[0])
-            theirs = header["key"]
+            theirs = dict(header["key"])  # an object, or no results file's header
         except (ValueError, KeyError, TypeError) as exc:
             raise ConfigError(
                 f"{self.file} is not an nhsim montecarlo results file; choose another {_RESULTS}, or {_REPLACE} to "
                 "replace it"
             ) from exc
         if theirs != self.key and theirs not in self.earlier:
-            diff = ", ".join(
-                f"{k}: {theirs.get(k)!r} there, {self.key.get(k)!r} here"
-                for k in sorted(set(theirs) | set(self.key))
-                if theirs.get(k) != self.key.get(k)
-            )
-            raise ConfigError(
-                f"{self.file} holds the runs of another study ({diff}); give another {_RESULTS}, the same "
-                f"settings, or {_REPLACE} to replace it"
-            )
+            raise _another_study(self.file, theirs, self.key)
         if header.get("code") != self.code:  # the same settings, other code: its runs are not this code's
             made = f"by other code (digest {header['code']})" if header.get("code") else "before runs named their code"
             raise ConfigError(
@@ -570,6 +562,40 @@ class ResultsFile:
             self._append({"nhsim_montecarlo": RESULTS_VERSION, "key": self.key, "code": self.code})
         self._append(record)
         self.records[int(record["index"])] = record
+
+
+def _another_study(file: Path, theirs: Mapping[str, Any], key: Mapping[str, Any]) -> ConfigError:
+    """The refusal of results file ``file``, whose header names the key ``theirs``, for the study of ``key``:
+    naming what differs."""
+    diff = ", ".join(
+        f"{k}: {theirs.get(k)!r} there, {key.get(k)!r} here"
+        for k in sorted(set(theirs) | set(key))
+        if theirs.get(k) != key.get(k)
+    )
+    return ConfigError(
+        f"{file} holds the runs of another study ({diff}); give another {_RESULTS}, the same settings, or "
+        f"{_REPLACE} to replace it"
+    )
+
+
+def check_study(path: Path, key: Mapping[str, Any], earlier: Sequence[Mapping[str, Any]] = ()) -> None:
+    """Refuse a results file of another study (:class:`ResultsFile`'s refusal, naming what differs) from its header
+    line alone, before anything is read, checked or written: a command's other refusals (its summary, which is
+    then the other study's too) say less. Nothing when ``path`` is no regular file or no results file (what
+    :class:`ResultsFile` says when it opens it).
+
+    Raises:
+        ConfigError: The file's header names another study's key.
+    """
+    if not path.is_file():
+        return
+    try:
+        with path.open("rb") as f:
+            theirs = json.loads(f.readline())["key"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return
+    if isinstance(theirs, dict) and theirs != key and theirs not in earlier:
+        raise _another_study(path, theirs, key)
 
 
 def partial_path(path: Path) -> Path:
