@@ -115,11 +115,12 @@ def checked_problem(problem: object) -> PlanProblem:
 def end_outside(problem: PlanProblem, planner: str, stats: dict[str, Any] | None = None) -> PlanResult | None:
     """The ``INVALID_START`` / ``INVALID_GOAL`` result of a start or goal whose position lies outside the world's
     bounds (on a wall counts as outside), said alike by every planner; None when both lie inside."""
-    for which, pose, status in (
-        ("start", problem.start, PlanStatus.INVALID_START),
-        ("goal", problem.goal, PlanStatus.INVALID_GOAL),
+    inside = problem.world.wall_distance([problem.start.xy, problem.goal.xy]) > 0.0  # both in one call
+    for which, pose, status, within in (
+        ("start", problem.start, PlanStatus.INVALID_START, inside[0]),
+        ("goal", problem.goal, PlanStatus.INVALID_GOAL, inside[1]),
     ):
-        if float(problem.world.wall_distance(pose.xy)[0]) <= 0.0:
+        if not within:
             reason = (
                 f"{which} pose ({pose.x:.3f}, {pose.y:.3f}, {pose.theta:.3f}) lies outside the world's bounds "
                 f"({span(*problem.world.bounds)}): move it inside"
@@ -203,12 +204,11 @@ def _float_array(name: str, value: object, shape: tuple[int | None, ...]) -> Flo
     """``value`` as a finite float array of ``shape`` (None: any size), else ValueError naming the field."""
     arr = np.array(value, dtype=float)  # the result's own copy: the caller's buffer may be re-used
     fits = arr.ndim == len(shape) and all(want in (None, got) for got, want in zip(arr.shape, shape, strict=False))
-    expected = ", ".join("any" if want is None else str(want) for want in shape)
-    problem = "" if fits else f"must have shape ({expected}) (one row per path pose), got {arr.shape}"
-    if fits and not np.isfinite(arr).all():
-        problem = "holds non-finite values"
-    if problem:
-        raise ValueError(f"PlanResult.{name} {problem}")
+    if not fits:
+        expected = ", ".join("any" if want is None else str(want) for want in shape)
+        raise ValueError(f"PlanResult.{name} must have shape ({expected}) (one row per path pose), got {arr.shape}")
+    if not np.isfinite(arr).all():
+        raise ValueError(f"PlanResult.{name} holds non-finite values")
     arr.flags.writeable = False  # read-only, as the frozen result is: an edit would reach every record holding it
     return arr
 
