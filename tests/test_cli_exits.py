@@ -775,3 +775,16 @@ def test_options_are_not_abbreviated(
     with pytest.raises(SystemExit) as ended:
         main(argv)
     assert ended.value.code == 2 and "unrecognized arguments" in capsys.readouterr().err
+
+
+def test_a_number_option_that_is_no_number_gets_no_traceback_hint(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--perturb-range radius=1:2:3`` said "radius must be a number, got '2:3' (NHSIM_TRACEBACK=1 prints the
+    ValueError's traceback)": float()'s error, which the line already says, is no exception of code nhsim runs."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["montecarlo", "--scenario", "open", "--reference", "circle", "--runs", "1", "--no-plots"]
+    assert main([*argv, "--perturb-range", "radius=1:2:3"]) == 2
+    err = capsys.readouterr().err
+    assert "radius must be a number, got '2:3'" in err and "NHSIM_TRACEBACK" not in err, err
+    assert not list(tmp_path.iterdir())

@@ -56,8 +56,8 @@ def parse_number(text: str, key: str, what: str) -> float:
     """``float(text)``, or a :class:`ConfigError` naming ``key`` and the option ``what``."""
     try:
         return float(text)
-    except ValueError as exc:
-        raise ConfigError(f"{what}: {key} must be a number, got {text!r}") from exc
+    except ValueError:
+        raise ConfigError(f"{what}: {key} must be a number, got {text!r}") from None  # float()'s own error adds nothing
 
 
 def did_you_mean(word: str, choices: Iterable[str]) -> str:
