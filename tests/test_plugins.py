@@ -730,7 +730,7 @@ def test_the_code_digest_covers_the_plugins_source(
 ) -> None:
     """montecarlo hashed nhsim's own code only: a plugin's planner edited, the same command read the old runs back
     as this code's (the same table, nothing rerun). The digest is taken with the plugins loaded."""
-    from sim.tools import montecarlo
+    from sim.tools import digests
 
     package = tmp_path / "nhsim_test_pkg"
     package.mkdir()
@@ -739,19 +739,19 @@ def test_the_code_digest_covers_the_plugins_source(
     planner = "from planning import register_planner\nfrom planning.planners.sampling.rrt import BiRRT\n\n\n"
     planner += "class Mine(BiRRT):\n    name = 'mine'\n\n\nregister_planner('mine', Mine)\n"
     (package / "planners.py").write_text(planner)
-    own = montecarlo.code_digest()  # no plugin named: nhsim's own code
+    own = digests.code_digest()  # no plugin named: nhsim's own code
     for registered in (PLANNERS, TRACKERS):
         registered.plugins = "unloaded"  # a fresh process (the fixture restores it)
     monkeypatch.syspath_prepend(str(tmp_path))
     monkeypatch.setenv(PLUGIN_VARIABLE, "nhsim_test_pkg.plugin")
-    with_plugin = montecarlo.code_digest()  # loads the plugins first
+    with_plugin = digests.code_digest()  # loads the plugins first
     assert PLANNERS.plugins == "loaded" and PLANNERS.origin("mine").startswith("from module 'nhsim_test_pkg.plugin'")
     assert with_plugin != own
     files = {"nhsim_test_pkg/__init__.py", "nhsim_test_pkg/planners.py", "nhsim_test_pkg/plugin.py"}
-    assert files <= {name for _, name in montecarlo.plugin_files()}  # the plugin's whole package
+    assert files <= {name for _, name in digests.plugin_files()}  # the plugin's whole package
     (package / "planners.py").write_text(planner.replace("name = 'mine'", "name = 'mine'  # edited"))
-    montecarlo._digest.cache_clear()  # a new process: the files read again
-    assert montecarlo.code_digest() not in (own, with_plugin)
+    digests._digest.cache_clear()  # a new process: the files read again
+    assert digests.code_digest() not in (own, with_plugin)
     for name in [m for m in sys.modules if m.startswith("nhsim_test_pkg")]:
         del sys.modules[name]
 

@@ -153,18 +153,18 @@ def test_scenario_files_and_builds_take_a_registered_robot(robots: None, tmp_pat
 
 def test_the_code_digest_covers_a_registered_robots_files(robots: None, tmp_path: Path) -> None:
     """A study's runs depend on the robot's model and sensors: editing a registered robot's files makes other runs."""
-    from sim.tools import montecarlo
+    from sim.tools import digests
 
-    own = montecarlo.code_digest()
+    own = digests.code_digest()
     model, sensors = _robot(tmp_path)
     register_robot("slowbot", model, sensors=sensors)
-    with_robot = montecarlo.code_digest()
+    with_robot = digests.code_digest()
     assert with_robot != own
-    labels = [label for _, label in montecarlo.robot_model_files()]
+    labels = [label for _, label in digests.robot_model_files()]
     assert labels == ["robot slowbot model", "robot slowbot scene", "robot slowbot sensors"]
     sensors.write_text(sensors.read_text().replace("encoder_cpr = 4096", "encoder_cpr = 2048"))
-    montecarlo._digest.cache_clear()  # a new process: the files read again
-    assert montecarlo.code_digest() not in (own, with_robot)
+    digests._digest.cache_clear()  # a new process: the files read again
+    assert digests.code_digest() not in (own, with_robot)
 
 
 def _nhsim(folder: Path, *argv: str) -> subprocess.CompletedProcess[str]:

@@ -83,7 +83,7 @@ def test_montecarlo_refuses_a_damaged_results_file_with_status_2(
 ) -> None:
     from sim.cli.main import build_parser
     from sim.cli.montecarlo import _spec
-    from sim.tools.montecarlo import code_digest
+    from sim.tools.digests import code_digest
 
     monkeypatch.chdir(tmp_path)
     argv = ["montecarlo", "--reference", "line", "--localiser", "fixes", "--jobs", "1", "--runs", "3"]

@@ -312,6 +312,40 @@ def test_resuming_with_other_settings_is_refused(
     assert len(_completed(tmp_path)) == 1
 
 
+@pytest.mark.parametrize("change", ["scenario", "code", "unrecorded"])
+def test_resuming_after_a_scenario_file_or_the_code_changed_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, change: str
+) -> None:
+    """The stored settings named the cases alone: a study resumed after its scenario file was edited (or on
+    other code) mixed trials scored on the old world and the new one, and said a wrong winner and ratio."""
+    scenario = tmp_path / "mine.toml"
+    text = (Path(__file__).resolve().parents[1] / "models/scenarios/open.toml").read_text()
+    scenario.write_text(text)
+    argv = _args(tmp_path, 1, "--eval-runs", "0", "--draws", "1")
+    argv[argv.index("--scenarios") + 1] = f"{scenario}:line"
+    assert main(argv) == 0
+    if change == "scenario":
+        scenario.write_text(text.replace("bounds = [-3.0, 3.0,", "bounds = [-3.0, 3.5,"))
+    elif change == "code":
+        monkeypatch.setattr("sim.tools.digests.code_digest", lambda: "0123456789ab")
+    else:  # a study stored by an nhsim that kept no digests: nothing says its trials ran this world and code
+        study = optuna.load_study(study_name="t", storage=f"sqlite:///{tmp_path}/study.db")
+        settings = study.user_attrs["settings"]
+        study.set_user_attr("settings", {k: v for k, v in settings.items() if k not in ("worlds", "code")})
+    argv[argv.index("--trials") + 1] = "2"
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    said = {
+        "scenario": f"worlds (the scenario of {scenario}:line: its file was edited since the study was made) differ; "
+        "rerun with the same options and scenario files (as they were) to resume it, or choose another study name",
+        "code": "code (set by nhsim's code and models, the robots' and the plugins' among them: another nhsim version",
+        "unrecorded": "code (not recorded by the nhsim that made the study), worlds (not recorded by the nhsim that "
+        "made the study) differ; this nhsim cannot resume it, or choose another study name",
+    }
+    assert said[change] in " ".join(err.split())
+    assert len(_completed(tmp_path)) == 1
+
+
 def test_helpers() -> None:
     assert split_trials(7, 3) == [3, 2, 2] and split_trials(2, 4) == [1, 1] and split_trials(0, 2) == []
     assert default_study_name(["open:figure8", "open:circle"], None, True) == "fbl-open-figure8_open-circle-robust"

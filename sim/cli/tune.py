@@ -42,8 +42,10 @@ a killed worker left running is failed once its heartbeat has been silent for {G
 are evaluated afresh, and the outputs the study wrote before are updated (an existing output that
 names another study, or none, is replaced only with --overwrite); a trial stopped by Ctrl-C or SIGTERM
 is run again, so the resumed study ends as one never interrupted; a rerun with other cases, draws
-(--draws, --seed, --robust, --perturb-range), weights or localiser is refused, unless every trial of
-the study failed (nothing to resume: it is made anew). Left out, --localiser is
+(--draws, --seed, --robust, --perturb-range), weights or localiser, or after a case's scenario file was
+edited or on other code (the study keeps digests of the scenarios as read and of nhsim's code, models and
+plugins, as montecarlo's key does: trials of another world are not mixed in), is refused, unless every
+trial of the study failed (nothing to resume: it is made anew). Left out, --localiser is
 the robots' own (amcl for the TurtleBot3) and --robot each scenario's own (open's TurtleBot3), and the
 study is the one that names them. Any
 SQLAlchemy URL works (e.g. postgresql://user:pass@host/db), so workers on several machines can run

@@ -23,16 +23,18 @@ robots and other noise, never seen by a trial (training seeds are even, held-out
 Search space (log-uniform): Kp in [0.5, 100] 1/s^2, Kd in [0.5, 40] 1/s, xi_min in
 [0.002, 0.2] m/s -- the whole parameter set the tracker exposes (:class:`FBLGains`).
 
-The study lives in an SQLAlchemy storage; its settings (cases, draws, weights) are stored with
-it, and a rerun with the same settings resumes it: completed trials count toward the requested
-number, the default gains are evaluated once so every study holds an honest "no worse than the
-defaults" comparison. A running trial beats every ``HEARTBEAT_INTERVAL`` seconds; one silent for
-``GRACE_PERIOD`` seconds belongs to a killed worker: it is failed and its gains are enqueued again
-(:func:`open_storage`, Optuna's ``RetryHeartbeatStaleTrialCallback``), and a resumed study waits for
-such trials before it counts what is left to run (:func:`settle_running`). A trial an interrupt stopped
-is marked :data:`INTERRUPTED` and its gains are enqueued again on resume (:func:`requeue_interrupted`);
-each trial's proposals are seeded by the number it would have had in a study never interrupted
-(:func:`sampling_number`), so an interrupted and resumed study ends with the trials of one run at once.
+The study lives in an SQLAlchemy storage; its settings (cases, draws, weights, and digests of the
+cases' scenarios and of the code: :attr:`TuneSpec.content`) are stored with it, and a rerun with the
+same settings resumes it: completed trials count toward the requested number, the default gains are
+evaluated once so every study holds an honest "no worse than the defaults" comparison. A running
+trial beats every ``HEARTBEAT_INTERVAL`` seconds; one silent for ``GRACE_PERIOD`` seconds belongs to
+a killed worker: it is failed and its gains are enqueued again (:func:`open_storage`, Optuna's
+``RetryHeartbeatStaleTrialCallback``), and a resumed study waits for such trials before it counts
+what is left to run (:func:`settle_running`). A trial an interrupt stopped is marked
+:data:`INTERRUPTED` and its gains are enqueued again on resume (:func:`requeue_interrupted`); each
+trial's proposals are seeded by the number it would have had in a study never interrupted
+(:func:`sampling_number`), so an interrupted and resumed study ends with the trials of one run at
+once.
 
 Workers in several processes (or machines) share the study through the storage. Every SQLite
 transaction begins ``IMMEDIATE`` (:func:`open_storage`): Optuna reads a trial's state and then
@@ -52,6 +54,7 @@ import time
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -371,10 +374,22 @@ class TuneSpec:
             raise ConfigError(f"unknown sampler {self.sampler!r}: choose one of {', '.join(SAMPLERS)}")
         check_number(option("trials"), self.trials, integer=True, at_least=1)
 
+    @cached_property
+    def content(self) -> dict[str, Any]:
+        """What the settings name and the objective reads besides them, as digests (those of a Monte Carlo study's
+        key): ``worlds`` each case's scenario as read (:func:`sim.tools.digests.world_digest`: a scenario file
+        edited since is another study) and ``code`` the code and models the runs run, the robots' and the
+        plugins' among them (:func:`sim.tools.digests.code_digest`). Taken once, on first use."""
+        from sim.pipeline.case import load_case_scenario
+        from sim.tools.digests import code_digest, world_digest
+
+        return {"worlds": [world_digest(load_case_scenario(c)) for c in self.cases], "code": code_digest()}
+
     def settings(self) -> dict[str, Any]:
         """What defines the objective; stored with the study and checked on resume."""
         return {
             "cases": [c.name for c in self.cases],
+            **self.content,
             "draws": [d.as_dict() for d in self.draws],
             "saturation_weight": self.saturation_weight,
             "search_space": {k: list(v) for k, v in tuned_space(self.tracker)[1].items()},
@@ -663,14 +678,33 @@ def load_study(spec: TuneSpec, *, worker: int = 0, create: bool = False) -> Any:
             optuna.delete_study(study_name=spec.study, storage=storage)
         return load_study(spec, worker=worker, create=True)
     elif stored != settings:
-        diff = sorted(k for k in set(stored) | set(settings) if stored.get(k) != settings.get(k))
-        said = ", ".join(f"{k} (set by {SETTING_OPTIONS[k]})" if k in SETTING_OPTIONS else k for k in diff)
-        raise ConfigError(
-            f"study {spec.study!r} in {shown_url(spec.storage)!r} was created with other settings: {said} differ; "
-            f"rerun with the same options to resume it, or choose another study name, {option('study')}"
-        )
+        raise ConfigError(_other_settings(spec, stored, settings))
     study.sampler = make_sampler(spec.sampler, spec.seed, len(study.trials), worker)
     return study
+
+
+def _other_settings(spec: TuneSpec, stored: dict[str, Any], settings: dict[str, Any]) -> str:
+    """Why a study stored with ``stored`` settings is not resumed with ``settings``: the settings that differ and
+    what sets each (:data:`SETTING_OPTIONS`), a case whose scenario was edited by its name, and the fix."""
+    diff = sorted(k for k in set(stored) | set(settings) if stored.get(k) != settings.get(k))
+    diff = [k for k in diff if not (k == "worlds" and "cases" in diff)]  # other cases: other scenarios
+    said = []
+    for k in diff:
+        if k not in stored:
+            said.append(f"{k} (not recorded by the nhsim that made the study)")
+        elif k == "worlds" and len(stored[k]) == len(spec.cases):
+            edited = [c.token for c, a, b in zip(spec.cases, stored[k], settings[k], strict=True) if a != b]
+            said.append(f"worlds (the scenario of {', '.join(edited)}: its file was edited since the study was made)")
+        else:
+            said.append(f"{k} (set by {SETTING_OPTIONS[k]})" if k in SETTING_OPTIONS else k)
+    files = " and scenario files (as they were)" if "worlds" in diff else ""
+    resume = (
+        "this nhsim cannot resume it" if set(diff) - set(stored) else f"rerun with the same options{files} to resume it"
+    )
+    return (
+        f"study {spec.study!r} in {shown_url(spec.storage)!r} was created with other settings: {', '.join(said)} "
+        f"differ; {resume}, or choose another study name, {option('study')}"
+    )
 
 
 #: The options that set each of a study's stored settings (:meth:`TuneSpec.settings`), as a refused resume
@@ -685,6 +719,8 @@ SETTING_OPTIONS = {
     "control_rate": "--control-rate",
     "robot": "--robot",
     "localiser": "--localiser",
+    "worlds": "the content of the cases' scenario files",
+    "code": "nhsim's code and models, the robots' and the plugins' among them: another nhsim version or an edited file",
 }
 
 
