@@ -11,6 +11,7 @@ import sqlite3
 import subprocess
 import sys
 import time
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -91,15 +92,18 @@ def test_tuning_is_no_worse_than_the_defaults(tmp_path: Path, capsys: pytest.Cap
     # Re-evaluate gain sets the same way, independently of the study: every trial met the same draws.
     ev = Evaluator([Case.parse(CASE)], make_draws(DRAWS, 0))
     tuned, default = ev.evaluate(found), ev.evaluate(FBLGains())
-    assert tuned.objective == prov["objective"]  # deterministic, and the file holds what was found
+    # deterministic, and the file holds what was found (or, when the defaults are written, theirs)
+    assert tuned.objective == prov["tuned_objective" if code else "objective"]
     assert default.objective == prov["default_objective"]
+    if code:  # the defaults written: the objective and trial are theirs (the study's first trial)
+        assert (prov["objective"], prov["trial"]) == (default.objective, 0)
     assert tuned.objective <= default.objective
     trials = sorted(_completed(tmp_path), key=lambda t: t.number)
     assert len(trials) == 6 == prov["trials"]
     assert trials[0].params == {"kp": 9.0, "kd": 6.0, "xi_min": 0.02} and trials[0].value == default.objective
     for t in trials[1:3]:  # two more trials, scored afresh on the draws made from the seed
         assert ev.evaluate(FBLGains(**t.params)).objective == t.value
-    assert prov["objective"] == min(t.value for t in trials if t.value is not None)
+    assert prov["tuned_objective" if code else "objective"] == min(t.value for t in trials if t.value is not None)
     # The held-out comparison: other robots and noise, both gain sets on the same ones, named consistently.
     record = json.loads((tmp_path / "gains.json").read_text())
     held = record["held_out"]
@@ -489,26 +493,41 @@ def test_one_held_out_run_has_no_standard_error_and_no_clear_difference() -> Non
     assert "±" not in c.verdict() and c.as_dict()["difference_m"]["standard_error"] is None
 
 
+@pytest.mark.parametrize("tracker", ["fbl", "kanayama"])
 def test_tuned_gains_that_lose_on_held_out_robots_are_not_recommended(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tracker: str
 ) -> None:
+    """The defaults written, the provenance's objective and trial were still the tuned trial's that lost: they
+    are the defaults' now, the lost trial's under ``tuned_trial`` and ``tuned_objective``."""
     import sim.tools.tune as tune
 
     def losing(evaluator: Evaluator, tuned: FBLGains, draws: tuple[object, ...]) -> Comparison:
         return Comparison(_evaluation([1.0, 2.0]), _evaluation([1.5, 2.5]), tuple(draws), ("a",))  # type: ignore[arg-type]
 
     monkeypatch.setattr(tune, "compare", losing)
-    assert main(_args(tmp_path, 2, "--eval-runs", "2")) == 1
+    count = {"fbl": 7, "kanayama": 2}[tracker]  # up to the first tuned trial that beats the defaults on the trial draws
+    argv = _args(tmp_path, count, "--eval-runs", "2", "--tracker", tracker)
+    if tracker != "fbl":  # its parameters go to the record alone
+        del argv[argv.index("--out") : argv.index("--out") + 2]
+        argv += ["--json", str(tmp_path / "gains.json")]
+    assert main(argv) == 1
     err = capsys.readouterr().err
-    saved = load_gains_file(tmp_path / "gains.toml")
-    assert saved.gains == FBLGains()  # the defaults, not the trial that lost
-    prov = saved.provenance
-    best = min(_completed(tmp_path), key=lambda t: (t.value, t.number))
-    assert prov["recommended"] == "default" and prov["tuned_gains"] == best.params
-    assert (prov["tuned_held_out_objective"], prov["default_held_out_objective"]) == (2.0, 1.5)
-    assert prov["held_out"]["better"] == "default"
+    record = json.loads((tmp_path / "gains.json").read_text())
+    defaults = tune.default_params(tracker)
+    assert record["params"] == asdict(tune.make_params(tracker, defaults))  # the defaults, not the trial that lost
+    trials = _completed(tmp_path)
+    best = min(trials, key=lambda t: (t.value, t.number))
+    default = next(t for t in trials if t.params == defaults)
+    assert best.number != default.number  # a tuned trial beat the defaults on the trial draws
+    for prov in (record, *([load_gains_file(tmp_path / "gains.toml").provenance] if tracker == "fbl" else [])):
+        assert prov["recommended"] == "default" and prov["tuned_gains"] == best.params
+        assert (prov["objective"], prov["trial"]) == (default.value, default.number)  # the gains written
+        assert (prov["tuned_objective"], prov["tuned_trial"]) == (best.value, best.number)  # the gains that lost
+        assert (prov["tuned_held_out_objective"], prov["default_held_out_objective"]) == (2.0, 1.5)
+        assert prov["held_out"]["better"] == "default"
     assert "worse than the defaults on held-out robots: objective 2.000000 m against 1.500000 m (1.33x)" in err
-    assert json.loads((tmp_path / "gains.json").read_text())["gains"] == {"kp": 9.0, "kd": 6.0, "xi_min": 0.02}
+    if tracker == "fbl":
+        assert load_gains_file(tmp_path / "gains.toml").gains == FBLGains()
 
 
 def _reference_seeds(rng: np.random.Generator, count: int, parity: int) -> list[int]:

@@ -74,7 +74,8 @@ only for trackers tuned by their FBL gains (e.g. fbl, segmented): for the others
 
 When the tuned gains score worse than the defaults on the held-out draws, the command says so, writes
 the DEFAULT gains to the gains file (the DEFAULT parameters to the record, for a tracker without a
-gains file; the provenance names the tuned gains that lost and their held-out numbers) and exits 1.
+gains file; the provenance's objective and trial are the defaults', and it names the tuned gains that
+lost, their trial and objective as tuned_trial and tuned_objective, and their held-out numbers) and exits 1.
 When no trial beat the defaults, the held-out draws run them once and the provenance says
 recommended = "default" (the defaults were best).
 
@@ -985,11 +986,11 @@ def _write_outputs(
     from sim.tools.tune import completed, samplers_of
 
     made = samplers_of(completed(study))  # a study resumed with another --sampler holds trials of each
+    gains, verdict = recommendation(best, comparison, spec.tracker)
     provenance: dict[str, Any] = {
         **files.stamp(),
         "tracker": args.tracker,  # the gains file says which tracker its gains were tuned on
-        "objective": float(best.value),
-        "trial": best.number,
+        **_scored(study, spec.tracker, best, default_obj, verdict),
         "default_objective": default_obj,
         "scenarios": _tokens(args),
         "robot": spec.extra_settings["robot"] or "each scenario's",
@@ -1008,7 +1009,6 @@ def _write_outputs(
     if held_out is not None:
         summary = {k: held_out[k] for k in ("better", "verdict", "ratios", "default", "tuned")}
         provenance["held_out"] = _finite({"draws": args.eval_runs, **summary}, drop=True)
-    gains, verdict = recommendation(best, comparison, spec.tracker)
     provenance.update(verdict)
     written = [files.record]
     record = {
@@ -1032,12 +1032,25 @@ def _write_outputs(
     return "tuned_gains" in verdict  # the tuned gains lost on held-out robots (not: no trial beat the defaults)
 
 
+def _scored(study: Any, tracker: str, best: Any, default_obj: float, verdict: dict[str, Any]) -> dict[str, Any]:
+    """The provenance's ``objective`` and ``trial``: those of the gains written, the best trial's, or when the
+    tuned gains lost on the held-out draws the defaults' (their trial, the study's first; none when their
+    trial did not complete and they were scored afresh): the trial that lost is ``tuned_trial``."""
+    from sim.tools.tune import default_trial
+
+    if "tuned_gains" not in verdict:
+        return {"objective": float(best.value), "trial": best.number}
+    dtrial = default_trial(study, tracker)
+    return {"objective": default_obj, **({"trial": dtrial.number} if dtrial is not None else {})}
+
+
 def recommendation(best: Any, comparison: Any, tracker: str = "") -> tuple[Any, dict[str, Any]]:
     """The gains to write, and provenance saying which gains they are and why.
 
     The tuned gains are recommended unless they are the defaults (no trial beat them) or the held-out
     comparison finds the defaults better; then the default gains are, and in the second case the
-    provenance keeps the tuned gains that lost and their held-out objective against the defaults'.
+    provenance keeps the tuned gains that lost, their trial and its objective on the trial draws, and their
+    held-out objective against the defaults'.
 
     Args:
         best: The study's best trial.
@@ -1046,8 +1059,8 @@ def recommendation(best: Any, comparison: Any, tracker: str = "") -> tuple[Any, 
 
     Returns:
         (gains, provenance entries: ``recommended`` "tuned" or "default", with a ``note`` when "default",
-        and when the tuned gains lost also ``tuned_gains``, ``tuned_held_out_objective`` and
-        ``default_held_out_objective`` [m]).
+        and when the tuned gains lost also ``tuned_gains``, ``tuned_trial``, ``tuned_objective`` (on the trial
+        draws), ``tuned_held_out_objective`` and ``default_held_out_objective`` [m]).
     """
     from sim.tools.tune import gains_of, tuned_space
 
@@ -1065,6 +1078,8 @@ def recommendation(best: Any, comparison: Any, tracker: str = "") -> tuple[Any, 
     return tuned_space(tracker)[0](), {
         "recommended": "default",
         "tuned_gains": asdict(tuned),
+        "tuned_trial": best.number,
+        "tuned_objective": float(best.value),
         "tuned_held_out_objective": t,
         "default_held_out_objective": d,
         "note": note,
