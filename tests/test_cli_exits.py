@@ -585,9 +585,13 @@ MC = ["montecarlo", "--reference", "line", "--runs", "1", "--jobs", "1"]
         pytest.param([*MC, "--json", "."], DOT, id="montecarlo-json-dot"),
         pytest.param([*MC, "--results", "runs/.."], DOT, id="montecarlo-results-dotdot"),
         pytest.param(["simulate", "--reference", "line", "--no-video", "--json", "rec/."], DOT, id="simulate-dot"),
+        # ``tune --out sub/`` wrote its gains file as a file named sub, and its record as sub.json
+        pytest.param(["tune", "--scenarios", "open:line", "--out", "sub/"], FOLDER, id="tune-folder"),
+        pytest.param(["tune", "--scenarios", "open:line", "--json", "sub/"], FOLDER, id="tune-json-folder"),
         # ``plan --json -`` wrote a file named '-', where '-' commonly means the standard output
         pytest.param(["plan", "--scenario", "open", "--planner", "sinusoidal", "--json", "-"], DASH, id="plan-dash"),
         pytest.param(["simulate", "--reference", "line", "--no-video", "--json", "-"], DASH, id="simulate-dash"),
+        pytest.param(["tune", "--scenarios", "open:line", "--out", "-"], DASH, id="tune-dash"),
     ],
 )
 def test_an_empty_value_or_a_folder_for_a_file_stops_the_command_before_it_writes(

@@ -173,7 +173,7 @@ def _add_output_arguments(p: argparse.ArgumentParser) -> None:
         "--out",
         type=Path,
         default=None,
-        metavar="FILE",
+        metavar="PATH",
         help="gains file to write, for trackers tuned by their FBL gains (e.g. fbl, segmented) (default: "
         "renders/tune-<study>.toml)",
     )
@@ -181,7 +181,7 @@ def _add_output_arguments(p: argparse.ArgumentParser) -> None:
         "--json",
         type=Path,
         default=None,
-        metavar="FILE",
+        metavar="PATH",
         help="record of the study and the held-out comparison (default: the gains file with .json)",
     )
     p.add_argument(
@@ -596,6 +596,8 @@ def tune_files(
         (args.study, args.storage) if args.study else _default_study(args, tokens, localiser, robot, own_robot)
     )
     gains = args.out or Path("renders") / f"tune-{study}.toml"
+    if not gains.name:  # '.' or '/': a folder, refused as any is, before the record's name is made from it
+        check_writable(gains, overwrite=args.overwrite)
     files = TuneFiles(
         study,
         storage or f"sqlite:///renders/tune-{study}.db",
