@@ -720,6 +720,20 @@ def test_an_output_over_the_studys_own_database_is_refused(tmp_path: Path, capsy
     assert f"{db} is the study's own storage" in capsys.readouterr().err and not db.exists()
 
 
+def test_a_storage_file_where_an_outputs_folder_goes_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """--storage sqlite:///renders, no renders folder there yet: the study's database became the file renders, the
+    trials ran, and writing the outputs into renders/ then failed with a FileExistsError traceback, the stray
+    database left behind."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["tune", "--scenarios", CASE, "--trials", "1", "--draws", "1", "--eval-runs", "0", "--quiet"]
+    assert main([*argv, "--storage", "sqlite:///renders"]) == 2
+    err = capsys.readouterr().err
+    assert "the study's storage sqlite:///renders is the file renders, where the folder of renders/tune-" in err
+    assert "give --storage a file apart from the outputs' folders" in err and list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize(
     ("extra", "message"),
     [

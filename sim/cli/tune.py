@@ -589,7 +589,7 @@ def tune_files(
     """
     from planning.errors import OutputExistsError
     from sim.cli.job_outputs import check_apart_from_inputs
-    from sim.outputs import check_distinct, check_length, check_writable, resolved
+    from sim.outputs import check_distinct, check_length, check_writable
     from sim.tools.tune import check_storage, shown_url
 
     study, storage = (
@@ -619,12 +619,8 @@ def tune_files(
     )
     db = Path(files.storage.removeprefix("sqlite:///")) if files.storage.startswith("sqlite:///") else None
     check_apart_from_inputs(args, [*paths, *([db] if db is not None else [])])  # the cases' scenarios, maps
-    if db is not None:  # an output over the study's own database would destroy it
-        clash = [str(p) for p in paths if resolved(p) == resolved(db)]
-        if clash:
-            raise ConfigError(
-                f"{clash[0]} is the study's own storage ({files.storage}); give --out, --json or --plots another path"
-            )
+    if db is not None:
+        _check_apart_from_storage(files.storage, db, paths)
     for path in paths:
         check_length(path)  # before is_file, which a name too long makes raise
     owners = {p: files.owner(p) for p in paths if p.is_file()}
@@ -639,6 +635,30 @@ def tune_files(
             )
         check_writable(path, overwrite=args.overwrite or path in own)
     return replace(files, own=own)
+
+
+def _check_apart_from_storage(storage: str, db: Path, paths: tuple[Path, ...]) -> None:
+    """Refuse an output that is the study's SQLite file ``db`` (writing it would destroy the study), or that lies
+    under it (its folder would be a file: ``--storage sqlite:///renders`` made the file renders, where the outputs'
+    folder goes, and the outputs then failed after the trials).
+
+    Raises:
+        ConfigError: Naming the output, the storage and the fix.
+    """
+    from sim.outputs import resolved
+
+    clash = [str(p) for p in paths if resolved(p) == resolved(db)]
+    if clash:
+        raise ConfigError(
+            f"{clash[0]} is the study's own storage ({storage}); give --out, --json or --plots another path"
+        )
+    inside = [str(p) for p in paths if resolved(db) in resolved(p).parents]
+    if inside:
+        raise ConfigError(
+            f"the study's storage {storage} is the file {db}, where the folder of {inside[0]} must be; give --storage "
+            "a file apart from the outputs' folders (e.g. sqlite:///renders/tune.db), or --out, --json or --plots "
+            "another path"
+        )
 
 
 def _check_counts(args: argparse.Namespace) -> None:
