@@ -585,6 +585,7 @@ MC = ["montecarlo", "--reference", "line", "--runs", "1", "--jobs", "1"]
         pytest.param([*MC, "--json", "."], DOT, id="montecarlo-json-dot"),
         pytest.param([*MC, "--results", "runs/.."], DOT, id="montecarlo-results-dotdot"),
         pytest.param(["simulate", "--reference", "line", "--no-video", "--json", "rec/."], DOT, id="simulate-dot"),
+        pytest.param(["tune", "--scenarios", "open:line", "--out", "."], DOT, id="tune-out-dot"),
         # ``tune --out sub/`` wrote its gains file as a file named sub, and its record as sub.json
         pytest.param(["tune", "--scenarios", "open:line", "--out", "sub/"], FOLDER, id="tune-folder"),
         pytest.param(["tune", "--scenarios", "open:line", "--json", "sub/"], FOLDER, id="tune-json-folder"),

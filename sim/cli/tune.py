@@ -596,8 +596,6 @@ def tune_files(
         (args.study, args.storage) if args.study else _default_study(args, tokens, localiser, robot, own_robot)
     )
     gains = args.out or Path("renders") / f"tune-{study}.toml"
-    if not gains.name:  # '.' or '/': a folder, refused as any is, before the record's name is made from it
-        check_writable(gains, overwrite=args.overwrite)
     files = TuneFiles(
         study,
         storage or f"sqlite:///renders/tune-{study}.db",
