@@ -8,10 +8,9 @@ file that gives headings keeps them where they are within
 :data:`~planning.trajectory.importer.HEADING_TO_MOTION` of the resolved motion, is turned to within it
 where they are not, and carries that turn smoothly between (:func:`_kept_headings`); a file without
 headings takes the motion's where the robot moves, continued along the path near a drive's ends, and
-where it stands a turn from the arriving to the leaving heading. Then it goes through the stage every timed plan
-goes through
-(:func:`planning.trajectory.from_plan.make_trajectory`): segments from the sign of v, its own samples
-kept (slowed uniformly, by at most :data:`MAX_STRETCH`, when it exceeds a limit) or re-timed from
+where it stands a turn from the arriving to the leaving heading. Then it goes through the stage every
+timed plan goes through (:func:`planning.trajectory.from_plan.make_trajectory`): segments from the sign
+of v, its own samples kept (slowed uniformly, by at most :data:`MAX_STRETCH`, when it exceeds a limit) or re-timed from
 rest to rest by the speed profile, with the reason: it starts or ends moving, it accelerates beyond
 the robot's limits, or keeping its clock would take more than ``MAX_STRETCH`` times as long. A file
 shorter than ``MIN_SAMPLES * dt`` is sampled ``MIN_SAMPLES`` times over its span, so that a clock far too
