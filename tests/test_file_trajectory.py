@@ -21,7 +21,7 @@ from planning.trajectory.file_trajectory import (
     timing_verdict,
 )
 from planning.trajectory.from_plan import TrajectoryStatus
-from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
+from planning.trajectory.importer import HEADING_TO_MOTION, TrajectoryFile, read_trajectory_file
 from planning.trajectory.speed_profile import Limits
 
 ROBOT = load_robot("turtlebot3")
@@ -348,13 +348,16 @@ def test_a_recorded_robot_settling_within_the_noise_floor_stands_still(tmp_path:
 
 
 @pytest.mark.parametrize("rock", [0.3e-3, 1.0e-3])
-def test_a_recording_that_rocks_as_it_turns_in_place_keeps_its_headings(tmp_path: Path, rock: float) -> None:
+def test_a_recording_that_rocks_as_it_turns_in_place_keeps_its_headings_within_the_tolerance(
+    tmp_path: Path, rock: float
+) -> None:
     """A balancing EduMIP's odometry read back from its own bag: it drives 1 m, then turns in place by 0.3 rad at
     its goal while it rocks fore and aft (here by +-``rock`` at 4 Hz, drifting 2 mm), its wheel speed ``v`` flipping
     sign every eighth of a second, and its position moves by a localiser's fixes. Each short rock was taken for a
     drive with the direction of its chord: the heading flipped by pi from one to the next (157 rad/s), a heading
     note said "off by 3.142 rad", and the run was re-timed to 370 times its length. Rocking goes nowhere: the
-    file's headings are kept there."""
+    file's headings are kept there, shifted at most by what the resolved motion about it turns them (within the
+    0.1 rad a heading may be off the motion before it is noted)."""
     t_drive = np.arange(0.0, 10.0, 0.02)
     u = t_drive / 10.0
     x_drive = 10 * u**3 - 15 * u**4 + 6 * u**5  # 1 m, at rest at both ends
@@ -376,10 +379,12 @@ def test_a_recording_that_rocks_as_it_turns_in_place_keeps_its_headings(tmp_path
     imp = read_trajectory_file(TrajectoryFile(p))
     dense = densify(imp)
     given = np.interp(dense.t, t, theta)
-    assert np.abs(dense.pose[:, 2] - given).max() < 0.02  # no flip, no turn of its own
-    assert np.abs(dense.omega).max() < 0.5
-    file_trajectory(imp, ROBOT, World((-0.5, 2.5, -1.0, 1.0)))
+    assert np.abs(dense.pose[:, 2] - given).max() < HEADING_TO_MOTION  # no flip, no turn of its own
+    assert np.abs(dense.omega).max() < 2.0  # 29-95 rad/s before
+    res = file_trajectory(imp, ROBOT, World((-0.5, 2.5, -1.0, 1.0)))
     assert not [f for f in imp.report.corrections if f.what == "headings theta"]
+    # re-timed (it ends moving, at the rocking's speed), but not made to last what the flips made it (3.4-4.3x)
+    assert res.trajectory is not None and res.trajectory.duration < 2.0 * (t[-1] - t[0])
 
 
 def test_a_path_given_where_a_file_as_read_goes_is_read_or_named(tmp_path: Path) -> None:

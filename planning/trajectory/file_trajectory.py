@@ -1,16 +1,16 @@
 """A repaired trajectory or path file (:mod:`planning.trajectory.importer`) as a trajectory in a world.
 
 A **timed** file is sampled every ``dt`` from its interpolant: positions and their derivatives, and
-headings. The motion's direction is the direction of the curve's chord over :data:`HEADING_LENGTH` of
-path and :data:`HEADING_WINDOW` of time, within one drive, where the motion resolves it (a robot that stays
-within :data:`NOISE_FLOOR` for :data:`SETTLE_TIME`, a recording's settling, stands with a speed of 0). A
-file that gives headings keeps them where they are within
-:data:`~planning.trajectory.importer.HEADING_TO_MOTION` of the resolved motion, is turned to within it
-where they are not, and carries that turn smoothly between (:func:`_kept_headings`); a file without
-headings takes the motion's where the robot moves, continued along the path near a drive's ends, and
-where it stands a turn from the arriving to the leaving heading. Then it goes through the stage every
-timed plan goes through (:func:`planning.trajectory.from_plan.make_trajectory`): segments from the sign
-of v, its own samples kept (slowed uniformly, by at most :data:`MAX_STRETCH`, when it exceeds a limit) or re-timed from
+headings: along the motion where the robot moves (the direction of the curve's chord over
+:data:`HEADING_LENGTH` of path and :data:`HEADING_WINDOW` of time, within one drive, continued along
+the path near a drive's ends, where the motion is too short to resolve it; a robot that stays within
+:data:`NOISE_FLOOR` for :data:`SETTLE_TIME`, a recording's settling, stands with a speed of 0) and, where
+it stands, the file's own headings (their turn in place; shifted to meet the motion's heading at both
+ends) or a turn from the arriving to the leaving heading. A file that gives headings keeps its own, as
+where it stands, along a drive that resolves no direction (a wobble: :func:`_resolving_drives`). Then it
+goes through the stage every timed plan goes through
+(:func:`planning.trajectory.from_plan.make_trajectory`): segments from the sign of v, its own samples
+kept (slowed uniformly, by at most :data:`MAX_STRETCH`, when it exceeds a limit) or re-timed from
 rest to rest by the speed profile, with the reason: it starts or ends moving, it accelerates beyond
 the robot's limits, or keeping its clock would take more than ``MAX_STRETCH`` times as long. A file
 shorter than ``MIN_SAMPLES * dt`` is sampled ``MIN_SAMPLES`` times over its span, so that a clock far too
@@ -125,8 +125,7 @@ class DenseFile:
         end_rows: ((time [s], speed [m/s]) of the middle of the first interval of rows, the same of the last):
             where ``v_rows`` leaves and meets the speeds at the file's ends (speeds 0 for a file that gives its
             velocities: it says itself where it rests).
-        turned: (M,) how far the file's own headings were turned toward the motion where it resolves a direction
-            [rad] (0 elsewhere; :func:`_kept_headings`), None for a file without headings.
+        resolved: (M,) the samples whose heading is the motion's, resolved (:func:`_motion_headings`).
     """
 
     t: FloatArray
@@ -135,7 +134,7 @@ class DenseFile:
     omega: FloatArray
     v_rows: FloatArray
     end_rows: tuple[tuple[float, float], tuple[float, float]] = ((0.0, 0.0), (0.0, 0.0))
-    turned: FloatArray | None = None
+    resolved: NDArray[np.bool_] | None = None
 
 
 def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
@@ -157,12 +156,9 @@ def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
     settled = _settled(tg, xy)
     moving = _creeping(moving, tg, xy) & ~settled
     heading, resolved = _motion_headings(imported, tg, moving, sgn)
-    own = _given_heading(imported, tg)
-    turned = None
-    if own is None:
-        heading = _standing_headings(tg, heading, moving)
-    else:
-        heading, turned = _kept_headings(tg, own, heading, resolved & moving)
+    if imported.theta is not None:  # a drive that resolves no direction (a wobble) keeps the file's headings
+        moving &= _resolving_drives(moving, sgn, resolved)
+    heading = _standing_headings(imported, tg, heading, moving)
     heading = np.unwrap(heading)
     pose = np.column_stack([xy, heading])
     v = np.where(settled, 0.0, sgn * speed)
@@ -171,7 +167,7 @@ def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
     step = np.hypot(*(imported.xy[[1, -1]] - imported.xy[[0, -2]]).T) / np.diff(imported.t)[[0, -1]]
     ends = step * imported.direction[[0, -1]] * (not imported.velocities)  # given velocities say where it rests
     end_rows = ((float(mids[0]), float(ends[0])), (float(mids[1]), float(ends[1])))
-    return DenseFile(tg - t0, pose, v, np.gradient(heading, tg), v_rows, end_rows, turned)
+    return DenseFile(tg - t0, pose, v, np.gradient(heading, tg), v_rows, end_rows, resolved & moving)
 
 
 def row_speeds(imported: ImportedFile, tg: FloatArray, v: FloatArray) -> FloatArray:
@@ -346,64 +342,65 @@ def _given_heading(imported: ImportedFile, tg: FloatArray) -> FloatArray | None:
     return np.asarray(PchipInterpolator(imported.t, imported.theta)(tg))
 
 
-def _standing_headings(tg: FloatArray, heading: FloatArray, moving: NDArray[np.bool_]) -> FloatArray:
-    """Headings while standing, for a file without headings: a turn from the arriving heading to the leaving one
-    (zero where it never moves)."""
+def _standing_headings(
+    imported: ImportedFile, tg: FloatArray, heading: FloatArray, moving: NDArray[np.bool_]
+) -> FloatArray:
+    """Headings while standing: the file's own (shifted to meet the motion at both ends), else a turn
+    from the arriving heading to the leaving one."""
     if not np.any(moving):
-        return np.zeros_like(tg)
+        given = _given_heading(imported, tg)
+        return given if given is not None else np.zeros_like(tg)
+    own = _given_heading(imported, tg)
     out = heading.copy()
     edges = np.flatnonzero(np.diff(np.concatenate([[1], moving.astype(int), [1]])))
     for a, b in zip(edges[::2], edges[1::2], strict=True):  # standing runs [a, b)
         before, after = (a - 1 if a > 0 else b), (b if b < tg.size else a - 1)
         h0, h1 = heading[before], heading[after]
         w = (tg[a:b] - tg[a]) / max(tg[b - 1] - tg[a], 1e-12)
-        out[a:b] = h0 + w * wrap_angle(h1 - h0)
+        if own is None:
+            out[a:b] = h0 + w * wrap_angle(h1 - h0)
+        else:
+            d0, d1 = wrap_angle(h0 - own[before]), wrap_angle(h1 - own[after])
+            out[a:b] = own[a:b] + d0 + w * (d1 - d0)
     return out
 
 
-def _kept_headings(
-    tg: FloatArray, own: FloatArray, motion: FloatArray, resolved: NDArray[np.bool_]
-) -> tuple[FloatArray, FloatArray]:
-    """Headings for a file that gives them (``own``, (M,) at times ``tg``): its own, turned toward the motion's
-    (``motion``) where the motion resolves a direction (``resolved``) and they are more than HEADING_TO_MOTION apart,
-    by the excess (the robot cannot move sideways); elsewhere (standing, turning in place, a drive's first and
-    last millimetres, a wobble too short to resolve a direction) by the turn of the resolved samples about it,
-    linear in time between them (constant before the first and after the last), so that the heading never jumps;
-    and (M,) the turn at the resolved samples (0 elsewhere).
+def _resolving_drives(moving: NDArray[np.bool_], sgn: FloatArray, resolved: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """(M,) the moving samples of drives (runs of moving samples of one travel direction) with a resolved sample
+    (:func:`_motion_headings`): a file that gives headings keeps its own, as where it stands, along the others.
 
-    A file within the tolerance keeps its headings as they are. Taking the motion's direction wherever the robot
-    moved made a recording's own wobble its turns: a balancing EduMIP's odometry, read back from its bag, rocks by
-    tenths of a millimetre as it stops, reverses and turns in place, every short chord pointed elsewhere, and the
-    heading flipped by pi between them (yaw rates of 157 rad/s; the run was re-timed to 370 times its length)."""
-    turned = np.zeros_like(own)
-    idx = np.flatnonzero(resolved)
-    if idx.size == 0:
-        return own, turned
-    d = np.unwrap(wrap_angle(motion[idx] - own[idx]))  # one branch: no interpolation across a wrap
-    turned[idx] = np.sign(d) * np.maximum(np.abs(d) - HEADING_TO_MOTION, 0.0)
-    return np.asarray(own + np.interp(tg, tg[idx], turned[idx])), turned
+    A drive that resolves no direction took its whole chord's, and where a recording wobbles as it stops, reverses
+    and turns in place (a balancing EduMIP's odometry read back from its bag: steps of tenths of a millimetre, its
+    wheel speed's sign flipping every few rows) every short chord pointed elsewhere: the heading flipped by pi from
+    one to the next (157 rad/s), and the run was re-timed to 370 times its length."""
+    new = np.concatenate([[True], (sgn[1:] != sgn[:-1]) | (moving[1:] != moving[:-1])])
+    run = np.cumsum(new) - 1
+    return np.bincount(run, resolved & moving)[run] > 0
 
 
-def _note_turned(imported: ImportedFile, dense: DenseFile) -> None:
-    """Say in the file's report how far :func:`densify` turned its headings toward the motion (more than
-    HEADING_TO_MOTION off it where the motion resolves a direction), at most, and at which sample (named by the row
-    nearest it; the file's heading there, between rows, as the value given)."""
-    if dense.turned is None or not np.any(dense.turned):
+def _note_headings(imported: ImportedFile, dense: DenseFile) -> None:
+    """Say in the file's report how far its given headings are off the direction of motion, at most, where it is
+    more than HEADING_TO_MOTION: judged at the rows whose nearest sample's heading is the resolved motion's
+    (:attr:`DenseFile.resolved`; the heading follows the motion there). Not at a cusp's row, a wobble's or a
+    drive's first millimetres, where the motion resolves no direction: judged row by row from the curve's
+    velocity, a balancing robot rolling back as it leaned was said to be off by pi at the row where it reversed."""
+    if imported.theta is None or dense.resolved is None or imported.t is None:
         return
-    assert imported.t is not None and imported.theta is not None
-    k = int(np.argmax(np.abs(dense.turned)))
-    turn = float(dense.turned[k])
-    row = int(np.argmin(np.abs(imported.t - (imported.t[0] + dense.t[k]))))  # the row nearest the sample
-    off = abs(turn) + HEADING_TO_MOTION
+    rows_t = imported.t - imported.t[0]
+    k = np.clip(np.searchsorted(dense.t, rows_t), 1, dense.t.size - 1)
+    k = np.where(dense.t[k] - rows_t > rows_t - dense.t[k - 1], k - 1, k)  # the sample nearest each row
+    d = wrap_angle(dense.pose[k, 2] - imported.theta)
+    off = np.where(dense.resolved[k], np.abs(d), 0.0)
+    row = int(np.argmax(off))
+    if off[row] <= HEADING_TO_MOTION:
+        return
     imported.report.notes.append(
-        f"headings disagree with the direction of motion by up to {off:.3f} rad (near {imported.rows[row]}; "
-        f"tolerance {HEADING_TO_MOTION:g} rad): where the motion resolves a direction, the heading is turned to "
-        "within the tolerance of it"
+        f"headings disagree with the direction of motion by up to {off[row]:.3f} rad ({imported.rows[row]}; "
+        f"tolerance {HEADING_TO_MOTION:g} rad): the heading follows the motion where the robot moves"
     )
-    given = float(dense.pose[k, 2] - turn)  # the file's heading at the sample
-    imported.report.corrections.append(
-        Correction("headings theta", imported.rows[row], (given,), (given + turn,), off, HEADING_TO_MOTION, "rad")
-    )
+    given, used = float(imported.theta[row]), float(imported.theta[row] + d[row])
+    fix = Correction("headings theta", imported.rows[row], (given,), (used,), float(off[row]), HEADING_TO_MOTION, "rad")
+    imported.report.corrections.append(fix)
 
 
 #: What a file moving at an end is told (:func:`timing_verdict`): its rows' speed there, without velocities given,
@@ -658,7 +655,7 @@ def file_trajectory(imported: ImportedFile, robot: RobotSpec, world: World, **op
     goal = with_file_ends(Scenario("file", robot.name, world, Pose2D(0, 0, 0), Pose2D(0, 0, 0)), imported).goal
     if source.timed:
         dense = densify(imported)
-        _note_turned(imported, dense)
+        _note_headings(imported, dense)
         limits = Limits.from_robot(robot, options.get("margin", 0.85))
         retime, why, _ = timing_verdict(dense, limits)
         why += _clock_hint(dense, limits, source.time_scale) if retime else ""

@@ -18,8 +18,8 @@ into the scenario's frame), and repairs what real files get wrong:
   spans of 0.2 rad). A column set that misses anywhere is
   replaced by the positions' own derivatives, with a note and the largest change. A heading more
   than :data:`HEADING_TO_MOTION` (0.1 rad) off the direction of motion, where the motion resolves
-  one, is turned to within that of it when the file becomes a trajectory (the robot cannot move
-  sideways: :func:`planning.trajectory.file_trajectory.densify`, which notes it); one within it is kept.
+  one, is replaced by it when the file becomes a trajectory (the robot cannot move sideways:
+  :func:`planning.trajectory.file_trajectory.densify`; the note is made there).
 
 The positions' own derivatives come from one curve through all rows
 (:func:`planning.trajectory.row_curves.stretch_fit`): a cubic spline at rest at the stops (the file's
