@@ -428,6 +428,26 @@ def _refuse_relative_map(data: Mapping[str, Any], p: Path) -> None:
             )
 
 
+def is_builtin_name(name: str) -> bool:
+    """Whether ``name`` is a built-in scenario's name (:func:`builtin_scenarios`) or ``random<N>``: what
+    :func:`load_scenario` loads as the built-in, whatever the working directory holds."""
+    return (
+        bool(name)
+        and Path(name).name == name
+        and ((SCENARIOS_DIR / f"{name}.toml").exists() or _RANDOM_NAME.fullmatch(name) is not None)
+    )
+
+
+def _built_in(name: str) -> Scenario | None:
+    """The built-in scenario ``name`` (a file of ``models/scenarios``) or the generated world ``random<N>``; None
+    when it is neither."""
+    candidate = SCENARIOS_DIR / f"{name}.toml"
+    if candidate.exists():
+        return load_scenario_file(candidate)
+    generated = _RANDOM_NAME.fullmatch(name)
+    return None if generated is None else random_scenario("turtlebot3", int(generated.group(1)))
+
+
 def builtin_scenarios() -> list[str]:
     """Names of the scenarios shipped in ``models/scenarios``."""
     return sorted(p.stem for p in SCENARIOS_DIR.glob("*.toml"))
@@ -438,20 +458,19 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     ``random<N>`` (:func:`random_scenario` of seed N, for the TurtleBot3 and every other robot).
 
     A bare name (no folder, no suffix) that is a built-in one or ``random<N>`` is that scenario wherever the command
-    runs: a file or folder of that name in the working directory is not looked at (give it as ``./open`` to load it).
+    runs: a file or folder of that name in the working directory is not looked at (give it as ``./open`` to load it;
+    a ``Path`` is the file it names when there is one, else the built-in of that name).
 
     Raises:
         ScenarioError: Unknown name (the message lists the built-in ones) or a bad file.
     """
     text = str(name_or_path)
     p = Path(text)
-    bare = isinstance(name_or_path, str) and p.name == text and not p.suffix
-    candidate = SCENARIOS_DIR / f"{text}.toml"
-    if bare and candidate.exists():
-        return load_scenario_file(candidate)
-    generated = _RANDOM_NAME.fullmatch(text) if bare else None
-    if generated is not None:
-        return random_scenario("turtlebot3", int(generated.group(1)))
+    named = p.name == text and not p.suffix  # no folder, no suffix: a built-in's name, or a file's
+    if named and (isinstance(name_or_path, str) or not p.exists()):  # a Path: its file when there is one
+        built_in = _built_in(text)
+        if built_in is not None:
+            return built_in
     if not text.strip() or p.is_dir():
         what = "an empty name" if not text.strip() else f"the folder {text!r}"
         raise ScenarioError(

@@ -502,3 +502,18 @@ def test_a_case_of_an_unregistered_tracker_is_named_as_list_names_it(tmp_path: P
     message = str(err.value)
     assert f"{path} case 1 (simple_motion-turtlebot3-plan-turn-drive-turn-p-pose-s0): " in message, message
     assert "or one a plugin registers (NHSIM_PLUGINS=module)" in message
+
+
+def test_a_built_in_name_in_a_suite_is_the_built_in_whatever_lies_beside_the_suite(tmp_path: Path) -> None:
+    """A case's ``scenario = "farm"`` read an empty file ``farm`` beside the suite (and a folder ``open`` was refused
+    as a scenario), where ``--scenario farm`` means the built-in whatever the working directory holds."""
+    from planning.errors import ScenarioError
+    from sim.tools.regress import _scenario_in_suite
+
+    (tmp_path / "farm").write_text("")
+    (tmp_path / "open").mkdir()
+    assert _scenario_in_suite("farm", tmp_path) == "farm"
+    assert _scenario_in_suite("open", tmp_path) == "open"
+    assert _scenario_in_suite("random7", tmp_path) == "random7"
+    with pytest.raises(ScenarioError, match="missing field"):
+        _scenario_in_suite("./farm", tmp_path)  # a path: the file beside the suite

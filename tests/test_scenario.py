@@ -398,4 +398,6 @@ def test_a_built_in_name_is_the_built_in_scenario_whatever_the_working_directory
     with pytest.raises(ScenarioError, match="the folder"):
         load_scenario("./open")
     with pytest.raises(ScenarioError, match="missing field"):
-        load_scenario(Path("farm"))  # a Path is a file's
+        load_scenario(Path("farm"))  # a Path is the file it names, when there is one
+    assert load_scenario(Path("edumip_map")).name == "edumip_map"  # else the built-in (no such file here)
+    assert load_scenario(Path("random12")).name == "random12"

@@ -345,7 +345,7 @@ def test_resuming_after_a_scenario_file_or_the_code_changed_is_refused(
         "rerun with the same options and scenario files (as they were) to resume it, or choose another study name",
         "code": "code (set by nhsim's code and models, the robots' and the plugins' among them: another nhsim version",
         "unrecorded": "code (not recorded by the nhsim that made the study), worlds (not recorded by the nhsim that "
-        "made the study) differ; this nhsim cannot resume it, or choose another study name",
+        "made the study) differ; this nhsim cannot resume it: choose another study name",
     }
     assert said[change] in " ".join(err.split())
     assert len(_completed(tmp_path)) == 1

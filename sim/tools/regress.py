@@ -65,7 +65,7 @@ from planning.core.plugins import PLUGIN_VARIABLE
 from planning.core.robot import ROBOTS
 from planning.errors import ConfigError, NhsimError, SimulationError, option, without_python
 from planning.planners.registry import PLANNERS
-from planning.scenario import Scenario, load_scenario
+from planning.scenario import Scenario, is_builtin_name, load_scenario
 from planning.trajectory.references import REFERENCES
 from sim.physics.asbuilt import DEFAULT_BUILD_SEED
 from sim.physics.lidar import load_lidar_profile
@@ -378,8 +378,8 @@ def _scenario_in_suite(value: str, folder: Path) -> str | Scenario:
         ConfigError: The file does not exist or is not a scenario (the loader's message).
     """
     p = Path(value)
-    if not (p.suffix == ".toml" or (folder / p).exists()):
-        return value
+    if is_builtin_name(value) or not (p.suffix == ".toml" or (folder / p).exists()):
+        return value  # a built-in's name is the built-in, whatever lies beside the suite (as load_scenario has it)
     return load_scenario(p if p.is_absolute() else folder / p)
 
 

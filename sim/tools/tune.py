@@ -698,12 +698,13 @@ def _other_settings(spec: TuneSpec, stored: dict[str, Any], settings: dict[str, 
         else:
             said.append(f"{k} (set by {SETTING_OPTIONS[k]})" if k in SETTING_OPTIONS else k)
     files = " and scenario files (as they were)" if "worlds" in diff else ""
-    resume = (
-        "this nhsim cannot resume it" if set(diff) - set(stored) else f"rerun with the same options{files} to resume it"
-    )
+    if set(diff) - set(stored):  # a study an older nhsim made: what it did not record cannot be checked
+        fix = f"this nhsim cannot resume it: choose another study name, {option('study')}"
+    else:
+        fix = f"rerun with the same options{files} to resume it, or choose another study name, {option('study')}"
     return (
         f"study {spec.study!r} in {shown_url(spec.storage)!r} was created with other settings: {', '.join(said)} "
-        f"differ; {resume}, or choose another study name, {option('study')}"
+        f"differ; {fix}"
     )
 
 
