@@ -50,9 +50,9 @@ def pytest_configure(config: pytest.Config) -> None:
 #: ``--durations=0`` in a warm checkout, 2026-12-07), started first: pytest-xdist hands out modules in collection
 #: order, and a long one handed out last keeps one worker busy while the others idle.
 LONGEST_FIRST = (
-    "test_montecarlo.py", "test_cli_signals.py", "test_peer_trackers.py", "test_optim.py", "test_tune.py",
-    "test_rrt.py", "test_bag.py", "test_outputs_job.py", "test_regression.py", "test_hybrid_astar.py",
-    "test_plugins.py", "test_cli_plan.py", "test_scan_localiser.py", "test_simulator.py", "test_render.py",
+    "test_montecarlo.py", "test_tune.py", "test_cli_signals.py", "test_peer_trackers.py", "test_optim.py",
+    "test_rrt.py", "test_bag.py", "test_outputs_job.py", "test_hybrid_astar.py", "test_regression.py",
+    "test_scan_localiser.py", "test_cli_plan.py", "test_render.py", "test_plugins.py", "test_random_worlds.py",
 )  # fmt: skip
 
 
