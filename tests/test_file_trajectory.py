@@ -387,6 +387,39 @@ def test_a_recording_that_rocks_as_it_turns_in_place_keeps_its_headings_within_t
     assert res.trajectory is not None and res.trajectory.duration < 2.0 * (t[-1] - t[0])
 
 
+@pytest.mark.parametrize("seed", range(5))
+def test_a_recording_reversing_at_a_cusp_does_not_turn_there(tmp_path: Path, seed: int) -> None:
+    """A balancing EduMIP rolls back 3 cm as it leans, turning by 0.2 rad, then drives off straight, its position
+    moved by a localiser's fixes (0.2-0.6 mm every 0.1 s). Each drive's end continued its own resolved heading
+    along the path, and the two met at the cusp apart: a turn at once (6-60 rad/s over these seeds). The robot
+    reverses without turning, and the file's heading says so: it is kept between the cusp and the resolved motion
+    on either side."""
+    t1 = np.arange(0.0, 0.8, 0.02)
+    u = t1 / 0.8
+    s1 = -0.03 * (3 * u**2 - 2 * u**3)  # back along an arc, rest to rest
+    th1 = 0.785 - 0.225 * (3 * u**2 - 2 * u**3)
+    ds = np.diff(s1, prepend=0.0)
+    x1, y1 = np.cumsum(ds * np.cos(th1)), np.cumsum(ds * np.sin(th1))
+    t2 = np.arange(0.8, 10.8 + 1e-9, 0.02)
+    w = (t2 - 0.8) / 10.0
+    s2 = 10 * w**3 - 15 * w**4 + 6 * w**5  # then 1 m straight on
+    t = np.concatenate([t1, t2])
+    xy = np.column_stack(
+        [np.concatenate([x1, x1[-1] + s2 * np.cos(0.56)]), np.concatenate([y1, y1[-1] + s2 * np.sin(0.56)])]
+    )
+    rng = np.random.default_rng(seed)
+    fixes = np.zeros_like(xy)
+    angle, size = rng.uniform(-np.pi, np.pi, fixes[::5].shape[0]), rng.uniform(2e-4, 6e-4, fixes[::5].shape[0])
+    fixes[::5] = np.column_stack([size * np.cos(angle), size * np.sin(angle)])
+    xy += np.cumsum(fixes, axis=0)
+    theta = np.concatenate([th1, np.full_like(t2, 0.56)])
+    v = np.concatenate([np.gradient(s1, t1), np.gradient(s2, t2)])
+    p = write_csv(tmp_path / "odom.csv", {"t": t, "x": xy[:, 0], "y": xy[:, 1], "theta": theta, "v": v})
+    dense = densify(read_trajectory_file(TrajectoryFile(p)))
+    near = (dense.t > 0.5) & (dense.t < 1.2)
+    assert np.abs(dense.omega[near]).max() < 3.0
+
+
 def test_a_path_given_where_a_file_as_read_goes_is_read_or_named(tmp_path: Path) -> None:
     """``read_trajectory_file('ok.csv')`` raised AttributeError ('str' object has no attribute 'topic'), and
     ``file_trajectory('ok.csv', ...)`` another; a tracker's error advised ``file_trajectory(path)``."""

@@ -7,7 +7,8 @@ the path near a drive's ends, where the motion is too short to resolve it; a rob
 :data:`NOISE_FLOOR` for :data:`SETTLE_TIME`, a recording's settling, stands with a speed of 0) and, where
 it stands, the file's own headings (their turn in place; shifted to meet the motion's heading at both
 ends) or a turn from the arriving to the leaving heading. A file that gives headings keeps its own, as
-where it stands, along a drive that resolves no direction (a wobble: :func:`_resolving_drives`). Then it
+where it stands, along a drive that resolves no direction (a wobble: :func:`_resolving_drives`) and between
+a cusp and the resolved motion on either side (:func:`_cusp_ends`). Then it
 goes through the stage every timed plan goes through
 (:func:`planning.trajectory.from_plan.make_trajectory`): segments from the sign of v, its own samples
 kept (slowed uniformly, by at most :data:`MAX_STRETCH`, when it exceeds a limit) or re-timed from
@@ -156,8 +157,8 @@ def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
     settled = _settled(tg, xy)
     moving = _creeping(moving, tg, xy) & ~settled
     heading, resolved = _motion_headings(imported, tg, moving, sgn)
-    if imported.theta is not None:  # a drive that resolves no direction (a wobble) keeps the file's headings
-        moving &= _resolving_drives(moving, sgn, resolved)
+    if imported.theta is not None:  # a wobble, and a cusp's unresolved ends, keep the file's headings
+        moving &= _resolving_drives(moving, sgn, resolved) & ~_cusp_ends(moving, sgn, resolved)
     heading = _standing_headings(imported, tg, heading, moving)
     heading = np.unwrap(heading)
     pose = np.column_stack([xy, heading])
@@ -363,6 +364,28 @@ def _standing_headings(
             d0, d1 = wrap_angle(h0 - own[before]), wrap_angle(h1 - own[after])
             out[a:b] = own[a:b] + d0 + w * (d1 - d0)
     return out
+
+
+def _cusp_ends(moving: NDArray[np.bool_], sgn: FloatArray, resolved: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """(M,) the moving samples between a cusp (two drives of opposite travel direction, no stand between them) and
+    the nearest resolved sample on either side: a file that gives headings keeps its own there, as where it stands.
+
+    Each drive's end continued its resolved heading along the path, and the two continuations met at the cusp
+    apart (a balancing EduMIP rolling back 3 cm as it leaned, then driving off: a turn at once, 204 rad/s^2), where
+    the robot reverses without turning and the file's heading says so."""
+    n = moving.size
+    new = np.concatenate([[True], (sgn[1:] != sgn[:-1]) | (moving[1:] != moving[:-1])])
+    run = np.cumsum(new) - 1
+    starts = np.flatnonzero(new)
+    driving = moving[starts]  # per run
+    cusp_before = np.concatenate([[False], driving[:-1]]) & driving
+    cusp_after = np.concatenate([driving[1:], [False]]) & driving
+    idx = np.flatnonzero(resolved & moving)
+    first, last = np.full(starts.size, n), np.full(starts.size, -1)
+    np.minimum.at(first, run[idx], idx)
+    np.maximum.at(last, run[idx], idx)
+    i = np.arange(n)
+    return moving & ((cusp_before[run] & (i < first[run])) | (cusp_after[run] & (i > last[run])))
 
 
 def _resolving_drives(moving: NDArray[np.bool_], sgn: FloatArray, resolved: NDArray[np.bool_]) -> NDArray[np.bool_]:
