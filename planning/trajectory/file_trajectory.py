@@ -261,6 +261,13 @@ def _creeping(moving: NDArray[np.bool_], tg: FloatArray, xy: FloatArray) -> NDAr
     return moving | (np.cumsum(mark)[:-1] > 0)
 
 
+def _runs(moving: NDArray[np.bool_], sgn: FloatArray) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """(M,) each sample's run and each run's first sample: the drives (moving samples of one travel direction,
+    ``sgn``) and the stands between them, in order."""
+    new = np.concatenate([[True], (sgn[1:] != sgn[:-1]) | (moving[1:] != moving[:-1])])
+    return np.cumsum(new) - 1, np.flatnonzero(new)
+
+
 def _motion_headings(
     imported: ImportedFile, tg: FloatArray, moving: NDArray[np.bool_], sgn: FloatArray
 ) -> tuple[FloatArray, NDArray[np.bool_]]:
@@ -288,9 +295,7 @@ def _motion_headings(
     the resolved headings have over the first (last) HEADING_LENGTH / 2 of path (exact on a circle). A
     drive too short for any resolved chord keeps the direction of its whole chord."""
     assert imported.curve is not None
-    new = np.concatenate([[True], (sgn[1:] != sgn[:-1]) | (moving[1:] != moving[:-1])])
-    run = np.cumsum(new) - 1
-    starts = np.flatnonzero(new)
+    run, starts = _runs(moving, sgn)
     ends = np.append(starts[1:], tg.size) - 1
     lo, hi = tg[starts[run]], tg[ends[run]]
     xy = imported.curve(tg, 0)
@@ -374,9 +379,7 @@ def _cusp_ends(moving: NDArray[np.bool_], sgn: FloatArray, resolved: NDArray[np.
     apart (a balancing EduMIP rolling back 3 cm as it leaned, then driving off: a turn at once, 204 rad/s^2), where
     the robot reverses without turning and the file's heading says so."""
     n = moving.size
-    new = np.concatenate([[True], (sgn[1:] != sgn[:-1]) | (moving[1:] != moving[:-1])])
-    run = np.cumsum(new) - 1
-    starts = np.flatnonzero(new)
+    run, starts = _runs(moving, sgn)
     driving = moving[starts]  # per run
     cusp_before = np.concatenate([[False], driving[:-1]]) & driving
     cusp_after = np.concatenate([driving[1:], [False]]) & driving
@@ -396,8 +399,7 @@ def _resolving_drives(moving: NDArray[np.bool_], sgn: FloatArray, resolved: NDAr
     and turns in place (a balancing EduMIP's odometry read back from its bag: steps of tenths of a millimetre, its
     wheel speed's sign flipping every few rows) every short chord pointed elsewhere: the heading flipped by pi from
     one to the next (157 rad/s), and the run was re-timed to 370 times its length."""
-    new = np.concatenate([[True], (sgn[1:] != sgn[:-1]) | (moving[1:] != moving[:-1])])
-    run = np.cumsum(new) - 1
+    run, _ = _runs(moving, sgn)
     return np.bincount(run, resolved & moving)[run] > 0
 
 
