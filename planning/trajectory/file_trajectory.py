@@ -7,8 +7,8 @@ the path near a drive's ends, where the motion is too short to resolve it; a rob
 :data:`NOISE_FLOOR` for :data:`SETTLE_TIME`, a recording's settling, stands with a speed of 0) and, where
 it stands, the file's own headings (their turn in place; shifted to meet the motion's heading at both
 ends) or a turn from the arriving to the leaving heading. A file that gives headings keeps its own, as
-where it stands, along a drive that resolves no direction (a wobble: :func:`_resolving_drives`) and between
-a cusp and the resolved motion on either side (:func:`_cusp_ends`). Then it
+where it stands, along a drive that resolves no direction (a wobble) and between a cusp and the resolved
+motion on either side (:func:`_own_headings`). Then it
 goes through the stage every timed plan goes through
 (:func:`planning.trajectory.from_plan.make_trajectory`): segments from the sign of v, its own samples
 kept (slowed uniformly, by at most :data:`MAX_STRETCH`, when it exceeds a limit) or re-timed from
@@ -158,7 +158,7 @@ def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
     moving = _creeping(moving, tg, xy) & ~settled
     heading, resolved = _motion_headings(imported, tg, moving, sgn)
     if imported.theta is not None:  # a wobble, and a cusp's unresolved ends, keep the file's headings
-        moving &= _resolving_drives(moving, sgn, resolved) & ~_cusp_ends(moving, sgn, resolved)
+        moving &= ~_own_headings(moving, sgn, resolved)
     heading = _standing_headings(imported, tg, heading, moving)
     heading = np.unwrap(heading)
     pose = np.column_stack([xy, heading])
@@ -371,13 +371,18 @@ def _standing_headings(
     return out
 
 
-def _cusp_ends(moving: NDArray[np.bool_], sgn: FloatArray, resolved: NDArray[np.bool_]) -> NDArray[np.bool_]:
-    """(M,) the moving samples between a cusp (two drives of opposite travel direction, no stand between them) and
-    the nearest resolved sample on either side: a file that gives headings keeps its own there, as where it stands.
+def _own_headings(moving: NDArray[np.bool_], sgn: FloatArray, resolved: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """(M,) the moving samples where a file that gives headings keeps its own, as where it stands: along a drive (a
+    run of moving samples of one travel direction) with no resolved sample (:func:`_motion_headings`), and between a
+    cusp (two drives of opposite direction, no stand between them) and the nearest resolved sample on either side.
 
-    Each drive's end continued its resolved heading along the path, and the two continuations met at the cusp
-    apart (a balancing EduMIP rolling back 3 cm as it leaned, then driving off: a turn at once, 204 rad/s^2), where
-    the robot reverses without turning and the file's heading says so."""
+    A drive that resolves no direction took its whole chord's, and where a recording wobbles as it stops, reverses
+    and turns in place (a balancing EduMIP's odometry read back from its bag: steps of tenths of a millimetre, its
+    wheel speed's sign flipping every few rows) every short chord pointed elsewhere: the heading flipped by pi from
+    one to the next (157 rad/s), and the run was re-timed to 370 times its length. At a cusp each drive's end
+    continued its resolved heading along the path, and the two continuations met apart (the balancing EduMIP rolling
+    back 3 cm as it leaned, then driving off: a turn at once, 204 rad/s^2), where the robot reverses without turning
+    and the file's heading says so."""
     n = moving.size
     run, starts = _runs(moving, sgn)
     driving = moving[starts]  # per run
@@ -388,19 +393,8 @@ def _cusp_ends(moving: NDArray[np.bool_], sgn: FloatArray, resolved: NDArray[np.
     np.minimum.at(first, run[idx], idx)
     np.maximum.at(last, run[idx], idx)
     i = np.arange(n)
-    return moving & ((cusp_before[run] & (i < first[run])) | (cusp_after[run] & (i > last[run])))
-
-
-def _resolving_drives(moving: NDArray[np.bool_], sgn: FloatArray, resolved: NDArray[np.bool_]) -> NDArray[np.bool_]:
-    """(M,) the moving samples of drives (runs of moving samples of one travel direction) with a resolved sample
-    (:func:`_motion_headings`): a file that gives headings keeps its own, as where it stands, along the others.
-
-    A drive that resolves no direction took its whole chord's, and where a recording wobbles as it stops, reverses
-    and turns in place (a balancing EduMIP's odometry read back from its bag: steps of tenths of a millimetre, its
-    wheel speed's sign flipping every few rows) every short chord pointed elsewhere: the heading flipped by pi from
-    one to the next (157 rad/s), and the run was re-timed to 370 times its length."""
-    run, _ = _runs(moving, sgn)
-    return np.bincount(run, resolved & moving)[run] > 0
+    unresolved = last[run] < 0
+    return moving & (unresolved | (cusp_before[run] & (i < first[run])) | (cusp_after[run] & (i > last[run])))
 
 
 def _note_headings(imported: ImportedFile, dense: DenseFile) -> None:
