@@ -3,9 +3,13 @@ planned on, before: found by tests/test_fuzz_planners.py)."""
 
 from __future__ import annotations
 
+import dataclasses
+import inspect
 import math
+import re
 from typing import Any
 
+import numpy as np
 import pytest
 
 from planning.core.geometry import Pose2D
@@ -13,7 +17,7 @@ from planning.core.robot import load_robot
 from planning.core.world import Box, Circle, Ellipse, World
 from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanStatus
-from planning.planners.registry import make_planner
+from planning.planners.registry import PLANNERS, make_planner, planner_options
 from planning.planners.sampling.crrt_star import CRRTStarConfig
 
 ROBOT = load_robot("turtlebot3")
@@ -114,6 +118,39 @@ def test_bad_geometry_raises_config_error(make: Any, match: str) -> None:
 def test_bad_planner_options_are_refused_when_the_planner_is_made(planner: str, options: dict, match: str) -> None:
     with pytest.raises(ConfigError, match=match):
         make_planner(planner, **options)
+
+
+def _flag_options(planner: str) -> list[str]:
+    """The options of a built-in planner whose default is True or False."""
+    factory = PLANNERS.factory(planner)
+    defaults = {p.name: p.default for p in inspect.signature(factory).parameters.values()}
+    config_class = getattr(factory, "config_class", None)
+    if dataclasses.is_dataclass(config_class):
+        defaults |= {f.name: f.default for f in dataclasses.fields(config_class)}
+    return [name for name in planner_options(planner) if isinstance(defaults.get(name), bool)]
+
+
+@pytest.mark.parametrize("planner", ["birrt", "c-rrt-star", "optim", "rrt", "rrt-star"])
+def test_a_planners_flag_is_true_or_false(planner: str) -> None:
+    """A flag read for its truth took ``--planner-option simplify=no`` (bare text: the string "no") as true and
+    simplified; ``verbose="no"`` printed IPOPT's log."""
+    flags = _flag_options(planner)
+    assert flags
+    for name in flags:
+        for value in ("no", 0, None):
+            with pytest.raises(ConfigError, match=rf"{name} must be True or False, got {re.escape(repr(value))}"):
+                make_planner(planner, **{name: value})
+        with pytest.raises(ConfigError, match=r"got 'false' \(in a TOML file or a KEY=VALUE option: true or false"):
+            make_planner(planner, **{name: "false"})
+        make_planner(planner, **{name: np.bool_(False)})  # a numpy bool is a flag
+
+
+@pytest.mark.parametrize("planner", ["birrt", "rrt-star"])
+@pytest.mark.parametrize("value", [0, -3, 1.5, "50"])
+def test_the_connect_step_is_a_whole_number_of_extensions(planner: str, value: object) -> None:
+    """birrt took ``connect_steps=0`` (never connecting) and ``-3``, ``"50"`` unchecked."""
+    with pytest.raises(ConfigError, match=rf"connect_steps must be an integer >= 1, got {re.escape(repr(value))}"):
+        make_planner(planner, connect_steps=value)
 
 
 def test_a_crrt_star_config_checks_its_types_without_the_registry() -> None:

@@ -176,19 +176,29 @@ def check_flag(where: str, value: object) -> bool:
 
     if isinstance(value, np.bool_):
         return bool(value)
-    raise ConfigError(f"{where} must be True or False, got {value!r}")
+    toml = " (in a TOML file or a KEY=VALUE option: true or false, unquoted)" if isinstance(value, str) else ""
+    raise ConfigError(f"{where} must be True or False, got {value!r}{toml}")
+
+
+#: :func:`check_fields`'s limits of a field that must be True or False.
+FLAG: Mapping[str, Any] = {"flag": True}
 
 
 def check_fields(obj: object, limits: Mapping[str, Mapping[str, Any]], prefix: str = "") -> None:
-    """Check the named fields of a frozen dataclass with :func:`check_number`; store the checked values.
+    """Check the named fields of a frozen dataclass with :func:`check_number` (a field whose limits are
+    :data:`FLAG` with :func:`check_flag`); store the checked values.
 
     Args:
         obj: The dataclass instance (from its ``__post_init__``).
-        limits: Field name -> keyword arguments of :func:`check_number` (``above``, ``integer``, ...).
+        limits: Field name -> keyword arguments of :func:`check_number` (``above``, ``integer``, ...), or
+            :data:`FLAG` for True or False.
         prefix: Put before the field's name in messages (e.g. ``"C-RRT*: "``).
 
     Raises:
-        ConfigError: A field is not a finite number in its range (the message names it).
+        ConfigError: A field is not a finite number in its range, or a flag not True or False (the message
+            names it).
     """
     for name, kwargs in limits.items():
-        object.__setattr__(obj, name, check_number(f"{prefix}{name}", getattr(obj, name), **kwargs))
+        where, value = f"{prefix}{name}", getattr(obj, name)
+        checked = check_flag(where, value) if kwargs is FLAG else check_number(where, value, **kwargs)
+        object.__setattr__(obj, name, checked)

@@ -44,7 +44,7 @@ from numpy.typing import NDArray
 
 from planning.casadi_env import casadi_module
 from planning.clock import PlanClock
-from planning.core.checks import check_number
+from planning.core.checks import check_flag, check_number
 from planning.core.geometry import cumulative_length, path_length, wrap_angle
 from planning.core.kinematics import bicycle_to_unicycle
 from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon, World
@@ -553,7 +553,7 @@ class Optim:
         _check_init_options(init, init_options or {})
         self.init = init
         self.init_options = dict(init_options or {})
-        self.verbose = bool(verbose)
+        self.verbose = check_flag("optim: verbose", verbose)
         self._stretch = 1.0  # the horizon's stretch over its estimate (solve)
         self._warm_paths: dict[str, tuple[FloatArray | None, str]] = {}  # by warm start, this plan's (solve)
 

@@ -48,6 +48,7 @@ import dataclasses
 import itertools
 import math
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -57,7 +58,7 @@ from numpy.typing import NDArray
 from planning.clock import PlanClock
 from planning.collision.exact import CollisionChecker
 from planning.collision.field import FieldTimeout
-from planning.core.checks import check_fields, check_flag
+from planning.core.checks import FLAG, check_fields
 from planning.core.geometry import path_length, wrap_angle
 from planning.errors import ConfigError
 from planning.planners import geodesic
@@ -129,7 +130,7 @@ class CRRTStarConfig:
     simplify: bool = True
 
     def __post_init__(self) -> None:
-        checks: dict[str, dict[str, Any]] = {
+        checks: dict[str, Mapping[str, Any]] = {
             "gamma": {"at_least": 0.0, "at_most": 1.0},
             "max_step": {"above": 0.0},
             "neighbour_radius": {"above": 0.0},
@@ -138,9 +139,10 @@ class CRRTStarConfig:
             "sigma": {"at_least": 0.0},
             "center_clearance": {"at_least": 0.0, "optional": True},
             "max_iterations": {"integer": True, "at_least": 1},
+            "stop_at_goal": FLAG,
+            "simplify": FLAG,
         }
         check_fields(self, checks, "C-RRT*: ")
-        object.__setattr__(self, "stop_at_goal", check_flag("C-RRT*: stop_at_goal", self.stop_at_goal))
 
 
 class CRRTStar:

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from planning.clock import PlanClock
 from planning.collision.field import FieldTimeout
-from planning.core.checks import check_fields
+from planning.core.checks import FLAG, check_fields
 from planning.core.geometry import path_length, wrap_angle
 from planning.errors import ConfigError
 from planning.planners import geodesic
@@ -99,7 +99,7 @@ class TreeConfig:
     simplify: bool = True
 
     def __post_init__(self) -> None:
-        checks: dict[str, dict[str, Any]] = {
+        checks: dict[str, Mapping[str, Any]] = {
             "goal_bias": {"at_least": 0.0, "at_most": 1.0},
             "max_iterations": {"integer": True, "at_least": 1},
             "time_limit": {"above": 0.0, "optional": True},
@@ -109,6 +109,7 @@ class TreeConfig:
             "n_speeds": {"integer": True, "at_least": 1},
             "primitive_duration": {"above": 0.0, "at_most": MAX_PRIMITIVE_DURATION},
             "clearance": {"at_least": 0.0},
+            "simplify": FLAG,
         }
         check_fields(self, checks)
         check_steering(self.steering)
@@ -358,6 +359,10 @@ class BiRRTConfig(TreeConfig):
     goal_bias: float = 0.0
     max_iterations: int = 5000
     connect_steps: int = 50
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        check_fields(self, {"connect_steps": {"integer": True, "at_least": 1}})
 
 
 class BiRRT(_TreePlanner[BiRRTConfig]):

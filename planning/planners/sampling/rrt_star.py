@@ -46,7 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.core.checks import check_fields
+from planning.core.checks import FLAG, check_fields
 from planning.core.geometry import path_length
 from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
@@ -118,6 +118,7 @@ class RRTStarConfig(TreeConfig):
                 "path_sigma": {"above": 0.0},
                 "region_tries": {"integer": True, "at_least": 1},
                 "improvement_tol": {"at_least": 0.0, "unit": "0 runs the whole budget"},
+                **dict.fromkeys(("stop_on_first", "goal_tree", "informed", "region_goal"), FLAG),
             },
         )
         if self.stall_clock not in ("iterations", "time"):
