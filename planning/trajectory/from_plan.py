@@ -561,7 +561,7 @@ def _from_timed(plan: PlanResult, path: FloatArray, build: _Build, force: bool |
     v, w = u[:, 0], u[:, 1]
     dv, dw = np.gradient(v, t), np.gradient(w, t)
     speed_scale, accel_scale = time_scales(v, w, dv, dw, build.limits)
-    clear = float(build.checker.clearance_of(build.checker.densify(path)).min())
+    clear = float(build.stats["input_min_clearance_m"])  # the path kept as it is: its measured clearance
     kinds = list(infer_segments(v, w).labels)
     # A plan that starts or ends moving, or whose speed changes faster than the robot can follow
     # (inputs held over intervals step at every node), keeps its path but is re-timed from rest to rest

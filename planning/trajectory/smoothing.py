@@ -820,7 +820,9 @@ class SmoothResult:
         pieces: Number of polynomial pieces used.
         attempts: Refinements tried.
         max_deviation: Largest distance from the curve to the input polyline [m].
-        min_clearance: Smallest footprint clearance along the curve [m].
+        min_clearance: The footprint's least clearance along the curve [m], measured (within 0.1 mm:
+            ``least_clearance``); a curve too far from the path, its bound when that clears the requirement
+            (``clearance_of``: up to centimetres low away from obstacles); inf without a checker.
         min_speed: Smallest speed of the curve along its parameter, the path's length (1 follows the path;
             at most :data:`MIN_SPEED` the fit folds back on itself and fails as a deviation).
     """
@@ -839,15 +841,16 @@ class SmoothResult:
         return self.status is SmoothStatus.SUCCESS
 
 
-def _clearance(checker: CollisionChecker | None, poses: FloatArray, need: float) -> float:
-    """The footprint's least clearance over ``poses`` [m] as far as deciding ``> need`` requires: the checker's
-    bound when it clears ``need`` already, else the measured clearance (``least_clearance``: the bound is up to
-    centimetres low away from things, which failed curves that kept their clearance). inf without a checker."""
+def _clearance(checker: CollisionChecker | None, poses: FloatArray, need: float, kept: bool) -> float:
+    """The footprint's least clearance over ``poses`` [m], measured (``least_clearance``) where it decides ``>
+    need`` or the curve is ``kept`` if it does; else the checker's bound, which clears ``need`` (``clearance_of``:
+    up to centimetres low away from things, which failed curves that kept their clearance and reported
+    centimetres less than a kept curve holds). inf without a checker."""
     if checker is None:
         return float("inf")
     dense = checker.densify(poses)
     bound = float(checker.clearance_of(dense).min())
-    return bound if bound > need else checker.least_clearance(dense)
+    return checker.least_clearance(dense) if kept or bound <= need else bound
 
 
 def smooth_drive(
@@ -907,7 +910,7 @@ def smooth_drive(
         # the parametric speed must stay near 1: a collapsing derivative means a kink or a loop
         sp = np.hypot(*poly(curve.u_table, 1).T)
         ok_shape = dev <= max_deviation and float(sp.min()) > MIN_SPEED
-        clear = _clearance(checker, poses, clearance)
+        clear = _clearance(checker, poses, clearance, kept=ok_shape)
         ok_clear = clear > clearance
         status = (
             SmoothStatus.SUCCESS
