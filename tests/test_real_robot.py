@@ -146,13 +146,17 @@ def test_the_record_names_a_localiser_only_when_a_run_localised(tmp_path: Path) 
     """Only a closed loop on the fused estimate localises: a job of open loop or dead reckoning (whose fixes
     only score its estimate) leaves the record's ``localiser`` out, as the record leaves out what did not
     apply, rather than describe the TurtleBot3's AMCL that never ran; nor does simulate's summary."""
+    from sim.physics.lidar import unit_errors
     from sim.pipeline.simulate import simulate_reference
 
     for runs in (("open_loop",), ("closed_loop_odometry", "closed_loop_truth")):
         job = simulate_reference("open", reference="line", runs=runs)
         assert "localiser" not in job.record(), runs
     job = simulate_reference("open", reference="line", runs=("open_loop", "closed_loop"))
-    assert job.record()["localiser"]["kind"] == "amcl"
+    localiser = job.record()["localiser"]
+    assert localiser["kind"] == "amcl"
+    # the scanner unit's systematic errors, drawn from the run's noise seed (run-record.md; they were left out)
+    assert localiser["lidar_unit"] == unit_errors(job.sensing.localiser.lidar, job.record()["noise_seed"])
     out = tmp_path / "run.json"
     r = nhsim("simulate", "--reference", "line", "--runs", "open_loop", "--json", str(out), "--no-video", "--no-plots")
     assert r.returncode == 0, r.stderr

@@ -183,7 +183,7 @@ class JobResult:
             "versions": versions(),
         }
         if any(kind.localises for kind in self.runs):
-            rec["localiser"] = self.sensing.localiser.as_dict()
+            rec["localiser"] = self.sensing.localiser.as_dict(self.sensing.seed)
         for kind, run in self.runs.items():
             entry: dict[str, Any] = dict(run.metrics.as_dict())
             entry["tracker"] = run.tracker
