@@ -206,6 +206,30 @@ def test_a_plugin_that_fails_is_a_clear_error_of_any_command_that_looks_up_a_tra
         "fbl" in TRACKERS  # noqa: B015
 
 
+def test_a_plugin_python_cannot_find_names_pythonpath(
+    registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The how-to pages' ``NHSIM_PLUGINS=mypackage.tdt nhsim plan ...``, run beside ``mypackage/``, failed with "No
+    module named 'mypackage'" alone: the nhsim command (unlike ``python -m sim``) does not import from the working
+    directory. The error says so and gives the fix; a module missing inside a package Python found gets no such
+    hint."""
+    (tmp_path / "nhsim_test_pkg").mkdir()
+    (tmp_path / "nhsim_test_pkg" / "__init__.py").write_text("")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv(PLUGIN_VARIABLE, "nhsim_test_pkg.tdt")
+    argv = ["compare", "--trackers", "fbl", "--reference", "line", "--quiet"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert (
+        "No module named 'nhsim_test_pkg'; Python looks for it in the folders of sys.path, and the nhsim command "
+        "does not look in the working directory: run it with PYTHONPATH=. (the working directory holds it)" in err
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "No module named 'nhsim_test_pkg.tdt' (NHSIM_TRACEBACK=1" in err and "PYTHONPATH" not in err
+
+
 def test_regress_names_a_failing_plugin_as_such_not_as_its_first_case(
     registry: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -30,6 +30,7 @@ import os
 import re
 import weakref
 from collections.abc import Callable, Iterator, MutableMapping
+from pathlib import Path
 from typing import Any, Generic, TypeVar
 
 from planning.errors import ConfigError
@@ -128,13 +129,24 @@ class PluginLoadError(ConfigError):
     """A plugin failed to import or to register: the message names it, where it was declared and the exception."""
 
 
-def _failure(kind: str, source: str, exc: Exception) -> PluginLoadError:
+def _failure(kind: str, source: str, module: str, exc: Exception) -> PluginLoadError:
     """The error of a plugin that failed: named by the registry whose registration refused it (else by its entry
-    point's group; a module named by :data:`PLUGIN_VARIABLE` serves every registry), and by itself."""
+    point's group; a module named by :data:`PLUGIN_VARIABLE` serves every registry), and by itself; a plugin
+    whose own package Python did not find, with where Python looks (the ``nhsim`` command, unlike ``python -m``,
+    not in the working directory)."""
     kind = exc.kind if isinstance(exc, RegistrationError) else kind
     what = type(exc).__name__ if not isinstance(exc, RegistrationError) else "ConfigError"
     label = f"{kind} plugin" if kind else "plugin"
-    return PluginLoadError(f"{label} failed to load: {source}: {what}: {exc}")
+    hint = ""
+    top = module.partition(".")[0]
+    if isinstance(exc, ModuleNotFoundError) and exc.name == top:
+        here = any(Path(top + end).exists() for end in ("", ".py"))
+        hint = (
+            f"; Python looks for it in the folders of sys.path, and the nhsim command does not look in the working "
+            f"directory: run it with PYTHONPATH={'.' if here else f'<the folder holding {top}>'}"
+            f"{' (the working directory holds it)' if here else ''}"
+        )
+    return PluginLoadError(f"{label} failed to load: {source}: {what}: {exc}{hint}")
 
 
 def _load_one(kind: str, source: str, module: str, load: Callable[[], Any]) -> None:
@@ -145,7 +157,7 @@ def _load_one(kind: str, source: str, module: str, load: Callable[[], Any]) -> N
     except PluginLoadError:  # another registry's plugin, loaded by this one's import: named there
         raise
     except Exception as exc:
-        raise _failure(kind, source, exc) from exc
+        raise _failure(kind, source, module, exc) from exc
     finally:
         _loading.pop()
     _loaded_modules[module] = None
