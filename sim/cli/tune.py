@@ -952,7 +952,8 @@ def _held_out(evaluator: Any, draws: tuple[Any, ...], best: Any) -> Any:
         return None
     c = compare(evaluator, gains_of(best, evaluator.tracker), draws)
     ratio = c.ratios()
-    print(f"held-out runs: {c.tuned.runs} ({len(draws)} draws per case: builds and sensor noise no trial met)")
+    per_case = f"{len(draws)} draw{'' if len(draws) == 1 else 's'} per case"
+    print(f"held-out runs: {c.tuned.runs} ({per_case}: builds and sensor noise no trial met)")
     print(f"{'gains':<14} {'objective [m]':>14} {'rms [m]':>10} {'final [m]':>10} {'saturation':>11} {'failed':>7}")
     rows = [("default", c.default)] if c.defaults_best else [("default", c.default), ("tuned", c.tuned)]
     for label, r in rows:  # the defaults were best: they ran once, nothing to set them against
