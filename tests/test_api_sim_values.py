@@ -156,7 +156,8 @@ def test_a_run_from_a_free_start_still_runs(line_log: RunLog) -> None:
 @pytest.mark.parametrize("value", ["no", "false", 0, 1, None, "True"])
 def test_sim_config_strict_refuses_what_is_not_true_or_false(value: object) -> None:
     """``SimConfig(strict="no").strict`` was "no", which a run reads as true."""
-    toml = r" \(in a TOML file or a KEY=VALUE option: true or false, unquoted\)" if isinstance(value, str) else ""
+    hint = r" \(true or false, unquoted, in a TOML or JSON file or a KEY=VALUE option\)"
+    toml = hint if isinstance(value, str) else ""
     said = rf"^SimConfig\.strict must be True or False, got {re.escape(repr(value))}{toml}$"
     with pytest.raises(ConfigError, match=said):
         SimConfig(strict=value)  # type: ignore[arg-type]

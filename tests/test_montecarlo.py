@@ -166,7 +166,7 @@ def test_a_hand_edited_run_record_is_refused_naming_the_file_and_line(
         (closed(final_position_error_m=math.nan), f"{final}, got nan;"),
         (closed(final_position_error_m=True), f"{final}, got True;"),
         (closed(collisions="x"), f"run {index}: closed_loop collisions must be an integer >= 0, got 'x';"),
-        (closed(success="yes"), f"run {index}: closed_loop success must be True or False, got 'yes';"),
+        (closed(success="yes"), f"run {index}: closed_loop success must be True or False, got 'yes' (true or false"),
         (closed(path=[[0.0, "x"]]), f"run {index}: closed_loop path must be a list of [x, y] points"),
         ({**second, "build_seed": float(build)}, f"run {index}: build_seed must be an integer >= 0, got {build}.0;"),
     ):

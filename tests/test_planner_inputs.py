@@ -140,7 +140,7 @@ def test_a_planners_flag_is_true_or_false(planner: str) -> None:
         for value in ("no", 0, None):
             with pytest.raises(ConfigError, match=rf"{name} must be True or False, got {re.escape(repr(value))}"):
                 make_planner(planner, **{name: value})
-        with pytest.raises(ConfigError, match=r"got 'false' \(in a TOML file or a KEY=VALUE option: true or false"):
+        with pytest.raises(ConfigError, match=r"got 'false' \(true or false, unquoted, in a TOML or JSON file"):
             make_planner(planner, **{name: "false"})
         make_planner(planner, **{name: np.bool_(False)})  # a numpy bool is a flag
 

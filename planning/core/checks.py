@@ -176,8 +176,8 @@ def check_flag(where: str, value: object) -> bool:
 
     if isinstance(value, np.bool_):
         return bool(value)
-    toml = " (in a TOML file or a KEY=VALUE option: true or false, unquoted)" if isinstance(value, str) else ""
-    raise ConfigError(f"{where} must be True or False, got {value!r}{toml}")
+    said = " (true or false, unquoted, in a TOML or JSON file or a KEY=VALUE option)" if isinstance(value, str) else ""
+    raise ConfigError(f"{where} must be True or False, got {value!r}{said}")
 
 
 #: :func:`check_fields`'s limits of a field that must be True or False.
