@@ -83,12 +83,12 @@ def test_bad_geometry_raises_config_error(make: Any, match: str) -> None:
     ("planner", "options", "match"),
     [  # each of these was accepted and raised TypeError or ValueError while planning (or at once, not an NhsimError)
         ("rrt-star", {"clearance": {}}, r"clearance must be a finite number >= 0, got \{\}"),
-        ("birrt", {"n_speeds": 1.5}, r"n_speeds must be an integer >= 1, got 1.5"),
+        ("birrt", {"n_speeds": 1.5}, r"n_speeds must be an integer in \[1, 1000\], got 1.5"),
         ("rrt", {"time_limit": math.nan}, r"time_limit must be a finite number > 0 \(or omitted\), got nan"),
         (
             "rrt",
             {"turning_radius": 1e300, "steering": "dubins"},
-            r"turning_radius must be a finite number in \(0, 1000\] \(or omitted\), got 1e\+300",
+            r"turning_radius must be a finite number in \[0.01, 1000\] \(or omitted\), got 1e\+300",
         ),
         (
             "rrt",
@@ -113,6 +113,11 @@ def test_bad_geometry_raises_config_error(make: Any, match: str) -> None:
             r"optim: init_options for the warm start's planner 'rrt': max_iterations must be an integer >= 1, got -5",
         ),
         ("sinusoidal", {"max_period": math.nan}, r"sinusoidal: max_period must be a finite number > 0, got nan"),
+        # each ran out of memory (MemoryError: a planner's failure, exit 1) or ran minutes past --time-limit
+        ("birrt", {"turning_radius": 1e-9}, r"turning_radius must be a finite number in \[0.01, 1000\] \(or omitted\)"),
+        ("rrt", {"n_speeds": 100_000}, r"n_speeds must be an integer in \[1, 1000\], got 100000"),
+        ("sinusoidal", {"dt": 1e-9}, r"sinusoidal: dt must be a finite number >= 0.001 \(s: the physics step\)"),
+        ("optim", {"N": 10_000_000}, r"optim: N must be an integer in \[2, 100000\] \(or omitted\), got 10000000"),
     ],
 )
 def test_bad_planner_options_are_refused_when_the_planner_is_made(planner: str, options: dict, match: str) -> None:

@@ -57,6 +57,9 @@ FloatArray = NDArray[np.float64]
 
 DEFAULT_N = 50
 DEFAULT_DT = 0.2
+#: Most intervals of a horizon: 100000 is refused by the set-up's predicted time already (726 s); ten million
+#: took gigabytes before the prediction was made.
+MAX_N = 100_000
 #: Longest spacing [m] of the nodes along the warm start's path when N is not given: a long way gets more than
 #: :data:`DEFAULT_N` nodes. The constraints hold at the nodes, and 50 nodes over a 27 m way through 60 obstacles
 #: (0.55 m apart) left IPOPT out of time on two of four 20 x 20 m worlds of 60 obstacles
@@ -522,7 +525,7 @@ class Optim:
         max_resolves: int = 3,
         verbose: bool = False,
     ) -> None:
-        given = check_number("optim: N", N, integer=True, at_least=2, optional=True)
+        given = check_number("optim: N", N, integer=True, at_least=2, at_most=MAX_N, optional=True)
         self.N_opt = None if given is None else int(given)
         self.N: int = DEFAULT_N if self.N_opt is None else self.N_opt
         self.dt_opt = check_number("optim: dt", dt, above=0.0, optional=True)

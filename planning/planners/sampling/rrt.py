@@ -58,6 +58,12 @@ FloatArray = NDArray[np.float64]
 #: Largest turning radius of the exact curves [m]: a curve of a larger one is a straight line in any world
 #: nhsim simulates, and its samples (its length over a centimetre) would not fit in memory.
 MAX_TURNING_RADIUS = 1000.0
+#: Smallest turning radius of the exact curves [m]: the curves are sampled every centimetre, and a tighter
+#: radius (1e-9 m) made their words' lengths in radii overflow the samples' memory.
+MIN_TURNING_RADIUS = 0.01
+#: Most bicycle primitive speeds per steering class: every primitive is simulated when the planner is made
+#: (100000 took 26 s, outside any time limit).
+MAX_SPEEDS = 1000
 #: Longest bicycle primitive [s] (a primitive is sampled every centimetre of its motion).
 MAX_PRIMITIVE_DURATION = 60.0
 
@@ -103,10 +109,10 @@ class TreeConfig:
             "goal_bias": {"at_least": 0.0, "at_most": 1.0},
             "max_iterations": {"integer": True, "at_least": 1},
             "time_limit": {"above": 0.0, "optional": True},
-            "turning_radius": {"above": 0.0, "at_most": MAX_TURNING_RADIUS, "optional": True},
+            "turning_radius": {"at_least": MIN_TURNING_RADIUS, "at_most": MAX_TURNING_RADIUS, "optional": True},
             "step_range": {"above": 0.0, "optional": True},
             "goal_connect_radius": {"above": 0.0},
-            "n_speeds": {"integer": True, "at_least": 1},
+            "n_speeds": {"integer": True, "at_least": 1, "at_most": MAX_SPEEDS},
             "primitive_duration": {"above": 0.0, "at_most": MAX_PRIMITIVE_DURATION},
             "clearance": {"at_least": 0.0},
             "simplify": FLAG,
