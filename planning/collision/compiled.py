@@ -163,6 +163,28 @@ def _scan(x: float, y: float, world: WorldArrays, candidates: IntArray, every: b
 
 
 @nb.njit(cache=True)
+def near_obstacles(x: float, y: float, world: WorldArrays, reach: float) -> IntArray:
+    """Indices of the obstacles whose signed distance from (x, y) is at most ``reach`` [m] (the walls apart)."""
+    _, _, kinds, params, verts, offsets = world
+    out = np.empty(kinds.shape[0], dtype=np.int64)
+    n = 0
+    for k in range(kinds.shape[0]):
+        if kinds[k] == POLYGON:
+            d = polygon_distance(x, y, verts[offsets[k] : offsets[k + 1]])
+        else:
+            d = _nearer(x, y, kinds[k], params[k, 0], params[k, 1], params[k, 2], params[k, 3], params[k, 4], np.inf)
+        if d <= reach:
+            out[n] = k
+            n += 1
+    return out[:n]
+
+
+#: Obstacles from which :func:`pose_clearance`, without a distance field, first keeps those that may be nearest a
+#: boundary sample (fewer are scanned whole for every sample).
+NEAR_SCAN_OBSTACLES = 16
+
+
+@nb.njit(cache=True)
 def _world_distance(x: float, y: float, world: WorldArrays) -> float:
     """Signed distance of point (x, y) to the nearest obstacle or (with walls) wall [m]."""
     return _scan(x, y, world, world[2], True)  # (the kinds stand in for the candidates, not read)
@@ -290,12 +312,18 @@ def pose_clearance(
     if not disc and centre <= radius + clearance + tol:
         c, s = np.cos(th), np.sin(th)
         sd = np.inf
+        # without a field's block candidates, every sample would scan every obstacle (a 2000-obstacle world's
+        # finely sampled pose 0.15 s): a sample is within ``radius`` of the centre, so its nearest obstacle (at
+        # most ``centre + radius`` away, the distance being 1-Lipschitz) is within ``centre + 2 radius`` of it
+        near = grid.size == 0 and world[2].shape[0] > NEAR_SCAN_OBSTACLES
+        candidates = near_obstacles(x, y, world, centre + 2.0 * radius + 1e-9) if near else np.empty(0, np.int64)
         for b in range(boundary.shape[0]):
             bx, by = boundary[b, 0], boundary[b, 1]
             px, py = x + c * bx - s * by, y + s * bx + c * by
             if grid.size > 0 and grid_lookup(grid, x0, y0, h, px, py) - e - 0.5 * tol > proven_above:
                 continue
-            sd = min(sd, field_distance(px, py, world, field))
+            d = candidates_distance(px, py, candidates, world) if near else field_distance(px, py, world, field)
+            sd = min(sd, d)
         clr = sd - 0.5 * tol
         for a in range(anchors.shape[0]):
             dx, dy = anchors[a, 0] - x, anchors[a, 1] - y
