@@ -93,6 +93,10 @@ def test_a_footprint_wholly_beyond_the_walls_is_measured_by_how_far_it_sticks_ou
             {"heading_tolerance": "0.1"},
             r"Scenario.heading_tolerance must be a finite number in \(0, 3.14159\] \(rad\), got '0.1'",
         ),
+        (  # said "3.1416 degrees would be 0.05483 rad"
+            {"heading_tolerance": 3.1416},
+            r"in \(0, 3.14159\] \(rad\), got 3.1416; pi takes any heading; pi rounded up is above it: write 3.14159 ",
+        ),
         ({"robot": None}, r"Scenario.robot must be a robot's name, one of edumip, edumip-balancing, turtlebot3"),
         ({"name": ""}, r"Scenario.name must be a non-empty string, got ''"),
         ({"description": 3}, r"Scenario.description must be a string"),

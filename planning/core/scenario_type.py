@@ -13,7 +13,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from planning.core.checks import check_number, degrees_hint, heading_beyond
+from planning.core.checks import check_number, degrees_hint, heading_beyond, is_number
 from planning.core.geometry import Pose2D, check_pose, heading_in_turn
 from planning.core.robot import ROBOTS, check_robot_name
 from planning.core.world import Obstacle, World, check_world
@@ -157,6 +157,8 @@ def check_heading_tolerance(owner: str, value: object) -> float:
         ConfigError: Naming ``<owner>.heading_tolerance``, the value, and the degrees it could have been.
     """
     fix = f"pi takes any heading{degrees_hint(value, 360.0)}"
+    if is_number(value) and math.pi < value < math.pi + 0.01:  # pi rounded up (3.1416), not 3.14 degrees
+        fix = "pi takes any heading; pi rounded up is above it: write 3.14159 (or less)"
     return check_number(f"{owner}.heading_tolerance", value, above=0.0, at_most=math.pi, unit="rad", fix=fix)
 
 
