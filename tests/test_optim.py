@@ -656,3 +656,48 @@ def test_a_failed_solves_partial_path_starts_at_the_start() -> None:
     assert not result.success
     assert result.path is not None
     np.testing.assert_array_equal(result.path[0], [2.3, 2.0, 0.0])
+
+
+def test_the_obstacles_least_distances_are_each_obstacles_own() -> None:
+    """Which obstacles the NLP takes (the nearest of a crowded world's) and which a path missed are judged by each
+    obstacle's least distance to the positions; measured obstacle by obstacle in numpy, a 2000-obstacle world's took
+    0.14 s of a 0.3 s limit (optim ended at 1.37 x its limit). Compiled, the values are each obstacle's own."""
+    from planning.planners.optim import _least_distances
+
+    rng = np.random.default_rng(4)
+    obstacles: list = []
+    for k in range(40):
+        c = (float(rng.uniform(0, 8)), float(rng.uniform(0, 8)))
+        size = tuple(float(v) for v in rng.uniform(0.1, 0.6, 2))
+        angle = float(rng.uniform(-3, 3))
+        kind = k % 4
+        if kind == 0:
+            obstacles.append(Circle(c, size[0]))
+        elif kind == 1:
+            obstacles.append(Ellipse(c, size, angle))
+        elif kind == 2:
+            obstacles.append(Box(c, size, angle))
+        else:
+            t = np.sort(rng.uniform(0, 2 * np.pi, 5))
+            obstacles.append(Polygon(tuple((c[0] + size[0] * np.cos(a), c[1] + size[1] * np.sin(a)) for a in t)))
+    world = World((0.0, 8.0, 0.0, 8.0), tuple(obstacles))
+    points = rng.uniform(-0.5, 8.5, (60, 2))
+    indices = [int(i) for i in rng.permutation(len(obstacles))[:25]]
+    reference = np.array([np.min(world.obstacles[i].signed_distance(points)) for i in indices])
+    np.testing.assert_allclose(_least_distances(world, indices, points), reference, rtol=0, atol=1e-12)
+    assert _least_distances(world, [], points).shape == (0,)
+
+
+def test_a_warm_starts_planner_that_spent_the_limit_is_named(monkeypatch: pytest.MonkeyPatch) -> None:
+    """It said "the warm start from straight (init planner 'hybrid-a-star' ended timeout) took it": the straight
+    line took nothing, the planner did."""
+
+    def spends_the_limit(self, problem, init, options):  # as Hybrid-A* on a crowded world ran out of time
+        time.sleep(problem.time_limit * 1.1)
+        return None, f"straight (init planner {init!r} ended timeout)"
+
+    monkeypatch.setattr(Optim, "_warm_path", spends_the_limit)
+    problem = dataclasses.replace(PlanProblem.from_scenario(load_scenario("nav_map1")), time_limit=0.05)
+    res = make_planner("optim", init="hybrid-a-star").plan(problem)
+    assert res.status is PlanStatus.TIMEOUT
+    assert "(the warm start (init planner 'hybrid-a-star' ended timeout) took it)" in res.reason, res.reason

@@ -179,6 +179,23 @@ def near_obstacles(x: float, y: float, world: WorldArrays, reach: float) -> IntA
     return out[:n]
 
 
+@nb.njit(cache=True)
+def least_obstacle_distances(points: FloatArray, world: WorldArrays, indices: IntArray) -> FloatArray:
+    """(len(indices),) each indexed obstacle's least signed distance [m] to (M, 2) ``points`` (inf for none)."""
+    _, _, kinds, params, verts, offsets = world
+    out = np.full(indices.shape[0], np.inf)
+    for m in range(indices.shape[0]):
+        k = indices[m]
+        for q in range(points.shape[0]):
+            x, y = points[q, 0], points[q, 1]
+            if kinds[k] == POLYGON:
+                out[m] = min(out[m], polygon_distance(x, y, verts[offsets[k] : offsets[k + 1]]))
+            else:
+                p = params[k]
+                out[m] = _nearer(x, y, kinds[k], p[0], p[1], p[2], p[3], p[4], out[m])
+    return out
+
+
 #: Obstacles from which :func:`pose_clearance`, without a distance field, first keeps those that may be nearest a
 #: boundary sample (fewer are scanned whole for every sample).
 NEAR_SCAN_OBSTACLES = 16

@@ -292,8 +292,12 @@ class _ObstacleData:
 
 
 def _least_distances(world: World, indices: Sequence[int], points: FloatArray) -> FloatArray:
-    """(len(indices),) each obstacle's least signed distance to ``points`` (M, 2) [m]."""
-    return np.array([float(np.min(world.obstacles[i].signed_distance(points))) for i in indices])
+    """(len(indices),) each obstacle's least signed distance to ``points`` (M, 2) [m] (compiled: a 2000-obstacle
+    world's took 0.14 s obstacle by obstacle, half a 0.3 s limit)."""
+    from planning.collision.compiled import least_obstacle_distances, world_arrays
+
+    xy = np.ascontiguousarray(np.asarray(points, dtype=float).reshape(-1, 2))
+    return least_obstacle_distances(xy, world_arrays(world), np.asarray(indices, dtype=np.int64))  # type: ignore[no-any-return]
 
 
 def _nlp_obstacles(world: World, near: FloatArray, keep: frozenset[int]) -> tuple[int, ...]:
@@ -821,13 +825,15 @@ class Optim:
         outside = end_outside(problem, self.name, {"time_s": clock.elapsed()})
         if outside is not None:
             return OptimSolution(outside)
+        from planning.collision.compiled import world_arrays, world_distances  # numpy's: 70 ms of 2000 obstacles
+
         robot, world = problem.robot, problem.world
         clear = robot.radius + margin
         for label, pose, status in (
             ("start", problem.start, PlanStatus.INVALID_START),
             ("goal", problem.goal, PlanStatus.INVALID_GOAL),
         ):
-            dist = float(world.signed_distance(pose.xy)[0])
+            dist = float(world_distances(np.array([pose.xy], dtype=float), world_arrays(world))[0])
             if dist >= clear:
                 continue
             disc = (
@@ -872,9 +878,12 @@ class Optim:
         ``obstacles``, the robot's disc of radius ``clear`` [m] kept off them, until the plan's time limit."""
         x_init, u_init, init_source = guess
         if clock.expired():
+            # a warm start fallen back to a straight line ("straight (init planner 'x' ended timeout)"): its planner
+            fell_back = init_source.startswith("straight (")
+            spent_by = f"the warm start ({init_source[10:-1]})" if fell_back else f"the warm start from {init_source}"
             why = (
-                f"the plan's time limit ({problem.time_limit:g} s) was spent before IPOPT could start (the warm start "
-                f"from {init_source} took it); raise the time limit, or warm start from another planner with init=..."
+                f"the plan's time limit ({problem.time_limit:g} s) was spent before IPOPT could start ({spent_by} "
+                f"took it); raise the time limit, or warm start from another planner with init=..."
             )
             return self._failure(PlanStatus.TIMEOUT, why, {"time_s": clock.elapsed(), "init": init_source})
         ready = self._ready_nlp(problem, clock, obstacles, init_source)
