@@ -701,3 +701,21 @@ def test_a_warm_starts_planner_that_spent_the_limit_is_named(monkeypatch: pytest
     res = make_planner("optim", init="hybrid-a-star").plan(problem)
     assert res.status is PlanStatus.TIMEOUT
     assert "(the warm start (init planner 'hybrid-a-star' ended timeout) took it)" in res.reason, res.reason
+
+
+def test_inputs_that_stand_keep_the_direction_before_them() -> None:
+    """A plan whose start is its goal: IPOPT's inputs were 1e-7 m/s of either sign and the plan said 1 cusp over a
+    micrometre. An input under the standing speed keeps the direction before it."""
+    from planning.planners.optim import STAND_SPEED, _directions
+
+    tiny = 0.1 * STAND_SPEED
+    np.testing.assert_array_equal(_directions(np.array([tiny, -tiny, tiny])), np.ones(4))
+    np.testing.assert_array_equal(
+        _directions(np.array([-tiny, -0.2, tiny, 0.0, 0.3, -0.1])), [-1, -1, -1, -1, -1, 1, -1]
+    )
+    np.testing.assert_array_equal(_directions(np.array([0.2, 0.0, -0.2])), [1, 1, 1, -1])
+    pose = Pose2D(1.0, 1.0, 0.5)
+    problem = PlanProblem(World((0.0, 4.0, 0.0, 4.0)), load_robot("turtlebot3"), pose, pose)
+    res = make_planner("optim").plan(problem)
+    assert res.success and res.length() < 1e-5
+    assert res.directions is not None and np.all(res.directions == res.directions[0])  # no cusp where it stands

@@ -291,6 +291,24 @@ class _ObstacleData:
         return frozenset(i for i, d in zip(near, _least_distances(world, near, xy), strict=True) if d < clear)
 
 
+#: Speed [m/s] below which an input of the plan stands rather than drives (IPOPT's zero: a plan whose start is
+#: its goal had inputs of 1e-7 m/s of either sign, "1 cusp" over a micrometre).
+STAND_SPEED = 1e-6
+
+
+def _directions(speeds: FloatArray) -> FloatArray:
+    """(K+1,) +1/-1 per pose of the rollout of (K,) held speeds [m/s]: the direction of the motion arriving at each
+    pose (the first repeats the first step's); a speed under :data:`STAND_SPEED` keeps the direction before it
+    (the first drive's before any), +1 for a plan that never drives."""
+    sign = np.where(speeds < 0, -1.0, 1.0)
+    driving = np.abs(speeds) >= STAND_SPEED
+    if not driving.any():
+        return np.ones(speeds.size + 1)
+    last = np.maximum.accumulate(np.where(driving, np.arange(speeds.size), -1))
+    arriving = sign[np.where(last >= 0, last, int(np.argmax(driving)))]
+    return np.concatenate([arriving[:1], arriving])
+
+
 def _least_distances(world: World, indices: Sequence[int], points: FloatArray) -> FloatArray:
     """(len(indices),) each obstacle's least signed distance to ``points`` (M, 2) [m] (compiled: a 2000-obstacle
     world's took 0.14 s obstacle by obstacle, half a 0.3 s limit)."""
@@ -1023,8 +1041,7 @@ class Optim:
         times = np.arange(states.shape[0]) * h
         u_full = np.vstack([u_dense, u_dense[-1:]])
         controls = bicycle_to_unicycle(states, u_full, robot.wheelbase)
-        arriving = np.where(u_dense[:, 0] < 0, -1.0, 1.0)  # the motion arriving at each pose; the first: its own
-        direction = np.concatenate([arriving[:1], arriving])
+        direction = _directions(u_dense[:, 0])
         path = states[:, :3].copy()
         end = states[-1]
         pos_err = float(np.hypot(end[0] - problem.goal.x, end[1] - problem.goal.y))
