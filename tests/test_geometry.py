@@ -19,6 +19,10 @@ def test_wrap_angle_range_and_identity() -> None:
     np.testing.assert_allclose(np.sin(w), np.sin(a), atol=1e-12)
     assert wrap_angle(np.pi) == pytest.approx(-np.pi)
     assert isinstance(wrap_angle(0.5), float)
+    # just below -pi the modulus rounded to 2 pi: +pi came back, outside [-pi, pi)
+    below = np.nextafter(-np.pi, -4.0)
+    assert -np.pi <= wrap_angle(below) < np.pi
+    assert np.all(wrap_angle(np.array([below, below - 2 * np.pi, 3 * np.pi])) < np.pi)
 
 
 def test_pose_validation_and_helpers() -> None:

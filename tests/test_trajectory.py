@@ -31,6 +31,10 @@ def test_flat_derivatives_match_finite_differences() -> None:
     np.testing.assert_allclose(dxy[5:-5], fd[5:-5], atol=1e-4)
     fdd = np.gradient(dxy, tr.t, axis=0)
     np.testing.assert_allclose(ddxy[5:-5], fdd[5:-5], atol=1e-4)
+    # the trajectory's own, read-only: every later sample is built from them (an edit tripled the flat velocity)
+    for array in (dxy, ddxy):
+        with pytest.raises(ValueError, match="read-only"):
+            array *= 3.0
 
 
 def test_reversing_direction_points_heading_backwards() -> None:

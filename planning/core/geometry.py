@@ -28,7 +28,8 @@ def wrap_angle(angle: float | FloatArray) -> float | FloatArray:
         angle: Angle(s) [rad], scalar or array of any shape.
 
     Returns:
-        The wrapped angle(s), same shape and type as the input (NaN stays NaN: no angle to wrap).
+        The wrapped angle(s): a float for a scalar, else a float64 array of the input's shape (NaN stays NaN: no
+        angle to wrap).
 
     Raises:
         ConfigError: ``angle`` is not numbers (a string, None).
@@ -42,9 +43,11 @@ def wrap_angle(angle: float | FloatArray) -> float | FloatArray:
             f"wrap_angle takes angles in radians (numbers), got {type(angle).__name__} {angle!r:.60}"
         ) from None
     wrapped = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
+    # just below -pi, a + pi is a few ulps under 0, whose modulus rounds to 2 pi: pi, outside [-pi, pi)
     if np.ndim(wrapped) == 0:
-        return float(wrapped)
-    return wrapped
+        w = float(wrapped)
+        return w - 2.0 * math.pi if w >= math.pi else w
+    return np.where(wrapped >= np.pi, wrapped - 2.0 * np.pi, wrapped)
 
 
 def heading_in_turn(theta: float) -> float:

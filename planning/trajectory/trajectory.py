@@ -314,6 +314,8 @@ class Trajectory:
             dv = self.acc[:, 0]
             dxy = np.column_stack([v * c, v * s])
             ddxy = np.column_stack([dv * c - v * w * s, dv * s + v * w * c])
+            dxy.setflags(write=False)  # the trajectory's own, as its arrays: every later sample is built from them
+            ddxy.setflags(write=False)
             self._cache["dxy"], self._cache["ddxy"] = dxy, ddxy
         return self._cache["dxy"], self._cache["ddxy"]
 
