@@ -186,3 +186,27 @@ def test_a_ready_plan_is_refused_beside_another_planner_a_reference_or_a_file() 
         Case("simple_motion", reference="circle", planning=PlanOptions(plan=plan))
     with pytest.raises(ConfigError, match=r"planner 'birrt' is named"):
         simulate_plan("simple_motion", planner="birrt", planning=PlanOptions(plan=plan))
+
+
+def test_a_ready_plan_closer_to_an_obstacle_than_the_tracked_margin_is_warned_of() -> None:
+    """A planner's defaults plan to the limit (clearance 0): such a plan, given ready, was tracked without a word
+    and the closed loop touched an obstacle 652 times; a plan the case makes keeps 1 cm. It is tracked as given,
+    with a warning naming how close it comes and the fix."""
+    import warnings
+
+    from planning.collision.exact import CollisionChecker
+    from planning.core.robot import load_robot
+    from sim.pipeline.case import GrazingPlanWarning, plan_case
+
+    sc = load_scenario("random5")
+    plan = make_planner("birrt").plan(PlanProblem.from_scenario(sc))
+    robot = load_robot(sc.robot)
+    least = CollisionChecker(sc.world, robot).least_clearance(plan.path)
+    assert plan.success and least < 0.01
+    case = Case("random5", planner="", planning=PlanOptions(plan=plan))
+    with pytest.warns(GrazingPlanWarning, match=rf"comes within {least:.4f} m of an obstacle or wall, less than the "):
+        assert plan_case(case, sc, robot) is plan
+    kept = Case("random5", planner="", planning=PlanOptions(plan=plan, clearance=0.5 * least))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", GrazingPlanWarning)
+        assert plan_case(kept, sc, robot) is plan  # a margin the case is told the plan keeps: no warning

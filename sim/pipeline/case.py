@@ -22,6 +22,7 @@ import inspect
 import math
 import os
 import time
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -70,7 +71,8 @@ class PlanOptions:
         planner_options: Keyword options for the planner factory, over the scenario's own
             ``[planners.<name>]`` options for it.
         smoothing: Keyword options for :func:`planning.trajectory.from_plan.make_trajectory`.
-        plan: A ready plan to use instead of planning (its ``planner`` names the source).
+        plan: A ready plan to use instead of planning (its ``planner`` names the source); one that comes closer
+            to an obstacle or wall than ``clearance`` is tracked with a :class:`GrazingPlanWarning`.
         clearance: Margin [m] the plan keeps from obstacles and walls, given to planners that take
             a ``clearance`` option unless the scenario or ``planner_options`` set one. The robot
             follows its plan to a few millimetres, fed by its estimator, so a plan that grazed a
@@ -627,7 +629,7 @@ def plan_case(case: Case, scenario: Scenario, robot: RobotSpec, *, progress: Pro
         ConfigError: No planner given and the scenario names none; unknown planner.
     """
     if case.planning.plan is not None:
-        return _ready_plan(case.planning.plan, scenario, robot)
+        return _ready_plan(case.planning.plan, scenario, robot, case.planning.clearance)
     name = case.planner or scenario.planner
     if name is None:
         raise ConfigError(
@@ -699,10 +701,16 @@ def tracked_margin(problem: PlanProblem, margin: float, least: float | None = No
     return margin if least >= margin else max(0.0, 0.5 * least)
 
 
-def _ready_plan(plan: PlanResult, scenario: Scenario, robot: RobotSpec) -> PlanResult:
+class GrazingPlanWarning(UserWarning):
+    """A ready plan keeps less than the tracked margin (``PlanOptions.clearance``) from obstacles and walls: the
+    robot follows it to a few millimetres and may touch them (it is tracked as given)."""
+
+
+def _ready_plan(plan: PlanResult, scenario: Scenario, robot: RobotSpec, margin: float) -> PlanResult:
     """A plan given ready (``PlanOptions.plan``), checked against the scenario it is to be tracked in: a
     successful one starts at the scenario's start, ends in its goal region and is free in its world for the
-    robot's footprint (:func:`_check_ready_path`).
+    robot's footprint (:func:`_check_ready_path`); one that keeps less than ``margin`` [m] (the margin a plan made
+    here gets) is tracked with a :class:`GrazingPlanWarning`.
 
     Raises:
         ConfigError: It starts elsewhere (the robot is placed at the scenario's start) or ends outside the
@@ -728,6 +736,16 @@ def _ready_plan(plan: PlanResult, scenario: Scenario, robot: RobotSpec) -> PlanR
             f"{tolerance[0]:g} m, {tolerance[1]:g} rad): plan for this scenario"
         )
     _check_ready_path(plan, scenario, robot)
+    least = CollisionChecker(scenario.world, robot).least_clearance(plan.path)
+    if least < margin:  # a planner's default (clearance 0) plans to the limit: a closed loop touched an obstacle
+        warnings.warn(
+            f"the ready plan ({plan.planner}) comes within {least:.4f} m of an obstacle or wall, less than the "
+            f"{margin:g} m a plan made here keeps (PlanOptions.clearance): the robot follows its plan to a few "
+            f"millimetres and may touch it; plan with a margin (make_planner({plan.planner!r}, clearance={margin:g}), "
+            "where the planner takes one), or let the case plan",
+            GrazingPlanWarning,
+            stacklevel=3,
+        )
     return plan
 
 
