@@ -82,3 +82,20 @@ def test_densify_path_slack_and_short_paths() -> None:
     assert out.shape[0] == 5 and np.all(np.diff(out[:, 2]) > 0)
     with pytest.raises(ValueError, match="spacing must be > 0"):
         densify_path(line, 0.0)
+
+
+def test_a_slack_and_a_clearance_out_of_range_are_refused_naming_themselves() -> None:
+    """``densify_path(slack=nan)`` blamed the spacing and a negative slack was taken; ``World.is_free(clearance=-1)``
+    called points inside an obstacle free, nan called every point blocked."""
+    from planning.core.world import Circle, World
+    from planning.errors import ConfigError
+
+    line = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    for slack in (float("nan"), -0.1, 1.0):
+        with pytest.raises(ConfigError, match=r"densify_path: slack must be a finite number in \[0, 1\)"):
+            densify_path(line, 0.1, slack=slack)
+    world = World((0.0, 4.0, 0.0, 4.0), (Circle((2.0, 2.0), 0.5),))
+    for clearance in (-1.0, float("nan")):
+        with pytest.raises(ConfigError, match=r"World.is_free: clearance must be a finite number >= 0"):
+            world.is_free([[2.0, 2.0]], clearance=clearance)
+    assert world.is_free([[2.0, 2.0], [0.5, 0.5]], clearance=0.1).tolist() == [False, True]

@@ -318,13 +318,16 @@ def densify_path(path: ArrayLike, spacing: float, *, radius: float = 0.0, slack:
             of fewer than two poses comes back as it is.
 
     Raises:
-        ConfigError: ``spacing`` is not a finite number > 0; ``path`` is not an (N, 3) array of poses
+        ConfigError: ``spacing`` is not a finite number > 0, or ``slack`` one in [0, 1); ``path`` is not an (N, 3)
+            array of poses
             (positions without headings, (N, 2), are named as such) or holds a NaN or an infinity.
     """
     if type(spacing) is not float or not 0.0 < spacing < math.inf:  # the callers' float, checked in 0.1 us
         if not (is_number(spacing) and spacing > 0):
             raise ConfigError(f"densify_path: spacing must be > 0 m (a finite number), got {given(spacing)}; e.g. 0.02")
         spacing = float(spacing)
+    if type(slack) is not float or not 0.0 <= slack < 1.0:  # a nan was blamed on the spacing
+        slack = check_number("densify_path: slack", slack, at_least=0.0, below=1.0, unit="of a spacing")
     p = _as_path(path, "densify_path")
     if p.shape[1] < 3:
         raise ConfigError(

@@ -462,7 +462,11 @@ class World:
         return np.minimum(d, self.wall_distance(points)) if walls else d
 
     def is_free(self, points: ArrayLike, clearance: float = 0.0) -> NDArray[np.bool_]:
-        """Whether discs of radius ``clearance`` [m] at the points touch nothing. (M,) bool"""
+        """Whether discs of radius ``clearance`` [m] (a finite number >= 0) at the points touch nothing. (M,) bool
+
+        Raises:
+            ConfigError: ``clearance`` is not a finite number >= 0 (-1 called points inside obstacles free)."""
+        clearance = check_number("World.is_free: clearance", clearance, at_least=0.0, unit="m")
         return self.signed_distance(points) > clearance
 
     def min_feature(self) -> float:
