@@ -326,6 +326,7 @@ def _from_path(
         build.pause(pieces)
         if seg.kind == "rotate":
             pieces.append(("rotate", time_rotation(seg.points[0], seg.headings[0], seg.headings[1], limits, dt=dt)))
+            clears.append(_turn_clearance(build.checker, seg))  # a corner's turn may come closest
             continue
         res = smooth_drive(seg, build.checker, clearance=build.need, max_deviation=max_deviation)
         n_pieces += res.pieces
@@ -357,6 +358,12 @@ def _from_path(
         }
     )
     return TrajectoryResult(status, traj, reason, build.stats)
+
+
+def _turn_clearance(checker: CollisionChecker, seg: PathSegment) -> float:
+    """The footprint's least clearance [m] over a turn in place (a "rotate" segment), measured."""
+    (x, y), (h0, h1) = seg.points[0][:2], seg.headings
+    return checker.least_clearance(checker.densify(np.array([[x, y, h0], [x, y, h1]])))
 
 
 def _smoothing_failure(seg: PathSegment, res: SmoothResult, build: _Build, max_deviation: float) -> str:
