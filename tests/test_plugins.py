@@ -221,13 +221,19 @@ def test_a_plugin_python_cannot_find_names_pythonpath(
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert (
-        "No module named 'nhsim_test_pkg'; Python looks for it in the folders of sys.path, and the nhsim command "
-        "does not look in the working directory: run it with PYTHONPATH=. (the working directory holds it)" in err
+        "No module named 'nhsim_test_pkg'; Python looks for it in the folders of sys.path (the nhsim command: not in "
+        "the working directory): run it with PYTHONPATH=. (the working directory holds it)" in err
     )
     monkeypatch.syspath_prepend(str(tmp_path))
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert "No module named 'nhsim_test_pkg.tdt' (NHSIM_TRACEBACK=1" in err and "PYTHONPATH" not in err
+    # an installed package's entry point whose module is gone: a broken install, not a path to give
+    monkeypatch.delenv(PLUGIN_VARIABLE)
+    monkeypatch.syspath_prepend(str(_package(tmp_path / "site", {"ghost": "nhsim_test_ghost"}, {})))
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "No module named 'nhsim_test_ghost'" in err and "PYTHONPATH" not in err
 
 
 def test_regress_names_a_failing_plugin_as_such_not_as_its_first_case(

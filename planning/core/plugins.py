@@ -131,19 +131,20 @@ class PluginLoadError(ConfigError):
 
 def _failure(kind: str, source: str, module: str, exc: Exception) -> PluginLoadError:
     """The error of a plugin that failed: named by the registry whose registration refused it (else by its entry
-    point's group; a module named by :data:`PLUGIN_VARIABLE` serves every registry), and by itself; a plugin
-    whose own package Python did not find, with where Python looks (the ``nhsim`` command, unlike ``python -m``,
-    not in the working directory)."""
+    point's group; a module named by :data:`PLUGIN_VARIABLE` serves every registry), and by itself; a module named
+    by the variable whose own package Python did not find, with where Python looks (the ``nhsim`` command, unlike
+    ``python -m``, not in the working directory)."""
     kind = exc.kind if isinstance(exc, RegistrationError) else kind
     what = type(exc).__name__ if not isinstance(exc, RegistrationError) else "ConfigError"
     label = f"{kind} plugin" if kind else "plugin"
     hint = ""
     top = module.partition(".")[0]
-    if isinstance(exc, ModuleNotFoundError) and exc.name == top:
+    named = PLUGIN_VARIABLE in source  # an entry point's missing package is a broken install, not a path
+    if named and isinstance(exc, ModuleNotFoundError) and exc.name == top:
         here = any(Path(top + end).exists() for end in ("", ".py"))
         hint = (
-            f"; Python looks for it in the folders of sys.path, and the nhsim command does not look in the working "
-            f"directory: run it with PYTHONPATH={'.' if here else f'<the folder holding {top}>'}"
+            f"; Python looks for it in the folders of sys.path (the nhsim command: not in the working directory): "
+            f"run it with PYTHONPATH={'.' if here else f'<the folder holding {top}>'}"
             f"{' (the working directory holds it)' if here else ''}"
         )
     return PluginLoadError(f"{label} failed to load: {source}: {what}: {exc}{hint}")
