@@ -81,7 +81,8 @@ FloatArray = NDArray[np.float64]
 #: Hand-off headings between the standard and the alternate model [rad].
 HANDOFFS = (-3 * math.pi / 4, -math.pi / 4, math.pi / 4, 3 * math.pi / 4)
 _SUB = 8  # fine quadrature points per output interval
-#: Finest output sample spacing [s]: the simulator's physics step (1e-9 asked for 508 GiB of samples).
+#: Finest output sample spacing [s]: the finest physics step of the robots (the balancing EduMIP's; 1e-9 asked for
+#: 508 GiB of samples).
 MIN_DT = 1e-3
 #: Most grid points (amplitudes times times) of the fourth step's amplitude scan between looks at the clock.
 _SCAN_POINTS = 1 << 17
@@ -227,7 +228,7 @@ class Sinusoidal:
     ) -> None:
         self.u2max = check_number("sinusoidal: u2max", u2max, above=0.0)
         self.tolerance = check_number("sinusoidal: tolerance", tolerance, above=0.0)
-        self.dt = check_number("sinusoidal: dt", dt, at_least=MIN_DT, unit="s: the physics step")
+        self.dt = check_number("sinusoidal: dt", dt, at_least=MIN_DT, unit="s: the finest physics step")
         self.min_period = check_number("sinusoidal: min_period", min_period, above=0.0)
         robots = "omit it for the robot's limit"
         self.u1max_opt = check_number("sinusoidal: u1max", u1max, above=0.0, optional=True, fix=robots)
