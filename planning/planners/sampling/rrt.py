@@ -109,7 +109,12 @@ class TreeConfig:
             "goal_bias": {"at_least": 0.0, "at_most": 1.0},
             "max_iterations": {"integer": True, "at_least": 1},
             "time_limit": {"above": 0.0, "optional": True},
-            "turning_radius": {"at_least": MIN_TURNING_RADIUS, "at_most": MAX_TURNING_RADIUS, "optional": True},
+            "turning_radius": {
+                "at_least": MIN_TURNING_RADIUS,
+                "at_most": MAX_TURNING_RADIUS,
+                "optional": True,
+                "unit": "m",
+            },
             "step_range": {"above": 0.0, "optional": True},
             "goal_connect_radius": {"above": 0.0},
             "n_speeds": {"integer": True, "at_least": 1, "at_most": MAX_SPEEDS},
