@@ -68,7 +68,13 @@ from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
 from planning.planners.registry import config_from_options
 from planning.planners.sampling.extend import LocalPlanner
 from planning.planners.sampling.rrt import simplified
-from planning.planners.sampling.steering import arc_poses, default_turning_radius, place
+from planning.planners.sampling.steering import (
+    MAX_TURNING_RADIUS,
+    MIN_TURNING_RADIUS,
+    arc_poses,
+    default_turning_radius,
+    place,
+)
 from planning.planners.sampling.tree import check_endpoints, grid_timeout, make_checker
 from planning.signals import KernelRun, stoppable
 
@@ -156,7 +162,8 @@ _NUMBERS: dict[str, dict[str, Any]] = {
     "angle_quantization_bins": {"integer": True, "at_least": 8, "fix": "an even number, e.g. 72"},
     "cell_size": {"above": 0.0, "unit": "m", "fix": "e.g. 0.05"},
     "turning_radius": {
-        "above": 0.0,
+        "at_least": MIN_TURNING_RADIUS,
+        "at_most": MAX_TURNING_RADIUS,
         "unit": "m",
         "optional": True,
         "fix": "Reeds–Shepp curves need a turning radius; plan turns in place with c-rrt-star",

@@ -37,6 +37,7 @@ from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
 from planning.planners.registry import config_from_options
 from planning.planners.sampling.connect_kernel import JOINED, CompiledSearch
 from planning.planners.sampling.extend import LocalPlanner, Motion, check_steering
+from planning.planners.sampling.steering import MAX_TURNING_RADIUS, MIN_TURNING_RADIUS
 from planning.planners.sampling.tree import (
     Budget,
     Tree,
@@ -55,12 +56,6 @@ from planning.planners.simplify import DirectedLength, SimplifyConfig, length_co
 FloatArray = NDArray[np.float64]
 
 
-#: Largest turning radius of the exact curves [m]: a curve of a larger one is a straight line in any world
-#: nhsim simulates, and its samples (its length over a centimetre) would not fit in memory.
-MAX_TURNING_RADIUS = 1000.0
-#: Smallest turning radius of the exact curves [m]: the curves are sampled every centimetre, and a tighter
-#: radius (1e-9 m) made their words' lengths in radii overflow the samples' memory.
-MIN_TURNING_RADIUS = 0.01
 #: Most bicycle primitive speeds per steering class: every primitive is simulated when the planner is made
 #: (100000 took 26 s, outside any time limit).
 MAX_SPEEDS = 1000

@@ -34,6 +34,13 @@ FloatArray = NDArray[np.float64]
 
 #: Largest arc length between stored samples of a primitive [m].
 SAMPLE_STEP = 0.01
+#: Largest turning radius of the exact curves [m] (the tree planners' and Hybrid-A*'s option): a curve of a larger
+#: one is a straight line in any world nhsim simulates, and its samples (its length over a centimetre) would not fit
+#: in memory.
+MAX_TURNING_RADIUS = 1000.0
+#: Smallest turning radius of the exact curves [m]: they are sampled every centimetre, and a tighter radius (1e-9 m)
+#: made their words' lengths in radii overflow the samples' memory.
+MIN_TURNING_RADIUS = 0.01
 
 
 @nb.njit(cache=True)
