@@ -210,3 +210,8 @@ def test_a_ready_plan_closer_to_an_obstacle_than_the_tracked_margin_is_warned_of
     with warnings.catch_warnings():
         warnings.simplefilter("error", GrazingPlanWarning)
         assert plan_case(kept, sc, robot) is plan  # a margin the case is told the plan keeps: no warning
+        for name in ("random5", "nav_map1", "parking_lot"):  # a case's own plan, tracked as a ready plan by the sweep
+            own = Case(name, planner="birrt")
+            scenario = load_scenario(name)
+            made = plan_case(own, scenario, load_robot(scenario.robot))
+            assert made.success and plan_case(own.with_plan(made, scenario), scenario, load_robot(scenario.robot))
