@@ -268,6 +268,15 @@ def _runs(moving: NDArray[np.bool_], sgn: FloatArray) -> tuple[NDArray[np.intp],
     return np.cumsum(new) - 1, np.flatnonzero(new)
 
 
+def _run_edges(run: NDArray[np.intp], runs: int, idx: NDArray[np.intp]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """Each of the ``runs`` runs' first and last sample among the increasing sample indices ``idx`` (-1: none), ``run``
+    each sample's run (:func:`_runs`)."""
+    first, last = np.full(runs, -1), np.full(runs, -1)
+    first[run[idx[::-1]]] = idx[::-1]  # the last write wins: the first of each run
+    last[run[idx]] = idx
+    return first, last
+
+
 def _motion_headings(
     imported: ImportedFile, tg: FloatArray, moving: NDArray[np.bool_], sgn: FloatArray
 ) -> tuple[FloatArray, NDArray[np.bool_]]:
@@ -316,10 +325,7 @@ def _motion_headings(
     idx = np.flatnonzero(resolved)
     if idx.size == 0:
         return heading, resolved
-    first = np.full(starts.size, -1)
-    last = np.full(starts.size, -1)
-    first[run[idx[::-1]]] = idx[::-1]  # the last write wins: the first resolved sample of each drive
-    last[run[idx]] = idx
+    first, last = _run_edges(run, starts.size, idx)  # each drive's first and last resolved sample
     for edge, toward in ((first, 1), (last, -1)):
         k = edge[run]  # each sample's resolved edge of its drive (-1: none)
         out = (k >= 0) & (toward * (np.arange(tg.size) - k) < 0)
@@ -388,12 +394,9 @@ def _own_headings(moving: NDArray[np.bool_], sgn: FloatArray, resolved: NDArray[
     driving = moving[starts]  # per run
     cusp_before = np.concatenate([[False], driving[:-1]]) & driving
     cusp_after = np.concatenate([driving[1:], [False]]) & driving
-    idx = np.flatnonzero(resolved & moving)
-    first, last = np.full(starts.size, n), np.full(starts.size, -1)
-    np.minimum.at(first, run[idx], idx)
-    np.maximum.at(last, run[idx], idx)
+    first, last = _run_edges(run, starts.size, np.flatnonzero(resolved & moving))
     i = np.arange(n)
-    unresolved = last[run] < 0
+    unresolved = last[run] < 0  # (first is then -1 too)
     return moving & (unresolved | (cusp_before[run] & (i < first[run])) | (cusp_after[run] & (i > last[run])))
 
 
