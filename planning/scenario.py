@@ -428,24 +428,29 @@ def _refuse_relative_map(data: Mapping[str, Any], p: Path) -> None:
             )
 
 
+def _built_in_source(name: str) -> Path | int | None:
+    """Where the built-in scenario ``name`` comes from: its file in ``models/scenarios``, or the seed N of the
+    generated world ``random<N>``; None when it is neither."""
+    candidate = SCENARIOS_DIR / f"{name}.toml"
+    if candidate.exists():
+        return candidate
+    generated = _RANDOM_NAME.fullmatch(name)
+    return None if generated is None else int(generated.group(1))
+
+
 def is_builtin_name(name: str) -> bool:
     """Whether ``name`` is a built-in scenario's name (:func:`builtin_scenarios`) or ``random<N>``: what
     :func:`load_scenario` loads as the built-in, whatever the working directory holds."""
-    return (
-        bool(name)
-        and Path(name).name == name
-        and ((SCENARIOS_DIR / f"{name}.toml").exists() or _RANDOM_NAME.fullmatch(name) is not None)
-    )
+    return bool(name) and Path(name).name == name and _built_in_source(name) is not None
 
 
 def _built_in(name: str) -> Scenario | None:
     """The built-in scenario ``name`` (a file of ``models/scenarios``) or the generated world ``random<N>``; None
     when it is neither."""
-    candidate = SCENARIOS_DIR / f"{name}.toml"
-    if candidate.exists():
-        return load_scenario_file(candidate)
-    generated = _RANDOM_NAME.fullmatch(name)
-    return None if generated is None else random_scenario("turtlebot3", int(generated.group(1)))
+    source = _built_in_source(name)
+    if isinstance(source, Path):
+        return load_scenario_file(source)
+    return None if source is None else random_scenario("turtlebot3", source)
 
 
 def builtin_scenarios() -> list[str]:
