@@ -101,6 +101,23 @@ def test_a_trajectory_keeps_its_own_copies_and_leaves_the_callers_arrays_alone()
     assert not any(arr.flags.writeable for arr in (tr.t, tr.pose, tr.vel, tr.acc))
 
 
+@pytest.mark.parametrize("how", ["pickle", "deepcopy"])
+def test_a_plans_and_a_trajectorys_copies_keep_their_arrays_read_only(how: str) -> None:
+    """A worker process's plan or trajectory comes back through pickle: its arrays are as read-only as the
+    original's, the trajectory's derived arrays (made again on use) too."""
+    import copy
+
+    copied = (lambda v: pickle.loads(pickle.dumps(v))) if how == "pickle" else copy.deepcopy
+    res = PlanResult(PlanStatus.SUCCESS, "mine", path=np.zeros((3, 3)), directions=np.ones(3))
+    tr = Trajectory(*_arrays())
+    tr.flat_derivatives()  # cached before the copy
+    res_c, tr_c = copied(res), copied(tr)
+    assert res_c == res and tr_c == tr
+    arrays = (res_c.path, res_c.directions, tr_c.t, tr_c.pose, tr_c.vel, tr_c.acc, *tr_c.flat_derivatives())
+    assert not any(arr.flags.writeable for arr in arrays)
+    np.testing.assert_array_equal(tr_c.flat_derivatives()[0], tr.flat_derivatives()[0])
+
+
 def test_a_scenario_keeps_read_only_copies_of_its_tables() -> None:
     base = load_scenario("simple_motion")
     sensors, options = {"fix_rate": 5.0}, {"rrt": {"goal_bias": 0.1}}

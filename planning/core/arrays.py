@@ -13,13 +13,41 @@ mismatch, whose message formatting took 4-5 s to compile in every process that c
 afresh, once per pair of dimensions (1-D and 2-D: 10 s; measured alone, a kernel of one plain loop
 compiling in 0.6 s). The kernels' disk cache skips it; a new machine, an update and every test worker
 pay it.
+
+The frozen value types hold their arrays read-only; :func:`freeze_arrays` and :class:`ReadOnlyArrays`
+keep them so in their copies (a pickled value, a worker process's, and a deep copy come back with
+writeable arrays).
 """
 
 from __future__ import annotations
 
+import dataclasses
+from typing import Any
+
 import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+
+def freeze_arrays(value: object) -> None:
+    """Hold the numpy arrays among a frozen dataclass's fields as read-only views, as the value itself is
+    frozen: an edit through a run's log, a plan or a trajectory would reach every record, plot and video
+    made of it. Views, not copies (a long run's log is large), and the arrays given stay as they were."""
+    for f in dataclasses.fields(value):  # type: ignore[arg-type]
+        item = getattr(value, f.name)
+        if isinstance(item, np.ndarray) and item.flags.writeable:
+            view = item.view()
+            view.flags.writeable = False
+            object.__setattr__(value, f.name, view)
+
+
+class ReadOnlyArrays:
+    """A frozen dataclass whose arrays stay read-only in its copies too: a pickled one (a worker process's) and
+    a deep copy come back with writeable arrays, which :meth:`__setstate__` makes read-only again."""
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        freeze_arrays(self)
 
 
 def kernel_input(values: ArrayLike) -> NDArray[np.float64]:

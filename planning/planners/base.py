@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.clock import ready
+from planning.core.arrays import ReadOnlyArrays
 from planning.core.checks import check_number
 from planning.core.geometry import Pose2D, check_pose, densify_path, path_length, path_steps, wrap_angle
 from planning.core.robot import RobotSpec, check_robot_spec, load_robot
@@ -214,13 +215,14 @@ def _float_array(name: str, value: object, shape: tuple[int | None, ...]) -> Flo
 
 
 @dataclass(frozen=True, eq=False)
-class PlanResult:
+class PlanResult(ReadOnlyArrays):
     """The outcome of a planning attempt; failure is a status with a reason, never ``None``.
 
     The arrays are the result's own read-only copies (a caller's later edit of the arrays it gave cannot
-    change the result). Results are equal when every field is (:func:`same_value`: arrays element by element,
-    the stats item by item); a result's stats are a dict the commands add to, so it is not hashable. Its repr is
-    one short line (status, planner, the path's size and length, time, reason), not its arrays.
+    change the result), in its pickled and deep copies too. Results are equal when every field is
+    (:func:`same_value`: arrays element by element, the stats item by item); a result's stats are a dict the
+    commands add to, so it is not hashable. Its repr is one short line (status, planner, the path's size and
+    length, time, reason), not its arrays.
 
     Attributes:
         status: How it ended.

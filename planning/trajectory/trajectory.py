@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planning.core.arrays import ReadOnlyArrays
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.errors import ConfigError
 
@@ -124,14 +126,15 @@ def _as_2d(name: str, value: ArrayLike, n: int, cols: int, rows: str = "") -> Fl
 
 
 @dataclass(frozen=True, eq=False)
-class Trajectory:
+class Trajectory(ReadOnlyArrays):
     """A reference trajectory sampled at N instants.
 
     The heading column is stored unwrapped (continuous), so interpolation never jumps by 2*pi. The arrays are
-    the trajectory's own read-only copies: the caller's arrays stay as they were (writeable), and a later edit
-    of them does not reach the trajectory. Trajectories are equal when their names, segment kinds and arrays
-    are (``np.array_equal``); the hash is of the name, the size and the span, so equal ones hash alike. The repr
-    is one short line (name, samples, span, segments), not the arrays.
+    the trajectory's own read-only copies, in its pickled and deep copies too: the caller's arrays stay as
+    they were (writeable), and a later edit of them does not reach the trajectory. Trajectories are equal
+    when their names, segment kinds and arrays are (``np.array_equal``); the hash is of the name, the size
+    and the span, so equal ones hash alike. The repr is one short line (name, samples, span, segments), not
+    the arrays.
 
     Attributes:
         t: (N,) strictly increasing times [s].
@@ -194,6 +197,9 @@ class Trajectory:
             seg.setflags(write=False)
             object.__setattr__(self, "segments", seg)
             object.__setattr__(self, "segment_kinds", kinds)
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        super().__setstate__({**state, "_cache": {}})  # derived arrays are made again, read-only, when asked for
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Trajectory) or other.__class__ is not self.__class__:

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.core.arrays import ReadOnlyArrays, freeze_arrays
 from planning.errors import SimulationError
 
 FloatArray = NDArray[np.float64]
@@ -27,28 +27,6 @@ WIDTHS: dict[str, int | None] = {
 
 #: Longest status a :class:`RunLog`'s repr quotes [characters] (a collision then a fall says more).
 REPR_STATUS = 80
-
-
-def freeze_arrays(log: object) -> None:
-    """Hold the numpy arrays among a frozen log dataclass's fields as read-only views, as the log itself is frozen
-    (as a :class:`~planning.trajectory.trajectory.Trajectory`'s are): an edit through the log would reach every
-    record, plot and video made of the run. Views, not copies (a long run's log is large), and the arrays given
-    stay as they were (the simulator gives each log arrays of its own)."""
-    for f in dataclasses.fields(log):  # type: ignore[arg-type]
-        value = getattr(log, f.name)
-        if isinstance(value, np.ndarray) and value.flags.writeable:
-            view = value.view()
-            view.flags.writeable = False
-            object.__setattr__(log, f.name, view)
-
-
-class ReadOnlyArrays:
-    """A frozen log whose arrays stay read-only in its copies too: a pickled one (a worker process's run) and a
-    deep copy come back with writeable arrays, which :meth:`__setstate__` makes read-only again."""
-
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__dict__.update(state)
-        freeze_arrays(self)
 
 
 def _cut(text: str, most: int) -> str:
