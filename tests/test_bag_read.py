@@ -312,7 +312,8 @@ def _bad_bags(tmp_path: Path) -> dict[str, Path]:
         from rosbags.typesys import Stores, get_typestore
 
         w.add_connection("/plan", "nav_msgs/msg/Path", typestore=get_typestore(Stores.ROS2_HUMBLE))
-    return {"good": good, "cut": cut, "text": text, "folder": folder, "empty": empty}
+    odom = _rosbags_bag(tmp_path / "odom", ros1=False)  # recorded motion only, no path
+    return {"good": good, "cut": cut, "text": text, "folder": folder, "empty": empty, "odom": odom}
 
 
 @pytest.mark.parametrize(
@@ -326,11 +327,21 @@ def _bad_bags(tmp_path: Path) -> dict[str, Path]:
         (
             "no topic given",
             ["--path", "{good}"],
-            "name the topic to read with --topic; it has /plan (nav_msgs/Path, 2)",
+            "is a bag: give the topic to read; the bag has /plan (nav_msgs/Path, 2), /pose",
         ),
         ("topic missing", ["--path", "{good}", "--topic", "/odom"], "no topic '/odom'; the bag has /plan"),
         ("wrong type", ["--path", "{good}", "--topic", "/pose"], "carries geometry_msgs/PoseStamped, not a path"),
-        ("empty", ["--path", "{empty}", "--topic", "/plan"], "holds no messages"),
+        (
+            "empty",
+            ["--path", "{empty}", "--topic", "/plan"],
+            "holds no messages; the bag has /plan (nav_msgs/Path, 0): record it again",
+        ),
+        ("motion only", ["--path", "{odom}"], "it holds no path: read the recorded motion of /odom with --trajectory"),
+        (
+            "motion only, a path named",
+            ["--path", "{odom}", "--topic", "/plan"],
+            "no topic '/plan'; the bag has /odom (nav_msgs/Odometry, 41): it holds no path: read the recorded motion",
+        ),
         ("message out of range", ["--path", "{good}", "--topic", "/plan", "--message", "5"], "give 0 to 1"),
         ("topic on a text file", ["--path", "{tmp}/a.csv", "--topic", "/plan"], "drop them"),
     ],

@@ -122,13 +122,22 @@ def _topics_text(reader: Any) -> str:
     return ", ".join(f"{name} ({_name(info.msgtype or '?')}, {info.msgcount})" for name, info in reader.topics.items())
 
 
+def _which_topic(reader: Any, timed: bool) -> str:
+    """The bag's topics and which to name: with ``--topic``, or, for a path (not ``timed``) in a bag that holds
+    recorded motions and no path, the motion with ``--trajectory`` (naming it with ``--topic`` would be refused)."""
+    paths = [name for name, info in reader.topics.items() if info.msgtype == PATH_TYPE]
+    motions = [name for name, info in reader.topics.items() if info.msgtype in MOTION_TYPES]
+    fix = f"name one with {option('topic')}"
+    if not timed and motions and not paths:
+        read = option("trajectory", python="timed=True")
+        fix = f"it holds no path: read the recorded motion of {motions[0]} with {read}"
+    return f"the bag has {_topics_text(reader) or 'no topics'}: {fix}"
+
+
 def _messages(reader: Any, path: Path, topic: str, timed: bool) -> tuple[str, list[Any]]:
     """The topic's type and its deserialised messages, checked."""
     if topic not in reader.topics:
-        raise TrajectoryFileError(
-            f"{path}: no topic {topic!r}; the bag has {_topics_text(reader) or 'no topics'}: name one with "
-            f"{option('topic')}"
-        )
+        raise TrajectoryFileError(f"{path}: no topic {topic!r}; {_which_topic(reader, timed)}")
     msgtype = reader.topics[topic].msgtype or ""
     types = sorted({_name(c.msgtype) for c in reader.connections if c.topic == topic})
     if len(types) > 1:  # rosbags gives such a topic no type
@@ -155,7 +164,11 @@ def _messages(reader: Any, path: Path, topic: str, timed: bool) -> tuple[str, li
             "or `mcap recover`)"
         ) from exc
     if not msgs:
-        raise TrajectoryFileError(f"{path}: topic {topic} holds no messages; the bag has {_topics_text(reader)}")
+        raise TrajectoryFileError(
+            f"{path}: topic {topic} holds no messages; the bag has {_topics_text(reader)}: record it again (the "
+            f"recording stopped before anything was published on it), or name a topic with messages with "
+            f"{option('topic')}"
+        )
     return msgtype, msgs
 
 
@@ -448,10 +461,7 @@ def read_bag_table(path: Path, topic: str | None, message: int | None = None, *,
     reader = _open(path)
     try:
         if topic is None:
-            raise TrajectoryFileError(
-                f"{path} is a bag: name the topic to read with {option('topic')}; it has "
-                f"{_topics_text(reader) or 'no topics'}"
-            )
+            raise TrajectoryFileError(f"{path} is a bag: give the topic to read; {_which_topic(reader, timed)}")
         msgtype, msgs = _messages(reader, path, topic, timed)
         paths = [name for name, info in reader.topics.items() if info.msgtype == PATH_TYPE and name != topic]
         if msgtype == PATH_TYPE:
