@@ -46,6 +46,10 @@ def test_a_file_within_the_limits_keeps_its_own_clock(tmp_path: Path) -> None:
     t = np.arange(0.0, 30.0 + 1e-9, 0.5)
     at = traj.sample_many(t)
     np.testing.assert_allclose(at.pose[:, :2], s_curve(t * 20.0 / 30.0)[0], atol=1e-4)  # where the file is, when
+    tail = traj.t > 30.0
+    assert traj.duration > 30.0 and not np.any(traj.vel[tail])  # then it stands at the file's end
+    end = f"end: the file's 30.00 s then {traj.duration - 30.0:.2f} s at its last position (a stand-still)"
+    assert any(n.startswith(end) for n in imp.report.notes), imp.report.notes  # and says so
 
 
 def test_a_file_a_little_too_fast_is_slowed_uniformly(tmp_path: Path) -> None:
@@ -60,6 +64,7 @@ def test_a_file_a_little_too_fast_is_slowed_uniformly(tmp_path: Path) -> None:
     traj = res.trajectory
     assert traj is not None
     assert traj.duration == pytest.approx(20.0 * imp.report.time_stretch + 0.3, abs=0.02)  # and a final hold
+    assert any(f"end: the file's {20.0 * imp.report.time_stretch:.2f} s then" in n for n in imp.report.notes)
     rim = np.abs(traj.vel[:, 0]) + 0.5 * ROBOT.track_width * np.abs(traj.vel[:, 1])
     assert np.max(rim) == pytest.approx(LIMITS.max_wheel_linear, rel=1e-6)
 

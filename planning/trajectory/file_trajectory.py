@@ -57,12 +57,14 @@ from planning.trajectory.importer import (
     MOVING_SPEED,
     Correction,
     ImportedFile,
+    ImportReport,
     PositionCurve,
     fastest_row_speed,
     time_unit_fix,
 )
 from planning.trajectory.smoothing import check_options
 from planning.trajectory.speed_profile import Limits
+from planning.trajectory.trajectory import Trajectory
 
 FloatArray = NDArray[np.float64]
 
@@ -650,6 +652,22 @@ def arena_scenario(imported: ImportedFile, robot: RobotSpec) -> Scenario:
 
 
 # ------------------------------------------------------------------------------- the trajectory
+def _note_end(report: ImportReport, trajectory: Trajectory, span: float) -> None:
+    """Say what the trajectory adds after a kept clock's ``span`` [s] (the file's, stretched): every reference
+    made here ends at its goal with a stand-still (after a turn to the goal heading where the motion ends
+    pointing elsewhere), which the segmented tracker settles in."""
+    after = int(np.searchsorted(trajectory.t, trajectory.t[0] + span + 1e-9))
+    extra = float(trajectory.t[-1] - trajectory.t[0]) - span
+    if after >= trajectory.t.size or extra <= 0.0:
+        return
+    assert trajectory.segments is not None
+    kinds = trajectory.segment_kinds[int(trajectory.segments[after]) :]
+    what = "a turn to the file's last heading, then a stand-still" if "rotate" in kinds else "a stand-still"
+    report.notes.append(
+        f"end: the file's {span:.2f} s then {extra:.2f} s at its last position ({what}), as every reference ends"
+    )
+
+
 def file_trajectory(imported: ImportedFile, robot: RobotSpec, world: World, **options: Any) -> TrajectoryResult:
     """The trajectory of a repaired file in a world (see the module doc); the report says how.
 
@@ -692,6 +710,8 @@ def file_trajectory(imported: ImportedFile, robot: RobotSpec, world: World, **op
         res = make_trajectory(plan, robot, world, goal=goal, retime=retime, name=name, **options)
         report.retimed, report.timing = retime, why
         report.time_stretch = float(res.stats.get("time_scale") or 1.0)
+        if not retime and res.trajectory is not None:
+            _note_end(report, res.trajectory, float(dense.t[-1]) * report.time_stretch)
     else:
         poses = path_poses(imported)
         checker = CollisionChecker(world, robot, shape="footprint")
