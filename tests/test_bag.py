@@ -66,8 +66,10 @@ def expected_counts(result: Any) -> dict[str, int]:
         if est is not None:  # the truth at every logged sample and every reading of the sensors
             counts[f"/{kind}/ground_truth/odom"] = np.union1d(ns(log.t), ns(sensed(log, est.t))).size
         counts[f"/{kind}/robot"] = 1
-        if est is not None and est.fix_t.size and est.source != "odometry":  # dead reckoning localises nothing
-            counts[f"/{kind}/fix"] = est.fix_t.size
+        loc = est.localiser if est is not None else None
+        fixes = loc.t.size if loc is not None else est.fix_t.size if est is not None else 0
+        if fixes and est is not None and est.source != "odometry":  # dead reckoning localises nothing
+            counts[f"/{kind}/fix"] = fixes  # the scan localiser's every update, else each synthetic fix
         scan = scan_of(log)
         if scan is not None and scan.t.size:
             counts[f"/{kind}/scan"] = scan.t.size
@@ -669,6 +671,28 @@ def test_a_scan_fix_carries_the_localisers_own_covariance(job: tuple[Any, Path])
         assert fix.header.stamp.sec + 1e-9 * fix.header.stamp.nanosec == pytest.approx(t, abs=1e-9)
         np.testing.assert_allclose(np.asarray(fix.pose.covariance).reshape(6, 6)[axes], cov, rtol=1e-12, atol=0)
     assert any(abs(cov[0, 1]) > 0 for cov in loc.cov)  # correlations are written, not only variances
+
+
+def test_a_run_lost_at_its_first_scan_publishes_the_update_it_is_judged_on(tmp_path: Path) -> None:
+    """A start pose 3.7 m off: the run ends ("localisation lost") before the first update reaches the estimator.
+    The record scores that update (localiser RMSE 3.7 m) but the bag had no ``/fix`` to recompute it from, and
+    its one scan said ``scan_time`` 0 (the period was taken between scans): one fix, and 0.2 s, the LDS-01's."""
+    from planning import load_scenario
+    from sim.pipeline.simulate import simulate_reference
+
+    one = (RunKind.CLOSED_LOOP,)
+    result = simulate_reference(
+        load_scenario("random8"), reference="line", robot="turtlebot3", runs=one, initial_pose="0.3,0.2,0.3"
+    )
+    log = result.logs[RunKind.CLOSED_LOOP]
+    loc = log.estimation.localiser
+    assert "localisation lost" in result.runs[RunKind.CLOSED_LOOP].metrics.status
+    assert loc.t.size == 1 and log.estimation.fix_t.size == 0  # judged on, never delivered
+    _, msgs, _ = read_rosbags(write_job_bag(result, tmp_path / "b").path)
+    (_, fix), (_, scan) = msgs["/closed_loop/fix"][0], msgs["/closed_loop/scan"][0]
+    assert len(msgs["/closed_loop/fix"]) == 1 and len(msgs["/closed_loop/scan"]) == 1
+    assert (fix.pose.pose.position.x, fix.pose.pose.position.y) == tuple(loc.pose[0, :2])
+    assert scan.scan_time == pytest.approx(0.2, rel=1e-7)  # float32
 
 
 @pytest.mark.parametrize("robot", ["turtlebot3", "edumip", "edumip-balancing"])

@@ -604,19 +604,20 @@ def _command_series(log: Any, frame: str) -> Series:
 
 
 def _fix_series(log: Any, std: tuple[float, float]) -> Series:
-    """``RUN/fix``: the localisation fixes at their measurement times (:func:`sensed_at`), with the scan
-    localiser's own covariance (each fix is one of its updates, as Nav2's ``amcl_pose``) or, for synthetic
-    fixes, the profile's variances. None for a dead-reckoning run: its fixes only score its estimate
-    (NEES), it never localised."""
+    """``RUN/fix``: the localisation fixes at their measurement times (:func:`sensed_at`): the scan localiser's
+    every update with its own covariance (as Nav2's ``amcl_pose``; one the run ended before it arrived at the
+    estimator too, as the record's localiser error counts it), else the synthetic fixes with the profile's
+    variances. None for a dead-reckoning run: its fixes only score its estimate (NEES), it never localised."""
     est = log.estimation
-    if est is None or est.fix_t.size == 0 or est.source == "odometry":
+    if est is None or est.source == "odometry":
         return np.zeros(0), lambda k: None
-    at = sensed_at(log, est.fix_t)
     loc = getattr(est, "localiser", None)
     if loc is not None and loc.t.size:
-        row = np.clip(np.searchsorted(loc.t, est.fix_t - 1e-9), 0, loc.t.size - 1)
-        if np.allclose(loc.t[row], est.fix_t, rtol=0.0, atol=1e-9):
-            return at, lambda k: m.pose_fix(float(at[k]), "map", est.fix[k], loc.cov[row[k]])
+        at = sensed_at(log, loc.t)
+        return at, lambda k: m.pose_fix(float(at[k]), "map", loc.pose[k], loc.cov[k])
+    if est.fix_t.size == 0:
+        return np.zeros(0), lambda k: None
+    at = sensed_at(log, est.fix_t)
     var = np.array([std[0] ** 2, std[0] ** 2, std[1] ** 2])
     return at, lambda k: m.pose_fix(float(at[k]), "map", est.fix[k], var)
 
@@ -673,6 +674,8 @@ def scan_of(log: Any) -> Sweeps | None:
     if loc is not None and np.asarray(loc.scan_t).size:
         t = sensed_at(log, np.asarray(loc.scan_t, dtype=float))
         period = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+        if loc.scan_time_increment > 0:  # a revolution's time, the same from one scan as from many
+            period = float(loc.scan_time_increment * 2 * np.pi / loc.scan_angle_increment)
         return Sweeps(
             t,
             np.asarray(loc.scan_ranges, dtype=float),
