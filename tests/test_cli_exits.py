@@ -494,6 +494,13 @@ def test_simulate_all_refuses_a_planner_it_would_not_run(
     assert "--all --robot edumip: no case to run: no scenario swept lists edumip (they list turtlebot3)" in (
         capsys.readouterr().err
     )
+    # a scenario with nothing to plan (its goal is its start): alone it passed "0/0", beside another it was dropped
+    for named in ("open", "random5,open"):
+        assert main(["simulate", "--all", "--scenario", named, "--no-video", "--json", "b.json"]) == 2
+        err = capsys.readouterr().err
+        assert "scenario open has nothing to plan: its goal is its start (0, 0, 0)" in err, err
+        assert "drop it from --scenario of the sweep" in err and "--scenario open --reference figure8" in err
+    assert not any(tmp_path.iterdir())
 
 
 def test_a_sweep_with_gains_says_so_and_records_them(

@@ -22,7 +22,7 @@ from typing import Any
 
 from planning.collision.overlap import end_clearance
 from planning.core.robot import load_robot
-from planning.errors import NhsimError
+from planning.errors import ConfigError, NhsimError, option
 from planning.planners.base import PlanResult, PlanStatus
 from planning.scenario import Scenario, builtin_scenarios, load_scenario
 from planning.trajectory.from_plan import PlanFailedError
@@ -175,13 +175,25 @@ def sweep_cases(scenarios: list[str] | None = None, **fields_: Any) -> list[Case
 
     A scenario given by name stays a name in its cases; one read from a file goes into them as read (its name
     is not a built-in's, or is one and would reload the built-in instead of the file).
+
+    Raises:
+        ConfigError: A scenario of ``scenarios`` with nothing to plan (its goal is its start, as the ``open``
+            arena's: no planner applies), which the sweep would otherwise pass over without a word.
     """
     cases = []
     for name in scenarios if scenarios is not None else builtin_scenarios():
         sc = load_scenario(name)
         scenario: str | Scenario = name if name == sc.name else sc
+        planners = applicable_planners(sc)
+        if scenarios is not None and not planners:
+            start = f"({sc.start.x:g}, {sc.start.y:g}, {sc.start.theta:g})"
+            raise ConfigError(
+                f"scenario {name} has nothing to plan: its goal is its start {start}, so no planner applies; drop "
+                f"it from {option('scenario', python='scenarios')} of the sweep, or track an analytic reference "
+                f"there instead (nhsim simulate --scenario {name} --reference figure8)"
+            )
         for robot in sc.robots:
-            for planner in applicable_planners(sc):
+            for planner in planners:
                 cases.append(Case(scenario, robot=robot, planner=planner, **fields_))
     return cases
 
