@@ -260,6 +260,7 @@ def test_workers_never_take_one_waiting_trial_twice(tmp_path: Path) -> None:
         ),
         ({"--perturb-range": "grip=1:2"}, "expected comma-separated"),
         ({"--trials": "0"}, "--trials must be an integer >= 1, got 0"),
+        ({"--trials": "10000000000"}, r"--trials must be an integer <= 100000, got 10000000000; a study of more would"),
         # the gains file a folder: the record's name made from '.' crashed (ValueError: an empty name)
         ({"--draws": "0"}, "--draws must be an integer >= 1, got 0"),
         ({"--perturb-range": "friction=0.5:1.5"}, "--perturb-range is used by --robust only"),
@@ -295,25 +296,36 @@ def test_malformed_gains_file_is_rejected_by_simulate(tmp_path: Path, capsys: py
 
 
 @pytest.mark.parametrize(
-    ("change", "differ"),
+    ("change", "differ", "values"),
     [
-        (["--saturation-weight", "1"], "saturation_weight"),
-        (["--draws", "3"], "draws"),
-        (["--seed", "1"], "draws"),
-        (["--localiser", "fixes"], "localiser"),
+        (["--saturation-weight", "1"], "saturation_weight", ": 0.05 there, 1.0 here"),
+        (["--draws", "3"], "draws", ": 1 there, 3 here"),
+        (["--seed", "1"], "draws", ""),  # the draws' seeds: named, not quoted
+        (["--localiser", "fixes"], "localiser", ": amcl there, fixes here"),
+        (["--tracker", "kanayama"], "tracker", ": the default (each case's tracker's FBL gains) there, kanayama here"),
     ],
 )
 def test_resuming_with_other_settings_is_refused(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], change: list[str], differ: str
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], change: list[str], differ: str, values: str
 ) -> None:
-    """The refusal names the settings that differ and the options that set them (another --seed was said to be
-    "cases, draws differ", naming no option the user gave)."""
+    """The refusal names the settings that differ, their two values where short, and the options that set them
+    (another --seed was said to be "cases, draws differ", naming no option the user gave; --tracker on a study of
+    the default tracker, which stores none, was said to be a study "not recorded by the nhsim that made" it, which
+    "cannot resume it")."""
     assert main(_args(tmp_path, 1, "--eval-runs", "0", "--draws", "1")) == 0
-    assert main([*_args(tmp_path, 2, "--eval-runs", "0", "--draws", "1", *change), "--overwrite"]) == 2
-    listed = re.search(r"other settings: (.*) differ;", capsys.readouterr().err)
-    assert listed is not None
-    said = dict(re.findall(r"(\w+) \(set by ([^)]*)\)", listed.group(1)))
-    assert change[0] in said[differ].split(", ")
+    again = _args(tmp_path, 2, "--eval-runs", "0", "--draws", "1", *change)
+    if change[0] == "--tracker":  # its parameters are not FBL gains: a JSON record, no gains file
+        at = again.index("--out")
+        again[at : at + 2] = ["--json", str(tmp_path / "k.json")]
+    assert main([*again, "--overwrite"]) == 2
+    err = capsys.readouterr().err
+    listed = re.search(r"other settings: (.*) differ; rerun with the same options", err)
+    assert listed is not None, err
+    said = {
+        k: (v, by)
+        for k, v, by in re.findall(r"(\w+)((?:: [^(]*(?:\([^)]*\))?[^(]*)?) \(set by ([^)]*)\)", listed.group(1))
+    }
+    assert said[differ][0] == values and change[0] in said[differ][1].split(", "), err
     assert len(_completed(tmp_path)) == 1
 
 
@@ -343,11 +355,13 @@ def test_resuming_after_a_scenario_file_or_the_code_changed_is_refused(
     said = {
         "scenario": f"worlds (the scenario of {scenario}:line: its file was edited since the study was made) differ; "
         "rerun with the same options and scenario files (as they were) to resume it, or choose another study name",
-        "code": "code (set by nhsim's code and models, the robots' and the plugins' among them: another nhsim version",
+        "code": "here (set by nhsim's code and models, the robots' and the plugins' among them: another nhsim version",
         "unrecorded": "code (not recorded by the nhsim that made the study), worlds (not recorded by the nhsim that "
         "made the study) differ; this nhsim cannot resume it: choose another study name",
     }
     assert said[change] in " ".join(err.split())
+    if change == "code":  # the two digests
+        assert re.search(r"other settings: code: [0-9a-f]{12} there, 0123456789ab here", err), err
     assert len(_completed(tmp_path)) == 1
 
 

@@ -659,10 +659,23 @@ def _check_apart_from_storage(storage: str, db: Path, paths: tuple[Path, ...]) -
         )
 
 
+#: Most completed trials a study may ask for.
+MAX_TRIALS = 100_000
+
+
 def _check_counts(args: argparse.Namespace) -> None:
+    from planning.core.checks import check_number
     from sim.cli.checks import check_at_least, check_control_rate, check_seeds
 
     check_at_least({"--trials": (args.trials, 1), "--draws": (args.draws, 1), "--eval-runs": (args.eval_runs, 0)})
+    check_number(
+        "--trials",
+        args.trials,
+        integer=True,
+        at_most=MAX_TRIALS,
+        fix="a study of more would not end (each trial runs every case on every draw): give the completed trials "
+        "wanted, e.g. --trials 200 (a resumed study counts those it holds)",
+    )
     check_workers(args.jobs)
     check_seeds(seed=args.seed)
     check_control_rate(args.control_rate)

@@ -690,15 +690,16 @@ def _other_settings(spec: TuneSpec, stored: dict[str, Any], settings: dict[str, 
     diff = [k for k in diff if not (k == "worlds" and "cases" in diff)]  # other cases: other scenarios
     said = []
     for k in diff:
-        if k not in stored:
+        if k not in stored and k not in UNSTORED_DEFAULTS:
             said.append(f"{k} (not recorded by the nhsim that made the study)")
         elif k == "worlds" and len(stored[k]) == len(spec.cases):
             edited = [c.token for c, a, b in zip(spec.cases, stored[k], settings[k], strict=True) if a != b]
             said.append(f"worlds (the scenario of {', '.join(edited)}: its file was edited since the study was made)")
         else:
-            said.append(f"{k} (set by {SETTING_OPTIONS[k]})" if k in SETTING_OPTIONS else k)
+            values = _values_differ(stored.get(k, UNSTORED_DEFAULTS.get(k)), settings.get(k, UNSTORED_DEFAULTS.get(k)))
+            said.append(f"{k}{values} (set by {SETTING_OPTIONS[k]})" if k in SETTING_OPTIONS else f"{k}{values}")
     files = " and scenario files (as they were)" if "worlds" in diff else ""
-    if set(diff) - set(stored):  # a study an older nhsim made: what it did not record cannot be checked
+    if set(diff) - set(stored) - set(UNSTORED_DEFAULTS):  # a study an older nhsim made: what it did not record
         fix = f"this nhsim cannot resume it: choose another study name, {option('study')}"
     else:
         fix = f"rerun with the same options{files} to resume it, or choose another study name, {option('study')}"
@@ -706,6 +707,24 @@ def _other_settings(spec: TuneSpec, stored: dict[str, Any], settings: dict[str, 
         f"study {spec.study!r} in {shown_url(spec.storage)!r} was created with other settings: {', '.join(said)} "
         f"differ; {fix}"
     )
+
+
+#: Settings a study stores only when they are not their default (:meth:`TuneSpec.settings`), and how a refused
+#: resume names the default.
+UNSTORED_DEFAULTS = {"tracker": "the default (each case's tracker's FBL gains)"}
+
+
+def _values_differ(there: Any, here: Any) -> str:
+    """``": A there, B here"`` for a setting's two values when they are short to say: numbers, names, or lists
+    of other lengths (their lengths: draws, cases); "" when only the name says it (the draws' seeds, digests)."""
+    if isinstance(there, list) and isinstance(here, list):
+        if len(there) == len(here):
+            return ""
+        there, here = len(there), len(here)
+    if isinstance(there, (list, dict)) or isinstance(here, (list, dict)):
+        return ""
+    text = f": {there} there, {here} here"
+    return text if len(text) <= 80 else ""
 
 
 #: The options that set each of a study's stored settings (:meth:`TuneSpec.settings`), as a refused resume
