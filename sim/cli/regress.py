@@ -252,7 +252,7 @@ def baseline_changes(old: dict[str, Any], outcome: Any, new: dict[str, Any]) -> 
     """What an update changes in a baseline (``new``: the document written): the metrics that moved, those it no
     longer records, the environment, the case's fields that differ from the ones recorded, the fields recorded
     now that the old baseline left out, and the ones it held that the new one drops."""
-    from sim.tools.regress import definition_changes, environment, show_values
+    from sim.tools.regress import definition_changes, environment, model_change, show_values
 
     metrics = new["metrics"]
     moved = [k for k, v in metrics.items() if k not in old["metrics"] or old["metrics"][k] != v]
@@ -267,6 +267,11 @@ def baseline_changes(old: dict[str, Any], outcome: Any, new: dict[str, Any]) -> 
     if differs:
         what.append(f"case {', '.join(differs)}")
     added = [f"{k} = {json.dumps(v)}" for k, v in new["case"].items() if k not in recorded]
+    model = model_change(old.get("model"), outcome.case)
+    if model:
+        what.append(model)
+    elif "model" not in old:  # recorded before baselines named their robot's files
+        added.append(f"model = {json.dumps(new['model'])}")
     if added:
         what.append(f"now records {', '.join(added)}")
     dropped = [f"case field {k}" for k in recorded if k not in new["case"]]

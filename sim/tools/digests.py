@@ -101,6 +101,24 @@ def robot_model_files() -> list[tuple[Path, str]]:
     return [(path, label) for label, path in sorted(found.items()) if path.is_file()]
 
 
+def model_digest(robot: str) -> str:
+    """A 12-hex-digit hash of the files a robot is made of (:func:`planning.core.robot.robot_files`: its model,
+    scene and sensor settings) and, for a balancing robot, its balance profile, by role and content: a run's
+    physics changes with any of them, whatever the code."""
+    from control.design.balance_profile import balance_profile_path, is_balancing
+    from planning.core.robot import robot_files
+
+    files = robot_files(robot)
+    roles = {"model": files.mjcf, "scene": files.scene, "sensors": files.sensors}
+    if is_balancing(robot):
+        roles["balance"] = balance_profile_path(robot)
+    digest = hashlib.blake2b(digest_size=6)
+    for role, path in roles.items():
+        digest.update(f"\0{role}\0".encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
 def _located(module: str) -> tuple[str | None, list[str]]:
     """Where a module's code is: (its file, its package's folders), without importing it when it is not yet."""
     import importlib.util

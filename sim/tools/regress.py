@@ -15,7 +15,8 @@ Each case is run twice in one process; the two logs must be bitwise identical
 (:meth:`RunLog.identical_to`) or the case fails as non-deterministic. Its metrics are compared
 with ``<baseline dir>/<case>.json``, which records the case's definition (:func:`case_record`: a baseline
 recorded for another definition fails, naming the fields that differ; an older baseline that records fewer
-fields is compared on those), the metrics and the environment (mujoco and
+fields is compared on those), the robot's files it ran (:func:`case_model`: a baseline recorded on other files
+fails, naming them, in every environment), the metrics and the environment (mujoco and
 numpy versions, operating system and machine, and the CPU: vendor, family and model, and the SIMD
 extensions numpy dispatches to -- floating-point results differ in their last bits between, say, an
 AVX-512 and an AVX2 machine running the same wheels):
@@ -652,6 +653,33 @@ def definition_changes(recorded: Mapping[str, Any], case: Case) -> list[str]:
     return [f"{k} {_toml(recorded[k])} -> {_toml(v)}" for k, v in now.items() if k in recorded and recorded[k] != v]
 
 
+def case_model(case: Case) -> dict[str, str]:
+    """The robot a case runs (its own, else its scenario's) and the digest of the files it is made of
+    (:func:`sim.tools.digests.model_digest`), as its baseline records them: another machine compares metrics
+    within tolerances, which a change of the robot's model can stay within (its base's mass doubled moved the open
+    loop's final error by 0.4 mm of the 5.4 mm allowed), so the baseline says which files it was recorded on."""
+    from sim.tools.digests import model_digest
+
+    robot = case.robot or load_case_scenario(case).robot
+    return {"robot": robot, "digest": model_digest(robot)}
+
+
+def model_change(recorded: object, case: Case) -> str:
+    """How the robot's files differ from those the baseline was recorded on (``recorded``: its ``model``), or ""
+    (the same, or a baseline that records none)."""
+    if not isinstance(recorded, dict) or "digest" not in recorded:
+        return ""
+    now = case_model(case)
+    if recorded == now:
+        return ""
+    if recorded.get("robot") != now["robot"]:
+        return f"robot {recorded.get('robot')} -> {now['robot']}"
+    return (
+        f"robot {now['robot']}'s files {recorded['digest']} -> {now['digest']} (its model, scene, sensor settings or "
+        "balance profile were edited)"
+    )
+
+
 def measure_case(case: Case) -> TrackingMetrics:
     """Prepare and run a case twice from scratch and return its metrics.
 
@@ -974,7 +1002,8 @@ def judge(case: Case, metrics: dict[str, Any], base: Baseline, tolerances: dict[
         hint = f"record it with {update_hint(case)}"
         return CheckResult(case, Status.MISSING, f"case {case.name}: no baseline {base.path}; {hint}", metrics)
     exact = same_environment(base.document.get("environment", {}), environment())
-    differs = tuple(definition_changes(base.document.get("case", {}), case))
+    model = model_change(base.document.get("model"), case)
+    differs = tuple(definition_changes(base.document.get("case", {}), case)) + ((model,) if model else ())
     changes = tuple(compare(case.name, metrics, base.document["metrics"], tolerances, exact=exact))
     failed = [c for c in changes if c.failed]
     if not (failed or differs):
@@ -1023,4 +1052,4 @@ def check_task(shared: tuple[Path, dict[str, Tolerance] | None, Mapping[str, Bas
 
 def baseline_document(case: Case, metrics: dict[str, Any]) -> dict[str, Any]:
     """The JSON content of a baseline."""
-    return {"case": case_record(case), "metrics": metrics, "environment": environment()}
+    return {"case": case_record(case), "model": case_model(case), "metrics": metrics, "environment": environment()}
