@@ -84,16 +84,17 @@ def check_writable(path: Path, *, overwrite: bool) -> None:
     Raises:
         OutputExistsError: ``path`` exists and overwriting was not asked for.
         ConfigError: ``overwrite`` is not True or False (a string such as ``"no"`` is refused, not read as
-            true), ``path`` is a folder or anything else that is not a regular file (a FIFO, a socket, a
-            device, or a symbolic link to one: :func:`check_regular`), it exists and cannot be renamed over
-            (:func:`unreplaceable`), a file stands where one of its folders should be, its folder (or the
-            nearest existing one above it) does not accept new files, or its name, its temporary name
-            (:func:`atomic_path`) or either's whole path is longer than the file system takes (NAME_MAX,
-            PATH_MAX).
+            true), ``path`` is among the files every run reads (:func:`check_not_read_by_runs`), a folder or
+            anything else that is not a regular file (a FIFO, a socket, a device, or a symbolic link to one:
+            :func:`check_regular`), it exists and cannot be renamed over (:func:`unreplaceable`), a file stands
+            where one of its folders should be, its folder (or the nearest existing one above it) does not accept
+            new files, or its name, its temporary name (:func:`atomic_path`) or either's whole path is longer than
+            the file system takes (NAME_MAX, PATH_MAX).
     """
     overwrite = check_flag("overwrite", overwrite)
     path = Path(path)
     check_length(path)
+    check_not_read_by_runs(path)
     if path.is_dir():
         raise ConfigError(f"cannot write {path}: it is a folder; give a file name")
     check_regular(path)
@@ -103,6 +104,32 @@ def check_writable(path: Path, *, overwrite: bool) -> None:
         if why:
             raise ConfigError(f"cannot replace {path}: {why}; fix that, or choose another path")
     check_folder_for(path)
+
+
+def check_not_read_by_runs(path: Path) -> None:
+    """Refuse an output among the files nhsim's runs read whatever the command names: its models folder (the
+    robots' models and sensor settings, the scenarios and their maps, the balance profiles: a run reads the
+    default scenario, or ``open`` for a reference, without naming it) and the files of the robots registered
+    besides (a plugin's), with ``--overwrite`` too: written over, every later run fails or runs other physics.
+    Symbolic links are resolved.
+
+    Raises:
+        ConfigError: Naming what the path is and the fix.
+    """
+    from planning.core.robot import MODELS_DIR, ROBOTS, robot_files
+
+    target = resolved(path)
+    models = MODELS_DIR.resolve()
+    what = f"inside nhsim's models folder {models}" if target == models or models in target.parents else ""
+    for name in sorted(set(ROBOTS) - set(ROBOTS.built_in())) if not what else ():
+        files = robot_files(name)
+        if target in {resolved(f) for f in (files.mjcf, files.scene, files.sensors)}:
+            what = f"one of robot {name}'s files"
+    if what:
+        raise ConfigError(
+            f"cannot write {path}: it is {what}, which the runs read (robots, sensor settings, scenarios, maps); "
+            "choose a path outside it"
+        )
 
 
 #: What a file that is not a regular one is, by its type (:mod:`stat`).

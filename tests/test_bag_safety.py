@@ -338,6 +338,21 @@ def test_montecarlo_refuses_bags_written_over_its_input(
     assert not (tmp_path / "renders").exists()
 
 
+@pytest.mark.parametrize("output", ["f.json", "f-fan.png", "f.jsonl"])
+def test_montecarlo_refuses_bags_on_its_own_outputs_before_any_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], output: str
+) -> None:
+    """``--bags f.json`` beside ``--json f.json``: the whole study ran and wrote its results, summary and plots,
+    then exited 2 ("f.json is a file, not a folder"); now refused before the first run, nothing written."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["montecarlo", "--reference", "line", "--runs", "2", "--jobs", "1", "--quiet", "--results", "f.jsonl"]
+    code, err = _run([*argv, "--json", "f.json", "--bags", output], capsys)
+    assert code == 2, err
+    what = {"f.json": "summary", "f-fan.png": "fan plot", "f.jsonl": "results"}[output]
+    assert f"--bags {output} and the study's {what} {output} share a path" in err, err
+    assert list(tmp_path.iterdir()) == []
+
+
 # ------------------------------------------------------------------------------ 3. and 4. what a bag says
 def _header(ty: Any, t: float, frame: str) -> Any:
     stamp = ty["builtin_interfaces/msg/Time"](sec=int(t), nanosec=round((t % 1) * 1e9))

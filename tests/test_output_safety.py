@@ -258,6 +258,52 @@ def test_tune_refuses_to_write_over_a_cases_scenario(
     assert _tree(tmp_path) == before
 
 
+@pytest.mark.parametrize(
+    ("argv", "target"),
+    [  # each reads the models folder without naming a file of it: the default scenario, open for a reference
+        (["simulate", "--no-video", "--no-plots", "--runs", "closed_loop", "--json"], "scenarios/edumip_map.toml"),
+        (["simulate", "--reference", "line", "--no-video", "--json"], "sensors/turtlebot3.toml"),
+        (["simulate", "--reference", "line", "--no-video", "--no-plots", "--bag"], "bags/run"),
+        (["compare", "--reference", "circle", "--trackers", "fbl", "--json"], "scenarios/open.toml"),
+        (["plan", "--scenario", "farm", "--json"], "maps/edumip_map.png"),
+        (["montecarlo", "--reference", "line", "--runs", "2", "--jobs", "1", "--results"], "robots/edumip.xml"),
+        (["tune", "--scenarios", "open:line", "--trials", "1", "--draws", "1", "--json"], "balance/x.toml"),
+    ],
+)
+def test_no_output_goes_into_the_models_folder_the_runs_read(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], argv: list[str], target: str
+) -> None:
+    """Only a scenario named with --scenario was an input: ``--json models/scenarios/open.toml --overwrite`` with
+    the open scenario implied (a reference), the default scenario, its map, a sensor table or a robot's model
+    were written over, and every later run failed. The check sees the models folder (a copy here, so a failure
+    of the check cannot reach the real one)."""
+    import planning.core.robot as robot_module
+
+    models = tmp_path / "models"
+    shutil.copytree(robot_module.MODELS_DIR, models)
+    monkeypatch.setattr(robot_module, "MODELS_DIR", models)
+    monkeypatch.chdir(tmp_path)
+    before = _tree(models)
+    assert main([*argv, str(models / target), "--overwrite", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert f"it is inside nhsim's models folder {models.resolve()}, which the runs read" in err, err
+    assert _tree(models) == before and sorted(p.name for p in tmp_path.iterdir()) == ["models"]
+
+
+def test_a_registered_robots_files_are_no_output(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from planning.core.robot import ROBOTS, register_robot
+    from tests.registry_helpers import isolated
+    from tests.test_robot_plugins import _robot
+
+    with isolated(monkeypatch, (ROBOTS,), "loaded"):
+        model, sensors = _robot(tmp_path / "mine", "mybot")
+        register_robot("mybot", model, sensors=sensors)
+        for path in (model, model.with_name("mybot_scene.xml"), sensors):
+            with pytest.raises(ConfigError, match="it is one of robot mybot's files, which the runs read"):
+                check_writable(path, overwrite=True)
+        check_writable(tmp_path / "mine" / "record.json", overwrite=True)  # beside them: fine
+
+
 # ---- one check of a scenario's [sensors] --------------------------------------------------------
 
 

@@ -9,6 +9,7 @@ import os
 import shlex
 import shutil
 import sys
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -344,7 +345,7 @@ def run(args: argparse.Namespace) -> int:
     _check_outputs(paths, [spec.key(), *spec.earlier_keys()], args.overwrite)
     check_apart_from_inputs(args, paths.values())
     if args.bags is not None:
-        _check_bags(args.bags, args.overwrite, input_paths(args))
+        _check_bags(args.bags, args.overwrite, input_paths(args), paths)
     try:
         results = ResultsFile(paths["results"], spec.key(), spec.earlier_keys(), seeds=spec.record_seeds)
     except ConfigError as exc:
@@ -424,15 +425,24 @@ def _write(result: Any, paths: dict[str, Path], record: dict[str, Any], args: ar
         results.file.unlink()  # in place now, as this study's results file
 
 
-def _check_bags(folder: Path, overwrite: bool, inputs: list[tuple[str, Path]]) -> None:
-    """Before any run: ``--bags`` names a folder that can take new bags, not an input, inside one or holding
-    one where a bag may go (``worst-*``), and one holding bags of an earlier study only with ``--overwrite``
-    (which bags the worst runs will be is known only after)."""
-    from sim.outputs import check_folder_for, resolved
+def _check_bags(folder: Path, overwrite: bool, inputs: list[tuple[str, Path]], outputs: Mapping[str, Path]) -> None:
+    """Before any run: ``--bags`` names a folder that can take new bags, not one of the study's own ``outputs``
+    (by kind: the results, the summary, its plots), not an input, inside one or holding one where a bag may go
+    (``worst-*``), not among the files every run reads, and one holding bags of an earlier study only with
+    ``--overwrite`` (which bags the worst runs will be is known only after)."""
+    from sim.outputs import check_folder_for, check_not_read_by_runs, resolved
 
     if folder.exists() and not folder.is_dir():
         raise ConfigError(f"--bags {folder}: a file of that name exists; give a folder")
+    check_not_read_by_runs(folder)
     here = resolved(folder)
+    for kind, out in outputs.items():
+        if resolved(out) == here or here in resolved(out).parents:
+            what = {"json": "summary", "fan": "fan plot", "cdf": "CDF plot"}.get(kind, kind)
+            raise ConfigError(
+                f"--bags {folder} and the study's {what} {out} share a path (the bags go in a folder of that name); "
+                "choose another --bags folder"
+            )
     for given, path in inputs:
         source = resolved(path)
         inside = here in source.parents and source.relative_to(here).parts[0].startswith("worst-")

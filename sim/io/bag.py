@@ -93,15 +93,17 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
 
     Raises:
         OutputExistsError: ``path`` is an empty folder or a bag this program wrote, and ``overwrite`` is false.
-        ConfigError: ``overwrite`` is not True or False, ``path`` is a file, or a folder that is not a bag this
+        ConfigError: ``overwrite`` is not True or False, ``path`` lies among the files every run reads
+            (:func:`sim.outputs.check_not_read_by_runs`), is a file, or a folder that is not a bag this
             program wrote (:func:`not_ours`: never replaced, with ``overwrite`` too), or a bag that could not be
             moved aside (:func:`_unmovable`: the folder and the fix named), or its parent folder cannot take new
             files.
     """
-    from sim.outputs import check_folder_for
+    from sim.outputs import check_folder_for, check_not_read_by_runs
 
     overwrite = check_flag("overwrite", overwrite)
     path = Path(path)
+    check_not_read_by_runs(path)
     if path.suffix.lower() in BAG_FILE_SUFFIXES:
         folder = str(path.with_suffix(""))
         raise ConfigError(
