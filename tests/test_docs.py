@@ -116,3 +116,24 @@ def test_blocks_owned_by_a_test_are_run_there() -> None:
         owner = ROOT / b.owner
         assert owner.is_file(), f"{b.name}: no test module {b.owner}"
         assert b.page in owner.read_text(), f"{b.owner} does not read {b.page}"
+
+
+def test_an_interrupted_benchmark_keeps_its_page_and_stops_the_script(tmp_path: Path) -> None:
+    """nhsim handles Ctrl-C itself and exits 130, so bash never saw the interrupt: ``docs/bench.sh bag sim``
+    replaced bag.md with a page of "interrupted" (exit status 130) and went on to the next benchmark. Here the
+    benchmark is a stand-in that exits 130 as an interrupted nhsim does."""
+    root = tmp_path / "repo"
+    (root / "docs" / "benchmarks").mkdir(parents=True)
+    (root / ".venv" / "bin").mkdir(parents=True)
+    (root / "docs" / "bench.sh").write_text((ROOT / "docs" / "bench.sh").read_text())
+    python = root / ".venv" / "bin" / "python"
+    python.write_text('#!/bin/sh\necho "$*" >> "$(dirname "$0")/ran"\necho "nhsim bench: interrupted" >&2\nexit 130\n')
+    python.chmod(0o755)
+    page = root / "docs" / "benchmarks" / "bag.md"
+    page.write_text("the good page\n")
+    done = subprocess.run(["bash", str(root / "docs" / "bench.sh"), "bag", "sim"], capture_output=True, text=True)
+    assert done.returncode == 130, done.stderr
+    assert "was interrupted (exit status 130); docs/benchmarks/bag.md kept as it was" in done.stderr
+    assert page.read_text() == "the good page\n"
+    assert sorted(p.name for p in page.parent.iterdir()) == ["bag.md"]  # no temporary page left
+    assert (root / ".venv" / "bin" / "ran").read_text() == "-m sim bench bag --repeats 5\n"  # sim never started
