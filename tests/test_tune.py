@@ -246,7 +246,7 @@ def test_workers_never_take_one_waiting_trial_twice(tmp_path: Path) -> None:
     [
         ({"--scenarios": "nowhere:figure8"}, "nowhere"),
         ({"--scenarios": "open:spiral"}, "simulate_plan|spiral"),
-        ({"--storage": "sqlite:////nonexistent-nhsim-dir/sub/study.db"}, "cannot open storage"),
+        ({"--storage": "sqlite:////proc/nhsim-none/study.db"}, "cannot write /proc/nhsim-none/study.db: its folder"),
         ({"--storage": "nosuchdb://user@host/db"}, "cannot open storage"),
         # one connection's own database: the study was made in it and not found by the next ('Record does not exist')
         (
@@ -1093,3 +1093,28 @@ def test_an_output_name_too_long_is_refused_before_any_trial(
     err = capsys.readouterr().err
     assert "its name is 257 bytes long; at most 255 fit" in err and "Traceback" not in err
     assert not (tmp_path / "study.db").exists()
+
+
+def test_a_storage_of_another_programs_tables_is_refused_and_a_new_ones_folder_made(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """An SQLite file of an application's own tables took Optuna's fifteen beside them, silently (the study's name
+    was looked up in it first, which made them); a file URL in a folder not there yet failed in SQLAlchemy's
+    words ("unable to open database file") where every other output has its folder made."""
+    import sqlite3
+
+    app = tmp_path / "app.db"
+    with contextlib.closing(sqlite3.connect(app)) as db:
+        db.execute("CREATE TABLE customers (id INTEGER PRIMARY KEY, name TEXT)")
+        db.commit()
+    argv = _args(tmp_path / "out", 1, "--eval-runs", "0")
+    argv[argv.index("--storage") + 1] = f"sqlite:///{app}"
+    for study in ([], ["--study", "t"]):  # the default study's name is looked up in the storage
+        assert main([a for a in argv if a not in ("--study", "t")] + study) == 2
+        assert "the file holds another program's tables (customers) and no Optuna study" in capsys.readouterr().err
+    with contextlib.closing(sqlite3.connect(app)) as db:
+        assert db.execute("SELECT name FROM sqlite_master WHERE type = 'table'").fetchall() == [("customers",)]
+    assert not (tmp_path / "out").exists()
+    argv[argv.index("--storage") + 1] = f"sqlite:///{tmp_path}/new/folder/study.db"
+    assert main(argv) == 0
+    assert (tmp_path / "new" / "folder" / "study.db").is_file()

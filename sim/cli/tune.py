@@ -553,9 +553,16 @@ def _default_study(
 
 def _holds(study: str, storage: str) -> bool:
     """Whether ``storage`` holds a study named ``study`` (an SQLite file that is not there is not opened:
-    that would make it)."""
+    that would make it; nor is one refused as a storage, which opening would fill with Optuna's tables).
+
+    Raises:
+        ConfigError: A storage that cannot keep a study (:func:`sim.tools.tune.check_storage`).
+    """
     import optuna
 
+    from sim.tools.tune import check_storage
+
+    check_storage(storage)
     if storage.startswith("sqlite:///") and not Path(storage.removeprefix("sqlite:///")).is_file():
         return False
     try:
@@ -589,8 +596,8 @@ def tune_files(
     """
     from planning.errors import OutputExistsError
     from sim.cli.job_outputs import check_apart_from_inputs
-    from sim.outputs import check_distinct, check_length, check_writable
-    from sim.tools.tune import check_storage, shown_url
+    from sim.outputs import check_distinct, check_folder_for, check_length, check_writable
+    from sim.tools.tune import check_storage, shown_url, sqlite_file
 
     study, storage = (
         (args.study, args.storage) if args.study else _default_study(args, tokens, localiser, robot, own_robot)
@@ -605,6 +612,9 @@ def tune_files(
         args.json or gains.with_suffix(".json"),
     )
     check_storage(files.storage)
+    database = sqlite_file(files.storage)
+    if database is not None:  # its folder is made, as an output's (renders/ for the default)
+        check_folder_for(database)
     written = (files.gains,) if writes_gains_file(getattr(args, "tracker", "fbl").strip()) else ()
     paths = (*written, files.history, files.importance, files.record)
     check_distinct(
@@ -714,7 +724,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     from sim.physics.perturb import PerturbationRange
-    from sim.tools.tune import TuneSpec, make_draws
+    from sim.tools.tune import TuneSpec, make_draws, sqlite_file
 
     tokens = _tokens(args)
     if not tokens:
@@ -767,8 +777,9 @@ def _run(args: argparse.Namespace) -> int:
     except ConfigError as exc:  # said as --scenarios takes a case (a scenario's error stays one)
         kind = ScenarioError if isinstance(exc, ScenarioError) else ConfigError
         raise kind(in_case_tokens(without_python(str(exc)))) from exc
-    if args.storage is None:
-        Path("renders").mkdir(exist_ok=True)
+    database = sqlite_file(spec.storage)
+    if database is not None:  # its folder made, as every output's is (renders/ for the default; checked)
+        database.parent.mkdir(parents=True, exist_ok=True)
     study = _optimise(args, spec)
     with _storage_kept(spec.storage):  # the best trial and the plots read the study
         best, default_obj = _report_best(study, spec, evaluator)

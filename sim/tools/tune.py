@@ -55,6 +55,7 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -425,6 +426,44 @@ def check_storage(url: str) -> None:
             "study and a rerun resumes it, and each connection to memory sees a database of its own that is gone "
             "when it closes; give a file URL, e.g. sqlite:///renders/tune.db"
         )
+    others = _other_tables(sqlite_file(url))
+    if others:
+        raise ConfigError(
+            f"{option('storage', url)}: the file holds another program's tables ({', '.join(others[:5])}"
+            f"{', ...' if len(others) > 5 else ''}) and no Optuna study; tuning would add its own tables beside "
+            "them: give a database file of its own, e.g. sqlite:///renders/tune.db"
+        )
+
+
+def sqlite_file(url: str) -> Path | None:
+    """The file of an SQLite URL (``sqlite:///path``), or None (another database, memory, a URL that cannot be
+    read)."""
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
+    try:
+        parsed = make_url(url)
+    except ArgumentError:
+        return None
+    name = parsed.database
+    if parsed.get_backend_name() != "sqlite" or name in (None, "", ":memory:") or parsed.query.get("mode") == "memory":
+        return None
+    return Path(name.removeprefix("file:"))
+
+
+def _other_tables(file: Path | None) -> list[str]:
+    """The tables of an existing SQLite file that holds no Optuna storage (no ``studies`` table), sorted; [] for
+    none, an Optuna storage, or a file SQLite cannot read (:func:`open_storage` says why)."""
+    import sqlite3
+
+    if file is None or not file.is_file():
+        return []
+    try:
+        with contextlib.closing(sqlite3.connect(f"{file.resolve().as_uri()}?mode=ro", uri=True)) as db:
+            tables = sorted(row[0] for row in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'"))
+    except sqlite3.Error:
+        return []
+    return [] if "studies" in tables else tables
 
 
 def with_driver(url: str) -> str:
