@@ -15,7 +15,7 @@ import socket
 import threading
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import pytest
 
@@ -39,7 +39,7 @@ def serial(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
     path = tmp_path_factory.mktemp("mc") / "serial.jsonl"
     spec = _spec()
     result = run_montecarlo(spec, Executor(), ResultsFile(path, spec.key()))
-    return {"stats": result.stats, "records": result.records, "path": path}
+    return {"stats": result.stats, "records": result.records, "path": path, "spec": spec}
 
 
 def test_statistics_summarise_every_run_kind(serial: dict[str, object]) -> None:
@@ -232,9 +232,14 @@ def test_a_replaced_results_file_stays_until_the_study_is_written(serial: dict[s
     header, *lines = results.file.read_text().splitlines()
     assert json.loads(header)["key"] == other.key() and [json.loads(x) for x in lines] == [first]
     again = ResultsFile(theirs, other.key(), replacing=True)  # the same command after an interrupt: resumed
-    assert sorted(again.records) == [first["index"]] and again.file == results.file
+    assert sorted(again.records) == [first["index"]] and again.file == results.file and again.notes == []
+    own = ResultsFile(theirs, cast(MonteCarloSpec, serial["spec"]).key())  # the file's study rerun: the runs waiting
+    waiting = f"{results.file} holds 1 run(s) of an interrupted study that was replacing {theirs}: rerun that study"
+    assert any(n.startswith(waiting) for n in own.notes), own.notes
     third = MonteCarloSpec(Case("open", robot="turtlebot3", reference="line", seed=5), 3)
-    assert ResultsFile(theirs, third.key(), replacing=True).records == {}  # another study's partial runs: replaced
+    replaced = ResultsFile(theirs, third.key(), replacing=True)
+    assert replaced.records == {}  # another study's partial runs: replaced, and said (they were dropped unsaid)
+    assert replaced.notes == [f"replaced {results.file}: its 1 run(s), of another interrupted study, are dropped"]
     assert not results.file.exists() and theirs.read_bytes() == before
 
 

@@ -362,9 +362,16 @@ class ResultsFile:
             except ConfigError:
                 if not self.replacing:
                     raise
+                runs = _runs_in(self.file)
                 self.file.unlink()  # another study's partial runs, or none: --overwrite replaces them too
                 self.records.clear()
-                self.notes.clear()
+                self.notes[:] = [f"replaced {self.file}: its {runs} run(s), of another interrupted study, are dropped"]
+        partial = partial_path(self.path)
+        if not self.replacing and partial.exists():
+            self.notes.append(
+                f"{partial} holds {_runs_in(partial)} run(s) of an interrupted study that was replacing {self.path}: "
+                "rerun that study (its command, --overwrite included) to resume them, or delete the file"
+            )
 
     def _read(self) -> None:
         raw = self.file.read_bytes()
@@ -499,6 +506,11 @@ def check_study(path: Path, key: Mapping[str, Any], earlier: Sequence[Mapping[st
         return
     if isinstance(theirs, dict) and theirs != key and theirs not in earlier:
         raise _another_study(path, theirs, key)
+
+
+def _runs_in(file: Path) -> int:
+    """The run lines of a results file (those after its header)."""
+    return max(len(file.read_bytes().splitlines()) - 1, 0)
 
 
 def partial_path(path: Path) -> Path:
