@@ -211,6 +211,11 @@ def test_two_outputs_at_one_path_are_named_by_their_options(
     err = capsys.readouterr().err
     assert "--out (the gains) and --json (the record) both name same.json; choose distinct names" in err
     assert list(tmp_path.iterdir()) == []
+    # a job's video by its default name, the record given there: "is given for two of them" named neither
+    assert main(["simulate", "--reference", "line", "--json", "renders/open-line.mp4", "--no-plots"]) == 2
+    said = "--video (the video) and --json (the record) both name renders/open-line.mp4; choose distinct names"
+    assert said in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
     with pytest.raises(ConfigError) as caught:
         check_distinct([Path("same.json"), Path("other.json"), Path("same.json")])
     assert not re.search(r"same\.json and same\.json", str(caught.value))

@@ -246,7 +246,14 @@ class OutputPlan:
 
     def targets(self) -> list[Path]:
         """Every file the job will write."""
-        return [p for p in [self.video, *self.plots.values(), self.json] if p is not None]
+        return list(self.named_targets().values())
+
+    def named_targets(self) -> dict[str, Path]:
+        """Every file the job will write, by what it is as a message names it: the option that sets it (the video
+        and the record by ``--video`` and ``--json``, given or by default; a plot beside the record)."""
+        named = {} if self.video is None else {"--video (the video)": self.video}
+        named |= {f"the {name} plot (beside --json)": p for name, p in self.plots.items()}
+        return named | {"--json (the record)": self.json}
 
 
 def show_progress(args: argparse.Namespace) -> bool:
@@ -399,7 +406,7 @@ def plan_outputs(
 
         check_bag_target(bag, overwrite=args.overwrite)
         check_bag_apart(bag, targets)
-    check_distinct(targets)
+    check_distinct(plan.named_targets())
     for path in targets:
         check_writable(path, overwrite=args.overwrite)
     if video is not None:
