@@ -89,6 +89,21 @@ def test_a_foreign_bag_survives_overwrite(
         assert _texts(bag) == files and not (tmp_path / "out").exists()
 
 
+def test_a_bag_inside_a_bag_is_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--bag outer/inner`` in nhsim's own bag outer was written; outer then held a folder beside its files, and
+    ``--bag outer --overwrite`` refused it as holding "inner, which nhsim did not write"."""
+    monkeypatch.chdir(tmp_path)
+    bag = tmp_path / "realbag"
+    files = _recording(bag)
+    for inner in (bag / "inner", bag / "deeper" / "inner"):
+        code, err = _run([*JOB, "--path", str(_arc(tmp_path)), "--bag", str(inner), "--json", "out/r.json"], capsys)
+        assert code == 2, err
+        assert f"cannot write the bag {inner}: it lies inside the bag {bag} (a folder with a metadata.yaml)" in err
+        assert _texts(bag) == files and not (tmp_path / "out").exists()
+
+
 def test_a_folder_that_is_no_bag_is_refused_without_suggesting_overwrite(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -94,7 +94,7 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
     Raises:
         OutputExistsError: ``path`` is an empty folder or a bag this program wrote, and ``overwrite`` is false.
         ConfigError: ``overwrite`` is not True or False, ``path`` lies among the files every run reads
-            (:func:`sim.outputs.check_not_read_by_runs`), is a file, or a folder that is not a bag this
+            (:func:`sim.outputs.check_not_read_by_runs`) or inside a bag, is a file, or a folder that is not a bag this
             program wrote (:func:`not_ours`: never replaced, with ``overwrite`` too), or a bag that could not be
             moved aside (:func:`_unmovable`: the folder and the fix named), or its parent folder cannot take new
             files.
@@ -104,6 +104,12 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
     overwrite = check_flag("overwrite", overwrite)
     path = Path(path)
     check_not_read_by_runs(path)
+    holder = next((p for p in Path(os.path.abspath(path)).parents if (p / "metadata.yaml").is_file()), None)
+    if holder is not None:  # a bag holds its own files only: the outer bag would read as not a bag, nor nhsim's
+        raise ConfigError(
+            f"cannot write the bag {path}: it lies inside the bag {holder} (a folder with a metadata.yaml); choose a "
+            f"folder outside it with {option('bag', python='path')}"
+        )
     if path.suffix.lower() in BAG_FILE_SUFFIXES:
         folder = str(path.with_suffix(""))
         raise ConfigError(
