@@ -427,3 +427,26 @@ def test_write_json_writes_arrays_compactly_and_exactly(tmp_path: Path) -> None:
     assert '  "directions": [1, -1, 1],' in lines  # a vector on one line
     assert sum(line.startswith("    [") for line in lines) == 400  # a matrix one row per line, indented
     assert "      [1.0, 0.0]," in lines and '    "row": [[1.0, 1.0]],' in lines
+
+
+@pytest.mark.parametrize(
+    ("options", "said"),
+    [
+        (["--no-plots"], "is the default of --video (the video): give another with --video)"),
+        (["--no-video"], "is the default of the world plot (beside --json): give another with --json)"),
+        (["--no-video", "--no-plots"], "is the default of --json (the record): give another with --json)"),
+    ],
+)
+def test_an_unwritable_default_output_names_the_option_that_moves_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], options: list[str], said: str
+) -> None:
+    """A working folder where renders/ cannot be made (read-only, or a file of that name) said "cannot write
+    renders/open-line-world.png: ...; choose another path" of a path the user never gave."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "renders").write_text("in the way")
+    assert main([*FAST, *options]) == 2
+    err = capsys.readouterr().err
+    assert "cannot write renders/" in err and said in err, err
+    if "--no-video" in options:  # the record given there: its own message, no default said
+        assert main([*FAST, *options, "--json", "renders/r.json"]) == 2
+        assert "is the default of" not in capsys.readouterr().err

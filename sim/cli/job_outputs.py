@@ -42,7 +42,7 @@ from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from planning.errors import ConfigError
+from planning.errors import ConfigError, OutputExistsError
 
 DEFAULT_DIR = Path("renders")
 #: Options of ``simulate`` that change the runs, with their defaults (the names tag what they resolve to:
@@ -407,8 +407,17 @@ def plan_outputs(
         check_bag_target(bag, overwrite=args.overwrite)
         check_bag_apart(bag, targets)
     check_distinct(plan.named_targets())
-    for path in targets:
-        check_writable(path, overwrite=args.overwrite)
+    for name, path in plan.named_targets().items():
+        flag = "--video" if name.startswith("--video") else "--json"  # the plots go beside the record
+        try:
+            check_writable(path, overwrite=args.overwrite)
+        except OutputExistsError:
+            raise
+        except ConfigError as exc:
+            if getattr(args, flag[2:], None) is not None:
+                raise
+            # a path nobody gave (renders/ in a folder that cannot take it): the option that names another
+            raise ConfigError(f"{exc} ({path} is the default of {name}: give another with {flag})") from exc
     if video is not None:
         from planning.errors import DependencyError
         from sim.viz.renderer import probe_renderer
