@@ -52,7 +52,8 @@ class FBLGains:
     xi_min: float = 0.02
 
     def __post_init__(self) -> None:
-        check_positive_fields(self, ("kp", "kd", "xi_min"), "the error dynamics need Kp, Kd > 0")
+        check_positive_fields(self, ("kp", "kd"), "the error dynamics need Kp, Kd > 0")
+        check_positive_fields(self, ("xi_min",), "the law divides by the speed, kept at least xi_min (default 0.02)")
 
     @classmethod
     def parse(cls, text: str) -> FBLGains:

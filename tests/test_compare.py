@@ -89,6 +89,12 @@ def test_compare_cli_rejects_unknown_trackers_and_bad_params(tmp_path: Path) -> 
     other.write_text(json.dumps({"rpp": {"lookahead_time": 0.5}}))
     r = nhsim("compare", "--reference", "line", "--trackers", "kanayama", "--params", str(other))
     assert r.returncode == 2 and "--params gives parameters of rpp, which --trackers kanayama does not run" in r.stderr
+    for tracker, gains in (("fbl", {"kp": 500, "kd": 1}), ("segmented", {"kp": 1e300})):  # simulate --gains refuses
+        unstable = tmp_path / f"{tracker}.json"
+        unstable.write_text(json.dumps({tracker: gains}))
+        r = nhsim("compare", "--reference", "line", "--trackers", tracker, "--params", str(unstable))
+        said = f"--params {tracker}: FBL gains Kp={gains['kp']:g}, Kd={gains.get('kd', 6):g} make the error dynamics"
+        assert r.returncode == 2 and said in r.stderr, r.stderr
     r = nhsim("compare", "--reference", "line", "--trackers", "fbl", "--plots", str(tmp_path / "x.png"))
     assert r.returncode == 2 and f"--plots {tmp_path}/x writes {tmp_path}/x-paths.png and" in r.stderr
     assert not list(tmp_path.glob("x*"))  # it wrote x.png-paths.png

@@ -28,6 +28,7 @@ import mujoco
 import numpy as np
 
 from control.base import TRACKERS, Tracker, make_tracker, tracker_options, tuned_option
+from control.gains import FBLGains, check_sampled_stability
 from planning.core.checks import check_number
 from planning.core.files import read_input
 from planning.core.robot import RobotSpec
@@ -320,13 +321,17 @@ def compare_trackers(
         progress: Told (tracker, runs done, runs total) after each run.
 
     Raises:
-        ConfigError: Unknown or repeated trackers, runs < 1, parameters of the wrong type.
+        ConfigError: Unknown or repeated trackers, runs < 1, parameters of the wrong type, FBL gains the control
+            rate cannot keep stable (:func:`control.gains.check_sampled_stability`).
         NhsimError: From preparing the trajectory (planning, smoothing); a tracker's run that fails
             (:class:`~planning.errors.SimulationError`) is kept as ``failed`` and the others run on.
     """
     names = check_trackers(trackers)
     runs = check_number(option("runs"), runs, integer=True, at_least=1)
     params = dict(params or {})
+    for name, given in params.items():  # as a case's gains are checked (Case), before any work
+        if isinstance(given, FBLGains):
+            check_sampled_stability(given, case.control_rate, f"{option('params', python='params')} {name}")
     prepared = prepare_trajectory(case)
     base = PreparedCase(prepared, simulator_for(prepared))
     draws = make_draws(runs, case.seed, held_out=True) if runs > 1 else ()
