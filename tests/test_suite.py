@@ -285,6 +285,8 @@ def test_a_tipped_skid_edumip_ends_the_episode_with_discount_0() -> None:
     assert d.xmat[base][8] < np.cos(TIP_ANGLE) and ts.discount == 0.0 and not env.task.episode.recorder.contacts
     assert steps == 20 < env.task.schedule.n_ctrl == 1265
     _assert_valid_observation(env, ts)
+    # the run log says so, as a simulate run's does (its status said "ok" of a robot on its back)
+    assert env.task.log().status.startswith("fell at t=0.400 s (|tilt| beyond 0.85 rad")  # 20 periods of 20 ms
 
 
 @pytest.mark.parametrize(

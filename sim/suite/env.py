@@ -237,7 +237,10 @@ class TrackingTask(control.Task):  # type: ignore[misc]
         ep.k += 1
         d = physics.data.ptr
         self._read_sensors(d)
-        ep.fell = ep.fell or self.fallen(ep, d)
+        if not ep.fell and self.fallen(ep, d):
+            ep.fell = True
+            if ep.recorder.balance is None:  # the run log's status says it, as a simulate run's does
+                ep.recorder.tipped_at = float(d.time)
 
     def fallen(self, episode: Episode, d: mujoco.MjData) -> bool:
         """Whether the robot has fallen, at the end of a period.
