@@ -127,6 +127,10 @@ def test_a_scenario_tables_errors_name_its_file_and_field_not_the_command_line(t
         r"fix_rate=6.25 .*; or give a control rate that is a multiple of 10 Hz \(--control-rate",
     ):
         load_sensor_profile("edumip", control_rate=25.0)
+    # a control rate the physics cannot run is said first: advice for the fix rate at 50.4 Hz (fix_rate=8.4) was
+    # followed by "50.4 Hz is not a whole number of 2 ms physics steps"
+    with pytest.raises(ConfigError, match=r"^control rate 50.4 Hz is not a whole number of 2 ms physics steps"):
+        load_sensor_profile("edumip", control_rate=50.4)
     # through a case, as every command reads it: the scenario's file is named
     from planning.scenario import load_scenario
     from sim.pipeline.case import Case

@@ -301,9 +301,10 @@ def load_sensor_profile(
         table: A ``[sensors]`` table (a scenario's, or :func:`read_sensor_table` of a file).
         text: ``key=value,...`` from ``--sensors``; it wins over ``table``.
         source: The file (or scenario) ``table`` comes from: its errors name it and the field.
-        control_rate: The runs' control rate [Hz], when known: the fix rate is checked against it
-            (:func:`fix_period`), its error said where the rate was set (``text``, ``table``'s ``source`` and
-            field, or the robot's profile).
+        control_rate: The runs' control rate [Hz], when known: checked against the robot's physics step
+            (:func:`sim.physics.motors.control_steps`), then the fix rate against it (:func:`fix_period`), its
+            error said where the rate was set (``text``, ``table``'s ``source`` and field, or the robot's
+            profile).
 
     Raises:
         ConfigError: No profile for the robot, or a bad key or value anywhere.
@@ -315,6 +316,9 @@ def load_sensor_profile(
     if text:
         profile = profile.parse(text)
     if control_rate is not None:
+        from sim.physics.model import robot_timestep
+
+        control_steps(control_rate, robot_timestep(robot))  # first: a fix rate's advice assumes a rate that runs
         _check_fix_rate(robot, path, profile.fix_rate, control_rate, table, text, source)
     return profile
 
