@@ -133,7 +133,7 @@ def test_segmented_params_reject_non_positive_and_non_finite(field: str, bad: ob
 
 
 def test_positive_fields_check_names_the_field_and_the_reason() -> None:
-    with pytest.raises(ConfigError, match=r"FBLGains.xi_min must be a finite number > 0, got -0.1; the error dynamics"):
+    with pytest.raises(ConfigError, match=r"FBLGains.xi_min must be a finite number > 0, got -0.1; the law divides by"):
         FBLGains(xi_min=-0.1)
     gains = FBLGains()
     check_positive_fields(gains, ("kp", "kd"), "unused")  # valid: no error, values kept

@@ -368,7 +368,7 @@ def plan_outputs(
         OutputExistsError: A target exists and --overwrite was not given.
         DependencyError: A video was asked for and no OpenGL backend can load.
     """
-    from sim.outputs import check_distinct, check_video_name, check_writable
+    from sim.outputs import check_video_name
     from sim.viz.plots.run import ESTIMATION_PLOT, LOCALISER_PLOT, PITCH_PLOT, PLOTS
     from sim.viz.replay import RenderSettings, parse_size
 
@@ -406,6 +406,22 @@ def plan_outputs(
 
         check_bag_target(bag, overwrite=args.overwrite)
         check_bag_apart(bag, targets)
+    _check_targets(plan, args)
+    if video is not None:
+        from planning.errors import DependencyError
+        from sim.viz.renderer import probe_renderer
+
+        reason = probe_renderer()
+        if reason is not None:
+            raise DependencyError(reason)
+    return plan
+
+
+def _check_targets(plan: OutputPlan, args: argparse.Namespace) -> None:
+    """Every file of ``plan`` distinct and writable (:func:`sim.outputs.check_writable`); one that cannot be written
+    at its default path (``renders/`` in a folder that cannot take it) says so and which option names another."""
+    from sim.outputs import check_distinct, check_writable
+
     check_distinct(plan.named_targets())
     for name, path in plan.named_targets().items():
         flag = "--video" if name.startswith("--video") else "--json"  # the plots go beside the record
@@ -416,16 +432,7 @@ def plan_outputs(
         except ConfigError as exc:
             if getattr(args, flag[2:], None) is not None:
                 raise
-            # a path nobody gave (renders/ in a folder that cannot take it): the option that names another
             raise ConfigError(f"{exc} ({path} is the default of {name}: give another with {flag})") from exc
-    if video is not None:
-        from planning.errors import DependencyError
-        from sim.viz.renderer import probe_renderer
-
-        reason = probe_renderer()
-        if reason is not None:
-            raise DependencyError(reason)
-    return plan
 
 
 def _plot_names(args: argparse.Namespace, own_robot: str | None) -> tuple[str, ...]:
