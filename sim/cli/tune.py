@@ -560,10 +560,11 @@ def _holds(study: str, storage: str) -> bool:
     """
     import optuna
 
-    from sim.tools.tune import check_storage
+    from sim.tools.tune import check_storage, sqlite_file
 
     check_storage(storage)
-    if storage.startswith("sqlite:///") and not Path(storage.removeprefix("sqlite:///")).is_file():
+    database = sqlite_file(storage)
+    if database is not None and not database.is_file():
         return False
     try:
         return study in optuna.get_all_study_names(storage)

@@ -406,27 +406,21 @@ class TuneSpec:
 def check_storage(url: str) -> None:
     """Refuse a storage that cannot keep a study: an in-memory SQLite database (``sqlite://``,
     ``sqlite:///:memory:``, ``mode=memory``) lives in one connection and dies with it, so the study's
-    workers would not share it, its own second connection would not find it, and no rerun could resume it.
+    workers would not share it, its own second connection would not find it, and no rerun could resume it;
+    and an SQLite file of another program's tables, which a study would fill with its own.
     (A URL that cannot be read is left to :func:`open_storage`, which names why.)
 
     Raises:
-        ConfigError: An in-memory database, with a file URL to give instead.
+        ConfigError: An in-memory database, with a file URL to give instead, or another program's file.
     """
-    from sqlalchemy.engine import make_url
-    from sqlalchemy.exc import ArgumentError
-
-    try:
-        parsed = make_url(url)
-    except ArgumentError:
-        return
-    memory = parsed.database in (None, "", ":memory:") or parsed.query.get("mode") == "memory"
-    if parsed.get_backend_name() == "sqlite" and memory:
+    database, backend = _sqlite_database(url)
+    if backend == "sqlite" and database is None:
         raise ConfigError(
             f"{option('storage', url)}: an in-memory SQLite database cannot hold a study: the workers share the "
             "study and a rerun resumes it, and each connection to memory sees a database of its own that is gone "
             "when it closes; give a file URL, e.g. sqlite:///renders/tune.db"
         )
-    others = _other_tables(sqlite_file(url))
+    others = _other_tables(database)
     if others:
         raise ConfigError(
             f"{option('storage', url)}: the file holds another program's tables ({', '.join(others[:5])}"
@@ -438,17 +432,23 @@ def check_storage(url: str) -> None:
 def sqlite_file(url: str) -> Path | None:
     """The file of an SQLite URL (``sqlite:///path``), or None (another database, memory, a URL that cannot be
     read)."""
+    return _sqlite_database(url)[0]
+
+
+def _sqlite_database(url: str) -> tuple[Path | None, str]:
+    """The file of an SQLite URL (None for memory and other databases) and the URL's backend ("" for a URL that
+    cannot be read)."""
     from sqlalchemy.engine import make_url
     from sqlalchemy.exc import ArgumentError
 
     try:
         parsed = make_url(url)
     except ArgumentError:
-        return None
-    name = parsed.database
-    if parsed.get_backend_name() != "sqlite" or name in (None, "", ":memory:") or parsed.query.get("mode") == "memory":
-        return None
-    return Path(name.removeprefix("file:"))
+        return None, ""
+    name, backend = parsed.database, parsed.get_backend_name()
+    if backend != "sqlite" or name in (None, "", ":memory:") or parsed.query.get("mode") == "memory":
+        return None, backend
+    return Path(name.removeprefix("file:")), backend
 
 
 def _other_tables(file: Path | None) -> list[str]:
