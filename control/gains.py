@@ -76,7 +76,7 @@ class FBLGains:
         return cls(kp=kp, kd=kd)
 
 
-def check_sampled_stability(gains: FBLGains, control_rate: float, where: str) -> None:
+def check_sampled_stability(gains: FBLGains, control_rate: float, where: str, *, rate_given: bool = True) -> None:
     """Raise :class:`ConfigError` unless ``gains`` keep the FBL's error dynamics stable at ``control_rate`` [Hz].
 
     The linearised error of each axis is a double integrator driven by an acceleration held for a control period
@@ -88,17 +88,21 @@ def check_sampled_stability(gains: FBLGains, control_rate: float, where: str) ->
         gains: The gains.
         control_rate: The rate the tracker runs at [Hz].
         where: What gave them, for the message (``"--gains 1000,1"``).
+        rate_given: Whether the caller may choose the control rate (the message then suggests raising it; else
+            only Kp and Kd).
     """
     most_kd = 2.0 * control_rate
     most_kp = 2.0 * gains.kd * control_rate
     if gains.kd < most_kd and gains.kp < most_kp:
         return
+    fix = "lower Kp or raise Kd within its bound"
+    if rate_given:
+        fix = "lower Kp, raise Kd within its bound, or raise the control rate"
     raise UnstableGainsError(
         where,
         f"FBL gains Kp={gains.kp:g}, Kd={gains.kd:g} make the error dynamics unstable at the control rate "
         f"{control_rate:g} Hz (held for a period, they need Kd < 2 x rate = {most_kd:g} /s and Kp < 2 x Kd x rate = "
-        f"{most_kp:g} /s^2); lower Kp, raise Kd within its bound, or raise the control rate (the defaults are "
-        f"Kp={FBLGains().kp:g}, Kd={FBLGains().kd:g})",
+        f"{most_kp:g} /s^2); {fix} (the defaults are Kp={FBLGains().kp:g}, Kd={FBLGains().kd:g})",
     )
 
 

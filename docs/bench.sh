@@ -46,7 +46,7 @@ for name in "${names[@]}"; do
     text="$("${nhsim[@]}" $cmd 2>&1)"  # no bars: stdout is not a terminal
     status=$?
     set -e
-    if [ "$status" -ge 128 ]; then  # interrupted: nhsim exits 130 on SIGINT, SIGTERM and SIGHUP (its own handlers)
+    if [ "$status" -eq 130 ]; then  # interrupted: nhsim exits 130 on SIGINT, SIGTERM and SIGHUP (its own handlers)
         rm -f "$tmp"
         echo "docs/bench.sh: nhsim $cmd was interrupted (exit status $status); $out kept as it was" >&2
         exit "$status"

@@ -111,18 +111,22 @@ def check_not_read_by_runs(path: Path) -> None:
     robots' models and sensor settings, the scenarios and their maps, the balance profiles: a run reads the
     default scenario, or ``open`` for a reference, without naming it) and the files of the robots registered
     besides (a plugin's), with ``--overwrite`` too: written over, every later run fails or runs other physics.
-    Symbolic links are resolved.
+    Its folders' symbolic links are resolved, not a link at the path itself (an output replaces the link, not
+    the file it names: :func:`check_regular`).
 
     Raises:
         ConfigError: Naming what the path is and the fix.
     """
     from planning.core.robot import MODELS_DIR, ROBOTS, robot_files
 
-    target = resolved(path)
+    target = Path(os.path.normpath(resolved(Path(path).parent) / Path(path).name))  # "x/.." is x's folder
     models = MODELS_DIR.resolve()
     what = f"inside nhsim's models folder {models}" if target == models or models in target.parents else ""
     for name in sorted(set(ROBOTS) - set(ROBOTS.built_in())) if not what else ():
-        files = robot_files(name)
+        try:
+            files = robot_files(name)
+        except ConfigError:  # a plugin's robot registered wrongly: its own use says so, not every output
+            continue
         if target in {resolved(f) for f in (files.mjcf, files.scene, files.sensors)}:
             what = f"one of robot {name}'s files"
     if what:

@@ -100,8 +100,27 @@ def test_a_bag_inside_a_bag_is_refused(
     for inner in (bag / "inner", bag / "deeper" / "inner"):
         code, err = _run([*JOB, "--path", str(_arc(tmp_path)), "--bag", str(inner), "--json", "out/r.json"], capsys)
         assert code == 2, err
-        assert f"cannot write the bag {inner}: it lies inside the bag {bag} (a folder with a metadata.yaml)" in err
+        assert (
+            f"cannot write the bag {inner}: it lies inside the bag {bag} (a folder with a rosbag2 metadata.yaml)" in err
+        )
         assert _texts(bag) == files and not (tmp_path / "out").exists()
+
+
+def test_a_folder_holding_a_metadata_yaml_of_its_own_is_no_bag(tmp_path: Path) -> None:
+    """Only a rosbag2 metadata.yaml makes a bag: a project's own metadata.yaml above the output refused every bag."""
+    from sim.io.bag import check_bag_target
+
+    (tmp_path / "metadata.yaml").write_text("title: my project\n")
+    check_bag_target(tmp_path / "out" / "b", overwrite=False)
+
+
+def test_montecarlo_bags_beside_the_studys_outputs_are_fine() -> None:
+    """``--bags renders`` with the results in renders/ was refused as "sharing a path" (the bags go in worst-N)."""
+    from sim.cli.montecarlo import _check_bags
+
+    _check_bags(Path("renders"), False, [], {"results": Path("renders/r.jsonl"), "json": Path("renders/r.json")})
+    with pytest.raises(ConfigError, match="meet where a bag goes"):
+        _check_bags(Path("d"), False, [], {"results": Path("d/worst-0/r.jsonl")})
 
 
 def test_a_folder_that_is_no_bag_is_refused_without_suggesting_overwrite(

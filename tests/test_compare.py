@@ -94,7 +94,7 @@ def test_compare_cli_rejects_unknown_trackers_and_bad_params(tmp_path: Path) -> 
         unstable.write_text(json.dumps({tracker: gains}))
         r = nhsim("compare", "--reference", "line", "--trackers", tracker, "--params", str(unstable))
         said = f"--params {tracker}: FBL gains Kp={gains['kp']:g}, Kd={gains.get('kd', 6):g} make the error dynamics"
-        assert r.returncode == 2 and said in r.stderr, r.stderr
+        assert r.returncode == 2 and said in r.stderr and "lower Kp or raise Kd within its bound (the" in r.stderr
     r = nhsim("compare", "--reference", "line", "--trackers", "fbl", "--plots", str(tmp_path / "x.png"))
     assert r.returncode == 2 and f"--plots {tmp_path}/x writes {tmp_path}/x-paths.png and" in r.stderr
     assert not list(tmp_path.glob("x*"))  # it wrote x.png-paths.png

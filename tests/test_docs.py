@@ -137,3 +137,6 @@ def test_an_interrupted_benchmark_keeps_its_page_and_stops_the_script(tmp_path: 
     assert page.read_text() == "the good page\n"
     assert sorted(p.name for p in page.parent.iterdir()) == ["bag.md"]  # no temporary page left
     assert (root / ".venv" / "bin" / "ran").read_text() == "-m sim bench bag --repeats 5\n"  # sim never started
+    python.write_text('#!/bin/sh\necho "crashed"\nexit 139\n')  # a crash (SIGSEGV) is no interrupt: it is the page
+    done = subprocess.run(["bash", str(root / "docs" / "bench.sh"), "bag"], capture_output=True, text=True)
+    assert done.returncode == 0 and "(exit status 139)" in page.read_text() and "crashed" in page.read_text()

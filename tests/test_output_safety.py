@@ -617,3 +617,48 @@ def test_overwrite_replaces_a_records_whole_set_of_plots(tmp_path: Path, monkeyp
     assert {p.name for p in (tmp_path / "x").glob("*.png")} == plots - {"a-localiser.png"} | {"a-notes.png"}
     assert main([*job, "--robot", "edumip", "--overwrite", "--no-plots"]) == 0
     assert sorted(p.name for p in (tmp_path / "x").iterdir()) == ["a-notes.png", "a.json"]
+
+
+def test_what_the_models_guard_lets_through_and_what_it_stops(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A link at the output's own path into the models folder is replaced, not written through (allowed); a folder
+    beside the models folder with a like name is fine; a plugin's robot registered wrongly does not stop every
+    output (it stopped them all); the tune study's SQLite file is an output too (it was written into models/,
+    whose digest then refused to resume the study)."""
+    import planning.core.robot as robot_module
+    from planning.core.robot import ROBOTS
+    from sim.outputs import check_not_read_by_runs
+    from tests.registry_helpers import isolated
+
+    models = tmp_path / "models"
+    (models / "scenarios").mkdir(parents=True)
+    (models / "scenarios" / "open.toml").write_text("x")
+    monkeypatch.setattr(robot_module, "MODELS_DIR", models)
+    link = tmp_path / "out" / "f.json"
+    link.parent.mkdir()
+    link.symlink_to(models / "scenarios" / "open.toml")
+    check_not_read_by_runs(link)
+    check_not_read_by_runs(tmp_path / "models2" / "x.json")
+    check_not_read_by_runs(models / "..")
+    (tmp_path / "in").symlink_to(models)
+    with pytest.raises(ConfigError, match="inside nhsim's models folder"):
+        check_not_read_by_runs(tmp_path / "in" / "x.json")  # a folder's link is followed
+    with isolated(monkeypatch, (ROBOTS,), "loaded"):
+        ROBOTS.add("register_robot", "weird", lambda: "nope", False)
+        check_writable(tmp_path / "r.json", overwrite=False)
+    monkeypatch.chdir(tmp_path)
+    argv = ["tune", "--scenarios", "open:line", "--trials", "1", "--draws", "1", "--out", "g.toml", "--quiet"]
+    assert main([*argv, "--storage", f"sqlite:///{models}/t.db"]) == 2
+    assert not (models / "t.db").exists()
+
+
+def test_a_study_storage_named_in_another_form_is_still_apart_from_the_outputs(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``sqlite+pysqlite:////abs.db`` and ``sqlite:///file:abs.db?uri=true`` were read by their prefix and not
+    seen as the study's file: the record given that path ran every trial, then replaced the study."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["tune", "--scenarios", "open:line", "--trials", "1", "--draws", "1", "--quiet", "--overwrite"]
+    for url in (f"sqlite+pysqlite:///{tmp_path}/s.db", f"sqlite:///file:{tmp_path}/s.db?uri=true"):
+        assert main([*argv, "--storage", url, "--json", str(tmp_path / "s.db")]) == 2
+        assert "is the study's own storage" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == []

@@ -273,22 +273,31 @@ def test_a_baseline_records_its_robots_files_and_an_edit_of_them_fails_everywher
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Off the recording machine metrics are compared within tolerances, which the TurtleBot3's base at twice its
-    mass stayed within (the open loop's final error moved 0.4 mm of 5.4 mm): the baseline now names the digest of
-    the robot's files, and a case run on other files fails on any machine; one recorded before is compared without."""
+    mass stayed within (the open loop's final error moved 0.4 mm of 5.4 mm): the baseline now names the digests of
+    the robot's files, and a case run on other files fails on any machine, naming the file edited; one recorded
+    before is compared without."""
     import sim.tools.digests as digests
+    from planning.core.robot import robot_files
 
     suite, bl = _suite(tmp_path, other=False), tmp_path / "bl"
     assert _regress(suite, bl, "--update") == 0
     path = bl / "planted.json"
     recorded = json.loads(path.read_text())["model"]
-    assert recorded == {"robot": "turtlebot3", "digest": digests.model_digest("turtlebot3")}
+    now = digests.model_digest("turtlebot3")
+    assert recorded == {
+        "robot": "turtlebot3",
+        "digest": now["all"],
+        "files": {k: v for k, v in now.items() if k != "all"},
+    }
+    assert sorted(recorded["files"]) == ["model", "scene", "sensors"]
     capsys.readouterr()
 
     real = digests.model_digest
-    monkeypatch.setattr(digests, "model_digest", lambda robot: "0123456789ab" if robot == "turtlebot3" else real(robot))
-    assert _regress(suite, bl) == 1  # the same metrics (a digest is all that moved), as off the machine
+    edited = {**now, "all": "0123456789ab", "model": "ffffffffffff"}  # the MJCF edited, as off the machine
+    monkeypatch.setattr(digests, "model_digest", lambda robot: edited if robot == "turtlebot3" else real(robot))
+    assert _regress(suite, bl) == 1  # the same metrics (a digest is all that moved)
     out, err = capsys.readouterr()
-    change = f"robot turtlebot3's files {recorded['digest']} -> 0123456789ab (its model, scene, sensor settings or"
+    change = f"robot turtlebot3's files {recorded['digest']} -> 0123456789ab ({robot_files('turtlebot3').mjcf} edited)"
     assert "FAIL             planted (case differs: " + change in out, out
     assert "its definition differs from its baseline's: " + change in err and "--update" in err
     doc = json.loads(path.read_text())
@@ -296,11 +305,12 @@ def test_a_baseline_records_its_robots_files_and_an_edit_of_them_fails_everywher
     path.write_text(json.dumps(doc))
     assert _regress(suite, bl) == 0
     assert _regress(suite, bl, "--update") == 0
-    assert 'now records model = {"robot": "turtlebot3", "digest": "0123456789ab"}' in capsys.readouterr().out
+    assert 'now records model = {"robot": "turtlebot3", "digest": "0123456789ab", "files": {' in capsys.readouterr().out
 
 
 def test_the_model_digest_follows_the_robots_files(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """The digest reads the files the robot is made of: an edited mass in a registered robot's model changes it."""
+    """The digest reads the files the robot is made of: an edited mass in a registered robot's model changes the
+    model's and the whole digest, not the others'."""
     from planning.core.robot import ROBOTS, register_robot
     from sim.tools.digests import model_digest
     from tests.registry_helpers import isolated
@@ -310,9 +320,11 @@ def test_the_model_digest_follows_the_robots_files(tmp_path: Path, monkeypatch: 
         model, sensors = _robot(tmp_path, "heavybot")
         register_robot("heavybot", model, sensors=sensors)
         before = model_digest("heavybot")
-        assert before == model_digest("heavybot") and before != model_digest("turtlebot3")
+        assert before == model_digest("heavybot") and before["all"] != model_digest("turtlebot3")["all"]
         text = model.read_text()
         assert 'mass="0.82573504"' in text, "the Burger's base mass"
         model.write_text(text.replace('mass="0.82573504"', 'mass="1.6"'))
-        assert model_digest("heavybot") != before
-        assert len({model_digest(r) for r in ("turtlebot3", "edumip", "edumip-balancing")}) == 3
+        after = model_digest("heavybot")
+        assert [k for k in before if before[k] != after[k]] == ["all", "model"]
+        assert len({model_digest(r)["all"] for r in ("turtlebot3", "edumip", "edumip-balancing")}) == 3
+        assert sorted(model_digest("edumip-balancing")) == ["all", "balance", "model", "scene", "sensors"]

@@ -436,13 +436,13 @@ def _check_bags(folder: Path, overwrite: bool, inputs: list[tuple[str, Path]], o
         raise ConfigError(f"--bags {folder}: a file of that name exists; give a folder")
     check_not_read_by_runs(folder)
     here = resolved(folder)
-    for kind, out in outputs.items():
-        if resolved(out) == here or here in resolved(out).parents:
+    for kind, out in outputs.items():  # beside them is fine: the bags go in DIR/worst-<index>
+        target = resolved(out)
+        inside = here in target.parents and target.relative_to(here).parts[0].startswith("worst-")
+        if target == here or inside:
             what = {"json": "summary", "fan": "fan plot", "cdf": "CDF plot"}.get(kind, kind)
-            raise ConfigError(
-                f"--bags {folder} and the study's {what} {out} share a path (the bags go in a folder of that name); "
-                "choose another --bags folder"
-            )
+            where = "share a path (the bags go in a folder of that name)" if target == here else "meet where a bag goes"
+            raise ConfigError(f"--bags {folder} and the study's {what} {out} {where}; choose another --bags folder")
     for given, path in inputs:
         source = resolved(path)
         inside = here in source.parents and source.relative_to(here).parts[0].startswith("worst-")

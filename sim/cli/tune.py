@@ -597,7 +597,7 @@ def tune_files(
     """
     from planning.errors import OutputExistsError
     from sim.cli.job_outputs import check_apart_from_inputs
-    from sim.outputs import check_distinct, check_folder_for, check_length, check_writable
+    from sim.outputs import check_distinct, check_folder_for, check_length, check_not_read_by_runs, check_writable
     from sim.tools.tune import check_storage, shown_url, sqlite_file
 
     study, storage = (
@@ -614,7 +614,8 @@ def tune_files(
     )
     check_storage(files.storage)
     database = sqlite_file(files.storage)
-    if database is not None:  # its folder is made, as an output's (renders/ for the default)
+    if database is not None:  # written as an output is: never among nhsim's models; its folder made
+        check_not_read_by_runs(database)
         check_folder_for(database)
     written = (files.gains,) if writes_gains_file(getattr(args, "tracker", "fbl").strip()) else ()
     paths = (*written, files.history, files.importance, files.record)
@@ -626,10 +627,9 @@ def tune_files(
             "--json (the record)": files.record,
         }
     )
-    db = Path(files.storage.removeprefix("sqlite:///")) if files.storage.startswith("sqlite:///") else None
-    check_apart_from_inputs(args, [*paths, *([db] if db is not None else [])])  # the cases' scenarios, maps
-    if db is not None:
-        _check_apart_from_storage(files.storage, db, paths)
+    check_apart_from_inputs(args, [*paths, *([database] if database is not None else [])])  # scenarios, maps
+    if database is not None:
+        _check_apart_from_storage(files.storage, database, paths)
     for path in paths:
         check_length(path)  # before is_file, which a name too long makes raise
     owners = {p: files.owner(p) for p in paths if p.is_file()}

@@ -104,11 +104,11 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
     overwrite = check_flag("overwrite", overwrite)
     path = Path(path)
     check_not_read_by_runs(path)
-    holder = next((p for p in Path(os.path.abspath(path)).parents if (p / "metadata.yaml").is_file()), None)
+    holder = next((p for p in Path(os.path.abspath(path)).parents if _metadata(p / "metadata.yaml") is not None), None)
     if holder is not None:  # a bag holds its own files only: the outer bag would read as not a bag, nor nhsim's
         raise ConfigError(
-            f"cannot write the bag {path}: it lies inside the bag {holder} (a folder with a metadata.yaml); choose a "
-            f"folder outside it with {option('bag', python='path')}"
+            f"cannot write the bag {path}: it lies inside the bag {holder} (a folder with a rosbag2 metadata.yaml); "
+            f"choose a folder outside it with {option('bag', python='path')}"
         )
     if path.suffix.lower() in BAG_FILE_SUFFIXES:
         folder = str(path.with_suffix(""))

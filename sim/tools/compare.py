@@ -329,9 +329,11 @@ def compare_trackers(
     names = check_trackers(trackers)
     runs = check_number(option("runs"), runs, integer=True, at_least=1)
     params = dict(params or {})
-    for name, given in params.items():  # as a case's gains are checked (Case), before any work
+    for name in names:  # as a case's gains are checked (Case), before any work; the rate is the case's
+        given = params.get(name)
         if isinstance(given, FBLGains):
-            check_sampled_stability(given, case.control_rate, f"{option('params', python='params')} {name}")
+            where = f"{option('params', python='params')} {name}"
+            check_sampled_stability(given, case.control_rate, where, rate_given=False)
     prepared = prepare_trajectory(case)
     base = PreparedCase(prepared, simulator_for(prepared))
     draws = make_draws(runs, case.seed, held_out=True) if runs > 1 else ()

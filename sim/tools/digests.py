@@ -101,10 +101,9 @@ def robot_model_files() -> list[tuple[Path, str]]:
     return [(path, label) for label, path in sorted(found.items()) if path.is_file()]
 
 
-def model_digest(robot: str) -> str:
-    """A 12-hex-digit hash of the files a robot is made of (:func:`planning.core.robot.robot_files`: its model,
-    scene and sensor settings) and, for a balancing robot, its balance profile, by role and content: a run's
-    physics changes with any of them, whatever the code."""
+def model_files(robot: str) -> dict[str, Path]:
+    """The files a robot is made of, by role (:func:`planning.core.robot.robot_files`: its model, scene and sensor
+    settings) and, for a balancing robot, its balance profile: a run's physics changes with any of them."""
     from control.design.balance_profile import balance_profile_path, is_balancing
     from planning.core.robot import robot_files
 
@@ -112,11 +111,19 @@ def model_digest(robot: str) -> str:
     roles = {"model": files.mjcf, "scene": files.scene, "sensors": files.sensors}
     if is_balancing(robot):
         roles["balance"] = balance_profile_path(robot)
-    digest = hashlib.blake2b(digest_size=6)
-    for role, path in roles.items():
-        digest.update(f"\0{role}\0".encode())
-        digest.update(path.read_bytes())
-    return digest.hexdigest()
+    return roles
+
+
+def model_digest(robot: str) -> dict[str, str]:
+    """12-hex-digit hashes of the contents of the files a robot is made of (:func:`model_files`), by role, and of
+    all of them together (``"all"``)."""
+    digests = {
+        role: hashlib.blake2b(path.read_bytes(), digest_size=6).hexdigest() for role, path in model_files(robot).items()
+    }
+    together = hashlib.blake2b(digest_size=6)
+    for role, digest in digests.items():
+        together.update(f"\0{role}\0{digest}".encode())
+    return {"all": together.hexdigest(), **digests}
 
 
 def _located(module: str) -> tuple[str | None, list[str]]:

@@ -653,31 +653,36 @@ def definition_changes(recorded: Mapping[str, Any], case: Case) -> list[str]:
     return [f"{k} {_toml(recorded[k])} -> {_toml(v)}" for k, v in now.items() if k in recorded and recorded[k] != v]
 
 
-def case_model(case: Case) -> dict[str, str]:
-    """The robot a case runs (its own, else its scenario's) and the digest of the files it is made of
-    (:func:`sim.tools.digests.model_digest`), as its baseline records them: another machine compares metrics
-    within tolerances, which a change of the robot's model can stay within (its base's mass doubled moved the open
-    loop's final error by 0.4 mm of the 5.4 mm allowed), so the baseline says which files it was recorded on."""
+def case_model(case: Case) -> dict[str, Any]:
+    """The robot a case runs (its own, else its scenario's) and the digests of the files it is made of
+    (:func:`sim.tools.digests.model_digest`: ``digest`` of them all, ``files`` by role), as its baseline records
+    them: another machine compares metrics within tolerances, which a change of the robot's model can stay within
+    (its base's mass doubled moved the open loop's final error by 0.4 mm of the 5.4 mm allowed), so the baseline
+    says which files it was recorded on."""
     from sim.tools.digests import model_digest
 
     robot = case.robot or load_case_scenario(case).robot
-    return {"robot": robot, "digest": model_digest(robot)}
+    digests = model_digest(robot)
+    return {"robot": robot, "digest": digests["all"], "files": {k: v for k, v in digests.items() if k != "all"}}
 
 
 def model_change(recorded: object, case: Case) -> str:
     """How the robot's files differ from those the baseline was recorded on (``recorded``: its ``model``), or ""
-    (the same, or a baseline that records none)."""
+    (the same, or a baseline that records none): the files edited, by path, where the baseline names them by role."""
+    from sim.tools.digests import model_files
+
     if not isinstance(recorded, dict) or "digest" not in recorded:
         return ""
     now = case_model(case)
-    if recorded == now:
-        return ""
     if recorded.get("robot") != now["robot"]:
         return f"robot {recorded.get('robot')} -> {now['robot']}"
-    return (
-        f"robot {now['robot']}'s files {recorded['digest']} -> {now['digest']} (its model, scene, sensor settings or "
-        "balance profile were edited)"
-    )
+    if recorded["digest"] == now["digest"]:
+        return ""
+    before = recorded.get("files") if isinstance(recorded.get("files"), dict) else {}
+    paths = model_files(now["robot"])
+    edited = [str(paths[role]) for role, digest in now["files"].items() if before and before.get(role) != digest]
+    which = ", ".join(edited) if edited else "its model, scene, sensor settings or balance profile"
+    return f"robot {now['robot']}'s files {recorded['digest']} -> {now['digest']} ({which} edited)"
 
 
 def measure_case(case: Case) -> TrackingMetrics:

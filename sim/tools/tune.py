@@ -633,7 +633,7 @@ def open_storage(url: str) -> Any:
             reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             raise ConfigError(
                 f"cannot open storage {shown_url(given)!r}: {reason}. Give an SQLAlchemy URL that can be opened, e.g. "
-                f"sqlite:///renders/tune.db (its directory must exist) or postgresql+psycopg2://user:pass@host/db "
+                f"sqlite:///renders/tune.db or postgresql+psycopg2://user:pass@host/db "
                 f"(psycopg2 installed: pip install psycopg2-binary; the server running)"
             ) from exc
     if sqlite:
