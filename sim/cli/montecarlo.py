@@ -438,14 +438,13 @@ def _check_bags(folder: Path, overwrite: bool, inputs: list[tuple[str, Path]], o
     here = resolved(folder)
     for kind, out in outputs.items():  # beside them is fine: the bags go in DIR/worst-<index>
         target = resolved(out)
-        inside = here in target.parents and target.relative_to(here).parts[0].startswith("worst-")
-        if target == here or inside:
+        if target == here or _where_bags_go(here, target):
             what = {"json": "summary", "fan": "fan plot", "cdf": "CDF plot"}.get(kind, kind)
             where = "share a path (the bags go in a folder of that name)" if target == here else "meet where a bag goes"
             raise ConfigError(f"--bags {folder} and the study's {what} {out} {where}; choose another --bags folder")
     for given, path in inputs:
         source = resolved(path)
-        inside = here in source.parents and source.relative_to(here).parts[0].startswith("worst-")
+        inside = _where_bags_go(here, source)
         if source == here or source in here.parents or inside:
             raise ConfigError(
                 f"--bags {folder} {'holds' if inside else 'is or lies inside'} the input {given}: the bags written "
@@ -458,6 +457,11 @@ def _check_bags(folder: Path, overwrite: bool, inputs: list[tuple[str, Path]], o
             "pass --overwrite to replace them, or choose another --bags folder"
         )
     check_folder_for(folder / "worst-0")
+
+
+def _where_bags_go(folder: Path, path: Path) -> bool:
+    """Whether ``path`` lies in a ``worst-*`` folder of the (resolved) bags ``folder``, where a bag is written."""
+    return folder in path.parents and path.relative_to(folder).parts[0].startswith("worst-")
 
 
 def _worst_bags(result: Any, folder: Path, overwrite: bool) -> list[Path]:
