@@ -51,11 +51,14 @@ FloatArray = NDArray[np.float64]
 
 __all__ = [
     "COLUMNS",
+    "LAYOUTS",
     "PLAN_RECORD",
+    "QUATERNION",
     "SKIP",
     "FileTable",
     "TrajectoryFileError",
     "parse_column_names",
+    "quaternion_columns",
     "quaternion_headings",
     "quaternion_yaw",
     "read_table",
@@ -63,10 +66,19 @@ __all__ = [
     "yaml_problem",
 ]
 
+#: The columns of an orientation quaternion (x, y, z, w): its yaw is the heading, read in place of ``theta``.
+QUATERNION = ("qx", "qy", "qz", "qw")
 #: The column names a file may use, in this order in messages.
-COLUMNS = ("t", "x", "y", "theta", "v", "omega", "vx", "vy", "ax", "ay")
+COLUMNS = ("t", "x", "y", "theta", "v", "omega", "vx", "vy", "ax", "ay", *QUATERNION)
 #: The name that skips a column.
 SKIP = "_"
+#: Column layouts that ``columns`` may name alone: ``tum`` is the TUM RGB-D benchmark's trajectory format
+#: (``timestamp tx ty tz qx qy qz qw`` a row, as evo reads and writes it), its height tz skipped.
+LAYOUTS = {"tum": ("t", "x", "y", SKIP, *QUATERNION)}
+#: Largest tilt of an orientation from the plane [rad] read without a note (a ramp, a bump); above
+#: :data:`MAX_TILT` an orientation is not a ground robot's (a camera's optical frame has z forward).
+NOTED_TILT = 0.1
+MAX_TILT = np.pi / 4
 #: Largest difference of an orientation quaternion's norm from 1 (within it the quaternion is normalised).
 QUATERNION_TOLERANCE = 1e-3
 #: A quaternion of a smaller norm is zero: no orientation at all.
@@ -153,11 +165,24 @@ def table_from_arrays(
 
 
 #: Other tools' names of columns, read as these (a web tool's {"timestamp", "x", "y", "yaw"} records).
-ALIASES = {"time": "t", "timestamp": "t", "stamp": "t", "yaw": "theta", "heading": "theta"}
+ALIASES = {"time": "t", "timestamp": "t", "stamp": "t", "yaw": "theta", "heading": "theta", "tx": "x", "ty": "y"}
 
 
 def _valid_names() -> str:
-    return ", ".join(COLUMNS) + f" (also {', '.join(f'{a} for {c}' for a, c in ALIASES.items())})"
+    layouts = ", ".join(f"{name} for {','.join(cols)}" for name, cols in LAYOUTS.items())
+    return (
+        ", ".join(COLUMNS)
+        + f" (also {', '.join(f'{a} for {c}' for a, c in ALIASES.items())}; or a layout's name alone: {layouts})"
+    )
+
+
+def _layout_hint(cells: int) -> str:
+    """The advice for a row of ``cells`` cells that a named layout (:data:`LAYOUTS`) reads, else ""."""
+    fits = [name for name, cols in LAYOUTS.items() if len(cols) == cells]
+    if not fits:
+        return ""
+    tum = "timestamp tx ty tz qx qy qz qw"
+    return f"; {cells} cells a row, as a TUM trajectory's ({tum}): {option('columns', fits[0])}"
 
 
 def column_of(name: object) -> str:
@@ -171,20 +196,22 @@ def parse_column_names(names: Sequence[str], where: str, fix: str | None = None)
     :data:`ALIASES`) or ``_``.
 
     Args:
-        names: The names (spaces around them and case are ignored).
+        names: The names (spaces around them and case are ignored), or a layout's name alone (:data:`LAYOUTS`).
         where: How the message names their source (the file, or ``option("columns")``, :func:`~planning.errors.option`).
         fix: What the message advises for an unknown name (default: rename it in the header or give ``--columns``).
 
     Raises:
         TrajectoryFileError: An unknown or repeated name (the message lists the valid ones).
     """
+    if len(names) == 1 and column_of(names[0]) in LAYOUTS:
+        names = LAYOUTS[column_of(names[0])]
     out = tuple(column_of(n) for n in names)
     unknown = [n for n in out if n not in COLUMNS and n != SKIP]
     if unknown:
         advice = fix if fix is not None else f"rename them in the header or give {option('columns')}"
         raise TrajectoryFileError(
             f"{where}: unknown column name(s) {', '.join(repr(n) for n in unknown)}; valid names are "
-            f"{_valid_names()} ({SKIP} skips a column); {advice}"
+            f"{_valid_names()} ({SKIP} skips a column); {advice}{_layout_hint(len(names))}"
         )
     named = [n for n in out if n != SKIP]
     twice = sorted({n for n in named if named.count(n) > 1})
@@ -357,7 +384,7 @@ def _read_text(p: Path, text: str, columns: Sequence[str] | None) -> FileTable:
         raise TrajectoryFileError(
             f"{p}: the first row (line {lines[0][0]}) is numbers, not a header naming the columns: add a header "
             f"or name the columns, e.g. {example} (names {_valid_names()}; {SKIP} skips a column)"
-            f"{_commented_header(text, lines[0][0], delimiter)}"
+            f"{_commented_header(text, lines[0][0], delimiter) or _layout_hint(len(first))}"
         )
     body = lines[1:] if has_header else lines
     if not body:
@@ -623,6 +650,54 @@ def quaternion_headings(
             f"quaternion, norm 1 within {QUATERNION_TOLERANCE:g} (tf2 refuses others): {fix}"
         )
     return np.array([quaternion_yaw(*o) for o in quats], dtype=float)
+
+
+def quaternion_columns(table: FileTable) -> tuple[dict[str, FloatArray], tuple[str, ...]]:
+    """The table's columns with an orientation quaternion's (:data:`QUATERNION`) replaced by its yaw as ``theta``
+    (checked as a bag's, :func:`quaternion_headings`; all zero: no headings), and the notes reading them made.
+
+    Raises:
+        TrajectoryFileError: Some of qx, qy, qz, qw but not all; a quaternion beside ``theta``; a zero (among others)
+            or unnormalised quaternion; an orientation tilted more than :data:`MAX_TILT` from the plane.
+    """
+    cols = dict(table.columns)
+    given = [c for c in QUATERNION if c in cols]
+    if not given:
+        return cols, ()
+    p = table.path
+    if len(given) < len(QUATERNION):
+        lacking = [c for c in QUATERNION if c not in cols]
+        raise TrajectoryFileError(
+            f"{p}: columns {', '.join(QUATERNION)} come together (an orientation quaternion) and {', '.join(lacking)} "
+            f"{'is' if len(lacking) == 1 else 'are'} missing: name all four, or skip the others with {SKIP}"
+        )
+    if "theta" in cols:
+        raise TrajectoryFileError(
+            f"{p}: both theta and an orientation quaternion ({', '.join(QUATERNION)}) give the heading: keep one, "
+            f"skip the other's columns with {SKIP}"
+        )
+    q = np.column_stack([cols.pop(c) for c in QUATERNION])
+    theta = quaternion_headings(q, table.rows, p, all_zero=True)
+    if theta is None:
+        return cols, ("every orientation quaternion is zero: no headings read (the motion's are used)",)
+    u = q / np.linalg.norm(q, axis=1, keepdims=True)
+    tilt = np.arccos(np.clip(1.0 - 2.0 * (u[:, 0] ** 2 + u[:, 1] ** 2), -1.0, 1.0))  # body z from the vertical
+    over = np.flatnonzero(tilt > MAX_TILT)
+    k = int(over[0]) if over.size else int(np.argmax(tilt))  # the first row refused, else the most tilted
+    if over.size:
+        raise TrajectoryFileError(
+            f"{p}: {table.rows[k]}'s orientation quaternion tilts {np.degrees(tilt[k]):.0f} deg from the plane "
+            f"(more than {np.degrees(MAX_TILT):.0f} deg; {over.size} of {len(tilt)} rows): not a "
+            "ground robot's pose (a camera's optical frame, z forward, reads so); give the robot's poses "
+            "(base_link in the map frame) or its heading as theta"
+        )
+    cols["theta"] = theta
+    if tilt[k] > NOTED_TILT:
+        return cols, (
+            f"headings: the yaw of each orientation quaternion; they tilt up to {np.degrees(tilt[k]):.1f} deg from "
+            f"the plane ({table.rows[k]}), which a planar robot does not follow",
+        )
+    return cols, ()
 
 
 #: Largest angle between a step of a path and the heading (0 rad) its identity orientations give before they are

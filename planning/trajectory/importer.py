@@ -51,6 +51,7 @@ from planning.trajectory.file_formats import (
     FileTable,
     TrajectoryFileError,
     parse_column_names,
+    quaternion_columns,
     read_table,
 )
 from planning.trajectory.row_curves import MOVING_SPEED as MOVING_SPEED
@@ -91,7 +92,9 @@ class TrajectoryFile:
     Attributes:
         path: The file.
         timed: True for ``--trajectory`` (its time stamps are used), False for ``--path``.
-        columns: Names of a text file's columns (``--columns``); None: its header names them.
+        columns: Names of a text file's columns (``--columns``: a sequence, or one string of them separated by
+            commas or spaces), or a layout's name (``"tum"``, :data:`~planning.trajectory.file_formats.LAYOUTS`);
+            None: its header names them.
         scale: Metres per file length unit (lengths and their derivatives); None: 1 (not given).
         time_scale: Seconds per file time unit; None: 1.
         offset: (x [m], y [m], theta [rad]) rigid move applied after scaling: rotate by theta about
@@ -125,7 +128,9 @@ class TrajectoryFile:
                 raise TrajectoryFileError(str(exc)) from exc
         if len(self.offset) != 3 or not all(np.isfinite(self.offset)):
             raise TrajectoryFileError(f"{option('offset')} must be three finite numbers X,Y,THETA, got {self.offset}")
-        if self.columns is not None:
+        if isinstance(self.columns, str):  # "t,x,y" or "tum", as --columns takes them (not a name per letter)
+            object.__setattr__(self, "columns", parse_columns(self.columns))
+        elif self.columns is not None:
             object.__setattr__(self, "columns", parse_column_names(self.columns, option("columns")))
 
     @property
@@ -175,7 +180,7 @@ def parse_columns(text: str) -> tuple[str, ...]:
     Raises:
         TrajectoryFileError: An unknown or repeated name (the message lists the valid ones).
     """
-    return parse_column_names([p for p in re.split(r"[,\s]+", text.strip()) if p], "--columns")
+    return parse_column_names([p for p in re.split(r"[,\s]+", text.strip()) if p], option("columns"))
 
 
 @dataclass(frozen=True)
@@ -393,7 +398,8 @@ def _read_source(source: TrajectoryFile) -> FileTable:
 
 
 def _required(table: FileTable, source: TrajectoryFile, report: ImportReport) -> dict[str, FloatArray]:
-    cols = dict(table.columns)
+    cols, notes = quaternion_columns(table)
+    report.notes.extend(notes)
     missing = [c for c in ("x", "y") if c not in cols]
     if source.timed and "t" not in cols:
         missing.insert(0, "t")

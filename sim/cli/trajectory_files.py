@@ -17,8 +17,10 @@ if TYPE_CHECKING:
 HELP = (
     "Track your own trajectory (timed) or path (untimed) from a file: CSV, TSV or whitespace-separated text with "
     'a header row naming the columns (or --columns), JSON ({"t": [...], "x": [...]}, a list of records, or the '
-    "record nhsim plan --json writes, as a path), or a ROS nav_msgs/Path as YAML. Columns: t, x, y, theta, v, "
-    "omega, vx, vy, ax, ay (_ skips one). Repeated stamps at one position merge, headings are unwrapped, given "
+    "record nhsim plan --json writes, as a path), or a ROS nav_msgs/Path as YAML. Columns: t, x, y, theta (or "
+    "an orientation quaternion qx, qy, qz, qw: its yaw), v, omega, vx, vy, ax, ay (_ skips one); --columns tum "
+    "reads a TUM trajectory (timestamp tx ty tz qx qy qz qw, as evo writes it). Repeated stamps at one position "
+    "merge, headings are unwrapped, given "
     "derivatives that disagree with the positions are replaced, and a timed file keeps its clock when it is "
     "within the robot's limits (else it is re-timed): the summary and the record's 'import' say what was done. "
     "The world is --scenario's (the file must stay clear of its obstacles and walls) or, without one, an empty "
@@ -44,7 +46,10 @@ def add_file_arguments(p: argparse.ArgumentParser) -> None:
         "--columns",
         default=None,
         metavar="NAME,...",
-        help="names of a text file's columns, e.g. t,x,y,_,theta (default: the header row)",
+        help=(
+            "names of a text file's columns, e.g. t,x,y,_,theta, or tum for t,x,y,_,qx,qy,qz,qw (default: the "
+            "header row)"
+        ),
     )
     g.add_argument(
         "--scale",

@@ -1,0 +1,135 @@
+"""Orientation quaternions in trajectory files, and the TUM layout (``timestamp tx ty tz qx qy qz qw``) evo reads."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from planning import TrajectoryFile
+from planning.trajectory.file_formats import TrajectoryFileError
+from planning.trajectory.importer import parse_columns, read_trajectory_file
+from sim.cli.main import main
+
+#: A quarter circle of radius 1 m driven forwards at 0.1 m/s, yaw along the tangent, on a unix clock.
+N = 40
+ANGLE = np.linspace(0.0, np.pi / 2, N)
+X, Y = np.sin(ANGLE), 1.0 - np.cos(ANGLE)
+YAW = ANGLE.copy()
+T = 1305031102.1753 + ANGLE * 10.0  # 0.1 m/s over the arc
+
+
+def _quaternions(yaw: np.ndarray, tilt: float = 0.0) -> np.ndarray:
+    """(N, 4) x, y, z, w: yaw about z, then a roll of ``tilt`` about the body x axis."""
+    cz, sz, cr, sr = np.cos(yaw / 2), np.sin(yaw / 2), np.cos(tilt / 2), np.sin(tilt / 2)
+    return np.column_stack([cz * sr, sz * sr, sz * cr, cz * cr])
+
+
+def _tum(tmp_path: Path, q: np.ndarray | None = None, name: str = "gt.txt") -> Path:
+    """A TUM file as the RGB-D benchmark writes its ground truth (comment lines, then 8 numbers a row)."""
+    q = _quaternions(YAW) if q is None else q
+    rows = [
+        f"{t:.4f} {x:.6f} {y:.6f} {0.01 * k:.4f} " + " ".join(f"{v:.7f}" for v in qk)
+        for k, (t, x, y, qk) in enumerate(zip(T, X, Y, q, strict=True))
+    ]
+    head = "# ground truth trajectory\n# file: 'rgbd_dataset.bag'\n# timestamp tx ty tz qx qy qz qw\n"
+    p = tmp_path / name
+    p.write_text(head + "\n".join(rows) + "\n")
+    return p
+
+
+def _table(tmp_path: Path, header: str, rows: np.ndarray) -> Path:
+    p = tmp_path / "bad.csv"
+    p.write_text(header + "\n" + "\n".join(",".join(f"{v:.9g}" for v in r) for r in rows) + "\n")
+    return p
+
+
+def test_the_tum_layout_reads_positions_times_and_the_quaternions_yaw(tmp_path: Path) -> None:
+    imported = read_trajectory_file(TrajectoryFile(_tum(tmp_path), columns="tum"))
+    np.testing.assert_allclose(imported.xy, np.column_stack([X, Y]), atol=1e-6)
+    assert imported.theta is not None and imported.t is not None
+    np.testing.assert_allclose(imported.theta, YAW, atol=1e-6)  # the yaw, unwrapped as any heading
+    np.testing.assert_allclose(np.diff(imported.t), np.diff(T), atol=1e-4)
+    assert not any("tilt" in n for n in imported.report.notes)
+    # the same layout by its names, from the command line or from Python
+    assert parse_columns("tum") == parse_columns("t,x,y,_,qx,qy,qz,qw") == TrajectoryFile("a", columns=("tum",)).columns
+
+
+def test_a_headerless_file_of_eight_numbers_is_pointed_to_the_tum_layout(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    p = _tum(tmp_path)
+    assert main(["simulate", "--trajectory", str(p), "--no-video", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "is numbers, not a header" in err and err.rstrip().endswith(
+        "8 cells a row, as a TUM trajectory's (timestamp tx ty tz qx qy qz qw): --columns tum"
+    )
+    # a header row of TUM's names (not a comment): tx and ty are x and y, tz is unknown and the layout is advised
+    q = _quaternions(YAW)
+    lines = ["timestamp,tx,ty,tz,qx,qy,qz,qw"] + [
+        ",".join(str(v) for v in (t, x, y, 0.0, *qk)) for t, x, y, qk in zip(T, X, Y, q, strict=True)
+    ]
+    p2 = tmp_path / "gt.csv"
+    p2.write_text("\n".join(lines) + "\n")
+    with pytest.raises(TrajectoryFileError, match=r"unknown column name\(s\) 'tz'.*: --columns tum"):
+        read_trajectory_file(p2)
+    assert read_trajectory_file(TrajectoryFile(p2, columns="tum")).theta is not None
+
+
+def test_quaternion_columns_in_a_header_or_json_give_the_heading(tmp_path: Path) -> None:
+    q = _quaternions(YAW)
+    p = _table(tmp_path, "t,x,y,qx,qy,qz,qw", np.column_stack([T - T[0], X, Y, q]))
+    np.testing.assert_allclose(read_trajectory_file(p).theta, YAW, atol=1e-9)  # type: ignore[arg-type]
+    records = [
+        {"t": t - T[0], "x": x, "y": y, "qx": a, "qy": b, "qz": c, "qw": d}
+        for t, x, y, (a, b, c, d) in zip(T, X, Y, q.tolist(), strict=True)
+    ]
+    pj = tmp_path / "q.json"
+    pj.write_text(json.dumps(records))
+    np.testing.assert_allclose(read_trajectory_file(pj).theta, YAW, atol=1e-9)  # type: ignore[arg-type]
+    # a path (untimed) reads them too
+    path = read_trajectory_file(TrajectoryFile(_tum(tmp_path), timed=False, columns="tum"))
+    np.testing.assert_allclose(path.theta, YAW, atol=1e-6)  # type: ignore[arg-type]
+
+
+def test_bad_quaternions_are_refused_naming_the_row_and_the_fix(tmp_path: Path) -> None:
+    t = T - T[0]
+    q = _quaternions(YAW)
+    some = _table(tmp_path, "t,x,y,qz,qw", np.column_stack([t, X, Y, q[:, 2:]]))
+    with pytest.raises(TrajectoryFileError, match=r"qx, qy, qz, qw come together .* qx, qy are missing"):
+        read_trajectory_file(some)
+    both = _table(tmp_path, "t,x,y,theta,qx,qy,qz,qw", np.column_stack([t, X, Y, YAW, q]))
+    with pytest.raises(TrajectoryFileError, match=r"both theta and an orientation quaternion .* keep one"):
+        read_trajectory_file(both)
+    q_bad = q.copy()
+    q_bad[5] *= 1.5
+    with pytest.raises(TrajectoryFileError, match=r"line 7 has an unnormalised \(norm 1\.5\) orientation quaternion"):
+        read_trajectory_file(_table(tmp_path, "t,x,y,qx,qy,qz,qw", np.column_stack([t, X, Y, q_bad])))
+    q_bad = q.copy()
+    q_bad[3] = 0.0
+    with pytest.raises(TrajectoryFileError, match=r"line 5 has a zero orientation quaternion"):
+        read_trajectory_file(_table(tmp_path, "t,x,y,qx,qy,qz,qw", np.column_stack([t, X, Y, q_bad])))
+    # a camera's optical frame (z forward: tilted 90 degrees) is not a ground robot's pose
+    camera = _quaternions(YAW, tilt=-np.pi / 2)
+    with pytest.raises(TrajectoryFileError, match=r"line 2's orientation quaternion tilts 90 deg .* 40 of 40 rows"):
+        read_trajectory_file(_table(tmp_path, "t,x,y,qx,qy,qz,qw", np.column_stack([t, X, Y, camera])))
+
+
+def test_zero_quaternions_mean_no_headings_and_a_tilt_is_said(tmp_path: Path) -> None:
+    t = T - T[0]
+    zero = read_trajectory_file(_table(tmp_path, "t,x,y,qx,qy,qz,qw", np.column_stack([t, X, Y, np.zeros((N, 4))])))
+    assert zero.theta is None
+    assert "every orientation quaternion is zero: no headings read" in " ".join(zero.report.notes)
+    rolled = np.column_stack([t, X, Y, _quaternions(YAW, 0.2)])
+    ramp = read_trajectory_file(_table(tmp_path, "t,x,y,qx,qy,qz,qw", rolled))
+    np.testing.assert_allclose(ramp.theta, YAW, atol=1e-9)  # type: ignore[arg-type]  # the yaw of a rolled pose
+    said = "headings: the yaw of each orientation quaternion; they tilt up to 11.5 deg"
+    assert any(n.startswith(said) for n in ramp.report.notes)
+
+
+def test_columns_given_as_one_string_are_names_not_letters() -> None:
+    assert TrajectoryFile("a.csv", columns="t, x,y").columns == ("t", "x", "y")
+    with pytest.raises(TrajectoryFileError, match=r"unknown column name\(s\) 'txy'"):
+        TrajectoryFile("a.csv", columns="txy")  # was read as t, x, y, letter by letter
