@@ -393,7 +393,9 @@ def test_simulate_all_runs_a_plugins_planner_only_on_a_scenario_naming_it(
     assert f"no case to run: env-birrt ({origin}) is a plugin's planner, which --all runs only on a scenario" in err
     assert "(nhsim simulate --scenario simple_motion --planner env-birrt)" in err and "Traceback" not in err
     scenario = (ROOT / "models" / "scenarios" / "simple_motion.toml").read_text()
-    named = re.sub(r"(?m)^name = .*$", 'name = "env_motion"\nplanner = "env-birrt"', scenario)
+    named = re.sub(
+        r"(?m)^planner = .*$", 'planner = "env-birrt"', re.sub(r"(?m)^name = .*$", 'name = "env_motion"', scenario)
+    )
     (tmp_path / "env.toml").write_text(named)
     argv = ["simulate", "--all", "--scenario", "env.toml", "--robot", "turtlebot3", "--planner", "env-birrt"]
     assert main([*argv, "--quiet", "--no-video", "--json", "all.json"]) == 0, capsys.readouterr()

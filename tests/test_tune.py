@@ -579,15 +579,19 @@ def test_draws_take_time_linear_in_their_count() -> None:
 @pytest.mark.parametrize(
     ("cases", "said"),
     [
-        ("parallel_park", "names no planner; choose one with SCENARIO:PLANNER in --scenarios: birrt"),
+        ("{unplanned}", "names no planner; choose one with SCENARIO:PLANNER in --scenarios: birrt"),
         ("parallel_park:figure8", "e.g. open:figure8 in --scenarios, another reference, or plan a path with SCENARIO"),
     ],
 )
 def test_a_cases_error_speaks_of_the_token_not_of_options_tune_lacks(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], cases: str, said: str
+    tmp_path: Path, tmp_path_factory: pytest.TempPathFactory, capsys: pytest.CaptureFixture[str], cases: str, said: str
 ) -> None:
     """A case without a planner was told to "choose one with --planner", an option tune does not have (it was
     refused as an unrecognized argument): tune's cases take their planner in the token."""
+    builtin = (Path(__file__).resolve().parents[1] / "models" / "scenarios" / "parallel_park.toml").read_text()
+    unplanned = tmp_path_factory.mktemp("scenario") / "unplanned.toml"  # a task whose file names no planner
+    unplanned.write_text(re.sub(r"(?m)^planner = .*$", "", builtin))
+    cases = cases.format(unplanned=unplanned)
     argv = ["tune", "--scenarios", cases, "--trials", "1", "--storage", f"sqlite:///{tmp_path / 't.db'}"]
     assert main([*argv, "--out", str(tmp_path / "g.toml"), "--plots", str(tmp_path)]) == 2
     err = capsys.readouterr().err
