@@ -213,7 +213,10 @@ class LocalPlanner:
             return self._extend_curve(q_from, q_to, backwards)
         if self.steering == "diffdrive":
             if backwards:
-                raise ConfigError("diffdrive steering grows forward trees only: use it with 'rrt' or 'rrt-star'")
+                raise ConfigError(
+                    "diffdrive steering grows forward trees only: use it with 'rrt' (rrt-star rewires along exact "
+                    "curves: steering 'reeds_shepp' or 'dubins')"
+                )
             poses = diffdrive_steer(q_from, q_to, self.robot, duration=self.primitive_duration)
             dense = self.checker.densify(poses)
             if not self.checker.path_free(dense):

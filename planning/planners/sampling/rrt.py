@@ -359,16 +359,23 @@ def _closer(local: LocalPlanner, tree: Tree, k: int, before: int, target: FloatA
 
 @dataclass(frozen=True)
 class BiRRTConfig(TreeConfig):
-    """:class:`TreeConfig` with the fruit-farm report's defaults: unicycle primitives, 5000 samples, no goal bias."""
+    """:class:`TreeConfig` with the fruit-farm report's defaults: unicycle primitives, 5000 samples, no goal bias.
+
+    Attributes:
+        connect_steps: Longest connect step (extensions of the other tree toward the new node).
+        direct_curve: First try the exact curve from the start to the goal (a plan it solves grows no tree);
+            False grows the trees from the first iteration, as the fruit-farm report's planner did.
+    """
 
     steering: str = "unicycle"
     goal_bias: float = 0.0
     max_iterations: int = 5000
     connect_steps: int = 50
+    direct_curve: bool = True
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        check_fields(self, {"connect_steps": {"integer": True, "at_least": 1}})
+        check_fields(self, {"connect_steps": {"integer": True, "at_least": 1}, "direct_curve": FLAG})
 
 
 class BiRRT(_TreePlanner[BiRRTConfig]):
@@ -392,7 +399,9 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
 
     def _joined_roots(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult | None:
         """The plan when one exact curve joins the start and the goal (the trees are then just their
-        roots), else None."""
+        roots), else None (and without ``direct_curve``)."""
+        if not self.config.direct_curve:
+            return None
         start, goal = problem.start.as_array(), problem.goal.as_array()
         direct = local.connect(start, goal)
         if direct is None:

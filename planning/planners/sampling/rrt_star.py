@@ -1,5 +1,11 @@
 """RRT* with exact steering (the parking-lot report): choose-parent and rewire along Reeds–Shepp (or Dubins) curves.
 
+The parking-lot report raced RRT* against RRT with one drive policy, wheel speeds fitted by least squares toward
+the sample and driven 1 s (``steering="diffdrive"`` here, with its (x, y, theta) metric). That drive reaches, from a
+node, only the poses of the arcs its two wheel speeds draw (a 2-D family in the 3-D pose space), so the curve from a
+new node to a neighbour's pose that choosing a parent and rewiring need ends on that pose only by chance: this RRT*
+steers by exact curves instead, and ``diffdrive`` is refused (``rrt`` takes it).
+
 Every edge is the exact shortest curve from its parent's pose to its node's pose, stored densely.
 A node's pose never changes; rewiring replaces only the rewired node's own edge by the exact curve
 from its new parent, so its children's edges (which start at the unchanged pose) stay exact and
@@ -172,7 +178,11 @@ class RRTStar(_TreePlanner[RRTStarConfig]):
         with ``stop_on_first``, at the first solution."""
         cfg = self.config
         if not local.exact:
-            raise ConfigError(f"rrt-star needs exact steering ('reeds_shepp' or 'dubins'), got {cfg.steering!r}")
+            raise ConfigError(
+                f"rrt-star needs exact steering ('reeds_shepp' or 'dubins'), got {cfg.steering!r}: choosing a parent "
+                "and rewiring join two poses exactly, which primitives and the diffdrive drive do not; plan with "
+                "rrt for those"
+            )
         if in_goal(problem.start.as_array(), problem):
             return self._start_in_goal(problem, local, budget)
         search = _Search(cfg, problem, local, draws(problem))
