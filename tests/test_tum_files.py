@@ -113,7 +113,7 @@ def test_bad_quaternions_are_refused_naming_the_row_and_the_fix(tmp_path: Path) 
         read_trajectory_file(_table(tmp_path, "t,x,y,qx,qy,qz,qw", np.column_stack([t, X, Y, q_bad])))
     # a camera's optical frame (z forward: tilted 90 degrees) is not a ground robot's pose
     camera = _quaternions(YAW, tilt=-np.pi / 2)
-    with pytest.raises(TrajectoryFileError, match=r"line 2's orientation quaternion tilts 90 deg .* 40 of 40 rows"):
+    with pytest.raises(TrajectoryFileError, match=r"line 2's orientation quaternion tilts 90 deg .* 40 of 40 poses"):
         read_trajectory_file(_table(tmp_path, "t,x,y,qx,qy,qz,qw", np.column_stack([t, X, Y, camera])))
 
 
@@ -133,3 +133,30 @@ def test_columns_given_as_one_string_are_names_not_letters() -> None:
     assert TrajectoryFile("a.csv", columns="t, x,y").columns == ("t", "x", "y")
     with pytest.raises(TrajectoryFileError, match=r"unknown column name\(s\) 'txy'"):
         TrajectoryFile("a.csv", columns="txy")  # was read as t, x, y, letter by letter
+
+
+def test_identity_orientations_on_a_path_running_west_are_unset_as_in_a_bag(tmp_path: Path) -> None:
+    """A table's quaternions are read as a bag's and a YAML path's (one function): identity orientations on every
+    pose but the last of a path that runs off +x are Nav2's unset ones, not headings (read as headings, the westward
+    leg was driven in reverse)."""
+    x = np.r_[np.zeros(10), -0.1 * np.arange(1, 10)]
+    y = np.r_[0.1 * np.arange(10), np.full(9, 0.9)]
+    q = np.tile([0.0, 0.0, 0.0, 1.0], (19, 1))
+    q[-1] = [0.0, 0.0, 1.0, 0.0]  # the goal's orientation (yaw pi) on the last pose alone
+    path = read_trajectory_file(
+        TrajectoryFile(_table(tmp_path, "x,y,qx,qy,qz,qw", np.column_stack([x, y, q])), timed=False)
+    )
+    assert path.theta is None and (path.direction > 0).all()  # forwards throughout, headings from the motion
+    assert any(n.startswith("orientations: poses[0..17] carry the identity quaternion") for n in path.report.notes)
+
+
+def test_a_bag_paths_positions_are_placed_in_map_when_its_orientations_are_unset() -> None:
+    """Unset orientations leave no headings; placing such a path from another frame into ``map`` needed them
+    (a KeyError)."""
+    from planning.trajectory.bag_file import Hop, place_in_map
+
+    hops = {"odom": Hop("map", True, np.array([0], dtype=np.int64), np.array([[1.0, 2.0, np.pi / 2]]))}
+    cols: dict[str, np.ndarray] = {"x": np.array([0.0, 1.0]), "y": np.array([0.0, 0.0])}
+    assert place_in_map(hops, "odom", np.array([1, 2], dtype=np.int64), cols) is not None
+    np.testing.assert_allclose(np.column_stack([cols["x"], cols["y"]]), [[1.0, 2.0], [1.0, 3.0]], atol=1e-12)
+    assert "theta" not in cols

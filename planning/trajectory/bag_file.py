@@ -19,8 +19,8 @@ would refuse to extrapolate (a pose stamped before the first transform, as the s
 AMCL's first), the nearest transform is used and the report counts those poses. A bag without that
 chain leaves the poses as they are, and the report says so and points to ``--offset``. Orientation
 quaternions must have norm 1 within :data:`QUATERNION_TOLERANCE` (tf2 refuses others; those within it
-are normalised): the check a YAML path's get too
-(:func:`planning.trajectory.file_formats.quaternion_headings`).
+are normalised) and lie within 45 degrees of the plane, read as a YAML path's and a table's are
+(:func:`planning.trajectory.file_formats.orientation_headings`).
 
 The table then goes through :func:`planning.trajectory.importer.read_trajectory_file`'s repairs and
 checks like any other file. Every problem (no such bag, a truncated file or one that is not a bag,
@@ -47,10 +47,9 @@ from planning.trajectory.file_formats import QUATERNION_TOLERANCE as QUATERNION_
 from planning.trajectory.file_formats import (
     FileTable,
     TrajectoryFileError,
-    quaternion_headings,
+    orientation_headings,
     quaternion_yaw,
     table_from_arrays,
-    unset_orientations,
     yaml_problem,
 )
 
@@ -182,19 +181,23 @@ def _pose_of(msg: Any, msgtype: str) -> Any:
     return msg.pose.pose if msgtype != "geometry_msgs/msg/PoseStamped" else msg.pose
 
 
-def _columns(path: Path, poses: list[Any], stamps: list[int], rows: tuple[str, ...]) -> dict[str, Any]:
+def _columns(
+    path: Path, poses: list[Any], stamps: list[int], rows: tuple[str, ...]
+) -> tuple[dict[str, Any], tuple[str, ...]]:
+    """The poses' columns (their headings read as a YAML path's and a table's, :func:`orientation_headings`) and
+    the notes reading them made."""
     cols = {
         "x": np.array([p.position.x for p in poses], dtype=float),
         "y": np.array([p.position.y for p in poses], dtype=float),
     }
     q = np.array([[p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w] for p in poses], dtype=float)
     _check_finite(path, {**cols, "orientation quaternion": q}, rows)
-    theta = quaternion_headings(q, rows, path)  # unit quaternions (normalised), as a YAML path's
-    assert theta is not None  # a zero quaternion is refused
-    cols["theta"] = theta
+    theta, notes = orientation_headings(q, rows, path, cols["x"], cols["y"])  # a zero quaternion is refused
+    if theta is not None:  # None: unset orientations (Nav2's NavFn), said in the notes
+        cols["theta"] = theta
     if len(set(stamps)) > 1:
         cols["t"] = np.array([s - stamps[0] for s in stamps], dtype=float) * 1e-9
-    return cols
+    return cols, notes
 
 
 def _one_frame(path: Path, what: str, frames: list[str], rows: tuple[str, ...]) -> str:
@@ -324,8 +327,8 @@ def read_transforms(reader: Any, path: Path) -> Transforms:
 
 
 def place_in_map(hops: dict[str, Hop], frame: str, stamps: NDArray[np.int64], columns: dict[str, Any]) -> str | None:
-    """Move the poses in ``columns`` (``x``, ``y``, ``theta``), in ``frame`` at ``stamps`` [ns], into ``map``
-    along the chain of ``hops`` from ``map`` down to ``frame``, each pose by the transforms at its stamp;
+    """Move the poses in ``columns`` (``x``, ``y`` and ``theta`` when given), in ``frame`` at ``stamps`` [ns], into
+    ``map`` along the chain of ``hops`` from ``map`` down to ``frame``, each pose by the transforms at its stamp;
     return what was done, for the report, or None (``columns`` unchanged) when no such chain exists."""
     chain: list[str] = [frame.lstrip("/")]
     while chain[-1] != MAP_FRAME:
@@ -339,8 +342,12 @@ def place_in_map(hops: dict[str, Hop], frame: str, stamps: NDArray[np.int64], co
         pose, beyond = hops[child].at(stamps)
         frame_in_map = compose_poses(pose, frame_in_map)
         held |= beyond
-    poses = np.column_stack([np.asarray(columns[k], dtype=float) for k in ("x", "y", "theta")])
-    columns["x"], columns["y"], columns["theta"] = compose_poses(frame_in_map, poses).T
+    headings = columns.get("theta")  # None: orientations unset (the poses' positions are placed alone)
+    poses = np.column_stack([columns["x"], columns["y"], np.zeros(stamps.size) if headings is None else headings])
+    placed = compose_poses(frame_in_map, np.asarray(poses, dtype=float)).T
+    columns["x"], columns["y"] = placed[0], placed[1]
+    if headings is not None:
+        columns["theta"] = placed[2]
     said = " -> ".join(reversed(chain)) + ", at each pose's stamp"
     if held.any():
         said += f"; {int(held.sum())} of {stamps.size} poses lie beyond the transforms' stamps, placed by the nearest"
@@ -409,12 +416,8 @@ def _path_rows(path: Path, topic: str, msgs: list[Any], message: int | None, pat
             f"{stamps[0] * 1e-9:.9g} s, so it is a path, not a trajectory; track it with "
             f"{option('path', python='timed=False')}, or give a path whose poses carry their times"
         )
-    cols = _columns(path, [p.pose for p in poses], stamps, rows)
-    quats = [(o.x, o.y, o.z, o.w) for o in (p.pose.orientation for p in poses)]
-    unset = unset_orientations(np.array(quats, dtype=float), cols["x"], cols["y"])
-    if unset:
-        del cols["theta"]
-    return _Rows(rows, cols, frame, header, stamps, unset)
+    cols, notes = _columns(path, [p.pose for p in poses], stamps, rows)
+    return _Rows(rows, cols, frame, header, stamps, notes)
 
 
 def _motion_rows(path: Path, topic: str, msgs: list[Any], msgtype: str) -> _Rows:
@@ -432,13 +435,12 @@ def _motion_rows(path: Path, topic: str, msgs: list[Any], msgtype: str) -> _Rows
     msgs, stamps = [msgs[i] for i in order], [stamps[i] for i in order]
     rows = tuple(f"{topic} message {i}" for i in order)
     frame = _one_frame(path, f"topic {topic}", [mm.header.frame_id for mm in msgs], rows)
-    cols = _columns(path, [_pose_of(mm, msgtype) for mm in msgs], stamps, rows)
+    cols, notes = _columns(path, [_pose_of(mm, msgtype) for mm in msgs], stamps, rows)
     if msgtype == "nav_msgs/msg/Odometry":
         cols["v"] = np.array([mm.twist.twist.linear.x for mm in msgs], dtype=float)
         cols["omega"] = np.array([mm.twist.twist.angular.z for mm in msgs], dtype=float)
-    notes: tuple[str, ...] = ()
     if moved:
-        notes = (f"{moved} messages of {topic} were logged out of their stamps' order: read in the stamps' order",)
+        notes += (f"{moved} messages of {topic} were logged out of their stamps' order: read in the stamps' order",)
     return _Rows(rows, cols, frame, None, stamps, notes)
 
 

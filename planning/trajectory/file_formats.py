@@ -57,6 +57,7 @@ __all__ = [
     "SKIP",
     "FileTable",
     "TrajectoryFileError",
+    "orientation_headings",
     "parse_column_names",
     "quaternion_columns",
     "quaternion_headings",
@@ -654,11 +655,12 @@ def quaternion_headings(
 
 def quaternion_columns(table: FileTable) -> tuple[dict[str, FloatArray], tuple[str, ...]]:
     """The table's columns with an orientation quaternion's (:data:`QUATERNION`) replaced by its yaw as ``theta``
-    (checked as a bag's, :func:`quaternion_headings`; all zero: no headings), and the notes reading them made.
+    (:func:`orientation_headings`, as a bag's and a YAML path's; all zero: no headings), and the notes reading them
+    made.
 
     Raises:
-        TrajectoryFileError: Some of qx, qy, qz, qw but not all; a quaternion beside ``theta``; a zero (among others)
-            or unnormalised quaternion; an orientation tilted more than :data:`MAX_TILT` from the plane.
+        TrajectoryFileError: Some of qx, qy, qz, qw but not all; a quaternion beside ``theta``; a quaternion that
+            :func:`orientation_headings` refuses.
     """
     cols = dict(table.columns)
     given = [c for c in QUATERNION if c in cols]
@@ -677,27 +679,66 @@ def quaternion_columns(table: FileTable) -> tuple[dict[str, FloatArray], tuple[s
             f"skip the other's columns with {SKIP}"
         )
     q = np.column_stack([cols.pop(c) for c in QUATERNION])
-    theta = quaternion_headings(q, table.rows, p, all_zero=True)
+    theta, notes = orientation_headings(q, table.rows, p, cols.get("x"), cols.get("y"), all_zero=True)
+    if theta is not None:
+        cols["theta"] = theta
+    return cols, notes
+
+
+def orientation_headings(
+    q: ArrayLike,
+    rows: Sequence[str],
+    where: str | Path,
+    x: FloatArray | None,
+    y: FloatArray | None,
+    *,
+    all_zero: bool = False,
+) -> tuple[FloatArray | None, tuple[str, ...]]:
+    """The headings poses' orientation quaternions (N, 4: x, y, z, w) give, and what reading them made of them:
+    the one reading of a table's, a YAML path's and a bag's orientations.
+
+    Each quaternion is checked by :func:`quaternion_headings` (norm 1 within :data:`QUATERNION_TOLERANCE`); every
+    one zero, where ``all_zero`` allows it, means no headings. Only the yaw is read: an orientation tilted from
+    the plane by more than :data:`NOTED_TILT` is noted, by more than :data:`MAX_TILT` refused. Orientations left
+    unset (:func:`unset_orientations`, Nav2's NavFn) give no headings either, said.
+
+    Args:
+        q: (N, 4) quaternions, finite.
+        rows: How messages name each pose.
+        where: The file (and topic) in messages.
+        x, y: (N,) positions, for the unset check (None: not checked).
+        all_zero: Every quaternion zero means no headings (a table's or a YAML capture's) rather than an error.
+
+    Returns:
+        The headings [rad] (N,), or None; the notes for the import report.
+
+    Raises:
+        TrajectoryFileError: A zero (among others) or unnormalised quaternion, or one tilted more than
+            :data:`MAX_TILT` (its row named).
+    """
+    quats = np.asarray(q, dtype=float).reshape(-1, 4)
+    theta = quaternion_headings(quats, rows, where, all_zero=all_zero)
     if theta is None:
-        return cols, ("every orientation quaternion is zero: no headings read (the motion's are used)",)
-    u = q / np.linalg.norm(q, axis=1, keepdims=True)
+        return None, ("every orientation quaternion is zero: no headings read (the motion's are used)",)
+    u = quats / np.linalg.norm(quats, axis=1, keepdims=True)
     tilt = np.arccos(np.clip(1.0 - 2.0 * (u[:, 0] ** 2 + u[:, 1] ** 2), -1.0, 1.0))  # body z from the vertical
     over = np.flatnonzero(tilt > MAX_TILT)
     k = int(over[0]) if over.size else int(np.argmax(tilt))  # the first row refused, else the most tilted
     if over.size:
         raise TrajectoryFileError(
-            f"{p}: {table.rows[k]}'s orientation quaternion tilts {np.degrees(tilt[k]):.0f} deg from the plane "
-            f"(more than {np.degrees(MAX_TILT):.0f} deg; {over.size} of {len(tilt)} rows): not a "
-            "ground robot's pose (a camera's optical frame, z forward, reads so); give the robot's poses "
-            "(base_link in the map frame) or its heading as theta"
+            f"{where}: {rows[k]}'s orientation quaternion tilts {np.degrees(tilt[k]):.0f} deg from the plane "
+            f"(more than {np.degrees(MAX_TILT):.0f} deg; {over.size} of {len(tilt)} poses): not a ground robot's "
+            "pose (a camera's optical frame, z forward, reads so); give the robot's poses (base_link in the map "
+            "frame) or its heading as theta"
         )
-    cols["theta"] = theta
+    if x is not None and y is not None and (unset := unset_orientations(quats, x, y)):
+        return None, unset
     if tilt[k] > NOTED_TILT:
-        return cols, (
+        return theta, (
             f"headings: the yaw of each orientation quaternion; they tilt up to {np.degrees(tilt[k]):.1f} deg from "
-            f"the plane ({table.rows[k]}), which a planar robot does not follow",
+            f"the plane ({rows[k]}), which a planar robot does not follow",
         )
-    return cols, ()
+    return theta, ()
 
 
 #: Largest angle between a step of a path and the heading (0 rad) its identity orientations give before they are
@@ -740,9 +781,8 @@ def _nav_path(p: Path, data: Mapping[str, Any]) -> FileTable:
     cols = {"x": np.asarray(xs, dtype=float), "y": np.asarray(ys, dtype=float)}
     notes: tuple[str, ...] = ()
     if all(q is not None for q in quats):
-        theta = quaternion_headings(np.array(quats, dtype=float), rows, p, all_zero=True)
-        notes = unset_orientations(np.array(quats, dtype=float), cols["x"], cols["y"]) if theta is not None else ()
-        if theta is not None and not notes:
+        theta, notes = orientation_headings(np.array(quats, dtype=float), rows, p, cols["x"], cols["y"], all_zero=True)
+        if theta is not None:
             cols["theta"] = theta
     if all(s is not None for s in stamps) and len(set(stamps)) > 1:
         cols["t"] = np.asarray(stamps, dtype=float)
