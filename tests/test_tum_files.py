@@ -64,7 +64,7 @@ def test_a_headerless_file_of_eight_numbers_is_pointed_to_the_tum_layout(
     assert main(["simulate", "--trajectory", str(p), "--no-video", "--quiet"]) == 2
     err = capsys.readouterr().err
     assert "is numbers, not a header" in err and err.rstrip().endswith(
-        "8 cells a row, as a TUM trajectory's (timestamp tx ty tz qx qy qz qw): --columns tum"
+        "8 numbers a row, as a TUM trajectory's (timestamp tx ty tz qx qy qz qw): --columns tum"
     )
     # a header row of TUM's names (not a comment): tx and ty are x and y, tz is unknown and the layout is advised
     q = _quaternions(YAW)
@@ -97,12 +97,13 @@ def test_quaternion_columns_in_a_header_or_json_give_the_heading(tmp_path: Path)
 def test_bad_quaternions_are_refused_naming_the_row_and_the_fix(tmp_path: Path) -> None:
     t = T - T[0]
     q = _quaternions(YAW)
-    some = _table(tmp_path, "t,x,y,qz,qw", np.column_stack([t, X, Y, q[:, 2:]]))
-    with pytest.raises(TrajectoryFileError, match=r"qx, qy, qz, qw come together .* qx, qy are missing"):
+    some = _table(tmp_path, "t,x,y,qx,qz,qw", np.column_stack([t, X, Y, q[:, [0, 2, 3]]]))
+    with pytest.raises(TrajectoryFileError, match=r"columns are qx, qy, qz, qw, and qy is missing: name all four, or"):
         read_trajectory_file(some)
-    both = _table(tmp_path, "t,x,y,theta,qx,qy,qz,qw", np.column_stack([t, X, Y, YAW, q]))
-    with pytest.raises(TrajectoryFileError, match=r"both theta and an orientation quaternion .* keep one"):
-        read_trajectory_file(both)
+    pj = tmp_path / "some.json"
+    pj.write_text(json.dumps([{"t": a, "x": b, "y": c, "qw": d} for a, b, c, d in zip(t, X, Y, q[:, 3], strict=True)]))
+    with pytest.raises(TrajectoryFileError, match=r"qx, qy, qz are missing: give all four fields, or qz and qw"):
+        read_trajectory_file(pj)  # a document's fields cannot be skipped with _
     q_bad = q.copy()
     q_bad[5] *= 1.5
     with pytest.raises(TrajectoryFileError, match=r"line 7 has an unnormalised \(norm 1\.5\) orientation quaternion"):
@@ -160,3 +161,82 @@ def test_a_bag_paths_positions_are_placed_in_map_when_its_orientations_are_unset
     assert place_in_map(hops, "odom", np.array([1, 2], dtype=np.int64), cols) is not None
     np.testing.assert_allclose(np.column_stack([cols["x"], cols["y"]]), [[1.0, 2.0], [1.0, 3.0]], atol=1e-12)
     assert "theta" not in cols
+
+
+def test_theta_beside_a_quaternion_wins_and_a_planar_quaternion_is_qz_and_qw(tmp_path: Path) -> None:
+    """Fields a JSON export carries beside the columns were left out with a note; a quaternion beside theta (and tx,
+    ty beside x, y) are too, rather than refused with advice a document cannot follow. qz and qw alone are a planar
+    quaternion, as many 2-D tools write it."""
+    t = T - T[0]
+    q = _quaternions(YAW)
+    rows = [
+        {"t": a, "x": b, "y": c, "theta": d, "qx": 0.0, "qy": 0.0, "qz": 1.0, "qw": 0.0, "tx": 9.0, "ty": 9.0}
+        for a, b, c, d in zip(t, X, Y, YAW, strict=True)
+    ]
+    pj = tmp_path / "both.json"
+    pj.write_text(json.dumps(rows))
+    both = read_trajectory_file(pj)
+    np.testing.assert_allclose(both.theta, YAW, atol=1e-9)  # type: ignore[arg-type]
+    np.testing.assert_allclose(both.xy, np.column_stack([X, Y]), atol=1e-12)
+    notes = " ".join(both.report.notes)
+    assert "columns qx, qy, qz, qw ignored: theta gives the heading" in notes
+    assert "fields 'tx', 'ty' ignored: the columns they name (x, y) are given under their own names" in notes
+    planar = read_trajectory_file(_table(tmp_path, "t,x,y,qz,qw", np.column_stack([t, X, Y, q[:, 2:]])))
+    np.testing.assert_allclose(planar.theta, YAW, atol=1e-9)  # type: ignore[arg-type]
+
+
+def test_evos_tum_suffix_and_a_quaternion_written_w_first(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    gt = _tum(tmp_path, name="gt.tum")  # evo's --save_as_tum writes NAME.tum
+    np.testing.assert_allclose(read_trajectory_file(TrajectoryFile(gt, columns="tum")).theta, YAW, atol=1e-6)  # type: ignore[arg-type]
+    w_first = _tum(tmp_path, q=_quaternions(YAW)[:, [3, 0, 1, 2]], name="euroc.txt")
+    assert main(["simulate", "--trajectory", str(w_first), "--no-video", "--quiet"]) == 2
+    said = "its quaternion written w first (timestamp tx ty tz qw qx qy qz): --columns t,x,y,_,qw,qx,qy,qz"
+    assert capsys.readouterr().err.rstrip().endswith(said)
+    with pytest.raises(TrajectoryFileError, match=r"read as \(w, x, y, z\) instead, every one lies near the plane"):
+        read_trajectory_file(TrajectoryFile(w_first, columns="tum"))  # identity read x first: upside down
+    imported = read_trajectory_file(TrajectoryFile(w_first, columns="t,x,y,_,qw,qx,qy,qz"))
+    np.testing.assert_allclose(imported.theta, YAW, atol=1e-6)  # type: ignore[arg-type]
+    # a header naming the quaternion w first contradicts the tum layout (its tz, not a column, agrees with _)
+    header = _table(
+        tmp_path,
+        "timestamp,tx,ty,tz,qw,qx,qy,qz",
+        np.column_stack([T, X, Y, 0 * X, _quaternions(YAW)[:, [3, 0, 1, 2]]]),
+    )
+    with pytest.raises(TrajectoryFileError, match=r"column 5 is 'qx', the header says 'qw'"):
+        read_trajectory_file(TrajectoryFile(header, columns="tum"))
+    with pytest.raises(TrajectoryFileError, match=r"unknown column name\(s\) 'tz'") as err:
+        read_trajectory_file(header)
+    assert "--columns tum" not in str(err.value)  # its order is not the layout's
+
+
+def test_eight_numbers_that_are_not_a_tum_row_are_not_pointed_to_it(tmp_path: Path) -> None:
+    rows = np.column_stack([T - T[0], X, Y, YAW, np.full(N, 0.1), np.zeros(N), np.zeros(N), np.zeros(N)])
+    p = tmp_path / "eight.txt"
+    p.write_text("\n".join(" ".join(f"{v:.6f}" for v in r) for r in rows) + "\n")
+    with pytest.raises(TrajectoryFileError, match=r"is numbers, not a header") as err:
+        read_trajectory_file(p)
+    assert "TUM" not in str(err.value)
+
+
+@pytest.mark.parametrize(
+    ("columns", "said"),
+    [("", "names no column"), (" , ", "names no column"), (b"t,x,y", "must be names"), ("txy", "'txy'")],
+)
+def test_columns_that_name_nothing_or_are_not_text_are_refused(columns: object, said: str, tmp_path: Path) -> None:
+    with pytest.raises(TrajectoryFileError, match=said):
+        TrajectoryFile("a.csv", columns=columns)  # type: ignore[arg-type]
+    from planning.trajectory.file_formats import read_table
+
+    p = _tum(tmp_path)
+    with pytest.raises(TrajectoryFileError, match=said):
+        read_table(p, columns=columns)  # type: ignore[arg-type]
+    assert set(read_table(p, columns="tum").columns) == {"t", "x", "y", "qx", "qy", "qz", "qw"}
+
+
+def test_birrt_refuses_the_diffdrive_drive_whatever_the_world() -> None:
+    """The forward-only drive was taken when one curve solved the world, refused where the trees had to grow."""
+    from planning.errors import ConfigError
+    from planning.planners.registry import make_planner
+
+    with pytest.raises(ConfigError, match=r"birrt cannot steer by 'diffdrive'.*use it with 'rrt'"):
+        make_planner("birrt", steering="diffdrive")

@@ -57,6 +57,7 @@ __all__ = [
     "SKIP",
     "FileTable",
     "TrajectoryFileError",
+    "given_columns",
     "orientation_headings",
     "parse_column_names",
     "quaternion_columns",
@@ -76,6 +77,8 @@ SKIP = "_"
 #: Column layouts that ``columns`` may name alone: ``tum`` is the TUM RGB-D benchmark's trajectory format
 #: (``timestamp tx ty tz qx qy qz qw`` a row, as evo reads and writes it), its height tz skipped.
 LAYOUTS = {"tum": ("t", "x", "y", SKIP, *QUATERNION)}
+#: The TUM format's columns, as its files' comment names them.
+TUM_HEADER = "timestamp tx ty tz qx qy qz qw"
 #: Largest tilt of an orientation from the plane [rad] read without a note (a ramp, a bump); above
 #: :data:`MAX_TILT` an orientation is not a ground robot's (a camera's optical frame has z forward).
 NOTED_TILT = 0.1
@@ -85,8 +88,8 @@ QUATERNION_TOLERANCE = 1e-3
 #: A quaternion of a smaller norm is zero: no orientation at all.
 ZERO_QUATERNION = 1e-6
 _COMMENTS = ("#", "%", "//")
-#: Suffixes read as text tables ("": none); JSON and YAML are :data:`DOCUMENT_SUFFIXES`.
-TEXT_SUFFIXES = ("", ".csv", ".tsv", ".tab", ".txt", ".dat", ".log")
+#: Suffixes read as text tables ("": none; ``.tum``: evo's TUM files); JSON and YAML are :data:`DOCUMENT_SUFFIXES`.
+TEXT_SUFFIXES = ("", ".csv", ".tsv", ".tab", ".txt", ".dat", ".log", ".tum")
 DOCUMENT_SUFFIXES = (".json", ".yaml", ".yml")
 #: File suffixes read as bags (:mod:`planning.trajectory.bag_file`; a folder with a ``metadata.yaml`` is one too).
 BAG_SUFFIXES = (".mcap", ".bag", ".db3")
@@ -177,13 +180,39 @@ def _valid_names() -> str:
     )
 
 
-def _layout_hint(cells: int) -> str:
-    """The advice for a row of ``cells`` cells that a named layout (:data:`LAYOUTS`) reads, else ""."""
-    fits = [name for name, cols in LAYOUTS.items() if len(cols) == cells]
-    if not fits:
+def _layout_hint(names: Sequence[str]) -> str:
+    """The advice for a header of ``names`` (some unknown) that a named layout (:data:`LAYOUTS`) reads: its known
+    names agree with the layout's, column by column; else ""."""
+    own = _lenient(names)
+    for name, cols in LAYOUTS.items():
+        if len(cols) == len(own) and all(SKIP in (a, b) or a == b for a, b in zip(own, cols, strict=True)):
+            return f"; {len(own)} names as a TUM trajectory's ({TUM_HEADER}): {option('columns', name)}"
+    return ""
+
+
+def _row_hint(cells: list[str], delimiter: str | None) -> str:
+    """The advice for a headerless first row of ``cells``: a TUM trajectory's eight numbers (timestamp tx ty tz
+    qx qy qz qw) when its last four are a unit quaternion that lies near the plane (the ``tum`` layout), or the
+    same with the quaternion written w first (EuRoC's and Eigen's order); else ""."""
+    if len(cells) != len(LAYOUTS["tum"]) or not _is_numeric_row(cells, delimiter):
         return ""
-    tum = "timestamp tx ty tz qx qy qz qw"
-    return f"; {cells} cells a row, as a TUM trajectory's ({tum}): {option('columns', fits[0])}"
+    q = np.array([float(c if delimiter == "," else c.replace(",", ".")) for c in cells[4:]])
+    if abs(np.linalg.norm(q) - 1.0) > QUATERNION_TOLERANCE:
+        return ""
+    if np.hypot(q[0], q[1]) <= np.sin(NOTED_TILT / 2):  # x, y of a quaternion near the plane are small
+        return f"; 8 numbers a row, as a TUM trajectory's ({TUM_HEADER}): {option('columns', 'tum')}"
+    if np.hypot(q[1], q[2]) <= np.sin(NOTED_TILT / 2):  # the same, w first
+        given = ",".join((*LAYOUTS["tum"][:4], "qw", "qx", "qy", "qz"))
+        return (
+            f"; 8 numbers a row, as a TUM trajectory's with its quaternion written w first (timestamp tx ty tz qw qx "
+            f"qy qz): {option('columns', given)}"
+        )
+    return ""
+
+
+def _lenient(names: Sequence[str]) -> tuple[str, ...]:
+    """A header's names, an unknown one read as ``_``."""
+    return tuple(column_of(n) if column_of(n) in COLUMNS else SKIP for n in names)
 
 
 def column_of(name: object) -> str:
@@ -192,27 +221,48 @@ def column_of(name: object) -> str:
     return ALIASES.get(n, n)
 
 
+def given_columns(columns: str | Sequence[str], where: str | None = None) -> tuple[str, ...]:
+    """The names ``columns`` (``--columns``) gives, checked (:func:`parse_column_names`): a sequence of names, or
+    one string of them separated by commas or spaces (``"t,x,y"``), or a layout's name alone (:data:`LAYOUTS`).
+
+    Raises:
+        TrajectoryFileError: No name, names that are not text, an unknown or repeated name.
+    """
+    where = where if where is not None else option("columns")
+    if isinstance(columns, str):
+        names: Sequence[str] = [c for c in re.split(r"[,\s]+", columns.strip()) if c]
+    elif isinstance(columns, Sequence) and all(isinstance(c, str) for c in columns):
+        names = columns
+    else:
+        raise TrajectoryFileError(
+            f"{where} must be names (text: 't,x,y' or ['t', 'x', 'y']), got {type(columns).__name__} {columns!r}"
+        )
+    if not names:
+        raise TrajectoryFileError(f"{where} names no column: name each of the file's columns, e.g. t,x,y")
+    if len(names) == 1 and column_of(names[0]) in LAYOUTS:
+        names = LAYOUTS[column_of(names[0])]
+    return parse_column_names(names, where)
+
+
 def parse_column_names(names: Sequence[str], where: str, fix: str | None = None) -> tuple[str, ...]:
-    """Column names as given (a header or ``--columns``), checked: each one of :data:`COLUMNS` (or an alias of one,
-    :data:`ALIASES`) or ``_``.
+    """Column names as given (a header, ``--columns``, a document's fields), checked: each one of :data:`COLUMNS`
+    (or an alias of one, :data:`ALIASES`) or ``_``.
 
     Args:
-        names: The names (spaces around them and case are ignored), or a layout's name alone (:data:`LAYOUTS`).
+        names: The names (spaces around them and case are ignored).
         where: How the message names their source (the file, or ``option("columns")``, :func:`~planning.errors.option`).
         fix: What the message advises for an unknown name (default: rename it in the header or give ``--columns``).
 
     Raises:
         TrajectoryFileError: An unknown or repeated name (the message lists the valid ones).
     """
-    if len(names) == 1 and column_of(names[0]) in LAYOUTS:
-        names = LAYOUTS[column_of(names[0])]
     out = tuple(column_of(n) for n in names)
     unknown = [n for n in out if n not in COLUMNS and n != SKIP]
     if unknown:
         advice = fix if fix is not None else f"rename them in the header or give {option('columns')}"
         raise TrajectoryFileError(
             f"{where}: unknown column name(s) {', '.join(repr(n) for n in unknown)}; valid names are "
-            f"{_valid_names()} ({SKIP} skips a column); {advice}{_layout_hint(len(names))}"
+            f"{_valid_names()} ({SKIP} skips a column); {advice}{_layout_hint(names)}"
         )
     named = [n for n in out if n != SKIP]
     twice = sorted({n for n in named if named.count(n) > 1})
@@ -241,8 +291,8 @@ def read_table(path: str | Path, columns: Sequence[str] | None = None) -> FileTa
 
     Args:
         path: The file.
-        columns: Names of a text file's columns (``--columns``), overriding its header; None: the
-            header names them. Not for JSON or YAML, whose fields are named.
+        columns: Names of a text file's columns (``--columns``, as :func:`given_columns` reads them), overriding
+            its header; None: the header names them. Not for JSON or YAML, whose fields are named.
 
     Raises:
         TrajectoryFileError: An unreadable file, an unknown column name, a missing header, a row
@@ -372,7 +422,7 @@ def _read_text(p: Path, text: str, columns: Sequence[str] | None) -> FileTable:
     first = _split(lines[:1], delimiter)[0][1]
     has_header = not _is_numeric_row(first, delimiter)
     if columns is not None:
-        names = parse_column_names(columns, option("columns"))
+        names = given_columns(columns)
         if has_header:
             _check_header_agrees(p, lines[0][0], first, names)
     elif has_header:
@@ -385,7 +435,7 @@ def _read_text(p: Path, text: str, columns: Sequence[str] | None) -> FileTable:
         raise TrajectoryFileError(
             f"{p}: the first row (line {lines[0][0]}) is numbers, not a header naming the columns: add a header "
             f"or name the columns, e.g. {example} (names {_valid_names()}; {SKIP} skips a column)"
-            f"{_commented_header(text, lines[0][0], delimiter) or _layout_hint(len(first))}"
+            f"{_commented_header(text, lines[0][0], delimiter) or _row_hint(first, delimiter)}"
         )
     body = lines[1:] if has_header else lines
     if not body:
@@ -456,11 +506,9 @@ def _plain_numbers(body: list[tuple[int, str]], delimiter: str | None, names: tu
 def _check_header_agrees(p: Path, line: int, header: list[str], names: tuple[str, ...]) -> None:
     """Refuse ``--columns`` that name a column other than a header of valid names does (``_`` on either side
     agrees with anything): ``t,y,x`` over a header ``t,x,y`` would swap x and y without a word. A header
-    of other names (``time,px,py``) is what ``--columns`` is for, and is skipped silently."""
-    try:
-        own = parse_column_names(header, "header")
-    except TrajectoryFileError:
-        return
+    of other names (``time,px,py``) is what ``--columns`` is for: a name the header has that is not a column (``tz``)
+    agrees with anything, as ``_`` does."""
+    own = _lenient(header)
     clash = [k for k, (a, b) in enumerate(zip(own, names, strict=False)) if SKIP not in (a, b) and a != b]
     if clash:
         k = clash[0]
@@ -535,13 +583,24 @@ def _json_fields(p: Path, keys: list[str], fmt: str) -> tuple[dict[str, str], tu
             f"{p}: {said}; a {fmt.upper()} file gives the columns ({_valid_names()}) at its top level: "
             '{"t": [...], "x": [...], "y": [...]} or [{"t": 0, "x": 0, "y": 0}, ...]'
         )
+    notes: list[str] = []
+    # another tool's name beside the column's own (tx beside x, timestamp beside t): the column's own is read
+    own = {column_of(k) for k in known if column_of(k) == k.strip().lower()}
+    beside = [k for k in known if column_of(k) != k.strip().lower() and column_of(k) in own]
+    if beside:
+        notes.append(
+            f"fields {', '.join(repr(k) for k in beside)} ignored: the columns they name "
+            f"({', '.join(column_of(k) for k in beside)}) are given under their own names"
+        )
+    known = [k for k in known if k not in beside]
     names = parse_column_names(known, str(p))
-    others = [k for k in keys if k not in known]
-    note = (
-        f"fields {', '.join(repr(k) for k in others)} ignored (not among {_valid_names()}): rename a field that "
-        "holds one of these"
-    )
-    return dict(zip(known, names, strict=True)), (note,) if others else ()
+    others = [k for k in keys if k not in known and k not in beside]
+    if others:
+        notes.append(
+            f"fields {', '.join(repr(k) for k in others)} ignored (not among {_valid_names()}): rename a field that "
+            "holds one of these"
+        )
+    return dict(zip(known, names, strict=True)), tuple(notes)
 
 
 def _from_columns(p: Path, data: Mapping[str, Any], fmt: str) -> FileTable:
@@ -654,12 +713,12 @@ def quaternion_headings(
 
 
 def quaternion_columns(table: FileTable) -> tuple[dict[str, FloatArray], tuple[str, ...]]:
-    """The table's columns with an orientation quaternion's (:data:`QUATERNION`) replaced by its yaw as ``theta``
-    (:func:`orientation_headings`, as a bag's and a YAML path's; all zero: no headings), and the notes reading them
-    made.
+    """The table's columns with an orientation quaternion's (:data:`QUATERNION`; or qz and qw alone, a planar one)
+    replaced by its yaw as ``theta`` (:func:`orientation_headings`, as a bag's and a YAML path's; all zero: no
+    headings), and the notes reading them made. Beside ``theta`` the quaternion is left out, said.
 
     Raises:
-        TrajectoryFileError: Some of qx, qy, qz, qw but not all; a quaternion beside ``theta``; a quaternion that
+        TrajectoryFileError: qx or qy without all four; qz or qw without the other; a quaternion that
             :func:`orientation_headings` refuses.
     """
     cols = dict(table.columns)
@@ -667,18 +726,21 @@ def quaternion_columns(table: FileTable) -> tuple[dict[str, FloatArray], tuple[s
     if not given:
         return cols, ()
     p = table.path
-    if len(given) < len(QUATERNION):
-        lacking = [c for c in QUATERNION if c not in cols]
-        raise TrajectoryFileError(
-            f"{p}: columns {', '.join(QUATERNION)} come together (an orientation quaternion) and {', '.join(lacking)} "
-            f"{'is' if len(lacking) == 1 else 'are'} missing: name all four, or skip the others with {SKIP}"
-        )
     if "theta" in cols:
+        for c in given:
+            del cols[c]
+        return cols, (f"columns {', '.join(given)} ignored: theta gives the heading",)
+    if given not in (list(QUATERNION), list(QUATERNION[2:])):
+        lacking = [c for c in QUATERNION if c not in cols]
+        fix = f"name all four, or qz and qw alone (a planar quaternion); skip the others with {SKIP}"
+        if table.fmt in ("json", "yaml"):
+            fix = "give all four fields, or qz and qw alone (a planar quaternion); or drop them"
         raise TrajectoryFileError(
-            f"{p}: both theta and an orientation quaternion ({', '.join(QUATERNION)}) give the heading: keep one, "
-            f"skip the other's columns with {SKIP}"
+            f"{p}: an orientation quaternion's columns are {', '.join(QUATERNION)}, and {', '.join(lacking)} "
+            f"{'is' if len(lacking) == 1 else 'are'} missing: {fix}"
         )
-    q = np.column_stack([cols.pop(c) for c in QUATERNION])
+    zero = np.zeros(len(table))
+    q = np.column_stack([cols.pop(c) if c in given else zero for c in QUATERNION])
     theta, notes = orientation_headings(q, table.rows, p, cols.get("x"), cols.get("y"), all_zero=True)
     if theta is not None:
         cols["theta"] = theta
@@ -725,11 +787,18 @@ def orientation_headings(
     over = np.flatnonzero(tilt > MAX_TILT)
     k = int(over[0]) if over.size else int(np.argmax(tilt))  # the first row refused, else the most tilted
     if over.size:
+        why = (
+            "not a ground robot's pose (a camera's optical frame, z forward, reads so); give the robot's poses "
+            "(base_link in the map frame) or its heading as theta"
+        )
+        if np.all(np.hypot(u[:, 1], u[:, 2]) <= np.sin(NOTED_TILT / 2)):  # read w, x, y, z: all near the plane
+            why = (
+                "read as (w, x, y, z) instead, every one lies near the plane: the quaternion is written w first "
+                "(EuRoC's and Eigen's order); name its columns in that order, qw,qx,qy,qz"
+            )
         raise TrajectoryFileError(
             f"{where}: {rows[k]}'s orientation quaternion tilts {np.degrees(tilt[k]):.0f} deg from the plane "
-            f"(more than {np.degrees(MAX_TILT):.0f} deg; {over.size} of {len(tilt)} poses): not a ground robot's "
-            "pose (a camera's optical frame, z forward, reads so); give the robot's poses (base_link in the map "
-            "frame) or its heading as theta"
+            f"(more than {np.degrees(MAX_TILT):.0f} deg; {over.size} of {len(tilt)} poses): {why}"
         )
     if x is not None and y is not None and (unset := unset_orientations(quats, x, y)):
         return None, unset

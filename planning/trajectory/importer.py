@@ -35,7 +35,6 @@ steps with :func:`import_table`. The cost is linear in the rows.
 from __future__ import annotations
 
 import os
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -50,7 +49,7 @@ from planning.trajectory.file_formats import (
     PLAN_RECORD,
     FileTable,
     TrajectoryFileError,
-    parse_column_names,
+    given_columns,
     quaternion_columns,
     read_table,
 )
@@ -128,10 +127,8 @@ class TrajectoryFile:
                 raise TrajectoryFileError(str(exc)) from exc
         if len(self.offset) != 3 or not all(np.isfinite(self.offset)):
             raise TrajectoryFileError(f"{option('offset')} must be three finite numbers X,Y,THETA, got {self.offset}")
-        if isinstance(self.columns, str):  # "t,x,y" or "tum", as --columns takes them (not a name per letter)
-            object.__setattr__(self, "columns", parse_columns(self.columns))
-        elif self.columns is not None:
-            object.__setattr__(self, "columns", parse_column_names(self.columns, option("columns")))
+        if self.columns is not None:  # "t,x,y" or "tum" as --columns takes them (not a name per letter), or names
+            object.__setattr__(self, "columns", given_columns(self.columns))
 
     @property
     def name(self) -> str:
@@ -180,7 +177,7 @@ def parse_columns(text: str) -> tuple[str, ...]:
     Raises:
         TrajectoryFileError: An unknown or repeated name (the message lists the valid ones).
     """
-    return parse_column_names([p for p in re.split(r"[,\s]+", text.strip()) if p], option("columns"))
+    return given_columns(text)
 
 
 @dataclass(frozen=True)

@@ -376,6 +376,12 @@ class BiRRTConfig(TreeConfig):
     def __post_init__(self) -> None:
         super().__post_init__()
         check_fields(self, {"connect_steps": {"integer": True, "at_least": 1}, "direct_curve": FLAG})
+        if self.steering == "diffdrive":  # refused whatever the world (a plan one curve solved took it before)
+            raise ConfigError(
+                "birrt cannot steer by 'diffdrive': the least-squares drive grows forward trees only, and birrt's "
+                "goal tree grows backwards; use it with 'rrt', or give birrt 'unicycle', 'bicycle', 'reeds_shepp' "
+                "or 'dubins'"
+            )
 
 
 class BiRRT(_TreePlanner[BiRRTConfig]):
