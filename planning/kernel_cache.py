@@ -96,7 +96,7 @@ def cache_root() -> Path:
 
 def configure() -> None:
     """Point numba's cache at the directory of the current kernel sources (see the module doc), once
-    per process; an explicit ``NUMBA_CACHE_DIR`` is left alone.
+    per process; an explicit ``NUMBA_CACHE_DIR`` is used as it is (through the same locator).
 
     Only names the directory (``NUMBA_CACHE_DIR``) and installs :data:`LOCATOR` (``NUMBA_CACHE_LOCATOR_CLASSES``);
     the directory itself is first touched when numba caches the first kernel (:func:`ready_cache_dir`), so a
@@ -106,18 +106,20 @@ def configure() -> None:
     if _DONE:
         return
     _DONE = True
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        return
-    try:
-        path = str(cache_root() / source_key())
-    except (RuntimeError, KeyError):  # no home folder to be found: ready_cache_dir says so
-        path = ""
-    _OURS = path or None
     config = sys.modules.get("numba.core.config")  # numba already imported: it read the environment then
-    if path:
-        os.environ["NUMBA_CACHE_DIR"] = path
-        if config is not None:
-            config.CACHE_DIR = path  # type: ignore[attr-defined]
+    if not os.environ.get("NUMBA_CACHE_DIR"):
+        try:
+            path = str(cache_root() / source_key())
+        except (RuntimeError, KeyError):  # no home folder to be found: ready_cache_dir says so
+            path = ""
+        _OURS = path or None
+        if path:
+            os.environ["NUMBA_CACHE_DIR"] = path
+            if config is not None:
+                config.CACHE_DIR = path  # type: ignore[attr-defined]
+    # a directory given is used as it is, through the same locator: the compile-once lock (:func:`compile_once`), the
+    # directory checked before use and the kernel files kept by their place in the project (without it, a process
+    # with NUMBA_CACHE_DIR set compiled every kernel beside the others on a cold cache)
     if not os.environ.get("NUMBA_CACHE_LOCATOR_CLASSES"):
         os.environ["NUMBA_CACHE_LOCATOR_CLASSES"] = LOCATOR
         if config is not None:
