@@ -435,3 +435,14 @@ def test_a_partial_path_through_a_wall_says_it_collides(tmp_path, monkeypatch):
     assert main(["plan", "--scenario", "u.toml", "--planner", "optim", "--json", "p.json", "--quiet"]) == 1
     rec = json.loads((tmp_path / "p.json").read_text())
     assert rec["status"] == "failed" and rec["path"] and rec["min_clearance_m"] is None and rec["path_collides"]
+
+
+def test_a_plan_timed_faster_than_the_robot_says_so(capsys: pytest.CaptureFixture[str]) -> None:
+    """sinusoidal's u1max above the robot's top speed (the report's u1 = 1) gave a plan whose own timing the robot
+    cannot drive, without a word; simulate times it again, and plan now says both."""
+    assert main(["plan", "--scenario", "simple_motion", "--planner-option", "u1max=1"]) == 0
+    out = capsys.readouterr().out
+    assert "note            the plan's own timing reaches speed 0.98 m/s over the robot's 0.165" in out
+    assert "nhsim simulate times the path again within them" in out
+    assert main(["plan", "--scenario", "simple_motion"]) == 0
+    assert "the plan's own timing" not in capsys.readouterr().out

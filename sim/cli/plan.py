@@ -174,6 +174,9 @@ def run(args: argparse.Namespace) -> int:
     ]
     if reason:
         lines.append(f"reason          {reason}")
+    faster = timing_note(result, robot)
+    if faster:
+        lines.append(f"note            {faster}")
     if "overran_s" in result.stats:  # a planner of a plugin's that does not stop on time
         lines.append(
             f"note            planner {name!r} took {result.stats['overran_s']:.3f} s (loading code apart), over "
@@ -246,6 +249,28 @@ def plan_options(name: str, options: dict[str, Any], *, simplify: bool) -> dict[
         which = ", ".join(sorted(n for n in PLANNERS if "simplify" in planner_options(n)))
         raise ConfigError(f"--no-simplify: planner {name!r} does not simplify its path; only {which} do")
     return {**options, "simplify": False}
+
+
+def timing_note(result: Any, robot: Any) -> str:
+    """What to know when a plan timed by its planner (``result.controls``: optim's, sinusoidal's) moves faster than the
+    robot does (a planner option above its limits, such as sinusoidal's ``u1max``), else ""."""
+    if result.controls is None or not len(result.controls):
+        return ""
+    v, w = np.abs(result.controls).max(axis=0)
+    over = [
+        f"{what} {got:.3g} {unit} over the robot's {limit:.3g}"
+        for what, got, limit, unit in (
+            ("speed", v, robot.max_speed, "m/s"),
+            ("yaw rate", w, robot.max_yaw_rate, "rad/s"),
+        )
+        if got > limit * (1 + 1e-6)
+    ]
+    if not over:
+        return ""
+    return (
+        f"the plan's own timing reaches {' and '.join(over)} (a planner option above the robot's limits); nhsim "
+        "simulate times the path again within them"
+    )
 
 
 def grid_note(stats: dict[str, Any]) -> str:
