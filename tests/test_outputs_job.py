@@ -433,7 +433,7 @@ def test_write_json_writes_arrays_compactly_and_exactly(tmp_path: Path) -> None:
     ("options", "said"),
     [
         (["--no-plots"], "is the default of --video (the video): give another with --video)"),
-        (["--no-video"], "is the default of the world plot (beside --json): give another with --json)"),
+        (["--no-video"], "is the default of the world plot (beside the record): give another with --json)"),
         (["--no-video", "--no-plots"], "is the default of --json (the record): give another with --json)"),
     ],
 )
@@ -450,3 +450,33 @@ def test_an_unwritable_default_output_names_the_option_that_moves_it(
     if "--no-video" in options:  # the record given there: its own message, no default said
         assert main([*FAST, *options, "--json", "renders/r.json"]) == 2
         assert "is the default of" not in capsys.readouterr().err
+
+
+def test_a_plot_beside_the_video_names_video_as_what_moves_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """With a video the plots go beside it: the message told to give --json, which moved the record alone."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "renders" / f"{STEM}-world.png").mkdir(parents=True)  # a folder in the plot's way
+    assert main(FAST) == 2
+    err = capsys.readouterr().err
+    assert "is the default of the world plot (beside the video): give another with --video)" in err, err
+
+
+def test_a_no_video_overwrite_removes_the_video_of_the_set_it_replaces(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """--overwrite replaces a set: the plots it does not write again were removed, the old video stayed beside the
+    new record and plots (another seed's)."""
+    monkeypatch.chdir(tmp_path)
+    assert main([*FAST, "--video", "out/a.mp4"]) == 0
+    assert (tmp_path / "out" / "a.mp4").is_file()
+    assert main([*FAST, "--no-video", "--json", "out/a.json", "--seed", "4", "--overwrite"]) == 0
+    assert not (tmp_path / "out" / "a.mp4").exists()
+    record = json.loads((tmp_path / "out" / "a.json").read_text())
+    assert "video" not in record["files"] and (tmp_path / "out" / "a-world.png").is_file()
+    # a video elsewhere that the old record did not name beside it is left alone
+    assert main([*FAST, "--video", "out/b.mp4"]) == 0
+    (tmp_path / "keep").mkdir()
+    assert main([*FAST, "--no-video", "--json", "keep/b.json", "--overwrite"]) == 0
+    assert (tmp_path / "out" / "b.mp4").is_file()

@@ -694,3 +694,18 @@ def test_a_suite_environment_renders_headless_after_sims_own_names_were_loaded()
     env["PYTHONPATH"] = str(Path(__file__).resolve().parents[1])
     out = subprocess.run([sys.executable, "-c", SUITE_AFTER_SIM], env=env, capture_output=True, text=True)
     assert out.returncode == 0 and out.stdout.split() == ["48", "64", "3"], out.stdout + out.stderr
+
+
+def test_a_display_that_cannot_be_opened_is_told_to_render_headless(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A stale DISPLAY (ssh, a container) chose GLFW, which failed, and the message said to install libosmesa6,
+    installed already; it now names the headless backends that can load."""
+    from sim.viz import gl
+
+    usable = [b for b in ("osmesa", "egl") if gl.backend_missing(b) is None]
+    if not usable:
+        pytest.skip("no headless OpenGL library on this machine")
+    monkeypatch.setenv("DISPLAY", ":99")
+    said = gl.unavailable_message("glfw", RuntimeError("no display"))
+    assert "the display (:99) cannot be used; render without it: --gl " + usable[0] in said
+    assert "apt-get install" not in said
+    assert "apt-get install libosmesa6" in gl.unavailable_message("osmesa", RuntimeError("no library"))

@@ -240,9 +240,10 @@ class OutputPlan:
     progress: bool
     extra: dict[str, Any] = field(default_factory=dict)
     bag: Path | None = None
-    #: The plots of the record ``json`` replaces (``--overwrite``: :func:`replaced_plots`); those this job does not
-    #: write again are removed with its commit (a TurtleBot3's localiser plot beside an EduMIP's record).
-    replaced_plots: list[Path] = field(default_factory=list)
+    #: The plots and video of the record ``json`` replaces (``--overwrite``: :func:`replaced_files`); those this job
+    #: does not write again are removed with its commit (a TurtleBot3's localiser plot beside an EduMIP's record, the
+    #: video beside a record a --no-video job replaces).
+    replaced_files: list[Path] = field(default_factory=list)
 
     def targets(self) -> list[Path]:
         """Every file the job will write."""
@@ -252,7 +253,8 @@ class OutputPlan:
         """Every file the job will write, by what it is as a message names it: the option that sets it (the video
         and the record by ``--video`` and ``--json``, given or by default; a plot beside the record)."""
         named = {} if self.video is None else {"--video (the video)": self.video}
-        named |= {f"the {name} plot (beside --json)": p for name, p in self.plots.items()}
+        beside = "beside the video" if self.video is not None else "beside the record"
+        named |= {f"the {name} plot ({beside})": p for name, p in self.plots.items()}
         return named | {"--json (the record)": self.json}
 
 
@@ -394,10 +396,11 @@ def plan_outputs(
     plots = {name: base_dir / f"{base}-{name}.png" for name in _plot_names(args, own_robot)} if args.plots else {}
     json_path = args.json if args.json is not None else base_dir / f"{base}.json"
     bag = getattr(args, "bag", None)
-    every = (*PLOTS, ESTIMATION_PLOT, LOCALISER_PLOT, PITCH_PLOT)  # of the set --overwrite replaces: its plots
-    replaced = replaced_plots(json_path, [base_dir / f"{base}-{name}.png" for name in every]) if args.overwrite else []
+    every = (*PLOTS, ESTIMATION_PLOT, LOCALISER_PLOT, PITCH_PLOT)  # of the set --overwrite replaces: its plots, video
+    candidates = [base_dir / f"{base}-{name}.png" for name in every] + [base_dir / f"{base}.mp4"]
+    replaced = replaced_files(json_path, candidates) if args.overwrite else []
     plan = OutputPlan(
-        stem, video, plots, json_path, settings, args.overwrite, show_progress(args), bag=bag, replaced_plots=replaced
+        stem, video, plots, json_path, settings, args.overwrite, show_progress(args), bag=bag, replaced_files=replaced
     )
     targets = plan.targets()
     check_apart_from_inputs(args, targets, bag)
@@ -424,7 +427,8 @@ def _check_targets(plan: OutputPlan, args: argparse.Namespace) -> None:
 
     check_distinct(plan.named_targets())
     for name, path in plan.named_targets().items():
-        flag = "--video" if name.startswith("--video") else "--json"  # the plots go beside the record
+        # the plots go beside the video, or beside the record without one
+        flag = "--json" if name.startswith("--json") or plan.video is None else "--video"
         try:
             check_writable(path, overwrite=args.overwrite)
         except OutputExistsError:
@@ -450,15 +454,18 @@ def _plot_names(args: argparse.Namespace, own_robot: str | None) -> tuple[str, .
     return names
 
 
-def replaced_plots(record: Path, candidates: Sequence[Path]) -> list[Path]:
-    """The ``candidates`` (the plots a job of this record's name may write) that the nhsim record at ``record``
-    lists among its files and that exist: the plots of the set a job with ``--overwrite`` replaces. A file that is
-    not such a record, or one written from another folder (its relative paths name other files), gives none."""
+def replaced_files(record: Path, candidates: Sequence[Path]) -> list[Path]:
+    """The ``candidates`` (the plots and the video a job of this record's name may write) that the nhsim record at
+    ``record`` lists among its files and that exist: the plots and video of the set a job with ``--overwrite``
+    replaces. A file that is not such a record, or one written from another folder (its relative paths name other
+    files), gives none."""
     if not record.is_file():  # none, or no regular file (a FIFO would block the read: refused later)
         return []
     try:
         files = json.loads(record.read_text(encoding="utf-8")).get("files", {})
-        listed = {os.path.abspath(path) for kind, path in files.items() if str(kind).startswith("plot_")}
+        listed = {
+            os.path.abspath(path) for kind, path in files.items() if str(kind).startswith("plot_") or kind == "video"
+        }
     except (OSError, ValueError, AttributeError, TypeError):
         return []
     return [p for p in candidates if os.path.abspath(p) in listed and p.is_file()]
@@ -662,7 +669,7 @@ def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict
         files["json"] = str(plan.json)
         record["files"] = dict(files)
         write_json(stage.path(plan.json), record)
-        for path in plan.replaced_plots:  # the replaced set's plots this set has not (another robot, --no-plots)
+        for path in plan.replaced_files:  # the replaced set's plots and video this set has not (--no-video, --no-plots)
             if str(path) not in files.values():
                 stage.retire(path)
     return files

@@ -268,6 +268,14 @@ def unavailable_message(backend: str, error: BaseException | None = None) -> str
         head = "no OpenGL backend can load on this machine (neither libOSMesa nor libEGL was found, no display)"
     else:
         head = f"cannot create an OpenGL context with the {backend} backend{cause}"
+    headless = [b for b in ("osmesa", "egl") if backend_missing(b) is None]
+    if backend in ("glfw", "glx") and headless:  # a display that cannot be opened (a stale DISPLAY over ssh)
+        choose = options(*(("gl", b, _CONFIGURE) for b in headless), conjunction="or")
+        return (
+            f"{head}: the display ({os.environ.get('DISPLAY') or os.environ.get('WAYLAND_DISPLAY') or 'none'}) "
+            f"cannot be used; render without it: {choose}, or skip the video: "
+            f"{option('no-video', True, python=_NO_VIDEO)}"
+        )
     return (
         f"{head}; {INSTALL_HINTS['osmesa']} (or, for {option('gl', 'egl', python=_CONFIGURE)}, "
         f"{INSTALL_HINTS['egl'].split(': ')[1]}), or skip the video: {option('no-video', True, python=_NO_VIDEO)}"
