@@ -197,17 +197,28 @@ def _row_hint(cells: list[str], delimiter: str | None) -> str:
     if len(cells) != len(LAYOUTS["tum"]) or not _is_numeric_row(cells, delimiter):
         return ""
     q = np.array([float(c if delimiter == "," else c.replace(",", ".")) for c in cells[4:]])
-    if abs(np.linalg.norm(q) - 1.0) > QUATERNION_TOLERANCE:
+    norm = float(np.linalg.norm(q))
+    if abs(norm - 1.0) > QUATERNION_TOLERANCE:
         return ""
-    if np.hypot(q[0], q[1]) <= np.sin(NOTED_TILT / 2):  # x, y of a quaternion near the plane are small
+    if _tilts(q / norm) <= NOTED_TILT:
         return f"; 8 numbers a row, as a TUM trajectory's ({TUM_HEADER}): {option('columns', 'tum')}"
-    if np.hypot(q[1], q[2]) <= np.sin(NOTED_TILT / 2):  # the same, w first
+    if _tilts(q[W_FIRST] / norm) <= NOTED_TILT:
         given = ",".join((*LAYOUTS["tum"][:4], "qw", "qx", "qy", "qz"))
         return (
             f"; 8 numbers a row, as a TUM trajectory's with its quaternion written w first (timestamp tx ty tz qw qx "
             f"qy qz): {option('columns', given)}"
         )
     return ""
+
+
+#: Indices that read a quaternion written w first, (w, x, y, z), in this module's order (x, y, z, w).
+W_FIRST = [1, 2, 3, 0]
+
+
+def _tilts(quats: FloatArray) -> FloatArray:
+    """How far unit quaternions' orientations (..., 4: x, y, z, w) tilt from the plane [rad]: the angle of the body z
+    axis from the vertical."""
+    return np.arccos(np.clip(1.0 - 2.0 * (quats[..., 0] ** 2 + quats[..., 1] ** 2), -1.0, 1.0))
 
 
 def _lenient(names: Sequence[str]) -> tuple[str, ...]:
@@ -783,7 +794,7 @@ def orientation_headings(
     if theta is None:
         return None, ("every orientation quaternion is zero: no headings read (the motion's are used)",)
     u = quats / np.linalg.norm(quats, axis=1, keepdims=True)
-    tilt = np.arccos(np.clip(1.0 - 2.0 * (u[:, 0] ** 2 + u[:, 1] ** 2), -1.0, 1.0))  # body z from the vertical
+    tilt = _tilts(u)
     over = np.flatnonzero(tilt > MAX_TILT)
     k = int(over[0]) if over.size else int(np.argmax(tilt))  # the first row refused, else the most tilted
     if over.size:
@@ -791,7 +802,7 @@ def orientation_headings(
             "not a ground robot's pose (a camera's optical frame, z forward, reads so); give the robot's poses "
             "(base_link in the map frame) or its heading as theta"
         )
-        if np.all(np.hypot(u[:, 1], u[:, 2]) <= np.sin(NOTED_TILT / 2)):  # read w, x, y, z: all near the plane
+        if np.all(_tilts(u[:, W_FIRST]) <= NOTED_TILT):  # read w, x, y, z: all near the plane
             why = (
                 "read as (w, x, y, z) instead, every one lies near the plane: the quaternion is written w first "
                 "(EuRoC's and Eigen's order); name its columns in that order, qw,qx,qy,qz"
