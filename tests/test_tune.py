@@ -6,6 +6,7 @@ import contextlib
 import json
 import os
 import re
+import shutil
 import signal
 import sqlite3
 import subprocess
@@ -295,6 +296,15 @@ def test_malformed_gains_file_is_rejected_by_simulate(tmp_path: Path, capsys: py
     assert sorted(p.name for p in tmp_path.iterdir()) == ["g.toml"]
 
 
+@pytest.fixture(scope="module")
+def one_trial_study(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder holding the study (and its outputs) of ``_args(folder, 1, "--eval-runs", "0", "--draws", "1")``,
+    for tests that copy it to resume it."""
+    folder = tmp_path_factory.mktemp("one-trial")
+    assert main(_args(folder, 1, "--eval-runs", "0", "--draws", "1")) == 0
+    return folder
+
+
 @pytest.mark.parametrize(
     ("change", "differ", "values"),
     [
@@ -306,13 +316,18 @@ def test_malformed_gains_file_is_rejected_by_simulate(tmp_path: Path, capsys: py
     ],
 )
 def test_resuming_with_other_settings_is_refused(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], change: list[str], differ: str, values: str
+    one_trial_study: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    change: list[str],
+    differ: str,
+    values: str,
 ) -> None:
     """The refusal names the settings that differ, their two values where short, and the options that set them
     (another --seed was said to be "cases, draws differ", naming no option the user gave; --tracker on a study of
     the default tracker, which stores none, was said to be a study "not recorded by the nhsim that made" it, which
     "cannot resume it")."""
-    assert main(_args(tmp_path, 1, "--eval-runs", "0", "--draws", "1")) == 0
+    shutil.copytree(one_trial_study, tmp_path, dirs_exist_ok=True)
     again = _args(tmp_path, 2, "--eval-runs", "0", "--draws", "1", *change)
     if change[0] == "--tracker":  # its parameters are not FBL gains: a JSON record, no gains file
         at = again.index("--out")
@@ -325,6 +340,9 @@ def test_resuming_with_other_settings_is_refused(
         k: (v, by)
         for k, v, by in re.findall(r"(\w+)((?:: [^(]*(?:\([^)]*\))?[^(]*)?) \(set by ([^)]*)\)", listed.group(1))
     }
+    # nothing else differs (the study's folder, copied from the fixture's, is not a setting)
+    also = {"--seed": {"cases"}, "--tracker": {"cases", "search_space"}}.get(change[0], set())
+    assert set(said) == {differ, *also}, err
     assert said[differ][0] == values and change[0] in said[differ][1].split(", "), err
     assert len(_completed(tmp_path)) == 1
 
