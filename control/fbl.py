@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 
 from control.base import TRACKERS, option_takes, option_value
 from control.dispatch import bind
-from control.gains import FBLGains
+from control.gains import FBLGains, check_period_stability
 from control.inputs import check_command, check_reset, not_reset
 from control.switching import REFERENCE, clamp_command, reference_table
 from planning.core.robot import RobotSpec
@@ -177,8 +177,10 @@ class DynamicFBL:
 
         Raises:
             ConfigError: ``trajectory`` is not a Trajectory, or ``dt`` [s] is not a finite number > 0.
+            UnstableGainsError: Gains whose error dynamics a period of ``dt`` cannot keep stable.
         """
         dt = check_reset(self.name, trajectory, dt)
+        check_period_stability(self.gains, dt, self.name)
         self._traj = trajectory
         self._ref = reference_table(trajectory, dt, math.ceil(trajectory.duration / dt) + 2)
         g, r = self.gains, self.robot

@@ -106,6 +106,12 @@ def check_sampled_stability(gains: FBLGains, control_rate: float, where: str, *,
     )
 
 
+def check_period_stability(gains: FBLGains, dt: float, tracker: str) -> None:
+    """:func:`check_sampled_stability` for a tracker of the FBL's gains reset with control period ``dt`` [s] (a
+    finite number > 0): the one check of gains used in a loop of one's own, as the cases check theirs."""
+    check_sampled_stability(gains, 1.0 / dt, f"tracker {tracker!r} reset with dt = {dt:g} s")
+
+
 class UnstableGainsError(ConfigError):
     """FBL gains the control rate cannot keep stable (:func:`check_sampled_stability`).
 

@@ -23,9 +23,11 @@ from numpy.typing import NDArray
 from control.base import option_value
 from control.estimation.kernels import wrap
 from control.fbl import XI_FLOOR, fbl_law_kernel, xi_period
-from control.gains import FBLGains
+from control.gains import FBLGains, check_period_stability
+from control.inputs import check_reset
 from control.switching import PerSegmentTracker, Record, SegmentedParams, period, state_dtype
 from planning.core.robot import RobotSpec
+from planning.trajectory.trajectory import Trajectory
 
 __all__ = ["SegmentedParams", "SegmentedTracker"]
 
@@ -88,6 +90,16 @@ class SegmentedTracker(PerSegmentTracker):
         self.gains = option_value(self.name, "gains", gains, FBLGains())
         self.params = option_value(self.name, "params", params, SegmentedParams())
         super().__init__(robot, self.params)
+
+    def reset(self, trajectory: Trajectory, dt: float) -> None:
+        """As :meth:`PerSegmentTracker.reset`, once the FBL's gains are known to be stable at a period of ``dt``.
+
+        Raises:
+            ConfigError: As :meth:`PerSegmentTracker.reset`.
+            UnstableGainsError: Gains whose error dynamics a period of ``dt`` cannot keep stable.
+        """
+        check_period_stability(self.gains, check_reset(self.name, trajectory, dt), self.name)
+        super().reset(trajectory, dt)
 
     def law_values(self) -> dict[str, float]:
         """The FBL's gains and the blend speed; xi starts at 0."""

@@ -11,14 +11,15 @@ from typing import Any
 import numpy as np
 import pytest
 
-from control.base import make_tracker
+from control.base import TRACKERS, make_tracker
 from control.estimation.amcl import AmclConfig
 from control.estimation.ekf import EstimatorConfig
-from control.gains import FBLGains, resolve_gains
+from control.fbl import uses_fbl_gains
+from control.gains import FBLGains, UnstableGainsError, resolve_gains
 from planning.core.geometry import Pose2D
 from planning.core.nav2_map import read_map_yaml
 from planning.core.robot import load_robot
-from planning.core.world import World
+from planning.core.world import Circle, World
 from planning.errors import ConfigError, ScenarioError
 from planning.scenario import load_scenario
 from planning.trajectory.from_plan import TrajectoryError, to_trajectory
@@ -197,8 +198,6 @@ def test_fbl_command_before_reset_is_named_not_a_zero_division() -> None:
 
 def test_every_tracker_names_a_command_before_reset_alike() -> None:
     """mpc raised a bare AssertionError, the others RuntimeErrors of their class names: one nhsim error now."""
-    from control.base import TRACKERS
-
     for name in sorted(TRACKERS):
         tracker = make_tracker(name, load_robot("turtlebot3"))
         with pytest.raises(ConfigError, match=rf"^tracker '{name}': command\(t, x, y, theta\) was called before reset"):
@@ -207,7 +206,7 @@ def test_every_tracker_names_a_command_before_reset_alike() -> None:
 
 def test_a_control_period_in_milliseconds_is_refused_by_every_tracker_and_1_s_is_not() -> None:
     """``reset(ref, dt=20.0)`` (20 ms meant) was accepted. The bound is the simulator's slowest control rate."""
-    from control.base import MAX_CONTROL_PERIOD, TRACKERS
+    from control.base import MAX_CONTROL_PERIOD
     from sim.physics.motors import MIN_CONTROL_RATE
 
     assert MAX_CONTROL_PERIOD == 1.0 / MIN_CONTROL_RATE  # no rate the simulator runs is refused here
@@ -221,7 +220,22 @@ def test_a_control_period_in_milliseconds_is_refused_by_every_tracker_and_1_s_is
                 r"dt is in seconds, not milliseconds: pass 1 / control rate, e.g. 0.02 for 50 Hz",
             ):
                 make_tracker(name, robot).reset(ref, dt)
-        make_tracker(name, robot).reset(ref, 1.0)  # 1 Hz, the slowest rate: taken
+        slow = {"gains": FBLGains(kp=1.0, kd=1.5)} if uses_fbl_gains(name) else {}  # (stable at 1 Hz)
+        make_tracker(name, robot, **slow).reset(ref, 1.0)  # 1 Hz, the slowest rate: taken
+
+
+def test_gains_a_control_period_cannot_keep_stable_are_refused_by_the_trackers_reset_as_by_a_case() -> None:
+    """``make_tracker("fbl", robot, gains=FBLGains(kp=1e9, kd=1e9)).reset(ref, 0.02)`` was taken, its commands
+    jumping between the speed limits, where ``simulate_reference(..., gains=...)`` refused them."""
+    robot = load_robot("turtlebot3")
+    ref = make_reference("line", robot, Pose2D(0.0, 0.0, 0.0))
+    takers = [name for name in TRACKERS if uses_fbl_gains(name)]
+    assert {"fbl", "segmented"} <= set(takers)
+    for name in takers:
+        for gains, dt in ((FBLGains(kp=1e9, kd=1e9), 0.02), (FBLGains(), 1.0), (FBLGains(kp=30.0, kd=150.0), 0.02)):
+            with pytest.raises(UnstableGainsError, match=rf"^tracker '{name}' reset with dt = {dt:g} s: FBL gains "):
+                make_tracker(name, robot, gains=gains).reset(ref, dt)
+        make_tracker(name, robot, gains=FBLGains(kp=30.0, kd=150.0)).reset(ref, 0.005)  # stable at 200 Hz
 
 
 def test_densify_path_and_path_length_refuse_with_nhsim_errors() -> None:
@@ -575,6 +589,21 @@ def test_a_path_that_leaves_the_world_says_so() -> None:
     path = np.array([[0.4, 0.4, 0.0], [5.0, 0.4, 0.0]])
     with pytest.raises(TrajectoryError, match=r"leaves the world's bounds \(x 0..2, y 0..1.2\) at \(5.00, 0.40\)"):
         to_trajectory(path, TB3, World((0.0, 2.0, 0.0, 1.2)))
+
+
+def test_a_path_through_an_obstacle_is_named_as_the_cause() -> None:
+    """It said "could not be smoothed: collision after 5 refinements (clearance -inf m, ...); plan with more
+    clearance or allow a larger deviation", of a path that no smoothing within the deviation could clear."""
+    world = World((0.0, 3.0, 0.0, 3.0), (Circle((1.5, 1.5), 0.3),))
+    path = np.array([[0.5, 1.5, 0.0], [1.0, 1.5, 0.0], [2.5, 1.5, 0.0]])
+    said = (
+        r"the path given collides before any smoothing: at \(1.1\d\d, 1.500, 0.000\), between path\[1\] and "
+        r"path\[2\] of its 3 poses, the turtlebot3's footprint overlaps the circle at x 1.2..1.8, y 1.2..1.8 by"
+    )
+    with pytest.raises(TrajectoryError, match=said):
+        to_trajectory(path, TB3, world)
+    clear = np.array([[0.5, 0.5, 0.0], [2.5, 0.5, 0.0]])
+    assert to_trajectory(clear, TB3, world).duration > 0.0
 
 
 def test_a_time_that_is_no_number_is_named() -> None:  # ValueError from numpy

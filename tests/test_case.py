@@ -56,8 +56,14 @@ def test_a_reference_gets_no_hold_and_a_reference_that_does_not_fit_is_refused()
     prepared = prepare_trajectory(Case("open", reference="line"))
     assert prepared.hold == 0.0 and prepared.source == "reference:line" and not prepared.extra
     assert prepared.trajectory.start_pose == prepared.scenario.start
-    with pytest.raises(ScenarioError, match=r"comes within .* of an obstacle or wall"):
-        prepare_trajectory(Case("edumip_map", reference="figure8"))
+    with pytest.raises(
+        ScenarioError, match=r"circle' placed at the start of scenario 'random1' runs through an obstacle at"
+    ):
+        prepare_trajectory(Case("random1", reference="circle", robot="turtlebot3"))
+    # one that leaves the world was said to come "within 0.000 m of an obstacle or wall" at a point beyond the walls
+    said = r"reference 'figure8' placed at the start of scenario 'simple_motion' leaves the world's bounds \(x 0..2, "
+    with pytest.raises(ScenarioError, match=said + r"y 0..1.2\) at \(0.8\d\d, 0.000\) but the turtlebot3 needs"):
+        prepare_trajectory(Case("simple_motion", reference="figure8"))
 
 
 def test_a_plan_failed_with_the_trackers_margin_says_so_and_how_to_plan_without_it(tmp_path) -> None:
@@ -157,9 +163,13 @@ def test_a_ready_plan_must_leave_from_the_scenarios_start_and_end_in_its_goal() 
         plan = PlanResult(PlanStatus.SUCCESS, "mine", path=np.array(path))
         return Case("edumip_map", planner="", planning=PlanOptions(plan=plan))  # start (0, 0), goal (5, 5)
 
-    with pytest.raises(ConfigError, match=r"starts at \(2.000, 0.000, 0.000\), 2.000 m .* from scenario 'edumip_map'"):
+    with pytest.raises(
+        ConfigError, match=r"starts at \(2.000, 0.000, 0.000\), 2.000 m .* from the start of scenario 'edumip_map' \("
+    ):
         prepare_trajectory(case([[2.0, 0.0, 0.0], [3.0, 0.0, 0.0]]))
-    with pytest.raises(ConfigError, match=r"ends at \(1.000, 1.000, 0.785\), outside scenario 'edumip_map'"):
+    with pytest.raises(
+        ConfigError, match=r"ends at \(1.000, 1.000, 0.785\), outside the goal region of scenario 'edumip_map'"
+    ):
         prepare_trajectory(case([[0.0, 0.0, np.pi / 4], [1.0, 1.0, np.pi / 4]]))  # the start's heading is pi/4
 
 

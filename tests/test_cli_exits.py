@@ -503,6 +503,28 @@ def test_simulate_all_refuses_a_planner_it_would_not_run(
     assert not any(tmp_path.iterdir())
 
 
+@pytest.mark.parametrize(
+    ("argv", "instead"),
+    [
+        (["simulate", "--scenario", "open", "--planner", "rrt", "--no-video"], "--reference figure8"),
+        (["compare", "--scenario", "open", "--planner", "rrt", "--trackers", "fbl,segmented"], "--reference figure8"),
+        (["montecarlo", "--scenario", "open", "--planner", "rrt", "--runs", "2", "--jobs", "1"], "--reference figure8"),
+        (["tune", "--scenarios", "open:rrt", "--trials", "2", "--draws", "1"], "SCENARIO:figure8 in --scenarios"),
+    ],
+)
+def test_a_planner_on_a_scenario_whose_goal_is_its_start_is_refused_by_every_command(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], argv: list[str], instead: str
+) -> None:
+    """``--all`` refused the ``open`` arena (nothing to plan), one job took it: its plan the start alone, its runs a
+    stand-still, and tune wrote gains "tuned" on objectives of 0, montecarlo 100 % success at 0 m."""
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    said = "scenario 'open' has nothing to plan: its goal is its start (0, 0, 0), so planner 'rrt' would give a "
+    assert said + "stand-still" in err and f"track an analytic reference there ({instead})" in err, err
+    assert not any(tmp_path.iterdir())
+
+
 def test_a_sweep_with_gains_says_so_and_records_them(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

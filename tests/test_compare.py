@@ -136,6 +136,20 @@ def test_every_tracker_meets_the_same_robot_and_noise() -> None:
     assert footer == "(one run per tracker, on the case's own robot and noise: build seed 1, seed 3)"
 
 
+def test_the_open_loop_player_runs_as_the_open_loop_on_no_estimate() -> None:
+    """compare ran every tracker on the fused estimate, the open-loop player too: its run ended where the estimator
+    diverged (a draw of edumip_map stopped at 18.9 s, 0.48 m off, where montecarlo's open loop of the same draw ran on
+    to 1.25 m), though the player never reads the pose."""
+    from sim.pipeline.runs import RunKind
+    from sim.pipeline.simulate import simulate_reference
+
+    case = Case("open", robot="turtlebot3", reference="line", seed=3)
+    result = compare_trackers(case, ["open-loop"], runs=1)
+    assert result.logs()["open-loop"].estimation is None  # no estimator ran
+    job = simulate_reference("open", robot="turtlebot3", reference="line", seed=3, runs=[RunKind.OPEN_LOOP])
+    assert result.of("open-loop")[0].values["final_m"] == job.metrics[RunKind.OPEN_LOOP].final_position_error_m
+
+
 def test_timed_tracker_effort_is_the_integral_of_the_squared_rates() -> None:
     class Ramp:
         name = "ramp"

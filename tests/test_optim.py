@@ -105,6 +105,21 @@ def test_unreachable_goal_reports_ipopt_status() -> None:
     assert res.stats["ipopt_status"] not in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 
 
+def test_a_goal_walled_off_is_proved_infeasible_not_a_failure() -> None:
+    """A goal sealed in a corner by two walls was "failed" (IPOPT: Infeasible_Problem_Detected, which shows no such
+    thing), where rrt, hybrid-a-star and c-rrt-star proved it walled off."""
+    robot = load_robot("turtlebot3")
+    pocket = World((0.0, 4.0, 0.0, 4.0), (Box((2.6, 3.3), (0.1, 1.4)), Box((3.3, 2.6), (1.4, 0.1))))
+    problem = PlanProblem(pocket, robot, Pose2D(1.0, 1.0, 0.0), Pose2D(3.4, 3.4, 0.0), time_limit=10.0)
+    res = Optim(init="straight").plan(problem)
+    assert res.status is PlanStatus.INFEASIBLE, res.reason
+    assert res.reason.startswith("no path reaches the goal: every pose of one keeps the robot's inscribed disc")
+    assert res.reason.endswith("(IPOPT ended Infeasible_Problem_Detected)"), res.reason
+    # a wall with a way round it is not proved: a plan
+    opened = World((0.0, 4.0, 0.0, 4.0), (Box((2.6, 3.5), (0.1, 1.0)), Box((3.3, 2.6), (1.4, 0.1))))
+    assert Optim(init="straight").plan(dataclasses.replace(problem, world=opened)).success
+
+
 def test_nlp_is_built_once_and_reused() -> None:
     problem = PlanProblem.from_scenario(load_scenario("simple_motion"))
     planner = Optim(N=37, dt=10.0 / 37)  # a shape no other test uses

@@ -63,6 +63,10 @@ def test_config_from_options() -> None:
         config_from_options(CRRTStarConfig, {"step": 0.1})
     with pytest.raises(ConfigError, match="unknown option"):
         CRRTStar(step=0.1)
+    # a config of another type (from the command line, a string) was a TypeError of dataclasses.replace's
+    for wrong in ("x", {"gamma": 0.3}, TreeConfig()):
+        with pytest.raises(ConfigError, match=r"config must be a CRRTStarConfig, got .*: give one, or give its fields"):
+            make_planner("c-rrt-star", config=wrong)
 
 
 def test_register_planner(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -254,7 +254,8 @@ def test_a_scene_that_does_not_include_its_robots_model_is_refused_when_register
     with pytest.raises(ModelError) as err:
         register_robot("slowbot", model, sensors=sensors)
     assert str(err.value) == (
-        f"robot 'slowbot''s scene file {scene.resolve()} includes turtlebot3_burger.xml, not its model slowbot.xml: "
+        f"the scene file of robot 'slowbot', {scene.resolve()}, includes turtlebot3_burger.xml, not its model "
+        "slowbot.xml: "
         'make its <include file="slowbot.xml"/>'
     )
     assert "slowbot" not in ROBOTS

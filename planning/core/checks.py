@@ -142,23 +142,36 @@ def check_number(
         low_ok = (above is None or number > above) and (at_least is None or number >= at_least)
         if low_ok and (at_most is None or number <= at_most) and (below is None or number < below):
             return number if integer else float(number)
-    wanted = ["an integer" if integer else "a finite number", _range(above, at_least, at_most, below)]
+    wanted = ["an integer" if integer else "a finite number", _range(above, at_least, at_most, below, integer)]
     wanted += [f"({unit})" if unit else "", "(or omitted)" if optional else ""]
     tail = f"; {fix}" if fix else ""
     raise ConfigError(f"{where} must be {' '.join(w for w in wanted if w)}, got {given(value, integer)}{tail}")
 
 
-def _range(above: float | None, at_least: float | None, at_most: float | None, below: float | None = None) -> str:
+def _range(
+    above: float | None,
+    at_least: float | None,
+    at_most: float | None,
+    below: float | None = None,
+    integer: bool = False,
+) -> str:
     """The bounds as a message says them: ``"> 0"``, ``"< 1"``, ``"in [0, 1]"``, ``"in (0, 60]"``, ``"in (0, 1)"``
     (one lower and one upper bound), ``">= 0 and < 1 and <= 2"`` (more) or ``""`` for none."""
-    low = [f"({above:g}"] if above is not None else []
-    low += [f"[{at_least:g}"] if at_least is not None else []
-    high = [f"{at_most:g}]"] if at_most is not None else []
-    high += [f"{below:g})"] if below is not None else []
+    low = [f"({_bound(above, integer)}"] if above is not None else []
+    low += [f"[{_bound(at_least, integer)}"] if at_least is not None else []
+    high = [f"{_bound(at_most, integer)}]"] if at_most is not None else []
+    high += [f"{_bound(below, integer)})"] if below is not None else []
     if len(low) == 1 and len(high) == 1:
         return f"in {low[0]}, {high[0]}"
     said = ((">", above), (">=", at_least), ("<", below), ("<=", at_most))
-    return " and ".join(f"{op} {limit:g}" for op, limit in said if limit is not None)
+    return " and ".join(f"{op} {_bound(limit, integer)}" for op, limit in said if limit is not None)
+
+
+def _bound(limit: float, integer: bool) -> str:
+    """A bound as a message writes it: an integer's in full (268435456, not 2.68435e+08), else as ``:g``."""
+    if integer and float(limit).is_integer() and abs(limit) < 1e15:
+        return str(int(limit))
+    return f"{limit:g}"
 
 
 def check_flag(where: str, value: object) -> bool:

@@ -131,13 +131,13 @@ def check_scene(robot: RobotSpec) -> None:
     try:
         included = [e.get("file", "") for e in ET.parse(robot.scene).getroot().iter("include")]
     except (OSError, ET.ParseError) as exc:
-        raise ModelError(f"cannot read robot {robot.name!r}'s scene file {robot.scene}: {exc}") from exc
+        raise ModelError(f"cannot read the scene file of robot {robot.name!r}, {robot.scene}: {exc}") from exc
     here = robot.scene.parent
     if not any((here / name).resolve() == robot.mjcf.resolve() for name in included if name):
         said = ", ".join(included) if any(included) else "no file"
         raise ModelError(
-            f"robot {robot.name!r}'s scene file {robot.scene} includes {said}, not its model {robot.mjcf.name}: make "
-            f'its <include file="{robot.mjcf.name}"/>'
+            f"the scene file of robot {robot.name!r}, {robot.scene}, includes {said}, not its model "
+            f'{robot.mjcf.name}: make its <include file="{robot.mjcf.name}"/>'
         )
 
 

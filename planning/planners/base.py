@@ -378,12 +378,12 @@ OVERRUN_SLACK_S = 0.1
 PATH_CHECK_SPACING = 0.02
 
 
-def path_collision(path: FloatArray, world: World, robot: RobotSpec) -> str:
+def path_collision(path: FloatArray, world: World, robot: RobotSpec, name: str = "plan.path") -> str:
     """Where ``path`` (N, 3), densified to :data:`PATH_CHECK_SPACING`, first collides in ``world`` with ``robot``'s
     footprint, "" where it does not: "at (x, y, theta), plan.path[i] of its N poses, the turtlebot3's footprint
-    overlaps the circle at ... by 2.1 mm". The poses are measured by the planners' checker (a lower bound within
-    its tolerance of the truth); those it finds overlapping are measured again finely (within 0.1 mm, as ``nhsim
-    plan`` measures a path): milliseconds for thousands of poses."""
+    overlaps the circle at ... by 2.1 mm" (``name`` in place of plan.path). The poses are measured by the planners'
+    checker (a lower bound within its tolerance of the truth); those it finds overlapping are measured again finely
+    (within 0.1 mm, as ``nhsim plan`` measures a path): milliseconds for thousands of poses."""
     from planning.collision.exact import CollisionChecker
     from planning.collision.overlap import footprint_overlap
 
@@ -399,23 +399,24 @@ def path_collision(path: FloatArray, world: World, robot: RobotSpec) -> str:
     what = f"overlaps {hit[1]}" if hit is not None else "overlaps an obstacle or a wall"
     how = f" by {-1e3 * depth:.1f} mm" if np.isfinite(depth) else " (an obstacle lies inside it, or it lies in one)"
     return (
-        f"at ({pose.x:.3f}, {pose.y:.3f}, {pose.theta:.3f}), {_path_place(path, dense, k, robot.radius)} of its "
+        f"at ({pose.x:.3f}, {pose.y:.3f}, {pose.theta:.3f}), {_path_place(path, dense, k, robot.radius, name)} of its "
         f"{path.shape[0]} poses, the {robot.name}'s footprint {what}{how}"
     )
 
 
-def _path_place(path: FloatArray, dense: FloatArray, k: int, radius: float) -> str:
-    """Where pose ``k`` of ``dense`` (``path`` densified, :func:`densify_path` with ``radius``) lies on ``path``:
-    ``"plan.path[i]"``, or ``"between plan.path[i] and plan.path[i + 1]"`` for a pose put in between."""
+def _path_place(path: FloatArray, dense: FloatArray, k: int, radius: float, name: str) -> str:
+    """Where pose ``k`` of ``dense`` (``path`` densified, :func:`densify_path` with ``radius``) lies on ``path``
+    (called ``name``): ``"plan.path[i]"``, or ``"between plan.path[i] and plan.path[i + 1]"`` for a pose put in
+    between."""
     if dense.shape[0] == path.shape[0]:  # nothing was put in between
-        return f"plan.path[{k}]"
+        return f"{name}[{k}]"
     along = np.concatenate([[0.0], np.cumsum(path_steps(path, radius))])
     at = float(np.sum(path_steps(dense[: k + 1], radius))) if k > 0 else 0.0
     nearest = int(np.argmin(np.abs(along - at)))
     if math.isclose(at, along[nearest], abs_tol=1e-9):
-        return f"plan.path[{nearest}]"
+        return f"{name}[{nearest}]"
     i = int(np.clip(np.searchsorted(along, at, side="right") - 1, 0, path.shape[0] - 2))
-    return f"between plan.path[{i}] and plan.path[{i + 1}]"
+    return f"between {name}[{i}] and {name}[{i + 1}]"
 
 
 def _missed(path: FloatArray, problem: PlanProblem) -> str:

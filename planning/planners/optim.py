@@ -114,6 +114,26 @@ def _ipopt_plugin() -> None:
     _casadi().load_nlpsol("ipopt")
 
 
+def _walled_off(problem: PlanProblem, sol: OptimSolution, clock: PlanClock) -> OptimSolution:
+    """``sol``, a failure, as INFEASIBLE when the tree planners' 2-D proof finds the goal walled off for the robot's
+    inscribed disc (:func:`planning.planners.sampling.tree.walled_off_proof`), within what is left of the time
+    limit: IPOPT's local failure shows no such thing, and the NLP's disc (the robot's radius and the margin)
+    holds that one. A goal sealed in a corner was "failed", where rrt, hybrid-a-star and c-rrt-star said why no
+    path exists."""
+    from planning.collision.field import FieldTimeout
+    from planning.planners.sampling.tree import walled_off_proof
+
+    try:
+        proved = walled_off_proof(problem, "footprint", 0.0)(clock.deadline())
+    except FieldTimeout:
+        return sol
+    if proved is None:
+        return sol
+    res = sol.result
+    reason = f"{proved} (IPOPT ended {res.reason.removeprefix('IPOPT: ').split(' (')[0]})"
+    return OptimSolution(dataclasses.replace(res, status=PlanStatus.INFEASIBLE, reason=reason), sol.nodes, sol.inputs)
+
+
 def _ipopt_failed(sol: OptimSolution) -> bool:
     """IPOPT itself failed the solve (a local infeasibility or its iteration limit), not the time limit."""
     stats = sol.result.stats
@@ -696,6 +716,8 @@ class Optim:
             sol = self._solve_from_starts(problem, clock)
             if sol.result.success or not _ipopt_failed(sol) or clock.expired():
                 break
+        if sol.result.status is PlanStatus.FAILED:
+            sol = _walled_off(problem, sol, clock)
         stats = sol.result.stats
         stats["horizon_stretch"] = self._stretch
         # loading code is in the plan's time, not held against its limit (as every planner's numba code)

@@ -105,8 +105,8 @@ def config_from_options(
         base: A configuration to start from (default: ``config_class()``).
 
     Raises:
-        ConfigError: An option that is not a field (the message lists the valid ones), or a value the
-            dataclass rejects.
+        ConfigError: An option that is not a field (the message lists the valid ones), a value the
+            dataclass rejects, or a ``base`` that is not a ``config_class``.
     """
     names = [f.name for f in dataclasses.fields(config_class) if f.init]  # type: ignore[arg-type]
     unknown = sorted(set(options) - set(names))
@@ -114,6 +114,11 @@ def config_from_options(
         raise ConfigError(f"unknown option(s) {', '.join(unknown)}: valid options are {', '.join(sorted(names))}")
     if base is None:
         return config_class(**options)
+    if not isinstance(base, config_class):
+        raise ConfigError(
+            f"config must be a {config_class.__name__}, got {type(base).__name__}: give one, or give its fields as "
+            "options of their own"
+        )
     return dataclasses.replace(base, **options)  # type: ignore[type-var]
 
 

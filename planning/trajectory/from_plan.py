@@ -27,6 +27,7 @@ for :class:`control.segmented.SegmentedTracker`.
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 import itertools
 import time
@@ -42,7 +43,7 @@ from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import RobotSpec, check_robot_spec
 from planning.core.world import World, check_world, span
 from planning.errors import ConfigError, NhsimError, option
-from planning.planners.base import PlanResult, PlanStatus
+from planning.planners.base import PlanResult, PlanStatus, path_collision
 from planning.trajectory.segments import infer_segments
 from planning.trajectory.smoothing import (
     MIN_SPEED,
@@ -202,12 +203,26 @@ def make_trajectory(
     goal_heading = goal.theta if goal is not None else None
     build = _Build(Limits.from_robot(robot, margin), checker, need, goal_heading, dwell, dt, label, stats)
     if timed:
-        assert isinstance(plan, PlanResult)
         result = _from_timed(plan, path, build, retime)
     else:
         result = _from_path(path, dirs, build, corner_angle, max_deviation, keep_loops=keep_loops)
+        result = _blamed_on_the_path(result, path, checker)
     result.stats["smoothing_time_s"] = time.perf_counter() - t_start
     return result
+
+
+def _blamed_on_the_path(result: TrajectoryResult, path: FloatArray, checker: CollisionChecker) -> TrajectoryResult:
+    """``result`` of smoothing ``path``, or where it failed and the path collides itself, with the path's collision
+    as its reason: the cause is the path given, not its smoothing (whose clearance there is the path's, -inf inside
+    an obstacle). A path that leaves the world keeps the reason that says so."""
+    if result.success or result.stats["input_min_clearance_m"] > 0.0:
+        return result
+    world, robot = checker.world, checker.robot
+    inside = bool(np.all(world.wall_distance(path[:, :2]) > 0.0))
+    if not inside or not (hit := path_collision(path, world, robot, "path")):
+        return result
+    reason = f"the path given collides before any smoothing: {hit}; plan it again, or move it clear"
+    return dataclasses.replace(result, reason=reason)
 
 
 #: Time over which a timed plan's end is moved onto the goal [s] (:func:`snapped`).
@@ -557,9 +572,9 @@ def _end_at_goal(body: Trajectory, end: FloatArray, build: _Build) -> Trajectory
     )
 
 
-def _from_timed(plan: PlanResult, path: FloatArray, build: _Build, force: bool | None) -> TrajectoryResult:
+def _from_timed(plan: PlanResult | ArrayLike, path: FloatArray, build: _Build, force: bool | None) -> TrajectoryResult:
     """A timed plan: its path kept, its samples kept (slowed uniformly) or re-timed from rest to rest."""
-    assert plan.times is not None and plan.controls is not None
+    assert isinstance(plan, PlanResult) and plan.times is not None and plan.controls is not None
     t = np.asarray(plan.times, dtype=float).reshape(-1)
     if t.size < 2:
         return TrajectoryResult(TrajectoryStatus.INVALID, None, f"timed plan has {t.size} times for {t.size} poses")

@@ -21,7 +21,7 @@ from planning.errors import ConfigError, ScenarioError, without_python
 from sim.cli.checks import add_robot_argument
 from sim.cli.simulate import add_localiser_arguments, check_scan_beams, localiser_fields
 from sim.tools.executor import JOBS_PER_CORE, check_workers
-from sim.tools.tune import GRACE_PERIOD, UNRECORDED
+from sim.tools.tune import GRACE_PERIOD, MAX_DRAWS, UNRECORDED
 
 DESCRIPTION = f"""\
 Tune the feedback-linearisation tracker's gains (Kp, Kd, xi_min) with Optuna (TPE by default) over
@@ -687,6 +687,14 @@ def _check_counts(args: argparse.Namespace) -> None:
         fix="a study of more would not end (each trial runs every case on every draw): give the completed trials "
         "wanted, e.g. --trials 200 (a resumed study counts those it holds)",
     )
+    for flag, count in (("--draws", args.draws), ("--eval-runs", args.eval_runs)):  # the held-out ones drawn last
+        check_number(
+            flag,
+            count,
+            integer=True,
+            at_most=MAX_DRAWS,
+            fix="the most a set draws (a quarter of the seeds of one parity)",
+        )
     check_workers(args.jobs)
     check_seeds(seed=args.seed)
     check_control_rate(args.control_rate)
@@ -792,8 +800,9 @@ def _run(args: argparse.Namespace) -> int:
 
 def in_case_tokens(message: str) -> str:
     """A case's error as ``--scenarios`` takes the case: its planner and reference are written into the token
-    (``SCENARIO:PLANNER``, ``open:figure8``), and tune has no ``--planner`` or ``--scenario``."""
+    (``SCENARIO:PLANNER``, ``open:figure8``), and tune has no ``--planner``, ``--reference`` or ``--scenario``."""
     message = re.sub(r"--scenario (\S+?)(?=[,;:]|$| )", r"\1:figure8 in --scenarios", message)
+    message = re.sub(r"--reference (\w+)", r"SCENARIO:\1 in --scenarios", message)
     return re.sub(r"--planner\b", "SCENARIO:PLANNER in --scenarios", message)
 
 

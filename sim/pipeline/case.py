@@ -38,6 +38,7 @@ from planning.collision.exact import DEFAULT_TOLERANCE, CollisionChecker
 from planning.core.checks import check_fields, check_flag, check_number
 from planning.core.geometry import Pose2D, wrap_angle
 from planning.core.robot import RobotSpec, check_robot_name, load_robot
+from planning.core.world import span
 from planning.errors import ConfigError, ScenarioError, option, options
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, path_collision, run_planner
 from planning.planners.registry import PLANNERS, make_planner, planner_options
@@ -606,14 +607,30 @@ def check_reference_fits(name: str, trajectory: Trajectory, scenario: Scenario, 
     """
     clearance = scenario.world.signed_distance(trajectory.pose[:, :2])
     if float(clearance.min()) <= robot.radius:
-        k = int(clearance.argmin())
+        world = scenario.world
+        outside = np.flatnonzero(world.wall_distance(trajectory.pose[:, :2]) <= 0.0)
+        k = int(outside[0]) if outside.size else int(clearance.argmin())
+        x, y = (round(float(v), 3) + 0.0 for v in trajectory.pose[k, :2])  # (+ 0.0: no "-0.000")
+        at = f"({x:.3f}, {y:.3f})"
+        if outside.size:  # "comes within 0.000 m of an obstacle or wall" it said of a point beyond the walls
+            how = f"leaves the world's bounds ({span(*world.bounds)}) at {at}"
+        elif clearance[k] < 0.0:
+            how = f"runs through an obstacle at {at}"
+        else:
+            how = f"comes within {float(clearance[k]):.3f} m of an obstacle or wall at {at}"
         room = f", e.g. {option('scenario', 'open')}" if scenario.name != "open" else ""
         raise ScenarioError(
-            f"reference {name!r} placed at the start of scenario {scenario.name!r} comes within "
-            f"{max(float(clearance[k]), 0.0):.3f} m of an obstacle or wall at ({trajectory.pose[k, 0]:.2f}, "
-            f"{trajectory.pose[k, 1]:.2f}) but the {robot.name} needs {robot.radius:.3f} m; use a scenario with room "
-            f"for it{room}, another reference, or plan a path with {option('planner')}"
+            f"reference {name!r} placed at the start of scenario {scenario.name!r} {how} but the {robot.name} needs "
+            f"{robot.radius:.3f} m of room; use a scenario with room for it{room}, another reference, or plan a path "
+            f"with {option('planner')}"
         )
+
+
+def nothing_to_plan(scenario: Scenario) -> bool:
+    """Whether the scenario's goal is its start (position and heading, as the ``open`` arena's, for analytic
+    references): a planner's path there is the start alone, its trajectory a stand-still."""
+    start, goal = scenario.start, scenario.goal
+    return start.distance_to(goal) < 1e-9 and start.heading_error_to(goal) < 1e-9
 
 
 def plan_case(case: Case, scenario: Scenario, robot: RobotSpec, *, progress: Progress | None = None) -> PlanResult:
@@ -626,7 +643,8 @@ def plan_case(case: Case, scenario: Scenario, robot: RobotSpec, *, progress: Pro
         progress: Told when planning starts and ends (stage "plan", seconds of the budget).
 
     Raises:
-        ConfigError: No planner given and the scenario names none; unknown planner.
+        ConfigError: No planner given and the scenario names none; unknown planner; a scenario with nothing to
+            plan (:func:`nothing_to_plan`).
     """
     if case.planning.plan is not None:
         return _ready_plan(case.planning.plan, scenario, robot, case.planning.clearance)
@@ -635,6 +653,13 @@ def plan_case(case: Case, scenario: Scenario, robot: RobotSpec, *, progress: Pro
         raise ConfigError(
             f"scenario {scenario.name!r} names no planner; choose one with {option('planner')}: "
             f"{', '.join(sorted(PLANNERS)) or 'none registered'}"
+        )
+    if nothing_to_plan(scenario):
+        raise ConfigError(
+            f"scenario {scenario.name!r} has nothing to plan: its goal is its start ({scenario.start.x:g}, "
+            f"{scenario.start.y:g}, {scenario.start.theta:g}), so planner {name!r} would give a stand-still with "
+            f"nothing to track; choose a scenario whose goal lies elsewhere, or track an analytic reference there "
+            f"({option('reference', 'figure8')})"
         )
     limit = case.planning.time_limit
     problem = PlanProblem.from_scenario(scenario, robot=robot, seed=case.seed, time_limit=limit)
@@ -724,7 +749,7 @@ def _ready_plan(plan: PlanResult, scenario: Scenario, robot: RobotSpec, margin: 
     if off > tolerance[0] or turned > tolerance[1]:
         raise ConfigError(
             f"the ready plan ({plan.planner}) starts at ({first[0]:.3f}, {first[1]:.3f}, {first[2]:.3f}), "
-            f"{off:.3f} m and {turned:.3f} rad from scenario {scenario.name!r}'s start ({start.x:g}, {start.y:g}, "
+            f"{off:.3f} m and {turned:.3f} rad from the start of scenario {scenario.name!r} ({start.x:g}, {start.y:g}, "
             f"{start.theta:g}), where the robot is placed: plan for this scenario (PlanProblem.from_scenario), or "
             "give the scenario whose start the plan leaves from"
         )
@@ -732,7 +757,7 @@ def _ready_plan(plan: PlanResult, scenario: Scenario, robot: RobotSpec, margin: 
     if miss > tolerance[0] or missed > tolerance[1]:
         raise ConfigError(
             f"the ready plan ({plan.planner}) ends at ({last[0]:.3f}, {last[1]:.3f}, {last[2]:.3f}), outside "
-            f"scenario {scenario.name!r}'s goal region ({goal.x:g}, {goal.y:g}, {goal.theta:g}; "
+            f"the goal region of scenario {scenario.name!r} ({goal.x:g}, {goal.y:g}, {goal.theta:g}; "
             f"{tolerance[0]:g} m, {tolerance[1]:g} rad): plan for this scenario"
         )
     _check_ready_path(plan, scenario, robot)

@@ -33,7 +33,7 @@ from sim.physics.metrics import TrackingMetrics, robot_metrics
 from sim.physics.perturb import Perturbation
 from sim.physics.runlog import RunLog
 from sim.physics.simulator import SimConfig, Simulator
-from sim.pipeline.case import Case, PreparedTrajectory, check_case_scenario, prepare_trajectory
+from sim.pipeline.case import Case, PreparedTrajectory, check_case_scenario, nothing_to_plan, prepare_trajectory
 from sim.pipeline.runs import DEFAULT_RUNS, Progress, RunKind, run_kinds
 from sim.robot.sensing import SensingSetup
 
@@ -627,7 +627,7 @@ def applicable_planners(scenario: Scenario) -> list[str]:
     position and heading, e.g. ``open``, the arena for analytic references) has nothing to plan and gets no
     planner.
     """
-    if scenario.start.distance_to(scenario.goal) < 1e-9 and scenario.start.heading_error_to(scenario.goal) < 1e-9:
+    if nothing_to_plan(scenario):
         return []
     built_in = set(PLANNERS.built_in())
     names = []

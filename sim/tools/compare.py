@@ -2,7 +2,9 @@ r"""Trackers side by side: the same trajectory, the same as-built robots and noi
 
 :func:`compare_trackers` prepares a case's trajectory once (a planned case plans once) and runs each
 tracker on it in the real robot's loop (:attr:`sim.pipeline.runs.RunKind.CLOSED_LOOP`: as-built
-robot, sensors, fused estimate). With ``runs = 1`` every tracker drives the case's own robot and
+robot, sensors, fused estimate); a player without feedback (``open-loop``) as the open loop
+(:attr:`~sim.pipeline.runs.RunKind.OPEN_LOOP`: no estimator, whose divergence would end a run it never
+reads). With ``runs = 1`` every tracker drives the case's own robot and
 noise; with ``runs = N`` each tracker drives the same N held-out draws of robot and noise
 (:func:`sim.tools.tune.make_draws` with ``held_out=True``, from the case's seed): never the draws
 a tuning study trains on, so tuned parameters are judged on robots they have not seen.
@@ -353,7 +355,8 @@ def compare_trackers(
                 ran[name] = tracker_params(name, tracker) or plain_params(params.get(name))
             timed = TimedTracker(tracker)
             try:
-                run = run_tracker(prepared_i, RunKind.CLOSED_LOOP, timed, pc.simulator, config, sensing)
+                kind = RunKind.of_tracker(name)  # a player without feedback runs as the open loop: on no estimate
+                run = run_tracker(prepared_i, kind, timed, pc.simulator, config, sensing)
             except SimulationError as exc:  # this tracker's run: the others are still compared
                 done.append(TrackerRun(name, index, {}, {}, status="failed", ending={"error": str(exc)}, exception=exc))
             else:

@@ -1145,17 +1145,17 @@ class Comparison:
         """Which gains are better on the held-out robots and by how much, in words."""
         ratio = self.ratios()["objective"]
         mean, sem = self.paired_difference()
-        runs = self.tuned.runs
+        runs = f"{self.tuned.runs} run{'' if self.tuned.runs == 1 else 's'}"
         if self.defaults_best:
-            return f"the defaults were best: no trial beat them; held-out robots ran them alone ({runs} runs)"
+            return f"the defaults were best: no trial beat them; held-out robots ran them alone ({runs})"
         if self.better == "neither":
-            return f"tuned and default gains score the same on held-out robots ({runs} runs)"
+            return f"tuned and default gains score the same on held-out robots ({runs})"
         said = f"{self.better} gains are better on held-out robots: objective {ratio:.2f}x default; "
         if math.isnan(sem):
             return (
                 said + f"per-run difference {mean * 1e3:+.3f} mm (one run: no standard error, not a clear difference)"
             )
-        spread = f"per-run difference {mean * 1e3:+.3f} ± {sem * 1e3:.3f} mm (mean ± standard error, {runs} runs)"
+        spread = f"per-run difference {mean * 1e3:+.3f} ± {sem * 1e3:.3f} mm (mean ± standard error, {runs})"
         return (
             said
             + spread
