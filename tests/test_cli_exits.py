@@ -416,6 +416,8 @@ def test_a_fix_one_control_period_late_does_not_crash_the_consistency_measure(tm
         (["--perturb", "mass=1.2", "--sensors", "fix_rate=5"], "--perturb, --sensors"),
         (["--reference", "circle"], "--reference"),
         (["--localiser", "fixes"], "--localiser"),
+        (["--plots"], "--plots"),  # its default, but said: the sweep writes no plots (it was taken without a word)
+        (["--plots", "--build-seed", "3"], "--build-seed, --plots"),
     ],
 )
 def test_simulate_all_refuses_the_options_its_sweep_would_drop(
@@ -662,6 +664,7 @@ def test_regress_list_checks_its_options_as_a_run_does(
         (["--jobs", "9"], "--jobs 9 would start 9 worker processes on the 2 cores this process "
          "may use; give at most 8 (4 per core), or run on a Dask cluster with --scheduler ADDRESS\n"),
         (["--scheduler", "x"], "--scheduler x is not a scheduler address"),
+        (["--update"], "--list lists the cases and runs none, so --update would rewrite nothing: drop one of them"),
     ):  # fmt: skip
         assert main(["regress", "--list", *extra]) == 2
         captured = capsys.readouterr()

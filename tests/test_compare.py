@@ -93,7 +93,7 @@ def test_compare_cli_rejects_unknown_trackers_and_bad_params(tmp_path: Path) -> 
         unstable = tmp_path / f"{tracker}.json"
         unstable.write_text(json.dumps({tracker: gains}))
         r = nhsim("compare", "--reference", "line", "--trackers", tracker, "--params", str(unstable))
-        said = f"--params {tracker}: FBL gains Kp={gains['kp']:g}, Kd={gains.get('kd', 6):g} make the error dynamics"
+        said = f"the {tracker} gains of --params: FBL gains Kp={gains['kp']:g}, Kd={gains.get('kd', 6):g} make the"
         assert r.returncode == 2 and said in r.stderr and "lower Kp or raise Kd within its bound (the" in r.stderr
     r = nhsim("compare", "--reference", "line", "--trackers", "fbl", "--plots", str(tmp_path / "x.png"))
     assert r.returncode == 2 and f"--plots {tmp_path}/x writes {tmp_path}/x-paths.png and" in r.stderr
@@ -188,6 +188,9 @@ def test_parameter_files(tmp_path: Path) -> None:
         load_params([mapping])
     mapping.write_text(json.dumps({"open-loop": {}}))
     with pytest.raises(ConfigError, match="'open-loop' has no parameters to tune"):
+        load_params([mapping])
+    mapping.write_text(json.dumps({"zzz": {"a": 1}}))  # the file that names it is named (it named none)
+    with pytest.raises(ConfigError, match=r"^--params \S*a\.json .*: unknown tracker 'zzz': choose from fbl, "):
         load_params([mapping])
     with pytest.raises(ConfigError, match="twice"):
         check_trackers(["mpc", "mpc"])

@@ -150,6 +150,18 @@ def add_executor_arguments(p: argparse.ArgumentParser, *, what: str, default_job
 VIDEO_DEFAULTS: dict[str, Any] = {"fps": 30.0, "size": "640x480", "camera": "overview", "quality": "fast"}
 
 
+class SaidSwitch(argparse.BooleanOptionalAction):
+    """``--NAME`` / ``--no-NAME`` that also sets ``NAME_said`` when either is given: an option whose default is on
+    cannot tell an explicit ``--plots`` from none by its value (``simulate --all``, which writes no plots, refuses it
+    where it was given)."""
+
+    def __call__(
+        self, parser: Any, namespace: argparse.Namespace, values: Any, option_string: str | None = None
+    ) -> None:
+        super().__call__(parser, namespace, values, option_string)
+        setattr(namespace, f"{self.dest}_said", True)
+
+
 def add_output_arguments(p: argparse.ArgumentParser) -> None:
     """Add the video, plot and GL options to a command's parser (no mujoco import)."""
     g = p.add_argument_group(
@@ -176,9 +188,7 @@ def add_output_arguments(p: argparse.ArgumentParser) -> None:
         help="also write the runs as a ROS 2 bag: a rosbag2 folder DIR with MCAP storage, for Foxglove, RViz "
         "(ros2 bag play) or PlotJuggler (default: none)",
     )
-    g.add_argument(
-        "--plots", action=argparse.BooleanOptionalAction, default=True, help="write the PNG plots (default: on)"
-    )
+    g.add_argument("--plots", action=SaidSwitch, default=True, help="write the PNG plots (default: on)")
     g.add_argument(
         "--fps",
         type=float,

@@ -114,6 +114,8 @@ def run(args: argparse.Namespace) -> int:
     from sim.tools.regress import Status, check_task, load_suite
 
     worker_count(args.jobs, args.scheduler, default=1)  # with --list too: one meaning for every option
+    if args.list and args.update:  # --list runs nothing: the update was dropped without a word
+        raise ConfigError("--list lists the cases and runs none, so --update would rewrite nothing: drop one of them")
     suite = load_suite(args.suite or SUITE_PATH)
     baselines: Path = args.baselines or (args.suite.parent / "baselines" if args.suite else BASELINE_DIR)
     patterns = [p.strip() for arg in (args.case or []) for p in arg.split(",") if p.strip()]

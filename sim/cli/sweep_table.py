@@ -73,20 +73,20 @@ SWEEP_OPTIONS = frozenset(
 
 def check_sweep_options(args: argparse.Namespace, defaults: dict[str, Any]) -> None:
     """Refuse the options ``--all`` would not use (each case runs the robot as built with seed 1, its own
-    sensors and localiser, the default runs, no video), naming them: given and silently dropped, a
-    ``--build-seed`` or a ``--perturb`` would read as a sweep it was not.
+    sensors and localiser, the default runs, no video and no plots: ``--plots`` too, its default), naming them:
+    given and silently dropped, a ``--build-seed`` or a ``--perturb`` would read as a sweep it was not.
 
     Raises:
         ConfigError: An option away from its default that the sweep does not take.
     """
     unused = {d: v for d, v in defaults.items() if d not in SWEEP_OPTIONS}
-    given = sorted(d for d, default in unused.items() if getattr(args, d, default) != default)
+    said = ["plots"] if args.plots and getattr(args, "plots_said", False) else []  # its default, but the sweep has none
+    given = sorted([d for d, default in unused.items() if getattr(args, d, default) != default] + said)
     if given:
-        flags = ", ".join("--" + d.replace("_", "-") for d in given)
+        flags, them = ", ".join("--" + d.replace("_", "-") for d in given), "it" if len(given) == 1 else "them"
         raise ConfigError(
             f"--all sweeps every case with the robot as built (build seed 1), its own sensors and localiser, the "
-            f"default runs and no video; it does not take {flags}: drop {'it' if len(given) == 1 else 'them'}, or run "
-            "one job without --all"
+            f"default runs, no video and no plots; it does not take {flags}: drop {them}, or run one job without --all"
         )
 
 

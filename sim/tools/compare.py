@@ -334,7 +334,7 @@ def compare_trackers(
     for name in names:  # as a case's gains are checked (Case), before any work; the rate is the case's
         given = params.get(name)
         if isinstance(given, FBLGains):
-            where = f"{option('params', python='params')} {name}"
+            where = f"the {name} gains of {option('params', python='params')}"
             check_sampled_stability(given, case.control_rate, where, rate_given=False)
     prepared = prepare_trajectory(case)
     base = PreparedCase(prepared, simulator_for(prepared))
@@ -423,7 +423,10 @@ def load_params(paths: Sequence[str | Path]) -> dict[str, Any]:
         if not isinstance(data, dict) or not all(isinstance(v, dict) for v in data.values()):
             raise ConfigError(f"{given}: expected {{tracker: {{field: value}}}} or a 'nhsim tune' record")
         for name, fields_ in data.items():
-            check_trackers([name])
+            try:
+                check_trackers([name])
+            except ConfigError as exc:  # said of the file that names it (it named no file)
+                raise ConfigError(f"{given}: {exc}") from exc
             cls = tuned_option(name)[1]
             valid = list(getattr(cls, "__dataclass_fields__", {}))
             unknown = [k for k in fields_ if k not in valid]
