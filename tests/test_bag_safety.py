@@ -106,6 +106,27 @@ def test_a_bag_inside_a_bag_is_refused(
         assert _texts(bag) == files and not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize(
+    "argv",
+    [
+        [*JOB, "--json", "old/rec.json"],
+        ["simulate", "--runs", "closed_loop", "--quiet", "--no-plots", "--video", "old/deeper/v.mp4"],
+        ["plan", "--scenario", "simple_motion", "--json", "old/p.json"],
+        ["compare", "--reference", "line", "--trackers", "fbl", "--json", "old/c.json"],
+    ],
+)
+def test_an_output_inside_a_bag_is_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], argv: list[str]
+) -> None:
+    """A record and plots written into a bag nhsim wrote earlier were taken, and the bag could then not be replaced:
+    ``--bag old --overwrite`` said it held files "which nhsim did not write"."""
+    monkeypatch.chdir(tmp_path)
+    bag = _old_bag(tmp_path / "old")
+    code, err = _run(argv, capsys)
+    assert code == 2 and f"it lies inside the bag {bag} (a folder with a rosbag2 metadata.yaml)" in err, err
+    assert _kept(bag) and sorted(p.name for p in bag.iterdir()) == ["metadata.yaml", "old.mcap"]
+
+
 def test_a_folder_holding_a_metadata_yaml_of_its_own_is_no_bag(tmp_path: Path) -> None:
     """Only a rosbag2 metadata.yaml makes a bag: a project's own metadata.yaml above the output refused every bag."""
     from sim.io.bag import check_bag_target

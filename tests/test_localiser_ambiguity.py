@@ -71,6 +71,18 @@ def test_a_symmetric_world_ends_global_localisation_ambiguous_before_tracking(
     assert localiser_line(record["estimation"], record["status"]).endswith(
         "global localisation ambiguous after 3 scans"
     )
+    # no pose was believed: the record's statistics of the estimate are null (they were 0.0, the loop having been
+    # started at the truth), and the bag says no belief (its RUN/odom was the true pose, exact; map -> odom the
+    # correction from it)
+    from sim.io.bag import job_topics
+    from sim.io.bag_topics import belief_at
+
+    assert run.log.estimation is not None and run.log.estimation.t.size == 0 and belief_at(run.log, run.log.t) is None
+    assert all(
+        record["estimation"][k] is None for k in ("position_rmse_m", "heading_rmse_rad", "final_position_error_m")
+    )
+    names = {t.name for t in job_topics(res.prepared, {"closed_loop": run.log})}
+    assert "/closed_loop/odom" not in names and "/closed_loop/ground_truth/odom" in names
 
 
 def test_the_search_reports_a_symmetric_worlds_twins_and_a_single_pose_elsewhere() -> None:

@@ -566,13 +566,27 @@ def _map_yaml_image(given: str, yaml_path: Path) -> list[tuple[str, Path]]:
     return [(f"{given}, {os.path.normpath(image)})", image)]
 
 
+def _refuse_inside_a_bag(out: Path) -> None:
+    """Refuse a file output inside a rosbag2 bag folder: a bag holds its own files only (one of nhsim's holding a
+    record and plots written into it later was refused by ``--bag --overwrite`` as holding files "nhsim did not
+    write")."""
+    from sim.io.bag import bag_holding
+
+    holder = bag_holding(out)
+    if holder is not None:
+        raise ConfigError(
+            f"cannot write {out}: it lies inside the bag {holder} (a folder with a rosbag2 metadata.yaml), which "
+            "holds its own files only; choose a path outside it"
+        )
+
+
 def check_apart_from_inputs(args: argparse.Namespace, files: Iterable[Path], bag: Path | None = None) -> None:
     """Check, before any work, that no output overwrites what the command reads (symlinks resolved): a file
-    output is not an input nor inside an input folder (a rosbag2 bag), and the bag folder ``bag`` neither
-    is, contains nor lies inside an input.
+    output is not an input nor inside an input folder (a rosbag2 bag), nor inside any bag; and the bag folder
+    ``bag`` neither is, contains nor lies inside an input.
 
     Raises:
-        ConfigError: Naming the output, the input and the fix.
+        ConfigError: Naming the output, the input (or the bag) and the fix.
     """
     from sim.outputs import resolved
 
@@ -586,6 +600,8 @@ def check_apart_from_inputs(args: argparse.Namespace, files: Iterable[Path], bag
                     f"the output {out} {where} the input {given}: writing it would change what the command reads; "
                     "choose another output path"
                 )
+        if any(os.path.isfile(p / "metadata.yaml") for p in target.parents):  # (False for a name too long)
+            _refuse_inside_a_bag(out)
     if bag is None:
         return
     folder = resolved(bag)

@@ -104,7 +104,7 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
     overwrite = check_flag("overwrite", overwrite)
     path = Path(path)
     check_not_read_by_runs(path)
-    holder = next((p for p in Path(os.path.abspath(path)).parents if _metadata(p / "metadata.yaml") is not None), None)
+    holder = bag_holding(path)
     if holder is not None:  # a bag holds its own files only: the outer bag would read as not a bag, nor nhsim's
         raise ConfigError(
             f"cannot write the bag {path}: it lies inside the bag {holder} (a folder with a rosbag2 metadata.yaml); "
@@ -140,6 +140,11 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
                 f"or choose another folder with {option('bag', python='path')}"
             )
     check_folder_for(path)
+
+
+def bag_holding(path: Path) -> Path | None:
+    """The bag folder (one with a rosbag2 ``metadata.yaml``) that ``path`` lies inside, or None."""
+    return next((p for p in Path(os.path.abspath(path)).parents if _metadata(p / "metadata.yaml") is not None), None)
 
 
 def not_ours(path: Path) -> str:

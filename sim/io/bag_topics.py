@@ -411,9 +411,15 @@ def _body_tilt(log: Any, sk: Skeleton) -> tuple[FloatArray, FloatArray]:
 def belief_at(log: Any, t: FloatArray) -> FloatArray | None:
     """(N, 3) where the run believed it was at physics times ``t`` (the logged samples): its estimate
     (:func:`estimate_at`), the truth for a run fed the truth, None for the open loop (no belief)."""
-    if is_open_loop(log):
+    if is_open_loop(log) or no_belief(log):
         return None
     return estimate_at(log, t)[0]
+
+
+def no_belief(log: Any) -> bool:
+    """Whether the run had an estimator that never believed a pose (global localisation chose none at its start,
+    :meth:`sim.robot.sensing.Sensing.to_log`)."""
+    return log.estimation is not None and log.estimation.t.size == 0
 
 
 def _tf_series(log: Any, sk: Skeleton, frames: dict[str, str], odo: FloatArray) -> Series:
@@ -497,6 +503,8 @@ def _odom_series(log: Any, frames: dict[str, str], wheels: Wheels) -> Series:
     est = log.estimation
     if est is not None and est.t.size:
         t, pose, var, frame = sensed_at(log, est.t), est.estimate, est.variance, "map"
+    elif no_belief(log):  # no message: it knew nothing (it was the truth, exact)
+        return np.zeros(0), lambda k: None
     elif is_open_loop(log):
         t, pose, var, frame = log.t, wheels.pose, wheels.variance, frames["odom"]
     else:

@@ -81,6 +81,8 @@ class EstimationMetrics:
     def of(cls, log: EstimationLog) -> EstimationMetrics:
         """The metrics of an estimation log."""
         pe, he = log.position_errors(), log.heading_errors()
+        if not pe.size:  # no estimate (global localisation chose no pose): a statistic of nothing
+            pe = he = np.array([math.nan])
         return cls(
             **_localiser_metrics(log),
             source=log.source,

@@ -402,6 +402,7 @@ class Sensing:
         else:
             pose = loop.step(k, left, right, gyro, pitch)
         if undecided is not None:  # global localisation could not choose a pose: the run ends before tracking
+            self._k = -1  # with no belief: the loop started at the truth only to end here, not an estimate
             raise EstimatorDivergedError(str(undecided), t=self.t0, reason=undecided.status) from undecided
         if k in self._events:
             self._fix_events(k, truth)
@@ -473,7 +474,8 @@ class Sensing:
             self.status = f"estimator diverged at t={error.t:.3f} s ({error.reason}): {error}"
 
     def to_log(self) -> EstimationLog | None:
-        """The run's estimation record (None when the tracker saw the truth)."""
+        """The run's estimation record (None when the tracker saw the truth); of no period when global localisation
+        chose no pose at period 0 (the run had no belief: its statistics are null, its bag has no ``RUN/odom``)."""
         if self.estimator is None:
             return None
         n = self._k + 1

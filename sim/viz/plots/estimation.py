@@ -166,14 +166,15 @@ class EstimationSeries:
 
 
 def series_of_runs(logs: Mapping[str, RunLog]) -> EstimationSeries | None:
-    """The estimation series of a job's runs fed by an estimator (None when no run had one).
+    """The estimation series of a job's runs fed by an estimator (None when no run had an estimate).
 
     Each run drove its own robot, so each estimate is compared with its own truth: the series holds
     the errors (estimate minus truth, heading wrapped) against a zero "truth", which the figure
     plots exactly as it would the estimate against that run's truth. Runs are cut to the shortest
     (a run whose estimator diverged ends early).
     """
-    est = {label: log.estimation for label, log in logs.items() if log.estimation is not None}
+    # (a run whose global localisation chose no pose has an estimator and no estimate)
+    est = {label: log.estimation for label, log in logs.items() if log.estimation is not None and log.estimation.t.size}
     if not est:
         return None
     n = min(e.t.size for e in est.values())
