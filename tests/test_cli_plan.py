@@ -191,7 +191,10 @@ def test_failed_plan_exits_1_with_reason(tmp_path, capsys):
     rec = json.loads(js.read_text())
     assert rec["status"] == "invalid_start" and "0.4000 m" in rec["reason"]
     assert rec["path"] == [] and rec["min_clearance_m"] is None and rec["path_collides"] is None
-    assert "invalid_start" in capsys.readouterr().out
+    out, err = capsys.readouterr()
+    assert "invalid_start" in out
+    # and one line on stderr, as every command says a failure (it said nothing there)
+    assert err == f"nhsim plan: failed: planner 'c-rrt-star' ended with status invalid_start: {rec['reason']}\n"
 
 
 def test_a_partial_paths_length_and_clearance_say_so(tmp_path, capsys):

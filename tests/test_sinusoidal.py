@@ -181,8 +181,14 @@ def test_a_step_no_period_makes_within_the_bounds_is_bounds_violated_not_infeasi
         problem = PlanProblem.from_scenario(random_scenario(robot, 604))
         res = make_planner("sinusoidal").plan(problem)
         assert res.status is PlanStatus.BOUNDS_VIOLATED, res.reason
-        assert "cannot steer y by 9.05 m within the input limits (u1max, u2max, phimax, the robot's yaw rate) and " \
-            "max_heading_offset at any period up to max_period = 120 s" in res.reason  # fmt: skip
+        # the y still to go counts from where the piece's earlier steps left the robot, beyond the walls (y -3..3):
+        # "y by 9.05 m" alone read as a distance in the world
+        said = (
+            "cannot steer y by 9.05 m (from y = -6.65 m, where the piece's earlier steps left it, to 2.4 m) within "
+            "the input limits (u1max, u2max, phimax, the robot's yaw rate) and max_heading_offset at any period up "
+            "to max_period = 120 s"
+        )
+        assert said in res.reason
         assert "no amplitude of u1 within u1max and the heading's region" in res.reason
     simple = PlanProblem.from_scenario(load_scenario("simple_motion"))
     cramped = Sinusoidal(u1max=0.001, max_period=4.0).plan(simple)
@@ -207,7 +213,7 @@ def test_a_heading_reversal_beyond_the_method_says_so_and_suggests_no_option_tha
     res = Sinusoidal().plan(problem)
     assert res.status is PlanStatus.BOUNDS_VIOLATED
     assert res.reason.startswith(
-        "sinusoidal steering of piece 2 of 3 (headings -45 to -135 deg): cannot steer x by 1.46 m"
+        "sinusoidal steering of piece 2 of 3 (headings -45 to -135 deg): cannot steer x by 1.46 m (from x = "
     )
     assert "within the input limits (u1max, u2max, phimax, the robot's yaw rate) and max_heading_offset" in res.reason
     assert "the farthest any amplitude tried moves it is 0.287 m" in res.reason

@@ -395,7 +395,10 @@ class Sinusoidal:
             period *= 1.25
         axis = "x" if m.alternate else "y"
         advice = _OTHERS if rejected else self._z4_advice(z0, axis, speed_bound)
-        raise _StepFailed(self._cannot(f"{axis} by {d:.3g} m", last), advice)
+        # from where the piece's earlier steps left it, which may lie far from the start (or beyond the walls)
+        moved = f"{axis} by {d:.3g} m (from {axis} = {z0[3]:.3g} m, where the piece's earlier steps left it, to "
+        moved += f"{target:.3g} m)"
+        raise _StepFailed(self._cannot(moved, last), advice)
 
     def _z4_advice(self, z0: FloatArray, axis: str, speed_bound: bool) -> str:
         """What would make a fourth-state (sideways) step from chained state ``z0`` that no period made: a longer

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -195,7 +196,11 @@ def run(args: argparse.Namespace) -> int:
         "stats": {k: v for k, v in result.stats.items() if _jsonable(v)},
     }
     _write(args, record, problem, result)
-    return 0 if status is PlanStatus.SUCCESS else 1
+    if status is PlanStatus.SUCCESS:
+        return 0
+    # the failure's one line on stderr, as every command's (the table above is the standard output's)
+    print(f"nhsim plan: failed: planner {name!r} ended with status {status.value}: {reason}", file=sys.stderr)
+    return 1
 
 
 def check_scenario_sensors(scenario: Any) -> None:
