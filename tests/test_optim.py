@@ -118,6 +118,14 @@ def test_a_goal_walled_off_is_proved_infeasible_not_a_failure() -> None:
     # a wall with a way round it is not proved: a plan
     opened = World((0.0, 4.0, 0.0, 4.0), (Box((2.6, 3.5), (0.1, 1.0)), Box((3.3, 2.6), (1.4, 0.1))))
     assert Optim(init="straight").plan(dataclasses.replace(problem, world=opened)).success
+    # a 0.22 m gap the footprint (0.178 m wide) passes and optim's disc (0.272 m across) does not: infeasible for
+    # optim, said so (it "may not pass"), and the footprint's planners named
+    gap = World((-3.0, 3.0, -2.0, 2.0), (Box((0.0, 1.01), (0.3, 1.8)), Box((0.0, -1.01), (0.3, 1.8))))
+    across = PlanProblem(gap, robot, Pose2D(-2.5, 0.0, 0.0), Pose2D(2.5, 0.0, 0.0), time_limit=10.0)
+    res = Optim(init="straight").plan(across)
+    assert res.status is PlanStatus.INFEASIBLE, res.reason
+    assert res.reason.startswith("no path keeps the disc optim keeps clear (radius 0.136 m: the robot's 0.126 m and")
+    assert "planners that check the footprint itself (hybrid-a-star, rrt-star) may pass" in res.reason
 
 
 def test_nlp_is_built_once_and_reused() -> None:

@@ -114,17 +114,28 @@ def _ipopt_plugin() -> None:
     _casadi().load_nlpsol("ipopt")
 
 
-def _walled_off(problem: PlanProblem, sol: OptimSolution, clock: PlanClock) -> OptimSolution:
-    """``sol``, a failure, as INFEASIBLE when the tree planners' 2-D proof finds the goal walled off for the robot's
-    inscribed disc (:func:`planning.planners.sampling.tree.walled_off_proof`), within what is left of the time
-    limit: IPOPT's local failure shows no such thing, and the NLP's disc (the robot's radius and the margin)
-    holds that one. A goal sealed in a corner was "failed", where rrt, hybrid-a-star and c-rrt-star said why no
-    path exists."""
+def _walled_off(problem: PlanProblem, sol: OptimSolution, clock: PlanClock, disc: float) -> OptimSolution:
+    """``sol``, a failure, as INFEASIBLE when a 2-D proof finds the goal walled off, within what is left of the time
+    limit (IPOPT's local failure shows no such thing): for the robot's inscribed disc (the tree planners' proof,
+    :func:`planning.planners.sampling.tree.walled_off_proof`: no path for the robot), else for the disc of radius
+    ``disc`` the NLP keeps clear along its whole rollout (the robot's radius and the margin: no path for optim,
+    where planners of the footprint may find one). A goal sealed in a corner was "failed", where rrt,
+    hybrid-a-star and c-rrt-star said why no path exists; a gap only the footprint passes "may not" have passed."""
     from planning.collision.field import FieldTimeout
+    from planning.planners.geodesic import walled_off
     from planning.planners.sampling.tree import walled_off_proof
 
+    tol = problem.position_tolerance
     try:
         proved = walled_off_proof(problem, "footprint", 0.0)(clock.deadline())
+        ends = (problem.world, problem.start.xy, problem.goal.xy)
+        if proved is None and (found := walled_off(*ends, disc, clock.deadline(), tol)):
+            proved = (
+                f"no path keeps the disc optim keeps clear (radius {disc:.3f} m: the robot's {problem.robot.radius:.3f}"
+                f" m and the margin) off every obstacle and wall: a 2-D search over {found[0]:g} m cells finds every "
+                f"point within the goal tolerance ({tol:g} m) walled off for it even at {found[1]:.3f} m; planners "
+                "that check the footprint itself (hybrid-a-star, rrt-star) may pass"
+            )
     except FieldTimeout:
         return sol
     if proved is None:
@@ -717,7 +728,7 @@ class Optim:
             if sol.result.success or not _ipopt_failed(sol) or clock.expired():
                 break
         if sol.result.status is PlanStatus.FAILED:
-            sol = _walled_off(problem, sol, clock)
+            sol = _walled_off(problem, sol, clock, problem.robot.radius + self.margin)
         stats = sol.result.stats
         stats["horizon_stretch"] = self._stretch
         # loading code is in the plan's time, not held against its limit (as every planner's numba code)
