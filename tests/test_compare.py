@@ -196,6 +196,14 @@ def test_parameter_files(tmp_path: Path) -> None:
         check_trackers(["mpc", "mpc"])
 
 
+def test_trackers_given_again_are_added_not_replaced() -> None:
+    """``--trackers fbl --trackers kanayama`` ran kanayama alone, without a word."""
+    from sim.cli.main import build_parser
+
+    args = build_parser(["compare"]).parse_args(["compare", "--trackers", "fbl", "--trackers", "kanayama,mpc", "rpp"])
+    assert args.trackers == ["fbl", "kanayama,mpc", "rpp"]
+
+
 def test_trackers_given_as_a_string_are_names_not_letters() -> None:
     """``compare_trackers(case, "fbl")`` refused "unknown tracker 'f'": the string was iterated letter by letter."""
     assert check_trackers("fbl") == ("fbl",)

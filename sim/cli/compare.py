@@ -63,9 +63,11 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument(
         "--trackers",
         nargs="+",
+        action="extend",  # given again, it adds (it replaced the trackers given before without a word)
         default=None,
         metavar="T",
-        help=f"the trackers, comma- or space-separated: fbl,mpc or fbl mpc (default: {DEFAULT_TRACKERS})",
+        help=f"the trackers, comma- or space-separated, or the option given again: fbl,mpc or fbl mpc (default: "
+        f"{DEFAULT_TRACKERS})",
     )
     p.add_argument(
         "--runs",
