@@ -327,3 +327,17 @@ def test_a_start_or_goal_in_collision_is_invalid_before_any_steering() -> None:
     assert "start pose (2.000, 1.500, 0.000) is in collision with the box at x 1.7..2.3, y 1.2..1.8" in res.reason
     res = Sinusoidal().plan(PlanProblem(world, robot, Pose2D(0.5, 0.5, 0.0), Pose2D(1.75, 1.5, 0.0)))
     assert res.status is PlanStatus.INVALID_GOAL and "overlaps it by 92.5 mm; move the goal 0.093 m" in res.reason
+
+
+def test_a_failed_pieces_headings_are_said_within_a_turn_of_zero() -> None:
+    """A start heading of 100 rad (as PlanProblem takes it) was said as "headings 5730 to 5760 deg"."""
+    import re
+
+    start = Pose2D(-2.0, 0.0, 100.0)
+    problem = PlanProblem(
+        World((-3.0, 3.0, -3.0, 3.0)), load_robot("turtlebot3"), start, Pose2D(2.0, 0.0, 100.0 + math.pi)
+    )
+    res = Sinusoidal().plan(problem)
+    said = re.search(r"\(headings (-?\d+) to (-?\d+) deg\)", res.reason)
+    assert res.status is PlanStatus.BOUNDS_VIOLATED and said is not None, res.reason
+    assert -180 <= int(said.group(1)) <= 180 and abs(int(said.group(2)) - int(said.group(1))) <= 180

@@ -545,7 +545,8 @@ class Sinusoidal:
                 if piece:
                     state = m.from_chained(piece[-1].z[-1])
         except _StepFailed as exc:  # the bounds, not obstacles: no step within them
-            h0, h1 = math.degrees(headings[k]), math.degrees(headings[k + 1])
+            turns = 360.0 * round(math.degrees(headings[k]) / 360.0)  # whole turns off (a start heading of 100 rad)
+            h0, h1 = math.degrees(headings[k]) - turns, math.degrees(headings[k + 1]) - turns
             turn = f"headings {h0:.0f} to {h1:.0f} deg" if round(h0) != round(h1) else f"heading {h0:.0f} deg"
             status = PlanStatus.BOUNDS_VIOLATED
             reason = f"sinusoidal steering of piece {k + 1} of {len(models)} ({turn}): {exc}; {exc.advice}"
