@@ -238,6 +238,22 @@ def test_gains_a_control_period_cannot_keep_stable_are_refused_by_the_trackers_r
         make_tracker(name, robot, gains=FBLGains(kp=30.0, kd=150.0)).reset(ref, 0.005)  # stable at 200 Hz
 
 
+def test_default_gains_a_slow_rate_cannot_keep_stable_are_refused_by_the_case_before_any_work() -> None:
+    """A case refused only gains it was given: at 2.5 Hz (a rate the physics takes) the defaults passed, then the
+    trackers' reset refused them after the planning; compare lost the runs of the trackers before fbl's."""
+    from sim.pipeline.case import Case
+    from sim.pipeline.simulate import simulate_reference
+    from sim.tools.compare import compare_trackers
+
+    slow = {"control_rate": 2.5, "robot": "turtlebot3", "localiser": "fixes", "sensors": "fix_rate=2.5"}
+    said = "FBL gains Kp=9, Kd=6 make the error dynamics unstable at the control rate 2.5 Hz"
+    with pytest.raises(UnstableGainsError, match=f"^case open:figure8: {said}"):
+        simulate_reference("open", reference="figure8", **slow)  # type: ignore[arg-type]
+    mpc_case = Case("open", reference="line", tracker="mpc", **slow)  # type: ignore[arg-type]  # mpc takes none
+    with pytest.raises(UnstableGainsError, match=f"^the default gains of tracker 'fbl': {said}"):
+        compare_trackers(mpc_case, ["mpc", "fbl"])
+
+
 def test_densify_path_and_path_length_refuse_with_nhsim_errors() -> None:
     """``densify_path(p, 0.0)`` was a plain ValueError, a NaN in its path a RuntimeWarning and an array of
     garbage, ``path_length([1.0, 2.0, 3.0])`` (one pose, flat) a silent 0.0."""

@@ -514,7 +514,7 @@ def test_simulate_all_refuses_a_planner_it_would_not_run(
         (["tune", "--scenarios", "open:rrt", "--trials", "2", "--draws", "1"], "SCENARIO:figure8 in --scenarios"),
     ],
 )
-def test_a_planner_on_a_scenario_whose_goal_is_its_start_is_refused_by_every_command(
+def test_a_planner_on_a_scenario_whose_goal_is_its_start_is_refused_by_every_command_that_tracks(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], argv: list[str], instead: str
 ) -> None:
     """``--all`` refused the ``open`` arena (nothing to plan), one job took it: its plan the start alone, its runs a

@@ -125,7 +125,7 @@ def test_a_goal_walled_off_is_proved_infeasible_not_a_failure() -> None:
     res = Optim(init="straight").plan(across)
     assert res.status is PlanStatus.INFEASIBLE, res.reason
     assert res.reason.startswith("no path keeps the disc optim keeps clear (radius 0.136 m: the robot's 0.126 m and")
-    assert "planners that check the footprint itself (hybrid-a-star, rrt-star) may pass" in res.reason
+    assert "planners that check the footprint itself (hybrid-a-star, rrt) may pass" in res.reason
 
 
 def test_nlp_is_built_once_and_reused() -> None:

@@ -428,6 +428,18 @@ def test_a_run_that_ended_early_is_a_failed_run(monkeypatch: pytest.MonkeyPatch)
     assert failed and m is fell and cost >= FAILURE_COST
 
 
+def test_a_trials_gains_the_rate_cannot_keep_stable_fail_the_trial_not_the_study() -> None:
+    """Kp 80, Kd 0.6 lie in the search space and are unstable at 50 Hz (Kp < 2 Kd rate = 60): the case refused them
+    with a ConfigError, which the evaluator raised as bad input and the whole study ended."""
+    from sim.tools.tune import FAILURE_COST, SEARCH_SPACE
+
+    unstable = FBLGains(kp=80.0, kd=0.6)
+    assert all(lo <= getattr(unstable, k) <= hi for k, (lo, hi) in SEARCH_SPACE.items() if k != "xi_min")
+    case = Case.parse(CASE)
+    cost, m, failed = Evaluator([case]).score(prepare_case(case), unstable, None)
+    assert failed and m is None and cost == FAILURE_COST
+
+
 def _distinct_seeds_one_at_a_time(rng: np.random.Generator, count: int, parity: int) -> list[int]:
     """The plain-Python reference of ``sim.tools.tune._distinct_seeds``: one draw at a time, a repeat drawn again."""
     out: list[int] = []

@@ -134,14 +134,15 @@ def _walled_off(problem: PlanProblem, sol: OptimSolution, clock: PlanClock, disc
                 f"no path keeps the disc optim keeps clear (radius {disc:.3f} m: the robot's {problem.robot.radius:.3f}"
                 f" m and the margin) off every obstacle and wall: a 2-D search over {found[0]:g} m cells finds every "
                 f"point within the goal tolerance ({tol:g} m) walled off for it even at {found[1]:.3f} m; planners "
-                "that check the footprint itself (hybrid-a-star, rrt-star) may pass"
+                "that check the footprint itself (hybrid-a-star, rrt) may pass"
             )
     except FieldTimeout:
         return sol
     if proved is None:
         return sol
     res = sol.result
-    reason = f"{proved} (IPOPT ended {res.reason.removeprefix('IPOPT: ').split(' (')[0]})"
+    ended = res.reason.split(" (")[0]  # IPOPT's status, or why the solve was a failure after it
+    reason = f"{proved} ({'IPOPT ended ' + ended.removeprefix('IPOPT: ') if ended.startswith('IPOPT: ') else ended})"
     return OptimSolution(dataclasses.replace(res, status=PlanStatus.INFEASIBLE, reason=reason), sol.nodes, sol.inputs)
 
 

@@ -310,9 +310,8 @@ class Case:
                 f"case {self.label}: tracker {name!r} is given two sets of FBL gains, gains={self.gains} and "
                 f"params={self.params} (its tuned parameters are its gains): give them once, as gains=FBLGains(...)"
             )
-        given = self.params if self._params_are_gains else self.gains
-        if given is not None:
-            check_sampled_stability(given, self.control_rate, f"case {self.label}")
+        # the gains the runs use, the defaults too (the trackers' reset refuses them, after the planning)
+        check_sampled_stability(self.fbl_gains or FBLGains(), self.control_rate, f"case {self.label}")
 
     @property
     def fbl_gains(self) -> FBLGains | None:

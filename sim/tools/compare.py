@@ -30,6 +30,7 @@ import mujoco
 import numpy as np
 
 from control.base import TRACKERS, Tracker, make_tracker, tracker_options, tuned_option
+from control.fbl import uses_fbl_gains
 from control.gains import FBLGains, check_sampled_stability
 from planning.core.checks import check_number
 from planning.core.files import read_input
@@ -336,6 +337,8 @@ def compare_trackers(
         if isinstance(given, FBLGains):
             where = f"the {name} gains of {option('params', python='params')}"
             check_sampled_stability(given, case.control_rate, where, rate_given=False)
+        elif given is None and uses_fbl_gains(name):  # its defaults: refused at reset, after the others had run
+            check_sampled_stability(FBLGains(), case.control_rate, f"the default gains of tracker {name!r}")
     prepared = prepare_trajectory(case)
     base = PreparedCase(prepared, simulator_for(prepared))
     draws = make_draws(runs, case.seed, held_out=True) if runs > 1 else ()

@@ -61,7 +61,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from control.base import search_space, tuned_option
-from control.gains import FBLGains
+from control.gains import FBLGains, UnstableGainsError
 from planning.core.checks import check_number
 from planning.errors import ConfigError, NhsimError, option
 from planning.signals import signals_held, signals_released
@@ -303,6 +303,8 @@ class Evaluator:
         try:
             pert, seed = (draw.perturbation, draw.seed) if draw is not None else (None, None)
             run = pc.run(fbl, pert, seed=seed, params=params)
+        except UnstableGainsError:  # a trial's gains the control rate cannot keep stable: they fail, the study goes on
+            return FAILURE_COST, None, True
         except ConfigError:  # bad input, not a failed run (prepare_case refuses what it can foresee)
             raise
         except NhsimError:
