@@ -113,6 +113,7 @@ def test_a_bag_inside_a_bag_is_refused(
         ["simulate", "--runs", "closed_loop", "--quiet", "--no-plots", "--video", "old/deeper/v.mp4"],
         ["plan", "--scenario", "simple_motion", "--json", "old/p.json"],
         ["compare", "--reference", "line", "--trackers", "fbl", "--json", "old/c.json"],
+        ["simulate", "--all", "--scenario", "simple_motion", "--json", "old/all.json"],
     ],
 )
 def test_an_output_inside_a_bag_is_refused(

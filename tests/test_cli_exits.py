@@ -527,6 +527,21 @@ def test_a_planner_on_a_scenario_whose_goal_is_its_start_is_refused_by_every_com
     assert not any(tmp_path.iterdir())
 
 
+def test_a_sweeps_record_over_the_scenario_it_reads_is_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--all --scenario my.toml --json my.toml --overwrite`` was taken: the sweep's record replaced its scenario."""
+    from pathlib import Path as P
+
+    monkeypatch.chdir(tmp_path)
+    mine = tmp_path / "my.toml"
+    text = (P(__file__).resolve().parents[1] / "models/scenarios/simple_motion.toml").read_text()
+    mine.write_text(text)
+    assert main(["simulate", "--all", "--scenario", str(mine), "--json", str(mine), "--overwrite"]) == 2
+    assert f"the output {mine} is the input --scenario {mine}" in capsys.readouterr().err
+    assert mine.read_text() == text
+
+
 def test_a_sweep_with_gains_says_so_and_records_them(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

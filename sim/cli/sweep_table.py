@@ -178,6 +178,9 @@ def run_all(args: argparse.Namespace, gains: Any) -> int:
     if args.planner is not None:
         PLANNERS.factory(args.planner)  # an unknown name: "unknown planner 'P': choose one of ...", as a job says
     if args.json is not None:
+        from sim.cli.job_outputs import check_apart_from_inputs
+
+        check_apart_from_inputs(args, [args.json])  # not over a scenario it reads, nor inside a bag
         check_writable(args.json, overwrite=args.overwrite)
     planning = PlanOptions(time_limit=args.time_limit)
     scenarios = sweep_scenarios(args.scenario)
