@@ -142,7 +142,9 @@ def _walled_off(problem: PlanProblem, sol: OptimSolution, clock: PlanClock, disc
         return sol
     res = sol.result
     ended = res.reason.split(" (")[0]  # IPOPT's status, or why the solve was a failure after it
-    reason = f"{proved} ({'IPOPT ended ' + ended.removeprefix('IPOPT: ') if ended.startswith('IPOPT: ') else ended})"
+    if ended.startswith("IPOPT: "):
+        ended = "IPOPT ended " + ended.removeprefix("IPOPT: ")
+    reason = f"{proved} ({ended})"
     return OptimSolution(dataclasses.replace(res, status=PlanStatus.INFEASIBLE, reason=reason), sol.nodes, sol.inputs)
 
 

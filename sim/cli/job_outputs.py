@@ -566,13 +566,16 @@ def _map_yaml_image(given: str, yaml_path: Path) -> list[tuple[str, Path]]:
     return [(f"{given}, {os.path.normpath(image)})", image)]
 
 
-def _refuse_inside_a_bag(out: Path) -> None:
-    """Refuse a file output inside a rosbag2 bag folder: a bag holds its own files only (one of nhsim's holding a
-    record and plots written into it later was refused by ``--bag --overwrite`` as holding files "nhsim did not
-    write")."""
+def _refuse_inside_a_bag(out: Path, target: Path) -> None:
+    """Refuse a file output ``out`` (``target``, its symlinks resolved) inside a rosbag2 bag folder: a bag holds its
+    own files only (one of nhsim's holding a record and plots written into it later was refused by ``--bag
+    --overwrite`` as holding files "nhsim did not write"). The bag module is imported only where a folder above holds
+    a metadata.yaml (os.path.isfile: False for a name too long)."""
+    if not any(os.path.isfile(p / "metadata.yaml") for p in target.parents):
+        return
     from sim.io.bag import bag_holding
 
-    holder = bag_holding(out)
+    holder = bag_holding(target)
     if holder is not None:
         raise ConfigError(
             f"cannot write {out}: it lies inside the bag {holder} (a folder with a rosbag2 metadata.yaml), which "
@@ -600,8 +603,7 @@ def check_apart_from_inputs(args: argparse.Namespace, files: Iterable[Path], bag
                     f"the output {out} {where} the input {given}: writing it would change what the command reads; "
                     "choose another output path"
                 )
-        if any(os.path.isfile(p / "metadata.yaml") for p in target.parents):  # (False for a name too long)
-            _refuse_inside_a_bag(out)
+        _refuse_inside_a_bag(out, target)
     if bag is None:
         return
     folder = resolved(bag)
