@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import numbers
 import re
 import tomllib
 from collections.abc import Callable, Mapping, Sequence
@@ -29,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from planning.collision.overlap import footprint_overlaps
-from planning.core.checks import check_number, degrees_hint, heading_beyond
+from planning.core.checks import check_number, degrees_hint, heading_beyond, is_number
 from planning.core.files import descriptor_path, read_input_text
 from planning.core.geometry import Pose2D, heading_in_turn
 from planning.core.maps import MapObstacles, load_map_table
@@ -269,8 +268,8 @@ def _header(r: TableReader, data: Mapping[str, Any], default_name: str) -> dict[
     if not isinstance(sensors, dict):
         raise r.fail("sensors", "a [sensors] table of numbers overriding the robot's sensor profile", sensors)
     for key, value in sensors.items():
-        if not isinstance(value, numbers.Real) or isinstance(value, bool):
-            raise r.fail(f"sensors.{key}", 'a number (e.g. fix_rate = 5, not "5")', value)
+        if not is_number(value):
+            raise r.fail(f"sensors.{key}", 'a finite number (e.g. fix_rate = 5, not "5")', value)
     return {
         "sensors": {k: float(v) for k, v in sensors.items()},
         "name": name,

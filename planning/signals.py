@@ -197,7 +197,8 @@ def stoppable(
     ``watch``, when given, is called from this thread about every millisecond, and once more after every
     kernel started has ended, with the first kernel's :class:`KernelRun` and ``spawn(kernel, *args)``,
     which starts another kernel in its own helper thread with the same ``stop`` and returns its run.
-    Returns the first kernel's result, once every kernel started (by then) has ended.
+    Returns the first kernel's result, once every kernel started (by then) has ended. When one raises, the
+    others are told to stop, the watch is not called again, and what it raised is raised here.
     """
     import numpy as np
 
@@ -213,6 +214,11 @@ def stoppable(
             pending = [r for r in runs if not r.done.is_set()]
             if pending:
                 pending[0].done.wait(0.1 if watch is None else 0.001)
+            if any(r.error is not None for r in runs):  # the others stop at their next look; it is raised below
+                stop[0] = True  # (a watch would read a result the failed kernel never gave)
+                for r in runs:
+                    r.done.wait()
+                break
             if watch is not None:  # called once more after the last has ended: it may start another
                 watch(runs[0], spawn)
             if all(r.done.is_set() for r in runs):

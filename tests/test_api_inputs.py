@@ -694,7 +694,7 @@ def test_a_sensor_value_of_the_wrong_type_is_named(tmp_path: Path) -> None:
     text = (Path(__file__).resolve().parents[1] / "models/scenarios/open.toml").read_text()
     path = tmp_path / "s.toml"
     path.write_text(text + '\n[sensors]\nfix_rate = "5"\n')
-    with pytest.raises(ScenarioError, match=r"field 'sensors.fix_rate': expected a number \(e.g. fix_rate = 5"):
+    with pytest.raises(ScenarioError, match=r"field 'sensors.fix_rate': expected a finite number \(e.g. fix_rate = 5"):
         load_scenario(path)
 
 
@@ -727,3 +727,39 @@ def test_wrap_angle_names_what_it_takes() -> None:
         with pytest.raises(ConfigError, match=r"wrap_angle takes angles in radians \(numbers\), got"):
             wrap_angle(bad)  # type: ignore[arg-type]
     assert wrap_angle(7.0) == pytest.approx(7.0 - 2 * np.pi)
+
+
+def test_an_integer_too_large_for_a_float_is_refused_as_not_a_finite_number(tmp_path: Path) -> None:
+    """TOML, JSON and Python's int take integers of any size; ``math.isfinite`` and ``float`` raise OverflowError on
+    one beyond a float's range, which escaped every check as a traceback (a scenario's pose, height, tolerance or
+    ``[sensors]`` value, a gains file, ``--params``, a JSON trajectory's cell). Refused now by the field's own
+    message, quoting the number by its digits, not all 401 of them."""
+    import json
+
+    from planning.core.checks import check_number, is_number
+    from planning.trajectory.file_formats import read_table
+
+    huge = 10**400
+    assert not is_number(huge) and not is_number(huge, integer=True) and not is_number(-huge)
+    assert is_number(10**300) and is_number(10**300, integer=True)  # within a float's range
+    with pytest.raises(ConfigError, match=r"^n must be an integer >= 1, got an integer of 401 digits$"):
+        check_number("n", huge, integer=True, at_least=1)
+    with pytest.raises(ConfigError, match=r"^x must be a finite number, got an integer of 401 digits$"):
+        check_number("x", -huge)
+    scenario = tmp_path / "s.toml"
+    base = (
+        'name = "s"\nrobot = "turtlebot3"\n[world]\nbounds = [-2.0, 2.0, -2.0, 2.0]\n'
+        "[start]\npose = [0.0, 0.0, 0.0]\n[goal]\npose = [1.0, 0.0, 0.0]\n"
+    )
+    for edit, field in (
+        (base.replace("[1.0, 0.0, 0.0]", f"[{huge}, 0.0, 0.0]"), r"field 'goal\.pose'.*\(413 characters\)$"),
+        (base + f"position_tolerance = {huge}\n", r"field 'goal\.position_tolerance'.* got an integer of 401 digits$"),
+        (base + f"[sensors]\nfix_rate = {huge}\n", r"field 'sensors\.fix_rate'.* got an integer of 401 digits$"),
+    ):
+        scenario.write_text(edit)
+        with pytest.raises(ScenarioError, match=field):
+            load_scenario(scenario)
+    trajectory = tmp_path / "t.json"
+    trajectory.write_text(json.dumps({"t": [0, 1, 2], "x": [0, huge, 0.2], "y": [0, 0, 0]}))
+    with pytest.raises(ConfigError, match=r"column 'x': an integer of 401 digits is not a finite number"):
+        read_table(trajectory)

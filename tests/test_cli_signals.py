@@ -689,6 +689,23 @@ def test_kernels_a_watch_spawns_run_beside_the_first_and_stop_with_it() -> None:
     with pytest.raises(ValueError, match="x must be >= 0"):
         stoppable(spin, 0.01, watch=spawn_one(fails, (-1.0,)))
     runs.clear()
+    # the first kernel fails while one it spawned runs on: the watch, which reads the first's result as
+    # Hybrid-A*'s does, is not called on a result never given (it raised TypeError in place of a MemoryError)
+    # and the other is stopped
+    seen: list[object] = []
+
+    def reads_the_result(first: object, spawn: object) -> None:
+        if first.done.is_set():  # type: ignore[attr-defined]
+            seen.append(first.out[0])  # type: ignore[attr-defined]
+        elif not runs:
+            runs.append(spawn(spin, 60.0))  # type: ignore[operator]
+
+    start = time.monotonic()
+    with pytest.raises(ValueError, match="x must be >= 0"):
+        stoppable(fails, -1.0, watch=reads_the_result)
+    assert time.monotonic() - start < 5.0 and seen == []
+    assert not runs or runs[0].done.is_set()  # type: ignore[attr-defined]
+    runs.clear()
     threading.Timer(0.2, _thread.interrupt_main).start()
     start = time.monotonic()
     with pytest.raises(KeyboardInterrupt):

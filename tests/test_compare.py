@@ -83,6 +83,10 @@ def test_compare_cli_rejects_unknown_trackers_and_bad_params(tmp_path: Path) -> 
     assert r.returncode == 2 and "MPCParams.horizon must be an integer in [2, 200] (steps), got 1" in r.stderr
     r = nhsim("compare", "--reference", "line", "--trackers", "mpc", "--params", f"{bad},")  # a trailing comma
     assert r.returncode == 2 and "MPCParams.horizon must be" in r.stderr and "Is a directory" not in r.stderr
+    twice = tmp_path / "twice.json"  # the second table of a tracker replaced the first's fields (kx, ky reset)
+    twice.write_text('{"kanayama": {"kx": 2.0, "ky": 20.0}, "kanayama": {"ktheta": 9.0}}')
+    r = nhsim("compare", "--reference", "line", "--trackers", "kanayama", "--params", str(twice))
+    assert r.returncode == 2 and f"--params {twice}: field 'kanayama' is given twice in one object" in r.stderr
     r = nhsim("compare", "--reference", "line", "--trackers", "mpc", "--params", ",")
     assert r.returncode == 2 and "--params names no file; give one or more JSON files" in r.stderr
     other = tmp_path / "rpp.json"  # parameters of a tracker the comparison does not run: were ignored

@@ -165,7 +165,7 @@ def test_a_goal_no_way_reaches_with_the_clearance_is_infeasible_at_once():
     res = CRRTStar().plan(_enclosed_goal_problem(door=None, time_limit=60.0))  # a closed room
     assert time.perf_counter() - t0 < 5.0
     assert res.status is PlanStatus.INFEASIBLE and res.path.shape[0] == 0
-    assert "keeps the axle centre 0.400 m from every obstacle and wall" in res.reason
+    assert "no path reaches the goal keeping the axle centre 0.400 m off every obstacle and wall" in res.reason
     assert "walled off" in res.reason and "lower center_clearance" in res.reason
     # a door 1 cm too narrow is proven too (on 1 cm cells); one 6 cm wider than needed is gone through
     assert CRRTStar().plan(_enclosed_goal_problem(door=0.79, time_limit=60.0)).status is PlanStatus.INFEASIBLE

@@ -156,6 +156,9 @@ def test_a_ros_path_with_equal_stamps_has_no_time(tmp_path: Path) -> None:
         ("a.json", "[{}]", None, ["it has no fields; a JSON file gives the columns (t, x, y,"]),
         ("a.json", '{"t": [0, 1]}', ["t", "x"], ["--columns (columns=... from Python)"]),
         ("a.yaml", "poses:\n- pose: {orientation: {x: 0, y: 0, z: 0, w: 1}}\n", None, ["poses[0]", "pose.position"]),
+        # a key given twice: the last one won, silently (tracked along x = 5..7)
+        ("a.json", '{"t": [0, 1], "x": [0, 1], "y": [0, 0], "x": [5, 6]}', None, ["field 'x' is given twice"]),
+        ("a.yaml", "t: [0, 1]\nx: [0, 1]\ny: [0, 0]\nx: [5, 6]\n", None, ["'x' is given twice (again on line 4)"]),
     ],
 )
 def test_bad_files_are_errors_naming_row_and_column(

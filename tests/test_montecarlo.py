@@ -716,7 +716,8 @@ def test_more_runs_than_distinct_draws_are_refused(capsys: pytest.CaptureFixture
     from sim.tools.tune import MAX_DRAWS
 
     assert main(["montecarlo", "--reference", "line", "--runs", str(MAX_DRAWS + 1), "--jobs", "1"]) == 2
-    assert f"--runs must be at most {MAX_DRAWS}" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert f"--runs must be an integer <= {MAX_DRAWS}, got {MAX_DRAWS + 1}; a set draws at most" in err
 
 
 def test_refused_input_leaves_no_results_file_and_outputs_are_checked_before_any_run(

@@ -113,7 +113,7 @@ def test_a_goal_walled_off_is_proved_infeasible_not_a_failure() -> None:
     problem = PlanProblem(pocket, robot, Pose2D(1.0, 1.0, 0.0), Pose2D(3.4, 3.4, 0.0), time_limit=10.0)
     res = Optim(init="straight").plan(problem)
     assert res.status is PlanStatus.INFEASIBLE, res.reason
-    assert res.reason.startswith("no path reaches the goal: every pose of one keeps the robot's inscribed disc")
+    assert res.reason.startswith("no path reaches the goal keeping the robot's inscribed disc (radius 0.040 m, within")
     assert res.reason.endswith("(IPOPT ended Infeasible_Problem_Detected)"), res.reason
     # a wall with a way round it is not proved: a plan
     opened = World((0.0, 4.0, 0.0, 4.0), (Box((2.6, 3.5), (0.1, 1.0)), Box((3.3, 2.6), (1.4, 0.1))))
@@ -124,7 +124,7 @@ def test_a_goal_walled_off_is_proved_infeasible_not_a_failure() -> None:
     across = PlanProblem(gap, robot, Pose2D(-2.5, 0.0, 0.0), Pose2D(2.5, 0.0, 0.0), time_limit=10.0)
     res = Optim(init="straight").plan(across)
     assert res.status is PlanStatus.INFEASIBLE, res.reason
-    assert res.reason.startswith("no path keeps the disc optim keeps clear (radius 0.136 m: the robot's 0.126 m and")
+    assert res.reason.startswith("no path reaches the goal keeping the disc optim keeps clear (radius 0.136 m: the")
     assert "planners that check the footprint itself (hybrid-a-star, rrt) may pass" in res.reason
 
 

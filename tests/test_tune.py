@@ -633,7 +633,7 @@ def test_more_draws_than_seeds_are_refused() -> None:
     from planning.errors import ConfigError
     from sim.tools.tune import MAX_DRAWS
 
-    with pytest.raises(ConfigError, match="at most"):
+    with pytest.raises(ConfigError, match=rf"number of draws must be an integer <= {MAX_DRAWS}, got"):
         make_draws(MAX_DRAWS + 1, 0)
 
 
@@ -749,7 +749,7 @@ def test_a_signal_in_a_trials_storage_calls_acts_at_its_evaluation(
         (["--robot", "edumip", "--localiser", "amcl"], "robot 'edumip' has no laser scanner"),
         (["--control-rate", "7"], "control rate 7 Hz is not a whole number of 2 ms physics steps"),
         # refused (not naming --eval-runs) once every trial had run, the study left behind
-        (["--eval-runs", "300000000"], "--eval-runs must be an integer <= 268435456, got 300000000; the most a set"),
+        (["--eval-runs", "300000000"], "--eval-runs must be an integer <= 268435456, got 300000000; a set draws"),
     ],
 )
 def test_bad_input_that_every_run_would_hit_is_exit_2_before_any_study(

@@ -10,6 +10,9 @@ from typing import Any, Literal, TypedDict, TypeGuard, Unpack, overload
 
 from planning.errors import ConfigError
 
+#: Integers beyond this size are quoted by their number of digits (:func:`given`), not digit by digit.
+HUGE_INTEGER = 10**30
+
 
 def given(value: object, integer: bool = False) -> str:
     """``value`` as a message quotes what was given: its repr, and for a 0-d numpy array (``np.array(0.5)``,
@@ -19,6 +22,8 @@ def given(value: object, integer: bool = False) -> str:
     0-d array is not."""
     import numpy as np  # here, not at the top: the command line checks its flags before it loads numerics
 
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) > HUGE_INTEGER:
+        return f"an integer of {len(str(abs(value)))} digits"  # not its every digit
     if not (isinstance(value, np.ndarray) and value.ndim == 0):
         return repr(value)
     cast = "int" if integer else "float"
@@ -29,7 +34,12 @@ def given(value: object, integer: bool = False) -> str:
 def is_number(value: object, integer: bool = False) -> TypeGuard[float]:
     """Whether ``value`` is a finite number (an integer with ``integer``): not a bool, nor a 0-d array."""
     kind = numbers.Integral if integer else numbers.Real
-    return not isinstance(value, bool) and isinstance(value, kind) and math.isfinite(value)  # type: ignore[arg-type]
+    if isinstance(value, bool) or not isinstance(value, kind):
+        return False
+    try:
+        return math.isfinite(value)  # type: ignore[arg-type]
+    except OverflowError:  # an integer too large for a float: TOML, JSON and Python's int take any size
+        return False
 
 
 def degrees_hint(value: object, largest: float = 720.0) -> str:

@@ -31,7 +31,6 @@ leave out ``[world] bounds``: the world is then the map's extent.
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,6 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.core.checks import heading_beyond, is_number
+from planning.core.documents import GivenTwice, yaml_loader
 from planning.core.maps import (
     MapObstacles,
     MapShape,
@@ -93,37 +93,6 @@ def _number(path: Path, doc: dict[str, Any], key: str) -> float:
     return float(value)
 
 
-class _GivenTwice(Exception):
-    """A key given twice in one mapping of a map YAML."""
-
-
-#: A float as YAML 1.2 (and yaml-cpp, which map_server reads with) writes one: an exponent without a decimal point
-#: (``1e-2``) too, which PyYAML's YAML 1.1 rules read as text.
-_FLOAT_12 = re.compile(r"^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)$")
-
-
-def _unique_keys_loader() -> Any:
-    """PyYAML's safe loader refusing a key given twice in one mapping (YAML requires keys to be unique; a second
-    ``resolution`` silently won, a map ten times its size), and reading ``resolution: 1e-2`` as the number map_server
-    reads (:data:`_FLOAT_12`; it was refused as "not a finite number")."""
-    import yaml
-
-    class UniqueKeys(yaml.SafeLoader):
-        def construct_mapping(self, node: Any, deep: bool = False) -> dict[Any, Any]:
-            seen: set[Any] = set()
-            for key_node, _ in node.value:
-                key = self.construct_object(key_node, deep=deep)
-                if key in seen:
-                    raise _GivenTwice(f"field {key!r} is given twice (again on line {key_node.start_mark.line + 1})")
-                seen.add(key)
-            return super().construct_mapping(node, deep=deep)  # type: ignore[no-any-return]
-
-    # the resolvers copied, lists too: PyYAML's add_implicit_resolver appends to the list the SafeLoader shares
-    UniqueKeys.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
-    UniqueKeys.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT_12, list("-+0123456789."))
-    return UniqueKeys
-
-
 def _parse(path: Path) -> dict[str, Any]:
     """The YAML file's top-level mapping (map_server's own error cases named as such)."""
     import yaml  # loaded when a map YAML is read
@@ -132,7 +101,7 @@ def _parse(path: Path) -> dict[str, Any]:
         what = "is a folder" if path.is_dir() else "does not exist"
         raise ScenarioError(f"map YAML {path} {what}; give the map's .yaml file (relative to the scenario file)")
     try:
-        doc = yaml.load(path.read_text(encoding="utf-8"), Loader=_unique_keys_loader())
+        doc = yaml.load(path.read_text(encoding="utf-8"), Loader=yaml_loader())
     except UnicodeDecodeError as exc:
         raise ScenarioError(
             f"map YAML {path} is not text ({exc.reason} at byte {exc.start}): give the map's .yaml file, which names "
@@ -142,7 +111,7 @@ def _parse(path: Path) -> dict[str, Any]:
         raise ScenarioError(f"map YAML {path} cannot be read: {exc}") from exc
     except yaml.YAMLError as exc:
         raise ScenarioError(f"map YAML {path} is not valid YAML: {exc}") from exc
-    except _GivenTwice as exc:
+    except GivenTwice as exc:
         raise ScenarioError(f"map YAML {path}: {exc}; YAML keys are unique: keep the one meant") from None
     if not isinstance(doc, dict):
         raise ScenarioError(

@@ -6,8 +6,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from planning.core.checks import is_number
+from planning.core.checks import given, is_number
 from planning.errors import ScenarioError
+
+#: Longest quote of a value a message makes [characters] (a longer one is cut, its length said).
+LONGEST_VALUE = 120
 
 
 def toml_value(value: Any) -> str:
@@ -16,7 +19,10 @@ def toml_value(value: Any) -> str:
         return str(value).lower()
     if isinstance(value, Mapping):
         return "a table" if value else "an empty table"
-    return repr(value)
+    if isinstance(value, int):
+        return given(value)  # an integer of hundreds of digits by its number of digits
+    text = repr(value)
+    return text if len(text) <= LONGEST_VALUE else f"{text[: LONGEST_VALUE - 20]}... ({len(text)} characters)"
 
 
 class TableReader:

@@ -326,6 +326,35 @@ def walled_off(
     return None
 
 
+def walled_off_reason(
+    world: World,
+    ends: tuple[FloatArray, FloatArray],
+    radius: float,
+    deadline: float | None,
+    goal_radius: float,
+    *,
+    keeps: str,
+    fix: str,
+) -> str | None:
+    """Why no way reaches the goal, as a planner's reason says it, when :func:`walled_off` proves it for a disc of
+    ``radius`` [m] (``keeps``: what a way would keep off everything, e.g. ``"the axle centre 0.400 m"``; ``fix``: how
+    to put it right), else None.
+
+    Raises:
+        planning.collision.field.FieldTimeout: ``time.perf_counter()`` passed ``deadline`` first.
+    """
+    proved = walled_off(world, ends[0], ends[1], radius, deadline, goal_radius)
+    if proved is None:
+        return None
+    cell, proof = proved
+    where = f"every point within the goal tolerance ({goal_radius:g} m)" if goal_radius > 0.0 else "the goal"
+    return (
+        f"no path reaches the goal keeping {keeps} off every obstacle and wall: a 2-D search over {cell:g} m cells "
+        f"finds {where} walled off even for a disc of {proof:.3f} m (the {radius:.3f} m less half a cell's diagonal, "
+        f"so that no way the cells miss could pass); {fix}"
+    )
+
+
 def _from_start(
     world: World, start: FloatArray, goal: FloatArray, radius: float, cell: float, deadline: float | None
 ) -> tuple[FloatArray, tuple[float, float], tuple[int, int]]:

@@ -122,19 +122,21 @@ def _walled_off(problem: PlanProblem, sol: OptimSolution, clock: PlanClock, disc
     where planners of the footprint may find one). A goal sealed in a corner was "failed", where rrt,
     hybrid-a-star and c-rrt-star said why no path exists; a gap only the footprint passes "may not" have passed."""
     from planning.collision.field import FieldTimeout
-    from planning.planners.geodesic import walled_off
+    from planning.planners.geodesic import walled_off_reason
     from planning.planners.sampling.tree import walled_off_proof
 
-    tol = problem.position_tolerance
     try:
         proved = walled_off_proof(problem, "footprint", 0.0)(clock.deadline())
-        ends = (problem.world, problem.start.xy, problem.goal.xy)
-        if proved is None and (found := walled_off(*ends, disc, clock.deadline(), tol)):
-            proved = (
-                f"no path keeps the disc optim keeps clear (radius {disc:.3f} m: the robot's {problem.robot.radius:.3f}"
-                f" m and the margin) off every obstacle and wall: a 2-D search over {found[0]:g} m cells finds every "
-                f"point within the goal tolerance ({tol:g} m) walled off for it even at {found[1]:.3f} m; planners "
-                "that check the footprint itself (hybrid-a-star, rrt) may pass"
+        if proved is None:
+            proved = walled_off_reason(
+                problem.world,
+                (problem.start.xy, problem.goal.xy),
+                disc,
+                clock.deadline(),
+                problem.position_tolerance,
+                keeps=f"the disc optim keeps clear (radius {disc:.3f} m: the robot's {problem.robot.radius:.3f} m and "
+                "the margin)",
+                fix="planners that check the footprint itself (hybrid-a-star, rrt) may pass",
             )
     except FieldTimeout:
         return sol

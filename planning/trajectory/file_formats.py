@@ -44,6 +44,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planning.core.checks import given
+from planning.core.documents import GivenTwice, load_json, yaml_loader
 from planning.core.files import read_input_text
 from planning.errors import ConfigError, option
 
@@ -288,11 +290,11 @@ def _number(value: Any, where: str, row: str, column: str) -> float:
         if isinstance(value, bool):
             raise ValueError
         x = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an integer of JSON or YAML too large for a float
         x = float("nan")
     if not np.isfinite(x):
         raise TrajectoryFileError(
-            f"{where}: {row}, column {column!r}: {value!r} is not a finite number; fix the cell or drop the row"
+            f"{where}: {row}, column {column!r}: {given(value)} is not a finite number; fix the cell or drop the row"
         )
     return x
 
@@ -349,18 +351,22 @@ def read_table(path: str | Path, columns: Sequence[str] | None = None) -> FileTa
 
 def _load_json(p: Path, text: str) -> Any:
     try:
-        return json.loads(text)
+        return load_json(text)
     except json.JSONDecodeError as exc:
         raise TrajectoryFileError(f"{p}: not valid JSON: {exc.msg} at line {exc.lineno}") from exc
+    except GivenTwice as exc:
+        raise TrajectoryFileError(f"{p}: {exc}; keep the one meant") from None
 
 
 def _load_yaml(p: Path, text: str) -> Any:
     import yaml
 
     try:  # the documents one at a time: a capture cut off after its first message still reads
-        for doc in yaml.safe_load_all(text):
+        for doc in yaml.load_all(text, Loader=yaml_loader()):
             if doc is not None:
                 return doc
+    except GivenTwice as exc:
+        raise TrajectoryFileError(f"{p}: {exc}; YAML keys are unique: keep the one meant") from None
     except yaml.YAMLError as exc:
         raise TrajectoryFileError(
             f"{p}: not valid YAML ({yaml_problem(exc)}); fix the file there: a nav_msgs/Path as `ros2 topic echo` "

@@ -21,7 +21,7 @@ from planning.errors import ConfigError, ScenarioError, without_python
 from sim.cli.checks import add_robot_argument
 from sim.cli.simulate import add_localiser_arguments, check_scan_beams, localiser_fields
 from sim.tools.executor import JOBS_PER_CORE, check_workers
-from sim.tools.tune import GRACE_PERIOD, MAX_DRAWS, UNRECORDED
+from sim.tools.tune import GRACE_PERIOD, UNRECORDED, check_draws
 
 DESCRIPTION = f"""\
 Tune the feedback-linearisation tracker's gains (Kp, Kd, xi_min) with Optuna (TPE by default) over
@@ -688,13 +688,7 @@ def _check_counts(args: argparse.Namespace) -> None:
         "wanted, e.g. --trials 200 (a resumed study counts those it holds)",
     )
     for flag, count in (("--draws", args.draws), ("--eval-runs", args.eval_runs)):  # the held-out ones drawn last
-        check_number(
-            flag,
-            count,
-            integer=True,
-            at_most=MAX_DRAWS,
-            fix="the most a set draws (a quarter of the seeds of one parity)",
-        )
+        check_draws(flag, count)
     check_workers(args.jobs)
     check_seeds(seed=args.seed)
     check_control_rate(args.control_rate)

@@ -19,7 +19,6 @@ time) [ms] and the collisions; MPC's solver statistics (failures, overruns).
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -33,6 +32,7 @@ from control.base import TRACKERS, Tracker, make_tracker, tracker_options, tuned
 from control.fbl import uses_fbl_gains
 from control.gains import FBLGains, check_sampled_stability
 from planning.core.checks import check_number
+from planning.core.documents import GivenTwice, load_json
 from planning.core.files import read_input
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError, SimulationError, option
@@ -418,7 +418,9 @@ def load_params(paths: Sequence[str | Path]) -> dict[str, Any]:
         except OSError as exc:
             raise ConfigError(f"{given}: cannot read it ({exc.strerror or exc}); check the path") from exc
         try:
-            data = json.loads(raw)
+            data = load_json(raw)
+        except GivenTwice as exc:  # a second table of a tracker replaced the first's fields
+            raise ConfigError(f"{given}: {exc}; keep the one meant (or merge the two)") from None
         except ValueError as exc:
             raise ConfigError(f"{given}: {_gains_file(Path(path), raw) or f'cannot read it as JSON ({exc})'}") from exc
         if isinstance(data, dict) and "tracker" in data and isinstance(data.get("params"), dict):

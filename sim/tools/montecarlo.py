@@ -41,7 +41,7 @@ from sim.pipeline.simulate import track
 from sim.pipeline.sweep import missed_targets
 from sim.tools.digests import code_digest, world_digest
 from sim.tools.executor import Executor
-from sim.tools.tune import MAX_DRAWS, Draw, make_draws, robot_localiser
+from sim.tools.tune import Draw, check_draws, make_draws, robot_localiser
 
 #: Format version of the results file's header.
 RESULTS_VERSION = 1
@@ -77,11 +77,7 @@ class MonteCarloSpec:
     replan: bool = False
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "runs", check_number(option("runs"), self.runs, integer=True, at_least=1))
-        if self.runs > MAX_DRAWS:
-            raise ConfigError(
-                f"{option('runs')} must be at most {MAX_DRAWS} (distinct robots and noise draws), got {self.runs}"
-            )
+        object.__setattr__(self, "runs", check_draws(option("runs"), self.runs, at_least=1))
 
     @cached_property
     def defaults(self) -> dict[str, str]:

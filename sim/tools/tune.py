@@ -138,6 +138,17 @@ EXAMPLE_CASES = option(
 )
 
 
+def check_draws(where: str, count: object, *, at_least: int = 0) -> int:
+    """``count`` of draws (robots and noise draws of one set) as an int in [``at_least``, :data:`MAX_DRAWS`].
+
+    Raises:
+        ConfigError: Not such an integer; the message names ``where`` (the option or field) and the bound.
+    """
+    count = check_number(where, count, integer=True, at_least=at_least)
+    fix = "a set draws at most that many distinct robots and noise draws (a quarter of the seeds of one parity)"
+    return int(check_number(where, count, integer=True, at_most=MAX_DRAWS, fix=fix))
+
+
 @dataclass(frozen=True)
 class Draw:
     """One realistic robot and its sensors' noise, which a case is run on.
@@ -177,11 +188,7 @@ def make_draws(
     Raises:
         ConfigError: Negative count, or more than :data:`MAX_DRAWS`.
     """
-    check_number("number of draws", count, integer=True, at_least=0)
-    if count > MAX_DRAWS:
-        raise ConfigError(
-            f"number of draws must be at most {MAX_DRAWS} (a quarter of the seeds of one parity), got {count}"
-        )
+    count = check_draws("number of draws", count)
     parity = int(held_out)
     build_rng, noise_rng, pert_rng = (np.random.default_rng([seed, parity, stream]) for stream in range(3))
     builds, noises = _distinct_seeds(build_rng, count, parity), _distinct_seeds(noise_rng, count, parity)

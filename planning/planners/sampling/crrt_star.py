@@ -456,17 +456,17 @@ class _Search:
         p, req = self.problem, self.required
         t0 = time.perf_counter()
         try:
-            proved = geodesic.walled_off(p.world, p.start.xy, p.goal.xy, req, self.clock.deadline())
+            return geodesic.walled_off_reason(
+                p.world,
+                (p.start.xy, p.goal.xy),
+                req,
+                self.clock.deadline(),
+                0.0,
+                keeps=f"the axle centre {req:.3f} m",
+                fix="lower center_clearance, or plan with another planner",
+            )
         finally:
             self.proof_s = time.perf_counter() - t0
-        if proved is None:
-            return None
-        cell, proof = proved
-        return (
-            f"no way from the start to the goal keeps the axle centre {req:.3f} m from every obstacle and wall: a 2-D "
-            f"search over {cell:g} m cells finds the goal walled off even at {proof:.3f} m, which such a way would "
-            "keep; lower center_clearance, or plan with another planner"
-        )
 
     def bad_end(self) -> PlanResult | None:
         """The INVALID_START / INVALID_GOAL result when the start or the goal is too near something."""

@@ -256,22 +256,22 @@ class Budget:
 def walled_off_proof(problem: PlanProblem, shape: Shape, clearance: float) -> Callable[[float], str | None]:
     """A tree planner's :attr:`Budget.proof`: by the deadline given, why no collision-free path reaches the goal,
     when a 2-D search proves it for the robot's inscribed disc (:func:`planning.core.robot.inscribed_radius`) kept
-    ``clearance`` off everything (:func:`planning.planners.geodesic.walled_off`), else None."""
+    ``clearance`` off everything (:func:`planning.planners.geodesic.walled_off_reason`), else None."""
 
     def prove(deadline: float) -> str | None:
         from planning.core.robot import inscribed_radius
-        from planning.planners.geodesic import walled_off
+        from planning.planners.geodesic import walled_off_reason
 
-        disc, tol = inscribed_radius(problem.robot, shape), problem.position_tolerance
-        proved = walled_off(problem.world, problem.start.xy, problem.goal.xy, disc + clearance, deadline, tol)
-        if proved is None:
-            return None
-        cell, at = proved
-        return (
-            f"no path reaches the goal: every pose of one keeps the robot's inscribed disc (radius {disc:.3f} m) "
-            f"and the clearance ({clearance:g} m) off every obstacle and wall, and a 2-D search over {cell:g} m "
-            f"cells finds every point within the goal tolerance ({tol:g} m) walled off even at {at:.3f} m; move the "
-            "goal or the start, or open a way to it"
+        disc = inscribed_radius(problem.robot, shape)
+        return walled_off_reason(
+            problem.world,
+            (problem.start.xy, problem.goal.xy),
+            disc + clearance,
+            deadline,
+            problem.position_tolerance,
+            keeps=f"the robot's inscribed disc (radius {disc:.3f} m, within every pose's footprint) and the clearance "
+            f"({clearance:g} m)",
+            fix="move the goal or the start, or open a way to it",
         )
 
     return prove
