@@ -165,6 +165,12 @@ def check_regular(path: Path) -> None:
         except OSError:  # a dangling link: the link itself is replaced
             return
     if stat.S_ISREG(info.st_mode) or stat.S_ISDIR(info.st_mode):
+        stream = _process_stream(path)  # /dev/stdout to a file: a link to a regular file, which --overwrite replaced
+        if stream:
+            raise ConfigError(
+                f"cannot write {path}: it is {stream}, not a file an output may replace (an output is written beside "
+                "it and renamed onto it, which would replace it); give a file path"
+            )
         return
     kind = next((name for test, name in _KINDS if test(info.st_mode)), "not a regular file")
     what = f"a symbolic link to {kind}" if link else kind
@@ -172,6 +178,24 @@ def check_regular(path: Path) -> None:
         f"cannot write {path}: it is {what}, and an output is a regular file written beside it and renamed "
         "onto it, which would replace it; choose another path (a regular file, or one that does not exist)"
     )
+
+
+def _process_stream(path: Path) -> str:
+    """What ``path`` is when it is, or links to, a file of the kernel's ``/proc`` or ``/dev`` (``/dev/stdout``,
+    ``/dev/fd/1``, ``/proc/self/fd/1``: where stdout goes to a file they pass as links to a regular file, and
+    ``--overwrite`` replaced the link ``/dev/stdout`` itself with the output); "" for any other path (``/dev/shm``,
+    a memory file system for files, is one)."""
+
+    def kernel(p: str) -> bool:
+        return any(p == top or p.startswith(top + "/") for top in ("/proc", "/dev")) and not p.startswith("/dev/shm/")
+
+    if kernel(os.path.abspath(path)):
+        return "a file of the kernel's /proc or /dev"
+    try:
+        target = os.readlink(path)
+    except OSError:  # not a link
+        return ""
+    return f"a link to {target}" if kernel(os.path.normpath(os.path.join(os.path.dirname(path), target))) else ""
 
 
 #: ``FS_IOC_GETFLAGS`` (Linux) and its immutable and append-only flags (``chattr +i``, ``chattr +a``).
@@ -299,27 +323,40 @@ def _limits(path: Path) -> tuple[int, int]:
         folder = folder.parent
 
 
-def check_length(path: Path) -> None:
-    """The name, the temporary name and both whole paths fit the file system's limits (a command looking at a
-    path before :func:`check_writable` does: a name too long makes ``is_file`` raise).
+def check_length(path: Path, *, temporary: tuple[str, str] | None = None, inner: int = 0) -> None:
+    """The name, the temporary name, each folder's name and the whole paths fit the file system's limits (a command
+    looking at a path before :func:`check_writable` does: a name too long makes ``is_file`` raise).
+
+    Args:
+        path: The output.
+        temporary: The prefix and suffix of its temporary name (default :func:`atomic_path`'s; 8 random characters
+            go between them).
+        inner: Bytes the longest path inside the output adds to its temporary's (a folder's files, e.g. a bag's
+            ``/NAME/NAME.mcap``).
 
     Raises:
         ConfigError: Naming the length, the limit and the fix.
     """
     name_max, path_max = _limits(path)
-    prefix, suffix = _temporary_affixes(path)
+    prefix, suffix = temporary or _temporary_affixes(path)
     name = len(os.fsencode(path.name))
-    temporary = len(os.fsencode(prefix + suffix)) + _RANDOM_CHARS
+    temp = len(os.fsencode(prefix + suffix)) + _RANDOM_CHARS
     whole = len(os.fsencode(str(path)))
     fix = "give this output a shorter name (the option that names it takes a path)"
+    folder = next((part for part in path.parts[:-1] if len(os.fsencode(part)) > name_max), None)
+    if folder is not None:
+        raise ConfigError(
+            f"cannot write {path}: its folder name {folder[:40]}... is {len(os.fsencode(folder))} bytes long; at "
+            f"most {name_max} fit in a name; give a shorter folder"
+        )
     if name > name_max:
         raise ConfigError(f"cannot write {path}: its name is {name} bytes long; at most {name_max} fit; {fix}")
-    if temporary > name_max:
+    if temp > name_max:
         raise ConfigError(
             f"cannot write {path}: its temporary name ({prefix}XXXXXXXX{suffix}, written first and renamed) "
-            f"would be {temporary} bytes long; at most {name_max} fit; {fix} ({temporary - name_max} bytes shorter)"
+            f"would be {temp} bytes long; at most {name_max} fit; {fix} ({temp - name_max} bytes shorter)"
         )
-    longest = whole - name + _STAGE_CHARS + temporary  # a staged output's temporary file (StagedOutputs)
+    longest = whole - name + _STAGE_CHARS + temp + inner  # a staged output's temporary file (StagedOutputs)
     if max(whole, longest) >= path_max:
         raise ConfigError(
             f"cannot write {path}: its path is {whole} bytes long ({longest} for its temporary files); at most "

@@ -732,6 +732,9 @@ def test_refused_input_leaves_no_results_file_and_outputs_are_checked_before_any
     # two outputs at one path: refused before any run (the summary replaced the runs)
     assert main([*base, "--results", "same.json", "--json", "same.json"]) == 2
     assert "two outputs share a path" in capsys.readouterr().err and list(tmp_path.iterdir()) == []
+    # a --bags folder whose name is too long: refused (it was a traceback)
+    assert main([*base, "--results", "l.jsonl", "--json", "l.json", "--bags", "b" * 260]) == 2
+    assert "its folder name bbbb" in capsys.readouterr().err and list(tmp_path.iterdir()) == []
     # another study's runs: kept without --overwrite, replaced with it
     assert main([*base, "--results", "r.jsonl", "--json", "a.json", "--seed", "3"]) == 0
     assert main([*base, "--results", "r.jsonl", "--json", "b.json", "--seed", "4"]) == 2

@@ -108,6 +108,27 @@ def test_a_socket_and_links_to_what_is_no_regular_file_are_refused(tmp_path: Pat
         assert sock.is_socket()
 
 
+def test_a_stream_of_the_process_is_no_output_even_where_it_links_to_a_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """With stdout redirected to a file, ``/dev/stdout`` (a link to ``/proc/self/fd/1``, which names the file) passed
+    as a link to a regular file, and ``--json /dev/stdout --overwrite`` put the record where the link stood (its
+    advice said to pass --overwrite); refused now, as a link of one's own into /proc is. ``/dev/shm`` holds files."""
+    out = tmp_path / "stdout.txt"
+    with open(out, "w") as f, contextlib.redirect_stdout(f):
+        stdout = f"/proc/self/fd/{f.fileno()}"
+        (tmp_path / "mine.json").symlink_to(stdout)
+        for given in (Path(f"/dev/fd/{f.fileno()}"), Path(stdout)):  # as /dev/stdout is, stdout going to the file
+            said = "a file of the kernel's /proc or /dev"
+            with pytest.raises(ConfigError, match=f"cannot write {given}: it is {said}"):
+                check_writable(given, overwrite=True)
+        with pytest.raises(ConfigError, match=f"it is a link to {stdout}, not a file an output may replace"):
+            check_writable(tmp_path / "mine.json", overwrite=True)
+    assert (tmp_path / "mine.json").is_symlink()
+    if os.path.isdir("/dev/shm"):
+        check_writable(Path("/dev/shm/nhsim-never-written.json"), overwrite=True)  # absent: passes
+
+
 @pytest.mark.parametrize(
     "argv",
     [

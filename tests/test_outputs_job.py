@@ -189,6 +189,11 @@ def _tree(folder: Path) -> list[str]:
         # the name fits, its temporary name (".NAME.XXXXXXXX.part.json") does not
         (["--no-video", "--no-plots", "--json", "n" * 245 + ".json"], "would be 265 bytes long; at most 255 fit"),
         (["--no-video", "--no-plots", "--json", "/".join(["d" * 200] * 21) + "/r.json"], "path is 4227 bytes long"),
+        # a folder's name too long raised OSError from is_dir, a traceback
+        (["--no-video", "--no-plots", "--json", "d" * 260 + "/r.json"], "its folder name dddd"),
+        # a bag folder is written as .NAME.XXXXXXXX.part/NAME/ and renamed: its name fit and the run failed at the end
+        (["--no-video", "--no-plots", "--json", "r.json", "--bag", "b" * 250], "would be 265 bytes long; at most 255"),
+        (["--no-video", "--no-plots", "--json", "r.json", "--bag", "b" * 260], "its name is 260 bytes long"),
     ],
 )
 def test_unwritable_outputs_fail_before_any_physics(

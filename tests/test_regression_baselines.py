@@ -75,6 +75,33 @@ def test_a_folder_where_a_baseline_goes_is_refused_naming_the_folder_as_the_fix(
     assert (bl / "planted.json").is_dir()
 
 
+def test_update_writes_no_baseline_over_a_file_the_suite_reads(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--update replaced a case's gains file named <case>.json in the baselines folder (exit 0, "replaced unreadable
+    baseline"), and the suite file itself when the baselines folder held it under a case's name: refused before any
+    run now, the file kept."""
+    from planning.scenario import SCENARIOS_DIR
+
+    gains = tmp_path / "gg.json"  # a gains file (TOML) under the case's baseline name
+    gains.write_text("[gains]\nkp = 9.0\nkd = 6.0\n")
+    suite = tmp_path / "s.toml"
+    suite.write_text('cases = [{ name = "gg", scenario = "open", reference = "line", gains = "gg.json", fast = true }]')
+    assert _regress(suite, tmp_path, "--update") == 2
+    err = capsys.readouterr().err
+    assert f"case gg's baseline {gains} is case gg's gains file gg.json, which the suite reads: --update would" in err
+    assert gains.read_text() == "[gains]\nkp = 9.0\nkd = 6.0\n"
+    own = tmp_path / "s4.json"  # the suite file, named as its case's baseline
+    own.write_text('cases = [{ name = "s4", scenario = "open", reference = "line", fast = true }]\n')
+    assert _regress(own, tmp_path, "--update") == 2
+    assert f"case s4's baseline {own} is the suite file {own}, which the suite reads" in capsys.readouterr().err
+    yard = tmp_path / "yard.json"  # a scenario file of the suite's, the same
+    yard.write_text((SCENARIOS_DIR / "open.toml").read_text(encoding="utf-8"))
+    suite.write_text('cases = [{ name = "yard", scenario = "yard.json", reference = "line", fast = true }]\n')
+    assert _regress(suite, tmp_path, "--update") == 2
+    assert "case yard's baseline" in capsys.readouterr().err and yard.read_text().startswith("#")
+
+
 def test_an_unreadable_baseline_fails_its_case_alone_and_update_replaces_it(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

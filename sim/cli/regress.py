@@ -127,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"{c.name}{'  (fast)' if c.fast else ''}")
         return 0
     try:
-        read = check_baselines(baselines, cases, update=args.update)
+        read = check_baselines(baselines, cases, update=args.update, reads=suite.reads)
     except ConfigError as exc:
         raise ConfigError(_with_files(str(exc), args)) from None
     tty = sys.stderr.isatty()
@@ -188,25 +188,37 @@ def _with_files(message: str, args: argparse.Namespace) -> str:
     return message.replace("nhsim regress --update", " ".join(["nhsim regress --update", *given]))
 
 
-def check_baselines(baselines: Path, cases: list[Any], *, update: bool) -> dict[str, Any]:
+def check_baselines(
+    baselines: Path, cases: list[Any], *, update: bool, reads: tuple[tuple[str, Path], ...] = ()
+) -> dict[str, Any]:
     """Before any case runs: the baselines folder exists and is a folder (to compare), or its baselines
-    can be written there (``--update``); returns the cases' baselines as read (:func:`read_baselines`), here,
-    so that no run reads a file and an unreadable one is its case's failure, not the run's.
+    can be written there (``--update``), none over a file the suite reads (``reads``: the suite's
+    :attr:`~sim.tools.regress.Suite.reads`, and the map files of its scenario files); returns the cases'
+    baselines as read (:func:`read_baselines`), here, so that no run reads a file and an unreadable one is its
+    case's failure, not the run's.
 
     Raises:
-        ConfigError: Naming the folder and the fix.
+        ConfigError: Naming the folder (or the baseline and the input) and the fix.
     """
     from planning.errors import ConfigError
-    from sim.outputs import check_writable
+    from sim.cli.job_outputs import scenario_inputs
+    from sim.outputs import check_writable, resolved
     from sim.tools.regress import baseline_path, read_baselines
 
     if baselines.exists() and not baselines.is_dir():
         raise ConfigError(f"--baselines {baselines} is a file, not a folder; give the folder that holds the baselines")
     if update:
+        inputs = [found for what, path in reads for found in _read_files(what, path, scenario_inputs)]
         for case in cases:
             path = baseline_path(case, baselines)
             if path.is_dir():  # the file's name is the case's: the folder must go
                 raise ConfigError(f"case {case.name}'s baseline {path} is a folder; move or remove it, then update")
+            for what, source in inputs:  # a gains file named <case>.json in the folder was replaced, exit 0
+                if resolved(path) == resolved(source):
+                    raise ConfigError(
+                        f"case {case.name}'s baseline {path} is {what}, which the suite reads: --update would replace "
+                        "it; give another --baselines folder (or move the file)"
+                    )
             check_writable(path, overwrite=True)
     elif not baselines.exists():
         raise ConfigError(
@@ -215,6 +227,13 @@ def check_baselines(baselines: Path, cases: list[Any], *, update: bool) -> dict[
             # with this run's --suite and --baselines (run: _with_files)
         )
     return read_baselines(cases, baselines)
+
+
+def _read_files(what: str, path: Path, scenario_inputs: Any) -> list[tuple[str, Path]]:
+    """A file the suite reads, with the map files a scenario file reads besides it."""
+    if "scenario file" not in what:
+        return [(what, path)]
+    return [(what, path), *scenario_inputs(what, str(path))[1:]]
 
 
 def update_baselines(outcomes: list[Any], read: dict[str, Any]) -> int:

@@ -99,10 +99,13 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
             moved aside (:func:`_unmovable`: the folder and the fix named), or its parent folder cannot take new
             files.
     """
-    from sim.outputs import check_folder_for, check_not_read_by_runs
+    from sim.outputs import check_folder_for, check_length, check_not_read_by_runs
 
     overwrite = check_flag("overwrite", overwrite)
     path = Path(path)
+    # written as .NAME.XXXXXXXX.part/NAME/ (its storage file NAME.mcap in it) and renamed: a name of 241-255 bytes
+    # passed, and the command failed with a traceback once the whole run was done
+    check_length(path, temporary=(f".{path.name}.", ".part"), inner=2 * len(os.fsencode(path.name)) + 8)
     check_not_read_by_runs(path)
     holder = bag_holding(path)
     if holder is not None:  # a bag holds its own files only: the outer bag would read as not a bag, nor nhsim's

@@ -235,6 +235,9 @@ class Suite:
     cases: tuple[Case, ...]
     tolerances: dict[str, Tolerance]
     source: Path | None = None
+    #: The files the suite reads, each with what names it: the suite file, and each case's scenario and gains
+    #: files (``--update`` may not write a baseline over one).
+    reads: tuple[tuple[str, Path], ...] = ()
 
     def select(self, patterns: list[str] | None = None, *, all_cases: bool = False) -> list[Case]:
         """Cases to run: those matching any ``patterns`` (fnmatch on names), else all with
@@ -558,10 +561,16 @@ def load_suite(path: str | Path) -> Suite:
     if not isinstance(entries, list) or not entries:
         raise ConfigError(f"{p}: needs a non-empty 'cases' array of inline tables (before any [table])")
     cases = []
+    reads = [(f"the suite file {p}", p)]
     for i, entry in enumerate(entries):
         case = _case_from_table(entry, f"{p} case {i + 1} ({_label(entry)})", p.parent)
         _check_case_runs(case, entry, f"{p} case {i + 1} ({case.name})")
         cases.append(case)
+        for key in ("scenario", "gains"):  # a value naming a file, read relative to the suite's folder
+            value = entry.get(key)
+            file = p.parent / value if isinstance(value, str) and value else None
+            if file is not None and file.is_file():
+                reads.append((f"case {case.name}'s {key} file {value}", file))
     folded = [c.name.lower() for c in cases]  # names differing only in case share a file where case is folded
     dup = sorted({c.name for c in cases if folded.count(c.name.lower()) > 1})
     if dup:
@@ -569,7 +578,7 @@ def load_suite(path: str | Path) -> Suite:
             f"{p}: duplicate case name(s) {', '.join(dup)}; give each a distinct name = '...' (names differing only "
             "in letter case would share a baseline file where the file system ignores case)"
         )
-    return Suite(tuple(cases), _tolerances(p, data.get("tolerances", {})), p)
+    return Suite(tuple(cases), _tolerances(p, data.get("tolerances", {})), p, tuple(reads))
 
 
 @functools.cache
