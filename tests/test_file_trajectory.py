@@ -144,6 +144,41 @@ def test_a_turn_in_place_in_a_timed_file_follows_its_headings(tmp_path: Path) ->
     assert res.trajectory is not None and "rotate" in res.trajectory.segment_kinds
 
 
+@pytest.mark.parametrize(
+    ("x", "step"),
+    [
+        ([0, 0.25, 0.5, 0.75, 1.0, 0.75, 0.5, 0.25, 0], 1.0),  # out and back at 0.25 m/s, no stop at the far end
+        ([0, 0.05, 0.1, 2.0, 0.2, 0.25, 0.3], 0.5),  # one row far out and back (a position fix's glitch)
+    ],
+    ids=["out-and-back", "outlier-row"],
+)
+def test_a_path_that_turns_back_without_a_stop_turns_in_place_at_the_turning_point(
+    tmp_path: Path, x: list[float], step: float
+) -> None:
+    """A file without headings whose motion reverses without stopping: the heading flipped by pi from one sample to
+    the next while the robot drove on, and re-timed, that flip was spread over the whole drive (the heading 1.3 rad
+    off the motion at its far end; the poses 0.3-2.8 m from where the velocities lead, said on stderr only, the
+    record clean). It stops at the turning point and turns in place there now: poses and velocities agree."""
+    from planning.trajectory.from_plan import infeasibility
+
+    t = np.arange(len(x)) * step
+    p = write_csv(tmp_path / "back.csv", {"t": t, "x": np.array(x, float), "y": 0.01 * np.arange(len(x))})
+    imp = read_trajectory_file(TrajectoryFile(p))
+    tr = file_trajectory(imp, ROBOT, arena_scenario(imp, ROBOT).world).trajectory
+    assert tr is not None and infeasibility(tr, ROBOT) == ""
+    far = int(np.argmax(tr.pose[:, 0]))
+    assert tr.pose[far, 0] == pytest.approx(max(x), abs=0.01)
+    moving = np.abs(tr.vel[:, 0]) > 0.02  # the heading is the motion's wherever it drives
+    step_xy = np.diff(tr.pose[:, :2], axis=0)
+    along = np.cos(tr.pose[:-1, 2]) * step_xy[:, 0] + np.sin(tr.pose[:-1, 2]) * step_xy[:, 1]
+    assert np.all(along[moving[:-1]] >= -1e-6)
+    turns = [np.flatnonzero(tr.segments == k) for k, kind in enumerate(tr.segment_kinds) if kind == "rotate"]
+    assert turns, tr.segment_kinds
+    k = max(turns, key=lambda k: float(np.ptp(tr.pose[k, 2])))  # the largest turn: at the far end, in place
+    assert np.ptp(tr.pose[k, 2]) > 2.5 and np.ptp(tr.pose[k, :2], axis=0).max() < 1e-9
+    assert tr.pose[k[0], 0] == pytest.approx(max(x), abs=0.01)
+
+
 def test_a_file_through_an_obstacle_is_refused_naming_time_position_and_obstacle(tmp_path: Path) -> None:
     world = World(WORLD.bounds, (Box((0.3, -0.3), (0.2, 0.2)), Circle((1.0, 0.3), 0.1)))
     imp = read_trajectory_file(TrajectoryFile(s_curve_file(tmp_path, 30.0)))

@@ -159,6 +159,9 @@ def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
     settled = _settled(tg, xy)
     moving = _creeping(moving, tg, xy) & ~settled
     heading, resolved = _motion_headings(imported, tg, moving, sgn)
+    turn = _turnbacks(moving, sgn, resolved, heading)
+    if np.any(turn):  # the motion reverses without a stop: it stops at the turning point and turns there
+        moving, settled, xy = moving & ~turn, settled | turn, _held_at_turning_points(xy, turn, speed)
     if imported.theta is not None:  # a wobble, and a cusp's unresolved ends, keep the file's headings
         moving &= ~_own_headings(moving, sgn, resolved)
     heading = _standing_headings(imported, tg, heading, moving)
@@ -342,6 +345,36 @@ def _motion_headings(
             curvature = np.where(span != 0.0, wrap_angle(heading[far] - heading[k]) / span, 0.0)
         heading[out] = heading[k] + curvature * (s[out] - s[k])
     return heading, resolved
+
+
+def _turnbacks(
+    moving: NDArray[np.bool_], sgn: FloatArray, resolved: NDArray[np.bool_], heading: FloatArray
+) -> NDArray[np.bool_]:
+    """(M,) the samples of each stretch inside one drive (:func:`_runs`) whose motion resolves no direction
+    (:func:`_motion_headings`) between resolved headings more than a right angle apart: where the path turns back
+    without a stop (an out-and-back written forwards, a position that jumps out and back). The chord there points
+    anywhere, and the heading flipped by pi from one sample to the next while the robot drove on (a trajectory whose
+    poses contradict its velocities by metres, the flip spread along the whole drive when it was re-timed); such a
+    stretch is a stop at the turning point and a turn in place from the arriving heading to the leaving one."""
+    run, _ = _runs(moving, sgn)
+    idx = np.flatnonzero(resolved & moving)
+    out = np.zeros(moving.size, dtype=bool)
+    inside = np.flatnonzero((np.diff(idx) > 1) & (run[idx[:-1]] == run[idx[1:]]))  # gaps within one drive
+    for a, b in zip(idx[inside] + 1, idx[inside + 1], strict=True):
+        if abs(float(wrap_angle(heading[b] - heading[a - 1]))) > 0.5 * np.pi:
+            out[a:b] = True
+    return out
+
+
+def _held_at_turning_points(xy: FloatArray, turn: NDArray[np.bool_], speed: FloatArray) -> FloatArray:
+    """``xy`` (M, 2) with each stretch of ``turn`` (:func:`_turnbacks`) held at its turning point, its slowest
+    sample (``speed`` (M,)): the robot stands there while it turns (a few millimetres of the curve's
+    ``HEADING_LENGTH`` about the point)."""
+    out = xy.copy()
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], turn.astype(int), [0]])))
+    for a, b in zip(edges[::2], edges[1::2], strict=True):
+        out[a:b] = xy[a + int(np.argmin(speed[a:b]))]
+    return out
 
 
 def _given_heading(imported: ImportedFile, tg: FloatArray) -> FloatArray | None:
