@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import pytest
 
@@ -225,3 +226,18 @@ def test_a_ready_plan_closer_to_an_obstacle_than_the_tracked_margin_is_warned_of
             scenario = load_scenario(name)
             made = plan_case(own, scenario, load_robot(scenario.robot))
             assert made.success and plan_case(own.with_plan(made, scenario), scenario, load_robot(scenario.robot))
+
+
+def test_a_case_token_splits_at_its_last_colon_and_a_file_with_a_colon_is_whole(tmp_path: Path) -> None:
+    """``tune --scenarios /data/run:2/yard.toml:line`` split at the first colon ("'2/yard.toml:line' is neither a
+    reference nor a planner"); a reference's or a planner's name has no colon, so the last one splits, and a token
+    that names an existing file is the scenario whole."""
+    folder = tmp_path / "run:2"
+    folder.mkdir()
+    yard = folder / "yard.toml"
+    yard.write_text((Path(__file__).resolve().parents[1] / "models/scenarios/open.toml").read_text())
+    assert Case.split(f"{yard}:line") == (str(yard), "line")
+    assert Case.split(f" {yard} ") == (str(yard), "")
+    assert Case.split("open:figure8") == ("open", "figure8") and Case.split("open") == ("open", "")
+    case = Case.parse(f"{yard}:line")
+    assert case.reference == "line" and str(case.scenario) == str(yard)

@@ -393,3 +393,24 @@ def test_a_missing_column_under_columns_is_to_be_named_there(tmp_path: Path) -> 
     assert "no column t (columns: x, y); name it with --columns (columns=... from Python), which names" in str(
         info.value
     )
+
+
+def test_a_row_far_off_both_neighbours_is_noted_and_a_turn_back_is_not(tmp_path: Path) -> None:
+    """One row 1.8 m out and back among rows 5 cm apart (a position fix's glitch) was taken without a word; the
+    report notes it, naming the row and the fix. A turn back at a drive's far end, its steps the file's own, and
+    a plain drive are not noted."""
+    t = np.arange(7) * 0.5
+    spike = write_csv(tmp_path / "spike.csv", {"t": t, "x": np.array([0, 0.05, 0.1, 2.0, 0.2, 0.25, 0.3]), "y": t * 0})
+    notes = read_trajectory_file(TrajectoryFile(spike)).report.notes
+    said = [n for n in notes if "lies 1.8 m off the rows either side of it" in n]
+    assert len(said) == 1 and said[0].startswith("line 5 ") and said[0].endswith("drop the row"), notes
+    x = np.array([0, 0.25, 0.5, 0.75, 1.0, 0.75, 0.5, 0.25, 0])
+    back = write_csv(tmp_path / "back.csv", {"t": np.arange(9.0), "x": x, "y": 0.01 * np.arange(9.0)})
+    for p in (back, _s_curve_file(tmp_path)):
+        assert not any("off the rows either side" in n for n in read_trajectory_file(TrajectoryFile(p)).report.notes)
+
+
+def _s_curve_file(tmp_path: Path) -> Path:
+    t = np.arange(0.0, 20.0 + 1e-9, 0.5)
+    xy, _, _ = s_curve(t)
+    return write_csv(tmp_path / "s.csv", {"t": t, "x": xy[:, 0], "y": xy[:, 1]})

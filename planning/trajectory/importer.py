@@ -369,9 +369,38 @@ def import_table(table: FileTable, source: TrajectoryFile) -> ImportedFile:
         _refuse_instant(report.file, cols["t"], source.time_scale or 1.0)
     rows, cols = _merge(rows, cols, source.timed, report)
     _check_distinct(table, cols)
+    _note_outliers(rows, cols["xy"], report)
     if not source.timed:
         return ImportedFile(source, rows, cols["xy"], None, cols.get("theta"), _directions(cols), None, None, report)
     return _timed(source, rows, cols, report)
+
+
+#: A row is said to stand out (:func:`_note_outliers`) when it lies this many times the file's median step off both
+#: its neighbours, and at least OUTLIER_MIN [m], and they lie less than half that apart: out and back.
+OUTLIER_STEPS, OUTLIER_MIN = 10.0, 0.1
+#: Rows :func:`_note_outliers` names one by one (the rest are counted).
+OUTLIER_NOTES = 5
+
+
+def _note_outliers(rows: tuple[str, ...], xy: FloatArray, report: ImportReport) -> None:
+    """Note each row that lies far off both its neighbours, which lie close together, by the file's own steps (a
+    position fix's glitch: the trajectory goes out to it and back, as the file says, the robot driving metres for a
+    row that may be noise). A turn back at the far end of a drive is no such row: its steps are the file's own."""
+    if xy.shape[0] < 3:
+        return
+    step = np.hypot(*np.diff(xy, axis=0).T)
+    off = np.minimum(step[:-1], step[1:])
+    across = np.hypot(*(xy[2:] - xy[:-2]).T)
+    median = float(np.median(step))
+    odd = np.flatnonzero((off > max(OUTLIER_MIN, OUTLIER_STEPS * median)) & (across < 0.5 * off))
+    for k in odd[:OUTLIER_NOTES]:
+        report.notes.append(
+            f"{rows[k + 1]} lies {off[k]:.3g} m off the rows either side of it, which lie {across[k]:.3g} m apart "
+            f"({off[k] / max(median, 1e-12):.0f} times the file's median step): the trajectory goes out to it and "
+            "back; if it is a glitch of the position fix, drop the row"
+        )
+    if odd.size > OUTLIER_NOTES:
+        report.notes.append(f"{odd.size - OUTLIER_NOTES} more rows lie so far off their neighbours")
 
 
 def _read_source(source: TrajectoryFile) -> FileTable:

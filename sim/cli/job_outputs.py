@@ -513,8 +513,10 @@ def input_paths(args: argparse.Namespace) -> list[tuple[str, Path]]:
                 found.append((f"--{name} {part}", Path(part)))
     cases = getattr(args, "scenarios", None)
     if isinstance(cases, str):  # tune's SCENARIO[:SOURCE],...
+        from sim.pipeline.case import Case
+
         for token in cases.split(","):
-            scenario = token.strip().partition(":")[0]
+            scenario = Case.split(token)[0]
             if scenario:
                 found += scenario_inputs(f"--scenarios {scenario}", scenario)
     return found

@@ -699,8 +699,9 @@ def _check_pipes(args: argparse.Namespace) -> None:
     """Refuse a scenario of ``--scenarios`` that is a pipe (bash's ``<(...)``) with ``--jobs`` above 1: this process
     reads it once, and the worker processes, which load their cases' scenarios themselves, cannot."""
     from planning.core.files import is_pipe
+    from sim.pipeline.case import Case
 
-    piped = [s for s in (t.partition(":")[0] for t in _tokens(args)) if is_pipe(s)]
+    piped = [s for s in (Case.split(t)[0] for t in _tokens(args)) if is_pipe(s)]
     if piped and args.jobs > 1:
         raise ConfigError(
             f"--scenarios {piped[0]}: this is a pipe (e.g. bash's <(...)), which only this process can read, once; "

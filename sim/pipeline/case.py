@@ -490,6 +490,17 @@ class Case:
         """The tracker a run of ``kind`` uses in this case."""
         return kind.tracker or self.feedback_tracker
 
+    @staticmethod
+    def split(token: str) -> tuple[str, str]:
+        """``SCENARIO[:REFERENCE|:PLANNER]`` as (scenario, the second part or ""): the token whole when it names an
+        existing file (a path with a colon in it), else split at its last colon (a reference's or a planner's name
+        has none), so ``/data/run:2/yard.toml:line`` is the file and ``line``."""
+        token = token.strip()
+        if ":" not in token or os.path.isfile(token):
+            return token, ""
+        scenario, _, second = token.rpartition(":")
+        return scenario, second
+
     @classmethod
     def parse(cls, token: str, **fields_: Any) -> Case:
         """A case from ``SCENARIO[:REFERENCE|:PLANNER]`` plus keyword fields (robot, seed, ...).
@@ -498,7 +509,7 @@ class Case:
             ConfigError: Empty token, or a second part that is neither a reference nor a planner (the
                 message lists both).
         """
-        scenario, _, second = token.strip().partition(":")
+        scenario, second = cls.split(token)
         if not scenario:
             raise ConfigError(f"case {token!r}: expected SCENARIO:REFERENCE (e.g. open:figure8) or SCENARIO:PLANNER")
         if second in REFERENCES:
