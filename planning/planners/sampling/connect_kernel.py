@@ -286,6 +286,45 @@ def search_chunk(
 UNIFORM_BLOCK = 256
 
 
+@nb.njit(cache=True)
+def _edge_poses(tree: TreeArrays, i: int) -> int:
+    """Poses the edges from the root out to node ``i`` add after the root (each edge's first pose is its parent's)."""
+    n = 0
+    while i > 0:
+        n += tree[3][i, 1] - tree[3][i, 0] - 1
+        i = tree[2][i]
+    return n
+
+
+@nb.njit(cache=True)
+def gather_path(tree_a: TreeArrays, tree_b: TreeArrays, a: int, b: int) -> tuple[FloatArray, FloatArray]:
+    """Poses (K, 3) and directions (K,) from the start through start-tree node ``a`` and goal-tree node ``b`` (the
+    same pose) to the goal: the start, then each edge's poses after its first, the start tree's from the root out
+    and the goal tree's (grown backwards, each edge from its node to its parent) from ``b`` in; the first direction
+    is the first edge's (1 when ``a`` is the start)."""
+    na = 1 + _edge_poses(tree_a, a)
+    n = na + _edge_poses(tree_b, b)
+    poses, dirs = np.empty((n, 3)), np.empty(n)
+    k, i, first = na, a, 1.0
+    while i > 0:  # the start tree, filled from node a back to the root
+        lo, hi = tree_a[3][i, 0] + 1, tree_a[3][i, 1]
+        k -= hi - lo
+        poses[k : k + hi - lo] = tree_a[4][lo:hi]
+        dirs[k : k + hi - lo] = tree_a[5][lo:hi]
+        first = tree_a[5][lo - 1]
+        i = tree_a[2][i]
+    poses[0] = tree_a[0][0]
+    dirs[0] = first
+    k, i = na, b
+    while i > 0:  # the goal tree, from node b in
+        lo, hi = tree_b[3][i, 0] + 1, tree_b[3][i, 1]
+        poses[k : k + hi - lo] = tree_b[4][lo:hi]
+        dirs[k : k + hi - lo] = tree_b[5][lo:hi]
+        k += hi - lo
+        i = tree_b[2][i]
+    return poses, dirs
+
+
 class CompiledSearch:
     """The state of one compiled BiRRT search (both trees, the uniform numbers drawn ahead) between
     chunks of :func:`search_chunk`.
@@ -374,29 +413,10 @@ class CompiledSearch:
         nodes, heads, parents, rows, edge_p, edge_d = (np.concatenate([a, np.empty_like(a)]) for a in tree)
         return nodes, heads, parents, rows, edge_p, edge_d
 
-    @staticmethod
-    def _spans(tree: TreeArrays, i: int, n: int) -> list[list[int]]:
-        """The edge-store rows [first, end) of node ``i``'s edge, its parent's, ... up to the root's child
-        (the tree has ``n`` nodes)."""
-        up = tree[2][:n].tolist()  # plain ints: a walk over numpy scalars cost more than the poses' copy
-        chain = []
-        while i > 0:
-            chain.append(i)
-            i = up[i]
-        return tree[3][chain].tolist() if chain else []
-
     def path(self, a: int, b: int) -> tuple[FloatArray, FloatArray]:
-        """Poses (K, 3) and directions (K,) from the start through start-tree node ``a`` and goal-tree
-        node ``b`` (the same pose) to the goal: the start, then each edge's poses after its first, the
-        start tree's from the root out and the goal tree's (grown backwards, each edge from its node to
-        its parent) from ``b`` in; the first direction is the first edge's (1 when ``a`` is the start)."""
-        sa = self._spans(self._a, a, int(self._state[0]))[::-1]
-        sb = self._spans(self._b, b, int(self._state[1]))
-        pa, da, pb, db = self._a[4], self._a[5], self._b[4], self._b[5]
-        poses = [self._a[0][:1], *(pa[i + 1 : j] for i, j in sa), *(pb[i + 1 : j] for i, j in sb)]
-        first = da[sa[0][0] : sa[0][0] + 1] if sa else np.ones(1)
-        dirs = [first, *(da[i + 1 : j] for i, j in sa), *(db[i + 1 : j] for i, j in sb)]
-        return np.concatenate(poses), np.concatenate(dirs)
+        """Poses (K, 3) and directions (K,) from the start through start-tree node ``a`` and goal-tree node ``b`` to
+        the goal (:func:`gather_path`)."""
+        return gather_path(self._a, self._b, a, b)
 
     def plan_tree(self) -> PlanTree:
         """Both trees as one :class:`~planning.planners.base.PlanTree` (:func:`.tree.merge_trees`'s)."""
