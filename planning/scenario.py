@@ -393,6 +393,11 @@ def load_scenario_file(path: str | Path) -> Scenario:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
+        if p.suffix.lower() in (".json", ".yaml", ".yml"):  # said as such, not as the TOML parser's first complaint
+            raise ScenarioError(
+                f"{p}: a scenario file is TOML, not {p.suffix[1:].upper()}; write it as TOML (docs/how-to/"
+                "new-scenario.md), or copy a built-in one from models/scenarios"
+            ) from exc
         raise ScenarioError(f"{p}: not valid TOML: {exc}") from exc
     piped = descriptor_path(p)
     if piped:
@@ -478,7 +483,8 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     if not text.strip() or p.is_dir():
         what = "an empty name" if not text.strip() else f"the folder {text!r}"
         raise ScenarioError(
-            f"a scenario is a built-in name, random<N> or a .toml file, got {what}; e.g. load_scenario('edumip_map')"
+            f"a scenario is a built-in name, random<N> or a .toml file, got {what}; e.g. "
+            f"{option('scenario', 'edumip_map', python='load_scenario({})')}"
         )
     if p.suffix == ".toml" or p.exists():
         if not p.exists():

@@ -569,3 +569,20 @@ def test_a_bag_named_as_a_file_is_refused_naming_the_folder_to_give(tmp_path: Pa
     with pytest.raises(ConfigError, match=r"(?i)a ROS 2 bag is a folder .* give the folder's name, e\.g\. --bag .*run"):
         check_bag_target(tmp_path / name, overwrite=False)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_dangling_link_where_the_bag_goes_is_named_as_one(tmp_path: Path) -> None:
+    """It was "a file of that name exists", where a link to nothing stood."""
+    from sim.io.bag import check_bag_target
+
+    (tmp_path / "bag").symlink_to(tmp_path / "nothing")
+    with pytest.raises(ConfigError, match=rf"a symbolic link to {tmp_path}/nothing, which does not exist, of that"):
+        check_bag_target(tmp_path / "bag", overwrite=True)
+    assert (tmp_path / "bag").is_symlink()
+
+
+def test_a_folder_named_as_a_text_file_is_said_to_be_a_folder_not_a_bag(tmp_path: Path) -> None:
+    """A folder ``run.csv`` was read as a bag: "the folder has no metadata.yaml, so it is not a rosbag2 bag"."""
+    (tmp_path / "run.csv").mkdir()
+    with pytest.raises(TrajectoryFileError, match=r"run\.csv is a folder, not a CSV file; give the file"):
+        read_trajectory_file(TrajectoryFile(tmp_path / "run.csv"))

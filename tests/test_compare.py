@@ -83,6 +83,9 @@ def test_compare_cli_rejects_unknown_trackers_and_bad_params(tmp_path: Path) -> 
     assert r.returncode == 2 and "MPCParams.horizon must be an integer in [2, 200] (steps), got 1" in r.stderr
     r = nhsim("compare", "--reference", "line", "--trackers", "mpc", "--params", f"{bad},")  # a trailing comma
     assert r.returncode == 2 and "MPCParams.horizon must be" in r.stderr and "Is a directory" not in r.stderr
+    same = tmp_path / "same.mp4"  # the two outputs named, as simulate names them
+    r = nhsim("compare", "--reference", "line", "--trackers", "fbl", "--json", str(same), "--video", str(same))
+    assert r.returncode == 2 and f"share a path: --json (the record) and --video both name {same}" in r.stderr
     twice = tmp_path / "twice.json"  # the second table of a tracker replaced the first's fields (kx, ky reset)
     twice.write_text('{"kanayama": {"kx": 2.0, "ky": 20.0}, "kanayama": {"ktheta": 9.0}}')
     r = nhsim("compare", "--reference", "line", "--trackers", "kanayama", "--params", str(twice))

@@ -731,7 +731,8 @@ def test_refused_input_leaves_no_results_file_and_outputs_are_checked_before_any
     assert "has no laser scanner" in capsys.readouterr().err and list(tmp_path.iterdir()) == []
     # two outputs at one path: refused before any run (the summary replaced the runs)
     assert main([*base, "--results", "same.json", "--json", "same.json"]) == 2
-    assert "two outputs share a path" in capsys.readouterr().err and list(tmp_path.iterdir()) == []
+    said = "two outputs share a path: --results and --json (the summary) both name same.json"
+    assert said in capsys.readouterr().err and list(tmp_path.iterdir()) == []
     # a --bags folder whose name is too long: refused (it was a traceback)
     assert main([*base, "--results", "l.jsonl", "--json", "l.json", "--bags", "b" * 260]) == 2
     assert "its folder name bbbb" in capsys.readouterr().err and list(tmp_path.iterdir()) == []

@@ -254,3 +254,21 @@ def test_a_name_the_font_lacks_is_drawn_without_a_warning_per_glyph(tmp_path: Pa
         save_figure(plan_figure(problem, result), tmp_path / "plan.png")
     assert not [w for w in seen if "missing from font" in str(w.message)], [str(w.message) for w in seen]
     png_is_nontrivial(tmp_path / "plan.png")
+
+
+def test_an_eps_figure_is_written_without_the_postscript_backends_warning(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """``nhsim plan --plot x.eps`` printed matplotlib's "The PostScript backend does not support transparency" on
+    stderr: the figures' translucent bands are drawn opaque there, as PostScript has no transparency."""
+    import logging
+
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots()
+    ax.fill_between([0, 1], [0, 1], alpha=0.3)
+    with caplog.at_level(logging.WARNING, logger="matplotlib"):
+        out = save_figure(fig, tmp_path / "x.eps")
+    plt.close(fig)
+    assert out.read_bytes().startswith(b"%!PS") and not [r for r in caplog.records if "PostScript" in r.message]
+    assert logging.getLogger("matplotlib.backends.backend_ps").level == logging.NOTSET  # given back

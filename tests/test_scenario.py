@@ -401,3 +401,12 @@ def test_a_built_in_name_is_the_built_in_scenario_whatever_the_working_directory
         load_scenario(Path("farm"))  # a Path is the file it names, when there is one
     assert load_scenario(Path("edumip_map")).name == "edumip_map"  # else the built-in (no such file here)
     assert load_scenario(Path("random12")).name == "random12"
+
+
+@pytest.mark.parametrize("suffix", [".json", ".yaml"])
+def test_a_scenario_in_json_or_yaml_is_told_scenario_files_are_toml(tmp_path: Path, suffix: str) -> None:
+    """It said the TOML parser's first complaint ("not valid TOML: Invalid statement (at line 1, column 1)")."""
+    path = tmp_path / f"yard{suffix}"
+    path.write_text('{"name": "yard"}' if suffix == ".json" else "name: yard\n")
+    with pytest.raises(ScenarioError, match=rf"yard{suffix}: a scenario file is TOML, not {suffix[1:].upper()}; write"):
+        load_scenario(path)

@@ -668,9 +668,10 @@ def arena_scenario(imported: ImportedFile, robot: RobotSpec) -> Scenario:
     if float(np.max(hi - lo)) > ARENA_MAX:
         span = np.ptp(xy, axis=0)
         raise TrajectoryFileError(
-            f"{imported.source.path}: the file spans {span[0]:.4g} x {span[1]:.4g} m, more than the {ARENA_MAX:g} m "
-            f"an arena is built for: if its units are pixels (or millimetres), give the metres per unit, e.g. "
-            f"{option('scale', 0.01)} for 1 cm per pixel, or give the world with {option('scenario')}"
+            f"{imported.source.path}: the file spans {span[0]:.4g} x {span[1]:.4g} m, and with {pad:.3g} m around it "
+            f"for the robot (its radius and {ARENA_MARGIN:g} m) more than the {ARENA_MAX:g} m an arena is built for: "
+            f"give the world with {option('scenario')}, or, if its units are not metres (pixels, millimetres), the "
+            f"metres per unit, e.g. {option('scale', 0.01)} for 1 cm per pixel"
         )
     world = World((float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])))
     sc = Scenario(

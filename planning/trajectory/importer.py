@@ -46,7 +46,9 @@ from planning.core.checks import check_flag, check_number
 from planning.core.geometry import wrap_angle
 from planning.errors import ConfigError, option, options
 from planning.trajectory.file_formats import (
+    DOCUMENT_SUFFIXES,
     PLAN_RECORD,
+    TEXT_SUFFIXES,
     FileTable,
     TrajectoryFileError,
     given_columns,
@@ -407,6 +409,15 @@ def _read_source(source: TrajectoryFile) -> FileTable:
     """The file's columns: a bag's topic (:mod:`planning.trajectory.bag_file`), else a text, JSON or YAML file."""
     from planning.trajectory.bag_file import is_bag, read_bag_table
 
+    path = Path(source.path)
+    if (
+        path.is_dir()
+        and path.suffix.lower() in TEXT_SUFFIXES[1:] + DOCUMENT_SUFFIXES
+        and not (path / "metadata.yaml").exists()
+    ):
+        raise TrajectoryFileError(  # named like a file, and no bag: not "a bag without its metadata.yaml"
+            f"{path} is a folder, not a {path.suffix[1:].upper()} file; give the file (or a rosbag2 bag folder)"
+        )
     if source.topic is None and source.message is None and not is_bag(source.path):
         return read_table(source.path, source.columns)
     if not is_bag(source.path):

@@ -117,7 +117,10 @@ def _outputs(args: argparse.Namespace) -> dict[str, Path]:
         out["video"] = Path(args.video)
         check_video_name(out["video"], "--video")
     check_apart_from_inputs(args, out.values(), args.bag)
-    check_distinct(out.values())
+    plot = "--plots (its {} plot)"
+    named = {"json": "--json (the record)", "paths": plot.format("paths"), "errors": plot.format("errors")}
+    named["video"] = "--video"
+    check_distinct({named[kind]: path for kind, path in out.items()})
     for path in out.values():
         check_writable(path, overwrite=args.overwrite)
     if args.bag is not None:

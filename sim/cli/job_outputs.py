@@ -613,8 +613,8 @@ def check_apart_from_inputs(args: argparse.Namespace, files: Iterable[Path], bag
         if folder == source or folder in source.parents or source in folder.parents:
             where = "is" if folder == source else "contains" if folder in source.parents else "lies inside"
             raise ConfigError(
-                f"--bag {bag} {where} the input {given}: writing the bag would replace or change the recording the "
-                "command reads; choose another --bag folder (or copy the input elsewhere first)"
+                f"--bag {bag} {where} the input {given}: writing the bag would replace or change what the command "
+                "reads; choose another --bag folder (or copy the input elsewhere first)"
             )
 
 

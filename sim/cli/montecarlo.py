@@ -217,7 +217,8 @@ def _check_outputs(paths: dict[str, Path], keys: list[dict[str, Any]], overwrite
     another results file are another run's outputs)."""
     from sim.outputs import check_distinct, check_writable, resolved
 
-    check_distinct(paths.values())
+    named = {"results": "--results", "json": "--json (the summary)", "fan": "the fan plot", "cdf": "the CDF plot"}
+    check_distinct({named.get(kind, kind): path for kind, path in paths.items()})
     summary = paths["json"]
     own = False
     if summary.is_file():  # a device or a pipe is not read (/dev/full gave bytes until memory ran out): refused below

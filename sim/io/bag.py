@@ -121,8 +121,9 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
         )
     if path.exists() or path.is_symlink():
         if not path.is_dir():
+            what = f"a symbolic link to {os.readlink(path)}, which does not exist," if not path.exists() else "a file"
             raise ConfigError(
-                f"cannot write the bag {path}: a file of that name exists; choose another folder with "
+                f"cannot write the bag {path}: {what} of that name stands there; choose another folder with "
                 f"{option('bag', python='path')}"
             )
         foreign = not_ours(path)

@@ -438,8 +438,8 @@ class ResultsFile:
         with self.file.open("r+b") as f:
             f.truncate(start)
         self.notes.append(
-            f"{self.file}: dropped its last line (line {number}, {len(raw) - start} bytes cut short, a run "
-            "interrupted while it was written); that run is done again"
+            f"{self.file}: dropped its last line (line {number}, {len(raw) - start} bytes cut short: a run "
+            "interrupted while it was written, or a write that failed, a full disk say); that run is done again"
         )
 
     def _bad_line(self, number: int, problem: str) -> ConfigError:

@@ -309,8 +309,8 @@ def gather_path(tree_a: TreeArrays, tree_b: TreeArrays, a: int, b: int) -> tuple
     while i > 0:  # the start tree, filled from node a back to the root
         lo, hi = tree_a[3][i, 0] + 1, tree_a[3][i, 1]
         k -= hi - lo
-        poses[k : k + hi - lo] = tree_a[4][lo:hi]
-        dirs[k : k + hi - lo] = tree_a[5][lo:hi]
+        copy_rows_into(poses[k : k + hi - lo], tree_a[4][lo:hi])
+        copy_into(dirs[k : k + hi - lo], tree_a[5][lo:hi])
         first = tree_a[5][lo - 1]
         i = tree_a[2][i]
     poses[0] = tree_a[0][0]
@@ -318,8 +318,8 @@ def gather_path(tree_a: TreeArrays, tree_b: TreeArrays, a: int, b: int) -> tuple
     k, i = na, b
     while i > 0:  # the goal tree, from node b in
         lo, hi = tree_b[3][i, 0] + 1, tree_b[3][i, 1]
-        poses[k : k + hi - lo] = tree_b[4][lo:hi]
-        dirs[k : k + hi - lo] = tree_b[5][lo:hi]
+        copy_rows_into(poses[k : k + hi - lo], tree_b[4][lo:hi])
+        copy_into(dirs[k : k + hi - lo], tree_b[5][lo:hi])
         k += hi - lo
         i = tree_b[2][i]
     return poses, dirs

@@ -6,6 +6,7 @@ Figures are built with matplotlib's object API on the Agg canvas (no display, no
 from __future__ import annotations
 
 import contextlib
+import logging
 import warnings
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -128,6 +129,13 @@ def save_figure(fig: Figure, path: str | Path, *, overwrite: bool = False) -> Pa
     """Write a figure atomically (never replacing a file unless ``overwrite``), in the format its suffix
     names (:func:`sim.outputs.image_format`: PNG for ``.png``; :func:`any_glyphs`)."""
     fmt = image_format(Path(path), "the figure")
-    with atomic_path(path, overwrite=overwrite) as tmp, any_glyphs():
-        fig.savefig(tmp, format=fmt, bbox_inches="tight", pad_inches=0.1)  # nothing cut at the edges
+    # PostScript has no transparency: matplotlib draws the translucent bands opaque and logs a warning on stderr
+    ps_log = logging.getLogger("matplotlib.backends.backend_ps")
+    level = ps_log.level
+    ps_log.setLevel(logging.ERROR)
+    try:
+        with atomic_path(path, overwrite=overwrite) as tmp, any_glyphs():
+            fig.savefig(tmp, format=fmt, bbox_inches="tight", pad_inches=0.1)  # nothing cut at the edges
+    finally:
+        ps_log.setLevel(level)
     return Path(path)
