@@ -525,6 +525,46 @@ def test_statistics_of_no_measured_run_are_nan_not_errors() -> None:
     assert stats["plan_failures"] == 1 and stats["closed_loop"]["success_rate"] == 0.0
 
 
+def test_runs_that_ended_early_are_counted_by_why_and_said_under_the_table() -> None:
+    """A study whose closed loops all stopped at t = 1.5 s of 9 s (the estimator diverged, 2.58 m from the goal)
+    printed their final errors (0.11 m) as if they had run to the end, with no word of it: they are counted by
+    why now, in the statistics and under the table."""
+    from sim.cli.montecarlo import format_table
+
+    def entry(status: str) -> dict[str, object]:
+        metrics = dict.fromkeys(("final_position_error_m", "final_heading_error_rad", "rms_position_error_m"), 0.1)
+        return {
+            **metrics,
+            "max_position_error_m": 0.2,
+            "collisions": 0,
+            "warnings": 0,
+            "status": status,
+            "success": status == "ok",
+            "path": [],
+        }
+
+    statuses = ["estimator diverged at t=1.500 s (innovation): ...", "ok", "fell at t=2.1 s (|tilt| beyond 0.85 rad)"]
+    records = [
+        {
+            "index": k,
+            "plan_seed": 1,
+            "noise_seed": k,
+            "build_seed": k,
+            "perturbation": None,
+            "runs": {kind: entry(status) for kind in ("closed_loop", "closed_loop_odometry", "open_loop")},
+        }
+        for k, status in enumerate(statuses)
+    ]
+    stats = statistics(records)
+    assert stats["closed_loop"]["ended_early"] == {"estimator diverged": 1, "fell": 1}
+    table = format_table(stats)
+    assert (
+        "closed_loop: 2 of 3 runs ended early (estimator diverged: 1, fell: 1); their errors above are where" in table
+    )
+    assert statistics(records[1:2])["closed_loop"]["ended_early"] == {}
+    assert "ended early" not in format_table(statistics(records[1:2]))
+
+
 @pytest.mark.slow  # a Dask cluster of two worker processes
 def test_regress_on_two_workers_reports_what_the_serial_run_reports(capsys: pytest.CaptureFixture[str]) -> None:
     cases = ["--case", "open-turtlebot3-line-fbl-s0,open-turtlebot3-line-open-loop-s0"]

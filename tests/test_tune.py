@@ -594,7 +594,7 @@ def test_draws_take_time_linear_in_their_count() -> None:
 
     def best_time(count: int) -> float:
         times = []
-        for _ in range(3):
+        for _ in range(5):  # best of five: one of three was slowed 3x by a loaded machine's other processes
             start = time.perf_counter()
             make_draws(count, 0)
             times.append(time.perf_counter() - start)

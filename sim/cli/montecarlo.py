@@ -257,6 +257,14 @@ def format_table(stats: dict[str, Any]) -> str:
             f"{trio('final_position_error_m'):>27}  {trio('final_heading_error_rad'):>28}  "
             f"{trio('rms_position_error_m'):>25}  {s['max_position_error_m']['p99']:>11.4f}"
         )
+    for kind, s in stats.items():
+        ended = s.get("ended_early") if isinstance(s, dict) else None
+        if ended:  # a run that stopped (the estimator diverged, the robot fell) has errors of where it stopped
+            causes = ", ".join(f"{why}: {count}" for why, count in ended.items())
+            lines.append(
+                f"{kind}: {sum(ended.values())} of {s['runs']} runs ended early ({causes}); their errors above are "
+                "where they stopped, not at the trajectory's end"
+            )
     return "\n".join(lines)
 
 

@@ -17,6 +17,7 @@ A run is replayed bit for bit by ``nhsim simulate`` with its seeds (:func:`repla
 
 from __future__ import annotations
 
+import collections
 import hashlib
 import json
 import math
@@ -565,7 +566,8 @@ def run_montecarlo(
 
 
 def statistics(records: list[dict[str, Any]]) -> dict[str, Any]:
-    """Per run kind: percentiles of each metric, success and collision rates, the worst runs.
+    """Per run kind: percentiles of each metric, success and collision rates, the worst runs, and the runs that
+    ended early by why (``ended_early``: status -> count; their errors are where they stopped).
 
     A run whose replanning failed counts as a failure of every kind (no metrics).
     """
@@ -578,6 +580,8 @@ def statistics(records: list[dict[str, Any]]) -> dict[str, Any]:
         for name in METRICS:
             values = np.array([e[name] for e in entries], dtype=float)
             stat[name] = {f"p{p}": float(np.percentile(values, p)) if len(values) else math.nan for p in PERCENTILES}
+        causes = collections.Counter(_cause(str(e["status"])) for e in entries if e["status"] != "ok")
+        stat["ended_early"] = dict(sorted(causes.items()))  # why runs stopped before their end, and how many
         stat["success_rate"] = sum(bool(e["success"]) for e in entries) / n if n else math.nan
         stat["collision_rate"] = sum(e["collisions"] > 0 for e in entries) / n if n else math.nan
         order = sorted(have, key=lambda r: (-r["runs"][kind]["final_position_error_m"], r["index"]))
@@ -595,6 +599,12 @@ def statistics(records: list[dict[str, Any]]) -> dict[str, Any]:
         out[kind] = stat
     out["plan_failures"] = sum("failed" in r for r in records)
     return out
+
+
+def _cause(status: str) -> str:
+    """Why a run ended early, as its status begins, without its times: "estimator diverged", "fell", "collided with
+    'wall_east'" (a run's status says when, and what followed)."""
+    return status.split(" at t=")[0].split(" (")[0].strip() or status
 
 
 def replay_options(record: Mapping[str, Any]) -> list[str]:
