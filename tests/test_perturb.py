@@ -198,3 +198,19 @@ def test_a_push_in_the_runs_last_control_period_is_taken() -> None:
     late = Perturbation.parse(f"push=0.01@{0.5 * (horizon + lasts):.6f}")
     log = sim.run(traj, make_tracker("fbl", robot), config, perturbation=late)
     assert log.t[-1] == pytest.approx(lasts)
+
+
+def test_a_latency_is_a_whole_number_of_physics_steps_rounded_half_up_and_the_applied_one_recorded() -> None:
+    """``round`` rounded halves to even: 0.005 s at 2 ms steps ran as 4 ms, as 0.003 s did, and 0.001 s as none,
+    while the record kept the latency asked for; halves go up now, and the record says what was applied."""
+    from sim.physics.perturb import Perturbation
+
+    step = 0.002
+    steps = [Perturbation(latency=x).latency_steps(step) for x in (0.001, 0.003, 0.005, 0.0049, 0.02)]
+    assert steps == [1, 2, 3, 2, 10]
+    import sim
+
+    case = sim.Case("open", robot="edumip", reference="line", perturbation=Perturbation(latency=0.005))
+    result = sim.simulate(case, "open_loop")
+    assert result.record()["perturbation"]["latency"] == 0.005
+    assert result.record()["perturbation"]["latency_applied_s"] == pytest.approx(0.006, abs=1e-12)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -187,6 +188,8 @@ def run(args: argparse.Namespace) -> int:
     if "import" in p.extra and not args.quiet:  # what was read from the file and repaired, as simulate says it
         print("\n".join(format_import(p.extra["import"])))
     print(format_table(result))
+    for line in _missed(result, names, planned=case.reference is None):
+        print(line)
     for line in tracker_notes(case.reference is not None, names):
         print(f"nhsim compare: {line}", file=sys.stderr)
     failed = [r.exception for r in result.runs if r.exception is not None]
@@ -195,6 +198,37 @@ def run(args: argparse.Namespace) -> int:
     if failed:  # the first failure is the command's error line
         raise failed[0]
     return 1 if result.ended_early() else 0
+
+
+#: The comparison's columns (:data:`sim.tools.compare.COLUMNS`) of the metrics ``simulate`` judges its closed loop by.
+JUDGED = {
+    "final_position_error_m": "final_m",
+    "rms_position_error_m": "rms_m",
+    "final_heading_error_rad": "final_heading_rad",
+}
+
+
+def _missed(result: Any, names: Sequence[str], *, planned: bool) -> list[str]:
+    """One line per feedback tracker whose mean errors miss the targets ``simulate`` judges its closed loop by
+    (:func:`sim.pipeline.sweep.closed_loop_targets`): a table of 1.6 m errors said nothing, and the note on a tracker
+    that trails the reference quoted its 2-5 cm."""
+    from sim.pipeline.runs import RunKind
+    from sim.pipeline.sweep import closed_loop_targets
+
+    targets = closed_loop_targets(result.prepared.scenario, planned=planned)
+    lines = []
+    for name in names:
+        s = result.summary(name)
+        if RunKind.of_tracker(name) is RunKind.OPEN_LOOP:  # no feedback: its drift is the point, not a miss
+            continue
+        missed = [
+            f"{key} {s[JUDGED[key]]:.4g} > {bound:g}"
+            for key, bound in targets.items()
+            if not s.get(JUDGED[key], 0.0) <= bound
+        ]
+        if missed:
+            lines.append(f"{name} missed the targets simulate judges a closed loop by: {', '.join(missed)}")
+    return lines
 
 
 def _write(result: Any, outputs: dict[str, Path], *, overwrite: bool) -> None:

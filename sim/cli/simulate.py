@@ -316,6 +316,21 @@ def _add_record_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="print only the results table; no progress bars")
 
 
+def _latency_note(result: Any, perturbation: Any) -> list[str]:
+    """The latency the runs applied, when it is not the one asked for: a command waits a whole number of physics
+    steps (``--perturb latency=0.001`` ran as none, and the record kept 0.001)."""
+    if perturbation is None or not perturbation.latency:
+        return []
+    meta = next(iter(result.runs.values())).log.meta
+    applied, step = meta.get("latency_applied_s"), meta.get("timestep_s")
+    if applied is None or abs(applied - perturbation.latency) <= 1e-12:
+        return []
+    return [
+        f"latency={perturbation.latency:g} s is applied as {applied:g} s: a command waits a whole number of the "
+        f"physics' {step * 1e3:g} ms steps (the runs' latency_applied_s)"
+    ]
+
+
 def _build_line(record: dict[str, Any]) -> str:
     b = record.get("as_built") or {}
     if record.get("build_seed") is None:
@@ -761,6 +776,8 @@ def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
             + (f" | perturbed {perturbation.label()}" if perturbation else "")
         )
         print(f"{_build_line(record)} | {_sensor_line(record)}")
+        for line in _latency_note(result, perturbation):
+            print(f"nhsim simulate: {line}", file=sys.stderr)
         if "import" in record:
             print("\n".join(format_import(record["import"])))
     print(format_table(record))

@@ -362,6 +362,8 @@ class Simulator:
             info["balance_rate_hz"] = self.balance.rate
         if pert is not None:
             info["perturbation"] = pert.as_dict()
+            if pert.latency:  # a whole number of physics steps: 1 ms at 2 ms steps is none
+                info["latency_applied_s"] = pert.latency_steps(timestep) * timestep
         info.update(meta or {})
         return info
 

@@ -152,6 +152,9 @@ class JobResult:
         pert = self.case.perturbation
         if pert is not None and not pert.is_nominal:
             extra["perturbation"] = pert.as_dict()
+            applied = next(iter(self.runs.values())).log.meta.get("latency_applied_s")
+            if applied is not None:  # a whole number of physics steps (the asked-for latency is the perturbation's)
+                extra["perturbation"]["latency_applied_s"] = applied
         return extra
 
     def record(self) -> dict[str, Any]:
