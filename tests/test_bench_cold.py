@@ -46,6 +46,18 @@ def test_the_table_shows_the_simplification_beside_the_reported_time_and_judges_
     )
 
 
+def test_a_world_without_a_plan_misses_whatever_its_times() -> None:
+    """An infeasible plan (a world of obstacles scaled up four times) was judged on its time alone and "met"
+    both targets; a world of at most 20 obstacles is there to be planned, so no plan is a miss."""
+    from sim.tools.bench.cold import passed
+
+    for status in ("infeasible", "bounds_violated", "timeout"):
+        row = _row(status=status)
+        assert row.targets[0] == f"a plan ({status}) MISSED" and not passed([row])
+    assert passed([_row()]) and not any("a plan" in t for t in _row().targets)
+    assert not any("a plan" in t for t in _row(obstacles=2000, size_m=20.0, status="timeout").targets)
+
+
 def test_a_fresh_process_keeps_the_users_path_and_a_failure_says_why(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

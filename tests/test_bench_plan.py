@@ -320,9 +320,12 @@ def test_markdown_is_stamped_and_never_overwritten(
     cli.add_arguments(p)
     out = tmp_path / "plan.md"
     argv = ["--seeds", "1", "--budget", "0.2", "--scenarios", "disc10", "--no-wheel", "--markdown", str(out)]
+    monkeypatch.setattr(sys, "argv", ["/somewhere/bin/nhsim", "bench", "plan", *argv])
     assert cli.run(p.parse_args(argv)) == 0
     text = out.read_text()
     assert "2 cores" in text or "cores" in text.splitlines()[0]
+    # the command as given: the problems, planners and goal a page was measured on (it named seeds and budget only)
+    assert f"`nhsim bench plan --seeds 1 --budget 0.2 --scenarios disc10 --no-wheel --markdown {out}`" in text
     assert "load average" in text.splitlines()[0] and "commit" in text.splitlines()[0]
     assert "| disc10 |" in text
     out.write_text("keep")

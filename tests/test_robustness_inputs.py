@@ -178,7 +178,7 @@ def test_the_mujoco_gl_values_mujoco_takes_are_left_to_it(value: str, monkeypatc
     ("argv", "message"),
     [
         (["--seeds", "0"], "--seeds must be an integer >= 1, got 0"),
-        (["--budget", "-1"], "--budget must be a finite number > 0 (s), got -1.0"),
+        (["--budget", "-1"], "--budget must be a finite number in (0, 3600] (s), got -1.0"),
         (["--optimal", "RRT"], "unknown OMPL planner(s) RRT for --optimal"),
     ],
 )

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path, PurePath
 from typing import Any
 
@@ -31,6 +31,39 @@ def check_at_least(counts: dict[str, tuple[int, int]]) -> None:
     ``counts`` maps a flag (``"--repeats"``) to ``(value, least)``."""
     for flag, (value, least) in counts.items():
         check_number(flag, value, integer=True, at_least=least)
+
+
+#: Most seeded random worlds a bench takes (each one is planned, by every planner it races, before any row is
+#: printed: 10^8 of them grew the process by hundreds of MB without a line).
+MOST_WORLDS = 1000
+
+
+def check_worlds(flag: str, count: int) -> None:
+    """Raise :class:`ConfigError` unless a bench's count of random worlds is in [0, :data:`MOST_WORLDS`]."""
+    check_number(flag, count, integer=True, at_least=0, at_most=MOST_WORLDS, fix="each one is planned before the table")
+
+
+def check_once(flag: str, names: Sequence[str] | None) -> None:
+    """Raise :class:`ConfigError` when a list option names one item twice: a bench's problem or planner given twice
+    is raced twice and weighs twice in its medians (``--scenarios farm farm``)."""
+    seen: set[str] = set()
+    for name in names or ():
+        if name in seen:
+            raise ConfigError(f"{flag} names {name!r} twice; give each once (a repeated one would weigh twice)")
+        seen.add(name)
+
+
+def check_something_to_plan(flag: str, scenarios: Sequence[Any]) -> None:
+    """Raise :class:`ConfigError` for a bench's scenario whose goal is its start (:func:`sim.pipeline.case.
+    nothing_to_plan`): its plan is the start alone, and a ratio of lengths divides by zero there."""
+    from sim.pipeline.case import nothing_to_plan
+
+    for scenario in scenarios:
+        if nothing_to_plan(scenario):
+            raise ConfigError(
+                f"{flag}: scenario {scenario.name!r} has nothing to plan (its goal is its start); drop it, or choose "
+                "a scenario whose goal lies elsewhere"
+            )
 
 
 def check_control_rate(hz: float) -> None:

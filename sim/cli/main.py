@@ -298,11 +298,23 @@ def say_interrupted(text: str) -> None:
             os.close(null)
 
 
+def _command_parser(parser: argparse.ArgumentParser, args: argparse.Namespace) -> argparse.ArgumentParser:
+    """The parser of the command ``args`` ran (a benchmark's for ``bench NAME``), else ``parser`` itself."""
+    for name in (getattr(args, "command", None), getattr(args, "benchmark", None)):
+        sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+        if not name or sub is None or name not in sub.choices:
+            break
+        parser = sub.choices[name]
+    return parser
+
+
 def _main(argv: Sequence[str] | None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     command = named_command(argv)
     parser = build_parser([command] if command is not None else [])
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra:  # said by the command's own parser: "nhsim scenarios: error", with its usage (not "nhsim: error")
+        _command_parser(parser, args).error(f"unrecognized arguments: {' '.join(extra)}")
     if not getattr(args, "command", None):
         parser.print_help()
         return 2

@@ -15,10 +15,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Measure and print one row per problem as it is done; exit 1 when a target is missed."""
-    from sim.cli.checks import check_at_least
+    from sim.cli.checks import check_at_least, check_worlds
     from sim.tools.bench import hybrid as bench
 
-    check_at_least({"--random": (args.random, 0), "--seeds": (args.seeds, 1), "--repeats": (args.repeats, 1)})
+    check_worlds("--random", args.random)
+    check_at_least({"--seeds": (args.seeds, 1), "--repeats": (args.repeats, 1)})
     print(
         f"hybrid-a-star against rrt-star (median length of {args.seeds} seeds, 5000 iterations); "
         f"wall median and CPU least of {args.repeats} runs; clearance {bench.CLEARANCE} m"

@@ -21,12 +21,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when a target is missed."""
     from planning.scenario import load_scenario
-    from sim.cli.checks import check_at_least
+    from sim.cli.checks import check_at_least, check_once, check_something_to_plan
     from sim.tools.bench import optim as bench
 
     check_at_least({"--repeats": (args.repeats, 1)})
-    for name in args.scenarios:  # an unknown name stops here, before anything is printed
-        load_scenario(name)
+    check_once("--scenarios", args.scenarios)
+    # an unknown name stops here, before anything is printed
+    check_something_to_plan("--scenarios", [load_scenario(name) for name in args.scenarios])
     print(
         f"optim: the report's resolution, dt={bench.SEED_DT} (the TurtleBot planning report: N={bench.SEED_N} over "
         f"10 s), against the default's N and dt, over the horizon the default fits to the scenario; median of "

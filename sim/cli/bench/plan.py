@@ -7,7 +7,9 @@ import argparse
 import datetime
 import math
 import os
+import shlex
 import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -155,11 +157,14 @@ def _now() -> str:
 
 
 def _stamp(seeds: int, budget: float, space: str, load: tuple[float, float], commit: str, started: str) -> str:
-    """Dates, commit (at the start), cores and load of a run (for the Markdown output)."""
+    """Dates, commit (at the start), the command as given, the cores this process may use and the load of a run
+    (for the Markdown output): a page reproduced from itself (it named seeds, budget and space only, not the
+    problems, the OMPL planners or the goal)."""
+    command = shlex.join(["nhsim", *sys.argv[1:]])
     return (
-        f"Measured {started} to {_now()}, commit {commit}, {os.cpu_count()} cores, load average {load[0]:.1f} "
-        f"at the start and {load[1]:.1f} at the end; {space}, {seeds} seeds per problem, RRT* budget {budget:g} s. "
-        "Ratios are measured within one command, ours and OMPL's trials interleaved seed by seed."
+        f"Measured {started} to {_now()}, commit {commit}, `{command}`, {len(os.sched_getaffinity(0))} cores, load "
+        f"average {load[0]:.1f} at the start and {load[1]:.1f} at the end; {space}, {seeds} seeds per problem, RRT* "
+        f"budget {budget:g} s. Ratios are measured within one command, ours and OMPL's trials interleaved seed by seed."
     )
 
 
@@ -196,7 +201,7 @@ def settings(args: argparse.Namespace) -> tuple[int, list[str] | None, float, tu
         ConfigError: A count or time out of range, an unknown OMPL planner (naming the option).
     """
     from planning.core.checks import check_number
-    from sim.cli.checks import check_at_least
+    from sim.cli.checks import check_at_least, check_once, check_worlds
     from sim.tools.bench.plan import OPTIMAL
 
     d_seeds, d_names, d_budget, d_optimal = QUICK if args.quick else FULL
@@ -205,8 +210,14 @@ def settings(args: argparse.Namespace) -> tuple[int, list[str] | None, float, tu
     budget: float = d_budget if args.budget is None else args.budget
     optimal = tuple(args.optimal or d_optimal or OPTIMAL)
     check_at_least({"--seeds": (seeds, 1)})
-    for flag, value in (("--budget", budget), ("--ttfs-limit", args.ttfs_limit)):
-        check_number(flag, value, above=0.0, unit="s")
+    check_once("--scenarios", args.scenarios)
+    check_once("--optimal", args.optimal)
+    if args.overwrite and not args.markdown:  # it replaces a --markdown file, and was dropped without a word
+        raise ConfigError("--overwrite replaces the --markdown file, and none is given: drop it, or give --markdown")
+    if args.random_worlds is not None:
+        check_worlds("--random-worlds", args.random_worlds)
+    for flag, value in (("--budget", budget), ("--ttfs-limit", args.ttfs_limit)):  # an hour: a trial's at most
+        check_number(flag, value, above=0.0, at_most=3600.0, unit="s")
     unknown = [n for n in optimal if n not in OPTIMAL]
     if unknown:
         raise ConfigError(

@@ -25,11 +25,14 @@ def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when a target is missed."""
     import numpy as np
 
-    from sim.cli.checks import check_at_least
+    from sim.cli.checks import check_at_least, check_once, check_something_to_plan, check_worlds
     from sim.tools.bench import simplify as bench
 
-    check_at_least({"--seeds": (args.seeds, 1), "--random-worlds": (args.random_worlds, 0)})
+    check_at_least({"--seeds": (args.seeds, 1)})
+    check_worlds("--random-worlds", args.random_worlds)
+    check_once("--scenarios", args.scenarios)
     scenarios = bench.problems(args.scenarios, args.random_worlds)  # an unknown name stops here, before any print
+    check_something_to_plan("--scenarios", scenarios)
     print(
         f"simplified plans against rrt-star's: length <= {bench.LENGTH_TARGET}x, cusps <= rrt-star's + "
         f"{bench.CUSP_SLACK}, simplification <= {1e3 * bench.TIME_TARGET_S:g} ms CPU; clearance {bench.CLEARANCE} m"

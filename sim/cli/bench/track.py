@@ -34,9 +34,11 @@ def mpc_solvers(text: str) -> list[str]:
     """
     from control.mpc import QP_SOLVERS, SOLVERS
     from planning.errors import ConfigError
+    from sim.cli.checks import check_once
     from sim.tools.bench.track import mpc_params
 
     solvers = [s.strip() for s in text.split(",") if s.strip()]
+    check_once("--mpc-solvers", solvers)
     if not solvers:
         raise ConfigError(f"--mpc-solvers {text!r} names no solver; give e.g. --mpc-solvers rti,sqp:qrqp")
     for solver in solvers:
@@ -52,9 +54,11 @@ def mpc_solvers(text: str) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when a tracker's 95th percentile exceeds the control period."""
+    from sim.cli.checks import check_control_rate
     from sim.tools.bench.track import measure
     from sim.tools.compare import check_trackers
 
+    check_control_rate(args.control_rate)  # named as the option (Case.control_rate was said)
     trackers = check_trackers(args.trackers.split(",")) if args.trackers is not None else None
     rows = measure(args.robot, args.reference, trackers, control_rate=args.control_rate,
                    mpc_solvers=mpc_solvers(args.mpc_solvers))  # fmt: skip

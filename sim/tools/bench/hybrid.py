@@ -99,8 +99,10 @@ def measure(world: str, robot: str, sc: Scenario, *, seeds: int = 3, repeats: in
 
 
 def passed(rows: list[HybridRow]) -> bool:
-    """Whether every problem succeeded within the time target (CPU) and the length target."""
-    return all(r.status == "success" and r.cpu_s <= TIME_TARGET_S and r.ratio <= LENGTH_TARGET for r in rows)
+    """Whether every problem succeeded within the time target and the length target. The time judged is the median
+    wall time of the repeats, what a user waits (the benchmarks' index says so; the least CPU time was judged, a
+    gentler number on a loaded machine); the CPU time is printed beside it."""
+    return all(r.status == "success" and r.wall_s <= TIME_TARGET_S and r.ratio <= LENGTH_TARGET for r in rows)
 
 
 def format_rows(rows: list[HybridRow]) -> list[str]:
