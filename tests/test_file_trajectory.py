@@ -121,6 +121,19 @@ def test_a_file_moving_at_its_ends_is_retimed_saying_so_not_naming_an_accelerati
     )
 
 
+def test_a_file_moving_at_its_ends_and_too_fast_says_both(tmp_path: Path) -> None:
+    """A file at 0.5 m/s (about three times the TurtleBot3's limit) that starts and ends moving was re-timed "as it
+    starts moving" only: the speed it asks for is said beside it."""
+    t = np.arange(0.0, 4.01, 0.5)
+    p = write_csv(tmp_path / "fast.csv", {"t": t, "x": 0.5 * t, "y": 0.0 * t, "v": 0.5 + 0.0 * t})
+    imp = read_trajectory_file(TrajectoryFile(p))
+    retime, why, _ = timing_verdict(densify(imp), LIMITS)
+    assert retime and why.startswith("it starts moving") and "too fast for the speed and yaw-rate limits (v +0.5" in why
+    slow = write_csv(tmp_path / "slow.csv", {"t": t, "x": 0.02 * t, "y": 0.0 * t, "v": 0.02 + 0.0 * t})
+    why = timing_verdict(densify(read_trajectory_file(TrajectoryFile(slow))), LIMITS)[1]
+    assert why.startswith("it starts moving") and "too fast" not in why
+
+
 def test_a_turn_in_place_in_a_timed_file_follows_its_headings(tmp_path: Path) -> None:
     t = np.array([0.0, 5.0, 10.0, 12.0, 14.0, 19.0, 24.0])
     rows = np.array(

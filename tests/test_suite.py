@@ -77,9 +77,12 @@ def _check_entry(entry: tuple[str, str, str]) -> None:
             np.testing.assert_array_equal(a.observation[name], b.observation[name], err_msg=name)
     # random actions within the spec for 200 steps: no MuJoCo warning, finite observations, rewards in [0, 1]
     ts = env.reset()
+    rspec = env.reward_spec()  # bounded as the reward is (dm_env's default said an unbounded float)
+    assert (rspec.minimum, rspec.maximum, rspec.shape) == (0.0, 1.0, ())
     for action in _random_actions(env, 200, seed=11):
         ts = env.step(action)
         assert 0.0 <= ts.reward <= 1.0
+        rspec.validate(np.asarray(ts.reward, dtype=np.float64))
         assert all(np.all(np.isfinite(v)) for v in ts.observation.values())
         if ts.last():
             ts = env.reset()

@@ -480,9 +480,14 @@ def timing_verdict(dense: DenseFile, limits: Limits) -> tuple[bool, str, float]:
     dv, dw = np.gradient(dense.v_rows, t), np.gradient(w, t)
     speed_scale, accel_scale = time_scales(v, w, dv, dw, limits)
     curve_scale = time_scales(v, w, np.gradient(v, t), dw, limits)[1]
+    fast = ""  # said beside the first reason too: a file at 3x the speed limit was said to start moving, only
+    if speed_scale > 1.0 + 1e-9:
+        k = fastest_sample(v, w, limits)
+        fast = f"; it is also x{speed_scale:.3g} too fast for the speed and yaw-rate limits (v {v[k]:+.3g} m/s at t = "
+        fast += f"{t[k]:.2f} s)"
     if abs(v[0]) > 1e-3 or abs(v[-1]) > 1e-3:
         end, value = ("starts", v[0]) if abs(v[0]) > 1e-3 else ("ends", v[-1])
-        return True, f"it {end} moving ({value:+.3f} m/s) and the robot starts and ends at rest", 1.0
+        return True, f"it {end} moving ({value:+.3f} m/s) and the robot starts and ends at rest{fast}", 1.0
     if accel_scale > max(speed_scale, np.sqrt(1.0 + ROUNDING)):
         (t_first, v_first), (t_last, v_last) = dense.end_rows
         ends_at = (("starts", v_first, "first"), ("ends", v_last, "last"))
@@ -494,7 +499,7 @@ def timing_verdict(dense: DenseFile, limits: Limits) -> tuple[bool, str, float]:
             dv, dw = np.where(inside, dv, 0.0), np.where(inside, dw, 0.0)
             if time_scales(v, w, dv, dw, limits)[1] <= max(speed_scale, np.sqrt(1.0 + ROUNDING)):
                 ends, speeds = " and ".join(m[0] for m in moving), ", ".join(m[1] for m in moving)
-                return True, f"it {ends} moving ({speeds}){AT_REST}", 1.0
+                return True, f"it {ends} moving ({speeds}){AT_REST}{fast}", 1.0
         ka, kw = int(np.argmax(np.abs(dv))), int(np.argmax(np.abs(dw)))
         if abs(dv[ka]) / limits.max_accel >= abs(dw[kw]) / limits.max_yaw_accel:
             what, k, peak, unit, limit = "acceleration", ka, abs(dv[ka]), "m/s^2", limits.max_accel

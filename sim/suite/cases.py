@@ -19,7 +19,7 @@ from sim.physics.simulator import SimConfig
 from sim.pipeline.case import Case, PreparedTrajectory, load_case_scenario, plan_case, prepare_trajectory
 from sim.pipeline.simulate import simulator_for
 from sim.pipeline.sweep import precondition_not_met, sweep_cases
-from sim.suite.env import Physics, TrackingTask
+from sim.suite.env import Physics, TrackingEnvironment, TrackingTask
 
 
 class NotApplicableError(ConfigError):
@@ -135,4 +135,4 @@ def load(
         prepared, simulator, prepared.case.sensing(prepared.scenario), hold=prepared.hold, control_rate=control_rate
     )
     physics = Physics.from_model(core.MjModel(simulator.model))
-    return control.Environment(physics, task, n_sub_steps=task.k_ctrl, legacy_step=False)
+    return TrackingEnvironment(physics, task, n_sub_steps=task.k_ctrl, legacy_step=False)

@@ -157,6 +157,15 @@ class Physics(dm_mujoco.Physics):
             ep.physics.advance(ep.k)
 
 
+class TrackingEnvironment(control.Environment):  # type: ignore[misc]
+    """dm_control's environment of a :class:`TrackingTask`, its reward spec bounded as the reward is: a scalar in
+    [0, 1] (dm_env's default spec said an unbounded float)."""
+
+    def reward_spec(self) -> specs.BoundedArray:
+        """A float64 scalar in [0, 1] (:meth:`TrackingTask.get_reward`)."""
+        return specs.BoundedArray(shape=(), dtype=np.float64, minimum=0.0, maximum=1.0, name="reward")
+
+
 class TrackingTask(control.Task):  # type: ignore[misc]
     """Track a prepared trajectory with the robot's own sensors.
 
