@@ -177,3 +177,35 @@ def test_bench_montecarlo_refuses_more_workers_than_the_cores_it_may_use(
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0})
     assert main(["bench", "montecarlo", "--workers", "2"]) == 2
     assert "--workers 2 on 1 core(s) this process may use: the throughput target" in capsys.readouterr().err
+
+
+def test_bench_simplify_adds_random_worlds_beside_named_scenarios_as_bench_plan_does(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """``bench simplify --scenarios farm --random-worlds 2`` dropped the random worlds without a word (bench plan adds
+    them); they are added now, and without --random-worlds a named list gets none (six without a list)."""
+    import sim.tools.bench.simplify as bench
+
+    assert [p.name for p in bench.problems(["farm"], 2)] == ["farm", "random0", "random1"]
+    asked: list[tuple[object, int]] = []
+
+    def stop(names: object, randoms: int) -> list[object]:
+        asked.append((names, randoms))
+        raise KeyboardInterrupt  # nothing measured
+
+    monkeypatch.setattr(bench, "problems", stop)
+    for argv in (["--scenarios", "farm"], ["--scenarios", "farm", "--random-worlds", "2"], []):
+        assert main(["bench", "simplify", *argv]) == 130  # the interrupt, said as one
+    assert asked == [(["farm"], 0), (["farm"], 2), (None, 6)]
+
+
+def test_bench_render_says_when_the_replay_has_fewer_frames_than_asked(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--frames 100000`` ran the replay's 1248 frames and printed "1248 frames" without a word of the cap."""
+    import sim.tools.bench.render as bench
+
+    result = bench.RenderBench(640, 480, "fast", "overview", 1248, 1, 10.0, 12.0, True, 10.0, 12.0, 1.0)
+    monkeypatch.setattr(bench, "measure", lambda *args: result)
+    main(["bench", "render", "--frames", "100000", "--repeats", "1"])
+    assert "1248 frames (of the 100000 asked for: the replay has no more)" in capsys.readouterr().out

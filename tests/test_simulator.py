@@ -285,3 +285,20 @@ def test_a_tracker_made_for_another_robot_is_refused() -> None:
     traj = make_reference("line", robot, Pose2D(0, 0, 0))
     with pytest.raises(ConfigError, match=r"tracker 'fbl' was made for robot 'edumip', but this simulator runs"):
         Simulator(robot).run(traj, make_tracker("fbl", load_robot("edumip")))
+
+
+def test_the_record_says_what_the_robot_cannot_follow_in_its_trajectory() -> None:
+    """The runs warned on stderr of a trajectory whose poses do not follow its velocities, and the JSON record stayed
+    clean; its ``trajectory.infeasible`` says it now (null for what nhsim times itself)."""
+    import dataclasses
+
+    from sim.physics.simulator import InfeasibleReferenceWarning
+    from sim.pipeline.case import Case, prepare_trajectory
+    from sim.pipeline.simulate import track
+
+    prepared = prepare_trajectory(Case("open", robot="edumip", reference="line"))
+    assert track(prepared, "open_loop").record()["trajectory"]["infeasible"] is None
+    jumped = dataclasses.replace(prepared, trajectory=_line(0.1, jump=0.5))
+    with pytest.warns(InfeasibleReferenceWarning):
+        record = track(jumped, "open_loop").record()
+    assert record["trajectory"]["infeasible"].startswith("its poses do not follow its velocities (at t=")

@@ -26,6 +26,7 @@ from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
 from planning.planners.registry import PLANNERS
 from planning.scenario import Scenario
+from planning.trajectory.from_plan import infeasibility
 from planning.trajectory.importer import TrajectoryFile
 from planning.trajectory.trajectory import Trajectory
 from sim.physics.asbuilt import AsBuilt
@@ -170,6 +171,9 @@ class JobResult:
                 "name": self.trajectory.name,
                 "duration_s": self.trajectory.duration,
                 "length_m": self.trajectory.path_length(),
+                # what the robot cannot follow in it (saturated inputs, poses its velocities do not lead to), as the
+                # runs warned on stderr; null for none (it was said on stderr only, the record clean)
+                "infeasible": infeasibility(self.trajectory, self.robot) or None,
             },
             "tracker": main.tracker,
             # the FBL's gains where the tracker takes them; null for one with its own parameters (mpc, rpp, ...)

@@ -24,8 +24,9 @@ def run(args: argparse.Namespace) -> int:
     from sim.tools.bench.render import TARGET_FPS, TARGET_RATIO, measure
 
     r = measure(args.size, args.camera, args.quality, args.frames, args.repeats)
+    capped = f" (of the {args.frames} asked for: the replay has no more)" if r.frames < args.frames else ""
     print(
-        f"{r.width}x{r.height}, {r.quality} look, {r.camera} camera, GL {backend}, {r.frames} frames, "
+        f"{r.width}x{r.height}, {r.quality} look, {r.camera} camera, GL {backend}, {r.frames} frames{capped}, "
         f"best of {r.repeats}"
     )
     print(f"bare Renderer loop       {r.bare_fps:>8.1f} frames/s   (update_scene + render)")

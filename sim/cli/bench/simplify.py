@@ -16,7 +16,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="scenarios (built-in names or randomN; default: every built-in one with start != goal, "
         "and the random worlds)",
     )
-    p.add_argument("--random-worlds", type=int, default=6, metavar="N", help="random worlds random0.. (default: 6)")
+    p.add_argument(
+        "--random-worlds",
+        type=int,
+        default=None,
+        metavar="N",
+        help="add seeded random worlds random0.. (default: 6 without --scenarios, else 0)",
+    )
     p.add_argument("--seeds", type=int, default=1, metavar="N", help="planner seeds per problem (default: 1)")
     p.add_argument("--no-trajectories", action="store_true", help="skip the simulate --all trajectories (plans only)")
 
@@ -29,9 +35,10 @@ def run(args: argparse.Namespace) -> int:
     from sim.tools.bench import simplify as bench
 
     check_at_least({"--seeds": (args.seeds, 1)})
-    check_worlds("--random-worlds", args.random_worlds)
+    randoms = args.random_worlds if args.random_worlds is not None else (6 if args.scenarios is None else 0)
+    check_worlds("--random-worlds", randoms)
     check_once("--scenarios", args.scenarios)
-    scenarios = bench.problems(args.scenarios, args.random_worlds)  # an unknown name stops here, before any print
+    scenarios = bench.problems(args.scenarios, randoms)  # an unknown name stops here, before any print
     check_something_to_plan("--scenarios", scenarios)
     print(
         f"simplified plans against rrt-star's: length <= {bench.LENGTH_TARGET}x, cusps <= rrt-star's + "

@@ -86,8 +86,8 @@ class PlanRow:
 
 def problems(names: list[str] | None, random_worlds: int) -> list[Any]:
     """The scenarios of the benchmark: ``names`` (built-in scenario names or ``random<N>``), or by
-    default every built-in scenario whose start differs from its goal and ``random0`` ..
-    ``random<random_worlds - 1>`` for the TurtleBot3."""
+    default every built-in scenario whose start differs from its goal; then ``random0`` ..
+    ``random<random_worlds - 1>`` for the TurtleBot3 (``--random-worlds`` was dropped beside ``--scenarios``)."""
     from planning.scenario import builtin_scenarios, load_scenario, random_scenario
 
     def one(name: str) -> Any:
@@ -95,12 +95,13 @@ def problems(names: list[str] | None, random_worlds: int) -> list[Any]:
             return random_scenario("turtlebot3", int(name[6:]))
         return load_scenario(name)
 
+    randoms = [random_scenario("turtlebot3", s) for s in range(random_worlds)]  # beside names too, as bench plan has it
     if names is not None:
-        return [one(n) for n in names]
+        return [one(n) for n in names] + randoms
     out = [
         sc for sc in map(load_scenario, builtin_scenarios()) if sc.start.distance_to(sc.goal) > sc.position_tolerance
     ]
-    return out + [random_scenario("turtlebot3", s) for s in range(random_worlds)]
+    return out + randoms
 
 
 def _plan(scenario: Any, planner: str, seed: int) -> Any:
