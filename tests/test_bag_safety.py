@@ -114,6 +114,8 @@ def test_a_bag_inside_a_bag_is_refused(
         ["plan", "--scenario", "simple_motion", "--json", "old/p.json"],
         ["compare", "--reference", "line", "--trackers", "fbl", "--json", "old/c.json"],
         ["simulate", "--all", "--scenario", "simple_motion", "--json", "old/all.json"],
+        # regress --update's baselines into a bag: its --baselines folder was not checked
+        ["regress", "--case", "open-turtlebot3-line-fbl-s0", "--baselines", "old/bl", "--update"],
     ],
 )
 def test_an_output_inside_a_bag_is_refused(

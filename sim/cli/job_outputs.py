@@ -568,7 +568,7 @@ def _map_yaml_image(given: str, yaml_path: Path) -> list[tuple[str, Path]]:
     return [(f"{given}, {os.path.normpath(image)})", image)]
 
 
-def _refuse_inside_a_bag(out: Path, target: Path) -> None:
+def refuse_inside_a_bag(out: Path, target: Path) -> None:
     """Refuse a file output ``out`` (``target``, its symlinks resolved) inside a rosbag2 bag folder: a bag holds its
     own files only (one of nhsim's holding a record and plots written into it later was refused by ``--bag
     --overwrite`` as holding files "nhsim did not write"). The bag module is imported only where a folder above holds
@@ -605,7 +605,7 @@ def check_apart_from_inputs(args: argparse.Namespace, files: Iterable[Path], bag
                     f"the output {out} {where} the input {given}: writing it would change what the command reads; "
                     "choose another output path"
                 )
-        _refuse_inside_a_bag(out, target)
+        refuse_inside_a_bag(out, target)
     if bag is None:
         return
     folder = resolved(bag)

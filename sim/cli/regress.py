@@ -201,7 +201,7 @@ def check_baselines(
         ConfigError: Naming the folder (or the baseline and the input) and the fix.
     """
     from planning.errors import ConfigError
-    from sim.cli.job_outputs import scenario_inputs
+    from sim.cli.job_outputs import refuse_inside_a_bag, scenario_inputs
     from sim.outputs import check_writable, resolved
     from sim.tools.regress import baseline_path, read_baselines
 
@@ -213,6 +213,7 @@ def check_baselines(
             path = baseline_path(case, baselines)
             if path.is_dir():  # the file's name is the case's: the folder must go
                 raise ConfigError(f"case {case.name}'s baseline {path} is a folder; move or remove it, then update")
+            refuse_inside_a_bag(path, resolved(path))  # a bag holds its own files only, as for every output
             for what, source in inputs:  # a gains file named <case>.json in the folder was replaced, exit 0
                 if resolved(path) == resolved(source):
                     raise ConfigError(
