@@ -763,3 +763,14 @@ def test_an_integer_too_large_for_a_float_is_refused_as_not_a_finite_number(tmp_
     trajectory.write_text(json.dumps({"t": [0, 1, 2], "x": [0, huge, 0.2], "y": [0, 0, 0]}))
     with pytest.raises(ConfigError, match=r"column 'x': an integer of 401 digits is not a finite number"):
         read_table(trajectory)
+
+
+def test_a_video_beyond_h264_level_5_2_is_refused_naming_the_largest_that_fits() -> None:
+    """4096x4096 at 30 frames/s and 4096x2304 at 60 were encoded at level 6.0 (read from the MP4's avcC box), which
+    hardware decoders and some browsers refuse; the sizes and rates of level 5.2 pass."""
+    assert RenderSettings(width=4096, height=2304, fps=30.0).width == 4096
+    assert RenderSettings(width=3840, height=2160, fps=60.0).fps == 60.0
+    with pytest.raises(ConfigError, match=r"video size 4096x4096 is 65536 macroblocks .* level 5\.2's 36864"):
+        RenderSettings(width=4096, height=4096, fps=30.0)
+    with pytest.raises(ConfigError, match=r"60 frames/s at 4096x2304 is 2211840 macroblocks a second.* --fps 56 "):
+        RenderSettings(width=4096, height=2304, fps=60.0)

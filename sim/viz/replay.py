@@ -114,10 +114,35 @@ class RenderSettings:
             object.__setattr__(self, name, v)  # a numpy integer as a plain one
         fps = check_number(option("fps"), self.fps, at_least=1.0, at_most=240.0, unit="frames/s")
         object.__setattr__(self, "fps", fps)
+        self._check_level()
         if self.camera not in CAMERAS:
             raise ConfigError(f"unknown camera {self.camera!r}: choose one of {', '.join(CAMERAS)}")
         if self.quality not in QUALITIES:
             raise ConfigError(f"unknown quality {self.quality!r}: choose one of {', '.join(QUALITIES)}")
+
+    def _check_level(self) -> None:
+        """Refuse a size and frame rate beyond H.264 level 5.2 (:data:`LEVEL_52_FRAME_MBS`, :data:`LEVEL_52_MBS_PER_S`),
+        naming the largest that fit."""
+        mbs = math.ceil(self.width / 16) * math.ceil(self.height / 16)
+        if mbs > LEVEL_52_FRAME_MBS:
+            raise ConfigError(
+                f"video size {self.width}x{self.height} is {mbs} macroblocks of 16x16 pixels a frame, more than H.264 "
+                f"level 5.2's {LEVEL_52_FRAME_MBS} (4096x2304, 3840x2160), above which players may refuse the MP4; "
+                f"give a smaller {option('size', 'WIDTHxHEIGHT', python='RenderSettings.width, .height')}"
+            )
+        if mbs * self.fps > LEVEL_52_MBS_PER_S:
+            most = LEVEL_52_MBS_PER_S // mbs
+            raise ConfigError(
+                f"{self.fps:g} frames/s at {self.width}x{self.height} is {mbs * self.fps:.0f} macroblocks a second, "
+                f"more than H.264 level 5.2's {LEVEL_52_MBS_PER_S}, above which players may refuse the MP4; give "
+                f"{option('fps', most)} or fewer, or a smaller {option('size', 'WIDTHxHEIGHT')}"
+            )
+
+
+#: H.264 level 5.2's limits (ITU-T H.264 Table A-1): macroblocks of 16 x 16 pixels a frame, and a second. Above
+#: them x264 writes level 6.x (4096x2304 at 60 frames/s, 4096x4096 at 30: measured), which hardware decoders and
+#: some browsers refuse; the MP4 is meant to play anywhere.
+LEVEL_52_FRAME_MBS, LEVEL_52_MBS_PER_S = 36_864, 2_073_600
 
 
 def set_camera(camera: mujoco.MjvCamera, params: FloatArray) -> None:
