@@ -709,3 +709,26 @@ def test_a_display_that_cannot_be_opened_is_told_to_render_headless(monkeypatch:
     assert "the display (:99) cannot be used; render without it: --gl " + usable[0] in said
     assert "apt-get install" not in said
     assert "apt-get install libosmesa6" in gl.unavailable_message("osmesa", RuntimeError("no library"))
+
+
+STALE_DISPLAY = """
+import mujoco
+from sim.viz.renderer import SceneRenderer
+from planning.errors import DependencyError
+try:
+    SceneRenderer(mujoco.MjModel.from_xml_string("<mujoco/>"), 64, 48)
+except DependencyError as exc:
+    print("refused:", str(exc)[:60])
+"""
+
+
+def test_a_display_that_cannot_be_opened_is_said_once_without_glfws_warnings() -> None:
+    """GLFW's warnings ("GLFWError: (65550) b'X11: Failed to open display :99'", with Python's file and line) came
+    before the one message that says the display cannot be used; only that message is left."""
+    if not sys.platform.startswith("linux"):
+        pytest.skip("GLFW on X11 is Linux's")
+    env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM", "WAYLAND_DISPLAY")}
+    env.update(DISPLAY=":99", MUJOCO_GL="glfw", PYTHONPATH=str(Path(__file__).resolve().parents[1]))
+    out = subprocess.run([sys.executable, "-c", STALE_DISPLAY], env=env, capture_output=True, text=True)
+    assert out.stdout.startswith("refused: cannot create an OpenGL context with the glfw backend"), out
+    assert "GLFWError" not in out.stderr and "warnings.warn" not in out.stderr, out.stderr

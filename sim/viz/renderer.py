@@ -9,6 +9,7 @@ display by default, or disabled) either gets the headless default or raises one
 from __future__ import annotations
 
 import copy
+import warnings
 from typing import ClassVar
 
 import mujoco
@@ -73,7 +74,9 @@ class SceneRenderer:
             model.vis.quality.numstacks = min(model.vis.quality.numstacks, FAST_STACKS)
         self.model = model
         try:
-            with gl.contexts_for(backend):
+            with gl.contexts_for(backend), warnings.catch_warnings():
+                # GLFW warns of a display it cannot open, with Python's file and line, before the error says so
+                warnings.filterwarnings("ignore", module="glfw")
                 self.renderer = mujoco.Renderer(model, height=height, width=width, max_geom=max_geom)
         except Exception as exc:  # the GL libraries raise many types: ImportError, OSError, FatalError ...
             raise DependencyError(gl.unavailable_message(backend, exc)) from exc
