@@ -47,6 +47,7 @@ from sim.cli.main import main
         # a goal at the start: simplify divided by zero (a traceback after its rows), optim said "inf %" and missed
         (["simplify", "--scenarios", "farm", "open"], "--scenarios: scenario 'open' has nothing to plan (its goal is"),
         (["optim", "--scenarios", "open"], "--scenarios: scenario 'open' has nothing to plan"),
+        (["plan", "--scenarios", "open", "--no-wheel"], "--scenarios: scenario 'open' has nothing to plan"),
     ],
 )
 def test_a_bad_count_or_time_is_refused_naming_the_flag(

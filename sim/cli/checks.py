@@ -54,8 +54,9 @@ def check_once(flag: str, names: Sequence[str] | None) -> None:
 
 
 def check_something_to_plan(flag: str, scenarios: Sequence[Any]) -> None:
-    """Raise :class:`ConfigError` for a bench's scenario whose goal is its start (:func:`sim.pipeline.case.
-    nothing_to_plan`): its plan is the start alone, and a ratio of lengths divides by zero there."""
+    """Raise :class:`ConfigError` for a bench's scenario (or planning problem: its ``start``, ``goal`` and ``name``)
+    whose goal is its start (:func:`sim.pipeline.case.nothing_to_plan`): its plan is the start alone, and a ratio
+    of lengths divides by zero there."""
     from sim.pipeline.case import nothing_to_plan
 
     for scenario in scenarios:

@@ -230,6 +230,7 @@ def run(args: argparse.Namespace) -> int:
     """Measure and print; exit 1 when a target is missed, 0 with a note when OMPL C++ is unavailable."""
     from pathlib import Path
 
+    from sim.cli.checks import check_something_to_plan
     from sim.outputs import atomic_path, check_writable
     from sim.tools.bench.ompl_native import build
     from sim.tools.bench.plan import measure, problems, wheel_available
@@ -239,6 +240,7 @@ def run(args: argparse.Namespace) -> int:
         check_writable(Path(args.markdown), overwrite=args.overwrite)
     randoms = args.random_worlds if args.random_worlds is not None else (3 if names is None else 0)
     probs = problems(names, randoms)
+    check_something_to_plan("--scenarios", probs)  # a length ratio divided by zero after the race
     load0, commit, started = os.getloadavg()[0], _commit(), _now()
     why = build.missing()
     harness = build.harness() if why is None else None
