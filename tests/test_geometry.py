@@ -1,3 +1,6 @@
+import math
+import warnings
+
 import numpy as np
 import pytest
 
@@ -23,6 +26,10 @@ def test_wrap_angle_range_and_identity() -> None:
     below = np.nextafter(-np.pi, -4.0)
     assert -np.pi <= wrap_angle(below) < np.pi
     assert np.all(wrap_angle(np.array([below, below - 2 * np.pi, 3 * np.pi])) < np.pi)
+    # an infinity has no direction: NaN, as NaN is, without numpy's "invalid value encountered" warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert math.isnan(wrap_angle(math.inf)) and np.isnan(wrap_angle(np.array([-np.inf, np.nan]))).all()
 
 
 def test_pose_validation_and_helpers() -> None:

@@ -28,8 +28,8 @@ def wrap_angle(angle: float | FloatArray) -> float | FloatArray:
         angle: Angle(s) [rad], scalar or array of any shape.
 
     Returns:
-        The wrapped angle(s): a float for a scalar, else a float64 array of the input's shape (NaN stays NaN: no
-        angle to wrap).
+        The wrapped angle(s): a float for a scalar, else a float64 array of the input's shape (NaN stays NaN, and an
+        infinity is NaN: no angle to wrap; without numpy's "invalid value" warning, which named no caller).
 
     Raises:
         ConfigError: ``angle`` is not numbers (a string, None).
@@ -42,11 +42,15 @@ def wrap_angle(angle: float | FloatArray) -> float | FloatArray:
         raise ConfigError(
             f"wrap_angle takes angles in radians (numbers), got {type(angle).__name__} {angle!r:.60}"
         ) from None
-    wrapped = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
     # just below -pi, a + pi is a few ulps under 0, whose modulus rounds to 2 pi: pi, outside [-pi, pi)
-    if np.ndim(wrapped) == 0:
-        w = float(wrapped)
+    if a.ndim == 0:  # Python's float modulus is numpy's (the same fmod and sign rule), without its call's cost
+        x = float(a)
+        if not math.isfinite(x):  # an infinity has no direction: NaN, as NaN is
+            return math.nan
+        w = (x + math.pi) % (2.0 * math.pi) - math.pi
         return w - 2.0 * math.pi if w >= math.pi else w
+    with np.errstate(invalid="ignore"):  # an infinity: NaN, without numpy's "invalid value" warning
+        wrapped = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
     return np.where(wrapped >= np.pi, wrapped - 2.0 * np.pi, wrapped)
 
 
