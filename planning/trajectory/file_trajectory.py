@@ -191,12 +191,17 @@ def row_speeds(imported: ImportedFile, tg: FloatArray, v: FloatArray) -> FloatAr
     return np.asarray(np.interp(tg, knots, np.concatenate([v[:1], u, v[-1:]])))
 
 
+def _spans(mask: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """The first indices and the ends of ``mask``'s runs of True: runs ``[a[k], b[k])``, in order."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(int), [0]])))
+    return edges[::2], edges[1::2]
+
+
 def _steady(mask: NDArray[np.bool_], tg: FloatArray, value: bool) -> NDArray[np.bool_]:
     """``mask`` (M,) with its runs of ``not value`` shorter than HEADING_WINDOW (between runs of
     ``value``) set to ``value``: a speed hovering about MOVING_SPEED neither stops a drive for a sample
     nor starts one."""
-    edges = np.flatnonzero(np.diff(np.concatenate([[1], (mask != value).astype(int) ^ 1, [1]])))
-    a, b = edges[::2], edges[1::2]  # runs [a, b) of not value
+    a, b = _spans(mask != value)  # runs [a, b) of not value
     short = (tg[b - 1] - tg[a] < HEADING_WINDOW) & (a > 0) & (b < tg.size)
     mark = np.zeros(tg.size + 1, dtype=np.int64)
     np.add.at(mark, a[short], 1)
@@ -255,8 +260,7 @@ def _creeping(moving: NDArray[np.bool_], tg: FloatArray, xy: FloatArray) -> NDAr
         tg: (M,) times [s].
         xy: (M, 2) positions [m].
     """
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], (~moving).astype(int), [0]])))
-    a, b = edges[::2], edges[1::2]  # standing runs [a, b)
+    a, b = _spans(~moving)  # standing runs [a, b)
     i, j = np.maximum(a - 1, 0), np.minimum(b, tg.size - 1)
     creep = np.hypot(*(xy[j] - xy[i]).T) >= 0.5 * MOVING_SPEED * (tg[j] - tg[i])
     creep &= tg[j] > tg[i]
@@ -371,8 +375,7 @@ def _held_at_turning_points(xy: FloatArray, turn: NDArray[np.bool_], speed: Floa
     sample (``speed`` (M,)): the robot stands there while it turns (a few millimetres of the curve's
     ``HEADING_LENGTH`` about the point)."""
     out = xy.copy()
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], turn.astype(int), [0]])))
-    for a, b in zip(edges[::2], edges[1::2], strict=True):
+    for a, b in zip(*_spans(turn), strict=True):
         out[a:b] = xy[a + int(np.argmin(speed[a:b]))]
     return out
 
@@ -399,8 +402,7 @@ def _standing_headings(
         return given if given is not None else np.zeros_like(tg)
     own = _given_heading(imported, tg)
     out = heading.copy()
-    edges = np.flatnonzero(np.diff(np.concatenate([[1], moving.astype(int), [1]])))
-    for a, b in zip(edges[::2], edges[1::2], strict=True):  # standing runs [a, b)
+    for a, b in zip(*_spans(~moving), strict=True):  # standing runs [a, b)
         before, after = (a - 1 if a > 0 else b), (b if b < tg.size else a - 1)
         h0, h1 = heading[before], heading[after]
         w = (tg[a:b] - tg[a]) / max(tg[b - 1] - tg[a], 1e-12)

@@ -102,6 +102,15 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     return p
 
 
+#: The outputs as a refusal of two at one path names them.
+OUTPUT_NAMES = {
+    "json": "--json (the record)",
+    "paths": "--plots (its paths plot)",
+    "errors": "--plots (its errors plot)",
+    "video": "--video",
+}
+
+
 def _outputs(args: argparse.Namespace) -> dict[str, Path]:
     """The files asked for, checked writable before anything runs."""
     from sim.cli.checks import check_file_stem
@@ -118,10 +127,7 @@ def _outputs(args: argparse.Namespace) -> dict[str, Path]:
         out["video"] = Path(args.video)
         check_video_name(out["video"], "--video")
     check_apart_from_inputs(args, out.values(), args.bag)
-    plot = "--plots (its {} plot)"
-    named = {"json": "--json (the record)", "paths": plot.format("paths"), "errors": plot.format("errors")}
-    named["video"] = "--video"
-    check_distinct({named[kind]: path for kind, path in out.items()})
+    check_distinct({OUTPUT_NAMES[kind]: path for kind, path in out.items()})
     for path in out.values():
         check_writable(path, overwrite=args.overwrite)
     if args.bag is not None:

@@ -313,7 +313,7 @@ def _main(argv: Sequence[str] | None) -> int:
     command = named_command(argv)
     parser = build_parser([command] if command is not None else [])
     args, extra = parser.parse_known_args(argv)
-    if extra:  # said by the command's own parser: "nhsim scenarios: error", with its usage (not "nhsim: error")
+    if extra:  # said by the command's own parser: "nhsim scenarios: error" (not "nhsim: error")
         _command_parser(parser, args).error(f"unrecognized arguments: {' '.join(extra)}")
     if not getattr(args, "command", None):
         parser.print_help()

@@ -439,10 +439,10 @@ def _check_bags(folder: Path, overwrite: bool, inputs: list[tuple[str, Path]], o
     (by kind: the results, the summary, its plots), not an input, inside one or holding one where a bag may go
     (``worst-*``), not among the files every run reads, and one holding bags of an earlier study only with
     ``--overwrite`` (which bags the worst runs will be is known only after)."""
-    from sim.outputs import check_folder_for, check_length, check_not_read_by_runs, resolved
+    from sim.io.bag import check_bag_length
+    from sim.outputs import check_folder_for, check_not_read_by_runs, resolved
 
-    worst = "worst-99999"  # a bag of the folder as written (.NAME.XXXXXXXX.part/NAME/NAME.mcap, then renamed)
-    check_length(folder / worst, temporary=(f".{worst}.", ".part"), inner=2 * len(worst) + 8)  # a name too long
+    check_bag_length(folder / "worst-99999")  # the longest a bag of the folder is named: a folder name too long
     if folder.exists() and not folder.is_dir():
         raise ConfigError(f"--bags {folder}: a file of that name exists; give a folder")
     check_not_read_by_runs(folder)

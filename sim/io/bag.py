@@ -99,13 +99,11 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
             moved aside (:func:`_unmovable`: the folder and the fix named), or its parent folder cannot take new
             files.
     """
-    from sim.outputs import check_folder_for, check_length, check_not_read_by_runs
+    from sim.outputs import check_folder_for, check_not_read_by_runs
 
     overwrite = check_flag("overwrite", overwrite)
     path = Path(path)
-    # written as .NAME.XXXXXXXX.part/NAME/ (its storage file NAME.mcap in it) and renamed: a name of 241-255 bytes
-    # passed, and the command failed with a traceback once the whole run was done
-    check_length(path, temporary=(f".{path.name}.", ".part"), inner=2 * len(os.fsencode(path.name)) + 8)
+    check_bag_length(path)
     check_not_read_by_runs(path)
     holder = bag_holding(path)
     if holder is not None:  # a bag holds its own files only: the outer bag would read as not a bag, nor nhsim's
@@ -144,6 +142,20 @@ def check_bag_target(path: Path, *, overwrite: bool) -> None:
                 f"or choose another folder with {option('bag', python='path')}"
             )
     check_folder_for(path)
+
+
+def check_bag_length(path: Path) -> None:
+    """The bag folder ``path``'s name, its temporary one and the paths of its files fit the file system's limits
+    (:func:`sim.outputs.check_length`): a bag is written as ``.NAME.XXXXXXXX.part/NAME/`` (its storage file
+    ``NAME.mcap`` in it) and renamed, and a name of 241-255 bytes passed, the command failing with a traceback once
+    the whole run was done.
+
+    Raises:
+        ConfigError: Naming the length, the limit and the fix.
+    """
+    from sim.outputs import check_length
+
+    check_length(path, temporary=(f".{path.name}.", ".part"), inner=2 * len(os.fsencode(path.name)) + 8)
 
 
 def bag_holding(path: Path) -> Path | None:

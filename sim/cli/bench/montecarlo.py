@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import os
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -24,12 +23,12 @@ def run(args: argparse.Namespace) -> int:
     from planning.errors import ConfigError
     from sim.pipeline.case import Case
     from sim.tools.bench.montecarlo import TARGET_OVERHEAD, TARGET_SPEEDUP, measure
-    from sim.tools.executor import check_workers
+    from sim.tools.executor import check_workers, default_jobs
     from sim.tools.montecarlo import MonteCarloSpec
 
     check_number("--workers", args.workers, integer=True, at_least=2, fix="the bench compares them with one worker")
     check_workers(args.workers, "workers")
-    cores = len(os.sched_getaffinity(0))
+    cores = default_jobs()  # the cores this process may use
     if args.workers > cores:  # on one core two workers share it: x0.82 against the x1.7 target meant nothing
         raise ConfigError(
             f"--workers {args.workers} on {cores} core(s) this process may use: the throughput target (x"

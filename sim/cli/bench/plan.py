@@ -160,9 +160,11 @@ def _stamp(seeds: int, budget: float, space: str, load: tuple[float, float], com
     """Dates, commit (at the start), the command as given, the cores this process may use and the load of a run
     (for the Markdown output): a page reproduced from itself (it named seeds, budget and space only, not the
     problems, the OMPL planners or the goal)."""
+    from sim.tools.executor import default_jobs
+
     command = shlex.join(["nhsim", *sys.argv[1:]])
     return (
-        f"Measured {started} to {_now()}, commit {commit}, `{command}`, {len(os.sched_getaffinity(0))} cores, load "
+        f"Measured {started} to {_now()}, commit {commit}, `{command}`, {default_jobs()} cores, load "
         f"average {load[0]:.1f} at the start and {load[1]:.1f} at the end; {space}, {seeds} seeds per problem, RRT* "
         f"budget {budget:g} s. Ratios are measured within one command, ours and OMPL's trials interleaved seed by seed."
     )

@@ -235,9 +235,11 @@ def format_rows(rows: list[ColdRow]) -> list[str]:
 
 
 def load_note() -> str:
-    """The machine's load averages and cores, to print beside the figures."""
+    """The machine's load averages and the cores this process may use, to print beside the figures."""
+    from sim.tools.executor import default_jobs
+
     one, five, _ = os.getloadavg()
-    return f"load average {one:.1f} (1 min), {five:.1f} (5 min) on {len(os.sched_getaffinity(0))} cores"
+    return f"load average {one:.1f} (1 min), {five:.1f} (5 min) on {default_jobs()} cores"
 
 
 def passed(rows: list[ColdRow]) -> bool:
