@@ -17,6 +17,7 @@ exact checker's on random and near-margin poses.
 from __future__ import annotations
 
 import functools
+import itertools
 
 import numba as nb
 import numpy as np
@@ -322,6 +323,19 @@ def _samples_distance(
 
 
 @nb.njit(cache=True)
+def _holds_anchor(x: float, y: float, c: float, s: float, robot: RobotArrays) -> bool:
+    """Whether an obstacle's anchor lies inside the footprint at (x, y) heading (c, s) = (cos, sin)."""
+    footprint, anchors, radius = robot[1], robot[2], robot[3]
+    for a in range(anchors.shape[0]):
+        dx, dy = anchors[a, 0] - x, anchors[a, 1] - y
+        if dx * dx + dy * dy > (radius + 1e-9) * (radius + 1e-9):
+            continue  # outside the circumscribed disc, so outside the footprint
+        if _anchor_inside(c * dx + s * dy, -s * dx + c * dy, footprint):
+            return True
+    return False
+
+
+@nb.njit(cache=True)
 def pose_clearance(
     x: float, y: float, th: float, world: WorldArrays, robot: RobotArrays, field: FieldArrays, proven_above: float
 ) -> float:
@@ -334,9 +348,9 @@ def pose_clearance(
     world tens of seconds). The other arguments as :func:`exact_free_kernel`'s.
 
     A boundary sample whose grid bound (the node's distance less ``h / sqrt(2)``) already exceeds
-    ``proven_above + tolerance / 2`` is not measured (``np.inf``: every sample is): whether the result
-    exceeds ``proven_above`` is the same, though the result itself may then be larger."""
-    boundary, footprint, anchors, radius, clearance, tol, disc = robot
+    ``proven_above + tolerance / 2`` is not measured: whether the result exceeds ``proven_above`` is the
+    same, though the result itself may then be larger (:func:`measured_clearance` measures it)."""
+    boundary, _, _, radius, clearance, tol, disc = robot
     grid, x0, y0, h = field[0], field[1], field[2], field[3]
     e = h / np.sqrt(2.0)
     centre = field_distance(x, y, world, field)
@@ -355,15 +369,81 @@ def pose_clearance(
                 if grid.size > 0 and grid_lookup(grid, x0, y0, h, px, py) - e - 0.5 * tol > proven_above:
                     continue
                 sd = min(sd, field_distance(px, py, world, field))
-        clr = sd - 0.5 * tol
-        for a in range(anchors.shape[0]):
-            dx, dy = anchors[a, 0] - x, anchors[a, 1] - y
-            if dx * dx + dy * dy > (radius + 1e-9) * (radius + 1e-9):
-                continue  # outside the circumscribed disc, so outside the footprint
-            if _anchor_inside(c * dx + s * dy, -s * dx + c * dy, footprint):
-                clr = -np.inf
-                break
+        clr = -np.inf if _holds_anchor(x, y, c, s, robot) else sd - 0.5 * tol
     return clr
+
+
+#: (centres (G, 2), spreads (G,), starts (G + 1,)): the footprint's boundary samples in runs of consecutive ones
+#: (samples ``starts[g]`` to ``starts[g + 1]``), each with a centre and the distance of its farthest sample from it
+#: (:func:`boundary_groups`).
+Groups = tuple[FloatArray, FloatArray, IntArray]
+
+
+def boundary_groups(boundary: FloatArray) -> Groups:
+    """:data:`Groups` of (M, 2) boundary samples: about sqrt(M) runs of about sqrt(M) samples each (a pose then
+    measures about sqrt(M) centres and the few runs whose bound reaches the least, not all M samples)."""
+    m = boundary.shape[0]
+    size = max(1, round(float(np.sqrt(m))))
+    starts = np.append(np.arange(0, m, size), m).astype(np.int64)
+    runs = [boundary[a:b] for a, b in itertools.pairwise(starts)]
+    centres = np.array([run.mean(axis=0) for run in runs])
+    spreads = np.array([np.hypot(*(run - centre).T).max() for run, centre in zip(runs, centres, strict=True)])
+    return centres.reshape(-1, 2), spreads, starts
+
+
+@nb.njit(cache=True)
+def _grouped_distance(
+    x: float,
+    y: float,
+    c: float,
+    s: float,
+    boundary: FloatArray,
+    groups: Groups,
+    world: WorldArrays,
+    field: FieldArrays,
+    reach: float,
+) -> float:
+    """The least distance [m] of the boundary samples of the footprint at (x, y) heading (c, s), measured as
+    :func:`pose_clearance` measures each (against the field's candidates, or without a field in a world of many
+    obstacles those within ``reach`` of the centre, :func:`_samples_distance`), the same value: a run's samples
+    are at least its centre's distance less its spread away (the distance being 1-Lipschitz), so the runs are
+    measured nearest bound first until the next bound (less :data:`LEAST_MARGIN`) cannot go below the least."""
+    centres, spreads, starts = groups
+    near = field[0].size == 0 and world[2].shape[0] > NEAR_SCAN_OBSTACLES
+    candidates = near_obstacles(x, y, world, reach + 1e-9) if near else np.empty(0, dtype=np.int64)
+    bound = np.empty(spreads.shape[0])
+    for g in range(spreads.shape[0]):
+        gx, gy = x + c * centres[g, 0] - s * centres[g, 1], y + s * centres[g, 0] + c * centres[g, 1]
+        d = candidates_distance(gx, gy, candidates, world) if near else field_distance(gx, gy, world, field)
+        bound[g] = d - spreads[g]
+    sd = np.inf
+    for g in np.argsort(bound):
+        if bound[g] - LEAST_MARGIN > sd:
+            break
+        for b in range(starts[g], starts[g + 1]):
+            px, py = x + c * boundary[b, 0] - s * boundary[b, 1], y + s * boundary[b, 0] + c * boundary[b, 1]
+            sd = min(
+                sd, candidates_distance(px, py, candidates, world) if near else field_distance(px, py, world, field)
+            )
+    return sd
+
+
+@nb.njit(cache=True)
+def measured_clearance(
+    x: float, y: float, th: float, world: WorldArrays, robot: RobotArrays, field: FieldArrays, groups: Groups
+) -> float:
+    """:func:`pose_clearance` with every sample that could be the nearest measured (``proven_above`` infinite),
+    the boundary taken in ``groups`` (:func:`_grouped_distance`: the same value, a few runs measured)."""
+    boundary, _, _, radius, clearance, tol, disc = robot
+    centre = field_distance(x, y, world, field)
+    if not disc and centre < -(radius + tol):
+        return -np.inf
+    if disc or centre > radius + clearance + tol:
+        return centre - radius
+    c, s = np.cos(th), np.sin(th)
+    if _holds_anchor(x, y, c, s, robot):
+        return -np.inf
+    return _grouped_distance(x, y, c, s, boundary, groups, world, field, centre + 2.0 * radius) - 0.5 * tol
 
 
 @nb.njit(cache=True)
@@ -375,11 +455,14 @@ def exact_pose_free(x: float, y: float, th: float, world: WorldArrays, robot: Ro
 
 
 @nb.njit(cache=True)
-def clearances_kernel(poses: FloatArray, world: WorldArrays, robot: RobotArrays, field: FieldArrays) -> FloatArray:
-    """(M,) :func:`pose_clearance` of (M, 3) poses, every boundary sample measured."""
+def clearances_kernel(
+    poses: FloatArray, world: WorldArrays, robot: RobotArrays, field: FieldArrays, groups: Groups
+) -> FloatArray:
+    """(M,) :func:`measured_clearance` of (M, 3) poses: :func:`pose_clearance` with every sample that could be
+    the nearest measured."""
     out = np.empty(poses.shape[0])
     for k in range(poses.shape[0]):
-        out[k] = pose_clearance(poses[k, 0], poses[k, 1], poses[k, 2], world, robot, field, np.inf)
+        out[k] = measured_clearance(poses[k, 0], poses[k, 1], poses[k, 2], world, robot, field, groups)
     return out
 
 

@@ -32,8 +32,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from planning.collision.compiled import (
     FieldArrays,
+    Groups,
     RobotArrays,
     WorldArrays,
+    boundary_groups,
     clearances_kernel,
     empty_field,
     least_distance,
@@ -84,6 +86,15 @@ def _boundary_samples(raw: bytes, spacing: float) -> FloatArray:
     out = _sample_polygon(np.frombuffer(raw, dtype=np.float64).reshape(-1, 2), spacing)
     out.setflags(write=False)
     return out
+
+
+@functools.lru_cache(maxsize=16)
+def _groups(raw: bytes, spacing: float) -> Groups:
+    """:func:`boundary_groups` of :func:`_boundary_samples` ``(raw, spacing)``, once per footprint and spacing."""
+    groups = boundary_groups(_boundary_samples(raw, spacing))
+    for arr in groups:
+        arr.setflags(write=False)
+    return groups
 
 
 @dataclass(frozen=True)
@@ -154,7 +165,8 @@ class CollisionChecker:
             (M,) clearances.
         """
         p = kernel_input(np.atleast_2d(np.asarray(poses, dtype=float)))
-        return clearances_kernel(p, self._world, self.robot_arrays(), self._field())  # type: ignore[no-any-return]
+        groups = _groups(self._footprint.tobytes(), float(self.tolerance))
+        return clearances_kernel(p, self._world, self.robot_arrays(), self._field(), groups)  # type: ignore[no-any-return]
 
     def least_clearance(self, poses: ArrayLike) -> float:
         """The least clearance of the footprint over (M, 3) poses [m], refined: a lower bound at most
