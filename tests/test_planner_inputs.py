@@ -194,3 +194,5 @@ def test_an_end_outside_the_world_is_refused_alike_by_every_planner(planner: str
     assert res.reason == (
         f"{which} pose (10.000, 10.000, 0.000) lies outside the world's bounds (x 0..3, y 0..2): move it inside"
     )
+    on_wall = make_planner(planner).plan(_problem(**{which: Pose2D(3.0, 1.0, 0.0)}))  # on the wall counts as outside
+    assert on_wall.status is res.status and "(3.000, 1.000, 0.000) lies outside the world's bounds" in on_wall.reason

@@ -116,12 +116,12 @@ def checked_problem(problem: object) -> PlanProblem:
 def end_outside(problem: PlanProblem, planner: str, stats: dict[str, Any] | None = None) -> PlanResult | None:
     """The ``INVALID_START`` / ``INVALID_GOAL`` result of a start or goal whose position lies outside the world's
     bounds (on a wall counts as outside), said alike by every planner; None when both lie inside."""
-    inside = problem.world.wall_distance([problem.start.xy, problem.goal.xy]) > 0.0  # both in one call
-    for which, pose, status, within in (
-        ("start", problem.start, PlanStatus.INVALID_START, inside[0]),
-        ("goal", problem.goal, PlanStatus.INVALID_GOAL, inside[1]),
+    xmin, xmax, ymin, ymax = problem.world.bounds
+    for which, pose, status in (
+        ("start", problem.start, PlanStatus.INVALID_START),
+        ("goal", problem.goal, PlanStatus.INVALID_GOAL),
     ):
-        if not within:
+        if not (xmin < pose.x < xmax and ymin < pose.y < ymax):  # World.wall_distance > 0, without numpy's calls
             reason = (
                 f"{which} pose ({pose.x:.3f}, {pose.y:.3f}, {pose.theta:.3f}) lies outside the world's bounds "
                 f"({span(*problem.world.bounds)}): move it inside"
