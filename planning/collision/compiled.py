@@ -415,11 +415,16 @@ def _grouped_distance(
     for g in range(spreads.shape[0]):
         gx, gy = x + c * centres[g, 0] - s * centres[g, 1], y + s * centres[g, 0] + c * centres[g, 1]
         d = candidates_distance(gx, gy, candidates, world) if near else field_distance(gx, gy, world, field)
-        bound[g] = d - spreads[g]
+        bound[g] = d - spreads[g] if d == d else -np.inf  # (a NaN: measured first, as every sample once was)
     sd = np.inf
-    for g in np.argsort(bound):
-        if bound[g] - LEAST_MARGIN > sd:
+    while True:  # the nearest bound left, picked by a scan (a sort's code would double the kernel's compile time)
+        g, least = -1, np.inf
+        for k in range(bound.shape[0]):
+            if bound[k] < least:
+                g, least = k, bound[k]
+        if g < 0 or least - LEAST_MARGIN > sd:
             break
+        bound[g] = np.inf  # measured
         for b in range(starts[g], starts[g + 1]):
             px, py = x + c * boundary[b, 0] - s * boundary[b, 1], y + s * boundary[b, 0] + c * boundary[b, 1]
             sd = min(
