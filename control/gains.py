@@ -63,6 +63,8 @@ class FBLGains:
             ConfigError: Not two comma-separated positive numbers.
         """
         bad = ConfigError(f"gains must be 'KP,KD' (two positive finite numbers, e.g. 9,6), got {text!r}")
+        if not isinstance(text, str):
+            raise bad
         parts = [p.strip() for p in text.split(",")]
         if len(parts) != 2:
             raise bad

@@ -254,3 +254,157 @@ def test_a_map_cropped_by_the_bounds_keeps_the_part_inside(tmp_path: Path) -> No
     )
     world = load_scenario_file(path).world
     assert len(world.obstacles) == 1 and world.obstacles[0].bounding_box()[0] < 2.5
+
+
+def test_a_plan_tree_keeps_its_own_read_only_copies_in_its_copies_too() -> None:
+    """A tree held the caller's arrays: an edit of them after the plan reached the result, and its arrays were
+    writable, where a result's are its own read-only copies."""
+    nodes, parents, edge = np.zeros((2, 3)), np.array([-1, 0]), np.zeros((4, 2))
+    tree = PlanTree(nodes, parents, (edge,))
+    nodes[0, 0], edge[0, 0] = 99.0, 99.0
+    assert tree.nodes[0, 0] == 0.0 and tree.edges[0][0, 0] == 0.0
+    for copy in (tree, pickle.loads(pickle.dumps(tree))):
+        assert copy == tree and not copy.nodes.flags.writeable and not copy.parents.flags.writeable
+        assert not any(e.flags.writeable for e in copy.edges)
+    with pytest.raises(ValueError, match=r"PlanTree.nodes must be \(M, 3\)"):
+        PlanTree(np.zeros((2, 2)), parents)
+    with pytest.raises(ValueError, match=r"PlanTree\.parents must be one integer per node"):
+        PlanTree(np.zeros((2, 3)), [0.5, -1])
+    with pytest.raises(ValueError, match=r"PlanTree.edges\[0\] must be \(k, 2\)"):
+        PlanTree(np.zeros((2, 3)), parents, (np.zeros((3, 3)),))
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("stats", None, "PlanResult.stats must be a dict"),
+        ("planner", None, "PlanResult.planner must be the planner's name"),
+        ("reason", 3, "PlanResult.reason must be a sentence"),
+        ("tree", "junk", "PlanResult.tree must be a PlanTree or None, got str"),
+        ("path", "abc", "PlanResult.path must be an array of numbers"),
+    ],
+)
+def test_a_plan_result_refuses_fields_of_the_wrong_kind(field: str, value: object, message: str) -> None:
+    """A plugin's plan with ``stats=None`` ended ``nhsim plan`` in a traceback from its repr (the command promises
+    one line naming the planner), a tree of text likewise."""
+    given = {"status": PlanStatus.SUCCESS, "planner": "x", "path": [[0.0, 0.0, 0.0]], field: value}
+    with pytest.raises(ValueError, match=message):
+        PlanResult(**given)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("times", [[0.0, 2.0, 1.0], [0.0, 1.0, 1.0]])
+def test_a_timed_plan_whose_times_do_not_increase_is_refused(times: list[float]) -> None:
+    """The trajectory of such a plan dropped the rows out of order and ended at x = 1.5 m, where the plan ends at
+    2.5 m, as a success."""
+    path, controls = [[0.5, 0.5, 0.0], [1.5, 0.5, 0.0], [2.5, 0.5, 0.0]], [[0.25, 0.0]] * 3
+    with pytest.raises(ValueError, match=r"PlanResult.times must strictly increase \(one stamp per pose\): times\[2\]"):
+        PlanResult(PlanStatus.SUCCESS, "x", path=path, times=times, controls=controls)
+
+
+def test_a_timed_plan_with_stamps_closer_than_a_nanosecond_is_no_trajectory() -> None:
+    from planning.trajectory.from_plan import TrajectoryStatus, make_trajectory
+
+    path, controls = [[0.5, 0.5, 0.0], [1.5, 0.5, 0.0], [2.5, 0.5, 0.0]], [[0.25, 0.0]] * 3
+    plan = PlanResult(PlanStatus.SUCCESS, "x", path=path, times=[0.0, 1e-10, 2e-10], controls=controls)
+    res = make_trajectory(plan, load_robot("turtlebot3"), World((0.0, 3.0, 0.0, 3.0)))
+    assert res.status is TrajectoryStatus.INVALID and "times[1] = 1e-10 is not 1e-09 s after times[0]" in res.reason
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "message"),
+    [
+        ("dt", 0.0, "dt must be"),
+        ("dt", "0.01", "dt must be"),
+        ("dwell", -1.0, "dwell must be"),
+        ("clearance", -0.1, "clearance must be"),
+        ("corner_angle", -1.0, "corner_angle must be"),
+        ("max_deviation", math.nan, "max_deviation must be"),
+        ("retime", "yes", "retime must be True, False or None"),
+    ],
+)
+def test_make_trajectory_checks_its_options(option: str, value: object, message: str) -> None:
+    """Only ``to_trajectory`` checked them: ``make_trajectory(dt=0)`` was an OverflowError deep in the speed
+    profile, a negative dwell or clearance passed silently, a negative corner angle made a 26 s drive of 227 s."""
+    from planning.trajectory.from_plan import make_trajectory
+
+    path = np.array([[0.5, 0.5, 0.0], [2.5, 0.5, 0.0]])
+    with pytest.raises(ConfigError, match=message):
+        make_trajectory(path, load_robot("turtlebot3"), World((0.0, 3.0, 0.0, 3.0)), **{option: value})
+
+
+def test_a_run_and_a_job_equal_their_pickled_and_deep_copies() -> None:
+    """``==`` of a job and its pickled copy raised numpy's 'truth value of an array is ambiguous' (the runs' logs
+    compared their arrays with ``==``)."""
+    import copy
+
+    from sim import simulate_reference
+
+    job = simulate_reference("open", reference="line", runs=["open_loop"])
+    for other in (pickle.loads(pickle.dumps(job)), copy.deepcopy(job)):
+        assert other == job and other.runs["open_loop"] == job.runs["open_loop"]
+        assert other.runs["open_loop"].log == job.runs["open_loop"].log
+    with pytest.raises(TypeError):
+        hash(job.runs["open_loop"].log)
+
+
+def test_optim_answers_a_start_that_is_the_goal_beside_an_obstacle_with_the_start() -> None:
+    """Every planner answers it with the start alone; optim's NLP of no motion failed IPOPT's restoration whenever
+    the world held an obstacle."""
+    from planning import make_planner
+
+    at = Pose2D(0.5, 0.5, 0.0)
+    world = World((0.0, 3.0, 0.0, 3.0), (Circle((1.5, 1.5), 0.3),))
+    res = make_planner("optim").plan(PlanProblem(world, load_robot("turtlebot3"), at, at, time_limit=10.0))
+    assert res.success and res.path.shape == (1, 3) and res.length() == 0.0, res
+    assert np.array_equal(res.path[0], at.as_array())
+    inside = Pose2D(1.5, 1.3, 0.0)
+    res = make_planner("optim").plan(PlanProblem(world, load_robot("turtlebot3"), inside, inside, time_limit=10.0))
+    assert res.status is PlanStatus.INVALID_START
+
+
+def test_text_where_numbers_go_is_named() -> None:
+    from control.gains import FBLGains
+    from planning import Polygon
+
+    with pytest.raises(ConfigError, match=r"a pose needs exactly 3 numbers \[x, y, theta\], got \['a', 0, 0\]"):
+        Pose2D.from_array(["a", 0, 0])
+    with pytest.raises(ConfigError, match=r"polygon vertices must be \[x, y\] numbers"):
+        Polygon((("a", "b"), (1.0, 0.0), (0.0, 1.0)))
+    with pytest.raises(ConfigError, match="gains must be 'KP,KD'"):
+        FBLGains.parse(None)  # type: ignore[arg-type]
+    for name in (None, 5, ""):
+        with pytest.raises(ConfigError, match=r"PlanProblem\.name must be a name"):
+            PlanProblem(
+                World((0.0, 3.0, 0.0, 3.0)), load_robot("turtlebot3"), Pose2D(1, 1, 0), Pose2D(2, 1, 0), name=name
+            )  # type: ignore[arg-type]
+
+
+def test_run_planner_names_a_plugin_whose_result_is_malformed() -> None:
+    """``nhsim plan`` with a plugin planner returning ``stats=None`` ended in a traceback from the result's repr; the
+    command promises one line naming the planner (docs/how-to/new-planner.md), which PlannerError gives."""
+    from planning.errors import PlannerError
+    from planning.planners.base import run_planner
+
+    problem = PlanProblem(World((0.0, 3.0, 0.0, 3.0)), load_robot("turtlebot3"), Pose2D(1, 1, 0), Pose2D(2, 1, 0))
+
+    class Bad:
+        name = "bad"
+
+        def __init__(self, stats: object) -> None:
+            self.stats = stats
+
+        def plan(self, problem: PlanProblem) -> PlanResult:
+            return PlanResult(PlanStatus.SUCCESS, self.name, path=[[1.0, 1.0, 0.0]], stats=self.stats)  # type: ignore[arg-type]
+
+    with pytest.raises(PlannerError, match=r"planner 'bad' raised ValueError: PlanResult\.stats must be a dict"):
+        run_planner(Bad(None), "bad", problem)
+    with pytest.raises(PlannerError, match=r"planner 'bad' returned stats\['code_s'\] = 'x': seconds"):
+        run_planner(Bad({"code_s": "x"}), "bad", problem)
+
+
+def test_a_robot_spec_where_a_robots_name_goes_is_told_to_give_the_name() -> None:
+    """``simulate_plan(scenario, robot=load_robot("edumip"))`` said the edumip was an unknown robot."""
+    from planning.core.robot import check_robot_name
+
+    with pytest.raises(ConfigError, match=r"case: a robot is named here, not given as a RobotSpec: robot='edumip'"):
+        check_robot_name("case", load_robot("edumip"))

@@ -22,6 +22,8 @@ writeable arrays).
 from __future__ import annotations
 
 import dataclasses
+import math
+from collections.abc import Mapping
 from typing import Any
 
 import numba as nb
@@ -43,11 +45,48 @@ def freeze_arrays(value: object) -> None:
 
 class ReadOnlyArrays:
     """A frozen dataclass whose arrays stay read-only in its copies too: a pickled one (a worker process's) and
-    a deep copy come back with writeable arrays, which :meth:`__setstate__` makes read-only again."""
+    a deep copy come back with writeable arrays, which :meth:`__setstate__` makes read-only again; and which
+    compares by value (:meth:`__eq__`), so that a copy equals its original."""
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
         freeze_arrays(self)
+
+    def __eq__(self, other: object) -> bool:
+        """Equal when every compared field is (:func:`same_fields`: arrays element by element, NaN equal to NaN);
+        a class declares ``eq=False`` to its ``@dataclass`` to keep this (a generated ``__eq__`` compares arrays
+        with ``==``, which raises). Not hashable: it holds arrays."""
+        return same_fields(self, other)
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+def same_value(a: Any, b: Any) -> bool:
+    """Whether two field values are equal: arrays element by element (NaN equal to NaN, shapes too), tuples,
+    lists and mappings item by item, anything else by ``==`` (a value whose ``==`` is not a truth is not equal)."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        try:
+            return bool(np.array_equal(a, b, equal_nan=True))
+        except TypeError:  # NaN has no meaning for text or objects
+            return bool(np.array_equal(a, b))
+    if isinstance(a, (tuple, list)) and isinstance(b, (tuple, list)):
+        return type(a) is type(b) and len(a) == len(b) and all(same_value(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, Mapping) and isinstance(b, Mapping):
+        return a.keys() == b.keys() and all(same_value(a[k], b[k]) for k in a)
+    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
+        return True
+    try:
+        return bool(a == b)
+    except (TypeError, ValueError):
+        return False
+
+
+def same_fields(a: Any, b: Any) -> bool:
+    """``a == b`` for two dataclasses of one class, field by field with :func:`same_value` (the fields that
+    compare); ``NotImplemented`` when ``b`` is of another class."""
+    if b.__class__ is not a.__class__:
+        return NotImplemented
+    return all(same_value(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a) if f.compare)
 
 
 def kernel_input(values: ArrayLike) -> NDArray[np.float64]:

@@ -110,7 +110,10 @@ class Pose2D:
     @classmethod
     def from_array(cls, values: ArrayLike) -> Pose2D:
         """Build a pose from a sequence ``[x, y, theta]``."""
-        arr = np.asarray(values, dtype=float).reshape(-1)
+        try:
+            arr = np.asarray(values, dtype=float).reshape(-1)
+        except (TypeError, ValueError) as exc:
+            raise ConfigError(f"a pose needs exactly 3 numbers [x, y, theta], got {values!r:.80} ({exc})") from None
         if arr.shape != (3,):
             raise ConfigError(f"a pose needs exactly 3 numbers [x, y, theta], got shape {arr.shape}")
         return cls(float(arr[0]), float(arr[1]), float(arr[2]))

@@ -457,6 +457,9 @@ def check_robot_name(where: str, name: object) -> str:
         ConfigError: Anything else; the message names ``where`` (when given), lists the robot names and says how a
             plugin's robot is registered.
     """
+    if isinstance(name, RobotSpec):
+        said = f"a robot is named here, not given as a RobotSpec: robot={name.name!r}"
+        raise ConfigError(f"{where}: {said}" if where else said)
     if not isinstance(name, str) or name not in ROBOTS:
         said = f"unknown robot {name!r:.80}: choose one of {robot_names()}; {ROBOTS.unknown_hint()}"
         raise ConfigError(f"{where}: {said}" if where else said)

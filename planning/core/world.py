@@ -198,7 +198,10 @@ class Polygon:
 
     def __post_init__(self) -> None:
         _check_height(self)
-        v = np.asarray(self.vertices, dtype=float)
+        try:
+            v = np.asarray(self.vertices, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise ConfigError(f"polygon vertices must be [x, y] numbers, got {self.vertices!r:.80} ({exc})") from None
         if v.ndim != 2 or v.shape[1] != 2 or v.shape[0] < 3:
             raise ConfigError(f"polygon needs at least 3 vertices of [x, y], got shape {v.shape}")
         if not np.all(np.isfinite(v)):

@@ -77,6 +77,8 @@ class PlanProblem:
             object.__setattr__(self, label, check_number(f"PlanProblem.{label}", getattr(self, label), above=0.0))
         object.__setattr__(self, "heading_tolerance", check_heading_tolerance("PlanProblem", self.heading_tolerance))
         object.__setattr__(self, "seed", check_number("PlanProblem.seed", self.seed, integer=True, at_least=0))
+        if not isinstance(self.name, str) or not self.name:
+            raise ConfigError(f"PlanProblem.name must be a name (text), e.g. 'my-problem', got {self.name!r:.80}")
 
     @classmethod
     def from_scenario(
@@ -153,57 +155,70 @@ def end_overlaps(problem: PlanProblem, planner: str, stats: dict[str, Any] | Non
 
 
 @dataclass(frozen=True, eq=False)
-class PlanTree:
+class PlanTree(ReadOnlyArrays):
     """A search tree for plotting: nodes (M, 3) poses, parent index per node (-1 at roots),
-    and optionally the dense edge curves (list of (k, 2) arrays).
+    and optionally the dense edge curves (a tuple of (k, 2) arrays).
 
-    Trees are equal when their arrays are (:func:`same_value`); a tree holds arrays, so it is not hashable.
+    The arrays are the tree's own read-only copies, as a :class:`PlanResult`'s are (in its pickled and deep
+    copies too). Trees are equal when their arrays are (:func:`planning.core.arrays.same_value`); a tree holds
+    arrays, so it is not hashable.
+
+    Raises:
+        ValueError: Nodes that are not (M, 3) numbers, parents that are not M integers, an edge that is not
+            (k, 2) numbers.
     """
 
     nodes: FloatArray
     parents: NDArray[np.int64]
     edges: tuple[FloatArray, ...] = ()
 
-    __hash__ = None  # type: ignore[assignment]
+    def __post_init__(self) -> None:
+        nodes = _tree_array("nodes", self.nodes, float, 2)
+        if nodes.shape[1:] != (3,):
+            raise ValueError(f"PlanTree.nodes must be (M, 3) poses [x, y, theta], got shape {nodes.shape}")
+        parents = _tree_array("parents", self.parents, None, 1)
+        if parents.shape != (nodes.shape[0],) or not np.array_equal(parents, np.round(parents)):
+            raise ValueError(f"PlanTree.parents must be one integer per node ({nodes.shape[0]}), got {parents!r:.80}")
+        object.__setattr__(self, "nodes", nodes)
+        object.__setattr__(self, "parents", _frozen(parents.astype(np.int64)))
+        edges = tuple(_tree_array(f"edges[{k}]", e, float, 2) for k, e in enumerate(self.edges))
+        bad = next((k for k, e in enumerate(edges) if e.shape[1:] != (2,)), None)
+        if bad is not None:
+            raise ValueError(f"PlanTree.edges[{bad}] must be (k, 2) positions, got shape {edges[bad].shape}")
+        object.__setattr__(self, "edges", edges)
 
-    def __eq__(self, other: object) -> bool:
-        return same_fields(self, other)
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        super().__setstate__(state)
+        for edge in self.edges:  # the unpickled tuple's arrays are this tree's own
+            edge.flags.writeable = False
 
     def __repr__(self) -> str:
         return f"PlanTree({np.shape(self.nodes)[0]} nodes, {len(self.edges)} edges)"
 
 
-def same_value(a: Any, b: Any) -> bool:
-    """Whether two field values are equal: arrays element by element (NaN equal to NaN, shapes too), tuples,
-    lists and dicts item by item, anything else by ``==`` (a value whose ``==`` is not a truth is not equal)."""
-    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        try:
-            return bool(np.array_equal(a, b, equal_nan=True))
-        except TypeError:  # NaN has no meaning for text or objects
-            return bool(np.array_equal(a, b))
-    if isinstance(a, (tuple, list)) and isinstance(b, (tuple, list)):
-        return type(a) is type(b) and len(a) == len(b) and all(same_value(x, y) for x, y in zip(a, b, strict=True))
-    if isinstance(a, dict) and isinstance(b, dict):
-        return a.keys() == b.keys() and all(same_value(a[k], b[k]) for k in a)
-    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
-        return True
+def _frozen(arr: NDArray[Any]) -> NDArray[Any]:
+    arr.flags.writeable = False
+    return arr
+
+
+def _tree_array(name: str, value: object, dtype: type | None, ndim: int) -> NDArray[Any]:
+    """``value`` as :class:`PlanTree`'s own read-only copy: ``ndim`` dimensions of finite numbers (floats with
+    ``dtype``), else ValueError naming the field."""
     try:
-        return bool(a == b)
-    except (TypeError, ValueError):
-        return False
-
-
-def same_fields(a: Any, b: Any) -> bool:
-    """``a == b`` for two dataclasses of one class, field by field with :func:`same_value` (the fields that
-    compare); ``NotImplemented`` when ``b`` is of another class."""
-    if b.__class__ is not a.__class__:
-        return NotImplemented
-    return all(same_value(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a) if f.compare)
+        arr = np.array(value, dtype=dtype)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"PlanTree.{name} must be an array of numbers: {exc}") from None
+    if arr.ndim != ndim or arr.dtype.kind not in "iuf" or not np.isfinite(arr).all():
+        raise ValueError(f"PlanTree.{name} must be {ndim}-D finite numbers, got {arr.dtype} of shape {arr.shape}")
+    return _frozen(arr)
 
 
 def _float_array(name: str, value: object, shape: tuple[int | None, ...]) -> FloatArray:
     """``value`` as a finite float array of ``shape`` (None: any size), else ValueError naming the field."""
-    arr = np.array(value, dtype=float)  # the result's own copy: the caller's buffer may be re-used
+    try:
+        arr = np.array(value, dtype=float)  # the result's own copy: the caller's buffer may be re-used
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"PlanResult.{name} must be an array of numbers: {exc}") from None
     fits = arr.ndim == len(shape) and all(want in (None, got) for got, want in zip(arr.shape, shape, strict=False))
     if not fits:
         expected = ", ".join("any" if want is None else str(want) for want in shape)
@@ -220,9 +235,9 @@ class PlanResult(ReadOnlyArrays):
 
     The arrays are the result's own read-only copies (a caller's later edit of the arrays it gave cannot
     change the result), in its pickled and deep copies too. Results are equal when every field is
-    (:func:`same_value`: arrays element by element, the stats item by item); a result's stats are a dict the
-    commands add to, so it is not hashable. Its repr is one short line (status, planner, the path's size and
-    length, time, reason), not its arrays.
+    (:func:`planning.core.arrays.same_value`: arrays element by element, the stats item by item); a result's
+    stats are a dict the commands add to, so it is not hashable. Its repr is one short line (status, planner, the
+    path's size and length, time, reason), not its arrays.
 
     Attributes:
         status: How it ended.
@@ -241,8 +256,10 @@ class PlanResult(ReadOnlyArrays):
             (:mod:`planning.planners.simplify`), when the planner simplified ``path``.
 
     Raises:
-        ValueError: A status that is not a :class:`PlanStatus`, an array of the wrong shape or with
-            non-finite values, a success without a path, or ``times`` without ``controls``.
+        ValueError: A status that is not a :class:`PlanStatus`, a planner's name or reason that is not text,
+            stats that are not a dict, a tree that is not a :class:`PlanTree`, an array of the wrong shape or
+            with non-finite values, a success without a path, ``times`` without ``controls``, or times that do
+            not strictly increase.
     """
 
     status: PlanStatus
@@ -260,6 +277,15 @@ class PlanResult(ReadOnlyArrays):
     def __post_init__(self) -> None:
         if not isinstance(self.status, PlanStatus):
             raise ValueError(f"PlanResult.status must be a PlanStatus, got {self.status!r}")
+        for name, kind, what in (
+            ("planner", str, "the planner's name"),
+            ("reason", str, "a sentence"),
+            ("stats", dict, "a dict of the numbers worth reporting ({} for none)"),
+        ):
+            if not isinstance(getattr(self, name), kind):
+                raise ValueError(f"PlanResult.{name} must be {what}, got {getattr(self, name)!r:.80}")
+        if self.tree is not None and not isinstance(self.tree, PlanTree):
+            raise ValueError(f"PlanResult.tree must be a PlanTree or None, got {type(self.tree).__name__}")
         path = _float_array("path", self.path, (None, 3))
         n = path.shape[0]
         if self.status is PlanStatus.SUCCESS and n == 0:
@@ -273,13 +299,14 @@ class PlanResult(ReadOnlyArrays):
                 object.__setattr__(self, name, _float_array(name, value, shape))
         if self.raw_path is not None:
             object.__setattr__(self, "raw_path", _float_array("raw_path", self.raw_path, (None, 3)))
+        if self.times is not None and not (np.diff(self.times) > 0.0).all():
+            k = int(np.argmax(np.diff(self.times) <= 0.0)) + 1
+            raise ValueError(
+                f"PlanResult.times must strictly increase (one stamp per pose): times[{k}] = {float(self.times[k])!r} "
+                f"follows {float(self.times[k - 1])!r}"
+            )
         if self.directions is not None and not (np.abs(self.directions) == 1.0).all():
             raise ValueError("PlanResult.directions must hold +1 (forwards) or -1 (backwards) per pose")
-
-    __hash__ = None  # type: ignore[assignment]
-
-    def __eq__(self, other: object) -> bool:
-        return same_fields(self, other)
 
     def __repr__(self) -> str:
         parts = [self.status.value, f"planner={self.planner!r}", f"path={self.path.shape[0]} poses"]
@@ -353,7 +380,12 @@ def run_planner(planner: Planner, name: str, problem: PlanProblem, origin: str =
             f"{who} returned {result!r:.60} ({type(result).__name__}), not a PlanResult (planning.PlanResult)"
         )
     # numba's loading of the planner's code and of its simplification's (a new process, a new install): not held
-    code = sum(float(result.stats.get(key, 0.0)) for key in ("code_s", "simplify_code_s"))
+    code = 0.0
+    for key in ("code_s", "simplify_code_s"):
+        given = result.stats.get(key, 0.0)
+        if not isinstance(given, numbers.Real) or not math.isfinite(given) or given < 0.0:
+            raise PlannerError(f"{who} returned stats[{key!r}] = {given!r:.40}: seconds, a finite number >= 0")
+        code += float(given)
     spent = time.perf_counter() - started - code
     if spent > OVERRUN_FACTOR * problem.time_limit + OVERRUN_SLACK_S:
         result.stats["overran_s"] = spent  # said by the commands (a planner that does not stop on time)

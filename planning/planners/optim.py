@@ -49,7 +49,14 @@ from planning.core.geometry import cumulative_length, path_length, wrap_angle
 from planning.core.kinematics import bicycle_to_unicycle
 from planning.core.world import Box, Circle, Ellipse, Obstacle, Polygon, World
 from planning.errors import ConfigError
-from planning.planners.base import PlanProblem, PlanResult, PlanStatus, checked_problem, end_outside
+from planning.planners.base import (
+    START_TOLERANCE,
+    PlanProblem,
+    PlanResult,
+    PlanStatus,
+    checked_problem,
+    end_outside,
+)
 from planning.planners.registry import PLANNERS, make_planner, planner_options
 from planning.signals import signals_end_early, signals_held
 
@@ -727,6 +734,10 @@ class Optim:
         code_s += clock.setup_s  # numba's set-up, if this plan was the process's first to need it
         before = clock.t0 - called  # the loading and the set-up: the call's time before the clock
         stretches = HORIZON_STRETCH if self.dt_opt is None else (1.0,)
+        stay = self._start_is_goal(problem, clock)
+        if stay is not None:
+            stay.result.stats.update(time_s=clock.elapsed() + before, code_s=clock.code() + code_s)
+            return stay
         for stretch in stretches:
             self._stretch = stretch
             sol = self._solve_from_starts(problem, clock)
@@ -740,6 +751,33 @@ class Optim:
         stats["time_s"] = stats.get("time_s", clock.elapsed()) + before
         stats["code_s"] = clock.code() + code_s
         return sol
+
+    def _start_is_goal(self, problem: PlanProblem, clock: PlanClock) -> OptimSolution | None:
+        """The start alone when it is the goal (to :data:`~planning.planners.base.START_TOLERANCE`), as every planner
+        answers it (an NLP over a horizon with no motion failed IPOPT's restoration beside any obstacle), its ends
+        judged as any plan's (:meth:`_ends_outside_disc`); else None."""
+        start, goal = problem.start, problem.goal
+        off = math.hypot(goal.x - start.x, goal.y - start.y)
+        if off > START_TOLERANCE or abs(float(wrap_angle(goal.theta - start.theta))) > START_TOLERANCE:
+            return None
+        bad = self._ends_outside_disc(problem, clock, self.margin)
+        if bad is not None:
+            return bad
+        path = start.as_array()[None, :]
+        stats: dict[str, Any] = {"final_position_error": off, "length": 0.0, "iterations": 0}
+        stats.update(final_heading_error=abs(float(wrap_angle(goal.theta - start.theta))))
+        stats["min_clearance"] = dense_clearance(problem, path)
+        result = PlanResult(
+            PlanStatus.SUCCESS,
+            self.name,
+            path=path,
+            stats=stats,
+            times=np.zeros(1),
+            controls=np.zeros((1, 2)),
+            directions=np.ones(1),
+            states=np.append(path[0], 0.0)[None, :],
+        )
+        return OptimSolution(result)
 
     def _load_code(self, problem: PlanProblem) -> float:
         """Import what the solve runs (:data:`PLAN_MODULES`, CasADi and its IPOPT plugin, the warm starts'

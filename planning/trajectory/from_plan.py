@@ -181,34 +181,43 @@ def make_trajectory(
         (N, 3) path of finite poses, the reason says which).
 
     Raises:
-        ConfigError: ``robot`` is not a RobotSpec (a robot's name is not), or ``world`` not a World.
+        ConfigError: ``robot`` is not a RobotSpec (a robot's name is not), ``world`` not a World, or an option
+            of the wrong kind or out of its range (named, :func:`planning.trajectory.smoothing.check_options`).
     """
     t_start = time.perf_counter()
+    given = {"goal": goal, "margin": margin, "dwell": dwell, "dt": dt, "clearance": clearance, "name": name}
+    given |= {"corner_angle": corner_angle, "snap_tolerance": snap_tolerance, "max_deviation": max_deviation}
+    o = check_options(given | {"retime": retime, "keep_loops": keep_loops})  # named (dt=0 was an OverflowError)
     path, dirs, label, timed = _plan_path(plan, robot, world, directions, name)
     checker = CollisionChecker(world, robot, shape="footprint")
     if reason := _path_problem(path):
         return TrajectoryResult(TrajectoryStatus.INVALID, None, reason)
-    path = path[:, :3].copy()
-    if goal is not None and np.hypot(path[-1, 0] - goal.x, path[-1, 1] - goal.y) <= snap_tolerance:
-        times = np.asarray(plan.times, dtype=float).reshape(-1) if isinstance(plan, PlanResult) and timed else None
-        path[:, :2] = snapped(path[:, :2], (goal.x, goal.y), times)
+    path = _snapped_to_goal(plan, path[:, :3].copy(), timed, goal, o["snap_tolerance"])
     path_clear = checker.least_clearance(checker.densify(path))  # clearance_of: centimetres low away from things
-    need = clearance if clearance is not None else max(0.0, min(0.01, 0.5 * path_clear))
-    stats: dict[str, Any] = {
-        "input_points": int(path.shape[0]),
-        "input_min_clearance_m": path_clear,
-        "required_clearance_m": need,
-        "timed_input": bool(timed),
-    }
+    need = o["clearance"] if o["clearance"] is not None else max(0.0, min(0.01, 0.5 * path_clear))
+    stats: dict[str, Any] = {"input_points": int(path.shape[0]), "input_min_clearance_m": path_clear}
+    stats |= {"required_clearance_m": need, "timed_input": bool(timed)}
     goal_heading = goal.theta if goal is not None else None
-    build = _Build(Limits.from_robot(robot, margin), checker, need, goal_heading, dwell, dt, label, stats)
+    limits = Limits.from_robot(robot, o["margin"])
+    build = _Build(limits, checker, need, goal_heading, o["dwell"], o["dt"], label, stats)
     if timed:
-        result = _from_timed(plan, path, build, retime)
+        result = _from_timed(plan, path, build, o["retime"])
     else:
-        result = _from_path(path, dirs, build, corner_angle, max_deviation, keep_loops=keep_loops)
+        result = _from_path(path, dirs, build, o["corner_angle"], o["max_deviation"], keep_loops=o["keep_loops"])
         result = _blamed_on_the_path(result, path, checker)
     result.stats["smoothing_time_s"] = time.perf_counter() - t_start
     return result
+
+
+def _snapped_to_goal(
+    plan: PlanResult | ArrayLike, path: FloatArray, timed: bool, goal: Pose2D | None, tolerance: float
+) -> FloatArray:
+    """``path`` (its own copy) with its end moved onto ``goal``'s position when within ``tolerance`` [m]
+    (:func:`snapped`; a timed plan's times given), else as it is."""
+    if goal is not None and np.hypot(path[-1, 0] - goal.x, path[-1, 1] - goal.y) <= tolerance:
+        times = np.asarray(plan.times, dtype=float).reshape(-1) if isinstance(plan, PlanResult) and timed else None
+        path[:, :2] = snapped(path[:, :2], (goal.x, goal.y), times)
+    return path
 
 
 def _blamed_on_the_path(result: TrajectoryResult, path: FloatArray, checker: CollisionChecker) -> TrajectoryResult:
@@ -572,14 +581,27 @@ def _end_at_goal(body: Trajectory, end: FloatArray, build: _Build) -> Trajectory
     )
 
 
+#: The least step between a timed plan's stamps [s] (:func:`_from_timed`): finer ones are not told apart from the
+#: same instant, and a trajectory needs a derivative between them.
+MIN_TIME_STEP = 1e-9
+
+
 def _from_timed(plan: PlanResult | ArrayLike, path: FloatArray, build: _Build, force: bool | None) -> TrajectoryResult:
     """A timed plan: its path kept, its samples kept (slowed uniformly) or re-timed from rest to rest."""
     assert isinstance(plan, PlanResult) and plan.times is not None and plan.controls is not None
     t = np.asarray(plan.times, dtype=float).reshape(-1)
     if t.size < 2:
         return TrajectoryResult(TrajectoryStatus.INVALID, None, f"timed plan has {t.size} times for {t.size} poses")
-    keep = np.concatenate([[True], np.diff(t - t[0]) > 1e-9])
-    t, u, path = (t - t[0])[keep], np.asarray(plan.controls, dtype=float)[keep], path[keep]
+    close = np.flatnonzero(np.diff(t - t[0]) <= MIN_TIME_STEP)
+    if close.size:  # (rows dropped here once ended the trajectory short of the plan's end)
+        k = int(close[0]) + 1
+        return TrajectoryResult(
+            TrajectoryStatus.INVALID,
+            None,
+            f"timed plan's times[{k}] = {float(t[k])!r} is not {MIN_TIME_STEP:g} s after "
+            f"times[{k - 1}] = {float(t[k - 1])!r}: give each pose its own time stamp",
+        )
+    t, u = t - t[0], np.asarray(plan.controls, dtype=float)
     v, w = u[:, 0], u[:, 1]
     dv, dw = np.gradient(v, t), np.gradient(w, t)
     speed_scale, accel_scale = time_scales(v, w, dv, dw, build.limits)
@@ -649,7 +671,6 @@ def checked_trajectory(
             f"to_trajectory: unknown option(s) {', '.join(unknown)}; valid options: {', '.join(valid)} "
             "(see make_trajectory)"
         )
-    options = check_options(options)  # each named where it is wrong (a negative dt failed as "t must increase")
     if isinstance(plan, PlanResult) and not plan.success:
         raise PlanFailedError(
             f"planner {plan.planner!r} ended with status {plan.status.value}: {plan.reason or 'no reason given'}; "

@@ -213,7 +213,7 @@ class Trajectory(ReadOnlyArrays):
             return self.segments is other.segments
         return np.array_equal(self.segments, other.segments)
 
-    def __hash__(self) -> int:
+    def __hash__(self) -> int:  # type: ignore[override]  # hashable: its arrays are its own, read-only
         return hash((self.name, self.t.size, float(self.t[0]), float(self.t[-1])))
 
     def __repr__(self) -> str:

@@ -218,7 +218,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     from sim.cli.interrupt import sigterm_as_interrupt
 
     out = _ReaderGone(sys.stdout)
-    with sigterm_as_interrupt(), contextlib.redirect_stdout(out):
+    # stderr alike: with ``2>&1 | head -1`` a note printed there after the reader left raised BrokenPipeError,
+    # whose traceback went to the same closed pipe, and the command ended with status 1 and no word
+    err = _ReaderGone(sys.stderr)
+    with sigterm_as_interrupt(), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         try:
             code = _main(argv)
         except KeyboardInterrupt:  # before a command was chosen (building the parser, parsing)

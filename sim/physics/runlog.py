@@ -42,7 +42,7 @@ class Contact:
     obstacle: str
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class BalanceLog(ReadOnlyArrays):
     """What a balancing robot's balance loop did.
 
@@ -62,7 +62,7 @@ class BalanceLog(ReadOnlyArrays):
         freeze_arrays(self)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class LocaliserLog(ReadOnlyArrays):
     """What a scan localiser (AMCL on LDS-01 scans) answered, against the truth, and the scans it took.
 
@@ -116,7 +116,7 @@ class LocaliserLog(ReadOnlyArrays):
         return np.asarray(np.remainder(self.pose[:, 2] - self.truth[:, 2] + np.pi, 2 * np.pi) - np.pi)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class EstimationLog(ReadOnlyArrays):
     """What a run's estimator believed, per control period, against the truth.
 
@@ -187,7 +187,7 @@ class EstimationLog(ReadOnlyArrays):
         return float(np.mean(self.nees)) if self.nees.size else float("nan")
 
 
-@dataclass(frozen=True, repr=False)
+@dataclass(frozen=True, repr=False, eq=False)
 class RunLog(ReadOnlyArrays):
     """What one run did, sampled at the log rate (at least the control rate).
 
