@@ -848,6 +848,20 @@ def test_a_closed_output_pipe_ends_the_command_quietly_with_141():
     assert first.startswith(b"scenario farm") and "Traceback" not in err and "BrokenPipe" not in err
 
 
+def test_a_reader_of_both_outputs_that_goes_away_ends_the_command_with_141(tmp_path):
+    """``nhsim simulate 2>&1 | head -1``: the note simulate prints on stderr after its table (the open loop touched
+    an obstacle) met the closed pipe, its BrokenPipeError's traceback went into the same pipe, and the command
+    ended with status 1 without a word. Its record is written and it exits 141, as with stdout alone."""
+    cmd = [sys.executable, "-m", "sim", "simulate", "--no-video", "--no-plots", "--json", str(tmp_path / "r.json")]
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen(cmd, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    assert proc.stdout is not None
+    first = proc.stdout.readline()
+    proc.stdout.close()
+    assert proc.wait(timeout=120) == 141 and first.startswith(b"scenario edumip_map")
+    assert json.loads((tmp_path / "r.json").read_text())["open_loop"]["collisions"] > 0  # the note was due
+
+
 @pytest.mark.slow  # whole commands in subprocesses; 4 s
 def test_a_reader_that_goes_away_leaves_the_commands_outputs_written(tmp_path):
     """`nhsim simulate ... | head -1`: the command stopped at its next print, and the record and plots it had

@@ -332,6 +332,8 @@ def test_the_settings_tag_names_non_default_settings_and_gains_files_by_content(
     }
     assert len(tags) == 5 and all(t.startswith("open-figure8-") and len(t) == len("open-figure8-") + 6 for t in tags)
     assert stem("--robot", "edumip", "--gains", "4,3").startswith("open-figure8-edumip-")
+    page = " ".join((Path(__file__).parents[1] / "docs" / "explanation" / "rendering.md").read_text().split())
+    assert f"e.g. `{stem('--seed', '3')}.mp4` for `--seed 3`" in page  # the page's example is the name written
     a, b = tmp_path / "a.toml", tmp_path / "b.toml"
     a.write_text("[gains]\nkp = 4.0\nkd = 6.0\n")
     b.write_text("[gains]\nkd = 6.0\nkp = 4.0  # the same gains, another file\n")
