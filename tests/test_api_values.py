@@ -266,11 +266,11 @@ def test_a_plan_tree_keeps_its_own_read_only_copies_in_its_copies_too() -> None:
     for copy in (tree, pickle.loads(pickle.dumps(tree))):
         assert copy == tree and not copy.nodes.flags.writeable and not copy.parents.flags.writeable
         assert not any(e.flags.writeable for e in copy.edges)
-    with pytest.raises(ValueError, match=r"PlanTree.nodes must be \(M, 3\)"):
+    with pytest.raises(ValueError, match=r"PlanTree.nodes must be \(K, 3\) poses"):
         PlanTree(np.zeros((2, 2)), parents)
     with pytest.raises(ValueError, match=r"PlanTree\.parents must be one integer per node"):
         PlanTree(np.zeros((2, 3)), [0.5, -1])
-    with pytest.raises(ValueError, match=r"PlanTree.edges\[0\] must be \(k, 2\)"):
+    with pytest.raises(ValueError, match=r"PlanTree.edges\[0\] must be \(K, 2\) positions"):
         PlanTree(np.zeros((2, 3)), parents, (np.zeros((3, 3)),))
 
 

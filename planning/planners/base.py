@@ -173,19 +173,20 @@ class PlanTree(ReadOnlyArrays):
     edges: tuple[FloatArray, ...] = ()
 
     def __post_init__(self) -> None:
-        nodes = _tree_array("nodes", self.nodes, float, 2)
-        if nodes.shape[1:] != (3,):
-            raise ValueError(f"PlanTree.nodes must be (M, 3) poses [x, y, theta], got shape {nodes.shape}")
-        parents = _tree_array("parents", self.parents, None, 1)
-        if parents.shape != (nodes.shape[0],) or not np.array_equal(parents, np.round(parents)):
-            raise ValueError(f"PlanTree.parents must be one integer per node ({nodes.shape[0]}), got {parents!r:.80}")
+        nodes = _tree_array("nodes", self.nodes, 3)
+        if not np.isfinite(nodes).all():
+            raise ValueError("PlanTree.nodes holds non-finite values")
+        parents = np.array(self.parents)
+        if parents.dtype.kind not in "iu":  # floats that are whole numbers are taken (a tree's own arrays are)
+            whole = parents.dtype.kind == "f" and np.array_equal(parents, np.round(parents))
+            parents = parents.astype(np.int64) if whole else np.empty(0)
+        if parents.shape != (nodes.shape[0],):
+            raise ValueError(
+                f"PlanTree.parents must be one integer per node ({nodes.shape[0]}), got {self.parents!r:.80}"
+            )
         object.__setattr__(self, "nodes", nodes)
-        object.__setattr__(self, "parents", _frozen(parents.astype(np.int64)))
-        edges = tuple(_tree_array(f"edges[{k}]", e, float, 2) for k, e in enumerate(self.edges))
-        bad = next((k for k, e in enumerate(edges) if e.shape[1:] != (2,)), None)
-        if bad is not None:
-            raise ValueError(f"PlanTree.edges[{bad}] must be (k, 2) positions, got shape {edges[bad].shape}")
-        object.__setattr__(self, "edges", edges)
+        object.__setattr__(self, "parents", _frozen(parents.astype(np.int64, copy=False)))
+        object.__setattr__(self, "edges", tuple(_tree_array(f"edges[{k}]", e, 2) for k, e in enumerate(self.edges)))
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         super().__setstate__(state)
@@ -201,15 +202,15 @@ def _frozen(arr: NDArray[Any]) -> NDArray[Any]:
     return arr
 
 
-def _tree_array(name: str, value: object, dtype: type | None, ndim: int) -> NDArray[Any]:
-    """``value`` as :class:`PlanTree`'s own read-only copy: ``ndim`` dimensions of finite numbers (floats with
-    ``dtype``), else ValueError naming the field."""
+def _tree_array(name: str, value: object, columns: int) -> FloatArray:
+    """``value`` as :class:`PlanTree`'s own read-only (K, ``columns``) float copy, else ValueError naming the field."""
     try:
-        arr = np.array(value, dtype=dtype)
+        arr = np.array(value, dtype=float)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"PlanTree.{name} must be an array of numbers: {exc}") from None
-    if arr.ndim != ndim or arr.dtype.kind not in "iuf" or not np.isfinite(arr).all():
-        raise ValueError(f"PlanTree.{name} must be {ndim}-D finite numbers, got {arr.dtype} of shape {arr.shape}")
+    if arr.ndim != 2 or arr.shape[1] != columns:
+        what = "poses [x, y, theta]" if columns == 3 else "positions [x, y]"
+        raise ValueError(f"PlanTree.{name} must be (K, {columns}) {what}, got shape {arr.shape}")
     return _frozen(arr)
 
 
