@@ -176,7 +176,7 @@ class PlanTree(ReadOnlyArrays):
         nodes = _tree_array("nodes", self.nodes, 3)
         if not np.isfinite(nodes).all():
             raise ValueError("PlanTree.nodes holds non-finite values")
-        parents = np.array(self.parents)
+        parents: NDArray[Any] = np.array(self.parents)
         if parents.dtype.kind not in "iu":  # floats that are whole numbers are taken (a tree's own arrays are)
             whole = parents.dtype.kind == "f" and np.array_equal(parents, np.round(parents))
             parents = parents.astype(np.int64) if whole else np.empty(0)
