@@ -58,6 +58,11 @@ def test_defaults_are_nav2s_and_bad_settings_are_refused() -> None:
         c.parse("max_particles=1e12")  # not a 22 TB array
     with pytest.raises(ConfigError, match="sigma_hit must be > 0"):
         c.override({"sigma_hit": 0.0})
+    with pytest.raises(
+        ConfigError, match=r"refine must be a finite number, got 'yes', e\.g\. max_particles=1000"
+    ) as err:
+        c.parse("refine=yes")
+    assert err.value.__cause__ is None  # no "NHSIM_TRACEBACK=1 prints the ValueError's traceback" from the command
     parsed = c.parse("max_particles=1000,refine=0")
     assert (parsed.max_particles, parsed.refine) == (1000, 0) and type(parsed.max_particles) is int
     for bad, match in [

@@ -511,3 +511,24 @@ def test_a_navfn_path_of_identity_orientations_is_driven_forwards(tmp_path: Path
     east = _path_bag(tmp_path / "east", {"/plan": [[(0.0, 0.5 + 0.1 * k, 1.0, 0.0, 1.0) for k in range(10)]]})
     table = read_bag_table(east, "/plan", message=None, timed=False)
     assert "theta" in table.columns and not any(n.startswith("orientations") for n in table.notes)
+
+
+def test_a_recorded_motion_reversing_with_identity_orientations_keeps_them(tmp_path: Path) -> None:
+    """A robot backing 1.5 m along -x, heading 0 throughout, recorded as PoseStamped: its orientations were taken as
+    unset, Nav2 NavFn's, and the note said it would be driven forwards (it ran in reverse, as recorded). A recorded
+    motion's orientations are measured: the headings are 0 and the motion reverses, without that note."""
+    from mcap_ros2.writer import Writer
+
+    bag = tmp_path / "back.mcap"
+    with bag.open("wb") as f:
+        writer = Writer(f)
+        pose = writer.register_msgdef("geometry_msgs/msg/PoseStamped", POSE_STAMPED_DEF)
+        for k in range(16):
+            ns = EPOCH * 10**9 + k * 10**9
+            writer.write_message("/pose", pose, _stamped(float(k), 1.5 - 0.1 * k, 0.5, 0.0), log_time=ns)
+        writer.finish()
+    table = read_bag_table(bag, "/pose", timed=True)
+    assert not any(n.startswith("orientations") for n in table.notes)
+    np.testing.assert_array_equal(table.columns["theta"], np.zeros(16))
+    imported = read_trajectory_file(TrajectoryFile(bag, timed=True, topic="/pose"))
+    assert (imported.direction[1:] < 0).all()

@@ -430,3 +430,20 @@ def test_records_under_a_poses_key_are_read_as_records(tmp_path: Path) -> None:
     imported = read_trajectory_file(TrajectoryFile(p, timed=False))
     np.testing.assert_allclose(imported.xy[:, 0], 0.1 * np.arange(5))
     assert imported.theta is not None
+
+
+def test_a_densely_sampled_path_is_thinned_not_merged_into_one_row(tmp_path: Path) -> None:
+    """Rows closer than 0.1 mm to the row before were merged one into the next, however far the run went: a path
+    sampled every 50 um over 0.5 m was "all at one position", a dense first 0.1 m became one row (a chord). Each
+    row is merged into its run's first while within 0.1 mm of it: a path of steps of about 0.1 mm is left."""
+    from planning.trajectory.importer import TrajectoryFile, read_trajectory_file
+
+    x = np.arange(10001) * 5e-5
+    p = tmp_path / "dense.csv"
+    p.write_text("x,y\n" + "".join(f"{v!r},0.0\n" for v in x.tolist()))
+    imported = read_trajectory_file(TrajectoryFile(p, timed=False))
+    steps = np.diff(imported.xy[:, 0])
+    assert imported.xy[0, 0] == 0.0 and imported.xy[-1, 0] >= 0.4999 and (steps > 0.0).all()
+    assert steps.max() < 2e-4 and imported.xy.shape[0] >= 2500  # 0.1 mm and a row of 50 um at most
+    said = "row(s) merged (repeated poses: within 0.1 mm and 1 mrad of their run's first)"
+    assert any(said in n for n in imported.report.notes)

@@ -339,10 +339,12 @@ class AmclConfig:
             key, sep, value = part.partition("=")
             try:
                 table[key.strip()] = float(value) if sep else float("nan")
-            except ValueError as exc:
+            except ValueError:
                 if key.strip() not in {f.name for f in fields(self)}:  # a key not taken: say so, whatever its value
                     self.override({key.strip(): value}, option("amcl", text))
-                raise ConfigError(f"{option('amcl', text)}: {key.strip()} must be a number, got {value!r}") from exc
+                raise ConfigError(
+                    f"{option('amcl', text)}: {key.strip()} must be a finite number, got {value!r}, e.g. {EXAMPLE}"
+                ) from None  # float()'s own error adds nothing
             if not sep:
                 raise ConfigError(f"{option('amcl', text)}: expected key=value pairs, e.g. {EXAMPLE}; got {part!r}")
         return self.override(table, option("amcl", text))

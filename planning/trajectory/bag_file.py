@@ -182,17 +182,19 @@ def _pose_of(msg: Any, msgtype: str) -> Any:
 
 
 def _columns(
-    path: Path, poses: list[Any], stamps: list[int], rows: tuple[str, ...]
+    path: Path, poses: list[Any], stamps: list[int], rows: tuple[str, ...], *, planned: bool
 ) -> tuple[dict[str, Any], tuple[str, ...]]:
     """The poses' columns (their headings read as a YAML path's and a table's, :func:`orientation_headings`) and
-    the notes reading them made."""
+    the notes reading them made. Only a ``planned`` path's orientations may be unset (Nav2's NavFn leaves a
+    nav_msgs/Path's so); a recorded motion's are measured, identity ones too (a robot reversing along -x)."""
     cols = {
         "x": np.array([p.position.x for p in poses], dtype=float),
         "y": np.array([p.position.y for p in poses], dtype=float),
     }
     q = np.array([[p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w] for p in poses], dtype=float)
     _check_finite(path, {**cols, "orientation quaternion": q}, rows)
-    theta, notes = orientation_headings(q, rows, path, cols["x"], cols["y"])  # a zero quaternion is refused
+    xy = (cols["x"], cols["y"]) if planned else (None, None)
+    theta, notes = orientation_headings(q, rows, path, *xy)  # a zero quaternion is refused
     if theta is not None:  # None: unset orientations (Nav2's NavFn), said in the notes
         cols["theta"] = theta
     if len(set(stamps)) > 1:
@@ -416,7 +418,7 @@ def _path_rows(path: Path, topic: str, msgs: list[Any], message: int | None, pat
             f"{stamps[0] * 1e-9:.9g} s, so it is a path, not a trajectory; track it with "
             f"{option('path', python='timed=False')}, or give a path whose poses carry their times"
         )
-    cols, notes = _columns(path, [p.pose for p in poses], stamps, rows)
+    cols, notes = _columns(path, [p.pose for p in poses], stamps, rows, planned=True)
     return _Rows(rows, cols, frame, header, stamps, notes)
 
 
@@ -435,7 +437,7 @@ def _motion_rows(path: Path, topic: str, msgs: list[Any], msgtype: str) -> _Rows
     msgs, stamps = [msgs[i] for i in order], [stamps[i] for i in order]
     rows = tuple(f"{topic} message {i}" for i in order)
     frame = _one_frame(path, f"topic {topic}", [mm.header.frame_id for mm in msgs], rows)
-    cols, notes = _columns(path, [_pose_of(mm, msgtype) for mm in msgs], stamps, rows)
+    cols, notes = _columns(path, [_pose_of(mm, msgtype) for mm in msgs], stamps, rows, planned=False)
     if msgtype == "nav_msgs/msg/Odometry":
         cols["v"] = np.array([mm.twist.twist.linear.x for mm in msgs], dtype=float)
         cols["omega"] = np.array([mm.twist.twist.angular.z for mm in msgs], dtype=float)
