@@ -56,7 +56,7 @@ reaches the same database (another driver, another password, localhost or 127.0.
 relative or absolute; the outputs record an SQLite file by its absolute path). --sampler may change on resume, as
 Optuna allows (the new sampler learns from every trial): the provenance names each sampler that
 proposed trials (sampler = "tpe + random", with sampler_trials counting them). The default gains are
-always the study's first trial.
+always the study's first trial proposed (with --jobs 2 or more, or after an interruption, another may end first).
 
 At the end the tuned and the default gains are run on --eval-runs held-out draws per case (other
 build and noise seeds than any trial's), a table compares them and a sentence says which are better

@@ -763,9 +763,14 @@ UNSTORED_DEFAULTS = {"tracker": "the default (each case's tracker's FBL gains)"}
 
 
 def _values_differ(there: Any, here: Any) -> str:
-    """``": A there, B here"`` for a setting's two values when they are short to say: numbers, names, or lists
-    of other lengths (their lengths: draws, cases); "" when only the name says it (the draws' seeds, digests)."""
+    """``": A there, B here"`` for a setting's two values when they are short to say: numbers, names, the names
+    on one side only of two lists of names (the cases'), or lists of other lengths (their lengths: the draws); ""
+    when only the name says it (the draws' seeds, digests)."""
     if isinstance(there, list) and isinstance(here, list):
+        if all(isinstance(v, str) for v in there + here):  # names (the cases'): those on one side only
+            gone, new = [v for v in there if v not in here], [v for v in here if v not in there]
+            text = f": {', '.join(gone) or 'none'} there, {', '.join(new) or 'none'} here"
+            return text if len(text) <= 160 else ""
         if len(there) == len(here):
             return ""
         there, here = len(there), len(here)
