@@ -360,7 +360,7 @@ def pose_clearance(
     if not disc and centre <= radius + clearance + tol:
         c, s = np.cos(th), np.sin(th)
         sd = np.inf
-        if grid.size == 0 and world[2].shape[0] > NEAR_SCAN_OBSTACLES:
+        if _scans_near(world, field):
             sd = _samples_distance(x, y, c, s, boundary, world, centre + 2.0 * radius)
         else:
             for b in range(boundary.shape[0]):
@@ -392,6 +392,13 @@ def boundary_groups(boundary: FloatArray) -> Groups:
 
 
 @nb.njit(cache=True)
+def _scans_near(world: WorldArrays, field: FieldArrays) -> bool:
+    """Whether a footprint's samples are measured against the obstacles near its centre (:func:`_samples_distance`):
+    without a field, in a world of more than :data:`NEAR_SCAN_OBSTACLES`."""
+    return field[0].size == 0 and world[2].shape[0] > NEAR_SCAN_OBSTACLES
+
+
+@nb.njit(cache=True)
 def _grouped_distance(
     x: float,
     y: float,
@@ -409,11 +416,12 @@ def _grouped_distance(
     are at least its centre's distance less its spread away (the distance being 1-Lipschitz), so the runs are
     measured nearest bound first until the next bound (less :data:`LEAST_MARGIN`) cannot go below the least."""
     centres, spreads, starts = groups
-    near = field[0].size == 0 and world[2].shape[0] > NEAR_SCAN_OBSTACLES
+    near = _scans_near(world, field)
     candidates = near_obstacles(x, y, world, reach + 1e-9) if near else np.empty(0, dtype=np.int64)
     bound = np.empty(spreads.shape[0])
     for g in range(spreads.shape[0]):
         gx, gy = x + c * centres[g, 0] - s * centres[g, 1], y + s * centres[g, 0] + c * centres[g, 1]
+        # (the choice written out here and below: through a helper of its own the kernel ran 25-30 % slower)
         d = candidates_distance(gx, gy, candidates, world) if near else field_distance(gx, gy, world, field)
         bound[g] = d - spreads[g] if d == d else -np.inf  # (a NaN: measured first, as every sample once was)
     sd = np.inf

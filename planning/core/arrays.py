@@ -43,22 +43,26 @@ def freeze_arrays(value: object) -> None:
             object.__setattr__(value, f.name, view)
 
 
-class ReadOnlyArrays:
+class ComparedByValue:
+    """A dataclass that holds arrays (or values that do) and compares by value, so that a copy equals its original:
+    equal when every compared field is (:func:`same_fields`: arrays element by element, NaN equal to NaN). A class
+    declares ``eq=False`` to its ``@dataclass`` to keep this (a generated ``__eq__`` compares arrays with ``==``,
+    which raises). Not hashable: it holds arrays."""
+
+    def __eq__(self, other: object) -> bool:
+        return same_fields(self, other)
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+class ReadOnlyArrays(ComparedByValue):
     """A frozen dataclass whose arrays stay read-only in its copies too: a pickled one (a worker process's) and
-    a deep copy come back with writeable arrays, which :meth:`__setstate__` makes read-only again; and which
-    compares by value (:meth:`__eq__`), so that a copy equals its original."""
+    a deep copy come back with writeable arrays, which :meth:`__setstate__` makes read-only again; compared by
+    value (:class:`ComparedByValue`)."""
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
         freeze_arrays(self)
-
-    def __eq__(self, other: object) -> bool:
-        """Equal when every compared field is (:func:`same_fields`: arrays element by element, NaN equal to NaN);
-        a class declares ``eq=False`` to its ``@dataclass`` to keep this (a generated ``__eq__`` compares arrays
-        with ``==``, which raises). Not hashable: it holds arrays."""
-        return same_fields(self, other)
-
-    __hash__ = None  # type: ignore[assignment]
 
 
 def same_value(a: Any, b: Any) -> bool:

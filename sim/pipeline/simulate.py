@@ -21,7 +21,7 @@ import mujoco
 from control.base import TRACKERS, Tracker, feedback_trackers, make_tracker, tuned_option, tuned_or_none
 from control.fbl import uses_fbl_gains
 from control.gains import FBLGains
-from planning.core.arrays import same_fields
+from planning.core.arrays import ComparedByValue
 from planning.core.checks import check_number
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError
@@ -41,7 +41,7 @@ from sim.robot.sensing import SensingSetup
 
 
 @dataclass(frozen=True, eq=False)
-class Run:
+class Run(ComparedByValue):
     """One run of a job.
 
     Attributes:
@@ -59,14 +59,9 @@ class Run:
     metrics: TrackingMetrics
     params: Mapping[str, Any] = field(default_factory=dict)
 
-    def __eq__(self, other: object) -> bool:  # by value: its log's arrays element by element
-        return same_fields(self, other)
-
-    __hash__ = None  # type: ignore[assignment]
-
 
 @dataclass(frozen=True, eq=False)
-class JobResult:
+class JobResult(ComparedByValue):
     """Everything one job produced.
 
     Attributes:
@@ -90,11 +85,6 @@ class JobResult:
         if not self.runs:
             raise ConfigError("a JobResult holds at least one run; runs is empty")
         object.__setattr__(self, "runs", MappingProxyType(dict(self.runs)))  # read-only, as the result is
-
-    def __eq__(self, other: object) -> bool:  # by value (a pickled copy equals it), the model apart
-        return same_fields(self, other)
-
-    __hash__ = None  # type: ignore[assignment]
 
     def __getstate__(self) -> dict[str, Any]:  # a read-only mapping does not pickle; its dict does
         return {**self.__dict__, "runs": dict(self.runs)}
