@@ -11,6 +11,7 @@ import pickle
 import subprocess
 import sys
 import time
+from copy import deepcopy
 from pathlib import Path
 
 import numpy as np
@@ -272,6 +273,44 @@ def test_a_plan_tree_keeps_its_own_read_only_copies_in_its_copies_too() -> None:
         PlanTree(np.zeros((2, 3)), [0.5, -1])
     with pytest.raises(ValueError, match=r"PlanTree.edges\[0\] must be \(K, 2\) positions"):
         PlanTree(np.zeros((2, 3)), parents, (np.zeros((3, 3)),))
+
+
+def test_a_deferred_plan_tree_is_built_once_when_first_read_and_is_then_a_tree_like_any() -> None:
+    """A planner's tree is built when someone reads it (a plan's plot), not inside the planner's time; once built
+    it is checked, copied, pickled and compared as a tree made directly."""
+    nodes, parents, edge = np.arange(6.0).reshape(2, 3), np.array([-1, 0]), np.zeros((4, 2))
+    calls: list[int] = []
+
+    def build() -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
+        calls.append(1)
+        return nodes, parents, (edge,)
+
+    direct = PlanTree(nodes, parents, (edge,))
+    for first_read in ("nodes", "parents", "edges", "pickle", "deepcopy", "repr", "eq"):
+        calls.clear()
+        tree = PlanTree.deferred(build)
+        result = PlanResult(PlanStatus.SUCCESS, "p", path=nodes, tree=tree)
+        assert not calls  # nothing built before it is read
+        readers = {
+            "pickle": lambda t: pickle.loads(pickle.dumps(t)),
+            "deepcopy": deepcopy,
+            "repr": repr,
+            "eq": lambda t: t == direct,
+        }
+        read = readers.get(first_read)
+        read(result.tree) if read is not None else getattr(result.tree, first_read)
+        assert calls == [1]
+        assert tree == direct and pickle.loads(pickle.dumps(result)).tree == direct and calls == [1]
+        assert not tree.nodes.flags.writeable and not tree.edges[0].flags.writeable
+        assert "_build" not in vars(tree) and repr(tree) == "PlanTree(2 nodes, 1 edges)"
+    nodes[0, 0] = 99.0  # the built tree holds its own copies
+    assert tree.nodes[0, 0] == 0.0
+    with pytest.raises(AttributeError, match="has no attribute 'node'"):
+        PlanTree.deferred(build).node  # noqa: B018
+    bad = PlanTree.deferred(lambda: (np.zeros((2, 2)), parents, ()))
+    for _ in range(2):  # checked when built, and not built while it fails
+        with pytest.raises(ValueError, match=r"PlanTree.nodes must be \(K, 3\) poses"):
+            bad.parents  # noqa: B018
 
 
 @pytest.mark.parametrize(

@@ -6,12 +6,13 @@ import dataclasses
 import math
 import numbers
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from planning.clock import ready
 from planning.core.arrays import ReadOnlyArrays
@@ -163,6 +164,10 @@ class PlanTree(ReadOnlyArrays):
     copies too). Trees are equal when their arrays are (:func:`planning.core.arrays.same_value`); a tree holds
     arrays, so it is not hashable.
 
+    A planner may hand its result a tree :meth:`deferred`: built, and checked, when one of its fields is first
+    read (a plan's plot reads it; a caller that wants only the path never pays for it, as OMPL's users ask a
+    planner for its planner data only when they want it).
+
     Raises:
         ValueError: Nodes that are not (M, 3) numbers, parents that are not M integers, an edge that is not
             (k, 2) numbers.
@@ -170,7 +175,33 @@ class PlanTree(ReadOnlyArrays):
 
     nodes: FloatArray
     parents: NDArray[np.int64]
-    edges: tuple[FloatArray, ...] = ()
+    edges: tuple[FloatArray, ...] = field(default_factory=tuple)  # not a class attribute: a deferred tree has none
+
+    @classmethod
+    def deferred(cls, build: Callable[[], tuple[ArrayLike, ArrayLike, tuple[ArrayLike, ...]]]) -> PlanTree:
+        """A tree whose ``(nodes, parents, edges)`` ``build()`` gives when a field is first read (and checked
+        then, as a tree made directly is). ``build`` must give the same arrays whenever it is called: the
+        arrays it reads are not changed after."""
+        tree = object.__new__(cls)
+        object.__setattr__(tree, "_build", build)
+        return tree
+
+    if not TYPE_CHECKING:  # to the type checker a tree has its fields only
+
+        def __getattr__(self, name: str) -> Any:
+            """A deferred tree's field, the tree built first (only called for an attribute not set)."""
+            build = self.__dict__.get("_build")
+            if build is None or name not in ("nodes", "parents", "edges"):
+                raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+            built = PlanTree(*build())  # checked: a tree that fails its checks stays unbuilt
+            self.__dict__.update(vars(built))
+            del self.__dict__["_build"]
+            return self.__dict__[name]
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Its fields (a deferred tree built first): a pickle or a copy holds arrays, not the builder."""
+        self.nodes  # noqa: B018  # a deferred tree is built on this read
+        return self.__dict__
 
     def __post_init__(self) -> None:
         nodes = _tree_array("nodes", self.nodes, 3)

@@ -419,16 +419,20 @@ class CompiledSearch:
         return gather_path(self._a, self._b, a, b)
 
     def plan_tree(self) -> PlanTree:
-        """Both trees as one :class:`~planning.planners.base.PlanTree` (:func:`.tree.merge_trees`'s)."""
-        na, nb = int(self._state[0]), int(self._state[1])
-        par_b = self._b[2][:nb].copy()
-        par_b[par_b >= 0] += na
-        edges = []
-        for tree, n in ((self._a, na), (self._b, nb)):
-            edge_p = tree[4]
-            edges += [edge_p[a:b, :2] for a, b in tree[3][1:n].tolist()]
-        nodes = np.concatenate([self._a[0][:na], self._b[0][:nb]])
-        return PlanTree(nodes, np.concatenate([self._a[2][:na], par_b]), tuple(edges))
+        """Both trees as one :class:`~planning.planners.base.PlanTree` (:func:`.tree.merge_trees`'s), built when
+        first read (:meth:`PlanTree.deferred`: the search is over, its arrays no longer change)."""
+        na, nb, a, b = int(self._state[0]), int(self._state[1]), self._a, self._b
+
+        def build() -> tuple[FloatArray, IntArray, tuple[FloatArray, ...]]:
+            par_b = b[2][:nb].copy()
+            par_b[par_b >= 0] += na
+            edges = []
+            for tree, n in ((a, na), (b, nb)):
+                edge_p = tree[4]
+                edges += [edge_p[i:j, :2] for i, j in tree[3][1:n].tolist()]
+            return np.concatenate([a[0][:na], b[0][:nb]]), np.concatenate([a[2][:na], par_b]), tuple(edges)
+
+        return PlanTree.deferred(build)
 
     def trees(self) -> tuple[Tree, Tree]:
         """The start and goal trees as :class:`~.tree.Tree` objects (their edges views of the stores)."""
