@@ -145,6 +145,38 @@ def test_the_lazy_motion_check_gives_the_checkers_verdict():
     assert 0.1 < np.mean(verdicts) < 0.9  # both verdicts were exercised
 
 
+@pytest.mark.parametrize(
+    ("shape", "clearance"), [("footprint", 0.0), ("footprint", 0.05), ("disc", 0.0), ("disc", 0.04)]
+)
+def test_poses_the_grid_proves_free_by_a_neighbours_margin_give_the_checkers_verdict(shape, clearance):
+    """A pose proven free by the disc proves its neighbours within the margin free (unclassified): the verdict
+    must stay the exact checker's on every pose, in worlds drawn at random, the curves' ends anywhere in them
+    (so near obstacles and walls too), with a clearance and without."""
+    verdicts = []
+    for seed in (5, 17, 29):
+        problem = PlanProblem.from_scenario(random_scenario("edumip" if seed == 17 else "turtlebot3", seed))
+        chk = make_checker(problem, shape, clearance)
+        local = LocalPlanner("reeds_shepp", problem.robot, chk)
+        assert local.rho is not None and local.check_arrays is not None
+        geometry = np.array([local.rho, local.sample_step])
+        xmin, xmax, ymin, ymax = problem.world.bounds
+        rng = np.random.default_rng(seed)
+        ends = rng.uniform([xmin, ymin, -np.pi], [xmax, ymax, np.pi], size=(150, 2, 3))
+        spans, buf_p, buf_d = np.empty(8, dtype=np.int64), np.empty((4, 3)), np.empty(4)
+        for q0, q1 in ends:
+            for max_len in (np.inf, 1.5):
+                args = (True, q0, q1, geometry, max_len, False, 1, local.check_arrays, spans, buf_p, buf_d)
+                n, verdict, p, _ = steer_free(*args)
+                poses, _ = word_poses(
+                    cut_word(True, q0, q1, local.rho, local.sample_step, max_len, False)[0], local.rho
+                )
+                assert verdict == int(bool(np.all(chk.checker.poses_free(poses)))), (seed, q0, q1, max_len)
+                if verdict:
+                    np.testing.assert_array_equal(p[:n], poses)
+                verdicts.append(verdict)
+    assert 0.1 < np.mean(verdicts) < 0.9  # both verdicts were exercised
+
+
 def test_check_order_is_a_permutation():
     for n in (1, 2, 3, 10, 57):
         for new_first in (False, True):
