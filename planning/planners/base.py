@@ -195,7 +195,7 @@ class PlanTree(ReadOnlyArrays):
                 raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
             built = PlanTree(*build())  # checked: a tree that fails its checks stays unbuilt
             self.__dict__.update(vars(built))
-            del self.__dict__["_build"]
+            self.__dict__.pop("_build", None)  # another thread may have built it meanwhile
             return self.__dict__[name]
 
     def __getstate__(self) -> dict[str, Any]:
