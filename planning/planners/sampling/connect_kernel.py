@@ -77,7 +77,8 @@ def word_free(
     position is nearer than that margin ``m``, the signed distance being 1-Lipschitz: the poses within
     ``m / piece`` of it along the word (:func:`_longest_piece`) are computed but not classified. Their verdict
     is the one :func:`classify_pose` would give (its first test is that very disc), so the word's is too, and
-    the poses checked before the first that is not free are fewer (in the open, one in tens)."""
+    the poses checked before the first that is not free are fewer (about one in ten on the curves of a 6 x 6 m
+    random world with seven obstacles)."""
     grid, x0, y0, h, boundary, footprint, anchors, radius, clearance, tol, disc, world, robot, field = chk
     n = word_size(word)
     if spans.shape[0] < 4 * n + 8:
