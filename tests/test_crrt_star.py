@@ -361,6 +361,27 @@ print(json.dumps({"working": _working(res), "cpu": cpu, "status": res.status.val
 """
 
 
+def test_a_run_its_time_limit_ended_looks_for_no_route_after_it(monkeypatch):
+    """A timed-out run's reason looked for a 2-D route for up to 0.3 s after the time limit (0.13-0.38 s by the wall
+    for 0.02-0.05 s limits on random worlds), outside its reported time: the look takes what the limit leaves, and
+    a run the limit ended has nothing left."""
+    from planning.planners import geodesic
+
+    looked: list[float] = []
+    route = geodesic.route
+
+    def timed_route(*args, deadline, **kwargs):
+        looked.append(deadline - time.perf_counter())
+        return route(*args, deadline=deadline, **kwargs)
+
+    monkeypatch.setattr(geodesic, "route", timed_route)
+    res = CRRTStar().plan(_enclosed_goal_problem(time_limit=0.2))
+    assert res.status is PlanStatus.TIMEOUT and res.stats["iterations"] > 0
+    assert looked == [] and "route" not in res.reason
+    res = CRRTStar(max_iterations=1500).plan(_enclosed_goal_problem(time_limit=60.0))  # time left: it looks
+    assert len(looked) == 1 and 0.0 < looked[0] <= 0.3 and "finds no way keeping the axle centre" in res.reason
+
+
 def test_the_check_for_a_way_keeping_the_clearance_keeps_to_the_time_limit():
     """3000 small obstacles on 50 x 50 m: the 2-D check that some way keeps the clearance (its distance
     field, a million cells) took 0.9 s of a 0.5 s limit, and the reason blamed sampling that never ran."""

@@ -514,7 +514,9 @@ class _Search:
         if best_goal is not None:
             return self.result(PlanStatus.SUCCESS, best_goal, clock, it)
         partial = self.result(PlanStatus.TIMEOUT, None, clock, it)
-        return dataclasses.replace(partial, reason=self.why_unreached(it, partial.stats["distance_to_goal_m"]))
+        reason = self.why_unreached(it, partial.stats["distance_to_goal_m"])
+        partial.stats["time_s"] = clock.elapsed()  # the reason's route search included
+        return dataclasses.replace(partial, reason=reason)
 
     def sample(self) -> tuple[int | None, int]:
         """Lines 1-27 of Algorithm 1 from the start until the goal joins the tree (with ``stop_at_goal``)
@@ -574,11 +576,15 @@ class _Search:
         """What a run that did not reach the goal may add: that no 2-D route over :data:`NO_ROUTE_CELL` cells keeps
         the clearance and a millimetre (a way between cell centres, keeping the clearance by less than half a cell's
         diagonal, is not seen; the sampler almost never lands in such a pinch: random worlds 1005, 1012 and 1014 for
-        the EduMIP), with what to do; "" when one does, or when looking would take longer than :data:`NO_ROUTE_S`."""
+        the EduMIP), with what to do; "" when one does, or when looking would take longer than :data:`NO_ROUTE_S` or
+        than the time limit leaves (a run its time limit ended has nothing left for it)."""
         p, radius = self.problem, self.required + 1e-3
         cell = p.world.grid_spacing(NO_ROUTE_CELL, geodesic.MAX_CELLS)
+        left = min(NO_ROUTE_S, self.clock.remaining())
+        if left <= 0.0:
+            return ""
         try:
-            deadline = time.perf_counter() + NO_ROUTE_S
+            deadline = time.perf_counter() + left
             way = geodesic.route(p.world, p.start.as_array(), p.goal.as_array(), radius, cell, deadline=deadline)
         except FieldTimeout:
             return ""
