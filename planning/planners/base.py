@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -189,14 +190,18 @@ class PlanTree(ReadOnlyArrays):
     if not TYPE_CHECKING:  # to the type checker a tree has its fields only
 
         def __getattr__(self, name: str) -> Any:
-            """A deferred tree's field, the tree built first (only called for an attribute not set)."""
-            build = self.__dict__.get("_build")
-            if build is None or name not in ("nodes", "parents", "edges"):
-                raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
-            built = PlanTree(*build())  # checked: a tree that fails its checks stays unbuilt
-            self.__dict__.update(vars(built))
-            self.__dict__.pop("_build", None)  # another thread may have built it meanwhile
-            return self.__dict__[name]
+            """A deferred tree's field, the tree built first (only called for an attribute not set): built once,
+            by the first thread that reads it (the others wait for it)."""
+            if name in ("nodes", "parents", "edges"):
+                with _DEFERRED_BUILD:
+                    build = self.__dict__.get("_build")
+                    if build is not None:
+                        built = PlanTree(*build())  # checked: a tree that fails its checks stays unbuilt
+                        self.__dict__.update(vars(built))
+                        del self.__dict__["_build"]
+                if name in self.__dict__:
+                    return self.__dict__[name]
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
     def __getstate__(self) -> dict[str, Any]:
         """Its fields (a deferred tree built first): a pickle or a copy holds arrays, not the builder."""
@@ -215,9 +220,15 @@ class PlanTree(ReadOnlyArrays):
             raise ValueError(
                 f"PlanTree.parents must be one integer per node ({nodes.shape[0]}), got {self.parents!r:.80}"
             )
+        parents = parents.astype(np.int64, copy=False)
+        if why := _not_a_forest(parents):
+            raise ValueError(f"PlanTree.parents must name each node's parent (-1 at a root): {why}")
+        edges = tuple(_tree_array(f"edges[{k}]", e, 2) for k, e in enumerate(self.edges))
+        if bad := [k for k, e in enumerate(edges) if not np.isfinite(e).all()]:
+            raise ValueError(f"PlanTree.edges[{bad[0]}] holds non-finite values")
         object.__setattr__(self, "nodes", nodes)
-        object.__setattr__(self, "parents", _frozen(parents.astype(np.int64, copy=False)))
-        object.__setattr__(self, "edges", tuple(_tree_array(f"edges[{k}]", e, 2) for k, e in enumerate(self.edges)))
+        object.__setattr__(self, "parents", _frozen(parents))
+        object.__setattr__(self, "edges", edges)
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         super().__setstate__(state)
@@ -226,6 +237,30 @@ class PlanTree(ReadOnlyArrays):
 
     def __repr__(self) -> str:
         return f"PlanTree({np.shape(self.nodes)[0]} nodes, {len(self.edges)} edges)"
+
+
+#: Held while a deferred :class:`PlanTree` is built, so that threads reading it at once build it once.
+_DEFERRED_BUILD = threading.Lock()
+
+
+def _not_a_forest(parents: NDArray[np.int64]) -> str:
+    """Why ``parents`` (one per node) is not a forest: a parent that is no node, no root, or a node whose parents
+    lead round in a cycle; "" when it is one. Each node's 2^k-th ancestor, for k up to log2 of the nodes, must
+    reach past a root."""
+    m = parents.shape[0]
+    if m == 0:
+        return ""
+    if (out := np.flatnonzero((parents < -1) | (parents >= m))).size:
+        return f"node {out[0]}'s parent {parents[out[0]]} is no node (nodes 0 to {m - 1})"
+    if not (parents == -1).any():
+        return "no node is a root"
+    up, reach = parents, 1
+    while reach < m and (up >= 0).any():
+        up = np.where(up >= 0, up[np.maximum(up, 0)], -1)
+        reach *= 2
+    if (cyc := np.flatnonzero(up >= 0)).size:
+        return f"node {cyc[0]}'s parents lead round in a cycle, never to a root"
+    return ""
 
 
 def _frozen(arr: NDArray[Any]) -> NDArray[Any]:

@@ -135,17 +135,21 @@ class Tree:
             dirs.append(d[1:])
         return np.vstack(poses), np.concatenate(dirs)
 
-    def plan_tree(self, offset: int = 0) -> PlanTree:
+    def plan_tree(self) -> PlanTree:
         """This tree as a :class:`PlanTree` for plotting (edge curves as (k, 2) arrays)."""
+        return PlanTree(*self._drawn(0))
+
+    def _drawn(self, offset: int) -> tuple[FloatArray, NDArray[np.int64], tuple[FloatArray, ...]]:
+        """:meth:`plan_tree`'s nodes, parents (``offset`` added to each but a root's -1) and edges."""
         par = self.parents[: self.n].copy()
         par[par >= 0] += offset
-        return PlanTree(self.nodes[: self.n].copy(), par, tuple(e[0][:, :2] for e in self.edges[1:]))
+        return self.nodes[: self.n].copy(), par, tuple(e[0][:, :2] for e in self.edges[1:])
 
 
 def merge_trees(a: Tree, b: Tree) -> PlanTree:
     """Two trees drawn as one :class:`PlanTree` (roots keep parent -1)."""
-    ta, tb = a.plan_tree(), b.plan_tree(offset=a.n)
-    return PlanTree(np.vstack([ta.nodes, tb.nodes]), np.concatenate([ta.parents, tb.parents]), ta.edges + tb.edges)
+    (na, pa, ea), (nb, pb, eb) = a._drawn(0), b._drawn(a.n)
+    return PlanTree(np.vstack([na, nb]), np.concatenate([pa, pb]), ea + eb)
 
 
 #: The share of a tree planner's time limit between readings of its clock (:meth:`Budget.spent`).
