@@ -486,3 +486,24 @@ def test_a_path_given_where_a_file_as_read_goes_is_read_or_named(tmp_path: Path)
         file_trajectory(str(p), ROBOT, WORLD)  # type: ignore[arg-type]
     with pytest.raises(ConfigError, match="takes a TrajectoryFile or a path, got int"):
         read_trajectory_file(3)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("rows", [2, 121])
+def test_a_file_slowing_to_a_stand_it_holds_keeps_its_clock(tmp_path: Path, rows: int) -> None:
+    """A slow drive of half a metre in 10 s, then a stand of 2 s: the samples of the stand were set to rest while the
+    rows' speeds fell linearly to it between the intervals' middles, a step at the stand's first sample that read as
+    0.53 m/s^2 and re-timed the two rows (which brake at 0.008 m/s^2), and as 0.25 m/s^2 for 121 rows of a smooth
+    drive (0.03 m/s^2 at most): a stand a little faster was re-timed too (0.59 m/s^2 read)."""
+    t = np.linspace(0.0, 10.0, rows)
+    u = t / 10.0
+    x = 0.5 * (10 * u**3 - 15 * u**4 + 6 * u**5 if rows > 2 else u)  # a smooth drive, or two rows
+    t, x = np.append(t, 12.0), np.append(x, 0.5)  # the stand
+    imp = read_trajectory_file(TrajectoryFile(write_csv(tmp_path / "stand.csv", {"t": t, "x": x, "y": 0.0 * t})))
+    dense = densify(imp)
+    assert np.max(np.abs(np.gradient(dense.v_rows, dense.t))) < 0.1
+    retime, why, stretch = timing_verdict(dense, LIMITS)
+    assert not retime and stretch < 1.25, why
+    res = file_trajectory(imp, ROBOT, WORLD)
+    traj = res.trajectory
+    assert res.success and traj is not None and imp.report.retimed is False
+    assert traj.duration >= 12.0 * stretch - 1e-9  # the stand kept, on the file's clock

@@ -168,7 +168,7 @@ def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
     heading = np.unwrap(heading)
     pose = np.column_stack([xy, heading])
     v = np.where(settled, 0.0, sgn * speed)
-    v_rows = np.where(settled, 0.0, row_speeds(imported, tg, v))
+    v_rows = row_speeds(imported, tg, v, settled)
     mids = 0.5 * (imported.t[[0, -2]] + imported.t[[1, -1]]) - t0
     step = np.hypot(*(imported.xy[[1, -1]] - imported.xy[[0, -2]]).T) / np.diff(imported.t)[[0, -1]]
     ends = step * imported.direction[[0, -1]] * (not imported.velocities)  # given velocities say where it rests
@@ -176,17 +176,24 @@ def densify(imported: ImportedFile, dt: float = DT) -> DenseFile:
     return DenseFile(tg - t0, pose, v, np.gradient(heading, tg), v_rows, end_rows, resolved & moving)
 
 
-def row_speeds(imported: ImportedFile, tg: FloatArray, v: FloatArray) -> FloatArray:
+def row_speeds(
+    imported: ImportedFile, tg: FloatArray, v: FloatArray, settled: NDArray[np.bool_] | None = None
+) -> FloatArray:
     """(M,) the signed speed the rows of a timed file give at times ``tg`` (M,) [s]: over each interval its
-    distance over its time, in its travel direction, at its middle; linear between the middles, and from
-    the interpolant's speed ``v`` (M,) at the first and last rows (at rest, or the given velocity).
+    distance over its time, in its travel direction, at its middle (0 for an interval whose middle lies where
+    ``settled`` (M,) says the file stands: a recording's jitter at rest is no motion); linear between the middles,
+    and from the interpolant's speed ``v`` (M,) at the first and last rows (at rest, or the given velocity).
 
     Its accelerations are the rows' own differences, each between the middles of two intervals, and
     sampled every ``dt`` (``np.gradient``) they are weighted means of those: a file whose rows are within
-    the acceleration limits is, whatever an interpolant through them does between them."""
+    the acceleration limits is, whatever an interpolant through them does between them. (Setting the samples
+    where it stands to 0 instead made a step at a stand's first sample: a file slowing to a stand it held for a
+    second or more was re-timed for an acceleration its rows do not have.)"""
     assert imported.t is not None
     t = imported.t
     u = np.hypot(*np.diff(imported.xy, axis=0).T) / np.diff(t) * imported.direction
+    if settled is not None:
+        u = np.where(np.interp(0.5 * (t[1:] + t[:-1]), tg, settled.astype(float)) >= 1.0, 0.0, u)
     knots = np.concatenate([t[:1], 0.5 * (t[1:] + t[:-1]), t[-1:]])
     return np.asarray(np.interp(tg, knots, np.concatenate([v[:1], u, v[-1:]])))
 
