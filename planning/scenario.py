@@ -144,6 +144,11 @@ def _planner_options(r: TableReader, table: Any) -> dict[str, dict[str, Any]]:
             raise _unknown_planner(r, f"planners.{name}", name)
         if not isinstance(opts, Mapping):
             raise r.fail(f"planners.{name}", "a table of keyword options", opts)
+        if "time_limit" in opts:  # a plan's budget is the command's (--time-limit) or the problem's, said in its record
+            raise ScenarioError(
+                f"{r.where}: field 'planners.{name}.time_limit': a scenario does not set the planning budget; remove "
+                "it and give the command --time-limit S (or PlanProblem's time_limit)"
+            )
         try:
             make_planner(name, **opts)
         except (ConfigError, ValueError, TypeError) as exc:

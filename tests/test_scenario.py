@@ -200,6 +200,11 @@ def test_planner_options_tables_are_read_and_reach_the_planner(tmp_path: Path) -
         ("planners = 3\n", r"field 'planners': expected a table"),
         ("[planners]\nbirrt = 3\n", r"'planners.birrt': expected a table of keyword options"),
         ('[planners.birrt]\nsteering = "teleport"\n', r"'planners.birrt'.*unknown steering 'teleport': choose"),
+        (  # it overrode --time-limit silently (a 3 s plan under --time-limit 0.3, the overrun blamed on the planner)
+            "[planners.rrt-star]\ntime_limit = 4.0\n",
+            r"field 'planners.rrt-star.time_limit': a scenario does not set the planning budget; remove it and give "
+            r"the command --time-limit S",
+        ),
         (
             'planner = "astar"\n',
             r"field 'planner': expected a registered planner name \(birrt, .*got 'astar'; a "
