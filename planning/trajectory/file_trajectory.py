@@ -578,7 +578,8 @@ def check_world(
     Args:
         imported: The file (its options and rows, for the message).
         poses: (M, 3) poses along the motion, dense enough to check.
-        times: (M,) their times [s] (a trajectory), or None (a path: the nearest row is named).
+        times: (M,) their times [s] from the file's first row on its clock (a trajectory: the time and its nearest
+            row are named), or None (a path: the nearest row is named).
         world: The world.
         robot: The robot (its footprint).
 
@@ -597,8 +598,10 @@ def check_world(
     k = int(bad[0])
     x, y = poses[k, :2]
     wall, label = _culprit(world, poses[k, :2])
-    if times is not None:
-        when = f"at t = {times[k]:.2f} s"
+    if times is not None:  # from the first row, on the file's clock (a log's stamps may be Unix times): and its row
+        assert imported.t is not None
+        row = int(np.argmin(np.abs(imported.t - imported.t[0] - times[k])))
+        when = f"at t = {times[k]:.2f} s from its first row (near {imported.rows[row]})"
     else:
         when = f"near {imported.rows[int(np.argmin(np.hypot(*(imported.xy - poses[k, :2]).T)))]}"
     what = f"leaves the world across {label}" if wall else f"enters {label}"
