@@ -507,3 +507,12 @@ def test_a_file_slowing_to_a_stand_it_holds_keeps_its_clock(tmp_path: Path, rows
     traj = res.trajectory
     assert res.success and traj is not None and imp.report.retimed is False
     assert traj.duration >= 12.0 * stretch - 1e-9  # the stand kept, on the file's clock
+
+
+def test_the_fastest_sample_is_said_without_rounding_noise(tmp_path: Path) -> None:
+    """A straight start's yaw rate was said as 'omega -7.08e-12 rad/s'."""
+    t = np.array([0.0, 2.0, 4.0, 6.0])
+    cols = {"t": t, "x": np.array([0.0, 0.5, 1.0, 1.5]), "y": np.array([0.0, 0.0, 0.2, 0.5])}
+    p = write_csv(tmp_path / "head.csv", {**cols, "theta": np.array([0.0, 0.0, 0.4, 0.6])})
+    retime, why, _ = timing_verdict(densify(read_trajectory_file(TrajectoryFile(p))), LIMITS)
+    assert retime and "its fastest: v +0.394 m/s, omega +0.000 rad/s at t = 4.50 s" in why, why

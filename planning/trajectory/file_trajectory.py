@@ -518,7 +518,8 @@ def timing_verdict(dense: DenseFile, limits: Limits) -> tuple[bool, str, float]:
     if speed_scale > MAX_STRETCH:
         why = f"keeping its clock within the speed and yaw-rate limits would slow it x{speed_scale:.3g}"
         k = fastest_sample(v, w, limits)  # where: a jump's rows
-        at = f"v {v[k]:+.3g} m/s, omega {w[k]:+.3g} rad/s at t = {t[k]:.2f} s"
+        vk, wk = round(v[k], 3) + 0.0, round(w[k], 3) + 0.0  # 0.000, not -7.08e-12 (rounding's noise) or -0.000
+        at = f"v {vk:+.3f} m/s, omega {wk:+.3f} rad/s at t = {t[k]:.2f} s"
         return True, f"{why} (more than x{MAX_STRETCH:g}; its fastest: {at})", 1.0
     stretch = max(speed_scale, curve_scale)  # as make_trajectory slows a kept clock
     if stretch > 1.0 + 1e-9:
