@@ -325,6 +325,8 @@ def test_a_planners_options_are_given_on_the_command_line(tmp_path: Path, capsys
         planner_option_values(["a=1", "a=2"])
     with pytest.raises(ConfigError, match="the planning budget is --time-limit"):  # the record's time limit
         planner_option_values(["time_limit=3"])
+    with pytest.raises(ConfigError, match="config is a configuration object of the Python API; give its fields"):
+        planner_option_values(["config=3"])  # it said 'config must be a CRRTStarConfig ... give one'
     out = tmp_path / "p.json"
     argv = ["plan", "--scenario", "random8021", "--planner", "optim", "--robot", "edumip", "--quiet"]
     assert main([*argv, "--planner-option", "max_iter=5", "--planner-option", "init=straight", "--json", str(out)]) == 1

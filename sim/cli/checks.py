@@ -178,6 +178,11 @@ def planner_option_values(texts: list[str] | None) -> dict[str, Any]:
             raise ConfigError(f"--planner-option: {key!r} is given twice; give each option once")
         if key == "time_limit":  # the command's own budget, said in its header and record
             raise ConfigError(f"--planner-option {text!r}: the planning budget is --time-limit; give --time-limit S")
+        if key == "config":  # a planner's whole configuration object: the Python API's, no text gives one
+            raise ConfigError(
+                f"--planner-option {text!r}: config is a configuration object of the Python API; give its fields "
+                f"one by one, e.g. --planner-option {PLANNER_OPTION_EXAMPLE}"
+            )
         try:
             out[key] = tomllib.loads(f"v = {value}")["v"]
         except tomllib.TOMLDecodeError:
