@@ -131,7 +131,13 @@ def test_a_ros_path_without_times_given_as_a_trajectory_is_sent_to_the_path_opti
     [
         ("t,x,northing\n0,0,0\n1,1,1\n", [], "valid names are t, x, y, theta"),
         ("t,x\n0,0\n1,1\n", [], "no column y"),
-        ("t,x,y\n0,1,1\n1,1,1\n", [], "two distinct positions"),
+        ("t,x,y\n0,1,1\n1,1,1\n", [], "two distinct positions: give rows that move"),
+        (  # a scale that shrank the rows to one position is named, and a larger one asked for
+            "t,x,y\n0,0,0\n1,1,1\n",
+            ["--scale", "1e-300"],
+            "at one position (0, 0) after --scale 1e-300; a trajectory needs at least two distinct positions: give "
+            "rows that move, or a larger --scale",
+        ),
         ("t,x,y\n0,0,0\n1,abc,1\n", [], "line 3, column 'x': 'abc'"),
         ("t,x,y\n0,0,0\n1,1,1\n1,2,1\n", [], "line 3 -> line 4"),
         ("t,x,y\n0,0,0\n1,1,1\n", ["--reference", "line"], "drop --planner, --reference"),

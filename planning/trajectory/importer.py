@@ -371,7 +371,7 @@ def import_table(table: FileTable, source: TrajectoryFile) -> ImportedFile:
     if source.timed:
         _refuse_instant(report.file, cols["t"], source.time_scale or 1.0)
     rows, cols = _merge(rows, cols, source.timed, report)
-    _check_distinct(table, cols)
+    _check_distinct(table, cols, source.scale)
     _note_outliers(rows, cols["xy"], report)
     if not source.timed:
         return ImportedFile(source, rows, cols["xy"], None, cols.get("theta"), _directions(cols), None, None, report)
@@ -620,12 +620,15 @@ def _group_mean(values: FloatArray, group: NDArray[np.intp], count: FloatArray) 
     return np.column_stack([np.bincount(group, weights=values[:, j]) / count for j in range(values.shape[1])])
 
 
-def _check_distinct(table: FileTable, cols: dict[str, FloatArray]) -> None:
+def _check_distinct(table: FileTable, cols: dict[str, FloatArray], scale: float | None) -> None:
+    """Refuse a file whose rows (scaled) are all at one position, naming the scale when one shrank them so."""
     xy = cols["xy"]
     if float(np.max(np.hypot(*(xy - xy[0]).T))) <= SAME_POSITION:
+        scaled = "" if scale is None else f" after {option('scale', scale)}"
+        fix = "give rows that move" if scale is None else f"give rows that move, or a larger {option('scale')}"
         raise TrajectoryFileError(
             f"{table.path}: all {len(table)} rows ({table.rows[0]} to {table.rows[-1]}) are at one position "
-            f"({xy[0, 0]:g}, {xy[0, 1]:g}); a trajectory needs at least two distinct positions: give rows that move"
+            f"({xy[0, 0]:g}, {xy[0, 1]:g}){scaled}; a trajectory needs at least two distinct positions: {fix}"
         )
 
 
