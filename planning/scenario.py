@@ -29,7 +29,7 @@ import numpy as np
 
 from planning.collision.overlap import footprint_overlaps
 from planning.core.checks import check_number, degrees_hint, heading_beyond, is_number
-from planning.core.files import descriptor_path, read_input_text
+from planning.core.files import descriptor_path, read_input_text, undecodable_at
 from planning.core.geometry import Pose2D, heading_in_turn
 from planning.core.maps import MapObstacles, load_map_table
 from planning.core.nav2_map import load_map_yaml_table
@@ -392,8 +392,7 @@ def load_scenario_file(path: str | Path) -> Scenario:
         raise ScenarioError(f"cannot read scenario file {p}: {exc.strerror or exc}") from exc
     except UnicodeDecodeError as exc:
         raise ScenarioError(
-            f"scenario file {p} is not UTF-8 text (byte {exc.start} of the file: {exc.reason}); TOML is UTF-8: "
-            "save it as UTF-8"
+            f"scenario file {p} is not UTF-8 text ({undecodable_at(exc)}); TOML is UTF-8: save it as UTF-8"
         ) from exc
     try:
         data = tomllib.loads(text)

@@ -159,7 +159,8 @@ def test_a_file_not_in_utf8_is_refused_and_a_byte_order_mark_dropped(tmp_path: P
     text = (SCENARIOS_DIR / "nav_map1.toml").read_text(encoding="utf-8")
     for name, data in (("latin1.toml", b'name = "caf\xe9"\n'), ("utf16.toml", text.encode("utf-16"))):
         (tmp_path / name).write_bytes(data)
-        with pytest.raises(ScenarioError, match=rf"{name} is not UTF-8 text .*save it as UTF-8"):
+        said = rf"{name} is not UTF-8 text \(line 1, byte \d+ of the file: .*save it as UTF-8"  # counted from 1
+        with pytest.raises(ScenarioError, match=said):
             load_scenario(tmp_path / name)
     (tmp_path / "bom.toml").write_bytes(b"\xef\xbb\xbf" + text.encode("utf-8"))
     assert load_scenario(tmp_path / "bom.toml").world == load_scenario("nav_map1").world

@@ -17,7 +17,7 @@ ROWS = "0,0,0\n5,0.5,0\n10,1.0,0\n"
 @pytest.mark.parametrize(
     ("name", "data", "needle"),
     [
-        ("latin1.csv", b"t,x,y\n0,0,0\n5,0.5,0\n10,1.0,\xe9\n", "not UTF-8 text (byte 27 of the file"),
+        ("latin1.csv", b"t,x,y\n0,0,0\n5,0.5,0\n10,1.0,\xe9\n", "not UTF-8 text (line 4, byte 28 of the file"),
         ("latin1.csv", b"t,x,y\n0,0,0\n5,0.5,0\n10,1.0,\xe9\n", "save it as UTF-8"),
         ("cols.yaml", b"a: 1\nb: 2\n", "a YAML file gives the columns"),
         ("cols.json", b'{"a": 1}', "a JSON file gives the columns"),

@@ -74,3 +74,11 @@ def read_input_text(path: str | Path, encoding: str = "utf-8-sig") -> str:
         UnicodeDecodeError: It is not text in ``encoding``.
     """
     return read_input(path).decode(encoding)
+
+
+def undecodable_at(exc: UnicodeDecodeError) -> str:
+    """Where a file's text would not decode, as a message says it: its line and the byte's place in the file,
+    counted from 1 (``line 4, byte 24 of the file: invalid continuation byte``)."""
+    data = bytes(exc.object)
+    line = data[: exc.start].count(b"\n") + 1
+    return f"line {line}, byte {exc.start + 1} of the file: {exc.reason}"

@@ -41,6 +41,7 @@ from numpy.typing import NDArray
 
 from planning.core.checks import heading_beyond, is_number
 from planning.core.documents import GivenTwice, yaml_loader
+from planning.core.files import undecodable_at
 from planning.core.maps import (
     MapObstacles,
     MapShape,
@@ -104,7 +105,7 @@ def _parse(path: Path) -> dict[str, Any]:
         doc = yaml.load(path.read_text(encoding="utf-8"), Loader=yaml_loader())
     except UnicodeDecodeError as exc:
         raise ScenarioError(
-            f"map YAML {path} is not text ({exc.reason} at byte {exc.start}): give the map's .yaml file, which names "
+            f"map YAML {path} is not text ({undecodable_at(exc)}): give the map's .yaml file, which names "
             "its image (an image itself goes in the scenario's [world.map] table as image = ...)"
         ) from exc
     except OSError as exc:

@@ -46,7 +46,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from planning.core.checks import given
 from planning.core.documents import GivenTwice, load_json, yaml_loader
-from planning.core.files import read_input_text
+from planning.core.files import read_input_text, undecodable_at
 from planning.errors import ConfigError, option
 
 FloatArray = NDArray[np.float64]
@@ -331,7 +331,7 @@ def read_table(path: str | Path, columns: Sequence[str] | None = None) -> FileTa
         raise TrajectoryFileError(f"cannot read trajectory file {p}: {exc.strerror or exc}") from exc
     except UnicodeDecodeError as exc:
         raise TrajectoryFileError(
-            f"trajectory file {p} is not UTF-8 text (byte {exc.start} of the file: {exc.reason}); save it as UTF-8"
+            f"trajectory file {p} is not UTF-8 text ({undecodable_at(exc)}); save it as UTF-8"
         ) from exc
     if "\x00" in text:  # valid UTF-8, but no text file holds a NUL (a binary file, zeros, a UTF-16 one)
         raise TrajectoryFileError(
