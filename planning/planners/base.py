@@ -240,7 +240,7 @@ class PlanTree(ReadOnlyArrays):
 
 
 #: Held while a deferred :class:`PlanTree` is built, so that threads reading it at once build it once.
-_DEFERRED_BUILD = threading.Lock()
+_DEFERRED_BUILD = threading.RLock()  # re-entrant: a builder may read another deferred tree
 
 
 def _not_a_forest(parents: NDArray[np.int64]) -> str:
