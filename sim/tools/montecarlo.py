@@ -42,7 +42,7 @@ from sim.pipeline.simulate import track
 from sim.pipeline.sweep import missed_targets
 from sim.tools.digests import code_digest, world_digest
 from sim.tools.executor import Executor
-from sim.tools.tune import Draw, check_draws, make_draws, robot_localiser
+from sim.tools.tune import Draw, make_draws, robot_localiser
 
 #: Format version of the results file's header.
 RESULTS_VERSION = 1
@@ -59,6 +59,11 @@ WORKER_MODULES = ("sim.tools.montecarlo", "sim.physics.simulator", "control.esti
 WORST = 3
 #: What a run record holds for each run kind (:func:`run_one`), read by :func:`statistics` and the plots.
 _ENTRY_KEYS = (*METRICS, "collisions", "warnings", "status", "success", "path")
+
+
+#: Most runs a study takes: its runs' draws are made up front (a million take about 0.7 GB; 268 million, the seeds'
+#: own bound, took 18.5 GB and had not started after three minutes).
+MAX_RUNS = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -78,7 +83,10 @@ class MonteCarloSpec:
     replan: bool = False
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "runs", check_draws(option("runs"), self.runs, at_least=1))
+        fix = "a study makes each run's draws up front (about 350 bytes a run); split a larger one into studies"
+        runs = check_number(option("runs"), self.runs, integer=True, at_least=1)
+        runs = check_number(option("runs"), runs, integer=True, at_most=MAX_RUNS, fix=fix)
+        object.__setattr__(self, "runs", int(runs))
 
     @cached_property
     def defaults(self) -> dict[str, str]:
