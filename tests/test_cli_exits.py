@@ -772,7 +772,14 @@ def test_a_full_disk_while_writing_is_one_line_exit_1(
 
 
 @pytest.mark.parametrize(
-    "argv", [["simulate", "--seed", "nan"], ["montecarlo", "--scenario", "open"], ["bogus"], ["plan", "--gains", "1"]]
+    "argv",
+    [
+        ["simulate", "--seed", "nan"],
+        ["simulate", "--fps", "abc"],
+        ["montecarlo", "--scenario", "open"],
+        ["bogus"],
+        ["plan", "--gains", "1"],
+    ],
 )
 def test_a_usage_error_is_one_line(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
     """argparse printed the whole usage (6-21 lines) before its error: a usage error is one line now, as every
@@ -781,8 +788,10 @@ def test_a_usage_error_is_one_line(argv: list[str], capsys: pytest.CaptureFixtur
         main(argv)
     err = capsys.readouterr().err
     assert stop.value.code == 2 and len(err.splitlines()) == 1 and ": error: " in err, err
-    if "--seed" in argv:  # argparse's type error names the type alone: the fix is said too
-        assert err.endswith("argument --seed: invalid int value: 'nan'; give a whole number, e.g. 3\n"), err
+    if "--seed" in argv:  # argparse's type error names the type alone: the fix is said too, the default as example
+        assert err.endswith("argument --seed: invalid int value: 'nan'; give a whole number, e.g. 0\n"), err
+    if "--fps" in argv:  # an example the option takes (0.5 was said, and --fps takes 1 to 240)
+        assert err.endswith("argument --fps: invalid float value: 'abc'; give a number, e.g. 30\n"), err
 
 
 @pytest.mark.parametrize(

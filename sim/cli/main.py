@@ -79,9 +79,15 @@ class _Parser(argparse.ArgumentParser):
         found = re.match(r"argument (--[\w-]+)(?:/\S+)?: expected one argument$", message)
         if found:
             message += f" (a value that starts with '-' goes after '=': {found.group(1)}=VALUE)"
-        kind = re.search(r": invalid (int|float) value: '.*'$", message)
-        if kind:  # argparse names the type alone
-            message += "; give a whole number, e.g. 3" if kind.group(1) == "int" else "; give a number, e.g. 0.5"
+        kind = re.search(r"^argument (--[\w-]+)(?:/\S+)?: invalid (int|float) value: '.*'$", message)
+        if kind:  # argparse names the type alone: the option's default is an example it takes (--fps refuses 0.5)
+            action = self._option_string_actions.get(kind.group(1))
+            default = getattr(action, "default", None)
+            example = default if isinstance(default, int | float) and not isinstance(default, bool) else None
+            if kind.group(2) == "int":
+                message += f"; give a whole number, e.g. {example if isinstance(example, int) else 3}"
+            else:
+                message += f"; give a number, e.g. {example:g}" if example is not None else "; give a number, e.g. 0.5"
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
