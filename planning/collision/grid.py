@@ -74,6 +74,15 @@ _FEW = 4
 MAX_NODES = 4_000_000
 
 
+@nb.njit(cache=True, inline="always")
+def disc_margin(g: float, h: float, radius: float, clearance: float, tol: float, disc: bool) -> float:
+    """How far [m] a pose whose tabulated distance (nearest node, spacing ``h``) is ``g`` clears the grid's first
+    proof, the footprint's circle: ``g`` less the lookup's error ``h / sqrt 2`` beyond ``radius`` and the
+    ``clearance`` (and, for a footprint, ``tol``). Above 0 the pose is proven free (:func:`classify_pose`), and so is
+    every pose whose position is nearer than that, the signed distance being 1-Lipschitz."""
+    return (g - h / np.sqrt(2.0) - radius) - (clearance if disc else clearance + tol)
+
+
 @nb.njit(cache=True)
 def classify_pose(
     px: float,
@@ -93,16 +102,14 @@ def classify_pose(
 ) -> int:
     """One pose (x [m], y [m], heading [rad]): 1 proven free, 0 proven in collision, -1 undecided (ask
     the exact checker); the arguments after the pose as :func:`classify_kernel`'s."""
-    e = h / np.sqrt(2.0)
     g = grid_lookup(grid, x0, y0, h, px, py)
+    if disc_margin(g, h, radius, clearance, tol, disc) > 0.0:
+        return 1
+    e = h / np.sqrt(2.0)
     if disc:
-        if g - e - radius > clearance:
-            return 1
         if g + e - radius <= clearance:
             return 0
         return -1
-    if g - e - radius > clearance + tol:
-        return 1
     nf = footprint.shape[0]
     c, s = np.cos(th), np.sin(th)
     all_free = True

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.collision.compiled import exact_pose_free, grid_lookup
-from planning.collision.grid import CheckArrays, classify_pose
+from planning.collision.grid import CheckArrays, classify_pose, disc_margin
 from planning.core.arrays import copy_into, copy_rows_into
 from planning.planners.base import PlanProblem, PlanTree
 from planning.planners.sampling.fastcurve import CutWord, cut_word, word_pose, word_size
@@ -72,9 +72,8 @@ def word_free(
     (the verdict of :func:`planning.collision.grid.pose_free`), stopping at the first that is not
     free. ``spans``: scratch space (replaced when shorter than 4 n + 8).
 
-    A pose the grid proves free by its disc (the footprint's circle: tabulated distance less the lookup's error
-    ``e`` beyond the radius, the clearance and, for a footprint, the tolerance) proves free every pose whose
-    position is nearer than that margin ``m``, the signed distance being 1-Lipschitz: the poses within
+    A pose the grid proves free by its disc with a margin ``m`` (:func:`planning.collision.grid.disc_margin`)
+    proves free every pose whose position is nearer than that, the signed distance being 1-Lipschitz: the poses within
     ``m / piece`` of it along the word (:func:`_longest_piece`) are computed but not classified. Their verdict
     is the one :func:`classify_pose` would give (its first test is that very disc), so the word's is too, and
     the poses checked before the first that is not free are fewer (about one in ten on the curves of a 6 x 6 m
@@ -83,8 +82,6 @@ def word_free(
     n = word_size(word)
     if spans.shape[0] < 4 * n + 8:
         spans = np.empty(4 * n + 8, dtype=np.int64)
-    e = h / np.sqrt(2.0)
-    needed = clearance if disc else clearance + tol  # classify_pose's disc proof: g - e - radius beyond it
     piece = _longest_piece(word, rho) * (1.0 + 1e-9) + 1e-12  # the poses' rounding included
     proven = np.zeros(n, dtype=np.bool_)
     head, tail = 0, 1
@@ -108,7 +105,7 @@ def word_free(
         out_p[j, 0], out_p[j, 1], out_p[j, 2], out_d[j] = x, y, th, d
         if proven[j]:
             continue
-        margin = (grid_lookup(grid, x0, y0, h, x, y) - e - radius) - needed  # > 0: as classify_pose's test
+        margin = disc_margin(grid_lookup(grid, x0, y0, h, x, y), h, radius, clearance, tol, disc)
         if margin > 0.0:  # classify_pose's first proof: free, and so are the poses nearer than the margin
             reach = int(np.ceil(margin / piece)) - 1  # reach * piece < margin
             for i in range(max(0, j - reach), min(n, j + reach + 1)):
