@@ -81,13 +81,11 @@ class _Parser(argparse.ArgumentParser):
             message += f" (a value that starts with '-' goes after '=': {found.group(1)}=VALUE)"
         kind = re.search(r"^argument (--[\w-]+)(?:/\S+)?: invalid (int|float) value: '.*'$", message)
         if kind:  # argparse names the type alone: the option's default is an example it takes (--fps refuses 0.5)
-            action = self._option_string_actions.get(kind.group(1))
-            default = getattr(action, "default", None)
-            example = default if isinstance(default, int | float) and not isinstance(default, bool) else None
-            if kind.group(2) == "int":
-                message += f"; give a whole number, e.g. {example if isinstance(example, int) else 3}"
-            else:
-                message += f"; give a number, e.g. {example:g}" if example is not None else "; give a number, e.g. 0.5"
+            example = getattr(self._option_string_actions.get(kind.group(1)), "default", None)
+            whole = kind.group(2) == "int"
+            if isinstance(example, bool) or not isinstance(example, int if whole else int | float):
+                example = 3 if whole else 0.5  # no number as default (None)
+            message += f"; give {'a whole number' if whole else 'a number'}, e.g. {example:g}"
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
