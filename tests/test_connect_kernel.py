@@ -1,12 +1,13 @@
 """BiRRT's compiled search and the lazily checked curves it extends along.
 
 The compiled loop (:mod:`planning.planners.sampling.connect_kernel`) must grow the same trees and
-return the same path as the plain-Python loop (``BiRRT._search_python``, the reference), the lazily
+return the same path as the plain-Python loop (``rrt._meet_python``, the reference), the lazily
 computed poses of a cut curve must be the poses its dense samples hold, and the compiled motion
 verdict must be the exact checker's on those samples.
 """
 
 import dataclasses
+from unittest import mock
 
 import numpy as np
 import pytest
@@ -16,12 +17,13 @@ from planning.core.robot import load_robot
 from planning.core.world import Box, Circle, World
 from planning.planners.base import PlanProblem, PlanStatus
 from planning.planners.registry import make_planner
+from planning.planners.sampling import rrt
 from planning.planners.sampling.connect_kernel import steer_free
 from planning.planners.sampling.extend import LocalPlanner, check_order
 from planning.planners.sampling.fastcurve import cut_word, steer_kernel, word_pose, word_poses, word_size
 from planning.planners.sampling.rrt import BiRRT
 from planning.planners.sampling.steering import CurveSteering
-from planning.planners.sampling.tree import make_checker
+from planning.planners.sampling.tree import Budget, draws, make_checker
 from planning.scenario import random_scenario
 
 ROBOT = load_robot("turtlebot3")
@@ -39,9 +41,8 @@ def _problems() -> list[PlanProblem]:
 
 def _python(planner: BiRRT, problem: PlanProblem):
     """The plan with the plain-Python search loop."""
-    local, budget, bad = planner._setup(problem)
-    assert bad is None
-    return planner._search_python(problem, local, budget)
+    with mock.patch.object(rrt, "compiled", lambda local: False):
+        return planner.plan(problem)
 
 
 @pytest.mark.parametrize("steering", ["reeds_shepp", "dubins"])
@@ -181,3 +182,48 @@ def test_check_order_is_a_permutation():
     for n in (1, 2, 3, 10, 57):
         for new_first in (False, True):
             assert sorted(check_order(n, new_first).tolist()) == list(range(n))
+
+
+def _ring_problem(seed: int) -> PlanProblem:
+    """The goal inside a closed ring the robot cannot enter, its tolerance (0.25 m) reaching outside: the goal tree
+    never leaves the ring, and a path ends where a start-tree node lands within the tolerance."""
+    ring = (Box((1.9625, 0.88), (0.235, 0.02)), Box((1.9625, 1.12), (0.235, 0.02)),
+            Box((1.855, 1.0), (0.02, 0.26)), Box((2.07, 1.0), (0.02, 0.26)))  # fmt: skip
+    return PlanProblem(World((0.0, 3.0, 0.0, 2.0), ring), ROBOT, Pose2D(0.5, 1.0, 0.0), Pose2D(1.98, 1.0, 0.0),
+                       seed=seed, time_limit=600.0, position_tolerance=0.25, heading_tolerance=np.pi)  # fmt: skip
+
+
+@pytest.mark.parametrize("region", [True, False])
+def test_the_compiled_meeting_ends_where_the_python_loops_does(region):
+    """rrt-star's first path by birrt's search (``meet``, with ``region``: a start-tree node in the goal region ends
+    it too): the compiled loop stops at the iteration and on the nodes the Python loop does, with the same chain of
+    nodes and edges. In the region: the ring's goal (by an extension) and, with a 0.8 m tolerance in the clutter,
+    by a connect step toward the goal tree."""
+    clutter = _problems()[0]
+    wide = dataclasses.replace(clutter, position_tolerance=0.8, heading_tolerance=np.pi)
+    cases = [(_ring_problem(0), "ring"), (_ring_problem(1), "ring"), (wide, "region")] if region else []
+    for problem, ends in [*cases, *((p, "goal") for p in _problems()[:2])]:
+        planner = make_planner("rrt-star", simplify=False)
+        local, _, bad = planner._setup(problem)
+        assert bad is None
+
+        def met(local=local, problem=problem, planner=planner):
+            budget = Budget(20000, 600.0)
+            return rrt.meet(problem, local, budget, draws(problem), planner.config, 50, 7, region)
+
+        fast = met()
+        with mock.patch.object(rrt, "compiled", lambda local: False):
+            ref = met()
+        assert fast.joined and ref.joined and fast.iterations == ref.iterations > 7
+        np.testing.assert_array_equal(fast.path()[0], ref.path()[0])
+        fast_chain, ref_chain = fast.chain(), ref.chain()
+        assert len(fast_chain) == len(ref_chain) > 0
+        for f, r in zip(fast_chain, ref_chain, strict=True):
+            for x, y in zip(f, r, strict=True):
+                np.testing.assert_array_equal(x, y)
+        end, goal = fast_chain[-1][0], problem.goal.as_array()
+        off = np.hypot(end[0] - goal[0], end[1] - goal[1])
+        if ends == "goal":
+            np.testing.assert_array_equal(end, goal)
+        else:  # in the region, not on the goal pose (the ring's: outside the ring)
+            assert (0.15 if ends == "ring" else 0.0) < off <= problem.position_tolerance

@@ -206,26 +206,26 @@ def _search_until_solved(prob, extra_iterations, **opts):
     from planning.planners.sampling.rrt_star import RRTStar, _Search
 
     planner = RRTStar(**opts)
-    local, _, bad = planner._setup(prob)
+    local, budget, bad = planner._setup(prob)
     assert bad is None
     search = _Search(planner.config, prob, local, np.random.default_rng(prob.seed))
     it = 0
     while not search.goal_nodes:
-        it += 1
         assert it < 5000, "no solution"
-        search.step(it)
+        it, _ = search.step(it + 1, budget)
     for _ in range(extra_iterations):
-        it += 1
-        search.step(it)
+        it, _ = search.step(it + 1, budget)
     return search
 
 
-def test_rrt_star_goal_tree_graft_keeps_every_edge_exact_and_every_cost_its_curves():
-    """Through the goal tree's graft, the goal-node reparenting and rewiring: each node's cost is its
-    parent's plus the exact Reeds–Shepp length between them, and its edge runs from the parent's pose
+@pytest.mark.parametrize("connect_iterations", [1000, 0])  # RRT*-Connect's trees; birrt's path from the first
+def test_rrt_star_goal_tree_graft_keeps_every_edge_exact_and_every_cost_its_curves(connect_iterations):
+    """Through the goal tree's graft (or birrt's path's), the goal-node reparenting and rewiring: each node's cost
+    is its parent's plus the exact Reeds–Shepp length between them, and its edge runs from the parent's pose
     to its own with no more chord length than that curve."""
-    search = _search_until_solved(_problem(1), 400)
+    search = _search_until_solved(_problem(1), 400, connect_iterations=connect_iterations)
     assert search.grafted  # the disc blocks the direct curve: the first path came through the goal tree
+    assert (search.birrt_iterations > 0) == (connect_iterations == 0)
     tree = search.tree
     for i in range(1, tree.n):
         parent = int(tree.parents[i])
@@ -251,6 +251,23 @@ def test_rrt_star_parks_in_a_slot_twice_its_length_with_its_goal_tree_only():
         _check_path(with_tree, prob, RHO)
         assert with_tree.stats["goal_tree_joined"] is True
         assert make_planner("rrt-star", goal_tree=False, **opts).plan(prob).status is PlanStatus.TIMEOUT
+
+
+def test_rrt_star_parks_in_the_tight_slot_by_birrts_search_where_its_own_connect_phase_is_slow():
+    """tight_park's first path takes RRT*-Connect 2,000-28,000 iterations (seeds 0-9; its Python iterations
+    about 16,000 a second): after ``connect_iterations`` (here none) birrt's compiled search looks for it
+    instead, and its path, grafted into the RRT* tree, is a valid plan into the slot."""
+    from sim.tools.bench.plan_problems import tight_park
+
+    base = tight_park()
+    for seed in (0, 1):
+        prob = PlanProblem(**{**base.__dict__, "seed": seed, "time_limit": 120.0})
+        opts = {"stop_on_first": True, "max_iterations": 100_000, "simplify": False, "connect_iterations": 0}
+        res = make_planner("rrt-star", **opts).plan(prob)
+        _check_path(res, prob, RHO)
+        assert res.stats["goal_tree_joined"] is True and res.stats["birrt_iterations"] == res.stats["iterations"]
+        # its cost the curves' lengths; the dense poses' chords are at most that, and short of it by the sampling
+        assert res.length() <= res.stats["cost_m"] + 1e-9 and res.stats["cost_m"] == pytest.approx(res.length(), 1e-3)
 
 
 def test_rrt_star_takes_the_direct_curve_when_the_start_sees_the_goal():
@@ -516,6 +533,7 @@ def test_a_goal_walled_in_but_within_tolerance_of_a_reachable_place_is_not_prove
                               position_tolerance=0.25, heading_tolerance=math.pi)  # fmt: skip
         result = make_planner("rrt-star").plan(problem)
         assert result.success, (seed, result.reason)
+        assert result.stats["birrt_iterations"] > 0  # birrt's search found it, RRT*-Connect's 1000 iterations not
         assert 0.15 < math.hypot(result.path[-1, 0] - 1.98, result.path[-1, 1] - 1.0) <= 0.25  # outside the ring
 
 

@@ -1,5 +1,5 @@
 """BiRRT's search on exact curves (Reeds–Shepp or Dubins), compiled: the loop of
-:meth:`planning.planners.sampling.rrt.BiRRT._search_python` in one call per chunk of iterations.
+:func:`planning.planners.sampling.rrt._meet_python` in one call per chunk of iterations.
 
 Per iteration the Python loop made a dozen calls into compiled code and numpy (sample, nearest node,
 steer, check order, classify, settle, tree append, metric), each paying Python's and numba's call
@@ -32,7 +32,7 @@ from planning.collision.grid import CheckArrays, classify_pose, disc_margin
 from planning.core.arrays import copy_into, copy_rows_into
 from planning.planners.base import PlanProblem, PlanTree
 from planning.planners.sampling.fastcurve import CutWord, cut_word, word_pose, word_size
-from planning.planners.sampling.tree import Tree
+from planning.planners.sampling.tree import Side, Tree
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -44,7 +44,7 @@ IntArray = NDArray[np.int64]
 TreeArrays = tuple[FloatArray, FloatArray, IntArray, IntArray, FloatArray, FloatArray]
 
 #: What a chunk ended on (:func:`search_chunk`'s first result).
-CHUNK_DONE, JOINED, NEED_ROOM, NEED_UNIFORMS, BAD_CURVE = 0, 1, 2, 3, 4
+CHUNK_DONE, JOINED, NEED_ROOM, NEED_UNIFORMS, BAD_CURVE, IN_REGION = 0, 1, 2, 3, 4, 5
 
 
 @nb.njit(cache=True)
@@ -232,6 +232,15 @@ def _sample(
 
 
 @nb.njit(cache=True)
+def _in_region(q: FloatArray, goal: FloatArray, geometry: FloatArray) -> bool:
+    """:func:`.tree.in_goal`'s test of pose ``q`` against the goal pose and the goal region's position [m] and
+    heading [rad] tolerances, ``geometry[4:6]`` (-1, -1 where a start-tree node in the region does not end the
+    search: nothing is in it)."""
+    dth = (q[2] - goal[2] + np.pi) % (2 * np.pi) - np.pi
+    return bool(np.hypot(q[0] - goal[0], q[1] - goal[1]) <= geometry[4] and abs(dth) <= geometry[5])
+
+
+@nb.njit(cache=True)
 def search_chunk(
     tree_a: TreeArrays,
     tree_b: TreeArrays,
@@ -245,8 +254,7 @@ def search_chunk(
     max_motion: int,
     chk: CheckArrays,
 ) -> tuple[int, int, int]:
-    """Run BiRRT's iterations until ``state[2]`` (the iteration count) reaches ``stop_it`` or the trees
-    join.
+    """Run BiRRT's iterations until ``state[2]`` (the iteration count) reaches ``stop_it`` or the trees join.
 
     Args:
         tree_a: The start tree (:data:`TreeArrays`), ``state[0]`` nodes and ``state[4]`` edge poses.
@@ -256,17 +264,17 @@ def search_chunk(
         uniforms: Uniform numbers in [0, 1) of the run's generator, in order.
         stop_it: Iteration count at which to return.
         bounds: (4,) world bounds (xmin, xmax, ymin, ymax) [m].
-        geometry: (rho, sample step, range, goal bias) [m, m, m, -].
+        geometry: (rho, sample step, range, goal bias, the region's two tolerances: :func:`_in_region`).
         rs: Reeds–Shepp curves, else Dubins.
         connect_steps: Longest connect step (extensions of the other tree).
         max_motion: Most dense poses of one extension (cut to the range).
         chk: The checker (:meth:`planning.collision.grid.FastChecker.check_arrays`).
 
     Returns:
-        (what, a, b): ``what`` one of :data:`CHUNK_DONE`, :data:`JOINED`, :data:`NEED_ROOM` (a tree's
-        arrays cannot take another iteration's nodes and edges), :data:`NEED_UNIFORMS`,
-        :data:`BAD_CURVE`; when joined, the start-tree node ``a`` and the goal-tree node ``b`` (the
-        same pose: an extension reached the other tree's node exactly).
+        (what, a, b): ``what`` one of :data:`CHUNK_DONE`, :data:`JOINED`, :data:`NEED_ROOM` (a tree's arrays
+        cannot take another iteration's nodes and edges), :data:`NEED_UNIFORMS`, :data:`BAD_CURVE`,
+        :data:`IN_REGION`; joined, the start-tree node ``a`` and the goal-tree node ``b`` (the same pose); in
+        the region, its start-tree node ``a`` (``b`` 0).
     """
     scratch = (np.empty(4 * max_motion + 8, dtype=np.int64), np.empty((max_motion, 3)), np.empty(max_motion))
     goal_bias = geometry[3]
@@ -293,6 +301,8 @@ def search_chunk(
         j = state[g]
         state[g] += 1
         state[4 + g] += m
+        if grow_a and _in_region(tree_a[0][j], tree_b[0][0], geometry):
+            return IN_REGION, j, 0
         target = grow[0][j].copy()
         k = _nearest(other[0], other[1], state[o], target)
         for _ in range(connect_steps):
@@ -308,6 +318,8 @@ def search_chunk(
             k = state[o]
             state[o] += 1
             state[4 + o] += m
+            if not grow_a and _in_region(tree_a[0][k], tree_b[0][0], geometry):
+                return IN_REGION, k, 0
     return CHUNK_DONE, -1, -1
 
 
@@ -366,6 +378,7 @@ class CompiledSearch:
         problem: The problem (start, goal, world bounds).
         goal_bias: Probability of sampling the other tree's root.
         connect_steps: Longest connect step.
+        region: End the search when a start-tree node lands in the goal region (:data:`IN_REGION`).
     """
 
     def __init__(
@@ -376,11 +389,13 @@ class CompiledSearch:
         problem: PlanProblem,
         goal_bias: float,
         connect_steps: int,
+        region: bool = False,
     ) -> None:
         rho, step, reach = geometry
         self._chk = chk
         self._rs = reeds_shepp
-        self._geometry = np.array([rho, step, reach, goal_bias])
+        tolerances = (problem.position_tolerance, problem.heading_tolerance) if region else (-1.0, -1.0)
+        self._geometry = np.array([rho, step, reach, goal_bias, *tolerances])
         self._bounds = np.asarray(problem.world.bounds, dtype=float)
         self._steps = connect_steps
         # an extension cut to the range: ceil(piece / step) poses per segment, rounding included
@@ -462,6 +477,15 @@ class CompiledSearch:
             return np.concatenate([a[0][:na], b[0][:nb]]), np.concatenate([a[2][:na], par_b]), tuple(edges)
 
         return PlanTree.deferred(build)
+
+    def sides(self) -> tuple[Side, Side]:
+        """The start and goal trees as :func:`.tree.met_chain` reads them (views of the stores)."""
+        return self._side(self._a), self._side(self._b)
+
+    @staticmethod
+    def _side(arrays: TreeArrays) -> Side:
+        nodes, _, parents, rows, edge_p, edge_d = arrays
+        return nodes, parents, lambda i: (edge_p[rows[i, 0] : rows[i, 1]], edge_d[rows[i, 0] : rows[i, 1]])
 
     def trees(self) -> tuple[Tree, Tree]:
         """The start and goal trees as :class:`~.tree.Tree` objects (their edges views of the stores)."""

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import threading
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Generic, TypeVar
 
@@ -35,11 +35,12 @@ from planning.errors import ConfigError
 from planning.planners import geodesic
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree, checked_problem
 from planning.planners.registry import config_from_options
-from planning.planners.sampling.connect_kernel import JOINED, CompiledSearch
+from planning.planners.sampling.connect_kernel import IN_REGION, JOINED, CompiledSearch
 from planning.planners.sampling.extend import LocalPlanner, Motion, check_steering
 from planning.planners.sampling.steering import MAX_TURNING_RADIUS, MIN_TURNING_RADIUS
 from planning.planners.sampling.tree import (
     Budget,
+    Link,
     Tree,
     check_endpoints,
     draws,
@@ -48,6 +49,7 @@ from planning.planners.sampling.tree import (
     in_goal,
     make_checker,
     merge_trees,
+    met_chain,
     sample_pose,
     walled_off_proof,
 )
@@ -390,18 +392,26 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
     name = "birrt"
     config_class = BiRRTConfig
 
-    def _grow(self, local: LocalPlanner, tree: Tree, i: int, target: FloatArray) -> int | None:
-        ext = local.extend(tree.nodes[i], target, backwards=tree.backwards, tree=tree)
-        if ext is None:
-            return None
-        return tree.add(ext[0], i, ext[1], ext[2])
-
     def _search(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult:
-        """Grow both trees until they join or the budget is spent: compiled on exact curves
-        (:mod:`.connect_kernel`, the same trees and path as :meth:`_search_python`), else in Python."""
-        if local.exact and local.check_arrays is not None:
-            return self._search_compiled(problem, local, budget)
-        return self._search_python(problem, local, budget)
+        """The direct curve when it is free (``direct_curve``), else both trees grown until they join or the
+        budget is spent (:func:`meet`)."""
+        cfg = self.config
+        joined = self._joined_roots(problem, local, budget)
+        if joined is not None:
+            return joined
+        if not compiled(local):
+            boxed = boxed_in(self.name, local, problem, self._stats(budget, 0, 2), ("start", "goal"))
+            if boxed is not None:
+                return boxed
+        rng = draws(problem)  # after the direct curve, which needs none (a plan it solves does not pay for one)
+        met = meet(problem, local, budget, rng, cfg, cfg.connect_steps)
+        stats = self._stats(budget, met.iterations, met.nodes)
+        if met.joined:
+            path, dirs = met.path()
+            return self._result(PlanStatus.SUCCESS, path, dirs, "", stats, met.plan_tree())
+        path, d, _ = self._partial(met.start_tree(), problem)
+        reason = f"{budget.why(met.iterations)}; the trees did not meet (partial path from the start tree)"
+        return self._result(budget.status, path, d, reason, stats, met.plan_tree())
 
     def _joined_roots(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult | None:
         """The plan when one exact curve joins the start and the goal (the trees are then just their
@@ -415,75 +425,129 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
         roots = PlanTree(np.array([start, goal]), np.array([-1, -1], dtype=np.int64))
         return self._result(PlanStatus.SUCCESS, direct[0], direct[1], "", self._stats(budget, 0, 2), roots)
 
-    def _search_compiled(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult:
-        """:meth:`_search_python` on exact curves, its iterations run by :func:`.connect_kernel.search_chunk`
-        in chunks (the time limit checked between them, :meth:`.tree.Budget.spent`)."""
-        cfg = self.config
-        joined = self._joined_roots(problem, local, budget)
-        if joined is not None:
-            return joined
-        rng = draws(problem)  # after the direct curve, which needs none (a plan it solves does not pay for one)
-        chk = local.check_arrays
-        assert chk is not None and local.rho is not None
-        geometry = (local.rho, local.sample_step, local.step_range)
-        rs = local.curves.kind == "reeds_shepp"
-        search = CompiledSearch(chk, rs, geometry, problem, cfg.goal_bias, cfg.connect_steps)
-        it = 0
-        while not budget.spent(it):
-            what, a, b = search.run(rng, min(budget.next_check, cfg.max_iterations))
-            it = search.iterations
-            if what == JOINED:
-                path, dirs = search.path(a, b)
-                stats = self._stats(budget, it, search.nodes)
-                return self._result(PlanStatus.SUCCESS, path, dirs, "", stats, search.plan_tree())
-        ta, tb = search.trees()
-        path, d, _ = self._partial(ta, problem)
-        reason = f"{budget.why(it)}; the trees did not meet (partial path from the start tree)"
-        return self._result(budget.status, path, d, reason, self._stats(budget, it, ta.n + tb.n), merge_trees(ta, tb))
 
-    def _search_python(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult:
-        """Grow both trees until they join or the budget is spent, one Python step at a time."""
-        cfg = self.config
-        joined = self._joined_roots(problem, local, budget)
-        if joined is not None:
-            return joined
-        boxed = boxed_in(self.name, local, problem, self._stats(budget, 0, 2), ("start", "goal"))
-        if boxed is not None:
-            return boxed
-        rng = draws(problem)  # after the direct curve, which needs none (a plan it solves does not pay for one)
-        start, goal = problem.start.as_array(), problem.goal.as_array()
-        ta, tb = Tree(start), Tree(goal, backwards=True)
-        it = 0
-        while not budget.spent(it):
-            it += 1
-            grow, other = (ta, tb) if it % 2 else (tb, ta)
-            q_rand = self._sample(rng, goal if grow is ta else start, problem)
-            j = self._grow(local, grow, local.nearest(grow, q_rand), q_rand)
-            if j is None:
-                continue
-            target = grow.nodes[j]
-            k = local.nearest(other, target)
-            for _ in range(cfg.connect_steps):
-                a, b = (j, k) if grow is ta else (k, j)
-                if local.exact and np.array_equal(ta.nodes[a], tb.nodes[b]):
-                    return self._joined(ta, tb, a, b, None, budget, it)
-                if not local.exact and local.metric(ta.nodes[a][None, :], tb.nodes[b])[0] <= cfg.goal_connect_radius:
-                    bridge = local.connect(ta.nodes[a], tb.nodes[b])
-                    if bridge is not None:
-                        return self._joined(ta, tb, a, b, bridge, budget, it)
-                k_new = self._grow(local, other, k, target)
-                if k_new is None:
-                    break
-                k, k_old = k_new, k
-                if not local.exact and not _closer(local, other, k, k_old, target):
-                    break  # primitives that no longer close in on the target shuffle in place: trapped
-        path, d, _ = self._partial(ta, problem)
-        reason = f"{budget.why(it)}; the trees did not meet (partial path from the start tree)"
-        return self._result(budget.status, path, d, reason, self._stats(budget, it, ta.n + tb.n), merge_trees(ta, tb))
+@dataclass(frozen=True)
+class Meeting:
+    """birrt's two trees as its search (:func:`meet`) left them.
 
-    def _joined(
-        self, ta: Tree, tb: Tree, a: int, b: int, bridge: tuple[FloatArray, FloatArray] | None, budget: Budget, it: int
-    ) -> PlanResult:
+    Attributes:
+        iterations: Iterations run.
+        nodes: Nodes of both trees.
+        joined: Whether the trees met.
+        path: Once met, the poses (K, 3) and directions (K,) from the start through the meeting to the goal.
+        chain: Once met, the same path as the nodes after the start, each with its edge (:data:`Link`).
+        plan_tree: Both trees drawn as one.
+        start_tree: The start tree.
+    """
+
+    iterations: int
+    nodes: int
+    joined: bool
+    path: Callable[[], tuple[FloatArray, FloatArray]]
+    chain: Callable[[], list[Link]]
+    plan_tree: Callable[[], PlanTree]
+    start_tree: Callable[[], Tree]
+
+
+def compiled(local: LocalPlanner) -> bool:
+    """Whether :func:`meet` runs compiled (:mod:`.connect_kernel`): exact curves, a checker with walls."""
+    return local.exact and local.check_arrays is not None
+
+
+def meet(
+    problem: PlanProblem,
+    local: LocalPlanner,
+    budget: Budget,
+    rng: np.random.Generator,
+    cfg: TreeConfig,
+    connect_steps: int,
+    done: int = 0,
+    region: bool = False,
+) -> Meeting:
+    """Grow birrt's two trees (see the module doc) until they meet or ``budget`` is spent, drawing from ``rng`` and
+    sampling the other tree's root with ``cfg.goal_bias``, connect steps of at most ``connect_steps`` extensions:
+    compiled on exact curves (:mod:`.connect_kernel`, the same trees and path as :func:`_meet_python`), else in
+    Python. ``done``: the run's iterations before (the budget counts them, and the meeting's after them);
+    ``region``: a start-tree node landing in the goal region ends the search too, the path ending on it."""
+    if not compiled(local):
+        return _meet_python(problem, local, budget, rng, cfg, connect_steps, done, region)
+    chk = local.check_arrays
+    assert chk is not None and local.rho is not None
+    geometry = (local.rho, local.sample_step, local.step_range)
+    rs = local.curves.kind == "reeds_shepp"
+    search = CompiledSearch(chk, rs, geometry, problem, cfg.goal_bias, connect_steps, region)
+    what, a, b = -1, 0, 0
+    while what not in (JOINED, IN_REGION) and not budget.spent(done + search.iterations):
+        what, a, b = search.run(rng, min(budget.next_check, budget.max_iterations) - done)
+    start_tree = lambda: search.trees()[0]
+    if what not in (JOINED, IN_REGION):
+        return Meeting(done + search.iterations, search.nodes, False, _unmet, _unmet, search.plan_tree, start_tree)
+    path = lambda: search.path(a, b)
+    chain = lambda: met_chain(*search.sides(), a, b)
+    return Meeting(done + search.iterations, search.nodes, True, path, chain, search.plan_tree, start_tree)
+
+
+def _unmet() -> Any:
+    raise ValueError("the trees did not meet: there is no path through them")
+
+
+def _meet_python(
+    problem: PlanProblem,
+    local: LocalPlanner,
+    budget: Budget,
+    rng: np.random.Generator,
+    cfg: TreeConfig,
+    steps: int,
+    done: int,
+    region: bool,
+) -> Meeting:
+    """:func:`meet`, one Python step at a time."""
+    start, goal = problem.start.as_array(), problem.goal.as_array()
+    ta, tb = Tree(start), Tree(goal, backwards=True)
+    it = done
+    while not budget.spent(it):
+        it += 1
+        grow, other = (ta, tb) if (it - done) % 2 else (tb, ta)
+        root = goal if grow is ta else start
+        q_rand = root if rng.random() < cfg.goal_bias else sample_pose(rng, problem.world.bounds)
+        j = _grow(local, grow, local.nearest(grow, q_rand), q_rand)
+        if j is None:
+            continue
+        if region and grow is ta and in_goal(ta.nodes[j], problem):
+            return _met(ta, tb, j, 0, None, it)
+        target = grow.nodes[j]
+        k = local.nearest(other, target)
+        for _ in range(steps):
+            a, b = (j, k) if grow is ta else (k, j)
+            if local.exact and np.array_equal(ta.nodes[a], tb.nodes[b]):
+                return _met(ta, tb, a, b, None, it)
+            if not local.exact and local.metric(ta.nodes[a][None, :], tb.nodes[b])[0] <= cfg.goal_connect_radius:
+                bridge = local.connect(ta.nodes[a], tb.nodes[b])
+                if bridge is not None:
+                    return _met(ta, tb, a, b, bridge, it)
+            k_new = _grow(local, other, k, target)
+            if k_new is None:
+                break
+            if region and other is ta and in_goal(ta.nodes[k_new], problem):
+                return _met(ta, tb, k_new, 0, None, it)
+            k, k_old = k_new, k
+            if not local.exact and not _closer(local, other, k, k_old, target):
+                break  # primitives that no longer close in on the target shuffle in place: trapped
+    return Meeting(it, ta.n + tb.n, False, _unmet, _unmet, lambda: merge_trees(ta, tb), lambda: ta)
+
+
+def _grow(local: LocalPlanner, tree: Tree, i: int, target: FloatArray) -> int | None:
+    """Extend ``tree`` from node ``i`` toward ``target``: the new node, or None when the motion collides."""
+    ext = local.extend(tree.nodes[i], target, backwards=tree.backwards, tree=tree)
+    if ext is None:
+        return None
+    return tree.add(ext[0], i, ext[1], ext[2])
+
+
+def _met(ta: Tree, tb: Tree, a: int, b: int, bridge: tuple[FloatArray, FloatArray] | None, it: int) -> Meeting:
+    """The meeting of start-tree node ``a`` and goal-tree node ``b``, joined by ``bridge`` (None: the same pose)."""
+
+    def path() -> tuple[FloatArray, FloatArray]:
         pa, da = ta.branch(a)
         pb, db = tb.branch(b)
         parts_p, parts_d = [pa], [da]
@@ -492,7 +556,7 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
             parts_d.append(bridge[1][1:])
         parts_p.append(pb[1:])
         parts_d.append(db[1:])
-        path, dirs = np.vstack(parts_p), np.concatenate(parts_d)
-        return self._result(
-            PlanStatus.SUCCESS, path, dirs, "", self._stats(budget, it, ta.n + tb.n), merge_trees(ta, tb)
-        )
+        return np.vstack(parts_p), np.concatenate(parts_d)
+
+    chain = lambda: met_chain(ta.side(), tb.side(), a, b, bridge)
+    return Meeting(it, ta.n + tb.n, True, path, chain, lambda: merge_trees(ta, tb), lambda: ta)

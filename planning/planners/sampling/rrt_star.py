@@ -17,7 +17,11 @@ First solution: until one is found, a second tree grows backwards from the goal 
 joined by RRT-Connect's connect step (``birrt``'s), as RRT*-Connect does (Klemm et al. 2015); the
 goal tree's branch from the meeting pose is then grafted into the RRT* tree (its edges are exact
 curves too) and the goal tree dropped. A goal region the size of a parking slot is found this way
-where one tree, sampling the goal pose 5 % of the time, almost never reaches it.
+where one tree, sampling the goal pose 5 % of the time, almost never reaches it. The two trees hold
+birrt's nodes (the same samples and extensions; the RRT* tree only chooses their parents), in Python:
+without a solution after ``connect_iterations``, birrt's compiled search (:func:`.rrt.meet`) looks for
+it instead, ending too where a start-tree node lands in the goal region, and its path is grafted (each
+edge a piece of a shortest curve toward a sample, itself the shortest curve between its ends).
 
 Goal region (``region_goal``): a goal connection (each node that could beat the best cost tries its
 exact curve to the goal) aims at the poses spread over the goal region
@@ -57,8 +61,17 @@ from planning.core.geometry import path_length
 from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
 from planning.planners.sampling.extend import LocalPlanner
-from planning.planners.sampling.rrt import TreeConfig, _TreePlanner
-from planning.planners.sampling.tree import Budget, Tree, draws, goal_region_poses, in_goal, sample_pose
+from planning.planners.sampling.rrt import TreeConfig, _TreePlanner, meet
+from planning.planners.sampling.tree import (
+    Budget,
+    Link,
+    Tree,
+    draws,
+    goal_region_poses,
+    in_goal,
+    links_in,
+    sample_pose,
+)
 
 FloatArray = NDArray[np.float64]
 
@@ -80,6 +93,8 @@ class RRTStarConfig(TreeConfig):
             needs) or "time" (wall-clock seconds).
         goal_tree: Until the first solution, also grow a tree backwards from the goal and join the
             two by the connect step (see the module doc); False grows one tree, as OMPL's RRT*.
+        connect_iterations: With ``goal_tree``, the iterations of that connect phase after which, without a
+            solution, the first one is sought by birrt's search instead (see the module doc); 0 from the first.
         informed: After the first solution, sample the admissible x-y ellipse (see the module doc).
         neighbour_pool: Neighbours are the k of shortest exact curve among the ``neighbour_pool`` x k
             nearest by the (x, y, cos, sin) metric (>= 1; 1: the k nearest by that metric).
@@ -111,6 +126,7 @@ class RRTStarConfig(TreeConfig):
     path_sigma: float = 0.5
     region_goal: bool = False
     region_tries: int = 3
+    connect_iterations: int = 1000
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -118,6 +134,7 @@ class RRTStarConfig(TreeConfig):
             self,
             {
                 "min_iterations": {"integer": True, "at_least": 0},
+                "connect_iterations": {"integer": True, "at_least": 0},
                 "neighbour_pool": {"at_least": 1.0},
                 "connect_steps": {"integer": True, "at_least": 1},
                 "path_bias": {"at_least": 0.0, "at_most": 1.0},
@@ -196,7 +213,8 @@ class RRTStar(_TreePlanner[RRTStarConfig]):
             if run.converged(it):
                 stop = "converged"
                 break
-            if search.step(it):
+            it, better = search.step(it, budget)
+            if better:
                 budget.proof = None  # a path: nothing to prove
                 run.improved(it, search.best)
                 if cfg.stop_on_first:
@@ -211,6 +229,7 @@ class RRTStar(_TreePlanner[RRTStarConfig]):
             **run.stats(),
             "stopped_by": stop,
             "goal_tree_joined": search.grafted,
+            "birrt_iterations": search.birrt_iterations,
         }
         if search.goal_nodes:
             g = search.final_goal()
@@ -259,6 +278,7 @@ class _Search:
         self.aims = goal_region_poses(problem) if cfg.region_goal else self.goal[None].copy()
         self.aim_nodes = np.full(len(self.aims), -1, dtype=np.int64)
         self.grafted = False  # whether the first solution came through the goal tree
+        self.birrt_iterations = 0  # of the run's iterations, birrt's search's (:meth:`_meet`)
         self.incumbent = np.zeros(0, dtype=np.int64)  # the best path's nodes (root excluded)
         self.best = np.inf
 
@@ -277,11 +297,14 @@ class _Search:
             return int(self.aim_nodes[0])
         return self.best_goal()
 
-    def step(self, it: int) -> bool:
-        """Iteration ``it``; returns whether the best cost fell."""
+    def step(self, it: int, budget: Budget) -> tuple[int, bool]:
+        """Iteration ``it`` (and, when birrt's search takes over the connect phase, the iterations it runs until
+        the trees meet or ``budget`` is spent); returns the iterations done and whether the best cost fell."""
         if it == 1:
             self._to_goal(0)  # the start may see the goal
-        if self.back is not None and not self.goal_nodes:
+        if self.back is not None and not self.goal_nodes and it > self.cfg.connect_iterations:
+            it = self._meet(it - 1, budget)
+        elif self.back is not None and not self.goal_nodes:
             self._connect_step(it)
         else:
             self.back = None  # the goal tree's work is done at the first solution
@@ -289,13 +312,23 @@ class _Search:
             if j is not None and self.goal_nodes:
                 self._to_goal(j)
         if not self.goal_nodes:
-            return False
+            return it, False
         g = self.best_goal()
         if self.tree.costs[g] < self.best:  # rewiring may have lowered it
             self.best = float(self.tree.costs[g])
             self.incumbent = self._branch_nodes(g)
-            return True
-        return False
+            return it, True
+        return it, False
+
+    def _meet(self, done: int, budget: Budget) -> int:
+        """birrt's search (:func:`.rrt.meet`) after ``done`` iterations, its path grafted when the trees met (the
+        goal tree dropped either way); the iterations done then."""
+        met = meet(self.problem, self.local, budget, self.rng, self.cfg, self.cfg.connect_steps, done, region=True)
+        self.back = None
+        self.birrt_iterations = met.iterations - done
+        if met.joined:
+            self._graft_path(met.chain())
+        return met.iterations
 
     def _branch_nodes(self, i: int) -> NDArray[np.int64]:
         """The nodes between the root (excluded) and node ``i``."""
@@ -422,19 +455,22 @@ class _Search:
             if self._grow(target) is None or self.goal_nodes:
                 return
 
+    def _graft_path(self, chain: list[Link], prev: int = 0) -> None:
+        """Add ``chain``'s nodes to the RRT* tree after node ``prev`` (the pose the chain starts from), each edge as
+        it is (an exact curve: a goal-tree edge, or a piece of the shortest curve from its parent toward a sample,
+        itself the shortest curve between its ends), its cost the curve length between its poses."""
+        tree = self.tree
+        self.grafted = True
+        for pose, poses, dirs in chain:
+            cost = tree.costs[prev] + float(self.local.curves.lengths(tree.nodes[prev], pose[None])[0])
+            prev = tree.add(pose.copy(), prev, poses, dirs, cost)
+            self._note(prev)
+
     def _graft(self, a: int, b: int) -> None:
         """Add goal-tree node ``b``'s branch to the goal under RRT* node ``a`` (the same pose): each
         goal-tree edge, the exact curve from a node to its parent, becomes an RRT* edge as it is."""
-        back, tree = self.back, self.tree
-        assert back is not None
-        self.grafted, prev = True, a
-        while b != 0:
-            parent = int(back.parents[b])
-            poses, dirs = back.edges[b]
-            cost = tree.costs[prev] + float(self.local.curves.lengths(back.nodes[b], back.nodes[parent])[0])
-            prev = tree.add(back.nodes[parent].copy(), prev, poses, dirs, cost)
-            self._note(prev)
-            b = parent
+        assert self.back is not None
+        self._graft_path(links_in(self.back.side(), b), a)
 
 
 def informed_pose(rng: np.random.Generator, problem: PlanProblem, c: float) -> FloatArray:

@@ -135,6 +135,10 @@ class Tree:
             dirs.append(d[1:])
         return np.vstack(poses), np.concatenate(dirs)
 
+    def side(self) -> Side:
+        """This tree as :func:`met_chain` reads it."""
+        return self.nodes, self.parents, self.edges.__getitem__
+
     def plan_tree(self) -> PlanTree:
         """This tree as a :class:`PlanTree` for plotting (edge curves as (k, 2) arrays)."""
         return PlanTree(*self._drawn(0))
@@ -144,6 +148,44 @@ class Tree:
         par = self.parents[: self.n].copy()
         par[par >= 0] += offset
         return self.nodes[: self.n].copy(), par, tuple(e[0][:, :2] for e in self.edges[1:])
+
+
+#: A node of a path through a tree: its pose (3,), and the edge from the node before it, poses (K, 3) and
+#: directions (K,) in driving order.
+Link = tuple[FloatArray, FloatArray, FloatArray]
+
+#: A tree as :func:`met_chain` reads it: its poses (n, 3), parents (n,) and node i's edge (poses, directions).
+Side = tuple[FloatArray, NDArray[np.int64], Callable[[int], tuple[FloatArray, FloatArray]]]
+
+
+def met_chain(
+    start: Side, goal: Side, a: int, b: int, bridge: tuple[FloatArray, FloatArray] | None = None
+) -> list[Link]:
+    """The path from the start through start-tree node ``a`` and goal-tree node ``b`` to the goal as links after the
+    start: the start tree's nodes from the root out, then (from ``a``'s pose to ``b``'s, by ``bridge``; None: they
+    are the same pose) :func:`links_in` of the goal tree from ``b``."""
+    nodes, parents, edge = start
+    links: list[Link] = []
+    i = a
+    while i > 0:
+        links.append((nodes[i], *edge(i)))
+        i = int(parents[i])
+    links.reverse()
+    if bridge is not None:
+        links.append((goal[0][b], *bridge))
+    return links + links_in(goal, b)
+
+
+def links_in(goal: Side, b: int) -> list[Link]:
+    """The way from node ``b`` of a tree grown backwards to its root as links: each node's parent with the node's
+    edge (from the node to its parent: in driving order already)."""
+    nodes, parents, edge = goal
+    links: list[Link] = []
+    while b > 0:
+        parent = int(parents[b])
+        links.append((nodes[parent], *edge(b)))
+        b = parent
+    return links
 
 
 def merge_trees(a: Tree, b: Tree) -> PlanTree:
