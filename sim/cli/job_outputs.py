@@ -200,8 +200,8 @@ def add_output_arguments(p: argparse.ArgumentParser) -> None:
         "--size",
         default=VIDEO_DEFAULTS["size"],
         metavar="WxH",
-        help="video size in pixels, even, within H.264 level 5.2 (4096x2304 at most, and 2073600 macroblocks of 16x16 "
-        "a second with --fps) (default: %(default)s)",
+        help="video size in pixels, even, within H.264 level 5.2: at most 4096 a side and 36864 macroblocks of 16x16 "
+        "a frame (4096x2304, 2304x4096, 3840x2160), 2073600 a second with --fps (default: %(default)s)",
     )
     g.add_argument(
         "--camera",
