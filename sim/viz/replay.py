@@ -128,8 +128,7 @@ class RenderSettings:
             raise ConfigError(
                 f"video size {self.width}x{self.height} is {mbs} macroblocks of 16x16 pixels a frame, more than H.264 "
                 f"level 5.2's {LEVEL_52_FRAME_MBS} (4096x2304, 2304x4096, 3840x2160), above which players may refuse "
-                "the MP4; "
-                f"give a smaller {option('size', 'WIDTHxHEIGHT', python='RenderSettings.width, .height')}"
+                f"the MP4; give a smaller {option('size', 'WIDTHxHEIGHT', python='RenderSettings.width, .height')}"
             )
         if mbs * self.fps > LEVEL_52_MBS_PER_S:
             most = LEVEL_52_MBS_PER_S // mbs
