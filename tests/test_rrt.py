@@ -254,7 +254,7 @@ def test_rrt_star_parks_in_a_slot_twice_its_length_with_its_goal_tree_only():
 
 
 def test_rrt_star_parks_in_the_tight_slot_by_birrts_search_where_its_own_connect_phase_is_slow():
-    """tight_park's first path takes RRT*-Connect 2,000-28,000 iterations (seeds 0-9; its Python iterations
+    """tight_park's first path takes RRT*-Connect 218-27,825 iterations (seeds 0-9; its Python iterations
     about 16,000 a second): after ``connect_iterations`` (here none) birrt's compiled search looks for it
     instead, and its path, grafted into the RRT* tree, is a valid plan into the slot."""
     from sim.tools.bench.plan_problems import tight_park
@@ -268,6 +268,26 @@ def test_rrt_star_parks_in_the_tight_slot_by_birrts_search_where_its_own_connect
         assert res.stats["goal_tree_joined"] is True and res.stats["birrt_iterations"] == res.stats["iterations"]
         # its cost the curves' lengths; the dense poses' chords are at most that, and short of it by the sampling
         assert res.length() <= res.stats["cost_m"] + 1e-9 and res.stats["cost_m"] == pytest.approx(res.length(), 1e-3)
+
+
+def test_rrt_star_without_a_path_shows_birrts_trees_and_the_nearest_of_their_nodes():
+    """A run that handed its first path to birrt's search and ended without one returned the RRT* tree alone: with
+    ``connect_iterations=0`` only its root, the start as the partial path (0.674 m from tight_park's goal, where
+    birrt's own run ends 0.047 m from it). Now birrt's trees are drawn beside it, and the partial path ends on the
+    node of either start tree nearest the goal."""
+    from planning.planners.sampling.tree import goal_gap
+    from sim.tools.bench.plan_problems import tight_park
+
+    prob = PlanProblem(**{**tight_park().__dict__, "seed": 0, "time_limit": 60.0})
+    res = make_planner("rrt-star", connect_iterations=0, max_iterations=3000, simplify=False).plan(prob)
+    assert res.status is PlanStatus.TIMEOUT and res.stats["birrt_iterations"] == 3000
+    birrt = make_planner("birrt", steering="reeds_shepp", goal_bias=0.05, max_iterations=3000, simplify=False)
+    alone = birrt.plan(prob)  # birrt's search, as rrt-star ran it: the same draws after no connect iteration
+    assert alone.status is PlanStatus.TIMEOUT
+    assert res.tree.nodes.shape[0] == res.stats["nodes"] == 1 + alone.tree.nodes.shape[0]  # the root, birrt's
+    gap = goal_gap(res.path[-1:], prob)[0]
+    assert gap == pytest.approx(goal_gap(alone.path[-1:], prob)[0], abs=0.0) and gap < 0.1
+    np.testing.assert_array_equal(res.path, alone.path)
 
 
 def test_rrt_star_takes_the_direct_curve_when_the_start_sees_the_goal():
@@ -437,6 +457,7 @@ def test_rrt_star_with_its_start_in_the_goal_region_returns_at_once():
         res = make_planner("rrt-star").plan(prob)
         assert res.stats["time_s"] - res.stats["code_s"] < 0.05
         assert res.success and res.stats["iterations"] == 0 and res.stats["stopped_by"] == "start in goal region"
+        assert res.stats["birrt_iterations"] == 0 and res.stats["goal_tree_joined"] is False  # every run's stats
         np.testing.assert_array_equal(res.path[0], prob.start.as_array())
         np.testing.assert_allclose(res.path[-1], prob.goal.as_array(), atol=1e-9)
         region = make_planner("rrt-star", region_goal=True).plan(prob)
@@ -534,6 +555,7 @@ def test_a_goal_walled_in_but_within_tolerance_of_a_reachable_place_is_not_prove
         result = make_planner("rrt-star").plan(problem)
         assert result.success, (seed, result.reason)
         assert result.stats["birrt_iterations"] > 0  # birrt's search found it, RRT*-Connect's 1000 iterations not
+        assert result.stats["goal_tree_joined"] is False  # its path ends in the region, not through the goal tree
         assert 0.15 < math.hypot(result.path[-1, 0] - 1.98, result.path[-1, 1] - 1.0) <= 0.25  # outside the ring
 
 

@@ -280,10 +280,14 @@ def reachable(
     free = _free(centres, radius, (si, gi), cell)
     target = np.zeros(free.shape, dtype=np.bool_)
     target[gi] = True
-    if goal_radius > 0.0:  # every cell a point within goal_radius of the goal may lie in: its centre that near
-        x = origin[0] + cell * (np.arange(free.shape[0]) + 0.5)
-        y = origin[1] + cell * (np.arange(free.shape[1]) + 0.5)
-        target |= np.hypot(*np.meshgrid(x - g[0], y - g[1], indexing="ij")) <= goal_radius + cell / np.sqrt(2.0)
+    if goal_radius > 0.0:  # every cell a point within goal_radius of the goal may lie in: its centre that near,
+        reach = goal_radius + cell / np.sqrt(2.0)  # looked for among the cells around the goal (a million cells'
+        lo = np.maximum(np.floor((g - reach - origin) / cell).astype(np.int64) - 1, 0)  # table took 0.1-0.25 s)
+        hi = np.minimum(np.floor((g + reach - origin) / cell).astype(np.int64) + 2, free.shape)
+        x = origin[0] + cell * (np.arange(lo[0], hi[0]) + 0.5)
+        y = origin[1] + cell * (np.arange(lo[1], hi[1]) + 0.5)
+        near = np.hypot(*np.meshgrid(x - g[0], y - g[1], indexing="ij")) <= reach
+        target[lo[0] : hi[0], lo[1] : hi[1]] |= near
     found = _connected(free, si, target, clock.remaining())
     if found < 0:
         what = (f"the 2-D search for a way {radius:.3f} m off everything, a flood fill over {cell:g} m cells", "cells")

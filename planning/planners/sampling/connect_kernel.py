@@ -27,6 +27,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.clock import monotonic
 from planning.collision.compiled import exact_pose_free, grid_lookup
 from planning.collision.grid import CheckArrays, classify_pose, disc_margin
 from planning.core.arrays import copy_into, copy_rows_into
@@ -247,6 +248,7 @@ def search_chunk(
     state: IntArray,
     uniforms: FloatArray,
     stop_it: int,
+    deadline: float,
     bounds: FloatArray,
     geometry: FloatArray,
     rs: bool,
@@ -254,15 +256,15 @@ def search_chunk(
     max_motion: int,
     chk: CheckArrays,
 ) -> tuple[int, int, int]:
-    """Run BiRRT's iterations until ``state[2]`` (the iteration count) reaches ``stop_it`` or the trees join.
+    """Run BiRRT's iterations until ``state[2]`` (the iteration count) reaches ``stop_it``, the trees join or the
+    clock is past ``deadline`` before an iteration (one may take milliseconds among thousands of obstacles).
 
     Args:
         tree_a: The start tree (:data:`TreeArrays`), ``state[0]`` nodes and ``state[4]`` edge poses.
         tree_b: The goal tree (grown backwards), ``state[1]`` nodes and ``state[5]`` edge poses.
-        state: (6,) node counts of the two trees, iterations done, next unused entry of ``uniforms``,
-            edge poses stored in the two trees; updated in place.
+        state: (6,), updated: node counts of both trees, iterations, next unused ``uniforms``, both trees' edge poses.
         uniforms: Uniform numbers in [0, 1) of the run's generator, in order.
-        stop_it: Iteration count at which to return.
+        stop_it, deadline: The iteration count, and the ``time.perf_counter()`` value, at which to return.
         bounds: (4,) world bounds (xmin, xmax, ymin, ymax) [m].
         geometry: (rho, sample step, range, goal bias, the region's two tolerances: :func:`_in_region`).
         rs: Reeds–Shepp curves, else Dubins.
@@ -271,15 +273,14 @@ def search_chunk(
         chk: The checker (:meth:`planning.collision.grid.FastChecker.check_arrays`).
 
     Returns:
-        (what, a, b): ``what`` one of :data:`CHUNK_DONE`, :data:`JOINED`, :data:`NEED_ROOM` (a tree's arrays
-        cannot take another iteration's nodes and edges), :data:`NEED_UNIFORMS`, :data:`BAD_CURVE`,
-        :data:`IN_REGION`; joined, the start-tree node ``a`` and the goal-tree node ``b`` (the same pose); in
-        the region, its start-tree node ``a`` (``b`` 0).
+        (what, a, b): ``what`` :data:`CHUNK_DONE`, :data:`JOINED`, :data:`NEED_ROOM` (a tree's arrays cannot take
+        another iteration's), :data:`NEED_UNIFORMS`, :data:`BAD_CURVE` or :data:`IN_REGION`; joined, the start-tree
+        node ``a`` and the goal-tree node ``b`` (the same pose); in the region, its start-tree node ``a`` (``b`` 0).
     """
     scratch = (np.empty(4 * max_motion + 8, dtype=np.int64), np.empty((max_motion, 3)), np.empty(max_motion))
     goal_bias = geometry[3]
     most = connect_steps + 2
-    while state[2] < stop_it:
+    while state[2] < stop_it and monotonic() <= deadline:
         if not (
             _room(tree_a, state[0], state[4], most, most * max_motion)
             and _room(tree_b, state[1], state[5], most, most * max_motion)
@@ -424,9 +425,10 @@ class CompiledSearch:
         """Nodes in both trees."""
         return int(self._state[0] + self._state[1])
 
-    def run(self, rng: np.random.Generator, stop_it: int) -> tuple[int, int, int]:
-        """Iterate until ``stop_it`` iterations are done or the trees join (``search_chunk``'s results,
-        never NEED_ROOM or NEED_UNIFORMS: the arrays grow and numbers are drawn here as needed).
+    def run(self, rng: np.random.Generator, stop_it: int, deadline: float = np.inf) -> tuple[int, int, int]:
+        """Iterate until ``stop_it`` iterations are done, the trees join or ``time.perf_counter()`` passes
+        ``deadline`` (``search_chunk``'s results, never NEED_ROOM or NEED_UNIFORMS: the arrays grow and numbers are
+        drawn here as needed).
 
         Raises:
             ValueError: A curve did not verify (non-finite poses).
@@ -434,7 +436,7 @@ class CompiledSearch:
         if not self._uniforms.size:  # the first block now, not after a kernel call that asks for it
             self._draw(rng)
         while True:
-            problem = (self._state, self._uniforms, stop_it, self._bounds, self._geometry)
+            problem = (self._state, self._uniforms, stop_it, float(deadline), self._bounds, self._geometry)
             out = search_chunk(self._a, self._b, *problem, self._rs, self._steps, self._max_motion, self._chk)
             what = int(out[0])
             if what == NEED_ROOM:

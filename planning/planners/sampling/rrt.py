@@ -35,7 +35,7 @@ from planning.errors import ConfigError
 from planning.planners import geodesic
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree, checked_problem
 from planning.planners.registry import config_from_options
-from planning.planners.sampling.connect_kernel import IN_REGION, JOINED, CompiledSearch
+from planning.planners.sampling.connect_kernel import CHUNK_DONE, IN_REGION, JOINED, CompiledSearch
 from planning.planners.sampling.extend import LocalPlanner, Motion, check_steering
 from planning.planners.sampling.steering import MAX_TURNING_RADIUS, MIN_TURNING_RADIUS
 from planning.planners.sampling.tree import (
@@ -409,7 +409,7 @@ class BiRRT(_TreePlanner[BiRRTConfig]):
         if met.joined:
             path, dirs = met.path()
             return self._result(PlanStatus.SUCCESS, path, dirs, "", stats, met.plan_tree())
-        path, d, _ = self._partial(met.start_tree(), problem)
+        path, d, _ = self._partial(met.trees()[0], problem)
         reason = f"{budget.why(met.iterations)}; the trees did not meet (partial path from the start tree)"
         return self._result(budget.status, path, d, reason, stats, met.plan_tree())
 
@@ -433,20 +433,23 @@ class Meeting:
     Attributes:
         iterations: Iterations run.
         nodes: Nodes of both trees.
-        joined: Whether the trees met.
-        path: Once met, the poses (K, 3) and directions (K,) from the start through the meeting to the goal.
-        chain: Once met, the same path as the nodes after the start, each with its edge (:data:`Link`).
+        joined: Whether a path was found: the trees met, or (with ``region``) a start-tree node landed in the
+            goal region.
+        goal_tree: Whether that path runs through the goal tree (False: it ends in the region).
+        path: Once joined, the poses (K, 3) and directions (K,) from the start to the path's end.
+        chain: Once joined, the same path as the nodes after the start, each with its edge (:data:`Link`).
         plan_tree: Both trees drawn as one.
-        start_tree: The start tree.
+        trees: The start and goal trees.
     """
 
     iterations: int
     nodes: int
     joined: bool
+    goal_tree: bool
     path: Callable[[], tuple[FloatArray, FloatArray]]
     chain: Callable[[], list[Link]]
     plan_tree: Callable[[], PlanTree]
-    start_tree: Callable[[], Tree]
+    trees: Callable[[], tuple[Tree, Tree]]
 
 
 def compiled(local: LocalPlanner) -> bool:
@@ -478,13 +481,15 @@ def meet(
     search = CompiledSearch(chk, rs, geometry, problem, cfg.goal_bias, connect_steps, region)
     what, a, b = -1, 0, 0
     while what not in (JOINED, IN_REGION) and not budget.spent(done + search.iterations):
-        what, a, b = search.run(rng, min(budget.next_check, budget.max_iterations) - done)
-    start_tree = lambda: search.trees()[0]
+        what, a, b = search.run(rng, min(budget.next_check, budget.max_iterations) - done, budget.deadline)
+        if what == CHUNK_DONE and budget.clock.expired():  # stopped at the deadline (numba's readying left out)
+            break
+    its, n = done + search.iterations, search.nodes
     if what not in (JOINED, IN_REGION):
-        return Meeting(done + search.iterations, search.nodes, False, _unmet, _unmet, search.plan_tree, start_tree)
+        return Meeting(its, n, False, False, _unmet, _unmet, search.plan_tree, search.trees)
     path = lambda: search.path(a, b)
     chain = lambda: met_chain(*search.sides(), a, b)
-    return Meeting(done + search.iterations, search.nodes, True, path, chain, search.plan_tree, start_tree)
+    return Meeting(its, n, True, what == JOINED, path, chain, search.plan_tree, search.trees)
 
 
 def _unmet() -> Any:
@@ -514,7 +519,7 @@ def _meet_python(
         if j is None:
             continue
         if region and grow is ta and in_goal(ta.nodes[j], problem):
-            return _met(ta, tb, j, 0, None, it)
+            return _met(ta, tb, j, 0, None, it, through_goal_tree=False)
         target = grow.nodes[j]
         k = local.nearest(other, target)
         for _ in range(steps):
@@ -529,11 +534,11 @@ def _meet_python(
             if k_new is None:
                 break
             if region and other is ta and in_goal(ta.nodes[k_new], problem):
-                return _met(ta, tb, k_new, 0, None, it)
+                return _met(ta, tb, k_new, 0, None, it, through_goal_tree=False)
             k, k_old = k_new, k
             if not local.exact and not _closer(local, other, k, k_old, target):
                 break  # primitives that no longer close in on the target shuffle in place: trapped
-    return Meeting(it, ta.n + tb.n, False, _unmet, _unmet, lambda: merge_trees(ta, tb), lambda: ta)
+    return Meeting(it, ta.n + tb.n, False, False, _unmet, _unmet, lambda: merge_trees(ta, tb), lambda: (ta, tb))
 
 
 def _grow(local: LocalPlanner, tree: Tree, i: int, target: FloatArray) -> int | None:
@@ -544,8 +549,17 @@ def _grow(local: LocalPlanner, tree: Tree, i: int, target: FloatArray) -> int | 
     return tree.add(ext[0], i, ext[1], ext[2])
 
 
-def _met(ta: Tree, tb: Tree, a: int, b: int, bridge: tuple[FloatArray, FloatArray] | None, it: int) -> Meeting:
-    """The meeting of start-tree node ``a`` and goal-tree node ``b``, joined by ``bridge`` (None: the same pose)."""
+def _met(
+    ta: Tree,
+    tb: Tree,
+    a: int,
+    b: int,
+    bridge: tuple[FloatArray, FloatArray] | None,
+    it: int,
+    through_goal_tree: bool = True,
+) -> Meeting:
+    """The meeting of start-tree node ``a`` and goal-tree node ``b``, joined by ``bridge`` (None: the same pose), or
+    (not ``through_goal_tree``) start-tree node ``a`` in the goal region (``b`` 0)."""
 
     def path() -> tuple[FloatArray, FloatArray]:
         pa, da = ta.branch(a)
@@ -559,4 +573,5 @@ def _met(ta: Tree, tb: Tree, a: int, b: int, bridge: tuple[FloatArray, FloatArra
         return np.vstack(parts_p), np.concatenate(parts_d)
 
     chain = lambda: met_chain(ta.side(), tb.side(), a, b, bridge)
-    return Meeting(it, ta.n + tb.n, True, path, chain, lambda: merge_trees(ta, tb), lambda: ta)
+    drawn = lambda: merge_trees(ta, tb)
+    return Meeting(it, ta.n + tb.n, True, through_goal_tree, path, chain, drawn, lambda: (ta, tb))

@@ -18,7 +18,8 @@ joined by RRT-Connect's connect step (``birrt``'s), as RRT*-Connect does (Klemm 
 goal tree's branch from the meeting pose is then grafted into the RRT* tree (its edges are exact
 curves too) and the goal tree dropped. A goal region the size of a parking slot is found this way
 where one tree, sampling the goal pose 5 % of the time, almost never reaches it. The two trees hold
-birrt's nodes (the same samples and extensions; the RRT* tree only chooses their parents), in Python:
+birrt's nodes (the same samples and extensions; the RRT* tree chooses their parents and now and then
+refuses one), in Python:
 without a solution after ``connect_iterations``, birrt's compiled search (:func:`.rrt.meet`) looks for
 it instead, ending too where a start-tree node lands in the goal region, and its path is grafted (each
 edge a piece of a shortest curve toward a sample, itself the shortest curve between its ends).
@@ -61,7 +62,7 @@ from planning.core.geometry import path_length
 from planning.errors import ConfigError
 from planning.planners.base import PlanProblem, PlanResult, PlanStatus, PlanTree
 from planning.planners.sampling.extend import LocalPlanner
-from planning.planners.sampling.rrt import TreeConfig, _TreePlanner, meet
+from planning.planners.sampling.rrt import Meeting, TreeConfig, _TreePlanner, meet
 from planning.planners.sampling.tree import (
     Budget,
     Link,
@@ -70,6 +71,7 @@ from planning.planners.sampling.tree import (
     goal_region_poses,
     in_goal,
     links_in,
+    merge_trees,
     sample_pose,
 )
 
@@ -225,7 +227,7 @@ class RRTStar(_TreePlanner[RRTStarConfig]):
                     break
         tree = search.tree
         stats: dict[str, object] = {
-            **self._stats(budget, it, tree.n),
+            **self._stats(budget, it, tree.n + (search.met.nodes if search.met and not search.met.joined else 0)),
             **run.stats(),
             "stopped_by": stop,
             "goal_tree_joined": search.grafted,
@@ -236,9 +238,10 @@ class RRTStar(_TreePlanner[RRTStarConfig]):
             path, dirs = tree.branch(g)
             stats["cost_m"] = float(tree.costs[g])
             return self._result(PlanStatus.SUCCESS, path, dirs, "", stats, tree.plan_tree())
-        path, dirs, _ = self._partial(tree, problem)
         reason = f"{budget.why(it)} without reaching the goal; partial path to the node nearest the goal"
-        return self._result(budget.status, path, dirs, reason, stats, tree.plan_tree())
+        trees = (tree, *search.met.trees()) if search.met is not None else (tree,)  # birrt's too, when it ran
+        path, dirs, _ = min((self._partial(t, problem) for t in trees[:2]), key=lambda p: p[2])
+        return self._result(budget.status, path, dirs, reason, stats, merge_trees(*trees))
 
     def _start_in_goal(self, problem: PlanProblem, local: LocalPlanner, budget: Budget) -> PlanResult:
         """The plan of a start inside the goal region, at once, as birrt's: the exact curve to the goal
@@ -260,6 +263,7 @@ class RRTStar(_TreePlanner[RRTStarConfig]):
             "cost_history": [(0, budget.elapsed(), length)],
             "stopped_by": "start in goal region",
             "goal_tree_joined": False,
+            "birrt_iterations": 0,
             "cost_m": length,
         }
         return self._result(PlanStatus.SUCCESS, path, dirs, "", stats, tree)
@@ -279,6 +283,7 @@ class _Search:
         self.aim_nodes = np.full(len(self.aims), -1, dtype=np.int64)
         self.grafted = False  # whether the first solution came through the goal tree
         self.birrt_iterations = 0  # of the run's iterations, birrt's search's (:meth:`_meet`)
+        self.met: Meeting | None = None  # birrt's search, when it ran
         self.incumbent = np.zeros(0, dtype=np.int64)  # the best path's nodes (root excluded)
         self.best = np.inf
 
@@ -324,10 +329,11 @@ class _Search:
         """birrt's search (:func:`.rrt.meet`) after ``done`` iterations, its path grafted when the trees met (the
         goal tree dropped either way); the iterations done then."""
         met = meet(self.problem, self.local, budget, self.rng, self.cfg, self.cfg.connect_steps, done, region=True)
-        self.back = None
+        self.back, self.met = None, met
         self.birrt_iterations = met.iterations - done
         if met.joined:
             self._graft_path(met.chain())
+            self.grafted = met.goal_tree
         return met.iterations
 
     def _branch_nodes(self, i: int) -> NDArray[np.int64]:
@@ -460,7 +466,6 @@ class _Search:
         it is (an exact curve: a goal-tree edge, or a piece of the shortest curve from its parent toward a sample,
         itself the shortest curve between its ends), its cost the curve length between its poses."""
         tree = self.tree
-        self.grafted = True
         for pose, poses, dirs in chain:
             cost = tree.costs[prev] + float(self.local.curves.lengths(tree.nodes[prev], pose[None])[0])
             prev = tree.add(pose.copy(), prev, poses, dirs, cost)
@@ -471,6 +476,7 @@ class _Search:
         goal-tree edge, the exact curve from a node to its parent, becomes an RRT* edge as it is."""
         assert self.back is not None
         self._graft_path(links_in(self.back.side(), b), a)
+        self.grafted = True
 
 
 def informed_pose(rng: np.random.Generator, problem: PlanProblem, c: float) -> FloatArray:

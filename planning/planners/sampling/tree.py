@@ -188,10 +188,14 @@ def links_in(goal: Side, b: int) -> list[Link]:
     return links
 
 
-def merge_trees(a: Tree, b: Tree) -> PlanTree:
-    """Two trees drawn as one :class:`PlanTree` (roots keep parent -1)."""
-    (na, pa, ea), (nb, pb, eb) = a._drawn(0), b._drawn(a.n)
-    return PlanTree(np.vstack([na, nb]), np.concatenate([pa, pb]), ea + eb)
+def merge_trees(*trees: Tree) -> PlanTree:
+    """Trees drawn as one :class:`PlanTree` (roots keep parent -1)."""
+    drawn, offset = [], 0
+    for tree in trees:
+        drawn.append(tree._drawn(offset))
+        offset += tree.n
+    nodes, parents, edges = zip(*drawn, strict=True)
+    return PlanTree(np.vstack(nodes), np.concatenate(parents), sum(edges, ()))
 
 
 #: The share of a tree planner's time limit between readings of its clock (:meth:`Budget.spent`).
