@@ -273,19 +273,19 @@ def search_chunk(
         chk: The checker (:meth:`planning.collision.grid.FastChecker.check_arrays`).
 
     Returns:
-        (what, a, b): ``what`` :data:`CHUNK_DONE`, :data:`JOINED`, :data:`NEED_ROOM` (a tree's arrays cannot take
-        another iteration's), :data:`NEED_UNIFORMS`, :data:`BAD_CURVE` or :data:`IN_REGION`; joined, the start-tree
-        node ``a`` and the goal-tree node ``b`` (the same pose); in the region, its start-tree node ``a`` (``b`` 0).
+        (what, a, b): ``what`` :data:`CHUNK_DONE`, :data:`JOINED`, :data:`NEED_ROOM` (``a``, ``b``: 1 where that
+        tree's arrays cannot take another iteration's), :data:`NEED_UNIFORMS`, :data:`BAD_CURVE` or :data:`IN_REGION`;
+        joined, the start-tree node ``a`` and the goal-tree node ``b`` (the same pose); in the region, its start-tree
+        node ``a`` (``b`` 0).
     """
     scratch = (np.empty(4 * max_motion + 8, dtype=np.int64), np.empty((max_motion, 3)), np.empty(max_motion))
     goal_bias = geometry[3]
     most = connect_steps + 2
     while state[2] < stop_it and monotonic() <= deadline:
-        if not (
-            _room(tree_a, state[0], state[4], most, most * max_motion)
-            and _room(tree_b, state[1], state[5], most, most * max_motion)
-        ):
-            return NEED_ROOM, -1, -1
+        room_a = _room(tree_a, state[0], state[4], most, most * max_motion)
+        room_b = _room(tree_b, state[1], state[5], most, most * max_motion)
+        if not (room_a and room_b):
+            return NEED_ROOM, int(not room_a), int(not room_b)
         if state[3] + 4 > uniforms.shape[0]:
             return NEED_UNIFORMS, -1, -1
         state[2] += 1
@@ -439,8 +439,9 @@ class CompiledSearch:
             problem = (self._state, self._uniforms, stop_it, float(deadline), self._bounds, self._geometry)
             out = search_chunk(self._a, self._b, *problem, self._rs, self._steps, self._max_motion, self._chk)
             what = int(out[0])
-            if what == NEED_ROOM:
-                self._a, self._b = self._grown(self._a), self._grown(self._b)
+            if what == NEED_ROOM:  # the tree that needs it (a growth touches fresh memory: milliseconds a MB)
+                self._a = self._grown(self._a) if out[1] else self._a
+                self._b = self._grown(self._b) if out[2] else self._b
             elif what == NEED_UNIFORMS:
                 self._draw(rng)
             elif what == BAD_CURVE:
