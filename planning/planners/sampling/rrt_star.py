@@ -19,10 +19,10 @@ goal tree's branch from the meeting pose is then grafted into the RRT* tree (its
 curves too) and the goal tree dropped. A goal region the size of a parking slot is found this way
 where one tree, sampling the goal pose 5 % of the time, almost never reaches it. The two trees hold
 birrt's nodes (the same samples and extensions; the RRT* tree chooses their parents and now and then
-refuses one), in Python:
-without a solution after ``connect_iterations``, birrt's compiled search (:func:`.rrt.meet`) looks for
-it instead, ending too where a start-tree node lands in the goal region, and its path is grafted (each
-edge a piece of a shortest curve toward a sample, itself the shortest curve between its ends).
+refuses one), grown in Python; without a solution after ``connect_iterations``, birrt's compiled search
+(:func:`.rrt.meet`) looks for it instead, ending too where a start-tree node lands in the goal region,
+and its path is grafted (each edge a piece of a shortest curve toward a sample, itself the shortest
+curve between its ends).
 
 Goal region (``region_goal``): a goal connection (each node that could beat the best cost tries its
 exact curve to the goal) aims at the poses spread over the goal region
