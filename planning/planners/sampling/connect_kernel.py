@@ -496,13 +496,13 @@ class CompiledSearch:
 
     @staticmethod
     def _as_tree(arrays: TreeArrays, n: int, backwards: bool) -> Tree:
-        nodes, heads, parents, rows, edge_p, edge_d = arrays
+        nodes, heads, parents = arrays[:3]
+        edge = CompiledSearch._side(arrays)[2]
         tree = Tree(nodes[0], backwards=backwards, capacity=max(n, 1))
         tree.nodes[:n], tree.headings[:n], tree.parents[:n] = nodes[:n], heads[:n], parents[:n]
         tree.n = n
         for i in range(1, n):
-            a, b = rows[i]
-            tree.edges.append((edge_p[a:b], edge_d[a:b]))
+            tree.edges.append(edge(i))
             tree.children.append([])
             tree.children[int(parents[i])].append(i)
         return tree

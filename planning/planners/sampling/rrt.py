@@ -193,16 +193,12 @@ class _TreePlanner(Generic[ConfigT]):
         self._locals = {key: (problem.world, problem.robot, local)}  # one entry: the last problem's
         return local
 
-    def _sample(self, rng: np.random.Generator, target: FloatArray, problem: PlanProblem) -> FloatArray:
-        """``target`` with probability ``goal_bias``, else a uniform pose in the world."""
-        return target if rng.random() < self.config.goal_bias else sample_pose(rng, problem.world.bounds)
-
     def _extend_toward_sample(
         self, rng: np.random.Generator, tree: Tree, local: LocalPlanner, problem: PlanProblem
     ) -> tuple[int, Motion] | None:
         """One goal-biased sample, the tree's nearest node to it, and the motion from there toward it
         (None when every motion collides)."""
-        q_rand = self._sample(rng, problem.goal.as_array(), problem)
+        q_rand = biased_sample(rng, problem.goal.as_array(), problem, self.config.goal_bias)
         i = local.nearest(tree, q_rand)
         ext = local.extend(tree.nodes[i], q_rand, tree=tree)
         return None if ext is None else (i, ext)
@@ -232,6 +228,11 @@ class _TreePlanner(Generic[ConfigT]):
     ) -> PlanResult:
         stats = {**stats, "length_m": path_length(poses)}
         return PlanResult(status, self.name, path=poses, reason=reason, stats=stats, tree=tree, directions=dirs)
+
+
+def biased_sample(rng: np.random.Generator, target: FloatArray, problem: PlanProblem, bias: float) -> FloatArray:
+    """``target`` with probability ``bias``, else a uniform pose in the world (:func:`.tree.sample_pose`)."""
+    return target if rng.random() < bias else sample_pose(rng, problem.world.bounds)
 
 
 def simplified(
@@ -513,8 +514,7 @@ def _meet_python(
     while not budget.spent(it):
         it += 1
         grow, other = (ta, tb) if (it - done) % 2 else (tb, ta)
-        root = goal if grow is ta else start
-        q_rand = root if rng.random() < cfg.goal_bias else sample_pose(rng, problem.world.bounds)
+        q_rand = biased_sample(rng, goal if grow is ta else start, problem, cfg.goal_bias)
         j = _grow(local, grow, local.nearest(grow, q_rand), q_rand)
         if j is None:
             continue
