@@ -11,6 +11,7 @@ import imageio_ffmpeg
 import numpy as np
 import pytest
 
+from planning.errors import ConfigError
 from sim.cli.main import main
 from sim.outputs import write_json
 from tests.render_helpers import require_gl
@@ -413,6 +414,28 @@ def test_video_options_given_with_no_video_are_named_as_ignored(capsys: pytest.C
     )
     said = "nhsim simulate: --size ignored: it sets the video, and --no-video writes none\n"
     assert note("--size", "320x240") == said
+
+
+@pytest.mark.parametrize(
+    ("extra", "said"),
+    [
+        (["--size", "big"], "--size must look like WIDTHxHEIGHT"),
+        (["--size", "641x480"], "must be even"),
+        (["--size", "8192x8192"], "4096"),
+        (["--fps", "-5"], "fps"),
+        (["--size", "4096x2304", "--fps", "60"], "a second"),
+    ],
+)
+def test_bad_video_options_are_refused_with_no_video_too(extra: list[str], said: str) -> None:
+    """A bad value is an error whether or not a video is written: passed over as "ignored", it would be refused
+    the day the same command line drops --no-video."""
+    from sim.cli.job_outputs import plan_outputs
+    from sim.cli.main import build_parser
+
+    for video in (["--no-video"], []):
+        args = build_parser().parse_args(["simulate", *video, *extra])
+        with pytest.raises(ConfigError, match=said):
+            plan_outputs(args, scenario="open", source="line", own_robot="turtlebot3", changed={})
 
 
 def test_write_json_writes_arrays_compactly_and_exactly(tmp_path: Path) -> None:

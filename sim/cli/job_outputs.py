@@ -388,9 +388,10 @@ def plan_outputs(
     stem = output_stem(args, scenario=scenario, source=source, changed=changed, own_robot=own_robot)
     video: Path | None = None
     settings = None
+    w, h = parse_size(args.size)  # checked with --no-video too: a bad value is refused, not passed over
+    asked = RenderSettings(width=w, height=h, fps=args.fps, camera=args.camera, quality=args.quality)
     if not args.no_video:
-        w, h = parse_size(args.size)
-        settings = RenderSettings(width=w, height=h, fps=args.fps, camera=args.camera, quality=args.quality)
+        settings = asked
         video = args.video if args.video is not None else DEFAULT_DIR / f"{stem}.mp4"
         check_video_name(video, "--video")
     elif args.video is not None:
