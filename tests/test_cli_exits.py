@@ -850,3 +850,32 @@ def test_a_number_option_that_is_no_number_gets_no_traceback_hint(
     err = capsys.readouterr().err
     assert "radius must be a number, got '2:3'" in err and "NHSIM_TRACEBACK" not in err, err
     assert not list(tmp_path.iterdir())
+
+
+def test_a_file_with_a_comma_in_its_name_is_one_item_of_a_comma_list(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``simulate --all --scenario a,b.toml`` with a file named ``a,b.toml`` read ``a`` and ``b.toml`` (split at
+    every comma, as ``tune --scenarios`` and ``compare --params`` were): a run of items that names a file is it."""
+    import argparse
+
+    from sim.cli.checks import comma_list
+    from sim.cli.sweep_table import sweep_scenarios
+    from sim.cli.tune import _tokens
+    from sim.pipeline.case import Case
+
+    monkeypatch.chdir(tmp_path)
+    Path("a,b.toml").write_text(TIGHT)
+    Path("x,y,z.json").write_text("{}")
+    assert comma_list("a,b.toml") == ["a,b.toml"]
+    assert comma_list(" farm, a,b.toml ,open,") == ["farm", "a,b.toml", "open"]
+    assert comma_list("a,b") == ["a", "b"]  # no file of that name: every comma splits
+    assert comma_list("x,y,z.json,x,y") == ["x,y,z.json", "x", "y"]  # the longest run that names a file
+    assert comma_list(f"{tmp_path}/a,b.toml,{tmp_path}/x,y,z.json") == [
+        f"{tmp_path}/a,b.toml",
+        f"{tmp_path}/x,y,z.json",
+    ]
+    case = lambda token: Case.split(token)[0]
+    assert comma_list("a,b.toml:line,open:circle", case) == ["a,b.toml:line", "open:circle"]
+    assert sweep_scenarios("a,b.toml,farm") == ["a,b.toml", "farm"]
+    assert _tokens(argparse.Namespace(scenarios="open:line,a,b.toml:optim")) == ["open:line", "a,b.toml:optim"]

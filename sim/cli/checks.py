@@ -12,6 +12,29 @@ from planning.core.checks import check_number
 from planning.errors import ConfigError
 
 
+def comma_list(text: str, file_of: Callable[[str], str] = str) -> list[str]:
+    """The items of a comma-separated list of names or files, stripped, empty ones dropped; a run of items that,
+    joined by their commas, names an existing file is that one file (``--scenario a,b.toml`` with a file named
+    ``a,b.toml``: split at every comma, it was ``a`` and ``b.toml``), the longest such run first.
+
+    Args:
+        text: The option's value.
+        file_of: The file part of an item (``Case.split``'s scenario of ``SCENARIO:PLANNER``); the item whole
+            by default.
+    """
+    parts = text.split(",")
+    items: list[str] = []
+    i = 0
+    while i < len(parts):
+        end = next(
+            (j for j in range(len(parts), i + 1, -1) if os.path.isfile(file_of(",".join(parts[i:j]).strip()))),
+            i + 1,
+        )
+        items.append(",".join(parts[i:end]).strip())
+        i = end
+    return [item for item in items if item]
+
+
 def check_time_limit(seconds: float) -> None:
     """Raise :class:`ConfigError` unless the ``--time-limit`` planning budget [s] is a finite number > 0."""
     check_number("--time-limit", seconds, above=0.0, unit="s, the planning budget", fix="pass e.g. --time-limit 30")

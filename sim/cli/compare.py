@@ -8,7 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from sim.cli.checks import add_planner_option_argument
+from sim.cli.checks import add_planner_option_argument, comma_list
 from sim.cli.job_outputs import RUN_SETTINGS, add_case_arguments, tracker_notes, unused_time_limit
 from sim.cli.trajectory_files import add_file_arguments
 
@@ -169,7 +169,7 @@ def run(args: argparse.Namespace) -> int:
 
     given = None if args.trackers is None else [n for arg in args.trackers for n in arg.split(",")]
     names = check_trackers(given if given is not None else feedback_trackers())
-    files = [] if args.params is None else [p.strip() for p in args.params.split(",") if p.strip()]
+    files = [] if args.params is None else comma_list(args.params)
     if args.params is not None and not files:
         raise ConfigError("--params names no file; give one or more JSON files, comma-separated (FILE[,FILE...])")
     params = load_params(files)

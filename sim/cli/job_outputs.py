@@ -43,6 +43,7 @@ from pathlib import Path
 from typing import Any
 
 from planning.errors import ConfigError, OutputExistsError
+from sim.cli.checks import comma_list
 
 DEFAULT_DIR = Path("renders")
 #: Options of ``simulate`` that change the runs, with their defaults (the names tag what they resolve to:
@@ -510,14 +511,14 @@ def input_paths(args: argparse.Namespace) -> list[tuple[str, Path]]:
         if name == "scenario":
             found += scenario_inputs(f"--scenario {value}", str(value))
             continue
-        for part in str(value).split(",") if name == "params" else [str(value)]:
+        for part in comma_list(str(value)) if name == "params" else [str(value)]:
             if part and os.path.lexists(part):
                 found.append((f"--{name} {part}", Path(part)))
     cases = getattr(args, "scenarios", None)
     if isinstance(cases, str):  # tune's SCENARIO[:SOURCE],...
         from sim.pipeline.case import Case
 
-        for token in cases.split(","):
+        for token in comma_list(cases, lambda token: Case.split(token)[0]):
             scenario = Case.split(token)[0]
             if scenario:
                 found += scenario_inputs(f"--scenarios {scenario}", scenario)

@@ -8,6 +8,7 @@ from typing import Any
 from planning.core.robot import ROBOTS
 from planning.errors import ConfigError
 from planning.planners.registry import PLANNERS
+from sim.cli.checks import comma_list
 from sim.pipeline.runs import RunKind
 from sim.pipeline.sweep import Outcome, Stage, SweepRow
 
@@ -102,7 +103,7 @@ def sweep_scenarios(text: str | None) -> list[str] | None:
         return None
     from planning.scenario import load_scenario
 
-    names = [n.strip() for n in text.split(",") if n.strip()]
+    names = comma_list(text)
     if not names:
         raise ConfigError("--scenario with --all: give one or more scenario names, comma-separated")
     twice = sorted({n for n in names if names.count(n) > 1})
