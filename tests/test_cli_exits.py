@@ -537,9 +537,10 @@ def test_a_sweeps_record_over_the_scenario_it_reads_is_refused(
     mine = tmp_path / "my.toml"
     text = (P(__file__).resolve().parents[1] / "models/scenarios/simple_motion.toml").read_text()
     mine.write_text(text)
-    assert main(["simulate", "--all", "--scenario", str(mine), "--json", str(mine), "--overwrite"]) == 2
-    assert f"the output {mine} is the input --scenario {mine}" in capsys.readouterr().err
-    assert mine.read_text() == text
+    for swept in (str(mine), f"simple_motion,{mine}", f"{mine},farm"):  # one of a list of scenarios too
+        assert main(["simulate", "--all", "--scenario", swept, "--json", str(mine), "--overwrite"]) == 2
+        assert f"the output {mine} is the input --scenario {mine}" in capsys.readouterr().err
+        assert mine.read_text() == text
 
 
 def test_a_sweep_with_gains_says_so_and_records_them(

@@ -508,8 +508,9 @@ def input_paths(args: argparse.Namespace) -> list[tuple[str, Path]]:
         value = getattr(args, name, None)
         if not isinstance(value, (str, Path)):
             continue
-        if name == "scenario":
-            found += scenario_inputs(f"--scenario {value}", str(value))
+        if name == "scenario":  # with --all, a comma list of them (simulate's sweep)
+            for scenario in comma_list(str(value)) if getattr(args, "all", False) else [str(value)]:
+                found += scenario_inputs(f"--scenario {scenario}", scenario)
             continue
         for part in comma_list(str(value)) if name == "params" else [str(value)]:
             if part and os.path.lexists(part):
