@@ -496,15 +496,21 @@ def test_a_plot_beside_the_video_names_video_as_what_moves_it(
 
 
 def test_a_no_video_overwrite_removes_the_video_of_the_set_it_replaces(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """--overwrite replaces a set: the plots it does not write again were removed, the old video stayed beside the
-    new record and plots (another seed's)."""
+    new record and plots (another seed's); the removal is said beside the files written (it was said nowhere)."""
     monkeypatch.chdir(tmp_path)
     assert main([*FAST, "--video", "out/a.mp4"]) == 0
     assert (tmp_path / "out" / "a.mp4").is_file()
-    assert main([*FAST, "--no-video", "--json", "out/a.json", "--seed", "4", "--overwrite"]) == 0
+    capsys.readouterr()
+    said = [a for a in FAST if a != "--quiet"]
+    assert main([*said, "--no-video", "--json", "out/a.json", "--seed", "4", "--overwrite"]) == 0
     assert not (tmp_path / "out" / "a.mp4").exists()
+    lines = capsys.readouterr().out.splitlines()
+    assert "wrote out/a.json" in lines and "wrote out/a-world.png" in lines
+    removed = [line for line in lines if line.startswith("removed")]
+    assert removed == ["removed out/a.mp4 (of the set --overwrite replaced: this run writes no such file)"]
     record = json.loads((tmp_path / "out" / "a.json").read_text())
     assert "video" not in record["files"] and (tmp_path / "out" / "a-world.png").is_file()
     # a video elsewhere that the old record did not name beside it is left alone

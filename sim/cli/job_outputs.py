@@ -703,10 +703,16 @@ def write_outputs(result: Any, plan: OutputPlan, record: dict[str, Any]) -> dict
         files["json"] = str(plan.json)
         record["files"] = dict(files)
         write_json(stage.path(plan.json), record)
-        for path in plan.replaced_files:  # the replaced set's plots and video this set has not (--no-video, --no-plots)
-            if str(path) not in files.values():
-                stage.retire(path)
+        for path in retired_files(plan, files):
+            stage.retire(path)
     return files
+
+
+def retired_files(plan: OutputPlan, files: Mapping[str, str]) -> list[Path]:
+    """The files of the set ``--overwrite`` replaces that the new set, ``files`` (kind -> path), does not write
+    again (its video with --no-video, its plots with --no-plots, a localiser plot the new robot has not): removed
+    with the commit, so that no old file stands beside a record that does not list it."""
+    return [path for path in plan.replaced_files if str(path) not in files.values()]
 
 
 def _may_scan(args: argparse.Namespace, robot: str | None) -> bool:

@@ -750,7 +750,7 @@ def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
     """Track a job's case: outputs planned (named after ``source``), the case prepared and tracked, the
     summary and table printed, the files written, judged."""
     from planning.scenario import load_scenario
-    from sim.cli.job_outputs import changed_settings, plan_outputs, write_outputs
+    from sim.cli.job_outputs import changed_settings, plan_outputs, retired_files, write_outputs
     from sim.cli.progress import JobBars
     from sim.pipeline.case import load_case_scenario
     from sim.pipeline.simulate import simulate
@@ -785,9 +785,11 @@ def _track_job(args: argparse.Namespace, case: Any, source: str) -> int:
     line = localiser_line(closed.get("estimation") or {}, str(closed.get("status", "ok")))
     if line and not args.quiet:
         print(line)
-    for path in write_outputs(result, outputs, record).values():
-        if not args.quiet:
-            print(f"wrote {path}")
+    files = write_outputs(result, outputs, record)
+    if not args.quiet:
+        print("\n".join(f"wrote {path}" for path in files.values()))
+        for path in retired_files(outputs, files):
+            print(f"removed {path} (of the set --overwrite replaced: this run writes no such file)")
     failures, notes = run_verdicts(result.runs, collisions_judged=not getattr(args, "allow_collisions", False))
     for line in notes:
         print(line, file=sys.stderr)
