@@ -26,6 +26,23 @@ def test_version_and_help_import_no_numerics(argv):
     assert _imported(code) == []
 
 
+def test_no_commands_help_imports_numba_or_what_runs_the_work():
+    """``nhsim plan --help`` (every command's and benchmark's) took 0.33-0.37 s of which numba's import, with
+    SciPy's, was 0.15-0.25 s: the planners' base imported the plan clock, and the value types' module the array
+    copy kernels. 0.11-0.14 s now; numpy, which the parsers' planner and robot names come with, stays."""
+    from sim.cli.bench import BENCHMARKS
+    from sim.cli.main import COMMANDS
+
+    helps = [[name, "--help"] for name in COMMANDS] + [["bench", name, "--help"] for name in BENCHMARKS]
+    code = (
+        "import contextlib, io\nfrom sim.cli.main import main\n"
+        f"for argv in {helps!r}:\n"
+        "    with contextlib.redirect_stdout(io.StringIO()), contextlib.suppress(SystemExit):\n"
+        "        main(argv)"
+    )
+    assert set(_imported(code)) <= {"numpy"}
+
+
 def test_plan_imports_neither_mujoco_nor_plotting():
     code = (
         "from sim.cli.main import main\n"

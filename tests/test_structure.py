@@ -185,7 +185,7 @@ def _compiled(node: ast.FunctionDef) -> bool:
 
 def test_no_compiled_kernel_copies_an_array_by_slice_assignment() -> None:
     """``dst[a:b] = src`` in a kernel makes numba compile its shape-mismatch error's message formatting, 4-5 s
-    in each process that compiles such a kernel afresh (``planning.core.arrays``): kernels copy arrays with
+    in each process that compiles such a kernel afresh (``planning.core.copy_kernels``): kernels copy arrays with
     ``copy_into`` and ``copy_rows_into``, and give a slice only a number (or fill it with ``.fill(x)``).
     What this cannot see, an array given to one row (``dst[i] = row``), is the same cost; the same helpers."""
     found = []

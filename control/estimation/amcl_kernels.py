@@ -13,7 +13,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.core.arrays import copy_into
+from planning.core.copy_kernels import copy_into
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]

@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from control.estimation.odometry import sinc_half
-from planning.core.arrays import copy_into, copy_rows_into
+from planning.core.copy_kernels import copy_into, copy_rows_into
 from planning.curves.common import mod2pi
 
 FloatArray = NDArray[np.float64]

@@ -62,7 +62,7 @@ from planning.collision.compiled import (
     walls_distance,
     world_arrays,
 )
-from planning.core.arrays import copy_into
+from planning.core.copy_kernels import copy_into
 from planning.core.world import World
 from planning.errors import NhsimError
 

@@ -14,7 +14,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.core.arrays import copy_into
+from planning.core.copy_kernels import copy_into
 from planning.curves.common import TWO_PI, CurveFamily, fmod_2pi, local_goal, verifies
 
 FloatArray = NDArray[np.float64]

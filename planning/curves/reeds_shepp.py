@@ -13,7 +13,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.core.arrays import copy_into
+from planning.core.copy_kernels import copy_into
 from planning.curves.common import CurveFamily, local_goal, mod2pi, verifies
 
 FloatArray = NDArray[np.float64]

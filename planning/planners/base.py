@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from planning.clock import ready
 from planning.core.arrays import ReadOnlyArrays
 from planning.core.checks import check_number
 from planning.core.geometry import Pose2D, check_pose, densify_path, path_length, path_steps, wrap_angle
@@ -434,6 +433,8 @@ def run_planner(planner: Planner, name: str, problem: PlanProblem, origin: str =
         ConfigError: The planner's own refusal of bad input.
     """
     who = f"planner {name!r}" + (f" ({origin})" if origin else "")
+    from planning.clock import ready  # numba and its clock: imported by the first plan, not by a --help
+
     ready()  # numba's one-time set-up in this process (0.3 s): before the planner's clock, as its own clock takes it
     started = time.perf_counter()
     try:

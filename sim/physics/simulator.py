@@ -27,8 +27,8 @@ from control.design.balance_profile import is_balancing, load_balance_profile
 from control.diffdrive import DiffDrive
 from control.dispatch import bind
 from control.estimation import EstimatorDivergedError
-from planning.core.arrays import copy_into
 from planning.core.checks import check_flag, check_number, is_number, refuse_kind
+from planning.core.copy_kernels import copy_into
 from planning.core.geometry import Pose2D, check_pose
 from planning.core.robot import RobotSpec, check_robot_spec, load_robot
 from planning.core.world import World, check_world

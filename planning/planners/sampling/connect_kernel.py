@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 from planning.clock import monotonic
 from planning.collision.compiled import exact_pose_free, grid_lookup
 from planning.collision.grid import CheckArrays, classify_pose, disc_margin
-from planning.core.arrays import copy_into, copy_rows_into
+from planning.core.copy_kernels import copy_into, copy_rows_into
 from planning.planners.base import PlanProblem, PlanTree
 from planning.planners.sampling.fastcurve import CutWord, cut_word, word_pose, word_size
 from planning.planners.sampling.tree import Side, Tree
