@@ -55,8 +55,10 @@ from planning.core.world import (
 from planning.errors import ConfigError, ScenarioError, option
 
 SCENARIOS_DIR = MODELS_DIR / "scenarios"
-#: The name of a generated world (:func:`random_scenario`): ``random`` and its seed.
-_RANDOM_NAME = re.compile(r"random(\d+)")
+#: The name of a generated world (:func:`random_scenario`): ``random`` and its seed in ASCII digits, without
+#: leading zeros (one name a world: ``random01`` and ``random\u0663``, an Arabic-Indic 3, were taken as
+#: ``random1`` and ``random3``, and recorded under those names).
+_RANDOM_NAME = re.compile(r"random(0|[1-9][0-9]*)")
 
 _TOP_KEYS = {
     "name", "robot", "description", "version", "world", "start", "goal", "planner", "robots", "planners", "sensors",
@@ -494,6 +496,12 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
         if not p.exists():
             raise ScenarioError(f"scenario file {p} does not exist")
         return load_scenario_file(p)
+    seed = re.fullmatch(r"random(\d+)", text)  # a seed of other digits, or with leading zeros
+    if seed is not None:
+        raise ScenarioError(
+            f"unknown scenario {text!r}: random<N> takes its seed N in the digits 0-9 without leading zeros: "
+            f"random{int(seed.group(1))} is that world"
+        )
     raise ScenarioError(
         f"unknown scenario {text!r}: give a path to a .toml file, random<N> for the generated world of seed N "
         f"(e.g. random300), or one of: {', '.join(builtin_scenarios())}"

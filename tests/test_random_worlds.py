@@ -47,3 +47,16 @@ def _meets_targets(job) -> None:  # type: ignore[no-untyped-def]
     assert m.collisions == 0 and m.warnings == 0 and m.status == "ok"
     assert m.wheel_contact_loss_fraction <= 0.001
     assert m.final_position_error_m < job.metrics[RunKind.OPEN_LOOP].final_position_error_m
+
+
+def test_a_generated_worlds_name_is_one_name() -> None:
+    """``random01`` and ``random\u0663`` (an Arabic-Indic 3) loaded as ``random1`` and ``random3`` and were recorded
+    under those names; a name of the form refused names the one that is that world."""
+    from planning.errors import ScenarioError
+    from planning.scenario import is_builtin_name, load_scenario
+
+    assert load_scenario("random0").name == "random0" and load_scenario("random70").name == "random70"
+    for name, world in [("random01", "random1"), ("random\u0663", "random3"), ("random00", "random0")]:
+        assert not is_builtin_name(name)
+        with pytest.raises(ScenarioError, match=f"without leading zeros: {world} is that world"):
+            load_scenario(name)
