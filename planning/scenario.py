@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import re
 import tomllib
 from collections.abc import Callable, Mapping, Sequence
@@ -59,6 +60,8 @@ SCENARIOS_DIR = MODELS_DIR / "scenarios"
 #: leading zeros (one name a world: ``random01`` and ``random\u0663``, an Arabic-Indic 3, were taken as
 #: ``random1`` and ``random3``, and recorded under those names).
 _RANDOM_NAME = re.compile(r"random(0|[1-9][0-9]*)")
+#: The longest file name the file systems nhsim writes to take (bytes; POSIX NAME_MAX).
+_NAME_MAX = 255
 
 _TOP_KEYS = {
     "name", "robot", "description", "version", "world", "start", "goal", "planner", "robots", "planners", "sensors",
@@ -442,8 +445,28 @@ def _built_in_source(name: str) -> Path | int | None:
     """Where the built-in scenario ``name`` comes from: its file in ``models/scenarios``, or the seed N of the
     generated world ``random<N>``; None when it is neither."""
     candidate = SCENARIOS_DIR / f"{name}.toml"
-    if candidate.exists():
+    if len(candidate.name.encode()) <= _NAME_MAX and candidate.exists():  # exists() raises on a name too long
         return candidate
+    return random_seed(name)
+
+
+def misspelt_random_name(name: str) -> str:
+    """Why ``name`` is not the generated world it looks like (``random07``, ``random\u0663``: a seed with leading
+    zeros or in other digits), naming the one it is; "" for any other name."""
+    seed = re.fullmatch(r"random(\d+)", name)
+    if seed is None or random_seed(name) is not None:
+        return ""
+    try:
+        world = f"random{int(seed.group(1))} is that world"
+    except ValueError:  # a digit int() does not read (a superscript)
+        world = "e.g. random7"
+    return f"unknown scenario {name!r}: random<N> takes its seed N in the digits 0-9 without leading zeros: {world}"
+
+
+def random_seed(name: str) -> int | None:
+    """The seed N of the generated world named ``random<N>`` (:func:`random_scenario`), or None when ``name`` is
+    not such a name (``random07``, ``random\u0663`` are not: :func:`load_scenario` refuses them, naming the world
+    they look like)."""
     generated = _RANDOM_NAME.fullmatch(name)
     return None if generated is None else int(generated.group(1))
 
@@ -481,11 +504,17 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     """
     text = str(name_or_path)
     p = Path(text)
+    longest = max((len(os.fsencode(part)) for part in p.parts), default=0)  # Path.exists() raises beyond NAME_MAX
     named = p.name == text and not p.suffix  # no folder, no suffix: a built-in's name, or a file's
-    if named and (isinstance(name_or_path, str) or not p.exists()):  # a Path: its file when there is one
+    if named and (isinstance(name_or_path, str) or longest > _NAME_MAX or not p.exists()):  # a Path: its file if any
         built_in = _built_in(text)
         if built_in is not None:
             return built_in
+    if longest > _NAME_MAX:
+        raise ScenarioError(
+            f"a scenario is a built-in name, random<N> or a .toml file, got a name of {longest} bytes (starting "
+            f"{text[:24]!r}); a file or folder name holds at most {_NAME_MAX}: give the scenario's path"
+        )
     if not text.strip() or p.is_dir():
         what = "an empty name" if not text.strip() else f"the folder {text!r}"
         raise ScenarioError(
@@ -496,12 +525,9 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
         if not p.exists():
             raise ScenarioError(f"scenario file {p} does not exist")
         return load_scenario_file(p)
-    seed = re.fullmatch(r"random(\d+)", text)  # a seed of other digits, or with leading zeros
-    if seed is not None:
-        raise ScenarioError(
-            f"unknown scenario {text!r}: random<N> takes its seed N in the digits 0-9 without leading zeros: "
-            f"random{int(seed.group(1))} is that world"
-        )
+    misspelt = misspelt_random_name(text)
+    if misspelt:
+        raise ScenarioError(misspelt)
     raise ScenarioError(
         f"unknown scenario {text!r}: give a path to a .toml file, random<N> for the generated world of seed N "
         f"(e.g. random300), or one of: {', '.join(builtin_scenarios())}"

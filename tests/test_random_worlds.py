@@ -60,3 +60,29 @@ def test_a_generated_worlds_name_is_one_name() -> None:
         assert not is_builtin_name(name)
         with pytest.raises(ScenarioError, match=f"without leading zeros: {world} is that world"):
             load_scenario(name)
+
+
+def test_the_benches_take_a_generated_worlds_name_as_the_commands_do() -> None:
+    """``bench plan`` and ``bench simplify`` read ``random01`` as random1 and ``random\u00b2`` ended in a traceback
+    (each parsed the name itself); a name too long for a file ended in ``OSError: File name too long``."""
+    from planning.errors import ConfigError, ScenarioError
+    from planning.scenario import load_scenario, random_seed
+    from sim.tools.bench import plan_problems, simplify
+
+    assert [random_seed(n) for n in ("random0", "random12", "random012", "random\u0663", "random", "x")] == [
+        0,
+        12,
+        None,
+        None,
+        None,
+        None,
+    ]
+    for problems in (plan_problems.problems, simplify.problems):
+        assert problems(["random12"], 0)[0] is not None
+        with pytest.raises(ConfigError, match="without leading zeros: random1 is that world"):
+            problems(["random01"], 0)
+        with pytest.raises(ConfigError):
+            problems(["random\u00b2"], 0)
+    with pytest.raises(ScenarioError, match=r"a name of 300 bytes .* at most 255"):
+        load_scenario("x" * 300)
+    assert load_scenario("random" + "1" * 300).name == "random" + "1" * 300  # a seed, however long

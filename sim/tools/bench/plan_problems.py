@@ -95,8 +95,10 @@ def _random_world(seed: int) -> PlanProblem:
 
 def _random(name: str) -> PlanProblem | None:
     """``random<N>``'s problem, or None when ``name`` is not of that form."""
-    digits = name.removeprefix("random")
-    return _random_world(int(digits)) if name != digits and digits.isdigit() else None
+    from planning.scenario import random_seed
+
+    seed = random_seed(name)
+    return None if seed is None else _random_world(seed)
 
 
 def problems(names: list[str] | None = None, random_worlds: int = 0) -> list[PlanProblem]:
@@ -107,7 +109,7 @@ def problems(names: list[str] | None = None, random_worlds: int = 0) -> list[Pla
     Raises:
         ConfigError: An unknown name (the message lists the valid ones) or a negative count.
     """
-    from planning.scenario import builtin_scenarios, load_scenario
+    from planning.scenario import builtin_scenarios, load_scenario, misspelt_random_name
 
     check_number("--random-worlds", random_worlds, integer=True, at_least=0)
     builtin = builtin_scenarios()
@@ -116,6 +118,9 @@ def problems(names: list[str] | None = None, random_worlds: int = 0) -> list[Pla
         found = [PlanProblem.from_scenario(load_scenario(n)) for n in builtin]
         return [p for p in found if _posed(p)] + [make() for make in HARD.values()] + extra
     unknown = [n for n in names if n not in HARD and n not in builtin and _random(n) is None]
+    misspelt = [misspelt_random_name(n) for n in unknown if misspelt_random_name(n)]
+    if misspelt:
+        raise ConfigError(f"--scenarios: {misspelt[0]}")
     if unknown:
         raise ConfigError(
             f"unknown problem(s) {', '.join(unknown)} for --scenarios: choose from "

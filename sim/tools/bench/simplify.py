@@ -88,12 +88,11 @@ def problems(names: list[str] | None, random_worlds: int) -> list[Any]:
     """The scenarios of the benchmark: ``names`` (built-in scenario names or ``random<N>``), or by
     default every built-in scenario whose start differs from its goal; then ``random0`` ..
     ``random<random_worlds - 1>`` for the TurtleBot3 (``--random-worlds`` was dropped beside ``--scenarios``)."""
-    from planning.scenario import builtin_scenarios, load_scenario, random_scenario
+    from planning.scenario import builtin_scenarios, load_scenario, random_scenario, random_seed
 
     def one(name: str) -> Any:
-        if name.startswith("random") and name[6:].isdigit():
-            return random_scenario("turtlebot3", int(name[6:]))
-        return load_scenario(name)
+        seed = random_seed(name)
+        return load_scenario(name) if seed is None else random_scenario("turtlebot3", seed)
 
     randoms = [random_scenario("turtlebot3", s) for s in range(random_worlds)]  # beside names too, as bench plan has it
     if names is not None:
