@@ -878,5 +878,8 @@ def test_a_file_with_a_comma_in_its_name_is_one_item_of_a_comma_list(
     ]
     case = lambda token: Case.split(token)[0]
     assert comma_list("a,b.toml:line,open:circle", case) == ["a,b.toml:line", "open:circle"]
+    Path("b.toml").write_text(TIGHT)  # a file's case, then a name: the file part holds no comma of the run
+    assert comma_list("b.toml:line,open", case) == ["b.toml:line", "open"]
+    assert comma_list("b.toml:line,a,b.toml", case) == ["b.toml:line", "a,b.toml"]
     assert sweep_scenarios("a,b.toml,farm") == ["a,b.toml", "farm"]
     assert _tokens(argparse.Namespace(scenarios="open:line,a,b.toml:optim")) == ["open:line", "a,b.toml:optim"]

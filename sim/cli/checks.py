@@ -26,13 +26,18 @@ def comma_list(text: str, file_of: Callable[[str], str] = str) -> list[str]:
     items: list[str] = []
     i = 0
     while i < len(parts):
-        end = next(
-            (j for j in range(len(parts), i + 1, -1) if os.path.isfile(file_of(",".join(parts[i:j]).strip()))),
-            i + 1,
-        )
+        end = next((j for j in range(len(parts), i + 1, -1) if _names_a_file(",".join(parts[i:j]), file_of)), i + 1)
         items.append(",".join(parts[i:end]).strip())
         i = end
     return [item for item in items if item]
+
+
+def _names_a_file(run: str, file_of: Callable[[str], str]) -> bool:
+    """Whether items joined by their commas, ``run``, are one item naming an existing file: its file part exists
+    and holds every comma (``b.toml:line,open`` is two items though ``b.toml`` exists)."""
+    run = run.strip()
+    file = file_of(run)
+    return run.startswith(file) and "," not in run[len(file) :] and os.path.isfile(file)
 
 
 def check_time_limit(seconds: float) -> None:
