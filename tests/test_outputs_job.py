@@ -409,6 +409,7 @@ def test_video_options_given_with_no_video_are_named_as_ignored(capsys: pytest.C
         return capsys.readouterr().err
 
     assert note() == "" and note("--fps", "30", "--camera", "overview") == ""  # the defaults, said again
+    assert note("--size", "640X480") == note("--size", "640\u00d7480") == ""  # the default size, spelt otherwise
     assert note("--fps", "10", "--quality", "high") == (
         "nhsim simulate: --fps, --quality ignored: they set the video, and --no-video writes none\n"
     )
@@ -420,6 +421,9 @@ def test_video_options_given_with_no_video_are_named_as_ignored(capsys: pytest.C
     ("extra", "said"),
     [
         (["--size", "big"], "--size must look like WIDTHxHEIGHT"),
+        (["--size", "640_0x480"], "--size must look like WIDTHxHEIGHT"),  # int() read 6400
+        (["--size", "+640x480"], "--size must look like WIDTHxHEIGHT"),
+        (["--size", "\uff16\uff14\uff10x480"], "--size must look like WIDTHxHEIGHT"),  # full-width digits
         (["--size", "641x480"], "must be even"),
         (["--size", "8192x8192"], "4096"),
         (["--fps", "-5"], "fps"),

@@ -398,7 +398,9 @@ def plan_outputs(
     elif args.video is not None:
         raise ConfigError("--video and --no-video contradict each other; drop one")
     else:
-        unused = [f"--{k}" for k, v in VIDEO_DEFAULTS.items() if getattr(args, k, v) != v]
+        given = {**{k: getattr(args, k, v) for k, v in VIDEO_DEFAULTS.items()}, "size": (w, h)}  # 640X480 is 640x480
+        default = {**VIDEO_DEFAULTS, "size": parse_size(VIDEO_DEFAULTS["size"])}
+        unused = [f"--{k}" for k, v in default.items() if given[k] != v]
         if unused:
             they = "they set" if len(unused) > 1 else "it sets"
             print(

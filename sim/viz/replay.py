@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import copy
 import math
+import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -160,12 +161,10 @@ def parse_size(text: str) -> tuple[int, int]:
     Raises:
         ConfigError: Not two positive integers separated by ``x``.
     """
-    parts = text.lower().replace("×", "x").split("x")
-    try:
-        w, h = (int(p) for p in parts)
-    except ValueError:
-        raise ConfigError(f"--size must look like WIDTHxHEIGHT (e.g. 640x480), got {text!r}") from None
-    return w, h
+    found = re.fullmatch(r"([0-9]+)\s*[x×]\s*([0-9]+)", text.strip().lower())  # int() also read 6_40, +640 and ６４０
+    if found is None:
+        raise ConfigError(f"--size must look like WIDTHxHEIGHT (e.g. 640x480), got {text!r}")
+    return int(found.group(1)), int(found.group(2))
 
 
 def frame_times(t_start: float, t_end: float, fps: float) -> FloatArray:
