@@ -79,10 +79,11 @@ def _trajectories(args: argparse.Namespace) -> bool:
     """The simulate --all table; True when a case misses its target."""
     import numpy as np
 
+    from planning.scenario import random_seed
     from sim.cli.sweep_table import PLANNER_WIDTH, ROBOT_WIDTH
     from sim.tools.bench import simplify as b
 
-    names = [n for n in args.scenarios if not n.startswith("random")] if args.scenarios else None
+    names = [n for n in args.scenarios if random_seed(n) is None] if args.scenarios else None
     print(
         f"\nsimulate --all trajectories against rrt-star's (length <= {b.TRAJECTORY_TARGET}x for "
         f"{', '.join(b.TRAJECTORY_TARGETED)})"
