@@ -445,7 +445,7 @@ def _built_in_source(name: str) -> Path | int | None:
     """Where the built-in scenario ``name`` comes from: its file in ``models/scenarios``, or the seed N of the
     generated world ``random<N>``; None when it is neither."""
     candidate = SCENARIOS_DIR / f"{name}.toml"
-    if len(candidate.name.encode()) <= _NAME_MAX and candidate.exists():  # exists() raises on a name too long
+    if len(os.fsencode(candidate.name)) <= _NAME_MAX and candidate.exists():  # exists() raises on a name too long
         return candidate
     return random_seed(name)
 
