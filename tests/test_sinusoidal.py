@@ -165,7 +165,22 @@ def test_same_problem_same_plan() -> None:
     assert np.array_equal(a.path, b.path) and np.array_equal(a.controls, b.controls)  # type: ignore[arg-type]
 
 
-@pytest.mark.parametrize("bad", [{"u2max": 0.0}, {"u1max": -1.0}, {"phimax": 2.0}, {"max_heading_offset": 2.0}])
+def test_the_clearance_is_measured_between_the_samples_too() -> None:
+    """With ``dt=10`` edumip_map's plan had 3 poses and came out a success through a box: the disc was measured at
+    the samples alone. Two samples either side of a circle: the path between them hits it."""
+    robot = load_robot("turtlebot3")
+    world = World((0.0, 2.0, 0.0, 1.0), (Circle((0.9, 0.5), 0.05),))
+    problem = PlanProblem(world, robot, Pose2D(0.3, 0.5, 0.0), Pose2D(1.5, 0.5, 0.0))
+    x = np.array([[0.3, 0.5, 0.0, 0.0], [1.5, 0.5, 0.0, 0.0]])
+    stats = {"final_position_error": 0.0, "final_heading_error": 0.0, "max_phi": 0.0, "max_u1": 0.1, "max_u2": 0.0}
+    status, reason = Sinusoidal()._verdict(problem, np.array([0.0, 10.0]), x, np.zeros((2, 2)), stats)
+    assert status is PlanStatus.INFEASIBLE and "between plan.path[0] and plan.path[1] of its 2 poses" in reason
+    assert stats["min_clearance"] < 0  # the disc's, between the samples
+
+
+@pytest.mark.parametrize(
+    "bad", [{"u2max": 0.0}, {"u1max": -1.0}, {"phimax": 2.0}, {"max_heading_offset": 2.0}, {"dt": 10.0}]
+)
 def test_bad_options_raise_config_error(bad: dict[str, float]) -> None:
     with pytest.raises(ConfigError):
         make_planner("sinusoidal", **bad)

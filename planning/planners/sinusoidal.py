@@ -63,7 +63,7 @@ from scipy.integrate import cumulative_simpson, simpson
 from scipy.optimize import brentq
 
 from planning.core.checks import check_number
-from planning.core.geometry import wrap_angle
+from planning.core.geometry import densify_path, wrap_angle
 from planning.core.world import MAX_WORLD_SIDE, World
 from planning.errors import ConfigError
 from planning.planners.base import (
@@ -84,6 +84,11 @@ _SUB = 8  # fine quadrature points per output interval
 #: Finest output sample spacing [s]: the finest physics step of the robots (the balancing EduMIP's; 1e-9 asked for
 #: 508 GiB of samples).
 MIN_DT = 1e-3
+#: Largest output sample spacing [s]: a tenth of the shortest step (``min_period``'s default, 2 s) at most, so that
+#: the samples keep the sinusoids' shape.
+MAX_DT = 0.2
+#: Spacing [m] (with the robot's radius for turns) at which a path's clearance is measured between its samples.
+CHECK_SPACING = 0.01
 #: Most grid points (amplitudes times times) of the fourth step's amplitude scan between looks at the clock.
 _SCAN_POINTS = 1 << 17
 
@@ -228,7 +233,8 @@ class Sinusoidal:
     ) -> None:
         self.u2max = check_number("sinusoidal: u2max", u2max, above=0.0)
         self.tolerance = check_number("sinusoidal: tolerance", tolerance, above=0.0)
-        self.dt = check_number("sinusoidal: dt", dt, at_least=MIN_DT, unit="s: the finest physics step")
+        between = "s: from the finest physics step to a tenth of the shortest step"
+        self.dt = check_number("sinusoidal: dt", dt, at_least=MIN_DT, at_most=MAX_DT, unit=between)
         self.min_period = check_number("sinusoidal: min_period", min_period, above=0.0)
         robots = "omit it for the robot's limit"
         self.u1max_opt = check_number("sinusoidal: u1max", u1max, above=0.0, optional=True, fix=robots)
@@ -629,8 +635,11 @@ class Sinusoidal:
         if pos_err > problem.position_tolerance or head_err > problem.heading_tolerance:
             return PlanStatus.FAILED, f"final state misses the goal by {pos_err:.3g} m, {head_err:.3g} rad"
         world, r = problem.world, problem.robot.radius
+        # the path between its samples as every later stage reads it (a coarse dt put 3 samples on edumip_map's
+        # plan, and the disc, measured at them alone, missed the box the footprint crossed between two)
+        dense = densify_path(x[:, :3], CHECK_SPACING, radius=r)
         if world.obstacles:
-            d = world.obstacle_distance(x[:, :2])
+            d = world.obstacle_distance(dense[:, :2])
             i = int(np.argmin(d))
             stats["min_clearance"] = float(d[i] - r)
             # the disc a lower bound: where it reaches an obstacle, the footprint decides (a corridor 0.24 m wide
@@ -643,15 +652,16 @@ class Sinusoidal:
                     "robot's disc clear of them and may refuse a start or goal closer than its radius)"
                 )
         problems = []
-        wall = world.wall_distance(x[:, :2])
+        wall = world.wall_distance(dense[:, :2])
         stats["min_wall_clearance"] = float(np.min(wall) - r)
         # the disc's clearance from obstacles and walls alike, as every planner's stats and the record mean it
         stats["min_clearance"] = min(stats.get("min_clearance", np.inf), stats["min_wall_clearance"])
         if np.any(wall < r):  # the disc, which keeps the room its steering swings wide with from the walls
             j = int(np.argmax(wall < r))
+            k = int(np.argmin(np.hypot(x[:, 0] - dense[j, 0], x[:, 1] - dense[j, 1])))  # the sample nearest it
             problems.append(
-                f"the robot's disc (radius {r:.3f} m) leaves the world bounds at t = {t[j]:.2f} s "
-                f"(centre {x[j, 0]:.3f}, {x[j, 1]:.3f})"
+                f"the robot's disc (radius {r:.3f} m) leaves the world bounds near t = {t[k]:.2f} s "
+                f"(centre {dense[j, 0]:.3f}, {dense[j, 1]:.3f})"
             )
         if stats["max_phi"] > self.phimax * (1 + 1e-9):
             problems.append(f"|phi| reaches {stats['max_phi']:.3f} > phimax {self.phimax:.3f}")
