@@ -72,7 +72,7 @@ from numpy.typing import NDArray
 
 from control.base import check_ranges, option_value, ranged
 from control.inputs import check_command, check_reset, not_reset
-from planning.casadi_env import casadi_module
+from planning.casadi_env import SOLVER_LOCK, casadi_module
 from planning.core.robot import RobotSpec
 from planning.errors import ConfigError, DependencyError
 from planning.signals import signals_held
@@ -298,7 +298,12 @@ class MPCTracker:
         return np.vstack([s.x[: n + 1], s.y[: n + 1], s.theta[: n + 1]]), np.vstack([s.v[n + 1 :], s.omega[n + 1 :]])
 
     def _solve(self, t: float, x: float, y: float, theta: float) -> FloatArray | None:
-        """One warm-started solve from the pose at ``t``: the (N, 2) inputs, or None if it failed."""
+        """One warm-started solve from the pose at ``t``: the (N, 2) inputs, or None if it failed; the process's
+        solver of this horizon built and called with CasADi's lock held (:data:`planning.casadi_env.SOLVER_LOCK`)."""
+        with SOLVER_LOCK:
+            return self._solve_held(t, x, y, theta)
+
+    def _solve_held(self, t: float, x: float, y: float, theta: float) -> FloatArray | None:
         assert self._lim is not None
         solver, lbg, ubg = _solver(self.params, self._lim)
         n, lim = self.params.horizon, self._lim

@@ -15,11 +15,17 @@ from __future__ import annotations
 import ctypes
 import functools
 import re
+import threading
 from pathlib import Path
 from typing import Any
 
 from planning.errors import DependencyError
 
+#: Held by every CasADi solve and set-up (the 'optim' planner's, the 'mpc' tracker's): both keep their solvers for
+#: the process (one NLP a shape, one solver a horizon), and a solver, or IPOPT's MUMPS under two solvers, run from two
+#: threads at once crashed the interpreter ("Solver ipopt is already in use", then a heap corruption). One solve at a
+#: time in a process; processes (nhsim's executors, Dask's workers) solve at once.
+SOLVER_LOCK = threading.RLock()
 #: The OpenBLAS of CasADi's wheels, in the package's folder.
 OPENBLAS_GLOB = "libcasadi-tp-openblas.so*"
 

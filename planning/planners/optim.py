@@ -42,7 +42,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from planning.casadi_env import casadi_module
+from planning.casadi_env import SOLVER_LOCK, casadi_module
 from planning.clock import PlanClock
 from planning.core.checks import check_flag, check_number
 from planning.core.geometry import cumulative_length, path_length, wrap_angle
@@ -970,7 +970,7 @@ class Optim:
     ) -> OptimSolution:
         """IPOPT from ``guess`` (nodes (N+1, 4), inputs (N, 2), where they came from) on the NLP of
         ``obstacles``, the robot's disc of radius ``clear`` [m] kept off them, until the plan's time limit."""
-        x_init, u_init, init_source = guess
+        init_source = guess[2]
         if clock.expired():
             # a warm start fallen back to a straight line ("straight (init planner 'x' ended timeout)"): its planner
             fell_back = init_source.startswith("straight (")
@@ -980,6 +980,27 @@ class Optim:
                 f"took it); raise the time limit, or warm start from another planner with init=..."
             )
             return self._failure(PlanStatus.TIMEOUT, why, {"time_s": clock.elapsed(), "init": init_source})
+        if not SOLVER_LOCK.acquire(timeout=max(clock.remaining(), 0.0)):
+            why = (
+                f"the plan's time limit ({problem.time_limit:g} s) passed while another thread of this process held "
+                "CasADi's solver (IPOPT solves one problem at a time in a process); plan in processes to plan at once"
+            )
+            return self._failure(PlanStatus.TIMEOUT, why, {"time_s": clock.elapsed(), "init": init_source})
+        try:
+            return self._solve_held(problem, clear, clock, obstacles, guess)
+        finally:
+            SOLVER_LOCK.release()
+
+    def _solve_held(
+        self,
+        problem: PlanProblem,
+        clear: float,
+        clock: PlanClock,
+        obstacles: _ObstacleData,
+        guess: tuple[FloatArray, FloatArray, str],
+    ) -> OptimSolution:
+        """:meth:`_solve_nlp`'s set-up, solve and reading of the process's NLP, with the solver's lock held."""
+        x_init, u_init, init_source = guess
         ready = self._ready_nlp(problem, clock, obstacles, init_source)
         if isinstance(ready, OptimSolution):
             return ready
