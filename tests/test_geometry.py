@@ -106,3 +106,13 @@ def test_a_slack_and_a_clearance_out_of_range_are_refused_naming_themselves() ->
         with pytest.raises(ConfigError, match=r"World.is_free: clearance must be a finite number >= 0"):
             world.is_free([[2.0, 2.0]], clearance=clearance)
     assert world.is_free([[2.0, 2.0], [0.5, 0.5]], clearance=0.1).tolist() == [False, True]
+
+
+def test_wrap_angle_takes_numbers_only() -> None:
+    """Its docstring said a string raises; numpy read ``"1"`` and ``True`` as 1.0."""
+    from planning.errors import ConfigError
+
+    for bad in ("1", True, np.bool_(False), None, [1.0, "a"], b"2"):
+        with pytest.raises(ConfigError, match="wrap_angle takes angles in radians"):
+            wrap_angle(bad)  # type: ignore[call-overload]
+    assert wrap_angle(np.int64(7)) == pytest.approx(7 - 2 * np.pi) and wrap_angle(np.float32(1.0)) == 1.0

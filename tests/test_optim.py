@@ -742,3 +742,14 @@ def test_inputs_that_stand_keep_the_direction_before_them() -> None:
     res = make_planner("optim").plan(problem)
     assert res.success and res.length() < 1e-5
     assert res.directions is not None and np.all(res.directions == res.directions[0])  # no cusp where it stands
+
+
+def test_a_horizon_of_a_given_dt_is_bounded() -> None:
+    """``dt=1e6`` asked numpy for 75 GiB (the plan is rolled out every 10 ms), ``dt=1000`` overran a 5 s limit."""
+    from planning.planners.optim import MAX_HORIZON
+
+    with pytest.raises(ConfigError, match=r"optim: N dt = 50 x 1e\+06 s .* longer than 3600 s"):
+        make_planner("optim", dt=1e6)
+    with pytest.raises(ConfigError, match="give a smaller dt or N"):
+        make_planner("optim", N=1000, dt=MAX_HORIZON / 999)
+    make_planner("optim", N=1000, dt=MAX_HORIZON / 1000)  # an hour exactly

@@ -32,12 +32,13 @@ def wrap_angle(angle: float | FloatArray) -> float | FloatArray:
         infinity is NaN: no angle to wrap; without numpy's "invalid value" warning, which named no caller).
 
     Raises:
-        ConfigError: ``angle`` is not numbers (a string, None).
+        ConfigError: ``angle`` is not numbers (a string, None, True: numpy read "1" and True as 1.0).
     """
     try:
-        if angle is None:  # numpy reads it as NaN
+        a = np.asarray(angle)
+        if a.dtype.kind not in "iuf":  # numbers only: numpy read None as NaN, "1" and True as 1.0
             raise TypeError
-        a = np.asarray(angle, dtype=float)
+        a = a.astype(float, copy=False)
     except (TypeError, ValueError):
         raise ConfigError(
             f"wrap_angle takes angles in radians (numbers), got {type(angle).__name__} {angle!r:.60}"

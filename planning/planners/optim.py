@@ -67,6 +67,9 @@ DEFAULT_DT = 0.2
 #: Most intervals of a horizon: 100000 is refused by the set-up's predicted time already (726 s); ten million
 #: took gigabytes before the prediction was made.
 MAX_N = 100_000
+#: Longest horizon N dt [s] of a given dt: the plan is rolled out every 10 ms over it (dt = 1e6 asked numpy for
+#: 75 GiB; an hour is 360,000 poses).
+MAX_HORIZON = 3600.0
 #: Longest spacing [m] of the nodes along the warm start's path when N is not given: a long way gets more than
 #: :data:`DEFAULT_N` nodes. The constraints hold at the nodes, and 50 nodes over a 27 m way through 60 obstacles
 #: (0.55 m apart) left IPOPT out of time on two of four 20 x 20 m worlds of 60 obstacles
@@ -595,6 +598,11 @@ class Optim:
         self.N: int = DEFAULT_N if self.N_opt is None else self.N_opt
         self.dt_opt = check_number("optim: dt", dt, above=0.0, optional=True)
         self.dt = DEFAULT_DT if self.dt_opt is None else self.dt_opt
+        if self.dt_opt is not None and self.N * self.dt > MAX_HORIZON:
+            raise ConfigError(
+                f"optim: N dt = {self.N} x {self.dt:g} s = {self.N * self.dt:g} s, a horizon longer than "
+                f"{MAX_HORIZON:g} s (the plan is rolled out every 10 ms over it): give a smaller dt or N"
+            )
         self.u2max = check_number("optim: u2max", u2max, above=0.0)
         self.margin = check_number("optim: margin", margin, at_least=0.0)
         self.w_steer = check_number("optim: w_steer", w_steer, at_least=0.0)
