@@ -516,3 +516,15 @@ def test_the_fastest_sample_is_said_without_rounding_noise(tmp_path: Path) -> No
     p = write_csv(tmp_path / "head.csv", {**cols, "theta": np.array([0.0, 0.0, 0.4, 0.6])})
     retime, why, _ = timing_verdict(densify(read_trajectory_file(TrajectoryFile(p))), LIMITS)
     assert retime and "its fastest: v +0.394 m/s, omega +0.000 rad/s at t = 4.50 s" in why, why
+
+
+def test_a_bad_robot_or_option_is_named_as_to_trajectory_names_it(tmp_path: Path) -> None:
+    """``file_trajectory(imp, "turtlebot3", world)`` ended in AttributeError ('str' object has no attribute
+    'name'), and an unknown option in a bare TypeError from make_trajectory."""
+    from planning.errors import ConfigError
+
+    imp = read_trajectory_file(TrajectoryFile(s_curve_file(tmp_path, 30.0)))
+    with pytest.raises(ConfigError, match=r"file_trajectory: robot must be a RobotSpec \(load_robot\('turtlebot3'\)\)"):
+        file_trajectory(imp, "turtlebot3", WORLD)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match=r"file_trajectory: unknown option\(s\) bogus; valid options: .*margin"):
+        file_trajectory(imp, ROBOT, WORLD, bogus=1)

@@ -39,7 +39,7 @@ from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
 from planning.collision.exact import CollisionChecker
 from planning.core.geometry import Pose2D, wrap_angle
-from planning.core.robot import RobotSpec
+from planning.core.robot import RobotSpec, check_robot_spec
 from planning.core.scenario_type import Scenario
 from planning.core.world import World
 from planning.errors import ConfigError, option, options
@@ -48,6 +48,7 @@ from planning.trajectory.file_formats import TrajectoryFileError
 from planning.trajectory.from_plan import (
     TrajectoryResult,
     TrajectoryStatus,
+    check_option_names,
     fastest_sample,
     make_trajectory,
     time_scales,
@@ -741,6 +742,8 @@ def file_trajectory(imported: ImportedFile, robot: RobotSpec, world: World, **op
             f"file_trajectory takes a file as read, got {type(imported).__name__}: "
             "file_trajectory(read_trajectory_file(path), robot, world).trajectory is a path's Trajectory"
         )
+    robot = check_robot_spec("file_trajectory", robot)  # read before make_trajectory checks it
+    check_option_names("file_trajectory", options)
     options = check_options(options)  # where the smoothing options enter, as to_trajectory's do
     source, report = imported.source, imported.report
     name = f"file:{source.name}"

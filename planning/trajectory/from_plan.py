@@ -31,6 +31,7 @@ import dataclasses
 import inspect
 import itertools
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any
@@ -654,6 +655,16 @@ _FAILED_PLAN_FIX = {
 }
 
 
+def check_option_names(where: str, options: Mapping[str, Any]) -> None:
+    """Raise :class:`ConfigError` naming the options :func:`make_trajectory` does not take, and those it does."""
+    valid = [p.name for p in inspect.signature(make_trajectory).parameters.values() if p.kind is p.KEYWORD_ONLY]
+    unknown = sorted(set(options) - set(valid))
+    if unknown:
+        raise ConfigError(
+            f"{where}: unknown option(s) {', '.join(unknown)}; valid options: {', '.join(valid)} (see make_trajectory)"
+        )
+
+
 def checked_trajectory(
     plan: PlanResult | ArrayLike, robot: RobotSpec, world: World, **options: Any
 ) -> TrajectoryResult:
@@ -664,13 +675,7 @@ def checked_trajectory(
             robot that is not a RobotSpec or a world that is not a World.
         TrajectoryError: The plan failed, or no collision-free trajectory was found.
     """
-    valid = [p.name for p in inspect.signature(make_trajectory).parameters.values() if p.kind is p.KEYWORD_ONLY]
-    unknown = sorted(set(options) - set(valid))
-    if unknown:
-        raise ConfigError(
-            f"to_trajectory: unknown option(s) {', '.join(unknown)}; valid options: {', '.join(valid)} "
-            "(see make_trajectory)"
-        )
+    check_option_names("to_trajectory", options)
     if isinstance(plan, PlanResult) and not plan.success:
         raise PlanFailedError(
             f"planner {plan.planner!r} ended with status {plan.status.value}: {plan.reason or 'no reason given'}; "
