@@ -774,3 +774,17 @@ def test_a_video_beyond_h264_level_5_2_is_refused_naming_the_largest_that_fits()
         RenderSettings(width=4096, height=4096, fps=30.0)
     with pytest.raises(ConfigError, match=r"60 frames/s at 4096x2304 is 2211840 macroblocks a second.* --fps 56 "):
         RenderSettings(width=4096, height=2304, fps=60.0)
+
+
+def test_to_trajectorys_directions_are_one_sign_a_pose() -> None:
+    """A list of the wrong length ended in a bare ValueError from the smoothing, and ``[0, 0, 0]`` was taken."""
+    from planning import load_robot, load_scenario, to_trajectory
+    from planning.errors import ConfigError
+
+    path = np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    world, robot = load_scenario("open").world, load_robot("turtlebot3")
+    for bad in ([1, 1], [0, 0, 0], [1, 2, 1], ["a", "b", "c"], [1.0, np.nan, 1.0]):
+        with pytest.raises(ConfigError, match=r"to_trajectory: directions must be one \+1 .* a pose \(3\)"):
+            to_trajectory(path, robot, world, directions=bad)
+    given = to_trajectory(path, robot, world, directions=[1, 1, 1])
+    assert given.duration == to_trajectory(path, robot, world).duration

@@ -267,16 +267,32 @@ def _plan_path(
     check_robot_spec("to_trajectory", robot)
     check_world("to_trajectory: world", world)
     if isinstance(plan, PlanResult):
-        dirs = directions if directions is not None else plan.directions
+        path, label = np.asarray(plan.path, dtype=float), name or f"plan:{plan.planner}"
         timed = plan.times is not None and plan.controls is not None
-        return np.asarray(plan.path, dtype=float), dirs, name or f"plan:{plan.planner}", timed
+        return path, _directions(directions if directions is not None else plan.directions, len(path)), label, timed
     try:
         path = np.asarray(plan, dtype=float)
     except (TypeError, ValueError):
         raise ConfigError(
             f"to_trajectory takes a PlanResult or an (N, 3) path of poses [x, y, theta], got {plan!r:.80}"
         ) from None
-    return path, directions, name or "path", False
+    return path, _directions(directions, len(path)), name or "path", False
+
+
+def _directions(directions: ArrayLike | None, poses: int) -> FloatArray | None:
+    """``directions`` checked: one +1 (forwards) or -1 (backwards) a pose, or None (inferred from the path)."""
+    if directions is None:
+        return None
+    try:
+        dirs = np.asarray(directions, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        dirs = np.array([np.nan])
+    if dirs.size != poses or not np.all(np.abs(dirs) == 1.0):
+        raise ConfigError(
+            f"to_trajectory: directions must be one +1 (forwards) or -1 (backwards) a pose ({poses}), got "
+            f"{directions!r:.80}; or leave them out to infer them from the path"
+        )
+    return dirs
 
 
 def _path_problem(path: FloatArray) -> str:
