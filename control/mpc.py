@@ -356,8 +356,8 @@ class MPCTracker:
         target = np.zeros(2)
         if self._plan is not None:
             start, inputs = self._plan
-            k = int((t - start) / self.params.step + 1e-9)
-            if k < inputs.shape[0]:
+            k = math.floor((t - start) / self.params.step + 1e-9)
+            if 0 <= k < inputs.shape[0]:  # a time before the plan's (a clock run back) has none of its inputs
                 target = inputs[k]
         step = np.array([self._lim.accel, self._lim.yaw_accel]) * self._dt
         return np.asarray(self._u + np.clip(target - self._u, -step, step))

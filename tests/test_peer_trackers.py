@@ -425,3 +425,15 @@ def test_kanayama_and_rpp_track_forty_random_worlds(robot: str) -> None:
     without contact (with the former defaults: RPP 3 and 8 of 40 on the two EduMIPs, Kanayama 12 of
     40 on the balancing one)."""
     assert _plans_tracked(robot, range(720, 760)) == []
+
+
+def test_the_mpcs_fallback_at_a_time_before_its_last_plan_is_a_command() -> None:
+    """A failed solve (a pose of 1e200 m) at a time before the last plan's indexed that plan's inputs backwards:
+    IndexError. A clock run back finds none of its inputs: the fallback brings the command to rest."""
+    rob = load_robot("turtlebot3")
+    ref = make_reference("circle", rob, Pose2D(0.0, 0.0, 0.0))
+    tracker = make_tracker("mpc", rob)
+    tracker.reset(ref, 0.02)
+    tracker.command(5.0, *map(float, ref.pose[250]))  # the last plan starts at 5 s
+    v, w = tracker.command(1.0, 1e200, -1e200, 1e10)
+    assert tracker.failures == 1 and math.isfinite(v) and math.isfinite(w)
