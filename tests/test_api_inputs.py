@@ -788,3 +788,18 @@ def test_to_trajectorys_directions_are_one_sign_a_pose() -> None:
             to_trajectory(path, robot, world, directions=bad)
     given = to_trajectory(path, robot, world, directions=[1, 1, 1])
     assert given.duration == to_trajectory(path, robot, world).duration
+
+
+def test_a_robot_spec_holds_its_footprint_as_a_read_only_array_and_its_name_as_text() -> None:
+    """A list footprint was taken (``radius`` then failed with a TypeError), and None as the name."""
+    import dataclasses
+
+    from planning import load_robot
+    from planning.errors import ConfigError
+
+    robot = load_robot("turtlebot3")
+    listed = dataclasses.replace(robot, footprint=robot.footprint.tolist())
+    assert listed == robot and listed.radius == robot.radius and not listed.footprint.flags.writeable
+    for bad in ({"name": None}, {"name": " "}, {"footprint": [["a", "b"]] * 3}, {"footprint": [[0.0, 0.0]] * 2}):
+        with pytest.raises(ConfigError, match=r"RobotSpec: name must be|the footprint must be"):
+            dataclasses.replace(robot, **bad)

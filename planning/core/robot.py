@@ -225,7 +225,19 @@ class RobotSpec:
     battery_voltage: float = 0.0
 
     def __post_init__(self) -> None:
-        """Check every number (:func:`check_spec`): a spec is the planners' and trackers' word on the robot."""
+        """Check the name and every number (:func:`check_spec`): a spec is the planners' and trackers' word on the
+        robot; the footprint is held as a read-only float array (a list was taken, and ``radius`` then failed)."""
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise ConfigError(f"RobotSpec: name must be the robot's name (text), got {self.name!r:.60}")
+        try:
+            footprint = np.array(self.footprint, dtype=float)  # a copy: the caller's array stays theirs
+        except (TypeError, ValueError):
+            got = f"{self.footprint!r:.60}"
+            raise ConfigError(
+                f"robot {self.name!r}: the footprint must be (K >= 3, 2) finite vertices [m], got {got}"
+            ) from None
+        footprint.flags.writeable = False
+        object.__setattr__(self, "footprint", footprint)
         check_spec(self)
 
     def __eq__(self, other: object) -> bool:
