@@ -803,3 +803,31 @@ def test_a_robot_spec_holds_its_footprint_as_a_read_only_array_and_its_name_as_t
     for bad in ({"name": None}, {"name": " "}, {"footprint": [["a", "b"]] * 3}, {"footprint": [[0.0, 0.0]] * 2}):
         with pytest.raises(ConfigError, match=r"RobotSpec: name must be|the footprint must be"):
             dataclasses.replace(robot, **bad)
+
+
+@pytest.mark.parametrize("name", ["fbl", "kanayama", "rpp", "segmented", "mpc", "open-loop"])
+def test_a_tracker_pickles_and_goes_on_as_it_would_have(name: str) -> None:
+    """fbl, kanayama, rpp and segmented could not be pickled (their compiled period is a closure): a tracker could
+    not be sent to another process or kept. An unpickled tracker goes on with the same commands, its state the one
+    its compiled period updates."""
+    import pickle
+
+    from planning import load_robot
+    from planning.core.geometry import Pose2D
+    from planning.trajectory.references import make_reference
+
+    robot = load_robot("turtlebot3")
+    reference = make_reference("circle", robot, Pose2D(0.0, 0.0, 0.0))
+    tracker = make_tracker(name, robot)
+    assert pickle.loads(pickle.dumps(tracker)).name == name  # before reset too
+    tracker.reset(reference, 0.02)
+
+    def drive(t: Any, steps: range) -> list[tuple[float, float]]:
+        return [t.command(k * 0.02, *map(float, reference.pose[k] + [0.01, -0.02, 0.03])) for k in steps]
+
+    drive(tracker, range(5))
+    copy = pickle.loads(pickle.dumps(tracker))
+    assert drive(copy, range(5, 30)) == drive(tracker, range(5, 30))
+    bound = getattr(copy, "_period", None)
+    if bound is not None:  # the compiled period updates the state the tracker holds
+        assert bound.args[0] is copy.state
