@@ -116,7 +116,11 @@ def test_bad_geometry_raises_config_error(make: Any, match: str) -> None:
         # each ran out of memory (MemoryError: a planner's failure, exit 1) or ran minutes past --time-limit
         ("birrt", {"turning_radius": 1e-9}, r"turning_radius must be .* in \[0.01, 1000\] \(m\) \(or omitted\)"),
         ("rrt", {"n_speeds": 100_000}, r"n_speeds must be an integer in \[1, 1000\], got 100000"),
-        ("sinusoidal", {"dt": 1e-9}, r"sinusoidal: dt must be a finite number >= 0.001 \(s: the finest physics step\)"),
+        (
+            "sinusoidal",
+            {"dt": 1e-9},
+            r"sinusoidal: dt must be a finite number in \[0.001, 0.2\] \(s: from the finest physics step to a tenth",
+        ),
         ("hybrid-a-star", {"turning_radius": 1e-9}, r"turning_radius must be .* in \[0.01, 1000\] \(m\)"),
         ("optim", {"N": 10_000_000}, r"optim: N must be an integer in \[2, 100000\] \(or omitted\), got 10000000"),
     ],
