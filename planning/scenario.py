@@ -502,6 +502,11 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     Raises:
         ScenarioError: Unknown name (the message lists the built-in ones) or a bad file.
     """
+    if not isinstance(name_or_path, (str, os.PathLike)):  # str() made None the name 'None'
+        raise ScenarioError(
+            f"load_scenario takes a scenario's name or its file's path, got {type(name_or_path).__name__} "
+            f"{name_or_path!r:.60}; e.g. load_scenario('edumip_map')"
+        )
     text = str(name_or_path)
     p = Path(text)
     longest = max((len(os.fsencode(part)) for part in p.parts), default=0)  # Path.exists() raises beyond NAME_MAX

@@ -416,3 +416,16 @@ def test_a_scenario_in_json_or_yaml_is_told_scenario_files_are_toml(tmp_path: Pa
     path.write_text('{"name": "yard"}' if suffix == ".json" else "name: yard\n")
     with pytest.raises(ScenarioError, match=rf"yard{suffix}: a scenario file is TOML, not {suffix[1:].upper()}; write"):
         load_scenario(path)
+
+
+def test_load_scenario_takes_a_name_or_a_path_only() -> None:
+    """``load_scenario(None)`` said "unknown scenario 'None'" (str() made it a name)."""
+    from pathlib import Path
+
+    from planning.errors import ScenarioError
+    from planning.scenario import load_scenario
+
+    for bad in (None, 3, b"open"):
+        with pytest.raises(ScenarioError, match="load_scenario takes a scenario's name or its file's path, got"):
+            load_scenario(bad)  # type: ignore[arg-type]
+    assert load_scenario(Path("open")).name == load_scenario("open").name == "open"
