@@ -29,12 +29,13 @@ IPOPT's first iteration callback, which holds a solve to the plan's time limit, 
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import importlib
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -122,6 +123,25 @@ def _casadi() -> Any:
 def _ipopt_plugin() -> None:
     """Load CasADi (:func:`_casadi`) and its IPOPT plugin (its shared libraries) once a process."""
     _casadi().load_nlpsol("ipopt")
+
+
+#: Why a plan ended waiting for CasADi's solver (:func:`_solver_turn`); ``limit`` the plan's time limit [s].
+_SOLVER_BUSY = (
+    "the plan's time limit ({limit:g} s) passed while another thread of this process held CasADi's solver (IPOPT "
+    "solves one problem at a time in a process); plan in processes to plan at once"
+)
+
+
+@contextlib.contextmanager
+def _solver_turn(clock: PlanClock) -> Iterator[bool]:
+    """Hold CasADi's lock (:data:`planning.casadi_env.SOLVER_LOCK`) for the block, waited for until the plan's
+    time limit at most: yields whether it was had."""
+    had = SOLVER_LOCK.acquire(timeout=max(clock.remaining(), 0.0))
+    try:
+        yield had
+    finally:
+        if had:
+            SOLVER_LOCK.release()
 
 
 def _walled_off(problem: PlanProblem, sol: OptimSolution, clock: PlanClock, disc: float) -> OptimSolution:
@@ -977,8 +997,9 @@ class Optim:
         guess: tuple[FloatArray, FloatArray, str],
     ) -> OptimSolution:
         """IPOPT from ``guess`` (nodes (N+1, 4), inputs (N, 2), where they came from) on the NLP of
-        ``obstacles``, the robot's disc of radius ``clear`` [m] kept off them, until the plan's time limit."""
-        init_source = guess[2]
+        ``obstacles``, the robot's disc of radius ``clear`` [m] kept off them, until the plan's time limit; the
+        NLP set up, solved and read with CasADi's lock held (:func:`_solver_turn`)."""
+        x_init, u_init, init_source = guess
         if clock.expired():
             # a warm start fallen back to a straight line ("straight (init planner 'x' ended timeout)"): its planner
             fell_back = init_source.startswith("straight (")
@@ -988,52 +1009,35 @@ class Optim:
                 f"took it); raise the time limit, or warm start from another planner with init=..."
             )
             return self._failure(PlanStatus.TIMEOUT, why, {"time_s": clock.elapsed(), "init": init_source})
-        if not SOLVER_LOCK.acquire(timeout=max(clock.remaining(), 0.0)):
-            why = (
-                f"the plan's time limit ({problem.time_limit:g} s) passed while another thread of this process held "
-                "CasADi's solver (IPOPT solves one problem at a time in a process); plan in processes to plan at once"
-            )
-            return self._failure(PlanStatus.TIMEOUT, why, {"time_s": clock.elapsed(), "init": init_source})
-        try:
-            return self._solve_held(problem, clear, clock, obstacles, guess)
-        finally:
-            SOLVER_LOCK.release()
-
-    def _solve_held(
-        self,
-        problem: PlanProblem,
-        clear: float,
-        clock: PlanClock,
-        obstacles: _ObstacleData,
-        guess: tuple[FloatArray, FloatArray, str],
-    ) -> OptimSolution:
-        """:meth:`_solve_nlp`'s set-up, solve and reading of the process's NLP, with the solver's lock held."""
-        x_init, u_init, init_source = guess
-        ready = self._ready_nlp(problem, clock, obstacles, init_source)
-        if isinstance(ready, OptimSolution):
-            return ready
-        nlp, setup = ready
-        self._set_values(nlp, problem, clear, obstacles, x_init[-1, 2])
-        self._warm_start(nlp, x_init, u_init, obstacles)
-        t_solve, cpu_solve = time.perf_counter(), time.thread_time()
-        nlp.deadline.at = clock.deadline()  # the plan's limit, warm start and earlier solves in it
-        nlp.deadline.first = None
-        # CasADi ends a solve at a signal and swallows the interrupt: it is acted on as the solve returns,
-        # and held while the results are read (see planning.signals)
-        failed: RuntimeError | None = None
-        with signals_end_early():
+        with _solver_turn(clock) as turn:
+            if not turn:
+                why = _SOLVER_BUSY.format(limit=problem.time_limit)
+                return self._failure(PlanStatus.TIMEOUT, why, {"time_s": clock.elapsed(), "init": init_source})
+            ready = self._ready_nlp(problem, clock, obstacles, init_source)
+            if isinstance(ready, OptimSolution):
+                return ready
+            nlp, setup = ready
+            self._set_values(nlp, problem, clear, obstacles, x_init[-1, 2])
+            self._warm_start(nlp, x_init, u_init, obstacles)
+            t_solve, cpu_solve = time.perf_counter(), time.thread_time()
+            nlp.deadline.at = clock.deadline()  # the plan's limit, warm start and earlier solves in it
+            nlp.deadline.first = None
+            # CasADi ends a solve at a signal and swallows the interrupt: it is acted on as the solve returns,
+            # and held while the results are read (see planning.signals)
+            failed: RuntimeError | None = None
+            with signals_end_early():
+                try:
+                    nlp.opti.solve_limited()
+                except RuntimeError as exc:
+                    failed = exc  # a failed solve raises; its status and last iterate are read below
             try:
-                nlp.opti.solve_limited()
-            except RuntimeError as exc:
-                failed = exc  # a failed solve raises; its status and last iterate are read below
-        try:
-            with signals_held():
-                ipopt_stats = nlp.opti.stats()
-                xv = np.asarray(nlp.opti.debug.value(nlp.x)).T
-                uv = np.asarray(nlp.opti.debug.value(nlp.u)).T.reshape(self.N, 2)
-        except RuntimeError as exc:  # no solve to read: the solve's own error says why, not the reading's
-            why = f"IPOPT stopped with an error: {casadi_reason(failed or exc)}"
-            return self._failure(PlanStatus.FAILED, why, {"time_s": clock.elapsed(), "init": init_source})
+                with signals_held():
+                    ipopt_stats = nlp.opti.stats()
+                    xv = np.asarray(nlp.opti.debug.value(nlp.x)).T
+                    uv = np.asarray(nlp.opti.debug.value(nlp.u)).T.reshape(self.N, 2)
+            except RuntimeError as exc:  # no solve to read: the solve's own error says why, not the reading's
+                why = f"IPOPT stopped with an error: {casadi_reason(failed or exc)}"
+                return self._failure(PlanStatus.FAILED, why, {"time_s": clock.elapsed(), "init": init_source})
         solve_s = time.perf_counter() - t_solve
         if nlp.deadline.first is not None:  # IPOPT reached its first iteration: the set-up is measured
             setup["setup_s"] = setup["build_time_s"] + nlp.deadline.first - t_solve
