@@ -32,6 +32,14 @@ def comma_list(text: str, file_of: Callable[[str], str] = str) -> list[str]:
     return [item for item in items if item]
 
 
+def case_list(text: str) -> list[str]:
+    """The ``SCENARIO[:REFERENCE|:PLANNER]`` cases of a comma list (``tune --scenarios``): :func:`comma_list` with
+    each case's scenario as its file part."""
+    from sim.pipeline.case import Case
+
+    return comma_list(text, lambda token: Case.split(token)[0])
+
+
 def _names_a_file(run: str, file_of: Callable[[str], str]) -> bool:
     """Whether items joined by their commas, ``run``, are one item naming an existing file: its file part exists
     and holds every comma (``b.toml:line,open`` is two items though ``b.toml`` exists)."""

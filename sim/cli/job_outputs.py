@@ -43,7 +43,7 @@ from pathlib import Path
 from typing import Any
 
 from planning.errors import ConfigError, OutputExistsError
-from sim.cli.checks import comma_list
+from sim.cli.checks import case_list, comma_list
 
 DEFAULT_DIR = Path("renders")
 #: Options of ``simulate`` that change the runs, with their defaults (the names tag what they resolve to:
@@ -521,7 +521,7 @@ def input_paths(args: argparse.Namespace) -> list[tuple[str, Path]]:
     if isinstance(cases, str):  # tune's SCENARIO[:SOURCE],...
         from sim.pipeline.case import Case
 
-        for token in comma_list(cases, lambda token: Case.split(token)[0]):
+        for token in case_list(cases):
             scenario = Case.split(token)[0]
             if scenario:
                 found += scenario_inputs(f"--scenarios {scenario}", scenario)

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from planning.errors import ConfigError, ScenarioError, without_python
-from sim.cli.checks import add_robot_argument, comma_list
+from sim.cli.checks import add_robot_argument, case_list
 from sim.cli.simulate import add_localiser_arguments, check_scan_beams, localiser_fields
 from sim.tools.executor import JOBS_PER_CORE, check_workers
 from sim.tools.tune import GRACE_PERIOD, UNRECORDED, check_draws
@@ -711,9 +711,7 @@ def _check_pipes(args: argparse.Namespace) -> None:
 
 
 def _tokens(args: argparse.Namespace) -> list[str]:
-    from sim.pipeline.case import Case
-
-    return comma_list(args.scenarios, lambda token: Case.split(token)[0])
+    return case_list(args.scenarios)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -118,7 +118,7 @@ def problems(names: list[str] | None = None, random_worlds: int = 0) -> list[Pla
         found = [PlanProblem.from_scenario(load_scenario(n)) for n in builtin]
         return [p for p in found if _posed(p)] + [make() for make in HARD.values()] + extra
     unknown = [n for n in names if n not in HARD and n not in builtin and _random(n) is None]
-    misspelt = [misspelt_random_name(n) for n in unknown if misspelt_random_name(n)]
+    misspelt = [why for n in unknown if (why := misspelt_random_name(n))]
     if misspelt:
         raise ConfigError(f"--scenarios: {misspelt[0]}")
     if unknown:
